@@ -1,0 +1,1 @@
+"""rwhonet: learned wheel odometry (WhONet / R-WhONet) as a reproducible pipeline."""

@@ -1,0 +1,292 @@
+"""Typed view of ``params.yaml``.
+
+Each top-level section is a frozen dataclass. Loading is strict: an unknown
+key, a missing key or a value of the wrong type raises :class:`ConfigError`
+naming the dotted key, so a typo in ``dvc exp run -S`` never passes silently.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+from rwhonet import paths
+
+
+class ConfigError(ValueError):
+    """A params.yaml value is missing, unknown or of the wrong type."""
+
+
+# --------------------------------------------------------------------------- sections
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Simulator settings; the fleet profiles are documented in docs/simulator.md."""
+
+    profile: str
+
+
+@dataclass(frozen=True)
+class RoleSpec:
+    """Where the drives of one role live and how to read them."""
+
+    glob: str
+    format: str
+    vehicle: str
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One canonical quantity in a column-mapped CSV: its column name and unit."""
+
+    column: str
+    unit: str
+
+
+@dataclass(frozen=True)
+class DataParams:
+    source: Literal["sim", "files"]
+    root: str
+    roles: dict[str, RoleSpec]
+    column_maps: dict[str, dict[str, ColumnSpec]] = field(default_factory=dict)
+
+    @property
+    def root_path(self) -> Path:
+        p = Path(self.root)
+        return p if p.is_absolute() else paths.ROOT / p
+
+
+@dataclass(frozen=True)
+class GnssPolicy:
+    min_sats: int
+    max_speed_m_s: float
+    frozen_min_s: float
+    moving_wheel_speed_rad_s: float
+    max_gap_s: float
+    min_segment_s: float
+
+
+@dataclass(frozen=True)
+class CutSpec:
+    drive: str
+    start_s: float
+    end_s: float
+    reason: str
+
+
+@dataclass(frozen=True)
+class ValidateParams:
+    sample_period_s: float
+    sample_period_tol_s: float
+    max_abs_wheel_speed_rad_s: float
+    gnss: GnssPolicy
+    cuts: list[CutSpec] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class LabelParams:
+    wpm_mode: Literal["integrated", "reference"]
+    calibration_min_speed_m_s: float
+    scaler: Literal["global", "per_wheel"]
+
+
+@dataclass(frozen=True)
+class ModelParams:
+    hidden: int
+    layers: int
+    dropout: float
+    seq_len: int
+
+
+@dataclass(frozen=True)
+class TrainParams:
+    epochs: int
+    batch_size: int
+    lr: float
+    val_fraction: float
+    num_threads: int
+
+
+@dataclass(frozen=True)
+class AdaptParams:
+    m_grid: list[int]
+    chosen_m: int
+    epochs: int
+    batch_size: int
+    lr: float
+    trainable: Literal["all", "rnn", "head"]
+
+
+@dataclass(frozen=True)
+class EvaluateParams:
+    outages_s: list[int]
+
+
+@dataclass(frozen=True)
+class TrackingParams:
+    experiment: str
+    tracking_uri: str
+
+
+@dataclass(frozen=True)
+class GateParams:
+    baseline: str
+    rel_tol: float
+
+
+@dataclass(frozen=True)
+class Params:
+    seed: int
+    sim: SimParams
+    data: DataParams
+    validate: ValidateParams
+    label: LabelParams
+    model: ModelParams
+    train: TrainParams
+    adapt: AdaptParams
+    evaluate: EvaluateParams
+    tracking: TrackingParams
+    gate: GateParams
+
+    def __post_init__(self) -> None:
+        if self.adapt.chosen_m not in self.adapt.m_grid:
+            raise ConfigError(
+                f"adapt.chosen_m={self.adapt.chosen_m} is not in adapt.m_grid={self.adapt.m_grid}"
+            )
+        if any(m <= 0 for m in self.adapt.m_grid):
+            raise ConfigError(f"adapt.m_grid must hold positive seconds, got {self.adapt.m_grid}")
+        if any(o <= 0 for o in self.evaluate.outages_s):
+            raise ConfigError(f"evaluate.outages_s must be positive, got {self.evaluate.outages_s}")
+        if not 0.0 <= self.train.val_fraction < 1.0:
+            raise ConfigError(f"train.val_fraction must be in [0, 1), got {self.train.val_fraction}")
+        for role, spec in self.data.roles.items():
+            if spec.format != "iovnbd" and spec.format not in self.data.column_maps:
+                raise ConfigError(
+                    f"data.roles.{role}.format={spec.format!r}: expected 'iovnbd' or one of "
+                    f"data.column_maps {sorted(self.data.column_maps)}"
+                )
+
+    def section(self, name: str) -> dict[str, Any]:
+        """Return one section as plain data (for MLflow params and saved configs)."""
+        return _to_plain(getattr(self, name))
+
+    def to_dict(self) -> dict[str, Any]:
+        return _to_plain(self)
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def load_params(path: Path | str | None = None, overrides: dict[str, Any] | None = None) -> Params:
+    """Load and type-check ``params.yaml``.
+
+    Args:
+        path: the YAML file; defaults to the project's ``params.yaml``.
+        overrides: dotted keys to replace after loading (``{"sim.profile": "ci"}``).
+
+    Returns:
+        The typed parameters.
+
+    Raises:
+        ConfigError: on unknown, missing or mistyped keys.
+    """
+    path = Path(path) if path is not None else paths.PARAMS
+    with open(path, encoding="utf-8") as f:
+        raw = yaml.safe_load(f) or {}
+    for dotted, value in (overrides or {}).items():
+        node = raw
+        *parents, leaf = dotted.split(".")
+        for key in parents:
+            node = node.setdefault(key, {})
+        node[leaf] = value
+    return _build(Params, raw, "")
+
+
+def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Flatten nested dicts to dotted keys (MLflow params)."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict) and v:
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _to_plain(obj: Any) -> Any:
+    if dataclasses.is_dataclass(obj):
+        return {f.name: _to_plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, dict):
+        return {k: _to_plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_to_plain(v) for v in obj]
+    return obj
+
+
+def _build(tp: Any, value: Any, where: str) -> Any:
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    label = where or "<root>"
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, dict):
+            raise ConfigError(f"{label}: expected a mapping, got {value!r}")
+        hints = typing.get_type_hints(tp)
+        fields = {f.name: f for f in dataclasses.fields(tp)}
+        unknown = sorted(set(value) - set(fields))
+        if unknown:
+            raise ConfigError(
+                f"{label}: unknown key(s) {unknown}; expected some of {sorted(fields)}"
+            )
+        kwargs = {}
+        for name, f in fields.items():
+            key = f"{where}.{name}" if where else name
+            if name in value:
+                kwargs[name] = _build(hints[name], value[name], key)
+            elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                raise ConfigError(f"{key}: missing")
+        return tp(**kwargs)
+    if origin is Literal:
+        if value not in args:
+            raise ConfigError(f"{label}: expected one of {list(args)}, got {value!r}")
+        return value
+    if origin in (types.UnionType, typing.Union):
+        if value is None and type(None) in args:
+            return None
+        inner = [a for a in args if a is not type(None)]
+        return _build(inner[0], value, where)
+    if origin is list:
+        if not isinstance(value, list):
+            raise ConfigError(f"{label}: expected a list, got {value!r}")
+        return [_build(args[0], v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if origin is dict:
+        if not isinstance(value, dict):
+            raise ConfigError(f"{label}: expected a mapping, got {value!r}")
+        return {str(k): _build(args[1], v, f"{where}.{k}") for k, v in value.items()}
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{label}: expected true/false, got {value!r}")
+        return value
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{label}: expected an integer, got {value!r}")
+        return value
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{label}: expected a number, got {value!r}")
+        return float(value)
+    if tp is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{label}: expected a string, got {value!r}")
+        return value
+    if tp is Any:
+        return value
+    raise TypeError(f"config type {tp!r} at {label} is not supported")

@@ -1,0 +1,1 @@
+"""Drive data: readers (IO-VNBD, column-mapped CSV), canonical columns, pandera schemas, segments."""

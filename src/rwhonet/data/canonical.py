@@ -1,0 +1,45 @@
+"""Canonical column names of a drive after ingestion (SI units, names carry the unit).
+
+Readers (``iovnbd.py``, ``columnmap.py``) are the only modules that know file
+column names; everything downstream uses these names.
+"""
+
+from __future__ import annotations
+
+T_S = "t_s"                      # time, s (monotonic within a drive)
+LAT_DEG = "lat_deg"              # WGS84 latitude, deg
+LON_DEG = "lon_deg"              # WGS84 longitude, deg
+N_SATS = "n_sats"                # GNSS satellites in the fix, count
+OMEGA_FL = "omega_fl_rad_s"      # wheel angular speed front left, rad/s
+OMEGA_FR = "omega_fr_rad_s"
+OMEGA_RL = "omega_rl_rad_s"
+OMEGA_RR = "omega_rr_rad_s"
+
+# Optional channels of the IO-VNBD layout, converted to SI.
+SPEED_GNSS_M_S = "speed_gnss_m_s"
+HEADING_DEG = "heading_deg"
+HEIGHT_M = "height_m"
+YAW_RATE_RAD_S = "yaw_rate_rad_s"
+SPEED_VEHICLE_M_S = "speed_vehicle_m_s"
+ACC_LON_M_S2 = "acc_lon_m_s2"
+ACC_LAT_M_S2 = "acc_lat_m_s2"
+
+SCENARIO = "scenario"            # ';'-joined scenario tags of the row ('' when none/unknown)
+
+WHEELS = (OMEGA_FL, OMEGA_FR, OMEGA_RL, OMEGA_RR)
+# Feature order of the authors' code: RR, RL, FR, FL (reference notes, "Per-second samples").
+FEATURE_WHEEL_ORDER = (OMEGA_RR, OMEGA_RL, OMEGA_FR, OMEGA_FL)
+REQUIRED = (T_S, LAT_DEG, LON_DEG, *WHEELS)
+OPTIONAL = (
+    N_SATS,
+    SPEED_GNSS_M_S,
+    HEADING_DEG,
+    HEIGHT_M,
+    YAW_RATE_RAD_S,
+    SPEED_VEHICLE_M_S,
+    ACC_LON_M_S2,
+    ACC_LAT_M_S2,
+)
+
+G_M_S2 = 9.80665
+KMH_M_S = 1.0 / 3.6

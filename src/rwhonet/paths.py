@@ -1,0 +1,61 @@
+"""Every project path, derived from one root.
+
+The root is the repository (the folder holding ``params.yaml``), or
+``$RWHONET_ROOT`` when set (tests point it at a temporary copy).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+
+def project_root() -> Path:
+    """Return the project root: ``$RWHONET_ROOT`` or the folder holding ``params.yaml``."""
+    env = os.environ.get("RWHONET_ROOT")
+    if env:
+        return Path(env).resolve()
+    here = Path.cwd().resolve()
+    for folder in (here, *here.parents):
+        if (folder / "params.yaml").is_file() and (folder / "dvc.yaml").is_file():
+            return folder
+    # Installed in editable mode: src/rwhonet/paths.py -> repo root is parents[2].
+    return Path(__file__).resolve().parents[2]
+
+
+ROOT = project_root()
+PARAMS = ROOT / "params.yaml"
+
+DATA = ROOT / "data"
+RAW = DATA / "raw"                      # real drives, tracked by data.dvc
+SIM = DATA / "sim"                      # simulated drives (IO-VNBD layout), stage output
+INTERIM = DATA / "interim"
+DRIVES = INTERIM / "drives"             # ingest: one canonical Parquet per drive + manifest
+SEGMENTS = INTERIM / "segments"         # validate: GNSS-valid segments
+PROCESSED = DATA / "processed"
+SAMPLES = PROCESSED / "samples"         # label: per-second samples per segment
+CALIBRATION = PROCESSED / "calibration.json"
+SCALER = PROCESSED / "scaler.json"
+
+MODELS = ROOT / "models"
+MODEL_G = MODELS / "g"
+MODEL_S = MODELS / "s"
+MODELS_R = MODELS / "r"                 # one folder per m
+
+METRICS = ROOT / "metrics"
+EVAL_JSON = METRICS / "eval.json"
+REPORTS = ROOT / "reports"
+VALIDATION_REPORT = REPORTS / "validation.json"
+TABLES_MD = REPORTS / "tables.md"
+PREDICTIONS = REPORTS / "predictions"
+PLOTS = REPORTS / "plots"
+
+MLRUNS = ROOT / "mlruns"
+
+
+def rel(path: Path) -> str:
+    """Return ``path`` relative to the project root when inside it (for messages and logs)."""
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
