@@ -1,0 +1,49 @@
+"""Errors a user can act on: which file, which row, which column, what was expected."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem found in an input file.
+
+    Attributes:
+        file: path of the offending file (as the user knows it).
+        row: 1-based data row (header excluded), or None when the problem is file-wide.
+        column: the file's column name, or None.
+        expected: what was expected.
+        found: what was found.
+    """
+
+    file: str
+    row: int | None
+    column: str | None
+    expected: str
+    found: str
+
+    def __str__(self) -> str:
+        where = self.file
+        if self.row is not None:
+            where += f", row {self.row}"
+        if self.column is not None:
+            where += f", column {self.column!r}"
+        return f"{where}: expected {self.expected}; found {self.found}"
+
+
+class InputError(Exception):
+    """Bad input data; carries every problem found so one report lists them all."""
+
+    def __init__(self, problems: list[Problem], summary: str | None = None) -> None:
+        self.problems = list(problems)
+        self.summary = summary or f"{len(self.problems)} problem(s) in the input data"
+        super().__init__(self.report())
+
+    def report(self, limit: int = 50) -> str:
+        """Return a readable multi-line report (at most ``limit`` problems listed)."""
+        lines = [self.summary + ":"]
+        lines += [f"  - {p}" for p in self.problems[:limit]]
+        if len(self.problems) > limit:
+            lines.append(f"  ... and {len(self.problems) - limit} more")
+        return "\n".join(lines)
