@@ -52,10 +52,18 @@ class ColumnSpec:
 
 
 @dataclass(frozen=True)
+class VehicleSpec:
+    """What the pipeline knows about a vehicle before seeing its drives."""
+
+    nominal_radius_m: float
+
+
+@dataclass(frozen=True)
 class DataParams:
     source: Literal["sim", "files"]
     root: str
     roles: dict[str, RoleSpec]
+    vehicles: dict[str, VehicleSpec]
     column_maps: dict[str, dict[str, ColumnSpec]] = field(default_factory=dict)
 
     @property
@@ -87,6 +95,7 @@ class ValidateParams:
     sample_period_s: float
     sample_period_tol_s: float
     max_abs_wheel_speed_rad_s: float
+    radius_tolerance: float
     gnss: GnssPolicy
     cuts: list[CutSpec] = field(default_factory=list)
 
@@ -172,6 +181,11 @@ class Params:
                 raise ConfigError(
                     f"data.roles.{role}.format={spec.format!r}: expected 'iovnbd' or one of "
                     f"data.column_maps {sorted(self.data.column_maps)}"
+                )
+            if spec.vehicle not in self.data.vehicles:
+                raise ConfigError(
+                    f"data.roles.{role}.vehicle={spec.vehicle!r} is not in data.vehicles "
+                    f"{sorted(self.data.vehicles)}"
                 )
 
     def section(self, name: str) -> dict[str, Any]:
