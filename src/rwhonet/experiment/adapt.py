@@ -1,0 +1,105 @@
+"""R-WhONet: G-WhONet fine-tuned on the first m seconds of each target test drive (paper §2.6, §3.3.3, §3.4)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from rwhonet import paths
+from rwhonet.config import Params
+from rwhonet.errors import InputError, Problem
+from rwhonet.experiment.samples import load_role
+from rwhonet.experiment.train import (
+    CHECKPOINT,
+    PREDICTIONS,
+    RUN_RECORD,
+    model_params,
+    predictions_frame,
+)
+from rwhonet.io import atomic_dir, write_json
+from rwhonet.tracking.store import RunRecord
+
+
+def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Path) -> RunRecord:
+    """Fine-tune G on the first ``m`` seconds of every target test drive.
+
+    Every test drive gets its own R-WhONet (the paper recalibrates per drive),
+    saved as ``out_dir/<drive>.ckpt``; its predictions cover the whole drive,
+    and the evaluation scores only the seconds after the largest m of the grid.
+
+    Args:
+        params: resolved parameters (``adapt`` holds the fine-tuning recipe).
+        m: adaptation length in seconds (one point of ``adapt.m_grid``).
+        samples_dir: the label stage's samples folder.
+        g_dir: G-WhONet's folder (its checkpoint is the starting point).
+        out_dir: ``models/r/m<m>``.
+
+    Returns:
+        The run record: one R run for this m with a child run per drive.
+    """
+    from rwhonet.models.train import fine_tune, predict, save_checkpoint
+
+    test = load_role(samples_dir, "target_test", params.model.seq_len)
+    need = max(params.adapt.m_grid)
+    k = test.frame["k"].to_numpy()
+    drive = test.frame["drive"].to_numpy()
+    short = [
+        Problem(d, None, None, f"more than {need} labelled seconds (largest m)", f"{n} seconds")
+        for d, n in test.frame.groupby("drive", sort=False).size().items()
+        if n <= need
+    ]
+    if short:
+        raise InputError(short, "target test drives too short for adapt.m_grid")
+
+    children, preds, results = [], [], {}
+    for d in test.drives:
+        first = (drive == d) & (k < m)
+        result = fine_tune(
+            g_dir / CHECKPOINT, test.x[first], test.y[first], adapt=params.adapt, seed=params.seed
+        )
+        results[d] = result
+        on_drive = test.take(drive == d)
+        preds.append(predictions_frame(on_drive, predict(result.module, on_drive.x)))
+        children.append(
+            RunRecord(
+                name=f"R m={m} {d}",
+                tags={"model": "R", "m": str(m), "drive": d, "vehicle": "target",
+                      "seed": str(params.seed), "dvc_stage": f"adapt@{m}"},
+                params={**model_params(params, "adapt"), "adapt.m": m, "drive": d},
+                history=result.history,
+                metrics={
+                    "n_adapt_samples": int(first.sum()),
+                    "fit_seconds": result.seconds,
+                    "n_trainable_params": result.n_trainable,
+                    "n_total_params": result.n_total,
+                },
+                artifacts=[paths.rel(out_dir / f"{d}.ckpt")],
+            )
+        )
+    record = RunRecord(
+        name=f"R-WhONet m={m}",
+        tags={"model": "R", "m": str(m), "vehicle": "target", "seed": str(params.seed),
+              "dvc_stage": f"adapt@{m}"},
+        params={**model_params(params, "adapt"), "adapt.m": m},
+        metrics={
+            "fit_seconds": float(sum(r.seconds for r in results.values())),
+            "n_trainable_params": next(iter(results.values())).n_trainable,
+            "n_total_params": next(iter(results.values())).n_total,
+        },
+        children=children,
+    )
+    with atomic_dir(out_dir) as tmp:
+        for d, result in results.items():
+            save_checkpoint(result, tmp / f"{d}.ckpt")
+        pd.concat(preds, ignore_index=True).to_parquet(tmp / PREDICTIONS, index=False)
+        write_json(tmp / RUN_RECORD, record.to_dict())
+    return record
+
+
+def r_dir(m: int) -> Path:
+    """Folder of R-WhONet for one m."""
+    return paths.MODELS_R / f"m{m}"
+
+
+__all__ = ["adapt_m", "r_dir", "CHECKPOINT", "PREDICTIONS", "RUN_RECORD"]

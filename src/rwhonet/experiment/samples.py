@@ -1,0 +1,110 @@
+"""Model-ready arrays from the label stage's per-second samples.
+
+The label stage writes one Parquet per GNSS-valid segment (docs/architecture.md,
+"Samples"). This module stacks the segments of one role into the arrays the
+models take, keeping a per-sample frame (drive, segment, time, GNSS and WPM
+displacement, label, scenario) so predictions can be joined back and scored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rwhonet.errors import InputError, Problem
+from rwhonet.features.windows import sequences
+from rwhonet.io import read_json
+
+N_FEATURES = 40
+FEATURE_COLUMNS = [f"x_{i:02d}" for i in range(N_FEATURES)]
+FRAME_COLUMNS = ["t_s", "disp_gnss_m", "disp_wpm_m", "label_m", "scenario"]
+
+
+@dataclass
+class SampleSet:
+    """Samples of one role, in drive → segment → time order.
+
+    Attributes:
+        x: (N, seq_len, 40) float32 scaled wheel-speed windows (paper Eqs. 14-15).
+        y: (N,) float32 labels in metres (GNSS − WPM per second, Eq. 11).
+        frame: per-sample columns ``drive, segment, group, k, t_s, disp_gnss_m,
+            disp_wpm_m, label_m, scenario``; ``group`` is an integer segment id
+            (windows never cross it) and ``k`` the sample's 0-based rank within
+            its drive (so "the first m seconds of a drive" is ``k < m``).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    frame: pd.DataFrame
+
+    def __len__(self) -> int:
+        return len(self.y)
+
+    def take(self, mask: np.ndarray) -> SampleSet:
+        """Return the samples where ``mask`` is true (order kept)."""
+        idx = np.flatnonzero(mask)
+        return SampleSet(self.x[idx], self.y[idx], self.frame.iloc[idx].reset_index(drop=True))
+
+    @property
+    def drives(self) -> list[str]:
+        return list(dict.fromkeys(self.frame["drive"]))
+
+
+def load_role(samples_dir: Path, role: str, seq_len: int) -> SampleSet:
+    """Stack every segment of ``role`` into model inputs.
+
+    Args:
+        samples_dir: the label stage's output folder (holds ``manifest.json``).
+        role: ``source_train``, ``target_train``, ``target_test``...
+        seq_len: number of one-second steps per input sequence.
+
+    Returns:
+        The role's samples; the first ``seq_len - 1`` seconds of each segment
+        have no full window and are left out.
+
+    Raises:
+        InputError: when the role has no samples.
+    """
+    manifest = read_json(Path(samples_dir) / "manifest.json")
+    entries = [e for e in manifest["segments"] if e["role"] == role]
+    entries.sort(key=lambda e: (e["drive"], e["segment"]))
+    frames = []
+    for group, entry in enumerate(entries):
+        seg = pd.read_parquet(Path(samples_dir) / f"{entry['segment']}.parquet")
+        seg.insert(0, "group", group)
+        seg.insert(0, "segment", entry["segment"])
+        seg.insert(0, "drive", entry["drive"])
+        frames.append(seg)
+    if not frames or sum(len(f) for f in frames) == 0:
+        raise InputError(
+            [Problem(str(samples_dir), None, None, f"labelled samples for role {role!r}", "none")]
+        )
+    table = pd.concat(frames, ignore_index=True)
+    # Segment names sort by start time within a drive (<drive>__s<k>), so this is time order.
+    table = table.sort_values(["drive", "group", "t_s"], kind="stable").reset_index(drop=True)
+    x2 = table[FEATURE_COLUMNS].to_numpy(np.float32)
+    x, kept = sequences(x2, seq_len, table["group"].to_numpy())
+    frame = table.loc[kept, ["drive", "segment", "group", *FRAME_COLUMNS]].reset_index(drop=True)
+    frame.insert(3, "k", frame.groupby("drive", sort=False).cumcount().to_numpy())
+    y = frame["label_m"].to_numpy(np.float32)
+    return SampleSet(np.ascontiguousarray(x, dtype=np.float32), y, frame)
+
+
+def split_tail(data: SampleSet, fraction: float) -> tuple[SampleSet, SampleSet]:
+    """Hold out the last ``fraction`` of every segment for validation.
+
+    A contiguous tail (rather than random seconds) keeps neighbouring, strongly
+    correlated seconds from sitting on both sides of the split.
+
+    Returns:
+        ``(train, val)``; ``val`` is empty when ``fraction`` is 0.
+    """
+    group = data.frame["group"].to_numpy()
+    rank = data.frame.groupby("group", sort=False).cumcount().to_numpy()
+    size = np.bincount(group)[group]
+    n_val = np.floor(size * fraction).astype(int)
+    is_val = rank >= size - n_val
+    return data.take(~is_val), data.take(is_val)

@@ -1,0 +1,1 @@
+"""Reports from the evaluation's one source of truth (metrics/eval.json): tables, regression gate."""

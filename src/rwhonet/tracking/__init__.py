@@ -1,0 +1,1 @@
+"""MLflow tracking: the project's own store under mlruns/, one parent run per pipeline execution."""

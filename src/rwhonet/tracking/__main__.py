@@ -1,0 +1,28 @@
+"""``python -m rwhonet.tracking init``: create the MLflow store and experiment before any writer.
+
+A fresh SQLite store races on its schema migration when two processes create
+it at once (stack-facts.md §1), e.g. under `dvc queue start -j 2`.
+"""
+
+import sys
+
+from rwhonet.stage import quiet
+
+
+def main(argv: list[str]) -> int:
+    if argv != ["init"]:
+        print("usage: python -m rwhonet.tracking init", file=sys.stderr)
+        return 2
+    quiet()
+    from rwhonet.config import load_params
+    from rwhonet.tracking.store import ensure_experiment, resolve_tracking_uri
+
+    params = load_params()
+    uri = resolve_tracking_uri(params.tracking.tracking_uri)
+    exp_id = ensure_experiment(uri, params.tracking.experiment)
+    print(f"MLflow store {uri}, experiment '{params.tracking.experiment}' (id {exp_id})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,33 @@
+"""Atomic outputs: all or nothing."""
+
+import pytest
+
+from rwhonet.io import atomic_dir, atomic_file, read_json, write_json
+
+
+def test_atomic_dir_replaces_on_success(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    with atomic_dir(out) as tmp:
+        (tmp / "new.txt").write_text("new")
+    assert sorted(p.name for p in out.iterdir()) == ["new.txt"]
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+def test_atomic_dir_leaves_nothing_on_failure(tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError), atomic_dir(out) as tmp:
+        (tmp / "half.txt").write_text("half")
+        raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_file_keeps_old_on_failure(tmp_path):
+    f = tmp_path / "a.json"
+    write_json(f, {"v": 1})
+    with pytest.raises(ValueError), atomic_file(f) as tmp:
+        tmp.write_text("partial")
+        raise ValueError
+    assert read_json(f) == {"v": 1}
+    assert [p.name for p in tmp_path.iterdir()] == ["a.json"]

@@ -1,0 +1,72 @@
+"""MLflow store: URIs resolve to the owning repo; one execution logs a parent with child runs."""
+
+from pathlib import Path
+
+import pytest
+
+from rwhonet.tracking.store import (
+    RunRecord,
+    log_execution,
+    main_repo_root,
+    resolve_tracking_uri,
+)
+
+
+def test_relative_sqlite_uri_resolves_against_root(tmp_path, monkeypatch):
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    uri = resolve_tracking_uri("sqlite:///mlruns/mlflow.db", root=tmp_path)
+    assert uri == f"sqlite:///{tmp_path}/mlruns/mlflow.db"
+    assert (tmp_path / "mlruns").is_dir()
+
+
+def test_queued_dvc_experiment_logs_into_the_real_repo(tmp_path, monkeypatch):
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    temp_copy = tmp_path / "repo" / ".dvc" / "tmp" / "exps" / "tmpab12"
+    temp_copy.mkdir(parents=True)
+    assert main_repo_root(temp_copy) == tmp_path / "repo"
+    uri = resolve_tracking_uri("sqlite:///mlruns/mlflow.db", root=temp_copy)
+    assert uri == f"sqlite:///{tmp_path}/repo/mlruns/mlflow.db"
+
+
+def test_env_uri_wins(monkeypatch):
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", "sqlite:////x/y.db")
+    assert resolve_tracking_uri("sqlite:///mlruns/mlflow.db") == "sqlite:////x/y.db"
+
+
+def test_record_round_trips_through_dict():
+    rec = RunRecord("R m=50", tags={"model": "R"}, children=[RunRecord("child", metrics={"a": 1.0})])
+    assert RunRecord.from_dict(rec.to_dict()) == rec
+
+
+def test_log_execution_parent_and_children(tmp_path, monkeypatch):
+    mlflow = pytest.importorskip("mlflow")
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
+    (tmp_path / "mlruns").mkdir()
+    art = tmp_path / "model.ckpt"
+    art.write_bytes(b"weights")
+    g = RunRecord(
+        "G-WhONet",
+        tags={"model": "G"},
+        params={"train.lr": 0.0007},
+        history=[{"epoch": 0, "train/loss": 0.5}, {"epoch": 1, "train/loss": 0.4}],
+        metrics={"crse/30s/mean": 1.5},
+        artifacts=[str(art)],
+    )
+    r = RunRecord("R m=50", tags={"model": "R", "m": "50"},
+                  children=[RunRecord("R m=50 d1", tags={"model": "R", "drive": "d1"})])
+    parent = RunRecord("pipeline", tags={"model": "pipeline"})
+    pid = log_execution([g, r], uri=uri, experiment="t", execution=parent)
+    mlflow.set_tracking_uri(uri)
+    runs = mlflow.search_runs(experiment_names=["t"])
+    assert len(runs) == 4
+    children = runs[runs["tags.mlflow.parentRunId"] == pid]
+    assert set(children["tags.model"]) == {"G", "R"}
+    assert runs["tags.rwhonet.execution"].nunique() == 1
+    grow = runs[runs["tags.model"] == "G"].iloc[0]
+    assert grow["metrics.crse/30s/mean"] == 1.5 and grow["params.train.lr"] == "0.0007"
+    hist = mlflow.MlflowClient(uri).get_metric_history(grow["run_id"], "train/loss")
+    assert [(m.step, m.value) for m in hist] == [(0, 0.5), (1, 0.4)]
+    arts = mlflow.MlflowClient(uri).list_artifacts(grow["run_id"])
+    assert [a.path for a in arts] == ["model.ckpt"]
+    assert Path(runs.iloc[0]["artifact_uri"].replace("file://", "")).is_relative_to(tmp_path)
