@@ -26,11 +26,198 @@ class ConfigError(ValueError):
 # --------------------------------------------------------------------------- sections
 
 
+# Manoeuvres the simulator can place on a road (rates in sim.roads.*.per_km, counts in
+# sim.profiles.*.drives[*].events); docs/simulator.md describes each.
+SIM_EVENTS = (
+    "stop",
+    "standstill",
+    "traffic",
+    "curve",
+    "roundabout",
+    "sharp_turn",
+    "successive_turns",
+    "hard_brake",
+    "quick_acceleration",
+    "reversing",
+)
+
+
+@dataclass(frozen=True)
+class SimWheels:
+    """One number per wheel (front/rear, left/right)."""
+
+    fl: float
+    fr: float
+    rl: float
+    rr: float
+
+
+@dataclass(frozen=True)
+class SimTyreState:
+    """A tyre state (IO-VNBD letters A-E): inflation pressure and tread depth per wheel."""
+
+    pressure_psi: SimWheels
+    tread_mm: SimWheels
+
+
+@dataclass(frozen=True)
+class SimTyre:
+    """Tyre model constants (docs/simulator.md, "Effective rolling radius" and "Slip")."""
+
+    reference_pressure_psi: float  # pressure at which vertical_stiffness_n_m holds
+    vertical_stiffness_n_m: float  # C_z0 at the reference pressure
+    stiffness_pressure_coeff: float  # p_Fz1: C_z = C_z0 (1 + p_Fz1 dp)
+    new_tread_mm: float
+    speed_growth_coeff: float  # q_V1: R_Omega = R_0 (1 + q_V1 (v / V_0)^2)
+    speed_growth_ref_m_s: float  # V_0
+    slip_stiffness_per_load: float  # C_Fkappa / F_z (per unit slip), dry road
+    rolling_resistance: float  # f_rr
+
+
+@dataclass(frozen=True)
+class SimCan:
+    """CAN wheel-speed signal."""
+
+    quantum_rad_s: float
+    noise_rad_s: float
+    latency_s: float
+    min_speed_rad_s: float  # below this the ABS sensor reads 0
+
+
+@dataclass(frozen=True)
+class SimGnss:
+    """GNSS receiver error model (first-order Gauss-Markov per axis + white noise)."""
+
+    sigma_m: float
+    tau_s: float
+    white_m: float
+    vertical_factor: float  # vertical GM sigma = vertical_factor * sigma_m
+    speed_noise_m_s: float
+    sats: list[int]  # [min, max] satellites in clear sky
+
+
+@dataclass(frozen=True)
+class SimVehicle:
+    """A simulated vehicle; its nominal radius is data.vehicles.<name>.nominal_radius_m."""
+
+    drive: Literal["fwd", "rwd"]
+    mass_kg: float
+    wheelbase_m: float
+    track_front_m: float
+    track_rear_m: float
+    front_load_fraction: float
+    cg_height_m: float
+    drag_area_m2: float
+    brake_front_share: float
+    steering_ratio: float
+    gear_ratios: list[float]
+    final_drive: float
+    idle_rpm: float
+    antenna_x_m: float  # GNSS antenna ahead of the rear-axle centre
+    antenna_y_m: float  # ... and to its left
+    tyre: SimTyre
+    can: SimCan
+    gnss: SimGnss
+    tyre_states: dict[str, SimTyreState]
+
+
+@dataclass(frozen=True)
+class SimRoad:
+    """How a road type is driven and how often each event happens on it."""
+
+    speed_m_s: list[float]  # [min, max] cruise speed of a leg
+    accel_m_s2: float
+    decel_m_s2: float
+    leg_s: list[float]  # [min, max] duration of a leg
+    curve_radius_m: list[float]
+    curve_angle_deg: list[float]
+    per_km: dict[str, float]  # event rates, events per km
+
+
+@dataclass(frozen=True)
+class SimDrive:
+    """One drive of a fleet profile."""
+
+    name: str
+    role: Literal["source_train", "source_calibration", "target_train", "target_test"]
+    vehicle: str
+    tyre: str
+    duration_s: float
+    roads: dict[str, float]  # share of driving time per road type
+    events: dict[str, int] = field(default_factory=dict)  # counts replacing the road rates
+    event_scale: float = 1.0  # multiplies every road rate (0.1: a calm drive)
+    wet_fraction: float = 0.0
+    gnss_faults: list[Literal["low_sats", "frozen", "jump", "gap"]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class SimProfile:
+    drives: list[SimDrive]
+
+
 @dataclass(frozen=True)
 class SimParams:
     """Simulator settings; the fleet profiles are documented in docs/simulator.md."""
 
     profile: str
+    integration_hz: int
+    record_hz: int
+    start_lat_deg: float
+    start_lon_deg: float
+    start_height_m: float
+    day_start_s: list[float]  # [earliest, latest] start of a drive, s since midnight
+    lat_acc_max_g: float  # drivers slow down before curves to stay below this
+    friction_dry: float
+    friction_wet: float
+    wet_slip_stiffness_factor: float
+    air_density_kg_m3: float
+    roads: dict[str, SimRoad]
+    vehicles: dict[str, SimVehicle]
+    profiles: dict[str, SimProfile]
+
+    def __post_init__(self) -> None:
+        if self.profile not in self.profiles:
+            raise ConfigError(
+                f"sim.profile={self.profile!r} is not in sim.profiles {sorted(self.profiles)}"
+            )
+        if self.integration_hz % self.record_hz:
+            raise ConfigError(
+                f"sim.integration_hz={self.integration_hz} must be a multiple of "
+                f"sim.record_hz={self.record_hz}"
+            )
+        pairs = {"sim.day_start_s": self.day_start_s}
+        for name, road in self.roads.items():
+            for key in ("speed_m_s", "leg_s", "curve_radius_m", "curve_angle_deg"):
+                pairs[f"sim.roads.{name}.{key}"] = getattr(road, key)
+        for name, veh in self.vehicles.items():
+            pairs[f"sim.vehicles.{name}.gnss.sats"] = veh.gnss.sats
+        for key, pair in pairs.items():
+            if len(pair) != 2 or pair[0] > pair[1]:
+                raise ConfigError(f"{key}: expected [min, max], got {pair}")
+        for pname, prof in self.profiles.items():
+            names = [d.name for d in prof.drives]
+            if len(set(names)) != len(names):
+                raise ConfigError(f"sim.profiles.{pname}: drive names must be unique")
+            for i, d in enumerate(prof.drives):
+                where = f"sim.profiles.{pname}.drives[{i}] ({d.name})"
+                if d.vehicle not in self.vehicles:
+                    raise ConfigError(f"{where}: vehicle {d.vehicle!r} not in sim.vehicles")
+                if d.tyre not in self.vehicles[d.vehicle].tyre_states:
+                    raise ConfigError(
+                        f"{where}: tyre {d.tyre!r} not in sim.vehicles.{d.vehicle}.tyre_states"
+                    )
+                unknown = sorted(set(d.roads) - set(self.roads))
+                if unknown or not d.roads or min(d.roads.values()) < 0:
+                    raise ConfigError(
+                        f"{where}: roads {d.roads} must be shares of {sorted(self.roads)}"
+                    )
+                if set(d.events) - set(SIM_EVENTS):
+                    raise ConfigError(f"{where}: events {d.events} must be among {SIM_EVENTS}")
+        for name, road in self.roads.items():
+            if set(road.per_km) - set(SIM_EVENTS):
+                raise ConfigError(
+                    f"sim.roads.{name}.per_km {sorted(road.per_km)} must be among {SIM_EVENTS}"
+                )
 
 
 @dataclass(frozen=True)
