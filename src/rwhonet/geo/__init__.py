@@ -1,0 +1,16 @@
+"""Geodesy on the WGS84 ellipsoid (GeographicLib algorithms).
+
+- :mod:`rwhonet.geo.geodesic`: distances between fixes (paper Eq. 11's x_GNSS).
+- :mod:`rwhonet.geo.local`: local east/north offsets around a reference fix.
+"""
+
+from rwhonet.geo.geodesic import geodesic_distance_m, geodesic_distance_reference_m
+from rwhonet.geo.local import destination_deg, latlon_from_offsets_deg, offsets_m
+
+__all__ = [
+    "destination_deg",
+    "geodesic_distance_m",
+    "geodesic_distance_reference_m",
+    "latlon_from_offsets_deg",
+    "offsets_m",
+]
