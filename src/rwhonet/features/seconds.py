@@ -1,0 +1,315 @@
+"""The per-second grid: which 10 Hz rows make up a second, and what is measured in it.
+
+Definition (the data contract of docs/architecture.md, "Samples"): a segment
+with rows ``0 .. N-1`` at 10 Hz has ``n = (N - 1) // 10`` seconds. Second ``k``
+(0-based) runs from the fix at row ``a = 10 k`` to the fix at row
+``b = 10 k + 10``; it *owns* the ten rows ``a+1 .. b``, i.e. the rows with
+times in ``(t_a, t_b]``, which is the ``(t - 1, t]`` of the contract with
+``t = t_b``. Row 0 only serves as the first second's starting fix, and trailing
+rows that do not complete a second are dropped. Seconds are counted from the
+segment's own first row, not aligned to whole seconds of the clock: the
+segment start is arbitrary, and re-aligning would throw away up to nine rows
+per segment for no gain.
+
+Per second we take
+
+- the GNSS displacement: the geodesic distance between the fixes at rows ``a``
+  and ``b`` (paper Eq. 11's ``x_GNSS``; WGS84, see :mod:`rwhonet.geo`);
+- wheel angles: the trapezoid integral of a wheel speed over ``[t_a, t_b]``,
+  exactly the interval of the GNSS displacement (see :func:`integrate_per_second`);
+- the once-per-second wheel-speed sample of the authors' code (row ``b``);
+- the 40 input features: the ten samples of rows ``a+1 .. b`` of each wheel,
+  wheel-major in the authors' order RR, RL, FR, FL, oldest first;
+- the scenario tags of rows ``a+1 .. b``, merged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from rwhonet.data import canonical as c
+from rwhonet.errors import InputError, Problem
+from rwhonet.geo import geodesic_distance_m
+
+ROWS_PER_SECOND = 10
+N_FEATURES = ROWS_PER_SECOND * len(c.FEATURE_WHEEL_ORDER)
+FEATURE_COLUMNS = tuple(f"x_{i:02d}" for i in range(N_FEATURES))
+# Ten rows must span about one second. This is a gross check (it catches 1 Hz or
+# 100 Hz data, or a gap that validate failed to split on); the fine sample-period
+# rule belongs to the validate stage.
+SPAN_TOLERANCE_S = 0.5
+# Problems listed per column before the report says "and N more".
+_MAX_PROBLEMS_PER_CHECK = 5
+
+
+def n_seconds(n_rows: int) -> int:
+    """Return the number of whole seconds in a segment of ``n_rows`` 10 Hz rows.
+
+    Args:
+        n_rows: number of rows in the segment.
+
+    Returns:
+        ``(n_rows - 1) // 10``, never negative.
+    """
+    return max((int(n_rows) - 1) // ROWS_PER_SECOND, 0)
+
+
+def anchor_rows(n_sec: int) -> np.ndarray:
+    """Return the rows of the fixes that bound the seconds: ``0, 10, ..., 10 n_sec``.
+
+    Args:
+        n_sec: number of seconds.
+
+    Returns:
+        int64 array of ``n_sec + 1`` row indices; second ``k`` runs from entry ``k`` to ``k + 1``.
+    """
+    return np.arange(n_sec + 1, dtype=np.int64) * ROWS_PER_SECOND
+
+
+def rows_of_seconds(values: np.ndarray) -> np.ndarray:
+    """Group a per-row array into the ten rows each second owns.
+
+    Args:
+        values: per-row array of length N (any dtype).
+
+    Returns:
+        View of shape ``(n_seconds(N), 10)``; row ``k`` holds ``values[10k+1 .. 10k+10]``.
+    """
+    n_sec = n_seconds(len(values))
+    return values[1 : 1 + n_sec * ROWS_PER_SECOND].reshape(n_sec, ROWS_PER_SECOND)
+
+
+def end_of_second(values: np.ndarray) -> np.ndarray:
+    """Return the value at the last row of each second (row ``10k + 10``).
+
+    Args:
+        values: per-row array of length N.
+
+    Returns:
+        Array of length ``n_seconds(N)``.
+    """
+    return values[anchor_rows(n_seconds(len(values)))[1:]]
+
+
+def span_s(t_s: np.ndarray) -> np.ndarray:
+    """Return the duration of each second, ``t_b - t_a`` (1 s at an exact 10 Hz).
+
+    Args:
+        t_s: per-row time, seconds.
+
+    Returns:
+        float64 array of length ``n_seconds(len(t_s))``.
+    """
+    t = t_s[anchor_rows(n_seconds(len(t_s)))]
+    return np.diff(t)
+
+
+def gnss_displacement_m(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
+    """Return the GNSS displacement per second (paper Eq. 11's ``x_GNSS``).
+
+    The geodesic (WGS84) distance between the fixes that bound each second. It
+    is the chord of the path, shorter than the arc the wheels roll by a relative
+    ``(L / R)^2 / 24`` (L the arc length in that second, R the turn radius):
+    1 % (0.1 m) for 10 m on a 20 m-radius roundabout, negligible on straights.
+    That part of the label is kept on purpose: it is the model's to learn, from
+    the left/right wheel-speed difference the features carry.
+
+    Args:
+        lat_deg: per-row latitude, degrees.
+        lon_deg: per-row longitude, degrees.
+
+    Returns:
+        float64 metres, length ``n_seconds(len(lat_deg))``.
+    """
+    idx = anchor_rows(n_seconds(len(lat_deg)))
+    return geodesic_distance_m(
+        lat_deg[idx[:-1]], lon_deg[idx[:-1]], lat_deg[idx[1:]], lon_deg[idx[1:]]
+    )
+
+
+def integrate_per_second(t_s: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """Integrate a 10 Hz rate over each second with the trapezoid rule (paper Eq. 10's integral).
+
+    The trapezoid over the eleven samples ``a .. b`` integrates over exactly
+    ``[t_a, t_b]``, the interval whose GNSS displacement the label compares
+    against. It is exact for a rate that varies linearly (constant acceleration),
+    and its error is ``-h^2 / 12`` times the change of the rate's slope over the
+    second (``h`` = 0.1 s): about 1 mm at a jerk of 1 m/s^3. The rectangle rule
+    on the ten samples ``a+1 .. b`` would be off by ``h / 2`` times the change of
+    the rate over the second: 0.1 m per second when braking at 2 m/s^2, as large
+    as the labels themselves. Real sample times are used, so jitter is handled.
+
+    Args:
+        t_s: per-row time, seconds, strictly increasing.
+        rate: per-row rate (e.g. wheel speed, rad/s).
+
+    Returns:
+        float64 integral per second (e.g. wheel angle, rad), length ``n_seconds(len(t_s))``.
+    """
+    n_sec = n_seconds(len(t_s))
+    increments = 0.5 * (rate[:-1] + rate[1:]) * np.diff(t_s)
+    return increments[: n_sec * ROWS_PER_SECOND].reshape(n_sec, ROWS_PER_SECOND).sum(axis=1)
+
+
+def wheel_features_rad_s(wheels_rad_s: Sequence[np.ndarray]) -> np.ndarray:
+    """Stack the ten samples per second of each wheel into the 40 raw input features.
+
+    Args:
+        wheels_rad_s: per-row wheel speeds (rad/s) in feature order RR, RL, FR, FL
+            (``canonical.FEATURE_WHEEL_ORDER``).
+
+    Returns:
+        float64 array ``(n_seconds, 40)``: columns ``10 w .. 10 w + 9`` are wheel
+        ``w``'s samples, oldest first (the paper's input X_t, Sec. 2.3).
+    """
+    return np.concatenate(
+        [rows_of_seconds(np.asarray(w, np.float64)) for w in wheels_rad_s], axis=1
+    )
+
+
+def scenario_per_second(row_tags: Sequence[str] | np.ndarray | pd.Series) -> np.ndarray:
+    """Merge the scenario tags of the ten rows each second owns.
+
+    Args:
+        row_tags: per-row ``;``-joined tags (``''`` or missing for none).
+
+    Returns:
+        object array of length ``n_seconds``: the sorted union of the rows' tags,
+        ``;``-joined, ``''`` when none (so a second that touches a roundabout for
+        a single row counts as a roundabout second).
+    """
+    series = pd.Series(row_tags, dtype="object").fillna("")
+    codes, uniques = pd.factorize(series, sort=True)
+    per_second = rows_of_seconds(codes)
+    if per_second.shape[0] == 0:
+        return np.empty(0, dtype=object)
+    # The tag strings differ only between distinct row combinations, and a drive
+    # has few of those: merge per distinct combination, then map back.
+    combos, inverse = np.unique(np.sort(per_second, axis=1), axis=0, return_inverse=True)
+    merged = np.array(
+        [
+            ";".join(
+                sorted({tag for code in combo for tag in str(uniques[code]).split(";") if tag})
+            )
+            for combo in combos
+        ],
+        dtype=object,
+    )
+    return merged[inverse.reshape(-1)]
+
+
+@dataclass(frozen=True)
+class SegmentSeconds:
+    """The raw (unscaled, uncalibrated) per-second quantities of one segment.
+
+    Attributes:
+        t_s: end time of each second (row ``10k + 10``), seconds.
+        span_s: duration of each second, seconds.
+        disp_gnss_m: GNSS displacement per second, metres.
+        angle_rl_rad: trapezoid-integrated rear-left wheel angle per second, rad.
+        angle_rr_rad: same for the rear right wheel.
+        omega_end_rl_rad_s: rear-left wheel speed at the end of each second (authors' sample).
+        omega_end_rr_rad_s: same for the rear right wheel.
+        wheels_rad_s: ``(n, 40)`` raw wheel-speed features, rad/s.
+        scenario: merged scenario tags per second.
+        n_rows: rows in the segment.
+    """
+
+    t_s: np.ndarray
+    span_s: np.ndarray
+    disp_gnss_m: np.ndarray
+    angle_rl_rad: np.ndarray
+    angle_rr_rad: np.ndarray
+    omega_end_rl_rad_s: np.ndarray
+    omega_end_rr_rad_s: np.ndarray
+    wheels_rad_s: np.ndarray
+    scenario: np.ndarray
+    n_rows: int
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+
+def check_segment(frame: pd.DataFrame, file: str) -> None:
+    """Check what the per-second computation relies on; raise one report of all problems.
+
+    Args:
+        frame: a segment in canonical columns.
+        file: the segment's file name, for the report.
+
+    Raises:
+        InputError: missing columns, non-finite values, time not strictly
+            increasing, or ten rows not spanning about one second.
+    """
+    missing = [col for col in c.REQUIRED if col not in frame.columns]
+    if missing:
+        raise InputError(
+            [Problem(file, None, col, "a canonical column", "missing") for col in missing]
+        )
+    problems: list[Problem] = []
+    for col in c.REQUIRED:
+        values = frame[col].to_numpy(np.float64)
+        bad = np.flatnonzero(~np.isfinite(values))
+        problems += [
+            Problem(file, int(i) + 1, col, "a finite number", repr(values[i]))
+            for i in bad[:_MAX_PROBLEMS_PER_CHECK]
+        ]
+    t = frame[c.T_S].to_numpy(np.float64)
+    back = np.flatnonzero(np.diff(t) <= 0)
+    problems += [
+        Problem(file, int(i) + 2, c.T_S, f"time after the previous row's {t[i]!r}", repr(t[i + 1]))
+        for i in back[:_MAX_PROBLEMS_PER_CHECK]
+    ]
+    if not problems:
+        spans = span_s(t)
+        off = np.flatnonzero(np.abs(spans - 1.0) > SPAN_TOLERANCE_S)
+        problems += [
+            Problem(
+                file,
+                int(k) * ROWS_PER_SECOND + 1,
+                c.T_S,
+                f"{ROWS_PER_SECOND} rows spanning 1 +/- {SPAN_TOLERANCE_S} s (10 Hz data)",
+                f"{spans[k]:.3f} s to row {int(k + 1) * ROWS_PER_SECOND + 1}",
+            )
+            for k in off[:_MAX_PROBLEMS_PER_CHECK]
+        ]
+    if problems:
+        raise InputError(problems, f"segment {file} cannot be cut into 10 Hz seconds")
+
+
+def segment_seconds(frame: pd.DataFrame, file: str = "<segment>") -> SegmentSeconds:
+    """Compute the raw per-second quantities of one segment.
+
+    Args:
+        frame: a segment in canonical columns (``rwhonet.data.canonical``), rows at 10 Hz;
+            the ``scenario`` column is optional.
+        file: the segment's file name, for error reports.
+
+    Returns:
+        The segment's per-second quantities (empty when it has fewer than 11 rows).
+
+    Raises:
+        InputError: see :func:`check_segment`.
+    """
+    check_segment(frame, file)
+    t = frame[c.T_S].to_numpy(np.float64)
+    omega = {w: frame[w].to_numpy(np.float64) for w in c.WHEELS}
+    tags = frame[c.SCENARIO] if c.SCENARIO in frame.columns else np.full(len(frame), "")
+    return SegmentSeconds(
+        t_s=end_of_second(t),
+        span_s=span_s(t),
+        disp_gnss_m=gnss_displacement_m(
+            frame[c.LAT_DEG].to_numpy(np.float64), frame[c.LON_DEG].to_numpy(np.float64)
+        ),
+        angle_rl_rad=integrate_per_second(t, omega[c.OMEGA_RL]),
+        angle_rr_rad=integrate_per_second(t, omega[c.OMEGA_RR]),
+        omega_end_rl_rad_s=end_of_second(omega[c.OMEGA_RL]),
+        omega_end_rr_rad_s=end_of_second(omega[c.OMEGA_RR]),
+        wheels_rad_s=wheel_features_rad_s([omega[w] for w in c.FEATURE_WHEEL_ORDER]),
+        scenario=scenario_per_second(tags),
+        n_rows=len(frame),
+    )

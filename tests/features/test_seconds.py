@@ -1,0 +1,136 @@
+"""The per-second grid: row grouping, integration, features, scenario tags, input checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.errors import InputError
+from rwhonet.features.seconds import (
+    FEATURE_COLUMNS,
+    anchor_rows,
+    end_of_second,
+    gnss_displacement_m,
+    integrate_per_second,
+    n_seconds,
+    rows_of_seconds,
+    scenario_per_second,
+    segment_seconds,
+    span_s,
+    wheel_features_rad_s,
+)
+
+from .synthetic import build_drive, constant_speed, wavy_speed
+
+
+@pytest.mark.parametrize(
+    ("n_rows", "expected"), [(0, 0), (1, 0), (10, 0), (11, 1), (20, 1), (21, 2)]
+)
+def test_a_second_needs_eleven_rows(n_rows, expected):
+    assert n_seconds(n_rows) == expected
+
+
+def test_second_k_owns_rows_10k_plus_1_to_10k_plus_10():
+    rows = np.arange(25)
+    np.testing.assert_array_equal(rows_of_seconds(rows), [np.arange(1, 11), np.arange(11, 21)])
+    np.testing.assert_array_equal(anchor_rows(2), [0, 10, 20])
+    np.testing.assert_array_equal(end_of_second(rows), [10, 20])
+    t = 100.05 + rows / 10.0  # segments start at any phase of the clock
+    np.testing.assert_allclose(end_of_second(t), [101.05, 102.05])
+    np.testing.assert_allclose(span_s(t), [1.0, 1.0])
+
+
+def test_trapezoid_is_exact_for_linear_rates_even_with_jitter():
+    rng = np.random.default_rng(0)
+    t = np.arange(31) / 10.0 + np.concatenate([[0], rng.uniform(-0.03, 0.03, 29), [0]])
+    rate = 3.0 + 2.0 * t
+    exact = np.diff(3.0 * t[::10] + t[::10] ** 2)
+    np.testing.assert_allclose(integrate_per_second(t, rate), exact, rtol=0, atol=1e-12)
+
+
+def test_trapezoid_error_on_a_quadratic_is_h2_over_12_times_curvature():
+    t = np.arange(11) / 10.0
+    # Integral of t^2 over [0, 1] is 1/3; the trapezoid overshoots by (b - a) h^2 f'' / 12.
+    assert integrate_per_second(t, t**2)[0] == pytest.approx(1 / 3 + 0.1**2 * 2 / 12, abs=1e-14)
+
+
+def test_gnss_displacement_is_the_distance_driven_on_a_straight_road():
+    profile = wavy_speed(20, 12.0, 4.0, 7.0)
+    frame = build_drive(profile)
+    disp = gnss_displacement_m(frame[c.LAT_DEG].to_numpy(), frame[c.LON_DEG].to_numpy())
+    np.testing.assert_allclose(disp, np.diff(profile[1][::10]), rtol=0, atol=1e-6)
+
+
+def test_features_are_wheel_major_rr_rl_fr_fl_oldest_first():
+    n = 21
+    rows = np.arange(n, dtype=float)
+    wheels = [1000 + rows, 2000 + rows, 3000 + rows, 4000 + rows]  # RR, RL, FR, FL
+    x = wheel_features_rad_s(wheels)
+    assert x.shape == (2, 40) == (2, len(FEATURE_COLUMNS))
+    np.testing.assert_array_equal(x[0, :10], 1000 + np.arange(1, 11))
+    np.testing.assert_array_equal(x[1, 10:20], 2000 + np.arange(11, 21))
+    np.testing.assert_array_equal(x[1, 30:], 4000 + np.arange(11, 21))
+
+
+def test_segment_seconds_uses_the_canonical_wheel_columns():
+    frame = build_drive(constant_speed(3, 10.0))
+    for k, col in enumerate(c.FEATURE_WHEEL_ORDER):
+        frame[col] = 100.0 * (k + 1)
+    sec = segment_seconds(frame, "f")
+    np.testing.assert_array_equal(sec.wheels_rad_s[:, ::10], [[100, 200, 300, 400]] * 3)
+    assert len(sec) == 3 and sec.n_rows == 31
+
+
+def test_scenario_is_the_sorted_union_of_the_rows_tags():
+    tags = np.full(31, "", dtype=object)
+    tags[3] = "wet"
+    tags[5] = "roundabout;wet"
+    tags[10] = "hard_brake"  # last row of second 0
+    tags[11] = None  # missing counts as no tag
+    tags[25] = "wet"
+    merged = scenario_per_second(tags)
+    assert merged.tolist() == ["hard_brake;roundabout;wet", "", "wet"]
+    assert scenario_per_second(np.full(31, "")).tolist() == ["", "", ""]
+    assert scenario_per_second(np.array(["a"] * 5)).tolist() == []
+
+
+def test_tag_on_the_first_row_belongs_to_no_second():
+    # Row 0 is only the starting fix of second 0; its tag is not in any second.
+    tags = np.array(["tunnel"] + [""] * 10, dtype=object)
+    assert scenario_per_second(tags).tolist() == [""]
+
+
+def _frame(n: int = 31) -> pd.DataFrame:
+    return build_drive(constant_speed((n - 1) / 10, 10.0))
+
+
+def test_missing_column_is_reported_by_name():
+    with pytest.raises(InputError) as err:
+        segment_seconds(_frame().drop(columns=[c.OMEGA_RL]), "seg.parquet")
+    (problem,) = err.value.problems
+    assert (problem.file, problem.column, problem.found) == ("seg.parquet", c.OMEGA_RL, "missing")
+
+
+def test_non_finite_values_and_time_reversals_are_reported_with_their_rows():
+    frame = _frame()
+    frame.loc[4, c.LAT_DEG] = np.nan
+    frame.loc[7, c.T_S] = frame.loc[6, c.T_S]
+    with pytest.raises(InputError) as err:
+        segment_seconds(frame, "seg.parquet")
+    found = {(p.row, p.column) for p in err.value.problems}
+    assert found == {(5, c.LAT_DEG), (8, c.T_S)}  # 1-based data rows
+
+
+def test_data_that_is_not_10_hz_is_refused():
+    frame = _frame()
+    frame[c.T_S] = 1000.0 + np.arange(len(frame)) * 1.0  # 1 Hz
+    with pytest.raises(InputError, match="10 Hz") as err:
+        segment_seconds(frame, "seg.parquet")
+    assert err.value.problems[0].row == 1
+
+
+def test_short_segment_has_no_seconds():
+    sec = segment_seconds(_frame(8), "f")
+    assert len(sec) == 0 and sec.wheels_rad_s.shape == (0, 40) and len(sec.scenario) == 0
