@@ -283,6 +283,7 @@ class ValidateParams:
     sample_period_tol_s: float
     max_abs_wheel_speed_rad_s: float
     radius_tolerance: float
+    radius_min_moving_s: float
     gnss: GnssPolicy
     cuts: list[CutSpec] = field(default_factory=list)
 
