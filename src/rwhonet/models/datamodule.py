@@ -1,0 +1,113 @@
+"""In-memory data for WhONet: shuffled blocks of samples without per-sample collation.
+
+A standard ``DataLoader(dataset, batch_size=128, shuffle=True)`` calls
+``__getitem__`` once per sample and stacks the results in ``collate_fn``: 128
+Python calls and a stack per step, more than the model's own step costs here.
+Instead the dataset is indexed with a whole list of indices at once (one
+tensor gather), and a ``BatchSampler`` passed as ``sampler`` with
+``batch_size=None`` hands it those lists.
+"""
+
+from __future__ import annotations
+
+import lightning as L
+import numpy as np
+import torch
+from torch.utils.data import BatchSampler, DataLoader, Dataset, RandomSampler, SequentialSampler
+
+# Mini-batches per training block (see rwhonet.models.module): 64 x 128 = 8192 samples
+# per Lightning batch amortises its per-batch cost to a few µs per optimizer step.
+STEPS_PER_BLOCK = 64
+VAL_BATCH_SIZE = 8192
+
+
+class ArrayDataset(Dataset):
+    """Features and labels held in memory, indexed by a list of sample indices.
+
+    Args:
+        x: (N, T, F) float32 features.
+        y: (N,) float32 labels in metres.
+    """
+
+    def __init__(self, x: np.ndarray | torch.Tensor, y: np.ndarray | torch.Tensor) -> None:
+        # as_tensor shares memory with a float32 numpy array: no copy of the features.
+        self.x = torch.as_tensor(x, dtype=torch.float32)
+        self.y = torch.as_tensor(y, dtype=torch.float32)
+        if len(self.x) != len(self.y):
+            raise ValueError(f"x has {len(self.x)} samples but y has {len(self.y)}")
+
+    def __len__(self) -> int:
+        return len(self.y)
+
+    def __getitem__(self, idx: list[int]) -> tuple[torch.Tensor, torch.Tensor]:
+        index = torch.as_tensor(idx, dtype=torch.long)
+        return self.x[index], self.y[index]
+
+
+class WhONetDataModule(L.LightningDataModule):
+    """Training blocks and validation batches over in-memory arrays.
+
+    Each epoch draws one permutation of the training samples (from a generator
+    seeded with ``seed``, independent of the global RNG) and cuts it into
+    blocks of ``steps_per_block * batch_size`` samples; the module slices each
+    block into mini-batches of ``batch_size``. The sequence of mini-batches is
+    therefore that of a plain ``shuffle=True`` loop at ``batch_size`` whatever
+    ``steps_per_block`` is (the last mini-batch of an epoch may be smaller).
+
+    Args:
+        x: (N, T, F) float32 training features.
+        y: (N,) float32 training labels in metres.
+        x_val: validation features, or None / empty for no validation.
+        y_val: validation labels, or None / empty.
+        batch_size: samples per optimizer step.
+        seed: seed of the shuffling generator.
+        steps_per_block: mini-batches per Lightning batch (a speed knob only).
+        val_batch_size: samples per validation batch (no gradients, so large).
+    """
+
+    def __init__(
+        self,
+        x: np.ndarray | torch.Tensor,
+        y: np.ndarray | torch.Tensor,
+        x_val: np.ndarray | torch.Tensor | None = None,
+        y_val: np.ndarray | torch.Tensor | None = None,
+        *,
+        batch_size: int = 128,
+        seed: int = 0,
+        steps_per_block: int = STEPS_PER_BLOCK,
+        val_batch_size: int = VAL_BATCH_SIZE,
+    ) -> None:
+        super().__init__()
+        if batch_size < 1 or steps_per_block < 1 or val_batch_size < 1:
+            raise ValueError("batch_size, steps_per_block and val_batch_size must be positive")
+        self.train_set = ArrayDataset(x, y)
+        has_val = x_val is not None and y_val is not None and len(y_val) > 0
+        self.val_set = ArrayDataset(x_val, y_val) if has_val else None
+        self.batch_size = batch_size
+        self.seed = seed
+        self.steps_per_block = steps_per_block
+        self.val_batch_size = val_batch_size
+
+    @property
+    def has_val(self) -> bool:
+        """Whether there is a validation set."""
+        return self.val_set is not None
+
+    def train_dataloader(self) -> DataLoader:
+        """Shuffled blocks; the generator is re-seeded per call, so every fit sees one order."""
+        generator = torch.Generator().manual_seed(self.seed)
+        blocks = BatchSampler(
+            RandomSampler(self.train_set, generator=generator),
+            batch_size=self.batch_size * self.steps_per_block,
+            drop_last=False,
+        )
+        return DataLoader(self.train_set, sampler=blocks, batch_size=None, num_workers=0)
+
+    def val_dataloader(self) -> DataLoader | list:
+        """Validation batches in order; an empty list (no validation) without a validation set."""
+        if self.val_set is None:
+            return []
+        batches = BatchSampler(
+            SequentialSampler(self.val_set), batch_size=self.val_batch_size, drop_last=False
+        )
+        return DataLoader(self.val_set, sampler=batches, batch_size=None, num_workers=0)

@@ -1,0 +1,166 @@
+"""LightningModule around :class:`~rwhonet.models.whonet.WhONet` (paper §3.3, Table 1).
+
+Why the training step holds its own mini-batch loop
+----------------------------------------------------
+WhONet is tiny (8.3 k parameters, one time step): a plain PyTorch step at
+batch 128 takes about 1 ms on one CPU thread, and Lightning's per-batch
+machinery (fetcher, hooks, progress tracking, the optimizer closure and the
+strategy/precision wrappers) adds 0.3–0.6 ms on top of it
+(``benchmarks/bench_train.py`` measures both). So each Lightning "batch" here
+is a *block* of ``steps_per_block`` mini-batches drawn from one shuffled
+permutation (:class:`~rwhonet.models.datamodule.WhONetDataModule`), and
+:meth:`WhONetModule.training_step` takes one optimizer step per mini-batch of
+``batch_size`` samples with manual optimization. The mini-batches and the
+update sequence are exactly those of a one-step-per-batch loop over the same
+permutation (a test checks that a block of 1 and a block of 64 give identical
+weights); only the Lightning bookkeeping is paid once per block. The price:
+Lightning's per-optimizer-step features (gradient clipping, accumulation,
+mixed precision, ``global_step``) are not used; the Trainer in
+:mod:`rwhonet.models.train` runs in 32-bit precision without them.
+
+Losses are accumulated in the module and logged once per epoch
+(``train/loss``, ``val/loss``: mean absolute error in metres over the
+epoch's samples, step = epoch), so logging costs nothing per step.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import lightning as L
+import torch
+from torch import nn
+
+from rwhonet.models.whonet import N_FEATURES, WhONet
+
+
+class WhONetModule(L.LightningModule):
+    """WhONet trained with MAE loss and Adamax (paper §3.3.1, Table 1).
+
+    Every constructor argument is saved with ``save_hyperparameters()``, so
+    ``WhONetModule.load_from_checkpoint(path)`` rebuilds the network with
+    nothing else remembered (the G → R hand-off of paper §2.6).
+
+    Optimizer: Adamax, as the paper states (§3.3.1; the authors' code builds
+    Adam), with PyTorch's default betas and epsilon and no learning-rate decay.
+    Only parameters with ``requires_grad`` are handed to it, so a freeze policy
+    (:func:`rwhonet.models.freeze.apply_trainable`) applied before ``fit``
+    holds.
+
+    Args:
+        n_features: input features per time step (40).
+        hidden: hidden units per RNN layer (Table 1: 72).
+        layers: stacked RNN layers (Table 1: 1).
+        dropout: dropout rate (Table 1: 0.05).
+        seq_len: one-second steps per input window (Table 1 "time step": 1);
+            recorded so whoever loads a checkpoint knows how to window features.
+        lr: Adamax learning rate (Table 1: 0.0007).
+        batch_size: samples per optimizer step (Table 1: 128).
+    """
+
+    def __init__(
+        self,
+        n_features: int = N_FEATURES,
+        hidden: int = 72,
+        layers: int = 1,
+        dropout: float = 0.05,
+        seq_len: int = 1,
+        lr: float = 7e-4,
+        batch_size: int = 128,
+    ) -> None:
+        super().__init__()
+        if seq_len < 1 or batch_size < 1 or lr <= 0:
+            raise ValueError(
+                f"seq_len and batch_size must be positive and lr > 0, got {seq_len}, "
+                f"{batch_size}, {lr}"
+            )
+        self.save_hyperparameters()
+        self.net = WhONet(n_features=n_features, hidden=hidden, layers=layers, dropout=dropout)
+        # One optimizer step per mini-batch inside a block (module docstring).
+        self.automatic_optimization = False
+        # Per-epoch history as plain data; the training entry points return it.
+        self.history: list[dict[str, Any]] = []
+        # Batch losses (detached tensors) and sizes of the running epoch, per stage.
+        self._losses: dict[str, list[torch.Tensor]] = {"train": [], "val": []}
+        self._sizes: dict[str, list[int]] = {"train": [], "val": []}
+        self._val_loss_m: float | None = None
+
+    # ------------------------------------------------------------------ model
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """(B, T, n_features) windows -> (B,) predicted displacement error in metres."""
+        return self.net(x)
+
+    def _step(self, stage: str, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+        """The step shared by training and validation: MAE of one batch, added to the epoch sum."""
+        loss = nn.functional.l1_loss(self.net(x), y)
+        # Kept as tensors (no .item(): no per-step host sync) and reduced once per epoch.
+        self._losses[stage].append(loss.detach())
+        self._sizes[stage].append(len(y))
+        return loss
+
+    def training_step(self, batch: tuple[torch.Tensor, torch.Tensor], batch_idx: int) -> None:
+        """One optimizer step per ``batch_size`` slice of the block (module docstring).
+
+        Args:
+            batch: ``(x, y)`` block of up to ``steps_per_block * batch_size``
+                shuffled samples.
+            batch_idx: index of the block in the epoch.
+        """
+        x, y = batch
+        opt = self.optimizers(use_pl_optimizer=False)
+        bs = self.hparams.batch_size
+        for start in range(0, len(y), bs):
+            loss = self._step("train", x[start : start + bs], y[start : start + bs])
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+
+    def validation_step(self, batch: tuple[torch.Tensor, torch.Tensor], batch_idx: int) -> None:
+        """Accumulate the validation MAE (Lightning runs this in eval mode, without grad)."""
+        self._step("val", *batch)
+
+    def predict_step(self, batch: Any, batch_idx: int) -> torch.Tensor:
+        """Predictions for ``Trainer.predict`` (a batch is ``x`` or ``(x, ...)``)."""
+        x = batch[0] if isinstance(batch, list | tuple) else batch
+        return self.net(x)
+
+    def configure_optimizers(self) -> torch.optim.Optimizer:
+        """Adamax over the trainable parameters (paper §3.3.1)."""
+        trainable = [p for p in self.parameters() if p.requires_grad]
+        return torch.optim.Adamax(trainable, lr=self.hparams.lr)
+
+    # ---------------------------------------------------------------- logging
+
+    def _epoch_mean(self, stage: str) -> float | None:
+        """Sample-weighted mean of the epoch's batch MAEs (exact MAE over its samples)."""
+        losses, sizes = self._losses[stage], self._sizes[stage]
+        self._losses[stage], self._sizes[stage] = [], []
+        if not sizes:
+            return None
+        n = torch.tensor(sizes, dtype=torch.float64)
+        return float((torch.stack(losses).double().cpu() * n).sum() / n.sum())
+
+    def on_train_epoch_start(self) -> None:
+        self._val_loss_m = None
+
+    def on_validation_epoch_end(self) -> None:
+        mean = self._epoch_mean("val")
+        if self.trainer.sanity_checking:
+            return
+        self._val_loss_m = mean
+
+    def on_train_epoch_end(self) -> None:
+        # Lightning runs the epoch's validation before this hook, so both are known.
+        train_loss_m = self._epoch_mean("train")
+        self.history.append(
+            {"epoch": self.current_epoch, "train_loss": train_loss_m, "val_loss": self._val_loss_m}
+        )
+        metrics = {"train/loss": train_loss_m}
+        if self._val_loss_m is not None:
+            metrics["val/loss"] = self._val_loss_m
+        # callback_metrics for callbacks that monitor a loss; loggers get step = epoch
+        # directly (Lightning's own step counter counts blocks, not optimizer steps).
+        self.log_dict(metrics, logger=False)
+        for lg in self.loggers:
+            lg.log_metrics(metrics, step=self.current_epoch)

@@ -1,0 +1,92 @@
+"""The WhONet network: a simple RNN over one-second wheel-speed windows and a linear head.
+
+Paper §2.3, Eqs. 12-15 and Table 1 (72 tanh units, one hidden layer, one time
+step, dropout 0.05); initialisation as in the authors' Keras ``SimpleRNN`` +
+``Dense`` (shared/reference/whonet-reference-notes.md, "Model and training").
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+N_FEATURES = 40  # ten 10 Hz samples of each of the four wheel speeds (paper Eqs. 14-15)
+
+
+class WhONet(nn.Module):
+    """Simple RNN regressor of the per-second wheel-odometry displacement error.
+
+    ``h_t = tanh(U_h h_{t-1} + W_x X_t + b_h)`` (paper Eq. 12) over the input
+    window, then ``y_t = W_o h_t + b_o`` on the last step (the window ends at
+    the predicted second t, Eqs. 14-15).
+
+    The output is **linear**, not the sigmoid of Eq. 13: the target is a signed
+    error in metres (GNSS − WPM, Eq. 11), which a sigmoid can neither make
+    negative nor larger than 1 m. The authors' code uses a linear ``Dense(1)``.
+
+    Dropout: the authors' ``SimpleRNN(recurrent_dropout=0.05)`` drops entries of
+    ``h_{t-1}``; with one time step that state is all zeros, so it has no effect
+    at all. To keep the paper's "dropout of 0.05 of the weighted connections in
+    the hidden layers" (§3.3.1) as a real regulariser we drop the last hidden
+    state before the head (training only). With ``layers > 1`` ``nn.RNN``'s own
+    inter-layer dropout (same rate) also acts between the stacked layers.
+
+    Initialisation follows Keras' defaults for those layers: Glorot-uniform input
+    and output weights, orthogonal recurrent weights, zero biases (``nn.RNN``
+    carries two bias vectors, ``b_ih`` and ``b_hh``; both start at zero, so
+    their sum, ``b_h`` in Eq. 12, does too).
+
+    Args:
+        n_features: input features per time step (40).
+        hidden: hidden units per layer (Table 1: 72).
+        layers: stacked RNN layers (Table 1: 1).
+        dropout: dropout rate (Table 1: 0.05).
+    """
+
+    def __init__(
+        self, n_features: int = N_FEATURES, hidden: int = 72, layers: int = 1, dropout: float = 0.05
+    ) -> None:
+        super().__init__()
+        if n_features < 1 or hidden < 1 or layers < 1:
+            raise ValueError(
+                f"n_features, hidden and layers must be positive, got {n_features}, {hidden}, "
+                f"{layers}"
+            )
+        if not 0.0 <= dropout < 1.0:
+            raise ValueError(f"dropout must be in [0, 1), got {dropout}")
+        self.rnn = nn.RNN(
+            input_size=n_features,
+            hidden_size=hidden,
+            num_layers=layers,
+            nonlinearity="tanh",
+            batch_first=True,
+            # nn.RNN warns (and does nothing) when asked for dropout with one layer.
+            dropout=dropout if layers > 1 else 0.0,
+        )
+        self.dropout = nn.Dropout(dropout)
+        self.head = nn.Linear(hidden, 1)
+        self.reset_parameters()
+
+    def reset_parameters(self) -> None:
+        """Keras-default initialisation (see the class docstring)."""
+        for name, p in self.rnn.named_parameters():
+            if name.startswith("weight_hh"):
+                nn.init.orthogonal_(p)
+            elif name.startswith("weight_ih"):
+                nn.init.xavier_uniform_(p)
+            else:
+                nn.init.zeros_(p)
+        nn.init.xavier_uniform_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """Predict the displacement error of the window's last second.
+
+        Args:
+            x: (B, T, n_features) float32 input windows, oldest step first.
+
+        Returns:
+            (B,) predicted GNSS − WPM displacement in metres.
+        """
+        out, _ = self.rnn(x)
+        return self.head(self.dropout(out[:, -1, :])).squeeze(-1)
