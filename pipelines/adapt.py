@@ -1,4 +1,4 @@
-"""DVC stage adapt@m: R-WhONet, G-WhONet fine-tuned on the first m seconds of each target test drive.
+"""DVC stage adapt@m: R-WhONet = G-WhONet fine-tuned on each test drive's first m seconds.
 
 Usage: python pipelines/adapt.py M
 """
@@ -18,10 +18,11 @@ def main() -> None:
     from rwhonet.experiment.adapt import adapt_m, r_dir
 
     rec = adapt_m(params, args.m, paths.SAMPLES, paths.MODEL_G, r_dir(args.m))
+    m = rec.metrics
     print(
-        f"{rec.name}: {len(rec.children)} drives, trainable {int(rec.metrics['n_trainable_params'])}"
-        f" of {int(rec.metrics['n_total_params'])} parameters ({params.adapt.trainable}), "
-        f"{params.adapt.epochs} epochs, {rec.metrics['fit_seconds']:.1f} s of fitting "
+        f"{rec.name}: {len(rec.children)} drives, trainable {int(m['n_trainable_params'])}"
+        f" of {int(m['n_total_params'])} parameters ({params.adapt.trainable}), "
+        f"{params.adapt.epochs} epochs, {m['fit_seconds']:.1f} s of fitting "
         f"-> {paths.rel(r_dir(args.m))}"
     )
 

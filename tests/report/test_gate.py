@@ -9,10 +9,22 @@ from rwhonet.report.gate import compare, main, render
 
 BASE = {
     "overall": {
-        "WPM": {"30s": {"crse_mean": 8.0, "cte_mean": 3.0}, "180s": {"crse_mean": 45.0, "cte_mean": 9.0}},
-        "G": {"30s": {"crse_mean": 2.0, "cte_mean": 1.0}, "180s": {"crse_mean": 10.0, "cte_mean": 5.0}},
-        "S": {"30s": {"crse_mean": 1.5, "cte_mean": 0.5}, "180s": {"crse_mean": 8.0, "cte_mean": 1.0}},
-        "R": {"30s": {"crse_mean": 1.6, "cte_mean": 0.4}, "180s": {"crse_mean": 8.5, "cte_mean": 1.2}},
+        "WPM": {
+            "30s": {"crse_mean": 8.0, "cte_mean": 3.0},
+            "180s": {"crse_mean": 45.0, "cte_mean": 9.0},
+        },
+        "G": {
+            "30s": {"crse_mean": 2.0, "cte_mean": 1.0},
+            "180s": {"crse_mean": 10.0, "cte_mean": 5.0},
+        },
+        "S": {
+            "30s": {"crse_mean": 1.5, "cte_mean": 0.5},
+            "180s": {"crse_mean": 8.0, "cte_mean": 1.0},
+        },
+        "R": {
+            "30s": {"crse_mean": 1.6, "cte_mean": 0.4},
+            "180s": {"crse_mean": 8.5, "cte_mean": 1.2},
+        },
         "R@10": {"30s": {"crse_mean": 99.0, "cte_mean": 0.4}},
     }
 }

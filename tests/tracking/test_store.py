@@ -34,7 +34,9 @@ def test_env_uri_wins(monkeypatch):
 
 
 def test_record_round_trips_through_dict():
-    rec = RunRecord("R m=50", tags={"model": "R"}, children=[RunRecord("child", metrics={"a": 1.0})])
+    rec = RunRecord(
+        "R m=50", tags={"model": "R"}, children=[RunRecord("child", metrics={"a": 1.0})]
+    )
     assert RunRecord.from_dict(rec.to_dict()) == rec
 
 
@@ -53,8 +55,11 @@ def test_log_execution_parent_and_children(tmp_path, monkeypatch):
         metrics={"crse/30s/mean": 1.5},
         artifacts=[str(art)],
     )
-    r = RunRecord("R m=50", tags={"model": "R", "m": "50"},
-                  children=[RunRecord("R m=50 d1", tags={"model": "R", "drive": "d1"})])
+    r = RunRecord(
+        "R m=50",
+        tags={"model": "R", "m": "50"},
+        children=[RunRecord("R m=50 d1", tags={"model": "R", "drive": "d1"})],
+    )
     parent = RunRecord("pipeline", tags={"model": "pipeline"})
     pid = log_execution([g, r], uri=uri, experiment="t", execution=parent)
     mlflow.set_tracking_uri(uri)

@@ -1,4 +1,4 @@
-"""R-WhONet: G-WhONet fine-tuned on the first m seconds of each target test drive (paper §2.6, §3.3.3, §3.4)."""
+"""R-WhONet: G-WhONet fine-tuned on each test drive's first m seconds (paper §2.6, §3.3.3, §3.4)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from rwhonet.experiment.train import (
     CHECKPOINT,
     PREDICTIONS,
     RUN_RECORD,
+    history_rows,
     model_params,
     predictions_frame,
 )
@@ -64,10 +65,16 @@ def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Pat
         children.append(
             RunRecord(
                 name=f"R m={m} {d}",
-                tags={"model": "R", "m": str(m), "drive": d, "vehicle": "target",
-                      "seed": str(params.seed), "dvc_stage": f"adapt@{m}"},
+                tags={
+                    "model": "R",
+                    "m": str(m),
+                    "drive": d,
+                    "vehicle": "target",
+                    "seed": str(params.seed),
+                    "dvc_stage": f"adapt@{m}",
+                },
                 params={**model_params(params, "adapt"), "adapt.m": m, "drive": d},
-                history=result.history,
+                history=history_rows(result.history),
                 metrics={
                     "n_adapt_samples": int(first.sum()),
                     "fit_seconds": result.seconds,
@@ -79,8 +86,13 @@ def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Pat
         )
     record = RunRecord(
         name=f"R-WhONet m={m}",
-        tags={"model": "R", "m": str(m), "vehicle": "target", "seed": str(params.seed),
-              "dvc_stage": f"adapt@{m}"},
+        tags={
+            "model": "R",
+            "m": str(m),
+            "vehicle": "target",
+            "seed": str(params.seed),
+            "dvc_stage": f"adapt@{m}",
+        },
         params={**model_params(params, "adapt"), "adapt.m": m},
         metrics={
             "fit_seconds": float(sum(r.seconds for r in results.values())),

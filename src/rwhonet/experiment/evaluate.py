@@ -1,4 +1,4 @@
-"""Evaluate WPM, G, S and R (every m) on the same seconds of every target test drive (paper §3.2, §3.5).
+"""Score WPM, G, S and R (every m) on the same seconds of each test drive (paper §3.2, §3.5).
 
 Every model is scored on the part of each test drive that comes after the
 largest m of the grid, so no R-WhONet is scored on seconds it was adapted on,
@@ -25,20 +25,31 @@ from rwhonet.errors import InputError, Problem
 from rwhonet.experiment.samples import load_role
 from rwhonet.experiment.train import PREDICTIONS, RUN_RECORD
 from rwhonet.io import atomic_dir, atomic_file, read_json, write_json
-from rwhonet.metrics.outage import evolution, summarise, window_metrics
+from rwhonet.metrics.outage import summarise, window_evolution, window_metrics
 from rwhonet.report.tables import render_report
 from rwhonet.tracking.store import RunRecord
 
 STAT_KEYS = ("max", "min", "mean", "std")
+_SHORT = {"crse_m_": "crse_", "cte_m_": "cte_", "distance_m_": "dist_"}
+
+
+def _stats(windows: pd.DataFrame) -> dict:
+    """:func:`summarise` with the short keys of the summary table (crse_mean, dist_std...)."""
+    out = {}
+    for k, v in summarise(windows).items():
+        for long, short in _SHORT.items():
+            k = k.replace(long, short)
+        out[k] = v
+    return out
 
 
 @dataclass
 class Evaluation:
     """What the evaluation computed."""
 
-    summary: pd.DataFrame        # tidy: drive (or 'all'), model, outage_s, stats, n_windows
-    per_second: pd.DataFrame     # test drives, one row per second, every model's prediction
-    evolution: pd.DataFrame      # mean cumulative |e| and e per second of a window
+    summary: pd.DataFrame  # tidy: drive (or 'all'), model, outage_s, stats, n_windows
+    per_second: pd.DataFrame  # test drives, one row per second, every model's prediction
+    evolution: pd.DataFrame  # mean cumulative |e| and e per second of a window
     eval_json: dict
 
 
@@ -62,13 +73,23 @@ def collect_predictions(
     for col, folder in sources.items():
         f = folder / PREDICTIONS
         if not f.is_file():
-            raise InputError([Problem(paths.rel(f), None, None, "a model's predictions", "no file")])
+            raise InputError(
+                [Problem(paths.rel(f), None, None, "a model's predictions", "no file")]
+            )
         pred = pd.read_parquet(f).rename(columns={"pred_m": col})
         frame = frame.merge(pred[[*keys, col]], on=keys, how="left", validate="one_to_one")
         if frame[col].isna().any():
             n = int(frame[col].isna().sum())
             raise InputError(
-                [Problem(paths.rel(f), None, col, "a prediction for every test second", f"{n} missing")],
+                [
+                    Problem(
+                        paths.rel(f),
+                        None,
+                        col,
+                        "a prediction for every test second",
+                        f"{n} missing",
+                    )
+                ],
                 "predictions are stale: re-run the model stages (dvc repro)",
             )
     return frame
@@ -111,21 +132,21 @@ def evaluate(params: Params, frame: pd.DataFrame) -> Evaluation:
             for name, mask in [("all", np.ones(len(windows), bool))] + [
                 (d, w_drive == d) for d in dict.fromkeys(drive)
             ]:
-                rows.append({"drive": name, "model": model, "outage_s": L,
-                             **summarise(windows[mask])})
+                rows.append({"drive": name, "model": model, "outage_s": L, **_stats(windows[mask])})
             if model in ("WPM", "G", "S", "R"):
-                cum_abs, cum = evolution(err, group, L)
-                curves.append(pd.DataFrame({
-                    "outage_s": L, "second": np.arange(1, L + 1), "model": model,
-                    "crse_m": cum_abs.mean(axis=0), "cte_m": np.abs(cum.mean(axis=0)),
-                }))
+                evo = window_evolution(err, group, L)
+                evo["cte_m"] = evo["cte_signed_m"].abs()
+                mean = evo.groupby("second")[["crse_m", "cte_m"]].mean().reset_index()
+                curves.append(mean.assign(outage_s=L, model=model))
     summary = pd.DataFrame(rows)
-    return Evaluation(summary, frame, pd.concat(curves, ignore_index=True),
-                      eval_json(summary, params))
+    return Evaluation(
+        summary, frame, pd.concat(curves, ignore_index=True), eval_json(summary, params)
+    )
 
 
 def eval_json(summary: pd.DataFrame, params: Params) -> dict:
     """Small, diffable metrics: mean CRSE and CTE per model x outage, overall and per drive."""
+
     def block(rows: pd.DataFrame, full: bool) -> dict:
         out: dict = {}
         for r in rows.itertuples():
@@ -138,7 +159,9 @@ def eval_json(summary: pd.DataFrame, params: Params) -> dict:
     overall = summary[summary["drive"] == "all"]
     per_drive = summary[(summary["drive"] != "all") & ~summary["model"].str.startswith("R@")]
     return {
-        "evaluated_on": f"target test seconds after the first {max(params.adapt.m_grid)} s of each drive",
+        "evaluated_on": (
+            f"target test seconds after the first {max(params.adapt.m_grid)} s of each drive"
+        ),
         "chosen_m": params.adapt.chosen_m,
         "overall": block(overall, True),
         "per_drive": {d: block(g, False) for d, g in per_drive.groupby("drive", sort=False)},
@@ -158,8 +181,14 @@ def stat_metrics(summary: pd.DataFrame, model: str, drive: str = "all") -> dict[
 
 
 def write_outputs(
-    params: Params, ev: Evaluation, *, eval_path: Path, tables_path: Path,
-    predictions_dir: Path, plots_dir: Path, provenance: str,
+    params: Params,
+    ev: Evaluation,
+    *,
+    eval_path: Path,
+    tables_path: Path,
+    predictions_dir: Path,
+    plots_dir: Path,
+    provenance: str,
 ) -> None:
     """Write eval.json, tables.md, per-drive predictions and DVC plot data (atomically)."""
     grid, chosen = params.adapt.m_grid, params.adapt.chosen_m
@@ -180,18 +209,28 @@ def write_outputs(
                 wide.to_csv(tmp / f"{metric}_evolution_{L}s.csv", index=False, float_format="%.4f")
         mg = ev.summary[(ev.summary["drive"] == "all") & ev.summary["model"].str.startswith("R@")]
         mg = mg.assign(m=mg["model"].str[2:].astype(int)).pivot(
-            index="m", columns="outage_s", values="crse_mean")
+            index="m", columns="outage_s", values="crse_mean"
+        )
         mg.columns = [f"crse_mean_{c}s" for c in mg.columns]
         mg.reset_index().to_csv(tmp / "r_m_grid.csv", index=False, float_format="%.4f")
     with atomic_file(tables_path) as tmp:
-        tmp.write_text(render_report(ev.summary, outages_s=params.evaluate.outages_s,
-                                     m_grid=grid, chosen_m=chosen, eval_note=note,
-                                     provenance=provenance), encoding="utf-8")
+        tmp.write_text(
+            render_report(
+                ev.summary,
+                outages_s=params.evaluate.outages_s,
+                m_grid=grid,
+                chosen_m=chosen,
+                eval_note=note,
+                provenance=provenance,
+            ),
+            encoding="utf-8",
+        )
     write_json(eval_path, ev.eval_json)
 
 
-def run_records(params: Params, ev: Evaluation, g_dir: Path, s_dir: Path, r_root: Path
-                ) -> list[RunRecord]:
+def run_records(
+    params: Params, ev: Evaluation, g_dir: Path, s_dir: Path, r_root: Path
+) -> list[RunRecord]:
     """The execution's runs for MLflow, each carrying its CRSE/CTE on the evaluation windows."""
     s = ev.summary
     records = []
@@ -207,24 +246,33 @@ def run_records(params: Params, ev: Evaluation, g_dir: Path, s_dir: Path, r_root
         for child in rec.children:
             child.metrics.update(stat_metrics(s, f"R@{m}", child.tags["drive"]))
         records.append(rec)
-    records.append(RunRecord(
-        name="WPM",
-        tags={"model": "WPM", "vehicle": "target", "dvc_stage": "evaluate"},
-        params={"label.wpm_mode": params.label.wpm_mode,
-                "label.calibration_min_speed_m_s": params.label.calibration_min_speed_m_s},
-        metrics=stat_metrics(s, "WPM"),
-    ))
+    records.append(
+        RunRecord(
+            name="WPM",
+            tags={"model": "WPM", "vehicle": "target", "dvc_stage": "evaluate"},
+            params={
+                "label.wpm_mode": params.label.wpm_mode,
+                "label.calibration_min_speed_m_s": params.label.calibration_min_speed_m_s,
+            },
+            metrics=stat_metrics(s, "WPM"),
+        )
+    )
     return records
 
 
 def provenance_line(params: Params) -> str:
     """Where the numbers come from (data source, profile, seed, machine)."""
-    src = (f"simulated fleet, profile `{params.sim.profile}`" if params.data.source == "sim"
-           else f"drive files under `{params.data.root}`")
-    return (f"Data: {src}; seed {params.seed}; WPM mode `{params.label.wpm_mode}`; "
-            f"{params.train.epochs} training epochs, {params.adapt.epochs} adaptation epochs "
-            f"(trainable: {params.adapt.trainable}); computed on {platform.machine()} "
-            f"CPU by `dvc repro`.")
+    src = (
+        f"simulated fleet, profile `{params.sim.profile}`"
+        if params.data.source == "sim"
+        else f"drive files under `{params.data.root}`"
+    )
+    return (
+        f"Data: {src}; seed {params.seed}; WPM mode `{params.label.wpm_mode}`; "
+        f"{params.train.epochs} training epochs, {params.adapt.epochs} adaptation epochs "
+        f"(trainable: {params.adapt.trainable}); computed on {platform.machine()} "
+        f"CPU by `dvc repro`."
+    )
 
 
 def evaluation_record(params: Params, ev: Evaluation, artifacts: list[Path]) -> RunRecord:
@@ -235,10 +283,15 @@ def evaluation_record(params: Params, ev: Evaluation, artifacts: list[Path]) -> 
         params={
             **flatten(params.section("evaluate"), "evaluate."),
             **flatten(params.section("adapt"), "adapt."),
-            "seed": params.seed, "data.source": params.data.source,
+            "seed": params.seed,
+            "data.source": params.data.source,
             "sim.profile": params.sim.profile,
         },
-        metrics={f"{k}/{m}": v for m in ("WPM", "G", "S", "R")
-                 for k, v in stat_metrics(ev.summary, m).items() if k.endswith("/mean")},
+        metrics={
+            f"{k}/{m}": v
+            for m in ("WPM", "G", "S", "R")
+            for k, v in stat_metrics(ev.summary, m).items()
+            if k.endswith("/mean")
+        },
         artifacts=[paths.rel(a) for a in artifacts],
     )

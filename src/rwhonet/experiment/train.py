@@ -32,6 +32,19 @@ def model_params(params: Params, *sections: str) -> dict[str, object]:
     return d
 
 
+def history_rows(history: list[dict]) -> list[dict[str, float]]:
+    """Per-epoch losses under stage-prefixed metric names (``train/loss``, ``val/loss``)."""
+    return [
+        {"epoch": h["epoch"]}
+        | {
+            k.replace("_loss", "/loss"): float(v)
+            for k, v in h.items()
+            if k != "epoch" and v is not None
+        }
+        for h in history
+    ]
+
+
 def predictions_frame(test: SampleSet, pred: np.ndarray) -> pd.DataFrame:
     """Per-second predictions keyed like the samples (drive, segment, t_s)."""
     out = test.frame[["drive", "segment", "t_s"]].copy()
@@ -74,7 +87,7 @@ def train_model(
             "trained_on": role,
         },
         params=model_params(params, "train"),
-        history=result.history,
+        history=history_rows(result.history),
         metrics={
             "n_train_samples": len(train),
             "n_val_samples": len(val),

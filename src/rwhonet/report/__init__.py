@@ -1,1 +1,1 @@
-"""Reports from the evaluation's one source of truth (metrics/eval.json): tables, regression gate."""
+"""Reports from the evaluation's one source of truth (metrics/eval.json): tables, CI gate."""

@@ -38,7 +38,9 @@ def outage_table(summary: pd.DataFrame, outage_s: int, metric: str, chosen_m: in
             cells = [_fmt(per_model.loc[key, f"{metric}_{stat}"]) for key, _ in MODEL_COLUMNS]
             dist = _fmt(per_model.iloc[0][f"dist_{stat}"])
             n = str(int(per_model.iloc[0]["n_windows"])) if i == 0 else ""
-            lines.append(f"| {drive if i == 0 else ''} | {stat_label} | {' | '.join(cells)} | {dist} | {n} |")
+            lines.append(
+                f"| {drive if i == 0 else ''} | {stat_label} | {' | '.join(cells)} | {dist} | {n} |"
+            )
     return "\n".join(lines)
 
 

@@ -152,7 +152,7 @@ def log_execution(
     Returns:
         The parent run id.
     """
-    from mlflow.entities import Metric, Param, RunTag
+    from mlflow.entities import Metric, Param
 
     client = _client(uri)
     exp_id = ensure_experiment(uri, experiment)
