@@ -134,3 +134,19 @@ def test_data_that_is_not_10_hz_is_refused():
 def test_short_segment_has_no_seconds():
     sec = segment_seconds(_frame(8), "f")
     assert len(sec) == 0 and sec.wheels_rad_s.shape == (0, 40) and len(sec.scenario) == 0
+
+
+@pytest.mark.parametrize("as_series", [False, True])
+def test_scenario_merge_matches_a_plain_per_second_union(as_series):
+    rng = np.random.default_rng(5)
+    vocabulary = np.array(["", "wet", "roundabout", "wet;roundabout", "tunnel", "hard_brake;wet"])
+    tags = vocabulary[rng.integers(0, len(vocabulary), 1001)].astype(object)
+    tags[rng.integers(0, 1001, 50)] = None
+    expected = [
+        ";".join(
+            sorted({t for row in tags[10 * k + 1 : 10 * k + 11] if row for t in row.split(";")})
+        )
+        for k in range(100)
+    ]
+    values = pd.Series(tags, dtype="str") if as_series else tags
+    assert scenario_per_second(values).tolist() == expected

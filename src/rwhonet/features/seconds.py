@@ -171,6 +171,20 @@ def wheel_features_rad_s(wheels_rad_s: Sequence[np.ndarray]) -> np.ndarray:
     )
 
 
+def _unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(unique_rows, inverse)`` of a 2-D integer array.
+
+    Same result as ``np.unique(a, axis=0, return_inverse=True)``, about 25x
+    faster: that sorts rows as opaque void records, this lexsorts the columns.
+    """
+    order = np.lexsort(a.T[::-1])
+    ordered = a[order]
+    starts = np.concatenate([[True], (ordered[1:] != ordered[:-1]).any(axis=1)])
+    inverse = np.empty(len(a), dtype=np.int64)
+    inverse[order] = np.cumsum(starts) - 1
+    return ordered[starts], inverse
+
+
 def scenario_per_second(row_tags: Sequence[str] | np.ndarray | pd.Series) -> np.ndarray:
     """Merge the scenario tags of the ten rows each second owns.
 
@@ -182,24 +196,24 @@ def scenario_per_second(row_tags: Sequence[str] | np.ndarray | pd.Series) -> np.
         ``;``-joined, ``''`` when none (so a second that touches a roundabout for
         a single row counts as a roundabout second).
     """
-    series = pd.Series(row_tags, dtype="object").fillna("")
-    codes, uniques = pd.factorize(series, sort=True)
-    per_second = rows_of_seconds(codes)
+    # A Parquet string column is Arrow-backed: factorize it as is (object conversion costs).
+    values = row_tags if isinstance(row_tags, pd.Series) else np.asarray(row_tags, dtype=object)
+    codes, uniques = pd.factorize(values)
+    tag_sets = [set(str(u).split(";")) - {""} for u in uniques]  # per distinct row value
+    per_second = rows_of_seconds(codes)  # code -1: missing tag
     if per_second.shape[0] == 0:
         return np.empty(0, dtype=object)
-    # The tag strings differ only between distinct row combinations, and a drive
-    # has few of those: merge per distinct combination, then map back.
-    combos, inverse = np.unique(np.sort(per_second, axis=1), axis=0, return_inverse=True)
+    # Tag strings differ only between distinct combinations of row values, and a
+    # drive has few of those: merge once per combination, then map back.
+    combos, inverse = _unique_rows(np.sort(per_second, axis=1))
     merged = np.array(
         [
-            ";".join(
-                sorted({tag for code in combo for tag in str(uniques[code]).split(";") if tag})
-            )
+            ";".join(sorted(set().union(*(tag_sets[k] for k in combo if k >= 0))))
             for combo in combos
         ],
         dtype=object,
     )
-    return merged[inverse.reshape(-1)]
+    return merged[inverse]
 
 
 @dataclass(frozen=True)
