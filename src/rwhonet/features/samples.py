@@ -1,0 +1,353 @@
+"""The ``label`` stage: GNSS-valid segments -> calibrated, labelled, scaled per-second samples.
+
+Reads ``data/interim/segments`` (manifest + one Parquet per segment), and writes
+(docs/architecture.md, "Samples"):
+
+- ``data/processed/samples/<segment>.parquet``: one row per second with
+  ``t_s, disp_gnss_m, disp_wpm_m, label_m`` (float64), ``x_00 .. x_39``
+  (float32, scaled) and ``scenario`` (str), plus ``manifest.json``;
+- ``data/processed/calibration.json``: the rear radii the WPM used;
+- ``data/processed/scaler.json``: min-max statistics from source_train.
+
+The rear radii are fitted on the ``source_calibration`` segments; when that
+role has no segments, on the segments of the first (by id) ``source_train``
+drive, and ``calibration.json`` says so. The same radii serve every vehicle:
+the WPM of the target vehicle is deliberately the source-calibrated one, so
+its radius mismatch is part of the target labels, which is what R-WhONet's
+adaptation is to learn (paper Sec. 3).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+
+from rwhonet import paths
+from rwhonet.config import Params
+from rwhonet.data import canonical as c
+from rwhonet.errors import InputError, Problem
+from rwhonet.features.calibration import (
+    Calibration,
+    fit_radii_mean_of_ratios,
+    fit_radii_ratio_of_sums,
+    fit_summary,
+    save_calibration,
+)
+from rwhonet.features.scaling import MinMaxScaler, fit_scaler, save_scaler
+from rwhonet.features.seconds import FEATURE_COLUMNS, SegmentSeconds, segment_seconds
+from rwhonet.features.wpm import label_m, wheel_angle_rad, wpm_displacement_m
+from rwhonet.io import atomic_dir, read_json, write_json
+
+CALIBRATION_ROLE = "source_calibration"
+TRAIN_ROLE = "source_train"
+MANIFEST_KEYS = ("segment", "drive", "role", "vehicle")
+SAMPLE_COLUMNS = ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m", *FEATURE_COLUMNS, c.SCENARIO)
+
+
+@dataclass(frozen=True)
+class SegmentEntry:
+    """One line of the segments manifest (the fields label uses)."""
+
+    segment: str
+    drive: str
+    role: str
+    vehicle: str
+
+
+def read_segment_manifest(path: Path) -> list[SegmentEntry]:
+    """Read and check ``segments/manifest.json``.
+
+    Args:
+        path: the manifest written by the validate stage.
+
+    Returns:
+        The entries, in manifest order.
+
+    Raises:
+        InputError: if the file is missing, an entry lacks a field, or a segment id repeats.
+    """
+    file = paths.rel(path)
+    if not Path(path).is_file():
+        raise InputError([Problem(file, None, None, "the validate stage's manifest", "no file")])
+    try:
+        raw = read_json(path)
+    except json.JSONDecodeError as err:
+        raise InputError([Problem(file, err.lineno, None, "valid JSON", err.msg)]) from err
+    entries = raw.get("segments") if isinstance(raw, dict) else None
+    if not isinstance(entries, list):
+        raise InputError([Problem(file, None, "segments", "a list of segments", repr(raw)[:80])])
+    problems: list[Problem] = []
+    seen: set[str] = set()
+    for i, entry in enumerate(entries):  # row = 1-based entry number
+        if not isinstance(entry, dict):
+            problems.append(Problem(file, i + 1, None, "an object", repr(entry)[:80]))
+            continue
+        problems += [
+            Problem(file, i + 1, key, "a non-empty string", repr(entry.get(key)))
+            for key in MANIFEST_KEYS
+            if not (isinstance(entry.get(key), str) and entry.get(key))
+        ]
+        if entry.get("segment") in seen:
+            problems.append(Problem(file, i + 1, "segment", "a unique id", repr(entry["segment"])))
+        seen.add(entry.get("segment"))
+    if problems:
+        raise InputError(problems, f"{file} is not a valid segments manifest")
+    return [SegmentEntry(*(entry[key] for key in MANIFEST_KEYS)) for entry in entries]
+
+
+def read_segment(path: Path) -> pd.DataFrame:
+    """Read the columns of a segment Parquet the label stage needs.
+
+    Args:
+        path: ``<segments>/<segment>.parquet``.
+
+    Returns:
+        The canonical columns present among ``t_s, lat_deg, lon_deg, omega_*, scenario``
+        (a missing required column is reported by the per-second check).
+
+    Raises:
+        InputError: if the file does not exist.
+    """
+    if not Path(path).is_file():
+        raise InputError(
+            [Problem(paths.rel(path), None, None, "a segment listed in the manifest", "no file")]
+        )
+    present = set(pq.read_schema(path).names)
+    wanted = [col for col in (*c.REQUIRED, c.SCENARIO) if col in present]
+    return pd.read_parquet(path, columns=wanted)
+
+
+def calibration_entries(entries: list[SegmentEntry]) -> tuple[str, list[SegmentEntry]]:
+    """Choose the segments the rear radii are fitted on.
+
+    Args:
+        entries: every segment.
+
+    Returns:
+        ``(role, entries)``: the ``source_calibration`` segments, or else the
+        segments of the first source_train drive (by id) with role ``source_train``.
+
+    Raises:
+        InputError: if there is neither a calibration nor a source_train segment.
+    """
+    chosen = [e for e in entries if e.role == CALIBRATION_ROLE]
+    if chosen:
+        return CALIBRATION_ROLE, chosen
+    train_drives = sorted({e.drive for e in entries if e.role == TRAIN_ROLE})
+    if not train_drives:
+        raise InputError(
+            [
+                Problem(
+                    "segments manifest",
+                    None,
+                    "role",
+                    f"{CALIBRATION_ROLE} or {TRAIN_ROLE} segments",
+                    "none",
+                )
+            ]
+        )
+    return TRAIN_ROLE, [e for e in entries if e.drive == train_drives[0]]
+
+
+def calibrate(
+    entries: list[SegmentEntry], seconds: dict[str, SegmentSeconds], min_speed_m_s: float
+) -> Calibration:
+    """Fit the rear radii on the calibration segments.
+
+    Args:
+        entries: every segment (the calibration ones are chosen by :func:`calibration_entries`).
+        seconds: per-second quantities by segment id.
+        min_speed_m_s: moving-second threshold.
+
+    Returns:
+        The calibration (ratio-of-sums radii, the authors' estimate alongside).
+
+    Raises:
+        InputError: when the calibration segments never move fast enough to fit.
+    """
+    role, chosen = calibration_entries(entries)
+    parts = [seconds[e.segment] for e in chosen]
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in parts])
+
+    disp = cat("disp_gnss_m")
+    try:
+        fit = fit_radii_ratio_of_sums(
+            disp, cat("angle_rl_rad"), cat("angle_rr_rad"), cat("span_s"), min_speed_m_s
+        )
+    except ValueError as err:
+        raise InputError(
+            [
+                Problem(
+                    ", ".join(e.segment for e in chosen), None, None, "a drive that moves", str(err)
+                )
+            ],
+            "the rear wheel radii cannot be calibrated",
+        ) from err
+    authors = fit_radii_mean_of_ratios(disp, cat("omega_end_rl_rad_s"), cat("omega_end_rr_rad_s"))
+    return Calibration(
+        r_rl_m=fit.r_rl_m,
+        r_rr_m=fit.r_rr_m,
+        estimator=fit.estimator,
+        min_speed_m_s=min_speed_m_s,
+        n_seconds_used=fit.n_seconds,
+        n_seconds_total=len(disp),
+        distance_m=fit.distance_m,
+        role=role,
+        drives=sorted({e.drive for e in chosen}),
+        segments=[e.segment for e in chosen],
+        comparison={"mean_of_ratios": fit_summary(authors)},
+    )
+
+
+def sample_table(
+    sec: SegmentSeconds, calibration: Calibration, scaler: MinMaxScaler, wpm_mode: str
+) -> pd.DataFrame:
+    """Build one segment's samples table (the label stage's output rows).
+
+    Args:
+        sec: the segment's raw per-second quantities.
+        calibration: rear radii for the WPM.
+        scaler: fitted min-max scaler.
+        wpm_mode: ``integrated`` or ``reference``.
+
+    Returns:
+        DataFrame with columns :data:`SAMPLE_COLUMNS`.
+    """
+    disp_wpm = wpm_displacement_m(
+        wheel_angle_rad(sec.angle_rl_rad, sec.omega_end_rl_rad_s, wpm_mode),
+        wheel_angle_rad(sec.angle_rr_rad, sec.omega_end_rr_rad_s, wpm_mode),
+        calibration.r_rl_m,
+        calibration.r_rr_m,
+    )
+    meta = pd.DataFrame(
+        {
+            "t_s": sec.t_s,
+            "disp_gnss_m": sec.disp_gnss_m,
+            "disp_wpm_m": disp_wpm,
+            "label_m": label_m(sec.disp_gnss_m, disp_wpm),
+        }
+    )
+    features = pd.DataFrame(scaler.transform(sec.wheels_rad_s), columns=list(FEATURE_COLUMNS))
+    scenario = pd.Series(sec.scenario, name=c.SCENARIO, dtype="str")
+    return pd.concat([meta, features, scenario], axis=1)
+
+
+def _per_second_all(
+    entries: Iterable[SegmentEntry], segments_dir: Path
+) -> dict[str, SegmentSeconds]:
+    seconds: dict[str, SegmentSeconds] = {}
+    problems: list[Problem] = []
+    for entry in entries:
+        path = Path(segments_dir) / f"{entry.segment}.parquet"
+        try:
+            seconds[entry.segment] = segment_seconds(read_segment(path), paths.rel(path))
+        except InputError as err:  # report every bad segment at once
+            problems += err.problems
+    if problems:
+        raise InputError(problems, "segments that cannot be labelled")
+    return seconds
+
+
+def label(
+    params: Params, segments_dir: Path, out_dir: Path, calibration_path: Path, scaler_path: Path
+) -> dict[str, Any]:
+    """Run the label stage: per-second samples, rear-radius calibration and input scaler.
+
+    Args:
+        params: the pipeline parameters (``label`` section used).
+        segments_dir: the validate stage's output folder (``manifest.json`` + Parquets).
+        out_dir: the samples folder to (re)write, replaced atomically.
+        calibration_path: where ``calibration.json`` goes.
+        scaler_path: where ``scaler.json`` goes.
+
+    Returns:
+        Summary: radii, calibration drives, WPM mode, scaler kind, and per role the
+        number of segments, rows, seconds and the mean label (m).
+
+    Raises:
+        InputError: for a bad manifest or segment, no source_train seconds, or a
+            calibration drive that never moves.
+    """
+    cfg = params.label
+    entries = read_segment_manifest(Path(segments_dir) / "manifest.json")
+    seconds = _per_second_all(entries, Path(segments_dir))
+    calibration = calibrate(entries, seconds, cfg.calibration_min_speed_m_s)
+
+    train = [e for e in entries if e.role == TRAIN_ROLE and len(seconds[e.segment])]
+    if not train:
+        raise InputError(
+            [
+                Problem(
+                    paths.rel(Path(segments_dir) / "manifest.json"),
+                    None,
+                    "role",
+                    f"{TRAIN_ROLE} seconds",
+                    "none",
+                )
+            ],
+            "the input scaler must be fitted on source_train seconds",
+        )
+    try:
+        scaler = fit_scaler(
+            np.concatenate([seconds[e.segment].wheels_rad_s for e in train]),
+            cfg.scaler,
+            sorted({e.drive for e in train}),
+        )
+    except ValueError as err:
+        raise InputError(
+            [Problem(TRAIN_ROLE, None, None, "varying, finite wheel speeds", str(err))]
+        ) from err
+
+    tables = {
+        e.segment: sample_table(seconds[e.segment], calibration, scaler, cfg.wpm_mode)
+        for e in entries
+    }
+    with atomic_dir(Path(out_dir)) as tmp:
+        for segment, table in tables.items():
+            table.to_parquet(tmp / f"{segment}.parquet", index=False)
+        write_json(
+            tmp / "manifest.json",
+            {
+                "segments": [
+                    {
+                        "segment": e.segment,
+                        "drive": e.drive,
+                        "role": e.role,
+                        "vehicle": e.vehicle,
+                        "n_seconds": len(tables[e.segment]),
+                    }
+                    for e in entries
+                ]
+            },
+        )
+    save_calibration(calibration, calibration_path)
+    save_scaler(scaler, scaler_path)
+
+    roles: dict[str, dict[str, Any]] = {}
+    for role in dict.fromkeys(e.role for e in entries):
+        mine = [e for e in entries if e.role == role]
+        labels = np.concatenate([tables[e.segment]["label_m"].to_numpy() for e in mine])
+        roles[role] = {
+            "segments": len(mine),
+            "rows": sum(seconds[e.segment].n_rows for e in mine),
+            "seconds": len(labels),
+            "label_mean_m": float(labels.mean()) if len(labels) else None,
+        }
+    return {
+        "r_rl_m": calibration.r_rl_m,
+        "r_rr_m": calibration.r_rr_m,
+        "calibration_role": calibration.role,
+        "calibration_drives": calibration.drives,
+        "wpm_mode": cfg.wpm_mode,
+        "scaler": scaler.kind,
+        "roles": roles,
+    }

@@ -1,0 +1,224 @@
+"""The label stage end to end on a small synthetic segments folder."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.config import LabelParams
+from rwhonet.data import canonical as c
+from rwhonet.errors import InputError
+from rwhonet.features.calibration import load_calibration
+from rwhonet.features.samples import SAMPLE_COLUMNS, label
+from rwhonet.features.scaling import load_scaler
+from rwhonet.io import read_json, write_json
+
+from .synthetic import R_RL_M, R_RR_M, build_drive, piecewise_linear_speed, wavy_speed
+
+REPO = Path(__file__).resolve().parents[2]
+TARGET_RADIUS_M = 0.316  # the target vehicle's tyres are bigger than the source's
+
+
+def params(**label_overrides):
+    """Params with only the section the label stage reads (the others are not its business)."""
+    cfg = {"wpm_mode": "integrated", "calibration_min_speed_m_s": 2.0, "scaler": "global"}
+    cfg.update(label_overrides)
+    return SimpleNamespace(label=LabelParams(**cfg))
+
+
+def write_segments(root: Path, with_calibration: bool) -> Path:
+    """Write segments/manifest.json and Parquets: source V-B (2 segments), V-A; target C-T1."""
+    seg_dir = root / "data" / "interim" / "segments"
+    seg_dir.mkdir(parents=True)
+    tags = np.full(601, "", dtype=object)
+    tags[55:80] = "roundabout"
+    specs = [
+        # (segment, drive, role, vehicle, frame)
+        ("V-B__s0", "V-B", "source_train", "source",
+         build_drive(wavy_speed(60, 12.0, 4.0, 9.0), gnss_sigma_m=0.05, seed=1, scenario=tags)),
+        ("V-B__s1", "V-B", "source_train", "source",
+         build_drive(wavy_speed(40, 10.0, 3.0, 7.0, t0_s=1100.0), seed=2)),
+        ("V-A__s0", "V-A", "source_train", "source",
+         build_drive(piecewise_linear_speed([0, 5, 15, 50], [0, 0, 14, 14]), seed=3)),
+        ("C-T1__s0", "C-T1", "target_test", "target",
+         build_drive(wavy_speed(30, 22.0, 3.0, 8.0), r_rl_m=TARGET_RADIUS_M,
+                     r_rr_m=TARGET_RADIUS_M, r_front_m=TARGET_RADIUS_M, seed=4)),
+    ]  # fmt: skip
+    if with_calibration:
+        specs.append(
+            ("V-cal__s0", "V-cal", "source_calibration", "source",
+             build_drive(wavy_speed(120, 15.0, 5.0, 11.0), r_rl_m=0.305, r_rr_m=0.303, seed=5))
+        )  # fmt: skip
+    entries = []
+    for segment, drive, role, vehicle, frame in specs:
+        frame.to_parquet(seg_dir / f"{segment}.parquet", index=False)
+        entries.append(
+            {"segment": segment, "drive": drive, "role": role, "vehicle": vehicle,
+             "t_start_s": float(frame[c.T_S].iloc[0]), "t_end_s": float(frame[c.T_S].iloc[-1]),
+             "n_rows": len(frame)}
+        )  # fmt: skip
+    write_json(seg_dir / "manifest.json", {"segments": entries})
+    return seg_dir
+
+
+def run_label(tmp_path: Path, with_calibration: bool = False, **label_overrides):
+    seg_dir = write_segments(tmp_path, with_calibration)
+    out = tmp_path / "data" / "processed"
+    summary = label(
+        params(**label_overrides),
+        seg_dir,
+        out / "samples",
+        out / "calibration.json",
+        out / "scaler.json",
+    )
+    return summary, out
+
+
+def test_outputs_follow_the_data_contract(tmp_path):
+    summary, out = run_label(tmp_path)
+    manifest = read_json(out / "samples" / "manifest.json")
+    assert [e["segment"] for e in manifest["segments"]] == [
+        "V-B__s0",
+        "V-B__s1",
+        "V-A__s0",
+        "C-T1__s0",
+    ]
+    assert manifest["segments"][0] == {
+        "segment": "V-B__s0", "drive": "V-B", "role": "source_train", "vehicle": "source",
+        "n_seconds": 60,
+    }  # fmt: skip
+    table = pd.read_parquet(out / "samples" / "V-B__s0.parquet")
+    assert tuple(table.columns) == SAMPLE_COLUMNS
+    assert len(table) == 60
+    assert (table[[f"x_{i:02d}" for i in range(40)]].dtypes == np.float32).all()
+    assert table["t_s"].dtype == np.float64 and table["label_m"].dtype == np.float64
+    np.testing.assert_allclose(table["t_s"], 1001.0 + np.arange(60))
+    np.testing.assert_allclose(table["label_m"], table["disp_gnss_m"] - table["disp_wpm_m"])
+    # Rows 55..79 are tagged: seconds 5 (rows 51-60) to 7 (rows 71-80).
+    assert table["scenario"].tolist()[4:9] == ["", "roundabout", "roundabout", "roundabout", ""]
+    source = summary["roles"]["source_train"]
+    assert (source["segments"], source["rows"], source["seconds"]) == (3, 601 + 401 + 501, 150)
+    # Source drives with their own calibrated radii: labels are only noise, mean ~0.
+    assert abs(source["label_mean_m"]) < 0.01
+    assert summary["roles"]["target_test"]["seconds"] == 30
+
+
+def test_without_a_calibration_role_the_first_source_train_drive_calibrates(tmp_path):
+    summary, out = run_label(tmp_path)
+    calib = load_calibration(out / "calibration.json")
+    assert (
+        calib.role == "source_train" and calib.drives == ["V-A"] and calib.segments == ["V-A__s0"]
+    )
+    assert calib.r_rl_m == pytest.approx(R_RL_M, rel=1e-6)  # noise-free drive
+    assert calib.r_rr_m == pytest.approx(R_RR_M, rel=1e-6)
+    # V-A stands still for 5 s: the authors' estimator is undefined there (JSON null).
+    assert calib.comparison["mean_of_ratios"]["r_rl_m"] is None
+    assert summary["r_rl_m"] == calib.r_rl_m
+
+
+def test_calibration_role_is_used_when_present(tmp_path):
+    _, out = run_label(tmp_path, with_calibration=True)
+    calib = load_calibration(out / "calibration.json")
+    assert calib.role == "source_calibration" and calib.drives == ["V-cal"]
+    assert calib.r_rl_m == pytest.approx(0.305, rel=1e-4)
+    assert calib.r_rr_m == pytest.approx(0.303, rel=1e-4)
+
+
+def test_target_labels_carry_the_radius_mismatch(tmp_path):
+    _, out = run_label(tmp_path)
+    target = pd.read_parquet(out / "samples" / "C-T1__s0.parquet")
+    # Bigger true tyres than the source-calibrated radius: WPM under-reads, label > 0,
+    # by the fraction 1 - r_cal / r_true of the distance (GNSS - WPM sign).
+    mean_r_cal = 0.5 * (R_RL_M + R_RR_M)
+    ratio = target["label_m"] / target["disp_gnss_m"]
+    np.testing.assert_allclose(ratio, 1 - mean_r_cal / TARGET_RADIUS_M, atol=1e-3)
+
+
+def test_scaler_is_fitted_on_source_train_only(tmp_path):
+    _, out = run_label(tmp_path, with_calibration=True)
+    scaler = load_scaler(out / "scaler.json")
+    assert scaler.fitted_on == ("V-A", "V-B")
+    train = pd.concat(
+        pd.read_parquet(out / "samples" / f"{s}.parquet") for s in ("V-B__s0", "V-B__s1", "V-A__s0")
+    )
+    x_train = train[[f"x_{i:02d}" for i in range(40)]].to_numpy()
+    assert x_train.min() == pytest.approx(0.0, abs=1e-6) and x_train.max() == pytest.approx(
+        1.0, abs=1e-6
+    )
+    # The faster target drive and the calibration drive did not widen the range: not clipped either.
+    target = pd.read_parquet(out / "samples" / "C-T1__s0.parquet")
+    assert target[[f"x_{i:02d}" for i in range(40)]].to_numpy().max() > 1.0
+
+
+def test_reference_mode_and_per_wheel_scaler_are_honoured(tmp_path):
+    summary, out = run_label(tmp_path, wpm_mode="reference", scaler="per_wheel")
+    assert (
+        summary["wpm_mode"] == "reference" and load_scaler(out / "scaler.json").kind == "per_wheel"
+    )
+    table = pd.read_parquet(out / "samples" / "V-B__s1.parquet")
+    # Reference WPM = end-of-second speed x 1 s; on a wavy speed it differs from the distance.
+    assert np.abs(table["label_m"]).max() > 0.05
+
+
+def test_a_bad_segment_is_reported_and_nothing_is_written(tmp_path):
+    seg_dir = write_segments(tmp_path, with_calibration=False)
+    bad = pd.read_parquet(seg_dir / "V-B__s1.parquet")
+    bad.loc[12, c.LON_DEG] = np.inf
+    bad.to_parquet(seg_dir / "V-B__s1.parquet", index=False)
+    (seg_dir / "V-A__s0.parquet").unlink()
+    out = tmp_path / "processed"
+    with pytest.raises(InputError) as err:
+        label(params(), seg_dir, out / "samples", out / "calibration.json", out / "scaler.json")
+    problems = err.value.problems
+    assert any(
+        p.file.endswith("V-B__s1.parquet") and p.row == 13 and p.column == c.LON_DEG
+        for p in problems
+    )
+    assert any(p.file.endswith("V-A__s0.parquet") and p.found == "no file" for p in problems)
+    assert not out.exists()
+
+
+def test_manifest_problems_are_reported(tmp_path):
+    seg_dir = tmp_path / "segments"
+    seg_dir.mkdir()
+    write_json(
+        seg_dir / "manifest.json", {"segments": [{"segment": "a", "drive": "d", "role": "r"}]}
+    )
+    with pytest.raises(InputError) as err:
+        label(params(), seg_dir, tmp_path / "s", tmp_path / "c.json", tmp_path / "x.json")
+    assert [(p.row, p.column) for p in err.value.problems] == [(1, "vehicle")]
+
+
+def test_stage_script_runs_from_the_repo_root(tmp_path):
+    """``python pipelines/label.py`` in a project whose root is a temporary copy."""
+    (tmp_path / "params.yaml").write_text((REPO / "params.yaml").read_text())
+    (tmp_path / "dvc.yaml").write_text("stages: {}\n")
+    write_segments(tmp_path, with_calibration=False)
+    env = {**os.environ, "RWHONET_ROOT": str(tmp_path)}
+    proc = subprocess.run(
+        [sys.executable, str(REPO / "pipelines" / "label.py")],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert "rear radii r_rl = 0.30100 m, r_rr = 0.29700 m (source_train: V-A)" in proc.stdout
+    assert "source_train" in proc.stdout and "target_test" in proc.stdout
+    assert (tmp_path / "data" / "processed" / "samples" / "C-T1__s0.parquet").is_file()
+    assert (tmp_path / "data" / "processed" / "scaler.json").is_file()
+
+
+def test_unreadable_manifest_is_an_input_error(tmp_path):
+    (tmp_path / "manifest.json").write_text('{"segments": [\n  {"segment": ,}\n]}')
+    with pytest.raises(InputError) as err:
+        label(params(), tmp_path, tmp_path / "s", tmp_path / "c.json", tmp_path / "x.json")
+    assert err.value.problems[0].row == 2
+    with pytest.raises(InputError, match="no file"):
+        label(
+            params(), tmp_path / "nowhere", tmp_path / "s", tmp_path / "c.json", tmp_path / "x.json"
+        )
