@@ -33,7 +33,7 @@ def params(**label_overrides):
     return SimpleNamespace(label=LabelParams(**cfg))
 
 
-def write_segments(root: Path, with_calibration: bool) -> Path:
+def write_segments(root: Path, with_calibration: bool, record: dict | None = None) -> Path:
     """Write segments/manifest.json and Parquets: source V-B (2 segments), V-A; target C-T1."""
     seg_dir = root / "data" / "interim" / "segments"
     seg_dir.mkdir(parents=True)
@@ -64,12 +64,15 @@ def write_segments(root: Path, with_calibration: bool) -> Path:
              "t_start_s": float(frame[c.T_S].iloc[0]), "t_end_s": float(frame[c.T_S].iloc[-1]),
              "n_rows": len(frame)}
         )  # fmt: skip
-    write_json(seg_dir / "manifest.json", {"segments": entries})
+    manifest = {"segments": entries}
+    if record is not None:
+        manifest["calibration"] = record  # what ingest chose, passed on by validate
+    write_json(seg_dir / "manifest.json", manifest)
     return seg_dir
 
 
-def run_label(tmp_path: Path, with_calibration: bool = False, **label_overrides):
-    seg_dir = write_segments(tmp_path, with_calibration)
+def run_label(tmp_path: Path, with_calibration: bool = False, record=None, **label_overrides):
+    seg_dir = write_segments(tmp_path, with_calibration, record)
     out = tmp_path / "data" / "processed"
     summary = label(
         params(**label_overrides),
@@ -129,6 +132,30 @@ def test_calibration_role_is_used_when_present(tmp_path):
     assert calib.role == "source_calibration" and calib.drives == ["V-cal"]
     assert calib.r_rl_m == pytest.approx(0.305, rel=1e-4)
     assert calib.r_rr_m == pytest.approx(0.303, rel=1e-4)
+
+
+def test_the_calibration_drives_ingest_recorded_are_used(tmp_path):
+    record = {"role": "source_train", "drives": ["V-B"], "fallback": True}
+    _, out = run_label(tmp_path, record=record)
+    calib = load_calibration(out / "calibration.json")
+    assert (calib.role, calib.drives, calib.segments) == (
+        "source_train",
+        ["V-B"],
+        ["V-B__s0", "V-B__s1"],
+    )
+    assert calib.r_rl_m == pytest.approx(R_RL_M, rel=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("record", "expected"),
+    [
+        ({"role": "source_calibration", "drives": ["V-gone"]}, "calibration drive"),
+        ({"role": "source_train", "drives": []}, "drive ids"),
+    ],
+)
+def test_a_calibration_record_without_usable_drives_is_refused(tmp_path, record, expected):
+    with pytest.raises(InputError, match=expected):
+        run_label(tmp_path, record=record)
 
 
 def test_target_labels_carry_the_radius_mismatch(tmp_path):

@@ -9,9 +9,11 @@ Reads ``data/interim/segments`` (manifest + one Parquet per segment), and writes
 - ``data/processed/calibration.json``: the rear radii the WPM used;
 - ``data/processed/scaler.json``: min-max statistics from source_train.
 
-The rear radii are fitted on the ``source_calibration`` segments; when that
-role has no segments, on the segments of the first (by id) ``source_train``
-drive, and ``calibration.json`` says so. The same radii serve every vehicle:
+The rear radii are fitted on the segments of the calibration drives that
+ingest chose and recorded in the manifests (``"calibration": {"role", "drives"}``:
+the ``source_calibration`` drives, else the first ``source_train`` drive by
+name). A manifest without that record gets the same rule applied here, and
+``calibration.json`` says what was used. The same radii serve every vehicle:
 the WPM of the target vehicle is deliberately the source-calibrated one, so
 its radius mismatch is part of the target labels, which is what R-WhONet's
 adaptation is to learn (paper Sec. 3).
@@ -61,14 +63,30 @@ class SegmentEntry:
     vehicle: str
 
 
-def read_segment_manifest(path: Path) -> list[SegmentEntry]:
+@dataclass(frozen=True)
+class SegmentManifest:
+    """The validate stage's manifest: segments in order, and ingest's calibration record.
+
+    Attributes:
+        entries: the segments.
+        calibration_drives: the drives ingest chose to calibrate the radii (None when
+            the manifest does not say).
+        calibration_role: the role of those drives (None when not recorded).
+    """
+
+    entries: list[SegmentEntry]
+    calibration_drives: list[str] | None = None
+    calibration_role: str | None = None
+
+
+def read_segment_manifest(path: Path) -> SegmentManifest:
     """Read and check ``segments/manifest.json``.
 
     Args:
         path: the manifest written by the validate stage.
 
     Returns:
-        The entries, in manifest order.
+        The segments in manifest order, and the calibration record if present.
 
     Raises:
         InputError: if the file is missing, an entry lacks a field, or a segment id repeats.
@@ -97,9 +115,21 @@ def read_segment_manifest(path: Path) -> list[SegmentEntry]:
         if entry.get("segment") in seen:
             problems.append(Problem(file, i + 1, "segment", "a unique id", repr(entry["segment"])))
         seen.add(entry.get("segment"))
+    record = raw.get("calibration")
+    drives = record.get("drives") if isinstance(record, dict) else None
+    if record is not None and not (
+        isinstance(drives, list) and drives and all(isinstance(d, str) for d in drives)
+    ):
+        problems.append(
+            Problem(file, None, "calibration", '{"role": ..., "drives": [drive ids]}', repr(record))
+        )
     if problems:
         raise InputError(problems, f"{file} is not a valid segments manifest")
-    return [SegmentEntry(*(entry[key] for key in MANIFEST_KEYS)) for entry in entries]
+    return SegmentManifest(
+        entries=[SegmentEntry(*(entry[key] for key in MANIFEST_KEYS)) for entry in entries],
+        calibration_drives=list(drives) if drives else None,
+        calibration_role=record.get("role") if drives else None,
+    )
 
 
 def read_segment(path: Path) -> pd.DataFrame:
@@ -124,19 +154,37 @@ def read_segment(path: Path) -> pd.DataFrame:
     return pd.read_parquet(path, columns=wanted)
 
 
-def calibration_entries(entries: list[SegmentEntry]) -> tuple[str, list[SegmentEntry]]:
+def calibration_entries(manifest: SegmentManifest) -> tuple[str, list[SegmentEntry]]:
     """Choose the segments the rear radii are fitted on.
 
     Args:
-        entries: every segment.
+        manifest: the segments manifest.
 
     Returns:
-        ``(role, entries)``: the ``source_calibration`` segments, or else the
-        segments of the first source_train drive (by id) with role ``source_train``.
+        ``(role, entries)``: the segments of the drives ingest recorded; without a
+        record, the ``source_calibration`` segments, else those of the first
+        ``source_train`` drive by name (ingest's rule).
 
     Raises:
-        InputError: if there is neither a calibration nor a source_train segment.
+        InputError: if the recorded calibration drives have no GNSS-valid segment,
+            or there is neither a calibration nor a source_train segment.
     """
+    entries = manifest.entries
+    if manifest.calibration_drives is not None:
+        chosen = [e for e in entries if e.drive in manifest.calibration_drives]
+        if not chosen:
+            raise InputError(
+                [
+                    Problem(
+                        "segments manifest",
+                        None,
+                        "calibration",
+                        "GNSS-valid segments of the calibration drive(s)",
+                        f"none for {manifest.calibration_drives} (all cut by validate?)",
+                    )
+                ]
+            )
+        return manifest.calibration_role or chosen[0].role, chosen
     chosen = [e for e in entries if e.role == CALIBRATION_ROLE]
     if chosen:
         return CALIBRATION_ROLE, chosen
@@ -157,12 +205,13 @@ def calibration_entries(entries: list[SegmentEntry]) -> tuple[str, list[SegmentE
 
 
 def calibrate(
-    entries: list[SegmentEntry], seconds: dict[str, SegmentSeconds], min_speed_m_s: float
+    manifest: SegmentManifest, seconds: dict[str, SegmentSeconds], min_speed_m_s: float
 ) -> Calibration:
     """Fit the rear radii on the calibration segments.
 
     Args:
-        entries: every segment (the calibration ones are chosen by :func:`calibration_entries`).
+        manifest: the segments manifest (calibration segments chosen by
+            :func:`calibration_entries`).
         seconds: per-second quantities by segment id.
         min_speed_m_s: moving-second threshold.
 
@@ -172,7 +221,7 @@ def calibrate(
     Raises:
         InputError: when the calibration segments never move fast enough to fit.
     """
-    role, chosen = calibration_entries(entries)
+    role, chosen = calibration_entries(manifest)
     parts = [seconds[e.segment] for e in chosen]
 
     def cat(name: str) -> np.ndarray:
@@ -278,9 +327,10 @@ def label(
             calibration drive that never moves.
     """
     cfg = params.label
-    entries = read_segment_manifest(Path(segments_dir) / "manifest.json")
+    manifest = read_segment_manifest(Path(segments_dir) / "manifest.json")
+    entries = manifest.entries
     seconds = _per_second_all(entries, Path(segments_dir))
-    calibration = calibrate(entries, seconds, cfg.calibration_min_speed_m_s)
+    calibration = calibrate(manifest, seconds, cfg.calibration_min_speed_m_s)
 
     train = [e for e in entries if e.role == TRAIN_ROLE and len(seconds[e.segment])]
     if not train:

@@ -6,10 +6,11 @@ with rows ``0 .. N-1`` at 10 Hz has ``n = (N - 1) // 10`` seconds. Second ``k``
 ``b = 10 k + 10``; it *owns* the ten rows ``a+1 .. b``, i.e. the rows with
 times in ``(t_a, t_b]``, which is the ``(t - 1, t]`` of the contract with
 ``t = t_b``. Row 0 only serves as the first second's starting fix, and trailing
-rows that do not complete a second are dropped. Seconds are counted from the
-segment's own first row, not aligned to whole seconds of the clock: the
-segment start is arbitrary, and re-aligning would throw away up to nine rows
-per segment for no gain.
+rows that do not complete a second are dropped. The validate stage cuts every
+segment so that row 0 is the last row of a whole second of the drive's clock
+(``rwhonet.data.quality``: ``10 n + 1`` rows for ``n`` seconds), so these are the
+whole seconds ``(k - 1, k]`` of the clock; this module itself relies only on the
+row structure and counts seconds from row 0 of whatever segment it is given.
 
 Per second we take
 
