@@ -20,7 +20,10 @@ mixed precision, ``global_step``) are not used; the Trainer in
 
 Losses are accumulated in the module and logged once per epoch
 (``train/loss``, ``val/loss``: mean absolute error in metres over the
-epoch's samples, step = epoch), so logging costs nothing per step.
+epoch's samples, step = epoch) to the Trainer's loggers and to
+``history``, so logging costs nothing per step. They are not put in
+``trainer.callback_metrics`` (``self.log``), so no callback can monitor them;
+nothing in the pipeline does (fixed epochs, as in the paper).
 """
 
 from __future__ import annotations
@@ -159,8 +162,8 @@ class WhONetModule(L.LightningModule):
         metrics = {"train/loss": train_loss_m}
         if self._val_loss_m is not None:
             metrics["val/loss"] = self._val_loss_m
-        # callback_metrics for callbacks that monitor a loss; loggers get step = epoch
-        # directly (Lightning's own step counter counts blocks, not optimizer steps).
-        self.log_dict(metrics, logger=False)
+        # Straight to the loggers with step = epoch: Lightning's own step counter counts
+        # blocks, not optimizer steps, and self.log's result collection costs ~1 ms per
+        # call, a third of a fine-tuning epoch of one mini-batch (benchmarks/bench_train.py).
         for lg in self.loggers:
             lg.log_metrics(metrics, step=self.current_epoch)
