@@ -1,0 +1,233 @@
+"""How fast WhONet trains, adapts and is evaluated on this machine; prints its figures.
+
+    .venv/bin/python benchmarks/bench_train.py [--samples 95000 --epochs 2 --repeats 2]
+
+Data are random but shaped like the real features (min-max scaled wheel-speed
+windows (N, seq_len, 40) in [0, 1], labels of a few decimetres); N = 95,000 is
+about the paper fleet's 26 h of one-second samples. Settings come from
+params.yaml (model, train, adapt, evaluate sections).
+
+Training variants, all on the same data, model, Adamax, MAE loss and batch size:
+
+- plain:          a hand-written PyTorch loop (the floor).
+- lightning-naive: automatic optimisation, ``DataLoader(TensorDataset, shuffle=True)``
+                  (per-sample ``__getitem__`` + collate), ``self.log`` every step, lean Trainer.
+- lightning-auto: automatic optimisation, batched loading (one gather per batch),
+                  no per-step logging.
+- rwhonet block=1: ``rwhonet.models.train.fit`` with one optimizer step per Lightning batch.
+- rwhonet block=K: ``fit`` as the pipeline runs it (K steps per Lightning batch).
+
+Then the adaptation grid (adapt.m_grid x 4 drives, m samples each, adapt.epochs
+epochs, in one process) and the evaluation (CRSE/CTE windows for every
+evaluate.outages_s) on N seconds of errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.config import load_params
+from rwhonet.stage import quiet
+
+
+def _plain(x, y, model, train, seed: int) -> float:
+    """Samples/s of a plain PyTorch loop over the same model and batches."""
+    import torch
+    from torch import nn
+
+    from rwhonet.models.whonet import WhONet
+
+    torch.set_num_threads(train.num_threads)
+    torch.manual_seed(seed)
+    net = WhONet(x.shape[2], model.hidden, model.layers, model.dropout).train()
+    opt = torch.optim.Adamax(net.parameters(), lr=train.lr)
+    xt, yt = torch.from_numpy(x), torch.from_numpy(y)
+    gen = torch.Generator().manual_seed(seed)
+    n, bs = len(yt), train.batch_size
+    start = time.perf_counter()
+    for _ in range(train.epochs):
+        perm = torch.randperm(n, generator=gen)
+        for i in range(0, n, bs):
+            idx = perm[i : i + bs]
+            loss = nn.functional.l1_loss(net(xt[idx]), yt[idx])
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+    return n * train.epochs / (time.perf_counter() - start)
+
+
+def _lightning_baseline(x, y, model, train, seed: int, *, naive: bool) -> float:
+    """Samples/s of a conventional one-step-per-batch LightningModule (the comparison)."""
+    import lightning as L
+    import torch
+    from torch import nn
+    from torch.utils.data import DataLoader, TensorDataset
+
+    from rwhonet.models.datamodule import WhONetDataModule
+    from rwhonet.models.whonet import WhONet
+
+    class Conventional(L.LightningModule):
+        def __init__(self) -> None:
+            super().__init__()
+            self.net = WhONet(x.shape[2], model.hidden, model.layers, model.dropout)
+
+        def training_step(self, batch, batch_idx):
+            xb, yb = batch
+            loss = nn.functional.l1_loss(self.net(xb), yb)
+            if naive:
+                self.log("train/loss", loss)
+            return loss
+
+        def configure_optimizers(self):
+            return torch.optim.Adamax(self.parameters(), lr=train.lr)
+
+    torch.set_num_threads(train.num_threads)
+    L.seed_everything(seed, verbose=False)
+    xt, yt = torch.from_numpy(x), torch.from_numpy(y)
+    if naive:
+        loader = DataLoader(TensorDataset(xt, yt), batch_size=train.batch_size, shuffle=True)
+    else:
+        dm = WhONetDataModule(xt, yt, batch_size=train.batch_size, seed=seed, steps_per_block=1)
+        loader = dm.train_dataloader()
+    trainer = L.Trainer(
+        accelerator="cpu", devices=1, max_epochs=train.epochs, logger=False,
+        enable_progress_bar=False, enable_model_summary=False, enable_checkpointing=False,
+        num_sanity_val_steps=0, log_every_n_steps=50, deterministic=True,
+    )  # fmt: skip
+    module = Conventional()
+    start = time.perf_counter()
+    trainer.fit(module, loader)
+    return len(yt) * train.epochs / (time.perf_counter() - start)
+
+
+def _measure(name: str, fn: Callable[[], float], repeats: int, table: dict) -> None:
+    runs = [fn() for _ in range(repeats)]
+    table[name] = runs
+    print(f"  {name:<18} {_fmt(runs)}", flush=True)
+
+
+def _fmt(runs: list[float]) -> str:
+    lo, hi, med = min(runs), max(runs), statistics.median(runs)
+    return f"{med / 1e3:7.1f} k samples/s (median; range {lo / 1e3:.1f}-{hi / 1e3:.1f})"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=95_000, help="training samples (seconds)")
+    ap.add_argument("--epochs", type=int, default=2, help="epochs per training measurement")
+    ap.add_argument("--repeats", type=int, default=2, help="runs per training variant")
+    ap.add_argument("--drives", type=int, default=4, help="target test drives in the grid")
+    ap.add_argument("--steps-per-block", type=int, default=None, help="fit's block size")
+    args = ap.parse_args()
+
+    quiet()
+    t0 = time.perf_counter()
+    import lightning  # noqa: F401  (import cost reported separately)
+    import torch
+
+    from rwhonet.metrics.outage import summarise, window_metrics
+    from rwhonet.models.datamodule import STEPS_PER_BLOCK
+    from rwhonet.models.train import fine_tune, fit, save_checkpoint
+
+    import_s = time.perf_counter() - t0
+    params = load_params()
+    model, seed = params.model, params.seed
+    train = replace(params.train, epochs=args.epochs)
+    block = args.steps_per_block or STEPS_PER_BLOCK
+
+    rng = np.random.default_rng(seed)
+    n = args.samples
+    x = rng.random((n, model.seq_len, 40), dtype=np.float32)
+    y = rng.normal(0.0, 0.3, n).astype(np.float32)
+    print(
+        f"torch {torch.__version__}, {torch.get_num_threads()} default threads, "
+        f"train.num_threads={train.num_threads}; import lightning+rwhonet.models {import_s:.1f} s"
+    )
+    print(
+        f"G training: N={n}, seq_len={model.seq_len}, hidden={model.hidden}, "
+        f"batch={train.batch_size}, {train.epochs} epochs x {args.repeats} repeats"
+    )
+    _plain(x[:5000], y[:5000], model, replace(train, epochs=1), seed)  # warm-up
+    table: dict[str, list[float]] = {}
+    _measure("plain", lambda: _plain(x, y, model, train, seed), args.repeats, table)
+    _measure(
+        "lightning-naive",
+        lambda: _lightning_baseline(x, y, model, train, seed, naive=True),
+        args.repeats,
+        table,
+    )
+    _measure(
+        "lightning-auto",
+        lambda: _lightning_baseline(x, y, model, train, seed, naive=False),
+        args.repeats,
+        table,
+    )
+    results = {}
+
+    def ours(k: int) -> float:
+        results[k] = fit(x, y, model=model, train=train, seed=seed, steps_per_block=k)
+        return results[k].samples_per_s
+
+    _measure("rwhonet block=1", lambda: ours(1), args.repeats, table)
+    _measure(f"rwhonet block={block}", lambda: ours(block), args.repeats, table)
+    plain = statistics.median(table["plain"])
+    print("  Lightning overhead (plain samples/s / variant samples/s, medians):")
+    for name, runs in table.items():
+        med = statistics.median(runs)
+        ms_step = 1e3 * train.batch_size / med
+        print(f"    {name:<18} x{plain / med:.2f}  ({ms_step:.3f} ms per optimizer step)")
+
+    adapt = params.adapt
+    drives = [
+        (rng.random((max(adapt.m_grid), model.seq_len, 40), dtype=np.float32),
+         rng.normal(0.3, 0.3, max(adapt.m_grid)).astype(np.float32))
+        for _ in range(args.drives)
+    ]  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        ckpt = Path(tmp) / "g.ckpt"
+        save_checkpoint(results[block], ckpt)
+        start = time.perf_counter()
+        fit_s = []
+        for m in adapt.m_grid:
+            for xd, yd in drives:
+                r = fine_tune(ckpt, xd[:m], yd[:m], adapt=adapt, seed=seed,
+                              num_threads=train.num_threads)  # fmt: skip
+                fit_s.append(r.seconds)
+        grid_s = time.perf_counter() - start
+    n_runs = len(adapt.m_grid) * args.drives
+    print(
+        f"Adaptation grid: {len(adapt.m_grid)} m values x {args.drives} drives = {n_runs} "
+        f"fine-tunes (m = {adapt.m_grid[0]}-{adapt.m_grid[-1]} samples, {adapt.epochs} epochs, "
+        f"batch {adapt.batch_size}, trainable={adapt.trainable})\n"
+        f"  whole grid {grid_s:.1f} s in one process; {1e3 * grid_s / n_runs:.0f} ms per fine-tune "
+        f"(of which Trainer.fit {1e3 * statistics.median(fit_s):.0f} ms median)"
+    )
+
+    group = np.repeat(np.arange(40), -(-n // 40))[:n]  # ~40 segments
+    e = rng.normal(0.0, 0.5, n)
+    d = rng.uniform(0.0, 30.0, n)
+    print(f"Evaluation: {n} s of errors in 40 segments")
+    for outage in params.evaluate.outages_s:
+        reps = []
+        for _ in range(5):
+            start = time.perf_counter()
+            w = window_metrics(e, d, group, outage)
+            summarise(w)
+            reps.append(time.perf_counter() - start)
+        best = min(reps)
+        print(
+            f"  L={outage:>4} s: {len(w):5d} windows in {1e3 * best:6.2f} ms "
+            f"= {1e6 * best / len(w):6.2f} µs per window (best of 5)"
+        )
+
+
+if __name__ == "__main__":
+    main()
