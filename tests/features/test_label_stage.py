@@ -212,6 +212,20 @@ def test_a_bad_segment_is_reported_and_nothing_is_written(tmp_path):
     assert not out.exists()
 
 
+def test_a_segment_whose_seconds_disagree_with_validate_is_refused(tmp_path):
+    seg_dir = write_segments(tmp_path, with_calibration=False)
+    manifest = read_json(seg_dir / "manifest.json")
+    for entry in manifest["segments"]:
+        entry["n_seconds"] = (entry["n_rows"] - 1) // 10
+    manifest["segments"][1]["n_seconds"] += 1
+    write_json(seg_dir / "manifest.json", manifest)
+    out = tmp_path / "processed"
+    with pytest.raises(InputError) as err:
+        label(params(), seg_dir, out / "samples", out / "calibration.json", out / "scaler.json")
+    (problem,) = err.value.problems
+    assert problem.file.endswith("V-B__s1.parquet") and "41 seconds" in problem.expected
+
+
 def test_manifest_problems_are_reported(tmp_path):
     seg_dir = tmp_path / "segments"
     seg_dir.mkdir()

@@ -117,10 +117,13 @@ def test_non_finite_values_and_time_reversals_are_reported_with_their_rows():
     frame = _frame()
     frame.loc[4, c.LAT_DEG] = np.nan
     frame.loc[7, c.T_S] = frame.loc[6, c.T_S]
+    frame.loc[20, c.LAT_DEG] = -1.52  # lat/lon swapped: -1.52 is a valid latitude ...
+    frame.loc[21, c.LAT_DEG] = 152.4  # ... this is not
+    frame.loc[22, c.OMEGA_FL] = -np.inf
     with pytest.raises(InputError) as err:
         segment_seconds(frame, "seg.parquet")
     found = {(p.row, p.column) for p in err.value.problems}
-    assert found == {(5, c.LAT_DEG), (8, c.T_S)}  # 1-based data rows
+    assert found == {(5, c.LAT_DEG), (8, c.T_S), (22, c.LAT_DEG), (23, c.OMEGA_FL)}  # 1-based
 
 
 def test_data_that_is_not_10_hz_is_refused():

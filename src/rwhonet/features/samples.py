@@ -61,6 +61,7 @@ class SegmentEntry:
     drive: str
     role: str
     vehicle: str
+    n_seconds: int | None = None  # validate's count, cross-checked against the rows
 
 
 @dataclass(frozen=True)
@@ -112,6 +113,9 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
             for key in MANIFEST_KEYS
             if not (isinstance(entry.get(key), str) and entry.get(key))
         ]
+        n_sec = entry.get("n_seconds")
+        if n_sec is not None and not (isinstance(n_sec, int) and n_sec >= 0):
+            problems.append(Problem(file, i + 1, "n_seconds", "a count >= 0", repr(n_sec)))
         if entry.get("segment") in seen:
             problems.append(Problem(file, i + 1, "segment", "a unique id", repr(entry["segment"])))
         seen.add(entry.get("segment"))
@@ -126,7 +130,10 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
     if problems:
         raise InputError(problems, f"{file} is not a valid segments manifest")
     return SegmentManifest(
-        entries=[SegmentEntry(*(entry[key] for key in MANIFEST_KEYS)) for entry in entries],
+        entries=[
+            SegmentEntry(*(entry[key] for key in MANIFEST_KEYS), entry.get("n_seconds"))
+            for entry in entries
+        ],
         calibration_drives=list(drives) if drives else None,
         calibration_role=record.get("role") if drives else None,
     )
@@ -298,9 +305,22 @@ def _per_second_all(
     for entry in entries:
         path = Path(segments_dir) / f"{entry.segment}.parquet"
         try:
-            seconds[entry.segment] = segment_seconds(read_segment(path), paths.rel(path))
+            sec = segment_seconds(read_segment(path), paths.rel(path))
         except InputError as err:  # report every bad segment at once
             problems += err.problems
+            continue
+        if entry.n_seconds is not None and entry.n_seconds != len(sec):
+            # validate and label must cut the same seconds (data/quality.py's convention)
+            problems.append(
+                Problem(
+                    paths.rel(path),
+                    None,
+                    None,
+                    f"{entry.n_seconds} seconds as the manifest says (10 n + 1 rows)",
+                    f"{sec.n_rows} rows = {len(sec)} seconds",
+                )
+            )
+        seconds[entry.segment] = sec
     if problems:
         raise InputError(problems, "segments that cannot be labelled")
     return seconds
@@ -354,7 +374,15 @@ def label(
         )
     except ValueError as err:
         raise InputError(
-            [Problem(TRAIN_ROLE, None, None, "varying, finite wheel speeds", str(err))]
+            [
+                Problem(
+                    ", ".join(e.segment for e in train),
+                    None,
+                    None,
+                    "varying, finite wheel speeds",
+                    str(err),
+                )
+            ]
         ) from err
 
     tables = {

@@ -257,8 +257,8 @@ def check_segment(frame: pd.DataFrame, file: str) -> None:
         file: the segment's file name, for the report.
 
     Raises:
-        InputError: missing columns, non-finite values, time not strictly
-            increasing, or ten rows not spanning about one second.
+        InputError: missing columns, non-finite values, a latitude out of range,
+            time not strictly increasing, or ten rows not spanning about one second.
     """
     missing = [col for col in c.REQUIRED if col not in frame.columns]
     if missing:
@@ -273,6 +273,11 @@ def check_segment(frame: pd.DataFrame, file: str) -> None:
             Problem(file, int(i) + 1, col, "a finite number", repr(values[i]))
             for i in bad[:_MAX_PROBLEMS_PER_CHECK]
         ]
+    lat = frame[c.LAT_DEG].to_numpy(np.float64)
+    problems += [
+        Problem(file, int(i) + 1, c.LAT_DEG, "a latitude in [-90, 90] deg", repr(lat[i]))
+        for i in np.flatnonzero(np.abs(lat) > 90.0)[:_MAX_PROBLEMS_PER_CHECK]
+    ]
     t = frame[c.T_S].to_numpy(np.float64)
     back = np.flatnonzero(np.diff(t) <= 0)
     problems += [
