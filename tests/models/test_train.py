@@ -97,3 +97,16 @@ def test_bad_training_inputs_name_what_is_wrong(linear_data, model_params, train
         fit(x, y, x[:5], y_bad[:5], model=model_params, train=train_params, seed=0)
     assert err.value.problems[0].file == "validation samples"
     assert err.value.problems[0].row == 1
+
+
+def test_fine_tuning_is_deterministic(
+    tmp_path, linear_data, model_params, train_params, adapt_params
+):
+    x, y = linear_data
+    g = fit(x[:300], y[:300], model=model_params, train=replace(train_params, epochs=1), seed=1)
+    save_checkpoint(g, tmp_path / "g.ckpt")
+    runs = [fine_tune(tmp_path / "g.ckpt", x[:40], y[:40], adapt=adapt_params, seed=s)
+            for s in (5, 5, 6)]  # fmt: skip
+    preds = [predict(r.module, x) for r in runs]
+    np.testing.assert_array_equal(preds[0], preds[1])
+    assert not np.array_equal(preds[0], preds[2])  # one batch per epoch: dropout differs
