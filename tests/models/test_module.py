@@ -104,3 +104,19 @@ def test_optimizer_is_adamax_over_trainable_parameters() -> None:
     params = opt.param_groups[0]["params"]
     assert all(p is not module.net.head.weight for p in params)
     assert len(params) == len(list(module.parameters())) - 1
+
+
+def test_callbacks_are_passed_to_the_trainer(linear_data, model_params, train_params):
+    from lightning.pytorch.callbacks import Callback
+
+    class CountEpochs(Callback):
+        def __init__(self) -> None:
+            self.n = 0
+
+        def on_train_epoch_end(self, trainer, pl_module) -> None:
+            self.n += 1
+
+    x, y = linear_data
+    counter = CountEpochs()
+    fit(x, y, model=model_params, train=train_params, seed=0, callbacks=[counter])
+    assert counter.n == train_params.epochs

@@ -3,7 +3,7 @@
 Why the training step holds its own mini-batch loop
 ----------------------------------------------------
 WhONet is tiny (8.3 k parameters, one time step): a plain PyTorch step at
-batch 128 takes about 1 ms on one CPU thread, and Lightning's per-batch
+batch 128 takes 1-1.4 ms on one CPU thread, and Lightning's per-batch
 machinery (fetcher, hooks, progress tracking, the optimizer closure and the
 strategy/precision wrappers) adds 0.3–0.6 ms on top of it
 (``benchmarks/bench_train.py`` measures both). So each Lightning "batch" here

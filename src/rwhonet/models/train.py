@@ -20,6 +20,7 @@ from typing import Any
 import lightning as L
 import numpy as np
 import torch
+from lightning.pytorch.callbacks import Callback
 from lightning.pytorch.loggers import Logger
 
 from rwhonet.config import AdaptParams, ModelParams, TrainParams
@@ -67,6 +68,7 @@ def fit(
     train: TrainParams,
     seed: int,
     logger: Logger | None = None,
+    callbacks: list[Callback] | None = None,
     steps_per_block: int = STEPS_PER_BLOCK,
 ) -> FitResult:
     """Train a WhONet from scratch (G-WhONet or S-WhONet, paper §3.3.1-3.3.2).
@@ -81,6 +83,7 @@ def fit(
         seed: seeds weights, dropout and shuffling; the same seed and inputs give
             identical weights on CPU.
         logger: an optional Lightning logger (gets hparams and per-epoch losses).
+        callbacks: optional Lightning callbacks (called once per block of steps).
         steps_per_block: optimizer steps per Lightning batch; changes speed only.
 
     Returns:
@@ -113,7 +116,7 @@ def fit(
         x_t, y_t, x_val_t, y_val_t,
         batch_size=train.batch_size, seed=seed, steps_per_block=steps_per_block,
     )  # fmt: skip
-    return _run(module, data, train.epochs, logger, n_trainable, n_total)
+    return _run(module, data, train.epochs, logger, callbacks, n_trainable, n_total)
 
 
 def fine_tune(
@@ -124,6 +127,7 @@ def fine_tune(
     adapt: AdaptParams,
     seed: int,
     logger: Logger | None = None,
+    callbacks: list[Callback] | None = None,
     num_threads: int = 1,
     steps_per_block: int = STEPS_PER_BLOCK,
 ) -> FitResult:
@@ -142,6 +146,7 @@ def fine_tune(
         adapt: fine-tuning recipe (``adapt:`` in params.yaml).
         seed: seeds dropout and shuffling.
         logger: an optional Lightning logger; also gets the trainable/total counts.
+        callbacks: optional Lightning callbacks (called once per block of steps).
         num_threads: torch CPU threads.
         steps_per_block: optimizer steps per Lightning batch; changes speed only.
 
@@ -170,7 +175,7 @@ def fine_tune(
     data = WhONetDataModule(
         x_t, y_t, batch_size=adapt.batch_size, seed=seed, steps_per_block=steps_per_block
     )
-    return _run(module, data, adapt.epochs, logger, n_trainable, n_total)
+    return _run(module, data, adapt.epochs, logger, callbacks, n_trainable, n_total)
 
 
 def predict(module: torch.nn.Module, x: np.ndarray, batch_size: int = 8192) -> np.ndarray:
@@ -246,6 +251,7 @@ def _run(
     data: WhONetDataModule,
     epochs: int,
     logger: Logger | None,
+    callbacks: list[Callback] | None,
     n_trainable: int,
     n_total: int,
 ) -> FitResult:
@@ -260,6 +266,7 @@ def _run(
         precision="32-true",
         max_epochs=epochs,
         logger=logger if logger is not None else False,
+        callbacks=callbacks,
         enable_progress_bar=False,
         enable_model_summary=False,
         enable_checkpointing=False,
