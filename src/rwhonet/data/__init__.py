@@ -1,1 +1,1 @@
-"""Drive data: readers (IO-VNBD, column-mapped CSV), canonical columns, pandera schemas, segments."""
+"""Drive data: readers (IO-VNBD, column-mapped CSV), pandera schema, GNSS quality, segments."""

@@ -8,9 +8,14 @@ stripped, case-insensitive name and fall back to position.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from pathlib import Path
 from typing import NamedTuple
 
 from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive, read_header, read_numeric
+from rwhonet.errors import InputError, Problem
+from rwhonet.paths import rel
 
 
 class IovnbdColumn(NamedTuple):
@@ -53,3 +58,108 @@ LAYOUT: tuple[IovnbdColumn, ...] = (
 )
 
 HEADERS: tuple[str, ...] = tuple(col.header for col in LAYOUT)
+
+# Stripped, case-insensitive header name -> position in LAYOUT.
+_KEY_TO_POSITION: dict[str, int] = {col.header.strip().lower(): i for i, col in enumerate(LAYOUT)}
+
+
+class LayoutError(ValueError):
+    """The IO-VNBD columns of a header cannot be located.
+
+    Attributes:
+        missing: canonical names of the required channels not found (empty for duplicates).
+        why: why the columns could not be taken by name nor by position.
+    """
+
+    def __init__(self, missing: list[str], why: str) -> None:
+        self.missing = missing
+        self.why = why
+        super().__init__(f"no column for {missing}: {why}" if missing else why)
+
+
+def _key(header_cell: str) -> str:
+    return header_cell.strip().lower()
+
+
+def locate_columns(header: Sequence[str]) -> tuple[dict[str, int], str]:
+    """Find the file position of every canonical IO-VNBD channel.
+
+    Columns are matched by stripped, case-insensitive header name. When a required
+    channel is not found by name, the file has exactly the 29 IO-VNBD columns, and
+    every header name that *is* recognised sits at its IO-VNBD position, the header
+    is taken as unknown (renamed, translated) and columns are taken by position.
+
+    Args:
+        header: the file's header cells.
+
+    Returns:
+        (canonical name -> 0-based file position, ``"name"`` or ``"position"``).
+
+    Raises:
+        LayoutError: the columns cannot be located.
+    """
+    keys = [_key(h) for h in header]
+    duplicated = sorted({k for k in keys if k in _KEY_TO_POSITION and keys.count(k) > 1})
+    if duplicated:
+        raise LayoutError([], f"header names appear more than once: {duplicated}")
+    by_name = {
+        LAYOUT[_KEY_TO_POSITION[k]].canonical: pos
+        for pos, k in enumerate(keys)
+        if k in _KEY_TO_POSITION and LAYOUT[_KEY_TO_POSITION[k]].canonical is not None
+    }
+    missing = [name for name in c.REQUIRED if name not in by_name]
+    if not missing:
+        return by_name, "name"
+    # Known names at other positions mean a different column order: positions can't be trusted.
+    moved = [h.strip() for pos, h in enumerate(header) if _KEY_TO_POSITION.get(_key(h), pos) != pos]
+    if len(header) == len(LAYOUT) and not moved:
+        return {col.canonical: pos for pos, col in enumerate(LAYOUT) if col.canonical}, "position"
+    if len(header) != len(LAYOUT):
+        raise LayoutError(missing, f"{len(header)} columns, not the {len(LAYOUT)} of the layout")
+    raise LayoutError(missing, f"known names at other positions than the layout's: {moved}")
+
+
+def read_iovnbd(path: Path) -> RawDrive:
+    """Read an IO-VNBD "V-" drive file into canonical SI channels.
+
+    Args:
+        path: the CSV file (header row first, 10 Hz rows).
+
+    Returns:
+        The drive's channels (every LAYOUT column with a canonical name that the file has),
+        converted with ``LAYOUT[i].to_si``; ``header_match`` says whether the columns were
+        found by name or, for an unknown 29-column header, by position.
+
+    Raises:
+        InputError: empty file, missing required column, non-numeric cell or a row with the
+            wrong number of columns; every problem of the file is listed.
+    """
+    file = rel(path)
+    header = read_header(path)
+    try:
+        positions, match = locate_columns(header)
+    except LayoutError as err:
+        shown = [h.strip() for h in header]
+        problems = [
+            Problem(
+                file,
+                None,
+                col.header.strip(),
+                f"a column named {col.header.strip()!r} (IO-VNBD layout), or all "
+                f"{len(LAYOUT)} IO-VNBD columns in their order",
+                f"no such name among the {len(header)} header names; no position fallback: "
+                f"{err.why}",
+            )
+            for col in LAYOUT
+            if col.canonical in err.missing
+        ] or [Problem(file, None, None, "each IO-VNBD column name once", err.why)]
+        raise InputError(
+            problems, summary=f"cannot locate the columns of {file} (header: {shown})"
+        ) from None
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()})
+    to_si = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
+    return RawDrive(
+        columns={name: values[pos] * to_si[name] for name, pos in positions.items()},
+        source_columns={name: header[pos] for name, pos in positions.items()},
+        header_match=match,
+    )

@@ -1,0 +1,107 @@
+"""CSV drives in any layout, read through a column map from ``params.yaml``.
+
+``data.column_maps.<name>`` names, for each canonical quantity, the CSV column
+that holds it and its unit (CUPAC, whose layout is not documented, is read this
+way). With ``iovnbd.py`` this is the only module that knows file column names.
+Columns are matched by stripped, case-insensitive header name.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive, read_header, read_numeric
+from rwhonet.errors import InputError, Problem
+from rwhonet.paths import rel
+
+_WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
+
+# Column-map key -> (canonical name, {unit: factor to SI}).
+KEYS: dict[str, tuple[str, dict[str, float]]] = {
+    "t": (c.T_S, {"s": 1.0, "ms": 1e-3}),
+    "lat": (c.LAT_DEG, {"deg": 1.0}),
+    "lon": (c.LON_DEG, {"deg": 1.0}),
+    "omega_fl": (c.OMEGA_FL, _WHEEL_UNITS),
+    "omega_fr": (c.OMEGA_FR, _WHEEL_UNITS),
+    "omega_rl": (c.OMEGA_RL, _WHEEL_UNITS),
+    "omega_rr": (c.OMEGA_RR, _WHEEL_UNITS),
+    "n_sats": (c.N_SATS, {"count": 1.0}),
+}
+REQUIRED_KEYS = tuple(k for k, (name, _) in KEYS.items() if name in c.REQUIRED)
+
+
+def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
+    """Check a column map's keys and units before any file is read.
+
+    Args:
+        name: the map's name under ``data.column_maps``.
+        column_map: canonical key -> column and unit.
+
+    Raises:
+        ConfigError: naming every unknown key, missing required key and unknown unit.
+    """
+    where = f"data.column_maps.{name}"
+    issues = [
+        f"{where}.{k}: unknown key; expected one of {list(KEYS)}"
+        for k in column_map
+        if k not in KEYS
+    ]
+    issues += [f"{where}.{k}: missing" for k in REQUIRED_KEYS if k not in column_map]
+    issues += [
+        f"{where}.{k}.unit: expected one of {list(KEYS[k][1])}, got {spec.unit!r}"
+        for k, spec in column_map.items()
+        if k in KEYS and spec.unit not in KEYS[k][1]
+    ]
+    if issues:
+        raise ConfigError("\n".join(issues))
+
+
+def read_columnmap(path: Path, column_map: Mapping[str, ColumnSpec], name: str) -> RawDrive:
+    """Read a CSV drive through a column map, converting every quantity to SI.
+
+    Args:
+        path: the CSV file (header row first).
+        column_map: canonical key (``t``, ``lat``, ``omega_rl``, ...) -> column and unit;
+            checked with :func:`check_column_map`.
+        name: the map's name, for messages.
+
+    Returns:
+        The mapped channels in canonical names and SI units (``header_match="column_map"``).
+
+    Raises:
+        InputError: empty file, a mapped column missing from the header, non-numeric cell or
+            a row with the wrong number of columns; every problem of the file is listed.
+        ConfigError: the column map itself is invalid.
+    """
+    check_column_map(name, column_map)
+    file = rel(path)
+    header = read_header(path)
+    position = {h.strip().lower(): i for i, h in enumerate(header)}
+    problems = [
+        Problem(
+            file,
+            None,
+            spec.column,
+            f"a column named {spec.column!r} (data.column_maps.{name}.{key})",
+            f"no such name in the header {[h.strip() for h in header]}",
+        )
+        for key, spec in column_map.items()
+        if spec.column.strip().lower() not in position
+    ]
+    if problems:
+        raise InputError(problems, summary=f"missing column(s) in {file}")
+    positions = {key: position[spec.column.strip().lower()] for key, spec in column_map.items()}
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()})
+    columns = {}
+    for key, spec in column_map.items():
+        canonical, factors = KEYS[key]
+        columns[canonical] = values[positions[key]] * factors[spec.unit]
+    return RawDrive(
+        columns=columns,
+        source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items()},
+        header_match="column_map",
+    )

@@ -1,0 +1,143 @@
+"""Scenario sidecars: ``<drive>.scenarios.json`` -> the per-row ``scenario`` column.
+
+A sidecar (written by the simulator; real drives may have none) lists tagged
+time intervals in the drive's own clock, in seconds::
+
+    {"intervals": [{"start_s": 812.0, "end_s": 826.5, "tag": "roundabout"}, ...]}
+
+An interval covers ``start_s <= t_s < end_s`` (half-open, so back-to-back
+intervals do not share a row). A row's ``scenario`` is the ';'-joined set of
+tags covering it, in sorted (alphabetical) order so that the same set always
+gives the same string; ``""`` when no interval covers it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.errors import InputError, Problem
+from rwhonet.paths import rel
+
+SEPARATOR = ";"
+SUFFIX = ".scenarios.json"
+
+
+@dataclass(frozen=True)
+class ScenarioInterval:
+    """One tagged interval ``[start_s, end_s)`` of a drive's clock."""
+
+    start_s: float
+    end_s: float
+    tag: str
+
+
+def sidecar_path(drive_file: Path) -> Path:
+    """Return the sidecar path of a drive file (``V-S1.csv`` -> ``V-S1.scenarios.json``)."""
+    return drive_file.with_suffix(SUFFIX)
+
+
+def read_scenarios(path: Path) -> list[ScenarioInterval]:
+    """Read and check a scenario sidecar.
+
+    Args:
+        path: the ``.scenarios.json`` file.
+
+    Returns:
+        The intervals, in file order.
+
+    Raises:
+        InputError: invalid JSON, or intervals with a missing/non-numeric bound, an end not
+            after the start, or a tag that is empty or contains ';' (all listed).
+    """
+    file = rel(path)
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise InputError([Problem(file, None, None, "valid JSON", str(err))]) from None
+    items = doc.get("intervals") if isinstance(doc, dict) else None
+    if not isinstance(items, list):
+        raise InputError(
+            [Problem(file, None, "intervals", 'an object {"intervals": [...]}', repr(doc)[:80])]
+        )
+    problems: list[Problem] = []
+    out: list[ScenarioInterval] = []
+    for i, item in enumerate(items):
+        where = f"intervals[{i}]"
+        if not isinstance(item, dict):
+            problems.append(
+                Problem(file, None, where, "an object with start_s, end_s, tag", repr(item))
+            )
+            continue
+        bounds = {}
+        for key in ("start_s", "end_s"):
+            value = item.get(key)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or not math.isfinite(value)
+            ):
+                problems.append(
+                    Problem(file, None, f"{where}.{key}", "a finite number of seconds", repr(value))
+                )
+            else:
+                bounds[key] = float(value)
+        tag = item.get("tag")
+        if not isinstance(tag, str) or not tag.strip() or SEPARATOR in tag:
+            problems.append(
+                Problem(
+                    file, None, f"{where}.tag", f"a non-empty tag without {SEPARATOR!r}", repr(tag)
+                )
+            )
+        if len(bounds) == 2 and bounds["end_s"] <= bounds["start_s"]:
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    f"{where}.end_s",
+                    f"a time after start_s={bounds['start_s']}",
+                    repr(bounds["end_s"]),
+                )
+            )
+        if len(bounds) == 2 and isinstance(tag, str):
+            out.append(ScenarioInterval(bounds["start_s"], bounds["end_s"], tag.strip()))
+    if problems:
+        raise InputError(
+            problems, summary=f"{len(problems)} problem(s) in the scenario sidecar {file}"
+        )
+    return out
+
+
+def scenario_column(t_s: np.ndarray, intervals: Sequence[ScenarioInterval]) -> np.ndarray:
+    """Label every row with the tags of the intervals covering its time.
+
+    Args:
+        t_s: row times, s, in the clock of the intervals.
+        intervals: the drive's tagged intervals.
+
+    Returns:
+        Object array of ';'-joined sorted tags, ``""`` for rows no interval covers.
+    """
+    t_s = np.asarray(t_s, dtype=np.float64)
+    tags = sorted({iv.tag for iv in intervals})
+    if not tags:
+        return np.full(t_s.shape, "", dtype=object)
+    column_of = {tag: j for j, tag in enumerate(tags)}
+    member = np.zeros((t_s.size, len(tags)), dtype=bool)
+    for iv in intervals:  # a loop over intervals (tens), each a vectorised pass over rows
+        member[:, column_of[iv.tag]] |= (t_s >= iv.start_s) & (t_s < iv.end_s)
+    # Rows with the same tag set share one packed bit pattern: label each distinct pattern once.
+    packed = np.ascontiguousarray(np.packbits(member, axis=1))
+    keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
+    unique_keys, inverse = np.unique(keys, return_inverse=True)
+    patterns = np.unpackbits(unique_keys.view(np.uint8).reshape(len(unique_keys), -1), axis=1)
+    labels = np.array(
+        [SEPARATOR.join(t for t, on in zip(tags, row, strict=False) if on) for row in patterns],
+        dtype=object,
+    )
+    return labels[inverse.ravel()]

@@ -1,0 +1,149 @@
+"""Small synthetic drives and writers for the data-package tests.
+
+A straight drive at constant speed: fixes from geographiclib's exact geodesic
+(``Geodesic.WGS84.Direct``), wheel speed ``v / r`` on every wheel, so the
+implied effective radius is exactly ``r`` and every quantity is known.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+from geographiclib.geodesic import Geodesic
+
+from rwhonet.config import Params, load_params
+from rwhonet.data import canonical as c
+from rwhonet.data.iovnbd import HEADERS, LAYOUT
+
+SOURCE_RADIUS_M = 0.298  # params.yaml data.vehicles.source
+TARGET_RADIUS_M = 0.316  # params.yaml data.vehicles.target
+
+
+def straight_drive(
+    duration_s: float = 40.0,
+    speed_m_s: float = 15.0,
+    radius_m: float = SOURCE_RADIUS_M,
+    t0_s: float = 45000.0,
+    period_s: float = 0.1,
+    lat0_deg: float = 52.4,
+    lon0_deg: float = -1.5,
+    azimuth_deg: float = 30.0,
+    n_sats: float = 9.0,
+    first_row_at_t0: bool = True,
+) -> pd.DataFrame:
+    """A drive along a geodesic at constant speed, in canonical columns.
+
+    Rows are at ``t0_s + i * period_s``; with ``first_row_at_t0`` the first row sits on the
+    whole second ``t0_s`` (a start fix), so seconds ``t0+1 .. t0+duration`` are complete.
+    """
+    n = round(duration_s / period_s) + (1 if first_row_at_t0 else 0)
+    i = np.arange(n) + (0 if first_row_at_t0 else 1)
+    t = np.round(t0_s + i * period_s, 6)
+    s_m = speed_m_s * (t - t0_s)
+    geo = [Geodesic.WGS84.Direct(lat0_deg, lon0_deg, azimuth_deg, d) for d in s_m]
+    omega = np.full(n, speed_m_s / radius_m)
+    return pd.DataFrame(
+        {
+            c.T_S: t,
+            c.LAT_DEG: [g["lat2"] for g in geo],
+            c.LON_DEG: [g["lon2"] for g in geo],
+            c.OMEGA_FL: omega,
+            c.OMEGA_FR: omega,
+            c.OMEGA_RL: omega,
+            c.OMEGA_RR: omega,
+            c.N_SATS: np.full(n, n_sats),
+        }
+    )
+
+
+def write_iovnbd(df: pd.DataFrame, path: Path, headers: tuple[str, ...] = HEADERS) -> Path:
+    """Write canonical columns as an IO-VNBD "V-" CSV (29 columns, the layout's units)."""
+    out = {}
+    for col, header in zip(LAYOUT, headers, strict=True):
+        if col.canonical is not None and col.canonical in df:
+            out[header] = df[col.canonical].to_numpy() / col.to_si
+        elif header.strip() == "Sample Period":
+            out[header] = np.full(len(df), 0.1)
+        else:
+            out[header] = np.zeros(len(df))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pd.DataFrame(out).to_csv(path, index=False)
+    return path
+
+
+CUPAC_MAP = {
+    "t": ("Time", "ms"),
+    "lat": ("Latitude", "deg"),
+    "lon": ("Longitude", "deg"),
+    "omega_fl": ("WheelSpeedFL", "rpm"),
+    "omega_fr": ("WheelSpeedFR", "rpm"),
+    "omega_rl": ("WheelSpeedRL", "rpm"),
+    "omega_rr": ("WheelSpeedRR", "rpm"),
+    "n_sats": ("Satellites", "count"),
+}
+_TO_SI = {"s": 1.0, "ms": 1e-3, "deg": 1.0, "rad/s": 1.0, "rpm": 2 * np.pi / 60, "count": 1.0}
+_KEY = {
+    "t": c.T_S,
+    "lat": c.LAT_DEG,
+    "lon": c.LON_DEG,
+    "omega_fl": c.OMEGA_FL,
+    "omega_fr": c.OMEGA_FR,
+    "omega_rl": c.OMEGA_RL,
+    "omega_rr": c.OMEGA_RR,
+    "n_sats": c.N_SATS,
+}
+
+
+def write_columnmap(df: pd.DataFrame, path: Path, cmap: dict = CUPAC_MAP) -> Path:
+    """Write canonical columns as a CSV described by a column map (key -> (column, unit))."""
+    out = {"Extra": np.arange(len(df))}  # an unmapped column, to be ignored
+    for key, (column, unit) in cmap.items():
+        out[column] = df[_KEY[key]].to_numpy() / _TO_SI[unit]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pd.DataFrame(out).to_csv(path, index=False)
+    return path
+
+
+def column_map_params(cmap: dict = CUPAC_MAP) -> dict:
+    """The params.yaml form of a column map."""
+    return {k: {"column": col, "unit": unit} for k, (col, unit) in cmap.items()}
+
+
+def make_params(root: Path, **overrides) -> Params:
+    """Project params reading real-style drives from ``root`` (``data.source=files``)."""
+    return load_params(overrides={"data.source": "files", "data.root": str(root), **overrides})
+
+
+def write_fleet(root: Path, duration_s: float = 40.0) -> dict[str, Path]:
+    """One clean IO-VNBD drive per required role (the source vehicle's and target's radii)."""
+    return {
+        "source_train": write_iovnbd(
+            straight_drive(duration_s), root / "source_train" / "V-S1.csv"
+        ),
+        "target_train": write_iovnbd(
+            straight_drive(duration_s, radius_m=TARGET_RADIUS_M, azimuth_deg=100.0),
+            root / "target_train" / "C-A1.csv",
+        ),
+        "target_test": write_iovnbd(
+            straight_drive(duration_s, radius_m=TARGET_RADIUS_M, lat0_deg=52.41),
+            root / "target_test" / "C-B1.csv",
+        ),
+    }
+
+
+def write_params_yaml(path: Path, **overrides) -> Path:
+    """Write a copy of the project's params.yaml with dotted-key overrides (for stage scripts)."""
+    from rwhonet import paths
+
+    raw = yaml.safe_load(paths.PARAMS.read_text(encoding="utf-8"))
+    for dotted, value in overrides.items():
+        node = raw
+        *parents, leaf = dotted.split(".")
+        for key in parents:
+            node = node.setdefault(key, {})
+        node[leaf] = value
+    path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding="utf-8")
+    return path

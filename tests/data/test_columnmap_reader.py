@@ -1,0 +1,89 @@
+"""Column-map reader: names from params, unit conversion to SI, config and input errors."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.data.columnmap import check_column_map, read_columnmap
+from rwhonet.errors import InputError
+
+FIXTURE = Path(__file__).parents[1] / "fixtures" / "cupac" / "C-T1.csv"
+
+
+def cupac_map(**changes: tuple[str, str]) -> dict[str, ColumnSpec]:
+    spec = {
+        "t": ("Time", "ms"),
+        "lat": ("Latitude", "deg"),
+        "lon": ("Longitude", "deg"),
+        "omega_fl": ("WheelSpeedFL", "rpm"),
+        "omega_fr": ("WheelSpeedFR", "rpm"),
+        "omega_rl": ("WheelSpeedRL", "rpm"),
+        "omega_rr": ("WheelSpeedRR", "rpm"),
+        "n_sats": ("Satellites", "count"),
+    } | changes
+    return {k: ColumnSpec(col, unit) for k, (col, unit) in spec.items()}
+
+
+def test_converts_ms_and_rpm_to_si():
+    raw = read_columnmap(FIXTURE, cupac_map(), "cupac")
+    assert raw.header_match == "column_map"
+    np.testing.assert_allclose(raw.columns[c.T_S][:3], [1.0, 1.1, 1.2])  # 1000, 1100, 1200 ms
+    assert raw.columns[c.OMEGA_FL][0] == pytest.approx(480.0 * 2 * math.pi / 60)  # 50.27 rad/s
+    assert raw.columns[c.OMEGA_RL][0] == pytest.approx(477.5 * 2 * math.pi / 60)
+    assert raw.columns[c.LAT_DEG][1] == pytest.approx(52.41001, abs=1e-9)
+    assert raw.columns[c.N_SATS][0] == 11
+    assert raw.source_columns[c.OMEGA_RR] == "WheelSpeedRR"
+    assert "Notes" not in raw.source_columns.values()  # an unmapped text column is ignored
+
+
+def test_deg_per_s_and_case_insensitive_names():
+    cmap = cupac_map(omega_fl=("  wheelspeedfl ", "deg/s"), t=("TIME", "s"))
+    raw = read_columnmap(FIXTURE, cmap, "cupac")
+    assert raw.columns[c.OMEGA_FL][0] == pytest.approx(480.0 * math.pi / 180)
+    assert raw.columns[c.T_S][0] == 1000.0
+
+
+def test_optional_satellites_may_be_left_out():
+    cmap = cupac_map()
+    del cmap["n_sats"]
+    assert c.N_SATS not in read_columnmap(FIXTURE, cmap, "cupac").columns
+
+
+def test_missing_mapped_column_names_the_param(tmp_path):
+    cmap = cupac_map(lat=("Lat_deg", "deg"))
+    with pytest.raises(InputError) as err:
+        read_columnmap(FIXTURE, cmap, "cupac")
+    (problem,) = err.value.problems
+    assert problem.column == "Lat_deg" and problem.row is None
+    assert "data.column_maps.cupac.lat" in problem.expected
+    assert "'Latitude'" in problem.found
+
+
+def test_non_numeric_cell_in_mapped_column(tmp_path):
+    lines = FIXTURE.read_text(encoding="utf-8").splitlines()
+    lines[4] = lines[4].replace("477.5", "slip", 1)
+    path = tmp_path / "C-X.csv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_columnmap(path, cupac_map(), "cupac")
+    (problem,) = err.value.problems
+    assert (problem.row, problem.column, problem.found) == (4, "WheelSpeedRL", "'slip'")
+
+
+def test_check_column_map_lists_every_issue():
+    cmap = cupac_map(t=("Time", "min"), omega_rr=("WheelSpeedRR", "km/h"))
+    del cmap["lon"]
+    cmap["speed"] = ColumnSpec("Speed", "m/s")
+    with pytest.raises(ConfigError) as err:
+        check_column_map("cupac", cmap)
+    text = str(err.value)
+    assert "data.column_maps.cupac.speed: unknown key" in text
+    assert "data.column_maps.cupac.lon: missing" in text
+    assert "data.column_maps.cupac.t.unit: expected one of ['s', 'ms'], got 'min'" in text
+    assert "data.column_maps.cupac.omega_rr.unit" in text and "'km/h'" in text
