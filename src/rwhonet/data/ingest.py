@@ -1,0 +1,277 @@
+"""Stage ``ingest``: raw drive files -> one canonical Parquet per drive + ``manifest.json``.
+
+Reads every drive listed by ``data.roles`` (IO-VNBD layout or a column map),
+converts it to canonical names in SI units, adds the ``scenario`` column from
+an optional ``<drive>.scenarios.json`` sidecar, and writes everything at once
+(:func:`rwhonet.io.atomic_dir`): after a failure the previous output is left
+as it was. Rows are kept exactly as in the file, in order (row ``i`` is data
+row ``i + 1`` of the source file), so ``validate`` can point at the file's rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from rwhonet import paths
+from rwhonet.config import ConfigError, DataParams, Params
+from rwhonet.data import canonical as c
+from rwhonet.data.columnmap import check_column_map, read_columnmap
+from rwhonet.data.csvio import RawDrive
+from rwhonet.data.iovnbd import read_iovnbd
+from rwhonet.data.scenarios import read_scenarios, scenario_column, sidecar_path
+from rwhonet.errors import InputError, Problem
+from rwhonet.io import atomic_dir, write_json
+
+ROLES = ("source_train", "source_calibration", "target_train", "target_test")
+REQUIRED_ROLES = ("source_train", "target_train", "target_test")
+CALIBRATION_ROLE = "source_calibration"
+CALIBRATION_FALLBACK_ROLE = "source_train"
+MANIFEST = "manifest.json"
+IOVNBD = "iovnbd"
+
+
+@dataclass(frozen=True)
+class DriveFile:
+    """One raw drive file and what params say about it."""
+
+    drive: str  # drive id = file stem
+    role: str
+    vehicle: str
+    format: str  # "iovnbd" or a column map name
+    path: Path
+
+
+def check_data_params(data: DataParams) -> None:
+    """Check what ``load_params`` cannot: the source/root pairing, role names, column maps.
+
+    Args:
+        data: the ``data`` section.
+
+    Raises:
+        ConfigError: listing every issue, with the dotted key to change.
+    """
+    issues = []
+    if data.source == "sim" and data.root_path.resolve() != paths.SIM.resolve():
+        issues.append(
+            f"data.source=sim reads the simulator's drives in {paths.rel(paths.SIM)}, but "
+            f"data.root={data.root!r}: set data.root={paths.rel(paths.SIM)} (or data.source=files "
+            "to read real drives from data.root)"
+        )
+    issues += [
+        f"data.roles.{role}: unknown role; expected some of {list(ROLES)}"
+        for role in data.roles
+        if role not in ROLES
+    ]
+    issues += [
+        f"data.roles.{role}: missing (required role)"
+        for role in REQUIRED_ROLES
+        if role not in data.roles
+    ]
+    if issues:
+        raise ConfigError("\n".join(issues))
+    for name in sorted({spec.format for spec in data.roles.values()} - {IOVNBD}):
+        check_column_map(name, data.column_maps[name])
+
+
+def discover(data: DataParams) -> list[DriveFile]:
+    """List the drive files of every role, sorted by role (in ``ROLES`` order) and name.
+
+    Args:
+        data: the ``data`` section (globs are relative to ``data.root``).
+
+    Returns:
+        The drive files.
+
+    Raises:
+        InputError: a required role matches no file (naming the folder and glob), or a drive
+            id (file stem) appears twice.
+    """
+    root = data.root_path
+    problems: list[Problem] = []
+    files: list[DriveFile] = []
+    for role in (r for r in ROLES if r in data.roles):
+        spec = data.roles[role]
+        found = sorted(p for p in root.glob(spec.glob) if p.is_file())
+        if not found and spec.required:
+            folder = (root / spec.glob).parent
+            problems.append(
+                Problem(
+                    paths.rel(folder),
+                    None,
+                    None,
+                    f"at least one drive file matching {spec.glob!r} under {paths.rel(root)} "
+                    f"(data.roles.{role}, required)",
+                    "no matching file" if folder.is_dir() else "no such folder",
+                )
+            )
+        files += [DriveFile(p.stem, role, spec.vehicle, spec.format, p) for p in found]
+    first_seen: dict[str, DriveFile] = {}
+    for f in files:
+        other = first_seen.setdefault(f.drive, f)
+        if other is not f:
+            problems.append(
+                Problem(
+                    paths.rel(f.path),
+                    None,
+                    None,
+                    "drive ids (file stems) unique across all roles",
+                    f"{f.drive!r} ({f.role}) is also {paths.rel(other.path)} ({other.role})",
+                )
+            )
+    if problems:
+        raise InputError(problems, summary="the drives listed in params.yaml data.roles")
+    return files
+
+
+def read_drive(f: DriveFile, data: DataParams) -> RawDrive:
+    """Read one drive file with the reader its format names.
+
+    Args:
+        f: the drive file.
+        data: the ``data`` section (for column maps).
+
+    Returns:
+        The drive's channels, canonical names, SI units.
+    """
+    if f.format == IOVNBD:
+        return read_iovnbd(f.path)
+    return read_columnmap(f.path, data.column_maps[f.format], f.format)
+
+
+def canonical_table(raw: RawDrive, scenario: np.ndarray) -> pa.Table:
+    """Assemble the canonical drive table: required, then optional channels, then ``scenario``.
+
+    Args:
+        raw: the channels read from the file.
+        scenario: per-row scenario labels.
+
+    Returns:
+        An Arrow table with float64 channels and a string ``scenario`` column.
+    """
+    order = [name for name in (*c.REQUIRED, *c.OPTIONAL) if name in raw.columns]
+    arrays = {name: pa.array(raw.columns[name], type=pa.float64()) for name in order}
+    arrays[c.SCENARIO] = pa.array(scenario, type=pa.string())
+    return pa.table(arrays)
+
+
+def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
+    """Read every drive of ``data.roles`` and write the canonical drives with their manifest.
+
+    Args:
+        params: the project parameters (``data`` section used).
+        out_dir: output folder (``rwhonet.paths.DRIVES``); replaced only on success.
+
+    Returns:
+        The manifest written to ``out_dir/manifest.json``:
+        ``{"drives": [{"drive", "role", "vehicle", "format", "source_file", "n_rows",
+        "header_match", "columns", "scenarios_file", "calibrates"}], "calibration": {...}}``,
+        where ``columns`` maps each canonical channel to the file's column name.
+
+    Raises:
+        ConfigError: inconsistent ``data`` parameters.
+        InputError: one report of every problem in every drive file; nothing is written.
+    """
+    data = params.data
+    check_data_params(data)
+    files = discover(data)
+    calibration = _calibration(files)
+    problems: list[Problem] = []
+    entries: list[dict[str, Any]] = []
+    with atomic_dir(out_dir) as tmp:
+        for f in files:
+            try:
+                raw = read_drive(f, data)
+                sidecar = sidecar_path(f.path)
+                intervals = read_scenarios(sidecar) if sidecar.is_file() else []
+            except InputError as err:
+                problems += err.problems  # keep reading: one report covers every file
+                continue
+            if problems:
+                continue  # the stage will fail; don't spend time writing
+            pq.write_table(
+                canonical_table(raw, scenario_column(raw.columns[c.T_S], intervals)),
+                tmp / f"{f.drive}.parquet",
+            )
+            entries.append(
+                {
+                    "drive": f.drive,
+                    "role": f.role,
+                    "vehicle": f.vehicle,
+                    "format": f.format,
+                    "source_file": paths.rel(f.path),
+                    "n_rows": raw.n_rows,
+                    "header_match": raw.header_match,
+                    "columns": raw.source_columns,
+                    "scenarios_file": paths.rel(sidecar) if intervals else None,
+                    "calibrates": f.drive in calibration["drives"],
+                }
+            )
+        if problems:
+            files_bad = len({p.file for p in problems})
+            raise InputError(
+                problems, summary=f"ingest: {len(problems)} problem(s) in {files_bad} file(s)"
+            )
+        manifest = {
+            "source": data.source,
+            "root": paths.rel(data.root_path),
+            "drives": entries,
+            "calibration": calibration,
+        }
+        write_json(tmp / MANIFEST, manifest)
+    return manifest
+
+
+def _calibration(files: list[DriveFile]) -> dict[str, Any]:
+    """Which drives calibrate the wheel radii: source_calibration, else the first source_train."""
+    own = [f.drive for f in files if f.role == CALIBRATION_ROLE]
+    if own:
+        return {"role": CALIBRATION_ROLE, "drives": own, "fallback": False}
+    fallback = sorted(f.drive for f in files if f.role == CALIBRATION_FALLBACK_ROLE)
+    if not fallback:
+        raise InputError(
+            [
+                Problem(
+                    "params.yaml data.roles",
+                    None,
+                    None,
+                    f"a {CALIBRATION_ROLE} or {CALIBRATION_FALLBACK_ROLE} drive to calibrate "
+                    "the wheel radii",
+                    "neither role has a drive",
+                )
+            ]
+        )
+    first = fallback[0]
+    return {
+        "role": CALIBRATION_FALLBACK_ROLE,
+        "drives": [first],
+        "fallback": True,
+        "note": f"no {CALIBRATION_ROLE} drive: the first {CALIBRATION_FALLBACK_ROLE} drive "
+        "(sorted by name) calibrates",
+    }
+
+
+def summary_table(manifest: dict[str, Any]) -> str:
+    """Return a short text table of the ingested drives (for the stage's output).
+
+    Args:
+        manifest: what :func:`ingest` returned.
+
+    Returns:
+        One line per drive and a total line.
+    """
+    lines = [f"{'drive':<24} {'role':<18} {'vehicle':<8} {'rows':>9}  columns by"]
+    for d in manifest["drives"]:
+        mark = "  (calibrates)" if d["calibrates"] else ""
+        lines.append(
+            f"{d['drive']:<24} {d['role']:<18} {d['vehicle']:<8} {d['n_rows']:>9}  "
+            f"{d['header_match']}{mark}"
+        )
+    total = sum(d["n_rows"] for d in manifest["drives"])
+    lines.append(f"{len(manifest['drives'])} drive(s), {total} rows")
+    return "\n".join(lines)

@@ -1,0 +1,157 @@
+"""Ingest: drive discovery, roles, formats, manifest, and all-or-nothing output."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet import paths
+from rwhonet.config import ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.data.ingest import ingest
+from rwhonet.errors import InputError
+
+from .drives import (
+    CUPAC_MAP,
+    TARGET_RADIUS_M,
+    column_map_params,
+    make_params,
+    straight_drive,
+    write_columnmap,
+    write_fleet,
+    write_iovnbd,
+)
+
+FIXTURES = Path(__file__).parents[1] / "fixtures"
+
+
+def test_round_trip_manifest_and_canonical_parquet(tmp_path):
+    raw = tmp_path / "raw"
+    files = write_fleet(raw, duration_s=5.0)
+    shutil.copy(
+        FIXTURES / "iovnbd" / "V-T1.scenarios.json", raw / "source_train" / "V-S1.scenarios.json"
+    )
+    out = tmp_path / "drives"
+    manifest = ingest(make_params(raw), out)
+
+    assert json.loads((out / "manifest.json").read_text()) == manifest
+    by_drive = {d["drive"]: d for d in manifest["drives"]}
+    assert list(by_drive) == ["V-S1", "C-A1", "C-B1"]  # role order, then name
+    s1 = by_drive["V-S1"]
+    keys = ("role", "vehicle", "format", "n_rows", "header_match", "calibrates")
+    assert [s1[k] for k in keys] == ["source_train", "source", "iovnbd", 51, "name", True]
+    assert s1["source_file"] == paths.rel(files["source_train"])
+    assert s1["columns"][c.OMEGA_RL] == " Wheel Speed Rear Left (rad/sec)"
+    assert s1["scenarios_file"].endswith("V-S1.scenarios.json")
+    assert by_drive["C-A1"]["scenarios_file"] is None
+    # No source_calibration drive: the first source_train drive calibrates, as recorded.
+    assert manifest["calibration"]["fallback"] is True
+    assert manifest["calibration"]["drives"] == ["V-S1"]
+
+    df = pd.read_parquet(out / "V-S1.parquet")
+    assert list(df.columns[:7]) == list(c.REQUIRED) and df.columns[-1] == c.SCENARIO
+    expected = straight_drive(5.0)
+    np.testing.assert_allclose(df[c.LAT_DEG], expected[c.LAT_DEG], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(df[c.OMEGA_RR], expected[c.OMEGA_RR], rtol=1e-12)
+    assert df.loc[df[c.T_S].between(45000.3, 45000.45), c.SCENARIO].tolist() == ["roundabout"] * 2
+    assert df.loc[df[c.T_S] == 45000.5, c.SCENARIO].item() == "roundabout;wet_road"
+
+
+def test_source_calibration_role_and_column_map_format(tmp_path):
+    raw = tmp_path / "raw"
+    write_fleet(raw, duration_s=3.0)
+    write_iovnbd(straight_drive(3.0), raw / "source_calibration" / "V-Cal.csv")
+    write_columnmap(straight_drive(3.0, radius_m=TARGET_RADIUS_M), raw / "target_test" / "C-Z9.csv")
+    params = make_params(
+        raw,
+        **{
+            "data.column_maps.cupac": column_map_params(CUPAC_MAP),
+            "data.roles.target_test": {
+                "glob": "target_test/C-Z*.csv",
+                "format": "cupac",
+                "vehicle": "target",
+                "required": True,
+            },
+        },
+    )
+    manifest = ingest(params, tmp_path / "drives")
+    assert manifest["calibration"] == {
+        "role": "source_calibration",
+        "drives": ["V-Cal"],
+        "fallback": False,
+    }
+    z9 = next(d for d in manifest["drives"] if d["drive"] == "C-Z9")
+    assert (z9["format"], z9["header_match"], z9["columns"][c.T_S]) == (
+        "cupac",
+        "column_map",
+        "Time",
+    )
+    df = pd.read_parquet(tmp_path / "drives" / "C-Z9.parquet")
+    np.testing.assert_allclose(df[c.OMEGA_RL], 15.0 / TARGET_RADIUS_M, rtol=1e-9)
+    np.testing.assert_allclose(np.diff(df[c.T_S]), 0.1, atol=1e-9)
+
+
+def test_required_role_without_files_names_folder_and_glob(tmp_path):
+    raw = tmp_path / "raw"
+    files = write_fleet(raw, duration_s=2.0)
+    files["target_train"].unlink()
+    shutil.rmtree(raw / "target_test")
+    with pytest.raises(InputError) as err:
+        ingest(make_params(raw), tmp_path / "drives")
+    found = {(Path(p.file).name, p.found) for p in err.value.problems}
+    assert found == {("target_train", "no matching file"), ("target_test", "no such folder")}
+    assert "'target_train/*.csv'" in err.value.problems[0].expected
+    assert not (tmp_path / "drives").exists()
+
+
+def test_drive_ids_must_be_unique_across_roles(tmp_path):
+    raw = tmp_path / "raw"
+    write_fleet(raw, duration_s=2.0)
+    write_iovnbd(straight_drive(2.0), raw / "target_test" / "V-S1.csv")
+    with pytest.raises(InputError, match="unique across all roles"):
+        ingest(make_params(raw), tmp_path / "drives")
+
+
+def test_sim_source_requires_the_simulator_folder(tmp_path):
+    params = make_params(tmp_path, **{"data.source": "sim"})
+    with pytest.raises(ConfigError, match="set data.root=data/sim"):
+        ingest(params, tmp_path / "drives")
+
+
+def test_unknown_role_is_a_config_error(tmp_path):
+    params = make_params(
+        tmp_path,
+        **{"data.roles.validation": {"glob": "v/*.csv", "format": "iovnbd", "vehicle": "source"}},
+    )
+    with pytest.raises(ConfigError, match="data.roles.validation: unknown role"):
+        ingest(params, tmp_path / "drives")
+
+
+def test_every_bad_file_in_one_report_and_no_partial_output(tmp_path):
+    raw = tmp_path / "raw"
+    files = write_fleet(raw, duration_s=2.0)
+    out = tmp_path / "drives"
+    ingest(make_params(raw), out)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    files["source_train"].write_text("", encoding="utf-8")  # empty file
+    text = files["target_test"].read_text(encoding="utf-8").splitlines()
+    text[3] = text[3].replace(",", ",oops,", 1)  # one column too many, in data row 3
+    files["target_test"].write_text("\n".join(text) + "\n", encoding="utf-8")
+    (raw / "target_train" / "C-A2.csv").write_text(" Time, Lat\n1,2\n", encoding="utf-8")
+
+    with pytest.raises(InputError) as err:
+        ingest(make_params(raw), out)
+    found = {(Path(p.file).name, p.row, p.column) for p in err.value.problems}
+    assert ("V-S1.csv", None, None) in found
+    assert ("C-B1.csv", 3, None) in found
+    assert {("C-A2.csv", None, col) for col in ("Long", "Wheel Speed Rear Left (rad/sec)")} <= found
+    assert "in 3 file(s)" in err.value.summary
+    # The previous output is untouched and no temporary folder is left behind.
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drives", "raw"]
