@@ -57,3 +57,24 @@ Example: a straight constant-speed drive with perfect sensors::
         car, "A", straight_route(15.0, 300.0), seed=0, sim=params.sim,
         options=SimOptions.ideal())
 """
+
+from rwhonet.sim.drive import DriveState, SimOptions, SimulatedDrive, simulate_drive, simulate_truth
+from rwhonet.sim.fleet import drive_seed, simulate_fleet, vehicles_from_params
+from rwhonet.sim.route import Route, generate_route, steady_turn_route, straight_route
+from rwhonet.sim.vehicle import Vehicle
+
+__all__ = [
+    "DriveState",
+    "Route",
+    "SimOptions",
+    "SimulatedDrive",
+    "Vehicle",
+    "drive_seed",
+    "generate_route",
+    "simulate_drive",
+    "simulate_fleet",
+    "simulate_truth",
+    "steady_turn_route",
+    "straight_route",
+    "vehicles_from_params",
+]

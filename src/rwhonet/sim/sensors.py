@@ -1,0 +1,253 @@
+"""Sensors: CAN wheel speeds, the GNSS receiver and its rare degraded stretches.
+
+Every sensor samples the 50 Hz ground truth at the record rate. Models and
+parameter sources are in docs/simulator.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from scipy.signal import lfilter
+
+from rwhonet.config import SimCan, SimGnss
+from rwhonet.geo import latlon_from_offsets_deg
+
+FAULT_KINDS = ("low_sats", "frozen", "jump", "gap")
+# Duration ranges (s) of the degraded stretches. A frozen fix must outlast
+# validate.gnss.frozen_min_s (2 s); a gap must exceed validate.gnss.max_gap_s (0.5 s).
+_FAULT_S = {"low_sats": (10.0, 40.0), "frozen": (3.0, 10.0), "jump": (1.0, 3.0), "gap": (1.0, 5.0)}
+_FAULT_MOVING_M_S = 3.0  # a frozen fix is placed where the car moves (wheels turn)
+_FAULT_EDGE_S = 30.0  # keep faults this far from the ends and from each other
+_LOW_SATS_EXTRA_M = 3.0  # extra white position noise with 2-3 satellites (multipath)
+
+
+def gauss_markov(
+    n: int, dt_s: float, sigma: float, tau_s: float, rng: np.random.Generator, rows: int = 1
+) -> np.ndarray:
+    """Stationary first-order Gauss-Markov process (exact discretisation, AR(1)).
+
+    ``x_k = phi x_{k-1} + w_k`` with ``phi = exp(-dt / tau)`` and
+    ``w_k ~ N(0, sigma^2 (1 - phi^2))``; ``x_0 ~ N(0, sigma^2)``, so every sample
+    has standard deviation ``sigma`` and the autocorrelation at lag ``T`` is
+    ``exp(-T / tau)`` (e.g. Groves 2013, Sec. 7.4 / App. J on GNSS error models).
+
+    Args:
+        n: samples per row.
+        dt_s: sampling interval.
+        sigma: stationary standard deviation.
+        tau_s: correlation time.
+        rng: random generator.
+        rows: independent processes (one per axis).
+
+    Returns:
+        Array (rows, n).
+    """
+    phi = np.exp(-dt_s / tau_s)
+    w = rng.standard_normal((rows, n)) * sigma * np.sqrt(1.0 - phi**2)
+    if n:
+        w[:, 0] = rng.standard_normal(rows) * sigma
+    return lfilter([1.0], [1.0, -phi], w, axis=1)
+
+
+def satellites(n: int, hz: int, sats: list[int], rng: np.random.Generator) -> np.ndarray:
+    """Satellites in the fix: an integer that changes every 20-120 s (open sky).
+
+    Args:
+        n: samples.
+        hz: sampling rate.
+        sats: ``[min, max]`` satellites.
+        rng: random generator.
+
+    Returns:
+        int64 array (n,).
+    """
+    duration = n / hz
+    changes = np.cumsum(rng.uniform(20.0, 120.0, size=int(duration / 20.0) + 2))
+    values = rng.integers(sats[0], sats[1] + 1, size=changes.size + 1)
+    return values[np.searchsorted(changes, np.arange(n) / hz, side="right")].astype(np.int64)
+
+
+def can_wheel_speeds(
+    t_record_s: np.ndarray,
+    t_true_s: np.ndarray,
+    omega_rad_s: np.ndarray,
+    can: SimCan,
+    rng: np.random.Generator,
+    noise: bool = True,
+) -> np.ndarray:
+    """Wheel speeds as the CAN bus carries them.
+
+    The ABS sensor's value is ``latency_s`` old, carries white noise, reads 0
+    below ``min_speed_rad_s`` (too few tooth pulses per window) and is
+    quantised to ``quantum_rad_s``. It is a magnitude: a passive ABS sensor does
+    not tell forwards from backwards.
+
+    Args:
+        t_record_s: record times (m,).
+        t_true_s: ground-truth times (n,).
+        omega_rad_s: true wheel angular speed magnitudes (4, n).
+        can: CAN signal parameters.
+        rng: random generator.
+        noise: False for an ideal sensor (no latency, noise, dead band or quantisation).
+
+    Returns:
+        Measured wheel speeds (4, m), rad/s.
+    """
+    if not noise:
+        return np.stack([np.interp(t_record_s, t_true_s, w) for w in omega_rad_s])
+    t = np.maximum(t_record_s - can.latency_s, t_true_s[0])
+    true = np.stack([np.interp(t, t_true_s, w) for w in omega_rad_s])
+    measured = true + rng.standard_normal(true.shape) * can.noise_rad_s
+    measured = np.where(true < can.min_speed_rad_s, 0.0, np.maximum(measured, 0.0))
+    return np.round(measured / can.quantum_rad_s) * can.quantum_rad_s
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A degraded GNSS stretch, record rows ``[i0, i1)``."""
+
+    kind: str
+    i0: int
+    i1: int
+
+
+def place_faults(
+    kinds: list[str] | tuple[str, ...],
+    speed_m_s: np.ndarray,
+    hz: int,
+    rng: np.random.Generator,
+) -> list[Fault]:
+    """Choose where each requested degraded stretch happens.
+
+    Stretches do not overlap, stay ``30 s`` away from the ends and from each
+    other, and a frozen fix only happens while the car moves (a fix frozen at
+    standstill would be indistinguishable from a good one).
+
+    Args:
+        kinds: fault kinds (:data:`FAULT_KINDS`), one stretch each.
+        speed_m_s: speed at the record rows.
+        hz: record rate.
+        rng: random generator.
+
+    Returns:
+        The faults, by start row.
+    """
+    n = speed_m_s.size
+    edge = int(_FAULT_EDGE_S * hz)
+    free = np.ones(n, dtype=bool)
+    free[:edge] = False
+    free[max(n - edge, 0) :] = False
+    faults: list[Fault] = []
+    for kind in kinds:
+        if kind not in FAULT_KINDS:
+            raise ValueError(f"unknown GNSS fault {kind!r}; expected one of {FAULT_KINDS}")
+        length = int(round(rng.uniform(*_FAULT_S[kind]) * hz))
+        if length >= n:
+            continue
+        ok = sliding_window_view(free, length).all(axis=1)
+        if kind == "frozen":
+            ok &= sliding_window_view(speed_m_s, length).min(axis=1) > _FAULT_MOVING_M_S
+        starts = np.flatnonzero(ok)
+        if starts.size == 0:
+            continue  # drive too short or too slow for this fault
+        i0 = int(rng.choice(starts))
+        faults.append(Fault(kind, i0, i0 + length))
+        free[max(i0 - edge, 0) : i0 + length + edge] = False
+    return sorted(faults, key=lambda f: f.i0)
+
+
+@dataclass(frozen=True)
+class GnssTrack:
+    """GNSS receiver output at the record rate."""
+
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    height_m: np.ndarray
+    speed_m_s: np.ndarray
+    heading_deg: np.ndarray
+    vertical_speed_m_s: np.ndarray
+    sats: np.ndarray
+
+
+def gnss_track(
+    east_m: np.ndarray,
+    north_m: np.ndarray,
+    v_east_m_s: np.ndarray,
+    v_north_m_s: np.ndarray,
+    origin: tuple[float, float, float],
+    gnss: SimGnss,
+    hz: int,
+    rng: np.random.Generator,
+    faults: list[Fault],
+    heading_rad: np.ndarray,
+    noise: bool = True,
+) -> GnssTrack:
+    """Fixes of the antenna: truth + Gauss-Markov error + white noise, then faults.
+
+    Position error per axis (east, north, up) is a first-order Gauss-Markov
+    process (``sigma_m``, ``tau_s``; up scaled by ``vertical_factor``) plus white
+    noise ``white_m``; the local east/north position is mapped to WGS84 by the
+    geodesic direct problem from ``origin`` (azimuthal equidistant,
+    :func:`rwhonet.geo.latlon_from_offsets_deg`). Speed and course come from the
+    antenna velocity (Doppler) with white noise; the course is held while the
+    car is (nearly) stopped. Faults: ``low_sats`` 2-3 satellites and a noisier
+    fix; ``jump`` the fix jumps 30-100 m away; ``frozen`` the receiver repeats
+    its last fix; ``gap`` rows are dropped by the writer.
+
+    Args:
+        east_m: antenna east position in the local frame (m,).
+        north_m: antenna north position (m,).
+        v_east_m_s: antenna east velocity (m,).
+        v_north_m_s: antenna north velocity (m,).
+        origin: ``(lat_deg, lon_deg, height_m)`` of the local frame's origin.
+        gnss: receiver parameters.
+        hz: record rate.
+        rng: random generator.
+        faults: degraded stretches (from :func:`place_faults`).
+        heading_rad: body heading (counter-clockwise from east), the course a
+            receiver reports before the car first moves.
+        noise: False for a perfect receiver (truth only; faults still applied).
+
+    Returns:
+        The receiver output.
+    """
+    n = east_m.size
+    dt = 1.0 / hz
+    sats = satellites(n, hz, gnss.sats, rng)
+    err = np.zeros((3, n))
+    speed_noise = np.zeros(n)
+    if noise:
+        sigmas = np.array([1.0, 1.0, gnss.vertical_factor])[:, None] * gnss.sigma_m
+        err = gauss_markov(n, dt, 1.0, gnss.tau_s, rng, rows=3) * sigmas
+        err[:2] += rng.standard_normal((2, n)) * gnss.white_m
+        speed_noise = rng.standard_normal(n) * gnss.speed_noise_m_s
+    for f in faults:
+        sl = slice(f.i0, f.i1)
+        if f.kind == "low_sats":
+            sats[sl] = rng.integers(2, 4, size=f.i1 - f.i0)
+            err[:2, sl] += rng.standard_normal((2, f.i1 - f.i0)) * _LOW_SATS_EXTRA_M
+        elif f.kind == "jump":
+            dist = rng.uniform(30.0, 100.0)
+            az = rng.uniform(0.0, 2.0 * np.pi)
+            err[:2, sl] += np.array([[dist * np.cos(az)], [dist * np.sin(az)]])
+    lat0, lon0, h0 = origin
+    lat, lon = latlon_from_offsets_deg(lat0, lon0, east_m + err[0], north_m + err[1])
+    speed = np.maximum(np.hypot(v_east_m_s, v_north_m_s) + speed_noise, 0.0)
+    course = np.degrees(np.arctan2(v_east_m_s, v_north_m_s)) % 360.0
+    valid = speed > 0.5
+    if n and not valid[0]:  # before the first move: the parked car's heading
+        course[0] = (90.0 - np.degrees(heading_rad[0])) % 360.0
+        valid[0] = True
+    course = course[np.maximum.accumulate(np.where(valid, np.arange(n), 0))]
+    height = h0 + err[2]
+    # Doppler vertical velocity: white noise around zero (a flat world).
+    vertical = rng.standard_normal(n) * 2.0 * gnss.speed_noise_m_s if noise else np.zeros(n)
+    for f in faults:
+        if f.kind == "frozen":
+            hold = max(f.i0 - 1, 0)
+            for arr in (lat, lon, height, speed, course, vertical):
+                arr[f.i0 : f.i1] = arr[hold]
+    return GnssTrack(lat, lon, height, speed, course, vertical, sats)
