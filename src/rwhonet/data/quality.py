@@ -1,0 +1,375 @@
+"""GNSS-quality policy: which whole seconds of a drive can be trusted, and the valid segments.
+
+The dataset notes that GNSS reception was lost at times and that such stretches
+must be cut, not trained on (iovnbd-format.md); the authors sliced their drives
+by hand. Here the cleaning is data (``validate.gnss``, ``validate.cuts``) applied
+by one function, :func:`assess`, and every cut is reported.
+
+Clock convention (shared with the label stage, :mod:`rwhonet.features.seconds`)
+    Second ``k`` of a drive is the interval ``(k - 1, k]`` of the drive's own time
+    column, ``k`` an integer: the ten 10 Hz rows whose times round *up* to ``k``
+    (:func:`second_index`, with a 1 µs allowance for decimal time stamps stored as
+    floats). Quality is decided per second. A segment covers the consecutive valid
+    seconds ``t_start_s + 1 … t_end_s`` (whole seconds), each complete
+    (``1 / sample_period_s`` rows), and also carries its *start fix*: the last row of
+    second ``t_start_s``, from which the first second's displacement is measured. A
+    segment therefore has ``10 n + 1`` rows for ``n`` seconds: row 0 is the start fix
+    and rows ``10 k + 1 … 10 k + 10`` are second ``k``, so its seconds end on whole
+    seconds of the drive's clock. The start fix must itself be a good row (not
+    flagged by a row rule below); when it is not, or the drive starts right there,
+    the first valid second is cut as ``start_fix`` and serves as the start fix.
+
+Rules (a second is cut by the first that applies, in this order)
+    manual          a ``validate.cuts`` interval ``[start_s, end_s]`` of this drive holds a row
+    gap             it holds no row, or a time step > ``max_gap_s`` ends in it, or it is
+                    incomplete next to such a step (the drive is split there)
+    partial_second  it holds a number of rows other than ``1 / sample_period_s`` (the drive's
+                    first/last second, dropped or extra samples)
+    low_sats        a row has fewer than ``min_sats`` satellites (or no count), when the
+                    drive has a satellite column
+    jump            the fix-to-fix distance of a row implies a speed > ``max_speed_m_s``
+    frozen          the fix stayed identical while the rear wheels turned faster than
+                    ``moving_wheel_speed_rad_s`` for ``frozen_min_s`` in all (from the first
+                    such row to the end of the identical run)
+    start_fix       the first second of a valid stretch whose start fix is missing or cut
+    short_segment   a run of valid seconds shorter than ``min_segment_s`` (dropped)
+
+Rows of the ``manual``, ``low_sats``, ``jump`` and ``frozen`` rules are *bad rows*;
+the others are properties of whole seconds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rwhonet.config import CutSpec, GnssPolicy
+from rwhonet.data import canonical as c
+from rwhonet.geo import geodesic_distance_m
+
+RULES = (
+    "manual",
+    "gap",
+    "partial_second",
+    "low_sats",
+    "jump",
+    "frozen",
+    "start_fix",
+    "short_segment",
+)
+TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the true value
+
+
+@dataclass(frozen=True)
+class Cut:
+    """Seconds ``(start_s, end_s]`` of a drive cut by one rule."""
+
+    start_s: float
+    end_s: float
+    rule: str
+    detail: str
+    n_rows: int
+
+    @property
+    def n_seconds(self) -> int:
+        """Whole seconds cut."""
+        return round(self.end_s - self.start_s)
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A GNSS-valid stretch: seconds ``(t_start_s, t_end_s]`` in rows ``row_start:row_stop``.
+
+    ``row_start`` is the start fix (the last row of second ``t_start_s``), so the segment
+    has ``n_seconds * rows_per_second + 1`` rows.
+    """
+
+    row_start: int
+    row_stop: int
+    t_start_s: float
+    t_end_s: float
+
+    @property
+    def n_seconds(self) -> int:
+        """Whole seconds in the segment."""
+        return round(self.t_end_s - self.t_start_s)
+
+    @property
+    def n_rows(self) -> int:
+        """Rows in the segment."""
+        return self.row_stop - self.row_start
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """The outcome of the GNSS policy on one drive."""
+
+    segments: list[Segment]
+    cuts: list[Cut]
+    n_rows: int
+    n_seconds: int  # whole seconds spanned by the drive, first to last
+    cut_seconds_by_rule: dict[str, int] = field(default_factory=dict)
+    cut_rows_by_rule: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def rows_kept(self) -> int:
+        """Rows of the kept seconds (start fixes not counted: their seconds were cut)."""
+        return sum(s.n_rows - 1 for s in self.segments)
+
+    @property
+    def seconds_kept(self) -> int:
+        """Seconds inside valid segments."""
+        return sum(s.n_seconds for s in self.segments)
+
+
+def second_index(t_s: np.ndarray) -> np.ndarray:
+    """Return the whole second each time belongs to: ``k`` such that ``k - 1 < t_s <= k``.
+
+    Args:
+        t_s: times, s.
+
+    Returns:
+        int64 second numbers.
+    """
+    return np.ceil(np.asarray(t_s, dtype=np.float64) - TIME_EPS_S).astype(np.int64)
+
+
+def step_distance_m(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
+    """WGS84 geodesic distance between consecutive fixes, m (length ``n - 1``).
+
+    The paper's x_GNSS (Sec. 2.2, after Eq. 11), through the project's one geodesic
+    implementation (:func:`rwhonet.geo.geodesic_distance_m`).
+    """
+    lat_deg, lon_deg = np.asarray(lat_deg, float), np.asarray(lon_deg, float)
+    if lat_deg.size < 2:
+        return np.zeros(0)
+    return geodesic_distance_m(lat_deg[:-1], lon_deg[:-1], lat_deg[1:], lon_deg[1:])
+
+
+def implied_speed_m_s(t_s: np.ndarray, lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
+    """Speed implied by each fix and the one before it, m/s (0 for the first row).
+
+    Args:
+        t_s: strictly increasing times, s.
+        lat_deg: latitudes, deg.
+        lon_deg: longitudes, deg.
+
+    Returns:
+        One speed per row.
+    """
+    speed = np.zeros(np.size(t_s))
+    speed[1:] = step_distance_m(lat_deg, lon_deg) / np.diff(t_s)
+    return speed
+
+
+def frozen_rows(
+    lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
+    wheel_speed_rad_s: np.ndarray,
+    sample_period_s: float,
+    frozen_min_s: float,
+    moving_wheel_speed_rad_s: float,
+) -> np.ndarray:
+    """Flag rows whose GNSS fix is frozen while the vehicle moves.
+
+    A run of identical consecutive fixes is frozen when the wheels turned faster than
+    ``moving_wheel_speed_rad_s`` for at least ``frozen_min_s`` in all during it (counted as
+    moving rows × sample period). Its rows from the first moving one to the end of the run
+    are flagged: before that the vehicle stood still and an unchanged fix was right.
+
+    Args:
+        lat_deg: latitudes, deg.
+        lon_deg: longitudes, deg.
+        wheel_speed_rad_s: a non-negative wheel speed per row (mean |rear wheel speed|).
+        sample_period_s: nominal sample period, s.
+        frozen_min_s: moving time with an unchanged fix that makes a run frozen, s.
+        moving_wheel_speed_rad_s: wheel speed above which the vehicle counts as moving.
+
+    Returns:
+        Boolean mask, True for frozen rows.
+    """
+    lat_deg, lon_deg = np.asarray(lat_deg), np.asarray(lon_deg)
+    n = lat_deg.size
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    same = (lat_deg[1:] == lat_deg[:-1]) & (lon_deg[1:] == lon_deg[:-1])
+    run = np.cumsum(np.r_[True, ~same]) - 1  # run id of identical fixes, per row
+    moving = np.asarray(wheel_speed_rad_s) > moving_wheel_speed_rad_s
+    moving_s = np.bincount(run, weights=moving.astype(float)) * sample_period_s
+    row = np.arange(n)
+    first_moving = np.full(run[-1] + 1, n)
+    np.minimum.at(first_moving, run[moving], row[moving])
+    frozen_run = moving_s >= frozen_min_s - TIME_EPS_S
+    return frozen_run[run] & (row >= first_moving[run])
+
+
+def assess(
+    drive: Mapping[str, np.ndarray],
+    policy: GnssPolicy,
+    sample_period_s: float,
+    cuts: Sequence[CutSpec] = (),
+) -> Assessment:
+    """Apply the GNSS-quality policy to one drive (see the module docstring for the rules).
+
+    Args:
+        drive: canonical columns (``t_s`` strictly increasing, required channels complete;
+            ``n_sats`` optional), e.g. a DataFrame that passed the schema.
+        policy: ``validate.gnss``.
+        sample_period_s: nominal sample period; ``1 / sample_period_s`` must be an integer.
+        cuts: manual cuts of this drive (``validate.cuts`` entries naming it).
+
+    Returns:
+        The valid segments and every cut, with per-rule totals.
+    """
+    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    wheel = 0.5 * (np.abs(np.asarray(drive[c.OMEGA_RL])) + np.abs(np.asarray(drive[c.OMEGA_RR])))
+    n_per_s = round(1.0 / sample_period_s)
+    n = t.size
+
+    sec = second_index(t)
+    k0 = int(sec[0])
+    s = sec - k0  # second of each row, 0-based from the drive's first second
+    n_sec = int(s[-1]) + 1
+
+    def per_second(row_mask: np.ndarray) -> np.ndarray:
+        return np.bincount(s[row_mask], minlength=n_sec) > 0
+
+    count = np.bincount(s, minlength=n_sec)
+    incomplete = count != n_per_s
+    gap_step = np.diff(t) > policy.max_gap_s  # step i -> i + 1
+    gap_start, gap_end = np.r_[gap_step, False], np.r_[False, gap_step]
+    gap = (count == 0) | per_second(gap_end) | (incomplete & per_second(gap_start))
+
+    manual_row = np.zeros(n, dtype=bool)
+    for cut in cuts:  # params entries, a handful
+        manual_row |= (t >= cut.start_s) & (t <= cut.end_s)
+    has_sats = c.N_SATS in drive
+    sats = np.asarray(drive[c.N_SATS], dtype=np.float64) if has_sats else np.full(n, np.inf)
+    low_sats_row = ~(sats >= policy.min_sats)  # NaN: no count, not trusted
+    speed = implied_speed_m_s(t, lat, lon)
+    jump_row = speed > policy.max_speed_m_s
+    frozen_row = frozen_rows(
+        lat,
+        lon,
+        wheel,
+        sample_period_s,
+        policy.frozen_min_s,
+        policy.moving_wheel_speed_rad_s,
+    )
+    bad_row = manual_row | low_sats_row | jump_row | frozen_row
+
+    flags = np.stack(
+        [
+            per_second(manual_row),
+            gap,
+            incomplete,
+            per_second(low_sats_row),
+            per_second(jump_row),
+            per_second(frozen_row),
+        ]
+    )
+    rule = np.where(flags.any(axis=0), flags.argmax(axis=0), -1)  # first rule that applies
+    row_at = np.searchsorted(s, np.arange(n_sec + 1))  # first row of each second
+
+    # A valid stretch needs a good start fix: the row just before its first second (a valid
+    # second's first step is never a gap, so that row is the last of the previous second).
+    v_start, _ = _runs(rule == -1)
+    fix = row_at[v_start] - 1
+    no_fix = (fix < 0) | bad_row[np.maximum(fix, 0)]
+    rule[v_start[no_fix]] = RULES.index("start_fix")
+
+    # Valid runs shorter than min_segment_s are dropped.
+    v_start, v_stop = _runs(rule == -1)
+    too_short = (v_stop - v_start) < policy.min_segment_s - TIME_EPS_S
+    for a, b in zip(v_start[too_short], v_stop[too_short], strict=True):  # per stretch
+        rule[a:b] = RULES.index("short_segment")
+    segments = [
+        Segment(int(row_at[a]) - 1, int(row_at[b]), float(k0 + a - 1), float(k0 + b - 1))
+        for a, b in zip(v_start[~too_short], v_stop[~too_short], strict=True)
+    ]
+
+    # Merge consecutive cut seconds with the same rule into reported intervals.
+    change = np.flatnonzero(rule[1:] != rule[:-1]) + 1
+    starts, stops = np.r_[0, change], np.r_[change, n_sec]
+    rows_in = {
+        "dt": np.r_[np.nan, np.diff(t)],
+        "sats": sats,
+        "speed": speed,
+        "wheel": wheel,
+        "count": count,
+    }
+    cut_list = [
+        Cut(
+            float(k0 + a - 1),
+            float(k0 + b - 1),
+            RULES[rule[a]],
+            _detail(RULES[rule[a]], a, b, row_at, rows_in, policy, n_per_s, cuts, k0),
+            int(row_at[b] - row_at[a]),
+        )
+        for a, b in zip(starts, stops, strict=True)
+        if rule[a] >= 0
+    ]
+    cut_seconds = {r: 0 for r in RULES}
+    cut_rows = {r: 0 for r in RULES}
+    for cut in cut_list:
+        cut_seconds[cut.rule] += cut.n_seconds
+        cut_rows[cut.rule] += cut.n_rows
+    return Assessment(segments, cut_list, n, n_sec, cut_seconds, cut_rows)
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop (exclusive) indices of the runs of True in a boolean array."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
+    return edges[0::2], edges[1::2]
+
+
+def _detail(
+    rule: str,
+    a: int,
+    b: int,
+    row_at: np.ndarray,
+    rows: dict[str, np.ndarray],
+    policy: GnssPolicy,
+    n_per_s: int,
+    cuts: Sequence[CutSpec],
+    k0: int,
+) -> str:
+    """Say why seconds ``a:b`` (0-based from the drive's first second) were cut."""
+    lo, hi = int(row_at[a]), int(row_at[b])
+    start_s, end_s = k0 + a - 1, k0 + b - 1
+    if rule == "manual":
+        reasons = [cut.reason for cut in cuts if cut.start_s <= end_s and cut.end_s > start_s]
+        return "manual cut: " + "; ".join(dict.fromkeys(reasons))
+    if rule == "gap":
+        # The steps into, inside and out of these seconds.
+        dt = rows["dt"][lo : min(hi + 1, len(rows["dt"]))]
+        longest = np.nanmax(dt) if np.isfinite(dt).any() else float("nan")
+        return f"time gap of up to {longest:.3g} s (> max_gap_s {policy.max_gap_s} s)"
+    if rule == "partial_second":
+        counts = sorted(set(rows["count"][a:b].tolist()))
+        return f"seconds with {counts} rows, a whole second has {n_per_s}"
+    if rule == "low_sats":
+        sats = rows["sats"][lo:hi]
+        fewest = "no count" if np.isnan(sats).any() else f"{int(np.nanmin(sats))} satellites"
+        return f"{fewest} (min_sats {policy.min_sats})"
+    if rule == "jump":
+        return (
+            f"fix-to-fix speed up to {np.max(rows['speed'][lo:hi]):.4g} m/s "
+            f"(> max_speed_m_s {policy.max_speed_m_s})"
+        )
+    if rule == "start_fix":
+        return (
+            "first second of a valid stretch: no usable fix at its start (drive start or a cut row)"
+        )
+    if rule == "frozen":
+        return (
+            f"GNSS fix unchanged while the rear wheels turned at up to "
+            f"{np.max(rows['wheel'][lo:hi]):.3g} rad/s "
+            f"(frozen_min_s {policy.frozen_min_s} s, moving above "
+            f"{policy.moving_wheel_speed_rad_s} rad/s)"
+        )
+    return f"valid stretch of {b - a} s dropped (< min_segment_s {policy.min_segment_s} s)"

@@ -1,0 +1,323 @@
+"""Stage ``validate``: canonical drives -> GNSS-valid segments + ``reports/validation.json``.
+
+For every ingested drive: the pandera schema (:mod:`rwhonet.data.schema`), then the
+GNSS-quality policy (:mod:`rwhonet.data.quality`), then the wheel-speed unit
+plausibility check (:mod:`rwhonet.data.plausibility`). Any problem in any drive
+fails the stage with one report of all of them and writes nothing; otherwise the
+segments are written at once (atomic folder) and the report lists, per drive,
+what was kept and every cut with its rule.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from rwhonet import paths
+from rwhonet.config import ConfigError, CutSpec, Params
+from rwhonet.data import canonical as c
+from rwhonet.data.ingest import MANIFEST, write_parquet
+from rwhonet.data.plausibility import implied_radius, unit_mistake
+from rwhonet.data.quality import RULES, Assessment, assess
+from rwhonet.data.schema import schema_problems
+from rwhonet.errors import InputError, Problem
+from rwhonet.io import atomic_dir, read_json, write_json
+
+CONVENTION = (
+    "t_start_s and t_end_s are whole seconds of the drive's own clock; a segment holds its "
+    "start fix (the last row with t_s <= t_start_s) and then every row with "
+    "t_start_s < t_s <= t_end_s, 1/sample_period_s rows per second (k-1, k], so n_rows = "
+    "n_seconds / sample_period_s + 1"
+)
+
+
+def segment_name(drive: str, k: int) -> str:
+    """Return the id of the ``k``-th segment of a drive (``V-S1__s000``; sorts in time order)."""
+    return f"{drive}__s{k:03d}"
+
+
+def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
+    """Check ``validate.cuts`` against the ingested drives and group them by drive.
+
+    Args:
+        params: the project parameters.
+        drives: ids of the ingested drives.
+
+    Returns:
+        Drive id -> its manual cuts.
+
+    Raises:
+        ConfigError: a cut names no ingested drive, or does not end after it starts.
+    """
+    issues = []
+    by_drive: dict[str, list[CutSpec]] = {}
+    for i, cut in enumerate(params.validate.cuts):
+        if cut.drive not in drives:
+            issues.append(
+                f"validate.cuts[{i}].drive={cut.drive!r}: no such drive; ingested: {sorted(drives)}"
+            )
+        if not cut.end_s > cut.start_s:
+            issues.append(
+                f"validate.cuts[{i}]: end_s={cut.end_s} is not after start_s={cut.start_s}"
+            )
+        by_drive.setdefault(cut.drive, []).append(cut)
+    if issues:
+        raise ConfigError("\n".join(issues))
+    return by_drive
+
+
+def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path) -> dict[str, Any]:
+    """Validate every ingested drive and cut it into GNSS-valid segments.
+
+    Args:
+        params: the project parameters (``validate`` and ``data.vehicles`` used).
+        drives_dir: the ingest output (``rwhonet.paths.DRIVES``).
+        out_dir: the segments folder (``rwhonet.paths.SEGMENTS``); replaced only on success.
+        report_path: where the validation report goes (``rwhonet.paths.VALIDATION_REPORT``);
+            written only on success.
+
+    Returns:
+        The report: ``{"convention", "policy", "drives": [...], "totals": {...}}``; per drive
+        the rows and seconds kept, its segments, every cut (``start_s``, ``end_s``, ``rule``,
+        ``detail``) and the seconds and rows cut per rule.
+
+    Raises:
+        ConfigError: bad ``validate`` parameters.
+        InputError: one report of every problem of every drive (schema failures in the
+            source file's rows and columns, a drive left without a valid segment, wheel
+            speeds in an implausible unit); nothing is written.
+    """
+    vp = params.validate
+    n_per_s = 1.0 / vp.sample_period_s
+    if abs(n_per_s - round(n_per_s)) > 1e-9:
+        raise ConfigError(
+            f"validate.sample_period_s={vp.sample_period_s}: whole seconds need an integer "
+            "number of samples (1 / sample_period_s)"
+        )
+    manifest_path = Path(drives_dir) / MANIFEST
+    if not manifest_path.is_file():
+        raise InputError(
+            [Problem(paths.rel(manifest_path), None, None, "the ingest manifest", "no such file")],
+            summary="run the ingest stage first",
+        )
+    manifest = read_json(manifest_path)
+    cuts = check_cuts(params, [d["drive"] for d in manifest["drives"]])
+
+    problems: list[Problem] = []
+    drive_reports: list[dict[str, Any]] = []
+    segment_entries: list[dict[str, Any]] = []
+    with atomic_dir(out_dir) as tmp:
+        for entry in manifest["drives"]:
+            df = pd.read_parquet(Path(drives_dir) / f"{entry['drive']}.parquet")
+            found = schema_problems(df, vp, entry["source_file"], entry["columns"])
+            # The GNSS policy needs a drive that passed the schema; wheel speeds out of range
+            # alone don't stop it, so the unit check can tell rpm or deg/s apart.
+            if not found or _only_wheel_ranges(found, df, entry["columns"]):
+                result = assess(df, vp.gnss, vp.sample_period_s, cuts.get(entry["drive"], []))
+                more, radius = _drive_problems(params, entry, df, result)
+                found += more
+            if found:
+                problems += found
+                continue
+            drive_reports.append(_drive_report(entry, result, radius))
+            if problems:
+                continue  # the stage will fail: write no more segments
+            for k, seg in enumerate(result.segments):
+                name = segment_name(entry["drive"], k)
+                rows = df.iloc[seg.row_start : seg.row_stop]
+                write_parquet(
+                    pa.Table.from_pandas(rows, preserve_index=False), tmp / f"{name}.parquet"
+                )
+                segment_entries.append(
+                    {
+                        "segment": name,
+                        "drive": entry["drive"],
+                        "role": entry["role"],
+                        "vehicle": entry["vehicle"],
+                        "t_start_s": seg.t_start_s,
+                        "t_end_s": seg.t_end_s,
+                        "n_rows": seg.n_rows,
+                        "n_seconds": seg.n_seconds,
+                        "source_file": entry["source_file"],
+                    }
+                )
+        if problems:
+            n_files = len({p.file for p in problems})
+            raise InputError(
+                problems, summary=f"validate: {len(problems)} problem(s) in {n_files} file(s)"
+            )
+        write_json(
+            tmp / MANIFEST,
+            {
+                "convention": CONVENTION,
+                "segments": segment_entries,
+                "calibration": manifest.get("calibration"),
+            },
+        )
+    report = {
+        "convention": CONVENTION,
+        "policy": params.section("validate"),
+        "drives": drive_reports,
+        "totals": _totals(drive_reports, len(segment_entries)),
+    }
+    write_json(report_path, report)
+    return report
+
+
+def _drive_problems(
+    params: Params,
+    entry: dict[str, Any],
+    df: pd.DataFrame,
+    result: Assessment,
+) -> tuple[list[Problem], dict[str, Any]]:
+    """Problems of a schema-valid drive after the GNSS policy, and its radius check."""
+    vp = params.validate
+    file, columns = entry["source_file"], entry["columns"]
+    problems = []
+    t0, t1 = float(df[c.T_S].iloc[0]), float(df[c.T_S].iloc[-1])
+    for i, cut in enumerate(params.validate.cuts):
+        if cut.drive == entry["drive"] and (cut.end_s < t0 or cut.start_s > t1):
+            problems.append(
+                Problem(
+                    "params.yaml",
+                    None,
+                    f"validate.cuts[{i}]",
+                    f"an interval overlapping {entry['drive']}'s time span {t0}-{t1} s (its "
+                    "own clock)",
+                    f"{cut.start_s}-{cut.end_s} s",
+                )
+            )
+    if not result.segments:
+        by_rule = sorted(result.cut_seconds_by_rule.items(), key=lambda kv: -kv[1])
+        problems.append(
+            Problem(
+                file,
+                None,
+                None,
+                f"at least one GNSS-valid stretch of >= {vp.gnss.min_segment_s} s",
+                f"none: all {result.n_seconds} s cut, "
+                + ", ".join(f"{rule} {s} s" for rule, s in by_rule if s)
+                + f" (rule {by_rule[0][0]}: {_first_detail(result, by_rule[0][0])})",
+            )
+        )
+        return problems, {"checked": False, "note": "no valid segment"}
+
+    nominal = params.data.vehicles[entry["vehicle"]].nominal_radius_m
+    est = implied_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+    radius = {
+        "implied_m": None if np.isnan(est.radius_m) else est.radius_m,
+        "nominal_m": nominal,
+        "moving_s": est.moving_s,
+        "checked": est.moving_s >= vp.radius_min_moving_s,
+    }
+    if not radius["checked"]:
+        radius["note"] = (
+            f"only {est.moving_s} moving s in valid segments (< validate.radius_min_moving_s "
+            f"{vp.radius_min_moving_s}): unit check skipped"
+        )
+        return problems, radius
+    radius["ratio"] = est.radius_m / nominal
+    mistake = unit_mistake(est.radius_m, nominal, vp.radius_tolerance)
+    if mistake:
+        problems.append(
+            Problem(
+                file,
+                None,
+                f"{columns.get(c.OMEGA_RL, c.OMEGA_RL)} / {columns.get(c.OMEGA_RR, c.OMEGA_RR)}",
+                f"rear wheel speeds in rad/s implying an effective radius within "
+                f"±{vp.radius_tolerance:.0%} of {entry['vehicle']}'s nominal {nominal} m "
+                f"(GNSS distance / wheel angle over {est.moving_s} moving s)",
+                mistake,
+            )
+        )
+    return problems, radius
+
+
+def _only_wheel_ranges(found: list[Problem], df: pd.DataFrame, columns: dict[str, str]) -> bool:
+    """Whether a drive's only schema problems are wheel speeds out of range (no NaN)."""
+    wheels = {columns.get(w, w) for w in c.WHEELS}
+    return all(p.column in wheels for p in found) and not df[list(c.WHEELS)].isna().any(axis=None)
+
+
+def _first_detail(result: Assessment, rule: str) -> str:
+    return next(cut.detail for cut in result.cuts if cut.rule == rule)
+
+
+def _drive_report(entry: dict[str, Any], result: Assessment, radius: dict[str, Any]) -> dict:
+    return {
+        "drive": entry["drive"],
+        "role": entry["role"],
+        "vehicle": entry["vehicle"],
+        "source_file": entry["source_file"],
+        "rows": result.n_rows,
+        "rows_kept": result.rows_kept,
+        "seconds": result.n_seconds,
+        "seconds_kept": result.seconds_kept,
+        "segments": [
+            {
+                "segment": segment_name(entry["drive"], k),
+                "t_start_s": s.t_start_s,
+                "t_end_s": s.t_end_s,
+                "n_seconds": s.n_seconds,
+            }
+            for k, s in enumerate(result.segments)
+        ],
+        "cuts": [
+            {
+                "start_s": cut.start_s,
+                "end_s": cut.end_s,
+                "rule": cut.rule,
+                "detail": cut.detail,
+                "n_seconds": cut.n_seconds,
+                "n_rows": cut.n_rows,
+            }
+            for cut in result.cuts
+        ],
+        "cut_seconds_by_rule": result.cut_seconds_by_rule,
+        "cut_rows_by_rule": result.cut_rows_by_rule,
+        "radius": radius,
+    }
+
+
+def _totals(drives: list[dict[str, Any]], n_segments: int) -> dict[str, Any]:
+    return {
+        "drives": len(drives),
+        "segments": n_segments,
+        "rows": sum(d["rows"] for d in drives),
+        "rows_kept": sum(d["rows_kept"] for d in drives),
+        "seconds": sum(d["seconds"] for d in drives),
+        "seconds_kept": sum(d["seconds_kept"] for d in drives),
+        "cut_seconds_by_rule": {r: sum(d["cut_seconds_by_rule"][r] for d in drives) for r in RULES},
+        "cut_rows_by_rule": {r: sum(d["cut_rows_by_rule"][r] for d in drives) for r in RULES},
+    }
+
+
+def summary_table(report: dict[str, Any]) -> str:
+    """Return a short text table of what validation kept and cut (for the stage's output).
+
+    Args:
+        report: what :func:`validate` returned.
+
+    Returns:
+        One line per drive (seconds kept, segments, seconds cut per rule) and a total line.
+    """
+    head = f"{'drive':<24} {'role':<18} {'kept s':>8} {'of s':>8} {'segs':>5}  cut (s by rule)"
+    lines = [head]
+    for d in report["drives"]:
+        cut = ", ".join(f"{r} {s}" for r, s in d["cut_seconds_by_rule"].items() if s) or "-"
+        lines.append(
+            f"{d['drive']:<24} {d['role']:<18} {d['seconds_kept']:>8} {d['seconds']:>8} "
+            f"{len(d['segments']):>5}  {cut}"
+        )
+    t = report["totals"]
+    share = t["seconds_kept"] / t["seconds"] if t["seconds"] else 0.0
+    cut = ", ".join(f"{r} {s}" for r, s in t["cut_seconds_by_rule"].items() if s) or "-"
+    lines.append(
+        f"{t['drives']} drive(s): {t['seconds_kept']} of {t['seconds']} s kept ({share:.1%}) "
+        f"in {t['segments']} segment(s); cut: {cut}"
+    )
+    return "\n".join(lines)
