@@ -1,0 +1,196 @@
+"""One simulated drive: file layout, determinism, physics seen through the sensors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.data.canonical import G_M_S2
+from rwhonet.data.iovnbd import HEADERS
+from rwhonet.geo import geodesic_distance_m
+from rwhonet.sim import SimOptions, simulate_drive, steady_turn_route, straight_route
+from rwhonet.sim.writer import write_csv, write_drive
+
+from .conftest import drive_spec, simulate_spec, with_params
+
+REAR = [" Wheel Speed Rear Left (rad/sec)", " Wheel Speed Rear Right (rad/sec)"]
+TAGS = {
+    "urban", "country", "motorway", "wet_road", "roundabout", "sharp_turn", "successive_turns",
+    "hard_brake", "quick_acceleration", "reversing", "standstill", "traffic", "steady_turn",
+    "gnss_low_sats", "gnss_frozen", "gnss_jump", "gnss_gap",
+}  # fmt: skip
+
+
+def per_second_gnss_m(frame: pd.DataFrame) -> np.ndarray:
+    lat, lon = frame[" Lat"].to_numpy()[::10], frame[" Long"].to_numpy()[::10]
+    return geodesic_distance_m(lat[:-1], lon[:-1], lat[1:], lon[1:])
+
+
+def test_layout_29_columns_with_the_exact_headers(urban_drive, tmp_path):
+    frame = urban_drive.frame
+    assert tuple(frame.columns) == HEADERS and len(HEADERS) == 29
+    path = write_drive(tmp_path, "T-1", *urban_drive[:3])
+    first = path.read_bytes().split(b"\n", 1)[0].decode()
+    assert first == ",".join(HEADERS)  # leading spaces kept, nothing quoted
+    back = pd.read_csv(path)
+    assert tuple(back.columns) == HEADERS
+    pd.testing.assert_frame_equal(back, frame, check_dtype=False)  # the file holds the frame
+    assert (tmp_path / "T-1.scenarios.json").is_file() and (tmp_path / "T-1.truth.json").is_file()
+    with pytest.raises(ValueError, match="IO-VNBD layout"):
+        write_csv(frame.iloc[:, :5], tmp_path / "bad.csv")
+
+
+def test_same_seed_same_bytes_other_seed_other_bytes(params, source, tmp_path):
+    spec = drive_spec(duration_s=120.0, gnss_faults=["gap"])
+    paths = []
+    for k, seed in enumerate((11, 11, 12)):
+        d = simulate_spec(params, source, spec, seed=seed)
+        paths.append(write_drive(tmp_path / str(k), "T", d.frame, d.scenarios, d.truth))
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    assert paths[0].read_bytes() != paths[2].read_bytes()
+    for suffix in (".scenarios.json", ".truth.json"):
+        a, b = (p.with_suffix(suffix) for p in paths[:2])
+        assert a.read_bytes() == b.read_bytes()
+
+
+def test_10_hz_rows_and_time_of_day(urban_drive):
+    frame, _, truth, state = urban_drive
+    t = frame[" Time"].to_numpy()
+    dt = np.round(np.diff(t), 2)
+    gap = next(f for f in state.faults if f.kind == "gap")
+    assert np.all((dt == 0.1) | (np.arange(dt.size) == gap.i0 - 1))
+    assert dt[gap.i0 - 1] == pytest.approx((gap.i1 - gap.i0 + 1) * 0.1)
+    assert len(frame) == 6000 - (gap.i1 - gap.i0)
+    assert t[0] == truth["start_s_of_day"] and 0 <= t[0] < 86400 - 600
+    assert np.all(frame[" Sample Period"] == 0.1)
+
+
+def test_lateral_acceleration_is_bounded(urban_drive, params):
+    state = urban_drive.state
+    m = state.motion
+    rear = m.speed_m_s**2 * np.abs(m.curvature_1_m) / G_M_S2
+    assert rear.max() <= params.sim.lat_acc_max_g + 1e-6  # the driver's planning limit
+    assert rear.max() > 0.3  # ...and the tight turns do get close to it
+    assert np.abs(state.accel_y_cg_m_s2).max() / G_M_S2 <= 0.42  # at the centre of gravity
+    assert np.abs(urban_drive.frame[" Indicated Lateral Acceleration (g)"]).max() <= 0.45
+
+
+def test_hard_brakes_reach_minus_045_g(urban_drive):
+    frame, scenarios, _, state = urban_drive
+    t = frame[" Time"].to_numpy()
+    acc = frame[" Indicated Longitudinal Acceleration (g)"].to_numpy()
+    t_true = state.motion.t_s + t[0]
+    brakes = [i for i in scenarios["intervals"] if i["tag"] == "hard_brake"]
+    assert len(brakes) >= 2
+    for b in brakes:
+        truth = (t_true >= b["start_s"]) & (t_true <= b["end_s"])
+        assert state.accel_x_cg_m_s2[truth].min() / G_M_S2 <= -0.45
+        seen = (t >= b["start_s"]) & (t <= b["end_s"])
+        assert acc[seen].min() <= -0.45
+
+
+def test_scenario_intervals(urban_drive):
+    frame, scenarios, _, state = urban_drive
+    t = frame[" Time"].to_numpy()
+    t0 = t[0]
+    intervals = scenarios["intervals"]
+    assert {i["tag"] for i in intervals} <= TAGS
+    for i in intervals:
+        assert t0 <= i["start_s"] <= i["end_s"] <= t0 + 600.0
+    m = state.motion
+    tags = {i["tag"] for i in intervals}
+    assert {"roundabout", "reversing", "wet_road", "sharp_turn", "hard_brake"} <= tags
+    for i in intervals:
+        inside = (m.t_s + t0 >= i["start_s"]) & (m.t_s + t0 <= i["end_s"])
+        if i["tag"] == "reversing":
+            assert np.all(m.direction[inside & (m.speed_m_s > 0)] < 0)
+        if i["tag"] == "roundabout":  # UK: clockwise circulation
+            assert m.yaw_rate_rad_s[inside].min() < -0.3
+        if i["tag"] == "wet_road":
+            assert np.all(m.wet[inside][1:-1])
+
+
+def test_ideal_straight_drive_calibrates_to_the_true_radius(params, source):
+    drive = simulate_drive(
+        source, "C", straight_route(15.0, 300.0), 3, params.sim, options=SimOptions.ideal()
+    )
+    frame, truth = drive.frame, drive.truth
+    d_gnss = per_second_gnss_m(frame)
+    omega = frame[REAR].to_numpy()[::10][1:]  # wheel speed at the end of each second
+    cruise = d_gnss > 14.0  # constant speed: sampled wheel speed x 1 s = distance
+    assert cruise.sum() > 250
+    for k, wheel in enumerate(("rl", "rr")):
+        radius = (d_gnss[cruise] / omega[cruise, k]).mean()
+        assert radius == pytest.approx(truth["radius_static_m"][wheel], rel=5e-4)
+
+
+def test_steady_turn_outer_wheel_turns_faster_by_the_track_ratio(params, source):
+    radius, p = 25.0, source.params
+    drive = simulate_drive(
+        source,
+        "E",
+        steady_turn_route(radius, 6.0, 120.0),
+        1,
+        params.sim,
+        options=SimOptions.ideal(),
+    )
+    frame, truth = drive.frame, drive.truth
+    rl, rr = frame[REAR].to_numpy()[600:1100].T
+    r = truth["radius_static_m"]
+    ratio = (rr * r["rr"]) / (rl * r["rl"])
+    expected = (radius + p.track_rear_m / 2) / (radius - p.track_rear_m / 2)
+    np.testing.assert_allclose(ratio, expected, rtol=2e-3)  # 0.01 rad/s rounding of ~20 rad/s
+    w = drive.state.wheels  # ideal: omega * r_e is exactly the wheel's ground speed
+    np.testing.assert_allclose(w.omega_rad_s * w.radius_m, w.ground_speed_m_s, rtol=1e-12)
+
+
+def test_zero_slip_true_radius_and_antenna_on_the_axle_give_zero_label(params, source):
+    # The physics of the label: with ideal sensors, no slip, radius at the truth and the
+    # antenna above the rear-axle centre, GNSS distance equals rear-wheel odometry even
+    # through roundabouts and sharp turns; moving the antenna forward makes GNSS see
+    # a longer path in turns (a real effect the model learns).
+    spec = drive_spec(
+        duration_s=300.0, roads={"urban": 1.0}, events={"roundabout": 2, "sharp_turn": 3}
+    )
+    labels = {}
+    for x_m in (0.0, 1.5):
+        car = with_params(source, antenna_x_m=x_m, antenna_y_m=0.0)
+        d = simulate_spec(params, car, spec, seed=4, options=SimOptions.ideal())
+        lat, lon = d.frame[" Lat"].to_numpy(), d.frame[" Long"].to_numpy()
+        gnss_m = geodesic_distance_m(lat[:-1], lon[:-1], lat[1:], lon[1:])
+        w = d.frame[REAR].to_numpy() * np.array(
+            [d.truth["radius_static_m"][k] for k in ("rl", "rr")]
+        )
+        wpm_m = 0.05 * (w[:-1] + w[1:]).mean(axis=1)  # trapezoid over each 0.1 s
+        labels[x_m] = gnss_m - wpm_m
+        total = gnss_m.sum()
+    # Per 0.1 s step the only error is the trapezoid rule across a jump of the
+    # acceleration (braking into a turn, accelerating out): |da| dt^2 / 8 <= 4 mm.
+    assert np.abs(labels[0.0]).max() < 5e-3
+    assert abs(labels[0.0].sum()) < 1e-4 * total
+    assert labels[1.5].sum() > 20 * abs(labels[0.0].sum())
+    assert labels[1.5].max() > 0.01
+
+
+def test_truth_sidecar(urban_drive, source):
+    truth = urban_drive.truth
+    assert truth["vehicle"] == "source" and truth["tyre_state"] == "A"
+    assert truth["pressure_psi"] == {"fl": 15.0, "fr": 16.0, "rl": 14.0, "rr": 14.0}
+    for wheel, r in truth["radius_static_m"].items():
+        assert abs(r / source.nominal_radius_m - 1) < 0.05, wheel
+    assert truth["seed"] == {"entropy": 7, "spawn_key": []}
+    assert truth["distance_m"] == pytest.approx(urban_drive.state.motion.s_m[-1], abs=1e-3)
+
+
+def test_slip_in_a_drive_driven_axle_spins_under_traction_all_lag_under_braking(urban_drive):
+    state = urban_drive.state
+    m, w = state.motion, state.wheels
+    traction = (m.accel_m_s2 > 1.0) & (m.speed_m_s > 3.0)
+    braking = (m.accel_m_s2 < -3.0) & (m.speed_m_s > 3.0)
+    assert traction.sum() > 100 and braking.sum() > 100
+    front, rear = w.slip[:2], w.slip[2:]
+    assert np.all(front[:, traction] > 0) and np.all(rear[:, traction] < 0)  # FWD car
+    assert np.all(w.slip[:, braking] < 0)
+    spin = w.omega_rad_s * w.radius_m / np.maximum(w.ground_speed_m_s, 1e-9)
+    assert np.all(spin[:2, traction] > 1.0) and np.all(spin[:, braking] < 1.0)
