@@ -374,7 +374,11 @@ class _Leg:
 
 
 def _legs(
-    drive: SimDrive, roads: dict[str, SimRoad], duration_s: float, rng: np.random.Generator
+    drive: SimDrive,
+    roads: dict[str, SimRoad],
+    duration_s: float,
+    rng: np.random.Generator,
+    eta_scale: float = 1.0,
 ) -> list[_Leg]:
     """Split ``duration_s`` of driving into legs, by road type, in random order."""
     total = sum(drive.roads.values())
@@ -387,7 +391,7 @@ def _legs(
             dur = min(_uniform(rng, road.leg_s), remaining)
             remaining -= dur
             speed = _uniform(rng, road.speed_m_s)
-            length = dur * speed * _ETA.get(name, _ETA_DEFAULT)
+            length = dur * speed * _ETA.get(name, _ETA_DEFAULT) * eta_scale
             legs.append(_Leg(name, dur, speed, length))
     order = rng.permutation(len(legs))
     return [legs[i] for i in order]
@@ -423,6 +427,7 @@ class _Layout:
     blocks: list[tuple[float, Block]] = field(default_factory=list)
     legs: list[tuple[float, float, _Leg]] = field(default_factory=list)
     length_m: float = 0.0
+    main_end_m: float = 0.0  # where the legs carrying the drive's explicit events end
 
 
 def _lay_out(legs: list[_Leg], roads: dict[str, SimRoad], rng, layout: _Layout) -> None:
@@ -539,40 +544,62 @@ def _wet_stretches(length_m: float, fraction: float, rng) -> list[tuple[float, f
     return [(float(a), float(a + each)) for a in starts]
 
 
-def build_route(
-    drive: SimDrive,
-    sim: SimParams,
-    rng: np.random.Generator,
-    extension: int = 1,
-) -> Route:
+def _build(
+    drive: SimDrive, sim: SimParams, rng: np.random.Generator, extension: int, eta_scale: float
+) -> tuple[Route, float]:
     """Lay out a random route for ``drive`` (no speed planning, no duration cut).
 
     The legs for ``drive.duration_s`` carry the drive's explicit event counts;
     ``extension`` further sets of legs (each for half the duration, road rates
     only) make sure the route outlasts the recording.
 
-    Args:
-        drive: the drive spec (road mix, events, wetness).
-        sim: the simulator settings (road types).
-        rng: random generator.
-        extension: number of extension leg sets.
-
     Returns:
-        The route.
+        The route and where the legs with the explicit events end (m).
     """
     for kind in drive.events:
         if kind not in SIM_EVENTS:
             raise ConfigError(f"drive {drive.name}: unknown event {kind!r}; expected {SIM_EVENTS}")
-    main = _legs(drive, sim.roads, drive.duration_s, rng)
+    main = _legs(drive, sim.roads, drive.duration_s, rng, eta_scale)
     _assign_events(main, sim.roads, drive.events, drive.event_scale, rng)
     layout = _Layout()
     _lay_out(main, sim.roads, rng, layout)
-    wet = _wet_stretches(layout.length_m, drive.wet_fraction, rng)
+    main_end = layout.length_m
+    wet = _wet_stretches(main_end, drive.wet_fraction, rng)
     for _ in range(extension):
-        extra = _legs(drive, sim.roads, 0.5 * drive.duration_s, rng)
+        extra = _legs(drive, sim.roads, 0.5 * drive.duration_s, rng, eta_scale)
         _assign_events(extra, sim.roads, {}, drive.event_scale, rng)
         _lay_out(extra, sim.roads, rng, layout)
-    return _rasterise(layout, sim.roads, wet, rng)
+    return _rasterise(layout, sim.roads, wet, rng), main_end
+
+
+def _fit(route: Route, vehicle: Vehicle, sim: SimParams, target: float) -> Route | None:
+    """Cut ``route`` so the car stops at a node it reaches before ``target``, then stands.
+
+    Returns:
+        The cut route lasting exactly ``target`` seconds, or None if the route is
+        too short.
+    """
+    plan = plan_speed(route, vehicle, sim)
+    margin = 20.0
+    while margin < 2.0 * target:
+        # The last node reached ``margin`` before the end (maybe a long standstill).
+        last = int(np.searchsorted(plan.arrival_s, max(target - margin, 0.0), side="right")) - 1
+        if last >= route.n - 1:
+            return None
+        short = route.truncated(max(last + 1, 3))
+        arrive = plan_speed(short, vehicle, sim).arrival_s[-1]
+        if arrive <= target:
+            tags = short.tags
+            if target - arrive >= 20.0:
+                s_end = (short.n - 1) * short.ds_m
+                tags = (*tags, (s_end, s_end, "standstill"))
+            return replace(
+                short.truncated(short.n, end_dwell_s=target - arrive),
+                tags=tags,
+                duration_s=target,
+            )
+        margin *= 2.0
+    return None
 
 
 def generate_route(
@@ -582,7 +609,10 @@ def generate_route(
 
     The laid-out route is planned, cut at a node reached shortly before the end
     of the drive (the car brakes to a stop there) and the remaining time is
-    spent standing (engine on), so the recording ends with the car at rest.
+    spent standing (engine on), so the recording ends with the car at rest. If
+    the cut would drop some of the drive's explicit events (``drive.events``),
+    the legs carrying them are laid out shorter and the route rebuilt; counts
+    that cannot fit the duration at all are kept as far as they fit.
 
     Args:
         drive: the drive spec.
@@ -595,27 +625,21 @@ def generate_route(
     """
     base_seed = int(rng.integers(2**63))
     target = float(drive.duration_s)
-    for extension in (1, 2, 4, 8, 16):
-        # Same seed each attempt: the main legs (and their explicit events) stay
-        # the same; only the extension grows.
-        route = build_route(drive, sim, np.random.default_rng(base_seed), extension)
-        plan = plan_speed(route, vehicle, sim)
-        margin = 20.0
-        while margin < target:
-            cut = int(np.searchsorted(plan.arrival_s, target - margin))
-            if cut >= route.n - 1:
-                break  # the route ends too early: extend it
-            short = route.truncated(max(cut + 1, 3))
-            arrive = plan_speed(short, vehicle, sim).arrival_s[-1]
-            if arrive <= target:
-                tags = short.tags
-                if target - arrive >= 20.0:
-                    s_end = (short.n - 1) * short.ds_m
-                    tags = (*tags, (s_end, s_end, "standstill"))
-                return replace(
-                    short.truncated(short.n, end_dwell_s=target - arrive),
-                    tags=tags,
-                    duration_s=target,
-                )
-            margin *= 2.0
-    raise RuntimeError(f"could not lay out a route of {target} s for drive {drive.name}")
+    best = None
+    for eta_scale in (1.0, 0.7, 0.5, 0.35):
+        for extension in (1, 2, 4, 8, 16):
+            # Same seed each attempt: the layout only changes where asked to.
+            route, main_end = _build(
+                drive, sim, np.random.default_rng(base_seed), extension, eta_scale
+            )
+            fitted = _fit(route, vehicle, sim, target)
+            if fitted is not None:
+                break
+        else:
+            continue
+        best = fitted
+        if not drive.events or (fitted.n - 1) * fitted.ds_m >= main_end:
+            return fitted
+    if best is None:
+        raise RuntimeError(f"could not lay out a route of {target} s for drive {drive.name}")
+    return best
