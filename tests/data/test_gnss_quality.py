@@ -11,7 +11,13 @@ from geographiclib.geodesic import Geodesic
 from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.plausibility import implied_radius, unit_mistake
-from rwhonet.data.quality import assess, frozen_rows, second_index
+from rwhonet.data.quality import (
+    assess,
+    frozen_rows,
+    implied_speed_m_s,
+    local_step_distance_m,
+    second_index,
+)
 
 from .drives import straight_drive
 
@@ -222,3 +228,29 @@ def test_unit_mistake_names_the_likely_unit(factor, unit):
 def test_plausible_radius_passes():
     assert unit_mistake(0.30, 0.298, 0.05) is None
     assert unit_mistake(0.298 * 1.06, 0.298, 0.05) is not None
+
+
+def test_tangent_plane_step_distance_matches_the_geodesic():
+    rng = np.random.default_rng(7)
+    lat = rng.uniform(-75.0, 75.0, 300)
+    lon = rng.uniform(-180.0, 180.0, 300)
+    azimuth = rng.uniform(0.0, 360.0, 300)
+    dist = 10 ** rng.uniform(-1.0, 3.3, 300)  # 0.1 m .. 2 km
+    ends = [Geodesic.WGS84.Direct(*args) for args in zip(lat, lon, azimuth, dist, strict=True)]
+    pairs_lat = np.ravel(np.column_stack([lat, [e["lat2"] for e in ends]]))
+    pairs_lon = np.ravel(np.column_stack([lon, [e["lon2"] for e in ends]]))
+    approx = local_step_distance_m(pairs_lat, pairs_lon)[0::2]
+    np.testing.assert_allclose(approx, dist, rtol=1e-6)
+    # Across the antimeridian the short way round is taken.
+    across = local_step_distance_m(np.array([0.0, 0.0]), np.array([179.99995, -179.99995]))
+    assert across[0] == pytest.approx(11.13, abs=0.01)
+
+
+def test_implied_speed_is_exact_above_the_screening_threshold():
+    drive = straight_drive(duration_s=3.0)
+    _move(drive, 12, 30.0)
+    t, lat, lon = (drive[k].to_numpy() for k in (c.T_S, c.LAT_DEG, c.LON_DEG))
+    screened = implied_speed_m_s(t, lat, lon, exact_above_m_s=35.0)
+    exact = implied_speed_m_s(t, lat, lon)
+    assert screened[12] == exact[12] > 35.0  # the jump: geodesic, bit for bit
+    np.testing.assert_allclose(screened, exact, rtol=1e-7)
