@@ -173,3 +173,10 @@ def test_empty_file_and_header_only(tmp_path, text, found):
 def test_layout_has_29_columns_and_all_required_channels():
     assert len(LAYOUT) == 29
     assert set(c.REQUIRED) <= {col.canonical for col in LAYOUT}
+
+
+def test_file_without_header_row_is_refused_not_shortened(tmp_path):
+    with pytest.raises(InputError) as err:
+        read_iovnbd(_write(tmp_path, _lines()[1:]))
+    (problem,) = err.value.problems
+    assert problem.expected.startswith("a header row first") and "29 numbers" in problem.found

@@ -219,7 +219,7 @@ def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
                     "n_rows": raw.n_rows,
                     "header_match": raw.header_match,
                     "columns": raw.source_columns,
-                    "scenarios_file": paths.rel(sidecar) if intervals else None,
+                    "scenarios_file": paths.rel(sidecar) if sidecar.is_file() else None,
                     "calibrates": f.drive in calibration["drives"],
                 }
             )

@@ -156,6 +156,20 @@ def read_iovnbd(path: Path) -> RawDrive:
         raise InputError(
             problems, summary=f"cannot locate the columns of {file} (header: {shown})"
         ) from None
+    if match == "position" and all(_is_number(h) for h in header):
+        # A file without its header row: taking the first data row as the header would
+        # drop it silently.
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    "a header row first (IO-VNBD files start with one)",
+                    f"a row of {len(header)} numbers: {','.join(header)[:60]!r}",
+                )
+            ]
+        )
     values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()})
     to_si = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
     return RawDrive(
@@ -163,3 +177,11 @@ def read_iovnbd(path: Path) -> RawDrive:
         source_columns={name: header[pos] for name, pos in positions.items()},
         header_match=match,
     )
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
