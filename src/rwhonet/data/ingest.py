@@ -125,7 +125,8 @@ def discover(data: DataParams) -> list[DriveFile]:
                 )
             )
     if problems:
-        raise InputError(problems, summary="the drives listed in params.yaml data.roles")
+        hint = " (data.source=sim: run the simulate stage first)" if data.source == "sim" else ""
+        raise InputError(problems, summary=f"the drives listed in params.yaml data.roles{hint}")
     return files
 
 
