@@ -17,7 +17,7 @@ Clock convention (shared with the label stage, :mod:`rwhonet.features.seconds`)
     and rows ``10 k + 1 … 10 k + 10`` are second ``k``, so its seconds end on whole
     seconds of the drive's clock. The start fix must itself be a good row (not
     flagged by a row rule below); when it is not, or the drive starts right there,
-    the first valid second is cut as ``start_fix`` and serves as the start fix.
+    the first valid second is cut as ``start_fix`` and its last row is the start fix.
 
 Rules (a second is cut by the first that applies, in this order)
     manual          a ``validate.cuts`` interval ``[start_s, end_s]`` of this drive holds a row
