@@ -1,7 +1,7 @@
 """From a route to motion: speed planning, time sampling and pose integration.
 
 Speed planning is the classic forward-backward pass of minimum-time speed
-profiles with bounded acceleration (e.g. Lipp & Boyd 2014, Sec. 2), written
+profiles with bounded acceleration (e.g. Lipp & Boyd 2014), written
 in ``u = v^2``: under constant acceleration ``u`` is linear in distance, so
 ``u_i <= u_j + 2 a (s_i - s_j)`` and both passes are running minima
 (``np.minimum.accumulate``) instead of loops over nodes. The result is a

@@ -219,17 +219,19 @@ def _uniform(rng: np.random.Generator, pair: list[float] | tuple[float, float]) 
     return float(rng.uniform(pair[0], pair[1]))
 
 
-def _event_stop(rng, road, v):
-    # Traffic lights, give-way and stop junctions.
+def _event_stop(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """Traffic lights, give-way and stop junctions: stop, stand 3-40 s."""
     return Block(10.0, stops=[(5.0, _uniform(rng, (3.0, 40.0)))])
 
 
-def _event_standstill(rng, road, v):
+def _event_standstill(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """A long standstill (parked with the engine on, queue): 60-240 s."""
     dwell = _uniform(rng, (60.0, 240.0))
     return Block(10.0, stops=[(5.0, dwell)], tags=[(5.0, 5.0, "standstill")])
 
 
-def _event_traffic(rng, road, v):
+def _event_traffic(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """Congestion: 15-50 % of the leg speed over 80-400 m (x2 on motorways), maybe stop-and-go."""
     length = _uniform(rng, (80.0, 400.0)) * (2.0 if v > 25.0 else 1.0)
     block = Block(length, caps=[(0.0, length, v * _uniform(rng, (0.15, 0.5)))])
     if rng.random() < 0.3:  # stop-and-go
@@ -238,7 +240,8 @@ def _event_traffic(rng, road, v):
     return block
 
 
-def _event_curve(rng, road, v):
+def _event_curve(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """A road curve of the leg's radius and angle ranges, with clothoid transitions."""
     radius = _uniform(rng, road.curve_radius_m)
     angle = math.radians(_uniform(rng, road.curve_angle_deg)) * rng.choice([-1.0, 1.0])
     # Clothoid length from a comfortable rate of change of lateral acceleration
@@ -248,9 +251,9 @@ def _event_curve(rng, road, v):
     return Block(length, turns=[(0.0, angle, radius, ramp)])
 
 
-def _event_roundabout(rng, road, v):
-    # UK roundabout: a left deflection in, clockwise (right-hand) circulation,
-    # a left deflection out. Net heading change by exit: left, ahead, right, back.
+def _event_roundabout(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """UK roundabout: left deflection in, clockwise circulation, left deflection out."""
+    # Net heading change by exit: left, ahead, right, back.
     net_deg = float(rng.choice([90.0, 0.0, -90.0, -180.0], p=[0.3, 0.35, 0.25, 0.1]))
     deflect = math.radians(40.0)
     circulate = -math.radians(max(80.0 - net_deg, 20.0))
@@ -272,8 +275,9 @@ def _event_roundabout(rng, road, v):
     return block
 
 
-def _event_sharp_turn(rng, road, v):
-    # Junction turns and U-turns; radius >= 5.5 m (a small car's turning circle).
+def _event_sharp_turn(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """A junction turn or U-turn (80-180 deg, radius 5.5-9 m)."""
+    # Radius >= 5.5 m: a small car's turning circle.
     angle = math.radians(_uniform(rng, (80.0, 180.0))) * rng.choice([-1.0, 1.0])
     radius = _uniform(rng, (5.5, 9.0))
     length, ramp = _turn_length(angle, radius, 4.0)
@@ -284,7 +288,8 @@ def _event_sharp_turn(rng, road, v):
     )
 
 
-def _event_successive_turns(rng, road, v):
+def _event_successive_turns(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """2-4 alternating left/right turns of about 90 deg, 20-60 m apart."""
     n = int(rng.integers(2, 5))
     sign = rng.choice([-1.0, 1.0])
     block = Block(0.0)
@@ -300,8 +305,8 @@ def _event_successive_turns(rng, road, v):
     return block
 
 
-def _event_hard_brake(rng, road, v):
-    # Cruise, then an emergency brake at 0.5-0.7 g to a stop or a much lower speed.
+def _event_hard_brake(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """Cruise, then an emergency brake at 0.5-0.7 g to a stop or a much lower speed."""
     decel = _uniform(rng, (5.0, 7.0))
     v_hi = 1.1 * v  # leg speed with its slow fluctuation
     lead = v_hi**2 / (2.0 * road.accel_m_s2) + 30.0
@@ -316,7 +321,8 @@ def _event_hard_brake(rng, road, v):
     return block
 
 
-def _event_quick_acceleration(rng, road, v):
+def _event_quick_acceleration(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """Pull away from a stop at 3-4 m/s^2 (0.3-0.4 g)."""
     accel = _uniform(rng, (3.0, 4.0))
     length = (1.1 * v) ** 2 / (2.0 * accel) + 20.0
     return Block(
@@ -327,8 +333,8 @@ def _event_quick_acceleration(rng, road, v):
     )
 
 
-def _event_reversing(rng, road, v):
-    # Parking or a three-point turn: stop, reverse 5-20 m (maybe steering), stop.
+def _event_reversing(rng: np.random.Generator, road: SimRoad, v: float) -> Block:
+    """Parking or a three-point turn: stop, reverse 5-20 m (maybe steering), stop."""
     length = _uniform(rng, (5.0, 20.0))
     block = Block(5.0 + length + 10.0)
     block.stops += [(5.0, _uniform(rng, (1.0, 4.0))), (5.0 + length, _uniform(rng, (1.0, 4.0)))]
@@ -509,6 +515,7 @@ def _rasterise(
         v_max[sl] *= _WET_SPEED_FACTOR
         tags.append((w0, w1, "wet_road"))
     stop[[0, -1]] = True
+    dwell[0] = rng.uniform(2.0, 10.0)  # engine on, standing, before pulling away
     # Two stops on neighbouring nodes would mean moving 0.5 m at zero speed.
     adjacent = stop[1:] & stop[:-1]
     if adjacent.any():
@@ -590,8 +597,9 @@ def _fit(route: Route, vehicle: Vehicle, sim: SimParams, target: float) -> Route
         arrive = plan_speed(short, vehicle, sim).arrival_s[-1]
         if arrive <= target:
             tags = short.tags
-            if target - arrive >= 20.0:
-                s_end = (short.n - 1) * short.ds_m
+            s_end = (short.n - 1) * short.ds_m
+            tagged = any(t == "standstill" and s_end - s0 < short.ds_m for s0, _, t in tags)
+            if target - arrive >= 20.0 and not tagged:
                 tags = (*tags, (s_end, s_end, "standstill"))
             return replace(
                 short.truncated(short.n, end_dwell_s=target - arrive),

@@ -32,7 +32,7 @@ def gauss_markov(
     ``x_k = phi x_{k-1} + w_k`` with ``phi = exp(-dt / tau)`` and
     ``w_k ~ N(0, sigma^2 (1 - phi^2))``; ``x_0 ~ N(0, sigma^2)``, so every sample
     has standard deviation ``sigma`` and the autocorrelation at lag ``T`` is
-    ``exp(-T / tau)`` (e.g. Groves 2013, Sec. 7.4 / App. J on GNSS error models).
+    ``exp(-T / tau)`` (the usual GNSS position-error model, e.g. Groves 2013).
 
     Args:
         n: samples per row.
