@@ -116,7 +116,14 @@ class SimulatedDrive(NamedTuple):
 
 
 def seed_sequence(seed: int | np.random.SeedSequence) -> np.random.SeedSequence:
-    """Return ``seed`` as a SeedSequence."""
+    """Return ``seed`` as a SeedSequence.
+
+    Args:
+        seed: an int or a SeedSequence (returned as is).
+
+    Returns:
+        The SeedSequence.
+    """
     return seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
 
 
@@ -125,6 +132,13 @@ def child_rng(seed: np.random.SeedSequence, k: int) -> np.random.Generator:
 
     Equal to ``default_rng(seed.spawn(k + 1)[k])`` on a fresh SeedSequence, but
     stateless, so the same seed always gives the same streams.
+
+    Args:
+        seed: the parent seed.
+        k: child index.
+
+    Returns:
+        A generator on the child stream.
     """
     child = np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, k))
     return np.random.default_rng(child)

@@ -43,7 +43,15 @@ def vehicles_from_params(params: Params) -> dict[str, Vehicle]:
 
 
 def drive_seed(seed: int, index: int) -> np.random.SeedSequence:
-    """Seed of drive ``index``: ``SeedSequence(seed).spawn(n)[index]``, statelessly."""
+    """Seed of drive ``index``: ``SeedSequence(seed).spawn(n)[index]``, statelessly.
+
+    Args:
+        seed: ``params.seed``.
+        index: position of the drive in its profile.
+
+    Returns:
+        The drive's SeedSequence.
+    """
     return np.random.SeedSequence(seed, spawn_key=(index,))
 
 

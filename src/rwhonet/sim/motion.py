@@ -49,7 +49,15 @@ class SpeedPlan:
 
 
 def friction(route: Route, sim: SimParams) -> np.ndarray:
-    """Tyre-road friction coefficient per route interval (wet or dry)."""
+    """Tyre-road friction coefficient per route interval.
+
+    Args:
+        route: the route (its wet intervals).
+        sim: simulator settings (``friction_dry``, ``friction_wet``).
+
+    Returns:
+        Friction coefficient per node interval, (n,).
+    """
     return np.where(route.wet, sim.friction_wet, sim.friction_dry)
 
 
@@ -185,7 +193,15 @@ class Pose:
     heading_rad: np.ndarray
 
     def point(self, x_body_m: float, y_body_m: float) -> tuple[np.ndarray, np.ndarray]:
-        """East/north position of a point fixed on the body (x forward, y left)."""
+        """East/north position of a point fixed on the body.
+
+        Args:
+            x_body_m: ahead of the rear-axle centre.
+            y_body_m: left of it.
+
+        Returns:
+            ``(east_m, north_m)`` at every sample.
+        """
         c, s = np.cos(self.heading_rad), np.sin(self.heading_rad)
         return (
             self.east_m + c * x_body_m - s * y_body_m,

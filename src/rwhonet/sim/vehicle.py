@@ -82,7 +82,14 @@ class Vehicle:
 
 
 def per_wheel(values: SimWheels) -> np.ndarray:
-    """Return a :class:`SimWheels` as a (4,) array in the order of :data:`WHEELS`."""
+    """Return per-wheel config values as an array.
+
+    Args:
+        values: one number per wheel.
+
+    Returns:
+        (4,) float array in the order of :data:`WHEELS`.
+    """
     return np.array([getattr(values, w) for w in WHEELS], dtype=np.float64)
 
 

@@ -44,7 +44,12 @@ def write_csv(frame: pd.DataFrame, path: Path) -> None:
 
 
 def write_json(path: Path, obj: Any) -> None:
-    """Write a small JSON sidecar (inside the stage's atomic output folder)."""
+    """Write a small JSON sidecar (inside the stage's atomic output folder).
+
+    Args:
+        path: the file.
+        obj: JSON-serialisable data.
+    """
     path.write_text(json.dumps(obj, indent=1) + "\n", encoding="utf-8")
 
 
