@@ -1,0 +1,94 @@
+"""Data-path throughput: raw IO-VNBD CSV -> validated, labelled per-second samples.
+
+Simulates a fleet (default: the `paper` profile, ~30 h of driving) into a
+scratch folder, then times, in this process (imports and interpreter start-up
+excluded), the three data stages' library calls on it:
+ingest (CSV -> canonical Parquet), validate (pandera + GNSS policy ->
+segments), label (calibration, WPM, labels, features). Prints rows per second
+end to end and per stage, and the simulator's speed. Also times the geodesic
+distance through pyproj (C GeographicLib) vs geographiclib's Python Inverse.
+
+Usage: python benchmarks/bench_data.py [--profile paper|ci] [--keep DIR]
+Target (issue 2): >= 0.4 M rows/s end to end on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("DISABLE_PANDERA_IMPORT_WARNING", "True")
+
+import numpy as np  # noqa: E402
+
+from rwhonet.config import load_params  # noqa: E402
+from rwhonet.data.ingest import ingest  # noqa: E402
+from rwhonet.data.validate import validate  # noqa: E402
+from rwhonet.features.samples import label  # noqa: E402
+from rwhonet.geo.geodesic import geodesic_distance_m, geodesic_distance_reference_m  # noqa: E402
+from rwhonet.sim import simulate_fleet  # noqa: E402
+
+
+def _timed(fn, *args, **kwargs):
+    t0 = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--profile", default="paper")
+    ap.add_argument("--keep", type=Path, help="work in this folder instead of a temporary one")
+    args = ap.parse_args()
+
+    work = args.keep or Path(tempfile.mkdtemp(prefix="rwhonet-bench-"))
+    raw = work / "raw"
+    params = load_params(
+        overrides={"sim.profile": args.profile, "data.source": "files", "data.root": str(raw)}
+    )
+    _, t_sim = _timed(simulate_fleet, params, raw)
+    n_rows = sum(sum(1 for _ in open(f, "rb")) - 1 for f in raw.glob("*/*.csv"))
+    hours = n_rows / 10 / 3600
+
+    _, t_ingest = _timed(ingest, params, work / "drives")
+    _, t_validate = _timed(
+        validate, params, work / "drives", work / "segments", work / "validation.json"
+    )
+    _, t_label = _timed(
+        label, params, work / "segments", work / "samples",
+        work / "calibration.json", work / "scaler.json",
+    )  # fmt: skip
+    total = t_ingest + t_validate + t_label
+
+    print(f"fleet: profile {args.profile}, {n_rows:,} rows at 10 Hz ({hours:.1f} h of driving)")
+    print(
+        f"simulator: {t_sim:6.2f} s  ({hours * 3600 / t_sim:,.0f} s of driving per second, CSV incl.)"
+    )
+    for name, t in (("ingest", t_ingest), ("validate", t_validate), ("label", t_label)):
+        print(f"{name:>9}: {t:6.2f} s  ({n_rows / t / 1e6:5.2f} M rows/s)")
+    print(
+        f"end to end: {total:6.2f} s  -> {n_rows / total / 1e6:.2f} M rows/s "
+        f"(a 36,000-row hour in {36_000 / (n_rows / total) * 1e3:.0f} ms; target >= 0.4 M rows/s)"
+    )
+
+    rng = np.random.default_rng(0)
+    lat = rng.uniform(-70, 70, 20_000)
+    lon = rng.uniform(-180, 180, 20_000)
+    lat2, lon2 = lat + rng.uniform(-3e-4, 3e-4, lat.size), lon + rng.uniform(-3e-4, 3e-4, lat.size)
+    _, t_fast = _timed(geodesic_distance_m, lat, lon, lat2, lon2)
+    _, t_ref = _timed(geodesic_distance_reference_m, lat, lon, lat2, lon2)
+    print(
+        f"geodesic: pyproj {t_fast / lat.size * 1e6:.2f} µs/pair, "
+        f"geographiclib Python {t_ref / lat.size * 1e6:.1f} µs/pair"
+    )
+    if args.keep is None:
+        import shutil
+
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()

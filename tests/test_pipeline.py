@@ -1,0 +1,128 @@
+"""Integration: the real DVC stages on the `ci` profile, in a scratch copy of the working tree.
+
+Slow (a couple of minutes): run with `make test`; `make test-fast` skips it.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from rwhonet import paths
+
+pytestmark = pytest.mark.slow
+
+# Small but complete: every stage, two m values, two outage lengths.
+OVERRIDES = {
+    ("sim", "profile"): "ci",
+    ("train", "epochs"): 3,
+    ("adapt", "epochs"): 5,
+    ("adapt", "m_grid"): [10, 20],
+    ("adapt", "chosen_m"): 20,
+    ("evaluate", "outages_s"): [30, 180],
+}
+
+
+def _env(repo: Path) -> dict:
+    env = dict(os.environ)
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
+    env["PYTHONPATH"] = str(repo / "src")
+    env["DVC_NO_ANALYTICS"] = "1"
+    env.pop("MLFLOW_TRACKING_URI", None)
+    env.pop("RWHONET_ROOT", None)
+    return env
+
+
+def dvc(repo: Path, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [str(Path(sys.executable).parent / "dvc"), *args],
+        cwd=repo, env=_env(repo), capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def repo(tmp_path_factory):
+    dest = tmp_path_factory.mktemp("pipeline") / "repo"
+    files = subprocess.run(
+        ["git", "ls-files", "-co", "--exclude-standard", "-z"],
+        cwd=paths.ROOT, capture_output=True, text=True, check=True,
+    ).stdout.split("\0")  # fmt: skip
+    for f in filter(None, files):
+        src = paths.ROOT / f
+        if src.is_file():
+            (dest / f).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dest / f)
+    params = yaml.safe_load((dest / "params.yaml").read_text())
+    for (section, key), value in OVERRIDES.items():
+        params[section][key] = value
+    (dest / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
+    git = ["git", "-c", "user.name=t", "-c", "user.email=t@localhost"]
+    subprocess.run([*git, "init", "-q"], cwd=dest, check=True)
+    subprocess.run([*git, "add", "-A"], cwd=dest, check=True)
+    subprocess.run([*git, "commit", "-qm", "snapshot"], cwd=dest, check=True)
+    (dest / "data" / "raw").mkdir(parents=True, exist_ok=True)
+    assert dvc(dest, "commit", "-q", "-f", "data.dvc").returncode == 0
+    return dest
+
+
+def test_data_stages(repo):
+    out = dvc(repo, "repro", "label")
+    assert out.returncode == 0, out.stdout + out.stderr
+    manifest = json.loads((repo / "data/processed/samples/manifest.json").read_text())
+    roles = {s["role"] for s in manifest["segments"]}
+    assert {"source_train", "target_train", "target_test"} <= roles
+    report = json.loads((repo / "reports/validation.json").read_text())
+    assert report  # what was cut, per drive
+    calib = json.loads((repo / "data/processed/calibration.json").read_text())
+    assert 0.28 < min(v for k, v in _numbers(calib) if "radius" in k) < 0.32
+    scaler = json.loads((repo / "data/processed/scaler.json").read_text())
+    assert scaler
+
+
+def test_full_pipeline_then_noop(repo):
+    out = dvc(repo, "repro")
+    assert out.returncode == 0, out.stdout + out.stderr
+    ev = json.loads((repo / "metrics/eval.json").read_text())
+    assert set(ev["overall"]) >= {"WPM", "G", "S", "R", "R@10", "R@20"}
+    assert set(ev["overall"]["WPM"]) == {"30s", "180s"}
+    assert ev["overall"]["WPM"]["180s"]["n_windows"] >= 4 * 2
+    tables = (repo / "reports/tables.md").read_text()
+    assert "Table 2" in tables and "R-WhONet (m=20)" in tables
+    preds = list((repo / "reports/predictions").glob("*.parquet"))
+    assert len(preds) == 4
+    assert (repo / "mlruns" / "mlflow.db").is_file()
+
+    again = dvc(repo, "repro")
+    assert again.returncode == 0 and "Data and pipelines are up to date" in again.stdout
+    status = dvc(repo, "status")
+    assert status.returncode == 0 and "up to date" in status.stdout, status.stdout
+
+
+def test_bad_drive_fails_cleanly(repo):
+    """A corrupted raw drive stops the pipeline at ingest with file/row/column; nothing half-written."""
+    drive = next((repo / "data/sim/target_test").glob("*.csv"))
+    lines = drive.read_text().splitlines()
+    cells = lines[5].split(",")
+    cells[12] = "oops"
+    lines[5] = ",".join(cells)
+    drive.write_text("\n".join(lines) + "\n")
+    before = sorted(p.name for p in (repo / "data/interim/drives").iterdir())
+    out = dvc(repo, "repro", "ingest", "--single-item", "--force")
+    assert out.returncode != 0
+    msg = out.stdout + out.stderr
+    assert drive.name in msg and "row 5" in msg and "Wheel Speed Rear Left" in msg
+    drives = repo / "data/interim/drives"
+    assert not drives.exists() or sorted(p.name for p in drives.iterdir()) in ([], before)
+
+
+def _numbers(d, prefix=""):
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from _numbers(v, prefix + k + ".")
+        elif isinstance(v, int | float) and not isinstance(v, bool):
+            yield prefix + k, v
