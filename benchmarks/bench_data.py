@@ -65,7 +65,7 @@ def main() -> None:
 
     print(f"fleet: profile {args.profile}, {n_rows:,} rows at 10 Hz ({hours:.1f} h of driving)")
     print(
-        f"simulator: {t_sim:6.2f} s  ({hours * 3600 / t_sim:,.0f} s of driving per second, CSV incl.)"
+        f"simulator: {t_sim:6.2f} s  ({hours * 3600 / t_sim:,.0f} s driven per s, CSV incl.)"
     )
     for name, t in (("ingest", t_ingest), ("validate", t_validate), ("label", t_label)):
         print(f"{name:>9}: {t:6.2f} s  ({n_rows / t / 1e6:5.2f} M rows/s)")

@@ -104,7 +104,7 @@ def test_full_pipeline_then_noop(repo):
 
 
 def test_bad_drive_fails_cleanly(repo):
-    """A corrupted raw drive stops the pipeline at ingest with file/row/column; nothing half-written."""
+    """A corrupted drive stops ingest with file, row and column; nothing half-written."""
     drive = next((repo / "data/sim/target_test").glob("*.csv"))
     lines = drive.read_text().splitlines()
     cells = lines[5].split(",")
