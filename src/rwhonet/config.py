@@ -363,7 +363,9 @@ class Params:
         if any(o <= 0 for o in self.evaluate.outages_s):
             raise ConfigError(f"evaluate.outages_s must be positive, got {self.evaluate.outages_s}")
         if not 0.0 <= self.train.val_fraction < 1.0:
-            raise ConfigError(f"train.val_fraction must be in [0, 1), got {self.train.val_fraction}")
+            raise ConfigError(
+                f"train.val_fraction must be in [0, 1), got {self.train.val_fraction}"
+            )
         for role, spec in self.data.roles.items():
             if spec.format != "iovnbd" and spec.format not in self.data.column_maps:
                 raise ConfigError(
