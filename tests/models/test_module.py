@@ -87,14 +87,6 @@ def test_block_size_does_not_change_training(linear_data, model_params, train_pa
     assert one.history == many.history
 
 
-def test_epoch_loss_is_sample_weighted_mean() -> None:
-    module = WhONetModule(n_features=2, hidden=2, dropout=0.0)
-    module._losses["train"] = [torch.tensor(1.0), torch.tensor(4.0)]
-    module._sizes["train"] = [3, 1]
-    assert module._epoch_mean("train") == pytest.approx((3 * 1.0 + 1 * 4.0) / 4)
-    assert module._epoch_mean("train") is None  # reset for the next epoch
-
-
 def test_optimizer_is_adamax_over_trainable_parameters() -> None:
     module = WhONetModule(n_features=2, hidden=3, lr=0.002)
     module.net.head.weight.requires_grad_(False)

@@ -1,11 +1,9 @@
 """In-memory data for WhONet: shuffled blocks of samples without per-sample collation.
 
-A standard ``DataLoader(dataset, batch_size=128, shuffle=True)`` calls
-``__getitem__`` once per sample and stacks the results in ``collate_fn``: 128
-Python calls and a stack per step, more than the model's own step costs here.
-Instead the dataset is indexed with a whole list of indices at once (one
-tensor gather), and a ``BatchSampler`` passed as ``sampler`` with
-``batch_size=None`` hands it those lists.
+The loaders themselves come from :mod:`rwhonet.models.core`
+(:func:`~rwhonet.models.core.train_loader`, :func:`~rwhonet.models.core.val_loader`),
+which the lean fine-tuning path iterates without Lightning, so both paths see
+the same samples in the same order for a seed.
 """
 
 from __future__ import annotations
@@ -13,35 +11,17 @@ from __future__ import annotations
 import lightning as L
 import numpy as np
 import torch
-from torch.utils.data import BatchSampler, DataLoader, Dataset, RandomSampler, SequentialSampler
+from torch.utils.data import DataLoader
 
-# Mini-batches per training block (see rwhonet.models.module): 64 x 128 = 8192 samples
-# per Lightning batch amortises its per-batch cost to a few µs per optimizer step.
-STEPS_PER_BLOCK = 64
-VAL_BATCH_SIZE = 8192
+from rwhonet.models.core import (
+    STEPS_PER_BLOCK,
+    VAL_BATCH_SIZE,
+    ArrayDataset,
+    train_loader,
+    val_loader,
+)
 
-
-class ArrayDataset(Dataset):
-    """Features and labels held in memory, indexed by a list of sample indices.
-
-    Args:
-        x: (N, T, F) float32 features.
-        y: (N,) float32 labels in metres.
-    """
-
-    def __init__(self, x: np.ndarray | torch.Tensor, y: np.ndarray | torch.Tensor) -> None:
-        # as_tensor shares memory with a float32 numpy array: no copy of the features.
-        self.x = torch.as_tensor(x, dtype=torch.float32)
-        self.y = torch.as_tensor(y, dtype=torch.float32)
-        if len(self.x) != len(self.y):
-            raise ValueError(f"x has {len(self.x)} samples but y has {len(self.y)}")
-
-    def __len__(self) -> int:
-        return len(self.y)
-
-    def __getitem__(self, idx: list[int]) -> tuple[torch.Tensor, torch.Tensor]:
-        index = torch.as_tensor(idx, dtype=torch.long)
-        return self.x[index], self.y[index]
+__all__ = ["STEPS_PER_BLOCK", "VAL_BATCH_SIZE", "ArrayDataset", "WhONetDataModule"]
 
 
 class WhONetDataModule(L.LightningDataModule):
@@ -95,19 +75,15 @@ class WhONetDataModule(L.LightningDataModule):
 
     def train_dataloader(self) -> DataLoader:
         """Shuffled blocks; the generator is re-seeded per call, so every fit sees one order."""
-        generator = torch.Generator().manual_seed(self.seed)
-        blocks = BatchSampler(
-            RandomSampler(self.train_set, generator=generator),
-            batch_size=self.batch_size * self.steps_per_block,
-            drop_last=False,
+        return train_loader(
+            self.train_set,
+            batch_size=self.batch_size,
+            seed=self.seed,
+            steps_per_block=self.steps_per_block,
         )
-        return DataLoader(self.train_set, sampler=blocks, batch_size=None, num_workers=0)
 
     def val_dataloader(self) -> DataLoader | list:
         """Validation batches in order; an empty list (no validation) without a validation set."""
         if self.val_set is None:
             return []
-        batches = BatchSampler(
-            SequentialSampler(self.val_set), batch_size=self.val_batch_size, drop_last=False
-        )
-        return DataLoader(self.val_set, sampler=batches, batch_size=None, num_workers=0)
+        return val_loader(self.val_set, batch_size=self.val_batch_size)

@@ -8,6 +8,9 @@ not say which weights move; ``adapt.trainable`` makes the choice explicit:
   source vehicle.
 - ``head``: only the linear head adapts (a re-scaling of G's features to the
   new vehicle, 73 weights), the recurrent layer stays frozen.
+
+Plain torch, no Lightning: the lean fine-tuning path (:mod:`rwhonet.models.core`)
+applies the same policy.
 """
 
 from __future__ import annotations
@@ -41,8 +44,9 @@ def count_parameters(module: nn.Module) -> tuple[int, int]:
 def apply_trainable(module: nn.Module, trainable: Trainable) -> tuple[int, int]:
     """Set which of WhONet's weights are fine-tuned; everything else is frozen.
 
-    Apply it before ``Trainer.fit``: the optimizer is then built over the
-    trainable parameters only, so frozen ones are never touched.
+    Apply it before the optimizer is built (``Trainer.fit`` or
+    :func:`rwhonet.models.core.fine_tune_lean`): it then holds the trainable
+    parameters only, so frozen ones are never touched.
 
     Args:
         module: a :class:`WhONet`, or a module holding one as ``.net`` (the

@@ -1,5 +1,9 @@
 """LightningModule around :class:`~rwhonet.models.whonet.WhONet` (paper §3.3, Table 1).
 
+The algorithm itself (loss, optimizer, the per-slice update, the epoch's
+MAE) lives in :mod:`rwhonet.models.core`, which the lean fine-tuning path uses
+without Lightning; this module only wires those pieces into Lightning's hooks.
+
 Why the training step holds its own mini-batch loop
 ----------------------------------------------------
 WhONet is tiny (8.3 k parameters, one time step): a plain PyTorch step at
@@ -8,10 +12,11 @@ machinery (fetcher, hooks, progress tracking, the optimizer closure and the
 strategy/precision wrappers) adds 0.3–0.6 ms on top of it
 (``benchmarks/bench_train.py`` measures both). So each Lightning "batch" here
 is a *block* of ``steps_per_block`` mini-batches drawn from one shuffled
-permutation (:class:`~rwhonet.models.datamodule.WhONetDataModule`), and
+permutation (:func:`rwhonet.models.core.train_loader`), and
 :meth:`WhONetModule.training_step` takes one optimizer step per mini-batch of
-``batch_size`` samples with manual optimization. The mini-batches and the
-update sequence are exactly those of a one-step-per-batch loop over the same
+``batch_size`` samples with manual optimization
+(:func:`rwhonet.models.core.train_block`). The mini-batches and the update
+sequence are exactly those of a one-step-per-batch loop over the same
 permutation (a test checks that a block of 1 and a block of 64 give identical
 weights); only the Lightning bookkeeping is paid once per block. The price:
 Lightning's per-optimizer-step features (gradient clipping, accumulation,
@@ -32,9 +37,15 @@ from typing import Any
 
 import lightning as L
 import torch
-from torch import nn
 
-from rwhonet.models.whonet import N_FEATURES, WhONet
+from rwhonet.models.core import (
+    EpochLoss,
+    batch_mae,
+    make_optimizer,
+    net_from_hparams,
+    train_block,
+)
+from rwhonet.models.whonet import N_FEATURES
 
 
 class WhONetModule(L.LightningModule):
@@ -72,20 +83,15 @@ class WhONetModule(L.LightningModule):
         batch_size: int = 128,
     ) -> None:
         super().__init__()
-        if seq_len < 1 or batch_size < 1 or lr <= 0:
-            raise ValueError(
-                f"seq_len and batch_size must be positive and lr > 0, got {seq_len}, "
-                f"{batch_size}, {lr}"
-            )
         self.save_hyperparameters()
-        self.net = WhONet(n_features=n_features, hidden=hidden, layers=layers, dropout=dropout)
+        # Checks the recipe too; the lean path builds its network with the same call.
+        self.net = net_from_hparams(self.hparams)
         # One optimizer step per mini-batch inside a block (module docstring).
         self.automatic_optimization = False
         # Per-epoch history as plain data; the training entry points return it.
         self.history: list[dict[str, Any]] = []
-        # Batch losses (detached tensors) and sizes of the running epoch, per stage.
-        self._losses: dict[str, list[torch.Tensor]] = {"train": [], "val": []}
-        self._sizes: dict[str, list[int]] = {"train": [], "val": []}
+        # Batch losses of the running epoch, per stage.
+        self._epoch_loss = {"train": EpochLoss(), "val": EpochLoss()}
         self._val_loss_m: float | None = None
 
     # ------------------------------------------------------------------ model
@@ -93,14 +99,6 @@ class WhONetModule(L.LightningModule):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """(B, T, n_features) windows -> (B,) predicted displacement error in metres."""
         return self.net(x)
-
-    def _step(self, stage: str, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
-        """The step shared by training and validation: MAE of one batch, added to the epoch sum."""
-        loss = nn.functional.l1_loss(self.net(x), y)
-        # Kept as tensors (no .item(): no per-step host sync) and reduced once per epoch.
-        self._losses[stage].append(loss.detach())
-        self._sizes[stage].append(len(y))
-        return loss
 
     def training_step(self, batch: tuple[torch.Tensor, torch.Tensor], batch_idx: int) -> None:
         """One optimizer step per ``batch_size`` slice of the block (module docstring).
@@ -112,16 +110,12 @@ class WhONetModule(L.LightningModule):
         """
         x, y = batch
         opt = self.optimizers(use_pl_optimizer=False)
-        bs = self.hparams.batch_size
-        for start in range(0, len(y), bs):
-            loss = self._step("train", x[start : start + bs], y[start : start + bs])
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
+        train_block(self.net, opt, x, y, self.hparams.batch_size, self._epoch_loss["train"])
 
     def validation_step(self, batch: tuple[torch.Tensor, torch.Tensor], batch_idx: int) -> None:
         """Accumulate the validation MAE (Lightning runs this in eval mode, without grad)."""
-        self._step("val", *batch)
+        x, y = batch
+        self._epoch_loss["val"].add(batch_mae(self.net, x, y), len(y))
 
     def predict_step(self, batch: Any, batch_idx: int) -> torch.Tensor:
         """Predictions for ``Trainer.predict`` (a batch is ``x`` or ``(x, ...)``)."""
@@ -130,32 +124,22 @@ class WhONetModule(L.LightningModule):
 
     def configure_optimizers(self) -> torch.optim.Optimizer:
         """Adamax over the trainable parameters (paper §3.3.1)."""
-        trainable = [p for p in self.parameters() if p.requires_grad]
-        return torch.optim.Adamax(trainable, lr=self.hparams.lr)
+        return make_optimizer(self, self.hparams.lr)
 
     # ---------------------------------------------------------------- logging
-
-    def _epoch_mean(self, stage: str) -> float | None:
-        """Sample-weighted mean of the epoch's batch MAEs (exact MAE over its samples)."""
-        losses, sizes = self._losses[stage], self._sizes[stage]
-        self._losses[stage], self._sizes[stage] = [], []
-        if not sizes:
-            return None
-        n = torch.tensor(sizes, dtype=torch.float64)
-        return float((torch.stack(losses).double().cpu() * n).sum() / n.sum())
 
     def on_train_epoch_start(self) -> None:
         self._val_loss_m = None
 
     def on_validation_epoch_end(self) -> None:
-        mean = self._epoch_mean("val")
+        mean = self._epoch_loss["val"].pop_mean()
         if self.trainer.sanity_checking:
             return
         self._val_loss_m = mean
 
     def on_train_epoch_end(self) -> None:
         # Lightning runs the epoch's validation before this hook, so both are known.
-        train_loss_m = self._epoch_mean("train")
+        train_loss_m = self._epoch_loss["train"].pop_mean()
         self.history.append(
             {"epoch": self.current_epoch, "train_loss": train_loss_m, "val_loss": self._val_loss_m}
         )

@@ -1,7 +1,10 @@
 """Training, fine-tuning and prediction entry points (paper §3.3; no MLflow here).
 
 The stage code tracks runs; these functions only take an optional Lightning
-logger and return what happened as plain data (:class:`FitResult`).
+logger and return what happened as plain data (:class:`FitResult`). The
+training algorithm, input checks and :func:`predict` come from
+:mod:`rwhonet.models.core`; :func:`rwhonet.models.core.fine_tune_lean` is the
+same fine-tuning without Lightning's import cost (what the ``adapt@m`` stages run).
 
 All runs are on CPU: at batch 128 this 8.3 k-parameter network is bound by
 per-step overhead, not arithmetic, so an accelerator would not pay for its
@@ -24,14 +27,12 @@ from lightning.pytorch.callbacks import Callback
 from lightning.pytorch.loggers import Logger
 
 from rwhonet.config import AdaptParams, ModelParams, TrainParams
-from rwhonet.errors import InputError, Problem
-from rwhonet.models.datamodule import STEPS_PER_BLOCK, WhONetDataModule
-from rwhonet.models.freeze import apply_trainable
+from rwhonet.models.core import STEPS_PER_BLOCK, apply_trainable, as_model_inputs, predict
+from rwhonet.models.datamodule import WhONetDataModule
 from rwhonet.models.module import WhONetModule
-from rwhonet.models.whonet import N_FEATURES
 from rwhonet.stage import quiet
 
-MAX_PROBLEMS = 20  # non-finite rows listed per array; the count says how many more
+__all__ = ["FitResult", "fit", "fine_tune", "predict", "save_checkpoint", "load_module"]
 
 
 @dataclass
@@ -92,10 +93,10 @@ def fit(
     Raises:
         InputError: when the arrays have the wrong shape or non-finite values.
     """
-    x_t, y_t = _as_tensors(x, y, "training samples", seq_len=model.seq_len)
+    x_t, y_t = as_model_inputs(x, y, "training samples", seq_len=model.seq_len)
     has_val = x_val is not None and y_val is not None and len(x_val) + len(y_val) > 0
     if has_val:
-        x_val_t, y_val_t = _as_tensors(
+        x_val_t, y_val_t = as_model_inputs(
             x_val, y_val, "validation samples", seq_len=model.seq_len, n_features=x_t.shape[2]
         )
     else:
@@ -138,6 +139,8 @@ def fine_tune(
     recipe it was tuned with), applies the freeze policy ``adapt.trainable`` and
     trains with a fresh Adamax for ``adapt.epochs`` epochs, without validation
     (m is 10-100 samples; there is nothing to spare).
+    :func:`rwhonet.models.core.fine_tune_lean` gives bit-identical weights
+    without importing Lightning; this entry point adds loggers and callbacks.
 
     Args:
         ckpt_path: G-WhONet's Lightning checkpoint.
@@ -162,7 +165,7 @@ def fine_tune(
     module = WhONetModule.load_from_checkpoint(
         ckpt_path, map_location="cpu", lr=adapt.lr, batch_size=adapt.batch_size
     )
-    x_t, y_t = _as_tensors(
+    x_t, y_t = as_model_inputs(
         x, y, "adaptation samples",
         seq_len=module.hparams.seq_len, n_features=module.hparams.n_features,
     )  # fmt: skip
@@ -176,40 +179,6 @@ def fine_tune(
         x_t, y_t, batch_size=adapt.batch_size, seed=seed, steps_per_block=steps_per_block
     )
     return _run(module, data, adapt.epochs, logger, callbacks, n_trainable, n_total)
-
-
-def predict(module: torch.nn.Module, x: np.ndarray, batch_size: int = 8192) -> np.ndarray:
-    """Predict the per-second displacement error (metres) for every window of ``x``.
-
-    Runs in eval mode (no dropout) without autograd, in batches so memory stays
-    bounded; the module's training mode is restored afterwards.
-
-    Args:
-        module: a :class:`WhONetModule` (or a bare WhONet).
-        x: (N, seq_len, n_features) float32 windows.
-        batch_size: windows per forward pass.
-
-    Returns:
-        (N,) float32 predictions.
-
-    Raises:
-        InputError: when ``x`` does not match the module's inputs.
-    """
-    hp = getattr(module, "hparams", {})
-    x_t = _as_tensors(
-        x, None, "prediction inputs",
-        seq_len=hp.get("seq_len"), n_features=hp.get("n_features"), allow_empty=True,
-    )[0]  # fmt: skip
-    was_training = module.training
-    module.eval()
-    try:
-        with torch.inference_mode():
-            parts = [module(x_t[i : i + batch_size]) for i in range(0, len(x_t), batch_size)]
-    finally:
-        module.train(was_training)
-    if not parts:
-        return np.zeros(0, dtype=np.float32)
-    return torch.cat(parts).numpy().astype(np.float32, copy=False)
 
 
 def save_checkpoint(result: FitResult, path: Path | str) -> None:
@@ -291,56 +260,3 @@ def _run(
         n_total=n_total,
         trainer=trainer,
     )
-
-
-def _as_tensors(
-    x: Any,
-    y: Any,
-    what: str,
-    *,
-    seq_len: int | None,
-    n_features: int | None = N_FEATURES,
-    allow_empty: bool = False,
-) -> tuple[torch.Tensor, torch.Tensor | None]:
-    """Check model inputs and return them as float32 tensors (sharing numpy memory).
-
-    Raises:
-        InputError: listing every shape problem, or the first non-finite rows.
-    """
-    xa = np.ascontiguousarray(x, dtype=np.float32)
-    ya = None if y is None else np.ascontiguousarray(y, dtype=np.float32)
-    shape = f"(N, {seq_len or 'T'}, {n_features or 'F'})"
-    problems = []
-    if xa.ndim != 3:
-        problems.append(Problem(what, None, "x", f"an array of shape {shape}", f"shape {xa.shape}"))
-    else:
-        if seq_len is not None and xa.shape[1] != seq_len:
-            problems.append(
-                Problem(what, None, "x", f"{seq_len} time steps (model.seq_len)", f"{xa.shape[1]}")
-            )
-        if n_features is not None and xa.shape[2] != n_features:
-            problems.append(Problem(what, None, "x", f"{n_features} features", f"{xa.shape[2]}"))
-        if len(xa) == 0 and not allow_empty:
-            problems.append(Problem(what, None, "x", "at least one sample", "none"))
-    if ya is not None and (ya.ndim != 1 or len(ya) != len(xa)):
-        problems.append(
-            Problem(what, None, "y", f"shape ({len(xa)},) like x's first axis", f"{ya.shape}")
-        )
-    if problems:
-        raise InputError(problems, f"{what} do not fit the model")
-    _check_finite(xa.reshape(len(xa), int(np.prod(xa.shape[1:]))), what, "x")
-    if ya is not None:
-        _check_finite(ya[:, None], what, "y")
-    return torch.from_numpy(xa), None if ya is None else torch.from_numpy(ya)
-
-
-def _check_finite(a: np.ndarray, what: str, column: str) -> None:
-    """Raise InputError naming the first rows of a 2-D array that hold NaN or inf."""
-    bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
-    if len(bad) == 0:
-        return
-    problems = [
-        Problem(what, int(i) + 1, column, "finite values", str(a[i][~np.isfinite(a[i])][:3]))
-        for i in bad[:MAX_PROBLEMS]
-    ]
-    raise InputError(problems, f"{len(bad)} sample(s) of {what} hold NaN or inf in {column}")
