@@ -76,3 +76,18 @@ def test_too_short_drive_is_reported(samples_dir):
     frame = frame[(frame.drive == "B") | (frame.k < 250)]
     with pytest.raises(InputError, match="too short"):
         evaluate(p, frame)
+
+
+def test_scenario_errors_per_tag(samples_dir, params):
+    frame = _frame(samples_dir, params, {"G": 0.5})
+    frame["scenario"] = ""
+    frame.loc[frame.index[200:210], "scenario"] = "roundabout;wet_road"
+    frame.loc[frame.index[210:215], "scenario"] = "wet_road"
+    ev = evaluate(params, frame)
+    sc = ev.scenarios.set_index("tag")
+    assert sc.loc["wet_road", "n_seconds"] == 15 and sc.loc["roundabout", "n_seconds"] == 10
+    assert sc.loc["roundabout", "G"] == pytest.approx(0.5)
+    assert sc.loc["roundabout", "S"] == pytest.approx(0.0, abs=1e-12)
+    expected = frame["label_m"].iloc[200:215].abs().mean()
+    assert sc.loc["wet_road", "WPM"] == pytest.approx(expected)
+    assert "" not in sc.index

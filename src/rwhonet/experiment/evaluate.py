@@ -48,6 +48,7 @@ class Evaluation:
     """What the evaluation computed."""
 
     summary: pd.DataFrame  # tidy: drive (or 'all'), model, outage_s, stats, n_windows
+    scenarios: pd.DataFrame  # per scenario tag: seconds and mean |e| per second per model
     per_second: pd.DataFrame  # test drives, one row per second, every model's prediction
     evolution: pd.DataFrame  # mean cumulative |e| and e per second of a window
     eval_json: dict
@@ -140,8 +141,29 @@ def evaluate(params: Params, frame: pd.DataFrame) -> Evaluation:
                 curves.append(mean.assign(outage_s=L, model=model))
     summary = pd.DataFrame(rows)
     return Evaluation(
-        summary, frame, pd.concat(curves, ignore_index=True), eval_json(summary, params)
+        summary,
+        scenario_errors(ev, model_columns(grid, chosen)),
+        frame,
+        pd.concat(curves, ignore_index=True),
+        eval_json(summary, params),
     )
+
+
+def scenario_errors(ev: pd.DataFrame, columns: dict[str, str]) -> pd.DataFrame:
+    """Mean absolute per-second error of each model on the seconds of each scenario tag.
+
+    The paper's short-term scenarios (roundabouts, hard brakes, wet roads, sharp
+    turns...) read per second here, on the evaluated seconds of the test drives
+    (a second carries every tag of its rows, so tags overlap).
+    """
+    models = ("WPM", "R", "G", "S")
+    label = ev["label_m"]
+    err = pd.DataFrame({m: (label - ev[columns[m]] if columns[m] else label).abs() for m in models})
+    err["tag"] = ev["scenario"].fillna("").str.split(";")
+    long = err.explode("tag")
+    long = long[long["tag"] != ""]
+    out = long.groupby("tag").agg(n_seconds=("WPM", "size"), **{m: (m, "mean") for m in models})
+    return out.reset_index().sort_values("n_seconds", ascending=False, ignore_index=True)
 
 
 def eval_json(summary: pd.DataFrame, params: Params) -> dict:
@@ -222,6 +244,7 @@ def write_outputs(
                 chosen_m=chosen,
                 eval_note=note,
                 provenance=provenance,
+                scenarios=ev.scenarios,
             ),
             encoding="utf-8",
         )
