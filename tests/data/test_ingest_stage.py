@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from rwhonet import paths
@@ -155,3 +157,15 @@ def test_every_bad_file_in_one_report_and_no_partial_output(tmp_path):
     # The previous output is untouched and no temporary folder is left behind.
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["drives", "raw"]
+
+
+def test_canonical_parquet_declares_no_nulls_and_stores_floats_plainly(tmp_path):
+    raw = tmp_path / "raw"
+    write_fleet(raw, duration_s=2.0)
+    ingest(make_params(raw), tmp_path / "drives")
+    file = pq.ParquetFile(tmp_path / "drives" / "V-S1.parquet")
+    # NaN, not null, marks a missing value: the columns are required (no definition levels).
+    assert [f.nullable for f in file.schema_arrow] == [False] * len(file.schema_arrow)
+    assert file.schema_arrow.field(c.SCENARIO).type == pa.string()
+    chunks = {file.schema_arrow.names[i]: file.metadata.row_group(0).column(i) for i in range(8)}
+    assert not chunks[c.T_S].has_dictionary_page and not chunks[c.N_SATS].has_dictionary_page

@@ -11,6 +11,7 @@ import pytest
 from rwhonet.data.scenarios import (
     ScenarioInterval,
     read_scenarios,
+    scenario_codes,
     scenario_column,
     sidecar_path,
 )
@@ -78,3 +79,33 @@ def test_invalid_json(tmp_path):
     path.write_text("{not json", encoding="utf-8")
     with pytest.raises(InputError, match="valid JSON"):
         read_scenarios(path)
+
+
+def _plain_union(t, intervals):
+    """Per row, the sorted tags of the intervals covering it: the definition, row by row."""
+    return [
+        ";".join(sorted({iv.tag for iv in intervals if iv.start_s <= ti < iv.end_s}))
+        for ti in t.tolist()
+    ]
+
+
+@pytest.mark.parametrize("n_tags", [1, 5, 62, 63, 140])  # 63+: the packed-bytes path
+@pytest.mark.parametrize("order", ["sorted", "shuffled", "with_nan"])
+def test_codes_give_the_plain_per_row_union(n_tags, order):
+    rng = np.random.default_rng(n_tags)
+    t = np.round(np.sort(rng.uniform(0.0, 100.0, 400)), 1)  # ties on a 0.1 s grid
+    if order == "shuffled":
+        t = rng.permutation(t)
+    elif order == "with_nan":
+        t[[3, 200]] = np.nan  # no interval covers NaN; times are not sorted any more
+    starts = rng.uniform(-5.0, 100.0, 3 * n_tags)
+    intervals = [
+        ScenarioInterval(s, s + d, f"tag{k % n_tags:03d}")  # tags overlap themselves too
+        for k, (s, d) in enumerate(zip(starts, rng.uniform(0.1, 20.0, starts.size), strict=True))
+    ]
+    intervals.append(ScenarioInterval(float(t[10]), float(t[20]), "edge"))  # ends on a row
+    labels, codes = scenario_codes(t, intervals)
+    assert codes.dtype == np.int64 and codes.shape == t.shape
+    assert len(set(labels.tolist())) == len(labels)  # each tag set labelled once
+    assert labels[codes].tolist() == _plain_union(t, intervals)
+    assert scenario_column(t, intervals).tolist() == _plain_union(t, intervals)

@@ -19,9 +19,9 @@ from rwhonet.paths import rel
 
 
 class IovnbdColumn(NamedTuple):
-    header: str            # as written in the file (leading space included)
+    header: str  # as written in the file (leading space included)
     canonical: str | None  # canonical name, None when not carried downstream
-    to_si: float           # factor converting the file's unit to the canonical SI unit
+    to_si: float  # factor converting the file's unit to the canonical SI unit
 
 
 # Position (0-based) == index in this tuple.
@@ -173,7 +173,11 @@ def read_iovnbd(path: Path) -> RawDrive:
     values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()})
     to_si = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
     return RawDrive(
-        columns={name: values[pos] * to_si[name] for name, pos in positions.items()},
+        # A factor of 1 would only copy the column (x * 1.0 == x, NaN and inf included).
+        columns={
+            name: values[pos] * to_si[name] if to_si[name] != 1.0 else values[pos]
+            for name, pos in positions.items()
+        },
         source_columns={name: header[pos] for name, pos in positions.items()},
         header_match=match,
     )

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from rwhonet.errors import InputError, Problem
 from rwhonet.paths import rel
@@ -113,6 +114,69 @@ def read_scenarios(path: Path) -> list[ScenarioInterval]:
     return out
 
 
+def scenario_codes(
+    t_s: np.ndarray, intervals: Sequence[ScenarioInterval]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Label every row with the tags of the intervals covering its time, as codes.
+
+    A drive has thousands of rows per distinct tag set, so the labels are built once per
+    set and the rows refer to them (``labels[codes]`` is :func:`scenario_column`).
+
+    Args:
+        t_s: row times, s, in the clock of the intervals.
+        intervals: the drive's tagged intervals.
+
+    Returns:
+        ``(labels, codes)``: object array of the distinct ';'-joined sorted tag sets
+        (``""`` for rows no interval covers), and per row the int64 index of its label.
+    """
+    t_s = np.asarray(t_s, dtype=np.float64)
+    tags = sorted({iv.tag for iv in intervals})
+    if not tags:
+        return np.array([""], dtype=object), np.zeros(t_s.shape, dtype=np.int64)
+    member = _tag_membership(t_s, intervals, tags)
+    # Rows with the same tag set share one bit pattern: label each distinct pattern once.
+    if len(tags) < 63:
+        # The pattern as an int64 (bit j: tags[j]), hashed: much faster than sorting records.
+        key = member.view(np.uint8) @ (np.int64(1) << np.arange(len(tags), dtype=np.int64))
+        codes, unique_keys = pd.factorize(key)
+        patterns = (unique_keys[:, None] >> np.arange(len(tags))) & 1
+    else:
+        packed = np.ascontiguousarray(np.packbits(member, axis=1))
+        keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
+        unique_keys, codes = np.unique(keys, return_inverse=True)
+        patterns = np.unpackbits(unique_keys.view(np.uint8).reshape(len(unique_keys), -1), axis=1)
+    labels = np.array(
+        [SEPARATOR.join(t for t, on in zip(tags, row, strict=False) if on) for row in patterns],
+        dtype=object,
+    )
+    return labels, np.asarray(codes, dtype=np.int64).reshape(t_s.shape)
+
+
+def _tag_membership(
+    t_s: np.ndarray, intervals: Sequence[ScenarioInterval], tags: Sequence[str]
+) -> np.ndarray:
+    """Boolean ``(rows, tags)``: whether an interval of that tag covers the row's time."""
+    member = np.zeros((t_s.size, len(tags)), dtype=bool)
+    column_of = {tag: j for j, tag in enumerate(tags)}
+    if t_s.size > 1 and not np.all(t_s[1:] >= t_s[:-1]):  # unsorted or NaN: compare all rows
+        for iv in intervals:  # a loop over intervals (tens), each a vectorised pass over rows
+            member[:, column_of[iv.tag]] |= (t_s >= iv.start_s) & (t_s < iv.end_s)
+        return member
+    # Sorted times: interval [start, end) holds rows searchsorted(start) .. searchsorted(end) - 1.
+    # Per tag, +1 at an interval's first row and -1 after its last, cumulated, counts the
+    # intervals covering each row (overlapping intervals of one tag stay covered).
+    lo = np.searchsorted(t_s, [iv.start_s for iv in intervals], side="left")
+    hi = np.searchsorted(t_s, [iv.end_s for iv in intervals], side="left")
+    column = np.array([column_of[iv.tag] for iv in intervals])
+    depth = np.zeros((t_s.size + 1, len(tags)), dtype=np.int32)
+    np.add.at(depth, (lo, column), 1)
+    np.add.at(depth, (hi, column), -1)
+    np.cumsum(depth, axis=0, out=depth)
+    member[:] = depth[:-1] > 0
+    return member
+
+
 def scenario_column(t_s: np.ndarray, intervals: Sequence[ScenarioInterval]) -> np.ndarray:
     """Label every row with the tags of the intervals covering its time.
 
@@ -123,21 +187,5 @@ def scenario_column(t_s: np.ndarray, intervals: Sequence[ScenarioInterval]) -> n
     Returns:
         Object array of ';'-joined sorted tags, ``""`` for rows no interval covers.
     """
-    t_s = np.asarray(t_s, dtype=np.float64)
-    tags = sorted({iv.tag for iv in intervals})
-    if not tags:
-        return np.full(t_s.shape, "", dtype=object)
-    column_of = {tag: j for j, tag in enumerate(tags)}
-    member = np.zeros((t_s.size, len(tags)), dtype=bool)
-    for iv in intervals:  # a loop over intervals (tens), each a vectorised pass over rows
-        member[:, column_of[iv.tag]] |= (t_s >= iv.start_s) & (t_s < iv.end_s)
-    # Rows with the same tag set share one packed bit pattern: label each distinct pattern once.
-    packed = np.ascontiguousarray(np.packbits(member, axis=1))
-    keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
-    unique_keys, inverse = np.unique(keys, return_inverse=True)
-    patterns = np.unpackbits(unique_keys.view(np.uint8).reshape(len(unique_keys), -1), axis=1)
-    labels = np.array(
-        [SEPARATOR.join(t for t, on in zip(tags, row, strict=False) if on) for row in patterns],
-        dtype=object,
-    )
-    return labels[inverse.ravel()]
+    labels, codes = scenario_codes(t_s, intervals)
+    return labels[codes]
