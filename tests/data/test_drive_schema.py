@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
-from rwhonet.data.schema import drive_schema, schema_problems
+from rwhonet.data.schema import drive_schema, schema_problems, schema_problems_batch
 
 from .drives import straight_drive
 
@@ -105,3 +106,52 @@ def test_rows_are_positions_whatever_the_index(drive, vp):
     drive.loc[1004, c.LAT_DEG] = 91.0  # fifth row
     (p,) = problems(drive, vp)
     assert p.row == 5
+
+
+def test_stacked_drives_are_reported_as_if_validated_alone(vp):
+    clean = straight_drive(duration_s=5.0).assign(**{c.SCENARIO: ""})
+    backwards = clean.copy()
+    backwards.loc[10, c.T_S] = backwards.loc[8, c.T_S] - 0.05
+    in_ms = clean.assign(**{c.T_S: clean[c.T_S] * 1000.0})
+    bad_lat = clean.copy()
+    bad_lat.loc[[0, 30], c.LAT_DEG] = [95.0, np.nan]
+    # The next drive starts 10 h earlier: no time step is taken across a drive boundary.
+    later = straight_drive(duration_s=3.0, t0_s=9000.0).assign(**{c.SCENARIO: ""})
+    # pandera hands a check the column without its NaN rows: rows are then not positions.
+    gaps = clean.copy()
+    gaps.loc[[0, 20], c.T_S] = np.nan
+    gaps.loc[33, c.T_S] = gaps.loc[32, c.T_S]
+    drives = [backwards, in_ms, clean, bad_lat, later, gaps, later]
+    files = [f"raw/V-{k}.csv" for k in range(len(drives))]
+    sources = [SOURCE, {}, SOURCE, SOURCE, {c.T_S: "Time"}, SOURCE, SOURCE]
+    stacked = pd.concat(drives, ignore_index=True)
+    starts = np.cumsum([0] + [len(d) for d in drives[:-1]])
+
+    batch = schema_problems_batch(stacked, starts, vp, files, sources)
+
+    alone = [schema_problems(d, vp, f, s) for d, f, s in zip(drives, files, sources, strict=True)]
+    assert batch == alone
+    # backwards: a step back, then one of 0.35 s; gaps: two NaN, a repeat, two 0.2 s steps.
+    assert [len(p) for p in batch] == [2, 1, 0, 2, 0, 5, 0]
+    assert [p.row for p in batch[5]] == [1, 21, 34, 22, 35]
+    (ms,) = batch[1]
+    assert ms.row is None and ms.file == files[1] and "ms instead of s" in ms.found
+    assert [(p.row, p.column) for p in batch[3]] == [(31, " Lat"), (1, " Lat")]
+
+
+def test_stacked_drives_share_a_missing_column(vp):
+    drives = [straight_drive(duration_s=2.0).drop(columns=[c.OMEGA_RL]) for _ in range(2)]
+    stacked = pd.concat(drives, ignore_index=True).assign(**{c.SCENARIO: ""})
+    batch = schema_problems_batch(stacked, [0, len(drives[0])], vp, ["a.csv", "b.csv"], [{}, {}])
+    assert [[(p.file, p.column, p.found) for p in found] for found in batch] == [
+        [("a.csv", c.OMEGA_RL, "no such column")],
+        [("b.csv", c.OMEGA_RL, "no such column")],
+    ]
+
+
+def test_time_in_ms_is_recognised_when_the_first_time_is_missing(drive, vp):
+    drive[c.T_S] = drive[c.T_S] * 1000.0
+    drive.loc[0, c.T_S] = np.nan  # the row the median verdict is attached to
+    found = [(p.row, p.expected) for p in problems(drive, vp)]
+    assert (1, "a value (this channel is required)") in found
+    assert (None, "a median step of 0.1 ± 0.05 s") in found

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 
 from rwhonet.config import ConfigError
@@ -54,6 +55,9 @@ def test_round_trip(tmp_path):
     assert seg[c.T_S].iloc[0] == 45012.0 and seg[c.T_S].iloc[-1] == 45020.0
     pd.testing.assert_frame_equal(
         seg, drive[drive[c.T_S].between(45012.0, 45020.0)].reset_index(drop=True)
+    )
+    assert pq.read_schema(seg_dir / "V-S1__s001.parquet").equals(
+        pq.read_schema(tmp_path / "drives" / "V-S1.parquet")
     )
 
     assert json.loads((tmp_path / "report.json").read_text()) == report
