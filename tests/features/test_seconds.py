@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 import pytest
 
 from rwhonet.data import canonical as c
@@ -152,4 +153,26 @@ def test_scenario_merge_matches_a_plain_per_second_union(as_series):
         for k in range(100)
     ]
     values = pd.Series(tags, dtype="str") if as_series else tags
+    assert scenario_per_second(values).tolist() == expected
+
+
+@pytest.mark.parametrize("n_values", [6, 62, 63, 200])  # 63+: the sorted-combination path
+@pytest.mark.parametrize("kind", ["numpy", "series", "arrow", "chunked"])
+def test_scenario_merge_of_any_input_matches_a_plain_per_second_union(n_values, kind):
+    rng = np.random.default_rng(n_values)
+    vocabulary = np.array([""] + [f"t{k % 40};u{k}" for k in range(n_values - 1)], dtype=object)
+    tags = vocabulary[rng.integers(0, n_values, 3001)]
+    tags[rng.integers(0, 3001, 80)] = None
+    expected = [
+        ";".join(
+            sorted({t for row in tags[10 * k + 1 : 10 * k + 11] if row for t in row.split(";")})
+        )
+        for k in range(300)
+    ]
+    values = {
+        "numpy": tags,
+        "series": pd.Series(tags, dtype="str"),
+        "arrow": pa.array(tags, type=pa.string()),
+        "chunked": pa.chunked_array([tags[:1234], tags[1234:]], type=pa.string()),
+    }[kind]
     assert scenario_per_second(values).tolist() == expected

@@ -28,13 +28,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 from rwhonet import paths
 from rwhonet.config import Params
 from rwhonet.data import canonical as c
+from rwhonet.data.ingest import write_parquet
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import (
     Calibration,
@@ -140,7 +140,7 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
     )
 
 
-def read_segment(path: Path) -> pd.DataFrame:
+def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
     """Read the columns of a segment Parquet the label stage needs.
 
     Args:
@@ -148,7 +148,8 @@ def read_segment(path: Path) -> pd.DataFrame:
 
     Returns:
         The canonical columns present among ``t_s, lat_deg, lon_deg, omega_*, scenario``
-        (a missing required column is reported by the per-second check).
+        (a missing required column is reported by the per-second check): float64 numpy
+        arrays, and ``scenario`` as read (Arrow strings; no Python string per row).
 
     Raises:
         InputError: if the file does not exist.
@@ -157,9 +158,13 @@ def read_segment(path: Path) -> pd.DataFrame:
         raise InputError(
             [Problem(paths.rel(path), None, None, "a segment listed in the manifest", "no file")]
         )
-    present = set(pq.read_schema(path).names)
-    wanted = [col for col in (*c.REQUIRED, c.SCENARIO) if col in present]
-    return pd.read_parquet(path, columns=wanted)
+    file = pq.ParquetFile(path)
+    present = set(file.schema_arrow.names)
+    table = file.read(columns=[col for col in (*c.REQUIRED, c.SCENARIO) if col in present])
+    return {
+        name: column if name == c.SCENARIO else np.asarray(column, dtype=np.float64)
+        for name, column in zip(table.column_names, table.columns, strict=True)
+    }
 
 
 def calibration_entries(manifest: SegmentManifest) -> tuple[str, list[SegmentEntry]]:
@@ -300,7 +305,12 @@ def sample_table(
         **dict(zip(FEATURE_COLUMNS, features, strict=True)),
         c.SCENARIO: pa.array(sec.scenario, type=pa.string()),
     }
-    return pa.table(columns)
+    arrays = [pa.array(values) for values in columns.values()]
+    # Non-nullable: no value is ever missing, and Parquet then stores no definition levels.
+    schema = pa.schema(
+        [pa.field(name, a.type, nullable=False) for name, a in zip(columns, arrays, strict=True)]
+    )
+    return pa.Table.from_arrays(arrays, schema=schema)
 
 
 def _per_second_all(
@@ -397,7 +407,7 @@ def label(
     }
     with atomic_dir(Path(out_dir)) as tmp:
         for segment, table in tables.items():
-            pq.write_table(table, tmp / f"{segment}.parquet")
+            write_parquet(table, tmp / f"{segment}.parquet")
         write_json(
             tmp / "manifest.json",
             {

@@ -26,11 +26,13 @@ Per second we take
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+from numpy.typing import ArrayLike
 
 from rwhonet.data import canonical as c
 from rwhonet.errors import InputError, Problem
@@ -186,7 +188,25 @@ def _unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ordered[starts], inverse
 
 
-def scenario_per_second(row_tags: Sequence[str] | np.ndarray | pd.Series) -> np.ndarray:
+def _factorize_tags(
+    row_tags: Sequence[str] | np.ndarray | pd.Series | pa.Array | pa.ChunkedArray,
+) -> tuple[np.ndarray, list[str]]:
+    """Return ``(codes, values)``: per row the index of its tag string, -1 when missing."""
+    if isinstance(row_tags, pa.ChunkedArray):
+        row_tags = row_tags.combine_chunks()
+    if isinstance(row_tags, pa.Array):  # a Parquet column read with pyarrow: encode in C++
+        encoded = row_tags.dictionary_encode()
+        codes = encoded.indices.fill_null(-1).to_numpy(zero_copy_only=False)
+        return codes.astype(np.int64), encoded.dictionary.to_pylist()
+    # A Parquet string column read with pandas is Arrow-backed: factorize it as is.
+    values = row_tags if isinstance(row_tags, pd.Series) else np.asarray(row_tags, dtype=object)
+    codes, uniques = pd.factorize(values)
+    return codes.astype(np.int64), [str(u) for u in uniques]
+
+
+def scenario_per_second(
+    row_tags: Sequence[str] | np.ndarray | pd.Series | pa.Array | pa.ChunkedArray,
+) -> np.ndarray:
     """Merge the scenario tags of the ten rows each second owns.
 
     Args:
@@ -197,21 +217,23 @@ def scenario_per_second(row_tags: Sequence[str] | np.ndarray | pd.Series) -> np.
         ``;``-joined, ``''`` when none (so a second that touches a roundabout for
         a single row counts as a roundabout second).
     """
-    # A Parquet string column is Arrow-backed: factorize it as is (object conversion costs).
-    values = row_tags if isinstance(row_tags, pd.Series) else np.asarray(row_tags, dtype=object)
-    codes, uniques = pd.factorize(values)
-    tag_sets = [set(str(u).split(";")) - {""} for u in uniques]  # per distinct row value
+    codes, values = _factorize_tags(row_tags)
+    tag_sets = [set(v.split(";")) - {""} for v in values]  # per distinct row value
     per_second = rows_of_seconds(codes)  # code -1: missing tag
     if per_second.shape[0] == 0:
         return np.empty(0, dtype=object)
     # Tag strings differ only between distinct combinations of row values, and a
     # drive has few of those: merge once per combination, then map back.
-    combos, inverse = _unique_rows(np.sort(per_second, axis=1))
+    if len(values) < 63:
+        # A combination as a bit mask over the row values (bit k: some row has value k).
+        bit = np.where(per_second >= 0, np.int64(1) << np.maximum(per_second, 0), 0)
+        inverse, masks = pd.factorize(np.bitwise_or.reduce(bit, axis=1))
+        combos = [np.flatnonzero((int(m) >> np.arange(len(values))) & 1) for m in masks]
+    else:
+        unique_rows, inverse = _unique_rows(np.sort(per_second, axis=1))
+        combos = [combo[combo >= 0] for combo in unique_rows]
     merged = np.array(
-        [
-            ";".join(sorted(set().union(*(tag_sets[k] for k in combo if k >= 0))))
-            for combo in combos
-        ],
+        [";".join(sorted(set().union(*(tag_sets[k] for k in combo)))) for combo in combos],
         dtype=object,
     )
     return merged[inverse]
@@ -249,36 +271,37 @@ class SegmentSeconds:
         return len(self.t_s)
 
 
-def check_segment(frame: pd.DataFrame, file: str) -> None:
+def check_segment(frame: Mapping[str, ArrayLike], file: str) -> None:
     """Check what the per-second computation relies on; raise one report of all problems.
 
     Args:
-        frame: a segment in canonical columns.
+        frame: a segment in canonical columns: a DataFrame, or a mapping of column name to
+            array (what :func:`rwhonet.features.samples.read_segment` returns).
         file: the segment's file name, for the report.
 
     Raises:
         InputError: missing columns, non-finite values, a latitude out of range,
             time not strictly increasing, or ten rows not spanning about one second.
     """
-    missing = [col for col in c.REQUIRED if col not in frame.columns]
+    missing = [col for col in c.REQUIRED if col not in frame]
     if missing:
         raise InputError(
             [Problem(file, None, col, "a canonical column", "missing") for col in missing]
         )
     problems: list[Problem] = []
     for col in c.REQUIRED:
-        values = frame[col].to_numpy(np.float64)
+        values = np.asarray(frame[col], dtype=np.float64)
         bad = np.flatnonzero(~np.isfinite(values))
         problems += [
             Problem(file, int(i) + 1, col, "a finite number", repr(values[i]))
             for i in bad[:_MAX_PROBLEMS_PER_CHECK]
         ]
-    lat = frame[c.LAT_DEG].to_numpy(np.float64)
+    lat = np.asarray(frame[c.LAT_DEG], dtype=np.float64)
     problems += [
         Problem(file, int(i) + 1, c.LAT_DEG, "a latitude in [-90, 90] deg", repr(lat[i]))
         for i in np.flatnonzero(np.abs(lat) > 90.0)[:_MAX_PROBLEMS_PER_CHECK]
     ]
-    t = frame[c.T_S].to_numpy(np.float64)
+    t = np.asarray(frame[c.T_S], dtype=np.float64)
     back = np.flatnonzero(np.diff(t) <= 0)
     problems += [
         Problem(file, int(i) + 2, c.T_S, f"time after the previous row's {t[i]!r}", repr(t[i + 1]))
@@ -301,12 +324,13 @@ def check_segment(frame: pd.DataFrame, file: str) -> None:
         raise InputError(problems, f"segment {file} cannot be cut into 10 Hz seconds")
 
 
-def segment_seconds(frame: pd.DataFrame, file: str = "<segment>") -> SegmentSeconds:
+def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> SegmentSeconds:
     """Compute the raw per-second quantities of one segment.
 
     Args:
-        frame: a segment in canonical columns (``rwhonet.data.canonical``), rows at 10 Hz;
-            the ``scenario`` column is optional.
+        frame: a segment in canonical columns (``rwhonet.data.canonical``), rows at 10 Hz:
+            a DataFrame, or a mapping of column name to array (numpy, or Arrow for
+            ``scenario``); the ``scenario`` column is optional.
         file: the segment's file name, for error reports.
 
     Returns:
@@ -316,14 +340,15 @@ def segment_seconds(frame: pd.DataFrame, file: str = "<segment>") -> SegmentSeco
         InputError: see :func:`check_segment`.
     """
     check_segment(frame, file)
-    t = frame[c.T_S].to_numpy(np.float64)
-    omega = {w: frame[w].to_numpy(np.float64) for w in c.WHEELS}
-    tags = frame[c.SCENARIO] if c.SCENARIO in frame.columns else np.full(len(frame), "")
+    t = np.asarray(frame[c.T_S], dtype=np.float64)
+    omega = {w: np.asarray(frame[w], dtype=np.float64) for w in c.WHEELS}
+    tags = frame[c.SCENARIO] if c.SCENARIO in frame else np.full(t.size, "")
     return SegmentSeconds(
         t_s=end_of_second(t),
         span_s=span_s(t),
         disp_gnss_m=gnss_displacement_m(
-            frame[c.LAT_DEG].to_numpy(np.float64), frame[c.LON_DEG].to_numpy(np.float64)
+            np.asarray(frame[c.LAT_DEG], dtype=np.float64),
+            np.asarray(frame[c.LON_DEG], dtype=np.float64),
         ),
         angle_rl_rad=integrate_per_second(t, omega[c.OMEGA_RL]),
         angle_rr_rad=integrate_per_second(t, omega[c.OMEGA_RR]),
@@ -331,5 +356,5 @@ def segment_seconds(frame: pd.DataFrame, file: str = "<segment>") -> SegmentSeco
         omega_end_rr_rad_s=end_of_second(omega[c.OMEGA_RR]),
         wheels_rad_s=wheel_features_rad_s([omega[w] for w in c.FEATURE_WHEEL_ORDER]),
         scenario=scenario_per_second(tags),
-        n_rows=len(frame),
+        n_rows=t.size,
     )
