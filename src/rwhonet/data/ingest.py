@@ -191,18 +191,27 @@ def scenario_array(t_s: np.ndarray, intervals: list[ScenarioInterval]) -> pa.Arr
 
 
 def write_parquet(table: pa.Table, path: Path) -> None:
-    """Write a drive, segment or samples table to Parquet (snappy-compressed).
+    """Write a drive, segment or samples table to Parquet, uncompressed.
 
     Dictionary encoding only for ``scenario``: on float channels it buys nothing (few
     repeated values) and made writing five times slower (samples: twice as slow, and
     the files 15 % larger).
+
+    No compression: these files are working data handed from one stage to the next.
+    Snappy halves their size (paper fleet: drives 58 instead of 132 MB) but cost more
+    time to compress and decompress than the extra bytes cost to write and read:
+    ingest -> validate -> label took 0.3-0.6 s longer (of ~2.7 s) with snappy, and
+    longer still with lz4, in interleaved runs of benchmarks/bench_data.py.
 
     Args:
         table: the table (column types and nullability as built by its stage).
         path: the Parquet file to write.
     """
     pq.write_table(
-        table, path, use_dictionary=[c.SCENARIO] if c.SCENARIO in table.column_names else False
+        table,
+        path,
+        compression="none",
+        use_dictionary=[c.SCENARIO] if c.SCENARIO in table.column_names else False,
     )
 
 

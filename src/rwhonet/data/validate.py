@@ -210,7 +210,9 @@ def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch
     """Read the drives in manifest order, grouped into batches of the same Arrow schema."""
     pending: list[tuple[dict[str, Any], pa.Table]] = []
     for entry in entries:
-        table = pq.read_table(drives_dir / f"{entry['drive']}.parquet")
+        # ParquetFile.read: a third of the time of pq.read_table (which goes through the
+        # dataset scanner) for these single-file reads.
+        table = pq.ParquetFile(drives_dir / f"{entry['drive']}.parquet").read()
         rows = sum(t.num_rows for _, t in pending) + table.num_rows
         if pending and (not table.schema.equals(pending[0][1].schema) or rows > BATCH_ROWS):
             yield _Batch([e for e, _ in pending], [t for _, t in pending])
