@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rwhonet.errors import InputError
-from rwhonet.features.scaling import fit_scaler, load_scaler, save_scaler
+from rwhonet.features.scaling import fit_scaler, fit_scaler_parts, load_scaler, save_scaler
 from rwhonet.io import read_json, write_json
 
 
@@ -78,3 +78,21 @@ def test_malformed_scaler_file_is_refused(tmp_path):
     with pytest.raises(InputError) as err:
         load_scaler(path)
     assert {p.column for p in err.value.problems} == {"wheels", "min_rad_s", "max_rad_s"}
+
+
+@pytest.mark.parametrize("kind", ["global", "per_wheel"])
+def test_fitting_on_blocks_equals_fitting_on_their_concatenation(kind):
+    rng = np.random.default_rng(4)
+    # Each block holds one wheel's extreme: only reducing across blocks finds them all.
+    blocks = [features(rng, n, ranges) for n, ranges in ((7, RANGES), (0, RANGES), (30, RANGES))]
+    blocks[0][3, 12] = -4.0  # RL minimum in the first block
+    blocks[2][5, 39] = 75.0  # FL maximum in the last
+    scaler = fit_scaler_parts(blocks, kind, ["a", "b"])
+    assert scaler == fit_scaler(np.concatenate(blocks), kind, ["a", "b"])
+    assert scaler.n_seconds == 37 and min(scaler.min_rad_s) == -4.0
+    assert max(scaler.max_rad_s) == 75.0
+    blocks[2][0, 0] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        fit_scaler_parts(blocks, kind, [])
+    with pytest.raises(ValueError, match="zero seconds"):
+        fit_scaler_parts([np.ones((0, 40))], kind, [])

@@ -157,7 +157,7 @@ def test_scenario_merge_matches_a_plain_per_second_union(as_series):
 
 
 @pytest.mark.parametrize("n_values", [6, 62, 63, 200])  # 63+: the sorted-combination path
-@pytest.mark.parametrize("kind", ["numpy", "series", "arrow", "chunked"])
+@pytest.mark.parametrize("kind", ["numpy", "series", "arrow", "chunked", "dictionary"])
 def test_scenario_merge_of_any_input_matches_a_plain_per_second_union(n_values, kind):
     rng = np.random.default_rng(n_values)
     vocabulary = np.array([""] + [f"t{k % 40};u{k}" for k in range(n_values - 1)], dtype=object)
@@ -174,5 +174,9 @@ def test_scenario_merge_of_any_input_matches_a_plain_per_second_union(n_values, 
         "series": pd.Series(tags, dtype="str"),
         "arrow": pa.array(tags, type=pa.string()),
         "chunked": pa.chunked_array([tags[:1234], tags[1234:]], type=pa.string()),
+        # as read_segment reads it: one dictionary per row group, not the same for all
+        "dictionary": pa.chunked_array(
+            [pa.array(part, type=pa.string()).dictionary_encode() for part in (tags[:9], tags[9:])]
+        ),
     }[kind]
     assert scenario_per_second(values).tolist() == expected

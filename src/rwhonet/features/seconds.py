@@ -193,11 +193,14 @@ def _factorize_tags(
 ) -> tuple[np.ndarray, list[str]]:
     """Return ``(codes, values)``: per row the index of its tag string, -1 when missing."""
     if isinstance(row_tags, pa.ChunkedArray):
-        row_tags = row_tags.combine_chunks()
-    if isinstance(row_tags, pa.Array):  # a Parquet column read with pyarrow: encode in C++
-        encoded = row_tags.dictionary_encode()
+        row_tags = row_tags.combine_chunks()  # dictionary chunks: onto one dictionary
+    if isinstance(row_tags, pa.Array):  # a Parquet column read with pyarrow
+        # Read as a dictionary, the codes come straight from the file; else encode in C++.
+        encoded = (
+            row_tags if isinstance(row_tags, pa.DictionaryArray) else row_tags.dictionary_encode()
+        )
         codes = encoded.indices.fill_null(-1).to_numpy(zero_copy_only=False)
-        return codes.astype(np.int64), encoded.dictionary.to_pylist()
+        return codes.astype(np.int64), [v or "" for v in encoded.dictionary.to_pylist()]
     # A Parquet string column read with pandas is Arrow-backed: factorize it as is.
     values = row_tags if isinstance(row_tags, pd.Series) else np.asarray(row_tags, dtype=object)
     codes, uniques = pd.factorize(values)
