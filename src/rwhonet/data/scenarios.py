@@ -134,7 +134,7 @@ def scenario_codes(
     tags = sorted({iv.tag for iv in intervals})
     if not tags:
         return np.array([""], dtype=object), np.zeros(t_s.shape, dtype=np.int64)
-    member = _tag_membership(t_s, intervals, tags)
+    member, piece = _tag_membership(t_s, intervals, tags)
     # Rows with the same tag set share one bit pattern: label each distinct pattern once.
     if len(tags) < 63:
         # The pattern as an int64 (bit j: tags[j]), hashed: much faster than sorting records.
@@ -150,31 +150,39 @@ def scenario_codes(
         [SEPARATOR.join(t for t, on in zip(tags, row, strict=False) if on) for row in patterns],
         dtype=object,
     )
-    return labels, np.asarray(codes, dtype=np.int64).reshape(t_s.shape)
+    return labels, np.asarray(codes, dtype=np.int64).reshape(-1)[piece].reshape(t_s.shape)
 
 
 def _tag_membership(
     t_s: np.ndarray, intervals: Sequence[ScenarioInterval], tags: Sequence[str]
-) -> np.ndarray:
-    """Boolean ``(rows, tags)``: whether an interval of that tag covers the row's time."""
-    member = np.zeros((t_s.size, len(tags)), dtype=bool)
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which tags cover which rows, per run of rows with the same tags.
+
+    Returns:
+        ``(member, piece)``: boolean ``(pieces, tags)``, whether an interval of that tag
+        covers the piece; and per row, the index of its piece.
+    """
     column_of = {tag: j for j, tag in enumerate(tags)}
     if t_s.size > 1 and not np.all(t_s[1:] >= t_s[:-1]):  # unsorted or NaN: compare all rows
+        member = np.zeros((t_s.size, len(tags)), dtype=bool)
         for iv in intervals:  # a loop over intervals (tens), each a vectorised pass over rows
             member[:, column_of[iv.tag]] |= (t_s >= iv.start_s) & (t_s < iv.end_s)
-        return member
-    # Sorted times: interval [start, end) holds rows searchsorted(start) .. searchsorted(end) - 1.
-    # Per tag, +1 at an interval's first row and -1 after its last, cumulated, counts the
-    # intervals covering each row (overlapping intervals of one tag stay covered).
+        return member, np.arange(t_s.size)
+    # Sorted times: interval [start, end) holds rows searchsorted(start) .. searchsorted(end) - 1,
+    # and the tags can only change where an interval starts or ends: between those rows the
+    # drive is cut into pieces. Per tag, +1 at the piece an interval starts in and -1 at the
+    # one after its end, cumulated, counts the intervals covering each piece (overlapping
+    # intervals of one tag stay covered).
     lo = np.searchsorted(t_s, [iv.start_s for iv in intervals], side="left")
     hi = np.searchsorted(t_s, [iv.end_s for iv in intervals], side="left")
+    cuts = np.unique(np.concatenate([[0, t_s.size], lo, hi]))  # first row of each piece
     column = np.array([column_of[iv.tag] for iv in intervals])
-    depth = np.zeros((t_s.size + 1, len(tags)), dtype=np.int32)
-    np.add.at(depth, (lo, column), 1)
-    np.add.at(depth, (hi, column), -1)
+    depth = np.zeros((cuts.size, len(tags)), dtype=np.int32)  # last row: after the drive
+    np.add.at(depth, (np.searchsorted(cuts, lo), column), 1)
+    np.add.at(depth, (np.searchsorted(cuts, hi), column), -1)
     np.cumsum(depth, axis=0, out=depth)
-    member[:] = depth[:-1] > 0
-    return member
+    piece = np.repeat(np.arange(cuts.size - 1), np.diff(cuts))
+    return depth[:-1] > 0, piece
 
 
 def scenario_column(t_s: np.ndarray, intervals: Sequence[ScenarioInterval]) -> np.ndarray:
