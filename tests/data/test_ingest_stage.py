@@ -15,7 +15,7 @@ import pytest
 from rwhonet import paths
 from rwhonet.config import ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.ingest import ingest
+from rwhonet.data.ingest import ingest, system_memory_pool
 from rwhonet.errors import InputError
 
 from .drives import (
@@ -169,3 +169,17 @@ def test_canonical_parquet_declares_no_nulls_and_stores_floats_plainly(tmp_path)
     assert file.schema_arrow.field(c.SCENARIO).type == pa.string()
     chunks = {file.schema_arrow.names[i]: file.metadata.row_group(0).column(i) for i in range(8)}
     assert not chunks[c.T_S].has_dictionary_page and not chunks[c.N_SATS].has_dictionary_page
+
+
+def test_system_memory_pool_is_scoped_and_restored_after_an_error():
+    before = pa.default_memory_pool().backend_name
+
+    @system_memory_pool()
+    def allocate_then_fail():
+        assert pa.default_memory_pool().backend_name == "system"
+        pa.array(np.arange(1000.0))
+        raise InputError([])
+
+    with pytest.raises(InputError):
+        allocate_then_fail()
+    assert pa.default_memory_pool().backend_name == before

@@ -24,7 +24,7 @@ import pyarrow.parquet as pq
 from rwhonet import paths
 from rwhonet.config import ConfigError, CutSpec, Params
 from rwhonet.data import canonical as c
-from rwhonet.data.ingest import MANIFEST, write_parquet
+from rwhonet.data.ingest import MANIFEST, system_memory_pool, write_parquet
 from rwhonet.data.plausibility import implied_radius, unit_mistake
 from rwhonet.data.quality import RULES, Assessment, assess
 from rwhonet.data.schema import schema_problems_batch
@@ -74,6 +74,7 @@ def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
     return by_drive
 
 
+@system_memory_pool()
 def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path) -> dict[str, Any]:
     """Validate every ingested drive and cut it into GNSS-valid segments.
 

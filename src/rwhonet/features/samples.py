@@ -34,7 +34,7 @@ import pyarrow.parquet as pq
 from rwhonet import paths
 from rwhonet.config import Params
 from rwhonet.data import canonical as c
-from rwhonet.data.ingest import write_parquet
+from rwhonet.data.ingest import system_memory_pool, write_parquet
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import (
     Calibration,
@@ -347,6 +347,7 @@ def _per_second_all(
     return seconds
 
 
+@system_memory_pool()
 def label(
     params: Params, segments_dir: Path, out_dir: Path, calibration_path: Path, scaler_path: Path
 ) -> dict[str, Any]:
