@@ -74,19 +74,19 @@ def _drive_checks(
     w_max = vp.max_abs_wheel_speed_rad_s
     starts = np.zeros(1, np.int64) if drive_starts is None else np.asarray(drive_starts, np.int64)
 
-    def drive_of(s: pd.Series) -> np.ndarray:
-        # From the index, not the position: pandera drops the NaN rows of a column before
-        # running a check on it (ignore_na), so positions in s are not rows of the frame.
-        if starts.size == 1:
-            return np.zeros(len(s), dtype=np.int64)
-        return np.searchsorted(starts, s.index.to_numpy(), side="right") - 1
+    def first_rows(s: pd.Series) -> np.ndarray:
+        # Position in s of each drive's first row. From the index, not the position:
+        # pandera drops the NaN rows of a column before running a check on it (ignore_na),
+        # so positions in s are not rows of the frame; a drive whose first rows were
+        # dropped starts at its first row left.
+        return np.searchsorted(s.index.to_numpy(), starts)
 
     def step(s: pd.Series) -> pd.Series:
         t = s.to_numpy(np.float64)
         d = np.full(t.size, np.nan)
         d[1:] = t[1:] - t[:-1]
-        k = drive_of(s)
-        d[1:][k[1:] != k[:-1]] = np.nan  # a drive's first row has no previous row
+        first = first_rows(s)
+        d[first[first < t.size]] = np.nan  # a drive's first row has no previous row
         return pd.Series(d, index=s.index)
 
     def regular(s: pd.Series) -> pd.Series:
@@ -101,7 +101,7 @@ def _drive_checks(
         # drive's non-missing times, as a one-drive check given the NaN-free column took them.
         t = s.to_numpy(np.float64)
         ok = np.ones(t.size, dtype=bool)
-        bounds = np.r_[np.searchsorted(s.index.to_numpy(), starts), t.size]
+        bounds = np.r_[first_rows(s), t.size]
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # per drive, not per row
             if a == b:
                 continue
