@@ -64,15 +64,20 @@ def main() -> None:
     total = t_ingest + t_validate + t_label
 
     print(f"fleet: profile {args.profile}, {n_rows:,} rows at 10 Hz ({hours:.1f} h of driving)")
-    print(
-        f"simulator: {t_sim:6.2f} s  ({hours * 3600 / t_sim:,.0f} s driven per s, CSV incl.)"
-    )
+    print(f"simulator: {t_sim:6.2f} s  ({hours * 3600 / t_sim:,.0f} s driven per s, CSV incl.)")
     for name, t in (("ingest", t_ingest), ("validate", t_validate), ("label", t_label)):
         print(f"{name:>9}: {t:6.2f} s  ({n_rows / t / 1e6:5.2f} M rows/s)")
     print(
         f"end to end: {total:6.2f} s  -> {n_rows / total / 1e6:.2f} M rows/s "
         f"(a 36,000-row hour in {36_000 / (n_rows / total) * 1e3:.0f} ms; target >= 0.4 M rows/s)"
     )
+
+    # What the stages wrote (uncompressed Parquet, see rwhonet.data.ingest.write_parquet).
+    written_mb = {
+        name: sum(f.stat().st_size for f in (work / name).glob("*.parquet")) / 1e6
+        for name in ("drives", "segments", "samples")
+    }
+    print("parquet written: " + ", ".join(f"{k} {mb:.0f} MB" for k, mb in written_mb.items()))
 
     rng = np.random.default_rng(0)
     lat = rng.uniform(-70, 70, 20_000)
