@@ -6,11 +6,11 @@ column names; everything downstream uses these names.
 
 from __future__ import annotations
 
-T_S = "t_s"                      # time, s (monotonic within a drive)
-LAT_DEG = "lat_deg"              # WGS84 latitude, deg
-LON_DEG = "lon_deg"              # WGS84 longitude, deg
-N_SATS = "n_sats"                # GNSS satellites in the fix, count
-OMEGA_FL = "omega_fl_rad_s"      # wheel angular speed front left, rad/s
+T_S = "t_s"  # time, s (monotonic within a drive)
+LAT_DEG = "lat_deg"  # WGS84 latitude, deg
+LON_DEG = "lon_deg"  # WGS84 longitude, deg
+N_SATS = "n_sats"  # GNSS satellites in the fix, count
+OMEGA_FL = "omega_fl_rad_s"  # wheel angular speed front left, rad/s
 OMEGA_FR = "omega_fr_rad_s"
 OMEGA_RL = "omega_rl_rad_s"
 OMEGA_RR = "omega_rr_rad_s"
@@ -24,7 +24,7 @@ SPEED_VEHICLE_M_S = "speed_vehicle_m_s"
 ACC_LON_M_S2 = "acc_lon_m_s2"
 ACC_LAT_M_S2 = "acc_lat_m_s2"
 
-SCENARIO = "scenario"            # ';'-joined scenario tags of the row ('' when none/unknown)
+SCENARIO = "scenario"  # ';'-joined scenario tags of the row ('' when none/unknown)
 
 WHEELS = (OMEGA_FL, OMEGA_FR, OMEGA_RL, OMEGA_RR)
 # Feature order of the authors' code: RR, RL, FR, FL (reference notes, "Per-second samples").
