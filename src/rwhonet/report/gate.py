@@ -58,7 +58,8 @@ def mean_crse(eval_json: dict) -> dict[tuple[str, str], float]:
 def compare(now: dict, baseline: dict) -> list[GateRow]:
     """Pair every baseline (model, outage) with the new value (None when missing)."""
     new = mean_crse(now)
-    return [GateRow(m, o, b, new.get((m, o))) for (m, o), b in sorted(mean_crse(baseline).items())]
+    base = sorted(mean_crse(baseline).items(), key=lambda kv: (kv[0][0], int(kv[0][1][:-1])))
+    return [GateRow(m, o, b, new.get((m, o))) for (m, o), b in base]
 
 
 def render(rows: list[GateRow], rel_tol: float) -> str:
