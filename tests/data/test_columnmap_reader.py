@@ -13,20 +13,13 @@ from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import check_column_map, read_columnmap
 from rwhonet.errors import InputError
 
+from .drives import CUPAC_MAP
+
 FIXTURE = Path(__file__).parents[1] / "fixtures" / "cupac" / "C-T1.csv"
 
 
 def cupac_map(**changes: tuple[str, str]) -> dict[str, ColumnSpec]:
-    spec = {
-        "t": ("Time", "ms"),
-        "lat": ("Latitude", "deg"),
-        "lon": ("Longitude", "deg"),
-        "omega_fl": ("WheelSpeedFL", "rpm"),
-        "omega_fr": ("WheelSpeedFR", "rpm"),
-        "omega_rl": ("WheelSpeedRL", "rpm"),
-        "omega_rr": ("WheelSpeedRR", "rpm"),
-        "n_sats": ("Satellites", "count"),
-    } | changes
+    spec = CUPAC_MAP | changes
     return {k: ColumnSpec(col, unit) for k, (col, unit) in spec.items()}
 
 
