@@ -45,16 +45,17 @@ def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Pat
     from rwhonet.models.core import fine_tune_lean, predict, save_checkpoint_lean
 
     test = load_role(samples_dir, "target_test", params.model.seq_len)
-    need = max(params.adapt.m_grid)
+    # Only this m matters here (the stage does not depend on the rest of the grid);
+    # evaluate checks that every drive is long enough beyond the largest m.
     k = test.frame["k"].to_numpy()
     drive = test.frame["drive"].to_numpy()
     short = [
-        Problem(d, None, None, f"more than {need} labelled seconds (largest m)", f"{n} seconds")
+        Problem(d, None, None, f"more than m = {m} labelled seconds", f"{n} seconds")
         for d, n in test.frame.groupby("drive", sort=False).size().items()
-        if n <= need
+        if n <= m
     ]
     if short:
-        raise InputError(short, "target test drives too short for adapt.m_grid")
+        raise InputError(short, f"target test drives too short to adapt on their first {m} s")
 
     children, preds, results = [], [], {}
     for d in test.drives:
