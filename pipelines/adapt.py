@@ -17,12 +17,12 @@ def main() -> None:
 
     from rwhonet.experiment.adapt import adapt_m, r_dir
 
-    rec = adapt_m(params, args.m, paths.SAMPLES, paths.MODEL_G, r_dir(args.m))
+    rec, seconds = adapt_m(params, args.m, paths.SAMPLES, paths.MODEL_G, r_dir(args.m))
     m = rec.metrics
     print(
         f"{rec.name}: {len(rec.children)} drives, trainable {int(m['n_trainable_params'])}"
         f" of {int(m['n_total_params'])} parameters ({params.adapt.trainable}), "
-        f"{params.adapt.epochs} epochs, {m['fit_seconds']:.1f} s of fitting "
+        f"{params.adapt.epochs} epochs, {seconds:.1f} s of fitting "
         f"-> {paths.rel(r_dir(args.m))}"
     )
 

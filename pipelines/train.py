@@ -18,14 +18,14 @@ def main() -> None:
     from rwhonet.experiment.train import train_model
 
     out = paths.MODEL_G if args.which == "G" else paths.MODEL_S
-    rec = train_model(params, args.which, paths.SAMPLES, out)
+    rec, seconds = train_model(params, args.which, paths.SAMPLES, out)
     last = rec.history[-1] if rec.history else {}
     nan = float("nan")
     m = rec.metrics
     print(
         f"{rec.name}: {int(m['n_train_samples'])} training seconds from {int(m['n_drives'])} "
-        f"drives, {params.train.epochs} epochs in {m['fit_seconds']:.1f} s "
-        f"({m['train_samples_per_s']:,.0f} samples/s); final train MAE "
+        f"drives, {params.train.epochs} epochs in {seconds:.1f} s "
+        f"({m['n_train_samples'] * params.train.epochs / seconds:,.0f} samples/s); final train MAE "
         f"{last.get('train/loss', nan):.4f} m, val MAE {last.get('val/loss', nan):.4f} m "
         f"-> {paths.rel(out)}"
     )

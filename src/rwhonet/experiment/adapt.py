@@ -22,7 +22,9 @@ from rwhonet.io import atomic_dir, write_json
 from rwhonet.tracking.store import RunRecord
 
 
-def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Path) -> RunRecord:
+def adapt_m(
+    params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Path
+) -> tuple[RunRecord, float]:
     """Fine-tune G on the first ``m`` seconds of every target test drive.
 
     Every test drive gets its own R-WhONet (the paper recalibrates per drive),
@@ -37,7 +39,8 @@ def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Pat
         out_dir: ``models/r/m<m>``.
 
     Returns:
-        The run record: one R run for this m with a child run per drive.
+        The run record (one R run for this m with a child run per drive) and
+        the seconds of fitting, kept out of the record as in ``train_model``.
     """
     # The lean path: the same fine-tuning as rwhonet.models.train.fine_tune, bit for bit,
     # without importing Lightning (5-7 s per stage process against < 1 s of fitting).
@@ -82,7 +85,6 @@ def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Pat
                 history=history_rows(result.history),
                 metrics={
                     "n_adapt_samples": int(first.sum()),
-                    "fit_seconds": result.seconds,
                     "n_trainable_params": result.n_trainable,
                     "n_total_params": result.n_total,
                 },
@@ -100,7 +102,6 @@ def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Pat
         },
         params={**model_params(params, "adapt"), "adapt.m": m},
         metrics={
-            "fit_seconds": float(sum(r.seconds for r in results.values())),
             "n_trainable_params": next(iter(results.values())).n_trainable,
             "n_total_params": next(iter(results.values())).n_total,
         },
@@ -111,7 +112,7 @@ def adapt_m(params: Params, m: int, samples_dir: Path, g_dir: Path, out_dir: Pat
             save_checkpoint_lean(result, tmp / f"{d}.ckpt")
         pd.concat(preds, ignore_index=True).to_parquet(tmp / PREDICTIONS, index=False)
         write_json(tmp / RUN_RECORD, record.to_dict())
-    return record
+    return record, float(sum(r.seconds for r in results.values()))
 
 
 def r_dir(m: int) -> Path:
