@@ -25,11 +25,11 @@ os.environ.setdefault("DISABLE_PANDERA_IMPORT_WARNING", "True")
 import numpy as np  # noqa: E402
 
 from rwhonet.config import load_params  # noqa: E402
-from rwhonet.data.ingest import ingest  # noqa: E402
-from rwhonet.data.validate import validate  # noqa: E402
-from rwhonet.features.samples import label  # noqa: E402
 from rwhonet.geo.geodesic import geodesic_distance_m, geodesic_distance_reference_m  # noqa: E402
 from rwhonet.sim import simulate_fleet  # noqa: E402
+from rwhonet.stages.ingest import ingest  # noqa: E402
+from rwhonet.stages.label import label  # noqa: E402
+from rwhonet.stages.validate import validate  # noqa: E402
 
 
 def _timed(fn, *args, **kwargs):
@@ -72,7 +72,7 @@ def main() -> None:
         f"(a 36,000-row hour in {36_000 / (n_rows / total) * 1e3:.0f} ms; target >= 0.4 M rows/s)"
     )
 
-    # What the stages wrote (uncompressed Parquet, see rwhonet.data.ingest.write_parquet).
+    # What the stages wrote (uncompressed Parquet, see rwhonet.io.write_parquet).
     written_mb = {
         name: sum(f.stat().st_size for f in (work / name).glob("*.parquet")) / 1e6
         for name in ("drives", "segments", "samples")

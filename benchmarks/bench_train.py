@@ -18,12 +18,11 @@ Training variants, all on the same data, model, Adamax, MAE loss and batch size:
 - rwhonet block=K: ``fit`` as the pipeline runs it (K steps per Lightning batch).
 
 Then the adaptation grid (adapt.m_grid x 4 drives, m samples each, adapt.epochs
-epochs, in one process) through the Lightning entry point
-(``rwhonet.models.train.fine_tune``) and the lean one the adapt@m stages run
-(``rwhonet.models.core.fine_tune_lean``, checked to give identical weights);
-the cold-start cost each adds to a stage process (a fresh interpreter importing
-it and building the optimizer); and the evaluation (CRSE/CTE windows for every
-evaluate.outages_s) on N seconds of errors.
+epochs, in one process) as the adapt stage runs it (``rwhonet.models.adapt.fine_tune``);
+the cold-start cost of a stage process (a fresh interpreter importing its entry
+point and building the optimizer), with and without Lightning, which is why the
+adapt stage covers the whole grid in one process without a Trainer; and the
+evaluation (CRSE/CTE windows for every evaluate.outages_s) on N seconds of errors.
 """
 
 from __future__ import annotations
@@ -32,11 +31,9 @@ import argparse
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
@@ -117,13 +114,13 @@ def _lightning_baseline(x, y, model, train, seed: int, *, naive: bool) -> float:
 # What a stage process pays before fitting: import the entry point and build the
 # optimizer (torch.optim imports torch._dynamo on the first optimizer it builds).
 COLD_START = {
-    "lightning (train.fine_tune)": (
-        "import torch; from rwhonet.models.train import fine_tune; "
+    "train stage (Lightning)": (
+        "import torch; from rwhonet.models.train import fit; "
         "torch.optim.Adamax(torch.nn.Linear(2, 1).parameters())"
     ),
-    "lean (core.fine_tune_lean)": (
-        "import torch; from rwhonet.models.core import fine_tune_lean; "
-        "torch.optim.Adamax(torch.nn.Linear(2, 1).parameters())"
+    "adapt stage (no Lightning)": (
+        "import torch; from rwhonet.stages import adapt; from rwhonet.models.adapt import "
+        "fine_tune; torch.optim.Adamax(torch.nn.Linear(2, 1).parameters())"
     ),
 }
 
@@ -135,16 +132,16 @@ def _cold_start_s(code: str) -> float:
     return time.perf_counter() - start
 
 
-def _grid(fine_tune_fn, ckpt: Path, drives, adapt, seed: int, threads: int) -> tuple:
-    """Run every (m, drive) fine-tune; return (results, wall seconds, per-run fit seconds)."""
-    results, fit_s = [], []
+def _grid(net, hparams, drives, adapt, seed: int) -> tuple[float, list[float]]:
+    """Run every (m, drive) fine-tune; return (wall seconds, per-run fit seconds)."""
+    from rwhonet.models.adapt import fine_tune
+
+    fit_s = []
     start = time.perf_counter()
     for m in adapt.m_grid:
         for xd, yd in drives:
-            r = fine_tune_fn(ckpt, xd[:m], yd[:m], adapt=adapt, seed=seed, num_threads=threads)
-            results.append(r)
-            fit_s.append(r.seconds)
-    return results, time.perf_counter() - start, fit_s
+            fit_s.append(fine_tune(net, hparams, xd[:m], yd[:m], adapt=adapt, seed=seed).seconds)
+    return time.perf_counter() - start, fit_s
 
 
 def _measure(name: str, fn: Callable[[], float], repeats: int, table: dict) -> None:
@@ -173,8 +170,8 @@ def main() -> None:
     import torch
 
     from rwhonet.metrics.outage import summarise, window_metrics
-    from rwhonet.models.core import STEPS_PER_BLOCK, fine_tune_lean
-    from rwhonet.models.train import fine_tune, fit, save_checkpoint
+    from rwhonet.models.loop import STEPS_PER_BLOCK
+    from rwhonet.models.train import fit
 
     import_s = time.perf_counter() - t0
     params = load_params()
@@ -230,36 +227,30 @@ def main() -> None:
          rng.normal(0.3, 0.3, max(adapt.m_grid)).astype(np.float32))
         for _ in range(args.drives)
     ]  # fmt: skip
-    with tempfile.TemporaryDirectory() as tmp:
-        ckpt = Path(tmp) / "g.ckpt"
-        save_checkpoint(results[block], ckpt)
-        grid = {
-            name: _grid(fn, ckpt, drives, adapt, seed, train.num_threads)
-            for name, fn in (("lightning", fine_tune), ("lean", fine_tune_lean))
-        }
+    g = results[block].module
+    grid_s, fit_s = _grid(g.net, dict(g.hparams), drives, adapt, seed)
     n_runs = len(adapt.m_grid) * args.drives
     print(
         f"Adaptation grid: {len(adapt.m_grid)} m values x {args.drives} drives = {n_runs} "
         f"fine-tunes (m = {adapt.m_grid[0]}-{adapt.m_grid[-1]} samples, {adapt.epochs} epochs, "
         f"batch {adapt.batch_size}, trainable={adapt.trainable}), in one process"
     )
-    for name, (_, grid_s, fit_s) in grid.items():
-        print(
-            f"  {name:<9} whole grid {grid_s:5.1f} s; {1e3 * grid_s / n_runs:4.0f} ms per "
-            f"fine-tune (of which training {1e3 * statistics.median(fit_s):.0f} ms median)"
-        )
-    identical = all(
-        torch.equal(a, b)
-        for lit, lean in zip(grid["lightning"][0], grid["lean"][0], strict=True)
-        for a, b in zip(
-            lit.module.net.state_dict().values(), lean.net.state_dict().values(), strict=True
-        )
+    print(
+        f"  whole grid {grid_s:5.1f} s; {1e3 * grid_s / n_runs:4.0f} ms per fine-tune "
+        f"(of which training {1e3 * statistics.median(fit_s):.0f} ms median)"
     )
-    print(f"  lean weights identical to Lightning's in every run: {identical}")
     print("Cold start of a stage process (fresh interpreter: import + first optimizer), 3 runs:")
+    cold = {}
     for name, code in COLD_START.items():
         runs = sorted(_cold_start_s(code) for _ in range(3))
+        cold[name] = runs[1]
         print(f"  {name:<28} {runs[1]:.1f} s median (range {runs[0]:.1f}-{runs[-1]:.1f})")
+    per_m = len(adapt.m_grid) * cold["adapt stage (no Lightning)"] + grid_s
+    print(
+        f"  the grid as one process per m would cost about {per_m:.0f} s "
+        f"({len(adapt.m_grid)} cold starts + the grid), as one process "
+        f"{cold['adapt stage (no Lightning)'] + grid_s:.0f} s"
+    )
 
     group = np.repeat(np.arange(40), -(-n // 40))[:n]  # ~40 segments
     e = rng.normal(0.0, 0.5, n)

@@ -1,33 +1,7 @@
-"""DVC stage simulate: params.yaml `sim` -> simulated drives in the IO-VNBD layout (data/sim).
+"""DVC stage simulate: params.yaml `sim` -> simulated drives in the IO-VNBD layout (data/sim)."""
 
-Simulates the fleet of `sim.profile` (docs/simulator.md) and writes
-data/sim/<role>/<drive>.csv with .scenarios.json and .truth.json sidecars, plus
-data/sim/fleet.json. Usage: python pipelines/simulate.py
-"""
-
-from rwhonet import paths, stage
-from rwhonet.config import load_params
-
-
-def main() -> None:
-    params = load_params()
-
-    from rwhonet.sim import simulate_fleet
-
-    summary = simulate_fleet(params, paths.SIM)
-    roles = ", ".join(
-        f"{role} {agg['drives']} drives / {agg['hours']:.2f} h / {agg['km']:.1f} km"
-        for role, agg in summary["roles"].items()
-    )
-    hours = sum(agg["hours"] for agg in summary["roles"].values())
-    rows = sum(d["n_rows"] for d in summary["drives"])
-    faults = sum(len(d["gnss_faults"]) for d in summary["drives"])
-    print(
-        f"Simulated profile {summary['profile']!r} (seed {summary['seed']}): {roles}. "
-        f"{hours:.2f} h of driving, {rows} rows at 10 Hz, {faults} degraded GNSS stretches, "
-        f"in {summary['seconds']:.1f} s -> {paths.rel(paths.SIM)}"
-    )
-
+from rwhonet import stage
+from rwhonet.stages import simulate
 
 if __name__ == "__main__":
-    stage.run(main)
+    stage.run("simulate", simulate.main)

@@ -18,6 +18,8 @@ from rwhonet import paths
 
 BIN = Path(sys.executable).parent
 
+pytestmark = pytest.mark.slow  # git clone and several dvc commands
+
 
 def _run(cmd, cwd, **kw):
     env = dict(os.environ, DVC_NO_ANALYTICS="1", PATH=f"{BIN}{os.pathsep}{os.environ['PATH']}")
@@ -65,9 +67,9 @@ def test_data_dvc_clean_and_pipeline_plannable(clone):
     assert _run(["git", "status", "--porcelain", "data.dvc"], clone).stdout == ""
     dag = _run(["dvc", "dag", "--md"], clone)
     assert dag.returncode == 0, dag.stderr
-    for stage in ("simulate", "ingest", "validate", "label", "train_g", "train_s", "evaluate"):
+    for stage in ("simulate", "ingest", "validate", "label", "train_g", "train_s", "adapt"):
         assert stage in dag.stdout
-    assert '"adapt@50"' in dag.stdout or "adapt@50" in dag.stdout
+    assert "evaluate" in dag.stdout
 
 
 def test_readme_commands_exist(clone):

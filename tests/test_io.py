@@ -2,7 +2,7 @@
 
 import pytest
 
-from rwhonet.io import atomic_dir, atomic_file, read_json, write_json
+from rwhonet.io import atomic_dir, atomic_file, atomic_outputs, read_json, write_json
 
 
 def test_atomic_dir_replaces_on_success(tmp_path):
@@ -31,6 +31,25 @@ def test_atomic_file_keeps_old_on_failure(tmp_path):
         raise ValueError
     assert read_json(f) == {"v": 1}
     assert [p.name for p in tmp_path.iterdir()] == ["a.json"]
+
+
+def test_a_stage_s_outputs_are_replaced_together_or_not_at_all(tmp_path):
+    folder, report = tmp_path / "segments", tmp_path / "report.json"
+    with atomic_outputs(folder, report, folders=(True, False)) as (tmp_dir, tmp_report):
+        (tmp_dir / "a.parquet").write_text("1")
+        write_json(tmp_report, {"run": 1})
+    with (
+        pytest.raises(KeyboardInterrupt),
+        atomic_outputs(folder, report, folders=(True, False)) as (
+            tmp_dir,
+            tmp_report,
+        ),
+    ):
+        (tmp_dir / "b.parquet").write_text("2")
+        write_json(tmp_report, {"run": 2})
+        raise KeyboardInterrupt  # after every output was written, before the swap
+    assert [p.name for p in folder.iterdir()] == ["a.parquet"] and read_json(report) == {"run": 1}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json", "segments"]
 
 
 def test_outputs_get_the_usual_permissions(tmp_path):

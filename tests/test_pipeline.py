@@ -104,11 +104,40 @@ def test_full_pipeline_then_noop(repo):
     assert status.returncode == 0 and "up to date" in status.stdout, status.stdout
 
 
+def test_touching_any_imported_module_makes_its_stages_stale(repo):
+    """dvc status reports every stage whose import closure holds a changed module."""
+    from test_architecture import closure, entry_script, stages
+
+    wanted = {
+        name: {f.relative_to(paths.ROOT) for f in closure(entry_script(st))}
+        for name, st in stages().items()
+    }
+    touched = set().union(*wanted.values())
+    for rel in touched:
+        with open(repo / rel, "a") as f:
+            f.write("\n# touched by test_pipeline\n")
+    try:
+        out = dvc(repo, "status", "--json")
+        assert out.returncode == 0, out.stderr
+        report = json.loads(out.stdout)
+        for name, files in wanted.items():
+            changed = {
+                Path(dep) for entry in report.get(name, []) for dep in entry.get("changed deps", {})
+            }
+            stale = sorted(
+                str(f) for f in files if not any(d == f or d in f.parents for d in changed)
+            )
+            assert not stale, f"stage {name}: dvc status does not see changes to {stale}"
+    finally:
+        subprocess.run(["git", "checkout", "--", *map(str, touched)], cwd=repo, check=True)
+    assert dvc(repo, "status", "--json").stdout.strip() in ("{}", "")
+
+
 def test_same_params_and_seed_give_identical_results(repo):
     """Re-running a training stage from scratch reproduces its predictions and the metrics."""
     r10 = repo / "models/r/m10/predictions.parquet"
     before_pred, before_eval = r10.read_bytes(), (repo / "metrics/eval.json").read_text()
-    out = dvc(repo, "repro", "--force", "--single-item", "adapt@10")
+    out = dvc(repo, "repro", "--force", "--single-item", "adapt")
     assert out.returncode == 0, out.stdout + out.stderr
     assert r10.read_bytes() == before_pred
     out = dvc(repo, "repro", "--force", "--single-item", "evaluate")
@@ -116,19 +145,41 @@ def test_same_params_and_seed_give_identical_results(repo):
     assert (repo / "metrics/eval.json").read_text() == before_eval
 
 
+def corrupt(drive: Path, row: int, column: int, value: str) -> str:
+    """Write ``value`` into one cell (row: 1-based data row); return the original text."""
+    original = drive.read_text()
+    lines = original.splitlines()
+    cells = lines[row].split(",")
+    cells[column] = value
+    lines[row] = ",".join(cells)
+    drive.write_text("\n".join(lines) + "\n")
+    return original
+
+
 def test_bad_drive_fails_cleanly(repo):
     """A corrupted drive stops ingest with file, row and column; nothing half-written."""
     drive = next((repo / "data/sim/target_test").glob("*.csv"))
-    lines = drive.read_text().splitlines()
-    cells = lines[5].split(",")
-    cells[12] = "oops"
-    lines[5] = ",".join(cells)
-    drive.write_text("\n".join(lines) + "\n")
+    original = corrupt(drive, 5, 12, "oops")
     before = sorted(p.name for p in (repo / "data/interim/drives").iterdir())
-    out = dvc(repo, "repro", "ingest", "--single-item", "--force")
+    try:
+        out = dvc(repo, "repro", "ingest", "--single-item", "--force")
+    finally:
+        drive.write_text(original)
     assert out.returncode != 0
     msg = out.stdout + out.stderr
     assert drive.name in msg and "row 5" in msg and "Wheel Speed Rear Left" in msg
     drives = repo / "data/interim/drives"
     assert not drives.exists() or sorted(p.name for p in drives.iterdir()) in ([], before)
 
+
+def test_a_drive_validate_refuses_stops_the_stage_with_file_row_and_column(repo):
+    drive = next((repo / "data/sim/target_test").glob("*.csv"))
+    original = corrupt(drive, 100, 2, "-95.0")  # latitude of data row 100
+    try:
+        assert dvc(repo, "repro", "ingest", "--single-item", "--force").returncode == 0
+        out = dvc(repo, "repro", "validate", "--single-item", "--force")
+    finally:
+        drive.write_text(original)
+    assert out.returncode != 0
+    assert "ERROR in stage validate (validate.py)" in out.stderr
+    assert f"{drive.name}, row 100, column ' Lat': expected a latitude in [-90, 90]" in out.stderr

@@ -16,8 +16,6 @@ from typing import Any, Literal
 
 import yaml
 
-from rwhonet import paths
-
 
 class ConfigError(ValueError):
     """A params.yaml value is missing, unknown or of the wrong type."""
@@ -253,11 +251,6 @@ class DataParams:
     vehicles: dict[str, VehicleSpec]
     column_maps: dict[str, dict[str, ColumnSpec]] = field(default_factory=dict)
 
-    @property
-    def root_path(self) -> Path:
-        p = Path(self.root)
-        return p if p.is_absolute() else paths.ROOT / p
-
 
 @dataclass(frozen=True)
 class GnssPolicy:
@@ -389,20 +382,34 @@ class Params:
 # --------------------------------------------------------------------------- loading
 
 
-def load_params(path: Path | str | None = None, overrides: dict[str, Any] | None = None) -> Params:
+def load_params(
+    path: Path | str | None = None,
+    overrides: dict[str, Any] | None = None,
+    *,
+    only: list[str] | None = None,
+    reader: str = "this code",
+) -> Params:
     """Load and type-check ``params.yaml``.
 
     Args:
-        path: the YAML file; defaults to the project's ``params.yaml``.
+        path: the YAML file; defaults to the project's ``params.yaml`` (``rwhonet.paths``).
         overrides: dotted keys to replace after loading (``{"sim.profile": "ci"}``).
+        only: dotted keys (``"adapt"``, ``"adapt.m_grid"``) the caller may read; any
+            other read raises :class:`ConfigError` naming the key and ``reader``.
+            None: everything. A DVC stage gets exactly its ``dvc.yaml`` params, so a
+            value it reads without declaring it can never leave a stale output.
+        reader: who reads, for that error (``"stage train_g"``).
 
     Returns:
-        The typed parameters.
+        The typed parameters (the whole file is checked either way).
 
     Raises:
         ConfigError: on unknown, missing or mistyped keys.
     """
-    path = Path(path) if path is not None else paths.PARAMS
+    if path is None:
+        from rwhonet import paths
+
+        path = paths.PARAMS
     with open(path, encoding="utf-8") as f:
         raw = yaml.safe_load(f) or {}
     for dotted, value in (overrides or {}).items():
@@ -411,7 +418,48 @@ def load_params(path: Path | str | None = None, overrides: dict[str, Any] | None
         for key in parents:
             node = node.setdefault(key, {})
         node[leaf] = value
-    return _build(Params, raw, "")
+    params = _build(Params, raw, "")
+    return params if only is None else Guarded(params, "", tuple(only), reader)  # type: ignore[return-value]
+
+
+class Guarded:
+    """A read-only view of a params section that lets through only the declared keys.
+
+    Attribute reads of dataclass fields are checked against the declared dotted
+    keys: a declared key (or a parent of it) gives the value itself, a section
+    holding declared keys gives another view, anything else raises
+    :class:`ConfigError`. Methods of the section run on the view, so they are
+    checked the same way.
+    """
+
+    __slots__ = ("_obj", "_prefix", "_allowed", "_reader")
+
+    def __init__(self, obj: Any, prefix: str, allowed: tuple[str, ...], reader: str) -> None:
+        object.__setattr__(self, "_obj", obj)
+        object.__setattr__(self, "_prefix", prefix)
+        object.__setattr__(self, "_allowed", allowed)
+        object.__setattr__(self, "_reader", reader)
+
+    def __getattr__(self, name: str) -> Any:
+        obj, prefix, allowed = self._obj, self._prefix, self._allowed
+        if name not in {f.name for f in dataclasses.fields(obj)}:
+            attr = getattr(type(obj), name)  # methods and properties see the guarded view
+            return attr.__get__(self) if hasattr(attr, "__get__") else attr
+        key = prefix + name
+        if any(key == a or key.startswith(a + ".") for a in allowed):
+            return getattr(obj, name)
+        if any(a.startswith(key + ".") for a in allowed):
+            return Guarded(getattr(obj, name), key + ".", allowed, self._reader)
+        raise ConfigError(
+            f"{self._reader} reads params '{key}' but does not declare it; declared: "
+            f"{list(allowed)}. Add '{key}' (or its section) to the stage's params in dvc.yaml."
+        )
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise dataclasses.FrozenInstanceError(f"cannot assign to field {name!r}")
+
+    def __repr__(self) -> str:
+        return f"Guarded({type(self._obj).__name__}, allowed={list(self._allowed)})"
 
 
 def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -427,6 +475,8 @@ def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def _to_plain(obj: Any) -> Any:
+    if isinstance(obj, Guarded):
+        return {f.name: _to_plain(getattr(obj, f.name)) for f in dataclasses.fields(obj._obj)}
     if dataclasses.is_dataclass(obj):
         return {f.name: _to_plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
     if isinstance(obj, dict):

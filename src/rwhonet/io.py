@@ -1,15 +1,32 @@
-"""Atomic outputs: a stage either writes all its outputs or leaves none behind."""
+"""Stage outputs: written all at once or not at all, plus the shared file writers.
+
+A stage writes each output (a folder or a file) into a temporary sibling and
+moves them all into place only when everything succeeded
+(:func:`atomic_outputs`). The moves happen back to back with SIGINT/SIGTERM
+held off, so an interrupted stage leaves either its old outputs or its new
+ones, never a mix; only a SIGKILL inside those few renames could split them.
+DVC does not record an interrupted stage in ``dvc.lock``, so the next
+``dvc repro`` runs it again in any case.
+"""
 
 from __future__ import annotations
 
 import json
 import os
 import shutil
+import signal
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from rwhonet.contracts import SCENARIO
+
+_HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 
 def _umask() -> int:
@@ -18,46 +35,80 @@ def _umask() -> int:
     return mask
 
 
+def _temporary(path: Path, folder: bool) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if folder:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.tmp-", dir=path.parent))
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; outputs get the usual permissions
+    else:
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)
+        os.close(fd)
+        tmp = Path(name)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600
+    return tmp
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        path.unlink(missing_ok=True)
+
+
 @contextmanager
-def atomic_dir(path: Path) -> Iterator[Path]:
-    """Yield a temporary folder that replaces ``path`` only if the block succeeds.
+def atomic_outputs(*outputs: Path, folders: tuple[bool, ...] | None = None) -> Iterator[list[Path]]:
+    """Yield temporary paths that replace ``outputs`` together, only if the block succeeds.
 
     Args:
-        path: the output folder; an existing one is replaced on success and kept
-            untouched on failure.
+        outputs: the stage's output paths (folders or files).
+        folders: whether each output is a folder (default: all folders).
 
     Yields:
-        The temporary folder to write into (a sibling of ``path``).
+        One temporary path per output, siblings of the outputs (same file system,
+        so the final moves are renames): folders created empty, files created empty.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.tmp-", dir=path.parent))
-    os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; outputs get the usual permissions
+    paths = [Path(p) for p in outputs]
+    kinds = folders if folders is not None else (True,) * len(paths)
+    if len(kinds) != len(paths):
+        raise ValueError(f"{len(paths)} outputs but {len(kinds)} folder flags")
+    tmps: list[Path] = []
     try:
-        yield tmp
+        for path, folder in zip(paths, kinds, strict=True):
+            tmps.append(_temporary(path, folder))
+        yield list(tmps)
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        for tmp in tmps:
+            _remove(tmp)
         raise
-    if path.exists():
-        shutil.rmtree(path) if path.is_dir() else path.unlink()
-    os.replace(tmp, path)
+    # Everything is written: swap all outputs in with renames only (old ones are moved
+    # aside, deleted afterwards), interrupts held until the last rename is done.
+    old: list[Path] = []
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
+    try:
+        for path, tmp in zip(paths, tmps, strict=True):
+            if path.exists() or path.is_symlink():
+                aside = tmp.with_name(tmp.name + ".old")
+                os.replace(path, aside)
+                old.append(aside)
+            os.replace(tmp, path)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+    for aside in old:
+        _remove(aside)
+
+
+@contextmanager
+def atomic_dir(path: Path) -> Iterator[Path]:
+    """Yield a temporary folder that replaces ``path`` only if the block succeeds."""
+    with atomic_outputs(path) as (tmp,):
+        yield tmp
 
 
 @contextmanager
 def atomic_file(path: Path) -> Iterator[Path]:
     """Yield a temporary file path that replaces ``path`` only if the block succeeds."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)
-    os.close(fd)
-    tmp = Path(name)
-    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; outputs get the usual permissions
-    try:
+    with atomic_outputs(path, folders=(False,)) as (tmp,):
         yield tmp
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    os.replace(tmp, path)
 
 
 def write_json(path: Path, obj: Any) -> None:
@@ -69,3 +120,45 @@ def write_json(path: Path, obj: Any) -> None:
 def read_json(path: Path) -> Any:
     """Read a JSON file."""
     return json.loads(Path(path).read_text(encoding="utf-8"))
+
+
+@contextmanager
+def system_memory_pool() -> Iterator[None]:
+    """Let Arrow allocate with the C library's malloc inside the block (also a decorator).
+
+    pyarrow's default pool on Linux is mimalloc; the data stages ran faster with
+    the system allocator on the machines this project is measured on, with
+    identical output (``benchmarks/bench_data.py`` compares). Buffers remember
+    the pool they came from, so those still alive after the block are freed
+    correctly; the previous default is restored.
+
+    Yields:
+        Nothing; Arrow's default memory pool is the system pool until the block exits.
+    """
+    previous = pa.default_memory_pool()
+    pa.set_memory_pool(pa.system_memory_pool())
+    try:
+        yield
+    finally:
+        pa.set_memory_pool(previous)
+
+
+def write_parquet(table: pa.Table, path: Path) -> None:
+    """Write a drive, segment or samples table to Parquet, uncompressed.
+
+    Dictionary encoding only for ``scenario``: on float channels it buys nothing
+    (few repeated values) and makes writing several times slower. No compression:
+    these files are working data handed from one stage to the next, and
+    compressing them costs more time than the extra bytes
+    (``benchmarks/bench_data.py``).
+
+    Args:
+        table: the table (column types and nullability as built by its stage).
+        path: the Parquet file to write.
+    """
+    pq.write_table(
+        table,
+        path,
+        compression="none",
+        use_dictionary=[SCENARIO] if SCENARIO in table.column_names else False,
+    )

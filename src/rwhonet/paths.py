@@ -27,20 +27,20 @@ ROOT = project_root()
 PARAMS = ROOT / "params.yaml"
 
 DATA = ROOT / "data"
-RAW = DATA / "raw"                      # real drives, tracked by data.dvc
-SIM = DATA / "sim"                      # simulated drives (IO-VNBD layout), stage output
+RAW = DATA / "raw"  # real drives, tracked by data.dvc
+SIM = DATA / "sim"  # simulated drives (IO-VNBD layout), stage output
 INTERIM = DATA / "interim"
-DRIVES = INTERIM / "drives"             # ingest: one canonical Parquet per drive + manifest
-SEGMENTS = INTERIM / "segments"         # validate: GNSS-valid segments
+DRIVES = INTERIM / "drives"  # ingest: one canonical Parquet per drive + manifest
+SEGMENTS = INTERIM / "segments"  # validate: GNSS-valid segments
 PROCESSED = DATA / "processed"
-SAMPLES = PROCESSED / "samples"         # label: per-second samples per segment
+SAMPLES = PROCESSED / "samples"  # label: per-second samples per segment
 CALIBRATION = PROCESSED / "calibration.json"
 SCALER = PROCESSED / "scaler.json"
 
 MODELS = ROOT / "models"
 MODEL_G = MODELS / "g"
 MODEL_S = MODELS / "s"
-MODELS_R = MODELS / "r"                 # one folder per m
+MODELS_R = MODELS / "r"  # one folder per m
 
 METRICS = ROOT / "metrics"
 EVAL_JSON = METRICS / "eval.json"
@@ -51,6 +51,12 @@ PREDICTIONS = REPORTS / "predictions"
 PLOTS = REPORTS / "plots"
 
 MLRUNS = ROOT / "mlruns"
+
+
+def resolve(path: str | Path) -> Path:
+    """Return ``path`` as an absolute path; a relative one is relative to the project root."""
+    p = Path(path)
+    return p if p.is_absolute() else ROOT / p
 
 
 def rel(path: Path) -> str:

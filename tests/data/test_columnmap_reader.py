@@ -12,8 +12,7 @@ from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import check_column_map, read_columnmap
 from rwhonet.errors import InputError
-
-from .drives import CUPAC_MAP
+from support.drives import CUPAC_MAP
 
 FIXTURE = Path(__file__).parents[1] / "fixtures" / "cupac" / "C-T1.csv"
 

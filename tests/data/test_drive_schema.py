@@ -9,8 +9,7 @@ import pytest
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
 from rwhonet.data.schema import drive_schema, schema_problems, schema_problems_batch
-
-from .drives import straight_drive
+from support.drives import straight_drive
 
 FILE = "raw/source_train/V-S1.csv"
 SOURCE = {c.T_S: " Time", c.LAT_DEG: " Lat", c.OMEGA_RL: " Wheel Speed Rear Left (rad/sec)"}

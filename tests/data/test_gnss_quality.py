@@ -18,8 +18,7 @@ from rwhonet.data.quality import (
     local_step_distance_m,
     second_index,
 )
-
-from .drives import straight_drive
+from support.drives import straight_drive
 
 POLICY = GnssPolicy(
     min_sats=4,

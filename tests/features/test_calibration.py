@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -10,15 +11,12 @@ import pytest
 from rwhonet.errors import InputError
 from rwhonet.features.calibration import (
     Calibration,
+    calibration_from_dict,
     fit_radii_mean_of_ratios,
     fit_radii_ratio_of_sums,
-    load_calibration,
-    save_calibration,
 )
 from rwhonet.features.seconds import SegmentSeconds, segment_seconds
-from rwhonet.io import read_json, write_json
-
-from .synthetic import R_RL_M, R_RR_M, build_drive, piecewise_linear_speed
+from support.synthetic import R_RL_M, R_RR_M, build_drive, piecewise_linear_speed
 
 MIN_SPEED_M_S = 2.0
 
@@ -114,19 +112,16 @@ def _calibration() -> Calibration:
     )
 
 
-def test_calibration_file_round_trip(tmp_path):
-    path = tmp_path / "calibration.json"
-    save_calibration(_calibration(), path)
-    assert read_json(path)["unit"] == "m/rad"
-    assert load_calibration(path) == _calibration()
+def test_calibration_round_trip_through_json():
+    raw = json.loads(json.dumps(_calibration().to_dict()))
+    assert raw["unit"] == "m/rad"
+    assert calibration_from_dict(raw, "calibration.json") == _calibration()
 
 
-def test_calibration_file_with_a_bad_radius_is_refused(tmp_path):
-    path = tmp_path / "calibration.json"
+def test_calibration_with_a_bad_radius_is_refused():
     raw = _calibration().to_dict()
     raw["r_rr_m"] = -0.3
     del raw["drives"]
-    write_json(path, raw)
     with pytest.raises(InputError) as err:
-        load_calibration(path)
+        calibration_from_dict(raw, "calibration.json")
     assert {p.column for p in err.value.problems} == {"r_rr_m", "drives"}

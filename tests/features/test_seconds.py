@@ -7,10 +7,10 @@ import pandas as pd
 import pyarrow as pa
 import pytest
 
+from rwhonet.contracts import FEATURE_COLUMNS
 from rwhonet.data import canonical as c
 from rwhonet.errors import InputError
 from rwhonet.features.seconds import (
-    FEATURE_COLUMNS,
     anchor_rows,
     end_of_second,
     gnss_displacement_m,
@@ -22,8 +22,7 @@ from rwhonet.features.seconds import (
     span_s,
     wheel_features_rad_s,
 )
-
-from .synthetic import build_drive, constant_speed, wavy_speed
+from support.synthetic import build_drive, constant_speed, wavy_speed
 
 
 @pytest.mark.parametrize(

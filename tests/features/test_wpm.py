@@ -7,8 +7,7 @@ import pytest
 
 from rwhonet.features.seconds import segment_seconds
 from rwhonet.features.wpm import label_m, wheel_angle_rad, wpm_displacement_m
-
-from .synthetic import (
+from support.synthetic import (
     R_RL_M,
     R_RR_M,
     build_drive,

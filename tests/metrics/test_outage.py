@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pandas as pd
 import pytest
 
 from rwhonet.errors import InputError
 from rwhonet.metrics.outage import (
-    outage_table,
     summarise,
     window_evolution,
     window_metrics,
@@ -103,15 +100,6 @@ def test_evolution_builds_up_to_the_window_values() -> None:
     np.testing.assert_allclose(first["cte_signed_m"], e[w["start"]])  # signed
 
 
-def test_outage_table_one_row_per_length() -> None:
-    e = np.ones(200)
-    t = outage_table(e, np.full(200, 10.0), np.zeros(200), [30, 60, 120, 180])
-    assert list(t["outage_s"]) == [30, 60, 120, 180]
-    assert list(t["n_windows"]) == [6, 3, 1, 1]
-    assert list(t["crse_m_mean"]) == [30.0, 60.0, 120.0, 180.0]
-    assert list(t["distance_m_max"]) == [300.0, 600.0, 1200.0, 1800.0]
-
-
 def test_bad_inputs_raise_input_error() -> None:
     with pytest.raises(InputError) as err:
         window_metrics([1.0, np.nan, 2.0], [1.0, 1.0, np.inf], [0, 0, 0], 2, source="V-Vw12")
@@ -133,14 +121,3 @@ def test_accepts_pandas_columns_and_empty_input() -> None:
     w = window_metrics(df["e"], df["d"], df["segment"], 2)
     assert list(w["group"]) == ["s1", "s2"]
     assert len(window_metrics([], [], [], 30)) == 0
-
-
-def test_under_a_millisecond_per_window() -> None:
-    rng = np.random.default_rng(0)
-    g = np.repeat(np.arange(40), 2400)  # 96,000 s, about the paper fleet's 26 h
-    e = rng.normal(size=len(g))
-    d = rng.uniform(0, 30, len(g))
-    start = time.perf_counter()
-    w = window_metrics(e, d, g, 30)
-    elapsed = time.perf_counter() - start
-    assert elapsed / len(w) < 1e-3

@@ -1,24 +1,10 @@
-"""Shared fixtures for the model tests: tiny data sets and fast params."""
+"""Fixtures of the model tests: fast params (linear_data is in tests/conftest.py)."""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from rwhonet.config import AdaptParams, ModelParams, TrainParams
-from rwhonet.stage import quiet
-
-quiet()
-
-
-@pytest.fixture(scope="session")
-def linear_data() -> tuple[np.ndarray, np.ndarray]:
-    """1,200 windows (seq_len 1, 40 features in [0, 1]) with a known linear label in metres."""
-    rng = np.random.default_rng(7)
-    x = rng.random((1200, 1, 40), dtype=np.float32)
-    w = rng.normal(0.0, 0.5, 40)
-    y = (x[:, 0, :] @ w - 0.2).astype(np.float32)
-    return x, y
 
 
 @pytest.fixture

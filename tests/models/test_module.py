@@ -10,8 +10,9 @@ import pytest
 import torch
 from lightning.pytorch.loggers import Logger
 
+from rwhonet.models.checkpoint import save_whonet
 from rwhonet.models.module import WhONetModule
-from rwhonet.models.train import fit, load_module, predict, save_checkpoint
+from rwhonet.models.train import fit, predict
 
 
 class RecordingLogger(Logger):
@@ -37,11 +38,11 @@ class RecordingLogger(Logger):
         self.metrics.append((step, dict(metrics)))
 
 
-def test_hyperparameters_survive_a_checkpoint(tmp_path, linear_data, model_params, train_params):
+def test_hyperparameters_survive_a_model_file(tmp_path, linear_data, model_params, train_params):
     x, y = linear_data
     result = fit(x, y, model=model_params, train=train_params, seed=1)
-    save_checkpoint(result, tmp_path / "g" / "model.ckpt")
-    loaded = load_module(tmp_path / "g" / "model.ckpt")
+    save_whonet(result.module.net, result.module.hparams, tmp_path / "model.pt")
+    loaded = WhONetModule.load(tmp_path / "model.pt")
     assert dict(loaded.hparams) == {
         "n_features": 40, "hidden": 16, "layers": 1, "dropout": 0.05, "seq_len": 1,
         "lr": 0.01, "batch_size": 64,
@@ -112,3 +113,18 @@ def test_callbacks_are_passed_to_the_trainer(linear_data, model_params, train_pa
     counter = CountEpochs()
     fit(x, y, model=model_params, train=train_params, seed=0, callbacks=[counter])
     assert counter.n == train_params.epochs
+
+
+def test_a_fast_dev_run_passes_through_every_hook(linear_data):
+    import lightning as L
+
+    from rwhonet.models.datamodule import WhONetDataModule
+
+    x, y = linear_data
+    module = WhONetModule(hidden=8)
+    data = WhONetDataModule(x[:1000], y[:1000], x[1000:], y[1000:], batch_size=64, seed=0)
+    trainer = L.Trainer(fast_dev_run=True, logger=False, enable_progress_bar=False,
+                        enable_model_summary=False, accelerator="cpu")  # fmt: skip
+    trainer.fit(module, datamodule=data)
+    assert trainer.state.finished and len(module.history) == 1
+    assert module.history[0]["train_loss"] > 0 and module.history[0]["val_loss"] > 0

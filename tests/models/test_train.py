@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from rwhonet.errors import InputError
-from rwhonet.models.module import WhONetModule
-from rwhonet.models.train import fine_tune, fit, predict, save_checkpoint
+from rwhonet.models.train import fit, predict
 
 
 def test_a_tiny_fit_learns_a_linear_label(linear_data, model_params, train_params):
@@ -35,48 +34,6 @@ def test_same_seed_same_predictions(linear_data, model_params, train_params):
     assert not np.array_equal(preds[0], preds[2])
 
 
-def test_predict_is_batched_in_eval_mode_and_restores_mode(linear_data):
-    x, _ = linear_data
-    module = WhONetModule(hidden=8, dropout=0.5)
-    module.train()
-    whole = predict(module, x, batch_size=10_000)
-    assert whole.shape == (len(x),) and whole.dtype == np.float32
-    np.testing.assert_allclose(predict(module, x, batch_size=7), whole, rtol=0, atol=1e-6)
-    assert module.training  # restored
-    assert predict(module, x[:0]).shape == (0,)
-
-
-def test_fine_tune_starts_from_g_and_records_the_recipe(
-    tmp_path, linear_data, model_params, train_params, adapt_params
-):
-    x, y = linear_data
-    g = fit(x, y, model=model_params, train=train_params, seed=1)
-    save_checkpoint(g, tmp_path / "g.ckpt")
-    shift = 1.5  # the new vehicle's label differs by a constant
-    before = np.mean(np.abs(predict(g.module, x[:50]) - (y[:50] + shift)))
-    recipe = replace(adapt_params, epochs=40, lr=0.02, batch_size=16)
-    r = fine_tune(tmp_path / "g.ckpt", x[:50], y[:50] + shift, adapt=recipe, seed=2)
-    after = np.mean(np.abs(predict(r.module, x[:50]) - (y[:50] + shift)))
-    assert after < 0.5 * before
-    assert len(r.history) == 40 and r.history[0]["val_loss"] is None
-    assert r.module.hparams.lr == 0.02 and r.module.hparams.batch_size == 16
-    assert r.module.hparams.hidden == model_params.hidden
-    save_checkpoint(r, tmp_path / "r.ckpt")
-    assert WhONetModule.load_from_checkpoint(tmp_path / "r.ckpt").hparams.lr == 0.02
-
-
-def test_fine_tune_rejects_inputs_that_do_not_fit_g(
-    tmp_path, linear_data, model_params, train_params, adapt_params
-):
-    x, y = linear_data
-    g = fit(x[:200], y[:200], model=model_params, train=replace(train_params, epochs=1), seed=1)
-    save_checkpoint(g, tmp_path / "g.ckpt")
-    with pytest.raises(InputError, match="39"):
-        fine_tune(tmp_path / "g.ckpt", x[:50, :, :39], y[:50], adapt=adapt_params, seed=1)
-    with pytest.raises(InputError, match="at least one sample"):
-        fine_tune(tmp_path / "g.ckpt", x[:0], y[:0], adapt=adapt_params, seed=1)
-
-
 def test_bad_training_inputs_name_what_is_wrong(linear_data, model_params, train_params):
     x, y = linear_data
     with pytest.raises(InputError) as err:
@@ -97,16 +54,3 @@ def test_bad_training_inputs_name_what_is_wrong(linear_data, model_params, train
         fit(x, y, x[:5], y_bad[:5], model=model_params, train=train_params, seed=0)
     assert err.value.problems[0].file == "validation samples"
     assert err.value.problems[0].row == 1
-
-
-def test_fine_tuning_is_deterministic(
-    tmp_path, linear_data, model_params, train_params, adapt_params
-):
-    x, y = linear_data
-    g = fit(x[:300], y[:300], model=model_params, train=replace(train_params, epochs=1), seed=1)
-    save_checkpoint(g, tmp_path / "g.ckpt")
-    runs = [fine_tune(tmp_path / "g.ckpt", x[:40], y[:40], adapt=adapt_params, seed=s)
-            for s in (5, 5, 6)]  # fmt: skip
-    preds = [predict(r.module, x) for r in runs]
-    np.testing.assert_array_equal(preds[0], preds[1])
-    assert not np.array_equal(preds[0], preds[2])  # one batch per epoch: dropout differs

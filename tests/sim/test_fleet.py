@@ -126,6 +126,7 @@ def test_paper_fleet_in_well_under_a_minute(tmp_path, params):
 def test_stage_script_writes_data_sim(tmp_path):
     params_text = (ROOT / "params.yaml").read_text().replace("  profile: paper", "  profile: ci", 1)
     (tmp_path / "params.yaml").write_text(params_text)
+    (tmp_path / "dvc.yaml").write_text((ROOT / "dvc.yaml").read_text())
     env = {**os.environ, "RWHONET_ROOT": str(tmp_path)}
     done = subprocess.run(
         [sys.executable, str(ROOT / "pipelines" / "simulate.py")],

@@ -16,7 +16,6 @@ from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive, read_header, read_numeric
 from rwhonet.errors import InputError, Problem
-from rwhonet.paths import rel
 
 _WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
 
@@ -60,11 +59,14 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
         raise ConfigError("\n".join(issues))
 
 
-def read_columnmap(path: Path, column_map: Mapping[str, ColumnSpec], name: str) -> RawDrive:
+def read_columnmap(
+    path: Path, column_map: Mapping[str, ColumnSpec], name: str, display: str | None = None
+) -> RawDrive:
     """Read a CSV drive through a column map, converting every quantity to SI.
 
     Args:
         path: the CSV file (header row first).
+        display: how the file is named in error reports (default: ``path`` as given).
         column_map: canonical key (``t``, ``lat``, ``omega_rl``, ...) -> column and unit;
             checked with :func:`check_column_map`.
         name: the map's name, for messages.
@@ -78,8 +80,8 @@ def read_columnmap(path: Path, column_map: Mapping[str, ColumnSpec], name: str) 
         ConfigError: the column map itself is invalid.
     """
     check_column_map(name, column_map)
-    file = rel(path)
-    header = read_header(path)
+    file = display or str(path)
+    header = read_header(path, file)
     position = {h.strip().lower(): i for i, h in enumerate(header)}
     problems = [
         Problem(
@@ -95,7 +97,7 @@ def read_columnmap(path: Path, column_map: Mapping[str, ColumnSpec], name: str) 
     if problems:
         raise InputError(problems, summary=f"missing column(s) in {file}")
     positions = {key: position[spec.column.strip().lower()] for key, spec in column_map.items()}
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()})
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
     columns = {}
     for key, spec in column_map.items():
         canonical, factors = KEYS[key]

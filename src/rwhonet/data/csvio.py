@@ -28,7 +28,6 @@ import pyarrow.csv as pacsv
 
 from rwhonet.data.problems import row_problems
 from rwhonet.errors import InputError, Problem
-from rwhonet.paths import rel
 
 
 @dataclass(frozen=True)
@@ -51,11 +50,12 @@ class RawDrive:
         return len(next(iter(self.columns.values()))) if self.columns else 0
 
 
-def read_header(path: Path) -> list[str]:
+def read_header(path: Path, display: str | None = None) -> list[str]:
     """Return the header row of a CSV file, cells as written (spaces kept).
 
     Args:
         path: the CSV file.
+        display: how the file is named in error reports (default: ``path`` as given).
 
     Returns:
         The header cells.
@@ -69,12 +69,22 @@ def read_header(path: Path) -> list[str]:
         header = next(csv.reader(f), None)
     if not header or all(not cell.strip() for cell in header):
         raise InputError(
-            [Problem(rel(path), None, None, "a header row followed by data rows", "an empty file")]
+            [
+                Problem(
+                    display or str(path),
+                    None,
+                    None,
+                    "a header row followed by data rows",
+                    "an empty file",
+                )
+            ]
         )
     return header
 
 
-def read_numeric(path: Path, n_columns: int, wanted: Mapping[int, str]) -> dict[int, np.ndarray]:
+def read_numeric(
+    path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None = None
+) -> dict[int, np.ndarray]:
     """Read some columns of a CSV file (header row first) as float64.
 
     Empty cells and the usual missing-value spellings (``NaN``, ``NA``, ``null``) become NaN,
@@ -84,6 +94,7 @@ def read_numeric(path: Path, n_columns: int, wanted: Mapping[int, str]) -> dict[
         path: the CSV file.
         n_columns: number of columns of the header; every data row must have as many.
         wanted: 0-based column position -> the file's column name (used in messages).
+        display: how the file is named in error reports (default: ``path`` as given).
 
     Returns:
         Column position -> float64 array, one element per data row.
@@ -112,19 +123,27 @@ def read_numeric(path: Path, n_columns: int, wanted: Mapping[int, str]) -> dict[
     except pa.ArrowInvalid:
         table = None  # a cell that is not a number: find all of them on the slow path
     if table is None or invalid_rows:
-        return _read_numeric_slow(path, n_columns, wanted)
+        return _read_numeric_slow(path, n_columns, wanted, display)
     if table.num_rows == 0:
         raise InputError(
-            [Problem(rel(path), None, None, "at least one data row after the header", "none")]
+            [
+                Problem(
+                    display or str(path),
+                    None,
+                    None,
+                    "at least one data row after the header",
+                    "none",
+                )
+            ]
         )
     return {pos: table.column(names[pos]).to_numpy() for pos in wanted}
 
 
 def _read_numeric_slow(
-    path: Path, n_columns: int, wanted: Mapping[int, str]
+    path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None
 ) -> dict[int, np.ndarray]:
     """Failure path of :func:`read_numeric`: read as text and locate every problem."""
-    file = rel(path)
+    file = display or str(path)
     names = [f"c{i}" for i in range(n_columns)]
     include = [names[i] for i in wanted]
     bad_rows: list[tuple[int, int, str]] = []  # (data row, columns found, text)

@@ -1,4 +1,4 @@
-"""IO-VNBD "V-" drive files (shared/reference/iovnbd-format.md).
+"""IO-VNBD "V-" drive files (Onyekpe et al., IO-VNBD dataset description, Table 3).
 
 The only module that knows the IO-VNBD header names. Real headers start with
 a space (" Wheel Speed Front Left (rad/sec)"); columns are matched by
@@ -15,7 +15,6 @@ from typing import NamedTuple
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive, read_header, read_numeric
 from rwhonet.errors import InputError, Problem
-from rwhonet.paths import rel
 
 
 class IovnbdColumn(NamedTuple):
@@ -119,11 +118,12 @@ def locate_columns(header: Sequence[str]) -> tuple[dict[str, int], str]:
     raise LayoutError(missing, f"known names at other positions than the layout's: {moved}")
 
 
-def read_iovnbd(path: Path) -> RawDrive:
+def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
     """Read an IO-VNBD "V-" drive file into canonical SI channels.
 
     Args:
         path: the CSV file (header row first, 10 Hz rows).
+        display: how the file is named in error reports (default: ``path`` as given).
 
     Returns:
         The drive's channels (every LAYOUT column with a canonical name that the file has),
@@ -134,8 +134,8 @@ def read_iovnbd(path: Path) -> RawDrive:
         InputError: empty file, missing required column, non-numeric cell or a row with the
             wrong number of columns; every problem of the file is listed.
     """
-    file = rel(path)
-    header = read_header(path)
+    file = display or str(path)
+    header = read_header(path, file)
     try:
         positions, match = locate_columns(header)
     except LayoutError as err:
@@ -170,7 +170,7 @@ def read_iovnbd(path: Path) -> RawDrive:
                 )
             ]
         )
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()})
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
     to_si = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
     return RawDrive(
         # A factor of 1 would only copy the column (x * 1.0 == x, NaN and inf included).

@@ -23,7 +23,6 @@ import numpy as np
 import pandas as pd
 
 from rwhonet.errors import InputError, Problem
-from rwhonet.paths import rel
 
 SEPARATOR = ";"
 SUFFIX = ".scenarios.json"
@@ -43,11 +42,12 @@ def sidecar_path(drive_file: Path) -> Path:
     return drive_file.with_suffix(SUFFIX)
 
 
-def read_scenarios(path: Path) -> list[ScenarioInterval]:
+def read_scenarios(path: Path, display: str | None = None) -> list[ScenarioInterval]:
     """Read and check a scenario sidecar.
 
     Args:
         path: the ``.scenarios.json`` file.
+        display: how the file is named in error reports (default: ``path`` as given).
 
     Returns:
         The intervals, in file order.
@@ -56,7 +56,7 @@ def read_scenarios(path: Path) -> list[ScenarioInterval]:
         InputError: invalid JSON, or intervals with a missing/non-numeric bound, an end not
             after the start, or a tag that is empty or contains ';' (all listed).
     """
-    file = rel(path)
+    file = display or str(path)
     try:
         doc = json.loads(Path(path).read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as err:

@@ -29,13 +29,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import read_json, write_json
 
 ESTIMATORS: tuple[str, ...] = ("ratio_of_sums", "mean_of_ratios")
 
@@ -192,21 +190,12 @@ def fit_summary(fit: RadiusFit) -> dict[str, Any]:
     }
 
 
-def save_calibration(calibration: Calibration, path: Path) -> None:
-    """Write ``calibration.json`` atomically.
+def calibration_from_dict(raw: Any, source: str) -> Calibration:
+    """Rebuild a :class:`Calibration` from what :meth:`Calibration.to_dict` gave.
 
     Args:
-        calibration: the fitted calibration.
-        path: destination file.
-    """
-    write_json(path, calibration.to_dict())
-
-
-def load_calibration(path: Path) -> Calibration:
-    """Read ``calibration.json``.
-
-    Args:
-        path: the file written by :func:`save_calibration`.
+        raw: the parsed ``calibration.json``.
+        source: where it came from, for error reports.
 
     Returns:
         The calibration.
@@ -214,19 +203,17 @@ def load_calibration(path: Path) -> Calibration:
     Raises:
         InputError: when a field is missing or a radius is not a positive number.
     """
-    raw = read_json(path)
+    raw = raw if isinstance(raw, dict) else {}
     names = [f for f in Calibration.__dataclass_fields__ if f != "comparison"]
     problems = [
-        Problem(str(path), None, name, "a calibration field", "missing")
+        Problem(source, None, name, "a calibration field", "missing")
         for name in names
         if name not in raw
     ]
     for name in ("r_rl_m", "r_rr_m"):
         value = raw.get(name)
         if name in raw and not (isinstance(value, int | float) and value > 0):
-            problems.append(
-                Problem(str(path), None, name, "a positive radius in m/rad", repr(value))
-            )
+            problems.append(Problem(source, None, name, "a positive radius in m/rad", repr(value)))
     if problems:
-        raise InputError(problems, f"{path} is not a valid calibration file")
+        raise InputError(problems, f"{source} is not a valid calibration file")
     return Calibration(**{k: raw[k] for k in names}, comparison=raw.get("comparison", {}))

@@ -22,15 +22,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
+from rwhonet.contracts import N_FEATURES, ROWS_PER_SECOND
 from rwhonet.data import canonical as c
 from rwhonet.errors import InputError, Problem
-from rwhonet.features.seconds import N_FEATURES, ROWS_PER_SECOND
-from rwhonet.io import read_json, write_json
 
 ScalerKind = Literal["global", "per_wheel"]
 SCALER_KINDS: tuple[str, ...] = ("global", "per_wheel")
@@ -73,19 +71,6 @@ class MinMaxScaler:
         lo, width = self._per_column()
         return ((x - lo) / width).astype(np.float32)
 
-    def inverse_transform(self, scaled: np.ndarray) -> np.ndarray:
-        """Undo :meth:`transform`.
-
-        Args:
-            scaled: ``(N, 40)`` scaled features.
-
-        Returns:
-            ``(N, 40)`` float64 wheel speeds, rad/s.
-        """
-        x = _check_features(scaled)
-        lo, width = self._per_column()
-        return x * width + lo
-
     def to_dict(self) -> dict[str, Any]:
         """Return JSON-ready data (what ``scaler.json`` holds)."""
         return {
@@ -106,32 +91,12 @@ def _check_features(x: np.ndarray) -> np.ndarray:
 
 
 def fit_scaler(
-    wheels_rad_s: np.ndarray, kind: ScalerKind, fitted_on: Sequence[str]
-) -> MinMaxScaler:
-    """Fit min-max statistics on raw wheel-speed features.
-
-    Args:
-        wheels_rad_s: ``(N, 40)`` raw features of the source_train drives, rad/s.
-        kind: ``global`` or ``per_wheel``.
-        fitted_on: the drive ids the features come from (recorded, not used).
-
-    Returns:
-        The fitted scaler.
-
-    Raises:
-        ValueError: for an unknown kind, no rows, non-finite values, or a wheel
-            whose speed never changes (max == min would divide by zero).
-    """
-    return fit_scaler_parts([wheels_rad_s], kind, fitted_on)
-
-
-def fit_scaler_parts(
     parts: Sequence[np.ndarray], kind: ScalerKind, fitted_on: Sequence[str]
 ) -> MinMaxScaler:
     """Fit min-max statistics on raw features given in blocks (e.g. one per segment).
 
-    The same scaler as :func:`fit_scaler` on the blocks concatenated, without making
-    that copy (the paper fleet's source_train features are ~30 MB).
+    Min and max are exact, so reducing block by block gives what one reduction over
+    the blocks concatenated would, without making that copy.
 
     Args:
         parts: ``(N_i, 40)`` raw feature blocks, rad/s.
@@ -173,21 +138,12 @@ def fit_scaler_parts(
     )
 
 
-def save_scaler(scaler: MinMaxScaler, path: Path) -> None:
-    """Write ``scaler.json`` atomically.
+def scaler_from_dict(raw: Any, source: str) -> MinMaxScaler:
+    """Rebuild a :class:`MinMaxScaler` from what :meth:`MinMaxScaler.to_dict` gave.
 
     Args:
-        scaler: the fitted scaler.
-        path: destination file.
-    """
-    write_json(path, scaler.to_dict())
-
-
-def load_scaler(path: Path) -> MinMaxScaler:
-    """Read ``scaler.json``.
-
-    Args:
-        path: the file written by :func:`save_scaler`.
+        raw: the parsed ``scaler.json``.
+        source: where it came from, for error reports.
 
     Returns:
         The scaler.
@@ -195,8 +151,8 @@ def load_scaler(path: Path) -> MinMaxScaler:
     Raises:
         InputError: when fields are missing or malformed.
     """
-    raw = read_json(path)
-    file = str(path)
+    raw = raw if isinstance(raw, dict) else {}
+    file = source
     problems: list[Problem] = []
     if raw.get("kind") not in SCALER_KINDS:
         problems.append(

@@ -34,13 +34,11 @@ import pandas as pd
 import pyarrow as pa
 from numpy.typing import ArrayLike
 
+from rwhonet.contracts import ROWS_PER_SECOND
 from rwhonet.data import canonical as c
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo import geodesic_distance_m
 
-ROWS_PER_SECOND = 10
-N_FEATURES = ROWS_PER_SECOND * len(c.FEATURE_WHEEL_ORDER)
-FEATURE_COLUMNS = tuple(f"x_{i:02d}" for i in range(N_FEATURES))
 # Ten rows must span about one second. This is a gross check (it catches 1 Hz or
 # 100 Hz data, or a gap that validate failed to split on); the fine sample-period
 # rule belongs to the validate stage.
@@ -177,8 +175,8 @@ def wheel_features_rad_s(wheels_rad_s: Sequence[np.ndarray]) -> np.ndarray:
 def _unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return ``(unique_rows, inverse)`` of a 2-D integer array.
 
-    Same result as ``np.unique(a, axis=0, return_inverse=True)``, about 25x
-    faster: that sorts rows as opaque void records, this lexsorts the columns.
+    Same result as ``np.unique(a, axis=0, return_inverse=True)``, faster: that
+    sorts rows as opaque void records, this lexsorts the columns.
     """
     order = np.lexsort(a.T[::-1])
     ordered = a[order]
@@ -279,7 +277,7 @@ def check_segment(frame: Mapping[str, ArrayLike], file: str) -> None:
 
     Args:
         frame: a segment in canonical columns: a DataFrame, or a mapping of column name to
-            array (what :func:`rwhonet.features.samples.read_segment` returns).
+            array (what the label stage's ``read_segment`` returns).
         file: the segment's file name, for the report.
 
     Raises:

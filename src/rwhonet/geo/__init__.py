@@ -1,10 +1,15 @@
 """Geodesy on the WGS84 ellipsoid (GeographicLib algorithms).
 
-- :mod:`rwhonet.geo.geodesic`: distances between fixes (paper Eq. 11's x_GNSS).
+- :mod:`rwhonet.geo.geodesic`: distances between fixes (paper Eq. 11's x_GNSS), and a
+  fast tangent-plane distance for screening every step of a track.
 - :mod:`rwhonet.geo.local`: local east/north offsets around a reference fix.
 """
 
-from rwhonet.geo.geodesic import geodesic_distance_m, geodesic_distance_reference_m
+from rwhonet.geo.geodesic import (
+    geodesic_distance_m,
+    geodesic_distance_reference_m,
+    local_step_distance_m,
+)
 from rwhonet.geo.local import destination_deg, latlon_from_offsets_deg, offsets_m
 
 __all__ = [
@@ -12,5 +17,6 @@ __all__ = [
     "geodesic_distance_m",
     "geodesic_distance_reference_m",
     "latlon_from_offsets_deg",
+    "local_step_distance_m",
     "offsets_m",
 ]

@@ -18,7 +18,6 @@ Everything is vectorised over windows (one gather of shape (W, L)).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -168,34 +167,6 @@ def summarise(windows: pd.DataFrame) -> dict[str, Any]:
         )
         out.update({f"{q}_{s}": None if x is None else float(x) for s, x in stats.items()})
     return out
-
-
-def outage_table(
-    e_m: Any,
-    disp_gnss_m: Any,
-    group: Any,
-    outages_s: Sequence[int],
-    *,
-    source: str = "<errors>",
-) -> pd.DataFrame:
-    """One summary row per outage length (a paper table block for one drive and model).
-
-    Args:
-        e_m: (N,) per-second displacement error in metres.
-        disp_gnss_m: (N,) GNSS displacement per second in metres.
-        group: (N,) group id.
-        outages_s: outage lengths L in seconds (``evaluate.outages_s``).
-        source: name of the data, used in error messages.
-
-    Returns:
-        Columns ``outage_s`` and the keys of :func:`summarise`.
-    """
-    e, d, g = _check(e_m, disp_gnss_m, group, source)
-    rows = [
-        {"outage_s": int(L), **summarise(window_metrics(e, d, g, L, source=source))}
-        for L in outages_s
-    ]
-    return pd.DataFrame(rows)
 
 
 def _check(

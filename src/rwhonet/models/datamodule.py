@@ -1,9 +1,8 @@
 """In-memory data for WhONet: shuffled blocks of samples without per-sample collation.
 
-The loaders themselves come from :mod:`rwhonet.models.core`
-(:func:`~rwhonet.models.core.train_loader`, :func:`~rwhonet.models.core.val_loader`),
-which the lean fine-tuning path iterates without Lightning, so both paths see
-the same samples in the same order for a seed.
+The loaders themselves come from :mod:`rwhonet.models.loop`
+(:func:`~rwhonet.models.loop.train_loader`, :func:`~rwhonet.models.loop.val_loader`),
+which R-WhONet's fine-tuning iterates without a Trainer.
 """
 
 from __future__ import annotations
@@ -13,7 +12,7 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader
 
-from rwhonet.models.core import (
+from rwhonet.models.loop import (
     STEPS_PER_BLOCK,
     VAL_BATCH_SIZE,
     ArrayDataset,

@@ -9,8 +9,7 @@ not say which weights move; ``adapt.trainable`` makes the choice explicit:
 - ``head``: only the linear head adapts (a re-scaling of G's features to the
   new vehicle, 73 weights), the recurrent layer stays frozen.
 
-Plain torch, no Lightning: the lean fine-tuning path (:mod:`rwhonet.models.core`)
-applies the same policy.
+Plain torch, no Lightning (:mod:`rwhonet.models.adapt` applies it before fine-tuning).
 """
 
 from __future__ import annotations
@@ -45,7 +44,7 @@ def apply_trainable(module: nn.Module, trainable: Trainable) -> tuple[int, int]:
     """Set which of WhONet's weights are fine-tuned; everything else is frozen.
 
     Apply it before the optimizer is built (``Trainer.fit`` or
-    :func:`rwhonet.models.core.fine_tune_lean`): it then holds the trainable
+    :func:`rwhonet.models.adapt.fine_tune`): it then holds the trainable
     parameters only, so frozen ones are never touched.
 
     Args:

@@ -1,21 +1,21 @@
 """LightningModule around :class:`~rwhonet.models.whonet.WhONet` (paper §3.3, Table 1).
 
 The algorithm itself (loss, optimizer, the per-slice update, the epoch's
-MAE) lives in :mod:`rwhonet.models.core`, which the lean fine-tuning path uses
-without Lightning; this module only wires those pieces into Lightning's hooks.
+MAE) lives in :mod:`rwhonet.models.loop`; this module wires it into Lightning's
+hooks, and R-WhONet's fine-tuning (:mod:`rwhonet.models.adapt`) runs the same
+loop without a Trainer.
 
 Why the training step holds its own mini-batch loop
 ----------------------------------------------------
 WhONet is tiny (8.3 k parameters, one time step): a plain PyTorch step at
-batch 128 takes 1-1.4 ms on one CPU thread, and Lightning's per-batch
-machinery (fetcher, hooks, progress tracking, the optimizer closure and the
-strategy/precision wrappers) adds 0.3–0.6 ms on top of it
-(``benchmarks/bench_train.py`` measures both). So each Lightning "batch" here
-is a *block* of ``steps_per_block`` mini-batches drawn from one shuffled
-permutation (:func:`rwhonet.models.core.train_loader`), and
+batch 128 costs about as much as Lightning's per-batch machinery (fetcher,
+hooks, progress tracking, the optimizer closure and the strategy/precision
+wrappers) adds on top of it (``benchmarks/bench_train.py`` measures both).
+So each Lightning "batch" here is a *block* of ``steps_per_block``
+mini-batches drawn from one shuffled permutation (:func:`rwhonet.models.loop.train_loader`), and
 :meth:`WhONetModule.training_step` takes one optimizer step per mini-batch of
 ``batch_size`` samples with manual optimization
-(:func:`rwhonet.models.core.train_block`). The mini-batches and the update
+(:func:`rwhonet.models.loop.train_block`). The mini-batches and the update
 sequence are exactly those of a one-step-per-batch loop over the same
 permutation (a test checks that a block of 1 and a block of 64 give identical
 weights); only the Lightning bookkeeping is paid once per block. The price:
@@ -33,19 +33,21 @@ nothing in the pipeline does (fixed epochs, as in the paper).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import lightning as L
 import torch
 
-from rwhonet.models.core import (
+from rwhonet.contracts import N_FEATURES
+from rwhonet.models.checkpoint import load_whonet
+from rwhonet.models.loop import (
     EpochLoss,
     batch_mae,
     make_optimizer,
     net_from_hparams,
     train_block,
 )
-from rwhonet.models.whonet import N_FEATURES
 
 
 class WhONetModule(L.LightningModule):
@@ -84,7 +86,7 @@ class WhONetModule(L.LightningModule):
     ) -> None:
         super().__init__()
         self.save_hyperparameters()
-        # Checks the recipe too; the lean path builds its network with the same call.
+        # Checks the recipe too; loading a model file builds its network with the same call.
         self.net = net_from_hparams(self.hparams)
         # One optimizer step per mini-batch inside a block (module docstring).
         self.automatic_optimization = False
@@ -93,6 +95,22 @@ class WhONetModule(L.LightningModule):
         # Batch losses of the running epoch, per stage.
         self._epoch_loss = {"train": EpochLoss(), "val": EpochLoss()}
         self._val_loss_m: float | None = None
+
+    @classmethod
+    def load(cls, path: Path | str) -> WhONetModule:
+        """Rebuild a module from a model file (:mod:`rwhonet.models.checkpoint`), in eval mode.
+
+        Args:
+            path: a ``model.pt`` written for G, S or R.
+
+        Returns:
+            The module, built from the file's hyperparameters with its weights.
+        """
+        net, hparams = load_whonet(path)
+        module = cls(**hparams)
+        module.net.load_state_dict(net.state_dict())
+        module.eval()
+        return module
 
     # ------------------------------------------------------------------ model
 
@@ -147,7 +165,7 @@ class WhONetModule(L.LightningModule):
         if self._val_loss_m is not None:
             metrics["val/loss"] = self._val_loss_m
         # Straight to the loggers with step = epoch: Lightning's own step counter counts
-        # blocks, not optimizer steps, and self.log's result collection costs ~1 ms per
-        # call, a third of a fine-tuning epoch of one mini-batch (benchmarks/bench_train.py).
+        # blocks, not optimizer steps, and self.log's result collection would cost more
+        # per call than a whole epoch of one mini-batch.
         for lg in self.loggers:
             lg.log_metrics(metrics, step=self.current_epoch)

@@ -1,23 +1,22 @@
-"""Training, fine-tuning and prediction entry points (paper §3.3; no MLflow here).
+"""Training G- and S-WhONet with Lightning (paper §3.3.1-3.3.2; no MLflow here).
 
-The stage code tracks runs; these functions only take an optional Lightning
-logger and return what happened as plain data (:class:`FitResult`). The
-training algorithm, input checks and :func:`predict` come from
-:mod:`rwhonet.models.core`; :func:`rwhonet.models.core.fine_tune_lean` is the
-same fine-tuning without Lightning's import cost (what the ``adapt@m`` stages run).
+The stage code tracks runs; :func:`fit` only takes an optional Lightning logger
+and callbacks and returns what happened as plain data (:class:`FitResult`).
+The training algorithm, input checks and :func:`predict` come from
+:mod:`rwhonet.models.loop`; R-WhONet's fine-tuning is :mod:`rwhonet.models.adapt`.
 
 All runs are on CPU: at batch 128 this 8.3 k-parameter network is bound by
 per-step overhead, not arithmetic, so an accelerator would not pay for its
-transfers. ``torch.set_num_threads`` is set from the params because a second
-thread never helped at this size (shared/reference/stack-facts.md §3).
+transfers. ``torch.set_num_threads`` comes from the params: at this size a
+second thread only adds synchronisation (``benchmarks/bench_train.py``).
 """
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import lightning as L
@@ -26,13 +25,13 @@ import torch
 from lightning.pytorch.callbacks import Callback
 from lightning.pytorch.loggers import Logger
 
-from rwhonet.config import AdaptParams, ModelParams, TrainParams
-from rwhonet.models.core import STEPS_PER_BLOCK, apply_trainable, as_model_inputs, predict
+from rwhonet.config import ModelParams, TrainParams
 from rwhonet.models.datamodule import WhONetDataModule
+from rwhonet.models.freeze import apply_trainable
+from rwhonet.models.loop import STEPS_PER_BLOCK, as_model_inputs, predict
 from rwhonet.models.module import WhONetModule
-from rwhonet.stage import quiet
 
-__all__ = ["FitResult", "fit", "fine_tune", "predict", "save_checkpoint", "load_module"]
+__all__ = ["FitResult", "fit", "predict"]
 
 
 @dataclass
@@ -47,7 +46,6 @@ class FitResult:
         samples_per_s: training samples processed per second of ``seconds``.
         n_trainable: trainable scalar weights (after the freeze policy).
         n_total: all scalar weights.
-        trainer: the Trainer, kept for :func:`save_checkpoint`.
     """
 
     module: WhONetModule
@@ -56,7 +54,6 @@ class FitResult:
     samples_per_s: float
     n_trainable: int
     n_total: int
-    trainer: L.Trainer | None = field(default=None, repr=False)
 
 
 def fit(
@@ -120,98 +117,6 @@ def fit(
     return _run(module, data, train.epochs, logger, callbacks, n_trainable, n_total)
 
 
-def fine_tune(
-    ckpt_path: Path | str,
-    x: np.ndarray,
-    y: np.ndarray,
-    *,
-    adapt: AdaptParams,
-    seed: int,
-    logger: Logger | None = None,
-    callbacks: list[Callback] | None = None,
-    num_threads: int = 1,
-    steps_per_block: int = STEPS_PER_BLOCK,
-) -> FitResult:
-    """Recalibrate G-WhONet on a target drive's first m seconds (R-WhONet, paper §2.6, §3.3.3).
-
-    Loads the checkpoint (network shape from its saved hyperparameters; learning
-    rate and batch size replaced by ``adapt``'s, so the R checkpoint records the
-    recipe it was tuned with), applies the freeze policy ``adapt.trainable`` and
-    trains with a fresh Adamax for ``adapt.epochs`` epochs, without validation
-    (m is 10-100 samples; there is nothing to spare).
-    :func:`rwhonet.models.core.fine_tune_lean` gives bit-identical weights
-    without importing Lightning; this entry point adds loggers and callbacks.
-
-    Args:
-        ckpt_path: G-WhONet's Lightning checkpoint.
-        x: (m, seq_len, 40) float32 windows of the first m seconds.
-        y: (m,) labels in metres.
-        adapt: fine-tuning recipe (``adapt:`` in params.yaml).
-        seed: seeds dropout and shuffling.
-        logger: an optional Lightning logger; also gets the trainable/total counts.
-        callbacks: optional Lightning callbacks (called once per block of steps).
-        num_threads: torch CPU threads.
-        steps_per_block: optimizer steps per Lightning batch; changes speed only.
-
-    Returns:
-        The fine-tuned module, its history, timing and parameter counts.
-
-    Raises:
-        InputError: when the arrays do not match the checkpoint's inputs or hold
-            non-finite values.
-    """
-    torch.set_num_threads(num_threads)
-    L.seed_everything(seed, workers=True, verbose=False)
-    module = WhONetModule.load_from_checkpoint(
-        ckpt_path, map_location="cpu", lr=adapt.lr, batch_size=adapt.batch_size
-    )
-    x_t, y_t = as_model_inputs(
-        x, y, "adaptation samples",
-        seq_len=module.hparams.seq_len, n_features=module.hparams.n_features,
-    )  # fmt: skip
-    n_trainable, n_total = apply_trainable(module, adapt.trainable)
-    if logger is not None:
-        logger.log_hyperparams(
-            {"trainable": adapt.trainable, "n_trainable_params": n_trainable,
-             "n_total_params": n_total}
-        )  # fmt: skip
-    data = WhONetDataModule(
-        x_t, y_t, batch_size=adapt.batch_size, seed=seed, steps_per_block=steps_per_block
-    )
-    return _run(module, data, adapt.epochs, logger, callbacks, n_trainable, n_total)
-
-
-def save_checkpoint(result: FitResult, path: Path | str) -> None:
-    """Write the run's Lightning checkpoint (weights and hyperparameters, no optimizer state).
-
-    The optimizer state is left out: a fine-tuning run starts its own Adamax,
-    and nothing resumes a finished run.
-
-    Args:
-        result: a :class:`FitResult` from :func:`fit` or :func:`fine_tune`.
-        path: the ``.ckpt`` file to write (parent folders are created).
-    """
-    if result.trainer is None:
-        raise ValueError("this FitResult has no trainer; it was not produced by fit/fine_tune")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    result.trainer.save_checkpoint(path, weights_only=True)
-
-
-def load_module(path: Path | str) -> WhONetModule:
-    """Load a checkpoint written by :func:`save_checkpoint`, on CPU, in eval mode.
-
-    Args:
-        path: the ``.ckpt`` file.
-
-    Returns:
-        The module, rebuilt from its saved hyperparameters.
-    """
-    module = WhONetModule.load_from_checkpoint(path, map_location="cpu")
-    module.eval()
-    return module
-
-
 # --------------------------------------------------------------------------- internals
 
 
@@ -225,9 +130,12 @@ def _run(
     n_total: int,
 ) -> FitResult:
     """Fit with a lean, quiet Trainer and time it."""
-    quiet()
-    # num_workers=0 is deliberate: worker processes cost more than they save for
-    # in-memory tensors (stack-facts.md §3), so Lightning's hint is noise here.
+    # Tips, "GPU available" and seeding notices say nothing to a pipeline user.
+    logging.getLogger("lightning.pytorch.utilities.rank_zero").setLevel(logging.WARNING)
+    logging.getLogger("lightning.fabric.utilities.rank_zero").setLevel(logging.WARNING)
+    warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\).*")
+    # num_workers=0 is deliberate: the samples are in-memory tensors, so worker
+    # processes would only add inter-process copies; Lightning's hint is noise here.
     warnings.filterwarnings("ignore", message=r".*does not have many workers.*")
     trainer = L.Trainer(
         accelerator="cpu",
@@ -258,5 +166,4 @@ def _run(
         samples_per_s=n_samples / seconds if seconds > 0 else float("nan"),
         n_trainable=n_trainable,
         n_total=n_total,
-        trainer=trainer,
     )

@@ -2,7 +2,7 @@
 
 Paper §2.3, Eqs. 12-15 and Table 1 (72 tanh units, one hidden layer, one time
 step, dropout 0.05); initialisation as in the authors' Keras ``SimpleRNN`` +
-``Dense`` (shared/reference/whonet-reference-notes.md, "Model and training").
+``Dense`` layers.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-N_FEATURES = 40  # ten 10 Hz samples of each of the four wheel speeds (paper Eqs. 14-15)
+from rwhonet.contracts import N_FEATURES
 
 
 class WhONet(nn.Module):

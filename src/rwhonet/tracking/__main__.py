@@ -1,7 +1,8 @@
 """``python -m rwhonet.tracking init``: create the MLflow store and experiment before any writer.
 
 A fresh SQLite store races on its schema migration when two processes create
-it at once (stack-facts.md §1), e.g. under `dvc queue start -j 2`.
+it at once (two runs of alembic's ALTER TABLE collide), e.g. under
+`dvc queue start -j 2`.
 """
 
 import sys

@@ -7,7 +7,7 @@ the thirteen model stages, and gives every run its CRSE/CTE on the same
 evaluation windows, so the UI's compare view lines G, S, R and WPM up.
 
 Store: SQLite at ``mlruns/mlflow.db`` with artifacts under ``mlruns/artifacts``
-(MLflow 3's file store is off by default; stack-facts.md §1). Relative URIs
+(MLflow 3 keeps its file store in maintenance mode, off by default). Relative URIs
 resolve against the project root; inside a queued DVC experiment (which runs
 in ``.dvc/tmp/exps/<tmp>``) they resolve against the real repository so the
 runs are not lost with the temporary copy. ``$MLFLOW_TRACKING_URI`` wins.
@@ -125,7 +125,7 @@ def ensure_experiment(uri: str, experiment: str) -> str:
     """Create the store and experiment if missing; return the experiment id.
 
     Run this once before parallel writers (a fresh SQLite store races on its
-    schema migration, stack-facts.md §1).
+    schema migration).
     """
     client = _client(uri)
     exp = client.get_experiment_by_name(experiment)

@@ -14,13 +14,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rwhonet import contracts as k
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.windows import sequences
 from rwhonet.io import read_json
 
-N_FEATURES = 40
-FEATURE_COLUMNS = [f"x_{i:02d}" for i in range(N_FEATURES)]
-FRAME_COLUMNS = ["t_s", "disp_gnss_m", "disp_wpm_m", "label_m", "scenario"]
+FRAME_COLUMNS = [*k.SAMPLE_VALUE_COLUMNS, k.SCENARIO]
 
 
 @dataclass
@@ -68,7 +67,7 @@ def load_role(samples_dir: Path, role: str, seq_len: int) -> SampleSet:
     Raises:
         InputError: when the role has no samples.
     """
-    manifest = read_json(Path(samples_dir) / "manifest.json")
+    manifest = read_json(Path(samples_dir) / k.MANIFEST)
     entries = [e for e in manifest["segments"] if e["role"] == role]
     entries.sort(key=lambda e: (e["drive"], e["segment"]))
     frames = []
@@ -85,11 +84,11 @@ def load_role(samples_dir: Path, role: str, seq_len: int) -> SampleSet:
     table = pd.concat(frames, ignore_index=True)
     # Segment names sort by start time within a drive (<drive>__s<k>), so this is time order.
     table = table.sort_values(["drive", "group", "t_s"], kind="stable").reset_index(drop=True)
-    x2 = table[FEATURE_COLUMNS].to_numpy(np.float32)
+    x2 = table[list(k.FEATURE_COLUMNS)].to_numpy(np.float32)
     x, kept = sequences(x2, seq_len, table["group"].to_numpy())
     frame = table.loc[kept, ["drive", "segment", "group", *FRAME_COLUMNS]].reset_index(drop=True)
     frame.insert(3, "k", frame.groupby("drive", sort=False).cumcount().to_numpy())
-    y = frame["label_m"].to_numpy(np.float32)
+    y = frame[k.LABEL_M].to_numpy(np.float32)
     return SampleSet(np.ascontiguousarray(x, dtype=np.float32), y, frame)
 
 

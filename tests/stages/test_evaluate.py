@@ -6,9 +6,9 @@ import pytest
 from rwhonet import paths
 from rwhonet.config import load_params
 from rwhonet.errors import InputError
-from rwhonet.experiment.evaluate import evaluate, model_columns
-from rwhonet.experiment.samples import load_role
 from rwhonet.report.tables import render_report
+from rwhonet.stages.evaluate import evaluate, model_columns
+from rwhonet.stages.samples import load_role
 
 
 @pytest.fixture

@@ -13,14 +13,14 @@ import pandas as pd
 import pytest
 
 from rwhonet.config import LabelParams
+from rwhonet.contracts import SAMPLE_COLUMNS
 from rwhonet.data import canonical as c
 from rwhonet.errors import InputError
-from rwhonet.features.calibration import load_calibration
-from rwhonet.features.samples import SAMPLE_COLUMNS, label
-from rwhonet.features.scaling import load_scaler
+from rwhonet.features.calibration import calibration_from_dict
+from rwhonet.features.scaling import scaler_from_dict
 from rwhonet.io import read_json, write_json
-
-from .synthetic import R_RL_M, R_RR_M, build_drive, piecewise_linear_speed, wavy_speed
+from rwhonet.stages.label import label
+from support.synthetic import R_RL_M, R_RR_M, build_drive, piecewise_linear_speed, wavy_speed
 
 REPO = Path(__file__).resolve().parents[2]
 TARGET_RADIUS_M = 0.316  # the target vehicle's tyres are bigger than the source's
@@ -64,9 +64,13 @@ def write_segments(root: Path, with_calibration: bool, record: dict | None = Non
              "t_start_s": float(frame[c.T_S].iloc[0]), "t_end_s": float(frame[c.T_S].iloc[-1]),
              "n_rows": len(frame)}
         )  # fmt: skip
-    manifest = {"segments": entries}
-    if record is not None:
-        manifest["calibration"] = record  # what ingest chose, passed on by validate
+    if record is None:  # ingest's rule: source_calibration, else the first source_train drive
+        record = (
+            {"role": "source_calibration", "drives": ["V-cal"], "fallback": False}
+            if with_calibration
+            else {"role": "source_train", "drives": ["V-A"], "fallback": True}
+        )
+    manifest = {"segments": entries, "calibration": record}  # passed on by validate
     write_json(seg_dir / "manifest.json", manifest)
     return seg_dir
 
@@ -113,9 +117,9 @@ def test_outputs_follow_the_data_contract(tmp_path):
     assert summary["roles"]["target_test"]["seconds"] == 30
 
 
-def test_without_a_calibration_role_the_first_source_train_drive_calibrates(tmp_path):
+def test_the_first_source_train_drive_calibrates_when_ingest_says_so(tmp_path):
     summary, out = run_label(tmp_path)
-    calib = load_calibration(out / "calibration.json")
+    calib = calibration_from_dict(read_json(out / "calibration.json"), "calibration.json")
     assert (
         calib.role == "source_train" and calib.drives == ["V-A"] and calib.segments == ["V-A__s0"]
     )
@@ -126,9 +130,9 @@ def test_without_a_calibration_role_the_first_source_train_drive_calibrates(tmp_
     assert summary["r_rl_m"] == calib.r_rl_m
 
 
-def test_calibration_role_is_used_when_present(tmp_path):
+def test_the_calibration_drive_calibrates_when_ingest_says_so(tmp_path):
     _, out = run_label(tmp_path, with_calibration=True)
-    calib = load_calibration(out / "calibration.json")
+    calib = calibration_from_dict(read_json(out / "calibration.json"), "calibration.json")
     assert calib.role == "source_calibration" and calib.drives == ["V-cal"]
     assert calib.r_rl_m == pytest.approx(0.305, rel=1e-4)
     assert calib.r_rr_m == pytest.approx(0.303, rel=1e-4)
@@ -137,7 +141,7 @@ def test_calibration_role_is_used_when_present(tmp_path):
 def test_the_calibration_drives_ingest_recorded_are_used(tmp_path):
     record = {"role": "source_train", "drives": ["V-B"], "fallback": True}
     _, out = run_label(tmp_path, record=record)
-    calib = load_calibration(out / "calibration.json")
+    calib = calibration_from_dict(read_json(out / "calibration.json"), "calibration.json")
     assert (calib.role, calib.drives, calib.segments) == (
         "source_train",
         ["V-B"],
@@ -170,7 +174,7 @@ def test_target_labels_carry_the_radius_mismatch(tmp_path):
 
 def test_scaler_is_fitted_on_source_train_only(tmp_path):
     _, out = run_label(tmp_path, with_calibration=True)
-    scaler = load_scaler(out / "scaler.json")
+    scaler = scaler_from_dict(read_json(out / "scaler.json"), "scaler.json")
     assert scaler.fitted_on == ("V-A", "V-B")
     train = pd.concat(
         pd.read_parquet(out / "samples" / f"{s}.parquet") for s in ("V-B__s0", "V-B__s1", "V-A__s0")
@@ -187,7 +191,8 @@ def test_scaler_is_fitted_on_source_train_only(tmp_path):
 def test_reference_mode_and_per_wheel_scaler_are_honoured(tmp_path):
     summary, out = run_label(tmp_path, wpm_mode="reference", scaler="per_wheel")
     assert (
-        summary["wpm_mode"] == "reference" and load_scaler(out / "scaler.json").kind == "per_wheel"
+        summary["wpm_mode"] == "reference"
+        and scaler_from_dict(read_json(out / "scaler.json"), "scaler.json").kind == "per_wheel"
     )
     table = pd.read_parquet(out / "samples" / "V-B__s1.parquet")
     # Reference WPM = end-of-second speed x 1 s; on a wavy speed it differs from the distance.
@@ -234,13 +239,17 @@ def test_manifest_problems_are_reported(tmp_path):
     )
     with pytest.raises(InputError) as err:
         label(params(), seg_dir, tmp_path / "s", tmp_path / "c.json", tmp_path / "x.json")
-    assert [(p.row, p.column) for p in err.value.problems] == [(1, "vehicle")]
+    # no vehicle, and no record of the drives that calibrate (validate passes it on)
+    assert [(p.row, p.column) for p in err.value.problems] == [
+        (1, "vehicle"),
+        (None, "calibration"),
+    ]
 
 
 def test_stage_script_runs_from_the_repo_root(tmp_path):
     """``python pipelines/label.py`` in a project whose root is a temporary copy."""
     (tmp_path / "params.yaml").write_text((REPO / "params.yaml").read_text())
-    (tmp_path / "dvc.yaml").write_text("stages: {}\n")
+    (tmp_path / "dvc.yaml").write_text((REPO / "dvc.yaml").read_text())
     write_segments(tmp_path, with_calibration=False)
     env = {**os.environ, "RWHONET_ROOT": str(tmp_path)}
     proc = subprocess.run(

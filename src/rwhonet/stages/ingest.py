@@ -1,4 +1,4 @@
-"""Stage ``ingest``: raw drive files -> one canonical Parquet per drive + ``manifest.json``.
+"""DVC stage ``ingest``: raw drive files -> one canonical Parquet per drive + ``manifest.json``.
 
 Reads every drive listed by ``data.roles`` (IO-VNBD layout or a column map),
 converts it to canonical names in SI units, adds the ``scenario`` column from
@@ -10,17 +10,15 @@ row ``i + 1`` of the source file), so ``validate`` can point at the file's rows.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
-from rwhonet import paths
+from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, DataParams, Params
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import check_column_map, read_columnmap
@@ -33,13 +31,8 @@ from rwhonet.data.scenarios import (
     sidecar_path,
 )
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, write_json
+from rwhonet.io import atomic_dir, system_memory_pool, write_json, write_parquet
 
-ROLES = ("source_train", "source_calibration", "target_train", "target_test")
-REQUIRED_ROLES = ("source_train", "target_train", "target_test")
-CALIBRATION_ROLE = "source_calibration"
-CALIBRATION_FALLBACK_ROLE = "source_train"
-MANIFEST = "manifest.json"
 IOVNBD = "iovnbd"
 
 
@@ -64,20 +57,20 @@ def check_data_params(data: DataParams) -> None:
         ConfigError: listing every issue, with the dotted key to change.
     """
     issues = []
-    if data.source == "sim" and data.root_path.resolve() != paths.SIM.resolve():
+    if data.source == "sim" and paths.resolve(data.root).resolve() != paths.SIM.resolve():
         issues.append(
             f"data.source=sim reads the simulator's drives in {paths.rel(paths.SIM)}, but "
             f"data.root={data.root!r}: set data.root={paths.rel(paths.SIM)} (or data.source=files "
             "to read real drives from data.root)"
         )
     issues += [
-        f"data.roles.{role}: unknown role; expected some of {list(ROLES)}"
+        f"data.roles.{role}: unknown role; expected some of {list(contracts.ROLES)}"
         for role in data.roles
-        if role not in ROLES
+        if role not in contracts.ROLES
     ]
     issues += [
         f"data.roles.{role}: missing (required role)"
-        for role in REQUIRED_ROLES
+        for role in contracts.REQUIRED_ROLES
         if role not in data.roles
     ]
     if issues:
@@ -99,10 +92,10 @@ def discover(data: DataParams) -> list[DriveFile]:
         InputError: a required role matches no file (naming the folder and glob), or a drive
             id (file stem) appears twice.
     """
-    root = data.root_path
+    root = paths.resolve(data.root)
     problems: list[Problem] = []
     files: list[DriveFile] = []
-    for role in (r for r in ROLES if r in data.roles):
+    for role in (r for r in contracts.ROLES if r in data.roles):
         spec = data.roles[role]
         found = sorted(p for p in root.glob(spec.glob) if p.is_file())
         if not found and spec.required:
@@ -148,8 +141,8 @@ def read_drive(f: DriveFile, data: DataParams) -> RawDrive:
         The drive's channels, canonical names, SI units.
     """
     if f.format == IOVNBD:
-        return read_iovnbd(f.path)
-    return read_columnmap(f.path, data.column_maps[f.format], f.format)
+        return read_iovnbd(f.path, paths.rel(f.path))
+    return read_columnmap(f.path, data.column_maps[f.format], f.format, paths.rel(f.path))
 
 
 def canonical_table(raw: RawDrive, scenario: np.ndarray | pa.Array) -> pa.Table:
@@ -187,56 +180,9 @@ def scenario_array(t_s: np.ndarray, intervals: list[ScenarioInterval]) -> pa.Arr
         One ';'-joined tag string per row (:func:`rwhonet.data.scenarios.scenario_column`).
     """
     labels, codes = scenario_codes(t_s, intervals)
-    # Arrow copies the few distinct labels per row in C++; building a million Python
-    # strings first and converting them cost ~10x more.
+    # Arrow copies the few distinct labels per row in C++, rather than building one
+    # Python string per row and converting them.
     return pa.array(labels, type=pa.string()).take(pa.array(codes))
-
-
-@contextmanager
-def system_memory_pool() -> Iterator[None]:
-    """Let Arrow allocate with the C library's malloc inside the block (also a decorator).
-
-    pyarrow's default pool on Linux is mimalloc. On the 2-core VM this project is
-    measured on, the data stages ran faster with the system allocator (medians of six
-    alternating runs each, paper fleet): ingest 0.92 s instead of 1.02 s, validate 1.15 s
-    instead of 1.68 s (Parquet reads, batch frames), label 0.63 s instead of 0.73 s, with
-    identical output. Buffers remember the pool they came from, so those still alive
-    after the block are freed correctly; the previous default is restored.
-
-    Yields:
-        Nothing; Arrow's default memory pool is the system pool until the block exits.
-    """
-    previous = pa.default_memory_pool()
-    pa.set_memory_pool(pa.system_memory_pool())
-    try:
-        yield
-    finally:
-        pa.set_memory_pool(previous)
-
-
-def write_parquet(table: pa.Table, path: Path) -> None:
-    """Write a drive, segment or samples table to Parquet, uncompressed.
-
-    Dictionary encoding only for ``scenario``: on float channels it buys nothing (few
-    repeated values) and made writing five times slower (samples: twice as slow, and
-    the files 15 % larger).
-
-    No compression: these files are working data handed from one stage to the next.
-    Snappy halves their size (paper fleet: drives 58 instead of 132 MB) but cost more
-    time to compress and decompress than the extra bytes cost to write and read:
-    ingest -> validate -> label took 0.3-0.6 s longer (of ~2.7 s) with snappy, and
-    longer still with lz4, in interleaved runs of benchmarks/bench_data.py.
-
-    Args:
-        table: the table (column types and nullability as built by its stage).
-        path: the Parquet file to write.
-    """
-    pq.write_table(
-        table,
-        path,
-        compression="none",
-        use_dictionary=[c.SCENARIO] if c.SCENARIO in table.column_names else False,
-    )
 
 
 @system_memory_pool()
@@ -268,7 +214,7 @@ def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
             try:
                 raw = read_drive(f, data)
                 sidecar = sidecar_path(f.path)
-                intervals = read_scenarios(sidecar) if sidecar.is_file() else []
+                intervals = read_scenarios(sidecar, paths.rel(sidecar)) if sidecar.is_file() else []
             except InputError as err:
                 problems += err.problems  # keep reading: one report covers every file
                 continue
@@ -299,20 +245,20 @@ def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
             )
         manifest = {
             "source": data.source,
-            "root": paths.rel(data.root_path),
+            "root": paths.rel(paths.resolve(data.root)),
             "drives": entries,
             "calibration": calibration,
         }
-        write_json(tmp / MANIFEST, manifest)
+        write_json(tmp / contracts.MANIFEST, manifest)
     return manifest
 
 
 def _calibration(files: list[DriveFile]) -> dict[str, Any]:
     """Which drives calibrate the wheel radii: source_calibration, else the first source_train."""
-    own = [f.drive for f in files if f.role == CALIBRATION_ROLE]
+    own = [f.drive for f in files if f.role == contracts.SOURCE_CALIBRATION]
     if own:
-        return {"role": CALIBRATION_ROLE, "drives": own, "fallback": False}
-    fallback = sorted(f.drive for f in files if f.role == CALIBRATION_FALLBACK_ROLE)
+        return {"role": contracts.SOURCE_CALIBRATION, "drives": own, "fallback": False}
+    fallback = sorted(f.drive for f in files if f.role == contracts.CALIBRATION_FALLBACK_ROLE)
     if not fallback:
         raise InputError(
             [
@@ -320,19 +266,19 @@ def _calibration(files: list[DriveFile]) -> dict[str, Any]:
                     "params.yaml data.roles",
                     None,
                     None,
-                    f"a {CALIBRATION_ROLE} or {CALIBRATION_FALLBACK_ROLE} drive to calibrate "
-                    "the wheel radii",
+                    f"a {contracts.SOURCE_CALIBRATION} or {contracts.CALIBRATION_FALLBACK_ROLE} "
+                    "drive to calibrate the wheel radii",
                     "neither role has a drive",
                 )
             ]
         )
     first = fallback[0]
     return {
-        "role": CALIBRATION_FALLBACK_ROLE,
+        "role": contracts.CALIBRATION_FALLBACK_ROLE,
         "drives": [first],
         "fallback": True,
-        "note": f"no {CALIBRATION_ROLE} drive: the first {CALIBRATION_FALLBACK_ROLE} drive "
-        "(sorted by name) calibrates",
+        "note": f"no {contracts.SOURCE_CALIBRATION} drive: the first "
+        f"{contracts.CALIBRATION_FALLBACK_ROLE} drive (sorted by name) calibrates",
     }
 
 
@@ -355,3 +301,18 @@ def summary_table(manifest: dict[str, Any]) -> str:
     total = sum(d["n_rows"] for d in manifest["drives"])
     lines.append(f"{len(manifest['drives'])} drive(s), {total} rows")
     return "\n".join(lines)
+
+
+def main(params: Params) -> None:
+    """The ``ingest`` stage: every drive of ``data.roles`` -> ``data/interim/drives``."""
+    start = time.perf_counter()
+    manifest = ingest(params, paths.DRIVES)
+    seconds = time.perf_counter() - start
+    rows = sum(d["n_rows"] for d in manifest["drives"])
+    print(summary_table(manifest))
+    cal = manifest["calibration"]
+    print(f"calibration: {', '.join(cal['drives'])} ({cal.get('note', cal['role'])})")
+    print(
+        f"{rows} rows in {seconds:.2f} s ({rows / max(seconds, 1e-9) / 1e6:.2f} M rows/s) "
+        f"-> {paths.rel(paths.DRIVES)}"
+    )

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rwhonet.experiment.samples import FEATURE_COLUMNS
+from rwhonet.contracts import FEATURE_COLUMNS
 from rwhonet.io import write_json
 
 

@@ -1,4 +1,4 @@
-"""Score WPM, G, S and R (every m) on the same seconds of each test drive (paper §3.2, §3.5).
+"""DVC stage ``evaluate``: WPM, G, S and R (every m) on the same test seconds (paper §3.2, §3.5).
 
 Every model is scored on the part of each test drive that comes after the
 largest m of the grid, so no R-WhONet is scored on seconds it was adapted on,
@@ -12,6 +12,7 @@ One source of truth: the tidy summary computed here feeds ``metrics/eval.json``,
 
 from __future__ import annotations
 
+import json
 import platform
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,15 +20,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rwhonet import paths
+from rwhonet import contracts, paths
 from rwhonet.config import Params, flatten
 from rwhonet.errors import InputError, Problem
-from rwhonet.experiment.samples import load_role
-from rwhonet.experiment.train import PREDICTIONS, RUN_RECORD
-from rwhonet.io import atomic_dir, atomic_file, read_json, write_json
+from rwhonet.io import atomic_outputs, read_json
 from rwhonet.metrics.outage import summarise, window_evolution, window_metrics
 from rwhonet.report.tables import render_report
+from rwhonet.stages.samples import load_role
 from rwhonet.tracking.store import RunRecord
+
+PREDICTIONS, RUN_RECORD = contracts.PREDICTIONS, contracts.RUN_RECORD
 
 STAT_KEYS = ("max", "min", "mean", "std")
 _SHORT = {"crse_m_": "crse_", "cte_m_": "cte_", "distance_m_": "dist_"}
@@ -65,7 +67,7 @@ def collect_predictions(
     params: Params, samples_dir: Path, g_dir: Path, s_dir: Path, r_root: Path
 ) -> pd.DataFrame:
     """The test drives' per-second samples with every model's prediction joined on."""
-    test = load_role(samples_dir, "target_test", params.model.seq_len)
+    test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
     frame = test.frame.drop(columns=["group"]).copy()
     frame.insert(3, "group", test.frame["group"].to_numpy())
     sources = {"pred_g_m": g_dir, "pred_s_m": s_dir}
@@ -220,23 +222,25 @@ def write_outputs(
         f"was adapted on. R-WhONet is reported at m = {chosen} s (adapt.chosen_m, fixed in "
         f"params before evaluation, as the paper's Table 2 choice)."
     )
-    with atomic_dir(predictions_dir) as tmp:
+    outputs = (predictions_dir, plots_dir, tables_path, eval_path)
+    with atomic_outputs(*outputs, folders=(True, True, False, False)) as tmps:
+        tmp_predictions, tmp_plots, tmp_tables, tmp_eval = tmps
         for d, g in ev.per_second.groupby("drive", sort=False):
-            g.drop(columns=["group"]).to_parquet(tmp / f"{d}.parquet", index=False)
-    with atomic_dir(plots_dir) as tmp:
+            g.drop(columns=["group"]).to_parquet(tmp_predictions / f"{d}.parquet", index=False)
         for L, g in ev.evolution.groupby("outage_s"):
             for metric in ("crse", "cte"):
                 wide = g.pivot(index="second", columns="model", values=f"{metric}_m")
                 wide = wide[["WPM", "G", "S", "R"]].reset_index()
-                wide.to_csv(tmp / f"{metric}_evolution_{L}s.csv", index=False, float_format="%.4f")
+                wide.to_csv(
+                    tmp_plots / f"{metric}_evolution_{L}s.csv", index=False, float_format="%.4f"
+                )
         mg = ev.summary[(ev.summary["drive"] == "all") & ev.summary["model"].str.startswith("R@")]
         mg = mg.assign(m=mg["model"].str[2:].astype(int)).pivot(
             index="m", columns="outage_s", values="crse_mean"
         )
         mg.columns = [f"crse_mean_{c}s" for c in mg.columns]
-        mg.reset_index().to_csv(tmp / "r_m_grid.csv", index=False, float_format="%.4f")
-    with atomic_file(tables_path) as tmp:
-        tmp.write_text(
+        mg.reset_index().to_csv(tmp_plots / "r_m_grid.csv", index=False, float_format="%.4f")
+        tmp_tables.write_text(
             render_report(
                 ev.summary,
                 outages_s=params.evaluate.outages_s,
@@ -248,7 +252,7 @@ def write_outputs(
             ),
             encoding="utf-8",
         )
-    write_json(eval_path, ev.eval_json)
+        tmp_eval.write_text(json.dumps(ev.eval_json, indent=2) + "\n", encoding="utf-8")
 
 
 def run_records(
@@ -317,4 +321,34 @@ def evaluation_record(params: Params, ev: Evaluation, artifacts: list[Path]) -> 
             if k.endswith("/mean")
         },
         artifacts=[paths.rel(a) for a in artifacts],
+    )
+
+
+def main(params: Params) -> None:
+    """The ``evaluate`` stage: every model's predictions -> metrics, tables, plots, MLflow runs."""
+    from rwhonet.tracking.store import log_execution, resolve_tracking_uri
+
+    frame = collect_predictions(params, paths.SAMPLES, paths.MODEL_G, paths.MODEL_S, paths.MODELS_R)
+    result = evaluate(params, frame)
+    write_outputs(
+        params,
+        result,
+        eval_path=paths.EVAL_JSON,
+        tables_path=paths.TABLES_MD,
+        predictions_dir=paths.PREDICTIONS,
+        plots_dir=paths.PLOTS,
+        provenance=provenance_line(params),
+    )
+    records = run_records(params, result, paths.MODEL_G, paths.MODEL_S, paths.MODELS_R)
+    parent = evaluation_record(
+        params, result, [paths.EVAL_JSON, paths.TABLES_MD, *sorted(paths.PLOTS.glob("*.csv"))]
+    )
+    uri = resolve_tracking_uri(params.tracking.tracking_uri)
+    run_id = log_execution(
+        records, uri=uri, experiment=params.tracking.experiment, execution=parent
+    )
+    print((paths.TABLES_MD.read_text(encoding="utf-8").split("## Table 2")[0]).strip())
+    print(
+        f"\nMLflow: experiment '{params.tracking.experiment}', parent run {run_id} "
+        f"({len(records)} child runs) in {uri}; `make ui` to compare."
     )

@@ -1,54 +1,24 @@
-"""WhONet's training algorithm without Lightning, shared by the Lightning and the lean paths.
+"""WhONet's training algorithm, once: the paper's update and the order samples are seen in.
 
-Why this module exists
-----------------------
-The pipeline has one ``adapt@m`` DVC stage per m, each a fresh process that
-fine-tunes G-WhONet on the first m ≤ 100 seconds of every target test drive.
-Fitting takes under a second there, while ``import lightning`` takes 5-7 s
-(shared/reference/stack-facts.md §0). So the adaptation stages use
-:func:`fine_tune_lean`, which needs only torch, and the Lightning entry points
-(:mod:`rwhonet.models.train`, :class:`~rwhonet.models.module.WhONetModule`,
-:class:`~rwhonet.models.datamodule.WhONetDataModule`) are built from the same
-pieces defined here, so the algorithm exists once:
+Paper §3.3.1: mean-absolute-error loss, Adamax, one optimizer step per mini-batch
+of ``batch_size`` shuffled samples. Everything that trains a WhONet goes
+through :func:`train_block`: the LightningModule's ``training_step`` (G- and
+S-WhONet, :mod:`rwhonet.models.module`) and the fine-tuning loop of R-WhONet
+(:mod:`rwhonet.models.adapt`), which runs it without a Trainer.
 
-- :func:`batch_mae`, :func:`make_optimizer`, :func:`train_block`: the update of
-  paper §3.3.1 (MAE loss, Adamax, one step per ``batch_size`` slice);
-- :func:`train_loader`: the seeded order of samples and blocks;
-- :class:`EpochLoss`: the per-epoch MAE the history records;
-- :func:`~rwhonet.models.freeze.apply_trainable` (re-exported): the freeze policy;
+- :class:`ArrayDataset`, :func:`train_loader`, :func:`val_loader`: in-memory
+  samples, shuffled blocks of mini-batches from a seeded generator;
+- :func:`make_optimizer`, :func:`batch_mae`, :func:`train_block`,
+  :func:`train_epoch`, :class:`EpochLoss`: the update and the epoch's MAE;
 - :func:`as_model_inputs`, :func:`predict`: input checks and batched inference.
 
-Nothing here may import Lightning (a test checks it in a fresh interpreter).
-What a lean stage still pays at start-up is torch itself and ``torch._dynamo``,
-which ``torch.optim`` imports when the first optimizer is built (1.1-1.4 s
-measured; ``benchmarks/bench_train.py`` reports the cold start of both paths).
-
-Same weights as the Lightning path
-----------------------------------
-:func:`fine_tune_lean` gives bit-identical weights, history and predictions to
-:func:`rwhonet.models.train.fine_tune` for the same checkpoint, data, recipe
-and seed, because every random draw happens in the same order on the same
-generators:
-
-1. :func:`seed_all` seeds Python, numpy and torch as ``L.seed_everything`` does;
-2. the network is built from the checkpoint's hyperparameters before its
-   weights are loaded, as ``load_from_checkpoint`` does, so the initialisation
-   consumes the same global-RNG draws (and is then overwritten);
-3. each epoch iterates the same ``DataLoader`` (:func:`train_loader`): its
-   sampler has its own seeded generator, and creating its iterator draws one
-   base seed from the global RNG, as it does under the Trainer;
-4. dropout then draws from the global RNG in the same per-slice order.
+Plain torch: importing this module does not import Lightning.
 """
 
 from __future__ import annotations
 
 import random
-import time
-from collections import OrderedDict
 from collections.abc import Mapping
-from dataclasses import dataclass
-from importlib.metadata import version
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -56,10 +26,9 @@ import torch
 from torch import nn
 from torch.utils.data import BatchSampler, DataLoader, Dataset, RandomSampler, SequentialSampler
 
-from rwhonet.config import AdaptParams
+from rwhonet.contracts import N_FEATURES
 from rwhonet.errors import InputError, Problem
-from rwhonet.models.freeze import POLICIES, Trainable, apply_trainable, count_parameters
-from rwhonet.models.whonet import N_FEATURES, WhONet
+from rwhonet.models.whonet import WhONet
 
 # Mini-batches per training block (rwhonet.models.module): 64 x 128 = 8192 samples
 # per Lightning batch amortises its per-batch cost to a few µs per optimizer step.
@@ -68,22 +37,12 @@ VAL_BATCH_SIZE = 8192
 PREDICT_BATCH_SIZE = 8192
 MAX_PROBLEMS = 20  # non-finite rows listed per array; the count says how many more
 
-# WhONetModule's constructor arguments, all saved as its hyperparameters.
+# A WhONet's hyperparameters (WhONetModule's constructor arguments, saved with every model).
 HPARAMS: tuple[str, ...] = (
     "n_features", "hidden", "layers", "dropout", "seq_len", "lr", "batch_size",
 )  # fmt: skip
-# The prefix WhONetModule's state_dict gives the network's weights (``self.net``).
-NET_PREFIX = "net."
 # numpy's legacy seeding accepts 32-bit unsigned seeds; Lightning enforces the same range.
 SEED_MIN, SEED_MAX = 0, 2**32 - 1
-
-__all__ = [
-    "HPARAMS", "POLICIES", "STEPS_PER_BLOCK", "VAL_BATCH_SIZE", "PREDICT_BATCH_SIZE",
-    "Trainable", "ArrayDataset", "EpochLoss", "LeanFitResult",
-    "apply_trainable", "count_parameters", "seed_all", "net_from_hparams", "make_optimizer",
-    "batch_mae", "train_block", "train_epoch", "train_loader", "val_loader",
-    "as_model_inputs", "predict", "read_checkpoint", "fine_tune_lean", "save_checkpoint_lean",
-]  # fmt: skip
 
 
 # --------------------------------------------------------------------------- data
@@ -436,189 +395,3 @@ def predict(
     if not parts:
         return np.zeros(0, dtype=np.float32)
     return torch.cat(parts).numpy().astype(np.float32, copy=False)
-
-
-# --------------------------------------------------------------------------- lean fine-tuning
-
-
-@dataclass
-class LeanFitResult:
-    """What :func:`fine_tune_lean` produced: ``train.FitResult``'s fields, with a bare network.
-
-    Attributes:
-        net: the fine-tuned network (in eval mode).
-        hparams: the hyperparameters a WhONetModule of this network records
-            (:data:`HPARAMS`; ``lr`` and ``batch_size`` are the fine-tuning recipe's).
-        history: one ``{"epoch", "train_loss", "val_loss"}`` dict per epoch;
-            ``train_loss`` is the MAE in metres, ``val_loss`` None (no validation).
-        seconds: wall time of the training epochs.
-        samples_per_s: training samples processed per second of ``seconds``.
-        n_trainable: trainable scalar weights (after the freeze policy).
-        n_total: all scalar weights.
-    """
-
-    net: WhONet
-    hparams: dict[str, Any]
-    history: list[dict[str, Any]]
-    seconds: float
-    samples_per_s: float
-    n_trainable: int
-    n_total: int
-
-
-def read_checkpoint(path: Path | str) -> dict[str, Any]:
-    """Read a WhONetModule Lightning checkpoint with plain ``torch.load`` (no Lightning import).
-
-    ``weights_only=True``: the checkpoint holds only dicts, numbers, strings and
-    tensors (Lightning writes ``hyper_parameters`` as a plain dict), so nothing
-    in it can run code or pull in Lightning classes when unpickled.
-
-    Args:
-        path: the ``.ckpt`` file.
-
-    Returns:
-        The checkpoint dict.
-
-    Raises:
-        InputError: when the file lacks ``state_dict`` or any of :data:`HPARAMS`.
-    """
-    ckpt = torch.load(path, map_location="cpu", weights_only=True)
-    hp = ckpt.get("hyper_parameters") if isinstance(ckpt, dict) else None
-    problems = []
-    if not isinstance(ckpt, dict) or not isinstance(ckpt.get("state_dict"), Mapping):
-        problems.append(Problem(str(path), None, "state_dict", "a state_dict", "none"))
-    if not isinstance(hp, Mapping):
-        problems.append(
-            Problem(str(path), None, "hyper_parameters", "WhONetModule's hyperparameters", "none")
-        )
-    elif missing := [k for k in HPARAMS if k not in hp]:
-        problems.append(
-            Problem(str(path), None, "hyper_parameters", f"keys {HPARAMS}", f"{missing} missing")
-        )
-    if problems:
-        raise InputError(problems, "not a WhONetModule checkpoint")
-    return ckpt
-
-
-def fine_tune_lean(
-    ckpt_path: Path | str,
-    x: np.ndarray,
-    y: np.ndarray,
-    *,
-    adapt: AdaptParams,
-    seed: int,
-    num_threads: int = 1,
-    steps_per_block: int = STEPS_PER_BLOCK,
-) -> LeanFitResult:
-    """Recalibrate G-WhONet on a target drive's first m seconds, without Lightning (R-WhONet).
-
-    Paper §2.6, §3.3.3. The same algorithm, order of random draws and result
-    as :func:`rwhonet.models.train.fine_tune` (module docstring): the network
-    shape comes from the checkpoint's hyperparameters, the learning rate and
-    batch size from ``adapt``; the freeze policy ``adapt.trainable`` is
-    applied; a fresh Adamax trains for ``adapt.epochs`` epochs without
-    validation (m is 10-100 samples; there is nothing to spare).
-
-    Args:
-        ckpt_path: G-WhONet's Lightning checkpoint.
-        x: (m, seq_len, 40) float32 windows of the first m seconds.
-        y: (m,) labels in metres.
-        adapt: fine-tuning recipe (``adapt:`` in params.yaml).
-        seed: seeds dropout and shuffling.
-        num_threads: torch CPU threads.
-        steps_per_block: optimizer steps per block; changes nothing in the result.
-
-    Returns:
-        The fine-tuned network, its hyperparameters, history, timing and
-        parameter counts.
-
-    Raises:
-        InputError: when the checkpoint is not a WhONetModule's, or the arrays
-            do not match its inputs or hold non-finite values.
-    """
-    torch.set_num_threads(num_threads)
-    seed_all(seed)
-    ckpt = read_checkpoint(ckpt_path)
-    hparams = {k: ckpt["hyper_parameters"][k] for k in HPARAMS}
-    hparams.update(lr=adapt.lr, batch_size=adapt.batch_size)
-    net = net_from_hparams(hparams)
-    state = {
-        k.removeprefix(NET_PREFIX): v
-        for k, v in ckpt["state_dict"].items()
-        if k.startswith(NET_PREFIX)
-    }
-    net.load_state_dict(state, strict=True)
-    x_t, y_t = as_model_inputs(
-        x, y, "adaptation samples", seq_len=hparams["seq_len"], n_features=hparams["n_features"]
-    )
-    n_trainable, n_total = apply_trainable(net, adapt.trainable)
-    loader = train_loader(
-        ArrayDataset(x_t, y_t),
-        batch_size=adapt.batch_size,
-        seed=seed,
-        steps_per_block=steps_per_block,
-    )
-    optimizer = make_optimizer(net, adapt.lr)
-    # The Trainer of the Lightning path runs with deterministic=True, which sets this
-    # process-wide flag; set it too so both paths run the same kernels.
-    torch.use_deterministic_algorithms(True)
-    net.train()
-    history = []
-    start = time.perf_counter()
-    for epoch in range(adapt.epochs):
-        loss_m = train_epoch(net, optimizer, loader, adapt.batch_size)
-        history.append({"epoch": epoch, "train_loss": loss_m, "val_loss": None})
-    seconds = time.perf_counter() - start
-    net.eval()
-    return LeanFitResult(
-        net=net,
-        hparams=hparams,
-        history=history,
-        seconds=seconds,
-        samples_per_s=len(y_t) * adapt.epochs / seconds if seconds > 0 else float("nan"),
-        n_trainable=n_trainable,
-        n_total=n_total,
-    )
-
-
-def save_checkpoint_lean(result: LeanFitResult, path: Path | str) -> None:
-    """Write a checkpoint ``WhONetModule.load_from_checkpoint`` loads, without Lightning.
-
-    The keys are those the Lightning path's ``trainer.save_checkpoint(path,
-    weights_only=True)`` writes, with the same values, except ``loops``:
-
-    - ``state_dict``: the network's weights under WhONetModule's names
-      (``net.rnn.weight_ih_l0`` ...), which ``load_from_checkpoint`` loads strictly;
-    - ``hyper_parameters`` (a plain dict of :data:`HPARAMS`) and
-      ``hparams_name: "kwargs"``: what ``save_hyperparameters()`` records and
-      ``load_from_checkpoint`` passes to the constructor;
-    - ``pytorch-lightning_version``: the installed Lightning's version (read
-      from package metadata, not by importing it). Lightning migrates a
-      checkpoint from older versions on load; stamping the installed version
-      says there is nothing to migrate, which is true, since these keys have
-      the current format;
-    - ``epoch``: epochs trained; ``global_step``: 0, as the Trainer records for
-      this module (manual optimisation with the raw optimizer does not count
-      Lightning optimizer steps).
-
-    ``loops`` (the Trainer's progress counters) is left out: it is read only
-    when a Trainer resumes a fit (``ckpt_path=``), which a weights-only
-    checkpoint cannot do anyway (it has no optimizer state), and a fine-tune
-    always starts its own Adamax.
-
-    Args:
-        result: from :func:`fine_tune_lean`.
-        path: the ``.ckpt`` file to write (parent folders are created).
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    state = OrderedDict((NET_PREFIX + k, v) for k, v in result.net.state_dict().items())
-    checkpoint = {
-        "epoch": len(result.history),
-        "global_step": 0,
-        "pytorch-lightning_version": version("lightning"),
-        "state_dict": state,
-        "hparams_name": "kwargs",
-        "hyper_parameters": dict(result.hparams),
-    }
-    torch.save(checkpoint, path)

@@ -1,4 +1,4 @@
-"""The ``label`` stage: GNSS-valid segments -> calibrated, labelled, scaled per-second samples.
+"""DVC stage ``label``: GNSS-valid segments -> calibrated, labelled, scaled per-second samples.
 
 Reads ``data/interim/segments`` (manifest + one Parquet per segment), and writes
 (docs/architecture.md, "Samples"):
@@ -12,8 +12,7 @@ Reads ``data/interim/segments`` (manifest + one Parquet per segment), and writes
 The rear radii are fitted on the segments of the calibration drives that
 ingest chose and recorded in the manifests (``"calibration": {"role", "drives"}``:
 the ``source_calibration`` drives, else the first ``source_train`` drive by
-name). A manifest without that record gets the same rule applied here, and
-``calibration.json`` says what was used. The same radii serve every vehicle:
+name); ``calibration.json`` says what was used. The same radii serve every vehicle:
 the WPM of the target vehicle is deliberately the source-calibrated one, so
 its radius mismatch is part of the target labels, which is what R-WhONet's
 adaptation is to learn (paper Sec. 3).
@@ -22,6 +21,7 @@ adaptation is to learn (paper Sec. 3).
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,27 +31,23 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from rwhonet import paths
+from rwhonet import contracts, paths
 from rwhonet.config import Params
 from rwhonet.data import canonical as c
-from rwhonet.data.ingest import system_memory_pool, write_parquet
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import (
     Calibration,
     fit_radii_mean_of_ratios,
     fit_radii_ratio_of_sums,
     fit_summary,
-    save_calibration,
 )
-from rwhonet.features.scaling import MinMaxScaler, fit_scaler_parts, save_scaler
-from rwhonet.features.seconds import FEATURE_COLUMNS, SegmentSeconds, segment_seconds
-from rwhonet.features.wpm import label_m, wheel_angle_rad, wpm_displacement_m
-from rwhonet.io import atomic_dir, read_json, write_json
+from rwhonet.features.labels import sample_table
+from rwhonet.features.scaling import fit_scaler
+from rwhonet.features.seconds import SegmentSeconds, segment_seconds
+from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
 
-CALIBRATION_ROLE = "source_calibration"
-TRAIN_ROLE = "source_train"
+TRAIN_ROLE = contracts.SOURCE_TRAIN
 MANIFEST_KEYS = ("segment", "drive", "role", "vehicle")
-SAMPLE_COLUMNS = ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m", *FEATURE_COLUMNS, c.SCENARIO)
 
 
 @dataclass(frozen=True)
@@ -71,14 +67,13 @@ class SegmentManifest:
 
     Attributes:
         entries: the segments.
-        calibration_drives: the drives ingest chose to calibrate the radii (None when
-            the manifest does not say).
-        calibration_role: the role of those drives (None when not recorded).
+        calibration_drives: the drives ingest chose to calibrate the radii.
+        calibration_role: the role of those drives.
     """
 
     entries: list[SegmentEntry]
-    calibration_drives: list[str] | None = None
-    calibration_role: str | None = None
+    calibration_drives: list[str]
+    calibration_role: str
 
 
 def read_segment_manifest(path: Path) -> SegmentManifest:
@@ -122,9 +117,7 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
         seen.add(entry.get("segment"))
     record = raw.get("calibration")
     drives = record.get("drives") if isinstance(record, dict) else None
-    if record is not None and not (
-        isinstance(drives, list) and drives and all(isinstance(d, str) for d in drives)
-    ):
+    if not (isinstance(drives, list) and drives and all(isinstance(d, str) for d in drives)):
         problems.append(
             Problem(file, None, "calibration", '{"role": ..., "drives": [drive ids]}', repr(record))
         )
@@ -135,8 +128,8 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
             SegmentEntry(*(entry[key] for key in MANIFEST_KEYS), entry.get("n_seconds"))
             for entry in entries
         ],
-        calibration_drives=list(drives) if drives else None,
-        calibration_role=record.get("role") if drives else None,
+        calibration_drives=list(drives),
+        calibration_role=str(record.get("role")),
     )
 
 
@@ -172,64 +165,13 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
     }
 
 
-def calibration_entries(manifest: SegmentManifest) -> tuple[str, list[SegmentEntry]]:
-    """Choose the segments the rear radii are fitted on.
-
-    Args:
-        manifest: the segments manifest.
-
-    Returns:
-        ``(role, entries)``: the segments of the drives ingest recorded; without a
-        record, the ``source_calibration`` segments, else those of the first
-        ``source_train`` drive by name (ingest's rule).
-
-    Raises:
-        InputError: if the recorded calibration drives have no GNSS-valid segment,
-            or there is neither a calibration nor a source_train segment.
-    """
-    entries = manifest.entries
-    if manifest.calibration_drives is not None:
-        chosen = [e for e in entries if e.drive in manifest.calibration_drives]
-        if not chosen:
-            raise InputError(
-                [
-                    Problem(
-                        "segments manifest",
-                        None,
-                        "calibration",
-                        "GNSS-valid segments of the calibration drive(s)",
-                        f"none for {manifest.calibration_drives} (all cut by validate?)",
-                    )
-                ]
-            )
-        return manifest.calibration_role or chosen[0].role, chosen
-    chosen = [e for e in entries if e.role == CALIBRATION_ROLE]
-    if chosen:
-        return CALIBRATION_ROLE, chosen
-    train_drives = sorted({e.drive for e in entries if e.role == TRAIN_ROLE})
-    if not train_drives:
-        raise InputError(
-            [
-                Problem(
-                    "segments manifest",
-                    None,
-                    "role",
-                    f"{CALIBRATION_ROLE} or {TRAIN_ROLE} segments",
-                    "none",
-                )
-            ]
-        )
-    return TRAIN_ROLE, [e for e in entries if e.drive == train_drives[0]]
-
-
 def calibrate(
     manifest: SegmentManifest, seconds: dict[str, SegmentSeconds], min_speed_m_s: float
 ) -> Calibration:
     """Fit the rear radii on the calibration segments.
 
     Args:
-        manifest: the segments manifest (calibration segments chosen by
-            :func:`calibration_entries`).
+        manifest: the segments manifest (its calibration record names the drives).
         seconds: per-second quantities by segment id.
         min_speed_m_s: moving-second threshold.
 
@@ -237,9 +179,23 @@ def calibrate(
         The calibration (ratio-of-sums radii, the authors' estimate alongside).
 
     Raises:
-        InputError: when the calibration segments never move fast enough to fit.
+        InputError: when the calibration drives have no GNSS-valid segment left, or
+            never move fast enough to fit.
     """
-    role, chosen = calibration_entries(manifest)
+    role = manifest.calibration_role
+    chosen = [e for e in manifest.entries if e.drive in manifest.calibration_drives]
+    if not chosen:
+        raise InputError(
+            [
+                Problem(
+                    "segments manifest",
+                    None,
+                    "calibration",
+                    "GNSS-valid segments of the calibration drive(s)",
+                    f"none for {manifest.calibration_drives} (all cut by validate?)",
+                )
+            ]
+        )
     parts = [seconds[e.segment] for e in chosen]
 
     def cat(name: str) -> np.ndarray:
@@ -273,49 +229,6 @@ def calibrate(
         segments=[e.segment for e in chosen],
         comparison={"mean_of_ratios": fit_summary(authors)},
     )
-
-
-def sample_table(
-    sec: SegmentSeconds, calibration: Calibration, scaler: MinMaxScaler, wpm_mode: str
-) -> pa.Table:
-    """Build one segment's samples (the label stage's output rows) as an Arrow table.
-
-    Arrow rather than pandas because writing 45 columns through
-    ``DataFrame.to_parquet`` costs ~10 ms per segment in conversions alone;
-    ``table.to_pandas()`` gives the DataFrame.
-
-    Args:
-        sec: the segment's raw per-second quantities.
-        calibration: rear radii for the WPM.
-        scaler: fitted min-max scaler.
-        wpm_mode: ``integrated`` or ``reference``.
-
-    Returns:
-        Table with columns :data:`SAMPLE_COLUMNS`: float64 ``t_s`` and metres,
-        float32 features, string ``scenario``.
-    """
-    disp_wpm = wpm_displacement_m(
-        wheel_angle_rad(sec.angle_rl_rad, sec.omega_end_rl_rad_s, wpm_mode),
-        wheel_angle_rad(sec.angle_rr_rad, sec.omega_end_rr_rad_s, wpm_mode),
-        calibration.r_rl_m,
-        calibration.r_rr_m,
-    )
-    # Transposed copy: each feature column becomes one contiguous float32 array.
-    features = np.ascontiguousarray(scaler.transform(sec.wheels_rad_s).T)
-    columns = {
-        "t_s": sec.t_s,
-        "disp_gnss_m": sec.disp_gnss_m,
-        "disp_wpm_m": disp_wpm,
-        "label_m": label_m(sec.disp_gnss_m, disp_wpm),
-        **dict(zip(FEATURE_COLUMNS, features, strict=True)),
-        c.SCENARIO: pa.array(sec.scenario, type=pa.string()),
-    }
-    arrays = [pa.array(values) for values in columns.values()]
-    # Non-nullable: no value is ever missing, and Parquet then stores no definition levels.
-    schema = pa.schema(
-        [pa.field(name, a.type, nullable=False) for name, a in zip(columns, arrays, strict=True)]
-    )
-    return pa.Table.from_arrays(arrays, schema=schema)
 
 
 def _per_second_all(
@@ -369,7 +282,7 @@ def label(
             calibration drive that never moves.
     """
     cfg = params.label
-    manifest = read_segment_manifest(Path(segments_dir) / "manifest.json")
+    manifest = read_segment_manifest(Path(segments_dir) / contracts.MANIFEST)
     entries = manifest.entries
     seconds = _per_second_all(entries, Path(segments_dir))
     calibration = calibrate(manifest, seconds, cfg.calibration_min_speed_m_s)
@@ -389,7 +302,7 @@ def label(
             "the input scaler must be fitted on source_train seconds",
         )
     try:
-        scaler = fit_scaler_parts(
+        scaler = fit_scaler(
             [seconds[e.segment].wheels_rad_s for e in train],
             cfg.scaler,
             sorted({e.drive for e in train}),
@@ -411,11 +324,15 @@ def label(
         e.segment: sample_table(seconds[e.segment], calibration, scaler, cfg.wpm_mode)
         for e in entries
     }
-    with atomic_dir(Path(out_dir)) as tmp:
+    with atomic_outputs(out_dir, calibration_path, scaler_path, folders=(True, False, False)) as (
+        tmp,
+        tmp_calibration,
+        tmp_scaler,
+    ):
         for segment, table in tables.items():
             write_parquet(table, tmp / f"{segment}.parquet")
         write_json(
-            tmp / "manifest.json",
+            tmp / contracts.MANIFEST,
             {
                 "segments": [
                     {
@@ -429,8 +346,8 @@ def label(
                 ]
             },
         )
-    save_calibration(calibration, calibration_path)
-    save_scaler(scaler, scaler_path)
+        write_json(tmp_calibration, calibration.to_dict())
+        write_json(tmp_scaler, scaler.to_dict())
 
     roles: dict[str, dict[str, Any]] = {}
     for role in dict.fromkeys(e.role for e in entries):
@@ -451,3 +368,24 @@ def label(
         "scaler": scaler.kind,
         "roles": roles,
     }
+
+
+def main(params: Params) -> None:
+    """The ``label`` stage: segments -> samples, ``calibration.json`` and ``scaler.json``."""
+    start = time.perf_counter()
+    summary = label(params, paths.SEGMENTS, paths.SAMPLES, paths.CALIBRATION, paths.SCALER)
+    elapsed_s = time.perf_counter() - start
+    print(
+        f"rear radii r_rl = {summary['r_rl_m']:.5f} m, r_rr = {summary['r_rr_m']:.5f} m "
+        f"({summary['calibration_role']}: {', '.join(summary['calibration_drives'])}); "
+        f"WPM {summary['wpm_mode']}, scaler {summary['scaler']} (source_train)"
+    )
+    rows = 0
+    for role, info in summary["roles"].items():
+        rows += info["rows"]
+        mean = info["label_mean_m"]
+        print(
+            f"  {role:<20} {info['segments']:>4} segments {info['seconds']:>8} seconds"
+            + (f"  mean label {mean:+.3f} m" if mean is not None else "")
+        )
+    print(f"{rows:,} rows in {elapsed_s:.1f} s -> {paths.rel(paths.SAMPLES)}")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from rwhonet.errors import InputError
-from rwhonet.experiment.samples import load_role, split_tail
+from rwhonet.stages.samples import load_role, split_tail
 
 
 def test_load_role_orders_and_ranks_per_drive(samples_dir):

@@ -1,4 +1,4 @@
-"""Stage ``validate``: canonical drives -> GNSS-valid segments + ``reports/validation.json``.
+"""DVC stage ``validate``: canonical drives -> GNSS-valid segments + ``reports/validation.json``.
 
 For every ingested drive: the pandera schema (:mod:`rwhonet.data.schema`, run on
 several drives stacked at once, each reported on its own), then the GNSS-quality
@@ -21,15 +21,14 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from rwhonet import paths
+from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
 from rwhonet.data import canonical as c
-from rwhonet.data.ingest import MANIFEST, system_memory_pool, write_parquet
 from rwhonet.data.plausibility import implied_radius, unit_mistake
 from rwhonet.data.quality import RULES, Assessment, assess
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, read_json, write_json
+from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
 
 CONVENTION = (
     "t_start_s and t_end_s are whole seconds of the drive's own clock; a segment holds its "
@@ -83,7 +82,7 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
         drives_dir: the ingest output (``rwhonet.paths.DRIVES``).
         out_dir: the segments folder (``rwhonet.paths.SEGMENTS``); replaced only on success.
         report_path: where the validation report goes (``rwhonet.paths.VALIDATION_REPORT``);
-            written only on success.
+            written only on success, together with the segments.
 
     Returns:
         The report: ``{"convention", "policy", "drives": [...], "totals": {...}}``; per drive
@@ -103,7 +102,7 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
             f"validate.sample_period_s={vp.sample_period_s}: whole seconds need an integer "
             "number of samples (1 / sample_period_s)"
         )
-    manifest_path = Path(drives_dir) / MANIFEST
+    manifest_path = Path(drives_dir) / contracts.MANIFEST
     if not manifest_path.is_file():
         raise InputError(
             [Problem(paths.rel(manifest_path), None, None, "the ingest manifest", "no such file")],
@@ -115,7 +114,7 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
     problems: list[Problem] = []
     drive_reports: list[dict[str, Any]] = []
     segment_entries: list[dict[str, Any]] = []
-    with atomic_dir(out_dir) as tmp:
+    with atomic_outputs(out_dir, report_path, folders=(True, False)) as (tmp, tmp_report):
         for batch in _batches(manifest["drives"], Path(drives_dir)):
             found_by_drive = schema_problems_batch(
                 batch.frame,
@@ -163,27 +162,26 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
                 problems, summary=f"validate: {len(problems)} problem(s) in {n_files} file(s)"
             )
         write_json(
-            tmp / MANIFEST,
+            tmp / contracts.MANIFEST,
             {
                 "convention": CONVENTION,
                 "segments": segment_entries,
                 "calibration": manifest.get("calibration"),
             },
         )
-    report = {
-        "convention": CONVENTION,
-        "policy": params.section("validate"),
-        "drives": drive_reports,
-        "totals": _totals(drive_reports, len(segment_entries)),
-    }
-    write_json(report_path, report)
+        report = {
+            "convention": CONVENTION,
+            "policy": params.section("validate"),
+            "drives": drive_reports,
+            "totals": _totals(drive_reports, len(segment_entries)),
+        }
+        write_json(tmp_report, report)
     return report
 
 
-# Drives stacked for one pandera call hold at most this many rows. pandera costs ~7 ms per
-# call whatever the rows (one call per drive was a third of the stage on the paper fleet);
-# bounding a batch bounds the memory held at once. On the paper fleet (1.1 M rows) the
-# stage took the same time, within noise, with 0.3, 1 or 4 M rows per batch.
+# Drives stacked for one pandera call hold at most this many rows. pandera has a fixed cost
+# per call whatever the rows, so drives are validated in batches rather than one by one;
+# bounding a batch bounds the memory held at once (benchmarks/bench_data.py).
 BATCH_ROWS = 300_000
 
 
@@ -198,8 +196,7 @@ class _Batch:
 
     def __post_init__(self) -> None:
         # One conversion to pandas for the whole batch rather than one per drive.
-        # split_blocks: one array per column, no 2-D block to gather them into (whose fresh
-        # allocation made the stage ~0.2 s slower; so did joining the chunks in Arrow's pool).
+        # split_blocks: one array per column, no 2-D block to allocate and gather them into.
         self.frame = pa.concat_tables(self.tables).to_pandas(split_blocks=True)
         self.starts = np.r_[0, np.cumsum([t.num_rows for t in self.tables])[:-1]].astype(int)
 
@@ -378,3 +375,10 @@ def summary_table(report: dict[str, Any]) -> str:
         f"in {t['segments']} segment(s); cut: {cut}"
     )
     return "\n".join(lines)
+
+
+def main(params: Params) -> None:
+    """The ``validate`` stage: drives -> segments and ``reports/validation.json``."""
+    report = validate(params, paths.DRIVES, paths.SEGMENTS, paths.VALIDATION_REPORT)
+    print(summary_table(report))
+    print(f"-> {paths.rel(paths.SEGMENTS)}, {paths.rel(paths.VALIDATION_REPORT)}")

@@ -13,11 +13,10 @@ import pytest
 
 from rwhonet.config import ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.ingest import ingest
-from rwhonet.data.validate import summary_table, validate
 from rwhonet.errors import InputError
-
-from .drives import TARGET_RADIUS_M, make_params, straight_drive, write_fleet, write_iovnbd
+from rwhonet.stages.ingest import ingest
+from rwhonet.stages.validate import summary_table, validate
+from support.drives import TARGET_RADIUS_M, make_params, straight_drive, write_fleet, write_iovnbd
 
 SHORT = {"validate.gnss.min_segment_s": 5, "validate.radius_min_moving_s": 10}
 

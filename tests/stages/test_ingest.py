@@ -15,10 +15,10 @@ import pytest
 from rwhonet import paths
 from rwhonet.config import ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.ingest import ingest, system_memory_pool
 from rwhonet.errors import InputError
-
-from .drives import (
+from rwhonet.io import system_memory_pool
+from rwhonet.stages.ingest import ingest
+from support.drives import (
     CUPAC_MAP,
     TARGET_RADIUS_M,
     column_map_params,

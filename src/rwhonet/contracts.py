@@ -1,0 +1,42 @@
+"""The data contracts between stages: roles, the per-second samples, the model folders.
+
+One home for the names every stage agrees on (docs/architecture.md describes
+each artefact). The canonical drive columns (SI units) are the readers'
+contract and live in :mod:`rwhonet.data.canonical`. No imports from the rest
+of the package: everything may import this module.
+"""
+
+from __future__ import annotations
+
+# --------------------------------------------------------------------------- roles
+
+SOURCE_TRAIN = "source_train"  # drives of the car G is trained on
+SOURCE_CALIBRATION = "source_calibration"  # calm drive(s) the WPM radii are fitted on
+TARGET_TRAIN = "target_train"  # the new car's training drives (S)
+TARGET_TEST = "target_test"  # the new car's test drives (R adapts on each one's first m s)
+ROLES = (SOURCE_TRAIN, SOURCE_CALIBRATION, TARGET_TRAIN, TARGET_TEST)
+REQUIRED_ROLES = (SOURCE_TRAIN, TARGET_TRAIN, TARGET_TEST)
+# Without a source_calibration drive, the first source_train drive (by name) calibrates.
+CALIBRATION_FALLBACK_ROLE = SOURCE_TRAIN
+
+# --------------------------------------------------------------------------- samples
+
+ROWS_PER_SECOND = 10  # 10 Hz drives (IO-VNBD, CUPAC)
+N_WHEELS = 4
+N_FEATURES = ROWS_PER_SECOND * N_WHEELS  # paper Eqs. 14-15: ten samples of each wheel speed
+FEATURE_COLUMNS = tuple(f"x_{i:02d}" for i in range(N_FEATURES))
+# One row per whole second of a segment (label stage output).
+T_S = "t_s"  # end of the second, drive clock, s
+DISP_GNSS_M = "disp_gnss_m"  # geodesic distance between the second's bounding fixes
+DISP_WPM_M = "disp_wpm_m"  # wheel-odometry displacement (label.wpm_mode), paper Eqs. 6-10
+LABEL_M = "label_m"  # disp_gnss_m - disp_wpm_m (Eq. 11, the authors' sign)
+SCENARIO = "scenario"  # ';'-joined scenario tags of the second
+SAMPLE_VALUE_COLUMNS = (T_S, DISP_GNSS_M, DISP_WPM_M, LABEL_M)
+SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
+
+# --------------------------------------------------------------------------- files
+
+MANIFEST = "manifest.json"  # every data stage's folder lists its contents here
+MODEL_FILE = "model.pt"  # a WhONet: weights + hyperparameters (rwhonet.models.checkpoint)
+PREDICTIONS = "predictions.parquet"  # per test second: drive, segment, t_s, pred_m
+RUN_RECORD = "run.json"  # what evaluate logs to MLflow for this model

@@ -1,0 +1,61 @@
+"""The per-second samples of a segment: WPM displacement, label and scaled features.
+
+Paper Eqs. 6-11 and 14-15: from a segment's raw per-second quantities
+(:mod:`rwhonet.features.seconds`), the calibrated rear radii
+(:mod:`rwhonet.features.calibration`) and the fitted scaler
+(:mod:`rwhonet.features.scaling`), one row per second in the samples contract
+(:data:`rwhonet.contracts.SAMPLE_COLUMNS`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyarrow as pa
+
+from rwhonet import contracts as k
+from rwhonet.features.calibration import Calibration
+from rwhonet.features.scaling import MinMaxScaler
+from rwhonet.features.seconds import SegmentSeconds
+from rwhonet.features.wpm import label_m, wheel_angle_rad, wpm_displacement_m
+
+
+def sample_table(
+    sec: SegmentSeconds, calibration: Calibration, scaler: MinMaxScaler, wpm_mode: str
+) -> pa.Table:
+    """Build one segment's samples (the label stage's output rows) as an Arrow table.
+
+    Arrow rather than pandas: the table goes to Parquet without a DataFrame's
+    per-column conversions; ``table.to_pandas()`` gives the DataFrame.
+
+    Args:
+        sec: the segment's raw per-second quantities.
+        calibration: rear radii for the WPM.
+        scaler: fitted min-max scaler.
+        wpm_mode: ``integrated`` or ``reference``.
+
+    Returns:
+        Table with columns :data:`rwhonet.contracts.SAMPLE_COLUMNS`: float64 ``t_s`` and metres,
+        float32 features, string ``scenario``.
+    """
+    disp_wpm = wpm_displacement_m(
+        wheel_angle_rad(sec.angle_rl_rad, sec.omega_end_rl_rad_s, wpm_mode),
+        wheel_angle_rad(sec.angle_rr_rad, sec.omega_end_rr_rad_s, wpm_mode),
+        calibration.r_rl_m,
+        calibration.r_rr_m,
+    )
+    # Transposed copy: each feature column becomes one contiguous float32 array.
+    features = np.ascontiguousarray(scaler.transform(sec.wheels_rad_s).T)
+    columns = {
+        k.T_S: sec.t_s,
+        k.DISP_GNSS_M: sec.disp_gnss_m,
+        k.DISP_WPM_M: disp_wpm,
+        k.LABEL_M: label_m(sec.disp_gnss_m, disp_wpm),
+        **dict(zip(k.FEATURE_COLUMNS, features, strict=True)),
+        k.SCENARIO: pa.array(sec.scenario, type=pa.string()),
+    }
+    arrays = [pa.array(values) for values in columns.values()]
+    # Non-nullable: no value is ever missing, and Parquet then stores no definition levels.
+    schema = pa.schema(
+        [pa.field(name, a.type, nullable=False) for name, a in zip(columns, arrays, strict=True)]
+    )
+    return pa.Table.from_arrays(arrays, schema=schema)

@@ -1,0 +1,89 @@
+"""One file format for every WhONet (G, S and R): its weights and its hyperparameters.
+
+``model.pt`` holds ``{"format", "hyper_parameters", "state_dict"}``: the
+network's ``state_dict`` and the :data:`~rwhonet.models.loop.HPARAMS` a
+:class:`~rwhonet.models.module.WhONetModule` is built from, so whoever loads a
+model needs nothing else remembered (the G -> R hand-off of paper §2.6). The
+file holds only tensors, numbers, strings and dicts, so it is read with
+``torch.load(weights_only=True)``: loading a model never runs pickled code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from rwhonet.errors import InputError, Problem
+from rwhonet.models.loop import HPARAMS, net_from_hparams
+from rwhonet.models.whonet import WhONet
+
+FORMAT = "rwhonet.whonet/1"
+
+
+def save_whonet(net: WhONet, hparams: Mapping[str, Any], path: Path) -> None:
+    """Write a WhONet and its hyperparameters.
+
+    Args:
+        net: the network.
+        hparams: its :data:`~rwhonet.models.loop.HPARAMS` (extra keys are dropped).
+        path: the file to write.
+    """
+    missing = [k for k in HPARAMS if k not in hparams]
+    if missing:
+        raise ValueError(f"hyperparameters {missing} missing; expected {HPARAMS}")
+    torch.save(
+        {
+            "format": FORMAT,
+            "hyper_parameters": {k: hparams[k] for k in HPARAMS},
+            "state_dict": {k: v.detach().clone() for k, v in net.state_dict().items()},
+        },
+        path,
+    )
+
+
+def load_whonet(path: Path | str) -> tuple[WhONet, dict[str, Any]]:
+    """Read a WhONet written by :func:`save_whonet`, in eval mode on the CPU.
+
+    Args:
+        path: the ``model.pt`` file.
+
+    Returns:
+        ``(net, hparams)``.
+
+    Raises:
+        InputError: when the file is not a WhONet model file (wrong format, missing
+            hyperparameters, or weights that do not fit them).
+    """
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # noqa: BLE001 - any unreadable file is reported the same way
+        raise InputError(
+            [Problem(str(path), None, None, "a WhONet model file (torch.save)", str(err)[:200])],
+            "not a WhONet model file",
+        ) from err
+    problems = []
+    if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT:
+        found = ckpt.get("format") if isinstance(ckpt, dict) else type(ckpt).__name__
+        problems.append(Problem(str(path), None, "format", repr(FORMAT), repr(found)))
+    else:
+        hp = ckpt.get("hyper_parameters")
+        if not isinstance(hp, Mapping) or any(k not in hp for k in HPARAMS):
+            problems.append(
+                Problem(str(path), None, "hyper_parameters", f"keys {HPARAMS}", repr(hp)[:120])
+            )
+    if problems:
+        raise InputError(problems, "not a WhONet model file")
+    hparams = dict(ckpt["hyper_parameters"])
+    net = net_from_hparams(hparams)
+    try:
+        net.load_state_dict(ckpt["state_dict"], strict=True)
+    except (RuntimeError, TypeError) as err:
+        raise InputError(
+            [Problem(str(path), None, "state_dict", "weights of the saved shape", str(err)[:200])],
+            "not a WhONet model file",
+        ) from err
+    net.eval()
+    return net, hparams

@@ -1,0 +1,94 @@
+"""DVC stages ``train_g`` / ``train_s``: G-WhONet (source car) or S-WhONet (target car).
+
+Paper §2.4-2.5, §3.3.1-3.3.2: a WhONet trained from scratch with Lightning on one
+role's drives, then run on every target test second.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from rwhonet import contracts, paths
+from rwhonet.config import Params
+from rwhonet.io import atomic_dir, write_json
+from rwhonet.stages.records import history_rows, model_params, predictions_frame
+from rwhonet.stages.samples import load_role, split_tail
+from rwhonet.tracking.store import RunRecord
+
+WHICH = {
+    "G": (contracts.SOURCE_TRAIN, "source", "G-WhONet"),
+    "S": (contracts.TARGET_TRAIN, "target", "S-WhONet"),
+}
+
+
+def train_model(
+    params: Params, which: Literal["G", "S"], samples_dir: Path, out_dir: Path
+) -> tuple[RunRecord, float]:
+    """Train one WhONet on its role's drives and predict the target test drives.
+
+    Args:
+        params: resolved parameters.
+        which: ``G`` (source vehicle's training drives) or ``S`` (target vehicle's).
+        samples_dir: the label stage's samples folder.
+        out_dir: ``models/g`` or ``models/s``; receives the model file, the test
+            drives' per-second predictions and the run record.
+
+    Returns:
+        The run record (also written to ``out_dir/run.json``) and the seconds
+        the fit took. Timings stay out of the record so that every output of the
+        stage is byte-reproducible from its inputs (dvc.lock does not change on
+        a re-run).
+    """
+    from rwhonet.models.checkpoint import save_whonet
+    from rwhonet.models.train import fit, predict
+
+    role, vehicle, name = WHICH[which]
+    data = load_role(samples_dir, role, params.model.seq_len)
+    train, val = split_tail(data, params.train.val_fraction)
+    result = fit(
+        train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=params.seed
+    )
+    test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
+    pred = predict(result.module, test.x)
+    record = RunRecord(
+        name=name,
+        tags={
+            "model": which,
+            "vehicle": vehicle,
+            "seed": str(params.seed),
+            "dvc_stage": f"train_{which.lower()}",
+            "trained_on": role,
+        },
+        params=model_params(params, "train"),
+        history=history_rows(result.history),
+        metrics={
+            "n_train_samples": len(train),
+            "n_val_samples": len(val),
+            "n_drives": len(data.drives),
+            "n_trainable_params": result.n_trainable,
+            "n_total_params": result.n_total,
+        },
+        artifacts=[paths.rel(out_dir / contracts.MODEL_FILE)],
+    )
+    with atomic_dir(out_dir) as tmp:
+        save_whonet(result.module.net, result.module.hparams, tmp / contracts.MODEL_FILE)
+        predictions_frame(test, pred).to_parquet(tmp / contracts.PREDICTIONS, index=False)
+        write_json(tmp / contracts.RUN_RECORD, record.to_dict())
+    return record, result.seconds
+
+
+def main(params: Params, which: Literal["G", "S"]) -> None:
+    """The ``train_g`` or ``train_s`` stage."""
+    out = paths.MODEL_G if which == "G" else paths.MODEL_S
+    rec, seconds = train_model(params, which, paths.SAMPLES, out)
+    last = rec.history[-1] if rec.history else {}
+    nan = float("nan")
+    m = rec.metrics
+    print(
+        f"{rec.name}: {int(m['n_train_samples'])} training seconds from {int(m['n_drives'])} "
+        f"drives, {params.train.epochs} epochs in {seconds:.1f} s "
+        f"({m['n_train_samples'] * params.train.epochs / seconds:,.0f} samples/s); final train MAE "
+        f"{last.get('train/loss', nan):.4f} m, val MAE {last.get('val/loss', nan):.4f} m "
+        f"-> {paths.rel(out)}"
+    )

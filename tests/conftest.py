@@ -1,0 +1,34 @@
+"""Fixtures shared across the suite; folder conftests add their own.
+
+The tests mirror the package (tests/<package>/ for src/rwhonet/<package>/);
+``support/`` holds drive writers and synthetic drives several folders use.
+Tests marked ``slow`` run real DVC stages or fresh interpreters (``make
+test-fast`` skips them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rwhonet import paths
+from rwhonet.config import Params, load_params
+from rwhonet.stage import quiet
+
+quiet()
+
+
+@pytest.fixture(scope="session")
+def project_params() -> Params:
+    """The repository's params.yaml, typed."""
+    return load_params(paths.PARAMS)
+
+
+@pytest.fixture(scope="session")
+def linear_data() -> tuple[np.ndarray, np.ndarray]:
+    """1,200 windows (seq_len 1, 40 features in [0, 1]) with a known linear label in metres."""
+    rng = np.random.default_rng(7)
+    x = rng.random((1200, 1, 40), dtype=np.float32)
+    w = rng.normal(0.0, 0.5, 40)
+    y = (x[:, 0, :] @ w - 0.2).astype(np.float32)
+    return x, y
