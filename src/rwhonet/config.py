@@ -86,14 +86,23 @@ class SimCan:
 
 @dataclass(frozen=True)
 class SimGnss:
-    """GNSS receiver error model (first-order Gauss-Markov per axis + white noise)."""
+    """GNSS receiver: a slow Gauss-Markov drift seen through the navigation filter, + white noise.
 
-    sigma_m: float
-    tau_s: float
-    white_m: float
-    vertical_factor: float  # vertical GM sigma = vertical_factor * sigma_m
-    speed_noise_m_s: float
-    sats: list[int]  # [min, max] satellites in clear sky
+    The horizontal position error per axis is a first-order Gauss-Markov drift
+    (correlation time ``tau_s``) low-passed by the receiver's navigation filter
+    (time constant ``filter_tau_s``), scaled to the stationary std ``sigma_m``;
+    docs/simulator.md Section 5 derives the per-second displacement noise.
+    """
+
+    sigma_m: float  # stationary std of the horizontal position error, per axis
+    tau_s: float  # correlation time of the drift (atmosphere, orbits, clocks)
+    filter_tau_s: float  # time constant of the navigation filter (first-order low-pass)
+    white_m: float  # white noise per fix and axis (position resolution, jitter)
+    vertical_factor: float  # vertical error = vertical_factor * horizontal
+    speed_noise_m_s: float  # white noise on the Doppler speed
+    sats: list[int]  # [min, max] satellites in open sky
+    multipath_sigma_m: float  # low_sats stretches: extra Gauss-Markov error per axis
+    multipath_tau_s: float  # ... and its correlation time
 
 
 @dataclass(frozen=True)
@@ -194,6 +203,16 @@ class SimParams:
         for key, pair in pairs.items():
             if len(pair) != 2 or pair[0] > pair[1]:
                 raise ConfigError(f"{key}: expected [min, max], got {pair}")
+        for name, veh in self.vehicles.items():
+            positive = {
+                "gnss.sigma_m": veh.gnss.sigma_m,
+                "gnss.tau_s": veh.gnss.tau_s,
+                "gnss.filter_tau_s": veh.gnss.filter_tau_s,
+                "gnss.multipath_tau_s": veh.gnss.multipath_tau_s,
+            }
+            for key, value in positive.items():
+                if not value > 0:
+                    raise ConfigError(f"sim.vehicles.{name}.{key} must be > 0, got {value}")
         for pname, prof in self.profiles.items():
             names = [d.name for d in prof.drives]
             if len(set(names)) != len(names):
