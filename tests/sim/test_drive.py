@@ -68,11 +68,11 @@ def test_10_hz_rows_and_time_of_day(urban_drive):
     assert np.all(frame[" Sample Period"] == 0.1)
 
 
-def test_lateral_acceleration_is_bounded(urban_drive, params):
+def test_lateral_acceleration_is_bounded(urban_drive, source):
     state = urban_drive.state
     m = state.motion
     rear = m.speed_m_s**2 * np.abs(m.curvature_1_m) / G_M_S2
-    assert rear.max() <= params.sim.lat_acc_max_g + 1e-6  # the driver's planning limit
+    assert rear.max() <= source.params.driver.lat_acc_max_g + 1e-6  # the driver's planning limit
     assert rear.max() > 0.3  # ...and the tight turns do get close to it
     assert np.abs(state.accel_y_cg_m_s2).max() / G_M_S2 <= 0.42  # at the centre of gravity
     assert np.abs(urban_drive.frame[" Indicated Lateral Acceleration (g)"]).max() <= 0.45
@@ -177,7 +177,7 @@ def test_zero_slip_true_radius_and_antenna_on_the_axle_give_zero_label(params, s
 
 def test_truth_sidecar(urban_drive, source):
     truth = urban_drive.truth
-    assert truth["vehicle"] == "source" and truth["tyre_state"] == "A"
+    assert truth["vehicle"] == "fiesta" and truth["tyre_state"] == "A"
     assert truth["pressure_psi"] == {"fl": 15.0, "fr": 16.0, "rl": 14.0, "rr": 14.0}
     for wheel, r in truth["radius_static_m"].items():
         assert abs(r / source.nominal_radius_m - 1) < 0.05, wheel

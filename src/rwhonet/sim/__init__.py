@@ -22,10 +22,13 @@ Fleet (what the DVC stage ``pipelines/simulate.py`` calls)::
         column) and ``<drive>.truth.json`` (vehicle, tyre state, true radii, seed),
         plus ``<out_dir>/fleet.json`` (resolved settings and a per-drive summary).
         Returns that summary. Drive i is seeded with
-        ``SeedSequence(params.seed, spawn_key=(i,))`` (= ``SeedSequence(seed).spawn(n)[i]``).
+        ``SeedSequence(params.sim.seed, spawn_key=(i,))`` (= ``SeedSequence(seed).spawn(n)[i]``)
+        and driven by the car its profile maps ``drive.vehicle`` to.
 
-    vehicles_from_params(params: Params) -> dict[str, Vehicle]
-        The simulated vehicles; nominal radii come from ``params.data.vehicles``.
+    vehicles_from_params(params: Params, profile: str | None = None) -> dict[str, Vehicle]
+        The cars of a profile (default ``sim.profile``) keyed by the pipeline's
+        vehicle names (``source``, ``target``); each is named after its
+        ``sim.vehicles`` key and carries that car's spec-sheet nominal radius.
 
 One drive (for tests, and for other packages' tests)::
 

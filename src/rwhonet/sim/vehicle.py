@@ -31,9 +31,10 @@ class Vehicle:
     """A simulated vehicle: its name, nominal radius and physical parameters.
 
     Attributes:
-        name: key in ``sim.vehicles`` and ``data.vehicles``.
-        nominal_radius_m: effective rolling radius of a rear tyre at the reference
-            pressure, new tread, static load and walking speed (``data.vehicles``).
+        name: key in ``sim.vehicles``.
+        nominal_radius_m: spec-sheet effective rolling radius of a rear tyre at the
+            reference pressure, new tread, static load and walking speed
+            (``sim.vehicles.<name>.nominal_radius_m``).
         params: the ``sim.vehicles.<name>`` section.
     """
 
@@ -51,14 +52,18 @@ class Vehicle:
 
     @cached_property
     def unloaded_radius_new_m(self) -> float:
-        """Free radius of a new tyre (m), from the nominal effective radius.
+        """Free radius of a new tyre of this car (m).
 
         Inverts :func:`effective_radius_m` at the nominal conditions:
-        ``r_nominal = r_0 - F_z,rear / (3 C_z0)``.
+        ``r_nominal = r_0 - F_z,rear / (3 C_z0)``, then adds this car's tyre
+        offset (``tyre.free_radius_offset_mm``: brand and manufacturing spread of
+        one size).
         """
         tyre = self.params.tyre
-        return self.nominal_radius_m + self.static_wheel_load_n[2] / (
-            3.0 * tyre.vertical_stiffness_n_m
+        return (
+            self.nominal_radius_m
+            + self.static_wheel_load_n[2] / (3.0 * tyre.vertical_stiffness_n_m)
+            + tyre.free_radius_offset_mm * 1e-3
         )
 
     @property
