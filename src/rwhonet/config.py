@@ -73,6 +73,9 @@ class SimTyre:
     speed_growth_ref_m_s: float  # V_0
     slip_stiffness_per_load: float  # C_Fkappa / F_z (per unit slip), dry road
     rolling_resistance: float  # f_rr
+    warm_rise_k: float  # steady tyre-air temperature rise over ambient at warm_ref_speed_m_s
+    warm_ref_speed_m_s: float
+    warm_tau_s: float  # time constant of the tyre-air temperature
 
 
 @dataclass(frozen=True)
@@ -122,7 +125,7 @@ class SimVehicle:
 
     nominal_radius_m: float  # spec-sheet effective rolling radius (docs/simulator.md, Section 2)
     drive: Literal["fwd", "rwd"]
-    mass_kg: float  # car + driver + logger
+    mass_kg: float  # car + driver + logger, no payload
     wheelbase_m: float
     track_front_m: float
     track_rear_m: float
@@ -157,6 +160,14 @@ class SimRoad:
 
 
 @dataclass(frozen=True)
+class SimLeak:
+    """A slow puncture: one tyre loses air at a constant rate during the drive."""
+
+    wheel: Literal["fl", "fr", "rl", "rr"]
+    psi_per_h: float
+
+
+@dataclass(frozen=True)
 class SimDrive:
     """One drive of a fleet profile."""
 
@@ -172,6 +183,9 @@ class SimDrive:
     event_scale: float = 1.0  # multiplies every road rate (0.1: a calm drive)
     wet_fraction: float = 0.0
     gnss_faults: list[Literal["low_sats", "frozen", "jump", "gap"]] = field(default_factory=list)
+    payload_kg: float = 0.0  # passengers and luggage besides the driver
+    payload_x_m: float = 0.0  # their centre of mass ahead of the rear axle (boot: negative)
+    leaks: list[SimLeak] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -179,7 +193,7 @@ class SimProfile:
     """A fleet: which simulated car plays each pipeline vehicle, and the drives.
 
     ``drives_from`` reuses another profile's drive list (same names, roles,
-    tyre-state letters and seeds) instead of repeating it.
+    tyre-state letters, payloads and seeds) instead of repeating it.
     """
 
     vehicles: dict[str, str]  # pipeline vehicle name -> sim.vehicles key
@@ -233,6 +247,8 @@ class SimParams:
                 "gnss.tau_s": veh.gnss.tau_s,
                 "gnss.filter_tau_s": veh.gnss.filter_tau_s,
                 "gnss.multipath_tau_s": veh.gnss.multipath_tau_s,
+                "tyre.warm_ref_speed_m_s": veh.tyre.warm_ref_speed_m_s,
+                "tyre.warm_tau_s": veh.tyre.warm_tau_s,
                 "driver.speed_factor": veh.driver.speed_factor,
                 "driver.accel_factor": veh.driver.accel_factor,
                 "driver.decel_factor": veh.driver.decel_factor,
@@ -271,6 +287,8 @@ class SimParams:
                     )
                 if set(d.events) - set(SIM_EVENTS):
                     raise ConfigError(f"{where}: events {d.events} must be among {SIM_EVENTS}")
+                if d.payload_kg < 0 or any(leak.psi_per_h < 0 for leak in d.leaks):
+                    raise ConfigError(f"{where}: payload_kg and leaks[*].psi_per_h must be >= 0")
         for name, road in self.roads.items():
             if set(road.per_km) - set(SIM_EVENTS):
                 raise ConfigError(

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from rwhonet.config import SimLeak
 from rwhonet.data.canonical import G_M_S2
 from rwhonet.data.iovnbd import HEADERS
 from rwhonet.features.seconds import gnss_displacement_m, integrate_per_second
@@ -198,13 +199,14 @@ def test_slip_in_a_drive_driven_axle_spins_under_traction_all_lag_under_braking(
     assert np.all(spin[:2, traction] > 1.0) and np.all(spin[:, braking] < 1.0)
 
 
-# Ideal wheels (no slip, static radius, perfect CAN) but a real receiver.
+# Ideal wheels (no slip, static radius, perfect CAN, no warm-up) but a real receiver.
 GNSS_ONLY = SimOptions(
     slip=False,
     radius_load=False,
     radius_speed=False,
     can_noise=False,
     gnss_noise=True,
+    tyre_warmup=False,
 )
 
 
@@ -262,3 +264,49 @@ def test_degraded_gnss_stretches_are_much_noisier(source, params):
     assert inside.sum() >= 8
     assert label[inside].std() > 20 * label[outside].std()
     assert label[inside].std() > 1.0  # metres: multipath with 2-3 satellites
+
+
+def test_tyre_warmup_raises_the_radius_within_a_drive(source, params):
+    spec = drive_spec(duration_s=1500.0, roads={"country": 1.0})
+    drive = simulate_spec(params, source, spec, seed=2)
+    cold = simulate_spec(params, source, spec, seed=2, options=SimOptions(tyre_warmup=False))
+    timeline = drive.truth["tyre_timeline"]
+    at_20 = timeline["t_s"].index(1200.0)
+    for wheel in ("rl", "rr"):
+        p, r = timeline["pressure_psi"][wheel], timeline["radius_static_m"][wheel]
+        assert p[at_20] > 1.05 * p[0]  # several percent more pressure after 20 min
+        assert 1.0002 < r[at_20] / r[0] < 1.002  # a fraction of a per mille to a few
+    # The radius the wheels actually roll on grows against the same drive without warm-up.
+    ratio = drive.state.wheels.radius_m[2:] / cold.state.wheels.radius_m[2:]
+    t = drive.state.motion.t_s
+    assert np.all(ratio[:, t < 1.0] == 1.0)
+    assert np.all(ratio[:, t > 600.0].min(axis=1) > 1.0002)
+
+
+def test_a_slow_leak_shrinks_the_leaking_wheel_over_the_drive(target, params):
+    spec = drive_spec(vehicle="target", tyre="C", duration_s=1800.0, roads={"urban": 1.0})
+    leaks = [SimLeak("rl", 4.0)]
+    options = SimOptions(tyre_warmup=False)
+    leaking = simulate_spec(params, target, spec, seed=3, options=options, leaks=leaks)
+    sound = simulate_spec(params, target, spec, seed=3, options=options)
+    timeline = leaking.truth["tyre_timeline"]
+    p, r = timeline["pressure_psi"], timeline["radius_static_m"]
+    assert p["rl"][-1] == pytest.approx(p["rl"][0] - 2.0, abs=0.01)  # 4 psi/h for 30 min
+    assert np.all(np.diff(r["rl"]) < 0) and r["rr"][-1] == r["rr"][0]
+    assert -0.2 < 100 * (r["rl"][-1] / r["rl"][0] - 1) < -0.05  # percent
+    assert leaking.truth["leaks"] == [{"wheel": "rl", "psi_per_h": 4.0}]
+    w_leak, w_sound = leaking.state.wheels.radius_m, sound.state.wheels.radius_m
+    assert np.all(w_leak[3] == w_sound[3]) and np.all(w_leak[2, 1:] < w_sound[2, 1:])
+
+
+def test_payload_lowers_the_rear_radius_over_a_drive(source, params):
+    spec = drive_spec(duration_s=600.0, roads={"country": 1.0})
+    empty = simulate_spec(params, source, spec, seed=4)
+    laden_car = source.with_payload(170.0, 0.21)  # two rear passengers and luggage
+    laden = simulate_spec(params, laden_car, spec, seed=4)
+    assert laden.truth["payload_kg"] == 170.0
+    for wheel in ("rl", "rr"):
+        change = laden.truth["radius_mean_m"][wheel] / empty.truth["radius_mean_m"][wheel] - 1
+        assert -0.008 < change < -0.003  # state A: soft, underinflated tyres
+        static = laden.truth["radius_static_m"][wheel] / empty.truth["radius_static_m"][wheel]
+        assert change == pytest.approx(static - 1, abs=5e-4)

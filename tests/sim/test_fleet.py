@@ -37,9 +37,11 @@ def test_ci_test_drives_are_long_enough_and_clean(params):
     for i, spec in tests:
         assert spec.duration_s >= MIN_TEST_S and not spec.gnss_faults
         seed = drive_seed(ci.sim.seed, i)
-        vehicle = vehicles[spec.vehicle]
+        vehicle = vehicles[spec.vehicle].with_payload(spec.payload_kg, spec.payload_x_m)
         route = generate_route(spec, ci.sim, vehicle, child_rng(seed, 0))
-        frame, scenarios, _, _ = simulate_drive(vehicle, spec.tyre, route, seed, ci.sim)
+        frame, scenarios, _, _ = simulate_drive(
+            vehicle, spec.tyre, route, seed, ci.sim, leaks=spec.leaks
+        )
         assert len(frame) / ci.sim.record_hz >= MIN_TEST_S
         assert not [i for i in scenarios["intervals"] if i["tag"].startswith("gnss_")]
         assert frame["Sats"].min() >= params.validate.gnss.min_sats
@@ -58,6 +60,13 @@ def test_profiles_mirror_the_paper(params):
         assert held_out <= set(source), "held-out source drives: tyre states seen in training"
         faults = {f for d in drives for f in d.gnss_faults}
         assert faults == {"low_sats", "frozen", "jump", "gap"}
+        # What the first m seconds of a target test drive cannot show: a slow leak, and
+        # a payload heavier than any target training drive carried.
+        target_test = [d for d in drives if d.role == "target_test"]
+        assert any(d.leaks for d in target_test)
+        assert not any(d.leaks for d in drives if d.role == "target_train")
+        most_trained = max(d.payload_kg for d in drives if d.role == "target_train")
+        assert max(d.payload_kg for d in target_test) > most_trained
     paper = params.sim.profiles["paper"].drives
     minutes = {r: sum(d.duration_s for d in paper if d.role == r) / 60 for r in ROLES}
     assert minutes["source_train"] == pytest.approx(1590, rel=0.05)  # Table A1: ~26.5 h
@@ -176,6 +185,9 @@ def test_ci_fleet_outputs_and_determinism(tmp_path):
     assert summary["roles"]["source_test"]["drives"] == 2
     truth = json.loads((a / "source_test" / "V-H1.truth.json").read_text())
     assert truth["vehicle"] == "fiesta" and truth["pipeline_vehicle"] == "source"
+    delta2 = json.loads((a / "target_test" / "V-Delta2.truth.json").read_text())
+    assert delta2["leaks"] == [{"wheel": "rl", "psi_per_h": 4.0}]
+    assert delta2["tyre_timeline"]["t_s"][0] == 0.0
     kinds = {k for d in summary["drives"] for k in d["gnss_faults"]}
     assert kinds == {"low_sats", "frozen", "jump", "gap"}
     assert not list(tmp_path.glob("run0/.sim.tmp-*"))  # nothing left behind

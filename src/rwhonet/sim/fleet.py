@@ -81,10 +81,17 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
     with atomic_dir(Path(out_dir)) as tmp:
         for i, spec in enumerate(drives):
             seed = drive_seed(sim.seed, i)
-            vehicle = vehicles[spec.vehicle]
+            vehicle = vehicles[spec.vehicle].with_payload(spec.payload_kg, spec.payload_x_m)
             route = generate_route(spec, sim, vehicle, child_rng(seed, _RNG_ROUTE))
             frame, scenarios, truth, _ = simulate_drive(
-                vehicle, spec.tyre, route, seed, sim, gnss_faults=spec.gnss_faults, name=spec.name
+                vehicle,
+                spec.tyre,
+                route,
+                seed,
+                sim,
+                gnss_faults=spec.gnss_faults,
+                name=spec.name,
+                leaks=spec.leaks,
             )
             truth["role"] = spec.role
             truth["pipeline_vehicle"] = spec.vehicle
