@@ -60,16 +60,20 @@ class SimTyreState:
 
 @dataclass(frozen=True)
 class SimTyre:
-    """Tyre model constants (docs/simulator.md, "Effective rolling radius" and "Slip")."""
+    """Tyre model constants (docs/simulator.md, Section 3)."""
 
     reference_pressure_psi: float  # pressure at which vertical_stiffness_n_m holds
     vertical_stiffness_n_m: float  # C_z0 at the reference pressure
     stiffness_pressure_coeff: float  # p_Fz1: C_z = C_z0 (1 + p_Fz1 dp)
     new_tread_mm: float
+    free_radius_offset_mm: float  # this car's tyres vs the size's design radius (brand spread)
     speed_growth_coeff: float  # q_V1: R_Omega = R_0 (1 + q_V1 (v / V_0)^2)
     speed_growth_ref_m_s: float  # V_0
     slip_stiffness_per_load: float  # C_Fkappa / F_z (per unit slip), dry road
     rolling_resistance: float  # f_rr
+    warm_rise_k: float  # steady tyre-air temperature rise over ambient at warm_ref_speed_m_s
+    warm_ref_speed_m_s: float
+    warm_tau_s: float  # time constant of the tyre-air temperature
 
 
 @dataclass(frozen=True)
@@ -84,22 +88,42 @@ class SimCan:
 
 @dataclass(frozen=True)
 class SimGnss:
-    """GNSS receiver error model (first-order Gauss-Markov per axis + white noise)."""
+    """GNSS receiver: a slow Gauss-Markov drift seen through the navigation filter, + white noise.
 
-    sigma_m: float
-    tau_s: float
-    white_m: float
-    vertical_factor: float  # vertical GM sigma = vertical_factor * sigma_m
-    speed_noise_m_s: float
-    sats: list[int]  # [min, max] satellites in clear sky
+    The horizontal position error per axis is a first-order Gauss-Markov drift
+    (correlation time ``tau_s``) low-passed by the receiver's navigation filter
+    (time constant ``filter_tau_s``), scaled to the stationary std ``sigma_m``;
+    docs/simulator.md Section 5 derives the per-second displacement noise.
+    """
+
+    sigma_m: float  # stationary std of the horizontal position error, per axis
+    tau_s: float  # correlation time of the drift (atmosphere, orbits, clocks)
+    filter_tau_s: float  # time constant of the navigation filter (first-order low-pass)
+    white_m: float  # white noise per fix and axis (position resolution, jitter)
+    vertical_factor: float  # vertical error = vertical_factor * horizontal
+    speed_noise_m_s: float  # white noise on the Doppler speed
+    sats: list[int]  # [min, max] satellites in open sky
+    multipath_sigma_m: float  # low_sats stretches: extra Gauss-Markov error per axis
+    multipath_tau_s: float  # ... and its correlation time
+
+
+@dataclass(frozen=True)
+class SimDriver:
+    """How the car's driver drives (relative to the road types' settings)."""
+
+    speed_factor: float  # multiplies the cruise speed of every leg
+    accel_factor: float  # multiplies the roads' comfortable acceleration
+    decel_factor: float  # multiplies the roads' comfortable deceleration
+    lat_acc_max_g: float  # slows down before curves to stay below this
 
 
 @dataclass(frozen=True)
 class SimVehicle:
-    """A simulated vehicle; its nominal radius is data.vehicles.<name>.nominal_radius_m."""
+    """A simulated vehicle (one car: its body, tyres, sensors and driver)."""
 
+    nominal_radius_m: float  # spec-sheet effective rolling radius (docs/simulator.md, Section 2)
     drive: Literal["fwd", "rwd"]
-    mass_kg: float
+    mass_kg: float  # car + driver + logger, no payload
     wheelbase_m: float
     track_front_m: float
     track_rear_m: float
@@ -116,6 +140,7 @@ class SimVehicle:
     tyre: SimTyre
     can: SimCan
     gnss: SimGnss
+    driver: SimDriver
     tyre_states: dict[str, SimTyreState]
 
 
@@ -133,12 +158,22 @@ class SimRoad:
 
 
 @dataclass(frozen=True)
+class SimLeak:
+    """A slow puncture: one tyre loses air at a constant rate during the drive."""
+
+    wheel: Literal["fl", "fr", "rl", "rr"]
+    psi_per_h: float
+
+
+@dataclass(frozen=True)
 class SimDrive:
     """One drive of a fleet profile."""
 
     name: str
-    role: Literal["source_train", "source_calibration", "target_train", "target_test"]
-    vehicle: str
+    role: Literal[
+        "source_train", "source_calibration", "source_test", "target_train", "target_test"
+    ]
+    vehicle: str  # the pipeline's vehicle name (source | target), mapped by the profile
     tyre: str
     duration_s: float
     roads: dict[str, float]  # share of driving time per road type
@@ -146,11 +181,22 @@ class SimDrive:
     event_scale: float = 1.0  # multiplies every road rate (0.1: a calm drive)
     wet_fraction: float = 0.0
     gnss_faults: list[Literal["low_sats", "frozen", "jump", "gap"]] = field(default_factory=list)
+    payload_kg: float = 0.0  # passengers and luggage besides the driver
+    payload_x_m: float = 0.0  # their centre of mass ahead of the rear axle (boot: negative)
+    leaks: list[SimLeak] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
 class SimProfile:
-    drives: list[SimDrive]
+    """A fleet: which simulated car plays each pipeline vehicle, and the drives.
+
+    ``drives_from`` reuses another profile's drive list (same names, roles,
+    tyre-state letters, payloads and seeds) instead of repeating it.
+    """
+
+    vehicles: dict[str, str]  # pipeline vehicle name -> sim.vehicles key
+    drives: list[SimDrive] = field(default_factory=list)
+    drives_from: str | None = None
 
 
 @dataclass(frozen=True)
@@ -164,7 +210,6 @@ class SimParams:
     start_lon_deg: float
     start_height_m: float
     day_start_s: list[float]  # [earliest, latest] start of a drive, s since midnight
-    lat_acc_max_g: float  # drivers slow down before curves to stay below this
     friction_dry: float
     friction_wet: float
     wet_slip_stiffness_factor: float
@@ -172,6 +217,7 @@ class SimParams:
     roads: dict[str, SimRoad]
     vehicles: dict[str, SimVehicle]
     profiles: dict[str, SimProfile]
+    seed: int = 42  # the simulated world's seed (drive i: SeedSequence(seed, spawn_key=(i,)))
 
     def __post_init__(self) -> None:
         if self.profile not in self.profiles:
@@ -192,17 +238,45 @@ class SimParams:
         for key, pair in pairs.items():
             if len(pair) != 2 or pair[0] > pair[1]:
                 raise ConfigError(f"{key}: expected [min, max], got {pair}")
+        for name, veh in self.vehicles.items():
+            positive = {
+                "nominal_radius_m": veh.nominal_radius_m,
+                "gnss.sigma_m": veh.gnss.sigma_m,
+                "gnss.tau_s": veh.gnss.tau_s,
+                "gnss.filter_tau_s": veh.gnss.filter_tau_s,
+                "gnss.multipath_tau_s": veh.gnss.multipath_tau_s,
+                "tyre.warm_ref_speed_m_s": veh.tyre.warm_ref_speed_m_s,
+                "tyre.warm_tau_s": veh.tyre.warm_tau_s,
+                "driver.speed_factor": veh.driver.speed_factor,
+                "driver.accel_factor": veh.driver.accel_factor,
+                "driver.decel_factor": veh.driver.decel_factor,
+                "driver.lat_acc_max_g": veh.driver.lat_acc_max_g,
+            }
+            for key, value in positive.items():
+                if not value > 0:
+                    raise ConfigError(f"sim.vehicles.{name}.{key} must be > 0, got {value}")
+        self._resolve_drives_from()
         for pname, prof in self.profiles.items():
+            for role, sim_name in prof.vehicles.items():
+                if sim_name not in self.vehicles:
+                    raise ConfigError(
+                        f"sim.profiles.{pname}.vehicles.{role}={sim_name!r} is not in "
+                        f"sim.vehicles {sorted(self.vehicles)}"
+                    )
             names = [d.name for d in prof.drives]
             if len(set(names)) != len(names):
                 raise ConfigError(f"sim.profiles.{pname}: drive names must be unique")
             for i, d in enumerate(prof.drives):
                 where = f"sim.profiles.{pname}.drives[{i}] ({d.name})"
-                if d.vehicle not in self.vehicles:
-                    raise ConfigError(f"{where}: vehicle {d.vehicle!r} not in sim.vehicles")
-                if d.tyre not in self.vehicles[d.vehicle].tyre_states:
+                if d.vehicle not in prof.vehicles:
                     raise ConfigError(
-                        f"{where}: tyre {d.tyre!r} not in sim.vehicles.{d.vehicle}.tyre_states"
+                        f"{where}: vehicle {d.vehicle!r} not in sim.profiles.{pname}.vehicles "
+                        f"{sorted(prof.vehicles)}"
+                    )
+                sim_name = prof.vehicles[d.vehicle]
+                if d.tyre not in self.vehicles[sim_name].tyre_states:
+                    raise ConfigError(
+                        f"{where}: tyre {d.tyre!r} not in sim.vehicles.{sim_name}.tyre_states"
                     )
                 unknown = sorted(set(d.roads) - set(self.roads))
                 if unknown or not d.roads or min(d.roads.values()) < 0:
@@ -211,11 +285,31 @@ class SimParams:
                     )
                 if set(d.events) - set(SIM_EVENTS):
                     raise ConfigError(f"{where}: events {d.events} must be among {SIM_EVENTS}")
+                if d.payload_kg < 0 or any(leak.psi_per_h < 0 for leak in d.leaks):
+                    raise ConfigError(f"{where}: payload_kg and leaks[*].psi_per_h must be >= 0")
         for name, road in self.roads.items():
             if set(road.per_km) - set(SIM_EVENTS):
                 raise ConfigError(
                     f"sim.roads.{name}.per_km {sorted(road.per_km)} must be among {SIM_EVENTS}"
                 )
+
+    def _resolve_drives_from(self) -> None:
+        """Give every ``drives_from`` profile the drive list it names (one level deep)."""
+        for pname, prof in self.profiles.items():
+            if prof.drives_from is None:
+                if not prof.drives:
+                    raise ConfigError(f"sim.profiles.{pname}: give drives or drives_from")
+                continue
+            base = self.profiles.get(prof.drives_from)
+            if prof.drives:
+                raise ConfigError(f"sim.profiles.{pname}: give drives or drives_from, not both")
+            if base is None or base.drives_from is not None:
+                raise ConfigError(
+                    f"sim.profiles.{pname}.drives_from={prof.drives_from!r} must name a "
+                    f"profile with its own drives"
+                )
+            # Frozen dataclass: the resolved list is set once, at load time.
+            object.__setattr__(prof, "drives", list(base.drives))
 
 
 @dataclass(frozen=True)
@@ -370,6 +464,37 @@ class Params:
                     f"data.roles.{role}.vehicle={spec.vehicle!r} is not in data.vehicles "
                     f"{sorted(self.data.vehicles)}"
                 )
+
+    def nominal_radius_m(self, vehicle: str) -> float:
+        """The nominal effective tyre radius the pipeline assumes for a vehicle.
+
+        Simulated drives (``data.source == "sim"``) come from the car the
+        selected profile maps ``vehicle`` to, so its spec-sheet radius
+        (``sim.vehicles.<car>.nominal_radius_m``) applies; real drives use
+        ``data.vehicles.<vehicle>.nominal_radius_m``.
+
+        Args:
+            vehicle: the pipeline's vehicle name (``source``, ``target``).
+
+        Returns:
+            The nominal radius, m.
+
+        Raises:
+            ConfigError: if the vehicle is unknown to the profile or to ``data.vehicles``.
+        """
+        if self.data.source == "sim":
+            mapping = self.sim.profiles[self.sim.profile].vehicles
+            if vehicle not in mapping:
+                raise ConfigError(
+                    f"vehicle {vehicle!r} is not in sim.profiles.{self.sim.profile}.vehicles "
+                    f"{sorted(mapping)}"
+                )
+            return self.sim.vehicles[mapping[vehicle]].nominal_radius_m
+        if vehicle not in self.data.vehicles:
+            raise ConfigError(
+                f"vehicle {vehicle!r} is not in data.vehicles {sorted(self.data.vehicles)}"
+            )
+        return self.data.vehicles[vehicle].nominal_radius_m
 
     def section(self, name: str) -> dict[str, Any]:
         """Return one section as plain data (for MLflow params and saved configs)."""

@@ -27,6 +27,21 @@ def source(vehicles: dict[str, Vehicle]) -> Vehicle:
     return vehicles["source"]
 
 
+@pytest.fixture(scope="session")
+def target(vehicles: dict[str, Vehicle]) -> Vehicle:
+    return vehicles["target"]
+
+
+@pytest.fixture(scope="session")
+def cars(params: Params) -> dict[str, Vehicle]:
+    """Every simulated car of every profile, by its sim.vehicles key."""
+    return {
+        car.name: car
+        for profile in params.sim.profiles
+        for car in vehicles_from_params(params, profile).values()
+    }
+
+
 def drive_spec(**kw) -> SimDrive:
     """A drive spec with test defaults (urban/country mix, 5 min)."""
     base = dict(

@@ -35,8 +35,9 @@ def test_plan_respects_every_constraint(planned, params, source):
     accel = plan.accel_m_s2
     assert np.all(accel <= route.accel_m_s2[:-1] + 1e-6)
     assert np.all(-accel <= route.decel_m_s2[:-1] + 1e-6)
-    # Curve limit on the rear-axle path: v^2 |kappa| <= lat_acc_max_g g at every node.
-    assert np.max(v**2 * np.abs(route.curvature_1_m)) <= params.sim.lat_acc_max_g * G_M_S2 + 1e-9
+    # Curve limit on the rear-axle path: v^2 |kappa| <= the driver's lat_acc_max_g g at every node.
+    limit = source.params.driver.lat_acc_max_g * G_M_S2
+    assert np.max(v**2 * np.abs(route.curvature_1_m)) <= limit + 1e-9
     # Driving time of an interval matches its length at the mean of its end speeds.
     np.testing.assert_allclose(0.5 * (v[:-1] + v[1:]) * plan.dt_s, route.ds_m, rtol=1e-9)
 
@@ -94,3 +95,24 @@ def test_reversing_moves_the_car_backwards(params, source):
     step = np.stack([np.diff(pose.east_m), np.diff(pose.north_m)])[:, back]
     forward = np.stack([np.cos(pose.heading_rad[1:]), np.sin(pose.heading_rad[1:])])[:, back]
     assert np.all((step * forward).sum(axis=0) < 0)
+
+
+def test_each_car_has_its_own_driver(params, vehicles):
+    # The CUPAC car's driver (target) cruises a little slower, accelerates and
+    # brakes a little harder and accepts less lateral acceleration in curves.
+    spec = drive_spec(duration_s=900.0, roads={"country": 1.0})
+    plans = {}
+    for name in ("source", "target"):
+        car = vehicles[name]
+        route = generate_route(spec, params.sim, car, np.random.default_rng(8))
+        plan = plan_speed(route, car, params.sim)
+        driver, road = car.params.driver, params.sim.roads["country"]
+        assert np.isclose(route.accel_m_s2, road.accel_m_s2 * driver.accel_factor).mean() > 0.8
+        assert np.isclose(route.decel_m_s2, road.decel_m_s2 * driver.decel_factor).mean() > 0.8
+        limit = driver.lat_acc_max_g * G_M_S2
+        assert np.max(plan.v_m_s**2 * np.abs(route.curvature_1_m)) <= limit + 1e-9
+        plans[name] = route
+    ratio = np.median(plans["target"].v_max_m_s) / np.median(plans["source"].v_max_m_s)
+    drivers = {name: vehicles[name].params.driver for name in plans}
+    factor = drivers["target"].speed_factor / drivers["source"].speed_factor
+    assert ratio == pytest.approx(factor, abs=0.04)

@@ -9,10 +9,14 @@ from rwhonet.config import ConfigError
 from rwhonet.data.canonical import G_M_S2
 from rwhonet.sim.vehicle import (
     FRONT,
+    P_ATM_PSI,
+    T_COLD_K,
     effective_radius_m,
     per_wheel,
     slip_ratio,
     traction_limits_m_s2,
+    tyre_pressure_psi,
+    tyre_temperature_rise_k,
     vertical_stiffness_n_m,
     wheel_forces,
     wheel_ground_speeds,
@@ -35,10 +39,12 @@ def nominal_radius(vehicle, **kw):
     return float(effective_radius_m(vehicle, **args))
 
 
-@pytest.mark.parametrize("name", ["source", "target"])
-def test_radius_at_reference_conditions_is_the_nominal_radius(vehicles, name):
-    vehicle = vehicles[name]
-    assert nominal_radius(vehicle) == pytest.approx(vehicle.nominal_radius_m, abs=1e-12)
+@pytest.mark.parametrize("name", ["fiesta", "fiesta_cupac", "focus"])
+def test_radius_at_reference_conditions_is_the_nominal_radius(cars, name):
+    # The spec-sheet radius, shifted by the car's own tyres (brand, manufacturing spread).
+    vehicle = cars[name]
+    offset = vehicle.params.tyre.free_radius_offset_mm * 1e-3
+    assert nominal_radius(vehicle) == pytest.approx(vehicle.nominal_radius_m + offset, abs=1e-12)
 
 
 def test_radius_known_values(source):
@@ -58,24 +64,31 @@ def test_radius_known_values(source):
     assert r - nominal_radius(source, pressure_psi=p_half) == pytest.approx(drop)
 
 
-@pytest.mark.parametrize("name", ["source", "target"])
-def test_radius_stays_within_validate_tolerance(vehicles, params, name):
+@pytest.mark.parametrize("name", ["fiesta", "fiesta_cupac", "focus"])
+def test_radius_stays_within_validate_tolerance(cars, params, name):
     # validate checks GNSS speed / wheel speed within +-5 % of the nominal radius:
-    # every tyre state, 0-35 m/s, and wheel loads from 50 % to 150 % of static
-    # (a front wheel braking at 0.7 g in a 0.4 g curve carries ~150 %) stay inside.
-    vehicle = vehicles[name]
-    load = vehicle.static_wheel_load_n[:, None, None] * np.linspace(0.5, 1.5, 6)[None, :, None]
+    # every tyre state, cold or fully warm, 0-35 m/s, and wheel loads from 50 % to
+    # 150 % of static with the heaviest payload of any drive (a front wheel braking
+    # at 0.7 g in a 0.4 g curve carries ~150 %) stay inside.
+    drives = [d for prof in params.sim.profiles.values() for d in prof.drives]
+    heaviest = max(drives, key=lambda d: d.payload_kg)
+    vehicle = cars[name]
+    laden = vehicle.with_payload(heaviest.payload_kg, heaviest.payload_x_m).static_wheel_load_n
+    load = laden[:, None, None] * np.linspace(0.5, 1.5, 6)[None, :, None]
     speed = np.linspace(0.0, 35.0, 8)[None, None, :]
+    hot = tyre_temperature_rise_k(vehicle, np.full(2000, 35.0), 10.0)[-1]
     for state in vehicle.params.tyre_states.values():
-        r = effective_radius_m(
-            vehicle,
-            per_wheel(state.pressure_psi)[:, None, None],
-            per_wheel(state.tread_mm)[:, None, None],
-            load,
-            speed,
-        )
-        rel = r / vehicle.nominal_radius_m - 1
-        assert np.abs(rel).max() < params.validate.radius_tolerance
+        cold = per_wheel(state.pressure_psi)
+        for pressure in (cold, tyre_pressure_psi(cold, [0.0], [hot], np.zeros(4))[:, 0]):
+            r = effective_radius_m(
+                vehicle,
+                pressure[:, None, None],
+                per_wheel(state.tread_mm)[:, None, None],
+                load,
+                speed,
+            )
+            rel = r / vehicle.nominal_radius_m - 1
+            assert np.abs(rel).max() < params.validate.radius_tolerance
 
 
 def test_lower_pressure_and_more_load_give_a_smaller_radius(source):
@@ -197,3 +210,53 @@ def test_without_slip_omega_times_radius_is_the_ground_speed(source):
 def test_unknown_tyre_state_is_a_config_error(source):
     with pytest.raises(ConfigError, match="tyre_states"):
         source.tyre_state("Z")
+
+
+def test_tyre_air_warms_up_like_a_first_order_lag_and_cools_when_parked(source):
+    tyre = source.params.tyre
+    dt = 1.0
+    speed = np.concatenate([np.full(3600, tyre.warm_ref_speed_m_s), np.zeros(3600)])
+    rise = tyre_temperature_rise_k(source, speed, dt)
+    tau = int(tyre.warm_tau_s)
+    # At the reference speed the rise tends to warm_rise_k with time constant warm_tau_s.
+    assert rise[tau - 1] == pytest.approx(tyre.warm_rise_k * (1 - np.exp(-1)), rel=1e-3)
+    assert rise[3599] == pytest.approx(tyre.warm_rise_k, rel=1e-3)
+    # Parked, it cools back towards ambient the same way.
+    assert rise[3600 + tau - 1] == pytest.approx(tyre.warm_rise_k * np.exp(-1), rel=2e-3)
+    # Faster driving: a hotter tyre (equilibrium ~ sqrt(v)).
+    fast = tyre_temperature_rise_k(source, np.full(3600, 4 * tyre.warm_ref_speed_m_s), dt)
+    assert fast[-1] == pytest.approx(2 * tyre.warm_rise_k, rel=1e-3)
+
+
+def test_gas_law_and_leaks_set_the_pressure():
+    cold = np.array([33.0, 33.0, 30.0, 30.0])
+    t = np.array([0.0, 1800.0, 3600.0])
+    rise = np.array([0.0, 20.0, 20.0])
+    leak = np.array([0.0, 0.0, 4.0 / 3600.0, 0.0])  # rear left: 4 psi per hour
+    p = tyre_pressure_psi(cold, t, rise, leak)
+    np.testing.assert_allclose(p[:, 0], cold)
+    warm = (30.0 + P_ATM_PSI) * (T_COLD_K + 20.0) / T_COLD_K - P_ATM_PSI
+    assert p[3, 1] == pytest.approx(warm)  # +3.1 psi: about +10 % of the gauge pressure
+    assert warm / 30.0 - 1 == pytest.approx(0.103, abs=0.002)
+    leaked = (26.0 + P_ATM_PSI) * (T_COLD_K + 20.0) / T_COLD_K - P_ATM_PSI
+    assert p[2, 2] == pytest.approx(leaked)
+    assert tyre_pressure_psi(cold, [1e6], [0.0], leak)[2, 0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_payload_loads_the_axles_by_moment_balance_and_shrinks_the_radius(source):
+    p = source.params
+    laden = source.with_payload(150.0, 0.3)  # two passengers on the rear bench
+    assert laden.static_wheel_load_n.sum() == pytest.approx((p.mass_kg + 150.0) * G_M_S2)
+    extra = laden.static_wheel_load_n - source.static_wheel_load_n
+    rear_share = 1.0 - 0.3 / p.wheelbase_m
+    np.testing.assert_allclose(extra[2:], 150.0 * G_M_S2 * rear_share / 2.0)
+    np.testing.assert_allclose(extra[:2], 150.0 * G_M_S2 * (1.0 - rear_share) / 2.0)
+    assert laden.unloaded_radius_new_m == source.unloaded_radius_new_m  # same tyres
+    state = source.tyre_state("E")
+    pressure, tread = per_wheel(state.pressure_psi), per_wheel(state.tread_mm)
+    r0 = effective_radius_m(source, pressure, tread, source.static_wheel_load_n, 0.0)
+    r1 = effective_radius_m(laden, pressure, tread, laden.static_wheel_load_n, 0.0)
+    # The rear tyres deflect by the extra load over their stiffness; r_e drops by a third of it.
+    drop = extra / vertical_stiffness_n_m(source, pressure) / 3.0
+    np.testing.assert_allclose(r0 - r1, drop, rtol=1e-9)
+    assert -0.5 < 100 * (r1[2] / r0[2] - 1) < -0.2  # percent, rear wheels

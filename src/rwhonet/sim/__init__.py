@@ -1,11 +1,13 @@
 """Drive simulator: the project's default data, written in the IO-VNBD "V-" layout.
 
-The simulator is physics, not a label generator. A vehicle follows a planned 2D
-trajectory; every wheel turns at its own ground speed (rigid-body kinematics,
-steered front wheels) divided by its effective rolling radius (pressure, tread
-wear, load and speed dependent) times ``1 + slip`` (traction/braking force and
-road wetness); sensors then sample that truth (CAN wheel speeds, GNSS with
-Gauss-Markov error and rare outages). The per-second label the models learn
+The simulator is physics, not a label generator. A vehicle, driven in its
+driver's style, follows a planned 2D trajectory; every wheel turns at its own
+ground speed (rigid-body kinematics, steered front wheels) divided by its
+effective rolling radius (pressure - which warms up and may leak during the
+drive -, tread wear, payload, load and speed dependent) times ``1 + slip``
+(traction/braking force and road wetness); sensors then sample that truth (CAN
+wheel speeds; a GNSS receiver whose error is a slow drift smoothed by its
+navigation filter, with rare degraded stretches). The per-second label the models learn
 (GNSS displacement - rear-wheel odometry, paper Eq. 11) is never computed here:
 it emerges downstream from these physics. Models, parameters and their sources:
 docs/simulator.md.
@@ -22,19 +24,24 @@ Fleet (what the DVC stage ``pipelines/simulate.py`` calls)::
         column) and ``<drive>.truth.json`` (vehicle, tyre state, true radii, seed),
         plus ``<out_dir>/fleet.json`` (resolved settings and a per-drive summary).
         Returns that summary. Drive i is seeded with
-        ``SeedSequence(params.seed, spawn_key=(i,))`` (= ``SeedSequence(seed).spawn(n)[i]``).
+        ``SeedSequence(params.sim.seed, spawn_key=(i,))`` (= ``SeedSequence(seed).spawn(n)[i]``)
+        and driven by the car its profile maps ``drive.vehicle`` to, carrying the
+        drive's payload (``Vehicle.with_payload``) and leaks.
 
-    vehicles_from_params(params: Params) -> dict[str, Vehicle]
-        The simulated vehicles; nominal radii come from ``params.data.vehicles``.
+    vehicles_from_params(params: Params, profile: str | None = None) -> dict[str, Vehicle]
+        The cars of a profile (default ``sim.profile``) keyed by the pipeline's
+        vehicle names (``source``, ``target``); each is named after its
+        ``sim.vehicles`` key and carries that car's spec-sheet nominal radius.
 
 One drive (for tests, and for other packages' tests)::
 
     simulate_drive(vehicle, tyre_state, route, seed, sim, *, options=SimOptions(),
-                   gnss_faults=(), name="sim", start_s_of_day=None) -> SimulatedDrive
+                   gnss_faults=(), name="sim", start_s_of_day=None, leaks=()) -> SimulatedDrive
         ``route`` is a :class:`Route`; ``SimulatedDrive`` is the named tuple
         ``(frame, scenarios, truth, state)``: the IO-VNBD DataFrame (exactly what
         the CSV holds), the scenario intervals, the truth dict and the 50 Hz
-        ground-truth :class:`DriveState` (poses, wheel speeds, radii, slips).
+        ground-truth :class:`DriveState` (poses, wheel speeds, radii, slips,
+        tyre pressures).
 
     Routes: ``generate_route(drive: SimDrive, sim, vehicle, rng)`` (a random
     drive of the configured road mix, events and duration),
@@ -43,8 +50,8 @@ One drive (for tests, and for other packages' tests)::
 
     ``SimOptions`` switches physics and sensor effects off for special drives:
     ``SimOptions.ideal()`` gives zero slip, radius independent of load and
-    speed, no CAN noise/quantisation/latency, no GNSS error: on such a drive
-    the calibrated radius must equal ``truth["radius_static_m"]``.
+    speed, no tyre warm-up, no CAN noise/quantisation/latency, no GNSS error: on
+    such a drive the calibrated radius must equal ``truth["radius_static_m"]``.
 
 Example: a straight constant-speed drive with perfect sensors::
 

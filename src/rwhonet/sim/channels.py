@@ -104,11 +104,13 @@ def can_channels(
 
     moving = (~still).astype(np.float64)
     drag = 0.5 * air_density_kg_m3 * p.drag_area_m2 * speed_m_s**2
-    propulsive = p.mass_kg * (accel_m_s2 + p.tyre.rolling_resistance * G_M_S2 * moving) + drag
-    brake_psi = np.maximum(-propulsive, 0.0) / (p.mass_kg * G_M_S2) * _PSI_PER_G
+    mass = vehicle.mass_kg
+    propulsive = mass * (accel_m_s2 + p.tyre.rolling_resistance * G_M_S2 * moving) + drag
+    brake_psi = np.maximum(-propulsive, 0.0) / (mass * G_M_S2) * _PSI_PER_G
     brake_psi = np.where(still & ~handbrake, _HOLD_PSI, brake_psi)
     out["brake_psi"] = brake_psi
     out["brake_on"] = (brake_psi > 15.0).astype(np.int64)
+    # The engine's force does not grow with the payload: scale by the unladen mass.
     max_force = np.minimum(
         p.mass_kg * _MAX_ACCEL_M_S2,
         _POWER_W_PER_KG * p.mass_kg / np.maximum(speed_m_s, 0.1),

@@ -11,13 +11,14 @@ The pipeline of one drive (all vectorised at the integration rate):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
 from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from rwhonet.config import SimParams
+from rwhonet.config import SimLeak, SimParams
 from rwhonet.data.iovnbd import HEADERS
 from rwhonet.sim.channels import can_channels
 from rwhonet.sim.motion import (
@@ -45,6 +46,8 @@ from rwhonet.sim.vehicle import (
     WheelStates,
     effective_radius_m,
     per_wheel,
+    tyre_pressure_psi,
+    tyre_temperature_rise_k,
     wheel_states,
 )
 
@@ -61,6 +64,7 @@ class SimOptions:
         radius_speed: effective radius grows with speed.
         can_noise: CAN latency, noise, dead band and quantisation.
         gnss_noise: GNSS position/speed error.
+        tyre_warmup: tyre air warms up while driving, raising the pressure (gas law).
     """
 
     slip: bool = True
@@ -68,11 +72,19 @@ class SimOptions:
     radius_speed: bool = True
     can_noise: bool = True
     gnss_noise: bool = True
+    tyre_warmup: bool = True
 
     @classmethod
     def ideal(cls) -> SimOptions:
-        """Every effect off: no slip, static radius, perfect sensors."""
-        return cls(False, False, False, False, False)
+        """Every effect off: no slip, static radius, perfect sensors, no warm-up."""
+        return cls(
+            slip=False,
+            radius_load=False,
+            radius_speed=False,
+            can_noise=False,
+            gnss_noise=False,
+            tyre_warmup=False,
+        )
 
 
 @dataclass(frozen=True)
@@ -89,6 +101,7 @@ class DriveState:
         accel_x_cg_m_s2: body longitudinal acceleration of the centre of gravity.
         accel_y_cg_m_s2: body lateral acceleration of the centre of gravity.
         wheels: per-wheel truth (speeds, loads, forces, slips, radii).
+        pressure_psi: inflation pressure of each tyre, (4, n) (warm-up, leaks).
         record_index: integration samples that are record rows (before gap removal).
         faults: degraded GNSS stretches (record rows).
     """
@@ -102,6 +115,7 @@ class DriveState:
     accel_x_cg_m_s2: np.ndarray
     accel_y_cg_m_s2: np.ndarray
     wheels: WheelStates
+    pressure_psi: np.ndarray
     record_index: np.ndarray
     faults: list[Fault]
 
@@ -144,6 +158,9 @@ def child_rng(seed: np.random.SeedSequence, k: int) -> np.random.Generator:
     return np.random.default_rng(child)
 
 
+# Times since the start (s) at which the truth sidecar records the tyre state.
+_TIMELINE_S = (0.0, 300.0, 600.0, 1200.0, 1800.0, 2700.0, 3600.0, 5400.0, 7200.0, 9000.0)
+
 # Child streams of a drive's seed: 0 route (fleet), then:
 _RNG_START, _RNG_FAULTS, _RNG_GNSS, _RNG_CAN, _RNG_CHANNELS = 1, 2, 3, 4, 5
 
@@ -185,17 +202,20 @@ def simulate_truth(
     seed: int | np.random.SeedSequence,
     options: SimOptions = SimOptions(),
     gnss_faults: list[str] | tuple[str, ...] = (),
+    leaks: Sequence[SimLeak] = (),
 ) -> DriveState:
-    """Ground truth of a drive: motion, pose, antenna path and wheel states.
+    """Ground truth of a drive: motion, pose, antenna path, tyre pressures and wheel states.
 
     Args:
-        vehicle: the vehicle.
-        tyre_state: its tyre state (key of ``tyre_states``).
+        vehicle: the vehicle (with its payload, :meth:`Vehicle.with_payload`).
+        tyre_state: its tyre state (key of ``tyre_states``): the cold pressures
+            at the start and the treads.
         route: the route.
         sim: simulator settings.
         seed: the drive's seed.
         options: effects to switch off.
         gnss_faults: degraded GNSS stretches to place (their rows only).
+        leaks: slow punctures during the drive.
 
     Returns:
         The ground-truth state.
@@ -219,6 +239,13 @@ def simulate_truth(
     ax, ay = cg_acceleration(motion, hz, vehicle.cg_to_rear_m)
     mu = friction(route, sim)[motion.interval]
     stiffness = np.where(motion.wet, sim.wet_slip_stiffness_factor, 1.0)
+    if options.tyre_warmup:
+        rise = tyre_temperature_rise_k(vehicle, motion.speed_m_s, 1.0 / hz)
+    else:
+        rise = np.zeros(motion.t_s.size)
+    pressure = tyre_pressure_psi(
+        per_wheel(tyre.pressure_psi), motion.t_s, rise, _leak_psi_per_s(leaks)
+    )
     wheels = wheel_states(
         vehicle,
         tyre,
@@ -233,12 +260,23 @@ def simulate_truth(
         slip=options.slip,
         radius_load=options.radius_load,
         radius_speed=options.radius_speed,
+        pressure_psi=pressure,
     )
     record_index = np.arange(n_rec) * ratio
     faults = place_faults(
         list(gnss_faults), motion.speed_m_s[record_index], rec, child_rng(ss, _RNG_FAULTS)
     )
-    return DriveState(route, plan, motion, pose, ant_e, ant_n, ax, ay, wheels, record_index, faults)
+    return DriveState(
+        route, plan, motion, pose, ant_e, ant_n, ax, ay, wheels, pressure, record_index, faults
+    )
+
+
+def _leak_psi_per_s(leaks: Sequence[SimLeak]) -> np.ndarray:
+    """Cold pressure each wheel loses per second, (4,) in the order of WHEELS."""
+    rate = np.zeros(len(WHEELS))
+    for leak in leaks:
+        rate[WHEELS.index(leak.wheel)] += leak.psi_per_h / 3600.0
+    return rate
 
 
 def simulate_drive(
@@ -252,6 +290,7 @@ def simulate_drive(
     gnss_faults: list[str] | tuple[str, ...] = (),
     name: str = "sim",
     start_s_of_day: float | None = None,
+    leaks: Sequence[SimLeak] = (),
 ) -> SimulatedDrive:
     """Simulate one drive and return it in the IO-VNBD layout.
 
@@ -269,13 +308,14 @@ def simulate_drive(
         name: drive name (recorded in the truth).
         start_s_of_day: time of day of the first row, s; default: random in
             ``sim.day_start_s``.
+        leaks: slow punctures during the drive (:class:`rwhonet.config.SimLeak`).
 
     Returns:
         ``(frame, scenarios, truth, state)``; the frame holds exactly the values
         the CSV writer writes.
     """
     ss = seed_sequence(seed)
-    state = simulate_truth(vehicle, tyre_state, route, sim, ss, options, gnss_faults)
+    state = simulate_truth(vehicle, tyre_state, route, sim, ss, options, gnss_faults, leaks)
     rec = sim.record_hz
     motion, idx = state.motion, state.record_index
     t_true = motion.t_s
@@ -328,7 +368,7 @@ def simulate_drive(
             keep[f.i0 : f.i1] = False
     frame = frame.loc[keep].reset_index(drop=True)
     scenarios = _scenarios(state, start_s_of_day, t_rec)
-    truth = _truth(vehicle, tyre_state, state, ss, options, name, start_s_of_day, t_rec)
+    truth = _truth(vehicle, tyre_state, state, ss, options, name, start_s_of_day, t_rec, leaks)
     return SimulatedDrive(frame, scenarios, truth, state)
 
 
@@ -416,16 +456,22 @@ def _truth(
     name: str,
     start_s: float,
     t_rec: np.ndarray,
+    leaks: Sequence[SimLeak],
 ) -> dict[str, Any]:
     """Ground truth a test (never the pipeline) may compare against."""
     tyre = vehicle.tyre_state(tyre_state)
     w = state.wheels
-    # At the static load and walking speed: the radius of SimOptions.ideal() drives.
+    t = state.motion.t_s
+    # The tyre state over the drive, compactly: at fixed times since the start and the end.
+    marks = np.array([t_ for t_ in _TIMELINE_S if t_ < t[-1]] + [t[-1]])
+    at = np.searchsorted(t, marks - 1e-9)
+    # At the static load (with payload) and walking speed: the radius an ideal
+    # (SimOptions.ideal()) drive rolls on; radius_static_m is its value at the start.
     static_radius = effective_radius_m(
         vehicle,
-        per_wheel(tyre.pressure_psi),
-        per_wheel(tyre.tread_mm),
-        vehicle.static_wheel_load_n,
+        state.pressure_psi[:, at],
+        per_wheel(tyre.tread_mm)[:, None],
+        vehicle.static_wheel_load_n[:, None],
         0.0,
     )
     # Distance-weighted means: what an odometer calibrated on this drive would see.
@@ -437,6 +483,9 @@ def _truth(
     def wheels(a: np.ndarray) -> dict[str, float]:
         return {k: round(float(v), 7) for k, v in zip(WHEELS, a, strict=True)}
 
+    def series(a: np.ndarray, digits: int) -> dict[str, list[float]]:
+        return {k: [round(float(x), digits) for x in row] for k, row in zip(WHEELS, a, strict=True)}
+
     return {
         "drive": name,
         "vehicle": vehicle.name,
@@ -444,9 +493,17 @@ def _truth(
         "nominal_radius_m": vehicle.nominal_radius_m,
         "pressure_psi": asdict(tyre.pressure_psi),
         "tread_mm": asdict(tyre.tread_mm),
-        "radius_static_m": wheels(static_radius),
+        "radius_static_m": wheels(static_radius[:, 0]),
         "radius_mean_m": wheels(mean_radius),
         "slip_mean": wheels(mean_slip),
+        "payload_kg": vehicle.payload_kg,
+        "payload_x_m": vehicle.payload_x_m,
+        "leaks": [asdict(leak) for leak in leaks],
+        "tyre_timeline": {
+            "t_s": [round(float(x), 2) for x in t[at]],
+            "pressure_psi": series(state.pressure_psi[:, at], 3),
+            "radius_static_m": series(static_radius, 7),
+        },
         "antenna_body_m": [vehicle.params.antenna_x_m, vehicle.params.antenna_y_m],
         "distance_m": round(float(state.motion.s_m[-1]), 3),
         "duration_s": round(float(t_rec.size * (t_rec[1] - t_rec[0])), 2),

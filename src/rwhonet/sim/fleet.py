@@ -18,35 +18,36 @@ from rwhonet.sim.writer import write_drive, write_json
 _RNG_ROUTE = 0  # child stream 0 of a drive's seed lays out its route
 
 
-def vehicles_from_params(params: Params) -> dict[str, Vehicle]:
-    """The simulated vehicles, with nominal radii from ``data.vehicles``.
+def vehicles_from_params(params: Params, profile: str | None = None) -> dict[str, Vehicle]:
+    """The simulated cars of a profile, keyed by the pipeline's vehicle names.
 
     Args:
         params: the project parameters.
+        profile: a key of ``sim.profiles``; default: ``sim.profile``.
 
     Returns:
-        Vehicles by name.
+        ``{pipeline vehicle name (source, target): Vehicle}``; each Vehicle is
+        named after its ``sim.vehicles`` key and carries that car's spec-sheet
+        nominal radius (``sim.vehicles.<car>.nominal_radius_m``).
 
     Raises:
-        ConfigError: if a simulated vehicle has no ``data.vehicles`` entry (the
-            pipeline would not know its nominal radius).
+        ConfigError: if the profile does not exist.
     """
-    out = {}
-    for name, spec in params.sim.vehicles.items():
-        if name not in params.data.vehicles:
-            raise ConfigError(
-                f"sim.vehicles.{name} has no data.vehicles.{name}.nominal_radius_m; "
-                f"expected one of {sorted(params.data.vehicles)}"
-            )
-        out[name] = Vehicle(name, params.data.vehicles[name].nominal_radius_m, spec)
-    return out
+    sim = params.sim
+    name = sim.profile if profile is None else profile
+    if name not in sim.profiles:
+        raise ConfigError(f"profile {name!r} is not in sim.profiles {sorted(sim.profiles)}")
+    return {
+        role: Vehicle(car, sim.vehicles[car].nominal_radius_m, sim.vehicles[car])
+        for role, car in sim.profiles[name].vehicles.items()
+    }
 
 
 def drive_seed(seed: int, index: int) -> np.random.SeedSequence:
     """Seed of drive ``index``: ``SeedSequence(seed).spawn(n)[index]``, statelessly.
 
     Args:
-        seed: ``params.seed``.
+        seed: ``params.sim.seed``.
         index: position of the drive in its profile.
 
     Returns:
@@ -64,13 +65,13 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
     all of it replaces ``out_dir`` or nothing does.
 
     Args:
-        params: the project parameters (``seed``, ``sim``, ``data.vehicles``).
+        params: the project parameters (``sim``).
         out_dir: the output folder (``rwhonet.paths.SIM`` for the stage).
 
     Returns:
-        ``{"profile", "seed", "drives": [{drive, role, vehicle, tyre_state,
-        duration_s, distance_m, n_rows, gnss_faults}], "roles": {role: {"drives",
-        "hours", "km"}}, "seconds"}``.
+        ``{"profile", "seed", "vehicles", "drives": [{drive, role, vehicle,
+        sim_vehicle, tyre_state, duration_s, distance_m, n_rows, gnss_faults}],
+        "roles": {role: {"drives", "hours", "km"}}, "seconds"}``.
     """
     sim = params.sim
     vehicles = vehicles_from_params(params)
@@ -79,19 +80,28 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
     rows = []
     with atomic_dir(Path(out_dir)) as tmp:
         for i, spec in enumerate(drives):
-            seed = drive_seed(params.seed, i)
-            vehicle = vehicles[spec.vehicle]
+            seed = drive_seed(sim.seed, i)
+            vehicle = vehicles[spec.vehicle].with_payload(spec.payload_kg, spec.payload_x_m)
             route = generate_route(spec, sim, vehicle, child_rng(seed, _RNG_ROUTE))
             frame, scenarios, truth, _ = simulate_drive(
-                vehicle, spec.tyre, route, seed, sim, gnss_faults=spec.gnss_faults, name=spec.name
+                vehicle,
+                spec.tyre,
+                route,
+                seed,
+                sim,
+                gnss_faults=spec.gnss_faults,
+                name=spec.name,
+                leaks=spec.leaks,
             )
             truth["role"] = spec.role
+            truth["pipeline_vehicle"] = spec.vehicle
             write_drive(tmp / spec.role, spec.name, frame, scenarios, truth)
             rows.append(
                 {
                     "drive": spec.name,
                     "role": spec.role,
                     "vehicle": spec.vehicle,
+                    "sim_vehicle": vehicle.name,
                     "tyre_state": spec.tyre,
                     "duration_s": truth["duration_s"],
                     "distance_m": truth["distance_m"],
@@ -109,7 +119,13 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
             k: {**v, "hours": round(v["hours"], 3), "km": round(v["km"], 2)}
             for k, v in roles.items()
         }
-        summary = {"profile": sim.profile, "seed": params.seed, "drives": rows, "roles": roles}
+        summary = {
+            "profile": sim.profile,
+            "seed": sim.seed,
+            "vehicles": dict(sim.profiles[sim.profile].vehicles),
+            "drives": rows,
+            "roles": roles,
+        }
         write_json(tmp / "fleet.json", {**summary, "sim": params.section("sim")})
     summary["seconds"] = round(time.perf_counter() - started, 2)
     return summary

@@ -65,7 +65,7 @@ def plan_speed(route: Route, vehicle: Vehicle, sim: SimParams) -> SpeedPlan:
     """Plan the fastest speed profile the driver accepts along ``route``.
 
     Constraints: the driver's wish ``v_max``; the curve limit
-    ``v^2 (|kappa| + b |dkappa/ds|) <= lat_acc_max_g * g`` (the lateral
+    ``v^2 (|kappa| + b |dkappa/ds|) <= lat_acc_max_g * g`` (the driver's limit; the lateral
     acceleration at the centre of gravity, ``b`` ahead of the rear axle;
     drivers slow down *before* curves);
     zero speed at stops; acceleration and deceleration at most the driver's
@@ -73,8 +73,8 @@ def plan_speed(route: Route, vehicle: Vehicle, sim: SimParams) -> SpeedPlan:
 
     Args:
         route: the route.
-        vehicle: the vehicle (traction limits).
-        sim: simulator settings (friction, lateral-acceleration limit).
+        vehicle: the vehicle (traction limits; its driver's lateral-acceleration limit).
+        sim: simulator settings (friction).
 
     Returns:
         The speed plan.
@@ -92,7 +92,7 @@ def plan_speed(route: Route, vehicle: Vehicle, sim: SimParams) -> SpeedPlan:
     slope = np.abs(np.diff(kappa)) / ds
     slope = np.maximum(np.concatenate([[0.0], slope]), np.concatenate([slope, [0.0]]))
     felt = np.abs(kappa) + vehicle.cg_to_rear_m * slope
-    lat_limit = sim.lat_acc_max_g * G_M_S2 / np.maximum(felt, 1e-9)
+    lat_limit = vehicle.params.driver.lat_acc_max_g * G_M_S2 / np.maximum(felt, 1e-9)
     u_max = np.minimum(route.v_max_m_s**2, lat_limit)
     u_max[route.stop] = 0.0
 

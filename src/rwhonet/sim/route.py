@@ -20,7 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from rwhonet.config import SIM_EVENTS, ConfigError, SimDrive, SimParams, SimRoad
+from rwhonet.config import SIM_EVENTS, ConfigError, SimDrive, SimDriver, SimParams, SimRoad
 from rwhonet.sim.motion import plan_speed
 from rwhonet.sim.vehicle import Vehicle
 
@@ -382,6 +382,7 @@ class _Leg:
 def _legs(
     drive: SimDrive,
     roads: dict[str, SimRoad],
+    driver: SimDriver,
     duration_s: float,
     rng: np.random.Generator,
     eta_scale: float = 1.0,
@@ -396,7 +397,7 @@ def _legs(
         while remaining > 1.0:
             dur = min(_uniform(rng, road.leg_s), remaining)
             remaining -= dur
-            speed = _uniform(rng, road.speed_m_s)
+            speed = _uniform(rng, road.speed_m_s) * driver.speed_factor
             length = dur * speed * _ETA.get(name, _ETA_DEFAULT) * eta_scale
             legs.append(_Leg(name, dur, speed, length))
     order = rng.permutation(len(legs))
@@ -456,7 +457,11 @@ def _lay_out(legs: list[_Leg], roads: dict[str, SimRoad], rng, layout: _Layout) 
 
 
 def _rasterise(
-    layout: _Layout, roads: dict[str, SimRoad], wet_m: list[tuple[float, float]], rng
+    layout: _Layout,
+    roads: dict[str, SimRoad],
+    driver: SimDriver,
+    wet_m: list[tuple[float, float]],
+    rng,
 ) -> Route:
     """Turn placed legs and blocks into grid arrays (slices per block, no loop over nodes)."""
     n = int(math.ceil(layout.length_m / DS_M)) + 1
@@ -478,8 +483,8 @@ def _rasterise(
         road = roads[leg.road]
         sl = span(s0, s1)
         v_max[sl] = leg.speed_m_s
-        accel[sl] = road.accel_m_s2
-        decel[sl] = road.decel_m_s2
+        accel[sl] = road.accel_m_s2 * driver.accel_factor
+        decel[sl] = road.decel_m_s2 * driver.decel_factor
         tags.append((s0, s1, leg.road))
     # Drivers do not hold a speed exactly: a slow +-4..8 % wander every few hundred metres.
     knots = np.cumsum(rng.uniform(300.0, 800.0, size=int(layout.length_m / 300.0) + 2))
@@ -552,7 +557,12 @@ def _wet_stretches(length_m: float, fraction: float, rng) -> list[tuple[float, f
 
 
 def _build(
-    drive: SimDrive, sim: SimParams, rng: np.random.Generator, extension: int, eta_scale: float
+    drive: SimDrive,
+    sim: SimParams,
+    driver: SimDriver,
+    rng: np.random.Generator,
+    extension: int,
+    eta_scale: float,
 ) -> tuple[Route, float]:
     """Lay out a random route for ``drive`` (no speed planning, no duration cut).
 
@@ -566,17 +576,17 @@ def _build(
     for kind in drive.events:
         if kind not in SIM_EVENTS:
             raise ConfigError(f"drive {drive.name}: unknown event {kind!r}; expected {SIM_EVENTS}")
-    main = _legs(drive, sim.roads, drive.duration_s, rng, eta_scale)
+    main = _legs(drive, sim.roads, driver, drive.duration_s, rng, eta_scale)
     _assign_events(main, sim.roads, drive.events, drive.event_scale, rng)
     layout = _Layout()
     _lay_out(main, sim.roads, rng, layout)
     main_end = layout.length_m
     wet = _wet_stretches(main_end, drive.wet_fraction, rng)
     for _ in range(extension):
-        extra = _legs(drive, sim.roads, 0.5 * drive.duration_s, rng, eta_scale)
+        extra = _legs(drive, sim.roads, driver, 0.5 * drive.duration_s, rng, eta_scale)
         _assign_events(extra, sim.roads, {}, drive.event_scale, rng)
         _lay_out(extra, sim.roads, rng, layout)
-    return _rasterise(layout, sim.roads, wet, rng), main_end
+    return _rasterise(layout, sim.roads, driver, wet, rng), main_end
 
 
 def _fit(route: Route, vehicle: Vehicle, sim: SimParams, target: float) -> Route | None:
@@ -625,7 +635,8 @@ def generate_route(
     Args:
         drive: the drive spec.
         sim: simulator settings.
-        vehicle: the vehicle (traction limits of the speed plan).
+        vehicle: the vehicle (traction limits of the speed plan; its driver's
+            speed and acceleration factors).
         rng: random generator.
 
     Returns:
@@ -637,9 +648,9 @@ def generate_route(
     for eta_scale in (1.0, 0.7, 0.5, 0.35):
         for extension in (1, 2, 4, 8, 16):
             # Same seed each attempt: the layout only changes where asked to.
-            route, main_end = _build(
-                drive, sim, np.random.default_rng(base_seed), extension, eta_scale
-            )
+            rng_layout = np.random.default_rng(base_seed)
+            driver = vehicle.params.driver
+            route, main_end = _build(drive, sim, driver, rng_layout, extension, eta_scale)
             fitted = _fit(route, vehicle, sim, target)
             if fitted is not None:
                 break

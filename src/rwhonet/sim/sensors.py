@@ -21,7 +21,6 @@ FAULT_KINDS = ("low_sats", "frozen", "jump", "gap")
 _FAULT_S = {"low_sats": (10.0, 40.0), "frozen": (3.0, 10.0), "jump": (1.0, 3.0), "gap": (1.0, 5.0)}
 _FAULT_MOVING_M_S = 3.0  # a frozen fix is placed where the car moves (wheels turn)
 _FAULT_EDGE_S = 30.0  # keep faults this far from the ends and from each other
-_LOW_SATS_EXTRA_M = 3.0  # extra white position noise with 2-3 satellites (multipath)
 
 
 def gauss_markov(
@@ -50,6 +49,97 @@ def gauss_markov(
     if n:
         w[:, 0] = rng.standard_normal(rows) * sigma
     return lfilter([1.0], [1.0, -phi], w, axis=1)
+
+
+def filtered_gauss_markov(
+    n: int,
+    dt_s: float,
+    sigma: float,
+    tau_s: float,
+    filter_tau_s: float,
+    rng: np.random.Generator,
+    rows: int = 1,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A Gauss-Markov drift seen through a first-order low-pass filter (stationary).
+
+    ``x`` is a first-order Gauss-Markov process (correlation time ``tau_s``);
+    the output ``e`` follows it through ``de/dt = (x - e) / filter_tau_s``, a
+    receiver's navigation filter smoothing a slowly drifting pseudorange error.
+    ``e`` is a second-order process with a differentiable (smooth) path:
+    autocorrelation ``(a exp(-T/a) - b exp(-T/b)) / (a - b)`` with ``a = tau_s``,
+    ``b = filter_tau_s`` (see :func:`gnss_error_autocorrelation`). Both stages
+    are discretised exactly for a piecewise-constant input (two IIR filters),
+    the first sample is drawn from the stationary joint distribution of
+    ``(x, e)``, and ``x`` is scaled so that ``e`` has std ``sigma`` exactly.
+
+    Args:
+        n: samples per row.
+        dt_s: sampling interval.
+        sigma: stationary standard deviation of the output.
+        tau_s: correlation time of the drift.
+        filter_tau_s: time constant of the low-pass filter.
+        rng: random generator.
+        rows: independent processes (one per axis).
+
+    Returns:
+        ``(e, de_dt)``, each (rows, n): the process and its rate of change.
+    """
+    phi = np.exp(-dt_s / tau_s)
+    beta = np.exp(-dt_s / filter_tau_s)
+    # Stationary moments of the discrete cascade for a unit-variance drift x:
+    # C = Cov(x_k, e_k), V = Var(e_k).
+    c = (1.0 - beta) / (1.0 - beta * phi)
+    v = (2.0 * beta * (1.0 - beta) * phi * c + (1.0 - beta) ** 2) / (1.0 - beta**2)
+    scale = sigma / np.sqrt(v)
+    if n == 0:
+        empty = np.zeros((rows, 0))
+        return empty, empty
+    w = rng.standard_normal((rows, n)) * np.sqrt(1.0 - phi**2)
+    e0 = rng.standard_normal(rows) * np.sqrt(v)
+    w[:, 0] = c / v * e0 + rng.standard_normal(rows) * np.sqrt(1.0 - c**2 / v)
+    x = lfilter([1.0], [1.0, -phi], w, axis=1)
+    e, _ = lfilter([1.0 - beta], [1.0, -beta], x, axis=1, zi=(e0 - (1.0 - beta) * x[:, 0])[:, None])
+    return e * scale, (x - e) * scale / filter_tau_s
+
+
+def gnss_error_autocorrelation(lag_s: np.ndarray | float, tau_s: float, filter_tau_s: float):
+    """Autocorrelation of the filtered Gauss-Markov error at lag ``T`` (continuous time).
+
+    ``rho(T) = (a exp(-T/a) - b exp(-T/b)) / (a - b)`` with ``a = tau_s`` and
+    ``b = filter_tau_s``; for ``a = b`` its limit ``(1 + T/a) exp(-T/a)``.
+
+    Args:
+        lag_s: lag(s), s.
+        tau_s: drift correlation time.
+        filter_tau_s: filter time constant.
+
+    Returns:
+        The autocorrelation, like ``lag_s``.
+    """
+    t = np.abs(np.asarray(lag_s, dtype=np.float64))
+    a, b = float(tau_s), float(filter_tau_s)
+    if abs(a - b) < 1e-9 * a:
+        return (1.0 + t / a) * np.exp(-t / a)
+    return (a * np.exp(-t / a) - b * np.exp(-t / b)) / (a - b)
+
+
+def gnss_increment_std_m(gnss: SimGnss, lag_s: float = 1.0) -> float:
+    """Standard deviation of the open-sky position error's change over ``lag_s``, per axis.
+
+    ``Var(e(t + T) - e(t)) = 2 sigma^2 (1 - rho(T)) + 2 white^2``: what one
+    second of GNSS displacement carries as noise along the direction of travel,
+    i.e. the per-second label noise of a perfect odometer (docs/simulator.md,
+    "Label noise").
+
+    Args:
+        gnss: the receiver.
+        lag_s: the interval, s.
+
+    Returns:
+        The standard deviation, m.
+    """
+    rho = float(gnss_error_autocorrelation(lag_s, gnss.tau_s, gnss.filter_tau_s))
+    return float(np.sqrt(2.0 * gnss.sigma_m**2 * (1.0 - rho) + 2.0 * gnss.white_m**2))
 
 
 def satellites(n: int, hz: int, sats: list[int], rng: np.random.Generator) -> np.ndarray:
@@ -185,17 +275,21 @@ def gnss_track(
     heading_rad: np.ndarray,
     noise: bool = True,
 ) -> GnssTrack:
-    """Fixes of the antenna: truth + Gauss-Markov error + white noise, then faults.
+    """Fixes of the antenna: truth + a smooth receiver error + white noise, then faults.
 
-    Position error per axis (east, north, up) is a first-order Gauss-Markov
-    process (``sigma_m``, ``tau_s``; up scaled by ``vertical_factor``) plus white
-    noise ``white_m``; the local east/north position is mapped to WGS84 by the
-    geodesic direct problem from ``origin`` (azimuthal equidistant,
-    :func:`rwhonet.geo.latlon_from_offsets_deg`). Speed and course come from the
-    antenna velocity (Doppler) with white noise; the course is held while the
-    car is (nearly) stopped. Faults: ``low_sats`` 2-3 satellites and a noisier
-    fix; ``jump`` the fix jumps 30-100 m away; ``frozen`` the receiver repeats
-    its last fix; ``gap`` rows are dropped by the writer.
+    Position error per axis (east, north, up): a slow Gauss-Markov drift seen
+    through the receiver's navigation filter (:func:`filtered_gauss_markov`;
+    ``sigma_m``, ``tau_s``, ``filter_tau_s``; up scaled by ``vertical_factor``)
+    plus white noise ``white_m``. The local east/north position is mapped to
+    WGS84 by the geodesic direct problem from ``origin`` (azimuthal
+    equidistant, :func:`rwhonet.geo.latlon_from_offsets_deg`). Speed and course
+    come from the antenna velocity plus the error's rate of change (the filter
+    moves position and velocity together) plus white speed noise; the course
+    is held while the car is (nearly) stopped. Faults: ``low_sats`` 2-3
+    satellites and a multipath error (a fast Gauss-Markov process,
+    ``multipath_sigma_m``, ``multipath_tau_s``) on top; ``jump`` the fix jumps
+    30-100 m away; ``frozen`` the receiver repeats its last fix; ``gap`` rows
+    are dropped by the writer.
 
     Args:
         east_m: antenna east position in the local frame (m,).
@@ -218,33 +312,40 @@ def gnss_track(
     dt = 1.0 / hz
     sats = satellites(n, hz, gnss.sats, rng)
     err = np.zeros((3, n))
+    rate = np.zeros((3, n))
     speed_noise = np.zeros(n)
     if noise:
-        sigmas = np.array([1.0, 1.0, gnss.vertical_factor])[:, None] * gnss.sigma_m
-        err = gauss_markov(n, dt, 1.0, gnss.tau_s, rng, rows=3) * sigmas
+        scale = np.array([1.0, 1.0, gnss.vertical_factor])[:, None]
+        err, rate = filtered_gauss_markov(
+            n, dt, gnss.sigma_m, gnss.tau_s, gnss.filter_tau_s, rng, rows=3
+        )
+        err, rate = err * scale, rate * scale
         err[:2] += rng.standard_normal((2, n)) * gnss.white_m
         speed_noise = rng.standard_normal(n) * gnss.speed_noise_m_s
     for f in faults:
         sl = slice(f.i0, f.i1)
         if f.kind == "low_sats":
             sats[sl] = rng.integers(2, 4, size=f.i1 - f.i0)
-            err[:2, sl] += rng.standard_normal((2, f.i1 - f.i0)) * _LOW_SATS_EXTRA_M
+            err[:2, sl] += gauss_markov(
+                f.i1 - f.i0, dt, gnss.multipath_sigma_m, gnss.multipath_tau_s, rng, rows=2
+            )
         elif f.kind == "jump":
             dist = rng.uniform(30.0, 100.0)
             az = rng.uniform(0.0, 2.0 * np.pi)
             err[:2, sl] += np.array([[dist * np.cos(az)], [dist * np.sin(az)]])
     lat0, lon0, h0 = origin
     lat, lon = latlon_from_offsets_deg(lat0, lon0, east_m + err[0], north_m + err[1])
-    speed = np.maximum(np.hypot(v_east_m_s, v_north_m_s) + speed_noise, 0.0)
-    course = np.degrees(np.arctan2(v_east_m_s, v_north_m_s)) % 360.0
+    ve, vn = v_east_m_s + rate[0], v_north_m_s + rate[1]
+    speed = np.maximum(np.hypot(ve, vn) + speed_noise, 0.0)
+    course = np.degrees(np.arctan2(ve, vn)) % 360.0
     valid = speed > 0.5
     if n and not valid[0]:  # before the first move: the parked car's heading
         course[0] = (90.0 - np.degrees(heading_rad[0])) % 360.0
         valid[0] = True
     course = course[np.maximum.accumulate(np.where(valid, np.arange(n), 0))]
     height = h0 + err[2]
-    # Doppler vertical velocity: white noise around zero (a flat world).
-    vertical = rng.standard_normal(n) * 2.0 * gnss.speed_noise_m_s if noise else np.zeros(n)
+    # Doppler vertical velocity: the error's rate plus white noise (a flat world).
+    vertical = rate[2] + (rng.standard_normal(n) * 2.0 * gnss.speed_noise_m_s if noise else 0.0)
     for f in faults:
         if f.kind == "frozen":
             hold = max(f.i0 - 1, 0)

@@ -9,10 +9,11 @@ sources are in docs/simulator.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
+from scipy.signal import lfilter
 
 from rwhonet.config import ConfigError, SimTyreState, SimVehicle, SimWheels
 from rwhonet.data.canonical import G_M_S2
@@ -28,43 +29,79 @@ MAX_UTILISATION = 0.95
 
 @dataclass(frozen=True)
 class Vehicle:
-    """A simulated vehicle: its name, nominal radius and physical parameters.
+    """A simulated vehicle: its name, nominal radius, physical parameters and payload.
 
     Attributes:
-        name: key in ``sim.vehicles`` and ``data.vehicles``.
-        nominal_radius_m: effective rolling radius of a rear tyre at the reference
-            pressure, new tread, static load and walking speed (``data.vehicles``).
+        name: key in ``sim.vehicles``.
+        nominal_radius_m: spec-sheet effective rolling radius of a rear tyre at the
+            reference pressure, new tread, static load without payload and walking
+            speed (``sim.vehicles.<name>.nominal_radius_m``).
         params: the ``sim.vehicles.<name>`` section.
+        payload_kg: passengers and luggage besides the driver (0: as configured).
+        payload_x_m: their centre of mass ahead of the rear axle (the boot: negative).
     """
 
     name: str
     nominal_radius_m: float
     params: SimVehicle
+    payload_kg: float = 0.0
+    payload_x_m: float = 0.0
+
+    def with_payload(self, payload_kg: float, payload_x_m: float) -> Vehicle:
+        """The same car carrying a payload (its tyres keep their free radius).
+
+        Args:
+            payload_kg: passengers and luggage, kg.
+            payload_x_m: their centre of mass ahead of the rear axle, m.
+
+        Returns:
+            The laden vehicle.
+        """
+        return replace(self, payload_kg=float(payload_kg), payload_x_m=float(payload_x_m))
+
+    @property
+    def mass_kg(self) -> float:
+        """Mass with payload (kg)."""
+        return self.params.mass_kg + self.payload_kg
+
+    @property
+    def front_load_fraction(self) -> float:
+        """Static share of the weight on the front axle, with payload.
+
+        A payload at ``x`` ahead of the rear axle puts ``x / L`` of its weight on
+        the front axle (moment balance about the rear axle).
+        """
+        p = self.params
+        payload_front = self.payload_kg * self.payload_x_m / p.wheelbase_m
+        front = p.mass_kg * p.front_load_fraction + payload_front
+        return front / self.mass_kg
 
     @cached_property
     def static_wheel_load_n(self) -> np.ndarray:
-        """Static normal load of each wheel (N), shape (4,), order :data:`WHEELS`."""
-        p = self.params
-        front = p.mass_kg * G_M_S2 * p.front_load_fraction / 2.0
-        rear = p.mass_kg * G_M_S2 * (1.0 - p.front_load_fraction) / 2.0
-        return np.array([front, front, rear, rear])
+        """Static normal load of each wheel with payload (N), shape (4,), order :data:`WHEELS`."""
+        return _static_loads(self.mass_kg, self.front_load_fraction)
 
     @cached_property
     def unloaded_radius_new_m(self) -> float:
-        """Free radius of a new tyre (m), from the nominal effective radius.
+        """Free radius of a new tyre of this car (m).
 
-        Inverts :func:`effective_radius_m` at the nominal conditions:
-        ``r_nominal = r_0 - F_z,rear / (3 C_z0)``.
+        Inverts :func:`effective_radius_m` at the nominal conditions (rear wheel,
+        static load without payload): ``r_nominal = r_0 - F_z,rear / (3 C_z0)``,
+        then adds this car's tyre offset (``tyre.free_radius_offset_mm``: brand
+        and manufacturing spread of one size).
         """
         tyre = self.params.tyre
-        return self.nominal_radius_m + self.static_wheel_load_n[2] / (
-            3.0 * tyre.vertical_stiffness_n_m
+        unladen_rear = _static_loads(self.params.mass_kg, self.params.front_load_fraction)[2]
+        return (
+            self.nominal_radius_m
+            + unladen_rear / (3.0 * tyre.vertical_stiffness_n_m)
+            + tyre.free_radius_offset_mm * 1e-3
         )
 
     @property
     def cg_to_rear_m(self) -> float:
-        """Distance from the rear axle to the centre of gravity (m)."""
-        return self.params.wheelbase_m * self.params.front_load_fraction
+        """Distance from the rear axle to the centre of gravity, with payload (m)."""
+        return self.params.wheelbase_m * self.front_load_fraction
 
     def tyre_state(self, state: str) -> SimTyreState:
         """Return the named tyre state (pressures, tread).
@@ -79,6 +116,12 @@ class Vehicle:
                 f"sim.vehicles.{self.name}.tyre_states has no state {state!r}; "
                 f"expected one of {sorted(self.params.tyre_states)}"
             ) from None
+
+
+def _static_loads(mass_kg: float, front_fraction: float) -> np.ndarray:
+    front = mass_kg * G_M_S2 * front_fraction / 2.0
+    rear = mass_kg * G_M_S2 * (1.0 - front_fraction) / 2.0
+    return np.array([front, front, rear, rear])
 
 
 def per_wheel(values: SimWheels) -> np.ndarray:
@@ -150,6 +193,73 @@ def effective_radius_m(
     return r0 * growth - deflection_m / 3.0
 
 
+# Gas law for the tyre air: absolute pressure over absolute temperature is constant
+# for a fixed amount of air in a (nearly) fixed volume.
+P_ATM_PSI = 14.696  # standard atmosphere
+T_COLD_K = 288.15  # ISA sea-level temperature: the tyres' cold (ambient) temperature
+
+
+def tyre_temperature_rise_k(
+    vehicle: Vehicle, speed_m_s: np.ndarray, dt_s: float, start_k: float = 0.0
+) -> np.ndarray:
+    """Rise of the tyre-air temperature over ambient while driving (first-order lag).
+
+    ``dT/dt = (T_eq(v) - T) / tau`` with ``T_eq = warm_rise_k sqrt(v / warm_ref_speed_m_s)``:
+    the heat a rolling tyre generates grows like the rolling-resistance power
+    (~ v) and the convective cooling of its surface like ``v^{1/2}`` (laminar
+    forced convection, Nu ~ Re^{1/2}), so the equilibrium rise grows like
+    ``v^{1/2}``; standing, the tyre cools towards ambient with the same time
+    constant. Exact discretisation for a piecewise-constant input (one IIR
+    filter, no loop over samples).
+
+    Args:
+        vehicle: the vehicle (``tyre.warm_*``).
+        speed_m_s: speed at every sample (>= 0), (n,).
+        dt_s: sampling interval.
+        start_k: temperature rise at the first sample (0: a cold start).
+
+    Returns:
+        Temperature rise, K, (n,).
+    """
+    tyre = vehicle.params.tyre
+    drive = tyre.warm_rise_k * np.sqrt(np.maximum(speed_m_s, 0.0) / tyre.warm_ref_speed_m_s)
+    phi = np.exp(-dt_s / tyre.warm_tau_s)
+    if drive.size == 0:
+        return drive
+    rise, _ = lfilter([1.0 - phi], [1.0, -phi], drive, zi=[phi * start_k])
+    return rise
+
+
+def tyre_pressure_psi(
+    cold_psi: np.ndarray,
+    t_s: np.ndarray,
+    temperature_rise_k: np.ndarray,
+    leak_psi_per_s: np.ndarray,
+) -> np.ndarray:
+    """Inflation pressure of each tyre over a drive: warm-up (gas law) and leaks.
+
+    A leak removes air at a constant rate, expressed as the cold pressure it
+    costs per second; the remaining air follows the gas law
+    ``p_abs = p_abs,cold (T_cold + dT) / T_cold``.
+
+    Args:
+        cold_psi: cold gauge pressure of each wheel at the start, psi, (4,).
+        t_s: time since the start, (n,).
+        temperature_rise_k: tyre-air temperature rise over ambient, (n,).
+        leak_psi_per_s: cold pressure lost per second by each wheel, (4,).
+
+    Returns:
+        Gauge pressure, psi, (4, n) (never below 0).
+    """
+    cold = np.maximum(
+        np.asarray(cold_psi, dtype=np.float64)[:, None]
+        - np.asarray(leak_psi_per_s, dtype=np.float64)[:, None] * np.asarray(t_s)[None, :],
+        0.0,
+    )
+    warm = (cold + P_ATM_PSI) * (T_COLD_K + np.asarray(temperature_rise_k)[None, :]) / T_COLD_K
+    return np.maximum(warm - P_ATM_PSI, 0.0)
+
+
 def slip_ratio(
     force_n: np.ndarray, load_n: np.ndarray, mu: np.ndarray, stiffness_per_load: np.ndarray
 ) -> np.ndarray:
@@ -194,10 +304,11 @@ def traction_limits_m_s2(vehicle: Vehicle, mu: np.ndarray) -> tuple[np.ndarray, 
     p = vehicle.params
     m = 0.85 * np.asarray(mu)
     h_over_l = p.cg_height_m / p.wheelbase_m
+    front = vehicle.front_load_fraction
     if p.drive == "fwd":
-        accel = m * G_M_S2 * p.front_load_fraction / (1.0 + m * h_over_l)
+        accel = m * G_M_S2 * front / (1.0 + m * h_over_l)
     else:
-        accel = m * G_M_S2 * (1.0 - p.front_load_fraction) / (1.0 - m * h_over_l)
+        accel = m * G_M_S2 * (1.0 - front) / (1.0 - m * h_over_l)
     return accel, m * G_M_S2
 
 
@@ -272,12 +383,13 @@ def wheel_loads(vehicle: Vehicle, accel_x_m_s2: np.ndarray, accel_y_m_s2: np.nda
         Loads, N, shape (4, n).
     """
     p = vehicle.params
-    m, h = p.mass_kg, p.cg_height_m
+    m, h = vehicle.mass_kg, p.cg_height_m
     ax = np.asarray(accel_x_m_s2, dtype=np.float64)
     ay = np.asarray(accel_y_m_s2, dtype=np.float64)
     static = vehicle.static_wheel_load_n[:, None]
     lon = m * ax * h / p.wheelbase_m / 2.0  # per wheel, leaves each front wheel
-    share = np.array([p.front_load_fraction] * 2 + [1.0 - p.front_load_fraction] * 2)
+    front = vehicle.front_load_fraction
+    share = np.array([front] * 2 + [1.0 - front] * 2)
     track = np.array([p.track_front_m] * 2 + [p.track_rear_m] * 2)
     # Roll moment of an axle's share: (F_right - F_left) t / 2 = share m a_y h.
     lat = (m * h * share / track)[:, None] * ay[None, :]
@@ -319,7 +431,7 @@ def wheel_forces(
     moving = (v > 1e-3).astype(np.float64)
     rolling = p.tyre.rolling_resistance * load_n * moving[None, :]
     drag = 0.5 * air_density_kg_m3 * p.drag_area_m2 * v**2
-    propulsive = p.mass_kg * np.asarray(accel_m_s2) + drag + rolling.sum(axis=0)
+    propulsive = vehicle.mass_kg * np.asarray(accel_m_s2) + drag + rolling.sum(axis=0)
     driven = FRONT if p.drive == "fwd" else ~FRONT
     traction = np.where(driven[:, None], 0.5, 0.0) * np.maximum(propulsive, 0.0)[None, :]
     rear_load_fraction = load_n[2:].sum(axis=0) / load_n.sum(axis=0)
@@ -344,6 +456,7 @@ def wheel_states(
     slip: bool = True,
     radius_load: bool = True,
     radius_speed: bool = True,
+    pressure_psi: np.ndarray | None = None,
 ) -> WheelStates:
     """Ground truth of the four wheels: ``omega = v_wheel (1 + slip) / r_e``.
 
@@ -361,6 +474,8 @@ def wheel_states(
         slip: False: wheels roll without slip.
         radius_load: False: radius at the static load (no load transfer).
         radius_speed: False: no centrifugal growth.
+        pressure_psi: inflation pressure over time, (4, n) or (4, 1) (warm-up,
+            leaks: :func:`tyre_pressure_psi`); default: the tyre state's pressure.
 
     Returns:
         The wheel states.
@@ -373,9 +488,11 @@ def wheel_states(
         kappa = slip_ratio(forces, loads, mu[None, :], stiffness[None, :])
     else:
         kappa = np.zeros_like(forces)
+    if pressure_psi is None:
+        pressure_psi = per_wheel(tyre.pressure_psi)[:, None]
     radius = effective_radius_m(
         vehicle,
-        per_wheel(tyre.pressure_psi)[:, None],
+        pressure_psi,
         per_wheel(tyre.tread_mm)[:, None],
         loads if radius_load else vehicle.static_wheel_load_n[:, None],
         ground if radius_speed else 0.0,
