@@ -424,11 +424,12 @@ class TrackingParams:
 class GateParams:
     baseline: str
     rel_tol: float
+    abs_tol_m: float
 
 
 @dataclass(frozen=True)
 class Params:
-    seed: int
+    seeds: list[int]
     sim: SimParams
     data: DataParams
     validate: ValidateParams
@@ -441,6 +442,10 @@ class Params:
     gate: GateParams
 
     def __post_init__(self) -> None:
+        if not self.seeds or len(set(self.seeds)) != len(self.seeds):
+            raise ConfigError(f"seeds must be a non-empty list of distinct seeds, got {self.seeds}")
+        if any(not 0 <= s < 2**32 for s in self.seeds):
+            raise ConfigError(f"seeds must lie in [0, 2**32), got {self.seeds}")
         if self.adapt.chosen_m not in self.adapt.m_grid:
             raise ConfigError(
                 f"adapt.chosen_m={self.adapt.chosen_m} is not in adapt.m_grid={self.adapt.m_grid}"

@@ -14,7 +14,9 @@ SOURCE_TRAIN = "source_train"  # drives of the car G is trained on
 SOURCE_CALIBRATION = "source_calibration"  # calm drive(s) the WPM radii are fitted on
 TARGET_TRAIN = "target_train"  # the new car's training drives (S)
 TARGET_TEST = "target_test"  # the new car's test drives (R adapts on each one's first m s)
-ROLES = (SOURCE_TRAIN, SOURCE_CALIBRATION, TARGET_TRAIN, TARGET_TEST)
+SOURCE_TEST = "source_test"  # held-out drives of the source car: G's error without a domain gap
+ROLES = (SOURCE_TRAIN, SOURCE_CALIBRATION, TARGET_TRAIN, TARGET_TEST, SOURCE_TEST)
+TEST_ROLES = (TARGET_TEST, SOURCE_TEST)  # every model predicts every second of these
 REQUIRED_ROLES = (SOURCE_TRAIN, TARGET_TRAIN, TARGET_TEST)
 # Without a source_calibration drive, the first source_train drive (by name) calibrates.
 CALIBRATION_FALLBACK_ROLE = SOURCE_TRAIN
@@ -30,8 +32,17 @@ T_S = "t_s"  # end of the second, drive clock, s
 DISP_GNSS_M = "disp_gnss_m"  # geodesic distance between the second's bounding fixes
 DISP_WPM_M = "disp_wpm_m"  # wheel-odometry displacement (label.wpm_mode), paper Eqs. 6-10
 LABEL_M = "label_m"  # disp_gnss_m - disp_wpm_m (Eq. 11, the authors' sign)
+# The WPM in both modes (baselines), and the rear wheel angles of label.wpm_mode (what
+# refitting the radius on a drive's first m seconds needs: the WPM-m control).
+DISP_WPM_INTEGRATED_M = "disp_wpm_integrated_m"
+DISP_WPM_REFERENCE_M = "disp_wpm_reference_m"
+ANGLE_RL_RAD = "angle_rl_rad"
+ANGLE_RR_RAD = "angle_rr_rad"
 SCENARIO = "scenario"  # ';'-joined scenario tags of the second
-SAMPLE_VALUE_COLUMNS = (T_S, DISP_GNSS_M, DISP_WPM_M, LABEL_M)
+SAMPLE_VALUE_COLUMNS = (
+    T_S, DISP_GNSS_M, DISP_WPM_M, LABEL_M,
+    DISP_WPM_INTEGRATED_M, DISP_WPM_REFERENCE_M, ANGLE_RL_RAD, ANGLE_RR_RAD,
+)  # fmt: skip
 SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
 
 # --------------------------------------------------------------------------- files

@@ -37,10 +37,7 @@ SAMPLES = PROCESSED / "samples"  # label: per-second samples per segment
 CALIBRATION = PROCESSED / "calibration.json"
 SCALER = PROCESSED / "scaler.json"
 
-MODELS = ROOT / "models"
-MODEL_G = MODELS / "g"
-MODEL_S = MODELS / "s"
-MODELS_R = MODELS / "r"  # one folder per m
+MODELS = ROOT / "models"  # <g|s|r>/seed<seed>/: one folder per model and training seed
 
 METRICS = ROOT / "metrics"
 EVAL_JSON = METRICS / "eval.json"
@@ -51,6 +48,11 @@ PREDICTIONS = REPORTS / "predictions"
 PLOTS = REPORTS / "plots"
 
 MLRUNS = ROOT / "mlruns"
+
+
+def model_dir(model: str, seed: int) -> Path:
+    """Folder of one model and training seed: ``models/<g|s|r>/seed<seed>``."""
+    return MODELS / model / f"seed{seed}"
 
 
 def resolve(path: str | Path) -> Path:

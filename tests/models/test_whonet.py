@@ -33,6 +33,29 @@ def test_forward_is_eq12_recurrence_with_linear_head() -> None:
     torch.testing.assert_close(net(x), expected)
 
 
+def test_one_step_fast_path_is_nn_rnn_with_the_same_gradients() -> None:
+    torch.manual_seed(1)
+    net = WhONet(hidden=8, dropout=0.0)
+    for p in net.parameters():
+        torch.nn.init.normal_(p)
+    x = torch.rand(16, 1, 40)
+    fast = net(x)
+    out, _ = net.rnn(x)  # the general path
+    slow = net.head(out[:, -1]).squeeze(-1)
+    torch.testing.assert_close(fast, slow, rtol=1e-5, atol=1e-5)
+    grads = []
+    for y in (fast, slow):
+        net.zero_grad()
+        y.abs().sum().backward(retain_graph=True)
+        grads.append({n: p.grad.clone() if p.grad is not None else None
+                      for n, p in net.named_parameters()})  # fmt: skip
+    for name, g in grads[1].items():
+        if name == "rnn.weight_hh_l0":  # h_{t-1} = 0: U_h gets a zero gradient or none
+            assert grads[0][name] is None and not g.any()
+        else:
+            torch.testing.assert_close(grads[0][name], g, rtol=1e-5, atol=1e-5)
+
+
 def test_output_is_not_squashed_into_sigmoid_range() -> None:
     net = WhONet(n_features=2, hidden=2, dropout=0.0).eval()
     with torch.no_grad():

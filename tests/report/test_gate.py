@@ -1,4 +1,4 @@
-"""The CI gate fails on a worse mean CRSE and passes on an equal or better one."""
+"""The CI gate fails on a worse mean CRSE or CTE and passes on an equal or better one."""
 
 import copy
 import json
@@ -30,11 +30,12 @@ BASE = {
 }
 
 
-def _run(tmp_path, now, rel_tol=0.1):
+def _run(tmp_path, now, rel_tol=0.1, abs_tol=0.0):
     e, b = tmp_path / "eval.json", tmp_path / "base.json"
     e.write_text(json.dumps(now))
     b.write_text(json.dumps(BASE))
-    return main(["--eval", str(e), "--baseline", str(b), "--rel-tol", str(rel_tol)])
+    return main(["--eval", str(e), "--baseline", str(b), "--rel-tol", str(rel_tol),
+                 "--abs-tol", str(abs_tol)])  # fmt: skip
 
 
 def test_equal_passes(tmp_path, capsys):
@@ -42,10 +43,16 @@ def test_equal_passes(tmp_path, capsys):
     assert "PASS" in capsys.readouterr().out
 
 
-def test_better_passes(tmp_path):
+def test_better_passes_and_says_so(tmp_path, capsys):
     now = copy.deepcopy(BASE)
     now["overall"]["R"]["180s"]["crse_mean"] = 5.0
     assert _run(tmp_path, now) == 0
+    out = capsys.readouterr().out
+    line = next(
+        ln for ln in out.splitlines() if ln.startswith("R ") and "180s" in ln and "CRSE" in ln
+    )
+    assert "better" in line and "ok" in line
+    assert "1 better" in out
 
 
 def test_within_tolerance_passes(tmp_path):
@@ -54,15 +61,28 @@ def test_within_tolerance_passes(tmp_path):
     assert _run(tmp_path, now) == 0
 
 
-@pytest.mark.parametrize("model,outage", [("R", "180s"), ("WPM", "30s"), ("S", "30s")])
-def test_worse_fails_with_table(tmp_path, capsys, model, outage):
+@pytest.mark.parametrize(
+    "model,outage,metric",
+    [("R", "180s", "crse"), ("WPM", "30s", "crse"), ("S", "30s", "cte"), ("R@10", "30s", "crse")],
+)
+def test_worse_fails_with_table(tmp_path, capsys, model, outage, metric):
     now = copy.deepcopy(BASE)
-    now["overall"][model][outage]["crse_mean"] *= 1.25
+    now["overall"][model][outage][f"{metric}_mean"] *= 1.25
     assert _run(tmp_path, now) == 1
     out = capsys.readouterr()
-    line = next(ln for ln in out.out.splitlines() if ln.startswith(model) and outage in ln)
-    assert "REGRESSION" in line and "+25.0%" in line
+    line = next(
+        ln for ln in out.out.splitlines()
+        if ln.split()[:3] == [model, outage, metric.upper()]
+    )  # fmt: skip
+    assert "REGRESSION" in line and "+25.0%" in line and "worse" in line
     assert "FAIL" in out.err
+
+
+def test_the_absolute_tolerance_spares_near_zero_cte(tmp_path):
+    now = copy.deepcopy(BASE)
+    now["overall"]["R"]["30s"]["cte_mean"] = 0.4 + 0.3  # +75 %, but 0.3 m
+    assert _run(tmp_path, now) == 1
+    assert _run(tmp_path, now, abs_tol=0.5) == 0
 
 
 def test_missing_model_fails(tmp_path):
@@ -71,8 +91,9 @@ def test_missing_model_fails(tmp_path):
     assert _run(tmp_path, now) == 1
 
 
-def test_only_gated_models_compared():
+def test_every_model_and_both_metrics_are_compared():
     rows = compare(BASE, BASE)
-    assert {r.model for r in rows} == {"WPM", "G", "S", "R"}
-    assert len(rows) == 8
-    assert "REGRESSION" not in render(rows, 0.1)
+    assert {r.model for r in rows} == {"WPM", "G", "S", "R", "R@10"}
+    assert {r.metric for r in rows} == {"crse", "cte"}
+    assert len(rows) == 2 * (4 * 2 + 1)
+    assert "REGRESSION" not in render(rows, 0.1, 0.0)

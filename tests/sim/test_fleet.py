@@ -137,7 +137,7 @@ def test_the_world_seed_is_sim_seed(params):
         return generate_route(spec, p.sim, vehicle, child_rng(seed, 0)).n
 
     base = route_length(params)
-    assert route_length(load_params(overrides={"seed": params.seed + 1})) == base
+    assert route_length(load_params(overrides={"seeds": [s + 1 for s in params.seeds]})) == base
     assert route_length(load_params(overrides={"sim.seed": params.sim.seed + 1})) != base
 
 

@@ -7,21 +7,33 @@ import pytest
 from rwhonet.contracts import FEATURE_COLUMNS
 from rwhonet.io import write_json
 
+R_CAL_M = 0.29  # the source calibration the samples' WPM uses (both rear wheels)
 
-def write_samples(folder, segments, seed=0):
-    """segments: list of (segment, drive, role, n_seconds)."""
+
+def write_samples(folder, segments, seed=0, true_radius_m=None):
+    """segments: list of (segment, drive, role, n_seconds).
+
+    The car's true rear radius is ``true_radius_m`` (default: 2 % above the
+    calibration); GNSS is exact, so the label is the WPM's scale error plus noise.
+    """
     rng = np.random.default_rng(seed)
+    r_true = true_radius_m or 1.02 * R_CAL_M
     folder.mkdir(parents=True, exist_ok=True)
     manifest = []
     for seg, drive, role, n in segments:
         x = rng.uniform(0, 1, (n, 40)).astype(np.float32)
-        gnss = rng.uniform(5, 15, n)
-        label = 0.02 * gnss + rng.normal(0, 0.05, n)
+        angle = rng.uniform(5, 15, n) / r_true  # rad per second, both rear wheels
+        gnss = r_true * angle + rng.normal(0, 0.05, n)
+        wpm = R_CAL_M * angle
         df = pd.DataFrame(x, columns=FEATURE_COLUMNS)
         df.insert(0, "t_s", 1000.0 + np.arange(1, n + 1))
         df.insert(1, "disp_gnss_m", gnss)
-        df.insert(2, "disp_wpm_m", gnss - label)
-        df.insert(3, "label_m", label)
+        df.insert(2, "disp_wpm_m", wpm)
+        df.insert(3, "label_m", gnss - wpm)
+        df.insert(4, "disp_wpm_integrated_m", wpm)
+        df.insert(5, "disp_wpm_reference_m", wpm * 1.01)  # a different, fixed WPM
+        df.insert(6, "angle_rl_rad", angle)
+        df.insert(7, "angle_rr_rad", angle)
         df["scenario"] = ""
         df.to_parquet(folder / f"{seg}.parquet", index=False)
         manifest.append(

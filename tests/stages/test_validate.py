@@ -16,7 +16,14 @@ from rwhonet.data import canonical as c
 from rwhonet.errors import InputError
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.validate import summary_table, validate
-from support.drives import TARGET_RADIUS_M, make_params, straight_drive, write_fleet, write_iovnbd
+from support.drives import (
+    SOURCE_RADIUS_M,
+    TARGET_RADIUS_M,
+    make_params,
+    straight_drive,
+    write_fleet,
+    write_iovnbd,
+)
 
 SHORT = {"validate.gnss.min_segment_s": 5, "validate.radius_min_moving_s": 10}
 
@@ -123,7 +130,7 @@ def test_wheel_speeds_in_kmh_by_mistake(tmp_path):
     (p,) = err.value.problems
     assert Path(p.file).name == "V-S1.csv"
     assert p.column == " Wheel Speed Rear Left (rad/sec) /  Wheel Speed Rear Right (rad/sec)"
-    assert "within ±5% of source's nominal 0.298 m" in p.expected
+    assert f"within ±5% of source's nominal {SOURCE_RADIUS_M} m" in p.expected
     assert "radius ≈ 1/3.6 m" in p.found and "look like km/h" in p.found
 
 

@@ -18,8 +18,9 @@ from rwhonet.config import Params, load_params
 from rwhonet.data import canonical as c
 from rwhonet.data.iovnbd import HEADERS, LAYOUT
 
-SOURCE_RADIUS_M = 0.298  # params.yaml data.vehicles.source
-TARGET_RADIUS_M = 0.316  # params.yaml data.vehicles.target
+_VEHICLES = load_params().data.vehicles  # the nominal radii real drives are checked against
+SOURCE_RADIUS_M = _VEHICLES["source"].nominal_radius_m
+TARGET_RADIUS_M = _VEHICLES["target"].nominal_radius_m
 
 
 def straight_drive(

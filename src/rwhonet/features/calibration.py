@@ -106,6 +106,35 @@ def fit_radii_ratio_of_sums(
     return RadiusFit(r_rl, r_rr, "ratio_of_sums", int(moving.sum()), float(d[moving].sum()))
 
 
+def refit_radii(
+    disp_gnss_m: np.ndarray,
+    angle_rl_rad: np.ndarray,
+    angle_rr_rad: np.ndarray,
+    min_speed_m_s: float,
+) -> tuple[float, float] | None:
+    """Rear radii refitted on a stretch of one drive: the one-parameter control of R-WhONet.
+
+    The calibration's estimator (total GNSS distance over total wheel angle on
+    the moving seconds) applied to, e.g., a target drive's first m seconds.
+    Seconds are one second long (the samples' grid).
+
+    Args:
+        disp_gnss_m: GNSS displacement per second, metres.
+        angle_rl_rad: rear-left wheel angle per second, rad (the WPM's mode).
+        angle_rr_rad: rear-right wheel angle per second, rad.
+        min_speed_m_s: seconds slower than this are left out.
+
+    Returns:
+        ``(r_rl_m, r_rr_m)``, or None when no second moves fast enough.
+    """
+    d = np.asarray(disp_gnss_m, np.float64)
+    try:
+        fit = fit_radii_ratio_of_sums(d, angle_rl_rad, angle_rr_rad, np.ones_like(d), min_speed_m_s)
+    except ValueError:
+        return None
+    return fit.r_rl_m, fit.r_rr_m
+
+
 def fit_radii_mean_of_ratios(
     disp_gnss_m: np.ndarray,
     omega_rl_rad_s: np.ndarray,

@@ -16,7 +16,7 @@ from rwhonet import contracts as k
 from rwhonet.features.calibration import Calibration
 from rwhonet.features.scaling import MinMaxScaler
 from rwhonet.features.seconds import SegmentSeconds
-from rwhonet.features.wpm import label_m, wheel_angle_rad, wpm_displacement_m
+from rwhonet.features.wpm import WPM_MODES, label_m, wheel_angle_rad, wpm_displacement_m
 
 
 def sample_table(
@@ -31,18 +31,25 @@ def sample_table(
         sec: the segment's raw per-second quantities.
         calibration: rear radii for the WPM.
         scaler: fitted min-max scaler.
-        wpm_mode: ``integrated`` or ``reference``.
+        wpm_mode: ``integrated`` or ``reference``: the WPM the label is taken against
+            (both modes' displacements are written, for the baselines).
 
     Returns:
         Table with columns :data:`rwhonet.contracts.SAMPLE_COLUMNS`: float64 ``t_s`` and metres,
         float32 features, string ``scenario``.
     """
-    disp_wpm = wpm_displacement_m(
-        wheel_angle_rad(sec.angle_rl_rad, sec.omega_end_rl_rad_s, wpm_mode),
-        wheel_angle_rad(sec.angle_rr_rad, sec.omega_end_rr_rad_s, wpm_mode),
-        calibration.r_rl_m,
-        calibration.r_rr_m,
-    )
+    angles = {
+        mode: (
+            wheel_angle_rad(sec.angle_rl_rad, sec.omega_end_rl_rad_s, mode),
+            wheel_angle_rad(sec.angle_rr_rad, sec.omega_end_rr_rad_s, mode),
+        )
+        for mode in WPM_MODES
+    }
+    disp = {
+        mode: wpm_displacement_m(rl, rr, calibration.r_rl_m, calibration.r_rr_m)
+        for mode, (rl, rr) in angles.items()
+    }
+    disp_wpm = disp[wpm_mode]
     # Transposed copy: each feature column becomes one contiguous float32 array.
     features = np.ascontiguousarray(scaler.transform(sec.wheels_rad_s).T)
     columns = {
@@ -50,6 +57,10 @@ def sample_table(
         k.DISP_GNSS_M: sec.disp_gnss_m,
         k.DISP_WPM_M: disp_wpm,
         k.LABEL_M: label_m(sec.disp_gnss_m, disp_wpm),
+        k.DISP_WPM_INTEGRATED_M: disp["integrated"],
+        k.DISP_WPM_REFERENCE_M: disp["reference"],
+        k.ANGLE_RL_RAD: angles[wpm_mode][0],
+        k.ANGLE_RR_RAD: angles[wpm_mode][1],
         **dict(zip(k.FEATURE_COLUMNS, features, strict=True)),
         k.SCENARIO: pa.array(sec.scenario, type=pa.string()),
     }

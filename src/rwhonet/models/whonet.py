@@ -88,5 +88,15 @@ class WhONet(nn.Module):
         Returns:
             (B,) predicted GNSS − WPM displacement in metres.
         """
-        out, _ = self.rnn(x)
-        return self.head(self.dropout(out[:, -1, :])).squeeze(-1)
+        if x.shape[1] == 1 and self.rnn.num_layers == 1:
+            # One time step: h_{t-1} = 0, so Eq. 12 is tanh(W_x X_t + b_h). The same
+            # weights and the same gradients as nn.RNN (U_h gets none either way),
+            # without nn.RNN's per-call set-up, which dominates a step of this size.
+            rnn = self.rnn
+            h = torch.tanh(
+                torch.addmm(rnn.bias_ih_l0 + rnn.bias_hh_l0, x[:, 0], rnn.weight_ih_l0.t())
+            )
+        else:
+            out, _ = self.rnn(x)
+            h = out[:, -1, :]
+        return self.head(self.dropout(h)).squeeze(-1)

@@ -1,12 +1,13 @@
 """DVC stage ``adapt``: R-WhONet at every m of the grid (paper §2.6, §3.3.3, §3.4).
 
 Every target test drive gets its own R-WhONet per m (the paper recalibrates per
-drive): G-WhONet fine-tuned on the drive's first m seconds
-(:func:`rwhonet.models.adapt.fine_tune`). One process covers the whole grid,
-because a process costs more to start than all its fine-tunes take
-(``benchmarks/bench_train.py``); the outputs are still one folder per m,
-``models/r/m<m>/`` with ``<drive>.pt``, the drives' per-second predictions and
-the run record. The evaluation scores only the seconds after the largest m.
+drive): G-WhONet of the same training seed fine-tuned on the drive's first m
+seconds (:func:`rwhonet.models.adapt.fine_tune`). One process per seed covers
+the whole grid, because a process costs more to start than all its fine-tunes
+take (``benchmarks/bench_train.py``); the outputs are still one folder per m,
+``models/r/seed<seed>/m<m>/`` with ``<drive>.pt``, the drives' per-second
+predictions and the run record. The evaluation scores only the seconds after
+the largest m.
 """
 
 from __future__ import annotations
@@ -46,15 +47,16 @@ def check_lengths(test: SampleSet, m_grid: list[int]) -> None:
 
 
 def adapt_grid(
-    params: Params, samples_dir: Path, g_dir: Path, out_root: Path
+    params: Params, seed: int, samples_dir: Path, g_dir: Path, out_root: Path
 ) -> tuple[list[RunRecord], float]:
     """Fine-tune G on the first m seconds of every target test drive, for every m.
 
     Args:
         params: resolved parameters (``adapt`` holds the grid and the fine-tuning recipe).
+        seed: the training seed (shuffling and dropout of every fine-tune).
         samples_dir: the label stage's samples folder.
-        g_dir: G-WhONet's folder (its model file is the starting point).
-        out_root: ``models/r``; replaced as a whole, one ``m<m>`` folder per m.
+        g_dir: G-WhONet's folder for this seed (its model file is the starting point).
+        out_root: ``models/r/seed<seed>``; replaced as a whole, one ``m<m>`` folder per m.
 
     Returns:
         One run record per m (with a child run per drive) and the seconds of
@@ -79,7 +81,7 @@ def adapt_grid(
                 first = (drive == d) & (k < m)
                 result = fine_tune(
                     g_net, g_hparams, test.x[first], test.y[first],
-                    adapt=params.adapt, seed=params.seed,
+                    adapt=params.adapt, seed=seed,
                 )  # fmt: skip
                 results[d] = result
                 seconds += result.seconds
@@ -90,8 +92,8 @@ def adapt_grid(
                 children.append(
                     RunRecord(
                         name=f"R m={m} {d}",
-                        tags=_tags(params, m) | {"drive": d},
-                        params={**model_params(params, "adapt"), "adapt.m": m, "drive": d},
+                        tags=_tags(seed, m) | {"drive": d},
+                        params={**model_params(params, seed, "adapt"), "adapt.m": m, "drive": d},
                         history=history_rows(result.history),
                         metrics={
                             "n_adapt_samples": int(first.sum()),
@@ -104,8 +106,8 @@ def adapt_grid(
             any_result = next(iter(results.values()))
             record = RunRecord(
                 name=f"R-WhONet m={m}",
-                tags=_tags(params, m),
-                params={**model_params(params, "adapt"), "adapt.m": m},
+                tags=_tags(seed, m),
+                params={**model_params(params, seed, "adapt"), "adapt.m": m},
                 metrics={
                     "n_trainable_params": any_result.n_trainable,
                     "n_total_params": any_result.n_total,
@@ -118,19 +120,14 @@ def adapt_grid(
     return records, seconds
 
 
-def _tags(params: Params, m: int) -> dict[str, str]:
-    return {
-        "model": "R",
-        "m": str(m),
-        "vehicle": "target",
-        "seed": str(params.seed),
-        "dvc_stage": "adapt",
-    }
+def _tags(seed: int, m: int) -> dict[str, str]:
+    return {"model": "R", "m": str(m), "vehicle": "target", "seed": str(seed), "dvc_stage": "adapt"}
 
 
-def main(params: Params) -> None:
-    """The ``adapt`` stage: ``models/g`` and the test drives -> ``models/r/m<m>`` for every m."""
-    records, seconds = adapt_grid(params, paths.SAMPLES, paths.MODEL_G, paths.MODELS_R)
+def main(params: Params, seed: int) -> None:
+    """The ``adapt@<seed>`` stage: G of that seed -> ``models/r/seed<seed>/m<m>`` for every m."""
+    out = paths.model_dir("r", seed)
+    records, seconds = adapt_grid(params, seed, paths.SAMPLES, paths.model_dir("g", seed), out)
     counts = records[0].metrics
     n_drives = len(records[0].children)
     print(
@@ -138,5 +135,5 @@ def main(params: Params) -> None:
         f"({', '.join(str(m) for m in params.adapt.m_grid)} s), trainable "
         f"{int(counts['n_trainable_params'])} of {int(counts['n_total_params'])} parameters "
         f"({params.adapt.trainable}), {params.adapt.epochs} epochs, {seconds:.1f} s of "
-        f"fine-tuning -> {paths.rel(paths.MODELS_R)}"
+        f"fine-tuning -> {paths.rel(out)}"
     )

@@ -14,9 +14,9 @@ from rwhonet.config import Params, flatten
 from rwhonet.stages.samples import SampleSet
 
 
-def model_params(params: Params, *sections: str) -> dict[str, object]:
+def model_params(params: Params, seed: int, *sections: str) -> dict[str, object]:
     """Flat, resolved parameters a model run depends on (for MLflow and run.json)."""
-    d = {"seed": params.seed, "sim.profile": params.sim.profile, "data.source": params.data.source}
+    d = {"seed": seed, "sim.profile": params.sim.profile, "data.source": params.data.source}
     for s in ("label", "model", *sections):
         d.update(flatten(params.section(s), s + "."))
     return d

@@ -24,15 +24,16 @@ FRAME_COLUMNS = [*k.SAMPLE_VALUE_COLUMNS, k.SCENARIO]
 
 @dataclass
 class SampleSet:
-    """Samples of one role, in drive → segment → time order.
+    """Samples of one or more roles, in role → drive → segment → time order.
 
     Attributes:
         x: (N, seq_len, 40) float32 scaled wheel-speed windows (paper Eqs. 14-15).
         y: (N,) float32 labels in metres (GNSS − WPM per second, Eq. 11).
-        frame: per-sample columns ``drive, segment, group, k, t_s, disp_gnss_m,
-            disp_wpm_m, label_m, scenario``; ``group`` is an integer segment id
-            (windows never cross it) and ``k`` the sample's 0-based rank within
-            its drive (so "the first m seconds of a drive" is ``k < m``).
+        frame: per-sample columns ``drive, segment, group, k, role`` and the samples'
+            value columns (:data:`rwhonet.contracts.SAMPLE_VALUE_COLUMNS`) and
+            ``scenario``; ``group`` is an integer segment id (windows never cross
+            it) and ``k`` the sample's 0-based rank within its drive (so "the
+            first m seconds of a drive" is ``k < m``).
     """
 
     x: np.ndarray
@@ -52,41 +53,50 @@ class SampleSet:
         return list(dict.fromkeys(self.frame["drive"]))
 
 
-def load_role(samples_dir: Path, role: str, seq_len: int) -> SampleSet:
-    """Stack every segment of ``role`` into model inputs.
+def load_role(
+    samples_dir: Path, role: str | tuple[str, ...], seq_len: int, *, required: bool = True
+) -> SampleSet:
+    """Stack every segment of one or more roles into model inputs.
 
     Args:
         samples_dir: the label stage's output folder (holds ``manifest.json``).
-        role: ``source_train``, ``target_train``, ``target_test``...
+        role: ``source_train``, ``target_train``, ``target_test``..., or a tuple of
+            roles (in that order; ``contracts.TEST_ROLES`` for every test drive).
         seq_len: number of one-second steps per input sequence.
+        required: raise when there is no sample at all (else return an empty set).
 
     Returns:
-        The role's samples; the first ``seq_len - 1`` seconds of each segment
-        have no full window and are left out.
+        The samples; the first ``seq_len - 1`` seconds of each segment have no
+        full window and are left out.
 
     Raises:
-        InputError: when the role has no samples.
+        InputError: when a required role has no samples.
     """
+    roles = (role,) if isinstance(role, str) else tuple(role)
     manifest = read_json(Path(samples_dir) / k.MANIFEST)
-    entries = [e for e in manifest["segments"] if e["role"] == role]
-    entries.sort(key=lambda e: (e["drive"], e["segment"]))
+    entries = [e for e in manifest["segments"] if e["role"] in roles]
+    entries.sort(key=lambda e: (roles.index(e["role"]), e["drive"], e["segment"]))
     frames = []
     for group, entry in enumerate(entries):
         seg = pd.read_parquet(Path(samples_dir) / f"{entry['segment']}.parquet")
+        seg.insert(0, "role", entry["role"])
         seg.insert(0, "group", group)
         seg.insert(0, "segment", entry["segment"])
         seg.insert(0, "drive", entry["drive"])
         frames.append(seg)
-    if not frames or sum(len(f) for f in frames) == 0:
-        raise InputError(
-            [Problem(str(samples_dir), None, None, f"labelled samples for role {role!r}", "none")]
-        )
+    if sum(len(f) for f in frames) == 0:
+        if required:
+            raise InputError(
+                [Problem(str(samples_dir), None, None, f"labelled samples for {roles}", "none")]
+            )
+        frames = [pd.DataFrame(columns=["drive", "segment", "group", "role", *k.SAMPLE_COLUMNS])]
     table = pd.concat(frames, ignore_index=True)
     # Segment names sort by start time within a drive (<drive>__s<k>), so this is time order.
-    table = table.sort_values(["drive", "group", "t_s"], kind="stable").reset_index(drop=True)
+    table = table.sort_values(["group", "t_s"], kind="stable").reset_index(drop=True)
     x2 = table[list(k.FEATURE_COLUMNS)].to_numpy(np.float32)
     x, kept = sequences(x2, seq_len, table["group"].to_numpy())
-    frame = table.loc[kept, ["drive", "segment", "group", *FRAME_COLUMNS]].reset_index(drop=True)
+    columns = ["drive", "segment", "group", "role", *FRAME_COLUMNS]
+    frame = table.loc[kept, columns].reset_index(drop=True)
     frame.insert(3, "k", frame.groupby("drive", sort=False).cumcount().to_numpy())
     y = frame[k.LABEL_M].to_numpy(np.float32)
     return SampleSet(np.ascontiguousarray(x, dtype=np.float32), y, frame)

@@ -23,16 +23,18 @@ WHICH = {
 
 
 def train_model(
-    params: Params, which: Literal["G", "S"], samples_dir: Path, out_dir: Path
+    params: Params, which: Literal["G", "S"], seed: int, samples_dir: Path, out_dir: Path
 ) -> tuple[RunRecord, float]:
-    """Train one WhONet on its role's drives and predict the target test drives.
+    """Train one WhONet on its role's drives and predict every test drive.
 
     Args:
         params: resolved parameters.
         which: ``G`` (source vehicle's training drives) or ``S`` (target vehicle's).
+        seed: the training seed (weights, shuffling, dropout).
         samples_dir: the label stage's samples folder.
-        out_dir: ``models/g`` or ``models/s``; receives the model file, the test
-            drives' per-second predictions and the run record.
+        out_dir: ``models/<g|s>/seed<seed>``; receives the model file, the per-second
+            predictions on every test drive (target and held-out source) and the
+            run record.
 
     Returns:
         The run record (also written to ``out_dir/run.json``) and the seconds
@@ -46,21 +48,19 @@ def train_model(
     role, vehicle, name = WHICH[which]
     data = load_role(samples_dir, role, params.model.seq_len)
     train, val = split_tail(data, params.train.val_fraction)
-    result = fit(
-        train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=params.seed
-    )
-    test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
+    result = fit(train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=seed)
+    test = load_role(samples_dir, contracts.TEST_ROLES, params.model.seq_len)
     pred = predict(result.module, test.x)
     record = RunRecord(
         name=name,
         tags={
             "model": which,
             "vehicle": vehicle,
-            "seed": str(params.seed),
+            "seed": str(seed),
             "dvc_stage": f"train_{which.lower()}",
             "trained_on": role,
         },
-        params=model_params(params, "train"),
+        params=model_params(params, seed, "train"),
         history=history_rows(result.history),
         metrics={
             "n_train_samples": len(train),
@@ -78,10 +78,10 @@ def train_model(
     return record, result.seconds
 
 
-def main(params: Params, which: Literal["G", "S"]) -> None:
-    """The ``train_g`` or ``train_s`` stage."""
-    out = paths.MODEL_G if which == "G" else paths.MODEL_S
-    rec, seconds = train_model(params, which, paths.SAMPLES, out)
+def main(params: Params, which: Literal["G", "S"], seed: int) -> None:
+    """The ``train_g@<seed>`` or ``train_s@<seed>`` stage."""
+    out = paths.model_dir(which.lower(), seed)
+    rec, seconds = train_model(params, which, seed, paths.SAMPLES, out)
     last = rec.history[-1] if rec.history else {}
     nan = float("nan")
     m = rec.metrics

@@ -260,7 +260,7 @@ def _drive_problems(
         )
         return problems, {"checked": False, "note": "no valid segment"}
 
-    nominal = params.data.vehicles[entry["vehicle"]].nominal_radius_m
+    nominal = params.nominal_radius_m(entry["vehicle"])
     est = implied_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
     radius = {
         "implied_m": None if np.isnan(est.radius_m) else est.radius_m,
