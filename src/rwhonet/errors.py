@@ -1,4 +1,4 @@
-"""Errors a user can act on: which file, which row, which column, what was expected."""
+"""Errors a user can act on: which file, which row, which column, what was expected, what to do."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ class Problem:
         column: the file's column name, or None.
         expected: what was expected.
         found: what was found.
+        fix: what the user can do about it (None when the expected value says it all).
     """
 
     file: str
@@ -22,6 +23,7 @@ class Problem:
     column: str | None
     expected: str
     found: str
+    fix: str | None = None
 
     def __str__(self) -> str:
         where = self.file
@@ -30,6 +32,17 @@ class Problem:
         if self.column is not None:
             where += f", column {self.column!r}"
         return f"{where}: expected {self.expected}; found {self.found}"
+
+    def to_dict(self) -> dict[str, object]:
+        """The problem as plain data (for JSON reports)."""
+        return {
+            "file": self.file,
+            "row": self.row,
+            "column": self.column,
+            "expected": self.expected,
+            "found": self.found,
+            "fix": self.fix,
+        }
 
 
 class InputError(Exception):
@@ -40,10 +53,22 @@ class InputError(Exception):
         self.summary = summary or f"{len(self.problems)} problem(s) in the input data"
         super().__init__(self.report())
 
+    def fixes(self) -> list[str]:
+        """What to do, once per distinct advice, in the order the problems give it."""
+        return list(dict.fromkeys(p.fix for p in self.problems if p.fix))
+
     def report(self, limit: int = 50) -> str:
-        """Return a readable multi-line report (at most ``limit`` problems listed)."""
+        """Return a readable multi-line report (at most ``limit`` problems listed).
+
+        The problems come first, one per line; then, under "What to do", each distinct
+        piece of advice once (many rows of one check share one).
+        """
         lines = [self.summary + ":"]
         lines += [f"  - {p}" for p in self.problems[:limit]]
         if len(self.problems) > limit:
             lines.append(f"  ... and {len(self.problems) - limit} more")
+        fixes = self.fixes()
+        if fixes:
+            lines.append("What to do:")
+            lines += [f"  - {fix}" for fix in fixes]
         return "\n".join(lines)

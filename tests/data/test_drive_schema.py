@@ -153,4 +153,4 @@ def test_time_in_ms_is_recognised_when_the_first_time_is_missing(drive, vp):
     drive.loc[0, c.T_S] = np.nan  # the row the median verdict is attached to
     found = [(p.row, p.expected) for p in problems(drive, vp)]
     assert (1, "a value (this channel is required)") in found
-    assert (None, "a median step of 0.1 ± 0.05 s") in found
+    assert (None, "a median step of 0.1 ± 0.05 s (validate.sample_period_s)") in found

@@ -3,7 +3,9 @@
 A column that is wrong throughout (a text column mapped by mistake, a whole
 drive in the wrong unit) would otherwise produce a million problems; every
 report lists the first few rows of each (file, column, check) and one more
-line with the count and the row range of the rest.
+line with the count and the row range of the rest. :class:`RowTally` does the
+same for rows that arrive block by block (the streaming CSV reader), keeping
+only what the report shows.
 """
 
 from __future__ import annotations
@@ -17,6 +19,75 @@ from rwhonet.errors import Problem
 ROWS_LISTED = 5  # rows listed per (file, column, check) before the rest is summarised
 
 
+class RowTally:
+    """The failing rows of one check, as they arrive: the first few listed, the rest counted.
+
+    Args:
+        file: the file as the user knows it.
+        column: the file's column name (None when file-wide).
+        expected: what the check expected.
+        fix: what to do about it.
+        limit: how many rows to list one by one.
+    """
+
+    def __init__(
+        self,
+        file: str,
+        column: str | None,
+        expected: str,
+        fix: str | None = None,
+        limit: int = ROWS_LISTED,
+    ) -> None:
+        self.file, self.column, self.expected, self.fix, self.limit = (
+            file,
+            column,
+            expected,
+            fix,
+            limit,
+        )
+        self.listed: list[tuple[int, str]] = []
+        self.count = 0
+        self.rest_min: int | None = None
+        self.rest_max: int | None = None
+
+    def add(self, rows: Sequence[int] | np.ndarray, found: Sequence[str]) -> None:
+        """Record failing rows (in file order) and what was found in each.
+
+        ``found`` may be shorter than ``rows``: only the rows still to be listed need it.
+        """
+        rows = np.asarray(rows, dtype=np.int64)
+        if rows.size == 0:
+            return
+        room = max(self.limit - len(self.listed), 0)
+        self.listed += [(int(r), str(f)) for r, f in zip(rows[:room], found[:room], strict=False)]
+        rest = rows[room:]
+        if rest.size:
+            lo, hi = int(rest.min()), int(rest.max())
+            self.rest_min = lo if self.rest_min is None else min(self.rest_min, lo)
+            self.rest_max = hi if self.rest_max is None else max(self.rest_max, hi)
+        self.count += int(rows.size)
+
+    def problems(self) -> list[Problem]:
+        """The listed rows, plus one summary problem when rows were left out."""
+        out = [
+            Problem(self.file, r, self.column, self.expected, f, self.fix) for r, f in self.listed
+        ]
+        rest = self.count - len(self.listed)
+        if rest:
+            out.append(
+                Problem(
+                    self.file,
+                    None,
+                    self.column,
+                    self.expected,
+                    f"{rest} more row(s) like these, rows {self.rest_min}-{self.rest_max} "
+                    f"({self.count} in all)",
+                    self.fix,
+                )
+            )
+        return out
+
+
 def row_problems(
     file: str,
     column: str | None,
@@ -24,6 +95,7 @@ def row_problems(
     found: Sequence[str],
     expected: str,
     limit: int = ROWS_LISTED,
+    fix: str | None = None,
 ) -> list[Problem]:
     """List the first ``limit`` bad rows of one check and summarise the rest.
 
@@ -31,28 +103,14 @@ def row_problems(
         file: the file as the user knows it.
         column: the file's column name (None when file-wide).
         rows: 1-based data rows that failed, in file order.
-        found: what was found in each of ``rows`` (same length).
+        found: what was found in each of ``rows`` (at least the first ``limit``).
         expected: what the check expected.
         limit: how many rows to list one by one.
+        fix: what to do about it.
 
     Returns:
         ``min(len(rows), limit)`` problems, plus one summary problem when rows were left out.
     """
-    rows = np.asarray(rows, dtype=np.int64)
-    out = [
-        Problem(file, int(r), column, expected, str(f))
-        for r, f in zip(rows[:limit], found[:limit], strict=True)
-    ]
-    rest = rows[limit:]
-    if rest.size:
-        out.append(
-            Problem(
-                file,
-                None,
-                column,
-                expected,
-                f"{rest.size} more row(s) like these, rows {int(rest.min())}-{int(rest.max())} "
-                f"({rows.size} in all)",
-            )
-        )
-    return out
+    tally = RowTally(file, column, expected, fix, limit)
+    tally.add(rows, found)
+    return tally.problems()

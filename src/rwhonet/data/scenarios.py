@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +42,27 @@ def sidecar_path(drive_file: Path) -> Path:
     return drive_file.with_suffix(SUFFIX)
 
 
+SIDECAR_FIX = (
+    'correct the sidecar ({"intervals": [{"start_s": .., "end_s": .., "tag": ".."}]}, in the '
+    "drive's own clock), or delete it: scenario tags are optional"
+)
+
+
 def read_scenarios(path: Path, display: str | None = None) -> list[ScenarioInterval]:
+    """Read and check a scenario sidecar (see :func:`_read_scenarios`).
+
+    Raises:
+        InputError: as :func:`_read_scenarios`, every problem saying what to do.
+    """
+    try:
+        return _read_scenarios(path, display)
+    except InputError as err:
+        raise InputError(
+            [replace(p, fix=p.fix or SIDECAR_FIX) for p in err.problems], summary=err.summary
+        ) from None
+
+
+def _read_scenarios(path: Path, display: str | None = None) -> list[ScenarioInterval]:
     """Read and check a scenario sidecar.
 
     Args:
@@ -61,6 +81,8 @@ def read_scenarios(path: Path, display: str | None = None) -> list[ScenarioInter
         doc = json.loads(Path(path).read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise InputError([Problem(file, None, None, "valid JSON", str(err))]) from None
+    except OSError as err:
+        raise InputError([Problem(file, None, None, "a readable file", str(err))]) from None
     items = doc.get("intervals") if isinstance(doc, dict) else None
     if not isinstance(items, list):
         raise InputError(

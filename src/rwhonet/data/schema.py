@@ -37,10 +37,11 @@ _STEP_SLACK_S = 1e-9
 
 @dataclass(frozen=True)
 class _Explain:
-    """How to word one check's failures: what was expected, and what was found in a row."""
+    """How to word one check's failures: what was expected, what was found, what to do."""
 
     expected: str
     found: Callable[[pd.DataFrame, int, object], str]
+    fix: str | None = None
 
 
 def _num(x: object) -> str:
@@ -112,23 +113,39 @@ def _drive_checks(
 
     def median_found(df: pd.DataFrame, i: int, case: object) -> str:
         median = float(df[c.T_S].diff().median())
-        hint = "; time in ms instead of s?" if abs(median / 1000.0 - period) <= tol else ""
+        hint = ""
+        if abs(median / 1000.0 - period) <= tol:
+            hint = "; time in ms instead of s?"
+        elif median > 0 and np.isfinite(median):
+            hint = f": the drive is sampled at {1.0 / median:.3g} Hz, not {1.0 / period:.3g} Hz"
         return f"median step {median:.6g} s{hint}"
 
     increasing = "a time after the previous row's (time strictly increasing)"
     checks = {
         "time_finite": (
             pa.Check(lambda s: np.isfinite(s), name="time_finite"),
-            _Explain("a finite time in seconds", _value),
+            _Explain(
+                "a finite time in seconds",
+                _value,
+                "give every row its time in seconds (fill the cell or delete the row)",
+            ),
         ),
         "time_not_repeated": (
             pa.Check(lambda s: step(s) != 0, name="time_not_repeated"),
-            _Explain(increasing, lambda df, i, case: f"t = {_num(case)} s again (as in row {i})"),
+            _Explain(
+                increasing,
+                lambda df, i, case: f"t = {_num(case)} s again (as in row {i})",
+                "delete the repeated rows (an export that wrote a sample twice), or re-export "
+                "the drive",
+            ),
         ),
         "time_not_backwards": (
             pa.Check(lambda s: ~(step(s) < 0), name="time_not_backwards"),
             _Explain(
-                increasing, lambda df, i, case: "time goes backwards: " + _time_step(df, i, case)
+                increasing,
+                lambda df, i, case: "time goes backwards: " + _time_step(df, i, case),
+                "sort the rows by time, or split the file into one drive per recording where "
+                "the clock restarts",
             ),
         ),
         "sample_period": (
@@ -137,28 +154,50 @@ def _drive_checks(
                 f"a step of {period} ± {tol} s from the previous row (validate.sample_period_s), "
                 f"or a gap > {gap} s (validate.gnss.max_gap_s; the drive is split there)",
                 _time_step,
+                f"the pipeline needs one row every {period} s: re-export the drive at "
+                f"{1.0 / period:.3g} Hz (dropped or jittered samples?)",
             ),
         ),
         "median_sample_period": (
             # ignore_na=False: the verdict sits on a drive's first row, even a NaN one.
             pa.Check(median_period, name="median_sample_period", ignore_na=False),
-            _Explain(f"a median step of {period} ± {tol} s", median_found),
+            _Explain(
+                f"a median step of {period} ± {tol} s (validate.sample_period_s)",
+                median_found,
+                f"resample the drive to {1.0 / period:.3g} Hz and give its time in seconds (a "
+                "column map can read ms: unit ms)",
+            ),
         ),
         "latitude_range": (
             pa.Check(lambda s: s.between(-90.0, 90.0), name="latitude_range"),
-            _Explain("a latitude in [-90, 90] deg", _value),
+            _Explain(
+                "a latitude in [-90, 90] deg",
+                _value,
+                "give the latitude in decimal degrees in this column (not swapped with the "
+                "longitude, not in radians or degrees-minutes); delete corrupt rows",
+            ),
         ),
         "longitude_range": (
             pa.Check(lambda s: s.between(-180.0, 180.0), name="longitude_range"),
-            _Explain("a longitude in [-180, 180] deg", _value),
+            _Explain(
+                "a longitude in [-180, 180] deg",
+                _value,
+                "give the longitude in decimal degrees in this column (not swapped with the "
+                "latitude, not in radians or degrees-minutes); delete corrupt rows",
+            ),
         ),
         "wheel_speed_range": (
             pa.Check(lambda s: s.abs() < w_max, name="wheel_speed_range"),
-            _Explain(f"|wheel speed| < {w_max} rad/s (validate.max_abs_wheel_speed_rad_s)", _value),
+            _Explain(
+                f"|wheel speed| < {w_max} rad/s (validate.max_abs_wheel_speed_rad_s)",
+                _value,
+                "give wheel speeds in rad/s (a column map can read rpm or deg/s) and delete "
+                "corrupt rows",
+            ),
         ),
         "satellites_non_negative": (
             pa.Check(lambda s: s >= 0, name="satellites_non_negative"),
-            _Explain("a satellite count >= 0", _value),
+            _Explain("a satellite count >= 0", _value, "check the export of the satellite column"),
         ),
     }
     return checks
@@ -170,7 +209,10 @@ _DRIVE_WIDE = ("median_sample_period",)
 # What pandera's own checks report, worded for a user.
 _BUILTIN = {
     "not_nullable": _Explain(
-        "a value (this channel is required)", lambda df, i, case: "no value (empty or NaN)"
+        "a value (this channel is required)",
+        lambda df, i, case: "no value (empty or NaN)",
+        "fill the empty cells, or delete the rows (a gap longer than validate.gnss.max_gap_s "
+        "splits the drive there)",
     ),
     "column_in_dataframe": _Explain("this required channel", lambda df, i, case: "no such column"),
     "column_in_schema": _Explain(
@@ -305,7 +347,9 @@ def schema_problems_batch(
                     if check in ("column_in_schema", "column_in_dataframe"):
                         name = source_columns[k].get(str(case), str(case))
                     found = how.found(drive(k), 0, case)
-                    problems[k].append(Problem(source_files[k], None, name, how.expected, found))
+                    problems[k].append(
+                        Problem(source_files[k], None, name, how.expected, found, how.fix)
+                    )
             continue
         order = np.argsort(index, kind="stable")
         rows = index[order].astype(np.int64)
@@ -318,7 +362,9 @@ def schema_problems_batch(
             if check in _DRIVE_WIDE:
                 found = how.found(drive(k), 0, cases_sorted[mine[0]])
                 problems[k].append(
-                    Problem(source_files[k], None, column_name(k, column), how.expected, found)
+                    Problem(
+                        source_files[k], None, column_name(k, column), how.expected, found, how.fix
+                    )
                 )
                 continue
             shown = cases_sorted[mine[:ROWS_LISTED]]
@@ -326,6 +372,6 @@ def schema_problems_batch(
                 how.found(drive(k), int(i), case) for i, case in zip(local, shown, strict=False)
             ]
             problems[k] += row_problems(
-                source_files[k], column_name(k, column), local + 1, found, how.expected
+                source_files[k], column_name(k, column), local + 1, found, how.expected, fix=how.fix
             )
     return problems
