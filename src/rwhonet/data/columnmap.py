@@ -12,6 +12,8 @@ import math
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
+
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive, read_header, read_numeric
@@ -90,6 +92,8 @@ def read_columnmap(
             spec.column,
             f"a column named {spec.column!r} (data.column_maps.{name}.{key})",
             f"no such name in the header {[h.strip() for h in header]}",
+            f"name the file's column in data.column_maps.{name}.{key}.column (matched "
+            "stripped, case-insensitive), or give the file that column",
         )
         for key, spec in column_map.items()
         if spec.column.strip().lower() not in position
@@ -99,9 +103,14 @@ def read_columnmap(
     positions = {key: position[spec.column.strip().lower()] for key, spec in column_map.items()}
     values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
     columns = {}
+    shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
     for key, spec in column_map.items():
         canonical, factors = KEYS[key]
-        columns[canonical] = values[positions[key]] * factors[spec.unit]
+        pos, factor = positions[key], factors[spec.unit]
+        if pos in shared or not values[pos].flags.writeable:  # two keys read one column
+            columns[canonical] = values[pos] * factor
+        else:  # in place: the reader's arrays are ours, and a copy would hold a column twice
+            columns[canonical] = np.multiply(values[pos], factor, out=values[pos])
     return RawDrive(
         columns=columns,
         source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items()},

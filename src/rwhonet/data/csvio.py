@@ -1,33 +1,63 @@
-"""Fast numeric CSV reading shared by the drive readers.
+"""Numeric CSV reading shared by the drive readers, streamed block by block.
 
 This module knows column *positions*, never column names: ``iovnbd.py`` and
 ``columnmap.py`` decide which position holds which quantity. The fast path is
-one multithreaded ``pyarrow.csv`` pass converting straight to float64; only
-when it fails are the columns re-read as text, single-threaded, so that every
-bad cell and every row with the wrong number of columns is reported with its
-row number.
+one ``pyarrow.csv`` streaming pass converting straight to float64, a block of
+``BLOCK_BYTES`` at a time, so memory holds the wanted columns (8 bytes per
+cell) and one block of text, never the whole file. Only when it fails are the
+columns re-read as bytes, again block by block and single-threaded, so that
+every bad cell and every row with the wrong number of columns is reported with
+its row number; only blocks with a bad cell are parsed cell by cell.
 
 Row numbers are 1-based *data* rows: the header is not counted, and neither
 are blank lines (pyarrow skips them). For a file without blank lines, data row
 ``r`` is line ``r + 1`` of the file. Readers keep every data row, in order, so
 row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its file;
 ``validate`` relies on this to point at the file's rows.
+
+Whatever the bytes, a reader returns the columns or raises
+:class:`~rwhonet.errors.InputError` (``tests/data/test_reader_fuzz.py``).
 """
 
 from __future__ import annotations
 
 import csv
-from collections.abc import Mapping
+import io
+import re
+import sys
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
-from rwhonet.data.problems import row_problems
+from rwhonet.data.problems import RowTally
 from rwhonet.errors import InputError, Problem
+
+# Text parsed per step. A row longer than this cannot be read (no drive row comes close).
+BLOCK_BYTES = 1 << 20
+# The header is read on its own: a first line longer than this is not a CSV header.
+HEADER_MAX_BYTES = 1 << 20
+
+EXPORT_CSV = (
+    "export the drive as a CSV text file: UTF-8 (or ASCII), comma-separated, one header row "
+    "then one row per sample"
+)
+
+# File signatures of things that are not CSV text (what spreadsheet tools produce by mistake).
+_SIGNATURES: tuple[tuple[bytes, str], ...] = (
+    (b"\xff\xfe", "UTF-16 text (byte-order mark FF FE), e.g. Excel's 'Unicode Text'"),
+    (b"\xfe\xff", "UTF-16 text (byte-order mark FE FF)"),
+    (b"PK\x03\x04", "a ZIP archive (an .xlsx workbook saved with a .csv name?)"),
+    (b"\xd0\xcf\x11\xe0", "an OLE2 file (an .xls workbook saved with a .csv name?)"),
+    (b"\x1f\x8b", "gzip-compressed data (decompress it first)"),
+)
 
 
 @dataclass(frozen=True)
@@ -50,6 +80,13 @@ class RawDrive:
         return len(next(iter(self.columns.values()))) if self.columns else 0
 
 
+def _not_text(file: str, found: str) -> InputError:
+    return InputError(
+        [Problem(file, None, None, "a CSV text file (UTF-8, comma-separated)", found, EXPORT_CSV)],
+        summary=f"{file} is not a CSV text file",
+    )
+
+
 def read_header(path: Path, display: str | None = None) -> list[str]:
     """Return the header row of a CSV file, cells as written (spaces kept).
 
@@ -61,31 +98,89 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
         The header cells.
 
     Raises:
-        InputError: the file is empty.
+        InputError: the file cannot be opened, is empty, is not CSV text (UTF-16, a
+            workbook, compressed, binary), its first line is not a header of comma-separated
+            names (no line break within ``HEADER_MAX_BYTES``, another separator).
     """
+    file = display or str(path)
+    try:
+        with open(path, "rb") as f:
+            line = f.readline(HEADER_MAX_BYTES + 1)
+    except OSError as err:
+        raise InputError(
+            [Problem(file, None, None, "a readable file", f"{type(err).__name__}: {err.strerror}")]
+        ) from None
+    for signature, what in _SIGNATURES:
+        if line.startswith(signature):
+            raise _not_text(file, what)
+    if b"\x00" in line:
+        raise _not_text(file, "binary data (NUL bytes) in the first line")
+    if len(line) > HEADER_MAX_BYTES:
+        raise _not_text(file, f"no line break in the first {HEADER_MAX_BYTES >> 20} MB")
     # utf-8-sig drops a byte-order mark that spreadsheet exports often add in front of the
     # first header name; undecodable bytes are replaced so a bad header still gets reported.
-    with open(path, encoding="utf-8-sig", errors="replace", newline="") as f:
-        header = next(csv.reader(f), None)
+    text = line.decode("utf-8-sig", errors="replace")
+    header = next(csv.reader(io.StringIO(text, newline="")), None)
     if not header or all(not cell.strip() for cell in header):
         raise InputError(
             [
                 Problem(
-                    display or str(path),
+                    file,
                     None,
                     None,
                     "a header row followed by data rows",
-                    "an empty file",
+                    "an empty file" if not line else "an empty first line",
+                    "put the column names in the first line (the IO-VNBD names, or the names "
+                    "data.column_maps gives)",
                 )
             ]
         )
+    if len(header) == 1:
+        for sep, name in ((";", "semicolons"), ("\t", "tabs")):
+            if sep in header[0]:
+                raise InputError(
+                    [
+                        Problem(
+                            file,
+                            None,
+                            None,
+                            "comma-separated columns",
+                            f"a header separated by {name}: {header[0][:60]!r}",
+                            "save the file comma-separated with '.' as the decimal mark "
+                            "(spreadsheets in some locales write ';' and ',')",
+                        )
+                    ]
+                )
     return header
 
 
+@contextmanager
+def _quiet_undecodable_rows() -> Iterator[None]:
+    """Keep pyarrow's noise about rows that are not UTF-8 off the user's terminal.
+
+    pyarrow decodes a malformed row's text for the invalid-row handler; when the row is
+    not UTF-8 that raises inside pyarrow, which prints "Exception ignored ..." with a
+    traceback and then fails the read with ``ArrowInvalid`` naming the row, which the
+    reader reports. Only that UnicodeDecodeError is silenced, only while reading.
+    """
+    previous = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        if unraisable.exc_type is not UnicodeDecodeError:
+            previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
+
+
+@_quiet_undecodable_rows()
 def read_numeric(
     path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None = None
 ) -> dict[int, np.ndarray]:
-    """Read some columns of a CSV file (header row first) as float64.
+    """Read some columns of a CSV file (header row first) as float64, block by block.
 
     Empty cells and the usual missing-value spellings (``NaN``, ``NA``, ``null``) become NaN,
     left for ``validate`` to report; any other text in a number column is an error here.
@@ -101,94 +196,183 @@ def read_numeric(
 
     Raises:
         InputError: listing every row with the wrong number of columns, every non-numeric
-            cell in a wanted column, or a file without data rows.
+            cell in a wanted column, text that is not CSV, or a file without data rows.
     """
+    file = display or str(path)
     names = [f"c{i}" for i in range(n_columns)]
-    include = [names[i] for i in wanted]
-    invalid_rows: list[object] = []
+    invalid_rows = 0
 
     def on_invalid_row(row: object) -> str:
-        invalid_rows.append(row)
+        nonlocal invalid_rows
+        invalid_rows += 1
         return "skip"
 
+    # Rows never outnumber line breaks + 1: the columns are allocated once and filled block
+    # by block (no list of blocks to join at the end, which would hold every value twice).
     try:
-        table = pacsv.read_csv(
+        capacity = _count_lines(path)
+    except OSError:
+        capacity = 0  # unreadable: the slow path says so
+    out = {pos: np.empty(capacity) for pos in wanted}
+    n = 0
+    try:
+        reader = pacsv.open_csv(
             path,
-            read_options=pacsv.ReadOptions(skip_rows=1, column_names=names, use_threads=True),
+            read_options=pacsv.ReadOptions(
+                skip_rows=1, column_names=names, use_threads=False, block_size=BLOCK_BYTES
+            ),
             parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid_row),
             convert_options=pacsv.ConvertOptions(
-                include_columns=include, column_types={n: pa.float64() for n in include}
+                include_columns=[names[i] for i in wanted],
+                column_types={names[i]: pa.float64() for i in wanted},
             ),
         )
-    except pa.ArrowInvalid:
-        table = None  # a cell that is not a number: find all of them on the slow path
-    if table is None or invalid_rows:
-        return _read_numeric_slow(path, n_columns, wanted, display)
-    if table.num_rows == 0:
+        for batch in reader:
+            if invalid_rows or n + batch.num_rows > capacity:
+                invalid_rows = invalid_rows or -1  # (more rows than lines: the file changed)
+                break
+            for pos in wanted:
+                out[pos][n : n + batch.num_rows] = batch.column(names[pos]).to_numpy(
+                    zero_copy_only=False
+                )
+            n += batch.num_rows
+    except (pa.ArrowInvalid, OSError):
+        invalid_rows = -1  # a cell that is not a number, or not CSV: find every problem
+    if invalid_rows:
+        del out
+        return _read_numeric_slow(path, n_columns, wanted, file)
+    if n == 0:
         raise InputError(
             [
                 Problem(
-                    display or str(path),
+                    file,
                     None,
                     None,
                     "at least one data row after the header",
                     "none",
+                    "a drive file holds its samples after the header row",
                 )
             ]
         )
-    return {pos: table.column(names[pos]).to_numpy() for pos in wanted}
+    return {pos: values[:n] for pos, values in out.items()}
+
+
+def _count_lines(path: Path) -> int:
+    """Line breaks in a file + 1: an upper bound of its rows, read in blocks."""
+    n_lf = n_cr = 0
+    with open(path, "rb") as f:
+        while block := f.read(BLOCK_BYTES):
+            n_lf += block.count(b"\n")
+            n_cr += block.count(b"\r")
+    return max(n_lf, n_cr) + 1  # CRLF counted once; old Mac files end lines with CR alone
+
+
+def _kept_rows(start: int, n: int, bad: np.ndarray) -> np.ndarray:
+    """Data rows of the next ``n`` rows pyarrow kept: rows from ``start`` on, not in ``bad``."""
+    bad = bad[bad >= start]
+    candidates = np.arange(start, start + n + bad.size, dtype=np.int64)
+    return candidates[~np.isin(candidates, bad)][:n]
+
+
+def _parse_block(column: pa.Array) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """One block of a column, as bytes -> float64, the positions that are not numbers, and them."""
+    try:
+        return pc.cast(column, pa.float64()).to_numpy(zero_copy_only=False), np.zeros(0, int), []
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        pass
+    cells = [None if b is None else b.decode("utf-8", errors="replace") for b in column.to_pylist()]
+    text = pd.Series(cells, dtype=object)
+    values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=np.float64)
+    bad = np.flatnonzero(np.isnan(values) & text.notna().to_numpy())
+    return values, bad, [cells[i] for i in bad[:50]]
 
 
 def _read_numeric_slow(
-    path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None
+    path: Path, n_columns: int, wanted: Mapping[int, str], file: str
 ) -> dict[int, np.ndarray]:
-    """Failure path of :func:`read_numeric`: read as text and locate every problem."""
-    file = display or str(path)
+    """Failure path of :func:`read_numeric`: read as bytes and locate every problem."""
     names = [f"c{i}" for i in range(n_columns)]
-    include = [names[i] for i in wanted]
-    bad_rows: list[tuple[int, int, str]] = []  # (data row, columns found, text)
+    bad_rows: list[int] = []  # data rows with the wrong column count, in file order
+    rows_tally = RowTally(
+        file,
+        None,
+        f"{n_columns} comma-separated columns, as in the header",
+        "give every row the header's columns (a cut-off last row, a stray comma, or a "
+        "decimal comma?); delete or repair these rows",
+    )
 
     def on_invalid_row(row: pacsv.InvalidRow) -> str:
         # Single-threaded, pyarrow knows the row number; it counts the header line.
-        bad_rows.append((row.number - 1, row.actual_columns, row.text))
+        r = -1 if row.number is None else row.number - 1
+        bad_rows.append(r)
+        rows_tally.add([r], [f"{row.actual_columns} column(s): {row.text[:60]!r}"])
         return "skip"
 
-    table = pacsv.read_csv(
-        path,
-        read_options=pacsv.ReadOptions(skip_rows=1, column_names=names, use_threads=False),
-        parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid_row),
-        convert_options=pacsv.ConvertOptions(
-            include_columns=include,
-            column_types={n: pa.string() for n in include},
-            strings_can_be_null=True,
-        ),
-    )
-    problems: list[Problem] = []
-    if bad_rows:
-        problems += row_problems(
+    cells_tally = {
+        pos: RowTally(
             file,
-            None,
-            [r for r, _, _ in bad_rows],
-            [f"{k} column(s): {text[:60]!r}" for _, k, text in bad_rows],
-            f"{n_columns} comma-separated columns, as in the header",
+            name,
+            "a number",
+            "replace the text by a number, or leave the cell empty for a missing value",
         )
-    # Data row of each row pyarrow kept (it dropped the ones with the wrong column count).
-    n_total = table.num_rows + len(bad_rows)
-    kept_rows = np.setdiff1d(np.arange(1, n_total + 1), [r for r, _, _ in bad_rows])
-
-    out: dict[int, np.ndarray] = {}
-    for pos, column_name in wanted.items():
-        text = pd.Series(table.column(names[pos]).to_numpy(zero_copy_only=False), dtype=object)
-        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=np.float64)
-        bad = np.flatnonzero(np.isnan(values) & text.notna().to_numpy())
-        if bad.size:
-            problems += row_problems(
-                file, column_name, kept_rows[bad], [repr(s) for s in text.iloc[bad]], "a number"
-            )
-        out[pos] = values
+        for pos, name in wanted.items()
+    }
+    chunks: dict[int, list[np.ndarray]] = {pos: [] for pos in wanted}
+    next_row = 1
+    unreadable: Problem | None = None
+    try:
+        reader = pacsv.open_csv(
+            path,
+            read_options=pacsv.ReadOptions(
+                skip_rows=1, column_names=names, use_threads=False, block_size=BLOCK_BYTES
+            ),
+            parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid_row),
+            convert_options=pacsv.ConvertOptions(
+                include_columns=[names[i] for i in wanted],
+                column_types={names[i]: pa.binary() for i in wanted},
+                strings_can_be_null=True,
+            ),
+        )
+        for batch in reader:
+            rows = _kept_rows(next_row, batch.num_rows, np.asarray(bad_rows, dtype=np.int64))
+            if rows.size:
+                next_row = int(rows[-1]) + 1
+            for pos in wanted:
+                values, bad, found = _parse_block(batch.column(names[pos]))
+                cells_tally[pos].add(rows[bad], [repr(s) for s in found])
+                chunks[pos].append(values)
+    except (pa.ArrowInvalid, OSError) as err:
+        message = str(err).splitlines()[0] if str(err) else type(err).__name__
+        # pyarrow numbers the lines it parses, header included ("Row #3: Expected 29 ...").
+        at = re.search(r"Row #(\d+)", message)
+        unreadable = Problem(
+            file,
+            int(at.group(1)) - 1 if at else None,
+            None,
+            f"{n_columns} comma-separated columns of UTF-8 text in every row",
+            f"a row that cannot be read (from about data row {next_row} on): {message[:160]}",
+            EXPORT_CSV,
+        )
+    problems = rows_tally.problems()
+    for tally in cells_tally.values():
+        problems += tally.problems()
+    if unreadable is not None:
+        problems.append(unreadable)
+    n_total = next_row - 1
+    if bad_rows:
+        n_total = max(n_total, max(bad_rows))
     if not problems and n_total == 0:
-        problems.append(Problem(file, None, None, "at least one data row after the header", "none"))
+        problems.append(
+            Problem(
+                file,
+                None,
+                None,
+                "at least one data row after the header",
+                "none",
+                "a drive file holds its samples after the header row",
+            )
+        )
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
     # pandas parsed what pyarrow would not (nothing was reported): keep its values.
-    return out
+    return {pos: np.concatenate(chunks[pos]) if chunks[pos] else np.zeros(0) for pos in wanted}

@@ -12,6 +12,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
+import numpy as np
+
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive, read_header, read_numeric
 from rwhonet.errors import InputError, Problem
@@ -140,6 +142,11 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         positions, match = locate_columns(header)
     except LayoutError as err:
         shown = [h.strip() for h in header]
+        fix = (
+            "give the file the IO-VNBD header (rwhonet.data.iovnbd.HEADERS) or all 29 "
+            "columns in the IO-VNBD order; a CSV in another layout needs a column map "
+            "(data.column_maps) and the role's format set to its name"
+        )
         problems = [
             Problem(
                 file,
@@ -149,10 +156,20 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
                 f"{len(LAYOUT)} IO-VNBD columns in their order",
                 f"no such name among the {len(header)} header names; no position fallback: "
                 f"{err.why}",
+                fix,
             )
             for col in LAYOUT
             if col.canonical in err.missing
-        ] or [Problem(file, None, None, "each IO-VNBD column name once", err.why)]
+        ] or [
+            Problem(
+                file,
+                None,
+                None,
+                "each IO-VNBD column name once",
+                err.why,
+                "rename or delete the repeated columns",
+            )
+        ]
         raise InputError(
             problems, summary=f"cannot locate the columns of {file} (header: {shown})"
         ) from None
@@ -167,17 +184,21 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
                     None,
                     "a header row first (IO-VNBD files start with one)",
                     f"a row of {len(header)} numbers: {','.join(header)[:60]!r}",
+                    "add the IO-VNBD header line (rwhonet.data.iovnbd.HEADERS) at the top",
                 )
             ]
         )
     values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
     to_si = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
+    for name, pos in positions.items():
+        # In place: the reader's arrays are ours, and a copy would hold a column twice.
+        # A factor of 1 needs nothing (x * 1.0 == x, NaN and inf included).
+        if to_si[name] != 1.0:
+            if not values[pos].flags.writeable:
+                values[pos] = values[pos].copy()
+            np.multiply(values[pos], to_si[name], out=values[pos])
     return RawDrive(
-        # A factor of 1 would only copy the column (x * 1.0 == x, NaN and inf included).
-        columns={
-            name: values[pos] * to_si[name] if to_si[name] != 1.0 else values[pos]
-            for name, pos in positions.items()
-        },
+        columns={name: values[pos] for name, pos in positions.items()},
         source_columns={name: header[pos] for name, pos in positions.items()},
         header_match=match,
     )

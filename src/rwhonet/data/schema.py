@@ -155,7 +155,8 @@ def _drive_checks(
                 f"or a gap > {gap} s (validate.gnss.max_gap_s; the drive is split there)",
                 _time_step,
                 f"the pipeline needs one row every {period} s: re-export the drive at "
-                f"{1.0 / period:.3g} Hz (dropped or jittered samples?)",
+                f"{1.0 / period:.3g} Hz; where the logger dropped samples, delete the rows of "
+                f"that stretch (a gap > {gap} s splits the drive there)",
             ),
         ),
         "median_sample_period": (
@@ -251,8 +252,9 @@ def drive_schema(vp: ValidateParams, drive_starts: np.ndarray | None = None) -> 
                 "time_finite",
                 "time_not_repeated",
                 "time_not_backwards",
-                "sample_period",
+                # The drive-wide verdict first: at 5 Hz or in ms every row fails the next.
                 "median_sample_period",
+                "sample_period",
             ),
         ),
         c.LAT_DEG: pa.Column(float, pick("latitude_range")),
