@@ -365,6 +365,32 @@ class CutSpec:
 
 
 @dataclass(frozen=True)
+class WheelPolicy:
+    """Wheel-speed sensor checks; a drive that fails one is refused (validate.wheels)."""
+
+    # A wheel reading below stuck_ratio x the median of the four wheels, while that median
+    # is above stuck_moving_rad_s, for stuck_min_s or longer, has a stuck sensor.
+    stuck_ratio: float
+    stuck_moving_rad_s: float
+    stuck_min_s: float
+    # Wheel speeds are magnitudes (ABS sensors); a value below -negative_tol_rad_s is a
+    # sign error.
+    negative_tol_rad_s: float
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.stuck_ratio < 1.0:
+            raise ConfigError(
+                f"validate.wheels.stuck_ratio must be in (0, 1), got {self.stuck_ratio}"
+            )
+        if self.stuck_min_s <= 0 or self.stuck_moving_rad_s < 0 or self.negative_tol_rad_s < 0:
+            raise ConfigError(
+                "validate.wheels: stuck_min_s must be > 0, stuck_moving_rad_s and "
+                f"negative_tol_rad_s >= 0; got {self.stuck_min_s}, {self.stuck_moving_rad_s}, "
+                f"{self.negative_tol_rad_s}"
+            )
+
+
+@dataclass(frozen=True)
 class ValidateParams:
     sample_period_s: float
     sample_period_tol_s: float
@@ -372,6 +398,7 @@ class ValidateParams:
     radius_tolerance: float
     radius_min_moving_s: float
     gnss: GnssPolicy
+    wheels: WheelPolicy
     cuts: list[CutSpec] = field(default_factory=list)
 
 

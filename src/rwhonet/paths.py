@@ -43,6 +43,11 @@ METRICS = ROOT / "metrics"
 EVAL_JSON = METRICS / "eval.json"
 REPORTS = ROOT / "reports"
 VALIDATION_REPORT = REPORTS / "validation.json"
+# Reports of failed data-stage runs: not DVC outputs (DVC deletes those before a stage
+# runs), so they survive the failure; the stage's next successful run removes its own.
+FAILED_REPORTS = REPORTS / "failed"
+VALIDATION_FAILED_REPORT = FAILED_REPORTS / "validation.json"
+INGEST_FAILED_REPORT = FAILED_REPORTS / "ingest.json"
 TABLES_MD = REPORTS / "tables.md"
 PREDICTIONS = REPORTS / "predictions"
 PLOTS = REPORTS / "plots"

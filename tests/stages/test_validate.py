@@ -25,7 +25,14 @@ from support.drives import (
     write_iovnbd,
 )
 
-SHORT = {"validate.gnss.min_segment_s": 5, "validate.radius_min_moving_s": 10}
+# Short drives: a target test drive then needs max(m) + min(outage) = 10 valid seconds.
+SHORT = {
+    "validate.gnss.min_segment_s": 5,
+    "validate.radius_min_moving_s": 10,
+    "adapt.m_grid": [5],
+    "adapt.chosen_m": 5,
+    "evaluate.outages_s": [5],
+}
 
 
 def run(tmp_path: Path, raw: Path, **overrides):

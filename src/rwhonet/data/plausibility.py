@@ -1,11 +1,18 @@
-"""Plausibility of wheel speeds: the effective radius they imply, and unit mistakes it reveals.
+"""Plausibility of wheel speeds and positions: units, sign, stuck sensors, swapped coordinates.
 
 Wheel odometry gives a displacement ``x = ∫ ω r dt`` per second (paper Eq. 10). Over
 many seconds, GNSS distance / wheel angle is therefore an effective rolling radius
 (the calibration constant of the authors' code, in m/rad). A drive whose implied
 radius is far from the vehicle's nominal one has wheel speeds in the wrong unit, and
 the ratio says which: rpm gives 2π/60 of the radius, deg/s π/180, and a linear wheel
-speed in km/h (m/s) gives a "radius" of 1/3.6 m (1 m) whatever the tyre.
+speed in km/h (m/s) gives a "radius" of 1/3.6 m (1 m) whatever the tyre. The same
+radius, with latitude and longitude exchanged, tells swapped coordinate columns.
+
+Wheel speeds are magnitudes, as ABS sensors give them (also when reversing): the WPM
+integrates them into a distance and GNSS gives a distance, so a negated column would
+make every label about twice the distance travelled. And the four wheels of a moving
+car turn at nearly the same speed: a wheel reading zero while the others turn is a
+broken sensor or channel, whose feature the network would learn from.
 """
 
 from __future__ import annotations
@@ -16,9 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.quality import Segment, second_index
-from rwhonet.geo import geodesic_distance_m
+from rwhonet.geo import geodesic_distance_m, local_step_distance_m
 
 
 @dataclass(frozen=True)
@@ -121,3 +129,155 @@ def unit_mistake(radius_m: float, nominal_m: float, tolerance: float) -> str | N
         f"{head}: wheel speeds in an unexpected unit or scale, a wrong "
         "data.vehicles nominal_radius_m, or GNSS and wheel data from different drives"
     )
+
+
+# --------------------------------------------------------------------------- wheel sensors
+
+
+@dataclass(frozen=True)
+class StuckRun:
+    """Rows ``row_start:row_stop`` where one wheel read far below the others while moving."""
+
+    wheel: str  # canonical name
+    row_start: int  # 0-based, first row of the run
+    row_stop: int  # exclusive
+    reading_max_rad_s: float  # the stuck wheel's largest |reading| in the run
+    others_median_rad_s: float  # median over the run of the four wheels' median
+
+
+def stuck_wheel_runs(
+    drive: Mapping[str, np.ndarray],
+    policy: WheelPolicy,
+    sample_period_s: float,
+    ignore: np.ndarray | None = None,
+) -> list[StuckRun]:
+    """Find wheels that read (near) zero while the vehicle moves: a stuck or unplugged sensor.
+
+    The vehicle's wheel speed is the median of the four |wheel speeds| (the mean of the
+    middle two: one faulty wheel, or one spinning, does not move it). A wheel is stuck in a
+    row when that median exceeds ``stuck_moving_rad_s`` and the wheel reads below
+    ``stuck_ratio`` times it; a run of such rows lasting ``stuck_min_s`` or more is
+    reported. Cornering never comes close: the inner rear wheel of the tightest turn a car
+    can make still turns at about 0.7 times the median.
+
+    Args:
+        drive: canonical columns (the four wheel speeds).
+        policy: ``validate.wheels``.
+        sample_period_s: nominal sample period (a run's duration is its rows x this).
+        ignore: rows to leave out (manual cuts), or None.
+
+    Returns:
+        The runs, wheel by wheel (FL, FR, RL, RR) and in row order.
+    """
+    w = np.abs(np.stack([np.asarray(drive[name], dtype=np.float64) for name in c.WHEELS]))
+    ref = np.median(w, axis=0)
+    candidate = ref > policy.stuck_moving_rad_s
+    if ignore is not None:
+        candidate &= ~ignore
+    runs = []
+    for k, name in enumerate(c.WHEELS):
+        start, stop = _runs(candidate & (w[k] < policy.stuck_ratio * ref))
+        long = (stop - start) * sample_period_s >= policy.stuck_min_s - 1e-9
+        runs += [
+            StuckRun(
+                name,
+                int(a),
+                int(b),
+                float(w[k, a:b].max()),
+                float(np.median(ref[a:b])),
+            )
+            for a, b in zip(start[long], stop[long], strict=True)
+        ]
+    return runs
+
+
+def negative_wheel_rows(
+    drive: Mapping[str, np.ndarray], tol_rad_s: float, ignore: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
+    """Rows where a wheel speed is negative: speeds are magnitudes, as ABS sensors give them.
+
+    Args:
+        drive: canonical columns (the four wheel speeds).
+        tol_rad_s: values down to ``-tol_rad_s`` pass (noise around a standstill).
+        ignore: rows to leave out (manual cuts), or None.
+
+    Returns:
+        Wheel (canonical name) -> 0-based rows below ``-tol_rad_s``, for wheels that have any.
+    """
+    out = {}
+    for name in c.WHEELS:
+        bad = np.asarray(drive[name], dtype=np.float64) < -tol_rad_s
+        if ignore is not None:
+            bad &= ~ignore
+        if bad.any():
+            out[name] = np.flatnonzero(bad)
+    return out
+
+
+def gnss_path_m(drive: Mapping[str, np.ndarray], rows: np.ndarray) -> float:
+    """GNSS distance travelled over the steps into the given rows (evidence of motion), m."""
+    rows = np.asarray(rows)
+    rows = rows[rows > 0]
+    if rows.size == 0:
+        return 0.0
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    step = local_step_distance_m(lat, lon)  # step i: row i -> i + 1
+    return float(np.nansum(step[rows - 1]))
+
+
+# --------------------------------------------------------------------------- positions
+
+
+def latlon_swapped_by_range(lat_deg: np.ndarray, lon_deg: np.ndarray) -> bool:
+    """Whether latitude and longitude look swapped: most "latitudes" beyond ±90 deg, every
+    "longitude" within ±90 deg and every "latitude" a valid longitude.
+
+    Args:
+        lat_deg: the latitude column.
+        lon_deg: the longitude column.
+
+    Returns:
+        True when the columns fit the other's range and not their own.
+    """
+    lat = np.asarray(lat_deg, dtype=np.float64)
+    lon = np.asarray(lon_deg, dtype=np.float64)
+    lat, lon = lat[~np.isnan(lat)], lon[~np.isnan(lon)]
+    if lat.size == 0 or lon.size == 0:
+        return False
+    return bool(
+        np.mean(np.abs(lat) > 90.0) > 0.5
+        and np.all(np.abs(lat) <= 180.0)
+        and np.all(np.abs(lon) <= 90.0)
+    )
+
+
+def swapped_radius(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    moving_wheel_speed_rad_s: float,
+) -> RadiusEstimate:
+    """The effective radius the drive implies if its latitude and longitude are swapped.
+
+    Near Europe's meridians a swapped pair stays within range, but a degree of the
+    "latitude" then spans a degree of longitude's distance: every GNSS displacement is
+    off by a factor that depends on the heading. When the swapped radius is plausible
+    and the drive's own is not, the columns are swapped.
+
+    Args:
+        drive: canonical columns.
+        segments: the drive's valid segments.
+        moving_wheel_speed_rad_s: as in :func:`implied_radius`.
+
+    Returns:
+        The estimate with ``lat_deg`` and ``lon_deg`` exchanged.
+    """
+    swapped = dict(drive)
+    swapped[c.LAT_DEG], swapped[c.LON_DEG] = drive[c.LON_DEG], drive[c.LAT_DEG]
+    return implied_radius(swapped, segments, moving_wheel_speed_rad_s)
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop (exclusive) indices of the runs of True in a boolean array."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
+    return edges[0::2], edges[1::2]

@@ -209,6 +209,23 @@ def frozen_rows(
     return frozen_run[run] & (row >= first_moving[run])
 
 
+def manual_rows(t_s: np.ndarray, cuts: Sequence[CutSpec]) -> np.ndarray:
+    """Rows inside a manual cut: ``start_s <= t_s <= end_s`` of any of ``cuts``.
+
+    Args:
+        t_s: row times, s.
+        cuts: manual cuts of this drive (``validate.cuts`` entries naming it).
+
+    Returns:
+        Boolean mask, True for cut rows.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    row = np.zeros(t.size, dtype=bool)
+    for cut in cuts:  # params entries, a handful
+        row |= (t >= cut.start_s) & (t <= cut.end_s)
+    return row
+
+
 def assess(
     drive: Mapping[str, np.ndarray],
     policy: GnssPolicy,
@@ -248,9 +265,7 @@ def assess(
     gap_start, gap_end = np.r_[gap_step, False], np.r_[False, gap_step]
     gap = (count == 0) | per_second(gap_end) | (incomplete & per_second(gap_start))
 
-    manual_row = np.zeros(n, dtype=bool)
-    for cut in cuts:  # params entries, a handful
-        manual_row |= (t >= cut.start_s) & (t <= cut.end_s)
+    manual_row = manual_rows(t, cuts)
     has_sats = c.N_SATS in drive
     sats = np.asarray(drive[c.N_SATS], dtype=np.float64) if has_sats else np.full(n, np.inf)
     low_sats_row = ~(sats >= policy.min_sats)  # NaN: no count, not trusted

@@ -2,11 +2,19 @@
 
 For every ingested drive: the pandera schema (:mod:`rwhonet.data.schema`, run on
 several drives stacked at once, each reported on its own), then the GNSS-quality
-policy (:mod:`rwhonet.data.quality`), then the wheel-speed unit plausibility check
-(:mod:`rwhonet.data.plausibility`). Any problem in any drive
-fails the stage with one report of all of them and writes nothing; otherwise the
-segments are written at once (atomic folder) and the report lists, per drive,
-what was kept and every cut with its rule.
+policy (:mod:`rwhonet.data.quality`), then the plausibility checks
+(:mod:`rwhonet.data.plausibility`): wheel speeds are magnitudes, no wheel sensor
+stuck while the car moves, latitude and longitude not swapped, wheel speeds in
+rad/s (the implied tyre radius); and a target test drive keeps enough valid
+seconds to adapt on ``max(adapt.m_grid)`` s and score the shortest outage.
+
+Any problem in any drive fails the stage with one report of all of them and
+writes nothing to its outputs; the full report of the failed run (every
+problem, and what each drive kept and cut) goes to
+``reports/failed/validation.json``, a file DVC does not manage (it deletes a
+stage's declared outputs before running it), removed by the next successful
+run. Otherwise the segments are written at once (atomic folder) and the report
+lists, per drive, what was kept and every cut with its rule.
 """
 
 from __future__ import annotations
@@ -24,8 +32,17 @@ import pyarrow.parquet as pq
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
 from rwhonet.data import canonical as c
-from rwhonet.data.plausibility import implied_radius, unit_mistake
-from rwhonet.data.quality import RULES, Assessment, assess
+from rwhonet.data.plausibility import (
+    gnss_path_m,
+    implied_radius,
+    latlon_swapped_by_range,
+    negative_wheel_rows,
+    stuck_wheel_runs,
+    swapped_radius,
+    unit_mistake,
+)
+from rwhonet.data.problems import ROWS_LISTED
+from rwhonet.data.quality import RULES, Assessment, assess, manual_rows
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
@@ -73,8 +90,19 @@ def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
     return by_drive
 
 
+def target_test_min_s(params: Params) -> int:
+    """Valid seconds a target test drive needs: adapt on max(m), then score the shortest outage."""
+    return max(params.adapt.m_grid) + min(params.evaluate.outages_s)
+
+
 @system_memory_pool()
-def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path) -> dict[str, Any]:
+def validate(
+    params: Params,
+    drives_dir: Path,
+    out_dir: Path,
+    report_path: Path,
+    failed_report_path: Path | None = None,
+) -> dict[str, Any]:
     """Validate every ingested drive and cut it into GNSS-valid segments.
 
     Args:
@@ -83,6 +111,9 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
         out_dir: the segments folder (``rwhonet.paths.SEGMENTS``); replaced only on success.
         report_path: where the validation report goes (``rwhonet.paths.VALIDATION_REPORT``);
             written only on success, together with the segments.
+        failed_report_path: where the report of a failed run goes
+            (``rwhonet.paths.VALIDATION_FAILED_REPORT``), with every problem; removed by a
+            successful run. None: not written.
 
     Returns:
         The report: ``{"convention", "policy", "drives": [...], "totals": {...}}``; per drive
@@ -93,7 +124,9 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
         ConfigError: bad ``validate`` parameters.
         InputError: one report of every problem of every drive (schema failures in the
             source file's rows and columns, a drive left without a valid segment, wheel
-            speeds in an implausible unit); nothing is written.
+            speeds in an implausible unit or negated, a stuck wheel sensor, swapped latitude
+            and longitude, a target test drive too short); nothing is written but the failed
+            run's report.
     """
     vp = params.validate
     n_per_s = 1.0 / vp.sample_period_s
@@ -127,14 +160,21 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
                 zip(batch.entries, batch.tables, found_by_drive, strict=True)
             ):
                 df = batch.drive_frame(k)
+                found = _swapped_by_range(found, df, entry)
+                result = None
                 # The GNSS policy needs a drive that passed the schema; wheel speeds out of
                 # range alone don't stop it, so the unit check can tell rpm or deg/s apart.
                 if not found or _only_wheel_ranges(found, df, entry["columns"]):
-                    result = assess(df, vp.gnss, vp.sample_period_s, cuts.get(entry["drive"], []))
-                    more, radius = _drive_problems(params, entry, df, result)
-                    found += more
+                    drive_cuts = cuts.get(entry["drive"], [])
+                    result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts)
+                    wheels = _wheel_problems(params, entry, df, drive_cuts)
+                    more, radius = _drive_problems(
+                        params, entry, df, result, check_units=not wheels
+                    )
+                    found += wheels + more
                 if found:
                     problems += found
+                    drive_reports.append(_refused_report(entry, result, found))
                     continue
                 drive_reports.append(_drive_report(entry, result, radius))
                 if problems:
@@ -158,9 +198,24 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
                     )
         if problems:
             n_files = len({p.file for p in problems})
-            raise InputError(
-                problems, summary=f"validate: {len(problems)} problem(s) in {n_files} file(s)"
-            )
+            summary = f"validate: {len(problems)} problem(s) in {n_files} file(s)"
+            if failed_report_path is not None:
+                write_json(
+                    failed_report_path,
+                    {
+                        "status": "failed",
+                        "note": f"validate refused the drives: nothing was written to "
+                        f"{paths.rel(out_dir)} nor {paths.rel(report_path)}; a successful run "
+                        "removes this file",
+                        "problems": [p.to_dict() for p in problems],
+                        "convention": CONVENTION,
+                        "policy": params.section("validate"),
+                        "target_test_min_s": target_test_min_s(params),
+                        "drives": drive_reports,
+                    },
+                )
+                summary += f" (full report: {paths.rel(failed_report_path)})"
+            raise InputError(problems, summary=summary)
         write_json(
             tmp / contracts.MANIFEST,
             {
@@ -172,10 +227,13 @@ def validate(params: Params, drives_dir: Path, out_dir: Path, report_path: Path)
         report = {
             "convention": CONVENTION,
             "policy": params.section("validate"),
+            "target_test_min_s": target_test_min_s(params),
             "drives": drive_reports,
             "totals": _totals(drive_reports, len(segment_entries)),
         }
         write_json(tmp_report, report)
+    if failed_report_path is not None:
+        Path(failed_report_path).unlink(missing_ok=True)  # that failure is over
     return report
 
 
@@ -212,7 +270,23 @@ def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch
     for entry in entries:
         # ParquetFile.read: a third of the time of pq.read_table (which goes through the
         # dataset scanner) for these single-file reads.
-        table = pq.ParquetFile(drives_dir / f"{entry['drive']}.parquet").read()
+        path = drives_dir / f"{entry['drive']}.parquet"
+        try:
+            table = pq.ParquetFile(path).read()
+        except (OSError, pa.ArrowException) as err:
+            raise InputError(
+                [
+                    Problem(
+                        paths.rel(path),
+                        None,
+                        None,
+                        "the canonical drive the ingest manifest lists",
+                        f"{type(err).__name__}: {str(err)[:160]}",
+                        "run the ingest stage again (dvc repro ingest)",
+                    )
+                ],
+                summary="the ingest output is incomplete",
+            ) from None
         rows = sum(t.num_rows for _, t in pending) + table.num_rows
         if pending and (not table.schema.equals(pending[0][1].schema) or rows > BATCH_ROWS):
             yield _Batch([e for e, _ in pending], [t for _, t in pending])
@@ -227,8 +301,13 @@ def _drive_problems(
     entry: dict[str, Any],
     df: pd.DataFrame,
     result: Assessment,
+    check_units: bool = True,
 ) -> tuple[list[Problem], dict[str, Any]]:
-    """Problems of a schema-valid drive after the GNSS policy, and its radius check."""
+    """Problems of a schema-valid drive after the GNSS policy, and its radius check.
+
+    ``check_units`` False skips the radius check (a stuck or negated wheel already
+    explains a wrong radius, and the unit message would only confuse).
+    """
     vp = params.validate
     file, columns = entry["source_file"], entry["columns"]
     problems = []
@@ -243,6 +322,8 @@ def _drive_problems(
                     f"an interval overlapping {entry['drive']}'s time span {t0}-{t1} s (its "
                     "own clock)",
                     f"{cut.start_s}-{cut.end_s} s",
+                    "give start_s and end_s in the drive's own time column (seconds of the "
+                    "day for IO-VNBD), not seconds from its start",
                 )
             )
     if not result.segments:
@@ -256,9 +337,29 @@ def _drive_problems(
                 f"none: all {result.n_seconds} s cut, "
                 + ", ".join(f"{rule} {s} s" for rule, s in by_rule if s)
                 + f" (rule {by_rule[0][0]}: {_first_detail(result, by_rule[0][0])})",
+                "leave this drive out, repair its GNSS data, or relax the rule that cut it "
+                "(validate.gnss) if it is too strict for this receiver",
             )
         )
         return problems, {"checked": False, "note": "no valid segment"}
+
+    need = target_test_min_s(params)
+    if entry["role"] == contracts.TARGET_TEST and result.seconds_kept < need:
+        cut = ", ".join(f"{r} {n} s" for r, n in result.cut_seconds_by_rule.items() if n)
+        problems.append(
+            Problem(
+                file,
+                None,
+                None,
+                f"a target test drive with at least {need} GNSS-valid seconds: "
+                f"max(adapt.m_grid) = {max(params.adapt.m_grid)} s to adapt on, then "
+                f"min(evaluate.outages_s) = {min(params.evaluate.outages_s)} s to score",
+                f"{entry['drive']} keeps {result.seconds_kept} valid s of its "
+                f"{result.n_seconds} s" + (f" (cut: {cut})" if cut else ""),
+                "use a longer drive as target test drive (this one can serve as target_train), "
+                "or lower adapt.m_grid",
+            )
+        )
 
     nominal = params.nominal_radius_m(entry["vehicle"])
     est = implied_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
@@ -266,8 +367,11 @@ def _drive_problems(
         "implied_m": None if np.isnan(est.radius_m) else est.radius_m,
         "nominal_m": nominal,
         "moving_s": est.moving_s,
-        "checked": est.moving_s >= vp.radius_min_moving_s,
+        "checked": est.moving_s >= vp.radius_min_moving_s and check_units,
     }
+    if not check_units:
+        radius["note"] = "unit check skipped: a wheel sensor problem explains the radius"
+        return problems, radius
     if not radius["checked"]:
         radius["note"] = (
             f"only {est.moving_s} moving s in valid segments (< validate.radius_min_moving_s "
@@ -277,6 +381,10 @@ def _drive_problems(
     radius["ratio"] = est.radius_m / nominal
     mistake = unit_mistake(est.radius_m, nominal, vp.radius_tolerance)
     if mistake:
+        swapped = swapped_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+        if unit_mistake(swapped.radius_m, nominal, vp.radius_tolerance) is None:
+            problems.append(_swapped_problem(entry, est.radius_m, swapped.radius_m, nominal))
+            return problems, radius
         problems.append(
             Problem(
                 file,
@@ -286,9 +394,125 @@ def _drive_problems(
                 f"±{vp.radius_tolerance:.0%} of {entry['vehicle']}'s nominal {nominal} m "
                 f"(GNSS distance / wheel angle over {est.moving_s} moving s)",
                 mistake,
+                "convert the wheel speeds to rad/s (a column map can declare rpm or deg/s), "
+                f"or correct data.vehicles.{entry['vehicle']}.nominal_radius_m",
             )
         )
     return problems, radius
+
+
+def _swapped_problem(
+    entry: dict[str, Any],
+    radius_m: float | None,
+    swapped_m: float | None,
+    nominal_m: float | None,
+) -> Problem:
+    """Latitude and longitude look swapped (by the radius they imply, or by their ranges)."""
+    columns = entry["columns"]
+    lat, lon = columns.get(c.LAT_DEG, c.LAT_DEG), columns.get(c.LON_DEG, c.LON_DEG)
+    if radius_m is None:
+        evidence = (
+            f"most values of {lat!r} lie beyond ±90 deg and every value of {lon!r} within ±90 deg"
+        )
+    else:
+        evidence = (
+            f"the wheels imply a tyre radius of {radius_m:.4g} m as the columns are, and "
+            f"{swapped_m:.4g} m (nominal {nominal_m} m) with the two exchanged"
+        )
+    return Problem(
+        entry["source_file"],
+        None,
+        f"{lat} / {lon}",
+        f"the latitude in {lat!r} and the longitude in {lon!r}",
+        f"latitude and longitude look swapped: {evidence}",
+        "exchange the two columns (their names in the header, or lat and lon in the column map)",
+    )
+
+
+def _swapped_by_range(
+    found: list[Problem], df: pd.DataFrame, entry: dict[str, Any]
+) -> list[Problem]:
+    """Replace the latitude range failures of a drive with swapped columns by one problem."""
+    lat = entry["columns"].get(c.LAT_DEG, c.LAT_DEG)
+    if not any(p.column == lat and "latitude in [-90, 90]" in p.expected for p in found):
+        return found
+    if not latlon_swapped_by_range(df[c.LAT_DEG].to_numpy(), df[c.LON_DEG].to_numpy()):
+        return found
+    rest = [p for p in found if not (p.column == lat and "latitude in [-90, 90]" in p.expected)]
+    return [_swapped_problem(entry, None, None, None), *rest]
+
+
+def _wheel_problems(
+    params: Params, entry: dict[str, Any], df: pd.DataFrame, drive_cuts: list[CutSpec]
+) -> list[Problem]:
+    """Negative wheel speeds (a sign error) and stuck wheel sensors, in the file's rows."""
+    vp = params.validate
+    file, columns = entry["source_file"], entry["columns"]
+    ignore = manual_rows(df[c.T_S].to_numpy(np.float64), drive_cuts)
+    problems = []
+    t = df[c.T_S].to_numpy(np.float64)
+    for wheel, rows in negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore).items():
+        values = df[wheel].to_numpy(np.float64)
+        moving = int((np.abs(values) > vp.gnss.moving_wheel_speed_rad_s).sum())
+        share = rows.size / max(moving, 1)
+        what = (
+            "the column looks negated (a sign error in the export)"
+            if share >= 0.9
+            else "signed speeds (negative when reversing?)"
+        )
+        problems.append(
+            Problem(
+                file,
+                int(rows[0]) + 1,
+                columns.get(wheel, wheel),
+                "wheel speeds as magnitudes >= 0 (as ABS sensors give them, also when "
+                f"reversing; validate.wheels.negative_tol_rad_s {vp.wheels.negative_tol_rad_s})",
+                f"{values[rows[0]]:.6g} rad/s, negative in {rows.size} row(s) (rows "
+                f"{int(rows[0]) + 1}-{int(rows[-1]) + 1}; {share:.0%} of the moving rows) while "
+                f"GNSS moved {gnss_path_m(df, rows):.0f} m: {what}",
+                "export the absolute wheel speeds (|value|), or negate this column: the "
+                "pipeline takes the direction from GNSS, never from the wheel speed's sign",
+            )
+        )
+    runs = stuck_wheel_runs(df, vp.wheels, vp.sample_period_s, ignore)
+    by_wheel: dict[str, list] = {}
+    for run in runs:
+        by_wheel.setdefault(run.wheel, []).append(run)
+    for wheel, wheel_runs in by_wheel.items():
+        for run in wheel_runs[:ROWS_LISTED]:
+            start, end = t[run.row_start], t[run.row_stop - 1]
+            problems.append(
+                Problem(
+                    file,
+                    run.row_start + 1,
+                    columns.get(wheel, wheel),
+                    "each wheel turning with the others while the car moves (at least "
+                    f"{vp.wheels.stuck_ratio} x the median of the four wheels for any "
+                    f"{vp.wheels.stuck_min_s} s; validate.wheels)",
+                    f"at most {run.reading_max_rad_s:.3g} rad/s for "
+                    f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
+                    f"{run.row_start + 1}-{run.row_stop}, t = {start:.6g}-{end:.6g} s) while "
+                    f"the median wheel turned at {run.others_median_rad_s:.3g} rad/s and GNSS "
+                    f"moved {gnss_path_m(df, np.arange(run.row_start, run.row_stop)):.0f} m: "
+                    "a stuck or disconnected wheel-speed sensor",
+                    "check this wheel's sensor and channel in the export; to keep the rest of "
+                    "the drive, cut the stretch: validate.cuts: [{drive: "
+                    f"{entry['drive']}, start_s: {np.floor(start):.0f}, end_s: "
+                    f"{np.ceil(end):.0f}, reason: stuck wheel sensor}}]",
+                )
+            )
+        if len(wheel_runs) > ROWS_LISTED:
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    columns.get(wheel, wheel),
+                    problems[-1].expected,
+                    f"{len(wheel_runs) - ROWS_LISTED} more stretch(es) like these",
+                    problems[-1].fix,
+                )
+            )
+    return problems
 
 
 def _only_wheel_ranges(found: list[Problem], df: pd.DataFrame, columns: dict[str, str]) -> bool:
@@ -299,6 +523,31 @@ def _only_wheel_ranges(found: list[Problem], df: pd.DataFrame, columns: dict[str
 
 def _first_detail(result: Assessment, rule: str) -> str:
     return next(cut.detail for cut in result.cuts if cut.rule == rule)
+
+
+def _refused_report(
+    entry: dict[str, Any], result: Assessment | None, found: list[Problem]
+) -> dict[str, Any]:
+    """A refused drive in the failed run's report: its problems and, if assessed, its cuts."""
+    report: dict[str, Any] = {
+        "drive": entry["drive"],
+        "role": entry["role"],
+        "vehicle": entry["vehicle"],
+        "source_file": entry["source_file"],
+        "status": "refused",
+        "problems": [p.to_dict() for p in found],
+    }
+    if result is not None:
+        report |= {
+            "seconds": result.n_seconds,
+            "seconds_kept": result.seconds_kept,
+            "cuts": [
+                {"start_s": x.start_s, "end_s": x.end_s, "rule": x.rule, "detail": x.detail}
+                for x in result.cuts
+            ],
+            "cut_seconds_by_rule": result.cut_seconds_by_rule,
+        }
+    return report
 
 
 def _drive_report(entry: dict[str, Any], result: Assessment, radius: dict[str, Any]) -> dict:
@@ -379,6 +628,12 @@ def summary_table(report: dict[str, Any]) -> str:
 
 def main(params: Params) -> None:
     """The ``validate`` stage: drives -> segments and ``reports/validation.json``."""
-    report = validate(params, paths.DRIVES, paths.SEGMENTS, paths.VALIDATION_REPORT)
+    report = validate(
+        params,
+        paths.DRIVES,
+        paths.SEGMENTS,
+        paths.VALIDATION_REPORT,
+        paths.VALIDATION_FAILED_REPORT,
+    )
     print(summary_table(report))
     print(f"-> {paths.rel(paths.SEGMENTS)}, {paths.rel(paths.VALIDATION_REPORT)}")

@@ -1,0 +1,88 @@
+"""Wheel-sensor and position plausibility: stuck wheels, signs, swapped coordinates."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rwhonet.config import WheelPolicy
+from rwhonet.data import canonical as c
+from rwhonet.data.plausibility import (
+    implied_radius,
+    latlon_swapped_by_range,
+    negative_wheel_rows,
+    stuck_wheel_runs,
+    swapped_radius,
+)
+from rwhonet.data.quality import Segment
+from support.drives import SOURCE_RADIUS_M, straight_drive
+
+POLICY = WheelPolicy(
+    stuck_ratio=0.5, stuck_moving_rad_s=3.0, stuck_min_s=3.0, negative_tol_rad_s=0.5
+)
+
+
+def test_a_clean_drive_has_no_stuck_or_negative_wheel():
+    drive = straight_drive(20.0)
+    assert stuck_wheel_runs(drive, POLICY, 0.1) == []
+    assert negative_wheel_rows(drive, POLICY.negative_tol_rad_s) == {}
+
+
+def test_the_tightest_turn_is_not_a_stuck_wheel():
+    # Rear axle on a 4.5 m radius (a small car's full lock), track 1.46 m: the inner rear
+    # wheel rolls 0.72 x the outer one, the fronts (on a longer radius) faster still.
+    drive = straight_drive(20.0)
+    v = drive[c.OMEGA_RL].to_numpy()
+    drive[c.OMEGA_RL] = v * (4.5 - 0.73) / 4.5
+    drive[c.OMEGA_RR] = v * (4.5 + 0.73) / 4.5
+    drive[c.OMEGA_FL] = v * 1.05
+    drive[c.OMEGA_FR] = v * 1.25
+    assert stuck_wheel_runs(drive, POLICY, 0.1) == []
+
+
+def test_stuck_wheel_runs_name_the_wheel_rows_and_speeds():
+    drive = straight_drive(20.0)  # 201 rows at 51 rad/s
+    drive.loc[50:89, c.OMEGA_FR] = 0.0  # 4 s
+    drive.loc[120:139, c.OMEGA_FR] = 0.0  # 2 s: shorter than stuck_min_s
+    (run,) = stuck_wheel_runs(drive, POLICY, 0.1)
+    assert (run.wheel, run.row_start, run.row_stop) == (c.OMEGA_FR, 50, 90)
+    assert run.reading_max_rad_s == 0.0
+    assert run.others_median_rad_s == pytest.approx(15.0 / SOURCE_RADIUS_M)
+    ignore = np.zeros(len(drive), dtype=bool)
+    ignore[40:100] = True  # a manual cut over the stretch
+    assert stuck_wheel_runs(drive, POLICY, 0.1, ignore) == []
+
+
+def test_one_spinning_wheel_does_not_make_the_others_stuck():
+    drive = straight_drive(20.0)
+    for w in (c.OMEGA_FL, c.OMEGA_RL, c.OMEGA_RR):
+        drive[w] = 0.0
+    drive[c.OMEGA_FR] = 40.0  # a driven wheel spinning on ice, the car standing
+    assert stuck_wheel_runs(drive, POLICY, 0.1) == []
+
+
+def test_negative_rows_beyond_the_noise_tolerance():
+    drive = straight_drive(5.0)
+    drive.loc[3, c.OMEGA_RL] = -0.3  # noise around a standstill: passes
+    drive.loc[10:14, c.OMEGA_RR] = -5.0
+    found = negative_wheel_rows(drive, 0.5)
+    assert list(found) == [c.OMEGA_RR] and list(found[c.OMEGA_RR]) == [10, 11, 12, 13, 14]
+
+
+def test_swapped_coordinates_by_range():
+    lat, lon = np.full(10, 121.5), np.full(10, 31.2)  # Shanghai, swapped
+    assert latlon_swapped_by_range(lat, lon)
+    assert not latlon_swapped_by_range(lon, lat)
+    lat_glitch = np.r_[np.full(9, 52.4), 95.0]  # one corrupt latitude is not a swap
+    assert not latlon_swapped_by_range(lat_glitch, np.full(10, -1.5))
+
+
+@pytest.mark.parametrize("azimuth_deg", [30.0, 80.0])
+def test_swapped_coordinates_by_the_radius_they_imply(azimuth_deg):
+    drive = straight_drive(40.0, azimuth_deg=azimuth_deg)
+    seg = [Segment(0, len(drive), 45000.0, 45040.0)]
+    swapped = drive.copy()
+    swapped[[c.LAT_DEG, c.LON_DEG]] = drive[[c.LON_DEG, c.LAT_DEG]].to_numpy()
+    as_is = implied_radius(swapped, seg, 1.0).radius_m
+    assert abs(as_is / SOURCE_RADIUS_M - 1.0) > 0.1  # off by the heading's scale factor
+    assert swapped_radius(swapped, seg, 1.0).radius_m == pytest.approx(SOURCE_RADIUS_M, rel=1e-6)
