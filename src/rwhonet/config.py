@@ -344,6 +344,12 @@ class DataParams:
     roles: dict[str, RoleSpec]
     vehicles: dict[str, VehicleSpec]
     column_maps: dict[str, dict[str, ColumnSpec]] = field(default_factory=dict)
+    # A larger drive file is refused before it is read: validate holds a drive in memory.
+    max_file_mb: float = 512.0
+
+    def __post_init__(self) -> None:
+        if not self.max_file_mb > 0:
+            raise ConfigError(f"data.max_file_mb must be > 0, got {self.max_file_mb}")
 
 
 @dataclass(frozen=True)

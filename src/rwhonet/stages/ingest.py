@@ -100,6 +100,7 @@ def discover(data: DataParams) -> list[DriveFile]:
         found = sorted(p for p in root.glob(spec.glob) if p.is_file())
         if not found and spec.required:
             folder = (root / spec.glob).parent
+            near = sorted(p.name for p in folder.iterdir())[:5] if folder.is_dir() else []
             problems.append(
                 Problem(
                     paths.rel(folder),
@@ -107,7 +108,11 @@ def discover(data: DataParams) -> list[DriveFile]:
                     None,
                     f"at least one drive file matching {spec.glob!r} under {paths.rel(root)} "
                     f"(data.roles.{role}, required)",
-                    "no matching file" if folder.is_dir() else "no such folder",
+                    ("no matching file" + (f"; the folder holds {near}" if near else ""))
+                    if folder.is_dir()
+                    else "no such folder",
+                    f"put the {role} drives in {paths.rel(folder)}, or correct "
+                    f"data.roles.{role}.glob (and data.root)",
                 )
             )
         files += [DriveFile(p.stem, role, spec.vehicle, spec.format, p) for p in found]
@@ -122,6 +127,7 @@ def discover(data: DataParams) -> list[DriveFile]:
                     None,
                     "drive ids (file stems) unique across all roles",
                     f"{f.drive!r} ({f.role}) is also {paths.rel(other.path)} ({other.role})",
+                    "rename one of the two files (a drive belongs to one role)",
                 )
             )
     if problems:
@@ -131,18 +137,69 @@ def discover(data: DataParams) -> list[DriveFile]:
 
 
 def read_drive(f: DriveFile, data: DataParams) -> RawDrive:
-    """Read one drive file with the reader its format names.
+    """Read one drive file with the reader its format names, if it is not too large.
+
+    The readers stream the file, but the drive is then held in memory (here and in
+    validate), so a file above ``data.max_file_mb`` is refused before it is read, and
+    running out of memory while reading is reported as a problem of that file.
 
     Args:
         f: the drive file.
-        data: the ``data`` section (for column maps).
+        data: the ``data`` section (for column maps and the size limit).
 
     Returns:
         The drive's channels, canonical names, SI units.
+
+    Raises:
+        InputError: the file is too large, runs out of memory, or its reader refuses it.
     """
-    if f.format == IOVNBD:
-        return read_iovnbd(f.path, paths.rel(f.path))
-    return read_columnmap(f.path, data.column_maps[f.format], f.format, paths.rel(f.path))
+    file = paths.rel(f.path)
+    size_mb = f.path.stat().st_size / 2**20
+    if size_mb > data.max_file_mb:
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    f"a drive file of at most {data.max_file_mb:g} MB (data.max_file_mb)",
+                    _mb(size_mb),
+                    f"{SPLIT_DRIVE}, or raise data.max_file_mb on a machine with the memory "
+                    "(validate holds about 3x the file's size)",
+                )
+            ]
+        )
+    try:
+        if f.format == IOVNBD:
+            return read_iovnbd(f.path, file)
+        return read_columnmap(f.path, data.column_maps[f.format], f.format, file)
+    except MemoryError:
+        raise _out_of_memory(f) from None
+
+
+SPLIT_DRIVE = "split the drive into several files (one per trip)"
+
+
+def _mb(size_mb: float) -> str:
+    return f"{size_mb:,.0f} MB" if size_mb >= 10 else f"{size_mb:.3g} MB"
+
+
+def _out_of_memory(f: DriveFile) -> InputError:
+    size_mb = f.path.stat().st_size / 2**20
+    return InputError(
+        [
+            Problem(
+                paths.rel(f.path),
+                None,
+                None,
+                "a drive that fits in this machine's memory",
+                f"out of memory on its {_mb(size_mb)}",
+                f"{SPLIT_DRIVE}, or run on a machine with more memory (ingest holds about "
+                "1.5x the file's size, validate about 3x), and lower data.max_file_mb to what "
+                "fits",
+            )
+        ]
+    )
 
 
 def canonical_table(raw: RawDrive, scenario: np.ndarray | pa.Array) -> pa.Table:
@@ -186,12 +243,15 @@ def scenario_array(t_s: np.ndarray, intervals: list[ScenarioInterval]) -> pa.Arr
 
 
 @system_memory_pool()
-def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
+def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None) -> dict[str, Any]:
     """Read every drive of ``data.roles`` and write the canonical drives with their manifest.
 
     Args:
         params: the project parameters (``data`` section used).
         out_dir: output folder (``rwhonet.paths.DRIVES``); replaced only on success.
+        failed_report_path: where the problems of a failed run go as JSON
+            (``rwhonet.paths.INGEST_FAILED_REPORT``); removed by a successful run. None:
+            not written.
 
     Returns:
         The manifest written to ``out_dir/manifest.json``:
@@ -203,6 +263,30 @@ def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
         ConfigError: inconsistent ``data`` parameters.
         InputError: one report of every problem in every drive file; nothing is written.
     """
+    try:
+        manifest = _ingest(params, out_dir)
+    except InputError as err:
+        if failed_report_path is not None:
+            write_json(
+                failed_report_path,
+                {
+                    "status": "failed",
+                    "note": f"ingest refused the drives: nothing was written to "
+                    f"{paths.rel(out_dir)}; a successful run removes this file",
+                    "summary": err.summary,
+                    "problems": [p.to_dict() for p in err.problems],
+                },
+            )
+            summary = f"{err.summary} (full report: {paths.rel(failed_report_path)})"
+            raise InputError(err.problems, summary=summary) from None
+        raise
+    if failed_report_path is not None:
+        Path(failed_report_path).unlink(missing_ok=True)  # that failure is over
+    return manifest
+
+
+def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
+    """The body of :func:`ingest`."""
     data = params.data
     check_data_params(data)
     files = discover(data)
@@ -212,32 +296,13 @@ def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     with atomic_dir(out_dir) as tmp:
         for f in files:
             try:
-                raw = read_drive(f, data)
-                sidecar = sidecar_path(f.path)
-                intervals = read_scenarios(sidecar, paths.rel(sidecar)) if sidecar.is_file() else []
+                # One drive in memory at a time: _write_drive's locals go when it returns.
+                entry = _write_drive(f, data, tmp, write=not problems)
             except InputError as err:
                 problems += err.problems  # keep reading: one report covers every file
                 continue
-            if problems:
-                continue  # the stage will fail; don't spend time writing
-            write_parquet(
-                canonical_table(raw, scenario_array(raw.columns[c.T_S], intervals)),
-                tmp / f"{f.drive}.parquet",
-            )
-            entries.append(
-                {
-                    "drive": f.drive,
-                    "role": f.role,
-                    "vehicle": f.vehicle,
-                    "format": f.format,
-                    "source_file": paths.rel(f.path),
-                    "n_rows": raw.n_rows,
-                    "header_match": raw.header_match,
-                    "columns": raw.source_columns,
-                    "scenarios_file": paths.rel(sidecar) if sidecar.is_file() else None,
-                    "calibrates": f.drive in calibration["drives"],
-                }
-            )
+            entry["calibrates"] = f.drive in calibration["drives"]
+            entries.append(entry)
         if problems:
             files_bad = len({p.file for p in problems})
             raise InputError(
@@ -251,6 +316,39 @@ def ingest(params: Params, out_dir: Path) -> dict[str, Any]:
         }
         write_json(tmp / contracts.MANIFEST, manifest)
     return manifest
+
+
+def _write_drive(f: DriveFile, data: DataParams, tmp: Path, write: bool) -> dict[str, Any]:
+    """Read one drive (and its sidecar); write its canonical Parquet unless ``write`` is False.
+
+    Returns:
+        Its manifest entry (without ``calibrates``).
+
+    Raises:
+        InputError: the file's problems, or running out of memory on it.
+    """
+    raw = read_drive(f, data)
+    sidecar = sidecar_path(f.path)
+    intervals = read_scenarios(sidecar, paths.rel(sidecar)) if sidecar.is_file() else []
+    if write:  # else the stage will fail: don't spend time writing
+        try:
+            write_parquet(
+                canonical_table(raw, scenario_array(raw.columns[c.T_S], intervals)),
+                tmp / f"{f.drive}.parquet",
+            )
+        except MemoryError:
+            raise _out_of_memory(f) from None
+    return {
+        "drive": f.drive,
+        "role": f.role,
+        "vehicle": f.vehicle,
+        "format": f.format,
+        "source_file": paths.rel(f.path),
+        "n_rows": raw.n_rows,
+        "header_match": raw.header_match,
+        "columns": raw.source_columns,
+        "scenarios_file": paths.rel(sidecar) if sidecar.is_file() else None,
+    }
 
 
 def _calibration(files: list[DriveFile]) -> dict[str, Any]:
@@ -269,6 +367,7 @@ def _calibration(files: list[DriveFile]) -> dict[str, Any]:
                     f"a {contracts.SOURCE_CALIBRATION} or {contracts.CALIBRATION_FALLBACK_ROLE} "
                     "drive to calibrate the wheel radii",
                     "neither role has a drive",
+                    "add a source_train drive (data.roles.source_train)",
                 )
             ]
         )
@@ -306,7 +405,7 @@ def summary_table(manifest: dict[str, Any]) -> str:
 def main(params: Params) -> None:
     """The ``ingest`` stage: every drive of ``data.roles`` -> ``data/interim/drives``."""
     start = time.perf_counter()
-    manifest = ingest(params, paths.DRIVES)
+    manifest = ingest(params, paths.DRIVES, paths.INGEST_FAILED_REPORT)
     seconds = time.perf_counter() - start
     rows = sum(d["n_rows"] for d in manifest["drives"])
     print(summary_table(manifest))
