@@ -17,7 +17,7 @@ from rwhonet.features.seconds import integrate_per_second, segment_seconds
 from rwhonet.features.wpm import label_m, wheel_angle_rad, wpm_displacement_m
 from support.synthetic import build_drive, piecewise_linear_speed
 
-PROPERTY = settings(max_examples=40, deadline=None, database=None)
+PROPERTY = settings(max_examples=30, deadline=None, database=None)
 radius = st.floats(0.25, 0.35)
 
 

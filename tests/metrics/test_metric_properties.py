@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from rwhonet.metrics.intervals import mean_ci95
 from rwhonet.metrics.outage import window_metrics
 
-PROPERTY = settings(max_examples=60, deadline=None, database=None)
+PROPERTY = settings(max_examples=40, deadline=None, database=None)
 error = st.floats(-20.0, 20.0, allow_nan=False)
 outage = st.integers(1, 12)
 

@@ -350,7 +350,12 @@ def _read_numeric_slow(
             int(at.group(1)) - 1 if at else None,
             None,
             f"{n_columns} comma-separated columns of UTF-8 text in every row",
-            f"a row that cannot be read (from about data row {next_row} on): {message[:160]}",
+            (
+                f"a row that cannot be read: {message[:160]}"
+                if at
+                else f"text that cannot be read as CSV from about data row {next_row} on: "
+                f"{message[:160]}"
+            ),
             EXPORT_CSV,
         )
     problems = rows_tally.problems()

@@ -1,0 +1,911 @@
+"""The bad-input corpus: corrupted copies of a good drive, each with the behaviour it must get.
+
+Every case writes one target test drive, ``target_test/C-X1.csv``, under a raw
+folder that otherwise holds good drives (:func:`write_good_fleet`), plus, for
+some, params overrides (a role glob, a column map, a size limit). Its
+expectation says what the data stages must do with it:
+
+- :class:`Refuse`: the stage (``params``, ``ingest`` or ``validate``) stops with
+  an :class:`~rwhonet.errors.InputError` (a :class:`~rwhonet.config.ConfigError`
+  for ``params``) whose problems name the file, the row (where there is one),
+  the column, what was expected and what was found, and say what to do;
+- :class:`Repair`: validate cuts the bad stretch by a rule, listed in the
+  validation report, and the rest of the drive goes on to label;
+- :class:`Accept`: the drive goes through validate and label as it is.
+
+``tests/data/bad/test_corpus.py`` runs every case through the real stage
+functions; ``tests/data/bad/make_corpus.py`` writes the files out for a look;
+``docs/reliability.md`` is the table of it (its counts are checked against
+:func:`counts`).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from geographiclib.geodesic import Geodesic
+
+from rwhonet.data import canonical as c
+from rwhonet.data.iovnbd import HEADERS
+from support.drives import (
+    CUPAC_MAP,
+    SOURCE_RADIUS_M,
+    TARGET_RADIUS_M,
+    column_map_params,
+    straight_drive,
+    write_columnmap,
+    write_iovnbd,
+)
+
+DRIVE = "C-X1"  # the corrupted drive's id
+FILE = f"{DRIVE}.csv"
+DURATION_S = 150.0  # > max(adapt.m_grid) + min(evaluate.outages_s) = 130 s of the real params
+T0 = 45000.0
+
+
+@dataclass(frozen=True)
+class Refuse:
+    """The stage stops; one of its problems must match all of these."""
+
+    stage: str  # "params" | "ingest" | "validate"
+    row: int | None  # the 1-based data row of the first problem of the check, None: file-wide
+    column: str | None  # the file's column name ("" when the file is a folder or params)
+    expected: str  # a substring of Problem.expected (of the ConfigError message for params)
+    found: str  # a substring of Problem.found
+    file: str = FILE  # the file the problem names (its name only)
+
+    kind = "refused"
+
+
+@dataclass(frozen=True)
+class Repair:
+    """Validate cuts ``seconds`` (at least) of the drive by ``rule``; the rest is kept."""
+
+    rule: str
+    seconds: int
+    kind = "repaired"
+
+
+@dataclass(frozen=True)
+class Accept:
+    """The drive goes through validate and label unchanged."""
+
+    note: str
+    kind = "accepted"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One bad (or tricky but valid) input."""
+
+    name: str
+    corruption: str  # what is wrong with it, for the docs table
+    write: Callable[[Path], None]  # writes target_test/C-X1.csv (and more) under a raw root
+    expect: Refuse | Repair | Accept
+    overrides: dict = field(default_factory=dict)  # params overrides, dotted keys
+
+
+CASES: list[Case] = []
+# Cases also run through the stage scripts (tests/data/bad/test_corpus.py::test_stage_scripts).
+SCRIPT_CASES = (
+    "text_in_a_number_cell",
+    "negated_wheel_speeds",
+    "target_test_60s",
+    "params_unknown_key",
+    "params_wrong_type",
+    "windows_line_endings_and_bom",
+)
+
+
+def case(name: str, corruption: str, expect, **overrides):
+    """Register the decorated writer as a corpus case."""
+
+    def register(write: Callable[[Path], None]) -> Callable[[Path], None]:
+        CASES.append(Case(name, corruption, write, expect, overrides))
+        return write
+
+    return register
+
+
+def counts() -> dict[str, int]:
+    """How many cases the corpus has, and how many of each behaviour."""
+    out = {"tried": len(CASES), "refused": 0, "repaired": 0, "accepted": 0}
+    for x in CASES:
+        out[x.expect.kind] += 1
+    return out
+
+
+# --------------------------------------------------------------------------- good drives
+
+
+def write_good_fleet(raw: Path) -> None:
+    """The good drives around the corrupted one: a source_train and a target_train drive."""
+    for name, data in _good_fleet().items():
+        (raw / name).parent.mkdir(parents=True, exist_ok=True)
+        (raw / name).write_bytes(data)
+
+
+@lru_cache(maxsize=1)
+def _good_fleet() -> dict[str, bytes]:
+    drives = {
+        "source_train/V-S1.csv": _good(60.0, SOURCE_RADIUS_M, 52.40, 30.0),
+        "target_train/C-A1.csv": _good(60.0, TARGET_RADIUS_M, 52.42, 100.0),
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        return {
+            name: write_iovnbd(df, Path(tmp) / name.replace("/", "_")).read_bytes()
+            for name, df in drives.items()
+        }
+
+
+@lru_cache(maxsize=8)
+def _good(duration_s: float, radius_m: float, lat0_deg: float, azimuth_deg: float) -> pd.DataFrame:
+    t = 0.1 * np.arange(round(duration_s * 10) + 1)
+    speed = 15.0 + 2.0 * np.sin(2.0 * np.pi * t / 40.0)  # m/s: the wheel speeds vary
+    return speed_profile_drive(speed, radius_m, lat0_deg, azimuth_deg)
+
+
+def good_target(duration_s: float = DURATION_S) -> pd.DataFrame:
+    """The good target test drive: 13-17 m/s north-east from (52.41, -1.5), 10 Hz, from T0."""
+    return _good(duration_s, TARGET_RADIUS_M, 52.41, 30.0).copy()
+
+
+def target_path(raw: Path) -> Path:
+    return raw / "target_test" / FILE
+
+
+def write_target(raw: Path, df: pd.DataFrame, headers: tuple[str, ...] = HEADERS) -> Path:
+    return write_iovnbd(df, target_path(raw), headers)
+
+
+def edit_lines(raw: Path, edit: Callable[[list[str]], list[str]], df=None) -> None:
+    """Write the good target drive, then edit its lines (line 0 is the header)."""
+    path = write_target(raw, good_target() if df is None else df)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    path.write_text("\n".join(edit(lines)) + "\n", encoding="utf-8")
+
+
+def rows(df: pd.DataFrame, first: int, last: int) -> pd.Series:
+    """Mask of data rows ``first..last`` (1-based, inclusive) of a drive frame."""
+    return (df.index >= first - 1) & (df.index <= last - 1)
+
+
+def speed_profile_drive(
+    speed_m_s: np.ndarray,
+    radius_m: float = TARGET_RADIUS_M,
+    lat0_deg: float = 52.41,
+    azimuth_deg: float = 30.0,
+) -> pd.DataFrame:
+    """A drive along one geodesic from ``(lat0_deg, -1.5)`` with a signed speed per row.
+
+    Negative speeds reverse along the geodesic; wheel speeds are the magnitudes ``|v| / r``,
+    as ABS sensors give them. Positions are the trapezoid integral of the speed, the WPM's
+    own integral, so a true radius gives labels of zero.
+    """
+    v = np.asarray(speed_m_s, dtype=np.float64)
+    t = np.round(T0 + 0.1 * np.arange(v.size), 6)
+    s = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * 0.1)]
+    geo = [Geodesic.WGS84.Direct(lat0_deg, -1.5, azimuth_deg, d) for d in s]
+    omega = np.abs(v) / radius_m
+    return pd.DataFrame(
+        {
+            c.T_S: t,
+            c.LAT_DEG: [g["lat2"] for g in geo],
+            c.LON_DEG: [g["lon2"] for g in geo],
+            **{w: omega for w in c.WHEELS},
+            c.N_SATS: np.full(v.size, 9.0),
+        }
+    )
+
+
+WHEEL_RL = " Wheel Speed Rear Left (rad/sec)"
+WHEEL_RR = " Wheel Speed Rear Right (rad/sec)"
+WHEEL_FL = " Wheel Speed Front Left (rad/sec)"
+REAR_PAIR = f"{WHEEL_RL} / {WHEEL_RR}"
+
+
+# --------------------------------------------------------------------------- ingest: the file
+
+
+@case("empty_file", "0 bytes", Refuse("ingest", None, None, "a header row", "an empty file"))
+def _(raw: Path) -> None:
+    target_path(raw).parent.mkdir(parents=True, exist_ok=True)
+    target_path(raw).write_bytes(b"")
+
+
+@case(
+    "header_only",
+    "the header line and no data row",
+    Refuse("ingest", None, None, "at least one data row", "none"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: lines[:1])
+
+
+@case(
+    "no_header_row",
+    "the header line deleted: the file starts with data",
+    Refuse("ingest", None, None, "a header row first", "a row of 29 numbers"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: lines[1:])
+
+
+@case(
+    "extra_cell_in_a_row",
+    "data row 50 has a 30th cell (a stray comma)",
+    Refuse("ingest", 50, None, "29 comma-separated columns", "30 column(s)"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [*lines[:50], lines[50] + ",7", *lines[51:]])
+
+
+@case(
+    "truncated_last_row",
+    "the copy was cut off in the middle of the last row",
+    Refuse("ingest", 1501, None, "29 comma-separated columns", "column(s)"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [*lines[:-1], lines[-1][: len(lines[-1]) // 2]])
+
+
+@case(
+    "decimal_commas",
+    "decimal commas in a comma-separated file (a spreadsheet's locale)",
+    Refuse("ingest", 1, None, "29 comma-separated columns", "column(s)"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [lines[0], *(line.replace(".", ",") for line in lines[1:])])
+
+
+@case(
+    "semicolon_separated",
+    "';'-separated with decimal commas (a spreadsheet's locale)",
+    Refuse("ingest", None, None, "comma-separated columns", "separated by semicolons"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [x.replace(",", ";").replace(".", ",") for x in lines])
+
+
+@case(
+    "missing_column",
+    "the rear-left wheel speed column deleted (28 columns)",
+    Refuse(
+        "ingest",
+        None,
+        "Wheel Speed Rear Left (rad/sec)",
+        "a column named 'Wheel Speed Rear Left (rad/sec)'",
+        "28 columns",
+    ),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [",".join(x.split(",")[:12] + x.split(",")[13:]) for x in lines])
+
+
+@case(
+    "renamed_header_and_extra_column",
+    "' Long' renamed 'Longitude' and a 30th column added: no name, no position to trust",
+    Refuse("ingest", None, "Long", "a column named 'Long'", "no such name"),
+)
+def _(raw: Path) -> None:
+    def edit(lines):
+        head = lines[0].replace(" Long,", "Longitude,") + ",Comment"
+        return [head, *(x + ",ok" for x in lines[1:])]
+
+    edit_lines(raw, edit)
+
+
+@case(
+    "duplicated_header_name",
+    "' Height' renamed ' Lat': two columns of one name",
+    Refuse("ingest", None, None, "each IO-VNBD column name once", "more than once"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [lines[0].replace(" Height,", " Lat,"), *lines[1:]])
+
+
+@case(
+    "text_in_a_number_cell",
+    "'fast' in the rear-left wheel speed of data row 77",
+    Refuse("ingest", 77, WHEEL_RL, "a number", "'fast'"),
+)
+def _(raw: Path) -> None:
+    def edit(lines):
+        cells = lines[77].split(",")
+        cells[12] = "fast"
+        lines[77] = ",".join(cells)
+        return lines
+
+    edit_lines(raw, edit)
+
+
+@case(
+    "nul_bytes_in_a_row",
+    "NUL bytes inside the latitude of data row 30 (a disk or transfer error)",
+    Refuse("ingest", 30, " Lat", "a number", "\\x00"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    lines = path.read_bytes().split(b"\n")
+    cells = lines[30].split(b",")
+    cells[2] = cells[2][:4] + b"\x00\x00" + cells[2][4:]
+    lines[30] = b",".join(cells)
+    path.write_bytes(b"\n".join(lines))
+
+
+@case(
+    "windows_1252_byte_in_a_cell",
+    "a Windows-1252 byte (0x91, a curly quote) after the latitude of data row 60",
+    Refuse("ingest", 60, " Lat", "a number", "52.4"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    lines = path.read_bytes().split(b"\n")
+    cells = lines[60].split(b",")
+    cells[2] += b"\x91"
+    lines[60] = b",".join(cells)
+    path.write_bytes(b"\n".join(lines))
+
+
+@case(
+    "non_utf8_row_with_a_stray_comma",
+    "data row 80 ends in ',\\xe9' (Latin-1 text and one cell too many)",
+    Refuse("ingest", 80, None, "29 comma-separated columns of UTF-8 text", "Expected 29 columns"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    lines = path.read_bytes().split(b"\n")
+    lines[80] += b",\xe9"
+    path.write_bytes(b"\n".join(lines))
+
+
+@case(
+    "utf16_text",
+    "saved as UTF-16 ('Unicode Text')",
+    Refuse("ingest", None, None, "a CSV text file", "UTF-16"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    path.write_bytes(path.read_text(encoding="utf-8").encode("utf-16"))
+
+
+@case(
+    "xlsx_named_csv",
+    "an Excel workbook (a ZIP archive) saved with a .csv name",
+    Refuse("ingest", None, None, "a CSV text file", "ZIP archive"),
+)
+def _(raw: Path) -> None:
+    import zipfile
+
+    target_path(raw).parent.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(target_path(raw), "w") as z:
+        z.writestr("xl/workbook.xml", "<workbook/>")
+
+
+@case(
+    "binary_garbage",
+    "random bytes (a corrupted download)",
+    Refuse("ingest", None, None, "a CSV text file", "NUL bytes"),
+)
+def _(raw: Path) -> None:
+    target_path(raw).parent.mkdir(parents=True, exist_ok=True)
+    target_path(raw).write_bytes(np.random.default_rng(9).bytes(4096).replace(b"\x00", b"\x01", 0))
+    data = bytearray(target_path(raw).read_bytes())
+    data[10] = 0  # in the first line
+    data = data.replace(b"\n", b" ")
+    target_path(raw).write_bytes(bytes(data))
+
+
+@case(
+    "file_too_large",
+    "a drive file above data.max_file_mb (here a 0.2 MB limit, the file 0.3 MB)",
+    Refuse("ingest", None, None, "a drive file of at most 0.2 MB", " MB"),
+    **{"data.max_file_mb": 0.2},
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target())
+
+
+@case(
+    "broken_scenarios_sidecar",
+    "the optional C-X1.scenarios.json holds invalid JSON",
+    Refuse("ingest", None, None, "valid JSON", "Expecting", file=f"{DRIVE}.scenarios.json"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target())
+    (raw / "target_test" / f"{DRIVE}.scenarios.json").write_text('{"intervals": [', "utf-8")
+
+
+# --------------------------------------------------------------------------- ingest: the params
+
+
+@case(
+    "role_glob_matches_no_file",
+    "data.roles.target_test.glob '*.CSV' (upper case) matches no file",
+    Refuse("ingest", None, None, "'target_test/*.CSV'", "no matching file", file="target_test"),
+    **{
+        "data.roles.target_test": {
+            "glob": "target_test/*.CSV",
+            "format": "iovnbd",
+            "vehicle": "target",
+            "required": True,
+        }
+    },
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target())
+
+
+_CUPAC_ROLE = {"glob": "target_test/*.csv", "format": "cupac", "vehicle": "target"}
+
+
+@case(
+    "column_map_names_a_missing_column",
+    "the column map names 'WheelSpeedRL', the file calls it 'WheelSpeedRearLeft'",
+    Refuse("ingest", None, "WheelSpeedRL", "data.column_maps.cupac.omega_rl", "no such name"),
+    **{
+        "data.column_maps.cupac": column_map_params(CUPAC_MAP),
+        "data.roles.target_test": _CUPAC_ROLE,
+    },
+)
+def _(raw: Path) -> None:
+    cmap = dict(CUPAC_MAP) | {"omega_rl": ("WheelSpeedRearLeft", "rpm")}
+    write_columnmap(good_target(), target_path(raw), cmap)
+
+
+@case(
+    "params_unknown_key",
+    "params.yaml: validate.gnss.min_sat (a typo of min_sats)",
+    Refuse("params", None, None, "unknown key(s) ['min_sat']", "validate.gnss", file="params.yaml"),
+    **{"validate.gnss.min_sat": 4},
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target())
+
+
+@case(
+    "params_wrong_type",
+    "params.yaml: validate.gnss.min_sats: 'four'",
+    Refuse(
+        "params", None, None, "expected an integer", "validate.gnss.min_sats", file="params.yaml"
+    ),
+    **{"validate.gnss.min_sats": "four"},
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target())
+
+
+# --------------------------------------------------------------------------- validate: refused
+
+
+@case(
+    "empty_cells",
+    "latitude cells of data rows 100-102 left empty",
+    Refuse("validate", 100, " Lat", "a value", "no value (empty or NaN)"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 100, 102), c.LAT_DEG] = np.nan
+    write_target(raw, df)
+
+
+@case(
+    "time_not_finite",
+    "'inf' in the time column of data row 40",
+    Refuse("validate", 40, " Time", "a finite time in seconds", "inf"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 40, 40), c.T_S] = np.inf
+    write_target(raw, df)
+
+
+@case(
+    "time_goes_backwards",
+    "data row 300 stamped 5 s before row 299",
+    Refuse("validate", 300, " Time", "time strictly increasing", "time goes backwards"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 300, 300), c.T_S] -= 5.0
+    write_target(raw, df)
+
+
+@case(
+    "duplicated_timestamps",
+    "data row 200 written twice (rows 200 and 201 identical)",
+    Refuse("validate", 201, " Time", "time strictly increasing", "again (as in row 200)"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df = pd.concat([df.iloc[:200], df.iloc[199:]], ignore_index=True)
+    write_target(raw, df)
+
+
+@case(
+    "dropped_samples",
+    "two samples missing after data row 500 (a 0.3 s step)",
+    Refuse("validate", 501, " Time", "a step of 0.1 ± 0.05 s", "step +0.3 s"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    write_target(raw, df.drop(index=[500, 501]).reset_index(drop=True))
+
+
+@case(
+    "five_hz",
+    "sampled at 5 Hz (every other row)",
+    Refuse("validate", None, " Time", "a median step of 0.1", "sampled at 5 Hz"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target().iloc[::2].reset_index(drop=True))
+
+
+@case(
+    "time_in_ms",
+    "time in milliseconds in the IO-VNBD time column",
+    Refuse("validate", None, " Time", "a median step of 0.1", "time in ms instead of s"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[c.T_S] = df[c.T_S] * 1000.0
+    write_target(raw, df)
+
+
+@case(
+    "latitude_out_of_range",
+    "latitude 95 deg in data rows 400-404",
+    Refuse("validate", 400, " Lat", "a latitude in [-90, 90] deg", "95.0"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 400, 404), c.LAT_DEG] = 95.0
+    write_target(raw, df)
+
+
+@case(
+    "longitude_out_of_range",
+    "longitude 200 deg in data row 500",
+    Refuse("validate", 500, " Long", "a longitude in [-180, 180] deg", "200.0"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 500, 500), c.LON_DEG] = 200.0
+    write_target(raw, df)
+
+
+@case(
+    "latlon_swapped",
+    "latitude and longitude columns swapped (both still in range near Coventry)",
+    Refuse("validate", None, " Lat /  Long", "the latitude in ' Lat'", "look swapped"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[[c.LAT_DEG, c.LON_DEG]] = df[[c.LON_DEG, c.LAT_DEG]].to_numpy()
+    write_target(raw, df)
+
+
+@case(
+    "latlon_swapped_out_of_range",
+    "latitude and longitude swapped in a drive near Shanghai (latitude 121 deg)",
+    Refuse("validate", None, " Lat /  Long", "the latitude in ' Lat'", "beyond ±90 deg"),
+)
+def _(raw: Path) -> None:
+    df = straight_drive(DURATION_S, radius_m=TARGET_RADIUS_M, lat0_deg=31.2, lon0_deg=121.5)
+    df[[c.LAT_DEG, c.LON_DEG]] = df[[c.LON_DEG, c.LAT_DEG]].to_numpy()
+    write_target(raw, df)
+
+
+@case(
+    "stuck_wheel_whole_drive",
+    "front-left wheel speed 0 throughout while the other three turn (issue 9)",
+    Refuse("validate", 1, WHEEL_FL, "each wheel turning with the others", "stuck"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[c.OMEGA_FL] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "stuck_wheel_20s",
+    "rear-right wheel speed 0 for 20 s (data rows 501-700) at 15 m/s",
+    Refuse("validate", 501, WHEEL_RR, "each wheel turning", "for 20 s"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 501, 700), c.OMEGA_RR] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "wheel_far_below_the_others",
+    "rear-left wheel reads a fifth of the others for 10 s (a failing sensor)",
+    Refuse("validate", 1001, WHEEL_RL, "each wheel turning", "stuck"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 1001, 1100), c.OMEGA_RL] *= 0.2
+    write_target(raw, df)
+
+
+@case(
+    "negated_wheel_speeds",
+    "all four wheel speeds negated (a sign error in the export) while GNSS moves on (issue 9)",
+    Refuse("validate", 1, WHEEL_FL, "magnitudes >= 0", "looks negated"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] = -df[list(c.WHEELS)]
+    write_target(raw, df)
+
+
+@case(
+    "signed_wheel_speeds",
+    "signed wheel speeds: negative while reversing for 5 s",
+    Refuse("validate", 601, WHEEL_FL, "magnitudes >= 0", "signed speeds"),
+)
+def _(raw: Path) -> None:
+    v = np.r_[np.full(600, 8.0), np.full(50, -2.0), np.full(851, 8.0)]
+    df = speed_profile_drive(v)
+    df.loc[rows(df, 601, 650), list(c.WHEELS)] *= -1.0
+    write_target(raw, df)
+
+
+@case(
+    "wheel_speeds_in_kmh",
+    "wheel speeds in km/h (the linear speed) instead of rad/s",
+    Refuse("validate", None, REAR_PAIR, "effective radius", "look like km/h"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] *= TARGET_RADIUS_M * 3.6  # the linear speed in km/h
+    write_target(raw, df)
+
+
+@case(
+    "wheel_speeds_in_rpm",
+    "wheel speeds in rpm instead of rad/s",
+    Refuse("validate", None, REAR_PAIR, "effective radius", "look like rpm"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] *= 60.0 / (2.0 * math.pi)
+    write_target(raw, df)
+
+
+@case(
+    "wheel_speeds_in_deg_per_s",
+    "wheel speeds in deg/s instead of rad/s",
+    Refuse("validate", None, REAR_PAIR, "effective radius", "look like deg/s"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] *= 180.0 / math.pi
+    write_target(raw, df)
+
+
+@case(
+    "wheel_speed_spike",
+    "rear-left wheel speed 1e6 rad/s in data row 123",
+    Refuse("validate", 123, WHEEL_RL, "|wheel speed| < 300.0 rad/s", "1000000.0"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 123, 123), c.OMEGA_RL] = 1e6
+    write_target(raw, df)
+
+
+@case(
+    "time_in_ms_by_column_map",
+    "a column-mapped CSV whose map says time in s, the file has ms",
+    Refuse("validate", None, "Time", "a median step of 0.1", "time in ms instead of s"),
+    **{
+        "data.column_maps.cupac": column_map_params(CUPAC_MAP | {"t": ("Time", "s")}),
+        "data.roles.target_test": _CUPAC_ROLE,
+    },
+)
+def _(raw: Path) -> None:
+    write_columnmap(good_target(), target_path(raw), CUPAC_MAP)  # written in ms
+
+
+@case(
+    "target_test_60s",
+    "a 60 s target test drive: adapt needs 100 s and the shortest outage 30 s more (issue 9)",
+    Refuse("validate", None, None, "at least 130 GNSS-valid seconds", "keeps 60 valid s"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target(60.0))
+
+
+@case(
+    "target_test_short_after_cuts",
+    "a 200 s target test drive with 0 satellites for 100 s: 99 valid s left",
+    Refuse("validate", None, None, "at least 130 GNSS-valid seconds", "low_sats 100 s"),
+)
+def _(raw: Path) -> None:
+    df = good_target(200.0)
+    df.loc[df[c.T_S].between(T0 + 50.05, T0 + 150.0), c.N_SATS] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "no_valid_segment",
+    "0 satellites throughout: nothing survives the GNSS policy",
+    Refuse("validate", None, None, "at least one GNSS-valid stretch", "low_sats 150 s"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[c.N_SATS] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "gnss_frozen_throughout",
+    "the GNSS fix never changes while the wheels turn",
+    Refuse("validate", None, None, "at least one GNSS-valid stretch", "frozen"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[[c.LAT_DEG, c.LON_DEG]] = df.loc[0, [c.LAT_DEG, c.LON_DEG]].to_numpy()
+    write_target(raw, df)
+
+
+# --------------------------------------------------------------------------- validate: repaired
+
+
+def _long_target() -> pd.DataFrame:
+    return good_target(200.0)
+
+
+@case(
+    "gap_30s",
+    "30 s of rows missing in the middle (a logger pause)",
+    Repair("gap", 30),
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    write_target(raw, df[~df[c.T_S].between(T0 + 80.05, T0 + 110.0)].reset_index(drop=True))
+
+
+@case(
+    "gnss_frozen_20s",
+    "GNSS fix frozen for 20 s while driving",
+    Repair("frozen", 20),
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    stuck = df[c.T_S].between(T0 + 80.0, T0 + 100.0)
+    df.loc[stuck, [c.LAT_DEG, c.LON_DEG]] = df.loc[
+        stuck.idxmax(), [c.LAT_DEG, c.LON_DEG]
+    ].to_numpy()
+    write_target(raw, df)
+
+
+@case(
+    "gnss_jump_500m",
+    "one fix 500 m off (data row 801): out and back",
+    Repair("jump", 1),
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    i = 800
+    g = Geodesic.WGS84.Direct(df.loc[i, c.LAT_DEG], df.loc[i, c.LON_DEG], 120.0, 500.0)
+    df.loc[i, [c.LAT_DEG, c.LON_DEG]] = [g["lat2"], g["lon2"]]
+    write_target(raw, df)
+
+
+@case(
+    "zero_satellites_20s",
+    "0 satellites for 20 s",
+    Repair("low_sats", 20),
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    df.loc[df[c.T_S].between(T0 + 60.05, T0 + 80.0), c.N_SATS] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "stuck_wheel_cut_by_hand",
+    "rear-right wheel stuck for 20 s, cut with validate.cuts as the refusal advises",
+    Repair("manual", 20),
+    **{
+        "validate.cuts": [
+            {"drive": DRIVE, "start_s": T0 + 50.0, "end_s": T0 + 70.0, "reason": "stuck RR sensor"}
+        ]
+    },
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    df.loc[df[c.T_S].between(T0 + 50.05, T0 + 70.0), c.OMEGA_RR] = 0.0
+    write_target(raw, df)
+
+
+# --------------------------------------------------------------------------- accepted
+
+
+@case(
+    "reversing",
+    "a genuine 5 s reversing manoeuvre: stop, back up at 2 m/s, drive on (speeds as magnitudes)",
+    Accept("GNSS moves backwards, wheel speeds stay positive: the WPM distance matches"),
+)
+def _(raw: Path) -> None:
+    ramp = np.linspace(8.0, 0.0, 40)
+    v = np.r_[
+        np.full(560, 8.0), ramp, -np.full(50, 2.0), np.zeros(10), ramp[::-1], np.full(841, 8.0)
+    ]
+    write_target(raw, speed_profile_drive(v))
+
+
+@case(
+    "standstill",
+    "stopped for 30 s: all wheels 0, GNSS still",
+    Accept("no wheel turns: nothing is stuck, frozen or negative"),
+)
+def _(raw: Path) -> None:
+    v = np.r_[np.full(600, 10.0), np.zeros(300), np.full(601, 10.0)]
+    write_target(raw, speed_profile_drive(v))
+
+
+@case(
+    "windows_line_endings_and_bom",
+    "CRLF line endings and a UTF-8 byte-order mark (Excel's 'CSV UTF-8')",
+    Accept("the BOM is dropped from the first header name; CRLF is a line break"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    text = path.read_text(encoding="utf-8").replace("\n", "\r\n")
+    path.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+
+
+@case(
+    "old_mac_line_endings",
+    "CR-only line endings",
+    Accept("a CR alone is a line break too"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    path.write_bytes(path.read_bytes().replace(b"\n", b"\r"))
+
+
+@case(
+    "renamed_headers_same_layout",
+    "every header renamed ('channel 0'..'channel 28'), the 29 IO-VNBD columns in order",
+    Accept("read by position; the manifest says header_match: position"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, good_target(), tuple(f"channel {i}" for i in range(len(HEADERS))))
+
+
+@case(
+    "quoted_cells_blank_lines_and_spaces",
+    "quoted numbers, spaces around cells, a blank line at the end",
+    Accept("CSV quoting and padding are read as numbers"),
+)
+def _(raw: Path) -> None:
+    def edit(lines):
+        body = [",".join(f'"{x}"' if i % 2 else f" {x} " for i, x in enumerate(line.split(",")))
+                for line in lines[1:]]  # fmt: skip
+        return [lines[0], *body, ""]
+
+    edit_lines(raw, edit)
+
+
+@case(
+    "extra_columns_by_name",
+    "two extra columns (a comment, a GPS-time string) besides the 29 IO-VNBD ones",
+    Accept("columns are found by name; the others are ignored"),
+)
+def _(raw: Path) -> None:
+    def edit(lines):
+        return [lines[0] + ",Comment,UTC", *(x + ",ok,12:00:00" for x in lines[1:])]
+
+    edit_lines(raw, edit)
