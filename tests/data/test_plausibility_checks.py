@@ -1,4 +1,4 @@
-"""Wheel-sensor and position plausibility: stuck wheels, signs, swapped coordinates."""
+"""Wheel-sensor and position plausibility: stuck or silent wheels, signs, coordinates."""
 
 from __future__ import annotations
 
@@ -11,10 +11,13 @@ from rwhonet.data.plausibility import (
     implied_radius,
     latlon_swapped_by_range,
     negative_wheel_rows,
+    radians_radius,
+    silent_wheel_runs,
     stuck_wheel_runs,
     swapped_radius,
 )
 from rwhonet.data.quality import Segment
+from support.corpus import speed_profile_drive
 from support.drives import SOURCE_RADIUS_M, straight_drive
 
 POLICY = WheelPolicy(
@@ -86,3 +89,27 @@ def test_swapped_coordinates_by_the_radius_they_imply(azimuth_deg):
     as_is = implied_radius(swapped, seg, 1.0).radius_m
     assert abs(as_is / SOURCE_RADIUS_M - 1.0) > 0.1  # off by the heading's scale factor
     assert swapped_radius(swapped, seg, 1.0).radius_m == pytest.approx(SOURCE_RADIUS_M, rel=1e-6)
+
+
+def _segment(drive) -> list[Segment]:
+    return [Segment(0, len(drive), float(drive[c.T_S].iloc[0]), float(drive[c.T_S].iloc[-1]))]
+
+
+def test_wheels_silent_while_gnss_moves_but_not_at_a_hard_stop():
+    # 15 m/s, a hard stop (7.5 m/s^2: the one-second GNSS window lags it), 20 s standing.
+    v = np.r_[np.full(100, 15.0), np.linspace(15.0, 0.0, 21), np.zeros(200), np.full(100, 15.0)]
+    drive = speed_profile_drive(v, SOURCE_RADIUS_M)
+    assert silent_wheel_runs(drive, _segment(drive), SOURCE_RADIUS_M, POLICY, 0.1) == []
+    drive.loc[330:380, list(c.WHEELS)] = 0.0  # 5 s without wheel data while driving
+    (run,) = silent_wheel_runs(drive, _segment(drive), SOURCE_RADIUS_M, POLICY, 0.1)
+    assert (run.row_start, run.row_stop) == (330, 381)
+    assert run.gnss_max_m_s == pytest.approx(15.0, rel=1e-3) and run.gnss_m > 70.0
+
+
+def test_coordinates_in_radians_imply_the_radius_once_converted():
+    drive = straight_drive(40.0)
+    in_radians = drive.copy()
+    in_radians[[c.LAT_DEG, c.LON_DEG]] = np.radians(drive[[c.LAT_DEG, c.LON_DEG]].to_numpy())
+    est = radians_radius(in_radians, _segment(drive), 1.0)
+    assert est is not None and est.radius_m == pytest.approx(SOURCE_RADIUS_M, rel=1e-6)
+    assert radians_radius(drive, _segment(drive), 1.0) is None  # 52.4 deg: not radians

@@ -208,7 +208,9 @@ def speed_profile_drive(
 WHEEL_RL = " Wheel Speed Rear Left (rad/sec)"
 WHEEL_RR = " Wheel Speed Rear Right (rad/sec)"
 WHEEL_FL = " Wheel Speed Front Left (rad/sec)"
+WHEEL_FR = " Wheel Speed Front Right (rad/sec)"
 REAR_PAIR = f"{WHEEL_RL} / {WHEEL_RR}"
+ALL_WHEELS = " / ".join(w.strip() for w in (WHEEL_FL, WHEEL_FR, WHEEL_RL, WHEEL_RR))
 
 
 # --------------------------------------------------------------------------- ingest: the file
@@ -364,6 +366,17 @@ def _(raw: Path) -> None:
     lines = path.read_bytes().split(b"\n")
     lines[80] += b",\xe9"
     path.write_bytes(b"\n".join(lines))
+
+
+@case(
+    "two_files_joined",
+    "a second drive appended with its header (row 1502 repeats the header)",
+    Refuse("ingest", 1502, " Time", "a number", "' Time' (the header again)"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    lines = path.read_text(encoding="utf-8").splitlines()
+    path.write_text("\n".join(lines + lines) + "\n", encoding="utf-8")
 
 
 @case(
@@ -604,6 +617,17 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "coordinates_in_radians",
+    "latitude and longitude in radians",
+    Refuse("validate", None, " Lat /  Long", "decimal degrees", "look like radians"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[[c.LAT_DEG, c.LON_DEG]] = np.radians(df[[c.LAT_DEG, c.LON_DEG]].to_numpy())
+    write_target(raw, df)
+
+
+@case(
     "stuck_wheel_whole_drive",
     "front-left wheel speed 0 throughout while the other three turn (issue 9)",
     Refuse("validate", 1, WHEEL_FL, "each wheel turning with the others", "stuck"),
@@ -633,6 +657,28 @@ def _(raw: Path) -> None:
 def _(raw: Path) -> None:
     df = good_target()
     df.loc[rows(df, 1001, 1100), c.OMEGA_RL] *= 0.2
+    write_target(raw, df)
+
+
+@case(
+    "no_wheel_data",
+    "all four wheel speeds 0 throughout while GNSS shows 15 m/s (wheel columns left as zeros)",
+    Refuse("validate", 11, ALL_WHEELS, "follow the GNSS speed", "no wheel data"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "wheel_data_stops_for_30s",
+    "all four wheel speeds 0 for 30 s mid-drive (a CAN channel that stopped logging)",
+    Refuse("validate", 601, ALL_WHEELS, "follow the GNSS speed", "for 30 s"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 601, 900), list(c.WHEELS)] = 0.0
     write_target(raw, df)
 
 
@@ -810,6 +856,17 @@ def _(raw: Path) -> None:
 def _(raw: Path) -> None:
     df = _long_target()
     df.loc[df[c.T_S].between(T0 + 60.05, T0 + 80.0), c.N_SATS] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "no_fix_written_as_zeros",
+    "20 s of latitude and longitude 0.0 (a logger's 'no fix')",
+    Repair("frozen", 19),
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    df.loc[df[c.T_S].between(T0 + 60.05, T0 + 80.0), [c.LAT_DEG, c.LON_DEG]] = 0.0
     write_target(raw, df)
 
 

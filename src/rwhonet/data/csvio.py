@@ -313,7 +313,9 @@ def _read_numeric_slow(
             file,
             name,
             "a number",
-            "replace the text by a number, or leave the cell empty for a missing value",
+            "replace the text by a number ('.' as the decimal mark, times in seconds, not "
+            "hh:mm:ss), or leave the cell empty for a missing value; a second header row "
+            "means two files were joined: split them into one drive each",
         )
         for pos, name in wanted.items()
     }
@@ -339,7 +341,14 @@ def _read_numeric_slow(
                 next_row = int(rows[-1]) + 1
             for pos in wanted:
                 values, bad, found = _parse_block(batch.column(names[pos]))
-                cells_tally[pos].add(rows[bad], [repr(s) for s in found])
+                header = wanted[pos].strip().lower()
+                cells_tally[pos].add(
+                    rows[bad],
+                    [
+                        repr(x) + (" (the header again)" if x.strip().lower() == header else "")
+                        for x in found
+                    ],
+                )
                 chunks[pos].append(values)
     except (pa.ArrowInvalid, OSError) as err:
         message = str(err).splitlines()[0] if str(err) else type(err).__name__

@@ -191,6 +191,85 @@ def stuck_wheel_runs(
     return runs
 
 
+@dataclass(frozen=True)
+class SilentRun:
+    """Rows ``row_start:row_stop`` where every wheel read far below the GNSS speed."""
+
+    row_start: int
+    row_stop: int
+    wheels_max_rad_s: float  # the largest median of the four |wheel speeds| in the run
+    gnss_max_m_s: float  # the largest GNSS speed in the run
+    gnss_m: float  # GNSS distance over the run
+
+
+def silent_wheel_runs(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    nominal_radius_m: float,
+    policy: WheelPolicy,
+    sample_period_s: float,
+    ignore: np.ndarray | None = None,
+) -> list[SilentRun]:
+    """Find stretches where all four wheels read (near) zero while GNSS moves: no wheel data.
+
+    The median wheel cannot tell a stuck wheel when all of them stop (a CAN channel that
+    stopped logging, wheel columns left empty as zeros). Inside the valid segments (GNSS
+    trusted), the GNSS speed over the last second, divided by the nominal radius, is the
+    wheel speed to expect; a run of ``stuck_min_s`` or more where it exceeds
+    ``stuck_moving_rad_s`` and the median of the four wheels stays below ``stuck_ratio``
+    times it is reported.
+
+    Args:
+        drive: canonical columns.
+        segments: the drive's valid segments (the GNSS policy's).
+        nominal_radius_m: the vehicle's nominal tyre radius, m.
+        policy: ``validate.wheels``.
+        sample_period_s: nominal sample period.
+        ignore: rows to leave out (manual cuts), or None.
+
+    Returns:
+        The runs, in row order.
+    """
+    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    n, k = t.size, max(round(1.0 / sample_period_s), 1)
+    segment = np.full(n, -1)
+    for j, seg in enumerate(segments):  # per segment, not per sample
+        segment[seg.row_start : seg.row_stop] = j
+    if n <= k:
+        return []
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    dist = np.zeros(n)
+    dist[k:] = geodesic_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:])
+    speed = np.zeros(n)
+    speed[k:] = dist[k:] / (t[k:] - t[:-k])
+    same = np.zeros(n, dtype=bool)
+    same[k:] = (segment[k:] >= 0) & (segment[k:] == segment[:-k])
+    wheels = np.median(
+        np.abs(np.stack([np.asarray(drive[w], dtype=np.float64) for w in c.WHEELS])), axis=0
+    )
+    expected = speed / nominal_radius_m
+    silent = (
+        same & (expected > policy.stuck_moving_rad_s) & (wheels < policy.stuck_ratio * expected)
+    )
+    if ignore is not None:
+        silent &= ~ignore
+    start, stop = _runs(silent)
+    long = (stop - start) * sample_period_s >= policy.stuck_min_s - 1e-9
+    step = np.zeros(n)
+    step[1:] = local_step_distance_m(lat, lon)
+    return [
+        SilentRun(
+            int(a),
+            int(b),
+            float(wheels[a:b].max()),
+            float(speed[a:b].max()),
+            float(step[a + 1 : b].sum()),
+        )
+        for a, b in zip(start[long], stop[long], strict=True)
+    ]
+
+
 def negative_wheel_rows(
     drive: Mapping[str, np.ndarray], tol_rad_s: float, ignore: np.ndarray | None = None
 ) -> dict[str, np.ndarray]:
@@ -275,6 +354,31 @@ def swapped_radius(
     swapped = dict(drive)
     swapped[c.LAT_DEG], swapped[c.LON_DEG] = drive[c.LON_DEG], drive[c.LAT_DEG]
     return implied_radius(swapped, segments, moving_wheel_speed_rad_s)
+
+
+def radians_radius(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    moving_wheel_speed_rad_s: float,
+) -> RadiusEstimate | None:
+    """The effective radius the drive implies if its coordinates are radians, not degrees.
+
+    Args:
+        drive: canonical columns.
+        segments: the drive's valid segments.
+        moving_wheel_speed_rad_s: as in :func:`implied_radius`.
+
+    Returns:
+        The estimate with both coordinates converted from radians, or None when some
+        latitude lies beyond ±π/2 or longitude beyond ±π (they cannot be radians).
+    """
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    if np.nanmax(np.abs(lat)) > math.pi / 2 or np.nanmax(np.abs(lon)) > math.pi:
+        return None
+    converted = dict(drive)
+    converted[c.LAT_DEG], converted[c.LON_DEG] = np.degrees(lat), np.degrees(lon)
+    return implied_radius(converted, segments, moving_wheel_speed_rad_s)
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -37,6 +37,8 @@ from rwhonet.data.plausibility import (
     implied_radius,
     latlon_swapped_by_range,
     negative_wheel_rows,
+    radians_radius,
+    silent_wheel_runs,
     stuck_wheel_runs,
     swapped_radius,
     unit_mistake,
@@ -167,7 +169,7 @@ def validate(
                 if not found or _only_wheel_ranges(found, df, entry["columns"]):
                     drive_cuts = cuts.get(entry["drive"], [])
                     result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts)
-                    wheels = _wheel_problems(params, entry, df, drive_cuts)
+                    wheels = _wheel_problems(params, entry, df, drive_cuts, result)
                     more, radius = _drive_problems(
                         params, entry, df, result, check_units=not wheels
                     )
@@ -385,6 +387,25 @@ def _drive_problems(
         if unit_mistake(swapped.radius_m, nominal, vp.radius_tolerance) is None:
             problems.append(_swapped_problem(entry, est.radius_m, swapped.radius_m, nominal))
             return problems, radius
+        in_degrees = radians_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+        if (
+            in_degrees is not None
+            and unit_mistake(in_degrees.radius_m, nominal, vp.radius_tolerance) is None
+        ):
+            lat, lon = (columns.get(x, x) for x in (c.LAT_DEG, c.LON_DEG))
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    f"{lat} / {lon}",
+                    "latitude and longitude in decimal degrees",
+                    "latitude and longitude look like radians: every value within ±π, and "
+                    f"the wheels imply a tyre radius of {est.radius_m:.4g} m as they are, "
+                    f"{in_degrees.radius_m:.4g} m (nominal {nominal} m) in degrees",
+                    "convert both columns to degrees (x 180/π)",
+                )
+            )
+            return problems, radius
         problems.append(
             Problem(
                 file,
@@ -443,9 +464,13 @@ def _swapped_by_range(
 
 
 def _wheel_problems(
-    params: Params, entry: dict[str, Any], df: pd.DataFrame, drive_cuts: list[CutSpec]
+    params: Params,
+    entry: dict[str, Any],
+    df: pd.DataFrame,
+    drive_cuts: list[CutSpec],
+    result: Assessment,
 ) -> list[Problem]:
-    """Negative wheel speeds (a sign error) and stuck wheel sensors, in the file's rows."""
+    """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all."""
     vp = params.validate
     file, columns = entry["source_file"], entry["columns"]
     ignore = manual_rows(df[c.T_S].to_numpy(np.float64), drive_cuts)
@@ -512,6 +537,47 @@ def _wheel_problems(
                     problems[-1].fix,
                 )
             )
+    silent = silent_wheel_runs(
+        df,
+        result.segments,
+        params.nominal_radius_m(entry["vehicle"]),
+        vp.wheels,
+        vp.sample_period_s,
+        ignore,
+    )
+    wheels = " / ".join(columns.get(w, w).strip() for w in c.WHEELS)
+    for run in silent[:ROWS_LISTED]:
+        start, end = t[run.row_start], t[run.row_stop - 1]
+        problems.append(
+            Problem(
+                file,
+                run.row_start + 1,
+                wheels,
+                "wheel speeds that follow the GNSS speed (the median of the four at least "
+                f"{vp.wheels.stuck_ratio} x GNSS speed / nominal radius, whenever that exceeds "
+                f"{vp.wheels.stuck_moving_rad_s} rad/s for {vp.wheels.stuck_min_s} s; "
+                "validate.wheels)",
+                f"all four at most {run.wheels_max_rad_s:.3g} rad/s for "
+                f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
+                f"{run.row_start + 1}-{run.row_stop}, t = {start:.6g}-{end:.6g} s) while GNSS "
+                f"moved {run.gnss_m:.0f} m at up to {run.gnss_max_m_s:.3g} m/s: no wheel data "
+                "(a CAN channel that stopped logging, or wheel columns left as zeros?)",
+                "export the wheel speeds of this stretch; to keep the rest of the drive, cut "
+                f"it: validate.cuts: [{{drive: {entry['drive']}, start_s: "
+                f"{np.floor(start):.0f}, end_s: {np.ceil(end):.0f}, reason: no wheel data}}]",
+            )
+        )
+    if len(silent) > ROWS_LISTED:
+        problems.append(
+            Problem(
+                file,
+                None,
+                wheels,
+                problems[-1].expected,
+                f"{len(silent) - ROWS_LISTED} more stretch(es) like these",
+                problems[-1].fix,
+            )
+        )
     return problems
 
 
