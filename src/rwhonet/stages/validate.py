@@ -298,6 +298,9 @@ def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch
         yield _Batch([e for e, _ in pending], [t for _, t in pending])
 
 
+# Wheel speeds out of range (inf included) reach these checks on purpose (the unit check
+# tells rpm from deg/s): arithmetic on them must not warn, the problems say it.
+@np.errstate(invalid="ignore", over="ignore", divide="ignore")
 def _drive_problems(
     params: Params,
     entry: dict[str, Any],
@@ -463,6 +466,7 @@ def _swapped_by_range(
     return [_swapped_problem(entry, None, None, None), *rest]
 
 
+@np.errstate(invalid="ignore", over="ignore", divide="ignore")
 def _wheel_problems(
     params: Params,
     entry: dict[str, Any],
