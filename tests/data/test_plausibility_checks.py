@@ -13,6 +13,7 @@ from rwhonet.data.plausibility import (
     negative_wheel_rows,
     radians_radius,
     silent_wheel_runs,
+    stale_wheel_runs,
     stuck_wheel_runs,
     swapped_radius,
 )
@@ -113,3 +114,18 @@ def test_coordinates_in_radians_imply_the_radius_once_converted():
     est = radians_radius(in_radians, _segment(drive), 1.0)
     assert est is not None and est.radius_m == pytest.approx(SOURCE_RADIUS_M, rel=1e-6)
     assert radians_radius(drive, _segment(drive), 1.0) is None  # 52.4 deg: not radians
+
+
+def test_stale_wheel_values_while_the_car_changes_speed():
+    v = np.r_[np.full(100, 5.0), np.linspace(5.0, 15.0, 101), np.full(100, 15.0)]
+    drive = speed_profile_drive(v, SOURCE_RADIUS_M)
+    seg = _segment(drive)
+    # Exactly constant readings at a constant speed are not stale...
+    assert stale_wheel_runs(drive, seg, SOURCE_RADIUS_M, POLICY, 0.1) == []
+    # ...and real sensors are noisy: bit-identical readings while speeding up are.
+    noise = np.random.default_rng(3).normal(0.0, 0.02, (len(drive), 4))
+    drive[list(c.WHEELS)] = drive[list(c.WHEELS)].to_numpy() + noise
+    drive.loc[100:180, list(c.WHEELS)] = drive.loc[99, list(c.WHEELS)].to_numpy()
+    (run,) = stale_wheel_runs(drive, seg, SOURCE_RADIUS_M, POLICY, 0.1)
+    assert (run.row_start, run.row_stop) == (100, 181)
+    assert run.gnss_max_m_s - run.gnss_min_m_s > 5.0

@@ -683,6 +683,17 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "wheel_values_frozen_for_20s",
+    "the logger repeats the last wheel speeds for 20 s while the car speeds up (stale CAN)",
+    Refuse("validate", 601, ALL_WHEELS, "change with the car's speed", "stale wheel data"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 601, 800), list(c.WHEELS)] = df.loc[599, list(c.WHEELS)].to_numpy()
+    write_target(raw, df)
+
+
+@case(
     "negated_wheel_speeds",
     "all four wheel speeds negated (a sign error in the export) while GNSS moves on (issue 9)",
     Refuse("validate", 1, WHEEL_FL, "magnitudes >= 0", "looks negated"),

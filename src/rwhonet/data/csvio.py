@@ -108,7 +108,16 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
             line = f.readline(HEADER_MAX_BYTES + 1)
     except OSError as err:
         raise InputError(
-            [Problem(file, None, None, "a readable file", f"{type(err).__name__}: {err.strerror}")]
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    "a readable file",
+                    f"{type(err).__name__}: {err.strerror}",
+                    "check that the file is there and readable (permissions), then run again",
+                )
+            ]
         ) from None
     for signature, what in _SIGNATURES:
         if line.startswith(signature):

@@ -232,19 +232,11 @@ def silent_wheel_runs(
     """
     t = np.asarray(drive[c.T_S], dtype=np.float64)
     n, k = t.size, max(round(1.0 / sample_period_s), 1)
-    segment = np.full(n, -1)
-    for j, seg in enumerate(segments):  # per segment, not per sample
-        segment[seg.row_start : seg.row_stop] = j
     if n <= k:
         return []
     lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
     lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
-    dist = np.zeros(n)
-    dist[k:] = geodesic_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:])
-    speed = np.zeros(n)
-    speed[k:] = dist[k:] / (t[k:] - t[:-k])
-    same = np.zeros(n, dtype=bool)
-    same[k:] = (segment[k:] >= 0) & (segment[k:] == segment[:-k])
+    speed, same = _gnss_speed(drive, segments, k)
     wheels = np.median(
         np.abs(np.stack([np.asarray(drive[w], dtype=np.float64) for w in c.WHEELS])), axis=0
     )
@@ -268,6 +260,89 @@ def silent_wheel_runs(
         )
         for a, b in zip(start[long], stop[long], strict=True)
     ]
+
+
+@dataclass(frozen=True)
+class StaleRun:
+    """Rows ``row_start:row_stop`` where all four wheel speeds repeat while GNSS speed changes."""
+
+    row_start: int
+    row_stop: int
+    wheels_rad_s: float  # the repeated median wheel speed
+    gnss_min_m_s: float  # the GNSS speed range over the run
+    gnss_max_m_s: float
+
+
+def stale_wheel_runs(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    nominal_radius_m: float,
+    policy: WheelPolicy,
+    sample_period_s: float,
+    ignore: np.ndarray | None = None,
+) -> list[StaleRun]:
+    """Find stretches where all four wheel speeds repeat one value while the car changes speed.
+
+    A logger that lost the CAN bus may repeat the last value it had: the wheels then
+    read a plausible, moving speed, bit for bit the same from row to row, while the
+    GNSS speed (over the last second, inside the valid segments) changes. Real wheel
+    speeds carry sensor noise and never repeat all four for seconds while the car
+    speeds up or slows down. Reported: runs of ``stuck_min_s`` or more of repeated
+    values above ``stuck_moving_rad_s`` during which the GNSS speed (from the run's
+    second second on) spans more than ``stuck_moving_rad_s`` x the nominal radius.
+
+    Args:
+        drive: canonical columns.
+        segments: the drive's valid segments (the GNSS policy's).
+        nominal_radius_m: the vehicle's nominal tyre radius, m.
+        policy: ``validate.wheels``.
+        sample_period_s: nominal sample period.
+        ignore: rows to leave out (manual cuts), or None.
+
+    Returns:
+        The runs, in row order.
+    """
+    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    n, k = t.size, max(round(1.0 / sample_period_s), 1)
+    if n <= k:
+        return []
+    w = np.stack([np.asarray(drive[name], dtype=np.float64) for name in c.WHEELS])
+    median = np.median(np.abs(w), axis=0)
+    repeated = np.zeros(n, dtype=bool)
+    repeated[1:] = (w[:, 1:] == w[:, :-1]).all(axis=0)
+    repeated &= median > policy.stuck_moving_rad_s
+    if ignore is not None:
+        repeated &= ~ignore
+    speed, valid = _gnss_speed(drive, segments, k)
+    start, stop = _runs(repeated)
+    long = (stop - start) * sample_period_s >= policy.stuck_min_s - 1e-9
+    out = []
+    for a, b in zip(start[long], stop[long], strict=True):  # per stretch, a handful
+        # From one second into the run on, so that the GNSS window lies inside it: right
+        # after a change of speed the window still averages the speed before it.
+        v = speed[a + k : b][valid[a + k : b]]
+        if v.size and v.max() - v.min() > policy.stuck_moving_rad_s * nominal_radius_m:
+            out.append(StaleRun(int(a), int(b), float(median[a]), float(v.min()), float(v.max())))
+    return out
+
+
+def _gnss_speed(
+    drive: Mapping[str, np.ndarray], segments: Sequence[Segment], k: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """GNSS speed over the last ``k`` rows, and where it is trusted (inside one segment)."""
+    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    n = t.size
+    segment = np.full(n, -1)
+    for j, seg in enumerate(segments):  # per segment, not per sample
+        segment[seg.row_start : seg.row_stop] = j
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    speed = np.zeros(n)
+    valid = np.zeros(n, dtype=bool)
+    if n > k:
+        speed[k:] = geodesic_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:]) / (t[k:] - t[:-k])
+        valid[k:] = (segment[k:] >= 0) & (segment[k:] == segment[:-k])
+    return speed, valid
 
 
 def negative_wheel_rows(

@@ -154,7 +154,21 @@ def read_drive(f: DriveFile, data: DataParams) -> RawDrive:
         InputError: the file is too large, runs out of memory, or its reader refuses it.
     """
     file = paths.rel(f.path)
-    size_mb = f.path.stat().st_size / 2**20
+    try:
+        size_mb = f.path.stat().st_size / 2**20
+    except OSError as err:  # gone since it was listed, or unreadable
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    "a readable file",
+                    f"{type(err).__name__}: {err.strerror}",
+                    "check that the file is there and readable (permissions), then run again",
+                )
+            ]
+        ) from None
     if size_mb > data.max_file_mb:
         raise InputError(
             [
@@ -185,7 +199,7 @@ def _mb(size_mb: float) -> str:
 
 
 def _out_of_memory(f: DriveFile) -> InputError:
-    size_mb = f.path.stat().st_size / 2**20
+    size_mb = f.path.stat().st_size / 2**20 if f.path.exists() else float("nan")
     return InputError(
         [
             Problem(

@@ -39,6 +39,7 @@ from rwhonet.data.plausibility import (
     negative_wheel_rows,
     radians_radius,
     silent_wheel_runs,
+    stale_wheel_runs,
     stuck_wheel_runs,
     swapped_radius,
     unit_mistake,
@@ -580,6 +581,34 @@ def _wheel_problems(
                 problems[-1].expected,
                 f"{len(silent) - ROWS_LISTED} more stretch(es) like these",
                 problems[-1].fix,
+            )
+        )
+    stale = stale_wheel_runs(
+        df,
+        result.segments,
+        params.nominal_radius_m(entry["vehicle"]),
+        vp.wheels,
+        vp.sample_period_s,
+        ignore,
+    )
+    for run in stale[:ROWS_LISTED]:
+        start, end = t[run.row_start], t[run.row_stop - 1]
+        problems.append(
+            Problem(
+                file,
+                run.row_start + 1,
+                wheels,
+                "wheel speeds that change with the car's speed (never all four repeating one "
+                f"value for {vp.wheels.stuck_min_s} s while GNSS speed changes by more than "
+                f"{vp.wheels.stuck_moving_rad_s} rad/s x the nominal radius; validate.wheels)",
+                f"the same values (median {run.wheels_rad_s:.4g} rad/s) in every row for "
+                f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
+                f"{run.row_start + 1}-{run.row_stop}, t = {start:.6g}-{end:.6g} s) while the "
+                f"GNSS speed went between {run.gnss_min_m_s:.3g} and {run.gnss_max_m_s:.3g} "
+                "m/s: stale wheel data (a logger repeating the last CAN value?)",
+                "export the wheel speeds of this stretch; to keep the rest of the drive, cut "
+                f"it: validate.cuts: [{{drive: {entry['drive']}, start_s: "
+                f"{np.floor(start):.0f}, end_s: {np.ceil(end):.0f}, reason: stale wheel data}}]",
             )
         )
     return problems
