@@ -43,7 +43,8 @@ run: $(STAMP) data/raw
 	$(RUN_ENV) python -m rwhonet.tracking init
 	$(RUN_ENV) dvc repro
 	@echo
-	@awk '/^## Table 2/{exit} {print}' reports/tables.md
+	@awk '/^## Paired differences/{exit} {print}' reports/tables.md
+	@grep -m1 '^The rule picks' reports/tables.md || true
 	@echo "Full tables: reports/tables.md   MLflow UI: make ui   DVC plots: dvc plots show"
 
 CI_DIR := build/ci-run

@@ -18,7 +18,7 @@ Training variants, all on the same data, model, Adamax, MAE loss and batch size:
 - rwhonet block=K: ``fit`` as the pipeline runs it (K steps per Lightning batch).
 
 Then the adaptation grid (adapt.m_grid x 4 drives, m samples each, adapt.epochs
-epochs, in one process) as the adapt stage runs it (``rwhonet.models.adapt.fine_tune``);
+epochs, in one process) with the paper recipe (``rwhonet.models.adapt.fine_tune``);
 the cold-start cost of a stage process (a fresh interpreter importing its entry
 point and building the optimizer), with and without Lightning, which is why the
 adapt stage covers the whole grid in one process without a Trainer; and the
@@ -133,14 +133,16 @@ def _cold_start_s(code: str) -> float:
 
 
 def _grid(net, hparams, drives, adapt, seed: int) -> tuple[float, list[float]]:
-    """Run every (m, drive) fine-tune; return (wall seconds, per-run fit seconds)."""
-    from rwhonet.models.adapt import fine_tune
+    """Run the paper recipe at every (m, drive); return (wall seconds, per-run fit seconds)."""
+    from rwhonet.models.adapt import AdaptData, fine_tune
 
     fit_s = []
     start = time.perf_counter()
     for m in adapt.m_grid:
         for xd, yd in drives:
-            fit_s.append(fine_tune(net, hparams, xd[:m], yd[:m], adapt=adapt, seed=seed).seconds)
+            zeros = np.zeros(m)
+            data = AdaptData(xd[:m], yd[:m], zeros, zeros, zeros)
+            fit_s.append(fine_tune(net, hparams, data, adapt=adapt, seed=seed).seconds)
     return time.perf_counter() - start, fit_s
 
 
@@ -175,7 +177,7 @@ def main() -> None:
 
     import_s = time.perf_counter() - t0
     params = load_params()
-    model, seed = params.model, params.seed
+    model, seed = params.model, params.seeds[0]
     train = replace(params.train, epochs=args.epochs)
     block = args.steps_per_block or STEPS_PER_BLOCK
 
@@ -233,7 +235,8 @@ def main() -> None:
     print(
         f"Adaptation grid: {len(adapt.m_grid)} m values x {args.drives} drives = {n_runs} "
         f"fine-tunes (m = {adapt.m_grid[0]}-{adapt.m_grid[-1]} samples, {adapt.epochs} epochs, "
-        f"batch {adapt.batch_size}, trainable={adapt.trainable}), in one process"
+        f"batch {adapt.batch_size}, the paper recipe), in one process; every recipe: "
+        "benchmarks/bench_recalibrate.py"
     )
     print(
         f"  whole grid {grid_s:5.1f} s; {1e3 * grid_s / n_runs:4.0f} ms per fine-tune "

@@ -25,6 +25,8 @@ OVERRIDES = {
     ("adapt", "epochs"): 5,
     ("adapt", "m_grid"): [10, 20],
     ("adapt", "chosen_m"): 20,
+    ("adapt", "recipe"): "paper",
+    ("adapt", "steps", "max_steps"): 20,
     ("evaluate", "outages_s"): [30, 180],
 }
 
@@ -93,7 +95,12 @@ def test_full_pipeline_then_noop(repo):
     out = dvc(repo, "repro")
     assert out.returncode == 0, out.stdout + out.stderr
     ev = json.loads((repo / "metrics/eval.json").read_text())
-    assert set(ev["overall"]) >= {"WPM", "G", "S", "R", "R@10", "R@20", "WPM-m@10", "G+radius@20"}
+    recipes = {f"R[{r}]@{m}" for r in ("paper", "head", "ridge_head", "radius+G", "steps")
+               for m in (10, 20)}  # fmt: skip
+    assert set(ev["overall"]) >= {"WPM", "G", "S", "R", "R@10", "R@20", "WPM-m@10", "R[continuous]"}
+    assert set(ev["overall"]) >= recipes
+    assert ev["overall"]["R@20"] == ev["overall"]["R[paper]@20"]
+    assert ev["selection"]["params"]["recipe"] == "paper"
     assert set(ev["overall"]["WPM"]) == {"30s", "180s"} and ev["n_seeds"] == 2
     assert ev["overall"]["G"]["30s"]["crse_ci95"] is not None
     assert set(ev["domain_gap"]["G"]) == {"target_test", "source_test"}
@@ -103,6 +110,15 @@ def test_full_pipeline_then_noop(repo):
     preds = list((repo / "reports/predictions").glob("*.parquet"))
     assert len(preds) == 4 + 2  # target test and held-out source drives
     assert (repo / "mlruns" / "mlflow.db").is_file()
+    # every curve dvc.yaml declares is there to draw
+    shown = dvc(repo, "plots", "show", "--json")
+    assert shown.returncode == 0 and "could not find" not in shown.stdout + shown.stderr, (
+        shown.stdout + shown.stderr
+    )  # a column dvc.yaml names but the CSV lacks
+    plots = json.loads(shown.stdout[shown.stdout.index("{") :])
+    assert not plots.get("errors"), plots["errors"]
+    for title, curves in plots["data"].items():
+        assert curves and curves[0]["content"]["data"]["values"], title
 
     again = dvc(repo, "repro")
     assert again.returncode == 0 and "Data and pipelines are up to date" in again.stdout

@@ -433,13 +433,57 @@ class TrainParams:
 
 
 @dataclass(frozen=True)
+class StepsParams:
+    """The ``steps`` recipe: a step budget and early stopping on a held-back tail."""
+
+    max_steps: int
+    holdout_fraction: float  # the last part of the m seconds, never trained on
+    patience: int  # steps without a better held-back MAE before stopping
+
+
+@dataclass(frozen=True)
+class ContinuousParams:
+    """The ``continuous`` recipe: recalibrate before every outage window."""
+
+    inner: Literal["ridge_head", "radius+G"]  # the recipe run before each window
+    window_s: int  # GNSS-valid seconds before the window it fits on; 0: all of the drive so far
+
+
+Recipe = Literal["paper", "head", "ridge_head", "radius+G", "steps", "continuous"]
+
+
+@dataclass(frozen=True)
 class AdaptParams:
     m_grid: list[int]
     chosen_m: int
+    recipe: Recipe  # reported as R-WhONet (R, R@m)
+    recipes: list[Recipe]  # every recipe the adapt stages run
     epochs: int
     batch_size: int
     lr: float
-    trainable: Literal["all", "rnn", "head"]
+    ridge_penalty: float
+    ridge_penalty_grid: list[float]  # candidates scored on held-out source drives only
+    steps: StepsParams
+    continuous: ContinuousParams
+
+    def __post_init__(self) -> None:
+        if self.recipe not in self.recipes:
+            raise ConfigError(
+                f"adapt.recipe={self.recipe!r} is not in adapt.recipes {self.recipes}"
+            )
+        if len(set(self.recipes)) != len(self.recipes):
+            raise ConfigError(f"adapt.recipes must not repeat a recipe, got {self.recipes}")
+        if self.ridge_penalty < 0:
+            raise ConfigError(f"adapt.ridge_penalty must be >= 0, got {self.ridge_penalty}")
+        if not 0.0 < self.steps.holdout_fraction < 1.0 or self.steps.max_steps < 1:
+            raise ConfigError(
+                "adapt.steps: holdout_fraction must be in (0, 1) and max_steps >= 1, got "
+                f"{self.steps.holdout_fraction}, {self.steps.max_steps}"
+            )
+        if self.continuous.window_s < 0:
+            raise ConfigError(
+                f"adapt.continuous.window_s must be >= 0, got {self.continuous.window_s}"
+            )
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,9 @@ TARGET_TRAIN = "target_train"  # the new car's training drives (S)
 TARGET_TEST = "target_test"  # the new car's test drives (R adapts on each one's first m s)
 SOURCE_TEST = "source_test"  # held-out drives of the source car: G's error without a domain gap
 ROLES = (SOURCE_TRAIN, SOURCE_CALIBRATION, TARGET_TRAIN, TARGET_TEST, SOURCE_TEST)
-TEST_ROLES = (TARGET_TEST, SOURCE_TEST)  # every model predicts every second of these
+TEST_ROLES = (TARGET_TEST, SOURCE_TEST)  # every model is scored on these
+# G and S predict every second of these (the target training drives: the selection study)
+PREDICTED_ROLES = (TARGET_TEST, SOURCE_TEST, TARGET_TRAIN)
 REQUIRED_ROLES = (SOURCE_TRAIN, TARGET_TRAIN, TARGET_TEST)
 # Without a source_calibration drive, the first source_train drive (by name) calibrates.
 CALIBRATION_FALLBACK_ROLE = SOURCE_TRAIN
@@ -44,6 +46,24 @@ SAMPLE_VALUE_COLUMNS = (
     DISP_WPM_INTEGRATED_M, DISP_WPM_REFERENCE_M, ANGLE_RL_RAD, ANGLE_RR_RAD,
 )  # fmt: skip
 SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
+
+# --------------------------------------------------------------------------- model names
+
+CONTINUOUS = "continuous"  # the recipe that recalibrates before every outage window (no m)
+PAPER = "paper"  # the paper's recipe (§3.3.3): every weight, G's optimiser, adapt.epochs passes
+
+
+def recipe_model(recipe: str, m: int | None) -> str:
+    """The name a recipe's R-WhONet at m has in the evaluation (``R[continuous]`` has no m)."""
+    return f"R[{recipe}]" if recipe == CONTINUOUS or m is None else f"R[{recipe}]@{m}"
+
+
+def alt_wpm(wpm_mode: str) -> tuple[str, str]:
+    """The other WPM mode's model name and samples column (the second baseline)."""
+    if wpm_mode == "integrated":
+        return "WPM-ref", DISP_WPM_REFERENCE_M
+    return "WPM-int", DISP_WPM_INTEGRATED_M
+
 
 # --------------------------------------------------------------------------- files
 

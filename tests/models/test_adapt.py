@@ -1,4 +1,4 @@
-"""R-WhONet's fine-tuning (rwhonet.models.adapt): from G, the recipe's weights, deterministic."""
+"""R-WhONet's recipes (rwhonet.models.adapt): from G, each with its defining property."""
 
 from __future__ import annotations
 
@@ -8,17 +8,30 @@ import numpy as np
 import pytest
 import torch
 
+from rwhonet.config import ModelParams, TrainParams
 from rwhonet.errors import InputError
-from rwhonet.models.adapt import fine_tune
+from rwhonet.features.wpm import wpm_displacement_m
+from rwhonet.models.adapt import (
+    AdaptData,
+    continuous_predictions,
+    fine_tune,
+    fine_tune_steps,
+    hidden_features,
+    label_prediction,
+    radius_g,
+    recalibrate,
+    ridge_head,
+    ridge_head_weights,
+)
 from rwhonet.models.freeze import count_parameters
 from rwhonet.models.loop import predict
 from rwhonet.models.train import fit
 
+R_SRC = (0.29, 0.29)
+
 
 @pytest.fixture(scope="module")
 def g(linear_data):
-    from rwhonet.config import ModelParams, TrainParams
-
     x, y = linear_data
     model = ModelParams(hidden=16, layers=1, dropout=0.05, seq_len=1)
     train = TrainParams(epochs=3, batch_size=64, lr=0.01, val_fraction=0.1, num_threads=1)
@@ -26,29 +39,36 @@ def g(linear_data):
     return result.module.net, dict(result.module.hparams)
 
 
+def data_of(x, y, r_true=0.29 * 1.02, seed=0):
+    """Samples whose GNSS says the wheels roll ``r_true`` per radian (the WPM: 0.29)."""
+    rng = np.random.default_rng(seed)
+    angle = rng.uniform(20, 40, len(y))
+    gnss = r_true * angle
+    return AdaptData(x, y, gnss, angle, angle)
+
+
 def test_fine_tune_moves_g_towards_the_new_vehicle_and_records_the_recipe(
     g, linear_data, adapt_params
 ):
     net, hp = g
     x, y = linear_data
-    shift = 1.5  # the new vehicle's label differs by a constant
     before_w = {k: v.clone() for k, v in net.state_dict().items()}
+    shift = 1.5  # the new vehicle's label differs by a constant
     before = np.mean(np.abs(predict(net, x[:50]) - (y[:50] + shift)))
     recipe = replace(adapt_params, epochs=40, lr=0.02, batch_size=16)
-    r = fine_tune(net, hp, x[:50], y[:50] + shift, adapt=recipe, seed=2)
+    r = fine_tune(net, hp, data_of(x[:50], y[:50] + shift), adapt=recipe, seed=2)
     after = np.mean(np.abs(predict(r.net, x[:50]) - (y[:50] + shift)))
     assert after < 0.5 * before
-    assert len(r.history) == 40 and r.history[0]["val_loss"] is None
-    assert r.history[-1]["train_loss"] < r.history[0]["train_loss"]
-    assert r.hparams == {**hp, "lr": 0.02, "batch_size": 16}
+    assert len(r.history) == 40 and r.history[-1]["train_loss"] < r.history[0]["train_loss"]
+    assert r.hparams == {**hp, "lr": 0.02, "batch_size": 16} and r.radii is None
     assert all(torch.equal(v, before_w[k]) for k, v in net.state_dict().items())  # G untouched
 
 
 def test_fine_tuning_is_deterministic_for_a_seed(g, linear_data, adapt_params):
     net, hp = g
     x, y = linear_data
-    runs = [fine_tune(net, hp, x[:40], y[:40], adapt=adapt_params, seed=s) for s in (5, 5, 6)]
-    preds = [predict(r.net, x) for r in runs]
+    d = data_of(x[:40], y[:40])
+    preds = [predict(fine_tune(net, hp, d, adapt=adapt_params, seed=s).net, x) for s in (5, 5, 6)]
     np.testing.assert_array_equal(preds[0], preds[1])
     assert not np.array_equal(preds[0], preds[2])  # one batch per epoch: dropout differs
 
@@ -57,25 +77,129 @@ def test_inputs_that_do_not_fit_g_are_refused(g, linear_data, adapt_params):
     net, hp = g
     x, y = linear_data
     with pytest.raises(InputError, match="39"):
-        fine_tune(net, hp, x[:50, :, :39], y[:50], adapt=adapt_params, seed=1)
+        fine_tune(net, hp, data_of(x[:50, :, :39], y[:50]), adapt=adapt_params, seed=1)
     with pytest.raises(InputError, match="at least one sample"):
-        fine_tune(net, hp, x[:0], y[:0], adapt=adapt_params, seed=1)
+        fine_tune(net, hp, data_of(x[:0], y[:0]), adapt=adapt_params, seed=1)
 
 
-@pytest.mark.parametrize(
-    ("policy", "frozen", "moving"), [("rnn", "head", "rnn"), ("head", "rnn", "head")]
-)
-def test_frozen_weights_do_not_move(g, linear_data, adapt_params, policy, frozen, moving):
+@pytest.mark.parametrize(("policy", "frozen", "moving"), [("head", "rnn", "head")])
+def test_the_head_recipe_moves_the_head_only(g, linear_data, adapt_params, policy, frozen, moving):
     net, hp = g
     x, y = linear_data
     before = {k: v.clone() for k, v in net.state_dict().items()}
-    r = fine_tune(net, hp, x[:50], y[:50] + 1.0, adapt=replace(adapt_params, trainable=policy),
-                  seed=2)  # fmt: skip
-    assert r.n_trainable == count_parameters(getattr(r.net, moving))[1]
+    r = fine_tune(net, hp, data_of(x[:50], y[:50] + 1.0), adapt=adapt_params, seed=2,
+                  trainable=policy)  # fmt: skip
+    assert r.n_trainable == count_parameters(getattr(r.net, moving))[1] == 17
     for k, v in r.net.state_dict().items():
-        # With one time step h_{t-1} = 0, so U_h (weight_hh) gets no gradient and
-        # never moves, trainable or not (as in the authors' one-step SimpleRNN).
-        if k.startswith(frozen) or k.startswith("rnn.weight_hh"):
+        if k.startswith(frozen):
             assert torch.equal(v, before[k]), k
         else:
             assert not torch.equal(v, before[k]), k
+
+
+def test_ridge_with_zero_penalty_is_least_squares_on_the_head(g, linear_data):
+    net, hp = g
+    x, y = linear_data
+    d = data_of(x[:300], y[:300] + 0.7)
+    r = ridge_head(net, hp, d, penalty=0.0)
+    h = hidden_features(net, x[:300])
+    a = np.hstack([h, np.ones((300, 1))])
+    ols = np.linalg.lstsq(a, d.y.astype(np.float64), rcond=None)[0]
+    np.testing.assert_allclose(r.net.head.weight.detach().numpy()[0], ols[:-1], atol=1e-4)
+    assert float(r.net.head.bias.detach()) == pytest.approx(ols[-1], abs=1e-4)
+    np.testing.assert_allclose(predict(r.net, x[:300]), a @ ols, atol=1e-4)
+    assert torch.equal(r.net.rnn.weight_ih_l0, net.rnn.weight_ih_l0)  # the features stay G's
+
+
+def test_ridge_with_an_infinite_penalty_returns_g(g, linear_data):
+    net, hp = g
+    x, y = linear_data
+    r = ridge_head(net, hp, data_of(x[:50], y[:50] + 5.0), penalty=float("inf"))
+    for (k, a), b in zip(r.net.state_dict().items(), net.state_dict().values(), strict=True):
+        assert torch.equal(a, b), k
+    # and a growing penalty moves the head monotonically back towards G's
+    h, w0, b0 = hidden_features(net, x[:50]), net.head.weight.detach().numpy()[0], 0.0
+    dist = [np.linalg.norm(ridge_head_weights(h, y[:50] + 5.0, w0, b0, p)[0] - w0)
+            for p in (0.01, 0.1, 1.0, 10.0)]  # fmt: skip
+    assert dist == sorted(dist, reverse=True)
+
+
+def test_radius_g_recovers_a_known_radius_change(g, linear_data):
+    net, hp = g
+    x, y = linear_data
+    r = radius_g(net, hp, data_of(x[:50], y[:50], r_true=0.29 * 1.02), min_speed_m_s=2.0)
+    assert r.radii == pytest.approx((0.29 * 1.02, 0.29 * 1.02), rel=1e-9)
+    d = data_of(x[50:60], y[50:60], r_true=0.29 * 1.02, seed=3)
+    # G's correction plus the WPM with the refitted radii minus the source WPM
+    extra = wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, 0.29 * 1.02, 0.29 * 1.02)
+    extra -= wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *R_SRC)
+    np.testing.assert_allclose(label_prediction(r, d, R_SRC), predict(net, d.x) + extra, atol=1e-9)
+    standing = AdaptData(x[:5], y[:5], np.zeros(5), np.zeros(5), np.zeros(5))
+    assert radius_g(net, hp, standing, min_speed_m_s=2.0).radii is None  # nothing to fit on
+
+
+def test_steps_stops_early_and_keeps_the_best_held_back_weights(g, linear_data, adapt_params):
+    net, hp = g
+    x, y = linear_data
+    cfg = replace(adapt_params, lr=0.05, batch_size=8,
+                  steps=replace(adapt_params.steps, max_steps=500, patience=10))  # fmt: skip
+    r = fine_tune_steps(net, hp, data_of(x[:40], y[:40] + 2.0), adapt=cfg, seed=4)
+    held = [h["val_loss"] for h in r.history]
+    assert r.info["held_back_s"] == 10 and r.info["steps"] < 500  # stopped by patience
+    assert r.info["steps"] - r.info["best_step"] == 10
+    best = min(held)
+    got = float(np.mean(np.abs(predict(r.net, x[30:40]) - (y[30:40] + 2.0))))
+    assert got == pytest.approx(best, rel=1e-5)  # the best step's weights were restored
+
+
+def test_recalibrate_dispatches_every_recipe_but_continuous(g, linear_data, adapt_params):
+    net, hp = g
+    x, y = linear_data
+    d = data_of(x[:20], y[:20])
+    for recipe in ("paper", "head", "ridge_head", "radius+G", "steps"):
+        r = recalibrate(recipe, net, hp, d, adapt=adapt_params, seed=1, min_speed_m_s=2.0)
+        assert label_prediction(r, d, R_SRC).shape == (20,)
+    with pytest.raises(ValueError, match="continuous"):
+        recalibrate("continuous", net, hp, d, adapt=adapt_params, seed=1, min_speed_m_s=2.0)
+
+
+@pytest.mark.parametrize("window_s", [0, 40])
+@pytest.mark.parametrize("penalty", [0.0, 0.5])
+def test_continuous_never_uses_a_second_at_or_after_its_window(g, linear_data, window_s, penalty):
+    net, hp = g
+    x, _ = linear_data
+    n = 300
+    g_pred = predict(net, x[:n]).astype(np.float64)
+    # Before a window the labels are G's own predictions (a refit changes nothing), inside
+    # every window they are 100 m off: one leaked second would move the window's predictions.
+    windows = np.array([np.arange(s, s + 30) for s in (100, 130, 200, 250)])
+    y = g_pred.copy()
+    y[windows.ravel()] += 100.0
+    d = AdaptData(x[:n], y.astype(np.float32), np.full(n, 10.0), np.full(n, 34.0), np.full(n, 34.0))
+    # Give the first window's earlier seconds no leak at all, the last ones plenty of leaked
+    # labels before them (windows 1-3 precede window 4): only strictly earlier seconds count.
+    pred = continuous_predictions(
+        net, hp, d, np.arange(n), windows, inner="ridge_head", penalty=penalty,
+        window_s=window_s, min_speed_m_s=2.0, source_radii=R_SRC,
+    )  # fmt: skip
+    np.testing.assert_allclose(pred[0], g_pred[windows[0]], atol=1e-3)
+    assert np.all(np.abs(pred[0] - 100.0) > 50.0)
+    # windows after earlier windows do see those windows' (100 m) labels: they move
+    assert np.abs(pred[3] - g_pred[windows[3]]).mean() > 1.0
+
+
+def test_the_leak_check_catches_a_single_leaked_second(g, linear_data):
+    """One second carrying a window's label in the fit moves the predictions well past 1e-3."""
+    net, hp = g
+    x, _ = linear_data
+    n = 200
+    g_pred = predict(net, x[:n]).astype(np.float64)
+    y = g_pred.copy()
+    y[100:130] += 100.0  # the window's labels, as above
+    d = AdaptData(x[:n], y.astype(np.float32), np.full(n, 10.0), np.full(n, 34.0), np.full(n, 34.0))
+    kw = dict(inner="ridge_head", penalty=0.0, window_s=0, min_speed_m_s=2.0, source_radii=R_SRC)
+    clean = continuous_predictions(net, hp, d, np.arange(n), np.array([np.arange(100, 130)]), **kw)
+    # What an off-by-one (k <= k0) would fit on: the same window, one second later.
+    leaky = continuous_predictions(net, hp, d, np.arange(n), np.array([np.arange(101, 131)]), **kw)
+    np.testing.assert_allclose(clean[0], g_pred[100:130], atol=1e-3)
+    assert np.abs(leaky[0] - g_pred[101:131]).max() > 0.1

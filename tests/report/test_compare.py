@@ -143,3 +143,20 @@ def test_cli_names_a_missing_file(tmp_path, capsys):
         main([str(tmp_path / "nope.json")])
     assert e.value.code == 2
     assert "nope.json: no such file" in capsys.readouterr().err
+
+
+def test_r_is_the_paper_recipe_at_50_whatever_params_chose():
+    from rwhonet.report.compare import as_paper_recipe
+
+    cell = {"180s": {"crse_mean": 6.0, "crse_ci95": 0.1}}
+    other = {"180s": {"crse_mean": 9.0, "crse_ci95": 0.1}}
+    ev = {
+        "overall": {"R": other, "R@50": other, "R[paper]@50": cell, "R[paper]@20": other},
+        "per_drive": {"V-Delta3": {"R": other, "R[paper]@50": cell}},
+    }
+    got = as_paper_recipe(ev)
+    assert got["overall"]["R"] is cell and got["overall"]["R@50"] is cell
+    assert got["overall"]["R@20"] is other
+    assert got["per_drive"]["V-Delta3"]["R"] is cell
+    assert ev["overall"]["R"] is other  # the input is left alone
+    assert as_paper_recipe({"overall": {"R": other}, "per_drive": {}})["overall"]["R"] is other

@@ -1,4 +1,4 @@
-"""The adapt stage: R-WhONet per test drive and per m, from G's model file, in one process."""
+"""The adapt stage: R-WhONet per test drive, recipe and m, from G's model file, in one process."""
 
 import json
 import subprocess
@@ -12,14 +12,21 @@ import torch
 from rwhonet import contracts, paths
 from rwhonet.config import load_params
 from rwhonet.errors import InputError
-from rwhonet.models.adapt import fine_tune
-from rwhonet.models.checkpoint import load_whonet, save_whonet
-from rwhonet.models.loop import predict
+from rwhonet.io import write_json
+from rwhonet.models.adapt import label_prediction, recalibrate
+from rwhonet.models.checkpoint import load_whonet, load_wpm_radii, save_whonet
 from rwhonet.models.whonet import WhONet
-from rwhonet.stages.adapt import adapt_grid
+from rwhonet.stages.adapt import adapt_data, adapt_grid
+from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.samples import load_role
 
-OVERRIDES = {"adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "adapt.epochs": 3}
+from .conftest import R_CAL_M
+
+OVERRIDES = {
+    "adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "adapt.epochs": 3,
+    "adapt.recipe": "paper", "adapt.recipes": ["paper", "ridge_head", "radius+G", "continuous"],
+    "evaluate.outages_s": [30, 60],
+}  # fmt: skip
 
 
 @pytest.fixture
@@ -28,7 +35,7 @@ def params():
 
 
 @pytest.fixture
-def g_dir(tmp_path, params):
+def g_dir(tmp_path):
     torch.manual_seed(0)
     hp = {"n_features": 40, "hidden": 8, "layers": 1, "dropout": 0.05, "seq_len": 1,
           "lr": 7e-4, "batch_size": 128}  # fmt: skip
@@ -38,50 +45,77 @@ def g_dir(tmp_path, params):
     return folder
 
 
-def test_every_drive_and_m_gets_its_own_model_from_its_first_m_seconds(
-    tmp_path, samples_dir, params, g_dir
-):
-    records, _ = adapt_grid(params, 7, samples_dir, g_dir, tmp_path / "r")
-    assert [r.tags["m"] for r in records] == ["10", "20"]
+@pytest.fixture
+def calibration(tmp_path):
+    path = tmp_path / "calibration.json"
+    write_json(path, {"unit": "m/rad", "r_rl_m": R_CAL_M, "r_rr_m": R_CAL_M,
+                      "estimator": "ratio_of_sums", "min_speed_m_s": 2.0, "n_seconds_used": 1,
+                      "n_seconds_total": 1, "distance_m": 1.0, "role": "source_calibration",
+                      "drives": ["V"], "segments": ["V__s0"]})  # fmt: skip
+    return path
+
+
+def test_every_drive_recipe_and_m_gets_its_own_model(tmp_path, samples_dir, params, g_dir,
+                                                     calibration):  # fmt: skip
+    records, _ = adapt_grid(params, 7, samples_dir, calibration, g_dir, tmp_path / "r")
+    names = [(r.tags["recipe"], r.tags.get("m")) for r in records]
+    assert names == [("paper", "10"), ("paper", "20"), ("ridge_head", "10"), ("ridge_head", "20"),
+                     ("radius+G", "10"), ("radius+G", "20"), ("continuous", None)]  # fmt: skip
     g_net, g_hp = load_whonet(g_dir / contracts.MODEL_FILE)
     test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
     drive, k = test.frame["drive"].to_numpy(), test.frame["k"].to_numpy()
-    for m in (10, 20):
-        out = tmp_path / "r" / f"m{m}"
-        preds = pd.read_parquet(out / contracts.PREDICTIONS)
-        assert len(preds) == len(test) and set(preds["drive"]) == {"A", "B"}
-        for d in ("A", "B"):
-            first = (drive == d) & (k < m)
-            again = fine_tune(g_net, g_hp, test.x[first], test.y[first], adapt=params.adapt,
-                              seed=7)  # fmt: skip
-            net, hp = load_whonet(out / f"{d}.pt")
-            assert hp == {**g_hp, "lr": params.adapt.lr, "batch_size": params.adapt.batch_size}
-            for (name, a), b in zip(net.state_dict().items(), again.net.state_dict().values(),
-                                    strict=True):  # fmt: skip
-                assert torch.equal(a, b), name
-            assert not torch.equal(net.head.weight, g_net.head.weight)  # it moved from G
-            np.testing.assert_array_equal(
-                preds.loc[preds["drive"] == d, "pred_m"].to_numpy(),
-                predict(net, test.take(drive == d).x).astype(np.float64),
-            )
-        record = json.loads((out / contracts.RUN_RECORD).read_text())
-        assert record["tags"] == {"model": "R", "m": str(m), "vehicle": "target",
-                                  "seed": "7", "dvc_stage": "adapt"}  # fmt: skip
-        assert [c["tags"]["drive"] for c in record["children"]] == ["A", "B"]
-        assert all(c["metrics"]["n_adapt_samples"] == m for c in record["children"])
+    for recipe in ("paper", "ridge_head", "radius+G"):
+        for m in (10, 20):
+            out = tmp_path / "r" / recipe / f"m{m}"
+            preds = pd.read_parquet(out / contracts.PREDICTIONS)
+            assert len(preds) == len(test) and set(preds["drive"]) == {"A", "B"}
+            for d in ("A", "B"):
+                first = (drive == d) & (k < m)
+                again = recalibrate(recipe, g_net, g_hp, adapt_data(test, first),
+                                    adapt=params.adapt, seed=7, min_speed_m_s=2.0)  # fmt: skip
+                net, _ = load_whonet(out / f"{d}.pt")
+                for (name, a), b in zip(net.state_dict().items(),
+                                        again.net.state_dict().values(), strict=True):  # fmt: skip
+                    assert torch.equal(a, b), (recipe, name)
+                assert load_wpm_radii(out / f"{d}.pt") == again.radii
+                np.testing.assert_allclose(
+                    preds.loc[preds["drive"] == d, "pred_m"].to_numpy(),
+                    label_prediction(again, adapt_data(test, drive == d), (R_CAL_M, R_CAL_M)),
+                )
+            record = json.loads((out / contracts.RUN_RECORD).read_text())
+            assert record["tags"] == {"model": "R", "recipe": recipe, "vehicle": "target",
+                                      "seed": "7", "dvc_stage": "adapt@7", "m": str(m)}  # fmt: skip
+            assert record["metrics"]["drive/A/n_adapt_samples"] == m
+    # the samples' true radius is 2 % above the calibration: radius+G finds it
+    assert load_wpm_radii(tmp_path / "r" / "radius+G" / "m20" / "A.pt") == pytest.approx(
+        (1.02 * R_CAL_M, 1.02 * R_CAL_M), rel=5e-3
+    )
 
 
-def test_a_drive_not_longer_than_the_largest_m_is_refused(tmp_path, samples_dir, g_dir):
+def test_continuous_predicts_exactly_the_evaluated_windows(tmp_path, samples_dir, params, g_dir,
+                                                           calibration):  # fmt: skip
+    adapt_grid(params, 7, samples_dir, calibration, g_dir, tmp_path / "r")
+    preds = pd.read_parquet(tmp_path / "r" / "continuous" / contracts.PREDICTIONS)
+    test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
+    for L in (30, 60):
+        covered = np.flatnonzero(np.isfinite(preds[f"pred_m_{L}s"].to_numpy()))
+        np.testing.assert_array_equal(
+            covered, np.sort(outage_windows(test.frame, [10, 20], L).ravel())
+        )
+
+
+def test_a_drive_not_longer_than_the_largest_m_is_refused(tmp_path, samples_dir, g_dir,
+                                                          calibration):  # fmt: skip
     params = load_params(paths.PARAMS, overrides={**OVERRIDES, "adapt.m_grid": [10, 500],
                                                   "adapt.chosen_m": 10})  # fmt: skip
     with pytest.raises(InputError, match="too short") as err:
-        adapt_grid(params, 7, samples_dir, g_dir, tmp_path / "r")
+        adapt_grid(params, 7, samples_dir, calibration, g_dir, tmp_path / "r")
     assert [p.file for p in err.value.problems] == ["A", "B"]
     assert not (tmp_path / "r").exists()
 
 
 @pytest.mark.slow  # a fresh interpreter importing torch and pandas
-def test_the_stage_process_never_imports_lightning(tmp_path, samples_dir, g_dir):
+def test_the_stage_process_never_imports_lightning(tmp_path, samples_dir, g_dir, calibration):
     code = f"""
 import sys
 from pathlib import Path
@@ -89,7 +123,8 @@ from rwhonet.config import load_params
 from rwhonet.stages.adapt import adapt_grid
 params = load_params(overrides={OVERRIDES!r})
 out = Path({str(tmp_path)!r}) / "r"
-adapt_grid(params, 7, Path({str(samples_dir)!r}), Path({str(g_dir)!r}), out)
+adapt_grid(params, 7, Path({str(samples_dir)!r}), Path({str(calibration)!r}),
+           Path({str(g_dir)!r}), out)
 print(sorted(m for m in sys.modules if m.split(".")[0] in ("lightning", "pytorch_lightning")))
 """
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

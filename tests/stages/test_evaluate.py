@@ -9,12 +9,15 @@ from rwhonet.config import load_params
 from rwhonet.errors import InputError
 from rwhonet.metrics.intervals import mean_ci95
 from rwhonet.report.tables import render_report
-from rwhonet.stages.evaluate import evaluate, model_names
+from rwhonet.stages.evaluate import evaluate, model_names, recipe_models
 from rwhonet.stages.samples import load_role
 
 from .conftest import R_CAL_M, write_samples
 
-OVERRIDES = {"adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "evaluate.outages_s": [30, 60]}
+OVERRIDES = {
+    "adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "evaluate.outages_s": [30, 60],
+    "adapt.recipe": "paper", "adapt.recipes": ["paper", "radius+G", "continuous"],
+}  # fmt: skip
 
 
 @pytest.fixture
@@ -23,17 +26,22 @@ def params():
 
 
 def _preds(frame, params, offsets):
-    """Per seed, predictions = label - offset[(model, seed)] (default 0: a perfect model)."""
+    """Per seed, predictions = label - offset[(model, seed)] (default 0: a perfect model).
+
+    ``R@m`` offsets apply to the chosen recipe's model (``R[paper]@m``).
+    """
     label = frame["label_m"].to_numpy()
+    alias = {f"R[{params.adapt.recipe}]@{m}": f"R@{m}" for m in params.adapt.m_grid}
     out = {}
     for seed in params.seeds:
-        cols = {"pred_g_m": "G", "pred_s_m": "S"} | {
-            f"pred_r{m}_m": f"R@{m}" for m in params.adapt.m_grid
-        }
-        out[seed] = pd.DataFrame(
-            {c: label - offsets.get((model, seed), offsets.get(model, 0.0))
-             for c, model in cols.items()}, index=frame.index,
-        )  # fmt: skip
+        cols = {}
+        for model in ["G", "S", *recipe_models(params)]:
+            off = offsets.get((model, seed), offsets.get(model, offsets.get(alias.get(model), 0.0)))
+            if model == "R[continuous]":
+                cols.update({f"{model}/{L}s": label - off for L in params.evaluate.outages_s})
+            else:
+                cols[model] = label - off
+        out[seed] = pd.DataFrame(cols, index=frame.index)
     return out
 
 
@@ -97,8 +105,8 @@ def test_wpm_m_recovers_a_known_radius_change(tmp_path, params):
     )
     assert wpm == pytest.approx(0.02 * 30 * 10, rel=0.1)  # 2 % of ~300 m per window
     assert refitted < 0.25 * wpm  # what is left is the GNSS noise (and a small refit error)
-    # G+radius: G's (perfect) correction of the source-calibrated WPM, on the refitted WPM
-    assert s.loc[("all", "G+radius@20", 30), "crse_mean"] > refitted
+    # the model evaluation reads the radius+G recipe's predictions as given (here: perfect)
+    assert s.loc[("all", "R[radius+G]@20", 30), "crse_mean"] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_eval_json_and_tables(samples_dir, params):
@@ -106,17 +114,22 @@ def test_eval_json_and_tables(samples_dir, params):
     ev = evaluate(params, frame, _preds(frame, params, {"R@20": -0.2}))
     j = ev.eval_json
     assert set(j["overall"]) == set(model_names(params))
-    assert {"WPM-ref", "R@10", "WPM-m@20", "G+radius@10"} <= set(j["overall"])
+    assert {"WPM-ref", "R@10", "WPM-m@20", "R[radius+G]@10", "R[continuous]"} <= set(j["overall"])
     assert j["overall"]["R"]["30s"]["cte_mean"] == pytest.approx(6.0)  # R is R@20
     assert j["overall"]["R@20"] == j["overall"]["R"]
     assert set(j["overall"]["G"]["30s"]) == {"crse_mean", "crse_ci95", "cte_mean", "cte_ci95",
                                              "n_windows"}  # fmt: skip
-    assert set(j["differences"]) == {"R - G", "R - S", "R - WPM-m@20", "R - G+radius@20"}
+    assert set(j["differences"]) == {"R - G", "R - S", "R - WPM-m@20", "R - R[radius+G]@20",
+                                     "R - R[continuous]"}  # fmt: skip
+    harm = j["no_harm"]["R[paper]@20"]["30s"]  # R@20 is 0.2 m per second off, G perfect
+    assert harm["share_worse_than_g"] == 1.0 and harm["worse_on_average"] is True
+    assert j["recipe"] == "paper"
     assert set(j["gains"]["R"]) == {"WPM", "WPM-ref"}
     assert set(j["per_drive"]) == {"A", "B"} and "R@10" not in j["per_drive"]["A"]
     md = render_report(ev, params, "prov")
     assert "## Table 2" in md and "## Table 6 — CTE, 60 s GNSS outages" in md
-    assert "R-WhONet (m=20) CRSE (m)" in md and "## R-WhONet against its controls" in md
+    assert "R-WhONet (m=20) CRSE (m)" in md and "## Every recipe at every m" in md
+    assert "## Do no harm" in md and "## Mean CRSE against the time into the drive" in md
 
 
 def test_the_domain_gap_is_g_on_held_out_source_drives(tmp_path, params):
@@ -125,7 +138,7 @@ def test_the_domain_gap_is_g_on_held_out_source_drives(tmp_path, params):
     frame = _frame(folder)
     preds = _preds(frame, params, {"G": 0.0})
     for p in preds.values():  # R is only adapted on target drives
-        p.loc[frame["role"] == "source_test", ["pred_r10_m", "pred_r20_m"]] = np.nan
+        p.loc[frame["role"] == "source_test", [c for c in p.columns if c.startswith("R")]] = np.nan
     ev = evaluate(params, frame, preds)
     gap = ev.eval_json["domain_gap"]
     assert set(gap) == {"WPM", "G"} and set(gap["G"]) == {"target_test", "source_test"}
@@ -158,3 +171,56 @@ def test_scenario_errors_per_tag(samples_dir, params):
     expected = frame["label_m"].iloc[200:215].abs().mean()
     assert sc.loc["wet_road", "WPM"] == pytest.approx(expected)
     assert "" not in sc.index
+
+
+def _scores(rows):
+    """Selection scores as selection_scores returns them, from (role, model, outage, crse)."""
+    return pd.DataFrame(
+        [{"role": r, "model": m, "outage_s": L, "crse_mean": c, "crse_mean_ci95": 0.0,
+          "n_windows": 4} for r, m, L, c in rows]
+    )  # fmt: skip
+
+
+def test_selection_rule_drops_harm_then_takes_the_fewest_seconds_within_tolerance(params):
+    from rwhonet.stages.evaluate import recommend, selection_disagreements
+
+    t = "target_train"
+    rows = [(t, "G", 30, 2.0), (t, "G", 60, 4.0)]
+    rows += [(t, "R[paper]@10", 30, 2.1), (t, "R[paper]@10", 60, 2.0)]  # worse than G at 30 s
+    rows += [(t, "R[paper]@20", 30, 1.0), (t, "R[paper]@20", 60, 3.0)]  # 3.0 > 2.9 * 1.05
+    rows += [(t, "R[radius+G]@10", 30, 1.0), (t, "R[radius+G]@10", 60, 3.04)]  # within 5 %
+    rows += [(t, "R[radius+G]@20", 30, 1.0), (t, "R[radius+G]@20", 60, 2.9)]  # the best
+    rec = recommend(_scores(rows), params)
+    assert rec["recommended"]["recipe"] == "radius+G" and rec["recommended"]["m"] == 10
+
+    # continuous counts as max(m_grid) seconds: it loses the tie-break to m = 10 ...
+    cont = [(t, "R[continuous]", 30, 1.0), (t, "R[continuous]", 60, 2.95)]
+    assert recommend(_scores(rows + cont), params)["recommended"]["m"] == 10
+    # ... and wins when it is the only one within tolerance
+    cont = [(t, "R[continuous]", 30, 1.0), (t, "R[continuous]", 60, 2.5)]
+    rec = recommend(_scores(rows + cont), params)
+    assert rec["recommended"] == {"recipe": "continuous", "m": None, "crse_60s": 2.5,
+                                  "best_crse_60s": 2.5}  # fmt: skip
+    notes = selection_disagreements(rec)
+    assert len(notes) == 1 and "continuous" in notes[0] and "paper at 20" in notes[0]
+
+    # the ridge penalty: lowest mean over m on the held-out source drives
+    s = "source_test"
+    ridge = [
+        (s, f"ridge_head lambda={lam}@{m}", 60, c)
+        for lam, m, c in [(0.1, 10, 5.0), (0.1, 20, 3.0), (1.0, 10, 4.5), (1.0, 20, 3.8)]
+    ]
+    rec = recommend(_scores(rows + ridge), params)
+    assert rec["ridge"]["recommended_penalty"] == 0.1
+    assert any("ridge_penalty 0.1" in n for n in selection_disagreements(rec))
+
+
+def test_selection_rule_recommends_nothing_when_every_recipe_harms(params):
+    from rwhonet.stages.evaluate import recommend, selection_disagreements
+
+    t = "target_train"
+    rows = [(t, "G", 30, 1.0), (t, "G", 60, 2.0), (t, "R[paper]@20", 30, 1.1),
+            (t, "R[paper]@20", 60, 1.0)]  # fmt: skip
+    rec = recommend(_scores(rows), params)
+    assert "recommended" not in rec and "no_recommendation" in rec
+    assert selection_disagreements(rec) == []

@@ -1,109 +1,477 @@
-"""R-WhONet: G-WhONet recalibrated on a target drive's first m seconds (paper §2.6, §3.3.3).
+"""R-WhONet: G-WhONet recalibrated on a few seconds of a new car (paper §2.6, §3.3.3).
 
 The paper fine-tunes G with G's own recipe (Table 1) on the first m seconds of
-each target test drive. The update is the training algorithm of
-:mod:`rwhonet.models.loop`, run here for ``adapt.epochs`` epochs without a
-Trainer: one stage process fine-tunes every drive at every m of the grid, and
-Lightning's import and per-fit set-up would cost more than the fine-tuning
-itself (``benchmarks/bench_train.py`` measures both).
+each target test drive. The recipes here (``adapt.recipes``) are that and the
+alternatives a reviewer asks for; each takes G and the m seconds and returns
+an :class:`AdaptResult`:
+
+- ``paper`` / ``head``: :func:`fine_tune`, every weight or the linear head only,
+  ``adapt.epochs`` passes of the training loop of :mod:`rwhonet.models.loop`;
+- ``steps``: :func:`fine_tune_steps`, the paper recipe with a step budget and
+  early stopping on a held-back tail of the m seconds;
+- ``ridge_head``: :func:`ridge_head`, the head refitted in closed form on G's
+  frozen hidden features, shrunk towards G's head;
+- ``radius+G``: :func:`radius_g`, the WPM's rear radii refitted on the m seconds
+  (the calibration's estimator), G unchanged on top.
+
+:func:`label_prediction` turns any result into predictions of the label
+(GNSS − WPM with the source calibration), so every recipe is scored alike.
+Plain torch, no Trainer: one stage process recalibrates every drive at every
+m, and Lightning's import and per-fit set-up would cost more than the
+fine-tuning itself (``benchmarks/bench_train.py`` measures both).
 """
 
 from __future__ import annotations
 
 import copy
+import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import torch
 
 from rwhonet.config import AdaptParams
-from rwhonet.models.freeze import apply_trainable
+from rwhonet.features.calibration import refit_radii
+from rwhonet.features.wpm import wpm_displacement_m
+from rwhonet.models.freeze import apply_trainable, count_parameters
 from rwhonet.models.loop import (
     ArrayDataset,
+    EpochLoss,
     as_model_inputs,
     make_optimizer,
+    predict,
     seed_all,
+    train_block,
     train_epoch,
     train_loader,
 )
 from rwhonet.models.whonet import WhONet
 
+GRADIENT_RECIPES = ("paper", "head", "steps")
+
+
+@dataclass
+class AdaptData:
+    """A stretch of one drive to recalibrate on (or predict for): its samples and WPM inputs.
+
+    Attributes:
+        x: (n, seq_len, n_features) float32 windows.
+        y: (n,) labels in metres (GNSS − WPM with the source calibration).
+        disp_gnss_m: (n,) GNSS displacement per second, metres.
+        angle_rl_rad: (n,) rear-left wheel angle per second (the WPM's mode), rad.
+        angle_rr_rad: (n,) rear-right wheel angle per second, rad.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    disp_gnss_m: np.ndarray
+    angle_rl_rad: np.ndarray
+    angle_rr_rad: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.y)
+
+    def take(self, idx: np.ndarray) -> AdaptData:
+        """The samples at ``idx`` (an index array or a boolean mask)."""
+        return AdaptData(*(a[idx] for a in (self.x, self.y, self.disp_gnss_m,
+                                              self.angle_rl_rad, self.angle_rr_rad)))  # fmt: skip
+
 
 @dataclass
 class AdaptResult:
-    """A recalibrated network and how it was obtained.
+    """A recalibrated model and how it was obtained.
 
     Attributes:
-        net: the fine-tuned network (a copy of the base network, in eval mode).
+        net: the network (a copy of G's, changed by the recipe; in eval mode).
         hparams: its hyperparameters; ``lr`` and ``batch_size`` are the recipe's.
-        history: one ``{"epoch", "train_loss", "val_loss"}`` dict per epoch
-            (``train_loss``: MAE in metres; ``val_loss``: None, nothing held out).
-        seconds: wall time of the fine-tuning epochs.
-        n_trainable: trainable scalar weights (after the freeze policy).
-        n_total: all scalar weights.
+        radii: the WPM rear radii ``(r_rl, r_rr)`` the model corrects, when the
+            recipe refitted them (``radius+G``); None: the source calibration.
+        history: per epoch or step ``{"epoch", "train_loss", "val_loss"}`` (MAE, m;
+            ``val_loss`` on the held-back tail for ``steps``, else None).
+        seconds: wall time of the recalibration.
+        n_trainable: weights the recipe changes.
+        n_total: all weights of the network.
+        info: recipe-specific facts (steps taken, penalty, fallbacks).
     """
 
     net: WhONet
     hparams: dict[str, Any]
+    radii: tuple[float, float] | None
     history: list[dict[str, Any]]
     seconds: float
     n_trainable: int
     n_total: int
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def _inputs(base: WhONet, hparams: dict[str, Any], data: AdaptData) -> tuple:
+    return as_model_inputs(
+        data.x, data.y, "adaptation samples",
+        seq_len=hparams["seq_len"], n_features=hparams["n_features"],
+    )  # fmt: skip
 
 
 def fine_tune(
     base: WhONet,
     hparams: dict[str, Any],
-    x: np.ndarray,
-    y: np.ndarray,
+    data: AdaptData,
     *,
     adapt: AdaptParams,
     seed: int,
+    trainable: str = "all",
 ) -> AdaptResult:
-    """Fine-tune a copy of ``base`` on one drive's first m seconds.
+    """The paper's recipe: ``adapt.epochs`` passes of Adamax over the m seconds.
 
     A fresh Adamax (lr ``adapt.lr``) trains the weights the freeze policy
-    ``adapt.trainable`` leaves trainable, for ``adapt.epochs`` passes over the
-    m samples in shuffled mini-batches of ``adapt.batch_size``; no validation
-    (m is 10-100 samples, there is nothing to spare). ``base`` is not modified.
+    ``trainable`` leaves trainable (``all``: paper; ``head``: the head recipe),
+    in shuffled mini-batches of ``adapt.batch_size``, without validation.
+    ``base`` is not modified.
 
     Args:
         base: G-WhONet's network.
         hparams: its hyperparameters (:data:`~rwhonet.models.loop.HPARAMS`).
-        x: (m, seq_len, n_features) float32 windows of the first m seconds.
-        y: (m,) labels in metres.
-        adapt: the recipe (``adapt:`` in params.yaml).
+        data: the m seconds.
+        adapt: the recipes' settings (``adapt:`` in params.yaml).
         seed: seeds shuffling and dropout; the same seed and inputs give the same weights.
+        trainable: the freeze policy (:mod:`rwhonet.models.freeze`).
 
     Returns:
-        The fine-tuned network, its hyperparameters, history, timing and parameter counts.
+        The fine-tuned network and its history.
 
     Raises:
-        InputError: when the arrays do not match the network's inputs or hold
-            non-finite values.
+        InputError: when the arrays do not fit the network or hold non-finite values.
     """
-    x_t, y_t = as_model_inputs(
-        x, y, "adaptation samples", seq_len=hparams["seq_len"], n_features=hparams["n_features"]
-    )
+    x_t, y_t = _inputs(base, hparams, data)
+    start = time.perf_counter()
     seed_all(seed)
     net = copy.deepcopy(base)
-    n_trainable, n_total = apply_trainable(net, adapt.trainable)
+    n_trainable, n_total = apply_trainable(net, trainable)
     loader = train_loader(ArrayDataset(x_t, y_t), batch_size=adapt.batch_size, seed=seed)
     optimizer = make_optimizer(net, adapt.lr)
     net.train()
     history = []
-    start = time.perf_counter()
     for epoch in range(adapt.epochs):
         loss_m = train_epoch(net, optimizer, loader, adapt.batch_size)
         history.append({"epoch": epoch, "train_loss": loss_m, "val_loss": None})
-    seconds = time.perf_counter() - start
     net.eval()
     return AdaptResult(
-        net=net,
-        hparams={**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size},
-        history=history,
-        seconds=seconds,
-        n_trainable=n_trainable,
-        n_total=n_total,
-    )
+        net, {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size}, None, history,
+        time.perf_counter() - start, n_trainable, n_total,
+    )  # fmt: skip
+
+
+def fine_tune_steps(
+    base: WhONet, hparams: dict[str, Any], data: AdaptData, *, adapt: AdaptParams, seed: int
+) -> AdaptResult:
+    """The paper's update with a step budget and early stopping (the ``steps`` recipe).
+
+    The last ``adapt.steps.holdout_fraction`` of the m seconds (at least one
+    second) is held back: a contiguous tail, since neighbouring seconds are
+    strongly correlated. Adamax steps over shuffled mini-batches of the rest,
+    for at most ``max_steps``; after every step the held-back MAE is measured,
+    and the weights with the best one so far are kept. Training stops after
+    ``patience`` steps without a better one. Whatever m is, the number of
+    updates is bounded, where the paper's 80 epochs give 80 steps for m ≤ 128.
+
+    Args:
+        base: G-WhONet's network.
+        hparams: its hyperparameters.
+        data: the m seconds (at least two).
+        adapt: the recipes' settings.
+        seed: seeds shuffling and dropout.
+
+    Returns:
+        The network with the best held-back MAE (G's own if no step improved it).
+    """
+    cfg = adapt.steps
+    x_t, y_t = _inputs(base, hparams, data)
+    n_hold = min(max(1, round(len(y_t) * cfg.holdout_fraction)), len(y_t) - 1)
+    if n_hold < 1:
+        raise ValueError("the steps recipe needs at least two seconds")
+    x_fit, y_fit, x_hold, y_hold = x_t[:-n_hold], y_t[:-n_hold], x_t[-n_hold:], y_t[-n_hold:]
+    start = time.perf_counter()
+    seed_all(seed)
+    net = copy.deepcopy(base)
+    n_trainable, n_total = apply_trainable(net, "all")
+    optimizer = make_optimizer(net, adapt.lr)
+    loader = train_loader(ArrayDataset(x_fit, y_fit), batch_size=adapt.batch_size, seed=seed,
+                          steps_per_block=1)  # fmt: skip
+
+    def held_back_mae() -> float:
+        net.eval()
+        with torch.no_grad():
+            loss = float(torch.nn.functional.l1_loss(net(x_hold), y_hold))
+        net.train()
+        return loss
+
+    best, best_state, best_step = held_back_mae(), copy.deepcopy(net.state_dict()), 0
+    history, step = [{"epoch": 0, "train_loss": None, "val_loss": best}], 0
+    net.train()
+    while step < cfg.max_steps and step - best_step < cfg.patience:
+        for xb, yb in loader:  # one pass over the fitting seconds, one step per mini-batch
+            losses = EpochLoss()
+            train_block(net, optimizer, xb, yb, adapt.batch_size, losses)
+            step += 1
+            hold = held_back_mae()
+            history.append({"epoch": step, "train_loss": losses.pop_mean(), "val_loss": hold})
+            if hold < best:
+                best, best_state, best_step = hold, copy.deepcopy(net.state_dict()), step
+            if step >= cfg.max_steps or step - best_step >= cfg.patience:
+                break
+    net.load_state_dict(best_state)
+    net.eval()
+    return AdaptResult(
+        net, {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size}, None, history,
+        time.perf_counter() - start, n_trainable, n_total,
+        info={"steps": step, "best_step": best_step, "held_back_s": n_hold},
+    )  # fmt: skip
+
+
+def hidden_features(net: WhONet, x: np.ndarray | torch.Tensor) -> np.ndarray:
+    """G's last hidden state for every window (eval mode, no dropout): the head's inputs.
+
+    Returns:
+        (N, hidden) float64.
+    """
+    xt = torch.as_tensor(np.asarray(x, dtype=np.float32))
+    was = net.training
+    net.eval()
+    try:
+        with torch.no_grad():
+            if xt.shape[1] == 1 and net.rnn.num_layers == 1:
+                r = net.rnn
+                h = torch.tanh(
+                    torch.addmm(r.bias_ih_l0 + r.bias_hh_l0, xt[:, 0], r.weight_ih_l0.t())
+                )
+            else:
+                h = net.rnn(xt)[0][:, -1, :]
+    finally:
+        net.train(was)
+    return h.numpy().astype(np.float64)
+
+
+def ridge_head_weights(
+    h: np.ndarray, y: np.ndarray, w0: np.ndarray, b0: float, penalty: float
+) -> tuple[np.ndarray, float]:
+    """The head ``y ≈ h w + b`` in closed form, shrunk towards ``(w0, b0)``.
+
+    Minimises ``(1/n) Σ (y − h w − b)² + penalty · (|w − w0|² + (b − b0)²)``:
+    ``(AᵀA + n·penalty·I) θ = Aᵀy + n·penalty·θ0`` with ``A = [h, 1]``. The
+    penalty is per second of data, so its meaning does not change with m.
+    ``penalty = 0`` is ordinary least squares (the minimum-norm solution when
+    there are fewer seconds than weights); ``penalty = inf`` returns ``(w0, b0)``.
+
+    Args:
+        h: (n, k) hidden features.
+        y: (n,) labels, metres.
+        w0: (k,) the head's weights to shrink towards (G's).
+        b0: its bias.
+        penalty: ridge strength per second of data, >= 0.
+
+    Returns:
+        ``(w, b)``.
+    """
+    if math.isinf(penalty):
+        return np.asarray(w0, np.float64).copy(), float(b0)
+    a = np.hstack([np.asarray(h, np.float64), np.ones((len(h), 1))])
+    y = np.asarray(y, np.float64)
+    theta0 = np.append(np.asarray(w0, np.float64), b0)
+    if penalty == 0:
+        theta = np.linalg.lstsq(a, y, rcond=None)[0]
+    else:
+        lam = len(y) * penalty
+        theta = np.linalg.solve(a.T @ a + lam * np.eye(a.shape[1]), a.T @ y + lam * theta0)
+    return theta[:-1], float(theta[-1])
+
+
+def ridge_head(
+    base: WhONet, hparams: dict[str, Any], data: AdaptData, *, penalty: float
+) -> AdaptResult:
+    """The ``ridge_head`` recipe: G's head refitted on the m seconds in closed form.
+
+    Args:
+        base: G-WhONet's network (its hidden layer stays frozen).
+        hparams: its hyperparameters.
+        data: the m seconds.
+        penalty: ``adapt.ridge_penalty`` (see :func:`ridge_head_weights`).
+
+    Returns:
+        G with the refitted head.
+    """
+    _inputs(base, hparams, data)
+    start = time.perf_counter()
+    net = copy.deepcopy(base)
+    w, b = ridge_head_weights(
+        hidden_features(net, data.x), data.y,
+        net.head.weight.detach().numpy()[0], float(net.head.bias.detach()[0]), penalty,
+    )  # fmt: skip
+    with torch.no_grad():
+        net.head.weight.copy_(torch.as_tensor(w, dtype=torch.float32)[None, :])
+        net.head.bias.fill_(b)
+    net.eval()
+    n_head = count_parameters(net.head)[1]
+    return AdaptResult(
+        net, dict(hparams), None, [], time.perf_counter() - start, n_head,
+        count_parameters(net)[1], info={"ridge_penalty": penalty},
+    )  # fmt: skip
+
+
+def radius_g(
+    base: WhONet, hparams: dict[str, Any], data: AdaptData, *, min_speed_m_s: float
+) -> AdaptResult:
+    """The ``radius+G`` recipe: the WPM's rear radii refitted on the m seconds, G unchanged.
+
+    Args:
+        base: G-WhONet's network (kept as is).
+        hparams: its hyperparameters.
+        data: the m seconds.
+        min_speed_m_s: seconds slower than this are left out of the refit.
+
+    Returns:
+        G with the refitted radii; ``radii`` None (the source calibration kept)
+        when no second moved fast enough, recorded in ``info``.
+    """
+    start = time.perf_counter()
+    radii = refit_radii(data.disp_gnss_m, data.angle_rl_rad, data.angle_rr_rad, min_speed_m_s)
+    return AdaptResult(
+        copy.deepcopy(base).eval(), dict(hparams), radii, [], time.perf_counter() - start, 2,
+        count_parameters(base)[1] + 2, info={"radius_refit": radii is not None},
+    )  # fmt: skip
+
+
+def recalibrate(
+    recipe: str,
+    base: WhONet,
+    hparams: dict[str, Any],
+    data: AdaptData,
+    *,
+    adapt: AdaptParams,
+    seed: int,
+    min_speed_m_s: float,
+) -> AdaptResult:
+    """Run one recipe (any of ``adapt.recipes`` but ``continuous``, which runs its inner one).
+
+    Raises:
+        ValueError: for an unknown recipe.
+    """
+    if recipe == "paper":
+        return fine_tune(base, hparams, data, adapt=adapt, seed=seed, trainable="all")
+    if recipe == "head":
+        return fine_tune(base, hparams, data, adapt=adapt, seed=seed, trainable="head")
+    if recipe == "steps":
+        return fine_tune_steps(base, hparams, data, adapt=adapt, seed=seed)
+    if recipe == "ridge_head":
+        return ridge_head(base, hparams, data, penalty=adapt.ridge_penalty)
+    if recipe == "radius+G":
+        return radius_g(base, hparams, data, min_speed_m_s=min_speed_m_s)
+    raise ValueError(f"unknown recipe {recipe!r}")
+
+
+def label_prediction(
+    result: AdaptResult, data: AdaptData, source_radii: tuple[float, float]
+) -> np.ndarray:
+    """What a recalibrated model predicts for the label (GNSS − WPM with the source radii).
+
+    The network's prediction, plus, when the recipe refitted the radii, the
+    difference between the WPM with its radii and the source-calibrated one.
+
+    Returns:
+        (n,) float64 metres.
+    """
+    pred = predict(result.net, data.x, seq_len=result.hparams["seq_len"]).astype(np.float64)
+    if result.radii is not None:
+        pred += wpm_displacement_m(data.angle_rl_rad, data.angle_rr_rad, *result.radii)
+        pred -= wpm_displacement_m(data.angle_rl_rad, data.angle_rr_rad, *source_radii)
+    return pred
+
+
+def continuous_predictions(
+    base: WhONet,
+    hparams: dict[str, Any],
+    data: AdaptData,
+    k: np.ndarray,
+    windows: np.ndarray,
+    *,
+    inner: str,
+    penalty: float,
+    window_s: int,
+    min_speed_m_s: float,
+    source_radii: tuple[float, float],
+) -> np.ndarray:
+    """The ``continuous`` recipe on one drive: recalibrate before every outage window.
+
+    For a window whose first second has rank ``k0`` in the drive, the inner
+    recipe (``ridge_head`` or ``radius+G``) is fitted on the seconds with
+    ``k0 - window_s <= k < k0`` (every earlier second when ``window_s`` is 0),
+    never on a second at or after the window's start, and predicts the window's
+    seconds. The ridge fits accumulate ``AᵀA`` and ``Aᵀy`` second by second, so a
+    drive costs one pass over its seconds plus one small solve per window.
+
+    Args:
+        base: G-WhONet's network.
+        hparams: its hyperparameters.
+        data: every second of one drive, in time order.
+        k: (n,) each second's 0-based rank in the drive (increasing).
+        windows: (W, L) row indices into ``data`` of each window to predict.
+        inner: ``ridge_head`` or ``radius+G``.
+        penalty: the ridge strength (``adapt.ridge_penalty``).
+        window_s: fit on at most this many seconds before the window (0: all).
+        min_speed_m_s: the radius refit's moving-second threshold.
+        source_radii: the WPM's source calibration.
+
+    Returns:
+        (W, L) label predictions, metres; a window with no earlier second gets G's.
+    """
+    k = np.asarray(k)
+    pred = np.empty(windows.shape, dtype=np.float64)
+    g_pred = predict(base, data.x, seq_len=hparams["seq_len"]).astype(np.float64)
+    order = np.argsort(k[windows[:, 0]], kind="stable")
+    if inner == "ridge_head":
+        a = np.hstack([hidden_features(base, data.x), np.ones((len(data), 1))])
+        y = np.asarray(data.y, np.float64)
+        theta0 = np.append(base.head.weight.detach().numpy()[0].astype(np.float64),
+                           float(base.head.bias.detach()[0]))  # fmt: skip
+        ata, aty = np.zeros((a.shape[1], a.shape[1])), np.zeros(a.shape[1])
+        added = removed = 0  # rows [removed, added) are in the sums (k is increasing)
+        for w in order:
+            k0 = k[windows[w, 0]]
+            while added < len(k) and k[added] < k0:
+                ata += np.outer(a[added], a[added])
+                aty += a[added] * y[added]
+                added += 1
+            while window_s and removed < added and k[removed] < k0 - window_s:
+                ata -= np.outer(a[removed], a[removed])
+                aty -= a[removed] * y[removed]
+                removed += 1
+            n = added - removed
+            if n == 0:
+                pred[w] = g_pred[windows[w]]
+                continue
+            if penalty == 0:
+                rows = slice(removed, added)
+                theta = np.linalg.lstsq(a[rows], y[rows], rcond=None)[0]
+            elif math.isinf(penalty):
+                theta = theta0
+            else:
+                lam = n * penalty
+                theta = np.linalg.solve(ata + lam * np.eye(len(theta0)), aty + lam * theta0)
+            pred[w] = a[windows[w]] @ theta
+        return pred
+    if inner == "radius+G":
+        for w in order:
+            k0 = k[windows[w, 0]]
+            before = (k < k0) & ((k >= k0 - window_s) if window_s else True)
+            radii = refit_radii(data.disp_gnss_m[before], data.angle_rl_rad[before],
+                                data.angle_rr_rad[before], min_speed_m_s)  # fmt: skip
+            rows = windows[w]
+            pred[w] = g_pred[rows]
+            if radii is not None:
+                pred[w] += wpm_displacement_m(
+                    data.angle_rl_rad[rows], data.angle_rr_rad[rows], *radii
+                )
+                pred[w] -= wpm_displacement_m(data.angle_rl_rad[rows], data.angle_rr_rad[rows],
+                                              *source_radii)  # fmt: skip
+        return pred
+    raise ValueError(f"continuous: unknown inner recipe {inner!r}")

@@ -3,7 +3,9 @@
 ``model.pt`` holds ``{"format", "hyper_parameters", "state_dict"}``: the
 network's ``state_dict`` and the :data:`~rwhonet.models.loop.HPARAMS` a
 :class:`~rwhonet.models.module.WhONetModule` is built from, so whoever loads a
-model needs nothing else remembered (the G -> R hand-off of paper §2.6). The
+model needs nothing else remembered (the G -> R hand-off of paper §2.6); and,
+for a model whose recipe refitted the WPM's rear radii (``radius+G``),
+``wpm_radii`` (m/rad, rear left and right). The
 file holds only tensors, numbers, strings and dicts, so it is read with
 ``torch.load(weights_only=True)``: loading a model never runs pickled code.
 """
@@ -23,13 +25,20 @@ from rwhonet.models.whonet import WhONet
 FORMAT = "rwhonet.whonet/1"
 
 
-def save_whonet(net: WhONet, hparams: Mapping[str, Any], path: Path) -> None:
+def save_whonet(
+    net: WhONet,
+    hparams: Mapping[str, Any],
+    path: Path,
+    *,
+    wpm_radii: tuple[float, float] | None = None,
+) -> None:
     """Write a WhONet and its hyperparameters.
 
     Args:
         net: the network.
         hparams: its :data:`~rwhonet.models.loop.HPARAMS` (extra keys are dropped).
         path: the file to write.
+        wpm_radii: the rear radii the model's WPM uses, when not the source calibration.
     """
     missing = [k for k in HPARAMS if k not in hparams]
     if missing:
@@ -39,9 +48,16 @@ def save_whonet(net: WhONet, hparams: Mapping[str, Any], path: Path) -> None:
             "format": FORMAT,
             "hyper_parameters": {k: hparams[k] for k in HPARAMS},
             "state_dict": {k: v.detach().clone() for k, v in net.state_dict().items()},
+            **({"wpm_radii": [float(r) for r in wpm_radii]} if wpm_radii is not None else {}),
         },
         path,
     )
+
+
+def load_wpm_radii(path: Path | str) -> tuple[float, float] | None:
+    """The rear radii a model file's WPM uses, or None for the source calibration."""
+    radii = torch.load(path, map_location="cpu", weights_only=True).get("wpm_radii")
+    return None if radii is None else (float(radii[0]), float(radii[1]))
 
 
 def load_whonet(path: Path | str) -> tuple[WhONet, dict[str, Any]]:

@@ -14,6 +14,7 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
+from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
 
 if TYPE_CHECKING:  # the stage module imports this one
     from rwhonet.stages.evaluate import Evaluation
@@ -55,22 +56,21 @@ def overall_table(ev: Evaluation, params: Params, metric: str, models: list[str]
 
 def differences_table(ev: Evaluation, params: Params) -> str:
     """Per-seed paired differences of mean CRSE and CTE (m), and relative to the second model."""
-    d = ev.differences
-    pairs = list(dict.fromkeys(d["pair"]))
+    d = ev.differences.set_index(["pair", "outage_s"])
+    outages = params.evaluate.outages_s
     lines = [
-        "| Outage | " + " | ".join(f"{p}: CRSE (rel.) / CTE" for p in pairs) + " |",
-        "|---|" + "---:|" * len(pairs),
+        "| Pair | " + " | ".join(f"{L} s: CRSE (rel.) / CTE" for L in outages) + " |",
+        "|---|" + "---:|" * len(outages),
     ]
-    rows = d.set_index(["pair", "outage_s"])
-    for L in params.evaluate.outages_s:
+    for p in dict.fromkeys(ev.differences["pair"]):
         cells = []
-        for p in pairs:
-            r = rows.loc[(p, L)]
+        for L in outages:
+            r = d.loc[(p, L)]
             cells.append(
                 f"{_fmt(r.crse_mean, r.crse_ci95)} ({100 * r.crse_rel:+.1f} %) / "
                 f"{_fmt(r.cte_mean, r.cte_ci95)}"
             )
-        lines.append(f"| {L} s | {' | '.join(cells)} |")
+        lines.append(f"| {p} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
 
@@ -144,29 +144,80 @@ def m_grid_table(ev: Evaluation, params: Params, outage_s: int) -> str:
     return "\n".join(lines)
 
 
-def controls_table(ev: Evaluation, params: Params) -> str:
-    """R against its controls at every m: mean CRSE, shortest and longest outage."""
+def recipes_table(ev: Evaluation, params: Params) -> str:
+    """Every recipe (and WPM-m) at every m: mean CRSE/CTE ± interval; ▲ marks worse than G.
+
+    Shortest and longest outage; the last column is the share of (drive, seed)
+    pairs where the model is worse than G at the longest outage.
+    """
     outages = sorted({min(params.evaluate.outages_s), max(params.evaluate.outages_s)})
+    longest = outages[-1]
     rows = ev.summary[(ev.summary["role"] == k.TARGET_TEST) & (ev.summary["drive"] == "all")]
     rows = rows.set_index(["model", "outage_s"])
-    names = ("R", "WPM-m", "G+radius")
-    lines = [
-        "| m | " + " | ".join(f"{n} {L} s CRSE" for L in outages for n in names) + " |",
-        "|---:|" + "---:|" * (len(names) * len(outages)),
-    ]
-    for m in params.adapt.m_grid:
-        cells = [
-            _fmt(*rows.loc[(f"{n}@{m}", L), ["crse_mean", "crse_mean_ci95"]])
-            for L in outages
-            for n in names
-        ]
-        lines.append(f"| {m} | {' | '.join(cells)} |")
+    harm = ev.harm.set_index(["model", "outage_s"])
+
+    def cell(model: str, L: int, metric: str) -> str:
+        text = _fmt(*rows.loc[(model, L), [f"{metric}_mean", f"{metric}_mean_ci95"]])
+        worse = rows.loc[(model, L), "crse_mean"] > rows.loc[("G", L), "crse_mean"]
+        return text + (" ▲" if metric == "crse" and worse else "")
+
+    head = [f"CRSE {L} s" for L in outages] + [f"CTE {longest} s", f"worse than G ({longest} s)"]
+    lines = ["| Recipe | m | " + " | ".join(head) + " |", "|---|---:|" + "---:|" * len(head)]
+    models = [(r, m, recipe_model(r, m)) for r in params.adapt.recipes
+              for m in ([None] if r == "continuous" else params.adapt.m_grid)]  # fmt: skip
+    models += [("WPM-m (no network)", m, f"WPM-m@{m}") for m in params.adapt.m_grid]
+    for recipe, m, model in models:
+        share = (
+            f"{100 * harm.loc[(model, longest), 'share_worse']:.0f} %"
+            if (model, longest) in harm.index else "–"
+        )  # fmt: skip
+        cells = [cell(model, L, "crse") for L in outages] + [cell(model, longest, "cte"), share]
+        label = "every window" if m is None else str(m)
+        lines.append(f"| {recipe} | {label} | {' | '.join(cells)} |")
     ref = [
-        f"{n} {_fmt(rows.loc[(n, L), 'crse_mean'], rows.loc[(n, L), 'crse_mean_ci95'])} m ({L} s)"
+        f"{n} {_fmt(*rows.loc[(n, L), ['crse_mean', 'crse_mean_ci95']])} m ({L} s)"
         for L in outages
         for n in ("G", "S", "WPM")
     ]
     return "\n".join(lines) + "\n\nReferences: " + "; ".join(ref) + "."
+
+
+def harm_table(ev: Evaluation, params: Params) -> str:
+    """Do no harm: per recalibrated model, how often and how much it is worse than G."""
+    longest = max(params.evaluate.outages_s)
+    h = ev.harm[ev.harm["outage_s"] == longest]
+    lines = [
+        "| Model | (drive, seed) pairs | worse than G | mean excess when worse | largest excess "
+        "| worse on average |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for r in h.itertuples():
+        lines.append(
+            f"| {r.model} | {r.pairs} | {100 * r.share_worse:.0f} % | {100 * r.mean_excess:+.1f} % "
+            f"| {100 * r.max_excess:+.1f} % | {'**yes**' if r.worse_on_average else 'no'} |"
+        )
+    return "\n".join(lines)
+
+
+def over_time_table(ev: Evaluation, params: Params) -> str:
+    """Mean window CRSE against minutes into the drive (longest outage), per model."""
+    longest = max(params.evaluate.outages_s)
+    t = ev.over_time[ev.over_time["outage_s"] == longest]
+    models = list(dict.fromkeys(t["model"]))
+    lines = [
+        "| Window starts (min into the drive) | Windows | " + " | ".join(models) + " |",
+        "|---|---:|" + "---:|" * len(models),
+    ]
+    for _, g in t.groupby("bin", sort=True):
+        g = g.set_index("model")
+        first = g.iloc[0]
+        span = f"{first.from_s / 60:.0f}–" + (
+            "end" if math.isinf(first.to_s) else f"{first.to_s / 60:.0f}"
+        )
+        cells = [_fmt(g.loc[m, "crse"], g.loc[m, "crse_ci95"]) if m in g.index else "–"
+                 for m in models]  # fmt: skip
+        lines.append(f"| {span} | {int(first.n_windows)} | {' | '.join(cells)} |")
+    return "\n".join(lines)
 
 
 def refit_table(ev: Evaluation, params: Params) -> str:
@@ -227,14 +278,119 @@ def scenario_table(scenarios: pd.DataFrame, chosen_m: int) -> str:
     return "\n".join(lines)
 
 
+def limits_table(ev: Evaluation, params: Params) -> str | None:
+    """The WPM's radius from m s (first / any / whole drive) next to every recipe at m."""
+    lim = ev.limits
+    if lim is None or lim.empty:
+        return None
+    L = max(params.evaluate.outages_s)
+    rows = ev.summary[(ev.summary["role"] == k.TARGET_TEST) & (ev.summary["drive"] == "all")
+                      & (ev.summary["outage_s"] == L)].set_index("model")["crse_mean"]  # fmt: skip
+    recipes = [r for r in params.adapt.recipes if r != CONTINUOUS]
+    lines = [
+        "| m | radius from the first m s (WPM-m) | from any m s | sd of that radius | "
+        "from the whole drive (in-sample) | best recipe at m |",
+        "|---:|---:|---:|---:|---:|---|",
+    ]
+    for r in lim.itertuples():
+        at_m = {x: rows.get(recipe_model(x, int(r.m)), math.nan) for x in recipes}
+        best = min(at_m, key=lambda x: (not math.isfinite(at_m[x]), at_m[x]))
+        lines.append(
+            f"| {int(r.m)} | {_fmt(r.first)} | {_fmt(r.any)} | {r.radius_sd_pct:.2f} % | "
+            f"{_fmt(r.whole)} | {best} {_fmt(at_m[best])} |"
+        )
+    cont = rows.get(recipe_model(CONTINUOUS, None))
+    tail = (f"\n\nThe continuous recipe (radius and head re-fitted before every window): "
+            f"{_fmt(cont)} m.") if cont is not None else ""  # fmt: skip
+    return "\n".join(lines) + tail
+
+
+def selection_tables(ev: Evaluation, params: Params) -> str | None:
+    """The selection evidence: every recipe on the target training drives, ridge on the source's."""
+    sel = ev.selection
+    if sel.empty:
+        return None
+    rec = ev.eval_json.get("selection", {})
+    outages = sorted({min(params.evaluate.outages_s), max(params.evaluate.outages_s)})
+    parts = []
+    train = sel[sel["role"] == k.TARGET_TRAIN].set_index(["model", "outage_s"])
+    if len(train):
+        chosen = rec.get("recommended", {})
+        lines = [
+            "| Recipe | m | " + " | ".join(f"CRSE {L} s" for L in outages) + " |",
+            "|---|---:|" + "---:|" * len(outages),
+        ]
+        ref = ["G", "WPM"]
+        entries = [(n, None, n) for n in ref] + [
+            (r, m, recipe_model(r, m)) for r in params.adapt.recipes
+            for m in ([None] if r == "continuous" else params.adapt.m_grid)
+        ]  # fmt: skip
+
+        def cell(model: str, L: float) -> tuple[float, float]:
+            # Short training drives give no window of the longer outages: show a dash.
+            if (model, L) not in train.index:
+                return float("nan"), float("nan")
+            row = train.loc[(model, L)]
+            return float(row["crse_mean"]), float(row["crse_mean_ci95"])
+
+        for recipe, m, model in entries:
+            cells = []
+            for L in outages:
+                mean, ci = cell(model, L)
+                if mean != mean:
+                    cells.append("–")
+                    continue
+                text = _fmt(mean, ci)
+                if model not in ref and mean > cell("G", L)[0]:
+                    text += " ▲"
+                cells.append(text)
+            mark = " ◆" if (recipe, m) == (chosen.get("recipe"), chosen.get("m")) else ""
+            label = "–" if m is None else str(m)
+            lines.append(f"| {recipe}{mark} | {label} | {' | '.join(cells)} |")
+        n = (
+            int(train.loc[("G", outages[-1]), "n_windows"])
+            if ("G", outages[-1]) in train.index
+            else 0
+        )
+        parts.append(
+            f"Target training drives ({n} windows of {outages[-1]} s after each drive's first "
+            f"{max(params.adapt.m_grid)} s; ▲ worse than G; ◆ the rule's choice):\n\n"
+            + "\n".join(lines)
+        )
+    if "ridge" in rec:
+        by = rec["ridge"][f"mean_crse_{outages[-1]}s_by_penalty"]
+        lines = ["| ridge_penalty | " + " | ".join(by) + " |", "|---|" + "---:|" * len(by)]
+        values = " | ".join(f"{v:.2f}" for v in by.values())
+        lines.append(f"| mean {outages[-1]} s CRSE over m | {values} |")
+        parts.append(
+            "ridge_head on the held-out source-car drives (mean over m and seeds; recommended "
+            f"{rec['ridge']['recommended_penalty']:g}):\n\n" + "\n".join(lines)
+        )
+    p = rec.get("params", {})
+    got = rec.get("recommended")
+
+    def choice(recipe: str, m: int | None) -> str:
+        return f"**{recipe}**" + ("" if recipe == CONTINUOUS else f" at m = {m} s")
+
+    ridge = rec.get("ridge", {}).get("recommended_penalty")
+    verdict = (
+        f"The rule picks {choice(got['recipe'], got['m'])}"
+        + (f" and ridge_penalty {ridge:g}" if ridge is not None else "")
+        + f"; params use {choice(p.get('recipe'), p.get('chosen_m'))} and ridge_penalty "
+        f"{p.get('ridge_penalty'):g}."
+        if got
+        else "No recipe passes the rule's conditions."
+    )
+    return f"Rule: {rec.get('rule', '')}\n\n{verdict}\n\n" + "\n\n".join(parts)
+
+
 def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
     """The whole ``reports/tables.md``."""
-    from rwhonet.stages.evaluate import alt_wpm
-
     chosen, grid = params.adapt.chosen_m, params.adapt.m_grid
     longest = max(params.evaluate.outages_s)
-    headline = ["WPM", alt_wpm(params.label.wpm_mode)[0], "G", "S", "R",
-                f"WPM-m@{chosen}", f"G+radius@{chosen}"]  # fmt: skip
+    headline = ["WPM", alt_wpm(params.label.wpm_mode)[0], "G", "S", "R", f"WPM-m@{chosen}"]
+    if "radius+G" in params.adapt.recipes and params.adapt.recipe != "radius+G":
+        headline.append(recipe_model("radius+G", chosen))
     parts = [
         "# R-WhONet evaluation",
         "",
@@ -243,9 +399,11 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         f"Every model is scored on the same seconds: those after the first {max(grid)} s (the "
         f"largest m) of each test drive, so no R-WhONet is scored on seconds it was adapted on. "
         f"R-WhONet is reported at m = {chosen} s (adapt.chosen_m, fixed in params before "
-        "evaluation). CRSE = Σ|e| and CTE = |Σe| per outage window (paper Eqs. 16-17), "
-        "e = label − prediction (a WPM alone: e = GNSS − WPM). WPM-m@m: the WPM with its "
-        "rear radii refitted on each drive's first m s; G+radius@m: G on top of it.",
+        f"evaluation) by recipe `{params.adapt.recipe}`. CRSE = Σ|e| and CTE = |Σe| per "
+        "outage window (paper Eqs. 16-17), e = label − prediction (a WPM alone: e = GNSS − "
+        "WPM). WPM-m@m: the WPM with its rear radii refitted on each drive's first m s; "
+        "R[radius+G]@m: G on top of it (the G+radius control); R[continuous]: recalibrated "
+        "before every window on the drive's seconds before it.",
         "",
         "## Mean CRSE (m) over all windows of the target test drives",
         "",
@@ -275,13 +433,23 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         ]
     parts += [
         "",
-        f"## Table 2 — R-WhONet CRSE (m) for every m, {longest} s outages",
+        f"## Table 2 — R-WhONet (recipe `{params.adapt.recipe}`) CRSE (m) for every m, "
+        f"{longest} s outages",
         "",
         m_grid_table(ev, params, longest),
         "",
-        "## R-WhONet against its controls at every m (mean CRSE, m)",
+        "## Every recipe at every m, and the radius-only control (mean over all windows, m)",
         "",
-        controls_table(ev, params),
+        "▲: the mean over seeds is worse than G (not recalibrating).",
+        "",
+        recipes_table(ev, params),
+        "",
+        f"## Do no harm: recalibrated models against G, {longest} s outages",
+        "",
+        "Over every (target test drive, seed) pair: how often the drive's mean CRSE is above "
+        "G's, and by how much (relative to G).",
+        "",
+        harm_table(ev, params),
         "",
         "## The WPM-m control's refitted rear radii, left / right (mm)",
         "",
@@ -289,6 +457,44 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         "",
         refit_table(ev, params),
     ]
+    limits = limits_table(ev, params)
+    if limits:
+        parts += [
+            "",
+            f"## What m seconds can tell: the WPM's rear radius from m s, {longest} s outages",
+            "",
+            "Mean CRSE (m) of the WPM alone with its rear radii fitted on the drive's first m s, "
+            "on every non-overlapping m-s block of it (mean over blocks; the radius' standard "
+            "deviation over blocks, median over drives), and on the whole drive, the scored "
+            "seconds included (not a usable model: the best one radius per drive can do). "
+            "first − any: what the start of a drive costs (tyres still cold, pulling away); "
+            "any − whole: what m seconds of GNSS cost (identifiability); whole: the floor of a "
+            "radius, made of the label's own GNSS noise and what one radius cannot follow "
+            "(rwhonet.stages.limits).",
+            "",
+            limits,
+        ]
+    selection = selection_tables(ev, params)
+    if selection:
+        parts += [
+            "",
+            "## Selection: the evidence recipe, m and ridge penalty are chosen on",
+            "",
+            "Never the target test drives: recipes on the target *training* drives (their first "
+            "m s to recalibrate, the rest scored), ridge penalties on held-out *source* drives.",
+            "",
+            selection,
+        ]
+    if len(ev.over_time):
+        parts += [
+            "",
+            f"## Mean CRSE against the time into the drive, {longest} s outages",
+            "",
+            "Windows binned by the minute of the drive they start at; the continuous recipe "
+            "has more of the drive to recalibrate on as it goes.",
+            "",
+            over_time_table(ev, params),
+        ]
     if len(ev.scenarios):
         parts += [
             "",

@@ -1,33 +1,61 @@
-"""DVC stage ``adapt``: R-WhONet at every m of the grid (paper §2.6, §3.3.3, §3.4).
+"""DVC stage ``adapt@<seed>``: R-WhONet by every recipe at every m (paper §2.6, §3.3.3, §3.4).
 
-Every target test drive gets its own R-WhONet per m (the paper recalibrates per
-drive): G-WhONet of the same training seed fine-tuned on the drive's first m
-seconds (:func:`rwhonet.models.adapt.fine_tune`). One process per seed covers
-the whole grid, because a process costs more to start than all its fine-tunes
-take (``benchmarks/bench_train.py``); the outputs are still one folder per m,
-``models/r/seed<seed>/m<m>/`` with ``<drive>.pt``, the drives' per-second
-predictions and the run record. The evaluation scores only the seconds after
-the largest m.
+Every target test drive gets its own R-WhONet per recipe and m (the paper
+recalibrates per drive): G-WhONet of the same training seed recalibrated on
+the drive's first m seconds (:mod:`rwhonet.models.adapt`). The ``continuous``
+recipe instead recalibrates before every outage window the evaluation scores,
+on the drive's seconds before that window only.
+
+The same stage gathers the evidence the recipe, m and ridge penalty are chosen
+on, never on a target test drive: every recipe on the target *training* drives
+(first m seconds to recalibrate, the rest for ``evaluate`` to score), and
+``ridge_head`` with every ``adapt.ridge_penalty_grid`` value on the held-out
+*source* drives.
+
+One process per seed does all of it (a process costs more to start than all
+its recalibrations take); the recalibrations, independent of one another and
+each seeded on its own, run on every core (a fork pool), with identical
+results whatever the number of workers.
+
+Outputs, all in ``models/r/seed<seed>/`` (one atomic folder):
+``<recipe>/m<m>/`` with ``<drive>.pt`` (the model file; ``radius+G`` records its
+radii there), ``predictions.parquet`` (label predictions for every second of
+each drive) and ``run.json``; ``continuous/`` with ``predictions.parquet``
+(``pred_m_<L>s`` on the seconds of each outage length's windows) and
+``run.json``; ``selection/target_train.parquet`` and ``selection/ridge_source.parquet``
+(one ``pred_m__<model>`` column per recipe and m, or per penalty and m).
 """
 
 from __future__ import annotations
 
+import multiprocessing
+import os
+import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from rwhonet import contracts, paths
 from rwhonet.config import Params
+from rwhonet.contracts import CONTINUOUS, recipe_model
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, write_json
+from rwhonet.features.calibration import calibration_from_dict
+from rwhonet.io import atomic_dir, read_json, write_json
+from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import SampleSet, load_role
 from rwhonet.tracking.store import RunRecord
 
+SELECTION = "selection"
+MAX_WORKERS = 4
 
-def r_dir(root: Path, m: int) -> Path:
-    """Folder of R-WhONet for one m."""
-    return Path(root) / f"m{m}"
+
+def r_dir(root: Path, recipe: str, m: int | None = None) -> Path:
+    """Folder of one recipe (and m) under a seed's ``models/r/seed<seed>``."""
+    return Path(root) / recipe if m is None else Path(root) / recipe / f"m{m}"
 
 
 def check_lengths(test: SampleSet, m_grid: list[int]) -> None:
@@ -46,94 +74,276 @@ def check_lengths(test: SampleSet, m_grid: list[int]) -> None:
         raise InputError(short, f"target test drives too short to adapt on their first {m} s")
 
 
+def adapt_data(samples: SampleSet, mask: np.ndarray):
+    """The :class:`~rwhonet.models.adapt.AdaptData` of the samples where ``mask`` holds."""
+    from rwhonet.models.adapt import AdaptData
+
+    f = samples.frame[mask]
+    return AdaptData(
+        samples.x[mask], samples.y[mask],
+        *(f[c].to_numpy(np.float64)
+          for c in (contracts.DISP_GNSS_M, contracts.ANGLE_RL_RAD, contracts.ANGLE_RR_RAD)),
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Task:
+    """One recalibration: a recipe (or a ridge penalty) on one drive's first m seconds."""
+
+    role: str  # which sample set
+    recipe: str
+    m: int
+    drive: str
+    penalty: float | None = None  # ridge_head with this penalty (the source-drive study)
+
+
+# The fork pool's workers read the task inputs from here (set before the pool starts).
+_WORK: dict[str, Any] = {}
+
+
+def _run(task: Task) -> tuple[Task, np.ndarray, Any]:
+    """Recalibrate one drive and predict it all; the model comes back for target test drives."""
+    from rwhonet.models.adapt import label_prediction, recalibrate, ridge_head
+
+    params: Params = _WORK["params"]
+    samples: SampleSet = _WORK["samples"][task.role]
+    drive = samples.frame["drive"].to_numpy()
+    first = (drive == task.drive) & (samples.frame["k"].to_numpy() < task.m)
+    if task.penalty is not None:
+        result = ridge_head(_WORK["g"], _WORK["hparams"], adapt_data(samples, first),
+                            penalty=task.penalty)  # fmt: skip
+    else:
+        result = recalibrate(
+            task.recipe, _WORK["g"], _WORK["hparams"], adapt_data(samples, first),
+            adapt=params.adapt, seed=_WORK["seed"],
+            min_speed_m_s=params.label.calibration_min_speed_m_s,
+        )  # fmt: skip
+    pred = label_prediction(result, adapt_data(samples, drive == task.drive), _WORK["radii"])
+    result.info["n_adapt_samples"] = int(first.sum())
+    keep = task.role == contracts.TARGET_TEST and task.penalty is None
+    return task, pred, result if keep else None
+
+
+def _pool_map(tasks: list[Task]) -> list[tuple[Task, np.ndarray, Any]]:
+    """Run the tasks on every core (forked workers share the loaded inputs), in order."""
+    workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(tasks), 1))
+    if workers < 2:
+        return [_run(t) for t in tasks]
+    with multiprocessing.get_context("fork").Pool(workers, initializer=_one_thread) as pool:
+        return pool.map(_run, tasks, chunksize=max(1, len(tasks) // (8 * workers)))
+
+
+def _one_thread() -> None:
+    import torch
+
+    torch.set_num_threads(1)
+
+
 def adapt_grid(
-    params: Params, seed: int, samples_dir: Path, g_dir: Path, out_root: Path
+    params: Params,
+    seed: int,
+    samples_dir: Path,
+    calibration_path: Path,
+    g_dir: Path,
+    out_root: Path,
 ) -> tuple[list[RunRecord], float]:
-    """Fine-tune G on the first m seconds of every target test drive, for every m.
+    """Recalibrate G on every target test drive by every recipe and m, and gather the evidence.
 
     Args:
-        params: resolved parameters (``adapt`` holds the grid and the fine-tuning recipe).
+        params: resolved parameters (``adapt``; ``label.calibration_min_speed_m_s``
+            for the radius refits; ``evaluate.outages_s`` for the continuous windows).
         seed: the training seed (shuffling and dropout of every fine-tune).
         samples_dir: the label stage's samples folder.
+        calibration_path: the label stage's ``calibration.json`` (the source radii).
         g_dir: G-WhONet's folder for this seed (its model file is the starting point).
-        out_root: ``models/r/seed<seed>``; replaced as a whole, one ``m<m>`` folder per m.
+        out_root: ``models/r/seed<seed>``; replaced as a whole.
 
     Returns:
-        One run record per m (with a child run per drive) and the seconds of
-        fine-tuning, kept out of the records so outputs stay byte-reproducible.
+        One run record per recipe and m (per recipe for ``continuous``) and the
+        wall seconds of recalibration, kept out of the records so outputs stay
+        byte-reproducible.
     """
-    from rwhonet.models.adapt import fine_tune
     from rwhonet.models.checkpoint import load_whonet, save_whonet
-    from rwhonet.models.loop import predict
 
+    cfg = params.adapt
+    cal = calibration_from_dict(read_json(calibration_path), paths.rel(calibration_path))
     g_net, g_hparams = load_whonet(g_dir / contracts.MODEL_FILE)
-    test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
-    check_lengths(test, params.adapt.m_grid)
-    k = test.frame["k"].to_numpy()
-    drive = test.frame["drive"].to_numpy()
-    records, seconds = [], 0.0
-    with atomic_dir(out_root) as tmp_root:
-        for m in params.adapt.m_grid:
-            out = r_dir(tmp_root, m)
-            out.mkdir()
-            children, preds, results = [], [], {}
-            for d in test.drives:
-                first = (drive == d) & (k < m)
-                result = fine_tune(
-                    g_net, g_hparams, test.x[first], test.y[first],
-                    adapt=params.adapt, seed=seed,
-                )  # fmt: skip
-                results[d] = result
-                seconds += result.seconds
-                save_whonet(result.net, result.hparams, out / f"{d}.pt")
-                on_drive = test.take(drive == d)
-                pred = predict(result.net, on_drive.x, seq_len=result.hparams["seq_len"])
-                preds.append(predictions_frame(on_drive, pred))
-                children.append(
-                    RunRecord(
-                        name=f"R m={m} {d}",
-                        tags=_tags(seed, m) | {"drive": d},
-                        params={**model_params(params, seed, "adapt"), "adapt.m": m, "drive": d},
-                        history=history_rows(result.history),
-                        metrics={
-                            "n_adapt_samples": int(first.sum()),
-                            "n_trainable_params": result.n_trainable,
-                            "n_total_params": result.n_total,
-                        },
-                        artifacts=[paths.rel(r_dir(out_root, m) / f"{d}.pt")],
-                    )
+    seq = params.model.seq_len
+    samples = {
+        contracts.TARGET_TEST: load_role(samples_dir, contracts.TARGET_TEST, seq),
+        contracts.TARGET_TRAIN: load_role(samples_dir, contracts.TARGET_TRAIN, seq, required=False),
+        contracts.SOURCE_TEST: load_role(samples_dir, contracts.SOURCE_TEST, seq, required=False),
+    }
+    check_lengths(samples[contracts.TARGET_TEST], cfg.m_grid)
+    recipes = [r for r in cfg.recipes if r != CONTINUOUS]
+    tasks = [
+        Task(role, r, m, d)
+        for role in (contracts.TARGET_TEST, contracts.TARGET_TRAIN)
+        for r in recipes
+        for m in cfg.m_grid
+        for d in samples[role].drives
+    ]
+    tasks += [
+        Task(contracts.SOURCE_TEST, "ridge_head", m, d, penalty)
+        for penalty in cfg.ridge_penalty_grid
+        for m in cfg.m_grid
+        for d in samples[contracts.SOURCE_TEST].drives
+    ]
+    start = time.perf_counter()
+    _WORK.update(params=params, samples=samples, g=g_net, hparams=g_hparams, seed=seed,
+                 radii=(cal.r_rl_m, cal.r_rr_m))  # fmt: skip
+    try:
+        done = _pool_map(tasks)
+        continuous = {
+            role: _continuous(params, samples[role], g_net, g_hparams, (cal.r_rl_m, cal.r_rr_m))
+            for role in (contracts.TARGET_TEST, contracts.TARGET_TRAIN)
+            if CONTINUOUS in cfg.recipes and len(samples[role])
+        }
+    finally:
+        _WORK.clear()
+    seconds = time.perf_counter() - start
+    records = []
+    with atomic_dir(out_root) as tmp:
+        test = samples[contracts.TARGET_TEST]
+        for recipe in recipes:
+            for m in cfg.m_grid:
+                out = r_dir(tmp, recipe, m)
+                out.mkdir(parents=True)
+                mine = [(t, p, res) for t, p, res in done
+                        if (t.role, t.recipe, t.m, t.penalty) == (contracts.TARGET_TEST, recipe, m,
+                                                                 None)]  # fmt: skip
+                preds = []
+                for t, pred, result in mine:
+                    save_whonet(result.net, result.hparams, out / f"{t.drive}.pt",
+                                wpm_radii=result.radii)  # fmt: skip
+                    preds.append(predictions_frame(test.take(test.frame["drive"] == t.drive), pred))
+                pd.concat(preds, ignore_index=True).to_parquet(
+                    out / contracts.PREDICTIONS, index=False
                 )
-            any_result = next(iter(results.values()))
-            record = RunRecord(
-                name=f"R-WhONet m={m}",
-                tags=_tags(seed, m),
-                params={**model_params(params, seed, "adapt"), "adapt.m": m},
-                metrics={
-                    "n_trainable_params": any_result.n_trainable,
-                    "n_total_params": any_result.n_total,
-                },
-                children=children,
+                record = _record(params, seed, recipe, m, mine, out_root)
+                write_json(out / contracts.RUN_RECORD, record.to_dict())
+                records.append(record)
+        if contracts.TARGET_TEST in continuous:
+            out = r_dir(tmp, CONTINUOUS)
+            out.mkdir()
+            frame = test.frame[["drive", "segment", "t_s"]].assign(
+                **{f"pred_m_{L}s": col for L, col in continuous[contracts.TARGET_TEST].items()}
             )
-            pd.concat(preds, ignore_index=True).to_parquet(out / contracts.PREDICTIONS, index=False)
+            frame.to_parquet(out / contracts.PREDICTIONS, index=False)
+            record = RunRecord(
+                name=f"R-WhONet continuous seed {seed}",
+                tags=_tags(seed, CONTINUOUS, None),
+                params={**model_params(params, seed, "adapt"), "adapt.recipe": CONTINUOUS},
+            )
             write_json(out / contracts.RUN_RECORD, record.to_dict())
             records.append(record)
+        _write_selection(tmp / SELECTION, samples, done, continuous)
     return records, seconds
 
 
-def _tags(seed: int, m: int) -> dict[str, str]:
-    return {"model": "R", "m": str(m), "vehicle": "target", "seed": str(seed), "dvc_stage": "adapt"}
+def _write_selection(
+    folder: Path, samples: dict[str, SampleSet], done: list, continuous: dict
+) -> None:
+    """The evidence: predictions on the target training drives and the source-drive ridge study."""
+    folder.mkdir()
+    for role, file in ((contracts.TARGET_TRAIN, "target_train"), (contracts.SOURCE_TEST,
+                                                                  "ridge_source")):  # fmt: skip
+        s = samples[role]
+        frame = s.frame[["drive", "segment", "t_s"]].copy()
+        columns: dict[str, np.ndarray] = {}
+        drive = s.frame["drive"].to_numpy()
+        for t, pred, _ in done:
+            if t.role != role:
+                continue
+            name = (f"ridge_head lambda={t.penalty:g}@{t.m}" if t.penalty is not None
+                    else recipe_model(t.recipe, t.m))  # fmt: skip
+            col = columns.setdefault(name, np.full(len(frame), np.nan))
+            col[drive == t.drive] = pred
+        if role in continuous:
+            for L, col in continuous[role].items():
+                columns[f"{recipe_model(CONTINUOUS, None)}/{L}s"] = col
+        frame = frame.assign(**{f"pred_m__{name}": col for name, col in columns.items()})
+        frame.to_parquet(folder / f"{file}.parquet", index=False)
+
+
+def _record(
+    params: Params, seed: int, recipe: str, m: int, mine: list, out_root: Path
+) -> RunRecord:
+    """The run record of one recipe at one m (per-drive facts as ``drive/<d>/...`` metrics)."""
+    rows: dict[int, dict[str, float]] = {}
+    metrics: dict[str, float] = {}
+    for t, _, result in mine:
+        for row in history_rows(result.history):
+            merged = rows.setdefault(row["epoch"], {"epoch": row["epoch"]})
+            merged.update({f"drive/{t.drive}/{k}": v for k, v in row.items() if k != "epoch"})
+        for key, value in result.info.items():
+            if isinstance(value, bool | int | float):
+                metrics[f"drive/{t.drive}/{key}"] = float(value)
+        if result.radii is not None:
+            metrics[f"drive/{t.drive}/r_rl_m"], metrics[f"drive/{t.drive}/r_rr_m"] = result.radii
+    first = mine[0][2]
+    metrics.update(n_trainable_params=first.n_trainable, n_total_params=first.n_total)
+    chosen = (recipe, m) == (params.adapt.recipe, params.adapt.chosen_m)
+    return RunRecord(
+        name=f"R-WhONet {recipe} m={m} seed {seed}",
+        tags=_tags(seed, recipe, m),
+        params={**model_params(params, seed, "adapt"), "adapt.m": m, "adapt.recipe": recipe},
+        history=[rows[e] for e in sorted(rows)],
+        metrics=metrics,
+        artifacts=[paths.rel(r_dir(out_root, recipe, m) / f"{t.drive}.pt") for t, _, _ in mine]
+        if chosen else [],
+    )  # fmt: skip
+
+
+def _continuous(
+    params: Params, samples: SampleSet, g_net, g_hparams: dict, source_radii: tuple[float, float]
+) -> dict[int, np.ndarray]:
+    """The continuous recipe on every drive of a sample set: one prediction column per outage."""
+    from rwhonet.models.adapt import continuous_predictions
+
+    cfg = params.adapt.continuous
+    frame = samples.frame
+    drive = frame["drive"].to_numpy()
+    rank = frame["k"].to_numpy()
+    columns = {}
+    for L in params.evaluate.outages_s:
+        col = np.full(len(frame), np.nan)
+        windows = outage_windows(frame, params.adapt.m_grid, L)
+        w_drive = drive[windows[:, 0]] if len(windows) else np.array([])
+        for d in samples.drives:
+            rows = np.flatnonzero(drive == d)  # the drive's seconds, in time order
+            mine = windows[w_drive == d]
+            if not len(mine):
+                continue
+            pred = continuous_predictions(
+                g_net, g_hparams, adapt_data(samples, drive == d), rank[rows],
+                np.searchsorted(rows, mine), inner=cfg.inner, penalty=params.adapt.ridge_penalty,
+                window_s=cfg.window_s, min_speed_m_s=params.label.calibration_min_speed_m_s,
+                source_radii=source_radii,
+            )  # fmt: skip
+            col[mine.ravel()] = pred.ravel()
+        columns[L] = col
+    return columns
+
+
+def _tags(seed: int, recipe: str, m: int | None) -> dict[str, str]:
+    tags = {"model": "R", "recipe": recipe, "vehicle": "target", "seed": str(seed),
+            "dvc_stage": f"adapt@{seed}"}  # fmt: skip
+    if m is not None:
+        tags["m"] = str(m)
+    return tags
 
 
 def main(params: Params, seed: int) -> None:
-    """The ``adapt@<seed>`` stage: G of that seed -> ``models/r/seed<seed>/m<m>`` for every m."""
+    """The ``adapt@<seed>`` stage: G of that seed -> ``models/r/seed<seed>`` (every recipe, m)."""
     out = paths.model_dir("r", seed)
-    records, seconds = adapt_grid(params, seed, paths.SAMPLES, paths.model_dir("g", seed), out)
-    counts = records[0].metrics
-    n_drives = len(records[0].children)
+    records, seconds = adapt_grid(
+        params, seed, paths.SAMPLES, paths.CALIBRATION, paths.model_dir("g", seed), out
+    )
     print(
-        f"R-WhONet: {n_drives} drives x {len(records)} m values "
-        f"({', '.join(str(m) for m in params.adapt.m_grid)} s), trainable "
-        f"{int(counts['n_trainable_params'])} of {int(counts['n_total_params'])} parameters "
-        f"({params.adapt.trainable}), {params.adapt.epochs} epochs, {seconds:.1f} s of "
-        f"fine-tuning -> {paths.rel(out)}"
+        f"R-WhONet seed {seed}: {len(params.adapt.recipes)} recipes "
+        f"({', '.join(params.adapt.recipes)}) x {len(params.adapt.m_grid)} m values, on the test "
+        f"drives and (the selection evidence) the target training drives; ridge penalties on "
+        f"the held-out source drives; {len(records)} runs, {seconds:.1f} s on "
+        f"{min(os.cpu_count() or 1, MAX_WORKERS)} cores -> {paths.rel(out)}"
     )

@@ -12,17 +12,21 @@ Models (per-second error ``e``; CRSE = Σ|e|, CTE = |Σe| per window):
   ``WPM-ref`` / ``WPM-int``: the same radii in the other WPM mode (the
   authors' one-sample-per-second WPM, or the integrated one);
 - ``G``, ``S``: the networks trained on the source and on the target car;
-  ``R@m``: G recalibrated on each drive's first m seconds; ``R`` = ``R@chosen_m``;
-- controls at every m: ``WPM-m@m``, the WPM with its rear radii refitted on the
-  drive's first m seconds (the one-parameter alternative to R), and
-  ``G+radius@m``, G's correction on top of that WPM.
+- ``R[<recipe>]@m``: G recalibrated on each drive's first m seconds by every
+  recipe of ``adapt.recipes`` (``R[radius+G]@m`` is the G+radius control: G on
+  the WPM refitted on those seconds); ``R[continuous]``: recalibrated before
+  every window on the seconds before it; ``R@m`` and ``R`` are ``adapt.recipe``
+  at every m and at ``adapt.chosen_m`` (what the tables call R-WhONet);
+- ``WPM-m@m``: the WPM with its rear radii refitted on the drive's first m
+  seconds, the network-free control.
 
 Each trained model is scored once per training seed; a cell of the summary is
 the mean over seeds with a 95 % t interval (:mod:`rwhonet.metrics.intervals`).
-The WPMs do not depend on the seed (interval 0). Paired differences (R − G,
-R − S, R − WPM-m, R − G+radius) and gains over the WPMs are computed per seed,
-then averaged. G and the WPM are also scored on held-out drives of the source
-car (role ``source_test``, when there are any): the domain gap.
+The WPMs do not depend on the seed (interval 0). Paired differences and gains
+over the WPMs are computed per seed, then averaged; "do no harm" counts the
+(drive, seed) pairs where a recalibrated model is worse than G. G and the WPM
+are also scored on held-out drives of the source car (role ``source_test``,
+when there are any): the domain gap.
 
 One source of truth: this evaluation feeds ``metrics/eval.json``,
 ``reports/tables.md``, the plots and the MLflow runs.
@@ -33,7 +37,7 @@ from __future__ import annotations
 import json
 import math
 import platform
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +47,7 @@ import pandas as pd
 from rwhonet import contracts as k
 from rwhonet import paths
 from rwhonet.config import Params, flatten
+from rwhonet.contracts import CONTINUOUS, PAPER, alt_wpm, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import refit_radii
 from rwhonet.features.wpm import wpm_displacement_m
@@ -50,6 +55,8 @@ from rwhonet.io import atomic_outputs, read_json
 from rwhonet.metrics.intervals import mean_ci95, over_seeds
 from rwhonet.metrics.outage import summarise, window_evolution, window_metrics
 from rwhonet.report.tables import render_report
+from rwhonet.stages.limits import radius_limits
+from rwhonet.stages.outages import evaluated_rows
 from rwhonet.stages.samples import load_role
 from rwhonet.tracking.store import RunRecord
 
@@ -57,28 +64,42 @@ STAT_KEYS = ("max", "min", "mean", "std")
 SEED_VALUES = [f"{q}_{s}" for q in ("crse", "cte") for s in STAT_KEYS]
 _SHORT = {"crse_m_": "crse_", "cte_m_": "cte_", "distance_m_": "dist_"}
 CURVE_MODELS = ("WPM", "G", "S", "R")
+TIME_BINS_S = (0, 300, 600, 1200, 2400, 3600, math.inf)  # seconds into the drive
 
 
-def alt_wpm(wpm_mode: str) -> tuple[str, str]:
-    """The other WPM mode's model name and samples column."""
-    if wpm_mode == "integrated":
-        return "WPM-ref", k.DISP_WPM_REFERENCE_M
-    return "WPM-int", k.DISP_WPM_INTEGRATED_M
+def recipe_models(params: Params) -> list[str]:
+    """Every recipe's R-WhONet at every m."""
+    return [
+        recipe_model(r, m)
+        for r in params.adapt.recipes
+        for m in ([None] if r == CONTINUOUS else params.adapt.m_grid)
+    ]
+
+
+def aliases(params: Params) -> dict[str, str]:
+    """``R@m`` and ``R``: the chosen recipe at every m and at the chosen m."""
+    recipe, grid = params.adapt.recipe, params.adapt.m_grid
+    out = {f"R@{m}": recipe_model(recipe, m) for m in grid}
+    out["R"] = recipe_model(recipe, params.adapt.chosen_m)
+    return out
 
 
 def model_names(params: Params) -> list[str]:
-    """Every model and control the evaluation scores, in table order."""
-    grid = params.adapt.m_grid
+    """Every model and control the evaluation reports, in table order."""
     alt, _ = alt_wpm(params.label.wpm_mode)
     return [
-        "WPM", alt, "G", "S", "R",
-        *(f"R@{m}" for m in grid), *(f"WPM-m@{m}" for m in grid), *(f"G+radius@{m}" for m in grid),
+        "WPM", alt, "G", "S", *aliases(params), *recipe_models(params),
+        *(f"WPM-m@{m}" for m in params.adapt.m_grid),
     ]  # fmt: skip
 
 
-def pairs(chosen_m: int) -> list[tuple[str, str]]:
+def pairs(params: Params) -> list[tuple[str, str]]:
     """The paired differences reported (first minus second, per seed)."""
-    return [("R", "G"), ("R", "S"), ("R", f"WPM-m@{chosen_m}"), ("R", f"G+radius@{chosen_m}")]
+    chosen = params.adapt.chosen_m
+    out = [("R", "G"), ("R", "S"), ("R", f"WPM-m@{chosen}")]
+    out += [("R", recipe_model(r, chosen)) for r in params.adapt.recipes
+            if recipe_model(r, chosen) != aliases(params)["R"]]  # fmt: skip
+    return out
 
 
 @dataclass
@@ -89,25 +110,31 @@ class Evaluation:
     summary: pd.DataFrame  # the same cells, mean over seeds and *_ci95 half-widths
     differences: pd.DataFrame  # pair, outage_s, crse/cte mean and ci95 of the per-seed gap
     gains: pd.DataFrame  # model, baseline, outage_s, 1 - CRSE(model) / CRSE(baseline)
+    harm: pd.DataFrame  # per recalibrated model and outage: how often worse than G, by how much
+    over_time: pd.DataFrame  # mean window CRSE against seconds into the drive
     scenarios: pd.DataFrame  # per scenario tag: seconds and mean |e| per second per model
     refits: pd.DataFrame  # per drive and m: the refitted rear radii (NaN when not moving)
     per_second: pd.DataFrame  # test drives, one row per second, every model's prediction
     evolution: pd.DataFrame  # mean cumulative |e| and e per second of a window
     eval_json: dict
+    selection: pd.DataFrame = field(default_factory=pd.DataFrame)  # the selection evidence
+    limits: pd.DataFrame = field(default_factory=pd.DataFrame)  # stages.limits.radius_limits
 
 
 # --------------------------------------------------------------------------- inputs
 
 
 def prediction_sources(params: Params, models_root: Path) -> dict[tuple[int, str], Path]:
-    """``(seed, prediction column) -> predictions.parquet`` for every trained model."""
+    """``(seed, model) -> predictions.parquet`` for every trained model and recipe."""
     out = {}
     for seed in params.seeds:
         folder = {name: models_root / name / f"seed{seed}" for name in ("g", "s", "r")}
-        out[(seed, "pred_g_m")] = folder["g"] / k.PREDICTIONS
-        out[(seed, "pred_s_m")] = folder["s"] / k.PREDICTIONS
-        for m in params.adapt.m_grid:
-            out[(seed, f"pred_r{m}_m")] = folder["r"] / f"m{m}" / k.PREDICTIONS
+        out[(seed, "G")] = folder["g"] / k.PREDICTIONS
+        out[(seed, "S")] = folder["s"] / k.PREDICTIONS
+        for r in params.adapt.recipes:
+            for m in [None] if r == CONTINUOUS else params.adapt.m_grid:
+                sub_dir = folder["r"] / r if m is None else folder["r"] / r / f"m{m}"
+                out[(seed, recipe_model(r, m))] = sub_dir / k.PREDICTIONS
     return out
 
 
@@ -118,8 +145,9 @@ def collect_predictions(
 
     Returns:
         ``(frame, predictions)``: the samples of every test role, and per seed a
-        frame of prediction columns (``pred_g_m``, ``pred_s_m``, ``pred_r<m>_m``)
-        row-aligned with ``frame`` (R: NaN on source-car drives, it is not adapted there).
+        frame of prediction columns, one per model (``G``, ``S``, ``R[paper]@50``...;
+        ``R[continuous]/<L>s`` per outage length) row-aligned with ``frame`` (R: NaN on
+        source-car drives, it is not adapted there; continuous: outside its windows).
 
     Raises:
         InputError: a model's predictions are missing or do not cover the test seconds.
@@ -129,23 +157,28 @@ def collect_predictions(
     keys = ["drive", "segment", "t_s"]
     preds = {seed: pd.DataFrame(index=frame.index) for seed in params.seeds}
     target = (frame["role"] == k.TARGET_TEST).to_numpy()
-    for (seed, col), f in prediction_sources(params, models_root).items():
+    for (seed, model), f in prediction_sources(params, models_root).items():
         if not f.is_file():
             raise InputError(
-                [Problem(paths.rel(f), None, None, "a model's predictions", "no file")]
+                [Problem(paths.rel(f), None, None, "a model's predictions", "no file")],
+                "run the model stages first (dvc repro)",
             )
-        pred = pd.read_parquet(f).rename(columns={"pred_m": col})
-        merged = frame[keys].merge(pred[[*keys, col]], on=keys, how="left", validate="one_to_one")
-        values = merged[col].to_numpy(np.float64)
-        needed = target if col.startswith("pred_r") else np.ones(len(frame), bool)
-        missing = int(np.isnan(values[needed]).sum())
-        if missing:
-            raise InputError(
-                [Problem(paths.rel(f), None, col, "a prediction for every test second",
-                         f"{missing} missing")],
-                "predictions are stale: re-run the model stages (dvc repro)",
-            )  # fmt: skip
-        preds[seed][col] = values
+        pred = pd.read_parquet(f)
+        cols = [c for c in pred.columns if c.startswith("pred_m")]
+        merged = frame[keys].merge(pred[[*keys, *cols]], on=keys, how="left", validate="one_to_one")
+        for col in cols:
+            values = merged[col].to_numpy(np.float64)
+            name = model if col == "pred_m" else f"{model}/{col.removeprefix('pred_m_')}"
+            if col == "pred_m":  # a continuous column is NaN outside its windows
+                needed = target if model.startswith("R") else np.ones(len(frame), bool)
+                missing = int(np.isnan(values[needed]).sum())
+                if missing:
+                    raise InputError(
+                        [Problem(paths.rel(f), None, col, "a prediction for every test second",
+                                 f"{missing} missing")],
+                        "predictions are stale: re-run the model stages (dvc repro)",
+                    )  # fmt: skip
+            preds[seed][name] = values
     return frame, preds
 
 
@@ -180,27 +213,36 @@ def refit_wpm(frame: pd.DataFrame, params: Params) -> tuple[dict[int, np.ndarray
     return out, pd.DataFrame(rows)
 
 
+Errors = dict[str, "np.ndarray | dict[int, np.ndarray]"]
+
+
 def model_errors(
     frame: pd.DataFrame, pred: pd.DataFrame, wpm_m: dict[int, np.ndarray], params: Params
-) -> dict[str, np.ndarray]:
-    """Per-second error of every model for one seed (NaN where a model does not apply)."""
+) -> Errors:
+    """Per-second error of every model for one seed (NaN where a model does not apply).
+
+    ``R[continuous]`` has one error array per outage length (its predictions
+    depend on which window a second is in); every other model one array.
+    Aliases (``R``, ``R@m``) are left out: they are copies of recipe models.
+    """
     label = frame[k.LABEL_M].to_numpy(np.float64)
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
     alt, alt_col = alt_wpm(params.label.wpm_mode)
-    g = pred["pred_g_m"].to_numpy()
-    errors = {
+    errors: Errors = {
         "WPM": label,
         alt: gnss - frame[alt_col].to_numpy(np.float64),
-        "G": label - g,
-        "S": label - pred["pred_s_m"].to_numpy(),
+        "G": label - pred["G"].to_numpy(),
+        "S": label - pred["S"].to_numpy(),
     }
-    for m in params.adapt.m_grid:
-        errors[f"R@{m}"] = label - pred[f"pred_r{m}_m"].to_numpy()
-    errors["R"] = errors[f"R@{params.adapt.chosen_m}"]
+    for model in recipe_models(params):
+        if model == recipe_model(CONTINUOUS, None):
+            errors[model] = {L: label - pred[f"{model}/{L}s"].to_numpy()
+                             for L in params.evaluate.outages_s}  # fmt: skip
+        else:
+            errors[model] = label - pred[model].to_numpy()
     for m in params.adapt.m_grid:
         errors[f"WPM-m@{m}"] = gnss - wpm_m[m]
-        errors[f"G+radius@{m}"] = gnss - wpm_m[m] - g
-    return {name: errors[name] for name in model_names(params)}
+    return errors
 
 
 # --------------------------------------------------------------------------- scoring
@@ -217,13 +259,13 @@ def _stats(windows: pd.DataFrame) -> dict[str, Any]:
 
 
 def evaluated_seconds(frame: pd.DataFrame, params: Params) -> np.ndarray:
-    """Which rows are scored: those after the first max(m) seconds of each drive.
+    """Which rows are scored (:func:`rwhonet.stages.outages.evaluated_rows`).
 
     Raises:
         InputError: a test drive has fewer than the longest outage left to score.
     """
     skip = max(params.adapt.m_grid)
-    evaluated = frame["k"].to_numpy() >= skip
+    evaluated = evaluated_rows(frame, params.adapt.m_grid)
     need = max(params.evaluate.outages_s)
     left = pd.Series(evaluated).groupby(frame["drive"].to_numpy(), sort=False).sum()
     short = [
@@ -237,17 +279,25 @@ def evaluated_seconds(frame: pd.DataFrame, params: Params) -> np.ndarray:
 
 
 def score_seed(
-    frame: pd.DataFrame, errors: dict[str, np.ndarray], params: Params
-) -> tuple[list[dict], list[pd.DataFrame]]:
-    """Windows of every model and outage on the evaluated rows: summary rows and curves."""
-    rows, curves = [], []
+    frame: pd.DataFrame, errors: Errors, params: Params
+) -> tuple[list[dict], list[pd.DataFrame], list[dict]]:
+    """Windows of every model and outage on the evaluated rows.
+
+    Returns:
+        Summary rows (per role and drive, and ``all`` per role), the mean CRSE/CTE
+        curves over a window's seconds, and per window its CRSE with the seconds
+        into the drive it starts at (target test drives, for CRSE against time).
+    """
+    rows, curves, timeline = [], [], []
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
     group = frame["group"].to_numpy()
     drive = frame["drive"].to_numpy()
     role = frame["role"].to_numpy()
-    for model, err in errors.items():
-        scored = ~np.isnan(err)
+    rank = frame["k"].to_numpy()
+    for model, per_model in errors.items():
         for L in params.evaluate.outages_s:
+            err = per_model[L] if isinstance(per_model, dict) else per_model
+            scored = ~np.isnan(err)
             windows = window_metrics(err[scored], gnss[scored], group[scored], L)
             start = windows["start"].to_numpy()
             w_drive, w_role = drive[scored][start], role[scored][start]
@@ -258,16 +308,21 @@ def score_seed(
             for r, d, mask in cells:
                 rows.append({"role": r, "drive": d, "model": model, "outage_s": L,
                              **_stats(windows[mask])})  # fmt: skip
+            target = w_role == k.TARGET_TEST
+            timeline += [
+                {"model": model, "outage_s": L, "start_s": int(t), "crse": float(c)}
+                for t, c in zip(rank[scored][start][target], windows["crse_m"][target], strict=True)
+            ]
             if model in CURVE_MODELS:
-                target = scored & (role == k.TARGET_TEST)
-                evo = window_evolution(err[target], group[target], L)
+                on = scored & (role == k.TARGET_TEST)
+                evo = window_evolution(err[on], group[on], L)
                 evo["cte_m"] = evo["cte_signed_m"].abs()
                 mean = evo.groupby("second")[["crse_m", "cte_m"]].mean().reset_index()
                 curves.append(mean.assign(outage_s=L, model=model))
-    return rows, curves
+    return rows, curves, timeline
 
 
-def scenario_errors(frame: pd.DataFrame, errors: dict[str, np.ndarray]) -> pd.DataFrame:
+def scenario_errors(frame: pd.DataFrame, errors: Errors) -> pd.DataFrame:
     """Mean absolute per-second error on the target test seconds of each scenario tag.
 
     The paper's short-term scenarios (roundabouts, hard brakes, wet roads, sharp
@@ -281,6 +336,19 @@ def scenario_errors(frame: pd.DataFrame, errors: dict[str, np.ndarray]) -> pd.Da
     long = long[long["tag"] != ""]
     out = long.groupby("tag").agg(n_seconds=("WPM", "size"), **{m: (m, "mean") for m in models})
     return out.reset_index()
+
+
+def _with_aliases(rows: list[dict], params: Params) -> list[dict]:
+    """Copy each aliased recipe model's rows under its alias (``R``, ``R@m``)."""
+    by_model: dict[str, list[dict]] = {}
+    for r in rows:
+        by_model.setdefault(r["model"], []).append(r)
+    extra = [
+        {**r, "model": alias}
+        for alias, model in aliases(params).items()
+        for r in by_model.get(model, [])
+    ]
+    return rows + extra
 
 
 def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]) -> Evaluation:
@@ -297,13 +365,19 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
     evaluated = evaluated_seconds(frame, params)
     wpm_m, refits = refit_wpm(frame, params)
     ev_frame = frame[evaluated].reset_index(drop=True)
-    per_seed, curves, scen = [], [], []
+    per_seed, curves, scen, timeline = [], [], [], []
     for seed in params.seeds:
         errors = model_errors(frame, preds[seed], wpm_m, params)
-        errors = {name: e[evaluated] for name, e in errors.items()}
-        rows, seed_curves = score_seed(ev_frame, errors, params)
-        per_seed += [{"seed": seed, **r} for r in rows]
+        errors = {
+            name: {L: v[evaluated] for L, v in e.items()} if isinstance(e, dict) else e[evaluated]
+            for name, e in errors.items()
+        }
+        errors["R"] = errors[aliases(params)["R"]]
+        rows, seed_curves, seed_timeline = score_seed(ev_frame, errors, params)
+        rows = [r for r in rows if r["model"] != "R"]  # R comes back as an alias below
+        per_seed += [{"seed": seed, **r} for r in _with_aliases(rows, params)]
         curves += [c.assign(seed=seed) for c in seed_curves]
+        timeline += [{"seed": seed, **t} for t in seed_timeline]
         scen.append(scenario_errors(ev_frame, errors).assign(seed=seed))
     per_seed_df = pd.DataFrame(per_seed)
     keys = ["role", "drive", "model", "outage_s"]
@@ -322,14 +396,17 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
         .mean().reset_index()
     )  # fmt: skip
     differences, gains = paired(per_seed_df, params)
-    per_second = frame.assign(evaluated=evaluated)
-    for seed, pred in preds.items():
-        per_second = per_second.join(pred.add_suffix(f"__seed{seed}"))
-    for m, disp in wpm_m.items():
-        per_second[f"disp_wpm_m{m}_m"] = disp
+    harm = no_harm(per_seed_df, params)
+    over_time = crse_over_time(pd.DataFrame(timeline), params)
+    per_second = pd.concat(
+        [frame.assign(evaluated=evaluated),
+         *(pred.add_suffix(f"__seed{seed}") for seed, pred in preds.items()),
+         pd.DataFrame({f"disp_wpm_m{m}_m": d for m, d in wpm_m.items()}, index=frame.index)],
+        axis=1,
+    )  # fmt: skip
     return Evaluation(
-        per_seed_df, summary, differences, gains, scenarios, refits, per_second, evolution,
-        eval_json(summary, differences, gains, refits, params),
+        per_seed_df, summary, differences, gains, harm, over_time, scenarios, refits,
+        per_second, evolution, eval_json(summary, differences, gains, harm, refits, params),
     )  # fmt: skip
 
 
@@ -341,8 +418,13 @@ def paired(per_seed: pd.DataFrame, params: Params) -> tuple[pd.DataFrame, pd.Dat
     overall = per_seed[(per_seed["role"] == k.TARGET_TEST) & (per_seed["drive"] == "all")]
     table = overall.set_index(["model", "outage_s", "seed"])
     diff_rows, gain_rows = [], []
+    chosen = params.adapt.chosen_m
+    gain_models = ["G", "S", "R", f"WPM-m@{chosen}"] + [
+        recipe_model(r, chosen) for r in params.adapt.recipes
+        if recipe_model(r, chosen) != aliases(params)["R"]
+    ]  # fmt: skip
     for L in params.evaluate.outages_s:
-        for a, b in pairs(params.adapt.chosen_m):
+        for a, b in pairs(params):
             row: dict[str, Any] = {"pair": f"{a} - {b}", "outage_s": L}
             for metric in ("crse", "cte"):
                 d = [table.loc[(a, L, s), f"{metric}_mean"] - table.loc[(b, L, s), f"{metric}_mean"]
@@ -352,8 +434,7 @@ def paired(per_seed: pd.DataFrame, params: Params) -> tuple[pd.DataFrame, pd.Dat
             row["crse_rel"] = row["crse_mean"] / base if base > 0 else math.nan
             diff_rows.append(row)
         for baseline in ("WPM", alt_wpm(params.label.wpm_mode)[0]):
-            for model in ("G", "S", "R", f"WPM-m@{params.adapt.chosen_m}",
-                          f"G+radius@{params.adapt.chosen_m}"):  # fmt: skip
+            for model in gain_models:
                 g = [
                     _gain(table.loc[(model, L, s), "crse_mean"],
                           table.loc[(baseline, L, s), "crse_mean"])
@@ -363,6 +444,57 @@ def paired(per_seed: pd.DataFrame, params: Params) -> tuple[pd.DataFrame, pd.Dat
                 gain_rows.append({"model": model, "baseline": baseline, "outage_s": L,
                                   "gain": mean, "gain_ci95": ci})  # fmt: skip
     return pd.DataFrame(diff_rows), pd.DataFrame(gain_rows)
+
+
+def no_harm(per_seed: pd.DataFrame, params: Params) -> pd.DataFrame:
+    """For every recalibrated model: how often, and by how much, it is worse than G.
+
+    Over the (target test drive, seed) pairs: the share where the model's mean
+    CRSE on that drive exceeds G's (same seed, same windows), and the mean
+    relative excess over those pairs; ``worse_on_average`` when the model's
+    mean over seeds and drives is above G's.
+    """
+    drives = per_seed[(per_seed["role"] == k.TARGET_TEST) & (per_seed["drive"] != "all")]
+    table = drives.set_index(["model", "outage_s", "seed", "drive"])["crse_mean"].sort_index()
+    rows = []
+    for model in recipe_models(params):
+        for L in params.evaluate.outages_s:
+            r = table.loc[model, L]
+            g = table.loc["G", L].reindex(r.index)
+            rel = (r / g - 1.0).to_numpy()
+            worse = rel > 0
+            rows.append({
+                "model": model, "outage_s": L, "pairs": len(rel),
+                "share_worse": float(worse.mean()),
+                "mean_excess": float(rel[worse].mean()) if worse.any() else 0.0,
+                "max_excess": float(rel.max()),
+                "worse_on_average": bool(r.mean() > g.mean()),
+            })  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def crse_over_time(timeline: pd.DataFrame, params: Params) -> pd.DataFrame:
+    """Mean window CRSE against the time into the drive a window starts (target test drives).
+
+    Windows are binned by their start (:data:`TIME_BINS_S`); a bin's value is the
+    mean over its windows, per seed, then the mean over seeds with its interval.
+    """
+    chosen = params.adapt.chosen_m
+    models = ["WPM", "G", "S", "R", f"WPM-m@{chosen}"] + [
+        m for m in recipe_models(params) if m.endswith(f"@{chosen}") or "@" not in m
+    ]
+    t = timeline[timeline["model"].isin(models)].copy()
+    edges = np.asarray(TIME_BINS_S, dtype=np.float64)
+    t["bin"] = np.searchsorted(edges, t["start_s"].to_numpy(), side="right") - 1
+    per_seed = t.groupby(["model", "outage_s", "bin", "seed"], sort=False).agg(
+        crse=("crse", "mean"), n_windows=("crse", "size")
+    ).reset_index()  # fmt: skip
+    out = over_seeds(per_seed, ["model", "outage_s", "bin"], ["crse"])
+    n = per_seed.groupby(["model", "outage_s", "bin"], sort=False)["n_windows"].first()
+    out = out.join(n, on=["model", "outage_s", "bin"])
+    out["from_s"] = edges[out["bin"]]
+    out["to_s"] = edges[out["bin"] + 1]
+    return out.sort_values(["outage_s", "model", "bin"], ignore_index=True)
 
 
 def _gain(value: float, baseline: float) -> float:
@@ -394,6 +526,7 @@ def eval_json(
     summary: pd.DataFrame,
     differences: pd.DataFrame,
     gains: pd.DataFrame,
+    harm: pd.DataFrame,
     refits: pd.DataFrame,
     params: Params,
 ) -> dict:
@@ -401,8 +534,11 @@ def eval_json(
     chosen = params.adapt.chosen_m
     target = summary[summary["role"] == k.TARGET_TEST]
     overall = target[target["drive"] == "all"]
-    headline = {"WPM", alt_wpm(params.label.wpm_mode)[0], "G", "S", "R",
-                f"WPM-m@{chosen}", f"G+radius@{chosen}"}  # fmt: skip
+    # per drive: the headline models, and the paper recipe at every m (the paper's Table 2)
+    headline = {"WPM", alt_wpm(params.label.wpm_mode)[0], "G", "S", "R", f"WPM-m@{chosen}",
+                *(recipe_model(r, chosen) for r in params.adapt.recipes),
+                *(recipe_model(PAPER, m) for m in params.adapt.m_grid
+                  if PAPER in params.adapt.recipes)}  # fmt: skip
     per_drive = target[(target["drive"] != "all") & target["model"].isin(headline)]
     gap = summary[(summary["drive"] == "all") & summary["model"].isin(["WPM", "G"])]
     return {
@@ -413,6 +549,7 @@ def eval_json(
         "n_seeds": len(params.seeds),
         "chosen_m": chosen,
         "wpm_mode": params.label.wpm_mode,
+        "recipe": params.adapt.recipe,
         "overall": _cells(overall, True),
         "differences": _nest(
             differences,
@@ -435,6 +572,16 @@ def eval_json(
             model: {role: _cells(rows, True)[model] for role, rows in g.groupby("role", sort=False)}
             for model, g in gap.groupby("model", sort=False)
         },
+        "no_harm": _nest(
+            harm,
+            "model",
+            lambda r: {
+                "share_worse_than_g": _num(r.share_worse),
+                "mean_excess": _num(r.mean_excess),
+                "max_excess": _num(r.max_excess),
+                "worse_on_average": bool(r.worse_on_average),
+            },
+        ),
         "per_drive": {d: _cells(g, False) for d, g in per_drive.groupby("drive", sort=False)},
         "radius_refit_fallbacks": int(refits["r_rl_m"].isna().sum()),
     }
@@ -473,23 +620,25 @@ def write_outputs(
         m_grid_plot(ev.summary, params).to_csv(
             tmp_plots / "m_grid.csv", index=False, float_format="%.4f"
         )
+        L = max(params.evaluate.outages_s)
+        t = ev.over_time[ev.over_time["outage_s"] == L]
+        t.assign(from_min=t["from_s"] / 60.0).pivot(index="from_min", columns="model",
+                                                    values="crse").reset_index().to_csv(
+            tmp_plots / f"crse_over_time_{L}s.csv", index=False, float_format="%.4f"
+        )  # fmt: skip
         tmp_tables.write_text(render_report(ev, params, provenance), encoding="utf-8")
         tmp_eval.write_text(json.dumps(ev.eval_json, indent=2) + "\n", encoding="utf-8")
 
 
 def m_grid_plot(summary: pd.DataFrame, params: Params) -> pd.DataFrame:
-    """Mean 180 s CRSE against m: R, the two controls, and G, S and WPM as flat references."""
+    """Mean CRSE of the longest outage against m: every recipe and WPM-m; G, S, WPM flat."""
     L = max(params.evaluate.outages_s)
     rows = summary[(summary["role"] == k.TARGET_TEST) & (summary["drive"] == "all")
                    & (summary["outage_s"] == L)].set_index("model")["crse_mean"]  # fmt: skip
-    return pd.DataFrame(
-        {
-            "m": params.adapt.m_grid,
-            **{name: [rows[f"{name}@{m}"] for m in params.adapt.m_grid]
-               for name in ("R", "WPM-m", "G+radius")},
-            **{name: rows[name] for name in ("G", "S", "WPM")},
-        }
-    )  # fmt: skip
+    grid = params.adapt.m_grid
+    lines = {r: [rows[recipe_model(r, m)] for m in grid] for r in params.adapt.recipes}
+    lines["WPM-m"] = [rows[f"WPM-m@{m}"] for m in grid]
+    return pd.DataFrame({"m": grid, **lines, **{name: rows[name] for name in ("G", "S", "WPM")}})
 
 
 def stat_metrics(summary: pd.DataFrame, model: str, drive: str = "all") -> dict[str, float]:
@@ -512,44 +661,58 @@ def stat_metrics(summary: pd.DataFrame, model: str, drive: str = "all") -> dict[
 
 
 def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRecord]:
-    """The execution's runs for MLflow: each model per seed, and each model over the seeds."""
+    """The execution's runs for MLflow.
+
+    Every trained model per seed (G, S, and R for every recipe and m, with its
+    per-drive CRSE/CTE as ``drive/<d>/...`` metrics), and the headline models
+    as means over seeds with their intervals (tag ``aggregate=seeds``).
+    """
     records = []
+    chosen = aliases(params)["R"]
     for seed in params.seeds:
         mine = ev.per_seed[ev.per_seed["seed"] == seed]
-        for key, folder in (("G", "g"), ("S", "s")):
-            rec = RunRecord.from_dict(
-                read_json(models_root / folder / f"seed{seed}" / k.RUN_RECORD)
-            )
-            rec.metrics.update(stat_metrics(mine, key))
-            records.append(rec)
-        for m in params.adapt.m_grid:
-            folder = models_root / "r" / f"seed{seed}" / f"m{m}"
+        folders = {"G": models_root / "g" / f"seed{seed}", "S": models_root / "s" / f"seed{seed}"}
+        for r in params.adapt.recipes:
+            for m in [None] if r == CONTINUOUS else params.adapt.m_grid:
+                sub_dir = models_root / "r" / f"seed{seed}" / r
+                folders[recipe_model(r, m)] = sub_dir if m is None else sub_dir / f"m{m}"
+        for model, folder in folders.items():
             rec = RunRecord.from_dict(read_json(folder / k.RUN_RECORD))
-            rec.metrics.update(stat_metrics(mine, f"R@{m}"))
-            if m == params.adapt.chosen_m:
+            rec.metrics.update(stat_metrics(mine, model))
+            if model.startswith("R"):
+                drives = mine.loc[(mine["model"] == model) & (mine["drive"] != "all")
+                                  & (mine["role"] == k.TARGET_TEST), "drive"].unique()  # fmt: skip
+                for d in drives:
+                    rec.metrics.update(
+                        {f"drive/{d}/{key}": v for key, v in stat_metrics(mine, model, d).items()}
+                    )
+            if model == chosen:
                 rec.tags["chosen"] = "true"
-            for child in rec.children:
-                child.metrics.update(stat_metrics(mine, f"R@{m}", child.tags["drive"]))
             records.append(rec)
     alt = alt_wpm(params.label.wpm_mode)[0]
-    for model in model_names(params):
-        kind = model.split("@")[0]
-        tags = {"model": kind, "aggregate": "seeds", "n_seeds": str(len(params.seeds)),
-                "vehicle": "target", "dvc_stage": "evaluate"}  # fmt: skip
-        if "@" in model:
-            tags["m"] = model.split("@")[1]
-        wpm = {"label.wpm_mode": params.label.wpm_mode if model != alt else alt}
+    headline = ["WPM", alt, "G", "S", "R", f"WPM-m@{params.adapt.chosen_m}"] + [
+        recipe_model(r, params.adapt.chosen_m) for r in params.adapt.recipes
+    ]
+    for model in headline:
+        tags = {"model": model.split("[")[0].split("@")[0], "aggregate": "seeds",
+                "n_seeds": str(len(params.seeds)), "vehicle": "target",
+                "dvc_stage": "evaluate"}  # fmt: skip
+        if "[" in model:
+            tags["recipe"] = model.split("[")[1].split("]")[0]
+        if "@" in model or model == "R":
+            tags["m"] = str(params.adapt.chosen_m)
         records.append(
             RunRecord(
                 name=f"{model} (mean of {len(params.seeds)} seeds)",
                 tags=tags,
                 params={
                     "seeds": params.seeds,
-                    **wpm,
+                    "label.wpm_mode": params.label.wpm_mode if model != alt else alt,
                     "label.calibration_min_speed_m_s": params.label.calibration_min_speed_m_s,
+                    **({"adapt.recipe": params.adapt.recipe} if model == "R" else {}),
                 },
                 metrics=stat_metrics(ev.summary, model),
-            )  # fmt: skip
+            )
         )
     return records
 
@@ -564,9 +727,8 @@ def provenance_line(params: Params) -> str:
     return (
         f"Data: {src}; training seeds {params.seeds} (every cell: mean over seeds ± the "
         f"half-width of its 95 % t interval); WPM mode `{params.label.wpm_mode}`; "
-        f"{params.train.epochs} training epochs, {params.adapt.epochs} adaptation epochs "
-        f"(trainable: {params.adapt.trainable}); computed on {platform.machine()} CPU by "
-        f"`dvc repro`."
+        f"{params.train.epochs} training epochs; R-WhONet = recipe `{params.adapt.recipe}` "
+        f"at m = {params.adapt.chosen_m} s; computed on {platform.machine()} CPU by `dvc repro`."
     )
 
 
@@ -599,6 +761,15 @@ def main(params: Params) -> None:
 
     frame, preds = collect_predictions(params, paths.SAMPLES, paths.MODELS)
     result = evaluate(params, frame, preds)
+    result.selection = selection_scores(params, paths.SAMPLES, paths.MODELS)
+    result.eval_json["selection"] = recommend(result.selection, params)
+    result.limits = radius_limits(frame, params)
+    result.eval_json["limits"] = {
+        f"{max(params.evaluate.outages_s)}s": [
+            {key: round(float(v), 4) if isinstance(v, float) else int(v) for key, v in row.items()}
+            for row in result.limits.to_dict("records")
+        ]
+    }
     write_outputs(
         params,
         result,
@@ -616,8 +787,156 @@ def main(params: Params) -> None:
     run_id = log_execution(
         records, uri=uri, experiment=params.tracking.experiment, execution=parent
     )
-    print((paths.TABLES_MD.read_text(encoding="utf-8").split("## Table 2")[0]).strip())
     print(
-        f"\nMLflow: experiment '{params.tracking.experiment}', parent run {run_id} "
-        f"({len(records)} child runs) in {uri}; `make ui` to compare."
+        f"Wrote {paths.rel(paths.EVAL_JSON)} and {paths.rel(paths.TABLES_MD)}; MLflow: experiment "
+        f"'{params.tracking.experiment}', parent run {run_id} ({len(records)} child runs) in "
+        f"{uri}; `make ui` to compare."
     )
+    for note in selection_disagreements(result.eval_json["selection"]):
+        print(f"Note: {note} (the evidence: 'Selection' in {paths.rel(paths.TABLES_MD)}).")
+
+
+# --------------------------------------------------------------------------- selection
+
+SELECTION_FILES = {k.TARGET_TRAIN: "target_train", k.SOURCE_TEST: "ridge_source"}
+SELECTION_TOLERANCE = 0.05  # a candidate within 5 % of the best longest-outage CRSE
+
+
+def selection_scores(params: Params, samples_dir: Path, models_root: Path) -> pd.DataFrame:
+    """Every recipe on the target training drives, and every ridge penalty on the source drives.
+
+    The same scoring as the test drives (after each drive's first max(m)
+    seconds, the same windows for every model), per seed, then the mean over
+    seeds with its interval; one ``all`` row per role, model and outage.
+
+    Returns:
+        ``role, model, outage_s, crse_mean, crse_mean_ci95, ..., n_windows``;
+        empty when there are no target training or held-out source drives.
+    """
+    out = []
+    keys = ["drive", "segment", "t_s"]
+    for role, file in SELECTION_FILES.items():
+        samples = load_role(samples_dir, role, params.model.seq_len, required=False)
+        if not len(samples):
+            continue
+        frame = samples.frame
+        evaluated = evaluated_rows(frame, params.adapt.m_grid)
+        label = frame[k.LABEL_M].to_numpy(np.float64)
+        rows = []
+        for seed in params.seeds:
+            sel = pd.read_parquet(
+                models_root / "r" / f"seed{seed}" / "selection" / f"{file}.parquet"
+            )
+            g = pd.read_parquet(models_root / "g" / f"seed{seed}" / k.PREDICTIONS)
+            merged = (
+                frame[keys]
+                .merge(sel, on=keys, how="left")
+                .merge(g.rename(columns={"pred_m": "G"})[[*keys, "G"]], on=keys, how="left")
+            )
+            errors: Errors = {"WPM": label, "G": label - merged["G"].to_numpy(np.float64)}
+            for col in (c for c in merged.columns if c.startswith("pred_m__")):
+                name = col.removeprefix("pred_m__")
+                e = label - merged[col].to_numpy(np.float64)
+                if "/" in name:  # the continuous recipe: one column per outage length
+                    model, length = name.split("/")
+                    errors.setdefault(model, {})[int(length.removesuffix("s"))] = e
+                else:
+                    errors[name] = e
+            errors = {
+                n: {L: v[evaluated] for L, v in e.items()} if isinstance(e, dict) else e[evaluated]
+                for n, e in errors.items()
+            }
+            scored, _, _ = score_seed(frame[evaluated].reset_index(drop=True), errors, params)
+            rows += [{"seed": seed, **r} for r in scored if r["drive"] == "all"]
+        per_seed = pd.DataFrame(rows)
+        summary = over_seeds(per_seed, ["role", "model", "outage_s"], ["crse_mean", "cte_mean"])
+        n = per_seed.groupby(["role", "model", "outage_s"], sort=False)["n_windows"].first()
+        out.append(summary.join(n, on=["role", "model", "outage_s"]))
+    return pd.concat(out, ignore_index=True) if out else pd.DataFrame()
+
+
+def selection_disagreements(selection: dict[str, Any]) -> list[str]:
+    """Where params.yaml's adapt choices differ from what the selection rule recommends."""
+    p, notes = selection.get("params", {}), []
+    got = selection.get("recommended")
+    if got and (got["recipe"], got["m"]) != (p["recipe"], p["chosen_m"]):
+        same_recipe_continuous = got["recipe"] == p["recipe"] == CONTINUOUS
+        if not same_recipe_continuous:
+            notes.append(
+                f"the selection rule picks adapt.recipe {got['recipe']}"
+                + ("" if got["m"] is None else f" at adapt.chosen_m {got['m']}")
+                + f"; params.yaml has {p['recipe']} at {p['chosen_m']}"
+            )
+    ridge = selection.get("ridge", {}).get("recommended_penalty")
+    if ridge is not None and ridge != p.get("ridge_penalty"):
+        notes.append(
+            f"held-out source drives favour adapt.ridge_penalty {ridge:g}; params.yaml has "
+            f"{p['ridge_penalty']:g}"
+        )
+    return notes
+
+
+def recommend(scores: pd.DataFrame, params: Params) -> dict[str, Any]:
+    """The recipe, m and ridge penalty the selection evidence points to (the documented rule).
+
+    Recipe and m, on the target training drives: among every recipe at every m
+    (and the continuous recipe) that is not worse than G on average at any
+    outage length, those within :data:`SELECTION_TOLERANCE` of the best mean
+    CRSE at the longest outage; of these, the one needing the fewest seconds,
+    then the lowest CRSE. ``continuous`` counts as needing max(m_grid) seconds:
+    that is what it has fitted on before the first scored window. The ridge
+    penalty, on the held-out source drives: the lowest mean CRSE at the longest
+    outage, averaged over m.
+    """
+    L = max(params.evaluate.outages_s)
+    out: dict[str, Any] = {
+        "rule": (
+            "target training drives: not worse than G at any outage; within "
+            f"{SELECTION_TOLERANCE:.0%} of the best mean {L} s CRSE; then the smallest m "
+            f"(continuous: {max(params.adapt.m_grid)} s, the seconds it has before the first "
+            "scored window), then the lowest CRSE. Ridge penalty (first, the recipes use it): "
+            "lowest mean CRSE on held-out source drives over m."
+        ),
+        "params": {
+            "recipe": params.adapt.recipe,
+            "chosen_m": params.adapt.chosen_m,
+            "ridge_penalty": params.adapt.ridge_penalty,
+        },  # fmt: skip
+    }
+    if scores.empty:
+        return out
+    train = scores[scores["role"] == k.TARGET_TRAIN].set_index(["model", "outage_s"])
+    if len(train):
+        g = train.xs("G", level="model")["crse_mean"]
+        candidates = []
+        for r in params.adapt.recipes:
+            for m in [None] if r == CONTINUOUS else params.adapt.m_grid:
+                name = recipe_model(r, m)
+                if name not in train.index.get_level_values(0):
+                    continue
+                mine = train.xs(name, level="model")["crse_mean"]
+                if (mine > g.reindex(mine.index)).any() or not np.isfinite(mine.get(L, np.nan)):
+                    continue  # worse than G somewhere, or no window of the longest outage
+                candidates.append((r, m, float(mine[L])))
+        if not candidates:
+            out["no_recommendation"] = (
+                f"no recipe has a {L} s window on the target training drives after their first "
+                f"{max(params.adapt.m_grid)} s, or every one is worse than G somewhere"
+            )
+        else:
+            best = min(c[2] for c in candidates)
+            near = [c for c in candidates if c[2] <= best * (1 + SELECTION_TOLERANCE)]
+            longest_m = max(params.adapt.m_grid)
+            r, m, crse = min(near, key=lambda c: (longest_m if c[1] is None else c[1], c[2]))
+            out["recommended"] = {"recipe": r, "m": m, f"crse_{L}s": round(crse, 4),
+                                  f"best_crse_{L}s": round(best, 4)}  # fmt: skip
+    source = scores[(scores["role"] == k.SOURCE_TEST) & (scores["outage_s"] == L)]
+    ridge = source[source["model"].str.startswith("ridge_head lambda=")]
+    if len(ridge):
+        penalty = ridge["model"].str.extract(r"lambda=([^@]+)@")[0].astype(float)
+        by_penalty = ridge.groupby(penalty.to_numpy())["crse_mean"].mean()
+        out["ridge"] = {
+            "recommended_penalty": float(by_penalty.idxmin()),
+            f"mean_crse_{L}s_by_penalty": {f"{p:g}": round(v, 4) for p, v in by_penalty.items()},
+        }
+    return out

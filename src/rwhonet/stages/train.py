@@ -33,8 +33,8 @@ def train_model(
         seed: the training seed (weights, shuffling, dropout).
         samples_dir: the label stage's samples folder.
         out_dir: ``models/<g|s>/seed<seed>``; receives the model file, the per-second
-            predictions on every test drive (target and held-out source) and the
-            run record.
+            predictions on every test drive (target and held-out source) and on the
+            target training drives (where the recipes are selected), and the run record.
 
     Returns:
         The run record (also written to ``out_dir/run.json``) and the seconds
@@ -49,7 +49,7 @@ def train_model(
     data = load_role(samples_dir, role, params.model.seq_len)
     train, val = split_tail(data, params.train.val_fraction)
     result = fit(train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=seed)
-    test = load_role(samples_dir, contracts.TEST_ROLES, params.model.seq_len)
+    test = load_role(samples_dir, contracts.PREDICTED_ROLES, params.model.seq_len)
     pred = predict(result.module, test.x)
     record = RunRecord(
         name=name,
