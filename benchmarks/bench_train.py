@@ -267,6 +267,9 @@ def main() -> None:
             summarise(w)
             reps.append(time.perf_counter() - start)
         best = min(reps)
+        if not len(w):
+            print(f"  L={outage:>4} s: no window in {n} s of 40 segments (use more --samples)")
+            continue
         print(
             f"  L={outage:>4} s: {len(w):5d} windows in {1e3 * best:6.2f} ms "
             f"= {1e6 * best / len(w):6.2f} µs per window (best of 5)"
