@@ -10,7 +10,7 @@ export MLFLOW_DISABLE_TELEMETRY := true
 export DO_NOT_TRACK := true
 export PYTHONUNBUFFERED := 1
 
-.PHONY: setup run test test-fast lint ui bench ci-pipeline ci-gate baseline-ci
+.PHONY: setup run test test-fast lint ui bench variant ci-pipeline ci-gate baseline-ci
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -44,20 +44,29 @@ run: $(STAMP) data/raw
 	$(RUN_ENV) dvc repro
 	@echo
 	@awk '/^## Paired differences/{exit} {print}' reports/tables.md
-	@grep -m1 '^The rule picks' reports/tables.md || true
+	@grep -m1 -E '^(The rule picks|No recipe passes)' reports/tables.md || true
 	@echo "Full tables: reports/tables.md   MLflow UI: make ui   DVC plots: dvc plots show"
 
+# A variant of the pipeline end to end in a scratch copy of the working tree,
+# build/<NAME> (the workspace's own outputs stay untouched), with params set by
+# `dvc exp run -S`. For example (docs/results.md):
+#   make variant NAME=large-target SET="sim.profile=large_target"
+#   make variant NAME=five-seeds SET="seeds=[42,43,44,45,46]"
+variant: $(STAMP)
+	@test -n "$(NAME)" || { echo "usage: make variant NAME=<dir under build/> SET='key=value ...'"; exit 2; }
+	rm -rf build/$(NAME) && mkdir -p build/$(NAME)
+	git ls-files -co --exclude-standard -z | xargs -0 cp --parents -t build/$(NAME)
+	cd build/$(NAME) && git init -q && git config user.name variant \
+		&& git config user.email variant@localhost && git add -A && git commit -qm snapshot
+	cd build/$(NAME) && mkdir -p data/raw && $(RUN_ENV) PYTHONPATH=$(abspath build/$(NAME))/src dvc commit -q -f data.dvc
+	cd build/$(NAME) && $(RUN_ENV) PYTHONPATH=$(abspath build/$(NAME))/src python -m rwhonet.tracking init
+	cd build/$(NAME) && $(RUN_ENV) PYTHONPATH=$(abspath build/$(NAME))/src dvc exp run $(foreach s,$(SET),-S '$(s)')
+	@echo "build/$(NAME): metrics/eval.json, reports/tables.md, mlruns/ (make ui there)"
+
 CI_DIR := build/ci-run
-# The `ci` profile end to end in a scratch copy of the working tree (the
-# workspace's own outputs stay untouched), then the mean-CRSE regression gate.
-ci-pipeline: $(STAMP)
-	rm -rf $(CI_DIR) && mkdir -p $(CI_DIR)
-	git ls-files -co --exclude-standard -z | xargs -0 cp --parents -t $(CI_DIR)
-	cd $(CI_DIR) && git init -q && git config user.name ci && git config user.email ci@localhost \
-		&& git add -A && git commit -qm snapshot
-	cd $(CI_DIR) && mkdir -p data/raw && $(RUN_ENV) PYTHONPATH=$(abspath $(CI_DIR))/src dvc commit -q -f data.dvc
-	cd $(CI_DIR) && $(RUN_ENV) PYTHONPATH=$(abspath $(CI_DIR))/src python -m rwhonet.tracking init
-	cd $(CI_DIR) && $(RUN_ENV) PYTHONPATH=$(abspath $(CI_DIR))/src dvc exp run -S sim.profile=ci
+# The `ci` profile end to end, then the mean-CRSE regression gate.
+ci-pipeline:
+	$(MAKE) variant NAME=ci-run SET="sim.profile=ci"
 
 ci-gate: ci-pipeline
 	$(BIN)/rwhonet-gate --eval $(CI_DIR)/metrics/eval.json
@@ -74,3 +83,4 @@ ui: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_data.py
 	$(BIN)/python benchmarks/bench_train.py
+	$(BIN)/python benchmarks/bench_recalibrate.py

@@ -450,13 +450,22 @@ class ContinuousParams:
 
 
 Recipe = Literal["paper", "head", "ridge_head", "radius+G", "steps", "continuous"]
+AUTO = "auto"  # adapt.recipe / adapt.chosen_m: what the selection rule picks (stages.evaluate)
+
+
+@dataclass(frozen=True)
+class FallbackParams:
+    """What ``auto`` reports as R-WhONet when the selection rule has no candidate."""
+
+    recipe: Recipe
+    m: int
 
 
 @dataclass(frozen=True)
 class AdaptParams:
     m_grid: list[int]
-    chosen_m: int
-    recipe: Recipe  # reported as R-WhONet (R, R@m)
+    chosen_m: int | Literal["auto"]
+    recipe: Recipe | Literal["auto"]  # reported as R-WhONet (R, R@m)
     recipes: list[Recipe]  # every recipe the adapt stages run
     epochs: int
     batch_size: int
@@ -465,11 +474,25 @@ class AdaptParams:
     ridge_penalty_grid: list[float]  # candidates scored on held-out source drives only
     steps: StepsParams
     continuous: ContinuousParams
+    fallback: FallbackParams
+
+    @property
+    def auto(self) -> bool:
+        """Whether R-WhONet's recipe and m are left to the selection rule."""
+        return self.recipe == AUTO
 
     def __post_init__(self) -> None:
-        if self.recipe not in self.recipes:
+        if (self.recipe == AUTO) != (self.chosen_m == AUTO):
             raise ConfigError(
-                f"adapt.recipe={self.recipe!r} is not in adapt.recipes {self.recipes}"
+                "adapt.recipe and adapt.chosen_m are chosen together: set both to auto or "
+                f"neither, got recipe={self.recipe!r}, chosen_m={self.chosen_m!r}"
+            )
+        for key, recipe in (("recipe", self.recipe), ("fallback.recipe", self.fallback.recipe)):
+            if recipe != AUTO and recipe not in self.recipes:
+                raise ConfigError(f"adapt.{key}={recipe!r} is not in adapt.recipes {self.recipes}")
+        if self.recipe == AUTO and self.fallback.m not in self.m_grid:
+            raise ConfigError(
+                f"adapt.fallback.m={self.fallback.m} is not in adapt.m_grid={self.m_grid}"
             )
         if len(set(self.recipes)) != len(self.recipes):
             raise ConfigError(f"adapt.recipes must not repeat a recipe, got {self.recipes}")
@@ -523,7 +546,7 @@ class Params:
             raise ConfigError(f"seeds must be a non-empty list of distinct seeds, got {self.seeds}")
         if any(not 0 <= s < 2**32 for s in self.seeds):
             raise ConfigError(f"seeds must lie in [0, 2**32), got {self.seeds}")
-        if self.adapt.chosen_m not in self.adapt.m_grid:
+        if self.adapt.chosen_m != AUTO and self.adapt.chosen_m not in self.adapt.m_grid:
             raise ConfigError(
                 f"adapt.chosen_m={self.adapt.chosen_m} is not in adapt.m_grid={self.adapt.m_grid}"
             )
@@ -629,6 +652,21 @@ def load_params(
     return params if only is None else Guarded(params, "", tuple(only), reader)  # type: ignore[return-value]
 
 
+def with_adapt_choice(params: Params, recipe: str, m: int) -> Params:
+    """``params`` with R-WhONet's recipe and m fixed (what ``auto`` resolved to).
+
+    A guarded view stays guarded with the same declared keys.
+    """
+    guarded = isinstance(params, Guarded)
+    inner = params._obj if guarded else params  # type: ignore[union-attr]
+    new = dataclasses.replace(
+        inner, adapt=dataclasses.replace(inner.adapt, recipe=recipe, chosen_m=m)
+    )
+    if guarded:
+        return Guarded(new, params._prefix, params._allowed, params._reader)  # type: ignore[return-value,union-attr]
+    return new
+
+
 class Guarded:
     """A read-only view of a params section that lets through only the declared keys.
 
@@ -722,8 +760,13 @@ def _build(tp: Any, value: Any, where: str) -> Any:
     if origin in (types.UnionType, typing.Union):
         if value is None and type(None) in args:
             return None
-        inner = [a for a in args if a is not type(None)]
-        return _build(inner[0], value, where)
+        errors = []
+        for inner in (a for a in args if a is not type(None)):
+            try:
+                return _build(inner, value, where)
+            except ConfigError as e:
+                errors.append(str(e).removeprefix(f"{label}: "))
+        raise ConfigError(f"{label}: {' or '.join(errors)}")
     if origin is list:
         if not isinstance(value, list):
             raise ConfigError(f"{label}: expected a list, got {value!r}")

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from rwhonet.config import AdaptParams, ContinuousParams, ModelParams, StepsParams, TrainParams
+from rwhonet.config import (
+    AdaptParams,
+    ContinuousParams,
+    FallbackParams,
+    ModelParams,
+    StepsParams,
+    TrainParams,
+)
 
 
 @pytest.fixture
@@ -25,4 +32,5 @@ def adapt_params() -> AdaptParams:
         epochs=5, batch_size=128, lr=0.01, ridge_penalty=1.0, ridge_penalty_grid=[0.0, 1.0],
         steps=StepsParams(max_steps=60, holdout_fraction=0.25, patience=20),
         continuous=ContinuousParams(inner="ridge_head", window_s=0),
+        fallback=FallbackParams(recipe="radius+G", m=50),
     )  # fmt: skip

@@ -106,8 +106,10 @@ def test_continuous_predicts_exactly_the_evaluated_windows(tmp_path, samples_dir
 
 def test_a_drive_not_longer_than_the_largest_m_is_refused(tmp_path, samples_dir, g_dir,
                                                           calibration):  # fmt: skip
-    params = load_params(paths.PARAMS, overrides={**OVERRIDES, "adapt.m_grid": [10, 500],
-                                                  "adapt.chosen_m": 10})  # fmt: skip
+    params = load_params(
+        paths.PARAMS,
+        overrides={**OVERRIDES, "adapt.m_grid": [10, 500], "adapt.chosen_m": 10},
+    )
     with pytest.raises(InputError, match="too short") as err:
         adapt_grid(params, 7, samples_dir, calibration, g_dir, tmp_path / "r")
     assert [p.file for p in err.value.problems] == ["A", "B"]

@@ -150,12 +150,30 @@ def test_the_domain_gap_is_g_on_held_out_source_drives(tmp_path, params):
 
 def test_too_short_drive_is_reported(samples_dir):
     p = load_params(paths.PARAMS, overrides={"adapt.m_grid": [10, 100], "adapt.chosen_m": 100,
-                                             "seeds": [1]})  # fmt: skip
+                                             "adapt.recipe": "paper", "seeds": [1]})  # fmt: skip
     frame = _frame(samples_dir)
-    frame = frame[(frame.drive == "B") | (frame.k < 250)].reset_index(drop=True)
-    with pytest.raises(InputError, match="too short") as err:
+    frame = frame[(frame.drive == "B") | (frame.k < 120)].reset_index(drop=True)
+    with pytest.raises(InputError, match="too short") as err:  # A: 20 s < the shortest, 30 s
         evaluate(p, frame, _preds(frame, p, {}))
     assert [q.file for q in err.value.problems] == ["A"]
+
+
+def test_a_drive_too_short_for_the_longest_outage_only_has_none_of_its_windows(samples_dir):
+    p = load_params(paths.PARAMS, overrides={"adapt.m_grid": [10, 100], "adapt.chosen_m": 100,
+                                             "adapt.recipe": "paper", "seeds": [1, 2]})  # fmt: skip
+    frame = _frame(samples_dir)
+    frame = frame[(frame.drive == "B") | (frame.k < 250)].reset_index(drop=True)  # A: 150 s
+    ev = evaluate(p, frame, _preds(frame, p, {}))
+    s = ev.summary[ev.summary["role"] == "target_test"].set_index(["drive", "model", "outage_s"])
+    assert s.loc[("A", "WPM", 120), "n_windows"] == 1 and ("A", "WPM", 180) not in s.index
+    assert s.loc[("all", "WPM", 180), "n_windows"] == 1  # B's 300 s
+    md = render_report(ev, p, "provenance")
+    assert "## Table 9 — CRSE, 180 s GNSS outages" in md
+
+    gone = frame[frame.drive == "A"].reset_index(drop=True)  # no target drive reaches 180 s
+    with pytest.raises(InputError, match="longest outage") as err:
+        evaluate(p, gone, _preds(gone, p, {}))
+    assert "drop 180 from evaluate.outages_s" in str(err.value)
 
 
 def test_scenario_errors_per_tag(samples_dir, params):
@@ -224,3 +242,34 @@ def test_selection_rule_recommends_nothing_when_every_recipe_harms(params):
     rec = recommend(_scores(rows), params)
     assert "recommended" not in rec and "no_recommendation" in rec
     assert selection_disagreements(rec) == []
+
+
+def test_auto_takes_the_rules_choice_else_the_fallback_and_fixed_params_stay():
+    from rwhonet.stages.evaluate import resolve_choice
+
+    auto = load_params(paths.PARAMS, overrides={"adapt.m_grid": [10, 20], "adapt.fallback.m": 20})
+    sel = {"recommended": {"recipe": "head", "m": 10}}
+    p = resolve_choice(auto, sel)
+    assert (p.adapt.recipe, p.adapt.chosen_m, sel["chosen_by"]) == ("head", 10, "rule")
+    sel = {"recommended": {"recipe": "continuous", "m": None}}
+    p = resolve_choice(auto, sel)
+    assert (p.adapt.recipe, p.adapt.chosen_m) == ("continuous", 20)  # max(m_grid)
+    sel = {"no_recommendation": "every recipe is worse than G somewhere"}
+    p = resolve_choice(auto, sel)
+    assert (p.adapt.recipe, p.adapt.chosen_m, sel["chosen_by"]) == ("radius+G", 20, "fallback")
+    assert sel["chosen"] == {"recipe": "radius+G", "m": 20}
+
+    fixed = load_params(paths.PARAMS, overrides={"adapt.recipe": "paper", "adapt.chosen_m": 50})
+    sel = {"recommended": {"recipe": "head", "m": 10}}
+    assert resolve_choice(fixed, sel) is fixed and sel["chosen_by"] == "params"
+
+
+def test_a_guarded_view_stays_guarded_once_resolved():
+    from rwhonet.config import ConfigError
+    from rwhonet.stages.evaluate import resolve_choice
+
+    p = load_params(paths.PARAMS, only=["adapt", "seeds"], reader="stage evaluate")
+    p = resolve_choice(p, {"recommended": {"recipe": "paper", "m": 30}})
+    assert p.adapt.chosen_m == 30 and p.seeds == [42, 43, 44]
+    with pytest.raises(ConfigError, match="does not declare it"):
+        p.train  # noqa: B018

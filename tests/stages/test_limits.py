@@ -12,7 +12,8 @@ from rwhonet.stages.limits import radius_limits
 @pytest.fixture
 def params():
     return load_params(paths.PARAMS, overrides={
-        "adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "evaluate.outages_s": [30, 60],
+        "adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "adapt.recipe": "paper",
+        "evaluate.outages_s": [30, 60],
     })  # fmt: skip
 
 

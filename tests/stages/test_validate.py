@@ -31,6 +31,7 @@ SHORT = {
     "validate.radius_min_moving_s": 10,
     "adapt.m_grid": [5],
     "adapt.chosen_m": 5,
+    "adapt.recipe": "paper",
     "evaluate.outages_s": [5],
 }
 

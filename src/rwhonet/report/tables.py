@@ -22,6 +22,14 @@ if TYPE_CHECKING:  # the stage module imports this one
 STATS = (("max", "Max"), ("min", "Min"), ("mean", "μ"), ("std", "σ"))
 
 
+CHOSEN_BY = {
+    "params": "fixed in params.yaml before evaluation",
+    "rule": "picked by the selection rule (adapt.recipe: auto) on the target *training* drives "
+    "only (see 'Selection')",
+    "fallback": "adapt.fallback: the selection rule had no candidate (see 'Selection')",
+}
+
+
 def _fmt(v: float, ci: float | None = None, digits: int = 2) -> str:
     if v is None or not math.isfinite(v):
         return "–"
@@ -373,14 +381,20 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
         return f"**{recipe}**" + ("" if recipe == CONTINUOUS else f" at m = {m} s")
 
     ridge = rec.get("ridge", {}).get("recommended_penalty")
-    verdict = (
+    chosen = rec.get("chosen", {})
+    if p.get("recipe") == "auto":
+        used = (f"params use auto, so R-WhONet is {choice(chosen.get('recipe'), chosen.get('m'))}"
+                f" ({rec.get('chosen_by')})")  # fmt: skip
+    else:
+        used = f"params use {choice(p.get('recipe'), p.get('chosen_m'))}"
+    used += f", and ridge_penalty {p.get('ridge_penalty'):g}."
+    picked = (
         f"The rule picks {choice(got['recipe'], got['m'])}"
-        + (f" and ridge_penalty {ridge:g}" if ridge is not None else "")
-        + f"; params use {choice(p.get('recipe'), p.get('chosen_m'))} and ridge_penalty "
-        f"{p.get('ridge_penalty'):g}."
         if got
-        else "No recipe passes the rule's conditions."
+        else f"No recipe passes the rule's conditions ({rec.get('no_recommendation', '')})"
     )
+    ridge_text = f" and ridge_penalty {ridge:g}" if ridge is not None else ""
+    verdict = f"{picked}{ridge_text}; {used}"
     return f"Rule: {rec.get('rule', '')}\n\n{verdict}\n\n" + "\n\n".join(parts)
 
 
@@ -398,8 +412,9 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         "",
         f"Every model is scored on the same seconds: those after the first {max(grid)} s (the "
         f"largest m) of each test drive, so no R-WhONet is scored on seconds it was adapted on. "
-        f"R-WhONet is reported at m = {chosen} s (adapt.chosen_m, fixed in params before "
-        f"evaluation) by recipe `{params.adapt.recipe}`. CRSE = Σ|e| and CTE = |Σe| per "
+        f"R-WhONet is recipe `{params.adapt.recipe}` at m = {chosen} s, "
+        f"{CHOSEN_BY.get(ev.eval_json.get('selection', {}).get('chosen_by'), CHOSEN_BY['params'])}"
+        ". CRSE = Σ|e| and CTE = |Σe| per "
         "outage window (paper Eqs. 16-17), e = label − prediction (a WPM alone: e = GNSS − "
         "WPM). WPM-m@m: the WPM with its rear radii refitted on each drive's first m s; "
         "R[radius+G]@m: G on top of it (the G+radius control); R[continuous]: recalibrated "

@@ -283,15 +283,14 @@ def _record(
             metrics[f"drive/{t.drive}/r_rl_m"], metrics[f"drive/{t.drive}/r_rr_m"] = result.radii
     first = mine[0][2]
     metrics.update(n_trainable_params=first.n_trainable, n_total_params=first.n_total)
-    chosen = (recipe, m) == (params.adapt.recipe, params.adapt.chosen_m)
     return RunRecord(
         name=f"R-WhONet {recipe} m={m} seed {seed}",
         tags=_tags(seed, recipe, m),
         params={**model_params(params, seed, "adapt"), "adapt.m": m, "adapt.recipe": recipe},
         history=[rows[e] for e in sorted(rows)],
         metrics=metrics,
-        artifacts=[paths.rel(r_dir(out_root, recipe, m) / f"{t.drive}.pt") for t, _, _ in mine]
-        if chosen else [],
+        # every model file; evaluate keeps them on R-WhONet's run only (the choice may be auto)
+        artifacts=[paths.rel(r_dir(out_root, recipe, m) / f"{t.drive}.pt") for t, _, _ in mine],
     )  # fmt: skip
 
 

@@ -46,7 +46,7 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet import paths
-from rwhonet.config import Params, flatten
+from rwhonet.config import AUTO, Params, flatten, with_adapt_choice
 from rwhonet.contracts import CONTINUOUS, PAPER, alt_wpm, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import refit_radii
@@ -261,20 +261,36 @@ def _stats(windows: pd.DataFrame) -> dict[str, Any]:
 def evaluated_seconds(frame: pd.DataFrame, params: Params) -> np.ndarray:
     """Which rows are scored (:func:`rwhonet.stages.outages.evaluated_rows`).
 
+    A drive shorter than an outage length simply has no window of it (validate
+    asks every target test drive for max(m) + the shortest outage); but every
+    outage length must have a window on some target test drive.
+
     Raises:
-        InputError: a test drive has fewer than the longest outage left to score.
+        InputError: a test drive has fewer than the shortest outage left to score,
+            or no target test drive is long enough for an outage length.
     """
     skip = max(params.adapt.m_grid)
     evaluated = evaluated_rows(frame, params.adapt.m_grid)
-    need = max(params.evaluate.outages_s)
+    shortest, longest = min(params.evaluate.outages_s), max(params.evaluate.outages_s)
     left = pd.Series(evaluated).groupby(frame["drive"].to_numpy(), sort=False).sum()
     short = [
-        Problem(d, None, None, f"at least {need} s after the first {skip} s", f"{int(n)} s")
+        Problem(d, None, None, f"at least {shortest} s after the first {skip} s", f"{int(n)} s",
+                fix="drop the drive, or shorten adapt.m_grid / evaluate.outages_s")
         for d, n in left.items()
-        if n < need
-    ]
+        if n < shortest
+    ]  # fmt: skip
     if short:
-        raise InputError(short, "test drives too short to evaluate every outage length")
+        raise InputError(short, "test drives too short to evaluate the shortest outage")
+    roles = frame["role"].to_numpy()
+    target_max = left[pd.unique(frame["drive"].to_numpy()[roles == k.TARGET_TEST])].max()
+    if not target_max >= longest:
+        raise InputError(
+            [Problem("target test drives", None, None,
+                     f"one with at least {longest} s after the first {skip} s",
+                     f"the longest has {int(target_max) if target_max == target_max else 0} s",
+                     fix=f"drop {longest} from evaluate.outages_s, or add longer drives")],
+            "no target test drive is long enough for the longest outage",
+        )  # fmt: skip
     return evaluated
 
 
@@ -620,12 +636,13 @@ def write_outputs(
         m_grid_plot(ev.summary, params).to_csv(
             tmp_plots / "m_grid.csv", index=False, float_format="%.4f"
         )
-        L = max(params.evaluate.outages_s)
+        # the longest outage; models at the chosen m lose their "@m" (stable column names)
+        L, at_m = max(params.evaluate.outages_s), f"@{params.adapt.chosen_m}"
         t = ev.over_time[ev.over_time["outage_s"] == L]
-        t.assign(from_min=t["from_s"] / 60.0).pivot(index="from_min", columns="model",
-                                                    values="crse").reset_index().to_csv(
-            tmp_plots / f"crse_over_time_{L}s.csv", index=False, float_format="%.4f"
-        )  # fmt: skip
+        t = t.assign(from_min=t["from_s"] / 60.0, model=t["model"].str.removesuffix(at_m))
+        t.pivot(index="from_min", columns="model", values="crse").reset_index().to_csv(
+            tmp_plots / "crse_over_time.csv", index=False, float_format="%.4f"
+        )
         tmp_tables.write_text(render_report(ev, params, provenance), encoding="utf-8")
         tmp_eval.write_text(json.dumps(ev.eval_json, indent=2) + "\n", encoding="utf-8")
 
@@ -688,6 +705,8 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
                     )
             if model == chosen:
                 rec.tags["chosen"] = "true"
+            elif model.startswith("R"):
+                rec.artifacts = []  # of the recipes' model files, only R-WhONet's are logged
             records.append(rec)
     alt = alt_wpm(params.label.wpm_mode)[0]
     headline = ["WPM", alt, "G", "S", "R", f"WPM-m@{params.adapt.chosen_m}"] + [
@@ -759,10 +778,13 @@ def main(params: Params) -> None:
     """The ``evaluate`` stage: every model's predictions -> metrics, tables, plots, MLflow runs."""
     from rwhonet.tracking.store import log_execution, resolve_tracking_uri
 
+    scores = selection_scores(params, paths.SAMPLES, paths.MODELS)
+    selection = recommend(scores, params)
+    params = resolve_choice(params, selection)
     frame, preds = collect_predictions(params, paths.SAMPLES, paths.MODELS)
     result = evaluate(params, frame, preds)
-    result.selection = selection_scores(params, paths.SAMPLES, paths.MODELS)
-    result.eval_json["selection"] = recommend(result.selection, params)
+    result.selection = scores
+    result.eval_json["selection"] = selection
     result.limits = radius_limits(frame, params)
     result.eval_json["limits"] = {
         f"{max(params.evaluate.outages_s)}s": [
@@ -855,11 +877,32 @@ def selection_scores(params: Params, samples_dir: Path, models_root: Path) -> pd
     return pd.concat(out, ignore_index=True) if out else pd.DataFrame()
 
 
+def resolve_choice(params: Params, selection: dict[str, Any]) -> Params:
+    """R-WhONet's recipe and m: params.yaml's, or with ``auto`` the rule's (else the fallback).
+
+    Records how in ``selection["chosen_by"]`` (``params``, ``rule``, ``fallback``)
+    and the result in ``selection["chosen"]``. The rule's ``continuous`` is
+    reported at m = max(m_grid), the seconds it has before the first scored window.
+    """
+    adapt = params.adapt
+    if not adapt.auto:
+        selection["chosen_by"] = "params"
+        selection["chosen"] = {"recipe": adapt.recipe, "m": adapt.chosen_m}
+        return params
+    got = selection.get("recommended")
+    if got:
+        recipe, m, by = got["recipe"], got["m"] or max(adapt.m_grid), "rule"
+    else:
+        recipe, m, by = adapt.fallback.recipe, adapt.fallback.m, "fallback"
+    selection["chosen_by"], selection["chosen"] = by, {"recipe": recipe, "m": m}
+    return with_adapt_choice(params, recipe, m)
+
+
 def selection_disagreements(selection: dict[str, Any]) -> list[str]:
     """Where params.yaml's adapt choices differ from what the selection rule recommends."""
     p, notes = selection.get("params", {}), []
     got = selection.get("recommended")
-    if got and (got["recipe"], got["m"]) != (p["recipe"], p["chosen_m"]):
+    if got and p["recipe"] != AUTO and (got["recipe"], got["m"]) != (p["recipe"], p["chosen_m"]):
         same_recipe_continuous = got["recipe"] == p["recipe"] == CONTINUOUS
         if not same_recipe_continuous:
             notes.append(

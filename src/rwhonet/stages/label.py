@@ -59,6 +59,7 @@ class SegmentEntry:
     role: str
     vehicle: str
     n_seconds: int | None = None  # validate's count, cross-checked against the rows
+    source_file: str | None = None  # the drive file it was cut from (for messages)
 
 
 @dataclass(frozen=True)
@@ -125,7 +126,11 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
         raise InputError(problems, f"{file} is not a valid segments manifest")
     return SegmentManifest(
         entries=[
-            SegmentEntry(*(entry[key] for key in MANIFEST_KEYS), entry.get("n_seconds"))
+            SegmentEntry(
+                *(entry[key] for key in MANIFEST_KEYS),
+                entry.get("n_seconds"),
+                entry.get("source_file") if isinstance(entry.get("source_file"), str) else None,
+            )  # fmt: skip
             for entry in entries
         ],
         calibration_drives=list(drives),
@@ -311,11 +316,13 @@ def label(
         raise InputError(
             [
                 Problem(
-                    ", ".join(e.segment for e in train),
+                    ", ".join(dict.fromkeys(e.source_file or e.segment for e in train)),
                     None,
                     None,
-                    "varying, finite wheel speeds",
+                    "varying, finite wheel speeds over the source_train drives",
                     str(err),
+                    fix="check the wheel-speed columns of these files (validate.wheels) or "
+                    "add source_train drives with moving wheels",
                 )
             ]
         ) from err
