@@ -154,7 +154,8 @@ def test_r_is_the_paper_recipe_at_50_whatever_params_chose():
         "overall": {"R": other, "R@50": other, "R[paper]@50": cell, "R[paper]@20": other},
         "per_drive": {"V-Delta3": {"R": other, "R[paper]@50": cell}},
     }
-    got = as_paper_recipe(ev)
+    got = as_paper_recipe({**ev, "recipe": "head", "chosen_m": 70})
+    assert (got["recipe"], got["chosen_m"]) == ("paper", 50)  # Table 2's ratios are to m = 50
     assert got["overall"]["R"] is cell and got["overall"]["R@50"] is cell
     assert got["overall"]["R@20"] is other
     assert got["per_drive"]["V-Delta3"]["R"] is cell

@@ -194,6 +194,8 @@ def as_paper_recipe(eval_json: dict, recipe: str = "paper", chosen_m: int = 50) 
     and ``R[<recipe>]@<chosen_m>`` replaces ``R``; otherwise it is returned as is.
     """
     out = dict(eval_json)
+    if any(re.fullmatch(rf"R\[{re.escape(recipe)}\]@\d+", n) for n in eval_json.get("overall", {})):
+        out["recipe"], out["chosen_m"] = recipe, chosen_m
     for section in ("overall", "per_drive"):
         tables = eval_json.get(section, {})
         blocks = [tables] if section == "overall" else list(tables.values())
