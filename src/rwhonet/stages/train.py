@@ -52,7 +52,7 @@ def train_model(
     test = load_role(samples_dir, contracts.PREDICTED_ROLES, params.model.seq_len)
     pred = predict(result.module, test.x)
     record = RunRecord(
-        name=name,
+        name=f"{name} seed {seed}",
         tags={
             "model": which,
             "vehicle": vehicle,
