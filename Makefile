@@ -10,7 +10,7 @@ export MLFLOW_DISABLE_TELEMETRY := true
 export DO_NOT_TRACK := true
 export PYTHONUNBUFFERED := 1
 
-.PHONY: setup run test test-fast lint ui bench variant ci-pipeline ci-gate baseline-ci
+.PHONY: setup run test test-fast lint ui bench variant report ci-pipeline ci-gate baseline-ci
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -62,6 +62,10 @@ variant: $(STAMP)
 	cd build/$(NAME) && $(RUN_ENV) PYTHONPATH=$(abspath build/$(NAME))/src python -m rwhonet.tracking init
 	cd build/$(NAME) && $(RUN_ENV) PYTHONPATH=$(abspath build/$(NAME))/src dvc exp run $(foreach s,$(SET),-S '$(s)')
 	@echo "build/$(NAME): metrics/eval.json, reports/tables.md, mlruns/ (make ui there)"
+
+# docs/results.md's five-seed figures (build/report/).
+report:
+	$(MAKE) variant NAME=report SET="seeds=[42,43,44,45,46]"
 
 CI_DIR := build/ci-run
 # The `ci` profile end to end, then the mean-CRSE regression gate.
