@@ -6,25 +6,28 @@ execution. That keeps ``import mlflow`` (~2.5 s) and the SQLite set-up out of
 the thirteen model stages, and gives every run its CRSE/CTE on the same
 evaluation windows, so the UI's compare view lines G, S, R and WPM up.
 
-Store: SQLite at ``mlruns/mlflow.db`` with artifacts under ``mlruns/artifacts``
-(MLflow 3 keeps its file store in maintenance mode, off by default). Relative URIs
-resolve against the project root; inside a queued DVC experiment (which runs
-in ``.dvc/tmp/exps/<tmp>``) they resolve against the real repository so the
-runs are not lost with the temporary copy. ``$MLFLOW_TRACKING_URI`` wins.
+Where the store is and how it is opened under concurrency: :mod:`rwhonet.tracking.client`.
 """
 
 from __future__ import annotations
 
 import os
-import subprocess
 import time
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from rwhonet import paths
-
-SQLITE = "sqlite:///"
+from rwhonet.tracking.client import (  # noqa: F401 - re-exported: callers find the store here
+    SQLITE,
+    artifact_root,
+    git_commit,
+    main_repo_root,
+    open_store,
+    resolve_tracking_uri,
+    retrying,
+)
 
 
 @dataclass
@@ -61,77 +64,13 @@ class RunRecord:
         return cls(**d)
 
 
-def main_repo_root(root: Path | None = None) -> Path:
-    """Return the repository that owns the store, also from inside a queued DVC experiment."""
-    root = Path(root or paths.ROOT).resolve()
-    parts = root.parts
-    for i in range(len(parts) - 3):
-        if parts[i : i + 3] == (".dvc", "tmp", "exps"):
-            return Path(*parts[:i])
-    return root
-
-
-def resolve_tracking_uri(uri: str, root: Path | None = None) -> str:
-    """Make a relative ``sqlite:///`` URI absolute against the owning repository.
-
-    Args:
-        uri: tracking URI from params (``sqlite:///mlruns/mlflow.db``).
-        root: project root (defaults to :data:`rwhonet.paths.ROOT`).
-
-    Returns:
-        ``$MLFLOW_TRACKING_URI`` if set, else the absolute URI.
-    """
-    env = os.environ.get("MLFLOW_TRACKING_URI")
-    if env:
-        return env
-    if uri.startswith(SQLITE) and not uri.startswith(SQLITE + "/"):
-        db = main_repo_root(root) / uri[len(SQLITE) :]
-        db.parent.mkdir(parents=True, exist_ok=True)
-        return SQLITE + str(db)
-    return uri
-
-
-def artifact_root(uri: str) -> str | None:
-    """Artifacts sit beside the SQLite database (``mlruns/artifacts``)."""
-    if uri.startswith(SQLITE):
-        return str(Path(uri[len(SQLITE) :]).parent / "artifacts")
-    return None
-
-
-def git_commit(root: Path | None = None) -> str:
-    """Current commit of the repository (``unknown`` outside git)."""
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            cwd=main_repo_root(root),
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=10,
-        )
-        return out.stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
-def _client(uri: str):
-    import mlflow
-
-    mlflow.set_tracking_uri(uri)
-    return mlflow.MlflowClient(tracking_uri=uri)
-
-
 def ensure_experiment(uri: str, experiment: str) -> str:
     """Create the store and experiment if missing; return the experiment id.
 
-    Run this once before parallel writers (a fresh SQLite store races on its
-    schema migration).
+    ``python -m rwhonet.tracking init`` runs this before parallel writers;
+    :func:`~rwhonet.tracking.client.open_store` makes it safe without, too.
     """
-    client = _client(uri)
-    exp = client.get_experiment_by_name(experiment)
-    if exp is not None:
-        return exp.experiment_id
-    return client.create_experiment(experiment, artifact_location=artifact_root(uri))
+    return open_store(uri, experiment)[1]
 
 
 def log_execution(
@@ -154,17 +93,30 @@ def log_execution(
     """
     from mlflow.entities import Metric, Param
 
-    client = _client(uri)
-    exp_id = ensure_experiment(uri, experiment)
-    execution_id = time.strftime("%Y%m%dT%H%M%S") + f"-{os.getpid()}"
+    client, exp_id = open_store(uri, experiment)
+    # Unique across processes and machines sharing a store (pids repeat across containers).
+    execution_id = f"{time.strftime('%Y%m%dT%H%M%S')}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
     common = {"rwhonet.execution": execution_id, "git_commit": git_commit()}
 
     def log(record: RunRecord, parent: str | None) -> str:
         tags = {**common, **record.tags}
         if parent is not None:
             tags["mlflow.parentRunId"] = parent
-        run = client.create_run(exp_id, run_name=record.name, tags=tags)
+        run = retrying(lambda: client.create_run(exp_id, run_name=record.name, tags=tags))
         rid = run.info.run_id
+        try:
+            _log_contents(client, rid, record)
+            for child in record.children:
+                log(child, rid)
+        except BaseException as err:
+            # Never leave a run RUNNING: an interrupted logger marks what it was writing.
+            status = "FAILED" if isinstance(err, Exception) else "KILLED"
+            retrying(lambda: client.set_terminated(rid, status))
+            raise
+        retrying(lambda: client.set_terminated(rid))
+        return rid
+
+    def _log_contents(client: Any, rid: str, record: RunRecord) -> None:
         now = int(time.time() * 1000)
         metrics = [Metric(k, float(v), now, 0) for k, v in record.metrics.items()]
         for row in record.history:
@@ -175,17 +127,13 @@ def log_execution(
         params = [Param(k, str(v)[:6000]) for k, v in sorted(record.params.items())]
         # log_batch takes at most 1000 metrics / 100 params per call.
         for i in range(0, max(len(metrics), 1), 1000):
-            client.log_batch(rid, metrics=metrics[i : i + 1000])
+            retrying(lambda i=i: client.log_batch(rid, metrics=metrics[i : i + 1000]))
         for i in range(0, len(params), 100):
-            client.log_batch(rid, params=params[i : i + 100])
+            retrying(lambda i=i: client.log_batch(rid, params=params[i : i + 100]))
         for art in record.artifacts:
             f = Path(art) if Path(art).is_absolute() else paths.ROOT / art
             if f.exists():
                 client.log_artifact(rid, str(f))
-        for child in record.children:
-            log(child, rid)
-        client.set_terminated(rid)
-        return rid
 
     parent_id = log(RunRecord(**{**execution.__dict__, "children": []}), None)
     for record in [*execution.children, *records]:

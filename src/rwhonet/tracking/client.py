@@ -1,0 +1,169 @@
+"""Where the project's MLflow store is, and how to open it safely from several processes.
+
+Store: SQLite at ``mlruns/mlflow.db`` with artifacts under ``mlruns/artifacts``
+(MLflow 3 keeps its file store in maintenance mode, off by default). Relative URIs
+resolve against the project root; inside a queued DVC experiment (which runs
+in ``.dvc/tmp/exps/<tmp>``) they resolve against the real repository so the
+runs are not lost with the temporary copy. ``$MLFLOW_TRACKING_URI`` wins.
+
+Several processes may write to one store at once (``dvc queue start -j 2``,
+two clones sharing a store, a stage failing while ``evaluate`` logs).
+:func:`open_store` creates the store and the experiment under a file lock
+beside the database, so a fresh store's schema migration runs once, and
+:func:`retrying` repeats a store call that SQLite refused because another
+writer held the database.
+
+No module here imports MLflow at import time: the stages that only log on
+failure (:mod:`rwhonet.tracking.failure`) pay for it only when they fail.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import subprocess
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, TypeVar
+
+from rwhonet import paths
+
+SQLITE = "sqlite:///"
+T = TypeVar("T")
+
+
+def main_repo_root(root: Path | None = None) -> Path:
+    """Return the repository that owns the store, also from inside a queued DVC experiment."""
+    root = Path(root or paths.ROOT).resolve()
+    parts = root.parts
+    for i in range(len(parts) - 3):
+        if parts[i : i + 3] == (".dvc", "tmp", "exps"):
+            return Path(*parts[:i])
+    return root
+
+
+def resolve_tracking_uri(uri: str, root: Path | None = None) -> str:
+    """Make a relative ``sqlite:///`` URI absolute against the owning repository.
+
+    Args:
+        uri: tracking URI from params (``sqlite:///mlruns/mlflow.db``).
+        root: project root (defaults to :data:`rwhonet.paths.ROOT`).
+
+    Returns:
+        ``$MLFLOW_TRACKING_URI`` if set, else the absolute URI.
+    """
+    env = os.environ.get("MLFLOW_TRACKING_URI")
+    if env:
+        return env
+    if uri.startswith(SQLITE) and not uri.startswith(SQLITE + "/"):
+        db = main_repo_root(root) / uri[len(SQLITE) :]
+        db.parent.mkdir(parents=True, exist_ok=True)
+        return SQLITE + str(db)
+    return uri
+
+
+def artifact_root(uri: str) -> str | None:
+    """Artifacts sit beside the SQLite database (``mlruns/artifacts``)."""
+    if uri.startswith(SQLITE):
+        return str(Path(uri[len(SQLITE) :]).parent / "artifacts")
+    return None
+
+
+def git_commit(root: Path | None = None) -> str:
+    """Current commit of the repository (``unknown`` outside git)."""
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=main_repo_root(root),
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=10,
+        )
+        return out.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _sqlite_busy(err: BaseException) -> bool:
+    """Whether ``err`` (or what caused it) is SQLite refusing a write another process holds."""
+    seen: set[int] = set()
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        text = str(err).lower()
+        if "database is locked" in text or "database table is locked" in text:
+            return True
+        err = err.__cause__ or err.__context__
+    return False
+
+
+def retrying(call: Callable[[], T], *, attempts: int = 8, first_wait_s: float = 0.2) -> T:
+    """Run a store call, again after a growing pause while SQLite says the database is locked.
+
+    SQLite lets one writer in at a time and makes the others wait a few seconds
+    before failing; with two pipelines logging hundreds of runs at once that
+    wait can run out. Any other error is raised at once.
+
+    Args:
+        call: the store call (no arguments).
+        attempts: how many times to try.
+        first_wait_s: the pause after the first refusal; doubled each time.
+
+    Returns:
+        What ``call`` returns.
+    """
+    for attempt in range(attempts):
+        try:
+            return call()
+        except Exception as err:
+            if attempt == attempts - 1 or not _sqlite_busy(err):
+                raise
+            time.sleep(first_wait_s * 2**attempt)
+    raise AssertionError("unreachable")
+
+
+@contextmanager
+def _store_lock(uri: str) -> Iterator[None]:
+    """Hold an exclusive lock beside a SQLite store (no lock for other stores)."""
+    if not uri.startswith(SQLITE):
+        yield
+        return
+    db = Path(uri[len(SQLITE) :])
+    db.parent.mkdir(parents=True, exist_ok=True)
+    with open(db.with_name(db.name + ".lock"), "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def open_store(uri: str, experiment: str) -> tuple[Any, str]:
+    """A client of the store at ``uri`` and the id of ``experiment``, both created if missing.
+
+    The store's schema set-up (a fresh SQLite file runs MLflow's migrations) and
+    the experiment's creation happen under a lock, so processes opening one
+    store at the same moment neither race on the migration nor create the
+    experiment twice. The artifact root of a new experiment is
+    :func:`artifact_root`.
+
+    Args:
+        uri: resolved tracking URI (:func:`resolve_tracking_uri`).
+        experiment: experiment name.
+
+    Returns:
+        ``(MlflowClient, experiment_id)``.
+    """
+    import mlflow
+
+    with _store_lock(uri):
+        client = mlflow.MlflowClient(tracking_uri=uri)
+        exp = retrying(lambda: client.get_experiment_by_name(experiment))
+        if exp is not None:
+            return client, exp.experiment_id
+        exp_id = retrying(
+            lambda: client.create_experiment(experiment, artifact_location=artifact_root(uri))
+        )
+        return client, exp_id
