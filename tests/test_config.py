@@ -1,6 +1,7 @@
 """params.yaml loads into typed sections; unknown or mistyped keys are errors naming the key."""
 
 import pytest
+import yaml
 
 from rwhonet import paths
 from rwhonet.config import ConfigError, flatten, load_params
@@ -47,3 +48,99 @@ def test_bad_params_name_the_key(override, needle):
 
 def test_flatten_uses_dotted_keys():
     assert flatten({"a": {"b": 1, "c": {"d": 2}}, "e": []}) == {"a.b": 1, "a.c.d": 2, "e": []}
+
+
+# --------------------------------------------------------------------------- paths in params
+
+SHARED = "sqlite:////srv/shared/mlflow.db"
+
+
+@pytest.mark.parametrize(
+    "override,needle",
+    [
+        ({"tracking.tracking_uri": "sqlite:///../elsewhere/mlflow.db"}, "must stay in mlruns/"),
+        ({"tracking.tracking_uri": "sqlite:///mlruns/../../x.db"}, "it resolves to '../x.db'"),
+        ({"tracking.tracking_uri": "sqlite:///data/raw/mlflow.db"}, "must stay in mlruns/"),
+        ({"tracking.tracking_uri": "sqlite:///mlflow.db"}, "must stay in mlruns/"),
+        ({"tracking.tracking_uri": "../mlruns"}, "must stay in mlruns/"),
+        ({"tracking.tracking_uri": "file:../mlruns"}, "must stay in mlruns/"),
+        ({"tracking.tracking_uri": "sqlite:/mlruns/x.db"}, "expected sqlite:///<path>"),
+        ({"tracking.experiment": " "}, "tracking.experiment: expected a name"),
+        ({"gate.baseline": "/etc/passwd"}, "gate.baseline='/etc/passwd': expected a path relative"),
+        ({"gate.baseline": "../baseline.json"}, "expected a path inside the project"),
+        ({"gate.rel_tol": -0.1}, "must be >= 0"),
+    ],
+)
+def test_paths_in_params_cannot_lead_a_stage_outside_the_project(override, needle):
+    with pytest.raises(ConfigError) as err:
+        load_params(paths.PARAMS, overrides=override)
+    assert needle in str(err.value)
+
+
+@pytest.mark.parametrize("name", ["../../../tmp/x", "sub/V-1", ".hidden", "", "a b", "x" * 101])
+def test_a_simulated_drive_name_must_be_a_plain_file_name(name):
+    drives = yaml.safe_load(paths.PARAMS.read_text())["sim"]["profiles"]["ci"]["drives"]
+    drives[0]["name"] = name  # simulate writes data/sim/<role>/<name>.csv
+    with pytest.raises(ConfigError, match="becomes a file name"):
+        load_params(paths.PARAMS, overrides={"sim.profiles.ci.drives": drives})
+
+
+@pytest.mark.parametrize(
+    "uri", [SHARED, "sqlite:///mlruns/other.db", "http://127.0.0.1:5000", "postgresql://h/db"]
+)
+def test_stores_that_stay_in_mlruns_or_are_named_absolutely_are_accepted(uri):
+    assert load_params(paths.PARAMS, overrides={"tracking.tracking_uri": uri}).tracking
+
+
+# Every text param, by what the pipeline does with it. A new one fails the test below until
+# it is classified here, so no param can become a path a stage writes to unchecked.
+TEXT_PARAMS = {
+    "data.root": "read from anywhere (drive files)",
+    "data.roles.*.glob": "read, under data.root",
+    "data.roles.*.format": "a reader's name",
+    "data.roles.*.vehicle": "a vehicle's name",
+    "data.column_maps.*.*.column": "a CSV column name",
+    "data.column_maps.*.*.unit": "a unit's name",
+    "validate.cuts[*].drive": "a drive's name, matched",
+    "validate.cuts[*].reason": "free text",
+    "sim.profile": "a profile's name",
+    "sim.profiles.*.vehicles.*": "a vehicle's name",
+    "sim.profiles.*.drives_from": "a profile's name",
+    "sim.profiles.*.drives[*].name": "written as a file name: checked (FILE_NAME)",
+    "sim.profiles.*.drives[*].vehicle": "a vehicle's name",
+    "sim.profiles.*.drives[*].tyre": "a tyre state's letter",
+    "tracking.experiment": "an MLflow experiment's name",
+    "tracking.tracking_uri": "written: checked (tracking_uri_problem)",
+    "gate.baseline": "read by the gate: checked inside the project",
+}
+
+
+def _text_fields(tp, prefix: str) -> set[str]:
+    import dataclasses
+    import types
+    import typing
+
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if tp is str:
+        return {prefix}
+    if dataclasses.is_dataclass(tp):
+        hints = typing.get_type_hints(tp)
+        return set().union(
+            *(
+                _text_fields(hints[f.name], f"{prefix}.{f.name}".lstrip("."))
+                for f in dataclasses.fields(tp)
+            )
+        )
+    if origin is list:
+        return _text_fields(args[0], prefix + "[*]")
+    if origin is dict:
+        return _text_fields(args[1], prefix + ".*")
+    if origin in (types.UnionType, typing.Union):
+        return set().union(*(_text_fields(a, prefix) for a in args))
+    return set()
+
+
+def test_every_text_param_is_classified():
+    from rwhonet.config import Params
+
+    assert _text_fields(Params, "") == set(TEXT_PARAMS)

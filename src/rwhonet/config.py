@@ -8,10 +8,12 @@ naming the dotted key, so a typo in ``dvc exp run -S`` never passes silently.
 from __future__ import annotations
 
 import dataclasses
+import posixpath
+import re
 import types
 import typing
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 import yaml
@@ -19,6 +21,76 @@ import yaml
 
 class ConfigError(ValueError):
     """A params.yaml value is missing, unknown or of the wrong type."""
+
+
+# --------------------------------------------------------------------------- paths in params
+# Params may name where to read (data.root: anywhere) but never make a stage write outside
+# the project's output folders: the names that become file names are plain names, and the
+# one path a stage writes to (the tracking store) stays in mlruns/ unless it is absolute,
+# i.e. a store shared on purpose (two clones logging to one store).
+
+# A name that becomes a file name (a simulated drive's CSV): no folder, no '..', no hidden file.
+FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
+TRACKING_FOLDER = "mlruns"
+_LOCAL_SCHEMES = ("sqlite", "file", "")
+
+
+def inside_project_problem(path: str, folder: str | None = None) -> str | None:
+    """Why a relative path from params would leave the project (or ``folder``), or None.
+
+    Args:
+        path: the path as written in params.yaml (relative to the project root).
+        folder: the project folder it must stay in (None: anywhere in the project).
+
+    Returns:
+        What is wrong with it, or None when the path stays where it must.
+    """
+    where = f"{folder}/" if folder else "the project"
+    if not path or PurePosixPath(path).is_absolute() or "\\" in path:
+        return f"expected a path relative to the project root, inside {where}"
+    norm = posixpath.normpath(path)
+    parts = PurePosixPath(norm).parts
+    if norm == "." or parts[0] == ".." or (folder and (parts[0] != folder or len(parts) < 2)):
+        return f"expected a path inside {where}; it resolves to {norm!r}"
+    return None
+
+
+def tracking_uri_problem(uri: str) -> str | None:
+    """Why a tracking URI from params would make a stage write outside ``mlruns/``, or None.
+
+    ``sqlite:///<relative path>`` (and a ``file:`` or bare path) must lie inside
+    ``mlruns/``; ``sqlite:////<absolute path>`` names a store shared on purpose and
+    is taken as it is, as is a server (``http://``...).
+
+    Args:
+        uri: ``tracking.tracking_uri`` as written in params.yaml.
+
+    Returns:
+        The problem, naming the key, or None.
+    """
+    scheme, sep, rest = uri.partition(":")
+    if not sep or len(scheme) == 1:  # a bare path (or a Windows drive letter)
+        scheme, rest = "", uri
+    if scheme.lower() not in _LOCAL_SCHEMES:
+        return None
+    if scheme.lower() == "sqlite":
+        if rest in ("", "//"):  # in memory
+            return None
+        if not rest.startswith("///"):
+            return f"tracking.tracking_uri={uri!r}: expected sqlite:///<path>"
+        path = rest[3:]
+    else:
+        path = rest[2:] if rest.startswith("//") else rest
+    if path.startswith("/"):
+        return None  # absolute: a store shared on purpose
+    problem = inside_project_problem(path, TRACKING_FOLDER)
+    if problem is None:
+        return None
+    return (
+        f"tracking.tracking_uri={uri!r}: a relative store path must stay in "
+        f"{TRACKING_FOLDER}/ ({problem}); to share a store on purpose, give its absolute "
+        "path (sqlite:////abs/path/mlflow.db)"
+    )
 
 
 # --------------------------------------------------------------------------- sections
@@ -268,6 +340,11 @@ class SimParams:
                 raise ConfigError(f"sim.profiles.{pname}: drive names must be unique")
             for i, d in enumerate(prof.drives):
                 where = f"sim.profiles.{pname}.drives[{i}] ({d.name})"
+                if not FILE_NAME.fullmatch(d.name):
+                    raise ConfigError(
+                        f"{where}: name {d.name!r} becomes a file name: expected letters, "
+                        "digits, '.', '_' or '-' (no folder), starting with a letter or digit"
+                    )
                 if d.vehicle not in prof.vehicles:
                     raise ConfigError(
                         f"{where}: vehicle {d.vehicle!r} not in sim.profiles.{pname}.vehicles "
@@ -519,12 +596,29 @@ class TrackingParams:
     experiment: str
     tracking_uri: str
 
+    def __post_init__(self) -> None:
+        problem = tracking_uri_problem(self.tracking_uri)
+        if problem:
+            raise ConfigError(problem)
+        if not self.experiment.strip():
+            raise ConfigError("tracking.experiment: expected a name, got ''")
+
 
 @dataclass(frozen=True)
 class GateParams:
-    baseline: str
+    baseline: str  # a file committed with the project
     rel_tol: float
     abs_tol_m: float
+
+    def __post_init__(self) -> None:
+        problem = inside_project_problem(self.baseline)
+        if problem:
+            raise ConfigError(f"gate.baseline={self.baseline!r}: {problem}")
+        if self.rel_tol < 0 or self.abs_tol_m < 0:
+            raise ConfigError(
+                f"gate.rel_tol and gate.abs_tol_m must be >= 0, got {self.rel_tol}, "
+                f"{self.abs_tol_m}"
+            )
 
 
 @dataclass(frozen=True)
