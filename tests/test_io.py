@@ -64,3 +64,88 @@ def test_outputs_get_the_usual_permissions(tmp_path):
         os.umask(mask)
     assert (tmp_path / "a.json").stat().st_mode & 0o777 == 0o644
     assert (tmp_path / "d").stat().st_mode & 0o777 == 0o755
+
+
+def _dead_pid() -> int:
+    import subprocess
+
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    return proc.pid
+
+
+def test_temporaries_of_a_killed_writer_go_with_the_next_write(tmp_path):
+    import os
+
+    out = tmp_path / "seed1"
+    dead, alive = _dead_pid(), os.getppid()
+    stale = [tmp_path / f".seed1.tmp-{dead}-abc", tmp_path / f".seed1.tmp-{dead}-abc.old"]
+    for folder in stale:
+        folder.mkdir()
+        (folder / "model.pt").write_bytes(b"half")
+    busy = tmp_path / f".seed1.tmp-{alive}-xyz"  # another process still writing
+    busy.mkdir()
+    other = tmp_path / f".seed2.tmp-{dead}-abc"  # not this output's
+    other.mkdir()
+    with atomic_dir(out) as tmp:
+        (tmp / "model.pt").write_bytes(b"whole")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["seed1", busy.name, other.name])
+
+
+def test_a_signal_during_the_swap_is_handled_after_it_and_nothing_is_left(tmp_path, monkeypatch):
+    import os
+    import signal
+
+    class Stop(BaseException):
+        pass
+
+    def stop(signum, frame):
+        raise Stop
+
+    out, report = tmp_path / "segments", tmp_path / "report.json"
+    with atomic_outputs(out, report, folders=(True, False)) as (tmp_dir, tmp_report):
+        write_json(tmp_report, {"run": 1})
+    real_replace = os.replace
+
+    def replace_then_signal(src, dst):  # SIGTERM arrives between the renames
+        real_replace(src, dst)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        with pytest.raises(Stop):  # raised once the renames are done
+            with atomic_outputs(out, report, folders=(True, False)) as (tmp_dir, tmp_report):
+                (tmp_dir / "b.parquet").write_text("2")
+                write_json(tmp_report, {"run": 2})
+                monkeypatch.setattr(os, "replace", replace_then_signal)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert [p.name for p in out.iterdir()] == ["b.parquet"] and read_json(report) == {"run": 2}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json", "segments"]
+
+
+@pytest.mark.slow
+def test_sigkill_while_writing_leaves_the_old_outputs(tmp_path):
+    """A writer killed outright mid-write: the old outputs stay whole, its leftovers go later."""
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "seed1"
+    with atomic_dir(out) as tmp:
+        (tmp / "model.pt").write_bytes(b"old model")
+    code = (
+        "import sys, time; from pathlib import Path; from rwhonet.io import atomic_dir\n"
+        f"with atomic_dir(Path({str(out)!r})) as tmp:\n"
+        "    (tmp / 'model.pt').write_bytes(b'new, half written')\n"
+        "    print('writing', flush=True); time.sleep(60)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "writing"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert (out / "model.pt").read_bytes() == b"old model"
+    assert len(list(tmp_path.iterdir())) == 2  # the output and the dead writer's temporary
+    with atomic_dir(out) as tmp:
+        (tmp / "model.pt").write_bytes(b"new model")
+    assert [p.name for p in tmp_path.iterdir()] == ["seed1"]

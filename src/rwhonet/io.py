@@ -3,10 +3,17 @@
 A stage writes each output (a folder or a file) into a temporary sibling and
 moves them all into place only when everything succeeded
 (:func:`atomic_outputs`). The moves happen back to back with SIGINT/SIGTERM
-held off, so an interrupted stage leaves either its old outputs or its new
-ones, never a mix; only a SIGKILL inside those few renames could split them.
+held off (:func:`held_signals`), so an interrupted stage leaves either its old
+outputs or its new ones, never a mix; only a SIGKILL inside those few renames
+could split them.
 DVC does not record an interrupted stage in ``dvc.lock``, so the next
 ``dvc repro`` runs it again in any case.
+
+A temporary sibling is named ``.<output>.tmp-<pid>-<random>``. A process killed
+outright (SIGKILL, a power cut) cannot remove its own, so the next write of
+the same output removes those whose process is gone: they would otherwise
+sit beside the outputs (where ``models/g`` as a whole is a dependency of
+``evaluate``) and in ``git status``.
 """
 
 from __future__ import annotations
@@ -16,6 +23,7 @@ import os
 import shutil
 import signal
 import tempfile
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -26,7 +34,40 @@ import pyarrow.parquet as pq
 
 from rwhonet.contracts import SCENARIO
 
-_HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def held_signals(signals: tuple[int, ...] = HELD_SIGNALS) -> Iterator[None]:
+    """Handle SIGINT and SIGTERM that arrive inside the block only once it has finished.
+
+    The block runs with handlers that only note a signal; on the way out the
+    previous handlers come back and each noted signal is raised again, so it
+    does then what it would have done (end the process, or raise in it).
+    Blocking with ``pthread_sigmask`` would not do: a process with other threads
+    (Arrow's, torch's) receives the signal on one of them, and Python runs its
+    handler in the main thread all the same. Outside the main thread, where
+    handlers cannot be set, the block runs as it is.
+
+    Args:
+        signals: the signals to hold.
+
+    Yields:
+        Nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = {s: signal.signal(s, lambda signum, frame: caught.append(signum)) for s in signals}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for s in dict.fromkeys(caught):
+            if previous[s] is not signal.SIG_IGN:
+                signal.raise_signal(s)
 
 
 def _umask() -> int:
@@ -35,13 +76,53 @@ def _umask() -> int:
     return mask
 
 
+def _tmp_prefix(path: Path) -> str:
+    return f".{path.name}.tmp-"
+
+
+def _process_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def remove_stale_temporaries(path: Path) -> list[Path]:
+    """Remove the temporary siblings of ``path`` left by processes that no longer run.
+
+    Args:
+        path: an output path (file or folder).
+
+    Returns:
+        What was removed.
+    """
+    prefix, removed = _tmp_prefix(path), []
+    if not path.parent.is_dir():
+        return removed
+    for entry in path.parent.iterdir():
+        if not entry.name.startswith(prefix):
+            continue
+        pid = entry.name[len(prefix) :].split("-", 1)[0]
+        if pid.isdigit() and not _process_alive(int(pid)):
+            _remove(entry)
+            removed.append(entry)
+    return removed
+
+
 def _temporary(path: Path, folder: bool) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(path)
+    prefix = f"{_tmp_prefix(path)}{os.getpid()}-"
     if folder:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.tmp-", dir=path.parent))
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=path.parent))
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; outputs get the usual permissions
     else:
-        fd, name = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)
+        fd, name = tempfile.mkstemp(prefix=prefix, dir=path.parent)
         os.close(fd)
         tmp = Path(name)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600
@@ -83,18 +164,15 @@ def atomic_outputs(*outputs: Path, folders: tuple[bool, ...] | None = None) -> I
     # Everything is written: swap all outputs in with renames only (old ones are moved
     # aside, deleted afterwards), interrupts held until the last rename is done.
     old: list[Path] = []
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
-    try:
+    with held_signals():
         for path, tmp in zip(paths, tmps, strict=True):
             if path.exists() or path.is_symlink():
                 aside = tmp.with_name(tmp.name + ".old")
                 os.replace(path, aside)
                 old.append(aside)
             os.replace(tmp, path)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-    for aside in old:
-        _remove(aside)
+        for aside in old:
+            _remove(aside)
 
 
 @contextmanager

@@ -6,16 +6,26 @@ A stage script is ``stage.run("train_g", main)``: the runner loads
 stops with an error naming it, rather than leaving DVC to skip it when that
 value changes. Input and config errors exit with status 2 and a readable
 report, never a traceback.
+
+A stage that fails (any exception, input and config errors included) or is
+interrupted (SIGTERM, SIGINT) leaves a run in the project's MLflow store with
+status FAILED or KILLED (:mod:`rwhonet.tracking.failure`); MLflow is imported
+only then. An interrupted stage unwinds (its atomic outputs are discarded),
+logs, and then dies of the same signal, so DVC and shells see what happened.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import signal
 import sys
+import time
+import traceback
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from types import FrameType
 
 import yaml
 
@@ -24,6 +34,25 @@ from rwhonet.config import ConfigError, Params, load_params
 from rwhonet.errors import InputError
 
 EXIT_INPUT = 2
+EXIT_FAILED = 1
+INTERRUPTS = (signal.SIGTERM, signal.SIGINT)
+
+
+class Interrupted(BaseException):
+    """SIGTERM or SIGINT reached a running stage (raised by the runner's signal handler).
+
+    A ``BaseException``, like ``KeyboardInterrupt``: ``except Exception`` in library
+    code does not swallow it, and ``finally`` blocks and ``atomic_outputs`` clean up
+    on the way out.
+    """
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        super().__init__(f"interrupted by {signal.Signals(signum).name}")
+
+
+def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
+    raise Interrupted(signum)
 
 
 def quiet() -> None:
@@ -64,20 +93,97 @@ def declared_params(stage: str, dvc_yaml: Path | None = None) -> list[str]:
 
 
 def run(stage: str, main: Callable[[Params], None]) -> None:
-    """Run a stage's ``main`` with its declared params; input and config errors exit 2.
+    """Run a stage's ``main`` with its declared params; record any failure in MLflow.
+
+    Input and config errors print their report and exit 2; any other exception
+    prints its traceback and exits 1; SIGTERM or SIGINT ends the process by that
+    signal. Each leaves a FAILED or KILLED run in the project's MLflow store.
 
     Args:
         stage: the stage's name in ``dvc.yaml``.
         main: the stage body; it receives the restricted params.
     """
     quiet()
+    started = time.time()
+    previous = {signum: signal.signal(signum, _raise_interrupted) for signum in INTERRUPTS}
+    try:
+        _run(stage, main, started)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _run(stage: str, main: Callable[[Params], None], started: float) -> None:
     try:
         params = load_params(
             paths.PARAMS, only=declared_params(stage), reader=f"stage {stage} (dvc.yaml)"
         )
         main(params)
     except (InputError, ConfigError) as err:
+        _ignore_interrupts()
         print(
             f"\nERROR in stage {stage} ({os.path.basename(sys.argv[0])}):\n{err}", file=sys.stderr
         )
+        _record(stage, "FAILED", err, EXIT_INPUT, started)
         sys.exit(EXIT_INPUT)
+    except Interrupted as err:
+        _ignore_interrupts()
+        print(f"\nstage {stage} {err}", file=sys.stderr)
+        _record(stage, "KILLED", err, -err.signum, started)
+        _die_of(err.signum)
+    except SystemExit as err:
+        if err.code in (None, 0):
+            raise
+        _ignore_interrupts()
+        code = err.code if isinstance(err.code, int) else EXIT_FAILED
+        _record(stage, "FAILED", err, code, started)
+        raise
+    except BaseException as err:  # anything else: a bug or a library failure
+        _ignore_interrupts()
+        traceback.print_exception(err, file=sys.stderr)
+        _record(stage, "FAILED", err, EXIT_FAILED, started)
+        sys.exit(EXIT_FAILED)
+
+
+def _ignore_interrupts() -> None:
+    """Let the failure be recorded: a second SIGTERM/SIGINT no longer interrupts."""
+    for signum in INTERRUPTS:
+        signal.signal(signum, signal.SIG_IGN)
+
+
+def _record(stage: str, status: str, err: BaseException, exit_code: int, started: float) -> None:
+    """Log the failure to MLflow; a failure to log is reported, never raised."""
+    from rwhonet.tracking.failure import Failure, log_failure
+
+    if isinstance(err, Interrupted):
+        error_type, message = signal.Signals(err.signum).name, f"stage {stage} {err}"
+    elif isinstance(err, SystemExit):
+        said = f": {err.code}" if isinstance(err.code, str) else ""
+        error_type, message = "SystemExit", f"stage {stage} exited with status {exit_code}{said}"
+    else:
+        error_type, message = type(err).__name__, str(err) or type(err).__name__
+    failure = Failure(
+        stage=stage,
+        status=status,
+        error_type=error_type,
+        message=message,
+        traceback="".join(traceback.format_exception(err)),
+        exit_code=exit_code,
+        command=list(sys.argv),
+        started_s=started,
+    )
+    try:
+        run_id, uri = log_failure(failure)
+    except Exception as log_err:  # noqa: BLE001 - the stage's own error matters more
+        print(f"(the failure could not be logged to MLflow: {log_err})", file=sys.stderr)
+        return
+    print(f"MLflow: {status} run {run_id} in {uri}", file=sys.stderr)
+
+
+def _die_of(signum: int) -> None:
+    """End the process by ``signum`` (default action), as if it had not been caught."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+    sys.exit(128 + signum)  # not reached unless the signal could not end the process

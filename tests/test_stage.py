@@ -1,0 +1,178 @@
+"""The stage runner: a stage that fails or is interrupted leaves a FAILED or KILLED run in MLflow.
+
+In-process tests raise from a stage body; the slow ones run a real stage
+process (``stage.run`` around a body that sleeps inside its atomic output
+folder) and send it SIGTERM or SIGINT. Every test points
+``$MLFLOW_TRACKING_URI`` at a store of its own.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from rwhonet import paths, stage
+from rwhonet.errors import InputError, Problem
+from support.store import store_runs
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch) -> str:
+    uri = f"sqlite:///{tmp_path}/store/mlflow.db"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+    return uri
+
+
+def test_an_exception_in_a_stage_body_is_a_failed_run(store, capsys):
+    def body(params):
+        raise RuntimeError("the disk is full")
+
+    with pytest.raises(SystemExit) as exit_:
+        stage.run("train_g", body)
+    assert exit_.value.code == 1
+    err = capsys.readouterr().err
+    assert "RuntimeError: the disk is full" in err and "MLflow: FAILED run" in err
+    (run,) = store_runs(store)
+    assert run.info.status == "FAILED" and run.info.end_time >= run.info.start_time
+    tags = run.data.tags
+    assert tags["dvc_stage"] == "train_g" and tags["rwhonet.failure"] == "true"
+    assert tags["rwhonet.error_type"] == "RuntimeError"
+    assert tags["rwhonet.error"] == "the disk is full" and tags["rwhonet.exit_code"] == "1"
+    assert len(tags["git_commit"]) == 40 and "the disk is full" in tags["mlflow.note.content"]
+    import mlflow
+
+    client = mlflow.MlflowClient(store)
+    arts = {a.path for a in client.list_artifacts(run.info.run_id, "failure")}
+    assert arts == {"failure/error.txt", "failure/traceback.txt", "failure/params.yaml"}
+    trace = Path(client.download_artifacts(run.info.run_id, "failure/traceback.txt")).read_text()
+    assert "in body" in trace and "RuntimeError: the disk is full" in trace
+
+
+def test_an_input_error_is_a_failed_run_with_its_report(store, capsys):
+    problem = Problem("data/raw/target_test/V-T1.csv", 5, "Lat", "a number", "'oops'", "fix it")
+
+    def body(params):
+        raise InputError([problem], summary="ingest: 1 problem(s) in 1 file(s)")
+
+    with pytest.raises(SystemExit) as exit_:
+        stage.run("ingest", body)
+    assert exit_.value.code == stage.EXIT_INPUT
+    err = capsys.readouterr().err
+    assert "ERROR in stage ingest" in err and "Traceback" not in err
+    (run,) = store_runs(store)
+    assert run.info.status == "FAILED"
+    tags = run.data.tags
+    assert tags["dvc_stage"] == "ingest" and tags["rwhonet.exit_code"] == "2"
+    assert tags["rwhonet.error_type"] == "InputError"
+    assert "V-T1.csv, row 5, column 'Lat': expected a number; found 'oops'" in tags["rwhonet.error"]
+    assert "What to do:" in tags["rwhonet.error"]
+
+
+def test_reading_an_undeclared_param_is_a_failed_run(store, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        stage.run("label", lambda params: params.train.epochs)  # label does not declare train
+    assert exit_.value.code == stage.EXIT_INPUT
+    (run,) = store_runs(store)
+    assert run.info.status == "FAILED" and run.data.tags["rwhonet.error_type"] == "ConfigError"
+    assert "reads params 'train' but does not declare it" in run.data.tags["rwhonet.error"]
+
+
+def test_a_stage_that_succeeds_logs_nothing(store):
+    before = [signal.getsignal(s) for s in stage.INTERRUPTS]
+    seen = []
+    stage.run("label", lambda params: seen.append(params.label.wpm_mode))
+    assert seen == ["integrated"] and not Path(store.removeprefix("sqlite:///")).exists()
+    assert [signal.getsignal(s) for s in stage.INTERRUPTS] == before  # handlers restored
+
+
+def test_a_store_that_cannot_be_written_does_not_hide_the_error(tmp_path, monkeypatch, capsys):
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("")
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{blocker}/mlflow.db")
+    with pytest.raises(SystemExit) as exit_:
+        stage.run("train_g", lambda params: 1 / 0)
+    assert exit_.value.code == 1
+    err = capsys.readouterr().err
+    assert "ZeroDivisionError" in err and "the failure could not be logged to MLflow" in err
+
+
+# --------------------------------------------------------------------------- real processes
+
+# A stage whose body writes into its atomic output folder, says so, then works until stopped.
+SLEEPER = textwrap.dedent(
+    """
+    import sys, time
+    from rwhonet import paths, stage
+    from rwhonet.io import atomic_dir
+
+    def body(params):
+        with atomic_dir(paths.MODELS / "g" / "seed1") as tmp:
+            (tmp / "model.pt").write_bytes(b"half a model")
+            print("working", flush=True)
+            time.sleep(120)
+
+    sys.argv = ["pipelines/train.py", "G", "--seed", "1"]
+    stage.run("train_g", body)
+    """
+)
+
+
+def _start_sleeper(root: Path, store: str) -> subprocess.Popen:
+    root.mkdir()
+    for f in ("params.yaml", "dvc.yaml"):
+        (root / f).write_text((paths.ROOT / f).read_text())
+    out = root / "models" / "g" / "seed1"
+    out.mkdir(parents=True)
+    (out / "model.pt").write_bytes(b"the old model")
+    env = {**os.environ, "RWHONET_ROOT": str(root), "MLFLOW_TRACKING_URI": store}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", SLEEPER], cwd=root, env=env, text=True,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    assert proc.stdout.readline().strip() == "working", proc.stderr.read()
+    return proc
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_a_signal_mid_stage_is_a_killed_run_and_the_process_dies_of_it(tmp_path, signum):
+    store = f"sqlite:///{tmp_path}/store/mlflow.db"
+    proc = _start_sleeper(tmp_path / "project", store)
+    proc.send_signal(signum)
+    time.sleep(0.3)
+    proc.send_signal(signum)  # impatient: a second one must not leave the run RUNNING
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == -signum, err  # as if uncaught: DVC and shells see the signal
+    name = signal.Signals(signum).name
+    assert f"stage train_g interrupted by {name}" in err and "MLflow: KILLED run" in err
+    (run,) = store_runs(store)
+    assert run.info.status == "KILLED"
+    tags = run.data.tags
+    assert tags["dvc_stage"] == "train_g" and tags["rwhonet.error_type"] == name
+    assert tags["rwhonet.error"] == f"stage train_g interrupted by {name}"
+    assert tags["rwhonet.exit_code"] == str(-signum)
+    assert tags["rwhonet.command"] == "pipelines/train.py G --seed 1"
+    # the half-written output went with the interrupted block; the old one stays
+    g = tmp_path / "project" / "models" / "g"
+    assert [p.name for p in g.iterdir()] == ["seed1"]
+    assert (g / "seed1" / "model.pt").read_bytes() == b"the old model"
+
+
+@pytest.mark.slow
+def test_mlflow_stays_out_of_a_stage_that_succeeds(tmp_path):
+    code = (
+        "import sys; from rwhonet import stage; stage.run('label', lambda p: None); "
+        "assert 'mlflow' not in sys.modules, 'mlflow imported'"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], cwd=paths.ROOT, capture_output=True, text=True, timeout=120,
+        env={**os.environ, "MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path}/mlflow.db"},
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
