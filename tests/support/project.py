@@ -1,0 +1,91 @@
+"""Scratch copies of the project for tests that run real DVC stages.
+
+:func:`scratch_project` copies the working tree's tracked and unignored files
+(``git ls-files -co --exclude-standard``, what ``make variant`` copies), sets
+params overrides, and makes it a git repository of its own with ``data.dvc``
+committed, so ``dvc repro`` there never touches the workspace's outputs.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from rwhonet import paths
+
+BIN = Path(sys.executable).parent
+GIT = ["git", "-c", "user.name=t", "-c", "user.email=t@localhost"]
+
+
+def env(repo: Path, **extra: str) -> dict[str, str]:
+    """The environment a stage sees under ``dvc repro`` in ``repo`` (the venv's python first)."""
+    e = dict(os.environ)
+    e["PATH"] = f"{BIN}{os.pathsep}{e['PATH']}"
+    e["PYTHONPATH"] = str(repo / "src")
+    e["DVC_NO_ANALYTICS"] = "1"
+    e["PYTHONUNBUFFERED"] = "1"
+    for var in ("MLFLOW_TRACKING_URI", "RWHONET_ROOT"):
+        e.pop(var, None)
+    e.update(extra)
+    return e
+
+
+def dvc(repo: Path, *args: str, timeout: float = 900) -> subprocess.CompletedProcess:
+    """Run ``dvc <args>`` in ``repo``."""
+    return subprocess.run(
+        [str(BIN / "dvc"), *args],
+        cwd=repo, env=env(repo), capture_output=True, text=True, timeout=timeout,
+    )  # fmt: skip
+
+
+def set_params(repo: Path, overrides: Mapping[tuple[str, ...], Any]) -> None:
+    """Replace values of ``repo/params.yaml`` (keys as tuples: ``("train", "epochs")``)."""
+    params = yaml.safe_load((repo / "params.yaml").read_text())
+    for keys, value in overrides.items():
+        node = params
+        for key in keys[:-1]:
+            node = node[key]
+        node[keys[-1]] = value
+    (repo / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
+
+
+def scratch_project(dest: Path, overrides: Mapping[tuple[str, ...], Any]) -> Path:
+    """A copy of the working tree at ``dest``: its own git repository, ``data.dvc`` committed.
+
+    Args:
+        dest: a folder that does not exist yet.
+        overrides: params to set before the snapshot commit.
+
+    Returns:
+        ``dest``.
+    """
+    files = subprocess.run(
+        ["git", "ls-files", "-co", "--exclude-standard", "-z"],
+        cwd=paths.ROOT, capture_output=True, text=True, check=True,
+    ).stdout.split("\0")  # fmt: skip
+    for f in filter(None, files):
+        src = paths.ROOT / f
+        if src.is_file():
+            (dest / f).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dest / f)
+    set_params(dest, overrides)
+    subprocess.run([*GIT, "init", "-q"], cwd=dest, check=True)
+    subprocess.run([*GIT, "add", "-A"], cwd=dest, check=True)
+    subprocess.run([*GIT, "commit", "-qm", "snapshot"], cwd=dest, check=True)
+    (dest / "data" / "raw").mkdir(parents=True, exist_ok=True)
+    out = dvc(dest, "commit", "-q", "-f", "data.dvc")
+    assert out.returncode == 0, out.stderr
+    return dest
+
+
+def commit(repo: Path, message: str) -> None:
+    """Commit everything in ``repo`` (what ``dvc exp run --queue`` snapshots)."""
+    subprocess.run([*GIT, "add", "-A"], cwd=repo, check=True)
+    subprocess.run([*GIT, "commit", "-qm", message], cwd=repo, check=True)
