@@ -40,10 +40,13 @@ DISP_WPM_INTEGRATED_M = "disp_wpm_integrated_m"
 DISP_WPM_REFERENCE_M = "disp_wpm_reference_m"
 ANGLE_RL_RAD = "angle_rl_rad"
 ANGLE_RR_RAD = "angle_rr_rad"
+# The GNSS fix ending the second (2D dead reckoning: course before an outage, truth after).
+LAT_DEG = "lat_deg"
+LON_DEG = "lon_deg"
 SCENARIO = "scenario"  # ';'-joined scenario tags of the second
 SAMPLE_VALUE_COLUMNS = (
     T_S, DISP_GNSS_M, DISP_WPM_M, LABEL_M,
-    DISP_WPM_INTEGRATED_M, DISP_WPM_REFERENCE_M, ANGLE_RL_RAD, ANGLE_RR_RAD,
+    DISP_WPM_INTEGRATED_M, DISP_WPM_REFERENCE_M, ANGLE_RL_RAD, ANGLE_RR_RAD, LAT_DEG, LON_DEG,
 )  # fmt: skip
 SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
 

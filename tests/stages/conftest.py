@@ -34,6 +34,9 @@ def write_samples(folder, segments, seed=0, true_radius_m=None):
         df.insert(5, "disp_wpm_reference_m", wpm * 1.01)  # a different, fixed WPM
         df.insert(6, "angle_rl_rad", angle)
         df.insert(7, "angle_rr_rad", angle)
+        # due north from 52.4 N along the true odometry: 1 m is about 9e-6 degrees
+        df.insert(8, "lat_deg", 52.4 + np.cumsum(r_true * angle) / 111_250.0)
+        df.insert(9, "lon_deg", np.full(n, -1.5))
         df["scenario"] = ""
         df.to_parquet(folder / f"{seg}.parquet", index=False)
         manifest.append(

@@ -61,6 +61,8 @@ def sample_table(
         k.DISP_WPM_REFERENCE_M: disp["reference"],
         k.ANGLE_RL_RAD: angles[wpm_mode][0],
         k.ANGLE_RR_RAD: angles[wpm_mode][1],
+        k.LAT_DEG: sec.lat_deg,
+        k.LON_DEG: sec.lon_deg,
         **dict(zip(k.FEATURE_COLUMNS, features, strict=True)),
         k.SCENARIO: pa.array(sec.scenario, type=pa.string()),
     }

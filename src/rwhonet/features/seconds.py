@@ -248,6 +248,8 @@ class SegmentSeconds:
         t_s: end time of each second (row ``10k + 10``), seconds.
         span_s: duration of each second, seconds.
         disp_gnss_m: GNSS displacement per second, metres.
+        lat_deg: GNSS latitude of the fix ending each second (row ``10k + 10``), degrees.
+        lon_deg: its longitude, degrees.
         angle_rl_rad: trapezoid-integrated rear-left wheel angle per second, rad.
         angle_rr_rad: same for the rear right wheel.
         omega_end_rl_rad_s: rear-left wheel speed at the end of each second (authors' sample).
@@ -260,6 +262,8 @@ class SegmentSeconds:
     t_s: np.ndarray
     span_s: np.ndarray
     disp_gnss_m: np.ndarray
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
     angle_rl_rad: np.ndarray
     angle_rr_rad: np.ndarray
     omega_end_rl_rad_s: np.ndarray
@@ -344,13 +348,14 @@ def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> 
     t = np.asarray(frame[c.T_S], dtype=np.float64)
     omega = {w: np.asarray(frame[w], dtype=np.float64) for w in c.WHEELS}
     tags = frame[c.SCENARIO] if c.SCENARIO in frame else np.full(t.size, "")
+    lat = np.asarray(frame[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(frame[c.LON_DEG], dtype=np.float64)
     return SegmentSeconds(
         t_s=end_of_second(t),
         span_s=span_s(t),
-        disp_gnss_m=gnss_displacement_m(
-            np.asarray(frame[c.LAT_DEG], dtype=np.float64),
-            np.asarray(frame[c.LON_DEG], dtype=np.float64),
-        ),
+        disp_gnss_m=gnss_displacement_m(lat, lon),
+        lat_deg=end_of_second(lat),
+        lon_deg=end_of_second(lon),
         angle_rl_rad=integrate_per_second(t, omega[c.OMEGA_RL]),
         angle_rr_rad=integrate_per_second(t, omega[c.OMEGA_RR]),
         omega_end_rl_rad_s=end_of_second(omega[c.OMEGA_RL]),

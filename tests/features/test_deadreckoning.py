@@ -1,0 +1,134 @@
+"""2D dead reckoning: known geometry, and a simulated drive with ideal sensors."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from rwhonet.config import SimDrive, load_params
+from rwhonet.data.iovnbd import read_iovnbd
+from rwhonet.features.deadreckoning import (
+    course_rad,
+    dead_reckon,
+    fit_heading,
+    wheel_yaw_rad,
+)
+from rwhonet.features.seconds import segment_seconds
+from rwhonet.geo.local import latlon_from_offsets_deg, offsets_m
+from rwhonet.sim import (
+    SimOptions,
+    generate_route,
+    simulate_drive,
+    steady_turn_route,
+    vehicles_from_params,
+)
+from rwhonet.sim.writer import write_drive
+
+
+def test_a_circle_closes_and_a_straight_line_goes_straight():
+    # 36 s at 10 m/s turning 10 degrees a second to the left: one full circle.
+    d, yaw = np.full(36, 10.0), np.full(36, np.radians(10.0))
+    east, north = dead_reckon(0.0, d, yaw, 1.0)
+    assert np.hypot(east[-1], north[-1]) < 1e-9
+    r = 10.0 / np.radians(10.0)  # the circle's radius, m; heading north, turning left
+    assert east.min() == pytest.approx(-2 * r, rel=2e-3)  # midpoint rule: chords of the circle
+    east, north = dead_reckon(np.radians(90.0), np.full(10, 5.0), np.zeros(10), 1.0)
+    assert east[-1] == pytest.approx(50.0) and north[-1] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_yaw_is_the_rear_wheels_travel_difference_over_the_track():
+    # left turn: the right wheel travels further
+    yaw = wheel_yaw_rad(np.array([10.0]), np.array([10.5]), 0.3, 0.3, 1.5)
+    assert yaw[0] == pytest.approx(0.5 * 0.3 / 1.5)
+
+
+def test_scale_and_heading_are_recovered_and_gnss_jumps_are_left_out():
+    rng = np.random.default_rng(0)
+    yaw = rng.normal(0.0, 0.05, 300)  # wheel yaw per second
+    azimuth = 0.3 - np.cumsum(1.08 * yaw)  # the true yaw is 8 % more than the wheels say
+    course = azimuth + 0.5 * 1.08 * yaw  # the chord's azimuth: the middle of each second
+    course = (course + np.pi) % (2 * np.pi) - np.pi  # as GNSS gives it, wrapped
+    course[150] += 2.0  # a GNSS jump
+    course[200:205] = np.nan  # stopped
+    d = np.full(300, 10.0)
+    fit = fit_heading(course, yaw, d, scale_sd=1e6, bias_sd_rad_per_m=1e6)  # no prior
+    assert fit.scale == pytest.approx(1.08, rel=1e-6) and abs(fit.bias_rad_per_m) < 1e-9
+    assert fit.n_courses == 300 - 5 - 1
+    assert np.cos(fit.azimuth_end_rad - azimuth[-1]) == pytest.approx(1.0, abs=1e-12)
+    # a straight drive: no turning to fit a scale on, the prior keeps it at 1
+    straight = fit_heading(np.full(100, 0.25), np.zeros(100), np.full(100, 10.0))
+    assert straight.scale == pytest.approx(1.0) and straight.azimuth_end_rad == pytest.approx(0.25)
+    # a left/right radius difference: the course drifts with distance, the bias takes it
+    drift = 0.25 - 0.001 * (np.cumsum(np.full(100, 10.0)) - 5.0)
+    fit = fit_heading(drift, np.zeros(100), np.full(100, 10.0))
+    assert fit.bias_rad_per_m == pytest.approx(0.001, rel=1e-3)
+    assert fit_heading(np.full(10, np.nan), np.zeros(10), np.ones(10)) is None
+
+
+def test_course_from_fixes():
+    lat0, lon0 = 52.4, -1.5
+    lat, lon = latlon_from_offsets_deg(lat0, lon0, np.array([0.0, 10.0, 10.0]),
+                                       np.array([0.0, 0.0, 0.1]))  # fmt: skip
+    c = course_rad(lat, lon, min_step_m=1.0)
+    assert np.isnan(c[0]) and np.degrees(c[1]) == pytest.approx(90.0, abs=1e-6)
+    assert np.isnan(c[2])  # moved 0.1 m
+
+
+def _ideal_drive(route_or_spec, seed, tmp_path):
+    """A drive with ideal wheels and receiver, the antenna at the rear-axle centre."""
+    params = load_params()
+    car = vehicles_from_params(params)["source"]
+    car = dataclasses.replace(car, params=dataclasses.replace(car.params, antenna_x_m=0.0,
+                                                              antenna_y_m=0.0))  # fmt: skip
+    route = route_or_spec
+    if isinstance(route_or_spec, SimDrive):
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
+        route = generate_route(route_or_spec, params.sim, car, rng)
+    drive = simulate_drive(car, "A", route, np.random.SeedSequence(seed), params.sim,
+                           options=SimOptions.ideal())  # fmt: skip
+    path = write_drive(tmp_path, "T-1", drive.frame, drive.scenarios, drive.truth)
+    sec = segment_seconds(dict(read_iovnbd(path).columns), "T-1")
+    r = drive.truth["radius_static_m"]
+    yaw = wheel_yaw_rad(
+        sec.angle_rl_rad, sec.angle_rr_rad, r["rl"], r["rr"], car.params.track_rear_m
+    )
+    odometry = 0.5 * (r["rl"] * sec.angle_rl_rad + r["rr"] * sec.angle_rr_rad)
+    return sec, yaw, odometry
+
+
+def _outage_error(sec, yaw, odometry, start=200, length=180) -> tuple[float, float]:
+    """Fit on the seconds before ``start``, dead-reckon ``length`` s; (error, distance) in m."""
+    course = course_rad(sec.lat_deg, sec.lon_deg, min_step_m=2.0)
+    fit = fit_heading(course[:start], yaw[:start], odometry[:start])
+    rows = slice(start, start + length)
+    east, north = dead_reckon(fit.azimuth_end_rad, odometry[rows], yaw[rows], fit.scale,
+                              fit.bias_rad_per_m)  # fmt: skip
+    truth_e, truth_n = offsets_m(
+        sec.lat_deg[start - 1],
+        sec.lon_deg[start - 1],
+        sec.lat_deg[start + length - 1],
+        sec.lon_deg[start + length - 1],
+    )
+    return float(np.hypot(east[-1] - truth_e, north[-1] - truth_n)), float(odometry[rows].sum())
+
+
+@pytest.mark.slow
+def test_ideal_sensors_dead_reckon_three_minutes_of_turning_to_centimetres(tmp_path):
+    sec, yaw, odometry = _ideal_drive(steady_turn_route(60.0, 10.0, 420.0), 3, tmp_path)
+    error, travelled = _outage_error(sec, yaw, odometry)
+    assert travelled > 1700  # 180 s at 10 m/s, five times round
+    assert error < 0.02, f"{error:.4f} m after {travelled:.0f} m"
+
+
+@pytest.mark.slow
+def test_ideal_sensors_dead_reckon_three_minutes_of_town_within_a_fraction_of_a_percent(tmp_path):
+    # Stops, roundabouts and sharp turns: a second's chord follows its distance-weighted
+    # heading while speed changes through a turn, which per-second data cannot resolve.
+    spec = SimDrive(name="T-1", role="source_train", vehicle="source", tyre="A", duration_s=420.0,
+                    roads={"urban": 1.0}, events={"roundabout": 2, "sharp_turn": 2})  # fmt: skip
+    sec, yaw, odometry = _ideal_drive(spec, 3, tmp_path)
+    error, travelled = _outage_error(sec, yaw, odometry)
+    assert travelled > 500
+    assert error < 0.005 * travelled, f"{error:.2f} m after {travelled:.0f} m"
