@@ -84,6 +84,42 @@ def read_columnmap(
     check_column_map(name, column_map)
     file = display or str(path)
     header = read_header(path, file)
+    positions = columnmap_positions(header, column_map, name, file)
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
+    columns = {}
+    shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
+    for key, spec in column_map.items():
+        canonical, factors = KEYS[key]
+        pos, factor = positions[key], factors[spec.unit]
+        if pos in shared or not values[pos].flags.writeable:  # two keys read one column
+            columns[canonical] = values[pos] * factor
+        else:  # in place: the reader's arrays are ours, and a copy would hold a column twice
+            columns[canonical] = np.multiply(values[pos], factor, out=values[pos])
+    return RawDrive(
+        columns=columns,
+        source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items()},
+        header_match="column_map",
+    )
+
+
+def columnmap_positions(
+    header: list[str], column_map: Mapping[str, ColumnSpec], name: str, file: str
+) -> dict[str, int]:
+    """Locate a column map's columns in a header (matched stripped, case-insensitive).
+
+    Args:
+        header: the file's header cells.
+        column_map: canonical key -> column and unit (checked).
+        name: the map's name, for messages.
+        file: how the file is named in error reports.
+
+    Returns:
+        Column-map key -> 0-based file position; key ``k``'s canonical name and unit
+        factor are ``KEYS[k][0]`` and ``KEYS[k][1][column_map[k].unit]``.
+
+    Raises:
+        InputError: a mapped column is missing from the header.
+    """
     position = {h.strip().lower(): i for i, h in enumerate(header)}
     problems = [
         Problem(
@@ -100,19 +136,4 @@ def read_columnmap(
     ]
     if problems:
         raise InputError(problems, summary=f"missing column(s) in {file}")
-    positions = {key: position[spec.column.strip().lower()] for key, spec in column_map.items()}
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
-    columns = {}
-    shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
-    for key, spec in column_map.items():
-        canonical, factors = KEYS[key]
-        pos, factor = positions[key], factors[spec.unit]
-        if pos in shared or not values[pos].flags.writeable:  # two keys read one column
-            columns[canonical] = values[pos] * factor
-        else:  # in place: the reader's arrays are ours, and a copy would hold a column twice
-            columns[canonical] = np.multiply(values[pos], factor, out=values[pos])
-    return RawDrive(
-        columns=columns,
-        source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items()},
-        header_match="column_map",
-    )
+    return {key: position[spec.column.strip().lower()] for key, spec in column_map.items()}

@@ -119,6 +119,22 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
                 )
             ]
         ) from None
+    return parse_header(line, file)
+
+
+def parse_header(line: bytes, file: str) -> list[str]:
+    """Return the cells of a CSV file's first line (see :func:`read_header`).
+
+    Args:
+        line: the first line as read, at most ``HEADER_MAX_BYTES + 1`` bytes.
+        file: how the file is named in error reports.
+
+    Returns:
+        The header cells.
+
+    Raises:
+        InputError: as :func:`read_header`.
+    """
     for signature, what in _SIGNATURES:
         if line.startswith(signature):
             raise _not_text(file, what)

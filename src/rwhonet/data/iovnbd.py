@@ -138,6 +138,39 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
     """
     file = display or str(path)
     header = read_header(path, file)
+    positions, match = iovnbd_columns(header, file)
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
+    for name, pos in positions.items():
+        # In place: the reader's arrays are ours, and a copy would hold a column twice.
+        # A factor of 1 needs nothing (x * 1.0 == x, NaN and inf included).
+        if TO_SI[name] != 1.0:
+            if not values[pos].flags.writeable:
+                values[pos] = values[pos].copy()
+            np.multiply(values[pos], TO_SI[name], out=values[pos])
+    return RawDrive(
+        columns={name: values[pos] for name, pos in positions.items()},
+        source_columns={name: header[pos] for name, pos in positions.items()},
+        header_match=match,
+    )
+
+
+TO_SI: dict[str, float] = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
+
+
+def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], str]:
+    """Locate the IO-VNBD channels of a header, or report why not (as :func:`read_iovnbd`).
+
+    Args:
+        header: the file's header cells.
+        file: how the file is named in error reports.
+
+    Returns:
+        (canonical name -> 0-based file position, ``"name"`` or ``"position"``); each
+        channel's factor to SI units is :data:`TO_SI`.
+
+    Raises:
+        InputError: the columns cannot be located, or the first line is a data row.
+    """
     try:
         positions, match = locate_columns(header)
     except LayoutError as err:
@@ -188,20 +221,7 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
                 )
             ]
         )
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
-    to_si = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
-    for name, pos in positions.items():
-        # In place: the reader's arrays are ours, and a copy would hold a column twice.
-        # A factor of 1 needs nothing (x * 1.0 == x, NaN and inf included).
-        if to_si[name] != 1.0:
-            if not values[pos].flags.writeable:
-                values[pos] = values[pos].copy()
-            np.multiply(values[pos], to_si[name], out=values[pos])
-    return RawDrive(
-        columns={name: values[pos] for name, pos in positions.items()},
-        source_columns={name: header[pos] for name, pos in positions.items()},
-        header_match=match,
-    )
+    return positions, match
 
 
 def _is_number(cell: str) -> bool:

@@ -47,7 +47,7 @@ from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import SampleSet, load_role
-from rwhonet.tracking.store import RunRecord
+from rwhonet.tracking.records import RunRecord
 
 SELECTION = "selection"
 MAX_WORKERS = 4

@@ -163,10 +163,25 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
     except KeyError:  # a segment without the optional scenario column
         file = pq.ParquetFile(path)
     present = set(file.schema_arrow.names)
-    table = file.read(columns=[col for col in (*c.REQUIRED, c.SCENARIO) if col in present])
+    return segment_arrays(
+        file.read(columns=[col for col in (*c.REQUIRED, c.SCENARIO) if col in present])
+    )
+
+
+def segment_arrays(table: pa.Table) -> dict[str, np.ndarray | pa.ChunkedArray]:
+    """The columns of a segment (an Arrow table) the per-second computation takes.
+
+    Args:
+        table: a segment in canonical columns (validate's output, or a slice of a drive).
+
+    Returns:
+        ``t_s, lat_deg, lon_deg, omega_*`` as float64 numpy arrays and ``scenario`` as
+        it is (Arrow), for :func:`rwhonet.features.seconds.segment_seconds`.
+    """
     return {
-        name: column if name == c.SCENARIO else np.asarray(column, dtype=np.float64)
-        for name, column in zip(table.column_names, table.columns, strict=True)
+        name: table[name] if name == c.SCENARIO else np.asarray(table[name], dtype=np.float64)
+        for name in table.column_names
+        if name in (*c.REQUIRED, c.SCENARIO)
     }
 
 

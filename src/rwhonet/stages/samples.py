@@ -76,19 +76,37 @@ def load_role(
     manifest = read_json(Path(samples_dir) / k.MANIFEST)
     entries = [e for e in manifest["segments"] if e["role"] in roles]
     entries.sort(key=lambda e: (roles.index(e["role"]), e["drive"], e["segment"]))
+    segments = [
+        (entry, pd.read_parquet(Path(samples_dir) / f"{entry['segment']}.parquet"))
+        for entry in entries
+    ]
+    if sum(len(f) for _, f in segments) == 0 and required:
+        raise InputError(
+            [Problem(str(samples_dir), None, None, f"labelled samples for {roles}", "none")]
+        )
+    return stack_segments(segments, seq_len)
+
+
+def stack_segments(segments: list[tuple[dict, pd.DataFrame]], seq_len: int) -> SampleSet:
+    """Stack labelled segments, in the order given, into model inputs.
+
+    Args:
+        segments: ``(entry, samples)`` per segment: ``entry`` names its ``drive``,
+            ``segment`` and ``role``; ``samples`` is the label stage's table of it.
+        seq_len: number of one-second steps per input sequence.
+
+    Returns:
+        The samples (see :func:`load_role`); empty when there are none.
+    """
     frames = []
-    for group, entry in enumerate(entries):
-        seg = pd.read_parquet(Path(samples_dir) / f"{entry['segment']}.parquet")
+    for group, (entry, seg) in enumerate(segments):
+        seg = seg.copy()
         seg.insert(0, "role", entry["role"])
         seg.insert(0, "group", group)
         seg.insert(0, "segment", entry["segment"])
         seg.insert(0, "drive", entry["drive"])
         frames.append(seg)
     if sum(len(f) for f in frames) == 0:
-        if required:
-            raise InputError(
-                [Problem(str(samples_dir), None, None, f"labelled samples for {roles}", "none")]
-            )
         frames = [pd.DataFrame(columns=["drive", "segment", "group", "role", *k.SAMPLE_COLUMNS])]
     table = pd.concat(frames, ignore_index=True)
     # Segment names sort by start time within a drive (<drive>__s<k>), so this is time order.

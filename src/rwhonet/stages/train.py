@@ -14,7 +14,7 @@ from rwhonet.config import Params
 from rwhonet.io import atomic_dir, write_json
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import load_role, split_tail
-from rwhonet.tracking.store import RunRecord
+from rwhonet.tracking.records import RunRecord
 
 WHICH = {
     "G": (contracts.SOURCE_TRAIN, "source", "G-WhONet"),

@@ -163,18 +163,9 @@ def validate(
                 zip(batch.entries, batch.tables, found_by_drive, strict=True)
             ):
                 df = batch.drive_frame(k)
-                found = _swapped_by_range(found, df, entry)
-                result = None
-                # The GNSS policy needs a drive that passed the schema; wheel speeds out of
-                # range alone don't stop it, so the unit check can tell rpm or deg/s apart.
-                if not found or _only_wheel_ranges(found, df, entry["columns"]):
-                    drive_cuts = cuts.get(entry["drive"], [])
-                    result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts)
-                    wheels = _wheel_problems(params, entry, df, drive_cuts, result)
-                    more, radius = _drive_problems(
-                        params, entry, df, result, check_units=not wheels
-                    )
-                    found += wheels + more
+                found, result, radius = check_drive(
+                    params, entry, df, found, cuts.get(entry["drive"], [])
+                )
                 if found:
                     problems += found
                     drive_reports.append(_refused_report(entry, result, found))
@@ -238,6 +229,43 @@ def validate(
     if failed_report_path is not None:
         Path(failed_report_path).unlink(missing_ok=True)  # that failure is over
     return report
+
+
+def check_drive(
+    params: Params,
+    entry: dict[str, Any],
+    df: pd.DataFrame,
+    schema_found: list[Problem],
+    drive_cuts: list[CutSpec],
+) -> tuple[list[Problem], Assessment | None, dict[str, Any] | None]:
+    """Everything validate checks on one drive after its schema, and its GNSS-valid segments.
+
+    The GNSS-quality policy runs on a drive that passed the schema (wheel speeds out of
+    range alone don't stop it, so the unit check can tell rpm or deg/s apart), then the
+    wheel-sensor and plausibility checks. ``rwhonet recalibrate`` checks a new car's
+    drive with this too.
+
+    Args:
+        params: the project parameters (``validate``, the vehicle's nominal radius).
+        entry: the drive as the ingest manifest lists it (``drive``, ``role``, ``vehicle``,
+            ``source_file``, ``columns``).
+        df: the canonical drive.
+        schema_found: its schema problems (:func:`rwhonet.data.schema.schema_problems`).
+        drive_cuts: its manual cuts (``validate.cuts``).
+
+    Returns:
+        ``(problems, assessment, radius check)``; the assessment and radius check are
+        None when the schema problems stopped the drive before the GNSS policy.
+    """
+    vp = params.validate
+    found = _swapped_by_range(schema_found, df, entry)
+    result = radius = None
+    if not found or _only_wheel_ranges(found, df, entry["columns"]):
+        result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts)
+        wheels = _wheel_problems(params, entry, df, drive_cuts, result)
+        more, radius = _drive_problems(params, entry, df, result, check_units=not wheels)
+        found = found + wheels + more
+    return found, result, radius
 
 
 # Drives stacked for one pandera call hold at most this many rows. pandera has a fixed cost

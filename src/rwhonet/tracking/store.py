@@ -4,7 +4,9 @@ Stages write plain JSON run records next to their outputs; the evaluate stage
 logs them all here, in one process, under one parent run per pipeline
 execution. That keeps ``import mlflow`` (~2.5 s) and the SQLite set-up out of
 the thirteen model stages, and gives every run its CRSE/CTE on the same
-evaluation windows, so the UI's compare view lines G, S, R and WPM up.
+evaluation windows, so the UI's compare view lines G, S, R and WPM up. The
+execution's G, S and chosen R are then registered in the Model Registry
+(:mod:`rwhonet.tracking.registry`).
 
 Where the store is and how it is opened under concurrency: :mod:`rwhonet.tracking.client`.
 """
@@ -14,7 +16,6 @@ from __future__ import annotations
 import os
 import time
 import uuid
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -28,40 +29,7 @@ from rwhonet.tracking.client import (  # noqa: F401 - re-exported: callers find 
     resolve_tracking_uri,
     retrying,
 )
-
-
-@dataclass
-class RunRecord:
-    """Everything one run logs, as plain data (written to JSON by the stages).
-
-    Attributes:
-        name: run name shown in the UI (``G``, ``R m=50 V-Charlie3``...).
-        tags: model (G/S/R/WPM), m, seed, drive, vehicle, stage...
-        params: flat parameters (resolved config).
-        history: per-epoch rows ``{"epoch": e, "train/loss": .., "val/loss": ..}``.
-        metrics: final metrics (``crse/30s/mean``...).
-        artifacts: files to attach.
-        children: nested runs (e.g. one per test drive under an R run).
-    """
-
-    name: str
-    tags: dict[str, str] = field(default_factory=dict)
-    params: dict[str, Any] = field(default_factory=dict)
-    history: list[dict[str, float]] = field(default_factory=list)
-    metrics: dict[str, float] = field(default_factory=dict)
-    artifacts: list[str] = field(default_factory=list)
-    children: list[RunRecord] = field(default_factory=list)
-
-    def to_dict(self) -> dict[str, Any]:
-        d = dict(self.__dict__)
-        d["children"] = [c.to_dict() for c in self.children]
-        return d
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> RunRecord:
-        d = dict(d)
-        d["children"] = [cls.from_dict(c) for c in d.get("children", [])]
-        return cls(**d)
+from rwhonet.tracking.records import RunRecord
 
 
 def ensure_experiment(uri: str, experiment: str) -> str:
@@ -136,6 +104,17 @@ def log_execution(
                 client.log_artifact(rid, str(f))
 
     parent_id = log(RunRecord(**{**execution.__dict__, "children": []}), None)
-    for record in [*execution.children, *records]:
-        log(record, parent_id)
+    logged = [(record, log(record, parent_id)) for record in [*execution.children, *records]]
+    _register(client, logged, {**common, "parent_run_id": parent_id})
     return parent_id
+
+
+def _register(client: Any, logged: list[tuple[RunRecord, str]], tags: dict[str, str]) -> None:
+    """Register the execution's G, S and chosen R in the Model Registry, and say which."""
+    from rwhonet.tracking.registry import register_execution
+
+    done = register_execution(client, logged, common_tags=tags)
+    if done:
+        listed = ", ".join(f"{d['name']} v{d['version']}" for d in done)
+        retrying(lambda: client.set_tag(tags["parent_run_id"], "registered_models", listed))
+        print(f"MLflow Model Registry: {listed}")

@@ -1,0 +1,86 @@
+"""``rwhonet export``: a model (registered, a folder, or a pipeline ``model.pt``) -> one ``.onnx`` file.
+
+The file carries the input scaler and the WPM's radii in its ``metadata_props``
+(:mod:`rwhonet.serve.model`), so ``rwhonet predict --model file.onnx`` needs
+nothing else. The export is checked against PyTorch on windows spread over the
+scaler's range before the command reports success.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rwhonet import paths
+from rwhonet.errors import InputError, Problem
+
+PARITY_TOL = 1e-5  # metres: |ONNX - PyTorch| on the check windows
+N_CHECK = 1000
+
+
+def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) -> tuple:
+    """``(model.pt, metadata)`` of a registry URI, a model folder, or a pipeline ``model.pt``.
+
+    A bare ``model.pt`` takes its scaler and source radii from the project's
+    ``data/processed/scaler.json`` and ``calibration.json`` (the label stage's).
+    """
+    from rwhonet.serve.bundle import bundle_parts, make_meta
+
+    if spec.startswith(("models:/", "runs:/")):
+        from rwhonet.tracking.registry import resolve_model
+
+        if tracking_uri is None:
+            raise InputError([Problem("--model", None, None, "a project (params.yaml) whose "
+                                      "MLflow store holds the model", "none found")])  # fmt: skip
+        return bundle_parts(resolve_model(spec, tracking_uri, dest))
+    path = Path(spec)
+    if path.is_file() and path.suffix == ".pt":
+        from rwhonet.io import read_json
+
+        missing = [p for p in (paths.SCALER, paths.CALIBRATION) if not p.is_file()]
+        if missing:
+            raise InputError(
+                [Problem(paths.rel(p), None, None, "the label stage's output (the model's "
+                         "scaler and source radii)", "no such file",
+                         "run the pipeline (make run) in this project first, or export a "
+                         "registered model (models:/whonet-G/latest)") for p in missing],
+            )  # fmt: skip
+        meta = make_meta(
+            {}, read_json(paths.SCALER), read_json(paths.CALIBRATION), wpm_mode, None,
+            {"name": path.stem, "model_file": paths.rel(path)},
+        )  # fmt: skip
+        return path, meta
+    return bundle_parts(path)
+
+
+def run(spec: str, output: str | None, tracking_uri: str | None, wpm_mode: str) -> dict[str, Any]:
+    """Export and check; return the file, its size and the parity error."""
+    from rwhonet.models.checkpoint import load_whonet
+    from rwhonet.models.loop import predict
+    from rwhonet.serve.bundle import export_model
+    from rwhonet.serve.model import load_served
+
+    with tempfile.TemporaryDirectory(prefix="rwhonet-export-") as tmp:
+        model_pt, meta = model_parts(spec, tracking_uri, Path(tmp), wpm_mode)
+        default = meta.info.get("name") or Path(model_pt).stem
+        if meta.info.get("version"):
+            default += f"-v{meta.info['version']}"
+        out = Path(output or f"{default}.onnx")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        export_model(Path(model_pt), meta, out)
+        net, hparams = load_whonet(model_pt)
+    served = load_served(out)
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-0.1, 1.1, (N_CHECK, served.meta.seq_len, served.meta.n_features))
+    x = x.astype(np.float32)
+    diff = float(np.max(np.abs(served.predict(x) - predict(net, x, seq_len=hparams["seq_len"]))))
+    if not diff <= PARITY_TOL:
+        raise InputError(
+            [Problem(str(out), None, None, f"ONNX output within {PARITY_TOL} m of PyTorch's",
+                     f"max |difference| {diff:.3g} m over {N_CHECK} windows")],
+            "the export does not reproduce the model",
+        )  # fmt: skip
+    return {"file": out, "bytes": out.stat().st_size, "diff": diff, "meta": served.meta}

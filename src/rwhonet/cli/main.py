@@ -1,0 +1,219 @@
+"""``rwhonet``: the project's command line (``rwhonet <command> --help`` for each).
+
+Commands: ``recalibrate`` (G recalibrated on a new car's drive, registered as a
+new version of ``whonet-R-<vehicle>``), ``predict`` (a drive streamed through a
+model, second by second), ``export`` (a model as one ``.onnx`` file), ``gate``
+(the CI regression gate, also installed as ``rwhonet-gate``).
+
+Bad input ends a command with the project's report (file, row, column,
+expected, found, what to do) on stderr and exit status 2; a bug with its
+traceback and status 1. Each command imports only what it needs: ``predict``
+never imports torch or Lightning.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from rwhonet.config import ConfigError
+from rwhonet.errors import InputError
+
+EXIT_INPUT = 2
+PROG = "rwhonet"
+
+
+def _project(required: bool) -> tuple[Any, str | None]:
+    """The project's params and resolved tracking URI (None, None outside a project)."""
+    from rwhonet import paths
+
+    if not paths.PARAMS.is_file():
+        if required:
+            raise InputError([_no_project(paths.PARAMS)], "no project here")
+        return None, None
+    from rwhonet.config import load_params
+    from rwhonet.tracking.client import resolve_tracking_uri
+
+    params = load_params(paths.PARAMS)
+    return params, resolve_tracking_uri(params.tracking.tracking_uri)
+
+
+def _no_project(path: Path) -> Any:
+    from rwhonet.errors import Problem
+
+    return Problem(
+        str(path), None, None, "a project folder (params.yaml, dvc.yaml)", "none here",
+        "run the command inside the project (or set RWHONET_ROOT to it)",
+    )  # fmt: skip
+
+
+def _recalibrate(args: argparse.Namespace) -> int:
+    from rwhonet.cli import recalibrate
+
+    params, uri = _project(required=True)
+    out = recalibrate.run(
+        params, base=args.base, drive=Path(args.drive), seconds=args.seconds,
+        recipe=args.recipe, fmt=args.format, vehicle=args.vehicle, seed=args.seed,
+        tracking_uri=uri,
+    )  # fmt: skip
+    print(recalibrate.render(out))
+    return 0
+
+
+def _predict(args: argparse.Namespace) -> int:
+    from rwhonet.cli import predict
+    from rwhonet.serve.stream import parse_outage
+
+    outages = [parse_outage(o) for o in args.outage]
+    params = uri = None
+    if args.model.startswith(("models:/", "runs:/")) or args.format != "iovnbd":
+        params, uri = _project(required=True)
+    column_map = None
+    if args.format != "iovnbd":
+        if args.format not in params.data.column_maps:
+            from rwhonet.errors import Problem
+
+            raise InputError([Problem("--format", None, None, "iovnbd or a column map of "
+                                      "params.yaml data.column_maps", repr(args.format))])  # fmt: skip
+        column_map = params.data.column_maps[args.format]
+    model = predict.open_model(args.model, uri)
+    out = predict.run(model, args.drive, args.output, outages, fmt=args.format,
+                      column_map=column_map, max_gap_s=args.max_gap)  # fmt: skip
+    if not args.quiet:
+        print(predict.render_summary(out), file=sys.stderr)
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from rwhonet.cli import export
+
+    params, uri = _project(required=args.model.startswith(("models:/", "runs:/")))
+    wpm_mode = params.label.wpm_mode if params is not None else "integrated"
+    out = export.run(args.model, args.output, uri, wpm_mode)
+    meta = out["meta"]
+    radii = f", own WPM radii {meta.wpm_radii}" if meta.wpm_radii else ""
+    print(
+        f"wrote {out['file']} ({out['bytes'] / 1024:.0f} KiB): ONNX opset 17, input x "
+        f"(batch, {meta.seq_len}, {meta.n_features}) float32, output pred_m (batch,); scaler "
+        f"and source radii {meta.source_radii} in its metadata{radii}; max |ONNX - PyTorch| "
+        f"{out['diff']:.2g} m over 1000 windows"
+    )
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser (every command, with its help)."""
+    ap = argparse.ArgumentParser(
+        prog=PROG,
+        description="recalibrate a WhONet on a new car, stream corrected odometry, export ONNX",
+    )
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    rc = sub.add_parser(
+        "recalibrate",
+        help="recalibrate G on a new car's drive and register the result",
+        description="Read and validate a drive of a new car (the pipeline's ingest, validate "
+        "and label code), recalibrate the base model on its first --seconds valid seconds by "
+        "the params' recipe, score WPM, base and recalibrated model on the rest (mean CRSE/CTE "
+        "per outage length of evaluate.outages_s), and register the result as a new version "
+        "of whonet-R-<vehicle> in the project's MLflow Model Registry.",
+    )
+    rc.add_argument("--base", default="models:/whonet-G/latest",
+                    help="the model to recalibrate: models:/<name>/<version|latest> or a model "
+                    "folder (default: %(default)s)")  # fmt: skip
+    rc.add_argument("--drive", required=True, help="the new car's drive (CSV, 10 Hz)")
+    rc.add_argument("--seconds", type=int, default=None,
+                    help="m: recalibrate on the first m valid seconds (default: adapt.chosen_m, "
+                    "or adapt.fallback.m when params choose auto)")  # fmt: skip
+    rc.add_argument("--recipe", default=None,
+                    help="paper, head, ridge_head, radius+G or steps (default: adapt.recipe, or "
+                    "adapt.fallback.recipe when auto)")  # fmt: skip
+    rc.add_argument("--format", default="iovnbd",
+                    help="iovnbd or the name of a column map in params.yaml data.column_maps "
+                    "(default: %(default)s)")  # fmt: skip
+    rc.add_argument("--vehicle", default="target",
+                    help="the car: names the registered model whonet-R-<vehicle>; its nominal "
+                    "tyre radius comes from data.vehicles (default: %(default)s)")  # fmt: skip
+    rc.add_argument("--seed", type=int, default=None,
+                    help="seed of the recalibration (default: the first of params' seeds)")
+    rc.set_defaults(func=_recalibrate)
+
+    pr = sub.add_parser(
+        "predict",
+        help="stream a drive through a model, second by second",
+        description="Stream a drive (10 Hz CSV) through a model: per whole second the WPM "
+        "displacement, the predicted error and the corrected displacement; during each "
+        "--outage also the cumulative distances of WPM, corrected and GNSS and their errors. "
+        "Runs the model's ONNX graph with ONNX Runtime (no torch). A summary per outage goes "
+        "to stderr.",
+    )
+    pr.add_argument("--model", required=True,
+                    help="models:/<name>/<version|latest>, an exported .onnx file, or a model "
+                    "folder")  # fmt: skip
+    pr.add_argument("--drive", required=True, help="the drive (CSV), or - to read stdin")
+    pr.add_argument("--outage", action="append", default=[], metavar="START:END",
+                    help="an outage to report on, in seconds since the drive's first row "
+                    "(repeatable)")  # fmt: skip
+    pr.add_argument("--output", default="-",
+                    help="out.csv, out.parquet, or - for CSV on stdout (default: %(default)s)")
+    pr.add_argument("--format", default="iovnbd",
+                    help="iovnbd or a column map of params.yaml (default: %(default)s)")
+    pr.add_argument("--max-gap", type=float, default=0.5,
+                    help="a time step longer than this (s) starts a new run of seconds "
+                    "(default: %(default)s, validate.gnss.max_gap_s)")  # fmt: skip
+    pr.add_argument("--quiet", action="store_true", help="no summary on stderr")
+    pr.set_defaults(func=_predict)
+
+    ex = sub.add_parser(
+        "export",
+        help="export a model as one ONNX file",
+        description="Export a model to ONNX (torch.onnx), with its input scaler and WPM radii "
+        "in the file's metadata, and check it against PyTorch to 1e-5 m.",
+    )
+    ex.add_argument("--model", required=True,
+                    help="models:/<name>/<version|latest>, a model folder, or a pipeline "
+                    "model.pt (its scaler and radii from data/processed/)")  # fmt: skip
+    ex.add_argument("--format", choices=["onnx"], default="onnx", help="only onnx")
+    ex.add_argument("--output", default=None,
+                    help="the .onnx file (default: <model name>.onnx here)")
+    ex.set_defaults(func=_export)
+
+    sub.add_parser("gate", help="the CI regression gate on mean CRSE/CTE (rwhonet gate --help)",
+                   add_help=False)  # fmt: skip
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run a command; return its exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["gate"]:
+        from rwhonet.report import gate
+
+        return gate.main(argv[1:])
+    args = parser().parse_args(argv)
+    from rwhonet.stage import quiet
+
+    quiet()
+    try:
+        return args.func(args)
+    except (InputError, ConfigError) as err:
+        print(f"{PROG} {args.command}: error:\n{err}", file=sys.stderr)
+        return EXIT_INPUT
+    except BrokenPipeError:  # `rwhonet predict ... | head`: the reader has what it wanted
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except KeyboardInterrupt:
+        return 130
+
+
+def entry() -> None:
+    """The console script."""
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry()

@@ -1,0 +1,161 @@
+"""``rwhonet predict``: a drive streamed through a served model, one corrected second at a time.
+
+Reads the drive (a file, or ``-`` for stdin) block by block as it arrives
+(:func:`rwhonet.data.stream.read_rows`), cuts whole seconds and corrects them
+(:class:`rwhonet.serve.stream.SecondStream`), and writes each block of seconds
+as soon as it is complete: CSV (``-`` for stdout, flushed after every block,
+so the command can sit in a pipe) or Parquet (one row group per block). Runs
+the model's ONNX graph in ONNX Runtime: neither torch nor Lightning is imported;
+MLflow only to fetch a registered model.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from contextlib import ExitStack
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from rwhonet.errors import InputError, Problem
+from rwhonet.serve.stream import COLUMNS, Outage, SecondStream
+
+STDIO = "-"
+DECIMALS = {"t_s": 3, "elapsed_s": 3}  # times to the millisecond, metres to 0.1 mm
+
+
+class CsvSink:
+    """CSV rows as they come; empty cells for missing values; flushed after every block."""
+
+    def __init__(self, out: IO[str]) -> None:
+        self.out = out
+        out.write(",".join(COLUMNS) + "\n")
+        out.flush()
+
+    def write(self, block: dict[str, np.ndarray]) -> None:
+        n = len(block["t_s"])
+        if not n:
+            return
+        cells = [
+            block[name].tolist() if name == "outage"
+            else _format(block[name], DECIMALS.get(name, 4))
+            for name in COLUMNS
+        ]  # fmt: skip
+        self.out.write("".join(",".join(row) + "\n" for row in zip(*cells, strict=True)))
+        self.out.flush()
+
+    def close(self) -> None:
+        self.out.flush()
+
+
+def _format(values: np.ndarray, decimals: int) -> list[str]:
+    text = np.char.mod(f"%.{decimals}f", values).tolist()
+    if np.isnan(values).any():
+        for i in np.flatnonzero(np.isnan(values)):
+            text[i] = ""
+    return text
+
+
+class ParquetSink:
+    """One Parquet row group per block (``pyarrow.parquet.ParquetWriter``)."""
+
+    def __init__(self, path: Path) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        self.pa = pa
+        self.schema = pa.schema(
+            [(name, pa.string() if name == "outage" else pa.float64()) for name in COLUMNS]
+        )
+        self.writer = pq.ParquetWriter(str(path), self.schema)
+
+    def write(self, block: dict[str, np.ndarray]) -> None:
+        if len(block["t_s"]):
+            arrays = [self.pa.array(block[name].tolist() if name == "outage" else block[name],
+                                    type=field.type)
+                      for name, field in zip(COLUMNS, self.schema, strict=True)]  # fmt: skip
+            self.writer.write_table(self.pa.Table.from_arrays(arrays, schema=self.schema))
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+def open_model(spec: str, tracking_uri: str | None) -> Any:
+    """A served model from a path (``.onnx``, bundle or MLflow model folder) or a registry URI."""
+    from rwhonet.serve.model import load_served
+
+    if spec.startswith(("models:/", "runs:/")):
+        from rwhonet.tracking.registry import resolve_model
+
+        if tracking_uri is None:
+            raise InputError([Problem("--model", None, None, "a project (params.yaml) whose "
+                                      "MLflow store holds the model", "none found")])  # fmt: skip
+        return load_served(resolve_model(spec, tracking_uri))
+    return load_served(Path(spec))
+
+
+def run(
+    model: Any,
+    drive: str,
+    output: str,
+    outages: list[Outage],
+    *,
+    fmt: str = "iovnbd",
+    column_map: Any = None,
+    max_gap_s: float = 0.5,
+    stdin: IO[bytes] | None = None,
+    stdout: IO[str] | None = None,
+) -> dict[str, Any]:
+    """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary."""
+    from rwhonet.data.stream import read_rows
+
+    with ExitStack() as stack:
+        if drive == STDIO:
+            source, name = stdin or sys.stdin.buffer, "<stdin>"
+        else:
+            path = Path(drive)
+            if not path.is_file():
+                raise InputError([Problem(drive, None, None, "a drive file (IO-VNBD CSV), or - "
+                                          "for stdin", "no such file")])  # fmt: skip
+            source, name = stack.enter_context(open(path, "rb")), drive
+        if output == STDIO:
+            sink: Any = CsvSink(stdout or sys.stdout)
+        elif output.endswith(".parquet"):
+            sink = ParquetSink(Path(output))
+        else:
+            sink = CsvSink(stack.enter_context(open(output, "w", encoding="utf-8", newline="")))
+        seconds = rows = 0
+        try:
+            lay, blocks = read_rows(source, name, fmt, column_map)
+            stream = SecondStream(model, outages, file=name, names=lay.names, max_gap_s=max_gap_s)
+            for first, columns in blocks:
+                block = stream.push(first, columns)
+                sink.write(block)
+                seconds += len(block["t_s"])
+                rows = first + len(columns["t_s"]) - 1
+        finally:
+            sink.close()
+    return {"rows": rows, "seconds": seconds, "outages": stream.summary(), "file": name}
+
+
+def render_summary(out: dict[str, Any]) -> str:
+    """The outage summary printed on stderr."""
+    lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
+    for o in out["outages"]:
+        if not o["seconds"]:
+            lines.append(f"outage {o['outage']} s: no second of the drive falls in it")
+            continue
+        if math.isnan(o["dist_gnss_m"]):
+            lines.append(
+                f"outage {o['outage']} s ({o['seconds']} s): WPM {o['dist_wpm_m']:.1f} m, "
+                f"corrected {o['dist_corrected_m']:.1f} m (no GNSS to compare)"
+            )
+            continue  # fmt: skip
+        lines.append(
+            f"outage {o['outage']} s ({o['seconds']} s, GNSS {o['dist_gnss_m']:.1f} m): "
+            f"WPM CRSE {o['crse_wpm_m']:.2f} m, CTE {o['cte_wpm_m']:.2f} m; corrected CRSE "
+            f"{o['crse_corrected_m']:.2f} m, CTE {o['cte_corrected_m']:.2f} m"
+        )
+    return "\n".join(lines)

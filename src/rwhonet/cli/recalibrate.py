@@ -1,0 +1,267 @@
+"""``rwhonet recalibrate``: G recalibrated on a new car's first m seconds, scored and registered.
+
+The drive goes through the pipeline's own data code (:mod:`rwhonet.cli.drive`).
+Its first ``m`` valid seconds recalibrate the base model by one of the adapt
+stage's recipes (:func:`rwhonet.models.adapt.recalibrate`, with ``adapt:`` from
+params.yaml); the rest of the drive is cut into the evaluation's outage windows
+(``evaluate.outages_s``, :func:`rwhonet.metrics.outage.window_metrics`) and
+scored for the WPM, the base model and the recalibrated one. The result is a
+model bundle registered as a new version of ``whonet-R-<vehicle>``, with the
+base model, m, recipe, seed and the drive's SHA-256 as version tags.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rwhonet import contracts
+from rwhonet.config import AUTO, Params, flatten
+from rwhonet.errors import InputError, Problem
+
+ONE_SHOT_RECIPES = ("paper", "head", "ridge_head", "radius+G", "steps")
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The recipe and m of a recalibration, and where they came from."""
+
+    recipe: str
+    m: int
+    why: str
+
+
+def choose(params: Params, recipe: str | None, seconds: int | None) -> Choice:
+    """``--recipe`` and ``--seconds``, else params' ``adapt.recipe`` and ``adapt.chosen_m``.
+
+    With ``auto`` in params (the pipeline's selection rule picks on a fleet's
+    training drives, which a single drive does not have), ``adapt.fallback``.
+
+    Raises:
+        InputError: a recipe that is not a one-shot recalibration, or m < 1.
+    """
+    adapt = params.adapt
+    auto = adapt.recipe == AUTO
+    why = "--recipe" if recipe else ("adapt.fallback (adapt.recipe: auto)" if auto
+                                      else "adapt.recipe")  # fmt: skip
+    recipe = recipe or (adapt.fallback.recipe if auto else adapt.recipe)
+    m = seconds or (adapt.fallback.m if auto else int(adapt.chosen_m))
+    if recipe not in ONE_SHOT_RECIPES:
+        fix = ("`continuous` recalibrates before every outage, so it is no single model to "
+               "register; " if recipe == contracts.CONTINUOUS else "")  # fmt: skip
+        raise InputError(
+            [Problem("--recipe", None, None, f"one of {', '.join(ONE_SHOT_RECIPES)}",
+                     repr(recipe), fix + "choose a recipe with --recipe")],
+            "unknown recalibration recipe",
+        )  # fmt: skip
+    if m < 1:
+        raise InputError([Problem("--seconds", None, None, "a whole number of seconds >= 1",
+                                  str(m))])  # fmt: skip
+    return Choice(recipe, int(m), why)
+
+
+def run(
+    params: Params,
+    *,
+    base: str,
+    drive: Path,
+    seconds: int | None,
+    recipe: str | None,
+    fmt: str,
+    vehicle: str,
+    seed: int | None,
+    tracking_uri: str,
+) -> dict[str, Any]:
+    """Recalibrate, score and register; return what was done (for the printout).
+
+    Raises:
+        InputError: a base model that cannot be found, a drive the pipeline refuses, or
+            too few valid seconds to recalibrate on and score.
+    """
+    from rwhonet.cli.drive import calibration_of, load_drive
+    from rwhonet.features.scaling import scaler_from_dict
+    from rwhonet.models.adapt import label_prediction, recalibrate
+    from rwhonet.models.checkpoint import load_whonet, save_whonet
+    from rwhonet.models.loop import predict
+    from rwhonet.serve.bundle import bundle_parts, make_meta, write_bundle
+    from rwhonet.stages.adapt import adapt_data
+    from rwhonet.tracking.registry import (
+        model_version,
+        registered_name,
+        resolve_model,
+        sha256_file,
+    )
+
+    start = time.perf_counter()
+    choice = choose(params, recipe, seconds)
+    seed = params.seeds[0] if seed is None else seed
+    with tempfile.TemporaryDirectory(prefix="rwhonet-recalibrate-") as tmp:
+        base_pt, base_meta = bundle_parts(resolve_model(base, tracking_uri, Path(tmp) / "base"))
+        base_version = model_version(base, tracking_uri)
+        net, hparams = load_whonet(base_pt)
+        data = load_drive(
+            drive, params, vehicle=vehicle, fmt=fmt,
+            calibration=calibration_of(base_meta.source_radii, base),
+            scaler=scaler_from_dict(base_meta.scaler, base), wpm_mode=base_meta.wpm_mode,
+            seq_len=int(hparams["seq_len"]),
+        )  # fmt: skip
+        shortest = min(params.evaluate.outages_s)
+        n = len(data.samples)
+        if n < choice.m + shortest:
+            raise InputError(
+                [Problem(data.file, None, None,
+                         f"at least {choice.m + shortest} GNSS-valid seconds: m = {choice.m} s "
+                         f"to recalibrate on ({choice.why}), then {shortest} s (the shortest of "
+                         "evaluate.outages_s) to score",
+                         f"{n} labelled s; {data.kept_summary()}",
+                         "record a longer drive of the car, or recalibrate on fewer seconds "
+                         "(--seconds)")],
+                "not enough valid seconds to recalibrate and score",
+            )  # fmt: skip
+        k = data.samples.frame["k"].to_numpy()
+        first, rest = k < choice.m, k >= choice.m
+        fit_start = time.perf_counter()
+        result = recalibrate(
+            choice.recipe, net, hparams, adapt_data(data.samples, first), adapt=params.adapt,
+            seed=seed, min_speed_m_s=params.label.calibration_min_speed_m_s,
+        )  # fmt: skip
+        fit_s = time.perf_counter() - fit_start
+        scored = data.samples.take(rest)
+        label = scored.frame[contracts.LABEL_M].to_numpy(np.float64)
+        errors = {
+            "WPM": label,
+            "base": label - predict(net, scored.x, seq_len=hparams["seq_len"]).astype(np.float64),
+            "R": label - label_prediction(result, adapt_data(scored, np.ones(len(scored), bool)),
+                                          base_meta.source_radii),
+        }  # fmt: skip
+        scores = score(errors, scored, params.evaluate.outages_s)
+
+        name = registered_name("R", vehicle)
+        digest = sha256_file(Path(drive))
+        base_label = (f"{base_version.name} v{base_version.version}" if base_version is not None
+                      else str(base))  # fmt: skip
+        tags = {
+            "model": "R", "vehicle": vehicle, "recipe": choice.recipe, "m": choice.m,
+            "seed": seed, "base_model": base, "base_version": base_label,
+            "drive": Path(drive).name, "drive_sha256": digest, "source": "rwhonet recalibrate",
+            "n_adapt_seconds": int(first.sum()),
+        }  # fmt: skip
+        model_pt = Path(tmp) / contracts.MODEL_FILE
+        save_whonet(result.net, result.hparams, model_pt, wpm_radii=result.radii)
+        meta = make_meta(hparams, base_meta.scaler,
+                         {"r_rl_m": base_meta.source_radii[0], "r_rr_m": base_meta.source_radii[1]},
+                         base_meta.wpm_mode, result.radii, {"name": name, **tags})  # fmt: skip
+        bundle = write_bundle(model_pt, meta, Path(tmp) / "bundle")
+        run_id, version = _log(params, tracking_uri, name, bundle, scored, tags, choice, scores,
+                               result)  # fmt: skip
+    return {
+        "name": name, "version": version, "run_id": run_id, "choice": choice,
+        "base": base_label, "file": data.file, "kept": data.kept_summary(),
+        "n_adapt": int(first.sum()), "n_scored": int(rest.sum()), "scores": scores,
+        "radii": result.radii, "fit_s": fit_s, "seconds": time.perf_counter() - start,
+        "digest": digest, "seed": seed,
+    }  # fmt: skip
+
+
+def score(errors: dict[str, np.ndarray], scored: Any, outages_s: list[int]) -> list[dict]:
+    """Mean CRSE and CTE per model and outage length over the scored seconds' windows."""
+    from rwhonet.metrics.outage import summarise, window_metrics
+
+    disp = scored.frame[contracts.DISP_GNSS_M].to_numpy(np.float64)
+    group = scored.frame["group"].to_numpy()
+    rows = []
+    for L in outages_s:
+        for model, e in errors.items():
+            s = summarise(window_metrics(e, disp, group, L, source=model))
+            rows.append({"model": model, "outage_s": L, "n_windows": s["n_windows"],
+                         "crse_m": s["crse_m_mean"], "cte_m": s["cte_m_mean"]})  # fmt: skip
+    return rows
+
+
+def _log(params, uri, name, bundle, scored, tags, choice, scores, result) -> tuple[str, str]:
+    """One MLflow run for the recalibration, its model registered as a new version."""
+    from rwhonet.tracking.client import git_commit, open_store, retrying
+    from rwhonet.tracking.registry import input_example, log_bundle
+
+    client, exp_id = open_store(uri, params.tracking.experiment)
+    run_tags = {str(k): str(v) for k, v in tags.items()}
+    run_tags["git_commit"] = git_commit()
+    run = retrying(lambda: client.create_run(
+        exp_id, run_name=f"R-WhONet {choice.recipe} m={choice.m} {tags['drive']} (recalibrate)",
+        tags=run_tags))  # fmt: skip
+    rid = run.info.run_id
+    try:
+        from mlflow.entities import Metric, Param
+
+        now = int(time.time() * 1000)
+        metrics = [
+            Metric(f"{'R' if r['model'] == 'R' else r['model']}/{q}/{r['outage_s']}s/mean",
+                   float(r[f"{q}_m"]), now, 0)
+            for r in scores for q in ("crse", "cte") if r[f"{q}_m"] is not None
+        ]  # fmt: skip
+        metrics.append(Metric("fit_seconds", result.seconds, now, 0))
+        prm = {**flatten(params.section("adapt"), "adapt."), "adapt.recipe": choice.recipe,
+               "adapt.m": choice.m}  # fmt: skip
+        retrying(
+            lambda: client.log_batch(
+                rid, metrics=metrics, params=[Param(k, str(v)[:6000]) for k, v in prm.items()][:100]
+            )
+        )
+        version = log_bundle(
+            client, rid, name, bundle, input_example(_features_frame(scored)), run_tags,
+            description=f"recalibrated by `rwhonet recalibrate` on {tags['drive']} "
+            f"(sha256 {tags['drive_sha256'][:12]}...)",
+        )  # fmt: skip
+    except BaseException:
+        retrying(lambda: client.set_terminated(rid, "FAILED"))
+        raise
+    retrying(lambda: client.set_terminated(rid))
+    return rid, version
+
+
+def _features_frame(samples: Any) -> Any:
+    """Samples as the pyfunc input: the last step's 40 features and the rear wheel angles."""
+    import pandas as pd
+
+    frame = pd.DataFrame(samples.x[:, -1, :], columns=list(contracts.FEATURE_COLUMNS))
+    for col in (contracts.ANGLE_RL_RAD, contracts.ANGLE_RR_RAD):
+        frame[col] = samples.frame[col].to_numpy(np.float64)
+    return frame
+
+
+def render(out: dict[str, Any]) -> str:
+    """What ``rwhonet recalibrate`` prints."""
+    c = out["choice"]
+    radii = (
+        ""
+        if out["radii"] is None
+        else f"; rear radii refitted to {out['radii'][0]:.5f} / {out['radii'][1]:.5f} m"
+    )
+    lines = [
+        f"{out['file']}: {out['kept']}",
+        f"recalibrated {out['base']} by `{c.recipe}` ({c.why}) on the first {out['n_adapt']} s, "
+        f"seed {out['seed']}, in {out['fit_s']:.2f} s{radii}",
+        f"registered {out['name']} version {out['version']} (run {out['run_id']})",
+        f"scored on the remaining {out['n_scored']} s (mean over outage windows, metres):",
+        f"  {'outage':>7} {'windows':>7}  {'WPM CRSE/CTE':>15}  {'base CRSE/CTE':>15}  "
+        f"{'R CRSE/CTE':>15}",
+    ]  # fmt: skip
+    by = {(r["model"], r["outage_s"]): r for r in out["scores"]}
+
+    def cell(model: str, L: int) -> str:
+        r = by[(model, L)]
+        if r["crse_m"] is None:
+            return f"{'-':>15}"
+        return f"{r['crse_m']:>7.2f}/{r['cte_m']:<7.2f}"
+
+    for L in sorted({r["outage_s"] for r in out["scores"]}):
+        n = by[("R", L)]["n_windows"]
+        lines.append(f"  {L:>6}s {n:>7}  {cell('WPM', L)}  {cell('base', L)}  {cell('R', L)}")
+    lines.append(f"done in {out['seconds']:.1f} s; use it: rwhonet predict --model "
+                 f"models:/{out['name']}/{out['version']} --drive <drive.csv>")  # fmt: skip
+    return "\n".join(lines)

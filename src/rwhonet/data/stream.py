@@ -1,0 +1,206 @@
+"""Drive rows read incrementally from a byte stream (a file or stdin), a few blocks at a time.
+
+``rwhonet predict`` reads a drive as it arrives: the header is located by the
+same code as the ingest readers (:func:`rwhonet.data.csvio.parse_header`,
+:func:`rwhonet.data.iovnbd.iovnbd_columns`, :func:`rwhonet.data.columnmap.columnmap_positions`),
+then every block of whole lines that the stream has ready is parsed into the
+canonical channels in SI units (``t_s``, ``lat_deg``, ``lon_deg``, ``omega_*``).
+Rows are numbered as the readers number them (1-based data rows, blank lines not
+counted), so a bad cell is reported with its row and the file's column name.
+Missing values (empty, ``NaN``, ``NA``, ``null``) become NaN: the caller decides
+what a missing fix or wheel speed means.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from typing import BinaryIO
+
+import numpy as np
+
+from rwhonet.data import canonical as c
+from rwhonet.errors import InputError, Problem
+
+BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s of 10 Hz rows)
+MISSING = {"", "nan", "na", "n/a", "null", "none", "-nan"}
+CHANNELS = c.REQUIRED  # what a second needs: time, fix, four wheel speeds
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where the canonical channels are in a file's rows, and their factors to SI.
+
+    Attributes:
+        n_columns: columns of the header.
+        positions: canonical name -> 0-based column position.
+        factors: canonical name -> factor from the file's unit to SI.
+        names: canonical name -> the file's column name (for messages).
+    """
+
+    n_columns: int
+    positions: dict[str, int]
+    factors: dict[str, float]
+    names: dict[str, str]
+
+
+def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -> Layout:
+    """Locate the channels of ``header`` as the ingest reader of ``fmt`` does.
+
+    Args:
+        header: the header cells.
+        fmt: ``iovnbd`` or a column map's name.
+        column_map: that column map (``data.column_maps[fmt]``), for a column-mapped file.
+        file: how the file is named in error reports.
+
+    Raises:
+        InputError: the channels cannot be located.
+    """
+    if fmt == "iovnbd":
+        from rwhonet.data.iovnbd import TO_SI, iovnbd_columns
+
+        positions, _ = iovnbd_columns(header, file)
+        factors = {name: TO_SI[name] for name in positions}
+    else:
+        from rwhonet.data.columnmap import KEYS, check_column_map, columnmap_positions
+
+        check_column_map(fmt, column_map or {})
+        by_key = columnmap_positions(header, column_map or {}, fmt, file)
+        positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
+        factors = {KEYS[key][0]: KEYS[key][1][column_map[key].unit] for key in by_key}
+    positions = {name: positions[name] for name in CHANNELS}
+    return Layout(
+        n_columns=len(header),
+        positions=positions,
+        factors={name: factors[name] for name in CHANNELS},
+        names={name: header[pos] for name, pos in positions.items()},
+    )
+
+
+def read_rows(
+    stream: BinaryIO,
+    file: str,
+    fmt: str = "iovnbd",
+    column_map: Mapping | None = None,
+    block_bytes: int = BLOCK_BYTES,
+) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
+    """Read the header now; return the layout and the drive's row blocks as they arrive.
+
+    Args:
+        stream: the drive, opened in binary mode (``sys.stdin.buffer`` for a pipe).
+        file: how the drive is named in error reports (``<stdin>``).
+        fmt: ``iovnbd`` or a column map's name.
+        column_map: the column map of ``fmt``.
+        block_bytes: at most this many bytes are read per step; a pipe yields what it has.
+
+    Returns:
+        ``(layout, blocks)``: ``blocks`` yields ``(first_row, columns)``, the 1-based data
+        row of the block's first row and each canonical channel as float64 in SI units.
+
+    Raises:
+        InputError: a header the reader refuses (now), a row with another number of columns
+            than the header or a cell that is not a number (while iterating).
+    """
+    from rwhonet.data.csvio import HEADER_MAX_BYTES, parse_header
+
+    header = parse_header(stream.readline(HEADER_MAX_BYTES + 1), file)
+    lay = layout(header, fmt, column_map, file)
+    return lay, _blocks(stream, lay, file, block_bytes)
+
+
+def _blocks(
+    stream: BinaryIO, lay: Layout, file: str, block_bytes: int
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    read = getattr(stream, "read1", stream.read)  # read1: what a pipe has, without waiting
+    row, pending = 1, b""
+    while True:
+        chunk = read(block_bytes)
+        if not chunk:
+            break
+        pending += chunk
+        end = pending.rfind(b"\n")
+        if end < 0:
+            continue
+        lines, pending = pending[: end + 1], pending[end + 1 :]
+        columns = parse_lines(lines, lay, row, file)
+        if len(columns[c.T_S]):
+            yield row, columns
+            row += len(columns[c.T_S])
+    if pending.strip():
+        columns = parse_lines(pending, lay, row, file)
+        yield row, columns
+    elif row == 1:
+        raise InputError(
+            [Problem(file, None, None, "at least one data row after the header", "none",
+                     "a drive file holds its samples after the header row")]
+        )  # fmt: skip
+
+
+def parse_lines(lines: bytes, lay: Layout, first_row: int, file: str) -> dict[str, np.ndarray]:
+    """Parse whole CSV lines into the layout's channels (blank lines skipped).
+
+    The fast path is numpy's C parser on the wanted columns; a block it refuses
+    (a missing value, a stray cell, a short row) is parsed line by line, which
+    names every problem's row and column.
+    """
+    text = lines.decode("utf-8", errors="replace")
+    names = list(lay.positions)
+    cols = [lay.positions[n] for n in names]
+    commas = {line.count(",") for line in _nonblank(text)}
+    try:
+        if not commas:
+            values = np.zeros((0, len(cols)))
+        elif commas != {lay.n_columns - 1}:
+            raise ValueError("rows with another number of columns than the header")
+        else:
+            values = np.loadtxt(
+                io.StringIO(text), delimiter=",", usecols=cols, ndmin=2, comments=None,
+                dtype=np.float64,
+            )  # fmt: skip
+    except ValueError:
+        values = _parse_slow(text, lay, cols, first_row, file)
+    return {
+        name: values[:, i] * lay.factors[name] if lay.factors[name] != 1.0 else values[:, i]
+        for i, name in enumerate(names)
+    }
+
+
+def _nonblank(text: str) -> Iterator[str]:
+    return (line for line in text.splitlines() if line.strip())
+
+
+def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: str) -> np.ndarray:
+    """Line by line: missing values as NaN, every other problem named with its row."""
+    out, problems = [], []
+    for i, cells in enumerate(csv.reader(_nonblank(text))):
+        row = first_row + i
+        if len(cells) != lay.n_columns:
+            problems.append(Problem(
+                file, row, None, f"{lay.n_columns} comma-separated columns, as in the header",
+                f"{len(cells)} column(s): {','.join(cells)[:60]!r}",
+                "give every row the header's columns (a cut-off last row, a stray comma, or a "
+                "decimal comma?)"))  # fmt: skip
+            continue
+        values = []
+        for pos in cols:
+            cell = cells[pos].strip()
+            if cell.lower() in MISSING:
+                values.append(np.nan)
+                continue
+            try:
+                values.append(float(cell))
+            except ValueError:
+                name = next(n for n, p in lay.positions.items() if p == pos)
+                problems.append(Problem(
+                    file, row, lay.names[name], "a number", repr(cells[pos]),
+                    "replace the text by a number ('.' as the decimal mark), or leave the cell "
+                    "empty for a missing value"))  # fmt: skip
+                values.append(np.nan)
+        out.append(values)
+        if len(problems) >= 20:
+            break
+    if problems:
+        raise InputError(problems, f"{len(problems)} problem(s) reading {file}")
+    return np.asarray(out, dtype=np.float64).reshape(len(out), len(cols))

@@ -1,0 +1,246 @@
+"""A served WhONet: its ONNX graph run by ONNX Runtime, and the metadata to use it.
+
+A served model predicts, for a window of scaled wheel-speed features, the
+label of the samples contract: GNSS − WPM displacement per second, the WPM
+taken with the *source* calibration's rear radii (``source_radii``). For a
+model whose recipe refitted those radii (``radius+G``), the network's output
+is the error of the WPM with the refitted radii (``wpm_radii``), and
+:meth:`ServedModel.predict_label` adds the difference between the two WPMs,
+exactly as :func:`rwhonet.models.adapt.label_prediction` does; so
+``corrected = WPM(source radii) + predict_label`` for every model.
+
+The metadata (:class:`ServedMeta`, JSON) travels in the ONNX file's
+``metadata_props`` under :data:`META_KEY`, and as ``rwhonet.json`` in a
+model bundle. Where a model can be found (:func:`load_served`): an ``.onnx``
+file, a bundle folder holding ``model.onnx``, or an MLflow model folder
+(``artifacts/model.onnx``). This module never imports torch.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rwhonet.errors import InputError, Problem
+from rwhonet.features.scaling import MinMaxScaler, scaler_from_dict
+from rwhonet.features.wpm import WPM_MODES, wpm_displacement_m
+
+FORMAT = "rwhonet.served/1"
+META_KEY = "rwhonet"
+ONNX_FILE = "model.onnx"
+TORCH_FILE = "model.pt"
+META_FILE = "rwhonet.json"
+MLFLOW_ARTIFACTS = "artifacts"  # where an MLflow pyfunc model keeps its files
+
+
+@dataclass(frozen=True)
+class ServedMeta:
+    """What running a model needs beyond its weights, and where it came from.
+
+    Attributes:
+        hparams: the network's hyperparameters (``seq_len``, ``n_features``...).
+        scaler: the input scaler (:meth:`MinMaxScaler.to_dict`), fitted on source_train.
+        source_radii: the WPM's rear radii (m/rad) of the source calibration: the
+            label's WPM.
+        wpm_mode: ``integrated`` or ``reference`` (``label.wpm_mode``).
+        wpm_radii: the rear radii the network corrects when its recipe refitted them
+            (``radius+G``); None: ``source_radii``.
+        info: provenance as strings (model, vehicle, recipe, m, seed, drive...).
+    """
+
+    hparams: dict[str, Any]
+    scaler: dict[str, Any]
+    source_radii: tuple[float, float]
+    wpm_mode: str
+    wpm_radii: tuple[float, float] | None = None
+    info: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def seq_len(self) -> int:
+        return int(self.hparams["seq_len"])
+
+    @property
+    def n_features(self) -> int:
+        return int(self.hparams["n_features"])
+
+    def to_json(self) -> str:
+        """The metadata as one JSON document (what ``metadata_props`` and ``rwhonet.json`` hold)."""
+        return json.dumps({"format": FORMAT, **asdict(self)}, sort_keys=True)
+
+    @classmethod
+    def from_json(cls, text: str, source: str) -> ServedMeta:
+        """Parse :meth:`to_json`'s document.
+
+        Raises:
+            InputError: naming the file and the field that is missing or malformed.
+        """
+        try:
+            raw = json.loads(text)
+        except json.JSONDecodeError as err:
+            raise _not_served(source, "JSON metadata", f"invalid JSON ({err.msg})") from None
+        if not isinstance(raw, dict) or raw.get("format") != FORMAT:
+            found = raw.get("format") if isinstance(raw, dict) else type(raw).__name__
+            raise _not_served(source, f"metadata format {FORMAT!r}", repr(found))
+        problems = []
+        hp = raw.get("hparams")
+        if not (isinstance(hp, dict) and all(isinstance(hp.get(k), int) for k in
+                                             ("seq_len", "n_features"))):  # fmt: skip
+            problems.append(Problem(source, None, "hparams", "seq_len and n_features", repr(hp)))
+        for key in ("source_radii", "wpm_radii"):
+            value = raw.get(key)
+            if value is None and key == "wpm_radii":
+                continue
+            if not (isinstance(value, list) and len(value) == 2
+                    and all(isinstance(r, int | float) and r > 0 for r in value)):  # fmt: skip
+                problems.append(
+                    Problem(source, None, key, "two positive radii (m/rad)", repr(value))
+                )
+        if raw.get("wpm_mode") not in WPM_MODES:
+            problems.append(Problem(source, None, "wpm_mode", f"one of {WPM_MODES}",
+                                    repr(raw.get("wpm_mode"))))  # fmt: skip
+        if problems:
+            raise InputError(problems, f"{source}: the model's metadata is incomplete")
+        scaler_from_dict(raw.get("scaler"), f"{source} (scaler)")  # checked here, once
+        return cls(
+            hparams=dict(hp),
+            scaler=dict(raw["scaler"]),
+            source_radii=(float(raw["source_radii"][0]), float(raw["source_radii"][1])),
+            wpm_mode=str(raw["wpm_mode"]),
+            wpm_radii=None if raw.get("wpm_radii") is None else
+            (float(raw["wpm_radii"][0]), float(raw["wpm_radii"][1])),
+            info={str(k): str(v) for k, v in (raw.get("info") or {}).items()},
+        )  # fmt: skip
+
+
+def _not_served(source: str, expected: str, found: str) -> InputError:
+    return InputError(
+        [
+            Problem(
+                source, None, None, expected, found,
+                "give a model exported by `rwhonet export`, a model folder, or a registered "
+                "model (models:/whonet-G/latest)",
+            )
+        ],
+        f"{source} is not an rwhonet model",
+    )  # fmt: skip
+
+
+class ServedModel:
+    """An ONNX WhONet in an ONNX Runtime session, with its metadata.
+
+    Args:
+        onnx_path: the ``.onnx`` file.
+        meta: its metadata; None: read from the file's ``metadata_props``.
+        threads: intra-op threads of the session (1: this network is far too small to
+            gain from more, and a second core is better left to the caller).
+    """
+
+    def __init__(self, onnx_path: Path | str, meta: ServedMeta | None = None, threads: int = 1):
+        import onnxruntime as ort
+
+        self.path = Path(onnx_path)
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = threads
+        options.inter_op_num_threads = 1
+        options.log_severity_level = 3  # warnings about unused initialisers etc. say nothing
+        try:
+            self.session = ort.InferenceSession(
+                str(self.path), options, providers=["CPUExecutionProvider"]
+            )
+        except Exception as err:  # noqa: BLE001 - onnxruntime raises its own types
+            raise _not_served(str(onnx_path), "an ONNX model", str(err)[:200]) from None
+        if meta is None:
+            props = self.session.get_modelmeta().custom_metadata_map
+            if META_KEY not in props:
+                raise _not_served(
+                    str(onnx_path), f"metadata_props[{META_KEY!r}] (scaler and WPM radii)",
+                    "an ONNX model without them",
+                )  # fmt: skip
+            meta = ServedMeta.from_json(props[META_KEY], str(onnx_path))
+        self.meta = meta
+        self.scaler: MinMaxScaler = scaler_from_dict(meta.scaler, str(onnx_path))
+        self._input = self.session.get_inputs()[0].name
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        """The network's output, ``(n,)`` float32, for ``(n, seq_len, n_features)`` windows."""
+        x = np.ascontiguousarray(x, dtype=np.float32)
+        if x.ndim != 3 or x.shape[1:] != (self.meta.seq_len, self.meta.n_features):
+            raise InputError(
+                [Problem(str(self.path), None, "x",
+                         f"windows of shape (n, {self.meta.seq_len}, {self.meta.n_features})",
+                         f"shape {x.shape}")],
+                "inputs do not fit the model",
+            )  # fmt: skip
+        if len(x) == 0:
+            return np.zeros(0, dtype=np.float32)
+        return self.session.run(None, {self._input: x})[0]
+
+    def predict_label(
+        self, x: np.ndarray, angle_rl_rad: np.ndarray | None = None,
+        angle_rr_rad: np.ndarray | None = None,
+    ) -> np.ndarray:  # fmt: skip
+        """The label prediction (GNSS − WPM with the source radii), float64 metres.
+
+        Args:
+            x: ``(n, seq_len, n_features)`` scaled feature windows.
+            angle_rl_rad: ``(n,)`` rear-left wheel angle of each second (the WPM's mode);
+                needed only by a model with its own radii.
+            angle_rr_rad: ``(n,)`` rear-right wheel angle.
+
+        Raises:
+            InputError: the model has its own radii and the angles are missing.
+        """
+        pred = self.predict(x).astype(np.float64)
+        if self.meta.wpm_radii is None:
+            return pred
+        if angle_rl_rad is None or angle_rr_rad is None:
+            raise InputError(
+                [Problem(str(self.path), None, "angle_rl_rad / angle_rr_rad",
+                         "the rear wheel angles of every second (this model refitted the WPM's "
+                         f"radii to {self.meta.wpm_radii})", "none given")],
+                "inputs do not fit the model",
+            )  # fmt: skip
+        return pred + self.radius_correction(angle_rl_rad, angle_rr_rad)
+
+    def radius_correction(self, angle_rl_rad: np.ndarray, angle_rr_rad: np.ndarray) -> np.ndarray:
+        """WPM with the model's radii minus WPM with the source radii (0 without own radii)."""
+        if self.meta.wpm_radii is None:
+            return np.zeros(len(angle_rl_rad))
+        return wpm_displacement_m(angle_rl_rad, angle_rr_rad, *self.meta.wpm_radii) - (
+            wpm_displacement_m(angle_rl_rad, angle_rr_rad, *self.meta.source_radii)
+        )
+
+
+def onnx_file(path: Path) -> Path:
+    """The ``.onnx`` file of a served model given as a file, a bundle or an MLflow model folder.
+
+    Raises:
+        InputError: nothing there, or a folder without a model.
+    """
+    path = Path(path)
+    if path.is_file():
+        return path
+    for candidate in (path / ONNX_FILE, path / MLFLOW_ARTIFACTS / ONNX_FILE):
+        if candidate.is_file():
+            return candidate
+    found = (
+        "no such file or folder"
+        if not path.exists()
+        else (f"a folder without {ONNX_FILE} (holds {sorted(p.name for p in path.iterdir())[:6]})")
+    )
+    raise InputError(
+        [Problem(str(path), None, None,
+                 f"an exported .onnx file, or a model folder holding {ONNX_FILE}", found,
+                 "export one with `rwhonet export --model ... --format onnx`, or give a "
+                 "registered model (models:/<name>/<version>)")],
+        f"no model at {path}",
+    )  # fmt: skip
+
+
+def load_served(path: Path | str, threads: int = 1) -> ServedModel:
+    """Open a served model (see :func:`onnx_file` for what ``path`` may be)."""
+    return ServedModel(onnx_file(Path(path)), threads=threads)

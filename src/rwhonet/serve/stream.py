@@ -1,0 +1,297 @@
+"""Corrected odometry second by second: 10 Hz rows in, one output row per whole second out.
+
+:class:`SecondStream` takes a drive's rows as they arrive
+(:func:`rwhonet.data.stream.read_rows`) and emits every second as soon as its
+ten rows are in. A second is cut as the label stage cuts it
+(:mod:`rwhonet.features.seconds`): from the fix at a whole second of the
+drive's clock (the last row at or before it) to the fix ten rows later; a
+time gap longer than ``max_gap_s`` ends a run of seconds, and the next run
+starts at the next whole second. Per second:
+
+- ``disp_wpm_m``: the WPM displacement with the source calibration's radii
+  (paper Eqs. 6-10, :mod:`rwhonet.features.wpm`);
+- ``pred_error_m``: the model's predicted error of that WPM (the label, GNSS − WPM);
+- ``disp_corrected_m``: their sum;
+- ``disp_gnss_m``: the GNSS displacement where both fixes exist (else empty).
+
+During each outage (``--outage START:END``, seconds since the drive's first
+row; a second belongs to it when its end lies in ``(START, END]``) also the
+cumulative distances ``dist_wpm_m``, ``dist_corrected_m``, ``dist_gnss_m``
+and, where GNSS exists, the cumulative signed errors ``err_*_m`` (WPM or
+corrected minus GNSS: CTE is the last one's absolute value) and ``crse_*_m``
+(Σ|error| per second: the paper's CRSE). Nothing here imports torch.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rwhonet.contracts import ROWS_PER_SECOND
+from rwhonet.data import canonical as c
+from rwhonet.errors import InputError, Problem
+from rwhonet.features.seconds import (
+    end_of_second,
+    gnss_displacement_m,
+    integrate_per_second,
+    span_s,
+    wheel_features_rad_s,
+)
+from rwhonet.features.wpm import wheel_angle_rad, wpm_displacement_m
+from rwhonet.serve.model import ServedModel
+
+SPAN_TOLERANCE_S = 0.5  # ten rows span 1 s +/- this (rwhonet.features.seconds.SPAN_TOLERANCE_S)
+COLUMNS = (
+    "t_s", "elapsed_s", "disp_wpm_m", "pred_error_m", "disp_corrected_m", "disp_gnss_m",
+    "outage", "dist_wpm_m", "dist_corrected_m", "dist_gnss_m", "err_wpm_m", "err_corrected_m",
+    "crse_wpm_m", "crse_corrected_m",
+)  # fmt: skip
+OUTAGE_COLUMNS = COLUMNS[7:]
+
+
+@dataclass(frozen=True)
+class Outage:
+    """A GNSS outage to report on: seconds ``(start_s, end_s]`` after the drive's first row."""
+
+    start_s: float
+    end_s: float
+
+    @property
+    def label(self) -> str:
+        return f"{self.start_s:g}:{self.end_s:g}"
+
+
+def parse_outage(text: str) -> Outage:
+    """``"300:480"`` -> :class:`Outage`.
+
+    Raises:
+        InputError: not two numbers ``START:END`` with ``END > START >= 0``.
+    """
+    start, sep, end = text.partition(":")
+    try:
+        outage = Outage(float(start), float(end)) if sep else None
+    except ValueError:
+        outage = None
+    if outage is None or not (0 <= outage.start_s < outage.end_s) or math.isinf(outage.end_s):
+        raise InputError(
+            [Problem("--outage", None, None, "START:END in seconds since the drive's first row, "
+                     "0 <= START < END (e.g. 300:480)", repr(text))],
+            "bad --outage",
+        )  # fmt: skip
+    return outage
+
+
+@dataclass
+class _Totals:
+    """Running sums of one outage."""
+
+    n: int = 0
+    wpm: float = 0.0
+    corrected: float = 0.0
+    gnss: float = 0.0
+    err_wpm: float = 0.0
+    err_corrected: float = 0.0
+    crse_wpm: float = 0.0
+    crse_corrected: float = 0.0
+    gnss_s: int = 0  # seconds with a GNSS displacement
+
+
+@dataclass
+class SecondStream:
+    """Turn row blocks into per-second output blocks (see the module docstring).
+
+    Args:
+        model: the served model.
+        outages: the outages to report on (not overlapping).
+        file: the drive's name, for error reports.
+        names: canonical name -> the file's column name, for error reports.
+        max_gap_s: a time step longer than this ends a run of seconds
+            (``validate.gnss.max_gap_s``).
+    """
+
+    model: ServedModel
+    outages: list[Outage] = field(default_factory=list)
+    file: str = "<stdin>"
+    names: dict[str, str] = field(default_factory=dict)
+    max_gap_s: float = 0.5
+    _rows: dict[str, np.ndarray] | None = None  # rows from the current anchor on
+    _row0: int = 1  # data row of _rows' first row
+    _anchored: bool = False
+    _t0: float | None = None
+    _history: np.ndarray | None = None  # the last seq_len - 1 feature rows of the run
+    totals: dict[str, _Totals] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        spans = sorted((o.start_s, o.end_s) for o in self.outages)
+        for (_, end), (start, _) in zip(spans, spans[1:], strict=False):
+            if start < end:
+                raise InputError([Problem("--outage", None, None, "outages that do not overlap",
+                                          f"{spans}")], "bad --outage")  # fmt: skip
+        self.totals = {o.label: _Totals() for o in self.outages}
+
+    def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none)."""
+        self._check(first_row, columns)
+        if self._rows is None:
+            self._rows, self._row0 = {k: columns[k] for k in c.REQUIRED}, first_row
+            self._t0 = float(columns[c.T_S][0])
+        else:
+            self._rows = {k: np.concatenate([self._rows[k], columns[k]]) for k in c.REQUIRED}
+        parts = []
+        while True:
+            t = self._rows[c.T_S]
+            if not self._anchored:
+                whole = math.ceil(t[0])
+                later = np.flatnonzero(t > whole)
+                if not len(later):
+                    break  # the anchor is not in yet
+                self._drop(int(later[0]) - 1)
+                self._anchored, self._history = True, None
+                continue
+            steps = np.diff(t)
+            gap = np.flatnonzero(steps > self.max_gap_s)
+            usable = int(gap[0]) + 1 if len(gap) else len(t)  # rows before the gap
+            n_sec = (usable - 1) // ROWS_PER_SECOND
+            if n_sec:
+                parts.append(self._seconds(n_sec))
+                self._drop(n_sec * ROWS_PER_SECOND)
+                continue
+            if len(gap):
+                self._drop(int(gap[0]) + 1)  # the next run starts after the gap
+                self._anchored = False
+                continue
+            break
+        if not parts:
+            return empty_block()
+        return {name: np.concatenate([p[name] for p in parts]) for name in COLUMNS}
+
+    def _drop(self, n: int) -> None:
+        self._rows = {k: v[n:] for k, v in self._rows.items()}
+        self._row0 += n
+
+    def _check(self, first_row: int, columns: dict[str, np.ndarray]) -> None:
+        problems = []
+        t = columns[c.T_S]
+        for name in (c.T_S, *c.WHEELS):
+            bad = np.flatnonzero(~np.isfinite(columns[name]))
+            problems += [Problem(self.file, first_row + int(i), self.names.get(name, name),
+                                 "a number (time and wheel speeds cannot be missing)",
+                                 repr(columns[name][i])) for i in bad[:5]]  # fmt: skip
+        before = self._rows[c.T_S][-1:] if self._rows is not None else np.zeros(0)
+        back = np.flatnonzero(np.diff(np.concatenate([before, t])) <= 0)
+        problems += [Problem(self.file, first_row + int(i) - len(before) + 1,
+                             self.names.get(c.T_S, c.T_S), "a time after the previous row's",
+                             f"{t[i - len(before) + 1]!r}") for i in back[:5]]  # fmt: skip
+        if problems:
+            raise InputError(problems, f"{self.file}: rows that cannot be cut into seconds")
+
+    def _seconds(self, n_sec: int) -> dict[str, np.ndarray]:
+        rows = {k: v[: n_sec * ROWS_PER_SECOND + 1] for k, v in self._rows.items()}
+        t = rows[c.T_S]
+        spans = span_s(t)
+        off = np.flatnonzero(np.abs(spans - 1.0) > SPAN_TOLERANCE_S)
+        if len(off):
+            k = int(off[0])
+            raise InputError(
+                [Problem(self.file, self._row0 + k * ROWS_PER_SECOND, self.names.get(c.T_S, c.T_S),
+                         f"{ROWS_PER_SECOND} rows spanning 1 +/- {SPAN_TOLERANCE_S} s (10 Hz data)",
+                         f"{spans[k]:.3f} s")],
+                f"{self.file} cannot be cut into 10 Hz seconds",
+            )  # fmt: skip
+        meta, model = self.model.meta, self.model
+        angles = [
+            wheel_angle_rad(integrate_per_second(t, rows[w]), end_of_second(rows[w]), meta.wpm_mode)
+            for w in (c.OMEGA_RL, c.OMEGA_RR)
+        ]
+        disp_wpm = wpm_displacement_m(*angles, *meta.source_radii)
+        feats = model.scaler.transform(
+            wheel_features_rad_s([rows[w] for w in c.FEATURE_WHEEL_ORDER])
+        )
+        pred = np.full(n_sec, np.nan)
+        if meta.seq_len == 1:
+            pred = model.predict_label(feats[:, None, :], *angles)
+        else:  # windows of the run's last seq_len seconds, oldest first
+            past = self._history if self._history is not None else feats[:0]
+            run = np.concatenate([past, feats])
+            kept = np.arange(len(past), len(run))
+            kept = kept[kept >= meta.seq_len - 1]
+            if len(kept):
+                x = np.stack([run[i - meta.seq_len + 1 : i + 1] for i in kept])
+                pred[kept - len(past)] = model.predict_label(
+                    x, angles[0][kept - len(past)], angles[1][kept - len(past)]
+                )
+            self._history = run[-(meta.seq_len - 1) :]
+        with np.errstate(invalid="ignore"):
+            gnss = gnss_displacement_m(rows[c.LAT_DEG], rows[c.LON_DEG])
+        t_end = end_of_second(t)
+        out = {
+            "t_s": t_end, "elapsed_s": t_end - self._t0, "disp_wpm_m": disp_wpm,
+            "pred_error_m": pred, "disp_corrected_m": disp_wpm + pred, "disp_gnss_m": gnss,
+        }  # fmt: skip
+        out.update(self._outage_columns(out))
+        return out
+
+    def _outage_columns(self, sec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        n = len(sec["t_s"])
+        out: dict[str, np.ndarray] = {"outage": np.full(n, "", dtype=object)}
+        out.update({name: np.full(n, np.nan) for name in OUTAGE_COLUMNS})
+        for o in self.outages:
+            rows = np.flatnonzero((sec["elapsed_s"] > o.start_s) & (sec["elapsed_s"] <= o.end_s))
+            if not len(rows):
+                continue
+            tot = self.totals[o.label]
+            wpm, corr, gnss = (sec[k][rows] for k in ("disp_wpm_m", "disp_corrected_m",
+                                                       "disp_gnss_m"))  # fmt: skip
+            has = np.isfinite(gnss)
+            g = np.where(has, gnss, 0.0)
+            e_wpm, e_corr = np.where(has, wpm - g, 0.0), np.where(has, corr - g, 0.0)
+            cum = {
+                "dist_wpm_m": tot.wpm + np.cumsum(wpm),
+                "dist_corrected_m": tot.corrected + np.cumsum(corr),
+                "dist_gnss_m": tot.gnss + np.cumsum(g),
+                "err_wpm_m": tot.err_wpm + np.cumsum(e_wpm),
+                "err_corrected_m": tot.err_corrected + np.cumsum(e_corr),
+                "crse_wpm_m": tot.crse_wpm + np.cumsum(np.abs(e_wpm)),
+                "crse_corrected_m": tot.crse_corrected + np.cumsum(np.abs(e_corr)),
+            }
+            out["outage"][rows] = o.label
+            gnss_so_far = tot.gnss_s + np.cumsum(has)
+            for name, values in cum.items():
+                # distances and errors against GNSS only where GNSS has been there throughout
+                keep = (gnss_so_far == tot.n + np.arange(1, len(rows) + 1)) | (
+                    name in ("dist_wpm_m", "dist_corrected_m"))  # fmt: skip
+                out[name][rows] = np.where(keep, values, np.nan)
+            tot.n += len(rows)
+            tot.gnss_s = int(gnss_so_far[-1])
+            tot.wpm, tot.corrected, tot.gnss = (
+                float(cum[k][-1]) for k in ("dist_wpm_m", "dist_corrected_m", "dist_gnss_m")
+            )
+            tot.err_wpm, tot.err_corrected = (
+                float(cum["err_wpm_m"][-1]),
+                float(cum["err_corrected_m"][-1]),
+            )
+            tot.crse_wpm, tot.crse_corrected = float(cum["crse_wpm_m"][-1]), float(
+                cum["crse_corrected_m"][-1])  # fmt: skip
+        return out
+
+    def summary(self) -> list[dict[str, float | str]]:
+        """Per outage: seconds seen, distances, and CRSE / CTE of WPM and corrected."""
+        rows = []
+        for label, tot in self.totals.items():
+            full = tot.n > 0 and tot.gnss_s == tot.n
+            rows.append({
+                "outage": label, "seconds": tot.n, "dist_gnss_m": tot.gnss if full else math.nan,
+                "dist_wpm_m": tot.wpm, "dist_corrected_m": tot.corrected,
+                "crse_wpm_m": tot.crse_wpm if full else math.nan,
+                "cte_wpm_m": abs(tot.err_wpm) if full else math.nan,
+                "crse_corrected_m": tot.crse_corrected if full else math.nan,
+                "cte_corrected_m": abs(tot.err_corrected) if full else math.nan,
+            })  # fmt: skip
+        return rows
+
+
+def empty_block() -> dict[str, np.ndarray]:
+    """An output block without seconds."""
+    return {name: np.zeros(0, dtype=object if name == "outage" else np.float64) for name in COLUMNS}
