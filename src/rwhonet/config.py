@@ -412,6 +412,7 @@ class VehicleSpec:
     """What the pipeline knows about a vehicle before seeing its drives."""
 
     nominal_radius_m: float
+    track_rear_m: float  # rear track width: the wheel yaw of 2D dead reckoning
 
 
 @dataclass(frozen=True)
@@ -587,8 +588,17 @@ class AdaptParams:
 
 
 @dataclass(frozen=True)
+class DeadReckoningParams:
+    """2D dead reckoning through each outage window (rwhonet.features.deadreckoning)."""
+
+    calibration_s: int  # GNSS seconds before the window the heading is fitted on
+    min_step_m: float  # a second that moved less gives no GNSS course
+
+
+@dataclass(frozen=True)
 class EvaluateParams:
     outages_s: list[int]
+    dead_reckoning: DeadReckoningParams
 
 
 @dataclass(frozen=True)
@@ -694,6 +704,30 @@ class Params:
                 f"vehicle {vehicle!r} is not in data.vehicles {sorted(self.data.vehicles)}"
             )
         return self.data.vehicles[vehicle].nominal_radius_m
+
+    def track_rear_m(self, vehicle: str) -> float:
+        """The rear track width the pipeline assumes for a vehicle, m.
+
+        As :meth:`nominal_radius_m`: the profile's car for simulated drives
+        (``sim.vehicles.<car>.track_rear_m``), ``data.vehicles.<vehicle>.track_rear_m``
+        for real ones.
+
+        Raises:
+            ConfigError: if the vehicle is unknown to the profile or to ``data.vehicles``.
+        """
+        if self.data.source == "sim":
+            mapping = self.sim.profiles[self.sim.profile].vehicles
+            if vehicle not in mapping:
+                raise ConfigError(
+                    f"vehicle {vehicle!r} is not in sim.profiles.{self.sim.profile}.vehicles "
+                    f"{sorted(mapping)}"
+                )
+            return self.sim.vehicles[mapping[vehicle]].track_rear_m
+        if vehicle not in self.data.vehicles:
+            raise ConfigError(
+                f"vehicle {vehicle!r} is not in data.vehicles {sorted(self.data.vehicles)}"
+            )
+        return self.data.vehicles[vehicle].track_rear_m
 
     def section(self, name: str) -> dict[str, Any]:
         """Return one section as plain data (for MLflow params and saved configs)."""

@@ -273,3 +273,20 @@ def test_a_guarded_view_stays_guarded_once_resolved():
     assert p.adapt.chosen_m == 30 and p.seeds == [42, 43, 44]
     with pytest.raises(ConfigError, match="does not declare it"):
         p.train  # noqa: B018
+
+
+def test_2d_position_error_is_the_distance_error_on_a_straight_drive(samples_dir, params):
+    frame = _frame(samples_dir)
+    ev = evaluate(params, frame, _preds(frame, params, {"G": 0.1}))
+    pos = ev.position.set_index(["model", "outage_s"])
+    # due north at constant heading: a model's 2D error is its summed distance error
+    # (the fixture's GNSS displacement has 0.05 m of noise a second, its fixes none:
+    # 30 s of it is about 0.27 m)
+    assert pos.loc[("G", 30), "pos_mean"] == pytest.approx(3.0, abs=0.3)  # 30 s x 0.1 m
+    assert pos.loc[("S", 30), "pos_mean"] < 0.5  # perfect
+    s = ev.summary[(ev.summary["role"] == "target_test") & (ev.summary["drive"] == "all")]
+    wpm_cte = s.set_index(["model", "outage_s"]).loc[("WPM", 30), "cte_mean"]
+    assert pos.loc[("WPM", 30), "pos_mean"] == pytest.approx(wpm_cte, rel=0.1)
+    assert ev.eval_json["position"]["G"]["30s"]["n_windows"] > 0
+    md = render_report(ev, params, "provenance")
+    assert "## 2D dead reckoning" in md

@@ -286,6 +286,40 @@ def scenario_table(scenarios: pd.DataFrame, chosen_m: int) -> str:
     return "\n".join(lines)
 
 
+def position_table(ev: Evaluation, params: Params) -> str | None:
+    """2D dead reckoning: the horizontal error at the end of each outage window, per model."""
+    pos = ev.position
+    if pos is None or pos.empty:
+        return None
+    outages = sorted(pos["outage_s"].unique())
+    alias = f"R[{params.adapt.recipe}]" + (
+        "" if params.adapt.recipe == CONTINUOUS else f"@{params.adapt.chosen_m}"
+    )
+    models = list(dict.fromkeys(pos["model"]))
+    cells = pos.set_index(["model", "outage_s"])
+    lines = [
+        "| Model | " + " | ".join(f"{L} s: mean (max)" for L in outages) + " |",
+        "|---|" + "---:|" * len(outages),
+    ]
+    for m in models:
+        name = {"G": "G-WhONet", "S": "S-WhONet"}.get(m, m)
+        if m == alias:
+            name = f"**R-WhONet** ({m})"
+        row = []
+        for L in outages:
+            r = cells.loc[(m, L)] if (m, L) in cells.index else None
+            row.append(
+                "–" if r is None else f"{_fmt(r.pos_mean, r.pos_mean_ci95)} ({r.pos_max:.1f})"
+            )
+        lines.append(f"| {name} | " + " | ".join(row) + " |")
+    counts = ", ".join(
+        f"{L} s: {int(cells.loc[(models[0], L), 'n_windows'])} of "
+        f"{int(cells.loc[(models[0], L), 'n_windows_all'])}"
+        for L in outages if (models[0], L) in cells.index
+    )  # fmt: skip
+    return "\n".join(lines) + f"\n\nWindows dead-reckoned (of the target test windows): {counts}."
+
+
 def limits_table(ev: Evaluation, params: Params) -> str | None:
     """The WPM's radius from m s (first / any / whole drive) next to every recipe at m."""
     lim = ev.limits
@@ -472,6 +506,22 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         "",
         refit_table(ev, params),
     ]
+    position = position_table(ev, params)
+    if position:
+        parts += [
+            "",
+            "## 2D dead reckoning: horizontal position error at the end of each outage (m)",
+            "",
+            "Beyond the paper (its CRSE and CTE are distances). From the GNSS fix before each "
+            "window, heading from the rear wheels' travel difference, fitted to the GNSS "
+            f"course over the {params.evaluate.dead_reckoning.calibration_s} s before the "
+            "window (start azimuth, yaw scale, yaw per metre); each second's distance is the "
+            "model's. The error is the distance to the GNSS fix at the window's end: mean over "
+            "windows and seeds ± 95 % interval (largest window, mean over seeds). The heading "
+            "is the same for every model (rwhonet.stages.position).",
+            "",
+            position,
+        ]
     limits = limits_table(ev, params)
     if limits:
         parts += [

@@ -57,6 +57,7 @@ from rwhonet.metrics.outage import summarise, window_evolution, window_metrics
 from rwhonet.report.tables import render_report
 from rwhonet.stages.limits import radius_limits
 from rwhonet.stages.outages import evaluated_rows
+from rwhonet.stages.position import position_errors, window_tracks
 from rwhonet.stages.samples import load_role
 from rwhonet.tracking.store import RunRecord
 
@@ -119,6 +120,7 @@ class Evaluation:
     eval_json: dict
     selection: pd.DataFrame = field(default_factory=pd.DataFrame)  # the selection evidence
     limits: pd.DataFrame = field(default_factory=pd.DataFrame)  # stages.limits.radius_limits
+    position: pd.DataFrame = field(default_factory=pd.DataFrame)  # 2D error at window ends
 
 
 # --------------------------------------------------------------------------- inputs
@@ -214,6 +216,14 @@ def refit_wpm(frame: pd.DataFrame, params: Params) -> tuple[dict[int, np.ndarray
 
 
 Errors = dict[str, "np.ndarray | dict[int, np.ndarray]"]
+
+
+def position_models(params: Params) -> list[str]:
+    """The models dead-reckoned in 2D: the WPM, G, S, every recipe at the chosen m, WPM-m."""
+    chosen = params.adapt.chosen_m
+    return ["WPM", "G", "S", f"WPM-m@{chosen}"] + [
+        recipe_model(r, chosen) for r in params.adapt.recipes
+    ]
 
 
 def model_errors(
@@ -381,9 +391,12 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
     evaluated = evaluated_seconds(frame, params)
     wpm_m, refits = refit_wpm(frame, params)
     ev_frame = frame[evaluated].reset_index(drop=True)
-    per_seed, curves, scen, timeline = [], [], [], []
+    per_seed, curves, scen, timeline, positions = [], [], [], [], []
+    tracks = {L: window_tracks(frame, params, L) for L in params.evaluate.outages_s}
     for seed in params.seeds:
         errors = model_errors(frame, preds[seed], wpm_m, params)
+        in_2d = {m: errors[m] for m in position_models(params)}
+        positions += [{"seed": seed, **r} for r in position_errors(frame, tracks, in_2d)]
         errors = {
             name: {L: v[evaluated] for L, v in e.items()} if isinstance(e, dict) else e[evaluated]
             for name, e in errors.items()
@@ -411,6 +424,12 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
         pd.concat(curves).groupby(["model", "outage_s", "second"], sort=False)[["crse_m", "cte_m"]]
         .mean().reset_index()
     )  # fmt: skip
+    position = over_seeds(pd.DataFrame(positions), ["model", "outage_s"], ["pos_mean", "pos_max"])
+    n_2d = pd.DataFrame(positions).groupby(["model", "outage_s"], sort=False)["n_windows"].first()
+    position = position.join(n_2d, on=["model", "outage_s"])
+    position["n_windows_all"] = position["outage_s"].map(
+        {L: int(t["n_windows"]) for L, t in tracks.items()}
+    )
     differences, gains = paired(per_seed_df, params)
     harm = no_harm(per_seed_df, params)
     over_time = crse_over_time(pd.DataFrame(timeline), params)
@@ -420,10 +439,24 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
          pd.DataFrame({f"disp_wpm_m{m}_m": d for m, d in wpm_m.items()}, index=frame.index)],
         axis=1,
     )  # fmt: skip
-    return Evaluation(
+    result = Evaluation(
         per_seed_df, summary, differences, gains, harm, over_time, scenarios, refits,
         per_second, evolution, eval_json(summary, differences, gains, harm, refits, params),
+        position=position,
     )  # fmt: skip
+    alias = aliases(params)["R"]
+    result.eval_json["position"] = {
+        "R" if m == alias else m: {
+            f"{int(r.outage_s)}s": {"pos_mean": round(r.pos_mean, 4),
+                                    "pos_mean_ci95": round(r.pos_mean_ci95, 4),
+                                    "pos_max": round(r.pos_max, 4),
+                                    "n_windows": int(r.n_windows),
+                                    "n_windows_all": int(r.n_windows_all)}
+            for r in g.itertuples()
+        }
+        for m, g in position.groupby("model", sort=False)
+    }  # fmt: skip
+    return result
 
 
 def paired(per_seed: pd.DataFrame, params: Params) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -730,10 +763,24 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
                     "label.calibration_min_speed_m_s": params.label.calibration_min_speed_m_s,
                     **({"adapt.recipe": params.adapt.recipe} if model == "R" else {}),
                 },
-                metrics=stat_metrics(ev.summary, model),
+                metrics={**stat_metrics(ev.summary, model), **position_metrics(ev, params, model)},
             )
         )
     return records
+
+
+def position_metrics(ev: Evaluation, params: Params, model: str) -> dict[str, float]:
+    """MLflow metrics of a model's 2D error at the end of the outage windows: ``pos/180s/mean``."""
+    if ev.position is None or ev.position.empty:
+        return {}
+    name = aliases(params)["R"] if model == "R" else model
+    out = {}
+    for r in ev.position[ev.position["model"] == name].itertuples():
+        out[f"pos/{r.outage_s}s/mean"] = float(r.pos_mean)
+        out[f"pos/{r.outage_s}s/max"] = float(r.pos_max)
+        if math.isfinite(r.pos_mean_ci95):
+            out[f"pos/{r.outage_s}s/ci95"] = float(r.pos_mean_ci95)
+    return out
 
 
 def provenance_line(params: Params) -> str:
