@@ -140,6 +140,12 @@ def _store_lock(uri: str) -> Iterator[None]:
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
+# MLflow 3's UI opens an experiment on its GenAI overview unless it is marked as model
+# training; marked, it opens on the runs.
+EXPERIMENT_KIND_TAG = "mlflow.experimentKind"
+EXPERIMENT_KIND = "custom_model_development"
+
+
 def open_store(uri: str, experiment: str) -> tuple[Any, str]:
     """A client of the store at ``uri`` and the id of ``experiment``, both created if missing.
 
@@ -162,8 +168,15 @@ def open_store(uri: str, experiment: str) -> tuple[Any, str]:
         client = mlflow.MlflowClient(tracking_uri=uri)
         exp = retrying(lambda: client.get_experiment_by_name(experiment))
         if exp is not None:
-            return client, exp.experiment_id
+            exp_id = exp.experiment_id
+            if exp.tags.get(EXPERIMENT_KIND_TAG) != EXPERIMENT_KIND:
+                retrying(lambda: client.set_experiment_tag(exp_id, EXPERIMENT_KIND_TAG,
+                                                           EXPERIMENT_KIND))  # fmt: skip
+            return client, exp_id
         exp_id = retrying(
-            lambda: client.create_experiment(experiment, artifact_location=artifact_root(uri))
-        )
+            lambda: client.create_experiment(
+                experiment, artifact_location=artifact_root(uri),
+                tags={EXPERIMENT_KIND_TAG: EXPERIMENT_KIND},
+            )
+        )  # fmt: skip
         return client, exp_id
