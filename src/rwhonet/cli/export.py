@@ -1,4 +1,4 @@
-"""``rwhonet export``: a model (registered, a folder, or a pipeline ``model.pt``) -> one ``.onnx`` file.
+"""``rwhonet export``: a model (registered, a folder, a pipeline ``model.pt``) -> one ONNX file.
 
 The file carries the input scaler and the WPM's radii in its ``metadata_props``
 (:mod:`rwhonet.serve.model`), so ``rwhonet predict --model file.onnx`` needs

@@ -76,8 +76,8 @@ def _predict(args: argparse.Namespace) -> int:
         if args.format not in params.data.column_maps:
             from rwhonet.errors import Problem
 
-            raise InputError([Problem("--format", None, None, "iovnbd or a column map of "
-                                      "params.yaml data.column_maps", repr(args.format))])  # fmt: skip
+            expected = "iovnbd or a column map of params.yaml data.column_maps"
+            raise InputError([Problem("--format", None, None, expected, repr(args.format))])
         column_map = params.data.column_maps[args.format]
     model = predict.open_model(args.model, uri)
     out = predict.run(model, args.drive, args.output, outages, fmt=args.format,
@@ -137,8 +137,12 @@ def parser() -> argparse.ArgumentParser:
     rc.add_argument("--vehicle", default="target",
                     help="the car: names the registered model whonet-R-<vehicle>; its nominal "
                     "tyre radius comes from data.vehicles (default: %(default)s)")  # fmt: skip
-    rc.add_argument("--seed", type=int, default=None,
-                    help="seed of the recalibration (default: the first of params' seeds)")
+    rc.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="seed of the recalibration (default: the first of params' seeds)",
+    )
     rc.set_defaults(func=_recalibrate)
 
     pr = sub.add_parser(
@@ -157,10 +161,16 @@ def parser() -> argparse.ArgumentParser:
     pr.add_argument("--outage", action="append", default=[], metavar="START:END",
                     help="an outage to report on, in seconds since the drive's first row "
                     "(repeatable)")  # fmt: skip
-    pr.add_argument("--output", default="-",
-                    help="out.csv, out.parquet, or - for CSV on stdout (default: %(default)s)")
-    pr.add_argument("--format", default="iovnbd",
-                    help="iovnbd or a column map of params.yaml (default: %(default)s)")
+    pr.add_argument(
+        "--output",
+        default="-",
+        help="out.csv, out.parquet, or - for CSV on stdout (default: %(default)s)",
+    )
+    pr.add_argument(
+        "--format",
+        default="iovnbd",
+        help="iovnbd or a column map of params.yaml (default: %(default)s)",
+    )
     pr.add_argument("--max-gap", type=float, default=0.5,
                     help="a time step longer than this (s) starts a new run of seconds "
                     "(default: %(default)s, validate.gnss.max_gap_s)")  # fmt: skip
@@ -177,8 +187,9 @@ def parser() -> argparse.ArgumentParser:
                     help="models:/<name>/<version|latest>, a model folder, or a pipeline "
                     "model.pt (its scaler and radii from data/processed/)")  # fmt: skip
     ex.add_argument("--format", choices=["onnx"], default="onnx", help="only onnx")
-    ex.add_argument("--output", default=None,
-                    help="the .onnx file (default: <model name>.onnx here)")
+    ex.add_argument(
+        "--output", default=None, help="the .onnx file (default: <model name>.onnx here)"
+    )
     ex.set_defaults(func=_export)
 
     sub.add_parser("gate", help="the CI regression gate on mean CRSE/CTE (rwhonet gate --help)",

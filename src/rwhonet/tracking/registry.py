@@ -24,6 +24,7 @@ import json
 import logging
 import os
 import tempfile
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -133,7 +134,10 @@ def _quiet_mlflow() -> Iterator[None]:
     for lg in loggers:
         lg.setLevel(logging.ERROR)
     try:
-        yield
+        with warnings.catch_warnings():
+            # MLflow 3.17 checks an example's columns in a way pandas 3 deprecates.
+            warnings.filterwarnings("ignore", message="Operation with range is deprecated")
+            yield
     finally:
         for lg, level in zip(loggers, levels, strict=True):
             lg.setLevel(level)

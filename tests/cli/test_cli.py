@@ -1,0 +1,129 @@
+"""The command line: help on every command, readable errors, streaming through a pipe, no torch."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet import paths
+from rwhonet.cli.main import main, parser
+from support.serving import base_bundle, write_drive
+
+BAD_CELL = "row 9, column ' Wheel Speed Rear Left (rad/sec)': expected a number; found 'oops'"
+
+
+@pytest.fixture(scope="module")
+def bundle(tmp_path_factory):
+    return base_bundle(tmp_path_factory.mktemp("bundle"))
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory):
+    return write_drive(tmp_path_factory.mktemp("drive") / "V-Wavy.csv", duration_s=300)
+
+
+@pytest.fixture
+def bad_drive(tmp_path):
+    path = write_drive(tmp_path / "V-Bad.csv", duration_s=20)
+    lines = path.read_text().splitlines()
+    cells = lines[9].split(",")
+    cells[12] = "oops"
+    lines[9] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.fixture(autouse=True)
+def own_store(tmp_path, monkeypatch):
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path}/mlruns/mlflow.db")
+
+
+def cli(*args, stdin=None, code=None):
+    """Run the installed console script's code in a fresh interpreter."""
+    env = dict(os.environ, PYTHONPATH=str(paths.ROOT / "src"))
+    script = code or "import sys; from rwhonet.cli.main import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", script, *args], input=stdin, env=env,
+                          capture_output=True, cwd=paths.ROOT, timeout=300)  # fmt: skip
+
+
+@pytest.mark.parametrize("command", ["recalibrate", "predict", "export", "gate"])
+def test_every_command_has_help(command, capsys):
+    with pytest.raises(SystemExit) as done:
+        main([command, "--help"])
+    assert done.value.code == 0
+    assert "usage:" in capsys.readouterr().out
+    assert command in parser().format_help()
+
+
+def test_the_gate_is_a_command_and_still_its_own_script(tmp_path):
+    baseline = paths.ROOT / "metrics" / "baseline-ci.json"
+    assert main(["gate", "--eval", str(baseline), "--baseline", str(baseline)]) == 0
+    from rwhonet.report import gate
+
+    assert gate.main(["--eval", str(baseline), "--baseline", str(baseline)]) == 0
+    assert main(["gate", "--eval", str(tmp_path / "none.json"), "--baseline", str(baseline)]) == 2
+
+
+def test_bad_drive_through_the_cli_names_file_row_and_column(bundle, bad_drive):
+    out = cli("predict", "--model", str(bundle["model_onnx"]), "--drive", str(bad_drive))
+    err = out.stderr.decode()
+    assert out.returncode == 2, err
+    assert f"{bad_drive}, {BAD_CELL}" in err and "What to do" in err
+    assert "Traceback" not in err
+
+
+def test_recalibrate_refuses_a_drive_too_short_and_a_file_that_is_not_there(bundle, tmp_path,
+                                                                           capsys):  # fmt: skip
+    short = write_drive(tmp_path / "V-Short.csv", duration_s=60)
+    base = str(bundle["model_onnx"].parent)
+    assert main(["recalibrate", "--base", base, "--drive", str(short), "--seconds", "50"]) == 2
+    err = capsys.readouterr().err
+    assert "at least 80 GNSS-valid seconds: m = 50 s to recalibrate on (adapt.fallback" in err
+    assert "found 60 labelled s; 60 valid s of 61 s (cut: partial_second 1 s)" in err
+    assert "--seconds" in err
+    assert main(["recalibrate", "--base", base, "--drive", str(tmp_path / "none.csv")]) == 2
+    assert "none.csv: expected a drive file" in capsys.readouterr().err
+    assert main(["recalibrate", "--base", base, "--drive", str(short), "--recipe",
+                 "continuous"]) == 2  # fmt: skip
+    assert "no single model to register" in capsys.readouterr().err
+    assert main(["predict", "--model", str(tmp_path), "--drive", str(short)]) == 2
+    assert "expected an exported .onnx file, or a model folder" in capsys.readouterr().err
+
+
+def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
+    check = (
+        "import sys; from rwhonet.cli.main import main; rc = main(sys.argv[1:]); "
+        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in "
+        "('torch', 'lightning', 'pytorch_lightning', 'mlflow')); "
+        "print('IMPORTED', heavy, file=sys.stderr); sys.exit(rc)"
+    )
+    out = cli("predict", "--model", str(bundle["model_onnx"]), "--drive", "-", "--output", "-",
+              "--outage", "100:220", stdin=Path(drive).read_bytes(), code=check)  # fmt: skip
+    err = out.stderr.decode()
+    assert out.returncode == 0, err
+    assert "IMPORTED []" in err
+    assert "<stdin>: 3001 rows -> 300 seconds" in err and "outage 100:220 s (120 s" in err
+    from io import StringIO
+
+    frame = pd.read_csv(StringIO(out.stdout.decode()))
+    assert len(frame) == 300 and frame["outage"].notna().sum() == 120
+    np.testing.assert_allclose(frame["disp_corrected_m"],
+                               frame["disp_wpm_m"] + frame["pred_error_m"], atol=2e-4)  # fmt: skip
+
+
+def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):
+    onnx = tmp_path / "g.onnx"
+    assert main(["export", "--model", str(bundle["model_onnx"].parent), "--output",
+                 str(onnx)]) == 0  # fmt: skip
+    said = capsys.readouterr().out
+    assert f"wrote {onnx}" in said and "max |ONNX - PyTorch|" in said
+    out = tmp_path / "p.parquet"
+    assert main(["predict", "--model", str(onnx), "--drive", str(drive), "--output", str(out),
+                 "--quiet"]) == 0  # fmt: skip
+    frame = pd.read_parquet(out)
+    assert len(frame) == 300 and list(frame.columns)[:3] == ["t_s", "elapsed_s", "disp_wpm_m"]
+    assert capsys.readouterr().err == ""

@@ -1,0 +1,76 @@
+"""The streaming reader: the ingest readers' header code, rows as they arrive, bad cells named."""
+
+import io
+
+import numpy as np
+import pytest
+
+from rwhonet.config import ColumnSpec
+from rwhonet.data import canonical as c
+from rwhonet.data.iovnbd import read_iovnbd
+from rwhonet.data.stream import read_rows
+from rwhonet.errors import InputError
+from support.drives import CUPAC_MAP, column_map_params, write_columnmap
+from support.serving import wavy_drive, write_drive
+
+
+def collect(blocks):
+    blocks = list(blocks)
+    return blocks, {k: np.concatenate([b[k] for _, b in blocks]) for k in c.REQUIRED}
+
+
+def test_blocks_hold_what_the_ingest_reader_reads(tmp_path):
+    path = write_drive(tmp_path / "V-A.csv", duration_s=90)
+    with open(path, "rb") as f:
+        lay, blocks = read_rows(f, "V-A.csv", block_bytes=4096)
+        blocks, cols = collect(blocks)
+    assert len(blocks) > 5 and blocks[0][0] == 1
+    assert [first for first, _ in blocks] == list(np.cumsum([0] + [len(b[c.T_S]) for _, b in
+                                                                   blocks[:-1]]) + 1)  # fmt: skip
+    ref = read_iovnbd(path)
+    for k in c.REQUIRED:
+        np.testing.assert_array_equal(cols[k], ref.columns[k])
+    assert lay.names[c.OMEGA_RL] == " Wheel Speed Rear Left (rad/sec)"
+
+
+def test_a_column_map_converts_units(tmp_path):
+    df = wavy_drive(30)
+    path = write_columnmap(df, tmp_path / "cupac.csv")
+    cmap = {k: ColumnSpec(**v) for k, v in column_map_params(CUPAC_MAP).items()}
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, "cupac.csv", "cupac", cmap)
+        _, cols = collect(blocks)
+    np.testing.assert_allclose(cols[c.OMEGA_RL], df[c.OMEGA_RL], rtol=1e-12)
+    np.testing.assert_allclose(cols[c.T_S], df[c.T_S], rtol=1e-12)
+
+
+def test_missing_values_are_nan_and_bad_cells_are_named_with_their_row(tmp_path):
+    path = write_drive(tmp_path / "V-A.csv", duration_s=10)
+    lines = path.read_text().splitlines()
+    cells = lines[5].split(",")
+    cells[2] = ""  # latitude of data row 4 missing
+    lines[5] = ",".join(cells)
+    bad = lines[9].split(",")
+    bad[12] = "oops"  # rear-left wheel speed of data row 9
+    lines[9] = ",".join(bad)
+    data = ("\n".join(lines) + "\n").encode()
+    _, blocks = read_rows(io.BytesIO(data[: data.index(lines[9].encode())]), "x.csv")
+    _, cols = collect(blocks)
+    assert np.isnan(cols[c.LAT_DEG][4]) and np.isfinite(cols[c.LAT_DEG][[0, 1, 2, 3, 5]]).all()
+    with pytest.raises(InputError) as err:
+        collect(read_rows(io.BytesIO(data), "x.csv")[1])
+    text = str(err.value)
+    assert "x.csv, row 9, column ' Wheel Speed Rear Left (rad/sec)': expected a number" in text
+    assert "'oops'" in text and "What to do" in text
+
+
+def test_a_short_row_and_a_bad_header_are_refused(tmp_path):
+    path = write_drive(tmp_path / "V-A.csv", duration_s=5)
+    lines = path.read_text().splitlines()
+    lines[3] = ",".join(lines[3].split(",")[:10])
+    with pytest.raises(InputError, match="row 3.*29 comma-separated columns"):
+        collect(read_rows(io.BytesIO(("\n".join(lines) + "\n").encode()), "x.csv")[1])
+    with pytest.raises(InputError, match="Wheel Speed"):
+        read_rows(io.BytesIO(b"a,b,c\n1,2,3\n"), "x.csv")
+    with pytest.raises(InputError, match="at least one data row"):
+        collect(read_rows(io.BytesIO(lines[0].encode() + b"\n"), "x.csv")[1])
