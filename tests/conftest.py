@@ -8,6 +8,8 @@ test-fast`` skips them).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -16,6 +18,21 @@ from rwhonet.config import Params, load_params
 from rwhonet.stage import quiet
 
 quiet()
+
+# What the whole suite holds, by marker (docs/reliability.md counts crash and concurrency
+# tests): counted before `-m` deselects anything, and only when the run collects all of tests/.
+SUITE_COUNTS = pytest.StashKey[dict[str, int]]()
+COUNTED_MARKERS = ("crash", "concurrency")
+TESTS = Path(__file__).resolve().parent
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(session, config, items):
+    targets = {Path(str(a).split("::")[0]).resolve() for a in config.args}
+    if targets <= {TESTS, TESTS.parent}:
+        config.stash[SUITE_COUNTS] = {
+            m: sum(1 for item in items if item.get_closest_marker(m)) for m in COUNTED_MARKERS
+        }
 
 
 @pytest.fixture(scope="session")

@@ -15,6 +15,7 @@ def test_atomic_dir_replaces_on_success(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
 
 
+@pytest.mark.crash
 def test_atomic_dir_leaves_nothing_on_failure(tmp_path):
     out = tmp_path / "out"
     with pytest.raises(RuntimeError), atomic_dir(out) as tmp:
@@ -23,6 +24,7 @@ def test_atomic_dir_leaves_nothing_on_failure(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.crash
 def test_atomic_file_keeps_old_on_failure(tmp_path):
     f = tmp_path / "a.json"
     write_json(f, {"v": 1})
@@ -33,6 +35,7 @@ def test_atomic_file_keeps_old_on_failure(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["a.json"]
 
 
+@pytest.mark.crash
 def test_a_stage_s_outputs_are_replaced_together_or_not_at_all(tmp_path):
     folder, report = tmp_path / "segments", tmp_path / "report.json"
     with atomic_outputs(folder, report, folders=(True, False)) as (tmp_dir, tmp_report):
@@ -74,6 +77,7 @@ def _dead_pid() -> int:
     return proc.pid
 
 
+@pytest.mark.crash
 def test_temporaries_of_a_killed_writer_go_with_the_next_write(tmp_path):
     import os
 
@@ -92,6 +96,7 @@ def test_temporaries_of_a_killed_writer_go_with_the_next_write(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["seed1", busy.name, other.name])
 
 
+@pytest.mark.crash
 def test_a_signal_during_the_swap_is_handled_after_it_and_nothing_is_left(tmp_path, monkeypatch):
     import os
     import signal
@@ -124,6 +129,7 @@ def test_a_signal_during_the_swap_is_handled_after_it_and_nothing_is_left(tmp_pa
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json", "segments"]
 
 
+@pytest.mark.crash
 @pytest.mark.slow
 def test_sigkill_while_writing_leaves_the_old_outputs(tmp_path):
     """A writer killed outright mid-write: the old outputs stay whole, its leftovers go later."""

@@ -30,6 +30,7 @@ def store(tmp_path, monkeypatch) -> str:
     return uri
 
 
+@pytest.mark.crash
 def test_an_exception_in_a_stage_body_is_a_failed_run(store, capsys):
     def body(params):
         raise RuntimeError("the disk is full")
@@ -55,6 +56,7 @@ def test_an_exception_in_a_stage_body_is_a_failed_run(store, capsys):
     assert "in body" in trace and "RuntimeError: the disk is full" in trace
 
 
+@pytest.mark.crash
 def test_an_input_error_is_a_failed_run_with_its_report(store, capsys):
     problem = Problem("data/raw/target_test/V-T1.csv", 5, "Lat", "a number", "'oops'", "fix it")
 
@@ -75,6 +77,7 @@ def test_an_input_error_is_a_failed_run_with_its_report(store, capsys):
     assert "What to do:" in tags["rwhonet.error"]
 
 
+@pytest.mark.crash
 def test_reading_an_undeclared_param_is_a_failed_run(store, capsys):
     with pytest.raises(SystemExit) as exit_:
         stage.run("label", lambda params: params.train.epochs)  # label does not declare train
@@ -92,6 +95,7 @@ def test_a_stage_that_succeeds_logs_nothing(store):
     assert [signal.getsignal(s) for s in stage.INTERRUPTS] == before  # handlers restored
 
 
+@pytest.mark.crash
 def test_a_store_that_cannot_be_written_does_not_hide_the_error(tmp_path, monkeypatch, capsys):
     blocker = tmp_path / "not-a-folder"
     blocker.write_text("")
@@ -140,6 +144,7 @@ def _start_sleeper(root: Path, store: str) -> subprocess.Popen:
     return proc
 
 
+@pytest.mark.crash
 @pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
 def test_a_signal_mid_stage_is_a_killed_run_and_the_process_dies_of_it(tmp_path, signum):

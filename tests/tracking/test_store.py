@@ -75,3 +75,29 @@ def test_log_execution_parent_and_children(tmp_path, monkeypatch):
     arts = mlflow.MlflowClient(uri).list_artifacts(grow["run_id"])
     assert [a.path for a in arts] == ["model.ckpt"]
     assert Path(runs.iloc[0]["artifact_uri"].replace("file://", "")).is_relative_to(tmp_path)
+
+
+@pytest.mark.crash
+def test_an_interrupted_execution_leaves_no_run_running(tmp_path, monkeypatch):
+    """A logger stopped mid-run marks the run it was writing KILLED (FAILED on an error)."""
+    mlflow = pytest.importorskip("mlflow")
+    from support.store import store_runs
+
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
+    art = tmp_path / "model.pt"
+    art.write_bytes(b"weights")
+
+    def interrupted(self, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(mlflow.MlflowClient, "log_artifact", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        log_execution(
+            [RunRecord("G-WhONet", artifacts=[str(art)])],
+            uri=uri,
+            experiment="t",
+            execution=RunRecord("pipeline"),
+        )
+    statuses = {r.info.run_name: r.info.status for r in store_runs(uri)}
+    assert statuses == {"pipeline": "FINISHED", "G-WhONet": "KILLED"}
