@@ -132,3 +132,22 @@ print(sorted(m for m in sys.modules if m.split(".")[0] in ("lightning", "pytorch
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
+
+
+def _die(task):
+    import os
+    import signal
+
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_a_worker_that_dies_fails_the_stage_instead_of_hanging(monkeypatch):
+    # multiprocessing.Pool waits forever for a killed worker; the executor must not.
+    from concurrent.futures.process import BrokenProcessPool
+
+    from rwhonet.stages import adapt as stage
+
+    monkeypatch.setattr(stage, "_run", _die)
+    monkeypatch.setattr(stage.os, "cpu_count", lambda: 2)
+    with pytest.raises(BrokenProcessPool):
+        stage._pool_map([object(), object(), object()])

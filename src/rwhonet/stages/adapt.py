@@ -31,6 +31,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -129,8 +130,12 @@ def _pool_map(tasks: list[Task]) -> list[tuple[Task, np.ndarray, Any]]:
     workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(tasks), 1))
     if workers < 2:
         return [_run(t) for t in tasks]
-    with multiprocessing.get_context("fork").Pool(workers, initializer=_one_thread) as pool:
-        return pool.map(_run, tasks, chunksize=max(1, len(tasks) // (8 * workers)))
+    # ProcessPoolExecutor rather than multiprocessing.Pool: if a worker dies (killed, out
+    # of memory) the map raises BrokenProcessPool, where a Pool would wait forever.
+    with ProcessPoolExecutor(
+        workers, mp_context=multiprocessing.get_context("fork"), initializer=_one_thread
+    ) as pool:
+        return list(pool.map(_run, tasks, chunksize=max(1, len(tasks) // (8 * workers))))
 
 
 def _one_thread() -> None:
