@@ -4,16 +4,14 @@ Slow (a couple of minutes): run with `make test`; `make test-fast` skips it.
 """
 
 import json
-import os
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
 
 from rwhonet import paths
+from support.project import dvc, scratch_project
 
 pytestmark = pytest.mark.slow
 
@@ -30,49 +28,9 @@ OVERRIDES = {
 }
 
 
-def _env(repo: Path) -> dict:
-    env = dict(os.environ)
-    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
-    env["PYTHONPATH"] = str(repo / "src")
-    env["DVC_NO_ANALYTICS"] = "1"
-    env.pop("MLFLOW_TRACKING_URI", None)
-    env.pop("RWHONET_ROOT", None)
-    return env
-
-
-def dvc(repo: Path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [str(Path(sys.executable).parent / "dvc"), *args],
-        cwd=repo, env=_env(repo), capture_output=True, text=True, timeout=900,
-    )  # fmt: skip
-
-
 @pytest.fixture(scope="module")
 def repo(tmp_path_factory):
-    dest = tmp_path_factory.mktemp("pipeline") / "repo"
-    files = subprocess.run(
-        ["git", "ls-files", "-co", "--exclude-standard", "-z"],
-        cwd=paths.ROOT, capture_output=True, text=True, check=True,
-    ).stdout.split("\0")  # fmt: skip
-    for f in filter(None, files):
-        src = paths.ROOT / f
-        if src.is_file():
-            (dest / f).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(src, dest / f)
-    params = yaml.safe_load((dest / "params.yaml").read_text())
-    for keys, value in OVERRIDES.items():
-        node = params
-        for key in keys[:-1]:
-            node = node[key]
-        node[keys[-1]] = value
-    (dest / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
-    git = ["git", "-c", "user.name=t", "-c", "user.email=t@localhost"]
-    subprocess.run([*git, "init", "-q"], cwd=dest, check=True)
-    subprocess.run([*git, "add", "-A"], cwd=dest, check=True)
-    subprocess.run([*git, "commit", "-qm", "snapshot"], cwd=dest, check=True)
-    (dest / "data" / "raw").mkdir(parents=True, exist_ok=True)
-    assert dvc(dest, "commit", "-q", "-f", "data.dvc").returncode == 0
-    return dest
+    return scratch_project(tmp_path_factory.mktemp("pipeline") / "repo", OVERRIDES)
 
 
 def test_data_stages(repo):

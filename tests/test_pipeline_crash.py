@@ -157,7 +157,9 @@ def test_sigterm_to_the_stage_under_dvc_is_a_killed_run(project):
     _stop_mid_fit(proc, project["mid_fit_cpu_s"], signal.SIGTERM, group=False)
     output, _ = proc.communicate(timeout=300)
     assert proc.returncode != 0 and DONE not in output, output
-    assert "failed to reproduce 'train_g@1'" in output and "exited with -15" in output
+    # -15 when DVC's shell execs the command, 143 (128 + 15) when the shell reports it
+    assert "failed to reproduce 'train_g@1'" in output
+    assert re.search(r"exited with (-15|143)\b", output), output
     assert "stage train_g interrupted by SIGTERM" in output and "MLflow: KILLED run" in output
     uri = f"sqlite:///{repo}/mlruns/mlflow.db"
     runs = store_runs(uri)

@@ -107,6 +107,24 @@ def test_a_store_that_cannot_be_written_does_not_hide_the_error(tmp_path, monkey
     assert "ZeroDivisionError" in err and "the failure could not be logged to MLflow" in err
 
 
+@pytest.mark.crash
+def test_a_forked_worker_of_a_stage_dies_of_sigterm_as_before(store):
+    """The adapt stage's process pool forks: its workers must not raise Interrupted at exit."""
+    import multiprocessing
+
+    exit_codes = []
+
+    def body(params):
+        worker = multiprocessing.get_context("fork").Process(target=time.sleep, args=(60,))
+        worker.start()
+        worker.terminate()  # what multiprocessing does to daemon workers at exit
+        worker.join(30)
+        exit_codes.append(worker.exitcode)
+
+    stage.run("label", body)
+    assert exit_codes == [-signal.SIGTERM]  # not 1 with an Interrupted traceback
+
+
 # --------------------------------------------------------------------------- real processes
 
 # A stage whose body writes into its atomic output folder, says so, then works until stopped.

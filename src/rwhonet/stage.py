@@ -26,6 +26,7 @@ import warnings
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
+from typing import Any
 
 import yaml
 
@@ -51,7 +52,21 @@ class Interrupted(BaseException):
         super().__init__(f"interrupted by {signal.Signals(signum).name}")
 
 
+# The stage process and the handlers it had before the runner's (see _raise_interrupted).
+_installed: dict[str, Any] = {"pid": None, "previous": {}}
+
+
 def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
+    if os.getpid() != _installed["pid"]:
+        # A forked worker (the adapt stage's process pool) inherited this handler: it does
+        # what it did before, e.g. dies quietly when its pool terminates it at exit.
+        previous = _installed["previous"].get(signum, signal.SIG_DFL)
+        if callable(previous):
+            previous(signum, frame)
+        elif previous != signal.SIG_IGN:
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+        return
     raise Interrupted(signum)
 
 
@@ -106,6 +121,7 @@ def run(stage: str, main: Callable[[Params], None]) -> None:
     quiet()
     started = time.time()
     previous = {signum: signal.signal(signum, _raise_interrupted) for signum in INTERRUPTS}
+    _installed.update(pid=os.getpid(), previous=previous)
     try:
         _run(stage, main, started)
     finally:
