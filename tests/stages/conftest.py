@@ -57,3 +57,11 @@ def samples_dir(tmp_path):
             ("T__s0", "T", "target_train", 100),
         ],
     )
+
+
+@pytest.fixture(autouse=True)
+def timings_in_tmp(tmp_path, monkeypatch):
+    """Model stages write their timing sidecars under tmp_path, not the project's mlruns/."""
+    folder = tmp_path / "mlruns" / "timings"
+    monkeypatch.setattr("rwhonet.tracking.timings.timings_dir", lambda root=None: folder)
+    return folder

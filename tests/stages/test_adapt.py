@@ -123,6 +123,8 @@ import sys
 from pathlib import Path
 from rwhonet.config import load_params
 from rwhonet.stages.adapt import adapt_grid
+from rwhonet.tracking import timings
+timings.timings_dir = lambda root=None: Path({str(tmp_path)!r}) / "timings"  # not the project's
 params = load_params(overrides={OVERRIDES!r})
 out = Path({str(tmp_path)!r}) / "r"
 adapt_grid(params, 7, Path({str(samples_dir)!r}), Path({str(calibration)!r}),

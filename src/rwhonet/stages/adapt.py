@@ -48,7 +48,8 @@ from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import SampleSet, load_role
-from rwhonet.tracking.records import RunRecord
+from rwhonet.tracking.records import RunRecord, Timing, now_ms
+from rwhonet.tracking.timings import write_timing
 
 SELECTION = "selection"
 MAX_WORKERS = 4
@@ -125,17 +126,24 @@ def _run(task: Task) -> tuple[Task, np.ndarray, Any]:
     return task, pred, result if keep else None
 
 
-def _pool_map(tasks: list[Task]) -> list[tuple[Task, np.ndarray, Any]]:
+def _timed(task: Task) -> tuple[tuple[Task, np.ndarray, Any], tuple[int, int]]:
+    """:func:`_run` and when it ran (epoch ms): a run's time spans its drives' tasks."""
+    start = now_ms()
+    done = _run(task)
+    return done, (start, now_ms())
+
+
+def _pool_map(tasks: list[Task]) -> list[tuple[tuple[Task, np.ndarray, Any], tuple[int, int]]]:
     """Run the tasks on every core (forked workers share the loaded inputs), in order."""
     workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(tasks), 1))
     if workers < 2:
-        return [_run(t) for t in tasks]
+        return [_timed(t) for t in tasks]
     # ProcessPoolExecutor rather than multiprocessing.Pool: if a worker dies (killed, out
     # of memory) the map raises BrokenProcessPool, where a Pool would wait forever.
     with ProcessPoolExecutor(
         workers, mp_context=multiprocessing.get_context("fork"), initializer=_one_thread
     ) as pool:
-        return list(pool.map(_run, tasks, chunksize=max(1, len(tasks) // (8 * workers))))
+        return list(pool.map(_timed, tasks, chunksize=max(1, len(tasks) // (8 * workers))))
 
 
 def _one_thread() -> None:
@@ -166,7 +174,9 @@ def adapt_grid(
     Returns:
         One run record per recipe and m (per recipe for ``continuous``) and the
         wall seconds of recalibration, kept out of the records so outputs stay
-        byte-reproducible.
+        byte-reproducible. Each record's ``timing`` (from the first of its drives'
+        recalibrations to start to the last to end; they run interleaved on every
+        core) goes to a sidecar beside the MLflow store (:mod:`rwhonet.tracking.timings`).
     """
     from rwhonet.models.checkpoint import load_whonet, save_whonet
 
@@ -198,12 +208,16 @@ def adapt_grid(
     _WORK.update(params=params, samples=samples, g=g_net, hparams=g_hparams, seed=seed,
                  radii=(cal.r_rl_m, cal.r_rr_m))  # fmt: skip
     try:
-        done = _pool_map(tasks)
+        timed = _pool_map(tasks)
+        done = [d for d, _ in timed]
+        spans = {d[0]: span for d, span in timed}
+        continuous_start = now_ms()
         continuous = {
             role: _continuous(params, samples[role], g_net, g_hparams, (cal.r_rl_m, cal.r_rr_m))
             for role in (contracts.TARGET_TEST, contracts.TARGET_TRAIN)
             if CONTINUOUS in cfg.recipes and len(samples[role])
         }
+        continuous_timing = Timing(continuous_start, now_ms())
     finally:
         _WORK.clear()
     seconds = time.perf_counter() - start
@@ -227,6 +241,8 @@ def adapt_grid(
                 )
                 record = _record(params, seed, recipe, m, mine, out_root)
                 write_json(out / contracts.RUN_RECORD, record.to_dict())
+                mine_spans = [spans[t] for t, _, _ in mine]
+                record.timing = Timing(min(s for s, _ in mine_spans), max(e for _, e in mine_spans))
                 records.append(record)
         if contracts.TARGET_TEST in continuous:
             out = r_dir(tmp, CONTINUOUS)
@@ -239,11 +255,20 @@ def adapt_grid(
                 name=f"R-WhONet continuous seed {seed}",
                 tags=_tags(seed, CONTINUOUS, None),
                 params={**model_params(params, seed, "adapt"), "adapt.recipe": CONTINUOUS},
+                timing=continuous_timing,
             )
             write_json(out / contracts.RUN_RECORD, record.to_dict())
             records.append(record)
         _write_selection(tmp / SELECTION, samples, done, continuous)
+    for record in records:
+        write_timing(_record_dir(out_root, record), record.timing, stage=f"adapt@{seed}")
     return records, seconds
+
+
+def _record_dir(out_root: Path, record: RunRecord) -> Path:
+    """The folder a recipe's run record was written to (``<recipe>/m<m>`` or ``continuous``)."""
+    m = record.tags.get("m")
+    return r_dir(out_root, record.tags["recipe"], None if m is None else int(m))
 
 
 def _write_selection(

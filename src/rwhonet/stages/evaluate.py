@@ -59,7 +59,9 @@ from rwhonet.stages.limits import radius_limits
 from rwhonet.stages.outages import evaluated_rows
 from rwhonet.stages.position import position_errors, window_tracks
 from rwhonet.stages.samples import load_role
+from rwhonet.tracking.records import Timing, now_ms
 from rwhonet.tracking.store import RunRecord
+from rwhonet.tracking.timings import read_timing
 
 STAT_KEYS = ("max", "min", "mean", "std")
 SEED_VALUES = [f"{q}_{s}" for q in ("crse", "cte") for s in STAT_KEYS]
@@ -728,6 +730,8 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
                 folders[recipe_model(r, m)] = sub_dir if m is None else sub_dir / f"m{m}"
         for model, folder in folders.items():
             rec = RunRecord.from_dict(read_json(folder / k.RUN_RECORD))
+            rec.timing = read_timing(folder)
+            rec.tags["rwhonet.timing"] = "measured" if rec.timing else "not recorded"
             rec.metrics.update(stat_metrics(mine, model))
             if model.startswith("R"):
                 drives = mine.loc[(mine["model"] == model) & (mine["drive"] != "all")
@@ -798,8 +802,10 @@ def provenance_line(params: Params) -> str:
     )
 
 
-def evaluation_record(params: Params, ev: Evaluation, artifacts: list[Path]) -> RunRecord:
-    """The parent run of one pipeline execution."""
+def evaluation_record(
+    params: Params, ev: Evaluation, artifacts: list[Path], started_ms: int | None = None
+) -> RunRecord:
+    """The parent run of one pipeline execution (``started_ms``: when ``evaluate`` started)."""
     metrics = {
         f"{model}/{key}": value
         for model in ("WPM", "G", "S", "R")
@@ -818,12 +824,15 @@ def evaluation_record(params: Params, ev: Evaluation, artifacts: list[Path]) -> 
         },
         metrics=metrics,
         artifacts=[paths.rel(a) for a in artifacts],
+        timing=Timing(started_ms) if started_ms else None,
     )
 
 
 def main(params: Params) -> None:
     """The ``evaluate`` stage: every model's predictions -> metrics, tables, plots, MLflow runs."""
     from rwhonet.tracking.store import log_execution, resolve_tracking_uri
+
+    started_ms = now_ms()
 
     scores = selection_scores(params, paths.SAMPLES, paths.MODELS)
     selection = recommend(scores, params)
@@ -850,7 +859,10 @@ def main(params: Params) -> None:
     )
     records = run_records(params, result, paths.MODELS)
     parent = evaluation_record(
-        params, result, [paths.EVAL_JSON, paths.TABLES_MD, *sorted(paths.PLOTS.glob("*.csv"))]
+        params,
+        result,
+        [paths.EVAL_JSON, paths.TABLES_MD, *sorted(paths.PLOTS.glob("*.csv"))],
+        started_ms,
     )
     uri = resolve_tracking_uri(params.tracking.tracking_uri)
     run_id = log_execution(

@@ -14,7 +14,8 @@ from rwhonet.config import Params
 from rwhonet.io import atomic_dir, write_json
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import load_role, split_tail
-from rwhonet.tracking.records import RunRecord
+from rwhonet.tracking.records import RunRecord, Timing, now_ms
+from rwhonet.tracking.timings import write_timing
 
 WHICH = {
     "G": (contracts.SOURCE_TRAIN, "source", "G-WhONet"),
@@ -38,9 +39,10 @@ def train_model(
 
     Returns:
         The run record (also written to ``out_dir/run.json``) and the seconds
-        the fit took. Timings stay out of the record so that every output of the
+        the fit took. Timings stay out of ``run.json`` so that every output of the
         stage is byte-reproducible from its inputs (dvc.lock does not change on
-        a re-run).
+        a re-run): the record's ``timing`` (the fit's start and end) goes to a
+        sidecar beside the MLflow store (:mod:`rwhonet.tracking.timings`).
     """
     from rwhonet.models.checkpoint import save_whonet
     from rwhonet.models.train import fit, predict
@@ -48,7 +50,9 @@ def train_model(
     role, vehicle, name = WHICH[which]
     data = load_role(samples_dir, role, params.model.seq_len)
     train, val = split_tail(data, params.train.val_fraction)
+    started = now_ms()
     result = fit(train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=seed)
+    timing = Timing(started, now_ms())
     test = load_role(samples_dir, contracts.PREDICTED_ROLES, params.model.seq_len)
     pred = predict(result.module, test.x)
     record = RunRecord(
@@ -70,11 +74,13 @@ def train_model(
             "n_total_params": result.n_total,
         },
         artifacts=[paths.rel(out_dir / contracts.MODEL_FILE)],
+        timing=timing,
     )
     with atomic_dir(out_dir) as tmp:
         save_whonet(result.module.net, result.module.hparams, tmp / contracts.MODEL_FILE)
         predictions_frame(test, pred).to_parquet(tmp / contracts.PREDICTIONS, index=False)
         write_json(tmp / contracts.RUN_RECORD, record.to_dict())
+    write_timing(out_dir, timing, stage=f"train_{which.lower()}@{seed}")
     return record, result.seconds
 
 

@@ -70,8 +70,15 @@ def log_execution(
         tags = {**common, **record.tags}
         if parent is not None:
             tags["mlflow.parentRunId"] = parent
-        run = retrying(lambda: client.create_run(exp_id, run_name=record.name, tags=tags))
+        # A record's timing is when its stage really ran it; without one, the run is
+        # timed by its own logging.
+        timing = record.timing
+        run = retrying(
+            lambda: client.create_run(exp_id, run_name=record.name, tags=tags,
+                                      start_time=timing.start_ms if timing else None)
+        )  # fmt: skip
         rid = run.info.run_id
+        end_ms = timing.end_ms if timing else None
         try:
             _log_contents(client, rid, record)
             for child in record.children:
@@ -81,11 +88,13 @@ def log_execution(
             status = "FAILED" if isinstance(err, Exception) else "KILLED"
             retrying(lambda: client.set_terminated(rid, status))
             raise
-        retrying(lambda: client.set_terminated(rid))
+        retrying(lambda: client.set_terminated(rid, end_time=end_ms))
         return rid
 
     def _log_contents(client: Any, rid: str, record: RunRecord) -> None:
-        now = int(time.time() * 1000)
+        # Metrics are stamped with the end of the run they belong to (MLflow's wall-time axis).
+        timing = record.timing
+        now = timing.end_ms if timing and timing.end_ms else int(time.time() * 1000)
         metrics = [Metric(k, float(v), now, 0) for k, v in record.metrics.items()]
         for row in record.history:
             step = int(row.get("epoch", 0))
