@@ -591,7 +591,7 @@ class AdaptParams:
 class DeadReckoningParams:
     """2D dead reckoning through each outage window (rwhonet.features.deadreckoning)."""
 
-    calibration_s: int  # GNSS seconds before the window the heading is fitted on
+    calibration_s: int  # GNSS seconds before the window the heading is fitted on (0: all)
     min_step_m: float  # a second that moved less gives no GNSS course
 
 

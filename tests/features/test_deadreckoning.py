@@ -132,3 +132,50 @@ def test_ideal_sensors_dead_reckon_three_minutes_of_town_within_a_fraction_of_a_
     error, travelled = _outage_error(sec, yaw, odometry)
     assert travelled > 500
     assert error < 0.005 * travelled, f"{error:.2f} m after {travelled:.0f} m"
+
+
+def _courses(azimuth_start, true_turn):
+    """GNSS courses (the chord's azimuth: the middle of each second) of a true turn sequence."""
+    azimuth = azimuth_start - np.cumsum(true_turn)
+    course = azimuth + 0.5 * true_turn
+    return (course + np.pi) % (2 * np.pi) - np.pi, azimuth
+
+
+def test_the_load_transfer_term_is_recovered_from_turns_at_different_speeds():
+    # Bends at 8 and at 22 m/s: the wheels overstate the yaw by 1 + c v^2, c = 0.003 s^2/m^2
+    # (2.5 times at 22 m/s); no single scale explains both.
+    v = np.r_[np.full(60, 8.0), np.full(60, 22.0)]
+    true_turn = np.r_[np.zeros(20), np.full(20, 0.08), np.zeros(40), np.full(20, -0.03),
+                      np.zeros(20)]  # fmt: skip
+    yaw = true_turn * (1.0 + 0.003 * v**2)
+    course, azimuth = _courses(1.0, true_turn)
+    fit = fit_heading(course, yaw, v)
+    assert fit.load_s2_m2 == pytest.approx(0.003, abs=0.00025)  # one step of the grid
+    assert abs(fit.scale - 1.0) < 0.01
+    assert np.cos(fit.azimuth_end_rad - azimuth[-1]) == pytest.approx(1.0, abs=1e-4)
+    # the outage after it: another 22 m/s bend, dead-reckoned with and without the term
+    out_turn, out_v = np.full(20, 0.03), np.full(20, 22.0)
+    out_yaw = out_turn * (1.0 + 0.003 * out_v**2)
+    e, n = dead_reckon(azimuth[-1], out_v, out_yaw, 1.0, 0.0, 0.003)
+    e0, n0 = dead_reckon(azimuth[-1], out_v, out_turn, 1.0)  # the true yaw
+    assert np.hypot(e[-1] - e0[-1], n[-1] - n0[-1]) < 1e-9
+    e1, n1 = dead_reckon(azimuth[-1], out_v, out_yaw, 1.0)  # without the term: far off
+    assert np.hypot(e1[-1] - e0[-1], n1[-1] - n0[-1]) > 50.0
+
+
+def test_the_heading_is_refitted_after_a_stop_whose_wheel_yaw_is_wrong():
+    # 200 s of S-bends (they pin the yaw scale), then crawling for 20 s (no course) while
+    # reversing into a bay: the wheels (magnitudes) count the 60-degree reversing turn the
+    # wrong way round. Then 30 s straight on. One heading track through the stop ends 120
+    # degrees off (the 30 s after it are outvoted as outliers); a heading per block does not.
+    bends = np.tile(np.r_[np.zeros(10), np.full(10, 0.05), np.zeros(10), np.full(10, -0.05)], 5)
+    v = np.r_[np.full(200, 10.0), np.full(20, 1.0), np.full(30, 10.0)]
+    true_turn = np.r_[bends, np.full(20, np.radians(-3.0)), np.zeros(30)]
+    yaw = np.r_[bends, -true_turn[200:220], np.zeros(30)]
+    course, azimuth = _courses(0.0, true_turn)
+    course[200:220] = np.nan
+    assert np.degrees(azimuth[-1]) == pytest.approx(60.0)
+    fit = fit_heading(course, yaw, v)
+    assert np.degrees(fit.azimuth_end_rad) == pytest.approx(60.0, abs=0.1)
+    one_track = fit_heading(course, yaw, v, block_gap_s=10_000)
+    assert np.degrees(one_track.azimuth_end_rad) == pytest.approx(-60.0, abs=0.1)

@@ -14,6 +14,15 @@ course by the yaw the rear wheels measure:
   course over the seconds before the outage, together with the heading the
   outage starts on and a yaw bias per metre (a left/right radius difference)
   (:func:`fit_heading`);
+- in a turn, lateral load transfer (``m a_y h / t`` per axle) loads the outer
+  wheel and unloads the inner one, and a tyre's effective rolling radius falls
+  by about a third of its extra deflection (Pacejka 2012, as the simulator
+  models it): the outer wheel turns faster than its travel, so the wheels
+  overstate the yaw by a factor ``1 + c v^2`` (``a_y = v ψ'``: the radius
+  difference grows with ``a_y``, its yaw error with ``v a_y``). ``c`` depends on
+  the tyres' vertical stiffness, that is on their pressure, so it is fitted
+  too: on a soft (14 psi) rear axle of a Fiesta it is about 0.003 s²/m², and
+  the wheels then report 2.5 times the yaw of a 22 m/s bend;
 - the GNSS course of second k is the azimuth of the chord from the fix ending
   second k−1 to the one ending second k: the heading at the middle of second k;
 - position, in a local east/north frame at the fix before the outage
@@ -96,6 +105,8 @@ class HeadingFit:
         azimuth_end_rad: the azimuth at the end of the last second, rad clockwise from north.
         n_courses: GNSS courses used.
         turned_rad: the wheel yaw's range over those seconds.
+        load_s2_m2: the load-transfer coefficient ``c``: the wheels report
+            ``1 + c v²`` times the yaw, v in m/s.
     """
 
     scale: float
@@ -103,6 +114,7 @@ class HeadingFit:
     azimuth_end_rad: float
     n_courses: int
     turned_rad: float
+    load_s2_m2: float = 0.0
 
 
 def fit_heading(
@@ -115,21 +127,28 @@ def fit_heading(
     bias_sd_rad_per_m: float = 0.003,
     outlier_rad: float = 0.2,
     max_yaw_rad: float = 0.05,
+    load_grid_s2_m2: np.ndarray | None = None,
+    block_gap_s: int = 5,
 ) -> HeadingFit | None:
-    """Fit the start azimuth, the yaw scale and a yaw bias to the GNSS courses of a stretch.
+    """Fit the start azimuth, the yaw scale, a yaw bias and the load-transfer term to GNSS courses.
 
     The course of second k is the heading at its middle:
-    ``az0 − s Y_k − β D_k``, with ``Y_k`` the wheel yaw and ``D_k`` the distance
-    from the start to the middle of second k (the yaw is counter-clockwise, the
-    azimuth clockwise). ``β`` absorbs a difference between the rear wheels'
-    radii, which the nominal radii used for the yaw do not know. A weighted
+    ``az0 − s Y_k − β D_k``, with ``Y_k`` the wheel yaw divided by ``1 + c v²``
+    (v: the second's distance over 1 s; module docstring) summed from the start
+    to the middle of second k, and ``D_k`` the distance over the same stretch
+    (the yaw is counter-clockwise, the azimuth clockwise). ``β`` absorbs a
+    difference between the rear wheels' radii, which the nominal radii used for
+    the yaw do not know. For each ``c`` of ``load_grid_s2_m2``: a weighted
     linear least-squares fit over every second with a course, with priors
-    ``s = 1 ± scale_sd`` and ``β = 0 ± bias_sd_rad_per_m``: a stretch with little
-    turning (or turning in step with distance, as on a roundabout at constant
-    speed) then leaves them near their priors instead of trading one for the
-    other. Then again without courses more than ``outlier_rad`` off (GNSS
-    jumps). Fitting the whole stretch, rather than course changes second by
-    second, keeps the within-second approximation local instead of accumulating.
+    ``s = 1 ± scale_sd`` and ``β = 0 ± bias_sd_rad_per_m`` (a stretch with little
+    turning, or turning in step with distance as on a roundabout at constant
+    speed, then leaves them near their priors instead of trading one for the
+    other), then again without courses more than ``outlier_rad`` off (GNSS
+    jumps). The ``c`` whose fit has the least truncated squared residual (each
+    course's capped at ``outlier_rad``, so fits dropping different courses
+    compare) plus prior terms wins. Fitting the whole stretch, rather than
+    course changes second by second, keeps the within-second approximation
+    local instead of accumulating.
 
     Args:
         course: (n,) GNSS course per second, rad (NaN where unknown).
@@ -145,6 +164,11 @@ def fit_heading(
             speeding up or slowing down, a second's chord follows its
             distance-weighted mean heading, not the heading at its middle time,
             while between the other seconds the summed wheel yaw is exact.
+        load_grid_s2_m2: the values of ``c`` tried, s²/m² (default 0 to 0.01 in
+            steps of 0.00025: from stiff tyres to a very soft axle).
+        block_gap_s: seconds without a course (stopped, crawling, a GNSS jump
+            dropped) after which the heading is fitted afresh: the scale, bias and
+            ``c`` are shared by the whole stretch, the heading only within a block.
 
     Returns:
         The fit, or None when fewer than 3 seconds have a course.
@@ -152,6 +176,7 @@ def fit_heading(
     c = np.asarray(course, np.float64)
     y = np.asarray(yaw, np.float64)
     d = np.asarray(disp_m, np.float64)
+    grid = np.linspace(0.0, 0.01, 41) if load_grid_s2_m2 is None else load_grid_s2_m2
     # relative change of speed around each second (its neighbours' distances)
     dd = (
         np.abs(np.r_[d[1:2], d[2:], d[-1:]] - np.r_[d[:1], d[:-2], d[-2:-1]])
@@ -162,31 +187,66 @@ def fit_heading(
     known = np.isfinite(c) & (np.abs(y) * accel <= max_yaw_rad * 0.02)
     if known.sum() < 3:
         return None
-    cum_y, cum_d = np.cumsum(y), np.cumsum(d)
-    mid_y, mid_d = cum_y - 0.5 * y, cum_d - 0.5 * d  # start to the middle of each second
-    # Unwrap against the nominal model (s = 1, no bias) so any amount of turning is fine.
-    ref = c[known][0] + mid_y[known][0]
-    unwrapped = _wrap(c + mid_y - ref) - mid_y + ref
-    keep = known.copy()
-    prior = np.array([[0.0, 1.0 / scale_sd, 0.0], [0.0, 0.0, 1.0 / bias_sd_rad_per_m]])
+    cum_d = np.cumsum(d)
+    mid_d = cum_d - 0.5 * d  # start to the middle of each second
+    # A stretch of `block_gap_s` seconds or more without a course (a stop, a manoeuvre)
+    # starts a new block with its own heading: through it the wheels' yaw is not
+    # checked by GNSS and may be wrong (wheel speeds are magnitudes, so a reversing
+    # turn counts the wrong way round).
+    idx = np.flatnonzero(known)
+    block = np.zeros(d.size, np.int64)
+    block[idx] = np.cumsum(np.r_[0, np.diff(idx) > block_gap_s])
+    n_blocks = int(block[idx[-1]]) + 1
+    prior = np.array([[1.0 / scale_sd, 0.0], [0.0, 1.0 / bias_sd_rad_per_m]])
     prior_target = np.array([1.0 / scale_sd, 0.0])
-    for _ in range(3):
-        a = np.column_stack([np.ones(keep.sum()), -mid_y[keep], -mid_d[keep]]) / course_sd_rad
-        coef = np.linalg.lstsq(
-            np.vstack([a, prior]),
-            np.concatenate([unwrapped[keep] / course_sd_rad, prior_target]),
-            rcond=None,
-        )[0]
-        az0, scale, bias = (float(v) for v in coef)
-        resid = np.abs(unwrapped - (az0 - scale * mid_y - bias * mid_d))
-        new_keep = known & (resid <= outlier_rad)
-        if new_keep.sum() < 3 or np.array_equal(new_keep, keep):
-            break
-        keep = new_keep
-    return HeadingFit(
-        scale, bias, az0 - scale * cum_y[-1] - bias * cum_d[-1], int(keep.sum()),
-        float(np.ptp(mid_y[known])),
-    )  # fmt: skip
+    first_known = idx[np.r_[0, np.flatnonzero(np.diff(block[idx])) + 1]]
+    best: tuple[float, HeadingFit] | None = None
+    for load in np.asarray(grid, np.float64):
+        yc = y / (1.0 + load * d * d)
+        cum_y = np.cumsum(yc)
+        mid_y = cum_y - 0.5 * yc
+        # Unwrap against this c's nominal model (s = 1, no bias), from each block's first
+        # course: any amount of turning is fine.
+        ref = (c + mid_y)[first_known][block]
+        unwrapped = _wrap(c + mid_y - ref) - mid_y + ref
+        keep = known.copy()
+        for _ in range(3):
+            # Each block's heading is a free intercept: fit s and β on the data less
+            # their block means (exactly the least squares with one intercept per block).
+            b = block[keep]
+            n_b = np.bincount(b, minlength=n_blocks).astype(np.float64)
+            cols = np.column_stack([unwrapped[keep], -mid_y[keep], -mid_d[keep]])
+            means = (
+                np.stack([np.bincount(b, cols[:, j], n_blocks) for j in range(3)], axis=1)
+                / np.maximum(n_b, 1.0)[:, None]
+            )
+            dm = cols - means[b]
+            scale, bias = np.linalg.lstsq(
+                np.vstack([dm[:, 1:] / course_sd_rad, prior]),
+                np.concatenate([dm[:, 0] / course_sd_rad, prior_target]),
+                rcond=None,
+            )[0]
+            scale, bias = float(scale), float(bias)
+            az0 = means[:, 0] - scale * means[:, 1] - bias * means[:, 2]
+            resid = np.abs(unwrapped - (az0[block] - scale * mid_y - bias * mid_d))
+            new_keep = known & (resid <= outlier_rad)
+            if new_keep.sum() < 3 or np.array_equal(new_keep, keep):
+                break
+            keep = new_keep
+        cost = float(
+            np.sum(np.minimum(resid[known], outlier_rad) ** 2) / course_sd_rad**2
+            + ((scale - 1.0) / scale_sd) ** 2
+            + (bias / bias_sd_rad_per_m) ** 2
+        )
+        if best is None or cost < best[0]:
+            last = int(block[np.flatnonzero(keep)[-1]])  # the latest block with a course kept
+            fit = HeadingFit(
+                scale, bias, float(az0[last]) - scale * cum_y[-1] - bias * cum_d[-1],
+                int(keep.sum()), float(np.ptp(mid_y[known])), float(load),
+            )  # fmt: skip
+            best = (cost, fit)
+    assert best is not None
+    return best[1]
 
 
 def dead_reckon(
@@ -195,6 +255,7 @@ def dead_reckon(
     yaw_rad: np.ndarray,
     scale: float,
     bias_rad_per_m: float = 0.0,
+    load_s2_m2: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Positions at the end of each second, from (0, 0) and an initial azimuth.
 
@@ -204,12 +265,13 @@ def dead_reckon(
         yaw_rad: (n,) wheel yaw in each second (left turns positive), rad.
         scale: the yaw scale (:func:`fit_heading`).
         bias_rad_per_m: the yaw bias per metre (:func:`fit_heading`).
+        load_s2_m2: the load-transfer coefficient (:func:`fit_heading`).
 
     Returns:
         ``(east_m, north_m)``, each (n,), cumulative.
     """
     d = np.asarray(disp_m, np.float64)
-    turn = scale * np.asarray(yaw_rad, np.float64) + bias_rad_per_m * d
+    turn = scale * np.asarray(yaw_rad, np.float64) / (1.0 + load_s2_m2 * d * d) + bias_rad_per_m * d
     az_end = azimuth0_rad - np.cumsum(turn)
     az_mid = az_end + 0.5 * turn
     chord = d * np.sinc(turn / (2.0 * np.pi))  # an arc of angle a: chord = arc sin(a/2)/(a/2)

@@ -286,6 +286,11 @@ def scenario_table(scenarios: pd.DataFrame, chosen_m: int) -> str:
     return "\n".join(lines)
 
 
+def _calibration(params: Params) -> str:
+    cal = params.evaluate.dead_reckoning.calibration_s
+    return "the whole drive segment" if cal == 0 else f"the {cal} s"
+
+
 def position_table(ev: Evaluation, params: Params) -> str | None:
     """2D dead reckoning: the horizontal error at the end of each outage window, per model."""
     pos = ev.position
@@ -514,11 +519,14 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "",
             "Beyond the paper (its CRSE and CTE are distances). From the GNSS fix before each "
             "window, heading from the rear wheels' travel difference, fitted to the GNSS "
-            f"course over the {params.evaluate.dead_reckoning.calibration_s} s before the "
-            "window (start azimuth, yaw scale, yaw per metre); each second's distance is the "
-            "model's. The error is the distance to the GNSS fix at the window's end: mean over "
-            "windows and seeds ± 95 % interval (largest window, mean over seeds). The heading "
-            "is the same for every model (rwhonet.stages.position).",
+            f"course over {_calibration(params)} before the window (the heading after the "
+            "last stop, a yaw scale, a yaw per metre for a left/right radius difference, and "
+            "the lateral load-transfer term: rwhonet.features.deadreckoning); each second's "
+            "distance is the model's. The error is the distance to the GNSS fix at the "
+            "window's end: mean over windows and seeds ± 95 % interval (largest window, mean "
+            "over seeds). The heading is the same for every model; the first row dead-reckons "
+            "the GNSS's own distances, so its error is the heading's alone "
+            "(rwhonet.stages.position).",
             "",
             position,
         ]

@@ -57,7 +57,7 @@ from rwhonet.metrics.outage import summarise, window_evolution, window_metrics
 from rwhonet.report.tables import render_report
 from rwhonet.stages.limits import radius_limits
 from rwhonet.stages.outages import evaluated_rows
-from rwhonet.stages.position import position_errors, window_tracks
+from rwhonet.stages.position import HEADING_ONLY, position_errors, window_tracks
 from rwhonet.stages.samples import load_role
 from rwhonet.tracking.records import Timing, now_ms
 from rwhonet.tracking.store import RunRecord
@@ -397,7 +397,10 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
     tracks = {L: window_tracks(frame, params, L) for L in params.evaluate.outages_s}
     for seed in params.seeds:
         errors = model_errors(frame, preds[seed], wpm_m, params)
-        in_2d = {m: errors[m] for m in position_models(params)}
+        # The GNSS's own distances dead-reckoned: the error left is the heading's alone.
+        in_2d = {HEADING_ONLY: np.zeros(len(frame))} | {
+            m: errors[m] for m in position_models(params)
+        }
         positions += [{"seed": seed, **r} for r in position_errors(frame, tracks, in_2d)]
         errors = {
             name: {L: v[evaluated] for L, v in e.items()} if isinstance(e, dict) else e[evaluated]

@@ -5,14 +5,17 @@ target test window of every outage length (the same windows as CRSE/CTE), the
 car is dead-reckoned from the GNSS fix before the window
 (:mod:`rwhonet.features.deadreckoning`): heading from the rear wheels, fitted
 to the GNSS course over ``evaluate.dead_reckoning.calibration_s`` seconds
-before the window; each second's distance is the model's (the WPM's, or the
-WPM corrected by the model: GNSS displacement minus the model's error). The
+before the window (0: all of its segment before it); each second's distance is
+the model's (the WPM's, or the WPM corrected by the model: GNSS displacement
+minus the model's error). The
 error is the horizontal distance between where that ends and the GNSS fix at
 the window's end. The heading is the same for every model, so the differences
 between models are their distance errors seen in 2D.
 
 A window needs the second before it in its segment (its start fix) and a GNSS
 course in its calibration stretch; windows without are left out and counted.
+The row :data:`HEADING_ONLY` dead-reckons the GNSS's own distances: its error is
+the heading's alone, the floor under every distance model.
 """
 
 from __future__ import annotations
@@ -26,13 +29,15 @@ from rwhonet.features.deadreckoning import course_rad, dead_reckon, fit_heading,
 from rwhonet.geo.local import offsets_m
 from rwhonet.stages.outages import outage_windows
 
+HEADING_ONLY = "heading only (GNSS distance)"
+
 
 def window_tracks(frame: pd.DataFrame, params: Params, outage_s: int) -> dict[str, np.ndarray]:
     """Everything but the distances: per target test window, its heading fit and truth.
 
     Returns:
         ``rows`` (W, L) row indices of the windows, ``azimuth0``, ``scale``,
-        ``bias`` (per window), ``truth_e``/``truth_n`` (the GNSS offset of the
+        ``bias``, ``load`` (per window), ``truth_e``/``truth_n`` (the GNSS offset of the
         window's end from its start fix, m) and ``yaw`` (W, L); only windows that
         could be dead-reckoned.
     """
@@ -57,19 +62,21 @@ def window_tracks(frame: pd.DataFrame, params: Params, outage_s: int) -> dict[st
     for a, b in zip(starts, np.r_[starts[1:], len(frame)], strict=True):
         course[a:b] = course_rad(lat[a:b], lon[a:b], cfg.min_step_m)
     first_row = starts[np.searchsorted(starts, np.arange(len(frame)), side="right") - 1]
-    keys = ("rows", "azimuth0", "scale", "bias", "truth_e", "truth_n")
+    keys = ("rows", "azimuth0", "scale", "bias", "load", "truth_e", "truth_n")
     out: dict[str, list] = {key: [] for key in keys}
     for rows in windows:
         i0 = rows[0]
         if i0 == first_row[i0]:
             continue  # no fix before the window in its segment
-        a = max(first_row[i0], i0 - cfg.calibration_s)
+        # 0: every second of the segment before the window (never one after its start)
+        a = first_row[i0] if cfg.calibration_s == 0 else max(first_row[i0], i0 - cfg.calibration_s)
         fit = fit_heading(course[a:i0], yaw_all[a:i0], gnss[a:i0])
         if fit is None:
             continue
         e, n = offsets_m(lat[i0 - 1], lon[i0 - 1], lat[rows[-1]], lon[rows[-1]])
         for key, value in (("rows", rows), ("azimuth0", fit.azimuth_end_rad),
                            ("scale", fit.scale), ("bias", fit.bias_rad_per_m),
+                           ("load", fit.load_s2_m2),
                            ("truth_e", float(e)), ("truth_n", float(n))):  # fmt: skip
             out[key].append(value)
     length = outage_s
@@ -110,7 +117,7 @@ def position_errors(
             end = np.empty(len(rows))
             for w in range(len(rows)):
                 e, n = dead_reckon(t["azimuth0"][w], dist[w], t["yaw"][w], t["scale"][w],
-                                   t["bias"][w])  # fmt: skip
+                                   t["bias"][w], t["load"][w])  # fmt: skip
                 end[w] = np.hypot(e[-1] - t["truth_e"][w], n[-1] - t["truth_n"][w])
             out.append({"model": model, "outage_s": L, "pos_mean": float(end.mean()),
                         "pos_max": float(end.max()), "n_windows": len(rows)})  # fmt: skip
