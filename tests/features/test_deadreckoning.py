@@ -104,7 +104,7 @@ def _outage_error(sec, yaw, odometry, start=200, length=180) -> tuple[float, flo
     fit = fit_heading(course[:start], yaw[:start], odometry[:start])
     rows = slice(start, start + length)
     east, north = dead_reckon(fit.azimuth_end_rad, odometry[rows], yaw[rows], fit.scale,
-                              fit.bias_rad_per_m)  # fmt: skip
+                              fit.bias_rad_per_m, fit.load_s2_m2)  # fmt: skip
     truth_e, truth_n = offsets_m(
         sec.lat_deg[start - 1],
         sec.lon_deg[start - 1],
