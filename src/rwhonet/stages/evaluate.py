@@ -54,6 +54,13 @@ from rwhonet.features.wpm import wpm_displacement_m
 from rwhonet.io import atomic_outputs, read_json
 from rwhonet.metrics.intervals import mean_ci95, over_seeds
 from rwhonet.metrics.outage import summarise, window_evolution, window_metrics
+from rwhonet.report.comparison import (
+    comparison_html,
+    comparison_markdown,
+    comparison_rows,
+    headline_metrics,
+    view_metrics,
+)
 from rwhonet.report.tables import render_report
 from rwhonet.stages.limits import radius_limits
 from rwhonet.stages.outages import evaluated_rows
@@ -809,12 +816,8 @@ def evaluation_record(
     params: Params, ev: Evaluation, artifacts: list[Path], started_ms: int | None = None
 ) -> RunRecord:
     """The parent run of one pipeline execution (``started_ms``: when ``evaluate`` started)."""
-    metrics = {
-        f"{model}/{key}": value
-        for model in ("WPM", "G", "S", "R")
-        for key, value in stat_metrics(ev.summary, model).items()
-        if key.endswith(("/mean", "/ci95"))
-    }
+    # the headline numbers as the run's own metrics (columns of the runs table), from eval.json
+    metrics = headline_metrics(ev.eval_json)
     return RunRecord(
         name=f"pipeline ({params.data.source}, {params.sim.profile}, {len(params.seeds)} seeds)",
         tags={"model": "pipeline", "dvc_stage": "evaluate", "seeds": str(params.seeds)},
@@ -833,7 +836,12 @@ def evaluation_record(
 
 def main(params: Params) -> None:
     """The ``evaluate`` stage: every model's predictions -> metrics, tables, plots, MLflow runs."""
-    from rwhonet.tracking.store import log_execution, resolve_tracking_uri
+    from rwhonet.tracking.store import (
+        log_comparison,
+        log_execution,
+        resolve_tracking_uri,
+        runs_view_url,
+    )
 
     started_ms = now_ms()
 
@@ -871,10 +879,16 @@ def main(params: Params) -> None:
     run_id = log_execution(
         records, uri=uri, experiment=params.tracking.experiment, execution=parent
     )
+    written = read_json(paths.EVAL_JSON)  # what the report shows: one source of truth
+    experiment_id = log_comparison(
+        uri, run_id, rows=comparison_rows(written), note=comparison_markdown(written),
+        page=comparison_html(written), view_metrics=view_metrics(written),
+    )  # fmt: skip
     print(
         f"Wrote {paths.rel(paths.EVAL_JSON)} and {paths.rel(paths.TABLES_MD)}; MLflow: experiment "
         f"'{params.tracking.experiment}', parent run {run_id} ({len(records)} child runs) in "
-        f"{uri}; `make ui` to compare."
+        f"{uri}; `make ui`, then the headline columns of every execution: "
+        f"{runs_view_url(experiment_id, base='http://127.0.0.1:5000')}"
     )
     for note in selection_disagreements(result.eval_json["selection"]):
         print(f"Note: {note} (the evidence: 'Selection' in {paths.rel(paths.TABLES_MD)}).")

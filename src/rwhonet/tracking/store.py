@@ -13,9 +13,11 @@ Where the store is and how it is opened under concurrency: :mod:`rwhonet.trackin
 
 from __future__ import annotations
 
+import json
 import os
 import time
 import uuid
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -127,3 +129,87 @@ def _register(client: Any, logged: list[tuple[RunRecord, str]], tags: dict[str, 
         listed = ", ".join(f"{d['name']} v{d['version']}" for d in done)
         retrying(lambda: client.set_tag(tags["parent_run_id"], "registered_models", listed))
         print(f"MLflow Model Registry: {listed}")
+
+
+# MLflow's UI keeps the runs table's columns in the browser (localStorage); a view
+# shared under this experiment-tag prefix opens with the columns and filter it holds
+# (``#/experiments/<id>/runs?viewStateShareKey=<key>``). MLflow 3.17 has no server-side
+# default columns.
+SHARED_VIEW_TAG = "mlflow.sharedViewState."
+HEADLINE_VIEW = "rwhonet-headline"
+
+
+def runs_view_url(experiment_id: str, key: str = HEADLINE_VIEW, base: str = "") -> str:
+    """The UI address of a shared runs view (``base``: ``http://127.0.0.1:5000``, or none)."""
+    return (f"{base}/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
+            f"&viewStateShareKey={key}")  # fmt: skip
+
+
+def share_runs_view(
+    client: Any,
+    experiment_id: str,
+    key: str,
+    *,
+    search_filter: str,
+    metrics: list[str],
+    tags: tuple[str, ...] = (),
+) -> None:
+    """Save a runs-table view (filter and columns) that the UI opens from :func:`runs_view_url`.
+
+    The value is the view state the UI's own "share" writes: search facets and the
+    table's UI state, as JSON in an experiment tag.
+    """
+    columns = ["attributes.`Duration`", *(f"metrics.`{m}`" for m in metrics),
+               *(f"tags.`{t}`" for t in tags)]  # fmt: skip
+    state = {
+        "searchFilter": search_filter, "orderByKey": "attributes.start_time",
+        "orderByAsc": False, "startTime": "ALL", "lifecycleFilter": "Active",
+        "datasetsFilter": [], "modelVersionFilter": "All Runs",
+        "selectedColumns": columns, "columnOrder": columns, "columnWidths": {},
+        "runsHiddenMode": "SHOW_ALL", "viewMaximized": False, "runListHidden": False,
+        "isAccordionReordered": False, "useGroupedValuesInCharts": True,
+        "hideEmptyCharts": True, "groupBy": None, "groupsExpanded": {},
+    }  # fmt: skip
+    retrying(lambda: client.set_experiment_tag(experiment_id, SHARED_VIEW_TAG + key,
+                                               json.dumps(state)))  # fmt: skip
+
+
+def log_comparison(
+    uri: str,
+    run_id: str,
+    *,
+    rows: list[dict[str, Any]],
+    note: str,
+    page: str,
+    view_metrics: list[str],
+) -> str:
+    """Put an execution's comparison where the UI shows it first, on its parent run.
+
+    Args:
+        uri: resolved tracking URI.
+        run_id: the parent run.
+        rows: one row per model and outage (:func:`rwhonet.report.comparison.comparison_rows`),
+            logged as an MLflow table (``comparison/crse_cte.json``: the artifact view shows
+            it as a table, the artifact compare view across executions).
+        note: Markdown, the run's description (the top of its page).
+        page: a self-contained HTML page with the table and charts
+            (``comparison/crse_cte.html``, rendered in the artifact view).
+        view_metrics: the parent-run metrics the shared view :data:`HEADLINE_VIEW`
+            shows as columns of every execution's row.
+
+    Returns:
+        The experiment id.
+    """
+    import mlflow
+
+    client = mlflow.MlflowClient(tracking_uri=uri)
+    experiment_id = client.get_run(run_id).info.experiment_id
+    with warnings.catch_warnings():  # MLflow's own pandas 3 deprecation, nothing of ours
+        warnings.filterwarnings("ignore", message=r".*select_dtypes.*")
+        retrying(lambda: client.log_table(run_id, data={k: [r[k] for r in rows] for k in rows[0]},
+                                          artifact_file="comparison/crse_cte.json"))  # fmt: skip
+    client.log_text(run_id, page, "comparison/crse_cte.html")
+    retrying(lambda: client.set_tag(run_id, "mlflow.note.content", note))
+    share_runs_view(client, experiment_id, HEADLINE_VIEW, search_filter="tags.model = 'pipeline'",
+                    metrics=view_metrics, tags=("rwhonet.execution",))  # fmt: skip
+    return experiment_id
