@@ -20,6 +20,8 @@ def test_project_params_load():
     [
         ({"train.epoch": 3}, "train: unknown key(s) ['epoch']"),
         ({"train.epochs": "many"}, "train.epochs: expected an integer"),
+        ({"train.trainer.devices": 2}, "2 device(s) on 1 node(s) need strategy: ddp"),
+        ({"train.trainer.strategy": "fsdp"}, "train.trainer.strategy: expected one of"),
         ({"label.wpm_mode": "magic"}, "label.wpm_mode: expected one of"),
         (
             {"adapt.chosen_m": 55, "adapt.recipe": "paper"},

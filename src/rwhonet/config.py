@@ -502,12 +502,46 @@ class ModelParams:
 
 
 @dataclass(frozen=True)
+class TrainerParams:
+    """Where and how Lightning runs G's and S's training (docs/scaling.md).
+
+    The defaults (one CPU process, 32-bit) are the paper's single-process run.
+    ``train.batch_size`` is per process: with ``ddp`` the effective batch is
+    ``batch_size * devices * num_nodes``.
+    """
+
+    accelerator: Literal["cpu", "gpu", "cuda", "auto"] = "cpu"
+    devices: int = 1  # processes (CPU) or GPUs per node
+    strategy: Literal["auto", "ddp"] = "auto"  # auto: one process; ddp: one process per device
+    num_nodes: int = 1
+    precision: Literal["32-true", "bf16-mixed", "16-mixed"] = "32-true"
+
+    def __post_init__(self) -> None:
+        if self.devices < 1 or self.num_nodes < 1:
+            raise ConfigError(
+                f"train.trainer.devices and num_nodes must be >= 1, got {self.devices}, "
+                f"{self.num_nodes}"
+            )
+        if self.strategy == "auto" and self.devices * self.num_nodes > 1:
+            raise ConfigError(
+                f"train.trainer: {self.devices} device(s) on {self.num_nodes} node(s) need "
+                "strategy: ddp (auto runs one process)"
+            )
+
+    @property
+    def world_size(self) -> int:
+        """Training processes in all (one per device)."""
+        return self.devices * self.num_nodes
+
+
+@dataclass(frozen=True)
 class TrainParams:
     epochs: int
     batch_size: int
     lr: float
     val_fraction: float
     num_threads: int
+    trainer: TrainerParams = field(default_factory=TrainerParams)
 
 
 @dataclass(frozen=True)

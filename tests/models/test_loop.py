@@ -97,3 +97,25 @@ def test_predict_checks_a_bare_networks_inputs(linear_data):
     np.testing.assert_allclose(predict(module, x, batch_size=7), whole, rtol=0, atol=1e-6)
     assert module.training  # restored
     assert predict(module, x[:0]).shape == (0,)
+
+
+@pytest.mark.parametrize("n", [1000, 1001, 1003])
+def test_shards_of_two_processes_are_the_mini_batches_of_one_at_twice_the_batch(n):
+    data = ArrayDataset(np.arange(n, dtype=np.float32).reshape(n, 1, 1), np.zeros(n))
+
+    def batches(batch_size, rank=0, world_size=1):
+        loader = train_loader(
+            data, batch_size=batch_size, seed=3, steps_per_block=4, rank=rank, world_size=world_size
+        )
+        epochs = []
+        for _ in range(2):  # the generator advances between epochs in every process alike
+            ids = [int(v) for x, _ in loader for v in x.flatten()]
+            epochs.append([ids[i : i + batch_size] for i in range(0, len(ids), batch_size)])
+        return epochs
+
+    for one, rank0, rank1 in zip(batches(64), batches(32, 0, 2), batches(32, 1, 2), strict=True):
+        merged = [sorted(a + b) for a, b in zip(rank0, rank1, strict=True)]
+        # the last n % 2 samples of the epoch's permutation are left out, nothing else
+        assert merged == [sorted(b) for b in one][: len(merged) - 1] + [merged[-1]]
+        assert sum(map(len, merged)) == n - n % 2
+        assert set(merged[-1]) <= set(one[-1])

@@ -73,16 +73,28 @@ class WhONetDataModule(L.LightningDataModule):
         return self.val_set is not None
 
     def train_dataloader(self) -> DataLoader:
-        """Shuffled blocks; the generator is re-seeded per call, so every fit sees one order."""
+        """Shuffled blocks; the generator is re-seeded per call, so every fit sees one order.
+
+        Under a distributed Trainer each process gets its share of every epoch
+        (:class:`~rwhonet.models.loop.ShardSampler`); the Trainer must not add a
+        ``DistributedSampler`` of its own (``use_distributed_sampler=False``).
+        """
+        trainer = self.trainer
         return train_loader(
             self.train_set,
             batch_size=self.batch_size,
             seed=self.seed,
             steps_per_block=self.steps_per_block,
+            rank=trainer.global_rank if trainer is not None else 0,
+            world_size=trainer.world_size if trainer is not None else 1,
         )
 
     def val_dataloader(self) -> DataLoader | list:
-        """Validation batches in order; an empty list (no validation) without a validation set."""
+        """Validation batches in order; an empty list (no validation) without a validation set.
+
+        Not sharded: every process scores the whole validation set (the same
+        weights give the same ``val/loss`` everywhere, with no reduction).
+        """
         if self.val_set is None:
             return []
         return val_loader(self.val_set, batch_size=self.val_batch_size)

@@ -18,13 +18,20 @@ Plain torch: importing this module does not import Lightning.
 from __future__ import annotations
 
 import random
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
 import torch
 from torch import nn
-from torch.utils.data import BatchSampler, DataLoader, Dataset, RandomSampler, SequentialSampler
+from torch.utils.data import (
+    BatchSampler,
+    DataLoader,
+    Dataset,
+    RandomSampler,
+    Sampler,
+    SequentialSampler,
+)
 
 from rwhonet.contracts import N_FEATURES
 from rwhonet.errors import InputError, Problem
@@ -77,8 +84,47 @@ class ArrayDataset(Dataset):
         return self.x[index], self.y[index]
 
 
+class ShardSampler(Sampler[int]):
+    """One process's share of every epoch's permutation (distributed training).
+
+    Every process draws the same permutation (same seeded generator) and takes
+    its positions ``rank, rank + world_size, ...``; the last ``n % world_size``
+    positions (at most ``world_size - 1`` samples, different ones each epoch)
+    are left out so every process takes the same number of steps. Mini-batch
+    ``k`` of all processes together is then positions ``[k * B, (k + 1) * B)``
+    of the permutation, ``B = world_size * batch_size``: the mini-batches of one
+    process at batch size ``B``.
+
+    Args:
+        order: the epoch's permutation (a seeded ``RandomSampler``).
+        rank: this process's global rank.
+        world_size: processes in all.
+    """
+
+    def __init__(self, order: Sampler[int], rank: int, world_size: int) -> None:
+        if not 0 <= rank < world_size:
+            raise ValueError(f"rank must be in [0, {world_size}), got {rank}")
+        self.order = order
+        self.rank = rank
+        self.world_size = world_size
+
+    def __iter__(self) -> Iterator[int]:
+        order = list(self.order)
+        usable = len(order) - len(order) % self.world_size
+        return iter(order[self.rank : usable : self.world_size])
+
+    def __len__(self) -> int:
+        return len(self.order) // self.world_size
+
+
 def train_loader(
-    dataset: ArrayDataset, *, batch_size: int, seed: int, steps_per_block: int = STEPS_PER_BLOCK
+    dataset: ArrayDataset,
+    *,
+    batch_size: int,
+    seed: int,
+    steps_per_block: int = STEPS_PER_BLOCK,
+    rank: int = 0,
+    world_size: int = 1,
 ) -> DataLoader:
     """Shuffled training blocks: the one sample order both training paths use.
 
@@ -87,13 +133,16 @@ def train_loader(
     from epoch to epoch), cut into blocks of ``steps_per_block * batch_size``
     samples that :func:`train_block` slices into mini-batches. The sequence of
     mini-batches is therefore that of a plain ``shuffle=True`` loop at
-    ``batch_size`` whatever ``steps_per_block`` is.
+    ``batch_size`` whatever ``steps_per_block`` is. With ``world_size > 1`` each
+    process gets its :class:`ShardSampler` share of the permutation.
 
     Args:
         dataset: the training samples.
-        batch_size: samples per optimizer step.
-        seed: seed of the shuffling generator.
+        batch_size: samples per optimizer step (per process).
+        seed: seed of the shuffling generator (the same in every process).
         steps_per_block: mini-batches per block (a speed knob only).
+        rank: this process's global rank (distributed training).
+        world_size: training processes in all.
 
     Returns:
         A ``DataLoader`` yielding ``(x, y)`` blocks; build it once per fit, since
@@ -104,11 +153,10 @@ def train_loader(
             f"batch_size and steps_per_block must be positive, got {batch_size}, {steps_per_block}"
         )
     generator = torch.Generator().manual_seed(seed)
-    blocks = BatchSampler(
-        RandomSampler(dataset, generator=generator),
-        batch_size=batch_size * steps_per_block,
-        drop_last=False,
-    )
+    order: Sampler[int] = RandomSampler(dataset, generator=generator)
+    if world_size > 1:
+        order = ShardSampler(order, rank, world_size)
+    blocks = BatchSampler(order, batch_size=batch_size * steps_per_block, drop_last=False)
     # batch_size=None: the sampler yields whole index lists, the dataset gathers them.
     return DataLoader(dataset, sampler=blocks, batch_size=None, num_workers=0)
 
@@ -227,12 +275,24 @@ class EpochLoss:
         Returns:
             The epoch's MAE in metres, or None when nothing was recorded.
         """
+        total = self.pop_total()
+        return None if total is None else float(total[0] / total[1])
+
+    def pop_total(self) -> torch.Tensor | None:
+        """Summed absolute error and sample count, then start a new epoch.
+
+        Sums, unlike means, add up across distributed processes.
+
+        Returns:
+            A float64 CPU tensor ``[sum of |error| in metres, samples]``, or None
+            when nothing was recorded.
+        """
         losses, sizes = self.losses, self.sizes
         self.losses, self.sizes = [], []
         if not sizes:
             return None
         n = torch.tensor(sizes, dtype=torch.float64)
-        return float((torch.stack(losses).double().cpu() * n).sum() / n.sum())
+        return torch.stack([(torch.stack(losses).double().cpu() * n).sum(), n.sum()])
 
 
 def train_block(
@@ -242,23 +302,31 @@ def train_block(
     y: torch.Tensor,
     batch_size: int,
     epoch_loss: EpochLoss,
+    backward: Callable[[torch.Tensor], None] | None = None,
 ) -> None:
     """One optimizer step per ``batch_size`` slice of a block, in order (paper §3.3.1).
 
     Args:
         net: the network, in training mode (dropout active).
-        optimizer: from :func:`make_optimizer`.
+        optimizer: from :func:`make_optimizer` (or Lightning's wrapper of it, whose
+            ``step`` goes through the Trainer's strategy and precision plugin).
         x: (n, T, F) block of shuffled windows.
         y: (n,) their labels in metres.
         batch_size: samples per step; the last slice may be smaller.
         epoch_loss: receives each slice's loss before its step.
+        backward: computes the gradients of a loss; default ``loss.backward()``.
+            Under DDP it must be Lightning's ``manual_backward``, which re-arms
+            the gradient all-reduce for every step of the block.
     """
     for start in range(0, len(y), batch_size):
         yb = y[start : start + batch_size]
         loss = batch_mae(net, x[start : start + batch_size], yb)
         epoch_loss.add(loss, len(yb))
         optimizer.zero_grad(set_to_none=True)
-        loss.backward()
+        if backward is None:
+            loss.backward()
+        else:
+            backward(loss)
         optimizer.step()
 
 

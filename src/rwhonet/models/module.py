@@ -19,9 +19,11 @@ mini-batches drawn from one shuffled permutation (:func:`rwhonet.models.loop.tra
 sequence are exactly those of a one-step-per-batch loop over the same
 permutation (a test checks that a block of 1 and a block of 64 give identical
 weights); only the Lightning bookkeeping is paid once per block. The price:
-Lightning's per-optimizer-step features (gradient clipping, accumulation,
-mixed precision, ``global_step``) are not used; the Trainer in
-:mod:`rwhonet.models.train` runs in 32-bit precision without them.
+Lightning's per-optimizer-step automation (gradient clipping, accumulation)
+is not used. Each step's backward and optimizer step still go through the
+Trainer (``manual_backward`` and Lightning's optimizer wrapper), so its
+strategy and precision plugin apply: under DDP every step's gradients are
+averaged across processes, and a mixed-precision plugin scales the loss.
 
 Losses are accumulated in the module and logged once per epoch
 (``train/loss``, ``val/loss``: mean absolute error in metres over the
@@ -127,8 +129,11 @@ class WhONetModule(L.LightningModule):
             batch_idx: index of the block in the epoch.
         """
         x, y = batch
-        opt = self.optimizers(use_pl_optimizer=False)
-        train_block(self.net, opt, x, y, self.hparams.batch_size, self._epoch_loss["train"])
+        opt = self.optimizers()
+        train_block(
+            self.net, opt, x, y, self.hparams.batch_size, self._epoch_loss["train"],
+            backward=self.manual_backward,
+        )  # fmt: skip
 
     def validation_step(self, batch: tuple[torch.Tensor, torch.Tensor], batch_idx: int) -> None:
         """Accumulate the validation MAE (Lightning runs this in eval mode, without grad)."""
@@ -157,7 +162,11 @@ class WhONetModule(L.LightningModule):
 
     def on_train_epoch_end(self) -> None:
         # Lightning runs the epoch's validation before this hook, so both are known.
-        train_loss_m = self._epoch_loss["train"].pop_mean()
+        total = self._epoch_loss["train"].pop_total()
+        if total is not None and self.trainer.world_size > 1:
+            # Each process saw its shard: the epoch's MAE is over all of them.
+            total = self.trainer.strategy.reduce(total.to(self.device), reduce_op="sum").cpu()
+        train_loss_m = None if total is None else float(total[0] / total[1])
         self.history.append(
             {"epoch": self.current_epoch, "train_loss": train_loss_m, "val_loss": self._val_loss_m}
         )

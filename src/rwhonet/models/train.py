@@ -5,10 +5,13 @@ and callbacks and returns what happened as plain data (:class:`FitResult`).
 The training algorithm, input checks and :func:`predict` come from
 :mod:`rwhonet.models.loop`; R-WhONet's fine-tuning is :mod:`rwhonet.models.adapt`.
 
-All runs are on CPU: at batch 128 this 8.3 k-parameter network is bound by
-per-step overhead, not arithmetic, so an accelerator would not pay for its
-transfers. ``torch.set_num_threads`` comes from the params: at this size a
-second thread only adds synchronisation (``benchmarks/bench_train.py``).
+By default a fit is one CPU process in 32-bit, bit-reproducible: at batch 128
+this 8.3 k-parameter network is bound by per-step overhead, not arithmetic.
+``train.trainer`` (:class:`~rwhonet.config.TrainerParams`) hands the Trainer
+another accelerator, device count, strategy (``ddp``), node count or
+precision (docs/scaling.md). ``torch.set_num_threads`` comes from the params:
+at this size a second thread only adds synchronisation
+(``benchmarks/bench_train.py``).
 """
 
 from __future__ import annotations
@@ -24,8 +27,9 @@ import numpy as np
 import torch
 from lightning.pytorch.callbacks import Callback
 from lightning.pytorch.loggers import Logger
+from lightning.pytorch.strategies import DDPStrategy
 
-from rwhonet.config import ModelParams, TrainParams
+from rwhonet.config import ModelParams, TrainerParams, TrainParams
 from rwhonet.models.datamodule import WhONetDataModule
 from rwhonet.models.freeze import apply_trainable
 from rwhonet.models.loop import STEPS_PER_BLOCK, as_model_inputs, predict
@@ -46,6 +50,10 @@ class FitResult:
         samples_per_s: training samples processed per second of ``seconds``.
         n_trainable: trainable scalar weights (after the freeze policy).
         n_total: all scalar weights.
+        global_rank: this process's rank (distributed training; 0 in one process).
+            Every process returns the same weights and history; only rank 0
+            should write outputs.
+        world_size: training processes in all.
     """
 
     module: WhONetModule
@@ -54,6 +62,8 @@ class FitResult:
     samples_per_s: float
     n_trainable: int
     n_total: int
+    global_rank: int = 0
+    world_size: int = 1
 
 
 def fit(
@@ -77,9 +87,11 @@ def fit(
         x_val: validation windows, or None / empty to skip validation.
         y_val: validation labels, or None / empty.
         model: network shape (``model:`` in params.yaml).
-        train: optimisation recipe (``train:`` in params.yaml).
+        train: optimisation recipe and Trainer settings (``train:`` in params.yaml;
+            ``batch_size`` is per process).
         seed: seeds weights, dropout and shuffling; the same seed and inputs give
-            identical weights on CPU.
+            identical weights on CPU in one process. Under DDP every process
+            starts from the same seed (same initial weights and permutation).
         logger: an optional Lightning logger (gets hparams and per-epoch losses).
         callbacks: optional Lightning callbacks (called once per block of steps).
         steps_per_block: optimizer steps per Lightning batch; changes speed only.
@@ -114,16 +126,27 @@ def fit(
         x_t, y_t, x_val_t, y_val_t,
         batch_size=train.batch_size, seed=seed, steps_per_block=steps_per_block,
     )  # fmt: skip
-    return _run(module, data, train.epochs, logger, callbacks, n_trainable, n_total)
+    return _run(module, data, train.epochs, train.trainer, logger, callbacks, n_trainable, n_total)
 
 
 # --------------------------------------------------------------------------- internals
+
+
+def _strategy(settings: TrainerParams) -> str | DDPStrategy:
+    """The Trainer's strategy for ``train.trainer.strategy``."""
+    if settings.strategy == "ddp":
+        # With one time step the recurrent weights get no gradient at all (h0 = 0), and
+        # DDP waits for every parameter's gradient unless told to look for unused ones.
+        # gloo on CPU, NCCL on CUDA: Lightning picks by accelerator.
+        return DDPStrategy(find_unused_parameters=True)
+    return settings.strategy
 
 
 def _run(
     module: WhONetModule,
     data: WhONetDataModule,
     epochs: int,
+    settings: TrainerParams,
     logger: Logger | None,
     callbacks: list[Callback] | None,
     n_trainable: int,
@@ -138,9 +161,14 @@ def _run(
     # processes would only add inter-process copies; Lightning's hint is noise here.
     warnings.filterwarnings("ignore", message=r".*does not have many workers.*")
     trainer = L.Trainer(
-        accelerator="cpu",
-        devices=1,
-        precision="32-true",
+        accelerator=settings.accelerator,
+        devices=settings.devices,
+        strategy=_strategy(settings),
+        num_nodes=settings.num_nodes,
+        precision=settings.precision,
+        # The data module shards the training epochs itself (loop.ShardSampler) and
+        # scores the whole validation set in every process.
+        use_distributed_sampler=False,
         max_epochs=epochs,
         logger=logger if logger is not None else False,
         callbacks=callbacks,
@@ -157,7 +185,9 @@ def _run(
     start = time.perf_counter()
     trainer.fit(module, datamodule=data)
     seconds = time.perf_counter() - start
-    module.eval()
+    # Predictions and model files are made on the CPU, wherever the fit ran.
+    module.cpu().eval()
+    # Samples of all processes together (each leaves out at most world_size - 1 per epoch).
     n_samples = len(data.train_set) * trainer.current_epoch
     return FitResult(
         module=module,
@@ -166,4 +196,6 @@ def _run(
         samples_per_s=n_samples / seconds if seconds > 0 else float("nan"),
         n_trainable=n_trainable,
         n_total=n_total,
+        global_rank=trainer.global_rank,
+        world_size=trainer.world_size,
     )

@@ -2,6 +2,10 @@
 
 Paper §2.4-2.5, §3.3.1-3.3.2: a WhONet trained from scratch with Lightning on one
 role's drives, then run on every target test second.
+
+With ``train.trainer.strategy: ddp`` Lightning starts this script once per
+device (docs/scaling.md); every process trains, and only global rank 0 predicts
+and writes the stage's outputs.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ WHICH = {
 
 def train_model(
     params: Params, which: Literal["G", "S"], seed: int, samples_dir: Path, out_dir: Path
-) -> tuple[RunRecord, float]:
+) -> tuple[RunRecord, float] | None:
     """Train one WhONet on its role's drives and predict every test drive.
 
     Args:
@@ -43,6 +47,8 @@ def train_model(
         stage is byte-reproducible from its inputs (dvc.lock does not change on
         a re-run): the record's ``timing`` (the fit's start and end) goes to a
         sidecar beside the MLflow store (:mod:`rwhonet.tracking.timings`).
+        None in a distributed training process other than rank 0, which
+        writes nothing.
     """
     from rwhonet.models.checkpoint import save_whonet
     from rwhonet.models.train import fit, predict
@@ -53,6 +59,8 @@ def train_model(
     started = now_ms()
     result = fit(train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=seed)
     timing = Timing(started, now_ms())
+    if result.global_rank != 0:
+        return None
     test = load_role(samples_dir, contracts.PREDICTED_ROLES, params.model.seq_len)
     pred = predict(result.module, test.x)
     record = RunRecord(
@@ -87,7 +95,11 @@ def train_model(
 def main(params: Params, which: Literal["G", "S"], seed: int) -> None:
     """The ``train_g@<seed>`` or ``train_s@<seed>`` stage."""
     out = paths.model_dir(which.lower(), seed)
-    rec, seconds = train_model(params, which, seed, paths.SAMPLES, out)
+    done = train_model(params, which, seed, paths.SAMPLES, out)
+    if done is None:
+        print(f"train_{which.lower()}@{seed}: a training process other than rank 0, writes nothing")
+        return
+    rec, seconds = done
     last = rec.history[-1] if rec.history else {}
     nan = float("nan")
     m = rec.metrics
