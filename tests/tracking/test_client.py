@@ -90,3 +90,21 @@ def test_the_experiment_is_marked_as_model_training(tmp_path):
     client, again = open_store(uri, "rwhonet")
     assert again == exp_id
     assert client.get_experiment(exp_id).tags[EXPERIMENT_KIND_TAG] == EXPERIMENT_KIND
+
+
+def test_a_tracking_server_uri_is_taken_as_it_is_and_never_locked(tmp_path, monkeypatch):
+    """Team mode (docs/team.md): the SQLite lock, paths and artifact root stay out of http URIs."""
+    from rwhonet.tracking.client import _store_lock, artifact_root, resolve_tracking_uri
+
+    monkeypatch.chdir(tmp_path)
+    server = "http://127.0.0.1:5000"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", server)
+    assert resolve_tracking_uri("sqlite:///mlruns/mlflow.db", tmp_path) == server
+    monkeypatch.delenv("MLFLOW_TRACKING_URI")
+    assert resolve_tracking_uri("https://mlflow.example.com", tmp_path) == (
+        "https://mlflow.example.com"
+    )
+    assert artifact_root(server) is None  # the server's own artifact root
+    with _store_lock(server):
+        pass
+    assert not list(tmp_path.iterdir())  # no lock file, no folder named after the URI

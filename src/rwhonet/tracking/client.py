@@ -153,7 +153,7 @@ def open_store(uri: str, experiment: str) -> tuple[Any, str]:
     the experiment's creation happen under a lock, so processes opening one
     store at the same moment neither race on the migration nor create the
     experiment twice. The artifact root of a new experiment is
-    :func:`artifact_root`.
+    :func:`artifact_root` (a tracking server's own default for ``http(s)://``).
 
     Args:
         uri: resolved tracking URI (:func:`resolve_tracking_uri`).
@@ -164,6 +164,9 @@ def open_store(uri: str, experiment: str) -> tuple[Any, str]:
     """
     import mlflow
 
+    # On a tracking server MLflow prints two "View run/experiment" lines to stdout per run
+    # ended: hundreds from one execution, and none the user asked for.
+    os.environ.setdefault("MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT", "true")
     with _store_lock(uri):
         client = mlflow.MlflowClient(tracking_uri=uri)
         exp = retrying(lambda: client.get_experiment_by_name(experiment))

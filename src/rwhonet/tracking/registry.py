@@ -113,23 +113,25 @@ def log_bundle(
         if err.error_code != "RESOURCE_ALREADY_EXISTS":
             raise
     run = retrying(lambda: client.get_run(run_id))
-    version = retrying(
-        lambda: client.create_model_version(
-            name,
-            source=f"{run.info.artifact_uri}/{MODEL_PATH}",
-            run_id=run_id,
-            tags={str(key): str(v) for key, v in tags.items() if v is not None},
-            description=description,
+    with _quiet_mlflow():  # a server's registry says it waits for each version to be READY
+        version = retrying(
+            lambda: client.create_model_version(
+                name,
+                source=f"{run.info.artifact_uri}/{MODEL_PATH}",
+                run_id=run_id,
+                tags={str(key): str(v) for key, v in tags.items() if v is not None},
+                description=description,
+            )
         )
-    )
     return str(version.version)
 
 
 @contextmanager
 def _quiet_mlflow() -> Iterator[None]:
-    """Hide MLflow's notes on saving a model (pickling advice, example validation, progress)."""
+    """Hide MLflow's notes on saving and registering a model (pickling advice, progress...)."""
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
-    loggers = [logging.getLogger(n) for n in ("mlflow.pyfunc", "mlflow.models", "mlflow.utils")]
+    names = ("mlflow.pyfunc", "mlflow.models", "mlflow.utils", "mlflow.store.model_registry")
+    loggers = [logging.getLogger(n) for n in names]
     levels = [lg.level for lg in loggers]
     for lg in loggers:
         lg.setLevel(logging.ERROR)
