@@ -1,17 +1,21 @@
 """Concurrency: three pipeline executions writing to one MLflow store at the same time.
 
 Two clones of the project (scratch copies, ``ci`` profile, small): clone A
-queues two experiments (``dvc exp run --queue -S adapt.lr=...``) and runs them
-with a 2-worker ``dvc queue``, in temporary copies under ``.dvc/tmp/exps/``
-whose relative store URI must still reach A's ``mlruns/``; clone B (another
-seed) points ``tracking.tracking_uri`` at A's store by its absolute path and
-runs ``dvc repro``, all at once, on a store nobody initialised. Every
-execution must be in the store exactly once, with its own children, none
-RUNNING or FAILED, and the SQLite file sound. Slow: about two minutes.
+queues two named experiments of a sweep (``dvc exp run --queue -n <name> -S
+seeds=... -S adapt.recipe=... -S adapt.chosen_m=... -S adapt.lr=...``) and runs
+them with a 2-worker ``dvc queue``, in temporary copies under
+``.dvc/tmp/exps/`` whose relative store URI must still reach A's ``mlruns/``;
+clone B (another seed) points ``tracking.tracking_uri`` at A's store by its
+absolute path and runs ``dvc repro``, all at once, on a store nobody
+initialised. Every execution must be in the store exactly once, with its own
+children, none RUNNING or FAILED, and the SQLite file sound; every run of a
+queued experiment carries its DVC name and baseline commit and the seed,
+recipe and m it was queued with. Slow: about two minutes.
 """
 
 from __future__ import annotations
 
+import json
 import subprocess
 import time
 from collections import Counter
@@ -34,7 +38,14 @@ OVERRIDES = {
     ("adapt", "fallback", "m"): 20,
     ("evaluate", "outages_s"): [30, 180],
 }
-QUEUED_LR = ("0.001", "0.0014")  # clone A's two queued experiments
+# Clone A's two queued experiments: a sweep over seed x recipe x m (and the adaptation lr).
+QUEUED = {
+    "sweep-a": {"seeds": "[3]", "adapt.recipe": "paper", "adapt.chosen_m": "10",
+                "adapt.lr": "0.001"},
+    "sweep-b": {"seeds": "[4]", "adapt.recipe": "radius+G", "adapt.chosen_m": "20",
+                "adapt.lr": "0.0014"},
+}  # fmt: skip
+QUEUED_LR = tuple(q["adapt.lr"] for q in QUEUED.values())
 CLONE_B_SEEDS = "[2]"
 
 
@@ -56,8 +67,9 @@ def store(tmp_path_factory):
     uri = f"sqlite:///{a}/mlruns/mlflow.db"
     b_overrides = {**OVERRIDES, ("seeds",): [2], ("tracking", "tracking_uri"): uri}
     b = scratch_project(base / "b", b_overrides)
-    for lr in QUEUED_LR:
-        out = dvc(a, "exp", "run", "--queue", "-S", f"adapt.lr={lr}")
+    for name, settings in QUEUED.items():
+        sets = [arg for k, v in settings.items() for arg in ("-S", f"{k}={v}")]
+        out = dvc(a, "exp", "run", "--queue", "-n", name, *sets)
         assert out.returncode == 0, out.stderr
     assert not (a / "mlruns" / "mlflow.db").exists()  # no `python -m rwhonet.tracking init`
     clone_b = subprocess.Popen(
@@ -69,7 +81,14 @@ def store(tmp_path_factory):
     queue = _queue_done(a)
     clone_b_output, _ = clone_b.communicate(timeout=900)
     assert clone_b.returncode == 0, clone_b_output
-    return {"a": a, "b": b, "uri": uri, "queue": queue, "runs": store_runs(uri)}
+    shown = dvc(a, "exp", "show", "--json")
+    assert shown.returncode == 0, shown.stderr
+    return {
+        "a": a, "b": b, "uri": uri, "queue": queue, "runs": store_runs(uri),
+        "baseline": subprocess.run(["git", "rev-parse", "HEAD"], cwd=a, capture_output=True,
+                                   text=True, check=True).stdout.strip(),
+        "exp_show": json.loads(shown.stdout),
+    }  # fmt: skip
 
 
 def _parents(runs) -> list:
@@ -115,3 +134,39 @@ def test_no_run_is_lost_mixed_up_or_left_running(store):
     assert len(runs) == sum(1 + len(f) for f in families.values())  # no stray run
     assert Counter(r.info.status for r in runs) == {"FINISHED": len(runs)}
     assert integrity(store["uri"]) == "ok"
+
+
+def _named(node, names: set[str]) -> dict[str, dict]:
+    """The entries of ``dvc exp show --json`` named one of ``names``, by name."""
+    found = {}
+    if isinstance(node, dict):
+        if node.get("name") in names and "rev" in node:
+            found[node["name"]] = node
+        for v in node.values():
+            found.update(_named(v, names))
+    elif isinstance(node, list):
+        for v in node:
+            found.update(_named(v, names))
+    return found
+
+
+def test_every_run_of_a_queued_experiment_carries_its_name_baseline_seed_recipe_and_m(store):
+    shown = _named(store["exp_show"], set(QUEUED))
+    assert set(shown) == set(QUEUED)  # dvc exp show lists the sweep by the names it was given
+    runs = store["runs"]
+    for name, settings in QUEUED.items():
+        (parent,) = [p for p in _parents(runs) if p.data.tags.get("dvc_exp_name") == name]
+        family = [parent, *_descendants(runs, parent.info.run_id)]
+        for run in family:
+            assert run.data.tags["dvc_exp_name"] == name
+            assert run.data.tags["dvc_exp_baseline_rev"] == store["baseline"]
+        for key in ("seeds", "adapt.recipe", "adapt.chosen_m"):
+            assert parent.data.params[key] == settings[key], key
+        seed = settings["seeds"].strip("[]")
+        assert {r.data.tags["seed"] for r in family if "seed" in r.data.tags} == {seed}
+        (chosen,) = [r for r in family if r.data.tags.get("chosen") == "true"]
+        assert chosen.data.tags["recipe"] == settings["adapt.recipe"]
+        assert chosen.data.tags["m"] == settings["adapt.chosen_m"]
+    # clone B ran `dvc repro`, not an experiment: its runs say so by having no such tag
+    (b,) = [p for p in _parents(runs) if p.data.params["seeds"] == CLONE_B_SEEDS]
+    assert "dvc_exp_name" not in b.data.tags

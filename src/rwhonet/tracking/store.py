@@ -33,6 +33,22 @@ from rwhonet.tracking.client import (  # noqa: F401 - re-exported: callers find 
 )
 from rwhonet.tracking.records import RunRecord
 
+# What `dvc exp run` (queued or not) tells every stage it runs, as run tags.
+DVC_EXPERIMENT_TAGS = {
+    "dvc_exp_name": "DVC_EXP_NAME",
+    "dvc_exp_baseline_rev": "DVC_EXP_BASELINE_REV",
+}
+
+
+def dvc_experiment() -> dict[str, str]:
+    """The DVC experiment this process runs in, as tags; empty outside ``dvc exp run``.
+
+    ``dvc_exp_name`` is the experiment's name (``dvc exp show``, ``-n``) and
+    ``dvc_exp_baseline_rev`` the commit it was queued on, so MLflow's runs of
+    a sweep can be told apart and matched to ``dvc exp show``'s rows.
+    """
+    return {tag: os.environ[var] for tag, var in DVC_EXPERIMENT_TAGS.items() if os.environ.get(var)}
+
 
 def ensure_experiment(uri: str, experiment: str) -> str:
     """Create the store and experiment if missing; return the experiment id.
@@ -66,7 +82,7 @@ def log_execution(
     client, exp_id = open_store(uri, experiment)
     # Unique across processes and machines sharing a store (pids repeat across containers).
     execution_id = f"{time.strftime('%Y%m%dT%H%M%S')}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
-    common = {"rwhonet.execution": execution_id, "git_commit": git_commit()}
+    common = {"rwhonet.execution": execution_id, "git_commit": git_commit(), **dvc_experiment()}
 
     def log(record: RunRecord, parent: str | None) -> str:
         tags = {**common, **record.tags}
