@@ -7,7 +7,8 @@ project (``ci`` profile, small) runs ``python -m rwhonet.tracking init`` and
 ``dvc repro`` with ``$MLFLOW_TRACKING_URI`` pointing at the server; then a
 stage fails there, and ``rwhonet recalibrate`` / ``predict`` use the models the
 pipeline registered. Everything is read back through the server, and the run
-count from PostgreSQL itself. Slow: about two minutes (docs/team.md).
+count from PostgreSQL itself; a teammate's clone pulls the outputs from a DVC
+remote. Slow: two to three minutes (docs/team.md).
 """
 
 from __future__ import annotations
