@@ -78,6 +78,7 @@ def fit(
     logger: Logger | None = None,
     callbacks: list[Callback] | None = None,
     steps_per_block: int = STEPS_PER_BLOCK,
+    progress: bool = False,
 ) -> FitResult:
     """Train a WhONet from scratch (G-WhONet or S-WhONet, paper §3.3.1-3.3.2).
 
@@ -95,6 +96,7 @@ def fit(
         logger: an optional Lightning logger (gets hparams and per-epoch losses).
         callbacks: optional Lightning callbacks (called once per block of steps).
         steps_per_block: optimizer steps per Lightning batch; changes speed only.
+        progress: draw Lightning's progress bar (a terminal; never in CI or a log).
 
     Returns:
         The trained module, its per-epoch history and timing.
@@ -126,7 +128,8 @@ def fit(
         x_t, y_t, x_val_t, y_val_t,
         batch_size=train.batch_size, seed=seed, steps_per_block=steps_per_block,
     )  # fmt: skip
-    return _run(module, data, train.epochs, train.trainer, logger, callbacks, n_trainable, n_total)
+    return _run(module, data, train.epochs, train.trainer, logger, callbacks, n_trainable, n_total,
+                progress=progress)  # fmt: skip
 
 
 # --------------------------------------------------------------------------- internals
@@ -151,8 +154,9 @@ def _run(
     callbacks: list[Callback] | None,
     n_trainable: int,
     n_total: int,
+    progress: bool = False,
 ) -> FitResult:
-    """Fit with a lean, quiet Trainer and time it."""
+    """Fit with a lean, quiet Trainer (a bar only with ``progress``) and time it."""
     # Tips, "GPU available" and seeding notices say nothing to a pipeline user.
     logging.getLogger("lightning.pytorch.utilities.rank_zero").setLevel(logging.WARNING)
     logging.getLogger("lightning.fabric.utilities.rank_zero").setLevel(logging.WARNING)
@@ -172,7 +176,7 @@ def _run(
         max_epochs=epochs,
         logger=logger if logger is not None else False,
         callbacks=callbacks,
-        enable_progress_bar=False,
+        enable_progress_bar=progress,
         enable_model_summary=False,
         enable_checkpointing=False,
         deterministic=True,

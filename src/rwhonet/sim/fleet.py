@@ -10,6 +10,7 @@ import numpy as np
 
 from rwhonet.config import ConfigError, Params
 from rwhonet.io import atomic_dir
+from rwhonet.progress import track
 from rwhonet.sim.drive import child_rng, simulate_drive
 from rwhonet.sim.route import generate_route
 from rwhonet.sim.vehicle import Vehicle
@@ -79,7 +80,8 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
     started = time.perf_counter()
     rows = []
     with atomic_dir(Path(out_dir)) as tmp:
-        for i, spec in enumerate(drives):
+        for i, spec in enumerate(track(drives, desc="simulate", unit="drive",
+                                       label=lambda spec: spec.name)):  # fmt: skip
             seed = drive_seed(sim.seed, i)
             vehicle = vehicles[spec.vehicle].with_payload(spec.payload_kg, spec.payload_x_m)
             route = generate_route(spec, sim, vehicle, child_rng(seed, _RNG_ROUTE))

@@ -45,6 +45,7 @@ from rwhonet.contracts import CONTINUOUS, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import calibration_from_dict
 from rwhonet.io import atomic_dir, read_json, write_json
+from rwhonet.progress import track
 from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import SampleSet, load_role
@@ -136,14 +137,19 @@ def _timed(task: Task) -> tuple[tuple[Task, np.ndarray, Any], tuple[int, int]]:
 def _pool_map(tasks: list[Task]) -> list[tuple[tuple[Task, np.ndarray, Any], tuple[int, int]]]:
     """Run the tasks on every core (forked workers share the loaded inputs), in order."""
     workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(tasks), 1))
+
+    def shown(results):
+        return list(track(results, desc=f"adapt@{_WORK.get('seed', '')}", unit="recalibration",
+                          total=len(tasks)))  # fmt: skip
+
     if workers < 2:
-        return [_timed(t) for t in tasks]
+        return shown(_timed(t) for t in tasks)
     # ProcessPoolExecutor rather than multiprocessing.Pool: if a worker dies (killed, out
     # of memory) the map raises BrokenProcessPool, where a Pool would wait forever.
     with ProcessPoolExecutor(
         workers, mp_context=multiprocessing.get_context("fork"), initializer=_one_thread
     ) as pool:
-        return list(pool.map(_timed, tasks, chunksize=max(1, len(tasks) // (8 * workers))))
+        return shown(pool.map(_timed, tasks, chunksize=max(1, len(tasks) // (8 * workers))))
 
 
 def _one_thread() -> None:

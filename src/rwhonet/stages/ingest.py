@@ -32,6 +32,7 @@ from rwhonet.data.scenarios import (
 )
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_dir, system_memory_pool, write_json, write_parquet
+from rwhonet.progress import track
 
 IOVNBD = "iovnbd"
 
@@ -308,7 +309,7 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     problems: list[Problem] = []
     entries: list[dict[str, Any]] = []
     with atomic_dir(out_dir) as tmp:
-        for f in files:
+        for f in track(files, desc="ingest", unit="drive", label=lambda f: f.drive):
             try:
                 # One drive in memory at a time: _write_drive's locals go when it returns.
                 entry = _write_drive(f, data, tmp, write=not problems)

@@ -45,6 +45,7 @@ from rwhonet.features.labels import sample_table
 from rwhonet.features.scaling import fit_scaler
 from rwhonet.features.seconds import SegmentSeconds, segment_seconds
 from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
+from rwhonet.progress import track
 
 TRAIN_ROLE = contracts.SOURCE_TRAIN
 MANIFEST_KEYS = ("segment", "drive", "role", "vehicle")
@@ -256,7 +257,7 @@ def _per_second_all(
 ) -> dict[str, SegmentSeconds]:
     seconds: dict[str, SegmentSeconds] = {}
     problems: list[Problem] = []
-    for entry in entries:
+    for entry in track(entries, desc="label", unit="segment", label=lambda e: e.segment):
         path = Path(segments_dir) / f"{entry.segment}.parquet"
         try:
             sec = segment_seconds(read_segment(path), paths.rel(path))

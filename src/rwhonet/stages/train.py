@@ -10,12 +10,14 @@ and writes the stage's outputs.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Literal
 
 from rwhonet import contracts, paths
 from rwhonet.config import Params
 from rwhonet.io import atomic_dir, write_json
+from rwhonet.progress import interactive
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import load_role, split_tail
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
@@ -51,13 +53,18 @@ def train_model(
         writes nothing.
     """
     from rwhonet.models.checkpoint import save_whonet
+    from rwhonet.models.progress import EpochLog
     from rwhonet.models.train import fit, predict
 
     role, vehicle, name = WHICH[which]
     data = load_role(samples_dir, role, params.model.seq_len)
     train, val = split_tail(data, params.train.val_fraction)
     started = now_ms()
-    result = fit(train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=seed)
+    # Lightning draws its bar on stdout for a person at a terminal; logs get plain lines.
+    bar = interactive(sys.stdout)
+    epoch_log = [] if bar else [EpochLog(f"{name} seed {seed}", params.train.epochs)]
+    result = fit(train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=seed,
+                 callbacks=epoch_log, progress=bar)  # fmt: skip
     timing = Timing(started, now_ms())
     if result.global_rank != 0:
         return None
