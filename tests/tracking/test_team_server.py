@@ -183,7 +183,11 @@ def test_a_failed_stage_logs_its_run_and_artifacts_on_the_server(project, server
     assert {"failure/error.txt", "failure/params.yaml"} <= listed
 
 
-def test_rwhonet_recalibrates_and_predicts_from_the_servers_registry(project, server, client):
+def test_rwhonet_recalibrates_predicts_and_exports_from_the_servers_registry(
+    project, server, client
+):
+    from rwhonet.serve.model import load_served
+
     repo = project["repo"]
     drive = sorted((repo / "data" / "sim" / "target_test").glob("*.csv"))[0]
     cli = [str(BIN / "rwhonet")]
@@ -200,3 +204,9 @@ def test_rwhonet_recalibrates_and_predicts_from_the_servers_registry(project, se
     streamed = pd.read_csv(io.StringIO(out.stdout))  # stdout holds the CSV and nothing else
     assert len(streamed) > 280 and streamed["pred_error_m"].notna().all()
     assert "outage 100:280 s (180 s" in out.stderr
+
+    onnx = project["repo"] / "r2.onnx"
+    out = run(repo, server["uri"], *cli, "export", "--model", "models:/whonet-R-target/2",
+              "--output", str(onnx))  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    assert load_served(onnx).meta.info["recipe"] == version.tags["recipe"]
