@@ -128,3 +128,12 @@ def test_the_comparison_goes_on_the_parent_run_and_a_shared_view_shows_its_colum
     view = json.loads(client.get_experiment(exp_id).tags[SHARED_VIEW_TAG + HEADLINE_VIEW])
     assert "metrics.`R/crse/30s/mean`" in view["selectedColumns"]
     assert view["searchFilter"] == "tags.model = 'pipeline'"
+    # `make ui` (python -m rwhonet.tracking init) prints the view's address once it exists
+    from rwhonet.tracking.__main__ import headline_view
+
+    assert headline_view(uri, exp_id) == (
+        f"http://127.0.0.1:5000/#/experiments/{exp_id}/runs?workflowType=machine_learning"
+        "&viewStateShareKey=rwhonet-headline"
+    )
+    other = client.create_experiment("other")
+    assert headline_view(uri, other) is None
