@@ -36,6 +36,19 @@ def pytest_collection_modifyitems(session, config, items):
 
 
 @pytest.fixture(scope="session")
+def ci_pipeline(tmp_path_factory) -> Path:
+    """A scratch copy of the project on the small ci pipeline (``support.project.CI_PIPELINE``).
+
+    One per session: ``test_pipeline.py`` runs and probes its stages, the MLflow UI
+    test browses the store its runs leave (each runs ``dvc repro`` first, a no-op
+    when the other already did).
+    """
+    from support.project import CI_PIPELINE, scratch_project
+
+    return scratch_project(tmp_path_factory.mktemp("pipeline") / "repo", CI_PIPELINE)
+
+
+@pytest.fixture(scope="session")
 def project_params() -> Params:
     """The repository's params.yaml, typed."""
     return load_params(paths.PARAMS)

@@ -4,6 +4,7 @@ Slow (a couple of minutes): run with `make test`; `make test-fast` skips it.
 """
 
 import json
+import re
 import subprocess
 from pathlib import Path
 
@@ -11,26 +12,17 @@ import pytest
 import yaml
 
 from rwhonet import paths
-from support.project import dvc, scratch_project
+from support.project import CI_PIPELINE, dvc
 
 pytestmark = pytest.mark.slow
 
-# Small but complete: every stage, two seeds, two m values, two outage lengths.
-OVERRIDES = {
-    ("seeds",): [1, 2],
-    ("sim", "profile"): "ci",
-    ("train", "epochs"): 3,
-    ("adapt", "epochs"): 5,
-    ("adapt", "m_grid"): [10, 20],
-    ("adapt", "fallback", "m"): 20,  # recipe and chosen_m stay auto
-    ("adapt", "steps", "max_steps"): 20,
-    ("evaluate", "outages_s"): [30, 180],
-}
+OVERRIDES = CI_PIPELINE  # small but complete: every stage, two seeds, two m, two outages
 
 
 @pytest.fixture(scope="module")
-def repo(tmp_path_factory):
-    return scratch_project(tmp_path_factory.mktemp("pipeline") / "repo", OVERRIDES)
+def repo(ci_pipeline):
+    """The session's ci-profile project (tests/conftest.py), which the MLflow UI test reuses."""
+    return ci_pipeline
 
 
 def test_data_stages(repo):
@@ -81,10 +73,52 @@ def test_full_pipeline_then_noop(repo):
     for title, curves in plots["data"].items():
         assert curves and curves[0]["content"]["data"]["values"], title
 
+    # every training and adaptation run is logged with its real times (tracking.timings)
+    runs = execution_runs(repo)
+    stage = {r.info.run_id: r.data.tags.get("dvc_stage", "") for r in runs}
+    model_runs = [r for r in runs if stage[r.info.run_id].startswith(("train_", "adapt@"))]
+    assert len(model_runs) == 2 * (2 + 5 * 2 + 1)  # G, S, 5 recipes x 2 m, continuous per seed
+    assert {r.data.tags["rwhonet.timing"] for r in model_runs} == {"measured"}
+    fit_s = float(re.search(r"G-WhONet seed 1: .* epochs in ([0-9.]+) s", out.stdout).group(1))
+    [g1] = [r for r in model_runs if r.info.run_name == "G-WhONet seed 1"]
+    parent = next(r for r in runs if r.data.tags.get("model") == "pipeline")
+    assert fit_s - 0.06 <= (g1.info.end_time - g1.info.start_time) / 1000 <= fit_s + 1.5
+    assert g1.info.end_time <= parent.info.start_time  # trained before evaluate ran
+
     again = dvc(repo, "repro")
     assert again.returncode == 0 and "Data and pipelines are up to date" in again.stdout
     status = dvc(repo, "status")
     assert status.returncode == 0 and "up to date" in status.stdout, status.stdout
+
+
+def execution_runs(repo: Path) -> list:
+    """The MLflow runs of the newest pipeline execution in ``repo``'s store."""
+    import mlflow
+
+    client = mlflow.MlflowClient(f"sqlite:///{repo}/mlruns/mlflow.db")
+    exp = client.get_experiment_by_name("rwhonet").experiment_id
+    [latest] = client.search_runs([exp], "tags.model = 'pipeline'", max_results=1,
+                                  order_by=["attributes.start_time DESC"])  # fmt: skip
+    execution = latest.data.tags["rwhonet.execution"]
+    return client.search_runs([exp], f"tags.`rwhonet.execution` = '{execution}'", max_results=5000)
+
+
+def test_a_run_whose_timing_is_gone_is_logged_at_evaluates_time(repo):
+    """A model folder without a timing sidecar (a cache from elsewhere) still logs, untimed."""
+    from rwhonet.tracking.timings import fingerprint
+
+    sidecar = repo / "mlruns" / "timings" / f"{fingerprint(repo / 'models/s/seed2')}.json"
+    assert sidecar.is_file()
+    sidecar.unlink()
+    out = dvc(repo, "repro", "--force", "--single-item", "evaluate")
+    assert out.returncode == 0, out.stdout + out.stderr
+    runs = {r.info.run_name: r for r in execution_runs(repo)}
+    s2, s1 = runs["S-WhONet seed 2"], runs["S-WhONet seed 1"]
+    parent = next(r for r in runs.values() if r.data.tags.get("model") == "pipeline")
+    assert s2.data.tags["rwhonet.timing"] == "not recorded"
+    assert s2.info.start_time >= parent.info.start_time  # logged by evaluate, when it logged
+    assert s1.data.tags["rwhonet.timing"] == "measured"
+    assert s1.info.end_time <= parent.info.start_time
 
 
 def test_touching_any_imported_module_makes_its_stages_stale(repo):

@@ -23,6 +23,19 @@ from rwhonet import paths
 BIN = Path(sys.executable).parent
 GIT = ["git", "-c", "user.name=t", "-c", "user.email=t@localhost"]
 
+# The small but complete pipeline the slow tests share (tests/conftest.py: ci_pipeline):
+# every stage, two seeds, two m values, two outage lengths.
+CI_PIPELINE = {
+    ("seeds",): [1, 2],
+    ("sim", "profile"): "ci",
+    ("train", "epochs"): 3,
+    ("adapt", "epochs"): 5,
+    ("adapt", "m_grid"): [10, 20],
+    ("adapt", "fallback", "m"): 20,  # recipe and chosen_m stay auto
+    ("adapt", "steps", "max_steps"): 20,
+    ("evaluate", "outages_s"): [30, 180],
+}
+
 
 def env(repo: Path, **extra: str) -> dict[str, str]:
     """The environment a stage sees under ``dvc repro`` in ``repo`` (the venv's python first)."""
