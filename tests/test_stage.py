@@ -114,9 +114,19 @@ def test_a_forked_worker_of_a_stage_dies_of_sigterm_as_before(store):
 
     exit_codes = []
 
+    ctx = multiprocessing.get_context("fork")
+    running = ctx.Event()
+
+    def sleeper():
+        running.set()
+        time.sleep(60)
+
     def body(params):
-        worker = multiprocessing.get_context("fork").Process(target=time.sleep, args=(60,))
+        worker = ctx.Process(target=sleeper)
         worker.start()
+        # A signal that lands between fork() and CPython's after-fork reset is dropped by the
+        # interpreter, so wait until the worker runs (a pool's workers have long been running).
+        assert running.wait(30)
         worker.terminate()  # what multiprocessing does to daemon workers at exit
         worker.join(30)
         exit_codes.append(worker.exitcode)
