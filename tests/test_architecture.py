@@ -140,3 +140,17 @@ def test_src_never_imports_pipelines():
                 names = [node.module or ""] if isinstance(node, ast.ImportFrom) else []
                 names += [a.name for a in node.names]
                 assert not any(n.startswith("pipelines") for n in names), file
+
+
+def test_the_lock_file_holds_only_the_pipeline_s_stages():
+    """DVC never prunes ``dvc.lock``: a renamed or removed stage would stay there, stale."""
+    from dvc.repo import Repo
+
+    with Repo(str(paths.ROOT)) as repo:
+        names = {
+            stage.addressing for stage in repo.index.stages if stage.path_in_repo == "dvc.yaml"
+        }
+    locked = set(yaml.safe_load((paths.ROOT / "dvc.lock").read_text())["stages"])
+    assert locked <= names, (
+        f"dvc.lock has stages dvc.yaml no longer defines: {sorted(locked - names)}"
+    )

@@ -458,8 +458,11 @@ class WheelPolicy:
     stuck_moving_rad_s: float
     stuck_min_s: float
     # Wheel speeds are magnitudes (ABS sensors); a value below -negative_tol_rad_s is a
-    # sign error.
+    # sign error, unless all four wheels are negative together (a logger that signs its
+    # speeds, reversing) on at most signed_max_share of the moving rows: then the
+    # magnitudes are taken and the report says so.
     negative_tol_rad_s: float
+    signed_max_share: float
 
     def __post_init__(self) -> None:
         if not 0.0 < self.stuck_ratio < 1.0:
@@ -471,6 +474,11 @@ class WheelPolicy:
                 "validate.wheels: stuck_min_s must be > 0, stuck_moving_rad_s and "
                 f"negative_tol_rad_s >= 0; got {self.stuck_min_s}, {self.stuck_moving_rad_s}, "
                 f"{self.negative_tol_rad_s}"
+            )
+        if not 0.0 <= self.signed_max_share < 1.0:
+            raise ConfigError(
+                "validate.wheels.signed_max_share must be in [0, 1), got "
+                f"{self.signed_max_share}"
             )
 
 

@@ -12,6 +12,7 @@ from rwhonet.data.plausibility import (
     latlon_swapped_by_range,
     negative_wheel_rows,
     radians_radius,
+    reversing_rows,
     silent_wheel_runs,
     stale_wheel_runs,
     stuck_wheel_runs,
@@ -22,7 +23,11 @@ from support.corpus import speed_profile_drive
 from support.drives import SOURCE_RADIUS_M, straight_drive
 
 POLICY = WheelPolicy(
-    stuck_ratio=0.5, stuck_moving_rad_s=3.0, stuck_min_s=3.0, negative_tol_rad_s=0.5
+    stuck_ratio=0.5,
+    stuck_moving_rad_s=3.0,
+    stuck_min_s=3.0,
+    negative_tol_rad_s=0.5,
+    signed_max_share=0.5,
 )
 
 
@@ -30,6 +35,15 @@ def test_a_clean_drive_has_no_stuck_or_negative_wheel():
     drive = straight_drive(20.0)
     assert stuck_wheel_runs(drive, POLICY, 0.1) == []
     assert negative_wheel_rows(drive, POLICY.negative_tol_rad_s) == {}
+
+
+def test_reversing_rows_need_all_four_wheels_backwards_together():
+    drive = straight_drive(20.0)  # 201 rows at 51 rad/s
+    drive.loc[50:59, list(c.WHEELS)] *= -1.0  # a signing logger, reversing
+    drive.loc[60:64, list(c.WHEELS)] = 0.2  # standstill noise: no reversing
+    drive.loc[100:109, c.OMEGA_FL] *= -1.0  # one wheel negative, three turning forwards
+    rev = reversing_rows(drive, POLICY.negative_tol_rad_s)
+    assert np.array_equal(np.flatnonzero(rev), np.arange(50, 60))
 
 
 def test_the_tightest_turn_is_not_a_stuck_wheel():

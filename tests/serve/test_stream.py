@@ -65,6 +65,20 @@ def test_any_blocking_gives_the_same_seconds(bundle, sizes):
             np.testing.assert_array_equal(whole[k], parts[k])
 
 
+def test_signed_wheel_speeds_are_read_as_magnitudes(bundle):
+    """A logger that signs its speeds (reversing): the seconds are those of the magnitudes."""
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(60)
+    signed = df.copy()
+    wheels = ["omega_fl_rad_s", "omega_fr_rad_s", "omega_rl_rad_s", "omega_rr_rad_s"]
+    signed.loc[200:260, wheels] *= -1.0
+    plain, _ = stream_all(model, blocks_of(df, [len(df)]))
+    read, _ = stream_all(model, blocks_of(signed, [len(signed)]))
+    for k in COLUMNS:
+        if k != "outage":
+            np.testing.assert_array_equal(plain[k], read[k])
+
+
 def test_a_gap_ends_a_run_and_the_next_starts_on_a_whole_second(bundle):
     model = load_served(bundle["model_onnx"])
     df = wavy_drive(60)

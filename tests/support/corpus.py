@@ -706,13 +706,28 @@ def _(raw: Path) -> None:
 
 @case(
     "signed_wheel_speeds",
-    "signed wheel speeds: negative while reversing for 5 s",
-    Refuse("validate", 601, WHEEL_FL, "magnitudes >= 0", "signed speeds"),
+    "a logger that signs its wheel speeds: all four negative while reversing for 5 s",
+    Accept("all four wheels negative together on 3 % of the moving rows: reversing, "
+           "magnitudes taken, rows counted in the validation report"),  # fmt: skip
 )
 def _(raw: Path) -> None:
-    v = np.r_[np.full(600, 8.0), np.full(50, -2.0), np.full(851, 8.0)]
+    ramp = np.linspace(8.0, 0.0, 40)
+    v = np.r_[
+        np.full(560, 8.0), ramp, -np.full(50, 2.0), np.zeros(10), ramp[::-1], np.full(841, 8.0)
+    ]
     df = speed_profile_drive(v)
     df.loc[rows(df, 601, 650), list(c.WHEELS)] *= -1.0
+    write_target(raw, df)
+
+
+@case(
+    "one_wheel_negative",
+    "the front-left wheel speed negative for 5 s while the other three turn forwards",
+    Refuse("validate", 601, WHEEL_FL, "magnitudes >= 0", "not reversing"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 601, 650), c.OMEGA_FL] *= -1.0
     write_target(raw, df)
 
 

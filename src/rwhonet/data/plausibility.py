@@ -10,7 +10,9 @@ radius, with latitude and longitude exchanged, tells swapped coordinate columns.
 
 Wheel speeds are magnitudes, as ABS sensors give them (also when reversing): the WPM
 integrates them into a distance and GNSS gives a distance, so a negated column would
-make every label about twice the distance travelled. And the four wheels of a moving
+make every label about twice the distance travelled. A logger that signs its speeds
+shows reversing as all four wheels negative together for a short while; those rows are
+taken as magnitudes (:func:`reversing_rows`). And the four wheels of a moving
 car turn at nearly the same speed: a wheel reading zero while the others turn is a
 broken sensor or channel, whose feature the network would learn from.
 """
@@ -366,6 +368,24 @@ def negative_wheel_rows(
         if bad.any():
             out[name] = np.flatnonzero(bad)
     return out
+
+
+def reversing_rows(drive: Mapping[str, np.ndarray], tol_rad_s: float) -> np.ndarray:
+    """Rows a logger that signs its wheel speeds records as reversing.
+
+    All four wheels are at most ``+tol_rad_s`` and at least one is below ``-tol_rad_s``:
+    the car rolls backwards as one body. A lone negative wheel while the others turn
+    forwards is no reversing, and stays a sign error.
+
+    Args:
+        drive: canonical columns (the four wheel speeds).
+        tol_rad_s: the noise band around zero (``validate.wheels.negative_tol_rad_s``).
+
+    Returns:
+        A boolean mask over the rows.
+    """
+    speeds = np.stack([np.asarray(drive[name], dtype=np.float64) for name in c.WHEELS])
+    return (speeds <= tol_rad_s).all(axis=0) & (speeds < -tol_rad_s).any(axis=0)
 
 
 def gnss_path_m(drive: Mapping[str, np.ndarray], rows: np.ndarray) -> float:

@@ -189,6 +189,8 @@ class SecondStream:
 
     def _seconds(self, n_sec: int) -> dict[str, np.ndarray]:
         rows = {k: v[: n_sec * ROWS_PER_SECOND + 1] for k, v in self._rows.items()}
+        for w in c.WHEELS:  # magnitudes, as the label stage takes them (a signing logger)
+            rows[w] = np.abs(rows[w])
         t = rows[c.T_S]
         spans = span_s(t)
         off = np.flatnonzero(np.abs(spans - 1.0) > SPAN_TOLERANCE_S)

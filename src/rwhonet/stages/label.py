@@ -176,14 +176,21 @@ def segment_arrays(table: pa.Table) -> dict[str, np.ndarray | pa.ChunkedArray]:
         table: a segment in canonical columns (validate's output, or a slice of a drive).
 
     Returns:
-        ``t_s, lat_deg, lon_deg, omega_*`` as float64 numpy arrays and ``scenario`` as
-        it is (Arrow), for :func:`rwhonet.features.seconds.segment_seconds`.
+        ``t_s, lat_deg, lon_deg, omega_*`` as float64 numpy arrays (wheel speeds as
+        magnitudes) and ``scenario`` as it is (Arrow), for
+        :func:`rwhonet.features.seconds.segment_seconds`.
     """
-    return {
+    arrays = {
         name: table[name] if name == c.SCENARIO else np.asarray(table[name], dtype=np.float64)
         for name in table.column_names
         if name in (*c.REQUIRED, c.SCENARIO)
     }
+    # Wheel speeds are magnitudes; validate lets negative ones through only where a logger
+    # that signs its speeds recorded reversing (all four wheels together).
+    for name in c.WHEELS:
+        if name in arrays:
+            arrays[name] = np.abs(arrays[name])
+    return arrays
 
 
 def calibrate(

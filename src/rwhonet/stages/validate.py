@@ -38,6 +38,7 @@ from rwhonet.data.plausibility import (
     latlon_swapped_by_range,
     negative_wheel_rows,
     radians_radius,
+    reversing_rows,
     silent_wheel_runs,
     stale_wheel_runs,
     stuck_wheel_runs,
@@ -171,6 +172,10 @@ def validate(
                     drive_reports.append(_refused_report(entry, result, found))
                     continue
                 drive_reports.append(_drive_report(entry, result, radius))
+                # rows a signing logger recorded as reversing (the label takes magnitudes)
+                drive_reports[-1]["signed_reversing_rows"] = int(
+                    reversing_rows(df, vp.wheels.negative_tol_rad_s).sum()
+                )
                 if problems:
                     continue  # the stage will fail: write no more segments
                 for j, seg in enumerate(result.segments):
@@ -509,22 +514,29 @@ def _wheel_problems(
     ignore = manual_rows(df[c.T_S].to_numpy(np.float64), drive_cuts)
     problems = []
     t = df[c.T_S].to_numpy(np.float64)
-    for wheel, rows in negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore).items():
+    negative = negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore)
+    reversing = reversing_rows(df, vp.wheels.negative_tol_rad_s) if negative else None
+    for wheel, rows in negative.items():
         values = df[wheel].to_numpy(np.float64)
         moving = int((np.abs(values) > vp.gnss.moving_wheel_speed_rad_s).sum())
         share = rows.size / max(moving, 1)
+        if share <= vp.wheels.signed_max_share and reversing[rows].all():
+            continue  # a signing logger's reversing: label takes the magnitudes
         what = (
             "the column looks negated (a sign error in the export)"
-            if share >= 0.9
-            else "signed speeds (negative when reversing?)"
+            if share > vp.wheels.signed_max_share
+            else "one wheel negative while another turns forwards (not reversing)"
         )
         problems.append(
             Problem(
                 file,
                 int(rows[0]) + 1,
                 columns.get(wheel, wheel),
-                "wheel speeds as magnitudes >= 0 (as ABS sensors give them, also when "
-                f"reversing; validate.wheels.negative_tol_rad_s {vp.wheels.negative_tol_rad_s})",
+                "wheel speeds as magnitudes >= 0 (as ABS sensors give them), or all four "
+                "negative together while reversing on at most "
+                f"{vp.wheels.signed_max_share:.0%} of the moving rows "
+                f"(validate.wheels.negative_tol_rad_s {vp.wheels.negative_tol_rad_s}, "
+                "signed_max_share)",
                 f"{values[rows[0]]:.6g} rad/s, negative in {rows.size} row(s) (rows "
                 f"{int(rows[0]) + 1}-{int(rows[-1]) + 1}; {share:.0%} of the moving rows) while "
                 f"GNSS moved {gnss_path_m(df, rows):.0f} m: {what}",

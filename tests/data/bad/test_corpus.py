@@ -114,6 +114,8 @@ def test_case(case, tmp_path):
         assert drive["seconds_kept"] >= target_test_min_s(params)
     else:
         assert isinstance(expect, Accept)
+        # A signing logger's reversing is read as magnitudes, and the report counts its rows.
+        assert (drive["signed_reversing_rows"] > 0) == (case.name == "signed_wheel_speeds")
         # Only the drive's first lone row (its start fix) is cut.
         assert rules <= {"partial_second"} and drive["cut_seconds_by_rule"]["partial_second"] <= 1
     summary = label(
