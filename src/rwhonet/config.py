@@ -477,8 +477,7 @@ class WheelPolicy:
             )
         if not 0.0 <= self.signed_max_share < 1.0:
             raise ConfigError(
-                "validate.wheels.signed_max_share must be in [0, 1), got "
-                f"{self.signed_max_share}"
+                f"validate.wheels.signed_max_share must be in [0, 1), got {self.signed_max_share}"
             )
 
 

@@ -707,8 +707,10 @@ def _(raw: Path) -> None:
 @case(
     "signed_wheel_speeds",
     "a logger that signs its wheel speeds: all four negative while reversing for 5 s",
-    Accept("all four wheels negative together on 3 % of the moving rows: reversing, "
-           "magnitudes taken, rows counted in the validation report"),  # fmt: skip
+    Accept(
+        "all four wheels negative together on 3 % of the moving rows: reversing, "
+        "magnitudes taken, rows counted in the validation report"
+    ),  # fmt: skip
 )
 def _(raw: Path) -> None:
     ramp = np.linspace(8.0, 0.0, 40)
