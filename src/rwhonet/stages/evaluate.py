@@ -797,6 +797,13 @@ def position_metrics(ev: Evaluation, params: Params, model: str) -> dict[str, fl
     return out
 
 
+def data_label(params: Params) -> str:
+    """The data a run used, in a run name: ``sim, paper`` or ``files, data/raw``."""
+    if params.data.source == "sim":
+        return f"sim, {params.sim.profile}"
+    return f"files, {params.data.root}"
+
+
 def provenance_line(params: Params) -> str:
     """Where the numbers come from (data source, profile, seeds, machine)."""
     src = (
@@ -819,13 +826,14 @@ def evaluation_record(
     # the headline numbers as the run's own metrics (columns of the runs table), from eval.json
     metrics = headline_metrics(ev.eval_json)
     return RunRecord(
-        name=f"pipeline ({params.data.source}, {params.sim.profile}, {len(params.seeds)} seeds)",
+        name=f"pipeline ({data_label(params)}, {len(params.seeds)} seeds)",
         tags={"model": "pipeline", "dvc_stage": "evaluate", "seeds": str(params.seeds)},
         params={
             **flatten(params.section("evaluate"), "evaluate."),
             **flatten(params.section("adapt"), "adapt."),
             "seeds": params.seeds,
             "data.source": params.data.source,
+            "data.root": params.data.root,
             "sim.profile": params.sim.profile,
         },
         metrics=metrics,

@@ -1,0 +1,74 @@
+"""The README's "Your own drives" path end to end, as a user with real drive files takes it.
+
+Drive files go under ``data/raw/<role>/``, ``dvc add data/raw``, then
+``dvc exp run -S data.source=files -S data.root=data/raw``. The files here are the
+ci profile's simulated drives as a user would have them: CSVs only (no
+scenario or truth sidecars), no calibration drive (the first source_train
+drive calibrates) and no held-out source drives. Code paths that only files
+mode takes (the raw folder in the evaluation's provenance, no simulation) run
+here and nowhere else in the suite.
+
+Slow (a fresh pipeline); ``make test-fast`` skips it.
+"""
+
+import json
+import shutil
+
+import pytest
+import yaml
+
+from support.project import CI_PIPELINE, dvc, scratch_project
+
+pytestmark = pytest.mark.slow
+
+ROLES = ("source_train", "target_train", "target_test")
+
+
+@pytest.fixture(scope="module")
+def own(ci_pipeline, tmp_path_factory):
+    """A scratch project whose data/raw holds the ci drives, after the README's commands."""
+    made = dvc(ci_pipeline, "repro", "simulate")  # the session's ci project (a no-op if done)
+    assert made.returncode == 0, made.stdout + made.stderr
+    repo = scratch_project(tmp_path_factory.mktemp("own") / "repo", CI_PIPELINE)
+    for role in ROLES:
+        dest = repo / "data" / "raw" / role
+        dest.mkdir(parents=True)
+        for csv in sorted((ci_pipeline / "data" / "sim" / role).glob("*.csv")):
+            shutil.copy2(csv, dest / csv.name)
+    added = dvc(repo, "add", "data/raw")
+    assert added.returncode == 0, added.stdout + added.stderr
+    run = dvc(repo, "exp", "run", "-S", "data.source=files", "-S", "data.root=data/raw")
+    assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-4000:]
+    return repo
+
+
+def test_the_pipeline_runs_on_drive_files_and_simulates_nothing(own):
+    params = yaml.safe_load((own / "params.yaml").read_text())
+    assert (params["data"]["source"], params["data"]["root"]) == ("files", "data/raw")
+    assert [p.name for p in (own / "data" / "sim").iterdir()] == ["NOT_SIMULATED.txt"]
+    manifest = json.loads((own / "data/interim/drives/manifest.json").read_text())
+    files = {d["source_file"] for d in manifest["drives"]}
+    assert files and all(f.startswith("data/raw/") for f in files)
+    assert {d["role"] for d in manifest["drives"]} == set(ROLES)
+
+
+def test_every_model_is_evaluated_on_the_user_s_test_drives(own):
+    ev = json.loads((own / "metrics/eval.json").read_text())
+    assert {"WPM", "G", "S", "R", "R[continuous]"} <= set(ev["overall"])
+    assert ev["overall"]["R"]["180s"]["n_windows"] > 0
+    tested = {p.stem for p in (own / "data/raw/target_test").glob("*.csv")}
+    assert set(ev["per_drive"]) >= tested
+    assert "source_test" not in ev["domain_gap"]["G"]  # no held-out source drives were given
+    tables = (own / "reports/tables.md").read_text()
+    assert "Data: drive files under `data/raw`" in tables
+
+
+def test_the_mlflow_parent_run_names_the_drive_files(own):
+    import mlflow
+
+    mlflow.set_tracking_uri(f"sqlite:///{own}/mlruns/mlflow.db")
+    runs = mlflow.search_runs(
+        experiment_names=["rwhonet"], filter_string="tags.model = 'pipeline'", output_format="list"
+    )
+    assert [r.info.run_name for r in runs] == ["pipeline (files, data/raw, 2 seeds)"]
+    assert runs[0].data.params["data.source"] == "files"
