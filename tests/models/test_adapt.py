@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from dataclasses import replace
 
 import numpy as np
@@ -124,18 +125,46 @@ def test_ridge_with_an_infinite_penalty_returns_g(g, linear_data):
     assert dist == sorted(dist, reverse=True)
 
 
+def constant_g(net, bias_m):
+    """G's network made to predict ``bias_m`` for every second (head weights zero)."""
+    out = copy.deepcopy(net)
+    with torch.no_grad():
+        out.head.weight.zero_()
+        out.head.bias.fill_(bias_m)
+    return out.eval()
+
+
 def test_radius_g_recovers_a_known_radius_change(g, linear_data):
     net, hp = g
     x, y = linear_data
-    r = radius_g(net, hp, data_of(x[:50], y[:50], r_true=0.29 * 1.02), min_speed_m_s=2.0)
-    assert r.radii == pytest.approx((0.29 * 1.02, 0.29 * 1.02), rel=1e-9)
+    silent = constant_g(net, 0.0)  # a G that explains nothing: the radius is the GNSS ratio
+    r = radius_g(silent, hp, data_of(x[:50], y[:50], r_true=0.29 * 1.02), min_speed_m_s=2.0)
+    assert r.radii == pytest.approx((0.29 * 1.02, 0.29 * 1.02), rel=1e-6)
     d = data_of(x[50:60], y[50:60], r_true=0.29 * 1.02, seed=3)
     # G's correction plus the WPM with the refitted radii minus the source WPM
-    extra = wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, 0.29 * 1.02, 0.29 * 1.02)
+    extra = wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *r.radii)
     extra -= wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *R_SRC)
-    np.testing.assert_allclose(label_prediction(r, d, R_SRC), predict(net, d.x) + extra, atol=1e-9)
+    np.testing.assert_allclose(label_prediction(r, d, R_SRC), predict(silent, d.x) + extra,
+                               atol=1e-9)  # fmt: skip
     standing = AdaptData(x[:5], y[:5], np.zeros(5), np.zeros(5), np.zeros(5))
     assert radius_g(net, hp, standing, min_speed_m_s=2.0).radii is None  # nothing to fit on
+
+
+def test_radius_g_fits_the_radius_to_what_g_leaves(g, linear_data):
+    """WPM + G adds up to the GNSS distance over the m seconds: G's share is not counted twice."""
+    net, hp = g
+    x, y = linear_data
+    d = data_of(x[:50], y[:50], r_true=0.29 * 1.02)
+    biased = constant_g(net, 0.15)  # G says: 15 cm more per second than the source WPM
+    r = radius_g(biased, hp, d, min_speed_m_s=2.0)
+    expected = (d.disp_gnss_m.sum() - 0.15 * len(d)) / d.angle_rl_rad.sum()
+    assert r.radii == pytest.approx((expected, expected), rel=1e-6)
+    wpm_src = wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *R_SRC)
+    corrected = wpm_src + label_prediction(r, d, R_SRC)
+    assert corrected.sum() == pytest.approx(d.disp_gnss_m.sum(), rel=1e-6)
+    # refitting to GNSS alone and adding G would overshoot by G's total
+    naive = wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, 0.29 * 1.02, 0.29 * 1.02) + 0.15
+    assert naive.sum() - d.disp_gnss_m.sum() == pytest.approx(0.15 * len(d), rel=1e-4)
 
 
 def test_steps_stops_early_and_keeps_the_best_held_back_weights(g, linear_data, adapt_params):

@@ -12,9 +12,11 @@ import torch
 from rwhonet import contracts, paths
 from rwhonet.config import load_params
 from rwhonet.errors import InputError
+from rwhonet.features.wpm import wpm_displacement_m
 from rwhonet.io import write_json
 from rwhonet.models.adapt import label_prediction, recalibrate
 from rwhonet.models.checkpoint import load_whonet, load_wpm_radii, save_whonet
+from rwhonet.models.loop import predict
 from rwhonet.models.whonet import WhONet
 from rwhonet.stages.adapt import adapt_data, adapt_grid
 from rwhonet.stages.outages import outage_windows
@@ -86,10 +88,15 @@ def test_every_drive_recipe_and_m_gets_its_own_model(tmp_path, samples_dir, para
             assert record["tags"] == {"model": "R", "recipe": recipe, "vehicle": "target",
                                       "seed": "7", "dvc_stage": "adapt@7", "m": str(m)}  # fmt: skip
             assert record["metrics"]["drive/A/n_adapt_samples"] == m
-    # the samples' true radius is 2 % above the calibration: radius+G finds it
-    assert load_wpm_radii(tmp_path / "r" / "radius+G" / "m20" / "A.pt") == pytest.approx(
-        (1.02 * R_CAL_M, 1.02 * R_CAL_M), rel=5e-3
-    )
+    # the samples' true radius is 2 % above the calibration: radius+G's radii, with G on top,
+    # add up to the GNSS distance of the m seconds it saw
+    first = (drive == "A") & (k < 20)
+    seen = adapt_data(test, first)
+    radii = load_wpm_radii(tmp_path / "r" / "radius+G" / "m20" / "A.pt")
+    total = wpm_displacement_m(seen.angle_rl_rad, seen.angle_rr_rad, *radii).sum()
+    total += predict(g_net, seen.x).astype(np.float64).sum()
+    assert total == pytest.approx(seen.disp_gnss_m.sum(), rel=1e-6)
+    assert radii == pytest.approx((1.02 * R_CAL_M, 1.02 * R_CAL_M), rel=0.02)
 
 
 def test_continuous_predicts_exactly_the_evaluated_windows(tmp_path, samples_dir, params, g_dir,

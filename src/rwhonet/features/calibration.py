@@ -68,6 +68,7 @@ def fit_radii_ratio_of_sums(
     angle_rr_rad: np.ndarray,
     span_s: np.ndarray,
     min_speed_m_s: float,
+    explained_m: np.ndarray | None = None,
 ) -> RadiusFit:
     """Fit the rear radii as total GNSS distance over total wheel angle on moving seconds.
 
@@ -77,6 +78,9 @@ def fit_radii_ratio_of_sums(
         angle_rr_rad: integrated rear-right wheel angle per second, rad.
         span_s: duration of each second, seconds.
         min_speed_m_s: seconds slower than this are left out (``label.calibration_min_speed_m_s``).
+        explained_m: per second, what a model added on top of the WPM already explains
+            (metres); the radii then fit the rest, ``Σ (GNSS − explained) / Σ angle``, so
+            that WPM + model adds up to the GNSS distance. None: nothing.
 
     Returns:
         The fitted radii and how many seconds and metres they rest on.
@@ -88,6 +92,7 @@ def fit_radii_ratio_of_sums(
     th_rl = np.asarray(angle_rl_rad, np.float64)
     th_rr = np.asarray(angle_rr_rad, np.float64)
     dt = np.asarray(span_s, np.float64)
+    explained = None if explained_m is None else np.asarray(explained_m, np.float64)
 
     def ratio(sel: np.ndarray) -> tuple[float, float]:
         den_rl, den_rr = th_rl[sel].sum(), th_rr[sel].sum()
@@ -96,7 +101,7 @@ def fit_radii_ratio_of_sums(
                 f"no seconds at >= {min_speed_m_s} m/s with forward-turning rear wheels "
                 f"among {len(d)} seconds; cannot calibrate the wheel radii"
             )
-        total = d[sel].sum()
+        total = d[sel].sum() - (explained[sel].sum() if explained is not None else 0.0)
         return float(total / den_rl), float(total / den_rr)
 
     # Pass 1 selects on GNSS speed; pass 2 re-selects on wheel speed (module docstring).
@@ -111,6 +116,7 @@ def refit_radii(
     angle_rl_rad: np.ndarray,
     angle_rr_rad: np.ndarray,
     min_speed_m_s: float,
+    explained_m: np.ndarray | None = None,
 ) -> tuple[float, float] | None:
     """Rear radii refitted on a stretch of one drive: the one-parameter control of R-WhONet.
 
@@ -123,13 +129,17 @@ def refit_radii(
         angle_rl_rad: rear-left wheel angle per second, rad (the WPM's mode).
         angle_rr_rad: rear-right wheel angle per second, rad.
         min_speed_m_s: seconds slower than this are left out.
+        explained_m: per second, what a network on top of the WPM predicts (metres):
+            the radii fit what it leaves (:func:`fit_radii_ratio_of_sums`). None: nothing.
 
     Returns:
         ``(r_rl_m, r_rr_m)``, or None when no second moves fast enough.
     """
     d = np.asarray(disp_gnss_m, np.float64)
     try:
-        fit = fit_radii_ratio_of_sums(d, angle_rl_rad, angle_rr_rad, np.ones_like(d), min_speed_m_s)
+        fit = fit_radii_ratio_of_sums(
+            d, angle_rl_rad, angle_rr_rad, np.ones_like(d), min_speed_m_s, explained_m
+        )
     except ValueError:
         return None
     return fit.r_rl_m, fit.r_rr_m

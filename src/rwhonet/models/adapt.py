@@ -12,7 +12,7 @@ an :class:`AdaptResult`:
 - ``ridge_head``: :func:`ridge_head`, the head refitted in closed form on G's
   frozen hidden features, shrunk towards G's head;
 - ``radius+G``: :func:`radius_g`, the WPM's rear radii refitted on the m seconds
-  (the calibration's estimator), G unchanged on top.
+  (the calibration's estimator) to what G on top leaves unexplained, G unchanged.
 
 :func:`label_prediction` turns any result into predictions of the label
 (GNSS − WPM with the source calibration), so every recipe is scored alike.
@@ -323,6 +323,12 @@ def radius_g(
 ) -> AdaptResult:
     """The ``radius+G`` recipe: the WPM's rear radii refitted on the m seconds, G unchanged.
 
+    The radii are fitted with G on top (``Σ (GNSS − G) / Σ wheel angle``), so that
+    WPM + G, the model this recipe predicts with, adds up to the GNSS distance over
+    the m seconds. Refitting the radii to GNSS alone and then adding G counts G's
+    mean correction twice: G learned it against the source calibration, and the
+    refit already removes the scale error it stood for.
+
     Args:
         base: G-WhONet's network (kept as is).
         hparams: its hyperparameters.
@@ -334,7 +340,9 @@ def radius_g(
         when no second moved fast enough, recorded in ``info``.
     """
     start = time.perf_counter()
-    radii = refit_radii(data.disp_gnss_m, data.angle_rl_rad, data.angle_rr_rad, min_speed_m_s)
+    g_pred = predict(base, data.x, seq_len=hparams["seq_len"]).astype(np.float64)
+    radii = refit_radii(data.disp_gnss_m, data.angle_rl_rad, data.angle_rr_rad, min_speed_m_s,
+                        explained_m=g_pred)  # fmt: skip
     return AdaptResult(
         copy.deepcopy(base).eval(), dict(hparams), radii, [], time.perf_counter() - start, 2,
         count_parameters(base)[1] + 2, info={"radius_refit": radii is not None},
@@ -464,7 +472,8 @@ def continuous_predictions(
             k0 = k[windows[w, 0]]
             before = (k < k0) & ((k >= k0 - window_s) if window_s else True)
             radii = refit_radii(data.disp_gnss_m[before], data.angle_rl_rad[before],
-                                data.angle_rr_rad[before], min_speed_m_s)  # fmt: skip
+                                data.angle_rr_rad[before], min_speed_m_s,
+                                explained_m=g_pred[before])  # fmt: skip
             rows = windows[w]
             pred[w] = g_pred[rows]
             if radii is not None:
