@@ -456,7 +456,8 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         ". CRSE = Σ|e| and CTE = |Σe| per "
         "outage window (paper Eqs. 16-17), e = label − prediction (a WPM alone: e = GNSS − "
         "WPM). WPM-m@m: the WPM with its rear radii refitted on each drive's first m s; "
-        "R[radius+G]@m: G on top of it (the G+radius control); R[continuous]: recalibrated "
+        "R[radius+G]@m: G on top of a WPM whose rear radii are refitted on the same m s to "
+        "what G leaves (the G+radius control); R[continuous]: recalibrated "
         "before every window on the drive's seconds before it.",
         "",
         "## Mean CRSE (m) over all windows of the target test drives",
