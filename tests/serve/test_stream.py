@@ -19,6 +19,12 @@ def stream_all(model, blocks, outages=()):
     return {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}, s
 
 
+def assert_same_seconds(a, b):
+    for k in COLUMNS:
+        if k != "outage":
+            np.testing.assert_array_equal(a[k], b[k])
+
+
 def blocks_of(df, sizes):
     cols = {k: df[k].to_numpy(np.float64) for k in ("t_s", "lat_deg", "lon_deg", "omega_fl_rad_s",
                                                     "omega_fr_rad_s", "omega_rl_rad_s",
@@ -60,9 +66,7 @@ def test_any_blocking_gives_the_same_seconds(bundle, sizes):
     whole, _ = stream_all(model, blocks_of(df, [len(df)]))
     parts, _ = stream_all(model, blocks_of(df, sizes))
     assert len(whole["t_s"]) == 120
-    for k in COLUMNS:
-        if k != "outage":
-            np.testing.assert_array_equal(whole[k], parts[k])
+    assert_same_seconds(whole, parts)
 
 
 def test_signed_wheel_speeds_are_read_as_magnitudes(bundle):
@@ -74,9 +78,7 @@ def test_signed_wheel_speeds_are_read_as_magnitudes(bundle):
     signed.loc[200:260, wheels] *= -1.0
     plain, _ = stream_all(model, blocks_of(df, [len(df)]))
     read, _ = stream_all(model, blocks_of(signed, [len(signed)]))
-    for k in COLUMNS:
-        if k != "outage":
-            np.testing.assert_array_equal(plain[k], read[k])
+    assert_same_seconds(plain, read)
 
 
 def test_a_gap_ends_a_run_and_the_next_starts_on_a_whole_second(bundle):
