@@ -29,6 +29,7 @@ test-fast: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests pipelines benchmarks
+	$(BIN)/ruff format --check src tests pipelines benchmarks
 
 # dvc and the stage scripts must find the venv's python first.
 RUN_ENV := PATH=$(abspath $(BIN)):$$PATH

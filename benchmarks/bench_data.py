@@ -58,9 +58,13 @@ def main() -> None:
         validate, params, work / "drives", work / "segments", work / "validation.json"
     )
     _, t_label = _timed(
-        label, params, work / "segments", work / "samples",
-        work / "calibration.json", work / "scaler.json",
-    )  # fmt: skip
+        label,
+        params,
+        work / "segments",
+        work / "samples",
+        work / "calibration.json",
+        work / "scaler.json",
+    )
     total = t_ingest + t_validate + t_label
 
     print(f"fleet: profile {args.profile}, {n_rows:,} rows at 10 Hz ({hours:.1f} h of driving)")

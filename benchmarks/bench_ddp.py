@@ -47,11 +47,19 @@ def one(samples: int, epochs: int, devices: int, batch_size: int) -> None:
         params.train.trainer, devices=devices, strategy="ddp" if devices > 1 else "auto"
     )
     train = replace(params.train, epochs=epochs, batch_size=batch_size, trainer=trainer)
-    r = fit(x[:samples], y[:samples], x[samples:], y[samples:], model=params.model, train=train,
-            seed=0)  # fmt: skip
+    r = fit(
+        x[:samples], y[:samples], x[samples:], y[samples:], model=params.model, train=train, seed=0
+    )
     if r.global_rank == 0:
-        print(json.dumps({"samples_per_s": r.samples_per_s, "fit_s": r.seconds,
-                          "train_loss": r.history[-1]["train_loss"]}))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "samples_per_s": r.samples_per_s,
+                    "fit_s": r.seconds,
+                    "train_loss": r.history[-1]["train_loss"],
+                }
+            )
+        )
 
 
 def main() -> None:
@@ -67,20 +75,35 @@ def main() -> None:
         one(args.samples, args.epochs, *args.one)
         return
     print(f"G training, {args.samples:,} samples x {args.epochs} epochs, {os.cpu_count()} CPUs")
-    print(f"{'processes x batch':>18} {'samples/s (fit)':>16} {'fit s':>7} {'wall s':>7} "
-          f"{'final train MAE':>16}")  # fmt: skip
+    print(
+        f"{'processes x batch':>18} {'samples/s (fit)':>16} {'fit s':>7} {'wall s':>7} "
+        f"{'final train MAE':>16}"
+    )
     for _ in range(args.repeats):
         for devices, batch in CONFIGS:
             start = time.perf_counter()
             out = subprocess.run(
-                [sys.executable, __file__, "--samples", str(args.samples), "--epochs",
-                 str(args.epochs), "--one", str(devices), str(batch)],
-                capture_output=True, text=True, check=True,
-            )  # fmt: skip
+                [
+                    sys.executable,
+                    __file__,
+                    "--samples",
+                    str(args.samples),
+                    "--epochs",
+                    str(args.epochs),
+                    "--one",
+                    str(devices),
+                    str(batch),
+                ],
+                capture_output=True,
+                text=True,
+                check=True,
+            )
             wall = time.perf_counter() - start
             row = json.loads(out.stdout.strip().splitlines()[-1])
-            print(f"{f'{devices} x {batch}':>18} {row['samples_per_s']:>16,.0f} "
-                  f"{row['fit_s']:>7.1f} {wall:>7.1f} {row['train_loss']:>16.4f}")  # fmt: skip
+            print(
+                f"{f'{devices} x {batch}':>18} {row['samples_per_s']:>16,.0f} "
+                f"{row['fit_s']:>7.1f} {wall:>7.1f} {row['train_loss']:>16.4f}"
+            )
 
 
 if __name__ == "__main__":

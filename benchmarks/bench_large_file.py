@@ -70,9 +70,12 @@ def run(root: Path, stage: str, max_file_mb: float) -> dict:
     )
     proc = subprocess.run(
         [sys.executable, "-c", CHILD, stage],
-        cwd=ROOT, env={**os.environ, "RWHONET_ROOT": str(root)},
-        capture_output=True, text=True, check=True,
-    )  # fmt: skip
+        cwd=ROOT,
+        env={**os.environ, "RWHONET_ROOT": str(root)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
@@ -107,8 +110,10 @@ def main() -> None:
         print(f"{'case':<36} {'time s':>7} {'peak MB':>8} {'imports MB':>10}  outcome")
         for name, stage, limit in cases:
             r = run(root, stage, limit)
-            print(f"{name:<36} {r['seconds']:>7.1f} {r['peak_mb']:>8.0f} "
-                  f"{r['imports_mb']:>10.0f}  {r['outcome']}")  # fmt: skip
+            print(
+                f"{name:<36} {r['seconds']:>7.1f} {r['peak_mb']:>8.0f} "
+                f"{r['imports_mb']:>10.0f}  {r['outcome']}"
+            )
 
 
 if __name__ == "__main__":

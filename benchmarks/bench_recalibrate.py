@@ -45,8 +45,13 @@ def main() -> None:
     model, adapt, seed = params.model, params.adapt, params.seeds[0]
     torch.manual_seed(seed)
     net = WhONet(N_FEATURES, model.hidden, model.layers, model.dropout).eval()
-    hparams = {"seq_len": model.seq_len, "n_features": N_FEATURES, "hidden": model.hidden,
-               "layers": model.layers, "dropout": model.dropout}  # fmt: skip
+    hparams = {
+        "seq_len": model.seq_len,
+        "n_features": N_FEATURES,
+        "hidden": model.hidden,
+        "layers": model.layers,
+        "dropout": model.dropout,
+    }
     rng = np.random.default_rng(seed)
     radius = 0.294
     v_min = params.label.calibration_min_speed_m_s
@@ -78,8 +83,7 @@ def main() -> None:
             runs = []
             for _ in range(args.repeats):
                 start = time.perf_counter()
-                recalibrate(recipe, net, hparams, data, adapt=adapt, seed=seed,
-                            min_speed_m_s=v_min)  # fmt: skip
+                recalibrate(recipe, net, hparams, data, adapt=adapt, seed=seed, min_speed_m_s=v_min)
                 runs.append(1e3 * (time.perf_counter() - start))
             cells.append(f"{statistics.median(runs):8.1f} ms ({min(runs):.1f}-{max(runs):.1f})")
         print(f"{recipe:<12}" + "".join(f"{c:>22}" for c in cells), flush=True)
@@ -93,11 +97,17 @@ def main() -> None:
         for _ in range(3):
             start = time.perf_counter()
             continuous_predictions(
-                net, hparams, data, np.arange(n), windows,
-                inner=adapt.continuous.inner, penalty=adapt.ridge_penalty,
-                window_s=adapt.continuous.window_s, min_speed_m_s=v_min,
+                net,
+                hparams,
+                data,
+                np.arange(n),
+                windows,
+                inner=adapt.continuous.inner,
+                penalty=adapt.ridge_penalty,
+                window_s=adapt.continuous.window_s,
+                min_speed_m_s=v_min,
                 source_radii=(radius, radius),
-            )  # fmt: skip
+            )
             runs.append(time.perf_counter() - start)
         best = min(runs)
         print(

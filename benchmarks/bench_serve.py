@@ -74,11 +74,22 @@ def base_bundle(folder: Path) -> tuple[dict, str]:
 
         torch.manual_seed(0)
         g = folder / "g.pt"
-        hp = {"n_features": 40, "hidden": 72, "layers": 1, "dropout": 0.05, "seq_len": 1,
-              "lr": 7e-4, "batch_size": 128}  # fmt: skip
+        hp = {
+            "n_features": 40,
+            "hidden": 72,
+            "layers": 1,
+            "dropout": 0.05,
+            "seq_len": 1,
+            "lr": 7e-4,
+            "batch_size": 128,
+        }
         save_whonet(WhONet(), hp, g)
-        scaler = {"kind": "global", "wheels": ["rr", "rl", "fr", "fl"], "min_rad_s": [0.0] * 4,
-                  "max_rad_s": [110.0] * 4}  # fmt: skip
+        scaler = {
+            "kind": "global",
+            "wheels": ["rr", "rl", "fr", "fl"],
+            "min_rad_s": [0.0] * 4,
+            "max_rad_s": [110.0] * 4,
+        }
         cal, which = {"r_rl_m": 0.2917, "r_rr_m": 0.2916}, "a fresh WhONet"
     meta = make_meta({}, scaler, cal, "integrated", None, {"name": "whonet-G", "model": "G"})
     return write_bundle(g, meta, folder / "g"), which
@@ -120,8 +131,10 @@ def main() -> None:
     session, name = served.session, served.session.get_inputs()[0].name
     timings: dict[str, list[float]] = {"PyTorch": [], "ONNX Runtime": []}
     with torch.inference_mode():
-        for label, call in (("PyTorch", lambda: net(xt)),
-                            ("ONNX Runtime", lambda: session.run(None, {name: x1}))):  # fmt: skip
+        for label, call in (
+            ("PyTorch", lambda: net(xt)),
+            ("ONNX Runtime", lambda: session.run(None, {name: x1})),
+        ):
             for _ in range(500):
                 call()
             for _ in range(args.steps):
@@ -137,24 +150,60 @@ def main() -> None:
     xb = rng.uniform(0, 1, (3600, 1, 40)).astype(np.float32)
     print("2. batch throughput, batch 3,600 (best of 20):")
     with torch.inference_mode():
-        for label, call in (("PyTorch", lambda: net(torch.from_numpy(xb))),
-                            ("ONNX Runtime", lambda: session.run(None, {name: xb}))):  # fmt: skip
+        for label, call in (
+            ("PyTorch", lambda: net(torch.from_numpy(xb))),
+            ("ONNX Runtime", lambda: session.run(None, {name: xb})),
+        ):
             best = min(_timed(call) for _ in range(20))
             print(f"   {label:<13} {3600 / best / 1e6:6.2f} M windows/s ({best * 1e3:.2f} ms)")
 
     drive = hour_drive(tmp)
     rows = sum(1 for _ in open(drive)) - 1
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "MLFLOW_TRACKING_URI":
-           f"sqlite:///{tmp}/mlruns/mlflow.db"}  # fmt: skip
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT / "src"),
+        "MLFLOW_TRACKING_URI": f"sqlite:///{tmp}/mlruns/mlflow.db",
+    }
     cli = [sys.executable, "-m", "rwhonet.cli.main"]
     onnx = str(bundle["model_onnx"])
     print(f"\n3. rwhonet predict, one-hour drive ({rows:,} rows), {args.repeats} runs:")
-    file_runs = [run([*cli, "predict", "--model", onnx, "--drive", str(drive), "--output",
-                      str(tmp / "out.csv"), "--outage", "300:480", "--quiet"], env)
-                 for _ in range(args.repeats)]  # fmt: skip
-    pipe_runs = [run([*cli, "predict", "--model", onnx, "--drive", "-", "--output",
-                      str(tmp / "out2.csv"), "--quiet"], env, stdin=drive)
-                 for _ in range(args.repeats)]  # fmt: skip
+    file_runs = [
+        run(
+            [
+                *cli,
+                "predict",
+                "--model",
+                onnx,
+                "--drive",
+                str(drive),
+                "--output",
+                str(tmp / "out.csv"),
+                "--outage",
+                "300:480",
+                "--quiet",
+            ],
+            env,
+        )
+        for _ in range(args.repeats)
+    ]
+    pipe_runs = [
+        run(
+            [
+                *cli,
+                "predict",
+                "--model",
+                onnx,
+                "--drive",
+                "-",
+                "--output",
+                str(tmp / "out2.csv"),
+                "--quiet",
+            ],
+            env,
+            stdin=drive,
+        )
+        for _ in range(args.repeats)
+    ]
     start_only = [
         run(
             [
@@ -180,22 +229,46 @@ def main() -> None:
     print(f"   streaming in a warm process:       {_range(warm)} s")
     print("   target: a one-hour drive streamed in < 1 s")
 
-    print(f"\n4. rwhonet recalibrate end to end, m = 50 s, fresh process, {args.repeats} runs "
-          "(2 cores):")  # fmt: skip
+    print(
+        f"\n4. rwhonet recalibrate end to end, m = 50 s, fresh process, {args.repeats} runs "
+        "(2 cores):"
+    )
     from rwhonet.tracking.registry import log_bundle
     from rwhonet.tracking.store import open_store
 
     client, exp = open_store(env["MLFLOW_TRACKING_URI"], "rwhonet")
     import pandas as pd
 
-    example = pd.DataFrame(np.full((2, 40), 0.5, np.float32), columns=[f"x_{i:02d}" for i in
-                                                                       range(40)])  # fmt: skip
-    log_bundle(client, client.create_run(exp, run_name="G").info.run_id, "whonet-G", bundle,
-               example, {"model": "G"})  # fmt: skip
+    example = pd.DataFrame(
+        np.full((2, 40), 0.5, np.float32), columns=[f"x_{i:02d}" for i in range(40)]
+    )
+    log_bundle(
+        client,
+        client.create_run(exp, run_name="G").info.run_id,
+        "whonet-G",
+        bundle,
+        example,
+        {"model": "G"},
+    )
     for recipe in ("radius+G", "paper"):
-        walls = [run([*cli, "recalibrate", "--base", "models:/whonet-G/latest", "--drive",
-                      str(drive), "--seconds", "50", "--recipe", recipe], env)
-                 for _ in range(args.repeats)]  # fmt: skip
+        walls = [
+            run(
+                [
+                    *cli,
+                    "recalibrate",
+                    "--base",
+                    "models:/whonet-G/latest",
+                    "--drive",
+                    str(drive),
+                    "--seconds",
+                    "50",
+                    "--recipe",
+                    recipe,
+                ],
+                env,
+            )
+            for _ in range(args.repeats)
+        ]
         print(f"   {recipe:<9} {_range(walls)} s")
     print("   target: < 10 s")
 

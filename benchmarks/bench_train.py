@@ -101,10 +101,17 @@ def _lightning_baseline(x, y, model, train, seed: int, *, naive: bool) -> float:
         dm = WhONetDataModule(xt, yt, batch_size=train.batch_size, seed=seed, steps_per_block=1)
         loader = dm.train_dataloader()
     trainer = L.Trainer(
-        accelerator="cpu", devices=1, max_epochs=train.epochs, logger=False,
-        enable_progress_bar=False, enable_model_summary=False, enable_checkpointing=False,
-        num_sanity_val_steps=0, log_every_n_steps=50, deterministic=True,
-    )  # fmt: skip
+        accelerator="cpu",
+        devices=1,
+        max_epochs=train.epochs,
+        logger=False,
+        enable_progress_bar=False,
+        enable_model_summary=False,
+        enable_checkpointing=False,
+        num_sanity_val_steps=0,
+        log_every_n_steps=50,
+        deterministic=True,
+    )
     module = Conventional()
     start = time.perf_counter()
     trainer.fit(module, loader)
@@ -225,10 +232,12 @@ def main() -> None:
 
     adapt = params.adapt
     drives = [
-        (rng.random((max(adapt.m_grid), model.seq_len, 40), dtype=np.float32),
-         rng.normal(0.3, 0.3, max(adapt.m_grid)).astype(np.float32))
+        (
+            rng.random((max(adapt.m_grid), model.seq_len, 40), dtype=np.float32),
+            rng.normal(0.3, 0.3, max(adapt.m_grid)).astype(np.float32),
+        )
         for _ in range(args.drives)
-    ]  # fmt: skip
+    ]
     g = results[block].module
     grid_s, fit_s = _grid(g.net, dict(g.hparams), drives, adapt, seed)
     n_runs = len(adapt.m_grid) * args.drives

@@ -44,8 +44,11 @@ def test_full_pipeline_then_noop(repo):
     out = dvc(repo, "repro")
     assert out.returncode == 0, out.stdout + out.stderr
     ev = json.loads((repo / "metrics/eval.json").read_text())
-    recipes = {f"R[{r}]@{m}" for r in ("paper", "head", "ridge_head", "radius+G", "steps")
-               for m in (10, 20)}  # fmt: skip
+    recipes = {
+        f"R[{r}]@{m}"
+        for r in ("paper", "head", "ridge_head", "radius+G", "steps")
+        for m in (10, 20)
+    }
     assert set(ev["overall"]) >= {"WPM", "G", "S", "R", "R@10", "R@20", "WPM-m@10", "R[continuous]"}
     assert set(ev["overall"]) >= recipes
     # the ci profile's target training drives are too short for a 180 s window after 20 s:
@@ -97,8 +100,9 @@ def execution_runs(repo: Path) -> list:
 
     client = mlflow.MlflowClient(f"sqlite:///{repo}/mlruns/mlflow.db")
     exp = client.get_experiment_by_name("rwhonet").experiment_id
-    [latest] = client.search_runs([exp], "tags.model = 'pipeline'", max_results=1,
-                                  order_by=["attributes.start_time DESC"])  # fmt: skip
+    [latest] = client.search_runs(
+        [exp], "tags.model = 'pipeline'", max_results=1, order_by=["attributes.start_time DESC"]
+    )
     execution = latest.data.tags["rwhonet.execution"]
     return client.search_runs([exp], f"tags.`rwhonet.execution` = '{execution}'", max_results=5000)
 

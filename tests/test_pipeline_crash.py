@@ -91,9 +91,14 @@ def _stop_mid_fit(proc: subprocess.Popen, at_cpu_s: float, signum: int, *, group
 
 def _start(repo: Path, *cmd: str) -> subprocess.Popen:
     return subprocess.Popen(
-        list(cmd), cwd=repo, env=env(repo), start_new_session=True, text=True,
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-    )  # fmt: skip
+        list(cmd),
+        cwd=repo,
+        env=env(repo),
+        start_new_session=True,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
 
 
 def _files(folder: Path) -> dict[str, bytes]:

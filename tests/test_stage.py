@@ -165,9 +165,13 @@ def _start_sleeper(root: Path, store: str) -> subprocess.Popen:
     (out / "model.pt").write_bytes(b"the old model")
     env = {**os.environ, "RWHONET_ROOT": str(root), "MLFLOW_TRACKING_URI": store}
     proc = subprocess.Popen(
-        [sys.executable, "-c", SLEEPER], cwd=root, env=env, text=True,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-    )  # fmt: skip
+        [sys.executable, "-c", SLEEPER],
+        cwd=root,
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     assert proc.stdout.readline().strip() == "working", proc.stderr.read()
     return proc
 
@@ -205,7 +209,11 @@ def test_mlflow_stays_out_of_a_stage_that_succeeds(tmp_path):
         "assert 'mlflow' not in sys.modules, 'mlflow imported'"
     )
     proc = subprocess.run(
-        [sys.executable, "-c", code], cwd=paths.ROOT, capture_output=True, text=True, timeout=120,
+        [sys.executable, "-c", code],
+        cwd=paths.ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
         env={**os.environ, "MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path}/mlflow.db"},
-    )  # fmt: skip
+    )
     assert proc.returncode == 0, proc.stderr

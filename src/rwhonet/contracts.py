@@ -45,9 +45,17 @@ LAT_DEG = "lat_deg"
 LON_DEG = "lon_deg"
 SCENARIO = "scenario"  # ';'-joined scenario tags of the second
 SAMPLE_VALUE_COLUMNS = (
-    T_S, DISP_GNSS_M, DISP_WPM_M, LABEL_M,
-    DISP_WPM_INTEGRATED_M, DISP_WPM_REFERENCE_M, ANGLE_RL_RAD, ANGLE_RR_RAD, LAT_DEG, LON_DEG,
-)  # fmt: skip
+    T_S,
+    DISP_GNSS_M,
+    DISP_WPM_M,
+    LABEL_M,
+    DISP_WPM_INTEGRATED_M,
+    DISP_WPM_REFERENCE_M,
+    ANGLE_RL_RAD,
+    ANGLE_RR_RAD,
+    LAT_DEG,
+    LON_DEG,
+)
 SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
 
 # --------------------------------------------------------------------------- model names

@@ -62,8 +62,15 @@ def track(
     if interactive():
         from tqdm import tqdm
 
-        yield from tqdm(items, desc=desc, total=total, unit=f" {unit}", file=sys.stderr,
-                        dynamic_ncols=True, leave=False)  # fmt: skip
+        yield from tqdm(
+            items,
+            desc=desc,
+            total=total,
+            unit=f" {unit}",
+            file=sys.stderr,
+            dynamic_ncols=True,
+            leave=False,
+        )
         return
     every = max(1, -(-total // LINES)) if total else 1
     start = time.perf_counter()
@@ -74,5 +81,6 @@ def track(
         if done % every == 0 or done == total:
             what = f" ({label(item)})" if label is not None else ""
             of = f"/{total}" if total else ""
-            print(f"{desc}: {done}{of} {unit}s{what}, {time.perf_counter() - start:.1f} s",
-                  flush=True)  # fmt: skip
+            print(
+                f"{desc}: {done}{of} {unit}s{what}, {time.perf_counter() - start:.1f} s", flush=True
+            )

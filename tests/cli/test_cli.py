@@ -46,8 +46,14 @@ def cli(*args, stdin=None, code=None):
     """Run the installed console script's code in a fresh interpreter."""
     env = dict(os.environ, PYTHONPATH=str(paths.ROOT / "src"))
     script = code or "import sys; from rwhonet.cli.main import main; sys.exit(main(sys.argv[1:]))"
-    return subprocess.run([sys.executable, "-c", script, *args], input=stdin, env=env,
-                          capture_output=True, cwd=paths.ROOT, timeout=300)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-c", script, *args],
+        input=stdin,
+        env=env,
+        capture_output=True,
+        cwd=paths.ROOT,
+        timeout=300,
+    )
 
 
 @pytest.mark.parametrize("command", ["recalibrate", "predict", "export", "gate"])
@@ -76,8 +82,9 @@ def test_bad_drive_through_the_cli_names_file_row_and_column(bundle, bad_drive):
     assert "Traceback" not in err
 
 
-def test_recalibrate_refuses_a_drive_too_short_and_a_file_that_is_not_there(bundle, tmp_path,
-                                                                           capsys):  # fmt: skip
+def test_recalibrate_refuses_a_drive_too_short_and_a_file_that_is_not_there(
+    bundle, tmp_path, capsys
+):
     short = write_drive(tmp_path / "V-Short.csv", duration_s=60)
     base = str(bundle["model_onnx"].parent)
     assert main(["recalibrate", "--base", base, "--drive", str(short), "--seconds", "50"]) == 2
@@ -87,8 +94,9 @@ def test_recalibrate_refuses_a_drive_too_short_and_a_file_that_is_not_there(bund
     assert "--seconds" in err
     assert main(["recalibrate", "--base", base, "--drive", str(tmp_path / "none.csv")]) == 2
     assert "none.csv: expected a drive file" in capsys.readouterr().err
-    assert main(["recalibrate", "--base", base, "--drive", str(short), "--recipe",
-                 "continuous"]) == 2  # fmt: skip
+    assert (
+        main(["recalibrate", "--base", base, "--drive", str(short), "--recipe", "continuous"]) == 2
+    )
     assert "no single model to register" in capsys.readouterr().err
     assert main(["predict", "--model", str(tmp_path), "--drive", str(short)]) == 2
     assert "expected an exported .onnx file, or a model folder" in capsys.readouterr().err
@@ -101,8 +109,19 @@ def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
         "('torch', 'lightning', 'pytorch_lightning', 'mlflow')); "
         "print('IMPORTED', heavy, file=sys.stderr); sys.exit(rc)"
     )
-    out = cli("predict", "--model", str(bundle["model_onnx"]), "--drive", "-", "--output", "-",
-              "--outage", "100:220", stdin=Path(drive).read_bytes(), code=check)  # fmt: skip
+    out = cli(
+        "predict",
+        "--model",
+        str(bundle["model_onnx"]),
+        "--drive",
+        "-",
+        "--output",
+        "-",
+        "--outage",
+        "100:220",
+        stdin=Path(drive).read_bytes(),
+        code=check,
+    )
     err = out.stderr.decode()
     assert out.returncode == 0, err
     assert "IMPORTED []" in err
@@ -111,19 +130,32 @@ def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
 
     frame = pd.read_csv(StringIO(out.stdout.decode()))
     assert len(frame) == 300 and frame["outage"].notna().sum() == 120
-    np.testing.assert_allclose(frame["disp_corrected_m"],
-                               frame["disp_wpm_m"] + frame["pred_error_m"], atol=2e-4)  # fmt: skip
+    np.testing.assert_allclose(
+        frame["disp_corrected_m"], frame["disp_wpm_m"] + frame["pred_error_m"], atol=2e-4
+    )
 
 
 def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):
     onnx = tmp_path / "g.onnx"
-    assert main(["export", "--model", str(bundle["model_onnx"].parent), "--output",
-                 str(onnx)]) == 0  # fmt: skip
+    assert main(["export", "--model", str(bundle["model_onnx"].parent), "--output", str(onnx)]) == 0
     said = capsys.readouterr().out
     assert f"wrote {onnx}" in said and "max |ONNX - PyTorch|" in said
     out = tmp_path / "p.parquet"
-    assert main(["predict", "--model", str(onnx), "--drive", str(drive), "--output", str(out),
-                 "--quiet"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(onnx),
+                "--drive",
+                str(drive),
+                "--output",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     frame = pd.read_parquet(out)
     assert len(frame) == 300 and list(frame.columns)[:3] == ["t_s", "elapsed_s", "disp_wpm_m"]
     assert capsys.readouterr().err == ""

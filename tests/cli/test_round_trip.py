@@ -37,12 +37,20 @@ def world(tmp_path_factory):
 
 
 def rwhonet(world, *args, stdin=None):
-    env = {"MLFLOW_TRACKING_URI": world["uri"], "PYTHONPATH": str(paths.ROOT / "src"),
-           "PATH": "/usr/bin:/bin", "HOME": str(world["root"])}  # fmt: skip
+    env = {
+        "MLFLOW_TRACKING_URI": world["uri"],
+        "PYTHONPATH": str(paths.ROOT / "src"),
+        "PATH": "/usr/bin:/bin",
+        "HOME": str(world["root"]),
+    }
     out = subprocess.run(
         [sys.executable, "-c", "import sys; from rwhonet.cli.main import entry; entry()", *args],
-        input=stdin, env=env, capture_output=True, cwd=paths.ROOT, timeout=300,
-    )  # fmt: skip
+        input=stdin,
+        env=env,
+        capture_output=True,
+        cwd=paths.ROOT,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stderr.decode()[-3000:]
     return out
 
@@ -53,8 +61,18 @@ def test_recalibrate_then_predict_then_export(world, tmp_path):
     from rwhonet.serve.model import load_served
 
     drive = world["fleet"] / "target_test" / "V-Charlie3.csv"
-    said = rwhonet(world, "recalibrate", "--base", "models:/whonet-G/latest", "--drive",
-                   str(drive), "--seconds", "50", "--recipe", "head").stdout.decode()  # fmt: skip
+    said = rwhonet(
+        world,
+        "recalibrate",
+        "--base",
+        "models:/whonet-G/latest",
+        "--drive",
+        str(drive),
+        "--seconds",
+        "50",
+        "--recipe",
+        "head",
+    ).stdout.decode()
     assert "registered whonet-R-target version 1" in said and "180s" in said
 
     version = world["client"].get_model_version("whonet-R-target", "1")
@@ -66,31 +84,63 @@ def test_recalibrate_then_predict_then_export(world, tmp_path):
     assert run.data.metrics["R/crse/180s/mean"] > 0 and "WPM/crse/30s/mean" in run.data.metrics
 
     # predict streams the drive from stdin with the registered model
-    out = rwhonet(world, "predict", "--model", "models:/whonet-R-target/latest", "--drive", "-",
-                  "--outage", "100:280", stdin=drive.read_bytes())  # fmt: skip
+    out = rwhonet(
+        world,
+        "predict",
+        "--model",
+        "models:/whonet-R-target/latest",
+        "--drive",
+        "-",
+        "--outage",
+        "100:280",
+        stdin=drive.read_bytes(),
+    )
     streamed = pd.read_csv(io.StringIO(out.stdout.decode()))
     assert "outage 100:280 s (180 s" in out.stderr.decode()
 
     # ... and gives, second by second, what the model predicts on the label code's samples
     r = load_served(resolve_model("models:/whonet-R-target/1", world["uri"], tmp_path / "r"))
     assert r.meta.info["recipe"] == "head" and r.meta.wpm_radii is None
-    ref = load_drive(drive, load_params(), vehicle="target", fmt="iovnbd",
-                     calibration=calibration_of(r.meta.source_radii, "r"), scaler=r.scaler,
-                     wpm_mode=r.meta.wpm_mode, seq_len=1).samples  # fmt: skip
+    ref = load_drive(
+        drive,
+        load_params(),
+        vehicle="target",
+        fmt="iovnbd",
+        calibration=calibration_of(r.meta.source_radii, "r"),
+        scaler=r.scaler,
+        wpm_mode=r.meta.wpm_mode,
+        seq_len=1,
+    ).samples
     t = ref.frame["t_s"].to_numpy()
     common, i, j = np.intersect1d(streamed["t_s"].to_numpy(), t, return_indices=True)
     assert len(common) >= 0.95 * len(t)
-    np.testing.assert_allclose(streamed["pred_error_m"].to_numpy()[i], r.predict(ref.x[j]),
-                               atol=6e-5)  # fmt: skip
-    np.testing.assert_allclose(streamed["disp_wpm_m"].to_numpy()[i],
-                               ref.frame[k.DISP_WPM_M].to_numpy()[j], atol=6e-5)  # fmt: skip
+    np.testing.assert_allclose(
+        streamed["pred_error_m"].to_numpy()[i], r.predict(ref.x[j]), atol=6e-5
+    )
+    np.testing.assert_allclose(
+        streamed["disp_wpm_m"].to_numpy()[i], ref.frame[k.DISP_WPM_M].to_numpy()[j], atol=6e-5
+    )
 
     # a second recalibration is the next version; export writes the model as one file
-    rwhonet(world, "recalibrate", "--drive", str(world["fleet"] / "target_test" / "V-Delta2.csv"),
-            "--seconds", "30")  # fmt: skip
+    rwhonet(
+        world,
+        "recalibrate",
+        "--drive",
+        str(world["fleet"] / "target_test" / "V-Delta2.csv"),
+        "--seconds",
+        "30",
+    )
     second = world["client"].get_model_version("whonet-R-target", "2")
     assert second.tags["recipe"] == "radius+G" and second.tags["m"] == "30"
     onnx = tmp_path / "r2.onnx"
-    rwhonet(world, "export", "--model", "models:/whonet-R-target/2", "--format", "onnx",
-            "--output", str(onnx))  # fmt: skip
+    rwhonet(
+        world,
+        "export",
+        "--model",
+        "models:/whonet-R-target/2",
+        "--format",
+        "onnx",
+        "--output",
+        str(onnx),
+    )
     assert load_served(onnx).meta.wpm_radii is not None  # radius+G carries its radii

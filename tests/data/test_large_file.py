@@ -68,9 +68,13 @@ def _ingest(
     )
     proc = subprocess.run(
         [sys.executable, "-c", CHILD, str(budget_mb)],
-        cwd=paths.ROOT, env={**os.environ, "RWHONET_ROOT": str(root)},
-        capture_output=True, text=True, timeout=300, check=False,
-    )  # fmt: skip
+        cwd=paths.ROOT,
+        env={**os.environ, "RWHONET_ROOT": str(root)},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
     last = proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else "{}"
     return proc, json.loads(last)
 

@@ -25,8 +25,9 @@ def test_blocks_hold_what_the_ingest_reader_reads(tmp_path):
         lay, blocks = read_rows(f, "V-A.csv", block_bytes=4096)
         blocks, cols = collect(blocks)
     assert len(blocks) > 5 and blocks[0][0] == 1
-    assert [first for first, _ in blocks] == list(np.cumsum([0] + [len(b[c.T_S]) for _, b in
-                                                                   blocks[:-1]]) + 1)  # fmt: skip
+    assert [first for first, _ in blocks] == list(
+        np.cumsum([0] + [len(b[c.T_S]) for _, b in blocks[:-1]]) + 1
+    )
     ref = read_iovnbd(path)
     for k in c.REQUIRED:
         np.testing.assert_array_equal(cols[k], ref.columns[k])

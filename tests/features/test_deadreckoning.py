@@ -69,8 +69,9 @@ def test_scale_and_heading_are_recovered_and_gnss_jumps_are_left_out():
 
 def test_course_from_fixes():
     lat0, lon0 = 52.4, -1.5
-    lat, lon = latlon_from_offsets_deg(lat0, lon0, np.array([0.0, 10.0, 10.0]),
-                                       np.array([0.0, 0.0, 0.1]))  # fmt: skip
+    lat, lon = latlon_from_offsets_deg(
+        lat0, lon0, np.array([0.0, 10.0, 10.0]), np.array([0.0, 0.0, 0.1])
+    )
     c = course_rad(lat, lon, min_step_m=1.0)
     assert np.isnan(c[0]) and np.degrees(c[1]) == pytest.approx(90.0, abs=1e-6)
     assert np.isnan(c[2])  # moved 0.1 m
@@ -80,14 +81,16 @@ def _ideal_drive(route_or_spec, seed, tmp_path):
     """A drive with ideal wheels and receiver, the antenna at the rear-axle centre."""
     params = load_params()
     car = vehicles_from_params(params)["source"]
-    car = dataclasses.replace(car, params=dataclasses.replace(car.params, antenna_x_m=0.0,
-                                                              antenna_y_m=0.0))  # fmt: skip
+    car = dataclasses.replace(
+        car, params=dataclasses.replace(car.params, antenna_x_m=0.0, antenna_y_m=0.0)
+    )
     route = route_or_spec
     if isinstance(route_or_spec, SimDrive):
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
         route = generate_route(route_or_spec, params.sim, car, rng)
-    drive = simulate_drive(car, "A", route, np.random.SeedSequence(seed), params.sim,
-                           options=SimOptions.ideal())  # fmt: skip
+    drive = simulate_drive(
+        car, "A", route, np.random.SeedSequence(seed), params.sim, options=SimOptions.ideal()
+    )
     path = write_drive(tmp_path, "T-1", drive.frame, drive.scenarios, drive.truth)
     sec = segment_seconds(dict(read_iovnbd(path).columns), "T-1")
     r = drive.truth["radius_static_m"]
@@ -103,8 +106,14 @@ def _outage_error(sec, yaw, odometry, start=200, length=180) -> tuple[float, flo
     course = course_rad(sec.lat_deg, sec.lon_deg, min_step_m=2.0)
     fit = fit_heading(course[:start], yaw[:start], odometry[:start])
     rows = slice(start, start + length)
-    east, north = dead_reckon(fit.azimuth_end_rad, odometry[rows], yaw[rows], fit.scale,
-                              fit.bias_rad_per_m, fit.load_s2_m2)  # fmt: skip
+    east, north = dead_reckon(
+        fit.azimuth_end_rad,
+        odometry[rows],
+        yaw[rows],
+        fit.scale,
+        fit.bias_rad_per_m,
+        fit.load_s2_m2,
+    )
     truth_e, truth_n = offsets_m(
         sec.lat_deg[start - 1],
         sec.lon_deg[start - 1],
@@ -126,8 +135,15 @@ def test_ideal_sensors_dead_reckon_three_minutes_of_turning_to_centimetres(tmp_p
 def test_ideal_sensors_dead_reckon_three_minutes_of_town_within_a_fraction_of_a_percent(tmp_path):
     # Stops, roundabouts and sharp turns: a second's chord follows its distance-weighted
     # heading while speed changes through a turn, which per-second data cannot resolve.
-    spec = SimDrive(name="T-1", role="source_train", vehicle="source", tyre="A", duration_s=420.0,
-                    roads={"urban": 1.0}, events={"roundabout": 2, "sharp_turn": 2})  # fmt: skip
+    spec = SimDrive(
+        name="T-1",
+        role="source_train",
+        vehicle="source",
+        tyre="A",
+        duration_s=420.0,
+        roads={"urban": 1.0},
+        events={"roundabout": 2, "sharp_turn": 2},
+    )
     sec, yaw, odometry = _ideal_drive(spec, 3, tmp_path)
     error, travelled = _outage_error(sec, yaw, odometry)
     assert travelled > 500
@@ -145,8 +161,9 @@ def test_the_load_transfer_term_is_recovered_from_turns_at_different_speeds():
     # Bends at 8 and at 22 m/s: the wheels overstate the yaw by 1 + c v^2, c = 0.003 s^2/m^2
     # (2.5 times at 22 m/s); no single scale explains both.
     v = np.r_[np.full(60, 8.0), np.full(60, 22.0)]
-    true_turn = np.r_[np.zeros(20), np.full(20, 0.08), np.zeros(40), np.full(20, -0.03),
-                      np.zeros(20)]  # fmt: skip
+    true_turn = np.r_[
+        np.zeros(20), np.full(20, 0.08), np.zeros(40), np.full(20, -0.03), np.zeros(20)
+    ]
     yaw = true_turn * (1.0 + 0.003 * v**2)
     course, azimuth = _courses(1.0, true_turn)
     fit = fit_heading(course, yaw, v)

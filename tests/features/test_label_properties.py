@@ -67,8 +67,9 @@ def test_wpm_is_linear_in_the_wheel_angles_and_the_mean_of_the_two_wheels(angles
     both = wpm_displacement_m(a, a, r_rl, r_rr)
     np.testing.assert_allclose(wpm_displacement_m(k * a, k * a, r_rl, r_rr), k * both, atol=1e-9)
     np.testing.assert_allclose(both, 0.5 * (r_rl + r_rr) * a, rtol=1e-12)
-    np.testing.assert_array_equal(wpm_displacement_m(a, 2 * a, r_rl, r_rr),
-                                  wpm_displacement_m(2 * a, a, r_rr, r_rl))  # fmt: skip
+    np.testing.assert_array_equal(
+        wpm_displacement_m(a, 2 * a, r_rl, r_rr), wpm_displacement_m(2 * a, a, r_rr, r_rl)
+    )
 
 
 @PROPERTY

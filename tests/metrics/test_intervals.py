@@ -34,9 +34,12 @@ def test_one_seed_has_no_interval_and_equal_seeds_a_zero_one():
 
 def test_over_seeds_keeps_cells_apart():
     per_seed = pd.DataFrame(
-        {"seed": [1, 2, 3, 1, 2, 3], "model": ["G"] * 3 + ["R"] * 3,
-         "crse": [10.0, 12.0, 14.0, 5.0, 5.0, 5.0]}
-    )  # fmt: skip
+        {
+            "seed": [1, 2, 3, 1, 2, 3],
+            "model": ["G"] * 3 + ["R"] * 3,
+            "crse": [10.0, 12.0, 14.0, 5.0, 5.0, 5.0],
+        }
+    )
     out = over_seeds(per_seed, ["model"], ["crse"])
     assert out["model"].tolist() == ["G", "R"]
     assert out["crse"].tolist() == [12.0, 5.0] and out["n_seeds"].tolist() == [3, 3]

@@ -27,10 +27,16 @@ def train_params() -> TrainParams:
 @pytest.fixture
 def adapt_params() -> AdaptParams:
     return AdaptParams(
-        m_grid=[10, 50], chosen_m=50, recipe="paper",
+        m_grid=[10, 50],
+        chosen_m=50,
+        recipe="paper",
         recipes=["paper", "head", "ridge_head", "radius+G", "steps", "continuous"],
-        epochs=5, batch_size=128, lr=0.01, ridge_penalty=1.0, ridge_penalty_grid=[0.0, 1.0],
+        epochs=5,
+        batch_size=128,
+        lr=0.01,
+        ridge_penalty=1.0,
+        ridge_penalty_grid=[0.0, 1.0],
         steps=StepsParams(max_steps=60, holdout_fraction=0.25, patience=20),
         continuous=ContinuousParams(inner="ridge_head", window_s=0),
         fallback=FallbackParams(recipe="radius+G", m=50),
-    )  # fmt: skip
+    )

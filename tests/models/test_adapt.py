@@ -88,8 +88,9 @@ def test_the_head_recipe_moves_the_head_only(g, linear_data, adapt_params, polic
     net, hp = g
     x, y = linear_data
     before = {k: v.clone() for k, v in net.state_dict().items()}
-    r = fine_tune(net, hp, data_of(x[:50], y[:50] + 1.0), adapt=adapt_params, seed=2,
-                  trainable=policy)  # fmt: skip
+    r = fine_tune(
+        net, hp, data_of(x[:50], y[:50] + 1.0), adapt=adapt_params, seed=2, trainable=policy
+    )
     assert r.n_trainable == count_parameters(getattr(r.net, moving))[1] == 17
     for k, v in r.net.state_dict().items():
         if k.startswith(frozen):
@@ -120,8 +121,10 @@ def test_ridge_with_an_infinite_penalty_returns_g(g, linear_data):
         assert torch.equal(a, b), k
     # and a growing penalty moves the head monotonically back towards G's
     h, w0, b0 = hidden_features(net, x[:50]), net.head.weight.detach().numpy()[0], 0.0
-    dist = [np.linalg.norm(ridge_head_weights(h, y[:50] + 5.0, w0, b0, p)[0] - w0)
-            for p in (0.01, 0.1, 1.0, 10.0)]  # fmt: skip
+    dist = [
+        np.linalg.norm(ridge_head_weights(h, y[:50] + 5.0, w0, b0, p)[0] - w0)
+        for p in (0.01, 0.1, 1.0, 10.0)
+    ]
     assert dist == sorted(dist, reverse=True)
 
 
@@ -144,8 +147,9 @@ def test_radius_g_recovers_a_known_radius_change(g, linear_data):
     # G's correction plus the WPM with the refitted radii minus the source WPM
     extra = wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *r.radii)
     extra -= wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *R_SRC)
-    np.testing.assert_allclose(label_prediction(r, d, R_SRC), predict(silent, d.x) + extra,
-                               atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        label_prediction(r, d, R_SRC), predict(silent, d.x) + extra, atol=1e-9
+    )
     standing = AdaptData(x[:5], y[:5], np.zeros(5), np.zeros(5), np.zeros(5))
     assert radius_g(net, hp, standing, min_speed_m_s=2.0).radii is None  # nothing to fit on
 
@@ -170,8 +174,12 @@ def test_radius_g_fits_the_radius_to_what_g_leaves(g, linear_data):
 def test_steps_stops_early_and_keeps_the_best_held_back_weights(g, linear_data, adapt_params):
     net, hp = g
     x, y = linear_data
-    cfg = replace(adapt_params, lr=0.05, batch_size=8,
-                  steps=replace(adapt_params.steps, max_steps=500, patience=10))  # fmt: skip
+    cfg = replace(
+        adapt_params,
+        lr=0.05,
+        batch_size=8,
+        steps=replace(adapt_params.steps, max_steps=500, patience=10),
+    )
     r = fine_tune_steps(net, hp, data_of(x[:40], y[:40] + 2.0), adapt=cfg, seed=4)
     held = [h["val_loss"] for h in r.history]
     assert r.info["held_back_s"] == 10 and r.info["steps"] < 500  # stopped by patience
@@ -208,9 +216,17 @@ def test_continuous_never_uses_a_second_at_or_after_its_window(g, linear_data, w
     # Give the first window's earlier seconds no leak at all, the last ones plenty of leaked
     # labels before them (windows 1-3 precede window 4): only strictly earlier seconds count.
     pred = continuous_predictions(
-        net, hp, d, np.arange(n), windows, inner="ridge_head", penalty=penalty,
-        window_s=window_s, min_speed_m_s=2.0, source_radii=R_SRC,
-    )  # fmt: skip
+        net,
+        hp,
+        d,
+        np.arange(n),
+        windows,
+        inner="ridge_head",
+        penalty=penalty,
+        window_s=window_s,
+        min_speed_m_s=2.0,
+        source_radii=R_SRC,
+    )
     np.testing.assert_allclose(pred[0], g_pred[windows[0]], atol=1e-3)
     assert np.all(np.abs(pred[0] - 100.0) > 50.0)
     # windows after earlier windows do see those windows' (100 m) labels: they move

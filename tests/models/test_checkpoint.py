@@ -13,8 +13,15 @@ from rwhonet.models.checkpoint import load_whonet, save_whonet
 from rwhonet.models.loop import predict
 from rwhonet.models.whonet import WhONet
 
-HP = {"n_features": 40, "hidden": 6, "layers": 1, "dropout": 0.05, "seq_len": 1, "lr": 7e-4,
-      "batch_size": 128}  # fmt: skip
+HP = {
+    "n_features": 40,
+    "hidden": 6,
+    "layers": 1,
+    "dropout": 0.05,
+    "seq_len": 1,
+    "lr": 7e-4,
+    "batch_size": 128,
+}
 
 
 def test_round_trip_gives_the_same_network(tmp_path, linear_data):

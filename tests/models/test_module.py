@@ -44,9 +44,14 @@ def test_hyperparameters_survive_a_model_file(tmp_path, linear_data, model_param
     save_whonet(result.module.net, result.module.hparams, tmp_path / "model.pt")
     loaded = WhONetModule.load(tmp_path / "model.pt")
     assert dict(loaded.hparams) == {
-        "n_features": 40, "hidden": 16, "layers": 1, "dropout": 0.05, "seq_len": 1,
-        "lr": 0.01, "batch_size": 64,
-    }  # fmt: skip
+        "n_features": 40,
+        "hidden": 16,
+        "layers": 1,
+        "dropout": 0.05,
+        "seq_len": 1,
+        "lr": 0.01,
+        "batch_size": 64,
+    }
     assert not loaded.training
     for (k, a), (k2, b) in zip(
         result.module.state_dict().items(), loaded.state_dict().items(), strict=True
@@ -58,8 +63,16 @@ def test_hyperparameters_survive_a_model_file(tmp_path, linear_data, model_param
 def test_epoch_losses_logged_once_per_epoch(linear_data, model_params, train_params):
     x, y = linear_data
     logger = RecordingLogger()
-    result = fit(x[:1000], y[:1000], x[1000:], y[1000:], model=model_params, train=train_params,
-                 seed=1, logger=logger)  # fmt: skip
+    result = fit(
+        x[:1000],
+        y[:1000],
+        x[1000:],
+        y[1000:],
+        model=model_params,
+        train=train_params,
+        seed=1,
+        logger=logger,
+    )
     assert logger.hparams["hidden"] == 16
     assert [step for step, _ in logger.metrics] == [0, 1, 2]
     assert all(set(m) == {"train/loss", "val/loss"} for _, m in logger.metrics)
@@ -123,8 +136,13 @@ def test_a_fast_dev_run_passes_through_every_hook(linear_data):
     x, y = linear_data
     module = WhONetModule(hidden=8)
     data = WhONetDataModule(x[:1000], y[:1000], x[1000:], y[1000:], batch_size=64, seed=0)
-    trainer = L.Trainer(fast_dev_run=True, logger=False, enable_progress_bar=False,
-                        enable_model_summary=False, accelerator="cpu")  # fmt: skip
+    trainer = L.Trainer(
+        fast_dev_run=True,
+        logger=False,
+        enable_progress_bar=False,
+        enable_model_summary=False,
+        accelerator="cpu",
+    )
     trainer.fit(module, datamodule=data)
     assert trainer.state.finished and len(module.history) == 1
     assert module.history[0]["train_loss"] > 0 and module.history[0]["val_loss"] > 0

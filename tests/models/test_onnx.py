@@ -18,8 +18,16 @@ def real_samples(tmp_path_factory):
 
     drive = write_drive(tmp_path_factory.mktemp("d") / "V-Wavy.csv", duration_s=600)
     cal: Calibration = calibration_of((RADIUS_M, RADIUS_M), "test")
-    return load_drive(drive, load_params(), vehicle="target", fmt="iovnbd", calibration=cal,
-                      scaler=SCALER, wpm_mode="integrated", seq_len=1).samples  # fmt: skip
+    return load_drive(
+        drive,
+        load_params(),
+        vehicle="target",
+        fmt="iovnbd",
+        calibration=cal,
+        scaler=SCALER,
+        wpm_mode="integrated",
+        seq_len=1,
+    ).samples
 
 
 def _meta(hparams):

@@ -47,8 +47,9 @@ def test_one_step_fast_path_is_nn_rnn_with_the_same_gradients() -> None:
     for y in (fast, slow):
         net.zero_grad()
         y.abs().sum().backward(retain_graph=True)
-        grads.append({n: p.grad.clone() if p.grad is not None else None
-                      for n, p in net.named_parameters()})  # fmt: skip
+        grads.append(
+            {n: p.grad.clone() if p.grad is not None else None for n, p in net.named_parameters()}
+        )
     for name, g in grads[1].items():
         if name == "rnn.weight_hh_l0":  # h_{t-1} = 0: U_h gets a zero gradient or none
             assert grads[0][name] is None and not g.any()

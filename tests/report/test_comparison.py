@@ -32,8 +32,13 @@ def ev():
         "R@20": {L: cell(1.0 * i, 0.7 * i) for i, L in enumerate(lengths, 1)},
         "R": {L: cell(1.0 * i, 0.7 * i) for i, L in enumerate(lengths, 1)},
     }
-    return {"overall": overall, "chosen_m": 20, "recipe": "radius+G", "n_seeds": 2,
-            "evaluated_on": "test seconds after the first 20 s of each drive"}  # fmt: skip
+    return {
+        "overall": overall,
+        "chosen_m": 20,
+        "recipe": "radius+G",
+        "n_seeds": 2,
+        "evaluated_on": "test seconds after the first 20 s of each drive",
+    }
 
 
 def test_rows_are_eval_json_cells_of_the_headline_models_at_the_chosen_m(ev):

@@ -34,8 +34,18 @@ def _run(tmp_path, now, rel_tol=0.1, abs_tol=0.0):
     e, b = tmp_path / "eval.json", tmp_path / "base.json"
     e.write_text(json.dumps(now))
     b.write_text(json.dumps(BASE))
-    return main(["--eval", str(e), "--baseline", str(b), "--rel-tol", str(rel_tol),
-                 "--abs-tol", str(abs_tol)])  # fmt: skip
+    return main(
+        [
+            "--eval",
+            str(e),
+            "--baseline",
+            str(b),
+            "--rel-tol",
+            str(rel_tol),
+            "--abs-tol",
+            str(abs_tol),
+        ]
+    )
 
 
 def test_equal_passes(tmp_path, capsys):
@@ -71,9 +81,8 @@ def test_worse_fails_with_table(tmp_path, capsys, model, outage, metric):
     assert _run(tmp_path, now) == 1
     out = capsys.readouterr()
     line = next(
-        ln for ln in out.out.splitlines()
-        if ln.split()[:3] == [model, outage, metric.upper()]
-    )  # fmt: skip
+        ln for ln in out.out.splitlines() if ln.split()[:3] == [model, outage, metric.upper()]
+    )
     assert "REGRESSION" in line and "+25.0%" in line and "worse" in line
     assert "FAIL" in out.err
 

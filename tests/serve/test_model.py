@@ -26,15 +26,17 @@ def test_a_bundle_an_onnx_file_and_an_mlflow_layout_load_alike(bundle, tmp_path)
 
 def test_own_radii_move_the_label_prediction_by_the_wpm_difference(bundle):
     model = load_served(bundle["model_onnx"])
-    own = ServedModel(bundle["model_onnx"], ServedMeta(**{**model.meta.__dict__,
-                                                          "wpm_radii": (0.30, 0.296)}))  # fmt: skip
+    own = ServedModel(
+        bundle["model_onnx"], ServedMeta(**{**model.meta.__dict__, "wpm_radii": (0.30, 0.296)})
+    )
     x = np.full((3, 1, 40), 0.4, np.float32)
     a_rl, a_rr = np.array([30.0, 0.0, 10.0]), np.array([31.0, 0.0, 10.5])
     shift = wpm_displacement_m(a_rl, a_rr, 0.30, 0.296) - wpm_displacement_m(
         a_rl, a_rr, 0.294, 0.294
     )
-    np.testing.assert_allclose(own.predict_label(x, a_rl, a_rr) - model.predict_label(x), shift,
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        own.predict_label(x, a_rl, a_rr) - model.predict_label(x), shift, atol=1e-12
+    )
     with pytest.raises(InputError, match="rear wheel angles"):
         own.predict_label(x)
 

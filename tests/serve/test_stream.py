@@ -26,9 +26,18 @@ def assert_same_seconds(a, b):
 
 
 def blocks_of(df, sizes):
-    cols = {k: df[k].to_numpy(np.float64) for k in ("t_s", "lat_deg", "lon_deg", "omega_fl_rad_s",
-                                                    "omega_fr_rad_s", "omega_rl_rad_s",
-                                                    "omega_rr_rad_s")}  # fmt: skip
+    cols = {
+        k: df[k].to_numpy(np.float64)
+        for k in (
+            "t_s",
+            "lat_deg",
+            "lon_deg",
+            "omega_fl_rad_s",
+            "omega_fr_rad_s",
+            "omega_rl_rad_s",
+            "omega_rr_rad_s",
+        )
+    }
     out, i = [], 0
     for n in sizes:
         if i >= len(df):
@@ -45,16 +54,25 @@ def test_seconds_match_the_label_stage_and_the_model(bundle, drive_csv):
     with open(drive_csv, "rb") as f:
         _, blocks = read_rows(f, "V-Wavy.csv", block_bytes=5000)
         out, _ = stream_all(model, list(blocks))
-    ref = load_drive(drive_csv, load_params(), vehicle="target", fmt="iovnbd",
-                     calibration=calibration_of((RADIUS_M, RADIUS_M), "t"), scaler=SCALER,
-                     wpm_mode="integrated", seq_len=1).samples  # fmt: skip
+    ref = load_drive(
+        drive_csv,
+        load_params(),
+        vehicle="target",
+        fmt="iovnbd",
+        calibration=calibration_of((RADIUS_M, RADIUS_M), "t"),
+        scaler=SCALER,
+        wpm_mode="integrated",
+        seq_len=1,
+    ).samples
     t_ref = ref.frame["t_s"].to_numpy()
     common, i, j = np.intersect1d(out["t_s"], t_ref, return_indices=True)
     assert len(common) == len(t_ref) == len(out["t_s"]) == 400
-    np.testing.assert_allclose(out["disp_wpm_m"][i], ref.frame["disp_wpm_m"].to_numpy()[j],
-                               atol=1e-9)  # fmt: skip
-    np.testing.assert_allclose(out["disp_gnss_m"][i], ref.frame["disp_gnss_m"].to_numpy()[j],
-                               atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        out["disp_wpm_m"][i], ref.frame["disp_wpm_m"].to_numpy()[j], atol=1e-9
+    )
+    np.testing.assert_allclose(
+        out["disp_gnss_m"][i], ref.frame["disp_gnss_m"].to_numpy()[j], atol=1e-9
+    )
     np.testing.assert_allclose(out["pred_error_m"][i], model.predict(ref.x[j]), atol=1e-6)
     np.testing.assert_allclose(out["disp_corrected_m"], out["disp_wpm_m"] + out["pred_error_m"])
 

@@ -19,10 +19,24 @@ from .conftest import drive_spec, simulate_spec, with_params
 
 REAR = [" Wheel Speed Rear Left (rad/sec)", " Wheel Speed Rear Right (rad/sec)"]
 TAGS = {
-    "urban", "country", "motorway", "wet_road", "roundabout", "sharp_turn", "successive_turns",
-    "hard_brake", "quick_acceleration", "reversing", "standstill", "traffic", "steady_turn",
-    "gnss_low_sats", "gnss_frozen", "gnss_jump", "gnss_gap",
-}  # fmt: skip
+    "urban",
+    "country",
+    "motorway",
+    "wet_road",
+    "roundabout",
+    "sharp_turn",
+    "successive_turns",
+    "hard_brake",
+    "quick_acceleration",
+    "reversing",
+    "standstill",
+    "traffic",
+    "steady_turn",
+    "gnss_low_sats",
+    "gnss_frozen",
+    "gnss_jump",
+    "gnss_gap",
+}
 
 
 def per_second_gnss_m(frame: pd.DataFrame) -> np.ndarray:
@@ -244,15 +258,23 @@ def test_open_road_label_noise_is_a_few_centimetres_per_second(vehicles, params,
     assert 0.015 < label.std() < 0.035
     assert np.abs(label).mean() < 0.03  # the mean |error| a perfect model could reach
     # Without receiver noise the same drive has no label at all: the noise is the receiver's.
-    quiet = simulate_drive(car, "E", straight_route(15.0, 600.0), 0, params.sim,
-                           options=SimOptions.ideal())  # fmt: skip
+    quiet = simulate_drive(
+        car, "E", straight_route(15.0, 600.0), 0, params.sim, options=SimOptions.ideal()
+    )
     assert np.abs(per_second_label_m(quiet)[30:]).max() < 2e-3
 
 
 def test_degraded_gnss_stretches_are_much_noisier(source, params):
     car = with_params(source, antenna_x_m=0.0, antenna_y_m=0.0)
-    drive = simulate_drive(car, "E", straight_route(15.0, 900.0), 5, params.sim,
-                           options=GNSS_ONLY, gnss_faults=["low_sats"])  # fmt: skip
+    drive = simulate_drive(
+        car,
+        "E",
+        straight_route(15.0, 900.0),
+        5,
+        params.sim,
+        options=GNSS_ONLY,
+        gnss_faults=["low_sats"],
+    )
     label = per_second_label_m(drive)
     fault = drive.state.faults[0]
     # Whole seconds inside the stretch (rows i0..i1; second k spans rows 10k..10k+10).

@@ -25,10 +25,13 @@ from rwhonet.stages.samples import load_role
 from .conftest import R_CAL_M
 
 OVERRIDES = {
-    "adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "adapt.epochs": 3,
-    "adapt.recipe": "paper", "adapt.recipes": ["paper", "ridge_head", "radius+G", "continuous"],
+    "adapt.m_grid": [10, 20],
+    "adapt.chosen_m": 20,
+    "adapt.epochs": 3,
+    "adapt.recipe": "paper",
+    "adapt.recipes": ["paper", "ridge_head", "radius+G", "continuous"],
     "evaluate.outages_s": [30, 60],
-}  # fmt: skip
+}
 
 
 @pytest.fixture
@@ -39,8 +42,15 @@ def params():
 @pytest.fixture
 def g_dir(tmp_path):
     torch.manual_seed(0)
-    hp = {"n_features": 40, "hidden": 8, "layers": 1, "dropout": 0.05, "seq_len": 1,
-          "lr": 7e-4, "batch_size": 128}  # fmt: skip
+    hp = {
+        "n_features": 40,
+        "hidden": 8,
+        "layers": 1,
+        "dropout": 0.05,
+        "seq_len": 1,
+        "lr": 7e-4,
+        "batch_size": 128,
+    }
     folder = tmp_path / "g"
     folder.mkdir()
     save_whonet(WhONet(40, 8, 1, 0.05), hp, folder / contracts.MODEL_FILE)
@@ -50,19 +60,39 @@ def g_dir(tmp_path):
 @pytest.fixture
 def calibration(tmp_path):
     path = tmp_path / "calibration.json"
-    write_json(path, {"unit": "m/rad", "r_rl_m": R_CAL_M, "r_rr_m": R_CAL_M,
-                      "estimator": "ratio_of_sums", "min_speed_m_s": 2.0, "n_seconds_used": 1,
-                      "n_seconds_total": 1, "distance_m": 1.0, "role": "source_calibration",
-                      "drives": ["V"], "segments": ["V__s0"]})  # fmt: skip
+    write_json(
+        path,
+        {
+            "unit": "m/rad",
+            "r_rl_m": R_CAL_M,
+            "r_rr_m": R_CAL_M,
+            "estimator": "ratio_of_sums",
+            "min_speed_m_s": 2.0,
+            "n_seconds_used": 1,
+            "n_seconds_total": 1,
+            "distance_m": 1.0,
+            "role": "source_calibration",
+            "drives": ["V"],
+            "segments": ["V__s0"],
+        },
+    )
     return path
 
 
-def test_every_drive_recipe_and_m_gets_its_own_model(tmp_path, samples_dir, params, g_dir,
-                                                     calibration):  # fmt: skip
+def test_every_drive_recipe_and_m_gets_its_own_model(
+    tmp_path, samples_dir, params, g_dir, calibration
+):
     records, _ = adapt_grid(params, 7, samples_dir, calibration, g_dir, tmp_path / "r")
     names = [(r.tags["recipe"], r.tags.get("m")) for r in records]
-    assert names == [("paper", "10"), ("paper", "20"), ("ridge_head", "10"), ("ridge_head", "20"),
-                     ("radius+G", "10"), ("radius+G", "20"), ("continuous", None)]  # fmt: skip
+    assert names == [
+        ("paper", "10"),
+        ("paper", "20"),
+        ("ridge_head", "10"),
+        ("ridge_head", "20"),
+        ("radius+G", "10"),
+        ("radius+G", "20"),
+        ("continuous", None),
+    ]
     g_net, g_hp = load_whonet(g_dir / contracts.MODEL_FILE)
     test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
     drive, k = test.frame["drive"].to_numpy(), test.frame["k"].to_numpy()
@@ -73,11 +103,19 @@ def test_every_drive_recipe_and_m_gets_its_own_model(tmp_path, samples_dir, para
             assert len(preds) == len(test) and set(preds["drive"]) == {"A", "B"}
             for d in ("A", "B"):
                 first = (drive == d) & (k < m)
-                again = recalibrate(recipe, g_net, g_hp, adapt_data(test, first),
-                                    adapt=params.adapt, seed=7, min_speed_m_s=2.0)  # fmt: skip
+                again = recalibrate(
+                    recipe,
+                    g_net,
+                    g_hp,
+                    adapt_data(test, first),
+                    adapt=params.adapt,
+                    seed=7,
+                    min_speed_m_s=2.0,
+                )
                 net, _ = load_whonet(out / f"{d}.pt")
-                for (name, a), b in zip(net.state_dict().items(),
-                                        again.net.state_dict().values(), strict=True):  # fmt: skip
+                for (name, a), b in zip(
+                    net.state_dict().items(), again.net.state_dict().values(), strict=True
+                ):
                     assert torch.equal(a, b), (recipe, name)
                 assert load_wpm_radii(out / f"{d}.pt") == again.radii
                 np.testing.assert_allclose(
@@ -85,8 +123,14 @@ def test_every_drive_recipe_and_m_gets_its_own_model(tmp_path, samples_dir, para
                     label_prediction(again, adapt_data(test, drive == d), (R_CAL_M, R_CAL_M)),
                 )
             record = json.loads((out / contracts.RUN_RECORD).read_text())
-            assert record["tags"] == {"model": "R", "recipe": recipe, "vehicle": "target",
-                                      "seed": "7", "dvc_stage": "adapt@7", "m": str(m)}  # fmt: skip
+            assert record["tags"] == {
+                "model": "R",
+                "recipe": recipe,
+                "vehicle": "target",
+                "seed": "7",
+                "dvc_stage": "adapt@7",
+                "m": str(m),
+            }
             assert record["metrics"]["drive/A/n_adapt_samples"] == m
     # the samples' true radius is 2 % above the calibration: radius+G's radii, with G on top,
     # add up to the GNSS distance of the m seconds it saw
@@ -99,8 +143,9 @@ def test_every_drive_recipe_and_m_gets_its_own_model(tmp_path, samples_dir, para
     assert radii == pytest.approx((1.02 * R_CAL_M, 1.02 * R_CAL_M), rel=0.02)
 
 
-def test_continuous_predicts_exactly_the_evaluated_windows(tmp_path, samples_dir, params, g_dir,
-                                                           calibration):  # fmt: skip
+def test_continuous_predicts_exactly_the_evaluated_windows(
+    tmp_path, samples_dir, params, g_dir, calibration
+):
     adapt_grid(params, 7, samples_dir, calibration, g_dir, tmp_path / "r")
     preds = pd.read_parquet(tmp_path / "r" / "continuous" / contracts.PREDICTIONS)
     test = load_role(samples_dir, contracts.TARGET_TEST, params.model.seq_len)
@@ -111,8 +156,9 @@ def test_continuous_predicts_exactly_the_evaluated_windows(tmp_path, samples_dir
         )
 
 
-def test_a_drive_not_longer_than_the_largest_m_is_refused(tmp_path, samples_dir, g_dir,
-                                                          calibration):  # fmt: skip
+def test_a_drive_not_longer_than_the_largest_m_is_refused(
+    tmp_path, samples_dir, g_dir, calibration
+):
     params = load_params(
         paths.PARAMS,
         overrides={**OVERRIDES, "adapt.m_grid": [10, 500], "adapt.chosen_m": 10},

@@ -15,9 +15,12 @@ from rwhonet.stages.samples import load_role
 from .conftest import R_CAL_M, write_samples
 
 OVERRIDES = {
-    "adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "evaluate.outages_s": [30, 60],
-    "adapt.recipe": "paper", "adapt.recipes": ["paper", "radius+G", "continuous"],
-}  # fmt: skip
+    "adapt.m_grid": [10, 20],
+    "adapt.chosen_m": 20,
+    "evaluate.outages_s": [30, 60],
+    "adapt.recipe": "paper",
+    "adapt.recipes": ["paper", "radius+G", "continuous"],
+}
 
 
 @pytest.fixture
@@ -91,8 +94,9 @@ def test_cells_are_means_over_seeds_with_their_t_interval(samples_dir, params):
 
 def test_wpm_m_recovers_a_known_radius_change(tmp_path, params):
     # The target car rolls 2 % further per radian than the source calibration says.
-    folder = write_samples(tmp_path / "samples", [("A__s0", "A", "target_test", 400)],
-                           true_radius_m=1.02 * R_CAL_M)  # fmt: skip
+    folder = write_samples(
+        tmp_path / "samples", [("A__s0", "A", "target_test", 400)], true_radius_m=1.02 * R_CAL_M
+    )
     frame = _frame(folder)
     ev = evaluate(params, frame, _preds(frame, params, {}))
     refit = ev.refits.set_index(["drive", "m"])
@@ -117,10 +121,20 @@ def test_eval_json_and_tables(samples_dir, params):
     assert {"WPM-ref", "R@10", "WPM-m@20", "R[radius+G]@10", "R[continuous]"} <= set(j["overall"])
     assert j["overall"]["R"]["30s"]["cte_mean"] == pytest.approx(6.0)  # R is R@20
     assert j["overall"]["R@20"] == j["overall"]["R"]
-    assert set(j["overall"]["G"]["30s"]) == {"crse_mean", "crse_ci95", "cte_mean", "cte_ci95",
-                                             "n_windows"}  # fmt: skip
-    assert set(j["differences"]) == {"R - G", "R - S", "R - WPM-m@20", "R - R[radius+G]@20",
-                                     "R - R[continuous]"}  # fmt: skip
+    assert set(j["overall"]["G"]["30s"]) == {
+        "crse_mean",
+        "crse_ci95",
+        "cte_mean",
+        "cte_ci95",
+        "n_windows",
+    }
+    assert set(j["differences"]) == {
+        "R - G",
+        "R - S",
+        "R - WPM-m@20",
+        "R - R[radius+G]@20",
+        "R - R[continuous]",
+    }
     harm = j["no_harm"]["R[paper]@20"]["30s"]  # R@20 is 0.2 m per second off, G perfect
     assert harm["share_worse_than_g"] == 1.0 and harm["worse_on_average"] is True
     assert j["recipe"] == "paper"
@@ -133,8 +147,10 @@ def test_eval_json_and_tables(samples_dir, params):
 
 
 def test_the_domain_gap_is_g_on_held_out_source_drives(tmp_path, params):
-    folder = write_samples(tmp_path / "samples", [("A__s0", "A", "target_test", 300),
-                                                  ("H__s0", "H", "source_test", 300)])  # fmt: skip
+    folder = write_samples(
+        tmp_path / "samples",
+        [("A__s0", "A", "target_test", 300), ("H__s0", "H", "source_test", 300)],
+    )
     frame = _frame(folder)
     preds = _preds(frame, params, {"G": 0.0})
     for p in preds.values():  # R is only adapted on target drives
@@ -149,8 +165,15 @@ def test_the_domain_gap_is_g_on_held_out_source_drives(tmp_path, params):
 
 
 def test_too_short_drive_is_reported(samples_dir):
-    p = load_params(paths.PARAMS, overrides={"adapt.m_grid": [10, 100], "adapt.chosen_m": 100,
-                                             "adapt.recipe": "paper", "seeds": [1]})  # fmt: skip
+    p = load_params(
+        paths.PARAMS,
+        overrides={
+            "adapt.m_grid": [10, 100],
+            "adapt.chosen_m": 100,
+            "adapt.recipe": "paper",
+            "seeds": [1],
+        },
+    )
     frame = _frame(samples_dir)
     frame = frame[(frame.drive == "B") | (frame.k < 120)].reset_index(drop=True)
     with pytest.raises(InputError, match="too short") as err:  # A: 20 s < the shortest, 30 s
@@ -159,8 +182,15 @@ def test_too_short_drive_is_reported(samples_dir):
 
 
 def test_a_drive_too_short_for_the_longest_outage_only_has_none_of_its_windows(samples_dir):
-    p = load_params(paths.PARAMS, overrides={"adapt.m_grid": [10, 100], "adapt.chosen_m": 100,
-                                             "adapt.recipe": "paper", "seeds": [1, 2]})  # fmt: skip
+    p = load_params(
+        paths.PARAMS,
+        overrides={
+            "adapt.m_grid": [10, 100],
+            "adapt.chosen_m": 100,
+            "adapt.recipe": "paper",
+            "seeds": [1, 2],
+        },
+    )
     frame = _frame(samples_dir)
     frame = frame[(frame.drive == "B") | (frame.k < 250)].reset_index(drop=True)  # A: 150 s
     ev = evaluate(p, frame, _preds(frame, p, {}))
@@ -194,9 +224,18 @@ def test_scenario_errors_per_tag(samples_dir, params):
 def _scores(rows):
     """Selection scores as selection_scores returns them, from (role, model, outage, crse)."""
     return pd.DataFrame(
-        [{"role": r, "model": m, "outage_s": L, "crse_mean": c, "crse_mean_ci95": 0.0,
-          "n_windows": 4} for r, m, L, c in rows]
-    )  # fmt: skip
+        [
+            {
+                "role": r,
+                "model": m,
+                "outage_s": L,
+                "crse_mean": c,
+                "crse_mean_ci95": 0.0,
+                "n_windows": 4,
+            }
+            for r, m, L, c in rows
+        ]
+    )
 
 
 def test_selection_rule_drops_harm_then_takes_the_fewest_seconds_within_tolerance(params):
@@ -217,8 +256,12 @@ def test_selection_rule_drops_harm_then_takes_the_fewest_seconds_within_toleranc
     # ... and wins when it is the only one within tolerance
     cont = [(t, "R[continuous]", 30, 1.0), (t, "R[continuous]", 60, 2.5)]
     rec = recommend(_scores(rows + cont), params)
-    assert rec["recommended"] == {"recipe": "continuous", "m": None, "crse_60s": 2.5,
-                                  "best_crse_60s": 2.5}  # fmt: skip
+    assert rec["recommended"] == {
+        "recipe": "continuous",
+        "m": None,
+        "crse_60s": 2.5,
+        "best_crse_60s": 2.5,
+    }
     notes = selection_disagreements(rec)
     assert len(notes) == 1 and "continuous" in notes[0] and "paper at 20" in notes[0]
 
@@ -237,8 +280,12 @@ def test_selection_rule_recommends_nothing_when_every_recipe_harms(params):
     from rwhonet.stages.evaluate import recommend, selection_disagreements
 
     t = "target_train"
-    rows = [(t, "G", 30, 1.0), (t, "G", 60, 2.0), (t, "R[paper]@20", 30, 1.1),
-            (t, "R[paper]@20", 60, 1.0)]  # fmt: skip
+    rows = [
+        (t, "G", 30, 1.0),
+        (t, "G", 60, 2.0),
+        (t, "R[paper]@20", 30, 1.1),
+        (t, "R[paper]@20", 60, 1.0),
+    ]
     rec = recommend(_scores(rows), params)
     assert "recommended" not in rec and "no_recommendation" in rec
     assert selection_disagreements(rec) == []

@@ -41,29 +41,65 @@ def write_segments(root: Path, with_calibration: bool, record: dict | None = Non
     tags[55:80] = "roundabout"
     specs = [
         # (segment, drive, role, vehicle, frame)
-        ("V-B__s0", "V-B", "source_train", "source",
-         build_drive(wavy_speed(60, 12.0, 4.0, 9.0), gnss_sigma_m=0.05, seed=1, scenario=tags)),
-        ("V-B__s1", "V-B", "source_train", "source",
-         build_drive(wavy_speed(40, 10.0, 3.0, 7.0, t0_s=1100.0), seed=2)),
-        ("V-A__s0", "V-A", "source_train", "source",
-         build_drive(piecewise_linear_speed([0, 5, 15, 50], [0, 0, 14, 14]), seed=3)),
-        ("C-T1__s0", "C-T1", "target_test", "target",
-         build_drive(wavy_speed(30, 22.0, 3.0, 8.0), r_rl_m=TARGET_RADIUS_M,
-                     r_rr_m=TARGET_RADIUS_M, r_front_m=TARGET_RADIUS_M, seed=4)),
-    ]  # fmt: skip
+        (
+            "V-B__s0",
+            "V-B",
+            "source_train",
+            "source",
+            build_drive(wavy_speed(60, 12.0, 4.0, 9.0), gnss_sigma_m=0.05, seed=1, scenario=tags),
+        ),
+        (
+            "V-B__s1",
+            "V-B",
+            "source_train",
+            "source",
+            build_drive(wavy_speed(40, 10.0, 3.0, 7.0, t0_s=1100.0), seed=2),
+        ),
+        (
+            "V-A__s0",
+            "V-A",
+            "source_train",
+            "source",
+            build_drive(piecewise_linear_speed([0, 5, 15, 50], [0, 0, 14, 14]), seed=3),
+        ),
+        (
+            "C-T1__s0",
+            "C-T1",
+            "target_test",
+            "target",
+            build_drive(
+                wavy_speed(30, 22.0, 3.0, 8.0),
+                r_rl_m=TARGET_RADIUS_M,
+                r_rr_m=TARGET_RADIUS_M,
+                r_front_m=TARGET_RADIUS_M,
+                seed=4,
+            ),
+        ),
+    ]
     if with_calibration:
         specs.append(
-            ("V-cal__s0", "V-cal", "source_calibration", "source",
-             build_drive(wavy_speed(120, 15.0, 5.0, 11.0), r_rl_m=0.305, r_rr_m=0.303, seed=5))
-        )  # fmt: skip
+            (
+                "V-cal__s0",
+                "V-cal",
+                "source_calibration",
+                "source",
+                build_drive(wavy_speed(120, 15.0, 5.0, 11.0), r_rl_m=0.305, r_rr_m=0.303, seed=5),
+            )
+        )
     entries = []
     for segment, drive, role, vehicle, frame in specs:
         frame.to_parquet(seg_dir / f"{segment}.parquet", index=False)
         entries.append(
-            {"segment": segment, "drive": drive, "role": role, "vehicle": vehicle,
-             "t_start_s": float(frame[c.T_S].iloc[0]), "t_end_s": float(frame[c.T_S].iloc[-1]),
-             "n_rows": len(frame)}
-        )  # fmt: skip
+            {
+                "segment": segment,
+                "drive": drive,
+                "role": role,
+                "vehicle": vehicle,
+                "t_start_s": float(frame[c.T_S].iloc[0]),
+                "t_end_s": float(frame[c.T_S].iloc[-1]),
+                "n_rows": len(frame),
+            }
+        )
     if record is None:  # ingest's rule: source_calibration, else the first source_train drive
         record = (
             {"role": "source_calibration", "drives": ["V-cal"], "fallback": False}
@@ -98,9 +134,12 @@ def test_outputs_follow_the_data_contract(tmp_path):
         "C-T1__s0",
     ]
     assert manifest["segments"][0] == {
-        "segment": "V-B__s0", "drive": "V-B", "role": "source_train", "vehicle": "source",
+        "segment": "V-B__s0",
+        "drive": "V-B",
+        "role": "source_train",
+        "vehicle": "source",
         "n_seconds": 60,
-    }  # fmt: skip
+    }
     table = pd.read_parquet(out / "samples" / "V-B__s0.parquet")
     assert tuple(table.columns) == SAMPLE_COLUMNS
     assert len(table) == 60
@@ -254,8 +293,13 @@ def test_stage_script_runs_from_the_repo_root(tmp_path):
     env = {**os.environ, "RWHONET_ROOT": str(tmp_path)}
     proc = subprocess.run(
         [sys.executable, str(REPO / "pipelines" / "label.py")],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "rear radii r_rl = 0.30100 m, r_rr = 0.29700 m (source_train: V-A)" in proc.stdout
     assert "source_train" in proc.stdout and "target_test" in proc.stdout

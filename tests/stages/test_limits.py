@@ -11,10 +11,15 @@ from rwhonet.stages.limits import radius_limits
 
 @pytest.fixture
 def params():
-    return load_params(paths.PARAMS, overrides={
-        "adapt.m_grid": [10, 20], "adapt.chosen_m": 20, "adapt.recipe": "paper",
-        "evaluate.outages_s": [30, 60],
-    })  # fmt: skip
+    return load_params(
+        paths.PARAMS,
+        overrides={
+            "adapt.m_grid": [10, 20],
+            "adapt.chosen_m": 20,
+            "adapt.recipe": "paper",
+            "evaluate.outages_s": [30, 60],
+        },
+    )
 
 
 def _drive(radius_m, n, noise_m=0.0, seed=0, name="A"):
@@ -23,10 +28,18 @@ def _drive(radius_m, n, noise_m=0.0, seed=0, name="A"):
     k = np.arange(n)
     angle = np.full(n, 10.0 / 0.3)
     gnss = radius_m(k) * angle + rng.normal(0.0, noise_m, n)
-    return pd.DataFrame({
-        "drive": name, "role": "target_test", "group": 0, "k": k, "disp_gnss_m": gnss,
-        "angle_rl_rad": angle, "angle_rr_rad": angle, "label_m": gnss - 0.3 * angle,
-    })  # fmt: skip
+    return pd.DataFrame(
+        {
+            "drive": name,
+            "role": "target_test",
+            "group": 0,
+            "k": k,
+            "disp_gnss_m": gnss,
+            "angle_rl_rad": angle,
+            "angle_rr_rad": angle,
+            "label_m": gnss - 0.3 * angle,
+        }
+    )
 
 
 def test_a_constant_radius_without_noise_is_found_exactly_from_any_m(params):

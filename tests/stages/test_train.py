@@ -22,10 +22,14 @@ def params():
 
 
 def test_the_run_is_timed_by_its_fit_and_the_time_stays_out_of_the_outputs(tmp_path, params):
-    samples = write_samples(tmp_path / "samples", [
-        ("S__s0", "S", "source_train", 600), ("T__s0", "T", "target_train", 100),
-        ("A__s0", "A", "target_test", 300),
-    ])  # fmt: skip
+    samples = write_samples(
+        tmp_path / "samples",
+        [
+            ("S__s0", "S", "source_train", 600),
+            ("T__s0", "T", "target_train", 100),
+            ("A__s0", "A", "target_test", 300),
+        ],
+    )
     before = int(time.time() * 1000)
     record, fit_s = train_model(params, "G", 1, samples, tmp_path / "g")
     after = int(time.time() * 1000)
@@ -51,8 +55,9 @@ def test_lightnings_bar_on_a_terminal_and_plain_epoch_lines_in_ci(ci_pipeline, c
     if ci:
         env["CI"] = ci
     # the same bytes as the pipeline's own train_g@1 (dvc status stays clean)
-    code, out = run_in_terminal([sys.executable, "pipelines/train.py", "G", "--seed", "1"],
-                                env=env, cwd=repo)  # fmt: skip
+    code, out = run_in_terminal(
+        [sys.executable, "pipelines/train.py", "G", "--seed", "1"], env=env, cwd=repo
+    )
     assert code == 0, out
     text = out.replace("\r\n", "\n")  # the terminal's line ending is not a redraw
     epochs = [ln for ln in text.splitlines() if ln.startswith("G-WhONet seed 1: epoch ")]

@@ -33,13 +33,16 @@ def system_chromium() -> Path:
     if CHROMIUM.is_file():
         return CHROMIUM
     if os.environ.get("CI") != "true" or os.geteuid() != 0:
-        pytest.skip(f"no {CHROMIUM}: install Debian's chromium (`apt-get install chromium`); "
-                    "on CI (CI=true, root) the test installs it itself")  # fmt: skip
+        pytest.skip(
+            f"no {CHROMIUM}: install Debian's chromium (`apt-get install chromium`); "
+            "on CI (CI=true, root) the test installs it itself"
+        )
     env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
     # recommends included: the fonts the UI's text needs come with them
     for cmd in (["apt-get", "update", "-q"], ["apt-get", "install", "-y", "-q", "chromium"]):
-        out = subprocess.run(cmd, env=env, capture_output=True, text=True,
-                             timeout=INSTALL_TIMEOUT_S)  # fmt: skip
+        out = subprocess.run(
+            cmd, env=env, capture_output=True, text=True, timeout=INSTALL_TIMEOUT_S
+        )
         if out.returncode != 0:
             pytest.fail(f"{' '.join(cmd)} failed ({out.returncode}):\n{out.stderr[-2000:]}")
     if not CHROMIUM.is_file():
@@ -62,17 +65,32 @@ def mlflow_ui(repo: Path, *, timeout_s: float = 180) -> Iterator[str]:
         The UI's base URL; the server (and its workers) stop on exit.
     """
     port = free_port()
-    cmd = [str(Path(sys.executable).parent / "mlflow"), "ui",
-           "--backend-store-uri", f"sqlite:///{repo}/mlruns/mlflow.db",
-           "--default-artifact-root", str(repo / "mlruns" / "artifacts"),
-           "--host", "127.0.0.1", "--port", str(port), "--workers", "1"]  # fmt: skip
+    cmd = [
+        str(Path(sys.executable).parent / "mlflow"),
+        "ui",
+        "--backend-store-uri",
+        f"sqlite:///{repo}/mlruns/mlflow.db",
+        "--default-artifact-root",
+        str(repo / "mlruns" / "artifacts"),
+        "--host",
+        "127.0.0.1",
+        "--port",
+        str(port),
+        "--workers",
+        "1",
+    ]
     # no job runner (seven worker processes on a 2-core CI machine, and nothing to run)
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true", "DO_NOT_TRACK": "true",
-           "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false"}  # fmt: skip
+    env = {
+        **os.environ,
+        "MLFLOW_DISABLE_TELEMETRY": "true",
+        "DO_NOT_TRACK": "true",
+        "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false",
+    }
     log = open(repo / "mlflow-ui.log", "w")  # noqa: SIM115 - closed below
     # its own process group: the server's workers stop with it
-    server = subprocess.Popen(cmd, cwd=repo, env=env, stdout=log, stderr=subprocess.STDOUT,
-                              start_new_session=True)  # fmt: skip
+    server = subprocess.Popen(
+        cmd, cwd=repo, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
+    )
     url = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + timeout_s

@@ -710,7 +710,7 @@ def _(raw: Path) -> None:
     Accept(
         "all four wheels negative together on 3 % of the moving rows: reversing, "
         "magnitudes taken, rows counted in the validation report"
-    ),  # fmt: skip
+    ),
 )
 def _(raw: Path) -> None:
     ramp = np.linspace(8.0, 0.0, 40)
@@ -977,8 +977,10 @@ def _(raw: Path) -> None:
 )
 def _(raw: Path) -> None:
     def edit(lines):
-        body = [",".join(f'"{x}"' if i % 2 else f" {x} " for i, x in enumerate(line.split(",")))
-                for line in lines[1:]]  # fmt: skip
+        body = [
+            ",".join(f'"{x}"' if i % 2 else f" {x} " for i, x in enumerate(line.split(",")))
+            for line in lines[1:]
+        ]
         return [lines[0], *body, ""]
 
     edit_lines(raw, edit)

@@ -85,8 +85,10 @@ def write_iovnbd(df: pd.DataFrame, path: Path, headers: tuple[str, ...] = HEADER
     path.parent.mkdir(parents=True, exist_ok=True)
     # pyarrow writes the shortest decimal that round-trips, as pandas does, ten times faster;
     # the header by hand, unquoted.
-    table = pa.table([pa.array(np.asarray(v, np.float64)) for v in out.values()],
-                     names=[f"c{i}" for i in range(len(out))])  # fmt: skip
+    table = pa.table(
+        [pa.array(np.asarray(v, np.float64)) for v in out.values()],
+        names=[f"c{i}" for i in range(len(out))],
+    )
     with open(path, "wb") as f:
         f.write((",".join(headers) + "\n").encode("utf-8"))
         pa_csv.write_csv(table, f, pa_csv.WriteOptions(include_header=False))

@@ -54,8 +54,12 @@ def dvc(repo: Path, *args: str, timeout: float = 900) -> subprocess.CompletedPro
     """Run ``dvc <args>`` in ``repo``."""
     return subprocess.run(
         [str(BIN / "dvc"), *args],
-        cwd=repo, env=env(repo), capture_output=True, text=True, timeout=timeout,
-    )  # fmt: skip
+        cwd=repo,
+        env=env(repo),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def set_params(repo: Path, overrides: Mapping[tuple[str, ...], Any]) -> None:
@@ -81,8 +85,11 @@ def scratch_project(dest: Path, overrides: Mapping[tuple[str, ...], Any]) -> Pat
     """
     files = subprocess.run(
         ["git", "ls-files", "-co", "--exclude-standard", "-z"],
-        cwd=paths.ROOT, capture_output=True, text=True, check=True,
-    ).stdout.split("\0")  # fmt: skip
+        cwd=paths.ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split("\0")
     for f in filter(None, files):
         src = paths.ROOT / f
         if src.is_file():

@@ -22,8 +22,15 @@ from rwhonet.serve.bundle import make_meta, write_bundle
 
 RADIUS_M = 0.294  # the fiesta's nominal radius: the base model's "source calibration"
 SCALER = MinMaxScaler("global", (0.0,) * 4, (110.0,) * 4, ("test",), 1)
-HPARAMS = {"n_features": 40, "hidden": 72, "layers": 1, "dropout": 0.05, "seq_len": 1,
-           "lr": 0.0007, "batch_size": 128}  # fmt: skip
+HPARAMS = {
+    "n_features": 40,
+    "hidden": 72,
+    "layers": 1,
+    "dropout": 0.05,
+    "seq_len": 1,
+    "lr": 0.0007,
+    "batch_size": 128,
+}
 
 
 def base_net(seed: int = 0, seq_len: int = 1) -> tuple[WhONet, dict]:
@@ -43,8 +50,14 @@ def base_bundle(folder: Path, seed: int = 0, wpm_radii: tuple[float, float] | No
     folder.mkdir(parents=True, exist_ok=True)
     net, hparams = base_net(seed)
     save_whonet(net, hparams, folder / "source.pt", wpm_radii=wpm_radii)
-    meta = make_meta(hparams, SCALER.to_dict(), {"r_rl_m": RADIUS_M, "r_rr_m": RADIUS_M},
-                     "integrated", None, {"name": "whonet-G", "model": "G"})  # fmt: skip
+    meta = make_meta(
+        hparams,
+        SCALER.to_dict(),
+        {"r_rl_m": RADIUS_M, "r_rr_m": RADIUS_M},
+        "integrated",
+        None,
+        {"name": "whonet-G", "model": "G"},
+    )
     return write_bundle(folder / "source.pt", meta, folder / "bundle")
 
 
@@ -64,8 +77,12 @@ def wavy_drive(duration_s: float = 400.0, seed: int = 0, t0_s: float = 45000.0):
     from rwhonet.data import canonical as c
     from support.synthetic import build_drive, wavy_speed
 
-    df = build_drive(wavy_speed(duration_s, 12.0, 4.0, 60.0, t0_s=t0_s), gnss_sigma_m=0.2,
-                     wheel_sigma_rad_s=0.05, seed=seed)  # fmt: skip
+    df = build_drive(
+        wavy_speed(duration_s, 12.0, 4.0, 60.0, t0_s=t0_s),
+        gnss_sigma_m=0.2,
+        wheel_sigma_rad_s=0.05,
+        seed=seed,
+    )
     df[c.N_SATS] = np.full(len(df), 9.0)
     return df
 

@@ -116,20 +116,48 @@ def postgres(pg_bin: Path) -> Iterator[str]:
     started = False
     try:
         # trust: a cluster that lives for one test, reachable from localhost only
-        _run(_as_owner([str(pg_bin / "initdb"), "-D", str(data), "-U", DB_USER,
-                        "--auth=trust", "-E", "UTF8", "--no-sync"]))  # fmt: skip
+        _run(
+            _as_owner(
+                [
+                    str(pg_bin / "initdb"),
+                    "-D",
+                    str(data),
+                    "-U",
+                    DB_USER,
+                    "--auth=trust",
+                    "-E",
+                    "UTF8",
+                    "--no-sync",
+                ]
+            )
+        )
         started = True
-        _run(_as_owner([str(pg_bin / "pg_ctl"), "-D", str(data), "-l", str(log), "-w", "-t", "60",
-                        "-o", f"-h 127.0.0.1 -p {port} -k {home}", "start"]))  # fmt: skip
-        _run([str(pg_bin / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", DB_USER,
-              DB_NAME])  # fmt: skip
+        _run(
+            _as_owner(
+                [
+                    str(pg_bin / "pg_ctl"),
+                    "-D",
+                    str(data),
+                    "-l",
+                    str(log),
+                    "-w",
+                    "-t",
+                    "60",
+                    "-o",
+                    f"-h 127.0.0.1 -p {port} -k {home}",
+                    "start",
+                ]
+            )
+        )
+        _run([str(pg_bin / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", DB_USER, DB_NAME])
         yield f"postgresql://{DB_USER}@127.0.0.1:{port}/{DB_NAME}"
     finally:
         if started:
             subprocess.run(
                 _as_owner([str(pg_bin / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"]),
-                capture_output=True, timeout=60,
-            )  # fmt: skip
+                capture_output=True,
+                timeout=60,
+            )
         shutil.rmtree(home, ignore_errors=True)
 
 
@@ -157,18 +185,40 @@ def mlflow_server(backend_uri: str, artifacts: Path, start_timeout_s: float = 24
     port = free_port()
     url = f"http://127.0.0.1:{port}"
     log = artifacts.parent / "mlflow-server.log"
-    cmd = [str(BIN / "mlflow"), "server", "--backend-store-uri", backend_uri,
-           "--serve-artifacts", "--artifacts-destination", str(artifacts),
-           "--host", "127.0.0.1", "--port", str(port), "--workers", "1"]  # fmt: skip
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true", "DO_NOT_TRACK": "true",
-           # the job runner (GenAI scorers, trace archival) is eight more Python processes
-           # nothing here uses: on two cores they slow the pipeline under test
-           "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false"}  # fmt: skip
+    cmd = [
+        str(BIN / "mlflow"),
+        "server",
+        "--backend-store-uri",
+        backend_uri,
+        "--serve-artifacts",
+        "--artifacts-destination",
+        str(artifacts),
+        "--host",
+        "127.0.0.1",
+        "--port",
+        str(port),
+        "--workers",
+        "1",
+    ]
+    env = {
+        **os.environ,
+        "MLFLOW_DISABLE_TELEMETRY": "true",
+        "DO_NOT_TRACK": "true",
+        # the job runner (GenAI scorers, trace archival) is eight more Python processes
+        # nothing here uses: on two cores they slow the pipeline under test
+        "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false",
+    }
     env.pop("MLFLOW_TRACKING_URI", None)
     with open(log, "w") as out:
         # its own session: the CLI starts uvicorn and a job runner, stopped with it as a group
-        proc = subprocess.Popen(cmd, cwd=artifacts.parent, env=env, stdout=out,
-                                stderr=subprocess.STDOUT, start_new_session=True)  # fmt: skip
+        proc = subprocess.Popen(
+            cmd,
+            cwd=artifacts.parent,
+            env=env,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
     try:
         deadline = time.monotonic() + start_timeout_s
         while not _healthy(url):

@@ -24,8 +24,9 @@ def run_in_terminal(
     main, child = pty.openpty()
     # a terminal of 100 x 30 (a fresh pty is 0 x 0: nothing fits on a line of it)
     fcntl.ioctl(child, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
-    proc = subprocess.Popen(cmd, env=env, cwd=cwd, stdin=subprocess.DEVNULL, stdout=child,
-                            stderr=child, close_fds=True)  # fmt: skip
+    proc = subprocess.Popen(
+        cmd, env=env, cwd=cwd, stdin=subprocess.DEVNULL, stdout=child, stderr=child, close_fds=True
+    )
     os.close(child)
     chunks: list[bytes] = []
     deadline = time.monotonic() + timeout_s

@@ -40,11 +40,19 @@ OVERRIDES = {
 }
 # Clone A's two queued experiments: a sweep over seed x recipe x m (and the adaptation lr).
 QUEUED = {
-    "sweep-a": {"seeds": "[3]", "adapt.recipe": "paper", "adapt.chosen_m": "10",
-                "adapt.lr": "0.001"},
-    "sweep-b": {"seeds": "[4]", "adapt.recipe": "radius+G", "adapt.chosen_m": "20",
-                "adapt.lr": "0.0014"},
-}  # fmt: skip
+    "sweep-a": {
+        "seeds": "[3]",
+        "adapt.recipe": "paper",
+        "adapt.chosen_m": "10",
+        "adapt.lr": "0.001",
+    },
+    "sweep-b": {
+        "seeds": "[4]",
+        "adapt.recipe": "radius+G",
+        "adapt.chosen_m": "20",
+        "adapt.lr": "0.0014",
+    },
+}
 QUEUED_LR = tuple(q["adapt.lr"] for q in QUEUED.values())
 CLONE_B_SEEDS = "[2]"
 
@@ -73,9 +81,13 @@ def store(tmp_path_factory):
         assert out.returncode == 0, out.stderr
     assert not (a / "mlruns" / "mlflow.db").exists()  # no `python -m rwhonet.tracking init`
     clone_b = subprocess.Popen(
-        [str(BIN / "dvc"), "repro"], cwd=b, env=env(b), text=True,
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-    )  # fmt: skip
+        [str(BIN / "dvc"), "repro"],
+        cwd=b,
+        env=env(b),
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
     started = dvc(a, "queue", "start", "-j", "2")
     assert started.returncode == 0, started.stderr
     queue = _queue_done(a)
@@ -84,11 +96,16 @@ def store(tmp_path_factory):
     shown = dvc(a, "exp", "show", "--json")
     assert shown.returncode == 0, shown.stderr
     return {
-        "a": a, "b": b, "uri": uri, "queue": queue, "runs": store_runs(uri),
-        "baseline": subprocess.run(["git", "rev-parse", "HEAD"], cwd=a, capture_output=True,
-                                   text=True, check=True).stdout.strip(),
+        "a": a,
+        "b": b,
+        "uri": uri,
+        "queue": queue,
+        "runs": store_runs(uri),
+        "baseline": subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=a, capture_output=True, text=True, check=True
+        ).stdout.strip(),
         "exp_show": json.loads(shown.stdout),
-    }  # fmt: skip
+    }
 
 
 def _parents(runs) -> list:

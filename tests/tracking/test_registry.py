@@ -42,13 +42,19 @@ def pipeline_outputs(tmp_path):
     samples = tmp_path / "samples"
     samples.mkdir()
     rng = np.random.default_rng(0)
-    frame = pd.DataFrame(rng.uniform(0, 1, (20, 40)).astype(np.float32),
-                         columns=list(k.FEATURE_COLUMNS))  # fmt: skip
+    frame = pd.DataFrame(
+        rng.uniform(0, 1, (20, 40)).astype(np.float32), columns=list(k.FEATURE_COLUMNS)
+    )
     frame[k.ANGLE_RL_RAD] = rng.uniform(20, 40, 20)
     frame[k.ANGLE_RR_RAD] = frame[k.ANGLE_RL_RAD] * 1.01
     frame.to_parquet(samples / "V-Charlie3__s000.parquet")
-    entry = {"segment": "V-Charlie3__s000", "drive": "V-Charlie3", "role": "target_test",
-             "vehicle": "target", "n_seconds": 20}  # fmt: skip
+    entry = {
+        "segment": "V-Charlie3__s000",
+        "drive": "V-Charlie3",
+        "role": "target_test",
+        "vehicle": "target",
+        "n_seconds": 20,
+    }
     write_json(samples / "manifest.json", {"segments": [entry]})
     return {"g": g, "s": s, "r": r_drive, "root": tmp_path, "frame": frame}
 
@@ -57,19 +63,35 @@ def records(out, seeds=(42, 43)):
     params = {"label.wpm_mode": "integrated"}
     recs = []
     for seed in seeds:
-        recs.append(RunRecord(f"G seed {seed}", tags={"model": "G", "seed": str(seed),
-                                                      "vehicle": "source"}, params=params,
-                              artifacts=[str(out["g"])]))  # fmt: skip
-        recs.append(RunRecord(f"S seed {seed}", tags={"model": "S", "seed": str(seed),
-                                                      "vehicle": "target"}, params=params,
-                              artifacts=[str(out["s"])]))  # fmt: skip
+        recs.append(
+            RunRecord(
+                f"G seed {seed}",
+                tags={"model": "G", "seed": str(seed), "vehicle": "source"},
+                params=params,
+                artifacts=[str(out["g"])],
+            )
+        )
+        recs.append(
+            RunRecord(
+                f"S seed {seed}",
+                tags={"model": "S", "seed": str(seed), "vehicle": "target"},
+                params=params,
+                artifacts=[str(out["s"])],
+            )
+        )
         for chosen in (False, True):
-            tags = {"model": "R", "seed": str(seed), "vehicle": "target", "recipe": "radius+G",
-                    "m": "50"}  # fmt: skip
+            tags = {
+                "model": "R",
+                "seed": str(seed),
+                "vehicle": "target",
+                "recipe": "radius+G",
+                "m": "50",
+            }
             if chosen:
                 tags["chosen"] = "true"
-            recs.append(RunRecord(f"R seed {seed}", tags=tags, params=params,
-                                  artifacts=[str(out["r"])]))  # fmt: skip
+            recs.append(
+                RunRecord(f"R seed {seed}", tags=tags, params=params, artifacts=[str(out["r"])])
+            )
     return recs
 
 
@@ -87,17 +109,27 @@ def register(store, out, execution):
     for rec in records(out):
         logged.append((rec, client.create_run(exp, run_name=rec.name, tags=rec.tags).info.run_id))
     root = out["root"]
-    return client, register_execution(
-        client, logged, common_tags={"rwhonet.execution": execution},
-        scaler_path=root / "scaler.json", calibration_path=root / "calibration.json",
-        samples_dir=root / "samples",
-    ), logged  # fmt: skip
+    return (
+        client,
+        register_execution(
+            client,
+            logged,
+            common_tags={"rwhonet.execution": execution},
+            scaler_path=root / "scaler.json",
+            calibration_path=root / "calibration.json",
+            samples_dir=root / "samples",
+        ),
+        logged,
+    )
 
 
 def test_an_execution_registers_one_version_per_model_with_tags(store, pipeline_outputs):
     client, done, logged = register(store, pipeline_outputs, "e1")
     assert [(d["name"], d["version"]) for d in done] == [
-        ("whonet-G", "1"), ("whonet-S", "1"), ("whonet-R-target", "1")]  # fmt: skip
+        ("whonet-G", "1"),
+        ("whonet-S", "1"),
+        ("whonet-R-target", "1"),
+    ]
     runs = {rid: rec for rec, rid in logged}
     assert runs[done[0]["run_id"]].tags["seed"] == "42"  # the first seed's
     assert runs[done[2]["run_id"]].tags.get("chosen") == "true"
@@ -110,8 +142,7 @@ def test_an_execution_registers_one_version_per_model_with_tags(store, pipeline_
     assert client.get_model_version("whonet-G", "2").tags["rwhonet.execution"] == "e2"
 
 
-def test_pyfunc_models_predict_the_label_from_the_feature_window(store, pipeline_outputs,
-                                                                  tmp_path):  # fmt: skip
+def test_pyfunc_models_predict_the_label_from_the_feature_window(store, pipeline_outputs, tmp_path):
     from rwhonet.serve.model import load_served
 
     register(store, pipeline_outputs, "e1")

@@ -112,17 +112,36 @@ def test_the_comparison_goes_on_the_parent_run_and_a_shared_view_shows_its_colum
     uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
     (tmp_path / "mlruns").mkdir()
     parent = log_execution([], uri=uri, experiment="t", execution=RunRecord("pipeline"))
-    rows = [{"model": "G", "outage_s": 30, "crse_mean": 2.1, "cte_mean": 1.8},
-            {"model": "R", "outage_s": 30, "crse_mean": 1.1, "cte_mean": 0.9}]  # fmt: skip
-    exp_id = log_comparison(uri, parent, rows=rows, note="| model | CRSE |", page="<html></html>",
-                            view_metrics=["R/crse/30s/mean"])  # fmt: skip
+    rows = [
+        {"model": "G", "outage_s": 30, "crse_mean": 2.1, "cte_mean": 1.8},
+        {"model": "R", "outage_s": 30, "crse_mean": 1.1, "cte_mean": 0.9},
+    ]
+    exp_id = log_comparison(
+        uri,
+        parent,
+        rows=rows,
+        note="| model | CRSE |",
+        page="<html></html>",
+        view_metrics=["R/crse/30s/mean"],
+    )
     client = mlflow.MlflowClient(uri)
     run = client.get_run(parent)
     assert run.data.tags["mlflow.note.content"] == "| model | CRSE |"
     assert {a.path for a in client.list_artifacts(parent, "comparison")} == {
-        "comparison/crse_cte.json", "comparison/crse_cte.html"}  # fmt: skip
-    table = json.loads((tmp_path / "mlruns" / "artifacts" / parent / "artifacts" / "comparison"
-                        / "crse_cte.json").read_text())  # fmt: skip
+        "comparison/crse_cte.json",
+        "comparison/crse_cte.html",
+    }
+    table = json.loads(
+        (
+            tmp_path
+            / "mlruns"
+            / "artifacts"
+            / parent
+            / "artifacts"
+            / "comparison"
+            / "crse_cte.json"
+        ).read_text()
+    )
     assert table["columns"] == ["model", "outage_s", "crse_mean", "cte_mean"]
     assert table["data"] == [["G", 30, 2.1, 1.8], ["R", 30, 1.1, 0.9]]
     view = json.loads(client.get_experiment(exp_id).tags[SHARED_VIEW_TAG + HEADLINE_VIEW])

@@ -69,9 +69,13 @@ def server(tmp_path_factory):
 def run(repo: Path, uri: str, *cmd: str, timeout: float = 900) -> subprocess.CompletedProcess:
     """A command in the scratch project, logging to ``uri`` (the venv first on PATH)."""
     return subprocess.run(
-        list(cmd), cwd=repo, env=env(repo, MLFLOW_TRACKING_URI=uri), capture_output=True,
-        text=True, timeout=timeout,
-    )  # fmt: skip
+        list(cmd),
+        cwd=repo,
+        env=env(repo, MLFLOW_TRACKING_URI=uri),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -194,22 +198,52 @@ def test_rwhonet_recalibrates_predicts_and_exports_from_the_servers_registry(
     repo = project["repo"]
     drive = sorted((repo / "data" / "sim" / "target_test").glob("*.csv"))[0]
     cli = [str(BIN / "rwhonet")]
-    said = run(repo, server["uri"], *cli, "recalibrate", "--base", "models:/whonet-G/latest",
-               "--drive", str(drive), "--seconds", "50")  # fmt: skip
+    said = run(
+        repo,
+        server["uri"],
+        *cli,
+        "recalibrate",
+        "--base",
+        "models:/whonet-G/latest",
+        "--drive",
+        str(drive),
+        "--seconds",
+        "50",
+    )
     assert said.returncode == 0, said.stdout + said.stderr
     assert "registered whonet-R-target version 2" in said.stdout
     version = client.get_model_version("whonet-R-target", "2")
     assert version.tags["base_version"] == "whonet-G v1" and version.tags["m"] == "50"
 
-    out = run(repo, server["uri"], *cli, "predict", "--model", "models:/whonet-R-target/2",
-              "--drive", str(drive), "--outage", "100:280", "--output", "-")  # fmt: skip
+    out = run(
+        repo,
+        server["uri"],
+        *cli,
+        "predict",
+        "--model",
+        "models:/whonet-R-target/2",
+        "--drive",
+        str(drive),
+        "--outage",
+        "100:280",
+        "--output",
+        "-",
+    )
     assert out.returncode == 0, out.stderr
     streamed = pd.read_csv(io.StringIO(out.stdout))  # stdout holds the CSV and nothing else
     assert len(streamed) > 280 and streamed["pred_error_m"].notna().all()
     assert "outage 100:280 s (180 s" in out.stderr
 
     onnx = project["repo"] / "r2.onnx"
-    out = run(repo, server["uri"], *cli, "export", "--model", "models:/whonet-R-target/2",
-              "--output", str(onnx))  # fmt: skip
+    out = run(
+        repo,
+        server["uri"],
+        *cli,
+        "export",
+        "--model",
+        "models:/whonet-R-target/2",
+        "--output",
+        str(onnx),
+    )
     assert out.returncode == 0, out.stderr
     assert load_served(onnx).meta.info["recipe"] == version.tags["recipe"]

@@ -62,16 +62,21 @@ def test_logged_runs_carry_their_real_times_and_untimed_ones_their_logging_time(
     uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
     (tmp_path / "mlruns").mkdir()
     day_ago = int(time.time() * 1000) - 86_400_000
-    timed = RunRecord("G-WhONet seed 1", tags={"model": "G"},
-                      timing=Timing(day_ago, day_ago + 4_200),
-                      history=[{"epoch": 0, "train/loss": 0.5}])  # fmt: skip
+    timed = RunRecord(
+        "G-WhONet seed 1",
+        tags={"model": "G"},
+        timing=Timing(day_ago, day_ago + 4_200),
+        history=[{"epoch": 0, "train/loss": 0.5}],
+    )
     untimed = RunRecord("S-WhONet seed 1", tags={"model": "S"})
     before = int(time.time() * 1000)
     execution = RunRecord("pipeline", timing=Timing(before - 1_000))
     parent = log_execution([timed, untimed], uri=uri, experiment="t", execution=execution)
     client = mlflow.MlflowClient(uri)
-    runs = {r.info.run_name: r for r in client.search_runs(
-        [client.get_experiment_by_name("t").experiment_id])}  # fmt: skip
+    runs = {
+        r.info.run_name: r
+        for r in client.search_runs([client.get_experiment_by_name("t").experiment_id])
+    }
     g, s, p = runs["G-WhONet seed 1"], runs["S-WhONet seed 1"], runs["pipeline"]
     assert (g.info.start_time, g.info.end_time) == (day_ago, day_ago + 4_200)
     assert g.info.status == "FINISHED"

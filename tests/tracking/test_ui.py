@@ -81,8 +81,9 @@ def test_a_person_filters_the_latest_execution_and_compares_g_s_and_r(ci_pipelin
     ev = json.loads((repo / "metrics" / "eval.json").read_text())
     client = mlflow.MlflowClient(f"sqlite:///{repo}/mlruns/mlflow.db")
     exp_id = client.get_experiment_by_name("rwhonet").experiment_id
-    [latest] = client.search_runs([exp_id], "tags.model = 'pipeline'", max_results=1,
-                                  order_by=["attributes.start_time DESC"])  # fmt: skip
+    [latest] = client.search_runs(
+        [exp_id], "tags.model = 'pipeline'", max_results=1, order_by=["attributes.start_time DESC"]
+    )
     execution = latest.data.tags["rwhonet.execution"]
     in_execution = f"tags.`rwhonet.execution` = '{execution}'"
     n_runs = len(client.search_runs([exp_id], in_execution, max_results=5000))

@@ -113,17 +113,32 @@ def load_drive(
     file = paths.rel(path)
     if not path.is_file():
         raise InputError(
-            [Problem(file, None, None, "a drive file (IO-VNBD CSV or a column-mapped CSV)",
-                     "no such file" if not path.exists() else "not a file",
-                     "give the path of the new car's drive (--drive)")],
-        )  # fmt: skip
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    "a drive file (IO-VNBD CSV or a column-mapped CSV)",
+                    "no such file" if not path.exists() else "not a file",
+                    "give the path of the new car's drive (--drive)",
+                )
+            ],
+        )
     if fmt != IOVNBD:
         if fmt not in params.data.column_maps:
             raise InputError(
-                [Problem("--format", None, None, f"iovnbd or a column map of params.yaml "
-                         f"data.column_maps ({', '.join(sorted(params.data.column_maps))})",
-                         repr(fmt), "add the file's column map to data.column_maps")],
-            )  # fmt: skip
+                [
+                    Problem(
+                        "--format",
+                        None,
+                        None,
+                        f"iovnbd or a column map of params.yaml "
+                        f"data.column_maps ({', '.join(sorted(params.data.column_maps))})",
+                        repr(fmt),
+                        "add the file's column map to data.column_maps",
+                    )
+                ],
+            )
         check_column_map(fmt, params.data.column_maps[fmt])
     nominal = 0.5 * (calibration.r_rl_m + calibration.r_rr_m)
     params = with_vehicle(params, vehicle, nominal)
@@ -133,9 +148,12 @@ def load_drive(
     table = canonical_table(raw, scenario_array(raw.columns[c.T_S], intervals))
     df = table.to_pandas(split_blocks=True)
     entry: dict[str, Any] = {
-        "drive": path.stem, "role": ROLE, "vehicle": vehicle, "source_file": file,
+        "drive": path.stem,
+        "role": ROLE,
+        "vehicle": vehicle,
+        "source_file": file,
         "columns": raw.source_columns,
-    }  # fmt: skip
+    }
     cuts = [cut for cut in params.validate.cuts if cut.drive == path.stem]
     found = schema_problems(df, params.validate, file, raw.source_columns)
     problems, result, _ = check_drive(params, entry, df, found, cuts)
@@ -154,7 +172,15 @@ def load_drive(
 def calibration_of(radii: tuple[float, float], source: str) -> Calibration:
     """A :class:`Calibration` holding the source radii a served model carries."""
     return Calibration(
-        r_rl_m=radii[0], r_rr_m=radii[1], estimator="ratio_of_sums", min_speed_m_s=0.0,
-        n_seconds_used=0, n_seconds_total=0, distance_m=0.0, role=contracts.SOURCE_CALIBRATION,
-        drives=[], segments=[], comparison={"note": f"the source radii of {source}"},
-    )  # fmt: skip
+        r_rl_m=radii[0],
+        r_rr_m=radii[1],
+        estimator="ratio_of_sums",
+        min_speed_m_s=0.0,
+        n_seconds_used=0,
+        n_seconds_total=0,
+        distance_m=0.0,
+        role=contracts.SOURCE_CALIBRATION,
+        drives=[],
+        segments=[],
+        comparison={"note": f"the source radii of {source}"},
+    )

@@ -33,8 +33,17 @@ def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) 
         from rwhonet.tracking.registry import resolve_model
 
         if tracking_uri is None:
-            raise InputError([Problem("--model", None, None, "a project (params.yaml) whose "
-                                      "MLflow store holds the model", "none found")])  # fmt: skip
+            raise InputError(
+                [
+                    Problem(
+                        "--model",
+                        None,
+                        None,
+                        "a project (params.yaml) whose MLflow store holds the model",
+                        "none found",
+                    )
+                ]
+            )
         return bundle_parts(resolve_model(spec, tracking_uri, dest))
     path = Path(spec)
     if path.is_file() and path.suffix == ".pt":
@@ -43,15 +52,27 @@ def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) 
         missing = [p for p in (paths.SCALER, paths.CALIBRATION) if not p.is_file()]
         if missing:
             raise InputError(
-                [Problem(paths.rel(p), None, None, "the label stage's output (the model's "
-                         "scaler and source radii)", "no such file",
-                         "run the pipeline (make run) in this project first, or export a "
-                         "registered model (models:/whonet-G/latest)") for p in missing],
-            )  # fmt: skip
+                [
+                    Problem(
+                        paths.rel(p),
+                        None,
+                        None,
+                        "the label stage's output (the model's scaler and source radii)",
+                        "no such file",
+                        "run the pipeline (make run) in this project first, or export a "
+                        "registered model (models:/whonet-G/latest)",
+                    )
+                    for p in missing
+                ],
+            )
         meta = make_meta(
-            {}, read_json(paths.SCALER), read_json(paths.CALIBRATION), wpm_mode, None,
+            {},
+            read_json(paths.SCALER),
+            read_json(paths.CALIBRATION),
+            wpm_mode,
+            None,
             {"name": path.stem, "model_file": paths.rel(path)},
-        )  # fmt: skip
+        )
         return path, meta
     return bundle_parts(path)
 
@@ -79,8 +100,15 @@ def run(spec: str, output: str | None, tracking_uri: str | None, wpm_mode: str) 
     diff = float(np.max(np.abs(served.predict(x) - predict(net, x, seq_len=hparams["seq_len"]))))
     if not diff <= PARITY_TOL:
         raise InputError(
-            [Problem(str(out), None, None, f"ONNX output within {PARITY_TOL} m of PyTorch's",
-                     f"max |difference| {diff:.3g} m over {N_CHECK} windows")],
+            [
+                Problem(
+                    str(out),
+                    None,
+                    None,
+                    f"ONNX output within {PARITY_TOL} m of PyTorch's",
+                    f"max |difference| {diff:.3g} m over {N_CHECK} windows",
+                )
+            ],
             "the export does not reproduce the model",
-        )  # fmt: skip
+        )
     return {"file": out, "bytes": out.stat().st_size, "diff": diff, "meta": served.meta}

@@ -45,9 +45,13 @@ def _no_project(path: Path) -> Any:
     from rwhonet.errors import Problem
 
     return Problem(
-        str(path), None, None, "a project folder (params.yaml, dvc.yaml)", "none here",
+        str(path),
+        None,
+        None,
+        "a project folder (params.yaml, dvc.yaml)",
+        "none here",
         "run the command inside the project (or set RWHONET_ROOT to it)",
-    )  # fmt: skip
+    )
 
 
 def _recalibrate(args: argparse.Namespace) -> int:
@@ -55,10 +59,16 @@ def _recalibrate(args: argparse.Namespace) -> int:
 
     params, uri = _project(required=True)
     out = recalibrate.run(
-        params, base=args.base, drive=Path(args.drive), seconds=args.seconds,
-        recipe=args.recipe, fmt=args.format, vehicle=args.vehicle, seed=args.seed,
+        params,
+        base=args.base,
+        drive=Path(args.drive),
+        seconds=args.seconds,
+        recipe=args.recipe,
+        fmt=args.format,
+        vehicle=args.vehicle,
+        seed=args.seed,
         tracking_uri=uri,
-    )  # fmt: skip
+    )
     print(recalibrate.render(out))
     return 0
 
@@ -80,8 +90,15 @@ def _predict(args: argparse.Namespace) -> int:
             raise InputError([Problem("--format", None, None, expected, repr(args.format))])
         column_map = params.data.column_maps[args.format]
     model = predict.open_model(args.model, uri)
-    out = predict.run(model, args.drive, args.output, outages, fmt=args.format,
-                      column_map=column_map, max_gap_s=args.max_gap)  # fmt: skip
+    out = predict.run(
+        model,
+        args.drive,
+        args.output,
+        outages,
+        fmt=args.format,
+        column_map=column_map,
+        max_gap_s=args.max_gap,
+    )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)
     return 0
@@ -121,22 +138,38 @@ def parser() -> argparse.ArgumentParser:
         "per outage length of evaluate.outages_s), and register the result as a new version "
         "of whonet-R-<vehicle> in the project's MLflow Model Registry.",
     )
-    rc.add_argument("--base", default="models:/whonet-G/latest",
-                    help="the model to recalibrate: models:/<name>/<version|latest> or a model "
-                    "folder (default: %(default)s)")  # fmt: skip
+    rc.add_argument(
+        "--base",
+        default="models:/whonet-G/latest",
+        help="the model to recalibrate: models:/<name>/<version|latest> or a model "
+        "folder (default: %(default)s)",
+    )
     rc.add_argument("--drive", required=True, help="the new car's drive (CSV, 10 Hz)")
-    rc.add_argument("--seconds", type=int, default=None,
-                    help="m: recalibrate on the first m valid seconds (default: adapt.chosen_m, "
-                    "or adapt.fallback.m when params choose auto)")  # fmt: skip
-    rc.add_argument("--recipe", default=None,
-                    help="paper, head, ridge_head, radius+G or steps (default: adapt.recipe, or "
-                    "adapt.fallback.recipe when auto)")  # fmt: skip
-    rc.add_argument("--format", default="iovnbd",
-                    help="iovnbd or the name of a column map in params.yaml data.column_maps "
-                    "(default: %(default)s)")  # fmt: skip
-    rc.add_argument("--vehicle", default="target",
-                    help="the car: names the registered model whonet-R-<vehicle>; its nominal "
-                    "tyre radius comes from data.vehicles (default: %(default)s)")  # fmt: skip
+    rc.add_argument(
+        "--seconds",
+        type=int,
+        default=None,
+        help="m: recalibrate on the first m valid seconds (default: adapt.chosen_m, "
+        "or adapt.fallback.m when params choose auto)",
+    )
+    rc.add_argument(
+        "--recipe",
+        default=None,
+        help="paper, head, ridge_head, radius+G or steps (default: adapt.recipe, or "
+        "adapt.fallback.recipe when auto)",
+    )
+    rc.add_argument(
+        "--format",
+        default="iovnbd",
+        help="iovnbd or the name of a column map in params.yaml data.column_maps "
+        "(default: %(default)s)",
+    )
+    rc.add_argument(
+        "--vehicle",
+        default="target",
+        help="the car: names the registered model whonet-R-<vehicle>; its nominal "
+        "tyre radius comes from data.vehicles (default: %(default)s)",
+    )
     rc.add_argument(
         "--seed",
         type=int,
@@ -154,13 +187,19 @@ def parser() -> argparse.ArgumentParser:
         "Runs the model's ONNX graph with ONNX Runtime (no torch). A summary per outage goes "
         "to stderr.",
     )
-    pr.add_argument("--model", required=True,
-                    help="models:/<name>/<version|latest>, an exported .onnx file, or a model "
-                    "folder")  # fmt: skip
+    pr.add_argument(
+        "--model",
+        required=True,
+        help="models:/<name>/<version|latest>, an exported .onnx file, or a model folder",
+    )
     pr.add_argument("--drive", required=True, help="the drive (CSV), or - to read stdin")
-    pr.add_argument("--outage", action="append", default=[], metavar="START:END",
-                    help="an outage to report on, in seconds since the drive's first row "
-                    "(repeatable)")  # fmt: skip
+    pr.add_argument(
+        "--outage",
+        action="append",
+        default=[],
+        metavar="START:END",
+        help="an outage to report on, in seconds since the drive's first row (repeatable)",
+    )
     pr.add_argument(
         "--output",
         default="-",
@@ -171,9 +210,13 @@ def parser() -> argparse.ArgumentParser:
         default="iovnbd",
         help="iovnbd or a column map of params.yaml (default: %(default)s)",
     )
-    pr.add_argument("--max-gap", type=float, default=0.5,
-                    help="a time step longer than this (s) starts a new run of seconds "
-                    "(default: %(default)s, validate.gnss.max_gap_s)")  # fmt: skip
+    pr.add_argument(
+        "--max-gap",
+        type=float,
+        default=0.5,
+        help="a time step longer than this (s) starts a new run of seconds "
+        "(default: %(default)s, validate.gnss.max_gap_s)",
+    )
     pr.add_argument("--quiet", action="store_true", help="no summary on stderr")
     pr.set_defaults(func=_predict)
 
@@ -183,17 +226,21 @@ def parser() -> argparse.ArgumentParser:
         description="Export a model to ONNX (torch.onnx), with its input scaler and WPM radii "
         "in the file's metadata, and check it against PyTorch to 1e-5 m.",
     )
-    ex.add_argument("--model", required=True,
-                    help="models:/<name>/<version|latest>, a model folder, or a pipeline "
-                    "model.pt (its scaler and radii from data/processed/)")  # fmt: skip
+    ex.add_argument(
+        "--model",
+        required=True,
+        help="models:/<name>/<version|latest>, a model folder, or a pipeline "
+        "model.pt (its scaler and radii from data/processed/)",
+    )
     ex.add_argument("--format", choices=["onnx"], default="onnx", help="only onnx")
     ex.add_argument(
         "--output", default=None, help="the .onnx file (default: <model name>.onnx here)"
     )
     ex.set_defaults(func=_export)
 
-    sub.add_parser("gate", help="the CI regression gate on mean CRSE/CTE (rwhonet gate --help)",
-                   add_help=False)  # fmt: skip
+    sub.add_parser(
+        "gate", help="the CI regression gate on mean CRSE/CTE (rwhonet gate --help)", add_help=False
+    )
     return ap
 
 

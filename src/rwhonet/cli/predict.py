@@ -39,10 +39,11 @@ class CsvSink:
         if not n:
             return
         cells = [
-            block[name].tolist() if name == "outage"
+            block[name].tolist()
+            if name == "outage"
             else _format(block[name], DECIMALS.get(name, 4))
             for name in COLUMNS
-        ]  # fmt: skip
+        ]
         self.out.write("".join(",".join(row) + "\n" for row in zip(*cells, strict=True)))
         self.out.flush()
 
@@ -73,9 +74,12 @@ class ParquetSink:
 
     def write(self, block: dict[str, np.ndarray]) -> None:
         if len(block["t_s"]):
-            arrays = [self.pa.array(block[name].tolist() if name == "outage" else block[name],
-                                    type=field.type)
-                      for name, field in zip(COLUMNS, self.schema, strict=True)]  # fmt: skip
+            arrays = [
+                self.pa.array(
+                    block[name].tolist() if name == "outage" else block[name], type=field.type
+                )
+                for name, field in zip(COLUMNS, self.schema, strict=True)
+            ]
             self.writer.write_table(self.pa.Table.from_arrays(arrays, schema=self.schema))
 
     def close(self) -> None:
@@ -90,8 +94,17 @@ def open_model(spec: str, tracking_uri: str | None) -> Any:
         from rwhonet.tracking.registry import resolve_model
 
         if tracking_uri is None:
-            raise InputError([Problem("--model", None, None, "a project (params.yaml) whose "
-                                      "MLflow store holds the model", "none found")])  # fmt: skip
+            raise InputError(
+                [
+                    Problem(
+                        "--model",
+                        None,
+                        None,
+                        "a project (params.yaml) whose MLflow store holds the model",
+                        "none found",
+                    )
+                ]
+            )
         return load_served(resolve_model(spec, tracking_uri))
     return load_served(Path(spec))
 
@@ -117,8 +130,17 @@ def run(
         else:
             path = Path(drive)
             if not path.is_file():
-                raise InputError([Problem(drive, None, None, "a drive file (IO-VNBD CSV), or - "
-                                          "for stdin", "no such file")])  # fmt: skip
+                raise InputError(
+                    [
+                        Problem(
+                            drive,
+                            None,
+                            None,
+                            "a drive file (IO-VNBD CSV), or - for stdin",
+                            "no such file",
+                        )
+                    ]
+                )
             source, name = stack.enter_context(open(path, "rb")), drive
         if output == STDIO:
             sink: Any = CsvSink(stdout or sys.stdout)
@@ -152,7 +174,7 @@ def render_summary(out: dict[str, Any]) -> str:
                 f"outage {o['outage']} s ({o['seconds']} s): WPM {o['dist_wpm_m']:.1f} m, "
                 f"corrected {o['dist_corrected_m']:.1f} m (no GNSS to compare)"
             )
-            continue  # fmt: skip
+            continue
         lines.append(
             f"outage {o['outage']} s ({o['seconds']} s, GNSS {o['dist_gnss_m']:.1f} m): "
             f"WPM CRSE {o['crse_wpm_m']:.2f} m, CTE {o['cte_wpm_m']:.2f} m; corrected CRSE "

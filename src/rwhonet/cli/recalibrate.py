@@ -47,21 +47,36 @@ def choose(params: Params, recipe: str | None, seconds: int | None) -> Choice:
     """
     adapt = params.adapt
     auto = adapt.recipe == AUTO
-    why = "--recipe" if recipe else ("adapt.fallback (adapt.recipe: auto)" if auto
-                                      else "adapt.recipe")  # fmt: skip
+    why = (
+        "--recipe"
+        if recipe
+        else ("adapt.fallback (adapt.recipe: auto)" if auto else "adapt.recipe")
+    )
     recipe = recipe or (adapt.fallback.recipe if auto else adapt.recipe)
     m = seconds or (adapt.fallback.m if auto else int(adapt.chosen_m))
     if recipe not in ONE_SHOT_RECIPES:
-        fix = ("`continuous` recalibrates before every outage, so it is no single model to "
-               "register; " if recipe == contracts.CONTINUOUS else "")  # fmt: skip
+        fix = (
+            "`continuous` recalibrates before every outage, so it is no single model to register; "
+            if recipe == contracts.CONTINUOUS
+            else ""
+        )
         raise InputError(
-            [Problem("--recipe", None, None, f"one of {', '.join(ONE_SHOT_RECIPES)}",
-                     repr(recipe), fix + "choose a recipe with --recipe")],
+            [
+                Problem(
+                    "--recipe",
+                    None,
+                    None,
+                    f"one of {', '.join(ONE_SHOT_RECIPES)}",
+                    repr(recipe),
+                    fix + "choose a recipe with --recipe",
+                )
+            ],
             "unknown recalibration recipe",
-        )  # fmt: skip
+        )
     if m < 1:
-        raise InputError([Problem("--seconds", None, None, "a whole number of seconds >= 1",
-                                  str(m))])  # fmt: skip
+        raise InputError(
+            [Problem("--seconds", None, None, "a whole number of seconds >= 1", str(m))]
+        )
     return Choice(recipe, int(m), why)
 
 
@@ -105,67 +120,110 @@ def run(
         base_version = model_version(base, tracking_uri)
         net, hparams = load_whonet(base_pt)
         data = load_drive(
-            drive, params, vehicle=vehicle, fmt=fmt,
+            drive,
+            params,
+            vehicle=vehicle,
+            fmt=fmt,
             calibration=calibration_of(base_meta.source_radii, base),
-            scaler=scaler_from_dict(base_meta.scaler, base), wpm_mode=base_meta.wpm_mode,
+            scaler=scaler_from_dict(base_meta.scaler, base),
+            wpm_mode=base_meta.wpm_mode,
             seq_len=int(hparams["seq_len"]),
-        )  # fmt: skip
+        )
         shortest = min(params.evaluate.outages_s)
         n = len(data.samples)
         if n < choice.m + shortest:
             raise InputError(
-                [Problem(data.file, None, None,
-                         f"at least {choice.m + shortest} GNSS-valid seconds: m = {choice.m} s "
-                         f"to recalibrate on ({choice.why}), then {shortest} s (the shortest of "
-                         "evaluate.outages_s) to score",
-                         f"{n} labelled s; {data.kept_summary()}",
-                         "record a longer drive of the car, or recalibrate on fewer seconds "
-                         "(--seconds)")],
+                [
+                    Problem(
+                        data.file,
+                        None,
+                        None,
+                        f"at least {choice.m + shortest} GNSS-valid seconds: m = {choice.m} s "
+                        f"to recalibrate on ({choice.why}), then {shortest} s (the shortest of "
+                        "evaluate.outages_s) to score",
+                        f"{n} labelled s; {data.kept_summary()}",
+                        "record a longer drive of the car, or recalibrate on fewer seconds "
+                        "(--seconds)",
+                    )
+                ],
                 "not enough valid seconds to recalibrate and score",
-            )  # fmt: skip
+            )
         k = data.samples.frame["k"].to_numpy()
         first, rest = k < choice.m, k >= choice.m
         fit_start = time.perf_counter()
         result = recalibrate(
-            choice.recipe, net, hparams, adapt_data(data.samples, first), adapt=params.adapt,
-            seed=seed, min_speed_m_s=params.label.calibration_min_speed_m_s,
-        )  # fmt: skip
+            choice.recipe,
+            net,
+            hparams,
+            adapt_data(data.samples, first),
+            adapt=params.adapt,
+            seed=seed,
+            min_speed_m_s=params.label.calibration_min_speed_m_s,
+        )
         fit_s = time.perf_counter() - fit_start
         scored = data.samples.take(rest)
         label = scored.frame[contracts.LABEL_M].to_numpy(np.float64)
         errors = {
             "WPM": label,
             "base": label - predict(net, scored.x, seq_len=hparams["seq_len"]).astype(np.float64),
-            "R": label - label_prediction(result, adapt_data(scored, np.ones(len(scored), bool)),
-                                          base_meta.source_radii),
-        }  # fmt: skip
+            "R": label
+            - label_prediction(
+                result, adapt_data(scored, np.ones(len(scored), bool)), base_meta.source_radii
+            ),
+        }
         scores = score(errors, scored, params.evaluate.outages_s)
 
         name = registered_name("R", vehicle)
         digest = sha256_file(Path(drive))
-        base_label = (f"{base_version.name} v{base_version.version}" if base_version is not None
-                      else str(base))  # fmt: skip
+        base_label = (
+            f"{base_version.name} v{base_version.version}"
+            if base_version is not None
+            else str(base)
+        )
         tags = {
-            "model": "R", "vehicle": vehicle, "recipe": choice.recipe, "m": choice.m,
-            "seed": seed, "base_model": base, "base_version": base_label,
-            "drive": Path(drive).name, "drive_sha256": digest, "source": "rwhonet recalibrate",
+            "model": "R",
+            "vehicle": vehicle,
+            "recipe": choice.recipe,
+            "m": choice.m,
+            "seed": seed,
+            "base_model": base,
+            "base_version": base_label,
+            "drive": Path(drive).name,
+            "drive_sha256": digest,
+            "source": "rwhonet recalibrate",
             "n_adapt_seconds": int(first.sum()),
-        }  # fmt: skip
+        }
         model_pt = Path(tmp) / contracts.MODEL_FILE
         save_whonet(result.net, result.hparams, model_pt, wpm_radii=result.radii)
-        meta = make_meta(hparams, base_meta.scaler,
-                         {"r_rl_m": base_meta.source_radii[0], "r_rr_m": base_meta.source_radii[1]},
-                         base_meta.wpm_mode, result.radii, {"name": name, **tags})  # fmt: skip
+        meta = make_meta(
+            hparams,
+            base_meta.scaler,
+            {"r_rl_m": base_meta.source_radii[0], "r_rr_m": base_meta.source_radii[1]},
+            base_meta.wpm_mode,
+            result.radii,
+            {"name": name, **tags},
+        )
         bundle = write_bundle(model_pt, meta, Path(tmp) / "bundle")
-        run_id, version = _log(params, tracking_uri, name, bundle, scored, tags, choice, scores,
-                               result)  # fmt: skip
+        run_id, version = _log(
+            params, tracking_uri, name, bundle, scored, tags, choice, scores, result
+        )
     return {
-        "name": name, "version": version, "run_id": run_id, "choice": choice,
-        "base": base_label, "file": data.file, "kept": data.kept_summary(),
-        "n_adapt": int(first.sum()), "n_scored": int(rest.sum()), "scores": scores,
-        "radii": result.radii, "fit_s": fit_s, "seconds": time.perf_counter() - start,
-        "digest": digest, "seed": seed,
-    }  # fmt: skip
+        "name": name,
+        "version": version,
+        "run_id": run_id,
+        "choice": choice,
+        "base": base_label,
+        "file": data.file,
+        "kept": data.kept_summary(),
+        "n_adapt": int(first.sum()),
+        "n_scored": int(rest.sum()),
+        "scores": scores,
+        "radii": result.radii,
+        "fit_s": fit_s,
+        "seconds": time.perf_counter() - start,
+        "digest": digest,
+        "seed": seed,
+    }
 
 
 def score(errors: dict[str, np.ndarray], scored: Any, outages_s: list[int]) -> list[dict]:
@@ -178,8 +236,15 @@ def score(errors: dict[str, np.ndarray], scored: Any, outages_s: list[int]) -> l
     for L in outages_s:
         for model, e in errors.items():
             s = summarise(window_metrics(e, disp, group, L, source=model))
-            rows.append({"model": model, "outage_s": L, "n_windows": s["n_windows"],
-                         "crse_m": s["crse_m_mean"], "cte_m": s["cte_m_mean"]})  # fmt: skip
+            rows.append(
+                {
+                    "model": model,
+                    "outage_s": L,
+                    "n_windows": s["n_windows"],
+                    "crse_m": s["crse_m_mean"],
+                    "cte_m": s["cte_m_mean"],
+                }
+            )
     return rows
 
 
@@ -191,32 +256,50 @@ def _log(params, uri, name, bundle, scored, tags, choice, scores, result) -> tup
     client, exp_id = open_store(uri, params.tracking.experiment)
     run_tags = {str(k): str(v) for k, v in tags.items()}
     run_tags["git_commit"] = git_commit()
-    run = retrying(lambda: client.create_run(
-        exp_id, run_name=f"R-WhONet {choice.recipe} m={choice.m} {tags['drive']} (recalibrate)",
-        tags=run_tags))  # fmt: skip
+    run = retrying(
+        lambda: client.create_run(
+            exp_id,
+            run_name=f"R-WhONet {choice.recipe} m={choice.m} {tags['drive']} (recalibrate)",
+            tags=run_tags,
+        )
+    )
     rid = run.info.run_id
     try:
         from mlflow.entities import Metric, Param
 
         now = int(time.time() * 1000)
         metrics = [
-            Metric(f"{'R' if r['model'] == 'R' else r['model']}/{q}/{r['outage_s']}s/mean",
-                   float(r[f"{q}_m"]), now, 0)
-            for r in scores for q in ("crse", "cte") if r[f"{q}_m"] is not None
-        ]  # fmt: skip
+            Metric(
+                f"{'R' if r['model'] == 'R' else r['model']}/{q}/{r['outage_s']}s/mean",
+                float(r[f"{q}_m"]),
+                now,
+                0,
+            )
+            for r in scores
+            for q in ("crse", "cte")
+            if r[f"{q}_m"] is not None
+        ]
         metrics.append(Metric("fit_seconds", result.seconds, now, 0))
-        prm = {**flatten(params.section("adapt"), "adapt."), "adapt.recipe": choice.recipe,
-               "adapt.m": choice.m}  # fmt: skip
+        prm = {
+            **flatten(params.section("adapt"), "adapt."),
+            "adapt.recipe": choice.recipe,
+            "adapt.m": choice.m,
+        }
         retrying(
             lambda: client.log_batch(
                 rid, metrics=metrics, params=[Param(k, str(v)[:6000]) for k, v in prm.items()][:100]
             )
         )
         version = log_bundle(
-            client, rid, name, bundle, input_example(_features_frame(scored)), run_tags,
+            client,
+            rid,
+            name,
+            bundle,
+            input_example(_features_frame(scored)),
+            run_tags,
             description=f"recalibrated by `rwhonet recalibrate` on {tags['drive']} "
             f"(sha256 {tags['drive_sha256'][:12]}...)",
-        )  # fmt: skip
+        )
     except BaseException:
         retrying(lambda: client.set_terminated(rid, "FAILED"))
         raise
@@ -250,7 +333,7 @@ def render(out: dict[str, Any]) -> str:
         f"scored on the remaining {out['n_scored']} s (mean over outage windows, metres):",
         f"  {'outage':>7} {'windows':>7}  {'WPM CRSE/CTE':>15}  {'base CRSE/CTE':>15}  "
         f"{'R CRSE/CTE':>15}",
-    ]  # fmt: skip
+    ]
     by = {(r["model"], r["outage_s"]): r for r in out["scores"]}
 
     def cell(model: str, L: int) -> str:
@@ -262,6 +345,8 @@ def render(out: dict[str, Any]) -> str:
     for L in sorted({r["outage_s"] for r in out["scores"]}):
         n = by[("R", L)]["n_windows"]
         lines.append(f"  {L:>6}s {n:>7}  {cell('WPM', L)}  {cell('base', L)}  {cell('R', L)}")
-    lines.append(f"done in {out['seconds']:.1f} s; use it: rwhonet predict --model "
-                 f"models:/{out['name']}/{out['version']} --drive <drive.csv>")  # fmt: skip
+    lines.append(
+        f"done in {out['seconds']:.1f} s; use it: rwhonet predict --model "
+        f"models:/{out['name']}/{out['version']} --drive <drive.csv>"
+    )
     return "\n".join(lines)

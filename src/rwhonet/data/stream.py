@@ -133,9 +133,17 @@ def _blocks(
         yield row, columns
     elif row == 1:
         raise InputError(
-            [Problem(file, None, None, "at least one data row after the header", "none",
-                     "a drive file holds its samples after the header row")]
-        )  # fmt: skip
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    "at least one data row after the header",
+                    "none",
+                    "a drive file holds its samples after the header row",
+                )
+            ]
+        )
 
 
 def parse_lines(lines: bytes, lay: Layout, first_row: int, file: str) -> dict[str, np.ndarray]:
@@ -156,9 +164,13 @@ def parse_lines(lines: bytes, lay: Layout, first_row: int, file: str) -> dict[st
             raise ValueError("rows with another number of columns than the header")
         else:
             values = np.loadtxt(
-                io.StringIO(text), delimiter=",", usecols=cols, ndmin=2, comments=None,
+                io.StringIO(text),
+                delimiter=",",
+                usecols=cols,
+                ndmin=2,
+                comments=None,
                 dtype=np.float64,
-            )  # fmt: skip
+            )
     except ValueError:
         values = _parse_slow(text, lay, cols, first_row, file)
     return {
@@ -177,11 +189,17 @@ def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: s
     for i, cells in enumerate(csv.reader(_nonblank(text))):
         row = first_row + i
         if len(cells) != lay.n_columns:
-            problems.append(Problem(
-                file, row, None, f"{lay.n_columns} comma-separated columns, as in the header",
-                f"{len(cells)} column(s): {','.join(cells)[:60]!r}",
-                "give every row the header's columns (a cut-off last row, a stray comma, or a "
-                "decimal comma?)"))  # fmt: skip
+            problems.append(
+                Problem(
+                    file,
+                    row,
+                    None,
+                    f"{lay.n_columns} comma-separated columns, as in the header",
+                    f"{len(cells)} column(s): {','.join(cells)[:60]!r}",
+                    "give every row the header's columns (a cut-off last row, a stray comma, or a "
+                    "decimal comma?)",
+                )
+            )
             continue
         values = []
         for pos in cols:
@@ -193,10 +211,17 @@ def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: s
                 values.append(float(cell))
             except ValueError:
                 name = next(n for n, p in lay.positions.items() if p == pos)
-                problems.append(Problem(
-                    file, row, lay.names[name], "a number", repr(cells[pos]),
-                    "replace the text by a number ('.' as the decimal mark), or leave the cell "
-                    "empty for a missing value"))  # fmt: skip
+                problems.append(
+                    Problem(
+                        file,
+                        row,
+                        lay.names[name],
+                        "a number",
+                        repr(cells[pos]),
+                        "replace the text by a number ('.' as the decimal mark), or leave the cell "
+                        "empty for a missing value",
+                    )
+                )
                 values.append(np.nan)
         out.append(values)
         if len(problems) >= 20:

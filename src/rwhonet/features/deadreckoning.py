@@ -241,9 +241,13 @@ def fit_heading(
         if best is None or cost < best[0]:
             last = int(block[np.flatnonzero(keep)[-1]])  # the latest block with a course kept
             fit = HeadingFit(
-                scale, bias, float(az0[last]) - scale * cum_y[-1] - bias * cum_d[-1],
-                int(keep.sum()), float(np.ptp(mid_y[known])), float(load),
-            )  # fmt: skip
+                scale,
+                bias,
+                float(az0[last]) - scale * cum_y[-1] - bias * cum_d[-1],
+                int(keep.sum()),
+                float(np.ptp(mid_y[known])),
+                float(load),
+            )
             best = (cost, fit)
     assert best is not None
     return best[1]

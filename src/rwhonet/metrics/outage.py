@@ -65,7 +65,7 @@ def window_starts(group: Any, outage_s: int) -> tuple[np.ndarray, np.ndarray]:
                 "group",
                 "each group's samples contiguous (sorted by group, then time)",
                 f"group {gid!r} starts again here",
-            )  # fmt: skip
+            )
             for gid in repeated[:MAX_PROBLEMS]
         ]
         raise InputError(problems, "samples are not sorted by group")

@@ -75,8 +75,12 @@ class AdaptData:
 
     def take(self, idx: np.ndarray) -> AdaptData:
         """The samples at ``idx`` (an index array or a boolean mask)."""
-        return AdaptData(*(a[idx] for a in (self.x, self.y, self.disp_gnss_m,
-                                              self.angle_rl_rad, self.angle_rr_rad)))  # fmt: skip
+        return AdaptData(
+            *(
+                a[idx]
+                for a in (self.x, self.y, self.disp_gnss_m, self.angle_rl_rad, self.angle_rr_rad)
+            )
+        )
 
 
 @dataclass
@@ -108,9 +112,12 @@ class AdaptResult:
 
 def _inputs(base: WhONet, hparams: dict[str, Any], data: AdaptData) -> tuple:
     return as_model_inputs(
-        data.x, data.y, "adaptation samples",
-        seq_len=hparams["seq_len"], n_features=hparams["n_features"],
-    )  # fmt: skip
+        data.x,
+        data.y,
+        "adaptation samples",
+        seq_len=hparams["seq_len"],
+        n_features=hparams["n_features"],
+    )
 
 
 def fine_tune(
@@ -157,9 +164,14 @@ def fine_tune(
         history.append({"epoch": epoch, "train_loss": loss_m, "val_loss": None})
     net.eval()
     return AdaptResult(
-        net, {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size}, None, history,
-        time.perf_counter() - start, n_trainable, n_total,
-    )  # fmt: skip
+        net,
+        {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size},
+        None,
+        history,
+        time.perf_counter() - start,
+        n_trainable,
+        n_total,
+    )
 
 
 def fine_tune_steps(
@@ -196,8 +208,9 @@ def fine_tune_steps(
     net = copy.deepcopy(base)
     n_trainable, n_total = apply_trainable(net, "all")
     optimizer = make_optimizer(net, adapt.lr)
-    loader = train_loader(ArrayDataset(x_fit, y_fit), batch_size=adapt.batch_size, seed=seed,
-                          steps_per_block=1)  # fmt: skip
+    loader = train_loader(
+        ArrayDataset(x_fit, y_fit), batch_size=adapt.batch_size, seed=seed, steps_per_block=1
+    )
 
     def held_back_mae() -> float:
         net.eval()
@@ -223,10 +236,15 @@ def fine_tune_steps(
     net.load_state_dict(best_state)
     net.eval()
     return AdaptResult(
-        net, {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size}, None, history,
-        time.perf_counter() - start, n_trainable, n_total,
+        net,
+        {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size},
+        None,
+        history,
+        time.perf_counter() - start,
+        n_trainable,
+        n_total,
         info={"steps": step, "best_step": best_step, "held_back_s": n_hold},
-    )  # fmt: skip
+    )
 
 
 def hidden_features(net: WhONet, x: np.ndarray | torch.Tensor) -> np.ndarray:
@@ -304,18 +322,27 @@ def ridge_head(
     start = time.perf_counter()
     net = copy.deepcopy(base)
     w, b = ridge_head_weights(
-        hidden_features(net, data.x), data.y,
-        net.head.weight.detach().numpy()[0], float(net.head.bias.detach()[0]), penalty,
-    )  # fmt: skip
+        hidden_features(net, data.x),
+        data.y,
+        net.head.weight.detach().numpy()[0],
+        float(net.head.bias.detach()[0]),
+        penalty,
+    )
     with torch.no_grad():
         net.head.weight.copy_(torch.as_tensor(w, dtype=torch.float32)[None, :])
         net.head.bias.fill_(b)
     net.eval()
     n_head = count_parameters(net.head)[1]
     return AdaptResult(
-        net, dict(hparams), None, [], time.perf_counter() - start, n_head,
-        count_parameters(net)[1], info={"ridge_penalty": penalty},
-    )  # fmt: skip
+        net,
+        dict(hparams),
+        None,
+        [],
+        time.perf_counter() - start,
+        n_head,
+        count_parameters(net)[1],
+        info={"ridge_penalty": penalty},
+    )
 
 
 def radius_g(
@@ -341,12 +368,19 @@ def radius_g(
     """
     start = time.perf_counter()
     g_pred = predict(base, data.x, seq_len=hparams["seq_len"]).astype(np.float64)
-    radii = refit_radii(data.disp_gnss_m, data.angle_rl_rad, data.angle_rr_rad, min_speed_m_s,
-                        explained_m=g_pred)  # fmt: skip
+    radii = refit_radii(
+        data.disp_gnss_m, data.angle_rl_rad, data.angle_rr_rad, min_speed_m_s, explained_m=g_pred
+    )
     return AdaptResult(
-        copy.deepcopy(base).eval(), dict(hparams), radii, [], time.perf_counter() - start, 2,
-        count_parameters(base)[1] + 2, info={"radius_refit": radii is not None},
-    )  # fmt: skip
+        copy.deepcopy(base).eval(),
+        dict(hparams),
+        radii,
+        [],
+        time.perf_counter() - start,
+        2,
+        count_parameters(base)[1] + 2,
+        info={"radius_refit": radii is not None},
+    )
 
 
 def recalibrate(
@@ -439,8 +473,10 @@ def continuous_predictions(
     if inner == "ridge_head":
         a = np.hstack([hidden_features(base, data.x), np.ones((len(data), 1))])
         y = np.asarray(data.y, np.float64)
-        theta0 = np.append(base.head.weight.detach().numpy()[0].astype(np.float64),
-                           float(base.head.bias.detach()[0]))  # fmt: skip
+        theta0 = np.append(
+            base.head.weight.detach().numpy()[0].astype(np.float64),
+            float(base.head.bias.detach()[0]),
+        )
         ata, aty = np.zeros((a.shape[1], a.shape[1])), np.zeros(a.shape[1])
         added = removed = 0  # rows [removed, added) are in the sums (k is increasing)
         for w in order:
@@ -471,16 +507,21 @@ def continuous_predictions(
         for w in order:
             k0 = k[windows[w, 0]]
             before = (k < k0) & ((k >= k0 - window_s) if window_s else True)
-            radii = refit_radii(data.disp_gnss_m[before], data.angle_rl_rad[before],
-                                data.angle_rr_rad[before], min_speed_m_s,
-                                explained_m=g_pred[before])  # fmt: skip
+            radii = refit_radii(
+                data.disp_gnss_m[before],
+                data.angle_rl_rad[before],
+                data.angle_rr_rad[before],
+                min_speed_m_s,
+                explained_m=g_pred[before],
+            )
             rows = windows[w]
             pred[w] = g_pred[rows]
             if radii is not None:
                 pred[w] += wpm_displacement_m(
                     data.angle_rl_rad[rows], data.angle_rr_rad[rows], *radii
                 )
-                pred[w] -= wpm_displacement_m(data.angle_rl_rad[rows], data.angle_rr_rad[rows],
-                                              *source_radii)  # fmt: skip
+                pred[w] -= wpm_displacement_m(
+                    data.angle_rl_rad[rows], data.angle_rr_rad[rows], *source_radii
+                )
         return pred
     raise ValueError(f"continuous: unknown inner recipe {inner!r}")

@@ -46,8 +46,14 @@ MAX_PROBLEMS = 20  # non-finite rows listed per array; the count says how many m
 
 # A WhONet's hyperparameters (WhONetModule's constructor arguments, saved with every model).
 HPARAMS: tuple[str, ...] = (
-    "n_features", "hidden", "layers", "dropout", "seq_len", "lr", "batch_size",
-)  # fmt: skip
+    "n_features",
+    "hidden",
+    "layers",
+    "dropout",
+    "seq_len",
+    "lr",
+    "batch_size",
+)
 # numpy's legacy seeding accepts 32-bit unsigned seeds; Lightning enforces the same range.
 SEED_MIN, SEED_MAX = 0, 2**32 - 1
 
@@ -449,10 +455,13 @@ def predict(
     net = model if isinstance(model, WhONet) else getattr(model, "net", None)
     n_features = hp.get("n_features") or (net.rnn.input_size if isinstance(net, WhONet) else None)
     x_t = as_model_inputs(
-        x, None, "prediction inputs",
+        x,
+        None,
+        "prediction inputs",
         seq_len=seq_len if seq_len is not None else hp.get("seq_len"),
-        n_features=n_features, allow_empty=True,
-    )[0]  # fmt: skip
+        n_features=n_features,
+        allow_empty=True,
+    )[0]
     was_training = model.training
     model.eval()
     try:

@@ -131,9 +131,14 @@ class WhONetModule(L.LightningModule):
         x, y = batch
         opt = self.optimizers()
         train_block(
-            self.net, opt, x, y, self.hparams.batch_size, self._epoch_loss["train"],
+            self.net,
+            opt,
+            x,
+            y,
+            self.hparams.batch_size,
+            self._epoch_loss["train"],
             backward=self.manual_backward,
-        )  # fmt: skip
+        )
 
     def validation_step(self, batch: tuple[torch.Tensor, torch.Tensor], batch_idx: int) -> None:
         """Accumulate the validation MAE (Lightning runs this in eval mode, without grad)."""

@@ -54,5 +54,8 @@ class EpochLog(Callback):
             for stage in ("train", "val")
             if last.get(f"{stage}_loss") is not None
         )
-        print(f"{self.name}: epoch {done}/{self.epochs}, {losses}, "
-              f"{time.perf_counter() - self._start:.1f} s", flush=True)  # fmt: skip
+        print(
+            f"{self.name}: epoch {done}/{self.epochs}, {losses}, "
+            f"{time.perf_counter() - self._start:.1f} s",
+            flush=True,
+        )

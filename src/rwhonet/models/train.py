@@ -125,11 +125,25 @@ def fit(
     )
     n_trainable, n_total = apply_trainable(module, "all")
     data = WhONetDataModule(
-        x_t, y_t, x_val_t, y_val_t,
-        batch_size=train.batch_size, seed=seed, steps_per_block=steps_per_block,
-    )  # fmt: skip
-    return _run(module, data, train.epochs, train.trainer, logger, callbacks, n_trainable, n_total,
-                progress=progress)  # fmt: skip
+        x_t,
+        y_t,
+        x_val_t,
+        y_val_t,
+        batch_size=train.batch_size,
+        seed=seed,
+        steps_per_block=steps_per_block,
+    )
+    return _run(
+        module,
+        data,
+        train.epochs,
+        train.trainer,
+        logger,
+        callbacks,
+        n_trainable,
+        n_total,
+        progress=progress,
+    )
 
 
 # --------------------------------------------------------------------------- internals

@@ -62,12 +62,18 @@ def comparison_rows(ev: dict[str, Any]) -> list[dict[str, Any]]:
             cell = ev["overall"][key].get(f"{length}s")
             if cell is None:
                 continue
-            rows.append({
-                "model": key, "name": label, "outage_s": length,
-                "crse_mean": cell["crse_mean"], "crse_ci95": cell["crse_ci95"],
-                "cte_mean": cell["cte_mean"], "cte_ci95": cell["cte_ci95"],
-                "n_windows": cell.get("n_windows"),
-            })  # fmt: skip
+            rows.append(
+                {
+                    "model": key,
+                    "name": label,
+                    "outage_s": length,
+                    "crse_mean": cell["crse_mean"],
+                    "crse_ci95": cell["crse_ci95"],
+                    "cte_mean": cell["cte_mean"],
+                    "cte_ci95": cell["cte_ci95"],
+                    "n_windows": cell.get("n_windows"),
+                }
+            )
     return rows
 
 
@@ -97,8 +103,10 @@ def comparison_markdown(ev: dict[str, Any]) -> str:
         parts = []
         for L in lengths:
             r = cells.get((key, L), {})
-            parts += [_pm(r.get("crse_mean"), r.get("crse_ci95")),
-                      _pm(r.get("cte_mean"), r.get("cte_ci95"))]  # fmt: skip
+            parts += [
+                _pm(r.get("crse_mean"), r.get("crse_ci95")),
+                _pm(r.get("cte_mean"), r.get("cte_ci95")),
+            ]
         body.append(f"| {label} | " + " | ".join(parts) + " |")
     return "\n".join([caption(ev), "", head, rule, *body]) + "\n"
 
@@ -107,8 +115,10 @@ def _svg_panel(rows: list[dict[str, Any]], length: int, width: int = 640) -> str
     """Horizontal bars of CRSE and CTE per model for one outage length, with CI whiskers."""
     mine = [r for r in rows if r["outage_s"] == length]
     label_w, bar_h, gap, top = 250, 9, 8, 24
-    top_value = max((r[f"{q}_mean"] or 0) + (r[f"{q}_ci95"] or 0)
-                    for r in mine for q in ("crse", "cte")) or 1.0  # fmt: skip
+    top_value = (
+        max((r[f"{q}_mean"] or 0) + (r[f"{q}_ci95"] or 0) for r in mine for q in ("crse", "cte"))
+        or 1.0
+    )
     scale = (width - label_w - 60) / top_value
     height = top + len(mine) * (2 * bar_h + gap) + 8
     out = [
@@ -123,8 +133,10 @@ def _svg_panel(rows: list[dict[str, Any]], length: int, width: int = 640) -> str
     ]
     y = top
     for r in mine:
-        out.append(f'<text x="{label_w - 6}" y="{y + bar_h + 3}" text-anchor="end">'
-                   f"{html.escape(r['name'])}</text>")  # fmt: skip
+        out.append(
+            f'<text x="{label_w - 6}" y="{y + bar_h + 3}" text-anchor="end">'
+            f"{html.escape(r['name'])}</text>"
+        )
         for i, q in enumerate(("crse", "cte")):
             mean, ci = r[f"{q}_mean"], r[f"{q}_ci95"]
             if mean is None or not math.isfinite(mean):
@@ -132,15 +144,21 @@ def _svg_panel(rows: list[dict[str, Any]], length: int, width: int = 640) -> str
             by = y + i * bar_h
             w = mean * scale
             tip = f"<title>{q.upper()} {_pm(mean, ci)} m</title>"
-            out.append(f'<rect x="{label_w}" y="{by}" width="{w:.1f}" height="{bar_h - 1}" '
-                       f'fill="{COLOURS[i]}">{tip}</rect>')  # fmt: skip
+            out.append(
+                f'<rect x="{label_w}" y="{by}" width="{w:.1f}" height="{bar_h - 1}" '
+                f'fill="{COLOURS[i]}">{tip}</rect>'
+            )
             if ci:
                 lo, hi = label_w + (mean - ci) * scale, label_w + (mean + ci) * scale
                 mid = by + (bar_h - 1) / 2
-                out.append(f'<line x1="{lo:.1f}" x2="{hi:.1f}" y1="{mid:.1f}" y2="{mid:.1f}" '
-                           'stroke="black" stroke-width="1"/>')  # fmt: skip
-            out.append(f'<text x="{label_w + w + (ci or 0) * scale + 4:.1f}" y="{by + bar_h - 1}">'
-                       f"{mean:.2f}</text>")  # fmt: skip
+                out.append(
+                    f'<line x1="{lo:.1f}" x2="{hi:.1f}" y1="{mid:.1f}" y2="{mid:.1f}" '
+                    'stroke="black" stroke-width="1"/>'
+                )
+            out.append(
+                f'<text x="{label_w + w + (ci or 0) * scale + 4:.1f}" y="{by + bar_h - 1}">'
+                f"{mean:.2f}</text>"
+            )
         y += 2 * bar_h + gap
     out.append("</svg>")
     return "".join(out)
@@ -178,8 +196,14 @@ def headline_metrics(ev: dict[str, Any]) -> dict[str, float]:
     Models by short names that MLflow accepts as metric keys: ``WPM``, ``G``, ``S``,
     ``R``, ``WPM-m`` (at the chosen m) and ``R-continuous``.
     """
-    short = {"WPM": "WPM", "G": "G", "S": "S", "R": "R", f"WPM-m@{ev['chosen_m']}": "WPM-m",
-             "R[continuous]": "R-continuous"}  # fmt: skip
+    short = {
+        "WPM": "WPM",
+        "G": "G",
+        "S": "S",
+        "R": "R",
+        f"WPM-m@{ev['chosen_m']}": "WPM-m",
+        "R[continuous]": "R-continuous",
+    }
     out = {}
     for r in comparison_rows(ev):
         name = short.get(r["model"])

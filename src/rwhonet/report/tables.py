@@ -113,10 +113,11 @@ def domain_gap_table(ev: Evaluation, params: Params) -> str | None:
     rows = s.set_index(["model", "role", "outage_s"])
     cols = [(m, r) for m in ("WPM", "G") for r in roles]
     lines = [
-        "| Outage | " + " | ".join(f"{m} on {r} CRSE / CTE" for m, r in cols)
+        "| Outage | "
+        + " | ".join(f"{m} on {r} CRSE / CTE" for m, r in cols)
         + " | G / WPM on source_test | G / WPM on target_test |",
         "|---|" + "---:|" * (len(cols) + 2),
-    ]  # fmt: skip
+    ]
     for L in params.evaluate.outages_s:
         cells = [
             f"{_fmt(rows.loc[(m, r, L), 'crse_mean'], rows.loc[(m, r, L), 'crse_mean_ci95'])} / "
@@ -138,16 +139,22 @@ def m_grid_table(ev: Evaluation, params: Params, outage_s: int) -> str:
         "| Drive | | " + " | ".join(f"m={m} s" for m in grid) + " |",
         "|---|---|" + "---:|" * len(grid),
     ]
-    rows = ev.summary[(ev.summary["outage_s"] == outage_s) & (ev.summary["drive"] != "all")
-                      & (ev.summary["role"] == k.TARGET_TEST)]  # fmt: skip
+    rows = ev.summary[
+        (ev.summary["outage_s"] == outage_s)
+        & (ev.summary["drive"] != "all")
+        & (ev.summary["role"] == k.TARGET_TEST)
+    ]
     for drive in dict.fromkeys(rows["drive"]):
         per_model = rows[rows["drive"] == drive].set_index("model")
         for i, (stat, label) in enumerate(STATS):
             cells = [
-                _fmt(per_model.loc[f"R@{m}", f"crse_{stat}"],
-                     per_model.loc[f"R@{m}", "crse_mean_ci95"] if stat == "mean" else None, 1)
+                _fmt(
+                    per_model.loc[f"R@{m}", f"crse_{stat}"],
+                    per_model.loc[f"R@{m}", "crse_mean_ci95"] if stat == "mean" else None,
+                    1,
+                )
                 for m in grid
-            ]  # fmt: skip
+            ]
             lines.append(f"| {drive if i == 0 else ''} | {label} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
@@ -171,14 +178,18 @@ def recipes_table(ev: Evaluation, params: Params) -> str:
 
     head = [f"CRSE {L} s" for L in outages] + [f"CTE {longest} s", f"worse than G ({longest} s)"]
     lines = ["| Recipe | m | " + " | ".join(head) + " |", "|---|---:|" + "---:|" * len(head)]
-    models = [(r, m, recipe_model(r, m)) for r in params.adapt.recipes
-              for m in ([None] if r == "continuous" else params.adapt.m_grid)]  # fmt: skip
+    models = [
+        (r, m, recipe_model(r, m))
+        for r in params.adapt.recipes
+        for m in ([None] if r == "continuous" else params.adapt.m_grid)
+    ]
     models += [("WPM-m (no network)", m, f"WPM-m@{m}") for m in params.adapt.m_grid]
     for recipe, m, model in models:
         share = (
             f"{100 * harm.loc[(model, longest), 'share_worse']:.0f} %"
-            if (model, longest) in harm.index else "–"
-        )  # fmt: skip
+            if (model, longest) in harm.index
+            else "–"
+        )
         cells = [cell(model, L, "crse") for L in outages] + [cell(model, longest, "cte"), share]
         label = "every window" if m is None else str(m)
         lines.append(f"| {recipe} | {label} | {' | '.join(cells)} |")
@@ -222,8 +233,9 @@ def over_time_table(ev: Evaluation, params: Params) -> str:
         span = f"{first.from_s / 60:.0f}–" + (
             "end" if math.isinf(first.to_s) else f"{first.to_s / 60:.0f}"
         )
-        cells = [_fmt(g.loc[m, "crse"], g.loc[m, "crse_ci95"]) if m in g.index else "–"
-                 for m in models]  # fmt: skip
+        cells = [
+            _fmt(g.loc[m, "crse"], g.loc[m, "crse_ci95"]) if m in g.index else "–" for m in models
+        ]
         lines.append(f"| {span} | {int(first.n_windows)} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
@@ -238,10 +250,11 @@ def refit_table(ev: Evaluation, params: Params) -> str:
     for d, g in r.groupby("drive", sort=False):
         g = g.set_index("m")
         cells = [
-            "–" if math.isnan(g.loc[m, "r_rl_m"])
+            "–"
+            if math.isnan(g.loc[m, "r_rl_m"])
             else f"{1e3 * g.loc[m, 'r_rl_m']:.1f} / {1e3 * g.loc[m, 'r_rr_m']:.1f}"
             for m in params.adapt.m_grid
-        ]  # fmt: skip
+        ]
         lines.append(f"| {d} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
@@ -251,20 +264,26 @@ def outage_table(ev: Evaluation, params: Params, outage_s: int, metric: str) -> 
     models = ["WPM", "R", "G", "S"]
     label = {"crse": "CRSE (m)", "cte": "CTE (m)"}[metric]
     lines = [
-        "| Drive | | " + " | ".join(f"{h} {label}" for h in _head(models, params.adapt.chosen_m))
+        "| Drive | | "
+        + " | ".join(f"{h} {label}" for h in _head(models, params.adapt.chosen_m))
         + " | Distance (m) | Windows |",
         "|---|---|" + "---:|" * (len(models) + 2),
-    ]  # fmt: skip
-    rows = ev.summary[(ev.summary["outage_s"] == outage_s) & (ev.summary["drive"] != "all")
-                      & (ev.summary["role"] == k.TARGET_TEST)]  # fmt: skip
+    ]
+    rows = ev.summary[
+        (ev.summary["outage_s"] == outage_s)
+        & (ev.summary["drive"] != "all")
+        & (ev.summary["role"] == k.TARGET_TEST)
+    ]
     for drive in dict.fromkeys(rows["drive"]):
         per_model = rows[rows["drive"] == drive].set_index("model")
         for i, (stat, stat_label) in enumerate(STATS):
             cells = [
-                _fmt(per_model.loc[m, f"{metric}_{stat}"],
-                     per_model.loc[m, f"{metric}_mean_ci95"] if stat == "mean" else None)
+                _fmt(
+                    per_model.loc[m, f"{metric}_{stat}"],
+                    per_model.loc[m, f"{metric}_mean_ci95"] if stat == "mean" else None,
+                )
                 for m in models
-            ]  # fmt: skip
+            ]
             dist = _fmt(per_model.iloc[0][f"dist_{stat}"])
             n = str(int(per_model.iloc[0]["n_windows"])) if i == 0 else ""
             lines.append(
@@ -320,8 +339,9 @@ def position_table(ev: Evaluation, params: Params) -> str | None:
     counts = ", ".join(
         f"{L} s: {int(cells.loc[(models[0], L), 'n_windows'])} of "
         f"{int(cells.loc[(models[0], L), 'n_windows_all'])}"
-        for L in outages if (models[0], L) in cells.index
-    )  # fmt: skip
+        for L in outages
+        if (models[0], L) in cells.index
+    )
     return "\n".join(lines) + f"\n\nWindows dead-reckoned (of the target test windows): {counts}."
 
 
@@ -331,8 +351,11 @@ def limits_table(ev: Evaluation, params: Params) -> str | None:
     if lim is None or lim.empty:
         return None
     L = max(params.evaluate.outages_s)
-    rows = ev.summary[(ev.summary["role"] == k.TARGET_TEST) & (ev.summary["drive"] == "all")
-                      & (ev.summary["outage_s"] == L)].set_index("model")["crse_mean"]  # fmt: skip
+    rows = ev.summary[
+        (ev.summary["role"] == k.TARGET_TEST)
+        & (ev.summary["drive"] == "all")
+        & (ev.summary["outage_s"] == L)
+    ].set_index("model")["crse_mean"]
     recipes = [r for r in params.adapt.recipes if r != CONTINUOUS]
     lines = [
         "| m | radius from the first m s (WPM-m) | from any m s | sd of that radius | "
@@ -347,8 +370,14 @@ def limits_table(ev: Evaluation, params: Params) -> str | None:
             f"{_fmt(r.whole)} | {best} {_fmt(at_m[best])} |"
         )
     cont = rows.get(recipe_model(CONTINUOUS, None))
-    tail = (f"\n\nThe continuous recipe (radius and head re-fitted before every window): "
-            f"{_fmt(cont)} m.") if cont is not None else ""  # fmt: skip
+    tail = (
+        (
+            f"\n\nThe continuous recipe (radius and head re-fitted before every window): "
+            f"{_fmt(cont)} m."
+        )
+        if cont is not None
+        else ""
+    )
     return "\n".join(lines) + tail
 
 
@@ -369,9 +398,10 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
         ]
         ref = ["G", "WPM"]
         entries = [(n, None, n) for n in ref] + [
-            (r, m, recipe_model(r, m)) for r in params.adapt.recipes
+            (r, m, recipe_model(r, m))
+            for r in params.adapt.recipes
             for m in ([None] if r == "continuous" else params.adapt.m_grid)
-        ]  # fmt: skip
+        ]
 
         def cell(model: str, L: float) -> tuple[float, float]:
             # Short training drives give no window of the longer outages: show a dash.
@@ -422,8 +452,10 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
     ridge = rec.get("ridge", {}).get("recommended_penalty")
     chosen = rec.get("chosen", {})
     if p.get("recipe") == "auto":
-        used = (f"params use auto, so R-WhONet is {choice(chosen.get('recipe'), chosen.get('m'))}"
-                f" ({rec.get('chosen_by')})")  # fmt: skip
+        used = (
+            f"params use auto, so R-WhONet is {choice(chosen.get('recipe'), chosen.get('m'))}"
+            f" ({rec.get('chosen_by')})"
+        )
     else:
         used = f"params use {choice(p.get('recipe'), p.get('chosen_m'))}"
     used += f", and ridge_penalty {p.get('ridge_penalty'):g}."

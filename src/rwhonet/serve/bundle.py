@@ -103,9 +103,16 @@ def bundle_parts(path: Path) -> tuple[Path, ServedMeta]:
                 meta_file.read_text(encoding="utf-8"), str(meta_file)
             )
     raise InputError(
-        [Problem(str(path), None, None, f"a model folder holding {TORCH_FILE} and {META_FILE}",
-                 "no such folder" if not path.exists() else "neither",
-                 "give a registered model (models:/whonet-G/latest), a model folder, or a "
-                 "model.pt of the pipeline (models/g/seed42/model.pt)")],
+        [
+            Problem(
+                str(path),
+                None,
+                None,
+                f"a model folder holding {TORCH_FILE} and {META_FILE}",
+                "no such folder" if not path.exists() else "neither",
+                "give a registered model (models:/whonet-G/latest), a model folder, or a "
+                "model.pt of the pipeline (models/g/seed42/model.pt)",
+            )
+        ],
         f"no model at {path}",
-    )  # fmt: skip
+    )

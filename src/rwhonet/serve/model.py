@@ -87,21 +87,27 @@ class ServedMeta:
             raise _not_served(source, f"metadata format {FORMAT!r}", repr(found))
         problems = []
         hp = raw.get("hparams")
-        if not (isinstance(hp, dict) and all(isinstance(hp.get(k), int) for k in
-                                             ("seq_len", "n_features"))):  # fmt: skip
+        if not (
+            isinstance(hp, dict)
+            and all(isinstance(hp.get(k), int) for k in ("seq_len", "n_features"))
+        ):
             problems.append(Problem(source, None, "hparams", "seq_len and n_features", repr(hp)))
         for key in ("source_radii", "wpm_radii"):
             value = raw.get(key)
             if value is None and key == "wpm_radii":
                 continue
-            if not (isinstance(value, list) and len(value) == 2
-                    and all(isinstance(r, int | float) and r > 0 for r in value)):  # fmt: skip
+            if not (
+                isinstance(value, list)
+                and len(value) == 2
+                and all(isinstance(r, int | float) and r > 0 for r in value)
+            ):
                 problems.append(
                     Problem(source, None, key, "two positive radii (m/rad)", repr(value))
                 )
         if raw.get("wpm_mode") not in WPM_MODES:
-            problems.append(Problem(source, None, "wpm_mode", f"one of {WPM_MODES}",
-                                    repr(raw.get("wpm_mode"))))  # fmt: skip
+            problems.append(
+                Problem(source, None, "wpm_mode", f"one of {WPM_MODES}", repr(raw.get("wpm_mode")))
+            )
         if problems:
             raise InputError(problems, f"{source}: the model's metadata is incomplete")
         scaler_from_dict(raw.get("scaler"), f"{source} (scaler)")  # checked here, once
@@ -110,23 +116,28 @@ class ServedMeta:
             scaler=dict(raw["scaler"]),
             source_radii=(float(raw["source_radii"][0]), float(raw["source_radii"][1])),
             wpm_mode=str(raw["wpm_mode"]),
-            wpm_radii=None if raw.get("wpm_radii") is None else
-            (float(raw["wpm_radii"][0]), float(raw["wpm_radii"][1])),
+            wpm_radii=None
+            if raw.get("wpm_radii") is None
+            else (float(raw["wpm_radii"][0]), float(raw["wpm_radii"][1])),
             info={str(k): str(v) for k, v in (raw.get("info") or {}).items()},
-        )  # fmt: skip
+        )
 
 
 def _not_served(source: str, expected: str, found: str) -> InputError:
     return InputError(
         [
             Problem(
-                source, None, None, expected, found,
+                source,
+                None,
+                None,
+                expected,
+                found,
                 "give a model exported by `rwhonet export`, a model folder, or a registered "
                 "model (models:/whonet-G/latest)",
             )
         ],
         f"{source} is not an rwhonet model",
-    )  # fmt: skip
+    )
 
 
 class ServedModel:
@@ -157,9 +168,10 @@ class ServedModel:
             props = self.session.get_modelmeta().custom_metadata_map
             if META_KEY not in props:
                 raise _not_served(
-                    str(onnx_path), f"metadata_props[{META_KEY!r}] (scaler and WPM radii)",
+                    str(onnx_path),
+                    f"metadata_props[{META_KEY!r}] (scaler and WPM radii)",
                     "an ONNX model without them",
-                )  # fmt: skip
+                )
             meta = ServedMeta.from_json(props[META_KEY], str(onnx_path))
         self.meta = meta
         self.scaler: MinMaxScaler = scaler_from_dict(meta.scaler, str(onnx_path))
@@ -170,19 +182,27 @@ class ServedModel:
         x = np.ascontiguousarray(x, dtype=np.float32)
         if x.ndim != 3 or x.shape[1:] != (self.meta.seq_len, self.meta.n_features):
             raise InputError(
-                [Problem(str(self.path), None, "x",
-                         f"windows of shape (n, {self.meta.seq_len}, {self.meta.n_features})",
-                         f"shape {x.shape}")],
+                [
+                    Problem(
+                        str(self.path),
+                        None,
+                        "x",
+                        f"windows of shape (n, {self.meta.seq_len}, {self.meta.n_features})",
+                        f"shape {x.shape}",
+                    )
+                ],
                 "inputs do not fit the model",
-            )  # fmt: skip
+            )
         if len(x) == 0:
             return np.zeros(0, dtype=np.float32)
         return self.session.run(None, {self._input: x})[0]
 
     def predict_label(
-        self, x: np.ndarray, angle_rl_rad: np.ndarray | None = None,
+        self,
+        x: np.ndarray,
+        angle_rl_rad: np.ndarray | None = None,
         angle_rr_rad: np.ndarray | None = None,
-    ) -> np.ndarray:  # fmt: skip
+    ) -> np.ndarray:
         """The label prediction (GNSS − WPM with the source radii), float64 metres.
 
         Args:
@@ -199,11 +219,18 @@ class ServedModel:
             return pred
         if angle_rl_rad is None or angle_rr_rad is None:
             raise InputError(
-                [Problem(str(self.path), None, "angle_rl_rad / angle_rr_rad",
-                         "the rear wheel angles of every second (this model refitted the WPM's "
-                         f"radii to {self.meta.wpm_radii})", "none given")],
+                [
+                    Problem(
+                        str(self.path),
+                        None,
+                        "angle_rl_rad / angle_rr_rad",
+                        "the rear wheel angles of every second (this model refitted the WPM's "
+                        f"radii to {self.meta.wpm_radii})",
+                        "none given",
+                    )
+                ],
                 "inputs do not fit the model",
-            )  # fmt: skip
+            )
         return pred + self.radius_correction(angle_rl_rad, angle_rr_rad)
 
     def radius_correction(self, angle_rl_rad: np.ndarray, angle_rr_rad: np.ndarray) -> np.ndarray:
@@ -233,12 +260,19 @@ def onnx_file(path: Path) -> Path:
         else (f"a folder without {ONNX_FILE} (holds {sorted(p.name for p in path.iterdir())[:6]})")
     )
     raise InputError(
-        [Problem(str(path), None, None,
-                 f"an exported .onnx file, or a model folder holding {ONNX_FILE}", found,
-                 "export one with `rwhonet export --model ... --format onnx`, or give a "
-                 "registered model (models:/<name>/<version>)")],
+        [
+            Problem(
+                str(path),
+                None,
+                None,
+                f"an exported .onnx file, or a model folder holding {ONNX_FILE}",
+                found,
+                "export one with `rwhonet export --model ... --format onnx`, or give a "
+                "registered model (models:/<name>/<version>)",
+            )
+        ],
         f"no model at {path}",
-    )  # fmt: skip
+    )
 
 
 def load_served(path: Path | str, threads: int = 1) -> ServedModel:

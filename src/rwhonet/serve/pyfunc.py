@@ -52,10 +52,17 @@ class WhONetPyfunc(mlflow.pyfunc.PythonModel):
         missing = [c for c in k.FEATURE_COLUMNS if c not in frame.columns]
         if missing:
             raise InputError(
-                [Problem("model input", None, ", ".join(missing[:3]), "the 40 feature columns "
-                         "x_00 .. x_39 (scaled wheel speeds)", "missing")],
+                [
+                    Problem(
+                        "model input",
+                        None,
+                        ", ".join(missing[:3]),
+                        "the 40 feature columns x_00 .. x_39 (scaled wheel speeds)",
+                        "missing",
+                    )
+                ],
                 "inputs do not fit the model",
-            )  # fmt: skip
+            )
         x = frame[list(k.FEATURE_COLUMNS)].to_numpy(np.float32)[:, None, :]
         angles = [frame[c].to_numpy(np.float64) if c in frame.columns else None for c in ANGLES]
         return pd.DataFrame({OUTPUT: self.model.predict_label(x, *angles)})

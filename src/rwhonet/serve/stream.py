@@ -44,10 +44,21 @@ from rwhonet.serve.model import ServedModel
 
 SPAN_TOLERANCE_S = 0.5  # ten rows span 1 s +/- this (rwhonet.features.seconds.SPAN_TOLERANCE_S)
 COLUMNS = (
-    "t_s", "elapsed_s", "disp_wpm_m", "pred_error_m", "disp_corrected_m", "disp_gnss_m",
-    "outage", "dist_wpm_m", "dist_corrected_m", "dist_gnss_m", "err_wpm_m", "err_corrected_m",
-    "crse_wpm_m", "crse_corrected_m",
-)  # fmt: skip
+    "t_s",
+    "elapsed_s",
+    "disp_wpm_m",
+    "pred_error_m",
+    "disp_corrected_m",
+    "disp_gnss_m",
+    "outage",
+    "dist_wpm_m",
+    "dist_corrected_m",
+    "dist_gnss_m",
+    "err_wpm_m",
+    "err_corrected_m",
+    "crse_wpm_m",
+    "crse_corrected_m",
+)
 OUTAGE_COLUMNS = COLUMNS[7:]
 
 
@@ -76,10 +87,18 @@ def parse_outage(text: str) -> Outage:
         outage = None
     if outage is None or not (0 <= outage.start_s < outage.end_s) or math.isinf(outage.end_s):
         raise InputError(
-            [Problem("--outage", None, None, "START:END in seconds since the drive's first row, "
-                     "0 <= START < END (e.g. 300:480)", repr(text))],
+            [
+                Problem(
+                    "--outage",
+                    None,
+                    None,
+                    "START:END in seconds since the drive's first row, "
+                    "0 <= START < END (e.g. 300:480)",
+                    repr(text),
+                )
+            ],
             "bad --outage",
-        )  # fmt: skip
+        )
     return outage
 
 
@@ -127,8 +146,10 @@ class SecondStream:
         spans = sorted((o.start_s, o.end_s) for o in self.outages)
         for (_, end), (start, _) in zip(spans, spans[1:], strict=False):
             if start < end:
-                raise InputError([Problem("--outage", None, None, "outages that do not overlap",
-                                          f"{spans}")], "bad --outage")  # fmt: skip
+                raise InputError(
+                    [Problem("--outage", None, None, "outages that do not overlap", f"{spans}")],
+                    "bad --outage",
+                )
         self.totals = {o.label: _Totals() for o in self.outages}
 
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -176,14 +197,28 @@ class SecondStream:
         t = columns[c.T_S]
         for name in (c.T_S, *c.WHEELS):
             bad = np.flatnonzero(~np.isfinite(columns[name]))
-            problems += [Problem(self.file, first_row + int(i), self.names.get(name, name),
-                                 "a number (time and wheel speeds cannot be missing)",
-                                 repr(columns[name][i])) for i in bad[:5]]  # fmt: skip
+            problems += [
+                Problem(
+                    self.file,
+                    first_row + int(i),
+                    self.names.get(name, name),
+                    "a number (time and wheel speeds cannot be missing)",
+                    repr(columns[name][i]),
+                )
+                for i in bad[:5]
+            ]
         before = self._rows[c.T_S][-1:] if self._rows is not None else np.zeros(0)
         back = np.flatnonzero(np.diff(np.concatenate([before, t])) <= 0)
-        problems += [Problem(self.file, first_row + int(i) - len(before) + 1,
-                             self.names.get(c.T_S, c.T_S), "a time after the previous row's",
-                             f"{t[i - len(before) + 1]!r}") for i in back[:5]]  # fmt: skip
+        problems += [
+            Problem(
+                self.file,
+                first_row + int(i) - len(before) + 1,
+                self.names.get(c.T_S, c.T_S),
+                "a time after the previous row's",
+                f"{t[i - len(before) + 1]!r}",
+            )
+            for i in back[:5]
+        ]
         if problems:
             raise InputError(problems, f"{self.file}: rows that cannot be cut into seconds")
 
@@ -197,11 +232,17 @@ class SecondStream:
         if len(off):
             k = int(off[0])
             raise InputError(
-                [Problem(self.file, self._row0 + k * ROWS_PER_SECOND, self.names.get(c.T_S, c.T_S),
-                         f"{ROWS_PER_SECOND} rows spanning 1 +/- {SPAN_TOLERANCE_S} s (10 Hz data)",
-                         f"{spans[k]:.3f} s")],
+                [
+                    Problem(
+                        self.file,
+                        self._row0 + k * ROWS_PER_SECOND,
+                        self.names.get(c.T_S, c.T_S),
+                        f"{ROWS_PER_SECOND} rows spanning 1 +/- {SPAN_TOLERANCE_S} s (10 Hz data)",
+                        f"{spans[k]:.3f} s",
+                    )
+                ],
                 f"{self.file} cannot be cut into 10 Hz seconds",
-            )  # fmt: skip
+            )
         meta, model = self.model.meta, self.model
         angles = [
             wheel_angle_rad(integrate_per_second(t, rows[w]), end_of_second(rows[w]), meta.wpm_mode)
@@ -229,9 +270,13 @@ class SecondStream:
             gnss = gnss_displacement_m(rows[c.LAT_DEG], rows[c.LON_DEG])
         t_end = end_of_second(t)
         out = {
-            "t_s": t_end, "elapsed_s": t_end - self._t0, "disp_wpm_m": disp_wpm,
-            "pred_error_m": pred, "disp_corrected_m": disp_wpm + pred, "disp_gnss_m": gnss,
-        }  # fmt: skip
+            "t_s": t_end,
+            "elapsed_s": t_end - self._t0,
+            "disp_wpm_m": disp_wpm,
+            "pred_error_m": pred,
+            "disp_corrected_m": disp_wpm + pred,
+            "disp_gnss_m": gnss,
+        }
         out.update(self._outage_columns(out))
         return out
 
@@ -244,8 +289,9 @@ class SecondStream:
             if not len(rows):
                 continue
             tot = self.totals[o.label]
-            wpm, corr, gnss = (sec[k][rows] for k in ("disp_wpm_m", "disp_corrected_m",
-                                                       "disp_gnss_m"))  # fmt: skip
+            wpm, corr, gnss = (
+                sec[k][rows] for k in ("disp_wpm_m", "disp_corrected_m", "disp_gnss_m")
+            )
             has = np.isfinite(gnss)
             g = np.where(has, gnss, 0.0)
             e_wpm, e_corr = np.where(has, wpm - g, 0.0), np.where(has, corr - g, 0.0)
@@ -263,7 +309,8 @@ class SecondStream:
             for name, values in cum.items():
                 # distances and errors against GNSS only where GNSS has been there throughout
                 keep = (gnss_so_far == tot.n + np.arange(1, len(rows) + 1)) | (
-                    name in ("dist_wpm_m", "dist_corrected_m"))  # fmt: skip
+                    name in ("dist_wpm_m", "dist_corrected_m")
+                )
                 out[name][rows] = np.where(keep, values, np.nan)
             tot.n += len(rows)
             tot.gnss_s = int(gnss_so_far[-1])
@@ -274,8 +321,10 @@ class SecondStream:
                 float(cum["err_wpm_m"][-1]),
                 float(cum["err_corrected_m"][-1]),
             )
-            tot.crse_wpm, tot.crse_corrected = float(cum["crse_wpm_m"][-1]), float(
-                cum["crse_corrected_m"][-1])  # fmt: skip
+            tot.crse_wpm, tot.crse_corrected = (
+                float(cum["crse_wpm_m"][-1]),
+                float(cum["crse_corrected_m"][-1]),
+            )
         return out
 
     def summary(self) -> list[dict[str, float | str]]:
@@ -283,14 +332,19 @@ class SecondStream:
         rows = []
         for label, tot in self.totals.items():
             full = tot.n > 0 and tot.gnss_s == tot.n
-            rows.append({
-                "outage": label, "seconds": tot.n, "dist_gnss_m": tot.gnss if full else math.nan,
-                "dist_wpm_m": tot.wpm, "dist_corrected_m": tot.corrected,
-                "crse_wpm_m": tot.crse_wpm if full else math.nan,
-                "cte_wpm_m": abs(tot.err_wpm) if full else math.nan,
-                "crse_corrected_m": tot.crse_corrected if full else math.nan,
-                "cte_corrected_m": abs(tot.err_corrected) if full else math.nan,
-            })  # fmt: skip
+            rows.append(
+                {
+                    "outage": label,
+                    "seconds": tot.n,
+                    "dist_gnss_m": tot.gnss if full else math.nan,
+                    "dist_wpm_m": tot.wpm,
+                    "dist_corrected_m": tot.corrected,
+                    "crse_wpm_m": tot.crse_wpm if full else math.nan,
+                    "cte_wpm_m": abs(tot.err_wpm) if full else math.nan,
+                    "crse_corrected_m": tot.crse_corrected if full else math.nan,
+                    "cte_corrected_m": abs(tot.err_corrected) if full else math.nan,
+                }
+            )
         return rows
 
 

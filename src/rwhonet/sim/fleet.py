@@ -80,8 +80,9 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
     started = time.perf_counter()
     rows = []
     with atomic_dir(Path(out_dir)) as tmp:
-        for i, spec in enumerate(track(drives, desc="simulate", unit="drive",
-                                       label=lambda spec: spec.name)):  # fmt: skip
+        for i, spec in enumerate(
+            track(drives, desc="simulate", unit="drive", label=lambda spec: spec.name)
+        ):
             seed = drive_seed(sim.seed, i)
             vehicle = vehicles[spec.vehicle].with_payload(spec.payload_kg, spec.payload_x_m)
             route = generate_route(spec, sim, vehicle, child_rng(seed, _RNG_ROUTE))

@@ -83,10 +83,13 @@ def adapt_data(samples: SampleSet, mask: np.ndarray):
 
     f = samples.frame[mask]
     return AdaptData(
-        samples.x[mask], samples.y[mask],
-        *(f[c].to_numpy(np.float64)
-          for c in (contracts.DISP_GNSS_M, contracts.ANGLE_RL_RAD, contracts.ANGLE_RR_RAD)),
-    )  # fmt: skip
+        samples.x[mask],
+        samples.y[mask],
+        *(
+            f[c].to_numpy(np.float64)
+            for c in (contracts.DISP_GNSS_M, contracts.ANGLE_RL_RAD, contracts.ANGLE_RR_RAD)
+        ),
+    )
 
 
 @dataclass(frozen=True)
@@ -113,14 +116,19 @@ def _run(task: Task) -> tuple[Task, np.ndarray, Any]:
     drive = samples.frame["drive"].to_numpy()
     first = (drive == task.drive) & (samples.frame["k"].to_numpy() < task.m)
     if task.penalty is not None:
-        result = ridge_head(_WORK["g"], _WORK["hparams"], adapt_data(samples, first),
-                            penalty=task.penalty)  # fmt: skip
+        result = ridge_head(
+            _WORK["g"], _WORK["hparams"], adapt_data(samples, first), penalty=task.penalty
+        )
     else:
         result = recalibrate(
-            task.recipe, _WORK["g"], _WORK["hparams"], adapt_data(samples, first),
-            adapt=params.adapt, seed=_WORK["seed"],
+            task.recipe,
+            _WORK["g"],
+            _WORK["hparams"],
+            adapt_data(samples, first),
+            adapt=params.adapt,
+            seed=_WORK["seed"],
             min_speed_m_s=params.label.calibration_min_speed_m_s,
-        )  # fmt: skip
+        )
     pred = label_prediction(result, adapt_data(samples, drive == task.drive), _WORK["radii"])
     result.info["n_adapt_samples"] = int(first.sum())
     keep = task.role == contracts.TARGET_TEST and task.penalty is None
@@ -139,8 +147,14 @@ def _pool_map(tasks: list[Task]) -> list[tuple[tuple[Task, np.ndarray, Any], tup
     workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(tasks), 1))
 
     def shown(results):
-        return list(track(results, desc=f"adapt@{_WORK.get('seed', '')}", unit="recalibration",
-                          total=len(tasks)))  # fmt: skip
+        return list(
+            track(
+                results,
+                desc=f"adapt@{_WORK.get('seed', '')}",
+                unit="recalibration",
+                total=len(tasks),
+            )
+        )
 
     if workers < 2:
         return shown(_timed(t) for t in tasks)
@@ -211,8 +225,14 @@ def adapt_grid(
         for d in samples[contracts.SOURCE_TEST].drives
     ]
     start = time.perf_counter()
-    _WORK.update(params=params, samples=samples, g=g_net, hparams=g_hparams, seed=seed,
-                 radii=(cal.r_rl_m, cal.r_rr_m))  # fmt: skip
+    _WORK.update(
+        params=params,
+        samples=samples,
+        g=g_net,
+        hparams=g_hparams,
+        seed=seed,
+        radii=(cal.r_rl_m, cal.r_rr_m),
+    )
     try:
         timed = _pool_map(tasks)
         done = [d for d, _ in timed]
@@ -234,13 +254,17 @@ def adapt_grid(
             for m in cfg.m_grid:
                 out = r_dir(tmp, recipe, m)
                 out.mkdir(parents=True)
-                mine = [(t, p, res) for t, p, res in done
-                        if (t.role, t.recipe, t.m, t.penalty) == (contracts.TARGET_TEST, recipe, m,
-                                                                 None)]  # fmt: skip
+                mine = [
+                    (t, p, res)
+                    for t, p, res in done
+                    if (t.role, t.recipe, t.m, t.penalty)
+                    == (contracts.TARGET_TEST, recipe, m, None)
+                ]
                 preds = []
                 for t, pred, result in mine:
-                    save_whonet(result.net, result.hparams, out / f"{t.drive}.pt",
-                                wpm_radii=result.radii)  # fmt: skip
+                    save_whonet(
+                        result.net, result.hparams, out / f"{t.drive}.pt", wpm_radii=result.radii
+                    )
                     preds.append(predictions_frame(test.take(test.frame["drive"] == t.drive), pred))
                 pd.concat(preds, ignore_index=True).to_parquet(
                     out / contracts.PREDICTIONS, index=False
@@ -282,8 +306,10 @@ def _write_selection(
 ) -> None:
     """The evidence: predictions on the target training drives and the source-drive ridge study."""
     folder.mkdir()
-    for role, file in ((contracts.TARGET_TRAIN, "target_train"), (contracts.SOURCE_TEST,
-                                                                  "ridge_source")):  # fmt: skip
+    for role, file in (
+        (contracts.TARGET_TRAIN, "target_train"),
+        (contracts.SOURCE_TEST, "ridge_source"),
+    ):
         s = samples[role]
         frame = s.frame[["drive", "segment", "t_s"]].copy()
         columns: dict[str, np.ndarray] = {}
@@ -291,8 +317,11 @@ def _write_selection(
         for t, pred, _ in done:
             if t.role != role:
                 continue
-            name = (f"ridge_head lambda={t.penalty:g}@{t.m}" if t.penalty is not None
-                    else recipe_model(t.recipe, t.m))  # fmt: skip
+            name = (
+                f"ridge_head lambda={t.penalty:g}@{t.m}"
+                if t.penalty is not None
+                else recipe_model(t.recipe, t.m)
+            )
             col = columns.setdefault(name, np.full(len(frame), np.nan))
             col[drive == t.drive] = pred
         if role in continuous:
@@ -327,7 +356,7 @@ def _record(
         metrics=metrics,
         # every model file; evaluate keeps them on R-WhONet's run only (the choice may be auto)
         artifacts=[paths.rel(r_dir(out_root, recipe, m) / f"{t.drive}.pt") for t, _, _ in mine],
-    )  # fmt: skip
+    )
 
 
 def _continuous(
@@ -351,19 +380,30 @@ def _continuous(
             if not len(mine):
                 continue
             pred = continuous_predictions(
-                g_net, g_hparams, adapt_data(samples, drive == d), rank[rows],
-                np.searchsorted(rows, mine), inner=cfg.inner, penalty=params.adapt.ridge_penalty,
-                window_s=cfg.window_s, min_speed_m_s=params.label.calibration_min_speed_m_s,
+                g_net,
+                g_hparams,
+                adapt_data(samples, drive == d),
+                rank[rows],
+                np.searchsorted(rows, mine),
+                inner=cfg.inner,
+                penalty=params.adapt.ridge_penalty,
+                window_s=cfg.window_s,
+                min_speed_m_s=params.label.calibration_min_speed_m_s,
                 source_radii=source_radii,
-            )  # fmt: skip
+            )
             col[mine.ravel()] = pred.ravel()
         columns[L] = col
     return columns
 
 
 def _tags(seed: int, recipe: str, m: int | None) -> dict[str, str]:
-    tags = {"model": "R", "recipe": recipe, "vehicle": "target", "seed": str(seed),
-            "dvc_stage": f"adapt@{seed}"}  # fmt: skip
+    tags = {
+        "model": "R",
+        "recipe": recipe,
+        "vehicle": "target",
+        "seed": str(seed),
+        "dvc_stage": f"adapt@{seed}",
+    }
     if m is not None:
         tags["m"] = str(m)
     return tags

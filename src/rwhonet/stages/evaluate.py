@@ -98,17 +98,25 @@ def model_names(params: Params) -> list[str]:
     """Every model and control the evaluation reports, in table order."""
     alt, _ = alt_wpm(params.label.wpm_mode)
     return [
-        "WPM", alt, "G", "S", *aliases(params), *recipe_models(params),
+        "WPM",
+        alt,
+        "G",
+        "S",
+        *aliases(params),
+        *recipe_models(params),
         *(f"WPM-m@{m}" for m in params.adapt.m_grid),
-    ]  # fmt: skip
+    ]
 
 
 def pairs(params: Params) -> list[tuple[str, str]]:
     """The paired differences reported (first minus second, per seed)."""
     chosen = params.adapt.chosen_m
     out = [("R", "G"), ("R", "S"), ("R", f"WPM-m@{chosen}")]
-    out += [("R", recipe_model(r, chosen)) for r in params.adapt.recipes
-            if recipe_model(r, chosen) != aliases(params)["R"]]  # fmt: skip
+    out += [
+        ("R", recipe_model(r, chosen))
+        for r in params.adapt.recipes
+        if recipe_model(r, chosen) != aliases(params)["R"]
+    ]
     return out
 
 
@@ -185,10 +193,17 @@ def collect_predictions(
                 missing = int(np.isnan(values[needed]).sum())
                 if missing:
                     raise InputError(
-                        [Problem(paths.rel(f), None, col, "a prediction for every test second",
-                                 f"{missing} missing")],
+                        [
+                            Problem(
+                                paths.rel(f),
+                                None,
+                                col,
+                                "a prediction for every test second",
+                                f"{missing} missing",
+                            )
+                        ],
                         "predictions are stale: re-run the model stages (dvc repro)",
-                    )  # fmt: skip
+                    )
             preds[seed][name] = values
     return frame, preds
 
@@ -255,8 +270,9 @@ def model_errors(
     }
     for model in recipe_models(params):
         if model == recipe_model(CONTINUOUS, None):
-            errors[model] = {L: label - pred[f"{model}/{L}s"].to_numpy()
-                             for L in params.evaluate.outages_s}  # fmt: skip
+            errors[model] = {
+                L: label - pred[f"{model}/{L}s"].to_numpy() for L in params.evaluate.outages_s
+            }
         else:
             errors[model] = label - pred[model].to_numpy()
     for m in params.adapt.m_grid:
@@ -293,23 +309,35 @@ def evaluated_seconds(frame: pd.DataFrame, params: Params) -> np.ndarray:
     shortest, longest = min(params.evaluate.outages_s), max(params.evaluate.outages_s)
     left = pd.Series(evaluated).groupby(frame["drive"].to_numpy(), sort=False).sum()
     short = [
-        Problem(d, None, None, f"at least {shortest} s after the first {skip} s", f"{int(n)} s",
-                fix="drop the drive, or shorten adapt.m_grid / evaluate.outages_s")
+        Problem(
+            d,
+            None,
+            None,
+            f"at least {shortest} s after the first {skip} s",
+            f"{int(n)} s",
+            fix="drop the drive, or shorten adapt.m_grid / evaluate.outages_s",
+        )
         for d, n in left.items()
         if n < shortest
-    ]  # fmt: skip
+    ]
     if short:
         raise InputError(short, "test drives too short to evaluate the shortest outage")
     roles = frame["role"].to_numpy()
     target_max = left[pd.unique(frame["drive"].to_numpy()[roles == k.TARGET_TEST])].max()
     if not target_max >= longest:
         raise InputError(
-            [Problem("target test drives", None, None,
-                     f"one with at least {longest} s after the first {skip} s",
-                     f"the longest has {int(target_max) if target_max == target_max else 0} s",
-                     fix=f"drop {longest} from evaluate.outages_s, or add longer drives")],
+            [
+                Problem(
+                    "target test drives",
+                    None,
+                    None,
+                    f"one with at least {longest} s after the first {skip} s",
+                    f"the longest has {int(target_max) if target_max == target_max else 0} s",
+                    fix=f"drop {longest} from evaluate.outages_s, or add longer drives",
+                )
+            ],
             "no target test drive is long enough for the longest outage",
-        )  # fmt: skip
+        )
     return evaluated
 
 
@@ -341,8 +369,9 @@ def score_seed(
                 (r, d, w_drive == d) for r, d in dict.fromkeys(zip(w_role, w_drive, strict=True))
             ]
             for r, d, mask in cells:
-                rows.append({"role": r, "drive": d, "model": model, "outage_s": L,
-                             **_stats(windows[mask])})  # fmt: skip
+                rows.append(
+                    {"role": r, "drive": d, "model": model, "outage_s": L, **_stats(windows[mask])}
+                )
             target = w_role == k.TARGET_TEST
             timeline += [
                 {"model": model, "outage_s": L, "start_s": int(t), "crse": float(c)}
@@ -428,14 +457,18 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
     ].first()
     summary = summary.join(fixed, on=keys)
     scenarios = (
-        pd.concat(scen).groupby("tag", sort=False)
+        pd.concat(scen)
+        .groupby("tag", sort=False)
         .agg(n_seconds=("n_seconds", "first"), **{m: (m, "mean") for m in ("WPM", "R", "G", "S")})
-        .reset_index().sort_values("n_seconds", ascending=False, ignore_index=True)
-    )  # fmt: skip
+        .reset_index()
+        .sort_values("n_seconds", ascending=False, ignore_index=True)
+    )
     evolution = (
-        pd.concat(curves).groupby(["model", "outage_s", "second"], sort=False)[["crse_m", "cte_m"]]
-        .mean().reset_index()
-    )  # fmt: skip
+        pd.concat(curves)
+        .groupby(["model", "outage_s", "second"], sort=False)[["crse_m", "cte_m"]]
+        .mean()
+        .reset_index()
+    )
     position = over_seeds(pd.DataFrame(positions), ["model", "outage_s"], ["pos_mean", "pos_max"])
     n_2d = pd.DataFrame(positions).groupby(["model", "outage_s"], sort=False)["n_windows"].first()
     position = position.join(n_2d, on=["model", "outage_s"])
@@ -446,28 +479,41 @@ def evaluate(params: Params, frame: pd.DataFrame, preds: dict[int, pd.DataFrame]
     harm = no_harm(per_seed_df, params)
     over_time = crse_over_time(pd.DataFrame(timeline), params)
     per_second = pd.concat(
-        [frame.assign(evaluated=evaluated),
-         *(pred.add_suffix(f"__seed{seed}") for seed, pred in preds.items()),
-         pd.DataFrame({f"disp_wpm_m{m}_m": d for m, d in wpm_m.items()}, index=frame.index)],
+        [
+            frame.assign(evaluated=evaluated),
+            *(pred.add_suffix(f"__seed{seed}") for seed, pred in preds.items()),
+            pd.DataFrame({f"disp_wpm_m{m}_m": d for m, d in wpm_m.items()}, index=frame.index),
+        ],
         axis=1,
-    )  # fmt: skip
+    )
     result = Evaluation(
-        per_seed_df, summary, differences, gains, harm, over_time, scenarios, refits,
-        per_second, evolution, eval_json(summary, differences, gains, harm, refits, params),
+        per_seed_df,
+        summary,
+        differences,
+        gains,
+        harm,
+        over_time,
+        scenarios,
+        refits,
+        per_second,
+        evolution,
+        eval_json(summary, differences, gains, harm, refits, params),
         position=position,
-    )  # fmt: skip
+    )
     alias = aliases(params)["R"]
     result.eval_json["position"] = {
         "R" if m == alias else m: {
-            f"{int(r.outage_s)}s": {"pos_mean": round(r.pos_mean, 4),
-                                    "pos_mean_ci95": round(r.pos_mean_ci95, 4),
-                                    "pos_max": round(r.pos_max, 4),
-                                    "n_windows": int(r.n_windows),
-                                    "n_windows_all": int(r.n_windows_all)}
+            f"{int(r.outage_s)}s": {
+                "pos_mean": round(r.pos_mean, 4),
+                "pos_mean_ci95": round(r.pos_mean_ci95, 4),
+                "pos_max": round(r.pos_max, 4),
+                "n_windows": int(r.n_windows),
+                "n_windows_all": int(r.n_windows_all),
+            }
             for r in g.itertuples()
         }
         for m, g in position.groupby("model", sort=False)
-    }  # fmt: skip
+    }
     return result
 
 
@@ -481,15 +527,18 @@ def paired(per_seed: pd.DataFrame, params: Params) -> tuple[pd.DataFrame, pd.Dat
     diff_rows, gain_rows = [], []
     chosen = params.adapt.chosen_m
     gain_models = ["G", "S", "R", f"WPM-m@{chosen}"] + [
-        recipe_model(r, chosen) for r in params.adapt.recipes
+        recipe_model(r, chosen)
+        for r in params.adapt.recipes
         if recipe_model(r, chosen) != aliases(params)["R"]
-    ]  # fmt: skip
+    ]
     for L in params.evaluate.outages_s:
         for a, b in pairs(params):
             row: dict[str, Any] = {"pair": f"{a} - {b}", "outage_s": L}
             for metric in ("crse", "cte"):
-                d = [table.loc[(a, L, s), f"{metric}_mean"] - table.loc[(b, L, s), f"{metric}_mean"]
-                     for s in params.seeds]  # fmt: skip
+                d = [
+                    table.loc[(a, L, s), f"{metric}_mean"] - table.loc[(b, L, s), f"{metric}_mean"]
+                    for s in params.seeds
+                ]
                 row[f"{metric}_mean"], row[f"{metric}_ci95"] = mean_ci95(d)
             base = float(np.mean([table.loc[(b, L, s), "crse_mean"] for s in params.seeds]))
             row["crse_rel"] = row["crse_mean"] / base if base > 0 else math.nan
@@ -497,13 +546,22 @@ def paired(per_seed: pd.DataFrame, params: Params) -> tuple[pd.DataFrame, pd.Dat
         for baseline in ("WPM", alt_wpm(params.label.wpm_mode)[0]):
             for model in gain_models:
                 g = [
-                    _gain(table.loc[(model, L, s), "crse_mean"],
-                          table.loc[(baseline, L, s), "crse_mean"])
+                    _gain(
+                        table.loc[(model, L, s), "crse_mean"],
+                        table.loc[(baseline, L, s), "crse_mean"],
+                    )
                     for s in params.seeds
-                ]  # fmt: skip
+                ]
                 mean, ci = mean_ci95(g)
-                gain_rows.append({"model": model, "baseline": baseline, "outage_s": L,
-                                  "gain": mean, "gain_ci95": ci})  # fmt: skip
+                gain_rows.append(
+                    {
+                        "model": model,
+                        "baseline": baseline,
+                        "outage_s": L,
+                        "gain": mean,
+                        "gain_ci95": ci,
+                    }
+                )
     return pd.DataFrame(diff_rows), pd.DataFrame(gain_rows)
 
 
@@ -524,13 +582,17 @@ def no_harm(per_seed: pd.DataFrame, params: Params) -> pd.DataFrame:
             g = table.loc["G", L].reindex(r.index)
             rel = (r / g - 1.0).to_numpy()
             worse = rel > 0
-            rows.append({
-                "model": model, "outage_s": L, "pairs": len(rel),
-                "share_worse": float(worse.mean()),
-                "mean_excess": float(rel[worse].mean()) if worse.any() else 0.0,
-                "max_excess": float(rel.max()),
-                "worse_on_average": bool(r.mean() > g.mean()),
-            })  # fmt: skip
+            rows.append(
+                {
+                    "model": model,
+                    "outage_s": L,
+                    "pairs": len(rel),
+                    "share_worse": float(worse.mean()),
+                    "mean_excess": float(rel[worse].mean()) if worse.any() else 0.0,
+                    "max_excess": float(rel.max()),
+                    "worse_on_average": bool(r.mean() > g.mean()),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -547,9 +609,11 @@ def crse_over_time(timeline: pd.DataFrame, params: Params) -> pd.DataFrame:
     t = timeline[timeline["model"].isin(models)].copy()
     edges = np.asarray(TIME_BINS_S, dtype=np.float64)
     t["bin"] = np.searchsorted(edges, t["start_s"].to_numpy(), side="right") - 1
-    per_seed = t.groupby(["model", "outage_s", "bin", "seed"], sort=False).agg(
-        crse=("crse", "mean"), n_windows=("crse", "size")
-    ).reset_index()  # fmt: skip
+    per_seed = (
+        t.groupby(["model", "outage_s", "bin", "seed"], sort=False)
+        .agg(crse=("crse", "mean"), n_windows=("crse", "size"))
+        .reset_index()
+    )
     out = over_seeds(per_seed, ["model", "outage_s", "bin"], ["crse"])
     n = per_seed.groupby(["model", "outage_s", "bin"], sort=False)["n_windows"].first()
     out = out.join(n, on=["model", "outage_s", "bin"])
@@ -574,9 +638,11 @@ def _cells(rows: pd.DataFrame, full: bool) -> dict:
     out: dict = {}
     for r in rows.itertuples():
         cell = {
-            "crse_mean": _num(r.crse_mean), "crse_ci95": _num(r.crse_mean_ci95),
-            "cte_mean": _num(r.cte_mean), "cte_ci95": _num(r.cte_mean_ci95),
-        }  # fmt: skip
+            "crse_mean": _num(r.crse_mean),
+            "crse_ci95": _num(r.crse_mean_ci95),
+            "cte_mean": _num(r.cte_mean),
+            "cte_ci95": _num(r.cte_mean_ci95),
+        }
         if full:
             cell["n_windows"] = int(r.n_windows)
         out.setdefault(r.model, {})[f"{r.outage_s}s"] = cell
@@ -596,10 +662,16 @@ def eval_json(
     target = summary[summary["role"] == k.TARGET_TEST]
     overall = target[target["drive"] == "all"]
     # per drive: the headline models, and the paper recipe at every m (the paper's Table 2)
-    headline = {"WPM", alt_wpm(params.label.wpm_mode)[0], "G", "S", "R", f"WPM-m@{chosen}",
-                *(recipe_model(r, chosen) for r in params.adapt.recipes),
-                *(recipe_model(PAPER, m) for m in params.adapt.m_grid
-                  if PAPER in params.adapt.recipes)}  # fmt: skip
+    headline = {
+        "WPM",
+        alt_wpm(params.label.wpm_mode)[0],
+        "G",
+        "S",
+        "R",
+        f"WPM-m@{chosen}",
+        *(recipe_model(r, chosen) for r in params.adapt.recipes),
+        *(recipe_model(PAPER, m) for m in params.adapt.m_grid if PAPER in params.adapt.recipes),
+    }
     per_drive = target[(target["drive"] != "all") & target["model"].isin(headline)]
     gap = summary[(summary["drive"] == "all") & summary["model"].isin(["WPM", "G"])]
     return {
@@ -622,13 +694,13 @@ def eval_json(
                 "cte_mean": _num(r.cte_mean),
                 "cte_ci95": _num(r.cte_ci95),
             },
-        ),  # fmt: skip
+        ),
         "gains": {
             model: _nest(
                 g, "baseline", lambda r: {"gain": _num(r.gain), "gain_ci95": _num(r.gain_ci95)}
             )
             for model, g in gains.groupby("model", sort=False)
-        },  # fmt: skip
+        },
         "domain_gap": {
             model: {role: _cells(rows, True)[model] for role, rows in g.groupby("role", sort=False)}
             for model, g in gap.groupby("model", sort=False)
@@ -695,8 +767,11 @@ def write_outputs(
 def m_grid_plot(summary: pd.DataFrame, params: Params) -> pd.DataFrame:
     """Mean CRSE of the longest outage against m: every recipe and WPM-m; G, S, WPM flat."""
     L = max(params.evaluate.outages_s)
-    rows = summary[(summary["role"] == k.TARGET_TEST) & (summary["drive"] == "all")
-                   & (summary["outage_s"] == L)].set_index("model")["crse_mean"]  # fmt: skip
+    rows = summary[
+        (summary["role"] == k.TARGET_TEST)
+        & (summary["drive"] == "all")
+        & (summary["outage_s"] == L)
+    ].set_index("model")["crse_mean"]
     grid = params.adapt.m_grid
     lines = {r: [rows[recipe_model(r, m)] for m in grid] for r in params.adapt.recipes}
     lines["WPM-m"] = [rows[f"WPM-m@{m}"] for m in grid]
@@ -706,8 +781,11 @@ def m_grid_plot(summary: pd.DataFrame, params: Params) -> pd.DataFrame:
 def stat_metrics(summary: pd.DataFrame, model: str, drive: str = "all") -> dict[str, float]:
     """MLflow metrics of one model on the target test drives: ``crse/30s/mean`` ..."""
     out = {}
-    rows = summary[(summary["model"] == model) & (summary["drive"] == drive)
-                   & (summary["role"] == k.TARGET_TEST)]  # fmt: skip
+    rows = summary[
+        (summary["model"] == model)
+        & (summary["drive"] == drive)
+        & (summary["role"] == k.TARGET_TEST)
+    ]
     for r in rows.itertuples():
         for metric in ("crse", "cte"):
             for s in STAT_KEYS:
@@ -744,8 +822,12 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
             rec.tags["rwhonet.timing"] = "measured" if rec.timing else "not recorded"
             rec.metrics.update(stat_metrics(mine, model))
             if model.startswith("R"):
-                drives = mine.loc[(mine["model"] == model) & (mine["drive"] != "all")
-                                  & (mine["role"] == k.TARGET_TEST), "drive"].unique()  # fmt: skip
+                drives = mine.loc[
+                    (mine["model"] == model)
+                    & (mine["drive"] != "all")
+                    & (mine["role"] == k.TARGET_TEST),
+                    "drive",
+                ].unique()
                 for d in drives:
                     rec.metrics.update(
                         {f"drive/{d}/{key}": v for key, v in stat_metrics(mine, model, d).items()}
@@ -760,9 +842,13 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
         recipe_model(r, params.adapt.chosen_m) for r in params.adapt.recipes
     ]
     for model in headline:
-        tags = {"model": model.split("[")[0].split("@")[0], "aggregate": "seeds",
-                "n_seeds": str(len(params.seeds)), "vehicle": "target",
-                "dvc_stage": "evaluate"}  # fmt: skip
+        tags = {
+            "model": model.split("[")[0].split("@")[0],
+            "aggregate": "seeds",
+            "n_seeds": str(len(params.seeds)),
+            "vehicle": "target",
+            "dvc_stage": "evaluate",
+        }
         if "[" in model:
             tags["recipe"] = model.split("[")[1].split("]")[0]
         if "@" in model or model == "R":
@@ -889,9 +975,13 @@ def main(params: Params) -> None:
     )
     written = read_json(paths.EVAL_JSON)  # what the report shows: one source of truth
     experiment_id = log_comparison(
-        uri, run_id, rows=comparison_rows(written), note=comparison_markdown(written),
-        page=comparison_html(written), view_metrics=view_metrics(written),
-    )  # fmt: skip
+        uri,
+        run_id,
+        rows=comparison_rows(written),
+        note=comparison_markdown(written),
+        page=comparison_html(written),
+        view_metrics=view_metrics(written),
+    )
     print(
         f"Wrote {paths.rel(paths.EVAL_JSON)} and {paths.rel(paths.TABLES_MD)}; MLflow: experiment "
         f"'{params.tracking.experiment}', parent run {run_id} ({len(records)} child runs) in "
@@ -1028,7 +1118,7 @@ def recommend(scores: pd.DataFrame, params: Params) -> dict[str, Any]:
             "recipe": params.adapt.recipe,
             "chosen_m": params.adapt.chosen_m,
             "ridge_penalty": params.adapt.ridge_penalty,
-        },  # fmt: skip
+        },
     }
     if scores.empty:
         return out
@@ -1055,8 +1145,12 @@ def recommend(scores: pd.DataFrame, params: Params) -> dict[str, Any]:
             near = [c for c in candidates if c[2] <= best * (1 + SELECTION_TOLERANCE)]
             longest_m = max(params.adapt.m_grid)
             r, m, crse = min(near, key=lambda c: (longest_m if c[1] is None else c[1], c[2]))
-            out["recommended"] = {"recipe": r, "m": m, f"crse_{L}s": round(crse, 4),
-                                  f"best_crse_{L}s": round(best, 4)}  # fmt: skip
+            out["recommended"] = {
+                "recipe": r,
+                "m": m,
+                f"crse_{L}s": round(crse, 4),
+                f"best_crse_{L}s": round(best, 4),
+            }
     source = scores[(scores["role"] == k.SOURCE_TEST) & (scores["outage_s"] == L)]
     ridge = source[source["model"].str.startswith("ridge_head lambda=")]
     if len(ridge):

@@ -131,7 +131,7 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
                 *(entry[key] for key in MANIFEST_KEYS),
                 entry.get("n_seconds"),
                 entry.get("source_file") if isinstance(entry.get("source_file"), str) else None,
-            )  # fmt: skip
+            )
             for entry in entries
         ],
         calibration_drives=list(drives),

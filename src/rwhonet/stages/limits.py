@@ -42,8 +42,9 @@ from rwhonet.stages.outages import outage_windows
 LIMIT_COLUMNS = ("m", "first", "any", "whole", "radius_sd_pct", "n_blocks", "n_windows")
 
 
-def _crse(gnss: np.ndarray, a_rl: np.ndarray, a_rr: np.ndarray, windows: np.ndarray,
-          radii: np.ndarray) -> np.ndarray:  # fmt: skip
+def _crse(
+    gnss: np.ndarray, a_rl: np.ndarray, a_rr: np.ndarray, windows: np.ndarray, radii: np.ndarray
+) -> np.ndarray:
     """Mean window CRSE of the WPM for each row of ``radii`` ((B, 2) rear-left, rear-right)."""
     g, left, right = gnss[windows], a_rl[windows], a_rr[windows]  # (W, L)
     e = g[None] - 0.5 * (
@@ -87,17 +88,20 @@ def radius_limits(frame: pd.DataFrame, params: Params) -> pd.DataFrame:
         whole_crse = _crse(gnss, a_rl, a_rr, windows, np.array([whole]))[0] if whole else np.nan
         for m in grid:
             first = refit_radii(gnss[rank < m], a_rl[rank < m], a_rr[rank < m], v_min)
-            blocks = [refit_radii(gnss[b], a_rl[b], a_rr[b], v_min)
-                      for b in np.split(np.arange(len(drive)), range(m, len(drive), m))
-                      if len(b) == m]  # fmt: skip
+            blocks = [
+                refit_radii(gnss[b], a_rl[b], a_rr[b], v_min)
+                for b in np.split(np.arange(len(drive)), range(m, len(drive), m))
+                if len(b) == m
+            ]
             fitted = np.array([b for b in blocks if b is not None])
             a = acc[m]
             a["whole"] += w * whole_crse
             # no moving second in the first m s: the source calibration stays (as in WPM-m)
             a["first"] += w * (
-                _crse(gnss, a_rl, a_rr, windows, np.array([first]))[0] if first
+                _crse(gnss, a_rl, a_rr, windows, np.array([first]))[0]
+                if first
                 else np.abs(label[windows]).sum(axis=1).mean()
-            )  # fmt: skip
+            )
             a["any"] += w * _crse(gnss, a_rl, a_rr, windows, fitted).mean()
             mean_r = fitted.mean(axis=1)
             a["sd"].append(100 * mean_r.std(ddof=1) / mean_r.mean())
@@ -105,7 +109,16 @@ def radius_limits(frame: pd.DataFrame, params: Params) -> pd.DataFrame:
     if not n_windows:
         return pd.DataFrame(columns=list(LIMIT_COLUMNS))
     return pd.DataFrame(
-        [{"m": m, "first": a["first"] / n_windows, "any": a["any"] / n_windows,
-          "whole": a["whole"] / n_windows, "radius_sd_pct": float(np.median(a["sd"])),
-          "n_blocks": a["blocks"], "n_windows": n_windows} for m, a in acc.items()]
-    )  # fmt: skip
+        [
+            {
+                "m": m,
+                "first": a["first"] / n_windows,
+                "any": a["any"] / n_windows,
+                "whole": a["whole"] / n_windows,
+                "radius_sd_pct": float(np.median(a["sd"])),
+                "n_blocks": a["blocks"],
+                "n_windows": n_windows,
+            }
+            for m, a in acc.items()
+        ]
+    )

@@ -53,9 +53,13 @@ def window_tracks(frame: pd.DataFrame, params: Params, outage_s: int) -> dict[st
     # per window against GNSS, so the nominal radius and track only need to be close.
     vehicle = params.data.roles[k.TARGET_TEST].vehicle
     r = params.nominal_radius_m(vehicle)
-    yaw_all = wheel_yaw_rad(frame[k.ANGLE_RL_RAD].to_numpy(np.float64),
-                            frame[k.ANGLE_RR_RAD].to_numpy(np.float64), r, r,
-                            params.track_rear_m(vehicle))  # fmt: skip
+    yaw_all = wheel_yaw_rad(
+        frame[k.ANGLE_RL_RAD].to_numpy(np.float64),
+        frame[k.ANGLE_RR_RAD].to_numpy(np.float64),
+        r,
+        r,
+        params.track_rear_m(vehicle),
+    )
     # GNSS course per row, within each segment (the first row of a segment has none)
     course = np.full(len(frame), np.nan)
     starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
@@ -74,10 +78,15 @@ def window_tracks(frame: pd.DataFrame, params: Params, outage_s: int) -> dict[st
         if fit is None:
             continue
         e, n = offsets_m(lat[i0 - 1], lon[i0 - 1], lat[rows[-1]], lon[rows[-1]])
-        for key, value in (("rows", rows), ("azimuth0", fit.azimuth_end_rad),
-                           ("scale", fit.scale), ("bias", fit.bias_rad_per_m),
-                           ("load", fit.load_s2_m2),
-                           ("truth_e", float(e)), ("truth_n", float(n))):  # fmt: skip
+        for key, value in (
+            ("rows", rows),
+            ("azimuth0", fit.azimuth_end_rad),
+            ("scale", fit.scale),
+            ("bias", fit.bias_rad_per_m),
+            ("load", fit.load_s2_m2),
+            ("truth_e", float(e)),
+            ("truth_n", float(n)),
+        ):
             out[key].append(value)
     length = outage_s
     result = {key: np.asarray(v, np.float64) for key, v in out.items() if key != "rows"}
@@ -116,9 +125,22 @@ def position_errors(
             dist = gnss[rows] - err[rows]  # the model's distance each second
             end = np.empty(len(rows))
             for w in range(len(rows)):
-                e, n = dead_reckon(t["azimuth0"][w], dist[w], t["yaw"][w], t["scale"][w],
-                                   t["bias"][w], t["load"][w])  # fmt: skip
+                e, n = dead_reckon(
+                    t["azimuth0"][w],
+                    dist[w],
+                    t["yaw"][w],
+                    t["scale"][w],
+                    t["bias"][w],
+                    t["load"][w],
+                )
                 end[w] = np.hypot(e[-1] - t["truth_e"][w], n[-1] - t["truth_n"][w])
-            out.append({"model": model, "outage_s": L, "pos_mean": float(end.mean()),
-                        "pos_max": float(end.max()), "n_windows": len(rows)})  # fmt: skip
+            out.append(
+                {
+                    "model": model,
+                    "outage_s": L,
+                    "pos_mean": float(end.mean()),
+                    "pos_max": float(end.max()),
+                    "n_windows": len(rows),
+                }
+            )
     return out

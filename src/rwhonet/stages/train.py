@@ -63,8 +63,17 @@ def train_model(
     # Lightning draws its bar on stdout for a person at a terminal; logs get plain lines.
     bar = interactive(sys.stdout)
     epoch_log = [] if bar else [EpochLog(f"{name} seed {seed}", params.train.epochs)]
-    result = fit(train.x, train.y, val.x, val.y, model=params.model, train=params.train, seed=seed,
-                 callbacks=epoch_log, progress=bar)  # fmt: skip
+    result = fit(
+        train.x,
+        train.y,
+        val.x,
+        val.y,
+        model=params.model,
+        train=params.train,
+        seed=seed,
+        callbacks=epoch_log,
+        progress=bar,
+    )
     timing = Timing(started, now_ms())
     if result.global_rank != 0:
         return None

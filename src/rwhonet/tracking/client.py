@@ -173,13 +173,15 @@ def open_store(uri: str, experiment: str) -> tuple[Any, str]:
         if exp is not None:
             exp_id = exp.experiment_id
             if exp.tags.get(EXPERIMENT_KIND_TAG) != EXPERIMENT_KIND:
-                retrying(lambda: client.set_experiment_tag(exp_id, EXPERIMENT_KIND_TAG,
-                                                           EXPERIMENT_KIND))  # fmt: skip
+                retrying(
+                    lambda: client.set_experiment_tag(exp_id, EXPERIMENT_KIND_TAG, EXPERIMENT_KIND)
+                )
             return client, exp_id
         exp_id = retrying(
             lambda: client.create_experiment(
-                experiment, artifact_location=artifact_root(uri),
+                experiment,
+                artifact_location=artifact_root(uri),
                 tags={EXPERIMENT_KIND_TAG: EXPERIMENT_KIND},
             )
-        )  # fmt: skip
+        )
         return client, exp_id

@@ -173,13 +173,23 @@ def resolve_model(spec: str, tracking_uri: str, dest: Path | None = None) -> Pat
     except MlflowException as err:
         names = _registered_names(tracking_uri)
         raise InputError(
-            [Problem(spec, None, None, "a model in the MLflow registry",
-                     str(err.message if hasattr(err, "message") else err).split("\n")[0][:200],
-                     "registered models in " + tracking_uri + ": " + (", ".join(names) or "none")
-                     + " (the pipeline registers whonet-G, whonet-S and whonet-R-<vehicle>; "
-                     "run `make run` or `dvc repro` first)")],
+            [
+                Problem(
+                    spec,
+                    None,
+                    None,
+                    "a model in the MLflow registry",
+                    str(err.message if hasattr(err, "message") else err).split("\n")[0][:200],
+                    "registered models in "
+                    + tracking_uri
+                    + ": "
+                    + (", ".join(names) or "none")
+                    + " (the pipeline registers whonet-G, whonet-S and whonet-R-<vehicle>; "
+                    "run `make run` or `dvc repro` first)",
+                )
+            ],
             f"cannot resolve {spec}",
-        ) from None  # fmt: skip
+        ) from None
     return Path(local)
 
 
@@ -276,9 +286,14 @@ def register_execution(
     out = []
     for model, rec in picked.items():
         model_file = _model_files(rec)[0]
-        tags = {**common_tags, **{key: rec.tags[key] for key in
-                                  ("model", "vehicle", "seed", "recipe", "m", "chosen", "dvc_stage")
-                                  if key in rec.tags}}  # fmt: skip
+        tags = {
+            **common_tags,
+            **{
+                key: rec.tags[key]
+                for key in ("model", "vehicle", "seed", "recipe", "m", "chosen", "dvc_stage")
+                if key in rec.tags
+            },
+        }
         tags["source"] = "pipeline"
         tags["seed_note"] = f"the first training seed's model ({rec.tags.get('seed')})"
         if model == "R":
@@ -286,17 +301,32 @@ def register_execution(
             tags["base_model"] = registered_name("G")
         name = registered_name(model, rec.tags.get("vehicle"))
         meta = make_meta(
-            {}, scaler, calibration, str(rec.params.get("label.wpm_mode", "integrated")), None,
+            {},
+            scaler,
+            calibration,
+            str(rec.params.get("label.wpm_mode", "integrated")),
+            None,
             {"name": name, **{key: v for key, v in tags.items() if key != "seed_note"}},
-        )  # fmt: skip
+        )
         with tempfile.TemporaryDirectory(prefix="rwhonet-bundle-") as tmp:
             bundle = write_bundle(model_file, meta, Path(tmp))
             version = log_bundle(
-                client, run_of[id(rec)], name, bundle, input_example(example), tags,
+                client,
+                run_of[id(rec)],
+                name,
+                bundle,
+                input_example(example),
+                tags,
                 description=f"{rec.name}: {paths.rel(model_file)}",
-            )  # fmt: skip
-        out.append({"name": name, "version": version, "run_id": run_of[id(rec)],
-                    "model_file": paths.rel(model_file)})  # fmt: skip
+            )
+        out.append(
+            {
+                "name": name,
+                "version": version,
+                "run_id": run_of[id(rec)],
+                "model_file": paths.rel(model_file),
+            }
+        )
     return out
 
 
@@ -317,5 +347,10 @@ def _example_frame(samples_dir: Path) -> Any:
                 if len(frame):
                     return frame
     zeros = {c: np.full(EXAMPLE_ROWS, 0.5, np.float32) for c in k.FEATURE_COLUMNS}
-    return pd.DataFrame({**zeros, k.ANGLE_RL_RAD: np.full(EXAMPLE_ROWS, 30.0),
-                         k.ANGLE_RR_RAD: np.full(EXAMPLE_ROWS, 30.0)})  # fmt: skip
+    return pd.DataFrame(
+        {
+            **zeros,
+            k.ANGLE_RL_RAD: np.full(EXAMPLE_ROWS, 30.0),
+            k.ANGLE_RR_RAD: np.full(EXAMPLE_ROWS, 30.0),
+        }
+    )

@@ -92,9 +92,13 @@ def log_execution(
         # timed by its own logging.
         timing = record.timing
         run = retrying(
-            lambda: client.create_run(exp_id, run_name=record.name, tags=tags,
-                                      start_time=timing.start_ms if timing else None)
-        )  # fmt: skip
+            lambda: client.create_run(
+                exp_id,
+                run_name=record.name,
+                tags=tags,
+                start_time=timing.start_ms if timing else None,
+            )
+        )
         rid = run.info.run_id
         end_ms = timing.end_ms if timing else None
         try:
@@ -157,8 +161,10 @@ HEADLINE_VIEW = "rwhonet-headline"
 
 def runs_view_url(experiment_id: str, key: str = HEADLINE_VIEW, base: str = "") -> str:
     """The UI address of a shared runs view (``base``: ``http://127.0.0.1:5000``, or none)."""
-    return (f"{base}/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
-            f"&viewStateShareKey={key}")  # fmt: skip
+    return (
+        f"{base}/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
+        f"&viewStateShareKey={key}"
+    )
 
 
 def share_runs_view(
@@ -175,19 +181,34 @@ def share_runs_view(
     The value is the view state the UI's own "share" writes: search facets and the
     table's UI state, as JSON in an experiment tag.
     """
-    columns = ["attributes.`Duration`", *(f"metrics.`{m}`" for m in metrics),
-               *(f"tags.`{t}`" for t in tags)]  # fmt: skip
+    columns = [
+        "attributes.`Duration`",
+        *(f"metrics.`{m}`" for m in metrics),
+        *(f"tags.`{t}`" for t in tags),
+    ]
     state = {
-        "searchFilter": search_filter, "orderByKey": "attributes.start_time",
-        "orderByAsc": False, "startTime": "ALL", "lifecycleFilter": "Active",
-        "datasetsFilter": [], "modelVersionFilter": "All Runs",
-        "selectedColumns": columns, "columnOrder": columns, "columnWidths": {},
-        "runsHiddenMode": "SHOW_ALL", "viewMaximized": False, "runListHidden": False,
-        "isAccordionReordered": False, "useGroupedValuesInCharts": True,
-        "hideEmptyCharts": True, "groupBy": None, "groupsExpanded": {},
-    }  # fmt: skip
-    retrying(lambda: client.set_experiment_tag(experiment_id, SHARED_VIEW_TAG + key,
-                                               json.dumps(state)))  # fmt: skip
+        "searchFilter": search_filter,
+        "orderByKey": "attributes.start_time",
+        "orderByAsc": False,
+        "startTime": "ALL",
+        "lifecycleFilter": "Active",
+        "datasetsFilter": [],
+        "modelVersionFilter": "All Runs",
+        "selectedColumns": columns,
+        "columnOrder": columns,
+        "columnWidths": {},
+        "runsHiddenMode": "SHOW_ALL",
+        "viewMaximized": False,
+        "runListHidden": False,
+        "isAccordionReordered": False,
+        "useGroupedValuesInCharts": True,
+        "hideEmptyCharts": True,
+        "groupBy": None,
+        "groupsExpanded": {},
+    }
+    retrying(
+        lambda: client.set_experiment_tag(experiment_id, SHARED_VIEW_TAG + key, json.dumps(state))
+    )
 
 
 def log_comparison(
@@ -222,10 +243,21 @@ def log_comparison(
     experiment_id = client.get_run(run_id).info.experiment_id
     with warnings.catch_warnings():  # MLflow's own pandas 3 deprecation, nothing of ours
         warnings.filterwarnings("ignore", message=r".*select_dtypes.*")
-        retrying(lambda: client.log_table(run_id, data={k: [r[k] for r in rows] for k in rows[0]},
-                                          artifact_file="comparison/crse_cte.json"))  # fmt: skip
+        retrying(
+            lambda: client.log_table(
+                run_id,
+                data={k: [r[k] for r in rows] for k in rows[0]},
+                artifact_file="comparison/crse_cte.json",
+            )
+        )
     client.log_text(run_id, page, "comparison/crse_cte.html")
     retrying(lambda: client.set_tag(run_id, "mlflow.note.content", note))
-    share_runs_view(client, experiment_id, HEADLINE_VIEW, search_filter="tags.model = 'pipeline'",
-                    metrics=view_metrics, tags=("rwhonet.execution",))  # fmt: skip
+    share_runs_view(
+        client,
+        experiment_id,
+        HEADLINE_VIEW,
+        search_filter="tags.model = 'pipeline'",
+        metrics=view_metrics,
+        tags=("rwhonet.execution",),
+    )
     return experiment_id

@@ -72,8 +72,12 @@ def write_timing(folder: Path, timing: Timing, *, stage: str, root: Path | None 
     """
     out = timings_dir(root) / f"{fingerprint(folder)}.json"
     out.parent.mkdir(parents=True, exist_ok=True)
-    body = {"folder": paths.rel(folder), "stage": stage, "start_ms": timing.start_ms,
-            "end_ms": timing.end_ms}  # fmt: skip
+    body = {
+        "folder": paths.rel(folder),
+        "stage": stage,
+        "start_ms": timing.start_ms,
+        "end_ms": timing.end_ms,
+    }
     tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
     tmp.write_text(json.dumps(body, indent=1) + "\n", encoding="utf-8")
     tmp.replace(out)  # a reader never sees half a file

@@ -182,9 +182,13 @@ def _project(tmp_path: Path, case) -> Path:
 def _stage(root: Path, stage: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, str(REPO / "pipelines" / f"{stage}.py")],
-        cwd=REPO, env={**os.environ, "RWHONET_ROOT": str(root)},
-        capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
+        cwd=REPO,
+        env={**os.environ, "RWHONET_ROOT": str(root)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
 
 
 @pytest.mark.slow
