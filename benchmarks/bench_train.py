@@ -178,7 +178,7 @@ def main() -> None:
     import lightning  # noqa: F401  (import cost reported separately)
     import torch
 
-    from rwhonet.metrics.outage import summarise, window_metrics
+    from rwhonet.evaluation.scoring import summarise, window_metrics
     from rwhonet.models.loop import STEPS_PER_BLOCK
     from rwhonet.models.train import fit
 

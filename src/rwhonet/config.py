@@ -569,7 +569,7 @@ class ContinuousParams:
 
 
 Recipe = Literal["paper", "head", "ridge_head", "radius+G", "steps", "continuous"]
-AUTO = "auto"  # adapt.recipe / adapt.chosen_m: what the selection rule picks (stages.evaluate)
+AUTO = "auto"  # adapt.recipe / adapt.chosen_m: the selection rule picks (evaluation.selection)
 
 
 @dataclass(frozen=True)
@@ -640,6 +640,13 @@ class DeadReckoningParams:
 class EvaluateParams:
     outages_s: list[int]
     dead_reckoning: DeadReckoningParams
+    scenario_outage_s: int  # the outage over each tagged event (rwhonet.evaluation.scenarios)
+
+    def __post_init__(self) -> None:
+        if self.scenario_outage_s < 1:
+            raise ConfigError(
+                f"evaluate.scenario_outage_s must be at least 1 s, got {self.scenario_outage_s}"
+            )
 
 
 @dataclass(frozen=True)
@@ -819,21 +826,6 @@ def load_params(
         node[leaf] = value
     params = _build(Params, raw, "")
     return params if only is None else Guarded(params, "", tuple(only), reader)  # type: ignore[return-value]
-
-
-def with_adapt_choice(params: Params, recipe: str, m: int) -> Params:
-    """``params`` with R-WhONet's recipe and m fixed (what ``auto`` resolved to).
-
-    A guarded view stays guarded with the same declared keys.
-    """
-    guarded = isinstance(params, Guarded)
-    inner = params._obj if guarded else params  # type: ignore[union-attr]
-    new = dataclasses.replace(
-        inner, adapt=dataclasses.replace(inner.adapt, recipe=recipe, chosen_m=m)
-    )
-    if guarded:
-        return Guarded(new, params._prefix, params._allowed, params._reader)  # type: ignore[return-value,union-attr]
-    return new
 
 
 class Guarded:

@@ -12,6 +12,7 @@ import torch
 from rwhonet import contracts, paths
 from rwhonet.config import load_params
 from rwhonet.errors import InputError
+from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.wpm import wpm_displacement_m
 from rwhonet.io import write_json
 from rwhonet.models.adapt import label_prediction, recalibrate
@@ -19,7 +20,6 @@ from rwhonet.models.checkpoint import load_whonet, load_wpm_radii, save_whonet
 from rwhonet.models.loop import predict
 from rwhonet.models.whonet import WhONet
 from rwhonet.stages.adapt import adapt_data, adapt_grid
-from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.samples import load_role
 
 from .conftest import R_CAL_M

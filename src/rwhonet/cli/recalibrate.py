@@ -4,7 +4,7 @@ The drive goes through the pipeline's own data code (:mod:`rwhonet.cli.drive`).
 Its first ``m`` valid seconds recalibrate the base model by one of the adapt
 stage's recipes (:func:`rwhonet.models.adapt.recalibrate`, with ``adapt:`` from
 params.yaml); the rest of the drive is cut into the evaluation's outage windows
-(``evaluate.outages_s``, :func:`rwhonet.metrics.outage.window_metrics`) and
+(``evaluate.outages_s``, :func:`rwhonet.evaluation.scoring.window_metrics`) and
 scored for the WPM, the base model and the recalibrated one. The result is a
 model bundle registered as a new version of ``whonet-R-<vehicle>``, with the
 base model, m, recipe, seed and the drive's SHA-256 as version tags.
@@ -228,7 +228,7 @@ def run(
 
 def score(errors: dict[str, np.ndarray], scored: Any, outages_s: list[int]) -> list[dict]:
     """Mean CRSE and CTE per model and outage length over the scored seconds' windows."""
-    from rwhonet.metrics.outage import summarise, window_metrics
+    from rwhonet.evaluation.scoring import summarise, window_metrics
 
     disp = scored.frame[contracts.DISP_GNSS_M].to_numpy(np.float64)
     group = scored.frame["group"].to_numpy()

@@ -1,1 +1,11 @@
-"""Reports from the evaluation's one source of truth (metrics/eval.json): tables, CI gate."""
+"""Reports of an evaluation, from data only (never from the stage layer).
+
+- ``tables``: ``reports/tables.md``, rendered from the evaluation package's
+  typed result (:class:`rwhonet.evaluation.result.Evaluation`, whose
+  ``eval_json`` is ``metrics/eval.json``'s content);
+- ``comparison``: the headline rows, Markdown and HTML of an execution, read from
+  ``metrics/eval.json``;
+- ``compare``: ``metrics/eval.json`` next to the paper's Tables 2-10 (``paper``);
+- ``paper``: the paper's tables and claims, as data;
+- ``gate``: the CI regression gate, ``metrics/eval.json`` against a committed baseline.
+"""

@@ -1,23 +1,23 @@
 """``reports/tables.md``: the paper's Tables 2-10 and the controls, from the evaluation.
 
-Every number is a mean over training seeds; ``±`` gives the half-width of its
-95 % t interval (omitted with one seed, and 0 for the WPMs, which do not
-depend on the seed).
+Rendered from the typed result of the evaluation package
+(:class:`rwhonet.evaluation.result.Evaluation`, whose ``eval_json`` is
+``metrics/eval.json``'s content), never from a stage; R-WhONet is the result's
+:class:`~rwhonet.evaluation.selection.Choice`. Every number is a mean over
+training seeds; ``±`` gives the half-width of its 95 % t interval (omitted with
+one seed, and 0 for the WPMs, which do not depend on the seed).
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
 from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
-
-if TYPE_CHECKING:  # the stage module imports this one
-    from rwhonet.stages.evaluate import Evaluation
+from rwhonet.evaluation.result import Evaluation
 
 STATS = (("max", "Max"), ("min", "Min"), ("mean", "μ"), ("std", "σ"))
 
@@ -49,7 +49,7 @@ def overall_table(ev: Evaluation, params: Params, metric: str, models: list[str]
     rows = ev.summary[(ev.summary["role"] == k.TARGET_TEST) & (ev.summary["drive"] == "all")]
     rows = rows.set_index(["model", "outage_s"])
     lines = [
-        "| Outage | " + " | ".join(_head(models, params.adapt.chosen_m)) + " | Windows |",
+        "| Outage | " + " | ".join(_head(models, ev.choice.m)) + " | Windows |",
         "|---|" + "---:|" * (len(models) + 1),
     ]
     for L in params.evaluate.outages_s:
@@ -99,7 +99,7 @@ def gains_table(ev: Evaluation, params: Params) -> str:
                 + " %"
                 for b in baselines
             ]
-            name = _head([m], params.adapt.chosen_m)[0]
+            name = _head([m], ev.choice.m)[0]
             lines.append(f"| {f'{L} s' if i == 0 else ''} | {name} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
@@ -265,7 +265,7 @@ def outage_table(ev: Evaluation, params: Params, outage_s: int, metric: str) -> 
     label = {"crse": "CRSE (m)", "cte": "CTE (m)"}[metric]
     lines = [
         "| Drive | | "
-        + " | ".join(f"{h} {label}" for h in _head(models, params.adapt.chosen_m))
+        + " | ".join(f"{h} {label}" for h in _head(models, ev.choice.m))
         + " | Distance (m) | Windows |",
         "|---|---|" + "---:|" * (len(models) + 2),
     ]
@@ -305,6 +305,55 @@ def scenario_table(scenarios: pd.DataFrame, chosen_m: int) -> str:
     return "\n".join(lines)
 
 
+COUNT_HEAD = {
+    "events": "Events",
+    "scored_events": "Scored",
+    "windows": "Windows",
+    "longer_than_outage": "Longer than the outage",
+    "merged": "Merged",
+    "not_fully_covered": "Not fully covered",
+    "in_adaptation_seconds": "In the first max(m) s",
+    "segment_too_short": "Segment too short",
+    "split_by_gnss_gap": "Cut by a GNSS gap",
+}
+
+
+def scenario_outage_tables(ev: Evaluation) -> str | None:
+    """The scenario outages: how each tag's events were covered, then CRSE and CTE per model."""
+    counts = ev.scenario_counts
+    if counts is None or counts.empty:
+        return None
+    counts = counts.sort_values(["windows", "tag"], ascending=[False, True])
+    lines = [
+        "| Scenario | " + " | ".join(COUNT_HEAD.values()) + " |",
+        "|---|" + "---:|" * len(COUNT_HEAD),
+    ]
+    for c in counts.itertuples(index=False):
+        lines.append(f"| {c.tag} | " + " | ".join(str(getattr(c, x)) for x in COUNT_HEAD) + " |")
+    parts = ["\n".join(lines)]
+    scores = ev.scenario_outages
+    if len(scores):
+        models = list(dict.fromkeys(scores["model"]))
+        cells = scores.set_index(["tag", "model"])
+        windows = counts.set_index("tag")["windows"]
+        for metric, label in (("crse", "CRSE"), ("cte", "CTE")):
+            lines = [
+                "| Scenario | Windows | " + " | ".join(_head(models, ev.choice.m)) + " |",
+                "|---|---:|" + "---:|" * len(models),
+            ]
+            for tag in dict.fromkeys(scores["tag"]):
+                row = []
+                for m in models:
+                    r = cells.loc[(tag, m)]
+                    text = _fmt(r[metric], r[f"{metric}_ci95"])
+                    if int(r["n_windows"]) < windows[tag]:
+                        text += f" ({int(r['n_windows'])} of {windows[tag]})"
+                    row.append(text)
+                lines.append(f"| {tag} | {windows[tag]} | {' | '.join(row)} |")
+            parts.append(f"Mean {label} (m) over a tag's windows:\n\n" + "\n".join(lines))
+    return "\n\n".join(parts)
+
+
 def _calibration(params: Params) -> str:
     cal = params.evaluate.dead_reckoning.calibration_s
     return "the whole drive segment" if cal == 0 else f"the {cal} s"
@@ -316,9 +365,7 @@ def position_table(ev: Evaluation, params: Params) -> str | None:
     if pos is None or pos.empty:
         return None
     outages = sorted(pos["outage_s"].unique())
-    alias = f"R[{params.adapt.recipe}]" + (
-        "" if params.adapt.recipe == CONTINUOUS else f"@{params.adapt.chosen_m}"
-    )
+    alias = ev.choice.model
     models = list(dict.fromkeys(pos["model"]))
     cells = pos.set_index(["model", "outage_s"])
     lines = [
@@ -386,7 +433,7 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
     sel = ev.selection
     if sel.empty:
         return None
-    rec = ev.eval_json.get("selection", {})
+    rec = ev.choice.as_selection()
     outages = sorted({min(params.evaluate.outages_s), max(params.evaluate.outages_s)})
     parts = []
     train = sel[sel["role"] == k.TARGET_TRAIN].set_index(["model", "outage_s"])
@@ -471,10 +518,10 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
 
 def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
     """The whole ``reports/tables.md``."""
-    chosen, grid = params.adapt.chosen_m, params.adapt.m_grid
+    chosen, grid = ev.choice.m, params.adapt.m_grid
     longest = max(params.evaluate.outages_s)
     headline = ["WPM", alt_wpm(params.label.wpm_mode)[0], "G", "S", "R", f"WPM-m@{chosen}"]
-    if "radius+G" in params.adapt.recipes and params.adapt.recipe != "radius+G":
+    if "radius+G" in params.adapt.recipes and ev.choice.recipe != "radius+G":
         headline.append(recipe_model("radius+G", chosen))
     parts = [
         "# R-WhONet evaluation",
@@ -483,8 +530,8 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         "",
         f"Every model is scored on the same seconds: those after the first {max(grid)} s (the "
         f"largest m) of each test drive, so no R-WhONet is scored on seconds it was adapted on. "
-        f"R-WhONet is recipe `{params.adapt.recipe}` at m = {chosen} s, "
-        f"{CHOSEN_BY.get(ev.eval_json.get('selection', {}).get('chosen_by'), CHOSEN_BY['params'])}"
+        f"R-WhONet is recipe `{ev.choice.recipe}` at m = {chosen} s, "
+        f"{CHOSEN_BY[ev.choice.chosen_by]}"
         ". CRSE = Σ|e| and CTE = |Σe| per "
         "outage window (paper Eqs. 16-17), e = label − prediction (a WPM alone: e = GNSS − "
         "WPM). WPM-m@m: the WPM with its rear radii refitted on each drive's first m s; "
@@ -520,7 +567,7 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         ]
     parts += [
         "",
-        f"## Table 2 — R-WhONet (recipe `{params.adapt.recipe}`) CRSE (m) for every m, "
+        f"## Table 2 — R-WhONet (recipe `{ev.choice.recipe}`) CRSE (m) for every m, "
         f"{longest} s outages",
         "",
         m_grid_table(ev, params, longest),
@@ -559,7 +606,7 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "window's end: mean over windows and seeds ± 95 % interval (largest window, mean "
             "over seeds). The heading is the same for every model; the first row dead-reckons "
             "the GNSS's own distances, so its error is the heading's alone "
-            "(rwhonet.stages.position).",
+            "(rwhonet.evaluation.position).",
             "",
             position,
         ]
@@ -576,7 +623,7 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "first − any: what the start of a drive costs (tyres still cold, pulling away); "
             "any − whole: what m seconds of GNSS cost (identifiability); whole: the floor of a "
             "radius, made of the label's own GNSS noise and what one radius cannot follow "
-            "(rwhonet.stages.limits).",
+            "(rwhonet.evaluation.limits).",
             "",
             limits,
         ]
@@ -609,6 +656,27 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "A second carries every tag of its rows (tags overlap). Sorted by seconds.",
             "",
             scenario_table(ev.scenarios, chosen),
+        ]
+    scenario_outages = scenario_outage_tables(ev)
+    if scenario_outages:
+        L = ev.scenario_outage_s
+        parts += [
+            "",
+            f"## Scenario outages — a {L} s GNSS outage over every tagged event of the target "
+            "test drives",
+            "",
+            "The paper's short-term complex scenarios (roundabouts, sharp cornering, hard "
+            f"braking, wet roads): per tagged event, {L} s outage windows centred on it, as many "
+            "as cover it, within the seconds every model is scored on (WhONet's scenario "
+            f"protocol: the authors' code scores each scenario recording in consecutive {L} s "
+            "outages). Events touching a drive's first max(m) s are left out (R-WhONet is "
+            "adapted there); events of one tag whose windows would overlap are merged; a GNSS "
+            "gap splits an event. CRSE and CTE per window, mean over a tag's windows, then over "
+            "seeds ± 95 % interval. R[continuous]: recalibrated before each window of the "
+            f"shortest outage ({min(params.evaluate.outages_s)} s), so a scenario window outside "
+            "those is not scored for it ('n of W'). Rules: rwhonet.evaluation.scenarios.",
+            "",
+            scenario_outages,
         ]
     n = 3
     for L in params.evaluate.outages_s:

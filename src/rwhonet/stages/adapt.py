@@ -43,10 +43,10 @@ from rwhonet import contracts, paths
 from rwhonet.config import Params
 from rwhonet.contracts import CONTINUOUS, recipe_model
 from rwhonet.errors import InputError, Problem
+from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.calibration import calibration_from_dict
 from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.progress import track
-from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
 from rwhonet.stages.samples import SampleSet, load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms

@@ -14,8 +14,8 @@ import pandas as pd
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from rwhonet.metrics.intervals import mean_ci95
-from rwhonet.metrics.outage import window_metrics
+from rwhonet.evaluation.intervals import mean_ci95
+from rwhonet.evaluation.scoring import window_metrics
 
 PROPERTY = settings(max_examples=40, deadline=None, database=None)
 error = st.floats(-20.0, 20.0, allow_nan=False)

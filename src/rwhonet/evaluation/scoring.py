@@ -1,10 +1,8 @@
-"""Position error over simulated GNSS outages: CRSE and CTE per window (paper §3.2, §3.5).
+"""Where a window is scored: CRSE and CTE per outage window, and their summaries (§3.2, §3.5).
 
-A test drive's per-second errors are cut into consecutive, non-overlapping
-windows of L seconds (an "outage" of L s, paper §3.5), never across a gap in
-the drive (``group``: one GNSS-valid segment), the trailing remainder of each
-group dropped. Per window, with ``e_t`` the per-second displacement error
-(label − prediction for a network, the label itself for WPM alone):
+The windows are :mod:`rwhonet.evaluation.windows`' (consecutive, non-overlapping,
+never across a GNSS gap). Per window, with ``e_t`` the per-second displacement
+error (label − prediction for a network, the label itself for WPM alone):
 
 - CRSE = Σ_t |e_t|  (Eq. 16: Σ sqrt(e_t²))
 - CTE  = |Σ_t e_t|  (Eq. 17 writes the signed sum; the authors' code and every
@@ -14,6 +12,8 @@ group dropped. Per window, with ``e_t`` the per-second displacement error
 Across windows: max, min, mean (Eq. 18) and population standard deviation
 (Eq. 19, divided by N_s: ddof = 0), the rows of the paper's Tables 3-10.
 Everything is vectorised over windows (one gather of shape (W, L)).
+:func:`score_seed` applies this to every model, outage length and drive of
+one training seed.
 """
 
 from __future__ import annotations
@@ -23,59 +23,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rwhonet import contracts as k
 from rwhonet.errors import InputError, Problem
+from rwhonet.evaluation.windows import MAX_PROBLEMS, window_starts
 
-MAX_PROBLEMS = 20
 STATS = ("max", "min", "mean", "std")
 QUANTITIES = ("crse_m", "cte_m", "distance_m")
+SEED_VALUES = [f"{q}_{s}" for q in ("crse", "cte") for s in STATS]  # a summary row's scores
+_SHORT = {"crse_m_": "crse_", "cte_m_": "cte_", "distance_m_": "dist_"}
+CURVE_MODELS = ("WPM", "G", "S", "R")  # the models whose CRSE/CTE evolution is plotted
 
-
-def window_starts(group: Any, outage_s: int) -> tuple[np.ndarray, np.ndarray]:
-    """Start indices of the non-overlapping ``outage_s``-second windows of every group.
-
-    Args:
-        group: (N,) group id per second (any dtype); each group must be one
-            contiguous run (samples sorted by group, then time).
-        outage_s: window length L in seconds (= samples, one per second).
-
-    Returns:
-        ``(start, run)``: (W,) index of each window's first sample, in input
-        order, and (W,) index of the run (0, 1, ... in order of appearance)
-        the window belongs to.
-
-    Raises:
-        ValueError: when ``outage_s`` is not a positive integer.
-        InputError: when a group id appears in more than one run.
-    """
-    if isinstance(outage_s, bool) or int(outage_s) != outage_s or outage_s < 1:
-        raise ValueError(f"outage_s must be a positive whole number of seconds, got {outage_s!r}")
-    L = int(outage_s)
-    g = np.asarray(group)
-    n = len(g)
-    if n == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    run_start = np.flatnonzero(np.r_[True, g[1:] != g[:-1]])
-    ids = g[run_start]
-    if len(pd.unique(ids)) != len(ids):
-        repeated = pd.Series(ids)[pd.Series(ids).duplicated()].unique()
-        problems = [
-            Problem(
-                "<group ids>",
-                int(run_start[np.flatnonzero(ids == gid)[1]]) + 1,
-                "group",
-                "each group's samples contiguous (sorted by group, then time)",
-                f"group {gid!r} starts again here",
-            )
-            for gid in repeated[:MAX_PROBLEMS]
-        ]
-        raise InputError(problems, "samples are not sorted by group")
-    run_len = np.diff(np.r_[run_start, n])
-    n_win = run_len // L  # the remainder of each group is dropped
-    run = np.repeat(np.arange(len(run_start)), n_win)
-    # k-th window of its run: position in the flat list minus the run's first window.
-    first = np.cumsum(n_win) - n_win
-    k = np.arange(n_win.sum()) - np.repeat(first, n_win)
-    return run_start[run] + L * k, run
+# Per model, its per-second error (label − prediction; NaN where it does not apply), or
+# for a model whose predictions depend on the window (R[continuous]) one per outage length.
+Errors = dict[str, "np.ndarray | dict[int, np.ndarray]"]
 
 
 def window_metrics(
@@ -195,3 +155,64 @@ def _check(
     if problems:
         raise InputError(problems, f"{source}: non-finite errors or displacements")
     return e, d, g
+
+
+def _stats(windows: pd.DataFrame) -> dict[str, Any]:
+    """:func:`summarise` with the short keys of the summary table (crse_mean, dist_std...)."""
+    out = {}
+    for key, value in summarise(windows).items():
+        for long, short in _SHORT.items():
+            key = key.replace(long, short)
+        out[key] = value
+    return out
+
+
+def score_seed(
+    frame: pd.DataFrame, errors: Errors, outages_s: list[int]
+) -> tuple[list[dict], list[pd.DataFrame], list[dict]]:
+    """Windows of every model and outage on the evaluated rows of one training seed.
+
+    Args:
+        frame: the evaluated seconds (``drive, role, group, k, disp_gnss_m``).
+        errors: every model's per-second error on those rows (:data:`Errors`).
+        outages_s: the outage lengths L.
+
+    Returns:
+        Summary rows (per role and drive, and ``all`` per role), the mean CRSE/CTE
+        curves over a window's seconds (:data:`CURVE_MODELS`, target test drives),
+        and per window its CRSE with the seconds into the drive it starts at
+        (target test drives, for CRSE against time).
+    """
+    rows, curves, timeline = [], [], []
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    group = frame["group"].to_numpy()
+    drive = frame["drive"].to_numpy()
+    role = frame["role"].to_numpy()
+    rank = frame["k"].to_numpy()
+    for model, per_model in errors.items():
+        for L in outages_s:
+            err = per_model[L] if isinstance(per_model, dict) else per_model
+            scored = ~np.isnan(err)
+            windows = window_metrics(err[scored], gnss[scored], group[scored], L)
+            start = windows["start"].to_numpy()
+            w_drive, w_role = drive[scored][start], role[scored][start]
+            cells = [(r, "all", w_role == r) for r in dict.fromkeys(role[scored])]
+            cells += [
+                (r, d, w_drive == d) for r, d in dict.fromkeys(zip(w_role, w_drive, strict=True))
+            ]
+            for r, d, mask in cells:
+                rows.append(
+                    {"role": r, "drive": d, "model": model, "outage_s": L, **_stats(windows[mask])}
+                )
+            target = w_role == k.TARGET_TEST
+            timeline += [
+                {"model": model, "outage_s": L, "start_s": int(t), "crse": float(c)}
+                for t, c in zip(rank[scored][start][target], windows["crse_m"][target], strict=True)
+            ]
+            if model in CURVE_MODELS:
+                on = scored & (role == k.TARGET_TEST)
+                evo = window_evolution(err[on], group[on], L)
+                evo["cte_m"] = evo["cte_signed_m"].abs()
+                mean = evo.groupby("second")[["crse_m", "cte_m"]].mean().reset_index()
+                curves.append(mean.assign(outage_s=L, model=model))
+    return rows, curves, timeline

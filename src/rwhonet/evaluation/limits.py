@@ -13,7 +13,7 @@ Recalibrating on a drive's first m seconds faces three errors no recipe removes:
 
 For the WPM alone (the one-parameter model every recipe here ends up close to),
 per target test drive, m and the longest outage, scored on the evaluation's own
-windows (:func:`rwhonet.stages.outages.outage_windows`):
+windows (:func:`rwhonet.evaluation.windows.outage_windows`):
 
 - ``first``: rear radii fitted on the drive's first m s (the WPM-m@m control);
 - ``any``: fitted on each non-overlapping m-s block of the drive, anywhere in
@@ -36,8 +36,8 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
+from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.calibration import refit_radii
-from rwhonet.stages.outages import outage_windows
 
 LIMIT_COLUMNS = ("m", "first", "any", "whole", "radius_sd_pct", "n_blocks", "n_windows")
 

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rwhonet.metrics.intervals import mean_ci95, over_seeds
+from rwhonet.evaluation.intervals import mean_ci95, over_seeds
 
 
 def test_three_seeds_by_hand():

@@ -25,9 +25,9 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
+from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.deadreckoning import course_rad, dead_reckon, fit_heading, wheel_yaw_rad
 from rwhonet.geo.local import offsets_m
-from rwhonet.stages.outages import outage_windows
 
 HEADING_ONLY = "heading only (GNSS distance)"
 

@@ -7,12 +7,8 @@ import pandas as pd
 import pytest
 
 from rwhonet.errors import InputError
-from rwhonet.metrics.outage import (
-    summarise,
-    window_evolution,
-    window_metrics,
-    window_starts,
-)
+from rwhonet.evaluation.scoring import summarise, window_evolution, window_metrics
+from rwhonet.evaluation.windows import window_starts
 
 
 def test_hand_computed_windows_and_dropped_remainder() -> None:

@@ -6,7 +6,7 @@ import pytest
 
 from rwhonet import paths
 from rwhonet.config import load_params
-from rwhonet.stages.limits import radius_limits
+from rwhonet.evaluation.limits import radius_limits
 
 
 @pytest.fixture

@@ -1,0 +1,173 @@
+"""The evaluation study: every model and control, every seed, on the same test seconds.
+
+Paper §3.2, §3.5. Every model is scored on the part of each test drive that
+comes after the largest m of the grid (:mod:`rwhonet.evaluation.windows`), so no
+R-WhONet is scored on seconds it was adapted on, and all models (and all m)
+see exactly the same windows. The models are :mod:`rwhonet.evaluation.names`'.
+
+Each trained model is scored once per training seed; a cell of the summary is
+the mean over seeds with a 95 % t interval (:mod:`rwhonet.evaluation.intervals`).
+The WPMs do not depend on the seed (interval 0). Paired differences and gains
+over the WPMs are computed per seed, then averaged; "do no harm" counts the
+(drive, seed) pairs where a recalibrated model is worse than G
+(:mod:`rwhonet.evaluation.paired`). G and the WPM are also scored on held-out
+drives of the source car (role ``source_test``, when there are any): the
+domain gap. Beyond the paper: CRSE over time, the limits of recalibrating
+from m s, 2D position error, and the scenario outages.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+
+from rwhonet.config import Params
+from rwhonet.evaluation.intervals import over_seeds
+from rwhonet.evaluation.limits import radius_limits
+from rwhonet.evaluation.model_errors import model_errors, refit_wpm
+from rwhonet.evaluation.names import aliases, position_models, scenario_models
+from rwhonet.evaluation.over_time import crse_over_time
+from rwhonet.evaluation.paired import no_harm, paired
+from rwhonet.evaluation.position import HEADING_ONLY, position_errors, window_tracks
+from rwhonet.evaluation.result import Evaluation, eval_json
+from rwhonet.evaluation.scenarios import (
+    PER_SECOND_MODELS,
+    scenario_errors,
+    scenario_outage_scores,
+    scenario_outage_summary,
+    scenario_windows,
+)
+from rwhonet.evaluation.scoring import SEED_VALUES, STATS, score_seed
+from rwhonet.evaluation.selection import Choice
+from rwhonet.evaluation.windows import evaluated_seconds
+
+
+def _with_aliases(rows: list[dict], params: Params, choice: Choice) -> list[dict]:
+    """Copy each aliased recipe model's rows under its alias (``R``, ``R@m``)."""
+    by_model: dict[str, list[dict]] = {}
+    for r in rows:
+        by_model.setdefault(r["model"], []).append(r)
+    extra = [
+        {**r, "model": alias}
+        for alias, model in aliases(params, choice).items()
+        for r in by_model.get(model, [])
+    ]
+    return rows + extra
+
+
+def evaluate(
+    params: Params,
+    choice: Choice,
+    frame: pd.DataFrame,
+    preds: dict[int, pd.DataFrame],
+    selection: pd.DataFrame | None = None,
+) -> Evaluation:
+    """Score every model and control for every seed; average over seeds with intervals.
+
+    Args:
+        params: ``seeds``, ``adapt``, ``evaluate``, ``label``, the target car
+            (``data.roles``, its nominal radius and track, for dead reckoning).
+        choice: R-WhONet (:func:`rwhonet.evaluation.selection.choose`).
+        frame: the test drives' samples (every test role; ``drive, segment,
+            group, k, role``, the sample columns and ``scenario``).
+        preds: per seed, one prediction column per model row-aligned with
+            ``frame`` (``G``, ``S``, ``R[paper]@50``...; ``R[continuous]/<L>s`` per
+            outage length; R: NaN on source-car drives).
+        selection: the selection evidence's scores
+            (:func:`rwhonet.evaluation.selection.selection_scores`), to report.
+
+    Returns:
+        The evaluation, its ``eval_json`` filled in.
+    """
+    outages = params.evaluate.outages_s
+    evaluated = evaluated_seconds(frame, params.adapt.m_grid, outages)
+    wpm_m, refits = refit_wpm(frame, params)
+    ev_frame = frame[evaluated].reset_index(drop=True)
+    per_seed, curves, scen, timeline, positions, scen_out = [], [], [], [], [], []
+    tracks = {L: window_tracks(frame, params, L) for L in outages}
+    scenario = scenario_windows(frame, params.adapt.m_grid, params.evaluate.scenario_outage_s)
+    alias = aliases(params, choice)["R"]
+    for seed in params.seeds:
+        errors = model_errors(frame, preds[seed], wpm_m, params)
+        # The GNSS's own distances dead-reckoned: the error left is the heading's alone.
+        in_2d = {HEADING_ONLY: np.zeros(len(frame))} | {
+            m: errors[m] for m in position_models(params, choice)
+        }
+        positions += [{"seed": seed, **r} for r in position_errors(frame, tracks, in_2d)]
+        # a continuous recipe's error in a scenario window: its shortest outage's run
+        flat = {name: e[min(outages)] if isinstance(e, dict) else e for name, e in errors.items()}
+        flat["R"] = flat[alias]
+        scen_out += [
+            {"seed": seed, **r}
+            for r in scenario_outage_scores(
+                scenario, {m: flat[m] for m in scenario_models(params, choice)}
+            )
+        ]
+        errors = {
+            name: {L: v[evaluated] for L, v in e.items()} if isinstance(e, dict) else e[evaluated]
+            for name, e in errors.items()
+        }
+        errors["R"] = errors[alias]
+        rows, seed_curves, seed_timeline = score_seed(ev_frame, errors, outages)
+        rows = [r for r in rows if r["model"] != "R"]  # R comes back as an alias below
+        per_seed += [{"seed": seed, **r} for r in _with_aliases(rows, params, choice)]
+        curves += [c.assign(seed=seed) for c in seed_curves]
+        timeline += [{"seed": seed, **t} for t in seed_timeline]
+        scen.append(scenario_errors(ev_frame, errors).assign(seed=seed))
+    per_seed_df = pd.DataFrame(per_seed)
+    keys = ["role", "drive", "model", "outage_s"]
+    summary = over_seeds(per_seed_df, keys, SEED_VALUES)
+    fixed = per_seed_df.groupby(keys, sort=False)[
+        ["n_windows", *(f"dist_{s}" for s in STATS)]
+    ].first()
+    summary = summary.join(fixed, on=keys)
+    scenarios = (
+        pd.concat(scen)
+        .groupby("tag", sort=False)
+        .agg(n_seconds=("n_seconds", "first"), **{m: (m, "mean") for m in PER_SECOND_MODELS})
+        .reset_index()
+        .sort_values("n_seconds", ascending=False, ignore_index=True)
+    )
+    evolution = (
+        pd.concat(curves)
+        .groupby(["model", "outage_s", "second"], sort=False)[["crse_m", "cte_m"]]
+        .mean()
+        .reset_index()
+    )
+    position = over_seeds(pd.DataFrame(positions), ["model", "outage_s"], ["pos_mean", "pos_max"])
+    n_2d = pd.DataFrame(positions).groupby(["model", "outage_s"], sort=False)["n_windows"].first()
+    position = position.join(n_2d, on=["model", "outage_s"])
+    position["n_windows_all"] = position["outage_s"].map(
+        {L: int(t["n_windows"]) for L, t in tracks.items()}
+    )
+    differences, gains = paired(per_seed_df, params, choice)
+    per_second = pd.concat(
+        [
+            frame.assign(evaluated=evaluated),
+            *(pred.add_suffix(f"__seed{seed}") for seed, pred in preds.items()),
+            pd.DataFrame({f"disp_wpm_m{m}_m": d for m, d in wpm_m.items()}, index=frame.index),
+        ],
+        axis=1,
+    )
+    result = Evaluation(
+        choice=choice,
+        per_seed=per_seed_df,
+        summary=summary,
+        differences=differences,
+        gains=gains,
+        harm=no_harm(per_seed_df, params),
+        over_time=crse_over_time(pd.DataFrame(timeline), params, choice),
+        scenarios=scenarios,
+        refits=refits,
+        per_second=per_second,
+        evolution=evolution,
+        selection=pd.DataFrame() if selection is None else selection,
+        limits=radius_limits(frame, params),
+        position=position,
+        scenario_outages=scenario_outage_summary(pd.DataFrame(scen_out), scenario.counts),
+        scenario_counts=scenario.counts,
+        scenario_outage_s=scenario.outage_s,
+    )
+    return dataclasses.replace(result, eval_json=eval_json(result, params))
