@@ -108,6 +108,7 @@ TEXT_PARAMS = {
     "sim.profile": "a profile's name",
     "sim.profiles.*.vehicles.*": "a vehicle's name",
     "sim.profiles.*.drives_from": "a profile's name",
+    "sim.profiles.*.receivers.*": "a receiver grade's name",
     "sim.profiles.*.drives[*].name": "written as a file name: checked (FILE_NAME)",
     "sim.profiles.*.drives[*].vehicle": "a vehicle's name",
     "sim.profiles.*.drives[*].tyre": "a tyre state's letter",

@@ -180,6 +180,29 @@ class SimGnss:
 
 
 @dataclass(frozen=True)
+class SimGyro:
+    """The ESC yaw-rate sensor as the car's CAN bus carries it (docs/simulator.md, Section 7).
+
+    ``measured = (1 + scale_error_pct / 100) true + b0 + b_GM(t) + tco dT(t) + noise``,
+    each value the mean over its record period, ``latency_s`` late, quantised to
+    ``quantum_deg_s``. ``b0`` is drawn per drive (turn-on bias), ``b_GM`` is a
+    first-order Gauss-Markov bias instability and ``dT`` the sensor's warm-up
+    ``warmup_k (1 - exp(-t / warmup_tau_s))`` from a cold start.
+    """
+
+    bias_sigma_deg_s: float  # turn-on bias b0 ~ N(0, sigma^2), drawn per drive
+    instability_sigma_deg_s: float  # in-run bias: stationary std of the Gauss-Markov term
+    instability_tau_s: float  # ... and its correlation time
+    temp_coeff_deg_s_k: float  # this unit's bias change per K of sensor temperature (signed)
+    warmup_k: float  # sensor temperature rise over a drive from a cold start
+    warmup_tau_s: float  # ... its time constant
+    scale_error_pct: float  # this unit's scale-factor error, %
+    noise_density_deg_s_rthz: float  # rate noise density
+    quantum_deg_s: float  # the CAN signal's resolution (LSB); 0: not quantised
+    latency_s: float  # sensor filter + CAN + logger delay
+
+
+@dataclass(frozen=True)
 class SimDriver:
     """How the car's driver drives (relative to the road types' settings)."""
 
@@ -212,6 +235,7 @@ class SimVehicle:
     tyre: SimTyre
     can: SimCan
     gnss: SimGnss
+    gyro: SimGyro
     driver: SimDriver
     tyre_states: dict[str, SimTyreState]
 
@@ -269,6 +293,8 @@ class SimProfile:
     vehicles: dict[str, str]  # pipeline vehicle name -> sim.vehicles key
     drives: list[SimDrive] = field(default_factory=list)
     drives_from: str | None = None
+    # pipeline vehicle name -> sim.receivers key: that car's receiver replaced by this grade
+    receivers: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -290,6 +316,8 @@ class SimParams:
     vehicles: dict[str, SimVehicle]
     profiles: dict[str, SimProfile]
     seed: int = 42  # the simulated world's seed (drive i: SeedSequence(seed, spawn_key=(i,)))
+    # Named GNSS receiver grades a profile fits to a car in place of its own (profiles.*.receivers)
+    receivers: dict[str, SimGnss] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.profile not in self.profiles:
@@ -305,18 +333,34 @@ class SimParams:
         for name, road in self.roads.items():
             for key in ("speed_m_s", "leg_s", "curve_radius_m", "curve_angle_deg"):
                 pairs[f"sim.roads.{name}.{key}"] = getattr(road, key)
-        for name, veh in self.vehicles.items():
-            pairs[f"sim.vehicles.{name}.gnss.sats"] = veh.gnss.sats
+        receivers = {f"sim.vehicles.{n}.gnss": v.gnss for n, v in self.vehicles.items()}
+        receivers.update({f"sim.receivers.{n}": g for n, g in self.receivers.items()})
+        for where, gnss in receivers.items():
+            pairs[f"{where}.sats"] = gnss.sats
         for key, pair in pairs.items():
             if len(pair) != 2 or pair[0] > pair[1]:
                 raise ConfigError(f"{key}: expected [min, max], got {pair}")
+        for where, gnss in receivers.items():
+            for key in ("sigma_m", "tau_s", "filter_tau_s", "multipath_tau_s"):
+                if not getattr(gnss, key) > 0:
+                    raise ConfigError(f"{where}.{key} must be > 0, got {getattr(gnss, key)}")
         for name, veh in self.vehicles.items():
+            gyro = veh.gyro
+            non_negative = {
+                "bias_sigma_deg_s": gyro.bias_sigma_deg_s,
+                "instability_sigma_deg_s": gyro.instability_sigma_deg_s,
+                "warmup_k": gyro.warmup_k,
+                "noise_density_deg_s_rthz": gyro.noise_density_deg_s_rthz,
+                "quantum_deg_s": gyro.quantum_deg_s,
+                "latency_s": gyro.latency_s,
+            }
+            for key, value in non_negative.items():
+                if not value >= 0:
+                    raise ConfigError(f"sim.vehicles.{name}.gyro.{key} must be >= 0, got {value}")
             positive = {
                 "nominal_radius_m": veh.nominal_radius_m,
-                "gnss.sigma_m": veh.gnss.sigma_m,
-                "gnss.tau_s": veh.gnss.tau_s,
-                "gnss.filter_tau_s": veh.gnss.filter_tau_s,
-                "gnss.multipath_tau_s": veh.gnss.multipath_tau_s,
+                "gyro.instability_tau_s": gyro.instability_tau_s,
+                "gyro.warmup_tau_s": gyro.warmup_tau_s,
                 "tyre.warm_ref_speed_m_s": veh.tyre.warm_ref_speed_m_s,
                 "tyre.warm_tau_s": veh.tyre.warm_tau_s,
                 "driver.speed_factor": veh.driver.speed_factor,
@@ -334,6 +378,17 @@ class SimParams:
                     raise ConfigError(
                         f"sim.profiles.{pname}.vehicles.{role}={sim_name!r} is not in "
                         f"sim.vehicles {sorted(self.vehicles)}"
+                    )
+            for role, grade in prof.receivers.items():
+                if role not in prof.vehicles:
+                    raise ConfigError(
+                        f"sim.profiles.{pname}.receivers.{role}: {role!r} is not in "
+                        f"sim.profiles.{pname}.vehicles {sorted(prof.vehicles)}"
+                    )
+                if grade not in self.receivers:
+                    raise ConfigError(
+                        f"sim.profiles.{pname}.receivers.{role}={grade!r} is not in "
+                        f"sim.receivers {sorted(self.receivers)}"
                     )
             names = [d.name for d in prof.drives]
             if len(set(names)) != len(names):

@@ -34,11 +34,12 @@ def target(vehicles: dict[str, Vehicle]) -> Vehicle:
 
 @pytest.fixture(scope="session")
 def cars(params: Params) -> dict[str, Vehicle]:
-    """Every simulated car of every profile, by its sim.vehicles key."""
+    """Every simulated car of every profile, by its sim.vehicles key, with its own receiver."""
     return {
         car.name: car
         for profile in params.sim.profiles
         for car in vehicles_from_params(params, profile).values()
+        if car.receiver is None
     }
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -18,6 +20,16 @@ from rwhonet.sim.writer import write_csv, write_drive
 from .conftest import drive_spec, simulate_spec, with_params
 
 REAR = [" Wheel Speed Rear Left (rad/sec)", " Wheel Speed Rear Right (rad/sec)"]
+YAW = " Yaw Rate (deg/sec)"
+GNSS_COLUMNS = {
+    "Sats",
+    " Lat",
+    " Long",
+    " Velocity kmh",
+    " Heading",
+    " Height",
+    " Vertical velocity kmh",
+}
 TAGS = {
     "urban",
     "country",
@@ -332,3 +344,77 @@ def test_payload_lowers_the_rear_radius_over_a_drive(source, params):
         assert -0.008 < change < -0.003  # state A: soft, underinflated tyres
         static = laden.truth["radius_static_m"][wheel] / empty.truth["radius_static_m"][wheel]
         assert change == pytest.approx(static - 1, abs=5e-4)
+
+
+def test_the_yaw_rate_channel_integrates_to_the_heading_that_moves_the_car(params, source):
+    # Roundabouts, sharp turns and reversing: a perfect gyro, written to the file (3 decimals),
+    # summed over the rows, is the heading change of the pose that moved the car.
+    spec = drive_spec(duration_s=900.0, events={"roundabout": 3, "sharp_turn": 2, "reversing": 1})
+    drive = simulate_spec(params, source, spec, options=SimOptions(gyro_errors=False))
+    heading = drive.state.pose.heading_rad[drive.state.record_index]
+    turned = np.degrees(heading - heading[0])
+    assert np.abs(turned).max() > 180.0
+    integrated = np.cumsum(drive.frame[YAW].to_numpy()) / params.sim.record_hz
+    # Only the file's rounding (<= 0.0005 deg/s a row, a random walk over 9000 rows) is left.
+    assert np.abs(integrated - turned).max() < 0.02
+    assert drive.truth["gyro"]["turn_on_bias_deg_s"] == 0.0
+
+
+def test_the_gyro_has_a_stream_of_its_own(params, source):
+    # Switching the gyro's errors off, or fitting another gyro, changes the yaw rate only.
+    spec = drive_spec(
+        duration_s=600.0,
+        events={"roundabout": 2, "hard_brake": 2, "reversing": 1},
+        wet_fraction=0.3,
+        gnss_faults=["low_sats", "frozen", "jump", "gap"],
+    )
+    base = simulate_spec(params, source, spec)
+    perfect = simulate_spec(params, source, spec, options=SimOptions(gyro_errors=False))
+    other = with_params(source, gyro=params.sim.vehicles["focus"].gyro)
+    other_gyro = simulate_spec(params, other, spec)
+    for drive in (perfect, other_gyro):
+        assert not drive.frame[YAW].equals(base.frame[YAW])
+        pd.testing.assert_frame_equal(drive.frame.drop(columns=YAW), base.frame.drop(columns=YAW))
+    # The configured errors show: a turn-on bias (truth) and the scale error on the rate.
+    truth = base.truth["gyro"]
+    assert truth["turn_on_bias_deg_s"] != 0.0
+    assert truth["scale_error_pct"] == source.params.gyro.scale_error_pct
+    error = base.frame[YAW].to_numpy() - perfect.frame[YAW].to_numpy()
+    assert np.abs(error.mean() - truth["mean_bias_deg_s"]) < 0.05
+
+
+def test_a_receiver_grade_changes_the_gnss_columns_only(params, source):
+    # The consumer-receiver worlds replay the same drives: every non-GNSS column is the same.
+    consumer = dataclasses.replace(
+        source,
+        params=dataclasses.replace(source.params, gnss=params.sim.receivers["ublox_m8"]),
+        receiver="ublox_m8",
+    )
+    spec = drive_spec(duration_s=300.0, gnss_faults=["low_sats", "jump"])
+    own, swapped = simulate_spec(params, source, spec), simulate_spec(params, consumer, spec)
+    assert swapped.truth["gnss_receiver"] == "ublox_m8" and own.truth["gnss_receiver"] == "own"
+    others = [c for c in HEADERS if c not in GNSS_COLUMNS]
+    pd.testing.assert_frame_equal(own.frame[others], swapped.frame[others])
+    for column in (" Lat", " Long"):
+        assert not own.frame[column].equals(swapped.frame[column])
+
+
+def test_consumer_receiver_label_noise_matches_its_analytic_value(params, vehicles):
+    # The u-blox M8 class receiver (sim.receivers.ublox_m8): its velocity accuracy sets
+    # the one-second displacement noise, sigma / sqrt(tau tau_f) = 7 cm, a few times the
+    # logger-grade receivers' 2.6-2.9 cm (docs/simulator.md, Section 5).
+    gnss = params.sim.receivers["ublox_m8"]
+    car = with_params(vehicles["target"], antenna_x_m=0.0, antenna_y_m=0.0, gnss=gnss)
+    labels = []
+    for seed in range(3):  # 3 h of open road at 15 m/s
+        drive = simulate_drive(
+            car, "E", straight_route(15.0, 3600.0), seed, params.sim, options=GNSS_ONLY
+        )
+        labels.append(per_second_label_m(drive)[30:])
+    label = np.concatenate(labels)
+    analytic = gnss_increment_std_m(gnss)
+    assert analytic == pytest.approx(
+        gnss.sigma_m / np.sqrt(gnss.tau_s * gnss.filter_tau_s), rel=0.03
+    )
+    assert label.std() == pytest.approx(analytic, rel=0.12)
+    assert 0.05 < label.std() < 0.1

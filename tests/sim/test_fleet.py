@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -21,6 +22,7 @@ from rwhonet.sim import (
     vehicles_from_params,
 )
 from rwhonet.sim.drive import child_rng
+from rwhonet.sim.sensors import gnss_increment_std_m
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLES = ("source_train", "source_calibration", "source_test", "target_train", "target_test")
@@ -105,6 +107,25 @@ def test_the_paper_target_is_another_car_of_the_source_model(params, cars):
     assert big.nominal_radius_m > 1.05 * source.nominal_radius_m
 
 
+@pytest.mark.parametrize(
+    "consumer, parent", [("paper_consumer", "paper"), ("large_target_consumer", "large_target")]
+)
+def test_consumer_worlds_differ_from_their_parents_only_in_the_targets_receiver(
+    params, consumer, parent
+):
+    # Issue 16's matrix: each target car under both receiver grades, the same drives and seeds.
+    world, base = params.sim.profiles[consumer], params.sim.profiles[parent]
+    assert world.vehicles == base.vehicles and world.drives == base.drives
+    cars, parents = vehicles_from_params(params, consumer), vehicles_from_params(params, parent)
+    assert cars["source"] == parents["source"] and cars["source"].receiver is None
+    target, own = cars["target"], parents["target"]
+    assert target.name == own.name and target.receiver == "ublox_m8"
+    assert target.params.gnss == params.sim.receivers["ublox_m8"] != own.params.gnss
+    assert dataclasses.replace(target.params, gnss=own.params.gnss) == own.params
+    # The consumer receiver's per-second displacement noise is a few times the logger's.
+    assert gnss_increment_std_m(target.params.gnss) > 2.0 * gnss_increment_std_m(own.params.gnss)
+
+
 @pytest.mark.parametrize("profile, target_radius", [("paper", 0.294), ("large_target", 0.317)])
 def test_nominal_radius_comes_from_the_simulated_car_or_data_vehicles(profile, target_radius):
     sim = load_params(overrides={"sim.profile": profile})
@@ -153,6 +174,12 @@ def test_the_world_seed_is_sim_seed(params):
         ({"sim.profiles.large_target.vehicles.target": "bus"}, "not in sim.vehicles"),
         ({"sim.profiles.large_target.vehicles": {"source": "fiesta"}}, "vehicle 'target'"),
         ({"sim.vehicles.fiesta.gnss.filter_tau_s": 0.0}, "filter_tau_s must be > 0"),
+        ({"sim.receivers.ublox_m8.tau_s": 0.0}, "sim.receivers.ublox_m8.tau_s must be > 0"),
+        ({"sim.receivers.ublox_m8.sats": [18, 10]}, r"ublox_m8.sats: expected \[min, max\]"),
+        ({"sim.profiles.paper_consumer.receivers.target": "vbox"}, "not in sim.receivers"),
+        ({"sim.profiles.paper_consumer.receivers": {"bus": "ublox_m8"}}, "'bus' is not in"),
+        ({"sim.vehicles.focus.gyro.warmup_tau_s": 0.0}, "gyro.warmup_tau_s must be > 0"),
+        ({"sim.vehicles.focus.gyro.quantum_deg_s": -0.01}, "gyro.quantum_deg_s must be >= 0"),
         ({"sim.seed": "abc"}, "sim.seed"),
     ],
 )

@@ -1,11 +1,13 @@
-"""Sensor models: the GNSS receiver's error, CAN wheel speeds, degraded GNSS stretches."""
+"""Sensor models: the GNSS receiver's error, CAN wheel speeds, the yaw-rate gyro, GNSS faults."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
 
-from rwhonet.config import SimCan, SimGnss
+from rwhonet.config import SimCan, SimGnss, SimGyro
 from rwhonet.geo import geodesic_distance_m, offsets_m
 from rwhonet.sim.sensors import (
     can_wheel_speeds,
@@ -14,7 +16,30 @@ from rwhonet.sim.sensors import (
     gnss_error_autocorrelation,
     gnss_increment_std_m,
     place_faults,
+    sensor_warmup_k,
+    yaw_rate_sensor,
 )
+
+# A gyro with every error off; each test switches on the one it checks.
+PERFECT = SimGyro(
+    bias_sigma_deg_s=0.0,
+    instability_sigma_deg_s=0.0,
+    instability_tau_s=300.0,
+    temp_coeff_deg_s_k=0.0,
+    warmup_k=0.0,
+    warmup_tau_s=600.0,
+    scale_error_pct=0.0,
+    noise_density_deg_s_rthz=0.0,
+    quantum_deg_s=0.0,
+    latency_s=0.0,
+)
+T_TRUE = np.arange(0.0, 600.0 + 1e-9, 0.02)  # 50 Hz truth
+T_REC = T_TRUE[::5]  # 10 Hz rows
+
+
+def wandering_heading(t: np.ndarray) -> np.ndarray:
+    """An unwrapped heading that turns both ways, several full turns (rad)."""
+    return 0.3 * t / 10.0 + 2.0 * np.sin(t / 7.0) + 0.5 * np.sin(t / 1.3)
 
 
 def autocorrelation(x: np.ndarray, lag: int) -> float:
@@ -153,3 +178,84 @@ def test_gnss_error_statistics_in_a_drive(urban_drive, params, source):
     # ...and of the time correlation: 1 s apart, errors are almost the same.
     err = err - err.mean(axis=1, keepdims=True)
     assert autocorrelation(err, 10) > 0.99
+
+
+def test_a_stationary_gyro_averages_to_its_bias_plus_the_temperature_term(params):
+    # The fiesta's sensor, with a strong temperature coefficient so that the warm-up shows.
+    gyro = dataclasses.replace(params.sim.vehicles["fiesta"].gyro, temp_coeff_deg_s_k=0.02)
+    t_true = np.arange(0.0, 7200.0 + 1e-9, 0.02)
+    t_rec = t_true[::5]
+    still = np.full(t_true.size, 0.7)  # parked, any heading
+    yaw = yaw_rate_sensor(t_rec, t_true, still, gyro, np.random.default_rng(3))
+    rise = sensor_warmup_k(t_rec, gyro)
+    np.testing.assert_allclose(yaw.temperature_rise_k, rise)
+    assert rise[0] == 0.0 and rise[-1] == pytest.approx(gyro.warmup_k, rel=1e-4)
+    # Whole drive: the turn-on bias plus the mean temperature term. The mean of the
+    # Gauss-Markov instability over 2 h has std sigma sqrt(2 tau / 7200 s) ~ 0.0007 deg/s.
+    expected = yaw.turn_on_bias_deg_s + gyro.temp_coeff_deg_s_k * rise.mean()
+    assert yaw.deg_s.mean() == pytest.approx(expected, abs=0.004)
+    # The last 20 minutes against the first 10: the bias moved by tco times the warm-up.
+    early, late = t_rec < 600.0, t_rec > 6000.0
+    shift = gyro.temp_coeff_deg_s_k * (rise[late].mean() - rise[early].mean())
+    assert shift > 0.15  # 30 times the tolerance below
+    assert yaw.deg_s[late].mean() - yaw.deg_s[early].mean() == pytest.approx(shift, abs=0.006)
+    # Turn-on biases over many drives spread like the configured sigma.
+    draws = [
+        yaw_rate_sensor(T_REC, T_TRUE, still[: T_TRUE.size], gyro, np.random.default_rng(k))
+        for k in range(400)
+    ]
+    spread = np.std([d.turn_on_bias_deg_s for d in draws])
+    assert spread == pytest.approx(gyro.bias_sigma_deg_s, rel=0.1)
+
+
+def test_a_perfect_gyro_integrates_to_the_true_heading_change():
+    heading = wandering_heading(T_TRUE)
+    for errors, gyro in ((False, dataclasses.replace(PERFECT, latency_s=0.03)), (True, PERFECT)):
+        yaw = yaw_rate_sensor(T_REC, T_TRUE, heading, gyro, np.random.default_rng(0), errors)
+        # Each row is the mean rate over its record period: the sum over rows is the heading
+        # change from one period before the first row (still the start heading) to the last.
+        integrated = np.radians(np.cumsum(yaw.deg_s) * 0.1)
+        np.testing.assert_allclose(integrated, heading[::5] - heading[0], rtol=0, atol=1e-10)
+        assert np.abs(yaw.bias_deg_s).max() == 0.0
+
+
+def test_gyro_latency_delays_the_rate():
+    heading = wandering_heading(T_TRUE)
+    late = dataclasses.replace(PERFECT, latency_s=0.2)
+    got = yaw_rate_sensor(T_REC, T_TRUE, heading, late, np.random.default_rng(0)).deg_s
+    now = yaw_rate_sensor(T_REC, T_TRUE, heading, PERFECT, np.random.default_rng(0)).deg_s
+    np.testing.assert_allclose(got[2:], now[:-2], atol=1e-9)  # two rows of 0.1 s later
+
+
+def test_gyro_quantisation_steps_equal_the_lsb():
+    lsb = 0.05
+    gyro = dataclasses.replace(PERFECT, quantum_deg_s=lsb, noise_density_deg_s_rthz=0.002)
+    ramp = np.radians(0.5 * (T_TRUE / 600.0) * T_TRUE)  # the rate ramps 0 -> 1 deg/s
+    got = yaw_rate_sensor(T_REC, T_TRUE, ramp, gyro, np.random.default_rng(0)).deg_s
+    steps = np.round(got / lsb)
+    np.testing.assert_allclose(got, steps * lsb, atol=1e-12)  # every value on the LSB grid
+    jumps = np.abs(np.diff(steps))
+    assert jumps.max() == 1.0  # a slowly varying rate moves one LSB at a time...
+    assert 15 <= (jumps == 1).sum()  # ...through each of the 20 levels, noise dithering
+    true = yaw_rate_sensor(T_REC, T_TRUE, ramp, PERFECT, np.random.default_rng(0)).deg_s
+    assert np.abs(got - true).max() <= lsb / 2 + 4 * 0.002 / np.sqrt(0.2)
+
+
+@pytest.mark.parametrize("scale_pct", [-1.1, 0.8, 3.0])
+def test_gyro_scale_factor_multiplies_the_true_rate(scale_pct):
+    heading = wandering_heading(T_TRUE)
+    gyro = dataclasses.replace(PERFECT, scale_error_pct=scale_pct)
+    got = yaw_rate_sensor(T_REC, T_TRUE, heading, gyro, np.random.default_rng(0)).deg_s
+    true = yaw_rate_sensor(T_REC, T_TRUE, heading, PERFECT, np.random.default_rng(0)).deg_s
+    assert np.abs(true).max() > 10.0
+    np.testing.assert_allclose(got, (1.0 + scale_pct / 100.0) * true, rtol=1e-12, atol=1e-12)
+
+
+def test_gyro_noise_follows_the_noise_density_over_the_record_period():
+    gyro = dataclasses.replace(PERFECT, noise_density_deg_s_rthz=0.015)
+    t_true = np.arange(0.0, 3600.0 + 1e-9, 0.02)
+    still = np.zeros(t_true.size)
+    got = yaw_rate_sensor(t_true[::5], t_true, still, gyro, np.random.default_rng(0)).deg_s
+    # The mean over a 0.1 s period: noise-equivalent bandwidth 1 / (2 T) = 5 Hz.
+    assert got.std() == pytest.approx(0.015 * np.sqrt(5.0), rel=0.03)
+    assert abs(np.corrcoef(got[:-1], got[1:])[0, 1]) < 0.03  # white from row to row

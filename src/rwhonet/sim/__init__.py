@@ -6,11 +6,11 @@ ground speed (rigid-body kinematics, steered front wheels) divided by its
 effective rolling radius (pressure - which warms up and may leak during the
 drive -, tread wear, payload, load and speed dependent) times ``1 + slip``
 (traction/braking force and road wetness); sensors then sample that truth (CAN
-wheel speeds; a GNSS receiver whose error is a slow drift smoothed by its
-navigation filter, with rare degraded stretches). The per-second label the models learn
-(GNSS displacement - rear-wheel odometry, paper Eq. 11) is never computed here:
-it emerges downstream from these physics. Models, parameters and their sources:
-docs/simulator.md.
+wheel speeds; the ESC's yaw-rate gyro; a GNSS receiver whose error is a slow drift
+smoothed by its navigation filter, with rare degraded stretches). The per-second
+label the models learn (GNSS displacement - rear-wheel odometry, paper Eq. 11) is
+never computed here: it emerges downstream from these physics. Models, parameters
+and their sources: docs/simulator.md.
 
 Public API
 ----------
@@ -26,7 +26,8 @@ Fleet (what the DVC stage ``pipelines/simulate.py`` calls)::
         Returns that summary. Drive i is seeded with
         ``SeedSequence(params.sim.seed, spawn_key=(i,))`` (= ``SeedSequence(seed).spawn(n)[i]``)
         and driven by the car its profile maps ``drive.vehicle`` to, carrying the
-        drive's payload (``Vehicle.with_payload``) and leaks.
+        drive's payload (``Vehicle.with_payload``) and leaks, and the receiver grade
+        the profile fits to it (``sim.profiles.<p>.receivers``), if any.
 
     vehicles_from_params(params: Params, profile: str | None = None) -> dict[str, Vehicle]
         The cars of a profile (default ``sim.profile``) keyed by the pipeline's
@@ -50,8 +51,9 @@ One drive (for tests, and for other packages' tests)::
 
     ``SimOptions`` switches physics and sensor effects off for special drives:
     ``SimOptions.ideal()`` gives zero slip, radius independent of load and
-    speed, no tyre warm-up, no CAN noise/quantisation/latency, no GNSS error: on
-    such a drive the calibrated radius must equal ``truth["radius_static_m"]``.
+    speed, no tyre warm-up, no CAN noise/quantisation/latency, no GNSS error, a
+    perfect gyro (the yaw-rate column sums, times 0.1 s, to the heading change):
+    on such a drive the calibrated radius must equal ``truth["radius_static_m"]``.
 
 Example: a straight constant-speed drive with perfect sensors::
 

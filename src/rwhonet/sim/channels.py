@@ -3,7 +3,8 @@
 These channels are not used by the pipeline (only wheel speeds, time, position
 and satellites are), but a simulated file should look like a real one: each
 is derived from the same motion, with small sensor noise. Sign conventions:
-yaw rate and lateral acceleration positive to the left; accelerations in g.
+lateral acceleration positive to the left; accelerations in g. The yaw rate is
+not filled here: it is the ESC gyro's model (:func:`rwhonet.sim.sensors.yaw_rate_sensor`).
 """
 
 from __future__ import annotations
@@ -63,7 +64,7 @@ def can_channels(
         rng: random generator.
 
     Returns:
-        Arrays (m,) for steering_deg, yaw_rate_deg_s, indicated_speed_kmh,
+        Arrays (m,) for steering_deg, indicated_speed_kmh,
         acc_lon_g, acc_lat_g, handbrake, gear, engine_rpm, coolant_c, clutch,
         brake_psi, brake_on, battery_v, air_c, pedal_pct.
     """
@@ -71,11 +72,12 @@ def can_channels(
     m = speed_m_s.size
     t = np.arange(m) / hz
     still = speed_m_s < 0.05
-    yaw = direction * speed_m_s * curvature_1_m
     out: dict[str, np.ndarray] = {}
     out["steering_deg"] = p.steering_ratio * np.degrees(np.arctan(p.wheelbase_m * curvature_1_m))
     out["steering_deg"] += rng.standard_normal(m) * 0.1
-    out["yaw_rate_deg_s"] = np.degrees(yaw) + rng.normal(0.0, 0.2) + rng.normal(0.0, 0.1, m)
+    # The yaw rate is the ESC gyro's (sensors.yaw_rate_sensor, on a stream of its own). These
+    # draws are what the filler yaw rate once took: the channels below keep their values.
+    rng.standard_normal(m + 1)
     out["indicated_speed_kmh"] = omega_can_rad_s.mean(axis=0) * vehicle.nominal_radius_m * 3.6
     out["acc_lon_g"] = accel_x_cg_m_s2 / G_M_S2 + rng.normal(0.0, 0.005, m)
     out["acc_lat_g"] = accel_y_cg_m_s2 / G_M_S2 + rng.normal(0.0, 0.005, m)

@@ -39,6 +39,7 @@ from rwhonet.sim.sensors import (
     can_wheel_speeds,
     gnss_track,
     place_faults,
+    yaw_rate_sensor,
 )
 from rwhonet.sim.vehicle import (
     WHEELS,
@@ -65,6 +66,7 @@ class SimOptions:
         can_noise: CAN latency, noise, dead band and quantisation.
         gnss_noise: GNSS position/speed error.
         tyre_warmup: tyre air warms up while driving, raising the pressure (gas law).
+        gyro_errors: yaw-rate sensor bias, drift, scale error, noise, quantisation, latency.
     """
 
     slip: bool = True
@@ -73,6 +75,7 @@ class SimOptions:
     can_noise: bool = True
     gnss_noise: bool = True
     tyre_warmup: bool = True
+    gyro_errors: bool = True
 
     @classmethod
     def ideal(cls) -> SimOptions:
@@ -84,6 +87,7 @@ class SimOptions:
             can_noise=False,
             gnss_noise=False,
             tyre_warmup=False,
+            gyro_errors=False,
         )
 
 
@@ -161,8 +165,9 @@ def child_rng(seed: np.random.SeedSequence, k: int) -> np.random.Generator:
 # Times since the start (s) at which the truth sidecar records the tyre state.
 _TIMELINE_S = (0.0, 300.0, 600.0, 1200.0, 1800.0, 2700.0, 3600.0, 5400.0, 7200.0, 9000.0)
 
-# Child streams of a drive's seed: 0 route (fleet), then:
-_RNG_START, _RNG_FAULTS, _RNG_GNSS, _RNG_CAN, _RNG_CHANNELS = 1, 2, 3, 4, 5
+# Child streams of a drive's seed: 0 route (fleet), then (a new sensor takes a new number,
+# so every earlier stream, and the columns it fills, stays as it was):
+_RNG_START, _RNG_FAULTS, _RNG_GNSS, _RNG_CAN, _RNG_CHANNELS, _RNG_GYRO = 1, 2, 3, 4, 5, 6
 
 # Decimals written for each IO-VNBD column (the frame holds exactly these values).
 _DECIMALS = {
@@ -175,7 +180,7 @@ _DECIMALS = {
     " Vertical velocity kmh": 2,
     " Sample Period": 2,
     " Steering Angle (deg)": 1,
-    " Yaw Rate (deg/sec)": 2,
+    " Yaw Rate (deg/sec)": 3,  # a CAN resolution of 0.005 deg/s fits
     " Indicated Vehicle Speed (km/h)": 2,
     " Indicated Longitudinal Acceleration (g)": 3,
     " Indicated Lateral Acceleration (g)": 3,
@@ -361,6 +366,15 @@ def simulate_drive(
         sim.air_density_kg_m3,
         rng,
     )
+    yaw = yaw_rate_sensor(
+        t_rec,
+        t_true,
+        state.pose.heading_rad,
+        vehicle.params.gyro,
+        child_rng(ss, _RNG_GYRO),
+        errors=options.gyro_errors,
+    )
+    channels["yaw_rate_deg_s"] = yaw.deg_s
     frame = _frame(start_s_of_day + t_rec, gnss, omega_can, channels, rec)
     keep = np.ones(idx.size, dtype=bool)
     for f in state.faults:
@@ -369,6 +383,14 @@ def simulate_drive(
     frame = frame.loc[keep].reset_index(drop=True)
     scenarios = _scenarios(state, start_s_of_day, t_rec)
     truth = _truth(vehicle, tyre_state, state, ss, options, name, start_s_of_day, t_rec, leaks)
+    truth["gyro"] = {
+        "turn_on_bias_deg_s": round(yaw.turn_on_bias_deg_s, 6),
+        "mean_bias_deg_s": round(float(yaw.bias_deg_s.mean()), 6),
+        "end_bias_deg_s": round(float(yaw.bias_deg_s[-1]), 6),
+        "temperature_rise_end_k": round(float(yaw.temperature_rise_k[-1]), 3),
+        **asdict(vehicle.params.gyro),
+    }
+    truth["gnss_receiver"] = vehicle.receiver or "own"
     return SimulatedDrive(frame, scenarios, truth, state)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +30,9 @@ def vehicles_from_params(params: Params, profile: str | None = None) -> dict[str
     Returns:
         ``{pipeline vehicle name (source, target): Vehicle}``; each Vehicle is
         named after its ``sim.vehicles`` key and carries that car's spec-sheet
-        nominal radius (``sim.vehicles.<car>.nominal_radius_m``).
+        nominal radius (``sim.vehicles.<car>.nominal_radius_m``); where the
+        profile fits a receiver grade to a vehicle (``receivers``), that grade
+        replaces the car's own GNSS receiver and names ``Vehicle.receiver``.
 
     Raises:
         ConfigError: if the profile does not exist.
@@ -38,10 +41,14 @@ def vehicles_from_params(params: Params, profile: str | None = None) -> dict[str
     name = sim.profile if profile is None else profile
     if name not in sim.profiles:
         raise ConfigError(f"profile {name!r} is not in sim.profiles {sorted(sim.profiles)}")
-    return {
-        role: Vehicle(car, sim.vehicles[car].nominal_radius_m, sim.vehicles[car])
-        for role, car in sim.profiles[name].vehicles.items()
-    }
+    prof = sim.profiles[name]
+    cars = {}
+    for role, car in prof.vehicles.items():
+        spec, grade = sim.vehicles[car], prof.receivers.get(role)
+        if grade is not None:
+            spec = replace(spec, gnss=sim.receivers[grade])
+        cars[role] = Vehicle(car, spec.nominal_radius_m, spec, receiver=grade)
+    return cars
 
 
 def drive_seed(seed: int, index: int) -> np.random.SeedSequence:
@@ -105,6 +112,7 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
                     "role": spec.role,
                     "vehicle": spec.vehicle,
                     "sim_vehicle": vehicle.name,
+                    "gnss_receiver": vehicle.receiver or "own",
                     "tyre_state": spec.tyre,
                     "duration_s": truth["duration_s"],
                     "distance_m": truth["distance_m"],
@@ -126,6 +134,7 @@ def simulate_fleet(params: Params, out_dir: Path) -> dict[str, Any]:
             "profile": sim.profile,
             "seed": sim.seed,
             "vehicles": dict(sim.profiles[sim.profile].vehicles),
+            "receivers": dict(sim.profiles[sim.profile].receivers),
             "drives": rows,
             "roles": roles,
         }

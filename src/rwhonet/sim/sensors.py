@@ -1,4 +1,4 @@
-"""Sensors: CAN wheel speeds, the GNSS receiver and its rare degraded stretches.
+"""Sensors: CAN wheel speeds, the yaw-rate gyro, the GNSS receiver and its degraded stretches.
 
 Every sensor samples the 50 Hz ground truth at the record rate. Models and
 parameter sources are in docs/simulator.md.
@@ -12,7 +12,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import lfilter
 
-from rwhonet.config import SimCan, SimGnss
+from rwhonet.config import SimCan, SimGnss, SimGyro
 from rwhonet.geo import latlon_from_offsets_deg
 
 FAULT_KINDS = ("low_sats", "frozen", "jump", "gap")
@@ -193,6 +193,99 @@ def can_wheel_speeds(
     measured = true + rng.standard_normal(true.shape) * can.noise_rad_s
     measured = np.where(true < can.min_speed_rad_s, 0.0, np.maximum(measured, 0.0))
     return np.round(measured / can.quantum_rad_s) * can.quantum_rad_s
+
+
+@dataclass(frozen=True)
+class YawRate:
+    """The yaw-rate channel at the record rate and the errors drawn for this drive.
+
+    Attributes:
+        deg_s: measured yaw rate, deg/s, positive to the left (counter-clockwise).
+        bias_deg_s: the whole bias at each record row (turn-on + instability +
+            temperature), deg/s.
+        temperature_rise_k: the sensor's temperature over its start, K.
+        turn_on_bias_deg_s: the turn-on bias drawn for this drive, deg/s.
+    """
+
+    deg_s: np.ndarray
+    bias_deg_s: np.ndarray
+    temperature_rise_k: np.ndarray
+    turn_on_bias_deg_s: float
+
+
+def sensor_warmup_k(t_s: np.ndarray, gyro: SimGyro) -> np.ndarray:
+    """Temperature rise of the yaw-rate sensor over a drive from a cold start.
+
+    ``dT(t) = warmup_k (1 - exp(-t / warmup_tau_s))``: the cabin (or the ESC's
+    control unit) warming from ambient towards its running temperature, a
+    first-order lag like the tyres' (docs/simulator.md, Section 7).
+
+    Args:
+        t_s: time since the start of the drive, s.
+        gyro: the sensor.
+
+    Returns:
+        Temperature rise, K, like ``t_s``.
+    """
+    return gyro.warmup_k * -np.expm1(-np.asarray(t_s, dtype=np.float64) / gyro.warmup_tau_s)
+
+
+def yaw_rate_sensor(
+    t_record_s: np.ndarray,
+    t_true_s: np.ndarray,
+    heading_rad: np.ndarray,
+    gyro: SimGyro,
+    rng: np.random.Generator,
+    errors: bool = True,
+) -> YawRate:
+    """The ESC yaw-rate sensor's channel, sampled at the record rate.
+
+    Each value is the sensor's mean rate over the record period ending
+    ``latency_s`` before its row, ``(psi(t - L) - psi(t - L - T)) / T`` of the
+    body heading ``psi`` that moves the car (the output of a digital gyro is
+    the average of its decimation window), so that a perfect sensor summed
+    over the rows, times ``T``, gives the heading change exactly. Then
+
+        measured = (1 + scale_error_pct / 100) true + b0 + b_GM(t) + tco dT(t) + n
+
+    with ``b0 ~ N(0, bias_sigma^2)`` drawn per drive (turn-on bias), ``b_GM`` a
+    stationary first-order Gauss-Markov bias instability, ``dT`` the sensor's
+    warm-up (:func:`sensor_warmup_k`) and ``n`` white noise of the noise
+    density averaged over the period (noise-equivalent bandwidth ``1 / (2 T)``),
+    quantised to ``quantum_deg_s``. Sources of every value: docs/simulator.md,
+    Section 7.
+
+    Args:
+        t_record_s: record times (m,), evenly spaced.
+        t_true_s: ground-truth times (n,).
+        heading_rad: body heading at ``t_true_s``, counter-clockwise, unwrapped (n,).
+        gyro: the sensor.
+        rng: the sensor's own random generator.
+        errors: False for a perfect sensor (no bias, scale error, noise,
+            quantisation or latency; the mean rate over each record period).
+
+    Returns:
+        The channel and the errors drawn.
+    """
+    m = t_record_s.size
+    period = float(t_record_s[1] - t_record_s[0]) if m > 1 else 1.0
+    latency = gyro.latency_s if errors else 0.0
+    # Before the first truth sample the car stands at its initial heading (np.interp holds it).
+    t_end = t_record_s - latency
+    psi = np.interp(np.concatenate([t_end[:1] - period, t_end]), t_true_s, heading_rad)
+    true_deg_s = np.degrees(np.diff(psi)) / period
+    t_drive = t_record_s - t_record_s[0]
+    rise = sensor_warmup_k(t_drive, gyro)
+    if not errors:
+        return YawRate(true_deg_s, np.zeros(m), rise, 0.0)
+    b0 = float(rng.normal(0.0, gyro.bias_sigma_deg_s))
+    drift = gauss_markov(m, period, gyro.instability_sigma_deg_s, gyro.instability_tau_s, rng)[0]
+    bias = b0 + drift + gyro.temp_coeff_deg_s_k * rise
+    noise = rng.standard_normal(m) * gyro.noise_density_deg_s_rthz / np.sqrt(2.0 * period)
+    measured = (1.0 + gyro.scale_error_pct / 100.0) * true_deg_s + bias + noise
+    if gyro.quantum_deg_s > 0:
+        measured = np.round(measured / gyro.quantum_deg_s) * gyro.quantum_deg_s
+    return YawRate(measured, bias, rise, b0)
 
 
 @dataclass(frozen=True)

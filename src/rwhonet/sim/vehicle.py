@@ -39,6 +39,8 @@ class Vehicle:
         params: the ``sim.vehicles.<name>`` section.
         payload_kg: passengers and luggage besides the driver (0: as configured).
         payload_x_m: their centre of mass ahead of the rear axle (the boot: negative).
+        receiver: the ``sim.receivers`` grade fitted in place of the car's own GNSS
+            receiver (``params.gnss`` is then that grade), or None.
     """
 
     name: str
@@ -46,6 +48,7 @@ class Vehicle:
     params: SimVehicle
     payload_kg: float = 0.0
     payload_x_m: float = 0.0
+    receiver: str | None = None
 
     def with_payload(self, payload_kg: float, payload_x_m: float) -> Vehicle:
         """The same car carrying a payload (its tyres keep their free radius).
