@@ -62,7 +62,7 @@ class Gyro:
             rng: random generator.
 
         Returns:
-            (n,) measured yaw rate, rad/s.
+            ``(measured, bias)``: (n,) the measured yaw rate and the bias in it, rad/s.
         """
         dt = float(t_s[1] - t_s[0])
         true = np.interp(t_s - self.latency_s, t_s, rate_rad_s)
@@ -73,8 +73,9 @@ class Gyro:
         t = t_s - t_s[0]
         warm = self.temp_drift_per_k * self.warm_k * (1.0 - np.exp(-t / self.warm_tau_s))
         white = rng.standard_normal(t_s.size) * self.noise_density / np.sqrt(dt)
-        out = (1.0 + self.scale_error) * true + self.bias + gm + warm + white
-        return np.round(out / self.lsb) * self.lsb if self.lsb > 0 else out
+        bias = self.bias + gm + warm
+        out = (1.0 + self.scale_error) * true + bias + white
+        return (np.round(out / self.lsb) * self.lsb if self.lsb > 0 else out), bias
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,7 @@ class DriveSeconds:
         angle_rl_rad: rear-left wheel angle of each second, rad.
         angle_rr_rad: rear-right wheel angle, rad.
         gyro_rad: the gyro's yaw rate integrated over each second (left positive), rad.
+        gyro_bias_rad: the gyro's bias integrated over each second, rad.
         yaw_true_rad: the true yaw of each second (left positive), rad.
         odo_true_m: the rear-axle centre's true travel in each second, m.
         truth_e_m: the rear-axle centre at the end of each second, east, m.
@@ -110,6 +112,7 @@ class DriveSeconds:
     angle_rl_rad: np.ndarray
     angle_rr_rad: np.ndarray
     gyro_rad: np.ndarray
+    gyro_bias_rad: np.ndarray
     yaw_true_rad: np.ndarray
     odo_true_m: np.ndarray
     truth_e_m: np.ndarray
@@ -182,7 +185,7 @@ def drive_seconds(
     e, n = offsets_m(lat0, lon0, frame["lat_deg"][::10], frame["lon_deg"][::10])
     rate = state.motion.yaw_rate_rad_s[idx]
     g_rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(99,)))
-    measured = gyro.sample(frame["t_s"], rate, g_rng)
+    measured, bias = gyro.sample(frame["t_s"], rate, g_rng)
     heading = state.pose.heading_rad[anchors]
     s = state.motion.s_m[anchors]
     r = drive.truth["radius_static_m"]
@@ -196,6 +199,7 @@ def drive_seconds(
         angle_rl_rad=sec.angle_rl_rad,
         angle_rr_rad=sec.angle_rr_rad,
         gyro_rad=integrate_per_second(frame["t_s"], measured),
+        gyro_bias_rad=integrate_per_second(frame["t_s"], bias),
         yaw_true_rad=np.diff(heading),
         odo_true_m=np.diff(s),
         truth_e_m=state.pose.east_m[anchors[1:]],
