@@ -6,7 +6,7 @@ and 95.45 %. For a scalar error (a window's CTE, its CRSE less the predicted
 mean) that is ``|e| ≤ kσ`` (:func:`coverage_1d`). For a 2D position error the
 same contents are the ellipses of the predicted covariance ``Σ`` whose
 squared Mahalanobis radius ``eᵀ Σ⁻¹ e`` is at most the χ²(2) quantile
-``−2 ln(1 − p)``: 2.279 for 68.27 % and 6.180 for 95.45 %
+``−2 ln(1 − p)``: 2.296 for 68.27 % and 6.180 for 95.45 %
 (:func:`coverage_2d`, ``probs=SIGMA_CONTENT``). The "1σ ellipse" in the strict
 sense (Mahalanobis radius 1, resp. 2) holds only 39.35 % and 86.47 % of a 2D
 normal; :data:`ELLIPSE_CONTENT` gives those to check against instead.
