@@ -129,6 +129,7 @@ def test_the_filter_is_consistent_on_its_own_model(control):
     cfg = NavConfig(
         antenna_m=LEVER,
         load_sd=0.0005,  # keeps 1 + c d² near 1: the linearisation's domain
+        load_min=-1.0,  # the model draws c of either sign: no projection onto c >= 0
         wheels=dataclasses.replace(WheelSpec(), model_rel=0.0),
         gnss=GnssSpec(sigma_m=1.2, tau_s=120.0, white_m=0.3),
     )
@@ -179,3 +180,27 @@ def test_rows_start_on_their_first_course_and_a_missing_sensor_is_no_measurement
     assert track.started[0].all()
     assert not track.started[1, :10].any() and track.started[1, 11:].all()
     assert np.isfinite(track.x[:, -1]).all()
+
+
+def test_a_filter_that_lost_the_car_starts_its_pose_afresh_on_gnss():
+    # The wheels alone, exact but for 25 s in which they count every turn the wrong way
+    # round (wheel speeds are magnitudes: a reversing manoeuvre). The heading goes wrong,
+    # the fixes fall outside the gate one after the other; after reset_after_s refusals the
+    # pose restarts on GNSS and the filter tracks the car again.
+    rng = np.random.default_rng(7)
+    cfg = NavConfig(gnss=GnssSpec(sigma_m=1.0, tau_s=120.0, white_m=0.05))
+    inputs, truth = model_drives(rng, cfg, 4, 400, exact=True)
+    y_w = inputs.wheel_yaw_rad.copy()
+    y_w[:, 200:225] *= -1.0
+    track = run(dataclasses.replace(inputs, wheel_yaw_rad=y_w), cfg, "wheels")
+    assert track.rejected["reset"] >= 1
+    end = np.hypot(track.x[:, -1, 0] - truth.e[:, -1], track.x[:, -1, 1] - truth.n[:, -1])
+    assert np.all(end < 0.5), end
+    # without the reset the filter never recovers
+    stuck = run(
+        dataclasses.replace(inputs, wheel_yaw_rad=y_w),
+        dataclasses.replace(cfg, reset_after_s=10**6),
+        "wheels",
+    )
+    lost = np.hypot(stuck.x[:, -1, 0] - truth.e[:, -1], stuck.x[:, -1, 1] - truth.n[:, -1])
+    assert np.max(lost) > 10.0, lost

@@ -304,10 +304,19 @@ def fit_heading(
             # know better. Re-anchor on the last block's residuals, each weighted by its
             # precision and by how recent it is: a time constant sqrt(course var / walk var)
             # is where a course's noise equals the walk since it (a Kalman filter's memory).
-            ours = np.flatnonzero(keep & (block == last))
+            # Every course of the block counts, not only those the fitted track kept: where
+            # the track has drifted off (a tyre losing air faster than the memory follows)
+            # the latest courses are the ones it dropped. GNSS jumps are left out against
+            # the latest courses' own median instead.
+            ours = np.flatnonzero(known & (block == last))
+            off = _wrap(unwrapped[ours] - model[ours])
             tau = np.sqrt(np.median(sd[ours] ** 2) / yaw_noise_rad**2)
-            wa = np.exp(-(d.size - 1 - ours) / tau) / sd[ours] ** 2
-            anchor = float(np.sum(wa * (unwrapped[ours] - model[ours])) / np.sum(wa))
+            recent = d.size - 1 - ours <= 3.0 * tau
+            centre = np.median(off[recent]) if recent.any() else np.median(off)
+            near = np.abs(_wrap(off - centre)) <= limit[ours]
+            age = d.size - 1 - ours[near]
+            wa = np.exp(-(age - age.min()) / tau) / sd[ours[near]] ** 2
+            anchor = float(centre + np.sum(wa * _wrap(off[near] - centre)) / np.sum(wa))
             fit = HeadingFit(
                 scale,
                 bias,

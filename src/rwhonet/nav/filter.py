@@ -114,6 +114,12 @@ class NavConfig:
             magnitudes, count the turn the wrong way round).
         delta_prior_sd: the prior spread of a second's yaw, rad (wide: the
             sensors decide it).
+        reset_after_s: after this many fixes in a row refused by the gate, the
+            pose restarts on GNSS (the sensor states are kept).
+        load_min: ``c`` is kept in ``[load_min, load_max]`` (the load transfer makes
+            the outer wheel report more, never less: 0; 0.01 is a very soft axle).
+        load_max: see ``load_min``.
+        scale_max_off: the scales are kept within ``1 ± scale_max_off``.
     """
 
     gyro: GyroSpec = field(default_factory=GyroSpec)
@@ -136,6 +142,10 @@ class NavConfig:
     heading_walk: float = 2e-4
     yaw_gate: float = 5.0
     delta_prior_sd: float = 1.0
+    reset_after_s: int = 10
+    load_min: float = 0.0
+    load_max: float = 0.01
+    scale_max_off: float = 0.3
 
 
 @dataclass(frozen=True)
@@ -188,7 +198,8 @@ class NavTrack:
         fix_cov: (W, n, 2, 2) that prediction's covariance (state and the fix's
             white noise), m².
         started: (W, n) the filter runs at the end of that second.
-        rejected: how many measurements the gates left out, by kind.
+        rejected: how many measurements the gates left out, by kind, and how
+            many times a pose restarted (``reset``).
     """
 
     x: np.ndarray
@@ -477,19 +488,29 @@ def run(
     x[:, SG] = x[:, SD] = x[:, SW] = 1.0
     p = np.broadcast_to(np.eye(S), (w, S, S)).copy()
     on = np.zeros(w, bool)
-    rejected = {"wheels": 0, "course": 0, "fix": 0}
+    rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0}
+    refused = np.zeros(w, np.int64)  # consecutive fixes the gate refused
     for k in range(n):
         d = dist[:, k]
         ce, cn = fe[:, k + 1] - fe[:, k], fn[:, k + 1] - fn[:, k]
         chord = np.hypot(ce, cn)
         has_fix = np.isfinite(fe[:, k + 1]) & np.isfinite(fn[:, k + 1])
-        has_course = has_fix & np.isfinite(chord) & (chord >= gn.min_course_m)
+        # A course needs the car to move, by the odometry as well as by the fixes: a
+        # standing car's fixes metres apart (a consumer receiver's noise) point anywhere.
+        has_course = (
+            has_fix
+            & np.isfinite(chord)
+            & (chord >= gn.min_course_m)
+            & (np.nan_to_num(d) >= gn.min_course_m)
+        )
         course = np.arctan2(ce, cn)
         # The course's fixes are the position updates' too: its white part counts twice
-        # (4 instead of 2 sigma²) so that the two do not claim the same noise as news.
+        # (4 instead of 2 sigma²) so that the two do not claim the same noise as news. Its
+        # spread is taken over the odometry's distance, not over the chord, which the
+        # fixes' noise lengthens as often as it turns it.
         course_var = (
             gn.course_sd_rad**2
-            + (4.0 * gn.white_m**2 + drift_step2) / np.where(has_course, chord, 1.0) ** 2
+            + (4.0 * gn.white_m**2 + drift_step2) / np.where(has_course, d, 1.0) ** 2
         )
         g_k = np.where(np.isfinite(y_g[:, k]), y_g[:, k], np.nan)
         wh_k = np.where(np.isfinite(y_w[:, k]), y_w[:, k], np.nan)
@@ -555,9 +576,24 @@ def run(
             z = np.stack([fe[:, k + 1], fn[:, k + 1]], axis=1)
             xa, pa, ok = _vector_update(xa, pa, h_mat, z - h2, r_fix, on & has_fix, gn.gate)
             rejected["fix"] += int((on & has_fix & ~ok).sum())
-            # 4. marginalise the second's yaw
+            refused = np.where(on & has_fix, np.where(ok, 0, refused + 1), refused)
+            # 4. marginalise the second's yaw; keep the model's terms where they mean
+            # something (a projection: the load term cannot turn the wheels' yaw
+            # around, scales stay near 1), else noisy courses can walk the weakly
+            # observed ones into a region where 1 + c d² vanishes
+            xa[:, CW] = np.clip(xa[:, CW], cfg.load_min, cfg.load_max)
+            for i in (SG, SD, SW):
+                xa[:, i] = np.clip(xa[:, i], 1.0 - cfg.scale_max_off, 1.0 + cfg.scale_max_off)
             x = np.where(on[:, None], xa[:, :S], x)
             p = np.where(on[:, None, None], pa[:, :S, :S], p)
+        # A filter that has refused every fix for reset_after_s seconds has lost the car
+        # (its own heading went wrong, e.g. the wheels counting a reversing turn the wrong
+        # way round, and its covariance no longer covers it): start the pose afresh on
+        # GNSS, keeping what it learnt about the sensors.
+        reset = on & has_course & (refused >= cfg.reset_after_s)
+        rejected["reset"] += int(reset.sum())
+        refused = np.where(reset, 0, refused)
+        first = first | reset
         if first.any():
             yaw_guess = np.where(use_gyro & np.isfinite(g_k), g_k, np.nan_to_num(wh_k))
             x0, p0 = _initial(
@@ -568,8 +604,12 @@ def run(
                 d,
                 cfg,
             )
-            x = np.where(first[:, None], x0, x)
-            p = np.where(first[:, None, None], p0, p)
+            pose = np.zeros(S, bool)
+            pose[[E, N, PSI, GE, GN]] = True
+            keep = reset[:, None] & ~pose  # sensor states of a reset row stay
+            x = np.where(first[:, None] & ~keep, x0, x)
+            both = keep[:, :, None] & keep[:, None, :]
+            p = np.where(reset[:, None, None] & both, p, np.where(first[:, None, None], p0, p))
             on = on | first
         p = 0.5 * (p + np.swapaxes(p, 1, 2))
         h2, h_mat = fix_model(x, cfg.antenna_m)
