@@ -21,7 +21,7 @@ from rwhonet import paths
 
 SRC = paths.ROOT / "src"
 PACKAGE = "rwhonet"
-DOMAIN = ("sim", "data", "geo", "features", "models", "evaluation", "serve")
+DOMAIN = ("sim", "data", "geo", "features", "models", "evaluation", "serve", "nav")
 INFRA = ("rwhonet.paths", "rwhonet.stage", "rwhonet.stages", "rwhonet.tracking", "pipelines")
 
 

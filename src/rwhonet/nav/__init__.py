@@ -1,0 +1,54 @@
+"""2D positioning through a GNSS outage: a navigation filter and its calibration checks.
+
+Beyond the paper (whose errors are distances travelled). Pure domain code:
+arrays in, arrays out.
+
+- :mod:`rwhonet.nav.filter`: an extended Kalman filter over position, heading,
+  gyro bias and scale, odometry scale, the wheel yaw's scale, bias per metre
+  and load-transfer term, and the GNSS receiver's drift; propagated each
+  second by an odometry model's distance and the yaw of the gyro, the rear
+  wheels, or both fused; updated by GNSS course and position while they are
+  valid (:func:`run`).
+- :mod:`rwhonet.nav.outage`: one run per outage window, calibrated on the
+  seconds before it (:func:`run_outage`, :func:`window_inputs`).
+- :mod:`rwhonet.nav.sensors`: the filter's noise from the sensors' stated error models.
+- :mod:`rwhonet.nav.coverage`: whether the predicted uncertainty is honest
+  (coverage of 1σ/2σ regions, negative log-likelihood, CRSE's predicted spread).
+"""
+
+from rwhonet.nav.coverage import (
+    ELLIPSE_CONTENT,
+    SIGMA_CONTENT,
+    coverage_1d,
+    coverage_2d,
+    crse_coverage,
+    crse_prediction,
+    mahalanobis_sq,
+    nll_2d,
+)
+from rwhonet.nav.filter import CONTROLS, STATE, NavConfig, NavInputs, NavTrack, run
+from rwhonet.nav.outage import OutageResult, run_outage, window_inputs
+from rwhonet.nav.sensors import GnssSpec, GyroSpec, WheelSpec
+
+__all__ = [
+    "CONTROLS",
+    "ELLIPSE_CONTENT",
+    "SIGMA_CONTENT",
+    "STATE",
+    "GnssSpec",
+    "GyroSpec",
+    "NavConfig",
+    "NavInputs",
+    "NavTrack",
+    "OutageResult",
+    "WheelSpec",
+    "coverage_1d",
+    "coverage_2d",
+    "crse_coverage",
+    "crse_prediction",
+    "mahalanobis_sq",
+    "nll_2d",
+    "run",
+    "run_outage",
+    "window_inputs",
+]

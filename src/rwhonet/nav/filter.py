@@ -1,0 +1,624 @@
+"""An extended Kalman filter for a car's 2D position through a GNSS outage.
+
+State (per window; :data:`STATE`), in a local east/north frame in metres
+(:mod:`rwhonet.geo.local` turns fixes into it):
+
+====  =========  ===================================================================
+ 0-1  ``e, n``   the rear-axle centre, m
+ 2    ``psi``    the body's azimuth, rad clockwise from north
+ 3    ``b_g``    the gyro's bias, rad/s (left turns positive, as the yaw rate)
+ 4    ``s_g``    the gyro's scale: true yaw = ``s_g`` (measured − bias)
+ 5    ``s_d``    the odometry's scale: travel = ``s_d`` × the model's distance
+ 6    ``s_w``    the wheel yaw's scale (effective track and radius)
+ 7    ``beta``   the wheel yaw's bias per metre (a left/right radius difference), rad/m
+ 8    ``c``      the wheels' load-transfer term: they report ``1 + c v²`` times the
+                 yaw (:mod:`rwhonet.features.deadreckoning`), s²/m²
+ 9-10 ``g``      the GNSS receiver's slowly drifting error, east and north, m
+ 11   ``eps_w``  what the wheel-yaw model misses, rad per second: slip and load
+                 effects that differ between the rear wheels and last as long as a
+                 speed or a bend (a Gauss-Markov process)
+ 12   ``beta_v`` the wheel yaw's bias per metre grows with speed by this, rad/m per
+                 m/s (the rear tyres' radii part with speed: two pressures, two
+                 tread depths)
+====  =========  ===================================================================
+
+Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
+
+1. the second's true yaw ``δ`` (left positive) joins the state with a wide
+   prior; the gyro's integral ``Y_g = δ / s_g + b_g`` and the rear wheels'
+   yaw ``Y_w = (δ − β d − β_v d²)(1 + c d²) / s_w + ε_w`` (``d``: the second's
+   distance) are
+   measurements of it, each with the noise of its sensor
+   (:mod:`rwhonet.nav.sensors`). With both (control ``fused``) their
+   difference tells the biases apart every second, GNSS or not: the wheels
+   watch the gyro's bias drift through an outage, the gyro watches a tyre's
+   radius change. ``wheels`` and ``gyro`` use one sensor alone;
+2. propagation by the arc of the second: ``ψ ← ψ − δ``; the position moves by
+   the chord ``s_d d sinc(δ/2)`` along the mid-second azimuth ``ψ − δ/2`` (the
+   midpoint rule of :func:`rwhonet.features.deadreckoning.dead_reckon`); the
+   distance's variance is an input (the odometry model's); the biases and
+   scales walk, the GNSS error decays as a Gauss-Markov process;
+3. while GNSS is valid: the course of the antenna's chord (two fixes far
+   enough apart) and the fix itself (antenna = rear axle + lever arm + ``g``)
+   update the state, innovations beyond ``gnss.gate`` standard deviations left
+   out (jumps); through an outage the fixes are absent and steps 1-2 alone
+   dead-reckon;
+4. ``δ`` is marginalised out.
+
+The filter starts on the first second with a course (its azimuth, the fix) and
+runs every window of a batch at once (arrays ``(W, n)``, one loop over the
+seconds). Covariances are updated in Joseph form.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from rwhonet.nav.sensors import GnssSpec, GyroSpec, WheelSpec
+
+Control = Literal["wheels", "gyro", "fused"]
+CONTROLS: tuple[str, ...] = ("wheels", "gyro", "fused")
+STATE: tuple[str, ...] = (
+    "e",
+    "n",
+    "psi",
+    "b_g",
+    "s_g",
+    "s_d",
+    "s_w",
+    "beta",
+    "c",
+    "g_e",
+    "g_n",
+    "eps_w",
+    "beta_v",
+)
+E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV = range(len(STATE))
+S = len(STATE)
+DELTA = S  # the second's yaw, in the augmented state
+
+
+@dataclass(frozen=True)
+class NavConfig:
+    """The sensors' error models, the priors and the random walks of the slow states.
+
+    Attributes:
+        gyro: the yaw-rate sensor.
+        wheels: the rear wheels' CAN speeds and geometry.
+        gnss: the receiver.
+        antenna_m: the antenna ahead of and left of the rear-axle centre, m.
+        dist_scale_sd: prior spread of ``s_d`` around 1.
+        wheel_scale_sd: prior spread of ``s_w`` around 1.
+        wheel_bias_sd: prior spread of ``beta`` around 0, rad/m.
+        load_sd: prior spread of ``c`` around 0, s²/m².
+        dist_scale_walk: random walk of ``s_d`` per sqrt(s) (tyres warming).
+        gyro_scale_walk: random walk of ``s_g`` per sqrt(s).
+        wheel_scale_walk: random walk of ``s_w`` per sqrt(s).
+        wheel_bias_walk: random walk of ``beta`` per sqrt(s), rad/m (a tyre losing air).
+        load_walk: random walk of ``c`` per sqrt(s).
+        wheel_error_sd: spread of ``eps_w``, rad per second. On a simulated
+            Fiesta the wheel-yaw model's residual with scale, bias per metre and
+            load term fitted to the true yaw averaged -0.0019 to +0.0025 rad per
+            second by speed band; with ``beta_v`` too, within ±0.0003
+            (docs/positioning.md): errors that last, which as white noise would
+            pull the gyro's bias every second.
+        wheel_error_tau_s: its correlation time, s.
+        wheel_bias_speed_sd: prior spread of ``beta_v`` around 0, rad/m per m/s.
+        wheel_bias_speed_walk: its random walk per sqrt(s).
+        heading_walk: heading noise per sqrt(s) besides the yaw sensors', rad.
+        yaw_gate: a second sensor's yaw beyond this many standard deviations of the
+            first's is left out (a reversing manoeuvre, where wheel speeds, being
+            magnitudes, count the turn the wrong way round).
+        delta_prior_sd: the prior spread of a second's yaw, rad (wide: the
+            sensors decide it).
+        reset_after_s: after this many fixes in a row refused by the gate, the
+            pose restarts on GNSS (the sensor states are kept).
+        load_min: ``c`` is kept in ``[load_min, load_max]`` (the load transfer makes
+            the outer wheel report more, never less: 0; 0.01 is a very soft axle).
+        load_max: see ``load_min``.
+        scale_max_off: the scales are kept within ``1 ± scale_max_off``.
+    """
+
+    gyro: GyroSpec = field(default_factory=GyroSpec)
+    wheels: WheelSpec = field(default_factory=WheelSpec)
+    gnss: GnssSpec = field(default_factory=GnssSpec)
+    antenna_m: tuple[float, float] = (0.0, 0.0)
+    dist_scale_sd: float = 0.03
+    wheel_scale_sd: float = 0.05
+    wheel_bias_sd: float = 0.003
+    load_sd: float = 0.003
+    dist_scale_walk: float = 1e-4
+    gyro_scale_walk: float = 1e-5
+    wheel_scale_walk: float = 1e-4
+    wheel_bias_walk: float = 2e-6
+    load_walk: float = 1e-6
+    wheel_error_sd: float = 0.0005
+    wheel_error_tau_s: float = 60.0
+    wheel_bias_speed_sd: float = 3e-5
+    wheel_bias_speed_walk: float = 1e-7
+    heading_walk: float = 2e-4
+    yaw_gate: float = 5.0
+    delta_prior_sd: float = 1.0
+    reset_after_s: int = 10
+    load_min: float = 0.0
+    load_max: float = 0.01
+    scale_max_off: float = 0.3
+
+
+@dataclass(frozen=True)
+class NavInputs:
+    """What the filter reads, per window and second: arrays ``(W, n)`` (fixes ``(W, n + 1)``).
+
+    Attributes:
+        dist_m: the odometry model's distance of each second, m.
+        dist_var_m2: its error variance, m².
+        wheel_yaw_rad: the rear wheels' yaw of each second with nominal radii
+            (:func:`rwhonet.features.deadreckoning.wheel_yaw_rad`), rad; NaN: none.
+        gyro_yaw_rad: the gyro's yaw rate integrated over each second, rad; NaN: none.
+        fix_e_m: GNSS fixes bounding the seconds, east, m: column ``k`` starts
+            second ``k`` and column ``k + 1`` ends it; NaN where no valid fix
+            (an outage).
+        fix_n_m: their north offsets, m.
+    """
+
+    dist_m: np.ndarray
+    dist_var_m2: np.ndarray
+    wheel_yaw_rad: np.ndarray
+    gyro_yaw_rad: np.ndarray
+    fix_e_m: np.ndarray
+    fix_n_m: np.ndarray
+
+    def __post_init__(self) -> None:
+        shape = np.shape(self.dist_m)
+        if len(shape) != 2:
+            raise ValueError(f"NavInputs arrays must be (windows, seconds), got {shape}")
+        for name in ("dist_var_m2", "wheel_yaw_rad", "gyro_yaw_rad"):
+            if np.shape(getattr(self, name)) != shape:
+                raise ValueError(f"{name} is {np.shape(getattr(self, name))}, expected {shape}")
+        for name in ("fix_e_m", "fix_n_m"):
+            if np.shape(getattr(self, name)) != (shape[0], shape[1] + 1):
+                raise ValueError(
+                    f"{name} is {np.shape(getattr(self, name))}, expected "
+                    f"{(shape[0], shape[1] + 1)} (the fix before each second, then one per second)"
+                )
+
+
+@dataclass(frozen=True)
+class NavTrack:
+    """The filter's output at the end of every second.
+
+    Attributes:
+        x: (W, n, S) state; NaN before the filter started.
+        cov: (W, n, S, S) its covariance (None unless asked for), else only the last.
+        last_cov: (W, S, S) the covariance at the end of the last second.
+        fix_pred: (W, n, 2) where the antenna's fix is predicted (east, north), m.
+        fix_cov: (W, n, 2, 2) that prediction's covariance (state and the fix's
+            white noise), m².
+        started: (W, n) the filter runs at the end of that second.
+        rejected: how many measurements the gates left out, by kind, and how
+            many times a pose restarted (``reset``).
+    """
+
+    x: np.ndarray
+    cov: np.ndarray | None
+    last_cov: np.ndarray
+    fix_pred: np.ndarray
+    fix_cov: np.ndarray
+    started: np.ndarray
+    rejected: dict[str, int]
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def lever(psi: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """East/north offset of the antenna from the rear-axle centre at azimuth ``psi``.
+
+    Forward is ``(sin ψ, cos ψ)``, left is ``(−cos ψ, sin ψ)`` (azimuth clockwise from north).
+
+    Returns:
+        ``(east, north)``, m.
+    """
+    x, y = antenna_m
+    s, c = np.sin(psi), np.cos(psi)
+    return x * s - y * c, x * c + y * s
+
+
+def lever_dpsi(psi: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Derivative of :func:`lever` with respect to ``psi``."""
+    x, y = antenna_m
+    s, c = np.sin(psi), np.cos(psi)
+    return x * c + y * s, -x * s + y * c
+
+
+def sinc_half(delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``f(δ) = sin(δ/2) / (δ/2)`` (the chord of an arc of unit length) and ``f'(δ)``."""
+    u = 0.5 * np.asarray(delta, np.float64)
+    f = np.sinc(u / np.pi)
+    small = np.abs(u) < 1e-4
+    safe = np.where(small, 1.0, u)
+    df = np.where(small, -u / 6.0, 0.5 * (u * np.cos(u) - np.sin(u)) / (safe * safe))
+    return f, df
+
+
+def propagate(
+    xa: np.ndarray, d: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Move the augmented state by one second's arc.
+
+    Args:
+        xa: (W, S + 1) state with the second's yaw ``δ`` last.
+        d: (W,) the odometry's distance of the second, m.
+
+    Returns:
+        ``(xa_new, F, g_e, g_n)``: the new state (GNSS error not yet decayed),
+        the Jacobian ``∂xa_new/∂xa`` (W, S + 1, S + 1), and how the distance's
+        noise moves east and north (W,) each.
+    """
+    psi, delta, s_d = xa[:, PSI], xa[:, DELTA], xa[:, SD]
+    f, df = sinc_half(delta)
+    dist = s_d * d
+    chord = dist * f
+    mid = psi - 0.5 * delta
+    sm, cm = np.sin(mid), np.cos(mid)
+    out = xa.copy()
+    out[:, E] += chord * sm
+    out[:, N] += chord * cm
+    out[:, PSI] = psi - delta
+    w = xa.shape[0]
+    jac = np.broadcast_to(np.eye(S + 1), (w, S + 1, S + 1)).copy()
+    jac[:, E, PSI] = chord * cm
+    jac[:, N, PSI] = -chord * sm
+    jac[:, E, DELTA] = dist * df * sm - 0.5 * chord * cm
+    jac[:, N, DELTA] = dist * df * cm + 0.5 * chord * sm
+    jac[:, E, SD] = d * f * sm
+    jac[:, N, SD] = d * f * cm
+    jac[:, PSI, DELTA] = -1.0
+    return out, jac, f * sm, f * cm
+
+
+def course_model(
+    xa: np.ndarray, d: np.ndarray, antenna_m: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The azimuth of the antenna's chord over the second just propagated, and its Jacobian.
+
+    Args:
+        xa: (W, S + 1) state after :func:`propagate` (``ψ`` at the end of the
+            second, ``δ`` its yaw).
+        d: (W,) the odometry's distance of the second, m.
+        antenna_m: the lever arm.
+
+    Returns:
+        ``(h, H)``: (W,) azimuth, rad; (W, S + 1) its derivatives.
+    """
+    psi, delta, s_d = xa[:, PSI], xa[:, DELTA], xa[:, SD]
+    f, df = sinc_half(delta)
+    chord = s_d * d * f
+    mid = psi + 0.5 * delta
+    sm, cm = np.sin(mid), np.cos(mid)
+    old = psi + delta
+    le1, ln1 = lever(psi, antenna_m)
+    le0, ln0 = lever(old, antenna_m)
+    de1, dn1 = lever_dpsi(psi, antenna_m)
+    de0, dn0 = lever_dpsi(old, antenna_m)
+    east = chord * sm + le1 - le0
+    north = chord * cm + ln1 - ln0
+    # derivatives of (east, north) by psi, delta, s_d
+    e_psi, n_psi = chord * cm + de1 - de0, -chord * sm + dn1 - dn0
+    e_del = s_d * d * df * sm + 0.5 * chord * cm - de0
+    n_del = s_d * d * df * cm - 0.5 * chord * sm - dn0
+    e_sd, n_sd = d * f * sm, d * f * cm
+    r2 = np.maximum(east * east + north * north, 1e-12)
+    jac = np.zeros((xa.shape[0], S + 1))
+    for col, de_, dn_ in ((PSI, e_psi, n_psi), (DELTA, e_del, n_del), (SD, e_sd, n_sd)):
+        jac[:, col] = (north * de_ - east * dn_) / r2
+    return np.arctan2(east, north), jac
+
+
+def fix_model(x: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The antenna's predicted fix ``p + lever(ψ) + g`` and its Jacobian.
+
+    Args:
+        x: (W, K) state, K ≥ S.
+        antenna_m: the lever arm.
+
+    Returns:
+        ``(h, H)``: (W, 2) east/north, m; (W, 2, K).
+    """
+    psi = x[:, PSI]
+    le, ln = lever(psi, antenna_m)
+    de, dn = lever_dpsi(psi, antenna_m)
+    h = np.stack([x[:, E] + le + x[:, GE], x[:, N] + ln + x[:, GN]], axis=1)
+    jac = np.zeros((x.shape[0], 2, x.shape[1]))
+    jac[:, 0, E] = jac[:, 1, N] = 1.0
+    jac[:, 0, GE] = jac[:, 1, GN] = 1.0
+    jac[:, 0, PSI], jac[:, 1, PSI] = de, dn
+    return h, jac
+
+
+def _scalar_update(xa, pa, h_row, innov, r, use, gate=None):
+    """Joseph-form update by one scalar measurement where ``use``; returns the rows applied."""
+    ph = np.einsum("wij,wj->wi", pa, h_row)
+    s = np.einsum("wi,wi->w", h_row, ph) + r
+    ok = use & np.isfinite(innov) & (s > 0)
+    if gate is not None:
+        ok &= innov * innov <= gate * gate * s
+    k = ph / np.where(ok, s, 1.0)[:, None]
+    innov = np.where(ok, innov, 0.0)
+    new_x = xa + k * innov[:, None]
+    a = np.eye(xa.shape[1]) - k[:, :, None] * h_row[:, None, :]
+    new_p = a @ pa @ np.swapaxes(a, 1, 2) + r[:, None, None] * k[:, :, None] * k[:, None, :]
+    m = ok[:, None]
+    return np.where(m, new_x, xa), np.where(m[:, :, None], new_p, pa), ok
+
+
+def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
+    """Joseph-form update by a 2D measurement where ``use`` and within the gate."""
+    ph = pa @ np.swapaxes(h_mat, 1, 2)  # (W, K, 2)
+    s = h_mat @ ph + r_mat
+    ok = use & np.isfinite(innov).all(axis=1)
+    s_safe = np.where(ok[:, None, None], s, np.eye(2))
+    innov = np.where(ok[:, None], innov, 0.0)
+    s_inv = np.linalg.inv(s_safe)
+    ok &= np.einsum("wi,wij,wj->w", innov, s_inv, innov) <= gate * gate
+    k = ph @ s_inv
+    new_x = xa + np.einsum("wij,wj->wi", k, innov)
+    a = np.eye(xa.shape[1]) - k @ h_mat
+    new_p = a @ pa @ np.swapaxes(a, 1, 2) + k @ r_mat @ np.swapaxes(k, 1, 2)
+    return (
+        np.where(ok[:, None], new_x, xa),
+        np.where(ok[:, None, None], new_p, pa),
+        ok,
+    )
+
+
+def _initial(
+    course: np.ndarray,
+    course_var: np.ndarray,
+    fix: np.ndarray,
+    yaw_guess: np.ndarray,
+    dist: np.ndarray,
+    cfg: NavConfig,
+) -> tuple[np.ndarray, np.ndarray]:
+    """State and covariance at the end of the first second with a course (W rows)."""
+    w = course.shape[0]
+    x = np.zeros((w, S))
+    x[:, SG] = x[:, SD] = x[:, SW] = 1.0
+    x[:, PSI] = _wrap(course - 0.5 * np.nan_to_num(yaw_guess))
+    # the antenna's chord turns with the lever arm: solve course = h(psi) (dh/dpsi ~ 1)
+    xa = np.concatenate([x, np.nan_to_num(yaw_guess)[:, None]], axis=1)
+    for _ in range(4):
+        xa[:, PSI] += _wrap(course - course_model(xa, dist, cfg.antenna_m)[0])
+    psi = xa[:, PSI]
+    psi_var = course_var + 0.02**2  # and half a second's yaw, not known better yet
+    le, ln = lever(psi, cfg.antenna_m)
+    x[:, E], x[:, N], x[:, PSI] = fix[:, 0] - le, fix[:, 1] - ln, psi
+    p = np.zeros((w, S, S))
+    g2 = cfg.gnss.sigma_m**2
+    for i, var in (
+        (BG, cfg.gyro.bias_sd**2),
+        (SG, cfg.gyro.scale_sd**2),
+        (SD, cfg.dist_scale_sd**2),
+        (SW, cfg.wheel_scale_sd**2),
+        (BW, cfg.wheel_bias_sd**2),
+        (CW, cfg.load_sd**2),
+        (EW, cfg.wheel_error_sd**2),
+        (BV, cfg.wheel_bias_speed_sd**2),
+        (GE, g2),
+        (GN, g2),
+    ):
+        p[:, i, i] = var
+    # p = fix − lever(ψ) − g: the fix's white noise, the drift (less g), the lever's turn
+    de, dn = lever_dpsi(psi, cfg.antenna_m)
+    white2 = cfg.gnss.white_m**2
+    p[:, PSI, PSI] = psi_var
+    p[:, E, E] = white2 + g2 + de * de * psi_var
+    p[:, N, N] = white2 + g2 + dn * dn * psi_var
+    p[:, E, N] = p[:, N, E] = de * dn * psi_var
+    p[:, E, PSI] = p[:, PSI, E] = -de * psi_var
+    p[:, N, PSI] = p[:, PSI, N] = -dn * psi_var
+    p[:, E, GE] = p[:, GE, E] = -g2
+    p[:, N, GN] = p[:, GN, N] = -g2
+    return x, p
+
+
+def run(
+    inputs: NavInputs,
+    config: NavConfig | None = None,
+    control: Control = "fused",
+    keep_cov: bool = False,
+) -> NavTrack:
+    """Filter every window of ``inputs`` over its seconds (module docstring).
+
+    Args:
+        inputs: the windows' per-second data.
+        config: sensors, priors and random walks (default: :class:`NavConfig`).
+        control: which yaw sensors to use: ``wheels``, ``gyro`` or ``fused``.
+        keep_cov: keep the full covariance of every second (W·n·S² floats).
+
+    Returns:
+        The track.
+
+    Raises:
+        ValueError: on an unknown control.
+    """
+    if control not in CONTROLS:
+        raise ValueError(f"control must be one of {CONTROLS}, got {control!r}")
+    cfg = config or NavConfig()
+    use_gyro, use_wheels = control in ("gyro", "fused"), control in ("wheels", "fused")
+    dist = np.asarray(inputs.dist_m, np.float64)
+    dist_var = np.asarray(inputs.dist_var_m2, np.float64)
+    y_w = np.asarray(inputs.wheel_yaw_rad, np.float64)
+    y_g = np.asarray(inputs.gyro_yaw_rad, np.float64)
+    fe = np.asarray(inputs.fix_e_m, np.float64)
+    fn = np.asarray(inputs.fix_n_m, np.float64)
+    w, n = dist.shape
+    gn = cfg.gnss
+    r_gyro = cfg.gyro.yaw_sd_rad() ** 2
+    wheel_var = cfg.wheels.yaw_sd_rad() ** 2 + cfg.wheels.model_sd_rad**2
+    phi = np.exp(-1.0 / gn.tau_s)
+    q_g = gn.sigma_m**2 * (1.0 - phi * phi)
+    # the drift's change over one second, per axis: noise on a course besides the white
+    drift_step2 = 2.0 * gn.sigma_m**2 * (1.0 - phi)
+    q_diag = np.zeros(S + 1)
+    q_diag[PSI] = cfg.heading_walk**2
+    q_diag[BG] = cfg.gyro.bias_walk_rad_s() ** 2
+    q_diag[SG] = cfg.gyro_scale_walk**2
+    q_diag[SD] = cfg.dist_scale_walk**2
+    q_diag[SW] = cfg.wheel_scale_walk**2
+    q_diag[BW] = cfg.wheel_bias_walk**2
+    q_diag[CW] = cfg.load_walk**2
+    q_diag[GE] = q_diag[GN] = q_g
+    phi_w = np.exp(-1.0 / cfg.wheel_error_tau_s)
+    q_diag[EW] = cfg.wheel_error_sd**2 * (1.0 - phi_w * phi_w)
+    q_diag[BV] = cfg.wheel_bias_speed_walk**2
+    r_fix = np.broadcast_to(np.eye(2) * gn.white_m**2, (w, 2, 2))
+
+    xs = np.full((w, n, S), np.nan)
+    covs = np.full((w, n, S, S), np.nan) if keep_cov else None
+    fix_pred = np.full((w, n, 2), np.nan)
+    fix_cov = np.full((w, n, 2, 2), np.nan)
+    started = np.zeros((w, n), bool)
+    # rows that have not started carry a harmless state (unit scales) until they do
+    x = np.zeros((w, S))
+    x[:, SG] = x[:, SD] = x[:, SW] = 1.0
+    p = np.broadcast_to(np.eye(S), (w, S, S)).copy()
+    on = np.zeros(w, bool)
+    rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0}
+    refused = np.zeros(w, np.int64)  # consecutive fixes the gate refused
+    for k in range(n):
+        d = dist[:, k]
+        ce, cn = fe[:, k + 1] - fe[:, k], fn[:, k + 1] - fn[:, k]
+        chord = np.hypot(ce, cn)
+        has_fix = np.isfinite(fe[:, k + 1]) & np.isfinite(fn[:, k + 1])
+        # A course needs the car to move, by the odometry as well as by the fixes: a
+        # standing car's fixes metres apart (a consumer receiver's noise) point anywhere.
+        has_course = (
+            has_fix
+            & np.isfinite(chord)
+            & (chord >= gn.min_course_m)
+            & (np.nan_to_num(d) >= gn.min_course_m)
+        )
+        course = np.arctan2(ce, cn)
+        # The course's fixes are the position updates' too: its white part counts twice
+        # (4 instead of 2 sigma²) so that the two do not claim the same noise as news. Its
+        # spread is taken over the odometry's distance, not over the chord, which the
+        # fixes' noise lengthens as often as it turns it.
+        course_var = (
+            gn.course_sd_rad**2
+            + (4.0 * gn.white_m**2 + drift_step2) / np.where(has_course, d, 1.0) ** 2
+        )
+        g_k = np.where(np.isfinite(y_g[:, k]), y_g[:, k], np.nan)
+        wh_k = np.where(np.isfinite(y_w[:, k]), y_w[:, k], np.nan)
+        first = ~on & has_course
+        if on.any():
+            # 1. the second's yaw joins the state
+            guess_g = x[:, SG] * (g_k - x[:, BG])
+            c_d2 = 1.0 + x[:, CW] * d * d
+            guess_w = x[:, SW] * (wh_k - x[:, EW]) / c_d2 + (x[:, BW] + x[:, BV] * d) * d
+            delta0 = np.where(use_gyro & np.isfinite(g_k), guess_g, np.nan)
+            delta0 = np.where(np.isfinite(delta0), delta0, np.where(use_wheels, guess_w, np.nan))
+            delta0 = np.nan_to_num(delta0)
+            xa = np.concatenate([x, delta0[:, None]], axis=1)
+            pa = np.zeros((w, S + 1, S + 1))
+            pa[:, :S, :S] = p
+            pa[:, DELTA, DELTA] = cfg.delta_prior_sd**2
+            measured = np.zeros(w, bool)
+            if use_gyro:
+                s_g, dl = xa[:, SG], xa[:, DELTA]
+                h_row = np.zeros((w, S + 1))
+                h_row[:, DELTA], h_row[:, SG], h_row[:, BG] = 1.0 / s_g, -dl / s_g**2, 1.0
+                innov = g_k - (dl / s_g + xa[:, BG])
+                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, np.full(w, r_gyro), on)
+                measured |= ok
+            if use_wheels:
+                s_w, dl, beta, c = xa[:, SW], xa[:, DELTA], xa[:, BW], xa[:, CW]
+                c_d2 = 1.0 + c * d * d
+                turn = dl - (beta + xa[:, BV] * d) * d
+                h_row = np.zeros((w, S + 1))
+                h_row[:, DELTA] = c_d2 / s_w
+                h_row[:, BW] = -d * c_d2 / s_w
+                h_row[:, CW] = turn * d * d / s_w
+                h_row[:, SW] = -turn * c_d2 / s_w**2
+                h_row[:, EW] = 1.0
+                h_row[:, BV] = -d * d * c_d2 / s_w
+                innov = wh_k - turn * c_d2 / s_w - xa[:, EW]
+                r = wheel_var + (cfg.wheels.model_rel * np.nan_to_num(wh_k)) ** 2
+                gate = np.where(measured, cfg.yaw_gate, np.inf)
+                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, on, gate)
+                rejected["wheels"] += int((on & np.isfinite(wh_k) & ~ok).sum())
+            # 2. the arc of the second
+            xa_new, jac, ge, gnn = propagate(xa, d)
+            xa_new[:, GE] *= phi
+            xa_new[:, GN] *= phi
+            xa_new[:, EW] *= phi_w
+            jac[:, GE, GE] = jac[:, GN, GN] = phi
+            jac[:, EW, EW] = phi_w
+            pa_new = jac @ pa @ np.swapaxes(jac, 1, 2)
+            pa_new += np.diag(q_diag)
+            var_d = np.nan_to_num(dist_var[:, k])
+            pa_new[:, E, E] += var_d * ge * ge
+            pa_new[:, N, N] += var_d * gnn * gnn
+            pa_new[:, E, N] += var_d * ge * gnn
+            pa_new[:, N, E] += var_d * ge * gnn
+            xa = np.where(on[:, None], xa_new, xa)
+            pa = np.where(on[:, None, None], pa_new, pa)
+            # 3. GNSS
+            h, h_row = course_model(xa, d, cfg.antenna_m)
+            innov = _wrap(course - h)
+            xa, pa, ok = _scalar_update(xa, pa, h_row, innov, course_var, on & has_course, gn.gate)
+            rejected["course"] += int((on & has_course & ~ok).sum())
+            h2, h_mat = fix_model(xa, cfg.antenna_m)
+            z = np.stack([fe[:, k + 1], fn[:, k + 1]], axis=1)
+            xa, pa, ok = _vector_update(xa, pa, h_mat, z - h2, r_fix, on & has_fix, gn.gate)
+            rejected["fix"] += int((on & has_fix & ~ok).sum())
+            refused = np.where(on & has_fix, np.where(ok, 0, refused + 1), refused)
+            # 4. marginalise the second's yaw; keep the model's terms where they mean
+            # something (a projection: the load term cannot turn the wheels' yaw
+            # around, scales stay near 1), else noisy courses can walk the weakly
+            # observed ones into a region where 1 + c d² vanishes
+            xa[:, CW] = np.clip(xa[:, CW], cfg.load_min, cfg.load_max)
+            for i in (SG, SD, SW):
+                xa[:, i] = np.clip(xa[:, i], 1.0 - cfg.scale_max_off, 1.0 + cfg.scale_max_off)
+            x = np.where(on[:, None], xa[:, :S], x)
+            p = np.where(on[:, None, None], pa[:, :S, :S], p)
+        # A filter that has refused every fix for reset_after_s seconds has lost the car
+        # (its own heading went wrong, e.g. the wheels counting a reversing turn the wrong
+        # way round, and its covariance no longer covers it): start the pose afresh on
+        # GNSS, keeping what it learnt about the sensors.
+        reset = on & has_course & (refused >= cfg.reset_after_s)
+        rejected["reset"] += int(reset.sum())
+        refused = np.where(reset, 0, refused)
+        first = first | reset
+        if first.any():
+            yaw_guess = np.where(use_gyro & np.isfinite(g_k), g_k, np.nan_to_num(wh_k))
+            x0, p0 = _initial(
+                course,
+                course_var,
+                np.stack([fe[:, k + 1], fn[:, k + 1]], axis=1),
+                yaw_guess,
+                d,
+                cfg,
+            )
+            pose = np.zeros(S, bool)
+            pose[[E, N, PSI, GE, GN]] = True
+            keep = reset[:, None] & ~pose  # sensor states of a reset row stay
+            x = np.where(first[:, None] & ~keep, x0, x)
+            both = keep[:, :, None] & keep[:, None, :]
+            p = np.where(reset[:, None, None] & both, p, np.where(first[:, None, None], p0, p))
+            on = on | first
+        p = 0.5 * (p + np.swapaxes(p, 1, 2))
+        h2, h_mat = fix_model(x, cfg.antenna_m)
+        xs[:, k] = np.where(on[:, None], x, np.nan)
+        fix_pred[:, k] = np.where(on[:, None], h2, np.nan)
+        fix_cov[:, k] = np.where(
+            on[:, None, None], h_mat @ p @ np.swapaxes(h_mat, 1, 2) + r_fix, np.nan
+        )
+        if covs is not None:
+            covs[:, k] = np.where(on[:, None, None], p, np.nan)
+        started[:, k] = on
+    return NavTrack(xs, covs, p, fix_pred, fix_cov, started, rejected)

@@ -1,0 +1,135 @@
+"""The filter's noise, from the sensors' stated error models.
+
+Every figure the filter needs is a per-second variance or random walk, derived
+here from what a data sheet or a CAN database states:
+
+- **gyro** (the ESC's yaw-rate sensor): the integral of ``hz`` samples over one
+  second carries the angle random walk of its noise density ``N`` (``N²·1 s``,
+  IEEE Std 952 / 1431's definition) plus the rounding of each sample to the
+  LSB (``LSB²/12`` per sample, white when the noise dithers it), weighted by
+  the trapezoid rule the pipeline integrates with (:func:`trapezoid_weight_sq`);
+  its bias wanders as a first-order Gauss-Markov process of standard deviation
+  ``B`` (bias instability) and correlation time ``τ``, which the filter
+  carries as a random walk of ``2 B² / τ`` per second (the process's
+  short-term increment), plus the drift with temperature while the sensor
+  warms up (``°/s per K`` times ``K per s``);
+- **wheels**: the rear wheels' travel difference over one second, from CAN
+  wheel speeds with white noise ``σ`` and resolution ``q`` (rounding: ``q²/12``
+  per sample) on both wheels, times ``r / b`` (radius over rear track);
+- **GNSS**: its position error is a Gauss-Markov drift (``σ``, ``τ``) plus white
+  noise per fix; a course from two fixes ``D`` metres apart is off by about
+  ``sqrt(2) σ_white / D`` plus the drift's change over the second.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rwhonet.contracts import ROWS_PER_SECOND
+
+
+def trapezoid_weight_sq(rows_per_second: int = ROWS_PER_SECOND) -> float:
+    """Sum of the squared trapezoid weights of one second's samples, in seconds².
+
+    The integral over one second of a rate sampled at ``h = 1 / rows`` is
+    ``h (x_0/2 + x_1 + ... + x_(rows-1) + x_rows/2)``: white noise of variance
+    ``v`` per sample gives the integral the variance ``v h² (rows − 1/2)``.
+
+    Args:
+        rows_per_second: samples per second.
+
+    Returns:
+        ``h² (rows − 1/2)``, s².
+    """
+    h = 1.0 / rows_per_second
+    return h * h * (rows_per_second - 0.5)
+
+
+@dataclass(frozen=True)
+class GyroSpec:
+    """An automotive yaw-rate sensor's error terms (rad/s unless stated).
+
+    Attributes:
+        noise_density: white rate noise, rad/s/sqrt(Hz).
+        lsb: resolution of the CAN signal, rad/s.
+        bias_sd: spread of the turn-on bias (the filter's prior), rad/s.
+        bias_instability: Gauss-Markov bias wander, rad/s.
+        bias_tau_s: its correlation time, s.
+        temp_drift_per_k: bias change per kelvin, rad/s/K.
+        warm_rate_k_s: the sensor's warm-up rate, K/s.
+        scale_sd: spread of the scale-factor error (the filter's prior).
+    """
+
+    noise_density: float = np.radians(0.03)
+    lsb: float = np.radians(0.05)
+    bias_sd: float = np.radians(0.5)
+    bias_instability: float = np.radians(0.03)
+    bias_tau_s: float = 300.0
+    temp_drift_per_k: float = np.radians(0.004)
+    warm_rate_k_s: float = 15.0 / 600.0
+    scale_sd: float = 0.03
+
+    def yaw_sd_rad(self, rows_per_second: int = ROWS_PER_SECOND) -> float:
+        """Noise of one second's integrated yaw, rad."""
+        quant = self.lsb**2 / 12.0 * trapezoid_weight_sq(rows_per_second)
+        return float(np.sqrt(self.noise_density**2 * 1.0 + quant))
+
+    def bias_walk_rad_s(self) -> float:
+        """Random walk of the bias per square-root second, rad/s/sqrt(s)."""
+        gm = 2.0 * self.bias_instability**2 / self.bias_tau_s
+        temp = (self.temp_drift_per_k * self.warm_rate_k_s) ** 2
+        return float(np.sqrt(gm + temp))
+
+
+@dataclass(frozen=True)
+class WheelSpec:
+    """The rear wheels' CAN speeds and the geometry that turns them into yaw.
+
+    Attributes:
+        quantum_rad_s: resolution of the wheel-speed signal, rad/s.
+        noise_rad_s: white noise of each sample, rad/s.
+        radius_m: nominal rolling radius, m.
+        track_rear_m: rear track, m.
+        model_sd_rad: what the wheel-yaw model (scale, bias per metre, load
+            transfer) leaves per second besides the sensor noise: slip,
+            unequal load transfer, rad.
+        model_rel: the same, as a share of the second's yaw.
+    """
+
+    quantum_rad_s: float = 0.01
+    noise_rad_s: float = 0.03
+    radius_m: float = 0.294
+    track_rear_m: float = 1.46
+    model_sd_rad: float = 0.001
+    model_rel: float = 0.01
+
+    def yaw_sd_rad(self, rows_per_second: int = ROWS_PER_SECOND) -> float:
+        """Noise of one second's wheel yaw from the sensors alone, rad."""
+        per_sample = self.noise_rad_s**2 + self.quantum_rad_s**2 / 12.0
+        angle_var = per_sample * trapezoid_weight_sq(rows_per_second)
+        return float(self.radius_m / self.track_rear_m * np.sqrt(2.0 * angle_var))
+
+
+@dataclass(frozen=True)
+class GnssSpec:
+    """The receiver's position error (per axis, m) and when its course is used.
+
+    Attributes:
+        sigma_m: stationary spread of the Gauss-Markov drift.
+        tau_s: its correlation time, s.
+        white_m: white noise per fix.
+        course_sd_rad: course noise left besides the fixes' white noise (the
+            drift's change over a second, the antenna's sway), rad.
+        min_course_m: a course needs its two fixes at least this far apart.
+        gate: innovations beyond this many standard deviations are left out
+            (jumps), for positions and courses alike.
+    """
+
+    sigma_m: float = 1.4
+    tau_s: float = 120.0
+    white_m: float = 0.05
+    course_sd_rad: float = 0.01
+    min_course_m: float = 3.0
+    gate: float = 5.0

@@ -1,0 +1,206 @@
+"""The navigation filter: its model's derivatives, exactness, bias recovery and consistency."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from rwhonet.nav import GnssSpec, GyroSpec, NavConfig, NavInputs, WheelSpec, run, run_outage
+from rwhonet.nav.filter import (
+    DELTA,
+    PSI,
+    SD,
+    S,
+    course_model,
+    fix_model,
+    propagate,
+    sinc_half,
+)
+
+from .conftest import antenna, model_drives
+
+LEVER = (1.1, -0.3)
+
+
+def _numeric_jacobian(f, x, eps=1e-6):
+    cols = []
+    for j in range(x.shape[1]):
+        up, down = x.copy(), x.copy()
+        up[:, j] += eps
+        down[:, j] -= eps
+        cols.append((f(up) - f(down)) / (2 * eps))
+    return np.stack(cols, axis=-1)
+
+
+def _random_augmented(rng, w=6):
+    xa = rng.normal(0.0, 1.0, (w, S + 1))
+    xa[:, PSI] = rng.uniform(-np.pi, np.pi, w)
+    xa[:, DELTA] = rng.normal(0.0, 0.3, w)
+    xa[:, SD] = 1.0 + rng.normal(0.0, 0.05, w)
+    return xa, rng.uniform(0.5, 25.0, w)
+
+
+def test_the_arc_and_its_jacobian():
+    rng = np.random.default_rng(0)
+    xa, d = _random_augmented(rng)
+    new, jac, ge, gn = propagate(xa, d)
+    assert np.allclose(jac, _numeric_jacobian(lambda x: propagate(x, d)[0], xa), atol=1e-6)
+    # the distance's noise moves the position along the chord
+    assert np.allclose(np.hypot(ge, gn), sinc_half(xa[:, DELTA])[0])
+    # a full circle in 36 one-second arcs closes
+    x = np.zeros((1, S + 1))
+    x[0, SD] = 1.0
+    for _ in range(36):
+        x[0, DELTA] = np.radians(10.0)
+        x = propagate(x, np.array([10.0]))[0]
+    assert np.hypot(x[0, 0], x[0, 1]) < 1e-9
+
+
+def test_the_course_and_fix_models_and_their_jacobians():
+    rng = np.random.default_rng(1)
+    xa, d = _random_augmented(rng)
+    h, jac = course_model(xa, d, LEVER)
+    num = _numeric_jacobian(lambda x: course_model(x, d, LEVER)[0], xa)
+    assert np.allclose(jac, num, atol=1e-6)
+    h2, jac2 = fix_model(xa, LEVER)
+    num2 = _numeric_jacobian(lambda x: fix_model(x, LEVER)[0], xa)
+    assert np.allclose(jac2, num2, atol=1e-6)
+    # without a lever arm the chord points along the arc's middle
+    h0, _ = course_model(xa, d, (0.0, 0.0))
+    mid = xa[:, PSI] + 0.5 * xa[:, DELTA]
+    assert np.allclose(np.cos(h0 - mid), 1.0)
+
+
+@pytest.mark.parametrize("control", ["wheels", "gyro", "fused"])
+def test_perfect_odometry_and_heading_end_where_the_car_is(control):
+    # Every sensor exact, the prior means exact: every innovation is zero, so the
+    # filter dead-reckons the truth itself, to rounding, through a 180 s outage.
+    rng = np.random.default_rng(2)
+    cfg = NavConfig(antenna_m=LEVER)
+    inputs, truth = model_drives(rng, cfg, 5, 480, exact=True)
+    out = run_outage(inputs, 300, cfg, control)
+    assert out.calibrated.all()
+    assert np.max(out.horizontal_m) < 1e-6, out.horizontal_m
+    # ... which is the antenna's place at the end, as the test's own arcs put it
+    ant = antenna(truth.e[:, -1], truth.n[:, -1], truth.psi[:, -1], LEVER)
+    assert np.allclose(out.end_m, np.stack(ant, axis=1), atol=1e-6)
+    assert np.allclose(out.truth_m, out.end_m, atol=1e-6)
+
+
+def _straight_with_bias(bias_deg_s, rng, w=20, n=600):
+    """600 s straight on at 15 m/s; the gyro reads a constant bias plus its noise."""
+    gyro = GyroSpec(bias_instability=0.0, temp_drift_per_k=0.0)
+    cfg = NavConfig(gyro=gyro, gnss=GnssSpec(sigma_m=1.0, tau_s=120.0, white_m=0.3))
+    d = np.full((w, n), 15.0)
+    psi0 = rng.uniform(-np.pi, np.pi, w)
+    e = np.cumsum(np.tile(np.sin(psi0)[:, None] * 15.0, n), axis=1)
+    nn = np.cumsum(np.tile(np.cos(psi0)[:, None] * 15.0, n), axis=1)
+    fix_e = np.c_[np.zeros(w), e] + rng.normal(0.0, 0.3, (w, n + 1))
+    fix_n = np.c_[np.zeros(w), nn] + rng.normal(0.0, 0.3, (w, n + 1))
+    y_g = np.radians(bias_deg_s) + rng.normal(0.0, gyro.yaw_sd_rad(), (w, n))
+    y_w = rng.normal(0.0, WheelSpec().yaw_sd_rad(), (w, n))
+    return cfg, NavInputs(d, np.full((w, n), 0.01), y_w, y_g, fix_e, fix_n)
+
+
+@pytest.mark.parametrize("control", ["gyro", "fused"])
+def test_a_straight_drive_recovers_a_known_gyro_bias_before_the_outage(control):
+    cfg, inputs = _straight_with_bias(0.4, np.random.default_rng(3))
+    track = run(inputs, cfg, control, keep_cov=True)
+    bias = np.degrees(track.x[:, -1, 3])
+    sd = np.degrees(np.sqrt(track.cov[:, -1, 3, 3]))
+    assert np.all(sd < 0.01), sd  # known to a hundredth of a degree per second
+    assert np.all(np.abs(bias - 0.4) < 4 * sd), (bias, sd)
+    assert np.mean(np.abs(bias - 0.4)) < 0.005
+    # the wheels alone cannot see a gyro's bias: it stays at its prior
+    wheels = run(inputs, cfg, "wheels", keep_cov=True)
+    assert np.allclose(wheels.x[:, -1, 3], 0.0)
+
+
+@pytest.mark.parametrize("control", ["wheels", "gyro", "fused"])
+def test_the_filter_is_consistent_on_its_own_model(control):
+    # 200 Monte-Carlo drives from the filter's own error model: the normalised
+    # estimation error squared of (east, north, heading), averaged over the runs, must lie
+    # in the two-sided 99 % chi-square interval at the end of calibration and at the end
+    # of the 180 s outage.
+    rng = np.random.default_rng(4)
+    cfg = NavConfig(
+        antenna_m=LEVER,
+        load_sd=0.0005,  # keeps 1 + c d² near 1: the linearisation's domain
+        load_min=-1.0,  # the model draws c of either sign: no projection onto c >= 0
+        wheels=dataclasses.replace(WheelSpec(), model_rel=0.0),
+        gnss=GnssSpec(sigma_m=1.2, tau_s=120.0, white_m=0.3),
+    )
+    m, cal, outage = 200, 300, 180
+    inputs, truth = model_drives(rng, cfg, m, cal + outage)
+    fe, fn = inputs.fix_e_m.copy(), inputs.fix_n_m.copy()
+    fe[:, cal + 1 :] = np.nan
+    fn[:, cal + 1 :] = np.nan
+    masked = dataclasses.replace(inputs, fix_e_m=fe, fix_n_m=fn)
+    track = run(masked, cfg, control, keep_cov=True)
+    lo, hi = chi2.ppf([0.005, 0.995], 3 * m) / m
+    for k in (cal - 1, cal + 59, cal + outage - 1):
+        err = np.stack(
+            [
+                track.x[:, k, 0] - truth.e[:, k],
+                track.x[:, k, 1] - truth.n[:, k],
+                np.angle(np.exp(1j * (track.x[:, k, PSI] - truth.psi[:, k]))),
+            ],
+            axis=1,
+        )
+        cov = track.cov[:, k][:, [0, 1, PSI]][:, :, [0, 1, PSI]]
+        nees = np.einsum("wi,wi->w", err, np.linalg.solve(cov, err[..., None])[..., 0])
+        assert lo <= nees.mean() <= hi, (k, nees.mean(), lo, hi)
+
+
+def test_a_control_and_the_input_shapes_are_checked():
+    cfg, inputs = _straight_with_bias(0.0, np.random.default_rng(5), w=2, n=20)
+    with pytest.raises(ValueError, match="control"):
+        run(inputs, cfg, "compass")
+    with pytest.raises(ValueError, match="fix_e_m"):
+        NavInputs(
+            inputs.dist_m,
+            inputs.dist_var_m2,
+            inputs.wheel_yaw_rad,
+            inputs.gyro_yaw_rad,
+            inputs.fix_e_m[:, 1:],
+            inputs.fix_n_m,
+        )
+
+
+def test_rows_start_on_their_first_course_and_a_missing_sensor_is_no_measurement():
+    cfg, inputs = _straight_with_bias(0.2, np.random.default_rng(6), w=2, n=60)
+    fe = inputs.fix_e_m.copy()
+    fe[1, :11] = np.nan  # the second drive's first fixes are missing
+    y_w = inputs.wheel_yaw_rad.copy()
+    y_w[:, 30:] = np.nan  # and the wheels stop reporting
+    track = run(dataclasses.replace(inputs, fix_e_m=fe, wheel_yaw_rad=y_w), cfg, "fused")
+    assert track.started[0].all()
+    assert not track.started[1, :10].any() and track.started[1, 11:].all()
+    assert np.isfinite(track.x[:, -1]).all()
+
+
+def test_a_filter_that_lost_the_car_starts_its_pose_afresh_on_gnss():
+    # The wheels alone, exact but for 25 s in which they count every turn the wrong way
+    # round (wheel speeds are magnitudes: a reversing manoeuvre). The heading goes wrong,
+    # the fixes fall outside the gate one after the other; after reset_after_s refusals the
+    # pose restarts on GNSS and the filter tracks the car again.
+    rng = np.random.default_rng(7)
+    cfg = NavConfig(gnss=GnssSpec(sigma_m=1.0, tau_s=120.0, white_m=0.05))
+    inputs, truth = model_drives(rng, cfg, 4, 400, exact=True)
+    y_w = inputs.wheel_yaw_rad.copy()
+    y_w[:, 200:225] *= -1.0
+    track = run(dataclasses.replace(inputs, wheel_yaw_rad=y_w), cfg, "wheels")
+    assert track.rejected["reset"] >= 1
+    end = np.hypot(track.x[:, -1, 0] - truth.e[:, -1], track.x[:, -1, 1] - truth.n[:, -1])
+    assert np.all(end < 0.5), end
+    # without the reset the filter never recovers
+    stuck = run(
+        dataclasses.replace(inputs, wheel_yaw_rad=y_w),
+        dataclasses.replace(cfg, reset_after_s=10**6),
+        "wheels",
+    )
+    lost = np.hypot(stuck.x[:, -1, 0] - truth.e[:, -1], stuck.x[:, -1, 1] - truth.n[:, -1])
+    assert np.max(lost) > 10.0, lost
