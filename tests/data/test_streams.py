@@ -210,3 +210,13 @@ def test_a_raw_sample_glitch_flags_the_rows_that_used_it():
     # Only the row whose window overlaps the steps 19.99-20.01 s used that sample.
     assert list(np.round(t[res.glitch], 1)) == [20.0]
     assert res.glitch_samples == [("wheels.csv [wheels]", 2001, 20.0, c.OMEGA_RR)]
+
+
+def test_a_wheel_stream_without_values_is_refused():
+    t_w = np.arange(0.0, 30.0, 0.01)
+    streams = _moving(t_w, np.arange(0.0, 30.0, 0.1))
+    streams.wheels[0].channels[c.OMEGA_FL][:] = np.nan
+    with pytest.raises(InputError) as err:
+        resample(streams)
+    (p,) = err.value.problems
+    assert p.file == "wheels.csv [wheels]" and p.found == f"0 of {t_w.size}"

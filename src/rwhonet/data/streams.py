@@ -514,7 +514,7 @@ def resample(
     notes = []
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
-    gnss_t, gnss = _finite_rows(streams.gnss, notes)
+    gnss_t, gnss = _finite_rows(streams.gnss, notes, required=True)
     fixes, fix_ok = interpolate_fixes(
         gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
     )
@@ -523,12 +523,11 @@ def resample(
         columns[name] = values
         sources[name] = streams.gnss.label(name)
 
-    for s in (*streams.wheels, *streams.extra):
-        t, chans = _finite_rows(s, notes)
+    n_wheel_streams = len(streams.wheels)
+    for i, s in enumerate((*streams.wheels, *streams.extra)):
+        t, chans = _finite_rows(s, notes, required=i < n_wheel_streams)
         names = [n for n in RATE_CHANNELS if n in chans]
-        if not names or t.size < 2:
-            if any(w in s.channels for w in c.WHEELS):
-                keep[:] = False
+        if not names or t.size < 2:  # an optional stream without values: its channels stay out
             continue
         means, ok = window_means(t, np.stack([chans[n] for n in names]), lo, hi, max_wheel_gap_s)
         wheel_stream = any(n in c.WHEELS for n in names)
@@ -568,8 +567,14 @@ def resample(
     return Resampled(drive, glitch[keep], glitch_samples, streams.n_input_rows)
 
 
-def _finite_rows(s: Stream, notes: list[str]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """A stream's samples whose every channel has a value (a NaN fix is no fix)."""
+def _finite_rows(
+    s: Stream, notes: list[str], required: bool = False
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """A stream's samples whose every channel has a value (a NaN fix is no fix).
+
+    Raises:
+        InputError: a ``required`` stream (wheel speeds, fixes) has fewer than two such samples.
+    """
     t = np.asarray(s.t_s, dtype=np.float64)
     chans = {k: np.asarray(v, dtype=np.float64) for k, v in s.channels.items()}
     if not chans:
@@ -577,6 +582,19 @@ def _finite_rows(s: Stream, notes: list[str]) -> tuple[np.ndarray, dict[str, np.
     ok = np.logical_and.reduce([np.isfinite(v) for v in chans.values()])
     if ok.all():
         return t, chans
+    if required and ok.sum() < 2:
+        raise InputError(
+            [
+                Problem(
+                    s.where(),
+                    None,
+                    None,
+                    "samples with a value in every channel",
+                    f"{int(ok.sum())} of {ok.size}",
+                    "export the stream's values (empty or NaN cells are no samples)",
+                )
+            ]
+        )
     notes.append(f"{s.where()}: {int((~ok).sum())} sample(s) without a value left out")
     return t[ok], {k: v[ok] for k, v in chans.items()}
 
