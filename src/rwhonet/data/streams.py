@@ -141,7 +141,7 @@ def wheel_speed_rad_s(
     )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays inside: compared by identity, never element-wise
 class Stream:
     """One group of channels sampled together, as a logger wrote it.
 
