@@ -72,7 +72,7 @@ def test_unknown_header_falls_back_to_position(tmp_path):
 
 def test_locate_columns_refuses_positions_when_known_names_moved():
     header = list(HEADERS)
-    header[2], header[3] = "Latitude", "Longitude"  # unknown: position would be fine...
+    header[2], header[3] = "Breite", "Laenge"  # unknown names: position would be fine...
     assert locate_columns(header)[1] == "position"
     header[10], header[11] = header[11], header[10]  # ...but known names out of place are not
     with pytest.raises(LayoutError, match="other positions"):

@@ -293,12 +293,13 @@ def _(raw: Path) -> None:
 
 @case(
     "renamed_header_and_extra_column",
-    "' Long' renamed 'Longitude' and a 30th column added: no name, no position to trust",
+    "' Long' renamed 'Easting' (no longitude by any known name) and a 30th column added: no "
+    "name, no position to trust",
     Refuse("ingest", None, "Long", "a column named 'Long'", "no such name"),
 )
 def _(raw: Path) -> None:
     def edit(lines):
-        head = lines[0].replace(" Long,", "Longitude,") + ",Comment"
+        head = lines[0].replace(" Long,", "Easting,") + ",Comment"
         return [head, *(x + ",ok" for x in lines[1:])]
 
     edit_lines(raw, edit)
@@ -984,6 +985,56 @@ def _(raw: Path) -> None:
         return [lines[0], *body, ""]
 
     edit_lines(raw, edit)
+
+
+@case(
+    "reordered_variant_names_and_extras",
+    "the 29 columns in reverse order under other spellings ('Latitude [deg]', 'time_s', "
+    "'WheelSpeed_RL (rad/s)', ...) and two extra columns",
+    Accept("columns are found by name, whatever the case, spacing and unit suffix"),
+)
+def _(raw: Path) -> None:
+    variants = {
+        " Time": "time_s",
+        " Lat": "Latitude [deg]",
+        " Long": "LONGITUDE",
+        "Sats": "Satellites",
+        " Wheel Speed Front Left (rad/sec)": "WheelSpeed_FL (rad/s)",
+        " Wheel Speed Front Right (rad/sec)": "wheel speed front right",
+        " Wheel Speed Rear Left (rad/sec)": "WheelSpeed_RL (rad/s)",
+        " Wheel Speed Rear Right (rad/sec)": "ws_rr",
+    }
+
+    def edit(lines):
+        rows = [line.split(",") for line in lines]
+        rows[0] = [variants.get(h, h) for h in rows[0]]
+        rows = [["extra", *reversed(r), "x"] for r in rows]
+        return [",".join(r) for r in rows]
+
+    edit_lines(raw, edit)
+
+
+@case(
+    "time_jitter_4ms",
+    "every time stamp off by up to +-4 ms (still increasing), as CAN loggers stamp rows",
+    Accept("rows are placed in their seconds by their slot on the 0.1 s grid"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    jitter = np.random.default_rng(15).uniform(-0.004, 0.004, len(df))
+    df[c.T_S] = np.round(df[c.T_S] + jitter, 4)
+    write_target(raw, df)
+
+
+@case(
+    "across_midnight",
+    "a drive from 23:59:00 that goes on past midnight (time of day restarts at 0)",
+    Accept("the reader adds a day after the rollover: one continuous clock"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[c.T_S] = np.round((df[c.T_S] - T0 + 86340.0) % 86400.0, 6)
+    write_target(raw, df)
 
 
 @case(

@@ -3,7 +3,8 @@
 ``data.column_maps.<name>`` names, for each canonical quantity, the CSV column
 that holds it and its unit (CUPAC, whose layout is not documented, is read this
 way). With ``iovnbd.py`` this is the only module that knows file column names.
-Columns are matched by stripped, case-insensitive header name.
+Columns are matched by name, without regard to case, spaces, punctuation and a unit
+suffix (:func:`find_column`); the time continues across midnight.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ import numpy as np
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive, read_header, read_numeric
+from rwhonet.data.headers import header_key
+from rwhonet.data.timebase import unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
 _WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
@@ -95,10 +98,17 @@ def read_columnmap(
             columns[canonical] = values[pos] * factor
         else:  # in place: the reader's arrays are ours, and a copy would hold a column twice
             columns[canonical] = np.multiply(values[pos], factor, out=values[pos])
+    notes = ()
+    if c.T_S in columns:
+        columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
+        if wraps.size:
+            shown = ", ".join(str(int(r) + 1) for r in wraps[:5])
+            notes = (f"time of day passed midnight before data row(s) {shown}: a day added",)
     return RawDrive(
         columns=columns,
         source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items()},
         header_match="column_map",
+        notes=notes,
     )
 
 
@@ -120,7 +130,7 @@ def columnmap_positions(
     Raises:
         InputError: a mapped column is missing from the header.
     """
-    position = {h.strip().lower(): i for i, h in enumerate(header)}
+    found = {key: find_column(header, spec.column) for key, spec in column_map.items()}
     problems = [
         Problem(
             file,
@@ -129,11 +139,34 @@ def columnmap_positions(
             f"a column named {spec.column!r} (data.column_maps.{name}.{key})",
             f"no such name in the header {[h.strip() for h in header]}",
             f"name the file's column in data.column_maps.{name}.{key}.column (matched "
-            "stripped, case-insensitive), or give the file that column",
+            "without regard to case, spaces, punctuation and a unit suffix), or give the file "
+            "that column",
         )
         for key, spec in column_map.items()
-        if spec.column.strip().lower() not in position
+        if found[key] is None
     ]
     if problems:
         raise InputError(problems, summary=f"missing column(s) in {file}")
-    return {key: position[spec.column.strip().lower()] for key, spec in column_map.items()}
+    return {key: pos for key, pos in found.items() if pos is not None}
+
+
+def find_column(header: list[str], column: str) -> int | None:
+    """Position of a named column: its stripped, case-insensitive name, else its header key.
+
+    The header key (:func:`rwhonet.data.headers.header_key`) leaves case, spaces,
+    punctuation and a unit suffix aside: ``"WheelSpeedRL"`` finds ``"Wheel Speed RL (rpm)"``.
+    A key that several columns share matches none of them (ambiguous).
+
+    Args:
+        header: the file's header cells.
+        column: the name to find.
+
+    Returns:
+        The 0-based position, or None.
+    """
+    exact = [i for i, h in enumerate(header) if h.strip().lower() == column.strip().lower()]
+    if len(exact) == 1:
+        return exact[0]
+    key = header_key(column)[0]
+    loose = [i for i, h in enumerate(header) if header_key(h)[0] == key]
+    return loose[0] if len(loose) == 1 and key else None

@@ -67,12 +67,17 @@ class RawDrive:
     Attributes:
         columns: canonical name -> float64 array; element ``i`` is data row ``i + 1``.
         source_columns: canonical name -> the file's column name it was read from.
-        header_match: how the columns were found: ``"name"``, ``"position"`` or ``"column_map"``.
+        header_match: how the columns were found: ``"name"``, ``"position"``,
+            ``"column_map"``, or ``"streams"`` (resampled from timestamped streams,
+            :mod:`rwhonet.data.streams`: element ``i`` is then row ``i`` of the 10 Hz grid).
+        notes: what the reader did that the user should hear about (columns taken by
+            position, the clock passing midnight, rows of the grid without data).
     """
 
     columns: dict[str, np.ndarray]
     source_columns: dict[str, str]
     header_match: str
+    notes: tuple[str, ...] = ()
 
     @property
     def n_rows(self) -> int:

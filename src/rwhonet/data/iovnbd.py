@@ -16,6 +16,8 @@ import numpy as np
 
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive, read_header, read_numeric
+from rwhonet.data.headers import header_key, unit_name
+from rwhonet.data.timebase import unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
 
@@ -59,9 +61,112 @@ LAYOUT: tuple[IovnbdColumn, ...] = (
 )
 
 HEADERS: tuple[str, ...] = tuple(col.header for col in LAYOUT)
+# The unit each carried channel has in the layout (the headers' own suffixes say the same).
+_LAYOUT_UNIT: dict[str, str | None] = {
+    c.T_S: "s",
+    c.LAT_DEG: "deg",
+    c.LON_DEG: "deg",
+    c.N_SATS: None,
+    c.SPEED_GNSS_M_S: "km/h",
+    c.HEADING_DEG: "deg",
+    c.HEIGHT_M: "km",
+    **{w: "rad/s" for w in c.WHEELS},
+    c.YAW_RATE_RAD_S: "deg/s",
+    c.SPEED_VEHICLE_M_S: "km/h",
+    c.ACC_LON_M_S2: "g",
+    c.ACC_LAT_M_S2: "g",
+}
 
-# Stripped, case-insensitive header name -> position in LAYOUT.
-_KEY_TO_POSITION: dict[str, int] = {col.header.strip().lower(): i for i, col in enumerate(LAYOUT)}
+# ---------------------------------------------------------------- header names and variants
+#
+# A header cell is matched by its *key*: lower case, letters and digits only, its unit
+# suffix taken off (" Wheel Speed Front Left (rad/sec)", "wheel_speed_front_left",
+# "WheelSpeedFrontLeft [rad/s]" all give "wheelspeedfrontleft"). Besides the IO-VNBD
+# spellings, each carried channel has the common variants below. A declared unit is honoured
+# when it is one of its quantity's units (a wheel speed "(rpm)" is converted from rpm) and
+# refused when it is not; without one, the layout's unit is assumed.
+
+_WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
+# Quantity -> {unit: factor to the canonical SI unit}.
+_UNITS: dict[str, dict[str, float]] = {
+    "time": {"s": 1.0, "ms": 1e-3},
+    "angle": {"deg": 1.0},
+    "speed": {"km/h": c.KMH_M_S, "m/s": 1.0, "mph": 0.44704},
+    "height": {"km": 1000.0, "m": 1.0},
+    "wheel": _WHEEL_UNITS,
+    "rate": {"deg/s": math.pi / 180.0, "rad/s": 1.0},
+    "acc": {"g": c.G_M_S2, "m/s2": 1.0},
+    "count": {},
+}
+_KIND: dict[str, str] = {
+    c.T_S: "time",
+    c.LAT_DEG: "angle",
+    c.LON_DEG: "angle",
+    c.N_SATS: "count",
+    c.SPEED_GNSS_M_S: "speed",
+    c.HEADING_DEG: "angle",
+    c.HEIGHT_M: "height",
+    **{w: "wheel" for w in c.WHEELS},
+    c.YAW_RATE_RAD_S: "rate",
+    c.SPEED_VEHICLE_M_S: "speed",
+    c.ACC_LON_M_S2: "acc",
+    c.ACC_LAT_M_S2: "acc",
+}
+_WHEEL_POSITIONS = {
+    c.OMEGA_FL: ("frontleft", "fl", "leftfront", "lf"),
+    c.OMEGA_FR: ("frontright", "fr", "rightfront", "rf"),
+    c.OMEGA_RL: ("rearleft", "rl", "leftrear", "lr"),
+    c.OMEGA_RR: ("rearright", "rr", "rightrear", "rr"),
+}
+_VARIANTS: dict[str, tuple[str, ...]] = {
+    c.T_S: ("time", "times", "timestamp", "timeofday"),
+    c.LAT_DEG: ("lat", "latitude", "gpslat", "gpslatitude", "gnsslat", "gnsslatitude"),
+    c.LON_DEG: (
+        "long",
+        "lon",
+        "lng",
+        "longitude",
+        "gpslon",
+        "gpslong",
+        "gpslongitude",
+        "gnsslon",
+        "gnsslongitude",
+    ),
+    c.N_SATS: ("sats", "satellites", "nsats", "numsats", "numsat", "satcount", "numsv"),
+    c.SPEED_GNSS_M_S: ("velocity", "gpsvelocity", "gpsspeed", "gnssspeed", "speedoverground"),
+    c.HEADING_DEG: ("heading", "course", "gpsheading", "courseoverground"),
+    c.HEIGHT_M: ("height", "altitude", "alt", "gpsheight", "gpsaltitude"),
+    c.YAW_RATE_RAD_S: ("yawrate",),
+    c.SPEED_VEHICLE_M_S: ("indicatedvehiclespeed", "vehiclespeed"),
+    c.ACC_LON_M_S2: (
+        "indicatedlongitudinalacceleration",
+        "longitudinalacceleration",
+        "acclon",
+        "accellon",
+    ),
+    c.ACC_LAT_M_S2: (
+        "indicatedlateralacceleration",
+        "lateralacceleration",
+        "acclat",
+        "accellat",
+    ),
+    **{
+        wheel: tuple(
+            pattern.format(p)
+            for p in positions
+            for pattern in ("wheelspeed{}", "{}wheelspeed", "wheel{}", "ws{}", "omega{}", "{}wheel")
+        )
+        for wheel, positions in _WHEEL_POSITIONS.items()
+    },
+}
+
+
+# Header key -> position in LAYOUT (every IO-VNBD column), and -> canonical channel (variants).
+_KEY_TO_POSITION: dict[str, int] = {header_key(col.header)[0]: i for i, col in enumerate(LAYOUT)}
+_KEY_TO_CHANNEL: dict[str, str] = {
+    key: name for name, keys in _VARIANTS.items() for key in keys
+} | {header_key(col.header)[0]: col.canonical for col in LAYOUT if col.canonical is not None}
+_POSITION_OF: dict[str, int] = {col.canonical: i for i, col in enumerate(LAYOUT) if col.canonical}
 
 
 class LayoutError(ValueError):
@@ -79,16 +184,19 @@ class LayoutError(ValueError):
 
 
 def _key(header_cell: str) -> str:
-    return header_cell.strip().lower()
+    return header_key(header_cell)[0]
 
 
 def locate_columns(header: Sequence[str]) -> tuple[dict[str, int], str]:
     """Find the file position of every canonical IO-VNBD channel.
 
-    Columns are matched by stripped, case-insensitive header name. When a required
-    channel is not found by name, the file has exactly the 29 IO-VNBD columns, and
-    every header name that *is* recognised sits at its IO-VNBD position, the header
-    is taken as unknown (renamed, translated) and columns are taken by position.
+    Columns are matched by name in any order, extra columns ignored: the header key
+    (:func:`header_key`: case, spaces, punctuation and unit suffix do not matter) is looked
+    up among the IO-VNBD names and the common variants. Only when a required channel is
+    not found by name, the file has exactly the 29 IO-VNBD columns, and every header name
+    that *is* recognised sits at its IO-VNBD position, the header is taken as unknown
+    (renamed, translated) and columns are taken by position (the last resort; the reader
+    says so in its ``header_match`` and notes).
 
     Args:
         header: the file's header cells.
@@ -97,27 +205,56 @@ def locate_columns(header: Sequence[str]) -> tuple[dict[str, int], str]:
         (canonical name -> 0-based file position, ``"name"`` or ``"position"``).
 
     Raises:
-        LayoutError: the columns cannot be located.
+        LayoutError: the columns cannot be located, or two columns name one channel.
     """
     keys = [_key(h) for h in header]
-    duplicated = sorted({k for k in keys if k in _KEY_TO_POSITION and keys.count(k) > 1})
-    if duplicated:
-        raise LayoutError([], f"header names appear more than once: {duplicated}")
-    by_name = {
-        LAYOUT[_KEY_TO_POSITION[k]].canonical: pos
-        for pos, k in enumerate(keys)
-        if k in _KEY_TO_POSITION and LAYOUT[_KEY_TO_POSITION[k]].canonical is not None
-    }
+    channel = [_KEY_TO_CHANNEL.get(k) for k in keys]
+    seen: dict[str, list[str]] = {}
+    for h, name in zip(header, channel, strict=True):
+        if name is not None:
+            seen.setdefault(name, []).append(h.strip())
+    duplicated = sorted(names for names in seen.values() if len(names) > 1)
+    plain = sorted({k for k in keys if k in _KEY_TO_POSITION and keys.count(k) > 1})
+    if duplicated or plain:
+        what = [" = ".join(repr(n) for n in names) for names in duplicated] or plain
+        raise LayoutError([], f"header names appear more than once (one channel): {what}")
+    by_name = {name: pos for pos, name in enumerate(channel) if name is not None}
     missing = [name for name in c.REQUIRED if name not in by_name]
     if not missing:
         return by_name, "name"
     # Known names at other positions mean a different column order: positions can't be trusted.
-    moved = [h.strip() for pos, h in enumerate(header) if _KEY_TO_POSITION.get(_key(h), pos) != pos]
+    moved = [
+        h.strip()
+        for pos, (h, k, name) in enumerate(zip(header, keys, channel, strict=True))
+        if (_POSITION_OF.get(name, pos) if name else _KEY_TO_POSITION.get(k, pos)) != pos
+    ]
     if len(header) == len(LAYOUT) and not moved:
         return {col.canonical: pos for pos, col in enumerate(LAYOUT) if col.canonical}, "position"
     if len(header) != len(LAYOUT):
         raise LayoutError(missing, f"{len(header)} columns, not the {len(LAYOUT)} of the layout")
     raise LayoutError(missing, f"known names at other positions than the layout's: {moved}")
+
+
+def column_factors(header: Sequence[str], positions: dict[str, int]) -> dict[str, float]:
+    """Each located channel's factor to SI: from the unit its header declares, else the layout's.
+
+    Args:
+        header: the file's header cells.
+        positions: canonical name -> 0-based position (:func:`locate_columns`).
+
+    Returns:
+        Canonical name -> factor (NaN for a declared unit its quantity does not have:
+        :func:`iovnbd_columns` refuses those).
+    """
+    out = {}
+    for name, pos in positions.items():
+        unit = header_key(header[pos])[1]
+        alias = unit_name(unit)
+        if unit is None or alias == _LAYOUT_UNIT[name]:
+            out[name] = TO_SI[name]
+        else:
+            out[name] = _UNITS[_KIND[name]].get(alias or "", float("nan"))
+    return out
 
 
 def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
@@ -129,29 +266,56 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
 
     Returns:
         The drive's channels (every LAYOUT column with a canonical name that the file has),
-        converted with ``LAYOUT[i].to_si``; ``header_match`` says whether the columns were
-        found by name or, for an unknown 29-column header, by position.
+        converted to SI with the unit each header declares, else the layout's
+        (:func:`column_factors`); time of day continues across midnight
+        (:func:`rwhonet.data.timebase.unwrap_midnight`). ``header_match`` says whether the
+        columns were found by name or, for an unknown 29-column header, by position; the
+        notes say so too, and where the clock passed midnight.
 
     Raises:
-        InputError: empty file, missing required column, non-numeric cell or a row with the
-            wrong number of columns; every problem of the file is listed.
+        InputError: empty file, missing required column, a declared unit the quantity does
+            not have, non-numeric cell or a row with the wrong number of columns; every
+            problem of the file is listed.
     """
     file = display or str(path)
     header = read_header(path, file)
     positions, match = iovnbd_columns(header, file)
+    factors = column_factors(header, positions)
     values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
     for name, pos in positions.items():
         # In place: the reader's arrays are ours, and a copy would hold a column twice.
         # A factor of 1 needs nothing (x * 1.0 == x, NaN and inf included).
-        if TO_SI[name] != 1.0:
+        if factors[name] != 1.0:
             if not values[pos].flags.writeable:
                 values[pos] = values[pos].copy()
-            np.multiply(values[pos], TO_SI[name], out=values[pos])
+            np.multiply(values[pos], factors[name], out=values[pos])
+    columns = {name: values[pos] for name, pos in positions.items()}
+    notes = []
+    if match == "position":
+        notes.append(position_note(header))
+    columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
+    if wraps.size:
+        notes.append(midnight_note(wraps))
     return RawDrive(
-        columns={name: values[pos] for name, pos in positions.items()},
+        columns=columns,
         source_columns={name: header[pos] for name, pos in positions.items()},
         header_match=match,
+        notes=tuple(notes),
     )
+
+
+def position_note(header: Sequence[str]) -> str:
+    """What a reader says when it took the IO-VNBD columns by position."""
+    return (
+        "columns taken by position (the last resort): the header names no time, latitude, "
+        f"longitude and four wheel speeds that the reader knows ({[h.strip() for h in header]})"
+    )
+
+
+def midnight_note(rows: np.ndarray) -> str:
+    """What a reader says when the time column passed midnight."""
+    shown = ", ".join(str(int(r) + 1) for r in rows[:5])
+    return f"time of day passed midnight before data row(s) {shown}: a day added after each"
 
 
 TO_SI: dict[str, float] = {col.canonical: col.to_si for col in LAYOUT if col.canonical}
@@ -166,13 +330,15 @@ def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], st
 
     Returns:
         (canonical name -> 0-based file position, ``"name"`` or ``"position"``); each
-        channel's factor to SI units is :data:`TO_SI`.
+        channel's factor to SI units is :func:`column_factors`'s.
 
     Raises:
-        InputError: the columns cannot be located, or the first line is a data row.
+        InputError: the columns cannot be located, a header declares a unit its quantity
+            does not have, or the first line is a data row.
     """
     try:
         positions, match = locate_columns(header)
+        factors = column_factors(header, positions)
     except LayoutError as err:
         shown = [h.strip() for h in header]
         fix = (
@@ -185,7 +351,8 @@ def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], st
                 file,
                 None,
                 col.header.strip(),
-                f"a column named {col.header.strip()!r} (IO-VNBD layout), or all "
+                f"a column named {col.header.strip()!r} (IO-VNBD layout; case, spaces and "
+                "unit suffix do not matter, common variants are known), or all "
                 f"{len(LAYOUT)} IO-VNBD columns in their order",
                 f"no such name among the {len(header)} header names; no position fallback: "
                 f"{err.why}",
@@ -206,6 +373,21 @@ def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], st
         raise InputError(
             problems, summary=f"cannot locate the columns of {file} (header: {shown})"
         ) from None
+    bad_units = [
+        Problem(
+            file,
+            None,
+            header[pos].strip(),
+            f"a unit of {_KIND[name]} ({', '.join(_UNITS[_KIND[name]]) or 'none'})",
+            f"unit {header_key(header[pos])[1]!r} in the header",
+            "write the column in one of those units and name it in the header, e.g. "
+            f"{LAYOUT[_POSITION_OF[name]].header.strip()!r}",
+        )
+        for name, pos in positions.items()
+        if math.isnan(factors[name])
+    ]
+    if bad_units:
+        raise InputError(bad_units, summary=f"unknown units in the header of {file}")
     if match == "position" and all(_is_number(h) for h in header):
         # A file without its header row: taking the first data row as the header would
         # drop it silently.

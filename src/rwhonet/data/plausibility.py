@@ -45,6 +45,7 @@ def implied_radius(
     drive: Mapping[str, np.ndarray],
     segments: Sequence[Segment],
     moving_wheel_speed_rad_s: float,
+    sample_period_s: float | None = None,
 ) -> RadiusEstimate:
     """Sum of GNSS distance / sum of rear wheel angle over the moving seconds of the segments.
 
@@ -58,6 +59,10 @@ def implied_radius(
         drive: canonical columns of the drive (``t_s``, ``lat_deg``, ``lon_deg``, rear wheels).
         segments: the drive's valid segments.
         moving_wheel_speed_rad_s: wheel speed above which a second counts as moving.
+        sample_period_s: the nominal sample period, to place jittered stamps in their
+            seconds as :func:`rwhonet.data.quality.assess` does (None: the stamps as they are;
+            the estimate is the same either way, since distance and angle are taken between
+            the same rows, only the seconds' bounds move by a row).
 
     Returns:
         The estimate (``radius_m`` is NaN when no second counted).
@@ -67,7 +72,7 @@ def implied_radius(
     segment = np.full(t.size, -1)
     for k, seg in enumerate(segments):  # per segment, not per sample
         segment[seg.row_start : seg.row_stop] = k
-    sec = second_index(t)
+    sec = second_index(t, sample_period_s)
     # Last row of each second inside a segment: the per-second fix.
     last = np.flatnonzero(
         (segment >= 0) & (np.r_[sec[1:] != sec[:-1], True] | (segment != np.r_[segment[1:], -1]))
@@ -438,14 +443,26 @@ def swapped_radius(
     off by a factor that depends on the heading. When the swapped radius is plausible
     and the drive's own is not, the columns are swapped.
 
+    A longitude beyond ±90 deg cannot be a latitude: for such a drive (most of the
+    world's roads: the Americas, most of Asia, Oceania) the hypothesis is impossible,
+    and it is rejected without computing a single distance (the geodesic would be asked
+    for latitudes beyond ±90 deg and refuse).
+
     Args:
         drive: canonical columns.
         segments: the drive's valid segments.
         moving_wheel_speed_rad_s: as in :func:`implied_radius`.
 
     Returns:
-        The estimate with ``lat_deg`` and ``lon_deg`` exchanged.
+        The estimate with ``lat_deg`` and ``lon_deg`` exchanged; ``radius_m`` NaN (no
+        moving second) when some longitude of the segments lies beyond ±90 deg.
     """
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    used = np.zeros(lon.size, dtype=bool)
+    for seg in segments:  # per segment, not per sample
+        used[seg.row_start : seg.row_stop] = True
+    if np.any(np.abs(lon[used]) > 90.0):
+        return RadiusEstimate(float("nan"), 0, 0.0, 0.0)
     swapped = dict(drive)
     swapped[c.LAT_DEG], swapped[c.LON_DEG] = drive[c.LON_DEG], drive[c.LAT_DEG]
     return implied_radius(swapped, segments, moving_wheel_speed_rad_s)

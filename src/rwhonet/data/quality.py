@@ -9,7 +9,10 @@ Clock convention (shared with the label stage, :mod:`rwhonet.features.seconds`)
     Second ``k`` of a drive is the interval ``(k - 1, k]`` of the drive's own time
     column, ``k`` an integer: the ten 10 Hz rows whose times round *up* to ``k``
     (:func:`second_index`, with a 1 µs allowance for decimal time stamps stored as
-    floats). Quality is decided per second. A segment covers the consecutive valid
+    floats). A row's time here is its slot on the drive's sample grid
+    (:mod:`rwhonet.data.timebase`): stamps jittered by up to half a sample period stay
+    in their second, while a dropped sample still leaves its second a row short.
+    Quality is decided per second. A segment covers the consecutive valid
     seconds ``t_start_s + 1 … t_end_s`` (whole seconds), each complete
     (``1 / sample_period_s`` rows), and also carries its *start fix*: the last row of
     second ``t_start_s``, from which the first second's displacement is measured. A
@@ -31,10 +34,14 @@ Rules (a second is cut by the first that applies, in this order)
     frozen          the fix stayed identical while the rear wheels turned faster than
                     ``moving_wheel_speed_rad_s`` for ``frozen_min_s`` in all (from the first
                     such row to the end of the identical run)
+    wheel_glitch    a row whose wheel speed changed faster than any tyre can, when the
+                    caller passes such rows (:func:`rwhonet.data.glitches.wheel_glitch_rows`)
     start_fix       the first second of a valid stretch whose start fix is missing or cut
     short_segment   a run of valid seconds shorter than ``min_segment_s`` (dropped)
 
-Rows of the ``manual``, ``low_sats``, ``jump`` and ``frozen`` rules are *bad rows*;
+Rows of the ``manual``, ``low_sats``, ``jump``, ``frozen`` and ``wheel_glitch`` rules are
+*bad rows* (a bad row is no start fix either: a glitch in the last row of a second also
+spoils the next second's first trapezoid step);
 the others are properties of whole seconds.
 """
 
@@ -47,6 +54,7 @@ import numpy as np
 
 from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data.timebase import TIME_EPS_S, nominal_times
 from rwhonet.geo import geodesic_distance_m, local_step_distance_m
 
 RULES = (
@@ -56,10 +64,10 @@ RULES = (
     "low_sats",
     "jump",
     "frozen",
+    "wheel_glitch",
     "start_fix",
     "short_segment",
 )
-TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the true value
 
 
 @dataclass(frozen=True)
@@ -124,16 +132,25 @@ class Assessment:
         return sum(s.n_seconds for s in self.segments)
 
 
-def second_index(t_s: np.ndarray) -> np.ndarray:
-    """Return the whole second each time belongs to: ``k`` such that ``k - 1 < t_s <= k``.
+def second_index(t_s: np.ndarray, sample_period_s: float | None = None) -> np.ndarray:
+    """Return the whole second each row belongs to: ``k`` such that ``k - 1 < t <= k``.
+
+    With ``sample_period_s``, ``t`` is the row's slot instant on the drive's sample grid
+    (:func:`rwhonet.data.timebase.nominal_times`), so stamps jittered by less than half a
+    period still give every second its ``1 / sample_period_s`` rows; without it, the
+    stamp itself.
 
     Args:
-        t_s: times, s.
+        t_s: times, s (finite and increasing when ``sample_period_s`` is given).
+        sample_period_s: the nominal sample period, s, or None for the stamps as they are.
 
     Returns:
         int64 second numbers.
     """
-    return np.ceil(np.asarray(t_s, dtype=np.float64) - TIME_EPS_S).astype(np.int64)
+    t = np.asarray(t_s, dtype=np.float64)
+    if sample_period_s is not None and t.size:
+        t = nominal_times(t, sample_period_s)
+    return np.ceil(t - TIME_EPS_S).astype(np.int64)
 
 
 def implied_speed_m_s(
@@ -231,6 +248,7 @@ def assess(
     policy: GnssPolicy,
     sample_period_s: float,
     cuts: Sequence[CutSpec] = (),
+    wheel_glitch: np.ndarray | None = None,
 ) -> Assessment:
     """Apply the GNSS-quality policy to one drive (see the module docstring for the rules).
 
@@ -240,6 +258,8 @@ def assess(
         policy: ``validate.gnss``.
         sample_period_s: nominal sample period; ``1 / sample_period_s`` must be an integer.
         cuts: manual cuts of this drive (``validate.cuts`` entries naming it).
+        wheel_glitch: boolean mask of rows whose wheel speeds changed faster than a tyre
+            can (:func:`rwhonet.data.glitches.glitch_mask`), or None (no such rule).
 
     Returns:
         The valid segments and every cut, with per-rule totals.
@@ -251,7 +271,10 @@ def assess(
     n_per_s = round(1.0 / sample_period_s)
     n = t.size
 
-    sec = second_index(t)
+    # Jittered stamps are taken at their slots on the drive's sample grid (seconds, and the
+    # fix-to-fix speed, whose steps a few ms of jitter would otherwise distort).
+    t_grid = nominal_times(t, sample_period_s) if n else t
+    sec = second_index(t_grid)
     k0 = int(sec[0])
     s = sec - k0  # second of each row, 0-based from the drive's first second
     n_sec = int(s[-1]) + 1
@@ -271,7 +294,8 @@ def assess(
     low_sats_row = ~(sats >= policy.min_sats)  # NaN: no count, not trusted
     # Jumps are decided on geodesic distances: the tangent-plane screen (1e-6 relative)
     # only spares the geodesic for steps far below the threshold.
-    speed = implied_speed_m_s(t, lat, lon, exact_above_m_s=0.5 * policy.max_speed_m_s)
+    with np.errstate(divide="ignore", invalid="ignore"):  # two rows in one slot: a jump
+        speed = implied_speed_m_s(t_grid, lat, lon, exact_above_m_s=0.5 * policy.max_speed_m_s)
     jump_row = speed > policy.max_speed_m_s
     frozen_row = frozen_rows(
         lat,
@@ -281,7 +305,8 @@ def assess(
         policy.frozen_min_s,
         policy.moving_wheel_speed_rad_s,
     )
-    bad_row = manual_row | low_sats_row | jump_row | frozen_row
+    glitch_row = np.zeros(n, dtype=bool) if wheel_glitch is None else np.asarray(wheel_glitch)
+    bad_row = manual_row | low_sats_row | jump_row | frozen_row | glitch_row
 
     flags = np.stack(
         [
@@ -291,6 +316,7 @@ def assess(
             per_second(low_sats_row),
             per_second(jump_row),
             per_second(frozen_row),
+            per_second(glitch_row),
         ]
     )
     rule = np.where(flags.any(axis=0), flags.argmax(axis=0), -1)  # first rule that applies
@@ -322,6 +348,7 @@ def assess(
         "speed": speed,
         "wheel": wheel,
         "count": count,
+        "glitch": glitch_row,
     }
     cut_list = [
         Cut(
@@ -382,6 +409,10 @@ def _detail(
             f"fix-to-fix speed up to {np.max(rows['speed'][lo:hi]):.4g} m/s "
             f"(> max_speed_m_s {policy.max_speed_m_s})"
         )
+    if rule == "wheel_glitch":
+        rows_hit = np.flatnonzero(rows["glitch"][lo:hi]) + lo + 1
+        shown = ", ".join(str(r) for r in rows_hit[:5]) + (" ..." if rows_hit.size > 5 else "")
+        return f"wheel speed changing faster than any tyre can in row(s) {shown}"
     if rule == "start_fix":
         return (
             "first second of a valid stretch: no usable fix at its start (drive start or a cut row)"

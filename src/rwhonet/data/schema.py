@@ -28,6 +28,7 @@ from pandera.errors import SchemaErrors
 from rwhonet.config import ValidateParams
 from rwhonet.data import canonical as c
 from rwhonet.data.problems import ROWS_LISTED, row_problems
+from rwhonet.data.timebase import grid_phase
 from rwhonet.errors import Problem
 
 # Float noise on decimal time stamps (45123.1 - 45123.0 = 0.10000000000291) must not fail a
@@ -90,11 +91,27 @@ def _drive_checks(
         d[first[first < t.size]] = np.nan  # a drive's first row has no previous row
         return pd.Series(d, index=s.index)
 
+    def next_slot(s: pd.Series) -> np.ndarray:
+        # Whether each row sits in the slot after the previous row's on its drive's sample
+        # grid (rwhonet.data.timebase): stamps jittered by up to half a period do, a row
+        # after a dropped sample does not. One phase per drive, not per row.
+        t = s.to_numpy(np.float64)
+        phase = np.zeros(t.size)
+        bounds = np.r_[first_rows(s), t.size]
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            phase[a:b] = grid_phase(t[a:b], period)
+        with np.errstate(invalid="ignore"):
+            slot = np.rint((t - phase) / period)
+        out = np.zeros(t.size, dtype=bool)
+        out[1:] = (slot[1:] - slot[:-1]) == 1
+        return out
+
     def regular(s: pd.Series) -> pd.Series:
         d = step(s)
         # Non-positive steps are reported by the two time-order checks, NaN ones by not_nullable;
         # a step longer than max_gap_s is a gap, which the GNSS policy splits the drive at.
-        return d.isna() | (d <= 0) | ((d - period).abs() <= tol + _STEP_SLACK_S) | (d > gap)
+        steady = (d - period).abs() <= tol + _STEP_SLACK_S
+        return d.isna() | (d <= 0) | steady | next_slot(s) | (d > gap)
 
     def median_period(s: pd.Series) -> pd.Series:
         # One verdict per drive, put on its first row (reported without a row: _DRIVE_WIDE).
@@ -152,7 +169,9 @@ def _drive_checks(
             pa.Check(regular, name="sample_period"),
             _Explain(
                 f"a step of {period} ± {tol} s from the previous row (validate.sample_period_s), "
-                f"or a gap > {gap} s (validate.gnss.max_gap_s; the drive is split there)",
+                f"or the next slot of the drive's {period} s grid (time stamps jittered by "
+                f"less than half a sample), or a gap > {gap} s (validate.gnss.max_gap_s; the "
+                "drive is split there)",
                 _time_step,
                 f"the pipeline needs one row every {period} s: re-export the drive at "
                 f"{1.0 / period:.3g} Hz; where the logger dropped samples, delete the rows of "
@@ -228,8 +247,11 @@ def drive_schema(vp: ValidateParams, drive_starts: np.ndarray | None = None) -> 
 
     Required channels must be present and complete (no NaN); latitude and longitude in
     range; |wheel speed| below ``max_abs_wheel_speed_rad_s``; time finite, strictly
-    increasing, every step ``sample_period_s ± sample_period_tol_s`` or a gap longer than
-    ``gnss.max_gap_s``, and the median step near the nominal period (catches time in ms).
+    increasing, every step ``sample_period_s ± sample_period_tol_s``, or into the next slot
+    of the drive's sample grid (stamps jittered by less than half a period,
+    :mod:`rwhonet.data.timebase`), or a gap longer than ``gnss.max_gap_s``; and the median
+    step near the nominal period (catches time in ms). A dropped sample (two slots in one
+    step shorter than the gap) fails.
 
     Args:
         vp: the ``validate`` section.

@@ -59,10 +59,10 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         InputError: the channels cannot be located.
     """
     if fmt == "iovnbd":
-        from rwhonet.data.iovnbd import TO_SI, iovnbd_columns
+        from rwhonet.data.iovnbd import column_factors, iovnbd_columns
 
         positions, _ = iovnbd_columns(header, file)
-        factors = {name: TO_SI[name] for name in positions}
+        factors = column_factors(header, positions)
     else:
         from rwhonet.data.columnmap import KEYS, check_column_map, columnmap_positions
 

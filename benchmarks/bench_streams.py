@@ -1,0 +1,120 @@
+"""Multi-rate path throughput: stream files -> the canonical 10 Hz drive, in input rows per second.
+
+Simulates one long drive (default 2 h, ci world; truth at 200 Hz, which is
+enough for timing), samples it as a logger's streams (CAN wheel speeds at
+100 Hz with jittered stamps, GNSS at 10 Hz), writes them in each format the
+readers take (one CSV per stream, one MDF4 file, a comma2k19 folder) and times,
+in this process (imports excluded, best of ``--repeat``), reading the files and
+resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
+sample-level glitch screen). Rows are every stream's samples, counted once.
+Also timed: the same grid through the GNSS policy and the per-second quantities
+(``assess`` + ``segment_seconds``), for an idea of files -> labelled seconds.
+
+Usage: python benchmarks/bench_streams.py [--hours 2] [--repeat 3]
+Target (issue 15): >= 1 M input rows/s from files to the 10 Hz table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # support.multirate
+
+from rwhonet.config import SimDrive, load_params  # noqa: E402
+from rwhonet.data.comma2k19 import read_comma2k19  # noqa: E402
+from rwhonet.data.mdf4 import read_mdf4  # noqa: E402
+from rwhonet.data.quality import assess  # noqa: E402
+from rwhonet.data.streamcsv import read_stream_csvs  # noqa: E402
+from rwhonet.data.streams import resample  # noqa: E402
+from rwhonet.features.seconds import segment_seconds  # noqa: E402
+from rwhonet.sim import generate_route, vehicles_from_params  # noqa: E402
+from rwhonet.sim.drive import child_rng  # noqa: E402
+from rwhonet.sim.streams import (  # noqa: E402
+    StreamSpec,
+    fine_truth,
+    signal_map,
+    stream_tables,
+    write_comma2k19,
+    write_stream_csvs,
+    write_stream_mdf4,
+)
+
+
+def best(fn, repeat: int):
+    times, out = [], None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return out, min(times)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--hours", type=float, default=2.0)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    params = load_params(overrides={"sim.profile": "ci"})
+    vehicle = vehicles_from_params(params)["target"]
+    radius = vehicle.nominal_radius_m
+    spec = SimDrive(
+        name="B-1",
+        role="target_test",
+        vehicle="target",
+        tyre="B",
+        duration_s=args.hours * 3600.0,
+        roads={"urban": 0.4, "country": 0.4, "motorway": 0.2},
+    )
+    ss = np.random.SeedSequence(1)
+    route = generate_route(spec, params.sim, vehicle, child_rng(ss, 0))
+    state = fine_truth(vehicle, spec.tyre, route, ss, params.sim, truth_hz=200)
+    tables = stream_tables(state, vehicle, params.sim, ss, StreamSpec(100.0, 10.0), 0.0, True)
+    n = tables.n_rows
+    print(
+        f"{args.hours:g} h drive: {len(tables.wheels):,} wheel rows (100 Hz) + "
+        f"{len(tables.gnss):,} fixes (10 Hz) = {n:,} input rows"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        csvs = write_stream_csvs(tables, root / "csv")
+        mf4 = write_stream_mdf4(tables, root / "drive.mf4")
+        write_comma2k19(tables, root / "seg", radius)
+        readers = {
+            "one CSV per stream": lambda: read_stream_csvs(
+                list(csvs.values()), signal_map(), radius
+            ),
+            "MDF4 (asammdf)": lambda: read_mdf4(mf4, signal_map(with_time=False), radius),
+            "comma2k19 folder": lambda: read_comma2k19(root / "seg", radius),
+        }
+        print(f"{'format':<20} {'read s':>7} {'resample s':>10} {'total s':>8} {'M rows/s':>9}")
+        for name, read in readers.items():
+            streams, t_read = best(read, args.repeat)
+            res, t_res = best(lambda s=streams: resample(s, nominal_radius_m=radius), args.repeat)
+            total = t_read + t_res
+            print(f"{name:<20} {t_read:>7.3f} {t_res:>10.3f} {total:>8.3f} {n / total / 1e6:>9.2f}")
+        grid = res.drive.columns
+        vp = params.validate
+
+        def label_seconds():
+            result = assess(grid, vp.gnss, vp.sample_period_s, wheel_glitch=res.glitch)
+            return [
+                segment_seconds({k: v[s.row_start : s.row_stop] for k, v in grid.items()})
+                for s in result.segments
+            ]
+
+        _, t_label = best(label_seconds, args.repeat)
+        print(
+            f"then GNSS policy + per-second quantities on the {len(grid['t_s']):,}-row grid: "
+            f"{t_label:.3f} s ({n / (total + t_label) / 1e6:.2f} M input rows/s files -> seconds, "
+            "comma2k19 folder)"
+        )
+
+
+if __name__ == "__main__":
+    main()

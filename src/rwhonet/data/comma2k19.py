@@ -1,0 +1,208 @@
+"""The comma2k19 / openpilot processed-log folder: one folder per channel, NumPy arrays inside.
+
+Layout (the comma2k19 dataset, ``commaai/comma2k19``; a segment's ``processed_log``):
+every channel is a folder holding ``t`` (time, s, on the recording device's boot
+clock, one clock for every channel) and ``value`` (one row per time), NumPy
+``.npy`` arrays saved without the extension. ``numpy.load`` decodes them; this
+module only knows which folder holds what:
+
+==============================  =============================================================
+``CAN/wheel_speed``             four columns: front left, front right, rear left, rear right,
+                                m/s (the car's circumferential wheel speeds; divided by the
+                                tyre radius here)
+``GNSS/live_gnss_ublox``        latitude (deg), longitude (deg), speed (m/s), UTC time (ms),
+                                altitude (m), bearing (deg) (``GNSS/live_gnss_qcom``, the
+                                phone's own receiver, when there is no u-blox)
+``IMU/gyro``                    angular rate about the phone's [forward, right, down] axes,
+                                rad/s (optional)
+``CAN/speed``                   the car's speed, m/s (optional)
+==============================  =============================================================
+
+The yaw rate is the rate about the vertical, in the canonical convention of
+ISO 8855 (z up, positive turning left, as the simulator writes it): minus the
+gyro's rate about *down*. The GNSS stream has no satellite count, so validate's
+``low_sats`` rule does not apply to such a drive.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.data import canonical as c
+from rwhonet.data.streams import DriveStreams, Stream, wheel_speed_rad_s
+from rwhonet.errors import InputError, Problem
+
+WHEEL_SPEED = "CAN/wheel_speed"
+GNSS = ("GNSS/live_gnss_ublox", "GNSS/live_gnss_qcom")
+GYRO = "IMU/gyro"
+CAR_SPEED = "CAN/speed"
+PROCESSED_LOG = "processed_log"
+# Columns of the GNSS value array.
+_GNSS_COLUMNS = {c.LAT_DEG: 0, c.LON_DEG: 1, c.SPEED_GNSS_M_S: 2, c.HEIGHT_M: 4, c.HEADING_DEG: 5}
+_GNSS_NAMES = {
+    c.LAT_DEG: "latitude",
+    c.LON_DEG: "longitude",
+    c.SPEED_GNSS_M_S: "speed",
+    c.HEIGHT_M: "altitude",
+    c.HEADING_DEG: "bearing",
+}
+_WHEEL_NAMES = {
+    c.OMEGA_FL: "front left",
+    c.OMEGA_FR: "front right",
+    c.OMEGA_RL: "rear left",
+    c.OMEGA_RR: "rear right",
+}
+
+
+def processed_log(folder: Path) -> Path:
+    """The ``processed_log`` folder of a segment folder (or the folder itself)."""
+    folder = Path(folder)
+    inner = folder / PROCESSED_LOG
+    return inner if inner.is_dir() else folder
+
+
+def read_comma2k19(
+    folder: Path, radius_m: float, display: str | None = None, wheel_unit: str = "m/s"
+) -> DriveStreams:
+    """Read a comma2k19 segment into streams for :func:`rwhonet.data.streams.resample`.
+
+    Args:
+        folder: the segment folder, or its ``processed_log`` folder.
+        radius_m: the car's nominal tyre radius, m (the CAN wheel speeds are m/s).
+        display: how the folder is named in error reports (default: ``folder`` as given).
+        wheel_unit: the unit of ``CAN/wheel_speed`` (comma's logs: m/s).
+
+    Returns:
+        The wheel-speed stream (rad/s), the GNSS stream and, when present, the yaw rate
+        (from the gyro) and the car's speed.
+
+    Raises:
+        InputError: a missing channel folder or array, an array that is not NumPy data,
+            or values of the wrong shape; naming the folder and the array.
+    """
+    root = processed_log(folder)
+    name = display or str(folder)
+    problems: list[Problem] = []
+    if not root.is_dir():
+        raise InputError(
+            [
+                Problem(
+                    name,
+                    None,
+                    None,
+                    "a comma2k19 segment folder (with processed_log/CAN, GNSS, IMU)",
+                    "no such folder",
+                    "give the segment's folder (the one holding processed_log)",
+                )
+            ]
+        )
+
+    def channel(sub: str, columns: int | None, required: bool) -> tuple[np.ndarray, np.ndarray]:
+        t = _load(root, sub, "t", name, problems, required)
+        v = _load(root, sub, "value", name, problems, required)
+        if t is None or v is None:
+            return np.zeros(0), np.zeros((0, columns or 1))
+        v = v.reshape(-1, 1) if v.ndim == 1 else v
+        if t.ndim != 1 or v.ndim != 2 or v.shape[0] != t.size or (columns and v.shape[1] < columns):
+            problems.append(
+                Problem(
+                    f"{name}/{sub}",
+                    None,
+                    "value",
+                    f"one row of {columns or 'some'} value(s) per time in 't' ({t.shape})",
+                    f"'value' of shape {v.shape}",
+                    "copy the channel folder as the logger wrote it",
+                )
+            )
+            return np.zeros(0), np.zeros((0, columns or 1))
+        return t.astype(np.float64), v.astype(np.float64)
+
+    gnss_sub = next((g for g in GNSS if (root / g).is_dir()), GNSS[0])
+    tw, vw = channel(WHEEL_SPEED, 4, True)
+    tg, vg = channel(gnss_sub, 6, True)
+    has_gyro = (root / GYRO).is_dir()
+    has_speed = (root / CAR_SPEED).is_dir()
+    ti, vi = channel(GYRO, 3, False) if has_gyro else (None, None)
+    ts, vs = channel(CAR_SPEED, 1, False) if has_speed else (None, None)
+    if problems:
+        raise InputError(problems, summary=f"cannot read the comma2k19 segment {name}")
+
+    wheel_where = f"{name}/{WHEEL_SPEED}"
+    wheels = Stream(
+        WHEEL_SPEED,
+        name,
+        tw,
+        {
+            w: wheel_speed_rad_s(vw[:, k], wheel_unit, radius_m, wheel_where)
+            for k, w in enumerate(c.WHEELS)
+        },
+        {c.T_S: "t"}
+        | {w: f"value[:, {k}] ({_WHEEL_NAMES[w]}, {wheel_unit})" for k, w in enumerate(c.WHEELS)},
+    )
+    gnss = Stream(
+        gnss_sub,
+        name,
+        tg,
+        {k: vg[:, col] for k, col in _GNSS_COLUMNS.items()},
+        {c.T_S: "t"}
+        | {k: f"value[:, {col}] ({_GNSS_NAMES[k]})" for k, col in _GNSS_COLUMNS.items()},
+    )
+    extra = []
+    if ti is not None and ti.size:
+        extra.append(
+            Stream(
+                GYRO,
+                name,
+                ti,
+                {c.YAW_RATE_RAD_S: -vi[:, 2]},
+                {c.T_S: "t", c.YAW_RATE_RAD_S: "-value[:, 2] (minus the rate about down)"},
+            )
+        )
+    if ts is not None and ts.size:
+        extra.append(
+            Stream(
+                CAR_SPEED,
+                name,
+                ts,
+                {c.SPEED_VEHICLE_M_S: vs[:, 0]},
+                {c.T_S: "t", c.SPEED_VEHICLE_M_S: "value"},
+            )
+        )
+    return DriveStreams((wheels,), gnss, tuple(extra), clock="the device's boot clock")
+
+
+def _load(
+    root: Path, sub: str, array: str, name: str, problems: list[Problem], required: bool
+) -> np.ndarray | None:
+    path = root / sub / array
+    where = f"{name}/{sub}/{array}"
+    if not path.is_file():
+        if required:
+            problems.append(
+                Problem(
+                    where,
+                    None,
+                    None,
+                    f"the NumPy array '{array}' of channel {sub}",
+                    "no such file",
+                    f"copy the channel folder {sub} with its 't' and 'value' arrays",
+                )
+            )
+        return None
+    try:
+        # allow_pickle=False: a data file never runs code.
+        return np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as err:
+        problems.append(
+            Problem(
+                where,
+                None,
+                None,
+                "a NumPy array file (numpy.save's format)",
+                f"{type(err).__name__}: {str(err)[:120]}",
+                "copy the file again from the dataset (it is damaged or not an array)",
+            )
+        )
+        return None

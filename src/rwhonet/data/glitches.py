@@ -1,0 +1,143 @@
+"""Wheel speeds that change faster than any tyre can: a logger's glitch, to cut, never to learn.
+
+One wheel read at ten times its speed for one 0.1 s row moves that second's
+label by about a metre, and nothing else in validate notices it. A wheel's
+speed can fall fast (the brakes lock it, and ABS lets it lock briefly, down to
+zero) and regain the road speed fast (the tyre's friction spins it back up), so
+neither a fall nor a recovery says anything. What no tyre can do is turn
+markedly *faster than the road under it* within a sample: the only torque that
+can drive a wheel past the road speed is the engine's, and the engine has to
+spin up the whole driveline with it.
+
+The bound
+    The rotating parts of the driveline, seen at the wheels, weigh about
+    ``0.04 + 0.0025 N^2`` times the car's mass (N the overall gear ratio;
+    Gillespie, *Fundamentals of Vehicle Dynamics*, SAE 1992, Sec. 2, the "mass
+    factor"): about 0.46 M in first gear (N = 13). Even if the driven wheels lost
+    all grip at once, the most an engine puts at the wheels in first gear (about
+    1 g of the car's weight: a traction-limited launch) would spin them up at
+    about 1 / 0.46 ≈ 2.2 g, and one wheel of an open differential at twice that
+    (a car with half as much again at its wheels: 6.5 g).
+    :data:`WHEEL_GLITCH_G` = 10 g of circumferential acceleration *above the road
+    speed* is well beyond that, and beyond the tyre-road friction limit (about
+    1 g) ten times over.
+
+The check (:func:`glitch_mask`), per wheel and sample
+    The road speed a wheel is compared with is the median of the *other* three
+    wheels' speeds (so one bad wheel cannot move it), at its largest within
+    ±``window_s`` (so the other wheels' own ABS dips cannot make a wheel that
+    rolls at road speed look fast). The wheel's *excess* is how much it exceeds
+    that, zero when it does not. A sample whose excess rose faster than the
+    bound (``r |Δω| / Δt > bound``, ``r`` the nominal radius) opens a glitch,
+    and the glitch lasts until the excess falls as fast (at most ``max_run_s``).
+    ABS lockups are falls and recoveries below the road speed: their excess
+    stays zero and they are never flagged. A one-row spike to ten times the
+    speed rises by ``9 v`` in one period: at 10 Hz it is found above about
+    1.1 m/s. A glitch in all four wheels at once (a logger scaling a whole
+    message) moves the reference with it and is not found by this check.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d
+
+from rwhonet.data import canonical as c
+
+G_M_S2 = c.G_M_S2
+WHEEL_GLITCH_G = 10.0  # circumferential acceleration above the road speed no wheel reaches
+WINDOW_S = 0.5  # the road speed is the others' largest speed within +- this
+MAX_RUN_S = 1.0  # a glitch lasts at most this long
+
+
+def glitch_mask(
+    t_s: np.ndarray,
+    wheels_rad_s: np.ndarray,
+    radius_m: float,
+    bound_g: float = WHEEL_GLITCH_G,
+    window_s: float = WINDOW_S,
+    max_run_s: float = MAX_RUN_S,
+) -> np.ndarray:
+    """Flag the samples of each wheel that changed faster than any tyre can.
+
+    Args:
+        t_s: sample times (n,), strictly increasing.
+        wheels_rad_s: the four wheel speeds (4, n), rad/s (signs ignored: magnitudes).
+        radius_m: the car's nominal tyre radius, m (turns the bound into rad/s^2).
+        bound_g: the bound, in g of circumferential acceleration above the road speed.
+        window_s: the road speed is the others' largest median within ±this.
+        max_run_s: longest glitch; a rise that never falls back is flagged this long.
+
+    Returns:
+        Boolean (4, n): True where a wheel's sample is part of a glitch.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    w = np.abs(np.asarray(wheels_rad_s, dtype=np.float64))
+    n = t.size
+    out = np.zeros(w.shape, dtype=bool)
+    if n < 2:
+        return out
+    dt = np.diff(t)
+    half = max(int(round(window_s / float(np.median(dt)))), 0)
+    limit = bound_g * G_M_S2 / radius_m  # rad/s^2
+    others = [[j for j in range(4) if j != k] for k in range(4)]
+    for k in range(4):  # per wheel, not per sample
+        road = np.median(w[others[k]], axis=0)
+        if half:
+            road = maximum_filter1d(road, size=2 * half + 1, mode="nearest")
+        excess = np.maximum(w[k] - road, 0.0)
+        rate = np.diff(excess) / dt
+        up = np.flatnonzero(rate > limit) + 1  # rows where a glitch starts
+        if up.size == 0:
+            continue
+        down = np.flatnonzero(rate < -limit) + 1  # rows where one has ended
+        last_up = np.full(n, -1)
+        last_up[up] = up
+        last_up = np.maximum.accumulate(last_up)
+        last_down = np.full(n, -1)
+        last_down[down] = down
+        last_down = np.maximum.accumulate(last_down)
+        open_ = (last_up >= 0) & (last_up > last_down)
+        out[k] = open_ & (t - t[np.maximum(last_up, 0)] < max_run_s)
+        out[k, up] = True
+    return out
+
+
+def wheel_glitch_rows(
+    drive: dict[str, np.ndarray],
+    radius_m: float,
+    bound_g: float = WHEEL_GLITCH_G,
+) -> dict[str, np.ndarray]:
+    """The rows of a canonical drive where a wheel speed changed faster than any tyre can.
+
+    What validate cuts (rule ``wheel_glitch`` of :func:`rwhonet.data.quality.assess`, whose
+    ``wheel_glitch`` argument is :func:`glitch_rows_mask`) and reports with the rows.
+
+    Args:
+        drive: canonical columns (``t_s`` and the four wheel speeds), e.g. a DataFrame.
+        radius_m: the vehicle's nominal tyre radius, m.
+        bound_g: the bound (:data:`WHEEL_GLITCH_G`).
+
+    Returns:
+        Wheel (canonical name) -> 0-based rows flagged, for wheels that have any.
+    """
+    mask = glitch_mask(
+        np.asarray(drive[c.T_S], dtype=np.float64),
+        np.stack([np.asarray(drive[w], dtype=np.float64) for w in c.WHEELS]),
+        radius_m,
+        bound_g,
+    )
+    return {w: np.flatnonzero(mask[k]) for k, w in enumerate(c.WHEELS) if mask[k].any()}
+
+
+def glitch_rows_mask(
+    drive: dict[str, np.ndarray], radius_m: float, bound_g: float = WHEEL_GLITCH_G
+) -> np.ndarray:
+    """Per row of a canonical drive, whether any wheel glitched there (for ``assess``)."""
+    mask = glitch_mask(
+        np.asarray(drive[c.T_S], dtype=np.float64),
+        np.stack([np.asarray(drive[w], dtype=np.float64) for w in c.WHEELS]),
+        radius_m,
+        bound_g,
+    )
+    return mask.any(axis=0)

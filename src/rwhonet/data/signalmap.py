@@ -1,0 +1,246 @@
+"""Signal maps: which logged channel holds which canonical quantity, in which unit.
+
+The stream readers (:mod:`rwhonet.data.mdf4`, :mod:`rwhonet.data.streamcsv`)
+are told by a map, as the 10 Hz column maps are (``params.yaml:
+data.column_maps``): each key names the logger's channel (an MDF4 signal, a CSV
+column) and its unit. Keys and units:
+
+============================================  =================================================
+``omega_fl``, ``omega_fr``, ``omega_rl``,     ``rad/s``, ``rpm``, ``deg/s``; or the wheel's
+``omega_rr`` (required)                       circumferential speed ``m/s``, ``km/h``, ``mph``
+                                              (divided by the car's nominal tyre radius)
+``lat``, ``lon`` (required)                   ``deg``
+``t`` (CSV streams: required in every file)   ``s``, ``ms``, ``us``, ``ns``
+``n_sats``                                    ``count``
+``speed_gnss``, ``speed_vehicle``             ``m/s``, ``km/h``, ``mph``
+``heading``                                   ``deg``
+``height``                                    ``m``, ``km``
+``yaw_rate``                                  ``rad/s``, ``deg/s`` (positive turning left, ISO
+                                              8855 z up); ``rad/s cw``, ``deg/s cw`` for a
+                                              gyro positive clockwise (z down)
+``acc_lon``, ``acc_lat``                      ``m/s2``, ``g``
+============================================  =================================================
+
+Channels sampled together (one CSV file, one MDF4 channel group) form one
+:class:`~rwhonet.data.streams.Stream`; :func:`build_streams` sorts them into
+the wheel, GNSS and other streams :func:`rwhonet.data.streams.resample` takes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.data.streams import (
+    WHEEL_UNITS,
+    DriveStreams,
+    Stream,
+    wheel_speed_rad_s,
+)
+from rwhonet.errors import InputError, Problem
+
+_SPEED = {"m/s": 1.0, "km/h": c.KMH_M_S, "mph": 0.44704}
+_RATE = {
+    "rad/s": 1.0,
+    "deg/s": math.pi / 180.0,
+    "rad/s cw": -1.0,
+    "deg/s cw": -math.pi / 180.0,
+}
+# Key -> (canonical name, {unit: factor to SI}); wheel speeds: WHEEL_UNITS via the radius.
+KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
+    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}),
+    "lat": (c.LAT_DEG, {"deg": 1.0}),
+    "lon": (c.LON_DEG, {"deg": 1.0}),
+    "omega_fl": (c.OMEGA_FL, None),
+    "omega_fr": (c.OMEGA_FR, None),
+    "omega_rl": (c.OMEGA_RL, None),
+    "omega_rr": (c.OMEGA_RR, None),
+    "n_sats": (c.N_SATS, {"count": 1.0}),
+    "speed_gnss": (c.SPEED_GNSS_M_S, _SPEED),
+    "heading": (c.HEADING_DEG, {"deg": 1.0}),
+    "height": (c.HEIGHT_M, {"m": 1.0, "km": 1000.0}),
+    "yaw_rate": (c.YAW_RATE_RAD_S, _RATE),
+    "speed_vehicle": (c.SPEED_VEHICLE_M_S, _SPEED),
+    "acc_lon": (c.ACC_LON_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
+    "acc_lat": (c.ACC_LAT_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
+}
+WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")
+REQUIRED_KEYS = (*WHEEL_KEYS, "lat", "lon")
+FIX_KEYS = ("lat", "lon", "n_sats", "speed_gnss", "heading", "height")
+
+
+def units_of(key: str) -> tuple[str, ...]:
+    """The units a key may be given in."""
+    units = KEYS[key][1]
+    return WHEEL_UNITS if units is None else tuple(units)
+
+
+def check_signal_map(
+    name: str, signal_map: Mapping[str, ColumnSpec], with_time: bool = False
+) -> None:
+    """Check a signal map's keys and units before any file is read.
+
+    Args:
+        name: the map's name (for messages: ``data.signal_maps.<name>``).
+        signal_map: key -> channel name and unit.
+        with_time: whether ``t`` is required (CSV streams; an MDF4 file has its own time).
+
+    Raises:
+        ConfigError: naming every unknown key, missing required key and unknown unit.
+    """
+    where = f"data.signal_maps.{name}"
+    issues = [
+        f"{where}.{k}: unknown key; expected one of {list(KEYS)}"
+        for k in signal_map
+        if k not in KEYS
+    ]
+    required = (*REQUIRED_KEYS, "t") if with_time else REQUIRED_KEYS
+    issues += [f"{where}.{k}: missing" for k in required if k not in signal_map]
+    issues += [
+        f"{where}.{k}.unit: expected one of {list(units_of(k))}, got {spec.unit!r}"
+        for k, spec in signal_map.items()
+        if k in KEYS and spec.unit not in units_of(k)
+    ]
+    if issues:
+        raise ConfigError("\n".join(issues))
+
+
+def to_si(
+    key: str, values: np.ndarray, unit: str, radius_m: float | None, where: str
+) -> np.ndarray:
+    """A channel's values in the canonical SI unit.
+
+    Args:
+        key: the signal-map key.
+        values: the values as logged.
+        unit: their unit (checked by :func:`check_signal_map`).
+        radius_m: the car's nominal tyre radius (for linear wheel speeds).
+        where: the channel, for messages.
+
+    Returns:
+        float64 values.
+    """
+    factors = KEYS[key][1]
+    if factors is None:
+        return wheel_speed_rad_s(values, unit, radius_m, where)
+    return np.asarray(values, dtype=np.float64) * factors[unit]
+
+
+@dataclass(frozen=True)
+class Group:
+    """Channels sampled together: one CSV file, one MDF4 channel group.
+
+    Attributes:
+        name: the group as the user knows it.
+        file: its file.
+        t_s: sample times, s.
+        channels: signal-map key -> values in SI units.
+        sources: signal-map key -> the logger's channel name (``t``: the time's).
+    """
+
+    name: str
+    file: str
+    t_s: np.ndarray
+    channels: dict[str, np.ndarray]
+    sources: dict[str, str]
+
+
+def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
+    """Sort groups of channels into the wheel, GNSS and other streams of a drive.
+
+    A group holding wheel speeds is a wheel stream (with any other rates it holds); the
+    group holding latitude and longitude is the GNSS stream; GNSS channels logged apart
+    from the fixes (a satellite count in another message) are taken at the fixes' times
+    (the satellite count of the last message at or before a fix, the others
+    interpolated); the remaining rates are streams of their own.
+
+    Args:
+        groups: the channel groups (each key in one group; ``t`` not among the channels).
+        clock: what the times are.
+
+    Returns:
+        The drive's streams.
+
+    Raises:
+        InputError: latitude and longitude in different groups with different times.
+    """
+
+    def stream(g: Group, keys: Sequence[str]) -> Stream:
+        return Stream(
+            g.name,
+            g.file,
+            g.t_s,
+            {KEYS[k][0]: g.channels[k] for k in keys},
+            {KEYS[k][0]: g.sources[k] for k in (*keys, "t") if k in g.sources},
+        )
+
+    wheels, extra = [], []
+    fix_group = None
+    for g in groups:
+        keys = list(g.channels)
+        if "lat" in keys or "lon" in keys:
+            if fix_group is not None:
+                raise _split_fix(fix_group, g)
+            fix_group = g
+        rates = [k for k in keys if k not in FIX_KEYS]
+        if any(k in WHEEL_KEYS for k in keys):
+            wheels.append(stream(g, rates))
+        elif rates:
+            extra.append(stream(g, rates))
+    if fix_group is None or not {"lat", "lon"} <= set(fix_group.channels):
+        raise _split_fix(fix_group, None)
+    fixes = {k: fix_group.channels[k] for k in FIX_KEYS if k in fix_group.channels}
+    sources = {k: fix_group.sources[k] for k in (*fixes, "t") if k in fix_group.sources}
+    for g in groups:
+        if g is fix_group:
+            continue
+        for k in FIX_KEYS:
+            if k in g.channels:
+                fixes[k] = _at_times(k, g.t_s, g.channels[k], fix_group.t_s)
+                sources[k] = f"{g.sources[k]} (at the fixes' times)"
+    gnss = Stream(
+        fix_group.name,
+        fix_group.file,
+        fix_group.t_s,
+        {KEYS[k][0]: v for k, v in fixes.items()},
+        {KEYS[k][0]: s for k, s in sources.items()},
+    )
+    return DriveStreams(tuple(wheels), gnss, tuple(extra), clock)
+
+
+def _at_times(key: str, t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
+    if t.size == 0:
+        return np.full(at.size, np.nan)
+    if key == "n_sats":
+        i = np.searchsorted(t, at, side="right") - 1
+        return np.where(i >= 0, values[np.maximum(i, 0)], np.nan)
+    period = 360.0 if key == "heading" else None
+    v = np.unwrap(values, period=period) if period else values
+    out = np.interp(at, t, v, left=np.nan, right=np.nan)
+    return out % 360.0 if period else out
+
+
+def _split_fix(a: Group | None, b: Group | None) -> InputError:
+    if a is None:
+        found = "no group with both latitude and longitude"
+        where = "the drive's streams"
+    else:
+        found = f"latitude/longitude split over {a.name!r} and {b.name if b else '?'!r}"
+        where = a.file
+    return InputError(
+        [
+            Problem(
+                where,
+                None,
+                None,
+                "latitude and longitude logged together (one CSV file, one MDF4 group)",
+                found,
+                "map the latitude and longitude of one GNSS message",
+            )
+        ]
+    )

@@ -1,0 +1,150 @@
+"""One CSV file per sensor stream, read through a signal map.
+
+A logger that exports each message or sensor to its own CSV (wheel speeds in
+one, GNSS fixes in another, perhaps the IMU in a third), each with its own time
+column, is read here: one signal map (:mod:`rwhonet.data.signalmap`, key ``t``
+required) names the time column every file has and where each other quantity
+is; each quantity must be in exactly one of the files. Columns are found by
+name without regard to case, spaces, punctuation and a unit suffix
+(:func:`rwhonet.data.columnmap.find_column`); extra columns are ignored. The
+files are parsed by the same streaming CSV reader as the 10 Hz files
+(:mod:`rwhonet.data.csvio`), so every bad cell is reported with its file, row
+and column. The clock is the files' common time column.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.config import ColumnSpec
+from rwhonet.data.columnmap import find_column
+from rwhonet.data.csvio import read_header, read_numeric
+from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
+from rwhonet.data.streams import DriveStreams
+from rwhonet.errors import InputError, Problem
+
+CLOCK = "the stream files' time column"
+
+
+def read_stream_csvs(
+    paths: Sequence[Path],
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str = "streams",
+    display: Mapping[Path, str] | None = None,
+) -> DriveStreams:
+    """Read a drive given as one CSV per sensor stream.
+
+    Args:
+        paths: the drive's stream files (each with a header row and the time column).
+        signal_map: key -> column name and unit (:func:`check_signal_map`, with ``t``).
+        radius_m: the car's nominal tyre radius, for wheel speeds logged in m/s or km/h.
+        name: the map's name, for messages.
+        display: how each file is named in error reports (default: the path as given).
+
+    Returns:
+        The drive's streams: one per file that holds a mapped quantity.
+
+    Raises:
+        ConfigError: the signal map is invalid.
+        InputError: a file without the time column, a quantity found in no file or in
+            several, a cell that is not a number, a row with the wrong number of columns;
+            every problem of every file is listed.
+    """
+    check_signal_map(name, signal_map, with_time=True)
+    files = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
+    if not files:
+        raise InputError(
+            [
+                Problem(
+                    "the drive",
+                    None,
+                    None,
+                    "one CSV file per sensor stream",
+                    "no file",
+                    "give the drive's stream files",
+                )
+            ]
+        )
+    problems: list[Problem] = []
+    headers: dict[str, list[str]] = {}
+    for path, file in files:
+        try:
+            headers[file] = read_header(path, file)
+        except InputError as err:
+            problems += err.problems
+    time_spec = signal_map["t"]
+    found: dict[str, list[tuple[str, int]]] = {}
+    time_at: dict[str, int] = {}
+    for file, header in headers.items():
+        pos = find_column(header, time_spec.column)
+        if pos is None:
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    time_spec.column,
+                    f"the time column {time_spec.column!r} (data.signal_maps.{name}.t) in "
+                    "every stream file",
+                    f"no such name in the header {[h.strip() for h in header]}",
+                    "give every stream file its time column (one clock for all of them)",
+                )
+            )
+            continue
+        time_at[file] = pos
+        for key, spec in signal_map.items():
+            if key == "t":
+                continue
+            at = find_column(header, spec.column)
+            if at is not None:
+                found.setdefault(key, []).append((file, at))
+    for key, spec in signal_map.items():
+        if key == "t":
+            continue
+        where = found.get(key, [])
+        if len(where) != 1 and len(time_at) == len(headers):
+            problems.append(
+                Problem(
+                    ", ".join(headers) if not where else ", ".join(f for f, _ in where),
+                    None,
+                    spec.column,
+                    f"a column named {spec.column!r} (data.signal_maps.{name}.{key}) in "
+                    "exactly one stream file",
+                    "in none of them" if not where else f"in {len(where)} files",
+                    f"name the column in data.signal_maps.{name}.{key}.column",
+                )
+            )
+    if problems:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
+    groups = []
+    paths_of = {file: path for path, file in files}
+    for file, header in headers.items():
+        keys = {k: at for k, places in found.items() for f, at in places if f == file}
+        if not keys:
+            continue
+        wanted = {time_at[file]: header[time_at[file]], **{at: header[at] for at in keys.values()}}
+        try:
+            values = read_numeric(paths_of[file], len(header), wanted, file)
+        except InputError as err:
+            problems += err.problems
+            continue
+        t = to_si("t", values[time_at[file]], time_spec.unit, None, file)
+        groups.append(
+            Group(
+                Path(file).name,
+                file,
+                np.ascontiguousarray(t),
+                {
+                    k: to_si(k, values[at], signal_map[k].unit, radius_m, f"{file} {header[at]!r}")
+                    for k, at in keys.items()
+                },
+                {"t": header[time_at[file]].strip()}
+                | {k: header[at].strip() for k, at in keys.items()},
+            )
+        )
+    if problems:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
+    return build_streams(groups, CLOCK)

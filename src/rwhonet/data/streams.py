@@ -1,0 +1,626 @@
+"""Timestamped sensor streams -> one canonical drive on the pipeline's 10 Hz grid.
+
+Real loggers write each sensor at its own rate with its own timestamps (CAN
+wheel speeds at 50-100 Hz, GNSS fixes at 1-10 Hz, an IMU at 100 Hz); the
+pipeline reads one row every 0.1 s. Every stream reader (comma2k19 folders,
+MDF4 files, one CSV per stream) returns :class:`DriveStreams`, and
+:func:`resample` is the one way they reach the grid. The result is the
+canonical drive the 10 Hz readers give (:class:`~rwhonet.data.csvio.RawDrive`,
+``header_match="streams"``), so validate and label run unchanged.
+
+The grid
+    Rows at the whole multiples of ``period_s`` (0.1 s) of the streams' own
+    clock (the clock every stream of the drive is stamped on: a device's boot
+    clock, an MDF4 file's master time, a CSV's time column): ``t_k = k / 10``
+    exactly, so whole seconds of that clock are rows and the per-second logic
+    of validate and label applies as it is.
+
+Rates (wheel speeds, yaw rate, accelerations, vehicle speed): a time-weighted mean
+    Row ``t_k`` holds the mean of the signal over ``[t_k - period/2, t_k + period/2]``,
+    the signal taken as piecewise *linear* between its samples (each sample the
+    value at its timestamp). Linear rather than piecewise constant: a hold keeps
+    each value until the next sample and so delays the signal by half a sample
+    period (5-10 ms at 50-100 Hz), a systematic shift of every wheel speed
+    against the GNSS fixes; the linear signal has none and integrates a constant
+    acceleration exactly. Centred rather than trailing: the label integrates the
+    rows with the trapezoid rule between fixes at ``t_a`` and ``t_b``
+    (:func:`rwhonet.features.seconds.integrate_per_second`); with centred means
+    that integral is the signal's own integral over ``[t_a, t_b]`` up to
+    ``period^2 / 24`` times the change of its slope, while trailing means would
+    lag the wheels by half a period (0.1 m per second when braking at 2 m/s^2,
+    as large as the labels). The mean is computed exactly from the cumulative
+    trapezoid integral at the window's edges (no loop over samples).
+
+Positions: interpolated between fixes, never across a gap, never extrapolated
+    Latitude and longitude (longitude unwrapped, so the antimeridian is no jump)
+    are interpolated linearly in time between the two fixes around ``t_k``, only
+    when they are at most ``max_fix_gap_s`` apart; before the first fix, after
+    the last, and between fixes further apart, a row has no position. Speed,
+    height and course are interpolated the same way (course unwrapped); the
+    satellite count of a row is the smaller of its two fixes'.
+
+Gaps
+    A rate's row needs samples covering its whole window, with no step between
+    samples longer than ``max_wheel_gap_s`` overlapping it. A row without all four
+    wheel speeds or without a position is left out of the grid, and so are the rows
+    next to it until the hole in the grid is longer than ``split_gap_s``
+    (``validate.gnss.max_gap_s``): validate then cuts the seconds there as a
+    ``gap`` and splits the drive, exactly as for a 10 Hz file with a GNSS outage.
+    Optional channels without data in a kept row are NaN.
+
+Glitches
+    A stream that carries all four wheel speeds is screened sample by sample with
+    :func:`rwhonet.data.glitches.glitch_mask` (given the car's nominal radius):
+    grid rows whose mean used a glitched sample are flagged in
+    :attr:`Resampled.glitch`, for validate to cut their seconds
+    (:func:`rwhonet.data.quality.assess`, ``wheel_glitch``), never to average them
+    away.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d
+
+from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive
+from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
+from rwhonet.data.problems import row_problems
+from rwhonet.errors import InputError, Problem
+
+GRID_PERIOD_S = 0.1
+MAX_WHEEL_GAP_S = 0.2  # 10 to 20 sample periods of a 50-100 Hz CAN stream
+FIX_GAP_FACTOR = 1.5  # default max_fix_gap_s: this x the median fix interval...
+MIN_FIX_GAP_S = 0.25  # ...and at least this (one missed fix of a 10 Hz receiver)
+SPLIT_GAP_S = 0.5  # validate.gnss.max_gap_s: a hole in the grid must be longer
+
+# Canonical channels averaged over each row's window (rates), and those of the GNSS stream.
+RATE_CHANNELS = (*c.WHEELS, c.YAW_RATE_RAD_S, c.SPEED_VEHICLE_M_S, c.ACC_LON_M_S2, c.ACC_LAT_M_S2)
+FIX_CHANNELS = (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M)
+
+# Units a wheel speed may come in: factor to rad/s, or to m/s for a linear speed (which
+# needs the tyre radius).
+ANGULAR_WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
+LINEAR_WHEEL_UNITS = {"m/s": 1.0, "km/h": c.KMH_M_S, "mph": 0.44704}
+WHEEL_UNITS = (*ANGULAR_WHEEL_UNITS, *LINEAR_WHEEL_UNITS)
+
+
+def wheel_speed_rad_s(
+    values: np.ndarray, unit: str, radius_m: float | None, where: str = "wheel speed"
+) -> np.ndarray:
+    """Convert wheel speeds to rad/s.
+
+    Args:
+        values: the wheel speeds as logged.
+        unit: one of :data:`WHEEL_UNITS`: angular (``rad/s``, ``rpm``, ``deg/s``) or the
+            wheel's circumferential speed (``m/s``, ``km/h``, ``mph``; many cars put this on
+            the bus, scaled with their own nominal radius).
+        radius_m: the tyre radius a linear speed is divided by (the car's nominal radius).
+        where: the channel, for messages.
+
+    Returns:
+        float64 rad/s.
+
+    Raises:
+        InputError: an unknown unit, or a linear unit without a positive radius.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    if unit in ANGULAR_WHEEL_UNITS:
+        return values * ANGULAR_WHEEL_UNITS[unit]
+    if unit in LINEAR_WHEEL_UNITS:
+        if radius_m is None or not radius_m > 0:
+            raise InputError(
+                [
+                    Problem(
+                        where,
+                        None,
+                        None,
+                        f"the tyre radius to turn a wheel speed in {unit} into rad/s",
+                        f"radius {radius_m!r}",
+                        "give the car's nominal tyre radius (data.vehicles.<car>."
+                        "nominal_radius_m, or --nominal-radius)",
+                    )
+                ]
+            )
+        return values * (LINEAR_WHEEL_UNITS[unit] / radius_m)
+    raise InputError(
+        [
+            Problem(
+                where,
+                None,
+                None,
+                f"a wheel-speed unit among {list(WHEEL_UNITS)}",
+                f"{unit!r}",
+                "name the unit the logger wrote (in the column map or signal map)",
+            )
+        ]
+    )
+
+
+@dataclass(frozen=True, eq=False)  # arrays inside: compared by identity, never element-wise
+class Stream:
+    """One group of channels sampled together, as a logger wrote it.
+
+    Attributes:
+        name: the stream as the user knows it (``"CAN/wheel_speed"``, a CSV file name, an
+            MDF4 channel group), for messages.
+        file: the file or folder it was read from, for messages.
+        t_s: sample times, s, on the drive's clock.
+        channels: canonical name -> values in SI units (one per sample).
+        sources: canonical name -> the source's own channel name (``t_s``: the time's).
+    """
+
+    name: str
+    file: str
+    t_s: np.ndarray
+    channels: dict[str, np.ndarray]
+    sources: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def n_rows(self) -> int:
+        """Samples in the stream."""
+        return int(np.size(self.t_s))
+
+    def where(self, name: str | None = None) -> str:
+        """How a problem names the stream (and a channel of it): file, stream, channel."""
+        what = f"{self.file} [{self.name}]" if self.name and self.name != self.file else self.file
+        return what if name is None else f"{what} {self.sources.get(name, name)!r}"
+
+    def label(self, name: str) -> str:
+        """A channel as the drive's ``source_columns`` name it: stream and channel."""
+        return f"{self.name}: {self.sources.get(name, name)}"
+
+
+@dataclass(frozen=True)
+class DriveStreams:
+    """What a stream reader returns: a drive as separate timestamped streams on one clock.
+
+    Attributes:
+        wheels: the streams holding the four wheel speeds (rad/s), all four in one or
+            split over several; each wheel in exactly one.
+        gnss: the fixes: ``lat_deg``, ``lon_deg`` and optionally ``n_sats``,
+            ``speed_gnss_m_s``, ``heading_deg``, ``height_m``.
+        extra: other rate streams (``yaw_rate_rad_s``, ``acc_lon_m_s2``, ...).
+        clock: what the time stamps are (for the notes: "boot clock of the device", ...).
+    """
+
+    wheels: tuple[Stream, ...]
+    gnss: Stream
+    extra: tuple[Stream, ...] = ()
+    clock: str = "the streams' own clock"
+
+    @property
+    def streams(self) -> tuple[Stream, ...]:
+        """Every stream."""
+        return (*self.wheels, self.gnss, *self.extra)
+
+    @property
+    def n_input_rows(self) -> int:
+        """Samples over all streams (each stream's rows counted once)."""
+        return sum(s.n_rows for s in self.streams)
+
+
+@dataclass(frozen=True)
+class Resampled:
+    """A drive on the 10 Hz grid, and what the resampler found on the way.
+
+    Attributes:
+        drive: the canonical drive (element ``i`` is grid row ``i``).
+        glitch: per grid row, whether its wheel-speed mean used a glitched sample.
+        glitch_samples: the glitched samples: ``(stream, 1-based sample row, t_s, wheel)``.
+        n_input_rows: samples read over all streams.
+    """
+
+    drive: RawDrive
+    glitch: np.ndarray
+    glitch_samples: list[tuple[str, int, float, str]]
+    n_input_rows: int
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def check_streams(streams: DriveStreams) -> None:
+    """Refuse streams the resampler cannot read: every problem found, in one report.
+
+    Each stream needs finite, strictly increasing times and at least two samples; the
+    wheel streams together hold the four wheels, each once; the GNSS stream holds
+    latitude and longitude within range.
+
+    Raises:
+        InputError: naming the file, stream and channel, the row and time, what was
+            expected and what was found.
+    """
+    problems: list[Problem] = []
+    wheels = [w for s in streams.wheels for w in c.WHEELS if w in s.channels]
+    missing = [w for w in c.WHEELS if w not in wheels]
+    twice = sorted({w for w in wheels if wheels.count(w) > 1})
+    where = ", ".join(s.where() for s in streams.wheels) or "the drive"
+    if missing or twice:
+        problems.append(
+            Problem(
+                where,
+                None,
+                None,
+                "the four wheel speeds (front left, front right, rear left, rear right), "
+                "each in one stream",
+                f"missing {missing}" if missing else f"in two streams: {twice}",
+                "map every wheel speed once (column map or signal map)",
+            )
+        )
+    for name in (c.LAT_DEG, c.LON_DEG):
+        if name not in streams.gnss.channels:
+            problems.append(
+                Problem(
+                    streams.gnss.where(),
+                    None,
+                    None,
+                    "GNSS fixes with latitude and longitude",
+                    f"no {name}",
+                    "map the latitude and longitude channels",
+                )
+            )
+    for s in streams.streams:
+        problems += _stream_problems(s)
+    if problems:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) in the drive's streams")
+
+
+def _stream_problems(s: Stream) -> list[Problem]:
+    t = np.asarray(s.t_s, dtype=np.float64)
+    file = s.where()
+    time = s.sources.get(c.T_S, "time")
+    out: list[Problem] = []
+    if t.ndim != 1 or t.size < 2:
+        return [
+            Problem(
+                file,
+                None,
+                time,
+                "at least two samples",
+                f"{t.size} sample(s)",
+                "a stream needs samples over the drive",
+            )
+        ]
+    for name, values in s.channels.items():
+        if np.shape(values) != t.shape:
+            out.append(
+                Problem(
+                    file,
+                    None,
+                    s.sources.get(name, name),
+                    f"one value per time stamp ({t.size})",
+                    f"{np.size(values)} values",
+                    "export the channel with its own time stamps",
+                )
+            )
+    bad = np.flatnonzero(~np.isfinite(t))
+    out += row_problems(
+        file,
+        time,
+        bad + 1,
+        [repr(float(t[i])) for i in bad[:5]],
+        "a finite time in seconds",
+        fix="give every sample its time, or delete the sample",
+    )
+    if bad.size:
+        return out
+    step = np.diff(t)
+    back = np.flatnonzero(step <= 0) + 1
+    out += row_problems(
+        file,
+        time,
+        back + 1,
+        [
+            f"t = {float(t[i])!r} s after t = {float(t[i - 1])!r} s (step {t[i] - t[i - 1]:+.6g} s)"
+            for i in back[:5]
+        ],
+        "a time after the previous sample's (strictly increasing)",
+        fix="sort the samples by time and delete repeated ones; a stream whose clock "
+        "restarts is two recordings: split it",
+    )
+    for name, limit in ((c.LAT_DEG, 90.0), (c.LON_DEG, 180.0)):
+        if name not in s.channels or np.shape(s.channels[name]) != t.shape:
+            continue
+        values = np.asarray(s.channels[name], dtype=np.float64)
+        off = np.flatnonzero(np.abs(values) > limit)
+        out += row_problems(
+            file,
+            s.sources.get(name, name),
+            off + 1,
+            [f"{float(values[i])!r} at t = {float(t[i])!r} s" for i in off[:5]],
+            f"a {'latitude' if name == c.LAT_DEG else 'longitude'} in [-{limit:g}, {limit:g}] deg",
+            fix="map the latitude and longitude channels the right way round, in degrees",
+        )
+    return out
+
+
+# --------------------------------------------------------------------------- resampling
+
+
+def grid_times(start_s: float, end_s: float, period_s: float = GRID_PERIOD_S) -> np.ndarray:
+    """The grid rows within ``[start_s, end_s]``: every whole multiple of ``period_s``.
+
+    Args:
+        start_s: first time, s.
+        end_s: last time, s.
+        period_s: the grid period; ``1 / period_s`` must be an integer.
+
+    Returns:
+        float64 times ``k / (1 / period_s)`` (each the double nearest a whole tenth).
+    """
+    per_s = round(1.0 / period_s)
+    k0, k1 = math.ceil(start_s * per_s - 1e-9), math.floor(end_s * per_s + 1e-9)
+    return np.arange(k0, k1 + 1, dtype=np.float64) / per_s
+
+
+def window_means(
+    t_s: np.ndarray,
+    values: np.ndarray,
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    max_gap_s: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Time-weighted means of piecewise-linear signals over windows ``[start, end]``.
+
+    Args:
+        t_s: sample times (m,), strictly increasing, m >= 2.
+        values: samples (c, m): c signals sharing the time stamps.
+        start_s: window starts (n,).
+        end_s: window ends (n,), each after its start.
+        max_gap_s: a window overlapping a step between samples longer than this is invalid.
+
+    Returns:
+        ``(means (c, n), valid (n,))``; the means of invalid windows are meaningless.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    v = np.atleast_2d(np.asarray(values, dtype=np.float64))
+    m = t.size
+    dt = np.diff(t)
+    # Cumulative trapezoid integral: F[:, j] = integral from t_0 to t_j.
+    cum = np.zeros(v.shape)
+    np.cumsum(0.5 * (v[:, 1:] + v[:, :-1]) * dt, axis=1, out=cum[:, 1:])
+    slope = np.diff(v, axis=1) / dt
+
+    def integral(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        j = np.clip(np.searchsorted(t, x, side="right") - 1, 0, m - 2)
+        u = x - t[j]
+        return cum[:, j] + u * (v[:, j] + 0.5 * slope[:, j] * u), j
+
+    f_start, j_start = integral(start_s)
+    f_end, _ = integral(end_s)
+    means = (f_end - f_start) / (end_s - start_s)
+    # Steps overlapping [start, end]: from the one holding start to the one ending at/after end.
+    j_last = np.clip(np.searchsorted(t, end_s, side="left") - 1, 0, m - 2)
+    long_before = np.r_[0, np.cumsum(dt > max_gap_s)]
+    valid = (
+        (start_s >= t[0]) & (end_s <= t[-1]) & (long_before[j_last + 1] - long_before[j_start] == 0)
+    )
+    return means, valid
+
+
+def interpolate_fixes(
+    t_s: np.ndarray, fixes: Mapping[str, np.ndarray], at_s: np.ndarray, max_gap_s: float
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Interpolate GNSS fixes at given times, only between fixes at most ``max_gap_s`` apart.
+
+    Args:
+        t_s: fix times (m,), strictly increasing.
+        fixes: canonical channel -> values (m,): ``lat_deg``, ``lon_deg`` and optionally
+            ``n_sats``, ``speed_gnss_m_s``, ``heading_deg``, ``height_m``.
+        at_s: the times wanted (n,).
+        max_gap_s: fixes further apart than this are not interpolated between.
+
+    Returns:
+        ``(values, valid)``: each channel at ``at_s`` (longitude in [-180, 180), course in
+        [0, 360), satellites the smaller count of the two fixes), and whether a time lies
+        between two such fixes or on a fix. Never extrapolated.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    x = np.asarray(at_s, dtype=np.float64)
+    m = t.size
+    j = np.searchsorted(t, x, side="right") - 1  # the fix at or before x
+    on_fix = (j >= 0) & (x == t[np.maximum(j, 0)])
+    j = np.clip(j, 0, m - 2)
+    span = t[j + 1] - t[j]
+    valid = ((x >= t[0]) & (x <= t[-1]) & (span <= max_gap_s)) | on_fix
+    w = np.clip((x - t[j]) / span, 0.0, 1.0)
+    out = {}
+    for name, values in fixes.items():
+        a = np.asarray(values, dtype=np.float64)
+        if name == c.LON_DEG:
+            a = np.unwrap(a, period=360.0)
+        elif name == c.HEADING_DEG:
+            a = np.unwrap(a, period=360.0)
+        if name == c.N_SATS:
+            out[name] = np.minimum(a[j], a[j + 1])
+            continue
+        value = a[j] + w * (a[j + 1] - a[j])
+        if name == c.LON_DEG:
+            value = (value + 180.0) % 360.0 - 180.0
+        elif name == c.HEADING_DEG:
+            value = value % 360.0
+        out[name] = value
+    return out, valid
+
+
+def default_fix_gap_s(t_s: np.ndarray) -> float:
+    """The default ``max_fix_gap_s`` of a GNSS stream: 1.5 x its median interval, >= 0.25 s."""
+    step = np.diff(np.asarray(t_s, dtype=np.float64))
+    return max(FIX_GAP_FACTOR * float(np.median(step)), MIN_FIX_GAP_S) if step.size else 0.0
+
+
+def resample(
+    streams: DriveStreams,
+    period_s: float = GRID_PERIOD_S,
+    max_wheel_gap_s: float = MAX_WHEEL_GAP_S,
+    max_fix_gap_s: float | None = None,
+    split_gap_s: float = SPLIT_GAP_S,
+    nominal_radius_m: float | None = None,
+    glitch_g: float = WHEEL_GLITCH_G,
+) -> Resampled:
+    """Put a drive's streams on the pipeline's grid (the method: see the module docstring).
+
+    Args:
+        streams: the drive's streams (checked with :func:`check_streams`).
+        period_s: the grid period (``validate.sample_period_s``).
+        max_wheel_gap_s: longest step between samples of a rate that a row may span.
+        max_fix_gap_s: longest interval between two fixes interpolated across (None:
+            :func:`default_fix_gap_s` of the GNSS stream).
+        split_gap_s: holes in the grid are made longer than this (``validate.gnss.max_gap_s``).
+        nominal_radius_m: the car's nominal tyre radius, for the sample-level glitch screen
+            of streams carrying all four wheels (None: not screened here).
+        glitch_g: the glitch bound (:data:`rwhonet.data.glitches.WHEEL_GLITCH_G`).
+
+    Returns:
+        The canonical drive on the grid and the glitched rows.
+
+    Raises:
+        InputError: the streams' problems (:func:`check_streams`), or streams that share
+            no stretch of time.
+    """
+    check_streams(streams)
+    half = 0.5 * period_s
+    required = (*streams.wheels, streams.gnss)
+    start = max(float(s.t_s[0]) for s in required)
+    end = min(float(s.t_s[-1]) for s in required)
+    if not end - start >= period_s:
+        spans = "; ".join(
+            f"{s.where()} {float(s.t_s[0]):.6g}-{float(s.t_s[-1]):.6g} s" for s in required
+        )
+        raise InputError(
+            [
+                Problem(
+                    streams.gnss.where(),
+                    None,
+                    "time",
+                    "wheel-speed and GNSS streams that overlap in time (one clock)",
+                    f"no common stretch: {spans}",
+                    "stamp every stream on one clock (or give the offset between them)",
+                )
+            ]
+        )
+    grid = grid_times(start, end, period_s)
+    lo, hi = grid - half, grid + half
+    keep = np.ones(grid.size, dtype=bool)
+    columns: dict[str, np.ndarray] = {c.T_S: grid}
+    sources: dict[str, str] = {c.T_S: f"grid of {period_s:g} s on {streams.clock}"}
+    glitch = np.zeros(grid.size, dtype=bool)
+    glitch_samples: list[tuple[str, int, float, str]] = []
+    notes = []
+
+    fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
+    gnss_t, gnss = _finite_rows(streams.gnss, notes, required=True)
+    fixes, fix_ok = interpolate_fixes(
+        gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
+    )
+    keep &= fix_ok
+    for name, values in fixes.items():
+        columns[name] = values
+        sources[name] = streams.gnss.label(name)
+
+    n_wheel_streams = len(streams.wheels)
+    for i, s in enumerate((*streams.wheels, *streams.extra)):
+        t, chans = _finite_rows(s, notes, required=i < n_wheel_streams)
+        names = [n for n in RATE_CHANNELS if n in chans]
+        if not names or t.size < 2:  # an optional stream without values: its channels stay out
+            continue
+        means, ok = window_means(t, np.stack([chans[n] for n in names]), lo, hi, max_wheel_gap_s)
+        wheel_stream = any(n in c.WHEELS for n in names)
+        if wheel_stream:
+            keep &= ok
+        for name, row in zip(names, means, strict=True):
+            columns[name] = row if wheel_stream else np.where(ok, row, np.nan)
+            sources[name] = s.label(name)
+        if nominal_radius_m is not None and all(w in chans for w in c.WHEELS):
+            bad = glitch_mask(t, np.stack([chans[w] for w in c.WHEELS]), nominal_radius_m, glitch_g)
+            rows = np.flatnonzero(bad.any(axis=0))
+            if rows.size:
+                glitch |= _rows_using(t, rows, grid, half)
+                glitch_samples += [
+                    (s.where(), int(i) + 1, float(t[i]), c.WHEELS[int(np.argmax(bad[:, i]))])
+                    for i in rows
+                ]
+
+    keep = _widen_holes(keep, split_gap_s, period_s)
+    for name, values in fixes.items():  # optional GNSS channels: NaN where no fix
+        if name not in (c.LAT_DEG, c.LON_DEG):
+            columns[name] = np.where(fix_ok, values, np.nan)
+    dropped = int((~keep).sum())
+    if dropped:
+        notes.append(
+            f"{dropped} of {grid.size} grid rows left out (no wheel speeds or no fix within "
+            f"the gap limits: wheels {max_wheel_gap_s:g} s, fixes {fix_gap:.3g} s), so that "
+            f"validate cuts those seconds as gaps"
+        )
+    order = [n for n in (*c.REQUIRED, *c.OPTIONAL) if n in columns]
+    drive = RawDrive(
+        columns={n: np.ascontiguousarray(columns[n][keep]) for n in order},
+        source_columns={n: sources[n] for n in order},
+        header_match="streams",
+        notes=tuple(notes),
+    )
+    return Resampled(drive, glitch[keep], glitch_samples, streams.n_input_rows)
+
+
+def _finite_rows(
+    s: Stream, notes: list[str], required: bool = False
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """A stream's samples whose every channel has a value (a NaN fix is no fix).
+
+    Raises:
+        InputError: a ``required`` stream (wheel speeds, fixes) has fewer than two such samples.
+    """
+    t = np.asarray(s.t_s, dtype=np.float64)
+    chans = {k: np.asarray(v, dtype=np.float64) for k, v in s.channels.items()}
+    if not chans:
+        return t, chans
+    ok = np.logical_and.reduce([np.isfinite(v) for v in chans.values()])
+    if ok.all():
+        return t, chans
+    if required and ok.sum() < 2:
+        raise InputError(
+            [
+                Problem(
+                    s.where(),
+                    None,
+                    None,
+                    "samples with a value in every channel",
+                    f"{int(ok.sum())} of {ok.size}",
+                    "export the stream's values (empty or NaN cells are no samples)",
+                )
+            ]
+        )
+    notes.append(f"{s.where()}: {int((~ok).sum())} sample(s) without a value left out")
+    return t[ok], {k: v[ok] for k, v in chans.items()}
+
+
+def _rows_using(t: np.ndarray, rows: np.ndarray, grid: np.ndarray, half: float) -> np.ndarray:
+    """Grid rows whose window overlaps the steps next to given samples (their means use them)."""
+    before = t[np.maximum(rows - 1, 0)]
+    after = t[np.minimum(rows + 1, t.size - 1)]
+    first = np.searchsorted(grid, before - half, side="right")
+    stop = np.searchsorted(grid, after + half, side="left")
+    marks = np.zeros(grid.size + 1, dtype=np.int64)
+    np.add.at(marks, first, 1)
+    np.add.at(marks, stop, -1)
+    return np.cumsum(marks[:-1]) > 0
+
+
+def _widen_holes(keep: np.ndarray, split_gap_s: float, period_s: float) -> np.ndarray:
+    """Leave out rows next to each hole until every hole in the grid exceeds ``split_gap_s``.
+
+    A hole of ``k`` rows makes a step of ``(k + 1) period``; a step longer than one period
+    but not longer than ``split_gap_s`` would be neither a sample step nor a gap for
+    validate. Widening every hole by ``d`` rows on each side makes it at least
+    ``1 + 2 d`` rows long.
+    """
+    need = math.floor(split_gap_s / period_s + 1e-9)  # rows a hole needs
+    d = max(math.ceil((need - 1) / 2), 0)
+    if d == 0 or keep.all():
+        return keep
+    return ~maximum_filter1d((~keep).astype(np.uint8), size=2 * d + 1, mode="constant").astype(bool)

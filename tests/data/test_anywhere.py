@@ -1,0 +1,204 @@
+"""Anywhere on Earth: a drive moved anywhere keeps its segments and labels, and nothing raises.
+
+A simulated drive (curves, a roundabout, a GNSS jump and a frozen fix to cut) is
+moved with its local geometry kept: every fix is turned into east/north offsets
+about the first fix (the azimuthal equidistant of :mod:`rwhonet.geo.local`, exact
+from that fix) and back about a new origin. Anywhere in both hemispheres, across
+the antimeridian and the prime meridian and near (not at) the poles, the domain
+checks validate runs (the schema, the GNSS policy, the wheel-sensor and
+plausibility checks, the swapped-coordinates and radians hypotheses, the glitch
+screen) must give the same verdicts and segments, and the per-second GNSS
+displacement and label must agree within ``TOL_M`` (1 mm: the projection keeps
+15 m steps to ~1e-8, the rest is float rounding). (The moved per-drive check of
+``stages.validate`` joins this test once it lives under ``rwhonet.data``.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+
+from rwhonet.config import SimDrive, load_params
+from rwhonet.data import canonical as c
+from rwhonet.data import plausibility
+from rwhonet.data.glitches import glitch_rows_mask
+from rwhonet.data.iovnbd import LAYOUT
+from rwhonet.data.plausibility import (
+    implied_radius,
+    latlon_swapped_by_range,
+    negative_wheel_rows,
+    radians_radius,
+    silent_wheel_runs,
+    stale_wheel_runs,
+    stuck_wheel_runs,
+    swapped_radius,
+    unit_mistake,
+)
+from rwhonet.data.quality import assess
+from rwhonet.data.schema import schema_problems
+from rwhonet.features.seconds import segment_seconds
+from rwhonet.features.wpm import label_m, wpm_displacement_m
+from rwhonet.geo import geodesic_distance_m, latlon_from_offsets_deg, offsets_m
+from rwhonet.sim import generate_route, simulate_drive, vehicles_from_params
+from rwhonet.sim.drive import child_rng
+
+TOL_M = 1e-3
+
+
+@pytest.fixture(scope="module")
+def setting():
+    params = load_params(overrides={"sim.profile": "ci"})
+    vehicle = vehicles_from_params(params)["target"]
+    spec = SimDrive(
+        name="W-1",
+        role="target_test",
+        vehicle="target",
+        tyre="B",
+        duration_s=150.0,
+        roads={"urban": 1.0},
+        events={"roundabout": 1, "sharp_turn": 1},
+        gnss_faults=["jump", "frozen"],
+    )
+    ss = np.random.SeedSequence(3)
+    route = generate_route(spec, params.sim, vehicle, child_rng(ss, 0))
+    sim = simulate_drive(vehicle, spec.tyre, route, ss, params.sim, gnss_faults=spec.gnss_faults)
+    frame = pd.DataFrame(
+        {
+            col.canonical: sim.frame[col.header].to_numpy(np.float64) * col.to_si
+            for col in LAYOUT
+            if col.canonical in (*c.REQUIRED, c.N_SATS)
+        }
+    ).assign(**{c.SCENARIO: ""})
+    return params, vehicle.nominal_radius_m, frame
+
+
+def relocate(frame: pd.DataFrame, lat0: float, lon0: float) -> pd.DataFrame:
+    """The drive with the same east/north offsets from its first fix, about a new first fix."""
+    lat, lon = frame[c.LAT_DEG].to_numpy(), frame[c.LON_DEG].to_numpy()
+    east, north = offsets_m(lat[0], lon[0], lat, lon)
+    new_lat, new_lon = latlon_from_offsets_deg(lat0, lon0, east, north)
+    return frame.assign(**{c.LAT_DEG: new_lat, c.LON_DEG: new_lon})
+
+
+def verdicts(params, radius: float, frame: pd.DataFrame) -> dict:
+    """Everything the domain checks of validate say about a drive, and its labels."""
+    vp = params.validate
+    out: dict = {
+        "schema": [(p.row, p.column, p.expected) for p in schema_problems(frame, vp, "W-1.csv", {})]
+    }
+    glitch = glitch_rows_mask(frame, radius)
+    result = assess(frame, vp.gnss, vp.sample_period_s, wheel_glitch=glitch)
+    out["segments"] = [(s.row_start, s.row_stop) for s in result.segments]
+    out["cuts"] = [(x.start_s, x.end_s, x.rule) for x in result.cuts]
+    est = implied_radius(frame, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+    out["radius"] = est.radius_m
+    # validate's unit check: the drive's own radius, then (only if it is implausible) the
+    # swapped and radians hypotheses. Both are computed here whatever the radius, so that
+    # they are seen not to raise anywhere.
+    swapped = swapped_radius(frame, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+    radians = radians_radius(frame, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+    own = unit_mistake(est.radius_m, radius, vp.radius_tolerance)
+    out["unit_verdict"] = (
+        None
+        if own is None
+        else "swapped"
+        if unit_mistake(swapped.radius_m, radius, vp.radius_tolerance) is None
+        else "radians"
+        if radians is not None
+        and unit_mistake(radians.radius_m, radius, vp.radius_tolerance) is None
+        else "unit"
+    )
+    out["swapped_by_range"] = latlon_swapped_by_range(frame[c.LAT_DEG], frame[c.LON_DEG])
+    out["stuck"] = stuck_wheel_runs(frame, vp.wheels, vp.sample_period_s)
+    out["silent"] = silent_wheel_runs(frame, result.segments, radius, vp.wheels, 0.1)
+    out["stale"] = len(stale_wheel_runs(frame, result.segments, radius, vp.wheels, 0.1))
+    out["negative"] = {k: list(v) for k, v in negative_wheel_rows(frame, 0.5).items()}
+    seconds = []
+    for seg in result.segments:
+        sec = segment_seconds(frame.iloc[seg.row_start : seg.row_stop])
+        wpm = wpm_displacement_m(sec.angle_rl_rad, sec.angle_rr_rad, radius, radius)
+        seconds.append(
+            pd.DataFrame({"gnss": sec.disp_gnss_m, "label": label_m(sec.disp_gnss_m, wpm)})
+        )
+    out["seconds"] = pd.concat(seconds, ignore_index=True)
+    return out
+
+
+@pytest.fixture(scope="module")
+def home(setting):
+    params, radius, frame = setting
+    return verdicts(params, radius, frame)
+
+
+@pytest.fixture()
+def checked_geodesic(monkeypatch):
+    """The plausibility checks' geodesic, refusing (as a test failure) any impossible latitude."""
+    real = plausibility.geodesic_distance_m
+
+    def strict(lat1, lon1, lat2, lon2):
+        for lat in (lat1, lat2):
+            assert np.all(np.abs(np.asarray(lat)[np.isfinite(lat)]) <= 90.0), "impossible latitude"
+        return real(lat1, lon1, lat2, lon2)
+
+    monkeypatch.setattr(plausibility, "geodesic_distance_m", strict)
+
+
+@settings(
+    max_examples=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    lat0=st.floats(-89.9, 89.9),
+    lon0=st.floats(-180.0, 180.0, exclude_max=True),
+)
+@example(lat0=35.68, lon0=139.77)  # Tokyo
+@example(lat0=-33.87, lon0=151.21)  # Sydney
+@example(lat0=37.72, lon0=-122.47)  # San Francisco, where the real drive is
+@example(lat0=51.4779, lon0=-0.0005)  # across the prime meridian at Greenwich
+@example(lat0=-16.8, lon0=179.9995)  # across the antimeridian (Fiji)
+@example(lat0=65.0, lon0=-179.9995)  # across it the other way (Chukotka)
+@example(lat0=89.9, lon0=10.0)  # 11 km from the North Pole
+@example(lat0=-89.9, lon0=-70.0)  # and from the South Pole
+def test_a_relocated_drive_keeps_its_segments_and_labels(
+    setting, home, checked_geodesic, lat0, lon0
+):
+    params, radius, frame = setting
+    moved = relocate(frame, lat0, lon0)
+    # The move keeps every 10 Hz step's length (the local geometry).
+    steps = [
+        geodesic_distance_m(
+            f[c.LAT_DEG][:-1], f[c.LON_DEG][:-1], f[c.LAT_DEG][1:], f[c.LON_DEG][1:]
+        )
+        for f in (frame, moved)
+    ]
+    np.testing.assert_allclose(steps[1], steps[0], rtol=0, atol=1e-4)
+    got = verdicts(params, radius, moved)
+    keys = ("schema", "segments", "cuts", "unit_verdict", "stuck", "silent", "stale", "negative")
+    for key in keys:
+        assert got[key] == home[key], key
+    assert got["radius"] == pytest.approx(home["radius"], rel=1e-7)
+    assert got["unit_verdict"] is None and not got["swapped_by_range"]
+    a, b = home["seconds"], got["seconds"]
+    assert len(a) == len(b) > 60
+    np.testing.assert_allclose(b["gnss"], a["gnss"], rtol=0, atol=TOL_M)
+    np.testing.assert_allclose(b["label"], a["label"], rtol=0, atol=TOL_M)
+
+
+def test_swapped_hypothesis_west_of_90_w_is_ruled_out_without_the_geodesic(
+    setting, checked_geodesic
+):
+    """The crash of issue 15: a drive at 122 W whose wheels do not fit the nominal radius."""
+    params, radius, frame = setting
+    moved = relocate(frame, 37.72, -122.47)
+    moved[list(c.WHEELS)] *= 1.3  # wheels off the nominal radius: the swap is then tried
+    vp = params.validate
+    result = assess(moved, vp.gnss, vp.sample_period_s)
+    est = implied_radius(moved, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+    assert unit_mistake(est.radius_m, radius, vp.radius_tolerance) is not None
+    swapped = swapped_radius(moved, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+    assert np.isnan(swapped.radius_m) and swapped.moving_s == 0
+    assert unit_mistake(swapped.radius_m, radius, vp.radius_tolerance) is not None

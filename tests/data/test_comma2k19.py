@@ -1,0 +1,117 @@
+"""The comma2k19 reader: the real RAV4 minute, and folders a user might give it."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from pyproj import Geod
+
+from rwhonet import paths
+from rwhonet.config import load_params
+from rwhonet.data import canonical as c
+from rwhonet.data.comma2k19 import read_comma2k19
+from rwhonet.data.quality import assess
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+from rwhonet.features.seconds import segment_seconds
+
+REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
+RAV4_RADIUS_M = 0.362  # 225/65 R17, unloaded (the folder's README)
+
+
+@pytest.fixture(scope="module")
+def real():
+    if not (REAL / "processed_log").is_dir():
+        pytest.skip(f"the real comma2k19 segment is not on this machine ({REAL})")
+    streams = read_comma2k19(REAL, RAV4_RADIUS_M)
+    return streams, resample(streams, nominal_radius_m=RAV4_RADIUS_M)
+
+
+def test_the_real_drive_reads_as_the_readme_says(real):
+    streams, res = real
+    drive = res.drive.columns
+    gnss = streams.gnss
+    assert res.n_input_rows == 4974 + 579 + 6256 + 4974  # wheels, fixes, gyro, car speed
+    assert res.glitch_samples == []
+    vp = load_params().validate
+    result = assess(drive, vp.gnss, vp.sample_period_s)
+    (seg,) = result.segments
+    # Every whole second of the boot clock that both streams cover: fixes 46408.65 to
+    # 46468.38 s, wheel speeds 46408.59 to 46468.58 s, so seconds (46409, 46468].
+    assert (seg.t_start_s, seg.t_end_s) == (46409.0, 46468.0)
+    sec = segment_seconds({k: v[seg.row_start : seg.row_stop] for k, v in drive.items()})
+    wheel_m = 0.5 * (sec.angle_rl_rad + sec.angle_rr_rad) * RAV4_RADIUS_M
+    # The README's 58 seconds are the first 58 of them, (46409, 46467]: its sums within 0.5 %.
+    assert len(sec) == 59 and sec.t_s[57] == pytest.approx(46467.0)
+    assert sec.disp_gnss_m[:58].sum() == pytest.approx(990.9, rel=0.005)
+    assert wheel_m[:58].sum() == pytest.approx(979.0, rel=0.005)
+    # Coordinates untouched: each row's fix is the straight interpolation of the logged fixes.
+    t = drive[c.T_S]
+    for name in (c.LAT_DEG, c.LON_DEG):
+        np.testing.assert_allclose(
+            drive[name], np.interp(t, gnss.t_s, gnss.channels[name]), rtol=0, atol=1e-12
+        )
+    assert drive[c.LAT_DEG].mean() == pytest.approx(37.72, abs=0.01)
+    assert drive[c.LON_DEG].mean() == pytest.approx(-122.47, abs=0.01)
+
+
+def test_the_gyro_gives_a_yaw_rate_positive_turning_left(real):
+    _, res = real
+    d = res.drive.columns
+    # Course over ground from fixes 2 s apart (clockwise from north): turning left lowers it.
+    k = np.arange(0, d[c.T_S].size - 20, 20)
+    az = Geod(ellps="WGS84").inv(
+        d[c.LON_DEG][k], d[c.LAT_DEG][k], d[c.LON_DEG][k + 20], d[c.LAT_DEG][k + 20]
+    )[0]
+    course_rate = np.diff(np.unwrap(np.radians(az))) / 2.0
+    yaw = np.array([d[c.YAW_RATE_RAD_S][a + 10 : a + 30].mean() for a in k[:-1]])
+    assert np.corrcoef(course_rate, -yaw)[0, 1] > 0.7
+
+
+# ----------------------------------------------------------------- folders a user might give
+
+
+@pytest.fixture()
+def folder(tmp_path):
+    """A small comma2k19-like segment: 30 s north at 12 m/s, wheels at 80 Hz, fixes at 10 Hz."""
+    log = tmp_path / "seg" / "processed_log"
+    tw = np.arange(0.0, 30.0, 0.0125) + 1000.0
+    tg = np.arange(0.05, 30.0, 0.1) + 1000.0
+    (log / "CAN/wheel_speed").mkdir(parents=True)
+    (log / "GNSS/live_gnss_ublox").mkdir(parents=True)
+    gnss = np.zeros((tg.size, 6))
+    gnss[:, 0] = 37.7 + 12.0 * (tg - 1000.0) / 111_000.0
+    gnss[:, 1] = -122.4
+    for sub, t, value in (
+        ("CAN/wheel_speed", tw, np.full((tw.size, 4), 12.0)),
+        ("GNSS/live_gnss_ublox", tg, gnss),
+    ):
+        for name, array in (("t", t), ("value", value)):
+            with open(log / sub / name, "wb") as f:
+                np.save(f, array)
+    return tmp_path / "seg"
+
+
+def test_a_segment_folder_or_its_processed_log_reads(folder):
+    for given in (folder, folder / "processed_log"):
+        res = resample(read_comma2k19(given, 0.3))
+        np.testing.assert_allclose(res.drive.columns[c.OMEGA_RL], 40.0)
+        assert c.YAW_RATE_RAD_S not in res.drive.columns  # no gyro folder: no yaw rate
+
+
+def test_a_linear_wheel_speed_without_a_radius_is_refused(folder):
+    # (Damaged folders, arrays and stamps: tests/data/bad/test_stream_corpus.py.)
+    with pytest.raises(InputError) as err:
+        read_comma2k19(folder, 0.0, display="seg")
+    (p,) = err.value.problems
+    assert "tyre radius" in p.expected and p.file == "seg/CAN/wheel_speed"
+
+
+def test_a_copy_of_the_real_folder_reads_the_same(real, tmp_path):
+    copy = tmp_path / "copy"
+    shutil.copytree(REAL / "processed_log", copy / "processed_log")
+    again = resample(read_comma2k19(copy, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
+    for name, values in real[1].drive.columns.items():
+        np.testing.assert_array_equal(again.drive.columns[name], values)

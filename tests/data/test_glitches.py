@@ -1,0 +1,115 @@
+"""Wheel speeds that change faster than any tyre can are found (and cut), ABS events are not."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rwhonet.config import load_params
+from rwhonet.data import canonical as c
+from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, glitch_rows_mask, wheel_glitch_rows
+from rwhonet.data.iovnbd import LAYOUT
+from rwhonet.data.quality import assess
+from rwhonet.sim import generate_route, simulate_drive, vehicles_from_params
+from rwhonet.sim.drive import child_rng
+from support.corpus import speed_profile_drive
+
+RADIUS_M = 0.3
+T0 = 45000.0
+
+
+def _drive(speed_m_s: float = 15.0, seconds: float = 60.0):
+    return speed_profile_drive(np.full(round(seconds * 10) + 1, speed_m_s), RADIUS_M)
+
+
+@pytest.mark.parametrize("speed_m_s", [2.0, 15.0, 40.0])
+def test_a_one_row_tenfold_spike_is_found_at_its_row(speed_m_s):
+    drive = _drive(speed_m_s)
+    drive.loc[304, c.OMEGA_RL] *= 10.0
+    assert {k: list(v) for k, v in wheel_glitch_rows(drive, RADIUS_M).items()} == {
+        c.OMEGA_RL: [304]
+    }
+
+
+def test_a_spike_of_several_rows_is_flagged_until_it_ends():
+    drive = _drive()
+    drive.loc[200:202, c.OMEGA_FR] *= 3.0
+    assert list(wheel_glitch_rows(drive, RADIUS_M)[c.OMEGA_FR]) == [200, 201, 202]
+
+
+def test_the_glitched_second_is_cut_and_reported_with_its_row():
+    drive = _drive(seconds=90.0)
+    policy = load_params().validate.gnss
+    drive.loc[304, c.OMEGA_RL] *= 10.0  # row 304 (data row 305) lies in second T0 + 31
+    result = assess(drive, policy, 0.1, wheel_glitch=glitch_rows_mask(drive, RADIUS_M))
+    glitch = [x for x in result.cuts if x.rule == "wheel_glitch"]
+    assert [(x.start_s, x.end_s) for x in glitch] == [(T0 + 30, T0 + 31)]
+    assert "row(s) 305" in glitch[0].detail
+    assert [(s.t_start_s, s.t_end_s) for s in result.segments] == [
+        (T0, T0 + 30),
+        (T0 + 31, T0 + 90),
+    ]
+
+
+def test_a_glitch_on_a_seconds_last_row_also_spoils_the_next_seconds_start():
+    drive = _drive()
+    policy = load_params().validate.gnss
+    drive.loc[310, c.OMEGA_RR] *= 10.0  # t = T0 + 31.0: the start fix of second T0 + 32
+    result = assess(drive, policy, 0.1, wheel_glitch=glitch_rows_mask(drive, RADIUS_M))
+    rules = [(x.start_s, x.end_s, x.rule) for x in result.cuts]
+    assert (T0 + 30, T0 + 31, "wheel_glitch") in rules and (T0 + 31, T0 + 32, "start_fix") in rules
+
+
+def test_abs_lockups_and_their_recovery_are_not_glitches():
+    drive = _drive(25.0)
+    # Hard braking with ABS: each wheel locks to 0 for 0.1-0.3 s and spins back up to the
+    # road speed, at 10 Hz a fall and a rise of 83 rad/s (76 g) within one row; three wheels
+    # locked in the same rows leave the fourth the only one at road speed.
+    drive.loc[100:102, c.OMEGA_FL] = 0.0
+    drive.loc[101, [c.OMEGA_FR, c.OMEGA_RL]] = 0.0
+    drive.loc[101:102, c.OMEGA_RR] = 1.0
+    drive.loc[300:301, [c.OMEGA_FL, c.OMEGA_FR, c.OMEGA_RL]] = 0.0
+    assert wheel_glitch_rows(drive, RADIUS_M) == {}
+
+
+def test_wheelspin_below_the_bound_passes_and_above_it_is_found():
+    t = T0 + 0.1 * np.arange(200)
+    road = np.full(t.size, 10.0 / RADIUS_M)
+    wheels = np.stack([road, road, road, road])
+    for g, flagged in ((0.8 * WHEEL_GLITCH_G, False), (1.2 * WHEEL_GLITCH_G, True)):
+        w = wheels.copy()
+        excess = np.clip(t - t[50], 0.0, 0.3) * g * c.G_M_S2 / RADIUS_M  # spins up for 0.3 s
+        w[2] = road + excess
+        assert glitch_mask(t, w, RADIUS_M)[2].any() == flagged, g
+
+
+@pytest.fixture(scope="module")
+def ci_drives():
+    """Three drives of the sim's ci world with hard brakes, reversing, roundabouts and CAN noise."""
+    params = load_params(overrides={"sim.profile": "ci"})
+    cars = vehicles_from_params(params)
+    drives = []
+    for spec in params.sim.profiles["ci"].drives:
+        if spec.name not in ("V-S1", "V-Charlie3", "V-Vta29"):
+            continue
+        ss = np.random.SeedSequence(11)
+        vehicle = cars[spec.vehicle]
+        route = generate_route(spec, params.sim, vehicle, child_rng(ss, 0))
+        sim = simulate_drive(vehicle, spec.tyre, route, ss, params.sim)
+        drives.append(
+            (
+                vehicle.nominal_radius_m,
+                {
+                    col.canonical: sim.frame[col.header].to_numpy(np.float64) * col.to_si
+                    for col in LAYOUT
+                    if col.canonical in c.REQUIRED
+                },
+            )
+        )
+    return drives
+
+
+def test_ordinary_simulated_drives_have_no_glitch(ci_drives):
+    assert len(ci_drives) == 3
+    for radius, drive in ci_drives:
+        assert wheel_glitch_rows(drive, radius) == {}

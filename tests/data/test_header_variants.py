@@ -1,0 +1,126 @@
+"""Named columns as real exports write them: any order, extra columns, spellings, unit suffixes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.config import ColumnSpec
+from rwhonet.data import canonical as c
+from rwhonet.data.columnmap import find_column, read_columnmap
+from rwhonet.data.headers import header_key
+from rwhonet.data.iovnbd import HEADERS, LayoutError, locate_columns, read_iovnbd
+from rwhonet.errors import InputError
+from support.drives import straight_drive, write_iovnbd
+
+VARIANTS = {
+    c.T_S: "time_s",
+    c.LAT_DEG: "Latitude [deg]",
+    c.LON_DEG: "LONGITUDE",
+    c.N_SATS: "Satellites",
+    c.OMEGA_FL: "WheelSpeed_FL (rad/s)",
+    c.OMEGA_FR: "wheel speed front right",
+    c.OMEGA_RL: "ws_rl",
+    c.OMEGA_RR: "Wheel Speed Rear Right (rad/sec)",
+}
+
+
+def _write(df: pd.DataFrame, names: dict[str, str], path, extra: bool = True):
+    out = {names[k]: df[k].to_numpy() for k in reversed(list(names))}  # reversed order
+    if extra:
+        out = {"Comment": np.zeros(len(df)), **out, "GPS Time UTC": np.arange(len(df))}
+    pd.DataFrame(out).to_csv(path, index=False)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("cell", "key", "unit"),
+    [
+        (" Wheel Speed Front Left (rad/sec)", "wheelspeedfrontleft", "rad/sec"),
+        ("wheel_speed_front_left", "wheelspeedfrontleft", None),
+        ("WheelSpeedFrontLeft [rad/s]", "wheelspeedfrontleft", "rad/s"),
+        (" Velocity kmh", "velocity", "kmh"),
+        ("lat_deg", "lat", "deg"),
+        ("Time (s)", "time", "s"),
+        (" Sats", "sats", None),
+    ],
+)
+def test_header_key_ignores_case_spaces_punctuation_and_unit(cell, key, unit):
+    assert header_key(cell) == (key, unit)
+
+
+def test_variant_names_in_any_order_with_extra_columns_read_as_the_layout(tmp_path):
+    df = straight_drive(duration_s=5.0)
+    raw = read_iovnbd(_write(df, VARIANTS, tmp_path / "V-V.csv"))
+    assert raw.header_match == "name" and raw.notes == ()
+    for name in VARIANTS:
+        np.testing.assert_allclose(raw.columns[name], df[name].to_numpy(), rtol=0, atol=1e-12)
+    assert raw.source_columns[c.OMEGA_RL] == "ws_rl"
+
+
+def test_a_declared_unit_is_honoured(tmp_path):
+    df = straight_drive(duration_s=5.0)
+    names = {**VARIANTS, c.OMEGA_RL: "Wheel Speed Rear Left (rpm)"}
+    in_rpm = df.assign(**{c.OMEGA_RL: df[c.OMEGA_RL] * 60.0 / (2.0 * math.pi)})
+    raw = read_iovnbd(_write(in_rpm, names, tmp_path / "V-R.csv"))
+    np.testing.assert_allclose(raw.columns[c.OMEGA_RL], df[c.OMEGA_RL], rtol=1e-12)
+
+
+def test_a_unit_the_quantity_has_not_is_refused(tmp_path):
+    df = straight_drive(duration_s=5.0)
+    names = {**VARIANTS, c.LAT_DEG: "Latitude (m/s)"}
+    with pytest.raises(InputError) as err:
+        read_iovnbd(_write(df, names, tmp_path / "V-U.csv"))
+    (p,) = err.value.problems
+    assert (p.file, p.column) == (str(tmp_path / "V-U.csv"), "Latitude (m/s)")
+    assert "a unit of angle (deg)" in p.expected and "'m/s'" in p.found
+
+
+def test_two_columns_naming_one_channel_are_refused(tmp_path):
+    header = [*HEADERS, "Latitude"]
+    with pytest.raises(LayoutError, match="more than once"):
+        locate_columns(header)
+
+
+def test_unknown_names_fall_back_to_position_and_say_so(tmp_path):
+    df = straight_drive(duration_s=5.0)
+    path = write_iovnbd(df, tmp_path / "V-P.csv", tuple(f"Kanal {i}" for i in range(29)))
+    raw = read_iovnbd(path)
+    assert raw.header_match == "position"
+    assert any("by position (the last resort)" in note for note in raw.notes)
+
+
+def test_a_column_map_finds_its_columns_whatever_their_spelling(tmp_path):
+    df = straight_drive(duration_s=5.0)
+    path = tmp_path / "cupac.csv"
+    pd.DataFrame(
+        {
+            "Extra": 1.0,
+            "Wheel Speed RL (rad/s)": df[c.OMEGA_RL],
+            "wheel_speed_rr": df[c.OMEGA_RR],
+            "WHEEL SPEED FL": df[c.OMEGA_FL],
+            "WheelSpeedFR": df[c.OMEGA_FR],
+            " Latitude ": df[c.LAT_DEG],
+            "longitude": df[c.LON_DEG],
+            "Time [s]": df[c.T_S],
+        }
+    ).to_csv(path, index=False)
+    cmap = {
+        "t": ColumnSpec("Time", "s"),
+        "lat": ColumnSpec("Latitude", "deg"),
+        "lon": ColumnSpec("Longitude", "deg"),
+        **{f"omega_{w}": ColumnSpec(f"WheelSpeed{w.upper()}", "rad/s") for w in ("fl", "fr")},
+        **{f"omega_{w}": ColumnSpec(f"WheelSpeed{w.upper()}", "rad/s") for w in ("rl", "rr")},
+    }
+    raw = read_columnmap(path, cmap, "cupac")
+    for name in c.REQUIRED:
+        np.testing.assert_allclose(raw.columns[name], df[name].to_numpy())
+
+
+def test_find_column_prefers_the_exact_name_and_refuses_ambiguity():
+    assert find_column(["ws_fl", "WS FL"], "ws_fl") == 0
+    assert find_column(["WS-FL", "ws fl"], "wsfl") is None  # two columns share the key
+    assert find_column(["a", "b"], "c") is None

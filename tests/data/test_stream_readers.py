@@ -1,0 +1,149 @@
+"""MDF4 files (written with asammdf itself) and one CSV per stream, read through a signal map."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.data.mdf4 import read_mdf4
+from rwhonet.data.signalmap import check_signal_map
+from rwhonet.data.streamcsv import read_stream_csvs
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+
+R = 0.31
+V = 14.0  # m/s, north
+
+
+def _spec(**entries: tuple[str, str]) -> dict[str, ColumnSpec]:
+    return {k: ColumnSpec(*v) for k, v in entries.items()}
+
+
+MDF_MAP = _spec(
+    omega_fl=("WhlSpd_FL", "km/h"),
+    omega_fr=("WhlSpd_FR", "km/h"),
+    omega_rl=("WhlSpd_RL", "km/h"),
+    omega_rr=("WhlSpd_RR", "km/h"),
+    lat=("GPS_Lat", "deg"),
+    lon=("GPS_Lon", "deg"),
+    n_sats=("GPS_NumSV", "count"),
+    yaw_rate=("YawRate", "deg/s cw"),
+)
+
+
+def _write_mdf(path, yaw_deg_s: float = 3.0) -> None:
+    from asammdf import MDF, Signal
+
+    mdf = MDF(version="4.10")
+    # Front and rear wheel speeds in two CAN messages (own time stamps), as many cars send them.
+    t_f = np.arange(0.0, 40.0, 0.02) + 0.003
+    t_r = np.arange(0.0, 40.0, 0.02) + 0.011
+    kmh = V * 3.6
+    mdf.append(
+        [
+            Signal(np.full(t_f.size, kmh), t_f, name=n, unit="km/h")
+            for n in ("WhlSpd_FL", "WhlSpd_FR")
+        ]
+    )
+    mdf.append(
+        [
+            Signal(np.full(t_r.size, kmh), t_r, name=n, unit="km/h")
+            for n in ("WhlSpd_RL", "WhlSpd_RR")
+        ]
+    )
+    t_g = np.arange(0.05, 40.0, 0.2)
+    lat = 48.1 + V * t_g / 111_200.0
+    mdf.append(
+        [
+            Signal(lat, t_g, name="GPS_Lat", unit="deg"),
+            Signal(np.full(t_g.size, 11.5), t_g, name="GPS_Lon", unit="°"),
+        ]
+    )
+    t_s = np.arange(0.0, 40.0, 1.0)  # satellites from the receiver's status message, 1 Hz
+    mdf.append([Signal(np.full(t_s.size, 11, dtype=np.uint8), t_s, name="GPS_NumSV", unit="")])
+    t_y = np.arange(0.0, 40.0, 0.01)
+    mdf.append([Signal(np.full(t_y.size, yaw_deg_s), t_y, name="YawRate", unit="deg/s")])
+    mdf.save(path, overwrite=True)
+    mdf.close()
+
+
+def test_an_mdf4_file_reads_through_its_signal_map(tmp_path):
+    path = tmp_path / "log.mf4"
+    _write_mdf(path)
+    streams = read_mdf4(path, MDF_MAP, R)
+    assert len(streams.wheels) == 2  # front and rear messages: two streams
+    d = resample(streams, nominal_radius_m=R).drive.columns
+    np.testing.assert_allclose(d[c.OMEGA_RL], V / R)
+    np.testing.assert_allclose(d[c.OMEGA_FR], V / R)
+    np.testing.assert_allclose(d[c.YAW_RATE_RAD_S], -math.radians(3.0))  # clockwise-positive
+    np.testing.assert_array_equal(d[c.N_SATS], 11.0)
+    np.testing.assert_allclose(d[c.LAT_DEG], 48.1 + V * d[c.T_S] / 111_200.0, atol=1e-12)
+    assert d[c.T_S][0] == pytest.approx(0.1) and np.allclose(np.diff(d[c.T_S]), 0.1)
+
+
+def test_a_signal_in_two_groups_is_refused(tmp_path):
+    from asammdf import MDF, Signal
+
+    path = tmp_path / "twice.mf4"
+    _write_mdf(path)
+    mdf = MDF(path)
+    t = np.arange(0.0, 1.0, 0.1)
+    mdf.append([Signal(t, t, name="WhlSpd_FL", unit="km/h")])
+    mdf.save(path, overwrite=True)
+    mdf.close()
+    with pytest.raises(InputError) as err:
+        read_mdf4(path, MDF_MAP, R, display="twice.mf4")
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("twice.mf4", "WhlSpd_FL") and "channel groups" in p.found
+
+
+def test_signal_maps_are_checked_before_reading():
+    with pytest.raises(ConfigError) as err:
+        check_signal_map("log", _spec(omega_fl=("a", "furlong/s"), lat=("b", "deg")))
+    text = str(err.value)
+    assert "omega_fl.unit" in text and "data.signal_maps.log.lon: missing" in text
+    with pytest.raises(ConfigError, match="t: missing"):
+        check_signal_map("log", MDF_MAP, with_time=True)
+
+
+def test_one_csv_per_stream_reads_through_its_signal_map(tmp_path):
+    t_w = np.arange(0.0, 30.0, 0.0125) + 5000.0
+    t_g = np.arange(0.0, 30.0, 1.0) + 5000.3  # a 1 Hz receiver
+    t_i = np.arange(0.0, 30.0, 0.01) + 5000.0
+    pd.DataFrame(
+        {
+            "Time [ms]": t_w * 1000.0,
+            "Wheel Speed FL (rpm)": V / R * 60 / (2 * math.pi),
+            "Wheel Speed FR (rpm)": V / R * 60 / (2 * math.pi),
+            "wheel_speed_rl": V / R * 60 / (2 * math.pi),
+            "WHEEL SPEED RR": V / R * 60 / (2 * math.pi),
+            "Brake": 0,
+        }
+    ).to_csv(tmp_path / "can.csv", index=False)
+    pd.DataFrame(
+        {"time": t_g * 1000.0, "lat": -33.9 + V * (t_g - 5000.0) / 110_900.0, "lon": 151.2}
+    ).to_csv(tmp_path / "gps.csv", index=False)
+    pd.DataFrame({"TIME": t_i * 1000.0, "gyro_z": 0.05}).to_csv(tmp_path / "imu.csv", index=False)
+    smap = _spec(
+        t=("Time", "ms"),
+        omega_fl=("WheelSpeedFL", "rpm"),
+        omega_fr=("WheelSpeedFR", "rpm"),
+        omega_rl=("WheelSpeedRL", "rpm"),
+        omega_rr=("WheelSpeedRR", "rpm"),
+        lat=("Lat", "deg"),
+        lon=("Lon", "deg"),
+        yaw_rate=("gyro_z", "rad/s"),
+    )
+    files = sorted(tmp_path.glob("*.csv"))
+    streams = read_stream_csvs(files, smap, R)
+    assert [s.name for s in streams.streams] == ["can.csv", "gps.csv", "imu.csv"]
+    d = resample(streams, max_fix_gap_s=1.5).drive.columns
+    np.testing.assert_allclose(d[c.OMEGA_FL], V / R)
+    np.testing.assert_allclose(d[c.YAW_RATE_RAD_S], 0.05)
+    assert d[c.T_S][0] == pytest.approx(5000.3) and d[c.T_S][-1] == pytest.approx(5029.3)
+    np.testing.assert_allclose(d[c.LAT_DEG], -33.9 + V * (d[c.T_S] - 5000.0) / 110_900.0)

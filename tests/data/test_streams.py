@@ -1,0 +1,222 @@
+"""Streams in, one grid out: the time-weighted means, the fix interpolation and its gap rule."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rwhonet.data import canonical as c
+from rwhonet.data.streams import (
+    DriveStreams,
+    Stream,
+    grid_times,
+    interpolate_fixes,
+    resample,
+    wheel_speed_rad_s,
+    window_means,
+)
+from rwhonet.errors import InputError
+
+R = 0.3
+
+
+def _wheels(t, v_m_s, name="wheels", **extra):
+    return Stream(name, "wheels.csv", t, {w: v_m_s / R for w in c.WHEELS} | extra)
+
+
+def _gnss(t, lat, lon, name="gnss"):
+    return Stream(name, "gnss.csv", t, {c.LAT_DEG: lat, c.LON_DEG: lon})
+
+
+def _moving(t_w, t_g, v=10.0, lat0=52.0, lon0=-1.5):
+    """A drive north at v m/s: wheel speeds and fixes (small enough for a linear model)."""
+    lat = lat0 + v * t_g / 111_250.0
+    return DriveStreams(
+        (_wheels(t_w, np.full(t_w.size, v)),), _gnss(t_g, lat, np.full(t_g.size, lon0))
+    )
+
+
+def test_grid_rows_are_whole_tenths_of_the_clock():
+    g = grid_times(46408.655, 46408.99)
+    assert list(g) == [46408.7, 46408.8, 46408.9]  # the doubles nearest each tenth
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    a=st.floats(-5, 5),
+    b=st.floats(-5, 5),
+    q=st.floats(-1, 1),
+    seed=st.integers(0, 1000),
+)
+def test_window_mean_is_exact_for_piecewise_linear_signals(a, b, q, seed):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.005, 0.02, 400))
+    v = a + b * t + q * np.sin(t)  # sampled: the mean is that of the linear interpolant
+    lo = np.sort(rng.uniform(t[0], t[-1] - 0.1, 30))
+    hi = lo + 0.1
+    means, ok = window_means(t, v[None, :], lo, hi, max_gap_s=1.0)
+    dense = np.linspace(0, 1, 20001)
+    for k in range(lo.size):
+        x = lo[k] + dense * 0.1
+        want = np.trapezoid(np.interp(x, t, v), x) / 0.1
+        assert means[0, k] == pytest.approx(want, abs=1e-7)
+    assert ok.all()
+
+
+def test_a_ramp_averages_to_its_value_at_the_window_centre():
+    t = np.arange(0.0, 10.0, 0.01)
+    means, ok = window_means(t, (3.0 + 2.0 * t)[None, :], np.array([4.95]), np.array([5.05]), 0.2)
+    assert ok[0] and means[0, 0] == pytest.approx(13.0, abs=1e-12)  # no half-period lag
+
+
+def test_windows_beyond_the_samples_or_over_a_gap_are_invalid():
+    t = np.r_[np.arange(0.0, 5.0, 0.01), np.arange(5.5, 10.0, 0.01)]  # 0.51 s hole
+    lo = np.array([-0.01, 2.0, 4.95, 5.2, 9.95])
+    _, ok = window_means(t, np.ones((1, t.size)), lo, lo + 0.1, 0.2)
+    assert list(ok) == [False, True, False, False, False]
+
+
+def test_fixes_are_interpolated_only_between_close_fixes_and_never_extrapolated():
+    t = np.array([0.0, 1.0, 2.0, 5.0, 6.0])
+    lat = np.array([0.0, 1.0, 2.0, 5.0, 6.0])
+    at = np.array([-0.1, 0.0, 0.5, 2.0, 3.0, 5.5, 6.0, 6.1])
+    out, ok = interpolate_fixes(t, {c.LAT_DEG: lat, c.LON_DEG: lat}, at, max_gap_s=1.5)
+    assert list(ok) == [False, True, True, True, False, True, True, False]
+    np.testing.assert_allclose(out[c.LAT_DEG][ok], [0.0, 0.5, 2.0, 5.5, 6.0])
+
+
+def test_fixes_across_the_antimeridian_interpolate_the_short_way():
+    t = np.array([0.0, 1.0])
+    lon = np.array([179.9999, -179.9999])
+    out, ok = interpolate_fixes(
+        t, {c.LAT_DEG: np.zeros(2), c.LON_DEG: lon}, np.array([0.25, 0.5]), 1.5
+    )
+    assert ok.all()
+    np.testing.assert_allclose(out[c.LON_DEG], [179.99995, -180.0], atol=1e-9)
+
+
+def test_resample_gives_the_canonical_drive_on_whole_tenths():
+    t_w = np.arange(0.0, 30.0, 0.01) + 0.003
+    t_g = np.arange(0.05, 30.0, 0.2)
+    res = resample(_moving(t_w, t_g))
+    d = res.drive
+    assert d.header_match == "streams" and set(c.REQUIRED) <= set(d.columns)
+    t = d.columns[c.T_S]
+    assert t[0] == pytest.approx(0.1) and t[-1] == pytest.approx(29.8)  # last fix 29.85 s
+    np.testing.assert_allclose(np.diff(t), 0.1, atol=1e-9)
+    np.testing.assert_allclose(np.round(t * 10), t * 10, atol=1e-6)
+    np.testing.assert_allclose(d.columns[c.OMEGA_RL], 10.0 / R)
+    np.testing.assert_allclose(d.columns[c.LAT_DEG], 52.0 + 10.0 * t / 111_250.0, atol=1e-12)
+    assert res.n_input_rows == t_w.size + t_g.size
+
+
+def test_a_fix_gap_leaves_a_hole_longer_than_validates_gap():
+    t_w = np.arange(0.0, 40.0, 0.01)
+    t_g = np.r_[np.arange(0.0, 10.0, 0.1), np.arange(10.6, 40.0, 0.1)]  # 0.7 s without a fix
+    t = resample(_moving(t_w, t_g), max_fix_gap_s=0.25).drive.columns[c.T_S]
+    steps = np.round(np.diff(t), 6)
+    assert set(steps) == {0.1, steps.max()} and steps.max() > 0.5
+    hole = np.flatnonzero(steps > 0.1)[0]
+    assert t[hole] <= 9.9 and t[hole + 1] >= 10.6  # no row inside the fix gap
+
+
+def test_a_short_wheel_gap_is_widened_so_validate_cuts_it_as_a_gap():
+    t_w = np.r_[np.arange(0.0, 10.0, 0.01), np.arange(10.25, 40.0, 0.01)]  # 0.26 s hole
+    t_g = np.arange(0.0, 40.0, 0.1)
+    t = resample(_moving(t_w, t_g), max_wheel_gap_s=0.2, split_gap_s=0.5).drive.columns[c.T_S]
+    steps = np.diff(t)
+    assert steps.max() > 0.5 and np.all((np.abs(steps - 0.1) < 1e-6) | (steps > 0.5))
+
+
+def test_optional_channels_are_averaged_and_nan_where_missing():
+    t_w = np.arange(0.0, 30.0, 0.01)
+    t_y = np.arange(5.0, 20.0, 0.01)
+    streams = _moving(t_w, np.arange(0.0, 30.0, 0.1))
+    yaw = Stream("gyro", "imu.csv", t_y, {c.YAW_RATE_RAD_S: np.full(t_y.size, 0.2)})
+    d = resample(DriveStreams(streams.wheels, streams.gnss, (yaw,))).drive.columns
+    t, yaw_rate = d[c.T_S], d[c.YAW_RATE_RAD_S]
+    inside = (t >= 5.1) & (t <= 19.9)
+    np.testing.assert_allclose(yaw_rate[inside], 0.2)
+    assert np.isnan(yaw_rate[~inside]).all() and len(t) > inside.sum()
+
+
+def test_missing_values_are_left_out_and_said():
+    t_w = np.arange(0.0, 30.0, 0.01)
+    streams = _moving(t_w, np.arange(0.0, 30.0, 0.1))
+    streams.gnss.channels[c.LAT_DEG][50] = np.nan
+    res = resample(streams)
+    assert any("1 sample(s) without a value" in n for n in res.drive.notes)
+
+
+@pytest.mark.parametrize(
+    ("unit", "factor"),
+    [("rad/s", 1.0), ("rpm", 2 * np.pi / 60), ("deg/s", np.pi / 180), ("km/h", 1 / 3.6 / R)],
+)
+def test_wheel_units(unit, factor):
+    assert wheel_speed_rad_s(np.array([10.0]), unit, R)[0] == pytest.approx(10.0 * factor)
+
+
+def test_a_linear_wheel_speed_needs_a_radius():
+    with pytest.raises(InputError, match="tyre radius"):
+        wheel_speed_rad_s(np.array([1.0]), "m/s", None)
+
+
+def test_streams_on_different_clocks_are_refused():
+    t_w = np.arange(0.0, 30.0, 0.01)
+    t_g = np.arange(1.5e9, 1.5e9 + 30, 0.1)  # GNSS in UNIX time, wheels on a boot clock
+    streams = DriveStreams(
+        (_wheels(t_w, np.full(t_w.size, 10.0)),), _gnss(t_g, t_g * 0 + 52.0, t_g * 0)
+    )
+    with pytest.raises(InputError) as err:
+        resample(streams)
+    (p,) = err.value.problems
+    assert "no common stretch" in p.found and "one clock" in p.expected
+
+
+def test_bad_streams_are_refused_with_file_stream_channel_row_and_time():
+    t_w = np.arange(0.0, 30.0, 0.01)
+    t_w[100] = t_w[99]  # a repeated stamp
+    t_g = np.arange(0.0, 30.0, 0.1)
+    lat = np.full(t_g.size, 52.0)
+    lat[7] = 95.0
+    streams = DriveStreams((_wheels(t_w, np.full(t_w.size, 10.0)),), _gnss(t_g, lat, lat * 0))
+    with pytest.raises(InputError) as err:
+        resample(streams)
+    found = {(p.file, p.row, p.column) for p in err.value.problems}
+    assert ("wheels.csv [wheels]", 101, "time") in found  # a stream without a time name
+    assert ("gnss.csv [gnss]", 8, c.LAT_DEG) in found
+    text = str(err.value)
+    assert "step +0 s" in text and "95.0 at t = 0.7" in text
+
+
+def test_a_wheel_missing_or_twice_is_refused():
+    t = np.arange(0.0, 10.0, 0.01)
+    front = Stream("front", "f.csv", t, {c.OMEGA_FL: t, c.OMEGA_FR: t})
+    rear = Stream("rear", "r.csv", t, {c.OMEGA_RL: t, c.OMEGA_FR: t})
+    gnss = _gnss(t, t * 0 + 52, t * 0)
+    with pytest.raises(InputError) as err:
+        resample(DriveStreams((front, rear), gnss))
+    assert "in two streams" in str(err.value) or "missing" in str(err.value)
+
+
+def test_a_raw_sample_glitch_flags_the_rows_that_used_it():
+    t_w = np.arange(0.0, 40.0, 0.01)
+    streams = _moving(t_w, np.arange(0.0, 40.0, 0.1))
+    streams.wheels[0].channels[c.OMEGA_RR][2000] *= 10.0  # t = 20.00 s, one 100 Hz sample
+    res = resample(streams, nominal_radius_m=R)
+    t = res.drive.columns[c.T_S]
+    # Only the row whose window overlaps the steps 19.99-20.01 s used that sample.
+    assert list(np.round(t[res.glitch], 1)) == [20.0]
+    assert res.glitch_samples == [("wheels.csv [wheels]", 2001, 20.0, c.OMEGA_RR)]
+
+
+def test_a_wheel_stream_without_values_is_refused():
+    t_w = np.arange(0.0, 30.0, 0.01)
+    streams = _moving(t_w, np.arange(0.0, 30.0, 0.1))
+    streams.wheels[0].channels[c.OMEGA_FL][:] = np.nan
+    with pytest.raises(InputError) as err:
+        resample(streams)
+    (p,) = err.value.problems
+    assert p.file == "wheels.csv [wheels]" and p.found == f"0 of {t_w.size}"

@@ -1,0 +1,140 @@
+"""A drive's clock: jittered stamps keep their seconds, dropouts show, midnight is no jump."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rwhonet.config import load_params
+from rwhonet.data import canonical as c
+from rwhonet.data.iovnbd import read_iovnbd
+from rwhonet.data.quality import assess, second_index
+from rwhonet.data.schema import schema_problems
+from rwhonet.data.timebase import grid_phase, grid_slots, nominal_times, unwrap_midnight
+from support.drives import straight_drive, write_iovnbd
+
+PERIOD = 0.1
+T0 = 45000.0
+
+
+@pytest.fixture(scope="module")
+def vp():
+    return load_params().validate
+
+
+def _jitter(drive, max_s: float, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    out = drive.copy()
+    out[c.T_S] = out[c.T_S] + rng.uniform(-max_s, max_s, len(out))
+    return out
+
+
+def _segments(result):
+    return [(s.row_start, s.row_stop, s.t_start_s, s.t_end_s) for s in result.segments]
+
+
+@pytest.mark.parametrize("jitter_s", [0.004, 0.02, 0.045])
+def test_jittered_stamps_keep_the_clean_drives_segments(vp, jitter_s):
+    clean = straight_drive(duration_s=60.0)
+    jittered = _jitter(clean, jitter_s)
+    assert np.all(np.diff(jittered[c.T_S]) > 0)  # still strictly increasing, as loggers write
+    want = assess(clean, vp.gnss, PERIOD)
+    got = assess(jittered, vp.gnss, PERIOD)
+    assert _segments(got) == _segments(want) == [(0, 601, T0, T0 + 60)]
+    assert got.cut_seconds_by_rule == want.cut_seconds_by_rule
+
+
+def test_jitter_up_to_half_a_sample_passes_the_schema(vp):
+    drive = _jitter(straight_drive(duration_s=60.0), 0.045).assign(**{c.SCENARIO: ""})
+    steps = np.diff(drive[c.T_S])
+    assert steps.max() > PERIOD + vp.sample_period_tol_s  # beyond the old step tolerance
+    assert schema_problems(drive, vp, "V-J.csv", {}) == []
+
+
+def test_a_real_dropout_is_still_refused_and_still_cut(vp):
+    drive = _jitter(straight_drive(duration_s=60.0), 0.004).assign(**{c.SCENARIO: ""})
+    dropped = drive.drop(index=[305]).reset_index(drop=True)  # one sample lost: a 0.2 s step
+    found = schema_problems(dropped, vp, "V-D.csv", {})
+    assert [(p.row, p.column) for p in found] == [(306, c.T_S)]  # data row 306 follows it
+    assert "step +0.19" in found[0].found
+    result = assess(dropped, vp.gnss, PERIOD)
+    # The second that lost its row is cut (9 rows).
+    cuts = [(x.start_s, x.end_s, x.rule) for x in result.cuts]
+    assert (T0 + 30, T0 + 31, "partial_second") in cuts
+
+
+def test_two_rows_in_one_slot_are_refused(vp):
+    drive = straight_drive(duration_s=10.0).assign(**{c.SCENARIO: ""})
+    drive.loc[50, c.T_S] = drive.loc[49, c.T_S] + 0.03  # row 50 stamped 30 ms after row 49
+    found = schema_problems(drive, vp, "V-E.csv", {})
+    # Data row 51 shares row 50's slot, and data row 52 then lies two slots on.
+    assert [p.row for p in found] == [51, 52]
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    phase=st.floats(-0.049, 0.049),
+    jitter=st.floats(0.0, 0.045),
+    seed=st.integers(0, 10_000),
+)
+def test_slots_remove_any_jitter_below_half_a_period(phase, jitter, seed):
+    rng = np.random.default_rng(seed)
+    k = np.arange(450_000, 450_200)
+    nominal = k * PERIOD + phase
+    t = nominal + rng.uniform(-jitter, jitter, k.size) * (1 - 1e-6)
+    slots, found = grid_slots(t, PERIOD)
+    assert np.all(np.diff(slots) == 1)
+    # The phase is found (or taken as 0 within a tenth of a period: whole tenths).
+    assert abs(found - phase) < 0.01 or (found == 0.0 and abs(phase) <= 0.01 + 1e-3)
+
+
+def test_phase_of_whole_tenths_is_zero_and_an_offset_logger_keeps_its_own():
+    t = 45000.0 + 0.1 * np.arange(100)
+    assert grid_phase(t, PERIOD) == 0.0
+    assert grid_phase(t + 0.03, PERIOD) == pytest.approx(0.03)
+    assert grid_phase(t - 0.03, PERIOD) == pytest.approx(-0.03)
+    np.testing.assert_allclose(nominal_times(t + 0.004, PERIOD), t, atol=1e-9)
+
+
+def test_second_index_with_a_period_takes_the_slot_not_the_stamp():
+    t = np.array([T0 - 0.1, T0 + 0.004, T0 + 0.096, T0 + 0.2])  # T0 + 0.004 is T0's row
+    assert list(second_index(t) - int(T0)) == [0, 1, 1, 1]
+    assert list(second_index(t, PERIOD) - int(T0)) == [0, 0, 1, 1]
+
+
+def test_midnight_rollover_is_unwrapped():
+    t = np.round(np.arange(86399.0, 86401.05, 0.1) % 86400.0, 6)
+    assert np.any(np.diff(t) < 0)
+    cont, rows = unwrap_midnight(t)
+    np.testing.assert_allclose(np.diff(cont), 0.1, atol=1e-6)
+    assert list(rows) == [10] and cont[-1] == pytest.approx(86401.0)
+
+
+def test_other_backward_steps_are_left_for_validate():
+    for t in ([100.0, 50.0, 50.1], [86399.0, 86398.0], [80000.0, 10.0], [86399.9, 3700.0]):
+        cont, rows = unwrap_midnight(np.array(t))
+        assert rows.size == 0 and list(cont) == t
+
+
+def test_two_midnights_add_two_days():
+    # A clock that restarts its day twice (as a time-of-day column of a 2-day recording
+    # with the stretch in between removed) gets a day added at each rollover.
+    t = np.array([86399.5, 0.5, 86399.9, 0.2])
+    cont, rows = unwrap_midnight(t)
+    assert list(rows) == [1, 3]
+    assert list(cont) == [86399.5, 86400.5, 172799.9, 172800.2]
+
+
+def test_a_drive_across_midnight_reads_as_one_clock_and_validates(tmp_path, vp):
+    drive = straight_drive(duration_s=60.0, t0_s=86370.0)
+    drive[c.T_S] = np.round(drive[c.T_S] % 86400.0, 6)
+    path = write_iovnbd(drive, tmp_path / "V-M.csv")
+    raw = read_iovnbd(path)
+    t = raw.columns[c.T_S]
+    assert np.all(np.diff(t) > 0) and t[-1] == pytest.approx(86430.0)
+    assert any("midnight" in note for note in raw.notes)
+    frame = straight_drive(duration_s=60.0, t0_s=86370.0).assign(**{c.T_S: t, c.SCENARIO: ""})
+    assert schema_problems(frame, vp, "V-M.csv", {}) == []
+    assert _segments(assess(frame, vp.gnss, PERIOD)) == [(0, 601, 86370.0, 86430.0)]
