@@ -35,7 +35,7 @@ def one(samples: int, epochs: int, devices: int, batch_size: int) -> None:
     """Run one fit; rank 0 prints a JSON line with its figures."""
     from rwhonet.config import load_params
     from rwhonet.models.train import fit
-    from rwhonet.stage import quiet
+    from rwhonet.libraries import quiet
 
     quiet()
     params = load_params()

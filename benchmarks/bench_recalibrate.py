@@ -37,7 +37,7 @@ def main() -> None:
     from rwhonet.contracts import CONTINUOUS, N_FEATURES
     from rwhonet.models.adapt import AdaptData, continuous_predictions, recalibrate
     from rwhonet.models.whonet import WhONet
-    from rwhonet.stage import quiet
+    from rwhonet.libraries import quiet
 
     quiet()
     torch.set_num_threads(1)

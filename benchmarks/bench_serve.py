@@ -115,7 +115,7 @@ def main() -> None:
 
     from rwhonet.models.checkpoint import load_whonet
     from rwhonet.serve.model import load_served
-    from rwhonet.stage import quiet
+    from rwhonet.libraries import quiet
 
     quiet()
     torch.set_num_threads(1)
