@@ -14,11 +14,11 @@ from rwhonet.config import load_params
 from rwhonet.errors import InputError
 from rwhonet.features.wpm import wpm_displacement_m
 from rwhonet.io import write_json
-from rwhonet.models.adapt import label_prediction, recalibrate
+from rwhonet.models.adapt import adapt_data, label_prediction, recalibrate
 from rwhonet.models.checkpoint import load_whonet, load_wpm_radii, save_whonet
 from rwhonet.models.loop import predict
 from rwhonet.models.whonet import WhONet
-from rwhonet.stages.adapt import adapt_data, adapt_grid
+from rwhonet.stages.adapt import adapt_grid
 from rwhonet.stages.outages import outage_windows
 from rwhonet.stages.samples import load_role
 
@@ -189,7 +189,7 @@ print(sorted(m for m in sys.modules if m.split(".")[0] in ("lightning", "pytorch
     assert done.stdout.strip().splitlines()[-1] == "[]"  # after the stage's progress lines
 
 
-def _die(task):
+def _die(item):
     import os
     import signal
 
@@ -202,7 +202,6 @@ def test_a_worker_that_dies_fails_the_stage_instead_of_hanging(monkeypatch):
 
     from rwhonet.stages import adapt as stage
 
-    monkeypatch.setattr(stage, "_run", _die)
     monkeypatch.setattr(stage.os, "cpu_count", lambda: 2)
     with pytest.raises(BrokenProcessPool):
-        stage._pool_map([object(), object(), object()])
+        stage._pool_map(_die, [1, 2, 3], desc="adapt")

@@ -104,7 +104,6 @@ def run(
     from rwhonet.models.checkpoint import load_whonet, save_whonet
     from rwhonet.models.loop import predict
     from rwhonet.serve.bundle import bundle_parts, make_meta, write_bundle
-    from rwhonet.stages.adapt import adapt_data
     from rwhonet.tracking.registry import (
         model_version,
         registered_name,
