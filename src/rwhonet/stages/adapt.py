@@ -14,8 +14,10 @@ on, never on a target test drive: every recipe on the target *training* drives
 
 One process per seed does all of it (a process costs more to start than all
 its recalibrations take); the recalibrations, independent of one another and
-each seeded on its own, run on every core (a fork pool), with identical
-results whatever the number of workers.
+each seeded on its own, run on every core (a fork pool). Each is a
+:class:`Job` carrying every input it reads (G, its drive's arrays, the recipe
+settings) to :func:`run_job`, and torch runs on one thread wherever it runs,
+so the results are identical whatever the number of workers.
 
 Outputs, all in ``models/r/seed<seed>/`` (one atomic folder):
 ``<recipe>/m<m>/`` with ``<drive>.pt`` (the model file; ``radius+G`` records its
