@@ -303,18 +303,8 @@ def test_continuous_ridge_gives_the_old_formula_s_numbers(g, linear_data, penalt
     d = data_of(x[:n], y[:n] + 0.3)
     k = np.arange(n)
     windows = np.array([np.arange(s, s + 30) for s in (0, 100, 130, 250)])
-    pred = continuous_predictions(
-        net,
-        hp,
-        d,
-        k,
-        windows,
-        inner="ridge_head",
-        penalty=penalty,
-        window_s=window_s,
-        min_speed_m_s=2.0,
-        source_radii=R_SRC,
-    )
+    kw = dict(penalty=penalty, window_s=window_s, min_speed_m_s=2.0, source_radii=R_SRC)
+    pred = continuous_predictions(net, hp, d, k, windows, inner="ridge_head", **kw)
     a = np.hstack([hidden_features(net, d.x), np.ones((n, 1))])
     theta0 = np.append(net.head.weight.detach().numpy()[0], float(net.head.bias.detach()[0]))
     g_pred = predict(net, d.x).astype(np.float64)
@@ -340,18 +330,8 @@ def test_a_refitted_radius_restates_the_prediction_as_the_old_code_did(g, linear
     assert np.array_equal(label_prediction(r, d, R_SRC), old)
     # continuous radius+G: the window's G prediction, corrected the same way
     windows = np.array([np.arange(50, 80)])
-    pred = continuous_predictions(
-        net,
-        hp,
-        d,
-        np.arange(80),
-        windows,
-        inner="radius+G",
-        penalty=0.0,
-        window_s=0,
-        min_speed_m_s=2.0,
-        source_radii=R_SRC,
-    )
+    kw = dict(inner="radius+G", penalty=0.0, window_s=0, min_speed_m_s=2.0, source_radii=R_SRC)
+    pred = continuous_predictions(net, hp, d, np.arange(80), windows, **kw)
     g_pred, rows = predict(net, d.x).astype(np.float64), windows[0]
     fit = slice(0, 50)  # every second before the window
     radii = refit_radii(

@@ -37,7 +37,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
-from rwhonet.data.problems import RowTally
+from rwhonet.data.problems import RowTally, no_data_rows, unreadable_file
 from rwhonet.errors import InputError, Problem
 
 # Text parsed per step. A row longer than this cannot be read (no drive row comes close).
@@ -107,18 +107,7 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
         with open(path, "rb") as f:
             line = f.readline(HEADER_MAX_BYTES + 1)
     except OSError as err:
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "a readable file",
-                    f"{type(err).__name__}: {err.strerror}",
-                    "check that the file is there and readable (permissions), then run again",
-                )
-            ]
-        ) from None
+        raise InputError([unreadable_file(file, err)]) from None
     return parse_header(line, file)
 
 
@@ -257,7 +246,7 @@ def read_numeric(
         del out
         return _read_numeric_slow(path, n_columns, wanted, file)
     if n == 0:
-        raise InputError([_no_data_rows(file)])
+        raise InputError([no_data_rows(file)])
     return {pos: values[:n] for pos, values in out.items()}
 
 
@@ -285,17 +274,6 @@ def _open_columns(
             column_types={names[i]: column_type for i in wanted},
             strings_can_be_null=strings_can_be_null,
         ),
-    )
-
-
-def _no_data_rows(file: str) -> Problem:
-    return Problem(
-        file,
-        None,
-        None,
-        "at least one data row after the header",
-        "none",
-        "a drive file holds its samples after the header row",
     )
 
 
@@ -409,7 +387,7 @@ def _read_numeric_slow(
     if bad_rows:
         n_total = max(n_total, max(bad_rows))
     if not problems and n_total == 0:
-        problems.append(_no_data_rows(file))
+        problems.append(no_data_rows(file))
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
     # pandas parsed what pyarrow would not (nothing was reported): keep its values.

@@ -14,6 +14,7 @@ expected, what was found and what to do.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -336,38 +337,47 @@ def _wheel_problems(
         problems += stretch_problems(wheel_runs, stuck)
     wheels = " / ".join(columns.get(w, w).strip() for w in c.WHEELS)
 
-    def silent(run) -> Problem:
+    def all_four(run, expected: str, found: Callable[[str], str], reason: str) -> Problem:
+        """A stretch where the four wheel speeds together disagree with GNSS."""
         start, end, where = stretch(run)
         return Problem(
             file,
             run.row_start + 1,
             wheels,
+            expected,
+            found(where),
+            "export the wheel speeds of this stretch; to keep the rest of the drive, cut "
+            f"it: {cut_it(start, end, reason)}",
+        )
+
+    def silent(run) -> Problem:
+        return all_four(
+            run,
             "wheel speeds that follow the GNSS speed (the median of the four at least "
             f"{vp.wheels.stuck_ratio} x GNSS speed / nominal radius, whenever that exceeds "
             f"{vp.wheels.stuck_moving_rad_s} rad/s for {vp.wheels.stuck_min_s} s; "
             "validate.wheels)",
-            f"all four at most {run.wheels_max_rad_s:.3g} rad/s for {where} while GNSS "
-            f"moved {run.gnss_m:.0f} m at up to {run.gnss_max_m_s:.3g} m/s: no wheel data "
-            "(a CAN channel that stopped logging, or wheel columns left as zeros?)",
-            "export the wheel speeds of this stretch; to keep the rest of the drive, cut "
-            f"it: {cut_it(start, end, 'no wheel data')}",
+            lambda where: (
+                f"all four at most {run.wheels_max_rad_s:.3g} rad/s for {where} "
+                f"while GNSS moved {run.gnss_m:.0f} m at up to {run.gnss_max_m_s:.3g} m/s: no "
+                "wheel data (a CAN channel that stopped logging, or wheel columns left as zeros?)"
+            ),
+            "no wheel data",
         )
 
     def stale(run) -> Problem:
-        start, end, where = stretch(run)
-        return Problem(
-            file,
-            run.row_start + 1,
-            wheels,
+        return all_four(
+            run,
             "wheel speeds that change with the car's speed (never all four repeating one "
             f"value for {vp.wheels.stuck_min_s} s while GNSS speed changes by more than "
             f"{vp.wheels.stuck_moving_rad_s} rad/s x the nominal radius; validate.wheels)",
-            f"the same values (median {run.wheels_rad_s:.4g} rad/s) in every row for {where} "
-            f"while the GNSS speed went between {run.gnss_min_m_s:.3g} and "
-            f"{run.gnss_max_m_s:.3g} m/s: stale wheel data (a logger repeating the last CAN "
-            "value?)",
-            "export the wheel speeds of this stretch; to keep the rest of the drive, cut "
-            f"it: {cut_it(start, end, 'stale wheel data')}",
+            lambda where: (
+                f"the same values (median {run.wheels_rad_s:.4g} rad/s) in every row "
+                f"for {where} while the GNSS speed went between {run.gnss_min_m_s:.3g} and "
+                f"{run.gnss_max_m_s:.3g} m/s: stale wheel data (a logger repeating the last CAN "
+                "value?)"
+            ),
+            "stale wheel data",
         )
 
     nominal = params.nominal_radius_m(entry["vehicle"])

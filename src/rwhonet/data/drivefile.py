@@ -22,6 +22,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import read_columnmap
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.iovnbd import read_iovnbd
+from rwhonet.data.problems import unreadable_file
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
 from rwhonet.errors import InputError, Problem
 
@@ -62,18 +63,7 @@ def read_drive(f: DriveFile, data: DataParams, rel: Callable[[Path], str] = str)
     try:
         size_mb = f.path.stat().st_size / 2**20
     except OSError as err:  # gone since it was listed, or unreadable
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "a readable file",
-                    f"{type(err).__name__}: {err.strerror}",
-                    "check that the file is there and readable (permissions), then run again",
-                )
-            ]
-        ) from None
+        raise InputError([unreadable_file(file, err)]) from None
     if size_mb > data.max_file_mb:
         raise InputError(
             [

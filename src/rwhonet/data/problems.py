@@ -21,6 +21,30 @@ ROWS_LISTED = 5  # rows listed per (file, column, check) before the rest is summ
 T = TypeVar("T")
 
 
+def unreadable_file(file: str, err: OSError) -> Problem:
+    """A file that cannot be opened or read (gone, or no permission)."""
+    return Problem(
+        file,
+        None,
+        None,
+        "a readable file",
+        f"{type(err).__name__}: {err.strerror}",
+        "check that the file is there and readable (permissions), then run again",
+    )
+
+
+def no_data_rows(file: str) -> Problem:
+    """A drive file with a header and nothing after it."""
+    return Problem(
+        file,
+        None,
+        None,
+        "at least one data row after the header",
+        "none",
+        "a drive file holds its samples after the header row",
+    )
+
+
 class RowTally:
     """The failing rows of one check, as they arrive: the first few listed, the rest counted.
 
