@@ -39,22 +39,26 @@ def params():
     return load_params(paths.PARAMS, overrides=OVERRIDES)
 
 
-@pytest.fixture
-def g_dir(tmp_path):
+def write_g(folder, hidden):
+    """A G-WhONet model file (untrained, seeded) in ``folder``; returns the folder."""
     torch.manual_seed(0)
     hp = {
         "n_features": 40,
-        "hidden": 8,
+        "hidden": hidden,
         "layers": 1,
         "dropout": 0.05,
         "seq_len": 1,
         "lr": 7e-4,
         "batch_size": 128,
     }
-    folder = tmp_path / "g"
     folder.mkdir()
-    save_whonet(WhONet(40, 8, 1, 0.05), hp, folder / contracts.MODEL_FILE)
+    save_whonet(WhONet(40, hidden, 1, 0.05), hp, folder / contracts.MODEL_FILE)
     return folder
+
+
+@pytest.fixture
+def g_dir(tmp_path):
+    return write_g(tmp_path / "g", 8)
 
 
 @pytest.fixture
@@ -167,6 +171,29 @@ def test_a_drive_not_longer_than_the_largest_m_is_refused(
         adapt_grid(params, 7, samples_dir, calibration, g_dir, tmp_path / "r")
     assert [p.file for p in err.value.problems] == ["A", "B"]
     assert not (tmp_path / "r").exists()
+
+
+def test_the_outputs_do_not_depend_on_the_number_of_workers(
+    tmp_path, samples_dir, params, calibration, monkeypatch
+):
+    from rwhonet.stages import adapt as stage
+
+    # G as wide as the pipeline's (model.hidden): torch splits its products over threads
+    g_dir = write_g(tmp_path / "g72", 72)
+    monkeypatch.setattr(stage.os, "cpu_count", lambda: 4)
+    outputs = {}
+    for workers in (1, 2, 3):
+        monkeypatch.setattr(stage, "MAX_WORKERS", workers)
+        out = tmp_path / f"r{workers}"
+        adapt_grid(params, 7, samples_dir, calibration, g_dir, out)
+        outputs[workers] = {
+            p.relative_to(out): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()
+        }
+        for name in [n for n in outputs[workers] if n.name == contracts.RUN_RECORD]:
+            # the run records list the model files by their path, folder included
+            outputs[workers][name] = outputs[workers][name].replace(out.name.encode(), b"r")
+    assert any(p.suffix == ".pt" for p in outputs[1])
+    assert outputs[1] == outputs[2] == outputs[3]
 
 
 @pytest.mark.slow  # a fresh interpreter importing torch and pandas
