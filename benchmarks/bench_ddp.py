@@ -34,8 +34,8 @@ CONFIGS = [(1, 128), (2, 64), (2, 128)]  # (processes, batch size per process)
 def one(samples: int, epochs: int, devices: int, batch_size: int) -> None:
     """Run one fit; rank 0 prints a JSON line with its figures."""
     from rwhonet.config import load_params
+    from rwhonet.libraries import quiet
     from rwhonet.models.train import fit
-    from rwhonet.stage import quiet
 
     quiet()
     params = load_params()

@@ -35,9 +35,9 @@ def main() -> None:
 
     from rwhonet.config import load_params
     from rwhonet.contracts import CONTINUOUS, N_FEATURES
+    from rwhonet.libraries import quiet
     from rwhonet.models.adapt import AdaptData, continuous_predictions, recalibrate
     from rwhonet.models.whonet import WhONet
-    from rwhonet.stage import quiet
 
     quiet()
     torch.set_num_threads(1)

@@ -113,9 +113,9 @@ def main() -> None:
 
     import torch
 
+    from rwhonet.libraries import quiet
     from rwhonet.models.checkpoint import load_whonet
     from rwhonet.serve.model import load_served
-    from rwhonet.stage import quiet
 
     quiet()
     torch.set_num_threads(1)

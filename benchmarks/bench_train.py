@@ -38,7 +38,7 @@ from dataclasses import replace
 import numpy as np
 
 from rwhonet.config import load_params
-from rwhonet.stage import quiet
+from rwhonet.libraries import quiet
 
 
 def _plain(x, y, model, train, seed: int) -> float:

@@ -15,7 +15,7 @@ import pytest
 
 from rwhonet import paths
 from rwhonet.config import Params, load_params
-from rwhonet.stage import quiet
+from rwhonet.libraries import quiet
 
 quiet()
 

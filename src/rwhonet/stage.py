@@ -16,13 +16,11 @@ logs, and then dies of the same signal, so DVC and shells see what happened.
 
 from __future__ import annotations
 
-import logging
 import os
 import signal
 import sys
 import time
 import traceback
-import warnings
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
@@ -33,6 +31,7 @@ import yaml
 from rwhonet import paths
 from rwhonet.config import ConfigError, Params, load_params
 from rwhonet.errors import InputError
+from rwhonet.libraries import quiet
 
 EXIT_INPUT = 2
 EXIT_FAILED = 1
@@ -68,16 +67,6 @@ def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
             os.kill(os.getpid(), signum)
         return
     raise Interrupted(signum)
-
-
-def quiet() -> None:
-    """Silence library noise that says nothing to a user (telemetry, tips, deprecations)."""
-    os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
-    os.environ.setdefault("DO_NOT_TRACK", "true")
-    os.environ.setdefault("DISABLE_PANDERA_IMPORT_WARNING", "True")
-    warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\).*")
-    logging.getLogger("lightning.pytorch.utilities.rank_zero").setLevel(logging.WARNING)
-    logging.getLogger("lightning.fabric.utilities.rank_zero").setLevel(logging.WARNING)
 
 
 def declared_params(stage: str, dvc_yaml: Path | None = None) -> list[str]:

@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from rwhonet.features.seconds import segment_seconds
-from rwhonet.features.wpm import label_m, wheel_angle_rad, wpm_displacement_m
+from rwhonet.features.wpm import (
+    label_m,
+    radius_corrected,
+    wheel_angle_rad,
+    wpm_displacement_m,
+)
 from support.synthetic import (
     R_RL_M,
     R_RR_M,
@@ -98,3 +103,21 @@ def test_rear_axle_averages_the_two_wheels_rolled_distances():
 def test_unknown_mode_is_an_error():
     with pytest.raises(ValueError, match="wpm mode"):
         wheel_angle_rad(np.ones(2), np.ones(2), "simpson")
+
+
+def test_radius_corrected_adds_the_difference_of_the_two_wpms():
+    rng = np.random.default_rng(3)
+    pred, a_rl, a_rr = rng.normal(size=50), rng.uniform(0, 40, 50), rng.uniform(0, 40, 50)
+    own, source = (0.301, 0.297), (0.294, 0.2945)
+    # the formula every caller had written out: pred + WPM(own) - WPM(source), in that order
+    old = pred.copy()
+    old += wpm_displacement_m(a_rl, a_rr, *own)
+    old -= wpm_displacement_m(a_rl, a_rr, *source)
+    assert np.array_equal(radius_corrected(pred, a_rl, a_rr, own, source), old)
+    # what it means: the source WPM plus the restated label is the own WPM plus the prediction
+    np.testing.assert_allclose(
+        wpm_displacement_m(a_rl, a_rr, *source) + radius_corrected(pred, a_rl, a_rr, own, source),
+        wpm_displacement_m(a_rl, a_rr, *own) + pred,
+        rtol=0,
+        atol=1e-12,
+    )

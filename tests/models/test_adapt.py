@@ -11,6 +11,7 @@ import torch
 
 from rwhonet.config import ModelParams, TrainParams
 from rwhonet.errors import InputError
+from rwhonet.features.calibration import refit_radii
 from rwhonet.features.wpm import wpm_displacement_m
 from rwhonet.models.adapt import (
     AdaptData,
@@ -248,3 +249,95 @@ def test_the_leak_check_catches_a_single_leaked_second(g, linear_data):
     leaky = continuous_predictions(net, hp, d, np.arange(n), np.array([np.arange(101, 131)]), **kw)
     np.testing.assert_allclose(clean[0], g_pred[100:130], atol=1e-3)
     assert np.abs(leaky[0] - g_pred[101:131]).max() > 0.1
+
+
+# One ridge solve and one radius correction serve every caller (issue 14). The old code is
+# written out here, as it stood in models/adapt.py, and the callers must still give its
+# numbers: bit for bit where the operations are the same, to 1e-12 where the old code summed
+# the normal equations in another order.
+
+
+def _old_ridge_head_weights(h, y, w0, b0, penalty):
+    if np.isinf(penalty):
+        return np.asarray(w0, np.float64).copy(), float(b0)
+    a = np.hstack([np.asarray(h, np.float64), np.ones((len(h), 1))])
+    y = np.asarray(y, np.float64)
+    theta0 = np.append(np.asarray(w0, np.float64), b0)
+    if penalty == 0:
+        theta = np.linalg.lstsq(a, y, rcond=None)[0]
+    else:
+        lam = len(y) * penalty
+        theta = np.linalg.solve(a.T @ a + lam * np.eye(a.shape[1]), a.T @ y + lam * theta0)
+    return theta[:-1], float(theta[-1])
+
+
+@pytest.mark.parametrize("penalty", [0.0, 1e-3, 0.5, 100.0, float("inf")])
+@pytest.mark.parametrize("n", [5, 60])  # fewer seconds than weights, and more
+def test_ridge_head_weights_give_the_old_formula_s_numbers(penalty, n):
+    rng = np.random.default_rng(n)
+    h, y = rng.normal(size=(n, 16)), rng.normal(size=n)
+    w0, b0 = rng.normal(size=16).astype(np.float32), float(rng.normal())
+    w, b = ridge_head_weights(h, y, w0, b0, penalty)
+    w_old, b_old = _old_ridge_head_weights(h, y, w0, b0, penalty)
+    assert np.array_equal(w, w_old) and b == b_old
+
+
+def _old_continuous_one_window(a, y, theta0, before, penalty):
+    """The old continuous ridge fit of one window, on the rows ``before`` it (direct sums)."""
+    rows = np.flatnonzero(before)
+    if penalty == 0:
+        return np.linalg.lstsq(a[rows], y[rows], rcond=None)[0]
+    if np.isinf(penalty):
+        return theta0
+    lam = len(rows) * penalty
+    ata, aty = a[rows].T @ a[rows], a[rows].T @ y[rows]
+    return np.linalg.solve(ata + lam * np.eye(len(theta0)), aty + lam * theta0)
+
+
+@pytest.mark.parametrize("window_s", [0, 40])
+@pytest.mark.parametrize("penalty", [0.0, 0.5, float("inf")])
+def test_continuous_ridge_gives_the_old_formula_s_numbers(g, linear_data, penalty, window_s):
+    net, hp = g
+    x, y = linear_data
+    n = 300
+    d = data_of(x[:n], y[:n] + 0.3)
+    k = np.arange(n)
+    windows = np.array([np.arange(s, s + 30) for s in (0, 100, 130, 250)])
+    kw = dict(penalty=penalty, window_s=window_s, min_speed_m_s=2.0, source_radii=R_SRC)
+    pred = continuous_predictions(net, hp, d, k, windows, inner="ridge_head", **kw)
+    a = np.hstack([hidden_features(net, d.x), np.ones((n, 1))])
+    theta0 = np.append(net.head.weight.detach().numpy()[0], float(net.head.bias.detach()[0]))
+    g_pred = predict(net, d.x).astype(np.float64)
+    for w, rows in enumerate(windows):
+        k0 = k[rows[0]]
+        before = (k < k0) & ((k >= k0 - window_s) if window_s else True)
+        if not before.any():
+            assert np.array_equal(pred[w], g_pred[rows])
+            continue
+        theta = _old_continuous_one_window(a, d.y.astype(np.float64), theta0, before, penalty)
+        np.testing.assert_allclose(pred[w], a[rows] @ theta, rtol=0, atol=1e-12)
+
+
+def test_a_refitted_radius_restates_the_prediction_as_the_old_code_did(g, linear_data):
+    net, hp = g
+    x, y = linear_data
+    d = data_of(x[:80], y[:80], r_true=0.29 * 1.03, seed=5)
+    r = radius_g(net, hp, d.take(np.arange(40)), min_speed_m_s=2.0)
+    assert r.radii is not None
+    old = predict(r.net, d.x).astype(np.float64)
+    old += wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *r.radii)
+    old -= wpm_displacement_m(d.angle_rl_rad, d.angle_rr_rad, *R_SRC)
+    assert np.array_equal(label_prediction(r, d, R_SRC), old)
+    # continuous radius+G: the window's G prediction, corrected the same way
+    windows = np.array([np.arange(50, 80)])
+    kw = dict(inner="radius+G", penalty=0.0, window_s=0, min_speed_m_s=2.0, source_radii=R_SRC)
+    pred = continuous_predictions(net, hp, d, np.arange(80), windows, **kw)
+    g_pred, rows = predict(net, d.x).astype(np.float64), windows[0]
+    fit = slice(0, 50)  # every second before the window
+    radii = refit_radii(
+        d.disp_gnss_m[fit], d.angle_rl_rad[fit], d.angle_rr_rad[fit], 2.0, explained_m=g_pred[fit]
+    )
+    old = g_pred[rows]
+    old += wpm_displacement_m(d.angle_rl_rad[rows], d.angle_rr_rad[rows], *radii)
+    old -= wpm_displacement_m(d.angle_rl_rad[rows], d.angle_rr_rad[rows], *R_SRC)
+    assert np.array_equal(pred[0], old)

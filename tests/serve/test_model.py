@@ -37,6 +37,10 @@ def test_own_radii_move_the_label_prediction_by_the_wpm_difference(bundle):
     np.testing.assert_allclose(
         own.predict_label(x, a_rl, a_rr) - model.predict_label(x), shift, atol=1e-12
     )
+    # the old served formula, pred + (WPM(own) - WPM(source)): now the pipeline's one order
+    np.testing.assert_allclose(
+        own.predict_label(x, a_rl, a_rr), own.predict(x) + shift, rtol=0, atol=1e-12
+    )
     with pytest.raises(InputError, match="rear wheel angles"):
         own.predict_label(x)
 

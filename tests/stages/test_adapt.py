@@ -15,11 +15,11 @@ from rwhonet.errors import InputError
 from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.wpm import wpm_displacement_m
 from rwhonet.io import write_json
-from rwhonet.models.adapt import label_prediction, recalibrate
+from rwhonet.models.adapt import adapt_data, label_prediction, recalibrate
 from rwhonet.models.checkpoint import load_whonet, load_wpm_radii, save_whonet
 from rwhonet.models.loop import predict
 from rwhonet.models.whonet import WhONet
-from rwhonet.stages.adapt import adapt_data, adapt_grid
+from rwhonet.stages.adapt import adapt_grid
 from rwhonet.stages.samples import load_role
 
 from .conftest import R_CAL_M
@@ -39,22 +39,26 @@ def params():
     return load_params(paths.PARAMS, overrides=OVERRIDES)
 
 
-@pytest.fixture
-def g_dir(tmp_path):
+def write_g(folder, hidden):
+    """A G-WhONet model file (untrained, seeded) in ``folder``; returns the folder."""
     torch.manual_seed(0)
     hp = {
         "n_features": 40,
-        "hidden": 8,
+        "hidden": hidden,
         "layers": 1,
         "dropout": 0.05,
         "seq_len": 1,
         "lr": 7e-4,
         "batch_size": 128,
     }
-    folder = tmp_path / "g"
     folder.mkdir()
-    save_whonet(WhONet(40, 8, 1, 0.05), hp, folder / contracts.MODEL_FILE)
+    save_whonet(WhONet(40, hidden, 1, 0.05), hp, folder / contracts.MODEL_FILE)
     return folder
+
+
+@pytest.fixture
+def g_dir(tmp_path):
+    return write_g(tmp_path / "g", 8)
 
 
 @pytest.fixture
@@ -169,6 +173,29 @@ def test_a_drive_not_longer_than_the_largest_m_is_refused(
     assert not (tmp_path / "r").exists()
 
 
+def test_the_outputs_do_not_depend_on_the_number_of_workers(
+    tmp_path, samples_dir, params, calibration, monkeypatch
+):
+    from rwhonet.stages import adapt as stage
+
+    # G as wide as the pipeline's (model.hidden): torch splits its products over threads
+    g_dir = write_g(tmp_path / "g72", 72)
+    monkeypatch.setattr(stage.os, "cpu_count", lambda: 4)
+    outputs = {}
+    for workers in (1, 2, 3):
+        monkeypatch.setattr(stage, "MAX_WORKERS", workers)
+        out = tmp_path / f"r{workers}"
+        adapt_grid(params, 7, samples_dir, calibration, g_dir, out)
+        outputs[workers] = {
+            p.relative_to(out): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()
+        }
+        for name in [n for n in outputs[workers] if n.name == contracts.RUN_RECORD]:
+            # the run records list the model files by their path, folder included
+            outputs[workers][name] = outputs[workers][name].replace(out.name.encode(), b"r")
+    assert any(p.suffix == ".pt" for p in outputs[1])
+    assert outputs[1] == outputs[2] == outputs[3]
+
+
 @pytest.mark.slow  # a fresh interpreter importing torch and pandas
 def test_the_stage_process_never_imports_lightning(tmp_path, samples_dir, g_dir, calibration):
     code = f"""
@@ -189,7 +216,7 @@ print(sorted(m for m in sys.modules if m.split(".")[0] in ("lightning", "pytorch
     assert done.stdout.strip().splitlines()[-1] == "[]"  # after the stage's progress lines
 
 
-def _die(task):
+def _die(item):
     import os
     import signal
 
@@ -202,7 +229,6 @@ def test_a_worker_that_dies_fails_the_stage_instead_of_hanging(monkeypatch):
 
     from rwhonet.stages import adapt as stage
 
-    monkeypatch.setattr(stage, "_run", _die)
     monkeypatch.setattr(stage.os, "cpu_count", lambda: 2)
     with pytest.raises(BrokenProcessPool):
-        stage._pool_map([object(), object(), object()])
+        stage._pool_map(_die, [1, 2, 3], desc="adapt")

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from rwhonet.errors import InputError
-from rwhonet.stages.samples import load_role, split_tail
+from rwhonet.features.samples import split_tail
+from rwhonet.stages.samples import load_role
 
 
 def test_load_role_orders_and_ranks_per_drive(samples_dir):

@@ -1,14 +1,16 @@
-"""One drive file -> labelled samples, through the pipeline's own ingest, validate and label code.
+"""One drive file -> labelled samples, through the domain code the pipeline's stages call.
 
 ``rwhonet recalibrate`` reads a new car's drive exactly as the DVC stages read
-the fleet's: the ingest reader of its format (:func:`rwhonet.stages.ingest.read_drive`,
-with the file-size limit and the scenario sidecar), the validate stage's schema,
-GNSS-quality policy and plausibility checks (:func:`rwhonet.stages.validate.check_drive`),
-and the label stage's per-second grid and samples (:func:`rwhonet.features.seconds.segment_seconds`,
-:func:`rwhonet.features.labels.sample_table`) with the base model's scaler and
-source radii; the samples are stacked as the model stages stack theirs
-(:func:`rwhonet.stages.samples.stack_segments`). Bad input stops with the same
-report (file, row, column, expected, found, what to do).
+the fleet's: the reader of its format with the file-size limit and the scenario
+sidecar (:func:`rwhonet.data.drivefile.read_canonical`, as ``ingest``), the
+schema and the per-drive checks (:func:`rwhonet.data.schema.schema_problems`,
+:func:`rwhonet.data.drivechecks.check_drive`: GNSS quality, wheel sensors,
+plausibility, as ``validate``), the per-second grid and samples of each valid
+segment (:func:`rwhonet.features.seconds.segment_seconds`,
+:func:`rwhonet.features.labels.sample_table`, as ``label``) with the base
+model's scaler and source radii; the samples are stacked as the model stages
+stack theirs (:func:`rwhonet.features.samples.stack_segments`). Bad input stops
+with the same report (file, row, column, expected, found, what to do).
 """
 
 from __future__ import annotations
@@ -20,13 +22,12 @@ from typing import Any
 
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, Params, VehicleSpec
-from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import check_column_map
 from rwhonet.data.quality import Assessment
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import Calibration
+from rwhonet.features.samples import SampleSet
 from rwhonet.features.scaling import MinMaxScaler
-from rwhonet.stages.samples import SampleSet
 
 ROLE = "recalibration"  # not a pipeline role: validate's role-specific checks do not apply
 
@@ -100,14 +101,13 @@ def load_drive(
     Raises:
         InputError: every problem of the file, as the ingest and validate stages report them.
     """
-    from rwhonet.data.scenarios import read_scenarios, sidecar_path
+    from rwhonet.data.drivechecks import check_drive
+    from rwhonet.data.drivefile import IOVNBD, DriveFile, read_canonical
+    from rwhonet.data.quality import segment_name
     from rwhonet.data.schema import schema_problems
     from rwhonet.features.labels import sample_table
-    from rwhonet.features.seconds import segment_seconds
-    from rwhonet.stages.ingest import IOVNBD, DriveFile, canonical_table, read_drive, scenario_array
-    from rwhonet.stages.label import segment_arrays
-    from rwhonet.stages.samples import stack_segments
-    from rwhonet.stages.validate import check_drive, segment_name
+    from rwhonet.features.samples import stack_segments
+    from rwhonet.features.seconds import segment_arrays, segment_seconds
 
     path = Path(path)
     file = paths.rel(path)
@@ -142,10 +142,8 @@ def load_drive(
         check_column_map(fmt, params.data.column_maps[fmt])
     nominal = 0.5 * (calibration.r_rl_m + calibration.r_rr_m)
     params = with_vehicle(params, vehicle, nominal)
-    raw = read_drive(DriveFile(path.stem, ROLE, vehicle, fmt, path), params.data)
-    sidecar = sidecar_path(path)
-    intervals = read_scenarios(sidecar, paths.rel(sidecar)) if sidecar.is_file() else []
-    table = canonical_table(raw, scenario_array(raw.columns[c.T_S], intervals))
+    drive = read_canonical(DriveFile(path.stem, ROLE, vehicle, fmt, path), params.data, paths.rel)
+    raw, table = drive.raw, drive.table()
     df = table.to_pandas(split_blocks=True)
     entry: dict[str, Any] = {
         "drive": path.stem,

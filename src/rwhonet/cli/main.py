@@ -252,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
 
         return gate.main(argv[1:])
     args = parser().parse_args(argv)
-    from rwhonet.stage import quiet
+    from rwhonet.libraries import quiet
 
     quiet()
     try:

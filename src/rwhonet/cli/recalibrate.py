@@ -100,11 +100,10 @@ def run(
     """
     from rwhonet.cli.drive import calibration_of, load_drive
     from rwhonet.features.scaling import scaler_from_dict
-    from rwhonet.models.adapt import label_prediction, recalibrate
+    from rwhonet.models.adapt import adapt_data, label_prediction, recalibrate
     from rwhonet.models.checkpoint import load_whonet, save_whonet
     from rwhonet.models.loop import predict
     from rwhonet.serve.bundle import bundle_parts, make_meta, write_bundle
-    from rwhonet.stages.adapt import adapt_data
     from rwhonet.tracking.registry import (
         model_version,
         registered_name,

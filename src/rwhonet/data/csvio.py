@@ -25,7 +25,7 @@ import csv
 import io
 import re
 import sys
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +37,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
-from rwhonet.data.problems import RowTally
+from rwhonet.data.problems import RowTally, no_data_rows, unreadable_file
 from rwhonet.errors import InputError, Problem
 
 # Text parsed per step. A row longer than this cannot be read (no drive row comes close).
@@ -112,18 +112,7 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
         with open(path, "rb") as f:
             line = f.readline(HEADER_MAX_BYTES + 1)
     except OSError as err:
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "a readable file",
-                    f"{type(err).__name__}: {err.strerror}",
-                    "check that the file is there and readable (permissions), then run again",
-                )
-            ]
-        ) from None
+        raise InputError([unreadable_file(file, err)]) from None
     return parse_header(line, file)
 
 
@@ -246,17 +235,7 @@ def read_numeric(
     out = {pos: np.empty(capacity) for pos in wanted}
     n = 0
     try:
-        reader = pacsv.open_csv(
-            path,
-            read_options=pacsv.ReadOptions(
-                skip_rows=1, column_names=names, use_threads=False, block_size=BLOCK_BYTES
-            ),
-            parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid_row),
-            convert_options=pacsv.ConvertOptions(
-                include_columns=[names[i] for i in wanted],
-                column_types={names[i]: pa.float64() for i in wanted},
-            ),
-        )
+        reader = _open_columns(path, names, wanted, pa.float64(), on_invalid_row)
         for batch in reader:
             if invalid_rows or n + batch.num_rows > capacity:
                 invalid_rows = invalid_rows or -1  # (more rows than lines: the file changed)
@@ -272,19 +251,35 @@ def read_numeric(
         del out
         return _read_numeric_slow(path, n_columns, wanted, file)
     if n == 0:
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "at least one data row after the header",
-                    "none",
-                    "a drive file holds its samples after the header row",
-                )
-            ]
-        )
+        raise InputError([no_data_rows(file)])
     return {pos: values[:n] for pos, values in out.items()}
+
+
+def _open_columns(
+    path: Path,
+    names: list[str],
+    wanted: Mapping[int, str],
+    column_type: pa.DataType,
+    on_invalid_row: Callable[[Any], str],
+    strings_can_be_null: bool = False,
+) -> pacsv.CSVStreamingReader:
+    """A block reader of the ``wanted`` columns (as ``column_type``) of a CSV after its header.
+
+    Single-threaded, so pyarrow numbers the rows it hands to ``on_invalid_row`` and the
+    blocks come in file order; ``BLOCK_BYTES`` of text per block.
+    """
+    return pacsv.open_csv(
+        path,
+        read_options=pacsv.ReadOptions(
+            skip_rows=1, column_names=names, use_threads=False, block_size=BLOCK_BYTES
+        ),
+        parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid_row),
+        convert_options=pacsv.ConvertOptions(
+            include_columns=[names[i] for i in wanted],
+            column_types={names[i]: column_type for i in wanted},
+            strings_can_be_null=strings_can_be_null,
+        ),
+    )
 
 
 def _count_lines(path: Path) -> int:
@@ -353,17 +348,8 @@ def _read_numeric_slow(
     next_row = 1
     unreadable: Problem | None = None
     try:
-        reader = pacsv.open_csv(
-            path,
-            read_options=pacsv.ReadOptions(
-                skip_rows=1, column_names=names, use_threads=False, block_size=BLOCK_BYTES
-            ),
-            parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid_row),
-            convert_options=pacsv.ConvertOptions(
-                include_columns=[names[i] for i in wanted],
-                column_types={names[i]: pa.binary() for i in wanted},
-                strings_can_be_null=True,
-            ),
+        reader = _open_columns(
+            path, names, wanted, pa.binary(), on_invalid_row, strings_can_be_null=True
         )
         for batch in reader:
             rows = _kept_rows(next_row, batch.num_rows, np.asarray(bad_rows, dtype=np.int64))
@@ -406,16 +392,7 @@ def _read_numeric_slow(
     if bad_rows:
         n_total = max(n_total, max(bad_rows))
     if not problems and n_total == 0:
-        problems.append(
-            Problem(
-                file,
-                None,
-                None,
-                "at least one data row after the header",
-                "none",
-                "a drive file holds its samples after the header row",
-            )
-        )
+        problems.append(no_data_rows(file))
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
     # pandas parsed what pyarrow would not (nothing was reported): keep its values.

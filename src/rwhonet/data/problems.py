@@ -10,13 +10,39 @@ only what the report shows.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 import numpy as np
 
 from rwhonet.errors import Problem
 
 ROWS_LISTED = 5  # rows listed per (file, column, check) before the rest is summarised
+T = TypeVar("T")
+
+
+def unreadable_file(file: str, err: OSError) -> Problem:
+    """A file that cannot be opened or read (gone, or no permission)."""
+    return Problem(
+        file,
+        None,
+        None,
+        "a readable file",
+        f"{type(err).__name__}: {err.strerror}",
+        "check that the file is there and readable (permissions), then run again",
+    )
+
+
+def no_data_rows(file: str) -> Problem:
+    """A drive file with a header and nothing after it."""
+    return Problem(
+        file,
+        None,
+        None,
+        "at least one data row after the header",
+        "none",
+        "a drive file holds its samples after the header row",
+    )
 
 
 class RowTally:
@@ -114,3 +140,33 @@ def row_problems(
     tally = RowTally(file, column, expected, fix, limit)
     tally.add(rows, found)
     return tally.problems()
+
+
+def stretch_problems(
+    stretches: Sequence[T], problem: Callable[[T], Problem], limit: int = ROWS_LISTED
+) -> list[Problem]:
+    """The problems of the first ``limit`` stretches of one check, then how many more there are.
+
+    Args:
+        stretches: what one check found (runs of rows), in file order.
+        problem: the problem of one stretch.
+        limit: how many stretches to list one by one.
+
+    Returns:
+        A problem per listed stretch and, when there are more, one line counting them
+        with the listed ones' file, column, expectation and fix.
+    """
+    shown = [problem(s) for s in stretches[:limit]]
+    if len(stretches) > limit:
+        last = shown[-1]
+        shown.append(
+            Problem(
+                last.file,
+                None,
+                last.column,
+                last.expected,
+                f"{len(stretches) - limit} more stretch(es) like these",
+                last.fix,
+            )
+        )
+    return shown

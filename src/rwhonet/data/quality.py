@@ -110,6 +110,11 @@ class Segment:
         return self.row_stop - self.row_start
 
 
+def segment_name(drive: str, k: int) -> str:
+    """Return the id of the ``k``-th segment of a drive (``V-S1__s000``; sorts in time order)."""
+    return f"{drive}__s{k:03d}"
+
+
 @dataclass(frozen=True)
 class Assessment:
     """The outcome of the GNSS policy on one drive."""

@@ -22,6 +22,7 @@ from typing import BinaryIO
 import numpy as np
 
 from rwhonet.data import canonical as c
+from rwhonet.data.problems import no_data_rows
 from rwhonet.errors import InputError, Problem
 
 BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s of 10 Hz rows)
@@ -132,18 +133,7 @@ def _blocks(
         columns = parse_lines(pending, lay, row, file)
         yield row, columns
     elif row == 1:
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "at least one data row after the header",
-                    "none",
-                    "a drive file holds its samples after the header row",
-                )
-            ]
-        )
+        raise InputError([no_data_rows(file)])
 
 
 def parse_lines(lines: bytes, lay: Layout, first_row: int, file: str) -> dict[str, np.ndarray]:

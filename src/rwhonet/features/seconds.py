@@ -276,6 +276,30 @@ class SegmentSeconds:
         return len(self.t_s)
 
 
+def segment_arrays(table: pa.Table) -> dict[str, np.ndarray | pa.ChunkedArray]:
+    """The columns of a segment (an Arrow table) the per-second computation takes.
+
+    Args:
+        table: a segment in canonical columns (validate's output, or a slice of a drive).
+
+    Returns:
+        ``t_s, lat_deg, lon_deg, omega_*`` as float64 numpy arrays (wheel speeds as
+        magnitudes) and ``scenario`` as it is (Arrow), for
+        :func:`segment_seconds`.
+    """
+    arrays = {
+        name: table[name] if name == c.SCENARIO else np.asarray(table[name], dtype=np.float64)
+        for name in table.column_names
+        if name in (*c.REQUIRED, c.SCENARIO)
+    }
+    # Wheel speeds are magnitudes; validate lets negative ones through only where a logger
+    # that signs its speeds recorded reversing (all four wheels together).
+    for name in c.WHEELS:
+        if name in arrays:
+            arrays[name] = np.abs(arrays[name])
+    return arrays
+
+
 def check_segment(frame: Mapping[str, ArrayLike], file: str) -> None:
     """Check what the per-second computation relies on; raise one report of all problems.
 

@@ -85,6 +85,36 @@ def wpm_displacement_m(
     )
 
 
+def radius_corrected(
+    pred_m: np.ndarray,
+    angle_rl_rad: np.ndarray,
+    angle_rr_rad: np.ndarray,
+    radii: tuple[float, float],
+    source_radii: tuple[float, float],
+) -> np.ndarray:
+    """A correction to the WPM with ``radii``, restated as one to the WPM with ``source_radii``.
+
+    A model whose recipe refitted the rear radii (``radius+G``) predicts what the WPM with
+    its own radii misses; the label is what the source-calibrated WPM misses, so the
+    difference of the two WPMs is added: ``pred + WPM(radii) − WPM(source_radii)``.
+
+    Args:
+        pred_m: the model's correction per second, metres.
+        angle_rl_rad: rear-left wheel angle per second, rad.
+        angle_rr_rad: rear-right wheel angle per second, rad.
+        radii: the rear radii the model corrects, m/rad.
+        source_radii: the source calibration's rear radii, m/rad.
+
+    Returns:
+        The label prediction per second, metres (float64).
+    """
+    return (
+        np.asarray(pred_m, np.float64)
+        + wpm_displacement_m(angle_rl_rad, angle_rr_rad, *radii)
+        - wpm_displacement_m(angle_rl_rad, angle_rr_rad, *source_radii)
+    )
+
+
 def label_m(disp_gnss_m: np.ndarray, disp_wpm_m: np.ndarray) -> np.ndarray:
     """Return the learning target per second: GNSS minus WPM displacement (Eq. 11, code's sign).
 

@@ -27,14 +27,15 @@ import copy
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
 
+from rwhonet import contracts
 from rwhonet.config import AdaptParams
 from rwhonet.features.calibration import refit_radii
-from rwhonet.features.wpm import wpm_displacement_m
+from rwhonet.features.wpm import radius_corrected
 from rwhonet.models.freeze import apply_trainable, count_parameters
 from rwhonet.models.loop import (
     ArrayDataset,
@@ -48,6 +49,9 @@ from rwhonet.models.loop import (
     train_loader,
 )
 from rwhonet.models.whonet import WhONet
+
+if TYPE_CHECKING:  # for the annotation only: not imported at run time
+    from rwhonet.features.samples import SampleSet
 
 GRADIENT_RECIPES = ("paper", "head", "steps")
 
@@ -81,6 +85,24 @@ class AdaptData:
                 for a in (self.x, self.y, self.disp_gnss_m, self.angle_rl_rad, self.angle_rr_rad)
             )
         )
+
+
+def adapt_data(samples: SampleSet, mask: np.ndarray) -> AdaptData:
+    """The :class:`AdaptData` of the samples where ``mask`` holds (order kept).
+
+    Args:
+        samples: stacked samples (:func:`rwhonet.features.samples.stack_segments`).
+        mask: (N,) which samples.
+    """
+    f = samples.frame[mask]
+    return AdaptData(
+        samples.x[mask],
+        samples.y[mask],
+        *(
+            f[c].to_numpy(np.float64)
+            for c in (contracts.DISP_GNSS_M, contracts.ANGLE_RL_RAD, contracts.ANGLE_RR_RAD)
+        ),
+    )
 
 
 @dataclass
@@ -270,16 +292,55 @@ def hidden_features(net: WhONet, x: np.ndarray | torch.Tensor) -> np.ndarray:
     return h.numpy().astype(np.float64)
 
 
+def ridge_solve(
+    a: np.ndarray,
+    y: np.ndarray,
+    theta0: np.ndarray,
+    penalty: float,
+    *,
+    gram: np.ndarray | None = None,
+    moment: np.ndarray | None = None,
+) -> np.ndarray:
+    """Least squares ``y ≈ a θ`` shrunk towards ``θ0``, with a penalty per row of data.
+
+    Minimises ``(1/n) |y − a θ|² + penalty · |θ − θ0|²``:
+    ``(aᵀa + n·penalty·I) θ = aᵀy + n·penalty·θ0``. The penalty is per row (one
+    second of data), so its meaning does not change with the number of rows.
+    ``penalty = 0`` is ordinary least squares (the minimum-norm solution when there
+    are fewer rows than unknowns); ``penalty = inf`` returns ``θ0``.
+
+    Args:
+        a: (n, k) design matrix.
+        y: (n,) targets.
+        theta0: (k,) what ``θ`` is shrunk towards.
+        penalty: ridge strength per row, >= 0.
+        gram: ``aᵀa`` when the caller has it already (accumulated row by row).
+        moment: ``aᵀy`` likewise.
+
+    Returns:
+        (k,) float64 ``θ``.
+    """
+    if math.isinf(penalty):
+        return np.array(theta0, dtype=np.float64)
+    if penalty == 0:
+        return np.linalg.lstsq(a, y, rcond=None)[0]
+    lam = len(y) * penalty
+    gram = a.T @ a if gram is None else gram
+    moment = a.T @ y if moment is None else moment
+    return np.linalg.solve(gram + lam * np.eye(len(theta0)), moment + lam * theta0)
+
+
+def head_design(h: np.ndarray) -> np.ndarray:
+    """The head's design matrix ``[h, 1]`` (weights, then the bias), float64."""
+    return np.hstack([np.asarray(h, np.float64), np.ones((len(h), 1))])
+
+
 def ridge_head_weights(
     h: np.ndarray, y: np.ndarray, w0: np.ndarray, b0: float, penalty: float
 ) -> tuple[np.ndarray, float]:
-    """The head ``y ≈ h w + b`` in closed form, shrunk towards ``(w0, b0)``.
+    """The head ``y ≈ h w + b`` in closed form, shrunk towards ``(w0, b0)`` (:func:`ridge_solve`).
 
-    Minimises ``(1/n) Σ (y − h w − b)² + penalty · (|w − w0|² + (b − b0)²)``:
-    ``(AᵀA + n·penalty·I) θ = Aᵀy + n·penalty·θ0`` with ``A = [h, 1]``. The
-    penalty is per second of data, so its meaning does not change with m.
-    ``penalty = 0`` is ordinary least squares (the minimum-norm solution when
-    there are fewer seconds than weights); ``penalty = inf`` returns ``(w0, b0)``.
+    Minimises ``(1/n) Σ (y − h w − b)² + penalty · (|w − w0|² + (b − b0)²)``.
 
     Args:
         h: (n, k) hidden features.
@@ -291,16 +352,8 @@ def ridge_head_weights(
     Returns:
         ``(w, b)``.
     """
-    if math.isinf(penalty):
-        return np.asarray(w0, np.float64).copy(), float(b0)
-    a = np.hstack([np.asarray(h, np.float64), np.ones((len(h), 1))])
-    y = np.asarray(y, np.float64)
     theta0 = np.append(np.asarray(w0, np.float64), b0)
-    if penalty == 0:
-        theta = np.linalg.lstsq(a, y, rcond=None)[0]
-    else:
-        lam = len(y) * penalty
-        theta = np.linalg.solve(a.T @ a + lam * np.eye(a.shape[1]), a.T @ y + lam * theta0)
+    theta = ridge_solve(head_design(h), np.asarray(y, np.float64), theta0, penalty)
     return theta[:-1], float(theta[-1])
 
 
@@ -423,10 +476,9 @@ def label_prediction(
         (n,) float64 metres.
     """
     pred = predict(result.net, data.x, seq_len=result.hparams["seq_len"]).astype(np.float64)
-    if result.radii is not None:
-        pred += wpm_displacement_m(data.angle_rl_rad, data.angle_rr_rad, *result.radii)
-        pred -= wpm_displacement_m(data.angle_rl_rad, data.angle_rr_rad, *source_radii)
-    return pred
+    if result.radii is None:
+        return pred
+    return radius_corrected(pred, data.angle_rl_rad, data.angle_rr_rad, result.radii, source_radii)
 
 
 def continuous_predictions(
@@ -471,7 +523,7 @@ def continuous_predictions(
     g_pred = predict(base, data.x, seq_len=hparams["seq_len"]).astype(np.float64)
     order = np.argsort(k[windows[:, 0]], kind="stable")
     if inner == "ridge_head":
-        a = np.hstack([hidden_features(base, data.x), np.ones((len(data), 1))])
+        a = head_design(hidden_features(base, data.x))
         y = np.asarray(data.y, np.float64)
         theta0 = np.append(
             base.head.weight.detach().numpy()[0].astype(np.float64),
@@ -489,18 +541,11 @@ def continuous_predictions(
                 ata -= np.outer(a[removed], a[removed])
                 aty -= a[removed] * y[removed]
                 removed += 1
-            n = added - removed
-            if n == 0:
+            if added == removed:
                 pred[w] = g_pred[windows[w]]
                 continue
-            if penalty == 0:
-                rows = slice(removed, added)
-                theta = np.linalg.lstsq(a[rows], y[rows], rcond=None)[0]
-            elif math.isinf(penalty):
-                theta = theta0
-            else:
-                lam = n * penalty
-                theta = np.linalg.solve(ata + lam * np.eye(len(theta0)), aty + lam * theta0)
+            rows = slice(removed, added)
+            theta = ridge_solve(a[rows], y[rows], theta0, penalty, gram=ata, moment=aty)
             pred[w] = a[windows[w]] @ theta
         return pred
     if inner == "radius+G":
@@ -517,11 +562,8 @@ def continuous_predictions(
             rows = windows[w]
             pred[w] = g_pred[rows]
             if radii is not None:
-                pred[w] += wpm_displacement_m(
-                    data.angle_rl_rad[rows], data.angle_rr_rad[rows], *radii
-                )
-                pred[w] -= wpm_displacement_m(
-                    data.angle_rl_rad[rows], data.angle_rr_rad[rows], *source_radii
+                pred[w] = radius_corrected(
+                    pred[w], data.angle_rl_rad[rows], data.angle_rr_rad[rows], radii, source_radii
                 )
         return pred
     raise ValueError(f"continuous: unknown inner recipe {inner!r}")

@@ -5,8 +5,9 @@ label of the samples contract: GNSS − WPM displacement per second, the WPM
 taken with the *source* calibration's rear radii (``source_radii``). For a
 model whose recipe refitted those radii (``radius+G``), the network's output
 is the error of the WPM with the refitted radii (``wpm_radii``), and
-:meth:`ServedModel.predict_label` adds the difference between the two WPMs,
-exactly as :func:`rwhonet.models.adapt.label_prediction` does; so
+:meth:`ServedModel.predict_label` adds the difference between the two WPMs
+(:func:`rwhonet.features.wpm.radius_corrected`, which
+:func:`rwhonet.models.adapt.label_prediction` calls too); so
 ``corrected = WPM(source radii) + predict_label`` for every model.
 
 The metadata (:class:`ServedMeta`, JSON) travels in the ONNX file's
@@ -27,7 +28,7 @@ import numpy as np
 
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.scaling import MinMaxScaler, scaler_from_dict
-from rwhonet.features.wpm import WPM_MODES, wpm_displacement_m
+from rwhonet.features.wpm import WPM_MODES, radius_corrected
 
 FORMAT = "rwhonet.served/1"
 META_KEY = "rwhonet"
@@ -231,14 +232,8 @@ class ServedModel:
                 ],
                 "inputs do not fit the model",
             )
-        return pred + self.radius_correction(angle_rl_rad, angle_rr_rad)
-
-    def radius_correction(self, angle_rl_rad: np.ndarray, angle_rr_rad: np.ndarray) -> np.ndarray:
-        """WPM with the model's radii minus WPM with the source radii (0 without own radii)."""
-        if self.meta.wpm_radii is None:
-            return np.zeros(len(angle_rl_rad))
-        return wpm_displacement_m(angle_rl_rad, angle_rr_rad, *self.meta.wpm_radii) - (
-            wpm_displacement_m(angle_rl_rad, angle_rr_rad, *self.meta.source_radii)
+        return radius_corrected(
+            pred, angle_rl_rad, angle_rr_rad, self.meta.wpm_radii, self.meta.source_radii
         )
 
 

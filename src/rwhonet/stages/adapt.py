@@ -14,8 +14,10 @@ on, never on a target test drive: every recipe on the target *training* drives
 
 One process per seed does all of it (a process costs more to start than all
 its recalibrations take); the recalibrations, independent of one another and
-each seeded on its own, run on every core (a fork pool), with identical
-results whatever the number of workers.
+each seeded on its own, run on every core (a fork pool). Each is a
+:class:`Job` carrying every input it reads (G, its drive's arrays, the recipe
+settings) to :func:`run_job`, and torch runs on one thread wherever it runs,
+so the results are identical whatever the number of workers.
 
 Outputs, all in ``models/r/seed<seed>/`` (one atomic folder):
 ``<recipe>/m<m>/`` with ``<drive>.pt`` (the model file; ``radius+G`` records its
@@ -31,26 +33,37 @@ from __future__ import annotations
 import multiprocessing
 import os
 import time
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 import pandas as pd
 
 from rwhonet import contracts, paths
-from rwhonet.config import Params
+from rwhonet.config import AdaptParams, Params
 from rwhonet.contracts import CONTINUOUS, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.calibration import calibration_from_dict
+from rwhonet.features.samples import SampleSet
 from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.progress import track
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
-from rwhonet.stages.samples import SampleSet, load_role
+from rwhonet.stages.samples import load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
 from rwhonet.tracking.timings import write_timing
+
+if TYPE_CHECKING:  # annotations only: the models (torch) are imported when the stage runs
+    from rwhonet.models.adapt import AdaptData, AdaptResult
+    from rwhonet.models.whonet import WhONet
+
+T = TypeVar("T")
+R = TypeVar("R")
 
 SELECTION = "selection"
 MAX_WORKERS = 4
@@ -77,21 +90,6 @@ def check_lengths(test: SampleSet, m_grid: list[int]) -> None:
         raise InputError(short, f"target test drives too short to adapt on their first {m} s")
 
 
-def adapt_data(samples: SampleSet, mask: np.ndarray):
-    """The :class:`~rwhonet.models.adapt.AdaptData` of the samples where ``mask`` holds."""
-    from rwhonet.models.adapt import AdaptData
-
-    f = samples.frame[mask]
-    return AdaptData(
-        samples.x[mask],
-        samples.y[mask],
-        *(
-            f[c].to_numpy(np.float64)
-            for c in (contracts.DISP_GNSS_M, contracts.ANGLE_RL_RAD, contracts.ANGLE_RR_RAD)
-        ),
-    )
-
-
 @dataclass(frozen=True)
 class Task:
     """One recalibration: a recipe (or a ridge penalty) on one drive's first m seconds."""
@@ -103,73 +101,113 @@ class Task:
     penalty: float | None = None  # ridge_head with this penalty (the source-drive study)
 
 
-# The fork pool's workers read the task inputs from here (set before the pool starts).
-_WORK: dict[str, Any] = {}
+@dataclass(frozen=True)
+class Job:
+    """A task with every input it needs: what a worker process receives, and all it reads.
+
+    Attributes:
+        task: what to do.
+        base: G-WhONet's network.
+        hparams: its hyperparameters.
+        fit: the drive's first m seconds (recalibrated on).
+        scored: every second of the drive (predicted).
+        adapt: the recipes' settings.
+        seed: the training seed (shuffling and dropout).
+        min_speed_m_s: the radius refit's moving-second threshold.
+        source_radii: the WPM's source calibration.
+    """
+
+    task: Task
+    base: WhONet
+    hparams: dict[str, Any]
+    fit: AdaptData
+    scored: AdaptData
+    adapt: AdaptParams
+    seed: int
+    min_speed_m_s: float
+    source_radii: tuple[float, float]
 
 
-def _run(task: Task) -> tuple[Task, np.ndarray, Any]:
-    """Recalibrate one drive and predict it all; the model comes back for target test drives."""
+def run_job(job: Job) -> tuple[np.ndarray, AdaptResult | None]:
+    """Recalibrate one drive and predict it all; the model comes back for target test drives.
+
+    A function of its argument alone, so the same job gives the same weights and
+    predictions in whichever process runs it.
+
+    Returns:
+        ``(label predictions of job.scored, the AdaptResult or None)``.
+    """
     from rwhonet.models.adapt import label_prediction, recalibrate, ridge_head
 
-    params: Params = _WORK["params"]
-    samples: SampleSet = _WORK["samples"][task.role]
-    drive = samples.frame["drive"].to_numpy()
-    first = (drive == task.drive) & (samples.frame["k"].to_numpy() < task.m)
+    task = job.task
     if task.penalty is not None:
-        result = ridge_head(
-            _WORK["g"], _WORK["hparams"], adapt_data(samples, first), penalty=task.penalty
-        )
+        result = ridge_head(job.base, job.hparams, job.fit, penalty=task.penalty)
     else:
         result = recalibrate(
             task.recipe,
-            _WORK["g"],
-            _WORK["hparams"],
-            adapt_data(samples, first),
-            adapt=params.adapt,
-            seed=_WORK["seed"],
-            min_speed_m_s=params.label.calibration_min_speed_m_s,
+            job.base,
+            job.hparams,
+            job.fit,
+            adapt=job.adapt,
+            seed=job.seed,
+            min_speed_m_s=job.min_speed_m_s,
         )
-    pred = label_prediction(result, adapt_data(samples, drive == task.drive), _WORK["radii"])
-    result.info["n_adapt_samples"] = int(first.sum())
+    pred = label_prediction(result, job.scored, job.source_radii)
+    result.info["n_adapt_samples"] = len(job.fit)
     keep = task.role == contracts.TARGET_TEST and task.penalty is None
-    return task, pred, result if keep else None
+    return pred, result if keep else None
 
 
-def _timed(task: Task) -> tuple[tuple[Task, np.ndarray, Any], tuple[int, int]]:
-    """:func:`_run` and when it ran (epoch ms): a run's time spans its drives' tasks."""
+def _timed(function: Callable[[T], R], item: T) -> tuple[R, tuple[int, int]]:
+    """``function(item)`` and when it ran (epoch ms): a run's time spans its drives' tasks."""
     start = now_ms()
-    done = _run(task)
+    done = function(item)
     return done, (start, now_ms())
 
 
-def _pool_map(tasks: list[Task]) -> list[tuple[tuple[Task, np.ndarray, Any], tuple[int, int]]]:
-    """Run the tasks on every core (forked workers share the loaded inputs), in order."""
-    workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(tasks), 1))
+def _pool_map(
+    function: Callable[[T], R], items: list[T], desc: str
+) -> list[tuple[R, tuple[int, int]]]:
+    """``function`` on every item, on every core, in order, each with when it ran.
+
+    Every worker gets its inputs as the items themselves (pickled), and runs torch on
+    one thread; so does this process when it runs them alone (one core, or one item),
+    so the results do not depend on the number of workers.
+    """
+    workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(items), 1))
+    timed = partial(_timed, function)
 
     def shown(results):
-        return list(
-            track(
-                results,
-                desc=f"adapt@{_WORK.get('seed', '')}",
-                unit="recalibration",
-                total=len(tasks),
-            )
-        )
+        return list(track(results, desc=desc, unit="recalibration", total=len(items)))
 
     if workers < 2:
-        return shown(_timed(t) for t in tasks)
+        with _one_thread_here():
+            return shown(timed(item) for item in items)
     # ProcessPoolExecutor rather than multiprocessing.Pool: if a worker dies (killed, out
     # of memory) the map raises BrokenProcessPool, where a Pool would wait forever.
     with ProcessPoolExecutor(
         workers, mp_context=multiprocessing.get_context("fork"), initializer=_one_thread
     ) as pool:
-        return shown(pool.map(_timed, tasks, chunksize=max(1, len(tasks) // (8 * workers))))
+        return shown(pool.map(timed, items, chunksize=max(1, len(items) // (8 * workers))))
 
 
 def _one_thread() -> None:
     import torch
 
     torch.set_num_threads(1)
+
+
+@contextmanager
+def _one_thread_here() -> Iterator[None]:
+    """torch on one thread in this process for a while (as in a pool's workers)."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
 
 
 def adapt_grid(
@@ -225,27 +263,18 @@ def adapt_grid(
         for d in samples[contracts.SOURCE_TEST].drives
     ]
     start = time.perf_counter()
-    _WORK.update(
-        params=params,
-        samples=samples,
-        g=g_net,
-        hparams=g_hparams,
-        seed=seed,
-        radii=(cal.r_rl_m, cal.r_rr_m),
-    )
-    try:
-        timed = _pool_map(tasks)
-        done = [d for d, _ in timed]
-        spans = {d[0]: span for d, span in timed}
-        continuous_start = now_ms()
-        continuous = {
-            role: _continuous(params, samples[role], g_net, g_hparams, (cal.r_rl_m, cal.r_rr_m))
-            for role in (contracts.TARGET_TEST, contracts.TARGET_TRAIN)
-            if CONTINUOUS in cfg.recipes and len(samples[role])
-        }
-        continuous_timing = Timing(continuous_start, now_ms())
-    finally:
-        _WORK.clear()
+    radii = (cal.r_rl_m, cal.r_rr_m)
+    jobs = _jobs(tasks, samples, g_net, g_hparams, params, seed, radii)
+    timed = _pool_map(run_job, jobs, desc=f"adapt@{seed}")
+    done = [(t, pred, result) for t, ((pred, result), _) in zip(tasks, timed, strict=True)]
+    spans = {t: span for t, (_, span) in zip(tasks, timed, strict=True)}
+    continuous_start = now_ms()
+    continuous = {
+        role: _continuous(params, samples[role], g_net, g_hparams, radii)
+        for role in (contracts.TARGET_TEST, contracts.TARGET_TRAIN)
+        if CONTINUOUS in cfg.recipes and len(samples[role])
+    }
+    continuous_timing = Timing(continuous_start, now_ms())
     seconds = time.perf_counter() - start
     records = []
     with atomic_dir(out_root) as tmp:
@@ -293,6 +322,46 @@ def adapt_grid(
     for record in records:
         write_timing(_record_dir(out_root, record), record.timing, stage=f"adapt@{seed}")
     return records, seconds
+
+
+def _jobs(
+    tasks: list[Task],
+    samples: dict[str, SampleSet],
+    g_net: WhONet,
+    g_hparams: dict[str, Any],
+    params: Params,
+    seed: int,
+    source_radii: tuple[float, float],
+) -> list[Job]:
+    """Every task with its inputs; the jobs of one drive share its arrays (no copy per job)."""
+    from rwhonet.models.adapt import adapt_data
+
+    arrays: dict[tuple[str, str, int | None], AdaptData] = {}
+
+    def data_of(role: str, drive: str, m: int | None) -> AdaptData:
+        key = (role, drive, m)
+        if key not in arrays:
+            s = samples[role]
+            mask = s.frame["drive"].to_numpy() == drive
+            if m is not None:
+                mask &= s.frame["k"].to_numpy() < m
+            arrays[key] = adapt_data(s, mask)
+        return arrays[key]
+
+    return [
+        Job(
+            task=t,
+            base=g_net,
+            hparams=g_hparams,
+            fit=data_of(t.role, t.drive, t.m),
+            scored=data_of(t.role, t.drive, None),
+            adapt=params.adapt,
+            seed=seed,
+            min_speed_m_s=params.label.calibration_min_speed_m_s,
+            source_radii=source_radii,
+        )
+        for t in tasks
+    ]
 
 
 def _record_dir(out_root: Path, record: RunRecord) -> Path:
@@ -363,7 +432,7 @@ def _continuous(
     params: Params, samples: SampleSet, g_net, g_hparams: dict, source_radii: tuple[float, float]
 ) -> dict[int, np.ndarray]:
     """The continuous recipe on every drive of a sample set: one prediction column per outage."""
-    from rwhonet.models.adapt import continuous_predictions
+    from rwhonet.models.adapt import adapt_data, continuous_predictions
 
     cfg = params.adapt.continuous
     frame = samples.frame

@@ -4,48 +4,25 @@ Reads every drive listed by ``data.roles`` (IO-VNBD layout or a column map),
 converts it to canonical names in SI units, adds the ``scenario`` column from
 an optional ``<drive>.scenarios.json`` sidecar, and writes everything at once
 (:func:`rwhonet.io.atomic_dir`): after a failure the previous output is left
-as it was. Rows are kept exactly as in the file, in order (row ``i`` is data
-row ``i + 1`` of the source file), so ``validate`` can point at the file's rows.
+as it was. Reading one file (its reader, size limit and canonical table) is
+:mod:`rwhonet.data.drivefile`'s, which ``rwhonet recalibrate`` uses too; rows
+are kept exactly as in the file, in order (row ``i`` is data row ``i + 1`` of
+the source file), so ``validate`` can point at the file's rows.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import pyarrow as pa
-
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, DataParams, Params
-from rwhonet.data import canonical as c
-from rwhonet.data.columnmap import check_column_map, read_columnmap
-from rwhonet.data.csvio import RawDrive
-from rwhonet.data.iovnbd import read_iovnbd
-from rwhonet.data.scenarios import (
-    ScenarioInterval,
-    read_scenarios,
-    scenario_codes,
-    sidecar_path,
-)
+from rwhonet.data.columnmap import check_column_map
+from rwhonet.data.drivefile import IOVNBD, DriveFile, out_of_memory, read_canonical
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_dir, system_memory_pool, write_json, write_parquet
 from rwhonet.progress import track
-
-IOVNBD = "iovnbd"
-
-
-@dataclass(frozen=True)
-class DriveFile:
-    """One raw drive file and what params say about it."""
-
-    drive: str  # drive id = file stem
-    role: str
-    vehicle: str
-    format: str  # "iovnbd" or a column map name
-    path: Path
 
 
 def check_data_params(data: DataParams) -> None:
@@ -137,126 +114,6 @@ def discover(data: DataParams) -> list[DriveFile]:
     return files
 
 
-def read_drive(f: DriveFile, data: DataParams) -> RawDrive:
-    """Read one drive file with the reader its format names, if it is not too large.
-
-    The readers stream the file, but the drive is then held in memory (here and in
-    validate), so a file above ``data.max_file_mb`` is refused before it is read, and
-    running out of memory while reading is reported as a problem of that file.
-
-    Args:
-        f: the drive file.
-        data: the ``data`` section (for column maps and the size limit).
-
-    Returns:
-        The drive's channels, canonical names, SI units.
-
-    Raises:
-        InputError: the file is too large, runs out of memory, or its reader refuses it.
-    """
-    file = paths.rel(f.path)
-    try:
-        size_mb = f.path.stat().st_size / 2**20
-    except OSError as err:  # gone since it was listed, or unreadable
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "a readable file",
-                    f"{type(err).__name__}: {err.strerror}",
-                    "check that the file is there and readable (permissions), then run again",
-                )
-            ]
-        ) from None
-    if size_mb > data.max_file_mb:
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    f"a drive file of at most {data.max_file_mb:g} MB (data.max_file_mb)",
-                    _mb(size_mb),
-                    f"{SPLIT_DRIVE}, or raise data.max_file_mb on a machine with the memory "
-                    "(validate holds about 3x the file's size)",
-                )
-            ]
-        )
-    try:
-        if f.format == IOVNBD:
-            return read_iovnbd(f.path, file)
-        return read_columnmap(f.path, data.column_maps[f.format], f.format, file)
-    except MemoryError:
-        raise _out_of_memory(f) from None
-
-
-SPLIT_DRIVE = "split the drive into several files (one per trip)"
-
-
-def _mb(size_mb: float) -> str:
-    return f"{size_mb:,.0f} MB" if size_mb >= 10 else f"{size_mb:.3g} MB"
-
-
-def _out_of_memory(f: DriveFile) -> InputError:
-    size_mb = f.path.stat().st_size / 2**20 if f.path.exists() else float("nan")
-    return InputError(
-        [
-            Problem(
-                paths.rel(f.path),
-                None,
-                None,
-                "a drive that fits in this machine's memory",
-                f"out of memory on its {_mb(size_mb)}",
-                f"{SPLIT_DRIVE}, or run on a machine with more memory (ingest holds about "
-                "1.5x the file's size, validate about 3x), and lower data.max_file_mb to what "
-                "fits",
-            )
-        ]
-    )
-
-
-def canonical_table(raw: RawDrive, scenario: np.ndarray | pa.Array) -> pa.Table:
-    """Assemble the canonical drive table: required, then optional channels, then ``scenario``.
-
-    Every column is declared non-nullable: channels are float64 with missing values as NaN
-    (never Arrow nulls), and a row without tags has ``""``. Parquet then stores no
-    definition levels, which halves the time to write and to read the channels.
-
-    Args:
-        raw: the channels read from the file.
-        scenario: per-row scenario labels (strings, or an Arrow string array).
-
-    Returns:
-        An Arrow table with float64 channels and a string ``scenario`` column.
-    """
-    order = [name for name in (*c.REQUIRED, *c.OPTIONAL) if name in raw.columns]
-    arrays = [pa.array(raw.columns[name], type=pa.float64()) for name in order]
-    arrays.append(scenario if isinstance(scenario, pa.Array) else pa.array(scenario, pa.string()))
-    schema = pa.schema(
-        [pa.field(name, pa.float64(), nullable=False) for name in order]
-        + [pa.field(c.SCENARIO, pa.string(), nullable=False)]
-    )
-    return pa.Table.from_arrays(arrays, schema=schema)
-
-
-def scenario_array(t_s: np.ndarray, intervals: list[ScenarioInterval]) -> pa.Array:
-    """Return a drive's ``scenario`` column as an Arrow string array.
-
-    Args:
-        t_s: row times, s.
-        intervals: the drive's tagged intervals (:func:`rwhonet.data.scenarios.read_scenarios`).
-
-    Returns:
-        One ';'-joined tag string per row (:func:`rwhonet.data.scenarios.scenario_column`).
-    """
-    labels, codes = scenario_codes(t_s, intervals)
-    # Arrow copies the few distinct labels per row in C++, rather than building one
-    # Python string per row and converting them.
-    return pa.array(labels, type=pa.string()).take(pa.array(codes))
-
-
 @system_memory_pool()
 def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None) -> dict[str, Any]:
     """Read every drive of ``data.roles`` and write the canonical drives with their manifest.
@@ -342,17 +199,13 @@ def _write_drive(f: DriveFile, data: DataParams, tmp: Path, write: bool) -> dict
     Raises:
         InputError: the file's problems, or running out of memory on it.
     """
-    raw = read_drive(f, data)
-    sidecar = sidecar_path(f.path)
-    intervals = read_scenarios(sidecar, paths.rel(sidecar)) if sidecar.is_file() else []
+    drive = read_canonical(f, data, paths.rel)
+    raw = drive.raw
     if write:  # else the stage will fail: don't spend time writing
         try:
-            write_parquet(
-                canonical_table(raw, scenario_array(raw.columns[c.T_S], intervals)),
-                tmp / f"{f.drive}.parquet",
-            )
+            write_parquet(drive.table(), tmp / f"{f.drive}.parquet")
         except MemoryError:
-            raise _out_of_memory(f) from None
+            raise out_of_memory(f, paths.rel) from None
     return {
         "drive": f.drive,
         "role": f.role,
@@ -362,7 +215,7 @@ def _write_drive(f: DriveFile, data: DataParams, tmp: Path, write: bool) -> dict
         "n_rows": raw.n_rows,
         "header_match": raw.header_match,
         "columns": raw.source_columns,
-        "scenarios_file": paths.rel(sidecar) if sidecar.is_file() else None,
+        "scenarios_file": None if drive.sidecar is None else paths.rel(drive.sidecar),
     }
 
 

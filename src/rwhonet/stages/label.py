@@ -43,7 +43,7 @@ from rwhonet.features.calibration import (
 )
 from rwhonet.features.labels import sample_table
 from rwhonet.features.scaling import fit_scaler
-from rwhonet.features.seconds import SegmentSeconds, segment_seconds
+from rwhonet.features.seconds import SegmentSeconds, segment_arrays, segment_seconds
 from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
 from rwhonet.progress import track
 
@@ -167,30 +167,6 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
     return segment_arrays(
         file.read(columns=[col for col in (*c.REQUIRED, c.SCENARIO) if col in present])
     )
-
-
-def segment_arrays(table: pa.Table) -> dict[str, np.ndarray | pa.ChunkedArray]:
-    """The columns of a segment (an Arrow table) the per-second computation takes.
-
-    Args:
-        table: a segment in canonical columns (validate's output, or a slice of a drive).
-
-    Returns:
-        ``t_s, lat_deg, lon_deg, omega_*`` as float64 numpy arrays (wheel speeds as
-        magnitudes) and ``scenario`` as it is (Arrow), for
-        :func:`rwhonet.features.seconds.segment_seconds`.
-    """
-    arrays = {
-        name: table[name] if name == c.SCENARIO else np.asarray(table[name], dtype=np.float64)
-        for name in table.column_names
-        if name in (*c.REQUIRED, c.SCENARIO)
-    }
-    # Wheel speeds are magnitudes; validate lets negative ones through only where a logger
-    # that signs its speeds recorded reversing (all four wheels together).
-    for name in c.WHEELS:
-        if name in arrays:
-            arrays[name] = np.abs(arrays[name])
-    return arrays
 
 
 def calibrate(

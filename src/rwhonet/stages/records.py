@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from rwhonet.config import Params, flatten
-from rwhonet.stages.samples import SampleSet
+from rwhonet.features.samples import SampleSet
 
 
 def model_params(params: Params, seed: int, *sections: str) -> dict[str, object]:

@@ -16,10 +16,11 @@ from typing import Literal
 
 from rwhonet import contracts, paths
 from rwhonet.config import Params
+from rwhonet.features.samples import split_tail
 from rwhonet.io import atomic_dir, write_json
 from rwhonet.progress import interactive
 from rwhonet.stages.records import history_rows, model_params, predictions_frame
-from rwhonet.stages.samples import load_role, split_tail
+from rwhonet.stages.samples import load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
 from rwhonet.tracking.timings import write_timing
 

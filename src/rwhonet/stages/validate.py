@@ -1,12 +1,10 @@
 """DVC stage ``validate``: canonical drives -> GNSS-valid segments + ``reports/validation.json``.
 
 For every ingested drive: the pandera schema (:mod:`rwhonet.data.schema`, run on
-several drives stacked at once, each reported on its own), then the GNSS-quality
-policy (:mod:`rwhonet.data.quality`), then the plausibility checks
-(:mod:`rwhonet.data.plausibility`): wheel speeds are magnitudes, no wheel sensor
-stuck while the car moves, latitude and longitude not swapped, wheel speeds in
-rad/s (the implied tyre radius); and a target test drive keeps enough valid
-seconds to adapt on ``max(adapt.m_grid)`` s and score the shortest outage.
+several drives stacked at once, each reported on its own), then the per-drive
+checks of :mod:`rwhonet.data.drivechecks` (the GNSS-quality policy, the wheel
+sensors, the plausibility of units and coordinates, a target test drive's
+length), which ``rwhonet recalibrate`` runs on a new car's drive too.
 
 Any problem in any drive fails the stage with one report of all of them and
 writes nothing to its outputs; the full report of the failed run (every
@@ -31,22 +29,9 @@ import pyarrow.parquet as pq
 
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
-from rwhonet.data import canonical as c
-from rwhonet.data.plausibility import (
-    gnss_path_m,
-    implied_radius,
-    latlon_swapped_by_range,
-    negative_wheel_rows,
-    radians_radius,
-    reversing_rows,
-    silent_wheel_runs,
-    stale_wheel_runs,
-    stuck_wheel_runs,
-    swapped_radius,
-    unit_mistake,
-)
-from rwhonet.data.problems import ROWS_LISTED
-from rwhonet.data.quality import RULES, Assessment, assess, manual_rows
+from rwhonet.data.drivechecks import check_drive, target_test_min_s
+from rwhonet.data.plausibility import reversing_rows
+from rwhonet.data.quality import RULES, Assessment, segment_name
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
@@ -57,11 +42,6 @@ CONVENTION = (
     "t_start_s < t_s <= t_end_s, 1/sample_period_s rows per second (k-1, k], so n_rows = "
     "n_seconds / sample_period_s + 1"
 )
-
-
-def segment_name(drive: str, k: int) -> str:
-    """Return the id of the ``k``-th segment of a drive (``V-S1__s000``; sorts in time order)."""
-    return f"{drive}__s{k:03d}"
 
 
 def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
@@ -92,11 +72,6 @@ def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
     if issues:
         raise ConfigError("\n".join(issues))
     return by_drive
-
-
-def target_test_min_s(params: Params) -> int:
-    """Valid seconds a target test drive needs: adapt on max(m), then score the shortest outage."""
-    return max(params.adapt.m_grid) + min(params.evaluate.outages_s)
 
 
 @system_memory_pool()
@@ -236,43 +211,6 @@ def validate(
     return report
 
 
-def check_drive(
-    params: Params,
-    entry: dict[str, Any],
-    df: pd.DataFrame,
-    schema_found: list[Problem],
-    drive_cuts: list[CutSpec],
-) -> tuple[list[Problem], Assessment | None, dict[str, Any] | None]:
-    """Everything validate checks on one drive after its schema, and its GNSS-valid segments.
-
-    The GNSS-quality policy runs on a drive that passed the schema (wheel speeds out of
-    range alone don't stop it, so the unit check can tell rpm or deg/s apart), then the
-    wheel-sensor and plausibility checks. ``rwhonet recalibrate`` checks a new car's
-    drive with this too.
-
-    Args:
-        params: the project parameters (``validate``, the vehicle's nominal radius).
-        entry: the drive as the ingest manifest lists it (``drive``, ``role``, ``vehicle``,
-            ``source_file``, ``columns``).
-        df: the canonical drive.
-        schema_found: its schema problems (:func:`rwhonet.data.schema.schema_problems`).
-        drive_cuts: its manual cuts (``validate.cuts``).
-
-    Returns:
-        ``(problems, assessment, radius check)``; the assessment and radius check are
-        None when the schema problems stopped the drive before the GNSS policy.
-    """
-    vp = params.validate
-    found = _swapped_by_range(schema_found, df, entry)
-    result = radius = None
-    if not found or _only_wheel_ranges(found, df, entry["columns"]):
-        result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts)
-        wheels = _wheel_problems(params, entry, df, drive_cuts, result)
-        more, radius = _drive_problems(params, entry, df, result, check_units=not wheels)
-        found = found + wheels + more
-    return found, result, radius
-
-
 # Drives stacked for one pandera call hold at most this many rows. pandera has a fixed cost
 # per call whatever the rows, so drives are validated in batches rather than one by one;
 # bounding a batch bounds the memory held at once (benchmarks/bench_data.py).
@@ -330,338 +268,6 @@ def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch
         pending.append((entry, table))
     if pending:
         yield _Batch([e for e, _ in pending], [t for _, t in pending])
-
-
-# Wheel speeds out of range (inf included) reach these checks on purpose (the unit check
-# tells rpm from deg/s): arithmetic on them must not warn, the problems say it.
-@np.errstate(invalid="ignore", over="ignore", divide="ignore")
-def _drive_problems(
-    params: Params,
-    entry: dict[str, Any],
-    df: pd.DataFrame,
-    result: Assessment,
-    check_units: bool = True,
-) -> tuple[list[Problem], dict[str, Any]]:
-    """Problems of a schema-valid drive after the GNSS policy, and its radius check.
-
-    ``check_units`` False skips the radius check (a stuck or negated wheel already
-    explains a wrong radius, and the unit message would only confuse).
-    """
-    vp = params.validate
-    file, columns = entry["source_file"], entry["columns"]
-    problems = []
-    t0, t1 = float(df[c.T_S].iloc[0]), float(df[c.T_S].iloc[-1])
-    for i, cut in enumerate(params.validate.cuts):
-        if cut.drive == entry["drive"] and (cut.end_s < t0 or cut.start_s > t1):
-            problems.append(
-                Problem(
-                    "params.yaml",
-                    None,
-                    f"validate.cuts[{i}]",
-                    f"an interval overlapping {entry['drive']}'s time span {t0}-{t1} s (its "
-                    "own clock)",
-                    f"{cut.start_s}-{cut.end_s} s",
-                    "give start_s and end_s in the drive's own time column (seconds of the "
-                    "day for IO-VNBD), not seconds from its start",
-                )
-            )
-    if not result.segments:
-        by_rule = sorted(result.cut_seconds_by_rule.items(), key=lambda kv: -kv[1])
-        problems.append(
-            Problem(
-                file,
-                None,
-                None,
-                f"at least one GNSS-valid stretch of >= {vp.gnss.min_segment_s} s",
-                f"none: all {result.n_seconds} s cut, "
-                + ", ".join(f"{rule} {s} s" for rule, s in by_rule if s)
-                + f" (rule {by_rule[0][0]}: {_first_detail(result, by_rule[0][0])})",
-                "leave this drive out, repair its GNSS data, or relax the rule that cut it "
-                "(validate.gnss) if it is too strict for this receiver",
-            )
-        )
-        return problems, {"checked": False, "note": "no valid segment"}
-
-    need = target_test_min_s(params)
-    if entry["role"] == contracts.TARGET_TEST and result.seconds_kept < need:
-        cut = ", ".join(f"{r} {n} s" for r, n in result.cut_seconds_by_rule.items() if n)
-        problems.append(
-            Problem(
-                file,
-                None,
-                None,
-                f"a target test drive with at least {need} GNSS-valid seconds: "
-                f"max(adapt.m_grid) = {max(params.adapt.m_grid)} s to adapt on, then "
-                f"min(evaluate.outages_s) = {min(params.evaluate.outages_s)} s to score",
-                f"{entry['drive']} keeps {result.seconds_kept} valid s of its "
-                f"{result.n_seconds} s" + (f" (cut: {cut})" if cut else ""),
-                "use a longer drive as target test drive (this one can serve as target_train), "
-                "or lower adapt.m_grid",
-            )
-        )
-
-    nominal = params.nominal_radius_m(entry["vehicle"])
-    est = implied_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
-    radius = {
-        "implied_m": None if np.isnan(est.radius_m) else est.radius_m,
-        "nominal_m": nominal,
-        "moving_s": est.moving_s,
-        "checked": est.moving_s >= vp.radius_min_moving_s and check_units,
-    }
-    if not check_units:
-        radius["note"] = "unit check skipped: a wheel sensor problem explains the radius"
-        return problems, radius
-    if not radius["checked"]:
-        radius["note"] = (
-            f"only {est.moving_s} moving s in valid segments (< validate.radius_min_moving_s "
-            f"{vp.radius_min_moving_s}): unit check skipped"
-        )
-        return problems, radius
-    radius["ratio"] = est.radius_m / nominal
-    mistake = unit_mistake(est.radius_m, nominal, vp.radius_tolerance)
-    if mistake:
-        swapped = swapped_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
-        if unit_mistake(swapped.radius_m, nominal, vp.radius_tolerance) is None:
-            problems.append(_swapped_problem(entry, est.radius_m, swapped.radius_m, nominal))
-            return problems, radius
-        in_degrees = radians_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
-        if (
-            in_degrees is not None
-            and unit_mistake(in_degrees.radius_m, nominal, vp.radius_tolerance) is None
-        ):
-            lat, lon = (columns.get(x, x) for x in (c.LAT_DEG, c.LON_DEG))
-            problems.append(
-                Problem(
-                    file,
-                    None,
-                    f"{lat} / {lon}",
-                    "latitude and longitude in decimal degrees",
-                    "latitude and longitude look like radians: every value within ±π, and "
-                    f"the wheels imply a tyre radius of {est.radius_m:.4g} m as they are, "
-                    f"{in_degrees.radius_m:.4g} m (nominal {nominal} m) in degrees",
-                    "convert both columns to degrees (x 180/π)",
-                )
-            )
-            return problems, radius
-        problems.append(
-            Problem(
-                file,
-                None,
-                f"{columns.get(c.OMEGA_RL, c.OMEGA_RL)} / {columns.get(c.OMEGA_RR, c.OMEGA_RR)}",
-                f"rear wheel speeds in rad/s implying an effective radius within "
-                f"±{vp.radius_tolerance:.0%} of {entry['vehicle']}'s nominal {nominal} m "
-                f"(GNSS distance / wheel angle over {est.moving_s} moving s)",
-                mistake,
-                "convert the wheel speeds to rad/s (a column map can declare rpm or deg/s), "
-                f"or correct data.vehicles.{entry['vehicle']}.nominal_radius_m",
-            )
-        )
-    return problems, radius
-
-
-def _swapped_problem(
-    entry: dict[str, Any],
-    radius_m: float | None,
-    swapped_m: float | None,
-    nominal_m: float | None,
-) -> Problem:
-    """Latitude and longitude look swapped (by the radius they imply, or by their ranges)."""
-    columns = entry["columns"]
-    lat, lon = columns.get(c.LAT_DEG, c.LAT_DEG), columns.get(c.LON_DEG, c.LON_DEG)
-    if radius_m is None:
-        evidence = (
-            f"most values of {lat!r} lie beyond ±90 deg and every value of {lon!r} within ±90 deg"
-        )
-    else:
-        evidence = (
-            f"the wheels imply a tyre radius of {radius_m:.4g} m as the columns are, and "
-            f"{swapped_m:.4g} m (nominal {nominal_m} m) with the two exchanged"
-        )
-    return Problem(
-        entry["source_file"],
-        None,
-        f"{lat} / {lon}",
-        f"the latitude in {lat!r} and the longitude in {lon!r}",
-        f"latitude and longitude look swapped: {evidence}",
-        "exchange the two columns (their names in the header, or lat and lon in the column map)",
-    )
-
-
-def _swapped_by_range(
-    found: list[Problem], df: pd.DataFrame, entry: dict[str, Any]
-) -> list[Problem]:
-    """Replace the latitude range failures of a drive with swapped columns by one problem."""
-    lat = entry["columns"].get(c.LAT_DEG, c.LAT_DEG)
-    if not any(p.column == lat and "latitude in [-90, 90]" in p.expected for p in found):
-        return found
-    if not latlon_swapped_by_range(df[c.LAT_DEG].to_numpy(), df[c.LON_DEG].to_numpy()):
-        return found
-    rest = [p for p in found if not (p.column == lat and "latitude in [-90, 90]" in p.expected)]
-    return [_swapped_problem(entry, None, None, None), *rest]
-
-
-@np.errstate(invalid="ignore", over="ignore", divide="ignore")
-def _wheel_problems(
-    params: Params,
-    entry: dict[str, Any],
-    df: pd.DataFrame,
-    drive_cuts: list[CutSpec],
-    result: Assessment,
-) -> list[Problem]:
-    """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all."""
-    vp = params.validate
-    file, columns = entry["source_file"], entry["columns"]
-    ignore = manual_rows(df[c.T_S].to_numpy(np.float64), drive_cuts)
-    problems = []
-    t = df[c.T_S].to_numpy(np.float64)
-    negative = negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore)
-    reversing = reversing_rows(df, vp.wheels.negative_tol_rad_s) if negative else None
-    for wheel, rows in negative.items():
-        values = df[wheel].to_numpy(np.float64)
-        moving = int((np.abs(values) > vp.gnss.moving_wheel_speed_rad_s).sum())
-        share = rows.size / max(moving, 1)
-        if share <= vp.wheels.signed_max_share and reversing[rows].all():
-            continue  # a signing logger's reversing: label takes the magnitudes
-        what = (
-            "the column looks negated (a sign error in the export)"
-            if share > vp.wheels.signed_max_share
-            else "one wheel negative while another turns forwards (not reversing)"
-        )
-        problems.append(
-            Problem(
-                file,
-                int(rows[0]) + 1,
-                columns.get(wheel, wheel),
-                "wheel speeds as magnitudes >= 0 (as ABS sensors give them), or all four "
-                "negative together while reversing on at most "
-                f"{vp.wheels.signed_max_share:.0%} of the moving rows "
-                f"(validate.wheels.negative_tol_rad_s {vp.wheels.negative_tol_rad_s}, "
-                "signed_max_share)",
-                f"{values[rows[0]]:.6g} rad/s, negative in {rows.size} row(s) (rows "
-                f"{int(rows[0]) + 1}-{int(rows[-1]) + 1}; {share:.0%} of the moving rows) while "
-                f"GNSS moved {gnss_path_m(df, rows):.0f} m: {what}",
-                "export the absolute wheel speeds (|value|), or negate this column: the "
-                "pipeline takes the direction from GNSS, never from the wheel speed's sign",
-            )
-        )
-    runs = stuck_wheel_runs(df, vp.wheels, vp.sample_period_s, ignore)
-    by_wheel: dict[str, list] = {}
-    for run in runs:
-        by_wheel.setdefault(run.wheel, []).append(run)
-    for wheel, wheel_runs in by_wheel.items():
-        for run in wheel_runs[:ROWS_LISTED]:
-            start, end = t[run.row_start], t[run.row_stop - 1]
-            problems.append(
-                Problem(
-                    file,
-                    run.row_start + 1,
-                    columns.get(wheel, wheel),
-                    "each wheel turning with the others while the car moves (at least "
-                    f"{vp.wheels.stuck_ratio} x the median of the four wheels for any "
-                    f"{vp.wheels.stuck_min_s} s; validate.wheels)",
-                    f"at most {run.reading_max_rad_s:.3g} rad/s for "
-                    f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
-                    f"{run.row_start + 1}-{run.row_stop}, t = {start:.6g}-{end:.6g} s) while "
-                    f"the median wheel turned at {run.others_median_rad_s:.3g} rad/s and GNSS "
-                    f"moved {gnss_path_m(df, np.arange(run.row_start, run.row_stop)):.0f} m: "
-                    "a stuck or disconnected wheel-speed sensor",
-                    "check this wheel's sensor and channel in the export; to keep the rest of "
-                    "the drive, cut the stretch: validate.cuts: [{drive: "
-                    f"{entry['drive']}, start_s: {np.floor(start):.0f}, end_s: "
-                    f"{np.ceil(end):.0f}, reason: stuck wheel sensor}}]",
-                )
-            )
-        if len(wheel_runs) > ROWS_LISTED:
-            problems.append(
-                Problem(
-                    file,
-                    None,
-                    columns.get(wheel, wheel),
-                    problems[-1].expected,
-                    f"{len(wheel_runs) - ROWS_LISTED} more stretch(es) like these",
-                    problems[-1].fix,
-                )
-            )
-    silent = silent_wheel_runs(
-        df,
-        result.segments,
-        params.nominal_radius_m(entry["vehicle"]),
-        vp.wheels,
-        vp.sample_period_s,
-        ignore,
-    )
-    wheels = " / ".join(columns.get(w, w).strip() for w in c.WHEELS)
-    for run in silent[:ROWS_LISTED]:
-        start, end = t[run.row_start], t[run.row_stop - 1]
-        problems.append(
-            Problem(
-                file,
-                run.row_start + 1,
-                wheels,
-                "wheel speeds that follow the GNSS speed (the median of the four at least "
-                f"{vp.wheels.stuck_ratio} x GNSS speed / nominal radius, whenever that exceeds "
-                f"{vp.wheels.stuck_moving_rad_s} rad/s for {vp.wheels.stuck_min_s} s; "
-                "validate.wheels)",
-                f"all four at most {run.wheels_max_rad_s:.3g} rad/s for "
-                f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
-                f"{run.row_start + 1}-{run.row_stop}, t = {start:.6g}-{end:.6g} s) while GNSS "
-                f"moved {run.gnss_m:.0f} m at up to {run.gnss_max_m_s:.3g} m/s: no wheel data "
-                "(a CAN channel that stopped logging, or wheel columns left as zeros?)",
-                "export the wheel speeds of this stretch; to keep the rest of the drive, cut "
-                f"it: validate.cuts: [{{drive: {entry['drive']}, start_s: "
-                f"{np.floor(start):.0f}, end_s: {np.ceil(end):.0f}, reason: no wheel data}}]",
-            )
-        )
-    if len(silent) > ROWS_LISTED:
-        problems.append(
-            Problem(
-                file,
-                None,
-                wheels,
-                problems[-1].expected,
-                f"{len(silent) - ROWS_LISTED} more stretch(es) like these",
-                problems[-1].fix,
-            )
-        )
-    stale = stale_wheel_runs(
-        df,
-        result.segments,
-        params.nominal_radius_m(entry["vehicle"]),
-        vp.wheels,
-        vp.sample_period_s,
-        ignore,
-    )
-    for run in stale[:ROWS_LISTED]:
-        start, end = t[run.row_start], t[run.row_stop - 1]
-        problems.append(
-            Problem(
-                file,
-                run.row_start + 1,
-                wheels,
-                "wheel speeds that change with the car's speed (never all four repeating one "
-                f"value for {vp.wheels.stuck_min_s} s while GNSS speed changes by more than "
-                f"{vp.wheels.stuck_moving_rad_s} rad/s x the nominal radius; validate.wheels)",
-                f"the same values (median {run.wheels_rad_s:.4g} rad/s) in every row for "
-                f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
-                f"{run.row_start + 1}-{run.row_stop}, t = {start:.6g}-{end:.6g} s) while the "
-                f"GNSS speed went between {run.gnss_min_m_s:.3g} and {run.gnss_max_m_s:.3g} "
-                "m/s: stale wheel data (a logger repeating the last CAN value?)",
-                "export the wheel speeds of this stretch; to keep the rest of the drive, cut "
-                f"it: validate.cuts: [{{drive: {entry['drive']}, start_s: "
-                f"{np.floor(start):.0f}, end_s: {np.ceil(end):.0f}, reason: stale wheel data}}]",
-            )
-        )
-    return problems
-
-
-def _only_wheel_ranges(found: list[Problem], df: pd.DataFrame, columns: dict[str, str]) -> bool:
-    """Whether a drive's only schema problems are wheel speeds out of range (no NaN)."""
-    wheels = {columns.get(w, w) for w in c.WHEELS}
-    return all(p.column in wheels for p in found) and not df[list(c.WHEELS)].isna().any(axis=None)
-
-
-def _first_detail(result: Assessment, rule: str) -> str:
-    return next(cut.detail for cut in result.cuts if cut.rule == rule)
 
 
 def _refused_report(

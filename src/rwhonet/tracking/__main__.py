@@ -7,7 +7,7 @@ it at once (two runs of alembic's ALTER TABLE collide), e.g. under
 
 import sys
 
-from rwhonet.stage import quiet
+from rwhonet.libraries import quiet
 
 
 def main(argv: list[str]) -> int:

@@ -24,10 +24,11 @@ import pytest
 
 from rwhonet import paths
 from rwhonet.config import ConfigError
+from rwhonet.data.drivechecks import target_test_min_s
 from rwhonet.errors import InputError
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.label import label
-from rwhonet.stages.validate import target_test_min_s, validate
+from rwhonet.stages.validate import validate
 from support.corpus import (
     CASES,
     DRIVE,
