@@ -5,11 +5,11 @@ Usage: python pipelines/adapt.py --seed SEED
 
 import argparse
 
-from rwhonet import stage
+from rwhonet import runner
 from rwhonet.stages import adapt
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seed", type=int, required=True, help="training seed (one of params seeds)")
     seed = ap.parse_args().seed
-    stage.run("adapt", lambda params: adapt.main(params, seed))
+    runner.run("adapt", lambda params: adapt.main(params, seed))

@@ -1,7 +1,7 @@
 """DVC stage simulate: params.yaml `sim` -> simulated drives in the IO-VNBD layout (data/sim)."""
 
-from rwhonet import stage
+from rwhonet import runner
 from rwhonet.stages import simulate
 
 if __name__ == "__main__":
-    stage.run("simulate", simulate.main)
+    runner.run("simulate", simulate.main)

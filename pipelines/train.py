@@ -5,7 +5,7 @@ Usage: python pipelines/train.py G|S --seed SEED
 
 import argparse
 
-from rwhonet import stage
+from rwhonet import runner
 from rwhonet.stages import train
 
 if __name__ == "__main__":
@@ -14,4 +14,4 @@ if __name__ == "__main__":
     ap.add_argument("--seed", type=int, required=True, help="training seed (one of params seeds)")
     args = ap.parse_args()
     which, seed = args.which, args.seed
-    stage.run(f"train_{which.lower()}", lambda params: train.main(params, which, seed))
+    runner.run(f"train_{which.lower()}", lambda params: train.main(params, which, seed))

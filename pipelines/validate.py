@@ -1,7 +1,7 @@
 """DVC stage validate: pandera schema + GNSS-quality policy -> valid segments and a report."""
 
-from rwhonet import stage
+from rwhonet import runner
 from rwhonet.stages import validate
 
 if __name__ == "__main__":
-    stage.run("validate", validate.main)
+    runner.run("validate", validate.main)

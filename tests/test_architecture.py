@@ -3,7 +3,7 @@
 - Every module a DVC stage imports (its entry script's import closure, lazy imports
   inside functions included) lies under one of the stage's ``deps`` in dvc.yaml, so
   changing it makes DVC re-run the stage. (Which params a stage reads is enforced at
-  run time: ``rwhonet.stage.run`` hands a stage only the params dvc.yaml declares.)
+  run time: ``rwhonet.runner.run`` hands a stage only the params dvc.yaml declares.)
 - Every declared param exists in params.yaml.
 - Domain packages never import the stage layer, the project paths or MLflow tracking,
   and nothing in src/ imports pipelines/.
@@ -22,7 +22,7 @@ from rwhonet import paths
 SRC = paths.ROOT / "src"
 PACKAGE = "rwhonet"
 DOMAIN = ("sim", "data", "geo", "features", "models", "evaluation", "serve", "nav")
-INFRA = ("rwhonet.paths", "rwhonet.stage", "rwhonet.stages", "rwhonet.tracking", "pipelines")
+INFRA = ("rwhonet.paths", "rwhonet.runner", "rwhonet.stages", "rwhonet.tracking", "pipelines")
 
 
 def module_file(module: str) -> Path | None:

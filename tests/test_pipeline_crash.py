@@ -1,7 +1,7 @@
 """Crash tests: a training stage killed mid-epoch, on the `ci` profile in a scratch copy.
 
 Every stage writes its outputs atomically (``rwhonet.io.atomic_outputs``) and
-records a failure in MLflow (``rwhonet.stage.run``). Here the real
+records a failure in MLflow (``rwhonet.runner.run``). Here the real
 ``train_g@1`` stage is stopped while Lightning trains, three ways:
 
 - SIGKILL to the stage script run by hand: the previous outputs stay, byte for

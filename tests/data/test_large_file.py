@@ -30,7 +30,7 @@ COLUMNS_MB = 15 * 8 * ROWS / 2**20
 # Imports first, then the limit, then the stage as `python pipelines/ingest.py` runs it.
 CHILD = """
 import atexit, json, resource, sys
-from rwhonet import stage
+from rwhonet import runner
 from rwhonet.stages import ingest
 import pyarrow.parquet, pandas
 def vm_bytes():
@@ -44,7 +44,7 @@ def report():
     print(json.dumps({"growth_mb": (peak - base_rss) / 1024}))
 atexit.register(report)
 sys.argv = ["pipelines/ingest.py"]
-stage.run("ingest", ingest.main)
+runner.run("ingest", ingest.main)
 """
 
 

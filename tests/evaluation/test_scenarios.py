@@ -15,7 +15,7 @@ from rwhonet.evaluation.scenarios import (
 from rwhonet.evaluation.selection import choose
 from rwhonet.evaluation.study import evaluate
 from rwhonet.report.tables import render_report
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.sample_files import load_role
 
 M_GRID = [10, 20]  # the first 20 s of each drive are not scored
 L = 10

@@ -15,7 +15,7 @@ from rwhonet.evaluation.selection import (
     selection_disagreements,
     selection_scores,
 )
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.sample_files import load_role
 
 
 def _scores(rows):

@@ -12,7 +12,7 @@ from rwhonet.evaluation.names import model_names, recipe_models
 from rwhonet.evaluation.selection import choose
 from rwhonet.evaluation.study import evaluate as study
 from rwhonet.report.tables import render_report
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.sample_files import load_role
 from stages.conftest import R_CAL_M, write_samples
 
 from .conftest import OVERRIDES

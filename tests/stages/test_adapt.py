@@ -20,7 +20,7 @@ from rwhonet.models.checkpoint import load_whonet, load_wpm_radii, save_whonet
 from rwhonet.models.loop import predict
 from rwhonet.models.whonet import WhONet
 from rwhonet.stages.adapt import adapt_grid
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.sample_files import load_role
 
 from .conftest import R_CAL_M
 

@@ -8,7 +8,7 @@ from rwhonet.config import load_params
 from rwhonet.evaluation.selection import choose, recommend
 from rwhonet.evaluation.study import evaluate
 from rwhonet.stages.evaluate import evaluation_record, provenance_line, scenario_metrics
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.sample_files import load_role
 
 OVERRIDES = {
     "adapt.m_grid": [10, 20],

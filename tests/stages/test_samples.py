@@ -5,7 +5,7 @@ import pytest
 
 from rwhonet.errors import InputError
 from rwhonet.features.samples import split_tail
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.sample_files import load_role
 
 
 def test_load_role_orders_and_ranks_per_drive(samples_dir):

@@ -5,7 +5,7 @@ The label stage writes one table per GNSS-valid segment (docs/architecture.md,
 stacks the segments of one or more roles into the arrays the models take,
 keeping a per-sample frame (drive, segment, time, GNSS and WPM displacement,
 label, scenario) so predictions can be joined back and scored; the model stages
-read the tables (``stages/samples.py``), ``rwhonet recalibrate`` labels a new
+read the tables (``stages/sample_files.py``), ``rwhonet recalibrate`` labels a new
 car's drive and stacks it here too.
 """
 

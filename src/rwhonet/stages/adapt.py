@@ -53,8 +53,8 @@ from rwhonet.features.calibration import calibration_from_dict
 from rwhonet.features.samples import SampleSet
 from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.progress import track
-from rwhonet.stages.records import history_rows, model_params, predictions_frame
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.model_outputs import history_rows, model_params, predictions_frame
+from rwhonet.stages.sample_files import load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
 from rwhonet.tracking.timings import write_timing
 

@@ -38,7 +38,7 @@ from rwhonet.evaluation.selection import (
 )
 from rwhonet.evaluation.study import evaluate
 from rwhonet.io import atomic_outputs, read_json
-from rwhonet.report.comparison import (
+from rwhonet.report.headline import (
     comparison_html,
     comparison_markdown,
     comparison_rows,
@@ -46,7 +46,7 @@ from rwhonet.report.comparison import (
     view_metrics,
 )
 from rwhonet.report.tables import render_report
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.sample_files import load_role
 from rwhonet.tracking.records import Timing, now_ms
 from rwhonet.tracking.store import RunRecord
 from rwhonet.tracking.timings import read_timing

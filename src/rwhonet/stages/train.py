@@ -19,8 +19,8 @@ from rwhonet.config import Params
 from rwhonet.features.samples import split_tail
 from rwhonet.io import atomic_dir, write_json
 from rwhonet.progress import interactive
-from rwhonet.stages.records import history_rows, model_params, predictions_frame
-from rwhonet.stages.samples import load_role
+from rwhonet.stages.model_outputs import history_rows, model_params, predictions_frame
+from rwhonet.stages.sample_files import load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
 from rwhonet.tracking.timings import write_timing
 
@@ -54,7 +54,7 @@ def train_model(
         writes nothing.
     """
     from rwhonet.models.checkpoint import save_whonet
-    from rwhonet.models.progress import EpochLog
+    from rwhonet.models.epoch_log import EpochLog
     from rwhonet.models.train import fit, predict
 
     role, vehicle, name = WHICH[which]

@@ -2,7 +2,7 @@
 
 The model stages write run records that ``evaluate`` logs after the fact, so a
 stage that never finishes would otherwise leave no trace where users compare
-runs. :func:`rwhonet.stage.run` calls :func:`log_failure` when a stage raises
+runs. :func:`rwhonet.runner.run` calls :func:`log_failure` when a stage raises
 (status FAILED; input and config errors included, with their readable report)
 or receives SIGTERM / SIGINT (status KILLED). The run carries the stage name
 (tag ``dvc_stage``), ``rwhonet.failure = true``, the error type and message

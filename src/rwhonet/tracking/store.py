@@ -225,7 +225,7 @@ def log_comparison(
     Args:
         uri: resolved tracking URI.
         run_id: the parent run.
-        rows: one row per model and outage (:func:`rwhonet.report.comparison.comparison_rows`),
+        rows: one row per model and outage (:func:`rwhonet.report.headline.comparison_rows`),
             logged as an MLflow table (``comparison/crse_cte.json``: the artifact view shows
             it as a table, the artifact compare view across executions).
         note: Markdown, the run's description (the top of its page).

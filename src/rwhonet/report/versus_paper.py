@@ -8,7 +8,7 @@ test sequences, as ours is over all our windows. Ratios between models compare
 across the two worlds better than metres do, since our simulated drives are not
 the paper's roads.
 
-Run ``python -m rwhonet.report.compare metrics/eval.json`` to print it. R-WhONet
+Run ``python -m rwhonet.report.versus_paper metrics/eval.json`` to print it. R-WhONet
 there is the paper's recipe at m = 50 s (``--recipe``/``--m`` to change),
 whatever params.yaml chose as the pipeline's R.
 """
@@ -237,7 +237,7 @@ def comparison_markdown(eval_json: dict) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the comparison for an eval.json."""
     parser = argparse.ArgumentParser(
-        prog="python -m rwhonet.report.compare",
+        prog="python -m rwhonet.report.versus_paper",
         description="Print our evaluation next to the paper's Tables 2-10 (markdown).",
     )
     parser.add_argument("eval_json", type=Path, help="the evaluation's metrics/eval.json")

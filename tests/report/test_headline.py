@@ -2,7 +2,7 @@
 
 import pytest
 
-from rwhonet.report.comparison import (
+from rwhonet.report.headline import (
     comparison_html,
     comparison_markdown,
     comparison_rows,

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from rwhonet.report import paper
-from rwhonet.report.compare import comparison_markdown, main, paper_drive
+from rwhonet.report.versus_paper import comparison_markdown, main, paper_drive
 
 
 def _cell(crse: float, cte: float, ci: float = 0.0) -> dict:
@@ -146,7 +146,7 @@ def test_cli_names_a_missing_file(tmp_path, capsys):
 
 
 def test_r_is_the_paper_recipe_at_50_whatever_params_chose():
-    from rwhonet.report.compare import as_paper_recipe
+    from rwhonet.report.versus_paper import as_paper_recipe
 
     cell = {"180s": {"crse_mean": 6.0, "crse_ci95": 0.1}}
     other = {"180s": {"crse_mean": 9.0, "crse_ci95": 0.1}}

@@ -1,7 +1,7 @@
 """The stage runner: a stage that fails or is interrupted leaves a FAILED or KILLED run in MLflow.
 
 In-process tests raise from a stage body; the slow ones run a real stage
-process (``stage.run`` around a body that sleeps inside its atomic output
+process (``runner.run`` around a body that sleeps inside its atomic output
 folder) and send it SIGTERM or SIGINT. Every test points
 ``$MLFLOW_TRACKING_URI`` at a store of its own.
 """
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from rwhonet import paths, stage
+from rwhonet import paths, runner
 from rwhonet.errors import InputError, Problem
 from support.store import store_runs
 
@@ -36,7 +36,7 @@ def test_an_exception_in_a_stage_body_is_a_failed_run(store, capsys):
         raise RuntimeError("the disk is full")
 
     with pytest.raises(SystemExit) as exit_:
-        stage.run("train_g", body)
+        runner.run("train_g", body)
     assert exit_.value.code == 1
     err = capsys.readouterr().err
     assert "RuntimeError: the disk is full" in err and "MLflow: FAILED run" in err
@@ -64,8 +64,8 @@ def test_an_input_error_is_a_failed_run_with_its_report(store, capsys):
         raise InputError([problem], summary="ingest: 1 problem(s) in 1 file(s)")
 
     with pytest.raises(SystemExit) as exit_:
-        stage.run("ingest", body)
-    assert exit_.value.code == stage.EXIT_INPUT
+        runner.run("ingest", body)
+    assert exit_.value.code == runner.EXIT_INPUT
     err = capsys.readouterr().err
     assert "ERROR in stage ingest" in err and "Traceback" not in err
     (run,) = store_runs(store)
@@ -80,19 +80,19 @@ def test_an_input_error_is_a_failed_run_with_its_report(store, capsys):
 @pytest.mark.crash
 def test_reading_an_undeclared_param_is_a_failed_run(store, capsys):
     with pytest.raises(SystemExit) as exit_:
-        stage.run("label", lambda params: params.train.epochs)  # label does not declare train
-    assert exit_.value.code == stage.EXIT_INPUT
+        runner.run("label", lambda params: params.train.epochs)  # label does not declare train
+    assert exit_.value.code == runner.EXIT_INPUT
     (run,) = store_runs(store)
     assert run.info.status == "FAILED" and run.data.tags["rwhonet.error_type"] == "ConfigError"
     assert "reads params 'train' but does not declare it" in run.data.tags["rwhonet.error"]
 
 
 def test_a_stage_that_succeeds_logs_nothing(store):
-    before = [signal.getsignal(s) for s in stage.INTERRUPTS]
+    before = [signal.getsignal(s) for s in runner.INTERRUPTS]
     seen = []
-    stage.run("label", lambda params: seen.append(params.label.wpm_mode))
+    runner.run("label", lambda params: seen.append(params.label.wpm_mode))
     assert seen == ["integrated"] and not Path(store.removeprefix("sqlite:///")).exists()
-    assert [signal.getsignal(s) for s in stage.INTERRUPTS] == before  # handlers restored
+    assert [signal.getsignal(s) for s in runner.INTERRUPTS] == before  # handlers restored
 
 
 @pytest.mark.crash
@@ -101,7 +101,7 @@ def test_a_store_that_cannot_be_written_does_not_hide_the_error(tmp_path, monkey
     blocker.write_text("")
     monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{blocker}/mlflow.db")
     with pytest.raises(SystemExit) as exit_:
-        stage.run("train_g", lambda params: 1 / 0)
+        runner.run("train_g", lambda params: 1 / 0)
     assert exit_.value.code == 1
     err = capsys.readouterr().err
     assert "ZeroDivisionError" in err and "the failure could not be logged to MLflow" in err
@@ -131,7 +131,7 @@ def test_a_forked_worker_of_a_stage_dies_of_sigterm_as_before(store):
         worker.join(30)
         exit_codes.append(worker.exitcode)
 
-    stage.run("label", body)
+    runner.run("label", body)
     assert exit_codes == [-signal.SIGTERM]  # not 1 with an Interrupted traceback
 
 
@@ -141,7 +141,7 @@ def test_a_forked_worker_of_a_stage_dies_of_sigterm_as_before(store):
 SLEEPER = textwrap.dedent(
     """
     import sys, time
-    from rwhonet import paths, stage
+    from rwhonet import paths, runner
     from rwhonet.io import atomic_dir
 
     def body(params):
@@ -151,7 +151,7 @@ SLEEPER = textwrap.dedent(
             time.sleep(120)
 
     sys.argv = ["pipelines/train.py", "G", "--seed", "1"]
-    stage.run("train_g", body)
+    runner.run("train_g", body)
     """
 )
 
@@ -205,7 +205,7 @@ def test_a_signal_mid_stage_is_a_killed_run_and_the_process_dies_of_it(tmp_path,
 @pytest.mark.slow
 def test_mlflow_stays_out_of_a_stage_that_succeeds(tmp_path):
     code = (
-        "import sys; from rwhonet import stage; stage.run('label', lambda p: None); "
+        "import sys; from rwhonet import runner; runner.run('label', lambda p: None); "
         "assert 'mlflow' not in sys.modules, 'mlflow imported'"
     )
     proc = subprocess.run(
