@@ -168,7 +168,7 @@ def _ensure_registered_model(client: Any, name: str) -> None:
                     "a registered model the user may add versions to",
                     "not registered on the server, and this user may not create it",
                     "the server's admin creates it and grants EDIT on it: "
-                    f"python -m rwhonet.tracking team models {name} (docs/team.md)",
+                    f"python -m rwhonet.tracking team setup {name} (docs/team.md)",
                 ),
                 *refused.problems,
             ],
