@@ -275,6 +275,9 @@ def mlflow_server(
             f"database_uri = {backend_uri.rsplit('/', 1)[0]}/{AUTH_DB}\n"
             f"admin_username = {auth.admin_user}\n"
             "authorization_function = mlflow.server.auth:authenticate_request_basic_auth\n"
+            # a password checked once a minute per worker, not on every request: PBKDF2
+            # costs 330 ms a request here, and the pipeline makes hundreds (docs/team.md)
+            "auth_cache_ttl_seconds = 60\n"
         )
         cmd += ["--app-name", "basic-auth", "--enable-workspaces"]
         env |= {

@@ -245,6 +245,8 @@ def test_a_version_without_its_files_record_is_refused(store, pipeline_outputs, 
     client.create_model_version("whonet-G", g.source, g.run_id)  # version 2: no tags
     with pytest.raises(InputError, match="whonet-G version 2 cannot be verified"):
         resolve_model("models:/whonet-G/latest", store, tmp_path / "g")
+    client.set_registered_model_alias("whonet-G", "field", "1")  # an alias pins a version
+    assert resolve_model("models:/whonet-G@field", store, tmp_path / "alias").is_dir()
     # a run's folder is checked against the version registered from it
     assert resolve_model(f"runs:/{done[1]['run_id']}/model", store, tmp_path / "s").is_dir()
 

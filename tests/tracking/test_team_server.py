@@ -396,10 +396,13 @@ def refused(call) -> int:
     return 0
 
 
-def test_a_reader_is_refused_logging_registering_and_deleting(project, server, client):
+def test_a_reader_is_refused_logging_registering_deleting_and_managing(project, server, client):
+    from rwhonet.tracking.team import auth_client
+
     (parent,) = runs(server, client, "tags.model = 'pipeline'")
     rid, exp_id = parent.info.run_id, parent.info.experiment_id
     g = "whonet-G"
+    auth = auth_client(server["uri"])
     with acting_as(server, "reader"):
         source = client.get_model_version(g, "1").source
         assert refused(lambda: client.get_run(rid)) == 0  # reads
@@ -413,22 +416,60 @@ def test_a_reader_is_refused_logging_registering_and_deleting(project, server, c
             "delete a model": lambda: client.delete_registered_model(g),
             "create a model": lambda: client.create_registered_model("whonet-R-squatter"),
             "create an experiment": lambda: client.create_experiment("readers-own"),
+            "create a user": lambda: auth.create_user("mallory", _secret()),
+            "grant itself EDIT": lambda: auth.grant_user_permission(
+                "reader", "experiment", exp_id, "EDIT"
+            ),
         }
         got = {what: refused(call) for what, call in attempts.items()}
     assert got == {what: 403 for what in attempts}
     assert "sneaky" not in runs(server, client, f"attributes.run_id = '{rid}'")[0].data.params
 
 
-def test_an_editor_is_refused_deleting_and_creating_models(project, server, client):
+def test_an_editor_is_refused_deleting_creating_and_managing(project, server, client):
+    from rwhonet.tracking.team import auth_client
+
     (parent,) = runs(server, client, "tags.model = 'pipeline'")
+    auth = auth_client(server["uri"])
     with acting_as(server, "editor"):
         got = {
             "delete a run": refused(lambda: client.delete_run(parent.info.run_id)),
             "delete a version": refused(lambda: client.delete_model_version("whonet-G", "1")),
             "delete a model": refused(lambda: client.delete_registered_model("whonet-S")),
             "create a model": refused(lambda: client.create_registered_model("whonet-R-car7")),
+            "create an experiment": refused(lambda: client.create_experiment("editors-own")),
+            "create a user": refused(lambda: auth.create_user("mallory", _secret())),
+            "grant a reader EDIT": refused(
+                lambda: auth.grant_user_permission(
+                    "reader", "experiment", parent.info.experiment_id, "EDIT"
+                )
+            ),
         }
     assert got == dict.fromkeys(got, 403)
+
+
+def test_team_setup_is_idempotent_and_a_member_changes_role(server, team):
+    from rwhonet.tracking.team import ROLES, add_member, auth_client, setup, team_models
+
+    with acting_as(server, "admin"):
+        again = setup(server["uri"], EXPERIMENT, team_models())
+        assert again["added"] == []  # nothing twice
+        said = add_member(server["uri"], "reader", None, "editor")
+        roles = {r.name for r in auth_client(server["uri"]).list_user_roles("reader")}
+        add_member(server["uri"], "reader", None, "reader")
+        back = {r.name for r in auth_client(server["uri"]).list_user_roles("reader")}
+    assert said == "updated user 'reader': editor (rwhonet-editors)"
+    assert ROLES["editor"] in roles and ROLES["reader"] not in roles
+    assert ROLES["reader"] in back and ROLES["editor"] not in back
+
+
+def test_an_editor_registers_only_into_models_the_admin_set_up(server, team, client):
+    from rwhonet.errors import InputError
+    from rwhonet.tracking.registry import _ensure_registered_model
+
+    with acting_as(server, "editor"), pytest.raises(InputError) as err:
+        _ensure_registered_model(client, "whonet-R-car7")  # what log_bundle does first
+    assert "python -m rwhonet.tracking team setup whonet-R-car7" in str(err.value)
 
 
 # --------------------------------------------------------------------------- the team's work

@@ -34,7 +34,7 @@ import configparser
 import ipaddress
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, MutableMapping
 from pathlib import Path
 from urllib.parse import unquote, urlsplit, urlunsplit
 
@@ -75,7 +75,7 @@ def split_userinfo(uri: str) -> tuple[str, str | None, str | None]:
     return bare, user, password
 
 
-def adopt_uri_credentials(uri: str, environ: os._Environ | dict | None = None) -> str:
+def adopt_uri_credentials(uri: str, environ: MutableMapping[str, str] | None = None) -> str:
     """The URI without its credentials; they go to the environment variables MLflow reads.
 
     Credentials already in the environment win, as MLflow's client lets them win

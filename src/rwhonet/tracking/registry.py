@@ -143,22 +143,31 @@ def _ensure_registered_model(client: Any, name: str) -> None:
     """Create the registered model ``name`` unless it exists.
 
     On a team server only the admin creates registered models (docs/team.md);
-    an editor registers versions of the ones the admin created for the team.
+    an editor registers versions of the ones the admin set up for the team, and
+    a server that hides ``name`` from the user (403) or lacks it and refuses to
+    create it is an :class:`~rwhonet.errors.InputError` that names the command
+    to give the admin.
+
+    Raises:
+        InputError: as above.
     """
     from mlflow.exceptions import MlflowException
 
     try:
-        retrying(lambda: client.get_registered_model(name))
-        return
-    except MlflowException as err:
-        if err.error_code != "RESOURCE_DOES_NOT_EXIST":
-            raise
-    try:
-        retrying(lambda: client.create_registered_model(name))
-    except MlflowException as err:
-        if err.error_code != "RESOURCE_ALREADY_EXISTS":  # created meanwhile by another writer
-            raise
+        try:
+            retrying(lambda: client.get_registered_model(name))
+            return
+        except MlflowException as err:
+            if err.error_code != "RESOURCE_DOES_NOT_EXIST":
+                raise
+        try:
+            retrying(lambda: client.create_registered_model(name))
+        except MlflowException as err:
+            if err.error_code != "RESOURCE_ALREADY_EXISTS":  # created meanwhile by another writer
+                raise
     except InputError as refused:
+        if not any(p.found.startswith("403") for p in refused.problems):
+            raise
         raise InputError(
             [
                 Problem(
@@ -166,7 +175,7 @@ def _ensure_registered_model(client: Any, name: str) -> None:
                     None,
                     None,
                     "a registered model the user may add versions to",
-                    "not registered on the server, and this user may not create it",
+                    "not registered on the server for this user, and this user may not create it",
                     "the server's admin creates it and grants EDIT on it: "
                     f"python -m rwhonet.tracking team setup {name} (docs/team.md)",
                 ),

@@ -51,7 +51,7 @@ def auth_client(uri: str) -> Any:
     import warnings
 
     with warnings.catch_warnings():  # the server's own modules, imported for their routes
-        warnings.simplefilter("ignore", DeprecationWarning)
+        warnings.simplefilter("ignore")  # starlette.middleware.wsgi is deprecated (3.17.2)
         from mlflow.server import get_app_client
 
         return get_app_client("basic-auth", tracking_uri=uri)
