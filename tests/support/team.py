@@ -86,15 +86,20 @@ def postgres_bin(install_timeout_s: float = 600) -> Path:
 
 
 def nginx_bin(install_timeout_s: float = 600) -> Path:
-    """Debian's nginx, installed first on a CI machine.
+    """Debian's nginx, installed first on a CI machine; ``openssl`` too (the certificate).
 
     Raises:
         Unavailable: as :func:`postgres_bin`.
     """
-    if not NGINX.is_file():
-        _apt_install("nginx", str(NGINX), install_timeout_s)
-    if not NGINX.is_file():
-        raise Unavailable(f"apt-get installed nginx, but there is no {NGINX}")
+    needed = (
+        ("nginx", str(NGINX), NGINX.is_file),
+        ("openssl", "openssl on PATH", lambda: shutil.which("openssl") is not None),
+    )
+    for package, looked_for, found in needed:
+        if not found():
+            _apt_install(package, looked_for, install_timeout_s)
+        if not found():
+            raise Unavailable(f"apt-get installed {package}, but it is not there")
     return NGINX
 
 

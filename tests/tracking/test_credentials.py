@@ -14,9 +14,14 @@ PASSWORD = "s3cret-Pa55word"
 
 @pytest.fixture
 def clean_env(monkeypatch, tmp_path):
-    """No credentials in the environment, and a home without ~/.mlflow/credentials."""
+    """No credentials in the environment, and a home without ~/.mlflow/credentials.
+
+    What the code under test writes into ``os.environ`` goes with the test: set
+    first, the variables are restored (or removed) afterwards.
+    """
     for var in (c.USERNAME, c.PASSWORD, c.TOKEN, c.TRACKING_URI):
-        monkeypatch.delenv(var, raising=False)
+        monkeypatch.setenv(var, "")
+        monkeypatch.delenv(var)
     monkeypatch.setenv("HOME", str(tmp_path))
     return monkeypatch
 
