@@ -65,9 +65,20 @@ def tracking_uri_problem(uri: str) -> str | None:
     Args:
         uri: ``tracking.tracking_uri`` as written in params.yaml.
 
+    A URI with a password in it (``https://user:pw@host``) is refused whatever its
+    scheme: params.yaml is committed, logged as run params and copied into
+    ``dvc.lock``. The message does not repeat the URI.
+
     Returns:
         The problem, naming the key, or None.
     """
+    if _has_password(uri):
+        return (
+            "tracking.tracking_uri holds a password: params.yaml is committed and logged; "
+            "remove user and password from the URI and set MLFLOW_TRACKING_USERNAME / "
+            "MLFLOW_TRACKING_PASSWORD in the environment, or ~/.mlflow/credentials "
+            "(docs/team.md)"
+        )
     scheme, sep, rest = uri.partition(":")
     if not sep or len(scheme) == 1:  # a bare path (or a Windows drive letter)
         scheme, rest = "", uri
@@ -91,6 +102,16 @@ def tracking_uri_problem(uri: str) -> str | None:
         f"{TRACKING_FOLDER}/ ({problem}); to share a store on purpose, give its absolute "
         "path (sqlite:////abs/path/mlflow.db)"
     )
+
+
+def _has_password(uri: str) -> bool:
+    """Whether a URI carries ``user:password@`` (``scheme://user:pw@host/...``)."""
+    scheme, sep, rest = uri.partition("://")
+    if not sep:
+        return False
+    netloc = re.split(r"[/?#]", rest, maxsplit=1)[0]
+    userinfo, at, _ = netloc.rpartition("@")
+    return bool(at) and ":" in userinfo
 
 
 # --------------------------------------------------------------------------- sections

@@ -77,3 +77,39 @@ def test_long_messages_are_cut_in_tags_and_kept_whole_as_an_artifact(tmp_path, m
 def test_status_is_failed_or_killed():
     with pytest.raises(ValueError, match="status must be one of"):
         Failure("train_g", "RUNNING", "x", "y")
+
+
+def test_a_failures_record_carries_no_password_and_no_secret_of_the_environment(
+    tmp_path, monkeypatch
+):
+    """Message, traceback, command line and params.yaml all pass through the redaction."""
+    import mlflow
+
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+    monkeypatch.setenv("AWS_SECRET_ACCESS_KEY", "bucket-key-0123456789")
+    db_pw, uri_pw = "database-pw-42", "tracking-pw-42"
+    params = tmp_path / "params.yaml"
+    raw = yaml.safe_load(paths.PARAMS.read_text())
+    raw["tracking"]["tracking_uri"] = f"https://alice:{uri_pw}@mlflow.example"  # refused by config
+    params.write_text(yaml.safe_dump(raw, sort_keys=False))
+    said = f"cannot reach postgresql://mlflow:{db_pw}@db:5432/mlflow (key bucket-key-0123456789)"
+    failure = Failure(
+        "evaluate",
+        "FAILED",
+        "ConnectionError",
+        said,
+        f"Traceback ...\n  {said}\n",
+        1,
+        ["pipelines/evaluate.py", f"--uri=https://alice:{uri_pw}@mlflow.example"],
+    )
+    run_id, _ = log_failure(failure, params_file=params)
+    (run,) = store_runs(uri)
+    client = mlflow.MlflowClient(uri)
+    texts = [*run.data.tags.values(), run.info.run_name]
+    for name in ("failure/error.txt", "failure/traceback.txt", "failure/params.yaml"):
+        texts.append(open(client.download_artifacts(run_id, name, str(tmp_path))).read())
+    logged = "\n".join(texts)
+    for secret in (db_pw, uri_pw, "bucket-key-0123456789"):
+        assert secret not in logged
+    assert "postgresql://mlflow:***@db:5432/mlflow" in logged  # what failed stays readable

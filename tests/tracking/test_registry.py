@@ -157,7 +157,7 @@ def test_pyfunc_models_predict_the_label_from_the_feature_window(store, pipeline
         served = load_served(resolve_model(f"models:/{name}/1", store, tmp_path / name))
         angles = frame[k.ANGLE_RL_RAD].to_numpy(), frame[k.ANGLE_RR_RAD].to_numpy()
         np.testing.assert_allclose(pred, served.predict_label(x, *angles), atol=1e-9)
-    r = load_served(tmp_path / "whonet-R-target")
+    r = load_served(resolve_model("models:/whonet-R-target/1", store, tmp_path / "r"))
     assert r.meta.wpm_radii == (0.3, 0.297)  # the model file's own radii travel with it
     assert r.meta.source_radii == (0.294, 0.2938)
     g = mlflow.pyfunc.load_model("models:/whonet-G/1")
@@ -170,3 +170,138 @@ def test_an_unknown_model_is_a_readable_error(store, pipeline_outputs):
     register(store, pipeline_outputs, "e1")
     with pytest.raises(InputError, match="whonet-G, whonet-R-target, whonet-S"):
         resolve_model("models:/whonet-X/latest", store)
+
+
+# --------------------------------------------------------------------------- models without code
+
+
+def stored_folder(client, name: str, version: str = "1"):
+    """Where the local store keeps a version's files (what an attacker with write access edits)."""
+    from pathlib import Path
+
+    return Path(client.get_model_version_download_uri(name, version))
+
+
+def test_a_version_is_a_model_from_code_with_no_pickle_and_the_sha256_of_its_files(
+    store, pipeline_outputs
+):
+    import yaml
+
+    from rwhonet.serve.bundle import digests_from_text, file_digests
+    from rwhonet.tracking.registry import FILES_TAG
+
+    client, done, _ = register(store, pipeline_outputs, "e1")
+    for d in done:
+        folder = stored_folder(client, d["name"], d["version"])
+        files = file_digests(folder)
+        assert not [f for f in files if f.endswith(".pkl")], files  # no python_model.pkl
+        pyfunc = yaml.safe_load((folder / "MLmodel").read_text())["flavors"]["python_function"]
+        assert pyfunc["model_code_path"].endswith("pyfunc_model.py")
+        assert "python_model" not in pyfunc
+        assert {"artifacts/model.onnx", "artifacts/rwhonet.json", "pyfunc_model.py"} <= set(files)
+        record = client.get_model_version(d["name"], d["version"]).tags[FILES_TAG]
+        assert digests_from_text(record, "tag") == files
+
+
+def _change(folder):
+    (folder / "artifacts" / "model.onnx").write_bytes(b"not the registered graph")
+
+
+def _add_pickle(folder):
+    (folder / "python_model.pkl").write_bytes(b"\x80\x04K\x01.")
+
+
+def _remove(folder):
+    (folder / "artifacts" / "rwhonet.json").unlink()
+
+
+@pytest.mark.parametrize(
+    ("tamper", "file"),
+    [
+        (_change, "artifacts/model.onnx"),
+        (_add_pickle, "python_model.pkl"),
+        (_remove, "artifacts/rwhonet.json"),
+    ],
+)
+def test_a_version_whose_files_changed_is_refused_naming_it(
+    store, pipeline_outputs, tmp_path, tamper, file
+):
+    from rwhonet.errors import InputError
+
+    client, _, _ = register(store, pipeline_outputs, "e1")
+    tamper(stored_folder(client, "whonet-G"))
+    for spec in ("models:/whonet-G/1", "models:/whonet-G/latest"):
+        with pytest.raises(InputError) as err:
+            resolve_model(spec, store, tmp_path / spec.rsplit("/", 1)[1])
+        assert "whonet-G version 1" in str(err.value) and file in str(err.value)
+    assert resolve_model("models:/whonet-S/1", store, tmp_path / "s").is_dir()  # others stand
+
+
+def test_a_version_without_its_files_record_is_refused(store, pipeline_outputs, tmp_path):
+    from rwhonet.errors import InputError
+
+    client, done, _ = register(store, pipeline_outputs, "e1")
+    g = client.get_model_version("whonet-G", "1")
+    client.create_model_version("whonet-G", g.source, g.run_id)  # version 2: no tags
+    with pytest.raises(InputError, match="whonet-G version 2 cannot be verified"):
+        resolve_model("models:/whonet-G/latest", store, tmp_path / "g")
+    client.set_registered_model_alias("whonet-G", "field", "1")  # an alias pins a version
+    assert resolve_model("models:/whonet-G@field", store, tmp_path / "alias").is_dir()
+    # a run's folder is checked against the version registered from it
+    assert resolve_model(f"runs:/{done[1]['run_id']}/model", store, tmp_path / "s").is_dir()
+
+
+def test_no_pickle_is_loaded_from_the_registry_to_a_prediction(
+    store, pipeline_outputs, tmp_path, monkeypatch
+):
+    """rwhonet predict's path (fetch, check, ONNX) and the pyfunc's path, with pickle disabled."""
+    import pickle
+
+    import cloudpickle
+
+    from rwhonet.serve.model import load_served
+    from rwhonet.tracking.registry import load_pyfunc
+
+    register(store, pipeline_outputs, "e1")
+    frame = input_example(pipeline_outputs["frame"], 20)
+    x = frame[list(k.FEATURE_COLUMNS)].to_numpy(np.float32)[:, None, :]
+    angles = frame[k.ANGLE_RL_RAD].to_numpy(), frame[k.ANGLE_RR_RAD].to_numpy()
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a pickle was loaded")
+
+    for module, name in [
+        (pickle, "load"),
+        (pickle, "loads"),
+        (pickle, "Unpickler"),
+        (cloudpickle, "load"),
+        (cloudpickle, "loads"),
+    ]:
+        monkeypatch.setattr(module, name, refuse)
+    served = load_served(resolve_model("models:/whonet-R-target/1", store, tmp_path / "r"))
+    pyfunc = load_pyfunc("models:/whonet-R-target/1", store, tmp_path / "p")
+    np.testing.assert_allclose(
+        pyfunc.predict(frame)["pred_m"].to_numpy(), served.predict_label(x, *angles), atol=1e-9
+    )
+
+
+@pytest.mark.parametrize("command", ["predict", "export", "recalibrate"])
+def test_the_cli_refuses_a_tampered_version_with_exit_status_2(
+    store, pipeline_outputs, tmp_path, monkeypatch, capsys, command
+):
+    from rwhonet.cli.main import main
+
+    client, _, _ = register(store, pipeline_outputs, "e1")
+    _change(stored_folder(client, "whonet-G"))
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", store)
+    out = tmp_path / "out.file"
+    args = {
+        "predict": ["--model", "models:/whonet-G/1", "--drive", "d.csv", "--output", str(out)],
+        "export": ["--model", "models:/whonet-G/1", "--output", str(out)],
+        "recalibrate": ["--base", "models:/whonet-G/1", "--drive", "d.csv"],
+    }[command]
+    assert main([command, *args]) == 2
+    said = capsys.readouterr().err
+    assert "whonet-G version 1" in said and "artifacts/model.onnx" in said
+    assert not out.exists()  # nothing written from a refused model
+    assert len(client.search_model_versions("name = 'whonet-R-target'")) == 1  # none registered

@@ -104,19 +104,14 @@ def run(
     from rwhonet.models.checkpoint import load_whonet, save_whonet
     from rwhonet.models.loop import predict
     from rwhonet.serve.bundle import bundle_parts, make_meta, write_bundle
-    from rwhonet.tracking.registry import (
-        model_version,
-        registered_name,
-        resolve_model,
-        sha256_file,
-    )
+    from rwhonet.tracking.registry import fetch_model, registered_name, sha256_file
 
     start = time.perf_counter()
     choice = choose(params, recipe, seconds)
     seed = params.seeds[0] if seed is None else seed
     with tempfile.TemporaryDirectory(prefix="rwhonet-recalibrate-") as tmp:
-        base_pt, base_meta = bundle_parts(resolve_model(base, tracking_uri, Path(tmp) / "base"))
-        base_version = model_version(base, tracking_uri)
+        base_path, base_version = fetch_model(base, tracking_uri, Path(tmp) / "base")
+        base_pt, base_meta = bundle_parts(base_path)
         net, hparams = load_whonet(base_pt)
         data = load_drive(
             drive,

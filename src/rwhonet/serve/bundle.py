@@ -6,11 +6,18 @@
 :class:`~rwhonet.serve.model.ServedMeta`). The registry logs a bundle as an
 MLflow ``pyfunc`` model; ``rwhonet export`` writes its ``.onnx`` alone. This
 module imports torch (lazily, to export).
+
+A model folder's files are fingerprinted by their SHA-256
+(:func:`file_digests`) when it is registered, and checked against that
+record before anything of it is used (:func:`verify_digests`): a file changed,
+added (a ``python_model.pkl``) or removed after registration is refused.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import shutil
 from collections.abc import Mapping
 from pathlib import Path
@@ -116,3 +123,93 @@ def bundle_parts(path: Path) -> tuple[Path, ServedMeta]:
         ],
         f"no model at {path}",
     )
+
+
+def sha256_file(path: Path) -> str:
+    """The SHA-256 of a file, hex."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def file_digests(folder: Path) -> dict[str, str]:
+    """``{relative POSIX path: SHA-256}`` of every file under ``folder``, sorted by path."""
+    folder = Path(folder)
+    files = sorted(p for p in folder.rglob("*") if p.is_file() or p.is_symlink())
+    return {p.relative_to(folder).as_posix(): sha256_file(p) for p in files}
+
+
+def digests_to_text(digests: Mapping[str, str]) -> str:
+    """The digests as compact JSON with sorted keys (what a version's tag holds)."""
+    return json.dumps(dict(sorted(digests.items())), separators=(",", ":"))
+
+
+def digests_from_text(text: str, source: str) -> dict[str, str]:
+    """Parse :func:`digests_to_text`'s JSON.
+
+    Raises:
+        InputError: not a JSON object of path -> 64 hex digits.
+    """
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError:
+        raw = None
+    ok = isinstance(raw, dict) and all(
+        isinstance(k, str) and isinstance(v, str) and len(v) == 64 for k, v in raw.items()
+    )
+    if not ok or not raw:
+        raise InputError(
+            [
+                Problem(
+                    source,
+                    None,
+                    None,
+                    "a JSON object of file path -> SHA-256",
+                    repr(text[:80]),
+                    "re-register the model, or ask the registry's admin",
+                )
+            ],
+            f"{source}: the record of the model's files is unreadable",
+        )
+    return dict(raw)
+
+
+def verify_digests(folder: Path, expected: Mapping[str, str], source: str) -> None:
+    """Refuse a model folder whose files are not exactly the ones recorded.
+
+    Args:
+        folder: the downloaded model folder.
+        expected: :func:`file_digests` of the folder when it was registered.
+        source: the model as the user named it (``whonet-G version 3``), for the report.
+
+    Raises:
+        InputError: one problem per file changed, missing or not recorded.
+    """
+    found = file_digests(folder)
+    problems = []
+    for rel in sorted(set(expected) | set(found)):
+        want, got = expected.get(rel), found.get(rel)
+        if want == got:
+            continue
+        if got is None:
+            what = "no such file"
+        elif want is None:
+            what = f"a file that was not registered (sha256 {got[:16]}...)"
+        else:
+            what = f"sha256 {got[:16]}..."
+        problems.append(
+            Problem(
+                f"{source}: {rel}",
+                None,
+                None,
+                "no such file" if want is None else f"sha256 {want[:16]}... (as registered)",
+                what,
+                "do not use this version: its files were changed after it was registered; "
+                "tell the registry's admin, and use another version",
+            )
+        )
+    if problems:
+        summary = f"{source}: the model's files do not match the SHA-256 recorded at registration"
+        raise InputError(problems, summary)

@@ -6,7 +6,9 @@ radii (``radius+G``), the rear wheel angles ``angle_rl_rad`` and ``angle_rr_rad`
 (optional columns otherwise). Output: ``pred_m``, the label prediction (GNSS −
 WPM with the source radii, metres), computed by ONNX Runtime
 (:class:`~rwhonet.serve.model.ServedModel`). Loading needs the ``rwhonet``
-package installed (the class is referenced, not copied, by the saved model).
+package installed: a registered version is a model from code
+(:data:`MODEL_CODE`, which names :class:`WhONetPyfunc`), never a pickled
+instance, and its payload is the bundle's ONNX file and metadata.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from rwhonet.serve.model import ServedMeta, ServedModel
 
 ANGLES = (k.ANGLE_RL_RAD, k.ANGLE_RR_RAD)
 OUTPUT = "pred_m"
+# The file MLflow saves as the model's code (``python_model=``) and runs to load it.
+MODEL_CODE = Path(__file__).with_name("pyfunc_model.py")
 
 
 def signature(meta: ServedMeta) -> Any:

@@ -4,7 +4,10 @@ Store: SQLite at ``mlruns/mlflow.db`` with artifacts under ``mlruns/artifacts``
 (MLflow 3 keeps its file store in maintenance mode, off by default). Relative URIs
 resolve against the project root; inside a queued DVC experiment (which runs
 in ``.dvc/tmp/exps/<tmp>``) they resolve against the real repository so the
-runs are not lost with the temporary copy. ``$MLFLOW_TRACKING_URI`` wins.
+runs are not lost with the temporary copy. ``$MLFLOW_TRACKING_URI`` wins; a
+user and password in it move to the environment variables MLflow reads, so the
+URI the project uses, prints and logs carries none
+(:mod:`rwhonet.tracking.credentials`).
 
 Several processes may write to one store at once (``dvc queue start -j 2``,
 two clones sharing a store, a stage failing while ``evaluate`` logs).
@@ -29,6 +32,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from rwhonet import paths
+from rwhonet.tracking.credentials import access_error, adopt_uri_credentials, check_transport
 
 SQLITE = "sqlite:///"
 T = TypeVar("T")
@@ -52,16 +56,21 @@ def resolve_tracking_uri(uri: str, root: Path | None = None) -> str:
         root: project root (defaults to :data:`rwhonet.paths.ROOT`).
 
     Returns:
-        ``$MLFLOW_TRACKING_URI`` if set, else the absolute URI.
+        ``$MLFLOW_TRACKING_URI`` if set, else the absolute URI; without a user and
+        password (:func:`~rwhonet.tracking.credentials.adopt_uri_credentials`).
+
+    Raises:
+        InputError: an ``http://`` URI of another machine while a password is set
+            (:func:`~rwhonet.tracking.credentials.transport_problem`).
     """
     env = os.environ.get("MLFLOW_TRACKING_URI")
     if env:
-        return env
+        return check_transport(adopt_uri_credentials(env))
     if uri.startswith(SQLITE) and not uri.startswith(SQLITE + "/"):
         db = main_repo_root(root) / uri[len(SQLITE) :]
         db.parent.mkdir(parents=True, exist_ok=True)
         return SQLITE + str(db)
-    return uri
+    return check_transport(uri)
 
 
 def artifact_root(uri: str) -> str | None:
@@ -104,7 +113,10 @@ def retrying(call: Callable[[], T], *, attempts: int = 8, first_wait_s: float = 
 
     SQLite lets one writer in at a time and makes the others wait a few seconds
     before failing; with two pipelines logging hundreds of runs at once that
-    wait can run out. Any other error is raised at once.
+    wait can run out. A tracking server's refusal of the login (401) or of the
+    action (403) is raised at once as an :class:`~rwhonet.errors.InputError` that
+    says what to do (:func:`~rwhonet.tracking.credentials.access_error`); any
+    other error is raised at once as it is.
 
     Args:
         call: the store call (no arguments).
@@ -118,6 +130,9 @@ def retrying(call: Callable[[], T], *, attempts: int = 8, first_wait_s: float = 
         try:
             return call()
         except Exception as err:
+            refused = access_error(err)
+            if refused is not None:
+                raise refused from err
             if attempt == attempts - 1 or not _sqlite_busy(err):
                 raise
             time.sleep(first_wait_s * 2**attempt)

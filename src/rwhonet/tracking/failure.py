@@ -8,7 +8,9 @@ or receives SIGTERM / SIGINT (status KILLED). The run carries the stage name
 (tag ``dvc_stage``), ``rwhonet.failure = true``, the error type and message
 (tags, and the run's description in the UI), the command, the git commit, and
 as artifacts the full message, the traceback and the ``params.yaml`` it ran
-with. Find them with ``tags.rwhonet.failure = 'true'``.
+with. Find them with ``tags.rwhonet.failure = 'true'``. Every text is logged
+through :func:`~rwhonet.tracking.credentials.redact`: a password in a URI or a
+secret of the environment never reaches the store, whatever the error said.
 
 The tracking params are read straight from ``params.yaml``, not through the
 stage's declared params (a stage need not declare ``tracking``, and a failure
@@ -19,6 +21,7 @@ succeeds never pays for it.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import shlex
 import time
@@ -31,6 +34,7 @@ from rwhonet import paths
 from rwhonet.config import tracking_uri_problem
 from rwhonet.io import held_signals
 from rwhonet.tracking.client import git_commit, open_store, resolve_tracking_uri, retrying
+from rwhonet.tracking.credentials import redact
 
 DEFAULT_URI = "sqlite:///mlruns/mlflow.db"
 DEFAULT_EXPERIMENT = "rwhonet"
@@ -120,8 +124,14 @@ def log_failure(
         params_file: the params file; defaults to the project's.
 
     Returns:
-        ``(run_id, resolved tracking URI)``.
+        ``(run_id, resolved tracking URI)`` (the URI without credentials).
     """
+    failure = dataclasses.replace(
+        failure,
+        message=redact(failure.message),
+        traceback=redact(failure.traceback),
+        command=[redact(arg) for arg in failure.command],
+    )
     # A store behind a server must not hold an interrupted stage for minutes of retries.
     os.environ.setdefault("MLFLOW_HTTP_REQUEST_MAX_RETRIES", "0")
     os.environ.setdefault("MLFLOW_HTTP_REQUEST_TIMEOUT", "10")
@@ -160,5 +170,6 @@ def log_failure(
     if failure.traceback:
         client.log_text(run_id, failure.traceback, "failure/traceback.txt")
     if params_file.is_file():
-        client.log_artifact(run_id, str(params_file), "failure")
+        text = params_file.read_text(encoding="utf-8", errors="replace")
+        client.log_text(run_id, redact(text), f"failure/{params_file.name}")
     return run_id, uri

@@ -6,9 +6,18 @@ on one car: the pipeline's chosen R-WhONet and every ``rwhonet recalibrate``).
 Each version is a model bundle (:mod:`rwhonet.serve.bundle`: ``model.pt``,
 ``model.onnx``, ``rwhonet.json``) logged as an MLflow ``pyfunc`` model with a
 signature and an input example (:mod:`rwhonet.serve.pyfunc`), so
-``mlflow.pyfunc.load_model("models:/whonet-G/latest")`` predicts the label from
-the feature window, and ``rwhonet predict --model models:/...`` runs its ONNX
-graph.
+:func:`load_pyfunc` (``mlflow.pyfunc.load_model`` once the files are checked)
+predicts the label from the feature window, and ``rwhonet predict --model
+models:/...`` runs its ONNX graph.
+
+A version carries no code to run and no pickle: its ``pyfunc`` is a model from
+code (:data:`rwhonet.serve.pyfunc.MODEL_CODE` names the installed package's
+class), and the SHA-256 of each of its files is a version tag
+(:data:`FILES_TAG`), written in the same call that creates the version.
+:func:`fetch_model`, which ``rwhonet predict``, ``export`` and ``recalibrate
+--base`` load every registered model through, downloads the version's files
+and refuses them (:class:`~rwhonet.errors.InputError`, exit status 2) unless
+they are exactly the recorded ones; only then is anything in them read.
 
 A pipeline execution registers one version per model (:func:`register_execution`,
 called by :func:`rwhonet.tracking.store.log_execution`): the first training
@@ -19,7 +28,6 @@ is recalibrated per drive). Version tags say which.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import os
@@ -35,11 +43,15 @@ import numpy as np
 from rwhonet import contracts as k
 from rwhonet import paths
 from rwhonet.errors import InputError, Problem
+from rwhonet.serve.bundle import sha256_file  # noqa: F401 - the drive's digest (recalibrate)
 from rwhonet.tracking.client import retrying
+from rwhonet.tracking.credentials import access_error
 
 MODEL_PATH = "model"  # the artifact folder of a registered model in its run
 PIP_REQUIREMENTS = ["onnxruntime==1.30.0", "numpy==2.4.6", "pandas==3.1.1"]
 EXAMPLE_ROWS = 5
+FILES_TAG = "rwhonet.files_sha256"  # version tag: {path in the model folder: SHA-256}
+MLFLOW_NOTE = "registered_model_meta"  # what MLflow adds to a model folder it downloads
 
 
 def registered_name(model: str, vehicle: str | None = None) -> str:
@@ -47,15 +59,6 @@ def registered_name(model: str, vehicle: str | None = None) -> str:
     if model == "R":
         return f"whonet-R-{vehicle or 'target'}"
     return f"whonet-{model}"
-
-
-def sha256_file(path: Path) -> str:
-    """The SHA-256 of a file (the drive a model was recalibrated on)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def input_example(frame: Any, n: int = EXAMPLE_ROWS) -> Any:
@@ -74,12 +77,17 @@ def log_bundle(
     tags: Mapping[str, Any],
     description: str | None = None,
 ) -> str:
-    """Log a bundle as a ``pyfunc`` model into a run and register it as a new version.
+    """Log a bundle as a ``pyfunc`` model from code into a run; register it as a new version.
+
+    The model folder is MLflow's ``pyfunc`` layout: ``MLmodel``, the environment
+    files, the input example, the code file (:data:`rwhonet.serve.pyfunc.MODEL_CODE`)
+    and ``artifacts/`` (the bundle). Its files' SHA-256 go into the version's tag
+    :data:`FILES_TAG` as the version is created.
 
     Args:
         client: an ``MlflowClient`` of the store.
         run_id: the run the model belongs to (its artifacts get ``model/``).
-        name: the registered model's name (created when missing).
+        name: the registered model's name (created when missing, where the user may).
         bundle: :func:`rwhonet.serve.bundle.write_bundle`'s artifacts.
         example: the input example (a DataFrame, :func:`input_example`).
         tags: version tags (stringified).
@@ -87,43 +95,94 @@ def log_bundle(
 
     Returns:
         The new version number, as a string.
+
+    Raises:
+        InputError: the server refused the login or the registration (docs/team.md).
     """
     import mlflow.pyfunc
-    from mlflow.exceptions import MlflowException
 
+    from rwhonet.serve.bundle import digests_to_text, file_digests
     from rwhonet.serve.model import ServedModel
-    from rwhonet.serve.pyfunc import WhONetPyfunc, signature
+    from rwhonet.serve.pyfunc import MODEL_CODE, signature
 
     meta = ServedModel(bundle["model_onnx"]).meta
     with tempfile.TemporaryDirectory(prefix="rwhonet-model-") as tmp, _quiet_mlflow():
         local = Path(tmp) / MODEL_PATH
         mlflow.pyfunc.save_model(
             local,
-            python_model=WhONetPyfunc(),
+            python_model=str(MODEL_CODE),  # a model from code: nothing is pickled
             artifacts={key: str(p) for key, p in bundle.items()},
             signature=signature(meta),
             input_example=example,
             pip_requirements=PIP_REQUIREMENTS,
             metadata={"rwhonet": json.loads(meta.to_json())},
         )
+        digests = file_digests(local)
+        pickled = [f for f in digests if f.endswith(".pkl")]
+        if pickled:  # what stays true of every registered version
+            raise RuntimeError(f"MLflow pickled part of the model: {pickled}")
         retrying(lambda: client.log_artifacts(run_id, str(local), MODEL_PATH))
-    try:
-        retrying(lambda: client.create_registered_model(name))
-    except MlflowException as err:
-        if err.error_code != "RESOURCE_ALREADY_EXISTS":
-            raise
+    _ensure_registered_model(client, name)
     run = retrying(lambda: client.get_run(run_id))
+    version_tags = {str(key): str(v) for key, v in tags.items() if v is not None}
+    version_tags[FILES_TAG] = digests_to_text(digests)
     with _quiet_mlflow():  # a server's registry says it waits for each version to be READY
         version = retrying(
             lambda: client.create_model_version(
                 name,
                 source=f"{run.info.artifact_uri}/{MODEL_PATH}",
                 run_id=run_id,
-                tags={str(key): str(v) for key, v in tags.items() if v is not None},
+                tags=version_tags,
                 description=description,
             )
         )
     return str(version.version)
+
+
+def _ensure_registered_model(client: Any, name: str) -> None:
+    """Create the registered model ``name`` unless it exists.
+
+    On a team server only the admin creates registered models (docs/team.md);
+    an editor registers versions of the ones the admin set up for the team, and
+    a server that hides ``name`` from the user (403) or lacks it and refuses to
+    create it is an :class:`~rwhonet.errors.InputError` that names the command
+    to give the admin.
+
+    Raises:
+        InputError: as above.
+    """
+    from mlflow.exceptions import MlflowException
+
+    try:
+        try:
+            retrying(lambda: client.get_registered_model(name))
+            return
+        except MlflowException as err:
+            if err.error_code != "RESOURCE_DOES_NOT_EXIST":
+                raise
+        try:
+            retrying(lambda: client.create_registered_model(name))
+        except MlflowException as err:
+            if err.error_code != "RESOURCE_ALREADY_EXISTS":  # created meanwhile by another writer
+                raise
+    except InputError as refused:
+        if not any(p.found.startswith("403") for p in refused.problems):
+            raise
+        raise InputError(
+            [
+                Problem(
+                    name,
+                    None,
+                    None,
+                    "a registered model the user may add versions to",
+                    "not registered on the server for this user, and this user may not create it",
+                    "the server's admin creates it and grants EDIT on it: "
+                    f"python -m rwhonet.tracking team setup {name} (docs/team.md)",
+                ),
+                *refused.problems,
+            ],
+            f"cannot register a version of {name}",
+        ) from None
 
 
 @contextmanager
@@ -148,8 +207,11 @@ def _quiet_mlflow() -> Iterator[None]:
 def resolve_model(spec: str, tracking_uri: str, dest: Path | None = None) -> Path:
     """A local folder or file for a model given as a registry URI or a path.
 
+    A registry URI is fetched and verified (:func:`fetch_model`).
+
     Args:
-        spec: ``models:/<name>/<version|latest>``, ``runs:/<run>/<path>``, or a local path.
+        spec: ``models:/<name>/<version|latest>``, ``models:/<name>@<alias>``,
+            ``runs:/<run>/<path>`` of a registered version, or a local path.
         tracking_uri: the store to resolve registry URIs in.
         dest: where to download (a temporary folder when None).
 
@@ -157,56 +219,173 @@ def resolve_model(spec: str, tracking_uri: str, dest: Path | None = None) -> Pat
         The local path (``spec`` itself when it is not a URI).
 
     Raises:
-        InputError: the registry has no such model or version.
+        InputError: no such model or version, or its files are not the registered ones.
+    """
+    return fetch_model(spec, tracking_uri, dest)[0]
+
+
+def fetch_model(spec: str, tracking_uri: str, dest: Path | None = None) -> tuple[Path, Any]:
+    """Download a registered version and check its files against its :data:`FILES_TAG`.
+
+    The version is pinned first (``latest`` and aliases resolve to a number), so
+    the files downloaded, the record they are checked against and the version
+    reported are one and the same. Nothing in the files is read before the check.
+
+    Args:
+        spec: as for :func:`resolve_model`.
+        tracking_uri: the store.
+        dest: where to download (a temporary folder when None).
+
+    Returns:
+        ``(local folder, ModelVersion)``; ``(Path(spec), None)`` for a local path.
+
+    Raises:
+        InputError: the registry has no such version; the server refused the
+            credentials; the version's files are not the ones recorded, or no record.
     """
     if not spec.startswith(("models:/", "runs:/")):
-        return Path(spec)
+        return Path(spec), None
     import mlflow
+    from mlflow import MlflowClient
     from mlflow.exceptions import MlflowException
+
+    from rwhonet.serve.bundle import digests_from_text, verify_digests
 
     mlflow.set_tracking_uri(tracking_uri)
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
     try:
-        local = mlflow.artifacts.download_artifacts(
-            artifact_uri=spec, dst_path=str(dest or tempfile.mkdtemp(prefix="rwhonet-model-"))
+        version = model_version(spec, tracking_uri)
+        if version is None:
+            raise _unknown(spec, tracking_uri, "no registered version")
+        # The version's own folder, not models:/..., to which MLflow's download adds a
+        # file of its own (registered_model_meta): the files checked are the files stored.
+        source = retrying(
+            lambda: MlflowClient(tracking_uri).get_model_version_download_uri(
+                version.name, version.version
+            )
         )
-    except MlflowException as err:
-        names = _registered_names(tracking_uri)
+        local = Path(
+            retrying(
+                lambda: mlflow.artifacts.download_artifacts(
+                    artifact_uri=source,
+                    dst_path=str(dest or tempfile.mkdtemp(prefix="rwhonet-model-")),
+                )
+            )
+        )
+    except (MlflowException, OSError) as err:
+        refused = access_error(err)
+        if refused is not None:
+            raise refused from None
+        if not isinstance(err, MlflowException):
+            raise
+        raise _unknown(
+            spec,
+            tracking_uri,
+            str(err.message if hasattr(err, "message") else err).split("\n")[0][:200],
+        ) from None
+    # MLflow's client writes a note (name and version, YAML) into a model folder it fetches
+    # by models:/... -- in a local store into the stored folder itself. It is no part of the
+    # model, nothing here reads it, and it is not in the record: it goes before the check.
+    (local / MLFLOW_NOTE).unlink(missing_ok=True)
+    label = f"{version.name} version {version.version}"
+    record = (version.tags or {}).get(FILES_TAG)
+    if not record:
         raise InputError(
             [
                 Problem(
-                    spec,
+                    label,
                     None,
                     None,
-                    "a model in the MLflow registry",
-                    str(err.message if hasattr(err, "message") else err).split("\n")[0][:200],
-                    "registered models in "
-                    + tracking_uri
-                    + ": "
-                    + (", ".join(names) or "none")
-                    + " (the pipeline registers whonet-G, whonet-S and whonet-R-<vehicle>; "
-                    "run `make run` or `dvc repro` first)",
+                    f"the SHA-256 of its files in the version tag {FILES_TAG}",
+                    "no such tag (registered before files were hashed, or not by rwhonet)",
+                    "its files cannot be checked, so they are not used: register the model "
+                    "again (dvc repro -f evaluate, or rwhonet recalibrate)",
                 )
             ],
-            f"cannot resolve {spec}",
-        ) from None
-    return Path(local)
+            f"{label} cannot be verified",
+        )
+    verify_digests(local, digests_from_text(record, f"{label} ({FILES_TAG})"), label)
+    return local, version
+
+
+def _unknown(spec: str, tracking_uri: str, found: str) -> InputError:
+    names = _registered_names(tracking_uri)
+    return InputError(
+        [
+            Problem(
+                spec,
+                None,
+                None,
+                "a model in the MLflow registry",
+                found,
+                "registered models in "
+                + tracking_uri
+                + ": "
+                + (", ".join(names) or "none")
+                + " (the pipeline registers whonet-G, whonet-S and whonet-R-<vehicle>; "
+                "run `make run` or `dvc repro` first)",
+            )
+        ],
+        f"cannot resolve {spec}",
+    )
 
 
 def model_version(spec: str, tracking_uri: str) -> Any | None:
-    """The registry's ``ModelVersion`` a ``models:/<name>/<version|latest>`` URI names, or None."""
+    """The registry's ``ModelVersion`` a registry URI names, or None.
+
+    ``models:/<name>/<version>``, ``models:/<name>/latest`` (the highest number),
+    ``models:/<name>@<alias>``, or ``runs:/<run>/<path>`` when a version was
+    registered from that run's folder. None: ``spec`` is no registry URI, or no
+    version matches.
+    """
+    from mlflow import MlflowClient
+    from mlflow.exceptions import MlflowException
+
+    client = MlflowClient(tracking_uri)
+    if spec.startswith("runs:/"):
+        run_id, _, path = spec.removeprefix("runs:/").strip("/").partition("/")
+        versions = retrying(lambda: client.search_model_versions(f"run_id = '{run_id}'"))
+        path = path.strip("/") or MODEL_PATH
+        found = [v for v in versions if str(v.source).rstrip("/").endswith("/" + path)]
+        return max(found, key=lambda v: int(v.version)) if found else None
     if not spec.startswith("models:/"):
         return None
-    from mlflow import MlflowClient
+    rest = spec.removeprefix("models:/").strip("/")
+    try:
+        if "@" in rest:
+            name, _, alias = rest.partition("@")
+            return retrying(lambda: client.get_model_version_by_alias(name, alias))
+        name, _, version = rest.partition("/")
+        if version in ("", "latest"):
+            versions = retrying(lambda: client.search_model_versions(f"name = '{name}'"))
+            return max(versions, key=lambda v: int(v.version)) if versions else None
+        return retrying(lambda: client.get_model_version(name, version))
+    except MlflowException as err:
+        if err.error_code in ("RESOURCE_DOES_NOT_EXIST", "INVALID_PARAMETER_VALUE"):
+            return None
+        raise
 
-    name, _, version = spec.removeprefix("models:/").partition("/")
-    client = MlflowClient(tracking_uri)
-    if version in ("", "latest"):
-        versions = retrying(lambda: client.search_model_versions(f"name = '{name}'"))
-        return max(versions, key=lambda v: int(v.version)) if versions else None
-    if "@" in spec:
-        return None
-    return retrying(lambda: client.get_model_version(name, version))
+
+def load_pyfunc(spec: str, tracking_uri: str, dest: Path | None = None) -> Any:
+    """``mlflow.pyfunc.load_model`` of a registered version, once its files are verified.
+
+    MLflow runs the version's code file to load it; :func:`fetch_model` has
+    checked that file (and every other) against the registered SHA-256 first,
+    and MLflow is told to refuse any pickle while it loads.
+    """
+    import mlflow.pyfunc
+
+    local, _ = fetch_model(spec, tracking_uri, dest)
+    key = "MLFLOW_ALLOW_PICKLE_DESERIALIZATION"
+    before = os.environ.get(key)
+    os.environ[key] = "false"
+    try:
+        return mlflow.pyfunc.load_model(str(local))
+    finally:
+        if before is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = before
 
 
 def _registered_names(tracking_uri: str) -> list[str]:
