@@ -1,17 +1,23 @@
 """The pipeline's structure, checked rather than remembered (docs/architecture.md).
 
+- Who may import whom: every package and top-level module of ``src/rwhonet`` has a
+  row in :data:`ALLOWED`, the same table as docs/architecture.md's "Who may import
+  whom"; an import outside it fails, and so does a unit missing from the table.
+- No import cycle, between modules (lazy and type-checking imports included) or
+  between the table's units.
 - Every module a DVC stage imports (its entry script's import closure, lazy imports
   inside functions included) lies under one of the stage's ``deps`` in dvc.yaml, so
   changing it makes DVC re-run the stage. (Which params a stage reads is enforced at
   run time: ``rwhonet.runner.run`` hands a stage only the params dvc.yaml declares.)
 - Every declared param exists in params.yaml.
-- Domain packages never import the stage layer, the project paths or MLflow tracking,
-  and nothing in src/ imports pipelines/.
+- A package's docstring names its modules, and only modules that exist.
+- Nothing in src/ imports pipelines/.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -21,8 +27,38 @@ from rwhonet import paths
 
 SRC = paths.ROOT / "src"
 PACKAGE = "rwhonet"
-DOMAIN = ("sim", "data", "geo", "features", "models", "evaluation", "serve", "nav")
-INFRA = ("rwhonet.paths", "rwhonet.runner", "rwhonet.stages", "rwhonet.tracking", "pipelines")
+
+# Who may import whom (docs/architecture.md keeps the same table): each unit of src/rwhonet
+# (a package, or a module at the top) and the units it may import.
+FOUNDATION = {"config", "contracts", "errors", "io", "libraries", "progress"}
+ALLOWED: dict[str, set[str]] = {
+    "contracts": set(),
+    "errors": set(),
+    "libraries": set(),
+    "progress": set(),
+    "paths": set(),
+    "io": {"contracts"},
+    "config": {"paths"},
+    "geo": FOUNDATION - {"config"},
+    "data": FOUNDATION | {"geo"},
+    "features": FOUNDATION | {"data", "geo"},
+    "sim": FOUNDATION | {"data", "geo"},
+    "models": FOUNDATION | {"features"},
+    "nav": FOUNDATION | {"features", "geo"},
+    "evaluation": FOUNDATION | {"features", "geo", "nav"},
+    "serve": FOUNDATION | {"data", "features", "models", "nav"},
+    "report": FOUNDATION | {"evaluation", "paths"},
+    "tracking": FOUNDATION | {"features", "paths", "serve"},
+    "runner": FOUNDATION | {"paths", "tracking"},
+    "stages": FOUNDATION
+    | {"data", "evaluation", "features", "geo", "models", "nav", "paths", "report", "serve"}
+    | {"sim", "tracking"},
+    "cli": FOUNDATION
+    | {"data", "evaluation", "features", "geo", "models", "nav", "paths", "report", "serve"}
+    | {"tracking"},
+}
+PIPELINES_MAY_IMPORT = {"runner", "stages"}
+DOMAIN = ("sim", "data", "geo", "features", "models", "nav", "evaluation", "serve")
 
 
 def module_file(module: str) -> Path | None:
@@ -120,16 +156,136 @@ def test_the_closure_sees_lazy_imports():
     assert SRC / "rwhonet" / "models" / "__init__.py" in files
 
 
-@pytest.mark.parametrize("package", DOMAIN)
-def test_domain_packages_stay_below_the_stage_layer(package):
-    for file in sorted((SRC / PACKAGE / package).rglob("*.py")):
-        module = ".".join(file.relative_to(SRC).with_suffix("").parts).removesuffix(".__init__")
-        bad = sorted(
-            n
-            for n in imports_of(file, module)
-            if any(n == i or n.startswith(i + ".") for i in INFRA)
-        )
-        assert not bad, f"{file.relative_to(paths.ROOT)} imports {bad}"
+def src_modules() -> dict[str, Path]:
+    """Every module of src/rwhonet by dotted name (a package by its ``__init__.py``)."""
+    out = {}
+    for file in sorted((SRC / PACKAGE).rglob("*.py")):
+        out[".".join(file.relative_to(SRC).with_suffix("").parts).removesuffix(".__init__")] = file
+    return out
+
+
+def unit_of(module: str) -> str | None:
+    """The table's unit of a module: ``rwhonet.data.quality`` -> ``data``; None for the root."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else None
+
+
+def test_every_unit_has_a_row_in_the_table():
+    units = {unit_of(m) for m in src_modules()} - {None}
+    assert units == set(ALLOWED), (
+        f"units without a row: {sorted(units - set(ALLOWED))}; "
+        f"rows of units that do not exist: {sorted(set(ALLOWED) - units)}"
+    )
+
+
+@pytest.mark.parametrize("unit", sorted(ALLOWED))
+def test_imports_follow_the_table(unit):
+    bad = []
+    for module, file in src_modules().items():
+        if unit_of(module) != unit:
+            continue
+        for name in imports_of(file, module):
+            target = unit_of(name)
+            if target not in (None, unit) and target not in ALLOWED[unit]:
+                bad.append(f"{file.relative_to(paths.ROOT)} imports {name}")
+    assert not bad, f"{unit} may import only {sorted(ALLOWED[unit])}:\n" + "\n".join(bad)
+
+
+def test_pipelines_import_only_the_runner_and_the_stages():
+    for file in sorted((paths.ROOT / "pipelines").glob("*.py")):
+        used = {unit_of(n) for n in imports_of(file, None)} - {None}
+        assert used <= PIPELINES_MAY_IMPORT, f"{file.name} imports {sorted(used)}"
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one node (Tarjan), iteratively."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is None:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        top = stack.pop()
+                        on_stack.discard(top)
+                        component.append(top)
+                        if top == node:
+                            break
+                    if len(component) > 1:
+                        found.append(sorted(component))
+            elif child not in graph:
+                continue
+            elif child not in index:
+                index[child] = low[child] = len(index)
+                stack.append(child)
+                on_stack.add(child)
+                work.append((child, iter(sorted(graph[child]))))
+            elif child in on_stack:
+                low[node] = min(low[node], index[child])
+    return found
+
+
+def test_no_import_cycle_between_modules():
+    graph = {m: imports_of(f, m) - {m} for m, f in src_modules().items()}
+    assert not _cycles(graph), _cycles(graph)
+
+
+def test_the_table_itself_has_no_cycle():
+    assert not _cycles({u: set(a) for u, a in ALLOWED.items()})
+
+
+def test_the_cycle_check_finds_a_cycle():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_docs_hold_the_same_table():
+    text = (paths.ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    section = text.split("## Who may import whom", 1)[1].split("\n## ", 1)[0]
+    rows = {}
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 3 and cells[0].startswith("`"):
+            names = set(re.findall(r"`([a-z_]+)`", cells[1]))
+            if re.match(r"F\b", cells[1]):
+                names |= FOUNDATION
+            rows[cells[0].strip("`")] = names
+    assert rows == ALLOWED, {
+        u: (rows.get(u), ALLOWED.get(u))
+        for u in set(rows) | set(ALLOWED)
+        if rows.get(u) != ALLOWED.get(u)
+    }
+
+
+@pytest.mark.parametrize(
+    "package", sorted(p.parent.name for p in (SRC / PACKAGE).glob("*/__init__.py"))
+)
+def test_package_docstrings_name_their_modules_and_only_those(package):
+    folder = SRC / PACKAGE / package
+    doc = ast.get_docstring(ast.parse((folder / "__init__.py").read_text(encoding="utf-8"))) or ""
+    modules = {f.stem for f in folder.glob("*.py") if not f.stem.startswith("_")}
+    modules |= {d.name for d in folder.iterdir() if (d / "__init__.py").is_file()}
+    # what the docstring lists as this package's modules: :mod: references, and the
+    # ``name`` a bullet starts with
+    listed = set(re.findall(rf":mod:`~?rwhonet\.{package}\.([a-z0-9_]+)`", doc))
+    listed |= set(re.findall(r"^[-*] ``([a-z0-9_]+)``", doc, flags=re.M))
+    mentioned = listed | set(re.findall(r"``([a-z0-9_]+)``", doc))
+    assert listed <= modules, f"rwhonet.{package} docstring names {listed - modules}"
+    assert modules <= mentioned, f"rwhonet.{package} docstring omits {modules - mentioned}"
 
 
 def test_src_never_imports_pipelines():

@@ -1,7 +1,12 @@
-"""The ``rwhonet`` command line: recalibrate, predict, export, gate (:mod:`rwhonet.cli.main`).
+"""The ``rwhonet`` command line: recalibrate, predict, export, gate.
 
 An entry point like ``pipelines/``, beside the stage layer rather than on it:
-it calls the domain code the stages call (reading, checking and labelling a
-drive: :mod:`rwhonet.cli.drive`), the models, the serving package and the
-registry, and never imports the stage layer (``stages/``, ``stage.py``).
+it calls the domain code the stages call, the models, the serving package and
+the registry, and never imports the stage layer (``stages/``, ``runner.py``).
+
+- ``main``: the argument parser and the dispatch (``rwhonet <command> --help``);
+- ``drive``: one drive file -> labelled samples, through the data and features code;
+- ``recalibrate``: G recalibrated on a new car's first m seconds, scored and registered;
+- ``predict``: a drive streamed through a served model, one corrected second at a time;
+- ``export``: a model (registered, a folder, a ``model.pt``) -> one ONNX file.
 """

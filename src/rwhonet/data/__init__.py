@@ -13,4 +13,12 @@
 - :mod:`~rwhonet.data.drivechecks`: everything ``validate`` checks on one drive,
   as problems a user can act on (:mod:`~rwhonet.data.problems` keeps them short).
 - :mod:`~rwhonet.data.stream`: drive rows read from a stream as they arrive.
+- :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
+  write them; a drive's clock (midnight rollover, each row's slot on the grid).
+- :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
+- Streams (docs/readers.md): :mod:`~rwhonet.data.streams` resamples timestamped
+  sensor streams onto the 10 Hz grid; they come from :mod:`~rwhonet.data.comma2k19`
+  (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf) or
+  :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
+  (:mod:`~rwhonet.data.signalmap`).
 """

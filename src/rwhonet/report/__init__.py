@@ -3,9 +3,9 @@
 - ``tables``: ``reports/tables.md``, rendered from the evaluation package's
   typed result (:class:`rwhonet.evaluation.result.Evaluation`, whose
   ``eval_json`` is ``metrics/eval.json``'s content);
-- ``comparison``: the headline rows, Markdown and HTML of an execution, read from
-  ``metrics/eval.json``;
-- ``compare``: ``metrics/eval.json`` next to the paper's Tables 2-10 (``paper``);
+- ``headline``: the headline rows, Markdown and HTML of an execution (the MLflow
+  parent run's view), read from ``metrics/eval.json``;
+- ``versus_paper``: ``metrics/eval.json`` next to the paper's Tables 2-10;
 - ``paper``: the paper's tables and claims, as data;
 - ``gate``: the CI regression gate, ``metrics/eval.json`` against a committed baseline.
 """

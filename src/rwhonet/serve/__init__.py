@@ -8,7 +8,9 @@
   displacement; cumulative distances and errors through outages.
 - :mod:`~rwhonet.serve.bundle`: writes a model bundle (``model.pt``, ``model.onnx``,
   ``rwhonet.json``) from a model file; the only module here that imports torch.
-- :mod:`~rwhonet.serve.pyfunc`: the MLflow ``pyfunc`` flavour of a bundle.
+- :mod:`~rwhonet.serve.pyfunc`: the MLflow ``pyfunc`` flavour of a bundle, and
+  :mod:`~rwhonet.serve.pyfunc_model`, the code MLflow runs to load it (a model from
+  code: no pickle in a registered model).
 
 Submodules are imported explicitly, so ``rwhonet predict`` loads neither torch
 nor MLflow when it runs a local model.

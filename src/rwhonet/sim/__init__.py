@@ -12,6 +12,13 @@ label the models learn (GNSS displacement - rear-wheel odometry, paper Eq. 11) i
 never computed here: it emerges downstream from these physics. Models, parameters
 and their sources: docs/simulator.md.
 
+Modules: ``roadgrid`` (the route type) and ``route`` (building routes from road
+types and events); ``motion`` (speed planning, time sampling, pose); ``vehicle``
+(tyres, loads, slip, rolling radius); ``sensors`` (CAN wheel speeds, the ESC
+gyro, the GNSS receiver); ``channels`` (the other IO-VNBD channels); ``drive``
+(one drive); ``fleet`` (a whole profile); ``writer`` (the IO-VNBD CSV and its
+sidecars); ``streams`` (a drive written as a real logger's separate streams).
+
 Public API
 ----------
 Fleet (what the DVC stage ``pipelines/simulate.py`` calls)::
@@ -69,7 +76,8 @@ Example: a straight constant-speed drive with perfect sensors::
 
 from rwhonet.sim.drive import DriveState, SimOptions, SimulatedDrive, simulate_drive, simulate_truth
 from rwhonet.sim.fleet import drive_seed, simulate_fleet, vehicles_from_params
-from rwhonet.sim.route import Route, generate_route, steady_turn_route, straight_route
+from rwhonet.sim.roadgrid import Route
+from rwhonet.sim.route import generate_route, steady_turn_route, straight_route
 from rwhonet.sim.vehicle import Vehicle
 
 __all__ = [

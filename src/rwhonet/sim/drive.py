@@ -32,7 +32,7 @@ from rwhonet.sim.motion import (
     plan_speed,
     sample_motion,
 )
-from rwhonet.sim.route import Route
+from rwhonet.sim.roadgrid import Route
 from rwhonet.sim.sensors import (
     Fault,
     GnssTrack,

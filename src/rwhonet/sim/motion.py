@@ -21,7 +21,7 @@ from rwhonet.data.canonical import G_M_S2
 from rwhonet.sim.vehicle import Vehicle, traction_limits_m_s2
 
 if TYPE_CHECKING:
-    from rwhonet.sim.route import Route
+    from rwhonet.sim.roadgrid import Route
 
 
 @dataclass(frozen=True)

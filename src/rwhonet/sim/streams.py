@@ -39,7 +39,7 @@ from rwhonet.config import SimParams
 from rwhonet.data import canonical as c
 from rwhonet.geo import latlon_from_offsets_deg
 from rwhonet.sim.drive import DriveState, SimOptions, child_rng, seed_sequence, simulate_truth
-from rwhonet.sim.route import Route
+from rwhonet.sim.roadgrid import Route
 from rwhonet.sim.sensors import can_wheel_speeds
 from rwhonet.sim.vehicle import Vehicle
 

@@ -1,9 +1,14 @@
 """What each DVC stage does, one module per stage; the only package that knows ``paths``.
 
 A stage module reads its inputs, calls the domain packages (``sim``, ``data``,
-``features``, ``models``, ``metrics``), and writes exactly the outputs
+``features``, ``models``, ``evaluation``, ``nav``), and writes exactly the outputs
 ``dvc.yaml`` declares, all at once (:func:`rwhonet.io.atomic_outputs`). Its
 ``main(params)`` is what ``pipelines/<stage>.py`` runs through
-:func:`rwhonet.runner.run`. :mod:`~rwhonet.stages.sample_files` reads the label
-stage's samples for the model stages.
+:func:`rwhonet.runner.run`.
+
+- ``simulate``, ``ingest``, ``validate``, ``label``: the data stages;
+- ``train``: ``train_g`` and ``train_s``; ``adapt``: R-WhONet by every recipe and m;
+- ``evaluate``: every model's predictions -> eval.json, tables, plots, MLflow;
+- ``sample_files``: the label stage's samples read back for the model stages;
+- ``model_outputs``: what the model stages write beside a model (predictions, run records).
 """
