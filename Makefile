@@ -10,7 +10,7 @@ export MLFLOW_DISABLE_TELEMETRY := true
 export DO_NOT_TRACK := true
 export PYTHONUNBUFFERED := 1
 
-.PHONY: setup run test test-fast lint ui bench variant report ci-pipeline ci-gate baseline-ci
+.PHONY: setup run test test-fast lint ui bench variant report worlds ci-pipeline ci-gate baseline-ci
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -67,6 +67,16 @@ variant: $(STAMP)
 # docs/results.md's five-seed figures (build/report/).
 report:
 	$(MAKE) variant NAME=report SET="seeds=[42,43,44,45,46]"
+
+# The matrix of worlds (issue 16): the two target cars under both GNSS receiver grades,
+# one pipeline each in build/worlds/<world>/ (its own MLflow store), then every headline
+# claim marked world by world in docs/results.md (rwhonet.report.worlds).
+WORLDS := paper large_target paper_consumer large_target_consumer
+worlds: $(STAMP)
+	@start=$$(date +%s); for w in $(WORLDS); do \
+		$(MAKE) --no-print-directory variant NAME=worlds/$$w SET="sim.profile=$$w" || exit 1; \
+		echo "== world $$w done after $$(( $$(date +%s) - start )) s"; done
+	$(BIN)/python -m rwhonet.report.worlds $(addprefix build/worlds/,$(WORLDS)) --results docs/results.md
 
 CI_DIR := build/ci-run
 # The `ci` profile end to end, then the mean-CRSE regression gate.

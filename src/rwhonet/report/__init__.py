@@ -7,5 +7,6 @@
   parent run's view), read from ``metrics/eval.json``;
 - ``versus_paper``: ``metrics/eval.json`` next to the paper's Tables 2-10;
 - ``paper``: the paper's tables and claims, as data;
-- ``gate``: the CI regression gate, ``metrics/eval.json`` against a committed baseline.
+- ``gate``: the CI regression gate, ``metrics/eval.json`` against a committed baseline;
+- ``worlds``: every headline claim marked, world by world, as holding or not (``make worlds``).
 """

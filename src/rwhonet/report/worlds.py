@@ -1,0 +1,276 @@
+"""Every headline claim, checked world by world: the matrix of simulated worlds in docs/results.md.
+
+A claim that holds in one simulated world may not hold in another (issue 16): a
+target car with larger tyres, or a consumer GNSS receiver whose label noise is
+several times the VBOX's, changes what recalibration can do. ``make worlds``
+runs the pipeline once per world (``build/worlds/<world>/``); this module reads
+each world's ``metrics/eval.json`` and ``params.yaml`` and marks every claim as
+holding or not, with the numbers and intervals it rests on. It reads only what
+the evaluation wrote (:mod:`rwhonet.evaluation.result`); nothing is recomputed.
+
+Claims are data (:data:`CLAIMS`): each is a sentence the docs make and a
+function from one world's evaluation to a :class:`Verdict`. The thresholds are
+the issue's acceptance bounds (5 % of min(G, S), no worse than G at any m) or
+say what "about the same" means; none is tuned to a world.
+
+Run ``python -m rwhonet.report.worlds build/worlds/<a> build/worlds/<b> ...
+--results docs/results.md`` to rewrite the section between
+``<!-- worlds:begin -->`` and ``<!-- worlds:end -->`` of docs/results.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+BEGIN, END = "<!-- worlds:begin -->", "<!-- worlds:end -->"
+NEAR = 0.05  # "within 5 %": the issue's acceptance bound for R and continuous
+
+
+@dataclass(frozen=True)
+class World:
+    """One world's evaluation.
+
+    Attributes:
+        name: the world (its sim profile, or the folder's name).
+        ev: its ``metrics/eval.json`` content.
+        params: its ``params.yaml`` content (what the user set).
+        folder: where it ran (its MLflow store is ``<folder>/mlruns``).
+    """
+
+    name: str
+    ev: dict[str, Any]
+    params: dict[str, Any]
+    folder: str = ""
+
+    @property
+    def longest(self) -> str:
+        """The longest outage's key in eval.json (``"180s"``)."""
+        return max(self.ev["overall"]["WPM"], key=lambda k: int(k.removesuffix("s")))
+
+    def crse(self, model: str) -> tuple[float, float] | None:
+        """Mean CRSE at the longest outage over all target test windows, and its ci95."""
+        cell = self.ev["overall"].get(model, {}).get(self.longest)
+        if not cell or cell.get("crse_mean") is None:
+            return None
+        return float(cell["crse_mean"]), float(cell.get("crse_ci95") or 0.0)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Whether a claim holds in one world (None: the world lacks what it needs) and why."""
+
+    holds: bool | None
+    evidence: str
+
+
+def _pm(value: float, ci: float) -> str:
+    return f"{value:.2f} ± {ci:.2f}" if math.isfinite(ci) and ci > 0 else f"{value:.2f}"
+
+
+def _chosen(w: World) -> tuple[str, int | None]:
+    return str(w.ev["recipe"]), w.ev.get("chosen_m")
+
+
+def recalibration_helps(w: World) -> Verdict:
+    """R − G at the longest outage, per seed then averaged: below 0 with its interval."""
+    d = w.ev.get("differences", {}).get("R - G", {}).get(w.longest)
+    if not d:
+        return Verdict(None, "no R − G difference")
+    upper = d["crse_mean"] + (d.get("crse_ci95") or 0.0)
+    return Verdict(
+        upper < 0,
+        f"R − G = {_pm(d['crse_mean'], d.get('crse_ci95') or 0.0)} m "
+        f"({100 * d.get('crse_rel', math.nan):+.0f} %)",
+    )
+
+
+def r_near_best(w: World) -> Verdict:
+    """R (the pipeline's choice) within 5 % of min(G, S) or better, on the mean."""
+    r, g, s = w.crse("R"), w.crse("G"), w.crse("S")
+    if not (r and g and s):
+        return Verdict(None, "R, G or S missing")
+    best = min(g[0], s[0])
+    recipe, m = _chosen(w)
+    at = f"{recipe}@{m}" if m is not None else recipe
+    return Verdict(
+        r[0] <= (1 + NEAR) * best,
+        f"R ({at}) {_pm(*r)}, G {_pm(*g)}, S {_pm(*s)} m: R/min(G, S) = {r[0] / best:.2f}",
+    )
+
+
+def default_no_harm(w: World) -> Verdict:
+    """The recipe ``auto`` falls back to (``rwhonet recalibrate``'s default) vs G at every m."""
+    fallback = w.params.get("adapt", {}).get("fallback", {}).get("recipe")
+    g = w.crse("G")
+    if not fallback or not g:
+        return Verdict(None, "no fallback recipe or no G")
+    cells = {m: w.crse(f"R[{fallback}]@{m}") for m in w.params.get("adapt", {}).get("m_grid", [])}
+    cells = {m: c for m, c in cells.items() if c}
+    if not cells:
+        return Verdict(None, f"no R[{fallback}]@m in eval.json")
+    worst = max(cells, key=lambda m: cells[m][0])
+    return Verdict(
+        all(c[0] <= g[0] for c in cells.values()),
+        f"`{fallback}`: worst m = {worst} s, {_pm(*cells[worst])} m against G {_pm(*g)} "
+        f"({cells[worst][0] / g[0] - 1:+.0%}); at m = {min(cells)} s {_pm(*cells[min(cells)])}",
+    )
+
+
+def continuous_near_s(w: World) -> Verdict:
+    """Continuous recalibration within 5 % of S or better, on the mean."""
+    c, s = w.crse("R[continuous]"), w.crse("S")
+    if not (c and s):
+        return Verdict(None, "no continuous recipe or no S")
+    return Verdict(
+        c[0] <= (1 + NEAR) * s[0],
+        f"continuous {_pm(*c)} m, S {_pm(*s)} m: ratio {c[0] / s[0]:.2f}",
+    )
+
+
+def network_beyond_radius(w: World) -> Verdict:
+    """The network adds nothing measurable beyond one radius: R − WPM-m@m's interval holds 0."""
+    _, m = _chosen(w)
+    key = next((k for k in w.ev.get("differences", {}) if k.startswith("R - WPM-m@")), None)
+    d = w.ev["differences"][key].get(w.longest) if key else None
+    if not d:
+        return Verdict(None, f"no R − WPM-m difference (chosen m {m})")
+    ci = d.get("crse_ci95") or 0.0
+    return Verdict(
+        abs(d["crse_mean"]) <= ci,
+        f"{key.replace(' - ', ' − ')} = {_pm(d['crse_mean'], ci)} m",
+    )
+
+
+def g_like_wpm(w: World) -> Verdict:
+    """G barely changes the WPM on the new car: its gain over the WPM within ±5 %."""
+    gain = w.ev.get("gains", {}).get("G", {}).get("WPM", {}).get(w.longest)
+    if not gain:
+        return Verdict(None, "no gain of G over the WPM")
+    return Verdict(
+        abs(gain["gain"]) <= NEAR,
+        f"1 − G/WPM = {100 * gain['gain']:+.1f} ± {100 * (gain.get('gain_ci95') or 0):.1f} %",
+    )
+
+
+def ten_seconds_harm(w: World) -> Verdict:
+    """At m = 10 s some recipe is worse than G on average over the drives."""
+    m10 = min(w.params.get("adapt", {}).get("m_grid", [10]))
+    worse = sorted(
+        model.split("]")[0].removeprefix("R[")
+        for model, by_outage in w.ev.get("no_harm", {}).items()
+        if model.endswith(f"]@{m10}") and by_outage.get(w.longest, {}).get("worse_on_average")
+    )
+    return Verdict(
+        bool(worse),
+        f"worse than G at m = {m10} s: " + (", ".join(worse) if worse else "none"),
+    )
+
+
+CLAIMS: list[tuple[str, Callable[[World], Verdict]]] = [
+    ("Recalibrating G on the new car's first seconds lowers its error", recalibration_helps),
+    ("R as the pipeline chooses it is within 5 % of min(G, S) or better", r_near_best),
+    ("The recipe `auto` falls back to is no worse than G at any m", default_no_harm),
+    ("Continuous recalibration is within 5 % of S or better", continuous_near_s),
+    ("The network adds nothing measurable beyond one tyre radius", network_beyond_radius),
+    ("G barely changes the WPM on the new car (within ±5 %)", g_like_wpm),
+    ("At the smallest m, some recipe does harm (worse than G on average)", ten_seconds_harm),
+]
+
+
+def verdicts(worlds: Sequence[World]) -> list[tuple[str, list[Verdict]]]:
+    """Every claim in every world."""
+    return [(text, [check(w) for w in worlds]) for text, check in CLAIMS]
+
+
+def _mark(v: Verdict) -> str:
+    return {True: "holds", False: "**does not hold**", None: "n/a"}[v.holds]
+
+
+def render(worlds: Sequence[World]) -> str:
+    """The markdown section: one table of claims by world, then the evidence per world."""
+    head = "| claim | " + " | ".join(f"`{w.name}`" for w in worlds) + " |"
+    lines = [
+        BEGIN,
+        "<!-- Written by `python -m rwhonet.report.worlds` (make worlds); edit the code, "
+        "not this section. -->",
+        "",
+        head,
+        "|---|" + "---|" * len(worlds),
+    ]
+    table = verdicts(worlds)
+    for text, row in table:
+        lines.append(f"| {text} | " + " | ".join(_mark(v) for v in row) + " |")
+    lines.append("")
+    for i, w in enumerate(worlds):
+        recipe, m = _chosen(w)
+        lines += [
+            f"**`{w.name}`** ({w.ev.get('n_seeds')} seeds; R-WhONet = `{recipe}`"
+            + (f" at m = {m} s" if m is not None else "")
+            + f"; mean CRSE at {w.longest.removesuffix('s')} s over all target test windows; "
+            f"tables: `{w.folder}/reports/tables.md`, MLflow: `{w.folder}/mlruns`):",
+            "",
+        ]
+        lines += [f"- {text}: {_mark(row[i])}. {row[i].evidence}." for text, row in table]
+        lines.append("")
+    lines.append(END)
+    return "\n".join(lines) + "\n"
+
+
+def load_world(folder: Path) -> World:
+    """One world from the folder it ran in (``params.yaml``, ``metrics/eval.json``).
+
+    Raises:
+        FileNotFoundError: the folder holds no evaluation.
+    """
+    ev = json.loads((folder / "metrics" / "eval.json").read_text(encoding="utf-8"))
+    params = yaml.safe_load((folder / "params.yaml").read_text(encoding="utf-8")) or {}
+    name = params.get("sim", {}).get("profile", folder.name)
+    if params.get("data", {}).get("source") == "files":
+        name = folder.name
+    return World(name, ev, params, str(folder))
+
+
+def replace_section(text: str, section: str) -> str:
+    """``text`` with its worlds section replaced by ``section`` (appended when absent)."""
+    if BEGIN in text and END in text:
+        before, rest = text.split(BEGIN, 1)
+        after = rest.split(END, 1)[1]
+        return before + section.rstrip("\n") + after
+    return text.rstrip("\n") + "\n\n" + section
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the worlds section, or write it into a results file."""
+    parser = argparse.ArgumentParser(
+        prog="python -m rwhonet.report.worlds",
+        description="Mark every headline claim as holding or not in each world's evaluation.",
+    )
+    parser.add_argument("folders", nargs="+", type=Path, help="world folders (build/worlds/*)")
+    parser.add_argument("--results", type=Path, help="rewrite this file's worlds section")
+    args = parser.parse_args(argv)
+    worlds = []
+    for folder in args.folders:
+        try:
+            worlds.append(load_world(folder))
+        except FileNotFoundError as err:
+            parser.error(f"{folder}: no evaluation ({err.filename}); run `make worlds` first")
+    section = render(worlds)
+    if args.results is None:
+        print(section, end="")
+        return 0
+    text = args.results.read_text(encoding="utf-8") if args.results.is_file() else ""
+    args.results.write_text(replace_section(text, section), encoding="utf-8")
+    print(f"{args.results}: worlds section rewritten ({', '.join(w.name for w in worlds)})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,107 @@
+"""Claims checked world by world (rwhonet.report.worlds), on a real evaluation's eval.json."""
+
+import copy
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from rwhonet.report import worlds as wr
+
+FIXTURE = Path(__file__).parents[1] / "evaluation" / "fixtures" / "ci_pipeline_before" / "eval.json"
+PARAMS = {
+    "sim": {"profile": "ci"},
+    "adapt": {"m_grid": [10, 20], "fallback": {"recipe": "radius+G", "m": 20}},
+}
+
+
+@pytest.fixture
+def world() -> wr.World:
+    return wr.World("ci", json.loads(FIXTURE.read_text()), copy.deepcopy(PARAMS), "build/ci")
+
+
+def test_every_claim_is_evaluated_on_a_real_evaluation(world):
+    for text, row in wr.verdicts([world]):
+        (v,) = row
+        assert v.holds is not None, text
+        assert v.evidence
+
+
+def test_recalibration_helps_reads_the_paired_difference(world):
+    d = world.ev["differences"]["R - G"]["180s"]
+    d["crse_mean"], d["crse_ci95"] = -1.0, 0.5
+    assert wr.recalibration_helps(world).holds
+    d["crse_ci95"] = 1.5  # the interval reaches 0: not shown
+    assert not wr.recalibration_helps(world).holds
+
+
+def test_r_near_best_uses_five_percent_of_the_better_of_g_and_s(world):
+    o = world.ev["overall"]
+    o["G"]["180s"]["crse_mean"], o["S"]["180s"]["crse_mean"] = 10.0, 20.0
+    o["R"]["180s"]["crse_mean"] = 10.5
+    assert wr.r_near_best(world).holds
+    o["R"]["180s"]["crse_mean"] = 10.51
+    assert not wr.r_near_best(world).holds
+
+
+def test_default_no_harm_checks_every_m_of_the_grid(world):
+    o = world.ev["overall"]
+    g = o["G"]["180s"]["crse_mean"]
+    o["R[radius+G]@10"]["180s"]["crse_mean"] = g - 1
+    o["R[radius+G]@20"]["180s"]["crse_mean"] = g - 1
+    assert wr.default_no_harm(world).holds
+    o["R[radius+G]@10"]["180s"]["crse_mean"] = g + 0.01
+    verdict = wr.default_no_harm(world)
+    assert not verdict.holds and "worst m = 10 s" in verdict.evidence
+
+
+def test_a_world_without_a_model_says_n_a(world):
+    del world.ev["overall"]["R[continuous]"]
+    assert wr.continuous_near_s(world).holds is None
+
+
+def test_network_beyond_radius_holds_when_the_interval_holds_zero(world):
+    key = next(k for k in world.ev["differences"] if k.startswith("R - WPM-m@"))
+    d = world.ev["differences"][key]["180s"]
+    d["crse_mean"], d["crse_ci95"] = -0.3, 0.4
+    assert wr.network_beyond_radius(world).holds
+    d["crse_mean"] = -0.5
+    assert not wr.network_beyond_radius(world).holds
+
+
+def test_ten_seconds_harm_lists_the_recipes_worse_than_g(world):
+    for model, by_outage in world.ev["no_harm"].items():
+        by_outage["180s"]["worse_on_average"] = model == "R[paper]@10"
+    v = wr.ten_seconds_harm(world)
+    assert v.holds and v.evidence.endswith("paper")
+    world.ev["no_harm"]["R[paper]@10"]["180s"]["worse_on_average"] = False
+    assert not wr.ten_seconds_harm(world).holds
+
+
+def test_render_and_replace_the_section(world, tmp_path):
+    other = wr.World("paper_consumer", world.ev, world.params, "build/pc")
+    section = wr.render([world, other])
+    assert section.startswith(wr.BEGIN) and section.rstrip().endswith(wr.END)
+    assert "| claim | `ci` | `paper_consumer` |" in section
+    assert section.count("\n| ") == 1 + len(wr.CLAIMS)
+    doc = "# Results\n\nintro\n\n" + wr.BEGIN + "\nSTALE-SECTION\n" + wr.END + "\n\n## After\n"
+    new = wr.replace_section(doc, section)
+    assert "STALE-SECTION" not in new and new.startswith("# Results\n\nintro") and new.endswith("## After\n")
+    assert wr.replace_section("# R\n", section).endswith(section)
+
+
+def test_main_reads_world_folders_and_refuses_a_missing_one(tmp_path, capsys):
+    folder = tmp_path / "paper_consumer"
+    (folder / "metrics").mkdir(parents=True)
+    (folder / "metrics" / "eval.json").write_text(FIXTURE.read_text())
+    params = copy.deepcopy(PARAMS)
+    params["sim"]["profile"] = "paper_consumer"
+    (folder / "params.yaml").write_text(yaml.safe_dump(params))
+    results = tmp_path / "results.md"
+    results.write_text("# Results\n")
+    assert wr.main([str(folder), "--results", str(results)]) == 0
+    assert "`paper_consumer`" in results.read_text()
+    with pytest.raises(SystemExit) as err:
+        wr.main([str(tmp_path / "nowhere")])
+    assert err.value.code == 2 and "make worlds" in capsys.readouterr().err
