@@ -26,7 +26,7 @@ from rwhonet.nav.coverage import (
     mahalanobis_sq,
     nll_2d,
 )
-from rwhonet.nav.filter import CONTROLS, STATE, NavConfig, NavInputs, NavTrack, run
+from rwhonet.nav.filter import CONTROLS, STATE, NavConfig, NavInputs, NavStart, NavTrack, run
 from rwhonet.nav.outage import OutageResult, run_outage, window_inputs
 from rwhonet.nav.sensors import GnssSpec, GyroSpec, WheelSpec
 
@@ -39,6 +39,7 @@ __all__ = [
     "GyroSpec",
     "NavConfig",
     "NavInputs",
+    "NavStart",
     "NavTrack",
     "OutageResult",
     "WheelSpec",
