@@ -20,6 +20,10 @@ State (per window; :data:`STATE`), in a local east/north frame in metres
  12   ``beta_v`` the wheel yaw's bias per metre grows with speed by this, rad/m per
                  m/s (the rear tyres' radii part with speed: two pressures, two
                  tread depths)
+ 13   ``bd_g``   the gyro bias's drift rate, rad/s per s: the sensor warming up after
+                 power-on moves its bias at a rate that decays with the warm-up's
+                 time constant (``b_g ← b_g + bd_g``, ``bd_g ← e^{−1/τ_w} bd_g`` each
+                 second); learnt from GNSS before an outage, extrapolated through it
 ====  =========  ===================================================================
 
 Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
@@ -78,8 +82,9 @@ STATE: tuple[str, ...] = (
     "g_n",
     "eps_w",
     "beta_v",
+    "bd_g",
 )
-E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV = range(len(STATE))
+E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV, BD = range(len(STATE))
 S = len(STATE)
 DELTA = S  # the second's yaw, in the augmented state
 
@@ -419,7 +424,7 @@ def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
 
 
 # The rows of the propagation's Jacobian that differ from the identity's.
-MOVED_ROWS = np.array([E, N, PSI, GE, GN, EW])
+MOVED_ROWS = np.array([E, N, PSI, BG, GE, GN, EW, BD])
 
 
 def _sandwich(p: np.ndarray, jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -468,6 +473,7 @@ def _initial(
         (CW, cfg.load_sd**2),
         (EW, cfg.wheel_error_sd**2),
         (BV, cfg.wheel_bias_speed_sd**2),
+        (BD, cfg.gyro.drift_rate_sd() ** 2),
         (GE, g2),
         (GN, g2),
     ):
@@ -541,6 +547,8 @@ def run(
     phi_w = np.exp(-1.0 / cfg.wheel_error_tau_s)
     q_diag[EW] = cfg.wheel_error_sd**2 * (1.0 - phi_w * phi_w)
     q_diag[BV] = cfg.wheel_bias_speed_walk**2
+    # the warm-up's drift rate decays and is not driven: a ramp whose start is unknown
+    phi_d = np.exp(-1.0 / cfg.gyro.warm_tau_s)
     r_fix = np.broadcast_to(np.eye(2) * gn.white_m**2, (w, 2, 2))
 
     xs = np.full((w, n, S), np.nan)
@@ -635,8 +643,12 @@ def run(
             xa_new[:, GE] *= phi
             xa_new[:, GN] *= phi
             xa_new[:, EW] *= phi_w
+            xa_new[:, BG] += xa[:, BD]  # the bias ramps while the sensor warms
+            xa_new[:, BD] *= phi_d
             jac[:, GE, GE] = jac[:, GN, GN] = phi
             jac[:, EW, EW] = phi_w
+            jac[:, BG, BD] = 1.0
+            jac[:, BD, BD] = phi_d
             pa_new = _sandwich(pa, jac, MOVED_ROWS)
             pa_new += np.diag(q_diag)
             var_d = np.nan_to_num(dist_var[:, k])

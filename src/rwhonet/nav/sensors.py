@@ -11,8 +11,12 @@ here from what a data sheet or a CAN database states:
   its bias wanders as a first-order Gauss-Markov process of standard deviation
   ``B`` (bias instability) and correlation time ``τ``, which the filter
   carries as a random walk of ``2 B² / τ`` per second (the process's
-  short-term increment), plus the drift with temperature while the sensor
-  warms up (``°/s per K`` times ``K per s``);
+  short-term increment); and it drifts with temperature while the sensor
+  warms up after power-on: a rate (``°/s per K`` times the warm-up's initial
+  ``K per s``) that decays with the warm-up's time constant, which the filter
+  carries as a state of its own (a ramp, not a random walk: a random walk
+  of the same rate per square-root second would grow as ``r sqrt(T)`` where
+  the ramp grows as ``r T``, 13 times less over 180 s);
 - **wheels**: the rear wheels' travel difference over one second, from CAN
   wheel speeds with white noise ``σ`` and resolution ``q`` (rounding: ``q²/12``
   per sample) on both wheels, times ``r / b`` (radius over rear track);
@@ -58,7 +62,8 @@ class GyroSpec:
         bias_instability: Gauss-Markov bias wander, rad/s.
         bias_tau_s: its correlation time, s.
         temp_drift_per_k: bias change per kelvin, rad/s/K.
-        warm_rate_k_s: the sensor's warm-up rate, K/s.
+        warm_rate_k_s: the sensor's warm-up rate at power-on, K/s.
+        warm_tau_s: the warm-up's time constant, s (the drift rate decays with it).
         scale_sd: spread of the scale-factor error (the filter's prior).
     """
 
@@ -69,6 +74,7 @@ class GyroSpec:
     bias_tau_s: float = 300.0
     temp_drift_per_k: float = np.radians(0.004)
     warm_rate_k_s: float = 15.0 / 600.0
+    warm_tau_s: float = 600.0
     scale_sd: float = 0.03
 
     def yaw_sd_rad(self, rows_per_second: int = ROWS_PER_SECOND) -> float:
@@ -77,10 +83,12 @@ class GyroSpec:
         return float(np.sqrt(self.noise_density**2 * 1.0 + quant))
 
     def bias_walk_rad_s(self) -> float:
-        """Random walk of the bias per square-root second, rad/s/sqrt(s)."""
-        gm = 2.0 * self.bias_instability**2 / self.bias_tau_s
-        temp = (self.temp_drift_per_k * self.warm_rate_k_s) ** 2
-        return float(np.sqrt(gm + temp))
+        """Random walk of the bias per square-root second (its instability), rad/s/sqrt(s)."""
+        return float(np.sqrt(2.0 * self.bias_instability**2 / self.bias_tau_s))
+
+    def drift_rate_sd(self) -> float:
+        """Spread of the bias's drift rate at power-on (warming up), rad/s per s."""
+        return float(abs(self.temp_drift_per_k) * self.warm_rate_k_s)
 
 
 @dataclass(frozen=True)
