@@ -261,3 +261,23 @@ def test_a_warming_gyro_s_bias_ramp_is_learnt_before_the_outage_and_carried_thro
     inside = coverage_2d(with_ramp.error_m, with_ramp.cov_m2)[SIGMA_CONTENT[1]]
     outside = coverage_2d(without.error_m, without.cov_m2)[SIGMA_CONTENT[1]]
     assert inside >= 0.85 and outside <= 0.5, (inside, outside)
+
+
+def test_the_filter_s_defaults_are_the_shipped_generic_sensor_figures():
+    """One set of generic automotive figures: params.yaml's evaluate.navigation (what the
+    evaluation runs with) and the filter's defaults (what `rwhonet predict` runs with
+    outside a project)."""
+    from rwhonet import paths
+    from rwhonet.config import load_params
+    from rwhonet.nav import config_from_params
+
+    nav = load_params(paths.PARAMS).evaluate.navigation
+    wheels = WheelSpec()
+    shipped = config_from_params(nav, wheels.radius_m, wheels.track_rear_m)
+    for field in ("gyro", "wheels", "gnss", "antenna_m"):
+        got, default = getattr(shipped, field), getattr(NavConfig(), field)
+        if field == "antenna_m":
+            assert got == default
+            continue
+        for name, value in dataclasses.asdict(default).items():
+            assert getattr(got, name) == pytest.approx(value), (field, name)

@@ -51,12 +51,10 @@ from rwhonet.features.deadreckoning import course_rad, dead_reckon, fit_heading,
 from rwhonet.geo.local import offsets_m
 from rwhonet.nav import (
     SIGMA_CONTENT,
-    GnssSpec,
-    GyroSpec,
     NavConfig,
     NavInputs,
     NavStart,
-    WheelSpec,
+    config_from_params,
     coverage_2d,
     nll_2d,
     run,
@@ -213,29 +211,11 @@ def filter_models(model_list: list[str]) -> list[str]:
 
 def nav_config(params: Params) -> NavConfig:
     """The filter's settings: ``evaluate.navigation`` and the target car's radius and track."""
-    nav = params.evaluate.navigation
     vehicle = params.data.roles[k.TARGET_TEST].vehicle
-    g, w, r = nav.gyro, nav.wheels, nav.gnss
-    return NavConfig(
-        gyro=GyroSpec(
-            noise_density=float(np.radians(g.noise_density_deg_s_rthz)),
-            lsb=float(np.radians(g.lsb_deg_s)),
-            bias_sd=float(np.radians(g.bias_sd_deg_s)),
-            bias_instability=float(np.radians(g.instability_deg_s)),
-            bias_tau_s=g.instability_tau_s,
-            temp_drift_per_k=float(np.radians(g.temp_drift_deg_s_k)),
-            warm_rate_k_s=g.warm_rate_k_s,
-            warm_tau_s=g.warm_tau_s,
-            scale_sd=g.scale_sd,
-        ),
-        wheels=WheelSpec(
-            quantum_rad_s=w.quantum_rad_s,
-            noise_rad_s=w.noise_rad_s,
-            radius_m=params.nominal_radius_m(vehicle),
-            track_rear_m=params.track_rear_m(vehicle),
-        ),
-        gnss=GnssSpec(sigma_m=r.sigma_m, tau_s=r.tau_s, white_m=r.white_m),
-        antenna_m=(float(nav.antenna_m[0]), float(nav.antenna_m[1])),
+    return config_from_params(
+        params.evaluate.navigation,
+        params.nominal_radius_m(vehicle),
+        params.track_rear_m(vehicle),
     )
 
 

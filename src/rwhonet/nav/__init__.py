@@ -26,7 +26,16 @@ from rwhonet.nav.coverage import (
     mahalanobis_sq,
     nll_2d,
 )
-from rwhonet.nav.filter import CONTROLS, STATE, NavConfig, NavInputs, NavStart, NavTrack, run
+from rwhonet.nav.filter import (
+    CONTROLS,
+    STATE,
+    NavConfig,
+    NavInputs,
+    NavStart,
+    NavTrack,
+    config_from_params,
+    run,
+)
 from rwhonet.nav.outage import OutageResult, run_outage, window_inputs
 from rwhonet.nav.sensors import GnssSpec, GyroSpec, WheelSpec
 
@@ -43,6 +52,7 @@ __all__ = [
     "NavTrack",
     "OutageResult",
     "WheelSpec",
+    "config_from_params",
     "coverage_1d",
     "coverage_2d",
     "crse_coverage",

@@ -60,7 +60,7 @@ Joseph form.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -154,6 +154,42 @@ class NavConfig:
     load_min: float = 0.0
     load_max: float = 0.01
     scale_max_off: float = 0.3
+
+
+def config_from_params(
+    navigation: Any, radius_m: float, track_rear_m: float, **overrides: Any
+) -> NavConfig:
+    """The filter's settings from ``params.yaml``'s ``evaluate.navigation`` and a car's geometry.
+
+    Args:
+        navigation: :class:`rwhonet.config.NavigationParams` (degrees as written there).
+        radius_m: the rear wheels' nominal rolling radius, m.
+        track_rear_m: the rear track, m.
+        **overrides: other :class:`NavConfig` fields.
+    """
+    g, w, r = navigation.gyro, navigation.wheels, navigation.gnss
+    return NavConfig(
+        gyro=GyroSpec(
+            noise_density=float(np.radians(g.noise_density_deg_s_rthz)),
+            lsb=float(np.radians(g.lsb_deg_s)),
+            bias_sd=float(np.radians(g.bias_sd_deg_s)),
+            bias_instability=float(np.radians(g.instability_deg_s)),
+            bias_tau_s=g.instability_tau_s,
+            temp_drift_per_k=float(np.radians(g.temp_drift_deg_s_k)),
+            warm_rate_k_s=g.warm_rate_k_s,
+            warm_tau_s=g.warm_tau_s,
+            scale_sd=g.scale_sd,
+        ),
+        wheels=WheelSpec(
+            quantum_rad_s=w.quantum_rad_s,
+            noise_rad_s=w.noise_rad_s,
+            radius_m=radius_m,
+            track_rear_m=track_rear_m,
+        ),
+        gnss=GnssSpec(sigma_m=r.sigma_m, tau_s=r.tau_s, white_m=r.white_m),
+        antenna_m=(float(navigation.antenna_m[0]), float(navigation.antenna_m[1])),
+        **overrides,
+    )
 
 
 @dataclass(frozen=True)

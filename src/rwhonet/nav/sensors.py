@@ -1,7 +1,10 @@
 """The filter's noise, from the sensors' stated error models.
 
 Every figure the filter needs is a per-second variance or random walk, derived
-here from what a data sheet or a CAN database states:
+here from what a data sheet or a CAN database states. The defaults are generic
+automotive figures, the same as ``params.yaml``'s ``evaluate.navigation``
+(docs/positioning.md gives each one's source): what the filter assumes for a car
+that comes with no data sheet.
 
 - **gyro** (the ESC's yaw-rate sensor): the integral of ``hz`` samples over one
   second carries the angle random walk of its noise density ``N`` (``N²·1 s``,
@@ -67,15 +70,15 @@ class GyroSpec:
         scale_sd: spread of the scale-factor error (the filter's prior).
     """
 
-    noise_density: float = np.radians(0.03)
-    lsb: float = np.radians(0.05)
-    bias_sd: float = np.radians(0.5)
-    bias_instability: float = np.radians(0.03)
+    noise_density: float = float(np.radians(0.02))
+    lsb: float = float(np.radians(0.05))
+    bias_sd: float = float(np.radians(0.5))
+    bias_instability: float = float(np.radians(0.01))
     bias_tau_s: float = 300.0
-    temp_drift_per_k: float = np.radians(0.004)
+    temp_drift_per_k: float = float(np.radians(0.01))
     warm_rate_k_s: float = 15.0 / 600.0
     warm_tau_s: float = 600.0
-    scale_sd: float = 0.03
+    scale_sd: float = 0.02
 
     def yaw_sd_rad(self, rows_per_second: int = ROWS_PER_SECOND) -> float:
         """Noise of one second's integrated yaw, rad."""
@@ -135,8 +138,8 @@ class GnssSpec:
             (jumps), for positions and courses alike.
     """
 
-    sigma_m: float = 1.4
-    tau_s: float = 120.0
+    sigma_m: float = 1.5
+    tau_s: float = 100.0
     white_m: float = 0.05
     course_sd_rad: float = 0.01
     min_course_m: float = 3.0
