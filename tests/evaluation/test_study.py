@@ -248,3 +248,25 @@ def test_2d_position_error_is_the_distance_error_on_a_straight_drive(samples_dir
     assert set(out["uncertainty"]["models"]) >= {"WPM", "G", "S", "R"}
     md = render_report(ev, params, "provenance")
     assert "## Where is the car when GNSS returns" in md and "earlier 2D dead reckoning" in md
+
+
+def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_dir, params):
+    from rwhonet.evaluation.uncertainty import FitEvidence
+
+    frame = _frame(samples_dir)
+    train = load_role(samples_dir, "target_train", seq_len=1).frame
+    label = train["label_m"].to_numpy()
+    cols = {"G": label - 0.1, "S": label, "R[paper]@20": label - 0.02}
+    evidence = FitEvidence(train, {s: pd.DataFrame(cols, index=train.index) for s in params.seeds})
+    ev = study(params, choose(params, {}), frame, _preds(frame, params, {"G": 0.1}), None, evidence)
+    var = ev.variance.set_index("model")
+    # G is 0.1 m off every second of the training drive's 80 scored seconds: sigma about 0.1 m
+    assert var.loc["G", "n_seconds"] == 80
+    assert np.sqrt(var.loc["G", "a_m2"] + var.loc["G", "b"] * 10.0**2) == pytest.approx(
+        0.1, rel=0.15
+    )
+    # S is fitted on the 10 s its training held out: too few, so the assumed variance
+    assert var.loc["S", "n_seconds"] == 0
+    out = ev.eval_json["uncertainty"]
+    assert out["fitted_on"].startswith("target training drives")
+    assert out["models"]["R"]["n_seconds"] == 80 and "30s" in out["models"]["R"]
