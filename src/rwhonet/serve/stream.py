@@ -319,27 +319,33 @@ class SecondStream:
             "disp_corrected_m": disp_wpm + pred,
             "disp_gnss_m": gnss,
         }
-        withheld = np.zeros(n_sec, bool)
-        for o in self.outages:
-            withheld |= (out["elapsed_s"] > o.start_s) & (out["elapsed_s"] <= o.end_s)
         fix = {"lat": end_of_second(rows[c.LAT_DEG]), "lon": end_of_second(rows[c.LON_DEG])}
-        nav = self._navigator.step(
-            {
-                "disp_corrected_m": out["disp_corrected_m"],
-                "disp_gnss_m": gnss,
-                "angle_rl_rad": angles[0],
-                "angle_rr_rad": angles[1],
-                "gyro_yaw_rad": gyro_yaw_rad(t, rows.get(c.YAW_RATE_RAD_S)),
-                "lat_deg": fix["lat"],
-                "lon_deg": fix["lon"],
-            },
-            withheld,
-        )
+        nav = None
+        # the filter runs while an outage is still to come (its positions are the outages')
+        if self.outages and out["elapsed_s"][0] <= max(o.end_s for o in self.outages):
+            withheld = np.zeros(n_sec, bool)
+            for o in self.outages:
+                withheld |= (out["elapsed_s"] > o.start_s) & (out["elapsed_s"] <= o.end_s)
+            nav = self._navigator.step(
+                {
+                    "disp_corrected_m": out["disp_corrected_m"],
+                    "disp_gnss_m": gnss,
+                    "angle_rl_rad": angles[0],
+                    "angle_rr_rad": angles[1],
+                    "gyro_yaw_rad": gyro_yaw_rad(t, rows.get(c.YAW_RATE_RAD_S)),
+                    "lat_deg": fix["lat"],
+                    "lon_deg": fix["lon"],
+                },
+                withheld,
+            )
         out.update(self._outage_columns(out, nav, fix))
         return out
 
     def _outage_columns(
-        self, sec: dict[str, np.ndarray], nav: dict[str, np.ndarray], fix: dict[str, np.ndarray]
+        self,
+        sec: dict[str, np.ndarray],
+        nav: dict[str, np.ndarray] | None,
+        fix: dict[str, np.ndarray],
     ) -> dict[str, np.ndarray]:
         n = len(sec["t_s"])
         out: dict[str, np.ndarray] = {"outage": np.full(n, "", dtype=object)}
@@ -385,7 +391,8 @@ class SecondStream:
                 float(cum["crse_wpm_m"][-1]),
                 float(cum["crse_corrected_m"][-1]),
             )
-            self._position(tot, rows, nav, fix, out)
+            if nav is not None:
+                self._position(tot, rows, nav, fix, out)
         return out
 
     @staticmethod
