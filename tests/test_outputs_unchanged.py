@@ -81,7 +81,11 @@ def test_network_free_numbers_are_unchanged_on_any_machine(repo):
         assert set(got) == set(cells), scope
         for model, by_outage in cells.items():
             for outage, stats in by_outage.items():
-                assert got[model][outage]["n_windows"] == stats["n_windows"], (scope, model)
+                # window counts: overall cells have them, per-drive cells never did
+                assert got[model][outage].get("n_windows") == stats.get("n_windows"), (
+                    scope,
+                    model,
+                )
                 if model.startswith(NETWORK_FREE):
                     assert got[model][outage] == stats, (scope, model, outage)
     assert now["limits"] == before["limits"]
