@@ -88,6 +88,7 @@ def nav_config(car, gyro: Gyro) -> NavConfig:
             bias_tau_s=gyro.instability_tau_s,
             temp_drift_per_k=gyro.temp_drift_per_k,
             warm_rate_k_s=gyro.warm_k / gyro.warm_tau_s,
+            warm_tau_s=gyro.warm_tau_s,
         ),
         wheels=WheelSpec(
             quantum_rad_s=p.can.quantum_rad_s,

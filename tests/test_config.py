@@ -115,6 +115,7 @@ TEXT_PARAMS = {
     "tracking.experiment": "an MLflow experiment's name",
     "tracking.tracking_uri": "written: checked (tracking_uri_problem)",
     "gate.baseline": "read by the gate: checked inside the project",
+    "evaluate.navigation.control_model": "a model's name, matched",
 }
 
 

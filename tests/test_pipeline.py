@@ -61,8 +61,18 @@ def test_full_pipeline_then_noop(repo):
     assert ev["overall"]["G"]["30s"]["crse_ci95"] is not None
     assert set(ev["domain_gap"]["G"]) == {"target_test", "source_test"}
     assert ev["overall"]["WPM"]["180s"]["n_windows"] >= 4 * 2
+    # 2D: the navigation filter on the simulated ESC gyro and the rear wheels (issue 17)
+    assert ev["position"]["R"]["180s"]["pos_mean"] > 0 and ev["position"]["R"]["180s"]["n_windows"]
+    assert set(ev["position_controls"]["rows"]) == {
+        "wheels",
+        "gyro",
+        "fused",
+        "fused, GNSS distance",
+    }
+    assert ev["uncertainty"]["models"]["R"]["n_seconds"] > 0
     tables = (repo / "reports/tables.md").read_text()
     assert "Table 2" in tables and "R-WhONet (m=20)" in tables
+    assert "## Where is the car when GNSS returns" in tables
     assert "adapt.fallback: the selection rule had no candidate" in tables
     preds = list((repo / "reports/predictions").glob("*.parquet"))
     assert len(preds) == 4 + 2  # target test and held-out source drives

@@ -713,9 +713,72 @@ class DeadReckoningParams:
 
 
 @dataclass(frozen=True)
+class NavGyroParams:
+    """The yaw-rate sensor the navigation filter assumes (rwhonet.nav.sensors.GyroSpec)."""
+
+    noise_density_deg_s_rthz: float
+    lsb_deg_s: float  # the CAN signal's resolution
+    bias_sd_deg_s: float  # turn-on bias spread (the filter's prior)
+    instability_deg_s: float  # Gauss-Markov bias wander
+    instability_tau_s: float
+    temp_drift_deg_s_k: float  # bias change per kelvin
+    warm_rate_k_s: float  # the sensor's warm-up rate at power-on
+    warm_tau_s: float  # the warm-up's time constant
+    scale_sd: float  # scale-factor error spread (fraction)
+
+
+@dataclass(frozen=True)
+class NavWheelParams:
+    """The rear wheels' CAN speeds (rwhonet.nav.sensors.WheelSpec)."""
+
+    quantum_rad_s: float
+    noise_rad_s: float
+
+
+@dataclass(frozen=True)
+class NavGnssParams:
+    """The receiver's error (rwhonet.nav.sensors.GnssSpec), per axis."""
+
+    sigma_m: float  # Gauss-Markov drift
+    tau_s: float
+    white_m: float  # white noise per fix
+
+
+@dataclass(frozen=True)
+class NavigationParams:
+    """2D navigation through each outage (rwhonet.evaluation.position, rwhonet.nav)."""
+
+    control_model: str  # whose distances the wheels / gyro / fused controls run on (R: R-WhONet)
+    min_calibration_s: int  # seconds the filter must have run on GNSS before an outage
+    antenna_m: list[float]  # the antenna ahead of and left of the rear-axle centre, m
+    gyro: NavGyroParams
+    wheels: NavWheelParams
+    gnss: NavGnssParams
+
+    def __post_init__(self) -> None:
+        if len(self.antenna_m) != 2:
+            raise ConfigError(
+                f"evaluate.navigation.antenna_m: expected [ahead, left] in m, got {self.antenna_m}"
+            )
+        if self.min_calibration_s < 0:
+            raise ConfigError(
+                f"evaluate.navigation.min_calibration_s must be >= 0, got {self.min_calibration_s}"
+            )
+        figures = {
+            **{f"gyro.{k}": v for k, v in dataclasses.asdict(self.gyro).items()},
+            **{f"wheels.{k}": v for k, v in dataclasses.asdict(self.wheels).items()},
+            **{f"gnss.{k}": v for k, v in dataclasses.asdict(self.gnss).items()},
+        }
+        bad = [f"evaluate.navigation.{k} = {v}" for k, v in figures.items() if not v > 0]
+        if bad:
+            raise ConfigError("sensor figures must be > 0: " + ", ".join(bad))
+
+
+@dataclass(frozen=True)
 class EvaluateParams:
     outages_s: list[int]
     dead_reckoning: DeadReckoningParams
+    navigation: NavigationParams
     scenario_outage_s: int  # the outage over each tagged event (rwhonet.evaluation.scenarios)
 
     def __post_init__(self) -> None:

@@ -43,6 +43,9 @@ ANGLE_RR_RAD = "angle_rr_rad"
 # The GNSS fix ending the second (2D dead reckoning: course before an outage, truth after).
 LAT_DEG = "lat_deg"
 LON_DEG = "lon_deg"
+# The yaw-rate gyro's angle over the second, rad, left positive; NaN where the drive has no
+# yaw rate (2D navigation: fused with the rear wheels' yaw).
+GYRO_YAW_RAD = "gyro_yaw_rad"
 SCENARIO = "scenario"  # ';'-joined scenario tags of the second
 SAMPLE_VALUE_COLUMNS = (
     T_S,
@@ -55,6 +58,7 @@ SAMPLE_VALUE_COLUMNS = (
     ANGLE_RR_RAD,
     LAT_DEG,
     LON_DEG,
+    GYRO_YAW_RAD,
 )
 SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
 

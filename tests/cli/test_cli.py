@@ -133,6 +133,13 @@ def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
     np.testing.assert_allclose(
         frame["disp_corrected_m"], frame["disp_wpm_m"] + frame["pred_error_m"], atol=2e-4
     )
+    # where the car is through the outage, and how far that is from GNSS at its end
+    inside = frame["outage"].notna()
+    position = ["east_m", "north_m", "cov_ee_m2", "cov_en_m2", "cov_nn_m2", "pos_err_m"]
+    assert frame.loc[inside, position].notna().all().all()
+    assert frame.loc[~inside, position].isna().all().all()
+    end = frame.loc[inside, "pos_err_m"].iloc[-1]
+    assert f"{end:.1f} m from the GNSS fix" in err and "position at the end" in err
 
 
 def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):

@@ -219,15 +219,54 @@ def test_scenario_errors_per_tag(samples_dir, params):
 def test_2d_position_error_is_the_distance_error_on_a_straight_drive(samples_dir, params):
     frame = _frame(samples_dir)
     ev = evaluate(params, frame, _preds(frame, params, {"G": 0.1}))
-    pos = ev.position.set_index(["model", "outage_s"])
-    # due north at constant heading: a model's 2D error is its summed distance error
-    # (the fixture's GNSS displacement has 0.05 m of noise a second, its fixes none:
-    # 30 s of it is about 0.27 m)
-    assert pos.loc[("G", 30), "pos_mean"] == pytest.approx(3.0, abs=0.3)  # 30 s x 0.1 m
-    assert pos.loc[("S", 30), "pos_mean"] < 0.5  # perfect
+    dead = ev.position_dead_reckoning.set_index(["model", "outage_s"])
+    # the earlier dead reckoning, due north at constant heading: a model's 2D error is its
+    # summed distance error (the fixture's GNSS displacement has 0.05 m of noise a second,
+    # its fixes none: 30 s of it is about 0.27 m)
+    assert dead.loc[("G", 30), "pos_mean"] == pytest.approx(3.0, abs=0.3)  # 30 s x 0.1 m
     s = ev.summary[(ev.summary["role"] == "target_test") & (ev.summary["drive"] == "all")]
     wpm_cte = s.set_index(["model", "outage_s"]).loc[("WPM", 30), "cte_mean"]
-    assert pos.loc[("WPM", 30), "pos_mean"] == pytest.approx(wpm_cte, rel=0.1)
-    assert ev.eval_json["position"]["G"]["30s"]["n_windows"] > 0
+    assert dead.loc[("WPM", 30), "pos_mean"] == pytest.approx(wpm_cte, rel=0.1)
+    # the filter learns a distance's lasting scale error from GNSS before the outage (its
+    # odometry-scale state): G's 0.1 m a second short (1 % at 10 m/s) is mostly gone
+    pos = ev.position[ev.position["control"] == "fused"].set_index(["model", "outage_s"])
+    assert pos.loc[("G", 30), "pos_mean"] < 1.0
+    assert pos.loc[("S", 30), "pos_mean"] < 1.0  # perfect
+    # a window counts after min_calibration_s (30) s of its segment on GNSS: not the first
+    # windows of A's and B's first segments (20 s in), nor the first two of A's second
+    # segment (0 and 30 s in; its first second has no course, the filter starts on the next)
+    assert (pos.loc[("G", 30), "n_windows"], pos.loc[("G", 30), "n_windows_all"]) == (23, 27)
+    out = ev.eval_json
+    assert out["position"]["G"]["30s"]["n_windows"] > 0
+    assert set(out["position_controls"]["rows"]) == {
+        "wheels",
+        "gyro",
+        "fused",
+        "fused, GNSS distance",
+    }
+    assert out["position_dead_reckoning"]["G"]["30s"]["pos_mean"] == pytest.approx(3.0, abs=0.3)
+    assert set(out["uncertainty"]["models"]) >= {"WPM", "G", "S", "R"}
     md = render_report(ev, params, "provenance")
-    assert "## 2D dead reckoning" in md
+    assert "## Where is the car when GNSS returns" in md and "earlier 2D dead reckoning" in md
+
+
+def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_dir, params):
+    from rwhonet.evaluation.uncertainty import FitEvidence
+
+    frame = _frame(samples_dir)
+    train = load_role(samples_dir, "target_train", seq_len=1).frame
+    label = train["label_m"].to_numpy()
+    cols = {"G": label - 0.1, "S": label, "R[paper]@20": label - 0.02}
+    evidence = FitEvidence(train, {s: pd.DataFrame(cols, index=train.index) for s in params.seeds})
+    ev = study(params, choose(params, {}), frame, _preds(frame, params, {"G": 0.1}), None, evidence)
+    var = ev.variance.set_index("model")
+    # G is 0.1 m off every second of the training drive's 80 scored seconds: sigma about 0.1 m
+    assert var.loc["G", "n_seconds"] == 80
+    assert np.sqrt(var.loc["G", "a_m2"] + var.loc["G", "b"] * 10.0**2) == pytest.approx(
+        0.1, rel=0.15
+    )
+    # S is fitted on the 10 s its training held out: too few, so the assumed variance
+    assert var.loc["S", "n_seconds"] == 0
+    out = ev.eval_json["uncertainty"]
+    assert out["fitted_on"].startswith("target training drives")
+    assert out["models"]["R"]["n_seconds"] == 80 and "30s" in out["models"]["R"]

@@ -286,3 +286,17 @@ def test_a_tyre_losing_pressure_gives_the_bias_of_now_not_the_average():
     # a second of the outage: the wheels say -0.04 rad, the car goes straight
     turn = fit.scale * (-0.004 * 10.0) / (1.0 + fit.load_s2_m2 * 100.0) + fit.bias_rad_per_m * 10.0
     assert abs(turn) < 0.15 * 0.04
+
+
+def test_latest_courses_that_disagree_with_each_other_leave_the_heading_on_the_latest():
+    # 300 s straight on, then a turn of 1.1 rad that the wheels do not see (when reversing
+    # they count a turn the wrong way round, or not at all): the courses of the re-anchoring
+    # memory (3 tau = 9.5 s here: the last ten) split 5 / 5, none within the outlier limit
+    # of their median (this stopped the ci pipeline's evaluate with an empty reduction).
+    # The heading follows the latest courses.
+    n = 300
+    course = np.full(n, 0.7)
+    course[-5:] += 1.1
+    fit = fit_heading(course, np.zeros(n), np.full(n, 10.0), course_sd_rad=0.0095, fix_sd_m=0.001)
+    assert fit is not None
+    assert _degrees_off(fit.azimuth_end_rad, 1.8) < 3.0

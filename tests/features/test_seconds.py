@@ -179,3 +179,20 @@ def test_scenario_merge_of_any_input_matches_a_plain_per_second_union(n_values, 
         ),
     }[kind]
     assert scenario_per_second(values).tolist() == expected
+
+
+def test_gyro_yaw_is_the_rate_integrated_over_each_second_and_nan_without_a_channel():
+    frame = _frame()
+    t = frame[c.T_S].to_numpy()
+    frame[c.YAW_RATE_RAD_S] = 0.05 + 0.01 * (t - t[0])  # a linear rate: the trapezoid is exact
+    sec = segment_seconds(frame, "f")
+    bounds = t[anchor_rows(len(sec))]
+    expected = np.diff(0.05 * bounds + 0.005 * (bounds - t[0]) ** 2)
+    np.testing.assert_allclose(sec.gyro_yaw_rad, expected, rtol=0, atol=1e-12)
+    frame.loc[15, c.YAW_RATE_RAD_S] = np.nan  # a missing rate spoils its second only
+    sec = segment_seconds(frame, "f")
+    assert np.isnan(sec.gyro_yaw_rad[1]) and np.isfinite(np.delete(sec.gyro_yaw_rad, 1)).all()
+    no_gyro = segment_seconds(frame.drop(columns=[c.YAW_RATE_RAD_S]), "f")
+    assert len(no_gyro.gyro_yaw_rad) == len(sec) and np.isnan(no_gyro.gyro_yaw_rad).all()
+    # the other per-second quantities do not depend on the channel
+    np.testing.assert_array_equal(no_gyro.wheels_rad_s, sec.wheels_rad_s)

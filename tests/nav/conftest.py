@@ -96,7 +96,10 @@ def model_drives(rng, cfg: NavConfig, w: int, n: int, *, exact: bool = False):
     nn = np.cumsum(chord * np.cos(mid), axis=1)
 
     s_g = drift(gy.scale_sd, cfg.gyro_scale_walk, 1.0)
-    b_g = drift(gy.bias_sd, gy.bias_walk_rad_s())
+    # the bias: its prior, a random walk (instability), and the warm-up's ramp: a drift
+    # rate drawn at the start that decays with the warm-up's time constant
+    rate = draw(gy.drift_rate_sd())[:, None] * np.exp(-np.arange(n) / gy.warm_tau_s)
+    b_g = drift(gy.bias_sd, gy.bias_walk_rad_s()) + np.c_[np.zeros(w), np.cumsum(rate, 1)[:, :-1]]
     gyro = delta / s_g + b_g + draw(gy.yaw_sd_rad(), (w, n))
     s_w = drift(cfg.wheel_scale_sd, cfg.wheel_scale_walk, 1.0)
     beta = drift(cfg.wheel_bias_sd, cfg.wheel_bias_walk)

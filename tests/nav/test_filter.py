@@ -8,8 +8,19 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from rwhonet.nav import GnssSpec, GyroSpec, NavConfig, NavInputs, WheelSpec, run, run_outage
+from rwhonet.nav import (
+    SIGMA_CONTENT,
+    GnssSpec,
+    GyroSpec,
+    NavConfig,
+    NavInputs,
+    WheelSpec,
+    coverage_2d,
+    run,
+    run_outage,
+)
 from rwhonet.nav.filter import (
+    BD,
     DELTA,
     PSI,
     SD,
@@ -204,3 +215,69 @@ def test_a_filter_that_lost_the_car_starts_its_pose_afresh_on_gnss():
     )
     lost = np.hypot(stuck.x[:, -1, 0] - truth.e[:, -1], stuck.x[:, -1, 1] - truth.n[:, -1])
     assert np.max(lost) > 10.0, lost
+
+
+def test_a_warming_gyro_s_bias_ramp_is_learnt_before_the_outage_and_carried_through_it():
+    """The bias moves at a rate decaying with the warm-up (the simulator's ESC gyro): the
+    filter's drift-rate state learns the rate from GNSS and extrapolates it; a filter
+    without that state is off by the ramp through the outage, beyond what it predicts."""
+    rng = np.random.default_rng(11)
+    w, n, outage = 20, 600, 180
+    gyro = GyroSpec(
+        bias_instability=1e-9,
+        temp_drift_per_k=np.radians(0.01),
+        warm_rate_k_s=0.025,
+        warm_tau_s=600.0,
+    )
+    cfg = NavConfig(gyro=gyro, gnss=GnssSpec(sigma_m=1.0, tau_s=120.0, white_m=0.3))
+    rate0 = gyro.drift_rate_sd() * rng.choice([-1.0, 1.0], w)  # one sigma, either sign
+    t = np.arange(n + outage)
+    bias = np.radians(0.3) + rate0[:, None] * 600.0 * (1.0 - np.exp(-t / 600.0))
+    psi0 = rng.uniform(-np.pi, np.pi, w)
+    step_e, step_n = np.sin(psi0)[:, None] * 15.0, np.cos(psi0)[:, None] * 15.0
+    e = np.c_[np.zeros(w), np.cumsum(np.tile(step_e, n + outage), axis=1)]
+    nn = np.c_[np.zeros(w), np.cumsum(np.tile(step_n, n + outage), axis=1)]
+    inputs = NavInputs(
+        np.full((w, n + outage), 15.0),
+        np.full((w, n + outage), 0.01),
+        rng.normal(0.0, WheelSpec().yaw_sd_rad(), (w, n + outage)),
+        bias + rng.normal(0.0, gyro.yaw_sd_rad(), (w, n + outage)),
+        e + rng.normal(0.0, 0.3, e.shape),
+        nn + rng.normal(0.0, 0.3, nn.shape),
+    )
+    track = run(inputs, cfg, "gyro", keep_cov=True)
+    rate = track.x[:, n - 1, BD]
+    sd = np.sqrt(track.cov[:, n - 1, BD, BD])
+    truth = rate0 * np.exp(-(n - 1) / 600.0)
+    assert np.all(np.abs(rate - truth) < 4 * sd) and np.all(sd < 0.2 * np.abs(truth))
+    with_ramp = run_outage(inputs, n, cfg, "gyro")
+    without = run_outage(
+        inputs,
+        n,
+        dataclasses.replace(cfg, gyro=dataclasses.replace(gyro, warm_rate_k_s=0.0)),
+        "gyro",
+    )
+    assert np.mean(with_ramp.horizontal_m) < 0.5 * np.mean(without.horizontal_m)
+    inside = coverage_2d(with_ramp.error_m, with_ramp.cov_m2)[SIGMA_CONTENT[1]]
+    outside = coverage_2d(without.error_m, without.cov_m2)[SIGMA_CONTENT[1]]
+    assert inside >= 0.85 and outside <= 0.5, (inside, outside)
+
+
+def test_the_filter_s_defaults_are_the_shipped_generic_sensor_figures():
+    """One set of generic automotive figures: params.yaml's evaluate.navigation (what the
+    evaluation runs with) and the filter's defaults (what `rwhonet predict` runs with
+    outside a project)."""
+    from rwhonet import paths
+    from rwhonet.config import load_params
+    from rwhonet.nav import config_from_params
+
+    nav = load_params(paths.PARAMS).evaluate.navigation
+    wheels = WheelSpec()
+    shipped = config_from_params(nav, wheels.radius_m, wheels.track_rear_m)
+    for field in ("gyro", "wheels", "gnss", "antenna_m"):
+        got, default = getattr(shipped, field), getattr(NavConfig(), field)
+        if field == "antenna_m":
+            assert got == default
+            continue
+        for name, value in dataclasses.asdict(default).items():
+            assert getattr(got, name) == pytest.approx(value), (field, name)

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rwhonet.nav import NavConfig, run_outage, window_inputs
+from rwhonet.nav import NavConfig, NavInputs, NavStart, run, run_outage, window_inputs
 
 from .conftest import model_drives
 
@@ -64,3 +64,38 @@ def test_a_window_without_a_course_before_its_outage_is_not_calibrated():
     blind = dataclasses.replace(w, fix_e_m=np.full_like(w.fix_e_m, np.nan))
     out = run_outage(blind, 300)
     assert not out.calibrated[0] and np.isnan(out.end_m).all()
+
+
+def test_a_snapshot_handed_over_dead_reckons_as_one_run_through_the_outage():
+    """A run over the segment, snapshotted where each outage begins, then each window
+    dead-reckoned from its snapshot, ends where one run with the outage's fixes withheld ends."""
+    per_second, fe, fn = _segment(np.random.default_rng(3))
+    starts = np.array([300, 480, 700])
+    # each window calibrated on every second of the segment before it
+    direct = [
+        run_outage(window_inputs(per_second, fe, fn, np.array([s]), s, 180), s) for s in starts
+    ]
+    segment = NavInputs(
+        **{key: values[None] for key, values in per_second.items()},
+        fix_e_m=fe[None],
+        fix_n_m=fn[None],
+    )
+    pass1 = run(segment, snapshots=starts - 1)  # the state at the end of the second before
+    # the windows begin with each snapshot as the last calibration second; the other rows
+    # of the start are ignored until the outage
+    outage = window_inputs(per_second, fe, fn, starts, 0, 180)
+    blind = dataclasses.replace(
+        outage,
+        fix_e_m=np.full_like(outage.fix_e_m, np.nan),
+        fix_n_m=np.full_like(outage.fix_n_m, np.nan),
+    )
+    start = NavStart(pass1.snapshot_x[0], pass1.snapshot_cov[0], np.ones(3, bool))
+    handed = run(blind, start=start)
+    end = np.concatenate([d.end_m for d in direct])
+    cov = np.concatenate([d.cov_m2 for d in direct])
+    np.testing.assert_allclose(handed.fix_pred[:, -1], end, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(handed.fix_cov[:, -1], cov, rtol=1e-9, atol=1e-9)
+    with pytest.raises(ValueError, match="snapshots"):
+        run(segment, snapshots=np.array([len(per_second["dist_m"])]))
+    with pytest.raises(ValueError, match="start"):
+        run(blind, start=NavStart(start.x[:2], start.p[:2], start.on[:2]))

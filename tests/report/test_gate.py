@@ -30,10 +30,10 @@ BASE = {
 }
 
 
-def _run(tmp_path, now, rel_tol=0.1, abs_tol=0.0):
+def _run(tmp_path, now, rel_tol=0.1, abs_tol=0.0, base=None):
     e, b = tmp_path / "eval.json", tmp_path / "base.json"
     e.write_text(json.dumps(now))
-    b.write_text(json.dumps(BASE))
+    b.write_text(json.dumps(BASE if base is None else base))
     return main(
         [
             "--eval",
@@ -106,3 +106,44 @@ def test_every_model_and_both_metrics_are_compared():
     assert {r.metric for r in rows} == {"crse", "cte"}
     assert len(rows) == 2 * (4 * 2 + 1)
     assert "REGRESSION" not in render(rows, 0.1, 0.0)
+
+
+def _with_filter(base):
+    """An eval.json of the navigation filter: position per model, the controls' key."""
+    out = copy.deepcopy(base)
+    out["position"] = {
+        "WPM": {"30s": {"pos_mean": 9.0}, "180s": {"pos_mean": 60.0}},
+        "R": {"30s": {"pos_mean": 8.0}, "180s": {"pos_mean": 40.0}},
+    }
+    out["position_controls"] = {"control": "fused", "rows": {}}
+    return out
+
+
+def test_the_filter_position_after_the_longest_outage_is_gated(tmp_path, capsys):
+    base = _with_filter(BASE)
+    rows = compare(base, base)
+    assert {(r.model, r.outage) for r in rows if r.metric == "pos"} == {
+        ("WPM", "180s"),
+        ("R", "180s"),
+    }
+    assert _run(tmp_path, base, base=base) == 0
+    capsys.readouterr()
+    worse = copy.deepcopy(base)
+    worse["position"]["R"]["180s"]["pos_mean"] = 40.0 * 1.25
+    assert _run(tmp_path, worse, base=base) == 1
+    line = next(
+        ln for ln in capsys.readouterr().out.splitlines() if ln.split()[:3] == ["R", "180s", "POS"]
+    )
+    assert "REGRESSION" in line and "+25.0%" in line
+    gone = copy.deepcopy(base)
+    del gone["position"]["WPM"]
+    assert _run(tmp_path, gone, base=base) == 1  # a model's position missing fails
+
+
+def test_a_baseline_from_before_the_filter_gates_crse_and_cte_only(tmp_path, capsys):
+    old = copy.deepcopy(BASE)
+    # the earlier dead reckoning's block: another quantity under the same key
+    old["position"] = {"R": {"180s": {"pos_mean": 400.0}}}
+    assert not [r for r in compare(_with_filter(BASE), old) if r.metric == "pos"]
+    assert _run(tmp_path, _with_filter(BASE), base=old) == 0
+    assert "predates the navigation filter" in capsys.readouterr().out

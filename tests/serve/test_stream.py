@@ -8,8 +8,10 @@ from rwhonet.cli.drive import calibration_of, load_drive
 from rwhonet.config import load_params
 from rwhonet.data.stream import read_rows
 from rwhonet.errors import InputError
+from rwhonet.geo.local import offsets_m
 from rwhonet.serve.model import load_served
-from rwhonet.serve.stream import COLUMNS, Outage, SecondStream, parse_outage
+from rwhonet.serve.stream import COLUMNS, POSITION_COLUMNS, Outage, SecondStream, parse_outage
+from support.drives import straight_drive
 from support.serving import RADIUS_M, SCALER, wavy_drive
 
 
@@ -36,7 +38,9 @@ def blocks_of(df, sizes):
             "omega_fr_rad_s",
             "omega_rl_rad_s",
             "omega_rr_rad_s",
+            "yaw_rate_rad_s",
         )
+        if k in df
     }
     out, i = [], 0
     for n in sizes:
@@ -158,3 +162,61 @@ def test_missing_wheel_speed_and_time_going_back_are_named(bundle):
     df.loc[120, "t_s"] = df.loc[118, "t_s"]
     with pytest.raises(InputError, match="row 121.*a time after"):
         stream_all(model, blocks_of(df, [100] * 5))
+
+
+def _straight(duration_s=300.0, yaw=True):
+    """Straight on at 15 m/s, azimuth 30 deg, exact fixes and wheels (the base model's radius)."""
+    df = straight_drive(duration_s, 15.0, RADIUS_M)
+    if yaw:  # a gyro reading the straight road's zero turn, with an ESC sensor's noise per row
+        df["yaw_rate_rad_s"] = np.random.default_rng(0).normal(0.0, 6e-4, len(df))
+    return df
+
+
+@pytest.mark.parametrize("sizes", [[100000], [333] * 20])
+def test_the_outage_s_position_and_covariance_from_the_last_fix_before_it(bundle, sizes):
+    model = load_served(bundle["model_onnx"])
+    df = _straight()
+    out, stream = stream_all(model, blocks_of(df, sizes), [Outage(100, 220)])
+    inside = out["outage"] == "100:220"
+    assert inside.sum() == 120
+    for col in POSITION_COLUMNS:
+        assert np.isfinite(out[col][inside]).all() and np.isnan(out[col][~inside]).all(), col
+    # the truth: the GNSS fix ending each outage second, from the fix before the outage
+    t = df["t_s"].to_numpy()
+    ends = np.searchsorted(t, out["t_s"][inside])
+    before = ends[0] - 10
+    e, n = offsets_m(
+        df["lat_deg"][before], df["lon_deg"][before], df["lat_deg"][ends], df["lon_deg"][ends]
+    )
+    assert e[-1] == pytest.approx(900.0, abs=0.5) and n[-1] == pytest.approx(1558.8, abs=0.5)
+    err = np.hypot(out["east_m"][inside] - e, out["north_m"][inside] - n)
+    np.testing.assert_allclose(out["pos_err_m"][inside], err, atol=0.01)
+    # the model's distances are off (a random network): learnt from GNSS before the outage
+    assert err[-1] < 5.0, err[-1]
+    cov = np.stack(
+        [
+            np.stack([out["cov_ee_m2"][inside], out["cov_en_m2"][inside]], -1),
+            np.stack([out["cov_en_m2"][inside], out["cov_nn_m2"][inside]], -1),
+        ],
+        -2,
+    )
+    assert np.all(np.linalg.eigvalsh(cov) > 0)
+    assert np.trace(cov[-1]) > np.trace(cov[0])  # dead reckoning: the uncertainty grows
+    summary = stream.summary()[0]
+    assert summary["control"] == "fused"
+    assert summary["pos_err_end_m"] == pytest.approx(out["pos_err_m"][inside][-1])
+    assert summary["east_end_m"] == pytest.approx(out["east_m"][inside][-1])
+    assert summary["pos_sd_end_m"] == pytest.approx(np.sqrt(np.linalg.eigvalsh(cov[-1])[-1]))
+
+
+def test_without_a_yaw_rate_the_wheels_alone_steer_and_a_missing_end_fix_has_no_error(bundle):
+    model = load_served(bundle["model_onnx"])
+    df = _straight(260.0, yaw=False)
+    df.loc[2480:2510, ["lat_deg", "lon_deg"]] = np.nan  # no GNSS at the outage's end (250 s)
+    out, stream = stream_all(model, blocks_of(df, [700] * 5), [Outage(100, 250)])
+    inside = out["outage"] == "100:250"
+    summary = stream.summary()[0]
+    assert summary["control"] == "wheels" and np.isnan(summary["pos_err_end_m"])
+    assert np.isfinite(out["east_m"][inside]).all() and np.isnan(out["pos_err_m"][inside][-1])
+    # straight ahead on exact wheels: where the car is, without a gyro
+    assert abs(summary["east_end_m"] - 150 * 15.0 * 0.5) < 25.0

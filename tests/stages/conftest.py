@@ -37,6 +37,7 @@ def write_samples(folder, segments, seed=0, true_radius_m=None):
         # due north from 52.4 N along the true odometry: 1 m is about 9e-6 degrees
         df.insert(8, "lat_deg", 52.4 + np.cumsum(r_true * angle) / 111_250.0)
         df.insert(9, "lon_deg", np.full(n, -1.5))
+        df.insert(10, "gyro_yaw_rad", np.zeros(n))  # straight: the gyro sees no turn
         df["scenario"] = ""
         df.to_parquet(folder / f"{seg}.parquet", index=False)
         manifest.append(

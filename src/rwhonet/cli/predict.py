@@ -6,7 +6,10 @@ Reads the drive (a file, or ``-`` for stdin) block by block as it arrives
 as soon as it is complete: CSV (``-`` for stdout, flushed after every block,
 so the command can sit in a pipe) or Parquet (one row group per block). Runs
 the model's ONNX graph in ONNX Runtime: neither torch nor Lightning is imported;
-MLflow only to fetch a registered model.
+MLflow only to fetch a registered model. During each ``--outage`` the navigation
+filter (:mod:`rwhonet.serve.navigation`) gives the car's position and its
+covariance each second; the summary gives the position at the outage's end and
+its distance to the GNSS fix there, where the file has one.
 """
 
 from __future__ import annotations
@@ -162,6 +165,20 @@ def run(
     return {"rows": rows, "seconds": seconds, "outages": stream.summary(), "file": name}
 
 
+def _position_text(o: dict[str, Any]) -> str:
+    """The filter's end-of-outage position, and its error where GNSS is there to compare."""
+    if math.isnan(o.get("east_end_m", math.nan)):
+        return "; position: none (the filter had not started)"
+    yaw = "gyro + wheels" if o["control"] == "fused" else "wheels alone (no yaw rate)"
+    text = (
+        f"; position at the end {o['east_end_m']:.1f} m east, {o['north_end_m']:.1f} m north "
+        f"of the last fix before it (1-sigma {o['pos_sd_end_m']:.1f} m; yaw: {yaw})"
+    )
+    if math.isnan(o["pos_err_end_m"]):
+        return text + ", no GNSS fix at the end to compare"
+    return text + f", {o['pos_err_end_m']:.1f} m from the GNSS fix"
+
+
 def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
@@ -172,12 +189,12 @@ def render_summary(out: dict[str, Any]) -> str:
         if math.isnan(o["dist_gnss_m"]):
             lines.append(
                 f"outage {o['outage']} s ({o['seconds']} s): WPM {o['dist_wpm_m']:.1f} m, "
-                f"corrected {o['dist_corrected_m']:.1f} m (no GNSS to compare)"
+                f"corrected {o['dist_corrected_m']:.1f} m (no GNSS to compare)" + _position_text(o)
             )
             continue
         lines.append(
             f"outage {o['outage']} s ({o['seconds']} s, GNSS {o['dist_gnss_m']:.1f} m): "
             f"WPM CRSE {o['crse_wpm_m']:.2f} m, CTE {o['cte_wpm_m']:.2f} m; corrected CRSE "
-            f"{o['crse_corrected_m']:.2f} m, CTE {o['cte_corrected_m']:.2f} m"
+            f"{o['crse_corrected_m']:.2f} m, CTE {o['cte_corrected_m']:.2f} m" + _position_text(o)
         )
     return "\n".join(lines)

@@ -4,7 +4,8 @@
 same code as the ingest readers (:func:`rwhonet.data.csvio.parse_header`,
 :func:`rwhonet.data.iovnbd.iovnbd_columns`, :func:`rwhonet.data.columnmap.columnmap_positions`),
 then every block of whole lines that the stream has ready is parsed into the
-canonical channels in SI units (``t_s``, ``lat_deg``, ``lon_deg``, ``omega_*``).
+canonical channels in SI units (``t_s``, ``lat_deg``, ``lon_deg``, ``omega_*``, and
+``yaw_rate_rad_s`` where the layout has it).
 Rows are numbered as the readers number them (1-based data rows, blank lines not
 counted), so a bad cell is reported with its row and the file's column name.
 Missing values (empty, ``NaN``, ``NA``, ``null``) become NaN: the caller decides
@@ -28,6 +29,8 @@ from rwhonet.errors import InputError, Problem
 BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s of 10 Hz rows)
 MISSING = {"", "nan", "na", "n/a", "null", "none", "-nan"}
 CHANNELS = c.REQUIRED  # what a second needs: time, fix, four wheel speeds
+# Read too where the layout has them: the yaw rate (predict's navigation filter).
+OPTIONAL_CHANNELS = (c.YAW_RATE_RAD_S,)
 
 
 @dataclass(frozen=True)
@@ -71,11 +74,12 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         by_key = columnmap_positions(header, column_map or {}, fmt, file)
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
         factors = {KEYS[key][0]: KEYS[key][1][column_map[key].unit] for key in by_key}
-    positions = {name: positions[name] for name in CHANNELS}
+    wanted = (*CHANNELS, *(name for name in OPTIONAL_CHANNELS if name in positions))
+    positions = {name: positions[name] for name in wanted}
     return Layout(
         n_columns=len(header),
         positions=positions,
-        factors={name: factors[name] for name in CHANNELS},
+        factors={name: factors[name] for name in wanted},
         names={name: header[pos] for name, pos in positions.items()},
     )
 

@@ -14,7 +14,10 @@ reads the predictions, calls :func:`study.evaluate` and writes what it returns.
 - ``paired``: per-seed differences, gains over the WPMs, "do no harm";
 - ``over_time``: CRSE against the time into the drive;
 - ``limits``: what m seconds of GNSS can tell about a car's radius;
-- ``position``: 2D position error at the end of each outage window;
+- ``position``: 2D position at the end of each outage window: the navigation
+  filter (``rwhonet.nav``) per model and control, and the earlier dead reckoning;
+- ``uncertainty``: each model's per-second distance variance, fitted on the
+  target training drives, and how well it predicts the windows' CRSE;
 - ``scenarios``: the short-term scenarios: per-second error by tag and the
   scenario outages;
 - ``result``: the typed :class:`~result.Evaluation` and its eval.json content;

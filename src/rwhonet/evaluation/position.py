@@ -1,33 +1,66 @@
-"""2D position error at the end of each outage window, for the WPM and each model.
+"""2D position at the end of each outage window: the navigation filter, per model and control.
 
-Beyond the paper, whose metrics (CRSE, CTE) are distances travelled. For every
-target test window of every outage length (the same windows as CRSE/CTE), the
-car is dead-reckoned from the GNSS fix before the window
-(:mod:`rwhonet.features.deadreckoning`): heading from the rear wheels, fitted
-to the GNSS course over ``evaluate.dead_reckoning.calibration_s`` seconds
-before the window (0: all of its segment before it); each second's distance is
-the model's (the WPM's, or the WPM corrected by the model: GNSS displacement
-minus the model's error). The
-error is the horizontal distance between where that ends and the GNSS fix at
-the window's end. The heading is the same for every model, so the differences
-between models are their distance errors seen in 2D.
+Beyond the paper, whose metrics (CRSE, CTE) are distances travelled (issue 17).
+For every target test window of every outage length (the same windows as
+CRSE/CTE), where is the car when GNSS returns, and how sure is the filter?
 
-A window needs the second before it in its segment (its start fix) and a GNSS
-course in its calibration stretch; windows without are left out and counted.
-The row :data:`HEADING_ONLY` dead-reckons the GNSS's own distances: its error is
-the heading's alone, the floor under every distance model.
+**The filter** (:mod:`rwhonet.nav`): per target test segment, the extended
+Kalman filter runs over every second with GNSS (course and fix updates),
+propagated by a model's distance of each second with that model's variance
+(:mod:`rwhonet.evaluation.uncertainty`) and by the yaw of the gyro, the rear
+wheels, or both fused; its state is kept where each window begins
+(:class:`rwhonet.nav.NavStart`), and from there every window is dead-reckoned
+through its outage without GNSS. The error is the horizontal distance between
+the predicted fix and the GNSS fix ending the window; the filter's 2x2
+covariance of that prediction gives the coverage of its 68.27 % / 95.45 %
+ellipses and the negative log-likelihood (:mod:`rwhonet.nav.coverage`). A
+window counts when the filter has run at least
+``evaluate.navigation.min_calibration_s`` seconds of its segment before it,
+and, for the controls that use the gyro, when every second of the outage has a
+gyro yaw; windows left out are counted.
+
+Rows: every odometry model (WPM, G, S, WPM-m and every recipe at the chosen m;
+not ``R[continuous]``, whose distances exist only inside the windows, so the
+filter has none to run on before them) with the fused control; and the
+filter's own controls with ``evaluate.navigation.control_model``'s distances
+(R-WhONet by default): ``wheels`` alone, ``gyro`` alone, ``fused``, and
+``fused`` on the GNSS's own distances (:data:`GNSS_DISTANCE`: the error left is
+the heading's). Drives without a yaw rate have no gyro and no fused rows: the
+models' rows then use the wheels (``position_control`` in eval.json says which).
+
+**The dead-reckoning control** (:func:`window_tracks`, :func:`position_errors`):
+the previous 2D estimate, kept for comparison. From the GNSS fix before the
+window, heading from the rear wheels fitted to the GNSS course over
+``evaluate.dead_reckoning.calibration_s`` seconds before it
+(:mod:`rwhonet.features.deadreckoning`); each second's distance is the model's.
+The row :data:`HEADING_ONLY` dead-reckons the GNSS's own distances.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
+from rwhonet.contracts import CONTINUOUS
 from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.deadreckoning import course_rad, dead_reckon, fit_heading, wheel_yaw_rad
 from rwhonet.geo.local import offsets_m
+from rwhonet.nav import (
+    SIGMA_CONTENT,
+    NavConfig,
+    NavInputs,
+    NavStart,
+    config_from_params,
+    coverage_2d,
+    nll_2d,
+    run,
+)
+
+GNSS_DISTANCE = "GNSS distance"  # the filter's control on the GNSS's own distances
 
 HEADING_ONLY = "heading only (GNSS distance)"
 
@@ -144,3 +177,358 @@ def position_errors(
                 }
             )
     return out
+
+
+# --------------------------------------------------------------------------- the filter
+
+
+@dataclass(frozen=True)
+class Odometry:
+    """One filter run: a model's distance of every second, its variance, and the yaw control.
+
+    Attributes:
+        model: the row's name (a model, or :data:`GNSS_DISTANCE`).
+        seed: the training seed, None when the same for every seed (WPM, WPM-m, GNSS).
+        control: ``wheels``, ``gyro`` or ``fused``.
+        dist_m: (N,) the distance of every row of the frame, m.
+        var_m2: (N,) its error variance, m².
+        outage_var_m2: per outage length, the variance inside such an outage
+            (errors that last; default: ``var_m2``).
+    """
+
+    model: str
+    seed: int | None
+    control: str
+    dist_m: np.ndarray
+    var_m2: np.ndarray
+    outage_var_m2: dict[int, np.ndarray] = field(default_factory=dict)
+
+
+def filter_models(model_list: list[str]) -> list[str]:
+    """The models the filter runs on: all but ``R[continuous]`` (no distance before a window)."""
+    return [m for m in model_list if CONTINUOUS not in m]
+
+
+def nav_config(params: Params) -> NavConfig:
+    """The filter's settings: ``evaluate.navigation`` and the target car's radius and track."""
+    vehicle = params.data.roles[k.TARGET_TEST].vehicle
+    return config_from_params(
+        params.evaluate.navigation,
+        params.nominal_radius_m(vehicle),
+        params.track_rear_m(vehicle),
+    )
+
+
+def gnss_distance_var(cfg: NavConfig) -> float:
+    """The variance of a second's GNSS distance: both fixes' white noise, and 5 cm besides."""
+    return 0.05**2 + 2.0 * cfg.gnss.white_m**2
+
+
+@dataclass(frozen=True)
+class Segments:
+    """The target test segments' per-second arrays for the filter, padded to the longest.
+
+    Attributes:
+        first_row: (G,) the frame row of each segment's first second.
+        length: (G,) its seconds.
+        wheel_yaw: (G, n) the rear wheels' yaw of each second (nominal radii), rad.
+        gyro_yaw: (G, n) the gyro's, rad (NaN: none).
+        fix_e: (G, n + 1) the GNSS fixes east of the segment's first fix, m: column
+            ``j + 1`` ends second ``j``; column 0 (the fix before the first second,
+            not in the samples) and the padding are NaN.
+        fix_n: (G, n + 1) north, m.
+        segment_of: (N,) each frame row's segment, -1 outside the target test drives.
+    """
+
+    first_row: np.ndarray
+    length: np.ndarray
+    wheel_yaw: np.ndarray
+    gyro_yaw: np.ndarray
+    fix_e: np.ndarray
+    fix_n: np.ndarray
+    segment_of: np.ndarray
+
+    def gather(self, values: np.ndarray, fill: float = 0.0) -> np.ndarray:
+        """A per-row array of the frame as (G, n) per segment and second, padded with ``fill``."""
+        return _gather(values, self.first_row, self.length, self.wheel_yaw.shape[1], fill)
+
+
+def _gather(
+    values: np.ndarray, first_row: np.ndarray, length: np.ndarray, n: int, fill: float
+) -> np.ndarray:
+    idx = first_row[:, None] + np.arange(n)
+    inside = np.arange(n) < length[:, None]
+    v = np.asarray(values, np.float64)
+    return np.where(inside, v[np.where(inside, idx, 0)], fill)
+
+
+def nav_segments(frame: pd.DataFrame, params: Params) -> Segments:
+    """Cut the target test drives' samples into the filter's per-segment arrays."""
+    group = frame["group"].to_numpy()
+    target = (frame["role"] == k.TARGET_TEST).to_numpy()
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    ends = np.r_[starts[1:], len(frame)]
+    keep = target[starts] if len(starts) else np.zeros(0, bool)
+    first, length = starts[keep], (ends - starts)[keep]
+    segment_of = np.full(len(frame), -1, np.int64)
+    for i, (a, n) in enumerate(zip(first, length, strict=True)):
+        segment_of[a : a + n] = i
+    vehicle = params.data.roles[k.TARGET_TEST].vehicle
+    r = params.nominal_radius_m(vehicle)
+    yaw = wheel_yaw_rad(
+        frame[k.ANGLE_RL_RAD].to_numpy(np.float64),
+        frame[k.ANGLE_RR_RAD].to_numpy(np.float64),
+        r,
+        r,
+        params.track_rear_m(vehicle),
+    )
+    gyro = (
+        frame[k.GYRO_YAW_RAD].to_numpy(np.float64)
+        if k.GYRO_YAW_RAD in frame
+        else np.full(len(frame), np.nan)
+    )
+    n_max = int(length.max()) if len(length) else 0
+    lat = frame[k.LAT_DEG].to_numpy(np.float64)
+    lon = frame[k.LON_DEG].to_numpy(np.float64)
+    fix_e = np.full((len(first), n_max + 1), np.nan)
+    fix_n = np.full((len(first), n_max + 1), np.nan)
+    for i, (a, n) in enumerate(zip(first, length, strict=True)):
+        fix_e[i, 1 : n + 1], fix_n[i, 1 : n + 1] = offsets_m(
+            lat[a], lon[a], lat[a : a + n], lon[a : a + n]
+        )
+    return Segments(
+        first,
+        length,
+        _gather(yaw, first, length, n_max, 0.0),
+        _gather(gyro, first, length, n_max, np.nan),
+        fix_e,
+        fix_n,
+        segment_of,
+    )
+
+
+def target_windows(frame: pd.DataFrame, params: Params, outage_s: int) -> np.ndarray:
+    """The target test windows of ``outage_s`` (rows (W, L)), the CRSE/CTE windows."""
+    windows = outage_windows(frame, params.adapt.m_grid, outage_s)
+    role = frame["role"].to_numpy()
+    return windows[role[windows[:, 0]] == k.TARGET_TEST] if len(windows) else windows
+
+
+WINDOW_COLUMNS = (
+    "model",
+    "seed",
+    "control",
+    "outage_s",
+    "window",
+    "counted",
+    "err_e_m",
+    "err_n_m",
+    "cov_ee_m2",
+    "cov_en_m2",
+    "cov_nn_m2",
+    "horizontal_m",
+    "distance_m",
+)
+
+
+def filter_windows(
+    frame: pd.DataFrame,
+    params: Params,
+    runs: list[Odometry],
+    outages_s: list[int],
+    cfg: NavConfig | None = None,
+) -> pd.DataFrame:
+    """Every run's end of every target test window: error, predicted covariance, distance.
+
+    Per control, one filter pass over every target test segment of every run (all
+    at once), snapshotted where the windows begin; then per outage length every
+    window of every run dead-reckoned from its snapshot.
+
+    Args:
+        frame: the test drives' samples (every test role).
+        params: ``adapt.m_grid``, ``evaluate.navigation``, the target car.
+        runs: the filter runs.
+        outages_s: the outage lengths.
+        cfg: the filter's settings (default: :func:`nav_config`).
+
+    Returns:
+        One row per run, outage length and window (:data:`WINDOW_COLUMNS`);
+        ``counted`` is False for a window the filter had not calibrated on
+        ``min_calibration_s`` seconds before, or (gyro, fused) without a gyro yaw
+        in every second of its outage; its other values are then NaN.
+    """
+    cfg = cfg or nav_config(params)
+    min_cal = params.evaluate.navigation.min_calibration_s
+    segs = nav_segments(frame, params)
+    n_seg = len(segs.first_row)
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    windows = {L: target_windows(frame, params, L) for L in outages_s}
+    where = {}
+    for L, rows in windows.items():
+        g = segs.segment_of[rows[:, 0]] if len(rows) else np.zeros(0, np.int64)
+        where[L] = (g, rows[:, 0] - segs.first_row[g] if len(rows) else g)
+    if not n_seg or not runs:
+        return pd.DataFrame(columns=list(WINDOW_COLUMNS))
+    snaps = np.unique(np.concatenate([np.maximum(s - 1, 0) for _, s in where.values()]))
+    out = []
+    for control in dict.fromkeys(r.control for r in runs):
+        mine = [r for r in runs if r.control == control]
+        n_run = len(mine)
+        dist = np.stack([segs.gather(r.dist_m) for r in mine])  # (R, G, n)
+        var = np.stack([segs.gather(r.var_m2) for r in mine])
+        shape = (n_run * n_seg, dist.shape[2])
+        tile = (n_run, 1)
+        track = run(
+            NavInputs(
+                dist.reshape(shape),
+                var.reshape(shape),
+                np.tile(segs.wheel_yaw, tile),
+                np.tile(segs.gyro_yaw, tile),
+                np.tile(segs.fix_e, tile),
+                np.tile(segs.fix_n, tile),
+            ),
+            cfg,
+            control,
+            snapshots=snaps,
+        )
+        for L, rows in windows.items():
+            g, s = where[L]
+            n_win = len(g)
+            if not n_win:
+                continue
+            row = np.arange(n_run)[:, None] * n_seg + g[None, :]  # (R, W) pass-1 rows
+            slot = np.searchsorted(snaps, np.maximum(s - 1, 0))
+            ready = s - 1 - min_cal
+            calibrated = (ready >= 0)[None, :] & track.started[row, np.maximum(ready, 0)[None, :]]
+            sec = s[:, None] + np.arange(L)  # (W, L) seconds of the segment
+            gyro_w = segs.gyro_yaw[g[:, None], sec]
+            has_gyro = np.isfinite(gyro_w).all(axis=1)
+            counted = calibrated & (has_gyro[None, :] if control != "wheels" else True)
+            flat = n_run * n_win
+            n_state = track.snapshot_x.shape[-1]
+            start = NavStart(
+                track.snapshot_x[row, slot[None, :]].reshape(flat, -1),
+                track.snapshot_cov[row, slot[None, :]].reshape(flat, n_state, n_state),
+                counted.reshape(flat),
+            )
+            var_out = np.stack(
+                [segs.gather(r.outage_var_m2.get(L, r.var_m2)) for r in mine]
+            )  # (R, G, n)
+            blind = np.full((flat, L + 1), np.nan)
+            ends = run(
+                NavInputs(
+                    dist[:, g[:, None], sec].reshape(flat, L),
+                    var_out[:, g[:, None], sec].reshape(flat, L),
+                    np.broadcast_to(segs.wheel_yaw[g[:, None], sec], (n_run, n_win, L)).reshape(
+                        flat, L
+                    ),
+                    np.broadcast_to(gyro_w, (n_run, n_win, L)).reshape(flat, L),
+                    blind,
+                    blind,
+                ),
+                cfg,
+                control,
+                start=start,
+            )
+            truth = np.stack([segs.fix_e[g, s + L], segs.fix_n[g, s + L]], axis=1)
+            err = ends.fix_pred[:, -1].reshape(n_run, n_win, 2) - truth[None]
+            cov = ends.fix_cov[:, -1].reshape(n_run, n_win, 2, 2)
+            driven = gnss[rows].sum(axis=1)
+            for i, r in enumerate(mine):
+                ok = counted[i]
+                e = np.where(ok[:, None], err[i], np.nan)
+                out.append(
+                    pd.DataFrame(
+                        {
+                            "model": r.model,
+                            "seed": r.seed,
+                            "control": control,
+                            "outage_s": L,
+                            "window": np.arange(n_win),
+                            "counted": ok,
+                            "err_e_m": e[:, 0],
+                            "err_n_m": e[:, 1],
+                            "cov_ee_m2": np.where(ok, cov[i, :, 0, 0], np.nan),
+                            "cov_en_m2": np.where(ok, cov[i, :, 0, 1], np.nan),
+                            "cov_nn_m2": np.where(ok, cov[i, :, 1, 1], np.nan),
+                            "horizontal_m": np.hypot(e[:, 0], e[:, 1]),
+                            "distance_m": driven,
+                        }
+                    )
+                )
+    return pd.concat(out, ignore_index=True)
+
+
+WINDOW_STATS = (
+    "pos_mean",
+    "pos_max",
+    "pos_pct",
+    "pos_pct_max",
+    "cover_1sigma",
+    "cover_2sigma",
+    "nll",
+)
+
+
+def window_stats(windows: pd.DataFrame) -> dict[str, float]:
+    """One run's windows of one outage length summarised.
+
+    Returns:
+        ``pos_mean``, ``pos_max`` (m); ``pos_pct`` (the errors' sum over the
+        distances' sum, %: the mean error as a share of the mean distance, so a
+        window standing in traffic does not blow it up) and ``pos_pct_max`` (the
+        worst window's error over its own distance, %); ``cover_1sigma`` and
+        ``cover_2sigma`` (share of windows inside the predicted 68.27 % / 95.45 %
+        ellipses, :func:`rwhonet.nav.coverage.coverage_2d`); ``nll`` (nats);
+        ``n_windows`` (counted). NaN without a counted window.
+    """
+    w = windows[windows["counted"]]
+    if not len(w):
+        return {**dict.fromkeys(WINDOW_STATS, float("nan")), "n_windows": 0}
+    h = w["horizontal_m"].to_numpy(np.float64)
+    d = w["distance_m"].to_numpy(np.float64)
+    err = w[["err_e_m", "err_n_m"]].to_numpy(np.float64)
+    cov = np.stack(
+        [
+            w[["cov_ee_m2", "cov_en_m2"]].to_numpy(np.float64),
+            w[["cov_en_m2", "cov_nn_m2"]].to_numpy(np.float64),
+        ],
+        axis=1,
+    )
+    cover = coverage_2d(err, cov)
+    worst = int(np.argmax(h))
+    return {
+        "pos_mean": float(h.mean()),
+        "pos_max": float(h[worst]),
+        "pos_pct": float(100.0 * h.sum() / d.sum()) if d.sum() > 0 else float("nan"),
+        "pos_pct_max": float(100.0 * h[worst] / d[worst]) if d[worst] > 0 else float("nan"),
+        "cover_1sigma": cover[SIGMA_CONTENT[0]],
+        "cover_2sigma": cover[SIGMA_CONTENT[1]],
+        "nll": nll_2d(err, cov),
+        "n_windows": len(w),
+    }
+
+
+def position_per_seed(windows: pd.DataFrame, seeds: list[int]) -> pd.DataFrame:
+    """Per seed, row (model, control) and outage length: :func:`window_stats`.
+
+    Rows the same for every seed (``seed`` None) are repeated for each seed, so
+    that every cell's mean over seeds has the same seeds.
+    """
+    rows = []
+    for (model, control, L, seed), g in windows.groupby(
+        ["model", "control", "outage_s", "seed"], sort=False, dropna=False
+    ):
+        stats = window_stats(g)
+        for s in seeds if pd.isna(seed) else [int(seed)]:
+            rows.append(
+                {
+                    "seed": s,
+                    "model": model,
+                    "control": control,
+                    "outage_s": int(L),
+                    **stats,
+                    "n_windows_all": len(g),
+                }
+            )
+    return pd.DataFrame(rows)

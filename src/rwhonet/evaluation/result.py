@@ -16,6 +16,7 @@ import pandas as pd
 from rwhonet import contracts as k
 from rwhonet.config import Params
 from rwhonet.contracts import PAPER, alt_wpm, recipe_model
+from rwhonet.evaluation.position import GNSS_DISTANCE
 from rwhonet.evaluation.selection import Choice
 
 
@@ -40,7 +41,12 @@ class Evaluation:
     evolution: pd.DataFrame  # mean cumulative |e| and e per second of a window
     selection: pd.DataFrame = field(default_factory=_empty)  # the selection evidence's scores
     limits: pd.DataFrame = field(default_factory=_empty)  # evaluation.limits.radius_limits
-    position: pd.DataFrame = field(default_factory=_empty)  # 2D error at window ends
+    position: pd.DataFrame = field(default_factory=_empty)  # the filter: per model, control, L
+    position_windows: pd.DataFrame = field(default_factory=_empty)  # ... per window and seed
+    position_dead_reckoning: pd.DataFrame = field(default_factory=_empty)  # the earlier 2D
+    position_plan: dict = field(default_factory=dict)  # study.navigation_plan, less the models
+    uncertainty: pd.DataFrame = field(default_factory=_empty)  # CRSE calibration per model, L
+    variance: pd.DataFrame = field(default_factory=_empty)  # each model's variance fit
     scenario_outages: pd.DataFrame = field(default_factory=_empty)  # per tag and model
     scenario_counts: pd.DataFrame = field(default_factory=_empty)  # per tag: events, windows...
     scenario_outage_s: int = 0
@@ -79,8 +85,11 @@ def eval_json(ev: Evaluation, params: Params) -> dict:
 
     Keys: the scored seconds, seeds, R-WhONet's recipe and m, ``overall``,
     ``differences``, ``gains``, ``domain_gap``, ``no_harm``, ``per_drive``,
-    ``radius_refit_fallbacks``, ``position``, ``selection``, ``limits`` and
-    ``scenario_outages``.
+    ``radius_refit_fallbacks``, ``position`` (the navigation filter's end-of-outage
+    error per model), ``selection``, ``limits``, ``scenario_outages``,
+    ``position_controls`` (the filter's own controls), ``position_dead_reckoning``
+    (the earlier 2D dead reckoning) and ``uncertainty`` (each model's variance and
+    its calibration).
     """
     chosen = ev.choice.m
     summary = ev.summary
@@ -142,7 +151,7 @@ def eval_json(ev: Evaluation, params: Params) -> dict:
         ),
         "per_drive": {d: _cells(g, False) for d, g in per_drive.groupby("drive", sort=False)},
         "radius_refit_fallbacks": int(ev.refits["r_rl_m"].isna().sum()),
-        "position": _position(ev.position, ev.choice),
+        "position": _filter_position(ev),
         "selection": ev.choice.as_selection(),
         "limits": {
             f"{max(params.evaluate.outages_s)}s": [
@@ -154,17 +163,115 @@ def eval_json(ev: Evaluation, params: Params) -> dict:
             ]
         },
         "scenario_outages": _scenario_outages(ev),
+        "position_controls": _position_controls(ev),
+        "position_dead_reckoning": _position(ev.position_dead_reckoning, ev.choice),
+        "uncertainty": _uncertainty(ev),
+    }
+
+
+def _filter_cell(r: Any) -> dict:
+    return {
+        "pos_mean": _num(r.pos_mean),
+        "pos_mean_ci95": _num(r.pos_mean_ci95),
+        "pos_max": _num(r.pos_max),
+        "pos_pct": _num(r.pos_pct),
+        "pos_pct_ci95": _num(r.pos_pct_ci95),
+        "pos_pct_max": _num(r.pos_pct_max),
+        "cover_1sigma": _num(r.cover_1sigma),
+        "cover_2sigma": _num(r.cover_2sigma),
+        "nll": _num(r.nll),
+        "n_windows": int(r.n_windows),
+        "n_windows_all": int(r.n_windows_all),
+    }
+
+
+def _filter_position(ev: Evaluation) -> dict:
+    """Per model (the chosen recipe's as ``R``) and outage: the filter's end-of-outage error.
+
+    The control is ``position_controls.control`` (fused; the wheels without a gyro).
+    """
+    plan, pos = ev.position_plan, ev.position
+    if pos is None or pos.empty:
+        return {}
+    rows = pos[(pos["control"] == plan["control"]) & (pos["model"] != GNSS_DISTANCE)]
+    return {
+        "R" if m == ev.choice.model else m: {
+            f"{int(r.outage_s)}s": _filter_cell(r) for r in g.itertuples()
+        }
+        for m, g in rows.groupby("model", sort=False)
+    }
+
+
+def _position_controls(ev: Evaluation) -> dict:
+    """The filter's controls on one model's distances, and fused on the GNSS's distances."""
+    plan, pos = ev.position_plan, ev.position
+    if pos is None or pos.empty:
+        return {}
+    cm = plan["control_model"]
+    out: dict = {
+        "control": plan["control"],
+        "distance": "R" if cm == ev.choice.model else cm,
+        "unavailable": list(plan["unavailable"]),
+        "rows": {},
+    }
+    for (model, control), g in pos.groupby(["model", "control"], sort=False):
+        if model == cm:
+            name = control
+        elif model == GNSS_DISTANCE:
+            name = f"{control}, {GNSS_DISTANCE}"
+        else:
+            continue
+        out["rows"][name] = {f"{int(r.outage_s)}s": _filter_cell(r) for r in g.itertuples()}
+    return out
+
+
+def _uncertainty(ev: Evaluation) -> dict:
+    """Each model's distance variance (means over seeds) and its CRSE calibration per outage."""
+    if ev.variance is None or ev.variance.empty:
+        return {}
+    fitted = bool(ev.variance["fitted"].iloc[0])
+    models: dict = {}
+    for r in ev.variance.itertuples():
+        models["R" if r.model == ev.choice.model else r.model] = {
+            "a_m2": _num(r.a_m2),
+            "b": round(float(r.b), 8),
+            "crse_scale": _num(r.crse_scale),
+            "crse_spread": _num(r.crse_spread),
+            "n_seconds": int(r.n_seconds),
+            "n_windows": int(r.n_windows),
+        }
+    for r in ev.uncertainty.itertuples():
+        name = "R" if r.model == ev.choice.model else r.model
+        models[name][f"{int(r.outage_s)}s"] = {
+            "crse_cover_1sigma": _num(r.cover_1sigma),
+            "crse_cover_2sigma": _num(r.cover_2sigma),
+            "crse_nll": _num(r.nll),
+            "crse_cover_1sigma_independent": _num(r.cover_1sigma_independent),
+            "crse_cover_2sigma_independent": _num(r.cover_2sigma_independent),
+            "second_cover_1sigma": _num(r.second_cover_1sigma),
+            "second_cover_2sigma": _num(r.second_cover_2sigma),
+            "n_windows": int(r.n_windows),
+        }
+    return {
+        "variance": "sigma_t^2 = a + b d_t^2 per second (d_t: the model's distance)",
+        "fitted_on": (
+            "target training drives: their seconds after the first max(m) s (S: the "
+            "segment tails it was validated on)"
+            if fitted
+            else "nothing (no target training drives): assumed a = 0.05^2 m^2, b = 0.01^2"
+        ),
+        "models": models,
     }
 
 
 def _position(position: pd.DataFrame, choice: Choice) -> dict:
-    """Per model (the chosen recipe's as ``R``) and outage: the 2D error at the windows' ends."""
+    """Per model (the chosen recipe's as ``R``) and outage: the dead-reckoned 2D error."""
     return {
         "R" if m == choice.model else m: {
             f"{int(r.outage_s)}s": {
-                "pos_mean": round(r.pos_mean, 4),
-                "pos_mean_ci95": round(r.pos_mean_ci95, 4),
-                "pos_max": round(r.pos_max, 4),
+                "pos_mean": _num(r.pos_mean),
+                "pos_mean_ci95": _num(r.pos_mean_ci95),
+                "pos_max": _num(r.pos_max),
                 "n_windows": int(r.n_windows),
                 "n_windows_all": int(r.n_windows_all),
             }

@@ -13,7 +13,10 @@ over the WPMs are computed per seed, then averaged; "do no harm" counts the
 (:mod:`rwhonet.evaluation.paired`). G and the WPM are also scored on held-out
 drives of the source car (role ``source_test``, when there are any): the
 domain gap. Beyond the paper: CRSE over time, the limits of recalibrating
-from m s, 2D position error, and the scenario outages.
+from m s, the scenario outages, each model's predicted uncertainty and its
+calibration (:mod:`rwhonet.evaluation.uncertainty`), and the 2D position at the
+end of every outage from the navigation filter, with its controls and the
+earlier dead reckoning (:mod:`rwhonet.evaluation.position`).
 """
 
 from __future__ import annotations
@@ -23,14 +26,28 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from rwhonet.config import Params
+from rwhonet import contracts as k
+from rwhonet.config import ConfigError, Params
 from rwhonet.evaluation.intervals import over_seeds
 from rwhonet.evaluation.limits import radius_limits
 from rwhonet.evaluation.model_errors import model_errors, refit_wpm
 from rwhonet.evaluation.names import aliases, position_models, scenario_models
 from rwhonet.evaluation.over_time import crse_over_time
 from rwhonet.evaluation.paired import no_harm, paired
-from rwhonet.evaluation.position import HEADING_ONLY, position_errors, window_tracks
+from rwhonet.evaluation.position import (
+    GNSS_DISTANCE,
+    HEADING_ONLY,
+    WINDOW_STATS,
+    Odometry,
+    filter_models,
+    filter_windows,
+    gnss_distance_var,
+    nav_config,
+    position_errors,
+    position_per_seed,
+    target_windows,
+    window_tracks,
+)
 from rwhonet.evaluation.result import Evaluation, eval_json
 from rwhonet.evaluation.scenarios import (
     PER_SECOND_MODELS,
@@ -41,7 +58,24 @@ from rwhonet.evaluation.scenarios import (
 )
 from rwhonet.evaluation.scoring import SEED_VALUES, STATS, score_seed
 from rwhonet.evaluation.selection import Choice
+from rwhonet.evaluation.uncertainty import (
+    ASSUMED,
+    FitEvidence,
+    crse_check,
+    fit_variances,
+)
 from rwhonet.evaluation.windows import evaluated_seconds
+
+CRSE_CHECK = (
+    "cover_1sigma",
+    "cover_2sigma",
+    "nll",
+    "cover_1sigma_independent",
+    "cover_2sigma_independent",
+    "second_cover_1sigma",
+    "second_cover_2sigma",
+)
+VARIANCE = ("a_m2", "b", "crse_scale", "crse_spread", "n_seconds", "n_windows")
 
 
 def _with_aliases(rows: list[dict], params: Params, choice: Choice) -> list[dict]:
@@ -63,6 +97,7 @@ def evaluate(
     frame: pd.DataFrame,
     preds: dict[int, pd.DataFrame],
     selection: pd.DataFrame | None = None,
+    evidence: FitEvidence | None = None,
 ) -> Evaluation:
     """Score every model and control for every seed; average over seeds with intervals.
 
@@ -77,6 +112,9 @@ def evaluate(
             outage length; R: NaN on source-car drives).
         selection: the selection evidence's scores
             (:func:`rwhonet.evaluation.selection.selection_scores`), to report.
+        evidence: the target training drives and every seed's predictions of them,
+            where each model's variance is fitted (none: every model gets
+            :data:`rwhonet.evaluation.uncertainty.ASSUMED`, and says so).
 
     Returns:
         The evaluation, its ``eval_json`` filled in.
@@ -89,6 +127,13 @@ def evaluate(
     tracks = {L: window_tracks(frame, params, L) for L in outages}
     scenario = scenario_windows(frame, params.adapt.m_grid, params.evaluate.scenario_outage_s)
     alias = aliases(params, choice)["R"]
+    # 2D: the navigation filter on every model's distances and the controls' (position)
+    nav = navigation_plan(params, choice, frame)
+    fits = fit_variances(evidence, nav["models"], params) if evidence is not None else {}
+    cfg = nav_config(params)
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    test_windows = {L: target_windows(frame, params, L) for L in outages}
+    runs, checks, variances = [], [], []
     for seed in params.seeds:
         errors = model_errors(frame, preds[seed], wpm_m, params)
         # The GNSS's own distances dead-reckoned: the error left is the heading's alone.
@@ -96,6 +141,36 @@ def evaluate(
             m: errors[m] for m in position_models(params, choice)
         }
         positions += [{"seed": seed, **r} for r in position_errors(frame, tracks, in_2d)]
+        for model in nav["models"]:
+            fixed = model == "WPM" or model.startswith("WPM-m@")
+            fit = fits.get((None if fixed else seed, model), ASSUMED)
+            dist = gnss - errors[model]
+            variances.append({"seed": seed, "model": model, **_variance_row(fit)})
+            for L, rows in test_windows.items():
+                checks.append(
+                    {"seed": seed, "model": model, "outage_s": L}
+                    | crse_check(errors[model], dist, rows, fit)
+                )
+            if fixed and seed != params.seeds[0]:
+                continue  # the same run for every seed
+            controls = [nav["control"]]
+            if model == nav["control_model"]:
+                controls = nav["controls"]
+            outage_var = {L: fit.outage_var(dist, L) for L in outages}
+            runs += [
+                Odometry(model, None if fixed else seed, c, dist, fit.var(dist), outage_var)
+                for c in controls
+            ]
+        if seed == params.seeds[0]:
+            runs.append(
+                Odometry(
+                    GNSS_DISTANCE,
+                    None,
+                    nav["control"],
+                    gnss,
+                    np.full(len(frame), gnss_distance_var(cfg)),
+                )
+            )
         # a continuous recipe's error in a scenario window: its shortest outage's run
         flat = {name: e[min(outages)] if isinstance(e, dict) else e for name, e in errors.items()}
         flat["R"] = flat[alias]
@@ -136,12 +211,29 @@ def evaluate(
         .mean()
         .reset_index()
     )
-    position = over_seeds(pd.DataFrame(positions), ["model", "outage_s"], ["pos_mean", "pos_max"])
+    dead = over_seeds(pd.DataFrame(positions), ["model", "outage_s"], ["pos_mean", "pos_max"])
     n_2d = pd.DataFrame(positions).groupby(["model", "outage_s"], sort=False)["n_windows"].first()
-    position = position.join(n_2d, on=["model", "outage_s"])
-    position["n_windows_all"] = position["outage_s"].map(
+    dead = dead.join(n_2d, on=["model", "outage_s"])
+    dead["n_windows_all"] = dead["outage_s"].map(
         {L: int(t["n_windows"]) for L, t in tracks.items()}
     )
+    windows_2d = filter_windows(frame, params, runs, outages, cfg)
+    nav_seed = position_per_seed(windows_2d, params.seeds)
+    position = over_seeds(nav_seed, ["model", "control", "outage_s"], list(WINDOW_STATS))
+    counts = nav_seed.groupby(["model", "control", "outage_s"], sort=False)[
+        ["n_windows", "n_windows_all"]
+    ].first()
+    position = position.join(counts, on=["model", "control", "outage_s"])
+    check_df = pd.DataFrame(checks)
+    uncertainty = over_seeds(
+        check_df, ["model", "outage_s"], [c for c in CRSE_CHECK if c in check_df]
+    ).join(
+        check_df.groupby(["model", "outage_s"], sort=False)["n_windows"].first(),
+        on=["model", "outage_s"],
+    )
+    variance_df = pd.DataFrame(variances)
+    gammas = [c for c in variance_df.columns if c.startswith("gamma_")]
+    variance = over_seeds(variance_df, ["model"], [*VARIANCE, *gammas])
     differences, gains = paired(per_seed_df, params, choice)
     per_second = pd.concat(
         [
@@ -166,8 +258,54 @@ def evaluate(
         selection=pd.DataFrame() if selection is None else selection,
         limits=radius_limits(frame, params),
         position=position,
+        position_windows=windows_2d,
+        position_dead_reckoning=dead,
+        position_plan={key: v for key, v in nav.items() if key != "models"},
+        uncertainty=uncertainty,
+        variance=variance.assign(fitted=evidence is not None),
         scenario_outages=scenario_outage_summary(pd.DataFrame(scen_out), scenario.counts),
         scenario_counts=scenario.counts,
         scenario_outage_s=scenario.outage_s,
     )
     return dataclasses.replace(result, eval_json=eval_json(result, params))
+
+
+def _variance_row(fit) -> dict[str, float]:
+    row = {key: float(getattr(fit, key)) for key in VARIANCE}
+    return row | {f"gamma_{L}s": v for L, v in fit.outage_scale.items()}
+
+
+def navigation_plan(params: Params, choice: Choice, frame: pd.DataFrame) -> dict:
+    """Which filter runs the 2D evaluation makes.
+
+    Returns:
+        ``models`` (every model the filter runs on, the fused control or the wheels
+        without a gyro), ``control`` (that control), ``control_model`` (whose
+        distances the controls use, ``evaluate.navigation.control_model`` with ``R``
+        resolved; G when R-WhONet is the continuous recipe), ``controls`` (the
+        controls available: the gyro's and fused need a yaw rate on the target test
+        drives) and ``unavailable`` (those not).
+
+    Raises:
+        ConfigError: ``control_model`` is none of the models.
+    """
+    models = filter_models(position_models(params, choice))
+    wanted = params.evaluate.navigation.control_model
+    control_model = choice.model if wanted == "R" else wanted
+    if wanted == "R" and control_model not in models:
+        control_model = "G"  # R[continuous]: no distances before a window; what it builds on
+    if control_model not in models:
+        raise ConfigError(
+            f"evaluate.navigation.control_model: expected R or one of {models}, got {wanted!r}"
+        )
+    target = (frame["role"] == k.TARGET_TEST).to_numpy()
+    gyro = frame[k.GYRO_YAW_RAD].to_numpy(np.float64)[target] if k.GYRO_YAW_RAD in frame else []
+    has_gyro = bool(np.isfinite(gyro).any())
+    controls = ["wheels", "gyro", "fused"] if has_gyro else ["wheels"]
+    return {
+        "models": models,
+        "control": "fused" if has_gyro else "wheels",
+        "control_model": control_model,
+        "controls": controls,
+        "unavailable": [] if has_gyro else ["gyro", "fused"],
+    }

@@ -314,6 +314,11 @@ def fit_heading(
             recent = d.size - 1 - ours <= 3.0 * tau
             centre = np.median(off[recent]) if recent.any() else np.median(off)
             near = np.abs(_wrap(off - centre)) <= limit[ours]
+            if not near.any():
+                # The recent courses disagree among themselves (none near their median: a
+                # turn the wheels did not see, as when reversing): the latest course decides.
+                centre = off[-1]
+                near = np.abs(_wrap(off - centre)) <= limit[ours]
             age = d.size - 1 - ours[near]
             wa = np.exp(-(age - age.min()) / tau) / sd[ours[near]] ** 2
             anchor = float(centre + np.sum(wa * _wrap(off[near] - centre)) / np.sum(wa))

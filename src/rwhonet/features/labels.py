@@ -35,8 +35,9 @@ def sample_table(
             (both modes' displacements are written, for the baselines).
 
     Returns:
-        Table with columns :data:`rwhonet.contracts.SAMPLE_COLUMNS`: float64 ``t_s`` and metres,
-        float32 features, string ``scenario``.
+        Table with columns :data:`rwhonet.contracts.SAMPLE_COLUMNS`: float64 ``t_s``, metres
+        and radians (``gyro_yaw_rad`` NaN without a yaw rate), float32 features, string
+        ``scenario``.
     """
     angles = {
         mode: (
@@ -63,6 +64,7 @@ def sample_table(
         k.ANGLE_RR_RAD: angles[wpm_mode][1],
         k.LAT_DEG: sec.lat_deg,
         k.LON_DEG: sec.lon_deg,
+        k.GYRO_YAW_RAD: sec.gyro_yaw_rad,
         **dict(zip(k.FEATURE_COLUMNS, features, strict=True)),
         k.SCENARIO: pa.array(sec.scenario, type=pa.string()),
     }

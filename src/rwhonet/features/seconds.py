@@ -21,6 +21,10 @@ Per second we take
 - the once-per-second wheel-speed sample of the authors' code (row ``b``);
 - the 40 input features: the ten samples of rows ``a+1 .. b`` of each wheel,
   wheel-major in the authors' order RR, RL, FR, FL, oldest first;
+- the yaw-rate gyro's angle over the second (the trapezoid integral of
+  ``yaw_rate_rad_s`` over ``[t_a, t_b]``, as the wheel angles), where the drive has
+  the channel (NaN otherwise, and for a second with a missing rate): what the
+  navigation filter (:mod:`rwhonet.nav`) fuses with the rear wheels;
 - the scenario tags of rows ``a+1 .. b``, merged.
 """
 
@@ -45,6 +49,8 @@ from rwhonet.geo import geodesic_distance_m
 SPAN_TOLERANCE_S = 0.5
 # Problems listed per column before the report says "and N more".
 _MAX_PROBLEMS_PER_CHECK = 5
+# The canonical columns the per-second computation reads (the yaw rate where a drive has it).
+SEGMENT_COLUMNS = (*c.REQUIRED, c.YAW_RATE_RAD_S, c.SCENARIO)
 
 
 def n_seconds(n_rows: int) -> int:
@@ -156,6 +162,30 @@ def integrate_per_second(t_s: np.ndarray, rate: np.ndarray) -> np.ndarray:
     return increments[: n_sec * ROWS_PER_SECOND].reshape(n_sec, ROWS_PER_SECOND).sum(axis=1)
 
 
+def gyro_yaw_rad(t_s: np.ndarray, yaw_rate_rad_s: ArrayLike | None) -> np.ndarray:
+    """The gyro's yaw angle over each second: its rate integrated as the wheel speeds are.
+
+    The trapezoid over ``[t_a, t_b]`` (:func:`integrate_per_second`), the interval
+    of the second's GNSS displacement and wheel angles, so the wheels' yaw and the
+    gyro's measure the same turn. A channel whose rows are means over their
+    record period (the simulator's, ``docs/simulator.md`` Section 7) is then read
+    half a record period (0.05 s) early; the heading this shifts by that time is
+    not an accumulating error (it is undone when the turn ends).
+
+    Args:
+        t_s: per-row time, s.
+        yaw_rate_rad_s: per-row yaw rate, rad/s, left turns positive; None when the
+            drive has no such channel.
+
+    Returns:
+        float64 rad per second (length ``n_seconds(len(t_s))``); NaN for every second
+        without the channel and for a second with a missing (NaN) rate in its rows.
+    """
+    if yaw_rate_rad_s is None:
+        return np.full(n_seconds(len(t_s)), np.nan)
+    return integrate_per_second(t_s, np.asarray(yaw_rate_rad_s, dtype=np.float64))
+
+
 def wheel_features_rad_s(wheels_rad_s: Sequence[np.ndarray]) -> np.ndarray:
     """Stack the ten samples per second of each wheel into the 40 raw input features.
 
@@ -254,6 +284,8 @@ class SegmentSeconds:
         angle_rr_rad: same for the rear right wheel.
         omega_end_rl_rad_s: rear-left wheel speed at the end of each second (authors' sample).
         omega_end_rr_rad_s: same for the rear right wheel.
+        gyro_yaw_rad: the yaw-rate gyro's angle over each second (left turns
+            positive), rad; NaN where the drive has no yaw rate.
         wheels_rad_s: ``(n, 40)`` raw wheel-speed features, rad/s.
         scenario: merged scenario tags per second.
         n_rows: rows in the segment.
@@ -268,6 +300,7 @@ class SegmentSeconds:
     angle_rr_rad: np.ndarray
     omega_end_rl_rad_s: np.ndarray
     omega_end_rr_rad_s: np.ndarray
+    gyro_yaw_rad: np.ndarray
     wheels_rad_s: np.ndarray
     scenario: np.ndarray
     n_rows: int
@@ -283,14 +316,14 @@ def segment_arrays(table: pa.Table) -> dict[str, np.ndarray | pa.ChunkedArray]:
         table: a segment in canonical columns (validate's output, or a slice of a drive).
 
     Returns:
-        ``t_s, lat_deg, lon_deg, omega_*`` as float64 numpy arrays (wheel speeds as
-        magnitudes) and ``scenario`` as it is (Arrow), for
-        :func:`segment_seconds`.
+        ``t_s, lat_deg, lon_deg, omega_*`` and, where present, ``yaw_rate_rad_s`` as
+        float64 numpy arrays (wheel speeds as magnitudes; missing values NaN) and
+        ``scenario`` as it is (Arrow), for :func:`segment_seconds`.
     """
     arrays = {
         name: table[name] if name == c.SCENARIO else np.asarray(table[name], dtype=np.float64)
         for name in table.column_names
-        if name in (*c.REQUIRED, c.SCENARIO)
+        if name in SEGMENT_COLUMNS
     }
     # Wheel speeds are magnitudes; validate lets negative ones through only where a logger
     # that signs its speeds recorded reversing (all four wheels together).
@@ -359,7 +392,7 @@ def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> 
     Args:
         frame: a segment in canonical columns (``rwhonet.data.canonical``), rows at 10 Hz:
             a DataFrame, or a mapping of column name to array (numpy, or Arrow for
-            ``scenario``); the ``scenario`` column is optional.
+            ``scenario``); the ``scenario`` and ``yaw_rate_rad_s`` columns are optional.
         file: the segment's file name, for error reports.
 
     Returns:
@@ -384,6 +417,7 @@ def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> 
         angle_rr_rad=integrate_per_second(t, omega[c.OMEGA_RR]),
         omega_end_rl_rad_s=end_of_second(omega[c.OMEGA_RL]),
         omega_end_rr_rad_s=end_of_second(omega[c.OMEGA_RR]),
+        gyro_yaw_rad=gyro_yaw_rad(t, frame.get(c.YAW_RATE_RAD_S)),
         wheels_rad_s=wheel_features_rad_s([omega[w] for w in c.FEATURE_WHEEL_ORDER]),
         scenario=scenario_per_second(tags),
         n_rows=t.size,

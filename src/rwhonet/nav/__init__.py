@@ -26,7 +26,16 @@ from rwhonet.nav.coverage import (
     mahalanobis_sq,
     nll_2d,
 )
-from rwhonet.nav.filter import CONTROLS, STATE, NavConfig, NavInputs, NavTrack, run
+from rwhonet.nav.filter import (
+    CONTROLS,
+    STATE,
+    NavConfig,
+    NavInputs,
+    NavStart,
+    NavTrack,
+    config_from_params,
+    run,
+)
 from rwhonet.nav.outage import OutageResult, run_outage, window_inputs
 from rwhonet.nav.sensors import GnssSpec, GyroSpec, WheelSpec
 
@@ -39,9 +48,11 @@ __all__ = [
     "GyroSpec",
     "NavConfig",
     "NavInputs",
+    "NavStart",
     "NavTrack",
     "OutageResult",
     "WheelSpec",
+    "config_from_params",
     "coverage_1d",
     "coverage_2d",
     "crse_coverage",

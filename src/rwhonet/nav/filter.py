@@ -20,6 +20,10 @@ State (per window; :data:`STATE`), in a local east/north frame in metres
  12   ``beta_v`` the wheel yaw's bias per metre grows with speed by this, rad/m per
                  m/s (the rear tyres' radii part with speed: two pressures, two
                  tread depths)
+ 13   ``bd_g``   the gyro bias's drift rate, rad/s per s: the sensor warming up after
+                 power-on moves its bias at a rate that decays with the warm-up's
+                 time constant (``b_g ← b_g + bd_g``, ``bd_g ← e^{−1/τ_w} bd_g`` each
+                 second); learnt from GNSS before an outage, extrapolated through it
 ====  =========  ===================================================================
 
 Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
@@ -45,15 +49,18 @@ Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
    dead-reckon;
 4. ``δ`` is marginalised out.
 
-The filter starts on the first second with a course (its azimuth, the fix) and
-runs every window of a batch at once (arrays ``(W, n)``, one loop over the
-seconds). Covariances are updated in Joseph form.
+The filter starts on the first second with a course (its azimuth, the fix), or
+from a state handed over (:class:`NavStart`: a run over a whole drive segment
+with GNSS, snapshotted where each outage window begins, then every window
+dead-reckoned from its snapshot), and runs every window of a batch at once
+(arrays ``(W, n)``, one loop over the seconds). Covariances are updated in
+Joseph form.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -75,8 +82,9 @@ STATE: tuple[str, ...] = (
     "g_n",
     "eps_w",
     "beta_v",
+    "bd_g",
 )
-E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV = range(len(STATE))
+E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV, BD = range(len(STATE))
 S = len(STATE)
 DELTA = S  # the second's yaw, in the augmented state
 
@@ -148,6 +156,42 @@ class NavConfig:
     scale_max_off: float = 0.3
 
 
+def config_from_params(
+    navigation: Any, radius_m: float, track_rear_m: float, **overrides: Any
+) -> NavConfig:
+    """The filter's settings from ``params.yaml``'s ``evaluate.navigation`` and a car's geometry.
+
+    Args:
+        navigation: :class:`rwhonet.config.NavigationParams` (degrees as written there).
+        radius_m: the rear wheels' nominal rolling radius, m.
+        track_rear_m: the rear track, m.
+        **overrides: other :class:`NavConfig` fields.
+    """
+    g, w, r = navigation.gyro, navigation.wheels, navigation.gnss
+    return NavConfig(
+        gyro=GyroSpec(
+            noise_density=float(np.radians(g.noise_density_deg_s_rthz)),
+            lsb=float(np.radians(g.lsb_deg_s)),
+            bias_sd=float(np.radians(g.bias_sd_deg_s)),
+            bias_instability=float(np.radians(g.instability_deg_s)),
+            bias_tau_s=g.instability_tau_s,
+            temp_drift_per_k=float(np.radians(g.temp_drift_deg_s_k)),
+            warm_rate_k_s=g.warm_rate_k_s,
+            warm_tau_s=g.warm_tau_s,
+            scale_sd=g.scale_sd,
+        ),
+        wheels=WheelSpec(
+            quantum_rad_s=w.quantum_rad_s,
+            noise_rad_s=w.noise_rad_s,
+            radius_m=radius_m,
+            track_rear_m=track_rear_m,
+        ),
+        gnss=GnssSpec(sigma_m=r.sigma_m, tau_s=r.tau_s, white_m=r.white_m),
+        antenna_m=(float(navigation.antenna_m[0]), float(navigation.antenna_m[1])),
+        **overrides,
+    )
+
+
 @dataclass(frozen=True)
 class NavInputs:
     """What the filter reads, per window and second: arrays ``(W, n)`` (fixes ``(W, n + 1)``).
@@ -187,6 +231,22 @@ class NavInputs:
 
 
 @dataclass(frozen=True)
+class NavStart:
+    """A state to start rows from instead of waiting for their first course.
+
+    Attributes:
+        x: (W, S) the state.
+        p: (W, S, S) its covariance.
+        on: (W,) the rows that start from it (the others start on their first
+            course, as without a start).
+    """
+
+    x: np.ndarray
+    p: np.ndarray
+    on: np.ndarray
+
+
+@dataclass(frozen=True)
 class NavTrack:
     """The filter's output at the end of every second.
 
@@ -200,6 +260,9 @@ class NavTrack:
         started: (W, n) the filter runs at the end of that second.
         rejected: how many measurements the gates left out, by kind, and how
             many times a pose restarted (``reset``).
+        snapshot_x: (W, K, S) the state at the end of each second of ``snapshots``
+            (NaN where the row had not started), or None.
+        snapshot_cov: (W, K, S, S) its covariance, or None.
     """
 
     x: np.ndarray
@@ -209,6 +272,8 @@ class NavTrack:
     fix_cov: np.ndarray
     started: np.ndarray
     rejected: dict[str, int]
+    snapshot_x: np.ndarray | None = None
+    snapshot_cov: np.ndarray | None = None
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -341,39 +406,75 @@ def fix_model(x: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray
 
 
 def _scalar_update(xa, pa, h_row, innov, r, use, gate=None):
-    """Joseph-form update by one scalar measurement where ``use``; returns the rows applied."""
-    ph = np.einsum("wij,wj->wi", pa, h_row)
-    s = np.einsum("wi,wi->w", h_row, ph) + r
+    """Joseph-form update by one scalar measurement where ``use``; returns the rows applied.
+
+    ``(I − k hᵀ) P (I − k hᵀ)ᵀ + r k kᵀ`` expanded (``P`` symmetric, ``p_h = P h``,
+    ``s = hᵀ P h + r``): ``P − k p_hᵀ − p_h kᵀ + s k kᵀ = P + k vᵀ + v kᵀ`` with
+    ``v = s k / 2 − p_h``, the same matrix for any gain without the two (K × K)
+    products per row. Rows not updated get a zero gain: their state and covariance
+    come back unchanged, bit for bit.
+    """
+    ph = (pa @ h_row[:, :, None])[:, :, 0]  # matmul: far faster than einsum on stacks
+    s = (h_row * ph).sum(axis=1) + r
     ok = use & np.isfinite(innov) & (s > 0)
     if gate is not None:
         ok &= innov * innov <= gate * gate * s
-    k = ph / np.where(ok, s, 1.0)[:, None]
-    innov = np.where(ok, innov, 0.0)
-    new_x = xa + k * innov[:, None]
-    a = np.eye(xa.shape[1]) - k[:, :, None] * h_row[:, None, :]
-    new_p = a @ pa @ np.swapaxes(a, 1, 2) + r[:, None, None] * k[:, :, None] * k[:, None, :]
-    m = ok[:, None]
-    return np.where(m, new_x, xa), np.where(m[:, :, None], new_p, pa), ok
+    k = np.where(ok[:, None], ph / np.where(ok, s, 1.0)[:, None], 0.0)
+    new_x = xa + k * np.where(ok, innov, 0.0)[:, None]
+    v = np.where(ok[:, None], 0.5 * s[:, None] * k - ph, 0.0)
+    kv = k[:, :, None] * v[:, None, :]
+    new_p = pa + kv
+    new_p += np.swapaxes(kv, 1, 2)
+    return new_x, new_p, ok
 
 
 def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
-    """Joseph-form update by a 2D measurement where ``use`` and within the gate."""
+    """Joseph-form update by a 2D measurement where ``use`` and within the gate.
+
+    Expanded as in :func:`_scalar_update`: ``P − K P_Hᵀ − P_H Kᵀ + K S Kᵀ =
+    P + K Vᵀ + V Kᵀ`` with ``P_H = P Hᵀ``, ``S = H P Hᵀ + R`` and ``V = K S / 2 − P_H``;
+    rows not updated get a zero gain.
+    """
     ph = pa @ np.swapaxes(h_mat, 1, 2)  # (W, K, 2)
     s = h_mat @ ph + r_mat
     ok = use & np.isfinite(innov).all(axis=1)
-    s_safe = np.where(ok[:, None, None], s, np.eye(2))
+    s = np.where(ok[:, None, None], s, np.eye(2))
     innov = np.where(ok[:, None], innov, 0.0)
-    s_inv = np.linalg.inv(s_safe)
-    ok &= np.einsum("wi,wij,wj->w", innov, s_inv, innov) <= gate * gate
-    k = ph @ s_inv
-    new_x = xa + np.einsum("wij,wj->wi", k, innov)
-    a = np.eye(xa.shape[1]) - k @ h_mat
-    new_p = a @ pa @ np.swapaxes(a, 1, 2) + k @ r_mat @ np.swapaxes(k, 1, 2)
-    return (
-        np.where(ok[:, None], new_x, xa),
-        np.where(ok[:, None, None], new_p, pa),
-        ok,
+    det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
+    ok &= det > 0
+    det = np.where(ok, det, 1.0)
+    s_inv = (
+        np.stack(
+            [np.stack([s[:, 1, 1], -s[:, 0, 1]], -1), np.stack([-s[:, 1, 0], s[:, 0, 0]], -1)], 1
+        )
+        / det[:, None, None]
     )
+    ok &= (innov * (s_inv @ innov[:, :, None])[:, :, 0]).sum(axis=1) <= gate * gate
+    k = np.where(ok[:, None, None], ph @ s_inv, 0.0)
+    new_x = xa + (k @ innov[:, :, None])[:, :, 0]
+    v = np.where(ok[:, None, None], 0.5 * (k @ s) - ph, 0.0)
+    kv = k[:, :, None, 0] * v[:, None, :, 0] + k[:, :, None, 1] * v[:, None, :, 1]
+    new_p = pa + kv
+    new_p += np.swapaxes(kv, 1, 2)
+    return new_x, new_p, ok
+
+
+# The rows of the propagation's Jacobian that differ from the identity's.
+MOVED_ROWS = np.array([E, N, PSI, BG, GE, GN, EW, BD])
+
+
+def _sandwich(p: np.ndarray, jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``J P Jᵀ`` for a Jacobian equal to the identity outside ``rows`` (W, K, K).
+
+    ``(J P)`` differs from ``P`` in those rows only, and ``(J P) Jᵀ`` from ``J P`` in
+    those columns only: two products of ``len(rows)`` rows instead of two of K.
+    """
+    jr = jac[:, rows, :]
+    m = p.copy()
+    m[:, rows, :] = jr @ p
+    out = m.copy()
+    out[:, :, rows] = m @ np.swapaxes(jr, 1, 2)
+    return out
 
 
 def _initial(
@@ -408,6 +509,7 @@ def _initial(
         (CW, cfg.load_sd**2),
         (EW, cfg.wheel_error_sd**2),
         (BV, cfg.wheel_bias_speed_sd**2),
+        (BD, cfg.gyro.drift_rate_sd() ** 2),
         (GE, g2),
         (GN, g2),
     ):
@@ -431,6 +533,8 @@ def run(
     config: NavConfig | None = None,
     control: Control = "fused",
     keep_cov: bool = False,
+    start: NavStart | None = None,
+    snapshots: np.ndarray | None = None,
 ) -> NavTrack:
     """Filter every window of ``inputs`` over its seconds (module docstring).
 
@@ -439,12 +543,15 @@ def run(
         config: sensors, priors and random walks (default: :class:`NavConfig`).
         control: which yaw sensors to use: ``wheels``, ``gyro`` or ``fused``.
         keep_cov: keep the full covariance of every second (W·n·S² floats).
+        start: rows that start from a given state (the rest wait for a course).
+        snapshots: seconds (0-based, within ``[0, n)``) at whose end the state and
+            its covariance are kept for every row.
 
     Returns:
         The track.
 
     Raises:
-        ValueError: on an unknown control.
+        ValueError: on an unknown control, a start or snapshots of the wrong shape.
     """
     if control not in CONTROLS:
         raise ValueError(f"control must be one of {CONTROLS}, got {control!r}")
@@ -476,6 +583,8 @@ def run(
     phi_w = np.exp(-1.0 / cfg.wheel_error_tau_s)
     q_diag[EW] = cfg.wheel_error_sd**2 * (1.0 - phi_w * phi_w)
     q_diag[BV] = cfg.wheel_bias_speed_walk**2
+    # the warm-up's drift rate decays and is not driven: a ramp whose start is unknown
+    phi_d = np.exp(-1.0 / cfg.gyro.warm_tau_s)
     r_fix = np.broadcast_to(np.eye(2) * gn.white_m**2, (w, 2, 2))
 
     xs = np.full((w, n, S), np.nan)
@@ -488,6 +597,20 @@ def run(
     x[:, SG] = x[:, SD] = x[:, SW] = 1.0
     p = np.broadcast_to(np.eye(S), (w, S, S)).copy()
     on = np.zeros(w, bool)
+    if start is not None:
+        on = np.asarray(start.on, bool).copy()
+        if on.shape != (w,) or np.shape(start.x) != (w, S) or np.shape(start.p) != (w, S, S):
+            raise ValueError(f"a start must hold {w} rows of the {S} states and covariances")
+        x = np.where(on[:, None], start.x, x)
+        p = np.where(on[:, None, None], start.p, p)
+    snap = np.zeros(0, np.int64) if snapshots is None else np.asarray(snapshots, np.int64)
+    if snap.size and (snap.min() < 0 or snap.max() >= n):
+        raise ValueError(f"snapshots must be seconds in [0, {n}), got {snap.min()}..{snap.max()}")
+    snap_slot: dict[int, list[int]] = {}
+    for i, sec in enumerate(snap.tolist()):
+        snap_slot.setdefault(sec, []).append(i)
+    snap_x = np.full((w, snap.size, S), np.nan) if snapshots is not None else None
+    snap_p = np.full((w, snap.size, S, S), np.nan) if snapshots is not None else None
     rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0}
     refused = np.zeros(w, np.int64)  # consecutive fixes the gate refused
     for k in range(n):
@@ -556,9 +679,13 @@ def run(
             xa_new[:, GE] *= phi
             xa_new[:, GN] *= phi
             xa_new[:, EW] *= phi_w
+            xa_new[:, BG] += xa[:, BD]  # the bias ramps while the sensor warms
+            xa_new[:, BD] *= phi_d
             jac[:, GE, GE] = jac[:, GN, GN] = phi
             jac[:, EW, EW] = phi_w
-            pa_new = jac @ pa @ np.swapaxes(jac, 1, 2)
+            jac[:, BG, BD] = 1.0
+            jac[:, BD, BD] = phi_d
+            pa_new = _sandwich(pa, jac, MOVED_ROWS)
             pa_new += np.diag(q_diag)
             var_d = np.nan_to_num(dist_var[:, k])
             pa_new[:, E, E] += var_d * ge * ge
@@ -620,5 +747,8 @@ def run(
         )
         if covs is not None:
             covs[:, k] = np.where(on[:, None, None], p, np.nan)
+        for i in snap_slot.get(k, ()):
+            snap_x[:, i] = xs[:, k]
+            snap_p[:, i] = np.where(on[:, None, None], p, np.nan)
         started[:, k] = on
-    return NavTrack(xs, covs, p, fix_pred, fix_cov, started, rejected)
+    return NavTrack(xs, covs, p, fix_pred, fix_cov, started, rejected, snap_x, snap_p)

@@ -1,7 +1,10 @@
 """The filter's noise, from the sensors' stated error models.
 
 Every figure the filter needs is a per-second variance or random walk, derived
-here from what a data sheet or a CAN database states:
+here from what a data sheet or a CAN database states. The defaults are generic
+automotive figures, the same as ``params.yaml``'s ``evaluate.navigation``
+(docs/positioning.md gives each one's source): what the filter assumes for a car
+that comes with no data sheet.
 
 - **gyro** (the ESC's yaw-rate sensor): the integral of ``hz`` samples over one
   second carries the angle random walk of its noise density ``N`` (``N²·1 s``,
@@ -11,8 +14,12 @@ here from what a data sheet or a CAN database states:
   its bias wanders as a first-order Gauss-Markov process of standard deviation
   ``B`` (bias instability) and correlation time ``τ``, which the filter
   carries as a random walk of ``2 B² / τ`` per second (the process's
-  short-term increment), plus the drift with temperature while the sensor
-  warms up (``°/s per K`` times ``K per s``);
+  short-term increment); and it drifts with temperature while the sensor
+  warms up after power-on: a rate (``°/s per K`` times the warm-up's initial
+  ``K per s``) that decays with the warm-up's time constant, which the filter
+  carries as a state of its own (a ramp, not a random walk: a random walk
+  of the same rate per square-root second would grow as ``r sqrt(T)`` where
+  the ramp grows as ``r T``, 13 times less over 180 s);
 - **wheels**: the rear wheels' travel difference over one second, from CAN
   wheel speeds with white noise ``σ`` and resolution ``q`` (rounding: ``q²/12``
   per sample) on both wheels, times ``r / b`` (radius over rear track);
@@ -58,18 +65,20 @@ class GyroSpec:
         bias_instability: Gauss-Markov bias wander, rad/s.
         bias_tau_s: its correlation time, s.
         temp_drift_per_k: bias change per kelvin, rad/s/K.
-        warm_rate_k_s: the sensor's warm-up rate, K/s.
+        warm_rate_k_s: the sensor's warm-up rate at power-on, K/s.
+        warm_tau_s: the warm-up's time constant, s (the drift rate decays with it).
         scale_sd: spread of the scale-factor error (the filter's prior).
     """
 
-    noise_density: float = np.radians(0.03)
-    lsb: float = np.radians(0.05)
-    bias_sd: float = np.radians(0.5)
-    bias_instability: float = np.radians(0.03)
+    noise_density: float = float(np.radians(0.02))
+    lsb: float = float(np.radians(0.05))
+    bias_sd: float = float(np.radians(0.5))
+    bias_instability: float = float(np.radians(0.01))
     bias_tau_s: float = 300.0
-    temp_drift_per_k: float = np.radians(0.004)
+    temp_drift_per_k: float = float(np.radians(0.01))
     warm_rate_k_s: float = 15.0 / 600.0
-    scale_sd: float = 0.03
+    warm_tau_s: float = 600.0
+    scale_sd: float = 0.02
 
     def yaw_sd_rad(self, rows_per_second: int = ROWS_PER_SECOND) -> float:
         """Noise of one second's integrated yaw, rad."""
@@ -77,10 +86,12 @@ class GyroSpec:
         return float(np.sqrt(self.noise_density**2 * 1.0 + quant))
 
     def bias_walk_rad_s(self) -> float:
-        """Random walk of the bias per square-root second, rad/s/sqrt(s)."""
-        gm = 2.0 * self.bias_instability**2 / self.bias_tau_s
-        temp = (self.temp_drift_per_k * self.warm_rate_k_s) ** 2
-        return float(np.sqrt(gm + temp))
+        """Random walk of the bias per square-root second (its instability), rad/s/sqrt(s)."""
+        return float(np.sqrt(2.0 * self.bias_instability**2 / self.bias_tau_s))
+
+    def drift_rate_sd(self) -> float:
+        """Spread of the bias's drift rate at power-on (warming up), rad/s per s."""
+        return float(abs(self.temp_drift_per_k) * self.warm_rate_k_s)
 
 
 @dataclass(frozen=True)
@@ -127,8 +138,8 @@ class GnssSpec:
             (jumps), for positions and courses alike.
     """
 
-    sigma_m: float = 1.4
-    tau_s: float = 120.0
+    sigma_m: float = 1.5
+    tau_s: float = 100.0
     white_m: float = 0.05
     course_sd_rad: float = 0.01
     min_course_m: float = 3.0

@@ -1,8 +1,13 @@
-"""CI regression gate on mean CRSE and CTE, for every model and outage length.
+"""CI regression gate on mean CRSE and CTE, and on the 2D position after the longest outage.
 
 Compares the ``overall`` means of a fresh ``ci``-profile run (``metrics/eval.json``,
 means over the ci profile's training seeds) with a committed baseline
-(``metrics/baseline-ci.json``). A value is a regression when it exceeds its
+(``metrics/baseline-ci.json``), and every model's mean horizontal error of the
+navigation filter at the end of the longest outage (``position.<model>.<L>s.pos_mean``,
+the fused filter: ``rwhonet.evaluation.position``). A baseline written before the
+filter (no ``position_controls`` key: its ``position`` block holds the earlier
+dead reckoning, another quantity) gates CRSE and CTE only and says so; refreshing
+the baseline adds the position rows. A value is a regression when it exceeds its
 baseline by more than ``gate.rel_tol`` of the baseline plus ``gate.abs_tol_m``
 (CTE can be near zero, where a relative change alone means nothing); so is a
 model or outage missing from the new run. Lower is better, so improvements
@@ -26,7 +31,8 @@ from pathlib import Path
 from rwhonet import paths
 from rwhonet.io import read_json
 
-METRICS = ("crse", "cte")
+METRICS = ("crse", "cte", "pos")
+FILTER_KEY = "position_controls"  # present in an eval.json whose "position" is the filter's
 SAME = 1e-9  # relative change below which a value counts as unchanged
 
 
@@ -59,14 +65,27 @@ class GateRow:
 
 
 def means(eval_json: dict) -> dict[tuple[str, str, str], float]:
-    """``{(model, outage, metric): mean over seeds}`` over all windows of all test drives."""
+    """``{(model, outage, metric): mean over seeds}`` over all windows of all test drives.
+
+    CRSE and CTE of every model and outage; ``pos``: the filter's mean horizontal
+    error at the end of the longest outage, per model (none from an eval.json
+    written before the filter).
+    """
     out = {}
     for model, by_outage in eval_json["overall"].items():
         for outage, stats in by_outage.items():
-            for metric in METRICS:
+            for metric in ("crse", "cte"):
                 value = stats.get(f"{metric}_mean")
                 if value is not None:
                     out[(model, outage, metric)] = float(value)
+    if FILTER_KEY in eval_json:
+        for model, by_outage in eval_json.get("position", {}).items():
+            if not by_outage:
+                continue
+            longest = max(by_outage, key=lambda o: int(o[:-1]))
+            value = by_outage[longest].get("pos_mean")
+            if value is not None:
+                out[(model, longest, "pos")] = float(value)
     return out
 
 
@@ -122,9 +141,14 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     seeds = f"{now.get('n_seeds', 1)} seed(s) {now.get('seeds', '')}".strip()
     print(
-        f"CRSE/CTE gate: {args.eval} ({seeds}) vs {args.baseline}; a value fails above "
-        f"baseline x (1 + {args.rel_tol:g}) + {args.abs_tol:g} m"
+        f"CRSE/CTE/position gate: {args.eval} ({seeds}) vs {args.baseline}; a value fails "
+        f"above baseline x (1 + {args.rel_tol:g}) + {args.abs_tol:g} m"
     )
+    if FILTER_KEY not in baseline:
+        print(
+            f"Note: {args.baseline} predates the navigation filter: the 2D position is not "
+            "gated until the baseline is refreshed (make baseline-ci)."
+        )
     print(render(rows, args.rel_tol, args.abs_tol))
     counts = {d: sum(r.direction() == d for r in rows) for d in ("better", "same", "worse")}
     print(f"\n{counts['better']} better, {counts['same']} unchanged, {counts['worse']} worse.")

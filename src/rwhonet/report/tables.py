@@ -17,6 +17,7 @@ import pandas as pd
 from rwhonet import contracts as k
 from rwhonet.config import Params
 from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
+from rwhonet.evaluation.position import GNSS_DISTANCE
 from rwhonet.evaluation.result import Evaluation
 
 STATS = (("max", "Max"), ("min", "Min"), ("mean", "μ"), ("std", "σ"))
@@ -359,13 +360,140 @@ def _calibration(params: Params) -> str:
     return "the whole drive segment" if cal == 0 else f"the {cal} s"
 
 
+def _model_label(m: str, ev: Evaluation) -> str:
+    name = {"G": "G-WhONet", "S": "S-WhONet"}.get(m, m)
+    return f"**R-WhONet** ({m})" if m == ev.choice.model else name
+
+
+def _pos_cell(r) -> str:
+    if r is None or not r.n_windows:
+        return "–"
+    return (
+        f"{_fmt(r.pos_mean, r.pos_mean_ci95, 1)} ({r.pos_max:.0f}); {_fmt(r.pos_pct, digits=2)} %"
+    )
+
+
+def _counts(rows: pd.DataFrame) -> str:
+    first = rows.drop_duplicates("outage_s").sort_values("outage_s")
+    return ", ".join(
+        f"{int(r.outage_s)} s: {int(r.n_windows)} of {int(r.n_windows_all)}"
+        for r in first.itertuples()
+    )
+
+
+def nav_position_table(ev: Evaluation) -> str | None:
+    """The navigation filter: end-of-outage error per model (mean ± CI (max); % of distance)."""
+    pos, plan = ev.position, ev.position_plan
+    if pos is None or pos.empty:
+        return None
+    rows = pos[(pos["control"] == plan["control"]) & (pos["model"] != GNSS_DISTANCE)]
+    outages = sorted(rows["outage_s"].unique())
+    cells = rows.set_index(["model", "outage_s"])
+    lines = [
+        "| Model | " + " | ".join(f"{L} s" for L in outages) + " |",
+        "|---|" + "---:|" * len(outages),
+    ]
+    for m in dict.fromkeys(rows["model"]):
+        row = [_pos_cell(cells.loc[(m, L)] if (m, L) in cells.index else None) for L in outages]
+        lines.append(f"| {_model_label(m, ev)} | " + " | ".join(row) + " |")
+    return "\n".join(lines) + f"\n\nWindows counted (of the target test windows): {_counts(rows)}."
+
+
+def nav_controls_table(ev: Evaluation) -> str | None:
+    """The filter's own controls on one model's distances, and fused on GNSS distances."""
+    pos, plan = ev.position, ev.position_plan
+    if pos is None or pos.empty:
+        return None
+    cm = plan["control_model"]
+    rows = pos[(pos["model"] == cm) | (pos["model"] == GNSS_DISTANCE)]
+    outages = sorted(rows["outage_s"].unique())
+    cells = rows.set_index(["model", "control", "outage_s"])
+    lines = [
+        "| Yaw from | Distances | " + " | ".join(f"{L} s" for L in outages) + " |",
+        "|---|---|" + "---:|" * len(outages),
+    ]
+    label = {"wheels": "rear wheels alone", "gyro": "gyro alone", "fused": "gyro + wheels fused"}
+    for (model, control), _ in rows.groupby(["model", "control"], sort=False):
+        row = [
+            _pos_cell(
+                cells.loc[(model, control, L)] if (model, control, L) in cells.index else None
+            )
+            for L in outages
+        ]
+        dist = "GNSS's own" if model == GNSS_DISTANCE else _model_label(model, ev)
+        lines.append(f"| {label[control]} | {dist} | " + " | ".join(row) + " |")
+    for control in plan["unavailable"]:
+        lines.append(
+            f"| {label[control]} | – | "
+            + " | ".join("unavailable (no yaw rate)" for _ in outages)
+            + " |"
+        )
+    return "\n".join(lines)
+
+
+def nav_calibration_table(ev: Evaluation) -> str | None:
+    """Is the filter's covariance honest: windows inside its 68.27 / 95.45 % ellipses, NLL."""
+    pos, plan = ev.position, ev.position_plan
+    if pos is None or pos.empty:
+        return None
+    rows = pos[pos["control"] == plan["control"]]
+    outages = sorted(rows["outage_s"].unique())
+    cells = rows.set_index(["model", "outage_s"])
+    lines = [
+        "| Model | " + " | ".join(f"{L} s: 1σ / 2σ; NLL" for L in outages) + " |",
+        "|---|" + "---:|" * len(outages),
+    ]
+    for m in dict.fromkeys(rows["model"]):
+        row = []
+        for L in outages:
+            r = cells.loc[(m, L)] if (m, L) in cells.index else None
+            row.append(
+                "–"
+                if r is None or not r.n_windows
+                else f"{100 * r.cover_1sigma:.0f} / {100 * r.cover_2sigma:.0f} %; {r.nll:.2f}"
+            )
+        name = "fused, GNSS's own distances" if m == GNSS_DISTANCE else _model_label(m, ev)
+        lines.append(f"| {name} | " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
+def crse_calibration_table(ev: Evaluation) -> str | None:
+    """Each model's distance variance, and its CRSE inside the predicted 1σ / 2σ."""
+    var, unc = ev.variance, ev.uncertainty
+    if var is None or var.empty:
+        return None
+    outages = sorted(unc["outage_s"].unique())
+    cells = unc.set_index(["model", "outage_s"])
+    lines = [
+        "| Model | σ² = a + b d²: a (cm²), √b (%) | α, κ | "
+        + " | ".join(f"{L} s: 1σ / 2σ (independent); NLL" for L in outages)
+        + " |",
+        "|---|---:|---:|" + "---:|" * len(outages),
+    ]
+    for r in var.itertuples():
+        row = []
+        for L in outages:
+            c = cells.loc[(r.model, L)] if (r.model, L) in cells.index else None
+            row.append(
+                "–"
+                if c is None or not c.n_windows
+                else f"{100 * c.cover_1sigma:.0f} / {100 * c.cover_2sigma:.0f} % "
+                f"({100 * c.cover_1sigma_independent:.0f} / "
+                f"{100 * c.cover_2sigma_independent:.0f} %); {c.nll:.2f}"
+            )
+        lines.append(
+            f"| {_model_label(r.model, ev)} | {1e4 * r.a_m2:.1f}, {100 * math.sqrt(r.b):.2f} | "
+            f"{r.crse_scale:.2f}, {r.crse_spread:.2f} | " + " | ".join(row) + " |"
+        )
+    return "\n".join(lines)
+
+
 def position_table(ev: Evaluation, params: Params) -> str | None:
-    """2D dead reckoning: the horizontal error at the end of each outage window, per model."""
-    pos = ev.position
+    """The earlier 2D dead reckoning (a control): the horizontal error at each window's end."""
+    pos = ev.position_dead_reckoning
     if pos is None or pos.empty:
         return None
     outages = sorted(pos["outage_s"].unique())
-    alias = ev.choice.model
     models = list(dict.fromkeys(pos["model"]))
     cells = pos.set_index(["model", "outage_s"])
     lines = [
@@ -373,16 +501,13 @@ def position_table(ev: Evaluation, params: Params) -> str | None:
         "|---|" + "---:|" * len(outages),
     ]
     for m in models:
-        name = {"G": "G-WhONet", "S": "S-WhONet"}.get(m, m)
-        if m == alias:
-            name = f"**R-WhONet** ({m})"
         row = []
         for L in outages:
             r = cells.loc[(m, L)] if (m, L) in cells.index else None
             row.append(
                 "–" if r is None else f"{_fmt(r.pos_mean, r.pos_mean_ci95)} ({r.pos_max:.1f})"
             )
-        lines.append(f"| {name} | " + " | ".join(row) + " |")
+        lines.append(f"| {_model_label(m, ev)} | " + " | ".join(row) + " |")
     counts = ", ".join(
         f"{L} s: {int(cells.loc[(models[0], L), 'n_windows'])} of "
         f"{int(cells.loc[(models[0], L), 'n_windows_all'])}"
@@ -591,22 +716,68 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         "",
         refit_table(ev, params),
     ]
+    nav = nav_position_table(ev)
+    if nav:
+        plan = ev.position_plan
+        control = (
+            "the ESC's yaw-rate gyro fused with the rear wheels' yaw"
+            if plan["control"] == "fused"
+            else "the rear wheels' yaw alone (the drives have no yaw rate)"
+        )
+        parts += [
+            "",
+            "## Where is the car when GNSS returns: 2D position error at the end of each outage",
+            "",
+            "Beyond the paper (its CRSE and CTE are distances). A navigation filter (an extended "
+            "Kalman filter over position, heading, the gyro's bias and scale, the odometry's "
+            "scale and the wheel yaw's errors: rwhonet.nav) runs over each target test segment "
+            f"with GNSS, propagated by the model's distance of each second and by {control}; "
+            "through each outage window it dead-reckons without GNSS. The error is the "
+            "horizontal distance to the GNSS fix at the window's end: mean over windows and "
+            "seeds ± 95 % interval (largest window, mean over seeds); then the errors' sum over "
+            "the distances driven (%). Sensor figures: params.yaml evaluate.navigation "
+            "(generic automotive values; rwhonet.evaluation.position).",
+            "",
+            nav,
+            "",
+            "### The filter's own controls",
+            "",
+            "The same windows: the yaw of one sensor alone or both fused, on "
+            f"{_model_label(plan['control_model'], ev)}'s distances; and fused on the GNSS's "
+            "own distance of each second, where the error left is the heading's alone.",
+            "",
+            nav_controls_table(ev),
+            "",
+            "### Is the predicted uncertainty honest?",
+            "",
+            "The share of windows whose end-of-outage error lies inside the filter's predicted "
+            "68.27 % and 95.45 % ellipses (its covariance; a calibrated filter: about 68 and "
+            "95 %), and the mean negative log-likelihood of the errors (nats; lower is "
+            "better; rwhonet.nav.coverage).",
+            "",
+            nav_calibration_table(ev),
+            "",
+            "Each model's per-second distance variance σ² = a + b d² (fitted by Gaussian "
+            "likelihood on the target training drives, never a test drive; S on the segment "
+            "tails it was validated on), and its windows' CRSE against the prediction "
+            "N(α Σσ, κ² Σσ²) calibrated on the same training windows: the share of test "
+            "windows within 1σ and 2σ of it (in brackets: the prediction that takes the "
+            "seconds as independent, α = √(2/π), κ = √(1 − 2/π)), and its mean negative "
+            "log-likelihood (rwhonet.evaluation.uncertainty).",
+            "",
+            crse_calibration_table(ev),
+        ]
     position = position_table(ev, params)
     if position:
         parts += [
             "",
-            "## 2D dead reckoning: horizontal position error at the end of each outage (m)",
+            "### Control: the earlier 2D dead reckoning (rear wheels, fitted heading)",
             "",
-            "Beyond the paper (its CRSE and CTE are distances). From the GNSS fix before each "
-            "window, heading from the rear wheels' travel difference, fitted to the GNSS "
-            f"course over {_calibration(params)} before the window (the heading after the "
-            "last stop, a yaw scale, a yaw per metre for a left/right radius difference, and "
-            "the lateral load-transfer term: rwhonet.features.deadreckoning); each second's "
-            "distance is the model's. The error is the distance to the GNSS fix at the "
-            "window's end: mean over windows and seeds ± 95 % interval (largest window, mean "
-            "over seeds). The heading is the same for every model; the first row dead-reckons "
-            "the GNSS's own distances, so its error is the heading's alone "
-            "(rwhonet.evaluation.position).",
+            "From the GNSS fix before each window, heading from the rear wheels' travel "
+            "difference fitted to the GNSS course over "
+            f"{_calibration(params)} before the window "
+            "(rwhonet.features.deadreckoning); each second's distance is the model's; the "
+            "first row dead-reckons the GNSS's own distances (m).",
             "",
             position,
         ]

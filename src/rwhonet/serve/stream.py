@@ -19,7 +19,15 @@ row; a second belongs to it when its end lies in ``(START, END]``) also the
 cumulative distances ``dist_wpm_m``, ``dist_corrected_m``, ``dist_gnss_m``
 and, where GNSS exists, the cumulative signed errors ``err_*_m`` (WPM or
 corrected minus GNSS: CTE is the last one's absolute value) and ``crse_*_m``
-(Σ|error| per second: the paper's CRSE). Nothing here imports torch.
+(Σ|error| per second: the paper's CRSE); and where the car is: ``east_m``,
+``north_m`` (the navigation filter's position at the end of the second, metres
+east and north of the last GNSS fix before the outage, or of the filter's own
+position there when that fix is missing, in the local frame there), its
+covariance ``cov_ee_m2``, ``cov_en_m2``, ``cov_nn_m2``, and ``pos_err_m``, its
+horizontal distance to the GNSS fix where the file has one
+(:mod:`rwhonet.serve.navigation`: the filter runs on the whole stream, the
+outage's fixes withheld from it). Nothing here
+imports torch.
 """
 
 from __future__ import annotations
@@ -35,12 +43,16 @@ from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
     end_of_second,
     gnss_displacement_m,
+    gyro_yaw_rad,
     integrate_per_second,
     span_s,
     wheel_features_rad_s,
 )
 from rwhonet.features.wpm import wheel_angle_rad, wpm_displacement_m
+from rwhonet.geo.local import offsets_m
+from rwhonet.nav import NavConfig, WheelSpec
 from rwhonet.serve.model import ServedModel
+from rwhonet.serve.navigation import StreamNavigator
 
 SPAN_TOLERANCE_S = 0.5  # ten rows span 1 s +/- this (rwhonet.features.seconds.SPAN_TOLERANCE_S)
 COLUMNS = (
@@ -58,8 +70,15 @@ COLUMNS = (
     "err_corrected_m",
     "crse_wpm_m",
     "crse_corrected_m",
+    "east_m",
+    "north_m",
+    "cov_ee_m2",
+    "cov_en_m2",
+    "cov_nn_m2",
+    "pos_err_m",
 )
 OUTAGE_COLUMNS = COLUMNS[7:]
+POSITION_COLUMNS = COLUMNS[-6:]
 
 
 @dataclass(frozen=True)
@@ -115,6 +134,11 @@ class _Totals:
     crse_wpm: float = 0.0
     crse_corrected: float = 0.0
     gnss_s: int = 0  # seconds with a GNSS displacement
+    origin: tuple[float, float] | None = None  # the position the outage starts from
+    east: float = math.nan  # the filter's position at the last second so far
+    north: float = math.nan
+    pos_err: float = math.nan  # ... its distance to the GNSS fix there (NaN: none)
+    pos_sd: float = math.nan  # ... the major semi-axis of its 1-sigma ellipse
 
 
 @dataclass
@@ -128,6 +152,8 @@ class SecondStream:
         names: canonical name -> the file's column name, for error reports.
         max_gap_s: a time step longer than this ends a run of seconds
             (``validate.gnss.max_gap_s``).
+        nav: the navigation filter's settings (default: the generic
+            :class:`rwhonet.nav.NavConfig` with the model's rear radius).
     """
 
     model: ServedModel
@@ -135,6 +161,9 @@ class SecondStream:
     file: str = "<stdin>"
     names: dict[str, str] = field(default_factory=dict)
     max_gap_s: float = 0.5
+    nav: NavConfig | None = None
+    _keys: tuple[str, ...] = c.REQUIRED  # the channels kept: the yaw rate too, if there
+    _navigator: StreamNavigator | None = None
     _rows: dict[str, np.ndarray] | None = None  # rows from the current anchor on
     _row0: int = 1  # data row of _rows' first row
     _anchored: bool = False
@@ -151,15 +180,27 @@ class SecondStream:
                     "bad --outage",
                 )
         self.totals = {o.label: _Totals() for o in self.outages}
+        radii = tuple(self.model.meta.source_radii)
+        if self.nav is None:
+            self.nav = NavConfig(wheels=WheelSpec(radius_m=float(np.mean(radii))))
+
+    @property
+    def control(self) -> str:
+        """The navigation filter's yaw: ``fused`` (gyro and wheels), or ``wheels`` alone."""
+        return "fused" if c.YAW_RATE_RAD_S in self._keys else "wheels"
 
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none)."""
         self._check(first_row, columns)
         if self._rows is None:
-            self._rows, self._row0 = {k: columns[k] for k in c.REQUIRED}, first_row
+            self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
+            self._navigator = StreamNavigator(
+                self.nav, tuple(self.model.meta.source_radii), self.control == "fused"
+            )
+            self._rows, self._row0 = {k: columns[k] for k in self._keys}, first_row
             self._t0 = float(columns[c.T_S][0])
         else:
-            self._rows = {k: np.concatenate([self._rows[k], columns[k]]) for k in c.REQUIRED}
+            self._rows = {k: np.concatenate([self._rows[k], columns[k]]) for k in self._keys}
         parts = []
         while True:
             t = self._rows[c.T_S]
@@ -182,6 +223,7 @@ class SecondStream:
             if len(gap):
                 self._drop(int(gap[0]) + 1)  # the next run starts after the gap
                 self._anchored = False
+                self._navigator.reset()  # and the filter with it
                 continue
             break
         if not parts:
@@ -277,10 +319,34 @@ class SecondStream:
             "disp_corrected_m": disp_wpm + pred,
             "disp_gnss_m": gnss,
         }
-        out.update(self._outage_columns(out))
+        fix = {"lat": end_of_second(rows[c.LAT_DEG]), "lon": end_of_second(rows[c.LON_DEG])}
+        nav = None
+        # the filter runs while an outage is still to come (its positions are the outages')
+        if self.outages and out["elapsed_s"][0] <= max(o.end_s for o in self.outages):
+            withheld = np.zeros(n_sec, bool)
+            for o in self.outages:
+                withheld |= (out["elapsed_s"] > o.start_s) & (out["elapsed_s"] <= o.end_s)
+            nav = self._navigator.step(
+                {
+                    "disp_corrected_m": out["disp_corrected_m"],
+                    "disp_gnss_m": gnss,
+                    "angle_rl_rad": angles[0],
+                    "angle_rr_rad": angles[1],
+                    "gyro_yaw_rad": gyro_yaw_rad(t, rows.get(c.YAW_RATE_RAD_S)),
+                    "lat_deg": fix["lat"],
+                    "lon_deg": fix["lon"],
+                },
+                withheld,
+            )
+        out.update(self._outage_columns(out, nav, fix))
         return out
 
-    def _outage_columns(self, sec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def _outage_columns(
+        self,
+        sec: dict[str, np.ndarray],
+        nav: dict[str, np.ndarray] | None,
+        fix: dict[str, np.ndarray],
+    ) -> dict[str, np.ndarray]:
         n = len(sec["t_s"])
         out: dict[str, np.ndarray] = {"outage": np.full(n, "", dtype=object)}
         out.update({name: np.full(n, np.nan) for name in OUTAGE_COLUMNS})
@@ -325,10 +391,50 @@ class SecondStream:
                 float(cum["crse_wpm_m"][-1]),
                 float(cum["crse_corrected_m"][-1]),
             )
+            if nav is not None:
+                self._position(tot, rows, nav, fix, out)
         return out
 
+    @staticmethod
+    def _position(tot: _Totals, rows: np.ndarray, nav: dict, fix: dict, out: dict) -> None:
+        """The filter's position in an outage's seconds, east/north of the last fix before it."""
+        if tot.origin is None:  # the outage's first second: where it starts from
+            i = rows[0]
+            start = (nav["start_lat"][i], nav["start_lon"][i])
+            if not np.isfinite(start).all():
+                start = (nav["start_pred_lat"][i], nav["start_pred_lon"][i])
+            tot.origin = (float(start[0]), float(start[1]))
+        n = len(rows)
+        east, north, fix_e, fix_n = (np.full(n, np.nan) for _ in range(4))
+        if np.isfinite(tot.origin).all():
+            for (lat, lon), (e, nn) in (
+                ((nav["pred_lat"][rows], nav["pred_lon"][rows]), (east, north)),
+                ((fix["lat"][rows], fix["lon"][rows]), (fix_e, fix_n)),
+            ):
+                ok = np.isfinite(lat) & np.isfinite(lon)
+                if ok.any():
+                    e[ok], nn[ok] = offsets_m(*tot.origin, lat[ok], lon[ok])
+        cov = nav["cov"][rows]
+        err = np.hypot(east - fix_e, north - fix_n)
+        out["east_m"][rows], out["north_m"][rows] = east, north
+        out["cov_ee_m2"][rows] = cov[:, 0, 0]
+        out["cov_en_m2"][rows] = cov[:, 0, 1]
+        out["cov_nn_m2"][rows] = cov[:, 1, 1]
+        out["pos_err_m"][rows] = err
+        tot.east, tot.north, tot.pos_err = float(east[-1]), float(north[-1]), float(err[-1])
+        last = cov[-1]
+        tot.pos_sd = (
+            float(np.sqrt(np.linalg.eigvalsh(last)[-1])) if np.isfinite(last).all() else math.nan
+        )
+
     def summary(self) -> list[dict[str, float | str]]:
-        """Per outage: seconds seen, distances, and CRSE / CTE of WPM and corrected."""
+        """Per outage: seconds seen, distances, CRSE / CTE of WPM and corrected, and position.
+
+        ``east_end_m``, ``north_end_m``: the filter's position at the outage's last
+        second from the fix before it; ``pos_sd_end_m``: its 1-sigma ellipse's major
+        semi-axis; ``pos_err_end_m``: its distance to the GNSS fix there (NaN when the
+        file has none); ``control``: the filter's yaw (``fused`` or ``wheels``).
+        """
         rows = []
         for label, tot in self.totals.items():
             full = tot.n > 0 and tot.gnss_s == tot.n
@@ -343,6 +449,11 @@ class SecondStream:
                     "cte_wpm_m": abs(tot.err_wpm) if full else math.nan,
                     "crse_corrected_m": tot.crse_corrected if full else math.nan,
                     "cte_corrected_m": abs(tot.err_corrected) if full else math.nan,
+                    "east_end_m": tot.east,
+                    "north_end_m": tot.north,
+                    "pos_sd_end_m": tot.pos_sd,
+                    "pos_err_end_m": tot.pos_err,
+                    "control": self.control,
                 }
             )
         return rows

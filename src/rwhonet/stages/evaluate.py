@@ -37,6 +37,7 @@ from rwhonet.evaluation.selection import (
     selection_scores,
 )
 from rwhonet.evaluation.study import evaluate
+from rwhonet.evaluation.uncertainty import FitEvidence
 from rwhonet.io import atomic_outputs, read_json
 from rwhonet.report.headline import (
     comparison_html,
@@ -151,6 +152,38 @@ def read_selection(
     return out
 
 
+def fit_evidence(
+    params: Params, selection: dict[str, SelectionPredictions], models_root: Path
+) -> FitEvidence | None:
+    """The target training drives and every seed's predictions of them (variance fits).
+
+    G's and S's from their ``predictions.parquet`` (the model stages predict every
+    target training second), every recipe's at every m from the adapt stage's
+    selection file; one column per model, row-aligned with the drives' samples.
+    None without target training samples.
+    """
+    read = selection.get(k.TARGET_TRAIN)
+    if read is None or not len(read.frame):
+        return None
+    keys = ["drive", "segment", "t_s"]
+    frame = read.frame
+    per_seed = {}
+    for seed, (sel, g) in read.per_seed.items():
+        s = pd.read_parquet(models_root / "s" / f"seed{seed}" / k.PREDICTIONS)
+        merged = (
+            frame[keys]
+            .merge(g.rename(columns={"pred_m": "G"})[[*keys, "G"]], on=keys, how="left")
+            .merge(s.rename(columns={"pred_m": "S"})[[*keys, "S"]], on=keys, how="left")
+            .merge(sel, on=keys, how="left")
+        )
+        cols = {"G": merged["G"].to_numpy(np.float64), "S": merged["S"].to_numpy(np.float64)}
+        for col in merged.columns:
+            if col.startswith("pred_m__") and "/" not in col:
+                cols[col.removeprefix("pred_m__")] = merged[col].to_numpy(np.float64)
+        per_seed[seed] = pd.DataFrame(cols, index=frame.index)
+    return FitEvidence(frame, per_seed)
+
+
 # --------------------------------------------------------------------------- outputs
 
 
@@ -231,16 +264,46 @@ def stat_metrics(summary: pd.DataFrame, model: str, drive: str = "all") -> dict[
 
 
 def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
-    """MLflow metrics of a model's 2D error at the end of the outage windows: ``pos/180s/mean``."""
+    """MLflow metrics of a model's 2D error at the end of the outage windows.
+
+    The navigation filter on the model's distances (``evaluate.navigation``'s
+    control, fused): ``pos/180s/mean`` (m), ``pos/180s/pct`` (% of the distance
+    driven), ``pos/180s/max``, ``pos/180s/cover_1sigma`` / ``cover_2sigma`` / ``nll``,
+    the ``ci95`` of the means; on the run whose distances the filter's controls
+    use, every control as ``pos/<control>/180s/mean``, ``.../pct``; and the model's
+    CRSE calibration: ``uncertainty/180s/crse_cover_1sigma``, ``..._2sigma``, ``crse_nll``.
+    """
     if ev.position is None or ev.position.empty:
         return {}
     name = ev.choice.model if model == "R" else model
+    plan = ev.position_plan
     out = {}
-    for r in ev.position[ev.position["model"] == name].itertuples():
-        out[f"pos/{r.outage_s}s/mean"] = float(r.pos_mean)
-        out[f"pos/{r.outage_s}s/max"] = float(r.pos_max)
-        if math.isfinite(r.pos_mean_ci95):
-            out[f"pos/{r.outage_s}s/ci95"] = float(r.pos_mean_ci95)
+    pos = ev.position[ev.position["model"] == name]
+    for r in pos.itertuples():
+        if r.control == plan["control"]:
+            prefix = "pos"
+            stats = ("mean", "max", "pct", "pct_max", "cover_1sigma", "cover_2sigma", "nll")
+        elif name == plan["control_model"]:
+            prefix, stats = f"pos/{r.control}", ("mean", "pct")
+        else:
+            continue
+        for stat in stats:
+            value = getattr(r, stat if stat.startswith(("cover", "nll")) else f"pos_{stat}")
+            if math.isfinite(value):
+                out[f"{prefix}/{r.outage_s}s/{stat}"] = float(value)
+        for stat in ("mean", "pct"):
+            ci = getattr(r, f"pos_{stat}_ci95")
+            if prefix == "pos" and math.isfinite(ci):
+                out[f"pos/{r.outage_s}s/{stat}_ci95"] = float(ci)
+    for r in ev.uncertainty[ev.uncertainty["model"] == name].itertuples():
+        for stat, col in (
+            ("crse_cover_1sigma", "cover_1sigma"),
+            ("crse_cover_2sigma", "cover_2sigma"),
+            ("crse_nll", "nll"),
+        ):
+            value = getattr(r, col)
+            if math.isfinite(value):
+                out[f"uncertainty/{r.outage_s}s/{stat}"] = float(value)
     return out
 
 
@@ -395,10 +458,12 @@ def main(params: Params) -> None:
 
     started_ms = now_ms()
 
-    scores = selection_scores(read_selection(params, paths.SAMPLES, paths.MODELS), params)
+    selection = read_selection(params, paths.SAMPLES, paths.MODELS)
+    scores = selection_scores(selection, params)
     choice = choose(params, recommend(scores, params))
     frame, preds = collect_predictions(params, paths.SAMPLES, paths.MODELS)
-    result = evaluate(params, choice, frame, preds, scores)
+    evidence = fit_evidence(params, selection, paths.MODELS)
+    result = evaluate(params, choice, frame, preds, scores, evidence)
     write_outputs(
         params,
         result,

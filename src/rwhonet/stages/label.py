@@ -43,7 +43,12 @@ from rwhonet.features.calibration import (
 )
 from rwhonet.features.labels import sample_table
 from rwhonet.features.scaling import fit_scaler
-from rwhonet.features.seconds import SegmentSeconds, segment_arrays, segment_seconds
+from rwhonet.features.seconds import (
+    SEGMENT_COLUMNS,
+    SegmentSeconds,
+    segment_arrays,
+    segment_seconds,
+)
 from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
 from rwhonet.progress import track
 
@@ -146,9 +151,10 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
         path: ``<segments>/<segment>.parquet``.
 
     Returns:
-        The canonical columns present among ``t_s, lat_deg, lon_deg, omega_*, scenario``
-        (a missing required column is reported by the per-second check): float64 numpy
-        arrays, and ``scenario`` as an Arrow dictionary array (no Python string per row).
+        The canonical columns present among ``t_s, lat_deg, lon_deg, omega_*,
+        yaw_rate_rad_s, scenario`` (a missing required column is reported by the
+        per-second check; the yaw rate is optional): float64 numpy arrays, and
+        ``scenario`` as an Arrow dictionary array (no Python string per row).
 
     Raises:
         InputError: if the file does not exist.
@@ -164,9 +170,7 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
     except KeyError:  # a segment without the optional scenario column
         file = pq.ParquetFile(path)
     present = set(file.schema_arrow.names)
-    return segment_arrays(
-        file.read(columns=[col for col in (*c.REQUIRED, c.SCENARIO) if col in present])
-    )
+    return segment_arrays(file.read(columns=[col for col in SEGMENT_COLUMNS if col in present]))
 
 
 def calibrate(

@@ -1,0 +1,385 @@
+"""How sure each odometry model is: a per-second variance of its distance error, and its check.
+
+Beyond the paper (issue 17, item 3). Every odometry model (the WPMs, G, S, every
+recipe, WPM-m) gives each second a distance; this module gives it a variance,
+
+    σ_t² = a + b d_t²            (d_t the model's distance of second t),
+
+a floor (the GNSS label's own noise, standing still) plus an error proportional
+to the distance (a radius, a slip). ``a`` and ``b`` are fitted by Gaussian
+likelihood (:func:`fit_variance`) on seconds the pipeline may fit on, never a
+target test drive: the target *training* drives' scored seconds (after their
+first max(m) s) for the WPMs, G and every recipe (their first m s recalibrate,
+the rest is out of sample), and for S, which is trained on those drives, only
+the tail of each of their segments it was validated on (``train.val_fraction``).
+The navigation filter takes σ_t² as the distance's noise
+(:mod:`rwhonet.evaluation.position`).
+
+A window's CRSE (paper Eq. 16, ``Σ|e_t|``) is predicted from the same σ_t: with
+independent normal seconds its mean is ``sqrt(2/π) Σσ_t`` and its spread
+``sqrt((1 − 2/π) Σσ_t²)`` (:func:`rwhonet.nav.coverage.crse_prediction`). A
+model's errors are not independent from second to second (a radius error lasts
+the whole drive), so that spread is too narrow; the prediction is calibrated
+on the same training windows: ``CRSE ~ N(α Σσ_t, κ² Σσ_t²)`` with ``α`` and
+``κ`` the closed-form maximum-likelihood values over every training window of
+every outage length (:func:`fit_crse`). Reported on the test windows: the share
+of windows within 1σ and 2σ of the prediction, and its mean negative
+log-likelihood (:func:`crse_check`); for comparison also the independent-seconds
+prediction's share.
+
+The filter needs one more figure. It takes each second's error as independent
+(white), but a model's errors last: summed over an outage they grow faster than
+``sqrt(Σσ_t²)``. What lasts longest, a scale error, the filter learns from GNSS
+before the outage (its odometry-scale state); what is left is calibrated per
+outage length L on the same training windows: ``γ_L`` = the mean of
+``(Σ_w e_t − ŝ Σ_w d_t)² / Σ_w σ_t²``, with ``ŝ = Σ e / Σ d`` over the segment's
+seconds before the window (the scale the filter would have learnt), and inside
+an outage of L seconds the filter's distance variance is ``γ_L σ_t²``
+(:meth:`DistanceVariance.outage_var`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import minimize
+
+from rwhonet import contracts as k
+from rwhonet.config import Params
+from rwhonet.evaluation.model_errors import refit_wpm
+from rwhonet.evaluation.windows import evaluated_rows, window_starts
+from rwhonet.nav.coverage import coverage_1d, crse_prediction
+
+HALF_NORMAL_MEAN = float(np.sqrt(2.0 / np.pi))  # E|e| / σ of a normal error
+MIN_VAR_M2 = 1e-6  # a variance floor (1 mm): a model is never certain
+MIN_SECONDS = 30  # fewer seconds to fit on: no variance model
+MIN_WINDOWS = 3  # fewer training windows: the CRSE prediction stays uncalibrated
+
+
+@dataclass(frozen=True)
+class DistanceVariance:
+    """A model's per-second distance variance ``a + b d²`` and its CRSE calibration.
+
+    Attributes:
+        a_m2: the floor, m².
+        b: the share of the distance, squared (``sqrt(b)``: relative spread).
+        crse_scale: ``α``, the CRSE's predicted mean over ``Σσ_t``
+            (``sqrt(2/π)`` uncalibrated).
+        crse_spread: ``κ``, its predicted spread over ``sqrt(Σσ_t²)``
+            (``sqrt(1 − 2/π)`` uncalibrated).
+        n_seconds: seconds fitted on.
+        n_windows: training windows the CRSE prediction was calibrated on (0: not).
+        outage_scale: ``{L: γ_L}``, the variance's factor inside an outage of L
+            seconds (an outage length without one: 1).
+    """
+
+    a_m2: float
+    b: float
+    crse_scale: float = HALF_NORMAL_MEAN
+    crse_spread: float = float(np.sqrt(1.0 - 2.0 / np.pi))
+    n_seconds: int = 0
+    n_windows: int = 0
+    outage_scale: dict[int, float] = field(default_factory=dict, hash=False)
+
+    def outage_var(self, dist_m: np.ndarray, outage_s: int) -> np.ndarray:
+        """The filter's distance variance inside an outage of ``outage_s``: ``γ_L σ_t²``, m²."""
+        return self.outage_scale.get(int(outage_s), 1.0) * self.var(dist_m)
+
+    def var(self, dist_m: np.ndarray) -> np.ndarray:
+        """σ_t² of each second, m² (NaN where the distance is)."""
+        d = np.asarray(dist_m, np.float64)
+        return self.a_m2 + self.b * d * d
+
+    def crse(self, dist_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted mean and standard deviation of each window's CRSE, m.
+
+        Args:
+            dist_m: (W, L) the model's distances in each window.
+        """
+        sd = np.sqrt(self.var(dist_m))
+        return self.crse_scale * sd.sum(axis=-1), self.crse_spread * np.sqrt((sd * sd).sum(axis=-1))
+
+
+def gaussian_nll(error: np.ndarray, var: np.ndarray) -> float:
+    """Mean negative log-likelihood of errors under ``N(0, var)``, nats."""
+    e = np.asarray(error, np.float64)
+    v = np.asarray(var, np.float64)
+    return float(np.mean(0.5 * (np.log(2.0 * np.pi * v) + e * e / v)))
+
+
+def fit_variance(error: np.ndarray, dist_m: np.ndarray) -> tuple[float, float]:
+    """``a`` and ``b`` of ``σ² = a + b d²`` by maximum Gaussian likelihood.
+
+    Started from the least-squares fit of ``e²`` on ``[1, d²]`` (kept positive),
+    then the mean negative log-likelihood minimised over ``ln a`` and ``ln b``
+    (both positive; L-BFGS-B).
+
+    Args:
+        error: (N,) errors, m (NaN seconds left out).
+        dist_m: (N,) the distances they are errors of, m.
+
+    Returns:
+        ``(a, b)``; ``a`` at least :data:`MIN_VAR_M2`.
+
+    Raises:
+        ValueError: fewer than :data:`MIN_SECONDS` finite seconds.
+    """
+    e = np.asarray(error, np.float64)
+    d = np.asarray(dist_m, np.float64)
+    ok = np.isfinite(e) & np.isfinite(d)
+    e, d = e[ok], d[ok]
+    if len(e) < MIN_SECONDS:
+        raise ValueError(f"a variance needs {MIN_SECONDS} seconds, got {len(e)}")
+    e2, d2 = e * e, d * d
+    design = np.stack([np.ones_like(d2), d2], axis=1)
+    a0, b0 = np.linalg.lstsq(design, e2, rcond=None)[0]
+    a0 = max(a0, 0.1 * float(e2.mean()), MIN_VAR_M2)
+    b0 = max(b0, 1e-8)
+
+    def nll(theta: np.ndarray) -> tuple[float, np.ndarray]:
+        a, b = np.exp(theta)
+        v = a + b * d2
+        r = e2 / v
+        value = 0.5 * float(np.mean(np.log(v) + r))
+        dv = 0.5 * (1.0 - r) / v  # d nll / d v, per second
+        grad = np.array([np.mean(dv) * a, np.mean(dv * d2) * b])
+        return value, grad
+
+    res = minimize(
+        nll,
+        np.log([a0, b0]),
+        jac=True,
+        method="L-BFGS-B",
+        bounds=[(np.log(MIN_VAR_M2), None), (np.log(1e-12), None)],
+    )
+    a, b = np.exp(res.x)
+    return float(a), float(b)
+
+
+def fit_crse(crse_m: np.ndarray, sum_sd: np.ndarray, sum_var: np.ndarray) -> tuple[float, float]:
+    """``α`` and ``κ`` of ``CRSE ~ N(α Σσ, κ² Σσ²)`` by maximum likelihood (closed form).
+
+    With ``m = Σσ_t`` and ``v = Σσ_t²`` per window: ``α = Σ(c m / v) / Σ(m² / v)``
+    (weighted least squares) and ``κ² = mean((c − α m)² / v)``.
+
+    Args:
+        crse_m: (W,) the windows' CRSE, m.
+        sum_sd: (W,) ``Σσ_t``.
+        sum_var: (W,) ``Σσ_t²``.
+
+    Returns:
+        ``(α, κ)``.
+    """
+    c, m, v = (np.asarray(x, np.float64) for x in (crse_m, sum_sd, sum_var))
+    alpha = float(np.sum(c * m / v) / np.sum(m * m / v))
+    kappa = float(np.sqrt(np.mean((c - alpha * m) ** 2 / v)))
+    return alpha, kappa
+
+
+def window_crse(error: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Each window's CRSE (paper Eq. 16): ``Σ|e_t|`` over its rows, m."""
+    return np.abs(np.asarray(error, np.float64)[rows]).sum(axis=1)
+
+
+def scale_left(
+    error: np.ndarray, dist_m: np.ndarray, group: np.ndarray, rows: np.ndarray
+) -> np.ndarray:
+    """Each window's summed error less the scale its segment's seconds before it show.
+
+    ``Σ_w e_t − ŝ Σ_w d_t`` with ``ŝ = Σ e / Σ d`` over the seconds of the window's
+    segment before its first (0 without any): what is left once a filter has
+    learnt the distance's scale from GNSS before the outage.
+
+    Args:
+        error: (N,) per-second errors (NaN counted as 0 before a window).
+        dist_m: (N,) the distances they are errors of.
+        group: (N,) segment ids (each one contiguous run).
+        rows: (W, L) the windows' rows.
+    """
+    e = np.nan_to_num(np.asarray(error, np.float64))
+    d = np.nan_to_num(np.asarray(dist_m, np.float64))
+    start = np.flatnonzero(np.r_[True, group[1:] != group[:-1]]) if len(group) else np.zeros(0)
+    first = start[np.searchsorted(start, np.arange(len(group)), side="right") - 1]
+    ce, cd = np.r_[0.0, np.cumsum(e)], np.r_[0.0, np.cumsum(d)]
+    r0 = rows[:, 0]
+    before_e, before_d = ce[r0] - ce[first[r0]], cd[r0] - cd[first[r0]]
+    scale = np.where(before_d > 0, before_e / np.where(before_d > 0, before_d, 1.0), 0.0)
+    return e[rows].sum(axis=1) - scale * d[rows].sum(axis=1)
+
+
+def fit_model(
+    error: np.ndarray,
+    dist_m: np.ndarray,
+    seconds: np.ndarray,
+    windows: dict[int, np.ndarray],
+    group: np.ndarray,
+) -> DistanceVariance | None:
+    """A model's variance and CRSE calibration from its errors where it may be fitted.
+
+    Args:
+        error: (N,) the model's per-second error, m.
+        dist_m: (N,) its distances, m.
+        seconds: (N,) bool, the seconds to fit ``a`` and ``b`` on.
+        windows: per outage length, row indices (W, L) of the training windows to
+            calibrate the CRSE prediction and ``γ_L`` on.
+        group: (N,) segment ids (for ``γ_L``: the seconds before each window).
+
+    Returns:
+        The fitted variance, or None with fewer than :data:`MIN_SECONDS` seconds.
+    """
+    try:
+        a, b = fit_variance(error[seconds], dist_m[seconds])
+    except ValueError:
+        return None
+    fitted = DistanceVariance(a, b, n_seconds=int(np.isfinite(error[seconds]).sum()))
+    crse, sums, sq, gamma = [], [], [], {}
+    for L, rows in windows.items():
+        if not len(rows):
+            continue
+        keep = np.isfinite(error[rows]).all(axis=1)
+        rows = rows[keep]
+        sd = np.sqrt(fitted.var(dist_m[rows]))
+        crse.append(window_crse(error, rows))
+        sums.append(sd.sum(axis=1))
+        sq.append((sd * sd).sum(axis=1))
+        if len(rows) >= MIN_WINDOWS:
+            left = scale_left(error, dist_m, group, rows)
+            gamma[int(L)] = float(np.mean(left * left / sq[-1]))
+    n = sum(len(c) for c in crse)
+    if n < MIN_WINDOWS:
+        return replace(fitted, outage_scale=gamma)
+    alpha, kappa = fit_crse(np.concatenate(crse), np.concatenate(sums), np.concatenate(sq))
+    return DistanceVariance(a, b, alpha, kappa, fitted.n_seconds, n, gamma)
+
+
+def crse_check(error: np.ndarray, dist_m: np.ndarray, rows: np.ndarray, fitted: DistanceVariance):
+    """How well a fitted model predicts its CRSE on windows (the test windows).
+
+    Args:
+        error: (N,) the model's per-second error, m.
+        dist_m: (N,) its distances, m.
+        rows: (W, L) the windows' rows.
+        fitted: the model's variance.
+
+    Returns:
+        ``{cover_1sigma, cover_2sigma, nll, cover_1sigma_independent,
+        cover_2sigma_independent, second_cover_1sigma, second_cover_2sigma,
+        n_windows}``: the shares of windows whose CRSE is within 1σ / 2σ of the
+        calibrated prediction, its mean Gaussian negative log-likelihood (nats),
+        the same shares for the independent-seconds prediction
+        (:func:`rwhonet.nav.coverage.crse_coverage`), and the shares of the
+        windows' seconds whose error is within 1σ_t / 2σ_t.
+    """
+    e = np.asarray(error, np.float64)[rows]
+    keep = np.isfinite(e).all(axis=1)
+    rows, e = rows[keep], e[keep]
+    if not len(rows):
+        return {"n_windows": 0}
+    crse = np.abs(e).sum(axis=1)
+    mean, sd = fitted.crse(dist_m[rows])
+    cover = coverage_1d(crse - mean, sd)
+    sd_t = np.sqrt(fitted.var(dist_m[rows]))
+    indep_mean, indep_sd = crse_prediction(sd_t)
+    indep = coverage_1d(crse - indep_mean, indep_sd)
+    seconds = coverage_1d(e.ravel(), sd_t.ravel())
+    return {
+        "cover_1sigma": cover[1.0],
+        "cover_2sigma": cover[2.0],
+        "nll": gaussian_nll(crse - mean, sd * sd),
+        "cover_1sigma_independent": indep[1.0],
+        "cover_2sigma_independent": indep[2.0],
+        "second_cover_1sigma": seconds[1.0],
+        "second_cover_2sigma": seconds[2.0],
+        "n_windows": int(len(rows)),
+    }
+
+
+# --------------------------------------------------------------------------- where to fit
+
+# Without fitting evidence (no target training drives): a variance assumed, not fitted.
+ASSUMED = DistanceVariance(a_m2=0.05**2, b=0.01**2)
+
+
+@dataclass(frozen=True)
+class FitEvidence:
+    """The target training drives' samples and every seed's predictions of them.
+
+    Attributes:
+        frame: their samples (``drive, segment, group, k, role``, the sample columns).
+        per_seed: per seed, one column per model (``G``, ``S``, ``R[head]@70``...)
+            row-aligned with ``frame`` (NaN where a model has no prediction).
+    """
+
+    frame: pd.DataFrame
+    per_seed: dict[int, pd.DataFrame]
+
+
+def masked_windows(frame: pd.DataFrame, mask: np.ndarray, outage_s: int) -> np.ndarray:
+    """Consecutive windows of ``outage_s`` over the rows where ``mask`` holds, per segment.
+
+    ``mask`` must be one contiguous run within each segment (a drive's seconds
+    after its first m, a segment's tail), as :func:`rwhonet.evaluation.windows.window_starts`
+    asks.
+    """
+    rows = np.flatnonzero(mask)
+    start, _ = window_starts(frame["group"].to_numpy()[rows], outage_s)
+    return (
+        rows[start[:, None] + np.arange(outage_s)] if len(start) else np.zeros((0, outage_s), int)
+    )
+
+
+def held_out_tail(frame: pd.DataFrame, fraction: float) -> np.ndarray:
+    """The last ``fraction`` of each segment: what the train stage holds out of S's training."""
+    group = frame["group"].to_numpy()
+    rank = frame.groupby("group", sort=False).cumcount().to_numpy()
+    size = np.bincount(group)[group] if len(group) else np.zeros(0, int)
+    return rank >= size - np.floor(size * fraction).astype(int)
+
+
+def fit_variances(
+    evidence: FitEvidence, models: list[str], params: Params
+) -> dict[tuple[int | None, str], DistanceVariance]:
+    """Every model's variance, per seed (``None``: the WPMs, the same for every seed).
+
+    Fitted on the target training drives' seconds after their first max(m) s (the
+    WPM, WPM-m and every recipe: out of sample there), S on the tails of their
+    segments it was validated on (``train.val_fraction``); the CRSE prediction
+    calibrated on the windows of every outage length over the same seconds.
+
+    Args:
+        evidence: the target training drives and the predictions of them.
+        models: the models to fit (``WPM``, ``WPM-m@m``, ``G``, ``S``, recipes).
+        params: ``adapt.m_grid``, ``evaluate.outages_s``, ``train.val_fraction``.
+
+    Returns:
+        ``{(seed, model): fit}``; a model without enough seconds is absent.
+    """
+    frame = evidence.frame
+    if not len(frame):
+        return {}
+    label = frame[k.LABEL_M].to_numpy(np.float64)
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    scored = evaluated_rows(frame, params.adapt.m_grid)
+    tail = held_out_tail(frame, params.train.val_fraction)
+    wpm_m = {m: gnss - d for m, d in refit_wpm(frame, params)[0].items()}
+
+    group = frame["group"].to_numpy()
+
+    def fit(error: np.ndarray, mask: np.ndarray) -> DistanceVariance | None:
+        windows = {L: masked_windows(frame, mask, L) for L in params.evaluate.outages_s}
+        return fit_model(error, gnss - error, mask, windows, group)
+
+    out: dict[tuple[int | None, str], DistanceVariance | None] = {}
+    for model in models:
+        if model == "WPM":
+            out[(None, model)] = fit(label, scored)
+        elif model.startswith("WPM-m@"):
+            out[(None, model)] = fit(wpm_m[int(model.removeprefix("WPM-m@"))], scored)
+    for seed, preds in evidence.per_seed.items():
+        for model in models:
+            if model in preds:
+                mask = tail if model == "S" else scored
+                out[(seed, model)] = fit(label - preds[model].to_numpy(np.float64), mask)
+    return {key: v for key, v in out.items() if v is not None}

@@ -1,0 +1,192 @@
+"""The navigation filter on a stream: where the car is, second by second, through an outage.
+
+``rwhonet predict`` corrects each second's distance with the served model
+(:mod:`rwhonet.serve.stream`); :class:`StreamNavigator` runs the extended
+Kalman filter of :mod:`rwhonet.nav` on those seconds as they come, carrying its
+state from one block of seconds to the next (:class:`rwhonet.nav.NavStart`):
+propagated by the corrected distance and by the yaw of the gyro fused with the
+rear wheels (the wheels alone when the drive has no yaw rate), updated by the
+GNSS course and fix while they are there. Inside an outage the fixes are
+withheld from the filter (they stay in the file, to compare with): it
+dead-reckons, and its predicted fix and covariance are the outage's position.
+
+The corrected distance's variance ``a + b d²`` is fitted on the stream's own
+seconds outside the outages where GNSS is there (least squares of ``e²`` on
+``[1, d²]`` from running sums, ``e`` = corrected − GNSS distance; an assumed
+``0.05² + (0.01 d)²`` until :data:`MIN_SECONDS` seconds are in). The filter
+takes those errors as independent from second to second; the evaluation
+(:mod:`rwhonet.evaluation.uncertainty`) also calibrates how they last.
+Nothing here imports torch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rwhonet.features.deadreckoning import wheel_yaw_rad
+from rwhonet.geo.local import latlon_from_offsets_deg, offsets_m
+from rwhonet.nav import NavConfig, NavInputs, NavStart, run
+
+MIN_SECONDS = 30  # seconds with GNSS before the distance variance is fitted on the stream
+ASSUMED_A_M2, ASSUMED_B = 0.05**2, 0.01**2
+MIN_VAR_M2 = 1e-4
+
+
+def variance_fit(sums: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``a`` and ``b`` of ``e² ≈ a + b d²`` by least squares from running sums.
+
+    Args:
+        sums: (k, 5) ``n, Σd², Σd⁴, Σe², Σe²d²``.
+
+    Returns:
+        ``(a, b)``, each (k,): the assumed values below :data:`MIN_SECONDS` seconds;
+        ``a`` at least :data:`MIN_VAR_M2`, ``b`` at least 0 (refitted with the other
+        held at its bound).
+    """
+    n, d2, d4, e2, e2d2 = np.asarray(sums, np.float64).T
+    det = n * d4 - d2 * d2
+    safe = np.where(det > 0, det, 1.0)
+    a = (d4 * e2 - d2 * e2d2) / safe
+    b = (n * e2d2 - d2 * e2) / safe
+    mean = e2 / np.maximum(n, 1.0)
+    flat = (det <= 0) | (b < 0)  # no spread of distances, or e² falling with them: a alone
+    a = np.where(flat, np.maximum(mean, MIN_VAR_M2), a)
+    b = np.where(flat, 0.0, b)
+    low = a < MIN_VAR_M2  # a floor: b refitted through it
+    b = np.where(low, np.maximum((e2d2 - MIN_VAR_M2 * d2) / np.where(d4 > 0, d4, 1.0), 0.0), b)
+    a = np.maximum(a, MIN_VAR_M2)
+    few = n < MIN_SECONDS
+    return np.where(few, ASSUMED_A_M2, a), np.where(few, ASSUMED_B, b)
+
+
+@dataclass
+class StreamNavigator:
+    """The filter's state between blocks of seconds.
+
+    Args:
+        config: the filter's settings (its wheel geometry: ``config.wheels``).
+        radii_m: the rear-left and rear-right radii the wheel angles are turned into
+            travel with (the WPM's), m.
+        gyro: whether the drive has a yaw rate (control ``fused``, else ``wheels``).
+    """
+
+    config: NavConfig
+    radii_m: tuple[float, float]
+    gyro: bool
+    _x: np.ndarray | None = None
+    _p: np.ndarray | None = None
+    _ref: tuple[float, float] | None = None
+    _last_fix: tuple[float, float] = (np.nan, np.nan)  # ending the last second, raw, m
+    _last_latlon: tuple[float, float] = (np.nan, np.nan)  # ... as a fix
+    _last_withheld: bool = False  # ... and kept from the filter (an outage's second)
+    _last_pred: tuple[float, float] = (np.nan, np.nan)
+    _sums: np.ndarray = field(default_factory=lambda: np.zeros(5))
+
+    @property
+    def control(self) -> str:
+        return "fused" if self.gyro else "wheels"
+
+    def reset(self) -> None:
+        """A new run of seconds (after a gap in the drive): the filter starts afresh."""
+        self._x = self._p = None
+        self._last_fix = self._last_pred = self._last_latlon = (np.nan, np.nan)
+        self._last_withheld = False
+
+    def variance(self) -> tuple[float, float]:
+        """``(a, b)`` of the corrected distance's variance so far (module docstring)."""
+        a, b = variance_fit(self._sums[None])
+        return float(a[0]), float(b[0])
+
+    def step(self, sec: dict[str, np.ndarray], withheld: np.ndarray) -> dict[str, np.ndarray]:
+        """Filter a block of seconds.
+
+        Args:
+            sec: per second ``disp_corrected_m``, ``disp_gnss_m``, ``angle_rl_rad``,
+                ``angle_rr_rad``, ``gyro_yaw_rad``, ``lat_deg`` and ``lon_deg`` (the fix
+                ending the second; NaN where none).
+            withheld: (n,) seconds inside an outage: their fixes do not reach the filter.
+
+        Returns:
+            Per second: ``pred_lat``, ``pred_lon`` (the filter's fix at the end of the
+            second; NaN before it starts), ``cov`` (n, 2, 2: its covariance, east/north
+            m², in the filter's frame: the stream's first fix's, whose axes turn from the
+            local ones by the meridians' convergence, a few thousandths of a radian
+            within tens of kilometres), ``start_lat``, ``start_lon`` (the GNSS fix at the
+            start of each second, withheld or not; NaN where none) and
+            ``start_pred_lat``, ``start_pred_lon`` (the filter's fix there).
+        """
+        dist = np.asarray(sec["disp_corrected_m"], np.float64)
+        n = len(dist)
+        lat = np.asarray(sec["lat_deg"], np.float64)
+        lon = np.asarray(sec["lon_deg"], np.float64)
+        fix_e, fix_n = np.full(n, np.nan), np.full(n, np.nan)
+        ok = np.isfinite(lat) & np.isfinite(lon)
+        if self._ref is None and ok.any():
+            first = int(np.flatnonzero(ok)[0])
+            self._ref = (float(lat[first]), float(lon[first]))
+        if self._ref is not None and ok.any():
+            fix_e[ok], fix_n[ok] = offsets_m(*self._ref, lat[ok], lon[ok])
+        # the distance's variance from the seconds outside the outages with GNSS, each
+        # second's from those before it (the same whatever the blocks)
+        gnss = np.asarray(sec["disp_gnss_m"], np.float64)
+        use = ~withheld & np.isfinite(gnss) & np.isfinite(dist)
+        e = np.where(use, dist - gnss, 0.0)
+        d = np.where(use, dist, 0.0)
+        terms = np.stack([use, d * d, d**4, e * e, e * e * d * d], axis=1).astype(np.float64)
+        sums = self._sums + np.cumsum(np.r_[np.zeros((1, 5)), terms[:-1]], axis=0)
+        self._sums = sums[-1] + terms[-1]
+        a, b = variance_fit(sums)
+        r_rl, r_rr = self.radii_m
+        yaw = wheel_yaw_rad(
+            sec["angle_rl_rad"], sec["angle_rr_rad"], r_rl, r_rr, self.config.wheels.track_rear_m
+        )
+        gyro = np.asarray(sec["gyro_yaw_rad"], np.float64)
+        # the filter sees the fixes of the seconds outside the outages, and the fix that
+        # starts the block unless the second that ended on it was an outage's
+        seen_e = np.r_[self._last_fix[0], np.where(withheld, np.nan, fix_e)]
+        seen_n = np.r_[self._last_fix[1], np.where(withheld, np.nan, fix_n)]
+        if self._last_withheld:
+            seen_e[0] = seen_n[0] = np.nan
+        inputs = NavInputs(
+            dist_m=np.nan_to_num(dist)[None],
+            dist_var_m2=(a + b * np.nan_to_num(dist) ** 2)[None],  # (n,) a, b
+            wheel_yaw_rad=yaw[None],
+            gyro_yaw_rad=gyro[None],
+            fix_e_m=seen_e[None],
+            fix_n_m=seen_n[None],
+        )
+        start = None
+        if self._x is not None:
+            start = NavStart(self._x[None], self._p[None], np.ones(1, bool))
+        track = run(inputs, self.config, self.control, start=start)
+        pred = track.fix_pred[0]
+        if track.started[0, -1]:
+            self._x, self._p = track.x[0, -1], track.last_cov[0]
+        start_lat = np.r_[self._last_latlon[0], lat[:-1]]
+        start_lon = np.r_[self._last_latlon[1], lon[:-1]]
+        pred_lat, pred_lon = self._latlon(pred[:, 0], pred[:, 1])
+        start_pred_lat = np.r_[self._last_pred[0], pred_lat[:-1]]
+        start_pred_lon = np.r_[self._last_pred[1], pred_lon[:-1]]
+        self._last_fix = (float(fix_e[-1]), float(fix_n[-1]))
+        self._last_latlon = (float(lat[-1]), float(lon[-1]))
+        self._last_withheld = bool(withheld[-1])
+        self._last_pred = (float(pred_lat[-1]), float(pred_lon[-1]))
+        return {
+            "pred_lat": pred_lat,
+            "pred_lon": pred_lon,
+            "cov": track.fix_cov[0],
+            "start_lat": start_lat,
+            "start_lon": start_lon,
+            "start_pred_lat": start_pred_lat,
+            "start_pred_lon": start_pred_lon,
+        }
+
+    def _latlon(self, east: np.ndarray, north: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions of the filter's frame as fixes (NaN where not finite)."""
+        lat, lon = np.full(len(east), np.nan), np.full(len(east), np.nan)
+        ok = np.isfinite(east) & np.isfinite(north)
+        if self._ref is not None and ok.any():
+            lat[ok], lon[ok] = latlon_from_offsets_deg(*self._ref, east[ok], north[ok])
+        return lat, lon

@@ -1,0 +1,110 @@
+"""2D position at the end of each outage: the filter's windows and their summaries."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.evaluation.position import (
+    GNSS_DISTANCE,
+    Odometry,
+    filter_windows,
+    position_per_seed,
+    target_windows,
+    window_stats,
+)
+from rwhonet.evaluation.selection import choose
+from rwhonet.evaluation.study import evaluate, navigation_plan
+from rwhonet.stages.sample_files import load_role
+
+
+def test_window_stats_of_a_hand_computed_case():
+    # three windows: errors 3, 4 and 10 m east/north, unit covariances (1 m²) except the
+    # last (100 m²): squared Mahalanobis 9+0, 0+16, and (36+64)/100 = 1
+    w = pd.DataFrame(
+        {
+            "counted": [True, True, True, False],
+            "err_e_m": [3.0, 0.0, 6.0, np.nan],
+            "err_n_m": [0.0, 4.0, 8.0, np.nan],
+            "cov_ee_m2": [1.0, 1.0, 100.0, np.nan],
+            "cov_en_m2": [0.0, 0.0, 0.0, np.nan],
+            "cov_nn_m2": [1.0, 1.0, 100.0, np.nan],
+            "horizontal_m": [3.0, 4.0, 10.0, np.nan],
+            "distance_m": [100.0, 100.0, 200.0, 300.0],
+        }
+    )
+    s = window_stats(w)
+    assert s["n_windows"] == 3
+    assert s["pos_mean"] == pytest.approx(17.0 / 3.0) and s["pos_max"] == 10.0
+    assert s["pos_pct"] == pytest.approx(100.0 * 17.0 / 400.0)  # sums over counted windows
+    assert s["pos_pct_max"] == pytest.approx(5.0)  # the worst window: 10 m of 200 m
+    # inside the 68.27 % ellipse (d² <= 2.296): the last only; the 95.45 % (6.180): the last
+    assert s["cover_1sigma"] == pytest.approx(1 / 3) and s["cover_2sigma"] == pytest.approx(1 / 3)
+    d2 = np.array([9.0, 16.0, 1.0])
+    logdet = np.log([1.0, 1.0, 1e4])
+    assert s["nll"] == pytest.approx(np.mean(0.5 * (d2 + logdet) + np.log(2 * np.pi)))
+    assert window_stats(w.assign(counted=False))["n_windows"] == 0
+
+
+def _frame(samples_dir):
+    return load_role(samples_dir, ("target_test", "source_test"), seq_len=1).frame
+
+
+def test_the_filter_s_windows_on_a_straight_drive(samples_dir, params):
+    frame = _frame(samples_dir)
+    gnss = frame["disp_gnss_m"].to_numpy()
+    n = len(frame)
+    runs = [
+        Odometry("exact", 1, "fused", gnss, np.full(n, 0.05**2)),
+        Odometry("short", None, "wheels", 0.97 * gnss, np.full(n, 0.05**2)),
+    ]
+    w = filter_windows(frame, params, runs, [30, 60])
+    rows = target_windows(frame, params, 30)
+    assert len(w) == 2 * (len(rows) + len(target_windows(frame, params, 60)))
+    mine = w[(w["model"] == "exact") & (w["outage_s"] == 30)]
+    np.testing.assert_allclose(mine["distance_m"], gnss[rows].sum(axis=1))
+    counted = mine[mine["counted"]]
+    # due north at constant heading, exact distances: the end of every window is where the
+    # GNSS puts it (its distances carry 5 cm of noise a second, its fixes none)
+    assert counted["horizontal_m"].max() < 1.0
+    assert np.isnan(mine.loc[~mine["counted"], "horizontal_m"]).all()
+    # 3 % short: the filter learns the scale from GNSS before each outage
+    short = w[(w["model"] == "short") & (w["outage_s"] == 30) & w["counted"]]
+    assert short["horizontal_m"].mean() < 0.1 * 0.03 * short["distance_m"].mean()
+    per_seed = position_per_seed(w, [1, 2])
+    # a run the same for every seed appears once per seed; a seed's own run once
+    assert set(per_seed.loc[per_seed["model"] == "short", "seed"]) == {1, 2}
+    assert set(per_seed.loc[per_seed["model"] == "exact", "seed"]) == {1}
+    row = per_seed[(per_seed["model"] == "exact") & (per_seed["outage_s"] == 30)].iloc[0]
+    assert row["n_windows_all"] == len(rows) and row["n_windows"] == len(counted)
+
+
+def test_without_a_yaw_rate_the_gyro_and_fused_rows_are_unavailable(samples_dir, params):
+    frame = _frame(samples_dir).copy()
+    frame["gyro_yaw_rad"] = np.nan  # real drives without a yaw-rate channel
+    choice = choose(params, {})
+    plan = navigation_plan(params, choice, frame)
+    assert plan["control"] == "wheels" and plan["unavailable"] == ["gyro", "fused"]
+    label = frame["label_m"].to_numpy()
+    preds = {
+        seed: pd.DataFrame(
+            {
+                "G": label,
+                "S": label,
+                **{
+                    m: label
+                    for m in ("R[paper]@10", "R[paper]@20", "R[radius+G]@10", "R[radius+G]@20")
+                },
+                **{f"R[continuous]/{L}s": label for L in (30, 60)},
+            },
+            index=frame.index,
+        )
+        for seed in params.seeds
+    }
+    ev = evaluate(params, choice, frame, preds)
+    assert set(ev.position["control"]) == {"wheels"}
+    out = ev.eval_json
+    assert out["position_controls"]["unavailable"] == ["gyro", "fused"]
+    assert set(out["position_controls"]["rows"]) == {"wheels", f"wheels, {GNSS_DISTANCE}"}
+    assert out["position"]["R"]["30s"]["n_windows"] > 0
+    # without target training drives the variance is assumed, and says so
+    assert out["uncertainty"]["fitted_on"].startswith("nothing")

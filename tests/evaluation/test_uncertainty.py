@@ -1,0 +1,116 @@
+"""Each model's distance variance: its fit, its CRSE calibration and the check on test windows."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.evaluation.uncertainty import (
+    ASSUMED,
+    DistanceVariance,
+    crse_check,
+    fit_crse,
+    fit_model,
+    fit_variance,
+    gaussian_nll,
+    held_out_tail,
+    masked_windows,
+    scale_left,
+)
+
+
+def test_the_variance_fit_recovers_a_known_floor_and_share_of_the_distance():
+    rng = np.random.default_rng(0)
+    d = rng.uniform(0.0, 30.0, 40_000)
+    a, b = 0.03**2, 0.008**2
+    e = rng.normal(0.0, np.sqrt(a + b * d * d))
+    fa, fb = fit_variance(e, d)
+    assert fa == pytest.approx(a, rel=0.05) and fb == pytest.approx(b, rel=0.05)
+    # the maximum of the likelihood: no nearby (a, b) explains the errors better
+    best = gaussian_nll(e, fa + fb * d * d)
+    for da, db in ((1.1, 1.0), (0.9, 1.0), (1.0, 1.1), (1.0, 0.9)):
+        assert gaussian_nll(e, fa * da + fb * db * d * d) > best
+
+
+def test_a_distance_free_error_fits_a_floor_and_too_few_seconds_fit_nothing():
+    rng = np.random.default_rng(1)
+    d = rng.uniform(0.0, 30.0, 5000)
+    a, b = fit_variance(rng.normal(0.0, 0.05, 5000), d)
+    assert a == pytest.approx(0.05**2, rel=0.1) and b * 30.0**2 < 0.15 * a
+    with pytest.raises(ValueError, match="30 seconds"):
+        fit_variance(np.zeros(29), np.ones(29))
+    e = np.r_[np.full(20, np.nan), rng.normal(0.0, 0.05, 40)]  # NaN seconds left out
+    assert fit_variance(e, np.ones(60))[0] == pytest.approx(0.05**2, rel=0.5)
+
+
+def test_the_crse_calibration_by_hand():
+    # CRSE = 2 Σσ exactly on every window: alpha 2, kappa 0
+    alpha, kappa = fit_crse(np.array([2.0, 4.0, 6.0]), np.array([1.0, 2.0, 3.0]), np.ones(3))
+    assert (alpha, kappa) == pytest.approx((2.0, 0.0))
+    # c = (1, 3), m = (1, 1), v = (1, 1): alpha = mean 2, kappa² = mean((±1)²) = 1
+    alpha, kappa = fit_crse(np.array([1.0, 3.0]), np.ones(2), np.ones(2))
+    assert (alpha, kappa) == pytest.approx((2.0, 1.0))
+
+
+def test_the_crse_check_of_a_hand_computed_case():
+    # one second per window, sigma 1 m (a = 1, b = 0): the calibrated prediction is
+    # N(alpha, kappa²) = N(1, 0.5²) for CRSE = |e|: |e| of 1.2, 0.3, 2.2, 1.0 are 0.4, 1.4,
+    # 2.4 and 0 sigma from it: 2 of 4 within 1 sigma, 3 of 4 within 2
+    fit = DistanceVariance(1.0, 0.0, crse_scale=1.0, crse_spread=0.5)
+    e = np.array([1.2, -0.3, 2.2, -1.0])
+    out = crse_check(e, np.zeros(4), np.arange(4)[:, None], fit)
+    assert out["cover_1sigma"] == 0.5 and out["cover_2sigma"] == 0.75
+    z = (np.abs(e) - 1.0) / 0.5
+    assert out["nll"] == pytest.approx(np.mean(0.5 * np.log(2 * np.pi * 0.25) + 0.5 * z * z))
+    # per second: |e| within 1 sigma (1 m): 1.2 no, 0.3 yes, 2.2 no, 1.0 yes
+    assert out["second_cover_1sigma"] == 0.5 and out["second_cover_2sigma"] == 0.75
+    assert out["n_windows"] == 4
+
+
+def test_a_window_with_a_missing_second_is_not_checked():
+    fit = DistanceVariance(1.0, 0.0)
+    e = np.array([0.1, np.nan, 0.2, 0.3])
+    assert crse_check(e, np.ones(4), np.array([[0, 1], [2, 3]]), fit)["n_windows"] == 1
+
+
+def _frame(sizes):
+    group = np.repeat(np.arange(len(sizes)), sizes)
+    return pd.DataFrame({"group": group})
+
+
+def test_windows_over_a_mask_and_the_held_out_tail():
+    frame = _frame([100, 50])
+    tail = held_out_tail(frame, 0.1)
+    assert tail.sum() == 10 + 5 and tail[90:100].all() and tail[145:].all() and not tail[:90].any()
+    mask = np.r_[np.zeros(20, bool), np.ones(80, bool), np.ones(50, bool)]
+    rows = masked_windows(frame, mask, 30)
+    # 80 masked seconds of the first segment: 2 windows from row 20; 50 of the second: 1
+    np.testing.assert_array_equal(rows[:, 0], [20, 50, 100])
+
+
+def test_the_scale_a_filter_learns_before_a_window_is_taken_out():
+    # 1 % short on every second: once the scale is learnt from the seconds before, nothing is
+    # left; the first window of a segment has no seconds before it and keeps its 1 %
+    d = np.full(200, 10.0)
+    e = 0.01 * d
+    group = np.repeat([0, 1], 100)
+    rows = np.array([np.arange(50, 80), np.arange(100, 130)])
+    left = scale_left(e, d, group, rows)
+    assert left == pytest.approx([0.0, 3.0])
+
+
+def test_a_lasting_error_gets_its_outage_factor_and_an_unfitted_model_the_assumed_variance():
+    rng = np.random.default_rng(2)
+    n = 3000
+    frame = _frame([n])
+    d = rng.uniform(5.0, 15.0, n)
+    # white noise plus a slow wander: summed over 60 s it is far above sqrt(60) sigma
+    wander = np.repeat(rng.normal(0.0, 0.05, n // 60), 60)
+    e = rng.normal(0.0, 0.03, n) + wander
+    windows = {L: masked_windows(frame, np.ones(n, bool), L) for L in (10, 60)}
+    fit = fit_model(e, d, np.ones(n, bool), windows, frame["group"].to_numpy())
+    assert fit.outage_scale[60] > 5.0 * fit.outage_scale[10] > 5.0
+    np.testing.assert_allclose(fit.outage_var(d, 60), fit.outage_scale[60] * fit.var(d))
+    np.testing.assert_allclose(fit.outage_var(d, 30), fit.var(d))  # no factor for 30 s
+    assert fit.n_windows == len(windows[10]) + len(windows[60])
+    assert fit_model(e[:10], d[:10], np.ones(10, bool), {}, np.zeros(10)) is None
+    assert ASSUMED.var(np.array([10.0])) == pytest.approx(0.05**2 + 0.1**2)
