@@ -46,7 +46,7 @@ ALLOWED: dict[str, set[str]] = {
     "models": FOUNDATION | {"features"},
     "nav": FOUNDATION | {"features", "geo"},
     "evaluation": FOUNDATION | {"features", "geo", "nav"},
-    "serve": FOUNDATION | {"data", "features", "models", "nav"},
+    "serve": FOUNDATION | {"data", "features", "geo", "models", "nav"},
     "report": FOUNDATION | {"evaluation", "paths"},
     "tracking": FOUNDATION | {"features", "paths", "serve"},
     "runner": FOUNDATION | {"paths", "tracking"},

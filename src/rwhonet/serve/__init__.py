@@ -6,6 +6,8 @@
 - :mod:`~rwhonet.serve.stream`: 10 Hz rows in, whole seconds out (the label stage's
   grid), each with the WPM displacement, the predicted error and the corrected
   displacement; cumulative distances and errors through outages.
+- :mod:`~rwhonet.serve.navigation`: the navigation filter on the stream: east/north and
+  its covariance through an outage, calibrated on the GNSS seconds before it.
 - :mod:`~rwhonet.serve.bundle`: writes a model bundle (``model.pt``, ``model.onnx``,
   ``rwhonet.json``) from a model file; the only module here that imports torch.
 - :mod:`~rwhonet.serve.pyfunc`: the MLflow ``pyfunc`` flavour of a bundle, and
