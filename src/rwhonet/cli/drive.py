@@ -154,7 +154,7 @@ def load_drive(
     }
     cuts = [cut for cut in params.validate.cuts if cut.drive == path.stem]
     found = schema_problems(df, params.validate, file, raw.source_columns)
-    problems, result, _ = check_drive(params, entry, df, found, cuts)
+    problems, result, _, _ = check_drive(params, entry, df, found, cuts)
     if problems:
         raise InputError(problems, f"{file}: {len(problems)} problem(s) (validate)")
     assert result is not None  # no problem: the GNSS policy ran

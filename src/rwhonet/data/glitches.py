@@ -48,6 +48,16 @@ G_M_S2 = c.G_M_S2
 WHEEL_GLITCH_G = 10.0  # circumferential acceleration above the road speed no wheel reaches
 WINDOW_S = 0.5  # the road speed is the others' largest speed within +- this
 MAX_RUN_S = 1.0  # a glitch lasts at most this long
+# A drive with glitches in more than this share of its seconds is refused, not cut: a wheel
+# channel that misbehaves throughout (a wrong signal mapped, one wheel on another scale) is
+# no glitch, and cutting it would leave a drive of holes.
+REFUSE_SHARE = 0.5
+
+
+def _median3(a: np.ndarray, b: np.ndarray, c3: np.ndarray) -> np.ndarray:
+    """Element-wise median of three arrays (exactly the middle value, as ``np.median``;
+    NaN anywhere gives NaN), without sorting."""
+    return np.maximum(np.minimum(a, b), np.minimum(np.maximum(a, b), c3))
 
 
 def glitch_mask(
@@ -82,7 +92,7 @@ def glitch_mask(
     limit = bound_g * G_M_S2 / radius_m  # rad/s^2
     others = [[j for j in range(4) if j != k] for k in range(4)]
     for k in range(4):  # per wheel, not per sample
-        road = np.median(w[others[k]], axis=0)
+        road = _median3(*w[others[k]])
         if half:
             road = maximum_filter1d(road, size=2 * half + 1, mode="nearest")
         excess = np.maximum(w[k] - road, 0.0)

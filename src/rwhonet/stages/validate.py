@@ -139,14 +139,14 @@ def validate(
                 zip(batch.entries, batch.tables, found_by_drive, strict=True)
             ):
                 df = batch.drive_frame(k)
-                found, result, radius = check_drive(
+                found, result, radius, glitches = check_drive(
                     params, entry, df, found, cuts.get(entry["drive"], [])
                 )
                 if found:
                     problems += found
-                    drive_reports.append(_refused_report(entry, result, found))
+                    drive_reports.append(_refused_report(entry, result, found, glitches))
                     continue
-                drive_reports.append(_drive_report(entry, result, radius))
+                drive_reports.append(_drive_report(entry, result, radius, glitches))
                 # rows a signing logger recorded as reversing (the label takes magnitudes)
                 drive_reports[-1]["signed_reversing_rows"] = int(
                     reversing_rows(df, vp.wheels.negative_tol_rad_s).sum()
@@ -271,7 +271,10 @@ def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch
 
 
 def _refused_report(
-    entry: dict[str, Any], result: Assessment | None, found: list[Problem]
+    entry: dict[str, Any],
+    result: Assessment | None,
+    found: list[Problem],
+    glitches: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """A refused drive in the failed run's report: its problems and, if assessed, its cuts."""
     report: dict[str, Any] = {
@@ -292,11 +295,18 @@ def _refused_report(
             ],
             "cut_seconds_by_rule": result.cut_seconds_by_rule,
         }
+    if glitches is not None:
+        report["wheel_glitches"] = glitches
     return report
 
 
-def _drive_report(entry: dict[str, Any], result: Assessment, radius: dict[str, Any]) -> dict:
-    return {
+def _drive_report(
+    entry: dict[str, Any],
+    result: Assessment,
+    radius: dict[str, Any],
+    glitches: dict[str, Any] | None = None,
+) -> dict:
+    report = {
         "drive": entry["drive"],
         "role": entry["role"],
         "vehicle": entry["vehicle"],
@@ -329,6 +339,9 @@ def _drive_report(entry: dict[str, Any], result: Assessment, radius: dict[str, A
         "cut_rows_by_rule": result.cut_rows_by_rule,
         "radius": radius,
     }
+    if glitches is not None:  # only when a row glitched (its seconds: the wheel_glitch cuts)
+        report["wheel_glitches"] = glitches
+    return report
 
 
 def _totals(drives: list[dict[str, Any]], n_segments: int) -> dict[str, Any]:
