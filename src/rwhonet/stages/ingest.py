@@ -4,9 +4,9 @@ Reads every drive listed by ``data.roles`` (IO-VNBD layout, a column map, a
 comma2k19 folder, or an MDF4 file or a folder of stream CSVs through a signal map;
 docs/architecture.md, "Raw drives"), converts it to canonical names in SI units
 (stream drives resampled onto the ``validate.sample_period_s`` grid), adds the
-``scenario`` column from an optional ``<drive>.scenarios.json`` sidecar, and writes everything at once
-(:func:`rwhonet.io.atomic_dir`): after a failure the previous output is left
-as it was. Reading one file (its reader, size limit and canonical table) is
+``scenario`` column from an optional ``<drive>.scenarios.json`` sidecar, and
+writes everything at once (:func:`rwhonet.io.atomic_dir`): after a failure the
+previous output is left as it was. Reading one file (its reader, size limit and canonical table) is
 :mod:`rwhonet.data.drivefile`'s, which ``rwhonet recalibrate`` uses too; rows
 are kept exactly as in the file, in order (row ``i`` is data row ``i + 1`` of
 the source file), so ``validate`` can point at the file's rows.
