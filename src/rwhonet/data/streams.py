@@ -186,12 +186,15 @@ class DriveStreams:
             ``speed_gnss_m_s``, ``heading_deg``, ``height_m``.
         extra: other rate streams (``yaw_rate_rad_s``, ``acc_lon_m_s2``, ...).
         clock: what the time stamps are (for the notes: "boot clock of the device", ...).
+        notes: what the reader did that the user should hear about (how the fixes were
+            timed, ...); :func:`resample` passes them on in the drive's notes.
     """
 
     wheels: tuple[Stream, ...]
     gnss: Stream
     extra: tuple[Stream, ...] = ()
     clock: str = "the streams' own clock"
+    notes: tuple[str, ...] = ()
 
     @property
     def streams(self) -> tuple[Stream, ...]:
@@ -511,7 +514,7 @@ def resample(
     sources: dict[str, str] = {c.T_S: f"grid of {period_s:g} s on {streams.clock}"}
     glitch = np.zeros(grid.size, dtype=bool)
     glitch_samples: list[tuple[str, int, float, str]] = []
-    notes = []
+    notes = list(streams.notes)
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
     gnss_t, gnss = _finite_rows(streams.gnss, notes, required=True)
