@@ -981,6 +981,16 @@ class Guarded:
         return f"Guarded({type(self._obj).__name__}, allowed={list(self._allowed)})"
 
 
+def parse_value(tp: Any, value: Any, where: str) -> Any:
+    """Build a typed value (a params section's dataclass, a mapping of them) from plain data,
+    with ``load_params``' checks: for files the command line reads (a vehicle, a signal map).
+
+    Raises:
+        ConfigError: unknown, missing or mistyped keys, named under ``where``.
+    """
+    return _build(tp, value, where)
+
+
 def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     """Flatten nested dicts to dotted keys (MLflow params)."""
     out: dict[str, Any] = {}

@@ -132,7 +132,7 @@ def test_a_signal_map_that_does_not_fit_its_reader_is_refused(tmp_path):
     }
     bad["signals"] = {k: {"column": v.column, "unit": v.unit} for k, v in bad["signals"].items()}
     del bad["signals"]["t"]
-    with pytest.raises(ConfigError, match="data.signal_maps.logger_csv.t: missing"):
+    with pytest.raises(ConfigError, match="data.signal_maps.logger_csv.signals.t: missing"):
         ingest(
             stream_params(root, "stream_csv", **{"data.signal_maps": {"logger_csv": bad}}),
             tmp_path / "drives",

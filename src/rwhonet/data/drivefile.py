@@ -125,6 +125,7 @@ class DriveFile:
     vehicle: str
     format: str  # "iovnbd", "comma2k19", a column map's or a signal map's name
     path: Path
+    map_name: str | None = None  # how messages name its signal map (None: its params key)
 
 
 def read_drive(
@@ -240,6 +241,11 @@ def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
     )
 
 
+def _map_name(f: DriveFile) -> str:
+    """How messages name a drive's signal map: its params key, or the file it came from."""
+    return f.map_name or f"data.signal_maps.{f.format}.signals"
+
+
 def _read_streams(
     f: DriveFile,
     kind: str,
@@ -261,13 +267,14 @@ def _read_streams(
         from rwhonet.data.mdf4 import read_mdf4
 
         signals = data.signal_maps[f.format].signals
-        streams = read_mdf4(f.path, signals, radius_m, f.format, file)
+        streams = read_mdf4(f.path, signals, radius_m, _map_name(f), file)
     else:
         from rwhonet.data.streamcsv import read_stream_csvs
 
         files = sorted(p for p in f.path.glob("*.csv") if p.is_file())
         signals = data.signal_maps[f.format].signals
-        streams = read_stream_csvs(files, signals, radius_m, f.format, {p: rel(p) for p in files})
+        shown = {p: rel(p) for p in files}
+        streams = read_stream_csvs(files, signals, radius_m, _map_name(f), shown)
     res = resample(streams, period_s=period_s, split_gap_s=split_gap_s, nominal_radius_m=radius_m)
     sources = {s.where(): s.sources for s in streams.streams}
     facts = StreamFacts(
