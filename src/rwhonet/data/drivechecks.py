@@ -16,11 +16,10 @@ expected, what was found and what to do.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from rwhonet import contracts
 from rwhonet.config import CutSpec, Params
@@ -52,7 +51,7 @@ def target_test_min_s(params: Params) -> int:
 def check_drive(
     params: Params,
     entry: dict[str, Any],
-    df: pd.DataFrame,
+    df: Mapping[str, np.ndarray],
     schema_found: list[Problem],
     drive_cuts: list[CutSpec],
 ) -> tuple[list[Problem], Assessment | None, dict[str, Any] | None, dict[str, Any] | None]:
@@ -79,6 +78,8 @@ def check_drive(
         the glitches (:func:`wheel_glitches`' report) None when no row glitched.
     """
     vp = params.validate
+    # Plain arrays, taken from the frame once: the checks read every column many times.
+    df = {name: np.asarray(df[name]) for name in df if name != c.SCENARIO}
     found = _swapped_by_range(schema_found, df, entry)
     result = radius = glitches = None
     if not found or _only_wheel_ranges(found, df, entry["columns"]):
@@ -93,7 +94,7 @@ def check_drive(
 
 @np.errstate(invalid="ignore", over="ignore")
 def wheel_glitches(
-    df: pd.DataFrame, entry: dict[str, Any], radius_m: float, listed: int = 50
+    df: Mapping[str, np.ndarray], entry: dict[str, Any], radius_m: float, listed: int = 50
 ) -> tuple[np.ndarray, dict[str, Any] | None]:
     """The rows where a wheel speed changed faster than any tyre can, and their report.
 
@@ -113,9 +114,9 @@ def wheel_glitches(
         ``{"rows", "listed": [{"row", "t_s", "channel"} or the stream's samples
         {"stream", "row", "t_s", "channel"}], "rows_are"}``.
     """
-    t = df[c.T_S].to_numpy(np.float64)
+    t = np.asarray(df[c.T_S], dtype=np.float64)
     by_wheel = glitch_mask(
-        t, np.stack([df[w].to_numpy(np.float64) for w in c.WHEELS]), radius_m, WHEEL_GLITCH_G
+        t, np.stack([np.asarray(df[w], dtype=np.float64) for w in c.WHEELS]), radius_m
     )
     mask = by_wheel.any(axis=0)
     streams = entry.get("streams") or {}
@@ -145,7 +146,7 @@ def wheel_glitches(
 
 def _glitch_problems(
     entry: dict[str, Any],
-    df: pd.DataFrame,
+    df: Mapping[str, np.ndarray],
     glitch: np.ndarray,
     glitches: dict[str, Any] | None,
     sample_period_s: float,
@@ -153,7 +154,7 @@ def _glitch_problems(
     """A drive glitched in most of its seconds is refused (rule: REFUSE_SHARE of them)."""
     if glitches is None:
         return []
-    sec = second_index(df[c.T_S].to_numpy(np.float64), sample_period_s)
+    sec = second_index(np.asarray(df[c.T_S], dtype=np.float64), sample_period_s)
     n_sec = int(sec[-1] - sec[0]) + 1
     hit = np.unique(sec[glitch]).size
     if hit <= REFUSE_SHARE * n_sec:
@@ -186,7 +187,7 @@ def _glitch_problems(
 def _drive_problems(
     params: Params,
     entry: dict[str, Any],
-    df: pd.DataFrame,
+    df: Mapping[str, np.ndarray],
     result: Assessment,
     check_units: bool = True,
 ) -> tuple[list[Problem], dict[str, Any]]:
@@ -198,7 +199,7 @@ def _drive_problems(
     vp = params.validate
     file, columns = entry["source_file"], entry["columns"]
     problems = []
-    t0, t1 = float(df[c.T_S].iloc[0]), float(df[c.T_S].iloc[-1])
+    t0, t1 = float(df[c.T_S][0]), float(df[c.T_S][-1])
     for i, cut in enumerate(params.validate.cuts):
         if cut.drive == entry["drive"] and (cut.end_s < t0 or cut.start_s > t1):
             problems.append(
@@ -336,13 +337,13 @@ def _swapped_problem(
 
 
 def _swapped_by_range(
-    found: list[Problem], df: pd.DataFrame, entry: dict[str, Any]
+    found: list[Problem], df: Mapping[str, np.ndarray], entry: dict[str, Any]
 ) -> list[Problem]:
     """Replace the latitude range failures of a drive with swapped columns by one problem."""
     lat = entry["columns"].get(c.LAT_DEG, c.LAT_DEG)
     if not any(p.column == lat and "latitude in [-90, 90]" in p.expected for p in found):
         return found
-    if not latlon_swapped_by_range(df[c.LAT_DEG].to_numpy(), df[c.LON_DEG].to_numpy()):
+    if not latlon_swapped_by_range(df[c.LAT_DEG], df[c.LON_DEG]):
         return found
     rest = [p for p in found if not (p.column == lat and "latitude in [-90, 90]" in p.expected)]
     return [_swapped_problem(entry, None, None, None), *rest]
@@ -352,20 +353,20 @@ def _swapped_by_range(
 def _wheel_problems(
     params: Params,
     entry: dict[str, Any],
-    df: pd.DataFrame,
+    df: Mapping[str, np.ndarray],
     drive_cuts: list[CutSpec],
     result: Assessment,
 ) -> list[Problem]:
     """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all."""
     vp = params.validate
     file, columns = entry["source_file"], entry["columns"]
-    ignore = manual_rows(df[c.T_S].to_numpy(np.float64), drive_cuts)
+    ignore = manual_rows(np.asarray(df[c.T_S], dtype=np.float64), drive_cuts)
     problems = []
-    t = df[c.T_S].to_numpy(np.float64)
+    t = np.asarray(df[c.T_S], dtype=np.float64)
     negative = negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore)
     reversing = reversing_rows(df, vp.wheels.negative_tol_rad_s) if negative else None
     for wheel, rows in negative.items():
-        values = df[wheel].to_numpy(np.float64)
+        values = np.asarray(df[wheel], dtype=np.float64)
         moving = int((np.abs(values) > vp.gnss.moving_wheel_speed_rad_s).sum())
         share = rows.size / max(moving, 1)
         if share <= vp.wheels.signed_max_share and reversing[rows].all():
@@ -484,10 +485,14 @@ def _wheel_problems(
     return problems
 
 
-def _only_wheel_ranges(found: list[Problem], df: pd.DataFrame, columns: dict[str, str]) -> bool:
+def _only_wheel_ranges(
+    found: list[Problem], df: Mapping[str, np.ndarray], columns: dict[str, str]
+) -> bool:
     """Whether a drive's only schema problems are wheel speeds out of range (no NaN)."""
     wheels = {columns.get(w, w) for w in c.WHEELS}
-    return all(p.column in wheels for p in found) and not df[list(c.WHEELS)].isna().any(axis=None)
+    return all(p.column in wheels for p in found) and not any(
+        np.isnan(np.asarray(df[w], dtype=np.float64)).any() for w in c.WHEELS
+    )
 
 
 def _first_detail(result: Assessment, rule: str) -> str:

@@ -102,6 +102,8 @@ def grid_phase(t_s: np.ndarray, period_s: float, whole: bool = True) -> float:
     t = t[np.isfinite(t)]
     if t.size == 0:
         return 0.0
+    if whole and _on_whole_multiples(t, period_s):  # the usual case, in one pass
+        return 0.0
     if t.size > PHASE_SAMPLE:  # every k-th stamp: the empty arc stays as wide
         t = t[:: -(-t.size // PHASE_SAMPLE)]
     v = np.sort(np.remainder(t, period_s))
@@ -146,6 +148,15 @@ def nominal_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     return phase + slots * period_s
 
 
+def _on_whole_multiples(t: np.ndarray, period_s: float) -> bool:
+    """Whether every stamp lies within ``TIME_EPS_S`` of a whole multiple of the period
+    (decimal stamps on the grid: their phase is 0 whatever the arc says)."""
+    per_s = round(1.0 / period_s)
+    if t.size == 0 or abs(per_s * period_s - 1.0) > 1e-12:
+        return False
+    return bool(np.max(np.abs(t - np.rint(t * per_s) / per_s)) <= TIME_EPS_S)
+
+
 def label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     """The times a drive's rates are integrated over: the stamps, or their slots' instants.
 
@@ -167,11 +178,8 @@ def label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     t = np.asarray(t_s, dtype=np.float64)
     if t.size == 0:
         return t
-    per_s = round(1.0 / period_s)
-    if abs(per_s * period_s - 1.0) < 1e-12:  # stamps on whole multiples, the usual case:
-        on_grid = np.rint(t * per_s) / per_s  # one pass, no sort
-        if np.max(np.abs(t - on_grid)) <= TIME_EPS_S:
-            return t
+    if _on_whole_multiples(t, period_s):  # the usual case, in one pass
+        return t
     # On the arc's own middle first, not snapped to whole multiples: a logger offset by a
     # few ms without jitter keeps its stamps.
     slots, phase = grid_slots(t, period_s, grid_phase(t, period_s, whole=False))

@@ -32,7 +32,7 @@ from rwhonet.data.drivefile import (
     reader_kind,
 )
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, system_memory_pool, write_json, write_parquet
+from rwhonet.io import atomic_dir, map_in_order, system_memory_pool, write_json, write_parquet
 from rwhonet.progress import track
 
 
@@ -197,10 +197,14 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     problems: list[Problem] = []
     entries: list[dict[str, Any]] = []
     with atomic_dir(out_dir) as tmp:
-        for f in track(files, desc="ingest", unit="drive", label=lambda f: f.drive):
+        # A few drives at once (rwhonet.io.map_in_order: DATA_THREADS threads), each in
+        # memory only while it is read and written: _write_drive's locals go when it returns.
+        done = map_in_order(lambda f: _write_drive(f, params, tmp), files)
+        for f, entry_of in track(
+            done, desc="ingest", unit="drive", total=len(files), label=lambda x: x[0].drive
+        ):
             try:
-                # One drive in memory at a time: _write_drive's locals go when it returns.
-                entry = _write_drive(f, params, tmp, write=not problems)
+                entry = entry_of.result()
             except InputError as err:
                 problems += err.problems  # keep reading: one report covers every file
                 continue
@@ -221,8 +225,8 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     return manifest
 
 
-def _write_drive(f: DriveFile, params: Params, tmp: Path, write: bool) -> dict[str, Any]:
-    """Read one drive (and its sidecar); write its canonical Parquet unless ``write`` is False.
+def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
+    """Read one drive (and its sidecar); write its canonical Parquet.
 
     Returns:
         Its manifest entry (without ``calibrates``).
@@ -246,11 +250,10 @@ def _write_drive(f: DriveFile, params: Params, tmp: Path, write: bool) -> dict[s
     else:
         drive = read_canonical(f, data, paths.rel)
     raw = drive.raw
-    if write:  # else the stage will fail: don't spend time writing
-        try:
-            write_parquet(drive.table(), tmp / f"{f.drive}.parquet")
-        except MemoryError:
-            raise out_of_memory(f, paths.rel) from None
+    try:
+        write_parquet(drive.table(), tmp / f"{f.drive}.parquet")
+    except MemoryError:
+        raise out_of_memory(f, paths.rel) from None
     return {
         "drive": f.drive,
         "role": f.role,
