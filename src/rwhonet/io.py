@@ -249,7 +249,9 @@ def write_parquet(table: pa.Table, path: Path) -> None:
 # Drives a data stage reads, checks and writes at once: pyarrow's CSV and Parquet code and
 # numpy's loops over a drive's arrays run without Python's lock, so two drives in two threads
 # use two cores (the machine the figures are measured on has two); each holds its drive.
-DATA_THREADS = min(2, os.cpu_count() or 1)
+# $RWHONET_DATA_THREADS sets it (1: one drive at a time, in the stage's own thread). The
+# outputs are the same whatever it is.
+DATA_THREADS = max(1, int(os.environ.get("RWHONET_DATA_THREADS", min(2, os.cpu_count() or 1))))
 
 
 def map_in_order(
@@ -282,9 +284,13 @@ def map_in_order(
         return
     with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="rwhonet-data") as pool:
         pending: deque[tuple[T, Future[R]]] = deque()
-        it = iter(items)
-        for item in it:
-            pending.append((item, pool.submit(fn, item)))
+        for i, item in enumerate(items):
+            try:
+                pending.append((item, pool.submit(fn, item)))
+            except RuntimeError:  # no thread could start (memory, limits): go on item by item
+                yield from pending
+                yield from map_in_order(fn, items[i:], workers=1)
+                return
             if len(pending) > workers:
                 yield pending.popleft()
         while pending:
