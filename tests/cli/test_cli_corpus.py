@@ -159,3 +159,17 @@ def test_a_relocated_drive_goes_through_both_commands(place, bundle, tmp_path, c
     path = write_iovnbd(moved, tmp_path / "V-Moved.csv")
     codes = run_both(bundle, path, ["--nominal-radius", "0.294"], tmp_path, capsys)
     assert codes == {"predict": 0, "recalibrate": 0}
+
+
+@pytest.mark.parametrize("fmt", ["comma2k19", "mdf4", "stream_csv"])
+def test_a_good_drive_in_every_stream_format_goes_through_both_commands(
+    fmt, bundle, tmp_path, capsys
+):
+    from support.stream_fleet import role_drive, tables_from_drive, write_drive
+
+    radius = 0.294
+    drive = write_drive(fmt, tables_from_drive(role_drive("target_test")), tmp_path, "C-B1", radius)
+    extra = ["--format", fmt, "--nominal-radius", str(radius)]
+    if fmt != "comma2k19":
+        extra += ["--signal-map", str(_map_file(tmp_path, fmt == "stream_csv"))]
+    assert run_both(bundle, drive, extra, tmp_path, capsys) == {"predict": 0, "recalibrate": 0}
