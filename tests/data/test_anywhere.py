@@ -218,8 +218,13 @@ def checked(params, frame: pd.DataFrame) -> dict:
     }
     found = schema_problems(frame, params.validate, "W-1.csv", {})
     problems, result, radius, glitches = check_drive(params, entry, frame, found, [])
-    seconds = [
-        segment_seconds(frame.iloc[s.row_start : s.row_stop]).disp_gnss_m for s in result.segments
+    radius_m = params.nominal_radius_m("target")
+    seconds = [segment_seconds(frame.iloc[s.row_start : s.row_stop]) for s in result.segments]
+    labels = [
+        label_m(
+            sec.disp_gnss_m, wpm_displacement_m(sec.angle_rl_rad, sec.angle_rr_rad, *2 * [radius_m])
+        )
+        for sec in seconds
     ]
     return {
         "problems": problems,
@@ -227,7 +232,8 @@ def checked(params, frame: pd.DataFrame) -> dict:
         "cuts": [(x.start_s, x.end_s, x.rule) for x in result.cuts],
         "radius": radius,
         "glitches": glitches,
-        "gnss": np.concatenate(seconds),
+        "gnss": np.concatenate([sec.disp_gnss_m for sec in seconds]),
+        "label": np.concatenate(labels),
     }
 
 
@@ -263,3 +269,4 @@ def test_validate_s_per_drive_check_passes_a_relocated_drive_alike(
     assert got["radius"]["checked"] and got["radius"]["moving_s"] == want["radius"]["moving_s"]
     assert got["radius"]["implied_m"] == pytest.approx(want["radius"]["implied_m"], rel=1e-7)
     np.testing.assert_allclose(got["gnss"], want["gnss"], rtol=0, atol=TOL_M)
+    np.testing.assert_allclose(got["label"], want["label"], rtol=0, atol=TOL_M)
