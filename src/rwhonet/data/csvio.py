@@ -41,7 +41,7 @@ from rwhonet.data.problems import RowTally, no_data_rows, unreadable_file
 from rwhonet.errors import InputError, Problem
 
 # Text parsed per step. A row longer than this cannot be read (no drive row comes close).
-BLOCK_BYTES = 4 << 20
+BLOCK_BYTES = 1 << 20
 # Rows the columns are first allocated for: the file's size at the first block's bytes per
 # row, times this (rows later in a file are rarely much shorter than its first ones).
 CAPACITY_MARGIN = 1.2
