@@ -72,7 +72,8 @@ def glitch_mask(
 
     Args:
         t_s: sample times (n,), strictly increasing.
-        wheels_rad_s: the four wheel speeds (4, n), rad/s (signs ignored: magnitudes).
+        wheels_rad_s: the four wheel speeds (4, n), or four arrays (n,), rad/s (signs
+            ignored: magnitudes).
         radius_m: the car's nominal tyre radius, m (turns the bound into rad/s^2).
         bound_g: the bound, in g of circumferential acceleration above the road speed.
         window_s: the road speed is the others' largest median within ±this.
@@ -82,9 +83,10 @@ def glitch_mask(
         Boolean (4, n): True where a wheel's sample is part of a glitch.
     """
     t = np.asarray(t_s, dtype=np.float64)
-    w = np.abs(np.asarray(wheels_rad_s, dtype=np.float64))
+    # Four arrays, not one stacked copy: a long stream's wheels are hundreds of MB each.
+    w = [np.abs(np.asarray(x, dtype=np.float64)) for x in wheels_rad_s]
     n = t.size
-    out = np.zeros(w.shape, dtype=bool)
+    out = np.zeros((4, n), dtype=bool)
     if n < 2:
         return out
     dt = np.diff(t)
@@ -92,7 +94,7 @@ def glitch_mask(
     limit = bound_g * G_M_S2 / radius_m  # rad/s^2
     others = [[j for j in range(4) if j != k] for k in range(4)]
     for k in range(4):  # per wheel, not per sample
-        road = _median3(*w[others[k]])
+        road = _median3(*(w[j] for j in others[k]))
         if half:
             road = maximum_filter1d(road, size=2 * half + 1, mode="nearest")
         excess = np.maximum(w[k] - road, 0.0)

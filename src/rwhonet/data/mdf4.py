@@ -82,7 +82,7 @@ def _read(
     mdf, signal_map: Mapping[str, ColumnSpec], radius_m: float | None, name: str, file: str
 ) -> DriveStreams:
     problems: list[Problem] = []
-    by_group: dict[int, dict[str, tuple[np.ndarray, np.ndarray, str]]] = {}
+    by_group: dict[int, dict[str, tuple[np.ndarray | None, np.ndarray, str]]] = {}
     for key, spec in signal_map.items():
         where = mdf.whereis(spec.column)
         if not where:
@@ -153,14 +153,17 @@ def _read(
                 )
             )
             continue
-        t = np.asarray(signal.timestamps, dtype=np.float64)
+        # The signals of a group share its time stamps: keep the first signal's only (a long
+        # log's stamps are hundreds of MB per signal).
+        t = None if group in by_group else np.asarray(signal.timestamps, dtype=np.float64)
         values = to_si(key, samples, spec.unit, radius_m, f"{file} {spec.column!r}")
+        del signal, samples
         by_group.setdefault(group, {})[key] = (t, values, spec.column)
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
     groups = []
     for g, channels in sorted(by_group.items()):
-        t = next(iter(channels.values()))[0]
+        t = next(iter(channels.values()))[0]  # the group's first signal's stamps
         groups.append(
             Group(
                 f"channel group {g}",

@@ -133,7 +133,8 @@ def to_si(
     factors = KEYS[key][1]
     if factors is None:
         return wheel_speed_rad_s(values, unit, radius_m, where)
-    return np.asarray(values, dtype=np.float64) * factors[unit]
+    values = np.asarray(values, dtype=np.float64)
+    return values if factors[unit] == 1.0 else values * factors[unit]  # SI already: no copy
 
 
 @dataclass(frozen=True)
