@@ -54,6 +54,11 @@ MAX_RUN_S = 1.0  # a glitch lasts at most this long
 REFUSE_SHARE = 0.5
 
 
+def _magnitude(x: np.ndarray) -> np.ndarray:
+    """|x|, without a copy when no value is negative (wheel speeds as ABS sensors give them)."""
+    return np.abs(x) if (x < 0).any() else x
+
+
 def _median3(a: np.ndarray, b: np.ndarray, c3: np.ndarray) -> np.ndarray:
     """Element-wise median of three arrays (exactly the middle value, as ``np.median``;
     NaN anywhere gives NaN), without sorting."""
@@ -84,7 +89,7 @@ def glitch_mask(
     """
     t = np.asarray(t_s, dtype=np.float64)
     # Four arrays, not one stacked copy: a long stream's wheels are hundreds of MB each.
-    w = [np.abs(np.asarray(x, dtype=np.float64)) for x in wheels_rad_s]
+    w = [_magnitude(np.asarray(x, dtype=np.float64)) for x in wheels_rad_s]
     n = t.size
     out = np.zeros((4, n), dtype=bool)
     if n < 2:
