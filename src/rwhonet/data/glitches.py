@@ -95,8 +95,18 @@ def glitch_mask(
     if n < 2:
         return out
     dt = np.diff(t)
-    half = max(int(round(window_s / float(np.median(dt)))), 0)
     limit = bound_g * G_M_S2 / radius_m  # rad/s^2
+    # A glitch starts where a wheel's excess over the road rose by more than limit x dt in a
+    # step; the excess is at most the spread of the four wheels (the road speed is at least
+    # their smallest). A drive whose spread never exceeds that has no glitch (most drives:
+    # one pass instead of a dozen per wheel).
+    lo = np.minimum(np.minimum(w[0], w[1]), np.minimum(w[2], w[3]))
+    hi = np.maximum(np.maximum(w[0], w[1]), np.maximum(w[2], w[3]))
+    with np.errstate(invalid="ignore"):
+        if not np.any((hi[1:] - lo[1:]) * (1.0 + 1e-9) > limit * dt):
+            return out
+    del lo, hi
+    half = max(int(round(window_s / float(np.median(dt)))), 0)
     others = [[j for j in range(4) if j != k] for k in range(4)]
     for k in range(4):  # per wheel, not per sample
         road = _median3(*(w[j] for j in others[k]))

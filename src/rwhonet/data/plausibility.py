@@ -243,15 +243,24 @@ def silent_wheel_runs(
         return []
     lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
     lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
-    speed, same = _gnss_speed(drive, segments, k)
+    _, same = _gnss_speed(drive, segments, k, speed=False)
     wheels = median_wheel_rad_s(drive)
+    moving_m_s = policy.stuck_moving_rad_s * nominal_radius_m
+    with np.errstate(invalid="ignore", divide="ignore"):
+        wheel_m_s = wheels * nominal_radius_m / policy.stuck_ratio
+        # Only rows whose speed could exceed both thresholds (by a bound with no trigonometry
+        # per row) get the tangent-plane speed; while the wheels turn with GNSS, none does.
+        bound = _speed_bound(lat, lon, t, k)
+        maybe = same & (bound > moving_m_s * (1 - _NEAR)) & (bound > wheel_m_s * (1 - _NEAR))
+    speed = np.zeros(n)
+    rows = np.flatnonzero(maybe)
+    speed[rows] = local_distance_m(lat[rows - k], lon[rows - k], lat[rows], lon[rows]) / (
+        t[rows] - t[rows - k]
+    )
     # The tangent-plane speed is within 1e-6 of the geodesic's: only a row within 1e-5 of a
     # threshold could be decided otherwise, and those are decided on the geodesic.
-    for threshold in (
-        policy.stuck_moving_rad_s * nominal_radius_m,
-        wheels * nominal_radius_m / policy.stuck_ratio,
-    ):
-        near = same & (np.abs(speed - threshold) <= _NEAR * np.abs(threshold))
+    for threshold in (moving_m_s, wheel_m_s):
+        near = maybe & (np.abs(speed - threshold) <= _NEAR * np.abs(threshold))
         if near.any():
             speed[near] = _exact_speed(drive, np.flatnonzero(near), k)
     expected = speed / nominal_radius_m
@@ -378,6 +387,37 @@ def _gnss_speed(
             lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
             out[k:] = local_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:]) / (t[k:] - t[:-k])
     return out, valid
+
+
+def _speed_bound(lat: np.ndarray, lon: np.ndarray, t: np.ndarray, k: int) -> np.ndarray:
+    """An upper bound of the tangent-plane speed over the last ``k`` rows (0 for the first k).
+
+    The radii of curvature at the drive's largest |latitude| (both grow towards the poles)
+    and the cosine at its smallest bound those at any step's mid latitude.
+    """
+    n = t.size
+    out = np.zeros(n)
+    lat_r, lon_r = np.radians(lat), np.radians(lon)
+    finite = np.isfinite(lat_r)
+    if n <= k or not finite.any():
+        out[k:] = np.inf
+        return out
+    abs_lat = np.abs(lat_r[finite])
+    w2 = 1.0 - _WGS84_E2 * np.sin(abs_lat.max()) ** 2
+    r_n = _WGS84_A_M / np.sqrt(w2)
+    r_m = r_n * (1.0 - _WGS84_E2) / w2
+    lo = abs_lat.min()
+    cos_max = 1.0 if lo <= 0.0 else float(np.cos(lo))
+    d_lon = (lon_r[k:] - lon_r[:-k] + np.pi) % (2.0 * np.pi) - np.pi
+    out[k:] = np.hypot(r_m * (lat_r[k:] - lat_r[:-k]), r_n * cos_max * d_lon) / (t[k:] - t[:-k])
+    out[k:] *= 1.0 + 1e-9  # the bound's own rounding
+    out[k:][~np.isfinite(out[k:])] = np.inf
+    return out
+
+
+# WGS84 semi-major axis (m) and first eccentricity squared (rwhonet.geo.geodesic's).
+_WGS84_A_M = 6378137.0
+_WGS84_E2 = 6.69437999014e-3
 
 
 def _exact_speed(drive: Mapping[str, np.ndarray], rows: np.ndarray, k: int) -> np.ndarray:

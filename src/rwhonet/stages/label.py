@@ -171,9 +171,10 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
     except KeyError:  # a segment without the optional scenario column
         file = pq.ParquetFile(path)
     present = set(file.schema_arrow.names)
-    return segment_arrays(
-        file.read(columns=[col for col in (*c.REQUIRED, c.SCENARIO) if col in present])
-    )
+    # use_threads=False: segments are read a few at a time already (rwhonet.io.map_in_order),
+    # and Arrow's own pool on top only costs CPU.
+    columns = [col for col in (*c.REQUIRED, c.SCENARIO) if col in present]
+    return segment_arrays(file.read(columns=columns, use_threads=False))
 
 
 def calibrate(

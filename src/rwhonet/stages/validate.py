@@ -282,7 +282,9 @@ def _read_drive(entry: dict[str, Any], drives_dir: Path) -> pa.Table:
     # dataset scanner) for these single-file reads.
     path = drives_dir / f"{entry['drive']}.parquet"
     try:
-        return pq.ParquetFile(path).read()
+        # use_threads=False: drives are read a few at a time already (map_in_order), and
+        # Arrow's own pool on top only costs CPU.
+        return pq.ParquetFile(path).read(use_threads=False)
     except (OSError, pa.ArrowException) as err:
         raise InputError(
             [
