@@ -162,7 +162,7 @@ def run(
         elif output.endswith(".parquet"):
             sink = ParquetSink(partial)
         else:
-            sink = CsvSink(open(partial, "w", encoding="utf-8", newline=""))  # noqa: SIM115
+            sink = CsvSink(open(partial, "w", encoding="utf-8", newline=""))  # closed below
         seconds = rows = 0
         done = False
         try:
