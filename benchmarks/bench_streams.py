@@ -8,15 +8,21 @@ in this process (imports excluded, best of ``--repeat``), reading the files and
 resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
 sample-level glitch screen). Rows are every stream's samples, counted once.
 Also timed: the same grid through the GNSS policy and the per-second quantities
-(``assess`` + ``segment_seconds``), for an idea of files -> labelled seconds.
+(``assess`` + ``segment_seconds``), and the whole data path through the stages
+themselves: the drive as every role's drive (source_train, target_train,
+target_test) in one format, through ``ingest`` (read, resample, Parquet),
+``validate`` and ``label`` (files -> labelled samples, the 10 Hz path's
+``bench_data.py`` measure), with wall and CPU time.
 
 Usage: python benchmarks/bench_streams.py [--hours 2] [--repeat 3]
-Target (issue 15): >= 1 M input rows/s from files to the 10 Hz table.
+Target (issue 15): >= 1 M input rows/s from files to labelled samples.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import sys
 import tempfile
 import time
@@ -114,6 +120,40 @@ def main() -> None:
             f"{t_label:.3f} s ({n / (total + t_label) / 1e6:.2f} M input rows/s files -> seconds, "
             "comma2k19 folder)"
         )
+        print("through the data stages (the drive as each of 3 roles' drive; wall, CPU):")
+        for fmt in ("stream_csv", "mdf4", "comma2k19"):
+            wall, cpu = best(lambda f=fmt: stages(f, tables, radius, root / f), args.repeat)[0]
+            print(
+                f"  {fmt:<11} ingest+validate+label {wall:.2f} s wall, {cpu:.2f} s CPU: "
+                f"{3 * n / wall / 1e6:.2f} M input rows/s ({3 * n:,} rows)"
+            )
+
+
+def stages(fmt: str, tables, radius: float, work: Path) -> tuple[float, float]:
+    """The drive as every role's drive, in ``fmt``, through ingest, validate and label."""
+    from rwhonet.stages.ingest import ingest
+    from rwhonet.stages.label import label
+    from rwhonet.stages.validate import validate
+    from support.stream_fleet import ROLE_DRIVES, stream_params, write_drive
+
+    raw = work / "raw"
+    if not raw.is_dir():
+        for role, (drive, *_) in ROLE_DRIVES.items():
+            write_drive(fmt, tables, raw / role, drive, radius)
+    params = stream_params(
+        raw,
+        fmt,
+        **{
+            "data.vehicles.source.nominal_radius_m": radius,
+            "data.vehicles.target.nominal_radius_m": radius,
+        },
+    )
+    t0, c0 = time.perf_counter(), time.process_time()
+    with contextlib.redirect_stdout(io.StringIO()):
+        ingest(params, work / "drives")
+        validate(params, work / "drives", work / "segments", work / "validation.json")
+        label(params, work / "segments", work / "samples", work / "cal.json", work / "scaler.json")
+    return time.perf_counter() - t0, time.process_time() - c0
 
 
 if __name__ == "__main__":

@@ -103,6 +103,8 @@ TEXT_PARAMS = {
     "data.roles.*.vehicle": "a vehicle's name",
     "data.column_maps.*.*.column": "a CSV column name",
     "data.column_maps.*.*.unit": "a unit's name",
+    "data.signal_maps.*.signals.*.column": "a logged channel's name (MDF4 signal, CSV column)",
+    "data.signal_maps.*.signals.*.unit": "a unit's name",
     "validate.cuts[*].drive": "a drive's name, matched",
     "validate.cuts[*].reason": "free text",
     "sim.profile": "a profile's name",

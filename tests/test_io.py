@@ -155,3 +155,41 @@ def test_sigkill_while_writing_leaves_the_old_outputs(tmp_path):
     with atomic_dir(out) as tmp:
         (tmp / "model.pt").write_bytes(b"new model")
     assert [p.name for p in tmp_path.iterdir()] == ["seed1"]
+
+
+# ------------------------------------------------------------------ map_in_order
+
+
+@pytest.mark.parametrize("workers", [1, 2, 4])
+def test_map_in_order_yields_every_item_in_order_with_its_outcome(workers):
+    import threading
+
+    from rwhonet.io import map_in_order
+
+    seen = set()
+
+    def work(i):
+        seen.add(threading.current_thread().name)
+        if i == 3:
+            raise ValueError("three")
+        return i * i
+
+    out = list(map_in_order(work, range(8), workers=workers))
+    assert [item for item, _ in out] == list(range(8))
+    assert [f.result() for i, f in out if i != 3] == [i * i for i in range(8) if i != 3]
+    with pytest.raises(ValueError, match="three"):
+        out[3][1].result()
+    if workers == 1:  # in the caller's thread, item by item
+        assert seen == {threading.main_thread().name}
+    else:
+        assert threading.main_thread().name not in seen
+
+
+def test_map_in_order_holds_at_most_workers_items_ahead():
+    from rwhonet.io import map_in_order
+
+    started = []
+    gen = map_in_order(lambda i: started.append(i) or i, range(20), workers=2)
+    next(gen)
+    assert max(started) <= 2  # the item handed out and two in flight
+    gen.close()

@@ -465,6 +465,10 @@ class SimParams:
             object.__setattr__(prof, "drives", list(base.drives))
 
 
+# Formats with a reader of their own (no map): the IO-VNBD "V-" layout, comma2k19 folders.
+BUILTIN_FORMATS = ("iovnbd", "comma2k19")
+
+
 @dataclass(frozen=True)
 class RoleSpec:
     """Where the drives of one role live and how to read them."""
@@ -484,6 +488,20 @@ class ColumnSpec:
 
 
 @dataclass(frozen=True)
+class SignalMapSpec:
+    """A drive logged as timestamped streams: its reader, and where each quantity is.
+
+    ``reader``: ``mdf4`` (one ASAM MDF4 file per drive, :mod:`rwhonet.data.mdf4`) or
+    ``stream_csv`` (one folder per drive holding one CSV per sensor stream,
+    :mod:`rwhonet.data.streamcsv`; ``t`` names their common time column). ``signals``:
+    key -> the logged channel and its unit (:mod:`rwhonet.data.signalmap`).
+    """
+
+    reader: Literal["mdf4", "stream_csv"]
+    signals: dict[str, ColumnSpec]
+
+
+@dataclass(frozen=True)
 class VehicleSpec:
     """What the pipeline knows about a vehicle before seeing its drives."""
 
@@ -498,12 +516,29 @@ class DataParams:
     roles: dict[str, RoleSpec]
     vehicles: dict[str, VehicleSpec]
     column_maps: dict[str, dict[str, ColumnSpec]] = field(default_factory=dict)
+    # Drives logged as timestamped streams (MDF4 files, folders of stream CSVs).
+    signal_maps: dict[str, SignalMapSpec] = field(default_factory=dict)
     # A larger drive file is refused before it is read: validate holds a drive in memory.
     max_file_mb: float = 512.0
 
     def __post_init__(self) -> None:
         if not self.max_file_mb > 0:
             raise ConfigError(f"data.max_file_mb must be > 0, got {self.max_file_mb}")
+        clash = sorted(
+            (set(self.column_maps) & set(self.signal_maps))
+            | ((set(self.column_maps) | set(self.signal_maps)) & set(BUILTIN_FORMATS))
+        )
+        if clash:
+            raise ConfigError(
+                f"data.column_maps / data.signal_maps: the name(s) {clash} are taken (a format "
+                f"names one reader: the built-in {list(BUILTIN_FORMATS)}, a column map or a "
+                "signal map); rename the map"
+            )
+
+    @property
+    def formats(self) -> list[str]:
+        """Every format a role may name: the built-in readers, column maps, signal maps."""
+        return [*BUILTIN_FORMATS, *sorted(self.column_maps), *sorted(self.signal_maps)]
 
 
 @dataclass(frozen=True)
@@ -850,10 +885,12 @@ class Params:
                 f"train.val_fraction must be in [0, 1), got {self.train.val_fraction}"
             )
         for role, spec in self.data.roles.items():
-            if spec.format != "iovnbd" and spec.format not in self.data.column_maps:
+            if spec.format not in self.data.formats:
                 raise ConfigError(
-                    f"data.roles.{role}.format={spec.format!r}: expected 'iovnbd' or one of "
-                    f"data.column_maps {sorted(self.data.column_maps)}"
+                    f"data.roles.{role}.format={spec.format!r}: expected one of "
+                    f"{list(BUILTIN_FORMATS)}, a column map (data.column_maps "
+                    f"{sorted(self.data.column_maps)}) or a signal map (data.signal_maps "
+                    f"{sorted(self.data.signal_maps)})"
                 )
             if spec.vehicle not in self.data.vehicles:
                 raise ConfigError(
@@ -1005,6 +1042,16 @@ class Guarded:
 
     def __repr__(self) -> str:
         return f"Guarded({type(self._obj).__name__}, allowed={list(self._allowed)})"
+
+
+def parse_value(tp: Any, value: Any, where: str) -> Any:
+    """Build a typed value (a params section's dataclass, a mapping of them) from plain data,
+    with ``load_params``' checks: for files the command line reads (a vehicle, a signal map).
+
+    Raises:
+        ConfigError: unknown, missing or mistyped keys, named under ``where``.
+    """
+    return _build(tp, value, where)
 
 
 def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:

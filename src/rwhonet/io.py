@@ -24,10 +24,12 @@ import shutil
 import signal
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -35,6 +37,8 @@ import pyarrow.parquet as pq
 from rwhonet.contracts import SCENARIO
 
 HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 @contextmanager
@@ -240,3 +244,54 @@ def write_parquet(table: pa.Table, path: Path) -> None:
         compression="none",
         use_dictionary=[SCENARIO] if SCENARIO in table.column_names else False,
     )
+
+
+# Drives a data stage reads, checks and writes at once: pyarrow's CSV and Parquet code and
+# numpy's loops over a drive's arrays run without Python's lock, so two drives in two threads
+# use two cores (the machine the figures are measured on has two); each holds its drive.
+# $RWHONET_DATA_THREADS sets it (1: one drive at a time, in the stage's own thread). The
+# outputs are the same whatever it is.
+DATA_THREADS = max(1, int(os.environ.get("RWHONET_DATA_THREADS", min(2, os.cpu_count() or 1))))
+
+
+def map_in_order(
+    fn: Callable[[T], R], items: Iterable[T], workers: int = DATA_THREADS
+) -> Iterator[tuple[T, Future[R]]]:
+    """Run ``fn`` on the items in up to ``workers`` threads; yield ``(item, future)`` in order.
+
+    At most ``workers`` items are in flight beyond the one the caller holds, so memory holds
+    that many results (drives) at once. ``future.result()`` returns ``fn(item)`` or raises
+    what it raised, so the caller handles each item's errors where it did in a plain loop.
+    With one worker, ``fn`` runs in the caller's thread, item by item.
+
+    Args:
+        fn: the work on one item (thread-safe: no shared state it writes).
+        items: the items.
+        workers: threads.
+
+    Yields:
+        Each item with the future of its result, in the items' order.
+    """
+    items = list(items)
+    if workers <= 1 or len(items) <= 1:
+        for item in items:
+            done: Future[R] = Future()
+            try:
+                done.set_result(fn(item))
+            except BaseException as err:  # handed to the caller, as the threads do
+                done.set_exception(err)
+            yield item, done
+        return
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="rwhonet-data") as pool:
+        pending: deque[tuple[T, Future[R]]] = deque()
+        for i, item in enumerate(items):
+            try:
+                pending.append((item, pool.submit(fn, item)))
+            except RuntimeError:  # no thread could start (memory, limits): go on item by item
+                yield from pending
+                yield from map_in_order(fn, items[i:], workers=1)
+                return
+            if len(pending) > workers:
+                yield pending.popleft()
+        while pending:
+            yield pending.popleft()

@@ -9,8 +9,10 @@ checks validate runs (the schema, the GNSS policy, the wheel-sensor and
 plausibility checks, the swapped-coordinates and radians hypotheses, the glitch
 screen) must give the same verdicts and segments, and the per-second GNSS
 displacement and label must agree within ``TOL_M`` (1 mm: the projection keeps
-15 m steps to ~1e-8, the rest is float rounding). (The moved per-drive check of
-``stages.validate`` joins this test once it lives under ``rwhonet.data``.)
+15 m steps to ~1e-8, the rest is float rounding). The per-drive check validate
+and ``rwhonet recalibrate`` run (:func:`rwhonet.data.drivechecks.check_drive`)
+is run whole on the moved drives too: no problem, the same segments, cuts and
+radius check, and no exception anywhere.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from hypothesis import strategies as st
 from rwhonet.config import SimDrive, load_params
 from rwhonet.data import canonical as c
 from rwhonet.data import plausibility
+from rwhonet.data.drivechecks import check_drive
 from rwhonet.data.glitches import glitch_rows_mask
 from rwhonet.data.iovnbd import LAYOUT
 from rwhonet.data.plausibility import (
@@ -202,3 +205,68 @@ def test_swapped_hypothesis_west_of_90_w_is_ruled_out_without_the_geodesic(
     swapped = swapped_radius(moved, result.segments, vp.gnss.moving_wheel_speed_rad_s)
     assert np.isnan(swapped.radius_m) and swapped.moving_s == 0
     assert unit_mistake(swapped.radius_m, radius, vp.radius_tolerance) is not None
+
+
+def checked(params, frame: pd.DataFrame) -> dict:
+    """What validate's per-drive check (schema, then check_drive) says about a drive."""
+    entry = {
+        "drive": "W-1",
+        "role": "target_train",
+        "vehicle": "target",
+        "source_file": "W-1.csv",
+        "columns": {},
+    }
+    found = schema_problems(frame, params.validate, "W-1.csv", {})
+    problems, result, radius, glitches = check_drive(params, entry, frame, found, [])
+    radius_m = params.nominal_radius_m("target")
+    seconds = [segment_seconds(frame.iloc[s.row_start : s.row_stop]) for s in result.segments]
+    labels = [
+        label_m(
+            sec.disp_gnss_m, wpm_displacement_m(sec.angle_rl_rad, sec.angle_rr_rad, *2 * [radius_m])
+        )
+        for sec in seconds
+    ]
+    return {
+        "problems": problems,
+        "segments": [(s.row_start, s.row_stop, s.t_start_s, s.t_end_s) for s in result.segments],
+        "cuts": [(x.start_s, x.end_s, x.rule) for x in result.cuts],
+        "radius": radius,
+        "glitches": glitches,
+        "gnss": np.concatenate([sec.disp_gnss_m for sec in seconds]),
+        "label": np.concatenate(labels),
+    }
+
+
+@pytest.fixture(scope="module")
+def home_checked(setting):
+    params, _, frame = setting
+    return checked(params, frame)
+
+
+@settings(
+    max_examples=15,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    lat0=st.floats(-89.9, 89.9),
+    lon0=st.floats(-180.0, 180.0, exclude_max=True),
+)
+@example(lat0=37.72, lon0=-122.47)  # San Francisco, where the real drive is
+@example(lat0=51.4779, lon0=-0.0005)  # across the prime meridian at Greenwich
+@example(lat0=-16.8, lon0=179.9995)  # across the antimeridian (Fiji)
+@example(lat0=89.9, lon0=10.0)  # 11 km from the North Pole
+@example(lat0=-89.9, lon0=-70.0)  # and from the South Pole
+def test_validate_s_per_drive_check_passes_a_relocated_drive_alike(
+    setting, home_checked, checked_geodesic, lat0, lon0
+):
+    params, _, frame = setting
+    got = checked(params, relocate(frame, lat0, lon0))
+    want = home_checked
+    assert got["problems"] == want["problems"] == []
+    assert got["segments"] == want["segments"] and got["cuts"] == want["cuts"]
+    assert got["glitches"] == want["glitches"]
+    assert got["radius"]["checked"] and got["radius"]["moving_s"] == want["radius"]["moving_s"]
+    assert got["radius"]["implied_m"] == pytest.approx(want["radius"]["implied_m"], rel=1e-7)
+    np.testing.assert_allclose(got["gnss"], want["gnss"], rtol=0, atol=TOL_M)
+    np.testing.assert_allclose(got["label"], want["label"], rtol=0, atol=TOL_M)

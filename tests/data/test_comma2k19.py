@@ -11,7 +11,7 @@ from pyproj import Geod
 from rwhonet import paths
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
-from rwhonet.data.comma2k19 import read_comma2k19
+from rwhonet.data.comma2k19 import read_comma2k19, receiver_epochs
 from rwhonet.data.quality import assess
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
@@ -38,8 +38,9 @@ def test_the_real_drive_reads_as_the_readme_says(real):
     vp = load_params().validate
     result = assess(drive, vp.gnss, vp.sample_period_s)
     (seg,) = result.segments
-    # Every whole second of the boot clock that both streams cover: fixes 46408.65 to
-    # 46468.38 s, wheel speeds 46408.59 to 46468.58 s, so seconds (46409, 46468].
+    # Every whole second of the boot clock that both streams cover: fixes (at their receiver
+    # epochs) 46408.653 to 46468.354 s, wheel speeds 46408.590 to 46468.578 s, so the whole
+    # seconds 46409 ... 46468 bound 59 seconds (46409, 46468].
     assert (seg.t_start_s, seg.t_end_s) == (46409.0, 46468.0)
     sec = segment_seconds({k: v[seg.row_start : seg.row_stop] for k, v in drive.items()})
     wheel_m = 0.5 * (sec.angle_rl_rad + sec.angle_rr_rad) * RAV4_RADIUS_M
@@ -55,6 +56,60 @@ def test_the_real_drive_reads_as_the_readme_says(real):
         )
     assert drive[c.LAT_DEG].mean() == pytest.approx(37.72, abs=0.01)
     assert drive[c.LON_DEG].mean() == pytest.approx(-122.47, abs=0.01)
+
+
+def _gnss_vs_wheels(res) -> tuple[int, float]:
+    """Seconds, and mean |GNSS distance - c x mean rear wheel distance| per second (one c)."""
+    vp = load_params().validate
+    drive = res.drive.columns
+    (seg,) = assess(drive, vp.gnss, vp.sample_period_s).segments
+    sec = segment_seconds({k: v[seg.row_start : seg.row_stop] for k, v in drive.items()})
+    wheel_m = 0.5 * (sec.angle_rl_rad + sec.angle_rr_rad) * RAV4_RADIUS_M
+    r = sec.disp_gnss_m - sec.disp_gnss_m.sum() / wheel_m.sum() * wheel_m
+    return len(sec), float(np.abs(r).mean())
+
+
+def test_the_fixes_sit_at_their_receiver_epochs(real, tmp_path):
+    """The log's stamps jitter by ~9 ms against the receiver's epochs; the epochs are used."""
+    streams, res = real
+    step = np.diff(streams.gnss.t_s)
+    np.testing.assert_allclose(step * 10, np.round(step * 10), atol=1e-4)  # whole 100 ms
+    assert any("receiver epochs" in n and "579 fixes" in n for n in res.drive.notes)
+    n, on_epochs = _gnss_vs_wheels(res)
+    # The same folder without the epochs (UTC column zeroed): the log stamps are kept.
+    copy = tmp_path / "copy" / "processed_log"
+    shutil.copytree(REAL / "processed_log", copy)
+    value = np.load(copy / "GNSS/live_gnss_ublox/value")
+    value[:, 3] = 0.0
+    with open(copy / "GNSS/live_gnss_ublox/value", "wb") as f:
+        np.save(f, value)
+    stamped = resample(read_comma2k19(copy, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
+    assert any("keep the device's stamps" in x for x in stamped.drive.notes)
+    n_stamped, on_stamps = _gnss_vs_wheels(stamped)
+    assert n == n_stamped == 59
+    # Measured: 0.051 m on the epochs, 0.128 m on the log stamps (the README's 0.13 m).
+    assert on_epochs < 0.06 and on_stamps > 0.12
+
+
+def test_receiver_epochs_fit_offset_and_drift_through_the_latency():
+    rng = np.random.default_rng(0)
+    epochs = 1.5e9 + 0.1 * np.arange(3000)  # UTC, s: a 5-minute drive at 10 Hz
+    latency = 0.03 + rng.exponential(0.008, epochs.size)  # processing and serial link
+    drift = 20e-6  # the device's clock runs 20 ppm slow
+    t_log = (epochs - 1.5e9) * (1 - drift) + 4000.0 + latency
+    fit = receiver_epochs(t_log, epochs * 1000.0)
+    assert fit.drift == pytest.approx(drift, abs=1e-6)
+    placed = fit.on_device_clock(epochs)
+    # Each fix at its epoch plus the median latency: the log's jitter is gone.
+    residual = placed - ((epochs - 1.5e9) * (1 - drift) + 4000.0)
+    assert np.ptp(residual) < 1e-4 and residual.mean() == pytest.approx(
+        np.median(latency), abs=1e-3
+    )
+    assert fit.scatter_s == pytest.approx(
+        1.4826 * np.median(np.abs(latency - np.median(latency))), rel=0.1
+    )
+    assert receiver_epochs(t_log, np.zeros(epochs.size)) is None  # no epochs: log stamps
+    assert receiver_epochs(t_log, (epochs + rng.uniform(0, 0.5, epochs.size)) * 1000) is None
 
 
 def test_the_gyro_gives_a_yaw_rate_positive_turning_left(real):

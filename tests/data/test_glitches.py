@@ -113,3 +113,50 @@ def test_ordinary_simulated_drives_have_no_glitch(ci_drives):
     assert len(ci_drives) == 3
     for radius, drive in ci_drives:
         assert wheel_glitch_rows(drive, radius) == {}
+
+
+# ------------------------------------------------ in validate's per-drive checks (issue 15)
+
+
+def _checked(drive):
+    from rwhonet.data.drivechecks import check_drive
+    from rwhonet.data.schema import schema_problems
+    from support.corpus import WHEEL_FL, WHEEL_FR, WHEEL_RL, WHEEL_RR
+    from support.drives import make_params
+
+    params = make_params(
+        "raw", **{"data.vehicles.target": {"nominal_radius_m": RADIUS_M, "track_rear_m": 1.5}}
+    )
+    names = dict(zip(c.WHEELS, (WHEEL_FL, WHEEL_FR, WHEEL_RL, WHEEL_RR), strict=True))
+    entry = {
+        "drive": "V-G",
+        "role": "target_train",
+        "vehicle": "target",
+        "source_file": "V-G.csv",
+        "columns": names,
+    }
+    frame = drive.assign(**{c.SCENARIO: ""})
+    found = schema_problems(frame, params.validate, "V-G.csv", names)
+    return check_drive(params, entry, frame, found, [])
+
+
+def test_validate_cuts_a_glitch_second_and_lists_its_row_and_column():
+    drive = speed_profile_drive(15.0 + 2.0 * np.sin(np.arange(901) / 60.0), RADIUS_M)
+    drive.loc[304, c.OMEGA_RL] *= 4.0  # data row 305, second T0 + 31 (within the schema)
+    problems, result, _, glitches = _checked(drive)
+    assert problems == []
+    assert (T0 + 30, T0 + 31, "wheel_glitch") in [(x.start_s, x.end_s, x.rule) for x in result.cuts]
+    assert glitches["rows"] == 1 and glitches["rows_are"] == "data rows of the file (1-based)"
+    assert glitches["listed"] == [
+        {"row": 305, "t_s": T0 + 30.4, "channel": " Wheel Speed Rear Left (rad/sec)"}
+    ]
+
+
+def test_validate_refuses_a_drive_glitched_in_most_of_its_seconds():
+    drive = speed_profile_drive(15.0 + 2.0 * np.sin(np.arange(901) / 60.0), RADIUS_M)
+    drive.loc[np.arange(5, 900, 10), c.OMEGA_FR] *= 4.0  # one spike in every second
+    problems, _, _, glitches = _checked(drive)
+    (p,) = [p for p in problems if "g above the road speed" in p.expected]
+    assert (p.row, p.column) == (6, " Wheel Speed Front Right (rad/sec)")
+    assert "glitches in 90 of 91 s" in p.found and p.fix
+    assert glitches["rows"] == 90

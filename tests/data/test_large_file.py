@@ -60,7 +60,7 @@ def project(tmp_path_factory):
 
 
 def _ingest(
-    root: Path, budget_mb: int, max_file_mb: float
+    root: Path, budget_mb: int, max_file_mb: float, one_drive_at_a_time: bool = True
 ) -> tuple[subprocess.CompletedProcess, dict]:
     write_params_yaml(
         root / "params.yaml",
@@ -69,7 +69,13 @@ def _ingest(
     proc = subprocess.run(
         [sys.executable, "-c", CHILD, str(budget_mb)],
         cwd=paths.ROOT,
-        env={**os.environ, "RWHONET_ROOT": str(root)},
+        # One drive at a time while reading: the budget is an address-space limit, and every
+        # thread a stage starts reserves address space of its own (stacks, malloc arenas).
+        env={
+            **os.environ,
+            "RWHONET_ROOT": str(root),
+            **({"RWHONET_DATA_THREADS": "1"} if one_drive_at_a_time else {}),
+        },
         capture_output=True,
         text=True,
         timeout=300,
@@ -97,7 +103,7 @@ def test_out_of_memory_is_a_problem_of_the_file(project):
 
 
 def test_file_above_the_limit_is_refused_before_reading(project):
-    proc, usage = _ingest(project, budget_mb=64, max_file_mb=50)
+    proc, usage = _ingest(project, budget_mb=64, max_file_mb=50, one_drive_at_a_time=False)
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert "C-L1.csv: expected a drive file of at most 50 MB (data.max_file_mb)" in proc.stderr
     assert "Traceback" not in proc.stderr

@@ -106,7 +106,7 @@ def test_signal_maps_are_checked_before_reading():
     with pytest.raises(ConfigError) as err:
         check_signal_map("log", _spec(omega_fl=("a", "furlong/s"), lat=("b", "deg")))
     text = str(err.value)
-    assert "omega_fl.unit" in text and "data.signal_maps.log.lon: missing" in text
+    assert "omega_fl.unit" in text and "data.signal_maps.log.signals.lon: missing" in text
     with pytest.raises(ConfigError, match="t: missing"):
         check_signal_map("log", MDF_MAP, with_time=True)
 

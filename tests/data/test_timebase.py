@@ -138,3 +138,43 @@ def test_a_drive_across_midnight_reads_as_one_clock_and_validates(tmp_path, vp):
     frame = straight_drive(duration_s=60.0, t0_s=86370.0).assign(**{c.T_S: t, c.SCENARIO: ""})
     assert schema_problems(frame, vp, "V-M.csv", {}) == []
     assert _segments(assess(frame, vp.gnss, PERIOD)) == [(0, 601, 86370.0, 86430.0)]
+
+
+# ---------------------------------------------------------------- label times and the stream clock
+
+
+def test_label_times_keep_clean_stamps_and_put_jittered_ones_on_their_slots():
+    from rwhonet.data.timebase import label_times
+
+    clean = np.round(T0 + 0.1 * np.arange(600), 6)
+    assert label_times(clean, PERIOD) is clean or np.array_equal(label_times(clean, PERIOD), clean)
+    offset = clean + 0.03  # a logger 30 ms off the tenths, no jitter: kept as it is
+    np.testing.assert_array_equal(label_times(offset, PERIOD), offset)
+    jittered = clean + np.random.default_rng(2).uniform(-0.04, 0.04, clean.size)
+    np.testing.assert_allclose(label_times(jittered, PERIOD), clean, rtol=0, atol=1e-9)
+
+
+@given(
+    jitter=st.floats(0.0, 0.045),
+    sizes=st.lists(st.integers(1, 400), min_size=1, max_size=8),
+    seed=st.integers(0, 1000),
+)
+@settings(max_examples=30, deadline=None)
+def test_the_stream_clock_gives_any_blocking_the_whole_drives_times(jitter, sizes, seed):
+    """Midnight and jitter across blocks: the same times as the whole drive read at once."""
+    from rwhonet.data.stream import placed
+    from rwhonet.data.timebase import StreamClock, label_times
+
+    n = 1500
+    nominal = 86340.0 + 0.1 * np.arange(n)  # 60 s before midnight, 150 s long
+    logged = (nominal + np.random.default_rng(seed).uniform(-jitter, jitter, n)) % 86400.0
+    blocks, i = [], 0
+    for size in [*sizes, n]:
+        if i >= n:
+            break
+        blocks.append((i + 1, {c.T_S: logged[i : i + size]}))
+        i += size
+    got = np.concatenate([cols[c.T_S] for _, cols in placed(iter(blocks), StreamClock(PERIOD))])
+    whole, _ = unwrap_midnight(logged)
+    np.testing.assert_allclose(got, label_times(whole, PERIOD), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got, nominal, rtol=0, atol=1e-6 if jitter else 1e-9)

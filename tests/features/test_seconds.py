@@ -196,3 +196,41 @@ def test_gyro_yaw_is_the_rate_integrated_over_each_second_and_nan_without_a_chan
     assert len(no_gyro.gyro_yaw_rad) == len(sec) and np.isnan(no_gyro.gyro_yaw_rad).all()
     # the other per-second quantities do not depend on the channel
     np.testing.assert_array_equal(no_gyro.wheels_rad_s, sec.wheels_rad_s)
+
+
+# ------------------------------------------------------------ jittered stamps (issue 15)
+
+JITTER_TOL = 1e-9  # m or rad per second: the jittered drive's seconds are the clean drive's
+
+
+def _jittered(t: np.ndarray, max_s: float, seed: int = 0) -> np.ndarray:
+    """The stamps a logger writes: each up to ``max_s`` off its instant, still increasing."""
+    return t + np.random.default_rng(seed).uniform(-max_s, max_s, t.size)
+
+
+@pytest.mark.parametrize("max_s", [0.004, 0.045])
+def test_jittered_stamps_give_the_clean_drives_labels(max_s):
+    """Rates are integrated over the rows' slots, not the stamps the logger wrote."""
+    clean = build_drive(wavy_speed(120.0, 12.0, 5.0, 15.0, t0_s=45000.0))
+    jittered = clean.assign(**{c.T_S: _jittered(clean[c.T_S].to_numpy(), max_s)})
+    assert np.all(np.diff(jittered[c.T_S]) > 0)
+    a, b = segment_seconds(clean), segment_seconds(jittered)
+    for name in ("angle_rl_rad", "angle_rr_rad", "disp_gnss_m", "span_s", "t_s"):
+        np.testing.assert_allclose(getattr(b, name), getattr(a, name), rtol=0, atol=JITTER_TOL)
+    # What integrating over the stamps did: every second's angle off by up to 2 jitters of
+    # wheel speed (about 1.6 cm of distance at 4 ms and 12 m/s). The test can fail.
+    t = jittered[c.T_S].to_numpy()
+    stamped = integrate_per_second(t, jittered[c.OMEGA_RL].to_numpy())
+    assert np.max(np.abs(stamped - a.angle_rl_rad)) > 100 * JITTER_TOL
+
+
+def test_a_clean_drives_stamps_are_integrated_as_they_are():
+    """Decimal stamps (and a logger's constant offset) are kept bit for bit."""
+    for t0 in (45000.0, 45000.03):
+        clean = build_drive(wavy_speed(30.0, 12.0, 5.0, 15.0, t0_s=t0))
+        t = clean[c.T_S].to_numpy()
+        sec = segment_seconds(clean)
+        np.testing.assert_array_equal(sec.t_s, t[10::10])
+        np.testing.assert_array_equal(
+            sec.angle_rl_rad, integrate_per_second(t, clean[c.OMEGA_RL].to_numpy())
+        )

@@ -80,3 +80,19 @@ def test_latitude_out_of_range_is_an_error_not_nan():
     # pyproj alone would return NaN for this (swapped lat/lon).
     with pytest.raises(ValueError, match="swapped"):
         geodesic_distance_m(np.array([52.4, 120.0]), -1.5, 52.4, -1.5)
+
+
+def test_the_tangent_plane_distance_of_pairs_is_that_of_steps_and_near_the_geodesic():
+    from rwhonet.geo import geodesic_distance_m, local_distance_m, local_step_distance_m
+
+    rng = np.random.default_rng(5)
+    lat = np.cumsum(rng.uniform(-1e-4, 1e-4, 500)) + rng.uniform(-80, 80)
+    lon = np.cumsum(rng.uniform(-1e-4, 1e-4, 500)) + 179.99  # across the antimeridian
+    lon = (lon + 180.0) % 360.0 - 180.0
+    np.testing.assert_array_equal(
+        local_distance_m(lat[:-1], lon[:-1], lat[1:], lon[1:]), local_step_distance_m(lat, lon)
+    )
+    k = 10  # pairs a second apart at 10 Hz
+    far = local_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:])
+    exact = geodesic_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:])
+    np.testing.assert_allclose(far, exact, rtol=1e-6)

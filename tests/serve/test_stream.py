@@ -220,3 +220,24 @@ def test_without_a_yaw_rate_the_wheels_alone_steer_and_a_missing_end_fix_has_no_
     assert np.isfinite(out["east_m"][inside]).all() and np.isnan(out["pos_err_m"][inside][-1])
     # straight ahead on exact wheels: where the car is, without a gyro
     assert abs(summary["east_end_m"] - 150 * 15.0 * 0.5) < 25.0
+
+
+def test_a_jittered_drive_across_midnight_streams_as_the_clean_one(bundle, tmp_path):
+    """``predict`` reads the clock as ingest and label do: midnight continues, jitter goes."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    clean = wavy_drive(120, t0_s=86340.0)  # crosses midnight 60 s in (continuous clock)
+    t = clean["t_s"].to_numpy()
+    logged = clean.copy()
+    jitter = np.random.default_rng(1).uniform(-0.004, 0.004, t.size)
+    logged["t_s"] = np.round((t + jitter) % 86400.0, 4)  # seconds of the day, as IO-VNBD
+    assert (np.diff(logged["t_s"]) < 0).sum() == 1
+    want, _ = stream_all(model, blocks_of(clean, [len(clean)]))
+    path = write_iovnbd(logged, tmp_path / "V-Midnight.csv")
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, "V-Midnight.csv", block_bytes=3000)
+        got, _ = stream_all(model, list(blocks))
+    assert len(got["t_s"]) == len(want["t_s"]) == 120
+    for k in ("t_s", "disp_wpm_m", "disp_gnss_m", "pred_error_m"):
+        np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-6)

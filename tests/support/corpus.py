@@ -1047,3 +1047,25 @@ def _(raw: Path) -> None:
         return [lines[0] + ",Comment,UTC", *(x + ",ok,12:00:00" for x in lines[1:])]
 
     edit_lines(raw, edit)
+
+
+@case(
+    "wheel_glitch_one_row",
+    "one wheel read at 4x its speed for one 0.1 s row (data row 606): a CAN glitch",
+    Repair("wheel_glitch", 1),
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    df.loc[605, c.OMEGA_RL] *= 4.0  # mid-second: its second is cut, no other
+    write_target(raw, df)
+
+
+@case(
+    "wheel_glitch_every_second",
+    "one wheel spiking to 4x its speed once in every second: a channel misbehaving throughout",
+    Refuse("validate", 6, WHEEL_FR, "g above the road speed", "glitches in 150 of 151 s"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[5::10, c.OMEGA_FR] *= 4.0
+    write_target(raw, df)

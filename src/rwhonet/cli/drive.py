@@ -1,8 +1,9 @@
-"""One drive file -> labelled samples, through the domain code the pipeline's stages call.
+"""One drive -> labelled samples, through the domain code the pipeline's stages call.
 
 ``rwhonet recalibrate`` reads a new car's drive exactly as the DVC stages read
-the fleet's: the reader of its format with the file-size limit and the scenario
-sidecar (:func:`rwhonet.data.drivefile.read_canonical`, as ``ingest``), the
+the fleet's: the reader of its format (a 10 Hz CSV, a comma2k19 folder, an MDF4
+file or a folder of stream CSVs, resampled onto the grid) with the size limit and
+the scenario sidecar (:func:`rwhonet.data.drivefile.read_canonical`, as ``ingest``), the
 schema and the per-drive checks (:func:`rwhonet.data.schema.schema_problems`,
 :func:`rwhonet.data.drivechecks.check_drive`: GNSS quality, wheel sensors,
 plausibility, as ``validate``), the per-second grid and samples of each valid
@@ -16,12 +17,23 @@ with the same report (file, row, column, expected, found, what to do).
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from rwhonet import contracts, paths
-from rwhonet.config import ConfigError, Params, VehicleSpec
+from rwhonet.config import (
+    ColumnSpec,
+    ConfigError,
+    Params,
+    SignalMapSpec,
+    VehicleSpec,
+    parse_value,
+)
 from rwhonet.data.columnmap import check_column_map
 from rwhonet.data.quality import Assessment
 from rwhonet.errors import InputError, Problem
@@ -53,22 +65,186 @@ class DriveSamples:
         return f"{a.seconds_kept} valid s of {a.n_seconds} s" + (f" (cut: {cut})" if cut else "")
 
 
-def with_vehicle(params: Params, vehicle: str, nominal_radius_m: float) -> Params:
+# The car whose rear track a new car borrows when none is given (only 2D dead reckoning
+# uses it; recalibrate and predict's displacements do not).
+TRACK_FROM = "target"
+PREDICT_CAR = "car"  # predict's name for the car of --nominal-radius / --vehicle-file
+STREAM_READERS = ("mdf4", "stream_csv")  # --format names of the signal-map readers
+# The --signal-map file each of those formats was given, so messages name the file (one
+# command per process; with_format sets or clears it).
+_MAP_FILES: dict[str, str] = {}
+
+
+def with_vehicle(
+    params: Params,
+    vehicle: str,
+    nominal_radius_m: float,
+    track_rear_m: float | None = None,
+) -> Params:
     """``params`` that know ``vehicle``: as they are, or with it added to ``data.vehicles``.
 
     A vehicle the params do not name (a new car) is checked against ``nominal_radius_m``
-    (the base model's source calibration) as a real drive's vehicle.
+    (``--nominal-radius``, or the base model's source calibration) as a real drive's
+    vehicle; its rear track is ``track_rear_m``, else that of ``data.vehicles.target``.
     """
     try:
         params.nominal_radius_m(vehicle)
         return params
     except ConfigError:
-        data = dataclasses.replace(
-            params.data,
-            source="files",
-            vehicles={**params.data.vehicles, vehicle: VehicleSpec(nominal_radius_m)},
+        return set_vehicle(params, vehicle, nominal_radius_m, track_rear_m)
+
+
+def set_vehicle(
+    params: Params, vehicle: str, nominal_radius_m: float, track_rear_m: float | None = None
+) -> Params:
+    """``params`` with ``vehicle``'s nominal radius (and rear track) set, read as real drives.
+
+    Raises:
+        ConfigError: a radius or track that is not a positive number.
+    """
+    if track_rear_m is None:
+        known = params.data.vehicles
+        spec = known.get(vehicle) or known.get(TRACK_FROM) or next(iter(known.values()), None)
+        track_rear_m = spec.track_rear_m if spec is not None else 1.5
+    for what, value in (("--nominal-radius", nominal_radius_m), ("--track-rear", track_rear_m)):
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise ConfigError(f"{what}: expected a length in metres > 0, got {value!r}")
+    data = dataclasses.replace(
+        params.data,
+        source="files",
+        vehicles={
+            **params.data.vehicles,
+            vehicle: VehicleSpec(float(nominal_radius_m), float(track_rear_m)),
+        },
+    )
+    return dataclasses.replace(params, data=data)
+
+
+def read_yaml(path: str, what: str) -> Any:
+    """A YAML file the command line was given (``--vehicle-file``, ``--signal-map``).
+
+    Raises:
+        InputError: the file is missing or not YAML.
+    """
+    import yaml
+
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+        return yaml.safe_load(text)
+    except (OSError, UnicodeDecodeError) as err:
+        found = f"{type(err).__name__}: {getattr(err, 'strerror', None) or err}"
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        line = None if mark is None else mark.line + 1
+        raise InputError(
+            [Problem(path, line, None, f"{what} in YAML", f"not YAML: {str(err)[:160]}")]
+        ) from None
+    raise InputError([Problem(path, None, None, f"{what} in YAML", found)])
+
+
+def vehicle_from_file(path: str) -> VehicleSpec:
+    """A car from a YAML file: ``nominal_radius_m`` and ``track_rear_m`` (as data.vehicles).
+
+    Raises:
+        InputError: the file cannot be read; ConfigError: a key missing, unknown or mistyped.
+    """
+    raw = read_yaml(path, "a vehicle: nominal_radius_m and track_rear_m (m)")
+    spec = parse_value(VehicleSpec, raw, f"--vehicle-file {path}")
+    for key in ("nominal_radius_m", "track_rear_m"):
+        value = getattr(spec, key)
+        if not (math.isfinite(value) and value > 0):
+            raise ConfigError(f"--vehicle-file {path}: {key}: expected > 0, got {value!r}")
+    return spec
+
+
+def with_car(
+    params: Params,
+    vehicle: str,
+    nominal_radius_m: float | None = None,
+    track_rear_m: float | None = None,
+    vehicle_file: str | None = None,
+) -> Params:
+    """``params`` with the car the command line names (``--vehicle-file``, ``--nominal-radius``).
+
+    Neither given: the params as they are (a vehicle they do not know then takes the base
+    model's radius, :func:`with_vehicle`).
+
+    Raises:
+        ConfigError: both given, or a bad value; InputError: a vehicle file that cannot be read.
+    """
+    if vehicle_file is not None:
+        if nominal_radius_m is not None or track_rear_m is not None:
+            raise ConfigError(
+                "--vehicle-file and --nominal-radius/--track-rear: give the car one way"
+            )
+        spec = vehicle_from_file(vehicle_file)
+        return set_vehicle(params, vehicle, spec.nominal_radius_m, spec.track_rear_m)
+    if nominal_radius_m is not None:
+        return set_vehicle(params, vehicle, nominal_radius_m, track_rear_m)
+    if track_rear_m is not None:
+        raise ConfigError("--track-rear: give the car's --nominal-radius with it")
+    return params
+
+
+def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Params:
+    """``params`` that can read ``--format``: a known format, or a reader with a map file.
+
+    ``--format mdf4`` or ``stream_csv`` with ``--signal-map FILE`` adds the file's map as
+    that format (a YAML mapping key -> {column, unit}, optionally under ``signals:``).
+
+    Raises:
+        InputError: an unknown format, or a reader that needs a map without one;
+            ConfigError: a map with unknown keys or units.
+    """
+    from rwhonet.data.signalmap import check_signal_map
+
+    data = params.data
+    _MAP_FILES.pop(fmt, None)
+    if signal_map is None:
+        if fmt in data.formats:
+            return params
+        need = (
+            f"; --format {fmt} reads through a signal map: give it with --signal-map FILE"
+            if fmt in STREAM_READERS
+            else ""
         )
-        return dataclasses.replace(params, data=data)
+        raise InputError(
+            [
+                Problem(
+                    "--format",
+                    None,
+                    None,
+                    f"one of {', '.join(data.formats)}, or {' / '.join(STREAM_READERS)} with "
+                    "--signal-map",
+                    repr(fmt) + need,
+                    "name the drive's format: iovnbd (IO-VNBD CSV), comma2k19 (an openpilot "
+                    "segment folder), a column map or signal map of params.yaml, or mdf4 / "
+                    "stream_csv with --signal-map",
+                )
+            ],
+            "unknown --format",
+        )
+    if fmt not in STREAM_READERS:
+        raise InputError(
+            [
+                Problem(
+                    "--signal-map",
+                    None,
+                    None,
+                    f"--format {' or '.join(STREAM_READERS)} with a signal map",
+                    f"--format {fmt}",
+                    "give --format mdf4 (an MDF4 file) or stream_csv (a folder of stream CSVs)",
+                )
+            ]
+        )
+    raw = read_yaml(signal_map, "a signal map: key -> {column, unit}")
+    if isinstance(raw, dict) and "signals" in raw:
+        raw = raw["signals"]
+    signals = parse_value(dict[str, ColumnSpec], raw, f"--signal-map {signal_map}")
+    check_signal_map(fmt, signals, with_time=fmt == "stream_csv", where=signal_map)
+    maps = {**data.signal_maps, fmt: SignalMapSpec(fmt, signals)}
+    _MAP_FILES[fmt] = signal_map
+    return dataclasses.replace(params, data=dataclasses.replace(data, signal_maps=maps))
 
 
 def load_drive(
@@ -85,11 +261,12 @@ def load_drive(
     """Read, validate and label one drive file.
 
     Args:
-        path: the drive (IO-VNBD CSV, or a CSV read through a column map).
+        path: the drive (an IO-VNBD or column-mapped CSV, a comma2k19 folder, an MDF4 file,
+            a folder of stream CSVs).
         params: the project parameters (``data``, ``validate``).
         vehicle: the car (``data.vehicles``; an unknown name is checked against the
             calibration's radius).
-        fmt: ``iovnbd`` or the name of a column map (``data.column_maps``).
+        fmt: a format of ``params.data`` (:func:`with_format`).
         calibration: the WPM's source radii.
         scaler: the input scaler.
         wpm_mode: ``label.wpm_mode`` of the model.
@@ -102,7 +279,6 @@ def load_drive(
         InputError: every problem of the file, as the ingest and validate stages report them.
     """
     from rwhonet.data.drivechecks import check_drive
-    from rwhonet.data.drivefile import IOVNBD, DriveFile, read_canonical
     from rwhonet.data.quality import segment_name
     from rwhonet.data.schema import schema_problems
     from rwhonet.features.labels import sample_table
@@ -111,60 +287,130 @@ def load_drive(
 
     path = Path(path)
     file = paths.rel(path)
-    if not path.is_file():
+    nominal = 0.5 * (calibration.r_rl_m + calibration.r_rr_m)
+    params = with_vehicle(params, vehicle, nominal)
+    drive = read_drive_file(path, params, vehicle, fmt)
+    raw, table = drive.raw, drive.table()
+    df = table.to_pandas(split_blocks=True)
+    entry: dict[str, Any] = {
+        "drive": drive_id(path),
+        "role": ROLE,
+        "vehicle": vehicle,
+        "source_file": file,
+        "columns": raw.source_columns,
+    }
+    if drive.streams is not None:  # the grid rows whose mean used a glitched sample
+        entry["streams"] = drive.streams.to_dict()
+    cuts = [cut for cut in params.validate.cuts if cut.drive == drive_id(path)]
+    found = schema_problems(df, params.validate, file, raw.source_columns)
+    problems, result, _, _ = check_drive(params, entry, df, found, cuts)
+    if problems:
+        raise InputError(problems, f"{file}: {len(problems)} problem(s) (validate)")
+    assert result is not None  # no problem: the GNSS policy ran
+    segments = []
+    for j, seg in enumerate(result.segments):
+        name = segment_name(drive_id(path), j)
+        sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)
+        samples = sample_table(sec, calibration, scaler, wpm_mode).to_pandas()
+        segments.append(({"drive": drive_id(path), "segment": name, "role": ROLE}, samples))
+    return DriveSamples(stack_segments(segments, seq_len), file, result)
+
+
+def drive_sha256(path: Path) -> str:
+    """The SHA-256 of a drive: a file's bytes, or a folder drive's files (each relative path
+    and its own digest, sorted by path), hex."""
+    import hashlib
+
+    from rwhonet.serve.bundle import file_digests, sha256_file
+
+    path = Path(path)
+    if not path.is_dir():
+        return sha256_file(path)
+    listing = "".join(f"{name}\t{digest}\n" for name, digest in file_digests(path).items())
+    return hashlib.sha256(listing.encode("utf-8")).hexdigest()
+
+
+def drive_id(path: Path) -> str:
+    """A drive's id: a file's stem, a folder's name."""
+    return path.name if path.is_dir() else path.stem
+
+
+def read_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Any:
+    """Read a drive the command line names, as ingest reads it (:func:`read_canonical`).
+
+    Stream formats are resampled onto ``validate.sample_period_s`` with the vehicle's
+    nominal radius (linear wheel speeds, the glitch screen).
+
+    Raises:
+        InputError: no such drive, or its reader's problems.
+    """
+    from rwhonet.data.drivefile import DriveFile, read_canonical, reader_kind
+
+    path = Path(path)
+    file = paths.rel(path)
+    kind = reader_kind(fmt, params.data)
+    if not path.exists():
         raise InputError(
             [
                 Problem(
                     file,
                     None,
                     None,
-                    "a drive file (IO-VNBD CSV or a column-mapped CSV)",
-                    "no such file" if not path.exists() else "not a file",
-                    "give the path of the new car's drive (--drive)",
+                    f"a drive {'folder' if kind in ('comma2k19', 'stream_csv') else 'file'} "
+                    f"({fmt}: {_FORM.get(kind, 'a CSV file')})",
+                    "no such file or folder",
+                    "give the path of the car's drive (--drive) and its --format",
                 )
             ],
         )
-    if fmt != IOVNBD:
-        if fmt not in params.data.column_maps:
-            raise InputError(
-                [
-                    Problem(
-                        "--format",
-                        None,
-                        None,
-                        f"iovnbd or a column map of params.yaml "
-                        f"data.column_maps ({', '.join(sorted(params.data.column_maps))})",
-                        repr(fmt),
-                        "add the file's column map to data.column_maps",
-                    )
-                ],
-            )
+    if kind == "column_map":
         check_column_map(fmt, params.data.column_maps[fmt])
-    nominal = 0.5 * (calibration.r_rl_m + calibration.r_rr_m)
-    params = with_vehicle(params, vehicle, nominal)
-    drive = read_canonical(DriveFile(path.stem, ROLE, vehicle, fmt, path), params.data, paths.rel)
-    raw, table = drive.raw, drive.table()
-    df = table.to_pandas(split_blocks=True)
-    entry: dict[str, Any] = {
-        "drive": path.stem,
-        "role": ROLE,
-        "vehicle": vehicle,
-        "source_file": file,
-        "columns": raw.source_columns,
-    }
-    cuts = [cut for cut in params.validate.cuts if cut.drive == path.stem]
-    found = schema_problems(df, params.validate, file, raw.source_columns)
-    problems, result, _ = check_drive(params, entry, df, found, cuts)
-    if problems:
-        raise InputError(problems, f"{file}: {len(problems)} problem(s) (validate)")
-    assert result is not None  # no problem: the GNSS policy ran
-    segments = []
-    for j, seg in enumerate(result.segments):
-        name = segment_name(path.stem, j)
-        sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)
-        samples = sample_table(sec, calibration, scaler, wpm_mode).to_pandas()
-        segments.append(({"drive": path.stem, "segment": name, "role": ROLE}, samples))
-    return DriveSamples(stack_segments(segments, seq_len), file, result)
+    try:
+        radius = params.nominal_radius_m(vehicle)
+    except ConfigError:
+        radius = None
+    f = DriveFile(drive_id(path), ROLE, vehicle, fmt, path, _MAP_FILES.get(fmt))
+    vp = params.validate
+    return read_canonical(f, params.data, paths.rel, radius, vp.sample_period_s, vp.gnss.max_gap_s)
+
+
+_FORM = {
+    "iovnbd": "an IO-VNBD CSV file",
+    "column_map": "a CSV file",
+    "comma2k19": "a segment folder",
+    "mdf4": "an MDF4 file",
+    "stream_csv": "a folder of stream CSVs",
+}
+
+
+def canonical_blocks(
+    path: Path, params: Params, vehicle: str, fmt: str, rows: int = 600
+) -> tuple[dict[str, str], Iterator[tuple[int, dict[str, np.ndarray]]]]:
+    """A drive read whole (a stream format: resampled), handed on in blocks of grid rows.
+
+    What ``rwhonet predict`` streams for a format that cannot be read as it arrives
+    (a folder, an MDF4 file): the canonical channels of :func:`read_drive_file`, with the
+    time placed as ``predict`` places a CSV's (:class:`rwhonet.data.timebase.StreamClock`).
+
+    Returns:
+        ``(names, blocks)``: canonical name -> the source's channel, and ``(first_row,
+        columns)`` blocks of ``rows`` rows (1-based rows of the drive or its grid).
+    """
+    from rwhonet.data import canonical as c
+    from rwhonet.data.stream import CHANNELS, placed
+    from rwhonet.data.timebase import StreamClock
+
+    raw = read_drive_file(path, params, vehicle, fmt).raw
+    columns = {name: raw.columns[name] for name in CHANNELS}
+    n = columns[c.T_S].size
+
+    def blocks() -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        for a in range(0, n, rows):
+            yield a + 1, {k: v[a : a + rows] for k, v in columns.items()}
+
+    clock = StreamClock(params.validate.sample_period_s)
+    names = {name: raw.source_columns.get(name, name) for name in CHANNELS}
+    return names, placed(blocks(), clock)
 
 
 def calibration_of(radii: tuple[float, float], source: str) -> Calibration:

@@ -99,6 +99,7 @@ def run(spec: str, output: str | None, tracking_uri: str | None, wpm_mode: str) 
     x = x.astype(np.float32)
     diff = float(np.max(np.abs(served.predict(x) - predict(net, x, seq_len=hparams["seq_len"]))))
     if not diff <= PARITY_TOL:
+        out.unlink(missing_ok=True)  # a model that does not reproduce is not left behind
         raise InputError(
             [
                 Problem(

@@ -54,10 +54,19 @@ def _no_project(path: Path) -> Any:
     )
 
 
+def _drive_params(params: Any, args: argparse.Namespace, vehicle: str) -> Any:
+    """The params with the car and the format the command line gives (cli.drive)."""
+    from rwhonet.cli.drive import with_car, with_format
+
+    params = with_car(params, vehicle, args.nominal_radius, args.track_rear, args.vehicle_file)
+    return with_format(params, args.format, args.signal_map)
+
+
 def _recalibrate(args: argparse.Namespace) -> int:
     from rwhonet.cli import recalibrate
 
     params, uri = _project(required=True)
+    params = _drive_params(params, args, args.vehicle)
     out = recalibrate.run(
         params,
         base=args.base,
@@ -79,16 +88,36 @@ def _predict(args: argparse.Namespace) -> int:
 
     outages = [parse_outage(o) for o in args.outage]
     params = uri = None
-    if args.model.startswith(("models:/", "runs:/")) or args.format != "iovnbd":
+    plain = args.format == "iovnbd" and args.signal_map is None
+    if args.model.startswith(("models:/", "runs:/")) or not plain:
         params, uri = _project(required=True)
-    column_map = None
-    if args.format != "iovnbd":
-        if args.format not in params.data.column_maps:
-            from rwhonet.errors import Problem
+    column_map, drive_blocks, period_s = None, None, 0.1
+    if params is not None:
+        from rwhonet.cli.drive import PREDICT_CAR, canonical_blocks
+        from rwhonet.data.drivefile import COLUMN_MAP, reader_kind
 
-            expected = "iovnbd or a column map of params.yaml data.column_maps"
-            raise InputError([Problem("--format", None, None, expected, repr(args.format))])
-        column_map = params.data.column_maps[args.format]
+        params = _drive_params(params, args, PREDICT_CAR)
+        period_s = params.validate.sample_period_s
+        kind = reader_kind(args.format, params.data)
+        if kind == COLUMN_MAP:
+            column_map = params.data.column_maps[args.format]
+        elif kind != "iovnbd":  # a folder or an MDF4 file: read whole, then streamed on
+            if args.drive == "-":
+                from rwhonet.errors import Problem
+
+                raise InputError(
+                    [
+                        Problem(
+                            "--drive",
+                            None,
+                            None,
+                            f"a path: a {args.format} drive is a folder or a file, not a "
+                            "stream on stdin (only CSV formats read stdin)",
+                            "-",
+                        )
+                    ]
+                )
+            drive_blocks = canonical_blocks(Path(args.drive), params, PREDICT_CAR, args.format)
     model = predict.open_model(args.model, uri)
     out = predict.run(
         model,
@@ -98,6 +127,8 @@ def _predict(args: argparse.Namespace) -> int:
         fmt=args.format,
         column_map=column_map,
         max_gap_s=args.max_gap,
+        period_s=period_s,
+        drive_blocks=drive_blocks,
     )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)
@@ -119,6 +150,51 @@ def _export(args: argparse.Namespace) -> int:
         f"{out['diff']:.2g} m over 1000 windows"
     )
     return 0
+
+
+FORMAT_HELP = (
+    "the drive's format: iovnbd (an IO-VNBD CSV, 10 Hz), comma2k19 (an openpilot segment "
+    "folder; wheel speeds in m/s, so give the car's radius), a column map or a signal map "
+    "of params.yaml (data.column_maps, data.signal_maps), or mdf4 (an MDF4 file) / "
+    "stream_csv (a folder with one CSV per stream) with --signal-map (default: %(default)s)"
+)
+
+
+def _drive_options(p: argparse.ArgumentParser) -> None:
+    """The options that say how to read a drive and which car drove it."""
+    p.add_argument("--format", default="iovnbd", help=FORMAT_HELP)
+    p.add_argument(
+        "--signal-map",
+        default=None,
+        metavar="FILE",
+        help="for --format mdf4 or stream_csv: a YAML file naming each quantity's logged "
+        "channel and unit, e.g. 'omega_fl: {column: WhlSpd_FL, unit: km/h}' (keys and units: "
+        "docs/readers.md; stream_csv also needs t, the files' time column)",
+    )
+    p.add_argument(
+        "--nominal-radius",
+        type=float,
+        default=None,
+        metavar="M",
+        help="a car not in params.yaml: its nominal tyre radius in metres (e.g. 0.362); "
+        "checks the wheel speeds' unit and turns wheel speeds logged in m/s or km/h into "
+        "rad/s",
+    )
+    p.add_argument(
+        "--track-rear",
+        type=float,
+        default=None,
+        metavar="M",
+        help="with --nominal-radius: the car's rear track in metres (default: "
+        "data.vehicles.target's; only 2D dead reckoning uses it)",
+    )
+    p.add_argument(
+        "--vehicle-file",
+        default=None,
+        metavar="FILE",
+        help="a car not in params.yaml, as a YAML file with the keys of data.vehicles: "
+        "nominal_radius_m and track_rear_m",
+    )
 
 
 def parser() -> argparse.ArgumentParser:
@@ -144,7 +220,12 @@ def parser() -> argparse.ArgumentParser:
         help="the model to recalibrate: models:/<name>/<version|latest> or a model "
         "folder (default: %(default)s)",
     )
-    rc.add_argument("--drive", required=True, help="the new car's drive (CSV, 10 Hz)")
+    rc.add_argument(
+        "--drive",
+        required=True,
+        help="the new car's drive: a file (IO-VNBD or column-mapped CSV, MDF4) or a folder "
+        "(comma2k19 segment, stream CSVs), in --format",
+    )
     rc.add_argument(
         "--seconds",
         type=int,
@@ -158,17 +239,13 @@ def parser() -> argparse.ArgumentParser:
         help="paper, head, ridge_head, radius+G or steps (default: adapt.recipe, or "
         "adapt.fallback.recipe when auto)",
     )
-    rc.add_argument(
-        "--format",
-        default="iovnbd",
-        help="iovnbd or the name of a column map in params.yaml data.column_maps "
-        "(default: %(default)s)",
-    )
+    _drive_options(rc)
     rc.add_argument(
         "--vehicle",
         default="target",
-        help="the car: names the registered model whonet-R-<vehicle>; its nominal "
-        "tyre radius comes from data.vehicles (default: %(default)s)",
+        help="the car: names the registered model whonet-R-<vehicle>; its nominal tyre "
+        "radius comes from --nominal-radius or --vehicle-file, else data.vehicles, else (a "
+        "car params do not know) the base model's source radius (default: %(default)s)",
     )
     rc.add_argument(
         "--seed",
@@ -192,7 +269,12 @@ def parser() -> argparse.ArgumentParser:
         required=True,
         help="models:/<name>/<version|latest>, an exported .onnx file, or a model folder",
     )
-    pr.add_argument("--drive", required=True, help="the drive (CSV), or - to read stdin")
+    pr.add_argument(
+        "--drive",
+        required=True,
+        help="the drive in --format (a CSV file, - to read a CSV on stdin, an MDF4 file, or "
+        "a comma2k19 / stream-CSV folder)",
+    )
     pr.add_argument(
         "--outage",
         action="append",
@@ -205,11 +287,7 @@ def parser() -> argparse.ArgumentParser:
         default="-",
         help="out.csv, out.parquet, or - for CSV on stdout (default: %(default)s)",
     )
-    pr.add_argument(
-        "--format",
-        default="iovnbd",
-        help="iovnbd or a column map of params.yaml (default: %(default)s)",
-    )
+    _drive_options(pr)
     pr.add_argument(
         "--max-gap",
         type=float,

@@ -15,7 +15,9 @@ its distance to the GNSS fix there, where the file has one.
 from __future__ import annotations
 
 import math
+import os
 import sys
+from collections.abc import Iterable
 from contextlib import ExitStack
 from pathlib import Path
 from typing import IO, Any
@@ -123,12 +125,23 @@ def run(
     max_gap_s: float = 0.5,
     stdin: IO[bytes] | None = None,
     stdout: IO[str] | None = None,
+    period_s: float = 0.1,
+    drive_blocks: tuple[dict[str, str], Iterable[tuple[int, dict[str, np.ndarray]]]] | None = None,
 ) -> dict[str, Any]:
-    """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary."""
+    """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary.
+
+    A CSV drive (IO-VNBD, a column map) is read as it arrives; a drive in a stream format
+    comes read and resampled already (``drive_blocks``: the source's channel names and the
+    row blocks, :func:`rwhonet.cli.drive.canonical_blocks`). A file output is written
+    beside its name and put in place when the drive is through: a refused drive leaves no
+    half-written output.
+    """
     from rwhonet.data.stream import read_rows
 
     with ExitStack() as stack:
-        if drive == STDIO:
+        if drive_blocks is not None:
+            source, name = None, drive
+        elif drive == STDIO:
             source, name = stdin or sys.stdin.buffer, "<stdin>"
         else:
             path = Path(drive)
@@ -140,28 +153,43 @@ def run(
                             None,
                             None,
                             "a drive file (IO-VNBD CSV), or - for stdin",
-                            "no such file",
+                            "a folder (give its --format)" if path.is_dir() else "no such file",
                         )
                     ]
                 )
             source, name = stack.enter_context(open(path, "rb")), drive
-        if output == STDIO:
+        final = None if output == STDIO else Path(output)
+        partial = None if final is None else final.with_name(f".{final.name}.partial")
+        if final is None:
             sink: Any = CsvSink(stdout or sys.stdout)
         elif output.endswith(".parquet"):
-            sink = ParquetSink(Path(output))
+            sink = ParquetSink(partial)
         else:
-            sink = CsvSink(stack.enter_context(open(output, "w", encoding="utf-8", newline="")))
+            sink = CsvSink(open(partial, "w", encoding="utf-8", newline=""))  # closed below
         seconds = rows = 0
+        done = False
         try:
-            lay, blocks = read_rows(source, name, fmt, column_map)
-            stream = SecondStream(model, outages, file=name, names=lay.names, max_gap_s=max_gap_s)
+            if drive_blocks is not None:
+                names, blocks = drive_blocks
+            else:
+                lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
+                names = lay.names
+            stream = SecondStream(model, outages, file=name, names=names, max_gap_s=max_gap_s)
             for first, columns in blocks:
                 block = stream.push(first, columns)
                 sink.write(block)
                 seconds += len(block["t_s"])
                 rows = first + len(columns["t_s"]) - 1
+            done = True
         finally:
             sink.close()
+            if final is not None:
+                if isinstance(sink, CsvSink):
+                    sink.out.close()
+                if done:
+                    os.replace(partial, final)
+                else:
+                    partial.unlink(missing_ok=True)
     return {"rows": rows, "seconds": seconds, "outages": stream.summary(), "file": name}
 
 

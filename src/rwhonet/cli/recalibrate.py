@@ -98,13 +98,13 @@ def run(
         InputError: a base model that cannot be found, a drive the pipeline refuses, or
             too few valid seconds to recalibrate on and score.
     """
-    from rwhonet.cli.drive import calibration_of, load_drive
+    from rwhonet.cli.drive import calibration_of, drive_sha256, load_drive
     from rwhonet.features.scaling import scaler_from_dict
     from rwhonet.models.adapt import adapt_data, label_prediction, recalibrate
     from rwhonet.models.checkpoint import load_whonet, save_whonet
     from rwhonet.models.loop import predict
     from rwhonet.serve.bundle import bundle_parts, make_meta, write_bundle
-    from rwhonet.tracking.registry import fetch_model, registered_name, sha256_file
+    from rwhonet.tracking.registry import fetch_model, registered_name
 
     start = time.perf_counter()
     choice = choose(params, recipe, seconds)
@@ -168,7 +168,7 @@ def run(
         scores = score(errors, scored, params.evaluate.outages_s)
 
         name = registered_name("R", vehicle)
-        digest = sha256_file(Path(drive))
+        digest = drive_sha256(Path(drive))  # a file's bytes, or a folder drive's files
         base_label = (
             f"{base_version.name} v{base_version.version}"
             if base_version is not None

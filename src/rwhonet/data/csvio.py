@@ -42,6 +42,9 @@ from rwhonet.errors import InputError, Problem
 
 # Text parsed per step. A row longer than this cannot be read (no drive row comes close).
 BLOCK_BYTES = 1 << 20
+# Rows the columns are first allocated for: the file's size at the first block's bytes per
+# row, times this (rows later in a file are rarely much shorter than its first ones).
+CAPACITY_MARGIN = 1.2
 # The header is read on its own: a first line longer than this is not a CSV header.
 HEADER_MAX_BYTES = 1 << 20
 
@@ -226,20 +229,28 @@ def read_numeric(
         invalid_rows += 1
         return "skip"
 
-    # Rows never outnumber line breaks + 1: the columns are allocated once and filled block
-    # by block (no list of blocks to join at the end, which would hold every value twice).
+    # The columns are allocated once, for the rows the file's size allows at the first
+    # block's bytes per row (with a margin), and filled block by block: no list of blocks to
+    # join at the end, which would hold every value twice. Rows shorter than the first
+    # block's (the margin exhausted) grow them by half again.
     try:
-        capacity = _count_lines(path)
+        size = Path(path).stat().st_size
     except OSError:
-        capacity = 0  # unreadable: the slow path says so
-    out = {pos: np.empty(capacity) for pos in wanted}
-    n = 0
+        size = 0  # unreadable: the slow path says so
+    out: dict[int, np.ndarray] = {}
+    capacity = n = 0
     try:
         reader = _open_columns(path, names, wanted, pa.float64(), on_invalid_row)
         for batch in reader:
-            if invalid_rows or n + batch.num_rows > capacity:
-                invalid_rows = invalid_rows or -1  # (more rows than lines: the file changed)
+            if invalid_rows:
                 break
+            if n + batch.num_rows > capacity:
+                if not out:  # the first block: BLOCK_BYTES of text (or the whole file)
+                    per_row = BLOCK_BYTES / max(batch.num_rows, 1)
+                    capacity = batch.num_rows + int(CAPACITY_MARGIN * size / per_row) + 1024
+                else:
+                    capacity = max(int(1.5 * capacity), n + batch.num_rows)
+                out = {pos: _grown(out.get(pos), n, capacity) for pos in wanted}
             for pos in wanted:
                 out[pos][n : n + batch.num_rows] = batch.column(names[pos]).to_numpy(
                     zero_copy_only=False
@@ -253,6 +264,14 @@ def read_numeric(
     if n == 0:
         raise InputError([no_data_rows(file)])
     return {pos: values[:n] for pos, values in out.items()}
+
+
+def _grown(values: np.ndarray | None, n: int, capacity: int) -> np.ndarray:
+    """A column of ``capacity`` rows holding the first ``n`` of ``values``."""
+    out = np.empty(capacity)
+    if values is not None and n:
+        out[:n] = values[:n]
+    return out
 
 
 def _open_columns(
@@ -280,16 +299,6 @@ def _open_columns(
             strings_can_be_null=strings_can_be_null,
         ),
     )
-
-
-def _count_lines(path: Path) -> int:
-    """Line breaks in a file + 1: an upper bound of its rows, read in blocks."""
-    n_lf = n_cr = 0
-    with open(path, "rb") as f:
-        while block := f.read(BLOCK_BYTES):
-            n_lf += block.count(b"\n")
-            n_cr += block.count(b"\r")
-    return max(n_lf, n_cr) + 1  # CRLF counted once; old Mac files end lines with CR alone
 
 
 def _kept_rows(start: int, n: int, bad: np.ndarray) -> np.ndarray:

@@ -1,7 +1,9 @@
 """The checks ``validate`` runs on one drive, as problems a user can act on.
 
 After its schema (:mod:`rwhonet.data.schema`), a drive goes through the
-GNSS-quality policy (:mod:`rwhonet.data.quality`), then the wheel-sensor and
+GNSS-quality policy (:mod:`rwhonet.data.quality`, with the seconds where a wheel
+speed changed faster than any tyre can cut as ``wheel_glitch``:
+:mod:`rwhonet.data.glitches`), then the wheel-sensor and
 plausibility checks (:mod:`rwhonet.data.plausibility`): wheel speeds are
 magnitudes, no wheel sensor stuck, silent or stale while the car moves,
 latitude and longitude not swapped, wheel speeds in rad/s (the tyre radius
@@ -14,15 +16,15 @@ expected, what was found and what to do.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from rwhonet import contracts
 from rwhonet.config import CutSpec, Params
 from rwhonet.data import canonical as c
+from rwhonet.data.glitches import REFUSE_SHARE, WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.plausibility import (
     gnss_path_m,
     implied_radius,
@@ -37,7 +39,7 @@ from rwhonet.data.plausibility import (
     unit_mistake,
 )
 from rwhonet.data.problems import stretch_problems
-from rwhonet.data.quality import Assessment, assess, manual_rows
+from rwhonet.data.quality import Assessment, assess, manual_rows, second_index
 from rwhonet.errors import Problem
 
 
@@ -49,38 +51,134 @@ def target_test_min_s(params: Params) -> int:
 def check_drive(
     params: Params,
     entry: dict[str, Any],
-    df: pd.DataFrame,
+    df: Mapping[str, np.ndarray],
     schema_found: list[Problem],
     drive_cuts: list[CutSpec],
-) -> tuple[list[Problem], Assessment | None, dict[str, Any] | None]:
+) -> tuple[list[Problem], Assessment | None, dict[str, Any] | None, dict[str, Any] | None]:
     """Everything validate checks on one drive after its schema, and its GNSS-valid segments.
 
     The GNSS-quality policy runs on a drive that passed the schema (wheel speeds out of
-    range alone don't stop it, so the unit check can tell rpm or deg/s apart), then the
+    range alone don't stop it, so the unit check can tell rpm or deg/s apart), cutting
+    the seconds of wheel glitches (:func:`wheel_glitches`) with the GNSS rules; then the
     wheel-sensor and plausibility checks. ``rwhonet recalibrate`` checks a new car's
     drive with this too.
 
     Args:
         params: the project parameters (``validate``, the vehicle's nominal radius).
         entry: the drive as the ingest manifest lists it (``drive``, ``role``, ``vehicle``,
-            ``source_file``, ``columns``).
+            ``source_file``, ``columns``; a stream drive's ``streams`` record with the grid
+            rows whose wheel-speed mean used a glitched sample).
         df: the canonical drive.
         schema_found: its schema problems (:func:`rwhonet.data.schema.schema_problems`).
         drive_cuts: its manual cuts (``validate.cuts``).
 
     Returns:
-        ``(problems, assessment, radius check)``; the assessment and radius check are
-        None when the schema problems stopped the drive before the GNSS policy.
+        ``(problems, assessment, radius check, wheel glitches)``; the assessment and radius
+        check are None when the schema problems stopped the drive before the GNSS policy;
+        the glitches (:func:`wheel_glitches`' report) None when no row glitched.
     """
     vp = params.validate
+    # Plain arrays, taken from the frame once: the checks read every column many times.
+    df = {name: np.asarray(df[name]) for name in df if name != c.SCENARIO}
     found = _swapped_by_range(schema_found, df, entry)
-    result = radius = None
+    result = radius = glitches = None
     if not found or _only_wheel_ranges(found, df, entry["columns"]):
-        result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts)
+        glitch, glitches = wheel_glitches(df, entry, params.nominal_radius_m(entry["vehicle"]))
+        result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts, wheel_glitch=glitch)
         wheels = _wheel_problems(params, entry, df, drive_cuts, result)
+        wheels += _glitch_problems(entry, df, glitch, glitches, vp.sample_period_s)
         more, radius = _drive_problems(params, entry, df, result, check_units=not wheels)
         found = found + wheels + more
-    return found, result, radius
+    return found, result, radius, glitches
+
+
+@np.errstate(invalid="ignore", over="ignore")
+def wheel_glitches(
+    df: Mapping[str, np.ndarray], entry: dict[str, Any], radius_m: float, listed: int = 50
+) -> tuple[np.ndarray, dict[str, Any] | None]:
+    """The rows where a wheel speed changed faster than any tyre can, and their report.
+
+    Two screens (:func:`rwhonet.data.glitches.glitch_mask`, bound
+    :data:`~rwhonet.data.glitches.WHEEL_GLITCH_G`): the drive's own 10 Hz rows, and for
+    a stream drive the raw samples the resampler screened (the manifest's
+    ``streams.glitch_rows``: grid rows whose mean used a glitched sample).
+
+    Args:
+        df: the canonical drive.
+        entry: its manifest entry.
+        radius_m: the vehicle's nominal tyre radius, m.
+        listed: glitches listed one by one in the report (all are counted).
+
+    Returns:
+        ``(mask, report)``: per row whether it glitched, and None when no row did, else
+        ``{"rows", "listed": [{"row", "t_s", "channel"} or the stream's samples
+        {"stream", "row", "t_s", "channel"}], "rows_are"}``.
+    """
+    t = np.asarray(df[c.T_S], dtype=np.float64)
+    by_wheel = glitch_mask(
+        t, np.stack([np.asarray(df[w], dtype=np.float64) for w in c.WHEELS]), radius_m
+    )
+    mask = by_wheel.any(axis=0)
+    streams = entry.get("streams") or {}
+    grid_rows = np.asarray(streams.get("glitch_rows", []), dtype=np.int64)
+    grid_rows = grid_rows[(grid_rows >= 0) & (grid_rows < t.size)]
+    mask[grid_rows] = True
+    if not mask.any():
+        return mask, None
+    columns = entry["columns"]
+    own = [
+        {"row": int(i) + 1, "t_s": float(t[i]), "channel": columns.get(w, w)}
+        for i in np.flatnonzero(by_wheel.any(axis=0))[:listed]
+        for w in (c.WHEELS[int(np.argmax(by_wheel[:, i]))],)
+    ]
+    samples = list(streams.get("glitch_samples", []))[:listed]
+    return mask, {
+        "rows": int(mask.sum()),
+        "listed": samples + own[: max(listed - len(samples), 0)],
+        "rows_are": (
+            "samples of the drive's streams (1-based), then rows of its 10 Hz grid"
+            if streams
+            else "data rows of the file (1-based)"
+        ),
+        "bound_g": WHEEL_GLITCH_G,
+    }
+
+
+def _glitch_problems(
+    entry: dict[str, Any],
+    df: Mapping[str, np.ndarray],
+    glitch: np.ndarray,
+    glitches: dict[str, Any] | None,
+    sample_period_s: float,
+) -> list[Problem]:
+    """A drive glitched in most of its seconds is refused (rule: REFUSE_SHARE of them)."""
+    if glitches is None:
+        return []
+    sec = second_index(np.asarray(df[c.T_S], dtype=np.float64), sample_period_s)
+    n_sec = int(sec[-1] - sec[0]) + 1
+    hit = np.unique(sec[glitch]).size
+    if hit <= REFUSE_SHARE * n_sec:
+        return []
+    first = glitches["listed"][0]
+    where = (
+        f"first at {first['stream']} sample row {first['row']}"
+        if "stream" in first
+        else f"first in row {first['row']}"
+    )
+    return [
+        Problem(
+            entry["source_file"],
+            None if "stream" in first else first["row"],
+            first["channel"],
+            f"wheel speeds that never rise faster than {WHEEL_GLITCH_G:g} g above the road "
+            f"speed (a glitch's seconds are cut) in at least {1 - REFUSE_SHARE:.0%} of the "
+            "drive's seconds",
+            f"glitches in {hit} of {n_sec} s ({where}, t = {first['t_s']:.6g} s): a wheel "
+            "channel that misbehaves throughout",
+            "check the wheel-speed channels (the signal each wheel is mapped to, its unit and "
+            "scale) and export the drive again",
+        )
+    ]
 
 
 # Wheel speeds out of range (inf included) reach these checks on purpose (the unit check
@@ -89,7 +187,7 @@ def check_drive(
 def _drive_problems(
     params: Params,
     entry: dict[str, Any],
-    df: pd.DataFrame,
+    df: Mapping[str, np.ndarray],
     result: Assessment,
     check_units: bool = True,
 ) -> tuple[list[Problem], dict[str, Any]]:
@@ -101,7 +199,7 @@ def _drive_problems(
     vp = params.validate
     file, columns = entry["source_file"], entry["columns"]
     problems = []
-    t0, t1 = float(df[c.T_S].iloc[0]), float(df[c.T_S].iloc[-1])
+    t0, t1 = float(df[c.T_S][0]), float(df[c.T_S][-1])
     for i, cut in enumerate(params.validate.cuts):
         if cut.drive == entry["drive"] and (cut.end_s < t0 or cut.start_s > t1):
             problems.append(
@@ -239,13 +337,13 @@ def _swapped_problem(
 
 
 def _swapped_by_range(
-    found: list[Problem], df: pd.DataFrame, entry: dict[str, Any]
+    found: list[Problem], df: Mapping[str, np.ndarray], entry: dict[str, Any]
 ) -> list[Problem]:
     """Replace the latitude range failures of a drive with swapped columns by one problem."""
     lat = entry["columns"].get(c.LAT_DEG, c.LAT_DEG)
     if not any(p.column == lat and "latitude in [-90, 90]" in p.expected for p in found):
         return found
-    if not latlon_swapped_by_range(df[c.LAT_DEG].to_numpy(), df[c.LON_DEG].to_numpy()):
+    if not latlon_swapped_by_range(df[c.LAT_DEG], df[c.LON_DEG]):
         return found
     rest = [p for p in found if not (p.column == lat and "latitude in [-90, 90]" in p.expected)]
     return [_swapped_problem(entry, None, None, None), *rest]
@@ -255,20 +353,20 @@ def _swapped_by_range(
 def _wheel_problems(
     params: Params,
     entry: dict[str, Any],
-    df: pd.DataFrame,
+    df: Mapping[str, np.ndarray],
     drive_cuts: list[CutSpec],
     result: Assessment,
 ) -> list[Problem]:
     """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all."""
     vp = params.validate
     file, columns = entry["source_file"], entry["columns"]
-    ignore = manual_rows(df[c.T_S].to_numpy(np.float64), drive_cuts)
+    ignore = manual_rows(np.asarray(df[c.T_S], dtype=np.float64), drive_cuts)
     problems = []
-    t = df[c.T_S].to_numpy(np.float64)
+    t = np.asarray(df[c.T_S], dtype=np.float64)
     negative = negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore)
     reversing = reversing_rows(df, vp.wheels.negative_tol_rad_s) if negative else None
     for wheel, rows in negative.items():
-        values = df[wheel].to_numpy(np.float64)
+        values = np.asarray(df[wheel], dtype=np.float64)
         moving = int((np.abs(values) > vp.gnss.moving_wheel_speed_rad_s).sum())
         share = rows.size / max(moving, 1)
         if share <= vp.wheels.signed_max_share and reversing[rows].all():
@@ -387,10 +485,14 @@ def _wheel_problems(
     return problems
 
 
-def _only_wheel_ranges(found: list[Problem], df: pd.DataFrame, columns: dict[str, str]) -> bool:
+def _only_wheel_ranges(
+    found: list[Problem], df: Mapping[str, np.ndarray], columns: dict[str, str]
+) -> bool:
     """Whether a drive's only schema problems are wheel speeds out of range (no NaN)."""
     wheels = {columns.get(w, w) for w in c.WHEELS}
-    return all(p.column in wheels for p in found) and not df[list(c.WHEELS)].isna().any(axis=None)
+    return all(p.column in wheels for p in found) and not any(
+        np.isnan(np.asarray(df[w], dtype=np.float64)).any() for w in c.WHEELS
+    )
 
 
 def _first_detail(result: Assessment, rule: str) -> str:

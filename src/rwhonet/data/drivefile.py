@@ -1,18 +1,30 @@
-"""One drive file: the reader its format names, the size it may have, its canonical table.
+"""One drive: the reader its format names, the size it may have, its canonical table.
 
 The ``ingest`` stage reads every drive of the fleet with these, and
-``rwhonet recalibrate`` a new car's drive (``cli/drive.py``), so both refuse
-and convert a file alike. Rows are kept exactly as in the file, in order (row
-``i`` is data row ``i + 1`` of the source file), so ``validate`` can point at
-the file's rows. Messages name a file as the caller's ``rel`` shows it (the
+``rwhonet recalibrate`` / ``rwhonet predict`` a new car's drive (``cli/drive.py``),
+so all of them refuse and convert a drive alike. Formats (``data.roles.<role>.format``):
+
+- ``iovnbd`` and a column map's name (``data.column_maps``): one 10 Hz CSV file per
+  drive, rows kept exactly as in the file, in order (row ``i`` is data row ``i + 1``
+  of the source file), so ``validate`` can point at the file's rows;
+- ``comma2k19``: one folder per drive (a comma2k19 / openpilot segment);
+- a signal map's name (``data.signal_maps``): one MDF4 file per drive (reader
+  ``mdf4``) or one folder of stream CSVs per drive (reader ``stream_csv``).
+
+A stream drive is resampled onto the grid (:func:`rwhonet.data.streams.resample`,
+``validate.sample_period_s`` and ``validate.gnss.max_gap_s``): row ``i`` of its
+canonical table is row ``i`` of that grid, and what the resampler found (the
+streams, the rows whose wheel-speed mean used a glitched sample) travels with it
+(:class:`StreamFacts`). Messages name a file as the caller's ``rel`` shows it (the
 stage: relative to the project root).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -27,41 +39,155 @@ from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_co
 from rwhonet.errors import InputError, Problem
 
 IOVNBD = "iovnbd"
+COMMA2K19 = "comma2k19"
 SPLIT_DRIVE = "split the drive into several files (one per trip)"
+# Reader kinds (reader_kind): the two 10 Hz readers and the three stream readers.
+COLUMN_MAP, MDF4, STREAM_CSV = "column_map", "mdf4", "stream_csv"
+FOLDER_READERS = (COMMA2K19, STREAM_CSV)  # a drive is a folder, not a file
+GLITCHES_LISTED = 50  # glitched samples the manifest lists one by one (all are counted)
+
+
+def reader_kind(fmt: str, data: DataParams) -> str:
+    """Which reader a format names: ``iovnbd``, ``column_map``, ``comma2k19``, ``mdf4``,
+    ``stream_csv``.
+
+    Raises:
+        InputError: a format that names none (a built-in reader or a map of ``data``).
+    """
+    if fmt in (IOVNBD, COMMA2K19):
+        return fmt
+    if fmt in data.column_maps:
+        return COLUMN_MAP
+    if fmt in data.signal_maps:
+        return data.signal_maps[fmt].reader
+    raise InputError(
+        [
+            Problem(
+                "--format",
+                None,
+                None,
+                f"one of {', '.join(data.formats)} (the built-in readers, data.column_maps, "
+                "data.signal_maps)",
+                repr(fmt),
+                "name the drive's format (for MDF4 files and stream CSVs, give the signal "
+                "map: --signal-map, or data.signal_maps in params.yaml)",
+            )
+        ]
+    )
+
+
+def is_folder_format(fmt: str, data: DataParams) -> bool:
+    """Whether a drive of this format is a folder (comma2k19, stream CSVs), not one file."""
+    return reader_kind(fmt, data) in FOLDER_READERS
+
+
+@dataclass(frozen=True)
+class StreamFacts:
+    """What resampling a stream drive found, for the manifest and validate.
+
+    Attributes:
+        clock: what the streams' time stamps are.
+        n_input_rows: samples read over all streams.
+        streams: per stream its name, file, samples and median step.
+        glitch_rows: 0-based grid rows whose wheel-speed mean used a glitched sample.
+        glitch_samples: the glitched samples, ``(stream, 1-based sample row, t_s, channel)``,
+            the channel as the stream names it.
+    """
+
+    clock: str
+    n_input_rows: int
+    streams: list[dict[str, Any]]
+    glitch_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    glitch_samples: list[tuple[str, int, float, str]] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The manifest's ``streams`` record (rows 0-based on the grid; samples 1-based)."""
+        return {
+            "clock": self.clock,
+            "n_input_rows": self.n_input_rows,
+            "streams": self.streams,
+            "glitch_rows": [int(r) for r in self.glitch_rows],
+            "n_glitch_samples": len(self.glitch_samples),
+            "glitch_samples": [
+                {"stream": s, "row": r, "t_s": t, "channel": w}
+                for s, r, t, w in self.glitch_samples[:GLITCHES_LISTED]
+            ],
+        }
 
 
 @dataclass(frozen=True)
 class DriveFile:
-    """One raw drive file and what params say about it."""
+    """One raw drive (a file, or a folder for comma2k19 and stream CSVs) and what params say
+    about it."""
 
-    drive: str  # drive id = file stem
+    drive: str  # drive id = file stem (a folder drive: the folder's name)
     role: str
     vehicle: str
-    format: str  # "iovnbd" or a column map name
+    format: str  # "iovnbd", "comma2k19", a column map's or a signal map's name
     path: Path
+    map_name: str | None = None  # how messages name its signal map (None: its params key)
 
 
-def read_drive(f: DriveFile, data: DataParams, rel: Callable[[Path], str] = str) -> RawDrive:
-    """Read one drive file with the reader its format names, if it is not too large.
+def read_drive(
+    f: DriveFile,
+    data: DataParams,
+    rel: Callable[[Path], str] = str,
+    radius_m: float | None = None,
+    period_s: float = 0.1,
+    split_gap_s: float = 0.5,
+) -> RawDrive:
+    """Read one drive with the reader its format names, if it is not too large.
 
-    The readers stream the file, but the drive is then held in memory (by ingest and
-    validate), so a file above ``data.max_file_mb`` is refused before it is read, and
-    running out of memory while reading is reported as a problem of that file.
-
-    Args:
-        f: the drive file.
-        data: the ``data`` section (for column maps and the size limit).
-        rel: how messages name a file.
+    Args: as :func:`read_any`.
 
     Returns:
-        The drive's channels, canonical names, SI units.
+        The drive's channels, canonical names, SI units (a stream drive on the grid).
 
     Raises:
-        InputError: the file is too large, runs out of memory, or its reader refuses it.
+        InputError: as :func:`read_any`.
+    """
+    return read_any(f, data, rel, radius_m, period_s, split_gap_s)[0]
+
+
+def read_any(
+    f: DriveFile,
+    data: DataParams,
+    rel: Callable[[Path], str] = str,
+    radius_m: float | None = None,
+    period_s: float = 0.1,
+    split_gap_s: float = 0.5,
+) -> tuple[RawDrive, StreamFacts | None]:
+    """Read one drive with the reader its format names, if it is not too large.
+
+    The readers stream a file, but the drive is then held in memory (by ingest and
+    validate), so a drive above ``data.max_file_mb`` (a folder: its files together) is
+    refused before it is read, and running out of memory while reading is reported as a
+    problem of that drive. A stream drive is resampled onto the grid.
+
+    Args:
+        f: the drive (a file, or a folder for comma2k19 and stream CSVs).
+        data: the ``data`` section (for the maps and the size limit).
+        rel: how messages name a file.
+        radius_m: the car's nominal tyre radius: stream drives need it for wheel speeds
+            logged as linear speeds (m/s, km/h) and for the sample-level glitch screen.
+        period_s: the grid period (``validate.sample_period_s``).
+        split_gap_s: holes in the grid are made longer than this (``validate.gnss.max_gap_s``).
+
+    Returns:
+        The drive's channels, canonical names, SI units; and for a stream drive what the
+        resampler found (None for a 10 Hz file).
+
+    Raises:
+        InputError: the drive is missing, too large, runs out of memory, or its reader
+            (or the resampler) refuses it.
     """
     file = rel(f.path)
+    kind = reader_kind(f.format, data)
+    wrong = _wrong_kind(f, kind, file)
+    if wrong is not None:
+        raise InputError([wrong])
     try:
-        size_mb = f.path.stat().st_size / 2**20
+        size_mb = _size_bytes(f.path, kind in FOLDER_READERS) / 2**20
     except OSError as err:  # gone since it was listed, or unreadable
         raise InputError([unreadable_file(file, err)]) from None
     if size_mb > data.max_file_mb:
@@ -79,11 +205,99 @@ def read_drive(f: DriveFile, data: DataParams, rel: Callable[[Path], str] = str)
             ]
         )
     try:
-        if f.format == IOVNBD:
-            return read_iovnbd(f.path, file)
-        return read_columnmap(f.path, data.column_maps[f.format], f.format, file)
+        if kind == IOVNBD:
+            return read_iovnbd(f.path, file), None
+        if kind == COLUMN_MAP:
+            return read_columnmap(f.path, data.column_maps[f.format], f.format, file), None
+        return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s)
     except MemoryError:
         raise out_of_memory(f, rel) from None
+
+
+def _size_bytes(path: Path, folder: bool) -> int:
+    """A drive file's size, or a folder drive's files together (OSError: not there)."""
+    if not folder:
+        return path.stat().st_size
+    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
+
+
+def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
+    """A folder given where the format reads a file, or the other way round."""
+    folder = kind in FOLDER_READERS
+    if not f.path.exists() or f.path.is_dir() == folder:
+        return None
+    what = {
+        COMMA2K19: "a comma2k19 segment folder (holding processed_log, or CAN and GNSS)",
+        STREAM_CSV: "a folder holding the drive's stream CSV files",
+        MDF4: "an MDF4 file (.mf4)",
+    }.get(kind, "a drive file (CSV)")
+    return Problem(
+        file,
+        None,
+        None,
+        f"{what} (format {f.format!r})",
+        "a folder" if f.path.is_dir() else "a file",
+        "give the drive in the format's form, or name its format (the role's format, --format)",
+    )
+
+
+def _map_name(f: DriveFile) -> str:
+    """How messages name a drive's signal map: its params key, or the file it came from."""
+    return f.map_name or f"data.signal_maps.{f.format}.signals"
+
+
+def _read_streams(
+    f: DriveFile,
+    kind: str,
+    data: DataParams,
+    rel: Callable[[Path], str],
+    radius_m: float | None,
+    period_s: float,
+    split_gap_s: float,
+) -> tuple[RawDrive, StreamFacts]:
+    """Read a stream drive with its reader and resample it onto the grid."""
+    from rwhonet.data.streams import resample
+
+    file = rel(f.path)
+    if kind == COMMA2K19:
+        from rwhonet.data.comma2k19 import read_comma2k19
+
+        streams = read_comma2k19(f.path, radius_m, display=file)
+    elif kind == MDF4:
+        from rwhonet.data.mdf4 import read_mdf4
+
+        signals = data.signal_maps[f.format].signals
+        streams = read_mdf4(f.path, signals, radius_m, _map_name(f), file)
+    else:
+        from rwhonet.data.streamcsv import read_stream_csvs
+
+        files = sorted(p for p in f.path.glob("*.csv") if p.is_file())
+        signals = data.signal_maps[f.format].signals
+        shown = {p: rel(p) for p in files}
+        streams = read_stream_csvs(files, signals, radius_m, _map_name(f), shown)
+    res = resample(streams, period_s=period_s, split_gap_s=split_gap_s, nominal_radius_m=radius_m)
+    sources = {s.where(): s.sources for s in streams.streams}
+    facts = StreamFacts(
+        clock=streams.clock,
+        n_input_rows=res.n_input_rows,
+        streams=[
+            {
+                "stream": s.name,
+                "file": s.file,
+                "rows": s.n_rows,
+                "median_step_s": float(np.median(np.diff(s.t_s))),
+                "channels": {k: s.sources.get(k, k) for k in s.channels},
+            }
+            for s in streams.streams
+        ],
+        glitch_rows=np.flatnonzero(res.glitch),
+        # each glitched sample's wheel as its stream names it
+        glitch_samples=[
+            (where, row, t, sources.get(where, {}).get(wheel, wheel))
+            for where, row, t, wheel in res.glitch_samples
+        ],
+    )
+    return res.drive, facts
 
 
 def _mb(size_mb: float) -> str:
@@ -92,7 +306,7 @@ def _mb(size_mb: float) -> str:
 
 def out_of_memory(f: DriveFile, rel: Callable[[Path], str] = str) -> InputError:
     """The report of a drive that did not fit in memory (reading it, or writing its table)."""
-    size_mb = f.path.stat().st_size / 2**20 if f.path.exists() else float("nan")
+    size_mb = _size_bytes(f.path, f.path.is_dir()) / 2**20 if f.path.exists() else float("nan")
     return InputError(
         [
             Problem(
@@ -117,11 +331,13 @@ class CanonicalDrive:
         raw: the channels, canonical names, SI units.
         intervals: the tagged intervals of ``<drive>.scenarios.json`` (none without one).
         sidecar: that sidecar, when the drive has one.
+        streams: what resampling found, for a stream drive (None for a 10 Hz file).
     """
 
     raw: RawDrive
     intervals: list[ScenarioInterval]
     sidecar: Path | None
+    streams: StreamFacts | None = None
 
     def table(self) -> pa.Table:
         """The canonical drive table (:func:`canonical_table`) with its ``scenario`` column."""
@@ -129,26 +345,34 @@ class CanonicalDrive:
 
 
 def read_canonical(
-    f: DriveFile, data: DataParams, rel: Callable[[Path], str] = str
+    f: DriveFile,
+    data: DataParams,
+    rel: Callable[[Path], str] = str,
+    radius_m: float | None = None,
+    period_s: float = 0.1,
+    split_gap_s: float = 0.5,
 ) -> CanonicalDrive:
-    """Read one drive file (:func:`read_drive`) and its optional scenario sidecar.
+    """Read one drive (:func:`read_any`) and its optional scenario sidecar.
 
     Args:
-        f: the drive file.
+        f: the drive (file or folder).
         data: the ``data`` section.
         rel: how messages name a file.
+        radius_m: the car's nominal tyre radius (stream drives).
+        period_s: the grid period (stream drives).
+        split_gap_s: the gap that splits a drive (stream drives).
 
     Returns:
-        The drive and its scenario intervals.
+        The drive, its scenario intervals, and what resampling found.
 
     Raises:
-        InputError: the problems of the file or of its sidecar.
+        InputError: the problems of the drive or of its sidecar.
     """
-    raw = read_drive(f, data, rel)
+    raw, streams = read_any(f, data, rel, radius_m, period_s, split_gap_s)
     sidecar = sidecar_path(f.path)
     if not sidecar.is_file():
-        return CanonicalDrive(raw, [], None)
-    return CanonicalDrive(raw, read_scenarios(sidecar, rel(sidecar)), sidecar)
+        return CanonicalDrive(raw, [], None, streams)
+    return CanonicalDrive(raw, read_scenarios(sidecar, rel(sidecar)), sidecar, streams)
 
 
 def canonical_table(raw: RawDrive, scenario: np.ndarray | pa.Array) -> pa.Table:

@@ -48,6 +48,21 @@ G_M_S2 = c.G_M_S2
 WHEEL_GLITCH_G = 10.0  # circumferential acceleration above the road speed no wheel reaches
 WINDOW_S = 0.5  # the road speed is the others' largest speed within +- this
 MAX_RUN_S = 1.0  # a glitch lasts at most this long
+# A drive with glitches in more than this share of its seconds is refused, not cut: a wheel
+# channel that misbehaves throughout (a wrong signal mapped, one wheel on another scale) is
+# no glitch, and cutting it would leave a drive of holes.
+REFUSE_SHARE = 0.5
+
+
+def _magnitude(x: np.ndarray) -> np.ndarray:
+    """|x|, without a copy when no value is negative (wheel speeds as ABS sensors give them)."""
+    return np.abs(x) if (x < 0).any() else x
+
+
+def _median3(a: np.ndarray, b: np.ndarray, c3: np.ndarray) -> np.ndarray:
+    """Element-wise median of three arrays (exactly the middle value, as ``np.median``;
+    NaN anywhere gives NaN), without sorting."""
+    return np.maximum(np.minimum(a, b), np.minimum(np.maximum(a, b), c3))
 
 
 def glitch_mask(
@@ -62,7 +77,8 @@ def glitch_mask(
 
     Args:
         t_s: sample times (n,), strictly increasing.
-        wheels_rad_s: the four wheel speeds (4, n), rad/s (signs ignored: magnitudes).
+        wheels_rad_s: the four wheel speeds (4, n), or four arrays (n,), rad/s (signs
+            ignored: magnitudes).
         radius_m: the car's nominal tyre radius, m (turns the bound into rad/s^2).
         bound_g: the bound, in g of circumferential acceleration above the road speed.
         window_s: the road speed is the others' largest median within ±this.
@@ -72,17 +88,28 @@ def glitch_mask(
         Boolean (4, n): True where a wheel's sample is part of a glitch.
     """
     t = np.asarray(t_s, dtype=np.float64)
-    w = np.abs(np.asarray(wheels_rad_s, dtype=np.float64))
+    # Four arrays, not one stacked copy: a long stream's wheels are hundreds of MB each.
+    w = [_magnitude(np.asarray(x, dtype=np.float64)) for x in wheels_rad_s]
     n = t.size
-    out = np.zeros(w.shape, dtype=bool)
+    out = np.zeros((4, n), dtype=bool)
     if n < 2:
         return out
     dt = np.diff(t)
-    half = max(int(round(window_s / float(np.median(dt)))), 0)
     limit = bound_g * G_M_S2 / radius_m  # rad/s^2
+    # A glitch starts where a wheel's excess over the road rose by more than limit x dt in a
+    # step; the excess is at most the spread of the four wheels (the road speed is at least
+    # their smallest). A drive whose spread never exceeds that has no glitch (most drives:
+    # one pass instead of a dozen per wheel).
+    lo = np.minimum(np.minimum(w[0], w[1]), np.minimum(w[2], w[3]))
+    hi = np.maximum(np.maximum(w[0], w[1]), np.maximum(w[2], w[3]))
+    with np.errstate(invalid="ignore"):
+        if not np.any((hi[1:] - lo[1:]) * (1.0 + 1e-9) > limit * dt):
+            return out
+    del lo, hi
+    half = max(int(round(window_s / float(np.median(dt)))), 0)
     others = [[j for j in range(4) if j != k] for k in range(4)]
     for k in range(4):  # per wheel, not per sample
-        road = np.median(w[others[k]], axis=0)
+        road = _median3(*(w[j] for j in others[k]))
         if half:
             road = maximum_filter1d(road, size=2 * half + 1, mode="nearest")
         excess = np.maximum(w[k] - road, 0.0)

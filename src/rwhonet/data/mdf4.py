@@ -29,7 +29,7 @@ def read_mdf4(
     path: Path,
     signal_map: Mapping[str, ColumnSpec],
     radius_m: float | None,
-    name: str = "mdf4",
+    name: str = "the signal map",
     display: str | None = None,
 ) -> DriveStreams:
     """Read a drive's signals from an MDF4 file into streams for ``resample``.
@@ -38,7 +38,7 @@ def read_mdf4(
         path: the MDF4 file (``.mf4``; MDF 3 files too, as ``asammdf`` reads them).
         signal_map: key -> signal name and unit (:func:`check_signal_map`; no ``t``).
         radius_m: the car's nominal tyre radius, for wheel speeds logged in m/s or km/h.
-        name: the map's name, for messages.
+        name: how messages name the map (``data.signal_maps.<name>.signals``, a map file).
         display: how the file is named in error reports (default: ``path`` as given).
 
     Returns:
@@ -52,7 +52,7 @@ def read_mdf4(
     """
     from asammdf import MDF  # imported here: it takes most of a second to import
 
-    check_signal_map(name, signal_map)
+    check_signal_map(name, signal_map, where=name)
     file = display or str(path)
     if not Path(path).is_file():
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
@@ -82,7 +82,7 @@ def _read(
     mdf, signal_map: Mapping[str, ColumnSpec], radius_m: float | None, name: str, file: str
 ) -> DriveStreams:
     problems: list[Problem] = []
-    by_group: dict[int, dict[str, tuple[np.ndarray, np.ndarray, str]]] = {}
+    by_group: dict[int, dict[str, tuple[np.ndarray | None, np.ndarray, str]]] = {}
     for key, spec in signal_map.items():
         where = mdf.whereis(spec.column)
         if not where:
@@ -91,10 +91,10 @@ def _read(
                     file,
                     None,
                     spec.column,
-                    f"a signal named {spec.column!r} (data.signal_maps.{name}.{key})",
+                    f"a signal named {spec.column!r} ({name}.{key})",
                     "no such signal; the file has "
                     + ", ".join(sorted(k for k in mdf.channels_db if k not in ("time", "t")))[:300],
-                    f"name the logged signal in data.signal_maps.{name}.{key}.column",
+                    f"name the logged signal in {name}.{key}.column",
                 )
             )
             continue
@@ -147,20 +147,23 @@ def _read(
                     file,
                     None,
                     spec.column,
-                    f"the unit {spec.unit!r} (data.signal_maps.{name}.{key})",
+                    f"the unit {spec.unit!r} ({name}.{key})",
                     f"the file says {signal.unit!r}",
-                    f"set data.signal_maps.{name}.{key}.unit to the file's unit",
+                    f"set {name}.{key}.unit to the file's unit",
                 )
             )
             continue
-        t = np.asarray(signal.timestamps, dtype=np.float64)
+        # The signals of a group share its time stamps: keep the first signal's only (a long
+        # log's stamps are hundreds of MB per signal).
+        t = None if group in by_group else np.asarray(signal.timestamps, dtype=np.float64)
         values = to_si(key, samples, spec.unit, radius_m, f"{file} {spec.column!r}")
+        del signal, samples
         by_group.setdefault(group, {})[key] = (t, values, spec.column)
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
     groups = []
     for g, channels in sorted(by_group.items()):
-        t = next(iter(channels.values()))[0]
+        t = next(iter(channels.values()))[0]  # the group's first signal's stamps
         groups.append(
             Group(
                 f"channel group {g}",

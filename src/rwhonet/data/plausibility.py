@@ -28,7 +28,7 @@ import numpy as np
 from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.quality import Segment, second_index
-from rwhonet.geo import geodesic_distance_m, local_step_distance_m
+from rwhonet.geo import geodesic_distance_m, local_distance_m, local_step_distance_m
 
 
 @dataclass(frozen=True)
@@ -177,7 +177,7 @@ def stuck_wheel_runs(
         The runs, wheel by wheel (FL, FR, RL, RR) and in row order.
     """
     w = np.abs(np.stack([np.asarray(drive[name], dtype=np.float64) for name in c.WHEELS]))
-    ref = np.median(w, axis=0)
+    ref = median_wheel_rad_s(drive)
     candidate = ref > policy.stuck_moving_rad_s
     if ignore is not None:
         candidate &= ~ignore
@@ -243,10 +243,26 @@ def silent_wheel_runs(
         return []
     lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
     lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
-    speed, same = _gnss_speed(drive, segments, k)
-    wheels = np.median(
-        np.abs(np.stack([np.asarray(drive[w], dtype=np.float64) for w in c.WHEELS])), axis=0
+    _, same = _gnss_speed(drive, segments, k, speed=False)
+    wheels = median_wheel_rad_s(drive)
+    moving_m_s = policy.stuck_moving_rad_s * nominal_radius_m
+    with np.errstate(invalid="ignore", divide="ignore"):
+        wheel_m_s = wheels * nominal_radius_m / policy.stuck_ratio
+        # Only rows whose speed could exceed both thresholds (by a bound with no trigonometry
+        # per row) get the tangent-plane speed; while the wheels turn with GNSS, none does.
+        bound = _speed_bound(lat, lon, t, k)
+        maybe = same & (bound > moving_m_s * (1 - _NEAR)) & (bound > wheel_m_s * (1 - _NEAR))
+    speed = np.zeros(n)
+    rows = np.flatnonzero(maybe)
+    speed[rows] = local_distance_m(lat[rows - k], lon[rows - k], lat[rows], lon[rows]) / (
+        t[rows] - t[rows - k]
     )
+    # The tangent-plane speed is within 1e-6 of the geodesic's: only a row within 1e-5 of a
+    # threshold could be decided otherwise, and those are decided on the geodesic.
+    for threshold in (moving_m_s, wheel_m_s):
+        near = maybe & (np.abs(speed - threshold) <= _NEAR * np.abs(threshold))
+        if near.any():
+            speed[near] = _exact_speed(drive, np.flatnonzero(near), k)
     expected = speed / nominal_radius_m
     silent = (
         same & (expected > policy.stuck_moving_rad_s) & (wheels < policy.stuck_ratio * expected)
@@ -255,15 +271,13 @@ def silent_wheel_runs(
         silent &= ~ignore
     start, stop = _runs(silent)
     long = (stop - start) * sample_period_s >= policy.stuck_min_s - 1e-9
-    step = np.zeros(n)
-    step[1:] = local_step_distance_m(lat, lon)
     return [
         SilentRun(
             int(a),
             int(b),
             float(wheels[a:b].max()),
-            float(speed[a:b].max()),
-            float(step[a + 1 : b].sum()),
+            float(_exact_speed(drive, np.arange(a, b), k).max()),
+            float(local_step_distance_m(lat[a:b], lon[a:b]).sum()),
         )
         for a, b in zip(start[long], stop[long], strict=True)
     ]
@@ -314,42 +328,109 @@ def stale_wheel_runs(
     if n <= k:
         return []
     w = np.stack([np.asarray(drive[name], dtype=np.float64) for name in c.WHEELS])
-    median = np.median(np.abs(w), axis=0)
+    median = median_wheel_rad_s(drive)
     repeated = np.zeros(n, dtype=bool)
     repeated[1:] = (w[:, 1:] == w[:, :-1]).all(axis=0)
     repeated &= median > policy.stuck_moving_rad_s
     if ignore is not None:
         repeated &= ~ignore
-    speed, valid = _gnss_speed(drive, segments, k)
     start, stop = _runs(repeated)
     long = (stop - start) * sample_period_s >= policy.stuck_min_s - 1e-9
+    if not long.any():
+        return []
+    _, valid = _gnss_speed(drive, segments, k, speed=False)
     out = []
     for a, b in zip(start[long], stop[long], strict=True):  # per stretch, a handful
         # From one second into the run on, so that the GNSS window lies inside it: right
         # after a change of speed the window still averages the speed before it.
-        v = speed[a + k : b][valid[a + k : b]]
+        rows = np.arange(a + k, b)[valid[a + k : b]]
+        v = _exact_speed(drive, rows, k)
         if v.size and v.max() - v.min() > policy.stuck_moving_rad_s * nominal_radius_m:
             out.append(StaleRun(int(a), int(b), float(median[a]), float(v.min()), float(v.max())))
     return out
 
 
+# Relative margin around a threshold within which a tangent-plane speed (1e-6 of the
+# geodesic's) is replaced by the geodesic's before deciding.
+_NEAR = 1e-5
+
+
+def median_wheel_rad_s(drive: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Per row, the median of the four |wheel speeds|: the mean of the middle two.
+
+    Exactly ``np.median`` of the four (the middle two's sum halved; NaN anywhere gives
+    NaN), without sorting: from the two pairs' minima and maxima.
+    """
+    a, b, c3, d = (np.abs(np.asarray(drive[w], dtype=np.float64)) for w in c.WHEELS)
+    lo = np.maximum(np.minimum(a, b), np.minimum(c3, d))  # the second smallest
+    hi = np.minimum(np.maximum(a, b), np.maximum(c3, d))  # the second largest
+    return (lo + hi) / 2.0
+
+
 def _gnss_speed(
-    drive: Mapping[str, np.ndarray], segments: Sequence[Segment], k: int
+    drive: Mapping[str, np.ndarray], segments: Sequence[Segment], k: int, speed: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
-    """GNSS speed over the last ``k`` rows, and where it is trusted (inside one segment)."""
+    """GNSS speed over the last ``k`` rows on the tangent plane (within 1e-6 relative of the
+    geodesic's, :func:`rwhonet.geo.local_distance_m`), and where it is trusted (inside one
+    segment). ``speed`` False: only where it is trusted (the speeds are zeros)."""
     t = np.asarray(drive[c.T_S], dtype=np.float64)
     n = t.size
     segment = np.full(n, -1)
     for j, seg in enumerate(segments):  # per segment, not per sample
         segment[seg.row_start : seg.row_stop] = j
-    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
-    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
-    speed = np.zeros(n)
+    out = np.zeros(n)
     valid = np.zeros(n, dtype=bool)
     if n > k:
-        speed[k:] = geodesic_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:]) / (t[k:] - t[:-k])
         valid[k:] = (segment[k:] >= 0) & (segment[k:] == segment[:-k])
-    return speed, valid
+        if speed:
+            lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+            lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+            out[k:] = local_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:]) / (t[k:] - t[:-k])
+    return out, valid
+
+
+def _speed_bound(lat: np.ndarray, lon: np.ndarray, t: np.ndarray, k: int) -> np.ndarray:
+    """An upper bound of the tangent-plane speed over the last ``k`` rows (0 for the first k).
+
+    The radii of curvature at the drive's largest |latitude| (both grow towards the poles)
+    and the cosine at its smallest bound those at any step's mid latitude.
+    """
+    n = t.size
+    out = np.zeros(n)
+    lat_r, lon_r = np.radians(lat), np.radians(lon)
+    finite = np.isfinite(lat_r)
+    if n <= k or not finite.any():
+        out[k:] = np.inf
+        return out
+    abs_lat = np.abs(lat_r[finite])
+    w2 = 1.0 - _WGS84_E2 * np.sin(abs_lat.max()) ** 2
+    r_n = _WGS84_A_M / np.sqrt(w2)
+    r_m = r_n * (1.0 - _WGS84_E2) / w2
+    lo = abs_lat.min()
+    cos_max = 1.0 if lo <= 0.0 else float(np.cos(lo))
+    d_lon = (lon_r[k:] - lon_r[:-k] + np.pi) % (2.0 * np.pi) - np.pi
+    out[k:] = np.hypot(r_m * (lat_r[k:] - lat_r[:-k]), r_n * cos_max * d_lon) / (t[k:] - t[:-k])
+    out[k:] *= 1.0 + 1e-9  # the bound's own rounding
+    out[k:][~np.isfinite(out[k:])] = np.inf
+    return out
+
+
+# WGS84 semi-major axis (m) and first eccentricity squared (rwhonet.geo.geodesic's).
+_WGS84_A_M = 6378137.0
+_WGS84_E2 = 6.69437999014e-3
+
+
+def _exact_speed(drive: Mapping[str, np.ndarray], rows: np.ndarray, k: int) -> np.ndarray:
+    """The geodesic speed over the ``k`` rows before each of ``rows`` (0 for a row < k)."""
+    rows = np.asarray(rows, dtype=np.int64)
+    out = np.zeros(rows.size)
+    ok = rows >= k
+    r = rows[ok]
+    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    out[ok] = geodesic_distance_m(lat[r - k], lon[r - k], lat[r], lon[r]) / (t[r] - t[r - k])
+    return out
 
 
 def negative_wheel_rows(

@@ -81,7 +81,10 @@ def units_of(key: str) -> tuple[str, ...]:
 
 
 def check_signal_map(
-    name: str, signal_map: Mapping[str, ColumnSpec], with_time: bool = False
+    name: str,
+    signal_map: Mapping[str, ColumnSpec],
+    with_time: bool = False,
+    where: str | None = None,
 ) -> None:
     """Check a signal map's keys and units before any file is read.
 
@@ -89,11 +92,13 @@ def check_signal_map(
         name: the map's name (for messages: ``data.signal_maps.<name>``).
         signal_map: key -> channel name and unit.
         with_time: whether ``t`` is required (CSV streams; an MDF4 file has its own time).
+        where: how messages name the map (default ``data.signal_maps.<name>.signals``; a
+            map file's name for ``--signal-map``).
 
     Raises:
         ConfigError: naming every unknown key, missing required key and unknown unit.
     """
-    where = f"data.signal_maps.{name}"
+    where = where or f"data.signal_maps.{name}.signals"
     issues = [
         f"{where}.{k}: unknown key; expected one of {list(KEYS)}"
         for k in signal_map
@@ -128,7 +133,8 @@ def to_si(
     factors = KEYS[key][1]
     if factors is None:
         return wheel_speed_rad_s(values, unit, radius_m, where)
-    return np.asarray(values, dtype=np.float64) * factors[unit]
+    values = np.asarray(values, dtype=np.float64)
+    return values if factors[unit] == 1.0 else values * factors[unit]  # SI already: no copy
 
 
 @dataclass(frozen=True)

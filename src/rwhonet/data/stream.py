@@ -9,7 +9,11 @@ canonical channels in SI units (``t_s``, ``lat_deg``, ``lon_deg``, ``omega_*``, 
 Rows are numbered as the readers number them (1-based data rows, blank lines not
 counted), so a bad cell is reported with its row and the file's column name.
 Missing values (empty, ``NaN``, ``NA``, ``null``) become NaN: the caller decides
-what a missing fix or wheel speed means.
+what a missing fix or wheel speed means. The time column reads as the ingest
+readers and the label stage read it (:class:`rwhonet.data.timebase.StreamClock`):
+a time of day that passes midnight continues into the next day, and stamps
+jittered off the drive's sample grid are replaced by their slots' instants, so
+``predict`` cuts and integrates the seconds ``label`` does.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import numpy as np
 
 from rwhonet.data import canonical as c
 from rwhonet.data.problems import no_data_rows
+from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
 from rwhonet.errors import InputError, Problem
 
 BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s of 10 Hz rows)
@@ -90,6 +95,7 @@ def read_rows(
     fmt: str = "iovnbd",
     column_map: Mapping | None = None,
     block_bytes: int = BLOCK_BYTES,
+    period_s: float = 0.1,
 ) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """Read the header now; return the layout and the drive's row blocks as they arrive.
 
@@ -99,10 +105,13 @@ def read_rows(
         fmt: ``iovnbd`` or a column map's name.
         column_map: the column map of ``fmt``.
         block_bytes: at most this many bytes are read per step; a pipe yields what it has.
+        period_s: the nominal sample period (``validate.sample_period_s``), for the clock.
 
     Returns:
         ``(layout, blocks)``: ``blocks`` yields ``(first_row, columns)``, the 1-based data
-        row of the block's first row and each canonical channel as float64 in SI units.
+        row of the block's first row and each canonical channel as float64 in SI units,
+        the time on the drive's continuous clock with jitter removed (the first block
+        holds at least ``STREAM_PHASE_ROWS`` rows, from which the grid's phase is taken).
 
     Raises:
         InputError: a header the reader refuses (now), a row with another number of columns
@@ -112,7 +121,41 @@ def read_rows(
 
     header = parse_header(stream.readline(HEADER_MAX_BYTES + 1), file)
     lay = layout(header, fmt, column_map, file)
-    return lay, _blocks(stream, lay, file, block_bytes)
+    return lay, placed(_blocks(stream, lay, file, block_bytes), StreamClock(period_s))
+
+
+def placed(
+    blocks: Iterator[tuple[int, dict[str, np.ndarray]]], clock: StreamClock
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """Row blocks with their times placed on ``clock`` (midnight and jitter).
+
+    The first blocks are held back until they hold ``STREAM_PHASE_ROWS`` rows (or the
+    drive ends), so the grid's phase is taken from that many stamps.
+    """
+    held: list[tuple[int, dict[str, np.ndarray]]] = []
+    for first, columns in blocks:
+        if clock.phase is None:
+            held.append((first, columns))
+            if sum(len(cols[c.T_S]) for _, cols in held) < STREAM_PHASE_ROWS:
+                continue
+            first, columns = _joined(held)
+            held = []
+        columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
+        yield first, columns
+    if held:
+        first, columns = _joined(held)
+        columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
+        yield first, columns
+
+
+def _joined(
+    blocks: list[tuple[int, dict[str, np.ndarray]]],
+) -> tuple[int, dict[str, np.ndarray]]:
+    """Consecutive row blocks as one."""
+    if len(blocks) == 1:
+        return blocks[0]
+    names = blocks[0][1].keys()
+    return blocks[0][0], {n: np.concatenate([cols[n] for _, cols in blocks]) for n in names}
 
 
 def _blocks(

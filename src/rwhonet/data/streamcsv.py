@@ -33,7 +33,7 @@ def read_stream_csvs(
     paths: Sequence[Path],
     signal_map: Mapping[str, ColumnSpec],
     radius_m: float | None,
-    name: str = "streams",
+    name: str = "the signal map",
     display: Mapping[Path, str] | None = None,
 ) -> DriveStreams:
     """Read a drive given as one CSV per sensor stream.
@@ -42,7 +42,7 @@ def read_stream_csvs(
         paths: the drive's stream files (each with a header row and the time column).
         signal_map: key -> column name and unit (:func:`check_signal_map`, with ``t``).
         radius_m: the car's nominal tyre radius, for wheel speeds logged in m/s or km/h.
-        name: the map's name, for messages.
+        name: how messages name the map (``data.signal_maps.<name>.signals``, a map file).
         display: how each file is named in error reports (default: the path as given).
 
     Returns:
@@ -54,7 +54,7 @@ def read_stream_csvs(
             several, a cell that is not a number, a row with the wrong number of columns;
             every problem of every file is listed.
     """
-    check_signal_map(name, signal_map, with_time=True)
+    check_signal_map(name, signal_map, with_time=True, where=name)
     files = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
     if not files:
         raise InputError(
@@ -87,8 +87,7 @@ def read_stream_csvs(
                     file,
                     None,
                     time_spec.column,
-                    f"the time column {time_spec.column!r} (data.signal_maps.{name}.t) in "
-                    "every stream file",
+                    f"the time column {time_spec.column!r} ({name}.t) in every stream file",
                     f"no such name in the header {[h.strip() for h in header]}",
                     "give every stream file its time column (one clock for all of them)",
                 )
@@ -111,10 +110,9 @@ def read_stream_csvs(
                     ", ".join(headers) if not where else ", ".join(f for f, _ in where),
                     None,
                     spec.column,
-                    f"a column named {spec.column!r} (data.signal_maps.{name}.{key}) in "
-                    "exactly one stream file",
+                    f"a column named {spec.column!r} ({name}.{key}) in exactly one stream file",
                     "in none of them" if not where else f"in {len(where)} files",
-                    f"name the column in data.signal_maps.{name}.{key}.column",
+                    f"name the column in {name}.{key}.column",
                 )
             )
     if problems:

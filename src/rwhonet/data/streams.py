@@ -60,7 +60,7 @@ Glitches
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -110,7 +110,8 @@ def wheel_speed_rad_s(
     """
     values = np.asarray(values, dtype=np.float64)
     if unit in ANGULAR_WHEEL_UNITS:
-        return values * ANGULAR_WHEEL_UNITS[unit]
+        factor = ANGULAR_WHEEL_UNITS[unit]
+        return values if factor == 1.0 else values * factor  # rad/s: no copy
     if unit in LINEAR_WHEEL_UNITS:
         if radius_m is None or not radius_m > 0:
             raise InputError(
@@ -186,12 +187,15 @@ class DriveStreams:
             ``speed_gnss_m_s``, ``heading_deg``, ``height_m``.
         extra: other rate streams (``yaw_rate_rad_s``, ``acc_lon_m_s2``, ...).
         clock: what the time stamps are (for the notes: "boot clock of the device", ...).
+        notes: what the reader did that the user should hear about (how the fixes were
+            timed, ...); :func:`resample` passes them on in the drive's notes.
     """
 
     wheels: tuple[Stream, ...]
     gnss: Stream
     extra: tuple[Stream, ...] = ()
     clock: str = "the streams' own clock"
+    notes: tuple[str, ...] = ()
 
     @property
     def streams(self) -> tuple[Stream, ...]:
@@ -360,7 +364,7 @@ def grid_times(start_s: float, end_s: float, period_s: float = GRID_PERIOD_S) ->
 
 def window_means(
     t_s: np.ndarray,
-    values: np.ndarray,
+    values: np.ndarray | Sequence[np.ndarray],
     start_s: np.ndarray,
     end_s: np.ndarray,
     max_gap_s: float,
@@ -369,7 +373,7 @@ def window_means(
 
     Args:
         t_s: sample times (m,), strictly increasing, m >= 2.
-        values: samples (c, m): c signals sharing the time stamps.
+        values: samples (c, m), or c arrays (m,): c signals sharing the time stamps.
         start_s: window starts (n,).
         end_s: window ends (n,), each after its start.
         max_gap_s: a window overlapping a step between samples longer than this is invalid.
@@ -378,22 +382,24 @@ def window_means(
         ``(means (c, n), valid (n,))``; the means of invalid windows are meaningless.
     """
     t = np.asarray(t_s, dtype=np.float64)
-    v = np.atleast_2d(np.asarray(values, dtype=np.float64))
+    if isinstance(values, np.ndarray) and values.ndim == 1:
+        values = [values]
+    rows = [np.asarray(v, dtype=np.float64) for v in values]
     m = t.size
     dt = np.diff(t)
-    # Cumulative trapezoid integral: F[:, j] = integral from t_0 to t_j.
-    cum = np.zeros(v.shape)
-    np.cumsum(0.5 * (v[:, 1:] + v[:, :-1]) * dt, axis=1, out=cum[:, 1:])
-    slope = np.diff(v, axis=1) / dt
-
-    def integral(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        j = np.clip(np.searchsorted(t, x, side="right") - 1, 0, m - 2)
-        u = x - t[j]
-        return cum[:, j] + u * (v[:, j] + 0.5 * slope[:, j] * u), j
-
-    f_start, j_start = integral(start_s)
-    f_end, _ = integral(end_s)
-    means = (f_end - f_start) / (end_s - start_s)
+    # The window edges' places among the samples, once for every signal.
+    j_start = np.clip(np.searchsorted(t, start_s, side="right") - 1, 0, m - 2)
+    j_end = np.clip(np.searchsorted(t, end_s, side="right") - 1, 0, m - 2)
+    u_start, u_end = start_s - t[j_start], end_s - t[j_end]
+    means = np.empty((len(rows), np.size(start_s)))
+    for i, v in enumerate(rows):  # per signal, not per sample: one signal's integral in memory
+        # Cumulative trapezoid integral: F[j] = integral from t_0 to t_j.
+        cum = np.zeros(m)
+        np.cumsum(0.5 * (v[1:] + v[:-1]) * dt, out=cum[1:])
+        slope = np.diff(v) / dt
+        f_start = cum[j_start] + u_start * (v[j_start] + 0.5 * slope[j_start] * u_start)
+        f_end = cum[j_end] + u_end * (v[j_end] + 0.5 * slope[j_end] * u_end)
+        means[i] = (f_end - f_start) / (end_s - start_s)
     # Steps overlapping [start, end]: from the one holding start to the one ending at/after end.
     j_last = np.clip(np.searchsorted(t, end_s, side="left") - 1, 0, m - 2)
     long_before = np.r_[0, np.cumsum(dt > max_gap_s)]
@@ -511,7 +517,7 @@ def resample(
     sources: dict[str, str] = {c.T_S: f"grid of {period_s:g} s on {streams.clock}"}
     glitch = np.zeros(grid.size, dtype=bool)
     glitch_samples: list[tuple[str, int, float, str]] = []
-    notes = []
+    notes = list(streams.notes)
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
     gnss_t, gnss = _finite_rows(streams.gnss, notes, required=True)
@@ -529,7 +535,7 @@ def resample(
         names = [n for n in RATE_CHANNELS if n in chans]
         if not names or t.size < 2:  # an optional stream without values: its channels stay out
             continue
-        means, ok = window_means(t, np.stack([chans[n] for n in names]), lo, hi, max_wheel_gap_s)
+        means, ok = window_means(t, [chans[n] for n in names], lo, hi, max_wheel_gap_s)
         wheel_stream = any(n in c.WHEELS for n in names)
         if wheel_stream:
             keep &= ok
@@ -537,7 +543,7 @@ def resample(
             columns[name] = row if wheel_stream else np.where(ok, row, np.nan)
             sources[name] = s.label(name)
         if nominal_radius_m is not None and all(w in chans for w in c.WHEELS):
-            bad = glitch_mask(t, np.stack([chans[w] for w in c.WHEELS]), nominal_radius_m, glitch_g)
+            bad = glitch_mask(t, [chans[w] for w in c.WHEELS], nominal_radius_m, glitch_g)
             rows = np.flatnonzero(bad.any(axis=0))
             if rows.size:
                 glitch |= _rows_using(t, rows, grid, half)

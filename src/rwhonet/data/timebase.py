@@ -65,7 +65,8 @@ def unwrap_midnight(
     if t.size < 2:
         return t, np.zeros(0, dtype=np.int64)
     before, after = t[:-1], t[1:]
-    true_step = after + day_s - before
+    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf: no rollover, validate says
+        true_step = after + day_s - before
     wrap = (
         (before >= day_s - MIDNIGHT_WINDOW_S)
         & (after < MIDNIGHT_WINDOW_S)
@@ -80,18 +81,19 @@ def unwrap_midnight(
     return t, rows
 
 
-def grid_phase(t_s: np.ndarray, period_s: float) -> float:
+def grid_phase(t_s: np.ndarray, period_s: float, whole: bool = True) -> float:
     """The phase of a drive's stamps on its sample grid, s, in ``(-period/2, period/2]``.
 
     The stamps modulo the period fill an arc of the circle ``[0, period)``, narrower than
     the circle when their jitter is below half a period; the phase is that arc's middle
     (opposite the widest empty arc; unlike a circular mean, exact for jitter up to half a
-    period). Within ``WHOLE_GRID_FRACTION`` of a period of zero it is zero (stamps on whole
-    multiples). Non-finite stamps are left out.
+    period). With ``whole``, a phase within ``WHOLE_GRID_FRACTION`` of a period of zero is
+    zero (stamps on whole multiples). Non-finite stamps are left out.
 
     Args:
         t_s: times, s.
         period_s: the nominal sample period, s.
+        whole: snap a phase near zero to zero (seconds are counted on whole multiples).
 
     Returns:
         The phase, s (0 for a drive without finite stamps).
@@ -99,6 +101,8 @@ def grid_phase(t_s: np.ndarray, period_s: float) -> float:
     t = np.asarray(t_s, dtype=np.float64)
     t = t[np.isfinite(t)]
     if t.size == 0:
+        return 0.0
+    if whole and _on_whole_multiples(t, period_s):  # the usual case, in one pass
         return 0.0
     if t.size > PHASE_SAMPLE:  # every k-th stamp: the empty arc stays as wide
         t = t[:: -(-t.size // PHASE_SAMPLE)]
@@ -109,7 +113,7 @@ def grid_phase(t_s: np.ndarray, period_s: float) -> float:
     phase = (v[k] + 0.5 * gaps[k] + 0.5 * period_s) % period_s
     if phase > 0.5 * period_s:
         phase -= period_s
-    return 0.0 if abs(phase) <= WHOLE_GRID_FRACTION * period_s else float(phase)
+    return 0.0 if whole and abs(phase) <= WHOLE_GRID_FRACTION * period_s else float(phase)
 
 
 def grid_slots(
@@ -142,3 +146,104 @@ def nominal_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     """
     slots, phase = grid_slots(t_s, period_s)
     return phase + slots * period_s
+
+
+def _on_whole_multiples(t: np.ndarray, period_s: float) -> bool:
+    """Whether every stamp lies within ``TIME_EPS_S`` of a whole multiple of the period
+    (decimal stamps on the grid: their phase is 0 whatever the arc says)."""
+    per_s = round(1.0 / period_s)
+    if t.size == 0 or abs(per_s * period_s - 1.0) > 1e-12:
+        return False
+    return bool(np.max(np.abs(t - np.rint(t * per_s) / per_s)) <= TIME_EPS_S)
+
+
+def label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
+    """The times a drive's rates are integrated over: the stamps, or their slots' instants.
+
+    A jittered stamp says when the logger wrote the row, not when the sample was taken
+    (:func:`grid_slots`): integrating a wheel speed over stamps 4 ms off moves a second's
+    wheel angle by up to 8 ms of wheel speed. When every stamp lies within
+    ``TIME_EPS_S`` of its slot's instant (a clean drive: the decimal time stamps as
+    floats), the stamps are returned as they are, so a clean drive's labels do not move
+    by a bit; otherwise every row gets its slot's instant ``phase + j * period``
+    (:func:`nominal_times`: on whole multiples when the stamps are near them).
+
+    Args:
+        t_s: times, s (finite, strictly increasing).
+        period_s: the nominal sample period, s.
+
+    Returns:
+        float64 times: ``t_s`` itself, or the slot instants.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.size == 0:
+        return t
+    if _on_whole_multiples(t, period_s):  # the usual case, in one pass
+        return t
+    # On the arc's own middle first, not snapped to whole multiples: a logger offset by a
+    # few ms without jitter keeps its stamps.
+    slots, phase = grid_slots(t, period_s, grid_phase(t, period_s, whole=False))
+    if np.max(np.abs(t - (phase + slots * period_s))) <= TIME_EPS_S:
+        return t
+    return nominal_times(t, period_s)
+
+
+# Rows a stream's grid phase is estimated from before its first times are placed: with
+# fewer, the stamps' arc may not yet show where the phase lies.
+STREAM_PHASE_ROWS = 200
+
+
+class StreamClock:
+    """Midnight and jitter for a drive read block by block (``rwhonet predict``).
+
+    The same clock :mod:`rwhonet.data.iovnbd` and :func:`label_times` give a whole
+    drive, kept across blocks: a step back from the last hour of a day into the first
+    hour of the next adds a day to that and every later row (:func:`unwrap_midnight`),
+    and stamps farther than ``TIME_EPS_S`` from their slot are replaced by the slot's
+    instant, on one grid phase fixed from the first ``STREAM_PHASE_ROWS`` rows (the
+    caller hands over at least that many first, or the whole drive when it is shorter).
+
+    Args:
+        period_s: the nominal sample period, s.
+    """
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self.day_s = 0.0  # added to the rows of the current day
+        self.last: float | None = None  # the previous blocks' last finite time, as logged
+        self.phase: float | None = None  # the grid's phase (near-zero snapped to zero)
+        self.raw_phase = 0.0  # the stamps' own arc middle
+        self.midnights: list[int] = []  # 0-based rows after a rollover
+
+    def place(self, t_s: np.ndarray, first_row: int = 0) -> np.ndarray:
+        """The block's times on the drive's continuous clock, jitter removed.
+
+        Args:
+            t_s: the block's times of day as logged, s.
+            first_row: 0-based row of the block's first row in the drive (for the notes).
+
+        Returns:
+            float64 times.
+        """
+        t = np.asarray(t_s, dtype=np.float64)
+        if t.size == 0:
+            return t.copy()
+        prev = np.zeros(0) if self.last is None else np.array([self.last])
+        joined, rows = unwrap_midnight(np.concatenate([prev, t]))
+        shift = prev.size
+        out = joined[shift:] + self.day_s
+        finite = np.isfinite(t)
+        if finite.any():
+            self.last = float(t[finite][-1])
+        self.midnights += [first_row + int(r) - shift for r in rows]
+        self.day_s += SECONDS_PER_DAY * rows.size
+        if self.phase is None:
+            self.raw_phase = grid_phase(out[finite], self.period_s, whole=False)
+            self.phase = grid_phase(out[finite], self.period_s)
+        if not finite.all():
+            return out  # the checks downstream report the missing times
+        slots, _ = grid_slots(out, self.period_s, self.raw_phase)
+        if np.max(np.abs(out - (self.raw_phase + slots * self.period_s))) <= TIME_EPS_S:
+            return out
+        slots, _ = grid_slots(out, self.period_s, self.phase)
+        return self.phase + slots * self.period_s

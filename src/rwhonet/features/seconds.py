@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike
 
 from rwhonet.contracts import ROWS_PER_SECOND
 from rwhonet.data import canonical as c
+from rwhonet.data.timebase import label_times
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo import geodesic_distance_m
 
@@ -148,7 +149,9 @@ def integrate_per_second(t_s: np.ndarray, rate: np.ndarray) -> np.ndarray:
     second (``h`` = 0.1 s): about 1 mm at a jerk of 1 m/s^3. The rectangle rule
     on the ten samples ``a+1 .. b`` would be off by ``h / 2`` times the change of
     the rate over the second: 0.1 m per second when braking at 2 m/s^2, as large
-    as the labels themselves. Real sample times are used, so jitter is handled.
+    as the labels themselves. The times are the ones given: :func:`segment_seconds`
+    passes the rows' grid-slot instants for jittered stamps
+    (:func:`rwhonet.data.timebase.label_times`).
 
     Args:
         t_s: per-row time, seconds, strictly increasing.
@@ -275,7 +278,8 @@ class SegmentSeconds:
     """The raw (unscaled, uncalibrated) per-second quantities of one segment.
 
     Attributes:
-        t_s: end time of each second (row ``10k + 10``), seconds.
+        t_s: end time of each second (row ``10k + 10``; its slot's instant when the
+            stamps are jittered, :func:`rwhonet.data.timebase.label_times`), seconds.
         span_s: duration of each second, seconds.
         disp_gnss_m: GNSS displacement per second, metres.
         lat_deg: GNSS latitude of the fix ending each second (row ``10k + 10``), degrees.
@@ -402,7 +406,10 @@ def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> 
         InputError: see :func:`check_segment`.
     """
     check_segment(frame, file)
-    t = np.asarray(frame[c.T_S], dtype=np.float64)
+    # Jittered stamps are taken at their slots' instants (rwhonet.data.timebase): the samples
+    # were taken there, the stamps only say when the logger wrote them. A clean drive's
+    # stamps are kept as they are.
+    t = label_times(np.asarray(frame[c.T_S], dtype=np.float64), 1.0 / ROWS_PER_SECOND)
     omega = {w: np.asarray(frame[w], dtype=np.float64) for w in c.WHEELS}
     tags = frame[c.SCENARIO] if c.SCENARIO in frame else np.full(t.size, "")
     lat = np.asarray(frame[c.LAT_DEG], dtype=np.float64)

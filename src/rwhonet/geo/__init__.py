@@ -8,6 +8,7 @@
 from rwhonet.geo.geodesic import (
     geodesic_distance_m,
     geodesic_distance_reference_m,
+    local_distance_m,
     local_step_distance_m,
 )
 from rwhonet.geo.local import destination_deg, latlon_from_offsets_deg, offsets_m
@@ -17,6 +18,7 @@ __all__ = [
     "geodesic_distance_m",
     "geodesic_distance_reference_m",
     "latlon_from_offsets_deg",
+    "local_distance_m",
     "local_step_distance_m",
     "offsets_m",
 ]

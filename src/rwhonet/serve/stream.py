@@ -249,6 +249,21 @@ class SecondStream:
                 )
                 for i in bad[:5]
             ]
+        for name, limit, what in ((c.LAT_DEG, 90.0, "latitude"), (c.LON_DEG, 180.0, "longitude")):
+            # a missing fix (NaN) is no fix; a value out of range is a broken one
+            bad = np.flatnonzero(np.abs(columns[name]) > limit)
+            problems += [
+                Problem(
+                    self.file,
+                    first_row + int(i),
+                    self.names.get(name, name),
+                    f"a {what} in [-{limit:g}, {limit:g}] deg, or no value",
+                    repr(float(columns[name][i])),
+                    "give the coordinates in decimal degrees (not swapped, not radians); "
+                    "leave a broken fix empty",
+                )
+                for i in bad[:5]
+            ]
         before = self._rows[c.T_S][-1:] if self._rows is not None else np.zeros(0)
         back = np.flatnonzero(np.diff(np.concatenate([before, t])) <= 0)
         problems += [

@@ -1,10 +1,12 @@
 """DVC stage ``ingest``: raw drive files -> one canonical Parquet per drive + ``manifest.json``.
 
-Reads every drive listed by ``data.roles`` (IO-VNBD layout or a column map),
-converts it to canonical names in SI units, adds the ``scenario`` column from
-an optional ``<drive>.scenarios.json`` sidecar, and writes everything at once
-(:func:`rwhonet.io.atomic_dir`): after a failure the previous output is left
-as it was. Reading one file (its reader, size limit and canonical table) is
+Reads every drive listed by ``data.roles`` (IO-VNBD layout, a column map, a
+comma2k19 folder, or an MDF4 file or a folder of stream CSVs through a signal map;
+docs/architecture.md, "Raw drives"), converts it to canonical names in SI units
+(stream drives resampled onto the ``validate.sample_period_s`` grid), adds the
+``scenario`` column from an optional ``<drive>.scenarios.json`` sidecar, and
+writes everything at once (:func:`rwhonet.io.atomic_dir`): after a failure the
+previous output is left as it was. Reading one file (its reader, size limit and canonical table) is
 :mod:`rwhonet.data.drivefile`'s, which ``rwhonet recalibrate`` uses too; rows
 are kept exactly as in the file, in order (row ``i`` is data row ``i + 1`` of
 the source file), so ``validate`` can point at the file's rows.
@@ -19,14 +21,23 @@ from typing import Any
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, DataParams, Params
 from rwhonet.data.columnmap import check_column_map
-from rwhonet.data.drivefile import IOVNBD, DriveFile, out_of_memory, read_canonical
+from rwhonet.data.drivefile import (
+    COLUMN_MAP,
+    IOVNBD,
+    STREAM_CSV,
+    DriveFile,
+    is_folder_format,
+    out_of_memory,
+    read_canonical,
+    reader_kind,
+)
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, system_memory_pool, write_json, write_parquet
+from rwhonet.io import atomic_dir, map_in_order, system_memory_pool, write_json, write_parquet
 from rwhonet.progress import track
 
 
 def check_data_params(data: DataParams) -> None:
-    """Check what ``load_params`` cannot: the source/root pairing, role names, column maps.
+    """Check what ``load_params`` cannot: the source/root pairing, role names, the maps used.
 
     Args:
         data: the ``data`` section.
@@ -53,18 +64,29 @@ def check_data_params(data: DataParams) -> None:
     ]
     if issues:
         raise ConfigError("\n".join(issues))
-    for name in sorted({spec.format for spec in data.roles.values()} - {IOVNBD}):
-        check_column_map(name, data.column_maps[name])
+    for name in sorted({spec.format for spec in data.roles.values()}):
+        kind = reader_kind(name, data)
+        if kind == COLUMN_MAP:
+            check_column_map(name, data.column_maps[name])
+        elif name in data.signal_maps:
+            # imported here: the stream readers bring scipy, which a 10 Hz fleet never needs
+            from rwhonet.data.signalmap import check_signal_map
+
+            check_signal_map(name, data.signal_maps[name].signals, with_time=kind == STREAM_CSV)
 
 
 def discover(data: DataParams) -> list[DriveFile]:
-    """List the drive files of every role, sorted by role (in ``ROLES`` order) and name.
+    """List the drives of every role, sorted by role (in ``ROLES`` order) and name.
+
+    A role's glob matches files for the formats that read one file per drive (IO-VNBD,
+    column maps, MDF4) and folders for those that read one folder per drive (comma2k19,
+    stream CSVs); the drive id is the file's stem or the folder's name.
 
     Args:
         data: the ``data`` section (globs are relative to ``data.root``).
 
     Returns:
-        The drive files.
+        The drives.
 
     Raises:
         InputError: a required role matches no file (naming the folder and glob), or a drive
@@ -75,7 +97,8 @@ def discover(data: DataParams) -> list[DriveFile]:
     files: list[DriveFile] = []
     for role in (r for r in contracts.ROLES if r in data.roles):
         spec = data.roles[role]
-        found = sorted(p for p in root.glob(spec.glob) if p.is_file())
+        folders = is_folder_format(spec.format, data)
+        found = sorted(p for p in root.glob(spec.glob) if (p.is_dir() if folders else p.is_file()))
         if not found and spec.required:
             folder = (root / spec.glob).parent
             near = sorted(p.name for p in folder.iterdir())[:5] if folder.is_dir() else []
@@ -84,8 +107,9 @@ def discover(data: DataParams) -> list[DriveFile]:
                     paths.rel(folder),
                     None,
                     None,
-                    f"at least one drive file matching {spec.glob!r} under {paths.rel(root)} "
-                    f"(data.roles.{role}, required)",
+                    f"at least one drive {'folder' if folders else 'file'} matching "
+                    f"{spec.glob!r} under {paths.rel(root)} (data.roles.{role}, required, "
+                    f"format {spec.format})",
                     ("no matching file" + (f"; the folder holds {near}" if near else ""))
                     if folder.is_dir()
                     else "no such folder",
@@ -93,7 +117,10 @@ def discover(data: DataParams) -> list[DriveFile]:
                     f"data.roles.{role}.glob (and data.root)",
                 )
             )
-        files += [DriveFile(p.stem, role, spec.vehicle, spec.format, p) for p in found]
+        files += [
+            DriveFile(p.name if folders else p.stem, role, spec.vehicle, spec.format, p)
+            for p in found
+        ]
     first_seen: dict[str, DriveFile] = {}
     for f in files:
         other = first_seen.setdefault(f.drive, f)
@@ -129,7 +156,11 @@ def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None
         The manifest written to ``out_dir/manifest.json``:
         ``{"drives": [{"drive", "role", "vehicle", "format", "source_file", "n_rows",
         "header_match", "columns", "scenarios_file", "calibrates"}], "calibration": {...}}``,
-        where ``columns`` maps each canonical channel to the file's column name.
+        where ``columns`` maps each canonical channel to the file's column name; a drive
+        whose reader had something to say has ``notes`` (columns taken by position, the
+        clock passing midnight, grid rows without data), and a stream drive ``streams``
+        (:meth:`rwhonet.data.drivefile.StreamFacts.to_dict`: each stream's samples and
+        step, and the grid rows whose wheel-speed mean used a glitched sample).
 
     Raises:
         ConfigError: inconsistent ``data`` parameters.
@@ -166,10 +197,14 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     problems: list[Problem] = []
     entries: list[dict[str, Any]] = []
     with atomic_dir(out_dir) as tmp:
-        for f in track(files, desc="ingest", unit="drive", label=lambda f: f.drive):
+        # A few drives at once (rwhonet.io.map_in_order: DATA_THREADS threads), each in
+        # memory only while it is read and written: _write_drive's locals go when it returns.
+        done = map_in_order(lambda f: _write_drive(f, params, tmp), files)
+        for f, entry_of in track(
+            done, desc="ingest", unit="drive", total=len(files), label=lambda x: x[0].drive
+        ):
             try:
-                # One drive in memory at a time: _write_drive's locals go when it returns.
-                entry = _write_drive(f, data, tmp, write=not problems)
+                entry = entry_of.result()
             except InputError as err:
                 problems += err.problems  # keep reading: one report covers every file
                 continue
@@ -190,8 +225,8 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     return manifest
 
 
-def _write_drive(f: DriveFile, data: DataParams, tmp: Path, write: bool) -> dict[str, Any]:
-    """Read one drive (and its sidecar); write its canonical Parquet unless ``write`` is False.
+def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
+    """Read one drive (and its sidecar); write its canonical Parquet.
 
     Returns:
         Its manifest entry (without ``calibrates``).
@@ -199,13 +234,26 @@ def _write_drive(f: DriveFile, data: DataParams, tmp: Path, write: bool) -> dict
     Raises:
         InputError: the file's problems, or running out of memory on it.
     """
-    drive = read_canonical(f, data, paths.rel)
+    data = params.data
+    stream = reader_kind(f.format, data) not in (IOVNBD, COLUMN_MAP)
+    if stream:  # the grid and the car's radius (linear wheel speeds, the glitch screen)
+        vp = params.validate
+        spec = data.vehicles.get(f.vehicle)
+        drive = read_canonical(
+            f,
+            data,
+            paths.rel,
+            radius_m=None if spec is None else spec.nominal_radius_m,
+            period_s=vp.sample_period_s,
+            split_gap_s=vp.gnss.max_gap_s,
+        )
+    else:
+        drive = read_canonical(f, data, paths.rel)
     raw = drive.raw
-    if write:  # else the stage will fail: don't spend time writing
-        try:
-            write_parquet(drive.table(), tmp / f"{f.drive}.parquet")
-        except MemoryError:
-            raise out_of_memory(f, paths.rel) from None
+    try:
+        write_parquet(drive.table(), tmp / f"{f.drive}.parquet")
+    except MemoryError:
+        raise out_of_memory(f, paths.rel) from None
     return {
         "drive": f.drive,
         "role": f.role,
@@ -216,6 +264,9 @@ def _write_drive(f: DriveFile, data: DataParams, tmp: Path, write: bool) -> dict
         "header_match": raw.header_match,
         "columns": raw.source_columns,
         "scenarios_file": None if drive.sidecar is None else paths.rel(drive.sidecar),
+        # only when there is something to say (a 10 Hz drive read as it is has neither)
+        **({"notes": list(raw.notes)} if raw.notes else {}),
+        **({"streams": drive.streams.to_dict()} if drive.streams is not None else {}),
     }
 
 

@@ -49,7 +49,14 @@ from rwhonet.features.seconds import (
     segment_arrays,
     segment_seconds,
 )
-from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
+from rwhonet.io import (
+    atomic_outputs,
+    map_in_order,
+    read_json,
+    system_memory_pool,
+    write_json,
+    write_parquet,
+)
 from rwhonet.progress import track
 
 TRAIN_ROLE = contracts.SOURCE_TRAIN
@@ -170,7 +177,10 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
     except KeyError:  # a segment without the optional scenario column
         file = pq.ParquetFile(path)
     present = set(file.schema_arrow.names)
-    return segment_arrays(file.read(columns=[col for col in SEGMENT_COLUMNS if col in present]))
+    # use_threads=False: segments are read a few at a time already (rwhonet.io.map_in_order),
+    # and Arrow's own pool on top only costs CPU.
+    columns = [col for col in SEGMENT_COLUMNS if col in present]
+    return segment_arrays(file.read(columns=columns, use_threads=False))
 
 
 def calibrate(
@@ -244,10 +254,21 @@ def _per_second_all(
 ) -> dict[str, SegmentSeconds]:
     seconds: dict[str, SegmentSeconds] = {}
     problems: list[Problem] = []
-    for entry in track(entries, desc="label", unit="segment", label=lambda e: e.segment):
+    entries = list(entries)
+
+    def per_second(entry: SegmentEntry) -> SegmentSeconds:
+        path = Path(segments_dir) / f"{entry.segment}.parquet"
+        return segment_seconds(read_segment(path), paths.rel(path))
+
+    # A few segments at once (rwhonet.io.map_in_order): reading and the per-second arrays
+    # run outside Python's lock.
+    done = map_in_order(per_second, entries)
+    for entry, sec_of in track(
+        done, desc="label", unit="segment", total=len(entries), label=lambda x: x[0].segment
+    ):
         path = Path(segments_dir) / f"{entry.segment}.parquet"
         try:
-            sec = segment_seconds(read_segment(path), paths.rel(path))
+            sec = sec_of.result()
         except InputError as err:  # report every bad segment at once
             problems += err.problems
             continue
@@ -339,8 +360,11 @@ def label(
         tmp_calibration,
         tmp_scaler,
     ):
-        for segment, table in tables.items():
-            write_parquet(table, tmp / f"{segment}.parquet")
+        written = map_in_order(
+            lambda kv: write_parquet(kv[1], tmp / f"{kv[0]}.parquet"), tables.items()
+        )
+        for _, done in written:
+            done.result()
         write_json(
             tmp / contracts.MANIFEST,
             {

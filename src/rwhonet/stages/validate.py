@@ -34,7 +34,14 @@ from rwhonet.data.plausibility import reversing_rows
 from rwhonet.data.quality import RULES, Assessment, segment_name
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_outputs, read_json, system_memory_pool, write_json, write_parquet
+from rwhonet.io import (
+    atomic_outputs,
+    map_in_order,
+    read_json,
+    system_memory_pool,
+    write_json,
+    write_parquet,
+)
 
 CONVENTION = (
     "t_start_s and t_end_s are whole seconds of the drive's own clock; a segment holds its "
@@ -135,41 +142,29 @@ def validate(
                 [entry["source_file"] for entry in batch.entries],
                 [entry["columns"] for entry in batch.entries],
             )
-            for k, (entry, table, found) in enumerate(
-                zip(batch.entries, batch.tables, found_by_drive, strict=True)
-            ):
+
+            def check(k: int, batch: _Batch = batch, found_by_drive=found_by_drive) -> tuple:
+                """Drive k of the batch: its checks, and its segments written (in a thread)."""
+                entry, table = batch.entries[k], batch.tables[k]
                 df = batch.drive_frame(k)
-                found, result, radius = check_drive(
-                    params, entry, df, found, cuts.get(entry["drive"], [])
+                found, result, radius, glitches = check_drive(
+                    params, entry, df, found_by_drive[k], cuts.get(entry["drive"], [])
                 )
                 if found:
-                    problems += found
-                    drive_reports.append(_refused_report(entry, result, found))
-                    continue
-                drive_reports.append(_drive_report(entry, result, radius))
+                    return found, _refused_report(entry, result, found, glitches), []
+                report = _drive_report(entry, result, radius, glitches)
                 # rows a signing logger recorded as reversing (the label takes magnitudes)
-                drive_reports[-1]["signed_reversing_rows"] = int(
+                report["signed_reversing_rows"] = int(
                     reversing_rows(df, vp.wheels.negative_tol_rad_s).sum()
                 )
-                if problems:
-                    continue  # the stage will fail: write no more segments
-                for j, seg in enumerate(result.segments):
-                    name = segment_name(entry["drive"], j)
-                    # A slice of the drive's Arrow table: its rows, untouched and uncopied.
-                    write_parquet(table.slice(seg.row_start, seg.n_rows), tmp / f"{name}.parquet")
-                    segment_entries.append(
-                        {
-                            "segment": name,
-                            "drive": entry["drive"],
-                            "role": entry["role"],
-                            "vehicle": entry["vehicle"],
-                            "t_start_s": seg.t_start_s,
-                            "t_end_s": seg.t_end_s,
-                            "n_rows": seg.n_rows,
-                            "n_seconds": seg.n_seconds,
-                            "source_file": entry["source_file"],
-                        }
-                    )
+                # Written whatever other drives found: a failed stage discards them all.
+                return [], report, _write_segments(entry, table, result, tmp)
+
+            for _, checked in map_in_order(check, range(len(batch.entries))):
+                found, report, segments = checked.result()
+                problems += found
+                drive_reports.append(report)
+                segment_entries += segments
         if problems:
             n_files = len({p.file for p in problems})
             summary = f"validate: {len(problems)} problem(s) in {n_files} file(s)"
@@ -211,6 +206,31 @@ def validate(
     return report
 
 
+def _write_segments(
+    entry: dict[str, Any], table: pa.Table, result: Assessment, folder: Path
+) -> list[dict[str, Any]]:
+    """Write a drive's segments (slices of its Arrow table); return their manifest entries."""
+    entries = []
+    for j, seg in enumerate(result.segments):
+        name = segment_name(entry["drive"], j)
+        # A slice of the drive's Arrow table: its rows, untouched and uncopied.
+        write_parquet(table.slice(seg.row_start, seg.n_rows), folder / f"{name}.parquet")
+        entries.append(
+            {
+                "segment": name,
+                "drive": entry["drive"],
+                "role": entry["role"],
+                "vehicle": entry["vehicle"],
+                "t_start_s": seg.t_start_s,
+                "t_end_s": seg.t_end_s,
+                "n_rows": seg.n_rows,
+                "n_seconds": seg.n_seconds,
+                "source_file": entry["source_file"],
+            }
+        )
+    return entries
+
+
 # Drives stacked for one pandera call hold at most this many rows. pandera has a fixed cost
 # per call whatever the rows, so drives are validated in batches rather than one by one;
 # bounding a batch bounds the memory held at once (benchmarks/bench_data.py).
@@ -239,28 +259,14 @@ class _Batch:
 
 
 def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch]:
-    """Read the drives in manifest order, grouped into batches of the same Arrow schema."""
+    """Read the drives in manifest order, grouped into batches of the same Arrow schema.
+
+    The next drives are read in threads (:func:`rwhonet.io.map_in_order`) while the
+    current batch is checked.
+    """
     pending: list[tuple[dict[str, Any], pa.Table]] = []
-    for entry in entries:
-        # ParquetFile.read: a third of the time of pq.read_table (which goes through the
-        # dataset scanner) for these single-file reads.
-        path = drives_dir / f"{entry['drive']}.parquet"
-        try:
-            table = pq.ParquetFile(path).read()
-        except (OSError, pa.ArrowException) as err:
-            raise InputError(
-                [
-                    Problem(
-                        paths.rel(path),
-                        None,
-                        None,
-                        "the canonical drive the ingest manifest lists",
-                        f"{type(err).__name__}: {str(err)[:160]}",
-                        "run the ingest stage again (dvc repro ingest)",
-                    )
-                ],
-                summary="the ingest output is incomplete",
-            ) from None
+    for entry, read in map_in_order(lambda e: _read_drive(e, drives_dir), entries):
+        table = read.result()
         rows = sum(t.num_rows for _, t in pending) + table.num_rows
         if pending and (not table.schema.equals(pending[0][1].schema) or rows > BATCH_ROWS):
             yield _Batch([e for e, _ in pending], [t for _, t in pending])
@@ -270,8 +276,36 @@ def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch
         yield _Batch([e for e, _ in pending], [t for _, t in pending])
 
 
+def _read_drive(entry: dict[str, Any], drives_dir: Path) -> pa.Table:
+    """One canonical drive the ingest manifest lists."""
+    # ParquetFile.read: a third of the time of pq.read_table (which goes through the
+    # dataset scanner) for these single-file reads.
+    path = drives_dir / f"{entry['drive']}.parquet"
+    try:
+        # use_threads=False: drives are read a few at a time already (map_in_order), and
+        # Arrow's own pool on top only costs CPU.
+        return pq.ParquetFile(path).read(use_threads=False)
+    except (OSError, pa.ArrowException) as err:
+        raise InputError(
+            [
+                Problem(
+                    paths.rel(path),
+                    None,
+                    None,
+                    "the canonical drive the ingest manifest lists",
+                    f"{type(err).__name__}: {str(err)[:160]}",
+                    "run the ingest stage again (dvc repro ingest)",
+                )
+            ],
+            summary="the ingest output is incomplete",
+        ) from None
+
+
 def _refused_report(
-    entry: dict[str, Any], result: Assessment | None, found: list[Problem]
+    entry: dict[str, Any],
+    result: Assessment | None,
+    found: list[Problem],
+    glitches: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """A refused drive in the failed run's report: its problems and, if assessed, its cuts."""
     report: dict[str, Any] = {
@@ -292,11 +326,18 @@ def _refused_report(
             ],
             "cut_seconds_by_rule": result.cut_seconds_by_rule,
         }
+    if glitches is not None:
+        report["wheel_glitches"] = glitches
     return report
 
 
-def _drive_report(entry: dict[str, Any], result: Assessment, radius: dict[str, Any]) -> dict:
-    return {
+def _drive_report(
+    entry: dict[str, Any],
+    result: Assessment,
+    radius: dict[str, Any],
+    glitches: dict[str, Any] | None = None,
+) -> dict:
+    report = {
         "drive": entry["drive"],
         "role": entry["role"],
         "vehicle": entry["vehicle"],
@@ -329,6 +370,9 @@ def _drive_report(entry: dict[str, Any], result: Assessment, radius: dict[str, A
         "cut_rows_by_rule": result.cut_rows_by_rule,
         "radius": radius,
     }
+    if glitches is not None:  # only when a row glitched (its seconds: the wheel_glitch cuts)
+        report["wheel_glitches"] = glitches
+    return report
 
 
 def _totals(drives: list[dict[str, Any]], n_segments: int) -> dict[str, Any]:

@@ -1,0 +1,175 @@
+"""No command ends in a traceback: every command that takes a drive, on every bad input.
+
+``rwhonet recalibrate`` and ``rwhonet predict`` (``export`` takes no drive) run, in
+this process through :func:`rwhonet.cli.main.main`, on every case of the 10 Hz
+bad-input corpus (:mod:`support.corpus`, with the case's params as the project's
+params.yaml), of the stream readers' corpus (:mod:`support.stream_corpus`, with
+``--format`` and ``--signal-map`` / ``--nominal-radius`` as a user gives them), and
+on a good drive moved to places across the Earth. Each must end with exit status
+0, or 2 with the report (what was expected, what was found) on stderr; any other
+exception fails the test (``main`` lets it through, where a user would see its
+traceback). A refused ``predict`` leaves no output file behind.
+
+Slow (about a minute of CPU: 93 drives, two commands each); ``make test-fast`` skips it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from rwhonet import paths
+from rwhonet.cli.main import main
+from rwhonet.config import ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.geo import latlon_from_offsets_deg, offsets_m
+from rwhonet.sim.streams import SIGNAL_MAP
+from support.corpus import CASES, FILE, good_target, target_path, write_good_fleet
+from support.drives import make_params, write_iovnbd, write_params_yaml
+from support.serving import base_bundle
+from support.stream_corpus import CASES as STREAM_CASES
+from support.stream_corpus import RADIUS_M, folder_of
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def bundle(tmp_path_factory):
+    return base_bundle(tmp_path_factory.mktemp("bundle"))
+
+
+@pytest.fixture(autouse=True)
+def own_store(tmp_path, monkeypatch):
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path}/mlruns/mlflow.db")
+
+
+def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capsys) -> dict[str, int]:
+    """predict and recalibrate on one drive; check each ends well; return their statuses."""
+    out = tmp_path / "out.csv"
+    commands = {
+        "predict": [
+            "predict",
+            "--model",
+            str(bundle["model_onnx"]),
+            "--drive",
+            str(drive),
+            "--output",
+            str(out),
+            "--quiet",
+        ],
+        "recalibrate": [
+            "recalibrate",
+            "--base",
+            str(bundle["model_onnx"].parent),
+            "--drive",
+            str(drive),
+            "--seconds",
+            "20",
+            "--recipe",
+            "radius+G",
+        ],
+    }
+    codes = {}
+    for name, argv in commands.items():
+        capsys.readouterr()
+        code = main(argv + extra)
+        said = capsys.readouterr()
+        assert code in (0, 2), f"{name}: exit {code}\n{said.err}"
+        if code == 2:
+            assert f"rwhonet {name}: error:" in said.err and "expected" in said.err, said.err
+        elif name == "recalibrate":
+            assert "registered whonet-R-target version" in said.out
+        if name == "predict":
+            assert out.exists() == (code == 0), said.err  # refused: nothing half-written
+            assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
+            out.unlink(missing_ok=True)
+        codes[name] = code
+    return codes
+
+
+def _format_of(case) -> str:
+    """The target test drive's format under the case's params (iovnbd when they fail)."""
+    try:
+        params = make_params(Path("raw"), **case.overrides)
+    except ConfigError:
+        return "iovnbd"
+    return params.data.roles["target_test"].format
+
+
+@pytest.mark.parametrize("case", CASES, ids=[x.name for x in CASES])
+def test_every_corpus_case_ends_in_a_report_or_success(case, bundle, tmp_path, monkeypatch, capsys):
+    raw = tmp_path / "raw"
+    write_good_fleet(raw)
+    case.write(raw)
+    overrides = {"data.source": "files", "data.root": str(raw), **case.overrides}
+    monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
+    codes = run_both(bundle, target_path(raw), ["--format", _format_of(case)], tmp_path, capsys)
+    stage = getattr(case.expect, "stage", None)
+    if stage == "params" or (stage == "ingest" and case.expect.file == FILE):
+        assert codes["recalibrate"] == 2  # refused by the same checks as the stages'
+
+
+def _map_file(tmp_path: Path, with_time: bool) -> Path:
+    signals = {
+        k: {"column": col, "unit": unit}
+        for k, (col, unit) in SIGNAL_MAP.items()
+        if with_time or k != "t"
+    }
+    path = tmp_path / "map.yaml"
+    path.write_text(yaml.safe_dump(signals))
+    return path
+
+
+@pytest.mark.parametrize("case", STREAM_CASES, ids=[x.name for x in STREAM_CASES])
+def test_every_stream_corpus_case_is_refused_with_a_report(case, bundle, tmp_path, capsys):
+    root = tmp_path / "drive"
+    root.mkdir()
+    case.write(root)
+    if case.fmt == "comma2k19":
+        extra = ["--format", "comma2k19", "--nominal-radius", str(RADIUS_M)]
+    else:
+        fmt = "mdf4" if case.fmt == "mdf4" else "stream_csv"
+        extra = ["--format", fmt, "--signal-map", str(_map_file(tmp_path, fmt == "stream_csv"))]
+        extra += ["--nominal-radius", str(RADIUS_M)]
+    codes = run_both(bundle, folder_of(case.fmt, root), extra, tmp_path, capsys)
+    assert codes == {"predict": 2, "recalibrate": 2}
+
+
+PLACES = {
+    "San Francisco": (37.72, -122.47),
+    "Sydney": (-33.87, 151.21),
+    "Greenwich": (51.4779, -0.0005),
+    "antimeridian": (-16.8, 179.9995),
+    "near the North Pole": (89.9, 10.0),
+    "near the South Pole": (-89.9, -70.0),
+}
+
+
+@pytest.mark.parametrize("place", PLACES)
+def test_a_relocated_drive_goes_through_both_commands(place, bundle, tmp_path, capsys):
+    drive = good_target()
+    lat, lon = drive[c.LAT_DEG].to_numpy(), drive[c.LON_DEG].to_numpy()
+    east, north = offsets_m(lat[0], lon[0], lat, lon)
+    new_lat, new_lon = latlon_from_offsets_deg(*PLACES[place], east, north)
+    moved = drive.assign(**{c.LAT_DEG: new_lat, c.LON_DEG: new_lon})
+    assert np.ptp(moved[c.LON_DEG]) < 1.0 or place == "antimeridian" or "Pole" in place
+    path = write_iovnbd(moved, tmp_path / "V-Moved.csv")
+    codes = run_both(bundle, path, ["--nominal-radius", "0.294"], tmp_path, capsys)
+    assert codes == {"predict": 0, "recalibrate": 0}
+
+
+@pytest.mark.parametrize("fmt", ["comma2k19", "mdf4", "stream_csv"])
+def test_a_good_drive_in_every_stream_format_goes_through_both_commands(
+    fmt, bundle, tmp_path, capsys
+):
+    from support.stream_fleet import role_drive, tables_from_drive, write_drive
+
+    radius = 0.294
+    drive = write_drive(fmt, tables_from_drive(role_drive("target_test")), tmp_path, "C-B1", radius)
+    extra = ["--format", fmt, "--nominal-radius", str(radius)]
+    if fmt != "comma2k19":
+        extra += ["--signal-map", str(_map_file(tmp_path, fmt == "stream_csv"))]
+    assert run_both(bundle, drive, extra, tmp_path, capsys) == {"predict": 0, "recalibrate": 0}

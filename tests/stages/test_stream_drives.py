@@ -1,0 +1,150 @@
+"""Stream drives through the data stages: ingest reads every format, validate and label as ever.
+
+Every role's drive is written as a logger would (CAN wheel speeds at 100 Hz with
+jittered stamps, fixes at 10 Hz off the whole tenths) in one of the stream
+formats: a comma2k19 folder, an MDF4 file through a signal map, a folder of
+stream CSVs through a signal map. Ingest resamples each onto the grid and
+records what it found; validate and label then run on it as on a 10 Hz file,
+and give the 10 Hz drive's labels within ``LABEL_TOL_M``.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.config import ConfigError
+from rwhonet.errors import InputError
+from rwhonet.stages.ingest import ingest
+from rwhonet.stages.label import label
+from rwhonet.stages.validate import validate
+from support.drives import make_params, write_iovnbd
+from support.stream_fleet import (
+    FORMATS,
+    ROLE_DRIVES,
+    role_drive,
+    stream_params,
+    tables_from_drive,
+    write_drive,
+    write_stream_fleet,
+)
+
+# Per second, against the same drive as a native 10 Hz file: the resampling's own cost on a
+# straight drive at constant speed (docs/readers.md measures it on curves and brakes).
+LABEL_TOL_M = 2e-3
+
+
+def _stages(params, work):
+    manifest = ingest(params, work / "drives")
+    report = validate(params, work / "drives", work / "segments", work / "validation.json")
+    label(
+        params,
+        work / "segments",
+        work / "samples",
+        work / "calibration.json",
+        work / "scaler.json",
+    )
+    samples = pd.concat(
+        [pd.read_parquet(p) for p in sorted((work / "samples").glob("*.parquet"))],
+        ignore_index=True,
+    )
+    return manifest, report, samples
+
+
+@pytest.fixture(scope="module")
+def native(tmp_path_factory):
+    """The same drives as 10 Hz IO-VNBD files."""
+    root = tmp_path_factory.mktemp("native")
+    for role, (drive, *_) in ROLE_DRIVES.items():
+        write_iovnbd(role_drive(role), root / "raw" / role / f"{drive}.csv")
+    return _stages(make_params(root / "raw"), root)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_every_stream_format_goes_through_ingest_validate_and_label(fmt, native, tmp_path):
+    write_stream_fleet(tmp_path / "raw", fmt)
+    manifest, report, samples = _stages(stream_params(tmp_path / "raw", fmt), tmp_path)
+    by_drive = {d["drive"]: d for d in manifest["drives"]}
+    assert set(by_drive) == {"V-S1", "C-A1", "C-B1"}
+    b1 = by_drive["C-B1"]
+    assert b1["header_match"] == "streams"
+    streams = b1["streams"]
+    assert streams["n_input_rows"] == sum(s["rows"] for s in streams["streams"])
+    assert streams["glitch_rows"] == [] and streams["n_glitch_samples"] == 0
+    assert {round(1 / s["median_step_s"]) for s in streams["streams"]} == {100, 10}
+    assert report["totals"]["segments"] == 3
+    _, native_report, native_samples = native
+    # Fixes at a 30 ms phase: the grid starts and ends inside the 10 Hz drive's span, so
+    # the stream drive keeps its seconds but its first (a start fix) and last.
+    assert report["totals"]["seconds_kept"] >= native_report["totals"]["seconds_kept"] - 6
+    if fmt == "mdf4":  # an MDF4 file's clock starts at its measurement (the drive's 45000 s)
+        samples = samples.assign(t_s=samples["t_s"] + 45000.0)
+    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
+    assert len(merged) >= len(samples) - 3 and len(merged) > 400
+    for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(
+            merged[f"{col}_streams"], merged[f"{col}_native"], rtol=0, atol=LABEL_TOL_M
+        )
+
+
+def test_a_stream_glitch_is_cut_and_reported_with_its_stream_row(tmp_path):
+    """One CAN sample at ten times its wheel's speed: that second is cut, named by its row."""
+    root = tmp_path / "raw"
+    write_stream_fleet(root, "stream_csv")
+    drive = role_drive("target_test")
+    tables = tables_from_drive(drive)
+    wheels = tables.wheels.copy()
+    k = int(np.searchsorted(wheels["t_s"].to_numpy(), 45060.53))
+    wheels.loc[k, "omega_rl_rad_s"] *= 10.0
+    write_drive("stream_csv", type(tables)(wheels, tables.gnss), root / "target_test", "C-B1", 0)
+    params = stream_params(root, "stream_csv")
+    ingest(params, tmp_path / "drives")
+    report = validate(params, tmp_path / "drives", tmp_path / "seg", tmp_path / "v.json")
+    b1 = next(d for d in report["drives"] if d["drive"] == "C-B1")
+    cuts = [(x["start_s"], x["end_s"], x["rule"]) for x in b1["cuts"]]
+    assert (45060.0, 45061.0, "wheel_glitch") in cuts
+    listed = b1["wheel_glitches"]["listed"]
+    assert listed[0]["row"] == k + 1  # the 1-based sample (data row) of wheels.csv
+    assert "target_test/C-B1/wheels.csv" in listed[0]["stream"]
+    assert listed[0]["channel"] == "WheelSpeed_RL"
+    assert json.loads((tmp_path / "v.json").read_text())["drives"] == report["drives"]
+
+
+def test_a_folder_format_finds_folders_and_refuses_a_file(tmp_path):
+    root = tmp_path / "raw"
+    paths_ = write_stream_fleet(root, "comma2k19", duration_s=40.0)
+    (paths_["target_test"].parent / "notes.txt").write_text("not a drive")  # a file: ignored
+    manifest = ingest(stream_params(root, "comma2k19"), tmp_path / "drives")
+    assert [d["drive"] for d in manifest["drives"]] == ["V-S1", "C-A1", "C-B1"]
+    assert manifest["drives"][0]["source_file"].endswith("source_train/V-S1")
+
+
+def test_a_signal_map_that_does_not_fit_its_reader_is_refused(tmp_path):
+    root = tmp_path / "raw"
+    write_stream_fleet(root, "stream_csv", duration_s=40.0)
+    params = stream_params(root, "stream_csv")
+    bad = {
+        "reader": "stream_csv",
+        "signals": {k: v for k, v in params.data.signal_maps["logger_csv"].signals.items()},
+    }
+    bad["signals"] = {k: {"column": v.column, "unit": v.unit} for k, v in bad["signals"].items()}
+    del bad["signals"]["t"]
+    with pytest.raises(ConfigError, match="data.signal_maps.logger_csv.signals.t: missing"):
+        ingest(
+            stream_params(root, "stream_csv", **{"data.signal_maps": {"logger_csv": bad}}),
+            tmp_path / "drives",
+        )
+
+
+def test_a_linear_wheel_speed_needs_the_vehicle_radius_and_a_bad_folder_says_where(tmp_path):
+    root = tmp_path / "raw"
+    paths_ = write_stream_fleet(root, "comma2k19", duration_s=40.0)
+    (paths_["target_test"] / "processed_log" / "CAN" / "wheel_speed" / "value").write_bytes(b"x")
+    with pytest.raises(InputError) as err:
+        ingest(stream_params(root, "comma2k19"), tmp_path / "drives")
+    (p,) = err.value.problems
+    assert p.file.endswith("target_test/C-B1/CAN/wheel_speed/value")
+    assert "NumPy array" in p.expected and p.fix
