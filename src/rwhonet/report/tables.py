@@ -16,7 +16,7 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
-from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
+from rwhonet.contracts import CONTINUOUS, CONTINUOUS_RECIPES, alt_wpm, recipe_model
 from rwhonet.evaluation.result import Evaluation
 
 STATS = (("max", "Max"), ("min", "Min"), ("mean", "μ"), ("std", "σ"))
@@ -181,7 +181,7 @@ def recipes_table(ev: Evaluation, params: Params) -> str:
     models = [
         (r, m, recipe_model(r, m))
         for r in params.adapt.recipes
-        for m in ([None] if r == "continuous" else params.adapt.m_grid)
+        for m in ([None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid)
     ]
     models += [("WPM-m (no network)", m, f"WPM-m@{m}") for m in params.adapt.m_grid]
     for recipe, m, model in models:
@@ -403,7 +403,7 @@ def limits_table(ev: Evaluation, params: Params) -> str | None:
         & (ev.summary["drive"] == "all")
         & (ev.summary["outage_s"] == L)
     ].set_index("model")["crse_mean"]
-    recipes = [r for r in params.adapt.recipes if r != CONTINUOUS]
+    recipes = [r for r in params.adapt.recipes if r not in CONTINUOUS_RECIPES]
     lines = [
         "| m | radius from the first m s (WPM-m) | from any m s | sd of that radius | "
         "from the whole drive (in-sample) | best recipe at m |",
@@ -447,7 +447,7 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
         entries = [(n, None, n) for n in ref] + [
             (r, m, recipe_model(r, m))
             for r in params.adapt.recipes
-            for m in ([None] if r == "continuous" else params.adapt.m_grid)
+            for m in ([None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid)
         ]
 
         def cell(model: str, L: float) -> tuple[float, float]:
@@ -494,7 +494,7 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
     got = rec.get("recommended")
 
     def choice(recipe: str, m: int | None) -> str:
-        return f"**{recipe}**" + ("" if recipe == CONTINUOUS else f" at m = {m} s")
+        return f"**{recipe}**" + ("" if recipe in CONTINUOUS_RECIPES else f" at m = {m} s")
 
     ridge = rec.get("ridge", {}).get("recommended_penalty")
     chosen = rec.get("chosen", {})

@@ -479,6 +479,8 @@ def register_execution(
             tags["drive"] = model_file.stem
             tags["base_model"] = registered_name("G")
         name = registered_name(model, rec.tags.get("vehicle"))
+        # the shrink recipe's evidence, measured on this seed's G by its adapt stage
+        evidence = paths.model_dir("r", rec.tags.get("seed", "")) / k.SHRINK_EVIDENCE
         meta = make_meta(
             {},
             scaler,
@@ -486,6 +488,7 @@ def register_execution(
             str(rec.params.get("label.wpm_mode", "integrated")),
             None,
             {"name": name, **{key: v for key, v in tags.items() if key != "seed_note"}},
+            read_json(evidence) if "seed" in rec.tags and evidence.is_file() else None,
         )
         with tempfile.TemporaryDirectory(prefix="rwhonet-bundle-") as tmp:
             bundle = write_bundle(model_file, meta, Path(tmp))
