@@ -16,7 +16,14 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
-from rwhonet.contracts import CONTINUOUS, CONTINUOUS_RECIPES, alt_wpm, recipe_model
+from rwhonet.contracts import (
+    CONTINUOUS,
+    CONTINUOUS_RECIPES,
+    CONTINUOUS_SHRINK,
+    SHRINK,
+    alt_wpm,
+    recipe_model,
+)
 from rwhonet.evaluation.result import Evaluation
 
 STATS = (("max", "Max"), ("min", "Min"), ("mean", "μ"), ("std", "σ"))
@@ -425,6 +432,13 @@ def limits_table(ev: Evaluation, params: Params) -> str | None:
         if cont is not None
         else ""
     )
+    cont_shrink = rows.get(recipe_model(CONTINUOUS_SHRINK, None))
+    if cont_shrink is not None:
+        tail += (
+            f"\n\ncontinuous_shrink (the shrink recipe's radius, then the head, re-fitted "
+            f"before every window, each moving as far as the seconds so far support): "
+            f"{_fmt(cont_shrink)} m."
+        )
     return "\n".join(lines) + tail
 
 
@@ -537,7 +551,15 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         "WPM). WPM-m@m: the WPM with its rear radii refitted on each drive's first m s; "
         "R[radius+G]@m: G on top of a WPM whose rear radii are refitted on the same m s to "
         "what G leaves (the G+radius control); R[continuous]: recalibrated "
-        "before every window on the drive's seconds before it.",
+        "before every window on the drive's seconds before it."
+        + (
+            " R[shrink]@m: R[radius+G]@m's radii moved from the source calibration only as far "
+            "as the m s can tell (w = τ² / (τ² + V(m) / D²), measured on the target car's "
+            "training drives: models/r/seed<seed>/evidence.json); R[continuous_shrink]: that "
+            "radius, then G's head, refitted before every window."
+            if SHRINK in params.adapt.recipes
+            else ""
+        ),
         "",
         "## Mean CRSE (m) over all windows of the target test drives",
         "",
