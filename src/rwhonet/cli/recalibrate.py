@@ -400,10 +400,11 @@ def _features_frame(samples: Any) -> Any:
 def render(out: dict[str, Any]) -> str:
     """What ``rwhonet recalibrate`` prints."""
     c = out["choice"]
+    moved = "shrunk to" if c.recipe == contracts.SHRINK else "refitted to"
     radii = (
         ""
         if out["radii"] is None
-        else f"; rear radii refitted to {out['radii'][0]:.5f} / {out['radii'][1]:.5f} m"
+        else f"; rear radii {moved} {out['radii'][0]:.5f} / {out['radii'][1]:.5f} m"
     )
     lines = [
         f"{out['file']}: {out['kept']}",
