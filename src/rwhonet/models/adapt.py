@@ -452,7 +452,9 @@ def radius_g(
 # The refit on the first k seconds (radius+G's estimator) gives δ̂ = δ + E/D, D the
 # GNSS distance it rests on and E what it gets wrong over that distance. With a prior
 # δ ~ N(0, τ²) centred on G and E ~ N(0, V(k)), the posterior mean of δ is w·δ̂, with
-#     w = τ² / (τ² + V(k) / D²),                      posterior sd  √(w · V(k) / D²).
+#     w = τ² / (τ² + V(k) / D²),                      posterior sd  √(w · V(k) / D²)
+# (the normal-normal model with known variances: Gelman et al., Bayesian Data Analysis,
+# 3rd ed., §2.5; τ and V estimated from other drives, an empirical Bayes estimate).
 # V(k) and τ are measured where the answer is known (:func:`evidence_terms`): on
 # whole drives of a car, the first k seconds' refit against the refit on the rest
 # of the same drive. So V(k) holds the receiver's correlated error, what a drive's
