@@ -46,17 +46,21 @@ def test_full_pipeline_then_noop(repo):
     ev = json.loads((repo / "metrics/eval.json").read_text())
     recipes = {
         f"R[{r}]@{m}"
-        for r in ("paper", "head", "ridge_head", "radius+G", "steps")
+        for r in ("paper", "head", "ridge_head", "radius+G", "steps", "shrink")
         for m in (10, 20)
     }
     assert set(ev["overall"]) >= {"WPM", "G", "S", "R", "R@10", "R@20", "WPM-m@10", "R[continuous]"}
+    assert "R[continuous_shrink]" in ev["overall"]
     assert set(ev["overall"]) >= recipes
     # the ci profile's target training drives are too short for a 180 s window after 20 s:
-    # the rule has no candidate and auto falls back to adapt.fallback
+    # the rule has no candidate and auto falls back to adapt.fallback (shrink)
     assert ev["selection"]["params"]["recipe"] == "auto" and "no_recommendation" in ev["selection"]
     assert ev["selection"]["chosen_by"] == "fallback"
-    assert (ev["recipe"], ev["chosen_m"]) == ("radius+G", 20)
-    assert ev["overall"]["R"] == ev["overall"]["R[radius+G]@20"] == ev["overall"]["R@20"]
+    assert (ev["recipe"], ev["chosen_m"]) == ("shrink", 20)
+    assert ev["overall"]["R"] == ev["overall"]["R[shrink]@20"] == ev["overall"]["R@20"]
+    # shrink's evidence: the target car's training drives, measured on each seed's G
+    evidence = json.loads((repo / "models/r/seed1/evidence.json").read_text())
+    assert evidence["target"]["role"] == "target_train" and evidence["source"]["role"] == "source"
     assert set(ev["overall"]["WPM"]) == {"30s", "180s"} and ev["n_seeds"] == 2
     assert ev["overall"]["G"]["30s"]["crse_ci95"] is not None
     assert set(ev["domain_gap"]["G"]) == {"target_test", "source_test"}
@@ -90,7 +94,8 @@ def test_full_pipeline_then_noop(repo):
     runs = execution_runs(repo)
     stage = {r.info.run_id: r.data.tags.get("dvc_stage", "") for r in runs}
     model_runs = [r for r in runs if stage[r.info.run_id].startswith(("train_", "adapt@"))]
-    assert len(model_runs) == 2 * (2 + 5 * 2 + 1)  # G, S, 5 recipes x 2 m, continuous per seed
+    # G, S, 6 recipes x 2 m and the 2 continuous recipes, per seed
+    assert len(model_runs) == 2 * (2 + 6 * 2 + 2)
     assert {r.data.tags["rwhonet.timing"] for r in model_runs} == {"measured"}
     fit_s = float(re.search(r"G-WhONet seed 1: .* epochs in ([0-9.]+) s", out.stdout).group(1))
     [g1] = [r for r in model_runs if r.info.run_name == "G-WhONet seed 1"]

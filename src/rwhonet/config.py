@@ -675,11 +675,23 @@ class StepsParams:
 class ContinuousParams:
     """The ``continuous`` recipe: recalibrate before every outage window."""
 
-    inner: Literal["ridge_head", "radius+G"]  # the recipe run before each window
+    inner: Literal["ridge_head", "radius+G", "shrink+ridge_head"]  # run before each window
     window_s: int  # GNSS-valid seconds before the window it fits on; 0: all of the drive so far
 
 
-Recipe = Literal["paper", "head", "ridge_head", "radius+G", "steps", "continuous"]
+@dataclass(frozen=True)
+class ShrinkParams:
+    """The ``shrink`` recipes' evidence (rwhonet.models.adapt.ShrinkEvidence)."""
+
+    # τ's part for a car no evidence drive is of (the source car's drives only):
+    # the spread of relative rear radius between cars on tyres of one nominal size
+    unknown_car_sd: float
+    min_rest_s: int  # an evidence drive counts at k while this many seconds follow k
+
+
+Recipe = Literal[
+    "paper", "head", "ridge_head", "radius+G", "steps", "continuous", "shrink", "continuous_shrink"
+]
 AUTO = "auto"  # adapt.recipe / adapt.chosen_m: the selection rule picks (evaluation.selection)
 
 
@@ -704,6 +716,7 @@ class AdaptParams:
     ridge_penalty_grid: list[float]  # candidates scored on held-out source drives only
     steps: StepsParams
     continuous: ContinuousParams
+    shrink: ShrinkParams
     fallback: FallbackParams
 
     @property
@@ -736,6 +749,11 @@ class AdaptParams:
         if self.continuous.window_s < 0:
             raise ConfigError(
                 f"adapt.continuous.window_s must be >= 0, got {self.continuous.window_s}"
+            )
+        if self.shrink.unknown_car_sd < 0 or self.shrink.min_rest_s < 1:
+            raise ConfigError(
+                "adapt.shrink: unknown_car_sd must be >= 0 and min_rest_s >= 1, got "
+                f"{self.shrink.unknown_car_sd}, {self.shrink.min_rest_s}"
             )
 
 

@@ -65,12 +65,16 @@ SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
 # --------------------------------------------------------------------------- model names
 
 CONTINUOUS = "continuous"  # the recipe that recalibrates before every outage window (no m)
+# continuous with the shrink recipe's radius and a ridge head on top (models.adapt)
+CONTINUOUS_SHRINK = "continuous_shrink"
+CONTINUOUS_RECIPES = (CONTINUOUS, CONTINUOUS_SHRINK)  # no m: they refit before every window
+SHRINK = "shrink"  # radius+G's refit shrunk towards G by its evidence (models.adapt.shrink)
 PAPER = "paper"  # the paper's recipe (§3.3.3): every weight, G's optimiser, adapt.epochs passes
 
 
 def recipe_model(recipe: str, m: int | None) -> str:
     """The name a recipe's R-WhONet at m has in the evaluation (``R[continuous]`` has no m)."""
-    return f"R[{recipe}]" if recipe == CONTINUOUS or m is None else f"R[{recipe}]@{m}"
+    return f"R[{recipe}]" if recipe in CONTINUOUS_RECIPES or m is None else f"R[{recipe}]@{m}"
 
 
 def alt_wpm(wpm_mode: str) -> tuple[str, str]:
@@ -86,3 +90,6 @@ MANIFEST = "manifest.json"  # every data stage's folder lists its contents here
 MODEL_FILE = "model.pt"  # a WhONet: weights + hyperparameters (rwhonet.models.checkpoint)
 PREDICTIONS = "predictions.parquet"  # per test second: drive, segment, t_s, pred_m
 RUN_RECORD = "run.json"  # what evaluate logs to MLflow for this model
+# the shrink recipes' evidence, per seed, in models/r/seed<seed>/ (the adapt stage); model
+# bundles carry it for `rwhonet recalibrate` (serve.model.ServedMeta.evidence)
+SHRINK_EVIDENCE = "evidence.json"

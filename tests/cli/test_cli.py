@@ -102,6 +102,69 @@ def test_recalibrate_refuses_a_drive_too_short_and_a_file_that_is_not_there(
     assert "expected an exported .onnx file, or a model folder" in capsys.readouterr().err
 
 
+def test_the_default_recipe_needs_the_evidence_the_base_model_carries(bundle, drive, capsys):
+    base = str(bundle["model_onnx"].parent)  # a bundle registered without evidence
+    assert main(["recalibrate", "--base", base, "--drive", str(drive), "--seconds", "30"]) == 2
+    err = capsys.readouterr().err
+    assert "the base model carries no evidence to size the shrink recipe by" in err
+    assert "choose another recipe with --recipe" in err
+
+
+def test_the_evidence_is_the_target_car_s_unless_asked_and_the_printout_says_how_sure():
+    from rwhonet.cli.recalibrate import Choice, render, shrink_evidence_of
+    from rwhonet.errors import InputError
+    from rwhonet.models.adapt import ShrinkEvidence
+
+    def ev(role, n):
+        return ShrinkEvidence(
+            role, tuple(f"D{i}" for i in range(n)), 0.004, (1, 9), (0.1, 1.0), (n, n)
+        )
+
+    carried = {"target": ev("target_train", 3).to_dict(), "source": ev("source", 5).to_dict()}
+    assert shrink_evidence_of(carried, None, "m").role == "target_train"
+    assert shrink_evidence_of(carried, "source", "m").role == "source"
+    assert shrink_evidence_of({**carried, "target": None}, None, "m").role == "source"
+    with pytest.raises(InputError, match="carries no evidence"):
+        shrink_evidence_of({"target": None, "source": None}, None, "m")
+    with pytest.raises(InputError, match="carries no evidence"):
+        shrink_evidence_of({"source": carried["source"]}, "target", "m")
+    sure = {
+        "radius_m": 0.29312,
+        "low_m": 0.29201,
+        "high_m": 0.29423,
+        "kept": 0.62,
+        "fit_sd": 0.0052,
+        "prior_sd": 0.004,
+        "role": "target_train",
+        "n_drives": 3,
+    }
+    out = {
+        "file": "d.csv",
+        "kept": "300 valid s",
+        "choice": Choice("shrink", 30, "adapt.fallback (adapt.recipe: auto)"),
+        "base": "whonet-G v1",
+        "n_adapt": 30,
+        "seed": 42,
+        "fit_s": 0.01,
+        "radii": (0.2932, 0.2930),
+        "certainty": sure,
+        "name": "whonet-R-target",
+        "version": "2",
+        "run_id": "abc",
+        "n_scored": 270,
+        "scores": [],
+        "seconds": 1.0,
+    }
+    text = render(out)
+    assert (
+        "mean rear radius 0.29312 m (95 % interval 0.29201-0.29423 m); the 30 s alone fix it "
+        "to ±0.52 % (1 sd), the prior to ±0.40 %, so 62 % of the refit is kept and 38 % shrunk "
+        "towards the base model (evidence: 3 drives, target_train)" in text
+    )
+    assert "no second" not in text
+    assert "the base model kept" in render({**out, "certainty": None})
+
+
 def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
     check = (
         "import sys; from rwhonet.cli.main import main; rc = main(sys.argv[1:]); "

@@ -13,6 +13,7 @@ import pytest
 
 from rwhonet import contracts as k
 from rwhonet import paths
+from rwhonet.models.adapt import ShrinkEvidence
 from rwhonet.tracking.registry import log_bundle, resolve_model, sha256_file
 from rwhonet.tracking.store import open_store
 from support.serving import base_bundle, ci_fleet
@@ -31,9 +32,13 @@ def world(tmp_path_factory):
     rid = client.create_run(exp, run_name="G").info.run_id
     frame = pd.DataFrame(np.full((3, 40), 0.5, np.float32), columns=list(k.FEATURE_COLUMNS))
     frame[k.ANGLE_RL_RAD] = frame[k.ANGLE_RR_RAD] = 30.0
-    bundle = base_bundle(root / "g")
+    # the shrink recipe's evidence, as a pipeline run registers it (V(k) = 0.01 m² per second)
+    evidence = ShrinkEvidence(
+        "target_train", ("T1", "T2"), 0.01, (1, 100), (0.01, 1.0), (2, 2)
+    ).to_dict()
+    bundle = base_bundle(root / "g", evidence={"target": evidence, "source": None})
     assert log_bundle(client, rid, "whonet-G", bundle, frame, {"model": "G"}) == "1"
-    return {"fleet": fleet, "uri": uri, "root": root, "client": client}
+    return {"fleet": fleet, "uri": uri, "root": root, "client": client, "evidence": evidence}
 
 
 def rwhonet(world, *args, stdin=None):
@@ -121,17 +126,21 @@ def test_recalibrate_then_predict_then_export(world, tmp_path):
         streamed["disp_wpm_m"].to_numpy()[i], ref.frame[k.DISP_WPM_M].to_numpy()[j], atol=6e-5
     )
 
-    # a second recalibration is the next version; export writes the model as one file
-    rwhonet(
+    # a second recalibration (the default recipe, shrink: it says how sure it is) is the next
+    # version; export writes the model as one file
+    said = rwhonet(
         world,
         "recalibrate",
         "--drive",
         str(world["fleet"] / "target_test" / "V-Delta2.csv"),
         "--seconds",
         "30",
-    )
+    ).stdout.decode()
+    assert "by `shrink` (adapt.fallback (adapt.recipe: auto))" in said
+    assert "(95 % interval " in said and "% of the refit is kept" in said
+    assert "(evidence: 2 drives, target_train)" in said
     second = world["client"].get_model_version("whonet-R-target", "2")
-    assert second.tags["recipe"] == "radius+G" and second.tags["m"] == "30"
+    assert second.tags["recipe"] == "shrink" and second.tags["m"] == "30"
     onnx = tmp_path / "r2.onnx"
     rwhonet(
         world,
@@ -143,4 +152,6 @@ def test_recalibrate_then_predict_then_export(world, tmp_path):
         "--output",
         str(onnx),
     )
-    assert load_served(onnx).meta.wpm_radii is not None  # radius+G carries its radii
+    served = load_served(onnx).meta
+    assert served.wpm_radii is not None  # shrink carries its radii...
+    assert served.evidence["target"] == world["evidence"]  # ... and the evidence, to go on

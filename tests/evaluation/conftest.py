@@ -15,6 +15,7 @@ OVERRIDES = {
     "evaluate.outages_s": [30, 60],
     "adapt.recipe": "paper",
     "adapt.recipes": ["paper", "radius+G", "continuous"],
+    "adapt.fallback.recipe": "radius+G",  # shrink is not among these recipes
 }
 
 

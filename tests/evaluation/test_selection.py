@@ -90,10 +90,12 @@ def test_auto_takes_the_rules_choice_else_the_fallback_and_params_keep_auto():
     assert (c.recipe, c.m, c.chosen_by, c.model) == ("head", 10, "rule", "R[head]@10")
     c = choose(auto, {"recommended": {"recipe": "continuous", "m": None}})
     assert (c.recipe, c.m, c.model) == ("continuous", 20, "R[continuous]")  # m: max(m_grid)
+    c = choose(auto, {"recommended": {"recipe": "continuous_shrink", "m": None}})
+    assert (c.recipe, c.m, c.model) == ("continuous_shrink", 20, "R[continuous_shrink]")
     evidence = {"no_recommendation": "every recipe is worse than G somewhere"}
     c = choose(auto, evidence)
-    assert (c.recipe, c.m, c.chosen_by) == ("radius+G", 20, "fallback")
-    chosen = {"recipe": "radius+G", "m": 20}
+    assert (c.recipe, c.m, c.chosen_by) == ("shrink", 20, "fallback")
+    chosen = {"recipe": "shrink", "m": 20}
     assert c.as_selection() == {**evidence, "chosen_by": "fallback", "chosen": chosen}
     assert evidence == {"no_recommendation": "every recipe is worse than G somewhere"}  # untouched
     assert (auto.adapt.recipe, auto.adapt.chosen_m) == ("auto", "auto")  # what the user set

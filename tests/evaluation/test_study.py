@@ -35,7 +35,7 @@ def _preds(frame, params, offsets):
         cols = {}
         for model in ["G", "S", *recipe_models(params)]:
             off = offsets.get((model, seed), offsets.get(model, offsets.get(alias.get(model), 0.0)))
-            if model == "R[continuous]":
+            if model in ("R[continuous]", "R[continuous_shrink]"):
                 cols.update({f"{model}/{L}s": label - off for L in params.evaluate.outages_s})
             else:
                 cols[model] = label - off

@@ -9,6 +9,7 @@ from rwhonet.config import (
     ContinuousParams,
     FallbackParams,
     ModelParams,
+    ShrinkParams,
     StepsParams,
     TrainParams,
 )
@@ -38,5 +39,6 @@ def adapt_params() -> AdaptParams:
         ridge_penalty_grid=[0.0, 1.0],
         steps=StepsParams(max_steps=60, holdout_fraction=0.25, patience=20),
         continuous=ContinuousParams(inner="ridge_head", window_s=0),
+        shrink=ShrinkParams(unknown_car_sd=0.01, min_rest_s=60),
         fallback=FallbackParams(recipe="radius+G", m=50),
     )

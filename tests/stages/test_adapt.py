@@ -22,7 +22,7 @@ from rwhonet.models.whonet import WhONet
 from rwhonet.stages.adapt import adapt_grid
 from rwhonet.stages.sample_files import load_role
 
-from .conftest import R_CAL_M
+from .conftest import R_CAL_M, write_samples
 
 OVERRIDES = {
     "adapt.m_grid": [10, 20],
@@ -30,6 +30,7 @@ OVERRIDES = {
     "adapt.epochs": 3,
     "adapt.recipe": "paper",
     "adapt.recipes": ["paper", "ridge_head", "radius+G", "continuous"],
+    "adapt.fallback.recipe": "radius+G",  # shrink is not among these recipes
     "evaluate.outages_s": [30, 60],
 }
 
@@ -232,3 +233,106 @@ def test_a_worker_that_dies_fails_the_stage_instead_of_hanging(monkeypatch):
     monkeypatch.setattr(stage.os, "cpu_count", lambda: 2)
     with pytest.raises(BrokenProcessPool):
         stage._pool_map(_die, [1, 2, 3], desc="adapt")
+
+
+def test_shrink_sizes_its_update_by_evidence_from_the_training_drives_only(
+    tmp_path, g_dir, calibration
+):
+    """evidence.json: the target car's training drives (each left out of its own selection
+    run) and the source car's; every shrink model is the recipe run with that evidence."""
+    from rwhonet.models.adapt import ShrinkEvidence, evidence_terms, shrink_evidence
+
+    samples = write_samples(
+        tmp_path / "samples",
+        [
+            ("A__s0", "A", "target_test", 300),
+            ("B__s0", "B", "target_test", 250),
+            *((f"T{i}__s0", f"T{i}", "target_train", 200 + 20 * i) for i in range(3)),
+            *((f"S{i}__s0", f"S{i}", "source_train", 150) for i in range(2)),
+        ],
+    )
+    params = load_params(
+        paths.PARAMS,
+        overrides={
+            **OVERRIDES,
+            "adapt.recipes": ["radius+G", "shrink", "continuous_shrink"],
+            "adapt.recipe": "shrink",
+            "adapt.fallback.recipe": "shrink",
+        },
+    )
+    out = tmp_path / "r"
+    records, _ = adapt_grid(params, 7, samples, calibration, g_dir, out)
+    assert [(r.tags["recipe"], r.tags.get("m")) for r in records][-3:] == [
+        ("shrink", "10"),
+        ("shrink", "20"),
+        ("continuous_shrink", None),
+    ]
+    saved = json.loads((out / contracts.SHRINK_EVIDENCE).read_text())
+    target = ShrinkEvidence.from_dict(saved["target"], "evidence.json")
+    assert target.role == "target_train" and target.drives == ("T0", "T1", "T2")
+    assert ShrinkEvidence.from_dict(saved["source"], "x").drives == ("S0", "S1")
+    # measured on G's residuals of the training drives, as the recipe's own code measures
+    g_net, g_hp = load_whonet(g_dir / contracts.MODEL_FILE)
+    train = load_role(samples, contracts.TARGET_TRAIN, 1)
+    source = load_role(samples, ("source_train",), 1)
+
+    def terms(s):
+        f = s.frame
+        return evidence_terms(
+            f["drive"].to_numpy(),
+            f["k"].to_numpy(),
+            f["disp_gnss_m"].to_numpy(),
+            f["angle_rl_rad"].to_numpy(),
+            f["angle_rr_rad"].to_numpy(),
+            predict(g_net, s.x).astype(np.float64),
+            source_radii=(R_CAL_M, R_CAL_M),
+            min_speed_m_s=2.0,
+            min_rest_s=params.adapt.shrink.min_rest_s,
+        )
+
+    spread = terms(source).scale
+    assert target == shrink_evidence(terms(train), "target_train", spread_of=spread)
+    test = load_role(samples, contracts.TARGET_TEST, 1)
+    drive, k = test.frame["drive"].to_numpy(), test.frame["k"].to_numpy()
+    for m in (10, 20):
+        for d in ("A", "B"):
+            again = recalibrate(
+                "shrink",
+                g_net,
+                g_hp,
+                adapt_data(test, (drive == d) & (k < m)),
+                adapt=params.adapt,
+                seed=7,
+                min_speed_m_s=2.0,
+                evidence=target,
+                source_radii=(R_CAL_M, R_CAL_M),
+            )
+            assert load_wpm_radii(out / "shrink" / f"m{m}" / f"{d}.pt") == again.radii
+            assert 0 < again.info["shrink_weight"] < 1
+    # a training drive scored for the selection is left out of its own evidence
+    t_drive, t_k = train.frame["drive"].to_numpy(), train.frame["k"].to_numpy()
+    loo = shrink_evidence(terms(train), "target_train", exclude="T1", spread_of=spread)
+    assert loo.drives == ("T0", "T2")
+    again = recalibrate(
+        "shrink",
+        g_net,
+        g_hp,
+        adapt_data(train, (t_drive == "T1") & (t_k < 20)),
+        adapt=params.adapt,
+        seed=7,
+        min_speed_m_s=2.0,
+        evidence=loo,
+        source_radii=(R_CAL_M, R_CAL_M),
+    )
+    selection = pd.read_parquet(out / "selection" / "target_train.parquet")
+    np.testing.assert_array_equal(
+        selection.loc[selection["drive"] == "T1", "pred_m__R[shrink]@20"].to_numpy(),
+        label_prediction(again, adapt_data(train, t_drive == "T1"), (R_CAL_M, R_CAL_M)),
+    )
+    assert "pred_m__R[continuous_shrink]/30s" in selection.columns
+    cont = pd.read_parquet(out / "continuous_shrink" / contracts.PREDICTIONS)
+    for L in (30, 60):
+        covered = np.flatnonzero(np.isfinite(cont[f"pred_m_{L}s"].to_numpy()))
+        np.testing.assert_array_equal(
+            covered, np.sort(outage_windows(test.frame, [10, 20], L).ravel())
+        )

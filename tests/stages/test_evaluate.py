@@ -15,6 +15,7 @@ OVERRIDES = {
     "adapt.fallback.m": 20,
     "evaluate.outages_s": [30, 60],
     "adapt.recipes": ["paper", "radius+G", "continuous"],
+    "adapt.fallback.recipe": "radius+G",  # shrink is not among these recipes
     "seeds": [1, 2],
 }
 

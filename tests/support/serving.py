@@ -44,8 +44,16 @@ def base_net(seed: int = 0, seq_len: int = 1) -> tuple[WhONet, dict]:
     return net, {**HPARAMS, "seq_len": seq_len}
 
 
-def base_bundle(folder: Path, seed: int = 0, wpm_radii: tuple[float, float] | None = None) -> dict:
-    """Write a bundle of :func:`base_net` into ``folder``; return its artifacts."""
+def base_bundle(
+    folder: Path,
+    seed: int = 0,
+    wpm_radii: tuple[float, float] | None = None,
+    evidence: dict | None = None,
+) -> dict:
+    """Write a bundle of :func:`base_net` into ``folder``; return its artifacts.
+
+    ``evidence``: what the shrink recipe sizes its update by (``evidence.json``'s layout).
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     net, hparams = base_net(seed)
@@ -57,6 +65,7 @@ def base_bundle(folder: Path, seed: int = 0, wpm_radii: tuple[float, float] | No
         "integrated",
         None,
         {"name": "whonet-G", "model": "G"},
+        evidence,
     )
     return write_bundle(folder / "source.pt", meta, folder / "bundle")
 

@@ -103,7 +103,7 @@ def test_the_first_seeds_g_s_and_chosen_r_are_picked():
     )
 
 
-def register(store, out, execution):
+def register(store, out, execution, models_root=None):
     client, exp = open_store(store, "t")
     logged = []
     for rec in records(out):
@@ -118,6 +118,7 @@ def register(store, out, execution):
             scaler_path=root / "scaler.json",
             calibration_path=root / "calibration.json",
             samples_dir=root / "samples",
+            models_root=models_root or root / "models",
         ),
         logged,
     )
@@ -162,6 +163,25 @@ def test_pyfunc_models_predict_the_label_from_the_feature_window(store, pipeline
     assert r.meta.source_radii == (0.294, 0.2938)
     g = mlflow.pyfunc.load_model("models:/whonet-G/1")
     assert np.isfinite(g.predict(frame[list(k.FEATURE_COLUMNS)])["pred_m"]).all()  # no angles
+
+
+def test_every_model_carries_the_shrink_evidence_of_its_seed(store, pipeline_outputs, tmp_path):
+    from rwhonet.io import write_json
+    from rwhonet.serve.model import load_served
+
+    models = tmp_path / "models"
+    for seed in (42, 43):
+        (models / "r" / f"seed{seed}").mkdir(parents=True)
+    evidence = {"target": {"role": "target_train", "prior_sd": 0.004}, "source": None}
+    write_json(models / "r" / "seed42" / k.SHRINK_EVIDENCE, evidence)
+    write_json(models / "r" / "seed43" / k.SHRINK_EVIDENCE, {"target": None, "source": None})
+    register(store, pipeline_outputs, "e1", models)
+    for name in ("whonet-G", "whonet-S", "whonet-R-target"):  # the first seed's, 42
+        served = load_served(resolve_model(f"models:/{name}/1", store, tmp_path / name))
+        assert served.meta.evidence == evidence
+    register(store, pipeline_outputs, "e2", tmp_path / "nothing")
+    g = load_served(resolve_model("models:/whonet-G/2", store, tmp_path / "g2"))
+    assert g.meta.evidence is None  # no adapt stage ran: nothing to carry
 
 
 def test_an_unknown_model_is_a_readable_error(store, pipeline_outputs):

@@ -77,6 +77,7 @@ def _recalibrate(args: argparse.Namespace) -> int:
         vehicle=args.vehicle,
         seed=args.seed,
         tracking_uri=uri,
+        evidence=args.evidence,
     )
     print(recalibrate.render(out))
     return 0
@@ -236,8 +237,18 @@ def parser() -> argparse.ArgumentParser:
     rc.add_argument(
         "--recipe",
         default=None,
-        help="paper, head, ridge_head, radius+G or steps (default: adapt.recipe, or "
-        "adapt.fallback.recipe when auto)",
+        help="shrink, paper, head, ridge_head, radius+G or steps (default: adapt.recipe, or "
+        "adapt.fallback.recipe when auto: shrink, the radius refit shrunk towards the base "
+        "model by what the seconds can tell)",
+    )
+    rc.add_argument(
+        "--evidence",
+        choices=("target", "source"),
+        default=None,
+        help="shrink only: whose drives size its update, as the base model carries them: the "
+        "pipeline's target car's training drives (default, when carried) or the source "
+        "car's drives with adapt.shrink.unknown_car_sd added to the prior (a car the "
+        "pipeline has no drives of)",
     )
     _drive_options(rc)
     rc.add_argument(

@@ -8,6 +8,11 @@ params.yaml); the rest of the drive is cut into the evaluation's outage windows
 scored for the WPM, the base model and the recalibrated one. The result is a
 model bundle registered as a new version of ``whonet-R-<vehicle>``, with the
 base model, m, recipe, seed and the drive's SHA-256 as version tags.
+
+The default recipe (``adapt.fallback``: ``shrink``) sizes its update by the evidence
+the base model's bundle carries (:class:`rwhonet.models.adapt.ShrinkEvidence`), and
+the printout says how sure it is: the refitted radius' 95 % interval, how far the
+m seconds alone fix it, and how much of the refit it kept.
 """
 
 from __future__ import annotations
@@ -24,7 +29,8 @@ from rwhonet import contracts
 from rwhonet.config import AUTO, Params, flatten
 from rwhonet.errors import InputError, Problem
 
-ONE_SHOT_RECIPES = ("paper", "head", "ridge_head", "radius+G", "steps")
+ONE_SHOT_RECIPES = ("paper", "head", "ridge_head", "radius+G", "steps", contracts.SHRINK)
+Z95 = 1.959963984540054  # the standard normal's 97.5 % quantile
 
 
 @dataclass(frozen=True)
@@ -91,12 +97,17 @@ def run(
     vehicle: str,
     seed: int | None,
     tracking_uri: str,
+    evidence: str | None = None,
 ) -> dict[str, Any]:
     """Recalibrate, score and register; return what was done (for the printout).
 
+    Args:
+        evidence: ``shrink`` only: ``target`` or ``source`` (:func:`shrink_evidence_of`).
+
     Raises:
-        InputError: a base model that cannot be found, a drive the pipeline refuses, or
-            too few valid seconds to recalibrate on and score.
+        InputError: a base model that cannot be found, a drive the pipeline refuses,
+            too few valid seconds to recalibrate on and score, or (``shrink``) a base
+            model that carries no evidence.
     """
     from rwhonet.cli.drive import calibration_of, drive_sha256, load_drive
     from rwhonet.features.scaling import scaler_from_dict
@@ -142,6 +153,11 @@ def run(
                 ],
                 "not enough valid seconds to recalibrate and score",
             )
+        shrink_ev = (
+            shrink_evidence_of(base_meta.evidence, evidence, base)
+            if choice.recipe == contracts.SHRINK
+            else None
+        )
         k = data.samples.frame["k"].to_numpy()
         first, rest = k < choice.m, k >= choice.m
         fit_start = time.perf_counter()
@@ -153,6 +169,8 @@ def run(
             adapt=params.adapt,
             seed=seed,
             min_speed_m_s=params.label.calibration_min_speed_m_s,
+            evidence=shrink_ev,
+            source_radii=base_meta.source_radii,
         )
         fit_s = time.perf_counter() - fit_start
         scored = data.samples.take(rest)
@@ -196,6 +214,7 @@ def run(
             base_meta.wpm_mode,
             result.radii,
             {"name": name, **tags},
+            base_meta.evidence,
         )
         bundle = write_bundle(model_pt, meta, Path(tmp) / "bundle")
         run_id, version = _log(
@@ -213,10 +232,77 @@ def run(
         "n_scored": int(rest.sum()),
         "scores": scores,
         "radii": result.radii,
+        "certainty": certainty(result, base_meta.source_radii, shrink_ev),
         "fit_s": fit_s,
         "seconds": time.perf_counter() - start,
         "digest": digest,
         "seed": seed,
+    }
+
+
+def shrink_evidence_of(carried: dict[str, Any] | None, which: str | None, base: str) -> Any:
+    """The shrink recipe's evidence from a base model's metadata.
+
+    Args:
+        carried: :attr:`rwhonet.serve.model.ServedMeta.evidence`.
+        which: ``target`` (the pipeline's target car's training drives), ``source``
+            (the source car's, for a car the pipeline has no drives of), or None: the
+            target car's when carried, else the source car's.
+        base: the base model as the user named it (for messages).
+
+    Raises:
+        InputError: the model carries no such evidence.
+    """
+    from rwhonet.models.adapt import ShrinkEvidence
+
+    carried = carried or {}
+    order = [which] if which else ["target", "source"]
+    for key in order:
+        if carried.get(key) is not None:
+            return ShrinkEvidence.from_dict(carried[key], f"{base} (evidence.{key})")
+    raise InputError(
+        [
+            Problem(
+                base,
+                None,
+                "evidence" + (f".{which}" if which else ""),
+                "the shrink recipe's evidence (registered by a pipeline run with shrink in "
+                "adapt.recipes)",
+                "none" if not carried else f"only {sorted(k for k, v in carried.items() if v)}",
+                "use a model the pipeline registered after `dvc repro`, or choose another "
+                "recipe with --recipe",
+            )
+        ],
+        "the base model carries no evidence to size the shrink recipe by",
+    )
+
+
+def certainty(result: Any, source_radii: tuple[float, float], evidence: Any) -> dict | None:
+    """How sure a ``shrink`` recalibration is (None for other recipes, or no refit).
+
+    Returns:
+        ``{"radius_m", "low_m", "high_m", "kept", "fit_sd", "prior_sd", "role", "n_drives"}``:
+        the mean rear radius, its 95 % interval (posterior sd of the relative radius
+        change around it), the share of the refit kept (w), the sd of the refit from the
+        m seconds alone (√V / D) and the prior's, relative; what the evidence was
+        measured on.
+    """
+    info = result.info
+    if evidence is None or "shrink_weight" not in info:
+        return None
+    radii = result.radii if result.radii is not None else source_radii
+    mean = 0.5 * (radii[0] + radii[1])
+    base = 0.5 * (source_radii[0] + source_radii[1])
+    half = Z95 * info["posterior_sd"] * base
+    return {
+        "radius_m": mean,
+        "low_m": mean - half,
+        "high_m": mean + half,
+        "kept": info["shrink_weight"],
+        "fit_sd": info["fit_sd"],
+        "prior_sd": info["prior_sd"],
+        "role": evidence.role,
+        "n_drives": len(evidence.drives),
     }
 
 
@@ -314,15 +400,30 @@ def _features_frame(samples: Any) -> Any:
 def render(out: dict[str, Any]) -> str:
     """What ``rwhonet recalibrate`` prints."""
     c = out["choice"]
+    moved = "shrunk to" if c.recipe == contracts.SHRINK else "refitted to"
     radii = (
         ""
         if out["radii"] is None
-        else f"; rear radii refitted to {out['radii'][0]:.5f} / {out['radii'][1]:.5f} m"
+        else f"; rear radii {moved} {out['radii'][0]:.5f} / {out['radii'][1]:.5f} m"
     )
     lines = [
         f"{out['file']}: {out['kept']}",
         f"recalibrated {out['base']} by `{c.recipe}` ({c.why}) on the first {out['n_adapt']} s, "
         f"seed {out['seed']}, in {out['fit_s']:.2f} s{radii}",
+    ]
+    sure = out.get("certainty")
+    if sure is None and c.recipe == contracts.SHRINK:
+        lines.append(f"  no second of the {out['n_adapt']} moved fast enough: the base model kept")
+    if sure is not None:
+        lines.append(
+            f"  mean rear radius {sure['radius_m']:.5f} m (95 % interval {sure['low_m']:.5f}-"
+            f"{sure['high_m']:.5f} m); the {out['n_adapt']} s alone fix it to "
+            f"±{100 * sure['fit_sd']:.2f} % (1 sd), the prior to ±{100 * sure['prior_sd']:.2f} %, "
+            f"so {100 * sure['kept']:.0f} % of the refit is kept and "
+            f"{100 * (1 - sure['kept']):.0f} % shrunk towards the base model "
+            f"(evidence: {sure['n_drives']} drives, {sure['role']})"
+        )
+    lines += [
         f"registered {out['name']} version {out['version']} (run {out['run_id']})",
         f"scored on the remaining {out['n_scored']} s (mean over outage windows, metres):",
         f"  {'outage':>7} {'windows':>7}  {'WPM CRSE/CTE':>15}  {'base CRSE/CTE':>15}  "

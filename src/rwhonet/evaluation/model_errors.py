@@ -14,7 +14,7 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
-from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
+from rwhonet.contracts import CONTINUOUS_RECIPES, alt_wpm, recipe_model
 from rwhonet.evaluation.names import recipe_models
 from rwhonet.evaluation.scoring import Errors
 from rwhonet.features.calibration import refit_radii
@@ -71,7 +71,7 @@ def model_errors(
         "S": label - pred["S"].to_numpy(),
     }
     for model in recipe_models(params):
-        if model == recipe_model(CONTINUOUS, None):
+        if model in {recipe_model(r, None) for r in CONTINUOUS_RECIPES}:
             errors[model] = {
                 L: label - pred[f"{model}/{L}s"].to_numpy() for L in params.evaluate.outages_s
             }

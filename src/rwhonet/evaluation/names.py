@@ -15,7 +15,7 @@
 from __future__ import annotations
 
 from rwhonet.config import Params
-from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
+from rwhonet.contracts import CONTINUOUS_RECIPES, alt_wpm, recipe_model
 from rwhonet.evaluation.selection import Choice
 
 
@@ -24,7 +24,7 @@ def recipe_models(params: Params) -> list[str]:
     return [
         recipe_model(r, m)
         for r in params.adapt.recipes
-        for m in ([None] if r == CONTINUOUS else params.adapt.m_grid)
+        for m in ([None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid)
     ]
 
 

@@ -21,7 +21,7 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import AUTO, Params
-from rwhonet.contracts import CONTINUOUS, recipe_model
+from rwhonet.contracts import CONTINUOUS_RECIPES, recipe_model
 from rwhonet.evaluation.intervals import over_seeds
 from rwhonet.evaluation.scoring import Errors, score_seed
 from rwhonet.evaluation.windows import evaluated_rows
@@ -166,7 +166,7 @@ def recommend(scores: pd.DataFrame, params: Params) -> dict[str, Any]:
         g = train.xs("G", level="model")["crse_mean"]
         candidates = []
         for r in params.adapt.recipes:
-            for m in [None] if r == CONTINUOUS else params.adapt.m_grid:
+            for m in [None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid:
                 name = recipe_model(r, m)
                 if name not in train.index.get_level_values(0):
                     continue
@@ -230,7 +230,7 @@ def selection_disagreements(selection: Mapping[str, Any]) -> list[str]:
     p, notes = selection.get("params", {}), []
     got = selection.get("recommended")
     if got and p["recipe"] != AUTO and (got["recipe"], got["m"]) != (p["recipe"], p["chosen_m"]):
-        same_recipe_continuous = got["recipe"] == p["recipe"] == CONTINUOUS
+        same_recipe_continuous = got["recipe"] == p["recipe"] and p["recipe"] in CONTINUOUS_RECIPES
         if not same_recipe_continuous:
             notes.append(
                 f"the selection rule picks adapt.recipe {got['recipe']}"

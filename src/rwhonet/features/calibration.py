@@ -111,14 +111,14 @@ def fit_radii_ratio_of_sums(
     return RadiusFit(r_rl, r_rr, "ratio_of_sums", int(moving.sum()), float(d[moving].sum()))
 
 
-def refit_radii(
+def refit(
     disp_gnss_m: np.ndarray,
     angle_rl_rad: np.ndarray,
     angle_rr_rad: np.ndarray,
     min_speed_m_s: float,
     explained_m: np.ndarray | None = None,
-) -> tuple[float, float] | None:
-    """Rear radii refitted on a stretch of one drive: the one-parameter control of R-WhONet.
+) -> RadiusFit | None:
+    """Rear radii refitted on a stretch of one drive, with the seconds and metres they rest on.
 
     The calibration's estimator (total GNSS distance over total wheel angle on
     the moving seconds) applied to, e.g., a target drive's first m seconds.
@@ -133,16 +133,33 @@ def refit_radii(
             the radii fit what it leaves (:func:`fit_radii_ratio_of_sums`). None: nothing.
 
     Returns:
-        ``(r_rl_m, r_rr_m)``, or None when no second moves fast enough.
+        The fit, or None when no second moves fast enough.
     """
     d = np.asarray(disp_gnss_m, np.float64)
     try:
-        fit = fit_radii_ratio_of_sums(
+        return fit_radii_ratio_of_sums(
             d, angle_rl_rad, angle_rr_rad, np.ones_like(d), min_speed_m_s, explained_m
         )
     except ValueError:
         return None
-    return fit.r_rl_m, fit.r_rr_m
+
+
+def refit_radii(
+    disp_gnss_m: np.ndarray,
+    angle_rl_rad: np.ndarray,
+    angle_rr_rad: np.ndarray,
+    min_speed_m_s: float,
+    explained_m: np.ndarray | None = None,
+) -> tuple[float, float] | None:
+    """Rear radii refitted on a stretch of one drive: the one-parameter control of R-WhONet.
+
+    :func:`refit`'s radii alone (the same arguments).
+
+    Returns:
+        ``(r_rl_m, r_rr_m)``, or None when no second moves fast enough.
+    """
+    fit = refit(disp_gnss_m, angle_rl_rad, angle_rr_rad, min_speed_m_s, explained_m)
+    return None if fit is None else (fit.r_rl_m, fit.r_rr_m)
 
 
 def fit_radii_mean_of_ratios(

@@ -12,7 +12,11 @@ an :class:`AdaptResult`:
 - ``ridge_head``: :func:`ridge_head`, the head refitted in closed form on G's
   frozen hidden features, shrunk towards G's head;
 - ``radius+G``: :func:`radius_g`, the WPM's rear radii refitted on the m seconds
-  (the calibration's estimator) to what G on top leaves unexplained, G unchanged.
+  (the calibration's estimator) to what G on top leaves unexplained, G unchanged;
+- ``shrink``: :func:`shrink`, that refit shrunk towards G by what the m seconds
+  can tell (:class:`ShrinkEvidence`, measured on drives where the answer is known);
+- ``continuous`` / ``continuous_shrink``: :func:`continuous_predictions`, an inner
+  recipe refitted before every outage window on the drive's seconds before it.
 
 :func:`label_prediction` turns any result into predictions of the label
 (GNSS − WPM with the source calibration), so every recipe is scored alike.
@@ -34,7 +38,8 @@ import torch
 
 from rwhonet import contracts
 from rwhonet.config import AdaptParams
-from rwhonet.features.calibration import refit_radii
+from rwhonet.errors import InputError, Problem
+from rwhonet.features.calibration import refit, refit_radii
 from rwhonet.features.wpm import radius_corrected
 from rwhonet.models.freeze import apply_trainable, count_parameters
 from rwhonet.models.loop import (
@@ -54,6 +59,7 @@ if TYPE_CHECKING:  # for the annotation only: not imported at run time
     from rwhonet.features.samples import SampleSet
 
 GRADIENT_RECIPES = ("paper", "head", "steps")
+SHRINK_RIDGE = "shrink+ridge_head"  # the continuous_shrink recipe's inner recipe
 
 
 @dataclass
@@ -436,6 +442,413 @@ def radius_g(
     )
 
 
+# --------------------------------------------------------------------------- shrink
+#
+# The ``shrink`` recipe. After G and the source calibration, a drive's per-second
+# residual is modelled as r_t = GNSS_t − WPM_t − G_t = δ·d_t + ε_t: d_t the WPM's
+# distance with the source radii, δ the drive's relative change of rear radius
+# (one scale for both rear wheels), ε_t what a constant scale cannot explain (the
+# GNSS error, correlated over tens of seconds; slip; the drive changing as it goes).
+# The refit on the first k seconds (radius+G's estimator) gives δ̂ = δ + E/D, D the
+# GNSS distance it rests on and E what it gets wrong over that distance. With a prior
+# δ ~ N(0, τ²) centred on G and E ~ N(0, V(k)), the posterior mean of δ is w·δ̂, with
+#     w = τ² / (τ² + V(k) / D²),                      posterior sd  √(w · V(k) / D²)
+# (the normal-normal model with known variances: Gelman et al., Bayesian Data Analysis,
+# 3rd ed., §2.5; τ and V estimated from other drives, an empirical Bayes estimate).
+# V(k) and τ are measured where the answer is known (:func:`evidence_terms`): on
+# whole drives of a car, the first k seconds' refit against the refit on the rest
+# of the same drive. So V(k) holds the receiver's correlated error, what a drive's
+# first seconds do differently (pulling away, cold tyres) and the drift of the
+# radius over the drive, none of which averages down like independent seconds.
+
+
+def relative_scale(radii: tuple[float, float], source_radii: tuple[float, float]) -> float:
+    """The WPM's relative change of rear radius, ``½ (r_rl / s_rl + r_rr / s_rr) − 1``."""
+    return 0.5 * (radii[0] / source_radii[0] + radii[1] / source_radii[1]) - 1.0
+
+
+def shrunk_radii(
+    radii: tuple[float, float], source_radii: tuple[float, float], weight: float
+) -> tuple[float, float] | None:
+    """The rear radii moved ``weight`` of the way from the source calibration to ``radii``.
+
+    Returns:
+        ``radii`` themselves at weight 1, None (the source calibration: G alone) at 0.
+    """
+    if weight >= 1.0:
+        return (float(radii[0]), float(radii[1]))
+    if weight <= 0.0:
+        return None
+    return (
+        source_radii[0] + weight * (radii[0] - source_radii[0]),
+        source_radii[1] + weight * (radii[1] - source_radii[1]),
+    )
+
+
+def shrink_weight(prior_sd: float, sum_var_m2: float, distance_m: float) -> float:
+    """How far to trust a refit: ``w = τ² / (τ² + V / D²)`` (the posterior mean's weight).
+
+    Args:
+        prior_sd: τ, the prior sd of the relative radius change (inf: no prior, w = 1).
+        sum_var_m2: V, the variance of what the refit gets wrong over its distance, m².
+        distance_m: D, the GNSS distance the refit rests on, m (<= 0: nothing, w = 0).
+
+    Returns:
+        w in [0, 1].
+    """
+    if distance_m <= 0 or prior_sd <= 0:
+        return 0.0
+    if math.isinf(prior_sd) or sum_var_m2 <= 0:
+        return 1.0
+    tau2 = prior_sd**2
+    return tau2 / (tau2 + sum_var_m2 / distance_m**2)
+
+
+def posterior_sd(prior_sd: float, sum_var_m2: float, distance_m: float) -> float:
+    """The posterior sd of the relative radius change, ``√(w · V / D²)`` (τ when D <= 0)."""
+    if distance_m <= 0:
+        return prior_sd
+    s2 = sum_var_m2 / distance_m**2
+    if math.isinf(prior_sd):
+        return math.sqrt(s2)
+    tau2 = prior_sd**2
+    return math.sqrt(tau2 * s2 / (tau2 + s2)) if tau2 + s2 > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class ShrinkEvidence:
+    """What the first k seconds of a drive can tell about its rear radius, and the prior.
+
+    Measured by :func:`evidence_terms` and :func:`shrink_evidence` on drives whose
+    answer is known (the refit on the rest of each drive).
+
+    Attributes:
+        role: what it was measured on: ``target_train`` (the car's own training drives,
+            its own receiver) or ``source`` (the source car's drives).
+        drives: the drives behind it.
+        prior_sd: τ, the prior sd of a drive's relative radius change from G (the root
+            mean square over the drives of their whole-drive refit, plus ``extra_prior_sd``
+            in quadrature for a car the drives are not of).
+        k_s: seconds from a drive's start at which V is known, increasing.
+        sum_var_m2: V(k) at ``k_s``, m²: the mean over the drives of the square of what the
+            first-k refit gets wrong over its own distance.
+        n_drives: the drives behind each V(k).
+    """
+
+    role: str
+    drives: tuple[str, ...]
+    prior_sd: float
+    k_s: tuple[int, ...]
+    sum_var_m2: tuple[float, ...]
+    n_drives: tuple[int, ...]
+
+    def sum_var(self, k: float) -> float:
+        """V(k): interpolated on ``k_s``; outside them proportional to k.
+
+        Beyond the longest measured stretch the error of independent stretches adds (the
+        GNSS error is correlated over tens of seconds, not minutes), so V grows like k;
+        below the shortest the same rule overstates V (it grows faster at first), which
+        errs towards G.
+        """
+        ks = np.asarray(self.k_s, np.float64)
+        vs = np.asarray(self.sum_var_m2, np.float64)
+        if k > ks[-1]:
+            return float(vs[-1] * k / ks[-1])
+        if k < ks[0]:
+            return float(vs[0] * k / ks[0])
+        return float(np.interp(k, ks, vs))
+
+    def weight(self, k: float, distance_m: float) -> float:
+        """:func:`shrink_weight` of a refit on a drive's first ``k`` seconds over ``distance_m``."""
+        return shrink_weight(self.prior_sd, self.sum_var(k), distance_m)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready data (what ``evidence.json`` and a model bundle's metadata hold)."""
+        return {
+            "role": self.role,
+            "drives": list(self.drives),
+            "prior_sd": self.prior_sd,
+            "k_s": list(self.k_s),
+            "sum_var_m2": list(self.sum_var_m2),
+            "n_drives": list(self.n_drives),
+        }
+
+    @classmethod
+    def from_dict(cls, raw: Any, source: str) -> ShrinkEvidence:
+        """Rebuild :meth:`to_dict`'s data.
+
+        Raises:
+            InputError: a field missing or malformed.
+        """
+        raw = raw if isinstance(raw, dict) else {}
+        ks, vs, ns = (raw.get(key) for key in ("k_s", "sum_var_m2", "n_drives"))
+        ok = (
+            isinstance(raw.get("role"), str)
+            and isinstance(raw.get("drives"), list)
+            and isinstance(raw.get("prior_sd"), int | float)
+            and raw["prior_sd"] >= 0
+            and all(isinstance(a, list) and a for a in (ks, vs, ns))
+            and len(ks) == len(vs) == len(ns)
+            and all(isinstance(v, int | float) and v >= 0 for v in vs)
+            and all(isinstance(k, int) and k > 0 for k in ks)
+            and all(b > a for a, b in zip(ks, ks[1:], strict=False))
+        )
+        if not ok:
+            raise InputError(
+                [
+                    Problem(
+                        source,
+                        None,
+                        "evidence",
+                        "role, drives, prior_sd >= 0 and matching lists k_s (increasing), "
+                        "sum_var_m2 (>= 0) and n_drives",
+                        repr(raw)[:120],
+                    )
+                ],
+                f"{source}: the shrink recipe's evidence is malformed",
+            )
+        return cls(
+            raw["role"],
+            tuple(str(d) for d in raw["drives"]),
+            float(raw["prior_sd"]),
+            tuple(int(k) for k in ks),
+            tuple(float(v) for v in vs),
+            tuple(int(n) for n in ns),
+        )
+
+
+@dataclass(frozen=True)
+class EvidenceTerms:
+    """Per evidence drive, what :class:`ShrinkEvidence` averages (so a drive can be left out).
+
+    Attributes:
+        drives: the drives, in order.
+        scale: (n,) each drive's whole-drive relative radius change under G (NaN: no fit).
+        k_s: (K,) the seconds from a drive's start it is measured at.
+        sq_error_m2: (n, K) ``((δ̂_k − δ_rest) · D_k)²`` of each drive at each k; NaN where the
+            drive does not count (no refit of its first k s, or less than ``min_rest_s``
+            seconds or no refit after them).
+    """
+
+    drives: tuple[str, ...]
+    scale: np.ndarray
+    k_s: np.ndarray
+    sq_error_m2: np.ndarray
+
+
+def evidence_grid(longest_s: int) -> np.ndarray:
+    """The k at which V is measured: each second to 2 min, each 10 s to 10 min, then each minute."""
+    grid = np.concatenate(
+        [np.arange(1, 121), np.arange(130, 601, 10), np.arange(660, max(longest_s, 0) + 1, 60)]
+    )
+    return grid[grid <= longest_s]
+
+
+def evidence_terms(
+    drive: np.ndarray,
+    k: np.ndarray,
+    disp_gnss_m: np.ndarray,
+    angle_rl_rad: np.ndarray,
+    angle_rr_rad: np.ndarray,
+    g_pred_m: np.ndarray,
+    *,
+    source_radii: tuple[float, float],
+    min_speed_m_s: float,
+    min_rest_s: int,
+) -> EvidenceTerms:
+    """Measure what the first k seconds of each drive tell about its radius, for every k.
+
+    Per drive: the refit under G (:func:`rwhonet.features.calibration.refit`, what
+    ``radius+G`` and ``shrink`` use) on its first k seconds (rank ``k_t < k``) and on the
+    rest; the first one's error against the second, in relative scale, times the distance
+    it rests on; and the whole drive's scale (the prior's spread). A drive counts at k
+    while the rest is at least ``min_rest_s`` seconds long.
+
+    Args:
+        drive: (n,) the drive of every second (seconds of a drive in time order).
+        k: (n,) each second's 0-based rank in its drive.
+        disp_gnss_m: (n,) GNSS displacement per second, m.
+        angle_rl_rad: (n,) rear-left wheel angle per second, rad.
+        angle_rr_rad: (n,) rear-right wheel angle per second, rad.
+        g_pred_m: (n,) G's prediction of the label per second, m.
+        source_radii: the source calibration's rear radii (relative scales are to these).
+        min_speed_m_s: the refit's moving-second threshold.
+        min_rest_s: the fewest seconds after k a drive must have to count at k.
+
+    Returns:
+        The terms, one row per drive (in order of first appearance).
+    """
+    drive = np.asarray(drive)
+    k = np.asarray(k)
+    names = tuple(dict.fromkeys(drive.tolist()))
+    lengths = [int((drive == d).sum()) for d in names]
+    k_s = evidence_grid(max(lengths, default=0) - min_rest_s)
+    scale = np.full(len(names), np.nan)
+    sq = np.full((len(names), len(k_s)), np.nan)
+    arrays = (disp_gnss_m, angle_rl_rad, angle_rr_rad, g_pred_m)
+    for i, d in enumerate(names):
+        mine = drive == d
+        gnss, a_rl, a_rr, g = (np.asarray(a, np.float64)[mine] for a in arrays)
+        rank = k[mine]
+        whole = refit(gnss, a_rl, a_rr, min_speed_m_s, explained_m=g)
+        if whole is None:
+            continue
+        scale[i] = relative_scale((whole.r_rl_m, whole.r_rr_m), source_radii)
+        for j, kk in enumerate(k_s):
+            first, rest = rank < kk, rank >= kk
+            if rest.sum() < min_rest_s:
+                break
+            head = refit(gnss[first], a_rl[first], a_rr[first], min_speed_m_s, g[first])
+            rest = refit(gnss[rest], a_rl[rest], a_rr[rest], min_speed_m_s, g[rest])
+            if head is None or rest is None:
+                continue
+            err = relative_scale((head.r_rl_m, head.r_rr_m), source_radii) - relative_scale(
+                (rest.r_rl_m, rest.r_rr_m), source_radii
+            )
+            sq[i, j] = (err * head.distance_m) ** 2
+    return EvidenceTerms(names, scale, k_s, sq)
+
+
+MIN_EVIDENCE_DRIVES = 2  # fewer drives at a k say nothing about V there
+
+
+def prior_sd(scales: np.ndarray, others: np.ndarray | None = None, extra: float = 0.0) -> float:
+    """τ: how far a new drive's relative radius change from G may lie, from drives' refits.
+
+    ``τ² = mean(scales)² + s² + extra²``: the car's offset from G (the mean over its
+    drives), the drive-to-drive spread s² (the sample variance, pooled with ``others``'
+    when given: the spread of tyre pressure, wear, load and temperature between drives
+    is a property of tyres both cars share, and a few drives of one car may not span it),
+    and ``extra`` for what none of the drives can show (another car).
+
+    Args:
+        scales: (n,) whole-drive relative radius changes of the car's drives (n >= 2).
+        others: another set of drives' changes, pooled into the spread only.
+        extra: added in quadrature.
+    """
+    groups = [np.asarray(scales, np.float64)]
+    if others is not None and len(others) >= 2:
+        groups.append(np.asarray(others, np.float64))
+    dof = sum(len(g) - 1 for g in groups)
+    spread = sum(float(np.sum((g - g.mean()) ** 2)) for g in groups) / dof
+    return math.sqrt(float(groups[0].mean()) ** 2 + spread + extra**2)
+
+
+def shrink_evidence(
+    terms: EvidenceTerms,
+    role: str,
+    *,
+    exclude: str | None = None,
+    spread_of: np.ndarray | None = None,
+    extra_prior_sd: float = 0.0,
+) -> ShrinkEvidence | None:
+    """Average the terms over the drives into V(k) and τ (:class:`ShrinkEvidence`).
+
+    Args:
+        terms: :func:`evidence_terms`' output.
+        role: what the drives are (``target_train``, ``source``).
+        exclude: a drive to leave out (the drive being scored, when the evidence comes
+            from drives that are scored too).
+        spread_of: other drives' whole-drive scales, pooled into τ's drive-to-drive
+            spread (:func:`prior_sd`; the source car's drives for the target car's).
+        extra_prior_sd: added to τ in quadrature: the spread of a car the drives are not
+            of (``adapt.shrink.unknown_car_sd``), 0 for the car's own drives.
+
+    Returns:
+        The evidence; None when fewer than :data:`MIN_EVIDENCE_DRIVES` drives have a
+        whole-drive refit, or no k has that many drives.
+    """
+    keep = np.array([d != exclude for d in terms.drives], bool)
+    scale = terms.scale[keep]
+    sq = terms.sq_error_m2[keep]
+    fitted = np.isfinite(scale)
+    n = np.isfinite(sq).sum(axis=0)
+    enough = n >= MIN_EVIDENCE_DRIVES
+    if fitted.sum() < MIN_EVIDENCE_DRIVES or not enough.any():
+        return None
+    v = np.nansum(sq[:, enough], axis=0) / n[enough]
+    others = None if spread_of is None else np.asarray(spread_of)[np.isfinite(spread_of)]
+    return ShrinkEvidence(
+        role,
+        tuple(
+            d
+            for d, kept, f in zip(terms.drives, keep, np.isfinite(terms.scale), strict=True)
+            if kept and f
+        ),
+        prior_sd(scale[fitted], others, extra_prior_sd),
+        tuple(int(x) for x in terms.k_s[enough]),
+        tuple(float(x) for x in v),
+        tuple(int(x) for x in n[enough]),
+    )
+
+
+def shrink(
+    base: WhONet,
+    hparams: dict[str, Any],
+    data: AdaptData,
+    *,
+    evidence: ShrinkEvidence,
+    min_speed_m_s: float,
+    source_radii: tuple[float, float],
+) -> AdaptResult:
+    """The ``shrink`` recipe: ``radius+G``'s refit, shrunk towards G by what the m s can tell.
+
+    The rear radii are refitted on the m seconds with G on top (:func:`radius_g`'s
+    estimator) and moved from the source calibration only the posterior mean's share
+    ``w`` of the way (the block comment above: ``w = τ² / (τ² + V(m) / D²)``, D the GNSS
+    distance the refit rests on). Few or slow seconds, or a noisy receiver, give a small
+    w and G; enough seconds give the refit. G is unchanged.
+
+    Args:
+        base: G-WhONet's network (kept as is).
+        hparams: its hyperparameters.
+        data: the m seconds (a drive's first ``len(data)`` seconds).
+        evidence: V(k) and τ (:func:`shrink_evidence`).
+        min_speed_m_s: seconds slower than this are left out of the refit.
+        source_radii: the source calibration's rear radii.
+
+    Returns:
+        G with the shrunk radii (None: G alone, when no second moved fast enough or
+        w = 0); ``info`` has the weight, τ, the refit's own sd (√V / D), the posterior
+        sd of the relative radius change, and the refit's and the result's scale.
+    """
+    start = time.perf_counter()
+    g_pred = predict(base, data.x, seq_len=hparams["seq_len"]).astype(np.float64)
+    fit = refit(
+        data.disp_gnss_m, data.angle_rl_rad, data.angle_rr_rad, min_speed_m_s, explained_m=g_pred
+    )
+    info: dict[str, Any] = {
+        "radius_refit": fit is not None,
+        "prior_sd": evidence.prior_sd,
+        "evidence_drives": len(evidence.drives),
+        "evidence_role": evidence.role,
+    }
+    radii = None
+    if fit is not None:
+        v = evidence.sum_var(len(data))
+        w = shrink_weight(evidence.prior_sd, v, fit.distance_m)
+        refitted = (fit.r_rl_m, fit.r_rr_m)
+        radii = shrunk_radii(refitted, source_radii, w)
+        info.update(
+            shrink_weight=w,
+            fit_sd=math.sqrt(v) / fit.distance_m,
+            posterior_sd=posterior_sd(evidence.prior_sd, v, fit.distance_m),
+            refit_scale=relative_scale(refitted, source_radii),
+            scale=0.0 if radii is None else relative_scale(radii, source_radii),
+            fit_distance_m=fit.distance_m,
+        )
+    return AdaptResult(
+        copy.deepcopy(base).eval(),
+        dict(hparams),
+        radii,
+        [],
+        time.perf_counter() - start,
+        2,
+        count_parameters(base)[1] + 2,
+        info=info,
+    )
+
+
 def recalibrate(
     recipe: str,
     base: WhONet,
@@ -445,12 +858,27 @@ def recalibrate(
     adapt: AdaptParams,
     seed: int,
     min_speed_m_s: float,
+    evidence: ShrinkEvidence | None = None,
+    source_radii: tuple[float, float] | None = None,
 ) -> AdaptResult:
-    """Run one recipe (any of ``adapt.recipes`` but ``continuous``, which runs its inner one).
+    """Run one recipe (any of ``adapt.recipes`` but the continuous ones, which run an inner one).
+
+    ``shrink`` needs ``evidence`` and ``source_radii``; the others ignore them.
 
     Raises:
-        ValueError: for an unknown recipe.
+        ValueError: for an unknown recipe, or ``shrink`` without its evidence.
     """
+    if recipe == "shrink":
+        if evidence is None or source_radii is None:
+            raise ValueError("the shrink recipe needs its evidence and the source radii")
+        return shrink(
+            base,
+            hparams,
+            data,
+            evidence=evidence,
+            min_speed_m_s=min_speed_m_s,
+            source_radii=source_radii,
+        )
     if recipe == "paper":
         return fine_tune(base, hparams, data, adapt=adapt, seed=seed, trainable="all")
     if recipe == "head":
@@ -493,15 +921,29 @@ def continuous_predictions(
     window_s: int,
     min_speed_m_s: float,
     source_radii: tuple[float, float],
+    evidence: ShrinkEvidence | None = None,
 ) -> np.ndarray:
-    """The ``continuous`` recipe on one drive: recalibrate before every outage window.
+    """The continuous recipes on one drive: recalibrate before every outage window.
 
     For a window whose first second has rank ``k0`` in the drive, the inner
-    recipe (``ridge_head`` or ``radius+G``) is fitted on the seconds with
-    ``k0 - window_s <= k < k0`` (every earlier second when ``window_s`` is 0),
-    never on a second at or after the window's start, and predicts the window's
-    seconds. The ridge fits accumulate ``AᵀA`` and ``Aᵀy`` second by second, so a
-    drive costs one pass over its seconds plus one small solve per window.
+    recipe is fitted on the seconds with ``k0 - window_s <= k < k0`` (every
+    earlier second when ``window_s`` is 0), never on a second at or after the
+    window's start, and predicts the window's seconds. Inner recipes:
+
+    - ``ridge_head`` (the ``continuous`` recipe): G's head refitted in closed form;
+    - ``radius+G``: the rear radii refitted under G;
+    - ``shrink+ridge_head`` (the ``continuous_shrink`` recipe): first the rear radii as
+      :func:`shrink` fits them (refitted under G, shrunk towards G by ``evidence`` at
+      the number of seconds fitted on), then G's head refitted in closed form on what
+      the WPM with those radii leaves, shrunk towards G's head by ``penalty`` per
+      second. Both move further from G as the drive's seconds accumulate: the radius
+      as V(k) / D² falls, the head as the data outweigh the penalty; so the model can
+      learn more than a scale (the head on G's features: a speed- and load-dependent
+      correction) where the seconds support it.
+
+    The ridge fits accumulate ``AᵀA`` (and ``Aᵀy``) second by second, so a drive costs
+    one pass over its seconds plus one small solve (and, with a radius, one refit) per
+    window.
 
     Args:
         base: G-WhONet's network.
@@ -509,11 +951,12 @@ def continuous_predictions(
         data: every second of one drive, in time order.
         k: (n,) each second's 0-based rank in the drive (increasing).
         windows: (W, L) row indices into ``data`` of each window to predict.
-        inner: ``ridge_head`` or ``radius+G``.
+        inner: ``ridge_head``, ``radius+G`` or ``shrink+ridge_head``.
         penalty: the ridge strength (``adapt.ridge_penalty``).
         window_s: fit on at most this many seconds before the window (0: all).
         min_speed_m_s: the radius refit's moving-second threshold.
         source_radii: the WPM's source calibration.
+        evidence: V(k) and τ (``shrink+ridge_head`` only).
 
     Returns:
         (W, L) label predictions, metres; a window with no earlier second gets G's.
@@ -522,7 +965,9 @@ def continuous_predictions(
     pred = np.empty(windows.shape, dtype=np.float64)
     g_pred = predict(base, data.x, seq_len=hparams["seq_len"]).astype(np.float64)
     order = np.argsort(k[windows[:, 0]], kind="stable")
-    if inner == "ridge_head":
+    if inner == SHRINK_RIDGE and evidence is None:
+        raise ValueError(f"continuous: {SHRINK_RIDGE} needs the shrink recipe's evidence")
+    if inner in ("ridge_head", SHRINK_RIDGE):
         a = head_design(hidden_features(base, data.x))
         y = np.asarray(data.y, np.float64)
         theta0 = np.append(
@@ -545,8 +990,25 @@ def continuous_predictions(
                 pred[w] = g_pred[windows[w]]
                 continue
             rows = slice(removed, added)
-            theta = ridge_solve(a[rows], y[rows], theta0, penalty, gram=ata, moment=aty)
-            pred[w] = a[windows[w]] @ theta
+            if inner == "ridge_head":
+                theta = ridge_solve(a[rows], y[rows], theta0, penalty, gram=ata, moment=aty)
+                pred[w] = a[windows[w]] @ theta
+                continue
+            a_rl, a_rr = data.angle_rl_rad, data.angle_rr_rad
+            fit = refit(data.disp_gnss_m[rows], a_rl[rows], a_rr[rows], min_speed_m_s, g_pred[rows])
+            radii = None
+            if fit is not None:
+                weight = evidence.weight(added - removed, fit.distance_m)
+                radii = shrunk_radii((fit.r_rl_m, fit.r_rr_m), source_radii, weight)
+            if radii is None:
+                theta = ridge_solve(a[rows], y[rows], theta0, penalty, gram=ata, moment=aty)
+                pred[w] = a[windows[w]] @ theta
+                continue
+            # what the WPM with the shrunk radii adds to the source-calibrated one
+            by_radius = radius_corrected(0.0, a_rl[rows], a_rr[rows], radii, source_radii)
+            theta = ridge_solve(a[rows], y[rows] - by_radius, theta0, penalty, gram=ata)
+            win = windows[w]
+            pred[w] = radius_corrected(a[win] @ theta, a_rl[win], a_rr[win], radii, source_radii)
         return pred
     if inner == "radius+G":
         for w in order:

@@ -16,7 +16,14 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
-from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
+from rwhonet.contracts import (
+    CONTINUOUS,
+    CONTINUOUS_RECIPES,
+    CONTINUOUS_SHRINK,
+    SHRINK,
+    alt_wpm,
+    recipe_model,
+)
 from rwhonet.evaluation.position import GNSS_DISTANCE
 from rwhonet.evaluation.result import Evaluation
 
@@ -182,7 +189,7 @@ def recipes_table(ev: Evaluation, params: Params) -> str:
     models = [
         (r, m, recipe_model(r, m))
         for r in params.adapt.recipes
-        for m in ([None] if r == "continuous" else params.adapt.m_grid)
+        for m in ([None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid)
     ]
     models += [("WPM-m (no network)", m, f"WPM-m@{m}") for m in params.adapt.m_grid]
     for recipe, m, model in models:
@@ -528,7 +535,7 @@ def limits_table(ev: Evaluation, params: Params) -> str | None:
         & (ev.summary["drive"] == "all")
         & (ev.summary["outage_s"] == L)
     ].set_index("model")["crse_mean"]
-    recipes = [r for r in params.adapt.recipes if r != CONTINUOUS]
+    recipes = [r for r in params.adapt.recipes if r not in CONTINUOUS_RECIPES]
     lines = [
         "| m | radius from the first m s (WPM-m) | from any m s | sd of that radius | "
         "from the whole drive (in-sample) | best recipe at m |",
@@ -550,6 +557,13 @@ def limits_table(ev: Evaluation, params: Params) -> str | None:
         if cont is not None
         else ""
     )
+    cont_shrink = rows.get(recipe_model(CONTINUOUS_SHRINK, None))
+    if cont_shrink is not None:
+        tail += (
+            f"\n\ncontinuous_shrink (the shrink recipe's radius, then the head, re-fitted "
+            f"before every window, each moving as far as the seconds so far support): "
+            f"{_fmt(cont_shrink)} m."
+        )
     return "\n".join(lines) + tail
 
 
@@ -572,7 +586,7 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
         entries = [(n, None, n) for n in ref] + [
             (r, m, recipe_model(r, m))
             for r in params.adapt.recipes
-            for m in ([None] if r == "continuous" else params.adapt.m_grid)
+            for m in ([None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid)
         ]
 
         def cell(model: str, L: float) -> tuple[float, float]:
@@ -619,7 +633,7 @@ def selection_tables(ev: Evaluation, params: Params) -> str | None:
     got = rec.get("recommended")
 
     def choice(recipe: str, m: int | None) -> str:
-        return f"**{recipe}**" + ("" if recipe == CONTINUOUS else f" at m = {m} s")
+        return f"**{recipe}**" + ("" if recipe in CONTINUOUS_RECIPES else f" at m = {m} s")
 
     ridge = rec.get("ridge", {}).get("recommended_penalty")
     chosen = rec.get("chosen", {})
@@ -662,7 +676,15 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
         "WPM). WPM-m@m: the WPM with its rear radii refitted on each drive's first m s; "
         "R[radius+G]@m: G on top of a WPM whose rear radii are refitted on the same m s to "
         "what G leaves (the G+radius control); R[continuous]: recalibrated "
-        "before every window on the drive's seconds before it.",
+        "before every window on the drive's seconds before it."
+        + (
+            " R[shrink]@m: R[radius+G]@m's radii moved from the source calibration only as far "
+            "as the m s can tell (w = τ² / (τ² + V(m) / D²), measured on the target car's "
+            "training drives: models/r/seed<seed>/evidence.json); R[continuous_shrink]: that "
+            "radius, then G's head, refitted before every window."
+            if SHRINK in params.adapt.recipes
+            else ""
+        ),
         "",
         "## Mean CRSE (m) over all windows of the target test drives",
         "",

@@ -41,6 +41,7 @@ def make_meta(
     wpm_mode: str,
     wpm_radii: tuple[float, float] | None,
     info: Mapping[str, Any],
+    evidence: Mapping[str, Any] | None = None,
 ) -> ServedMeta:
     """The metadata of a model from the label stage's ``scaler.json`` and ``calibration.json``.
 
@@ -49,8 +50,9 @@ def make_meta(
         scaler: the parsed ``scaler.json``.
         calibration: the parsed ``calibration.json`` (``r_rl_m``, ``r_rr_m``).
         wpm_mode: ``label.wpm_mode``.
-        wpm_radii: the model file's own radii (``radius+G``), or None.
+        wpm_radii: the model file's own radii (``radius+G``, ``shrink``), or None.
         info: provenance (stringified).
+        evidence: the adapt stage's ``evidence.json`` (the ``shrink`` recipe's), or None.
     """
     return ServedMeta(
         hparams=dict(hparams),
@@ -59,6 +61,7 @@ def make_meta(
         wpm_mode=wpm_mode,
         wpm_radii=None if wpm_radii is None else (float(wpm_radii[0]), float(wpm_radii[1])),
         info={str(k): str(v) for k, v in info.items() if v is not None},
+        evidence=None if evidence is None else dict(evidence),
     )
 
 

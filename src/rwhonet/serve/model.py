@@ -49,8 +49,11 @@ class ServedMeta:
             label's WPM.
         wpm_mode: ``integrated`` or ``reference`` (``label.wpm_mode``).
         wpm_radii: the rear radii the network corrects when its recipe refitted them
-            (``radius+G``); None: ``source_radii``.
+            (``radius+G``, ``shrink``); None: ``source_radii``.
         info: provenance as strings (model, vehicle, recipe, m, seed, drive...).
+        evidence: what the ``shrink`` recipe sizes its update by, as the adapt stage's
+            ``evidence.json`` holds it (``{"target": ..., "source": ...}``, each a
+            :class:`rwhonet.models.adapt.ShrinkEvidence` as data, or null); None: not known.
     """
 
     hparams: dict[str, Any]
@@ -59,6 +62,7 @@ class ServedMeta:
     wpm_mode: str
     wpm_radii: tuple[float, float] | None = None
     info: dict[str, str] = field(default_factory=dict)
+    evidence: dict[str, Any] | None = None
 
     @property
     def seq_len(self) -> int:
@@ -105,6 +109,10 @@ class ServedMeta:
                 problems.append(
                     Problem(source, None, key, "two positive radii (m/rad)", repr(value))
                 )
+        if not isinstance(raw.get("evidence"), dict | None):
+            problems.append(
+                Problem(source, None, "evidence", "an object or null", repr(raw["evidence"])[:80])
+            )
         if raw.get("wpm_mode") not in WPM_MODES:
             problems.append(
                 Problem(source, None, "wpm_mode", f"one of {WPM_MODES}", repr(raw.get("wpm_mode")))
@@ -121,6 +129,7 @@ class ServedMeta:
             if raw.get("wpm_radii") is None
             else (float(raw["wpm_radii"][0]), float(raw["wpm_radii"][1])),
             info={str(k): str(v) for k, v in (raw.get("info") or {}).items()},
+            evidence=raw.get("evidence"),
         )
 
 

@@ -19,13 +19,23 @@ each seeded on its own, run on every core (a fork pool). Each is a
 settings) to :func:`run_job`, and torch runs on one thread wherever it runs,
 so the results are identical whatever the number of workers.
 
+The ``shrink`` recipes size their update by evidence measured here, never on a
+target test drive (:func:`rwhonet.models.adapt.evidence_terms`): how well the first
+k seconds of a drive fix its radius, on the target car's training drives (its own
+receiver; each training drive scored for the selection is left out of its own
+evidence), else on the source car's drives with ``adapt.shrink.unknown_car_sd``
+added to the prior.
+
 Outputs, all in ``models/r/seed<seed>/`` (one atomic folder):
-``<recipe>/m<m>/`` with ``<drive>.pt`` (the model file; ``radius+G`` records its
-radii there), ``predictions.parquet`` (label predictions for every second of
-each drive) and ``run.json``; ``continuous/`` with ``predictions.parquet``
-(``pred_m_<L>s`` on the seconds of each outage length's windows) and
-``run.json``; ``selection/target_train.parquet`` and ``selection/ridge_source.parquet``
-(one ``pred_m__<model>`` column per recipe and m, or per penalty and m).
+``<recipe>/m<m>/`` with ``<drive>.pt`` (the model file; ``radius+G`` and ``shrink``
+record their radii there), ``predictions.parquet`` (label predictions for every
+second of each drive) and ``run.json``; ``continuous/`` (and ``continuous_shrink/``)
+with ``predictions.parquet`` (``pred_m_<L>s`` on the seconds of each outage
+length's windows) and ``run.json``; ``selection/target_train.parquet`` and
+``selection/ridge_source.parquet`` (one ``pred_m__<model>`` column per recipe and m,
+or per penalty and m); ``evidence.json``: the shrink recipes' evidence, from the
+target car's and from the source car's drives (what a model bundle carries for
+``rwhonet recalibrate``).
 """
 
 from __future__ import annotations
@@ -46,7 +56,7 @@ import pandas as pd
 
 from rwhonet import contracts, paths
 from rwhonet.config import AdaptParams, Params
-from rwhonet.contracts import CONTINUOUS, recipe_model
+from rwhonet.contracts import CONTINUOUS, CONTINUOUS_RECIPES, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.calibration import calibration_from_dict
@@ -59,7 +69,7 @@ from rwhonet.tracking.records import RunRecord, Timing, now_ms
 from rwhonet.tracking.timings import write_timing
 
 if TYPE_CHECKING:  # annotations only: the models (torch) are imported when the stage runs
-    from rwhonet.models.adapt import AdaptData, AdaptResult
+    from rwhonet.models.adapt import AdaptData, AdaptResult, EvidenceTerms, ShrinkEvidence
     from rwhonet.models.whonet import WhONet
 
 T = TypeVar("T")
@@ -67,6 +77,8 @@ R = TypeVar("R")
 
 SELECTION = "selection"
 MAX_WORKERS = 4
+# the source car's drives the shrink evidence for an unknown car is measured on
+SOURCE_ROLES = (contracts.SOURCE_TRAIN, contracts.SOURCE_CALIBRATION, contracts.SOURCE_TEST)
 
 
 def r_dir(root: Path, recipe: str, m: int | None = None) -> Path:
@@ -115,6 +127,7 @@ class Job:
         seed: the training seed (shuffling and dropout).
         min_speed_m_s: the radius refit's moving-second threshold.
         source_radii: the WPM's source calibration.
+        evidence: the shrink recipe's evidence for this drive (None for other recipes).
     """
 
     task: Task
@@ -126,6 +139,7 @@ class Job:
     seed: int
     min_speed_m_s: float
     source_radii: tuple[float, float]
+    evidence: ShrinkEvidence | None = None
 
 
 def run_job(job: Job) -> tuple[np.ndarray, AdaptResult | None]:
@@ -151,6 +165,8 @@ def run_job(job: Job) -> tuple[np.ndarray, AdaptResult | None]:
             adapt=job.adapt,
             seed=job.seed,
             min_speed_m_s=job.min_speed_m_s,
+            evidence=job.evidence,
+            source_radii=job.source_radii,
         )
     pred = label_prediction(result, job.scored, job.source_radii)
     result.info["n_adapt_samples"] = len(job.fit)
@@ -210,6 +226,120 @@ def _one_thread_here() -> Iterator[None]:
         torch.set_num_threads(before)
 
 
+@dataclass(frozen=True)
+class Evidence:
+    """The shrink recipes' evidence for one seed's G (module docstring).
+
+    Attributes:
+        target: measured on the target car's training drives (None: too few of them),
+            its prior's drive-to-drive spread pooled with the source car's drives'.
+        target_terms: its per-drive terms (to leave a scored training drive out).
+        source_scales: the source car's drives' whole-drive scales (None: no drives).
+        source: measured on the source car's drives, ``adapt.shrink.unknown_car_sd``
+            added to its prior (None: too few of them).
+    """
+
+    target: ShrinkEvidence | None
+    target_terms: EvidenceTerms | None
+    source_scales: np.ndarray | None
+    source: ShrinkEvidence | None
+
+    @classmethod
+    def measure(
+        cls,
+        params: Params,
+        samples_dir: Path,
+        target_train: SampleSet,
+        g_net: WhONet,
+        g_hparams: dict[str, Any],
+        source_radii: tuple[float, float],
+    ) -> Evidence:
+        """Measure both on G's residuals (the source drives are read here)."""
+        from rwhonet.models.adapt import shrink_evidence
+
+        cfg = params.adapt.shrink
+        source = load_role(samples_dir, SOURCE_ROLES, params.model.seq_len, required=False)
+        terms = {
+            role: _evidence_terms(params, s, g_net, g_hparams, source_radii) if len(s) else None
+            for role, s in ((contracts.TARGET_TRAIN, target_train), ("source", source))
+        }
+        t, src = terms[contracts.TARGET_TRAIN], terms["source"]
+        spread = None if src is None else src.scale
+        return cls(
+            None if t is None else shrink_evidence(t, contracts.TARGET_TRAIN, spread_of=spread),
+            t,
+            spread,
+            None
+            if src is None
+            else shrink_evidence(src, "source", extra_prior_sd=cfg.unknown_car_sd),
+        )
+
+    def for_drive(self, role: str, drive: str) -> ShrinkEvidence:
+        """What a drive's shrink recipe uses: the target car's (a training drive left out of
+        its own), else the source car's.
+
+        Raises:
+            InputError: neither could be measured.
+        """
+        from rwhonet.models.adapt import shrink_evidence
+
+        own = self.target
+        if role == contracts.TARGET_TRAIN and self.target_terms is not None:
+            own = shrink_evidence(
+                self.target_terms,
+                contracts.TARGET_TRAIN,
+                exclude=drive,
+                spread_of=self.source_scales,
+            )
+        if own is not None:
+            return own
+        if self.source is not None:
+            return self.source
+        raise InputError(
+            [
+                Problem(
+                    "data/processed/samples",
+                    None,
+                    None,
+                    "at least two target_train or source drives that move and are longer "
+                    "than adapt.shrink.min_rest_s",
+                    "none",
+                    "add drives, or take shrink and continuous_shrink out of adapt.recipes",
+                )
+            ],
+            "the shrink recipe has no evidence to size its update by",
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """``evidence.json``: the target car's and the source car's (null: not measured)."""
+        return {
+            "target": None if self.target is None else self.target.to_dict(),
+            "source": None if self.source is None else self.source.to_dict(),
+        }
+
+
+def _evidence_terms(
+    params: Params, samples: SampleSet, g_net, g_hparams: dict, source_radii: tuple[float, float]
+) -> EvidenceTerms:
+    """:func:`rwhonet.models.adapt.evidence_terms` on every drive of a sample set, under G."""
+    from rwhonet.models.adapt import evidence_terms
+    from rwhonet.models.loop import predict
+
+    f = samples.frame
+    return evidence_terms(
+        f["drive"].to_numpy(),
+        f["k"].to_numpy(),
+        *(
+            f[c].to_numpy(np.float64)
+            for c in (contracts.DISP_GNSS_M, contracts.ANGLE_RL_RAD, contracts.ANGLE_RR_RAD)
+        ),
+        predict(g_net, samples.x, seq_len=g_hparams["seq_len"]).astype(np.float64),
+        source_radii=source_radii,
+        min_speed_m_s=params.label.calibration_min_speed_m_s,
+        min_rest_s=params.adapt.shrink.min_rest_s,
+    )
+
+
 def adapt_grid(
     params: Params,
     seed: int,
@@ -248,7 +378,11 @@ def adapt_grid(
         contracts.SOURCE_TEST: load_role(samples_dir, contracts.SOURCE_TEST, seq, required=False),
     }
     check_lengths(samples[contracts.TARGET_TEST], cfg.m_grid)
-    recipes = [r for r in cfg.recipes if r != CONTINUOUS]
+    radii = (cal.r_rl_m, cal.r_rr_m)
+    evidence = Evidence.measure(
+        params, samples_dir, samples[contracts.TARGET_TRAIN], g_net, g_hparams, radii
+    )
+    recipes = [r for r in cfg.recipes if r not in CONTINUOUS_RECIPES]
     tasks = [
         Task(role, r, m, d)
         for role in (contracts.TARGET_TEST, contracts.TARGET_TRAIN)
@@ -263,16 +397,19 @@ def adapt_grid(
         for d in samples[contracts.SOURCE_TEST].drives
     ]
     start = time.perf_counter()
-    radii = (cal.r_rl_m, cal.r_rr_m)
-    jobs = _jobs(tasks, samples, g_net, g_hparams, params, seed, radii)
+    jobs = _jobs(tasks, samples, g_net, g_hparams, params, seed, radii, evidence)
     timed = _pool_map(run_job, jobs, desc=f"adapt@{seed}")
     done = [(t, pred, result) for t, ((pred, result), _) in zip(tasks, timed, strict=True)]
     spans = {t: span for t, (_, span) in zip(tasks, timed, strict=True)}
     continuous_start = now_ms()
     continuous = {
-        role: _continuous(params, samples[role], g_net, g_hparams, radii)
+        (recipe, role): _continuous(
+            params, recipe, role, samples[role], g_net, g_hparams, radii, evidence
+        )
+        for recipe in cfg.recipes
+        if recipe in CONTINUOUS_RECIPES
         for role in (contracts.TARGET_TEST, contracts.TARGET_TRAIN)
-        if CONTINUOUS in cfg.recipes and len(samples[role])
+        if len(samples[role])
     }
     continuous_timing = Timing(continuous_start, now_ms())
     seconds = time.perf_counter() - start
@@ -303,22 +440,25 @@ def adapt_grid(
                 mine_spans = [spans[t] for t, _, _ in mine]
                 record.timing = Timing(min(s for s, _ in mine_spans), max(e for _, e in mine_spans))
                 records.append(record)
-        if contracts.TARGET_TEST in continuous:
-            out = r_dir(tmp, CONTINUOUS)
+        for (recipe, role), columns in continuous.items():
+            if role != contracts.TARGET_TEST:
+                continue
+            out = r_dir(tmp, recipe)
             out.mkdir()
             frame = test.frame[["drive", "segment", "t_s"]].assign(
-                **{f"pred_m_{L}s": col for L, col in continuous[contracts.TARGET_TEST].items()}
+                **{f"pred_m_{L}s": col for L, col in columns.items()}
             )
             frame.to_parquet(out / contracts.PREDICTIONS, index=False)
             record = RunRecord(
-                name=f"R-WhONet continuous seed {seed}",
-                tags=_tags(seed, CONTINUOUS, None),
-                params={**model_params(params, seed, "adapt"), "adapt.recipe": CONTINUOUS},
+                name=f"R-WhONet {recipe} seed {seed}",
+                tags=_tags(seed, recipe, None),
+                params={**model_params(params, seed, "adapt"), "adapt.recipe": recipe},
                 timing=continuous_timing,
             )
             write_json(out / contracts.RUN_RECORD, record.to_dict())
             records.append(record)
         _write_selection(tmp / SELECTION, samples, done, continuous)
+        write_json(tmp / contracts.SHRINK_EVIDENCE, evidence.to_dict())
     for record in records:
         write_timing(_record_dir(out_root, record), record.timing, stage=f"adapt@{seed}")
     return records, seconds
@@ -332,6 +472,7 @@ def _jobs(
     params: Params,
     seed: int,
     source_radii: tuple[float, float],
+    evidence: Evidence,
 ) -> list[Job]:
     """Every task with its inputs; the jobs of one drive share its arrays (no copy per job)."""
     from rwhonet.models.adapt import adapt_data
@@ -359,6 +500,7 @@ def _jobs(
             seed=seed,
             min_speed_m_s=params.label.calibration_min_speed_m_s,
             source_radii=source_radii,
+            evidence=evidence.for_drive(t.role, t.drive) if t.recipe == contracts.SHRINK else None,
         )
         for t in tasks
     ]
@@ -393,9 +535,10 @@ def _write_selection(
             )
             col = columns.setdefault(name, np.full(len(frame), np.nan))
             col[drive == t.drive] = pred
-        if role in continuous:
-            for L, col in continuous[role].items():
-                columns[f"{recipe_model(CONTINUOUS, None)}/{L}s"] = col
+        for (recipe, of), by_outage in continuous.items():
+            if of == role:
+                for L, col in by_outage.items():
+                    columns[f"{recipe_model(recipe, None)}/{L}s"] = col
         frame = frame.assign(**{f"pred_m__{name}": col for name, col in columns.items()})
         frame.to_parquet(folder / f"{file}.parquet", index=False)
 
@@ -429,12 +572,24 @@ def _record(
 
 
 def _continuous(
-    params: Params, samples: SampleSet, g_net, g_hparams: dict, source_radii: tuple[float, float]
+    params: Params,
+    recipe: str,
+    role: str,
+    samples: SampleSet,
+    g_net,
+    g_hparams: dict,
+    source_radii: tuple[float, float],
+    evidence: Evidence,
 ) -> dict[int, np.ndarray]:
-    """The continuous recipe on every drive of a sample set: one prediction column per outage."""
-    from rwhonet.models.adapt import adapt_data, continuous_predictions
+    """A continuous recipe on every drive of a sample set: one prediction column per outage.
+
+    ``continuous`` runs ``adapt.continuous.inner``; ``continuous_shrink`` runs
+    ``shrink+ridge_head`` with each drive's shrink evidence.
+    """
+    from rwhonet.models.adapt import SHRINK_RIDGE, adapt_data, continuous_predictions
 
     cfg = params.adapt.continuous
+    inner = cfg.inner if recipe == CONTINUOUS else SHRINK_RIDGE
     frame = samples.frame
     drive = frame["drive"].to_numpy()
     rank = frame["k"].to_numpy()
@@ -454,11 +609,12 @@ def _continuous(
                 adapt_data(samples, drive == d),
                 rank[rows],
                 np.searchsorted(rows, mine),
-                inner=cfg.inner,
+                inner=inner,
                 penalty=params.adapt.ridge_penalty,
                 window_s=cfg.window_s,
                 min_speed_m_s=params.label.calibration_min_speed_m_s,
                 source_radii=source_radii,
+                evidence=evidence.for_drive(role, d) if inner == SHRINK_RIDGE else None,
             )
             col[mine.ravel()] = pred.ravel()
         columns[L] = col

@@ -23,7 +23,7 @@ import pandas as pd
 from rwhonet import contracts as k
 from rwhonet import paths
 from rwhonet.config import Params, flatten
-from rwhonet.contracts import CONTINUOUS, alt_wpm, recipe_model
+from rwhonet.contracts import CONTINUOUS_RECIPES, alt_wpm, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.evaluation.names import at_chosen_m
 from rwhonet.evaluation.result import Evaluation
@@ -67,7 +67,7 @@ def prediction_sources(params: Params, models_root: Path) -> dict[tuple[int, str
         out[(seed, "G")] = folder["g"] / k.PREDICTIONS
         out[(seed, "S")] = folder["s"] / k.PREDICTIONS
         for r in params.adapt.recipes:
-            for m in [None] if r == CONTINUOUS else params.adapt.m_grid:
+            for m in [None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid:
                 sub_dir = folder["r"] / r if m is None else folder["r"] / r / f"m{m}"
                 out[(seed, recipe_model(r, m))] = sub_dir / k.PREDICTIONS
     return out
@@ -337,7 +337,7 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
         mine = ev.per_seed[ev.per_seed["seed"] == seed]
         folders = {"G": models_root / "g" / f"seed{seed}", "S": models_root / "s" / f"seed{seed}"}
         for r in params.adapt.recipes:
-            for m in [None] if r == CONTINUOUS else params.adapt.m_grid:
+            for m in [None] if r in CONTINUOUS_RECIPES else params.adapt.m_grid:
                 sub_dir = models_root / "r" / f"seed{seed}" / r
                 folders[recipe_model(r, m)] = sub_dir if m is None else sub_dir / f"m{m}"
         for model, folder in folders.items():

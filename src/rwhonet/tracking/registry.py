@@ -432,6 +432,7 @@ def register_execution(
     scaler_path: Path | None = None,
     calibration_path: Path | None = None,
     samples_dir: Path | None = None,
+    models_root: Path | None = None,
 ) -> list[dict[str, str]]:
     """Register G, S and the chosen R of one pipeline execution (one version each).
 
@@ -442,6 +443,8 @@ def register_execution(
         scaler_path: the label stage's ``scaler.json`` (default: the project's).
         calibration_path: its ``calibration.json``.
         samples_dir: its samples folder (the input examples).
+        models_root: its ``models`` folder: each model carries the shrink recipe's evidence
+            its seed's adapt stage measured (``r/seed<seed>/evidence.json``), if any.
 
     Returns:
         One ``{"name", "version", "run_id", "model_file"}`` per registered model;
@@ -454,6 +457,7 @@ def register_execution(
     scaler_path = Path(scaler_path or paths.SCALER)
     calibration_path = Path(calibration_path or paths.CALIBRATION)
     samples_dir = Path(samples_dir or paths.SAMPLES)
+    models_root = Path(models_root or paths.MODELS)
     picked = chosen_records([rec for rec, _ in logged])
     if not picked or not (scaler_path.is_file() and calibration_path.is_file()):
         return []
@@ -479,6 +483,8 @@ def register_execution(
             tags["drive"] = model_file.stem
             tags["base_model"] = registered_name("G")
         name = registered_name(model, rec.tags.get("vehicle"))
+        # the shrink recipe's evidence, measured on this seed's G by its adapt stage
+        evidence = models_root / "r" / f"seed{rec.tags.get('seed')}" / k.SHRINK_EVIDENCE
         meta = make_meta(
             {},
             scaler,
@@ -486,6 +492,7 @@ def register_execution(
             str(rec.params.get("label.wpm_mode", "integrated")),
             None,
             {"name": name, **{key: v for key, v in tags.items() if key != "seed_note"}},
+            read_json(evidence) if "seed" in rec.tags and evidence.is_file() else None,
         )
         with tempfile.TemporaryDirectory(prefix="rwhonet-bundle-") as tmp:
             bundle = write_bundle(model_file, meta, Path(tmp))
