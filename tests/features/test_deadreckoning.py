@@ -286,3 +286,14 @@ def test_a_tyre_losing_pressure_gives_the_bias_of_now_not_the_average():
     # a second of the outage: the wheels say -0.04 rad, the car goes straight
     turn = fit.scale * (-0.004 * 10.0) / (1.0 + fit.load_s2_m2 * 100.0) + fit.bias_rad_per_m * 10.0
     assert abs(turn) < 0.15 * 0.04
+
+
+def test_a_latest_block_with_no_course_near_its_median_still_gives_a_heading():
+    """Seconds before a 30 s window of the ci profile (m_grid [10, 20]) where every course of
+    the latest block lies beyond its limit from their median: the fit crashed on an empty
+    selection (tests/test_pipeline.py's evaluate stage); it re-anchors on the nearest one."""
+    from pathlib import Path
+
+    data = np.load(Path(__file__).parent / "fixtures" / "heading_no_course_near_median.npz")
+    fit = fit_heading(data["course"], data["yaw"], data["gnss"])
+    assert fit is not None and np.isfinite(fit.azimuth_end_rad) and np.isfinite(fit.scale)

@@ -313,7 +313,10 @@ def fit_heading(
             tau = np.sqrt(np.median(sd[ours] ** 2) / yaw_noise_rad**2)
             recent = d.size - 1 - ours <= 3.0 * tau
             centre = np.median(off[recent]) if recent.any() else np.median(off)
-            near = np.abs(_wrap(off - centre)) <= limit[ours]
+            gap = np.abs(_wrap(off - centre))
+            near = gap <= limit[ours]
+            if not near.any():  # none within its limit of the median (two courses apart)
+                near = gap == gap.min()
             age = d.size - 1 - ours[near]
             wa = np.exp(-(age - age.min()) / tau) / sd[ours[near]] ** 2
             anchor = float(centre + np.sum(wa * _wrap(off[near] - centre)) / np.sum(wa))
