@@ -12,7 +12,8 @@ longest outage's windows in run B minus that in run A, then the mean over seeds
 with a 95 % t interval (:func:`rwhonet.evaluation.intervals.mean_ci95`).
 
 Models: G, S and R (each run's own R: its recipe at its chosen m, from its
-``metrics/eval.json``), and each of those two recipes at its m in both runs.
+``metrics/eval.json``), each of those two recipes at its m in both runs, and
+any model named with ``--also`` (``'R[paper]@50'``, ``'R[continuous]/180s'``).
 The per-second errors come from ``reports/predictions/`` (label − prediction,
 on the seconds the evaluation scores); a run's own ``eval.json`` values are
 printed beside them as a check.
@@ -28,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from rwhonet.evaluation.intervals import mean_ci95
-from rwhonet.evaluation.scoring import window_metrics
+from rwhonet.evaluation.windows import window_starts
 
 
 def per_seed_crse(run: Path, model: str, outage_s: int, role: str) -> dict[int, float]:
@@ -45,10 +46,11 @@ def per_seed_crse(run: Path, model: str, outage_s: int, role: str) -> dict[int, 
     ]:
         seed = int(col.rsplit("__seed", 1)[1])
         e = frame["label_m"].to_numpy() - (0.0 if model == "WPM" else frame[col].to_numpy())
-        w = window_metrics(
-            e, frame["disp_gnss_m"].to_numpy(), frame["segment"].to_numpy(), outage_s
-        )
-        out[seed] = float(w["crse_m"].mean())
+        start, _ = window_starts(frame["segment"].to_numpy(), outage_s)
+        rows = start[:, None] + np.arange(outage_s)
+        # R[continuous]/<L>s predicts only inside the L s windows: every window must be whole
+        assert np.isfinite(e[rows]).all(), f"{run}: {col} has no prediction in a window"
+        out[seed] = float(np.abs(e[rows]).sum(axis=1).mean())  # CRSE: sum of |e| per window
     return out
 
 
@@ -62,12 +64,14 @@ def main() -> None:
     ap.add_argument("b", type=Path, help="the run compared with it")
     ap.add_argument("--outage", type=int, default=None, help="outage (s); default the longest")
     ap.add_argument("--role", default="target_test")
+    ap.add_argument("--also", nargs="*", default=[], help="more models, e.g. 'R[paper]@50'")
     args = ap.parse_args()
     evs = [json.loads((r / "metrics" / "eval.json").read_text()) for r in (args.a, args.b)]
     outage = args.outage or max(int(k.removesuffix("s")) for k in evs[0]["overall"]["G"])
     rows = [("G", "G", "G"), ("S", "S", "S"), ("R", r_model(evs[0]), r_model(evs[1]))]
     for recipe_m in dict.fromkeys([r_model(evs[0]), r_model(evs[1])]):
         rows.append((recipe_m, recipe_m, recipe_m))
+    rows += [(m, m, m) for m in args.also]
     rows.append(("WPM", "WPM", "WPM"))
     print(
         f"{args.a.name} (A) vs {args.b.name} (B): mean CRSE (m) of the {outage} s windows of "
