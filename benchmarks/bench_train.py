@@ -1,6 +1,7 @@
 """How fast WhONet trains, adapts and is evaluated on this machine; prints its figures.
 
     .venv/bin/python benchmarks/bench_train.py [--samples 95000 --epochs 2 --repeats 2]
+        [--arch whonet|gru|tcn --seq-len 32] [--seeds-only]
 
 Data are random but shaped like the real features (min-max scaled wheel-speed
 windows (N, seq_len, 40) in [0, 1], labels of a few decimetres); N = 95,000 is
@@ -16,6 +17,14 @@ Training variants, all on the same data, model, Adamax, MAE loss and batch size:
                   no per-step logging.
 - rwhonet block=1: ``rwhonet.models.train.fit`` with one optimizer step per Lightning batch.
 - rwhonet block=K: ``fit`` as the pipeline runs it (K steps per Lightning batch).
+
+- per-seed vs vectorised: every seed of ``seeds`` trained one after the other
+  (``fit``) and all at once (:func:`rwhonet.models.vectorised.fit_seeds`, the same
+  weights), for WhONet and for the networks with temporal context (``--arch``
+  picks the one the rest of the benchmark runs; ``--seeds-only`` runs this part
+  alone). Samples per second of wall time and per CPU second of this process:
+  on a shared machine the wall figure moves with the other load, the CPU one
+  much less.
 
 Then the adaptation grid (adapt.m_grid x 4 drives, m samples each, adapt.epochs
 epochs, in one process) with the paper recipe (``rwhonet.models.adapt.fine_tune``);
@@ -46,11 +55,9 @@ def _plain(x, y, model, train, seed: int) -> float:
     import torch
     from torch import nn
 
-    from rwhonet.models.whonet import WhONet
-
     torch.set_num_threads(train.num_threads)
     torch.manual_seed(seed)
-    net = WhONet(x.shape[2], model.hidden, model.layers, model.dropout).train()
+    net = _net(x.shape[2], model, train).train()
     opt = torch.optim.Adamax(net.parameters(), lr=train.lr)
     xt, yt = torch.from_numpy(x), torch.from_numpy(y)
     gen = torch.Generator().manual_seed(seed)
@@ -67,6 +74,25 @@ def _plain(x, y, model, train, seed: int) -> float:
     return n * train.epochs / (time.perf_counter() - start)
 
 
+def _net(n_features: int, model, train):
+    """The network ``model.arch`` selects, as fit builds it."""
+    from rwhonet.models.loop import net_from_hparams
+
+    return net_from_hparams(
+        {
+            "n_features": n_features,
+            "hidden": model.hidden,
+            "layers": model.layers,
+            "dropout": model.dropout,
+            "seq_len": model.seq_len,
+            "lr": train.lr,
+            "batch_size": train.batch_size,
+            "arch": model.arch,
+            "channels": model.channels,
+        }
+    )
+
+
 def _lightning_baseline(x, y, model, train, seed: int, *, naive: bool) -> float:
     """Samples/s of a conventional one-step-per-batch LightningModule (the comparison)."""
     import lightning as L
@@ -75,12 +101,11 @@ def _lightning_baseline(x, y, model, train, seed: int, *, naive: bool) -> float:
     from torch.utils.data import DataLoader, TensorDataset
 
     from rwhonet.models.datamodule import WhONetDataModule
-    from rwhonet.models.whonet import WhONet
 
     class Conventional(L.LightningModule):
         def __init__(self) -> None:
             super().__init__()
-            self.net = WhONet(x.shape[2], model.hidden, model.layers, model.dropout)
+            self.net = _net(x.shape[2], model, train)
 
         def training_step(self, batch, batch_idx):
             xb, yb = batch
@@ -153,6 +178,60 @@ def _grid(net, hparams, drives, adapt, seed: int) -> tuple[float, list[float]]:
     return time.perf_counter() - start, fit_s
 
 
+def _seeds_table(n: int, epochs: int, repeats: int, seq_len: int, seeds: list[int]) -> None:
+    """Samples/s of training every seed one by one (fit) and all at once (fit_seeds)."""
+    from rwhonet.models.train import fit
+    from rwhonet.models.vectorised import fit_seeds, supports
+
+    params = load_params()
+    train = replace(params.train, epochs=epochs)
+    rng = np.random.default_rng(0)
+    print(
+        f"Seeds {seeds}, N={n}, {epochs} epochs, batch {train.batch_size}: samples/s of wall time "
+        "(per CPU second of this process), median of "
+        f"{repeats}; vectorised = rwhonet.models.vectorised.fit_seeds, the same weights"
+    )
+    for arch, t in (("whonet", 1), ("tcn", seq_len), ("gru", seq_len)):
+        model = replace(params.model, arch=arch, seq_len=t)
+        x = rng.random((n, t, 40), dtype=np.float32)
+        y = rng.normal(0.0, 0.3, n).astype(np.float32)
+        runs: dict[str, list[tuple[float, float]]] = {"per-seed": [], "vectorised": []}
+        for _ in range(repeats):
+            runs["per-seed"].append(
+                _timed_samples(
+                    lambda x=x, y=y, model=model: [
+                        fit(x, y, model=model, train=train, seed=s) for s in seeds
+                    ],
+                    len(seeds) * n * epochs,
+                )
+            )
+            if supports(model):
+                runs["vectorised"].append(
+                    _timed_samples(
+                        lambda x=x, y=y, model=model: fit_seeds(
+                            x, y, model=model, train=train, seeds=seeds
+                        ),
+                        len(seeds) * n * epochs,
+                    )
+                )
+        cells = []
+        for name, got in runs.items():
+            if not got:
+                cells.append(f"{name}: (no vmap batching rule for nn.GRU)")
+                continue
+            wall = statistics.median(w for w, _ in got)
+            cpu = statistics.median(c for _, c in got)
+            cells.append(f"{name} {wall / 1e3:6.1f} k ({cpu / 1e3:6.1f} k per CPU s)")
+        print(f"  {arch:<6} seq_len {t:>3}: " + "; ".join(cells), flush=True)
+
+
+def _timed_samples(fn: Callable[[], object], samples: int) -> tuple[float, float]:
+    """(samples per wall second, samples per CPU second of this process) of ``fn()``."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    fn()
+    return samples / (time.perf_counter() - wall), samples / (time.process_time() - cpu)
+
+
 def _measure(name: str, fn: Callable[[], float], repeats: int, table: dict) -> None:
     runs = [fn() for _ in range(repeats)]
     table[name] = runs
@@ -171,9 +250,17 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2, help="runs per training variant")
     ap.add_argument("--drives", type=int, default=4, help="target test drives in the grid")
     ap.add_argument("--steps-per-block", type=int, default=None, help="fit's block size")
+    ap.add_argument("--arch", default=None, help="model.arch (default: params.yaml's)")
+    ap.add_argument("--seq-len", type=int, default=32, help="seq_len of gru and tcn")
+    ap.add_argument("--seeds-only", action="store_true", help="only per-seed vs vectorised")
+    ap.add_argument("--seed-samples", type=int, default=20_000, help="N of that comparison")
     args = ap.parse_args()
 
     quiet()
+    if args.seeds_only:
+        seeds = load_params().seeds
+        _seeds_table(args.seed_samples, args.epochs, args.repeats, args.seq_len, seeds)
+        return
     t0 = time.perf_counter()
     import lightning  # noqa: F401  (import cost reported separately)
     import torch
@@ -185,6 +272,8 @@ def main() -> None:
     import_s = time.perf_counter() - t0
     params = load_params()
     model, seed = params.model, params.seeds[0]
+    if args.arch is not None and args.arch != model.arch:
+        model = replace(model, arch=args.arch, seq_len=1 if args.arch == "whonet" else args.seq_len)
     train = replace(params.train, epochs=args.epochs)
     block = args.steps_per_block or STEPS_PER_BLOCK
 
@@ -197,7 +286,7 @@ def main() -> None:
         f"train.num_threads={train.num_threads}; import lightning+rwhonet.models {import_s:.1f} s"
     )
     print(
-        f"G training: N={n}, seq_len={model.seq_len}, hidden={model.hidden}, "
+        f"G training: arch={model.arch}, N={n}, seq_len={model.seq_len}, hidden={model.hidden}, "
         f"batch={train.batch_size}, {train.epochs} epochs x {args.repeats} repeats"
     )
     _plain(x[:5000], y[:5000], model, replace(train, epochs=1), seed)  # warm-up

@@ -617,6 +617,16 @@ class ModelParams:
     layers: int
     dropout: float
     seq_len: int
+    # the network (rwhonet.models.network): the paper's WhONet, or one with temporal context
+    arch: Literal["whonet", "gru", "tcn"] = "whonet"
+    channels: int = 16  # tcn: context features per level
+
+    def __post_init__(self) -> None:
+        if self.seq_len < 1 or self.channels < 1:
+            raise ConfigError(
+                f"model.seq_len and model.channels must be >= 1, got {self.seq_len}, "
+                f"{self.channels}"
+            )
 
 
 @dataclass(frozen=True)

@@ -229,3 +229,20 @@ def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):
     frame = pd.read_parquet(out)
     assert len(frame) == 300 and list(frame.columns)[:3] == ["t_s", "elapsed_s", "disp_wpm_m"]
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("arch", ["tcn", "gru"])
+def test_a_model_with_context_exports_and_predicts_every_second(arch, drive, tmp_path, capsys):
+    """model.arch tcn / gru: the stream feeds each second's window of 32 s to ONNX Runtime."""
+    context = base_bundle(tmp_path / "bundle", arch=arch, seq_len=32)
+    onnx = tmp_path / "m.onnx"
+    assert (
+        main(["export", "--model", str(context["model_onnx"].parent), "--output", str(onnx)]) == 0
+    )
+    said = capsys.readouterr().out
+    assert "(batch, 32, 40)" in said and "max |ONNX - PyTorch|" in said
+    out = tmp_path / "p.parquet"
+    args = ["predict", "--model", str(onnx), "--drive", str(drive), "--output", str(out)]
+    assert main([*args, "--quiet"]) == 0
+    frame = pd.read_parquet(out)
+    assert len(frame) == 300 and frame["pred_error_m"].notna().all()

@@ -300,3 +300,14 @@ def test_latest_courses_that_disagree_with_each_other_leave_the_heading_on_the_l
     fit = fit_heading(course, np.zeros(n), np.full(n, 10.0), course_sd_rad=0.0095, fix_sd_m=0.001)
     assert fit is not None
     assert _degrees_off(fit.azimuth_end_rad, 1.8) < 3.0
+
+
+def test_a_latest_block_with_no_course_near_its_median_still_gives_a_heading():
+    """Seconds before a 30 s window of the ci profile (m_grid [10, 20]) where every course of
+    the latest block lies beyond its limit from their median: the fit crashed on an empty
+    selection (tests/test_pipeline.py's evaluate stage); it re-anchors on the nearest one."""
+    from pathlib import Path
+
+    data = np.load(Path(__file__).parent / "fixtures" / "heading_no_course_near_median.npz")
+    fit = fit_heading(data["course"], data["yaw"], data["gnss"])
+    assert fit is not None and np.isfinite(fit.azimuth_end_rad) and np.isfinite(fit.scale)

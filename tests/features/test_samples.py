@@ -30,14 +30,17 @@ def test_segments_stack_in_the_given_order_and_windows_never_cross_them(seq_len)
         ({"drive": "A", "segment": "A__s001", "role": "target_test"}, _segment(200, 6, True)),
     ]
     data = stack_segments(segments, seq_len)
-    kept = [n - seq_len + 1 for n in (8, 5, 6)]
+    kept = [8, 5, 6]  # every second, however long the windows
     assert data.x.shape == (sum(kept), seq_len, k.N_FEATURES) and data.x.dtype == np.float32
     assert data.drives == ["B", "A"]
     assert list(data.frame["group"]) == [0] * kept[0] + [1] * kept[1] + [2] * kept[2]
-    # each window: seq_len consecutive seconds of one segment, in time order, ending at its own
+    # each window: consecutive seconds of one segment, in time order, ending at its own;
+    # a segment's first seconds are padded with that segment's first second
     ids = data.x[:, :, 0]
-    assert np.all(np.diff(ids, axis=1) == 1)
+    assert np.all(np.diff(ids, axis=1) >= 0) and np.all(np.diff(ids, axis=1) <= 1)
     assert np.all(ids[:, 0] // 100 == ids[:, -1] // 100)
+    rank = data.frame.groupby("group").cumcount().to_numpy()
+    assert np.array_equal(ids[:, -1] - ids[:, 0], np.minimum(rank, seq_len - 1))
     for _, seg in data.frame.groupby("group"):
         assert np.all(np.diff(seg["t_s"].to_numpy()) == 1.0)  # shuffled rows come back sorted
     # k: the rank of the sample in its drive, across its segments

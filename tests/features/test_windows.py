@@ -1,4 +1,4 @@
-"""Windows of consecutive seconds: round trip, never across a segment."""
+"""Windows of consecutive seconds: every second gets one, never across a segment or ahead."""
 
 from __future__ import annotations
 
@@ -21,37 +21,49 @@ def test_windows_round_trip_and_stay_in_their_segment(seed, seq_len):
     group = random_groups(rng, 8)
     x = rng.normal(size=(len(group), 5))
     run = np.concatenate([[0], np.cumsum(np.diff(group) != 0)]).astype(int) if len(group) else group
-    windows, kept = sequences(x, seq_len, group)
+    windows = sequences(x, seq_len, group)
 
-    assert windows.shape == (len(kept), seq_len, 5)
-    assert kept.dtype == np.int64
-    # Round trip: a window's last step is the row it belongs to, earlier steps the rows before.
-    if len(kept):
-        np.testing.assert_array_equal(windows[:, -1], x[kept])
-        for i in range(seq_len):
-            np.testing.assert_array_equal(windows[:, i], x[kept - seq_len + 1 + i])
-        # Never across a segment: every row of a window is in the same run of ids.
-        rows = kept[:, None] - np.arange(seq_len)[None, :]
-        assert (run[rows] == run[kept][:, None]).all()
-    # Exactly the first seq_len - 1 rows of every run are dropped.
-    run_sizes = np.bincount(run) if len(group) else np.array([], dtype=int)
-    assert len(kept) == np.clip(run_sizes - seq_len + 1, 0, None).sum()
+    # Every second has a window, ending at the second itself.
+    assert windows.shape == (len(group), seq_len, 5)
+    np.testing.assert_array_equal(windows[:, -1], x)
+    for i in range(len(group)):
+        first = int(np.flatnonzero(run == run[i])[0])  # the first row of i's segment
+        for j in range(seq_len):
+            # step j holds second i - (seq_len - 1 - j), or the segment's first second
+            np.testing.assert_array_equal(windows[i, j], x[max(i - (seq_len - 1 - j), first)])
 
 
-def test_seq_len_one_keeps_every_row_and_known_example():
+def test_a_later_second_or_another_segment_never_reaches_a_window():
+    rng = np.random.default_rng(0)
+    group = np.repeat([3, 1, 3], [6, 4, 7])
+    x = rng.normal(size=(len(group), 4))
+    before = sequences(x, 5, group)
+    for i in range(len(group)):
+        changed = x.copy()
+        changed[i + 1 :] += 100.0  # every later second
+        run = np.concatenate([[0], np.cumsum(np.diff(group) != 0)])
+        changed[run != run[i]] -= 50.0  # every other segment
+        np.testing.assert_array_equal(sequences(changed, 5, group)[i], before[i])
+
+
+def test_known_example():
     x = np.arange(12, dtype=float).reshape(6, 2)
-    w, kept = sequences(x, 1, np.zeros(6))
-    assert w.shape == (6, 1, 2) and kept.tolist() == list(range(6))
+    w = sequences(x, 1, np.zeros(6))
+    assert w.shape == (6, 1, 2)
+    np.testing.assert_array_equal(w[:, 0], x)
 
     group = np.array([5, 5, 5, 9, 9, 5])  # the last 5 is a new segment
-    w, kept = sequences(x, 2, group)
-    assert kept.tolist() == [1, 2, 4]
-    np.testing.assert_array_equal(w[2], [[6, 7], [8, 9]])
+    w = sequences(x, 2, group)
+    np.testing.assert_array_equal(w[0], [[0, 1], [0, 1]])  # padded with its own first second
+    np.testing.assert_array_equal(w[2], [[2, 3], [4, 5]])
+    np.testing.assert_array_equal(w[3], [[6, 7], [6, 7]])  # a new segment starts again
+    np.testing.assert_array_equal(w[4], [[6, 7], [8, 9]])
+    np.testing.assert_array_equal(w[5], [[10, 11], [10, 11]])
 
 
 def test_windows_are_writable_copies():
     x = np.zeros((4, 3), dtype=np.float32)
-    w, _ = sequences(x, 2, np.zeros(4))
+    w = sequences(x, 2, np.zeros(4))
     w[0, 0, 0] = 1.0  # a strided view of x would be read-only
     assert x[0, 0] == 0.0 and w.dtype == np.float32 and w.flags.c_contiguous
 
@@ -63,5 +75,5 @@ def test_bad_arguments():
         sequences(np.zeros(3), 1, np.zeros(3))
     with pytest.raises(ValueError, match="group"):
         sequences(np.zeros((3, 2)), 1, np.zeros(4))
-    w, kept = sequences(np.zeros((2, 4)), 3, np.zeros(2))
-    assert w.shape == (0, 3, 4) and kept.shape == (0,)
+    assert sequences(np.zeros((2, 4)), 3, np.zeros(2)).shape == (2, 3, 4)
+    assert sequences(np.zeros((0, 4)), 3, np.zeros(0)).shape == (0, 3, 4)

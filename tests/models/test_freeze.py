@@ -35,5 +35,5 @@ def test_policy_flags_the_right_parts() -> None:
 def test_bad_policy_or_module() -> None:
     with pytest.raises(ValueError, match="trainable"):
         apply_trainable(WhONet(), "encoder")
-    with pytest.raises(ValueError, match="WhONet"):
+    with pytest.raises(ValueError, match="network"):
         apply_trainable(torch.nn.Linear(2, 2), "all")

@@ -51,6 +51,8 @@ def test_hyperparameters_survive_a_model_file(tmp_path, linear_data, model_param
         "seq_len": 1,
         "lr": 0.01,
         "batch_size": 64,
+        "arch": "whonet",  # the constructor's defaults; a WhONet's file holds neither
+        "channels": 16,
     }
     assert not loaded.training
     for (k, a), (k2, b) in zip(

@@ -12,7 +12,7 @@ from rwhonet.geo.local import offsets_m
 from rwhonet.serve.model import load_served
 from rwhonet.serve.stream import COLUMNS, POSITION_COLUMNS, Outage, SecondStream, parse_outage
 from support.drives import straight_drive
-from support.serving import RADIUS_M, SCALER, wavy_drive
+from support.serving import RADIUS_M, SCALER, base_bundle, wavy_drive
 
 
 def stream_all(model, blocks, outages=()):
@@ -79,6 +79,47 @@ def test_seconds_match_the_label_stage_and_the_model(bundle, drive_csv):
     )
     np.testing.assert_allclose(out["pred_error_m"][i], model.predict(ref.x[j]), atol=1e-6)
     np.testing.assert_allclose(out["disp_corrected_m"], out["disp_wpm_m"] + out["pred_error_m"])
+
+
+@pytest.fixture(scope="module", params=["tcn", "gru"])
+def context_bundle(request, tmp_path_factory):
+    """A model with 32 s of context (model.arch tcn or gru)."""
+    return base_bundle(tmp_path_factory.mktemp(request.param), arch=request.param, seq_len=32)
+
+
+def test_a_model_with_context_gets_the_pipelines_windows(context_bundle, drive_csv):
+    """Every second predicted, from the windows the label code cuts (padded at the start)."""
+    model = load_served(context_bundle["model_onnx"])
+    with open(drive_csv, "rb") as f:
+        _, blocks = read_rows(f, "V-Wavy.csv", block_bytes=3000)
+        out, _ = stream_all(model, list(blocks))
+    ref = load_drive(
+        drive_csv,
+        load_params(),
+        vehicle="target",
+        fmt="iovnbd",
+        calibration=calibration_of((RADIUS_M, RADIUS_M), "t"),
+        scaler=SCALER,
+        wpm_mode="integrated",
+        seq_len=32,
+    ).samples
+    common, i, j = np.intersect1d(out["t_s"], ref.frame["t_s"].to_numpy(), return_indices=True)
+    assert len(common) == len(out["t_s"]) == 400 and np.isfinite(out["pred_error_m"]).all()
+    np.testing.assert_allclose(out["pred_error_m"][i], model.predict(ref.x[j]), atol=1e-6)
+
+
+def test_context_restarts_after_a_gap_and_never_depends_on_blocking(context_bundle):
+    model = load_served(context_bundle["model_onnx"])
+    df = wavy_drive(60)
+    later = wavy_drive(50, seed=1, t0_s=45100.0)
+    both = pd.concat([df, later], ignore_index=True)
+    whole, _ = stream_all(model, blocks_of(both, [len(both)]))
+    parts, _ = stream_all(model, blocks_of(both, [3, 11, 1, 250, 40] * 20))
+    assert_same_seconds(whole, parts)
+    alone, _ = stream_all(model, blocks_of(later, [len(later)]))
+    after = whole["t_s"] > 45100.0
+    assert after.sum() == len(alone["t_s"]) == 50  # nothing from before the gap reaches them
+    np.testing.assert_allclose(whole["pred_error_m"][after], alone["pred_error_m"], atol=1e-7)
 
 
 @pytest.mark.parametrize("sizes", [[7] * 1000, [1] * 35 + [10_000], [3, 11, 1, 250, 40] * 100])

@@ -18,9 +18,9 @@ def test_load_role_orders_and_ranks_per_drive(samples_dir):
     assert np.array_equal(data.y, f["label_m"].to_numpy(np.float32))
 
 
-def test_sequences_drop_first_seconds_of_each_segment(samples_dir):
+def test_sequences_keep_every_second_of_each_segment(samples_dir):
     data = load_role(samples_dir, "target_test", seq_len=3)
-    assert data.x.shape == (900 - 3 * 2, 3, 40)
+    assert data.x.shape == (900, 3, 40)
     # the last step of every window is the sample's own second
     one = load_role(samples_dir, "target_test", seq_len=1)
     key = one.frame.set_index(["segment", "t_s"]).index

@@ -17,7 +17,8 @@ import torch
 from rwhonet.config import load_params
 from rwhonet.features.scaling import MinMaxScaler
 from rwhonet.models.checkpoint import save_whonet
-from rwhonet.models.whonet import WhONet
+from rwhonet.models.loop import net_from_hparams
+from rwhonet.models.network import Network
 from rwhonet.serve.bundle import make_meta, write_bundle
 
 RADIUS_M = 0.294  # the fiesta's nominal radius: the base model's "source calibration"
@@ -33,15 +34,22 @@ HPARAMS = {
 }
 
 
-def base_net(seed: int = 0, seq_len: int = 1) -> tuple[WhONet, dict]:
-    """A WhONet with Keras-default weights and a head that predicts metres, not zeros."""
+def base_net(seed: int = 0, seq_len: int = 1, arch: str = "whonet") -> tuple[Network, dict]:
+    """A network with its default initial weights and a head that predicts metres, not zeros.
+
+    ``arch`` ``whonet`` (the default: a WhONet's hyperparameters, no ``arch`` key),
+    ``gru`` or ``tcn`` (``model.arch``).
+    """
+    hparams = {**HPARAMS, "seq_len": seq_len}
+    if arch != "whonet":
+        hparams.update(arch=arch, channels=16)
     torch.manual_seed(seed)
-    net = WhONet(hidden=72)
+    net = net_from_hparams(hparams)
     with torch.no_grad():
         net.head.weight.mul_(0.05)
         net.head.bias.fill_(0.02)
     net.eval()
-    return net, {**HPARAMS, "seq_len": seq_len}
+    return net, hparams
 
 
 def base_bundle(
@@ -49,6 +57,9 @@ def base_bundle(
     seed: int = 0,
     wpm_radii: tuple[float, float] | None = None,
     evidence: dict | None = None,
+    *,
+    arch: str = "whonet",
+    seq_len: int = 1,
 ) -> dict:
     """Write a bundle of :func:`base_net` into ``folder``; return its artifacts.
 
@@ -56,7 +67,7 @@ def base_bundle(
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    net, hparams = base_net(seed)
+    net, hparams = base_net(seed, seq_len, arch)
     save_whonet(net, hparams, folder / "source.pt", wpm_radii=wpm_radii)
     meta = make_meta(
         hparams,

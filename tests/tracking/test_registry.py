@@ -184,6 +184,36 @@ def test_every_model_carries_the_shrink_evidence_of_its_seed(store, pipeline_out
     assert g.meta.evidence is None  # no adapt stage ran: nothing to carry
 
 
+def test_a_model_with_context_predicts_each_row_from_the_rows_before_it(
+    store, pipeline_outputs, tmp_path
+):
+    """model.arch tcn: consecutive rows are the window; a change of ``segment`` restarts it."""
+    from rwhonet.features.windows import sequences
+    from rwhonet.serve.model import load_served
+
+    out = dict(pipeline_outputs)
+    for key, seed in (("g", 0), ("s", 1)):
+        out[key] = base_bundle(tmp_path / f"tcn-{key}", seed=seed, arch="tcn", seq_len=8)[
+            "model_pt"
+        ]
+    r = base_bundle(tmp_path / "tcn-r", seed=2, arch="tcn", seq_len=8)["model_pt"]
+    out["r"] = r.rename(r.with_name("V-Charlie3.pt"))
+    register(store, out, "e1")
+    mlflow.set_tracking_uri(store)
+    frame = input_example(pipeline_outputs["frame"], 20)
+    frame["segment"] = ["a"] * 12 + ["b"] * 8
+    x = sequences(frame[list(k.FEATURE_COLUMNS)].to_numpy(np.float32), 8, frame["segment"])
+    model = mlflow.pyfunc.load_model("models:/whonet-G/latest")
+    assert "segment" in model.metadata.get_input_schema().input_names()
+    served = load_served(resolve_model("models:/whonet-G/1", store, tmp_path / "served"))
+    assert served.meta.seq_len == 8 and served.meta.hparams["arch"] == "tcn"
+    pred = model.predict(frame)["pred_m"].to_numpy()
+    np.testing.assert_allclose(pred, served.predict(x), atol=1e-7)
+    one_stretch = model.predict(frame.drop(columns="segment"))["pred_m"].to_numpy()
+    np.testing.assert_allclose(one_stretch[:12], pred[:12], atol=1e-7)  # the past is the same
+    assert not np.allclose(one_stretch[12:], pred[12:])  # 'b' starts without 'a's seconds
+
+
 def test_an_unknown_model_is_a_readable_error(store, pipeline_outputs):
     from rwhonet.errors import InputError
 

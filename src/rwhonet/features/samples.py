@@ -62,8 +62,9 @@ def stack_segments(segments: list[tuple[dict, pd.DataFrame]], seq_len: int) -> S
         seq_len: number of one-second steps per input sequence.
 
     Returns:
-        The samples; the first ``seq_len - 1`` seconds of each segment have no
-        full window and are left out. Empty when there are none.
+        The samples, one per second; a window reaches back at most to its
+        segment's first second (:func:`rwhonet.features.windows.sequences`).
+        Empty when there are none.
     """
     frames = []
     for group, (entry, seg) in enumerate(segments):
@@ -79,9 +80,9 @@ def stack_segments(segments: list[tuple[dict, pd.DataFrame]], seq_len: int) -> S
     # Segment names sort by start time within a drive (<drive>__s<k>), so this is time order.
     table = table.sort_values(["group", "t_s"], kind="stable").reset_index(drop=True)
     x2 = table[list(k.FEATURE_COLUMNS)].to_numpy(np.float32)
-    x, kept = sequences(x2, seq_len, table["group"].to_numpy())
+    x = sequences(x2, seq_len, table["group"].to_numpy())
     columns = ["drive", "segment", "group", "role", *FRAME_COLUMNS]
-    frame = table.loc[kept, columns].reset_index(drop=True)
+    frame = table[columns].reset_index(drop=True)
     frame.insert(3, "k", frame.groupby("drive", sort=False).cumcount().to_numpy())
     y = frame[k.LABEL_M].to_numpy(np.float32)
     return SampleSet(np.ascontiguousarray(x, dtype=np.float32), y, frame)

@@ -1,18 +1,22 @@
-"""Sequences of consecutive seconds for the RNN (paper Table 1: sequence length).
+"""Sequences of consecutive seconds for the network (paper Table 1: sequence length).
 
 A window ending at second ``i`` holds seconds ``i - seq_len + 1 .. i``, oldest
 first, and is labelled with second ``i``'s target. Windows never cross a group
-boundary (a segment: seconds on either side of a GNSS cut are not consecutive),
-so the first ``seq_len - 1`` seconds of each group have no window and are dropped.
+boundary (a segment: seconds on either side of a GNSS cut are not consecutive)
+and never hold a later second: where a group has fewer than ``seq_len`` seconds
+up to ``i``, the window is padded at its old end with the group's first second
+(the network is told nothing about what came before the group's start). So
+every second gets a window, whatever ``seq_len`` is, and models of any context
+length are scored on the same seconds; with ``seq_len = 1`` a window is the
+second itself.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 
-def sequences(x: np.ndarray, seq_len: int, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def sequences(x: np.ndarray, seq_len: int, group: np.ndarray) -> np.ndarray:
     """Cut per-second rows into windows of ``seq_len`` consecutive seconds within a group.
 
     Args:
@@ -22,9 +26,9 @@ def sequences(x: np.ndarray, seq_len: int, group: np.ndarray) -> tuple[np.ndarra
             consecutive ids (an id that reappears later starts a new group).
 
     Returns:
-        ``(windows, kept_index)``: ``windows`` is a new ``(N', seq_len, F)``
-        array with ``windows[j, -1] == x[kept_index[j]]``; ``kept_index`` is the
-        int64 row index of each window's last second.
+        A new ``(N, seq_len, F)`` array: ``windows[i, -1] == x[i]``, and
+        ``windows[i, j] == x[max(i - seq_len + 1 + j, start)]`` with ``start`` the
+        first row of row ``i``'s group (module docstring).
 
     Raises:
         ValueError: for ``seq_len < 1``, a non-2-D ``x`` or a ``group`` of another length.
@@ -37,15 +41,10 @@ def sequences(x: np.ndarray, seq_len: int, group: np.ndarray) -> tuple[np.ndarra
         raise ValueError(f"x must be 2-D (N, F), got shape {x.shape}")
     if group.shape != (x.shape[0],):
         raise ValueError(f"group must have shape ({x.shape[0]},), got {group.shape}")
-    n, f = x.shape
-    if n < seq_len:
-        return np.empty((0, seq_len, f), dtype=x.dtype), np.empty(0, dtype=np.int64)
-    # Run id: increments wherever the group changes, so a window stays in one run
-    # exactly when its first and last rows have the same run id.
-    run = np.concatenate([[0], np.cumsum(group[1:] != group[:-1])])
-    last = np.arange(seq_len - 1, n, dtype=np.int64)
-    kept = last[run[last] == run[last - seq_len + 1]]
-    # sliding_window_view over axis 0 gives (N - seq_len + 1, F, seq_len), a view;
-    # window w ends at row w + seq_len - 1. Indexing copies only the kept windows.
-    view = sliding_window_view(x, seq_len, axis=0)
-    return np.ascontiguousarray(view[kept - seq_len + 1].transpose(0, 2, 1)), kept
+    n = x.shape[0]
+    row = np.arange(n, dtype=np.int64)
+    # First row of each row's run of equal ids (a run starts wherever the id changes).
+    starts = np.flatnonzero(np.concatenate([[True], group[1:] != group[:-1]])) if n else row
+    start = starts[np.searchsorted(starts, row, side="right") - 1] if n else row
+    rows = np.maximum(row[:, None] - np.arange(seq_len - 1, -1, -1)[None, :], start[:, None])
+    return np.ascontiguousarray(x[rows])

@@ -276,23 +276,19 @@ def fine_tune_steps(
 
 
 def hidden_features(net: WhONet, x: np.ndarray | torch.Tensor) -> np.ndarray:
-    """G's last hidden state for every window (eval mode, no dropout): the head's inputs.
+    """G's head inputs for every window (eval mode, no dropout): ``net.features``.
+
+    Any network of :mod:`rwhonet.models.network` (WhONet: its last hidden state).
 
     Returns:
-        (N, hidden) float64.
+        (N, k) float64.
     """
     xt = torch.as_tensor(np.asarray(x, dtype=np.float32))
     was = net.training
     net.eval()
     try:
         with torch.no_grad():
-            if xt.shape[1] == 1 and net.rnn.num_layers == 1:
-                r = net.rnn
-                h = torch.tanh(
-                    torch.addmm(r.bias_ih_l0 + r.bias_hh_l0, xt[:, 0], r.weight_ih_l0.t())
-                )
-            else:
-                h = net.rnn(xt)[0][:, -1, :]
+            h = net.features(xt)
     finally:
         net.train(was)
     return h.numpy().astype(np.float64)

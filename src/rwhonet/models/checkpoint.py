@@ -1,9 +1,13 @@
-"""One file format for every WhONet (G, S and R): its weights and its hyperparameters.
+"""One file format for every model (G, S and R, any network): its weights and hyperparameters.
 
 ``model.pt`` holds ``{"format", "hyper_parameters", "state_dict"}``: the
 network's ``state_dict`` and the :data:`~rwhonet.models.loop.HPARAMS` a
 :class:`~rwhonet.models.module.WhONetModule` is built from, so whoever loads a
-model needs nothing else remembered (the G -> R hand-off of paper §2.6); and,
+model needs nothing else remembered (the G -> R hand-off of paper §2.6). A
+network other than WhONet (``model.arch``) adds ``arch`` and its own
+hyperparameters (:data:`~rwhonet.models.loop.ARCH_HPARAMS`), from which
+:func:`load_whonet` rebuilds it; a WhONet's file has no ``arch`` and is the
+paper network's as before; and,
 for a model whose recipe refitted the WPM's rear radii (``radius+G``),
 ``wpm_radii`` (m/rad, rear left and right). The
 file holds only tensors, numbers, strings and dicts, so it is read with
@@ -19,34 +23,40 @@ from typing import Any
 import torch
 
 from rwhonet.errors import InputError, Problem
-from rwhonet.models.loop import HPARAMS, net_from_hparams
-from rwhonet.models.whonet import WhONet
+from rwhonet.models.loop import (
+    ARCHS,
+    DEFAULT_ARCH,
+    arch_of,
+    hparam_keys,
+    net_from_hparams,
+    saved_hparams,
+)
+from rwhonet.models.network import Network
 
 FORMAT = "rwhonet.whonet/1"
 
 
 def save_whonet(
-    net: WhONet,
+    net: Network,
     hparams: Mapping[str, Any],
     path: Path,
     *,
     wpm_radii: tuple[float, float] | None = None,
 ) -> None:
-    """Write a WhONet and its hyperparameters.
+    """Write a network and its hyperparameters.
 
     Args:
         net: the network.
-        hparams: its :data:`~rwhonet.models.loop.HPARAMS` (extra keys are dropped).
+        hparams: its :data:`~rwhonet.models.loop.HPARAMS` and, for a network other
+            than WhONet, ``arch`` and that network's own (extra keys are dropped).
         path: the file to write.
         wpm_radii: the rear radii the model's WPM uses, when not the source calibration.
     """
-    missing = [k for k in HPARAMS if k not in hparams]
-    if missing:
-        raise ValueError(f"hyperparameters {missing} missing; expected {HPARAMS}")
+    hyper_parameters = saved_hparams(hparams)
     torch.save(
         {
             "format": FORMAT,
-            "hyper_parameters": {k: hparams[k] for k in HPARAMS},
+            "hyper_parameters": hyper_parameters,
             "state_dict": {k: v.detach().clone() for k, v in net.state_dict().items()},
             **({"wpm_radii": [float(r) for r in wpm_radii]} if wpm_radii is not None else {}),
         },
@@ -60,8 +70,8 @@ def load_wpm_radii(path: Path | str) -> tuple[float, float] | None:
     return None if radii is None else (float(radii[0]), float(radii[1]))
 
 
-def load_whonet(path: Path | str) -> tuple[WhONet, dict[str, Any]]:
-    """Read a WhONet written by :func:`save_whonet`, in eval mode on the CPU.
+def load_whonet(path: Path | str) -> tuple[Network, dict[str, Any]]:
+    """Read a model written by :func:`save_whonet`, in eval mode on the CPU.
 
     Args:
         path: the ``model.pt`` file.
@@ -70,8 +80,8 @@ def load_whonet(path: Path | str) -> tuple[WhONet, dict[str, Any]]:
         ``(net, hparams)``.
 
     Raises:
-        InputError: when the file is not a WhONet model file (wrong format, missing
-            hyperparameters, or weights that do not fit them).
+        InputError: when the file is not a model file (wrong format, an unknown
+            network, missing hyperparameters, or weights that do not fit them).
     """
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
@@ -86,9 +96,15 @@ def load_whonet(path: Path | str) -> tuple[WhONet, dict[str, Any]]:
         problems.append(Problem(str(path), None, "format", repr(FORMAT), repr(found)))
     else:
         hp = ckpt.get("hyper_parameters")
-        if not isinstance(hp, Mapping) or any(k not in hp for k in HPARAMS):
+        arch = arch_of(hp) if isinstance(hp, Mapping) else DEFAULT_ARCH
+        if arch not in ARCHS:
+            expected = f"one of {sorted(ARCHS)}"
+            problems.append(Problem(str(path), None, "hyper_parameters.arch", expected, repr(arch)))
+        elif not isinstance(hp, Mapping) or any(k not in hp for k in hparam_keys(arch)):
             problems.append(
-                Problem(str(path), None, "hyper_parameters", f"keys {HPARAMS}", repr(hp)[:120])
+                Problem(
+                    str(path), None, "hyper_parameters", f"keys {hparam_keys(arch)}", repr(hp)[:120]
+                )
             )
     if problems:
         raise InputError(problems, "not a WhONet model file")

@@ -4,8 +4,8 @@ The paper fine-tunes G-WhONet on the first m seconds of a target drive but does
 not say which weights move; ``adapt.trainable`` makes the choice explicit:
 
 - ``all``: every weight is fine-tuned (the default; the paper's wording).
-- ``rnn``: the recurrent layer adapts, the linear head stays as trained on the
-  source vehicle.
+- ``rnn``: the recurrent layer (for any network: everything below the head)
+  adapts, the linear head stays as trained on the source vehicle.
 - ``head``: only the linear head adapts (a re-scaling of G's features to the
   new vehicle, 73 weights), the recurrent layer stays frozen.
 
@@ -19,7 +19,7 @@ from typing import Literal
 
 from torch import nn
 
-from rwhonet.models.whonet import WhONet
+from rwhonet.models.network import Network
 
 log = logging.getLogger(__name__)
 
@@ -48,26 +48,24 @@ def apply_trainable(module: nn.Module, trainable: Trainable) -> tuple[int, int]:
     parameters only, so frozen ones are never touched.
 
     Args:
-        module: a :class:`WhONet`, or a module holding one as ``.net`` (the
-            :class:`~rwhonet.models.module.WhONetModule`).
+        module: a network (:class:`~rwhonet.models.network.Network`), or a module
+            holding one as ``.net`` (the :class:`~rwhonet.models.module.WhONetModule`).
         trainable: ``all``, ``rnn`` or ``head`` (module docstring).
 
     Returns:
         ``(n_trainable, n_total)`` scalar weights after the policy (also logged).
 
     Raises:
-        ValueError: for an unknown policy or a module without a WhONet.
+        ValueError: for an unknown policy or a module without a network.
     """
     if trainable not in POLICIES:
         raise ValueError(f"trainable must be one of {POLICIES}, got {trainable!r}")
-    net = module if isinstance(module, WhONet) else getattr(module, "net", None)
-    if not isinstance(net, WhONet):
-        raise ValueError(f"expected a WhONet or a module with a WhONet .net, got {type(module)}")
-    parts = {"rnn": net.rnn, "head": net.head}
-    for name, part in parts.items():
-        on = trainable in ("all", name)
-        for p in part.parameters():
-            p.requires_grad_(on)
+    net = module if isinstance(module, Network) else getattr(module, "net", None)
+    if not isinstance(net, Network):
+        raise ValueError(f"expected a network or a module with a network .net, got {type(module)}")
+    for name, p in net.named_parameters():
+        part = "head" if name.startswith("head.") else "rnn"
+        p.requires_grad_(trainable in ("all", part))
     n_trainable, n_total = count_parameters(module)
     log.info("freeze policy %r: %d of %d parameters trainable", trainable, n_trainable, n_total)
     return n_trainable, n_total

@@ -35,6 +35,9 @@ from torch.utils.data import (
 
 from rwhonet.contracts import N_FEATURES
 from rwhonet.errors import InputError, Problem
+from rwhonet.models.gru import GRUNet
+from rwhonet.models.network import Network
+from rwhonet.models.tcn import TCNNet
 from rwhonet.models.whonet import WhONet
 
 # Mini-batches per training block (rwhonet.models.module): 64 x 128 = 8192 samples
@@ -54,6 +57,16 @@ HPARAMS: tuple[str, ...] = (
     "lr",
     "batch_size",
 )
+# The networks model.arch selects (rwhonet.models.network), and the hyperparameters each
+# saves beyond HPARAMS. A WhONet's saves none: its model files stay those of the paper's
+# network (no "arch" key means whonet).
+ARCHS: dict[str, type[Network]] = {"whonet": WhONet, "gru": GRUNet, "tcn": TCNNet}
+ARCH_HPARAMS: dict[str, tuple[str, ...]] = {
+    "whonet": (),
+    "gru": ("arch",),
+    "tcn": ("arch", "channels"),
+}
+DEFAULT_ARCH = "whonet"
 # numpy's legacy seeding accepts 32-bit unsigned seeds; Lightning enforces the same range.
 SEED_MIN, SEED_MAX = 0, 2**32 - 1
 
@@ -202,31 +215,61 @@ def seed_all(seed: int) -> None:
     torch.manual_seed(seed)
 
 
-def net_from_hparams(hparams: Mapping[str, Any]) -> WhONet:
+def arch_of(hparams: Mapping[str, Any]) -> str:
+    """The network a set of hyperparameters is for (``whonet`` when they do not say)."""
+    return str(hparams.get("arch", DEFAULT_ARCH))
+
+
+def hparam_keys(arch: str) -> tuple[str, ...]:
+    """The hyperparameters a model file of ``arch`` holds.
+
+    Raises:
+        ValueError: for an unknown architecture.
+    """
+    if arch not in ARCHS:
+        raise ValueError(f"unknown model.arch {arch!r}; expected one of {sorted(ARCHS)}")
+    return HPARAMS + ARCH_HPARAMS[arch]
+
+
+def saved_hparams(hparams: Mapping[str, Any]) -> dict[str, Any]:
+    """The hyperparameters saved with a model: :func:`hparam_keys` of its arch, no others.
+
+    Raises:
+        ValueError: when one is missing.
+    """
+    keys = hparam_keys(arch_of(hparams))
+    missing = [k for k in keys if k not in hparams]
+    if missing:
+        raise ValueError(f"hyperparameters {missing} missing; expected {keys}")
+    return {k: hparams[k] for k in keys}
+
+
+def net_from_hparams(hparams: Mapping[str, Any]) -> Network:
     """Check a WhONetModule's hyperparameters and build its (freshly initialised) network.
 
     Args:
-        hparams: the :data:`HPARAMS` (extra keys are ignored).
+        hparams: the :data:`HPARAMS` and, for another network than WhONet, its
+            :data:`ARCH_HPARAMS` (extra keys are ignored).
 
     Returns:
-        A :class:`WhONet` of that shape; building it draws its initial weights
-        from torch's global RNG.
+        The network ``arch`` names (:data:`ARCHS`; WhONet without ``arch``) of
+        that shape; building it draws its initial weights from torch's global RNG.
 
     Raises:
-        ValueError: for a non-positive ``seq_len``, ``batch_size`` or ``lr``, or
-            a shape :class:`WhONet` refuses.
+        ValueError: for a non-positive ``seq_len``, ``batch_size`` or ``lr``, an
+            unknown ``arch``, or a shape the network refuses.
     """
     seq_len, lr, batch_size = hparams["seq_len"], hparams["lr"], hparams["batch_size"]
     if seq_len < 1 or batch_size < 1 or lr <= 0:
         raise ValueError(
             f"seq_len and batch_size must be positive and lr > 0, got {seq_len}, {batch_size}, {lr}"
         )
-    return WhONet(
-        n_features=hparams["n_features"],
-        hidden=hparams["hidden"],
-        layers=hparams["layers"],
-        dropout=hparams["dropout"],
-    )
+    arch = arch_of(hparams)
+    hparam_keys(arch)  # a known arch
+    shape = {k: hparams[k] for k in ("n_features", "hidden", "layers", "dropout")}
+    if arch == "tcn":
+        return TCNNet(**shape, seq_len=seq_len, channels=hparams["channels"])
+    return ARCHS[arch](**shape)
 
 
 def make_optimizer(module: nn.Module, lr: float) -> torch.optim.Optimizer:
@@ -237,7 +280,7 @@ def make_optimizer(module: nn.Module, lr: float) -> torch.optim.Optimizer:
     ``requires_grad`` are handed to it, so a freeze policy applied before holds.
 
     Args:
-        module: a :class:`WhONet` or a module holding one.
+        module: a network (:mod:`rwhonet.models.network`) or a module holding one.
         lr: learning rate (Table 1: 0.0007).
 
     Returns:
@@ -439,11 +482,12 @@ def predict(
     bounded; the model's training mode is restored afterwards.
 
     Args:
-        model: a :class:`~rwhonet.models.module.WhONetModule` or a bare :class:`WhONet`.
+        model: a :class:`~rwhonet.models.module.WhONetModule` or a bare network
+            (:class:`~rwhonet.models.network.Network`).
         x: (N, seq_len, n_features) float32 windows.
         batch_size: windows per forward pass.
         seq_len: time steps ``x`` must have; defaults to the module's
-            ``hparams["seq_len"]`` (a bare WhONet does not record it).
+            ``hparams["seq_len"]`` (a bare network does not record it).
 
     Returns:
         (N,) float32 predictions.
@@ -452,8 +496,8 @@ def predict(
         InputError: when ``x`` does not match the model's inputs.
     """
     hp = getattr(model, "hparams", {})
-    net = model if isinstance(model, WhONet) else getattr(model, "net", None)
-    n_features = hp.get("n_features") or (net.rnn.input_size if isinstance(net, WhONet) else None)
+    net = model if isinstance(model, Network) else getattr(model, "net", None)
+    n_features = hp.get("n_features") or (net.n_features if isinstance(net, Network) else None)
     x_t = as_model_inputs(
         x,
         None,

@@ -1,5 +1,8 @@
 """LightningModule around :class:`~rwhonet.models.whonet.WhONet` (paper §3.3, Table 1).
 
+The same module trains the other networks ``model.arch`` selects
+(:mod:`rwhonet.models.network`) with the same loss, optimizer and update.
+
 The algorithm itself (loss, optimizer, the per-slice update, the epoch's
 MAE) lives in :mod:`rwhonet.models.loop`; this module wires it into Lightning's
 hooks, and R-WhONet's fine-tuning (:mod:`rwhonet.models.adapt`) runs the same
@@ -74,6 +77,8 @@ class WhONetModule(L.LightningModule):
             recorded so whoever loads a checkpoint knows how to window features.
         lr: Adamax learning rate (Table 1: 0.0007).
         batch_size: samples per optimizer step (Table 1: 128).
+        arch: the network (``model.arch``: ``whonet``, ``gru`` or ``tcn``).
+        channels: context features per level of the ``tcn`` (``model.channels``).
     """
 
     def __init__(
@@ -85,6 +90,8 @@ class WhONetModule(L.LightningModule):
         seq_len: int = 1,
         lr: float = 7e-4,
         batch_size: int = 128,
+        arch: str = "whonet",
+        channels: int = 16,
     ) -> None:
         super().__init__()
         self.save_hyperparameters()

@@ -1,10 +1,11 @@
-"""A WhONet as an ONNX graph: the network that ``rwhonet predict`` runs without torch.
+"""A model's network as an ONNX graph: what ``rwhonet predict`` runs without torch.
 
 :func:`export_onnx` traces the network in eval mode (no dropout) with the
 legacy TorchScript exporter (``dynamo=False``): it needs only ``onnx``, and
-for a network with one time step it records the fast path of
-:meth:`rwhonet.models.whonet.WhONet.forward` (``tanh(W_x x + b) -> head``); a
-longer ``seq_len`` records ``nn.RNN``. The graph takes ``x`` of shape
+for a WhONet with one time step it records the fast path of
+:meth:`rwhonet.models.whonet.WhONet.features` (``tanh(W_x x + b) -> head``); a
+longer ``seq_len`` records ``nn.RNN``, a ``gru`` ``nn.GRU``, a ``tcn`` its
+matrix products (:mod:`rwhonet.models.network`). The graph takes ``x`` of shape
 ``(batch, seq_len, n_features)`` float32 and returns ``pred_m`` of shape
 ``(batch,)``, the network's output in metres. Whatever else a user needs to
 run it (the input scaler, the WPM's radii) goes into the file's
@@ -23,7 +24,7 @@ from typing import Any
 
 import torch
 
-from rwhonet.models.whonet import WhONet
+from rwhonet.models.network import Network
 
 INPUT = "x"
 OUTPUT = "pred_m"
@@ -31,7 +32,7 @@ OPSET = 17
 
 
 def export_onnx(
-    net: WhONet,
+    net: Network,
     hparams: Mapping[str, Any],
     path: Path | str,
     metadata: Mapping[str, str] | None = None,
@@ -57,7 +58,7 @@ def export_onnx(
         # forward's branch on the (fixed) number of time steps is taken as traced.
         warnings.simplefilter("ignore", DeprecationWarning)
         warnings.simplefilter("ignore", torch.jit.TracerWarning)
-        # nn.RNN without h0 as an input: the batch stays dynamic (tests/models/test_onnx.py).
+        # nn.RNN / nn.GRU without h0 as an input: the batch stays dynamic (tests/models).
         warnings.filterwarnings("ignore", message=".*batch_size other than 1.*")
         torch.onnx.export(
             net,

@@ -122,6 +122,8 @@ def fit(
         seq_len=model.seq_len,
         lr=train.lr,
         batch_size=train.batch_size,
+        arch=model.arch,
+        channels=model.channels,
     )
     n_trainable, n_total = apply_trainable(module, "all")
     data = WhONetDataModule(

@@ -11,9 +11,10 @@ import torch
 from torch import nn
 
 from rwhonet.contracts import N_FEATURES
+from rwhonet.models.network import Network, check_shape
 
 
-class WhONet(nn.Module):
+class WhONet(Network):
     """Simple RNN regressor of the per-second wheel-odometry displacement error.
 
     ``h_t = tanh(U_h h_{t-1} + W_x X_t + b_h)`` (paper Eq. 12) over the input
@@ -47,13 +48,7 @@ class WhONet(nn.Module):
         self, n_features: int = N_FEATURES, hidden: int = 72, layers: int = 1, dropout: float = 0.05
     ) -> None:
         super().__init__()
-        if n_features < 1 or hidden < 1 or layers < 1:
-            raise ValueError(
-                f"n_features, hidden and layers must be positive, got {n_features}, {hidden}, "
-                f"{layers}"
-            )
-        if not 0.0 <= dropout < 1.0:
-            raise ValueError(f"dropout must be in [0, 1), got {dropout}")
+        check_shape(n_features, hidden, layers, dropout)
         self.rnn = nn.RNN(
             input_size=n_features,
             hidden_size=hidden,
@@ -79,24 +74,27 @@ class WhONet(nn.Module):
         nn.init.xavier_uniform_(self.head.weight)
         nn.init.zeros_(self.head.bias)
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """Predict the displacement error of the window's last second.
+    @property
+    def n_features(self) -> int:
+        """Input features per time step."""
+        return self.rnn.input_size
+
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        """The head's inputs: the last hidden state ``h_t`` of every window (Eq. 12).
 
         Args:
             x: (B, T, n_features) float32 input windows, oldest step first.
 
         Returns:
-            (B,) predicted GNSS − WPM displacement in metres.
+            (B, hidden) ``h_t``, before dropout (``ridge_head`` refits the head on these).
         """
         if x.shape[1] == 1 and self.rnn.num_layers == 1:
             # One time step: h_{t-1} = 0, so Eq. 12 is tanh(W_x X_t + b_h). The same
             # weights and the same gradients as nn.RNN (U_h gets none either way),
             # without nn.RNN's per-call set-up, which dominates a step of this size.
             rnn = self.rnn
-            h = torch.tanh(
+            return torch.tanh(
                 torch.addmm(rnn.bias_ih_l0 + rnn.bias_hh_l0, x[:, 0], rnn.weight_ih_l0.t())
             )
-        else:
-            out, _ = self.rnn(x)
-            h = out[:, -1, :]
-        return self.head(self.dropout(h)).squeeze(-1)
+        out, _ = self.rnn(x)
+        return out[:, -1, :]

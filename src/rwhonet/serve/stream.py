@@ -36,6 +36,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from rwhonet.contracts import ROWS_PER_SECOND
 from rwhonet.data import canonical as c
@@ -168,7 +169,7 @@ class SecondStream:
     _row0: int = 1  # data row of _rows' first row
     _anchored: bool = False
     _t0: float | None = None
-    _history: np.ndarray | None = None  # the last seq_len - 1 feature rows of the run
+    _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
     totals: dict[str, _Totals] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -309,20 +310,19 @@ class SecondStream:
         feats = model.scaler.transform(
             wheel_features_rad_s([rows[w] for w in c.FEATURE_WHEEL_ORDER])
         )
-        pred = np.full(n_sec, np.nan)
         if meta.seq_len == 1:
             pred = model.predict_label(feats[:, None, :], *angles)
-        else:  # windows of the run's last seq_len seconds, oldest first
-            past = self._history if self._history is not None else feats[:0]
+        else:
+            # Windows of the run's last seq_len seconds, oldest first; at the run's start
+            # padded with its first second, as the pipeline pads a segment's
+            # (rwhonet.features.windows): the same windows, the same predictions.
+            past = self._history
+            if past is None:
+                past = np.repeat(feats[:1], meta.seq_len - 1, axis=0)
             run = np.concatenate([past, feats])
-            kept = np.arange(len(past), len(run))
-            kept = kept[kept >= meta.seq_len - 1]
-            if len(kept):
-                x = np.stack([run[i - meta.seq_len + 1 : i + 1] for i in kept])
-                pred[kept - len(past)] = model.predict_label(
-                    x, angles[0][kept - len(past)], angles[1][kept - len(past)]
-                )
-            self._history = run[-(meta.seq_len - 1) :]
+            x = sliding_window_view(run, meta.seq_len, axis=0).transpose(0, 2, 1)
+            pred = model.predict_label(np.ascontiguousarray(x), *angles)
+            self._history = run[len(run) - (meta.seq_len - 1) :]
         with np.errstate(invalid="ignore"):
             gnss = gnss_displacement_m(rows[c.LAT_DEG], rows[c.LON_DEG])
         t_end = end_of_second(t)

@@ -30,8 +30,8 @@ def load_role(
         required: raise when there is no sample at all (else return an empty set).
 
     Returns:
-        The samples; the first ``seq_len - 1`` seconds of each segment have no
-        full window and are left out.
+        The samples, one per second; a window reaches back at most to its
+        segment's first second (:func:`rwhonet.features.windows.sequences`).
 
     Raises:
         InputError: when a required role has no samples.

@@ -1,0 +1,73 @@
+"""A GRU over the window's seconds: WhONet with a memory that learns (``model.arch: gru``).
+
+WhONet at one time step (paper Table 1) is a one-layer perceptron: its recurrent
+weights never see a non-zero state and never get a gradient. This network runs
+a gated recurrent unit (Cho et al. 2014) over the ``seq_len`` seconds of each
+window, oldest first, and predicts the last second's displacement error from
+the last hidden state, through the same dropout and linear head as WhONet.
+Context over tens of seconds (``model.seq_len``) lets it see what one second
+cannot: how the car got to its present speed, the stops and turns of the last
+half minute. Windows reach back at most to their segment's first second
+(:func:`rwhonet.features.windows.sequences`), so no context crosses a GNSS cut
+and none looks ahead.
+
+Initialisation as Keras' ``GRU`` layer: Glorot-uniform input weights, orthogonal
+recurrent weights, zero biases.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from rwhonet.contracts import N_FEATURES
+from rwhonet.models.network import Network, check_shape
+
+
+class GRUNet(Network):
+    """GRU regressor of the per-second wheel-odometry displacement error.
+
+    Args:
+        n_features: input features per second (40).
+        hidden: GRU units per layer (``model.hidden``).
+        layers: stacked GRU layers (``model.layers``); ``nn.GRU``'s own
+            inter-layer dropout (``dropout``) acts between them.
+        dropout: rate of the dropout on the last hidden state before the head.
+    """
+
+    def __init__(
+        self, n_features: int = N_FEATURES, hidden: int = 72, layers: int = 1, dropout: float = 0.05
+    ) -> None:
+        super().__init__()
+        check_shape(n_features, hidden, layers, dropout)
+        self.rnn = nn.GRU(
+            input_size=n_features,
+            hidden_size=hidden,
+            num_layers=layers,
+            batch_first=True,
+            dropout=dropout if layers > 1 else 0.0,
+        )
+        self.dropout = nn.Dropout(dropout)
+        self.head = nn.Linear(hidden, 1)
+        self.reset_parameters()
+
+    def reset_parameters(self) -> None:
+        """Keras-default initialisation (module docstring)."""
+        for name, p in self.rnn.named_parameters():
+            if name.startswith("weight_hh"):
+                nn.init.orthogonal_(p)
+            elif name.startswith("weight_ih"):
+                nn.init.xavier_uniform_(p)
+            else:
+                nn.init.zeros_(p)
+        nn.init.xavier_uniform_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    @property
+    def n_features(self) -> int:
+        return self.rnn.input_size
+
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        """The last hidden state of the top GRU layer, (B, hidden)."""
+        out, _ = self.rnn(x)
+        return out[:, -1, :]
