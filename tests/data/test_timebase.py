@@ -86,7 +86,8 @@ def test_slots_remove_any_jitter_below_half_a_period(phase, jitter, seed):
     t = nominal + rng.uniform(-jitter, jitter, k.size) * (1 - 1e-6)
     slots, found = grid_slots(t, PERIOD)
     assert np.all(np.diff(slots) == 1)
-    # The phase is found (or taken as 0 within a tenth of a period: whole tenths).
+    # The phase is found (or taken as 0 within a tenth of a period where the jitter leaves
+    # room: whole tenths; CI stop 19 found phase 7.8 ms with 43 ms of jitter snapped to 0).
     assert abs(found - phase) < 0.01 or (found == 0.0 and abs(phase) <= 0.01 + 1e-3)
 
 
@@ -155,7 +156,9 @@ def test_label_times_keep_clean_stamps_and_put_jittered_ones_on_their_slots():
 
 
 @given(
-    jitter=st.floats(0.0, 0.045),
+    # No jitter, or clearly more than TIME_EPS_S: at about TIME_EPS_S the verdict "stamps kept
+    # as they are" depends on which rows a block holds (CI stop 19 found jitter=1e-6)
+    jitter=st.one_of(st.just(0.0), st.floats(1e-5, 0.045)),
     sizes=st.lists(st.integers(1, 400), min_size=1, max_size=8),
     seed=st.integers(0, 1000),
 )

@@ -88,7 +88,8 @@ def grid_phase(t_s: np.ndarray, period_s: float, whole: bool = True) -> float:
     the circle when their jitter is below half a period; the phase is that arc's middle
     (opposite the widest empty arc; unlike a circular mean, exact for jitter up to half a
     period). With ``whole``, a phase within ``WHOLE_GRID_FRACTION`` of a period of zero is
-    zero (stamps on whole multiples). Non-finite stamps are left out.
+    zero (stamps on whole multiples) where every stamp stays within half a period of its
+    slot. Non-finite stamps are left out.
 
     Args:
         t_s: times, s.
@@ -113,7 +114,11 @@ def grid_phase(t_s: np.ndarray, period_s: float, whole: bool = True) -> float:
     phase = (v[k] + 0.5 * gaps[k] + 0.5 * period_s) % period_s
     if phase > 0.5 * period_s:
         phase -= period_s
-    return 0.0 if whole and abs(phase) <= WHOLE_GRID_FRACTION * period_s else float(phase)
+    # Snap to the whole grid only where every stamp then still lies within half a period
+    # of its slot (the arc's half-width plus the phase moved): a wide jitter keeps its phase.
+    half_arc = 0.5 * (period_s - gaps[k])
+    snaps = abs(phase) <= WHOLE_GRID_FRACTION * period_s and half_arc + abs(phase) < 0.5 * period_s
+    return 0.0 if whole and snaps else float(phase)
 
 
 def grid_slots(
