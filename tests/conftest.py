@@ -49,6 +49,21 @@ def ci_pipeline(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def ci_repro(ci_pipeline):
+    """The first whole ``dvc repro`` of :func:`ci_pipeline`, whichever test asks first.
+
+    Every module that needs the pipeline run takes this (not a ``dvc repro`` of its own,
+    which is a no-op when another module ran first), so ``tests/test_pipeline.py`` reads
+    what the stages printed when they ran.
+    """
+    from support.project import dvc
+
+    out = dvc(ci_pipeline, "repro")
+    assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-4000:]
+    return out
+
+
+@pytest.fixture(scope="session")
 def project_params() -> Params:
     """The repository's params.yaml, typed."""
     return load_params(paths.PARAMS)

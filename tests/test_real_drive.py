@@ -22,7 +22,7 @@ import pandas as pd
 import pytest
 
 from rwhonet import paths
-from support.project import dvc, env
+from support.project import env
 
 pytestmark = pytest.mark.slow
 
@@ -53,11 +53,10 @@ def test_the_readme_shows_both_commands_on_the_real_folder():
 
 
 @pytest.fixture(scope="module")
-def ran(ci_pipeline):
+def ran(ci_pipeline, request):
     if not (REAL / "processed_log").is_dir():
         pytest.skip(f"the real comma2k19 segment is not on this machine ({REAL})")
-    made = dvc(ci_pipeline, "repro")
-    assert made.returncode == 0, made.stdout[-3000:] + made.stderr[-3000:]
+    request.getfixturevalue("ci_repro")  # the session's whole ci pipeline, run once
     # The README's path is relative to the checkout: ../shared/real/... beside it.
     beside = ci_pipeline.parent / "shared" / "real" / REAL.name
     if not beside.exists():

@@ -9,7 +9,7 @@ import yaml
 
 from rwhonet.report import worlds as wr
 
-FIXTURE = Path(__file__).parent / "fixtures" / "ci_eval.json"  # an eval.json of the ci pipeline
+FIXTURE = Path(__file__).parents[1] / "evaluation" / "fixtures" / "ci_pipeline_before" / "eval.json"
 PARAMS = {
     "sim": {"profile": "ci"},
     "adapt": {"m_grid": [10, 20], "fallback": {"recipe": "radius+G", "m": 20}},

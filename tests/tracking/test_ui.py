@@ -70,13 +70,13 @@ def _shot(page, repo, name: str) -> None:
     shutil.copy2(out, keep / name)
 
 
-def test_a_person_filters_the_latest_execution_and_compares_g_s_and_r(ci_pipeline):
+def test_a_person_filters_the_latest_execution_and_compares_g_s_and_r(ci_pipeline, ci_repro):
     chromium = system_chromium()
     import mlflow
     from playwright.sync_api import expect, sync_playwright
 
     repo = ci_pipeline
-    out = dvc(repo, "repro")  # a no-op when test_pipeline.py has run the pipeline already
+    out = dvc(repo, "repro")  # a no-op: ci_repro ran it (test_pipeline.py may force evaluate)
     assert out.returncode == 0, out.stdout + out.stderr
     ev = json.loads((repo / "metrics" / "eval.json").read_text())
     client = mlflow.MlflowClient(f"sqlite:///{repo}/mlruns/mlflow.db")
