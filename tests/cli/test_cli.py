@@ -163,6 +163,30 @@ def test_the_evidence_is_the_target_car_s_unless_asked_and_the_printout_says_how
     )
     assert "no second" not in text
     assert "the base model kept" in render({**out, "certainty": None})
+    # a car the pipeline has no drives of: the source car's evidence, the prior on its size
+    assert shrink_evidence_of(carried, None, "m", new_car=True).role == "source"
+    assert shrink_evidence_of({**carried, "source": None}, None, "m", new_car=True).role == (
+        "target_train"
+    )
+    centred = render({**out, "prior_radii": (0.36, 0.3599)})
+    assert "prior centred on 0.36000 / 0.35990 m" in centred
+    assert "38 % shrunk towards the prior" in centred
+
+
+def test_the_prior_is_centred_on_the_car_s_size_only_for_another_car():
+    from rwhonet.cli.recalibrate import prior_radii_of
+    from rwhonet.models.adapt import ShrinkEvidence
+
+    def ev(role):
+        return ShrinkEvidence(role, ("D0",), 0.004, (1, 9), (0.1, 1.0), (1, 1))
+
+    src = (0.292, 0.293)
+    scaled = prior_radii_of(ev("source"), src, 0.362, 0.294)
+    assert scaled == pytest.approx((0.292 * 0.362 / 0.294, 0.293 * 0.362 / 0.294), rel=1e-12)
+    assert prior_radii_of(ev("target_train"), src, 0.362, 0.294) is None  # τ has its offset
+    assert prior_radii_of(ev("source"), src, 0.294, 0.294) is None  # the source car's size
+    assert prior_radii_of(ev("source"), src, None, 0.294) is None  # no size given
+    assert prior_radii_of(None, src, 0.362, 0.294) is None  # not shrink
 
 
 def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):

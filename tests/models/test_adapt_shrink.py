@@ -197,6 +197,59 @@ def test_shrink_with_no_moving_second_is_g_and_needs_its_evidence(g, linear_data
     assert 0.0 < r.info["shrink_weight"] < 1.0
 
 
+def test_a_prior_centred_off_g_moves_the_radius_from_there(g, linear_data):
+    """A car of another tyre size (rwhonet recalibrate on a car the pipeline has no drives
+    of): the prior's centre is that car's size; w = 0 gives the centre, w = 1 the refit."""
+    net, hp = g
+    x, y = linear_data
+    silent = constant_g(net, 0.0)
+    d = data_of(x[:40], y[:40], r_true=0.29 * 1.25)  # a car with 25 % larger tyres
+    centre = (0.29 * 1.2, 0.29 * 1.2)  # its nominal size: 5 % off what it drives on
+    sure = shrink(
+        silent,
+        hp,
+        d,
+        evidence=evidence(0.0),
+        min_speed_m_s=2.0,
+        source_radii=R_SRC,
+        prior_radii=centre,
+    )
+    assert sure.radii == centre and sure.info["shrink_weight"] == 0.0
+    assert sure.info["prior_scale"] == pytest.approx(0.2, rel=1e-9)
+    free = shrink(
+        silent,
+        hp,
+        d,
+        evidence=evidence(math.inf),
+        min_speed_m_s=2.0,
+        source_radii=R_SRC,
+        prior_radii=centre,
+    )
+    assert free.radii == pytest.approx((0.29 * 1.25,) * 2, rel=1e-9)
+    ev = evidence(0.01, v_per_s=0.05)
+    part = shrink(
+        silent, hp, d, evidence=ev, min_speed_m_s=2.0, source_radii=R_SRC, prior_radii=centre
+    )
+    w = part.info["shrink_weight"]
+    assert 0.0 < w < 1.0
+    assert part.radii == pytest.approx((0.29 * (1.2 + 0.05 * w),) * 2, rel=1e-6)
+    # the same evidence centred on G (0.29) keeps the same share of a 25 % refit
+    on_g = shrink(silent, hp, d, evidence=ev, min_speed_m_s=2.0, source_radii=R_SRC)
+    assert on_g.info["shrink_weight"] == pytest.approx(w) and "prior_scale" not in on_g.info
+    assert on_g.radii == pytest.approx((0.29 * (1 + 0.25 * w),) * 2, rel=1e-6)
+    standing = AdaptData(x[:5], y[:5], np.zeros(5), np.zeros(5), np.zeros(5))
+    still = shrink(
+        silent,
+        hp,
+        standing,
+        evidence=ev,
+        min_speed_m_s=2.0,
+        source_radii=R_SRC,
+        prior_radii=centre,
+    )
+    assert still.radii == centre  # no second to refit on: the car's own size
+
+
 # --------------------------------------------------------------------------- the evidence
 
 

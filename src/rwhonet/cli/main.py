@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rwhonet import contracts
 from rwhonet.config import ConfigError
 from rwhonet.errors import InputError
 
@@ -66,6 +67,9 @@ def _recalibrate(args: argparse.Namespace) -> int:
     from rwhonet.cli import recalibrate
 
     params, uri = _project(required=True)
+    source_nominal = recalibrate.car_nominal_m(
+        params, params.data.roles[contracts.SOURCE_TRAIN].vehicle
+    )
     params = _drive_params(params, args, args.vehicle)
     out = recalibrate.run(
         params,
@@ -78,6 +82,7 @@ def _recalibrate(args: argparse.Namespace) -> int:
         seed=args.seed,
         tracking_uri=uri,
         evidence=args.evidence,
+        source_nominal_m=source_nominal,
     )
     print(recalibrate.render(out))
     return 0
@@ -246,9 +251,10 @@ def parser() -> argparse.ArgumentParser:
         choices=("target", "source"),
         default=None,
         help="shrink only: whose drives size its update, as the base model carries them: the "
-        "pipeline's target car's training drives (default, when carried) or the source "
-        "car's drives with adapt.shrink.unknown_car_sd added to the prior (a car the "
-        "pipeline has no drives of)",
+        "pipeline's target car's training drives (the default for that car) or the source "
+        "car's drives with adapt.shrink.unknown_car_sd added to the prior (the default for "
+        "any other car; its prior is then centred on the source calibration scaled by the "
+        "car's nominal tyre radius over the source car's)",
     )
     _drive_options(rc)
     rc.add_argument(

@@ -98,11 +98,19 @@ def run(
     seed: int | None,
     tracking_uri: str,
     evidence: str | None = None,
+    source_nominal_m: float | None = None,
 ) -> dict[str, Any]:
     """Recalibrate, score and register; return what was done (for the printout).
 
     Args:
-        evidence: ``shrink`` only: ``target`` or ``source`` (:func:`shrink_evidence_of`).
+        evidence: ``shrink`` only: ``target`` or ``source`` (:func:`shrink_evidence_of`;
+            by default the pipeline's target car's for that car, the source car's for
+            any other).
+        source_nominal_m: the source car's nominal tyre radius as the pipeline took it.
+            ``shrink`` on a car with evidence from the source car's drives centres its
+            prior on the source calibration scaled by the car's nominal radius over
+            this (:func:`prior_radii_of`): a car of another tyre size starts from its
+            own size, not the source car's.
 
     Raises:
         InputError: a base model that cannot be found, a drive the pipeline refuses,
@@ -153,10 +161,14 @@ def run(
                 ],
                 "not enough valid seconds to recalibrate and score",
             )
+        new_car = vehicle != params.data.roles[contracts.TARGET_TRAIN].vehicle
         shrink_ev = (
-            shrink_evidence_of(base_meta.evidence, evidence, base)
+            shrink_evidence_of(base_meta.evidence, evidence, base, new_car=new_car)
             if choice.recipe == contracts.SHRINK
             else None
+        )
+        prior = prior_radii_of(
+            shrink_ev, base_meta.source_radii, car_nominal_m(params, vehicle), source_nominal_m
         )
         k = data.samples.frame["k"].to_numpy()
         first, rest = k < choice.m, k >= choice.m
@@ -171,6 +183,7 @@ def run(
             min_speed_m_s=params.label.calibration_min_speed_m_s,
             evidence=shrink_ev,
             source_radii=base_meta.source_radii,
+            prior_radii=prior,
         )
         fit_s = time.perf_counter() - fit_start
         scored = data.samples.take(rest)
@@ -233,6 +246,7 @@ def run(
         "scores": scores,
         "radii": result.radii,
         "certainty": certainty(result, base_meta.source_radii, shrink_ev),
+        "prior_radii": prior,
         "fit_s": fit_s,
         "seconds": time.perf_counter() - start,
         "digest": digest,
@@ -240,15 +254,51 @@ def run(
     }
 
 
-def shrink_evidence_of(carried: dict[str, Any] | None, which: str | None, base: str) -> Any:
+def car_nominal_m(params: Params, vehicle: str) -> float | None:
+    """The car's nominal tyre radius as params know it (None: a car they do not name)."""
+    from rwhonet.config import ConfigError
+
+    try:
+        return params.nominal_radius_m(vehicle)
+    except ConfigError:
+        return None
+
+
+def prior_radii_of(
+    evidence: Any,
+    source_radii: tuple[float, float],
+    car_nominal: float | None,
+    source_nominal: float | None,
+) -> tuple[float, float] | None:
+    """Where ``shrink``'s prior is centred for a car, when not on G's radii (None).
+
+    With evidence from the source car's drives (a car the pipeline has no drives of)
+    and a nominal radius for the car that is not the source car's, the prior is the
+    source calibration scaled by the two nominal radii: the car's size, with the
+    source car's calibrated-to-nominal ratio. The target car's own evidence measures
+    its offset from G already (τ), so there the prior stays on G.
+    """
+    if evidence is None or evidence.role == contracts.TARGET_TRAIN:
+        return None
+    if car_nominal is None or source_nominal is None or car_nominal == source_nominal:
+        return None
+    ratio = car_nominal / source_nominal
+    return (source_radii[0] * ratio, source_radii[1] * ratio)
+
+
+def shrink_evidence_of(
+    carried: dict[str, Any] | None, which: str | None, base: str, *, new_car: bool = False
+) -> Any:
     """The shrink recipe's evidence from a base model's metadata.
 
     Args:
         carried: :attr:`rwhonet.serve.model.ServedMeta.evidence`.
         which: ``target`` (the pipeline's target car's training drives), ``source``
-            (the source car's, for a car the pipeline has no drives of), or None: the
-            target car's when carried, else the source car's.
+            (the source car's, for a car the pipeline has no drives of), or None: for the
+            pipeline's target car its own when carried, else the source car's; for any
+            other car (``new_car``) the source car's when carried, else the target's.
         base: the base model as the user named it (for messages).
+        new_car: the car is not the pipeline's target car.
 
     Raises:
         InputError: the model carries no such evidence.
@@ -256,7 +306,7 @@ def shrink_evidence_of(carried: dict[str, Any] | None, which: str | None, base: 
     from rwhonet.models.adapt import ShrinkEvidence
 
     carried = carried or {}
-    order = [which] if which else ["target", "source"]
+    order = [which] if which else (["source", "target"] if new_car else ["target", "source"])
     for key in order:
         if carried.get(key) is not None:
             return ShrinkEvidence.from_dict(carried[key], f"{base} (evidence.{key})")
@@ -412,6 +462,12 @@ def render(out: dict[str, Any]) -> str:
         f"seed {out['seed']}, in {out['fit_s']:.2f} s{radii}",
     ]
     sure = out.get("certainty")
+    prior = out.get("prior_radii")
+    if prior is not None:
+        lines.append(
+            f"  prior centred on {prior[0]:.5f} / {prior[1]:.5f} m: the source calibration "
+            "scaled by the car's nominal tyre radius over the source car's"
+        )
     if sure is None and c.recipe == contracts.SHRINK:
         lines.append(f"  no second of the {out['n_adapt']} moved fast enough: the base model kept")
     if sure is not None:
@@ -420,7 +476,8 @@ def render(out: dict[str, Any]) -> str:
             f"{sure['high_m']:.5f} m); the {out['n_adapt']} s alone fix it to "
             f"±{100 * sure['fit_sd']:.2f} % (1 sd), the prior to ±{100 * sure['prior_sd']:.2f} %, "
             f"so {100 * sure['kept']:.0f} % of the refit is kept and "
-            f"{100 * (1 - sure['kept']):.0f} % shrunk towards the base model "
+            f"{100 * (1 - sure['kept']):.0f} % shrunk towards "
+            f"{'the prior' if prior is not None else 'the base model'} "
             f"(evidence: {sure['n_drives']} drives, {sure['role']})"
         )
     lines += [

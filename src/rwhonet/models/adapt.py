@@ -786,6 +786,7 @@ def shrink(
     evidence: ShrinkEvidence,
     min_speed_m_s: float,
     source_radii: tuple[float, float],
+    prior_radii: tuple[float, float] | None = None,
 ) -> AdaptResult:
     """The ``shrink`` recipe: ``radius+G``'s refit, shrunk towards G by what the m s can tell.
 
@@ -802,11 +803,15 @@ def shrink(
         evidence: V(k) and τ (:func:`shrink_evidence`).
         min_speed_m_s: seconds slower than this are left out of the refit.
         source_radii: the source calibration's rear radii.
+        prior_radii: the prior's centre, when it is not G's radii: a car of another tyre
+            size than the source car (``rwhonet recalibrate`` on a car the pipeline has
+            no drives of: the source calibration scaled by the two cars' nominal radii).
 
     Returns:
         G with the shrunk radii (None: G alone, when no second moved fast enough or
-        w = 0); ``info`` has the weight, τ, the refit's own sd (√V / D), the posterior
-        sd of the relative radius change, and the refit's and the result's scale.
+        w = 0, and the prior is G's radii; the prior's radii otherwise); ``info`` has the
+        weight, τ, the refit's own sd (√V / D), the posterior sd of the relative radius
+        change, and the refit's, the prior's and the result's scale.
     """
     start = time.perf_counter()
     g_pred = predict(base, data.x, seq_len=hparams["seq_len"]).astype(np.float64)
@@ -819,20 +824,26 @@ def shrink(
         "evidence_drives": len(evidence.drives),
         "evidence_role": evidence.role,
     }
+    centre = source_radii if prior_radii is None else prior_radii
+    if prior_radii is not None:
+        info["prior_scale"] = relative_scale(centre, source_radii)
     radii = None
     if fit is not None:
         v = evidence.sum_var(len(data))
         w = shrink_weight(evidence.prior_sd, v, fit.distance_m)
         refitted = (fit.r_rl_m, fit.r_rr_m)
-        radii = shrunk_radii(refitted, source_radii, w)
+        radii = shrunk_radii(refitted, centre, w)
         info.update(
             shrink_weight=w,
             fit_sd=math.sqrt(v) / fit.distance_m,
             posterior_sd=posterior_sd(evidence.prior_sd, v, fit.distance_m),
             refit_scale=relative_scale(refitted, source_radii),
-            scale=0.0 if radii is None else relative_scale(radii, source_radii),
             fit_distance_m=fit.distance_m,
         )
+    if radii is None and prior_radii is not None:
+        radii = (float(prior_radii[0]), float(prior_radii[1]))
+    if fit is not None:
+        info["scale"] = 0.0 if radii is None else relative_scale(radii, source_radii)
     return AdaptResult(
         copy.deepcopy(base).eval(),
         dict(hparams),
@@ -856,10 +867,12 @@ def recalibrate(
     min_speed_m_s: float,
     evidence: ShrinkEvidence | None = None,
     source_radii: tuple[float, float] | None = None,
+    prior_radii: tuple[float, float] | None = None,
 ) -> AdaptResult:
     """Run one recipe (any of ``adapt.recipes`` but the continuous ones, which run an inner one).
 
-    ``shrink`` needs ``evidence`` and ``source_radii``; the others ignore them.
+    ``shrink`` needs ``evidence`` and ``source_radii`` (and takes ``prior_radii``, its
+    prior's centre when that is not G's radii: :func:`shrink`); the others ignore them.
 
     Raises:
         ValueError: for an unknown recipe, or ``shrink`` without its evidence.
@@ -874,6 +887,7 @@ def recalibrate(
             evidence=evidence,
             min_speed_m_s=min_speed_m_s,
             source_radii=source_radii,
+            prior_radii=prior_radii,
         )
     if recipe == "paper":
         return fine_tune(base, hparams, data, adapt=adapt, seed=seed, trainable="all")
