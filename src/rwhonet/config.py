@@ -117,6 +117,13 @@ def _has_password(uri: str) -> bool:
 # --------------------------------------------------------------------------- sections
 
 
+def _require_at_least(bound: int, names: str, *values: float) -> None:
+    """Raise :class:`ConfigError` (``<names> must be >= <bound>, got <values>``) unless
+    every value is at least ``bound``."""
+    if any(v < bound for v in values):
+        raise ConfigError(f"{names} must be >= {bound}, got {', '.join(f'{v}' for v in values)}")
+
+
 # Manoeuvres the simulator can place on a road (rates in sim.roads.*.per_km, counts in
 # sim.profiles.*.drives[*].events); docs/simulator.md describes each.
 SIM_EVENTS = (
@@ -483,8 +490,8 @@ class RoleSpec:
 class ColumnSpec:
     """One canonical quantity in a column-mapped CSV: its column name and unit."""
 
-    column: str
-    unit: str
+    column: str  # the column (or logged channel) that holds it
+    unit: str  # as the file writes it; readers convert to SI
 
 
 @dataclass(frozen=True)
@@ -622,11 +629,7 @@ class ModelParams:
     channels: int = 16  # tcn: context features per level
 
     def __post_init__(self) -> None:
-        if self.seq_len < 1 or self.channels < 1:
-            raise ConfigError(
-                f"model.seq_len and model.channels must be >= 1, got {self.seq_len}, "
-                f"{self.channels}"
-            )
+        _require_at_least(1, "model.seq_len and model.channels", self.seq_len, self.channels)
 
 
 @dataclass(frozen=True)
@@ -645,11 +648,7 @@ class TrainerParams:
     precision: Literal["32-true", "bf16-mixed", "16-mixed"] = "32-true"
 
     def __post_init__(self) -> None:
-        if self.devices < 1 or self.num_nodes < 1:
-            raise ConfigError(
-                f"train.trainer.devices and num_nodes must be >= 1, got {self.devices}, "
-                f"{self.num_nodes}"
-            )
+        _require_at_least(1, "train.trainer.devices and num_nodes", self.devices, self.num_nodes)
         if self.strategy == "auto" and self.devices * self.num_nodes > 1:
             raise ConfigError(
                 f"train.trainer: {self.devices} device(s) on {self.num_nodes} node(s) need "
@@ -709,8 +708,8 @@ AUTO = "auto"  # adapt.recipe / adapt.chosen_m: the selection rule picks (evalua
 class FallbackParams:
     """What ``auto`` reports as R-WhONet when the selection rule has no candidate."""
 
-    recipe: Recipe
-    m: int
+    recipe: Recipe  # one of adapt.recipes
+    m: int  # seconds of target drive, one of adapt.m_grid
 
 
 @dataclass(frozen=True)
@@ -794,8 +793,8 @@ class NavGyroParams:
 class NavWheelParams:
     """The rear wheels' CAN speeds (rwhonet.nav.sensors.WheelSpec)."""
 
-    quantum_rad_s: float
-    noise_rad_s: float
+    quantum_rad_s: float  # the CAN signal's resolution
+    noise_rad_s: float  # white noise of each sample
 
 
 @dataclass(frozen=True)
@@ -874,11 +873,7 @@ class GateParams:
         problem = inside_project_problem(self.baseline)
         if problem:
             raise ConfigError(f"gate.baseline={self.baseline!r}: {problem}")
-        if self.rel_tol < 0 or self.abs_tol_m < 0:
-            raise ConfigError(
-                f"gate.rel_tol and gate.abs_tol_m must be >= 0, got {self.rel_tol}, "
-                f"{self.abs_tol_m}"
-            )
+        _require_at_least(0, "gate.rel_tol and gate.abs_tol_m", self.rel_tol, self.abs_tol_m)
 
 
 @dataclass(frozen=True)
@@ -943,19 +938,7 @@ class Params:
         Raises:
             ConfigError: if the vehicle is unknown to the profile or to ``data.vehicles``.
         """
-        if self.data.source == "sim":
-            mapping = self.sim.profiles[self.sim.profile].vehicles
-            if vehicle not in mapping:
-                raise ConfigError(
-                    f"vehicle {vehicle!r} is not in sim.profiles.{self.sim.profile}.vehicles "
-                    f"{sorted(mapping)}"
-                )
-            return self.sim.vehicles[mapping[vehicle]].nominal_radius_m
-        if vehicle not in self.data.vehicles:
-            raise ConfigError(
-                f"vehicle {vehicle!r} is not in data.vehicles {sorted(self.data.vehicles)}"
-            )
-        return self.data.vehicles[vehicle].nominal_radius_m
+        return self._vehicle_spec(vehicle).nominal_radius_m
 
     def track_rear_m(self, vehicle: str) -> float:
         """The rear track width the pipeline assumes for a vehicle, m.
@@ -967,6 +950,16 @@ class Params:
         Raises:
             ConfigError: if the vehicle is unknown to the profile or to ``data.vehicles``.
         """
+        return self._vehicle_spec(vehicle).track_rear_m
+
+    def _vehicle_spec(self, vehicle: str) -> SimVehicle | VehicleSpec:
+        """Where a vehicle's assumed numbers come from: for simulated drives
+        (``data.source == "sim"``) the car the selected profile maps ``vehicle`` to
+        (``sim.vehicles.<car>``), for real ones ``data.vehicles.<vehicle>``.
+
+        Raises:
+            ConfigError: if the vehicle is unknown to the profile or to ``data.vehicles``.
+        """
         if self.data.source == "sim":
             mapping = self.sim.profiles[self.sim.profile].vehicles
             if vehicle not in mapping:
@@ -974,12 +967,12 @@ class Params:
                     f"vehicle {vehicle!r} is not in sim.profiles.{self.sim.profile}.vehicles "
                     f"{sorted(mapping)}"
                 )
-            return self.sim.vehicles[mapping[vehicle]].track_rear_m
+            return self.sim.vehicles[mapping[vehicle]]
         if vehicle not in self.data.vehicles:
             raise ConfigError(
                 f"vehicle {vehicle!r} is not in data.vehicles {sorted(self.data.vehicles)}"
             )
-        return self.data.vehicles[vehicle].track_rear_m
+        return self.data.vehicles[vehicle]
 
     def section(self, name: str) -> dict[str, Any]:
         """Return one section as plain data (for MLflow params and saved configs)."""

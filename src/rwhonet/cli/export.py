@@ -27,24 +27,11 @@ def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) 
     A bare ``model.pt`` takes its scaler and source radii from the project's
     ``data/processed/scaler.json`` and ``calibration.json`` (the label stage's).
     """
+    from rwhonet.cli.predict import model_path
     from rwhonet.serve.bundle import bundle_parts, make_meta
 
     if spec.startswith(("models:/", "runs:/")):
-        from rwhonet.tracking.registry import resolve_model
-
-        if tracking_uri is None:
-            raise InputError(
-                [
-                    Problem(
-                        "--model",
-                        None,
-                        None,
-                        "a project (params.yaml) whose MLflow store holds the model",
-                        "none found",
-                    )
-                ]
-            )
-        return bundle_parts(resolve_model(spec, tracking_uri, dest))
+        return bundle_parts(model_path(spec, tracking_uri, dest))
     path = Path(spec)
     if path.is_file() and path.suffix == ".pt":
         from rwhonet.io import read_json

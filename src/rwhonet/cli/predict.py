@@ -91,27 +91,37 @@ class ParquetSink:
         self.writer.close()
 
 
+def model_path(spec: str, tracking_uri: str | None, dest: Path | None = None) -> Path:
+    """The local path of ``--model``: a registry URI fetched from the project's MLflow
+    store (into ``dest``, a temporary folder when None), else the path as given.
+
+    Raises:
+        InputError: a registry URI with no project store, or one the store cannot give.
+    """
+    if not spec.startswith(("models:/", "runs:/")):
+        return Path(spec)
+    from rwhonet.tracking.registry import resolve_model
+
+    if tracking_uri is None:
+        raise InputError(
+            [
+                Problem(
+                    "--model",
+                    None,
+                    None,
+                    "a project (params.yaml) whose MLflow store holds the model",
+                    "none found",
+                )
+            ]
+        )
+    return resolve_model(spec, tracking_uri, dest)
+
+
 def open_model(spec: str, tracking_uri: str | None) -> Any:
     """A served model from a path (``.onnx``, bundle or MLflow model folder) or a registry URI."""
     from rwhonet.serve.model import load_served
 
-    if spec.startswith(("models:/", "runs:/")):
-        from rwhonet.tracking.registry import resolve_model
-
-        if tracking_uri is None:
-            raise InputError(
-                [
-                    Problem(
-                        "--model",
-                        None,
-                        None,
-                        "a project (params.yaml) whose MLflow store holds the model",
-                        "none found",
-                    )
-                ]
-            )
-        return load_served(resolve_model(spec, tracking_uri))
-    return load_served(Path(spec))
+    return load_served(model_path(spec, tracking_uri))
 
 
 def run(

@@ -128,36 +128,17 @@ class DriveFile:
     map_name: str | None = None  # how messages name its signal map (None: its params key)
 
 
-def read_drive(
-    f: DriveFile,
-    data: DataParams,
-    rel: Callable[[Path], str] = str,
-    radius_m: float | None = None,
-    period_s: float = 0.1,
-    split_gap_s: float = 0.5,
-) -> RawDrive:
-    """Read one drive with the reader its format names, if it is not too large.
-
-    Args: as :func:`read_any`.
-
-    Returns:
-        The drive's channels, canonical names, SI units (a stream drive on the grid).
-
-    Raises:
-        InputError: as :func:`read_any`.
-    """
-    return read_any(f, data, rel, radius_m, period_s, split_gap_s)[0]
-
-
 def read_any(
     f: DriveFile,
     data: DataParams,
-    rel: Callable[[Path], str] = str,
-    radius_m: float | None = None,
-    period_s: float = 0.1,
-    split_gap_s: float = 0.5,
+    rel: Callable[[Path], str],
+    radius_m: float | None,
+    period_s: float,
+    split_gap_s: float,
 ) -> tuple[RawDrive, StreamFacts | None]:
     """Read one drive with the reader its format names, if it is not too large.
+
+    The reading part of :func:`read_canonical`, which gives the defaults.
 
     The readers stream a file, but the drive is then held in memory (by ingest and
     validate), so a drive above ``data.max_file_mb`` (a folder: its files together) is
@@ -354,13 +335,7 @@ def read_canonical(
 ) -> CanonicalDrive:
     """Read one drive (:func:`read_any`) and its optional scenario sidecar.
 
-    Args:
-        f: the drive (file or folder).
-        data: the ``data`` section.
-        rel: how messages name a file.
-        radius_m: the car's nominal tyre radius (stream drives).
-        period_s: the grid period (stream drives).
-        split_gap_s: the gap that splits a drive (stream drives).
+    Args: as :func:`read_any`.
 
     Returns:
         The drive, its scenario intervals, and what resampling found.

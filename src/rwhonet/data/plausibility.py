@@ -312,16 +312,8 @@ def stale_wheel_runs(
     values above ``stuck_moving_rad_s`` during which the GNSS speed (from the run's
     second second on) spans more than ``stuck_moving_rad_s`` x the nominal radius.
 
-    Args:
-        drive: canonical columns.
-        segments: the drive's valid segments (the GNSS policy's).
-        nominal_radius_m: the vehicle's nominal tyre radius, m.
-        policy: ``validate.wheels``.
-        sample_period_s: nominal sample period.
-        ignore: rows to leave out (manual cuts), or None.
-
-    Returns:
-        The runs, in row order.
+    The arguments are :func:`silent_wheel_runs`' (the two checks run side by side);
+    the runs come in row order.
     """
     t = np.asarray(drive[c.T_S], dtype=np.float64)
     n, k = t.size, max(round(1.0 / sample_period_s), 1)

@@ -314,6 +314,7 @@ def schema_problems(
     return schema_problems_batch(df, [0], vp, [source_file], [source_columns])[0]
 
 
+@np.errstate(invalid="ignore", over="ignore", divide="ignore")
 def schema_problems_batch(
     df: pd.DataFrame,
     drive_starts: Sequence[int] | np.ndarray,
@@ -323,23 +324,9 @@ def schema_problems_batch(
 ) -> list[list[Problem]]:
     """Validate drives stacked in one frame in one pandera call; report per drive.
 
-    See :func:`_schema_problems_batch`. Arithmetic on the bad values the checks are
-    there to catch (inf - inf in a time step) warns nothing: the problems say it.
-    """
-    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        return _schema_problems_batch(df, drive_starts, vp, source_files, source_columns)
-
-
-def _schema_problems_batch(
-    df: pd.DataFrame,
-    drive_starts: Sequence[int] | np.ndarray,
-    vp: ValidateParams,
-    source_files: Sequence[str],
-    source_columns: Sequence[Mapping[str, str]],
-) -> list[list[Problem]]:
-    """Validate drives stacked in one frame in one pandera call; report per drive.
-
     Each drive gets the problems :func:`schema_problems` gives it alone, in the same order.
+    Arithmetic on the bad values the checks are there to catch (inf - inf in a time
+    step) warns nothing: the problems say it.
 
     Args:
         df: the drives' rows one after the other, all with the same columns and dtypes

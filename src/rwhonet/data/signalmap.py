@@ -51,15 +51,13 @@ _RATE = {
     "rad/s cw": -1.0,
     "deg/s cw": -math.pi / 180.0,
 }
+WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys, in order
 # Key -> (canonical name, {unit: factor to SI}); wheel speeds: WHEEL_UNITS via the radius.
 KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     "t": (c.T_S, {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}),
     "lat": (c.LAT_DEG, {"deg": 1.0}),
     "lon": (c.LON_DEG, {"deg": 1.0}),
-    "omega_fl": (c.OMEGA_FL, None),
-    "omega_fr": (c.OMEGA_FR, None),
-    "omega_rl": (c.OMEGA_RL, None),
-    "omega_rr": (c.OMEGA_RR, None),
+    **{key: (name, None) for key, name in zip(WHEEL_KEYS, c.WHEELS, strict=True)},
     "n_sats": (c.N_SATS, {"count": 1.0}),
     "speed_gnss": (c.SPEED_GNSS_M_S, _SPEED),
     "heading": (c.HEADING_DEG, {"deg": 1.0}),
@@ -69,7 +67,6 @@ KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     "acc_lon": (c.ACC_LON_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
     "acc_lat": (c.ACC_LAT_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
 }
-WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")
 REQUIRED_KEYS = (*WHEEL_KEYS, "lat", "lon")
 FIX_KEYS = ("lat", "lon", "n_sats", "speed_gnss", "heading", "height")
 

@@ -250,7 +250,7 @@ def calibration_from_dict(raw: Any, source: str) -> Calibration:
     """Rebuild a :class:`Calibration` from what :meth:`Calibration.to_dict` gave.
 
     Args:
-        raw: the parsed ``calibration.json``.
+        raw: the parsed ``calibration.json`` (anything but an object has no fields).
         source: where it came from, for error reports.
 
     Returns:
