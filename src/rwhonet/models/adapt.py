@@ -40,6 +40,7 @@ from rwhonet import contracts
 from rwhonet.config import AdaptParams
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import refit, refit_radii
+from rwhonet.features.windows import LabelledWindows
 from rwhonet.features.wpm import radius_corrected
 from rwhonet.models.freeze import apply_trainable, count_parameters
 from rwhonet.models.loop import (
@@ -63,7 +64,7 @@ SHRINK_RIDGE = "shrink+ridge_head"  # the continuous_shrink recipe's inner recip
 
 
 @dataclass
-class AdaptData:
+class AdaptData(LabelledWindows):
     """A stretch of one drive to recalibrate on (or predict for): its samples and WPM inputs.
 
     Attributes:
@@ -74,14 +75,9 @@ class AdaptData:
         angle_rr_rad: (n,) rear-right wheel angle per second, rad.
     """
 
-    x: np.ndarray
-    y: np.ndarray
     disp_gnss_m: np.ndarray
     angle_rl_rad: np.ndarray
     angle_rr_rad: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.y)
 
     def take(self, idx: np.ndarray) -> AdaptData:
         """The samples at ``idx`` (an index array or a boolean mask)."""
