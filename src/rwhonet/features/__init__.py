@@ -7,7 +7,8 @@
 - :mod:`~rwhonet.features.calibration`: effective rear-wheel rolling radii.
 - :mod:`~rwhonet.features.scaling`: min-max input scaling fitted on source_train.
 - :mod:`~rwhonet.features.labels`: one segment's samples table (label, WPM, scaled inputs).
-- :mod:`~rwhonet.features.windows`: sequences of seconds that never cross a segment.
+- :mod:`~rwhonet.features.windows`: sequences of seconds that never cross a segment,
+  and labelled windows (what the networks train on).
 - :mod:`~rwhonet.features.samples`: labelled segments stacked into the models' arrays.
 - :mod:`~rwhonet.features.deadreckoning`: 2D dead reckoning from the rear wheels.
 

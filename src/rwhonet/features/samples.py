@@ -17,13 +17,13 @@ import numpy as np
 import pandas as pd
 
 from rwhonet import contracts as k
-from rwhonet.features.windows import sequences
+from rwhonet.features.windows import LabelledWindows, sequences
 
 FRAME_COLUMNS = [*k.SAMPLE_VALUE_COLUMNS, k.SCENARIO]
 
 
 @dataclass
-class SampleSet:
+class SampleSet(LabelledWindows):
     """Samples of one or more roles, in role → drive → segment → time order.
 
     Attributes:
@@ -36,12 +36,7 @@ class SampleSet:
             first m seconds of a drive" is ``k < m``).
     """
 
-    x: np.ndarray
-    y: np.ndarray
     frame: pd.DataFrame
-
-    def __len__(self) -> int:
-        return len(self.y)
 
     def take(self, mask: np.ndarray) -> SampleSet:
         """Return the samples where ``mask`` is true (order kept)."""

@@ -8,12 +8,31 @@ up to ``i``, the window is padded at its old end with the group's first second
 (the network is told nothing about what came before the group's start). So
 every second gets a window, whatever ``seq_len`` is, and models of any context
 length are scored on the same seconds; with ``seq_len = 1`` a window is the
-second itself.
+second itself. :class:`LabelledWindows` holds windows with their labels, what
+the networks train on and are scored on.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+
+
+@dataclass
+class LabelledWindows:
+    """Windows and the label of each window's last second, one sample per second.
+
+    Attributes:
+        x: (N, seq_len, n_features) float32 windows, oldest second first.
+        y: (N,) labels in metres (GNSS − WPM per second, paper Eq. 11).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.y)
 
 
 def sequences(x: np.ndarray, seq_len: int, group: np.ndarray) -> np.ndarray:

@@ -40,6 +40,7 @@ from rwhonet import contracts
 from rwhonet.config import AdaptParams
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import refit, refit_radii
+from rwhonet.features.windows import LabelledWindows
 from rwhonet.features.wpm import radius_corrected
 from rwhonet.models.freeze import apply_trainable, count_parameters
 from rwhonet.models.loop import (
@@ -63,7 +64,7 @@ SHRINK_RIDGE = "shrink+ridge_head"  # the continuous_shrink recipe's inner recip
 
 
 @dataclass
-class AdaptData:
+class AdaptData(LabelledWindows):
     """A stretch of one drive to recalibrate on (or predict for): its samples and WPM inputs.
 
     Attributes:
@@ -74,14 +75,9 @@ class AdaptData:
         angle_rr_rad: (n,) rear-right wheel angle per second, rad.
     """
 
-    x: np.ndarray
-    y: np.ndarray
     disp_gnss_m: np.ndarray
     angle_rl_rad: np.ndarray
     angle_rr_rad: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.y)
 
     def take(self, idx: np.ndarray) -> AdaptData:
         """The samples at ``idx`` (an index array or a boolean mask)."""
@@ -148,6 +144,45 @@ def _inputs(base: WhONet, hparams: dict[str, Any], data: AdaptData) -> tuple:
     )
 
 
+def _trainable_copy(base: WhONet, seed: int, trainable: str) -> tuple[WhONet, tuple[int, int]]:
+    """A gradient recipe's start: torch seeded, then a copy of G with the freeze policy applied.
+
+    Returns:
+        The copy, and its trainable weights and all its weights.
+    """
+    seed_all(seed)
+    net = copy.deepcopy(base)
+    return net, apply_trainable(net, trainable)
+
+
+def _trained_result(
+    net: WhONet,
+    hparams: dict[str, Any],
+    adapt: AdaptParams,
+    history: list[dict[str, Any]],
+    start: float,
+    counts: tuple[int, int],
+    **info: Any,
+) -> AdaptResult:
+    """A gradient recipe's result: ``net`` in eval mode, trained with ``adapt``'s lr and batch size.
+
+    Args:
+        start: ``time.perf_counter()`` when the recipe began.
+        counts: trainable and all weights (:func:`_trainable_copy`).
+        **info: the recipe's facts (:attr:`AdaptResult.info`).
+    """
+    net.eval()
+    return AdaptResult(
+        net,
+        {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size},
+        None,
+        history,
+        time.perf_counter() - start,
+        *counts,
+        info=info,
+    )
+
+
 def fine_tune(
     base: WhONet,
     hparams: dict[str, Any],
@@ -180,9 +215,7 @@ def fine_tune(
     """
     x_t, y_t = _inputs(base, hparams, data)
     start = time.perf_counter()
-    seed_all(seed)
-    net = copy.deepcopy(base)
-    n_trainable, n_total = apply_trainable(net, trainable)
+    net, counts = _trainable_copy(base, seed, trainable)
     loader = train_loader(ArrayDataset(x_t, y_t), batch_size=adapt.batch_size, seed=seed)
     optimizer = make_optimizer(net, adapt.lr)
     net.train()
@@ -190,16 +223,7 @@ def fine_tune(
     for epoch in range(adapt.epochs):
         loss_m = train_epoch(net, optimizer, loader, adapt.batch_size)
         history.append({"epoch": epoch, "train_loss": loss_m, "val_loss": None})
-    net.eval()
-    return AdaptResult(
-        net,
-        {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size},
-        None,
-        history,
-        time.perf_counter() - start,
-        n_trainable,
-        n_total,
-    )
+    return _trained_result(net, hparams, adapt, history, start, counts)
 
 
 def fine_tune_steps(
@@ -232,9 +256,7 @@ def fine_tune_steps(
         raise ValueError("the steps recipe needs at least two seconds")
     x_fit, y_fit, x_hold, y_hold = x_t[:-n_hold], y_t[:-n_hold], x_t[-n_hold:], y_t[-n_hold:]
     start = time.perf_counter()
-    seed_all(seed)
-    net = copy.deepcopy(base)
-    n_trainable, n_total = apply_trainable(net, "all")
+    net, counts = _trainable_copy(base, seed, "all")
     optimizer = make_optimizer(net, adapt.lr)
     loader = train_loader(
         ArrayDataset(x_fit, y_fit), batch_size=adapt.batch_size, seed=seed, steps_per_block=1
@@ -262,16 +284,16 @@ def fine_tune_steps(
             if step >= cfg.max_steps or step - best_step >= cfg.patience:
                 break
     net.load_state_dict(best_state)
-    net.eval()
-    return AdaptResult(
+    return _trained_result(
         net,
-        {**hparams, "lr": adapt.lr, "batch_size": adapt.batch_size},
-        None,
+        hparams,
+        adapt,
         history,
-        time.perf_counter() - start,
-        n_trainable,
-        n_total,
-        info={"steps": step, "best_step": best_step, "held_back_s": n_hold},
+        start,
+        counts,
+        steps=step,
+        best_step=best_step,
+        held_back_s=n_hold,
     )
 
 
@@ -400,6 +422,34 @@ def ridge_head(
     )
 
 
+def _radii_result(
+    base: WhONet,
+    hparams: dict[str, Any],
+    radii: tuple[float, float] | None,
+    start: float,
+    info: dict[str, Any],
+) -> AdaptResult:
+    """A radius recipe's result: G unchanged under the rear radii ``radii``.
+
+    The two radii are the weights the recipe changes (``n_trainable``).
+
+    Args:
+        radii: the refitted rear radii; None: the source calibration.
+        start: ``time.perf_counter()`` when the recipe began.
+        info: the recipe's facts (:attr:`AdaptResult.info`).
+    """
+    return AdaptResult(
+        copy.deepcopy(base).eval(),
+        dict(hparams),
+        radii,
+        [],
+        time.perf_counter() - start,
+        2,
+        count_parameters(base)[1] + 2,
+        info=info,
+    )
+
+
 def radius_g(
     base: WhONet, hparams: dict[str, Any], data: AdaptData, *, min_speed_m_s: float
 ) -> AdaptResult:
@@ -426,16 +476,7 @@ def radius_g(
     radii = refit_radii(
         data.disp_gnss_m, data.angle_rl_rad, data.angle_rr_rad, min_speed_m_s, explained_m=g_pred
     )
-    return AdaptResult(
-        copy.deepcopy(base).eval(),
-        dict(hparams),
-        radii,
-        [],
-        time.perf_counter() - start,
-        2,
-        count_parameters(base)[1] + 2,
-        info={"radius_refit": radii is not None},
-    )
+    return _radii_result(base, hparams, radii, start, {"radius_refit": radii is not None})
 
 
 # --------------------------------------------------------------------------- shrink
@@ -844,16 +885,7 @@ def shrink(
         radii = (float(prior_radii[0]), float(prior_radii[1]))
     if fit is not None:
         info["scale"] = 0.0 if radii is None else relative_scale(radii, source_radii)
-    return AdaptResult(
-        copy.deepcopy(base).eval(),
-        dict(hparams),
-        radii,
-        [],
-        time.perf_counter() - start,
-        2,
-        count_parameters(base)[1] + 2,
-        info=info,
-    )
+    return _radii_result(base, hparams, radii, start, info)
 
 
 def recalibrate(

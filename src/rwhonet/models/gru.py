@@ -17,14 +17,13 @@ recurrent weights, zero biases.
 
 from __future__ import annotations
 
-import torch
 from torch import nn
 
 from rwhonet.contracts import N_FEATURES
-from rwhonet.models.network import Network, check_shape
+from rwhonet.models.network import RecurrentNetwork
 
 
-class GRUNet(Network):
+class GRUNet(RecurrentNetwork):
     """GRU regressor of the per-second wheel-odometry displacement error.
 
     Args:
@@ -38,36 +37,4 @@ class GRUNet(Network):
     def __init__(
         self, n_features: int = N_FEATURES, hidden: int = 72, layers: int = 1, dropout: float = 0.05
     ) -> None:
-        super().__init__()
-        check_shape(n_features, hidden, layers, dropout)
-        self.rnn = nn.GRU(
-            input_size=n_features,
-            hidden_size=hidden,
-            num_layers=layers,
-            batch_first=True,
-            dropout=dropout if layers > 1 else 0.0,
-        )
-        self.dropout = nn.Dropout(dropout)
-        self.head = nn.Linear(hidden, 1)
-        self.reset_parameters()
-
-    def reset_parameters(self) -> None:
-        """Keras-default initialisation (module docstring)."""
-        for name, p in self.rnn.named_parameters():
-            if name.startswith("weight_hh"):
-                nn.init.orthogonal_(p)
-            elif name.startswith("weight_ih"):
-                nn.init.xavier_uniform_(p)
-            else:
-                nn.init.zeros_(p)
-        nn.init.xavier_uniform_(self.head.weight)
-        nn.init.zeros_(self.head.bias)
-
-    @property
-    def n_features(self) -> int:
-        return self.rnn.input_size
-
-    def features(self, x: torch.Tensor) -> torch.Tensor:
-        """The last hidden state of the top GRU layer, (B, hidden)."""
-        out, _ = self.rnn(x)
-        return out[:, -1, :]
+        super().__init__(nn.GRU, n_features, hidden, layers, dropout)

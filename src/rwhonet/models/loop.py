@@ -10,7 +10,9 @@ S-WhONet, :mod:`rwhonet.models.module`) and the fine-tuning loop of R-WhONet
   samples, shuffled blocks of mini-batches from a seeded generator;
 - :func:`make_optimizer`, :func:`batch_mae`, :func:`train_block`,
   :func:`train_epoch`, :class:`EpochLoss`: the update and the epoch's MAE;
-- :func:`as_model_inputs`, :func:`predict`: input checks and batched inference.
+- :func:`as_model_inputs`, :func:`predict`: input checks and batched inference;
+  :func:`training_inputs`, :func:`training_hparams`: what G and S are trained on and
+  with (one seed at a time or all at once).
 
 Plain torch: importing this module does not import Lightning.
 """
@@ -33,6 +35,7 @@ from torch.utils.data import (
     SequentialSampler,
 )
 
+from rwhonet.config import ModelParams, TrainParams
 from rwhonet.contracts import N_FEATURES
 from rwhonet.errors import InputError, Problem
 from rwhonet.models.gru import GRUNet
@@ -455,6 +458,52 @@ def as_model_inputs(
     if ya is not None:
         _check_finite(ya[:, None], what, "y")
     return torch.from_numpy(xa), None if ya is None else torch.from_numpy(ya)
+
+
+def training_inputs(
+    x: np.ndarray, y: np.ndarray, x_val: np.ndarray | None, y_val: np.ndarray | None, seq_len: int
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None, torch.Tensor | None]:
+    """Training samples and validation samples checked (:func:`as_model_inputs`) as tensors.
+
+    Args:
+        x, y: the training windows and labels.
+        x_val, y_val: the validation windows and labels; None / empty: no validation.
+        seq_len: ``model.seq_len``.
+
+    Returns:
+        ``(x, y, x_val, y_val)``; the last two None without validation samples.
+
+    Raises:
+        InputError: when the arrays have the wrong shape or non-finite values.
+    """
+    x_t, y_t = as_model_inputs(x, y, "training samples", seq_len=seq_len)
+    if x_val is None or y_val is None or len(x_val) + len(y_val) == 0:
+        return x_t, y_t, None, None
+    x_val_t, y_val_t = as_model_inputs(
+        x_val, y_val, "validation samples", seq_len=seq_len, n_features=x_t.shape[2]
+    )
+    return x_t, y_t, x_val_t, y_val_t
+
+
+def training_hparams(model: ModelParams, train: TrainParams, n_features: int) -> dict[str, Any]:
+    """The hyperparameters of a network trained from scratch (``WhONetModule``'s arguments).
+
+    Args:
+        model: the network (``model:`` in params.yaml).
+        train: the recipe (``train:``): its ``lr`` and ``batch_size``.
+        n_features: input features per second (the training windows').
+    """
+    return {
+        "n_features": n_features,
+        "hidden": model.hidden,
+        "layers": model.layers,
+        "dropout": model.dropout,
+        "seq_len": model.seq_len,
+        "lr": train.lr,
+        "batch_size": train.batch_size,
+        "arch": model.arch,
+        "channels": model.channels,
+    }
 
 
 def _check_finite(a: np.ndarray, what: str, column: str) -> None:

@@ -14,7 +14,9 @@ selected by ``model.arch`` through this interface alone:
 
 The networks: :class:`~rwhonet.models.whonet.WhONet` (the paper's, the default),
 :class:`~rwhonet.models.gru.GRUNet` and :class:`~rwhonet.models.tcn.TCNNet`
-(temporal context over the window's seconds).
+(temporal context over the window's seconds). The first two share
+:class:`RecurrentNetwork`: a recurrent layer, dropout on its last hidden state
+and the head, initialised as Keras' layers are.
 """
 
 from __future__ import annotations
@@ -41,6 +43,71 @@ class Network(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """(B, T, n_features) windows -> (B,) predicted displacement error in metres."""
         return self.head(self.dropout(self.features(x))).squeeze(-1)
+
+
+class RecurrentNetwork(Network):
+    """A torch recurrent layer over the window, dropout on its last hidden state, a linear head.
+
+    Submodules ``rnn``, ``dropout``, ``head``, in that order (their names and order
+    are the model file's). Initialisation as Keras' recurrent and ``Dense`` layers:
+    Glorot-uniform input and output weights, orthogonal recurrent weights, zero
+    biases.
+
+    Args:
+        rnn_type: ``nn.RNN`` or ``nn.GRU``.
+        n_features: input features per time step.
+        hidden: hidden units per layer.
+        layers: stacked recurrent layers; the layer's own inter-layer dropout
+            (``dropout``) acts between them.
+        dropout: rate of the dropout on the last hidden state before the head.
+        **rnn_options: further arguments of ``rnn_type`` (``nonlinearity``).
+    """
+
+    def __init__(
+        self,
+        rnn_type: type[nn.RNNBase],
+        n_features: int,
+        hidden: int,
+        layers: int,
+        dropout: float,
+        **rnn_options: str,
+    ) -> None:
+        super().__init__()
+        check_shape(n_features, hidden, layers, dropout)
+        self.rnn = rnn_type(
+            input_size=n_features,
+            hidden_size=hidden,
+            num_layers=layers,
+            batch_first=True,
+            # torch warns (and does nothing) when asked for dropout with one layer.
+            dropout=dropout if layers > 1 else 0.0,
+            **rnn_options,
+        )
+        self.dropout = nn.Dropout(dropout)
+        self.head = nn.Linear(hidden, 1)
+        self.reset_parameters()
+
+    def reset_parameters(self) -> None:
+        """Keras-default initialisation (class docstring)."""
+        for name, p in self.rnn.named_parameters():
+            if name.startswith("weight_hh"):
+                nn.init.orthogonal_(p)
+            elif name.startswith("weight_ih"):
+                nn.init.xavier_uniform_(p)
+            else:
+                nn.init.zeros_(p)
+        nn.init.xavier_uniform_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    @property
+    def n_features(self) -> int:
+        """Input features per time step."""
+        return self.rnn.input_size
+
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        """The last hidden state of the top layer, (B, hidden)."""
+        out, _ = self.rnn(x)
+        return out[:, -1, :]
 
 
 def check_shape(n_features: int, hidden: int, layers: int, dropout: float) -> None:

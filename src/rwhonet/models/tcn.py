@@ -34,23 +34,27 @@ from rwhonet.models.network import Network, check_shape
 class TCNNet(Network):
     """Causal TCN context encoder joined with WhONet's one-second tanh layer.
 
+    Keyword arguments only: the TCN's own (``seq_len``, ``channels``), then the
+    shape every network takes.
+
     Args:
+        seq_len: seconds per window; sets the levels (module docstring).
+        channels: context features per level (``model.channels``).
         n_features: input features per second (40).
         hidden: units of the tanh layer the head reads (``model.hidden``).
         layers: unused (kept so every network takes the same hyperparameters).
         dropout: rate of the dropout on the tanh layer before the head.
-        seq_len: seconds per window; sets the levels (module docstring).
-        channels: context features per level (``model.channels``).
     """
 
     def __init__(
         self,
+        *,
+        seq_len: int = 32,
+        channels: int = 16,
         n_features: int = N_FEATURES,
         hidden: int = 72,
         layers: int = 1,
         dropout: float = 0.05,
-        seq_len: int = 32,
-        channels: int = 16,
     ) -> None:
         super().__init__()
         check_shape(n_features, hidden, layers, dropout)

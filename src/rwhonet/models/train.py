@@ -32,7 +32,7 @@ from lightning.pytorch.strategies import DDPStrategy
 from rwhonet.config import ModelParams, TrainerParams, TrainParams
 from rwhonet.models.datamodule import WhONetDataModule
 from rwhonet.models.freeze import apply_trainable
-from rwhonet.models.loop import STEPS_PER_BLOCK, as_model_inputs, predict
+from rwhonet.models.loop import STEPS_PER_BLOCK, predict, training_hparams, training_inputs
 from rwhonet.models.module import WhONetModule
 
 __all__ = ["FitResult", "fit", "predict"]
@@ -104,27 +104,10 @@ def fit(
     Raises:
         InputError: when the arrays have the wrong shape or non-finite values.
     """
-    x_t, y_t = as_model_inputs(x, y, "training samples", seq_len=model.seq_len)
-    has_val = x_val is not None and y_val is not None and len(x_val) + len(y_val) > 0
-    if has_val:
-        x_val_t, y_val_t = as_model_inputs(
-            x_val, y_val, "validation samples", seq_len=model.seq_len, n_features=x_t.shape[2]
-        )
-    else:
-        x_val_t = y_val_t = None
+    x_t, y_t, x_val_t, y_val_t = training_inputs(x, y, x_val, y_val, model.seq_len)
     torch.set_num_threads(train.num_threads)
     L.seed_everything(seed, workers=True, verbose=False)
-    module = WhONetModule(
-        n_features=x_t.shape[2],
-        hidden=model.hidden,
-        layers=model.layers,
-        dropout=model.dropout,
-        seq_len=model.seq_len,
-        lr=train.lr,
-        batch_size=train.batch_size,
-        arch=model.arch,
-        channels=model.channels,
-    )
+    module = WhONetModule(**training_hparams(model, train, x_t.shape[2]))
     n_trainable, n_total = apply_trainable(module, "all")
     data = WhONetDataModule(
         x_t,

@@ -49,11 +49,12 @@ from rwhonet.models.loop import (
     VAL_BATCH_SIZE,
     ArrayDataset,
     EpochLoss,
-    as_model_inputs,
     batch_mae,
     net_from_hparams,
     seed_all,
     train_loader,
+    training_hparams,
+    training_inputs,
     val_loader,
 )
 from rwhonet.models.network import Network
@@ -102,9 +103,9 @@ def fit_seeds(
     x_val: np.ndarray | None = None,
     y_val: np.ndarray | None = None,
     *,
+    seeds: list[int],
     model: ModelParams,
     train: TrainParams,
-    seeds: list[int],
     steps_per_block: int = STEPS_PER_BLOCK,
 ) -> SeedsFit:
     """Train one network per seed on the same samples, all at once (module docstring).
@@ -114,10 +115,10 @@ def fit_seeds(
         y: (N,) labels in metres.
         x_val: validation windows, or None / empty to skip validation.
         y_val: validation labels, or None / empty.
+        seeds: the training seeds, distinct.
         model: the network (``model:`` in params.yaml); :func:`supports` it.
         train: the recipe (``train:``); its ``trainer`` must be the default single CPU
             process in 32-bit.
-        seeds: the training seeds, distinct.
         steps_per_block: optimizer steps per block (changes nothing but speed, as in ``fit``).
 
     Returns:
@@ -138,29 +139,10 @@ def fit_seeds(
         raise ValueError("fit_seeds runs one CPU process in 32-bit (train.trainer's defaults)")
     if not seeds or len(set(seeds)) != len(seeds):
         raise ValueError(f"seeds must be distinct and at least one, got {seeds}")
-    x_t, y_t = as_model_inputs(x, y, "training samples", seq_len=model.seq_len)
-    has_val = x_val is not None and y_val is not None and len(x_val) + len(y_val) > 0
-    val_set = (
-        ArrayDataset(
-            *as_model_inputs(
-                x_val, y_val, "validation samples", seq_len=model.seq_len, n_features=x_t.shape[2]
-            )
-        )
-        if has_val
-        else None
-    )
+    x_t, y_t, x_val_t, y_val_t = training_inputs(x, y, x_val, y_val, model.seq_len)
+    val_set = None if x_val_t is None else ArrayDataset(x_val_t, y_val_t)
     torch.set_num_threads(train.num_threads)
-    hparams = {
-        "n_features": x_t.shape[2],
-        "hidden": model.hidden,
-        "layers": model.layers,
-        "dropout": model.dropout,
-        "seq_len": model.seq_len,
-        "lr": train.lr,
-        "batch_size": train.batch_size,
-        "arch": model.arch,
-        "channels": model.channels,
-    }
+    hparams = training_hparams(model, train, x_t.shape[2])
     caller_rng = torch.get_rng_state()
     dataset = ArrayDataset(x_t, y_t)
     nets, rngs, loaders = [], [], []

@@ -11,10 +11,10 @@ import torch
 from torch import nn
 
 from rwhonet.contracts import N_FEATURES
-from rwhonet.models.network import Network, check_shape
+from rwhonet.models.network import RecurrentNetwork
 
 
-class WhONet(Network):
+class WhONet(RecurrentNetwork):
     """Simple RNN regressor of the per-second wheel-odometry displacement error.
 
     ``h_t = tanh(U_h h_{t-1} + W_x X_t + b_h)`` (paper Eq. 12) over the input
@@ -47,37 +47,7 @@ class WhONet(Network):
     def __init__(
         self, n_features: int = N_FEATURES, hidden: int = 72, layers: int = 1, dropout: float = 0.05
     ) -> None:
-        super().__init__()
-        check_shape(n_features, hidden, layers, dropout)
-        self.rnn = nn.RNN(
-            input_size=n_features,
-            hidden_size=hidden,
-            num_layers=layers,
-            nonlinearity="tanh",
-            batch_first=True,
-            # nn.RNN warns (and does nothing) when asked for dropout with one layer.
-            dropout=dropout if layers > 1 else 0.0,
-        )
-        self.dropout = nn.Dropout(dropout)
-        self.head = nn.Linear(hidden, 1)
-        self.reset_parameters()
-
-    def reset_parameters(self) -> None:
-        """Keras-default initialisation (see the class docstring)."""
-        for name, p in self.rnn.named_parameters():
-            if name.startswith("weight_hh"):
-                nn.init.orthogonal_(p)
-            elif name.startswith("weight_ih"):
-                nn.init.xavier_uniform_(p)
-            else:
-                nn.init.zeros_(p)
-        nn.init.xavier_uniform_(self.head.weight)
-        nn.init.zeros_(self.head.bias)
-
-    @property
-    def n_features(self) -> int:
-        """Input features per time step."""
-        return self.rnn.input_size
+        super().__init__(nn.RNN, n_features, hidden, layers, dropout, nonlinearity="tanh")
 
     def features(self, x: torch.Tensor) -> torch.Tensor:
         """The head's inputs: the last hidden state ``h_t`` of every window (Eq. 12).
@@ -96,5 +66,4 @@ class WhONet(Network):
             return torch.tanh(
                 torch.addmm(rnn.bias_ih_l0 + rnn.bias_hh_l0, x[:, 0], rnn.weight_ih_l0.t())
             )
-        out, _ = self.rnn(x)
-        return out[:, -1, :]
+        return super().features(x)

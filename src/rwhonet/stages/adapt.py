@@ -46,7 +46,7 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -151,23 +151,22 @@ def run_job(job: Job) -> tuple[np.ndarray, AdaptResult | None]:
     Returns:
         ``(label predictions of job.scored, the AdaptResult or None)``.
     """
-    from rwhonet.models.adapt import label_prediction, recalibrate, ridge_head
+    from rwhonet.models.adapt import label_prediction, recalibrate
 
     task = job.task
-    if task.penalty is not None:
-        result = ridge_head(job.base, job.hparams, job.fit, penalty=task.penalty)
-    else:
-        result = recalibrate(
-            task.recipe,
-            job.base,
-            job.hparams,
-            job.fit,
-            adapt=job.adapt,
-            seed=job.seed,
-            min_speed_m_s=job.min_speed_m_s,
-            evidence=job.evidence,
-            source_radii=job.source_radii,
-        )
+    # A penalty task (the source-drive study) is the ridge_head recipe with its own penalty.
+    adapt = job.adapt if task.penalty is None else replace(job.adapt, ridge_penalty=task.penalty)
+    result = recalibrate(
+        task.recipe,
+        job.base,
+        job.hparams,
+        job.fit,
+        adapt=adapt,
+        seed=job.seed,
+        min_speed_m_s=job.min_speed_m_s,
+        evidence=job.evidence,
+        source_radii=job.source_radii,
+    )
     pred = label_prediction(result, job.scored, job.source_radii)
     result.info["n_adapt_samples"] = len(job.fit)
     keep = task.role == contracts.TARGET_TEST and task.penalty is None
