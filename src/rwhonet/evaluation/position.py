@@ -65,6 +65,19 @@ GNSS_DISTANCE = "GNSS distance"  # the filter's control on the GNSS's own distan
 HEADING_ONLY = "heading only (GNSS distance)"
 
 
+def _nominal_wheel_yaw(frame: pd.DataFrame, params: Params) -> np.ndarray:
+    """Every row's rear-wheel yaw with the target car's nominal radius (both wheels) and track."""
+    vehicle = params.data.roles[k.TARGET_TEST].vehicle
+    r = params.nominal_radius_m(vehicle)
+    return wheel_yaw_rad(
+        frame[k.ANGLE_RL_RAD].to_numpy(np.float64),
+        frame[k.ANGLE_RR_RAD].to_numpy(np.float64),
+        r,
+        r,
+        params.track_rear_m(vehicle),
+    )
+
+
 def window_tracks(frame: pd.DataFrame, params: Params, outage_s: int) -> dict[str, np.ndarray]:
     """Everything but the distances: per target test window, its heading fit and truth.
 
@@ -84,15 +97,7 @@ def window_tracks(frame: pd.DataFrame, params: Params, outage_s: int) -> dict[st
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
     # The yaw's scale (radius / track) and the rear wheels' radius difference are fitted
     # per window against GNSS, so the nominal radius and track only need to be close.
-    vehicle = params.data.roles[k.TARGET_TEST].vehicle
-    r = params.nominal_radius_m(vehicle)
-    yaw_all = wheel_yaw_rad(
-        frame[k.ANGLE_RL_RAD].to_numpy(np.float64),
-        frame[k.ANGLE_RR_RAD].to_numpy(np.float64),
-        r,
-        r,
-        params.track_rear_m(vehicle),
-    )
+    yaw_all = _nominal_wheel_yaw(frame, params)
     # GNSS course per row, within each segment (the first row of a segment has none)
     course = np.full(len(frame), np.nan)
     starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
@@ -273,15 +278,7 @@ def nav_segments(frame: pd.DataFrame, params: Params) -> Segments:
     segment_of = np.full(len(frame), -1, np.int64)
     for i, (a, n) in enumerate(zip(first, length, strict=True)):
         segment_of[a : a + n] = i
-    vehicle = params.data.roles[k.TARGET_TEST].vehicle
-    r = params.nominal_radius_m(vehicle)
-    yaw = wheel_yaw_rad(
-        frame[k.ANGLE_RL_RAD].to_numpy(np.float64),
-        frame[k.ANGLE_RR_RAD].to_numpy(np.float64),
-        r,
-        r,
-        params.track_rear_m(vehicle),
-    )
+    yaw = _nominal_wheel_yaw(frame, params)
     gyro = (
         frame[k.GYRO_YAW_RAD].to_numpy(np.float64)
         if k.GYRO_YAW_RAD in frame

@@ -20,6 +20,7 @@ from functools import cache
 
 import numpy as np
 from geographiclib.geodesic import Geodesic
+from numpy.typing import ArrayLike
 from pyproj import Geod
 
 
@@ -29,7 +30,7 @@ def wgs84() -> Geod:
     return Geod(ellps="WGS84")
 
 
-def as_float64_arrays(*coords: np.ndarray | float) -> list[np.ndarray]:
+def as_float64_arrays(*coords: ArrayLike) -> list[np.ndarray]:
     """Broadcast coordinates to one shape as contiguous float64 arrays.
 
     Args:
@@ -63,10 +64,7 @@ def check_latitudes(*lat_deg: np.ndarray) -> None:
 
 
 def geodesic_distance_m(
-    lat1_deg: np.ndarray | float,
-    lon1_deg: np.ndarray | float,
-    lat2_deg: np.ndarray | float,
-    lon2_deg: np.ndarray | float,
+    lat1_deg: ArrayLike, lon1_deg: ArrayLike, lat2_deg: ArrayLike, lon2_deg: ArrayLike
 ) -> np.ndarray:
     """Return the WGS84 geodesic distance between point pairs (vectorised).
 
@@ -94,10 +92,7 @@ def geodesic_distance_m(
 
 
 def geodesic_distance_reference_m(
-    lat1_deg: np.ndarray | float,
-    lon1_deg: np.ndarray | float,
-    lat2_deg: np.ndarray | float,
-    lon2_deg: np.ndarray | float,
+    lat1_deg: ArrayLike, lon1_deg: ArrayLike, lat2_deg: ArrayLike, lon2_deg: ArrayLike
 ) -> np.ndarray:
     """Return the same distances as :func:`geodesic_distance_m` with pure-Python GeographicLib.
 
@@ -105,10 +100,7 @@ def geodesic_distance_reference_m(
     benchmarks, so it deliberately loops over ``Geodesic.WGS84.Inverse``.
 
     Args:
-        lat1_deg: latitude of the first points, degrees.
-        lon1_deg: longitude of the first points, degrees.
-        lat2_deg: latitude of the second points, degrees.
-        lon2_deg: longitude of the second points, degrees.
+        lat1_deg, lon1_deg, lat2_deg, lon2_deg: as for :func:`geodesic_distance_m`.
 
     Returns:
         Distances in metres, float64, with the broadcast shape.

@@ -14,15 +14,16 @@ turned into fixes without drift.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from rwhonet.geo.geodesic import as_float64_arrays, check_latitudes, wgs84
 
 
 def destination_deg(
-    lat_deg: np.ndarray | float,
-    lon_deg: np.ndarray | float,
-    azimuth_deg: np.ndarray | float,
-    distance_m: np.ndarray | float,
+    lat_deg: ArrayLike,
+    lon_deg: ArrayLike,
+    azimuth_deg: ArrayLike,
+    distance_m: ArrayLike,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Solve the direct geodesic problem (vectorised).
 
@@ -50,10 +51,7 @@ def destination_deg(
 
 
 def offsets_m(
-    lat0_deg: float,
-    lon0_deg: float,
-    lat_deg: np.ndarray | float,
-    lon_deg: np.ndarray | float,
+    lat0_deg: float, lon0_deg: float, lat_deg: ArrayLike, lon_deg: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return east/north offsets of points from a reference fix.
 
@@ -84,16 +82,12 @@ def offsets_m(
 
 
 def latlon_from_offsets_deg(
-    lat0_deg: float,
-    lon0_deg: float,
-    east_m: np.ndarray | float,
-    north_m: np.ndarray | float,
+    lat0_deg: float, lon0_deg: float, east_m: ArrayLike, north_m: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
     """Invert :func:`offsets_m`: turn east/north offsets into fixes.
 
     Args:
-        lat0_deg: reference latitude, degrees.
-        lon0_deg: reference longitude, degrees.
+        lat0_deg, lon0_deg: the reference fix, as for :func:`offsets_m`.
         east_m: east offsets, metres.
         north_m: north offsets, metres.
 

@@ -64,7 +64,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from rwhonet.nav.sensors import GnssSpec, GyroSpec, WheelSpec
+from rwhonet.nav.sensors import GATE_SD, GnssSpec, GyroSpec, WheelSpec
 
 Control = Literal["wheels", "gyro", "fused"]
 CONTROLS: tuple[str, ...] = ("wheels", "gyro", "fused")
@@ -148,7 +148,7 @@ class NavConfig:
     wheel_bias_speed_sd: float = 3e-5
     wheel_bias_speed_walk: float = 1e-7
     heading_walk: float = 2e-4
-    yaw_gate: float = 5.0
+    yaw_gate: float = GATE_SD
     delta_prior_sd: float = 1.0
     reset_after_s: int = 10
     load_min: float = 0.0

@@ -36,6 +36,8 @@ import numpy as np
 
 from rwhonet.contracts import ROWS_PER_SECOND
 
+GATE_SD = 5.0  # the filter's default gates: standard deviations beyond which a value is an outlier
+
 
 def trapezoid_weight_sq(rows_per_second: int = ROWS_PER_SECOND) -> float:
     """Sum of the squared trapezoid weights of one second's samples, in seconds².
@@ -143,4 +145,4 @@ class GnssSpec:
     white_m: float = 0.05
     course_sd_rad: float = 0.01
     min_course_m: float = 3.0
-    gate: float = 5.0
+    gate: float = GATE_SD

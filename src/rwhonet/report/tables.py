@@ -11,6 +11,8 @@ one seed, and 0 for the WPMs, which do not depend on the seed).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import pandas as pd
 
@@ -50,6 +52,36 @@ def _fmt(v: float, ci: float | None = None, digits: int = 2) -> str:
 def _head(models: list[str], chosen_m: int) -> list[str]:
     names = {"R": f"R-WhONet (m={chosen_m})", "G": "G-WhONet", "S": "S-WhONet"}
     return [names.get(m, m) for m in models]
+
+
+def _drive_stats(
+    ev: Evaluation, outage_s: int
+) -> Iterator[tuple[str, bool, str, str, pd.DataFrame]]:
+    """Each target test drive's rows of a per-drive table for one outage length.
+
+    Yields:
+        ``(drive, first, stat, label, per_model)`` for every drive and every statistic of
+        :data:`STATS` in turn: ``first`` on a drive's first row, ``per_model`` the drive's
+        summary indexed by model.
+    """
+    rows = ev.summary[
+        (ev.summary["outage_s"] == outage_s)
+        & (ev.summary["drive"] != "all")
+        & (ev.summary["role"] == k.TARGET_TEST)
+    ]
+    for drive in dict.fromkeys(rows["drive"]):
+        per_model = rows[rows["drive"] == drive].set_index("model")
+        for i, (stat, label) in enumerate(STATS):
+            yield drive, i == 0, stat, label, per_model
+
+
+def _stat_cell(per_model: pd.DataFrame, model: str, metric: str, stat: str, digits: int = 2) -> str:
+    """``metric``'s ``stat`` for ``model``; the mean with its 95 % interval."""
+    return _fmt(
+        per_model.loc[model, f"{metric}_{stat}"],
+        per_model.loc[model, f"{metric}_mean_ci95"] if stat == "mean" else None,
+        digits,
+    )
 
 
 def overall_table(ev: Evaluation, params: Params, metric: str, models: list[str]) -> str:
@@ -147,23 +179,9 @@ def m_grid_table(ev: Evaluation, params: Params, outage_s: int) -> str:
         "| Drive | | " + " | ".join(f"m={m} s" for m in grid) + " |",
         "|---|---|" + "---:|" * len(grid),
     ]
-    rows = ev.summary[
-        (ev.summary["outage_s"] == outage_s)
-        & (ev.summary["drive"] != "all")
-        & (ev.summary["role"] == k.TARGET_TEST)
-    ]
-    for drive in dict.fromkeys(rows["drive"]):
-        per_model = rows[rows["drive"] == drive].set_index("model")
-        for i, (stat, label) in enumerate(STATS):
-            cells = [
-                _fmt(
-                    per_model.loc[f"R@{m}", f"crse_{stat}"],
-                    per_model.loc[f"R@{m}", "crse_mean_ci95"] if stat == "mean" else None,
-                    1,
-                )
-                for m in grid
-            ]
-            lines.append(f"| {drive if i == 0 else ''} | {label} | {' | '.join(cells)} |")
+    for drive, first, stat, label, per_model in _drive_stats(ev, outage_s):
+        cells = [_stat_cell(per_model, f"R@{m}", "crse", stat, 1) for m in grid]
+        lines.append(f"| {drive if first else ''} | {label} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
 
@@ -277,26 +295,13 @@ def outage_table(ev: Evaluation, params: Params, outage_s: int, metric: str) -> 
         + " | Distance (m) | Windows |",
         "|---|---|" + "---:|" * (len(models) + 2),
     ]
-    rows = ev.summary[
-        (ev.summary["outage_s"] == outage_s)
-        & (ev.summary["drive"] != "all")
-        & (ev.summary["role"] == k.TARGET_TEST)
-    ]
-    for drive in dict.fromkeys(rows["drive"]):
-        per_model = rows[rows["drive"] == drive].set_index("model")
-        for i, (stat, stat_label) in enumerate(STATS):
-            cells = [
-                _fmt(
-                    per_model.loc[m, f"{metric}_{stat}"],
-                    per_model.loc[m, f"{metric}_mean_ci95"] if stat == "mean" else None,
-                )
-                for m in models
-            ]
-            dist = _fmt(per_model.iloc[0][f"dist_{stat}"])
-            n = str(int(per_model.iloc[0]["n_windows"])) if i == 0 else ""
-            lines.append(
-                f"| {drive if i == 0 else ''} | {stat_label} | {' | '.join(cells)} | {dist} | {n} |"
-            )
+    for drive, first, stat, stat_label, per_model in _drive_stats(ev, outage_s):
+        cells = [_stat_cell(per_model, m, metric, stat) for m in models]
+        dist = _fmt(per_model.iloc[0][f"dist_{stat}"])
+        n = str(int(per_model.iloc[0]["n_windows"])) if first else ""
+        lines.append(
+            f"| {drive if first else ''} | {stat_label} | {' | '.join(cells)} | {dist} | {n} |"
+        )
     return "\n".join(lines)
 
 
@@ -380,6 +385,32 @@ def _pos_cell(r) -> str:
     )
 
 
+def _cover_cell(r) -> str:
+    if r is None or not r.n_windows:
+        return "–"
+    return f"{100 * r.cover_1sigma:.0f} / {100 * r.cover_2sigma:.0f} %; {r.nll:.2f}"
+
+
+def _per_model_table(
+    ev: Evaluation, rows: pd.DataFrame, heading: str, cell: Callable[[Any], str]
+) -> str:
+    """A row per model in ``rows``, a column per outage length (``"{L} s"`` and ``heading``).
+
+    ``cell`` turns the model's row for that length, or None where there is none, into text.
+    """
+    outages = sorted(rows["outage_s"].unique())
+    cells = rows.set_index(["model", "outage_s"])
+    lines = [
+        "| Model | " + " | ".join(f"{L} s{heading}" for L in outages) + " |",
+        "|---|" + "---:|" * len(outages),
+    ]
+    for m in dict.fromkeys(rows["model"]):
+        row = [cell(cells.loc[(m, L)] if (m, L) in cells.index else None) for L in outages]
+        name = "fused, GNSS's own distances" if m == GNSS_DISTANCE else _model_label(m, ev)
+        lines.append(f"| {name} | " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
 def _counts(rows: pd.DataFrame) -> str:
     first = rows.drop_duplicates("outage_s").sort_values("outage_s")
     return ", ".join(
@@ -394,16 +425,8 @@ def nav_position_table(ev: Evaluation) -> str | None:
     if pos is None or pos.empty:
         return None
     rows = pos[(pos["control"] == plan["control"]) & (pos["model"] != GNSS_DISTANCE)]
-    outages = sorted(rows["outage_s"].unique())
-    cells = rows.set_index(["model", "outage_s"])
-    lines = [
-        "| Model | " + " | ".join(f"{L} s" for L in outages) + " |",
-        "|---|" + "---:|" * len(outages),
-    ]
-    for m in dict.fromkeys(rows["model"]):
-        row = [_pos_cell(cells.loc[(m, L)] if (m, L) in cells.index else None) for L in outages]
-        lines.append(f"| {_model_label(m, ev)} | " + " | ".join(row) + " |")
-    return "\n".join(lines) + f"\n\nWindows counted (of the target test windows): {_counts(rows)}."
+    table = _per_model_table(ev, rows, "", _pos_cell)
+    return table + f"\n\nWindows counted (of the target test windows): {_counts(rows)}."
 
 
 def nav_controls_table(ev: Evaluation) -> str | None:
@@ -443,25 +466,9 @@ def nav_calibration_table(ev: Evaluation) -> str | None:
     pos, plan = ev.position, ev.position_plan
     if pos is None or pos.empty:
         return None
-    rows = pos[pos["control"] == plan["control"]]
-    outages = sorted(rows["outage_s"].unique())
-    cells = rows.set_index(["model", "outage_s"])
-    lines = [
-        "| Model | " + " | ".join(f"{L} s: 1σ / 2σ; NLL" for L in outages) + " |",
-        "|---|" + "---:|" * len(outages),
-    ]
-    for m in dict.fromkeys(rows["model"]):
-        row = []
-        for L in outages:
-            r = cells.loc[(m, L)] if (m, L) in cells.index else None
-            row.append(
-                "–"
-                if r is None or not r.n_windows
-                else f"{100 * r.cover_1sigma:.0f} / {100 * r.cover_2sigma:.0f} %; {r.nll:.2f}"
-            )
-        name = "fused, GNSS's own distances" if m == GNSS_DISTANCE else _model_label(m, ev)
-        lines.append(f"| {name} | " + " | ".join(row) + " |")
-    return "\n".join(lines)
+    return _per_model_table(
+        ev, pos[pos["control"] == plan["control"]], ": 1σ / 2σ; NLL", _cover_cell
+    )
 
 
 def crse_calibration_table(ev: Evaluation) -> str | None:

@@ -79,6 +79,7 @@ COLUMNS = (
     "pos_err_m",
 )
 OUTAGE_COLUMNS = COLUMNS[7:]
+CUMULATIVE_COLUMNS = OUTAGE_COLUMNS[:7]  # the running sums over an outage's seconds
 POSITION_COLUMNS = COLUMNS[-6:]
 
 
@@ -127,13 +128,8 @@ class _Totals:
     """Running sums of one outage."""
 
     n: int = 0
-    wpm: float = 0.0
-    corrected: float = 0.0
-    gnss: float = 0.0
-    err_wpm: float = 0.0
-    err_corrected: float = 0.0
-    crse_wpm: float = 0.0
-    crse_corrected: float = 0.0
+    # each cumulative column's value at the last second so far
+    sums: dict[str, float] = field(default_factory=lambda: dict.fromkeys(CUMULATIVE_COLUMNS, 0.0))
     gnss_s: int = 0  # seconds with a GNSS displacement
     origin: tuple[float, float] | None = None  # the position the outage starts from
     east: float = math.nan  # the filter's position at the last second so far
@@ -376,15 +372,16 @@ class SecondStream:
             has = np.isfinite(gnss)
             g = np.where(has, gnss, 0.0)
             e_wpm, e_corr = np.where(has, wpm - g, 0.0), np.where(has, corr - g, 0.0)
-            cum = {
-                "dist_wpm_m": tot.wpm + np.cumsum(wpm),
-                "dist_corrected_m": tot.corrected + np.cumsum(corr),
-                "dist_gnss_m": tot.gnss + np.cumsum(g),
-                "err_wpm_m": tot.err_wpm + np.cumsum(e_wpm),
-                "err_corrected_m": tot.err_corrected + np.cumsum(e_corr),
-                "crse_wpm_m": tot.crse_wpm + np.cumsum(np.abs(e_wpm)),
-                "crse_corrected_m": tot.crse_corrected + np.cumsum(np.abs(e_corr)),
+            per_second = {
+                "dist_wpm_m": wpm,
+                "dist_corrected_m": corr,
+                "dist_gnss_m": g,
+                "err_wpm_m": e_wpm,
+                "err_corrected_m": e_corr,
+                "crse_wpm_m": np.abs(e_wpm),
+                "crse_corrected_m": np.abs(e_corr),
             }
+            cum = {name: tot.sums[name] + np.cumsum(v) for name, v in per_second.items()}
             out["outage"][rows] = o.label
             gnss_so_far = tot.gnss_s + np.cumsum(has)
             for name, values in cum.items():
@@ -395,17 +392,7 @@ class SecondStream:
                 out[name][rows] = np.where(keep, values, np.nan)
             tot.n += len(rows)
             tot.gnss_s = int(gnss_so_far[-1])
-            tot.wpm, tot.corrected, tot.gnss = (
-                float(cum[k][-1]) for k in ("dist_wpm_m", "dist_corrected_m", "dist_gnss_m")
-            )
-            tot.err_wpm, tot.err_corrected = (
-                float(cum["err_wpm_m"][-1]),
-                float(cum["err_corrected_m"][-1]),
-            )
-            tot.crse_wpm, tot.crse_corrected = (
-                float(cum["crse_wpm_m"][-1]),
-                float(cum["crse_corrected_m"][-1]),
-            )
+            tot.sums = {name: float(values[-1]) for name, values in cum.items()}
             if nav is not None:
                 self._position(tot, rows, nav, fix, out)
         return out
@@ -453,17 +440,18 @@ class SecondStream:
         rows = []
         for label, tot in self.totals.items():
             full = tot.n > 0 and tot.gnss_s == tot.n
+            sums = tot.sums
             rows.append(
                 {
                     "outage": label,
                     "seconds": tot.n,
-                    "dist_gnss_m": tot.gnss if full else math.nan,
-                    "dist_wpm_m": tot.wpm,
-                    "dist_corrected_m": tot.corrected,
-                    "crse_wpm_m": tot.crse_wpm if full else math.nan,
-                    "cte_wpm_m": abs(tot.err_wpm) if full else math.nan,
-                    "crse_corrected_m": tot.crse_corrected if full else math.nan,
-                    "cte_corrected_m": abs(tot.err_corrected) if full else math.nan,
+                    "dist_gnss_m": sums["dist_gnss_m"] if full else math.nan,
+                    "dist_wpm_m": sums["dist_wpm_m"],
+                    "dist_corrected_m": sums["dist_corrected_m"],
+                    "crse_wpm_m": sums["crse_wpm_m"] if full else math.nan,
+                    "cte_wpm_m": abs(sums["err_wpm_m"]) if full else math.nan,
+                    "crse_corrected_m": sums["crse_corrected_m"] if full else math.nan,
+                    "cte_corrected_m": abs(sums["err_corrected_m"]) if full else math.nan,
                     "east_end_m": tot.east,
                     "north_end_m": tot.north,
                     "pos_sd_end_m": tot.pos_sd,

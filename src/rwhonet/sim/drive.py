@@ -80,15 +80,7 @@ class SimOptions:
     @classmethod
     def ideal(cls) -> SimOptions:
         """Every effect off: no slip, static radius, perfect sensors, no warm-up."""
-        return cls(
-            slip=False,
-            radius_load=False,
-            radius_speed=False,
-            can_noise=False,
-            gnss_noise=False,
-            tyre_warmup=False,
-            gyro_errors=False,
-        )
+        return cls(**{f.name: False for f in fields(cls)})
 
 
 @dataclass(frozen=True)
