@@ -31,6 +31,7 @@ import yaml
 from rwhonet import paths
 from rwhonet.config import ConfigError, Params, load_params
 from rwhonet.errors import InputError
+from rwhonet.io import system_memory_pool
 from rwhonet.libraries import quiet
 
 EXIT_INPUT = 2
@@ -123,7 +124,8 @@ def _run(stage: str, main: Callable[[Params], None], started: float) -> None:
         params = load_params(
             paths.PARAMS, only=declared_params(stage), reader=f"stage {stage} (dvc.yaml)"
         )
-        main(params)
+        with system_memory_pool():  # Arrow's buffers from malloc (rwhonet.io: faster here)
+            main(params)
     except (InputError, ConfigError) as err:
         _ignore_interrupts()
         print(

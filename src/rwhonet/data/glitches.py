@@ -25,11 +25,11 @@ The bound
 The check (:func:`glitch_mask`), per wheel and sample
     The road speed a wheel is compared with is the median of the *other* three
     wheels' speeds (so one bad wheel cannot move it), at its largest within
-    ±``window_s`` (so the other wheels' own ABS dips cannot make a wheel that
+    ±``WINDOW_S`` (so the other wheels' own ABS dips cannot make a wheel that
     rolls at road speed look fast). The wheel's *excess* is how much it exceeds
     that, zero when it does not. A sample whose excess rose faster than the
     bound (``r |Δω| / Δt > bound``, ``r`` the nominal radius) opens a glitch,
-    and the glitch lasts until the excess falls as fast (at most ``max_run_s``).
+    and the glitch lasts until the excess falls as fast (at most ``MAX_RUN_S``).
     ABS lockups are falls and recoveries below the road speed: their excess
     stays zero and they are never flagged. A one-row spike to ten times the
     speed rises by ``9 v`` in one period: at 10 Hz it is found above about
@@ -70,8 +70,6 @@ def glitch_mask(
     wheels_rad_s: np.ndarray,
     radius_m: float,
     bound_g: float = WHEEL_GLITCH_G,
-    window_s: float = WINDOW_S,
-    max_run_s: float = MAX_RUN_S,
 ) -> np.ndarray:
     """Flag the samples of each wheel that changed faster than any tyre can.
 
@@ -81,8 +79,8 @@ def glitch_mask(
             ignored: magnitudes).
         radius_m: the car's nominal tyre radius, m (turns the bound into rad/s^2).
         bound_g: the bound, in g of circumferential acceleration above the road speed.
-        window_s: the road speed is the others' largest median within ±this.
-        max_run_s: longest glitch; a rise that never falls back is flagged this long.
+            The road speed is the other wheels' largest median within ±``WINDOW_S``; a
+            rise that never falls back is flagged for ``MAX_RUN_S``.
 
     Returns:
         Boolean (4, n): True where a wheel's sample is part of a glitch.
@@ -106,7 +104,7 @@ def glitch_mask(
         if not np.any((hi[1:] - lo[1:]) * (1.0 + 1e-9) > limit * dt):
             return out
     del lo, hi
-    half = max(int(round(window_s / float(np.median(dt)))), 0)
+    half = max(int(round(WINDOW_S / float(np.median(dt)))), 0)
     others = [[j for j in range(4) if j != k] for k in range(4)]
     for k in range(4):  # per wheel, not per sample
         road = _median3(*(w[j] for j in others[k]))
@@ -125,7 +123,7 @@ def glitch_mask(
         last_down[down] = down
         last_down = np.maximum.accumulate(last_down)
         open_ = (last_up >= 0) & (last_up > last_down)
-        out[k] = open_ & (t - t[np.maximum(last_up, 0)] < max_run_s)
+        out[k] = open_ & (t - t[np.maximum(last_up, 0)] < MAX_RUN_S)
         out[k, up] = True
     return out
 

@@ -32,7 +32,7 @@ from rwhonet.data.drivefile import (
     reader_kind,
 )
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, map_in_order, system_memory_pool, write_json, write_parquet
+from rwhonet.io import atomic_dir, map_in_order, write_json, write_parquet
 from rwhonet.progress import track
 
 
@@ -141,7 +141,6 @@ def discover(data: DataParams) -> list[DriveFile]:
     return files
 
 
-@system_memory_pool()
 def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None) -> dict[str, Any]:
     """Read every drive of ``data.roles`` and write the canonical drives with their manifest.
 

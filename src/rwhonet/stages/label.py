@@ -49,14 +49,7 @@ from rwhonet.features.seconds import (
     segment_arrays,
     segment_seconds,
 )
-from rwhonet.io import (
-    atomic_outputs,
-    map_in_order,
-    read_json,
-    system_memory_pool,
-    write_json,
-    write_parquet,
-)
+from rwhonet.io import atomic_outputs, map_in_order, read_json, write_json, write_parquet
 from rwhonet.progress import track
 
 TRAIN_ROLE = contracts.SOURCE_TRAIN
@@ -289,7 +282,6 @@ def _per_second_all(
     return seconds
 
 
-@system_memory_pool()
 def label(
     params: Params, segments_dir: Path, out_dir: Path, calibration_path: Path, scaler_path: Path
 ) -> dict[str, Any]:

@@ -34,14 +34,7 @@ from rwhonet.data.plausibility import reversing_rows
 from rwhonet.data.quality import RULES, Assessment, segment_name
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import (
-    atomic_outputs,
-    map_in_order,
-    read_json,
-    system_memory_pool,
-    write_json,
-    write_parquet,
-)
+from rwhonet.io import atomic_outputs, map_in_order, read_json, write_json, write_parquet
 
 CONVENTION = (
     "t_start_s and t_end_s are whole seconds of the drive's own clock; a segment holds its "
@@ -81,7 +74,6 @@ def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
     return by_drive
 
 
-@system_memory_pool()
 def validate(
     params: Params,
     drives_dir: Path,
