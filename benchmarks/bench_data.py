@@ -33,6 +33,7 @@ import numpy as np  # noqa: E402
 
 from rwhonet.config import load_params  # noqa: E402
 from rwhonet.geo.geodesic import geodesic_distance_m, geodesic_distance_reference_m  # noqa: E402
+from rwhonet.io import system_memory_pool  # noqa: E402
 from rwhonet.sim import simulate_fleet  # noqa: E402
 from rwhonet.stages.ingest import ingest  # noqa: E402
 from rwhonet.stages.label import label  # noqa: E402
@@ -63,7 +64,8 @@ def _stages(params, work: Path) -> dict[str, tuple[float, float]]:
     }
     for name, run in runs.items():
         t0, c0 = time.perf_counter(), time.process_time()
-        with contextlib.redirect_stdout(io.StringIO()):
+        # the pool every stage runs in (rwhonet.runner)
+        with contextlib.redirect_stdout(io.StringIO()), system_memory_pool():
             run()
         out[name] = (time.perf_counter() - t0, time.process_time() - c0)
     return out

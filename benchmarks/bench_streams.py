@@ -39,6 +39,7 @@ from rwhonet.data.quality import assess  # noqa: E402
 from rwhonet.data.streamcsv import read_stream_csvs  # noqa: E402
 from rwhonet.data.streams import resample  # noqa: E402
 from rwhonet.features.seconds import segment_seconds  # noqa: E402
+from rwhonet.io import system_memory_pool  # noqa: E402
 from rwhonet.sim import generate_route, vehicles_from_params  # noqa: E402
 from rwhonet.sim.drive import child_rng  # noqa: E402
 from rwhonet.sim.streams import (  # noqa: E402
@@ -149,7 +150,8 @@ def stages(fmt: str, tables, radius: float, work: Path) -> tuple[float, float]:
         },
     )
     t0, c0 = time.perf_counter(), time.process_time()
-    with contextlib.redirect_stdout(io.StringIO()):
+    # the pool every stage runs in (rwhonet.runner)
+    with contextlib.redirect_stdout(io.StringIO()), system_memory_pool():
         ingest(params, work / "drives")
         validate(params, work / "drives", work / "segments", work / "validation.json")
         label(params, work / "segments", work / "samples", work / "cal.json", work / "scaler.json")
