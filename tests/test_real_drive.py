@@ -83,6 +83,8 @@ def test_recalibrate_reads_checks_and_registers_the_real_drive(ran):
     assert "../shared/real/comma2k19-example1: 59 valid s of 61 s (cut: partial_second 2 s)" in said
     assert "on the first 20 s" in said and "registered whonet-R-rav4 version 1" in said
     assert "scored on the remaining 39 s" in said
+    # a car the pipeline has no drives of: the source car's evidence, the prior on its size
+    assert "prior centred on 0.35" in said and "drives, source)" in said
     assert re.search(r"^\s+30s\s+1\s", said, flags=re.M), said  # one 30 s window scored
     assert "Traceback" not in recal.stderr
 
