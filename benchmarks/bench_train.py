@@ -76,21 +76,9 @@ def _plain(x, y, model, train, seed: int) -> float:
 
 def _net(n_features: int, model, train):
     """The network ``model.arch`` selects, as fit builds it."""
-    from rwhonet.models.loop import net_from_hparams
+    from rwhonet.models.loop import net_from_hparams, training_hparams
 
-    return net_from_hparams(
-        {
-            "n_features": n_features,
-            "hidden": model.hidden,
-            "layers": model.layers,
-            "dropout": model.dropout,
-            "seq_len": model.seq_len,
-            "lr": train.lr,
-            "batch_size": train.batch_size,
-            "arch": model.arch,
-            "channels": model.channels,
-        }
-    )
+    return net_from_hparams(training_hparams(model, train, n_features))
 
 
 def _lightning_baseline(x, y, model, train, seed: int, *, naive: bool) -> float:

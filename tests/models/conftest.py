@@ -1,4 +1,5 @@
-"""Fixtures of the model tests: fast params (linear_data is in tests/conftest.py)."""
+"""Fixtures of the model tests: fast params, a briefly trained G (linear_data is in
+tests/conftest.py)."""
 
 from __future__ import annotations
 
@@ -42,3 +43,15 @@ def adapt_params() -> AdaptParams:
         shrink=ShrinkParams(unknown_car_sd=0.01, min_rest_s=60),
         fallback=FallbackParams(recipe="radius+G", m=50),
     )
+
+
+@pytest.fixture(scope="module")
+def g(linear_data):
+    """A WhONet G briefly trained on the linear data: (network, hyperparameters)."""
+    from rwhonet.models.train import fit
+
+    x, y = linear_data
+    model = ModelParams(hidden=16, layers=1, dropout=0.05, seq_len=1)
+    train = TrainParams(epochs=3, batch_size=64, lr=0.01, val_fraction=0.1, num_threads=1)
+    result = fit(x, y, model=model, train=train, seed=1)
+    return result.module.net, dict(result.module.hparams)

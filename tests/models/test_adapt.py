@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 import torch
 
-from rwhonet.config import ModelParams, TrainParams
 from rwhonet.errors import InputError
 from rwhonet.features.calibration import refit_radii
 from rwhonet.features.wpm import wpm_displacement_m
@@ -27,18 +26,8 @@ from rwhonet.models.adapt import (
 )
 from rwhonet.models.freeze import count_parameters
 from rwhonet.models.loop import predict
-from rwhonet.models.train import fit
 
 R_SRC = (0.29, 0.29)
-
-
-@pytest.fixture(scope="module")
-def g(linear_data):
-    x, y = linear_data
-    model = ModelParams(hidden=16, layers=1, dropout=0.05, seq_len=1)
-    train = TrainParams(epochs=3, batch_size=64, lr=0.01, val_fraction=0.1, num_threads=1)
-    result = fit(x, y, model=model, train=train, seed=1)
-    return result.module.net, dict(result.module.hparams)
 
 
 def data_of(x, y, r_true=0.29 * 1.02, seed=0):

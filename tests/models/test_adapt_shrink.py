@@ -32,20 +32,8 @@ from rwhonet.models.adapt import (
     shrink_weight,
 )
 from rwhonet.models.loop import predict
-from rwhonet.models.train import fit
 
 from .test_adapt import R_SRC, constant_g, data_of
-
-
-@pytest.fixture(scope="module")
-def g(linear_data):
-    from rwhonet.config import ModelParams, TrainParams
-
-    x, y = linear_data
-    model = ModelParams(hidden=16, layers=1, dropout=0.05, seq_len=1)
-    train = TrainParams(epochs=3, batch_size=64, lr=0.01, val_fraction=0.1, num_threads=1)
-    result = fit(x, y, model=model, train=train, seed=1)
-    return result.module.net, dict(result.module.hparams)
 
 
 def evidence(prior: float, v_per_s: float = 0.01) -> ShrinkEvidence:

@@ -53,12 +53,9 @@ def blocks_of(df, sizes):
     return out
 
 
-def test_seconds_match_the_label_stage_and_the_model(bundle, drive_csv):
-    model = load_served(bundle["model_onnx"])
-    with open(drive_csv, "rb") as f:
-        _, blocks = read_rows(f, "V-Wavy.csv", block_bytes=5000)
-        out, _ = stream_all(model, list(blocks))
-    ref = load_drive(
+def reference_samples(drive_csv, seq_len: int):
+    """The drive's samples as the label code makes them (what the stream must reproduce)."""
+    return load_drive(
         drive_csv,
         load_params(),
         vehicle="target",
@@ -66,8 +63,16 @@ def test_seconds_match_the_label_stage_and_the_model(bundle, drive_csv):
         calibration=calibration_of((RADIUS_M, RADIUS_M), "t"),
         scaler=SCALER,
         wpm_mode="integrated",
-        seq_len=1,
+        seq_len=seq_len,
     ).samples
+
+
+def test_seconds_match_the_label_stage_and_the_model(bundle, drive_csv):
+    model = load_served(bundle["model_onnx"])
+    with open(drive_csv, "rb") as f:
+        _, blocks = read_rows(f, "V-Wavy.csv", block_bytes=5000)
+        out, _ = stream_all(model, list(blocks))
+    ref = reference_samples(drive_csv, seq_len=1)
     t_ref = ref.frame["t_s"].to_numpy()
     common, i, j = np.intersect1d(out["t_s"], t_ref, return_indices=True)
     assert len(common) == len(t_ref) == len(out["t_s"]) == 400
@@ -93,16 +98,7 @@ def test_a_model_with_context_gets_the_pipelines_windows(context_bundle, drive_c
     with open(drive_csv, "rb") as f:
         _, blocks = read_rows(f, "V-Wavy.csv", block_bytes=3000)
         out, _ = stream_all(model, list(blocks))
-    ref = load_drive(
-        drive_csv,
-        load_params(),
-        vehicle="target",
-        fmt="iovnbd",
-        calibration=calibration_of((RADIUS_M, RADIUS_M), "t"),
-        scaler=SCALER,
-        wpm_mode="integrated",
-        seq_len=32,
-    ).samples
+    ref = reference_samples(drive_csv, seq_len=32)
     common, i, j = np.intersect1d(out["t_s"], ref.frame["t_s"].to_numpy(), return_indices=True)
     assert len(common) == len(out["t_s"]) == 400 and np.isfinite(out["pred_error_m"]).all()
     np.testing.assert_allclose(out["pred_error_m"][i], model.predict(ref.x[j]), atol=1e-6)
