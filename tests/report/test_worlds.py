@@ -16,9 +16,37 @@ PARAMS = {
 }
 
 
+def _cell(pct: float, c1: float = 0.68, c2: float = 0.95) -> dict:
+    """A position cell as eval.json writes it (only what the claims read matters)."""
+    return {
+        "pos_mean": 10 * pct,
+        "pos_mean_ci95": 0.1,
+        "pos_pct": pct,
+        "pos_pct_ci95": 0.01,
+        "cover_1sigma": c1,
+        "cover_2sigma": c2,
+    }
+
+
+def with_position(ev: dict) -> dict:
+    """The fixture's evaluation (made before the navigation filter) with its 2D keys."""
+    outages = ("30s", "180s")
+    ev["position_controls"] = {
+        "rows": {
+            "fused": {L: _cell(1.2) for L in outages},
+            "fused, GNSS distance": {L: _cell(1.15) for L in outages},
+            "gyro": {L: _cell(1.4) for L in outages},
+            "wheels": {L: _cell(3.4) for L in outages},
+        }
+    }
+    ev["position"] = {m: {L: _cell(1.2) for L in outages} for m in ("WPM", "G", "S", "R")}
+    return ev
+
+
 @pytest.fixture
 def world() -> wr.World:
-    return wr.World("ci", json.loads(FIXTURE.read_text()), copy.deepcopy(PARAMS), "build/ci")
+    ev = with_position(json.loads(FIXTURE.read_text()))
+    return wr.World("ci", ev, copy.deepcopy(PARAMS), "build/ci")
 
 
 def test_every_claim_is_evaluated_on_a_real_evaluation(world):
@@ -106,3 +134,20 @@ def test_main_reads_world_folders_and_refuses_a_missing_one(tmp_path, capsys):
     with pytest.raises(SystemExit) as err:
         wr.main([str(tmp_path / "nowhere")])
     assert err.value.code == 2 and "make worlds" in capsys.readouterr().err
+
+
+def test_the_2d_claims_read_the_filter_s_controls(world):
+    rows = world.ev["position_controls"]["rows"]
+    assert wr.fused_within_2pct(world).holds and wr.fused_beats_each_sensor(world).holds
+    assert wr.fused_coverage(world).holds and wr.distance_model_same_position(world).holds
+    rows["fused"]["180s"]["pos_pct"] = 2.01
+    assert not wr.fused_within_2pct(world).holds
+    assert not wr.fused_beats_each_sensor(world).holds  # the gyro alone is better now
+    rows["fused"]["30s"]["cover_2sigma"] = 0.91  # 2σ below 95 - 3 % on one length
+    verdict = wr.fused_coverage(world)
+    assert not verdict.holds and "30s 68 / 91 %" in verdict.evidence
+    world.ev["position"]["R"]["180s"]["pos_pct"] = 1.3  # 0.15 % of the distance off
+    verdict = wr.distance_model_same_position(world)
+    assert not verdict.holds and "(farthest: R)" in verdict.evidence
+    del world.ev["position_controls"]
+    assert wr.fused_within_2pct(world).holds is None

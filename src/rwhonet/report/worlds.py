@@ -174,6 +174,80 @@ def ten_seconds_harm(w: World) -> Verdict:
     )
 
 
+POSITION_PCT = 2.0  # issue 17: the fused filter's mean error at the longest outage, % of distance
+COVER = ((0.6827, 0.05), (0.9545, 0.03))  # issue 17: 1σ within 68 ± 5 %, 2σ within 95 ± 3 %
+SAME_POSITION_PCT = 0.1  # "does not change the position": within 0.1 % of the distance
+
+
+def _fused(w: World) -> dict[str, Any] | None:
+    """The navigation filter's controls (fused, gyro, wheels, GNSS distance) by outage."""
+    rows = w.ev.get("position_controls", {}).get("rows")
+    return rows or None
+
+
+def fused_within_2pct(w: World) -> Verdict:
+    """The fused filter on R-WhONet's distances: mean end-of-outage error ≤ 2 % of distance."""
+    rows = _fused(w)
+    cell = rows.get("fused", {}).get(w.longest) if rows else None
+    if not cell:
+        return Verdict(None, "no navigation filter in eval.json")
+    return Verdict(
+        cell["pos_pct"] <= POSITION_PCT,
+        f"fused, R-WhONet's distances: {_pm(cell['pos_mean'], cell['pos_mean_ci95'])} m, "
+        f"{_pm(cell['pos_pct'], cell['pos_pct_ci95'])} % of the distance driven",
+    )
+
+
+def fused_beats_each_sensor(w: World) -> Verdict:
+    """Fused better than the gyro alone and the wheels alone at the longest outage."""
+    rows = _fused(w)
+    if not rows or not all(k in rows for k in ("fused", "gyro", "wheels")):
+        return Verdict(None, "no filter controls in eval.json")
+    pct = {k: rows[k][w.longest]["pos_pct"] for k in ("fused", "gyro", "wheels")}
+    return Verdict(
+        pct["fused"] < min(pct["gyro"], pct["wheels"]),
+        f"fused {pct['fused']:.2f} %, gyro alone {pct['gyro']:.2f} %, "
+        f"wheels alone {pct['wheels']:.2f} %",
+    )
+
+
+def fused_coverage(w: World) -> Verdict:
+    """The fused 68.27 / 95.45 % ellipses hold 68 ± 5 % / 95 ± 3 % at every outage length."""
+    rows = _fused(w)
+    fused = rows.get("fused") if rows else None
+    if not fused:
+        return Verdict(None, "no navigation filter in eval.json")
+    (p1, tol1), (p2, tol2) = COVER
+    cells = sorted(fused.items(), key=lambda kv: int(kv[0].removesuffix("s")))
+    inside = [
+        abs(c["cover_1sigma"] - p1) <= tol1 and abs(c["cover_2sigma"] - p2) <= tol2
+        for _, c in cells
+    ]
+    return Verdict(
+        all(inside),
+        "1σ / 2σ: "
+        + ", ".join(
+            f"{L} {100 * c['cover_1sigma']:.0f} / {100 * c['cover_2sigma']:.0f} %" for L, c in cells
+        ),
+    )
+
+
+def distance_model_same_position(w: World) -> Verdict:
+    """Every model's fused error within 0.1 % of the distance of the GNSS distances' own."""
+    rows, position = _fused(w), w.ev.get("position", {})
+    gnss = rows.get("fused, GNSS distance", {}).get(w.longest) if rows else None
+    cells = {m: c.get(w.longest) for m, c in position.items() if isinstance(c, dict)}
+    pcts = {m: c["pos_pct"] for m, c in cells.items() if isinstance(c, dict) and "pos_pct" in c}
+    if not gnss or not pcts:
+        return Verdict(None, "no per-model position in eval.json")
+    far = max(pcts, key=lambda m: abs(pcts[m] - gnss["pos_pct"]))
+    return Verdict(
+        all(abs(p - gnss["pos_pct"]) <= SAME_POSITION_PCT for p in pcts.values()),
+        f"GNSS's own distances {gnss['pos_pct']:.2f} %; models {min(pcts.values()):.2f}-"
+        f"{max(pcts.values()):.2f} % (farthest: {far})",
+    )
+
+
 CLAIMS: list[tuple[str, Callable[[World], Verdict]]] = [
     ("Recalibrating G on the new car's first seconds lowers its error", recalibration_helps),
     ("R as the pipeline chooses it is within 5 % of min(G, S) or better", r_near_best),
@@ -182,6 +256,16 @@ CLAIMS: list[tuple[str, Callable[[World], Verdict]]] = [
     ("The network adds nothing measurable beyond one tyre radius", network_beyond_radius),
     ("G barely changes the WPM on the new car (within ±5 %)", g_like_wpm),
     ("At the smallest m, some recipe does harm (worse than G on average)", ten_seconds_harm),
+    (
+        "2D: the fused filter ends the longest outages within 2 % of the distance driven",
+        fused_within_2pct,
+    ),
+    ("2D: fused beats the gyro alone and the wheels alone", fused_beats_each_sensor),
+    ("2D: the fused 1σ / 2σ ellipses hold 68 ± 5 % / 95 ± 3 % of windows", fused_coverage),
+    (
+        "2D: the distance model does not change the position (within 0.1 % of the distance)",
+        distance_model_same_position,
+    ),
 ]
 
 
