@@ -34,11 +34,10 @@ from rwhonet.data.plausibility import (
     latlon_swapped_by_range,
     negative_wheel_rows,
     radians_radius,
-    silent_wheel_runs,
-    stale_wheel_runs,
     stuck_wheel_runs,
     swapped_radius,
     unit_mistake,
+    wheel_gnss_runs,
 )
 from rwhonet.data.quality import assess
 from rwhonet.data.schema import schema_problems
@@ -116,8 +115,8 @@ def verdicts(params, radius: float, frame: pd.DataFrame) -> dict:
     )
     out["swapped_by_range"] = latlon_swapped_by_range(frame[c.LAT_DEG], frame[c.LON_DEG])
     out["stuck"] = stuck_wheel_runs(frame, vp.wheels, vp.sample_period_s)
-    out["silent"] = silent_wheel_runs(frame, result.segments, radius, vp.wheels, 0.1)
-    out["stale"] = len(stale_wheel_runs(frame, result.segments, radius, vp.wheels, 0.1))
+    out["silent"] = wheel_gnss_runs(frame, result.segments, radius, vp.wheels, 0.1)[0]
+    out["stale"] = len(wheel_gnss_runs(frame, result.segments, radius, vp.wheels, 0.1)[1])
     out["negative"] = {k: list(v) for k, v in negative_wheel_rows(frame, 0.5).items()}
     seconds = []
     for seg in result.segments:

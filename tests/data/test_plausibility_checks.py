@@ -13,10 +13,9 @@ from rwhonet.data.plausibility import (
     negative_wheel_rows,
     radians_radius,
     reversing_rows,
-    silent_wheel_runs,
-    stale_wheel_runs,
     stuck_wheel_runs,
     swapped_radius,
+    wheel_gnss_runs,
 )
 from rwhonet.data.quality import Segment
 from support.corpus import speed_profile_drive
@@ -114,9 +113,9 @@ def test_wheels_silent_while_gnss_moves_but_not_at_a_hard_stop():
     # 15 m/s, a hard stop (7.5 m/s^2: the one-second GNSS window lags it), 20 s standing.
     v = np.r_[np.full(100, 15.0), np.linspace(15.0, 0.0, 21), np.zeros(200), np.full(100, 15.0)]
     drive = speed_profile_drive(v, SOURCE_RADIUS_M)
-    assert silent_wheel_runs(drive, _segment(drive), SOURCE_RADIUS_M, POLICY, 0.1) == []
+    assert wheel_gnss_runs(drive, _segment(drive), SOURCE_RADIUS_M, POLICY, 0.1)[0] == []
     drive.loc[330:380, list(c.WHEELS)] = 0.0  # 5 s without wheel data while driving
-    (run,) = silent_wheel_runs(drive, _segment(drive), SOURCE_RADIUS_M, POLICY, 0.1)
+    (run,) = wheel_gnss_runs(drive, _segment(drive), SOURCE_RADIUS_M, POLICY, 0.1)[0]
     assert (run.row_start, run.row_stop) == (330, 381)
     assert run.gnss_max_m_s == pytest.approx(15.0, rel=1e-3) and run.gnss_m > 70.0
 
@@ -135,11 +134,11 @@ def test_stale_wheel_values_while_the_car_changes_speed():
     drive = speed_profile_drive(v, SOURCE_RADIUS_M)
     seg = _segment(drive)
     # Exactly constant readings at a constant speed are not stale...
-    assert stale_wheel_runs(drive, seg, SOURCE_RADIUS_M, POLICY, 0.1) == []
+    assert wheel_gnss_runs(drive, seg, SOURCE_RADIUS_M, POLICY, 0.1)[1] == []
     # ...and real sensors are noisy: bit-identical readings while speeding up are.
     noise = np.random.default_rng(3).normal(0.0, 0.02, (len(drive), 4))
     drive[list(c.WHEELS)] = drive[list(c.WHEELS)].to_numpy() + noise
     drive.loc[100:180, list(c.WHEELS)] = drive.loc[99, list(c.WHEELS)].to_numpy()
-    (run,) = stale_wheel_runs(drive, seg, SOURCE_RADIUS_M, POLICY, 0.1)
+    (run,) = wheel_gnss_runs(drive, seg, SOURCE_RADIUS_M, POLICY, 0.1)[1]
     assert (run.row_start, run.row_stop) == (100, 181)
     assert run.gnss_max_m_s - run.gnss_min_m_s > 5.0

@@ -32,11 +32,10 @@ from rwhonet.data.plausibility import (
     negative_wheel_rows,
     radians_radius,
     reversing_rows,
-    silent_wheel_runs,
-    stale_wheel_runs,
     stuck_wheel_runs,
     swapped_radius,
     unit_mistake,
+    wheel_gnss_runs,
 )
 from rwhonet.data.problems import stretch_problems
 from rwhonet.data.quality import Assessment, assess, manual_rows, second_index
@@ -479,8 +478,8 @@ def _wheel_problems(
         )
 
     nominal = params.nominal_radius_m(entry["vehicle"])
-    for runs_of, problem in ((silent_wheel_runs, silent), (stale_wheel_runs, stale)):
-        found = runs_of(df, result.segments, nominal, vp.wheels, vp.sample_period_s, ignore)
+    runs = wheel_gnss_runs(df, result.segments, nominal, vp.wheels, vp.sample_period_s, ignore)
+    for found, problem in zip(runs, (silent, stale), strict=True):
         problems += stretch_problems(found, problem)
     return problems
 

@@ -209,22 +209,19 @@ class SilentRun:
     gnss_m: float  # GNSS distance over the run
 
 
-def silent_wheel_runs(
+def wheel_gnss_runs(
     drive: Mapping[str, np.ndarray],
     segments: Sequence[Segment],
     nominal_radius_m: float,
     policy: WheelPolicy,
     sample_period_s: float,
     ignore: np.ndarray | None = None,
-) -> list[SilentRun]:
-    """Find stretches where all four wheels read (near) zero while GNSS moves: no wheel data.
+) -> tuple[list[SilentRun], list[StaleRun]]:
+    """The two checks of the wheels against GNSS: silent wheels and stale wheel data.
 
-    The median wheel cannot tell a stuck wheel when all of them stop (a CAN channel that
-    stopped logging, wheel columns left empty as zeros). Inside the valid segments (GNSS
-    trusted), the GNSS speed over the last second, divided by the nominal radius, is the
-    wheel speed to expect; a run of ``stuck_min_s`` or more where it exceeds
-    ``stuck_moving_rad_s`` and the median of the four wheels stays below ``stuck_ratio``
-    times it is reported.
+    Both compare the four wheels' median with the GNSS speed inside the valid segments,
+    so both are computed from one pass over those (:func:`_silent_runs`,
+    :func:`_stale_runs`).
 
     Args:
         drive: canonical columns.
@@ -235,16 +232,51 @@ def silent_wheel_runs(
         ignore: rows to leave out (manual cuts), or None.
 
     Returns:
-        The runs, in row order.
+        ``(silent, stale)``: the runs of each, in row order.
     """
     t = np.asarray(drive[c.T_S], dtype=np.float64)
-    n, k = t.size, max(round(1.0 / sample_period_s), 1)
-    if n <= k:
-        return []
+    k = max(round(1.0 / sample_period_s), 1)
+    if t.size <= k:
+        return [], []
+    _, trusted = _gnss_speed(drive, segments, k, speed=False)
+    median = median_wheel_rad_s(drive)
+    check = WheelCheck(drive, t, k, trusted, median, nominal_radius_m, policy, sample_period_s)
+    return _silent_runs(check, ignore), _stale_runs(check, ignore)
+
+
+@dataclass(frozen=True)
+class WheelCheck:
+    """What both wheel-against-GNSS checks read (:func:`wheel_gnss_runs`)."""
+
+    drive: Mapping[str, np.ndarray]
+    t: np.ndarray  # times, s
+    k: int  # rows per second
+    trusted: np.ndarray  # rows whose last second lies inside one valid segment
+    median: np.ndarray  # the four wheels' median speed, rad/s
+    nominal_radius_m: float
+    policy: WheelPolicy
+    sample_period_s: float
+
+
+def _silent_runs(check: WheelCheck, ignore: np.ndarray | None) -> list[SilentRun]:
+    """Find stretches where all four wheels read (near) zero while GNSS moves: no wheel data.
+
+    The median wheel cannot tell a stuck wheel when all of them stop (a CAN channel that
+    stopped logging, wheel columns left empty as zeros). Inside the valid segments (GNSS
+    trusted), the GNSS speed over the last second, divided by the nominal radius, is the
+    wheel speed to expect; a run of ``stuck_min_s`` or more where it exceeds
+    ``stuck_moving_rad_s`` and the median of the four wheels stays below ``stuck_ratio``
+    times it is reported. The runs come in row order.
+    """
+    drive, t, k, same, wheels = check.drive, check.t, check.k, check.trusted, check.median
+    nominal_radius_m, policy, sample_period_s = (
+        check.nominal_radius_m,
+        check.policy,
+        check.sample_period_s,
+    )
+    n = t.size
     lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
     lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
-    _, same = _gnss_speed(drive, segments, k, speed=False)
-    wheels = median_wheel_rad_s(drive)
     moving_m_s = policy.stuck_moving_rad_s * nominal_radius_m
     with np.errstate(invalid="ignore", divide="ignore"):
         wheel_m_s = wheels * nominal_radius_m / policy.stuck_ratio
@@ -294,14 +326,7 @@ class StaleRun:
     gnss_max_m_s: float
 
 
-def stale_wheel_runs(
-    drive: Mapping[str, np.ndarray],
-    segments: Sequence[Segment],
-    nominal_radius_m: float,
-    policy: WheelPolicy,
-    sample_period_s: float,
-    ignore: np.ndarray | None = None,
-) -> list[StaleRun]:
+def _stale_runs(check: WheelCheck, ignore: np.ndarray | None) -> list[StaleRun]:
     """Find stretches where all four wheel speeds repeat one value while the car changes speed.
 
     A logger that lost the CAN bus may repeat the last value it had: the wheels then
@@ -312,32 +337,26 @@ def stale_wheel_runs(
     values above ``stuck_moving_rad_s`` during which the GNSS speed (from the run's
     second second on) spans more than ``stuck_moving_rad_s`` x the nominal radius.
 
-    The arguments are :func:`silent_wheel_runs`' (the two checks run side by side);
-    the runs come in row order.
+    The runs come in row order.
     """
-    t = np.asarray(drive[c.T_S], dtype=np.float64)
-    n, k = t.size, max(round(1.0 / sample_period_s), 1)
-    if n <= k:
-        return []
+    drive, k, median, policy = check.drive, check.k, check.median, check.policy
+    n = check.t.size
     w = np.stack([np.asarray(drive[name], dtype=np.float64) for name in c.WHEELS])
-    median = median_wheel_rad_s(drive)
     repeated = np.zeros(n, dtype=bool)
     repeated[1:] = (w[:, 1:] == w[:, :-1]).all(axis=0)
     repeated &= median > policy.stuck_moving_rad_s
     if ignore is not None:
         repeated &= ~ignore
     start, stop = _runs(repeated)
-    long = (stop - start) * sample_period_s >= policy.stuck_min_s - 1e-9
-    if not long.any():
-        return []
-    _, valid = _gnss_speed(drive, segments, k, speed=False)
+    long = (stop - start) * check.sample_period_s >= policy.stuck_min_s - 1e-9
+    valid = check.trusted
     out = []
     for a, b in zip(start[long], stop[long], strict=True):  # per stretch, a handful
         # From one second into the run on, so that the GNSS window lies inside it: right
         # after a change of speed the window still averages the speed before it.
         rows = np.arange(a + k, b)[valid[a + k : b]]
         v = _exact_speed(drive, rows, k)
-        if v.size and v.max() - v.min() > policy.stuck_moving_rad_s * nominal_radius_m:
+        if v.size and v.max() - v.min() > policy.stuck_moving_rad_s * check.nominal_radius_m:
             out.append(StaleRun(int(a), int(b), float(median[a]), float(v.min()), float(v.max())))
     return out
 
