@@ -40,10 +40,12 @@ def per_seed_crse(run: Path, model: str, outage_s: int, role: str) -> dict[int, 
     frame = pd.concat(frames, ignore_index=True)
     frame = frame[(frame["role"] == role) & frame["evaluated"]].reset_index(drop=True)
     out = {}
-    # WPM alone: its error is the label itself (the same for every seed)
-    for col in [
-        c for c in frame.columns if c.startswith(f"{'G' if model == 'WPM' else model}__seed")
-    ]:
+    # WPM alone: its error is the label itself (the same for every seed); a continuous
+    # recipe predicts per outage length (columns "R[continuous]/180s__seed42")
+    name = "G" if model == "WPM" else model
+    if not any(c.startswith(f"{name}__seed") for c in frame.columns):
+        name = f"{model}/{outage_s}s"
+    for col in [c for c in frame.columns if c.startswith(f"{name}__seed")]:
         seed = int(col.rsplit("__seed", 1)[1])
         e = frame["label_m"].to_numpy() - (0.0 if model == "WPM" else frame[col].to_numpy())
         start, _ = window_starts(frame["segment"].to_numpy(), outage_s)
