@@ -1,5 +1,7 @@
 """The evaluation study: the same seconds for every model, controls, seeds and intervals."""
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -270,3 +272,18 @@ def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_d
     out = ev.eval_json["uncertainty"]
     assert out["fitted_on"].startswith("target training drives")
     assert out["models"]["R"]["n_seconds"] == 80 and "30s" in out["models"]["R"]
+
+
+def test_a_continuous_recipe_as_r_wh_onet_is_scored_per_second_on_its_shortest_outage(
+    samples_dir, params
+):
+    """A continuous recipe predicts per outage length; as R-WhONet (the rule may pick one:
+    it did on a tcn run of large_target) the per-second scenario errors read its shortest
+    outage's run, as the scenario outages do, instead of failing on the per-length dict."""
+    recipe = "continuous"
+    p = dataclasses.replace(params, adapt=dataclasses.replace(params.adapt, recipe=recipe))
+    frame = _frame(samples_dir)
+    ev = evaluate(p, frame, _preds(frame, p, {f"R[{recipe}]": 0.1}))
+    assert ev.choice.recipe == recipe
+    r = ev.summary.set_index(["role", "drive", "model", "outage_s"])
+    assert r.loc[("target_test", "all", "R", 30), "crse_mean"] == pytest.approx(3.0)

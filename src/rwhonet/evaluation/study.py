@@ -22,6 +22,7 @@ earlier dead reckoning (:mod:`rwhonet.evaluation.position`).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -89,6 +90,18 @@ def _with_aliases(rows: list[dict], params: Params, choice: Choice) -> list[dict
         for r in by_model.get(model, [])
     ]
     return rows + extra
+
+
+def shortest_runs(
+    errors: Mapping[str, np.ndarray | dict[int, np.ndarray]], outages: Sequence[int]
+) -> dict[str, np.ndarray]:
+    """One per-second error array per model: a continuous recipe's (one array per outage
+    length, predicted inside that length's windows) is its shortest outage's run.
+
+    What the scenario outages and the per-second scenario errors read, whichever recipe
+    R-WhONet is (the rule may choose a continuous one).
+    """
+    return {name: e[min(outages)] if isinstance(e, dict) else e for name, e in errors.items()}
 
 
 def evaluate(
@@ -171,8 +184,7 @@ def evaluate(
                     np.full(len(frame), gnss_distance_var(cfg)),
                 )
             )
-        # a continuous recipe's error in a scenario window: its shortest outage's run
-        flat = {name: e[min(outages)] if isinstance(e, dict) else e for name, e in errors.items()}
+        flat = shortest_runs(errors, outages)
         flat["R"] = flat[alias]
         scen_out += [
             {"seed": seed, **r}
@@ -190,7 +202,7 @@ def evaluate(
         per_seed += [{"seed": seed, **r} for r in _with_aliases(rows, params, choice)]
         curves += [c.assign(seed=seed) for c in seed_curves]
         timeline += [{"seed": seed, **t} for t in seed_timeline]
-        scen.append(scenario_errors(ev_frame, errors).assign(seed=seed))
+        scen.append(scenario_errors(ev_frame, shortest_runs(errors, outages)).assign(seed=seed))
     per_seed_df = pd.DataFrame(per_seed)
     keys = ["role", "drive", "model", "outage_s"]
     summary = over_seeds(per_seed_df, keys, SEED_VALUES)
