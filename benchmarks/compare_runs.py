@@ -57,6 +57,11 @@ def per_seed_crse(run: Path, model: str, outage_s: int, role: str) -> dict[int, 
 
 
 def r_model(ev: dict) -> str:
+    """The chosen recipe's model name (a continuous recipe has no m)."""
+    from rwhonet.contracts import CONTINUOUS_RECIPES
+
+    if ev["recipe"] in CONTINUOUS_RECIPES:
+        return f"R[{ev['recipe']}]"
     return f"R[{ev['recipe']}]@{ev['chosen_m']}"
 
 
