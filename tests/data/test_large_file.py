@@ -6,7 +6,8 @@ of them. A file above ``data.max_file_mb`` is refused before it is read, and
 running out of memory is a problem of that file, reported like any other: exit
 status 2, the message on stderr, no traceback. Each run is a fresh interpreter
 whose address space is limited (``RLIMIT_AS``) to what it had after its imports
-plus a budget, until the stage ends: logging a failure to MLflow is not measured. Slow: a 120 MB file and three interpreters.
+plus a budget, until the stage ends: logging a failure to MLflow is not measured.
+Slow: a 120 MB file and three interpreters.
 """
 
 from __future__ import annotations
