@@ -3,7 +3,7 @@
 Simulates a fleet (default: the `paper` profile, ~30 h of driving) into a
 scratch folder, then times, in this process (imports and interpreter start-up
 excluded), the three data stages' library calls on it:
-ingest (CSV -> canonical Parquet), validate (pandera + GNSS policy ->
+ingest (CSV -> canonical Arrow file), validate (pandera + GNSS policy ->
 segments), label (calibration, WPM, labels, features). Prints rows per second
 end to end and per stage, and the simulator's speed. Also times the geodesic
 distance through pyproj (C GeographicLib) vs geographiclib's Python Inverse.
@@ -107,12 +107,12 @@ def main() -> None:
         + ")"
     )
 
-    # What the stages wrote (uncompressed Parquet, see rwhonet.io.write_parquet).
+    # What the stages wrote (uncompressed: rwhonet.io.write_arrow, write_parquet).
     written_mb = {
-        name: sum(f.stat().st_size for f in (work / name).glob("*.parquet")) / 1e6
-        for name in ("drives", "segments", "samples")
+        name: sum(f.stat().st_size for f in (work / name).glob(f"*.{ext}")) / 1e6
+        for name, ext in (("drives", "arrow"), ("segments", "arrow"), ("samples", "parquet"))
     }
-    print("parquet written: " + ", ".join(f"{k} {mb:.0f} MB" for k, mb in written_mb.items()))
+    print("written: " + ", ".join(f"{k} {mb:.0f} MB" for k, mb in written_mb.items()))
 
     rng = np.random.default_rng(0)
     lat = rng.uniform(-70, 70, 20_000)

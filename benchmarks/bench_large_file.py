@@ -8,7 +8,7 @@ own):
 1. with the project's ``data.max_file_mb`` (512 MB): the file is refused before
    it is read;
 2. with the limit raised above the file: the reader streams it block by block
-   into the drive's float64 columns and ingest writes its Parquet.
+   into the drive's float64 columns and ingest writes its Arrow file.
 
 MDF4: the same drive as a logger's streams in one MDF4 file (``asammdf``): the four
 wheel speeds at 100 Hz in one channel group, the fixes at 10 Hz in another, read

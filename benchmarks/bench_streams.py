@@ -10,7 +10,7 @@ sample-level glitch screen). Rows are every stream's samples, counted once.
 Also timed: the same grid through the GNSS policy and the per-second quantities
 (``assess`` + ``segment_seconds``), and the whole data path through the stages
 themselves: the drive as every role's drive (source_train, target_train,
-target_test) in one format, through ``ingest`` (read, resample, Parquet),
+target_test) in one format, through ``ingest`` (read, resample, Arrow file),
 ``validate`` and ``label`` (files -> labelled samples, the 10 Hz path's
 ``bench_data.py`` measure), with wall and CPU time.
 

@@ -1,4 +1,4 @@
-"""DVC stage ingest: raw drive files -> canonical Parquet drives + manifest."""
+"""DVC stage ingest: raw drive files -> canonical Arrow drives + manifest."""
 
 from rwhonet import runner
 from rwhonet.stages import ingest

@@ -86,6 +86,7 @@ def alt_wpm(wpm_mode: str) -> tuple[str, str]:
 
 # --------------------------------------------------------------------------- files
 
+TABLE_SUFFIX = ".arrow"  # drives and segments in data/interim: Arrow IPC files (rwhonet.io)
 MANIFEST = "manifest.json"  # every data stage's folder lists its contents here
 MODEL_FILE = "model.pt"  # a WhONet: weights + hyperparameters (rwhonet.models.checkpoint)
 PREDICTIONS = "predictions.parquet"  # per test second: drive, segment, t_s, pred_m

@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import pyarrow as pa
+import pyarrow.feather as feather
 import pyarrow.parquet as pq
 
 from rwhonet.contracts import SCENARIO
@@ -226,7 +227,7 @@ def system_memory_pool() -> Iterator[None]:
 
 
 def write_parquet(table: pa.Table, path: Path) -> None:
-    """Write a drive, segment or samples table to Parquet, uncompressed.
+    """Write a samples table (or any table users open in other tools) to Parquet, uncompressed.
 
     Dictionary encoding only for ``scenario``: on float channels it buys nothing
     (few repeated values) and makes writing several times slower. No compression:
@@ -244,6 +245,43 @@ def write_parquet(table: pa.Table, path: Path) -> None:
         compression="none",
         use_dictionary=[SCENARIO] if SCENARIO in table.column_names else False,
     )
+
+
+def write_arrow(table: pa.Table, path: Path) -> None:
+    """Write a drive or segment table as an Arrow IPC file (Feather v2), uncompressed.
+
+    The files ``ingest`` and ``validate`` hand on (``data/interim``) are the drive's own
+    columns, read back whole by the next stage: in Arrow's own format writing them is a
+    copy of their buffers and reading them another, where Parquet encodes and decodes
+    every page (a quarter of the data path's time, ``benchmarks/bench_data.py``). Read
+    them with :func:`read_arrow`, ``pyarrow.feather.read_table`` or ``pandas.read_feather``.
+
+    Args:
+        table: the table (column types and nullability as built by its stage).
+        path: the ``.arrow`` file to write.
+    """
+    feather.write_feather(table, path, compression="uncompressed")
+
+
+def read_arrow(path: Path, columns: list[str] | None = None) -> pa.Table:
+    """Read an Arrow IPC file written by :func:`write_arrow` (all columns, or ``columns``).
+
+    Read into memory rather than mapped: a file replaced while mapped could end the
+    process with SIGBUS, and the copy costs little next to what a stage does with it.
+    One thread: the stages read a few files at a time already (:func:`map_in_order`),
+    and Arrow's own pool on top only costs CPU.
+
+    Args:
+        path: the ``.arrow`` file.
+        columns: the columns to read (default: all).
+
+    Returns:
+        The table.
+
+    Raises:
+        OSError, pyarrow.ArrowException: the file is missing or not an Arrow IPC file.
+    """
+    return feather.read_table(path, columns=columns, memory_map=False, use_threads=False)
 
 
 # Drives a data stage reads, checks and writes at once: pyarrow's CSV and Parquet code and

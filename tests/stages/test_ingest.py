@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pyarrow as pa
-import pyarrow.parquet as pq
+import pyarrow.feather as feather
 import pytest
 
 from rwhonet import paths
@@ -32,7 +32,7 @@ from support.drives import (
 FIXTURES = Path(__file__).parents[1] / "fixtures"
 
 
-def test_round_trip_manifest_and_canonical_parquet(tmp_path):
+def test_round_trip_manifest_and_canonical_file(tmp_path):
     raw = tmp_path / "raw"
     files = write_fleet(raw, duration_s=5.0)
     shutil.copy(
@@ -55,7 +55,7 @@ def test_round_trip_manifest_and_canonical_parquet(tmp_path):
     assert manifest["calibration"]["fallback"] is True
     assert manifest["calibration"]["drives"] == ["V-S1"]
 
-    df = pd.read_parquet(out / "V-S1.parquet")
+    df = pd.read_feather(out / "V-S1.arrow")
     assert list(df.columns[:7]) == list(c.REQUIRED) and df.columns[-1] == c.SCENARIO
     expected = straight_drive(5.0)
     np.testing.assert_allclose(df[c.LAT_DEG], expected[c.LAT_DEG], rtol=0, atol=1e-12)
@@ -93,7 +93,7 @@ def test_source_calibration_role_and_column_map_format(tmp_path):
         "column_map",
         "Time",
     )
-    df = pd.read_parquet(tmp_path / "drives" / "C-Z9.parquet")
+    df = pd.read_feather(tmp_path / "drives" / "C-Z9.arrow")
     np.testing.assert_allclose(df[c.OMEGA_RL], 15.0 / TARGET_RADIUS_M, rtol=1e-9)
     np.testing.assert_allclose(np.diff(df[c.T_S]), 0.1, atol=1e-9)
 
@@ -159,16 +159,18 @@ def test_every_bad_file_in_one_report_and_no_partial_output(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["drives", "raw"]
 
 
-def test_canonical_parquet_declares_no_nulls_and_stores_floats_plainly(tmp_path):
+def test_canonical_drive_is_an_uncompressed_arrow_file_without_nulls(tmp_path):
     raw = tmp_path / "raw"
     write_fleet(raw, duration_s=2.0)
     ingest(make_params(raw), tmp_path / "drives")
-    file = pq.ParquetFile(tmp_path / "drives" / "V-S1.parquet")
-    # NaN, not null, marks a missing value: the columns are required (no definition levels).
-    assert [f.nullable for f in file.schema_arrow] == [False] * len(file.schema_arrow)
-    assert file.schema_arrow.field(c.SCENARIO).type == pa.string()
-    chunks = {file.schema_arrow.names[i]: file.metadata.row_group(0).column(i) for i in range(8)}
-    assert not chunks[c.T_S].has_dictionary_page and not chunks[c.N_SATS].has_dictionary_page
+    path = tmp_path / "drives" / "V-S1.arrow"
+    table = feather.read_table(path)
+    # NaN, not null, marks a missing value: the columns are declared non-nullable.
+    assert [f.nullable for f in table.schema] == [False] * len(table.schema)
+    assert table.schema.field(c.SCENARIO).type == pa.string()
+    assert table.schema.field(c.T_S).type == pa.float64()
+    # uncompressed: the file holds the float columns' bytes as they are
+    assert path.stat().st_size > 8 * table.num_rows * (len(table.schema) - 1)
 
 
 def test_system_memory_pool_is_scoped_and_restored_after_an_error():

@@ -88,7 +88,7 @@ def write_segments(root: Path, with_calibration: bool, record: dict | None = Non
         )
     entries = []
     for segment, drive, role, vehicle, frame in specs:
-        frame.to_parquet(seg_dir / f"{segment}.parquet", index=False)
+        frame.to_feather(seg_dir / f"{segment}.arrow")
         entries.append(
             {
                 "segment": segment,
@@ -240,19 +240,18 @@ def test_reference_mode_and_per_wheel_scaler_are_honoured(tmp_path):
 
 def test_a_bad_segment_is_reported_and_nothing_is_written(tmp_path):
     seg_dir = write_segments(tmp_path, with_calibration=False)
-    bad = pd.read_parquet(seg_dir / "V-B__s1.parquet")
+    bad = pd.read_feather(seg_dir / "V-B__s1.arrow")
     bad.loc[12, c.LON_DEG] = np.inf
-    bad.to_parquet(seg_dir / "V-B__s1.parquet", index=False)
-    (seg_dir / "V-A__s0.parquet").unlink()
+    bad.to_feather(seg_dir / "V-B__s1.arrow")
+    (seg_dir / "V-A__s0.arrow").unlink()
     out = tmp_path / "processed"
     with pytest.raises(InputError) as err:
         label(params(), seg_dir, out / "samples", out / "calibration.json", out / "scaler.json")
     problems = err.value.problems
     assert any(
-        p.file.endswith("V-B__s1.parquet") and p.row == 13 and p.column == c.LON_DEG
-        for p in problems
+        p.file.endswith("V-B__s1.arrow") and p.row == 13 and p.column == c.LON_DEG for p in problems
     )
-    assert any(p.file.endswith("V-A__s0.parquet") and p.found == "no file" for p in problems)
+    assert any(p.file.endswith("V-A__s0.arrow") and p.found == "no file" for p in problems)
     assert not out.exists()
 
 
@@ -267,7 +266,7 @@ def test_a_segment_whose_seconds_disagree_with_validate_is_refused(tmp_path):
     with pytest.raises(InputError) as err:
         label(params(), seg_dir, out / "samples", out / "calibration.json", out / "scaler.json")
     (problem,) = err.value.problems
-    assert problem.file.endswith("V-B__s1.parquet") and "41 seconds" in problem.expected
+    assert problem.file.endswith("V-B__s1.arrow") and "41 seconds" in problem.expected
 
 
 def test_manifest_problems_are_reported(tmp_path):
@@ -316,3 +315,15 @@ def test_unreadable_manifest_is_an_input_error(tmp_path):
         label(
             params(), tmp_path / "nowhere", tmp_path / "s", tmp_path / "c.json", tmp_path / "x.json"
         )
+
+
+def test_a_segment_that_is_not_an_arrow_file_is_reported(tmp_path):
+    seg_dir = write_segments(tmp_path, with_calibration=False)
+    (seg_dir / "V-B__s1.arrow").write_bytes(b"t_s,lat_deg\n1,2\n")  # not what validate writes
+    out = tmp_path / "processed"
+    with pytest.raises(InputError) as err:
+        label(params(), seg_dir, out / "samples", out / "calibration.json", out / "scaler.json")
+    (problem,) = err.value.problems
+    assert problem.file.endswith("V-B__s1.arrow") and "Arrow IPC file" in problem.expected
+    assert "dvc repro validate" in problem.fix
+    assert not out.exists()

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
+import pyarrow.feather as feather
 import pytest
 
 from rwhonet.config import ConfigError
@@ -54,7 +54,7 @@ def test_round_trip(tmp_path):
     manifest = json.loads((seg_dir / "manifest.json").read_text())
     names = [s["segment"] for s in manifest["segments"]]
     assert names == ["V-S1__s000", "V-S1__s001", "C-A1__s000", "C-B1__s000"]
-    assert sorted(p.stem for p in seg_dir.glob("*.parquet")) == sorted(names)
+    assert sorted(p.stem for p in seg_dir.glob("*.arrow")) == sorted(names)
     first = manifest["segments"][0]
     assert (first["t_start_s"], first["t_end_s"], first["n_seconds"], first["n_rows"]) == (
         45000.0,
@@ -64,14 +64,16 @@ def test_round_trip(tmp_path):
     )
     assert manifest["calibration"]["drives"] == ["V-S1"]
     # A segment is the canonical drive's rows, untouched: start fix + ten rows per second.
-    seg = pd.read_parquet(seg_dir / "V-S1__s001.parquet")
-    drive = pd.read_parquet(tmp_path / "drives" / "V-S1.parquet")
+    seg = pd.read_feather(seg_dir / "V-S1__s001.arrow")
+    drive = pd.read_feather(tmp_path / "drives" / "V-S1.arrow")
     assert seg[c.T_S].iloc[0] == 45012.0 and seg[c.T_S].iloc[-1] == 45020.0
     pd.testing.assert_frame_equal(
         seg, drive[drive[c.T_S].between(45012.0, 45020.0)].reset_index(drop=True)
     )
-    assert pq.read_schema(seg_dir / "V-S1__s001.parquet").equals(
-        pq.read_schema(tmp_path / "drives" / "V-S1.parquet")
+    assert (
+        feather.read_table(seg_dir / "V-S1__s001.arrow")
+        .schema.remove_metadata()
+        .equals(feather.read_table(tmp_path / "drives" / "V-S1.arrow").schema.remove_metadata())
     )
 
     assert json.loads((tmp_path / "report.json").read_text()) == report

@@ -1,4 +1,4 @@
-"""DVC stage ``ingest``: raw drive files -> one canonical Parquet per drive + ``manifest.json``.
+"""DVC stage ``ingest``: raw drive files -> one canonical Arrow file per drive + ``manifest.json``.
 
 Reads every drive listed by ``data.roles`` (IO-VNBD layout, a column map, a
 comma2k19 folder, or an MDF4 file or a folder of stream CSVs through a signal map;
@@ -32,7 +32,7 @@ from rwhonet.data.drivefile import (
     reader_kind,
 )
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, map_in_order, write_json, write_parquet
+from rwhonet.io import atomic_dir, map_in_order, write_arrow, write_json
 from rwhonet.progress import track
 
 
@@ -225,7 +225,7 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
 
 
 def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
-    """Read one drive (and its sidecar); write its canonical Parquet.
+    """Read one drive (and its sidecar); write its canonical Arrow file.
 
     Returns:
         Its manifest entry (without ``calibrates``).
@@ -250,7 +250,7 @@ def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
         drive = read_canonical(f, data, paths.rel)
     raw = drive.raw
     try:
-        write_parquet(drive.table(), tmp / f"{f.drive}.parquet")
+        write_arrow(drive.table(), tmp / f"{f.drive}{contracts.TABLE_SUFFIX}")
     except MemoryError:
         raise out_of_memory(f, paths.rel) from None
     return {

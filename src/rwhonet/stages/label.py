@@ -1,6 +1,6 @@
 """DVC stage ``label``: GNSS-valid segments -> calibrated, labelled, scaled per-second samples.
 
-Reads ``data/interim/segments`` (manifest + one Parquet per segment), and writes
+Reads ``data/interim/segments`` (manifest + one Arrow file per segment), and writes
 (docs/architecture.md, "Samples"):
 
 - ``data/processed/samples/<segment>.parquet``: one row per second with
@@ -29,11 +29,9 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from rwhonet import contracts, paths
 from rwhonet.config import Params
-from rwhonet.data import canonical as c
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import (
     Calibration,
@@ -49,7 +47,14 @@ from rwhonet.features.seconds import (
     segment_arrays,
     segment_seconds,
 )
-from rwhonet.io import atomic_outputs, map_in_order, read_json, write_json, write_parquet
+from rwhonet.io import (
+    atomic_outputs,
+    map_in_order,
+    read_arrow,
+    read_json,
+    write_json,
+    write_parquet,
+)
 from rwhonet.progress import track
 
 TRAIN_ROLE = contracts.SOURCE_TRAIN
@@ -145,10 +150,10 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
 
 
 def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
-    """Read the columns of a segment Parquet the label stage needs.
+    """Read the columns of a segment file the label stage needs.
 
     Args:
-        path: ``<segments>/<segment>.parquet``.
+        path: ``<segments>/<segment>.arrow``.
 
     Returns:
         The canonical columns present among ``t_s, lat_deg, lon_deg, omega_*,
@@ -164,16 +169,24 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
             [Problem(paths.rel(path), None, None, "a segment listed in the manifest", "no file")]
         )
     try:
-        # scenario as a dictionary: its codes come straight from the Parquet dictionary
-        # pages, no string per row (a third of the time of encoding the strings afterwards).
-        file = pq.ParquetFile(path, read_dictionary=[c.SCENARIO])
-    except KeyError:  # a segment without the optional scenario column
-        file = pq.ParquetFile(path)
-    present = set(file.schema_arrow.names)
-    # use_threads=False: segments are read a few at a time already (rwhonet.io.map_in_order),
-    # and Arrow's own pool on top only costs CPU.
-    columns = [col for col in SEGMENT_COLUMNS if col in present]
-    return segment_arrays(file.read(columns=columns, use_threads=False))
+        with pa.OSFile(str(path)) as source:
+            present = set(pa.ipc.open_file(source).schema.names)  # the file's footer only
+        columns = [col for col in SEGMENT_COLUMNS if col in present]
+        table = read_arrow(path, columns)
+    except (OSError, pa.ArrowException) as err:
+        raise InputError(
+            [
+                Problem(
+                    paths.rel(path),
+                    None,
+                    None,
+                    "a segment as the validate stage writes it (an Arrow IPC file)",
+                    f"{type(err).__name__}: {str(err)[:160]}",
+                    "run the validate stage again (dvc repro validate)",
+                )
+            ]
+        ) from None
+    return segment_arrays(table)
 
 
 def calibrate(
@@ -250,7 +263,7 @@ def _per_second_all(
     entries = list(entries)
 
     def per_second(entry: SegmentEntry) -> SegmentSeconds:
-        path = Path(segments_dir) / f"{entry.segment}.parquet"
+        path = Path(segments_dir) / f"{entry.segment}{contracts.TABLE_SUFFIX}"
         return segment_seconds(read_segment(path), paths.rel(path))
 
     # A few segments at once (rwhonet.io.map_in_order): reading and the per-second arrays
@@ -259,7 +272,7 @@ def _per_second_all(
     for entry, sec_of in track(
         done, desc="label", unit="segment", total=len(entries), label=lambda x: x[0].segment
     ):
-        path = Path(segments_dir) / f"{entry.segment}.parquet"
+        path = Path(segments_dir) / f"{entry.segment}{contracts.TABLE_SUFFIX}"
         try:
             sec = sec_of.result()
         except InputError as err:  # report every bad segment at once
@@ -289,7 +302,7 @@ def label(
 
     Args:
         params: the pipeline parameters (``label`` section used).
-        segments_dir: the validate stage's output folder (``manifest.json`` + Parquets).
+        segments_dir: the validate stage's output folder (``manifest.json``, a file per segment).
         out_dir: the samples folder to (re)write, replaced atomically.
         calibration_path: where ``calibration.json`` goes.
         scaler_path: where ``scaler.json`` goes.

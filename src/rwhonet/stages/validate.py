@@ -25,7 +25,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
@@ -34,7 +33,7 @@ from rwhonet.data.plausibility import reversing_rows
 from rwhonet.data.quality import RULES, Assessment, segment_name
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_outputs, map_in_order, read_json, write_json, write_parquet
+from rwhonet.io import atomic_outputs, map_in_order, read_arrow, read_json, write_arrow, write_json
 
 CONVENTION = (
     "t_start_s and t_end_s are whole seconds of the drive's own clock; a segment holds its "
@@ -206,7 +205,9 @@ def _write_segments(
     for j, seg in enumerate(result.segments):
         name = segment_name(entry["drive"], j)
         # A slice of the drive's Arrow table: its rows, untouched and uncopied.
-        write_parquet(table.slice(seg.row_start, seg.n_rows), folder / f"{name}.parquet")
+        write_arrow(
+            table.slice(seg.row_start, seg.n_rows), folder / f"{name}{contracts.TABLE_SUFFIX}"
+        )
         entries.append(
             {
                 "segment": name,
@@ -270,13 +271,9 @@ def _batches(entries: list[dict[str, Any]], drives_dir: Path) -> Iterator[_Batch
 
 def _read_drive(entry: dict[str, Any], drives_dir: Path) -> pa.Table:
     """One canonical drive the ingest manifest lists."""
-    # ParquetFile.read: a third of the time of pq.read_table (which goes through the
-    # dataset scanner) for these single-file reads.
-    path = drives_dir / f"{entry['drive']}.parquet"
+    path = drives_dir / f"{entry['drive']}{contracts.TABLE_SUFFIX}"
     try:
-        # use_threads=False: drives are read a few at a time already (map_in_order), and
-        # Arrow's own pool on top only costs CPU.
-        return pq.ParquetFile(path).read(use_threads=False)
+        return read_arrow(path)
     except (OSError, pa.ArrowException) as err:
         raise InputError(
             [
