@@ -220,8 +220,11 @@ def write_long_iovnbd(path: Path, n_rows: int, chunk_rows: int = 100_000) -> Pat
         for start in range(0, n_rows, chunk_rows):
             i = np.arange(start, min(start + chunk_rows, n_rows), dtype=np.float64)
             t = np.round(45000.0 + 0.1 * i, 1)
-            v = 15.0 + 0.5 * np.sin(i / 300.0)  # m/s
-            s = 1.5 * i + 15.0 * (1.0 - np.cos(i / 300.0))  # the integral of v, m
+            # m/s; the small fast term keeps the rounded wheel speeds from repeating one value
+            # for seconds at the slow term's peaks (validate would call that stale wheel data
+            # where a peak meets a turn-back of the line, when the GNSS speed dips)
+            v = 15.0 + 0.5 * np.sin(i / 300.0) + 0.05 * np.sin(i / 5.0)
+            s = 1.5 * i + 15.0 * (1.0 - np.cos(i / 300.0)) + 0.025 * (1.0 - np.cos(i / 5.0))
             s = 20_000.0 - np.abs(s % 40_000.0 - 20_000.0)  # back and forth: never off the map
             cols = {header: np.zeros(i.size) for header in HEADERS}
             cols[HEADERS[0]] = np.full(i.size, 9.0)
