@@ -1,8 +1,18 @@
 """Atomic outputs: all or nothing."""
 
+import pyarrow as pa
 import pytest
 
-from rwhonet.io import atomic_dir, atomic_file, atomic_outputs, read_json, write_json
+from rwhonet.errors import Problem
+from rwhonet.io import (
+    atomic_dir,
+    atomic_file,
+    atomic_outputs,
+    read_arrow,
+    read_json,
+    write_arrow,
+    write_json,
+)
 
 
 def test_atomic_dir_replaces_on_success(tmp_path):
@@ -193,3 +203,21 @@ def test_map_in_order_holds_at_most_workers_items_ahead():
     next(gen)
     assert max(started) <= 2  # the item handed out and two in flight
     gen.close()
+
+
+def test_arrow_files_round_trip_and_read_the_columns_they_have(tmp_path):
+    table = pa.table({"t_s": [0.0, 0.1], "lat_deg": [52.4, 52.5], "scenario": ["", "town"]})
+    write_arrow(table, tmp_path / "d.arrow")
+    assert read_arrow(tmp_path / "d.arrow").equals(table)
+    # the columns asked for that the file has, in its order; absent ones left out
+    some = read_arrow(tmp_path / "d.arrow", ["scenario", "yaw_rate_rad_s", "t_s"])
+    assert some.column_names == ["t_s", "scenario"]
+    (tmp_path / "bad.arrow").write_text("t_s\n0.0\n")
+    with pytest.raises(pa.ArrowInvalid):
+        read_arrow(tmp_path / "bad.arrow")
+
+
+def test_an_unreadable_file_names_the_library_s_error():
+    p = Problem.unreadable("a.arrow", "an Arrow file", ValueError("x" * 500), "run it again", "t_s")
+    assert p.found == "ValueError: " + "x" * 160 and p.column == "t_s" and p.fix == "run it again"
+    assert str(p) == "a.arrow, column 't_s': expected an Arrow file; found ValueError: " + "x" * 160

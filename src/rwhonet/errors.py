@@ -33,6 +33,24 @@ class Problem:
             where += f", column {self.column!r}"
         return f"{where}: expected {self.expected}; found {self.found}"
 
+    @classmethod
+    def unreadable(
+        cls, file: str, expected: str, err: BaseException, fix: str, column: str | None = None
+    ) -> Problem:
+        """A file (or one of its columns) a library could not read: the error is what was found.
+
+        Args:
+            file: the file, as the user knows it.
+            expected: what it should have been.
+            err: the library's exception (its type and the start of its message are shown).
+            fix: what to do.
+            column: the column or signal, where the failure is one of its.
+
+        Returns:
+            The problem.
+        """
+        return cls(file, None, column, expected, f"{type(err).__name__}: {str(err)[:160]}", fix)
+
     def to_dict(self) -> dict[str, object]:
         """The problem as plain data (for JSON reports)."""
         return {

@@ -102,6 +102,17 @@ def test_a_signal_in_two_groups_is_refused(tmp_path):
     assert (p.file, p.column) == ("twice.mf4", "WhlSpd_FL") and "channel groups" in p.found
 
 
+def test_a_file_that_is_not_mdf_is_refused_with_the_decoder_s_error(tmp_path):
+    path = tmp_path / "log.mf4"
+    path.write_bytes(b"not an MDF file at all" * 10)
+    with pytest.raises(InputError) as err:
+        read_mdf4(path, MDF_MAP, R, display="log.mf4")
+    (p,) = err.value.problems
+    assert p.file == "log.mf4" and p.expected.startswith("an ASAM MDF file")
+    assert p.found.split(":")[0].isidentifier() and "export the log as MDF4" in p.fix
+    assert err.value.summary == "cannot decode log.mf4"
+
+
 def test_signal_maps_are_checked_before_reading():
     with pytest.raises(ConfigError) as err:
         check_signal_map("log", _spec(omega_fl=("a", "furlong/s"), lat=("b", "deg")))

@@ -59,18 +59,10 @@ def read_mdf4(
     try:
         mdf = MDF(path)
     except Exception as err:  # any failure to decode is the file's problem
+        expected = "an ASAM MDF file (MDF4, as CAN loggers write it)"
+        fix = "export the log as MDF4 (.mf4) from the logger's software"
         raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "an ASAM MDF file (MDF4, as CAN loggers write it)",
-                    f"{type(err).__name__}: {str(err)[:160]}",
-                    "export the log as MDF4 (.mf4) from the logger's software",
-                )
-            ],
-            summary=f"cannot decode {file}",
+            [Problem.unreadable(file, expected, err, fix)], summary=f"cannot decode {file}"
         ) from None
     try:
         return _read(mdf, signal_map, radius_m, name, file)
@@ -115,15 +107,9 @@ def _read(
         try:
             signal = mdf.get(spec.column, group=group, index=index)
         except Exception as err:  # a damaged block is the file's problem
+            fix = "export the log again from the logger's software"
             problems.append(
-                Problem(
-                    file,
-                    None,
-                    spec.column,
-                    "a signal asammdf can decode",
-                    f"{type(err).__name__}: {str(err)[:160]}",
-                    "export the log again from the logger's software",
-                )
+                Problem.unreadable(file, "a signal asammdf can decode", err, fix, spec.column)
             )
             continue
         samples = np.asarray(signal.samples)

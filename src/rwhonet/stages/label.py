@@ -169,23 +169,11 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
             [Problem(paths.rel(path), None, None, "a segment listed in the manifest", "no file")]
         )
     try:
-        with pa.OSFile(str(path)) as source:
-            present = set(pa.ipc.open_file(source).schema.names)  # the file's footer only
-        columns = [col for col in SEGMENT_COLUMNS if col in present]
-        table = read_arrow(path, columns)
+        table = read_arrow(path, list(SEGMENT_COLUMNS))
     except (OSError, pa.ArrowException) as err:
-        raise InputError(
-            [
-                Problem(
-                    paths.rel(path),
-                    None,
-                    None,
-                    "a segment as the validate stage writes it (an Arrow IPC file)",
-                    f"{type(err).__name__}: {str(err)[:160]}",
-                    "run the validate stage again (dvc repro validate)",
-                )
-            ]
-        ) from None
+        expected = "a segment as the validate stage writes it (an Arrow IPC file)"
+        fix = "run the validate stage again (dvc repro validate)"
+        raise InputError([Problem.unreadable(paths.rel(path), expected, err, fix)]) from None
     return segment_arrays(table)
 
 

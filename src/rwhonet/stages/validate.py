@@ -275,17 +275,10 @@ def _read_drive(entry: dict[str, Any], drives_dir: Path) -> pa.Table:
     try:
         return read_arrow(path)
     except (OSError, pa.ArrowException) as err:
+        expected = "the canonical drive the ingest manifest lists"
+        fix = "run the ingest stage again (dvc repro ingest)"
         raise InputError(
-            [
-                Problem(
-                    paths.rel(path),
-                    None,
-                    None,
-                    "the canonical drive the ingest manifest lists",
-                    f"{type(err).__name__}: {str(err)[:160]}",
-                    "run the ingest stage again (dvc repro ingest)",
-                )
-            ],
+            [Problem.unreadable(paths.rel(path), expected, err, fix)],
             summary="the ingest output is incomplete",
         ) from None
 
