@@ -159,10 +159,10 @@ def read_segment(path: Path) -> dict[str, np.ndarray | pa.ChunkedArray]:
         The canonical columns present among ``t_s, lat_deg, lon_deg, omega_*,
         yaw_rate_rad_s, scenario`` (a missing required column is reported by the
         per-second check; the yaw rate is optional): float64 numpy arrays, and
-        ``scenario`` as an Arrow dictionary array (no Python string per row).
+        ``scenario`` as the file's Arrow string column (no Python string per row).
 
     Raises:
-        InputError: if the file does not exist.
+        InputError: if the file does not exist or is not an Arrow IPC file.
     """
     if not Path(path).is_file():
         raise InputError(
