@@ -51,23 +51,58 @@ def _metrics_to_top(page):
 
 
 def _scroll_to_metric(page, name: str):
-    """Scroll the compare view's metrics down to ``name`` and its values."""
-    _metrics_to_top(page)
-    for _ in range(200):
+    """Wheel the compare view's metrics until ``name``'s row is in view, then wait for its values.
+
+    The names grid renders rows beyond the values grid's small window, so a name in the
+    page is not yet a row on screen: the row's ``top`` against the values grid's scroll
+    says which way to wheel. A cold UI on a busy machine draws the values late; the wheel
+    waits for them rather than carrying the row away.
+    """
+    values = _metrics_to_top(page)
+    for _ in range(400):
         label = page.get_by_text(name, exact=True)
-        if label.count() and len(label.evaluate(ROW_VALUES)) == len(MODELS):
-            return label
-        page.mouse.wheel(0, 40)
-        page.wait_for_timeout(50)
-    raise AssertionError(f"the compare view shows no metric {name} with its values")
+        if not label.count():
+            page.mouse.wheel(0, 40)
+            page.wait_for_timeout(50)
+            continue
+        label = label.first
+        top = label.evaluate("l => parseFloat(l.closest('div[style*=\"top\"]').style.top)")
+        view = values.evaluate("e => [e.scrollTop, e.clientHeight]")
+        if top < view[0]:
+            page.mouse.wheel(0, top - view[0] - 10)
+        elif top + 40 > view[0] + view[1]:
+            page.mouse.wheel(0, top + 40 - view[0] - view[1] + 10)
+        else:
+            row: list[str] = []
+            for _ in range(150):  # up to about 30 s
+                row = label.evaluate(ROW_VALUES)
+                if len(row) == len(MODELS):
+                    return label
+                page.wait_for_timeout(200)
+            _shot(page, None, "mlflow-ui-failed.png")
+            raise AssertionError(
+                f"the compare view shows metric {name} in view but its row holds {row!r}, "
+                f"not {len(MODELS)} values; grids: {_grid_texts(page)}"
+            )
+        page.wait_for_timeout(200)
+    _shot(page, None, "mlflow-ui-failed.png")
+    raise AssertionError(f"the compare view shows no metric {name}; grids: {_grid_texts(page)}")
+
+
+def _grid_texts(page) -> list[str]:
+    """The first characters of each grid on the page, for a failure's message."""
+    return page.locator("div[role=grid]").evaluate_all(
+        "gs => gs.map(g => g.innerText.slice(0, 400))"
+    )
 
 
 def _shot(page, repo, name: str) -> None:
-    out = repo / "reports" / name
-    page.screenshot(path=str(out))
+    """Screenshot to the scratch project's reports/ (when given) and build/ui-test/."""
     keep = paths.ROOT / "build" / "ui-test"
     keep.mkdir(parents=True, exist_ok=True)
-    shutil.copy2(out, keep / name)
+    page.screenshot(path=str(keep / name))
+    if repo is not None:
+        shutil.copy2(keep / name, repo / "reports" / name)
 
 
 def test_a_person_filters_the_latest_execution_and_compares_g_s_and_r(ci_pipeline, ci_repro):
