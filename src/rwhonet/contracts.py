@@ -91,6 +91,9 @@ MANIFEST = "manifest.json"  # every data stage's folder lists its contents here
 MODEL_FILE = "model.pt"  # a WhONet: weights + hyperparameters (rwhonet.models.checkpoint)
 PREDICTIONS = "predictions.parquet"  # per test second: drive, segment, t_s, pred_m
 RUN_RECORD = "run.json"  # what evaluate logs to MLflow for this model
+# a recalibration's per-drive fine-tuning curves (drive, epoch, train/loss, val/loss), one
+# CSV per recipe and m beside its run record; logged as the run's artifact
+FINE_TUNE_CURVES = "fine_tune.csv"
 # the shrink recipes' evidence, per seed, in models/r/seed<seed>/ (the adapt stage); model
 # bundles carry it for `rwhonet recalibrate` (serve.model.ServedMeta.evidence)
 SHRINK_EVIDENCE = "evidence.json"

@@ -137,6 +137,20 @@ def test_every_drive_recipe_and_m_gets_its_own_model(
                 "m": str(m),
             }
             assert record["metrics"]["drive/A/n_adapt_samples"] == m
+            # each drive's fine-tuning curve is the run's CSV artifact; its history their mean
+            curves = out / contracts.FINE_TUNE_CURVES
+            assert not any(k.startswith("drive/") for row in record["history"] for k in row)
+            if recipe != "paper":  # no optimizer steps: no curves
+                assert not curves.exists() and record["history"] == []
+                continue
+            assert str(curves.relative_to(tmp_path)) in " ".join(record["artifacts"])
+            table = pd.read_csv(curves)
+            assert set(table["drive"]) == {"A", "B"}
+            assert list(table.columns[:2]) == ["drive", "epoch"] and "train/loss" in table
+            for row in record["history"]:
+                at = table[table["epoch"] == row["epoch"]]
+                assert row["train/loss"] == pytest.approx(at["train/loss"].mean(), rel=1e-12)
+            assert [r["epoch"] for r in record["history"]] == sorted(set(table["epoch"]))
     # the samples' true radius is 2 % above the calibration: radius+G's radii, with G on top,
     # add up to the GNSS distance of the m seconds it saw
     first = (drive == "A") & (k < 20)

@@ -434,7 +434,10 @@ def adapt_grid(
                 pd.concat(preds, ignore_index=True).to_parquet(
                     out / contracts.PREDICTIONS, index=False
                 )
-                record = _record(params, seed, recipe, m, mine, out_root)
+                curves = fine_tune_curves(mine)
+                if len(curves):
+                    curves.to_csv(out / contracts.FINE_TUNE_CURVES, index=False)
+                record = _record(params, seed, recipe, m, mine, out_root, curves)
                 write_json(out / contracts.RUN_RECORD, record.to_dict())
                 mine_spans = [spans[t] for t, _, _ in mine]
                 record.timing = Timing(min(s for s, _ in mine_spans), max(e for _, e in mine_spans))
@@ -542,16 +545,37 @@ def _write_selection(
         frame.to_parquet(folder / f"{file}.parquet", index=False)
 
 
+def fine_tune_curves(mine: list) -> pd.DataFrame:
+    """Every drive's fine-tuning curve of one recipe at one m: drive, epoch, train/loss, val/loss.
+
+    Empty (no rows) for the recipes that take no optimizer steps (``radius+G``, ``ridge_head``,
+    ``shrink``).
+    """
+    rows = [
+        {"drive": t.drive, **row} for t, _, result in mine for row in history_rows(result.history)
+    ]
+    return pd.DataFrame(rows, columns=None if rows else ["drive", "epoch"])
+
+
 def _record(
-    params: Params, seed: int, recipe: str, m: int, mine: list, out_root: Path
+    params: Params,
+    seed: int,
+    recipe: str,
+    m: int,
+    mine: list,
+    out_root: Path,
+    curves: pd.DataFrame,
 ) -> RunRecord:
-    """The run record of one recipe at one m (per-drive facts as ``drive/<d>/...`` metrics)."""
-    rows: dict[int, dict[str, float]] = {}
+    """The run record of one recipe at one m.
+
+    Per-drive facts are ``drive/<d>/...`` metrics. The fine-tuning curves are not: one
+    metric per drive and epoch made about 65,000 of an execution's 75,000 MLflow metric rows
+    (most of ``evaluate``'s logging time, and a run page of a thousand charts). The run's
+    ``train/loss`` / ``val/loss`` history is their mean over the drives still fine-tuning at
+    each epoch; every drive's own curve is the run's artifact ``fine_tune.csv``.
+    """
     metrics: dict[str, float] = {}
     for t, _, result in mine:
-        for row in history_rows(result.history):
-            merged = rows.setdefault(row["epoch"], {"epoch": row["epoch"]})
-            merged.update({f"drive/{t.drive}/{k}": v for k, v in row.items() if k != "epoch"})
         for key, value in result.info.items():
             if isinstance(value, bool | int | float):
                 metrics[f"drive/{t.drive}/{key}"] = float(value)
@@ -559,14 +583,24 @@ def _record(
             metrics[f"drive/{t.drive}/r_rl_m"], metrics[f"drive/{t.drive}/r_rr_m"] = result.radii
     first = mine[0][2]
     metrics.update(n_trainable_params=first.n_trainable, n_total_params=first.n_total)
+    history: list[dict[str, float]] = []
+    artifacts = [paths.rel(r_dir(out_root, recipe, m) / f"{t.drive}.pt") for t, _, _ in mine]
+    if len(curves):
+        means = curves.drop(columns="drive").groupby("epoch", sort=True).mean()
+        history = [
+            {"epoch": int(e), **{k: float(v) for k, v in row.items() if v == v}}
+            for e, row in means.iterrows()
+        ]
+        artifacts.append(paths.rel(r_dir(out_root, recipe, m) / contracts.FINE_TUNE_CURVES))
     return RunRecord(
         name=f"R-WhONet {recipe} m={m} seed {seed}",
         tags=_tags(seed, recipe, m),
         params={**model_params(params, seed, "adapt"), "adapt.m": m, "adapt.recipe": recipe},
-        history=[rows[e] for e in sorted(rows)],
+        history=history,
         metrics=metrics,
-        # every model file; evaluate keeps them on R-WhONet's run only (the choice may be auto)
-        artifacts=[paths.rel(r_dir(out_root, recipe, m) / f"{t.drive}.pt") for t, _, _ in mine],
+        # every model file (evaluate keeps them on R-WhONet's run only: the choice may be
+        # auto) and the fine-tuning curves
+        artifacts=artifacts,
     )
 
 

@@ -359,7 +359,8 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
             if model == choice.model:
                 rec.tags["chosen"] = "true"
             elif model.startswith("R"):
-                rec.artifacts = []  # of the recipes' model files, only R-WhONet's are logged
+                # of the recipes' model files, only R-WhONet's are logged (their curves are)
+                rec.artifacts = [a for a in rec.artifacts if not str(a).endswith(".pt")]
             records.append(rec)
     alt = alt_wpm(params.label.wpm_mode)[0]
     headline = ["WPM", alt, "G", "S", "R", f"WPM-m@{choice.m}", *at_chosen_m(params, choice)]
