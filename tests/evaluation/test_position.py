@@ -6,7 +6,9 @@ import pytest
 
 from rwhonet.evaluation.position import (
     GNSS_DISTANCE,
+    Calibration2D,
     Odometry,
+    calibrate_2d,
     filter_windows,
     position_per_seed,
     target_windows,
@@ -43,6 +45,40 @@ def test_window_stats_of_a_hand_computed_case():
     logdet = np.log([1.0, 1.0, 1e4])
     assert s["nll"] == pytest.approx(np.mean(0.5 * (d2 + logdet) + np.log(2 * np.pi)))
     assert window_stats(w.assign(counted=False))["n_windows"] == 0
+    # calibrated with c = 2 (a normal twice as wide): 68.27 % inside d² <= 4.59, 95.45 %
+    # inside d² <= 12.36 -> d² 1 inside both, 9 inside the second; the filter's own unchanged
+    cal = window_stats(w, Calibration2D(2.0, np.inf, 50))
+    assert cal["cover_1sigma"] == pytest.approx(1 / 3)
+    assert cal["cover_2sigma"] == pytest.approx(2 / 3)
+    assert cal["cover_1sigma_filter"] == s["cover_1sigma"] and cal["nll_filter"] == s["nll"]
+    assert cal["calib_scale"] == 2.0 and np.isnan(cal["calib_dof"])  # NaN: a normal
+    assert cal["nll"] == pytest.approx(np.mean(np.log(2 * np.pi * 2.0) + 0.5 * logdet + d2 / 4.0))
+
+
+def test_calibrate_2d_fits_each_run_and_leaves_a_run_of_few_windows_normal():
+    rng = np.random.default_rng(3)
+    n = 20000
+    z = rng.normal(size=(n, 2)) * np.sqrt(1.5) / np.sqrt(rng.chisquare(3.0, n) / 3.0)[:, None]
+    cov = rng.uniform(1.0, 9.0, n)  # isotropic covariances of several sizes
+    many = pd.DataFrame(
+        {
+            "model": "G",
+            "seed": 7,
+            "control": "fused",
+            "counted": True,
+            "err_e_m": z[:, 0] * np.sqrt(cov),
+            "err_n_m": z[:, 1] * np.sqrt(cov),
+            "cov_ee_m2": cov,
+            "cov_en_m2": 0.0,
+            "cov_nn_m2": cov,
+        }
+    )
+    few = many.head(5).assign(model="WPM", seed=None)
+    got = calibrate_2d(pd.concat([many, few], ignore_index=True))
+    g = got[("G", 7, "fused")]
+    assert g.n_windows == n and g.scale == pytest.approx(1.5, rel=0.1)
+    assert g.dof == pytest.approx(3.0, rel=0.15)
+    assert got[("WPM", None, "fused")] == Calibration2D(1.0, np.inf, 5)
 
 
 def _frame(samples_dir):

@@ -272,6 +272,13 @@ def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_d
     out = ev.eval_json["uncertainty"]
     assert out["fitted_on"].startswith("target training drives")
     assert out["models"]["R"]["n_seconds"] == 80 and "30s" in out["models"]["R"]
+    # the 2D calibration: one training drive holds too few windows to fit, so every run
+    # keeps the filter's own normal (and says so: scale 1, no finite degrees of freedom)
+    pos = ev.position[ev.position["n_windows"] > 0]
+    assert len(pos) and (pos["calib_scale"] == 1.0).all() and pos["calib_dof"].isna().all()
+    assert (pos["cover_1sigma"] == pos["cover_1sigma_filter"]).all()
+    cell = ev.eval_json["position"]["G"]["30s"]
+    assert cell["calib_scale"] == 1.0 and cell["calib_dof"] is None
 
 
 def test_a_continuous_recipe_as_r_wh_onet_is_scored_per_second_on_its_shortest_outage(

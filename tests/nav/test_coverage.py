@@ -12,8 +12,10 @@ from rwhonet.nav import (
     coverage_2d,
     crse_coverage,
     crse_prediction,
+    fit_t2,
     mahalanobis_sq,
     nll_2d,
+    t2_quantile,
 )
 from rwhonet.nav.coverage import chi2_2dof_quantile
 
@@ -72,3 +74,57 @@ def test_crse_of_independent_normal_seconds():
     crse = np.abs(rng.normal(size=sigma.shape) * sigma).sum(axis=1)
     got = crse_coverage(crse, sigma)
     assert [got[1.0], got[2.0]] == pytest.approx(SIGMA_CONTENT, abs=0.02)
+
+
+def _t2_errors(rng, n: int, scale: float, dof: float, cov: np.ndarray) -> np.ndarray:
+    """Bivariate t errors with scale matrix ``scale * cov`` and ``dof`` degrees of freedom."""
+    z = np.einsum("wij,wj->wi", np.linalg.cholesky(cov), rng.normal(size=(n, 2)))
+    w = rng.chisquare(dof, n) / dof
+    return np.sqrt(scale) * z / np.sqrt(w)[:, None]
+
+
+def test_the_t_quantile_by_hand_and_its_normal_limit():
+    # nu = 2: r = 2 ((1 - p)^-1 - 1); p = 0.5 -> 2, p = 0.75 -> 6; times c
+    assert t2_quantile(0.5, 1.0, 2.0) == pytest.approx(2.0)
+    assert t2_quantile(0.75, 3.0, 2.0) == pytest.approx(18.0)
+    # nu -> inf: the chi-square(2) quantile; nu = inf is exactly it
+    p = np.array(SIGMA_CONTENT)
+    assert t2_quantile(p, 1.0, 1e7) == pytest.approx(chi2_2dof_quantile(p), rel=1e-5)
+    assert t2_quantile(p, 2.0, np.inf) == pytest.approx(2.0 * chi2_2dof_quantile(p))
+    # heavier tails hold the same content farther out
+    assert t2_quantile(0.9545, 1.0, 3.0) > t2_quantile(0.9545, 1.0, 30.0) > 6.18
+
+
+def test_fit_t2_recovers_scale_and_tails_and_its_coverage_matches_the_contents():
+    rng = np.random.default_rng(1)
+    n = 20000
+    a = rng.normal(size=(n, 2, 2))
+    cov = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(2)
+    error = _t2_errors(rng, n, 2.5, 4.0, cov)
+    c, nu, used = fit_t2(mahalanobis_sq(error, cov))
+    assert used == n and c == pytest.approx(2.5, rel=0.05) and nu == pytest.approx(4.0, rel=0.1)
+    got = coverage_2d(error, cov, scale=c, dof=nu)
+    for p in SIGMA_CONTENT:
+        assert got[p] == pytest.approx(p, abs=0.01)
+    # the filter's own normal would cover too little at 2 sigma (heavy tails)
+    assert coverage_2d(error, cov)[SIGMA_CONTENT[1]] < 0.9
+    # and the t is the likelier description of these errors
+    assert nll_2d(error, cov, c, nu) < nll_2d(error, cov, c, np.inf) < nll_2d(error, cov)
+
+
+def test_fit_t2_of_normal_errors_is_a_normal_and_of_few_windows_no_calibration():
+    rng = np.random.default_rng(2)
+    n = 20000
+    error = rng.normal(size=(n, 2)) * np.sqrt(0.5)
+    c, nu, _ = fit_t2(mahalanobis_sq(error, np.broadcast_to(np.eye(2), (n, 2, 2))))
+    assert c == pytest.approx(0.5, rel=0.05)
+    assert nu == np.inf or nu > 100  # normal errors: no heavy tails found
+    assert fit_t2(np.array([1.0, 2.0, np.nan]), min_windows=3) == (1.0, np.inf, 2)
+
+
+def test_the_t_likelihood_by_hand():
+    # d2 = 2, det = 1, c = 1, nu = 2: ln 2 pi + 2 ln(1 + 2 / 2) = ln 2 pi + 2 ln 2
+    error, cov = np.array([[1.0, 1.0]]), np.eye(2)[None]
+    assert nll_2d(error, cov, 1.0, 2.0) == pytest.approx(np.log(2 * np.pi) + 2 * np.log(2.0))
+    # the normal with a scale c: ln 2 pi + ln c + d2 / (2c)
+    assert nll_2d(error, cov, 2.0) == pytest.approx(np.log(2 * np.pi) + np.log(2.0) + 0.5)

@@ -12,8 +12,11 @@ wheels, or both fused; its state is kept where each window begins
 (:class:`rwhonet.nav.NavStart`), and from there every window is dead-reckoned
 through its outage without GNSS. The error is the horizontal distance between
 the predicted fix and the GNSS fix ending the window; the filter's 2x2
-covariance of that prediction gives the coverage of its 68.27 % / 95.45 %
-ellipses and the negative log-likelihood (:mod:`rwhonet.nav.coverage`). A
+covariance of that prediction, calibrated as a bivariate Student t on the same
+filter's windows of the target training drives (:func:`calibrate_on_training`),
+gives the coverage of its 68.27 % / 95.45 % regions and the negative
+log-likelihood, beside those of the filter's own normal ellipses
+(:mod:`rwhonet.nav.coverage`). A
 window counts when the filter has run at least
 ``evaluate.navigation.min_calibration_s`` seconds of its segment before it,
 and, for the controls that use the gyro, when every second of the outage has a
@@ -46,7 +49,14 @@ import pandas as pd
 from rwhonet import contracts as k
 from rwhonet.config import Params
 from rwhonet.contracts import CONTINUOUS
-from rwhonet.evaluation.windows import outage_windows
+from rwhonet.evaluation.uncertainty import (
+    ASSUMED,
+    DistanceVariance,
+    FitEvidence,
+    masked_windows,
+    training_errors,
+)
+from rwhonet.evaluation.windows import evaluated_rows, outage_windows
 from rwhonet.features.deadreckoning import course_rad, dead_reckon, fit_heading, wheel_yaw_rad
 from rwhonet.geo.local import offsets_m
 from rwhonet.nav import (
@@ -56,6 +66,8 @@ from rwhonet.nav import (
     NavStart,
     config_from_params,
     coverage_2d,
+    fit_t2,
+    mahalanobis_sq,
     nll_2d,
     run,
 )
@@ -267,10 +279,10 @@ def _gather(
     return np.where(inside, v[np.where(inside, idx, 0)], fill)
 
 
-def nav_segments(frame: pd.DataFrame, params: Params) -> Segments:
-    """Cut the target test drives' samples into the filter's per-segment arrays."""
+def nav_segments(frame: pd.DataFrame, params: Params, role: str = k.TARGET_TEST) -> Segments:
+    """Cut the drives of one role (the target test drives) into the filter's per-segment arrays."""
     group = frame["group"].to_numpy()
-    target = (frame["role"] == k.TARGET_TEST).to_numpy()
+    target = (frame["role"] == role).to_numpy()
     starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
     ends = np.r_[starts[1:], len(frame)]
     keep = target[starts] if len(starts) else np.zeros(0, bool)
@@ -304,11 +316,14 @@ def nav_segments(frame: pd.DataFrame, params: Params) -> Segments:
     )
 
 
-def target_windows(frame: pd.DataFrame, params: Params, outage_s: int) -> np.ndarray:
-    """The target test windows of ``outage_s`` (rows (W, L)), the CRSE/CTE windows."""
+def target_windows(
+    frame: pd.DataFrame, params: Params, outage_s: int, role: str = k.TARGET_TEST
+) -> np.ndarray:
+    """The windows of ``outage_s`` on one role's drives (rows (W, L)); on the target test
+    drives, the CRSE/CTE windows."""
     windows = outage_windows(frame, params.adapt.m_grid, outage_s)
-    role = frame["role"].to_numpy()
-    return windows[role[windows[:, 0]] == k.TARGET_TEST] if len(windows) else windows
+    roles = frame["role"].to_numpy()
+    return windows[roles[windows[:, 0]] == role] if len(windows) else windows
 
 
 WINDOW_COLUMNS = (
@@ -334,6 +349,8 @@ def filter_windows(
     runs: list[Odometry],
     outages_s: list[int],
     cfg: NavConfig | None = None,
+    role: str = k.TARGET_TEST,
+    windows: dict[int, np.ndarray] | None = None,
 ) -> pd.DataFrame:
     """Every run's end of every target test window: error, predicted covariance, distance.
 
@@ -347,6 +364,10 @@ def filter_windows(
         runs: the filter runs.
         outages_s: the outage lengths.
         cfg: the filter's settings (default: :func:`nav_config`).
+        role: whose drives: the target test drives, or the target training drives
+            the 2D calibration is fitted on (:func:`calibrate_2d`).
+        windows: per outage length, the windows' rows (W, L) on that role's drives
+            (default: :func:`target_windows`).
 
     Returns:
         One row per run, outage length and window (:data:`WINDOW_COLUMNS`);
@@ -356,10 +377,11 @@ def filter_windows(
     """
     cfg = cfg or nav_config(params)
     min_cal = params.evaluate.navigation.min_calibration_s
-    segs = nav_segments(frame, params)
+    segs = nav_segments(frame, params, role)
     n_seg = len(segs.first_row)
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
-    windows = {L: target_windows(frame, params, L) for L in outages_s}
+    if windows is None:
+        windows = {L: target_windows(frame, params, L, role) for L in outages_s}
     where = {}
     for L, rows in windows.items():
         g = segs.segment_of[rows[:, 0]] if len(rows) else np.zeros(0, np.int64)
@@ -453,7 +475,7 @@ def filter_windows(
                         }
                     )
                 )
-    return pd.concat(out, ignore_index=True)
+    return pd.concat(out, ignore_index=True) if out else pd.DataFrame(columns=list(WINDOW_COLUMNS))
 
 
 WINDOW_STATS = (
@@ -464,26 +486,31 @@ WINDOW_STATS = (
     "cover_1sigma",
     "cover_2sigma",
     "nll",
+    "cover_1sigma_filter",
+    "cover_2sigma_filter",
+    "nll_filter",
+    "calib_scale",
+    "calib_dof",
 )
 
 
-def window_stats(windows: pd.DataFrame) -> dict[str, float]:
-    """One run's windows of one outage length summarised.
+@dataclass(frozen=True)
+class Calibration2D:
+    """A run's 2D calibration, fitted on target training windows (:func:`calibrate_2d`).
 
-    Returns:
-        ``pos_mean``, ``pos_max`` (m); ``pos_pct`` (the errors' sum over the
-        distances' sum, %: the mean error as a share of the mean distance, so a
-        window standing in traffic does not blow it up) and ``pos_pct_max`` (the
-        worst window's error over its own distance, %); ``cover_1sigma`` and
-        ``cover_2sigma`` (share of windows inside the predicted 68.27 % / 95.45 %
-        ellipses, :func:`rwhonet.nav.coverage.coverage_2d`); ``nll`` (nats);
-        ``n_windows`` (counted). NaN without a counted window.
+    Attributes:
+        scale: ``c``, the filter's covariance times it is the t's scale matrix.
+        dof: ``ν``, its degrees of freedom (``inf``: a normal).
+        n_windows: training windows fitted on (below
+            :data:`~rwhonet.nav.coverage.MIN_T2_WINDOWS`: not fitted, ``c = 1, ν = ∞``).
     """
-    w = windows[windows["counted"]]
-    if not len(w):
-        return {**dict.fromkeys(WINDOW_STATS, float("nan")), "n_windows": 0}
-    h = w["horizontal_m"].to_numpy(np.float64)
-    d = w["distance_m"].to_numpy(np.float64)
+
+    scale: float = 1.0
+    dof: float = float("inf")
+    n_windows: int = 0
+
+
+def _errors_and_covs(w: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     err = w[["err_e_m", "err_n_m"]].to_numpy(np.float64)
     cov = np.stack(
         [
@@ -492,7 +519,32 @@ def window_stats(windows: pd.DataFrame) -> dict[str, float]:
         ],
         axis=1,
     )
-    cover = coverage_2d(err, cov)
+    return err, cov
+
+
+def window_stats(windows: pd.DataFrame, calibration: Calibration2D | None = None) -> dict:
+    """One run's windows of one outage length summarised.
+
+    Returns:
+        ``pos_mean``, ``pos_max`` (m); ``pos_pct`` (the errors' sum over the
+        distances' sum, %: the mean error as a share of the mean distance, so a
+        window standing in traffic does not blow it up) and ``pos_pct_max`` (the
+        worst window's error over its own distance, %); ``cover_1sigma`` and
+        ``cover_2sigma`` (share of windows inside the predicted 68.27 % / 95.45 %
+        regions of the calibrated prediction, :func:`rwhonet.nav.coverage.coverage_2d`)
+        and ``nll`` (nats); the same of the filter's own normal (``..._filter``); the
+        calibration (``calib_scale``, ``calib_dof``: NaN for a normal, ``ν = ∞``);
+        ``n_windows`` (counted). NaN without a counted window.
+    """
+    cal = calibration or Calibration2D()
+    w = windows[windows["counted"]]
+    if not len(w):
+        return {**dict.fromkeys(WINDOW_STATS, float("nan")), "n_windows": 0}
+    h = w["horizontal_m"].to_numpy(np.float64)
+    d = w["distance_m"].to_numpy(np.float64)
+    err, cov = _errors_and_covs(w)
+    cover = coverage_2d(err, cov, scale=cal.scale, dof=cal.dof)
+    own = coverage_2d(err, cov)
     worst = int(np.argmax(h))
     return {
         "pos_mean": float(h.mean()),
@@ -501,22 +553,62 @@ def window_stats(windows: pd.DataFrame) -> dict[str, float]:
         "pos_pct_max": float(100.0 * h[worst] / d[worst]) if d[worst] > 0 else float("nan"),
         "cover_1sigma": cover[SIGMA_CONTENT[0]],
         "cover_2sigma": cover[SIGMA_CONTENT[1]],
-        "nll": nll_2d(err, cov),
+        "nll": nll_2d(err, cov, cal.scale, cal.dof),
+        "cover_1sigma_filter": own[SIGMA_CONTENT[0]],
+        "cover_2sigma_filter": own[SIGMA_CONTENT[1]],
+        "nll_filter": nll_2d(err, cov),
+        "calib_scale": cal.scale,
+        "calib_dof": cal.dof if np.isfinite(cal.dof) else float("nan"),
         "n_windows": len(w),
     }
 
 
-def position_per_seed(windows: pd.DataFrame, seeds: list[int]) -> pd.DataFrame:
+def calibrate_2d(windows: pd.DataFrame) -> dict[tuple, Calibration2D]:
+    """Each run's bivariate-t calibration from its training windows' ends.
+
+    Pooled over the outage lengths (the filter's covariance already grows with the
+    outage; what is calibrated is its scale and its tails), the counted windows'
+    squared Mahalanobis radii fitted by :func:`rwhonet.nav.coverage.fit_t2`.
+
+    Args:
+        windows: :func:`filter_windows` on the target training drives.
+
+    Returns:
+        ``{(model, seed, control): calibration}`` (``seed`` None for the runs shared
+        by every seed).
+    """
+    out = {}
+    for (model, seed, control), g in windows.groupby(
+        ["model", "seed", "control"], sort=False, dropna=False
+    ):
+        w = g[g["counted"]]
+        err, cov = _errors_and_covs(w)
+        d2 = mahalanobis_sq(err, cov) if len(w) else np.zeros(0)
+        scale, dof, n = fit_t2(d2)
+        key_seed = None if pd.isna(seed) else int(seed)
+        out[(model, key_seed, control)] = Calibration2D(scale, dof, n)
+    return out
+
+
+def position_per_seed(
+    windows: pd.DataFrame,
+    seeds: list[int],
+    calibrations: dict[tuple, Calibration2D] | None = None,
+) -> pd.DataFrame:
     """Per seed, row (model, control) and outage length: :func:`window_stats`.
 
     Rows the same for every seed (``seed`` None) are repeated for each seed, so
-    that every cell's mean over seeds has the same seeds.
+    that every cell's mean over seeds has the same seeds. ``calibrations``
+    (:func:`calibrate_2d`) calibrate each run's coverage; a run without one keeps
+    the filter's normal.
     """
+    calibrations = calibrations or {}
     rows = []
     for (model, control, L, seed), g in windows.groupby(
         ["model", "control", "outage_s", "seed"], sort=False, dropna=False
     ):
-        stats = window_stats(g)
+        key = (model, None if pd.isna(seed) else int(seed), control)
+        stats = window_stats(g, calibrations.get(key))
         for s in seeds if pd.isna(seed) else [int(seed)]:
             rows.append(
                 {
@@ -529,3 +621,64 @@ def position_per_seed(windows: pd.DataFrame, seeds: list[int]) -> pd.DataFrame:
                 }
             )
     return pd.DataFrame(rows)
+
+
+def calibrate_on_training(
+    evidence: FitEvidence,
+    params: Params,
+    plan: dict,
+    fits: dict[tuple[int | None, str], DistanceVariance],
+    outages_s: list[int],
+    cfg: NavConfig | None = None,
+) -> tuple[dict[tuple, Calibration2D], pd.DataFrame]:
+    """The filter's runs on the target training drives, and each run's 2D calibration.
+
+    The same runs as on the test drives (every model of ``plan`` with its control,
+    the controls on ``control_model``'s distances, the GNSS's own distances), each
+    model's distance variance as fitted there (``fits``), over the windows where
+    :func:`~rwhonet.evaluation.uncertainty.training_errors` says it may be fitted
+    (S: its segments' validation tails only); then :func:`calibrate_2d`.
+
+    Args:
+        evidence: the target training drives and every seed's predictions of them.
+        params: as :func:`filter_windows`.
+        plan: :func:`rwhonet.evaluation.study.navigation_plan`'s ``models``,
+            ``control``, ``control_model`` and ``controls``.
+        fits: every model's variance (:func:`~rwhonet.evaluation.uncertainty.fit_variances`).
+        outages_s: the outage lengths.
+        cfg: the filter's settings.
+
+    Returns:
+        ``({(model, seed, control): calibration}, the training windows' ends)``.
+    """
+    frame = evidence.frame
+    if not len(frame):
+        return {}, pd.DataFrame(columns=list(WINDOW_COLUMNS))
+    cfg = cfg or nav_config(params)
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    scored = evaluated_rows(frame, params.adapt.m_grid)
+    runs: dict[str, list[Odometry]] = {"scored": [], "tail": []}
+    masks = {"scored": scored}
+    for t in training_errors(evidence, plan["models"], params):
+        fit = fits.get((t.seed, t.model), ASSUMED)
+        dist = gnss - t.error
+        controls = plan["controls"] if t.model == plan["control_model"] else [plan["control"]]
+        where = "tail" if t.model == "S" else "scored"
+        masks[where] = t.mask
+        outage_var = {L: fit.outage_var(dist, L) for L in outages_s}
+        runs[where] += [
+            Odometry(t.model, t.seed, c, dist, fit.var(dist), outage_var) for c in controls
+        ]
+    runs["scored"].append(
+        Odometry(
+            GNSS_DISTANCE, None, plan["control"], gnss, np.full(len(frame), gnss_distance_var(cfg))
+        )
+    )
+    ends = []
+    for where, mine in runs.items():
+        if not mine:
+            continue
+        windows = {L: masked_windows(frame, masks[where], L) for L in outages_s}
+        ends.append(filter_windows(frame, params, mine, outages_s, cfg, k.TARGET_TRAIN, windows))
+    windows_2d = pd.concat(ends, ignore_index=True)
+    return calibrate_2d(windows_2d), windows_2d

@@ -180,6 +180,12 @@ def _filter_cell(r: Any) -> dict:
         "cover_1sigma": _num(r.cover_1sigma),
         "cover_2sigma": _num(r.cover_2sigma),
         "nll": _num(r.nll),
+        # the filter's own normal, before the calibration on the training windows
+        "cover_1sigma_filter": _num(r.cover_1sigma_filter),
+        "cover_2sigma_filter": _num(r.cover_2sigma_filter),
+        "nll_filter": _num(r.nll_filter),
+        "calib_scale": _num(r.calib_scale),
+        "calib_dof": _num(r.calib_dof),
         "n_windows": int(r.n_windows),
         "n_windows_all": int(r.n_windows_all),
     }

@@ -40,6 +40,7 @@ from rwhonet.evaluation.position import (
     HEADING_ONLY,
     WINDOW_STATS,
     Odometry,
+    calibrate_on_training,
     filter_models,
     filter_windows,
     gnss_distance_var,
@@ -230,7 +231,13 @@ def evaluate(
         {L: int(t["n_windows"]) for L, t in tracks.items()}
     )
     windows_2d = filter_windows(frame, params, runs, outages, cfg)
-    nav_seed = position_per_seed(windows_2d, params.seeds)
+    # the filter's covariance calibrated on the target training drives' windows (scale, tails)
+    calibrations = (
+        calibrate_on_training(evidence, params, nav, fits, outages, cfg)[0]
+        if evidence is not None
+        else {}
+    )
+    nav_seed = position_per_seed(windows_2d, params.seeds, calibrations)
     position = over_seeds(nav_seed, ["model", "control", "outage_s"], list(WINDOW_STATS))
     counts = nav_seed.groupby(["model", "control", "outage_s"], sort=False)[
         ["n_windows", "n_windows_all"]

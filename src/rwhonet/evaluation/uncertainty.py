@@ -338,14 +338,64 @@ def held_out_tail(frame: pd.DataFrame, fraction: float) -> np.ndarray:
     return rank >= size - np.floor(size * fraction).astype(int)
 
 
+@dataclass(frozen=True)
+class TrainingErrors:
+    """One model's errors on the target training drives, where it may be fitted.
+
+    Attributes:
+        seed: the training seed (None: the WPMs, the same for every seed).
+        model: the model's name.
+        error: (N,) its per-second error, m, row-aligned with the evidence's frame.
+        mask: (N,) the seconds it may be fitted on: after each drive's first max(m) s,
+            for S only its segments' validation tails.
+    """
+
+    seed: int | None
+    model: str
+    error: np.ndarray
+    mask: np.ndarray
+
+
+def training_errors(
+    evidence: FitEvidence, models: list[str], params: Params
+) -> list[TrainingErrors]:
+    """Every model's errors on the target training drives, per seed (the WPMs once).
+
+    The WPM's is its label, WPM-m's its refit's; G, S and every recipe's the label
+    less their prediction. Where they may be fitted: the seconds after each drive's
+    first max(m) s (out of sample there for all but S), and for S, which was
+    trained on those drives, only the tails of their segments it was validated on
+    (``train.val_fraction``).
+    """
+    frame = evidence.frame
+    if not len(frame):
+        return []
+    label = frame[k.LABEL_M].to_numpy(np.float64)
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    scored = evaluated_rows(frame, params.adapt.m_grid)
+    tail = held_out_tail(frame, params.train.val_fraction)
+    wpm_m = {m: gnss - d for m, d in refit_wpm(frame, params)[0].items()}
+    out = []
+    for model in models:
+        if model == "WPM":
+            out.append(TrainingErrors(None, model, label, scored))
+        elif model.startswith("WPM-m@"):
+            m = int(model.removeprefix("WPM-m@"))
+            out.append(TrainingErrors(None, model, wpm_m[m], scored))
+    for seed, preds in evidence.per_seed.items():
+        for model in models:
+            if model in preds:
+                error = label - preds[model].to_numpy(np.float64)
+                out.append(TrainingErrors(seed, model, error, tail if model == "S" else scored))
+    return out
+
+
 def fit_variances(
     evidence: FitEvidence, models: list[str], params: Params
 ) -> dict[tuple[int | None, str], DistanceVariance]:
     """Every model's variance, per seed (``None``: the WPMs, the same for every seed).
 
-    Fitted on the target training drives' seconds after their first max(m) s (the
-    WPM, WPM-m and every recipe: out of sample there), S on the tails of their
-    segments it was validated on (``train.val_fraction``); the CRSE prediction
+    Fitted where :func:`training_errors` says each model may be; the CRSE prediction
     calibrated on the windows of every outage length over the same seconds.
 
     Args:
@@ -357,29 +407,10 @@ def fit_variances(
         ``{(seed, model): fit}``; a model without enough seconds is absent.
     """
     frame = evidence.frame
-    if not len(frame):
-        return {}
-    label = frame[k.LABEL_M].to_numpy(np.float64)
-    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
-    scored = evaluated_rows(frame, params.adapt.m_grid)
-    tail = held_out_tail(frame, params.train.val_fraction)
-    wpm_m = {m: gnss - d for m, d in refit_wpm(frame, params)[0].items()}
-
-    group = frame["group"].to_numpy()
-
-    def fit(error: np.ndarray, mask: np.ndarray) -> DistanceVariance | None:
-        windows = {L: masked_windows(frame, mask, L) for L in params.evaluate.outages_s}
-        return fit_model(error, gnss - error, mask, windows, group)
-
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64) if len(frame) else np.zeros(0)
+    group = frame["group"].to_numpy() if len(frame) else np.zeros(0, int)
     out: dict[tuple[int | None, str], DistanceVariance | None] = {}
-    for model in models:
-        if model == "WPM":
-            out[(None, model)] = fit(label, scored)
-        elif model.startswith("WPM-m@"):
-            out[(None, model)] = fit(wpm_m[int(model.removeprefix("WPM-m@"))], scored)
-    for seed, preds in evidence.per_seed.items():
-        for model in models:
-            if model in preds:
-                mask = tail if model == "S" else scored
-                out[(seed, model)] = fit(label - preds[model].to_numpy(np.float64), mask)
+    for t in training_errors(evidence, models, params):
+        windows = {L: masked_windows(frame, t.mask, L) for L in params.evaluate.outages_s}
+        out[(t.seed, t.model)] = fit_model(t.error, gnss - t.error, t.mask, windows, group)
     return {key: v for key, v in out.items() if v is not None}

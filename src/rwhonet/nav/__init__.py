@@ -23,8 +23,10 @@ from rwhonet.nav.coverage import (
     coverage_2d,
     crse_coverage,
     crse_prediction,
+    fit_t2,
     mahalanobis_sq,
     nll_2d,
+    t2_quantile,
 )
 from rwhonet.nav.filter import (
     CONTROLS,
@@ -57,9 +59,11 @@ __all__ = [
     "coverage_2d",
     "crse_coverage",
     "crse_prediction",
+    "fit_t2",
     "mahalanobis_sq",
     "nll_2d",
     "run",
     "run_outage",
+    "t2_quantile",
     "window_inputs",
 ]

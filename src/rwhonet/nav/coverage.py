@@ -10,11 +10,20 @@ squared Mahalanobis radius ``eᵀ Σ⁻¹ e`` is at most the χ²(2) quantile
 (:func:`coverage_2d`, ``probs=SIGMA_CONTENT``). The "1σ ellipse" in the strict
 sense (Mahalanobis radius 1, resp. 2) holds only 39.35 % and 86.47 % of a 2D
 normal; :data:`ELLIPSE_CONTENT` gives those to check against instead.
+
+A filter's covariance is a normal's; the errors it predicts are not quite (a
+window with reversing, a tyre that changes during the outage: heavy tails). The
+evaluation calibrates it on training windows as a bivariate Student t with the
+filter's covariance times a scale ``c`` as its scale matrix and ``ν`` degrees of
+freedom (:func:`fit_t2`): the squared Mahalanobis radius holding ``p`` is then
+``c ν ((1 − p)^(−2/ν) − 1)`` (:func:`t2_quantile`), which tends to the χ²(2)
+quantile times ``c`` as ``ν → ∞``; ``c = 1, ν = ∞`` is the filter's own normal.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import minimize
 
 # Probability within ±1σ and ±2σ of a normal: erf(k / sqrt(2)).
 SIGMA_CONTENT: tuple[float, float] = (0.6826894921370859, 0.9544997361036416)
@@ -51,7 +60,11 @@ def mahalanobis_sq(error: np.ndarray, cov: np.ndarray) -> np.ndarray:
 
 
 def coverage_2d(
-    error: np.ndarray, cov: np.ndarray, probs: tuple[float, ...] = SIGMA_CONTENT
+    error: np.ndarray,
+    cov: np.ndarray,
+    probs: tuple[float, ...] = SIGMA_CONTENT,
+    scale: float = 1.0,
+    dof: float = np.inf,
 ) -> dict[float, float]:
     """Share of windows whose 2D error lies inside the predicted ellipse of each content.
 
@@ -59,15 +72,94 @@ def coverage_2d(
         error: (W, 2) error vectors (estimate − truth), m.
         cov: (W, 2, 2) predicted covariances, m².
         probs: probability contents of the ellipses (default: those of ±1σ, ±2σ).
+        scale: ``c``, the calibration's scale of the covariance (:func:`fit_t2`).
+        dof: ``ν``, its degrees of freedom (``inf``: the normal).
 
     Returns:
         ``{p: share}``; NaN shares when there are no windows.
     """
     d2 = mahalanobis_sq(error, cov)
     return {
-        float(p): float(np.mean(d2 <= chi2_2dof_quantile(p))) if d2.size else float("nan")
+        float(p): float(np.mean(d2 <= t2_quantile(p, scale, dof))) if d2.size else float("nan")
         for p in probs
     }
+
+
+def t2_quantile(p: float | np.ndarray, scale: float = 1.0, dof: float = np.inf) -> np.ndarray:
+    """The squared Mahalanobis radius (in the filter's covariance) holding ``p``.
+
+    For the bivariate t with scale matrix ``c Σ`` and ``ν`` degrees of freedom,
+    ``d² / c`` has the distribution function ``1 − (1 + r / ν)^(−ν / 2)`` (half of it
+    follows F(2, ν)); its quantile is ``ν ((1 − p)^(−2/ν) − 1)``, the χ²(2) one as
+    ``ν → ∞``.
+
+    Args:
+        p: probability in [0, 1).
+        scale: ``c``.
+        dof: ``ν`` (``inf``: the normal).
+    """
+    p = np.asarray(p, np.float64)
+    if not np.isfinite(dof):
+        return scale * chi2_2dof_quantile(p)
+    return scale * dof * np.expm1(-2.0 / dof * np.log1p(-p))
+
+
+def t2_nll(d2: np.ndarray, logdet: np.ndarray, scale: float = 1.0, dof: float = np.inf):
+    """Each window's negative log-likelihood under the bivariate t, nats.
+
+    ``ln 2π + ln c + ½ ln det Σ + (ν/2 + 1) ln(1 + d² / (c ν))``; the normal's
+    ``ln 2π + ln c + ½ ln det Σ + d² / (2c)`` for ``ν = ∞``.
+
+    Args:
+        d2: (W,) squared Mahalanobis radii in the filter's covariance ``Σ``.
+        logdet: (W,) ``ln det Σ``.
+        scale: ``c``.
+        dof: ``ν``.
+    """
+    d2 = np.asarray(d2, np.float64)
+    base = np.log(2.0 * np.pi) + np.log(scale) + 0.5 * np.asarray(logdet, np.float64)
+    if not np.isfinite(dof):
+        return base + 0.5 * d2 / scale
+    return base + (0.5 * dof + 1.0) * np.log1p(d2 / (scale * dof))
+
+
+MIN_T2_WINDOWS = 20  # fewer training windows: no calibration (the filter's normal)
+T2_DOF_BOUNDS = (1.0, 1000.0)  # ν: a finite mean radius at the low end; normal at the top
+
+
+def fit_t2(d2: np.ndarray, min_windows: int = MIN_T2_WINDOWS) -> tuple[float, float, int]:
+    """``c`` and ``ν`` of the bivariate t that fits squared Mahalanobis radii best.
+
+    Maximum likelihood over the windows' ``d²`` in the filter's covariance (the
+    ``ln det Σ`` terms do not depend on ``c`` or ``ν``), over ``ln c`` and ``ln ν``
+    within :data:`T2_DOF_BOUNDS` (L-BFGS-B). Fewer than ``min_windows`` finite
+    radii: ``(1, inf)``, the filter's own normal.
+
+    Args:
+        d2: (W,) squared Mahalanobis radii of training windows.
+        min_windows: the fewest windows to fit on.
+
+    Returns:
+        ``(c, ν, n)``: scale, degrees of freedom (``inf`` when not fitted or at the
+        upper bound) and the windows fitted on.
+    """
+    r = np.asarray(d2, np.float64)
+    r = r[np.isfinite(r)]
+    if len(r) < min_windows:
+        return 1.0, float("inf"), int(len(r))
+    r = np.maximum(r, 1e-12)
+
+    def nll(theta: np.ndarray) -> float:
+        c, nu = np.exp(theta)
+        return float(np.mean(np.log(c) + (0.5 * nu + 1.0) * np.log1p(r / (c * nu))))
+
+    lo, hi = np.log(T2_DOF_BOUNDS)
+    start = np.array([np.log(max(np.mean(r) / 2.0, 1e-9)), np.log(10.0)])
+    res = minimize(nll, start, method="L-BFGS-B", bounds=[(-30.0, 30.0), (lo, hi)])
+    c, nu = np.exp(res.x)
+    if res.x[1] >= hi - 1e-6:  # as heavy-tailed as a normal: take the normal's scale
+        return float(np.mean(r) / 2.0), float("inf"), int(len(r))
+    return float(c), float(nu), int(len(r))
 
 
 def coverage_1d(error: np.ndarray, sd: np.ndarray, ks: tuple[float, ...] = (1.0, 2.0)) -> dict:
@@ -86,14 +178,15 @@ def coverage_1d(error: np.ndarray, sd: np.ndarray, ks: tuple[float, ...] = (1.0,
     return {float(k): float(np.mean(e <= k * s)) if e.size else float("nan") for k in ks}
 
 
-def nll_2d(error: np.ndarray, cov: np.ndarray) -> float:
-    """Mean negative log-likelihood of 2D errors under their predicted normals, nats.
+def nll_2d(error: np.ndarray, cov: np.ndarray, scale: float = 1.0, dof: float = np.inf) -> float:
+    """Mean negative log-likelihood of 2D errors under their predicted distributions, nats.
 
-    ``½ (eᵀ Σ⁻¹ e + ln det Σ) + ln 2π`` per window, averaged.
+    ``½ (eᵀ Σ⁻¹ e + ln det Σ) + ln 2π`` per window, averaged, for the filter's normal;
+    with a calibration (``scale``, ``dof``) the bivariate t's (:func:`t2_nll`).
     """
     c = np.asarray(cov, np.float64)
     _, logdet = np.linalg.slogdet(c)
-    return float(np.mean(0.5 * (mahalanobis_sq(error, c) + logdet) + np.log(2.0 * np.pi)))
+    return float(np.mean(t2_nll(mahalanobis_sq(error, c), logdet, scale, dof)))
 
 
 def crse_prediction(sd_per_second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -268,7 +268,9 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
 
     The navigation filter on the model's distances (``evaluate.navigation``'s
     control, fused): ``pos/180s/mean`` (m), ``pos/180s/pct`` (% of the distance
-    driven), ``pos/180s/max``, ``pos/180s/cover_1sigma`` / ``cover_2sigma`` / ``nll``,
+    driven), ``pos/180s/max``, ``pos/180s/cover_1sigma`` / ``cover_2sigma`` / ``nll``
+    (the calibrated prediction; the filter's own normal as ``..._filter``, the
+    calibration as ``calib_scale`` / ``calib_dof``, absent for a normal),
     the ``ci95`` of the means; on the run whose distances the filter's controls
     use, every control as ``pos/<control>/180s/mean``, ``.../pct``; and the model's
     CRSE calibration: ``uncertainty/180s/crse_cover_1sigma``, ``..._2sigma``, ``crse_nll``.
@@ -282,13 +284,28 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
     for r in pos.itertuples():
         if r.control == plan["control"]:
             prefix = "pos"
-            stats = ("mean", "max", "pct", "pct_max", "cover_1sigma", "cover_2sigma", "nll")
+            stats = (
+                "mean",
+                "max",
+                "pct",
+                "pct_max",
+                "cover_1sigma",
+                "cover_2sigma",
+                "nll",
+                "cover_1sigma_filter",
+                "cover_2sigma_filter",
+                "nll_filter",
+                "calib_scale",
+                "calib_dof",
+            )
         elif name == plan["control_model"]:
             prefix, stats = f"pos/{r.control}", ("mean", "pct")
         else:
             continue
         for stat in stats:
-            value = getattr(r, stat if stat.startswith(("cover", "nll")) else f"pos_{stat}")
+            value = getattr(
+                r, stat if stat.startswith(("cover", "nll", "calib")) else f"pos_{stat}"
+            )
             if math.isfinite(value):
                 out[f"{prefix}/{r.outage_s}s/{stat}"] = float(value)
         for stat in ("mean", "pct"):
