@@ -26,6 +26,7 @@ from rwhonet.config import Params, flatten
 from rwhonet.contracts import CONTINUOUS_RECIPES, alt_wpm, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.evaluation.names import at_chosen_m
+from rwhonet.evaluation.position import WINDOW_STATS
 from rwhonet.evaluation.result import Evaluation
 from rwhonet.evaluation.scoring import CURVE_MODELS, STATS
 from rwhonet.evaluation.selection import (
@@ -283,31 +284,15 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
     pos = ev.position[ev.position["model"] == name]
     for r in pos.itertuples():
         if r.control == plan["control"]:
-            prefix = "pos"
-            stats = (
-                "mean",
-                "max",
-                "pct",
-                "pct_max",
-                "cover_1sigma",
-                "cover_2sigma",
-                "nll",
-                "cover_1sigma_filter",
-                "cover_2sigma_filter",
-                "nll_filter",
-                "calib_scale",
-                "calib_dof",
-            )
+            prefix, columns = "pos", WINDOW_STATS
         elif name == plan["control_model"]:
-            prefix, stats = f"pos/{r.control}", ("mean", "pct")
+            prefix, columns = f"pos/{r.control}", ("pos_mean", "pos_pct")
         else:
             continue
-        for stat in stats:
-            value = getattr(
-                r, stat if stat.startswith(("cover", "nll", "calib")) else f"pos_{stat}"
-            )
+        for column in columns:
+            value = getattr(r, column)
             if math.isfinite(value):
-                out[f"{prefix}/{r.outage_s}s/{stat}"] = float(value)
+                out[f"{prefix}/{r.outage_s}s/{column.removeprefix('pos_')}"] = float(value)
         for stat in ("mean", "pct"):
             ci = getattr(r, f"pos_{stat}_ci95")
             if prefix == "pos" and math.isfinite(ci):
