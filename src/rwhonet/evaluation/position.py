@@ -53,8 +53,8 @@ from rwhonet.evaluation.uncertainty import (
     ASSUMED,
     DistanceVariance,
     FitEvidence,
+    TrainingErrors,
     masked_windows,
-    training_errors,
 )
 from rwhonet.evaluation.windows import evaluated_rows, outage_windows
 from rwhonet.features.deadreckoning import course_rad, dead_reckon, fit_heading, wheel_yaw_rad
@@ -219,6 +219,36 @@ class Odometry:
     dist_m: np.ndarray
     var_m2: np.ndarray
     outage_var_m2: dict[int, np.ndarray] = field(default_factory=dict)
+
+
+def model_runs(
+    model: str,
+    seed: int | None,
+    dist_m: np.ndarray,
+    fit: DistanceVariance,
+    plan: dict,
+    outages_s: list[int],
+) -> list[Odometry]:
+    """A model's filter runs: its plan's control, or every control on ``control_model``'s.
+
+    Args:
+        model: the model.
+        seed: its seed (None: the same run for every seed).
+        dist_m: its distance of every row, m.
+        fit: its distance variance (per second and inside each outage length).
+        plan: :func:`rwhonet.evaluation.study.navigation_plan`'s ``control``,
+            ``control_model`` and ``controls``.
+        outages_s: the outage lengths.
+    """
+    controls = plan["controls"] if model == plan["control_model"] else [plan["control"]]
+    outage_var = {L: fit.outage_var(dist_m, L) for L in outages_s}
+    return [Odometry(model, seed, c, dist_m, fit.var(dist_m), outage_var) for c in controls]
+
+
+def gnss_run(gnss_m: np.ndarray, plan: dict, cfg: NavConfig) -> Odometry:
+    """The filter's control on the GNSS's own distance of each second (the heading's error)."""
+    var = np.full(len(gnss_m), gnss_distance_var(cfg))
+    return Odometry(GNSS_DISTANCE, None, plan["control"], gnss_m, var)
 
 
 def filter_models(model_list: list[str]) -> list[str]:
@@ -625,6 +655,7 @@ def position_per_seed(
 
 def calibrate_on_training(
     evidence: FitEvidence,
+    errors: list[TrainingErrors],
     params: Params,
     plan: dict,
     fits: dict[tuple[int | None, str], DistanceVariance],
@@ -633,17 +664,18 @@ def calibrate_on_training(
 ) -> tuple[dict[tuple, Calibration2D], pd.DataFrame]:
     """The filter's runs on the target training drives, and each run's 2D calibration.
 
-    The same runs as on the test drives (every model of ``plan`` with its control,
-    the controls on ``control_model``'s distances, the GNSS's own distances), each
-    model's distance variance as fitted there (``fits``), over the windows where
-    :func:`~rwhonet.evaluation.uncertainty.training_errors` says it may be fitted
-    (S: its segments' validation tails only); then :func:`calibrate_2d`.
+    The same runs as on the test drives (:func:`model_runs` for every model of
+    ``plan``, :func:`gnss_run`), each model's distance variance as fitted there
+    (``fits``), over the windows where it may be fitted (``errors``' masks: S on its
+    segments' validation tails); then :func:`calibrate_2d`.
 
     Args:
         evidence: the target training drives and every seed's predictions of them.
+        errors: every model's errors there
+            (:func:`~rwhonet.evaluation.uncertainty.training_errors`).
         params: as :func:`filter_windows`.
-        plan: :func:`rwhonet.evaluation.study.navigation_plan`'s ``models``,
-            ``control``, ``control_model`` and ``controls``.
+        plan: :func:`rwhonet.evaluation.study.navigation_plan`'s ``control``,
+            ``control_model`` and ``controls``.
         fits: every model's variance (:func:`~rwhonet.evaluation.uncertainty.fit_variances`).
         outages_s: the outage lengths.
         cfg: the filter's settings.
@@ -656,29 +688,17 @@ def calibrate_on_training(
         return {}, pd.DataFrame(columns=list(WINDOW_COLUMNS))
     cfg = cfg or nav_config(params)
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
-    scored = evaluated_rows(frame, params.adapt.m_grid)
-    runs: dict[str, list[Odometry]] = {"scored": [], "tail": []}
-    masks = {"scored": scored}
-    for t in training_errors(evidence, plan["models"], params):
+    # runs grouped by the seconds they may be calibrated on (one mask per group)
+    groups: dict[str, tuple[np.ndarray, list[Odometry]]] = {
+        "scored": (evaluated_rows(frame, params.adapt.m_grid), [gnss_run(gnss, plan, cfg)])
+    }
+    for t in errors:
         fit = fits.get((t.seed, t.model), ASSUMED)
-        dist = gnss - t.error
-        controls = plan["controls"] if t.model == plan["control_model"] else [plan["control"]]
-        where = "tail" if t.model == "S" else "scored"
-        masks[where] = t.mask
-        outage_var = {L: fit.outage_var(dist, L) for L in outages_s}
-        runs[where] += [
-            Odometry(t.model, t.seed, c, dist, fit.var(dist), outage_var) for c in controls
-        ]
-    runs["scored"].append(
-        Odometry(
-            GNSS_DISTANCE, None, plan["control"], gnss, np.full(len(frame), gnss_distance_var(cfg))
-        )
-    )
+        mask, runs = groups.setdefault("tail" if t.model == "S" else "scored", (t.mask, []))
+        runs += model_runs(t.model, t.seed, gnss - t.error, fit, plan, outages_s)
     ends = []
-    for where, mine in runs.items():
-        if not mine:
-            continue
-        windows = {L: masked_windows(frame, masks[where], L) for L in outages_s}
-        ends.append(filter_windows(frame, params, mine, outages_s, cfg, k.TARGET_TRAIN, windows))
+    for mask, runs in groups.values():
+        windows = {L: masked_windows(frame, mask, L) for L in outages_s}
+        ends.append(filter_windows(frame, params, runs, outages_s, cfg, k.TARGET_TRAIN, windows))
     windows_2d = pd.concat(ends, ignore_index=True)
     return calibrate_2d(windows_2d), windows_2d

@@ -36,14 +36,13 @@ from rwhonet.evaluation.names import aliases, position_models, scenario_models
 from rwhonet.evaluation.over_time import crse_over_time
 from rwhonet.evaluation.paired import no_harm, paired
 from rwhonet.evaluation.position import (
-    GNSS_DISTANCE,
     HEADING_ONLY,
     WINDOW_STATS,
-    Odometry,
     calibrate_on_training,
     filter_models,
     filter_windows,
-    gnss_distance_var,
+    gnss_run,
+    model_runs,
     nav_config,
     position_errors,
     position_per_seed,
@@ -65,6 +64,7 @@ from rwhonet.evaluation.uncertainty import (
     FitEvidence,
     crse_check,
     fit_variances,
+    training_errors,
 )
 from rwhonet.evaluation.windows import evaluated_seconds
 
@@ -143,7 +143,8 @@ def evaluate(
     alias = aliases(params, choice)["R"]
     # 2D: the navigation filter on every model's distances and the controls' (position)
     nav = navigation_plan(params, choice, frame)
-    fits = fit_variances(evidence, nav["models"], params) if evidence is not None else {}
+    train_errors = training_errors(evidence, nav["models"], params) if evidence is not None else []
+    fits = fit_variances(evidence, train_errors, params) if evidence is not None else {}
     cfg = nav_config(params)
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
     test_windows = {L: target_windows(frame, params, L) for L in outages}
@@ -167,24 +168,9 @@ def evaluate(
                 )
             if fixed and seed != params.seeds[0]:
                 continue  # the same run for every seed
-            controls = [nav["control"]]
-            if model == nav["control_model"]:
-                controls = nav["controls"]
-            outage_var = {L: fit.outage_var(dist, L) for L in outages}
-            runs += [
-                Odometry(model, None if fixed else seed, c, dist, fit.var(dist), outage_var)
-                for c in controls
-            ]
+            runs += model_runs(model, None if fixed else seed, dist, fit, nav, outages)
         if seed == params.seeds[0]:
-            runs.append(
-                Odometry(
-                    GNSS_DISTANCE,
-                    None,
-                    nav["control"],
-                    gnss,
-                    np.full(len(frame), gnss_distance_var(cfg)),
-                )
-            )
+            runs.append(gnss_run(gnss, nav, cfg))
         flat = shortest_runs(errors, outages)
         flat["R"] = flat[alias]
         scen_out += [
@@ -233,7 +219,7 @@ def evaluate(
     windows_2d = filter_windows(frame, params, runs, outages, cfg)
     # the filter's covariance calibrated on the target training drives' windows (scale, tails)
     calibrations = (
-        calibrate_on_training(evidence, params, nav, fits, outages, cfg)[0]
+        calibrate_on_training(evidence, train_errors, params, nav, fits, outages, cfg)[0]
         if evidence is not None
         else {}
     )

@@ -391,7 +391,7 @@ def training_errors(
 
 
 def fit_variances(
-    evidence: FitEvidence, models: list[str], params: Params
+    evidence: FitEvidence, errors: list[TrainingErrors], params: Params
 ) -> dict[tuple[int | None, str], DistanceVariance]:
     """Every model's variance, per seed (``None``: the WPMs, the same for every seed).
 
@@ -400,8 +400,8 @@ def fit_variances(
 
     Args:
         evidence: the target training drives and the predictions of them.
-        models: the models to fit (``WPM``, ``WPM-m@m``, ``G``, ``S``, recipes).
-        params: ``adapt.m_grid``, ``evaluate.outages_s``, ``train.val_fraction``.
+        errors: every model's errors there (:func:`training_errors`).
+        params: ``evaluate.outages_s``.
 
     Returns:
         ``{(seed, model): fit}``; a model without enough seconds is absent.
@@ -410,7 +410,7 @@ def fit_variances(
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64) if len(frame) else np.zeros(0)
     group = frame["group"].to_numpy() if len(frame) else np.zeros(0, int)
     out: dict[tuple[int | None, str], DistanceVariance | None] = {}
-    for t in training_errors(evidence, models, params):
+    for t in errors:
         windows = {L: masked_windows(frame, t.mask, L) for L in params.evaluate.outages_s}
         out[(t.seed, t.model)] = fit_model(t.error, gnss - t.error, t.mask, windows, group)
     return {key: v for key, v in out.items() if v is not None}
