@@ -8,7 +8,7 @@ Runs ``make variant`` (a scratch copy of the working tree under ``build/``,
 installation) once per world (``sim.profile``), ``--jobs`` worlds at a time
 (1: one after the other; ``make worlds`` runs two), and prints per stage the
 wall seconds from DVC's "Running stage" line to the next one (a matrix
-stage's items, ``train_g@42`` ..., summed), the world's total, the CPU
+stage's items, ``adapt@42`` ..., summed), the world's total, the CPU
 seconds its processes used, and the matrix's wall time from the first
 world's start to the last one's end. The machine's load average before and
 after is printed too: on a shared machine the wall time grows with the

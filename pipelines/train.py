@@ -1,6 +1,7 @@
-"""DVC stages train_g / train_s: train G-WhONet (source vehicle) or S-WhONet (target vehicle).
+"""DVC stage train: G-WhONet (source vehicle) and S-WhONet (target vehicle) at every seed.
 
-Usage: python pipelines/train.py G|S --seed SEED
+Usage: python pipelines/train.py [G|S] [--seed SEED]
+(the stage runs it bare; a model or a seed alone is for a run by hand)
 """
 
 import argparse
@@ -10,8 +11,7 @@ from rwhonet.stages import train
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("which", choices=["G", "S"])
-    ap.add_argument("--seed", type=int, required=True, help="training seed (one of params seeds)")
+    ap.add_argument("which", nargs="?", choices=["G", "S"], help="only this model")
+    ap.add_argument("--seed", type=int, help="only this seed (one of params seeds)")
     args = ap.parse_args()
-    which, seed = args.which, args.seed
-    runner.run(f"train_{which.lower()}", lambda params: train.main(params, which, seed))
+    runner.run("train", lambda params: train.main(params, args.which, args.seed))

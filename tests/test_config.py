@@ -150,3 +150,14 @@ def test_every_text_param_is_classified():
     from rwhonet.config import Params
 
     assert _text_fields(Params, "") == set(TEXT_PARAMS)
+
+
+def test_a_stage_s_params_view_pickles_with_its_guard():
+    """The train stage hands its view to worker processes (rwhonet.stages.cores)."""
+    import pickle
+
+    view = load_params(paths.PARAMS, only=["seeds", "train"], reader="stage train")
+    back = pickle.loads(pickle.dumps(view))
+    assert back.seeds == view.seeds and back.train.epochs == view.train.epochs
+    with pytest.raises(ConfigError, match="stage train reads params 'adapt'"):
+        back.adapt  # noqa: B018

@@ -67,7 +67,7 @@ def test_data_dvc_clean_and_pipeline_plannable(clone):
     assert _run(["git", "status", "--porcelain", "data.dvc"], clone).stdout == ""
     dag = _run(["dvc", "dag", "--md"], clone)
     assert dag.returncode == 0, dag.stderr
-    for stage in ("simulate", "ingest", "validate", "label", "train_g", "train_s", "adapt"):
+    for stage in ("simulate", "ingest", "validate", "label", "train", "adapt"):
         assert stage in dag.stdout
     assert "evaluate" in dag.stdout
 

@@ -36,14 +36,14 @@ def test_an_exception_in_a_stage_body_is_a_failed_run(store, capsys):
         raise RuntimeError("the disk is full")
 
     with pytest.raises(SystemExit) as exit_:
-        runner.run("train_g", body)
+        runner.run("train", body)
     assert exit_.value.code == 1
     err = capsys.readouterr().err
     assert "RuntimeError: the disk is full" in err and "MLflow: FAILED run" in err
     (run,) = store_runs(store)
     assert run.info.status == "FAILED" and run.info.end_time >= run.info.start_time
     tags = run.data.tags
-    assert tags["dvc_stage"] == "train_g" and tags["rwhonet.failure"] == "true"
+    assert tags["dvc_stage"] == "train" and tags["rwhonet.failure"] == "true"
     assert tags["rwhonet.error_type"] == "RuntimeError"
     assert tags["rwhonet.error"] == "the disk is full" and tags["rwhonet.exit_code"] == "1"
     assert len(tags["git_commit"]) == 40 and "the disk is full" in tags["mlflow.note.content"]
@@ -101,7 +101,7 @@ def test_a_store_that_cannot_be_written_does_not_hide_the_error(tmp_path, monkey
     blocker.write_text("")
     monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{blocker}/mlflow.db")
     with pytest.raises(SystemExit) as exit_:
-        runner.run("train_g", lambda params: 1 / 0)
+        runner.run("train", lambda params: 1 / 0)
     assert exit_.value.code == 1
     err = capsys.readouterr().err
     assert "ZeroDivisionError" in err and "the failure could not be logged to MLflow" in err
@@ -151,7 +151,7 @@ SLEEPER = textwrap.dedent(
             time.sleep(120)
 
     sys.argv = ["pipelines/train.py", "G", "--seed", "1"]
-    runner.run("train_g", body)
+    runner.run("train", body)
     """
 )
 
@@ -188,12 +188,12 @@ def test_a_signal_mid_stage_is_a_killed_run_and_the_process_dies_of_it(tmp_path,
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == -signum, err  # as if uncaught: DVC and shells see the signal
     name = signal.Signals(signum).name
-    assert f"stage train_g interrupted by {name}" in err and "MLflow: KILLED run" in err
+    assert f"stage train interrupted by {name}" in err and "MLflow: KILLED run" in err
     (run,) = store_runs(store)
     assert run.info.status == "KILLED"
     tags = run.data.tags
-    assert tags["dvc_stage"] == "train_g" and tags["rwhonet.error_type"] == name
-    assert tags["rwhonet.error"] == f"stage train_g interrupted by {name}"
+    assert tags["dvc_stage"] == "train" and tags["rwhonet.error_type"] == name
+    assert tags["rwhonet.error"] == f"stage train interrupted by {name}"
     assert tags["rwhonet.exit_code"] == str(-signum)
     assert tags["rwhonet.command"] == "pipelines/train.py G --seed 1"
     # the half-written output went with the interrupted block; the old one stays

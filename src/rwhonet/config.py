@@ -1001,7 +1001,7 @@ def load_params(
             other read raises :class:`ConfigError` naming the key and ``reader``.
             None: everything. A DVC stage gets exactly its ``dvc.yaml`` params, so a
             value it reads without declaring it can never leave a stale output.
-        reader: who reads, for that error (``"stage train_g"``).
+        reader: who reads, for that error (``"stage train"``).
 
     Returns:
         The typed parameters (the whole file is checked either way).
@@ -1060,6 +1060,10 @@ class Guarded:
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise dataclasses.FrozenInstanceError(f"cannot assign to field {name!r}")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # A stage's jobs carry its view to their worker processes (rwhonet.stages.cores).
+        return (Guarded, (self._obj, self._prefix, self._allowed, self._reader))
 
     def __repr__(self) -> str:
         return f"Guarded({type(self._obj).__name__}, allowed={list(self._allowed)})"

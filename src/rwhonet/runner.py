@@ -1,6 +1,6 @@
 """What every pipeline stage script shares: its params, quiet libraries, readable failures.
 
-A stage script is ``runner.run("train_g", main)``: the runner loads
+A stage script is ``runner.run("train", main)``: the runner loads
 ``params.yaml`` restricted to the params ``dvc.yaml`` declares for that stage
 (:func:`declared_params`), so a stage that reads a value it does not declare
 stops with an error naming it, rather than leaving DVC to skip it when that

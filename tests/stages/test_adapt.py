@@ -192,10 +192,11 @@ def test_the_outputs_do_not_depend_on_the_number_of_workers(
     tmp_path, samples_dir, params, calibration, monkeypatch
 ):
     from rwhonet.stages import adapt as stage
+    from rwhonet.stages import cores
 
     # G as wide as the pipeline's (model.hidden): torch splits its products over threads
     g_dir = write_g(tmp_path / "g72", 72)
-    monkeypatch.setattr(stage.os, "cpu_count", lambda: 4)
+    monkeypatch.setattr(cores.os, "cpu_count", lambda: 4)
     outputs = {}
     for workers in (1, 2, 3):
         monkeypatch.setattr(stage, "MAX_WORKERS", workers)
@@ -229,24 +230,6 @@ print(sorted(m for m in sys.modules if m.split(".")[0] in ("lightning", "pytorch
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().splitlines()[-1] == "[]"  # after the stage's progress lines
-
-
-def _die(item):
-    import os
-    import signal
-
-    os.kill(os.getpid(), signal.SIGKILL)
-
-
-def test_a_worker_that_dies_fails_the_stage_instead_of_hanging(monkeypatch):
-    # multiprocessing.Pool waits forever for a killed worker; the executor must not.
-    from concurrent.futures.process import BrokenProcessPool
-
-    from rwhonet.stages import adapt as stage
-
-    monkeypatch.setattr(stage.os, "cpu_count", lambda: 2)
-    with pytest.raises(BrokenProcessPool):
-        stage._pool_map(_die, [1, 2, 3], desc="adapt")
 
 
 def test_shrink_sizes_its_update_by_evidence_from_the_training_drives_only(

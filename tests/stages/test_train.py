@@ -54,7 +54,7 @@ def test_lightnings_bar_on_a_terminal_and_plain_epoch_lines_in_ci(ci_pipeline, c
     env = {k: v for k, v in project_env(repo).items() if k != "CI"}
     if ci:
         env["CI"] = ci
-    # the same bytes as the pipeline's own train_g@1 (dvc status stays clean)
+    # the same bytes as the pipeline's own train stage (dvc status stays clean)
     code, out = run_in_terminal(
         [sys.executable, "pipelines/train.py", "G", "--seed", "1"], env=env, cwd=repo
     )

@@ -7,8 +7,9 @@ A stage module reads its inputs, calls the domain packages (``sim``, ``data``,
 :func:`rwhonet.runner.run`.
 
 - ``simulate``, ``ingest``, ``validate``, ``label``: the data stages;
-- ``train``: ``train_g`` and ``train_s``; ``adapt``: R-WhONet by every recipe and m;
+- ``train``: G- and S-WhONet at every seed; ``adapt``: R-WhONet by every recipe and m;
 - ``evaluate``: every model's predictions -> eval.json, tables, plots, MLflow;
 - ``sample_files``: the label stage's samples read back for the model stages;
-- ``model_outputs``: what the model stages write beside a model (predictions, run records).
+- ``model_outputs``: what the model stages write beside a model (predictions, run records);
+- ``cores``: the model stages' independent jobs on every core (a fork pool).
 """

@@ -40,12 +40,8 @@ target car's and from the source car's drives (what a model bundle carries for
 
 from __future__ import annotations
 
-import multiprocessing
-import os
 import time
-from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
@@ -63,6 +59,7 @@ from rwhonet.features.calibration import calibration_from_dict
 from rwhonet.features.samples import SampleSet
 from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.progress import track
+from rwhonet.stages.cores import map_on_cores, workers_for
 from rwhonet.stages.model_outputs import history_rows, model_params, predictions_frame
 from rwhonet.stages.sample_files import load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
@@ -183,46 +180,14 @@ def _timed(function: Callable[[T], R], item: T) -> tuple[R, tuple[int, int]]:
 def _pool_map(
     function: Callable[[T], R], items: list[T], desc: str
 ) -> list[tuple[R, tuple[int, int]]]:
-    """``function`` on every item, on every core, in order, each with when it ran.
-
-    Every worker gets its inputs as the items themselves (pickled), and runs torch on
-    one thread; so does this process when it runs them alone (one core, or one item),
-    so the results do not depend on the number of workers.
-    """
-    workers = min(os.cpu_count() or 1, MAX_WORKERS, max(len(items), 1))
-    timed = partial(_timed, function)
+    """``function`` on every item, on every core, in order, each with when it ran."""
 
     def shown(results):
-        return list(track(results, desc=desc, unit="recalibration", total=len(items)))
+        return track(results, desc=desc, unit="recalibration", total=len(items))
 
-    if workers < 2:
-        with _one_thread_here():
-            return shown(timed(item) for item in items)
-    # ProcessPoolExecutor rather than multiprocessing.Pool: if a worker dies (killed, out
-    # of memory) the map raises BrokenProcessPool, where a Pool would wait forever.
-    with ProcessPoolExecutor(
-        workers, mp_context=multiprocessing.get_context("fork"), initializer=_one_thread
-    ) as pool:
-        return shown(pool.map(timed, items, chunksize=max(1, len(items) // (8 * workers))))
-
-
-def _one_thread() -> None:
-    import torch
-
-    torch.set_num_threads(1)
-
-
-@contextmanager
-def _one_thread_here() -> Iterator[None]:
-    """torch on one thread in this process for a while (as in a pool's workers)."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
+    workers = workers_for(len(items), MAX_WORKERS)
+    chunk = max(1, len(items) // (8 * workers))
+    return map_on_cores(partial(_timed, function), items, workers, chunk, show=shown)
 
 
 @dataclass(frozen=True)
@@ -678,5 +643,5 @@ def main(params: Params, seed: int) -> None:
         f"({', '.join(params.adapt.recipes)}) x {len(params.adapt.m_grid)} m values, on the test "
         f"drives and (the selection evidence) the target training drives; ridge penalties on "
         f"the held-out source drives; {len(records)} runs, {seconds:.1f} s on "
-        f"{min(os.cpu_count() or 1, MAX_WORKERS)} cores -> {paths.rel(out)}"
+        f"{workers_for(10**6, MAX_WORKERS)} cores -> {paths.rel(out)}"
     )

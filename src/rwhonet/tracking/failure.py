@@ -47,7 +47,7 @@ class Failure:
     """What went wrong in one stage process.
 
     Attributes:
-        stage: the stage's name in ``dvc.yaml`` (``train_g``).
+        stage: the stage's name in ``dvc.yaml`` (``train``).
         status: ``FAILED`` (an exception) or ``KILLED`` (a signal).
         error_type: the exception's class name, or the signal's name.
         message: what the user saw (the readable report for input and config errors).

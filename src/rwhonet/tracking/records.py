@@ -1,6 +1,6 @@
 """The run record: what one MLflow run logs, as plain data the model stages write to JSON.
 
-The model stages (``train_g``, ``train_s``, ``adapt``) write one per model next to
+The model stages (``train``, ``adapt``) write one per model next to
 it (``run.json``); the ``evaluate`` stage logs them all
 (:func:`rwhonet.tracking.store.log_execution`). This module imports nothing of
 MLflow nor of the registry, so the model stages depend on it alone.

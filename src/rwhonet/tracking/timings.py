@@ -64,7 +64,8 @@ def write_timing(folder: Path, timing: Timing, *, stage: str, root: Path | None 
     Args:
         folder: the run's output folder (``models/g/seed42``, ``models/r/seed42/head/m50``).
         timing: its start and end (epoch milliseconds).
-        stage: the DVC stage that ran it (``train_g@42``), for people reading the file.
+        stage: the DVC stage that ran it (``adapt@42``, ``train (G seed 42)``), for people
+            reading the file.
         root: the project root; defaults to :data:`rwhonet.paths.ROOT`.
 
     Returns:
