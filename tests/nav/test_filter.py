@@ -281,3 +281,51 @@ def test_the_filter_s_defaults_are_the_shipped_generic_sensor_figures():
             continue
         for name, value in dataclasses.asdict(default).items():
             assert getattr(got, name) == pytest.approx(value), (field, name)
+
+
+def _reversing_drive(rng, w=8, gps_s=120):
+    """Forward S-bends with GNSS, then in the outage a stop, 12 s reversing round a
+    bend at 2 m/s, a stop and forward again; exact sensors, wheel speeds as magnitudes."""
+    signed = np.r_[
+        np.full(gps_s, 10.0),
+        np.full(20, 8.0),
+        [1.0, 0.0],
+        np.full(12, -2.0),
+        [0.0, 1.0],
+        np.full(30, 8.0),
+    ]
+    n = signed.size
+    turn = 0.04 * np.sin(np.arange(n) / 15.0)
+    turn[gps_s + 22 : gps_s + 34] = 0.08  # steering while reversing: the body turns left
+    delta = np.tile(turn, (w, 1)) * rng.uniform(0.8, 1.2, (w, 1))
+    d_signed = np.tile(signed, (w, 1))
+    psi = np.empty((w, n + 1))
+    psi[:, 0] = rng.uniform(-np.pi, np.pi, w)
+    e, nn = np.zeros((w, n + 1)), np.zeros((w, n + 1))
+    for k in range(n):
+        mid = psi[:, k] - 0.5 * delta[:, k]
+        chord = d_signed[:, k] * sinc_half(delta[:, k])[0]
+        e[:, k + 1] = e[:, k] + chord * np.sin(mid)
+        nn[:, k + 1] = nn[:, k] + chord * np.cos(mid)
+        psi[:, k + 1] = psi[:, k] - delta[:, k]
+    # the rear wheels' yaw from magnitudes: reversing counts the turn the wrong way round
+    wheel = np.where(d_signed >= 0, delta, -delta)
+    inputs = NavInputs(np.abs(d_signed), np.full((w, n), 1e-4), wheel, delta, e, nn)
+    return inputs, gps_s
+
+
+def test_a_reversing_turn_is_told_by_the_wheels_against_the_gyro_and_driven_backwards():
+    inputs, outage = _reversing_drive(np.random.default_rng(7))
+    cfg = NavConfig()
+    fused = run_outage(inputs, outage, cfg, "fused")
+    gyro = run_outage(inputs, outage, cfg, "gyro")
+    # 24 m reversed: driven forwards, the gyro-only track ends about twice that away
+    assert np.all(gyro.horizontal_m > 30.0), gyro.horizontal_m
+    assert np.all(fused.horizontal_m < 1.0), fused.horizontal_m
+    track = run(inputs, cfg, "fused")
+    assert track.rejected["reversing"] == 12 * inputs.dist_m.shape[0]
+
+
+def test_a_straight_drive_with_noisy_sensors_is_never_taken_for_reversing():
+    cfg, inputs = _straight_with_bias(0.4, np.random.default_rng(8))
+    assert run(inputs, cfg, "fused").rejected["reversing"] == 0

@@ -49,6 +49,19 @@ Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
    dead-reckon;
 4. ``δ`` is marginalised out.
 
+Reversing. Wheel speeds are magnitudes, so a car reversing is dead-reckoned
+forwards unless something says otherwise; with both yaw sensors (``fused``)
+the turn says it: going backwards, the rear wheels' yaw ``Y_w`` counts the
+gyro's turn the wrong way round. A second whose wheel yaw lies beyond
+``yaw_gate`` standard deviations of the forward prediction and within them of
+the reversed one, where the two lie far enough apart to tell (``|δ|`` of at
+least ``yaw_gate`` standard deviations) and the car slower than
+``reverse_max_m_s`` (a reverse gear's pace), is a reversing second: its distance
+moves the car backwards and its wheel yaw is left out. A straight reverse
+shows no turn and stays undetected; a reversing run carries on through its
+straight seconds until the car stops (``reverse_stop_m``) or a turn says
+forwards again.
+
 The filter starts on the first second with a course (its azimuth, the fix), or
 from a state handed over (:class:`NavStart`: a run over a whole drive segment
 with GNSS, snapshotted where each outage window begins, then every window
@@ -124,6 +137,11 @@ class NavConfig:
             sensors decide it).
         reset_after_s: after this many fixes in a row refused by the gate, the
             pose restarts on GNSS (the sensor states are kept).
+        reverse_stop_m: a second shorter than this ends a reversing run (the car
+            stopped); ``fused`` only (module docstring, Reversing).
+        reverse_max_m_s: no second faster than this is taken for reversing: cars
+            reverse at walking to jogging pace (parking, a three-point turn), while
+            a fast second's large wheel-yaw innovation is slip or a sensor fault.
         load_min: ``c`` is kept in ``[load_min, load_max]`` (the load transfer makes
             the outer wheel report more, never less: 0; 0.01 is a very soft axle).
         load_max: see ``load_min``.
@@ -151,6 +169,8 @@ class NavConfig:
     yaw_gate: float = GATE_SD
     delta_prior_sd: float = 1.0
     reset_after_s: int = 10
+    reverse_stop_m: float = 0.3
+    reverse_max_m_s: float = 4.0
     load_min: float = 0.0
     load_max: float = 0.01
     scale_max_off: float = 0.3
@@ -528,6 +548,34 @@ def _initial(
     return x, p
 
 
+def _reversing(
+    pa: np.ndarray,
+    h_row: np.ndarray,
+    innov: np.ndarray,
+    r: np.ndarray,
+    flip: np.ndarray,
+    measured: np.ndarray,
+    before: np.ndarray,
+    gate: float,
+) -> np.ndarray:
+    """Which rows reverse this second (module docstring, Reversing).
+
+    The gyro has updated the second's yaw ``δ`` (``measured`` rows); the rear
+    wheels' yaw is compared with its forward prediction (``innov``, its Jacobian
+    ``h_row``, noise ``r``) and with the reversed one, ``flip`` further away
+    (``2 δ`` in the wheels' units), each in standard deviations of the forward
+    innovation. Where the two predictions are too close to tell apart (a straight
+    second), the row keeps what it was (``before``).
+    """
+    var = (h_row * (pa @ h_row[:, :, None])[:, :, 0]).sum(axis=1) + r
+    g2 = gate * gate * var
+    far_ahead = innov * innov > g2
+    near_behind = (innov + flip) ** 2 <= g2
+    telling = flip * flip > 4.0 * g2
+    decided = measured & np.isfinite(innov) & telling
+    return np.where(decided, far_ahead & near_behind, before)
+
+
 def run(
     inputs: NavInputs,
     config: NavConfig | None = None,
@@ -611,8 +659,9 @@ def run(
         snap_slot.setdefault(sec, []).append(i)
     snap_x = np.full((w, snap.size, S), np.nan) if snapshots is not None else None
     snap_p = np.full((w, snap.size, S, S), np.nan) if snapshots is not None else None
-    rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0}
+    rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0, "reversing": 0}
     refused = np.zeros(w, np.int64)  # consecutive fixes the gate refused
+    backwards = np.zeros(w, bool)  # in a reversing run (module docstring)
     for k in range(n):
         d = dist[:, k]
         ce, cn = fe[:, k + 1] - fe[:, k], fn[:, k + 1] - fn[:, k]
@@ -671,11 +720,19 @@ def run(
                 h_row[:, BV] = -d * d * c_d2 / s_w
                 innov = wh_k - turn * c_d2 / s_w - xa[:, EW]
                 r = wheel_var + (cfg.wheels.model_rel * np.nan_to_num(wh_k)) ** 2
+                if use_gyro:
+                    flip = 2.0 * dl * c_d2 / s_w
+                    backwards = _reversing(
+                        pa, h_row, innov, r, flip, measured, backwards, cfg.yaw_gate
+                    )
+                    backwards &= on & (np.nan_to_num(d) >= cfg.reverse_stop_m)
+                    backwards &= np.nan_to_num(d) <= cfg.reverse_max_m_s
+                    rejected["reversing"] += int(backwards.sum())
                 gate = np.where(measured, cfg.yaw_gate, np.inf)
-                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, on, gate)
-                rejected["wheels"] += int((on & np.isfinite(wh_k) & ~ok).sum())
-            # 2. the arc of the second
-            xa_new, jac, ge, gnn = propagate(xa, d)
+                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, on & ~backwards, gate)
+                rejected["wheels"] += int((on & ~backwards & np.isfinite(wh_k) & ~ok).sum())
+            # 2. the arc of the second (backwards in a reversing second)
+            xa_new, jac, ge, gnn = propagate(xa, np.where(backwards, -d, d))
             xa_new[:, GE] *= phi
             xa_new[:, GN] *= phi
             xa_new[:, EW] *= phi_w
@@ -695,7 +752,7 @@ def run(
             xa = np.where(on[:, None], xa_new, xa)
             pa = np.where(on[:, None, None], pa_new, pa)
             # 3. GNSS
-            h, h_row = course_model(xa, d, cfg.antenna_m)
+            h, h_row = course_model(xa, np.where(backwards, -d, d), cfg.antenna_m)
             innov = _wrap(course - h)
             xa, pa, ok = _scalar_update(xa, pa, h_row, innov, course_var, on & has_course, gn.gate)
             rejected["course"] += int((on & has_course & ~ok).sum())
