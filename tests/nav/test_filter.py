@@ -284,8 +284,9 @@ def test_the_filter_s_defaults_are_the_shipped_generic_sensor_figures():
 
 
 def _reversing_drive(rng, w=8, gps_s=120):
-    """Forward S-bends with GNSS, then in the outage a stop, 12 s reversing round a
-    bend at 2 m/s, a stop and forward again; exact sensors, wheel speeds as magnitudes."""
+    """Forward S-bends with GNSS, then in the outage a stop, 12 s reversing at 2 m/s
+    (4 s straight, then round a bend), a stop and forward again; exact sensors, wheel
+    speeds as magnitudes."""
     signed = np.r_[
         np.full(gps_s, 10.0),
         np.full(20, 8.0),
@@ -296,7 +297,9 @@ def _reversing_drive(rng, w=8, gps_s=120):
     ]
     n = signed.size
     turn = 0.04 * np.sin(np.arange(n) / 15.0)
-    turn[gps_s + 22 : gps_s + 34] = 0.08  # steering while reversing: the body turns left
+    # reversing: 4 s straight back, then steering (the body turns left)
+    turn[gps_s + 22 : gps_s + 26] = 0.0
+    turn[gps_s + 26 : gps_s + 34] = 0.08
     delta = np.tile(turn, (w, 1)) * rng.uniform(0.8, 1.2, (w, 1))
     d_signed = np.tile(signed, (w, 1))
     psi = np.empty((w, n + 1))
@@ -323,7 +326,8 @@ def test_a_reversing_turn_is_told_by_the_wheels_against_the_gyro_and_driven_back
     assert np.all(gyro.horizontal_m > 30.0), gyro.horizontal_m
     assert np.all(fused.horizontal_m < 1.0), fused.horizontal_m
     track = run(inputs, cfg, "fused")
-    assert track.rejected["reversing"] == 12 * inputs.dist_m.shape[0]
+    # the 8 turning seconds tell it; the 4 straight ones before are turned round then
+    assert track.rejected["reversing"] == 8 * inputs.dist_m.shape[0]
 
 
 def test_a_straight_drive_with_noisy_sensors_is_never_taken_for_reversing():

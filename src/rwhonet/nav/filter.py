@@ -57,10 +57,14 @@ gyro's turn the wrong way round. A second whose wheel yaw lies beyond
 the reversed one, where the two lie far enough apart to tell (``|δ|`` of at
 least ``yaw_gate`` standard deviations) and the car slower than
 ``reverse_max_m_s`` (a reverse gear's pace), is a reversing second: its distance
-moves the car backwards and its wheel yaw is left out. A straight reverse
-shows no turn and stays undetected; a reversing run carries on through its
+moves the car backwards and its wheel yaw is left out. A car changes
+direction only through a stop, so a reversing run carries on through its
 straight seconds until the car stops (``reverse_stop_m``) or a turn says
-forwards again.
+forwards again; and the straight seconds since the last stop that were driven
+forwards (slowly) before the turn told otherwise are turned round when it does (the
+position moves back by twice their travel, heading untouched: the gyro's
+yaw holds either way). A straight reverse between two stops shows no turn and
+stays undetected.
 
 The filter starts on the first second with a course (its azimuth, the fix), or
 from a state handed over (:class:`NavStart`: a run over a whole drive segment
@@ -564,16 +568,20 @@ def _reversing(
     wheels' yaw is compared with its forward prediction (``innov``, its Jacobian
     ``h_row``, noise ``r``) and with the reversed one, ``flip`` further away
     (``2 δ`` in the wheels' units), each in standard deviations of the forward
-    innovation. Where the two predictions are too close to tell apart (a straight
-    second), the row keeps what it was (``before``).
+    innovation. A run starts on a second beyond the gate ahead and within it
+    behind; once started, it goes on while the reversed prediction is the nearer
+    (the wheel-yaw model, fitted going forwards, fits a reversing turn less well).
+    Where the two predictions are too close to tell apart (a straight second), the
+    row keeps what it was (``before``).
     """
     var = (h_row * (pa @ h_row[:, :, None])[:, :, 0]).sum(axis=1) + r
     g2 = gate * gate * var
     far_ahead = innov * innov > g2
     near_behind = (innov + flip) ** 2 <= g2
     telling = flip * flip > 4.0 * g2
+    nearer_behind = (innov + flip) ** 2 < innov * innov
     decided = measured & np.isfinite(innov) & telling
-    return np.where(decided, far_ahead & near_behind, before)
+    return np.where(decided, np.where(before, nearer_behind, far_ahead & near_behind), before)
 
 
 def run(
@@ -662,6 +670,7 @@ def run(
     rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0, "reversing": 0}
     refused = np.zeros(w, np.int64)  # consecutive fixes the gate refused
     backwards = np.zeros(w, bool)  # in a reversing run (module docstring)
+    since_stop = np.zeros((w, 2))  # east/north travel since the car last stood, forwards
     for k in range(n):
         d = dist[:, k]
         ce, cn = fe[:, k + 1] - fe[:, k], fn[:, k + 1] - fn[:, k]
@@ -722,12 +731,17 @@ def run(
                 r = wheel_var + (cfg.wheels.model_rel * np.nan_to_num(wh_k)) ** 2
                 if use_gyro:
                     flip = 2.0 * dl * c_d2 / s_w
+                    before = backwards
                     backwards = _reversing(
                         pa, h_row, innov, r, flip, measured, backwards, cfg.yaw_gate
                     )
                     backwards &= on & (np.nan_to_num(d) >= cfg.reverse_stop_m)
                     backwards &= np.nan_to_num(d) <= cfg.reverse_max_m_s
                     rejected["reversing"] += int(backwards.sum())
+                    # the run's straight start, driven forwards so far, turned round
+                    turned = backwards & ~before
+                    xa[:, [E, N]] -= np.where(turned[:, None], 2.0 * since_stop, 0.0)
+                    since_stop = np.where(turned[:, None], 0.0, since_stop)
                 gate = np.where(measured, cfg.yaw_gate, np.inf)
                 xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, on & ~backwards, gate)
                 rejected["wheels"] += int((on & ~backwards & np.isfinite(wh_k) & ~ok).sum())
@@ -749,6 +763,11 @@ def run(
             pa_new[:, N, N] += var_d * gnn * gnn
             pa_new[:, E, N] += var_d * ge * gnn
             pa_new[:, N, E] += var_d * ge * gnn
+            # a reversing run is slow throughout: a faster second cannot be one's start
+            d0 = np.nan_to_num(d)
+            forwards = on & ~backwards & (d0 >= cfg.reverse_stop_m) & (d0 <= cfg.reverse_max_m_s)
+            moved = xa_new[:, [E, N]] - xa[:, [E, N]]
+            since_stop = np.where(forwards[:, None], since_stop + moved, 0.0)
             xa = np.where(on[:, None], xa_new, xa)
             pa = np.where(on[:, None, None], pa_new, pa)
             # 3. GNSS
