@@ -144,7 +144,9 @@ def main(params: Params, which: Literal["G", "S"] | None = None, seed: int | Non
     seeds = params.seeds if seed is None else [seed]
     trainer = params.train.trainer
     one_process_each = trainer.world_size == 1 and trainer.accelerator == "cpu"
-    workers = workers_for(len(models) * len(seeds), MAX_WORKERS) if one_process_each else 1
+    # a fit runs on train.num_threads threads (models.train.fit): that many cores each
+    threads = params.train.num_threads
+    workers = workers_for(len(models) * len(seeds), MAX_WORKERS, threads) if one_process_each else 1
     bar = None if workers == 1 else False  # side by side, the fits print plain lines
     jobs = [(params, m, s, bar) for m in models for s in seeds]
     map_on_cores(_train_one, jobs, workers, show=_printed)
