@@ -71,6 +71,7 @@ def test_calibrate_2d_fits_each_run_and_leaves_a_run_of_few_windows_normal():
             "cov_ee_m2": cov,
             "cov_en_m2": 0.0,
             "cov_nn_m2": cov,
+            "outage_s": 30,
         }
     )
     few = many.head(5).assign(model="WPM", seed=None)
@@ -78,7 +79,46 @@ def test_calibrate_2d_fits_each_run_and_leaves_a_run_of_few_windows_normal():
     g = got[("G", 7, "fused")]
     assert g.n_windows == n and g.scale == pytest.approx(1.5, rel=0.1)
     assert g.dof == pytest.approx(3.0, rel=0.15)
+    assert g.scales == {30: pytest.approx(g.scale, rel=1e-3)}  # one length: the same
     assert got[("WPM", None, "fused")] == Calibration2D(1.0, np.inf, 5)
+
+
+def test_each_outage_length_with_enough_windows_gets_its_own_scale():
+    """Long outages whose covariance grew twice as fast as their errors: their own c."""
+    rng = np.random.default_rng(4)
+    n = 20000
+    z = rng.normal(size=(n, 2)) * np.sqrt(1.5) / np.sqrt(rng.chisquare(5.0, n) / 5.0)[:, None]
+    cov = rng.uniform(1.0, 9.0, n)
+    length = np.where(np.arange(n) < n // 2, 30, 180)
+    length[:10] = 60  # too few windows of their own: the pooled scale
+    grown = np.where(length == 180, 2.0, 1.0)  # the filter's covariance, twice too large
+    windows = pd.DataFrame(
+        {
+            "model": "G",
+            "seed": 7,
+            "control": "fused",
+            "counted": True,
+            "outage_s": length,
+            "err_e_m": z[:, 0] * np.sqrt(cov),
+            "err_n_m": z[:, 1] * np.sqrt(cov),
+            "cov_ee_m2": cov * grown,
+            "cov_en_m2": 0.0,
+            "cov_nn_m2": cov * grown,
+        }
+    )
+    windows["horizontal_m"] = np.hypot(windows["err_e_m"], windows["err_n_m"])
+    windows["distance_m"] = 1000.0
+    g = calibrate_2d(windows)[("G", 7, "fused")]
+    assert set(g.scales) == {30, 180}
+    assert g.scales[30] == pytest.approx(1.5, rel=0.1)
+    assert g.scales[180] == pytest.approx(0.75, rel=0.1)
+    assert g.scale_at(60) == g.scale and g.scale_at(None) == g.scale
+    # and the coverage of each length is then at its nominal contents
+    for L in (30, 180):
+        stats = window_stats(windows[windows["outage_s"] == L], g, L)
+        assert stats["calib_scale"] == g.scales[L]
+        assert stats["cover_1sigma"] == pytest.approx(0.6827, abs=0.02)
+        assert stats["cover_2sigma"] == pytest.approx(0.9545, abs=0.02)
 
 
 def _frame(samples_dir):

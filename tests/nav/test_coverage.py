@@ -13,6 +13,7 @@ from rwhonet.nav import (
     crse_coverage,
     crse_prediction,
     fit_t2,
+    fit_t2_scale,
     mahalanobis_sq,
     nll_2d,
     t2_quantile,
@@ -128,3 +129,14 @@ def test_the_t_likelihood_by_hand():
     assert nll_2d(error, cov, 1.0, 2.0) == pytest.approx(np.log(2 * np.pi) + 2 * np.log(2.0))
     # the normal with a scale c: ln 2 pi + ln c + d2 / (2c)
     assert nll_2d(error, cov, 2.0) == pytest.approx(np.log(2 * np.pi) + np.log(2.0) + 0.5)
+
+
+def test_fit_t2_scale_with_the_tails_held_recovers_the_scale():
+    rng = np.random.default_rng(11)
+    n = 20000
+    z = rng.normal(size=(n, 2)) * np.sqrt(2.5) / np.sqrt(rng.chisquare(4.0, n) / 4.0)[:, None]
+    d2 = (z**2).sum(axis=1)
+    assert fit_t2_scale(d2, 4.0) == pytest.approx(2.5, rel=0.05)
+    # a normal: the mean radius over its two dimensions, in closed form
+    assert fit_t2_scale(np.array([1.0, 3.0, 5.0]), np.inf, min_windows=3) == 1.5
+    assert fit_t2_scale(np.array([1.0, np.nan]), 4.0, min_windows=2) is None

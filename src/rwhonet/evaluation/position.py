@@ -60,6 +60,7 @@ from rwhonet.evaluation.windows import evaluated_rows, outage_windows
 from rwhonet.features.deadreckoning import course_rad, dead_reckon, fit_heading, wheel_yaw_rad
 from rwhonet.geo.local import offsets_m
 from rwhonet.nav import (
+    MIN_T2_WINDOWS,
     SIGMA_CONTENT,
     NavConfig,
     NavInputs,
@@ -67,6 +68,7 @@ from rwhonet.nav import (
     config_from_params,
     coverage_2d,
     fit_t2,
+    fit_t2_scale,
     mahalanobis_sq,
     nll_2d,
     run,
@@ -529,15 +531,23 @@ class Calibration2D:
     """A run's 2D calibration, fitted on target training windows (:func:`calibrate_2d`).
 
     Attributes:
-        scale: ``c``, the filter's covariance times it is the t's scale matrix.
+        scale: ``c``, the filter's covariance times it is the t's scale matrix
+            (fitted over every outage length).
         dof: ``ν``, its degrees of freedom (``inf``: a normal).
         n_windows: training windows fitted on (below
             :data:`~rwhonet.nav.coverage.MIN_T2_WINDOWS`: not fitted, ``c = 1, ν = ∞``).
+        scales: ``c`` of each outage length with enough windows of its own, ``ν``
+            held (:func:`calibrate_2d`); other lengths take ``scale``.
     """
 
     scale: float = 1.0
     dof: float = float("inf")
     n_windows: int = 0
+    scales: dict[int, float] = field(default_factory=dict)
+
+    def scale_at(self, outage_s: int | None) -> float:
+        """``c`` for windows of one outage length."""
+        return self.scales.get(outage_s, self.scale) if outage_s is not None else self.scale
 
 
 def _errors_and_covs(w: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -552,8 +562,11 @@ def _errors_and_covs(w: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return err, cov
 
 
-def window_stats(windows: pd.DataFrame, calibration: Calibration2D | None = None) -> dict:
-    """One run's windows of one outage length summarised.
+def window_stats(
+    windows: pd.DataFrame, calibration: Calibration2D | None = None, outage_s: int | None = None
+) -> dict:
+    """One run's windows of one outage length (``outage_s``: its calibration's scale)
+    summarised.
 
     Returns:
         ``pos_mean``, ``pos_max`` (m); ``pos_pct`` (the errors' sum over the
@@ -573,7 +586,8 @@ def window_stats(windows: pd.DataFrame, calibration: Calibration2D | None = None
     h = w["horizontal_m"].to_numpy(np.float64)
     d = w["distance_m"].to_numpy(np.float64)
     err, cov = _errors_and_covs(w)
-    cover = coverage_2d(err, cov, scale=cal.scale, dof=cal.dof)
+    scale = cal.scale_at(outage_s)
+    cover = coverage_2d(err, cov, scale=scale, dof=cal.dof)
     own = coverage_2d(err, cov)
     worst = int(np.argmax(h))
     return {
@@ -583,11 +597,11 @@ def window_stats(windows: pd.DataFrame, calibration: Calibration2D | None = None
         "pos_pct_max": float(100.0 * h[worst] / d[worst]) if d[worst] > 0 else float("nan"),
         "cover_1sigma": cover[SIGMA_CONTENT[0]],
         "cover_2sigma": cover[SIGMA_CONTENT[1]],
-        "nll": nll_2d(err, cov, cal.scale, cal.dof),
+        "nll": nll_2d(err, cov, scale, cal.dof),
         "cover_1sigma_filter": own[SIGMA_CONTENT[0]],
         "cover_2sigma_filter": own[SIGMA_CONTENT[1]],
         "nll_filter": nll_2d(err, cov),
-        "calib_scale": cal.scale,
+        "calib_scale": scale,
         "calib_dof": cal.dof if np.isfinite(cal.dof) else float("nan"),
         "n_windows": len(w),
     }
@@ -596,9 +610,13 @@ def window_stats(windows: pd.DataFrame, calibration: Calibration2D | None = None
 def calibrate_2d(windows: pd.DataFrame) -> dict[tuple, Calibration2D]:
     """Each run's bivariate-t calibration from its training windows' ends.
 
-    Pooled over the outage lengths (the filter's covariance already grows with the
-    outage; what is calibrated is its scale and its tails), the counted windows'
-    squared Mahalanobis radii fitted by :func:`rwhonet.nav.coverage.fit_t2`.
+    The tails (``ν``) and a scale from every outage length's counted windows pooled
+    (:func:`rwhonet.nav.coverage.fit_t2`); then each length's own scale with ``ν``
+    held, where it has :data:`~rwhonet.nav.coverage.MIN_T2_WINDOWS` windows
+    (:func:`rwhonet.nav.coverage.fit_t2_scale`): the filter's covariance grows with
+    the outage, but not necessarily at the rate its errors do (its random walks are
+    generic figures, not the car's), so one scale can be right for short outages and
+    too large for long ones.
 
     Args:
         windows: :func:`filter_windows` on the target training drives.
@@ -615,8 +633,15 @@ def calibrate_2d(windows: pd.DataFrame) -> dict[tuple, Calibration2D]:
         err, cov = _errors_and_covs(w)
         d2 = mahalanobis_sq(err, cov) if len(w) else np.zeros(0)
         scale, dof, n = fit_t2(d2)
+        scales = {}
+        if n >= MIN_T2_WINDOWS:
+            lengths = w["outage_s"].to_numpy()
+            for L in np.unique(lengths):
+                c_l = fit_t2_scale(d2[lengths == L], dof)
+                if c_l is not None:
+                    scales[int(L)] = c_l
         key_seed = None if pd.isna(seed) else int(seed)
-        out[(model, key_seed, control)] = Calibration2D(scale, dof, n)
+        out[(model, key_seed, control)] = Calibration2D(scale, dof, n, scales)
     return out
 
 
@@ -638,7 +663,7 @@ def position_per_seed(
         ["model", "control", "outage_s", "seed"], sort=False, dropna=False
     ):
         key = (model, None if pd.isna(seed) else int(seed), control)
-        stats = window_stats(g, calibrations.get(key))
+        stats = window_stats(g, calibrations.get(key), int(L))
         for s in seeds if pd.isna(seed) else [int(seed)]:
             rows.append(
                 {

@@ -18,12 +18,14 @@ arrays in, arrays out.
 
 from rwhonet.nav.coverage import (
     ELLIPSE_CONTENT,
+    MIN_T2_WINDOWS,
     SIGMA_CONTENT,
     coverage_1d,
     coverage_2d,
     crse_coverage,
     crse_prediction,
     fit_t2,
+    fit_t2_scale,
     mahalanobis_sq,
     nll_2d,
     t2_quantile,
@@ -44,6 +46,7 @@ from rwhonet.nav.sensors import GnssSpec, GyroSpec, WheelSpec
 __all__ = [
     "CONTROLS",
     "ELLIPSE_CONTENT",
+    "MIN_T2_WINDOWS",
     "SIGMA_CONTENT",
     "STATE",
     "GnssSpec",
@@ -60,6 +63,7 @@ __all__ = [
     "crse_coverage",
     "crse_prediction",
     "fit_t2",
+    "fit_t2_scale",
     "mahalanobis_sq",
     "nll_2d",
     "run",

@@ -162,6 +162,29 @@ def fit_t2(d2: np.ndarray, min_windows: int = MIN_T2_WINDOWS) -> tuple[float, fl
     return float(c), float(nu), int(len(r))
 
 
+def fit_t2_scale(d2: np.ndarray, dof: float, min_windows: int = MIN_T2_WINDOWS) -> float | None:
+    """``c`` of the bivariate t with ``ν`` given that fits squared Mahalanobis radii best.
+
+    Maximum likelihood over ``ln c`` alone (one outage length's windows, the tails
+    taken from a fit over every length, :func:`fit_t2`); a normal (``ν = ∞``):
+    ``mean(d²) / 2``. Fewer than ``min_windows`` finite radii: None.
+    """
+    r = np.asarray(d2, np.float64)
+    r = np.maximum(r[np.isfinite(r)], 1e-12)
+    if len(r) < min_windows:
+        return None
+    if not np.isfinite(dof):
+        return float(np.mean(r) / 2.0)
+
+    def nll(theta: np.ndarray) -> float:
+        c = np.exp(theta[0])
+        return float(np.mean(np.log(c) + (0.5 * dof + 1.0) * np.log1p(r / (c * dof))))
+
+    start = np.array([np.log(max(np.mean(r) / 2.0, 1e-9))])
+    res = minimize(nll, start, method="L-BFGS-B", bounds=[(-30.0, 30.0)])
+    return float(np.exp(res.x[0]))
+
+
 def coverage_1d(error: np.ndarray, sd: np.ndarray, ks: tuple[float, ...] = (1.0, 2.0)) -> dict:
     """Share of windows whose scalar error lies within ``k`` predicted standard deviations.
 

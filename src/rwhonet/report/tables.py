@@ -395,11 +395,13 @@ def _cover_cell(r) -> str:
     )
 
 
-def _calib_cell(r) -> str:
-    if r is None or not r.n_windows:
+def _calib_cell(rows: list) -> str:
+    """A model's calibration over its outage lengths (rows in length order)."""
+    rows = [r for r in rows if r.n_windows]
+    if not rows:
         return "–"
-    dof = "∞" if not math.isfinite(r.calib_dof) else f"{r.calib_dof:.1f}"
-    return f"c {r.calib_scale:.2f}, ν {dof}"
+    dof = "∞" if not math.isfinite(rows[-1].calib_dof) else f"{rows[-1].calib_dof:.1f}"
+    return "c " + " / ".join(f"{r.calib_scale:.2f}" for r in rows) + f", ν {dof}"
 
 
 def _per_model_table(
@@ -479,13 +481,14 @@ def nav_calibration_table(ev: Evaluation) -> str | None:
         return None
     rows = pos[pos["control"] == plan["control"]]
     table = _per_model_table(ev, rows, ": 1σ / 2σ; NLL (the filter's own)", _cover_cell)
-    longest = rows[rows["outage_s"] == rows["outage_s"].max()]
+    lengths = sorted(rows["outage_s"].unique())
     calib = "; ".join(
-        f"{_model_label(r.model, ev)} {_calib_cell(r)}"
-        for r in longest.itertuples()
-        if r.model != GNSS_DISTANCE
+        f"{_model_label(model, ev)} {_calib_cell(list(g.sort_values('outage_s').itertuples()))}"
+        for model, g in rows.groupby("model", sort=False)
+        if model != GNSS_DISTANCE
     )
-    head = "The calibration (mean over seeds; the same for every outage length)"
+    at = " / ".join(f"{int(L)}" for L in lengths)
+    head = f"The calibration (mean over seeds; c at {at} s, ν the same for every length)"
     return f"{table}\n\n{head}: {calib}."
 
 
