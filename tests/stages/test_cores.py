@@ -55,6 +55,7 @@ def test_workers_are_one_per_core_at_most_the_cap_and_the_items(two_cores):
     assert cores.workers_for(6, 1) == 1
     assert cores.workers_for(0, 8) == 1
     assert cores.workers_for(6, 8, threads_each=2) == 1  # jobs on two threads each
+    assert cores.cores_for(8) == 2 and cores.cores_for(1) == 1 and cores.cores_for(8, 4) == 1
 
 
 def test_a_worker_that_dies_fails_the_stage_instead_of_hanging():

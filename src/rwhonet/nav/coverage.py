@@ -127,6 +127,12 @@ MIN_T2_WINDOWS = 20  # fewer training windows: no calibration (the filter's norm
 T2_DOF_BOUNDS = (1.0, 1000.0)  # ν: a finite mean radius at the low end; normal at the top
 
 
+def _radius_nll(r: np.ndarray, c: float, nu: float) -> float:
+    """:func:`t2_nll`'s mean without its terms that depend on neither ``c`` nor ``ν``
+    (``ln 2π``, ``½ ln det Σ``): what the fits below minimise."""
+    return float(np.mean(np.log(c) + (0.5 * nu + 1.0) * np.log1p(r / (c * nu))))
+
+
 def fit_t2(d2: np.ndarray, min_windows: int = MIN_T2_WINDOWS) -> tuple[float, float, int]:
     """``c`` and ``ν`` of the bivariate t that fits squared Mahalanobis radii best.
 
@@ -151,7 +157,7 @@ def fit_t2(d2: np.ndarray, min_windows: int = MIN_T2_WINDOWS) -> tuple[float, fl
 
     def nll(theta: np.ndarray) -> float:
         c, nu = np.exp(theta)
-        return float(np.mean(np.log(c) + (0.5 * nu + 1.0) * np.log1p(r / (c * nu))))
+        return _radius_nll(r, c, nu)
 
     lo, hi = np.log(T2_DOF_BOUNDS)
     start = np.array([np.log(max(np.mean(r) / 2.0, 1e-9)), np.log(10.0)])
@@ -177,8 +183,7 @@ def fit_t2_scale(d2: np.ndarray, dof: float, min_windows: int = MIN_T2_WINDOWS) 
         return float(np.mean(r) / 2.0)
 
     def nll(theta: np.ndarray) -> float:
-        c = np.exp(theta[0])
-        return float(np.mean(np.log(c) + (0.5 * dof + 1.0) * np.log1p(r / (c * dof))))
+        return _radius_nll(r, np.exp(theta[0]), dof)
 
     start = np.array([np.log(max(np.mean(r) / 2.0, 1e-9))])
     res = minimize(nll, start, method="L-BFGS-B", bounds=[(-30.0, 30.0)])

@@ -673,16 +673,14 @@ def run(
     since_stop = np.zeros((w, 2))  # east/north travel since the car last stood, forwards
     for k in range(n):
         d = dist[:, k]
+        d0 = np.nan_to_num(d)
         ce, cn = fe[:, k + 1] - fe[:, k], fn[:, k + 1] - fn[:, k]
         chord = np.hypot(ce, cn)
         has_fix = np.isfinite(fe[:, k + 1]) & np.isfinite(fn[:, k + 1])
         # A course needs the car to move, by the odometry as well as by the fixes: a
         # standing car's fixes metres apart (a consumer receiver's noise) point anywhere.
         has_course = (
-            has_fix
-            & np.isfinite(chord)
-            & (chord >= gn.min_course_m)
-            & (np.nan_to_num(d) >= gn.min_course_m)
+            has_fix & np.isfinite(chord) & (chord >= gn.min_course_m) & (d0 >= gn.min_course_m)
         )
         course = np.arctan2(ce, cn)
         # The course's fixes are the position updates' too: its white part counts twice
@@ -735,8 +733,7 @@ def run(
                     backwards = _reversing(
                         pa, h_row, innov, r, flip, measured, backwards, cfg.yaw_gate
                     )
-                    backwards &= on & (np.nan_to_num(d) >= cfg.reverse_stop_m)
-                    backwards &= np.nan_to_num(d) <= cfg.reverse_max_m_s
+                    backwards &= on & (d0 >= cfg.reverse_stop_m) & (d0 <= cfg.reverse_max_m_s)
                     rejected["reversing"] += int(backwards.sum())
                     # the run's straight start, driven forwards so far, turned round
                     turned = backwards & ~before
@@ -746,7 +743,8 @@ def run(
                 xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, on & ~backwards, gate)
                 rejected["wheels"] += int((on & ~backwards & np.isfinite(wh_k) & ~ok).sum())
             # 2. the arc of the second (backwards in a reversing second)
-            xa_new, jac, ge, gnn = propagate(xa, np.where(backwards, -d, d))
+            d_signed = np.where(backwards, -d, d)
+            xa_new, jac, ge, gnn = propagate(xa, d_signed)
             xa_new[:, GE] *= phi
             xa_new[:, GN] *= phi
             xa_new[:, EW] *= phi_w
@@ -764,14 +762,13 @@ def run(
             pa_new[:, E, N] += var_d * ge * gnn
             pa_new[:, N, E] += var_d * ge * gnn
             # a reversing run is slow throughout: a faster second cannot be one's start
-            d0 = np.nan_to_num(d)
             forwards = on & ~backwards & (d0 >= cfg.reverse_stop_m) & (d0 <= cfg.reverse_max_m_s)
             moved = xa_new[:, [E, N]] - xa[:, [E, N]]
             since_stop = np.where(forwards[:, None], since_stop + moved, 0.0)
             xa = np.where(on[:, None], xa_new, xa)
             pa = np.where(on[:, None, None], pa_new, pa)
             # 3. GNSS
-            h, h_row = course_model(xa, np.where(backwards, -d, d), cfg.antenna_m)
+            h, h_row = course_model(xa, d_signed, cfg.antenna_m)
             innov = _wrap(course - h)
             xa, pa, ok = _scalar_update(xa, pa, h_row, innov, course_var, on & has_course, gn.gate)
             rejected["course"] += int((on & has_course & ~ok).sum())

@@ -59,7 +59,7 @@ from rwhonet.features.calibration import calibration_from_dict
 from rwhonet.features.samples import SampleSet
 from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.progress import track
-from rwhonet.stages.cores import map_on_cores, workers_for
+from rwhonet.stages.cores import cores_for, map_on_cores, workers_for
 from rwhonet.stages.model_outputs import history_rows, model_params, predictions_frame
 from rwhonet.stages.sample_files import load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
@@ -643,5 +643,5 @@ def main(params: Params, seed: int) -> None:
         f"({', '.join(params.adapt.recipes)}) x {len(params.adapt.m_grid)} m values, on the test "
         f"drives and (the selection evidence) the target training drives; ridge penalties on "
         f"the held-out source drives; {len(records)} runs, {seconds:.1f} s on "
-        f"{workers_for(10**6, MAX_WORKERS)} cores -> {paths.rel(out)}"
+        f"{cores_for(MAX_WORKERS)} cores -> {paths.rel(out)}"
     )

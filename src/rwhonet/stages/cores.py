@@ -25,11 +25,15 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 
+def cores_for(max_workers: int, threads_each: int = 1) -> int:
+    """Processes this machine runs side by side: one per ``threads_each`` cores (a job
+    that sets its own torch threads), at most ``max_workers``."""
+    return max(1, min((os.cpu_count() or 1) // max(1, threads_each), max_workers))
+
+
 def workers_for(n_items: int, max_workers: int, threads_each: int = 1) -> int:
-    """How many processes run ``n_items`` jobs: one per ``threads_each`` cores (a job that
-    sets its own torch threads), at most ``max_workers``."""
-    cores = (os.cpu_count() or 1) // max(1, threads_each)
-    return max(1, min(cores, max_workers, n_items))
+    """How many processes run ``n_items`` jobs (:func:`cores_for`, no more than the jobs)."""
+    return max(1, min(cores_for(max_workers, threads_each), n_items))
 
 
 def map_on_cores(
