@@ -110,6 +110,18 @@ def test_bad_inputs_raise_input_error() -> None:
         window_starts([0, 0], 0)
     with pytest.raises(ValueError):
         window_starts([0, 0], 1.5)
+    for stride in (0, 1.5, True):
+        with pytest.raises(ValueError, match="stride_s"):
+            window_starts([0, 0], 1, stride)
+
+
+def test_overlapping_windows_start_every_stride_within_each_group() -> None:
+    g = np.repeat(["a", "b", "c"], [10, 5, 3])
+    start, run = window_starts(g, 4, 2)
+    # a: 0, 2, 4, 6 (8 would end past the group); b: 10 (12 would too); c: too short
+    assert list(start) == [0, 2, 4, 6, 10] and list(run) == [0, 0, 0, 0, 1]
+    for L in (1, 3, 4):  # the stride of the window's own length: the consecutive windows
+        np.testing.assert_array_equal(window_starts(g, L, L)[0], window_starts(g, L)[0])
 
 
 def test_accepts_pandas_columns_and_empty_input() -> None:

@@ -85,6 +85,9 @@ def test_windows_over_a_mask_and_the_held_out_tail():
     rows = masked_windows(frame, mask, 30)
     # 80 masked seconds of the first segment: 2 windows from row 20; 50 of the second: 1
     np.testing.assert_array_equal(rows[:, 0], [20, 50, 100])
+    every_10 = masked_windows(frame, mask, 30, 10)  # the 2D calibration's overlapping windows
+    np.testing.assert_array_equal(every_10[:, 0], [20, 30, 40, 50, 60, 70, 100, 110, 120])
+    np.testing.assert_array_equal(every_10[1], np.arange(30, 60))
 
 
 def test_the_scale_a_filter_learns_before_a_window_is_taken_out():

@@ -694,6 +694,14 @@ def calibrate_on_training(
     (``fits``), over the windows where it may be fitted (``errors``' masks: S on its
     segments' validation tails); then :func:`calibrate_2d`.
 
+    Unlike the test windows (consecutive, the paper's), the training windows of every
+    length start every ``min(outages_s)`` seconds, so the longer ones overlap: an
+    outage may begin at any instant, and consecutive 180 s windows would fit that
+    length's scale on one start in 180 s (on the large_target_consumer world 25
+    windows per run, against 112 with a start every 30 s). The overlapping windows are
+    correlated; the maximum-likelihood fit over them is a composite likelihood, whose
+    estimate stays consistent.
+
     Args:
         evidence: the target training drives and every seed's predictions of them.
         errors: every model's errors there
@@ -722,8 +730,9 @@ def calibrate_on_training(
         mask, runs = groups.setdefault("tail" if t.model == "S" else "scored", (t.mask, []))
         runs += model_runs(t.model, t.seed, gnss - t.error, fit, plan, outages_s)
     ends = []
+    stride = min(outages_s)
     for mask, runs in groups.values():
-        windows = {L: masked_windows(frame, mask, L) for L in outages_s}
+        windows = {L: masked_windows(frame, mask, L, stride) for L in outages_s}
         ends.append(filter_windows(frame, params, runs, outages_s, cfg, k.TARGET_TRAIN, windows))
     windows_2d = pd.concat(ends, ignore_index=True)
     return calibrate_2d(windows_2d), windows_2d

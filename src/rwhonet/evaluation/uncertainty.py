@@ -316,15 +316,17 @@ class FitEvidence:
     per_seed: dict[int, pd.DataFrame]
 
 
-def masked_windows(frame: pd.DataFrame, mask: np.ndarray, outage_s: int) -> np.ndarray:
-    """Consecutive windows of ``outage_s`` over the rows where ``mask`` holds, per segment.
+def masked_windows(
+    frame: pd.DataFrame, mask: np.ndarray, outage_s: int, stride_s: int | None = None
+) -> np.ndarray:
+    """Windows of ``outage_s`` over the rows where ``mask`` holds, per segment.
 
     ``mask`` must be one contiguous run within each segment (a drive's seconds
     after its first m, a segment's tail), as :func:`rwhonet.evaluation.windows.window_starts`
-    asks.
+    asks; a window starts every ``stride_s`` seconds (default: consecutive windows).
     """
     rows = np.flatnonzero(mask)
-    start, _ = window_starts(frame["group"].to_numpy()[rows], outage_s)
+    start, _ = window_starts(frame["group"].to_numpy()[rows], outage_s, stride_s)
     return (
         rows[start[:, None] + np.arange(outage_s)] if len(start) else np.zeros((0, outage_s), int)
     )

@@ -25,13 +25,17 @@ from rwhonet.errors import InputError, Problem
 MAX_PROBLEMS = 20
 
 
-def window_starts(group: Any, outage_s: int) -> tuple[np.ndarray, np.ndarray]:
-    """Start indices of the non-overlapping ``outage_s``-second windows of every group.
+def window_starts(
+    group: Any, outage_s: int, stride_s: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Start indices of the ``outage_s``-second windows of every group.
 
     Args:
         group: (N,) group id per second (any dtype); each group must be one
             contiguous run (samples sorted by group, then time).
         outage_s: window length L in seconds (= samples, one per second).
+        stride_s: seconds from one window's start to the next (default L: consecutive,
+            non-overlapping windows, the paper's; shorter: overlapping ones).
 
     Returns:
         ``(start, run)``: (W,) index of each window's first sample, in input
@@ -39,12 +43,15 @@ def window_starts(group: Any, outage_s: int) -> tuple[np.ndarray, np.ndarray]:
         the window belongs to.
 
     Raises:
-        ValueError: when ``outage_s`` is not a positive integer.
+        ValueError: when ``outage_s`` or ``stride_s`` is not a positive integer.
         InputError: when a group id appears in more than one run.
     """
     if isinstance(outage_s, bool) or int(outage_s) != outage_s or outage_s < 1:
         raise ValueError(f"outage_s must be a positive whole number of seconds, got {outage_s!r}")
     L = int(outage_s)
+    step = L if stride_s is None else int(stride_s)
+    if isinstance(stride_s, bool) or step != (stride_s or L) or step < 1:
+        raise ValueError(f"stride_s must be a positive whole number of seconds, got {stride_s!r}")
     g = np.asarray(group)
     n = len(g)
     if n == 0:
@@ -65,12 +72,12 @@ def window_starts(group: Any, outage_s: int) -> tuple[np.ndarray, np.ndarray]:
         ]
         raise InputError(problems, "samples are not sorted by group")
     run_len = np.diff(np.r_[run_start, n])
-    n_win = run_len // L  # the remainder of each group is dropped
+    n_win = np.maximum(run_len - L, -1) // step + 1  # the remainder of each group is dropped
     run = np.repeat(np.arange(len(run_start)), n_win)
     # k-th window of its run: position in the flat list minus the run's first window.
     first = np.cumsum(n_win) - n_win
     k = np.arange(n_win.sum()) - np.repeat(first, n_win)
-    return run_start[run] + L * k, run
+    return run_start[run] + step * k, run
 
 
 def evaluated_rows(frame: pd.DataFrame, m_grid: list[int]) -> np.ndarray:
