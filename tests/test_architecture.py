@@ -10,7 +10,8 @@
   changing it makes DVC re-run the stage. (Which params a stage reads is enforced at
   run time: ``rwhonet.runner.run`` hands a stage only the params dvc.yaml declares.)
 - Every declared param exists in params.yaml.
-- A package's docstring names its modules, and only modules that exist.
+- A package's docstring names its modules, and only modules that exist; every file
+  docs/architecture.md names exists and holds the names it says it does.
 - Nothing in src/ imports pipelines/.
 """
 
@@ -178,17 +179,43 @@ def test_every_unit_has_a_row_in_the_table():
     )
 
 
-@pytest.mark.parametrize("unit", sorted(ALLOWED))
-def test_imports_follow_the_table(unit):
+def forbidden_imports(modules: dict[str, Path], unit: str) -> list[str]:
+    """``"<module> imports <name>"`` for every import of ``unit``'s modules the table forbids."""
     bad = []
-    for module, file in src_modules().items():
+    for module, file in modules.items():
         if unit_of(module) != unit:
             continue
         for name in imports_of(file, module):
             target = unit_of(name)
             if target not in (None, unit) and target not in ALLOWED[unit]:
-                bad.append(f"{file.relative_to(paths.ROOT)} imports {name}")
+                bad.append(f"{module} imports {name}")
+    return bad
+
+
+@pytest.mark.parametrize("unit", sorted(ALLOWED))
+def test_imports_follow_the_table(unit):
+    bad = forbidden_imports(src_modules(), unit)
     assert not bad, f"{unit} may import only {sorted(ALLOWED[unit])}:\n" + "\n".join(bad)
+
+
+def test_the_table_check_finds_a_forbidden_import(tmp_path):
+    """A CLI module reaching into the stage layer, at the top, lazily and for type checking."""
+    file = tmp_path / "bad.py"
+    file.write_text(
+        "from typing import TYPE_CHECKING\n"
+        "from rwhonet.data import quality\n"
+        "from rwhonet.report.tables import render_report\n"
+        "if TYPE_CHECKING:\n"
+        "    from rwhonet.stages.evaluate import Evaluation\n"
+        "def run():\n"
+        "    from rwhonet import runner\n",
+        encoding="utf-8",
+    )
+    bad = forbidden_imports({"rwhonet.cli.bad": file}, "cli")
+    assert sorted(bad) == [
+        "rwhonet.cli.bad imports rwhonet.runner",
+        "rwhonet.cli.bad imports rwhonet.stages.evaluate",
+    ]
 
 
 def test_pipelines_import_only_the_runner_and_the_stages():
@@ -269,6 +296,25 @@ def test_docs_hold_the_same_table():
         for u in set(rows) | set(ALLOWED)
         if rows.get(u) != ALLOWED.get(u)
     }
+
+
+def test_the_docs_name_only_modules_that_exist_and_what_they_hold():
+    """docs/architecture.md answers "where is X" by file: each file it names exists, and the
+    names given beside one (`evaluation/selection.py` (`recommend` ... `choose`)) are in it."""
+    import importlib
+
+    text = (paths.ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    named = set(re.findall(r"`([a-z_]+(?:/[a-z_]+)+\.py)`", text))
+    missing = [
+        f for f in named if not (paths.ROOT / f).is_file() and not (SRC / PACKAGE / f).is_file()
+    ]
+    assert not missing, f"docs/architecture.md names files that do not exist: {sorted(missing)}"
+    pointers = re.findall(r"`([a-z_]+/[a-z_]+)\.py` \(([^)]*)\)", text)
+    assert len(pointers) >= 3  # the window's scoring and cutting, the selection rule
+    for module, beside in pointers:
+        held = importlib.import_module(f"{PACKAGE}.{module.replace('/', '.')}")
+        for name in re.findall(r"`([A-Za-z_]+)`", beside):
+            assert hasattr(held, name), f"docs/architecture.md: {module}.py has no {name}"
 
 
 @pytest.mark.parametrize(

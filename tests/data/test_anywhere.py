@@ -227,7 +227,7 @@ def checked(params, frame: pd.DataFrame) -> dict:
     ]
     return {
         "problems": problems,
-        "segments": [(s.row_start, s.row_stop, s.t_start_s, s.t_end_s) for s in result.segments],
+        "segments": [(s.row_start, s.row_stop, s.start_s, s.end_s) for s in result.segments],
         "cuts": [(x.start_s, x.end_s, x.rule) for x in result.cuts],
         "radius": radius,
         "glitches": glitches,

@@ -41,7 +41,7 @@ def test_the_real_drive_reads_as_the_readme_says(real):
     # Every whole second of the boot clock that both streams cover: fixes (at their receiver
     # epochs) 46408.653 to 46468.354 s, wheel speeds 46408.590 to 46468.578 s, so the whole
     # seconds 46409 ... 46468 bound 59 seconds (46409, 46468].
-    assert (seg.t_start_s, seg.t_end_s) == (46409.0, 46468.0)
+    assert (seg.start_s, seg.end_s) == (46409.0, 46468.0)
     sec = segment_seconds({k: v[seg.row_start : seg.row_stop] for k, v in drive.items()})
     wheel_m = 0.5 * (sec.angle_rl_rad + sec.angle_rr_rad) * RAV4_RADIUS_M
     # The README's 58 seconds are the first 58 of them, (46409, 46467]: its sums within 0.5 %.

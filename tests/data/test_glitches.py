@@ -45,7 +45,7 @@ def test_the_glitched_second_is_cut_and_reported_with_its_row():
     glitch = [x for x in result.cuts if x.rule == "wheel_glitch"]
     assert [(x.start_s, x.end_s) for x in glitch] == [(T0 + 30, T0 + 31)]
     assert "row(s) 305" in glitch[0].detail
-    assert [(s.t_start_s, s.t_end_s) for s in result.segments] == [
+    assert [(s.start_s, s.end_s) for s in result.segments] == [
         (T0, T0 + 30),
         (T0 + 31, T0 + 90),
     ]

@@ -38,7 +38,7 @@ def row(t_s: float) -> int:
 
 
 def spans(result):
-    return [(s.t_start_s, s.t_end_s) for s in result.segments]
+    return [(s.start_s, s.end_s) for s in result.segments]
 
 
 def cuts(result):
@@ -155,7 +155,7 @@ def test_frozen_fix_while_moving_is_cut():
     assert (T0 + 9, T0 + 13, "frozen") in cuts(result)
     # The fix catches up by 60 m in 0.1 s: the second it lands in is a jump.
     assert (T0 + 13, T0 + 14, "jump") in cuts(result)
-    assert result.segments[0].t_end_s == T0 + 9 and result.segments[-1].t_end_s == T0 + 40
+    assert result.segments[0].end_s == T0 + 9 and result.segments[-1].end_s == T0 + 40
     frozen = next(cut for cut in result.cuts if cut.rule == "frozen")
     assert "unchanged while the rear wheels turned" in frozen.detail
 

@@ -97,7 +97,7 @@ def test_swapped_coordinates_by_range():
 @pytest.mark.parametrize("azimuth_deg", [30.0, 80.0])
 def test_swapped_coordinates_by_the_radius_they_imply(azimuth_deg):
     drive = straight_drive(40.0, azimuth_deg=azimuth_deg)
-    seg = [Segment(0, len(drive), 45000.0, 45040.0)]
+    seg = [Segment(0, len(drive), start_s=45000.0, end_s=45040.0)]
     swapped = drive.copy()
     swapped[[c.LAT_DEG, c.LON_DEG]] = drive[[c.LON_DEG, c.LAT_DEG]].to_numpy()
     as_is = implied_radius(swapped, seg, 1.0).radius_m
@@ -106,7 +106,8 @@ def test_swapped_coordinates_by_the_radius_they_imply(azimuth_deg):
 
 
 def _segment(drive) -> list[Segment]:
-    return [Segment(0, len(drive), float(drive[c.T_S].iloc[0]), float(drive[c.T_S].iloc[-1]))]
+    t = drive[c.T_S]
+    return [Segment(0, len(drive), start_s=float(t.iloc[0]), end_s=float(t.iloc[-1]))]
 
 
 def test_wheels_silent_while_gnss_moves_but_not_at_a_hard_stop():

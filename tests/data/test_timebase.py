@@ -32,7 +32,7 @@ def _jitter(drive, max_s: float, seed: int = 0):
 
 
 def _segments(result):
-    return [(s.row_start, s.row_stop, s.t_start_s, s.t_end_s) for s in result.segments]
+    return [(s.row_start, s.row_stop, s.start_s, s.end_s) for s in result.segments]
 
 
 @pytest.mark.parametrize("jitter_s", [0.004, 0.02, 0.045])

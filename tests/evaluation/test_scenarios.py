@@ -6,6 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rwhonet import paths
+from rwhonet.config import load_params
 from rwhonet.evaluation.scenarios import (
     scenario_outage_scores,
     scenario_outage_summary,
@@ -16,6 +18,8 @@ from rwhonet.evaluation.selection import choose
 from rwhonet.evaluation.study import evaluate
 from rwhonet.report.tables import render_report
 from rwhonet.stages.sample_files import load_role
+
+from .conftest import OVERRIDES
 
 M_GRID = [10, 20]  # the first 20 s of each drive are not scored
 L = 10
@@ -161,7 +165,8 @@ def test_scores_are_means_over_windows_and_a_model_without_errors_skips_a_window
     assert summary.set_index(["tag", "model"]).loc[("wet_road", "G"), "crse_ci95"] == 0.0
 
 
-def test_the_study_reports_scenario_outages_in_eval_json_and_tables(samples_dir, params):
+def _hard_brake_study(samples_dir, params):
+    """The study on the samples with one 3 s hard brake on drive B; G 0.1 / 0.3 m short."""
     frame = load_role(samples_dir, ("target_test", "source_test"), seq_len=1).frame
     b = frame.index[frame["drive"] == "B"][100:103]  # 3 s of B, well after its first 20 s
     frame.loc[b, "scenario"] = "hard_brake"
@@ -172,7 +177,11 @@ def test_the_study_reports_scenario_outages_in_eval_json_and_tables(samples_dir,
         cols |= {f"R[{r}]@{m}": label for r in ("paper", "radius+G") for m in (10, 20)}
         cols |= {f"R[continuous]/{n}s": label for n in (30, 60)}
         preds[seed] = pd.DataFrame(cols, index=frame.index)
-    ev = evaluate(params, choose(params, {}), frame, preds)
+    return frame, b, label, evaluate(params, choose(params, {}), frame, preds)
+
+
+def test_the_study_reports_scenario_outages_in_eval_json_and_tables(samples_dir, params):
+    frame, b, label, ev = _hard_brake_study(samples_dir, params)
     tag = ev.eval_json["scenario_outages"]["tags"]["hard_brake"]
     assert ev.eval_json["scenario_outages"]["outage_s"] == 10
     assert (tag["events"], tag["windows"], tag["in_adaptation_seconds"]) == (1, 1, 0)
@@ -194,3 +203,19 @@ def test_the_study_reports_scenario_outages_in_eval_json_and_tables(samples_dir,
     md = render_report(ev, params, "provenance")
     assert "## Scenario outages — a 10 s GNSS outage" in md
     assert "| hard_brake | 1 | 1 | 1 |" in md
+    assert "in consecutive 10 s outages)." in md
+    assert "(the WhONet scenario protocol)" in ev.eval_json["scenario_outages"]["windows"]
+
+
+def test_another_outage_length_is_not_passed_off_as_the_protocol_s(samples_dir):
+    """WhONet's protocol scores 10 s outages; a report of 20 s ones says both lengths."""
+    params = load_params(
+        paths.PARAMS, overrides={**OVERRIDES, "seeds": [1, 2], "evaluate.scenario_outage_s": 20}
+    )
+    *_, ev = _hard_brake_study(samples_dir, params)
+    assert ev.eval_json["scenario_outages"]["outage_s"] == 20
+    windows = ev.eval_json["scenario_outages"]["windows"]
+    assert "20 s outage windows" in windows and "protocol has 10 s" in windows
+    md = render_report(ev, params, "provenance")
+    assert "## Scenario outages — a 20 s GNSS outage" in md
+    assert "in consecutive 10 s outages; 20 s here, evaluate.scenario_outage_s)." in md

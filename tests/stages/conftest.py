@@ -1,11 +1,17 @@
-"""A small labelled-samples folder in the label stage's layout (docs/architecture.md)."""
+"""A small labelled-samples folder in the label stage's layout (docs/architecture.md), and an
+evaluation of it."""
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from rwhonet import paths
+from rwhonet.config import load_params
 from rwhonet.contracts import FEATURE_COLUMNS
+from rwhonet.evaluation.selection import choose, recommend
+from rwhonet.evaluation.study import evaluate
 from rwhonet.io import write_json
+from rwhonet.stages.sample_files import load_role
 
 R_CAL_M = 0.29  # the source calibration the samples' WPM uses (both rear wheels)
 
@@ -58,6 +64,32 @@ def samples_dir(tmp_path):
             ("T__s0", "T", "target_train", 100),
         ],
     )
+
+
+# An evaluation of the samples above whose rule fell back (no selection evidence).
+FALLBACK_OVERRIDES = {
+    "adapt.m_grid": [10, 20],
+    "adapt.fallback.m": 20,
+    "evaluate.outages_s": [30, 60],
+    "adapt.recipes": ["paper", "radius+G", "continuous"],
+    "adapt.fallback.recipe": "radius+G",  # shrink is not among these recipes
+    "seeds": [1, 2],
+}
+
+
+@pytest.fixture
+def evaluated(samples_dir):
+    """An evaluation with ``adapt.recipe: auto`` that fell back to radius+G at 20 s."""
+    params = load_params(paths.PARAMS, overrides=FALLBACK_OVERRIDES)
+    frame = load_role(samples_dir, ("target_test", "source_test"), seq_len=1).frame
+    frame.loc[frame.index[frame["drive"] == "B"][100:103], "scenario"] = "hard_brake"
+    label = frame["label_m"].to_numpy()
+    cols = {"G": label - 0.1, "S": label}
+    cols |= {f"R[{r}]@{m}": label for r in ("paper", "radius+G") for m in (10, 20)}
+    cols |= {f"R[continuous]/{n}s": label for n in (30, 60)}
+    preds = {seed: pd.DataFrame(cols, index=frame.index) for seed in (1, 2)}
+    choice = choose(params, recommend(pd.DataFrame(), params))  # no evidence: the fallback
+    return params, evaluate(params, choice, frame, preds)
 
 
 @pytest.fixture(autouse=True)

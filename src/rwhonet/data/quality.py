@@ -13,9 +13,9 @@ Clock convention (shared with the label stage, :mod:`rwhonet.features.seconds`)
     (:mod:`rwhonet.data.timebase`): stamps jittered by up to half a sample period stay
     in their second, while a dropped sample still leaves its second a row short.
     Quality is decided per second. A segment covers the consecutive valid
-    seconds ``t_start_s + 1 … t_end_s`` (whole seconds), each complete
+    seconds ``start_s + 1 … end_s`` (whole seconds), each complete
     (``1 / sample_period_s`` rows), and also carries its *start fix*: the last row of
-    second ``t_start_s``, from which the first second's displacement is measured. A
+    second ``start_s``, from which the first second's displacement is measured. A
     segment therefore has ``10 n + 1`` rows for ``n`` seconds: row 0 is the start fix
     and rows ``10 k + 1 … 10 k + 10`` are second ``k``, so its seconds end on whole
     seconds of the drive's clock. The start fix must itself be a good row (not
@@ -70,39 +70,44 @@ RULES = (
 )
 
 
-@dataclass(frozen=True)
-class Cut:
-    """Seconds ``(start_s, end_s]`` of a drive cut by one rule."""
+@dataclass(frozen=True, kw_only=True)
+class Span:
+    """Seconds ``(start_s, end_s]`` of a drive's own clock, both ends whole seconds.
+
+    The one place a span's length is counted, for the cuts and the segments alike. Keyword
+    only, so a subclass's positional fields come first and a call that passes the times
+    by position fails instead of filling the wrong fields.
+    """
 
     start_s: float
     end_s: float
-    rule: str
-    detail: str
-    n_rows: int
 
     @property
     def n_seconds(self) -> int:
-        """Whole seconds cut."""
+        """Whole seconds in the span (rounded: the ends are whole seconds stored as floats)."""
         return round(self.end_s - self.start_s)
 
 
 @dataclass(frozen=True)
-class Segment:
-    """A GNSS-valid stretch: seconds ``(t_start_s, t_end_s]`` in rows ``row_start:row_stop``.
+class Cut(Span):
+    """A span of a drive cut by one rule, and the rows it held."""
 
-    ``row_start`` is the start fix (the last row of second ``t_start_s``), so the segment
-    has ``n_seconds * rows_per_second + 1`` rows.
+    rule: str
+    detail: str
+    n_rows: int
+
+
+@dataclass(frozen=True)
+class Segment(Span):
+    """A GNSS-valid span of a drive, in rows ``row_start:row_stop``.
+
+    ``row_start`` is the start fix (the last row of second ``start_s``), so the segment
+    has ``n_seconds * rows_per_second + 1`` rows. ``segments.json`` writes its span as
+    ``t_start_s`` and ``t_end_s``.
     """
 
     row_start: int
     row_stop: int
-    t_start_s: float
-    t_end_s: float
-
-    @property
-    def n_seconds(self) -> int:
-        """Whole seconds in the segment."""
-        return round(self.t_end_s - self.t_start_s)
 
     @property
     def n_rows(self) -> int:
@@ -340,7 +345,9 @@ def assess(
     for a, b in zip(v_start[too_short], v_stop[too_short], strict=True):  # per stretch
         rule[a:b] = RULES.index("short_segment")
     segments = [
-        Segment(int(row_at[a]) - 1, int(row_at[b]), float(k0 + a - 1), float(k0 + b - 1))
+        Segment(
+            int(row_at[a]) - 1, int(row_at[b]), start_s=float(k0 + a - 1), end_s=float(k0 + b - 1)
+        )
         for a, b in zip(v_start[~too_short], v_stop[~too_short], strict=True)
     ]
 
@@ -357,11 +364,11 @@ def assess(
     }
     cut_list = [
         Cut(
-            float(k0 + a - 1),
-            float(k0 + b - 1),
-            RULES[rule[a]],
-            _detail(RULES[rule[a]], a, b, row_at, rows_in, policy, n_per_s, cuts, k0),
-            int(row_at[b] - row_at[a]),
+            start_s=float(k0 + a - 1),
+            end_s=float(k0 + b - 1),
+            rule=RULES[rule[a]],
+            detail=_detail(RULES[rule[a]], a, b, row_at, rows_in, policy, n_per_s, cuts, k0),
+            n_rows=int(row_at[b] - row_at[a]),
         )
         for a, b in zip(starts, stops, strict=True)
         if rule[a] >= 0

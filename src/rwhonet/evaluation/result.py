@@ -17,6 +17,7 @@ from rwhonet import contracts as k
 from rwhonet.config import Params
 from rwhonet.contracts import PAPER, alt_wpm, recipe_model
 from rwhonet.evaluation.position import GNSS_DISTANCE
+from rwhonet.evaluation.scenarios import protocol_note
 from rwhonet.evaluation.selection import Choice
 
 
@@ -312,7 +313,7 @@ def _scenario_outages(ev: Evaluation) -> dict:
         "outage_s": ev.scenario_outage_s,
         "windows": (
             f"per tagged event of the target test drives, {ev.scenario_outage_s} s outage "
-            "windows covering it (the WhONet scenario protocol), in the scored seconds"
+            f"windows covering it ({protocol_note(ev.scenario_outage_s)}), in the scored seconds"
         ),
         "tags": by_tag,
     }

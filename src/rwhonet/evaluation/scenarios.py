@@ -7,7 +7,7 @@ recording is scored by ``predictcs(..., outage1)`` with ``outage1 = 100``
 samples at 10 Hz; ``predictcs`` (``function_files.py``) cuts the one-per-second
 predictions into consecutive windows of ``int(outage / Ts) = 10`` seconds, the
 remainder dropped. So a scenario outage here lasts ``evaluate.scenario_outage_s``
-(10 s, that protocol's value), long enough to hold a roundabout or a hard
+(10 s, that protocol's value, :data:`PROTOCOL_OUTAGE_S`), long enough to hold a roundabout or a hard
 brake, short enough to be about the event rather than the road around it.
 
 The recordings there are cut around the event by hand; here the events come
@@ -57,6 +57,9 @@ from rwhonet.evaluation.intervals import over_seeds
 from rwhonet.evaluation.windows import evaluated_rows
 
 SEPARATOR = ";"
+# WhONet's scenario outage: outage1 = 100 samples at 10 Hz (onyekpeu/WhONet, whonet.py),
+# scored by predictcs in consecutive windows of int(outage / Ts) = 10 s (module docstring).
+PROTOCOL_OUTAGE_S = 10
 PER_SECOND_MODELS = ("WPM", "R", "G", "S")
 EVENT_COUNTS = (
     "events",
@@ -69,6 +72,13 @@ EVENT_COUNTS = (
     "segment_too_short",
     "split_by_gnss_gap",
 )
+
+
+def protocol_note(outage_s: int) -> str:
+    """How a scenario outage of ``outage_s`` stands to WhONet's protocol, for the reports."""
+    if outage_s == PROTOCOL_OUTAGE_S:
+        return "the WhONet scenario protocol"
+    return f"WhONet's scenario protocol has {PROTOCOL_OUTAGE_S} s; evaluate.scenario_outage_s"
 
 
 def scenario_errors(frame: pd.DataFrame, errors: Mapping[str, np.ndarray]) -> pd.DataFrame:

@@ -152,32 +152,38 @@ class NavConfig:
         scale_max_off: the scales are kept within ``1 ± scale_max_off``.
     """
 
+    # The sensors, and where the GNSS antenna sits on the car.
     gyro: GyroSpec = field(default_factory=GyroSpec)
     wheels: WheelSpec = field(default_factory=WheelSpec)
     gnss: GnssSpec = field(default_factory=GnssSpec)
     antenna_m: tuple[float, float] = (0.0, 0.0)
+    # Priors: each slow state's spread at the start, and a second's yaw before the sensors.
     dist_scale_sd: float = 0.03
     wheel_scale_sd: float = 0.05
     wheel_bias_sd: float = 0.003
     load_sd: float = 0.003
+    wheel_bias_speed_sd: float = 3e-5
+    delta_prior_sd: float = 1.0
+    # The wheel yaw's lasting error ``eps_w``: a Gauss-Markov state, not white noise.
+    wheel_error_sd: float = 0.0005
+    wheel_error_tau_s: float = 60.0
+    # Random walks per sqrt(s) (the process noise).
     dist_scale_walk: float = 1e-4
     gyro_scale_walk: float = 1e-5
     wheel_scale_walk: float = 1e-4
     wheel_bias_walk: float = 2e-6
     load_walk: float = 1e-6
-    wheel_error_sd: float = 0.0005
-    wheel_error_tau_s: float = 60.0
-    wheel_bias_speed_sd: float = 3e-5
     wheel_bias_speed_walk: float = 1e-7
     heading_walk: float = 2e-4
-    yaw_gate: float = GATE_SD
-    delta_prior_sd: float = 1.0
-    reset_after_s: int = 10
-    reverse_stop_m: float = 0.3
-    reverse_max_m_s: float = 4.0
+    # Bounds the states are kept within.
     load_min: float = 0.0
     load_max: float = 0.01
     scale_max_off: float = 0.3
+    # Gates, and the reversing rule (module docstring, Reversing).
+    yaw_gate: float = GATE_SD
+    reset_after_s: int = 10
+    reverse_stop_m: float = 0.3
+    reverse_max_m_s: float = 4.0
 
 
 def config_from_params(

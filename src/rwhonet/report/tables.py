@@ -28,6 +28,7 @@ from rwhonet.contracts import (
 )
 from rwhonet.evaluation.position import GNSS_DISTANCE
 from rwhonet.evaluation.result import Evaluation
+from rwhonet.evaluation.scenarios import PROTOCOL_OUTAGE_S
 
 STATS = (("max", "Max"), ("min", "Min"), ("mean", "μ"), ("std", "σ"))
 
@@ -893,8 +894,10 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "The paper's short-term complex scenarios (roundabouts, sharp cornering, hard "
             f"braking, wet roads): per tagged event, {L} s outage windows centred on it, as many "
             "as cover it, within the seconds every model is scored on (WhONet's scenario "
-            f"protocol: the authors' code scores each scenario recording in consecutive {L} s "
-            "outages). Events touching a drive's first max(m) s are left out (R-WhONet is "
+            "protocol: the authors' code scores each scenario recording in consecutive "
+            f"{PROTOCOL_OUTAGE_S} s outages"
+            + ("" if L == PROTOCOL_OUTAGE_S else f"; {L} s here, evaluate.scenario_outage_s")
+            + "). Events touching a drive's first max(m) s are left out (R-WhONet is "
             "adapted there); events of one tag whose windows would overlap are merged; a GNSS "
             "gap splits an event. CRSE and CTE per window, mean over a tag's windows, then over "
             "seeds ± 95 % interval. R[continuous]: recalibrated before each window of the "

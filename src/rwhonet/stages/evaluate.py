@@ -13,7 +13,6 @@ the tables, plots and MLflow metrics all come from the same
 from __future__ import annotations
 
 import json
-import math
 import platform
 from pathlib import Path
 
@@ -26,9 +25,7 @@ from rwhonet.config import Params, flatten
 from rwhonet.contracts import CONTINUOUS_RECIPES, alt_wpm, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.evaluation.names import at_chosen_m
-from rwhonet.evaluation.position import WINDOW_STATS
 from rwhonet.evaluation.result import Evaluation
-from rwhonet.evaluation.scoring import CURVE_MODELS, STATS
 from rwhonet.evaluation.selection import (
     Choice,
     SelectionPredictions,
@@ -47,6 +44,8 @@ from rwhonet.report.headline import (
     headline_metrics,
     view_metrics,
 )
+from rwhonet.report.plots import plot_frames
+from rwhonet.report.run_metrics import position_metrics, scenario_metrics, stat_metrics
 from rwhonet.report.tables import render_report
 from rwhonet.stages.sample_files import load_role
 from rwhonet.tracking.records import Timing, now_ms
@@ -204,125 +203,13 @@ def write_outputs(
         tmp_predictions, tmp_plots, tmp_tables, tmp_eval = tmps
         for d, g in ev.per_second.groupby("drive", sort=False):
             g.drop(columns=["group"]).to_parquet(tmp_predictions / f"{d}.parquet", index=False)
-        for L, g in ev.evolution.groupby("outage_s"):
-            for metric in ("crse", "cte"):
-                wide = g.pivot(index="second", columns="model", values=f"{metric}_m")
-                wide = wide[list(CURVE_MODELS)].reset_index()
-                wide.to_csv(
-                    tmp_plots / f"{metric}_evolution_{L}s.csv", index=False, float_format="%.4f"
-                )
-        m_grid_plot(ev.summary, params).to_csv(
-            tmp_plots / "m_grid.csv", index=False, float_format="%.4f"
-        )
-        # the longest outage; models at the chosen m lose their "@m" (stable column names)
-        L, at_m = max(params.evaluate.outages_s), f"@{ev.choice.m}"
-        t = ev.over_time[ev.over_time["outage_s"] == L]
-        t = t.assign(from_min=t["from_s"] / 60.0, model=t["model"].str.removesuffix(at_m))
-        t.pivot(index="from_min", columns="model", values="crse").reset_index().to_csv(
-            tmp_plots / "crse_over_time.csv", index=False, float_format="%.4f"
-        )
+        for name, frame in plot_frames(ev, params).items():
+            frame.to_csv(tmp_plots / name, index=False, float_format="%.4f")
         tmp_tables.write_text(render_report(ev, params, provenance), encoding="utf-8")
         tmp_eval.write_text(json.dumps(ev.eval_json, indent=2) + "\n", encoding="utf-8")
 
 
-def m_grid_plot(summary: pd.DataFrame, params: Params) -> pd.DataFrame:
-    """Mean CRSE of the longest outage against m: every recipe and WPM-m; G, S, WPM flat."""
-    L = max(params.evaluate.outages_s)
-    rows = summary[
-        (summary["role"] == k.TARGET_TEST)
-        & (summary["drive"] == "all")
-        & (summary["outage_s"] == L)
-    ].set_index("model")["crse_mean"]
-    grid = params.adapt.m_grid
-    lines = {r: [rows[recipe_model(r, m)] for m in grid] for r in params.adapt.recipes}
-    lines["WPM-m"] = [rows[f"WPM-m@{m}"] for m in grid]
-    return pd.DataFrame({"m": grid, **lines, **{name: rows[name] for name in ("G", "S", "WPM")}})
-
-
 # --------------------------------------------------------------------------- MLflow
-
-
-def stat_metrics(summary: pd.DataFrame, model: str, drive: str = "all") -> dict[str, float]:
-    """MLflow metrics of one model on the target test drives: ``crse/30s/mean`` ..."""
-    out = {}
-    rows = summary[
-        (summary["model"] == model)
-        & (summary["drive"] == drive)
-        & (summary["role"] == k.TARGET_TEST)
-    ]
-    for r in rows.itertuples():
-        for metric in ("crse", "cte"):
-            for s in STATS:
-                value = getattr(r, f"{metric}_{s}")
-                if value is not None and math.isfinite(value):
-                    out[f"{metric}/{r.outage_s}s/{s}"] = float(value)
-            if "seed" not in rows.columns:
-                ci = getattr(r, f"{metric}_mean_ci95")
-                if math.isfinite(ci):
-                    out[f"{metric}/{r.outage_s}s/ci95"] = float(ci)
-        out[f"windows/{r.outage_s}s"] = float(r.n_windows)
-    return out
-
-
-def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
-    """MLflow metrics of a model's 2D error at the end of the outage windows.
-
-    The navigation filter on the model's distances (``evaluate.navigation``'s
-    control, fused): ``pos/180s/mean`` (m), ``pos/180s/pct`` (% of the distance
-    driven), ``pos/180s/max``, ``pos/180s/cover_1sigma`` / ``cover_2sigma`` / ``nll``
-    (the calibrated prediction; the filter's own normal as ``..._filter``, the
-    calibration as ``calib_scale`` / ``calib_dof``, absent for a normal),
-    the ``ci95`` of the means; on the run whose distances the filter's controls
-    use, every control as ``pos/<control>/180s/mean``, ``.../pct``; and the model's
-    CRSE calibration: ``uncertainty/180s/crse_cover_1sigma``, ``..._2sigma``, ``crse_nll``.
-    """
-    if ev.position is None or ev.position.empty:
-        return {}
-    name = ev.choice.model if model == "R" else model
-    plan = ev.position_plan
-    out = {}
-    pos = ev.position[ev.position["model"] == name]
-    for r in pos.itertuples():
-        if r.control == plan["control"]:
-            prefix, columns = "pos", WINDOW_STATS
-        elif name == plan["control_model"]:
-            prefix, columns = f"pos/{r.control}", ("pos_mean", "pos_pct")
-        else:
-            continue
-        for column in columns:
-            value = getattr(r, column)
-            if math.isfinite(value):
-                out[f"{prefix}/{r.outage_s}s/{column.removeprefix('pos_')}"] = float(value)
-        for stat in ("mean", "pct"):
-            ci = getattr(r, f"pos_{stat}_ci95")
-            if prefix == "pos" and math.isfinite(ci):
-                out[f"pos/{r.outage_s}s/{stat}_ci95"] = float(ci)
-    for r in ev.uncertainty[ev.uncertainty["model"] == name].itertuples():
-        for stat, col in (
-            ("crse_cover_1sigma", "cover_1sigma"),
-            ("crse_cover_2sigma", "cover_2sigma"),
-            ("crse_nll", "nll"),
-        ):
-            value = getattr(r, col)
-            if math.isfinite(value):
-                out[f"uncertainty/{r.outage_s}s/{stat}"] = float(value)
-    return out
-
-
-def scenario_metrics(ev: Evaluation, model: str) -> dict[str, float]:
-    """MLflow metrics of a model on the scenario outages: ``scenario/roundabout/crse/mean``..."""
-    scores = ev.scenario_outages
-    name = "R" if model == ev.choice.model else model
-    out = {}
-    for r in scores[scores["model"] == name].itertuples() if len(scores) else ():
-        for metric in ("crse", "cte"):
-            mean, ci = getattr(r, metric), getattr(r, f"{metric}_ci95")
-            if math.isfinite(mean):
-                out[f"scenario/{r.tag}/{metric}/mean"] = float(mean)
-            if math.isfinite(ci):
-                out[f"scenario/{r.tag}/{metric}/ci95"] = float(ci)
-        out[f"scenario/{r.tag}/windows"] = float(r.n_windows)
-    return out
 
 
 def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRecord]:

@@ -214,8 +214,8 @@ def _write_segments(
                 "drive": entry["drive"],
                 "role": entry["role"],
                 "vehicle": entry["vehicle"],
-                "t_start_s": seg.t_start_s,
-                "t_end_s": seg.t_end_s,
+                "t_start_s": seg.start_s,
+                "t_end_s": seg.end_s,
                 "n_rows": seg.n_rows,
                 "n_seconds": seg.n_seconds,
                 "source_file": entry["source_file"],
@@ -331,8 +331,8 @@ def _drive_report(
         "segments": [
             {
                 "segment": segment_name(entry["drive"], k),
-                "t_start_s": s.t_start_s,
-                "t_end_s": s.t_end_s,
+                "t_start_s": s.start_s,
+                "t_end_s": s.end_s,
                 "n_seconds": s.n_seconds,
             }
             for k, s in enumerate(result.segments)
