@@ -105,6 +105,7 @@ TEXT_PARAMS = {
     "data.column_maps.*.*.unit": "a unit's name",
     "data.signal_maps.*.signals.*.column": "a logged channel's name (MDF4 signal, CSV column)",
     "data.signal_maps.*.signals.*.unit": "a unit's name",
+    "data.signal_maps.*.source": "named in messages only (the --signal-map file)",
     "validate.cuts[*].drive": "a drive's name, matched",
     "validate.cuts[*].reason": "free text",
     "sim.profile": "a profile's name",

@@ -501,11 +501,14 @@ class SignalMapSpec:
     ``reader``: ``mdf4`` (one ASAM MDF4 file per drive, :mod:`rwhonet.data.mdf4`) or
     ``stream_csv`` (one folder per drive holding one CSV per sensor stream,
     :mod:`rwhonet.data.streamcsv`; ``t`` names their common time column). ``signals``:
-    key -> the logged channel and its unit (:mod:`rwhonet.data.signalmap`).
+    key -> the logged channel and its unit (:mod:`rwhonet.data.signalmap`). ``source``:
+    the file the map was read from (``rwhonet ... --signal-map FILE``), so messages name
+    it; None for a map in params.yaml (messages name its key).
     """
 
     reader: Literal["mdf4", "stream_csv"]
     signals: dict[str, ColumnSpec]
+    source: str | None = None
 
 
 @dataclass(frozen=True)

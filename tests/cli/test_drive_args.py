@@ -88,8 +88,10 @@ def test_every_reader_is_a_format(params, tmp_path):
     assert reader_kind("comma2k19", with_format(params, "comma2k19").data) == "comma2k19"
     for fmt, with_time in (("mdf4", False), ("stream_csv", True)):
         for nested in (False, True):
-            got = with_format(params, fmt, _map(tmp_path, with_time, nested))
+            path = _map(tmp_path, with_time, nested)
+            got = with_format(params, fmt, path)
             assert reader_kind(fmt, got.data) == fmt
+            assert got.data.signal_maps[fmt].source == path  # messages name the user's file
 
 
 def test_a_format_without_its_map_or_an_unknown_one_is_refused(params, tmp_path):

@@ -70,9 +70,6 @@ class DriveSamples:
 TRACK_FROM = "target"
 PREDICT_CAR = "car"  # predict's name for the car of --nominal-radius / --vehicle-file
 STREAM_READERS = ("mdf4", "stream_csv")  # --format names of the signal-map readers
-# The --signal-map file each of those formats was given, so messages name the file (one
-# command per process; with_format sets or clears it).
-_MAP_FILES: dict[str, str] = {}
 
 
 def with_vehicle(
@@ -199,7 +196,6 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
     from rwhonet.data.signalmap import check_signal_map
 
     data = params.data
-    _MAP_FILES.pop(fmt, None)
     if signal_map is None:
         if fmt in data.formats:
             return params
@@ -242,8 +238,7 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
         raw = raw["signals"]
     signals = parse_value(dict[str, ColumnSpec], raw, f"--signal-map {signal_map}")
     check_signal_map(fmt, signals, with_time=fmt == "stream_csv", where=signal_map)
-    maps = {**data.signal_maps, fmt: SignalMapSpec(fmt, signals)}
-    _MAP_FILES[fmt] = signal_map
+    maps = {**data.signal_maps, fmt: SignalMapSpec(fmt, signals, source=signal_map)}
     return dataclasses.replace(params, data=dataclasses.replace(data, signal_maps=maps))
 
 
@@ -369,7 +364,8 @@ def read_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Any:
         radius = params.nominal_radius_m(vehicle)
     except ConfigError:
         radius = None
-    f = DriveFile(drive_id(path), ROLE, vehicle, fmt, path, _MAP_FILES.get(fmt))
+    spec = params.data.signal_maps.get(fmt)
+    f = DriveFile(drive_id(path), ROLE, vehicle, fmt, path, spec.source if spec else None)
     vp = params.validate
     return read_canonical(f, params.data, paths.rel, radius, vp.sample_period_s, vp.gnss.max_gap_s)
 
