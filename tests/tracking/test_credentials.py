@@ -100,6 +100,31 @@ def test_a_password_is_never_sent_over_plain_http_to_another_machine(
         assert PASSWORD not in str(problem) and "https://" in problem.expected
 
 
+@pytest.mark.parametrize(
+    ("uri", "insecure", "refused"),
+    [
+        ("https://mlflow.example", "true", True),
+        ("https://mlflow.example", "1", True),
+        ("https://mlflow.example", "false", False),
+        ("https://127.0.0.1:8443", "true", False),  # this machine
+    ],
+)
+def test_a_password_is_never_sent_to_a_server_whose_certificate_is_not_checked(
+    clean_env, uri, insecure, refused
+):
+    clean_env.setenv(c.INSECURE_TLS, insecure)
+    clean_env.setenv(c.PASSWORD, PASSWORD)
+    clean_env.setenv(c.TRACKING_URI, uri)
+    if not refused:
+        assert resolve_tracking_uri("sqlite:///mlruns/mlflow.db") == uri
+        return
+    with pytest.raises(InputError, match="without checking the server's certificate") as err:
+        resolve_tracking_uri("sqlite:///mlruns/mlflow.db")
+    assert PASSWORD not in str(err.value) and c.CERT in str(err.value)
+    clean_env.delenv(c.PASSWORD)  # nothing secret to send: nothing to refuse
+    assert resolve_tracking_uri("sqlite:///mlruns/mlflow.db") == uri
+
+
 def test_the_credentials_file_counts_as_a_password(clean_env, tmp_path):
     (tmp_path / ".mlflow").mkdir()
     (tmp_path / ".mlflow" / "credentials").write_text(

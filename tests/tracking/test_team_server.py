@@ -45,6 +45,7 @@ from support.team import (
     nginx_bin,
     postgres,
     postgres_bin,
+    self_signed_certificate,
     tls_proxy,
 )
 
@@ -62,15 +63,28 @@ OVERRIDES = {
     ("evaluate", "outages_s"): [30, 180],
 }
 EXPERIMENT = "rwhonet"
+# Registry to prediction in a fresh interpreter that refuses every unpickling: Python raises
+# the audit event pickle.find_class whenever any unpickler (pickle, _pickle, cloudpickle,
+# torch's) resolves a class or function by name, which is how a pickle runs code.
 LOAD_AND_PREDICT = """
-import json, sys, tempfile
+import sys
+unpickled = []
+def no_pickle(event, args):
+    if event == "pickle.find_class":
+        unpickled.append(list(args))
+        raise RuntimeError(f"unpickling {args}")
+sys.addaudithook(no_pickle)
+import json, tempfile
 from pathlib import Path
 from mlflow.models import Model
+from rwhonet.cli.main import main
 from rwhonet.tracking.registry import fetch_model, load_pyfunc
-uri, spec = sys.argv[1], f"models:/{sys.argv[2]}/1"
+uri, spec, drive, out = sys.argv[1], f"models:/{sys.argv[2]}/1", sys.argv[3], sys.argv[4]
+said = main(["predict", "--model", spec, "--drive", drive, "--output", out])
 local, _ = fetch_model(spec, uri, Path(tempfile.mkdtemp()))
 example = Model.load(str(local)).load_input_example(str(local))
-print(json.dumps(load_pyfunc(spec, uri).predict(example)["pred_m"].tolist()))
+pred = load_pyfunc(spec, uri).predict(example)["pred_m"].tolist()
+print(json.dumps({"predict": said, "pred": pred, "unpickled": unpickled}))
 """
 COST: dict[str, float] = {}  # seconds, printed at the end (pytest -s)
 
@@ -280,13 +294,19 @@ def test_plain_http_to_the_proxy_only_redirects_to_https(server):
         assert code == 301 and headers["Location"] == server["uri"] + path
 
 
-def test_clients_verify_the_servers_certificate(server, client):
+def test_clients_verify_the_servers_certificate(server, client, tmp_path):
     from mlflow.exceptions import MlflowException
 
-    with pytest.raises(urllib.error.URLError, match="CERTIFICATE_VERIFY_FAILED"):
-        status_of(server["uri"] + "/health", cert=None)
+    # another self-signed certificate for the same name: what a machine in the middle shows
+    other, _ = self_signed_certificate(tmp_path)
+    for cert in (None, other):
+        with pytest.raises(urllib.error.URLError, match="CERTIFICATE_VERIFY_FAILED"):
+            status_of(server["uri"] + "/health", cert=cert)
     with acting_as(server, "admin"):
         os.environ.pop("MLFLOW_TRACKING_SERVER_CERT_PATH")
+        with pytest.raises(MlflowException, match="CERTIFICATE_VERIFY_FAILED"):
+            client.search_experiments()
+        os.environ["MLFLOW_TRACKING_SERVER_CERT_PATH"] = str(other)
         with pytest.raises(MlflowException, match="CERTIFICATE_VERIFY_FAILED"):
             client.search_experiments()
     assert status_of(server["uri"] + "/health", cert=server["cert"])[0] == 200
@@ -300,6 +320,23 @@ def test_no_credentials_or_the_old_default_password_get_401(server):
         assert status_of(url, cert=server["cert"], auth=("admin", password))[0] == 401
     admin = ("admin", server["auth"].admin_password)
     assert status_of(url, cert=server["cert"], auth=admin)[0] == 200
+
+
+@pytest.mark.parametrize(
+    ("password", "said"),
+    [("", "ships no default admin password"), ("password1234", "insecure default password")],
+)
+def test_the_server_will_not_start_without_the_admins_secret_or_with_the_default(
+    tmp_path, password, said
+):
+    """The first start creates the admin from MLFLOW_AUTH_ADMIN_PASSWORD, or refuses to start."""
+    artifacts = tmp_path / "artifacts"
+    auth = Auth(admin_password=password, flask_secret=_secret())
+    backend = f"sqlite:///{tmp_path}/mlflow.db"  # an empty user store, as at a team's first start
+    with pytest.raises(RuntimeError, match="exited") as err:
+        with mlflow_server(backend, artifacts, auth, start_timeout_s=180):
+            pass
+    assert said in str(err.value)
 
 
 # --------------------------------------------------------------------------- the editor's run
@@ -358,7 +395,9 @@ def test_the_pipeline_logs_runs_metrics_and_artifacts_through_the_server(server,
     assert n_runs == len(runs(server, client)) >= len(family)
 
 
-def test_the_pipeline_registers_models_without_code_that_a_reader_loads(project, server, client):
+def test_the_pipeline_registers_models_without_code_that_a_reader_loads(
+    project, server, client, tmp_path
+):
     from rwhonet.tracking.registry import FILES_TAG
 
     with acting_as(server, "reader"):
@@ -372,44 +411,83 @@ def test_the_pipeline_registers_models_without_code_that_a_reader_loads(project,
     assert "artifacts/model.onnx" in files and not [f for f in files if f.endswith(".pkl")]
     stored = list(server["artifacts"].rglob("*.pkl"))
     assert not stored, stored  # no pickle anywhere in the artifact store
-    # a reader loads it by name: downloaded through the server, checked, it predicts its example
-    reader = login(server, "reader")
+    # A reader loads it by name, logged in from MLflow's credentials file in a home folder
+    # outside the repository (no password in the environment): downloaded through the
+    # server, checked, served by `rwhonet predict` and as a pyfunc, and nothing unpickled.
+    home = tmp_path / "home"
+    (home / ".mlflow").mkdir(parents=True)
+    credentials = home / ".mlflow" / "credentials"
+    credentials.touch(mode=0o600)
+    credentials.write_text(
+        "[mlflow]\nmlflow_tracking_username = reader\n"
+        f"mlflow_tracking_password = {server['users']['reader']}\n"
+    )
+    reader = login(server, None, HOME=str(home))
+    drive = sorted((project["repo"] / "data" / "sim" / "target_test").glob("*.csv"))[0]
+    out_csv = tmp_path / "predicted.csv"
     load = run(
-        project["repo"], reader, sys.executable, "-c", LOAD_AND_PREDICT, server["uri"], "whonet-G"
+        project["repo"],
+        reader,
+        sys.executable,
+        "-c",
+        LOAD_AND_PREDICT,
+        server["uri"],
+        "whonet-G",
+        str(drive),
+        str(out_csv),
     )
     assert load.returncode == 0, load.stderr
-    pred = json.loads(load.stdout.splitlines()[-1])
-    assert len(pred) == 5 and all(math.isfinite(p) for p in pred)
+    said = json.loads(load.stdout.splitlines()[-1])
+    assert said["unpickled"] == [] and said["predict"] == 0, load.stderr
+    assert len(pd.read_csv(out_csv)) > 280
+    assert len(said["pred"]) == 5 and all(math.isfinite(p) for p in said["pred"])
 
 
 # --------------------------------------------------------------------------- who may do what
 
 
 def refused(call) -> int:
-    """The HTTP status a refused MLflow call got (401 / 403), or 0 when it went through."""
+    """The HTTP status a refused MLflow call got (401 / 403), or 0 when it went through.
+
+    Artifact uploads go to the server's artifact proxy, whose refusal is an HTTP error.
+    """
     from mlflow.exceptions import MlflowException
+    from requests.exceptions import HTTPError
 
     try:
         call()
     except MlflowException as err:
         return {"UNAUTHENTICATED": 401, "PERMISSION_DENIED": 403}.get(err.error_code, -1)
+    except HTTPError as err:
+        return err.response.status_code if err.response is not None else -1
     return 0
 
 
-def test_a_reader_is_refused_logging_registering_deleting_and_managing(project, server, client):
+def test_a_reader_is_refused_logging_registering_deleting_and_managing(
+    project, server, client, tmp_path
+):
     from rwhonet.tracking.team import auth_client
 
     (parent,) = runs(server, client, "tags.model = 'pipeline'")
     rid, exp_id = parent.info.run_id, parent.info.experiment_id
     g = "whonet-G"
     auth = auth_client(server["uri"])
+    note = tmp_path / "note.txt"
+    note.write_text("a reader's file")
+    graph = tmp_path / "model.onnx"  # named as a registered version's graph
+    graph.write_bytes(b"not the registered graph")
     with acting_as(server, "reader"):
-        source = client.get_model_version(g, "1").source
+        g1 = client.get_model_version(g, "1")
+        source = g1.source
         assert refused(lambda: client.get_run(rid)) == 0  # reads
         attempts = {
             "create a run": lambda: client.create_run(exp_id),
             "log a param": lambda: client.log_param(rid, "sneaky", "1"),
             "log a metric": lambda: client.log_metric(rid, "sneaky", 1.0),
+            "log an artifact": lambda: client.log_artifact(rid, str(note)),
+            "overwrite a version's file": lambda: client.log_artifact(
+                g1.run_id, str(graph), "model/artifacts"
+            ),
             "register a version": lambda: client.create_model_version(g, source, rid),
             "delete a run": lambda: client.delete_run(rid),
             "delete a version": lambda: client.delete_model_version(g, "1"),
@@ -424,6 +502,7 @@ def test_a_reader_is_refused_logging_registering_deleting_and_managing(project, 
         got = {what: refused(call) for what, call in attempts.items()}
     assert got == {what: 403 for what in attempts}
     assert "sneaky" not in runs(server, client, f"attributes.run_id = '{rid}'")[0].data.params
+    assert not list(server["artifacts"].rglob(note.name))
 
 
 def test_an_editor_is_refused_deleting_creating_and_managing(project, server, client):

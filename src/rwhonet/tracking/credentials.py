@@ -22,7 +22,9 @@ holds them: ``params.yaml`` refuses a tracking URI with a password
   remote's or a bucket's key, the admin's bootstrap password).
 - A password is never sent in clear text to another machine
   (:func:`transport_problem`): ``http://`` is for a server on this machine;
-  a team server sits behind TLS (``https://``).
+  a team server sits behind TLS (``https://``), and its certificate is verified
+  (``MLFLOW_TRACKING_INSECURE_TLS=true``, which turns verification off, is
+  refused there: whoever answers in the server's place would get the password).
 - A server that refuses the credentials (401) or the action (403) is an
   :class:`~rwhonet.errors.InputError` naming the user and what to do
   (:func:`access_error`), not a traceback.
@@ -44,6 +46,7 @@ USERNAME = "MLFLOW_TRACKING_USERNAME"
 PASSWORD = "MLFLOW_TRACKING_PASSWORD"
 TOKEN = "MLFLOW_TRACKING_TOKEN"
 CERT = "MLFLOW_TRACKING_SERVER_CERT_PATH"
+INSECURE_TLS = "MLFLOW_TRACKING_INSECURE_TLS"  # MLflow's switch that skips certificate checks
 TRACKING_URI = "MLFLOW_TRACKING_URI"
 CREDENTIALS_FILE = Path("~/.mlflow/credentials")  # MLflow's own, outside any repository
 MASK = "***"
@@ -161,20 +164,34 @@ def is_loopback(host: str | None) -> bool:
 
 
 def transport_problem(uri: str, environ: Mapping[str, str] | None = None) -> Problem | None:
-    """Why using ``uri`` would send a password in clear text to another machine, or None.
+    """Why using ``uri`` would send a password to another machine unprotected, or None.
 
-    ``http://`` to a host other than this machine, with a password or token set
-    (environment, ``~/.mlflow/credentials`` or the URI itself).
+    With a password or token set (environment, ``~/.mlflow/credentials`` or the
+    URI itself), to a host other than this machine: ``http://`` (clear text), or
+    ``https://`` with ``MLFLOW_TRACKING_INSECURE_TLS`` on (any certificate accepted,
+    so anyone in the middle reads it).
     """
     environ = os.environ if environ is None else environ
     if "://" not in uri:
         return None
     parts = urlsplit(uri)
-    if parts.scheme.lower() != "http" or is_loopback(parts.hostname):
+    scheme = parts.scheme.lower()
+    if scheme not in ("http", "https") or is_loopback(parts.hostname):
         return None
     if not (parts.password or _has_credentials(environ)):
         return None
     bare = split_userinfo(uri)[0]
+    if scheme == "https":
+        if environ.get(INSECURE_TLS, "").strip().lower() not in ("true", "1"):
+            return None
+        return Problem(
+            INSECURE_TLS,
+            None,
+            None,
+            "the server's certificate verified when a password or token is sent",
+            f"{INSECURE_TLS}={environ[INSECURE_TLS]} for {bare} (any certificate accepted)",
+            f"unset {INSECURE_TLS}; for a self-signed certificate set {CERT} to it (docs/team.md)",
+        )
     return Problem(
         TRACKING_URI,
         None,
@@ -190,11 +207,13 @@ def check_transport(uri: str) -> str:
     """``uri`` itself, once :func:`transport_problem` finds nothing.
 
     Raises:
-        InputError: ``uri`` would send a password in clear text.
+        InputError: ``uri`` would send a password in clear text or unverified.
     """
     problem = transport_problem(uri)
     if problem is not None:
-        raise InputError([problem], "refusing to send credentials over plain HTTP")
+        insecure = problem.file == INSECURE_TLS
+        what = "without checking the server's certificate" if insecure else "over plain HTTP"
+        raise InputError([problem], f"refusing to send credentials {what}")
     return uri
 
 
