@@ -255,6 +255,21 @@ def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):
     assert capsys.readouterr().err == ""
 
 
+def test_predict_says_which_wheel_glitch_it_repaired_even_when_quiet(bundle, tmp_path, capsys):
+    path = write_drive(tmp_path / "V-Glitch.csv", duration_s=60)
+    lines = path.read_text().splitlines()
+    cells = lines[306].split(",")  # data row 306
+    cells[12] = repr(float(cells[12]) * 10.0)  # rear left, ten times its speed
+    lines[306] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    args = ["predict", "--model", str(bundle["model_onnx"]), "--drive", str(path)]
+    for extra in ([], ["--quiet"]):
+        assert main([*args, "--output", str(tmp_path / "p.csv"), *extra]) == 0
+        err = capsys.readouterr().err
+        assert "wheel glitch: 1 sample(s)" in err
+        assert "row 306 (t = " in err and "'Wheel Speed Rear Left (rad/sec)'" in err
+
+
 @pytest.mark.parametrize("arch", ["tcn", "gru"])
 def test_a_model_with_context_exports_and_predicts_every_second(arch, drive, tmp_path, capsys):
     """model.arch tcn / gru: the stream feeds each second's window of 32 s to ONNX Runtime."""

@@ -152,6 +152,28 @@ def test_validate_cuts_a_glitch_second_and_lists_its_row_and_column():
     ]
 
 
+def test_a_glitch_beyond_the_wheel_speed_range_is_cut_not_the_drive_refused():
+    # At 15 m/s a tenfold one-row spike is 500 rad/s, past validate.max_abs_wheel_speed_rad_s
+    # (300) as well as past any tyre: the glitch screen flags that row, so its second is cut
+    # and listed like any glitch, rather than the whole drive refused for one CAN row.
+    drive = speed_profile_drive(15.0 + 2.0 * np.sin(np.arange(901) / 60.0), RADIUS_M)
+    drive.loc[304, c.OMEGA_RL] *= 10.0
+    problems, result, _, glitches = _checked(drive)
+    assert problems == []
+    assert (T0 + 30, T0 + 31, "wheel_glitch") in [(x.start_s, x.end_s, x.rule) for x in result.cuts]
+    assert [g["row"] for g in glitches["listed"]] == [305]
+
+
+def test_a_wheel_speed_out_of_range_that_is_no_glitch_is_still_refused():
+    # The same value held for 4 s is no glitch (a glitch falls back within 1 s): the range
+    # check still reports it.
+    drive = speed_profile_drive(15.0 + 2.0 * np.sin(np.arange(901) / 60.0), RADIUS_M)
+    drive.loc[300:339, c.OMEGA_RL] = 500.0
+    problems, _, _, _ = _checked(drive)
+    ranges = [p for p in problems if "max_abs_wheel_speed_rad_s" in p.expected]
+    assert ranges and ranges[0].row == 301
+
+
 def test_validate_refuses_a_drive_glitched_in_most_of_its_seconds():
     drive = speed_profile_drive(15.0 + 2.0 * np.sin(np.arange(901) / 60.0), RADIUS_M)
     drive.loc[np.arange(5, 900, 10), c.OMEGA_FR] *= 4.0  # one spike in every second

@@ -46,6 +46,12 @@ def _write(df: pd.DataFrame, names: dict[str, str], path, extra: bool = True):
         ("lat_deg", "lat", "deg"),
         ("Time (s)", "time", "s"),
         (" Sats", "sats", None),
+        ("wheel_speed_fl_rad_s", "wheelspeedfl", "rad/s"),  # a unit in snake case
+        ("acc_lon_m_s2", "acclon", "m/s2"),
+        ("vehicle_speed_km_h", "vehiclespeed", "km/h"),
+        ("yaw_rate_deg_s", "yawrate", "deg/s"),
+        ("gps_time_ms", "gpstime", "ms"),
+        ("speed_m_s_s", "speed", "m/s/s"),
     ],
 )
 def test_header_key_ignores_case_spaces_punctuation_and_unit(cell, key, unit):
@@ -59,6 +65,30 @@ def test_variant_names_in_any_order_with_extra_columns_read_as_the_layout(tmp_pa
     for name in VARIANTS:
         np.testing.assert_allclose(raw.columns[name], df[name].to_numpy(), rtol=0, atol=1e-12)
     assert raw.source_columns[c.OMEGA_RL] == "ws_rl"
+
+
+@pytest.mark.parametrize(
+    "spelling",
+    [
+        "wheel_speed_{}_rad_s",
+        "Speed_{} [rad/s]",
+        "WhlSpd_{}",
+        "WHEEL_SPEED_{} [rad/s]",
+        "wss_{}_rpm",
+    ],
+)
+def test_common_wheel_speed_spellings_are_found_by_name(tmp_path, spelling):
+    # Names real exports and DBCs give the four wheel speeds, with extra columns around them
+    # (so the layout's positions cannot rescue them): each is found by name, in its unit.
+    df = straight_drive(duration_s=5.0)
+    pos = {c.OMEGA_FL: "FL", c.OMEGA_FR: "FR", c.OMEGA_RL: "RL", c.OMEGA_RR: "RR"}
+    names = {**VARIANTS, **{w: spelling.format(p) for w, p in pos.items()}}
+    scale = 60.0 / (2.0 * math.pi) if spelling.endswith("rpm") else 1.0
+    logged = df.assign(**{w: df[w] * scale for w in pos})
+    raw = read_iovnbd(_write(logged, names, tmp_path / "V-W.csv"))
+    assert raw.header_match == "name"
+    for w in pos:
+        np.testing.assert_allclose(raw.columns[w], df[w].to_numpy(), rtol=1e-12, atol=1e-12)
 
 
 def test_a_declared_unit_is_honoured(tmp_path):

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import gc
 import math
+import sys
 
 import numpy as np
 import pandas as pd
@@ -111,6 +113,25 @@ def test_a_file_that_is_not_mdf_is_refused_with_the_decoder_s_error(tmp_path):
     assert p.file == "log.mf4" and p.expected.startswith("an ASAM MDF file")
     assert p.found.split(":")[0].isidentifier() and "export the log as MDF4" in p.fix
     assert err.value.summary == "cannot decode log.mf4"
+
+
+def test_a_truncated_mdf4_file_is_refused_with_nothing_but_the_report(tmp_path, monkeypatch):
+    # asammdf gives up half way through a cut-off log and leaves a half-built reader whose
+    # destructor fails: Python would print that as "Exception ignored ... Traceback" after
+    # the report. Every unraisable error is recorded here; none may reach the user.
+    whole = tmp_path / "whole.mf4"
+    _write_mdf(whole)
+    path = tmp_path / "cut.mf4"
+    path.write_bytes(whole.read_bytes()[: whole.stat().st_size // 3])
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    with pytest.raises(InputError) as err:
+        read_mdf4(path, MDF_MAP, R, display="cut.mf4")
+    gc.collect()
+    (p,) = err.value.problems
+    assert p.file == "cut.mf4" and p.expected.startswith("an ASAM MDF file")
+    assert unraisable == []
+    assert sys.unraisablehook == unraisable.append  # the user's hook is back
 
 
 def test_signal_maps_are_checked_before_reading():

@@ -278,3 +278,28 @@ def test_a_jittered_drive_across_midnight_streams_as_the_clean_one(bundle, tmp_p
     assert len(got["t_s"]) == len(want["t_s"]) == 120
     for k in ("t_s", "disp_wpm_m", "disp_gnss_m", "pred_error_m"):
         np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("sizes", [[100_000], [7] * 1000, [405, 1] + [10] * 100])
+def test_a_one_row_wheel_glitch_is_repaired_and_listed_whatever_the_blocking(bundle, sizes):
+    # A CAN glitch (one rear wheel at ten times its speed for one row) must not move the
+    # WPM or the prediction of its second: the stream repairs it from the wheel's own
+    # neighbours and lists the row. Row 406 is the last row of a second (a fix row shared
+    # by two seconds) and, with the third blocking, the first row of a block.
+    model = load_served(bundle["model_onnx"])
+    clean = wavy_drive(120)
+    glitched = clean.copy()
+    glitched.loc[405, "omega_rl_rad_s"] *= 10.0
+    plain, _ = stream_all(model, blocks_of(clean, [len(clean)]))
+    out, s = stream_all(model, blocks_of(glitched, sizes))
+    assert [(g["row"], g["channel"]) for g in s.glitches] == [(406, "omega_rl_rad_s")]
+    # the neighbours' interpolation, not the clean value: within the wheel noise of a row
+    for k in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
+        np.testing.assert_allclose(out[k], plain[k], atol=0.01)
+    np.testing.assert_array_equal(out["disp_gnss_m"], plain["disp_gnss_m"])
+
+
+def test_a_clean_drive_has_nothing_repaired(bundle):
+    model = load_served(bundle["model_onnx"])
+    out, s = stream_all(model, blocks_of(wavy_drive(120), [333] * 5))
+    assert s.glitches == [] and len(out["t_s"]) == 120

@@ -138,6 +138,8 @@ def _predict(args: argparse.Namespace) -> int:
     )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)
+    elif out["glitches"]:  # repaired input is never silent
+        print("\n".join(predict.glitch_lines(out["glitches"])), file=sys.stderr)
     return 0
 
 
@@ -312,7 +314,11 @@ def parser() -> argparse.ArgumentParser:
         help="a time step longer than this (s) starts a new run of seconds "
         "(default: %(default)s, validate.gnss.max_gap_s)",
     )
-    pr.add_argument("--quiet", action="store_true", help="no summary on stderr")
+    pr.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no summary on stderr (repaired wheel glitches are still reported)",
+    )
     pr.set_defaults(func=_predict)
 
     ex = sub.add_parser(

@@ -24,6 +24,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from rwhonet.data.glitches import WHEEL_GLITCH_G
 from rwhonet.errors import InputError, Problem
 from rwhonet.serve.stream import COLUMNS, Outage, SecondStream
 
@@ -200,7 +201,13 @@ def run(
                     os.replace(partial, final)
                 else:
                     partial.unlink(missing_ok=True)
-    return {"rows": rows, "seconds": seconds, "outages": stream.summary(), "file": name}
+    return {
+        "rows": rows,
+        "seconds": seconds,
+        "outages": stream.summary(),
+        "file": name,
+        "glitches": stream.glitches,
+    }
 
 
 def _position_text(o: dict[str, Any]) -> str:
@@ -217,9 +224,27 @@ def _position_text(o: dict[str, Any]) -> str:
     return text + f", {o['pos_err_end_m']:.1f} m from the GNSS fix"
 
 
+def glitch_lines(glitches: list[dict[str, Any]], listed: int = 5) -> list[str]:
+    """What the stream repaired: wheel samples that changed faster than any tyre can."""
+    if not glitches:
+        return []
+    shown = "; ".join(
+        f"row {g['row']} (t = {g['t_s']:.6g} s), {g['channel'].strip()!r}: "
+        f"{g['found_rad_s']:.4g} -> {g['replaced_rad_s']:.4g} rad/s"
+        for g in glitches[:listed]
+    )
+    more = f"; and {len(glitches) - listed} more" if len(glitches) > listed else ""
+    return [
+        f"wheel glitch: {len(glitches)} sample(s) rose faster than any tyre can (> "
+        f"{WHEEL_GLITCH_G:g} g above the other wheels) and were replaced by the wheel's own "
+        f"speed interpolated across them: {shown}{more}"
+    ]
+
+
 def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
+    lines += glitch_lines(out.get("glitches", []))
     for o in out["outages"]:
         if not o["seconds"]:
             lines.append(f"outage {o['outage']} s: no second of the drive falls in it")

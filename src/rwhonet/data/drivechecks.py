@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from rwhonet import contracts
-from rwhonet.config import CutSpec, Params
+from rwhonet.config import CutSpec, Params, ValidateParams
 from rwhonet.data import canonical as c
 from rwhonet.data.glitches import REFUSE_SHARE, WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.plausibility import (
@@ -83,6 +83,7 @@ def check_drive(
     result = radius = glitches = None
     if not found or _only_wheel_ranges(found, df, entry["columns"]):
         glitch, glitches = wheel_glitches(df, entry, params.nominal_radius_m(entry["vehicle"]))
+        found = _glitches_out_of_range(found, df, glitch, entry["columns"], vp)
         result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts, wheel_glitch=glitch)
         wheels = _wheel_problems(params, entry, df, drive_cuts, result)
         wheels += _glitch_problems(entry, df, glitch, glitches, vp.sample_period_s)
@@ -482,6 +483,38 @@ def _wheel_problems(
     for found, problem in zip(runs, (silent, stale), strict=True):
         problems += stretch_problems(found, problem)
     return problems
+
+
+def _glitches_out_of_range(
+    found: list[Problem],
+    df: Mapping[str, np.ndarray],
+    glitch: np.ndarray,
+    columns: dict[str, str],
+    vp: ValidateParams,
+) -> list[Problem]:
+    """The schema's problems, less wheel speeds out of range that are all glitches.
+
+    A one-row CAN glitch at speed (a wheel at ten times 40 rad/s) is beyond
+    ``validate.max_abs_wheel_speed_rad_s`` as well as beyond what a tyre can do; when
+    every out-of-range wheel speed lies in a row the glitch screen flagged, those rows are
+    cut as ``wheel_glitch`` (and listed) like any glitch, rather than the drive refused. A
+    value out of range in a row that did not glitch (a wrong unit throughout, a stuck
+    counter) is still a problem.
+    """
+    if not found or not glitch.any():
+        return found
+    with np.errstate(invalid="ignore"):
+        out = np.zeros(glitch.size, dtype=bool)
+        for w in c.WHEELS:
+            out |= ~(np.abs(np.asarray(df[w], dtype=np.float64)) < vp.max_abs_wheel_speed_rad_s)
+    if not out.any() or not glitch[out].all():
+        return found
+    wheels = {columns.get(w, w) for w in c.WHEELS}
+    return [
+        p
+        for p in found
+        if not (p.column in wheels and "validate.max_abs_wheel_speed_rad_s" in p.expected)
+    ]
 
 
 def _only_wheel_ranges(

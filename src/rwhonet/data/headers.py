@@ -2,7 +2,8 @@
 
 A header cell is matched by its *key*: lower case, letters and digits only, its unit
 suffix taken off (``" Wheel Speed Front Left (rad/sec)"``, ``"wheel_speed_front_left"``,
-``"WheelSpeedFrontLeft [rad/s]"`` all give ``"wheelspeedfrontleft"``). The unit it
+``"WheelSpeedFrontLeft [rad/s]"``, ``"wheel_speed_front_left_rad_s"`` all give
+``"wheelspeedfrontleft"``). The unit it
 declares is kept apart, spelled as :data:`UNIT_ALIASES` names it. The readers
 (:mod:`rwhonet.data.iovnbd`, :mod:`rwhonet.data.columnmap`, the stream readers) decide
 which key means which channel; this module knows no column name.
@@ -53,8 +54,14 @@ def header_key(cell: str) -> tuple[str, str | None]:
         text, unit = bracket.group(1), bracket.group(2).replace(" ", "")
     else:
         tokens = re.split(r"[\s_]+", text)
-        if len(tokens) > 1 and tokens[-1] in TRAILING_UNITS:
-            text, unit = " ".join(tokens[:-1]), tokens[-1]
+        # A unit written in snake case ("wheel_speed_fl_rad_s", "acc_lon_m_s2"): its last
+        # two or three tokens joined by "/" spell a known unit. Else one trailing token.
+        n = next(
+            (n for n in (3, 2) if len(tokens) > n and unit_name("/".join(tokens[-n:]))),
+            1 if len(tokens) > 1 and tokens[-1] in TRAILING_UNITS else 0,
+        )
+        if n:
+            text, unit = " ".join(tokens[:-n]), "/".join(tokens[-n:])
     return re.sub(r"[^a-z0-9]", "", text), unit or None
 
 

@@ -154,7 +154,19 @@ _VARIANTS: dict[str, tuple[str, ...]] = {
         wheel: tuple(
             pattern.format(p)
             for p in positions
-            for pattern in ("wheelspeed{}", "{}wheelspeed", "wheel{}", "ws{}", "omega{}", "{}wheel")
+            for pattern in (
+                "wheelspeed{}",
+                "{}wheelspeed",
+                "wheel{}",
+                "ws{}",
+                "omega{}",
+                "{}wheel",
+                "speed{}",  # "Speed_RL [rad/s]": a wheel's speed, by its position
+                "{}speed",
+                "whlspd{}",  # the CAN signal names of many DBCs ("WhlSpd_FL")
+                "wheelspd{}",
+                "wss{}",  # wheel speed sensor
+            )
         )
         for wheel, positions in _WHEEL_POSITIONS.items()
     },

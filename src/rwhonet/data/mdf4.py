@@ -11,8 +11,11 @@ its DBC first (``asammdf``'s ``extract_bus_logging``, or the logger's tool).
 
 from __future__ import annotations
 
+import gc
+import sys
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -56,18 +59,40 @@ def read_mdf4(
     file = display or str(path)
     if not Path(path).is_file():
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
-    try:
-        mdf = MDF(path)
-    except Exception as err:  # any failure to decode is the file's problem
-        expected = "an ASAM MDF file (MDF4, as CAN loggers write it)"
-        fix = "export the log as MDF4 (.mf4) from the logger's software"
-        raise InputError(
-            [Problem.unreadable(file, expected, err, fix)], summary=f"cannot decode {file}"
-        ) from None
+    mdf, problem = _open(MDF, path, file)
+    if problem is not None:
+        raise InputError([problem], summary=f"cannot decode {file}")
     try:
         return _read(mdf, signal_map, radius_m, name, file)
     finally:
         mdf.close()
+
+
+def _open(mdf_class, path: Path, file: str) -> tuple[Any, Problem | None]:
+    """``asammdf.MDF(path)``, or the problem that it could not be decoded.
+
+    A file asammdf gives up on half way (a truncated log) leaves a half-built reader whose
+    destructor fails in turn; Python would print that second error as "Exception ignored
+    in ... Traceback" after our report. The half-built reader is collected here, with
+    that destructor's error muted, so a refused file shows the report and nothing else.
+    """
+    hook = sys.unraisablehook
+    sys.unraisablehook = _mute
+    try:
+        try:
+            return mdf_class(path), None
+        except Exception as err:  # any failure to decode is the file's problem
+            expected = "an ASAM MDF file (MDF4, as CAN loggers write it)"
+            fix = "export the log as MDF4 (.mf4) from the logger's software"
+            problem = Problem.unreadable(file, expected, err, fix)
+        gc.collect()  # the error's frames held the half-built reader: it goes now, muted
+        return None, problem
+    finally:
+        sys.unraisablehook = hook
+
+
+def _mute(_: Any) -> None:
+    """An unraisable error (a half-built reader's destructor) that is not the user's."""
 
 
 def _read(

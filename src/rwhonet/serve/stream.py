@@ -40,6 +40,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from rwhonet.contracts import ROWS_PER_SECOND
 from rwhonet.data import canonical as c
+from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
     end_of_second,
@@ -167,6 +168,7 @@ class SecondStream:
     _t0: float | None = None
     _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
     totals: dict[str, _Totals] = field(default_factory=dict)
+    glitches: list[dict[str, float | int | str]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         spans = sorted((o.start_s, o.end_s) for o in self.outages)
@@ -189,6 +191,7 @@ class SecondStream:
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none)."""
         self._check(first_row, columns)
+        columns = self._repair_glitches(first_row, columns)
         if self._rows is None:
             self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
             self._navigator = StreamNavigator(
@@ -226,6 +229,53 @@ class SecondStream:
         if not parts:
             return empty_block()
         return {name: np.concatenate([p[name] for p in parts]) for name in COLUMNS}
+
+    def _repair_glitches(
+        self, first_row: int, columns: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """The block with its wheel glitches replaced, each one listed in ``self.glitches``.
+
+        The screen validate runs (:func:`rwhonet.data.glitches.glitch_mask`: a wheel's
+        speed rising more than ``WHEEL_GLITCH_G`` g above the other wheels' within a row),
+        on the new rows with the rows still held before them (screened and repaired
+        already) as context. A glitched sample is replaced by that wheel's own speed
+        interpolated in time across it, so a one-row CAN glitch moves neither the WPM nor
+        the prediction of its second (validate cuts such a second; a stream cannot leave
+        it out without breaking the run), and the command says which rows it repaired.
+        """
+        held = 0 if self._rows is None else len(self._rows[c.T_S])
+        keys = (c.T_S, *c.WHEELS)
+        both = (
+            {k: np.asarray(columns[k], dtype=np.float64) for k in keys}
+            if not held
+            else {k: np.concatenate([self._rows[k], columns[k]]) for k in keys}
+        )
+        mask = glitch_mask(
+            both[c.T_S], [both[w] for w in c.WHEELS], self.nav.wheels.radius_m, WHEEL_GLITCH_G
+        )
+        if not mask[:, held:].any():
+            return columns
+        columns = dict(columns)
+        t = both[c.T_S]
+        for k, w in enumerate(c.WHEELS):
+            bad = np.flatnonzero(mask[k, held:]) + held
+            if not bad.size:
+                continue
+            good = ~mask[k]
+            fixed = both[w].copy()
+            fixed[bad] = np.interp(t[bad], t[good], both[w][good])
+            columns[w] = fixed[held:]
+            self.glitches += [
+                {
+                    "row": first_row + int(i) - held,
+                    "t_s": float(t[i]),
+                    "channel": self.names.get(w, w),
+                    "found_rad_s": float(both[w][i]),
+                    "replaced_rad_s": float(fixed[i]),
+                }
+                for i in bad
+            ]
+        return columns
 
     def _drop(self, n: int) -> None:
         self._rows = {k: v[n:] for k, v in self._rows.items()}
