@@ -210,7 +210,7 @@ def main() -> None:
                 sys.executable,
                 "-c",
                 "import rwhonet.cli.predict, rwhonet.serve.stream,"
-                " rwhonet.data.stream, onnxruntime",
+                " rwhonet.data.incremental, onnxruntime",
             ],
             env,
         )

@@ -165,7 +165,7 @@ def test_label_times_keep_clean_stamps_and_put_jittered_ones_on_their_slots():
 @settings(max_examples=30, deadline=None)
 def test_the_stream_clock_gives_any_blocking_the_whole_drives_times(jitter, sizes, seed):
     """Midnight and jitter across blocks: the same times as the whole drive read at once."""
-    from rwhonet.data.stream import placed
+    from rwhonet.data.incremental import placed
     from rwhonet.data.timebase import StreamClock, label_times
 
     n = 1500

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from rwhonet.config import ModelParams, TrainParams
-from rwhonet.features.windows import sequences
+from rwhonet.features.sequences import sequences
 from rwhonet.models.adapt import (
     AdaptData,
     continuous_predictions,

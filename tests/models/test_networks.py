@@ -11,7 +11,7 @@ from torch import nn
 
 from rwhonet.config import ModelParams, TrainParams
 from rwhonet.errors import InputError
-from rwhonet.features.windows import sequences
+from rwhonet.features.sequences import sequences
 from rwhonet.models.checkpoint import load_whonet, save_whonet
 from rwhonet.models.freeze import apply_trainable
 from rwhonet.models.gru import GRUNet

@@ -6,7 +6,7 @@ import pytest
 
 from rwhonet.cli.drive import calibration_of, load_drive
 from rwhonet.config import load_params
-from rwhonet.data.stream import read_rows
+from rwhonet.data.incremental import read_rows
 from rwhonet.errors import InputError
 from rwhonet.geo.local import offsets_m
 from rwhonet.serve.model import load_served

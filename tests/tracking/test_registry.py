@@ -188,7 +188,7 @@ def test_a_model_with_context_predicts_each_row_from_the_rows_before_it(
     store, pipeline_outputs, tmp_path
 ):
     """model.arch tcn: consecutive rows are the window; a change of ``segment`` restarts it."""
-    from rwhonet.features.windows import sequences
+    from rwhonet.features.sequences import sequences
     from rwhonet.serve.model import load_served
 
     out = dict(pipeline_outputs)

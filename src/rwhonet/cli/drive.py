@@ -393,7 +393,7 @@ def canonical_blocks(
         columns)`` blocks of ``rows`` rows (1-based rows of the drive or its grid).
     """
     from rwhonet.data import canonical as c
-    from rwhonet.data.stream import CHANNELS, placed
+    from rwhonet.data.incremental import CHANNELS, placed
     from rwhonet.data.timebase import StreamClock
 
     raw = read_drive_file(path, params, vehicle, fmt).raw

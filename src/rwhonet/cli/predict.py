@@ -1,7 +1,7 @@
 """``rwhonet predict``: a drive streamed through a served model, one corrected second at a time.
 
 Reads the drive (a file, or ``-`` for stdin) block by block as it arrives
-(:func:`rwhonet.data.stream.read_rows`), cuts whole seconds and corrects them
+(:func:`rwhonet.data.incremental.read_rows`), cuts whole seconds and corrects them
 (:class:`rwhonet.serve.stream.SecondStream`), and writes each block of seconds
 as soon as it is complete: CSV (``-`` for stdout, flushed after every block,
 so the command can sit in a pipe) or Parquet (one row group per block). Runs
@@ -147,7 +147,7 @@ def run(
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
     """
-    from rwhonet.data.stream import read_rows
+    from rwhonet.data.incremental import read_rows
 
     with ExitStack() as stack:
         if drive_blocks is not None:

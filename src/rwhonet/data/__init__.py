@@ -12,7 +12,7 @@
   swapped coordinates, as arrays and runs of rows.
 - :mod:`~rwhonet.data.drivechecks`: everything ``validate`` checks on one drive,
   as problems a user can act on (:mod:`~rwhonet.data.problems` keeps them short).
-- :mod:`~rwhonet.data.stream`: drive rows read from a stream as they arrive.
+- :mod:`~rwhonet.data.incremental`: drive rows read from a stream as they arrive.
 - :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
   write them; a drive's clock (midnight rollover, each row's slot on the grid).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.

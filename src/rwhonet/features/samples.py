@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from rwhonet import contracts as k
-from rwhonet.features.windows import LabelledWindows, sequences
+from rwhonet.features.sequences import LabelledWindows, sequences
 
 FRAME_COLUMNS = [*k.SAMPLE_VALUE_COLUMNS, k.SCENARIO]
 
@@ -58,7 +58,7 @@ def stack_segments(segments: list[tuple[dict, pd.DataFrame]], seq_len: int) -> S
 
     Returns:
         The samples, one per second; a window reaches back at most to its
-        segment's first second (:func:`rwhonet.features.windows.sequences`).
+        segment's first second (:func:`rwhonet.features.sequences.sequences`).
         Empty when there are none.
     """
     frames = []

@@ -40,7 +40,7 @@ from rwhonet import contracts
 from rwhonet.config import AdaptParams
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import refit, refit_radii
-from rwhonet.features.windows import LabelledWindows
+from rwhonet.features.sequences import LabelledWindows
 from rwhonet.features.wpm import radius_corrected
 from rwhonet.models.freeze import apply_trainable, count_parameters
 from rwhonet.models.loop import (

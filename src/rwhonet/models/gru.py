@@ -8,7 +8,7 @@ the last hidden state, through the same dropout and linear head as WhONet.
 Context over tens of seconds (``model.seq_len``) lets it see what one second
 cannot: how the car got to its present speed, the stops and turns of the last
 half minute. Windows reach back at most to their segment's first second
-(:func:`rwhonet.features.windows.sequences`), so no context crosses a GNSS cut
+(:func:`rwhonet.features.sequences.sequences`), so no context crosses a GNSS cut
 and none looks ahead.
 
 Initialisation as Keras' ``GRU`` layer: Glorot-uniform input weights, orthogonal

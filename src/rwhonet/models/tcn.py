@@ -12,7 +12,7 @@ that output reads it: level ``l`` (dilation ``2^(l-1)``) combines neighbouring
 pairs of the level below, which is a kernel-2, stride-2 convolution, one
 matrix product per level. ``L = ceil(log2(seq_len))`` levels see ``2^L``
 seconds; a shorter window is padded at its old end with its first second, as
-:func:`rwhonet.features.windows.sequences` pads a segment's first seconds.
+:func:`rwhonet.features.sequences.sequences` pads a segment's first seconds.
 Nothing reaches past the window: no context crosses a GNSS cut, none looks
 ahead. The cost per window grows with ``seq_len`` as ``2 seq_len`` small
 products of ``2 * channels`` inputs, not as a convolution at every second.

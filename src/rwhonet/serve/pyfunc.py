@@ -8,7 +8,7 @@ radii (``radius+G``), the rear wheel angles ``angle_rl_rad`` and ``angle_rr_rad`
 each row's window is made of it and the rows before it, never reaching past a
 change of the optional ``segment`` column (a GNSS cut, another drive) and
 padded there with the segment's first row, as the pipeline cuts its windows
-(:func:`rwhonet.features.windows.sequences`). Output: ``pred_m``, the label prediction (GNSS −
+(:func:`rwhonet.features.sequences.sequences`). Output: ``pred_m``, the label prediction (GNSS −
 WPM with the source radii, metres), computed by ONNX Runtime
 (:class:`~rwhonet.serve.model.ServedModel`). Loading needs the ``rwhonet``
 package installed: a registered version is a model from code
@@ -27,7 +27,7 @@ import pandas as pd
 
 from rwhonet import contracts as k
 from rwhonet.errors import InputError, Problem
-from rwhonet.features.windows import sequences
+from rwhonet.features.sequences import sequences
 from rwhonet.serve.model import ServedMeta, ServedModel
 
 ANGLES = (k.ANGLE_RL_RAD, k.ANGLE_RR_RAD)

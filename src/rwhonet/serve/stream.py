@@ -1,7 +1,7 @@
 """Corrected odometry second by second: 10 Hz rows in, one output row per whole second out.
 
 :class:`SecondStream` takes a drive's rows as they arrive
-(:func:`rwhonet.data.stream.read_rows`) and emits every second as soon as its
+(:func:`rwhonet.data.incremental.read_rows`) and emits every second as soon as its
 ten rows are in. A second is cut as the label stage cuts it
 (:mod:`rwhonet.features.seconds`): from the fix at a whole second of the
 drive's clock (the last row at or before it) to the fix ten rows later; a
@@ -361,7 +361,7 @@ class SecondStream:
         else:
             # Windows of the run's last seq_len seconds, oldest first; at the run's start
             # padded with its first second, as the pipeline pads a segment's
-            # (rwhonet.features.windows): the same windows, the same predictions.
+            # (rwhonet.features.sequences): the same windows, the same predictions.
             past = self._history
             if past is None:
                 past = np.repeat(feats[:1], meta.seq_len - 1, axis=0)

@@ -31,7 +31,7 @@ def load_role(
 
     Returns:
         The samples, one per second; a window reaches back at most to its
-        segment's first second (:func:`rwhonet.features.windows.sequences`).
+        segment's first second (:func:`rwhonet.features.sequences.sequences`).
 
     Raises:
         InputError: when a required role has no samples.

@@ -7,8 +7,8 @@ import pytest
 
 from rwhonet.config import ColumnSpec
 from rwhonet.data import canonical as c
+from rwhonet.data.incremental import read_rows
 from rwhonet.data.iovnbd import read_iovnbd
-from rwhonet.data.stream import read_rows
 from rwhonet.errors import InputError
 from support.drives import CUPAC_MAP, column_map_params, write_columnmap
 from support.serving import wavy_drive, write_drive

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rwhonet.features.windows import sequences
+from rwhonet.features.sequences import sequences
 
 
 def random_groups(rng: np.random.Generator, n_groups: int) -> np.ndarray:
