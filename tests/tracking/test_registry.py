@@ -27,14 +27,20 @@ def store(tmp_path, monkeypatch):
     return uri
 
 
+def pipeline_file(folder, **kwargs):
+    """A ``model.pt`` as the pipeline's stages write one (:func:`base_bundle`'s source)."""
+    base_bundle(folder, **kwargs)
+    return folder / "source.pt"
+
+
 @pytest.fixture
 def pipeline_outputs(tmp_path):
     """Model files, scaler, calibration and samples in the layout the stages write."""
     from rwhonet.io import write_json
 
-    g = base_bundle(tmp_path / "g", seed=0)["model_pt"]
-    s = base_bundle(tmp_path / "s", seed=1)["model_pt"]
-    r = base_bundle(tmp_path / "r", seed=2, wpm_radii=(0.3, 0.297))["model_pt"]
+    g = pipeline_file(tmp_path / "g", seed=0)
+    s = pipeline_file(tmp_path / "s", seed=1)
+    r = pipeline_file(tmp_path / "r", seed=2, wpm_radii=(0.3, 0.297))
     r_drive = r.with_name("V-Charlie3.pt")
     r.rename(r_drive)
     write_json(tmp_path / "scaler.json", SCALER.to_dict())
@@ -193,10 +199,8 @@ def test_a_model_with_context_predicts_each_row_from_the_rows_before_it(
 
     out = dict(pipeline_outputs)
     for key, seed in (("g", 0), ("s", 1)):
-        out[key] = base_bundle(tmp_path / f"tcn-{key}", seed=seed, arch="tcn", seq_len=8)[
-            "model_pt"
-        ]
-    r = base_bundle(tmp_path / "tcn-r", seed=2, arch="tcn", seq_len=8)["model_pt"]
+        out[key] = pipeline_file(tmp_path / f"tcn-{key}", seed=seed, arch="tcn", seq_len=8)
+    r = pipeline_file(tmp_path / "tcn-r", seed=2, arch="tcn", seq_len=8)
     out["r"] = r.rename(r.with_name("V-Charlie3.pt"))
     register(store, out, "e1")
     mlflow.set_tracking_uri(store)
