@@ -1,11 +1,11 @@
 """A served base model and simulated ci-profile drives, for the serving, registry and CLI tests.
 
 :func:`base_bundle` writes a model bundle (``model.safetensors``, ``model.onnx``,
-``rwhonet.json``), beside the ``source.pt`` it is made from, of a freshly initialised WhONet with a fixed scaler and the
-source car's nominal radius as its calibration: what the pipeline registers
-as ``whonet-G``, without training one. :func:`ci_fleet` simulates the ``ci``
-profile's drives (the same files ``make variant SET=sim.profile=ci`` feeds the
-pipeline).
+``rwhonet.json``), beside the ``source.pt`` it is made from, of a freshly
+initialised WhONet with a fixed scaler and the source car's nominal radius as
+its calibration: what the pipeline registers as ``whonet-G``, without training
+one. :func:`ci_fleet` simulates the ``ci`` profile's drives (the same files
+``make variant SET=sim.profile=ci`` feeds the pipeline).
 """
 
 from __future__ import annotations

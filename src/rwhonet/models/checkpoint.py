@@ -181,9 +181,9 @@ def _read(path: Path | str, *, weights: bool) -> dict[str, Any]:
         try:
             ckpt = torch.load(path, map_location="cpu", weights_only=True)
         except Exception as err:  # noqa: BLE001 - any unreadable file is reported the same way
+            expected = "a WhONet model file (torch.save)"
             raise InputError(
-                [Problem(str(path), None, None, "a WhONet model file (torch.save)", str(err)[:200])],
-                NOT_A_MODEL,
+                [Problem(str(path), None, None, expected, str(err)[:200])], NOT_A_MODEL
             ) from err
     problems = []
     if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT:
