@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip 2>&1 | grep -v "is ignored: it is neither a file nor a directory" || true
 	$(BIN)/pip install -q -e '.[dev]' 2>&1 | grep -v "is ignored: it is neither a file nor a directory" || true
-	$(BIN)/python -c "import rwhonet, torch, lightning, mlflow, dvc, pandera, geographiclib"
+	$(BIN)/python -c "import rwhonet, torch, lightning, mlflow, dvc, pandera, geographiclib, safetensors"
 	touch $(STAMP)
 
 setup: $(STAMP) system-packages

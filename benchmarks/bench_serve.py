@@ -121,7 +121,7 @@ def main() -> None:
     torch.set_num_threads(1)
     tmp = Path(tempfile.mkdtemp(prefix="bench-serve-"))
     bundle, which = base_bundle(tmp)
-    net, _ = load_whonet(bundle["model_pt"])
+    net, _ = load_whonet(bundle["model_safetensors"])
     served = load_served(bundle["model_onnx"])
     print(f"model: {which}; {os.cpu_count()} CPUs; torch {torch.__version__}, one thread\n")
 

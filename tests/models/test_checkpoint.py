@@ -1,16 +1,28 @@
-"""Model files: one format for G, S and R, read without running pickled code."""
+"""Model files: one format for G, S and R, read without running pickled code.
+
+The ``.safetensors`` form (what a registered version carries) is read without pickle at all.
+"""
 
 from __future__ import annotations
 
+import json
 import pickle
 
 import numpy as np
 import pytest
 import torch
+from safetensors.torch import save_file
 
 from rwhonet.errors import InputError
-from rwhonet.models.checkpoint import load_whonet, save_whonet
-from rwhonet.models.loop import predict
+from rwhonet.models.checkpoint import (
+    FORMAT,
+    META_KEY,
+    load_whonet,
+    load_wpm_radii,
+    save_whonet,
+    to_safetensors,
+)
+from rwhonet.models.loop import net_from_hparams, predict
 from rwhonet.models.whonet import WhONet
 
 HP = {
@@ -67,3 +79,118 @@ def test_loading_never_runs_pickled_code(tmp_path, capsys):
     with pytest.raises(InputError):
         load_whonet(tmp_path / "evil.pt")
     assert "pickled code ran" not in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------- safetensors form
+
+ARCH_HP = {
+    "whonet": HP,
+    "gru": {**HP, "arch": "gru"},
+    "tcn": {**HP, "seq_len": 8, "arch": "tcn", "channels": 16},
+}
+
+
+def _no_pickle(monkeypatch):
+    """Make torch.load and every pickle loader fail the test if anything calls them."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a pickle was loaded")
+
+    for module, name in [
+        (torch, "load"),
+        (torch.serialization, "load"),
+        (pickle, "load"),
+        (pickle, "loads"),
+        (pickle, "Unpickler"),
+    ]:
+        monkeypatch.setattr(module, name, refuse)
+
+
+@pytest.mark.parametrize("arch", sorted(ARCH_HP))
+@pytest.mark.parametrize("radii", [None, (0.3012, 0.2987)])
+def test_the_safetensors_form_is_the_same_model_read_without_pickle(
+    tmp_path, linear_data, monkeypatch, arch, radii
+):
+    hp = ARCH_HP[arch]
+    torch.manual_seed(5)
+    net = net_from_hparams(hp)
+    save_whonet(net, hp, tmp_path / "model.pt", wpm_radii=radii)
+    converted = to_safetensors(tmp_path / "model.pt", tmp_path / "model.safetensors")
+    save_whonet(net, hp, tmp_path / "direct.safetensors", wpm_radii=radii)
+    # one model is one file, byte for byte, however it was written
+    assert converted.read_bytes() == (tmp_path / "direct.safetensors").read_bytes()
+    _no_pickle(monkeypatch)
+    loaded, hp2 = load_whonet(converted)
+    assert hp2 == hp and not loaded.training
+    assert load_wpm_radii(converted) == radii
+    want, got = net.state_dict(), loaded.state_dict()
+    assert list(got) == list(want)
+    assert all(torch.equal(got[k], want[k]) for k in want)
+    x, _ = linear_data
+    x = np.repeat(x, hp["seq_len"], axis=1) if hp["seq_len"] > 1 else x
+    np.testing.assert_array_equal(
+        predict(loaded, x, seq_len=hp["seq_len"]), predict(net, x, seq_len=hp["seq_len"])
+    )
+
+
+def _write(path, tensors, meta):
+    save_file(tensors, str(path), metadata=meta)
+    return path
+
+
+def _entry(**fields):
+    return {META_KEY: json.dumps(fields)}
+
+
+def test_a_malformed_safetensors_file_is_refused_naming_what_is_wrong(tmp_path, monkeypatch):
+    net = WhONet(40, 6)
+    save_whonet(net, HP, tmp_path / "model.pt")
+    (tmp_path / "renamed.safetensors").write_bytes((tmp_path / "model.pt").read_bytes())
+    (tmp_path / "garbage.safetensors").write_bytes(b"not a model")
+    weights = {k: v.contiguous() for k, v in net.state_dict().items()}
+    _no_pickle(monkeypatch)  # a .safetensors file is never handed to torch.load
+    for name in ("renamed", "garbage"):
+        with pytest.raises(InputError, match="a WhONet model file \\(safetensors\\)") as err:
+            load_whonet(tmp_path / f"{name}.safetensors")
+        assert err.value.problems[0].file == str(tmp_path / f"{name}.safetensors")
+    cases = {
+        "no_metadata": ({}, f"metadata.{META_KEY}", "no such entry"),
+        "not_json": ({META_KEY: "{oops"}, f"metadata.{META_KEY}", "'{oops'"),
+        "other_format": (
+            _entry(format="other/1", hyper_parameters=HP),
+            "format",
+            "'other/1'",
+        ),
+        "no_seq_len": (
+            _entry(format=FORMAT, hyper_parameters={k: v for k, v in HP.items() if k != "seq_len"}),
+            "hyper_parameters",
+            "'hidden'",
+        ),
+        "unknown_arch": (
+            _entry(format=FORMAT, hyper_parameters={**HP, "arch": "lstm"}),
+            "hyper_parameters.arch",
+            "'lstm'",
+        ),
+        "bad_radii": (
+            _entry(format=FORMAT, hyper_parameters=HP, wpm_radii=[0.3]),
+            "wpm_radii",
+            "[0.3]",
+        ),
+        "wrong_shape": (
+            _entry(format=FORMAT, hyper_parameters={**HP, "hidden": 7}),
+            "state_dict",
+            "size mismatch",
+        ),
+    }
+    for name, (meta, column, found) in cases.items():
+        path = _write(tmp_path / f"{name}.safetensors", weights, meta)
+        with pytest.raises(InputError, match="not a WhONet model file") as err:
+            load_whonet(path)
+        problem = err.value.problems[0]
+        assert (problem.file, problem.column) == (str(path), column), name
+        assert found in problem.found, (name, problem.found)
+    with pytest.raises(InputError) as err:  # the radii are read with the same checks
+        load_wpm_radii(tmp_path / "bad_radii.safetensors")
+    assert err.value.problems[0].column == "wpm_radii"
+    with pytest.raises(ValueError, match=".safetensors"):
+        to_safetensors(tmp_path / "direct.safetensors", tmp_path / "out.pt")

@@ -1,11 +1,11 @@
 """A served base model and simulated ci-profile drives, for the serving, registry and CLI tests.
 
-:func:`base_bundle` writes a model bundle (``model.pt``, ``model.onnx``,
-``rwhonet.json``) of a freshly initialised WhONet with a fixed scaler and the
-source car's nominal radius as its calibration: what the pipeline registers
-as ``whonet-G``, without training one. :func:`ci_fleet` simulates the ``ci``
-profile's drives (the same files ``make variant SET=sim.profile=ci`` feeds the
-pipeline).
+:func:`base_bundle` writes a model bundle (``model.safetensors``, ``model.onnx``,
+``rwhonet.json``), beside the ``source.pt`` it is made from, of a freshly
+initialised WhONet with a fixed scaler and the source car's nominal radius as
+its calibration: what the pipeline registers as ``whonet-G``, without training
+one. :func:`ci_fleet` simulates the ``ci`` profile's drives (the same files
+``make variant SET=sim.profile=ci`` feeds the pipeline).
 """
 
 from __future__ import annotations
@@ -61,7 +61,9 @@ def base_bundle(
     arch: str = "whonet",
     seq_len: int = 1,
 ) -> dict:
-    """Write a bundle of :func:`base_net` into ``folder``; return its artifacts.
+    """Write a bundle of :func:`base_net` into ``folder/bundle``; return its artifacts.
+
+    The model file it is made from, as the pipeline writes one, is ``folder/source.pt``.
 
     ``evidence``: what the shrink recipe sizes its update by (``evidence.json``'s layout).
     """

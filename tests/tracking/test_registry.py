@@ -27,14 +27,20 @@ def store(tmp_path, monkeypatch):
     return uri
 
 
+def pipeline_file(folder, **kwargs):
+    """A ``model.pt`` as the pipeline's stages write one (:func:`base_bundle`'s source)."""
+    base_bundle(folder, **kwargs)
+    return folder / "source.pt"
+
+
 @pytest.fixture
 def pipeline_outputs(tmp_path):
     """Model files, scaler, calibration and samples in the layout the stages write."""
     from rwhonet.io import write_json
 
-    g = base_bundle(tmp_path / "g", seed=0)["model_pt"]
-    s = base_bundle(tmp_path / "s", seed=1)["model_pt"]
-    r = base_bundle(tmp_path / "r", seed=2, wpm_radii=(0.3, 0.297))["model_pt"]
+    g = pipeline_file(tmp_path / "g", seed=0)
+    s = pipeline_file(tmp_path / "s", seed=1)
+    r = pipeline_file(tmp_path / "r", seed=2, wpm_radii=(0.3, 0.297))
     r_drive = r.with_name("V-Charlie3.pt")
     r.rename(r_drive)
     write_json(tmp_path / "scaler.json", SCALER.to_dict())
@@ -193,10 +199,8 @@ def test_a_model_with_context_predicts_each_row_from_the_rows_before_it(
 
     out = dict(pipeline_outputs)
     for key, seed in (("g", 0), ("s", 1)):
-        out[key] = base_bundle(tmp_path / f"tcn-{key}", seed=seed, arch="tcn", seq_len=8)[
-            "model_pt"
-        ]
-    r = base_bundle(tmp_path / "tcn-r", seed=2, arch="tcn", seq_len=8)["model_pt"]
+        out[key] = pipeline_file(tmp_path / f"tcn-{key}", seed=seed, arch="tcn", seq_len=8)
+    r = pipeline_file(tmp_path / "tcn-r", seed=2, arch="tcn", seq_len=8)
     out["r"] = r.rename(r.with_name("V-Charlie3.pt"))
     register(store, out, "e1")
     mlflow.set_tracking_uri(store)
@@ -248,9 +252,33 @@ def test_a_version_is_a_model_from_code_with_no_pickle_and_the_sha256_of_its_fil
         pyfunc = yaml.safe_load((folder / "MLmodel").read_text())["flavors"]["python_function"]
         assert pyfunc["model_code_path"].endswith("pyfunc_model.py")
         assert "python_model" not in pyfunc
-        assert {"artifacts/model.onnx", "artifacts/rwhonet.json", "pyfunc_model.py"} <= set(files)
+        assert {
+            "artifacts/model.onnx",
+            "artifacts/model.safetensors",
+            "artifacts/rwhonet.json",
+            "pyfunc_model.py",
+        } <= set(files)
+        assert not [f for f in files if f.endswith(".pt")], files  # the weights without pickle
         record = client.get_model_version(d["name"], d["version"]).tags[FILES_TAG]
         assert digests_from_text(record, "tag") == files
+
+
+def test_a_version_carries_the_pipeline_model_file_s_weights_as_safetensors(
+    store, pipeline_outputs
+):
+    import torch
+
+    from rwhonet.models.checkpoint import load_whonet, load_wpm_radii
+
+    client, done, _ = register(store, pipeline_outputs, "e1")
+    for d, key in zip(done, ("g", "s", "r"), strict=True):
+        stored = stored_folder(client, d["name"], d["version"]) / "artifacts" / "model.safetensors"
+        net, hparams = load_whonet(stored)
+        want, want_hparams = load_whonet(pipeline_outputs[key])
+        assert hparams == want_hparams
+        assert all(torch.equal(net.state_dict()[n], t) for n, t in want.state_dict().items())
+        assert load_wpm_radii(stored) == load_wpm_radii(pipeline_outputs[key])
+    assert load_wpm_radii(stored) == (0.3, 0.297)  # R's own radii travel in the file
 
 
 def _change(folder):
@@ -355,3 +383,159 @@ def test_the_cli_refuses_a_tampered_version_with_exit_status_2(
     assert "whonet-G version 1" in said and "artifacts/model.onnx" in said
     assert not out.exists()  # nothing written from a refused model
     assert len(client.search_model_versions("name = 'whonet-R-target'")) == 1  # none registered
+
+
+# --------------------------------------------------------------------------- weights without pickle
+
+_LOADED: list[str] = []  # what the audit hook saw while a test watched (see _watch_pickle)
+_WATCHING: list[bool] = []
+
+
+def _audit(event, args):
+    if _WATCHING and event == "pickle.find_class":
+        _LOADED.append(f"{args[0]}.{args[1]}")
+
+
+@pytest.fixture
+def no_pickle(monkeypatch):
+    """``start()``: from then on any torch.load or pickle load fails the test, and an audit
+    hook records any unpickler's class lookups; it returns that record (empty: nothing was
+    unpickled). Started after registering: the pipeline's own model.pt files are read then.
+    """
+    import pickle
+    import sys
+
+    import cloudpickle
+    import torch
+
+    if not getattr(_audit, "installed", False):  # an audit hook cannot be removed: once
+        sys.addaudithook(_audit)
+        _audit.installed = True
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a pickle was loaded")
+
+    def start():
+        for module, name in [
+            (torch, "load"),
+            (torch.serialization, "load"),
+            (pickle, "load"),
+            (pickle, "loads"),
+            (pickle, "Unpickler"),
+            (cloudpickle, "load"),
+            (cloudpickle, "loads"),
+        ]:
+            monkeypatch.setattr(module, name, refuse)
+        _LOADED.clear()
+        _WATCHING.append(True)
+        return _LOADED
+
+    try:
+        yield start
+    finally:
+        _WATCHING.clear()
+
+
+def test_export_and_recalibrate_read_a_registered_version_without_pickle(
+    store, pipeline_outputs, tmp_path, monkeypatch, capsys, no_pickle
+):
+    """The path from the registry to a recalibrated model's prediction: no torch.load, no pickle."""
+    from rwhonet.cli.main import main
+    from rwhonet.models.checkpoint import load_wpm_radii
+    from rwhonet.serve.bundle import file_digests
+    from rwhonet.serve.model import load_served
+    from support.serving import write_drive
+
+    client, _, _ = register(store, pipeline_outputs, "e1")
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", store)
+    drive = write_drive(tmp_path / "V-Wavy.csv", duration_s=300)
+    unpickled = no_pickle()
+    with pytest.raises(AssertionError, match="a pickle was loaded"):  # the guard guards
+        __import__("torch").load(pipeline_outputs["g"])
+
+    onnx = tmp_path / "r.onnx"
+    assert main(["export", "--model", "models:/whonet-R-target/1", "--output", str(onnx)]) == 0
+    assert "max |ONNX - PyTorch|" in capsys.readouterr().out
+    assert load_served(onnx).meta.wpm_radii == (0.3, 0.297)
+    argv = ["--drive", str(drive), "--seconds", "30", "--recipe", "radius+G"]
+    assert main(["recalibrate", "--base", "models:/whonet-G/1", *argv]) == 0, capsys.readouterr()
+    assert "registered whonet-R-target version 2" in capsys.readouterr().out
+    files = file_digests(stored_folder(client, "whonet-R-target", "2"))
+    assert "artifacts/model.safetensors" in files
+    assert not [f for f in files if f.endswith((".pt", ".pkl"))], files
+    radii = load_wpm_radii(
+        stored_folder(client, "whonet-R-target", "2") / "artifacts" / "model.safetensors"
+    )
+    onnx2 = tmp_path / "r2.onnx"
+    assert main(["export", "--model", "models:/whonet-R-target/2", "--output", str(onnx2)]) == 0
+    assert radii is not None and load_served(onnx2).meta.wpm_radii == radii
+    assert unpickled == []  # no unpickler looked up a class (the audit hook's record)
+
+
+def _register_old_style(client, name, pipeline_file, folder):
+    """A version as rwhonet registered it before model.safetensors: its bundle holds model.pt."""
+    import shutil
+
+    import mlflow.pyfunc
+
+    from rwhonet.serve.bundle import digests_to_text, file_digests
+    from rwhonet.serve.pyfunc import MODEL_CODE
+    from rwhonet.tracking.registry import FILES_TAG, MODEL_PATH
+
+    current = stored_folder(client, name) / "artifacts"
+    bundle = folder / "bundle"
+    bundle.mkdir(parents=True)
+    for f in ("model.onnx", "rwhonet.json"):
+        shutil.copyfile(current / f, bundle / f)
+    shutil.copyfile(pipeline_file, bundle / "model.pt")
+    local = folder / MODEL_PATH
+    mlflow.pyfunc.save_model(
+        local,
+        python_model=str(MODEL_CODE),
+        artifacts={
+            "model_onnx": str(bundle / "model.onnx"),
+            "model_pt": str(bundle / "model.pt"),
+            "meta": str(bundle / "rwhonet.json"),
+        },
+    )
+    run_id = client.get_model_version(name, "1").run_id
+    client.log_artifacts(run_id, str(local), "old-model")
+    run = client.get_run(run_id)
+    version = client.create_model_version(
+        name,
+        source=f"{run.info.artifact_uri}/old-model",
+        run_id=run_id,
+        tags={FILES_TAG: digests_to_text(file_digests(local))},
+    )
+    return str(version.version)
+
+
+@pytest.mark.parametrize("command", ["export", "recalibrate"])
+def test_a_version_registered_with_a_model_pt_is_refused_not_unpickled(
+    store, pipeline_outputs, tmp_path, monkeypatch, capsys, no_pickle, command
+):
+    from rwhonet.cli.main import main
+    from support.serving import write_drive
+
+    client, _, _ = register(store, pipeline_outputs, "e1")
+    version = _register_old_style(client, "whonet-G", pipeline_outputs["g"], tmp_path / "old")
+    assert version == "2"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", store)
+    drive = write_drive(tmp_path / "V-Wavy.csv", duration_s=120)
+    unpickled = no_pickle()
+    out = tmp_path / "out.onnx"
+    args = {
+        "export": ["export", "--model", "models:/whonet-G/latest", "--output", str(out)],
+        "recalibrate": ["recalibrate", "--base", "models:/whonet-G/2", "--drive", str(drive)],
+    }[command]
+    assert main(args) == 2
+    said = capsys.readouterr().err
+    assert "whonet-G version 2" in said and "artifacts/model.pt" in said
+    assert "register the model again" in said
+    assert not out.exists()
+    assert len(client.search_model_versions("name = 'whonet-R-target'")) == 1  # none registered
+    assert unpickled == []  # nothing was unpickled on the way to the refusal
+    # `rwhonet predict` runs such a version still: it reads the ONNX file alone
+    csv = tmp_path / "p.csv"
+    argv = ["--model", "models:/whonet-G/2", "--drive", str(drive), "--output", str(csv)]
+    assert main(["predict", *argv, "--quiet"]) == 0 and csv.is_file()

@@ -408,7 +408,8 @@ def test_the_pipeline_registers_models_without_code_that_a_reader_loads(
     assert (r.tags["recipe"], r.tags["m"], r.tags["seed"]) == ("radius+G", "20", "1")
     assert r.status == "READY" and chosen == "true"
     files = json.loads(r.tags[FILES_TAG])
-    assert "artifacts/model.onnx" in files and not [f for f in files if f.endswith(".pkl")]
+    assert {"artifacts/model.onnx", "artifacts/model.safetensors"} <= set(files)
+    assert not [f for f in files if f.endswith((".pkl", ".pt"))], files  # weights without pickle
     stored = list(server["artifacts"].rglob("*.pkl"))
     assert not stored, stored  # no pickle anywhere in the artifact store
     # A reader loads it by name, logged in from MLflow's credentials file in a home folder

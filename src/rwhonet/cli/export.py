@@ -22,18 +22,27 @@ N_CHECK = 1000
 
 
 def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) -> tuple:
-    """``(model.pt, metadata)`` of a registry URI, a model folder, or a pipeline ``model.pt``.
+    """``(model file, metadata)`` of a registry URI, a model folder, or a pipeline ``model.pt``.
 
-    A bare ``model.pt`` takes its scaler and source radii from the project's
+    A registered version's model file is its ``model.safetensors``, read without
+    pickle once its files are verified (:func:`rwhonet.tracking.registry.fetch_model`);
+    one that holds only a ``model.pt`` is refused. A bare model file of this
+    project (``model.pt``, read with ``torch.load(weights_only=True)``, or a
+    ``.safetensors``) takes its scaler and source radii from the project's
     ``data/processed/scaler.json`` and ``calibration.json`` (the label stage's).
     """
     from rwhonet.cli.predict import model_path
     from rwhonet.serve.bundle import bundle_parts, make_meta
 
     if spec.startswith(("models:/", "runs:/")):
-        return bundle_parts(model_path(spec, tracking_uri, dest))
+        if tracking_uri is None:
+            return bundle_parts(model_path(spec, tracking_uri, dest))  # refused: no store
+        from rwhonet.tracking.registry import fetch_model, version_label
+
+        local, version = fetch_model(spec, tracking_uri, dest)
+        return bundle_parts(local, version_label(version))
     path = Path(spec)
-    if path.is_file() and path.suffix == ".pt":
+    if path.is_file() and path.suffix in (".pt", ".safetensors"):
         from rwhonet.io import read_json
 
         missing = [p for p in (paths.SCALER, paths.CALIBRATION) if not p.is_file()]
@@ -72,14 +81,14 @@ def run(spec: str, output: str | None, tracking_uri: str | None, wpm_mode: str) 
     from rwhonet.serve.model import load_served
 
     with tempfile.TemporaryDirectory(prefix="rwhonet-export-") as tmp:
-        model_pt, meta = model_parts(spec, tracking_uri, Path(tmp), wpm_mode)
-        default = meta.info.get("name") or Path(model_pt).stem
+        model_file, meta = model_parts(spec, tracking_uri, Path(tmp), wpm_mode)
+        default = meta.info.get("name") or Path(model_file).stem
         if meta.info.get("version"):
             default += f"-v{meta.info['version']}"
         out = Path(output or f"{default}.onnx")
         out.parent.mkdir(parents=True, exist_ok=True)
-        export_model(Path(model_pt), meta, out)
-        net, hparams = load_whonet(model_pt)
+        export_model(Path(model_file), meta, out)
+        net, hparams = load_whonet(model_file)
     served = load_served(out)
     rng = np.random.default_rng(0)
     x = rng.uniform(-0.1, 1.1, (N_CHECK, served.meta.seq_len, served.meta.n_features))

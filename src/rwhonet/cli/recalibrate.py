@@ -123,15 +123,18 @@ def run(
     from rwhonet.models.checkpoint import load_whonet, save_whonet
     from rwhonet.models.loop import predict
     from rwhonet.serve.bundle import bundle_parts, make_meta, write_bundle
-    from rwhonet.tracking.registry import fetch_model, registered_name
+    from rwhonet.serve.model import SAFETENSORS_FILE
+    from rwhonet.tracking.registry import fetch_model, registered_name, version_label
 
     start = time.perf_counter()
     choice = choose(params, recipe, seconds)
     seed = params.seeds[0] if seed is None else seed
     with tempfile.TemporaryDirectory(prefix="rwhonet-recalibrate-") as tmp:
         base_path, base_version = fetch_model(base, tracking_uri, Path(tmp) / "base")
-        base_pt, base_meta = bundle_parts(base_path)
-        net, hparams = load_whonet(base_pt)
+        base_file, base_meta = bundle_parts(
+            base_path, version_label(base_version) if base_version is not None else base
+        )
+        net, hparams = load_whonet(base_file)  # a registered version's: model.safetensors
         data = load_drive(
             drive,
             params,
@@ -218,8 +221,9 @@ def run(
             "source": "rwhonet recalibrate",
             "n_adapt_seconds": int(first.sum()),
         }
-        model_pt = Path(tmp) / contracts.MODEL_FILE
-        save_whonet(result.net, result.hparams, model_pt, wpm_radii=result.radii)
+        # written in the registry's pickle-free form: nothing here is read back with torch.load
+        model_file = Path(tmp) / SAFETENSORS_FILE
+        save_whonet(result.net, result.hparams, model_file, wpm_radii=result.radii)
         meta = make_meta(
             hparams,
             base_meta.scaler,
@@ -229,7 +233,7 @@ def run(
             {"name": name, **tags},
             base_meta.evidence,
         )
-        bundle = write_bundle(model_pt, meta, Path(tmp) / "bundle")
+        bundle = write_bundle(model_file, meta, Path(tmp) / "bundle")
         run_id, version = _log(
             params, tracking_uri, name, bundle, scored, tags, choice, scores, result
         )

@@ -8,7 +8,7 @@
   displacement; cumulative distances and errors through outages.
 - :mod:`~rwhonet.serve.navigation`: the navigation filter on the stream: east/north and
   its covariance through an outage, calibrated on the GNSS seconds before it.
-- :mod:`~rwhonet.serve.bundle`: writes a model bundle (``model.pt``, ``model.onnx``,
+- :mod:`~rwhonet.serve.bundle`: writes a model bundle (``model.safetensors``, ``model.onnx``,
   ``rwhonet.json``) from a model file; the only module here that imports torch.
 - :mod:`~rwhonet.serve.pyfunc`: the MLflow ``pyfunc`` flavour of a bundle, and
   :mod:`~rwhonet.serve.pyfunc_model`, the code MLflow runs to load it (a model from

@@ -1,11 +1,17 @@
 """A model bundle: one folder with everything a WhONet needs to run anywhere.
 
-``model.pt`` (the model file, :mod:`rwhonet.models.checkpoint`), ``model.onnx``
+``model.safetensors`` (the model file in its pickle-free form,
+:mod:`rwhonet.models.checkpoint`), ``model.onnx``
 (:func:`rwhonet.models.onnx.export_onnx`, the metadata in its
 ``metadata_props``) and ``rwhonet.json`` (the same metadata,
 :class:`~rwhonet.serve.model.ServedMeta`). The registry logs a bundle as an
 MLflow ``pyfunc`` model; ``rwhonet export`` writes its ``.onnx`` alone. This
 module imports torch (lazily, to export).
+
+A bundle never holds a ``model.pt``: whoever can write to a model store could
+put a pickle there, and ``rwhonet export`` / ``recalibrate --base`` would read
+it. :func:`bundle_parts` refuses a folder that has only a ``model.pt`` (a version
+registered by an older rwhonet) rather than read it.
 
 A model folder's files are fingerprinted by their SHA-256
 (:func:`file_digests`) when it is registered, and checked against that
@@ -18,7 +24,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -29,6 +34,7 @@ from rwhonet.serve.model import (
     META_KEY,
     MLFLOW_ARTIFACTS,
     ONNX_FILE,
+    SAFETENSORS_FILE,
     TORCH_FILE,
     ServedMeta,
 )
@@ -65,8 +71,8 @@ def make_meta(
     )
 
 
-def export_model(model_pt: Path, meta: ServedMeta, onnx_path: Path) -> Path:
-    """Export a model file to ONNX with ``meta`` in its ``metadata_props``.
+def export_model(model_file: Path, meta: ServedMeta, onnx_path: Path) -> Path:
+    """Export a model file (``.pt`` or ``.safetensors``) to ONNX with ``meta`` in its metadata.
 
     The model file's own radii (``wpm_radii``) win over ``meta``'s, so a
     ``radius+G`` model always carries the radii it was recalibrated with.
@@ -74,57 +80,88 @@ def export_model(model_pt: Path, meta: ServedMeta, onnx_path: Path) -> Path:
     from rwhonet.models.checkpoint import load_whonet, load_wpm_radii
     from rwhonet.models.onnx import export_onnx
 
-    net, hparams = load_whonet(model_pt)
-    own = load_wpm_radii(model_pt)
+    net, hparams = load_whonet(model_file)
+    own = load_wpm_radii(model_file)
     meta = dataclasses.replace(
         meta, hparams=dict(hparams), wpm_radii=own if own is not None else meta.wpm_radii
     )
     return export_onnx(net, hparams, onnx_path, {META_KEY: meta.to_json()})
 
 
-def write_bundle(model_pt: Path, meta: ServedMeta, folder: Path) -> dict[str, Path]:
-    """Write a bundle folder: ``model.pt``, ``model.onnx``, ``rwhonet.json``.
+def write_bundle(model_file: Path, meta: ServedMeta, folder: Path) -> dict[str, Path]:
+    """Write a bundle folder: ``model.safetensors``, ``model.onnx``, ``rwhonet.json``.
+
+    Args:
+        model_file: the model (a pipeline's ``model.pt``, or a ``.safetensors``).
+        meta: its metadata (the model file's own radii win, :func:`export_model`).
+        folder: the bundle folder (created).
 
     Returns:
         Artifact name -> file (what the MLflow pyfunc model's ``artifacts`` are).
     """
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    onnx_path = export_model(Path(model_pt), meta, folder / ONNX_FILE)
+    from rwhonet.models.checkpoint import to_safetensors
     from rwhonet.serve.model import ServedModel
 
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    weights = to_safetensors(model_file, folder / SAFETENSORS_FILE)
+    onnx_path = export_model(weights, meta, folder / ONNX_FILE)
     meta = ServedModel(onnx_path).meta  # what the export embedded (radii resolved)
-    shutil.copyfile(model_pt, folder / TORCH_FILE)
     (folder / META_FILE).write_text(meta.to_json() + "\n", encoding="utf-8")
-    return {"model_onnx": onnx_path, "model_pt": folder / TORCH_FILE, "meta": folder / META_FILE}
+    return {"model_onnx": onnx_path, "model_safetensors": weights, "meta": folder / META_FILE}
 
 
-def bundle_parts(path: Path) -> tuple[Path, ServedMeta]:
-    """The model file and metadata of a bundle or MLflow model folder.
+def bundle_parts(path: Path, source: str | None = None) -> tuple[Path, ServedMeta]:
+    """The model file (``model.safetensors``) and metadata of a bundle or MLflow model folder.
+
+    Args:
+        path: the folder (a fetched registered version, or a bundle on disk).
+        source: the model as the user named it (``whonet-G version 3``), for the report.
 
     Raises:
-        InputError: the folder holds no ``model.pt`` and ``rwhonet.json``.
+        InputError: the folder holds no ``model.safetensors`` and ``rwhonet.json``;
+            or only a ``model.pt`` (registered by an older rwhonet), which is not read.
     """
     path = Path(path)
+    label = source or str(path)
     for folder in (path, path / MLFLOW_ARTIFACTS):
-        if (folder / TORCH_FILE).is_file() and (folder / META_FILE).is_file():
+        if not (folder / META_FILE).is_file():
+            continue
+        if (folder / SAFETENSORS_FILE).is_file():
             meta_file = folder / META_FILE
-            return folder / TORCH_FILE, ServedMeta.from_json(
+            return folder / SAFETENSORS_FILE, ServedMeta.from_json(
                 meta_file.read_text(encoding="utf-8"), str(meta_file)
+            )
+        if (folder / TORCH_FILE).is_file():
+            raise InputError(
+                [
+                    Problem(
+                        f"{label}: {(folder / TORCH_FILE).relative_to(path).as_posix()}",
+                        None,
+                        None,
+                        f"{SAFETENSORS_FILE} (the weights, read without pickle)",
+                        f"{TORCH_FILE} only (torch's pickle format: a model registered by an "
+                        "older rwhonet), which is not read",
+                        "register the model again with this rwhonet (dvc repro -f evaluate, "
+                        "or rwhonet recalibrate); `rwhonet predict` still runs this version "
+                        "(its ONNX file)",
+                    )
+                ],
+                f"{label} holds no pickle-free model file",
             )
     raise InputError(
         [
             Problem(
-                str(path),
+                label,
                 None,
                 None,
-                f"a model folder holding {TORCH_FILE} and {META_FILE}",
+                f"a model folder holding {SAFETENSORS_FILE} and {META_FILE}",
                 "no such folder" if not path.exists() else "neither",
                 "give a registered model (models:/whonet-G/latest), a model folder, or a "
                 "model.pt of the pipeline (models/g/seed42/model.pt)",
             )
         ],
-        f"no model at {path}",
+        f"no model at {label}",
     )
 
 

@@ -33,7 +33,8 @@ from rwhonet.features.wpm import WPM_MODES, radius_corrected
 FORMAT = "rwhonet.served/1"
 META_KEY = "rwhonet"
 ONNX_FILE = "model.onnx"
-TORCH_FILE = "model.pt"
+TORCH_FILE = "model.pt"  # what a bundle never holds (rwhonet.serve.bundle)
+SAFETENSORS_FILE = "model.safetensors"
 META_FILE = "rwhonet.json"
 MLFLOW_ARTIFACTS = "artifacts"  # where an MLflow pyfunc model keeps its files
 

@@ -3,8 +3,8 @@
 Names (:func:`registered_name`): ``whonet-G`` (trained on the source car),
 ``whonet-S`` (trained on the target car), ``whonet-R-<vehicle>`` (G recalibrated
 on one car: the pipeline's chosen R-WhONet and every ``rwhonet recalibrate``).
-Each version is a model bundle (:mod:`rwhonet.serve.bundle`: ``model.pt``,
-``model.onnx``, ``rwhonet.json``) logged as an MLflow ``pyfunc`` model with a
+Each version is a model bundle (:mod:`rwhonet.serve.bundle`:
+``model.safetensors``, ``model.onnx``, ``rwhonet.json``) logged as an MLflow ``pyfunc`` model with a
 signature and an input example (:mod:`rwhonet.serve.pyfunc`), so
 :func:`load_pyfunc` (``mlflow.pyfunc.load_model`` once the files are checked)
 predicts the label from the feature window, and ``rwhonet predict --model
@@ -17,7 +17,12 @@ class), and the SHA-256 of each of its files is a version tag
 :func:`fetch_model`, which ``rwhonet predict``, ``export`` and ``recalibrate
 --base`` load every registered model through, downloads the version's files
 and refuses them (:class:`~rwhonet.errors.InputError`, exit status 2) unless
-they are exactly the recorded ones; only then is anything in them read.
+they are exactly the recorded ones; only then is anything in them read. The
+weights travel as ``model.safetensors`` (converted from the pipeline's
+``model.pt`` at registration, :func:`rwhonet.models.checkpoint.to_safetensors`),
+which ``export`` and ``recalibrate --base`` read without ``torch.load``; a
+version registered with a ``model.pt`` by an older rwhonet is refused by them
+(:func:`rwhonet.serve.bundle.bundle_parts`), never unpickled.
 
 A pipeline execution registers one version per model (:func:`register_execution`,
 called by :func:`rwhonet.tracking.store.log_execution`): the first training
@@ -118,9 +123,9 @@ def log_bundle(
             metadata={"rwhonet": json.loads(meta.to_json())},
         )
         digests = file_digests(local)
-        pickled = [f for f in digests if f.endswith(".pkl")]
-        if pickled:  # what stays true of every registered version
-            raise RuntimeError(f"MLflow pickled part of the model: {pickled}")
+        pickled = [f for f in digests if f.endswith((".pkl", ".pt"))]
+        if pickled:  # what stays true of every registered version: no file in pickle's format
+            raise RuntimeError(f"a pickle in the model: {pickled}")
         retrying(lambda: client.log_artifacts(run_id, str(local), MODEL_PATH))
     _ensure_registered_model(client, name)
     run = retrying(lambda: client.get_run(run_id))
@@ -287,7 +292,7 @@ def fetch_model(spec: str, tracking_uri: str, dest: Path | None = None) -> tuple
     # by models:/... -- in a local store into the stored folder itself. It is no part of the
     # model, nothing here reads it, and it is not in the record: it goes before the check.
     (local / MLFLOW_NOTE).unlink(missing_ok=True)
-    label = f"{version.name} version {version.version}"
+    label = version_label(version)
     record = (version.tags or {}).get(FILES_TAG)
     if not record:
         raise InputError(
@@ -306,6 +311,11 @@ def fetch_model(spec: str, tracking_uri: str, dest: Path | None = None) -> tuple
         )
     verify_digests(local, digests_from_text(record, f"{label} ({FILES_TAG})"), label)
     return local, version
+
+
+def version_label(version: Any) -> str:
+    """How a registered version is named in reports: ``whonet-G version 3``."""
+    return f"{version.name} version {version.version}"
 
 
 def _unknown(spec: str, tracking_uri: str, found: str) -> InputError:
