@@ -138,6 +138,9 @@ def run(
     stdout: IO[str] | None = None,
     period_s: float = 0.1,
     drive_blocks: tuple[dict[str, str], Iterable[tuple[int, dict[str, np.ndarray]]]] | None = None,
+    validate: Any = None,
+    nominal_radius_m: float | None = None,
+    radius_from: str | None = None,
 ) -> dict[str, Any]:
     """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary.
 
@@ -146,7 +149,15 @@ def run(
     row blocks, :func:`rwhonet.cli.drive.canonical_blocks`). A file output is written
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
+
+    The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
+    against the GNSS distance, :class:`rwhonet.data.drivechecks.StreamRadiusCheck`) with
+    ``validate`` (``params.validate``; None: :func:`default_validate`) against
+    ``nominal_radius_m`` (None: the model's source radius; ``radius_from`` says where it
+    came from, for the report). No second is written before the check has decided: a
+    drive whose wheel speeds do not fit is refused with nothing written, also on stdout.
     """
+    from rwhonet.data.drivechecks import StreamRadiusCheck
     from rwhonet.data.incremental import read_rows
 
     with ExitStack() as stack:
@@ -185,12 +196,30 @@ def run(
             else:
                 lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
                 names = lay.names
-            stream = SecondStream(model, outages, file=name, names=names, max_gap_s=max_gap_s)
+            nominal = nominal_radius_m or float(np.mean(model.meta.source_radii))
+            check = StreamRadiusCheck(
+                {"source_file": name, "columns": names, "vehicle": "the car"},
+                nominal,
+                validate or default_validate(),
+                radius_from
+                or f"--nominal-radius (without it: the model's source radius, {nominal:.4g} m)",
+            )
+            stream = SecondStream(
+                model, outages, file=name, names=names, max_gap_s=max_gap_s, unit_check=check
+            )
+            held: list[dict[str, np.ndarray]] = []  # seconds not written before the check
             for first, columns in blocks:
-                block = stream.push(first, columns)
+                held.append(stream.push(first, columns))
+                rows = first + len(columns["t_s"]) - 1
+                if check.decided:
+                    for block in held:
+                        sink.write(block)
+                        seconds += len(block["t_s"])
+                    held = []
+            unit_note = check.finish()
+            for block in held:
                 sink.write(block)
                 seconds += len(block["t_s"])
-                rows = first + len(columns["t_s"]) - 1
             done = True
         finally:
             sink.close()
@@ -207,7 +236,37 @@ def run(
         "outages": stream.summary(),
         "file": name,
         "glitches": stream.glitches,
+        "unit_note": unit_note,
     }
+
+
+def default_validate() -> Any:
+    """``validate`` as the project's params.yaml sets it, for ``predict`` outside a project
+    (a test holds the two equal)."""
+    from rwhonet.config import GnssPolicy, ValidateParams, WheelPolicy
+
+    return ValidateParams(
+        sample_period_s=0.1,
+        sample_period_tol_s=0.05,
+        max_abs_wheel_speed_rad_s=300.0,
+        radius_tolerance=0.05,
+        radius_min_moving_s=30.0,
+        gnss=GnssPolicy(
+            min_sats=4,
+            max_speed_m_s=70.0,
+            frozen_min_s=2.0,
+            moving_wheel_speed_rad_s=1.0,
+            max_gap_s=0.5,
+            min_segment_s=30.0,
+        ),
+        wheels=WheelPolicy(
+            stuck_ratio=0.5,
+            stuck_moving_rad_s=3.0,
+            stuck_min_s=3.0,
+            negative_tol_rad_s=0.5,
+            signed_max_share=0.5,
+        ),
+    )
 
 
 def _position_text(o: dict[str, Any]) -> str:
@@ -245,6 +304,7 @@ def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
     lines += glitch_lines(out.get("glitches", []))
+    lines += [out["unit_note"]] if out.get("unit_note") else []
     for o in out["outages"]:
         if not o["seconds"]:
             lines.append(f"outage {o['outage']} s: no second of the drive falls in it")
