@@ -436,3 +436,39 @@ def test_predict_s_default_validate_is_the_project_s():
     from rwhonet.config import load_params
 
     assert default_validate() == dataclasses.replace(load_params().validate, cuts=[])
+
+
+def test_predict_repairs_and_reports_a_glitched_sample_of_a_100_hz_wheel_stream(
+    bundle, tmp_path, capsys
+):
+    """A x3 one-sample glitch in a 100 Hz wheel stream: validate cuts its rows (the
+    resampler's flags); predict repairs them and says so, with the stream's sample row."""
+    import yaml
+
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import SIGNAL_MAP, StreamTables
+    from support.stream_corpus import RADIUS_M, good_tables, write_good
+
+    signals = {k: {"column": col, "unit": unit} for k, (col, unit) in SIGNAL_MAP.items()}
+    smap = tmp_path / "map.yaml"
+    smap.write_text(yaml.safe_dump(signals))
+    good = good_tables()
+    wheels = good.wheels.copy()
+    wheels.loc[2000, c.OMEGA_RL] *= 3.0  # t = 1020.00 s
+    frames = {}
+    for name, tables in (("clean", good), ("glitch", StreamTables(wheels, good.gnss))):
+        (tmp_path / name).mkdir()
+        drive = write_good("csv", tmp_path / name, tables)
+        out = tmp_path / f"{name}.csv"
+        extra = ["--format", "stream_csv", "--signal-map", str(smap)]
+        extra += ["--nominal-radius", str(RADIUS_M), "--quiet"]
+        assert main(_predict_args(bundle, drive, out, *extra)) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (clean, said_clean), (fixed, said) = frames["clean"], frames["glitch"]
+    assert "glitch" not in said_clean
+    assert "stream glitch: 1 wheel-speed sample(s)" in said
+    assert "wheels.csv" in said and "sample row 2001 (t = 1020 s)" in said
+    assert "wheel glitch: " in said  # the grid rows repaired, listed
+    assert len(fixed) == len(clean) > 30
+    for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
+        np.testing.assert_allclose(fixed[q], clean[q], atol=0.01)

@@ -110,7 +110,7 @@ def _predict(args: argparse.Namespace) -> int:
         params, uri = _project(required=True)
     else:  # a model file and a 10 Hz CSV: the project's validate and cars, where there is one
         params = _params_here()
-    column_map, drive_blocks, period_s = None, None, 0.1
+    column_map, drive_blocks, stream_glitches, period_s = None, None, None, 0.1
     validate, nominal, radius_from = None, args.nominal_radius, None
     if args.vehicle_file is not None:
         radius_from = f"--vehicle-file {args.vehicle_file}"
@@ -148,7 +148,10 @@ def _predict(args: argparse.Namespace) -> int:
                         )
                     ]
                 )
-            drive_blocks = canonical_blocks(Path(args.drive), params, PREDICT_CAR, args.format)
+            names, blocks, stream_glitches = canonical_blocks(
+                Path(args.drive), params, PREDICT_CAR, args.format
+            )
+            drive_blocks = (names, blocks)
     model = predict.open_model(args.model, uri)
     out = predict.run(
         model,
@@ -163,12 +166,13 @@ def _predict(args: argparse.Namespace) -> int:
         validate=validate,
         nominal_radius_m=nominal,
         radius_from=radius_from,
+        stream_glitches=stream_glitches,
     )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)
     else:  # repaired or unchecked input is never silent
         said = [
-            *predict.glitch_lines(out["glitches"]),
+            *predict.glitch_lines(out["glitches"], samples=out["stream_glitches"]),
             *([out["unit_note"]] * bool(out["unit_note"])),
         ]
         if said:

@@ -141,12 +141,15 @@ def run(
     validate: Any = None,
     nominal_radius_m: float | None = None,
     radius_from: str | None = None,
+    stream_glitches: list[tuple[str, int, float, str]] | None = None,
 ) -> dict[str, Any]:
     """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary.
 
     A CSV drive (IO-VNBD, a column map) is read as it arrives; a drive in a stream format
     comes read and resampled already (``drive_blocks``: the source's channel names and the
-    row blocks, :func:`rwhonet.cli.drive.canonical_blocks`). A file output is written
+    row blocks, :func:`rwhonet.cli.drive.canonical_blocks`, with the resampler's glitch
+    flags, which the stream repairs; ``stream_glitches``: the glitched samples the
+    resampler found, for the summary). A file output is written
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
 
@@ -236,6 +239,7 @@ def run(
         "outages": stream.summary(),
         "file": name,
         "glitches": stream.glitches,
+        "stream_glitches": list(stream_glitches or []),
         "unit_note": unit_note,
     }
 
@@ -283,17 +287,37 @@ def _position_text(o: dict[str, Any]) -> str:
     return text + f", {o['pos_err_end_m']:.1f} m from the GNSS fix"
 
 
-def glitch_lines(glitches: list[dict[str, Any]], listed: int = 5) -> list[str]:
-    """What the stream repaired: wheel samples that changed faster than any tyre can."""
+def glitch_lines(
+    glitches: list[dict[str, Any]],
+    listed: int = 5,
+    samples: list[tuple[str, int, float, str]] | None = None,
+) -> list[str]:
+    """What the stream repaired: wheel samples that changed faster than any tyre can.
+
+    ``samples``: a stream drive's glitched samples as the resampler found them (stream,
+    sample row, time, channel); the grid rows whose means used them are among the rows
+    repaired.
+    """
+    lines = []
+    if samples:
+        shown = "; ".join(
+            f"{s} sample row {r} (t = {t:.6g} s), {ch!r}" for s, r, t, ch in samples[:listed]
+        )
+        more = f"; and {len(samples) - listed} more" if len(samples) > listed else ""
+        lines.append(
+            f"stream glitch: {len(samples)} wheel-speed sample(s) of the drive's streams rose "
+            f"faster than any tyre can (> {WHEEL_GLITCH_G:g} g above the other wheels): "
+            f"{shown}{more}; the grid rows whose means used them were repaired as below"
+        )
     if not glitches:
-        return []
+        return lines
     shown = "; ".join(
         f"row {g['row']} (t = {g['t_s']:.6g} s), {g['channel'].strip()!r}: "
         f"{g['found_rad_s']:.4g} -> {g['replaced_rad_s']:.4g} rad/s"
         for g in glitches[:listed]
     )
     more = f"; and {len(glitches) - listed} more" if len(glitches) > listed else ""
-    return [
+    return lines + [
         f"wheel glitch: {len(glitches)} sample(s) rose faster than any tyre can (> "
         f"{WHEEL_GLITCH_G:g} g above the other wheels) and were replaced by the wheel's own "
         f"speed interpolated across them: {shown}{more}"
@@ -303,7 +327,7 @@ def glitch_lines(glitches: list[dict[str, Any]], listed: int = 5) -> list[str]:
 def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
-    lines += glitch_lines(out.get("glitches", []))
+    lines += glitch_lines(out.get("glitches", []), samples=out.get("stream_glitches"))
     lines += [out["unit_note"]] if out.get("unit_note") else []
     for o in out["outages"]:
         if not o["seconds"]:

@@ -83,6 +83,9 @@ COLUMNS = (
     "cov_nn_m2",
     "pos_err_m",
 )
+# A block's column GLITCH_FLAG + wheel (booleans, optional): rows the resampler flagged,
+# whose mean of that wheel used a glitched sample (rwhonet.cli.drive.canonical_blocks).
+GLITCH_FLAG = "glitch:"
 OUTAGE_COLUMNS = COLUMNS[7:]
 CUMULATIVE_COLUMNS = OUTAGE_COLUMNS[:7]  # the running sums over an outage's seconds
 POSITION_COLUMNS = COLUMNS[-6:]
@@ -252,6 +255,9 @@ class SecondStream:
         interpolated in time across it, so a one-row CAN glitch moves neither the WPM nor
         the prediction of its second (validate cuts such a second; a stream cannot leave
         it out without breaking the run), and the command says which rows it repaired.
+        A stream drive's rows come with the resampler's flags too (``GLITCH_FLAG`` +
+        wheel: the rows whose mean of that wheel used a glitched sample, which validate
+        cuts): those are repaired the same way, whether or not the 10 Hz screen sees them.
         """
         held = 0 if self._rows is None else len(self._rows[c.T_S])
         keys = (c.T_S, *c.WHEELS)
@@ -263,6 +269,10 @@ class SecondStream:
         mask = glitch_mask(
             both[c.T_S], [both[w] for w in c.WHEELS], self.nav.wheels.radius_m, WHEEL_GLITCH_G
         )
+        for k, w in enumerate(c.WHEELS):
+            flagged = columns.get(GLITCH_FLAG + w)
+            if flagged is not None:
+                mask[k, held:] |= np.asarray(flagged, dtype=bool)
         if not mask[:, held:].any():
             return columns
         columns = dict(columns)
