@@ -285,3 +285,190 @@ def test_a_model_with_context_exports_and_predicts_every_second(arch, drive, tmp
     assert main([*args, "--quiet"]) == 0
     frame = pd.read_parquet(out)
     assert len(frame) == 300 and frame["pred_error_m"].notna().all()
+
+
+# --------------------------------------------------------------------------- wheel units
+
+RAV4_M = 0.362  # a car whose tyre tells km/h from rad/s (1 / (3.6 r) = 0.77)
+
+
+def _rav4_drive(wheel_factor: float = 1.0, fixes: bool = True):
+    """A 120 s wavy drive on 0.362 m tyres; wheel speeds x ``wheel_factor``; no fix at all
+    with ``fixes`` False."""
+    from rwhonet.data import canonical as c
+    from support.synthetic import build_drive, wavy_speed
+
+    df = build_drive(
+        wavy_speed(120.0, 12.0, 4.0, 60.0, t0_s=45000.0),
+        r_rl_m=RAV4_M,
+        r_rr_m=RAV4_M,
+        r_front_m=RAV4_M,
+        gnss_sigma_m=0.2,
+        wheel_sigma_rad_s=0.05,
+    )
+    df[c.N_SATS] = 9.0
+    for w in c.WHEELS:
+        df[w] *= wheel_factor
+    if not fixes:
+        df[c.LAT_DEG] = np.nan
+        df[c.LON_DEG] = np.nan
+    return df
+
+
+def _predict_args(bundle, drive, out, *extra):
+    return [
+        "predict",
+        "--model",
+        str(bundle["model_onnx"]),
+        "--drive",
+        str(drive),
+        "--output",
+        str(out),
+        *extra,
+    ]
+
+
+def test_predict_refuses_km_h_labelled_rad_s_as_validate_does_and_writes_nothing(
+    bundle, tmp_path, capsys
+):
+    from support.drives import write_iovnbd
+
+    good = write_iovnbd(_rav4_drive(), tmp_path / "V-Rav4.csv")
+    kmh = write_iovnbd(_rav4_drive(RAV4_M * 3.6), tmp_path / "V-Kmh.csv")  # v in km/h
+    car = ["--nominal-radius", str(RAV4_M)]
+    assert main(_predict_args(bundle, good, tmp_path / "good.csv", *car)) == 0
+    assert len(pd.read_csv(tmp_path / "good.csv")) == 120
+    assert "not checked" not in capsys.readouterr().err
+    out = tmp_path / "kmh.csv"
+    assert main(_predict_args(bundle, kmh, out, *car)) == 2
+    err = capsys.readouterr().err
+    assert str(kmh) in err and "Wheel Speed Rear Left (rad/sec)" in err
+    assert "within ±5% of the car's nominal 0.362 m" in err  # validate's report, its threshold
+    assert "radius ≈ 1/3.6 m: the wheel speeds look like km/h" in err
+    assert "--nominal-radius" in err
+    assert not out.exists() and list(tmp_path.glob(".*partial")) == []
+    # on stdout: the header and no second before the check has decided
+    rc = cli(*_predict_args(bundle, "-", "-", *car), stdin=kmh.read_bytes())
+    assert rc.returncode == 2, rc.stderr.decode()
+    assert rc.stdout.decode().splitlines() == [rc.stdout.decode().splitlines()[0]]
+    assert "look like km/h" in rc.stderr.decode()
+
+
+def test_predict_refuses_an_mdf4_whose_rad_s_are_labelled_km_h(bundle, tmp_path, capsys):
+    from asammdf import MDF, Signal
+
+    from rwhonet.data import canonical as c
+
+    df = _rav4_drive()
+    t = df[c.T_S].to_numpy() - df[c.T_S].iloc[0]
+    names = ("WheelSpeed_FL", "WheelSpeed_FR", "WheelSpeed_RL", "WheelSpeed_RR")
+    mdf = MDF(version="4.10")
+    mdf.append(
+        [
+            Signal(df[w].to_numpy(), t, name=n, unit="km/h")
+            for w, n in zip(c.WHEELS, names, strict=True)
+        ]
+    )
+    mdf.append(
+        [
+            Signal(df[c.LAT_DEG].to_numpy(), t, name="Latitude", unit="deg"),
+            Signal(df[c.LON_DEG].to_numpy(), t, name="Longitude", unit="deg"),
+        ]
+    )
+    drive = tmp_path / "drive.mf4"
+    mdf.save(drive, overwrite=True)
+    mdf.close()
+    signal_map = tmp_path / "map.yaml"
+    signal_map.write_text(
+        "".join(
+            f"omega_{w}: {{column: WheelSpeed_{w.upper()}, unit: km/h}}\n"
+            for w in ("fl", "fr", "rl", "rr")
+        )
+        + "lat: {column: Latitude, unit: deg}\nlon: {column: Longitude, unit: deg}\n"
+    )
+    out = tmp_path / "p.csv"
+    fmt = ["--format", "mdf4", "--signal-map", str(signal_map), "--nominal-radius", str(RAV4_M)]
+    assert main(_predict_args(bundle, drive, out, *fmt)) == 2
+    err = capsys.readouterr().err
+    assert "WheelSpeed_RL" in err and "implied radius" in err and "ratio 1.3" in err
+    assert not out.exists()
+
+
+def test_predict_says_once_that_a_drive_without_gnss_was_not_unit_checked(bundle, tmp_path, capsys):
+    from support.drives import write_iovnbd
+
+    drive = write_iovnbd(_rav4_drive(fixes=False), tmp_path / "V-NoFix.csv")
+    for quiet in ([], ["--quiet"]):
+        assert main(_predict_args(bundle, drive, tmp_path / "p.csv", *quiet)) == 0
+        err = capsys.readouterr().err
+        assert err.count("not checked against GNSS") == 1 and "has no GNSS fix" in err
+    assert len(pd.read_csv(tmp_path / "p.csv")) == 120
+
+
+def test_a_clean_drive_s_output_is_the_unchecked_stream_s_byte_for_byte(bundle, drive, tmp_path):
+    """The unit check holds seconds back until it decides; what is written stays the same."""
+    from io import StringIO
+
+    from rwhonet.cli import predict
+    from rwhonet.data.incremental import read_rows
+    from rwhonet.serve.model import load_served
+    from rwhonet.serve.stream import Outage, SecondStream
+
+    model = load_served(bundle["model_onnx"])
+    outages = [Outage(100.0, 220.0)]
+    out = tmp_path / "p.csv"
+    got = predict.run(model, str(drive), str(out), outages)
+    assert got["unit_note"] is None
+    text = StringIO()
+    sink = predict.CsvSink(text)
+    stream = SecondStream(model, outages, file=str(drive))
+    with open(drive, "rb") as f:
+        _, blocks = read_rows(f, str(drive))
+        for first, cols in blocks:
+            sink.write(stream.push(first, cols))
+    assert out.read_text() == text.getvalue()
+
+
+def test_predict_s_default_validate_is_the_project_s():
+    import dataclasses
+
+    from rwhonet.cli.predict import default_validate
+    from rwhonet.config import load_params
+
+    assert default_validate() == dataclasses.replace(load_params().validate, cuts=[])
+
+
+def test_predict_repairs_and_reports_a_glitched_sample_of_a_100_hz_wheel_stream(
+    bundle, tmp_path, capsys
+):
+    """A x3 one-sample glitch in a 100 Hz wheel stream: validate cuts its rows (the
+    resampler's flags); predict repairs them and says so, with the stream's sample row."""
+    import yaml
+
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import SIGNAL_MAP, StreamTables
+    from support.stream_corpus import RADIUS_M, good_tables, write_good
+
+    signals = {k: {"column": col, "unit": unit} for k, (col, unit) in SIGNAL_MAP.items()}
+    smap = tmp_path / "map.yaml"
+    smap.write_text(yaml.safe_dump(signals))
+    good = good_tables()
+    wheels = good.wheels.copy()
+    wheels.loc[2000, c.OMEGA_RL] *= 3.0  # t = 1020.00 s
+    frames = {}
+    for name, tables in (("clean", good), ("glitch", StreamTables(wheels, good.gnss))):
+        (tmp_path / name).mkdir()
+        drive = write_good("csv", tmp_path / name, tables)
+        out = tmp_path / f"{name}.csv"
+        extra = ["--format", "stream_csv", "--signal-map", str(smap)]
+        extra += ["--nominal-radius", str(RADIUS_M), "--quiet"]
+        assert main(_predict_args(bundle, drive, out, *extra)) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (clean, said_clean), (fixed, said) = frames["clean"], frames["glitch"]
+    assert "glitch" not in said_clean
+    assert "stream glitch: 1 wheel-speed sample(s)" in said
+    assert "wheels.csv" in said and "sample row 2001 (t = 1020 s)" in said
+    assert "wheel glitch: " in said  # the grid rows repaired, listed
+    assert len(fixed) == len(clean) > 30
+    for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
+        np.testing.assert_allclose(fixed[q], clean[q], atol=0.01)

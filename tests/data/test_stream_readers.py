@@ -179,3 +179,72 @@ def test_one_csv_per_stream_reads_through_its_signal_map(tmp_path):
     np.testing.assert_allclose(d[c.YAW_RATE_RAD_S], 0.05)
     assert d[c.T_S][0] == pytest.approx(5000.3) and d[c.T_S][-1] == pytest.approx(5029.3)
     np.testing.assert_allclose(d[c.LAT_DEG], -33.9 + V * (d[c.T_S] - 5000.0) / 110_900.0)
+
+
+@pytest.mark.parametrize(("gnss_hz", "before_s"), [(10.0, 60.0), (1.0, 1.0)])
+def test_stream_csvs_across_midnight_give_the_labels_of_the_drive_by_day(
+    tmp_path, gnss_hz, before_s
+):
+    """Each file's time of day continues past midnight, as the 10 Hz file's does: the same
+    drive starting ``before_s`` before midnight gives the seconds and labels it gives by day
+    (within 1e-6 m: only the clock's floating-point rounding differs). With a 1 Hz receiver
+    whose first fix comes 1.5 s in, 1 s before midnight, the fixes' file starts past
+    midnight, after the wheels' file."""
+    from rwhonet.sim.streams import (
+        StreamSpec,
+        StreamTables,
+        signal_map,
+        stream_tables,
+        write_stream_csvs,
+    )
+    from support.multirate import START_S, per_second, simulated_drive
+
+    state, vehicle, sim, ss, _ = simulated_drive(duration_s=120.0)
+    radius = vehicle.nominal_radius_m
+    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, gnss_hz), START_S)
+    late = tables.gnss[tables.gnss[c.T_S] >= START_S + 1.5] if before_s < 1.5 else tables.gnss
+    tables = StreamTables(tables.wheels, late.reset_index(drop=True))
+    shift = 86400.0 - before_s - START_S  # whole seconds: the same seconds
+
+    def read(t: StreamTables, folder):
+        files = write_stream_csvs(t, folder)
+        streams = read_stream_csvs(list(files.values()), signal_map(), radius)
+        return per_second(resample(streams, nominal_radius_m=radius).drive.columns, radius), streams
+
+    day, _ = read(tables, tmp_path / "day")
+    night_tables = StreamTables(
+        *(d.assign(t_s=(d[c.T_S] + shift) % 86400.0) for d in (tables.wheels, tables.gnss))
+    )
+    night, streams = read(night_tables, tmp_path / "night")
+    said = " ".join(streams.notes)
+    assert "passed midnight" in said
+    assert ("starts past midnight" in said) == (before_s < 1.5)
+    assert len(night) == len(day) > 90
+    np.testing.assert_allclose(night["t_s"], day["t_s"] + shift, rtol=0, atol=1e-3)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(night[q], day[q], rtol=0, atol=1e-6)
+
+
+def test_time_going_back_in_a_stream_csv_outside_midnight_is_still_refused(tmp_path):
+    t = np.arange(0.0, 20.0, 0.01) + 86000.0  # in the day's last hour, but no midnight
+    t[500:] -= 30.0
+    omega = np.full(t.size, V / R)
+    pd.DataFrame({"Time": t, **{f"w{k}": omega for k in range(4)}}).to_csv(
+        tmp_path / "can.csv", index=False
+    )
+    tg = np.arange(0.0, 20.0, 0.1) + 86000.0
+    pd.DataFrame({"Time": tg, "lat": 52.0 + V * (tg - 86000.0) / 111_000.0, "lon": -1.5}).to_csv(
+        tmp_path / "gps.csv", index=False
+    )
+    smap = _spec(
+        t=("Time", "s"),
+        omega_fl=("w0", "rad/s"),
+        omega_fr=("w1", "rad/s"),
+        omega_rl=("w2", "rad/s"),
+        omega_rr=("w3", "rad/s"),
+        lat=("lat", "deg"),
+        lon=("lon", "deg"),
+    )
+    streams = read_stream_csvs(sorted(tmp_path.glob("*.csv")), smap, R)
+    with pytest.raises(InputError, match="strictly increasing"):
+        resample(streams, nominal_radius_m=R)

@@ -210,6 +210,9 @@ def test_a_raw_sample_glitch_flags_the_rows_that_used_it():
     # Only the row whose window overlaps the steps 19.99-20.01 s used that sample.
     assert list(np.round(t[res.glitch], 1)) == [20.0]
     assert res.glitch_samples == [("wheels.csv [wheels]", 2001, 20.0, c.OMEGA_RR)]
+    # per wheel: only the glitched wheel's mean used it (what predict repairs)
+    assert res.glitch_wheels[c.OMEGA_RR].tolist() == res.glitch.tolist()
+    assert not any(res.glitch_wheels[w].any() for w in c.WHEELS if w != c.OMEGA_RR)
 
 
 def test_a_wheel_stream_without_values_is_refused():

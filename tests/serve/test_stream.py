@@ -303,3 +303,33 @@ def test_a_clean_drive_has_nothing_repaired(bundle):
     model = load_served(bundle["model_onnx"])
     out, s = stream_all(model, blocks_of(wavy_drive(120), [333] * 5))
     assert s.glitches == [] and len(out["t_s"]) == 120
+
+
+def test_rows_the_resampler_flagged_are_repaired_though_the_10_hz_screen_passes_them(bundle):
+    # A stream drive's grid row whose mean used a glitched sample can rise too little for
+    # the 10 Hz screen (one 100 Hz sample of ten); the resampler's flag alone repairs it.
+    from rwhonet.data import canonical as c
+    from rwhonet.serve.stream import GLITCH_FLAG
+
+    model = load_served(bundle["model_onnx"])
+    clean = wavy_drive(120)
+    glitched = clean.copy()
+    glitched.loc[405, c.OMEGA_RL] *= 1.2  # what a x3 sample does to its row's mean
+    flag = np.zeros(len(clean), dtype=bool)
+    flag[405] = True
+    plain, _ = stream_all(model, blocks_of(clean, [len(clean)]))
+    unflagged, s0 = stream_all(model, blocks_of(glitched, [len(clean)]))
+    assert s0.glitches == []  # the 10 Hz screen alone lets it through
+    blocks = []
+    for first, cols in blocks_of(glitched, [100, 305, 1, 1000]):
+        n = len(cols[c.T_S])
+        rows = flag[first - 1 : first - 1 + n]
+        blocks.append(
+            (first, {**cols, **{GLITCH_FLAG + w: rows & (w == c.OMEGA_RL) for w in c.WHEELS}})
+        )
+    out, s = stream_all(model, blocks)
+    assert [(g["row"], g["channel"]) for g in s.glitches] == [(406, c.OMEGA_RL)]
+    k = np.argmax(np.abs(unflagged["disp_wpm_m"] - plain["disp_wpm_m"]))
+    assert abs(unflagged["disp_wpm_m"][k] - plain["disp_wpm_m"][k]) > 0.05  # it moved the WPM
+    for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
+        np.testing.assert_allclose(out[q], plain[q], atol=0.01)

@@ -381,24 +381,39 @@ _FORM = {
 
 def canonical_blocks(
     path: Path, params: Params, vehicle: str, fmt: str, rows: int = 600
-) -> tuple[dict[str, str], Iterator[tuple[int, dict[str, np.ndarray]]]]:
+) -> tuple[
+    dict[str, str],
+    Iterator[tuple[int, dict[str, np.ndarray]]],
+    list[tuple[str, int, float, str]],
+]:
     """A drive read whole (a stream format: resampled), handed on in blocks of grid rows.
 
     What ``rwhonet predict`` streams for a format that cannot be read as it arrives
     (a folder, an MDF4 file): the canonical channels of :func:`read_drive_file`, with the
-    time placed as ``predict`` places a CSV's (:class:`rwhonet.data.timebase.StreamClock`).
+    time placed as ``predict`` places a CSV's (:class:`rwhonet.data.timebase.StreamClock`),
+    and for a resampled drive the resampler's glitch flags: per wheel, the grid rows whose
+    mean used a glitched sample (:data:`rwhonet.serve.stream.GLITCH_FLAG` + the wheel's
+    canonical name, booleans), for ``predict`` to repair as it repairs a 10 Hz glitch.
 
     Returns:
-        ``(names, blocks)``: canonical name -> the source's channel, and ``(first_row,
-        columns)`` blocks of ``rows`` rows (1-based rows of the drive or its grid).
+        ``(names, blocks, samples)``: canonical name -> the source's channel, ``(first_row,
+        columns)`` blocks of ``rows`` rows (1-based rows of the drive or its grid), and the
+        glitched samples the resampler found (``(stream, 1-based sample row, t_s,
+        channel)``; empty for a 10 Hz drive).
     """
     from rwhonet.data import canonical as c
     from rwhonet.data.incremental import CHANNELS, placed
     from rwhonet.data.timebase import StreamClock
+    from rwhonet.serve.stream import GLITCH_FLAG
 
-    raw = read_drive_file(path, params, vehicle, fmt).raw
+    drive = read_drive_file(path, params, vehicle, fmt)
+    raw, facts = drive.raw, drive.streams
     columns = {name: raw.columns[name] for name in CHANNELS}
     n = columns[c.T_S].size
+    samples = []
+    if facts is not None and facts.glitch_samples:
+        columns |= {GLITCH_FLAG + w: rows for w, rows in facts.glitch_wheels.items()}
+        samples = list(facts.glitch_samples)
 
     def blocks() -> Iterator[tuple[int, dict[str, np.ndarray]]]:
         for a in range(0, n, rows):
@@ -406,7 +421,7 @@ def canonical_blocks(
 
     clock = StreamClock(params.validate.sample_period_s)
     names = {name: raw.source_columns.get(name, name) for name in CHANNELS}
-    return names, placed(blocks(), clock)
+    return names, placed(blocks(), clock), samples
 
 
 def calibration_of(radii: tuple[float, float], source: str) -> Calibration:

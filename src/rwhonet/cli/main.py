@@ -42,6 +42,17 @@ def _project(required: bool) -> tuple[Any, str | None]:
     return params, resolve_tracking_uri(params.tracking.tracking_uri)
 
 
+def _params_here() -> Any:
+    """The project's params when the command runs in one (None outside a project)."""
+    from rwhonet import paths
+
+    if not paths.PARAMS.is_file():
+        return None
+    from rwhonet.config import load_params
+
+    return load_params(paths.PARAMS)
+
+
 def _no_project(path: Path) -> Any:
     from rwhonet.errors import Problem
 
@@ -97,13 +108,27 @@ def _predict(args: argparse.Namespace) -> int:
     plain = args.format == "iovnbd" and args.signal_map is None
     if args.model.startswith(("models:/", "runs:/")) or not plain:
         params, uri = _project(required=True)
-    column_map, drive_blocks, period_s = None, None, 0.1
+    else:  # a model file and a 10 Hz CSV: the project's validate and cars, where there is one
+        params = _params_here()
+    column_map, drive_blocks, stream_glitches, period_s = None, None, None, 0.1
+    validate, nominal, radius_from = None, args.nominal_radius, None
+    if args.vehicle_file is not None:
+        radius_from = f"--vehicle-file {args.vehicle_file}"
+    elif args.nominal_radius is not None:
+        radius_from = "--nominal-radius"
+    if params is None and args.vehicle_file is not None:
+        from rwhonet.cli.drive import vehicle_from_file
+
+        nominal = vehicle_from_file(args.vehicle_file).nominal_radius_m
     if params is not None:
         from rwhonet.cli.drive import PREDICT_CAR, canonical_blocks
         from rwhonet.data.drivefile import COLUMN_MAP, reader_kind
 
         params = _drive_params(params, args, PREDICT_CAR)
         period_s = params.validate.sample_period_s
+        validate = params.validate
+        if radius_from is not None:  # the car of the command line (else the model's radius)
+            nominal = params.nominal_radius_m(PREDICT_CAR)
         kind = reader_kind(args.format, params.data)
         if kind == COLUMN_MAP:
             column_map = params.data.column_maps[args.format]
@@ -123,7 +148,10 @@ def _predict(args: argparse.Namespace) -> int:
                         )
                     ]
                 )
-            drive_blocks = canonical_blocks(Path(args.drive), params, PREDICT_CAR, args.format)
+            names, blocks, stream_glitches = canonical_blocks(
+                Path(args.drive), params, PREDICT_CAR, args.format
+            )
+            drive_blocks = (names, blocks)
     model = predict.open_model(args.model, uri)
     out = predict.run(
         model,
@@ -135,11 +163,20 @@ def _predict(args: argparse.Namespace) -> int:
         max_gap_s=args.max_gap,
         period_s=period_s,
         drive_blocks=drive_blocks,
+        validate=validate,
+        nominal_radius_m=nominal,
+        radius_from=radius_from,
+        stream_glitches=stream_glitches,
     )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)
-    elif out["glitches"]:  # repaired input is never silent
-        print("\n".join(predict.glitch_lines(out["glitches"])), file=sys.stderr)
+    else:  # repaired or unchecked input is never silent
+        said = [
+            *predict.glitch_lines(out["glitches"], samples=out["stream_glitches"]),
+            *([out["unit_note"]] * bool(out["unit_note"])),
+        ]
+        if said:
+            print("\n".join(said), file=sys.stderr)
     return 0
 
 

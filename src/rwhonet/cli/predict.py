@@ -138,15 +138,29 @@ def run(
     stdout: IO[str] | None = None,
     period_s: float = 0.1,
     drive_blocks: tuple[dict[str, str], Iterable[tuple[int, dict[str, np.ndarray]]]] | None = None,
+    validate: Any = None,
+    nominal_radius_m: float | None = None,
+    radius_from: str | None = None,
+    stream_glitches: list[tuple[str, int, float, str]] | None = None,
 ) -> dict[str, Any]:
     """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary.
 
     A CSV drive (IO-VNBD, a column map) is read as it arrives; a drive in a stream format
     comes read and resampled already (``drive_blocks``: the source's channel names and the
-    row blocks, :func:`rwhonet.cli.drive.canonical_blocks`). A file output is written
+    row blocks, :func:`rwhonet.cli.drive.canonical_blocks`, with the resampler's glitch
+    flags, which the stream repairs; ``stream_glitches``: the glitched samples the
+    resampler found, for the summary). A file output is written
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
+
+    The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
+    against the GNSS distance, :class:`rwhonet.data.drivechecks.StreamRadiusCheck`) with
+    ``validate`` (``params.validate``; None: :func:`default_validate`) against
+    ``nominal_radius_m`` (None: the model's source radius; ``radius_from`` says where it
+    came from, for the report). No second is written before the check has decided: a
+    drive whose wheel speeds do not fit is refused with nothing written, also on stdout.
     """
+    from rwhonet.data.drivechecks import StreamRadiusCheck
     from rwhonet.data.incremental import read_rows
 
     with ExitStack() as stack:
@@ -185,12 +199,30 @@ def run(
             else:
                 lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
                 names = lay.names
-            stream = SecondStream(model, outages, file=name, names=names, max_gap_s=max_gap_s)
+            nominal = nominal_radius_m or float(np.mean(model.meta.source_radii))
+            check = StreamRadiusCheck(
+                {"source_file": name, "columns": names, "vehicle": "the car"},
+                nominal,
+                validate or default_validate(),
+                radius_from
+                or f"--nominal-radius (without it: the model's source radius, {nominal:.4g} m)",
+            )
+            stream = SecondStream(
+                model, outages, file=name, names=names, max_gap_s=max_gap_s, unit_check=check
+            )
+            held: list[dict[str, np.ndarray]] = []  # seconds not written before the check
             for first, columns in blocks:
-                block = stream.push(first, columns)
+                held.append(stream.push(first, columns))
+                rows = first + len(columns["t_s"]) - 1
+                if check.decided:
+                    for block in held:
+                        sink.write(block)
+                        seconds += len(block["t_s"])
+                    held = []
+            unit_note = check.finish()
+            for block in held:
                 sink.write(block)
                 seconds += len(block["t_s"])
-                rows = first + len(columns["t_s"]) - 1
             done = True
         finally:
             sink.close()
@@ -207,7 +239,38 @@ def run(
         "outages": stream.summary(),
         "file": name,
         "glitches": stream.glitches,
+        "stream_glitches": list(stream_glitches or []),
+        "unit_note": unit_note,
     }
+
+
+def default_validate() -> Any:
+    """``validate`` as the project's params.yaml sets it, for ``predict`` outside a project
+    (a test holds the two equal)."""
+    from rwhonet.config import GnssPolicy, ValidateParams, WheelPolicy
+
+    return ValidateParams(
+        sample_period_s=0.1,
+        sample_period_tol_s=0.05,
+        max_abs_wheel_speed_rad_s=300.0,
+        radius_tolerance=0.05,
+        radius_min_moving_s=30.0,
+        gnss=GnssPolicy(
+            min_sats=4,
+            max_speed_m_s=70.0,
+            frozen_min_s=2.0,
+            moving_wheel_speed_rad_s=1.0,
+            max_gap_s=0.5,
+            min_segment_s=30.0,
+        ),
+        wheels=WheelPolicy(
+            stuck_ratio=0.5,
+            stuck_moving_rad_s=3.0,
+            stuck_min_s=3.0,
+            negative_tol_rad_s=0.5,
+            signed_max_share=0.5,
+        ),
+    )
 
 
 def _position_text(o: dict[str, Any]) -> str:
@@ -224,17 +287,37 @@ def _position_text(o: dict[str, Any]) -> str:
     return text + f", {o['pos_err_end_m']:.1f} m from the GNSS fix"
 
 
-def glitch_lines(glitches: list[dict[str, Any]], listed: int = 5) -> list[str]:
-    """What the stream repaired: wheel samples that changed faster than any tyre can."""
+def glitch_lines(
+    glitches: list[dict[str, Any]],
+    listed: int = 5,
+    samples: list[tuple[str, int, float, str]] | None = None,
+) -> list[str]:
+    """What the stream repaired: wheel samples that changed faster than any tyre can.
+
+    ``samples``: a stream drive's glitched samples as the resampler found them (stream,
+    sample row, time, channel); the grid rows whose means used them are among the rows
+    repaired.
+    """
+    lines = []
+    if samples:
+        shown = "; ".join(
+            f"{s} sample row {r} (t = {t:.6g} s), {ch!r}" for s, r, t, ch in samples[:listed]
+        )
+        more = f"; and {len(samples) - listed} more" if len(samples) > listed else ""
+        lines.append(
+            f"stream glitch: {len(samples)} wheel-speed sample(s) of the drive's streams rose "
+            f"faster than any tyre can (> {WHEEL_GLITCH_G:g} g above the other wheels): "
+            f"{shown}{more}; the grid rows whose means used them were repaired as below"
+        )
     if not glitches:
-        return []
+        return lines
     shown = "; ".join(
         f"row {g['row']} (t = {g['t_s']:.6g} s), {g['channel'].strip()!r}: "
         f"{g['found_rad_s']:.4g} -> {g['replaced_rad_s']:.4g} rad/s"
         for g in glitches[:listed]
     )
     more = f"; and {len(glitches) - listed} more" if len(glitches) > listed else ""
-    return [
+    return lines + [
         f"wheel glitch: {len(glitches)} sample(s) rose faster than any tyre can (> "
         f"{WHEEL_GLITCH_G:g} g above the other wheels) and were replaced by the wheel's own "
         f"speed interpolated across them: {shown}{more}"
@@ -244,7 +327,8 @@ def glitch_lines(glitches: list[dict[str, Any]], listed: int = 5) -> list[str]:
 def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
-    lines += glitch_lines(out.get("glitches", []))
+    lines += glitch_lines(out.get("glitches", []), samples=out.get("stream_glitches"))
+    lines += [out["unit_note"]] if out.get("unit_note") else []
     for o in out["outages"]:
         if not o["seconds"]:
             lines.append(f"outage {o['outage']} s: no second of the drive falls in it")

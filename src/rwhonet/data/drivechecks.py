@@ -16,7 +16,7 @@ expected, what was found and what to do.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -38,8 +38,8 @@ from rwhonet.data.plausibility import (
     wheel_gnss_runs,
 )
 from rwhonet.data.problems import stretch_problems
-from rwhonet.data.quality import Assessment, assess, manual_rows, second_index
-from rwhonet.errors import Problem
+from rwhonet.data.quality import Assessment, Segment, assess, manual_rows, second_index
+from rwhonet.errors import InputError, Problem
 
 
 def target_test_min_s(params: Params) -> int:
@@ -197,7 +197,7 @@ def _drive_problems(
     explains a wrong radius, and the unit message would only confuse).
     """
     vp = params.validate
-    file, columns = entry["source_file"], entry["columns"]
+    file = entry["source_file"]
     problems = []
     t0, t1 = float(df[c.T_S][0]), float(df[c.T_S][-1])
     for i, cut in enumerate(params.validate.cuts):
@@ -250,7 +250,48 @@ def _drive_problems(
         )
 
     nominal = params.nominal_radius_m(entry["vehicle"])
-    est = implied_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+    more, radius = radius_problems(entry, df, result.segments, nominal, vp, check_units)
+    return problems + more, radius
+
+
+@np.errstate(invalid="ignore", over="ignore", divide="ignore")
+def radius_problems(
+    entry: dict[str, Any],
+    df: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    nominal: float,
+    vp: ValidateParams,
+    check_units: bool = True,
+    radius_from: str | None = None,
+) -> tuple[list[Problem], dict[str, Any]]:
+    """The wheel-unit check: the tyre radius the wheels imply against GNSS, and what it says.
+
+    GNSS distance / rear wheel angle over the moving seconds of ``segments``
+    (:func:`rwhonet.data.plausibility.implied_radius`) must lie within
+    ``validate.radius_tolerance`` of ``nominal``; otherwise the problem says which unit
+    mix-up fits (:func:`~rwhonet.data.plausibility.unit_mistake`), or that latitude and
+    longitude are swapped or in radians. Skipped (reported in the returned record) with
+    fewer than ``validate.radius_min_moving_s`` moving seconds. ``validate`` runs it on a
+    whole drive, ``rwhonet predict`` on the drive's first stretch that has enough
+    (:class:`StreamRadiusCheck`).
+
+    Args:
+        entry: ``source_file``, ``columns`` (canonical -> the file's name) and ``vehicle``.
+        df: the canonical drive (or its first rows).
+        segments: its GNSS-valid segments (:func:`rwhonet.data.quality.assess`).
+        nominal: the car's nominal tyre radius, m.
+        vp: ``validate``.
+        check_units: False skips the check (a wheel sensor problem explains the radius).
+        radius_from: where the nominal radius comes from, for the fix (default
+            ``data.vehicles.<vehicle>.nominal_radius_m``).
+
+    Returns:
+        ``(problems, record)``: the record as validate reports it (implied, nominal,
+        moving seconds, whether checked, and why not).
+    """
+    file, columns = entry["source_file"], entry["columns"]
+    problems: list[Problem] = []
+    est = implied_radius(df, segments, vp.gnss.moving_wheel_speed_rad_s)
     radius = {
         "implied_m": None if np.isnan(est.radius_m) else est.radius_m,
         "nominal_m": nominal,
@@ -269,11 +310,11 @@ def _drive_problems(
     radius["ratio"] = est.radius_m / nominal
     mistake = unit_mistake(est.radius_m, nominal, vp.radius_tolerance)
     if mistake:
-        swapped = swapped_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+        swapped = swapped_radius(df, segments, vp.gnss.moving_wheel_speed_rad_s)
         if unit_mistake(swapped.radius_m, nominal, vp.radius_tolerance) is None:
             problems.append(_swapped_problem(entry, est.radius_m, swapped.radius_m, nominal))
             return problems, radius
-        in_degrees = radians_radius(df, result.segments, vp.gnss.moving_wheel_speed_rad_s)
+        in_degrees = radians_radius(df, segments, vp.gnss.moving_wheel_speed_rad_s)
         if (
             in_degrees is not None
             and unit_mistake(in_degrees.radius_m, nominal, vp.radius_tolerance) is None
@@ -302,10 +343,114 @@ def _drive_problems(
                 f"(GNSS distance / wheel angle over {est.moving_s} moving s)",
                 mistake,
                 "convert the wheel speeds to rad/s (a column map can declare rpm or deg/s), "
-                f"or correct data.vehicles.{entry['vehicle']}.nominal_radius_m",
+                "or correct "
+                + (radius_from or f"data.vehicles.{entry['vehicle']}.nominal_radius_m"),
             )
         )
     return problems, radius
+
+
+class StreamRadiusCheck:
+    """validate's wheel-unit check on a drive that arrives block by block (``rwhonet predict``).
+
+    The rows (canonical channels, the time on the drive's continuous clock, wheel glitches
+    already repaired) are kept until validate's GNSS policy (:func:`assess`, the same
+    ``validate.gnss`` and sample period) finds ``validate.radius_min_moving_s`` moving
+    seconds in valid segments; then :func:`radius_problems` decides, once: wheel speeds
+    that do not fit the nominal radius against the GNSS distance are refused with the
+    report validate gives. Rows without a fix are bad rows for the policy (a stream may
+    miss fixes; validate's schema refuses them). A drive that ends undecided (no GNSS,
+    or too few moving seconds) leaves :attr:`note` saying why it was not checked. The
+    policy runs when the rows have grown by half since the last try (at least 30 s), so
+    the work stays within a few times one pass over the rows kept.
+
+    Attributes:
+        decided: True once the check has run (or the drive ended).
+        note: why the check could not run (None: it ran, or not decided yet).
+    """
+
+    KEYS = (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)
+
+    def __init__(
+        self,
+        entry: dict[str, Any],
+        nominal_m: float,
+        vp: ValidateParams,
+        radius_from: str | None = None,
+    ) -> None:
+        self.entry, self.nominal_m, self.vp, self.radius_from = entry, nominal_m, vp, radius_from
+        self.parts: list[dict[str, np.ndarray]] = []
+        self.n_rows = 0
+        per_s = 1.0 / vp.sample_period_s
+        self.next_try = int(np.ceil((vp.radius_min_moving_s + 2.0) * per_s))
+        self.step_rows = int(np.ceil(30.0 * per_s))
+        self.decided = False
+        self.note: str | None = None
+
+    def push(self, columns: Mapping[str, np.ndarray]) -> bool:
+        """Add rows; return whether the check has decided.
+
+        Raises:
+            InputError: the wheel speeds do not fit the nominal radius against GNSS.
+        """
+        if self.decided:
+            return True
+        self.parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS})
+        self.n_rows += self.parts[-1][c.T_S].size
+        if self.n_rows >= self.next_try:
+            self._try(final=False)
+        return self.decided
+
+    def finish(self) -> str | None:
+        """At the drive's end: decide on the rows that came; return :attr:`note`.
+
+        Raises:
+            InputError: as :meth:`push`.
+        """
+        if not self.decided:
+            self._try(final=True)
+        return self.note
+
+    def _try(self, final: bool) -> None:
+        rows = {k: np.concatenate([p[k] for p in self.parts]) for k in self.KEYS}
+        self.parts = [rows]
+        fix = np.isfinite(rows[c.LAT_DEG]) & np.isfinite(rows[c.LON_DEG])
+        problems, record = [], {"checked": False}
+        if rows[c.T_S].size > 1 and fix.any():
+            result = assess(rows, self.vp.gnss, self.vp.sample_period_s, wheel_glitch=~fix)
+            if result.segments:
+                problems, record = radius_problems(
+                    self.entry,
+                    rows,
+                    result.segments,
+                    self.nominal_m,
+                    self.vp,
+                    radius_from=self.radius_from,
+                )
+        if problems:
+            raise InputError(
+                problems,
+                f"{self.entry['source_file']}: wheel speeds that do not fit the car's tyre "
+                "radius against the GNSS distance (validate's unit check)",
+            )
+        if record["checked"] or final:
+            self.decided, self.parts = True, []
+            if not record["checked"]:
+                self.note = self._why_not(fix.any(), record)
+            return
+        self.next_try = max(int(1.5 * self.n_rows), self.n_rows + self.step_rows)
+
+    def _why_not(self, any_fix: bool, record: dict[str, Any]) -> str:
+        file, vp = self.entry["source_file"], self.vp
+        what = "wheel speeds' unit not checked against GNSS (validate's tyre-radius check)"
+        if not any_fix:
+            return f"{file}: {what}: the drive has no GNSS fix; make sure they are rad/s"
+        moving = record.get("moving_s", 0)
+        return (
+            f"{file}: {what}: only {moving} moving s in GNSS-valid stretches of >= "
+            f"{vp.gnss.min_segment_s:g} s (validate.radius_min_moving_s "
+            f"{vp.radius_min_moving_s:g})"
+        )
 
 
 def _swapped_problem(

@@ -92,6 +92,8 @@ class StreamFacts:
         glitch_rows: 0-based grid rows whose wheel-speed mean used a glitched sample.
         glitch_samples: the glitched samples, ``(stream, 1-based sample row, t_s, channel)``,
             the channel as the stream names it.
+        glitch_wheels: per wheel (canonical name), the grid rows whose mean of that wheel
+            used a glitched sample (:attr:`rwhonet.data.streams.Resampled.glitch_wheels`).
     """
 
     clock: str
@@ -99,6 +101,7 @@ class StreamFacts:
     streams: list[dict[str, Any]]
     glitch_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     glitch_samples: list[tuple[str, int, float, str]] = field(default_factory=list)
+    glitch_wheels: dict[str, np.ndarray] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's ``streams`` record (rows 0-based on the grid; samples 1-based)."""
@@ -277,6 +280,7 @@ def _read_streams(
             (where, row, t, sources.get(where, {}).get(wheel, wheel))
             for where, row, t, wheel in res.glitch_samples
         ],
+        glitch_wheels=res.glitch_wheels,
     )
     return res.drive, facts
 

@@ -10,10 +10,19 @@ name without regard to case, spaces, punctuation and a unit suffix
 files are parsed by the same streaming CSV reader as the 10 Hz files
 (:mod:`rwhonet.data.csvio`), so every bad cell is reported with its file, row
 and column. The clock is the files' common time column.
+
+Midnight: a time of day (seconds since the start of the day, as IO-VNBD's) that
+passes midnight continues into the next day, by the rule of the 10 Hz readers
+(:func:`rwhonet.data.timebase.unwrap_midnight`: a step back from the day's last
+hour into the next day's first hour, shorter than an hour in truth, adds a day),
+applied to each file's time column; a file whose first sample already lies past
+midnight while another file starts in the day's last hour is put on the next day
+as a whole. Any other step back stays a problem the resampler reports.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -24,6 +33,7 @@ from rwhonet.data.columnmap import find_column
 from rwhonet.data.csvio import read_header, read_numeric
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
+from rwhonet.data.timebase import MIDNIGHT_WINDOW_S, SECONDS_PER_DAY, unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the stream files' time column"
@@ -118,6 +128,7 @@ def read_stream_csvs(
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
     groups = []
+    notes: list[str] = []
     paths_of = {file: path for path, file in files}
     for file, header in headers.items():
         keys = {k: at for k, places in found.items() for f, at in places if f == file}
@@ -130,6 +141,10 @@ def read_stream_csvs(
             problems += err.problems
             continue
         t = to_si("t", values[time_at[file]], time_spec.unit, None, file)
+        t, wraps = unwrap_midnight(t)
+        if wraps.size:
+            shown = ", ".join(str(int(r) + 1) for r in wraps[:5])
+            notes.append(f"{file}: time of day passed midnight before row(s) {shown}: a day added")
         groups.append(
             Group(
                 Path(file).name,
@@ -145,4 +160,26 @@ def read_stream_csvs(
         )
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
-    return build_streams(groups, CLOCK)
+    groups = _next_day_starts(groups, notes)
+    streams = build_streams(groups, CLOCK)
+    return dataclasses.replace(streams, notes=(*streams.notes, *notes)) if notes else streams
+
+
+def _next_day_starts(groups: list[Group], notes: list[str]) -> list[Group]:
+    """Files that start past midnight put on the next day when another starts before it.
+
+    A drive whose files start on both sides of midnight (the wheels at 23:59:59.9, the
+    first fix at 00:00:00.1) has one file in the day's last hour and another in the
+    next day's first hour: the latter gets a day added, as its first step would have
+    been given had it been in the same file.
+    """
+    starts = [float(g.t_s[0]) for g in groups if g.t_s.size and np.isfinite(g.t_s[0])]
+    if not starts or max(starts) < SECONDS_PER_DAY - MIDNIGHT_WINDOW_S:
+        return groups
+    out = []
+    for g in groups:
+        if g.t_s.size and g.t_s[0] < MIDNIGHT_WINDOW_S:
+            g = dataclasses.replace(g, t_s=g.t_s + SECONDS_PER_DAY)
+            notes.append(f"{g.file}: starts past midnight, after the other files: a day added")
+        out.append(g)
+    return out

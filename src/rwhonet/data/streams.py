@@ -217,12 +217,16 @@ class Resampled:
         glitch: per grid row, whether its wheel-speed mean used a glitched sample.
         glitch_samples: the glitched samples: ``(stream, 1-based sample row, t_s, wheel)``.
         n_input_rows: samples read over all streams.
+        glitch_wheels: per wheel (canonical name), the grid rows whose mean of that wheel
+            used a glitched sample of it (``glitch`` is their union); what ``rwhonet
+            predict`` repairs.
     """
 
     drive: RawDrive
     glitch: np.ndarray
     glitch_samples: list[tuple[str, int, float, str]]
     n_input_rows: int
+    glitch_wheels: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- checks
@@ -516,6 +520,7 @@ def resample(
     columns: dict[str, np.ndarray] = {c.T_S: grid}
     sources: dict[str, str] = {c.T_S: f"grid of {period_s:g} s on {streams.clock}"}
     glitch = np.zeros(grid.size, dtype=bool)
+    by_wheel = {w: np.zeros(grid.size, dtype=bool) for w in c.WHEELS}
     glitch_samples: list[tuple[str, int, float, str]] = []
     notes = list(streams.notes)
 
@@ -547,6 +552,9 @@ def resample(
             rows = np.flatnonzero(bad.any(axis=0))
             if rows.size:
                 glitch |= _rows_using(t, rows, grid, half)
+                for k, w in enumerate(c.WHEELS):
+                    if bad[k].any():
+                        by_wheel[w] |= _rows_using(t, np.flatnonzero(bad[k]), grid, half)
                 glitch_samples += [
                     (s.where(), int(i) + 1, float(t[i]), c.WHEELS[int(np.argmax(bad[:, i]))])
                     for i in rows
@@ -570,7 +578,13 @@ def resample(
         header_match="streams",
         notes=tuple(notes),
     )
-    return Resampled(drive, glitch[keep], glitch_samples, streams.n_input_rows)
+    return Resampled(
+        drive,
+        glitch[keep],
+        glitch_samples,
+        streams.n_input_rows,
+        {w: rows[keep] for w, rows in by_wheel.items()},
+    )
 
 
 def _finite_rows(

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -55,6 +56,9 @@ from rwhonet.geo.local import offsets_m
 from rwhonet.nav import NavConfig, WheelSpec
 from rwhonet.serve.model import ServedModel
 from rwhonet.serve.navigation import StreamNavigator
+
+if TYPE_CHECKING:  # built by rwhonet.cli.predict (data checks stay out of this import)
+    from rwhonet.data.drivechecks import StreamRadiusCheck
 
 SPAN_TOLERANCE_S = 0.5  # ten rows span 1 s +/- this (rwhonet.features.seconds.SPAN_TOLERANCE_S)
 COLUMNS = (
@@ -79,6 +83,9 @@ COLUMNS = (
     "cov_nn_m2",
     "pos_err_m",
 )
+# A block's column GLITCH_FLAG + wheel (booleans, optional): rows the resampler flagged,
+# whose mean of that wheel used a glitched sample (rwhonet.cli.drive.canonical_blocks).
+GLITCH_FLAG = "glitch:"
 OUTAGE_COLUMNS = COLUMNS[7:]
 CUMULATIVE_COLUMNS = OUTAGE_COLUMNS[:7]  # the running sums over an outage's seconds
 POSITION_COLUMNS = COLUMNS[-6:]
@@ -152,6 +159,9 @@ class SecondStream:
             (``validate.gnss.max_gap_s``).
         nav: the navigation filter's settings (default: the generic
             :class:`rwhonet.nav.NavConfig` with the model's rear radius).
+        unit_check: validate's wheel-unit check, fed the rows as they come (after the
+            glitch repair); it refuses the drive from the block where it can decide
+            (:class:`rwhonet.data.drivechecks.StreamRadiusCheck`). None: not checked.
     """
 
     model: ServedModel
@@ -160,6 +170,7 @@ class SecondStream:
     names: dict[str, str] = field(default_factory=dict)
     max_gap_s: float = 0.5
     nav: NavConfig | None = None
+    unit_check: StreamRadiusCheck | None = None
     _keys: tuple[str, ...] = c.REQUIRED  # the channels kept: the yaw rate too, if there
     _navigator: StreamNavigator | None = None
     _rows: dict[str, np.ndarray] | None = None  # rows from the current anchor on
@@ -192,6 +203,8 @@ class SecondStream:
         """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none)."""
         self._check(first_row, columns)
         columns = self._repair_glitches(first_row, columns)
+        if self.unit_check is not None:
+            self.unit_check.push(columns)
         if self._rows is None:
             self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
             self._navigator = StreamNavigator(
@@ -242,6 +255,9 @@ class SecondStream:
         interpolated in time across it, so a one-row CAN glitch moves neither the WPM nor
         the prediction of its second (validate cuts such a second; a stream cannot leave
         it out without breaking the run), and the command says which rows it repaired.
+        A stream drive's rows come with the resampler's flags too (``GLITCH_FLAG`` +
+        wheel: the rows whose mean of that wheel used a glitched sample, which validate
+        cuts): those are repaired the same way, whether or not the 10 Hz screen sees them.
         """
         held = 0 if self._rows is None else len(self._rows[c.T_S])
         keys = (c.T_S, *c.WHEELS)
@@ -253,6 +269,10 @@ class SecondStream:
         mask = glitch_mask(
             both[c.T_S], [both[w] for w in c.WHEELS], self.nav.wheels.radius_m, WHEEL_GLITCH_G
         )
+        for k, w in enumerate(c.WHEELS):
+            flagged = columns.get(GLITCH_FLAG + w)
+            if flagged is not None:
+                mask[k, held:] |= np.asarray(flagged, dtype=bool)
         if not mask[:, held:].any():
             return columns
         columns = dict(columns)
