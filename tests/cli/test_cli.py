@@ -405,6 +405,32 @@ def test_predict_says_once_that_a_drive_without_gnss_was_not_unit_checked(bundle
     assert len(pd.read_csv(tmp_path / "p.csv")) == 120
 
 
+def test_predict_holds_seconds_for_the_unit_check_no_longer_than_hold_max_s(
+    bundle, tmp_path, capsys, monkeypatch
+):
+    """A stream starting without a fix is written on after HOLD_MAX_S, and still refused
+    when its wheel speeds turn out, once fixes come, to be in km/h."""
+    from rwhonet.cli import predict
+    from rwhonet.data import canonical as c
+    from support.drives import write_iovnbd
+
+    monkeypatch.setattr(predict, "HOLD_MAX_S", 30)
+    car = ["--nominal-radius", str(RAV4_M)]
+    nofix = write_iovnbd(_rav4_drive(fixes=False), tmp_path / "V-NoFix.csv")
+    assert main(_predict_args(bundle, nofix, tmp_path / "p.csv", *car)) == 0
+    err = capsys.readouterr().err
+    assert err.count("has not decided after 30 s") == 1 and "written unchecked" in err
+    assert len(pd.read_csv(tmp_path / "p.csv")) == 120  # every second, none lost
+    late = _rav4_drive(RAV4_M * 3.6)  # km/h, and no fix in the first 40 s
+    late.loc[late[c.T_S] < late[c.T_S].iloc[0] + 40.0, [c.LAT_DEG, c.LON_DEG]] = np.nan
+    drive = write_iovnbd(late, tmp_path / "V-Late.csv")
+    out = tmp_path / "late.csv"
+    assert main(_predict_args(bundle, drive, out, *car)) == 2
+    err = capsys.readouterr().err
+    assert "has not decided after 30 s" in err and "look like km/h" in err
+    assert not out.exists() and list(tmp_path.glob(".*partial")) == []
+
+
 def test_a_clean_drive_s_output_is_the_unchecked_stream_s_byte_for_byte(bundle, drive, tmp_path):
     """The unit check holds seconds back until it decides; what is written stays the same."""
     from io import StringIO

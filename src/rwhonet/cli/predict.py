@@ -29,6 +29,10 @@ from rwhonet.errors import InputError, Problem
 from rwhonet.serve.stream import COLUMNS, Outage, SecondStream
 
 STDIO = "-"
+# Seconds held back, at most, while the wheel-unit check waits for GNSS: a live stream that
+# starts without a fix (a tunnel, a car park) is not held to its end. Validate's check
+# needs radius_min_moving_s (30) moving seconds with GNSS; 120 s leaves room for stops.
+HOLD_MAX_S = 120
 DECIMALS = {"t_s": 3, "elapsed_s": 3}  # times to the millisecond, metres to 0.1 mm
 
 
@@ -159,6 +163,9 @@ def run(
     ``nominal_radius_m`` (None: the model's source radius; ``radius_from`` says where it
     came from, for the report). No second is written before the check has decided: a
     drive whose wheel speeds do not fit is refused with nothing written, also on stdout.
+    At most :data:`HOLD_MAX_S` seconds are held: a drive still undecided then (no fix
+    yet) is written on, unchecked, with a note on stderr, and still refused (exit 2) if
+    the check fails later.
     """
     from rwhonet.data.drivechecks import StreamRadiusCheck
     from rwhonet.data.incremental import read_rows
@@ -211,14 +218,19 @@ def run(
                 model, outages, file=name, names=names, max_gap_s=max_gap_s, unit_check=check
             )
             held: list[dict[str, np.ndarray]] = []  # seconds not written before the check
+            n_held, released = 0, False
             for first, columns in blocks:
                 held.append(stream.push(first, columns))
+                n_held += len(held[-1]["t_s"])
                 rows = first + len(columns["t_s"]) - 1
-                if check.decided:
+                if not check.decided and not released and n_held >= HOLD_MAX_S:
+                    released = True  # the check goes on; a later refusal still exits 2
+                    print(released_note(name, HOLD_MAX_S), file=sys.stderr)
+                if check.decided or released:
                     for block in held:
                         sink.write(block)
                         seconds += len(block["t_s"])
-                    held = []
+                    held, n_held = [], 0
             unit_note = check.finish()
             for block in held:
                 sink.write(block)
@@ -242,6 +254,16 @@ def run(
         "stream_glitches": list(stream_glitches or []),
         "unit_note": unit_note,
     }
+
+
+def released_note(name: str, hold_s: int) -> str:
+    """What predict says when it stops holding seconds back for the wheel-unit check."""
+    return (
+        f"{name}: the wheel-unit check has not decided after {hold_s} s (no GNSS fix yet, or "
+        "too few moving seconds): seconds are written unchecked from here; the check goes on, "
+        "and a drive it refuses later still exits 2 (a --output file is then not written; "
+        "what went to stdout stays)"
+    )
 
 
 def default_validate() -> Any:
