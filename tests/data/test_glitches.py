@@ -7,7 +7,13 @@ import pytest
 
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
-from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, glitch_rows_mask, wheel_glitch_rows
+from rwhonet.data.glitches import (
+    WHEEL_GLITCH_G,
+    glitch_mask,
+    glitch_rows_mask,
+    running_max,
+    wheel_glitch_rows,
+)
 from rwhonet.data.iovnbd import LAYOUT
 from rwhonet.data.quality import assess
 from rwhonet.sim import generate_route, simulate_drive, vehicles_from_params
@@ -182,3 +188,18 @@ def test_validate_refuses_a_drive_glitched_in_most_of_its_seconds():
     assert (p.row, p.column) == (6, " Wheel Speed Front Right (rad/sec)")
     assert "glitches in 90 of 91 s" in p.found and p.fix
     assert glitches["rows"] == 90
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 50, 1001])
+@pytest.mark.parametrize("size", [1, 3, 5, 11, 101])
+def test_running_max_is_scipy_s_maximum_filter_with_the_ends_held(n, size):
+    from scipy.ndimage import maximum_filter1d
+
+    x = np.random.default_rng(n * size).normal(size=n)
+    np.testing.assert_array_equal(running_max(x, size), maximum_filter1d(x, size, mode="nearest"))
+
+
+def test_running_max_skips_nan_unless_the_whole_window_is_nan():
+    x = np.array([1.0, np.nan, 3.0, np.nan, np.nan, np.nan, 0.5])
+    np.testing.assert_array_equal(running_max(x, 3), [1.0, 3.0, 3.0, 3.0, np.nan, 0.5, 0.5])
+    assert running_max(np.zeros(0), 5).size == 0

@@ -40,7 +40,6 @@ The check (:func:`glitch_mask`), per wheel and sample
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import maximum_filter1d
 
 from rwhonet.data import canonical as c
 
@@ -52,6 +51,27 @@ MAX_RUN_S = 1.0  # a glitch lasts at most this long
 # channel that misbehaves throughout (a wrong signal mapped, one wheel on another scale) is
 # no glitch, and cutting it would leave a drive of holes.
 REFUSE_SHARE = 0.5
+
+
+def running_max(x: np.ndarray, size: int) -> np.ndarray:
+    """The maximum over a centred window of odd ``size``, the ends held (scipy's
+    ``maximum_filter1d(x, size, mode="nearest")``, which ``rwhonet predict`` would import
+    for this alone): van Herk / Gil-Werman, a prefix and a suffix running maximum per
+    block of ``size``, O(n). NaN is skipped (``fmax``): NaN only where the whole window is.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if x.size == 0:
+        return x.copy()
+    h = size // 2
+    xp = np.pad(x, h, mode="edge")
+    n = xp.size
+    buf = np.full(-(-n // size) * size, -np.inf)
+    buf[:n] = xp
+    blocks = buf.reshape(-1, size)
+    prefix = np.fmax.accumulate(blocks, axis=1).ravel()
+    suffix = np.fmax.accumulate(blocks[:, ::-1], axis=1)[:, ::-1].ravel()
+    out = np.fmax(suffix[: n - size + 1], prefix[size - 1 : n])
+    return np.where(np.isneginf(out), np.nan, out)
 
 
 def _magnitude(x: np.ndarray) -> np.ndarray:
@@ -109,7 +129,7 @@ def glitch_mask(
     for k in range(4):  # per wheel, not per sample
         road = _median3(*(w[j] for j in others[k]))
         if half:
-            road = maximum_filter1d(road, size=2 * half + 1, mode="nearest")
+            road = running_max(road, 2 * half + 1)
         excess = np.maximum(w[k] - road, 0.0)
         rate = np.diff(excess) / dt
         up = np.flatnonzero(rate > limit) + 1  # rows where a glitch starts

@@ -23,7 +23,6 @@ quantile times ``c`` as ``ν → ∞``; ``c = 1, ν = ∞`` is the filter's own 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
 # Probability within ±1σ and ±2σ of a normal: erf(k / sqrt(2)).
 SIGMA_CONTENT: tuple[float, float] = (0.6826894921370859, 0.9544997361036416)
@@ -161,6 +160,8 @@ def fit_t2(d2: np.ndarray, min_windows: int = MIN_T2_WINDOWS) -> tuple[float, fl
 
     lo, hi = np.log(T2_DOF_BOUNDS)
     start = np.array([np.log(max(np.mean(r) / 2.0, 1e-9)), np.log(10.0)])
+    from scipy.optimize import minimize  # here: rwhonet predict imports nav, never fits
+
     res = minimize(nll, start, method="L-BFGS-B", bounds=[(-30.0, 30.0), (lo, hi)])
     c, nu = np.exp(res.x)
     if res.x[1] >= hi - 1e-6:  # as heavy-tailed as a normal: take the normal's scale
@@ -186,6 +187,8 @@ def fit_t2_scale(d2: np.ndarray, dof: float, min_windows: int = MIN_T2_WINDOWS) 
         return _radius_nll(r, np.exp(theta[0]), dof)
 
     start = np.array([np.log(max(np.mean(r) / 2.0, 1e-9))])
+    from scipy.optimize import minimize
+
     res = minimize(nll, start, method="L-BFGS-B", bounds=[(-30.0, 30.0)])
     return float(np.exp(res.x[0]))
 
