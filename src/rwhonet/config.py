@@ -1017,7 +1017,9 @@ def load_params(
 
         path = paths.PARAMS
     with open(path, encoding="utf-8") as f:
-        raw = yaml.safe_load(f) or {}
+        # libyaml's safe loader where PyYAML has it: the same documents, parsed in C (the
+        # pure-Python loader was most of `rwhonet predict`'s start-up inside a project)
+        raw = yaml.load(f, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader)) or {}
     for dotted, value in (overrides or {}).items():
         node = raw
         *parents, leaf = dotted.split(".")
