@@ -163,9 +163,7 @@ def _predict(args: argparse.Namespace) -> int:
         max_gap_s=args.max_gap,
         period_s=period_s,
         drive_blocks=drive_blocks,
-        validate=validate,
-        nominal_radius_m=nominal,
-        radius_from=radius_from,
+        unit_check=predict.UnitCheck(validate, nominal, radius_from),
         stream_glitches=stream_glitches,
     )
     if not args.quiet:
@@ -242,6 +240,13 @@ def _drive_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _command(sub: Any, name: str, func: Any, **kwargs: Any) -> argparse.ArgumentParser:
+    """A subcommand's parser, run by ``func`` (its options are added by the caller)."""
+    p = sub.add_parser(name, **kwargs)
+    p.set_defaults(func=func)
+    return p
+
+
 def parser() -> argparse.ArgumentParser:
     """The argument parser (every command, with its help)."""
     ap = argparse.ArgumentParser(
@@ -250,8 +255,10 @@ def parser() -> argparse.ArgumentParser:
     )
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    rc = sub.add_parser(
+    rc = _command(
+        sub,
         "recalibrate",
+        _recalibrate,
         help="recalibrate G on a new car's drive and register the result",
         description="Read and validate a drive of a new car (the pipeline's ingest, validate "
         "and label code), recalibrate the base model on its first --seconds valid seconds by "
@@ -309,10 +316,11 @@ def parser() -> argparse.ArgumentParser:
         default=None,
         help="seed of the recalibration (default: the first of params' seeds)",
     )
-    rc.set_defaults(func=_recalibrate)
 
-    pr = sub.add_parser(
+    pr = _command(
+        sub,
         "predict",
+        _predict,
         help="stream a drive through a model, second by second",
         description="Stream a drive (10 Hz CSV) through a model: per whole second the WPM "
         "displacement, the predicted error and the corrected displacement; during each "
@@ -356,10 +364,11 @@ def parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no summary on stderr (repaired wheel glitches are still reported)",
     )
-    pr.set_defaults(func=_predict)
 
-    ex = sub.add_parser(
+    ex = _command(
+        sub,
         "export",
+        _export,
         help="export a model as one ONNX file",
         description="Export a model to ONNX (torch.onnx), with its input scaler and WPM radii "
         "in the file's metadata, and check it against PyTorch to 1e-5 m.",
@@ -374,7 +383,6 @@ def parser() -> argparse.ArgumentParser:
     ex.add_argument(
         "--output", default=None, help="the .onnx file (default: <model name>.onnx here)"
     )
-    ex.set_defaults(func=_export)
 
     sub.add_parser(
         "gate", help="the CI regression gate on mean CRSE/CTE (rwhonet gate --help)", add_help=False

@@ -19,6 +19,7 @@ import os
 import sys
 from collections.abc import Iterable
 from contextlib import ExitStack
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
@@ -33,6 +34,7 @@ STDIO = "-"
 # starts without a fix (a tunnel, a car park) is not held to its end. Validate's check
 # needs radius_min_moving_s (30) moving seconds with GNSS; 120 s leaves room for stops.
 HOLD_MAX_S = 120
+DEFAULTS = "validate_defaults.yaml"  # validate's settings outside a project
 DECIMALS = {"t_s": 3, "elapsed_s": 3}  # times to the millisecond, metres to 0.1 mm
 
 
@@ -142,9 +144,7 @@ def run(
     stdout: IO[str] | None = None,
     period_s: float = 0.1,
     drive_blocks: tuple[dict[str, str], Iterable[tuple[int, dict[str, np.ndarray]]]] | None = None,
-    validate: Any = None,
-    nominal_radius_m: float | None = None,
-    radius_from: str | None = None,
+    unit_check: UnitCheck | None = None,
     stream_glitches: list[tuple[str, int, float, str]] | None = None,
 ) -> dict[str, Any]:
     """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary.
@@ -158,11 +158,10 @@ def run(
     half-written output.
 
     The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
-    against the GNSS distance, :class:`rwhonet.data.drivechecks.StreamRadiusCheck`) with
-    ``validate`` (``params.validate``; None: :func:`default_validate`) against
-    ``nominal_radius_m`` (None: the model's source radius; ``radius_from`` says where it
-    came from, for the report). No second is written before the check has decided: a
-    drive whose wheel speeds do not fit is refused with nothing written, also on stdout.
+    against the GNSS distance, :class:`rwhonet.data.drivechecks.StreamRadiusCheck`), as
+    ``unit_check`` says (:class:`UnitCheck`; None: its defaults). No second is written
+    before the check has decided: a drive whose wheel speeds do not fit is refused with
+    nothing written, also on stdout.
     At most :data:`HOLD_MAX_S` seconds are held: a drive still undecided then (no fix
     yet) is written on, unchecked, with a note on stderr, and still refused (exit 2) if
     the check fails later.
@@ -206,12 +205,13 @@ def run(
             else:
                 lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
                 names = lay.names
-            nominal = nominal_radius_m or float(np.mean(model.meta.source_radii))
+            uc = unit_check or UnitCheck()
+            nominal = uc.nominal_radius_m or float(np.mean(model.meta.source_radii))
             check = StreamRadiusCheck(
                 {"source_file": name, "columns": names, "vehicle": "the car"},
                 nominal,
-                validate or default_validate(),
-                radius_from
+                uc.validate or default_validate(),
+                uc.radius_from
                 or f"--nominal-radius (without it: the model's source radius, {nominal:.4g} m)",
             )
             stream = SecondStream(
@@ -256,6 +256,21 @@ def run(
     }
 
 
+@dataclass(frozen=True)
+class UnitCheck:
+    """How :func:`run` checks the wheel speeds' unit.
+
+    Attributes:
+        validate: validate's settings (``params.validate``; None: :func:`default_validate`).
+        nominal_radius_m: the car's nominal tyre radius (None: the model's source radius).
+        radius_from: where that radius came from, for the report (``--nominal-radius``...).
+    """
+
+    validate: Any = None
+    nominal_radius_m: float | None = None
+    radius_from: str | None = None
+
+
 def released_note(name: str, hold_s: int) -> str:
     """What predict says when it stops holding seconds back for the wheel-unit check."""
     return (
@@ -267,32 +282,17 @@ def released_note(name: str, hold_s: int) -> str:
 
 
 def default_validate() -> Any:
-    """``validate`` as the project's params.yaml sets it, for ``predict`` outside a project
-    (a test holds the two equal)."""
-    from rwhonet.config import GnssPolicy, ValidateParams, WheelPolicy
+    """``validate`` as the project's params.yaml ships it, for ``predict`` outside a project
+    (``validate_defaults.yaml`` beside this module; a test holds the two equal)."""
+    from importlib.resources import files
 
-    return ValidateParams(
-        sample_period_s=0.1,
-        sample_period_tol_s=0.05,
-        max_abs_wheel_speed_rad_s=300.0,
-        radius_tolerance=0.05,
-        radius_min_moving_s=30.0,
-        gnss=GnssPolicy(
-            min_sats=4,
-            max_speed_m_s=70.0,
-            frozen_min_s=2.0,
-            moving_wheel_speed_rad_s=1.0,
-            max_gap_s=0.5,
-            min_segment_s=30.0,
-        ),
-        wheels=WheelPolicy(
-            stuck_ratio=0.5,
-            stuck_moving_rad_s=3.0,
-            stuck_min_s=3.0,
-            negative_tol_rad_s=0.5,
-            signed_max_share=0.5,
-        ),
-    )
+    import yaml
+
+    from rwhonet.config import ValidateParams, parse_value
+
+    text = files("rwhonet.cli").joinpath(DEFAULTS).read_text(encoding="utf-8")
+    raw = yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    return parse_value(ValidateParams, raw, f"rwhonet/cli/{DEFAULTS}")
 
 
 def _position_text(o: dict[str, Any]) -> str:
