@@ -11,7 +11,7 @@ import pytest
 
 from rwhonet import paths
 from rwhonet.cli.main import main, parser
-from support.serving import base_bundle, write_drive
+from support.serving import base_bundle, predict_args, write_drive
 
 BAD_CELL = "row 9, column ' Wheel Speed Rear Left (rad/sec)': expected a number; found 'oops'"
 
@@ -315,19 +315,6 @@ def _rav4_drive(wheel_factor: float = 1.0, fixes: bool = True):
     return df
 
 
-def _predict_args(bundle, drive, out, *extra):
-    return [
-        "predict",
-        "--model",
-        str(bundle["model_onnx"]),
-        "--drive",
-        str(drive),
-        "--output",
-        str(out),
-        *extra,
-    ]
-
-
 def test_predict_refuses_km_h_labelled_rad_s_as_validate_does_and_writes_nothing(
     bundle, tmp_path, capsys
 ):
@@ -336,11 +323,11 @@ def test_predict_refuses_km_h_labelled_rad_s_as_validate_does_and_writes_nothing
     good = write_iovnbd(_rav4_drive(), tmp_path / "V-Rav4.csv")
     kmh = write_iovnbd(_rav4_drive(RAV4_M * 3.6), tmp_path / "V-Kmh.csv")  # v in km/h
     car = ["--nominal-radius", str(RAV4_M)]
-    assert main(_predict_args(bundle, good, tmp_path / "good.csv", *car)) == 0
+    assert main(predict_args(bundle, good, tmp_path / "good.csv", *car)) == 0
     assert len(pd.read_csv(tmp_path / "good.csv")) == 120
     assert "not checked" not in capsys.readouterr().err
     out = tmp_path / "kmh.csv"
-    assert main(_predict_args(bundle, kmh, out, *car)) == 2
+    assert main(predict_args(bundle, kmh, out, *car)) == 2
     err = capsys.readouterr().err
     assert str(kmh) in err and "Wheel Speed Rear Left (rad/sec)" in err
     assert "within ±5% of the car's nominal 0.362 m" in err  # validate's report, its threshold
@@ -348,7 +335,7 @@ def test_predict_refuses_km_h_labelled_rad_s_as_validate_does_and_writes_nothing
     assert "--nominal-radius" in err
     assert not out.exists() and list(tmp_path.glob(".*partial")) == []
     # on stdout: the header and no second before the check has decided
-    rc = cli(*_predict_args(bundle, "-", "-", *car), stdin=kmh.read_bytes())
+    rc = cli(*predict_args(bundle, "-", "-", *car), stdin=kmh.read_bytes())
     assert rc.returncode == 2, rc.stderr.decode()
     assert rc.stdout.decode().splitlines() == [rc.stdout.decode().splitlines()[0]]
     assert "look like km/h" in rc.stderr.decode()
@@ -388,7 +375,7 @@ def test_predict_refuses_an_mdf4_whose_rad_s_are_labelled_km_h(bundle, tmp_path,
     )
     out = tmp_path / "p.csv"
     fmt = ["--format", "mdf4", "--signal-map", str(signal_map), "--nominal-radius", str(RAV4_M)]
-    assert main(_predict_args(bundle, drive, out, *fmt)) == 2
+    assert main(predict_args(bundle, drive, out, *fmt)) == 2
     err = capsys.readouterr().err
     assert "WheelSpeed_RL" in err and "implied radius" in err and "ratio 1.3" in err
     assert not out.exists()
@@ -399,7 +386,7 @@ def test_predict_says_once_that_a_drive_without_gnss_was_not_unit_checked(bundle
 
     drive = write_iovnbd(_rav4_drive(fixes=False), tmp_path / "V-NoFix.csv")
     for quiet in ([], ["--quiet"]):
-        assert main(_predict_args(bundle, drive, tmp_path / "p.csv", *quiet)) == 0
+        assert main(predict_args(bundle, drive, tmp_path / "p.csv", *quiet)) == 0
         err = capsys.readouterr().err
         assert err.count("not checked against GNSS") == 1 and "has no GNSS fix" in err
     assert len(pd.read_csv(tmp_path / "p.csv")) == 120
@@ -417,7 +404,7 @@ def test_predict_holds_seconds_for_the_unit_check_no_longer_than_hold_max_s(
     monkeypatch.setattr(predict, "HOLD_MAX_S", 30)
     car = ["--nominal-radius", str(RAV4_M)]
     nofix = write_iovnbd(_rav4_drive(fixes=False), tmp_path / "V-NoFix.csv")
-    assert main(_predict_args(bundle, nofix, tmp_path / "p.csv", *car)) == 0
+    assert main(predict_args(bundle, nofix, tmp_path / "p.csv", *car)) == 0
     err = capsys.readouterr().err
     assert err.count("has not decided after 30 s") == 1 and "written unchecked" in err
     assert len(pd.read_csv(tmp_path / "p.csv")) == 120  # every second, none lost
@@ -425,7 +412,7 @@ def test_predict_holds_seconds_for_the_unit_check_no_longer_than_hold_max_s(
     late.loc[late[c.T_S] < late[c.T_S].iloc[0] + 40.0, [c.LAT_DEG, c.LON_DEG]] = np.nan
     drive = write_iovnbd(late, tmp_path / "V-Late.csv")
     out = tmp_path / "late.csv"
-    assert main(_predict_args(bundle, drive, out, *car)) == 2
+    assert main(predict_args(bundle, drive, out, *car)) == 2
     err = capsys.readouterr().err
     assert "has not decided after 30 s" in err and "look like km/h" in err
     assert not out.exists() and list(tmp_path.glob(".*partial")) == []
@@ -488,7 +475,7 @@ def test_predict_repairs_and_reports_a_glitched_sample_of_a_100_hz_wheel_stream(
         out = tmp_path / f"{name}.csv"
         extra = ["--format", "stream_csv", "--signal-map", str(smap)]
         extra += ["--nominal-radius", str(RADIUS_M), "--quiet"]
-        assert main(_predict_args(bundle, drive, out, *extra)) == 0
+        assert main(predict_args(bundle, drive, out, *extra)) == 0
         frames[name] = (pd.read_csv(out), capsys.readouterr().err)
     (clean, said_clean), (fixed, said) = frames["clean"], frames["glitch"]
     assert "glitch" not in said_clean

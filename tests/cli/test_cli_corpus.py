@@ -29,7 +29,7 @@ from rwhonet.geo import latlon_from_offsets_deg, offsets_m
 from rwhonet.sim.streams import SIGNAL_MAP
 from support.corpus import CASES, FILE, good_target, target_path, write_good_fleet
 from support.drives import make_params, write_iovnbd, write_params_yaml
-from support.serving import base_bundle
+from support.serving import base_bundle, predict_args
 from support.stream_corpus import CASES as STREAM_CASES
 from support.stream_corpus import RADIUS_M, folder_of
 
@@ -50,16 +50,7 @@ def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capsys) -> d
     """predict and recalibrate on one drive; check each ends well; return their statuses."""
     out = tmp_path / "out.csv"
     commands = {
-        "predict": [
-            "predict",
-            "--model",
-            str(bundle["model_onnx"]),
-            "--drive",
-            str(drive),
-            "--output",
-            str(out),
-            "--quiet",
-        ],
+        "predict": predict_args(bundle, drive, out, "--quiet"),
         "recalibrate": [
             "recalibrate",
             "--base",

@@ -24,6 +24,7 @@ from rwhonet.models.checkpoint import (
 )
 from rwhonet.models.loop import net_from_hparams, predict
 from rwhonet.models.whonet import WhONet
+from support.nopickle import forbid_pickle
 
 HP = {
     "n_features": 40,
@@ -92,18 +93,7 @@ ARCH_HP = {
 
 def _no_pickle(monkeypatch):
     """Make torch.load and every pickle loader fail the test if anything calls them."""
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("a pickle was loaded")
-
-    for module, name in [
-        (torch, "load"),
-        (torch.serialization, "load"),
-        (pickle, "load"),
-        (pickle, "loads"),
-        (pickle, "Unpickler"),
-    ]:
-        monkeypatch.setattr(module, name, refuse)
+    forbid_pickle(monkeypatch)
 
 
 @pytest.mark.parametrize("arch", sorted(ARCH_HP))

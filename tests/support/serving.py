@@ -114,3 +114,17 @@ def write_drive(path: Path, duration_s: float = 400.0, seed: int = 0) -> Path:
     from support.drives import write_iovnbd
 
     return write_iovnbd(wavy_drive(duration_s, seed), Path(path))
+
+
+def predict_args(bundle: dict, drive, out, *extra: str) -> list[str]:
+    """``rwhonet predict``'s arguments for a bundle's ONNX model, a drive and an output."""
+    return [
+        "predict",
+        "--model",
+        str(bundle["model_onnx"]),
+        "--drive",
+        str(drive),
+        "--output",
+        str(out),
+        *extra,
+    ]

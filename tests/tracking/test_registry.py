@@ -14,6 +14,7 @@ from rwhonet.tracking.registry import (
     resolve_model,
 )
 from rwhonet.tracking.store import open_store
+from support.nopickle import forbid_pickle
 from support.serving import SCALER, base_bundle
 
 mlflow = pytest.importorskip("mlflow")
@@ -333,9 +334,6 @@ def test_no_pickle_is_loaded_from_the_registry_to_a_prediction(
     store, pipeline_outputs, tmp_path, monkeypatch
 ):
     """rwhonet predict's path (fetch, check, ONNX) and the pyfunc's path, with pickle disabled."""
-    import pickle
-
-    import cloudpickle
 
     from rwhonet.serve.model import load_served
     from rwhonet.tracking.registry import load_pyfunc
@@ -345,17 +343,7 @@ def test_no_pickle_is_loaded_from_the_registry_to_a_prediction(
     x = frame[list(k.FEATURE_COLUMNS)].to_numpy(np.float32)[:, None, :]
     angles = frame[k.ANGLE_RL_RAD].to_numpy(), frame[k.ANGLE_RR_RAD].to_numpy()
 
-    def refuse(*args, **kwargs):
-        raise AssertionError("a pickle was loaded")
-
-    for module, name in [
-        (pickle, "load"),
-        (pickle, "loads"),
-        (pickle, "Unpickler"),
-        (cloudpickle, "load"),
-        (cloudpickle, "loads"),
-    ]:
-        monkeypatch.setattr(module, name, refuse)
+    forbid_pickle(monkeypatch)
     served = load_served(resolve_model("models:/whonet-R-target/1", store, tmp_path / "r"))
     pyfunc = load_pyfunc("models:/whonet-R-target/1", store, tmp_path / "p")
     np.testing.assert_allclose(
@@ -402,30 +390,14 @@ def no_pickle(monkeypatch):
     hook records any unpickler's class lookups; it returns that record (empty: nothing was
     unpickled). Started after registering: the pipeline's own model.pt files are read then.
     """
-    import pickle
     import sys
-
-    import cloudpickle
-    import torch
 
     if not getattr(_audit, "installed", False):  # an audit hook cannot be removed: once
         sys.addaudithook(_audit)
         _audit.installed = True
 
-    def refuse(*args, **kwargs):
-        raise AssertionError("a pickle was loaded")
-
     def start():
-        for module, name in [
-            (torch, "load"),
-            (torch.serialization, "load"),
-            (pickle, "load"),
-            (pickle, "loads"),
-            (pickle, "Unpickler"),
-            (cloudpickle, "load"),
-            (cloudpickle, "loads"),
-        ]:
-            monkeypatch.setattr(module, name, refuse)
+        forbid_pickle(monkeypatch)
         _LOADED.clear()
         _WATCHING.append(True)
         return _LOADED
