@@ -807,6 +807,8 @@ class NavGnssParams:
     sigma_m: float  # Gauss-Markov drift
     tau_s: float
     white_m: float  # white noise per fix
+    # sigma_m fitted on the target training drives (rwhonet.evaluation.position.fit_receiver)
+    fit_sigma: bool = True
 
 
 @dataclass(frozen=True)

@@ -8,11 +8,15 @@ from rwhonet.evaluation.position import (
     GNSS_DISTANCE,
     Calibration2D,
     Odometry,
+    ReceiverFit,
     calibrate_2d,
+    calibrated_nll,
     filter_windows,
+    fit_receiver,
     position_per_seed,
     target_windows,
     window_stats,
+    with_receiver_sigma,
 )
 from rwhonet.evaluation.selection import choose
 from rwhonet.evaluation.study import evaluate, navigation_plan
@@ -119,6 +123,88 @@ def test_each_outage_length_with_enough_windows_gets_its_own_scale():
         assert stats["calib_scale"] == g.scales[L]
         assert stats["cover_1sigma"] == pytest.approx(0.6827, abs=0.02)
         assert stats["cover_2sigma"] == pytest.approx(0.9545, abs=0.02)
+
+
+def test_calibrated_nll_is_each_run_s_windows_under_its_own_calibration():
+    rng = np.random.default_rng(5)
+    rows = []
+    for model, sd in (("G", 2.0), ("S", 0.5)):
+        n = 400
+        err = rng.normal(size=(n, 2)) * sd
+        rows.append(
+            pd.DataFrame(
+                {
+                    "model": model,
+                    "seed": 1,
+                    "control": "fused",
+                    "counted": True,
+                    "outage_s": np.where(np.arange(n) % 2, 30, 60),
+                    "err_e_m": err[:, 0],
+                    "err_n_m": err[:, 1],
+                    "cov_ee_m2": 1.0,
+                    "cov_en_m2": 0.0,
+                    "cov_nn_m2": 1.0,
+                    "horizontal_m": np.hypot(err[:, 0], err[:, 1]),
+                    "distance_m": 500.0,
+                }
+            )
+        )
+    windows = pd.concat(rows, ignore_index=True)
+    cals = calibrate_2d(windows)
+    want = []
+    for (model, L), g in windows.groupby(["model", "outage_s"]):
+        want.append(window_stats(g, cals[(model, 1, "fused")], L)["nll"] * len(g))
+    got, n = calibrated_nll(windows)
+    assert n == 800 and got == pytest.approx(sum(want) / 800)
+    assert calibrated_nll(windows.assign(counted=False)) == (pytest.approx(np.nan, nan_ok=True), 0)
+
+
+class _Navigation:
+    def __init__(self, fit_sigma=True, sigma_m=1.5, tau_s=100.0):
+        self.gnss = type("G", (), {"sigma_m": sigma_m, "tau_s": tau_s, "fit_sigma": fit_sigma})
+
+
+def _receiver_case(monkeypatch, nll_of_sigma, fit_sigma=True, n_windows=500):
+    """fit_receiver with the filter's training windows replaced by a known likelihood."""
+    import rwhonet.evaluation.position as position
+    from rwhonet.nav import NavConfig
+
+    tried = []
+
+    def windows(frame, params, passes, outages_s, cfg):
+        tried.append(cfg.gnss.sigma_m)
+        return cfg.gnss.sigma_m
+
+    monkeypatch.setattr(position, "_training_windows", windows)
+    monkeypatch.setattr(position, "calibrated_nll", lambda s: (nll_of_sigma(s), n_windows))
+    params = type("P", (), {})()
+    params.evaluate = type("E", (), {"navigation": _Navigation(fit_sigma)})()
+    plan = {"control_model": "G", "control": "fused"}
+    run = Odometry("G", 1, "fused", np.zeros(1), np.zeros(1))
+    passes = [([run], {30: np.zeros((0, 30), int)})]
+    cfg = with_receiver_sigma(NavConfig(), 1.5)
+    return fit_receiver(None, params, passes, plan, [30], cfg), tried
+
+
+@pytest.mark.parametrize("truth", [0.4, 1.5, 2.5, 7.0])
+def test_the_receiver_fit_finds_the_likeliest_spread(monkeypatch, truth):
+    # a likelihood quadratic in ln sigma: the parabola's vertex is its minimum exactly
+    fit, tried = _receiver_case(monkeypatch, lambda s: (np.log(s) - np.log(truth)) ** 2)
+    assert fit.fitted and fit.sigma_m == pytest.approx(truth, rel=1e-6)
+    assert fit.configured_m == 1.5 and fit.tau_s == 100.0 and fit.n_windows == 500
+    assert set(fit.nll) == set(tried) and len(tried) == len(set(tried))  # each spread once
+    # it walks from the configured spread towards the likelier side only
+    assert all(s <= 1.5 * np.sqrt(2.0) for s in tried) or all(s >= 1.5 / np.sqrt(2) for s in tried)
+
+
+def test_the_receiver_fit_stays_in_its_range_and_keeps_what_it_is_told(monkeypatch):
+    fit, _ = _receiver_case(monkeypatch, lambda s: -s)  # likelier without end: the bound
+    assert fit.fitted and fit.sigma_m <= 30.0 and fit.sigma_m > 30.0 / np.sqrt(2.0)
+    fit, tried = _receiver_case(monkeypatch, lambda s: s, fit_sigma=False)
+    assert fit == ReceiverFit(1.5, 100.0, 1.5) and not tried
+    fit, tried = _receiver_case(monkeypatch, lambda s: s, n_windows=3)  # too few windows
+    assert not fit.fitted and fit.sigma_m == 1.5 and fit.n_windows == 3 and tried == [1.5]
+    assert fit.as_dict()["fitted"] is False
 
 
 def _frame(samples_dir):

@@ -279,6 +279,11 @@ def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_d
     assert (pos["cover_1sigma"] == pos["cover_1sigma_filter"]).all()
     cell = ev.eval_json["position"]["G"]["30s"]
     assert cell["calib_scale"] == 1.0 and cell["calib_dof"] is None
+    # nor is the receiver's drift fitted on too few windows: the configured one, said so
+    receiver = ev.eval_json["position_controls"]["receiver"]
+    configured = params.evaluate.navigation.gnss.sigma_m
+    assert receiver["fitted"] is False and receiver["sigma_m"] == configured
+    assert receiver["configured_sigma_m"] == configured
 
 
 def test_a_continuous_recipe_as_r_wh_onet_is_scored_per_second_on_its_shortest_outage(

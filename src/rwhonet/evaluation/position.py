@@ -41,7 +41,7 @@ The row :data:`HEADING_ONLY` dead-reckons the GNSS's own distances.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -678,21 +678,21 @@ def position_per_seed(
     return pd.DataFrame(rows)
 
 
-def calibrate_on_training(
+def training_passes(
     evidence: FitEvidence,
     errors: list[TrainingErrors],
     params: Params,
     plan: dict,
     fits: dict[tuple[int | None, str], DistanceVariance],
     outages_s: list[int],
-    cfg: NavConfig | None = None,
-) -> tuple[dict[tuple, Calibration2D], pd.DataFrame]:
-    """The filter's runs on the target training drives, and each run's 2D calibration.
+    cfg: NavConfig,
+) -> list[tuple[list[Odometry], dict[int, np.ndarray]]]:
+    """The filter's runs on the target training drives, grouped by where they may be fitted.
 
     The same runs as on the test drives (:func:`model_runs` for every model of
     ``plan``, :func:`gnss_run`), each model's distance variance as fitted there
     (``fits``), over the windows where it may be fitted (``errors``' masks: S on its
-    segments' validation tails); then :func:`calibrate_2d`.
+    segments' validation tails); one group per mask, with its windows.
 
     Unlike the test windows (consecutive, the paper's), the training windows of every
     length start every ``min(outages_s)`` seconds, so the longer ones overlap: an
@@ -701,6 +701,201 @@ def calibrate_on_training(
     windows per run, against 112 with a start every 30 s). The overlapping windows are
     correlated; the maximum-likelihood fit over them is a composite likelihood, whose
     estimate stays consistent.
+
+    Returns:
+        ``[(runs, {outage length: windows' rows (W, L)})]``.
+    """
+    frame = evidence.frame
+    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    groups: dict[str, tuple[np.ndarray, list[Odometry]]] = {
+        "scored": (evaluated_rows(frame, params.adapt.m_grid), [gnss_run(gnss, plan, cfg)])
+    }
+    for t in errors:
+        fit = fits.get((t.seed, t.model), ASSUMED)
+        mask, runs = groups.setdefault("tail" if t.model == "S" else "scored", (t.mask, []))
+        runs += model_runs(t.model, t.seed, gnss - t.error, fit, plan, outages_s)
+    stride = min(outages_s)
+    return [
+        (runs, {L: masked_windows(frame, mask, L, stride) for L in outages_s})
+        for mask, runs in groups.values()
+    ]
+
+
+def _training_windows(
+    frame: pd.DataFrame,
+    params: Params,
+    passes: list[tuple[list[Odometry], dict[int, np.ndarray]]],
+    outages_s: list[int],
+    cfg: NavConfig,
+) -> pd.DataFrame:
+    ends = [
+        filter_windows(frame, params, runs, outages_s, cfg, k.TARGET_TRAIN, windows)
+        for runs, windows in passes
+        if runs
+    ]
+    return (
+        pd.concat(ends, ignore_index=True) if ends else pd.DataFrame(columns=list(WINDOW_COLUMNS))
+    )
+
+
+def calibrated_nll(windows: pd.DataFrame) -> tuple[float, int]:
+    """The windows' mean negative log-likelihood under each run's own 2D calibration.
+
+    Each run (model, seed, control) calibrated on these windows (:func:`calibrate_2d`),
+    then every counted window's NLL under its run's bivariate t at its outage length:
+    the likelihood the calibration maximises, so two filter settings compare by it.
+
+    Returns:
+        ``(mean NLL in nats, counted windows)``; ``(nan, 0)`` without one.
+    """
+    cals = calibrate_2d(windows)
+    total, n = 0.0, 0
+    for (model, seed, control, L), g in windows[windows["counted"]].groupby(
+        ["model", "seed", "control", "outage_s"], sort=False, dropna=False
+    ):
+        cal = cals[(model, None if pd.isna(seed) else int(seed), control)]
+        err, cov = _errors_and_covs(g)
+        total += nll_2d(err, cov, cal.scale_at(int(L)), cal.dof) * len(g)
+        n += len(g)
+    return (total / n, n) if n else (float("nan"), 0)
+
+
+@dataclass(frozen=True)
+class ReceiverFit:
+    """The receiver drift the filter uses, fitted on the target training drives.
+
+    Attributes:
+        sigma_m: the drift's spread (``evaluate.navigation.gnss.sigma_m`` when not
+            fitted), m.
+        tau_s: its correlation time (held at ``evaluate.navigation.gnss.tau_s``).
+        configured_m: ``evaluate.navigation.gnss.sigma_m``.
+        fitted: False: not asked for (``fit_sigma: false``), or too few windows.
+        nll: the spreads tried and the training windows' mean calibrated NLL at each
+            (:func:`calibrated_nll`), nats.
+        n_windows: the counted training windows per spread tried.
+    """
+
+    sigma_m: float
+    tau_s: float
+    configured_m: float
+    fitted: bool = False
+    nll: dict[float, float] = field(default_factory=dict)
+    n_windows: int = 0
+
+    def as_dict(self) -> dict:
+        """eval.json's ``position_controls.receiver``."""
+        return {
+            "sigma_m": round(self.sigma_m, 4),
+            "tau_s": self.tau_s,
+            "configured_sigma_m": self.configured_m,
+            "fitted": self.fitted,
+            "n_windows": self.n_windows,
+            "nll": {f"{s:.4g}": round(v, 5) for s, v in sorted(self.nll.items())},
+        }
+
+
+RECEIVER_STEP = float(np.sqrt(2.0))  # the spreads tried: the configured one times powers of this
+RECEIVER_SIGMA_M = (0.1, 30.0)  # and within this range
+
+
+def with_receiver_sigma(cfg: NavConfig, sigma_m: float) -> NavConfig:
+    """``cfg`` with the receiver drift's spread replaced."""
+    return replace(cfg, gnss=replace(cfg.gnss, sigma_m=float(sigma_m)))
+
+
+def fit_receiver(
+    frame: pd.DataFrame,
+    params: Params,
+    passes: list[tuple[list[Odometry], dict[int, np.ndarray]]],
+    plan: dict,
+    outages_s: list[int],
+    cfg: NavConfig,
+) -> ReceiverFit:
+    """The receiver drift's spread that makes the training windows' ends likeliest.
+
+    The filter's GNSS model (a Gauss-Markov drift, ``sigma_m`` and ``tau_s``, plus
+    white noise) is a receiver's datasheet figure, and a car's receiver, antenna and
+    roads are not the datasheet's: with ``sigma_m`` of another grade the filter
+    weighs the fixes before an outage wrongly and misjudges the error of the fix that
+    ends it (on the large_target_consumer world, whose u-blox M8-class receiver drifts
+    2.12 m with 60 s against the configured 1.5 m with 100 s, the calibrated test NLL
+    fell at every outage length with the receiver's own figures). So ``sigma_m`` is
+    fitted by maximum likelihood on the target training drives' windows
+    (:func:`training_passes`), never a test drive: the filter with
+    ``control_model``'s distances and ``plan['control']`` (its seeds) runs on them
+    for each spread tried, and each spread is scored by the windows' mean NLL under
+    their own calibration (:func:`calibrated_nll`). The spreads tried step by
+    :data:`RECEIVER_STEP` from the configured one towards the likelier side until the
+    likelihood falls again (within :data:`RECEIVER_SIGMA_M`); the answer is the
+    vertex of the parabola through the best and its two neighbours in ``ln σ``.
+
+    ``tau_s`` is held: the windows' likelihood runs along a ridge of nearly equal
+    values where ``σ²/τ`` (the rate at which the drift wanders) is constant, so the
+    data do not tell ``σ`` and ``τ`` apart (docs/positioning.md).
+
+    Returns:
+        The fit (not fitted: the configured spread, when ``fit_sigma`` is false, the
+        plan's control model has no run, or its windows are fewer than
+        :data:`~rwhonet.nav.coverage.MIN_T2_WINDOWS`).
+    """
+    gnss = params.evaluate.navigation.gnss
+    configured = float(cfg.gnss.sigma_m)
+    out = ReceiverFit(configured, float(cfg.gnss.tau_s), float(gnss.sigma_m))
+    mine = [
+        ([r for r in runs if r.model == plan["control_model"] and r.control == plan["control"]], w)
+        for runs, w in passes
+    ]
+    mine = [(runs, w) for runs, w in mine if runs]
+    if not gnss.fit_sigma or not mine:
+        return out
+    scores: dict[float, tuple[float, int]] = {}
+
+    def score(step: int) -> float:
+        sigma = configured * RECEIVER_STEP**step
+        if step not in scores:
+            windows = _training_windows(
+                frame, params, mine, outages_s, with_receiver_sigma(cfg, sigma)
+            )
+            scores[step] = calibrated_nll(windows)
+        return scores[step][0]
+
+    lo = int(np.ceil(np.log(RECEIVER_SIGMA_M[0] / configured) / np.log(RECEIVER_STEP)))
+    hi = int(np.floor(np.log(RECEIVER_SIGMA_M[1] / configured) / np.log(RECEIVER_STEP)))
+    if score(0) != score(0) or scores[0][1] < MIN_T2_WINDOWS:  # NaN: no window counted
+        return replace(out, n_windows=scores[0][1])
+    best = 0
+    for direction in (1, -1):
+        step = best + direction
+        while lo <= step <= hi and score(step) < score(best):
+            best, step = step, step + direction
+        if best != 0:
+            break  # a descent found: the other side rises
+    sigma = configured * RECEIVER_STEP**best
+    if lo < best < hi:
+        f0, f1, f2 = score(best - 1), score(best), score(best + 1)
+        curve = f0 - 2.0 * f1 + f2
+        if curve > 0:
+            sigma *= RECEIVER_STEP ** float(np.clip(0.5 * (f0 - f2) / curve, -0.5, 0.5))
+    return replace(
+        out,
+        sigma_m=float(sigma),
+        fitted=True,
+        nll={configured * RECEIVER_STEP**s: v for s, (v, _) in scores.items()},
+        n_windows=scores[best][1],
+    )
+
+
+def calibrate_on_training(
+    evidence: FitEvidence,
+    errors: list[TrainingErrors],
+    params: Params,
+    plan: dict,
+    fits: dict[tuple[int | None, str], DistanceVariance],
+    outages_s: list[int],
+    cfg: NavConfig | None = None,
+    passes: list[tuple[list[Odometry], dict[int, np.ndarray]]] | None = None,
+) -> tuple[dict[tuple, Calibration2D], pd.DataFrame]:
+    """The filter's runs on the target training drives, and each run's 2D calibration.
 
     Args:
         evidence: the target training drives and every seed's predictions of them.
@@ -712,6 +907,7 @@ def calibrate_on_training(
         fits: every model's variance (:func:`~rwhonet.evaluation.uncertainty.fit_variances`).
         outages_s: the outage lengths.
         cfg: the filter's settings.
+        passes: :func:`training_passes` (default: made here).
 
     Returns:
         ``({(model, seed, control): calibration}, the training windows' ends)``.
@@ -720,19 +916,7 @@ def calibrate_on_training(
     if not len(frame):
         return {}, pd.DataFrame(columns=list(WINDOW_COLUMNS))
     cfg = cfg or nav_config(params)
-    gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
-    # runs grouped by the seconds they may be calibrated on (one mask per group)
-    groups: dict[str, tuple[np.ndarray, list[Odometry]]] = {
-        "scored": (evaluated_rows(frame, params.adapt.m_grid), [gnss_run(gnss, plan, cfg)])
-    }
-    for t in errors:
-        fit = fits.get((t.seed, t.model), ASSUMED)
-        mask, runs = groups.setdefault("tail" if t.model == "S" else "scored", (t.mask, []))
-        runs += model_runs(t.model, t.seed, gnss - t.error, fit, plan, outages_s)
-    ends = []
-    stride = min(outages_s)
-    for mask, runs in groups.values():
-        windows = {L: masked_windows(frame, mask, L, stride) for L in outages_s}
-        ends.append(filter_windows(frame, params, runs, outages_s, cfg, k.TARGET_TRAIN, windows))
-    windows_2d = pd.concat(ends, ignore_index=True)
+    if passes is None:
+        passes = training_passes(evidence, errors, params, plan, fits, outages_s, cfg)
+    windows_2d = _training_windows(frame, params, passes, outages_s, cfg)
     return calibrate_2d(windows_2d), windows_2d

@@ -219,6 +219,7 @@ def _position_controls(ev: Evaluation) -> dict:
         "control": plan["control"],
         "distance": "R" if cm == ev.choice.model else cm,
         "unavailable": list(plan["unavailable"]),
+        "receiver": dict(plan.get("receiver", {})),
         "rows": {},
     }
     for (model, control), g in pos.groupby(["model", "control"], sort=False):

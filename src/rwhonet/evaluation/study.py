@@ -38,16 +38,20 @@ from rwhonet.evaluation.paired import no_harm, paired
 from rwhonet.evaluation.position import (
     HEADING_ONLY,
     WINDOW_STATS,
+    ReceiverFit,
     calibrate_on_training,
     filter_models,
     filter_windows,
+    fit_receiver,
     gnss_run,
     model_runs,
     nav_config,
     position_errors,
     position_per_seed,
     target_windows,
+    training_passes,
     window_tracks,
+    with_receiver_sigma,
 )
 from rwhonet.evaluation.result import Evaluation, eval_json
 from rwhonet.evaluation.scenarios import (
@@ -216,13 +220,20 @@ def evaluate(
     dead["n_windows_all"] = dead["outage_s"].map(
         {L: int(t["n_windows"]) for L, t in tracks.items()}
     )
-    windows_2d = filter_windows(frame, params, runs, outages, cfg)
-    # the filter's covariance calibrated on the target training drives' windows (scale, tails)
-    calibrations = (
-        calibrate_on_training(evidence, train_errors, params, nav, fits, outages, cfg)[0]
-        if evidence is not None
-        else {}
+    # the receiver's drift fitted, and the filter's covariance calibrated (scale, tails), on
+    # the target training drives' windows; then the test windows with the fitted receiver
+    receiver = ReceiverFit(
+        cfg.gnss.sigma_m, cfg.gnss.tau_s, params.evaluate.navigation.gnss.sigma_m
     )
+    calibrations = {}
+    if evidence is not None and len(evidence.frame):
+        passes = training_passes(evidence, train_errors, params, nav, fits, outages, cfg)
+        receiver = fit_receiver(evidence.frame, params, passes, nav, outages, cfg)
+        cfg = with_receiver_sigma(cfg, receiver.sigma_m)  # the runs stay: they do not read it
+        calibrations = calibrate_on_training(
+            evidence, train_errors, params, nav, fits, outages, cfg, passes
+        )[0]
+    windows_2d = filter_windows(frame, params, runs, outages, cfg)
     nav_seed = position_per_seed(windows_2d, params.seeds, calibrations)
     position = over_seeds(nav_seed, ["model", "control", "outage_s"], list(WINDOW_STATS))
     counts = nav_seed.groupby(["model", "control", "outage_s"], sort=False)[
@@ -265,7 +276,8 @@ def evaluate(
         position=position,
         position_windows=windows_2d,
         position_dead_reckoning=dead,
-        position_plan={key: v for key, v in nav.items() if key != "models"},
+        position_plan={key: v for key, v in nav.items() if key != "models"}
+        | {"receiver": receiver.as_dict()},
         uncertainty=uncertainty,
         variance=variance.assign(fitted=evidence is not None),
         scenario_outages=scenario_outage_summary(pd.DataFrame(scen_out), scenario.counts),

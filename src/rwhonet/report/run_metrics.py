@@ -75,6 +75,9 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
             ci = getattr(r, f"pos_{stat}_ci95")
             if prefix == "pos" and math.isfinite(ci):
                 out[f"pos/{r.outage_s}s/{stat}_ci95"] = float(ci)
+    receiver = plan.get("receiver", {})
+    if name == plan["control_model"] and receiver.get("fitted"):
+        out["pos/receiver_sigma_m"] = float(receiver["sigma_m"])
     for r in ev.uncertainty[ev.uncertainty["model"] == name].itertuples():
         for stat, col in (
             ("crse_cover_1sigma", "cover_1sigma"),

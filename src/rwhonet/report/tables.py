@@ -490,7 +490,23 @@ def nav_calibration_table(ev: Evaluation) -> str | None:
     )
     at = " / ".join(f"{int(L)}" for L in lengths)
     head = f"The calibration (mean over seeds; c at {at} s, ν the same for every length)"
-    return f"{table}\n\n{head}: {calib}."
+    return f"{table}\n\n{head}: {calib}.{_receiver_line(plan.get('receiver', {}))}"
+
+
+def _receiver_line(receiver: dict) -> str:
+    """What the filter took for the receiver's drift, and where it came from."""
+    if not receiver:
+        return ""
+    held = f"τ = {receiver['tau_s']:g} s held"
+    if not receiver["fitted"]:
+        return f"\n\nThe receiver's drift: σ = {receiver['sigma_m']:g} m as configured ({held})."
+    tried = ", ".join(f"{s} m: {v:.3f}" for s, v in receiver["nll"].items())
+    configured = receiver["configured_sigma_m"]
+    return (
+        f"\n\nThe receiver's drift, fitted on the target training windows by maximum "
+        f"likelihood: σ = {receiver['sigma_m']:.2f} m (configured {configured:g} m; {held}; "
+        f"{receiver['n_windows']} windows; mean NLL per window, nats: {tried})."
+    )
 
 
 def crse_calibration_table(ev: Evaluation) -> str | None:
