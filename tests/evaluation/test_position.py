@@ -6,6 +6,7 @@ import pytest
 
 from rwhonet.evaluation.position import (
     GNSS_DISTANCE,
+    WINDOW_COLUMNS,
     Calibration2D,
     Odometry,
     ReceiverFit,
@@ -157,6 +158,8 @@ def test_calibrated_nll_is_each_run_s_windows_under_its_own_calibration():
     got, n = calibrated_nll(windows)
     assert n == 800 and got == pytest.approx(sum(want) / 800)
     assert calibrated_nll(windows.assign(counted=False)) == (pytest.approx(np.nan, nan_ok=True), 0)
+    none = pd.DataFrame(columns=list(WINDOW_COLUMNS))  # no window at all (a tiny profile)
+    assert calibrated_nll(none) == (pytest.approx(np.nan, nan_ok=True), 0)
 
 
 class _Navigation:

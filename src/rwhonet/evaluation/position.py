@@ -750,7 +750,8 @@ def calibrated_nll(windows: pd.DataFrame) -> tuple[float, int]:
     """
     cals = calibrate_2d(windows)
     total, n = 0.0, 0
-    for (model, seed, control, L), g in windows[windows["counted"]].groupby(
+    counted = windows[windows["counted"].astype(bool)]  # an empty frame's column is object
+    for (model, seed, control, L), g in counted.groupby(
         ["model", "seed", "control", "outage_s"], sort=False, dropna=False
     ):
         cal = cals[(model, None if pd.isna(seed) else int(seed), control)]
