@@ -189,6 +189,17 @@ def test_the_prior_is_centred_on_the_car_s_size_only_for_another_car():
     assert prior_radii_of(None, src, 0.362, 0.294) is None  # not shrink
 
 
+def test_a_recalibrated_model_keeps_the_filter_s_calibration_only_on_the_car_it_was_measured():
+    from rwhonet.cli.recalibrate import inherited_navigation
+
+    nav = {"vehicle": "target", "receiver_sigma_m": 2.7, "calibration": {"scales": {"30": 0.7}}}
+    got = inherited_navigation(nav, "target", "whonet-G v1")
+    assert got["receiver_sigma_m"] == 2.7 and got["calibration"] == nav["calibration"]
+    assert got["from"].startswith("whonet-G v1's")
+    assert inherited_navigation(nav, "rav4", "whonet-G v1") is None  # another car: not measured
+    assert inherited_navigation(None, "target", "whonet-G v1") is None
+
+
 def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
     check = (
         "import sys; from rwhonet.cli.main import main; rc = main(sys.argv[1:]); "
@@ -222,11 +233,15 @@ def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
     )
     # where the car is through the outage, and how far that is from GNSS at its end
     inside = frame["outage"].notna()
-    position = ["east_m", "north_m", "cov_ee_m2", "cov_en_m2", "cov_nn_m2", "pos_err_m"]
+    position = ["east_m", "north_m", "cov_ee_m2", "cov_en_m2", "cov_nn_m2", "r68_m", "r95_m"]
+    position.append("pos_err_m")
     assert frame.loc[inside, position].notna().all().all()
     assert frame.loc[~inside, position].isna().all().all()
     end = frame.loc[inside, "pos_err_m"].iloc[-1]
     assert f"{end:.1f} m from the GNSS fix" in err and "position at the end" in err
+    # a model the evaluation has not measured says its regions are the filter's own
+    r68, r95 = frame.loc[inside, ["r68_m", "r95_m"]].iloc[-1]
+    assert f"68 % / 95 % within {r68:.1f} / {r95:.1f} m, the filter's own, not calibrated" in err
 
 
 def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):

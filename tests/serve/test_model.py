@@ -56,3 +56,26 @@ def test_what_is_not_a_served_model_is_named(tmp_path, bundle):
         load_served(bundle["model_onnx"]).predict(np.zeros((2, 40), np.float32))
     with pytest.raises(InputError, match="format"):
         ServedMeta.from_json('{"format": "other"}', "m.json")
+
+
+def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_named(bundle):
+    meta = load_served(bundle["model_onnx"]).meta
+    assert meta.navigation is None  # a bundle from before, or not evaluated: the generic filter
+    nav = {
+        "receiver_sigma_m": 2.7,
+        "receiver_tau_s": 100.0,
+        "calibration": {"scales": {"30": 0.7, "180": 0.6}, "dof": 9.5},
+        "from": "evaluate",
+    }
+    withnav = ServedMeta(**{**meta.__dict__, "navigation": nav})
+    assert ServedMeta.from_json(withnav.to_json(), "m.json").navigation == nav
+    for bad in (
+        "a string",
+        {"receiver_sigma_m": -1.0},
+        {"calibration": {"scales": {"thirty": 0.7}}},
+        {"calibration": {"scales": {"30": 0.0}}},
+        {"calibration": {"scales": {"30": 0.7}, "dof": "many"}},
+    ):
+        text = ServedMeta(**{**meta.__dict__, "navigation": bad}).to_json()
+        with pytest.raises(InputError, match="navigation"):
+            ServedMeta.from_json(text, "m.json")

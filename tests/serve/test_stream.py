@@ -9,7 +9,7 @@ from rwhonet.config import load_params
 from rwhonet.data.incremental import read_rows
 from rwhonet.errors import InputError
 from rwhonet.geo.local import offsets_m
-from rwhonet.serve.model import load_served
+from rwhonet.serve.model import ServedMeta, ServedModel, load_served
 from rwhonet.serve.stream import COLUMNS, POSITION_COLUMNS, Outage, SecondStream, parse_outage
 from support.drives import straight_drive
 from support.serving import RADIUS_M, SCALER, base_bundle, wavy_drive
@@ -244,6 +244,37 @@ def test_the_outage_s_position_and_covariance_from_the_last_fix_before_it(bundle
     assert summary["pos_err_end_m"] == pytest.approx(out["pos_err_m"][inside][-1])
     assert summary["east_end_m"] == pytest.approx(out["east_m"][inside][-1])
     assert summary["pos_sd_end_m"] == pytest.approx(np.sqrt(np.linalg.eigvalsh(cov[-1])[-1]))
+    # an uncalibrated model's regions: the filter's own normal (68.27 %: d² <= 2.296)
+    assert summary["calibrated"] is False
+    major = np.sqrt(np.linalg.eigvalsh(cov)[:, -1])
+    np.testing.assert_allclose(out["r68_m"][inside], major * np.sqrt(2.2957), rtol=1e-3)
+    np.testing.assert_allclose(out["r95_m"][inside], major * np.sqrt(6.1801), rtol=1e-3)
+    assert summary["r95_end_m"] == pytest.approx(out["r95_m"][inside][-1])
+
+
+def test_a_model_carrying_the_evaluation_s_calibration_sizes_its_regions_by_it(bundle):
+    model = load_served(bundle["model_onnx"])
+    nav = {"receiver_sigma_m": 3.0, "receiver_tau_s": 100.0}
+    nav["calibration"] = {"scales": {"30": 4.0, "120": 4.0}, "dof": None}  # twice as wide
+    calibrated = ServedModel(
+        bundle["model_onnx"], ServedMeta(**{**model.meta.__dict__, "navigation": nav})
+    )
+    df = _straight()
+    plain, _ = stream_all(model, blocks_of(df, [100000]), [Outage(100, 160)])
+    out, stream = stream_all(calibrated, blocks_of(df, [100000]), [Outage(100, 160)])
+    assert stream.nav.gnss.sigma_m == 3.0 and stream.summary()[0]["calibrated"] is True
+    inside = out["outage"] == "100:160"
+    cov = np.stack(
+        [
+            np.stack([out["cov_ee_m2"][inside], out["cov_en_m2"][inside]], -1),
+            np.stack([out["cov_en_m2"][inside], out["cov_nn_m2"][inside]], -1),
+        ],
+        -2,
+    )
+    major = np.sqrt(np.linalg.eigvalsh(cov)[:, -1])  # c = 4 at every length: twice as wide
+    np.testing.assert_allclose(out["r68_m"][inside], 2.0 * major * np.sqrt(2.2957), rtol=1e-3)
+    # the same car, a filter that trusts the fixes less: another covariance, same columns
+    assert not np.allclose(out["cov_ee_m2"][inside], plain["cov_ee_m2"][inside])
 
 
 def test_without_a_yaw_rate_the_wheels_alone_steer_and_a_missing_end_fix_has_no_error(bundle):

@@ -9,6 +9,7 @@ from rwhonet.tracking.records import RunRecord
 from rwhonet.tracking.registry import (
     chosen_records,
     input_example,
+    navigation_meta,
     register_execution,
     registered_name,
     resolve_model,
@@ -110,7 +111,7 @@ def test_the_first_seeds_g_s_and_chosen_r_are_picked():
     )
 
 
-def register(store, out, execution, models_root=None):
+def register(store, out, execution, models_root=None, eval_path=None):
     client, exp = open_store(store, "t")
     logged = []
     for rec in records(out):
@@ -126,6 +127,7 @@ def register(store, out, execution, models_root=None):
             calibration_path=root / "calibration.json",
             samples_dir=root / "samples",
             models_root=models_root or root / "models",
+            eval_path=eval_path or root / "no-eval.json",
         ),
         logged,
     )
@@ -189,6 +191,47 @@ def test_every_model_carries_the_shrink_evidence_of_its_seed(store, pipeline_out
     register(store, pipeline_outputs, "e2", tmp_path / "nothing")
     g = load_served(resolve_model("models:/whonet-G/2", store, tmp_path / "g2"))
     assert g.meta.evidence is None  # no adapt stage ran: nothing to carry
+
+
+EVALUATED = {
+    "seeds": [42, 43],
+    "position": {
+        "G": {
+            "30s": {"calib_scale": 0.7, "calib_dof": 8.0},
+            "180s": {"calib_scale": 0.6, "calib_dof": 10.0},
+        },
+        "R": {"30s": {"calib_scale": 0.9, "calib_dof": None}},
+    },
+    "position_controls": {"receiver": {"sigma_m": 2.72, "tau_s": 100.0, "fitted": True}},
+}
+
+
+def test_navigation_meta_takes_the_model_s_calibration_and_the_receiver_from_eval_json():
+    g = navigation_meta(EVALUATED, "G", "target")
+    assert g["vehicle"] == "target" and g["receiver_sigma_m"] == 2.72
+    assert g["receiver_tau_s"] == 100.0
+    assert g["calibration"] == {"scales": {"30": 0.7, "180": 0.6}, "dof": 9.0}
+    assert "fitted" in g["from"] and "[42, 43]" in g["from"]
+    assert navigation_meta(EVALUATED, "R")["calibration"] == {"scales": {"30": 0.9}, "dof": None}
+    assert navigation_meta(EVALUATED, "S") is None and navigation_meta({}, "G") is None
+
+
+def test_every_model_carries_what_the_evaluation_measured_of_the_filter_with_it(
+    store, pipeline_outputs, tmp_path
+):
+    from rwhonet.io import write_json
+    from rwhonet.serve.model import load_served
+
+    evaluated = tmp_path / "eval.json"
+    write_json(evaluated, EVALUATED)
+    register(store, pipeline_outputs, "e1", eval_path=evaluated)
+    served = {
+        name: load_served(resolve_model(f"models:/{name}/1", store, tmp_path / name)).meta
+        for name in ("whonet-G", "whonet-S", "whonet-R-target")
+    }
+    assert served["whonet-G"].navigation == navigation_meta(EVALUATED, "G", "target")
+    assert served["whonet-R-target"].navigation["calibration"]["scales"] == {"30": 0.9}
+    assert served["whonet-S"].navigation is None  # eval.json has no position for it
 
 
 def test_a_model_with_context_predicts_each_row_from_the_rows_before_it(

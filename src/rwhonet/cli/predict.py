@@ -300,9 +300,15 @@ def _position_text(o: dict[str, Any]) -> str:
     if math.isnan(o.get("east_end_m", math.nan)):
         return "; position: none (the filter had not started)"
     yaw = "gyro + wheels" if o["control"] == "fused" else "wheels alone (no yaw rate)"
+    how = (
+        "calibrated on the model's target training drives"
+        if o["calibrated"]
+        else "the filter's own, not calibrated"
+    )
     text = (
         f"; position at the end {o['east_end_m']:.1f} m east, {o['north_end_m']:.1f} m north "
-        f"of the last fix before it (1-sigma {o['pos_sd_end_m']:.1f} m; yaw: {yaw})"
+        f"of the last fix before it (68 % / 95 % within {o['r68_end_m']:.1f} / "
+        f"{o['r95_end_m']:.1f} m, {how}; yaw: {yaw})"
     )
     if math.isnan(o["pos_err_end_m"]):
         return text + ", no GNSS fix at the end to compare"

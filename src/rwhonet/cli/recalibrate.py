@@ -232,6 +232,7 @@ def run(
             result.radii,
             {"name": name, **tags},
             base_meta.evidence,
+            inherited_navigation(base_meta.navigation, vehicle, base_label),
         )
         bundle = write_bundle(model_file, meta, Path(tmp) / "bundle")
         run_id, version = _log(
@@ -256,6 +257,20 @@ def run(
         "digest": digest,
         "seed": seed,
     }
+
+
+def inherited_navigation(navigation: dict | None, vehicle: str, base: str) -> dict | None:
+    """The base model's navigation calibration, for a model of the car it was measured on.
+
+    The evaluation measured the filter (its receiver drift, its 2D calibration) on the
+    target car with the base model's distances; on that car the recalibrated model
+    keeps it (the filter learns the distance's scale from GNSS before an outage,
+    and the position error is the heading's: docs/positioning.md). Another car's
+    receiver and driving have not been measured: None, the generic filter.
+    """
+    if not navigation or navigation.get("vehicle") != vehicle:
+        return None
+    return {**navigation, "from": f"{base}'s: {navigation.get('from', 'evaluate')}"}
 
 
 def car_nominal_m(params: Params, vehicle: str) -> float | None:

@@ -48,6 +48,7 @@ def make_meta(
     wpm_radii: tuple[float, float] | None,
     info: Mapping[str, Any],
     evidence: Mapping[str, Any] | None = None,
+    navigation: Mapping[str, Any] | None = None,
 ) -> ServedMeta:
     """The metadata of a model from the label stage's ``scaler.json`` and ``calibration.json``.
 
@@ -59,6 +60,8 @@ def make_meta(
         wpm_radii: the model file's own radii (``radius+G``, ``shrink``), or None.
         info: provenance (stringified).
         evidence: the adapt stage's ``evidence.json`` (the ``shrink`` recipe's), or None.
+        navigation: what the evaluation measured of the filter with this model
+            (:attr:`ServedMeta.navigation`), or None.
     """
     return ServedMeta(
         hparams=dict(hparams),
@@ -68,6 +71,7 @@ def make_meta(
         wpm_radii=None if wpm_radii is None else (float(wpm_radii[0]), float(wpm_radii[1])),
         info={str(k): str(v) for k, v in info.items() if v is not None},
         evidence=None if evidence is None else dict(evidence),
+        navigation=None if navigation is None else dict(navigation),
     )
 
 

@@ -55,6 +55,11 @@ class ServedMeta:
         evidence: what the ``shrink`` recipe sizes its update by, as the adapt stage's
             ``evidence.json`` holds it (``{"target": ..., "source": ...}``, each a
             :class:`rwhonet.models.adapt.ShrinkEvidence` as data, or null); None: not known.
+        navigation: what the evaluation measured of the navigation filter with this
+            model on its car (``vehicle``, ``receiver_sigma_m``, ``receiver_tau_s``,
+            ``calibration``: ``{"scales": {outage s: c}, "dof": ν}``, ``from``;
+            :class:`rwhonet.serve.navigation.PositionCalibration`); None: not known
+            (the generic filter and its own covariance).
     """
 
     hparams: dict[str, Any]
@@ -64,6 +69,7 @@ class ServedMeta:
     wpm_radii: tuple[float, float] | None = None
     info: dict[str, str] = field(default_factory=dict)
     evidence: dict[str, Any] | None = None
+    navigation: dict[str, Any] | None = None
 
     @property
     def seq_len(self) -> int:
@@ -110,6 +116,16 @@ class ServedMeta:
                 problems.append(
                     Problem(source, None, key, "two positive radii (m/rad)", repr(value))
                 )
+        if not _navigation_ok(raw.get("navigation")):
+            problems.append(
+                Problem(
+                    source,
+                    None,
+                    "navigation",
+                    "null or {receiver_sigma_m, receiver_tau_s, calibration: {scales, dof}}",
+                    repr(raw.get("navigation"))[:80],
+                )
+            )
         if not isinstance(raw.get("evidence"), dict | None):
             problems.append(
                 Problem(source, None, "evidence", "an object or null", repr(raw["evidence"])[:80])
@@ -131,7 +147,32 @@ class ServedMeta:
             else (float(raw["wpm_radii"][0]), float(raw["wpm_radii"][1])),
             info={str(k): str(v) for k, v in (raw.get("info") or {}).items()},
             evidence=raw.get("evidence"),
+            navigation=raw.get("navigation"),
         )
+
+
+def _positive(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and value > 0
+
+
+def _navigation_ok(nav: Any) -> bool:
+    """``navigation`` metadata as :class:`ServedMeta` documents it (or null)."""
+    if nav is None:
+        return True
+    if not isinstance(nav, dict):
+        return False
+    for key in ("receiver_sigma_m", "receiver_tau_s"):
+        if nav.get(key) is not None and not _positive(nav[key]):
+            return False
+    cal = nav.get("calibration")
+    if cal is None:
+        return True
+    if not isinstance(cal, dict) or not isinstance(cal.get("scales", {}), dict):
+        return False
+    scales = cal.get("scales", {})
+    if not all(str(L).isdigit() and int(L) > 0 and _positive(c) for L, c in scales.items()):
+        return False
+    return cal.get("dof") is None or _positive(cal["dof"])
 
 
 def _not_served(source: str, expected: str, found: str) -> InputError:

@@ -21,13 +21,98 @@ Nothing here imports torch.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
 from rwhonet.features.deadreckoning import wheel_yaw_rad
 from rwhonet.geo.local import latlon_from_offsets_deg, offsets_m
-from rwhonet.nav import NavConfig, NavInputs, NavStart, run
+from rwhonet.nav import NavConfig, NavInputs, NavStart, run, t2_quantile
+
+
+@dataclass(frozen=True)
+class PositionCalibration:
+    """What the evaluation measured of the filter on the model's car, as a bundle carries it.
+
+    The evaluation (:mod:`rwhonet.evaluation.position`) fits the receiver's drift
+    and calibrates the filter's end-of-outage covariance ``Σ`` on the target
+    training drives as a bivariate Student t: scale matrix ``c(L) Σ`` at each
+    outage length ``L``, ``ν`` degrees of freedom. A registered model's metadata
+    (``navigation``) carries them; here they size the region the car is in after
+    ``t`` seconds of an outage, ``c`` interpolated in ``ln L`` between the
+    evaluated lengths (the nearest outside them).
+
+    Attributes:
+        scales: ``c`` per evaluated outage length, s (empty: not calibrated, the
+            filter's own normal).
+        dof: ``ν`` (``inf``: a normal).
+        receiver_sigma_m: the receiver drift's spread the filter is to use, m
+            (None: the filter's generic one).
+        receiver_tau_s: its correlation time, s.
+    """
+
+    scales: dict[int, float] = field(default_factory=dict)
+    dof: float = float("inf")
+    receiver_sigma_m: float | None = None
+    receiver_tau_s: float | None = None
+
+    @property
+    def calibrated(self) -> bool:
+        return bool(self.scales)
+
+    @classmethod
+    def from_meta(cls, navigation: dict[str, Any] | None) -> PositionCalibration:
+        """From a bundle's ``navigation`` metadata (None: nothing known, the generic filter)."""
+        if not navigation:
+            return cls()
+        cal = navigation.get("calibration") or {}
+        dof = cal.get("dof")
+        return cls(
+            {int(L): float(c) for L, c in (cal.get("scales") or {}).items()},
+            float(dof) if dof is not None else float("inf"),
+            navigation.get("receiver_sigma_m"),
+            navigation.get("receiver_tau_s"),
+        )
+
+    def nav_config(self, config: NavConfig) -> NavConfig:
+        """``config`` with the fitted receiver drift, if one is known."""
+        if self.receiver_sigma_m is None:
+            return config
+        gnss = replace(config.gnss, sigma_m=float(self.receiver_sigma_m))
+        if self.receiver_tau_s is not None:
+            gnss = replace(gnss, tau_s=float(self.receiver_tau_s))
+        return replace(config, gnss=gnss)
+
+    def scale_at(self, elapsed_s: np.ndarray) -> np.ndarray:
+        """``c`` after ``elapsed_s`` seconds of an outage (1 when not calibrated)."""
+        t = np.asarray(elapsed_s, np.float64)
+        if not self.scales:
+            return np.ones_like(t)
+        lengths = np.array(sorted(self.scales), np.float64)
+        c = np.array([self.scales[int(L)] for L in lengths])
+        return np.exp(np.interp(np.log(np.maximum(t, 1e-9)), np.log(lengths), np.log(c)))
+
+    def semi_axis(self, cov: np.ndarray, elapsed_s: np.ndarray, p: float) -> np.ndarray:
+        """The major semi-axis of the region holding ``p`` of the cars, m.
+
+        The region is ``{e: eᵀ Σ⁻¹ e ≤ q}`` with ``q`` the t's quantile
+        (:func:`rwhonet.nav.coverage.t2_quantile`, scale ``c(t)``); its major
+        semi-axis is ``sqrt(q λ_max(Σ))``.
+
+        Args:
+            cov: (n, 2, 2) the filter's covariances (NaN: none).
+            elapsed_s: (n,) seconds into the outage.
+            p: the content (68.27 % and 95.45 %: :data:`rwhonet.nav.SIGMA_CONTENT`).
+        """
+        cov = np.asarray(cov, np.float64)
+        ok = np.isfinite(cov).all(axis=(1, 2))
+        lam = np.full(len(cov), np.nan)
+        if ok.any():
+            lam[ok] = np.linalg.eigvalsh(cov[ok])[:, -1]
+        q = t2_quantile(p, 1.0, self.dof) * self.scale_at(elapsed_s)
+        return np.sqrt(np.maximum(lam, 0.0) * q)
+
 
 MIN_SECONDS = 30  # seconds with GNSS before the distance variance is fitted on the stream
 ASSUMED_A_M2, ASSUMED_B = 0.05**2, 0.01**2

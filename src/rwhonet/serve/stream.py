@@ -23,7 +23,11 @@ corrected minus GNSS: CTE is the last one's absolute value) and ``crse_*_m``
 ``north_m`` (the navigation filter's position at the end of the second, metres
 east and north of the last GNSS fix before the outage, or of the filter's own
 position there when that fix is missing, in the local frame there), its
-covariance ``cov_ee_m2``, ``cov_en_m2``, ``cov_nn_m2``, and ``pos_err_m``, its
+covariance ``cov_ee_m2``, ``cov_en_m2``, ``cov_nn_m2`` (the filter's own), ``r68_m``
+and ``r95_m``, the major semi-axes of the ellipses that hold 68.27 % and 95.45 % of
+such positions (calibrated as the evaluation calibrated the filter on the model's
+car, when the model carries it: :class:`rwhonet.serve.navigation.PositionCalibration`;
+else the filter's own normal), and ``pos_err_m``, its
 horizontal distance to the GNSS fix where the file has one
 (:mod:`rwhonet.serve.navigation`: the filter runs on the whole stream, the
 outage's fixes withheld from it). Nothing here
@@ -53,9 +57,9 @@ from rwhonet.features.seconds import (
 )
 from rwhonet.features.wpm import wheel_angle_rad, wpm_displacement_m
 from rwhonet.geo.local import offsets_m
-from rwhonet.nav import NavConfig, WheelSpec
+from rwhonet.nav import SIGMA_CONTENT, NavConfig, WheelSpec
 from rwhonet.serve.model import ServedModel
-from rwhonet.serve.navigation import StreamNavigator
+from rwhonet.serve.navigation import PositionCalibration, StreamNavigator
 
 if TYPE_CHECKING:  # built by rwhonet.cli.predict (data checks stay out of this import)
     from rwhonet.data.drivechecks import StreamRadiusCheck
@@ -81,6 +85,8 @@ COLUMNS = (
     "cov_ee_m2",
     "cov_en_m2",
     "cov_nn_m2",
+    "r68_m",
+    "r95_m",
     "pos_err_m",
 )
 # A block's column GLITCH_FLAG + wheel (booleans, optional): rows the resampler flagged,
@@ -88,7 +94,7 @@ COLUMNS = (
 GLITCH_FLAG = "glitch:"
 OUTAGE_COLUMNS = COLUMNS[7:]
 CUMULATIVE_COLUMNS = OUTAGE_COLUMNS[:7]  # the running sums over an outage's seconds
-POSITION_COLUMNS = COLUMNS[-6:]
+POSITION_COLUMNS = COLUMNS[-8:]
 
 
 @dataclass(frozen=True)
@@ -144,6 +150,8 @@ class _Totals:
     north: float = math.nan
     pos_err: float = math.nan  # ... its distance to the GNSS fix there (NaN: none)
     pos_sd: float = math.nan  # ... the major semi-axis of its 1-sigma ellipse
+    r68: float = math.nan  # ... of its 68.27 % and 95.45 % regions (PositionCalibration)
+    r95: float = math.nan
 
 
 @dataclass
@@ -158,7 +166,8 @@ class SecondStream:
         max_gap_s: a time step longer than this ends a run of seconds
             (``validate.gnss.max_gap_s``).
         nav: the navigation filter's settings (default: the generic
-            :class:`rwhonet.nav.NavConfig` with the model's rear radius).
+            :class:`rwhonet.nav.NavConfig` with the model's rear radius and the
+            receiver drift the model's evaluation fitted, if it carries one).
         unit_check: validate's wheel-unit check, fed the rows as they come (after the
             glitch repair); it refuses the drive from the block where it can decide
             (:class:`rwhonet.data.drivechecks.StreamRadiusCheck`). None: not checked.
@@ -171,6 +180,7 @@ class SecondStream:
     max_gap_s: float = 0.5
     nav: NavConfig | None = None
     unit_check: StreamRadiusCheck | None = None
+    calibration: PositionCalibration = field(default_factory=PositionCalibration)
     _keys: tuple[str, ...] = c.REQUIRED  # the channels kept: the yaw rate too, if there
     _navigator: StreamNavigator | None = None
     _rows: dict[str, np.ndarray] | None = None  # rows from the current anchor on
@@ -191,8 +201,11 @@ class SecondStream:
                 )
         self.totals = {o.label: _Totals() for o in self.outages}
         radii = tuple(self.model.meta.source_radii)
+        self.calibration = PositionCalibration.from_meta(self.model.meta.navigation)
         if self.nav is None:
-            self.nav = NavConfig(wheels=WheelSpec(radius_m=float(np.mean(radii))))
+            self.nav = self.calibration.nav_config(
+                NavConfig(wheels=WheelSpec(radius_m=float(np.mean(radii))))
+            )
 
     @property
     def control(self) -> str:
@@ -467,8 +480,7 @@ class SecondStream:
                 self._position(tot, rows, nav, fix, out)
         return out
 
-    @staticmethod
-    def _position(tot: _Totals, rows: np.ndarray, nav: dict, fix: dict, out: dict) -> None:
+    def _position(self, tot: _Totals, rows: np.ndarray, nav: dict, fix: dict, out: dict) -> None:
         """The filter's position in an outage's seconds, east/north of the last fix before it."""
         if tot.origin is None:  # the outage's first second: where it starts from
             i = rows[0]
@@ -492,7 +504,11 @@ class SecondStream:
         out["cov_ee_m2"][rows] = cov[:, 0, 0]
         out["cov_en_m2"][rows] = cov[:, 0, 1]
         out["cov_nn_m2"][rows] = cov[:, 1, 1]
+        elapsed = tot.n - len(rows) + np.arange(1, len(rows) + 1)  # seconds into the outage
+        for name, p in (("r68_m", SIGMA_CONTENT[0]), ("r95_m", SIGMA_CONTENT[1])):
+            out[name][rows] = self.calibration.semi_axis(cov, elapsed, p)
         out["pos_err_m"][rows] = err
+        tot.r68, tot.r95 = float(out["r68_m"][rows[-1]]), float(out["r95_m"][rows[-1]])
         tot.east, tot.north, tot.pos_err = float(east[-1]), float(north[-1]), float(err[-1])
         last = cov[-1]
         tot.pos_sd = (
@@ -504,8 +520,11 @@ class SecondStream:
 
         ``east_end_m``, ``north_end_m``: the filter's position at the outage's last
         second from the fix before it; ``pos_sd_end_m``: its 1-sigma ellipse's major
-        semi-axis; ``pos_err_end_m``: its distance to the GNSS fix there (NaN when the
-        file has none); ``control``: the filter's yaw (``fused`` or ``wheels``).
+        semi-axis (the filter's own); ``r68_end_m``, ``r95_end_m``: the major semi-axes
+        of the regions holding 68.27 % and 95.45 % (``calibrated``: by the evaluation's
+        calibration the model carries, else the filter's own normal); ``pos_err_end_m``:
+        its distance to the GNSS fix there (NaN when the file has none); ``control``: the
+        filter's yaw (``fused`` or ``wheels``).
         """
         rows = []
         for label, tot in self.totals.items():
@@ -525,6 +544,9 @@ class SecondStream:
                     "east_end_m": tot.east,
                     "north_end_m": tot.north,
                     "pos_sd_end_m": tot.pos_sd,
+                    "r68_end_m": tot.r68,
+                    "r95_end_m": tot.r95,
+                    "calibrated": self.calibration.calibrated,
                     "pos_err_end_m": tot.pos_err,
                     "control": self.control,
                 }

@@ -443,6 +443,7 @@ def register_execution(
     calibration_path: Path | None = None,
     samples_dir: Path | None = None,
     models_root: Path | None = None,
+    eval_path: Path | None = None,
 ) -> list[dict[str, str]]:
     """Register G, S and the chosen R of one pipeline execution (one version each).
 
@@ -455,6 +456,9 @@ def register_execution(
         samples_dir: its samples folder (the input examples).
         models_root: its ``models`` folder: each model carries the shrink recipe's evidence
             its seed's adapt stage measured (``r/seed<seed>/evidence.json``), if any.
+        eval_path: its ``eval.json`` (default: the project's): each model carries what
+            the evaluation measured of the navigation filter with it
+            (:func:`navigation_meta`), if the file is there.
 
     Returns:
         One ``{"name", "version", "run_id", "model_file"}`` per registered model;
@@ -476,6 +480,9 @@ def register_execution(
     scaler_from_dict(scaler, paths.rel(scaler_path))
     calibration = read_json(calibration_path)
     example = _example_frame(samples_dir)
+    eval_path = Path(eval_path or paths.EVAL_JSON)
+    evaluated = read_json(eval_path) if eval_path.is_file() else {}
+    target_car = picked["R"].tags.get("vehicle") if "R" in picked else None  # where 2D ran
     out = []
     for model, rec in picked.items():
         model_file = _model_files(rec)[0]
@@ -503,6 +510,7 @@ def register_execution(
             None,
             {"name": name, **{key: v for key, v in tags.items() if key != "seed_note"}},
             read_json(evidence) if "seed" in rec.tags and evidence.is_file() else None,
+            navigation_meta(evaluated, model, target_car),
         )
         with tempfile.TemporaryDirectory(prefix="rwhonet-bundle-") as tmp:
             bundle = write_bundle(model_file, meta, Path(tmp))
@@ -524,6 +532,47 @@ def register_execution(
             }
         )
     return out
+
+
+def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> dict | None:
+    """What an evaluation measured of the navigation filter with one model, for its bundle.
+
+    From ``eval.json``: the receiver drift the filter used (``position_controls.receiver``,
+    fitted on the target training drives or as configured) and the model's 2D
+    calibration (``position.<model>.<L>s``: ``calib_scale`` per outage length, and
+    ``calib_dof``; means over the evaluation's seeds, as eval.json keeps them). None
+    without a position block for the model.
+
+    Args:
+        evaluated: the parsed eval.json (empty: none).
+        model: ``G``, ``S`` or ``R`` (eval.json's names).
+        vehicle: the car the evaluation's filter ran on (the target car: ``vehicle``
+            in the result; ``rwhonet recalibrate`` hands it on to a model of that car).
+    """
+    cells = (evaluated.get("position") or {}).get(model)
+    if not cells:
+        return None
+    receiver = (evaluated.get("position_controls") or {}).get("receiver") or {}
+    scales = {
+        str(int(L.removesuffix("s"))): float(c["calib_scale"])
+        for L, c in cells.items()
+        if isinstance(c, dict) and c.get("calib_scale") is not None
+    }
+    dofs = [float(c["calib_dof"]) for c in cells.values() if c.get("calib_dof") is not None]
+    return {
+        "vehicle": vehicle,
+        "receiver_sigma_m": receiver.get("sigma_m"),
+        "receiver_tau_s": receiver.get("tau_s"),
+        "calibration": {
+            "scales": scales,
+            "dof": float(np.mean(dofs)) if dofs else None,
+        },
+        "from": (
+            "evaluate: the filter on the target training drives' windows (receiver drift "
+            f"{'fitted' if receiver.get('fitted') else 'as configured'}; the calibration's "
+            f"means over seeds {evaluated.get('seeds')})"
+        ),
+    }
 
 
 def _example_frame(samples_dir: Path) -> Any:

@@ -1,0 +1,46 @@
+"""What a bundle carries of the evaluation's navigation filter; how predict sizes its regions."""
+
+import numpy as np
+import pytest
+
+from rwhonet.nav import SIGMA_CONTENT, NavConfig, t2_quantile
+from rwhonet.nav.coverage import chi2_2dof_quantile
+from rwhonet.serve.navigation import PositionCalibration
+
+
+def test_without_a_calibration_the_regions_are_the_filter_s_own_normal():
+    cal = PositionCalibration.from_meta(None)
+    assert not cal.calibrated and cal.nav_config(NavConfig()) == NavConfig()
+    cov = np.array([[[4.0, 0.0], [0.0, 1.0]]])  # major axis east, 2 m
+    for p in SIGMA_CONTENT:
+        want = np.sqrt(4.0 * chi2_2dof_quantile(p))
+        assert cal.semi_axis(cov, np.array([60.0]), p)[0] == pytest.approx(want)
+    assert np.isnan(cal.semi_axis(np.full((1, 2, 2), np.nan), np.array([1.0]), 0.5))[0]
+
+
+def test_the_scale_between_evaluated_lengths_is_interpolated_in_ln_l_and_held_outside():
+    cal = PositionCalibration({30: 1.0, 120: 4.0})
+    got = cal.scale_at(np.array([10.0, 30.0, 60.0, 120.0, 600.0]))
+    np.testing.assert_allclose(got, [1.0, 1.0, 2.0, 4.0, 4.0])  # 60 s: halfway in ln L
+
+
+def test_a_calibrated_region_holds_its_content_of_t_distributed_ends():
+    rng = np.random.default_rng(11)
+    c, nu, n = 0.7, 6.0, 200_000
+    cal = PositionCalibration.from_meta(
+        {"calibration": {"scales": {"180": c}, "dof": nu}, "receiver_sigma_m": 2.7}
+    )
+    assert cal.calibrated and cal.dof == nu
+    cov = np.broadcast_to(np.eye(2) * 9.0, (n, 2, 2))  # isotropic: the region is a circle
+    z = rng.normal(size=(n, 2)) * np.sqrt(c * 9.0) / np.sqrt(rng.chisquare(nu, n) / nu)[:, None]
+    for p in SIGMA_CONTENT:
+        r = cal.semi_axis(cov[:1], np.array([180.0]), p)[0]
+        assert r == pytest.approx(np.sqrt(9.0 * t2_quantile(p, c, nu)))
+        assert np.mean(np.hypot(z[:, 0], z[:, 1]) <= r) == pytest.approx(p, abs=0.005)
+
+
+def test_the_fitted_receiver_drift_goes_into_the_filter():
+    cal = PositionCalibration.from_meta({"receiver_sigma_m": 2.7, "receiver_tau_s": 100.0})
+    cfg = cal.nav_config(NavConfig())
+    assert cfg.gnss.sigma_m == 2.7 and cfg.gnss.tau_s == 100.0
+    assert cfg.gyro == NavConfig().gyro and cfg.gnss.white_m == NavConfig().gnss.white_m
