@@ -13,7 +13,9 @@ wheels, or both fused; its state is kept where each window begins
 through its outage without GNSS. The error is the horizontal distance between
 the predicted fix and the GNSS fix ending the window; the filter's 2x2
 covariance of that prediction, calibrated as a bivariate Student t on the same
-filter's windows of the target training drives (:func:`calibrate_on_training`),
+filter's windows of the target training drives (:func:`calibrate_on_training`;
+the receiver drift the filter uses fitted on the same windows first,
+:func:`fit_receiver`),
 gives the coverage of its 68.27 % / 95.45 % regions and the negative
 log-likelihood, beside those of the filter's own normal ellipses
 (:mod:`rwhonet.nav.coverage`). A
@@ -887,37 +889,23 @@ def fit_receiver(
 
 
 def calibrate_on_training(
-    evidence: FitEvidence,
-    errors: list[TrainingErrors],
+    frame: pd.DataFrame,
     params: Params,
-    plan: dict,
-    fits: dict[tuple[int | None, str], DistanceVariance],
+    passes: list[tuple[list[Odometry], dict[int, np.ndarray]]],
     outages_s: list[int],
-    cfg: NavConfig | None = None,
-    passes: list[tuple[list[Odometry], dict[int, np.ndarray]]] | None = None,
+    cfg: NavConfig,
 ) -> tuple[dict[tuple, Calibration2D], pd.DataFrame]:
     """The filter's runs on the target training drives, and each run's 2D calibration.
 
     Args:
-        evidence: the target training drives and every seed's predictions of them.
-        errors: every model's errors there
-            (:func:`~rwhonet.evaluation.uncertainty.training_errors`).
+        frame: the target training drives' samples (``FitEvidence.frame``).
         params: as :func:`filter_windows`.
-        plan: :func:`rwhonet.evaluation.study.navigation_plan`'s ``control``,
-            ``control_model`` and ``controls``.
-        fits: every model's variance (:func:`~rwhonet.evaluation.uncertainty.fit_variances`).
+        passes: the runs and their windows (:func:`training_passes`).
         outages_s: the outage lengths.
-        cfg: the filter's settings.
-        passes: :func:`training_passes` (default: made here).
+        cfg: the filter's settings (with the receiver drift :func:`fit_receiver` chose).
 
     Returns:
         ``({(model, seed, control): calibration}, the training windows' ends)``.
     """
-    frame = evidence.frame
-    if not len(frame):
-        return {}, pd.DataFrame(columns=list(WINDOW_COLUMNS))
-    cfg = cfg or nav_config(params)
-    if passes is None:
-        passes = training_passes(evidence, errors, params, plan, fits, outages_s, cfg)
     windows_2d = _training_windows(frame, params, passes, outages_s, cfg)
     return calibrate_2d(windows_2d), windows_2d

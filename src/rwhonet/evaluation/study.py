@@ -230,9 +230,7 @@ def evaluate(
         passes = training_passes(evidence, train_errors, params, nav, fits, outages, cfg)
         receiver = fit_receiver(evidence.frame, params, passes, nav, outages, cfg)
         cfg = with_receiver_sigma(cfg, receiver.sigma_m)  # the runs stay: they do not read it
-        calibrations = calibrate_on_training(
-            evidence, train_errors, params, nav, fits, outages, cfg, passes
-        )[0]
+        calibrations = calibrate_on_training(evidence.frame, params, passes, outages, cfg)[0]
     windows_2d = filter_windows(frame, params, runs, outages, cfg)
     nav_seed = position_per_seed(windows_2d, params.seeds, calibrations)
     position = over_seeds(nav_seed, ["model", "control", "outage_s"], list(WINDOW_STATS))
