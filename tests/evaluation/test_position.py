@@ -17,7 +17,6 @@ from rwhonet.evaluation.position import (
     position_per_seed,
     target_windows,
     window_stats,
-    with_receiver_sigma,
 )
 from rwhonet.evaluation.selection import choose
 from rwhonet.evaluation.study import evaluate, navigation_plan
@@ -185,7 +184,7 @@ def _receiver_case(monkeypatch, nll_of_sigma, fit_sigma=True, n_windows=500):
     plan = {"control_model": "G", "control": "fused"}
     run = Odometry("G", 1, "fused", np.zeros(1), np.zeros(1))
     passes = [([run], {30: np.zeros((0, 30), int)})]
-    cfg = with_receiver_sigma(NavConfig(), 1.5)
+    cfg = NavConfig().with_receiver(1.5)
     return fit_receiver(None, params, passes, plan, [30], cfg), tried
 
 

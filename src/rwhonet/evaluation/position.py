@@ -801,11 +801,6 @@ RECEIVER_STEP = float(np.sqrt(2.0))  # the spreads tried: the configured one tim
 RECEIVER_SIGMA_M = (0.1, 30.0)  # and within this range
 
 
-def with_receiver_sigma(cfg: NavConfig, sigma_m: float) -> NavConfig:
-    """``cfg`` with the receiver drift's spread replaced."""
-    return replace(cfg, gnss=replace(cfg.gnss, sigma_m=float(sigma_m)))
-
-
 def fit_receiver(
     frame: pd.DataFrame,
     params: Params,
@@ -856,15 +851,13 @@ def fit_receiver(
     def score(step: int) -> float:
         sigma = configured * RECEIVER_STEP**step
         if step not in scores:
-            windows = _training_windows(
-                frame, params, mine, outages_s, with_receiver_sigma(cfg, sigma)
-            )
+            windows = _training_windows(frame, params, mine, outages_s, cfg.with_receiver(sigma))
             scores[step] = calibrated_nll(windows)
         return scores[step][0]
 
     lo = int(np.ceil(np.log(RECEIVER_SIGMA_M[0] / configured) / np.log(RECEIVER_STEP)))
     hi = int(np.floor(np.log(RECEIVER_SIGMA_M[1] / configured) / np.log(RECEIVER_STEP)))
-    if score(0) != score(0) or scores[0][1] < MIN_T2_WINDOWS:  # NaN: no window counted
+    if np.isnan(score(0)) or scores[0][1] < MIN_T2_WINDOWS:  # NaN: no window counted
         return replace(out, n_windows=scores[0][1])
     best = 0
     for direction in (1, -1):

@@ -38,7 +38,6 @@ from rwhonet.evaluation.paired import no_harm, paired
 from rwhonet.evaluation.position import (
     HEADING_ONLY,
     WINDOW_STATS,
-    ReceiverFit,
     calibrate_on_training,
     filter_models,
     filter_windows,
@@ -51,7 +50,6 @@ from rwhonet.evaluation.position import (
     target_windows,
     training_passes,
     window_tracks,
-    with_receiver_sigma,
 )
 from rwhonet.evaluation.result import Evaluation, eval_json
 from rwhonet.evaluation.scenarios import (
@@ -222,15 +220,15 @@ def evaluate(
     )
     # the receiver's drift fitted, and the filter's covariance calibrated (scale, tails), on
     # the target training drives' windows; then the test windows with the fitted receiver
-    receiver = ReceiverFit(
-        cfg.gnss.sigma_m, cfg.gnss.tau_s, params.evaluate.navigation.gnss.sigma_m
+    training = evidence.frame if evidence is not None else None
+    passes = (
+        training_passes(evidence, train_errors, params, nav, fits, outages, cfg)
+        if training is not None and len(training)
+        else []
     )
-    calibrations = {}
-    if evidence is not None and len(evidence.frame):
-        passes = training_passes(evidence, train_errors, params, nav, fits, outages, cfg)
-        receiver = fit_receiver(evidence.frame, params, passes, nav, outages, cfg)
-        cfg = with_receiver_sigma(cfg, receiver.sigma_m)  # the runs stay: they do not read it
-        calibrations = calibrate_on_training(evidence.frame, params, passes, outages, cfg)[0]
+    receiver = fit_receiver(training, params, passes, nav, outages, cfg)  # none: as configured
+    cfg = cfg.with_receiver(receiver.sigma_m)  # the runs stay: they do not read it
+    calibrations = calibrate_on_training(training, params, passes, outages, cfg)[0]
     windows_2d = filter_windows(frame, params, runs, outages, cfg)
     nav_seed = position_per_seed(windows_2d, params.seeds, calibrations)
     position = over_seeds(nav_seed, ["model", "control", "outage_s"], list(WINDOW_STATS))

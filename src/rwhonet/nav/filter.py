@@ -76,7 +76,7 @@ Joseph form.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -184,6 +184,13 @@ class NavConfig:
     reset_after_s: int = 10
     reverse_stop_m: float = 0.3
     reverse_max_m_s: float = 4.0
+
+    def with_receiver(self, sigma_m: float, tau_s: float | None = None) -> NavConfig:
+        """These settings with the receiver drift's spread (and correlation time) replaced."""
+        gnss = replace(self.gnss, sigma_m=float(sigma_m))
+        if tau_s is not None:
+            gnss = replace(gnss, tau_s=float(tau_s))
+        return replace(self, gnss=gnss)
 
 
 def config_from_params(

@@ -15,13 +15,16 @@ seconds outside the outages where GNSS is there (least squares of ``e²`` on
 ``[1, d²]`` from running sums, ``e`` = corrected − GNSS distance; an assumed
 ``0.05² + (0.01 d)²`` until :data:`MIN_SECONDS` seconds are in). The filter
 takes those errors as independent from second to second; the evaluation
-(:mod:`rwhonet.evaluation.uncertainty`) also calibrates how they last.
+(:mod:`rwhonet.evaluation.uncertainty`) also calibrates how they last. What the
+evaluation measured of the filter on the model's car (the receiver drift it
+fitted, its 2D calibration), when the model carries it, sets the filter's receiver
+and sizes the outage's regions (:class:`PositionCalibration`).
 Nothing here imports torch.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -79,10 +82,7 @@ class PositionCalibration:
         """``config`` with the fitted receiver drift, if one is known."""
         if self.receiver_sigma_m is None:
             return config
-        gnss = replace(config.gnss, sigma_m=float(self.receiver_sigma_m))
-        if self.receiver_tau_s is not None:
-            gnss = replace(gnss, tau_s=float(self.receiver_tau_s))
-        return replace(config, gnss=gnss)
+        return config.with_receiver(self.receiver_sigma_m, self.receiver_tau_s)
 
     def scale_at(self, elapsed_s: np.ndarray) -> np.ndarray:
         """``c`` after ``elapsed_s`` seconds of an outage (1 when not calibrated)."""
@@ -93,8 +93,11 @@ class PositionCalibration:
         c = np.array([self.scales[int(L)] for L in lengths])
         return np.exp(np.interp(np.log(np.maximum(t, 1e-9)), np.log(lengths), np.log(c)))
 
-    def semi_axis(self, cov: np.ndarray, elapsed_s: np.ndarray, p: float) -> np.ndarray:
-        """The major semi-axis of the region holding ``p`` of the cars, m.
+    def semi_axis(
+        self, cov: np.ndarray, elapsed_s: np.ndarray, p: float | tuple[float, ...]
+    ) -> np.ndarray:
+        """The major semi-axis of the region holding ``p`` of the cars, m: (n,), or
+        (len(p), n) for several contents (one eigen-decomposition for all).
 
         The region is ``{e: eᵀ Σ⁻¹ e ≤ q}`` with ``q`` the t's quantile
         (:func:`rwhonet.nav.coverage.t2_quantile`, scale ``c(t)``); its major
@@ -103,14 +106,16 @@ class PositionCalibration:
         Args:
             cov: (n, 2, 2) the filter's covariances (NaN: none).
             elapsed_s: (n,) seconds into the outage.
-            p: the content (68.27 % and 95.45 %: :data:`rwhonet.nav.SIGMA_CONTENT`).
+            p: the content, or contents (:data:`rwhonet.nav.SIGMA_CONTENT`: 68.27 % and
+                95.45 %).
         """
         cov = np.asarray(cov, np.float64)
         ok = np.isfinite(cov).all(axis=(1, 2))
         lam = np.full(len(cov), np.nan)
         if ok.any():
             lam[ok] = np.linalg.eigvalsh(cov[ok])[:, -1]
-        q = t2_quantile(p, 1.0, self.dof) * self.scale_at(elapsed_s)
+        q = t2_quantile(np.asarray(p, np.float64)[..., None], 1.0, self.dof)
+        q = q * self.scale_at(elapsed_s)
         return np.sqrt(np.maximum(lam, 0.0) * q)
 
 

@@ -505,8 +505,9 @@ class SecondStream:
         out["cov_en_m2"][rows] = cov[:, 0, 1]
         out["cov_nn_m2"][rows] = cov[:, 1, 1]
         elapsed = tot.n - len(rows) + np.arange(1, len(rows) + 1)  # seconds into the outage
-        for name, p in (("r68_m", SIGMA_CONTENT[0]), ("r95_m", SIGMA_CONTENT[1])):
-            out[name][rows] = self.calibration.semi_axis(cov, elapsed, p)
+        out["r68_m"][rows], out["r95_m"][rows] = self.calibration.semi_axis(
+            cov, elapsed, SIGMA_CONTENT
+        )
         out["pos_err_m"][rows] = err
         tot.r68, tot.r95 = float(out["r68_m"][rows[-1]]), float(out["r95_m"][rows[-1]])
         tot.east, tot.north, tot.pos_err = float(east[-1]), float(north[-1]), float(err[-1])
