@@ -36,17 +36,31 @@ ROW_VALUES = """label => {
 }"""
 
 
+def _wheel(page, values, dy: float) -> None:
+    """A person's wheel over the values grid; a direct scroll where the wheel did not move it.
+
+    The pointer is put on the grid before every wheel: folding the view's sections moves
+    the grid after it was first found, and a wheel where the grid was scrolls nothing
+    (CI stop 23: 400 wheels left the grids at their first row). Where the wheel still
+    leaves the grid where it was, short of its end, the grid is scrolled as the wheel would.
+    """
+    values.hover(force=True)  # no wait on actionability: the scroll below is the check
+    before = values.evaluate("e => e.scrollTop")
+    page.mouse.wheel(0, dy)
+    page.wait_for_timeout(50)
+    if values.evaluate("e => e.scrollTop") == before:
+        values.evaluate("(e, dy) => e.scrollBy(0, dy)", dy)
+        page.wait_for_timeout(50)
+
+
 def _metrics_to_top(page):
     """Wheel the compare view's metrics back to their first row (a person's scroll)."""
     names = page.locator('div[role=grid]:has(a[title="Plot chart"])')
     values = names.locator("xpath=following::div[@role='grid'][1]")
-    grid = values.bounding_box()
-    page.mouse.move(grid["x"] + grid["width"] / 2, grid["y"] + grid["height"] / 2)
     for _ in range(100):
         if values.evaluate("e => e.scrollTop") == 0:
             break
-        page.mouse.wheel(0, -400)
-        page.wait_for_timeout(50)
+        _wheel(page, values, -400)
     return values
 
 
@@ -62,16 +76,15 @@ def _scroll_to_metric(page, name: str):
     for _ in range(400):
         label = page.get_by_text(name, exact=True)
         if not label.count():
-            page.mouse.wheel(0, 40)
-            page.wait_for_timeout(50)
+            _wheel(page, values, 40)
             continue
         label = label.first
         top = label.evaluate("l => parseFloat(l.closest('div[style*=\"top\"]').style.top)")
         view = values.evaluate("e => [e.scrollTop, e.clientHeight]")
         if top < view[0]:
-            page.mouse.wheel(0, top - view[0] - 10)
+            _wheel(page, values, top - view[0] - 10)
         elif top + 40 > view[0] + view[1]:
-            page.mouse.wheel(0, top + 40 - view[0] - view[1] + 10)
+            _wheel(page, values, top + 40 - view[0] - view[1] + 10)
         else:
             row: list[str] = []
             for _ in range(150):  # up to about 30 s
@@ -86,7 +99,11 @@ def _scroll_to_metric(page, name: str):
             )
         page.wait_for_timeout(200)
     _shot(page, None, "mlflow-ui-failed.png")
-    raise AssertionError(f"the compare view shows no metric {name}; grids: {_grid_texts(page)}")
+    scroll = values.evaluate("e => [e.scrollTop, e.clientHeight, e.scrollHeight]")
+    raise AssertionError(
+        f"the compare view shows no metric {name}; values grid scrollTop, clientHeight, "
+        f"scrollHeight {scroll}; grids: {_grid_texts(page)}"
+    )
 
 
 def _grid_texts(page) -> list[str]:
