@@ -43,12 +43,37 @@ def test_a_distance_free_error_fits_a_floor_and_too_few_seconds_fit_nothing():
 
 
 def test_the_crse_calibration_by_hand():
-    # CRSE = 2 Σσ exactly on every window: alpha 2, kappa 0
-    alpha, kappa = fit_crse(np.array([2.0, 4.0, 6.0]), np.array([1.0, 2.0, 3.0]), np.ones(3))
-    assert (alpha, kappa) == pytest.approx((2.0, 0.0))
-    # c = (1, 3), m = (1, 1), v = (1, 1): alpha = mean 2, kappa² = mean((±1)²) = 1
-    alpha, kappa = fit_crse(np.array([1.0, 3.0]), np.ones(2), np.ones(2))
-    assert (alpha, kappa) == pytest.approx((2.0, 1.0))
+    # CRSE = 2 Σσ exactly on every window: alpha 2, kappa 0, no lasting part
+    fitted = fit_crse(np.array([2.0, 4.0, 6.0]), np.array([1.0, 2.0, 3.0]), np.ones(3))
+    assert fitted == pytest.approx((2.0, 0.0, 0.0))
+    # c = (1, 3), m = (1, 1), v = (1, 1): alpha = mean 2, kappa² = mean((±1)²) = 1; with
+    # m² = v on every window the two parts cannot be told apart: the closed form is kept
+    fitted = fit_crse(np.array([1.0, 3.0]), np.ones(2), np.ones(2))
+    assert fitted == pytest.approx((2.0, 1.0, 0.0))
+
+
+def _crse_windows(rng, kappa, lasting, n=400):
+    """Windows of 30 to 180 one-metre seconds (m = L, v = L) with CRSE ~ N(0.8 m, κ² v + λ² m²)."""
+    m = rng.choice([30.0, 60.0, 120.0, 180.0], n)
+    sd = np.sqrt(kappa**2 * m + (lasting * m) ** 2)
+    return 0.8 * m + rng.normal(0.0, 1.0, n) * sd, m, m
+
+
+def test_the_crse_calibration_recovers_a_lasting_part():
+    rng = np.random.default_rng(3)
+    alpha, kappa, lasting = fit_crse(*_crse_windows(rng, 1.5, 0.1))
+    assert alpha == pytest.approx(0.8, abs=0.02)
+    assert kappa == pytest.approx(1.5, rel=0.2) and lasting == pytest.approx(0.1, rel=0.2)
+    # the spread grows as the length itself, not its square root: the long windows' spread
+    fit = DistanceVariance(1.0, 0.0, crse_scale=alpha, crse_spread=kappa, crse_lasting=lasting)
+    _, sd = fit.crse(np.zeros((1, 180)))
+    assert sd[0] == pytest.approx(np.sqrt(1.5**2 * 180 + (0.1 * 180) ** 2), rel=0.2)
+
+
+def test_independent_windows_get_no_lasting_part():
+    rng = np.random.default_rng(4)
+    alpha, kappa, lasting = fit_crse(*_crse_windows(rng, 1.5, 0.0))
+    assert kappa == pytest.approx(1.5, rel=0.1) and lasting < 0.02
 
 
 def test_the_crse_check_of_a_hand_computed_case():

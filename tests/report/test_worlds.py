@@ -25,6 +25,7 @@ def _cell(pct: float, c1: float = 0.68, c2: float = 0.95) -> dict:
         "pos_pct_ci95": 0.01,
         "cover_1sigma": c1,
         "cover_2sigma": c2,
+        "n_windows": 100,
     }
 
 
@@ -40,6 +41,8 @@ def with_position(ev: dict) -> dict:
         }
     }
     ev["position"] = {m: {L: _cell(1.2) for L in outages} for m in ("WPM", "G", "S", "R")}
+    crse = {"crse_cover_1sigma": 0.68, "crse_cover_2sigma": 0.95, "n_windows": 100}
+    ev["uncertainty"] = {"models": {"R": {"a_m2": 0.002, **{L: dict(crse) for L in outages}}}}
     return ev
 
 
@@ -143,11 +146,27 @@ def test_the_2d_claims_read_the_filter_s_controls(world):
     rows["fused"]["180s"]["pos_pct"] = 2.01
     assert not wr.fused_within_2pct(world).holds
     assert not wr.fused_beats_each_sensor(world).holds  # the gyro alone is better now
-    rows["fused"]["30s"]["cover_2sigma"] = 0.91  # 2σ below 95 - 3 % on one length
+    assert "every cell within what chance gives" in wr.fused_coverage(world).evidence
+    rows["fused"]["30s"]["cover_2sigma"] = 0.90  # 2σ below 95 - 3 % on one length
     verdict = wr.fused_coverage(world)
-    assert not verdict.holds and "30s 68 / 91 %" in verdict.evidence
+    assert not verdict.holds and "30s 68 / 90 %" in verdict.evidence
+    # 90 of 100 inside 2σ: two-sided binomial p 0.02 against 95.45 %
+    assert "beyond chance (binomial, 5 %): 30s 2σ (90 % of 100)" in verdict.evidence
+    rows["fused"]["30s"]["n_windows"] = 37  # 33 of 37 (p 0.08): what chance gives a calibrated 2σ
+    assert "every cell within what chance gives" in wr.fused_coverage(world).evidence
     world.ev["position"]["R"]["180s"]["pos_pct"] = 1.3  # 0.15 % of the distance off
     verdict = wr.distance_model_same_position(world)
     assert not verdict.holds and "(farthest: R)" in verdict.evidence
     del world.ev["position_controls"]
     assert wr.fused_within_2pct(world).holds is None
+
+
+def test_the_crse_coverage_reads_r_s_calibration(world):
+    cells = world.ev["uncertainty"]["models"]["R"]
+    assert wr.crse_coverage(world).holds
+    cells["180s"]["crse_cover_1sigma"] = 0.50  # 50 of 100 within 1σ: too narrow, beyond chance
+    verdict = wr.crse_coverage(world)
+    assert not verdict.holds and "180s 50 / 95 %" in verdict.evidence
+    assert "180s 1σ (50 % of 100)" in verdict.evidence
+    del world.ev["uncertainty"]
+    assert wr.crse_coverage(world).holds is None

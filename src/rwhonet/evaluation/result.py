@@ -245,6 +245,7 @@ def _uncertainty(ev: Evaluation) -> dict:
             "b": round(float(r.b), 8),
             "crse_scale": _num(r.crse_scale),
             "crse_spread": _num(r.crse_spread),
+            "crse_lasting": _num(r.crse_lasting),
             "n_seconds": int(r.n_seconds),
             "n_windows": int(r.n_windows),
         }

@@ -79,7 +79,7 @@ CRSE_CHECK = (
     "second_cover_1sigma",
     "second_cover_2sigma",
 )
-VARIANCE = ("a_m2", "b", "crse_scale", "crse_spread", "n_seconds", "n_windows")
+VARIANCE = ("a_m2", "b", "crse_scale", "crse_spread", "crse_lasting", "n_seconds", "n_windows")
 
 
 def _with_aliases(rows: list[dict], params: Params, choice: Choice) -> list[dict]:

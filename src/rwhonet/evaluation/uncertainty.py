@@ -20,9 +20,16 @@ independent normal seconds its mean is ``sqrt(2/π) Σσ_t`` and its spread
 ``sqrt((1 − 2/π) Σσ_t²)`` (:func:`rwhonet.nav.coverage.crse_prediction`). A
 model's errors are not independent from second to second (a radius error lasts
 the whole drive), so that spread is too narrow; the prediction is calibrated
-on the same training windows: ``CRSE ~ N(α Σσ_t, κ² Σσ_t²)`` with ``α`` and
-``κ`` the closed-form maximum-likelihood values over every training window of
-every outage length (:func:`fit_crse`). Reported on the test windows: the share
+on the same training windows:
+
+    CRSE ~ N(α Σσ_t, κ² Σσ_t² + λ² (Σσ_t)²),
+
+``κ`` the part that adds up like independent seconds (its spread grows as the
+square root of the window's length) and ``λ`` the part that lasts through the
+window (a scale error the window shares: its spread grows with the length
+itself), ``α``, ``κ`` and ``λ`` the maximum-likelihood values over every
+training window of every outage length (:func:`fit_crse`; ``λ`` = 0, the
+closed form, where a lasting part is not likelier). Reported on the test windows: the share
 of windows within 1σ and 2σ of the prediction, and its mean negative
 log-likelihood (:func:`crse_check`); for comparison also the independent-seconds
 prediction's share.
@@ -56,6 +63,7 @@ HALF_NORMAL_MEAN = float(np.sqrt(2.0 / np.pi))  # E|e| / σ of a normal error
 MIN_VAR_M2 = 1e-6  # a variance floor (1 mm): a model is never certain
 MIN_SECONDS = 30  # fewer seconds to fit on: no variance model
 MIN_WINDOWS = 3  # fewer training windows: the CRSE prediction stays uncalibrated
+AIC_NATS = 1.0  # a parameter more is worth 1 nat of summed log-likelihood (Akaike)
 
 
 @dataclass(frozen=True)
@@ -67,8 +75,10 @@ class DistanceVariance:
         b: the share of the distance, squared (``sqrt(b)``: relative spread).
         crse_scale: ``α``, the CRSE's predicted mean over ``Σσ_t``
             (``sqrt(2/π)`` uncalibrated).
-        crse_spread: ``κ``, its predicted spread over ``sqrt(Σσ_t²)``
-            (``sqrt(1 − 2/π)`` uncalibrated).
+        crse_spread: ``κ``, the part of its predicted spread that adds up like
+            independent seconds, over ``sqrt(Σσ_t²)`` (``sqrt(1 − 2/π)`` uncalibrated).
+        crse_lasting: ``λ``, the part that lasts through the window, over ``Σσ_t``
+            (0 uncalibrated).
         n_seconds: seconds fitted on.
         n_windows: training windows the CRSE prediction was calibrated on (0: not).
         outage_scale: ``{L: γ_L}``, the variance's factor inside an outage of L
@@ -79,6 +89,7 @@ class DistanceVariance:
     b: float
     crse_scale: float = HALF_NORMAL_MEAN
     crse_spread: float = float(np.sqrt(1.0 - 2.0 / np.pi))
+    crse_lasting: float = 0.0
     n_seconds: int = 0
     n_windows: int = 0
     outage_scale: dict[int, float] = field(default_factory=dict, hash=False)
@@ -99,7 +110,9 @@ class DistanceVariance:
             dist_m: (W, L) the model's distances in each window.
         """
         sd = np.sqrt(self.var(dist_m))
-        return self.crse_scale * sd.sum(axis=-1), self.crse_spread * np.sqrt((sd * sd).sum(axis=-1))
+        total, sq = sd.sum(axis=-1), (sd * sd).sum(axis=-1)
+        spread = np.sqrt(self.crse_spread**2 * sq + (self.crse_lasting * total) ** 2)
+        return self.crse_scale * total, spread
 
 
 def gaussian_nll(error: np.ndarray, var: np.ndarray) -> float:
@@ -158,11 +171,25 @@ def fit_variance(error: np.ndarray, dist_m: np.ndarray) -> tuple[float, float]:
     return float(a), float(b)
 
 
-def fit_crse(crse_m: np.ndarray, sum_sd: np.ndarray, sum_var: np.ndarray) -> tuple[float, float]:
-    """``α`` and ``κ`` of ``CRSE ~ N(α Σσ, κ² Σσ²)`` by maximum likelihood (closed form).
+def _crse_alpha(c: np.ndarray, m: np.ndarray, var: np.ndarray) -> float:
+    """``α`` given each window's variance: the weighted least-squares ``Σ(c m / v) / Σ(m² / v)``."""
+    return float(np.sum(c * m / var) / np.sum(m * m / var))
 
-    With ``m = Σσ_t`` and ``v = Σσ_t²`` per window: ``α = Σ(c m / v) / Σ(m² / v)``
-    (weighted least squares) and ``κ² = mean((c − α m)² / v)``.
+
+def fit_crse(
+    crse_m: np.ndarray, sum_sd: np.ndarray, sum_var: np.ndarray
+) -> tuple[float, float, float]:
+    """``α``, ``κ``, ``λ`` of ``CRSE ~ N(α Σσ, κ² Σσ² + λ² (Σσ)²)`` by maximum likelihood.
+
+    With ``m = Σσ_t`` and ``v = Σσ_t²`` per window. Without the lasting part
+    (``λ`` = 0) the likelihood has a closed form: ``α = Σ(c m / v) / Σ(m² / v)``
+    (weighted least squares) and ``κ² = mean((c − α m)² / v)``. From there and
+    from an even split of that variance between the two parts, the mean negative
+    log-likelihood is minimised over ``κ, λ ≥ 0`` (L-BFGS-B) with ``α`` profiled
+    out (its weighted least squares under each window's variance); the closed
+    form is kept unless the lasting part, one parameter more, is likelier by
+    more than Akaike's criterion asks (the windows' summed log-likelihood up by
+    more than 1 nat).
 
     Args:
         crse_m: (W,) the windows' CRSE, m.
@@ -170,12 +197,31 @@ def fit_crse(crse_m: np.ndarray, sum_sd: np.ndarray, sum_var: np.ndarray) -> tup
         sum_var: (W,) ``Σσ_t²``.
 
     Returns:
-        ``(α, κ)``.
+        ``(α, κ, λ)``.
     """
     c, m, v = (np.asarray(x, np.float64) for x in (crse_m, sum_sd, sum_var))
-    alpha = float(np.sum(c * m / v) / np.sum(m * m / v))
+    alpha = _crse_alpha(c, m, v)
     kappa = float(np.sqrt(np.mean((c - alpha * m) ** 2 / v)))
-    return alpha, kappa
+    if kappa == 0.0:
+        return alpha, 0.0, 0.0
+
+    def nll(theta: np.ndarray) -> float:
+        var = theta[0] ** 2 * v + theta[1] ** 2 * m * m
+        r = c - _crse_alpha(c, m, var) * m
+        return 0.5 * float(np.mean(np.log(var) + r * r / var))
+
+    closed = nll(np.array([kappa, 0.0]))
+    share = float(np.sqrt(0.5 * np.mean(v) / np.mean(m * m)))  # λ for half of κ²'s variance
+    res = minimize(
+        nll,
+        np.array([kappa / np.sqrt(2.0), kappa * share]),
+        method="L-BFGS-B",
+        bounds=[(1e-9 * kappa, None), (0.0, None)],
+    )
+    if len(c) * (closed - float(res.fun)) <= AIC_NATS:
+        return alpha, kappa, 0.0
+    k_, lasting = float(res.x[0]), float(res.x[1])
+    return _crse_alpha(c, m, k_**2 * v + lasting**2 * m * m), k_, lasting
 
 
 def window_crse(error: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -250,8 +296,8 @@ def fit_model(
     n = sum(len(c) for c in crse)
     if n < MIN_WINDOWS:
         return replace(fitted, outage_scale=gamma)
-    alpha, kappa = fit_crse(np.concatenate(crse), np.concatenate(sums), np.concatenate(sq))
-    return DistanceVariance(a, b, alpha, kappa, fitted.n_seconds, n, gamma)
+    alpha, kappa, lasting = fit_crse(np.concatenate(crse), np.concatenate(sums), np.concatenate(sq))
+    return DistanceVariance(a, b, alpha, kappa, lasting, fitted.n_seconds, n, gamma)
 
 
 def crse_check(error: np.ndarray, dist_m: np.ndarray, rows: np.ndarray, fitted: DistanceVariance):

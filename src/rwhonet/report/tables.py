@@ -517,7 +517,7 @@ def crse_calibration_table(ev: Evaluation) -> str | None:
     outages = sorted(unc["outage_s"].unique())
     cells = unc.set_index(["model", "outage_s"])
     lines = [
-        "| Model | σ² = a + b d²: a (cm²), √b (%) | α, κ | "
+        "| Model | σ² = a + b d²: a (cm²), √b (%) | α, κ, λ | "
         + " | ".join(f"{L} s: 1σ / 2σ (independent); NLL" for L in outages)
         + " |",
         "|---|---:|---:|" + "---:|" * len(outages),
@@ -535,7 +535,9 @@ def crse_calibration_table(ev: Evaluation) -> str | None:
             )
         lines.append(
             f"| {_model_label(r.model, ev)} | {1e4 * r.a_m2:.1f}, {100 * math.sqrt(r.b):.2f} | "
-            f"{r.crse_scale:.2f}, {r.crse_spread:.2f} | " + " | ".join(row) + " |"
+            f"{r.crse_scale:.2f}, {r.crse_spread:.2f}, {r.crse_lasting:.3f} | "
+            + " | ".join(row)
+            + " |"
         )
     return "\n".join(lines)
 
