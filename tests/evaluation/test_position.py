@@ -1,5 +1,7 @@
 """2D position at the end of each outage: the filter's windows and their summaries."""
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -123,6 +125,60 @@ def test_each_outage_length_with_enough_windows_gets_its_own_scale():
         assert stats["calib_scale"] == g.scales[L]
         assert stats["cover_1sigma"] == pytest.approx(0.6827, abs=0.02)
         assert stats["cover_2sigma"] == pytest.approx(0.9545, abs=0.02)
+
+
+def _t_windows(rng, lengths: np.ndarray, dof_of: dict[int, float], c: float = 1.5):
+    """Isotropic filter covariances and bivariate-t ends (scale c Σ, ν per length)."""
+    n = len(lengths)
+    cov = rng.uniform(1.0, 9.0, n)
+    nu = np.array([dof_of[int(L)] for L in lengths])
+    finite = np.where(np.isfinite(nu), nu, 1.0)
+    shrink = np.where(np.isfinite(nu), np.sqrt(rng.chisquare(finite) / finite), 1.0)
+    z = rng.normal(size=(n, 2)) * np.sqrt(c) / shrink[:, None]
+    w = pd.DataFrame(
+        {
+            "model": "G",
+            "seed": 7,
+            "control": "fused",
+            "counted": True,
+            "outage_s": lengths,
+            "err_e_m": z[:, 0] * np.sqrt(cov),
+            "err_n_m": z[:, 1] * np.sqrt(cov),
+            "cov_ee_m2": cov,
+            "cov_en_m2": 0.0,
+            "cov_nn_m2": cov,
+        }
+    )
+    w["horizontal_m"] = np.hypot(w["err_e_m"], w["err_n_m"])
+    w["distance_m"] = 1000.0
+    return w
+
+
+def test_a_length_whose_tails_differ_gets_its_own_dof():
+    """Heavy-tailed short outages, normal long ones: each length's ν where it is likelier."""
+    rng = np.random.default_rng(6)
+    lengths = np.repeat([30, 180], 6000)
+    windows = _t_windows(rng, lengths, {30: 4.0, 180: np.inf})
+    g = calibrate_2d(windows)[("G", 7, "fused")]
+    assert set(g.dofs) == {30, 180}
+    assert g.dof_at(30) == pytest.approx(4.0, rel=0.2)
+    assert g.dof_at(180) > 50.0  # a normal, or near one
+    assert g.dof_at(60) == g.dof and g.dof_at(None) == g.dof
+    for L in (30, 180):
+        stats = window_stats(windows[windows["outage_s"] == L], g, L)
+        assert stats["cover_2sigma"] == pytest.approx(0.9545, abs=0.01)
+        want = g.dofs[L] if np.isfinite(g.dofs[L]) else np.nan
+        assert stats["calib_dof"] == pytest.approx(want, nan_ok=True)
+    # the pooled ν is then wrong at both ends: too light at 30 s, too heavy at 180 s
+    pooled = replace(g, dofs={})
+    assert window_stats(windows[windows["outage_s"] == 30], pooled, 30)["cover_2sigma"] < 0.94
+
+
+def test_lengths_with_the_same_tails_keep_the_pooled_dof():
+    rng = np.random.default_rng(7)
+    windows = _t_windows(rng, np.repeat([30, 180], 3000), {30: 5.0, 180: 5.0})
+    g = calibrate_2d(windows)[("G", 7, "fused")]
+    assert g.dofs == {} and g.dof == pytest.approx(5.0, rel=0.2)
 
 
 def test_calibrated_nll_is_each_run_s_windows_under_its_own_calibration():

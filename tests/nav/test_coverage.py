@@ -17,6 +17,7 @@ from rwhonet.nav import (
     mahalanobis_sq,
     nll_2d,
     t2_quantile,
+    t2_radius_nll,
 )
 from rwhonet.nav.coverage import chi2_2dof_quantile
 
@@ -140,3 +141,12 @@ def test_fit_t2_scale_with_the_tails_held_recovers_the_scale():
     # a normal: the mean radius over its two dimensions, in closed form
     assert fit_t2_scale(np.array([1.0, 3.0, 5.0]), np.inf, min_windows=3) == 1.5
     assert fit_t2_scale(np.array([1.0, np.nan]), 4.0, min_windows=2) is None
+
+
+def test_t2_quantile_takes_one_dof_per_element_and_t2_radius_nll_the_normal():
+    p = np.array([0.6827, 0.9545])
+    got = t2_quantile(p, 2.0, np.array([5.0, np.inf]))
+    np.testing.assert_allclose(got, [t2_quantile(p[0], 2.0, 5.0), 2.0 * chi2_2dof_quantile(p[1])])
+    r = np.array([0.5, 2.0, np.nan])  # NaN left out, as the fits leave it
+    assert t2_radius_nll(r, 2.0, np.inf) == pytest.approx(np.mean(np.log(2.0) + r[:2] / 4.0))
+    assert t2_radius_nll(r, 2.0, 1e9) == pytest.approx(t2_radius_nll(r, 2.0, np.inf), rel=1e-6)

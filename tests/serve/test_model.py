@@ -64,7 +64,7 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
     nav = {
         "receiver_sigma_m": 2.7,
         "receiver_tau_s": 100.0,
-        "calibration": {"scales": {"30": 0.7, "180": 0.6}, "dof": 9.5},
+        "calibration": {"scales": {"30": 0.7, "180": 0.6}, "dofs": {"30": 5.0, "180": None}},
         "from": "evaluate",
     }
     withnav = ServedMeta(**{**meta.__dict__, "navigation": nav})
@@ -75,6 +75,8 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
         {"calibration": {"scales": {"thirty": 0.7}}},
         {"calibration": {"scales": {"30": 0.0}}},
         {"calibration": {"scales": {"30": 0.7}, "dof": "many"}},
+        {"calibration": {"scales": {"30": 0.7}, "dofs": {"30": -2.0}}},
+        {"calibration": {"scales": {"30": 0.7}, "dofs": [5.0]}},
     ):
         text = ServedMeta(**{**meta.__dict__, "navigation": bad}).to_json()
         with pytest.raises(InputError, match="navigation"):

@@ -24,6 +24,22 @@ def test_the_scale_between_evaluated_lengths_is_interpolated_in_ln_l_and_held_ou
     np.testing.assert_allclose(got, [1.0, 1.0, 2.0, 4.0, 4.0])  # 60 s: halfway in ln L
 
 
+def test_dof_between_evaluated_lengths_is_interpolated_as_1_over_nu_in_ln_l():
+    cal = PositionCalibration.from_meta(
+        {"calibration": {"scales": {"30": 1.0, "120": 1.0}, "dofs": {"30": 4.0, "120": None}}}
+    )
+    got = cal.dof_at(np.array([10.0, 30.0, 60.0, 120.0, 600.0]))
+    np.testing.assert_allclose(got, [4.0, 4.0, 8.0, np.inf, np.inf])  # 60 s: 1/ν halfway
+    cov = np.broadcast_to(np.eye(2), (2, 2, 2))
+    r = cal.semi_axis(cov, np.array([30.0, 120.0]), SIGMA_CONTENT[1])
+    np.testing.assert_allclose(
+        r**2, [t2_quantile(SIGMA_CONTENT[1], 1.0, 4.0), chi2_2dof_quantile(SIGMA_CONTENT[1])]
+    )
+    # a bundle from before ν per length: one ν for every length
+    old = PositionCalibration.from_meta({"calibration": {"scales": {"30": 1.0}, "dof": 6.0}})
+    np.testing.assert_allclose(old.dof_at(np.array([5.0, 500.0])), [6.0, 6.0])
+
+
 def test_a_calibrated_region_holds_its_content_of_t_distributed_ends():
     rng = np.random.default_rng(11)
     c, nu, n = 0.7, 6.0, 200_000

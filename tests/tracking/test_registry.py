@@ -210,9 +210,10 @@ def test_navigation_meta_takes_the_model_s_calibration_and_the_receiver_from_eva
     g = navigation_meta(EVALUATED, "G", "target")
     assert g["vehicle"] == "target" and g["receiver_sigma_m"] == 2.72
     assert g["receiver_tau_s"] == 100.0
-    assert g["calibration"] == {"scales": {"30": 0.7, "180": 0.6}, "dof": 9.0}
+    assert g["calibration"] == {"scales": {"30": 0.7, "180": 0.6}, "dofs": {"30": 8.0, "180": 10.0}}
     assert "fitted" in g["from"] and "[42, 43]" in g["from"]
-    assert navigation_meta(EVALUATED, "R")["calibration"] == {"scales": {"30": 0.9}, "dof": None}
+    r = navigation_meta(EVALUATED, "R")["calibration"]  # a normal: null ν
+    assert r == {"scales": {"30": 0.9}, "dofs": {"30": None}}
     assert navigation_meta(EVALUATED, "S") is None and navigation_meta({}, "G") is None
 
 

@@ -52,6 +52,7 @@ from rwhonet import contracts as k
 from rwhonet.config import Params
 from rwhonet.contracts import CONTINUOUS
 from rwhonet.evaluation.uncertainty import (
+    AIC_NATS,
     ASSUMED,
     DistanceVariance,
     FitEvidence,
@@ -74,6 +75,7 @@ from rwhonet.nav import (
     mahalanobis_sq,
     nll_2d,
     run,
+    t2_radius_nll,
 )
 
 GNSS_DISTANCE = "GNSS distance"  # the filter's control on the GNSS's own distances
@@ -538,18 +540,26 @@ class Calibration2D:
         dof: ``ν``, its degrees of freedom (``inf``: a normal).
         n_windows: training windows fitted on (below
             :data:`~rwhonet.nav.coverage.MIN_T2_WINDOWS`: not fitted, ``c = 1, ν = ∞``).
-        scales: ``c`` of each outage length with enough windows of its own, ``ν``
-            held (:func:`calibrate_2d`); other lengths take ``scale``.
+        scales: ``c`` of each outage length with enough windows of its own
+            (:func:`calibrate_2d`); other lengths take ``scale``.
+        dofs: ``ν`` of each outage length whose windows' tails are their own
+            (:func:`calibrate_2d`: likelier by Akaike's criterion); other lengths
+            take ``dof``.
     """
 
     scale: float = 1.0
     dof: float = float("inf")
     n_windows: int = 0
     scales: dict[int, float] = field(default_factory=dict)
+    dofs: dict[int, float] = field(default_factory=dict)
 
     def scale_at(self, outage_s: int | None) -> float:
         """``c`` for windows of one outage length."""
         return self.scales.get(outage_s, self.scale) if outage_s is not None else self.scale
+
+    def dof_at(self, outage_s: int | None) -> float:
+        """``ν`` for windows of one outage length."""
+        return self.dofs.get(outage_s, self.dof) if outage_s is not None else self.dof
 
 
 def _errors_and_covs(w: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -588,8 +598,8 @@ def window_stats(
     h = w["horizontal_m"].to_numpy(np.float64)
     d = w["distance_m"].to_numpy(np.float64)
     err, cov = _errors_and_covs(w)
-    scale = cal.scale_at(outage_s)
-    cover = coverage_2d(err, cov, scale=scale, dof=cal.dof)
+    scale, dof = cal.scale_at(outage_s), cal.dof_at(outage_s)
+    cover = coverage_2d(err, cov, scale=scale, dof=dof)
     own = coverage_2d(err, cov)
     worst = int(np.argmax(h))
     return {
@@ -599,12 +609,12 @@ def window_stats(
         "pos_pct_max": float(100.0 * h[worst] / d[worst]) if d[worst] > 0 else float("nan"),
         "cover_1sigma": cover[SIGMA_CONTENT[0]],
         "cover_2sigma": cover[SIGMA_CONTENT[1]],
-        "nll": nll_2d(err, cov, scale, cal.dof),
+        "nll": nll_2d(err, cov, scale, dof),
         "cover_1sigma_filter": own[SIGMA_CONTENT[0]],
         "cover_2sigma_filter": own[SIGMA_CONTENT[1]],
         "nll_filter": nll_2d(err, cov),
         "calib_scale": scale,
-        "calib_dof": cal.dof if np.isfinite(cal.dof) else float("nan"),
+        "calib_dof": dof if np.isfinite(dof) else float("nan"),
         "n_windows": len(w),
     }
 
@@ -618,7 +628,13 @@ def calibrate_2d(windows: pd.DataFrame) -> dict[tuple, Calibration2D]:
     (:func:`rwhonet.nav.coverage.fit_t2_scale`): the filter's covariance grows with
     the outage, but not necessarily at the rate its errors do (its random walks are
     generic figures, not the car's), so one scale can be right for short outages and
-    too large for long ones.
+    too large for long ones. Then each such length's own tails: its scale and ``ν``
+    fitted together (:func:`rwhonet.nav.coverage.fit_t2`) replace the held ``ν``
+    where they are likelier by more than Akaike's criterion asks for the one
+    parameter more (the length's summed log-likelihood up by more than
+    :data:`~rwhonet.evaluation.uncertainty.AIC_NATS`). Measured on the training
+    windows: a short outage's errors are heavier-tailed (a few seconds of a bad
+    GNSS fix or a manoeuvre weigh more) than a long one's.
 
     Args:
         windows: :func:`filter_windows` on the target training drives.
@@ -635,15 +651,21 @@ def calibrate_2d(windows: pd.DataFrame) -> dict[tuple, Calibration2D]:
         err, cov = _errors_and_covs(w)
         d2 = mahalanobis_sq(err, cov) if len(w) else np.zeros(0)
         scale, dof, n = fit_t2(d2)
-        scales = {}
+        scales, dofs = {}, {}
         if n >= MIN_T2_WINDOWS:
             lengths = w["outage_s"].to_numpy()
             for L in np.unique(lengths):
-                c_l = fit_t2_scale(d2[lengths == L], dof)
-                if c_l is not None:
-                    scales[int(L)] = c_l
+                r = d2[lengths == L]
+                c_l = fit_t2_scale(r, dof)
+                if c_l is None:
+                    continue
+                scales[int(L)] = c_l
+                c_own, dof_own, m = fit_t2(r)
+                gain = m * (t2_radius_nll(r, c_l, dof) - t2_radius_nll(r, c_own, dof_own))
+                if gain > AIC_NATS:
+                    scales[int(L)], dofs[int(L)] = c_own, dof_own
         key_seed = None if pd.isna(seed) else int(seed)
-        out[(model, key_seed, control)] = Calibration2D(scale, dof, n, scales)
+        out[(model, key_seed, control)] = Calibration2D(scale, dof, n, scales, dofs)
     return out
 
 
@@ -758,7 +780,7 @@ def calibrated_nll(windows: pd.DataFrame) -> tuple[float, int]:
     ):
         cal = cals[(model, None if pd.isna(seed) else int(seed), control)]
         err, cov = _errors_and_covs(g)
-        total += nll_2d(err, cov, cal.scale_at(int(L)), cal.dof) * len(g)
+        total += nll_2d(err, cov, cal.scale_at(int(L)), cal.dof_at(int(L))) * len(g)
         n += len(g)
     return (total / n, n) if n else (float("nan"), 0)
 

@@ -29,6 +29,7 @@ from rwhonet.nav.coverage import (
     mahalanobis_sq,
     nll_2d,
     t2_quantile,
+    t2_radius_nll,
 )
 from rwhonet.nav.filter import (
     CONTROLS,
@@ -64,6 +65,7 @@ __all__ = [
     "crse_prediction",
     "fit_t2",
     "fit_t2_scale",
+    "t2_radius_nll",
     "mahalanobis_sq",
     "nll_2d",
     "run",

@@ -84,7 +84,9 @@ def coverage_2d(
     }
 
 
-def t2_quantile(p: float | np.ndarray, scale: float = 1.0, dof: float = np.inf) -> np.ndarray:
+def t2_quantile(
+    p: float | np.ndarray, scale: float = 1.0, dof: float | np.ndarray = np.inf
+) -> np.ndarray:
     """The squared Mahalanobis radius (in the filter's covariance) holding ``p``.
 
     For the bivariate t with scale matrix ``c Σ`` and ``ν`` degrees of freedom,
@@ -95,12 +97,15 @@ def t2_quantile(p: float | np.ndarray, scale: float = 1.0, dof: float = np.inf) 
     Args:
         p: probability in [0, 1).
         scale: ``c``.
-        dof: ``ν`` (``inf``: the normal).
+        dof: ``ν`` (``inf``: the normal), or one per element (broadcast with ``p``).
     """
     p = np.asarray(p, np.float64)
-    if not np.isfinite(dof):
+    nu = np.asarray(dof, np.float64)
+    if not np.isfinite(nu).any():
         return scale * chi2_2dof_quantile(p)
-    return scale * dof * np.expm1(-2.0 / dof * np.log1p(-p))
+    finite = np.where(np.isfinite(nu), nu, 1.0)
+    t = finite * np.expm1(-2.0 / finite * np.log1p(-p))
+    return scale * np.where(np.isfinite(nu), t, chi2_2dof_quantile(p))
 
 
 def t2_nll(d2: np.ndarray, logdet: np.ndarray, scale: float = 1.0, dof: float = np.inf):
@@ -130,6 +135,21 @@ def _radius_nll(r: np.ndarray, c: float, nu: float) -> float:
     """:func:`t2_nll`'s mean without its terms that depend on neither ``c`` nor ``ν``
     (``ln 2π``, ``½ ln det Σ``): what the fits below minimise."""
     return float(np.mean(np.log(c) + (0.5 * nu + 1.0) * np.log1p(r / (c * nu))))
+
+
+def t2_radius_nll(d2: np.ndarray, scale: float, dof: float) -> float:
+    """Mean negative log-likelihood of squared radii under the bivariate t (``c``, ``ν``),
+    less the terms no calibration changes (``ln 2π``, ``½ ln det Σ``), nats.
+
+    What :func:`fit_t2` and :func:`fit_t2_scale` minimise, so two calibrations of the
+    same windows compare by it (``ν = ∞``: the normal's ``ln c + d² / 2c``). Non-finite
+    radii are left out, as the fits leave them.
+    """
+    r = np.asarray(d2, np.float64)
+    r = np.maximum(r[np.isfinite(r)], 1e-12)
+    if not np.isfinite(dof):
+        return float(np.mean(np.log(scale) + 0.5 * r / scale))
+    return _radius_nll(r, scale, dof)
 
 
 def fit_t2(d2: np.ndarray, min_windows: int = MIN_T2_WINDOWS) -> tuple[float, float, int]:

@@ -401,8 +401,8 @@ def _calib_cell(rows: list) -> str:
     rows = [r for r in rows if r.n_windows]
     if not rows:
         return "–"
-    dof = "∞" if not math.isfinite(rows[-1].calib_dof) else f"{rows[-1].calib_dof:.1f}"
-    return "c " + " / ".join(f"{r.calib_scale:.2f}" for r in rows) + f", ν {dof}"
+    dofs = ["∞" if not math.isfinite(r.calib_dof) else f"{r.calib_dof:.1f}" for r in rows]
+    return "c " + " / ".join(f"{r.calib_scale:.2f}" for r in rows) + ", ν " + " / ".join(dofs)
 
 
 def _per_model_table(

@@ -57,7 +57,9 @@ class ServedMeta:
             :class:`rwhonet.models.adapt.ShrinkEvidence` as data, or null); None: not known.
         navigation: what the evaluation measured of the navigation filter with this
             model on its car (``vehicle``, ``receiver_sigma_m``, ``receiver_tau_s``,
-            ``calibration``: ``{"scales": {outage s: c}, "dof": ν}``, ``from``;
+            ``calibration``: ``{"scales": {outage s: c}, "dofs": {outage s: ν or
+            null for a normal}}`` (a bundle registered before ``ν`` was fitted per
+            length: one ``"dof"`` for every length), ``from``;
             :class:`rwhonet.serve.navigation.PositionCalibration`); None: not known
             (the generic filter and its own covariance).
     """
@@ -122,7 +124,7 @@ class ServedMeta:
                     source,
                     None,
                     "navigation",
-                    "null or {receiver_sigma_m, receiver_tau_s, calibration: {scales, dof}}",
+                    "null or {receiver_sigma_m, receiver_tau_s, calibration: {scales, dofs}}",
                     repr(raw.get("navigation"))[:80],
                 )
             )
@@ -169,8 +171,12 @@ def _navigation_ok(nav: Any) -> bool:
         return True
     if not isinstance(cal, dict) or not isinstance(cal.get("scales", {}), dict):
         return False
-    scales = cal.get("scales", {})
+    scales, dofs = cal.get("scales", {}), cal.get("dofs", {})
+    if not isinstance(dofs, dict):
+        return False
     if not all(str(L).isdigit() and int(L) > 0 and _positive(c) for L, c in scales.items()):
+        return False
+    if not all(str(L).isdigit() and (v is None or _positive(v)) for L, v in dofs.items()):
         return False
     return cal.get("dof") is None or _positive(cal["dof"])
 

@@ -41,15 +41,16 @@ class PositionCalibration:
     The evaluation (:mod:`rwhonet.evaluation.position`) fits the receiver's drift
     and calibrates the filter's end-of-outage covariance ``Σ`` on the target
     training drives as a bivariate Student t: scale matrix ``c(L) Σ`` at each
-    outage length ``L``, ``ν`` degrees of freedom. A registered model's metadata
+    outage length ``L``, ``ν(L)`` degrees of freedom. A registered model's metadata
     (``navigation``) carries them; here they size the region the car is in after
     ``t`` seconds of an outage, ``c`` interpolated in ``ln L`` between the
-    evaluated lengths (the nearest outside them).
+    evaluated lengths and ``1/ν`` likewise (0: a normal), the nearest outside them.
 
     Attributes:
         scales: ``c`` per evaluated outage length, s (empty: not calibrated, the
             filter's own normal).
-        dof: ``ν`` (``inf``: a normal).
+        dof: ``ν`` of a length without its own (``inf``: a normal).
+        dofs: ``ν`` per evaluated outage length (``inf``: a normal).
         receiver_sigma_m: the receiver drift's spread the filter is to use, m
             (None: the filter's generic one).
         receiver_tau_s: its correlation time, s.
@@ -59,6 +60,7 @@ class PositionCalibration:
     dof: float = float("inf")
     receiver_sigma_m: float | None = None
     receiver_tau_s: float | None = None
+    dofs: dict[int, float] = field(default_factory=dict)
 
     @property
     def calibrated(self) -> bool:
@@ -76,6 +78,10 @@ class PositionCalibration:
             float(dof) if dof is not None else float("inf"),
             navigation.get("receiver_sigma_m"),
             navigation.get("receiver_tau_s"),
+            {
+                int(L): float(v) if v is not None else float("inf")
+                for L, v in (cal.get("dofs") or {}).items()
+            },
         )
 
     def nav_config(self, config: NavConfig) -> NavConfig:
@@ -92,6 +98,18 @@ class PositionCalibration:
         lengths = np.array(sorted(self.scales), np.float64)
         c = np.array([self.scales[int(L)] for L in lengths])
         return np.exp(np.interp(np.log(np.maximum(t, 1e-9)), np.log(lengths), np.log(c)))
+
+    def dof_at(self, elapsed_s: np.ndarray) -> np.ndarray:
+        """``ν`` after ``elapsed_s`` seconds of an outage: ``1/ν`` interpolated in ``ln L``
+        between the evaluated lengths (``inf``: a normal; ``dof`` where none has its own)."""
+        t = np.asarray(elapsed_s, np.float64)
+        if not self.dofs:
+            return np.full_like(t, self.dof)
+        lengths = np.array(sorted(self.dofs), np.float64)
+        inv = np.array([1.0 / self.dofs[int(L)] for L in lengths])  # 1/inf = 0: a normal
+        x = np.interp(np.log(np.maximum(t, 1e-9)), np.log(lengths), inv)
+        with np.errstate(divide="ignore"):
+            return np.where(x > 0, 1.0 / np.where(x > 0, x, 1.0), np.inf)
 
     def semi_axis(
         self, cov: np.ndarray, elapsed_s: np.ndarray, p: float | tuple[float, ...]
@@ -114,7 +132,7 @@ class PositionCalibration:
         lam = np.full(len(cov), np.nan)
         if ok.any():
             lam[ok] = np.linalg.eigvalsh(cov[ok])[:, -1]
-        q = t2_quantile(np.asarray(p, np.float64)[..., None], 1.0, self.dof)
+        q = t2_quantile(np.asarray(p, np.float64)[..., None], 1.0, self.dof_at(elapsed_s))
         q = q * self.scale_at(elapsed_s)
         return np.sqrt(np.maximum(lam, 0.0) * q)
 

@@ -539,9 +539,9 @@ def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> 
 
     From ``eval.json``: the receiver drift the filter used (``position_controls.receiver``,
     fitted on the target training drives or as configured) and the model's 2D
-    calibration (``position.<model>.<L>s``: ``calib_scale`` per outage length, and
-    ``calib_dof``; means over the evaluation's seeds, as eval.json keeps them). None
-    without a position block for the model.
+    calibration (``position.<model>.<L>s``: ``calib_scale`` and ``calib_dof`` per
+    outage length, null ``ν`` a normal; means over the evaluation's seeds, as eval.json
+    keeps them). None without a position block for the model.
 
     Args:
         evaluated: the parsed eval.json (empty: none).
@@ -558,15 +558,16 @@ def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> 
         for L, c in cells.items()
         if isinstance(c, dict) and c.get("calib_scale") is not None
     }
-    dofs = [float(c["calib_dof"]) for c in cells.values() if c.get("calib_dof") is not None]
+    dofs = {
+        str(int(L.removesuffix("s"))): None if c.get("calib_dof") is None else float(c["calib_dof"])
+        for L, c in cells.items()
+        if isinstance(c, dict) and c.get("calib_scale") is not None
+    }
     return {
         "vehicle": vehicle,
         "receiver_sigma_m": receiver.get("sigma_m"),
         "receiver_tau_s": receiver.get("tau_s"),
-        "calibration": {
-            "scales": scales,
-            "dof": float(np.mean(dofs)) if dofs else None,
-        },
+        "calibration": {"scales": scales, "dofs": dofs},
         "from": (
             "evaluate: the filter on the target training drives' windows (receiver drift "
             f"{'fitted' if receiver.get('fitted') else 'as configured'}; the calibration's "
