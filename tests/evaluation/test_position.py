@@ -89,31 +89,45 @@ def test_calibrate_2d_fits_each_run_and_leaves_a_run_of_few_windows_normal():
     assert got[("WPM", None, "fused")] == Calibration2D(1.0, np.inf, 5)
 
 
-def test_each_outage_length_with_enough_windows_gets_its_own_scale():
-    """Long outages whose covariance grew twice as fast as their errors: their own c."""
-    rng = np.random.default_rng(4)
-    n = 20000
-    z = rng.normal(size=(n, 2)) * np.sqrt(1.5) / np.sqrt(rng.chisquare(5.0, n) / 5.0)[:, None]
+def _t_windows(
+    rng, lengths: np.ndarray, dof_of: dict[int, float], c: float = 1.5, grown=None
+) -> pd.DataFrame:
+    """Isotropic filter covariances and bivariate-t ends (scale c Σ, ν per length); the
+    filter's covariance of a length in ``grown`` that many times too large."""
+    n = len(lengths)
     cov = rng.uniform(1.0, 9.0, n)
-    length = np.where(np.arange(n) < n // 2, 30, 180)
-    length[:10] = 60  # too few windows of their own: the pooled scale
-    grown = np.where(length == 180, 2.0, 1.0)  # the filter's covariance, twice too large
-    windows = pd.DataFrame(
+    nu = np.array([dof_of[int(L)] for L in lengths])
+    finite = np.where(np.isfinite(nu), nu, 1.0)
+    shrink = np.where(np.isfinite(nu), np.sqrt(rng.chisquare(finite) / finite), 1.0)
+    z = rng.normal(size=(n, 2)) * np.sqrt(c) / shrink[:, None]
+    too_large = np.array([(grown or {}).get(int(L), 1.0) for L in lengths])
+    w = pd.DataFrame(
         {
             "model": "G",
             "seed": 7,
             "control": "fused",
             "counted": True,
-            "outage_s": length,
+            "outage_s": lengths,
             "err_e_m": z[:, 0] * np.sqrt(cov),
             "err_n_m": z[:, 1] * np.sqrt(cov),
-            "cov_ee_m2": cov * grown,
+            "cov_ee_m2": cov * too_large,
             "cov_en_m2": 0.0,
-            "cov_nn_m2": cov * grown,
+            "cov_nn_m2": cov * too_large,
         }
     )
-    windows["horizontal_m"] = np.hypot(windows["err_e_m"], windows["err_n_m"])
-    windows["distance_m"] = 1000.0
+    w["horizontal_m"] = np.hypot(w["err_e_m"], w["err_n_m"])
+    w["distance_m"] = 1000.0
+    return w
+
+
+def test_each_outage_length_with_enough_windows_gets_its_own_scale():
+    """Long outages whose covariance grew twice as fast as their errors: their own c."""
+    rng = np.random.default_rng(4)
+    n = 20000
+    length = np.where(np.arange(n) < n // 2, 30, 180)
+    length[:10] = 60  # too few windows of their own: the pooled scale
+    # the filter's covariance at 180 s twice too large
+    windows = _t_windows(rng, length, dict.fromkeys((30, 60, 180), 5.0), grown={180: 2.0})
     g = calibrate_2d(windows)[("G", 7, "fused")]
     assert set(g.scales) == {30, 180}
     assert g.scales[30] == pytest.approx(1.5, rel=0.1)
@@ -125,33 +139,6 @@ def test_each_outage_length_with_enough_windows_gets_its_own_scale():
         assert stats["calib_scale"] == g.scales[L]
         assert stats["cover_1sigma"] == pytest.approx(0.6827, abs=0.02)
         assert stats["cover_2sigma"] == pytest.approx(0.9545, abs=0.02)
-
-
-def _t_windows(rng, lengths: np.ndarray, dof_of: dict[int, float], c: float = 1.5):
-    """Isotropic filter covariances and bivariate-t ends (scale c Σ, ν per length)."""
-    n = len(lengths)
-    cov = rng.uniform(1.0, 9.0, n)
-    nu = np.array([dof_of[int(L)] for L in lengths])
-    finite = np.where(np.isfinite(nu), nu, 1.0)
-    shrink = np.where(np.isfinite(nu), np.sqrt(rng.chisquare(finite) / finite), 1.0)
-    z = rng.normal(size=(n, 2)) * np.sqrt(c) / shrink[:, None]
-    w = pd.DataFrame(
-        {
-            "model": "G",
-            "seed": 7,
-            "control": "fused",
-            "counted": True,
-            "outage_s": lengths,
-            "err_e_m": z[:, 0] * np.sqrt(cov),
-            "err_n_m": z[:, 1] * np.sqrt(cov),
-            "cov_ee_m2": cov,
-            "cov_en_m2": 0.0,
-            "cov_nn_m2": cov,
-        }
-    )
-    w["horizontal_m"] = np.hypot(w["err_e_m"], w["err_n_m"])
-    w["distance_m"] = 1000.0
-    return w
 
 
 def test_a_length_whose_tails_differ_gets_its_own_dof():
