@@ -29,7 +29,8 @@ square root of the window's length) and ``λ`` the part that lasts through the
 window (a scale error the window shares: its spread grows with the length
 itself), ``α``, ``κ`` and ``λ`` the maximum-likelihood values over every
 training window of every outage length (:func:`fit_crse`; ``λ`` = 0, the
-closed form, where a lasting part is not likelier). Reported on the test windows: the share
+closed form, where Akaike's criterion finds a lasting part not likelier).
+Reported on the test windows: the share
 of windows within 1σ and 2σ of the prediction, and its mean negative
 log-likelihood (:func:`crse_check`); for comparison also the independent-seconds
 prediction's share.
@@ -183,8 +184,8 @@ def fit_crse(
 
     With ``m = Σσ_t`` and ``v = Σσ_t²`` per window. Without the lasting part
     (``λ`` = 0) the likelihood has a closed form: ``α = Σ(c m / v) / Σ(m² / v)``
-    (weighted least squares) and ``κ² = mean((c − α m)² / v)``. From there and
-    from an even split of that variance between the two parts, the mean negative
+    (weighted least squares) and ``κ² = mean((c − α m)² / v)``. From an even
+    split of that variance between the two parts, the mean negative
     log-likelihood is minimised over ``κ, λ ≥ 0`` (L-BFGS-B) with ``α`` profiled
     out (its weighted least squares under each window's variance); the closed
     form is kept unless the lasting part, one parameter more, is likelier by
