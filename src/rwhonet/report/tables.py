@@ -489,7 +489,10 @@ def nav_calibration_table(ev: Evaluation) -> str | None:
         if model != GNSS_DISTANCE
     )
     at = " / ".join(f"{int(L)}" for L in lengths)
-    head = f"The calibration (mean over seeds; c at {at} s, ν the same for every length)"
+    head = (
+        f"The calibration (mean over seeds; c and ν at {at} s: a length's own ν where "
+        "Akaike's criterion took it, else the one fitted over every length; ∞: a normal)"
+    )
     return f"{table}\n\n{head}: {calib}.{_receiver_line(plan.get('receiver', {}))}"
 
 
@@ -824,7 +827,8 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "mean negative log-likelihood of the errors (nats; lower is better). The "
             "prediction is the filter's covariance calibrated on the target training drives' "
             "windows (never a test drive) as a bivariate Student t: the covariance times a "
-            "scale c, with ν degrees of freedom for the heavy tails (ν = ∞: a normal; fewer "
+            "scale c, with ν degrees of freedom for the heavy tails, c per outage length "
+            "and ν too where Akaike's criterion takes it (ν = ∞: a normal; fewer "
             "than 20 training windows: the filter's own normal); in brackets the filter's own "
             "normal ellipses (rwhonet.nav.coverage, rwhonet.evaluation.position).",
             "",
@@ -833,9 +837,11 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "Each model's per-second distance variance σ² = a + b d² (fitted by Gaussian "
             "likelihood on the target training drives, never a test drive; S on the segment "
             "tails it was validated on), and its windows' CRSE against the prediction "
-            "N(α Σσ, κ² Σσ²) calibrated on the same training windows: the share of test "
-            "windows within 1σ and 2σ of it (in brackets: the prediction that takes the "
-            "seconds as independent, α = √(2/π), κ = √(1 − 2/π)), and its mean negative "
+            "N(α Σσ, κ² Σσ² + λ² (Σσ)²) calibrated on the same training windows (λ: the "
+            "part that lasts through the window, 0 where Akaike's criterion leaves it out): "
+            "the share of test windows within 1σ and 2σ of it (in brackets: the prediction "
+            "that takes the seconds as independent, α = √(2/π), κ = √(1 − 2/π), λ = 0), "
+            "and its mean negative "
             "log-likelihood (rwhonet.evaluation.uncertainty).",
             "",
             crse_calibration_table(ev),
