@@ -92,22 +92,16 @@ class PositionCalibration:
 
     def scale_at(self, elapsed_s: np.ndarray) -> np.ndarray:
         """``c`` after ``elapsed_s`` seconds of an outage (1 when not calibrated)."""
-        t = np.asarray(elapsed_s, np.float64)
         if not self.scales:
-            return np.ones_like(t)
-        lengths = np.array(sorted(self.scales), np.float64)
-        c = np.array([self.scales[int(L)] for L in lengths])
-        return np.exp(np.interp(np.log(np.maximum(t, 1e-9)), np.log(lengths), np.log(c)))
+            return np.ones_like(np.asarray(elapsed_s, np.float64))
+        return np.exp(_in_ln_l({L: np.log(c) for L, c in self.scales.items()}, elapsed_s))
 
     def dof_at(self, elapsed_s: np.ndarray) -> np.ndarray:
         """``ν`` after ``elapsed_s`` seconds of an outage: ``1/ν`` interpolated in ``ln L``
         between the evaluated lengths (``inf``: a normal; ``dof`` where none has its own)."""
-        t = np.asarray(elapsed_s, np.float64)
         if not self.dofs:
-            return np.full_like(t, self.dof)
-        lengths = np.array(sorted(self.dofs), np.float64)
-        inv = np.array([1.0 / self.dofs[int(L)] for L in lengths])  # 1/inf = 0: a normal
-        x = np.interp(np.log(np.maximum(t, 1e-9)), np.log(lengths), inv)
+            return np.full_like(np.asarray(elapsed_s, np.float64), self.dof)
+        x = _in_ln_l({L: 1.0 / nu for L, nu in self.dofs.items()}, elapsed_s)  # 1/inf = 0
         with np.errstate(divide="ignore"):
             return np.where(x > 0, 1.0 / np.where(x > 0, x, 1.0), np.inf)
 
@@ -135,6 +129,15 @@ class PositionCalibration:
         q = t2_quantile(np.asarray(p, np.float64)[..., None], 1.0, self.dof_at(elapsed_s))
         q = q * self.scale_at(elapsed_s)
         return np.sqrt(np.maximum(lam, 0.0) * q)
+
+
+def _in_ln_l(values: dict[int, float], elapsed_s: np.ndarray) -> np.ndarray:
+    """``values`` (one per evaluated outage length) interpolated linearly in ``ln L`` at
+    ``elapsed_s``, held at the nearest length outside them."""
+    lengths = np.array(sorted(values), np.float64)
+    v = np.array([values[int(L)] for L in lengths])
+    t = np.asarray(elapsed_s, np.float64)
+    return np.interp(np.log(np.maximum(t, 1e-9)), np.log(lengths), v)
 
 
 MIN_SECONDS = 30  # seconds with GNSS before the distance variance is fitted on the stream
