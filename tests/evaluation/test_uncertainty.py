@@ -3,17 +3,23 @@
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.stats import foldnorm
 
 from rwhonet.evaluation.uncertainty import (
     ASSUMED,
+    MIN_BEFORE_M,
     DistanceVariance,
+    Seen,
     crse_check,
     fit_crse,
     fit_model,
+    fit_scale_sd,
     fit_variance,
+    folded_moments,
     gaussian_nll,
     held_out_tail,
     masked_windows,
+    scale_before,
     scale_left,
 )
 
@@ -142,3 +148,83 @@ def test_a_lasting_error_gets_its_outage_factor_and_an_unfitted_model_the_assume
     assert fit.n_windows == len(windows[10]) + len(windows[60])
     assert fit_model(e[:10], d[:10], np.ones(10, bool), {}, np.zeros(10)) is None
     assert ASSUMED.var(np.array([10.0])) == pytest.approx(0.05**2 + 0.1**2)
+
+
+# ----------------------------------------------------------------- conditioned on the drive so far
+
+
+def test_the_folded_normal_moments_are_scipys():
+    mu = np.array([0.0, 0.3, -1.0, 2.5, 10.0])
+    sd = np.array([1.0, 0.5, 2.0, 1.0, 0.1])
+    mean, var = folded_moments(mu, sd)
+    want_mean, want_var = foldnorm.stats(np.abs(mu) / sd, scale=sd, moments="mv")
+    np.testing.assert_allclose(mean, want_mean, rtol=1e-9)
+    np.testing.assert_allclose(var, want_var, rtol=1e-6, atol=1e-12)
+    # μ = 0: the half normal, σ √(2/π) and σ² (1 − 2/π)
+    assert mean[0] == pytest.approx(np.sqrt(2 / np.pi)) and var[0] == pytest.approx(1 - 2 / np.pi)
+
+
+def test_the_scale_seen_before_a_window_by_hand():
+    # 10 m seconds, 1 % short and σ² = 0.04 m² each; segment 0 rows 0-99, segment 1 100-199
+    d = np.full(200, 10.0)
+    e = 0.01 * d
+    e[5] = np.nan  # a second without GNSS counts neither its error nor its distance
+    var = np.full(200, 0.04)
+    group = np.repeat([0, 1], 100)
+    rows = np.array([np.arange(50, 80), np.arange(100, 130)])
+    seen = scale_before(e, d, var, group, rows)
+    # window 0: 49 seconds before it (row 5 left out): ŝ = 4.9 / 490, v = 49 · 0.04 / 490²
+    assert seen.scale[0] == pytest.approx(0.01) and seen.dist_m[0] == pytest.approx(490.0)
+    assert seen.var[0] == pytest.approx(49 * 0.04 / 490.0**2)
+    # window 1 opens its segment: nothing seen
+    assert seen.scale[1] == 0.0 and np.isinf(seen.var[1]) and seen.dist_m[1] == 0.0
+
+
+def test_the_spread_of_lasting_scales_is_recovered_and_noise_alone_gives_none():
+    rng = np.random.default_rng(5)
+    n = 4000
+    v = rng.uniform(1e-6, 4e-6, n)  # noise sd 0.1-0.2 %
+    lasting = rng.normal(0.0, 0.004, n)
+    far = np.full(n, 500.0)
+    seen = Seen(lasting + rng.normal(0.0, np.sqrt(v)), v, far)
+    assert fit_scale_sd(seen) == pytest.approx(0.004, rel=0.05)
+    assert fit_scale_sd(Seen(rng.normal(0.0, np.sqrt(v)), v, far)) < 0.0005
+    # windows with under MIN_BEFORE_M before them do not count
+    assert fit_scale_sd(Seen(seen.scale, v, np.full(n, MIN_BEFORE_M - 1.0))) == 0.0
+
+
+def test_the_kept_scale_shrinks_with_what_was_seen():
+    fit = DistanceVariance(0.01, 0.0, scale_sd=0.005)
+    seen = Seen(np.array([0.01, 0.01, 0.01]), np.array([0.0, 0.005**2, np.inf]), np.ones(3))
+    # all of a sure one, half of one as uncertain as the spread itself, none of nothing seen
+    np.testing.assert_allclose(fit.kept_scale(seen), [0.01, 0.005, 0.0])
+    # no spread (τ = 0) or nothing seen: the unconditioned sums Σσ, Σσ²
+    d = np.full((3, 30), 10.0)
+    for f, s in ((DistanceVariance(0.01, 0.0), seen), (fit, None)):
+        total, sq = f.crse_sums(d, s)
+        np.testing.assert_allclose(total, 30 * 0.1) and np.testing.assert_allclose(sq, 30 * 0.01)
+
+
+def _drives_with_their_own_scale(rng, scales, seconds=600):
+    """Segments of 10 m seconds, each with its own lasting scale error and 5 cm white noise."""
+    group = np.repeat(np.arange(len(scales)), seconds)
+    d = np.full(len(group), 10.0) + rng.uniform(-2.0, 2.0, len(group))
+    e = np.asarray(scales)[group] * d + rng.normal(0.0, 0.05, len(group))
+    return e, d, group
+
+
+def test_a_drive_with_a_scale_error_no_training_drive_has_is_predicted_from_its_own_seconds():
+    rng = np.random.default_rng(6)
+    e, d, group = _drives_with_their_own_scale(rng, rng.normal(0.0, 0.003, 40))
+    frame = pd.DataFrame({"group": group})
+    mask = frame.groupby("group").cumcount().to_numpy() >= 100  # each drive's first 100 s out
+    windows = {L: masked_windows(frame, mask, L) for L in (30, 60)}
+    fit = fit_model(e, d, mask, windows, group)
+    assert fit.scale_sd == pytest.approx(0.003, rel=0.3)
+    # a test drive 1.5 % off, five times the training drives' spread
+    te, td, tg = _drives_with_their_own_scale(rng, [0.015])
+    rows = masked_windows(pd.DataFrame({"group": tg}), np.arange(600) >= 100, 60)
+    conditioned = crse_check(te, td, rows, fit, tg)
+    assert conditioned["cover_2sigma"] == 1.0 and conditioned["nll"] < 3.0
+    # without its own seconds the prediction misses every window
+    assert crse_check(te, td, rows, fit)["cover_2sigma"] == 0.0

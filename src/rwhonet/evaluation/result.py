@@ -246,6 +246,7 @@ def _uncertainty(ev: Evaluation) -> dict:
             "crse_scale": _num(r.crse_scale),
             "crse_spread": _num(r.crse_spread),
             "crse_lasting": _num(r.crse_lasting),
+            "scale_sd": round(float(r.scale_sd), 6),
             "n_seconds": int(r.n_seconds),
             "n_windows": int(r.n_windows),
         }

@@ -79,7 +79,16 @@ CRSE_CHECK = (
     "second_cover_1sigma",
     "second_cover_2sigma",
 )
-VARIANCE = ("a_m2", "b", "crse_scale", "crse_spread", "crse_lasting", "n_seconds", "n_windows")
+VARIANCE = (
+    "a_m2",
+    "b",
+    "crse_scale",
+    "crse_spread",
+    "crse_lasting",
+    "scale_sd",
+    "n_seconds",
+    "n_windows",
+)
 
 
 def _with_aliases(rows: list[dict], params: Params, choice: Choice) -> list[dict]:
@@ -149,6 +158,7 @@ def evaluate(
     fits = fit_variances(evidence, train_errors, params) if evidence is not None else {}
     cfg = nav_config(params)
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
+    group = frame["group"].to_numpy()
     test_windows = {L: target_windows(frame, params, L) for L in outages}
     runs, checks, variances = [], [], []
     for seed in params.seeds:
@@ -166,7 +176,7 @@ def evaluate(
             for L, rows in test_windows.items():
                 checks.append(
                     {"seed": seed, "model": model, "outage_s": L}
-                    | crse_check(errors[model], dist, rows, fit)
+                    | crse_check(errors[model], dist, rows, fit, group)
                 )
             if fixed and seed != params.seeds[0]:
                 continue  # the same run for every seed

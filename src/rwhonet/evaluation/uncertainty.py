@@ -35,6 +35,27 @@ of windows within 1σ and 2σ of the prediction, and its mean negative
 log-likelihood (:func:`crse_check`); for comparison also the independent-seconds
 prediction's share.
 
+Before an outage the car has GNSS, and what the model got wrong on this drive
+so far is known: a drive on a tyre and load state the training drives do not
+show keeps its own scale error through the window. The prediction is
+conditioned on it. Over the segment's seconds before the window the model's
+scale error is ``ŝ = Σe/Σd`` with variance ``v = Σσ²/(Σd)²``
+(:func:`scale_before`); drives' lasting scale errors spread by ``τ``
+(``τ² = mean(ŝ² − v)`` over the training windows with at least
+:data:`MIN_BEFORE_M` before them, the method of moments: :func:`fit_scale_sd`),
+so the scale the window is expected to keep is ``s = ŝ τ²/(τ² + v)`` (the
+normal-normal posterior mean: little seen, little kept). Each second's error is
+then ``N(s d_t, ρ²σ_t²)``, ``ρ = α / sqrt(2/π)`` (the seconds' spread as the
+calibration found it: ``E|e_t| = α σ_t`` where nothing is kept, while the kept
+scale counts in full), its absolute value a folded normal
+(:func:`folded_moments`), and ``Σσ_t`` and ``Σσ_t²`` above are replaced by
+``M = Σ E|e_t| / (ρ sqrt(2/π))`` and ``V = Σ var|e_t| / (ρ² (1 − 2/π))``, which
+are ``Σσ_t`` and ``Σσ_t²`` again where ``s`` = 0 (no seconds before, or ``τ`` =
+0); where ``s d_t`` outgrows the seconds' spread, ``α M`` tends to ``Σ|s d_t|``.
+``α``, ``κ`` and ``λ`` are fitted on the training windows so conditioned; as
+``M`` and ``V`` depend on ``α``, :func:`fit_crse` is repeated with them
+recomputed at its last ``α`` until ``α`` holds (a fixed point).
+
 The filter needs one more figure. It takes each second's error as independent
 (white), but a model's errors last: summed over an outage they grow faster than
 ``sqrt(Σσ_t²)``. What lasts longest, a scale error, the filter learns from GNSS
@@ -49,10 +70,12 @@ an outage of L seconds the filter's distance variance is ``γ_L σ_t²``
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 from scipy.optimize import minimize
+from scipy.special import ndtr
 
 from rwhonet import contracts as k
 from rwhonet.config import Params
@@ -65,6 +88,25 @@ MIN_VAR_M2 = 1e-6  # a variance floor (1 mm): a model is never certain
 MIN_SECONDS = 30  # fewer seconds to fit on: no variance model
 MIN_WINDOWS = 3  # fewer training windows: the CRSE prediction stays uncalibrated
 AIC_NATS = 1.0  # a parameter more is worth 1 nat of summed log-likelihood (Akaike)
+MIN_BEFORE_M = 100.0  # fewer metres before a window: its scale error not counted in τ
+MAX_ALPHA_STEPS = 50  # the conditioned calibration's fixed-point steps on α, at most
+ALPHA_TOL = 1e-6  # ... until α moves by less than this share of itself
+
+
+class Seen(NamedTuple):
+    """What each window's segment showed of the model's scale error before it.
+
+    Made by :func:`scale_before`.
+
+    Attributes:
+        scale: (W,) ``ŝ = Σe/Σd`` (0 with nothing before).
+        var: (W,) its variance ``Σσ²/(Σd)²`` (∞ with nothing before).
+        dist_m: (W,) ``Σd``, the metres it was seen over.
+    """
+
+    scale: np.ndarray
+    var: np.ndarray
+    dist_m: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -80,6 +122,8 @@ class DistanceVariance:
             independent seconds, over ``sqrt(Σσ_t²)`` (``sqrt(1 − 2/π)`` uncalibrated).
         crse_lasting: ``λ``, the part that lasts through the window, over ``Σσ_t``
             (0 uncalibrated).
+        scale_sd: ``τ``, the spread of the lasting scale errors the training windows
+            show before them (0: the prediction is not conditioned on them).
         n_seconds: seconds fitted on.
         n_windows: training windows the CRSE prediction was calibrated on (0: not).
         outage_scale: ``{L: γ_L}``, the variance's factor inside an outage of L
@@ -91,6 +135,7 @@ class DistanceVariance:
     crse_scale: float = HALF_NORMAL_MEAN
     crse_spread: float = float(np.sqrt(1.0 - 2.0 / np.pi))
     crse_lasting: float = 0.0
+    scale_sd: float = 0.0
     n_seconds: int = 0
     n_windows: int = 0
     outage_scale: dict[int, float] = field(default_factory=dict, hash=False)
@@ -104,16 +149,61 @@ class DistanceVariance:
         d = np.asarray(dist_m, np.float64)
         return self.a_m2 + self.b * d * d
 
-    def crse(self, dist_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def kept_scale(self, seen: Seen | None) -> np.ndarray | float:
+        """The scale error each window is expected to keep: ``ŝ τ²/(τ² + v)`` (0 unseen)."""
+        if seen is None or self.scale_sd <= 0.0:
+            return 0.0
+        tau2 = self.scale_sd**2
+        finite = np.isfinite(seen.var)
+        return np.where(finite, seen.scale * tau2 / (tau2 + np.where(finite, seen.var, 0.0)), 0.0)
+
+    def crse_sums(
+        self, dist_m: np.ndarray, seen: Seen | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``M`` and ``V`` of each window (``Σσ_t`` and ``Σσ_t²`` where nothing is kept).
+
+        Args:
+            dist_m: (W, L) the model's distances in each window.
+            seen: the scale error seen before each window (:func:`scale_before`), or None.
+        """
+        d = np.asarray(dist_m, np.float64)
+        sd = np.sqrt(self.var(d))
+        kept = self.kept_scale(seen)
+        if np.ndim(kept) == 0 and kept == 0.0:
+            return sd.sum(axis=-1), (sd * sd).sum(axis=-1)
+        # the seconds' spread as calibrated (ρσ: E|e| = α σ where nothing is kept), the
+        # kept scale as it is; normalised back by ρ, so that α M is the mean
+        rho = self.crse_scale / HALF_NORMAL_MEAN
+        mean, var = folded_moments(np.asarray(kept)[..., None] * d, rho * sd)
+        return (
+            mean.sum(axis=-1) / (rho * HALF_NORMAL_MEAN),
+            var.sum(axis=-1) / (rho * rho * (1.0 - 2.0 / np.pi)),
+        )
+
+    def crse(self, dist_m: np.ndarray, seen: Seen | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Predicted mean and standard deviation of each window's CRSE, m.
 
         Args:
             dist_m: (W, L) the model's distances in each window.
+            seen: the scale error seen before each window (:func:`scale_before`);
+                None: not conditioned.
         """
-        sd = np.sqrt(self.var(dist_m))
-        total, sq = sd.sum(axis=-1), (sd * sd).sum(axis=-1)
+        total, sq = self.crse_sums(dist_m, seen)
         spread = np.sqrt(self.crse_spread**2 * sq + (self.crse_lasting * total) ** 2)
         return self.crse_scale * total, spread
+
+
+def folded_moments(mu: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and variance of ``|e|`` for ``e ~ N(μ, σ²)`` (the folded normal), elementwise.
+
+    ``E|e| = σ sqrt(2/π) exp(−μ²/2σ²) + μ (1 − 2Φ(−μ/σ))``, ``var|e| = μ² + σ² − E|e|²``
+    (Leone, Nelson and Nottingham 1961; ``scipy.stats.foldnorm``).
+    """
+    mu = np.abs(np.asarray(mu, np.float64))
+    sd = np.asarray(sd, np.float64)
+    z = mu / sd
+    mean = sd * HALF_NORMAL_MEAN * np.exp(-0.5 * z * z) + mu * (1.0 - 2.0 * ndtr(-z))
+    return mean, np.maximum(mu * mu + sd * sd - mean * mean, 0.0)
 
 
 def gaussian_nll(error: np.ndarray, var: np.ndarray) -> float:
@@ -230,6 +320,56 @@ def window_crse(error: np.ndarray, rows: np.ndarray) -> np.ndarray:
     return np.abs(np.asarray(error, np.float64)[rows]).sum(axis=1)
 
 
+def _before(values: list[np.ndarray], group: np.ndarray, rows: np.ndarray) -> list[np.ndarray]:
+    """Each array summed over the seconds of each window's segment before its first row."""
+    start = np.flatnonzero(np.r_[True, group[1:] != group[:-1]]) if len(group) else np.zeros(0)
+    first = start[np.searchsorted(start, np.arange(len(group)), side="right") - 1]
+    r0 = rows[:, 0]
+    out = []
+    for x in values:
+        c = np.r_[0.0, np.cumsum(x)]
+        out.append(c[r0] - c[first[r0]])
+    return out
+
+
+def scale_before(
+    error: np.ndarray, dist_m: np.ndarray, var: np.ndarray, group: np.ndarray, rows: np.ndarray
+) -> Seen:
+    """The scale error each window's segment showed before it, and its variance.
+
+    ``ŝ = Σe/Σd`` and ``v = Σσ²/(Σd)²`` over the seconds of the window's segment
+    before its first (those with an error, a distance and a variance); ``(0, ∞)``
+    with none.
+
+    Args:
+        error: (N,) per-second errors, m.
+        dist_m: (N,) the distances they are errors of, m.
+        var: (N,) the seconds' variances σ², m².
+        group: (N,) segment ids (each one contiguous run).
+        rows: (W, L) the windows' rows.
+    """
+    e, d, v = (np.asarray(x, np.float64) for x in (error, dist_m, var))
+    ok = np.isfinite(e) & np.isfinite(d) & np.isfinite(v)
+    se, sd, sv = _before([np.where(ok, x, 0.0) for x in (e, d, v)], group, rows)
+    seen = sd > 0
+    safe = np.where(seen, sd, 1.0)
+    return Seen(np.where(seen, se / safe, 0.0), np.where(seen, sv / (safe * safe), np.inf), sd)
+
+
+def fit_scale_sd(seen: Seen) -> float:
+    """``τ``, the spread of the lasting scale errors, by the method of moments.
+
+    ``τ² = mean(ŝ² − v)`` over the windows with at least :data:`MIN_BEFORE_M` before
+    them (``ŝ`` is the lasting error plus a noise of variance ``v``); 0 where that is
+    not positive or no window qualifies.
+    """
+    keep = seen.dist_m >= MIN_BEFORE_M
+    if not keep.any():
+        return 0.0
+    tau2 = float(np.mean(seen.scale[keep] ** 2 - seen.var[keep]))
+    return float(np.sqrt(tau2)) if tau2 > 0.0 else 0.0
+
+
 def scale_left(
     error: np.ndarray, dist_m: np.ndarray, group: np.ndarray, rows: np.ndarray
 ) -> np.ndarray:
@@ -247,11 +387,7 @@ def scale_left(
     """
     e = np.nan_to_num(np.asarray(error, np.float64))
     d = np.nan_to_num(np.asarray(dist_m, np.float64))
-    start = np.flatnonzero(np.r_[True, group[1:] != group[:-1]]) if len(group) else np.zeros(0)
-    first = start[np.searchsorted(start, np.arange(len(group)), side="right") - 1]
-    ce, cd = np.r_[0.0, np.cumsum(e)], np.r_[0.0, np.cumsum(d)]
-    r0 = rows[:, 0]
-    before_e, before_d = ce[r0] - ce[first[r0]], cd[r0] - cd[first[r0]]
+    before_e, before_d = _before([e, d], group, rows)
     scale = np.where(before_d > 0, before_e / np.where(before_d > 0, before_d, 1.0), 0.0)
     return e[rows].sum(axis=1) - scale * d[rows].sum(axis=1)
 
@@ -281,27 +417,43 @@ def fit_model(
     except ValueError:
         return None
     fitted = DistanceVariance(a, b, n_seconds=int(np.isfinite(error[seconds]).sum()))
-    crse, sums, sq, gamma = [], [], [], {}
+    var = fitted.var(dist_m)
+    kept, crse, seen, gamma = {}, [], [], {}
     for L, rows in windows.items():
+        rows = rows[np.isfinite(error[rows]).all(axis=1)] if len(rows) else rows
         if not len(rows):
             continue
-        keep = np.isfinite(error[rows]).all(axis=1)
-        rows = rows[keep]
-        sd = np.sqrt(fitted.var(dist_m[rows]))
+        kept[L] = rows
         crse.append(window_crse(error, rows))
-        sums.append(sd.sum(axis=1))
-        sq.append((sd * sd).sum(axis=1))
+        seen.append(scale_before(error, dist_m, var, group, rows))
         if len(rows) >= MIN_WINDOWS:
             left = scale_left(error, dist_m, group, rows)
-            gamma[int(L)] = float(np.mean(left * left / sq[-1]))
+            sd = np.sqrt(var[rows])
+            gamma[int(L)] = float(np.mean(left * left / (sd * sd).sum(axis=1)))
     n = sum(len(c) for c in crse)
     if n < MIN_WINDOWS:
         return replace(fitted, outage_scale=gamma)
-    alpha, kappa, lasting = fit_crse(np.concatenate(crse), np.concatenate(sums), np.concatenate(sq))
-    return DistanceVariance(a, b, alpha, kappa, lasting, fitted.n_seconds, n, gamma)
+    pooled = Seen(*(np.concatenate(x) for x in zip(*seen, strict=True)))
+    fitted = replace(fitted, scale_sd=fit_scale_sd(pooled))
+    crse = np.concatenate(crse)
+    for _ in range(MAX_ALPHA_STEPS):  # M and V hang on α where a scale is kept: to its fixed point
+        sums = [fitted.crse_sums(dist_m[r], w) for r, w in zip(kept.values(), seen, strict=True)]
+        total, sq = (np.concatenate(x) for x in zip(*sums, strict=True))
+        alpha, kappa, lasting = fit_crse(crse, total, sq)
+        moved = abs(alpha - fitted.crse_scale)
+        fitted = replace(fitted, crse_scale=alpha, crse_spread=kappa, crse_lasting=lasting)
+        if fitted.scale_sd == 0.0 or moved <= ALPHA_TOL * alpha:
+            break
+    return replace(fitted, n_windows=n, outage_scale=gamma)
 
 
-def crse_check(error: np.ndarray, dist_m: np.ndarray, rows: np.ndarray, fitted: DistanceVariance):
+def crse_check(
+    error: np.ndarray,
+    dist_m: np.ndarray,
+    rows: np.ndarray,
+    fitted: DistanceVariance,
+    group: np.ndarray | None = None,
+):
     """How well a fitted model predicts its CRSE on windows (the test windows).
 
     Args:
@@ -309,6 +461,8 @@ def crse_check(error: np.ndarray, dist_m: np.ndarray, rows: np.ndarray, fitted: 
         dist_m: (N,) its distances, m.
         rows: (W, L) the windows' rows.
         fitted: the model's variance.
+        group: (N,) segment ids: the prediction is conditioned on the scale error
+            each window's segment showed before it (:func:`scale_before`); None: not.
 
     Returns:
         ``{cover_1sigma, cover_2sigma, nll, cover_1sigma_independent,
@@ -325,7 +479,12 @@ def crse_check(error: np.ndarray, dist_m: np.ndarray, rows: np.ndarray, fitted: 
     if not len(rows):
         return {"n_windows": 0}
     crse = np.abs(e).sum(axis=1)
-    mean, sd = fitted.crse(dist_m[rows])
+    seen = (
+        None
+        if group is None
+        else scale_before(error, dist_m, fitted.var(dist_m), np.asarray(group), rows)
+    )
+    mean, sd = fitted.crse(dist_m[rows], seen)
     cover = coverage_1d(crse - mean, sd)
     sd_t = np.sqrt(fitted.var(dist_m[rows]))
     indep_mean, indep_sd = crse_prediction(sd_t)

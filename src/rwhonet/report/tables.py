@@ -520,7 +520,7 @@ def crse_calibration_table(ev: Evaluation) -> str | None:
     outages = sorted(unc["outage_s"].unique())
     cells = unc.set_index(["model", "outage_s"])
     lines = [
-        "| Model | σ² = a + b d²: a (cm²), √b (%) | α, κ, λ | "
+        "| Model | σ² = a + b d²: a (cm²), √b (%) | α, κ, λ; τ (%) | "
         + " | ".join(f"{L} s: 1σ / 2σ (independent); NLL" for L in outages)
         + " |",
         "|---|---:|---:|" + "---:|" * len(outages),
@@ -538,9 +538,8 @@ def crse_calibration_table(ev: Evaluation) -> str | None:
             )
         lines.append(
             f"| {_model_label(r.model, ev)} | {1e4 * r.a_m2:.1f}, {100 * math.sqrt(r.b):.2f} | "
-            f"{r.crse_scale:.2f}, {r.crse_spread:.2f}, {r.crse_lasting:.3f} | "
-            + " | ".join(row)
-            + " |"
+            f"{r.crse_scale:.2f}, {r.crse_spread:.2f}, {r.crse_lasting:.3f}; "
+            f"{100 * r.scale_sd:.2f} | " + " | ".join(row) + " |"
         )
     return "\n".join(lines)
 
@@ -837,8 +836,13 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "Each model's per-second distance variance σ² = a + b d² (fitted by Gaussian "
             "likelihood on the target training drives, never a test drive; S on the segment "
             "tails it was validated on), and its windows' CRSE against the prediction "
-            "N(α Σσ, κ² Σσ² + λ² (Σσ)²) calibrated on the same training windows (λ: the "
-            "part that lasts through the window, 0 where Akaike's criterion leaves it out): "
+            "N(α M, κ² V + λ² M²) calibrated on the same training windows (λ: the "
+            "part that lasts through the window, 0 where Akaike's criterion leaves it out), "
+            "conditioned on the scale error the drive showed before the window: ŝ = Σe/Σd "
+            "over its seconds with GNSS, kept in the proportion τ²/(τ² + var ŝ), τ the "
+            "training windows' spread of it; each second's |e| a folded normal about ŝ d, "
+            "M and V its summed mean and variance over √(2/π) and 1 − 2/π (Σσ and Σσ² "
+            "where ŝ = 0): "
             "the share of test windows within 1σ and 2σ of it (in brackets: the prediction "
             "that takes the seconds as independent, α = √(2/π), κ = √(1 − 2/π), λ = 0), "
             "and its mean negative "
