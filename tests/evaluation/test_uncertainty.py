@@ -11,6 +11,7 @@ from rwhonet.evaluation.uncertainty import (
     DistanceVariance,
     Seen,
     crse_check,
+    fit_conditioned_crse,
     fit_crse,
     fit_model,
     fit_scale_sd,
@@ -228,3 +229,30 @@ def test_a_drive_with_a_scale_error_no_training_drive_has_is_predicted_from_its_
     assert conditioned["cover_2sigma"] == 1.0 and conditioned["nll"] < 3.0
     # without its own seconds the prediction misses every window
     assert crse_check(te, td, rows, fit)["cover_2sigma"] == 0.0
+
+
+def test_without_a_spread_of_scales_the_conditioned_fit_is_the_plain_one():
+    rng = np.random.default_rng(7)
+    c, m, v = _crse_windows(rng, 1.5, 0.1)
+    d = np.ones((len(m), 1))
+    seen = Seen(np.zeros(len(m)), np.full(len(m), np.inf), np.zeros(len(m)))
+    fit = DistanceVariance(1.0, 0.0)  # τ = 0: nothing kept
+    # M, V = Σσ, Σσ² = 1, 1 for these one-second windows; c/m scaled back to them
+    got = fit_conditioned_crse(fit, c / m, [(d, seen)])
+    assert got == pytest.approx(fit_crse(c / m, np.ones(len(m)), np.ones(len(m))))
+
+
+def test_a_model_off_by_the_same_scale_on_every_drive_gets_a_finite_calibration():
+    # the source car's WPM on a larger car: 8 % short on every drive, ± 0.3 % between drives
+    rng = np.random.default_rng(8)
+    e, d, group = _drives_with_their_own_scale(rng, rng.normal(0.08, 0.003, 40))
+    frame = pd.DataFrame({"group": group})
+    mask = frame.groupby("group").cumcount().to_numpy() >= 100
+    windows = {L: masked_windows(frame, mask, L) for L in (30, 60)}
+    fit = fit_model(e, d, mask, windows, group)
+    assert fit.scale_sd == pytest.approx(0.08, rel=0.05)
+    assert 0.2 < fit.crse_scale < 2.0 and np.isfinite(fit.crse_spread)
+    te, td, tg = _drives_with_their_own_scale(rng, [0.081])
+    rows = masked_windows(pd.DataFrame({"group": tg}), np.arange(600) >= 100, 30)
+    check = crse_check(te, td, rows, fit, tg)
+    assert check["cover_2sigma"] >= 0.9 and check["nll"] < 3.0

@@ -52,9 +52,9 @@ scale counts in full), its absolute value a folded normal
 ``M = Σ E|e_t| / (ρ sqrt(2/π))`` and ``V = Σ var|e_t| / (ρ² (1 − 2/π))``, which
 are ``Σσ_t`` and ``Σσ_t²`` again where ``s`` = 0 (no seconds before, or ``τ`` =
 0); where ``s d_t`` outgrows the seconds' spread, ``α M`` tends to ``Σ|s d_t|``.
-``α``, ``κ`` and ``λ`` are fitted on the training windows so conditioned; as
-``M`` and ``V`` depend on ``α``, :func:`fit_crse` is repeated with them
-recomputed at its last ``α`` until ``α`` holds (a fixed point).
+``α``, ``κ`` and ``λ`` are fitted on the training windows so conditioned, by
+maximum likelihood (:func:`fit_conditioned_crse`: ``M`` and ``V`` depend on
+``α``, which is searched in one dimension, ``κ`` and ``λ`` fitted at each).
 
 The filter needs one more figure. It takes each second's error as independent
 (white), but a model's errors last: summed over an outage they grow faster than
@@ -74,7 +74,7 @@ from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import minimize
+from scipy.optimize import minimize, minimize_scalar
 from scipy.special import ndtr
 
 from rwhonet import contracts as k
@@ -89,8 +89,7 @@ MIN_SECONDS = 30  # fewer seconds to fit on: no variance model
 MIN_WINDOWS = 3  # fewer training windows: the CRSE prediction stays uncalibrated
 AIC_NATS = 1.0  # a parameter more is worth 1 nat of summed log-likelihood (Akaike)
 MIN_BEFORE_M = 100.0  # fewer metres before a window: its scale error not counted in τ
-MAX_ALPHA_STEPS = 50  # the conditioned calibration's fixed-point steps on α, at most
-ALPHA_TOL = 1e-6  # ... until α moves by less than this share of itself
+ALPHA_SPAN = 100.0  # the conditioned α searched within this factor of the unconditioned one
 
 
 class Seen(NamedTuple):
@@ -290,16 +289,27 @@ def fit_crse(
     Returns:
         ``(α, κ, λ)``.
     """
+    return _fit_crse(crse_m, sum_sd, sum_var)[:3]
+
+
+def _fit_crse(
+    crse_m: np.ndarray, sum_sd: np.ndarray, sum_var: np.ndarray, alpha: float | None = None
+) -> tuple[float, float, float, float]:
+    """:func:`fit_crse`, or with ``α`` held; also the windows' mean negative log-likelihood."""
     c, m, v = (np.asarray(x, np.float64) for x in (crse_m, sum_sd, sum_var))
-    alpha = _crse_alpha(c, m, v)
-    kappa = float(np.sqrt(np.mean((c - alpha * m) ** 2 / v)))
+
+    def alpha_at(var: np.ndarray) -> float:
+        return _crse_alpha(c, m, var) if alpha is None else alpha
+
+    a0 = alpha_at(v)
+    kappa = float(np.sqrt(np.mean((c - a0 * m) ** 2 / v)))
     if kappa == 0.0:
-        return alpha, 0.0, 0.0
+        return a0, 0.0, 0.0, -np.inf
 
     def nll(theta: np.ndarray) -> float:
         var = theta[0] ** 2 * v + theta[1] ** 2 * m * m
-        r = c - _crse_alpha(c, m, var) * m
-        return 0.5 * float(np.mean(np.log(var) + r * r / var))
+        r = c - alpha_at(var) * m
+        return 0.5 * float(np.mean(np.log(2.0 * np.pi * var) + r * r / var))
 
     closed = nll(np.array([kappa, 0.0]))
     share = float(np.sqrt(0.5 * np.mean(v) / np.mean(m * m)))  # λ for half of κ²'s variance
@@ -310,9 +320,47 @@ def fit_crse(
         bounds=[(1e-9 * kappa, None), (0.0, None)],
     )
     if len(c) * (closed - float(res.fun)) <= AIC_NATS:
-        return alpha, kappa, 0.0
+        return a0, kappa, 0.0, closed
     k_, lasting = float(res.x[0]), float(res.x[1])
-    return _crse_alpha(c, m, k_**2 * v + lasting**2 * m * m), k_, lasting
+    return alpha_at(k_**2 * v + lasting**2 * m * m), k_, lasting, float(res.fun)
+
+
+def fit_conditioned_crse(
+    fitted: DistanceVariance, crse_m: np.ndarray, windows: list[tuple[np.ndarray, Seen]]
+) -> tuple[float, float, float]:
+    """``α``, ``κ``, ``λ`` of the CRSE prediction conditioned on the scale seen before each window.
+
+    ``M`` and ``V`` depend on ``α`` (through ``ρ``), so ``α`` is found by a bounded
+    one-dimensional search of the windows' likelihood (Brent's, in ``ln α``, within a
+    factor :data:`ALPHA_SPAN` of the unconditioned fit), ``κ`` and ``λ`` fitted at
+    each ``α`` as :func:`fit_crse` does (``λ`` kept where Akaike's criterion takes it).
+
+    Args:
+        fitted: the model's variance, its ``scale_sd`` (``τ``) fitted.
+        crse_m: (W,) the windows' CRSE, m, in the order of ``windows``' rows.
+        windows: per group of windows, the model's distances (W_i, L_i) and what was seen.
+    """
+
+    def sums(alpha: float) -> tuple[np.ndarray, np.ndarray]:
+        trial = replace(fitted, crse_scale=alpha)
+        parts = [trial.crse_sums(d, seen) for d, seen in windows]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    unconditioned = fit_crse(crse_m, *sums(HALF_NORMAL_MEAN))
+    if fitted.scale_sd == 0.0:  # nothing kept: M and V are Σσ and Σσ² at every α
+        return unconditioned
+
+    def profile(log_alpha: float) -> float:
+        alpha = float(np.exp(log_alpha))
+        return _fit_crse(crse_m, *sums(alpha), alpha)[3]
+
+    centre = np.log(unconditioned[0])
+    span = np.log(ALPHA_SPAN)
+    res = minimize_scalar(
+        profile, bounds=(centre - span, centre + span), method="bounded", options={"xatol": 1e-4}
+    )
+    alpha = float(np.exp(res.x))
+    return _fit_crse(crse_m, *sums(alpha), alpha)[:3]
 
 
 def window_crse(error: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -435,16 +483,16 @@ def fit_model(
         return replace(fitted, outage_scale=gamma)
     pooled = Seen(*(np.concatenate(x) for x in zip(*seen, strict=True)))
     fitted = replace(fitted, scale_sd=fit_scale_sd(pooled))
-    crse = np.concatenate(crse)
-    for _ in range(MAX_ALPHA_STEPS):  # M and V hang on α where a scale is kept: to its fixed point
-        sums = [fitted.crse_sums(dist_m[r], w) for r, w in zip(kept.values(), seen, strict=True)]
-        total, sq = (np.concatenate(x) for x in zip(*sums, strict=True))
-        alpha, kappa, lasting = fit_crse(crse, total, sq)
-        moved = abs(alpha - fitted.crse_scale)
-        fitted = replace(fitted, crse_scale=alpha, crse_spread=kappa, crse_lasting=lasting)
-        if fitted.scale_sd == 0.0 or moved <= ALPHA_TOL * alpha:
-            break
-    return replace(fitted, n_windows=n, outage_scale=gamma)
+    parts = [(dist_m[r], w) for r, w in zip(kept.values(), seen, strict=True)]
+    alpha, kappa, lasting = fit_conditioned_crse(fitted, np.concatenate(crse), parts)
+    return replace(
+        fitted,
+        crse_scale=alpha,
+        crse_spread=kappa,
+        crse_lasting=lasting,
+        n_windows=n,
+        outage_scale=gamma,
+    )
 
 
 def crse_check(
