@@ -89,7 +89,7 @@ MIN_SECONDS = 30  # fewer seconds to fit on: no variance model
 MIN_WINDOWS = 3  # fewer training windows: the CRSE prediction stays uncalibrated
 AIC_NATS = 1.0  # a parameter more is worth 1 nat of summed log-likelihood (Akaike)
 MIN_BEFORE_M = 100.0  # fewer metres before a window: its scale error not counted in τ
-ALPHA_SPAN = 100.0  # the conditioned α searched within this factor of the unconditioned one
+ALPHA_SPAN = 100.0  # the conditioned α searched within this factor of its starting point
 
 
 class Seen(NamedTuple):
@@ -332,8 +332,9 @@ def fit_conditioned_crse(
 
     ``M`` and ``V`` depend on ``α`` (through ``ρ``), so ``α`` is found by a bounded
     one-dimensional search of the windows' likelihood (Brent's, in ``ln α``, within a
-    factor :data:`ALPHA_SPAN` of the unconditioned fit), ``κ`` and ``λ`` fitted at
-    each ``α`` as :func:`fit_crse` does (``λ`` kept where Akaike's criterion takes it).
+    factor :data:`ALPHA_SPAN` of :func:`fit_crse`'s ``α`` on ``M`` and ``V`` at ``ρ`` = 1),
+    ``κ`` and ``λ`` fitted at each ``α`` as :func:`fit_crse` does (``λ`` kept where
+    Akaike's criterion takes it).
 
     Args:
         fitted: the model's variance, its ``scale_sd`` (``τ``) fitted.
@@ -346,15 +347,15 @@ def fit_conditioned_crse(
         parts = [trial.crse_sums(d, seen) for d, seen in windows]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
-    unconditioned = fit_crse(crse_m, *sums(HALF_NORMAL_MEAN))
+    at_rho_1 = fit_crse(crse_m, *sums(HALF_NORMAL_MEAN))  # M and V at ρ = 1, α profiled
     if fitted.scale_sd == 0.0:  # nothing kept: M and V are Σσ and Σσ² at every α
-        return unconditioned
+        return at_rho_1
 
     def profile(log_alpha: float) -> float:
         alpha = float(np.exp(log_alpha))
         return _fit_crse(crse_m, *sums(alpha), alpha)[3]
 
-    centre = np.log(unconditioned[0])
+    centre = np.log(at_rho_1[0])
     span = np.log(ALPHA_SPAN)
     res = minimize_scalar(
         profile, bounds=(centre - span, centre + span), method="bounded", options={"xatol": 1e-4}
