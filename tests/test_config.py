@@ -79,6 +79,12 @@ def test_paths_in_params_cannot_lead_a_stage_outside_the_project(override, needl
     assert needle in str(err.value)
 
 
+@pytest.mark.parametrize("tolerance", [0.0, -0.25])
+def test_the_yaw_gain_tolerance_must_be_positive(tolerance):
+    with pytest.raises(ConfigError, match="validate.yaw_gain_tolerance must be > 0"):
+        load_params(paths.PARAMS, overrides={"validate.yaw_gain_tolerance": tolerance})
+
+
 @pytest.mark.parametrize("name", ["../../../tmp/x", "sub/V-1", ".hidden", "", "a b", "x" * 101])
 def test_a_simulated_drive_name_must_be_a_plain_file_name(name):
     drives = yaml.safe_load(paths.PARAMS.read_text())["sim"]["profiles"]["ci"]["drives"]

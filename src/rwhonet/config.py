@@ -612,6 +612,15 @@ class ValidateParams:
     gnss: GnssPolicy
     wheels: WheelPolicy
     cuts: list[CutSpec] = field(default_factory=list)
+    # the GNSS course's turn over the yaw rate's within 1 ± this (a wrong unit or sign is
+    # refused: rwhonet.data.plausibility.yaw_mistake)
+    yaw_gain_tolerance: float = 0.25
+
+    def __post_init__(self) -> None:
+        if not self.yaw_gain_tolerance > 0.0:
+            raise ConfigError(
+                f"validate.yaw_gain_tolerance must be > 0, got {self.yaw_gain_tolerance}"
+            )
 
 
 @dataclass(frozen=True)

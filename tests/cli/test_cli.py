@@ -396,6 +396,34 @@ def test_predict_refuses_an_mdf4_whose_rad_s_are_labelled_km_h(bundle, tmp_path,
     assert not out.exists()
 
 
+def test_predict_refuses_a_clockwise_yaw_rate_as_validate_does_and_writes_nothing(
+    bundle, tmp_path, capsys
+):
+    """The navigation filter's gyro: a yaw rate that turns the wrong way is refused, one in
+    the declared sign passes with nothing said; a straight drive says it could not tell."""
+    from rwhonet.data import canonical as c
+    from support.corpus import TARGET_RADIUS_M, YAW_COLUMN, weaving_target
+    from support.drives import write_iovnbd
+
+    car = ["--nominal-radius", str(TARGET_RADIUS_M)]
+    df = weaving_target()
+    good = write_iovnbd(df, tmp_path / "V-Turns.csv")
+    assert main(predict_args(bundle, good, tmp_path / "good.csv", *car)) == 0
+    assert "yaw" not in capsys.readouterr().err
+    df[c.YAW_RATE_RAD_S] = -df[c.YAW_RATE_RAD_S]
+    cw = write_iovnbd(df, tmp_path / "V-Cw.csv")
+    out = tmp_path / "cw.csv"
+    assert main(predict_args(bundle, cw, out, *car)) == 2
+    err = capsys.readouterr().err
+    assert str(cw) in err and YAW_COLUMN.strip() in err and "positive turning right" in err
+    assert "validate.yaw_gain_tolerance" in err and "deg/s cw" in err
+    assert not out.exists() and list(tmp_path.glob(".*partial")) == []
+    straight = write_iovnbd(_rav4_drive(), tmp_path / "V-Straight.csv")  # its yaw rate: 0
+    assert main(predict_args(bundle, straight, tmp_path / "s.csv", *car[:1], str(RAV4_M))) == 0
+    err = capsys.readouterr().err
+    assert err.count("yaw rate's unit and sign not told") == 1 and "not checked" not in err
+
+
 def test_predict_says_once_that_a_drive_without_gnss_was_not_unit_checked(bundle, tmp_path, capsys):
     from support.drives import write_iovnbd
 

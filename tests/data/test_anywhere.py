@@ -71,7 +71,7 @@ def setting():
         {
             col.canonical: sim.frame[col.header].to_numpy(np.float64) * col.to_si
             for col in LAYOUT
-            if col.canonical in (*c.REQUIRED, c.N_SATS)
+            if col.canonical in (*c.REQUIRED, c.N_SATS, c.YAW_RATE_RAD_S)
         }
     ).assign(**{c.SCENARIO: ""})
     return params, vehicle.nominal_radius_m, frame
@@ -216,7 +216,7 @@ def checked(params, frame: pd.DataFrame) -> dict:
         "columns": {},
     }
     found = schema_problems(frame, params.validate, "W-1.csv", {})
-    problems, result, radius, glitches = check_drive(params, entry, frame, found, [])
+    problems, result, units, glitches = check_drive(params, entry, frame, found, [])
     radius_m = params.nominal_radius_m("target")
     seconds = [segment_seconds(frame.iloc[s.row_start : s.row_stop]) for s in result.segments]
     labels = [
@@ -229,7 +229,8 @@ def checked(params, frame: pd.DataFrame) -> dict:
         "problems": problems,
         "segments": [(s.row_start, s.row_stop, s.start_s, s.end_s) for s in result.segments],
         "cuts": [(x.start_s, x.end_s, x.rule) for x in result.cuts],
-        "radius": radius,
+        "radius": units["radius"],
+        "yaw_rate": units["yaw_rate"],
         "glitches": glitches,
         "gnss": np.concatenate([sec.disp_gnss_m for sec in seconds]),
         "label": np.concatenate(labels),
@@ -267,5 +268,9 @@ def test_validate_s_per_drive_check_passes_a_relocated_drive_alike(
     assert got["glitches"] == want["glitches"]
     assert got["radius"]["checked"] and got["radius"]["moving_s"] == want["radius"]["moving_s"]
     assert got["radius"]["implied_m"] == pytest.approx(want["radius"]["implied_m"], rel=1e-7)
+    # the yaw rate's gain against the course: the same turns anywhere, the poles included
+    assert got["yaw_rate"]["checked"] and want["yaw_rate"]["checked"]
+    assert got["yaw_rate"]["seconds"] == want["yaw_rate"]["seconds"]
+    assert got["yaw_rate"]["gain"] == pytest.approx(want["yaw_rate"]["gain"], abs=1e-6)
     np.testing.assert_allclose(got["gnss"], want["gnss"], rtol=0, atol=TOL_M)
     np.testing.assert_allclose(got["label"], want["label"], rtol=0, atol=TOL_M)

@@ -8,6 +8,9 @@ import pytest
 from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.plausibility import (
+    YAW_FLAT_SPAN_RAD,
+    YAW_MIN_SECONDS,
+    YAW_MIN_STEP_M,
     implied_radius,
     latlon_swapped_by_range,
     negative_wheel_rows,
@@ -16,8 +19,11 @@ from rwhonet.data.plausibility import (
     stuck_wheel_runs,
     swapped_radius,
     wheel_gnss_runs,
+    yaw_gain,
+    yaw_mistake,
 )
 from rwhonet.data.quality import Segment
+from rwhonet.geo import latlon_from_offsets_deg
 from support.corpus import speed_profile_drive
 from support.drives import SOURCE_RADIUS_M, straight_drive
 
@@ -143,3 +149,116 @@ def test_stale_wheel_values_while_the_car_changes_speed():
     (run,) = wheel_gnss_runs(drive, seg, SOURCE_RADIUS_M, POLICY, 0.1)[1]
     assert (run.row_start, run.row_stop) == (100, 181)
     assert run.gnss_max_m_s - run.gnss_min_m_s > 5.0
+
+
+# ------------------------------------------------------------------------ the yaw rate
+
+
+def _turning_drive(
+    seconds: int = 300,
+    speed_m_s: float = 10.0,
+    fix_noise_m: float = 0.3,
+    gyro_scale: float = 1.0,
+    gyro_bias_rad_s: float = 0.005,
+    lat0: float = 52.4,
+    seed: int = 0,
+) -> dict[str, np.ndarray]:
+    """A car weaving at 10 m/s (yaw rate ±0.2 rad/s), its fixes noisy, its gyro biased."""
+    rng = np.random.default_rng(seed)
+    t = 45000.0 + np.arange(10 * seconds + 1) / 10.0
+    rate = 0.2 * np.sin(2.0 * np.pi * (t - t[0]) / 40.0)
+    heading = np.r_[0.0, np.cumsum(0.5 * (rate[1:] + rate[:-1]) * 0.1)]  # counter-clockwise
+    east = np.r_[0.0, np.cumsum(speed_m_s * 0.1 * -np.sin(heading[1:]))]
+    north = np.r_[0.0, np.cumsum(speed_m_s * 0.1 * np.cos(heading[1:]))]
+    east += rng.normal(0.0, fix_noise_m, east.size)
+    north += rng.normal(0.0, fix_noise_m, north.size)
+    lat, lon = latlon_from_offsets_deg(lat0, -1.5, east, north)
+    gyro = gyro_scale * rate + gyro_bias_rad_s + rng.normal(0.0, 0.002, t.size)
+    return {c.T_S: t, c.LAT_DEG: lat, c.LON_DEG: lon, c.YAW_RATE_RAD_S: gyro}
+
+
+def _whole(drive) -> list[Segment]:
+    t = drive[c.T_S]
+    return [Segment(0, t.size, start_s=float(t[0]), end_s=float(t[-1]))]
+
+
+def test_a_right_yaw_rate_turns_as_the_gnss_course_turns():
+    drive = _turning_drive()
+    est = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
+    assert est.seconds == 299  # every pair of consecutive seconds' chords (300 chords)
+    assert est.gain == pytest.approx(1.0, abs=4 * est.gain_se) and est.gain_se < 0.04
+    assert yaw_mistake(est, 0.25) == (True, None)
+    # a 3 % scale error is a gyro's own, not a mistake; the bias is taken out by the intercept
+    scaled = _turning_drive(gyro_scale=1.03, gyro_bias_rad_s=0.02)
+    est = yaw_gain(scaled, _whole(scaled), YAW_MIN_STEP_M, 0.1)
+    assert est.gain == pytest.approx(1 / 1.03, abs=4 * est.gain_se)
+    assert yaw_mistake(est, 0.25) == (True, None)
+
+
+@pytest.mark.parametrize(
+    "factor, what",
+    [
+        (-1.0, "positive turning right"),
+        (180.0 / np.pi, "in deg/s where rad/s was declared"),
+        (np.pi / 180.0, "in rad/s where deg/s was declared"),
+        (-180.0 / np.pi, "in deg/s where rad/s was declared, and positive turning right"),
+        (0.0, "never changes"),
+    ],
+)
+def test_a_wrong_yaw_rate_is_named_by_its_gain(factor, what):
+    drive = _turning_drive()
+    drive[c.YAW_RATE_RAD_S] = drive[c.YAW_RATE_RAD_S] * factor
+    est = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
+    checked, mistake = yaw_mistake(est, 0.25)
+    assert checked and what in mistake
+    if factor:
+        assert est.gain == pytest.approx(1.0 / factor, rel=0.1)
+
+
+def test_a_yaw_rate_of_another_drive_does_not_follow_the_course():
+    drive = _turning_drive()
+    other = _turning_drive(seed=1)
+    drive[c.YAW_RATE_RAD_S] = np.roll(other[c.YAW_RATE_RAD_S], 100)  # 10 s out of step
+    est = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
+    checked, mistake = yaw_mistake(est, 0.25)
+    assert checked and "does not follow" in mistake
+
+
+def test_a_straight_or_slow_drive_cannot_tell_and_says_so():
+    # straight (the gyro reads its noise): the gain's ±4 standard errors cover the band
+    drive = _turning_drive()
+    rng = np.random.default_rng(5)
+    t = drive[c.T_S]
+    east, north = 10.0 * (t - t[0]) * np.sin(0.3), 10.0 * (t - t[0]) * np.cos(0.3)
+    drive[c.LAT_DEG], drive[c.LON_DEG] = latlon_from_offsets_deg(
+        52.4, -1.5, east + rng.normal(0, 0.5, t.size), north + rng.normal(0, 0.5, t.size)
+    )
+    for sign in (1.0, -1.0):
+        drive[c.YAW_RATE_RAD_S] = sign * rng.normal(0.0, 0.002, t.size)
+        est = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
+        assert est.seconds == 299 and yaw_mistake(est, 0.25) == (False, None)
+    # slower than YAW_MIN_STEP_M a second: no chord has a course
+    slow = _turning_drive(speed_m_s=4.0)
+    est = yaw_gain(slow, _whole(slow), YAW_MIN_STEP_M, 0.1)
+    assert est.seconds < YAW_MIN_SECONDS and yaw_mistake(est, 0.25) == (False, None)
+    # zeros on a straight drive: a flat channel is refused only once the course turned
+    drive[c.YAW_RATE_RAD_S] = np.zeros_like(t)
+    est = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
+    assert est.course_span_rad < YAW_FLAT_SPAN_RAD and yaw_mistake(est, 0.25) == (False, None)
+
+
+def test_a_second_without_a_yaw_rate_drops_only_the_pairs_around_it():
+    drive = _turning_drive()
+    whole = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
+    drive[c.YAW_RATE_RAD_S][1000:1005] = np.nan  # half a second at t0 + 100 s
+    est = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
+    assert whole.seconds - 2 <= est.seconds < whole.seconds
+    assert est.gain == pytest.approx(whole.gain, abs=0.01)
+
+
+def test_the_yaw_check_is_the_same_near_a_pole():
+    home = _turning_drive()
+    pole = _turning_drive(lat0=89.95)  # 5.6 km from the North Pole
+    a = yaw_gain(home, _whole(home), YAW_MIN_STEP_M, 0.1)
+    b = yaw_gain(pole, _whole(pole), YAW_MIN_STEP_M, 0.1)
+    assert b.seconds == a.seconds and b.gain == pytest.approx(a.gain, abs=1e-3)

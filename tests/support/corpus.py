@@ -157,6 +157,34 @@ def good_target(duration_s: float = DURATION_S) -> pd.DataFrame:
     return _good(duration_s, TARGET_RADIUS_M, 52.41, 30.0).copy()
 
 
+YAW_COLUMN = " Yaw Rate (deg/sec)"
+
+
+def weaving_target(duration_s: float = DURATION_S) -> pd.DataFrame:
+    """A target test drive that turns: 15 m/s, yaw rate 0.2 sin(2π t / 40 s) rad/s (left
+    positive), from (52.41, -1.5); the yaw rate in its canonical unit (rad/s)."""
+    from rwhonet.geo import latlon_from_offsets_deg
+
+    t = np.round(T0 + 0.1 * np.arange(round(duration_s * 10) + 1), 6)
+    rate = 0.2 * np.sin(2.0 * np.pi * (t - T0) / 40.0)
+    heading = np.r_[0.0, np.cumsum(0.5 * (rate[1:] + rate[:-1]) * 0.1)]  # from north, left
+    # each 0.1 s step along the heading at its middle: the chord of the arc
+    mid = np.r_[0.0, 0.5 * (heading[1:] + heading[:-1])]
+    east = np.cumsum(15.0 * 0.1 * -np.sin(mid) * (np.arange(t.size) > 0))
+    north = np.cumsum(15.0 * 0.1 * np.cos(mid) * (np.arange(t.size) > 0))
+    lat, lon = latlon_from_offsets_deg(52.41, -1.5, east, north)
+    return pd.DataFrame(
+        {
+            c.T_S: t,
+            c.LAT_DEG: lat,
+            c.LON_DEG: lon,
+            **{w: np.full(t.size, 15.0 / TARGET_RADIUS_M) for w in c.WHEELS},
+            c.N_SATS: np.full(t.size, 9.0),
+            c.YAW_RATE_RAD_S: rate,
+        }
+    )
+
+
 def target_path(raw: Path) -> Path:
     return raw / "target_test" / FILE
 
@@ -915,6 +943,39 @@ def _(raw: Path) -> None:
     write_target(raw, df)
 
 
+@case(
+    "yaw_rate_clockwise",
+    "a turning drive whose yaw rate is positive turning right (a z-down gyro, SAE J670)",
+    Refuse("validate", None, YAW_COLUMN, "positive turning left (ISO 8855)", "turning right"),
+)
+def _(raw: Path) -> None:
+    df = weaving_target()
+    df[c.YAW_RATE_RAD_S] = -df[c.YAW_RATE_RAD_S]
+    write_target(raw, df)
+
+
+@case(
+    "yaw_rate_in_rad_s",
+    "a turning drive whose yaw-rate column (deg/s by the layout) holds rad/s",
+    Refuse("validate", None, YAW_COLUMN, "in the declared unit", "rad/s where deg/s"),
+)
+def _(raw: Path) -> None:
+    df = weaving_target()
+    df[c.YAW_RATE_RAD_S] = df[c.YAW_RATE_RAD_S] * (math.pi / 180.0)  # written as rad/s values
+    write_target(raw, df)
+
+
+@case(
+    "yaw_rate_zeros_while_turning",
+    "a turning drive whose yaw-rate column is 0 throughout (a log without a gyro)",
+    Refuse("validate", None, YAW_COLUMN, "in the declared unit", "never changes"),
+)
+def _(raw: Path) -> None:
+    df = weaving_target()
+    df[c.YAW_RATE_RAD_S] = 0.0
+    write_target(raw, df)
+
+
 # --------------------------------------------------------------------------- accepted
 
 
@@ -1069,3 +1130,29 @@ def _(raw: Path) -> None:
     df = good_target()
     df.loc[5::10, c.OMEGA_FR] *= 4.0
     write_target(raw, df)
+
+
+@case(
+    "turning_with_a_yaw_rate",
+    "a drive that turns (±0.2 rad/s), its yaw rate in deg/s positive left as the layout says",
+    Accept("the GNSS course turns as the yaw rate does: gain 1 (validation report: yaw_rate)"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, weaving_target())
+
+
+@case(
+    "yaw_rate_clockwise_declared",
+    "a column-mapped CSV whose gyro is positive clockwise, declared 'deg/s cw' in the map",
+    Accept("the map's unit turns it round: the GNSS course turns as the yaw rate does"),
+    **{
+        "data.column_maps.cupac": column_map_params(
+            CUPAC_MAP | {"yaw_rate": ("YawRate", "deg/s cw")}
+        ),
+        "data.roles.target_test": _CUPAC_ROLE,
+    },
+)
+def _(raw: Path) -> None:
+    write_columnmap(
+        weaving_target(), target_path(raw), CUPAC_MAP | {"yaw_rate": ("YawRate", "deg/s cw")}
+    )

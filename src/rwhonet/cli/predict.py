@@ -159,9 +159,10 @@ def run(
 
     The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
     against the GNSS distance, :class:`rwhonet.data.drivechecks.StreamRadiusCheck`), as
-    ``unit_check`` says (:class:`UnitCheck`; None: its defaults). No second is written
-    before the check has decided: a drive whose wheel speeds do not fit is refused with
-    nothing written, also on stdout.
+    ``unit_check`` says (:class:`UnitCheck`; None: its defaults), and a yaw rate's unit
+    and sign as validate checks them (the GNSS course's turn against it). No second is
+    written before the checks have decided: a drive whose wheel speeds do not fit, or
+    whose yaw rate turns the wrong way, is refused with nothing written, also on stdout.
     At most :data:`HOLD_MAX_S` seconds are held: a drive still undecided then (no fix
     yet) is written on, unchecked, with a note on stderr, and still refused (exit 2) if
     the check fails later.
@@ -253,6 +254,7 @@ def run(
         "glitches": stream.glitches,
         "stream_glitches": list(stream_glitches or []),
         "unit_note": unit_note,
+        "yaw_note": check.yaw_note,
     }
 
 
@@ -356,7 +358,7 @@ def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
     lines += glitch_lines(out.get("glitches", []), samples=out.get("stream_glitches"))
-    lines += [out["unit_note"]] if out.get("unit_note") else []
+    lines += [out[k] for k in ("unit_note", "yaw_note") if out.get(k)]
     for o in out["outages"]:
         if not o["seconds"]:
             lines.append(f"outage {o['outage']} s: no second of the drive falls in it")

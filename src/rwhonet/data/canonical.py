@@ -6,6 +6,8 @@ column names; everything downstream uses these names.
 
 from __future__ import annotations
 
+import math
+
 T_S = "t_s"  # time, s (monotonic within a drive)
 LAT_DEG = "lat_deg"  # WGS84 latitude, deg
 LON_DEG = "lon_deg"  # WGS84 longitude, deg
@@ -43,3 +45,11 @@ OPTIONAL = (
 
 G_M_S2 = 9.80665
 KMH_M_S = 1.0 / 3.6
+# A yaw rate's units in a column or signal map -> factor to rad/s, positive turning left
+# (ISO 8855, z up); "cw": a gyro positive clockwise (z down, SAE J670).
+YAW_RATE_UNITS = {
+    "rad/s": 1.0,
+    "deg/s": math.pi / 180.0,
+    "rad/s cw": -1.0,
+    "deg/s cw": -math.pi / 180.0,
+}

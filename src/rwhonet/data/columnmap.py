@@ -34,6 +34,8 @@ KEYS: dict[str, tuple[str, dict[str, float]]] = {
     "omega_rl": (c.OMEGA_RL, _WHEEL_UNITS),
     "omega_rr": (c.OMEGA_RR, _WHEEL_UNITS),
     "n_sats": (c.N_SATS, {"count": 1.0}),
+    # the navigation filter's gyro (validate checks its unit and sign against GNSS)
+    "yaw_rate": (c.YAW_RATE_RAD_S, c.YAW_RATE_UNITS),
 }
 REQUIRED_KEYS = tuple(k for k, (name, _) in KEYS.items() if name in c.REQUIRED)
 

@@ -1,4 +1,4 @@
-"""Plausibility of wheel speeds and positions: units, sign, stuck sensors, swapped coordinates.
+"""Plausibility of wheel speeds, yaw rate, positions: units, sign, stuck sensors, swapped axes.
 
 Wheel odometry gives a displacement ``x = ∫ ω r dt`` per second (paper Eq. 10). Over
 many seconds, GNSS distance / wheel angle is therefore an effective rolling radius
@@ -15,6 +15,12 @@ shows reversing as all four wheels negative together for a short while; those ro
 taken as magnitudes (:func:`reversing_rows`). And the four wheels of a moving
 car turn at nearly the same speed: a wheel reading zero while the others turn is a
 broken sensor or channel, whose feature the network would learn from.
+
+A yaw rate turns the car as the GNSS course turns (:func:`yaw_gain`): the gain of the
+course's turn on the gyro's is about 1 for a yaw rate in the declared unit and sign,
+-1 for a gyro positive clockwise (SAE J670's z down) read as ISO 8855's positive left,
+π/180 for degrees read as radians and 180/π the other way round, and about 0 for a
+channel that does not follow the car (zeros, another signal).
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.quality import Segment, second_index
 from rwhonet.geo import geodesic_distance_m, local_distance_m, local_step_distance_m
+from rwhonet.geo.geodesic import wgs84
 
 
 @dataclass(frozen=True)
@@ -69,18 +76,9 @@ def implied_radius(
     """
     t = np.asarray(drive[c.T_S], dtype=np.float64)
     wheel = 0.5 * (np.abs(np.asarray(drive[c.OMEGA_RL])) + np.abs(np.asarray(drive[c.OMEGA_RR])))
-    segment = np.full(t.size, -1)
-    for k, seg in enumerate(segments):  # per segment, not per sample
-        segment[seg.row_start : seg.row_stop] = k
-    sec = second_index(t, sample_period_s)
-    # Last row of each second inside a segment: the per-second fix.
-    last = np.flatnonzero(
-        (segment >= 0) & (np.r_[sec[1:] != sec[:-1], True] | (segment != np.r_[segment[1:], -1]))
-    )
-    if last.size < 2:
+    prev, this, _ = _second_chords(t, segments, sample_period_s)
+    if prev.size == 0:
         return RadiusEstimate(float("nan"), 0, 0.0, 0.0)
-    same = segment[last[1:]] == segment[last[:-1]]
-    prev, this = last[:-1][same], last[1:][same]
     # Cumulative wheel angle, so the angle between any two rows is one subtraction.
     angle = np.r_[0.0, np.cumsum(0.5 * (wheel[1:] + wheel[:-1]) * np.diff(t))]
     angle_s = angle[this] - angle[prev]
@@ -91,6 +89,173 @@ def implied_radius(
     total_m, total_rad = float(dist[moving].sum()), float(angle_s[moving].sum())
     radius = total_m / total_rad if total_rad > 0 else float("nan")
     return RadiusEstimate(radius, int(moving.sum()), total_m, total_rad)
+
+
+def _second_chords(
+    t: np.ndarray, segments: Sequence[Segment], sample_period_s: float | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of the fixes that end consecutive seconds inside one valid segment.
+
+    Returns:
+        ``(prev, this, seconds)``: for each chord, the row of the fix ending the earlier
+        second and of the one ending the later, and how many seconds apart they are
+        (more than 1 where a second has no row).
+    """
+    segment = np.full(t.size, -1)
+    for k, seg in enumerate(segments):  # per segment, not per sample
+        segment[seg.row_start : seg.row_stop] = k
+    sec = second_index(t, sample_period_s)
+    # Last row of each second inside a segment: the per-second fix.
+    last = np.flatnonzero(
+        (segment >= 0) & (np.r_[sec[1:] != sec[:-1], True] | (segment != np.r_[segment[1:], -1]))
+    )
+    if last.size < 2:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty, empty
+    same = segment[last[1:]] == segment[last[:-1]]
+    prev, this = last[:-1][same], last[1:][same]
+    return prev, this, sec[this] - sec[prev]
+
+
+@dataclass(frozen=True)
+class YawEstimate:
+    """How the GNSS course turned against the yaw rate (:func:`yaw_gain`)."""
+
+    gain: float  # course turn per gyro turn (NaN: too few seconds, or a gyro that never varied)
+    gain_se: float  # its standard error (inf when it cannot be told)
+    seconds: int  # pairs of seconds that entered the fit
+    # the span of the course's turns added up over them (max − min of their running sum:
+    # a straight drive's noise stays near 0, since within a stretch the sum telescopes)
+    course_span_rad: float
+
+
+# A mistake is told only when the gain lies this many standard errors from every gain
+# a right yaw rate could have (the fit's seconds are nearly independent: the course's
+# noise is white fix noise over one second).
+YAW_EVIDENCE_SE = 4.0
+YAW_MIN_SECONDS = 30  # pairs of seconds the fit needs before it may tell anything
+YAW_MIN_STEP_M = 5.0  # a chord shorter than this (a second slower than 5 m/s) has no course
+YAW_FLAT_SPAN_RAD = math.pi / 2  # a flat yaw rate is refused once the course swung this far
+
+
+@np.errstate(invalid="ignore", divide="ignore")
+def yaw_gain(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    min_step_m: float,
+    sample_period_s: float | None = None,
+) -> YawEstimate:
+    """The gain of the GNSS course's turn on the yaw rate's, over the valid segments.
+
+    Each whole second's fix (the last row of the second, as :func:`implied_radius`
+    takes it) and the next give a chord, a geodesic; two chords of consecutive seconds,
+    both at least ``min_step_m`` long, turn at the fix they share by ``Δcourse`` (the
+    second's azimuth leaving it less the first's arriving, clockwise from north), the
+    turn between their middle times, and the car's yaw (counter-clockwise, ISO
+    8855) turned by ``−Δcourse`` over the same interval. The yaw rate's angle over it is
+    the trapezoid integral of ``yaw_rate_rad_s``, read at the two middle times. The gain
+    is the least-squares slope of the course's yaw on the gyro's with an intercept (a
+    gyro's bias would otherwise pull the slope of a mostly straight drive towards 0);
+    the course carries the GNSS's noise, the gyro almost none, so the slope is not
+    diluted. A yaw rate in the declared unit and sign has a gain near 1.
+
+    Args:
+        drive: canonical columns (``t_s``, ``lat_deg``, ``lon_deg``, ``yaw_rate_rad_s``).
+        segments: the drive's GNSS-valid segments.
+        min_step_m: a chord shorter than this has no course worth the name.
+        sample_period_s: the nominal sample period (as :func:`implied_radius`).
+
+    Returns:
+        The estimate (``gain`` NaN with fewer than :data:`YAW_MIN_SECONDS` pairs, or a
+        yaw rate that never changed over them).
+    """
+    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    rate = np.asarray(drive[c.YAW_RATE_RAD_S], dtype=np.float64)
+    prev, this, gap = _second_chords(t, segments, sample_period_s)
+    if prev.size < 2:
+        return YawEstimate(float("nan"), math.inf, 0, 0.0)
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    # Each chord's azimuth where it leaves and where it arrives (its back azimuth turned
+    # round): two chords are compared at the fix they share, so the meridians' convergence
+    # (a straight geodesic's azimuth changes along it, by degrees per second near a pole)
+    # is no turn.
+    leave, back, dist = wgs84().inv(lon[prev], lat[prev], lon[this], lat[this])
+    leave = np.radians(np.asarray(leave, dtype=np.float64))
+    arrive = np.radians(np.asarray(back, dtype=np.float64)) + math.pi
+    chord = (gap == 1) & (np.asarray(dist) >= min_step_m)
+    mid = 0.5 * (t[prev] + t[this])
+    # Cumulative gyro angle: the angle between two times is one subtraction. A row
+    # without a yaw rate makes every angle after it NaN in a cumsum, so its intervals
+    # are taken as 0 and the pairs that span it dropped below.
+    step = 0.5 * (rate[1:] + rate[:-1]) * np.diff(t)
+    angle = np.r_[0.0, np.cumsum(np.where(np.isfinite(step), step, 0.0))]
+    missing = np.r_[0, np.cumsum(~np.isfinite(step))]
+    pair = chord[1:] & chord[:-1] & (this[:-1] == prev[1:])
+    a, b = mid[:-1][pair], mid[1:][pair]
+    pair_missing = np.interp(b, t, missing) - np.interp(a, t, missing)
+    x = np.interp(b, t, angle) - np.interp(a, t, angle)
+    y = -((leave[1:] - arrive[:-1] + math.pi) % (2.0 * math.pi) - math.pi)[pair]
+    keep = pair_missing == 0
+    x, y = x[keep], y[keep]
+    n = x.size
+    span = float(np.ptp(np.r_[0.0, np.cumsum(y)]))
+    if n < YAW_MIN_SECONDS or np.ptp(x) < 1e-9:  # too few, or one value (to the sum's rounding)
+        return YawEstimate(float("nan"), math.inf, n, span)
+    xc, yc = x - x.mean(), y - y.mean()
+    sxx = float(xc @ xc)
+    gain = float(xc @ yc) / sxx
+    resid = yc - gain * xc
+    se = math.sqrt(float(resid @ resid) / max(n - 2, 1) / sxx)
+    return YawEstimate(gain, se, n, span)
+
+
+# (what the yaw rate really is, the gain of the course's turn on it)
+_YAW_MISTAKES: tuple[tuple[str, float], ...] = (
+    ("positive turning right (a gyro positive clockwise, z down as in SAE J670)", -1.0),
+    ("in deg/s where rad/s was declared", math.pi / 180.0),
+    ("in rad/s where deg/s was declared", 180.0 / math.pi),
+    ("in deg/s where rad/s was declared, and positive turning right", -math.pi / 180.0),
+    ("in rad/s where deg/s was declared, and positive turning right", -180.0 / math.pi),
+)
+
+
+def yaw_mistake(est: YawEstimate, tolerance: float) -> tuple[bool, str | None]:
+    """Whether a yaw estimate tells anything, and what is wrong when something is.
+
+    A right yaw rate has a gain within ``[1 / (1 + tolerance), 1 + tolerance]`` (a gyro's
+    scale error is a few percent; the built-in drives give 0.92-1.02). The yaw rate is
+    told wrong only when its gain lies :data:`YAW_EVIDENCE_SE` standard errors outside
+    that band; then the mistake is named (a gain within the same band around -1, π/180,
+    180/π or their negatives, and told from 0), or the channel does not follow the car.
+    A channel that holds one value while the course swung through
+    :data:`YAW_FLAT_SPAN_RAD` or more is no yaw rate (zeros where a log had none?).
+
+    Args:
+        est: :func:`yaw_gain`'s estimate.
+        tolerance: ``validate.yaw_gain_tolerance``.
+
+    Returns:
+        ``(checked, mistake)``: ``checked`` False when the seconds were too few, or the
+        drive turned too little, to tell (the gain's ±4 standard errors wider than the
+        band); ``mistake`` None when nothing is wrong.
+    """
+    if est.seconds < YAW_MIN_SECONDS:
+        return False, None
+    if math.isnan(est.gain):  # the yaw rate never changed over the fit's seconds
+        if est.course_span_rad >= YAW_FLAT_SPAN_RAD:
+            return True, "never changes: one value while the course turned"
+        return False, None
+    low, high = 1.0 / (1.0 + tolerance), 1.0 + tolerance
+    margin = YAW_EVIDENCE_SE * est.gain_se
+    if est.gain + margin >= low and est.gain - margin <= high:
+        return 2.0 * margin <= high - low, None
+    if abs(est.gain) > margin:  # the channel follows the course, in some unit and sign
+        for what, gain in _YAW_MISTAKES:
+            lo, hi = sorted((gain * low, gain * high))
+            if est.gain + margin >= lo and est.gain - margin <= hi:
+                return True, f"looks {what}"
+    return True, "does not follow the GNSS course (another signal, or another drive's?)"
 
 
 # (unit the wheel speeds are really in, the sign of it, implied radius / nominal radius if

@@ -28,7 +28,6 @@ the wheel, GNSS and other streams :func:`rwhonet.data.streams.resample` takes.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -45,12 +44,6 @@ from rwhonet.data.streams import (
 from rwhonet.errors import InputError, Problem
 
 _SPEED = {"m/s": 1.0, "km/h": c.KMH_M_S, "mph": 0.44704}
-_RATE = {
-    "rad/s": 1.0,
-    "deg/s": math.pi / 180.0,
-    "rad/s cw": -1.0,
-    "deg/s cw": -math.pi / 180.0,
-}
 WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys, in order
 # Key -> (canonical name, {unit: factor to SI}); wheel speeds: WHEEL_UNITS via the radius.
 KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
@@ -62,7 +55,7 @@ KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     "speed_gnss": (c.SPEED_GNSS_M_S, _SPEED),
     "heading": (c.HEADING_DEG, {"deg": 1.0}),
     "height": (c.HEIGHT_M, {"m": 1.0, "km": 1000.0}),
-    "yaw_rate": (c.YAW_RATE_RAD_S, _RATE),
+    "yaw_rate": (c.YAW_RATE_RAD_S, c.YAW_RATE_UNITS),
     "speed_vehicle": (c.SPEED_VEHICLE_M_S, _SPEED),
     "acc_lon": (c.ACC_LON_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
     "acc_lat": (c.ACC_LAT_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),

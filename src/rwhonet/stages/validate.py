@@ -138,12 +138,12 @@ def validate(
                 """Drive k of the batch: its checks, and its segments written (in a thread)."""
                 entry, table = batch.entries[k], batch.tables[k]
                 df = batch.drive_frame(k)
-                found, result, radius, glitches = check_drive(
+                found, result, units, glitches = check_drive(
                     params, entry, df, found_by_drive[k], cuts.get(entry["drive"], [])
                 )
                 if found:
                     return found, _refused_report(entry, result, found, glitches), []
-                report = _drive_report(entry, result, radius, glitches)
+                report = _drive_report(entry, result, units, glitches)
                 # rows a signing logger recorded as reversing (the label takes magnitudes)
                 report["signed_reversing_rows"] = int(
                     reversing_rows(df, vp.wheels.negative_tol_rad_s).sum()
@@ -316,7 +316,7 @@ def _refused_report(
 def _drive_report(
     entry: dict[str, Any],
     result: Assessment,
-    radius: dict[str, Any],
+    units: dict[str, Any],
     glitches: dict[str, Any] | None = None,
 ) -> dict:
     report = {
@@ -350,7 +350,8 @@ def _drive_report(
         ],
         "cut_seconds_by_rule": result.cut_seconds_by_rule,
         "cut_rows_by_rule": result.cut_rows_by_rule,
-        "radius": radius,
+        "radius": units["radius"],
+        "yaw_rate": units["yaw_rate"],
     }
     if glitches is not None:  # only when a row glitched (its seconds: the wheel_glitch cuts)
         report["wheel_glitches"] = glitches
