@@ -290,8 +290,8 @@ def yaw_problems(
 
     Returns:
         ``(problems, record)``: the record as validate reports it (``checked``, the gain
-        and its standard error, the pairs of seconds, how far GNSS turned, and a note
-        when not checked).
+        and its standard error, the pairs of seconds, the span the course swung through,
+        and a note when not checked).
     """
     if c.YAW_RATE_RAD_S not in df or not np.isfinite(np.asarray(df[c.YAW_RATE_RAD_S])).any():
         return [], {"checked": False, "note": "no yaw rate"}
