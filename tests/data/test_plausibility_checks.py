@@ -7,6 +7,7 @@ import pytest
 
 from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data import plausibility
 from rwhonet.data.plausibility import (
     YAW_FLAT_SPAN_RAD,
     YAW_MIN_SECONDS,
@@ -162,11 +163,12 @@ def _turning_drive(
     gyro_bias_rad_s: float = 0.005,
     lat0: float = 52.4,
     seed: int = 0,
+    turn_rad_s: float = 0.2,
 ) -> dict[str, np.ndarray]:
     """A car weaving at 10 m/s (yaw rate ±0.2 rad/s), its fixes noisy, its gyro biased."""
     rng = np.random.default_rng(seed)
     t = 45000.0 + np.arange(10 * seconds + 1) / 10.0
-    rate = 0.2 * np.sin(2.0 * np.pi * (t - t[0]) / 40.0)
+    rate = turn_rad_s * np.sin(2.0 * np.pi * (t - t[0]) / 40.0)
     heading = np.r_[0.0, np.cumsum(0.5 * (rate[1:] + rate[:-1]) * 0.1)]  # counter-clockwise
     east = np.r_[0.0, np.cumsum(speed_m_s * 0.1 * -np.sin(heading[1:]))]
     north = np.r_[0.0, np.cumsum(speed_m_s * 0.1 * np.cos(heading[1:]))]
@@ -193,6 +195,24 @@ def test_a_right_yaw_rate_turns_as_the_gnss_course_turns():
     est = yaw_gain(scaled, _whole(scaled), YAW_MIN_STEP_M, 0.1)
     assert est.gain == pytest.approx(1 / 1.03, abs=4 * est.gain_se)
     assert yaw_mistake(est, 0.25) == (True, None)
+
+
+def test_a_drifting_gyro_bias_does_not_pull_the_gain(monkeypatch):
+    """Each block of YAW_BLOCK_S its own intercept: a bias that warms up (the gyro's own
+    error term) is no turn, also on a drive that hardly turns (a motorway's ±0.02 rad/s)."""
+    gentle = _turning_drive(seconds=900, turn_rad_s=0.02, fix_noise_m=0.05)
+    steady = yaw_gain(gentle, _whole(gentle), YAW_MIN_STEP_M, 0.1)
+    t = gentle[c.T_S] - gentle[c.T_S][0]
+    warm = dict(gentle)
+    warm[c.YAW_RATE_RAD_S] = gentle[c.YAW_RATE_RAD_S] + 0.03 * (1.0 - np.exp(-t / 600.0))
+    drifting = yaw_gain(warm, _whole(warm), YAW_MIN_STEP_M, 0.1)
+    assert steady.gain == pytest.approx(1.0, abs=4 * steady.gain_se)
+    assert drifting.gain == pytest.approx(steady.gain, abs=0.03)
+    assert yaw_mistake(drifting, 0.25) == (True, None)
+    # one intercept for the whole drive: the warm-up pulls the gain down
+    monkeypatch.setattr(plausibility, "YAW_BLOCK_S", 1e9)
+    one = yaw_gain(warm, _whole(warm), YAW_MIN_STEP_M, 0.1)
+    assert one.gain < steady.gain - 0.15
 
 
 @pytest.mark.parametrize(
