@@ -130,8 +130,9 @@ class YawEstimate:
 
 
 # A mistake is told only when the gain lies this many standard errors from every gain
-# a right yaw rate could have (the fit's seconds are nearly independent: the course's
-# noise is white fix noise over one second).
+# a right yaw rate could have. The standard error is least squares' for independent
+# pairs; the course's noise is the difference of two chords' (consecutive pairs share a
+# chord), which for a smooth yaw rate makes the true one smaller: it errs on the safe side.
 YAW_EVIDENCE_SE = 4.0
 YAW_MIN_SECONDS = 30  # pairs of seconds the fit needs before it may tell anything
 YAW_MIN_STEP_M = 5.0  # a chord shorter than this (a second slower than 5 m/s) has no course
