@@ -424,6 +424,58 @@ def test_predict_refuses_a_clockwise_yaw_rate_as_validate_does_and_writes_nothin
     assert err.count("yaw rate's unit and sign not told") == 1 and "not checked" not in err
 
 
+@pytest.mark.parametrize("unit, refused", [("deg/s cw", False), ("deg/s", True)])
+def test_predict_takes_a_stream_drive_s_yaw_rate_to_its_check_and_filter(
+    bundle, tmp_path, capsys, unit, refused
+):
+    """An MDF4 drive read whole: its yaw rate reaches predict as a 10 Hz file's does (the
+    unit check, and the filter: fused, not wheels alone). The gyro is positive clockwise."""
+    from asammdf import MDF, Signal
+
+    from rwhonet.data import canonical as c
+    from support.corpus import TARGET_RADIUS_M, weaving_target
+
+    df = weaving_target()
+    t = df[c.T_S].to_numpy() - df[c.T_S].iloc[0]
+    mdf = MDF(version="4.10")
+    names = ("WheelSpeed_FL", "WheelSpeed_FR", "WheelSpeed_RL", "WheelSpeed_RR")
+    mdf.append(
+        [
+            Signal(df[w].to_numpy(), t, name=n, unit="rad/s")
+            for w, n in zip(c.WHEELS, names, strict=True)
+        ]
+        + [Signal(-np.degrees(df[c.YAW_RATE_RAD_S].to_numpy()), t, name="YawRate", unit="deg/s")]
+    )
+    mdf.append(
+        [
+            Signal(df[c.LAT_DEG].to_numpy(), t, name="Latitude", unit="deg"),
+            Signal(df[c.LON_DEG].to_numpy(), t, name="Longitude", unit="deg"),
+        ]
+    )
+    drive = tmp_path / "drive.mf4"
+    mdf.save(drive, overwrite=True)
+    mdf.close()
+    signal_map = tmp_path / "map.yaml"
+    signal_map.write_text(
+        "".join(
+            f"omega_{w}: {{column: WheelSpeed_{w.upper()}, unit: rad/s}}\n"
+            for w in ("fl", "fr", "rl", "rr")
+        )
+        + "lat: {column: Latitude, unit: deg}\nlon: {column: Longitude, unit: deg}\n"
+        + f"yaw_rate: {{column: YawRate, unit: {unit}}}\n"
+    )
+    out = tmp_path / "p.csv"
+    args = ["--format", "mdf4", "--signal-map", str(signal_map)]
+    args += ["--nominal-radius", str(TARGET_RADIUS_M), "--outage", "60:120"]
+    assert main(predict_args(bundle, drive, out, *args)) == (2 if refused else 0)
+    err = capsys.readouterr().err
+    if refused:
+        assert "YawRate" in err and "positive turning right" in err and not out.exists()
+    else:
+        assert "yaw rate's unit and sign not told" not in err
+        assert "yaw: gyro + wheels" in err  # the outage's summary: the gyro was used
+
+
 def test_predict_says_once_that_a_drive_without_gnss_was_not_unit_checked(bundle, tmp_path, capsys):
     from support.drives import write_iovnbd
 

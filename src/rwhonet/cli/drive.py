@@ -402,13 +402,15 @@ def canonical_blocks(
         channel)``; empty for a 10 Hz drive).
     """
     from rwhonet.data import canonical as c
-    from rwhonet.data.incremental import CHANNELS, placed
+    from rwhonet.data.incremental import CHANNELS, OPTIONAL_CHANNELS, placed
     from rwhonet.data.timebase import StreamClock
     from rwhonet.serve.stream import GLITCH_FLAG
 
     drive = read_drive_file(path, params, vehicle, fmt)
     raw, facts = drive.raw, drive.streams
-    columns = {name: raw.columns[name] for name in CHANNELS}
+    # as a 10 Hz file's layout: the yaw rate too where the log has it (the filter's gyro)
+    carried = (*CHANNELS, *(name for name in OPTIONAL_CHANNELS if name in raw.columns))
+    columns = {name: raw.columns[name] for name in carried}
     n = columns[c.T_S].size
     samples = []
     if facts is not None and facts.glitch_samples:
@@ -420,7 +422,7 @@ def canonical_blocks(
             yield a + 1, {k: v[a : a + rows] for k, v in columns.items()}
 
     clock = StreamClock(params.validate.sample_period_s)
-    names = {name: raw.source_columns.get(name, name) for name in CHANNELS}
+    names = {name: raw.source_columns.get(name, name) for name in carried}
     return names, placed(blocks(), clock), samples
 
 
