@@ -25,7 +25,7 @@ from rwhonet.data.plausibility import (
 )
 from rwhonet.data.quality import Segment
 from rwhonet.geo import latlon_from_offsets_deg
-from support.corpus import speed_profile_drive
+from support.corpus import speed_profile_drive, weaving_drive
 from support.drives import SOURCE_RADIUS_M, straight_drive
 
 POLICY = WheelPolicy(
@@ -166,17 +166,17 @@ def _turning_drive(
     turn_rad_s: float = 0.2,
 ) -> dict[str, np.ndarray]:
     """A car weaving at 10 m/s (yaw rate ±0.2 rad/s), its fixes noisy, its gyro biased."""
-    rng = np.random.default_rng(seed)
-    t = 45000.0 + np.arange(10 * seconds + 1) / 10.0
-    rate = turn_rad_s * np.sin(2.0 * np.pi * (t - t[0]) / 40.0)
-    heading = np.r_[0.0, np.cumsum(0.5 * (rate[1:] + rate[:-1]) * 0.1)]  # counter-clockwise
-    east = np.r_[0.0, np.cumsum(speed_m_s * 0.1 * -np.sin(heading[1:]))]
-    north = np.r_[0.0, np.cumsum(speed_m_s * 0.1 * np.cos(heading[1:]))]
-    east += rng.normal(0.0, fix_noise_m, east.size)
-    north += rng.normal(0.0, fix_noise_m, north.size)
-    lat, lon = latlon_from_offsets_deg(lat0, -1.5, east, north)
-    gyro = gyro_scale * rate + gyro_bias_rad_s + rng.normal(0.0, 0.002, t.size)
-    return {c.T_S: t, c.LAT_DEG: lat, c.LON_DEG: lon, c.YAW_RATE_RAD_S: gyro}
+    df = weaving_drive(
+        seconds,
+        speed_m_s,
+        turn_rad_s,
+        lat0,
+        fix_noise_m=fix_noise_m,
+        gyro_scale=gyro_scale,
+        gyro_bias_rad_s=gyro_bias_rad_s,
+        seed=seed,
+    )
+    return {k: df[k].to_numpy(copy=True) for k in (c.T_S, c.LAT_DEG, c.LON_DEG, c.YAW_RATE_RAD_S)}
 
 
 def _whole(drive) -> list[Segment]:

@@ -160,29 +160,53 @@ def good_target(duration_s: float = DURATION_S) -> pd.DataFrame:
 YAW_COLUMN = " Yaw Rate (deg/sec)"
 
 
-def weaving_target(duration_s: float = DURATION_S) -> pd.DataFrame:
-    """A target test drive that turns: 15 m/s, yaw rate 0.2 sin(2π t / 40 s) rad/s (left
-    positive), from (52.41, -1.5); the yaw rate in its canonical unit (rad/s)."""
+def weaving_drive(
+    duration_s: float,
+    speed_m_s: float = 15.0,
+    turn_rad_s: float = 0.2,
+    lat0_deg: float = 52.41,
+    radius_m: float = TARGET_RADIUS_M,
+    fix_noise_m: float = 0.0,
+    gyro_scale: float = 1.0,
+    gyro_bias_rad_s: float = 0.0,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """A drive that weaves: yaw rate ``turn_rad_s · sin(2π t / 40 s)`` (left positive) at a
+    constant speed from ``(lat0_deg, -1.5)``, 10 Hz from T0; the fixes with white noise,
+    the yaw-rate column (rad/s) the true rate times ``gyro_scale`` plus a bias and, when
+    the fixes are noisy, 0.002 rad/s of white noise."""
     from rwhonet.geo import latlon_from_offsets_deg
 
+    rng = np.random.default_rng(seed)
     t = np.round(T0 + 0.1 * np.arange(round(duration_s * 10) + 1), 6)
-    rate = 0.2 * np.sin(2.0 * np.pi * (t - T0) / 40.0)
+    rate = turn_rad_s * np.sin(2.0 * np.pi * (t - T0) / 40.0)
     heading = np.r_[0.0, np.cumsum(0.5 * (rate[1:] + rate[:-1]) * 0.1)]  # from north, left
     # each 0.1 s step along the heading at its middle: the chord of the arc
     mid = np.r_[0.0, 0.5 * (heading[1:] + heading[:-1])]
-    east = np.cumsum(15.0 * 0.1 * -np.sin(mid) * (np.arange(t.size) > 0))
-    north = np.cumsum(15.0 * 0.1 * np.cos(mid) * (np.arange(t.size) > 0))
-    lat, lon = latlon_from_offsets_deg(52.41, -1.5, east, north)
+    east = np.cumsum(speed_m_s * 0.1 * -np.sin(mid) * (np.arange(t.size) > 0))
+    north = np.cumsum(speed_m_s * 0.1 * np.cos(mid) * (np.arange(t.size) > 0))
+    gyro = gyro_scale * rate + gyro_bias_rad_s
+    if fix_noise_m > 0.0:
+        east = east + rng.normal(0.0, fix_noise_m, t.size)
+        north = north + rng.normal(0.0, fix_noise_m, t.size)
+        gyro = gyro + rng.normal(0.0, 0.002, t.size)
+    lat, lon = latlon_from_offsets_deg(lat0_deg, -1.5, east, north)
     return pd.DataFrame(
         {
             c.T_S: t,
             c.LAT_DEG: lat,
             c.LON_DEG: lon,
-            **{w: np.full(t.size, 15.0 / TARGET_RADIUS_M) for w in c.WHEELS},
+            **{w: np.full(t.size, speed_m_s / radius_m) for w in c.WHEELS},
             c.N_SATS: np.full(t.size, 9.0),
-            c.YAW_RATE_RAD_S: rate,
+            c.YAW_RATE_RAD_S: gyro,
         }
     )
+
+
+def weaving_target(duration_s: float = DURATION_S) -> pd.DataFrame:
+    """A target test drive that turns: 15 m/s, yaw rate 0.2 sin(2π t / 40 s) rad/s (left
+    positive), from (52.41, -1.5), exact fixes; the yaw rate in its canonical unit (rad/s)."""
+    return weaving_drive(duration_s)
 
 
 def target_path(raw: Path) -> Path:

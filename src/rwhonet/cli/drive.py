@@ -402,14 +402,13 @@ def canonical_blocks(
         channel)``; empty for a 10 Hz drive).
     """
     from rwhonet.data import canonical as c
-    from rwhonet.data.incremental import CHANNELS, OPTIONAL_CHANNELS, placed
+    from rwhonet.data.incremental import carried_channels, placed
     from rwhonet.data.timebase import StreamClock
     from rwhonet.serve.stream import GLITCH_FLAG
 
     drive = read_drive_file(path, params, vehicle, fmt)
     raw, facts = drive.raw, drive.streams
-    # as a 10 Hz file's layout: the yaw rate too where the log has it (the filter's gyro)
-    carried = (*CHANNELS, *(name for name in OPTIONAL_CHANNELS if name in raw.columns))
+    carried = carried_channels(raw.columns)  # as a 10 Hz file's: the yaw rate where it has one
     columns = {name: raw.columns[name] for name in carried}
     n = columns[c.T_S].size
     samples = []

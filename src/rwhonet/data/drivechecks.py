@@ -304,15 +304,15 @@ def yaw_problems(
         "seconds": est.seconds,
         "course_span_deg": float(np.degrees(est.course_span_rad)),
     }
-    if not checked:
+    if not checked and est.seconds < YAW_MIN_SECONDS:
         record["note"] = (
-            f"only {est.seconds} pairs of seconds at >= {YAW_MIN_STEP_M:g} m/s in valid segments "
-            f"(< {YAW_MIN_SECONDS})"
-            if est.seconds < YAW_MIN_SECONDS
-            else f"turned too little to tell (gain {est.gain:.3g} ± {est.gain_se:.2g})"
-            if np.isfinite(est.gain_se)
-            else "the yaw rate never changed, nor did the course turn enough to tell"
+            f"only {est.seconds} pairs of seconds at >= {YAW_MIN_STEP_M:g} m/s in valid "
+            f"segments (< {YAW_MIN_SECONDS})"
         )
+    elif not checked and np.isfinite(est.gain_se):
+        record["note"] = f"turned too little to tell (gain {est.gain:.3g} ± {est.gain_se:.2g})"
+    elif not checked:
+        record["note"] = "the yaw rate never changed, nor did the course turn enough to tell"
     if mistake is None:
         return [], record
     column = entry["columns"].get(c.YAW_RATE_RAD_S, c.YAW_RATE_RAD_S)

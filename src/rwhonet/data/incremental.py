@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Iterator, Mapping
+from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass
 from typing import BinaryIO
 
@@ -36,6 +36,11 @@ MISSING = {"", "nan", "na", "n/a", "null", "none", "-nan"}
 CHANNELS = c.REQUIRED  # what a second needs: time, fix, four wheel speeds
 # Read too where the layout has them: the yaw rate (predict's navigation filter).
 OPTIONAL_CHANNELS = (c.YAW_RATE_RAD_S,)
+
+
+def carried_channels(available: Collection[str]) -> tuple[str, ...]:
+    """What predict reads of a drive: :data:`CHANNELS`, and each optional one it has."""
+    return (*CHANNELS, *(name for name in OPTIONAL_CHANNELS if name in available))
 
 
 @dataclass(frozen=True)
@@ -79,7 +84,7 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         by_key = columnmap_positions(header, column_map or {}, fmt, file)
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
         factors = {KEYS[key][0]: KEYS[key][1][column_map[key].unit] for key in by_key}
-    wanted = (*CHANNELS, *(name for name in OPTIONAL_CHANNELS if name in positions))
+    wanted = carried_channels(positions)
     positions = {name: positions[name] for name in wanted}
     return Layout(
         n_columns=len(header),
