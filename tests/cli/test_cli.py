@@ -356,21 +356,24 @@ def test_predict_refuses_km_h_labelled_rad_s_as_validate_does_and_writes_nothing
     assert "look like km/h" in rc.stderr.decode()
 
 
-def test_predict_refuses_an_mdf4_whose_rad_s_are_labelled_km_h(bundle, tmp_path, capsys):
+def _mdf4_drive(tmp_path, df, wheel_unit: str, yaw_unit: str | None = None):
+    """The drive as an MDF4 file (wheel speeds and a yaw rate in deg/s in one group, the
+    fixes in another) and its signal map, which declares the wheels' and yaw rate's units."""
     from asammdf import MDF, Signal
 
     from rwhonet.data import canonical as c
 
-    df = _rav4_drive()
     t = df[c.T_S].to_numpy() - df[c.T_S].iloc[0]
     names = ("WheelSpeed_FL", "WheelSpeed_FR", "WheelSpeed_RL", "WheelSpeed_RR")
     mdf = MDF(version="4.10")
-    mdf.append(
-        [
-            Signal(df[w].to_numpy(), t, name=n, unit="km/h")
-            for w, n in zip(c.WHEELS, names, strict=True)
-        ]
-    )
+    first = [
+        Signal(df[w].to_numpy(), t, name=n, unit=wheel_unit)
+        for w, n in zip(c.WHEELS, names, strict=True)
+    ]
+    if yaw_unit is not None:
+        yaw = np.degrees(df[c.YAW_RATE_RAD_S].to_numpy())
+        first.append(Signal(yaw, t, name="YawRate", unit="deg/s"))
+    mdf.append(first)
     mdf.append(
         [
             Signal(df[c.LAT_DEG].to_numpy(), t, name="Latitude", unit="deg"),
@@ -383,11 +386,17 @@ def test_predict_refuses_an_mdf4_whose_rad_s_are_labelled_km_h(bundle, tmp_path,
     signal_map = tmp_path / "map.yaml"
     signal_map.write_text(
         "".join(
-            f"omega_{w}: {{column: WheelSpeed_{w.upper()}, unit: km/h}}\n"
+            f"omega_{w}: {{column: WheelSpeed_{w.upper()}, unit: {wheel_unit}}}\n"
             for w in ("fl", "fr", "rl", "rr")
         )
         + "lat: {column: Latitude, unit: deg}\nlon: {column: Longitude, unit: deg}\n"
+        + (f"yaw_rate: {{column: YawRate, unit: {yaw_unit}}}\n" if yaw_unit else "")
     )
+    return drive, signal_map
+
+
+def test_predict_refuses_an_mdf4_whose_rad_s_are_labelled_km_h(bundle, tmp_path, capsys):
+    drive, signal_map = _mdf4_drive(tmp_path, _rav4_drive(), "km/h")
     out = tmp_path / "p.csv"
     fmt = ["--format", "mdf4", "--signal-map", str(signal_map), "--nominal-radius", str(RAV4_M)]
     assert main(predict_args(bundle, drive, out, *fmt)) == 2
@@ -430,40 +439,12 @@ def test_predict_takes_a_stream_drive_s_yaw_rate_to_its_check_and_filter(
 ):
     """An MDF4 drive read whole: its yaw rate reaches predict as a 10 Hz file's does (the
     unit check, and the filter: fused, not wheels alone). The gyro is positive clockwise."""
-    from asammdf import MDF, Signal
-
     from rwhonet.data import canonical as c
     from support.corpus import TARGET_RADIUS_M, weaving_target
 
     df = weaving_target()
-    t = df[c.T_S].to_numpy() - df[c.T_S].iloc[0]
-    mdf = MDF(version="4.10")
-    names = ("WheelSpeed_FL", "WheelSpeed_FR", "WheelSpeed_RL", "WheelSpeed_RR")
-    mdf.append(
-        [
-            Signal(df[w].to_numpy(), t, name=n, unit="rad/s")
-            for w, n in zip(c.WHEELS, names, strict=True)
-        ]
-        + [Signal(-np.degrees(df[c.YAW_RATE_RAD_S].to_numpy()), t, name="YawRate", unit="deg/s")]
-    )
-    mdf.append(
-        [
-            Signal(df[c.LAT_DEG].to_numpy(), t, name="Latitude", unit="deg"),
-            Signal(df[c.LON_DEG].to_numpy(), t, name="Longitude", unit="deg"),
-        ]
-    )
-    drive = tmp_path / "drive.mf4"
-    mdf.save(drive, overwrite=True)
-    mdf.close()
-    signal_map = tmp_path / "map.yaml"
-    signal_map.write_text(
-        "".join(
-            f"omega_{w}: {{column: WheelSpeed_{w.upper()}, unit: rad/s}}\n"
-            for w in ("fl", "fr", "rl", "rr")
-        )
-        + "lat: {column: Latitude, unit: deg}\nlon: {column: Longitude, unit: deg}\n"
-        + f"yaw_rate: {{column: YawRate, unit: {unit}}}\n"
-    )
+    df[c.YAW_RATE_RAD_S] = -df[c.YAW_RATE_RAD_S]  # positive clockwise
+    drive, signal_map = _mdf4_drive(tmp_path, df, "rad/s", unit)
     out = tmp_path / "p.csv"
     args = ["--format", "mdf4", "--signal-map", str(signal_map)]
     args += ["--nominal-radius", str(TARGET_RADIUS_M), "--outage", "60:120"]
