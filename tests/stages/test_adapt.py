@@ -212,6 +212,30 @@ def test_the_outputs_do_not_depend_on_the_number_of_workers(
     assert outputs[1] == outputs[2] == outputs[3]
 
 
+def test_the_shrink_evidence_is_measured_on_one_thread(
+    tmp_path, samples_dir, params, calibration, monkeypatch
+):
+    """G's predictions for the evidence run in the stage's own process on one thread, as
+    every job does: MKL sums in an order fixed only by a fixed thread count."""
+    from rwhonet.stages import adapt as stage
+
+    seen = []
+    measure = stage.Evidence.measure.__func__
+
+    def spy(cls, *args, **kwargs):
+        seen.append(torch.get_num_threads())
+        return measure(cls, *args, **kwargs)
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        monkeypatch.setattr(stage.Evidence, "measure", classmethod(spy))
+        adapt_grid(params, 7, samples_dir, calibration, write_g(tmp_path / "g", 8), tmp_path / "r")
+        assert seen == [1] and torch.get_num_threads() == 2  # and the process's own again
+    finally:
+        torch.set_num_threads(before)
+
+
 @pytest.mark.slow  # a fresh interpreter importing torch and pandas
 def test_the_stage_process_never_imports_lightning(tmp_path, samples_dir, g_dir, calibration):
     code = f"""

@@ -59,7 +59,7 @@ from rwhonet.features.calibration import calibration_from_dict
 from rwhonet.features.samples import SampleSet
 from rwhonet.io import atomic_dir, read_json, write_json
 from rwhonet.progress import track
-from rwhonet.stages.cores import cores_for, map_on_cores, workers_for
+from rwhonet.stages.cores import cores_for, map_on_cores, one_thread_here, workers_for
 from rwhonet.stages.model_outputs import history_rows, model_params, predictions_frame
 from rwhonet.stages.sample_files import load_role
 from rwhonet.tracking.records import RunRecord, Timing, now_ms
@@ -343,9 +343,13 @@ def adapt_grid(
     }
     check_lengths(samples[contracts.TARGET_TEST], cfg.m_grid)
     radii = (cal.r_rl_m, cal.r_rr_m)
-    evidence = Evidence.measure(
-        params, samples_dir, samples[contracts.TARGET_TRAIN], g_net, g_hparams, radii
-    )
+    # G's predictions for the evidence run here, in this process: on one thread, as every
+    # job does (cores), so that MKL cannot take fewer threads than asked under load and
+    # sum in another order (Intel's reproducibility conditions: a fixed thread count)
+    with one_thread_here():
+        evidence = Evidence.measure(
+            params, samples_dir, samples[contracts.TARGET_TRAIN], g_net, g_hparams, radii
+        )
     recipes = [r for r in cfg.recipes if r not in CONTINUOUS_RECIPES]
     tasks = [
         Task(role, r, m, d)
