@@ -286,6 +286,35 @@ def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_d
     assert receiver["configured_sigma_m"] == configured
 
 
+def test_a_continuous_recipe_as_r_wh_onet_gets_its_crse_prediction(samples_dir, params):
+    """The rule may choose a continuous recipe (it did on a large_target_consumer world of
+    another simulator seed); its CRSE prediction is fitted on its training windows' own
+    errors (no filter runs on it: no distance before a window)."""
+    from rwhonet.evaluation.uncertainty import FitEvidence
+
+    recipe = "continuous"
+    p = dataclasses.replace(params, adapt=dataclasses.replace(params.adapt, recipe=recipe))
+    frame = _frame(samples_dir)
+    train = load_role(samples_dir, "target_train", seq_len=1).frame
+    label = train["label_m"].to_numpy()
+    noise = np.random.default_rng(5).normal(0.0, 0.05, (len(p.evaluate.outages_s), len(label)))
+    cols = {"G": label - 0.1, "S": label, "R[paper]@20": label - 0.02}
+    cols |= {
+        f"R[{recipe}]/{L}s": label - n for L, n in zip(p.evaluate.outages_s, noise, strict=True)
+    }
+    evidence = FitEvidence(train, {s: pd.DataFrame(cols, index=train.index) for s in p.seeds})
+    ev = study(p, choose(p, {}), frame, _preds(frame, p, {f"R[{recipe}]": 0.1}), None, evidence)
+    r = ev.eval_json["uncertainty"]["models"]["R"]
+    # the training drive's 80 scored seconds: two 30 s windows and one of 60 s
+    assert r["n_windows"] == 3 and r["n_seconds"] == 120 and r["scale_sd"] == 0.0
+    assert np.sqrt(r["a_m2"]) == pytest.approx(0.05, rel=0.3)
+    for L in p.evaluate.outages_s:
+        assert r[f"{L}s"]["n_windows"] > 0 and r[f"{L}s"]["crse_nll"] is not None
+    assert f"R[{recipe}]" not in set(ev.position["model"])  # no filter on it
+    md = render_report(ev, p, "provenance")
+    assert f"R[{recipe}]" in md.split("σ² = a + b d²: a (cm²)")[1]
+
+
 def test_a_continuous_recipe_as_r_wh_onet_is_scored_per_second_on_its_shortest_outage(
     samples_dir, params
 ):

@@ -7,8 +7,10 @@ from scipy.stats import foldnorm
 
 from rwhonet.evaluation.uncertainty import (
     ASSUMED,
+    HALF_NORMAL_MEAN,
     MIN_BEFORE_M,
     DistanceVariance,
+    FitEvidence,
     Seen,
     crse_check,
     fit_conditioned_crse,
@@ -16,13 +18,16 @@ from rwhonet.evaluation.uncertainty import (
     fit_model,
     fit_scale_sd,
     fit_variance,
+    fit_window_model,
     folded_moments,
     gaussian_nll,
     held_out_tail,
     masked_windows,
     scale_before,
     scale_left,
+    training_errors,
 )
+from rwhonet.stages.sample_files import load_role
 
 
 def test_the_variance_fit_recovers_a_known_floor_and_share_of_the_distance():
@@ -256,3 +261,53 @@ def test_a_model_off_by_the_same_scale_on_every_drive_gets_a_finite_calibration(
     rows = masked_windows(pd.DataFrame({"group": tg}), np.arange(600) >= 100, 30)
     check = crse_check(te, td, rows, fit, tg)
     assert check["cover_2sigma"] >= 0.9 and check["nll"] < 3.0
+
+
+def test_a_continuous_recipe_is_fitted_on_its_errors_inside_each_length_s_windows():
+    """Its distances exist only inside windows, one set per length: a and b on every
+    length's window seconds together, the CRSE calibrated on those windows and not
+    conditioned on the seconds before them (the recipe refitted on them)."""
+    rng = np.random.default_rng(11)
+    n = 600
+    gnss = rng.uniform(5.0, 15.0, n)
+    windows = {30: np.arange(600).reshape(20, 30), 60: np.arange(600).reshape(10, 60)}
+    errors = {}
+    for L, rows in windows.items():
+        e = np.full(n, np.nan)  # each length's own predictions, inside its windows
+        e[rows.ravel()] = rng.normal(0.0, 0.05, rows.size)
+        errors[L] = e
+    errors[60][65] = np.nan  # a second without a prediction: its 60 s window is left out
+    fit = fit_window_model(errors, gnss, windows)
+    assert fit.n_windows == 20 + 9 and fit.n_seconds == 600 + 540
+    assert fit.scale_sd == 0.0 and fit.outage_scale == {}
+    kept = {30: windows[30], 60: np.delete(windows[60], 1, axis=0)}
+    e_all = np.concatenate([errors[L][r].ravel() for L, r in kept.items()])
+    d_all = np.concatenate([(gnss - errors[L])[r].ravel() for L, r in kept.items()])
+    assert (fit.a_m2, fit.b) == pytest.approx(fit_variance(e_all, d_all))
+    sd = {L: np.sqrt(fit.var((gnss - errors[L])[r])) for L, r in kept.items()}
+    by_hand = fit_crse(
+        np.concatenate([np.abs(errors[L][r]).sum(axis=1) for L, r in kept.items()]),
+        np.concatenate([s.sum(axis=1) for s in sd.values()]),
+        np.concatenate([(s * s).sum(axis=1) for s in sd.values()]),
+    )
+    assert (fit.crse_scale, fit.crse_spread, fit.crse_lasting) == pytest.approx(by_hand)
+    assert fit.crse_scale == pytest.approx(HALF_NORMAL_MEAN, rel=0.1)  # independent seconds
+    # too few seconds with a prediction: nothing fitted
+    few = {30: np.where(np.arange(n) < 20, 0.05, np.nan)}
+    assert fit_window_model(few, gnss, {30: windows[30]}) is None
+
+
+def test_a_continuous_recipe_s_training_errors_are_one_array_per_length(samples_dir, params):
+    frame = load_role(samples_dir, "target_train", seq_len=1).frame
+    label = frame["label_m"].to_numpy()
+    cols = {"G": label - 0.1, **{f"R[continuous]/{L}s": label - 0.01 * L for L in (30, 60)}}
+    evidence = FitEvidence(frame, {1: pd.DataFrame(cols, index=frame.index)})
+    got = {t.model: t for t in training_errors(evidence, ["G", "R[continuous]"], params)}
+    assert not got["G"].per_window and got["G"].error == pytest.approx(np.full(len(label), 0.1))
+    assert got["R[continuous]"].per_window and set(got["R[continuous]"].error) == {30, 60}
+    assert got["R[continuous]"].error[60] == pytest.approx(np.full(len(label), 0.6))
+    assert (got["R[continuous]"].mask == got["G"].mask).all()  # the scored seconds
+    # a model with only some of its lengths' columns is not fitted as one
+    cols.pop("R[continuous]/60s")
+    evidence = FitEvidence(frame, {1: pd.DataFrame(cols, index=frame.index)})
+    assert [t.model for t in training_errors(evidence, ["R[continuous]"], params)] == []

@@ -266,7 +266,8 @@ def _uncertainty(ev: Evaluation) -> dict:
         "variance": "sigma_t^2 = a + b d_t^2 per second (d_t: the model's distance)",
         "fitted_on": (
             "target training drives: their seconds after the first max(m) s (S: the "
-            "segment tails it was validated on)"
+            "segment tails it was validated on; a continuous recipe: its seconds inside "
+            "its training windows)"
             if fitted
             else "nothing (no target training drives): assumed a = 0.05^2 m^2, b = 0.01^2"
         ),

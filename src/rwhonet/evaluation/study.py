@@ -154,7 +154,13 @@ def evaluate(
     alias = aliases(params, choice)["R"]
     # 2D: the navigation filter on every model's distances and the controls' (position)
     nav = navigation_plan(params, choice, frame)
-    train_errors = training_errors(evidence, nav["models"], params) if evidence is not None else []
+    # the continuous recipes: no filter run (no distance before a window), a CRSE prediction
+    continuous = [m for m in position_models(params, choice) if m not in nav["models"]]
+    train_errors = (
+        training_errors(evidence, nav["models"] + continuous, params)
+        if evidence is not None
+        else []
+    )
     fits = fit_variances(evidence, train_errors, params) if evidence is not None else {}
     cfg = nav_config(params)
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
@@ -181,6 +187,15 @@ def evaluate(
             if fixed and seed != params.seeds[0]:
                 continue  # the same run for every seed
             runs += model_runs(model, None if fixed else seed, dist, fit, nav, outages)
+        for model in continuous:  # each window's own distances, refitted before it
+            fit = fits.get((seed, model), ASSUMED)
+            variances.append({"seed": seed, "model": model, **_variance_row(fit)})
+            for L, rows in test_windows.items():
+                e = errors[model][L]
+                checks.append(
+                    {"seed": seed, "model": model, "outage_s": L}
+                    | crse_check(e, gnss - e, rows, fit)
+                )
         if seed == params.seeds[0]:
             runs.append(gnss_run(gnss, nav, cfg))
         flat = shortest_runs(errors, outages)
@@ -231,8 +246,9 @@ def evaluate(
     # the receiver's drift fitted, and the filter's covariance calibrated (scale, tails), on
     # the target training drives' windows; then the test windows with the fitted receiver
     training = evidence.frame if evidence is not None else None
+    filtered = [t for t in train_errors if not t.per_window]
     passes = (
-        training_passes(evidence, train_errors, params, nav, fits, outages, cfg)
+        training_passes(evidence, filtered, params, nav, fits, outages, cfg)
         if training is not None and len(training)
         else []
     )

@@ -56,6 +56,12 @@ are ``Σσ_t`` and ``Σσ_t²`` again where ``s`` = 0 (no seconds before, or ``�
 maximum likelihood (:func:`fit_conditioned_crse`: ``M`` and ``V`` depend on
 ``α``, which is searched in one dimension, ``κ`` and ``λ`` fitted at each).
 
+A continuous recipe (``R[continuous]``, ``R[continuous_shrink]``) refits before
+every window on the GNSS seconds before it, so its distances exist only inside
+windows, one set per outage length; its variance and CRSE prediction are fitted
+on its errors inside the training windows (:func:`fit_window_model`), not
+conditioned on the seconds before a window (the recipe has refitted on them).
+
 The filter needs one more figure. It takes each second's error as independent
 (white), but a model's errors last: summed over an outage they grow faster than
 ``sqrt(Σσ_t²)``. What lasts longest, a scale error, the filter learns from GNSS
@@ -496,6 +502,61 @@ def fit_model(
     )
 
 
+def fit_window_model(
+    errors: dict[int, np.ndarray], gnss_m: np.ndarray, windows: dict[int, np.ndarray]
+) -> DistanceVariance | None:
+    """A continuous recipe's variance and CRSE calibration, from its errors inside windows.
+
+    A continuous recipe refits before every window on the GNSS seconds before it, so
+    its distances exist only inside windows, one set per outage length. ``a`` and
+    ``b`` are fitted on the seconds of every length's windows together (a second in
+    windows of several lengths counts once per length: a composite likelihood), the
+    CRSE prediction calibrated on the same windows (:func:`fit_crse`), not
+    conditioned on the scale seen before each window: the recipe has already
+    refitted on it. No ``γ_L``: the navigation filter does not run on a continuous
+    recipe (no distance before a window).
+
+    Args:
+        errors: per outage length L, (N,) the errors of that length's predictions, m
+            (NaN outside its windows).
+        gnss_m: (N,) the GNSS distance of each second (a prediction is the GNSS's less
+            its error).
+        windows: per outage length, row indices (W, L) of the training windows; those
+            with a second without a prediction are left out.
+
+    Returns:
+        The fitted variance (``n_seconds``: the window seconds fitted on), or None
+        with fewer than :data:`MIN_SECONDS` of them.
+    """
+    gnss = np.asarray(gnss_m, np.float64)
+    kept = {}
+    for L, rows in windows.items():
+        e = errors.get(int(L))
+        if e is not None and len(rows):
+            rows = rows[np.isfinite(e[rows]).all(axis=1)]
+            if len(rows):
+                kept[int(L)] = rows
+    if not kept:
+        return None
+    e_all = np.concatenate([errors[L][rows].ravel() for L, rows in kept.items()])
+    d_all = np.concatenate([(gnss - errors[L])[rows].ravel() for L, rows in kept.items()])
+    try:
+        a, b = fit_variance(e_all, d_all)
+    except ValueError:
+        return None
+    fitted = DistanceVariance(a, b, n_seconds=int(np.isfinite(e_all).sum()))
+    crse = np.concatenate([window_crse(errors[L], rows) for L, rows in kept.items()])
+    if len(crse) < MIN_WINDOWS:
+        return fitted
+    sums = [fitted.crse_sums((gnss - errors[L])[rows]) for L, rows in kept.items()]
+    alpha, kappa, lasting = fit_crse(
+        crse, np.concatenate([m for m, _ in sums]), np.concatenate([v for _, v in sums])
+    )
+    return replace(
+        fitted, crse_scale=alpha, crse_spread=kappa, crse_lasting=lasting, n_windows=len(crse)
+    )
+
+
 def crse_check(
     error: np.ndarray,
     dist_m: np.ndarray,
@@ -563,7 +624,8 @@ class FitEvidence:
 
     Attributes:
         frame: their samples (``drive, segment, group, k, role``, the sample columns).
-        per_seed: per seed, one column per model (``G``, ``S``, ``R[head]@70``...)
+        per_seed: per seed, one column per model (``G``, ``S``, ``R[head]@70``...;
+            a continuous recipe's one per outage length, ``R[continuous]/30s``...)
             row-aligned with ``frame`` (NaN where a model has no prediction).
     """
 
@@ -602,15 +664,22 @@ class TrainingErrors:
     Attributes:
         seed: the training seed (None: the WPMs, the same for every seed).
         model: the model's name.
-        error: (N,) its per-second error, m, row-aligned with the evidence's frame.
+        error: (N,) its per-second error, m, row-aligned with the evidence's frame; a
+            continuous recipe's ``{L: (N,)}``, one per outage length (its distances
+            are made inside each window, NaN outside them).
         mask: (N,) the seconds it may be fitted on: after each drive's first max(m) s,
             for S only its segments' validation tails.
     """
 
     seed: int | None
     model: str
-    error: np.ndarray
+    error: np.ndarray | dict[int, np.ndarray]
     mask: np.ndarray
+
+    @property
+    def per_window(self) -> bool:
+        """A continuous recipe's errors: one array per outage length, inside its windows."""
+        return isinstance(self.error, dict)
 
 
 def training_errors(
@@ -619,7 +688,8 @@ def training_errors(
     """Every model's errors on the target training drives, per seed (the WPMs once).
 
     The WPM's is its label, WPM-m's its refit's; G, S and every recipe's the label
-    less their prediction. Where they may be fitted: the seconds after each drive's
+    less their prediction (a continuous recipe's per outage length, inside that
+    length's windows). Where they may be fitted: the seconds after each drive's
     first max(m) s (out of sample there for all but S), and for S, which was
     trained on those drives, only the tails of their segments it was validated on
     (``train.val_fraction``).
@@ -639,11 +709,16 @@ def training_errors(
         elif model.startswith("WPM-m@"):
             m = int(model.removeprefix("WPM-m@"))
             out.append(TrainingErrors(None, model, wpm_m[m], scored))
+    outages = params.evaluate.outages_s
     for seed, preds in evidence.per_seed.items():
         for model in models:
             if model in preds:
                 error = label - preds[model].to_numpy(np.float64)
                 out.append(TrainingErrors(seed, model, error, tail if model == "S" else scored))
+            elif all(f"{model}/{L}s" in preds for L in outages):
+                columns = {L: preds[f"{model}/{L}s"].to_numpy(np.float64) for L in outages}
+                by_length = {L: label - p for L, p in columns.items()}
+                out.append(TrainingErrors(seed, model, by_length, scored))
     return out
 
 
@@ -653,7 +728,8 @@ def fit_variances(
     """Every model's variance, per seed (``None``: the WPMs, the same for every seed).
 
     Fitted where :func:`training_errors` says each model may be; the CRSE prediction
-    calibrated on the windows of every outage length over the same seconds.
+    calibrated on the windows of every outage length over the same seconds (a
+    continuous recipe's on its errors inside them: :func:`fit_window_model`).
 
     Args:
         evidence: the target training drives and the predictions of them.
@@ -669,5 +745,8 @@ def fit_variances(
     out: dict[tuple[int | None, str], DistanceVariance | None] = {}
     for t in errors:
         windows = {L: masked_windows(frame, t.mask, L) for L in params.evaluate.outages_s}
-        out[(t.seed, t.model)] = fit_model(t.error, gnss - t.error, t.mask, windows, group)
+        if t.per_window:
+            out[(t.seed, t.model)] = fit_window_model(t.error, gnss, windows)
+        else:
+            out[(t.seed, t.model)] = fit_model(t.error, gnss - t.error, t.mask, windows, group)
     return {key: v for key, v in out.items() if v is not None}

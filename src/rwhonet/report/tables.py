@@ -835,7 +835,9 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "",
             "Each model's per-second distance variance σ² = a + b d² (fitted by Gaussian "
             "likelihood on the target training drives, never a test drive; S on the segment "
-            "tails it was validated on), and its windows' CRSE against the prediction "
+            "tails it was validated on; a continuous recipe on its seconds inside its "
+            "training windows, its prediction not conditioned: it refits before each "
+            "window), and its windows' CRSE against the prediction "
             "N(α M, κ² V + λ² M²) calibrated on the same training windows (λ: the "
             "part that lasts through the window, 0 where Akaike's criterion leaves it out), "
             "conditioned on the scale error the drive showed before the window: ŝ = Σe/Σd "

@@ -159,7 +159,9 @@ def fit_evidence(
 
     G's and S's from their ``predictions.parquet`` (the model stages predict every
     target training second), every recipe's at every m from the adapt stage's
-    selection file; one column per model, row-aligned with the drives' samples.
+    selection file (a continuous recipe's one column per outage length,
+    ``R[continuous]/<L>s``, inside its windows); one column per model,
+    row-aligned with the drives' samples.
     None without target training samples.
     """
     read = selection.get(k.TARGET_TRAIN)
@@ -177,8 +179,8 @@ def fit_evidence(
             .merge(sel, on=keys, how="left")
         )
         cols = {"G": merged["G"].to_numpy(np.float64), "S": merged["S"].to_numpy(np.float64)}
-        for col in merged.columns:
-            if col.startswith("pred_m__") and "/" not in col:
+        for col in merged.columns:  # a continuous recipe's per outage length, "<model>/<L>s"
+            if col.startswith("pred_m__"):
                 cols[col.removeprefix("pred_m__")] = merged[col].to_numpy(np.float64)
         per_seed[seed] = pd.DataFrame(cols, index=frame.index)
     return FitEvidence(frame, per_seed)
