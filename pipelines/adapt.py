@@ -12,4 +12,4 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seed", type=int, required=True, help="training seed (one of params seeds)")
     seed = ap.parse_args().seed
-    runner.run("adapt", lambda params: adapt.main(params, seed))
+    runner.run_script("adapt", lambda params: adapt.main(params, seed))

@@ -4,4 +4,4 @@ from rwhonet import runner
 from rwhonet.stages import evaluate
 
 if __name__ == "__main__":
-    runner.run("evaluate", evaluate.main)
+    runner.run_script("evaluate", evaluate.main)

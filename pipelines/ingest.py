@@ -4,4 +4,4 @@ from rwhonet import runner
 from rwhonet.stages import ingest
 
 if __name__ == "__main__":
-    runner.run("ingest", ingest.main)
+    runner.run_script("ingest", ingest.main)

@@ -4,4 +4,4 @@ from rwhonet import runner
 from rwhonet.stages import label
 
 if __name__ == "__main__":
-    runner.run("label", label.main)
+    runner.run_script("label", label.main)

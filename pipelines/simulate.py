@@ -4,4 +4,4 @@ from rwhonet import runner
 from rwhonet.stages import simulate
 
 if __name__ == "__main__":
-    runner.run("simulate", simulate.main)
+    runner.run_script("simulate", simulate.main)

@@ -14,4 +14,4 @@ if __name__ == "__main__":
     ap.add_argument("which", nargs="?", choices=["G", "S"], help="only this model")
     ap.add_argument("--seed", type=int, help="only this seed (one of params seeds)")
     args = ap.parse_args()
-    runner.run("train", lambda params: train.main(params, args.which, args.seed))
+    runner.run_script("train", lambda params: train.main(params, args.which, args.seed))

@@ -4,4 +4,4 @@ from rwhonet import runner
 from rwhonet.stages import validate
 
 if __name__ == "__main__":
-    runner.run("validate", validate.main)
+    runner.run_script("validate", validate.main)

@@ -217,3 +217,52 @@ def test_mlflow_stays_out_of_a_stage_that_succeeds(tmp_path):
         env={**os.environ, "MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path}/mlflow.db"},
     )
     assert proc.returncode == 0, proc.stderr
+
+
+SCRIPT_END = textwrap.dedent(
+    """
+    import atexit, pathlib, sys, threading, time
+    from rwhonet import runner
+    from rwhonet.errors import InputError, Problem
+
+    out = pathlib.Path(sys.argv[1])
+
+    class Torn:  # its __del__ runs only in the interpreter's own teardown
+        def __del__(self):
+            (out / "torn_down").write_text("yes")
+
+    def body(params):
+        global kept
+        kept = Torn()
+        atexit.register(lambda: (out / "atexit").write_text("ran"))
+        late = lambda: (time.sleep(0.5), (out / "joined").write_text("yes"))
+        threading.Thread(target=late).start()  # not joined by the body: the exit joins it
+        print("not flushed by the body", end="")
+        if sys.argv[2] == "bad":
+            raise InputError([Problem("x.csv", 3, "speed", "a number", "'fast'")], "bad input")
+
+    runner.run_script("label", body)
+    """
+)
+
+
+@pytest.mark.parametrize(("how", "code"), [("good", 0), ("bad", 2)])
+def test_a_stage_script_ends_by_its_status_after_python_s_exit_steps_without_teardown(
+    tmp_path, how, code
+):
+    proc = subprocess.run(
+        [sys.executable, "-c", SCRIPT_END, str(tmp_path), how],
+        cwd=paths.ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path}/mlflow.db"},
+    )
+    assert proc.returncode == code, proc.stderr
+    assert proc.stdout.startswith("not flushed by the body")
+    assert (tmp_path / "atexit").read_text() == "ran"  # MLflow's and logging's hooks run
+    assert (tmp_path / "joined").read_text() == "yes"  # a running thread is waited for
+    # no interpreter teardown (and no C++ static destructors, where Arrow's pool aborts)
+    assert not (tmp_path / "torn_down").exists()
+    if how == "bad":
+        assert "x.csv" in proc.stderr and "speed" in proc.stderr

@@ -1,15 +1,21 @@
-"""Quiet third-party libraries: telemetry, import tips and deprecation noise a user cannot act on.
+"""Quiet third-party libraries: telemetry, import tips and deprecation noise a user cannot act on;
+and a process end their native threads cannot turn into a crash.
 
 Below every layer (like ``io.py``): the stage runner, the ``rwhonet`` command,
 ``python -m rwhonet.tracking`` and the tests call :func:`quiet` before the
-libraries speak.
+libraries speak; the stage scripts and the ``rwhonet`` command end by
+:func:`exit_process`.
 """
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
+import sys
+import threading
 import warnings
+from typing import NoReturn
 
 
 def quiet() -> None:
@@ -20,3 +26,33 @@ def quiet() -> None:
     warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\).*")
     logging.getLogger("lightning.pytorch.utilities.rank_zero").setLevel(logging.WARNING)
     logging.getLogger("lightning.fabric.utilities.rank_zero").setLevel(logging.WARNING)
+
+
+def exit_process(code: int) -> NoReturn:
+    """End this process with ``code`` once its work is done, without native teardown.
+
+    A process that read or wrote Parquet can abort after its last byte: Arrow's
+    thread pool, torn down by the C++ runtime at exit while a worker is still
+    alive, calls ``std::terminate`` ("terminate called without an active
+    exception", SIGABRT, exit -6; apache/arrow#34314 and #39862, intermittent and
+    more frequent on a loaded machine). Seen here once, in CI: an ``ingest``
+    stage of a queued DVC experiment, its outputs written, reported failed. So
+    the stage scripts and the ``rwhonet`` command end here: Python's own
+    shutdown steps that matter (non-daemon threads joined, as the interpreter
+    does first; then every ``atexit`` hook: MLflow's, logging's), the standard
+    streams flushed, then ``os._exit``, which skips the C++ static destructors
+    and nothing written.
+
+    Only for a process's own end (a script's ``__main__``); never in a library
+    call or a test, which would end the test run.
+    """
+    shutdown = getattr(threading, "_shutdown", None)  # what Py_FinalizeEx calls first
+    if shutdown is not None:
+        shutdown()
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # closed, or a reader gone: nothing more to say
+            pass
+    os._exit(code)

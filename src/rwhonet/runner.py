@@ -1,6 +1,6 @@
 """What every pipeline stage script shares: its params, quiet libraries, readable failures.
 
-A stage script is ``runner.run("train", main)``: the runner loads
+A stage script is ``runner.run_script("train", main)``: the runner loads
 ``params.yaml`` restricted to the params ``dvc.yaml`` declares for that stage
 (:func:`declared_params`), so a stage that reads a value it does not declare
 stops with an error naming it, rather than leaving DVC to skip it when that
@@ -32,7 +32,7 @@ from rwhonet import paths
 from rwhonet.config import ConfigError, Params, load_params
 from rwhonet.errors import InputError
 from rwhonet.io import system_memory_pool
-from rwhonet.libraries import quiet
+from rwhonet.libraries import exit_process, quiet
 
 EXIT_INPUT = 2
 EXIT_FAILED = 1
@@ -117,6 +117,22 @@ def run(stage: str, main: Callable[[Params], None]) -> None:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def run_script(stage: str, main: Callable[[Params], None]) -> None:
+    """A stage script's ``__main__``: :func:`run`, then end the process by its status.
+
+    The process ends by :func:`rwhonet.libraries.exit_process` (Python's exit
+    hooks, then no native teardown to abort after the outputs are written); an
+    interrupted stage still dies of its signal. Never call it in a process that
+    has more to do (the tests call :func:`run`).
+    """
+    try:
+        run(stage, main)
+    except SystemExit as err:
+        code = err.code
+        exit_process(code if isinstance(code, int) else (0 if code is None else EXIT_FAILED))
+    exit_process(0)
 
 
 def _run(stage: str, main: Callable[[Params], None], started: float) -> None:

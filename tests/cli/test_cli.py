@@ -45,7 +45,7 @@ def own_store(tmp_path, monkeypatch):
 def cli(*args, stdin=None, code=None):
     """Run the installed console script's code in a fresh interpreter."""
     env = dict(os.environ, PYTHONPATH=str(paths.ROOT / "src"))
-    script = code or "import sys; from rwhonet.cli.main import main; sys.exit(main(sys.argv[1:]))"
+    script = code or "from rwhonet.cli.main import entry; entry()"  # the console script's
     return subprocess.run(
         [sys.executable, "-c", script, *args],
         input=stdin,
@@ -63,6 +63,14 @@ def test_every_command_has_help(command, capsys):
     assert done.value.code == 0
     assert "usage:" in capsys.readouterr().out
     assert command in parser().format_help()
+
+
+def test_the_console_script_ends_by_the_command_s_status():
+    """Through rwhonet.libraries.exit_process: help 0, a usage error 2, output flushed."""
+    done = cli("predict", "--help")
+    assert done.returncode == 0 and b"usage: rwhonet predict" in done.stdout
+    done = cli("no-such-command")
+    assert done.returncode == 2 and b"invalid choice" in done.stderr
 
 
 def test_the_gate_is_a_command_and_still_its_own_script(tmp_path):

@@ -415,8 +415,15 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def entry() -> None:
-    """The console script."""
-    sys.exit(main())
+    """The console script: the command's status, and no native teardown after it
+    (:func:`rwhonet.libraries.exit_process`)."""
+    from rwhonet.libraries import exit_process
+
+    try:
+        code = main()
+    except SystemExit as err:  # argparse's --help and usage errors
+        code = err.code if isinstance(err.code, int) else (0 if err.code is None else 2)
+    exit_process(code)
 
 
 if __name__ == "__main__":
