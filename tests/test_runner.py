@@ -266,3 +266,11 @@ def test_a_stage_script_ends_by_its_status_after_python_s_exit_steps_without_tea
     assert not (tmp_path / "torn_down").exists()
     if how == "bad":
         assert "x.csv" in proc.stderr and "speed" in proc.stderr
+
+
+def test_a_process_ended_with_a_message_prints_it_and_exits_1_as_sys_exit_does():
+    code = "from rwhonet.libraries import exit_process; exit_process('no such drive')"
+    proc = subprocess.run(
+        [sys.executable, "-c", code], cwd=paths.ROOT, capture_output=True, text=True, timeout=60
+    )
+    assert proc.returncode == 1 and proc.stderr.strip() == "no such drive"

@@ -28,8 +28,11 @@ def quiet() -> None:
     logging.getLogger("lightning.fabric.utilities.rank_zero").setLevel(logging.WARNING)
 
 
-def exit_process(code: int) -> NoReturn:
+def exit_process(code: int | str | None) -> NoReturn:
     """End this process with ``code`` once its work is done, without native teardown.
+
+    ``code`` as ``sys.exit`` takes it (a ``SystemExit``'s): None is 0, an int is the
+    status, anything else is printed to stderr and the status is 1.
 
     A process that read or wrote Parquet can abort after its last byte: Arrow's
     thread pool, torn down by the C++ runtime at exit while a worker is still
@@ -46,6 +49,13 @@ def exit_process(code: int) -> NoReturn:
     Only for a process's own end (a script's ``__main__``); never in a library
     call or a test, which would end the test run.
     """
+    if code is None:
+        status = 0
+    elif isinstance(code, int):
+        status = code
+    else:
+        print(code, file=sys.stderr)
+        status = 1
     shutdown = getattr(threading, "_shutdown", None)  # what Py_FinalizeEx calls first
     if shutdown is not None:
         shutdown()
@@ -55,4 +65,4 @@ def exit_process(code: int) -> NoReturn:
             stream.flush()
         except (OSError, ValueError):  # closed, or a reader gone: nothing more to say
             pass
-    os._exit(code)
+    os._exit(status)

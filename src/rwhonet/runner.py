@@ -130,8 +130,7 @@ def run_script(stage: str, main: Callable[[Params], None]) -> None:
     try:
         run(stage, main)
     except SystemExit as err:
-        code = err.code
-        exit_process(code if isinstance(code, int) else (0 if code is None else EXIT_FAILED))
+        exit_process(err.code)
     exit_process(0)
 
 

@@ -422,7 +422,7 @@ def entry() -> None:
     try:
         code = main()
     except SystemExit as err:  # argparse's --help and usage errors
-        code = err.code if isinstance(err.code, int) else (0 if err.code is None else 2)
+        code = err.code
     exit_process(code)
 
 
