@@ -274,3 +274,15 @@ def test_a_process_ended_with_a_message_prints_it_and_exits_1_as_sys_exit_does()
         [sys.executable, "-c", code], cwd=paths.ROOT, capture_output=True, text=True, timeout=60
     )
     assert proc.returncode == 1 and proc.stderr.strip() == "no such drive"
+
+
+@pytest.mark.parametrize(
+    ("body", "code", "stderr"),
+    [("return 3", 3, ""), ("raise SystemExit('bad drive')", 1, "bad drive"), ("pass", 0, "")],
+)
+def test_exit_with_ends_by_what_the_work_returned_or_its_system_exit(body, code, stderr):
+    program = f"from rwhonet.libraries import exit_with\ndef work():\n    {body}\nexit_with(work)"
+    proc = subprocess.run(
+        [sys.executable, "-c", program], cwd=paths.ROOT, capture_output=True, text=True, timeout=60
+    )
+    assert proc.returncode == code and proc.stderr.strip() == stderr

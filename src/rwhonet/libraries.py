@@ -4,7 +4,7 @@ and a process end their native threads cannot turn into a crash.
 Below every layer (like ``io.py``): the stage runner, the ``rwhonet`` command,
 ``python -m rwhonet.tracking`` and the tests call :func:`quiet` before the
 libraries speak; the stage scripts and the ``rwhonet`` command end by
-:func:`exit_process`.
+:func:`exit_process` (:func:`exit_with`: a piece of work, then that).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import os
 import sys
 import threading
 import warnings
+from collections.abc import Callable
 from typing import NoReturn
 
 
@@ -26,6 +27,17 @@ def quiet() -> None:
     warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\).*")
     logging.getLogger("lightning.pytorch.utilities.rank_zero").setLevel(logging.WARNING)
     logging.getLogger("lightning.fabric.utilities.rank_zero").setLevel(logging.WARNING)
+
+
+def exit_with(work: Callable[[], int | str | None]) -> NoReturn:
+    """Do ``work`` and end the process by :func:`exit_process` with what it returned,
+    or with the code of the ``SystemExit`` it raised (argparse's ``--help``, a stage's
+    ``sys.exit``)."""
+    try:
+        code = work()
+    except SystemExit as err:
+        code = err.code
+    exit_process(code)
 
 
 def exit_process(code: int | str | None) -> NoReturn:

@@ -32,7 +32,7 @@ from rwhonet import paths
 from rwhonet.config import ConfigError, Params, load_params
 from rwhonet.errors import InputError
 from rwhonet.io import system_memory_pool
-from rwhonet.libraries import exit_process, quiet
+from rwhonet.libraries import exit_with, quiet
 
 EXIT_INPUT = 2
 EXIT_FAILED = 1
@@ -127,11 +127,7 @@ def run_script(stage: str, main: Callable[[Params], None]) -> None:
     interrupted stage still dies of its signal. Never call it in a process that
     has more to do (the tests call :func:`run`).
     """
-    try:
-        run(stage, main)
-    except SystemExit as err:
-        exit_process(err.code)
-    exit_process(0)
+    exit_with(lambda: run(stage, main))
 
 
 def _run(stage: str, main: Callable[[Params], None], started: float) -> None:

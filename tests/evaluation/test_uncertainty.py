@@ -12,6 +12,7 @@ from rwhonet.evaluation.uncertainty import (
     DistanceVariance,
     FitEvidence,
     Seen,
+    complete_windows,
     crse_check,
     fit_conditioned_crse,
     fit_crse,
@@ -311,3 +312,11 @@ def test_a_continuous_recipe_s_training_errors_are_one_array_per_length(samples_
     cols.pop("R[continuous]/60s")
     evidence = FitEvidence(frame, {1: pd.DataFrame(cols, index=frame.index)})
     assert [t.model for t in training_errors(evidence, ["R[continuous]"], params)] == []
+
+
+def test_complete_windows_keeps_the_windows_with_every_second_finite():
+    values = np.array([1.0, 2.0, np.nan, 4.0, 5.0, np.inf])
+    rows = np.array([[0, 1], [1, 2], [3, 4], [4, 5]])
+    assert complete_windows(values, rows).tolist() == [[0, 1], [3, 4]]
+    assert complete_windows(values, rows[:0]).shape == (0, 2)
+    assert complete_windows(np.full(6, np.nan), rows).shape == (0, 2)

@@ -416,14 +416,11 @@ def main(argv: list[str] | None = None) -> int:
 
 def entry() -> None:
     """The console script: the command's status, and no native teardown after it
-    (:func:`rwhonet.libraries.exit_process`)."""
-    from rwhonet.libraries import exit_process
+    (:func:`rwhonet.libraries.exit_process`); argparse's ``--help`` and usage errors
+    end by their own code."""
+    from rwhonet.libraries import exit_with
 
-    try:
-        code = main()
-    except SystemExit as err:  # argparse's --help and usage errors
-        code = err.code
-    exit_process(code)
+    exit_with(main)
 
 
 if __name__ == "__main__":

@@ -447,6 +447,14 @@ def scale_left(
     return e[rows].sum(axis=1) - scale * d[rows].sum(axis=1)
 
 
+def complete_windows(values: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The windows (rows of ``rows``, (W, L) indices into ``values``) with every second finite."""
+    rows = np.asarray(rows)
+    if not len(rows):
+        return rows
+    return rows[np.isfinite(np.asarray(values, np.float64)[rows]).all(axis=1)]
+
+
 def fit_model(
     error: np.ndarray,
     dist_m: np.ndarray,
@@ -475,7 +483,7 @@ def fit_model(
     var = fitted.var(dist_m)
     kept, crse, seen, gamma = {}, [], [], {}
     for L, rows in windows.items():
-        rows = rows[np.isfinite(error[rows]).all(axis=1)] if len(rows) else rows
+        rows = complete_windows(error, rows)
         if not len(rows):
             continue
         kept[L] = rows
@@ -532,14 +540,14 @@ def fit_window_model(
     kept = {}
     for L, rows in windows.items():
         e = errors.get(int(L))
-        if e is not None and len(rows):
-            rows = rows[np.isfinite(e[rows]).all(axis=1)]
-            if len(rows):
-                kept[int(L)] = rows
+        rows = complete_windows(e, rows) if e is not None else rows[:0]
+        if len(rows):
+            kept[int(L)] = rows
     if not kept:
         return None
+    dist = {L: gnss - errors[L] for L in kept}
     e_all = np.concatenate([errors[L][rows].ravel() for L, rows in kept.items()])
-    d_all = np.concatenate([(gnss - errors[L])[rows].ravel() for L, rows in kept.items()])
+    d_all = np.concatenate([dist[L][rows].ravel() for L, rows in kept.items()])
     try:
         a, b = fit_variance(e_all, d_all)
     except ValueError:
@@ -548,7 +556,7 @@ def fit_window_model(
     crse = np.concatenate([window_crse(errors[L], rows) for L, rows in kept.items()])
     if len(crse) < MIN_WINDOWS:
         return fitted
-    sums = [fitted.crse_sums((gnss - errors[L])[rows]) for L, rows in kept.items()]
+    sums = [fitted.crse_sums(dist[L][rows]) for L, rows in kept.items()]
     alpha, kappa, lasting = fit_crse(
         crse, np.concatenate([m for m, _ in sums]), np.concatenate([v for _, v in sums])
     )
@@ -583,9 +591,8 @@ def crse_check(
         (:func:`rwhonet.nav.coverage.crse_coverage`), and the shares of the
         windows' seconds whose error is within 1σ_t / 2σ_t.
     """
+    rows = complete_windows(error, rows)
     e = np.asarray(error, np.float64)[rows]
-    keep = np.isfinite(e).all(axis=1)
-    rows, e = rows[keep], e[keep]
     if not len(rows):
         return {"n_windows": 0}
     crse = np.abs(e).sum(axis=1)
