@@ -24,13 +24,6 @@ State (per window; :data:`STATE`), in a local east/north frame in metres
                  power-on moves its bias at a rate that decays with the warm-up's
                  time constant (``b_g ← b_g + bd_g``, ``bd_g ← e^{−1/τ_w} bd_g`` each
                  second); learnt from GNSS before an outage, extrapolated through it
- 14   ``bd_w``   the wheel yaw's bias per metre drifts in time by this, rad/m per s: a
-                 rear tyre losing air shrinks its rolling radius at a steady rate, so
-                 the left/right radius difference, and with it ``beta``, ramps
-                 (``beta ← beta + bd_w`` each second); learnt while the gyro and GNSS
-                 watch the wheels, extrapolated through an outage (the comparison of
-                 wheel speeds with the yaw rate that indirect tyre-pressure monitoring
-                 rests on)
 ====  =========  ===================================================================
 
 Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
@@ -107,9 +100,8 @@ STATE: tuple[str, ...] = (
     "eps_w",
     "beta_v",
     "bd_g",
-    "bd_w",
 )
-E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV, BD, BDW = range(len(STATE))
+E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV, BD = range(len(STATE))
 S = len(STATE)
 DELTA = S  # the second's yaw, in the augmented state
 
@@ -141,12 +133,6 @@ class NavConfig:
         wheel_error_tau_s: its correlation time, s.
         wheel_bias_speed_sd: prior spread of ``beta_v`` around 0, rad/m per m/s.
         wheel_bias_speed_walk: its random walk per sqrt(s).
-        leak_per_h: prior spread of the rear tyres' rolling-radius difference
-            changing per hour, as a fraction of the radius (a tyre losing air):
-            ``bd_w``'s prior spread is this over 3,600 s and the rear track
-            (:meth:`leak_rate_sd`). 0: no such state (``beta`` only walks).
-        leak_change_s: ``bd_w`` walks by its prior spread over this many seconds (a
-            leak that speeds up, or the warm tyres' pressures settling).
         heading_walk: heading noise per sqrt(s) besides the yaw sensors', rad.
         yaw_gate: a second sensor's yaw beyond this many standard deviations of the
             first's is left out (a reversing manoeuvre, where wheel speeds, being
@@ -177,7 +163,6 @@ class NavConfig:
     wheel_bias_sd: float = 0.003
     load_sd: float = 0.003
     wheel_bias_speed_sd: float = 3e-5
-    leak_per_h: float = 0.0
     delta_prior_sd: float = 1.0
     # The wheel yaw's lasting error ``eps_w``: a Gauss-Markov state, not white noise.
     wheel_error_sd: float = 0.0005
@@ -189,7 +174,6 @@ class NavConfig:
     wheel_bias_walk: float = 2e-6
     load_walk: float = 1e-6
     wheel_bias_speed_walk: float = 1e-7
-    leak_change_s: float = 3600.0
     heading_walk: float = 2e-4
     # Bounds the states are kept within.
     load_min: float = 0.0
@@ -200,12 +184,6 @@ class NavConfig:
     reset_after_s: int = 10
     reverse_stop_m: float = 0.3
     reverse_max_m_s: float = 4.0
-
-    def leak_rate_sd(self) -> float:
-        """Prior spread of ``bd_w``, rad/m per s: a radius difference changing by
-        ``leak_per_h`` per hour bends the wheels' yaw by that fraction over the track
-        per metre."""
-        return float(self.leak_per_h / 3600.0 / self.wheels.track_rear_m)
 
     def with_receiver(self, sigma_m: float, tau_s: float | None = None) -> NavConfig:
         """These settings with the receiver drift's spread (and correlation time) replaced."""
@@ -519,7 +497,7 @@ def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
 
 
 # The rows of the propagation's Jacobian that differ from the identity's.
-MOVED_ROWS = np.array([E, N, PSI, BG, BW, GE, GN, EW, BD])
+MOVED_ROWS = np.array([E, N, PSI, BG, GE, GN, EW, BD])
 
 
 def _sandwich(p: np.ndarray, jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -569,7 +547,6 @@ def _initial(
         (EW, cfg.wheel_error_sd**2),
         (BV, cfg.wheel_bias_speed_sd**2),
         (BD, cfg.gyro.drift_rate_sd() ** 2),
-        (BDW, cfg.leak_rate_sd() ** 2),
         (GE, g2),
         (GN, g2),
     ):
@@ -675,7 +652,6 @@ def run(
     phi_w = np.exp(-1.0 / cfg.wheel_error_tau_s)
     q_diag[EW] = cfg.wheel_error_sd**2 * (1.0 - phi_w * phi_w)
     q_diag[BV] = cfg.wheel_bias_speed_walk**2
-    q_diag[BDW] = cfg.leak_rate_sd() ** 2 / cfg.leak_change_s
     # the warm-up's drift rate decays and is not driven: a ramp whose start is unknown
     phi_d = np.exp(-1.0 / cfg.gyro.warm_tau_s)
     r_fix = np.broadcast_to(np.eye(2) * gn.white_m**2, (w, 2, 2))
@@ -787,12 +763,10 @@ def run(
             xa_new[:, EW] *= phi_w
             xa_new[:, BG] += xa[:, BD]  # the bias ramps while the sensor warms
             xa_new[:, BD] *= phi_d
-            xa_new[:, BW] += xa[:, BDW]  # a leaking tyre's radius falls steadily
             jac[:, GE, GE] = jac[:, GN, GN] = phi
             jac[:, EW, EW] = phi_w
             jac[:, BG, BD] = 1.0
             jac[:, BD, BD] = phi_d
-            jac[:, BW, BDW] = 1.0
             pa_new = _sandwich(pa, jac, MOVED_ROWS)
             pa_new += np.diag(q_diag)
             var_d = np.nan_to_num(dist_var[:, k])
