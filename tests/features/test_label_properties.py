@@ -57,7 +57,8 @@ def test_the_label_scales_linearly_with_a_radius_error(profile, r, eps):
 
 @PROPERTY
 @given(
-    angles=st.lists(st.floats(0.0, 200.0), min_size=1, max_size=30),
+    # no subnormals: below 2.2e-308 a product keeps fewer digits than rtol=1e-12 asks
+    angles=st.lists(st.floats(0.0, 200.0, allow_subnormal=False), min_size=1, max_size=30),
     r_rl=radius,
     r_rr=radius,
     k=st.floats(0.0, 10.0),
