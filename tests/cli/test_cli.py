@@ -241,10 +241,13 @@ def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
     )
     # where the car is through the outage, and how far that is from GNSS at its end
     inside = frame["outage"].notna()
-    position = ["east_m", "north_m", "cov_ee_m2", "cov_en_m2", "cov_nn_m2", "r68_m", "r95_m"]
-    position.append("pos_err_m")
+    position = ["east_m", "north_m", "lat_deg", "lon_deg", "cov_ee_m2", "cov_en_m2", "cov_nn_m2"]
+    position += ["r68_m", "r95_m", "pos_err_m"]
     assert frame.loc[inside, position].notna().all().all()
     assert frame.loc[~inside, position].isna().all().all()
+    header = out.stdout.decode().splitlines()[0].split(",")
+    row = out.stdout.decode().splitlines()[1 + int(np.flatnonzero(inside)[0])].split(",")
+    assert len(row[header.index("lat_deg")].split(".")[1]) == 8  # about a millimetre
     end = frame.loc[inside, "pos_err_m"].iloc[-1]
     assert f"{end:.1f} m from the GNSS fix" in err and "position at the end" in err
     # a model the evaluation has not measured says its regions are the filter's own

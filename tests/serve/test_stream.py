@@ -228,6 +228,12 @@ def test_the_outage_s_position_and_covariance_from_the_last_fix_before_it(bundle
     assert e[-1] == pytest.approx(900.0, abs=0.5) and n[-1] == pytest.approx(1558.8, abs=0.5)
     err = np.hypot(out["east_m"][inside] - e, out["north_m"][inside] - n)
     np.testing.assert_allclose(out["pos_err_m"][inside], err, atol=0.01)
+    # the same positions as latitude / longitude: back to east / north of the same fix
+    back_e, back_n = offsets_m(
+        df["lat_deg"][before], df["lon_deg"][before], out["lat_deg"][inside], out["lon_deg"][inside]
+    )
+    np.testing.assert_allclose(back_e, out["east_m"][inside], atol=1e-6)
+    np.testing.assert_allclose(back_n, out["north_m"][inside], atol=1e-6)
     # the model's distances are off (a random network): learnt from GNSS before the outage
     assert err[-1] < 5.0, err[-1]
     cov = np.stack(

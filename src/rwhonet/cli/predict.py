@@ -35,7 +35,8 @@ STDIO = "-"
 # needs radius_min_moving_s (30) moving seconds with GNSS; 120 s leaves room for stops.
 HOLD_MAX_S = 120
 DEFAULTS = "validate_defaults.yaml"  # validate's settings outside a project
-DECIMALS = {"t_s": 3, "elapsed_s": 3}  # times to the millisecond, metres to 0.1 mm
+# times to the millisecond, degrees to 1e-8 (about a millimetre), metres to 0.1 mm
+DECIMALS = {"t_s": 3, "elapsed_s": 3, "lat_deg": 8, "lon_deg": 8}
 
 
 class CsvSink:

@@ -22,7 +22,8 @@ corrected minus GNSS: CTE is the last one's absolute value) and ``crse_*_m``
 (Σ|error| per second: the paper's CRSE); and where the car is: ``east_m``,
 ``north_m`` (the navigation filter's position at the end of the second, metres
 east and north of the last GNSS fix before the outage, or of the filter's own
-position there when that fix is missing, in the local frame there), its
+position there when that fix is missing, in the local frame there), the same
+position as WGS-84 ``lat_deg``, ``lon_deg``, its
 covariance ``cov_ee_m2``, ``cov_en_m2``, ``cov_nn_m2`` (the filter's own), ``r68_m``
 and ``r95_m``, the major semi-axes of the ellipses that hold 68.27 % and 95.45 % of
 such positions (calibrated as the evaluation calibrated the filter on the model's
@@ -82,6 +83,8 @@ COLUMNS = (
     "crse_corrected_m",
     "east_m",
     "north_m",
+    "lat_deg",
+    "lon_deg",
     "cov_ee_m2",
     "cov_en_m2",
     "cov_nn_m2",
@@ -94,7 +97,7 @@ COLUMNS = (
 GLITCH_FLAG = "glitch:"
 OUTAGE_COLUMNS = COLUMNS[7:]
 CUMULATIVE_COLUMNS = OUTAGE_COLUMNS[:7]  # the running sums over an outage's seconds
-POSITION_COLUMNS = COLUMNS[-8:]
+POSITION_COLUMNS = COLUMNS[COLUMNS.index("east_m") :]
 
 
 @dataclass(frozen=True)
@@ -501,6 +504,10 @@ class SecondStream:
         cov = nav["cov"][rows]
         err = np.hypot(east - fix_e, north - fix_n)
         out["east_m"][rows], out["north_m"][rows] = east, north
+        # the same position as WGS-84 coordinates, for a map
+        seen = np.isfinite(east) & np.isfinite(north)
+        out["lat_deg"][rows] = np.where(seen, nav["pred_lat"][rows], np.nan)
+        out["lon_deg"][rows] = np.where(seen, nav["pred_lon"][rows], np.nan)
         out["cov_ee_m2"][rows] = cov[:, 0, 0]
         out["cov_en_m2"][rows] = cov[:, 0, 1]
         out["cov_nn_m2"][rows] = cov[:, 1, 1]
