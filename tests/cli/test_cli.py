@@ -250,6 +250,8 @@ def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
     assert len(row[header.index("lat_deg")].split(".")[1]) == 8  # about a millimetre
     end = frame.loc[inside, "pos_err_m"].iloc[-1]
     assert f"{end:.1f} m from the GNSS fix" in err and "position at the end" in err
+    lat, lon = frame.loc[inside, ["lat_deg", "lon_deg"]].iloc[-1]
+    assert f"of the last fix before it ({lat:.6f}, {lon:.6f}; 68 %" in err
     # a model the evaluation has not measured says its regions are the filter's own
     r68, r95 = frame.loc[inside, ["r68_m", "r95_m"]].iloc[-1]
     assert f"68 % / 95 % within {r68:.1f} / {r95:.1f} m, the filter's own, not calibrated" in err

@@ -249,6 +249,8 @@ def test_the_outage_s_position_and_covariance_from_the_last_fix_before_it(bundle
     assert summary["control"] == "fused"
     assert summary["pos_err_end_m"] == pytest.approx(out["pos_err_m"][inside][-1])
     assert summary["east_end_m"] == pytest.approx(out["east_m"][inside][-1])
+    assert summary["lat_end_deg"] == out["lat_deg"][inside][-1]
+    assert summary["lon_end_deg"] == out["lon_deg"][inside][-1]
     assert summary["pos_sd_end_m"] == pytest.approx(np.sqrt(np.linalg.eigvalsh(cov[-1])[-1]))
     # an uncalibrated model's regions: the filter's own normal (68.27 %: d² <= 2.296)
     assert summary["calibrated"] is False

@@ -310,7 +310,8 @@ def _position_text(o: dict[str, Any]) -> str:
     )
     text = (
         f"; position at the end {o['east_end_m']:.1f} m east, {o['north_end_m']:.1f} m north "
-        f"of the last fix before it (68 % / 95 % within {o['r68_end_m']:.1f} / "
+        f"of the last fix before it ({o['lat_end_deg']:.6f}, {o['lon_end_deg']:.6f}; "
+        f"68 % / 95 % within {o['r68_end_m']:.1f} / "
         f"{o['r95_end_m']:.1f} m, {how}; yaw: {yaw})"
     )
     if math.isnan(o["pos_err_end_m"]):

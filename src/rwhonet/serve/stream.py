@@ -151,6 +151,8 @@ class _Totals:
     origin: tuple[float, float] | None = None  # the position the outage starts from
     east: float = math.nan  # the filter's position at the last second so far
     north: float = math.nan
+    lat: float = math.nan  # ... as WGS-84 coordinates
+    lon: float = math.nan
     pos_err: float = math.nan  # ... its distance to the GNSS fix there (NaN: none)
     pos_sd: float = math.nan  # ... the major semi-axis of its 1-sigma ellipse
     r68: float = math.nan  # ... of its 68.27 % and 95.45 % regions (PositionCalibration)
@@ -518,6 +520,7 @@ class SecondStream:
         out["pos_err_m"][rows] = err
         tot.r68, tot.r95 = float(out["r68_m"][rows[-1]]), float(out["r95_m"][rows[-1]])
         tot.east, tot.north, tot.pos_err = float(east[-1]), float(north[-1]), float(err[-1])
+        tot.lat, tot.lon = float(out["lat_deg"][rows[-1]]), float(out["lon_deg"][rows[-1]])
         last = cov[-1]
         tot.pos_sd = (
             float(np.sqrt(np.linalg.eigvalsh(last)[-1])) if np.isfinite(last).all() else math.nan
@@ -527,7 +530,8 @@ class SecondStream:
         """Per outage: seconds seen, distances, CRSE / CTE of WPM and corrected, and position.
 
         ``east_end_m``, ``north_end_m``: the filter's position at the outage's last
-        second from the fix before it; ``pos_sd_end_m``: its 1-sigma ellipse's major
+        second from the fix before it, ``lat_end_deg``, ``lon_end_deg`` the same as
+        WGS-84 coordinates; ``pos_sd_end_m``: its 1-sigma ellipse's major
         semi-axis (the filter's own); ``r68_end_m``, ``r95_end_m``: the major semi-axes
         of the regions holding 68.27 % and 95.45 % (``calibrated``: by the evaluation's
         calibration the model carries, else the filter's own normal); ``pos_err_end_m``:
@@ -551,6 +555,8 @@ class SecondStream:
                     "cte_corrected_m": abs(sums["err_corrected_m"]) if full else math.nan,
                     "east_end_m": tot.east,
                     "north_end_m": tot.north,
+                    "lat_end_deg": tot.lat,
+                    "lon_end_deg": tot.lon,
                     "pos_sd_end_m": tot.pos_sd,
                     "r68_end_m": tot.r68,
                     "r95_end_m": tot.r95,
