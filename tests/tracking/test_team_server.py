@@ -221,7 +221,9 @@ def project(server, repo, team):
     vault_key = _secret()
     for args in (
         ("remote", "add", "--local", "vault", "s3://rwhonet-vault/cache"),
-        ("remote", "modify", "--local", "vault", "secret_access_key", vault_key),
+        # "--": a URL-safe token starts with "-" one time in 64, which DVC's parser
+        # would take for an option (it did once, in CI)
+        ("remote", "modify", "--local", "vault", "secret_access_key", "--", vault_key),
     ):
         assert dvc(repo, *args).returncode == 0
     host = server["uri"].removeprefix("https://")
