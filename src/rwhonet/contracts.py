@@ -46,6 +46,10 @@ LON_DEG = "lon_deg"
 # The yaw-rate gyro's angle over the second, rad, left positive; NaN where the drive has no
 # yaw rate (2D navigation: fused with the rear wheels' yaw).
 GYRO_YAW_RAD = "gyro_yaw_rad"
+# 1.0 where a logger that signs its wheel speeds recorded the second as driven backwards
+# (the rear wheels' signed angle over it negative), else 0.0; a logger of magnitudes: 0.0
+# throughout (2D navigation: which way the car moved).
+BACKWARDS = "backwards"
 SCENARIO = "scenario"  # ';'-joined scenario tags of the second
 SAMPLE_VALUE_COLUMNS = (
     T_S,
@@ -59,6 +63,7 @@ SAMPLE_VALUE_COLUMNS = (
     LAT_DEG,
     LON_DEG,
     GYRO_YAW_RAD,
+    BACKWARDS,
 )
 SAMPLE_COLUMNS = (*SAMPLE_VALUE_COLUMNS, *FEATURE_COLUMNS, SCENARIO)
 

@@ -12,12 +12,14 @@ from rwhonet.data import canonical as c
 from rwhonet.errors import InputError
 from rwhonet.features.seconds import (
     anchor_rows,
+    backwards_per_second,
     end_of_second,
     gnss_displacement_m,
     integrate_per_second,
     n_seconds,
     rows_of_seconds,
     scenario_per_second,
+    segment_arrays,
     segment_seconds,
     span_s,
     wheel_features_rad_s,
@@ -196,6 +198,35 @@ def test_gyro_yaw_is_the_rate_integrated_over_each_second_and_nan_without_a_chan
     assert len(no_gyro.gyro_yaw_rad) == len(sec) and np.isnan(no_gyro.gyro_yaw_rad).all()
     # the other per-second quantities do not depend on the channel
     np.testing.assert_array_equal(no_gyro.wheels_rad_s, sec.wheels_rad_s)
+
+
+def test_a_logger_that_signs_its_wheel_speeds_says_which_seconds_went_backwards():
+    frame = build_drive(constant_speed(6, 10.0))
+    magnitudes = segment_seconds(frame, "f")
+    assert not magnitudes.backwards.any()  # magnitudes never say
+    signed = frame.copy()
+    rows = slice(21, 41)  # the rows of seconds 2 and 3 (row 10k + 1 .. 10k + 10 is second k)
+    for w in c.WHEELS:
+        signed.loc[rows, w] = -signed.loc[rows, w]
+    sec = segment_seconds(signed, "f")
+    # each second by the sign of its net signed angle (the trapezoid's bounding rows are
+    # shared with the neighbours: seconds 1 and 4 keep forwards)
+    np.testing.assert_array_equal(sec.backwards, [False, False, True, True, False, False])
+    # the distance stays a magnitude: every other per-second quantity is the same
+    np.testing.assert_array_equal(sec.angle_rl_rad, magnitudes.angle_rl_rad)
+    np.testing.assert_array_equal(sec.angle_rr_rad, magnitudes.angle_rr_rad)
+    np.testing.assert_array_equal(sec.wheels_rad_s, magnitudes.wheels_rad_s)
+    # the label stage's reader hands the signs on
+    arrays = segment_arrays(pa.Table.from_pandas(signed, preserve_index=False))
+    np.testing.assert_array_equal(segment_seconds(arrays, "f").backwards, sec.backwards)
+
+
+def test_a_second_goes_backwards_by_its_rear_wheels_net_signed_angle():
+    t = np.arange(11) * 0.1
+    rl = np.r_[np.full(4, 1.0), np.full(7, -2.0)]  # 0.35 rad forwards, 0.6 back: net back
+    assert backwards_per_second(t, rl, rl).tolist() == [True]
+    assert backwards_per_second(t, np.abs(rl), np.abs(rl)).tolist() == [False]
+    assert backwards_per_second(t, rl, np.full(11, 5.0)).tolist() == [False]  # the mean: forwards
 
 
 # ------------------------------------------------------------ jittered stamps (issue 15)

@@ -21,6 +21,7 @@ from rwhonet.nav import (
 )
 from rwhonet.nav.filter import (
     BD,
+    CONTROLS,
     DELTA,
     PSI,
     SD,
@@ -283,10 +284,11 @@ def test_the_filter_s_defaults_are_the_shipped_generic_sensor_figures():
             assert getattr(got, name) == pytest.approx(value), (field, name)
 
 
-def _reversing_drive(rng, w=8, gps_s=120):
+def _reversing_drive(rng, w=8, gps_s=120, straight=False, told=False):
     """Forward S-bends with GNSS, then in the outage a stop, 12 s reversing at 2 m/s
-    (4 s straight, then round a bend), a stop and forward again; exact sensors, wheel
-    speeds as magnitudes."""
+    (4 s straight, then round a bend; ``straight``: straight throughout), a stop and
+    forward again; exact sensors, wheel speeds as magnitudes (``told``: the log says
+    which seconds went backwards, as a logger that signs its wheel speeds does)."""
     signed = np.r_[
         np.full(gps_s, 10.0),
         np.full(20, 8.0),
@@ -299,7 +301,7 @@ def _reversing_drive(rng, w=8, gps_s=120):
     turn = 0.04 * np.sin(np.arange(n) / 15.0)
     # reversing: 4 s straight back, then steering (the body turns left)
     turn[gps_s + 22 : gps_s + 26] = 0.0
-    turn[gps_s + 26 : gps_s + 34] = 0.08
+    turn[gps_s + 26 : gps_s + 34] = 0.0 if straight else 0.08
     delta = np.tile(turn, (w, 1)) * rng.uniform(0.8, 1.2, (w, 1))
     d_signed = np.tile(signed, (w, 1))
     psi = np.empty((w, n + 1))
@@ -313,7 +315,8 @@ def _reversing_drive(rng, w=8, gps_s=120):
         psi[:, k + 1] = psi[:, k] - delta[:, k]
     # the rear wheels' yaw from magnitudes: reversing counts the turn the wrong way round
     wheel = np.where(d_signed >= 0, delta, -delta)
-    inputs = NavInputs(np.abs(d_signed), np.full((w, n), 1e-4), wheel, delta, e, nn)
+    back = d_signed < 0 if told else None
+    inputs = NavInputs(np.abs(d_signed), np.full((w, n), 1e-4), wheel, delta, e, nn, back)
     return inputs, gps_s
 
 
@@ -328,6 +331,40 @@ def test_a_reversing_turn_is_told_by_the_wheels_against_the_gyro_and_driven_back
     track = run(inputs, cfg, "fused")
     # the 8 turning seconds tell it; the 4 straight ones before are turned round then
     assert track.rejected["reversing"] == 8 * inputs.dist_m.shape[0]
+
+
+def test_a_straight_reverse_between_two_stops_is_driven_backwards_only_when_the_log_says_so():
+    cfg = NavConfig()
+    inputs, outage = _reversing_drive(np.random.default_rng(7), straight=True)
+    # no turn to tell it by: 24 m reversed counted forwards, about 48 m off
+    for control in CONTROLS:
+        assert np.all(run_outage(inputs, outage, cfg, control).horizontal_m > 30.0), control
+    assert run(inputs, cfg, "fused").rejected["reversing"] == 0
+    told, outage = _reversing_drive(np.random.default_rng(7), straight=True, told=True)
+    for control in CONTROLS:
+        end = run_outage(told, outage, cfg, control).horizontal_m
+        assert np.all(end < 1.0), (control, end)
+
+
+def test_a_told_reversing_turn_keeps_the_wheels_yaw_as_a_measurement():
+    """Told which seconds went backwards, the filter reads the wheels' yaw from magnitudes
+    as the reversed turn: the wheels alone now follow a reversing turn too, and the fused
+    filter neither guesses nor leaves a wheel yaw out."""
+    cfg = NavConfig()
+    inputs, outage = _reversing_drive(np.random.default_rng(7))
+    assert np.all(run_outage(inputs, outage, cfg, "wheels").horizontal_m > 30.0)
+    told, outage = _reversing_drive(np.random.default_rng(7), told=True)
+    for control in CONTROLS:
+        end = run_outage(told, outage, cfg, control).horizontal_m
+        assert np.all(end < 1.0), (control, end)
+    track = run(told, cfg, "fused")
+    assert track.rejected["reversing"] == 0 and track.rejected["wheels"] == 0
+
+
+def test_the_backwards_seconds_must_match_the_windows():
+    inputs, _ = _reversing_drive(np.random.default_rng(7))
+    with pytest.raises(ValueError, match="backwards"):
+        dataclasses.replace(inputs, backwards=np.zeros((2, 3), bool))
 
 
 def test_a_straight_drive_with_noisy_sensors_is_never_taken_for_reversing():

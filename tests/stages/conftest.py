@@ -44,6 +44,7 @@ def write_samples(folder, segments, seed=0, true_radius_m=None):
         df.insert(8, "lat_deg", 52.4 + np.cumsum(r_true * angle) / 111_250.0)
         df.insert(9, "lon_deg", np.full(n, -1.5))
         df.insert(10, "gyro_yaw_rad", np.zeros(n))  # straight: the gyro sees no turn
+        df.insert(11, "backwards", np.zeros(n))  # forwards throughout
         df["scenario"] = ""
         df.to_parquet(folder / f"{seg}.parquet", index=False)
         manifest.append(

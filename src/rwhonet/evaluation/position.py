@@ -286,6 +286,8 @@ class Segments:
         length: (G,) its seconds.
         wheel_yaw: (G, n) the rear wheels' yaw of each second (nominal radii), rad.
         gyro_yaw: (G, n) the gyro's, rad (NaN: none).
+        backwards: (G, n) seconds the log says were driven backwards (a logger that
+            signs its wheel speeds; :data:`rwhonet.contracts.BACKWARDS`).
         fix_e: (G, n + 1) the GNSS fixes east of the segment's first fix, m: column
             ``j + 1`` ends second ``j``; column 0 (the fix before the first second,
             not in the samples) and the padding are NaN.
@@ -300,6 +302,7 @@ class Segments:
     fix_e: np.ndarray
     fix_n: np.ndarray
     segment_of: np.ndarray
+    backwards: np.ndarray
 
     def gather(self, values: np.ndarray, fill: float = 0.0) -> np.ndarray:
         """A per-row array of the frame as (G, n) per segment and second, padded with ``fill``."""
@@ -332,6 +335,7 @@ def nav_segments(frame: pd.DataFrame, params: Params, role: str = k.TARGET_TEST)
         if k.GYRO_YAW_RAD in frame
         else np.full(len(frame), np.nan)
     )
+    back = frame[k.BACKWARDS].to_numpy(np.float64) if k.BACKWARDS in frame else np.zeros(len(frame))
     n_max = int(length.max()) if len(length) else 0
     lat = frame[k.LAT_DEG].to_numpy(np.float64)
     lon = frame[k.LON_DEG].to_numpy(np.float64)
@@ -349,6 +353,7 @@ def nav_segments(frame: pd.DataFrame, params: Params, role: str = k.TARGET_TEST)
         fix_e,
         fix_n,
         segment_of,
+        _gather(back, first, length, n_max, 0.0) > 0.5,
     )
 
 
@@ -441,6 +446,7 @@ def filter_windows(
                 np.tile(segs.gyro_yaw, tile),
                 np.tile(segs.fix_e, tile),
                 np.tile(segs.fix_n, tile),
+                np.tile(segs.backwards, tile),
             ),
             cfg,
             control,
@@ -480,6 +486,9 @@ def filter_windows(
                     np.broadcast_to(gyro_w, (n_run, n_win, L)).reshape(flat, L),
                     blind,
                     blind,
+                    np.broadcast_to(segs.backwards[g[:, None], sec], (n_run, n_win, L)).reshape(
+                        flat, L
+                    ),
                 ),
                 cfg,
                 control,

@@ -36,8 +36,8 @@ def sample_table(
 
     Returns:
         Table with columns :data:`rwhonet.contracts.SAMPLE_COLUMNS`: float64 ``t_s``, metres
-        and radians (``gyro_yaw_rad`` NaN without a yaw rate), float32 features, string
-        ``scenario``.
+        and radians (``gyro_yaw_rad`` NaN without a yaw rate), ``backwards`` 0.0 / 1.0,
+        float32 features, string ``scenario``.
     """
     angles = {
         mode: (
@@ -65,6 +65,7 @@ def sample_table(
         k.LAT_DEG: sec.lat_deg,
         k.LON_DEG: sec.lon_deg,
         k.GYRO_YAW_RAD: sec.gyro_yaw_rad,
+        k.BACKWARDS: sec.backwards.astype(np.float64),
         **dict(zip(k.FEATURE_COLUMNS, features, strict=True)),
         k.SCENARIO: pa.array(sec.scenario, type=pa.string()),
     }

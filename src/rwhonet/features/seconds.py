@@ -189,6 +189,33 @@ def gyro_yaw_rad(t_s: np.ndarray, yaw_rate_rad_s: ArrayLike | None) -> np.ndarra
     return integrate_per_second(t_s, np.asarray(yaw_rate_rad_s, dtype=np.float64))
 
 
+def backwards_per_second(
+    t_s: np.ndarray, omega_rl_rad_s: np.ndarray, omega_rr_rad_s: np.ndarray
+) -> np.ndarray:
+    """Seconds a logger that signs its wheel speeds recorded as driven backwards.
+
+    Wheel speeds are magnitudes, as ABS sensors give them, and the pipeline takes
+    them so; but a logger that signs them (validate lets four wheels negative
+    together through: :func:`rwhonet.data.plausibility.reversing_rows`) also says
+    which way the car went. A second is driven backwards when the rear wheels'
+    signed mean angle over it (:func:`integrate_per_second`) is negative. The
+    navigation filter then moves the car backwards through it and reads its wheel
+    yaw reversed (:mod:`rwhonet.nav.filter`, Reversing). A logger of magnitudes
+    never gives one: its reverses are told by their turns alone.
+
+    Args:
+        t_s: per-row time, s.
+        omega_rl_rad_s: the rear-left wheel's speed as logged (signed or not), rad/s.
+        omega_rr_rad_s: the rear right's.
+
+    Returns:
+        bool per second (length ``n_seconds(len(t_s))``).
+    """
+    mean = 0.5 * (np.asarray(omega_rl_rad_s, np.float64) + np.asarray(omega_rr_rad_s, np.float64))
+    with np.errstate(invalid="ignore"):
+        return integrate_per_second(np.asarray(t_s, np.float64), mean) < 0.0
+
+
 def wheel_features_rad_s(wheels_rad_s: Sequence[np.ndarray]) -> np.ndarray:
     """Stack the ten samples per second of each wheel into the 40 raw input features.
 
@@ -290,6 +317,8 @@ class SegmentSeconds:
         omega_end_rr_rad_s: same for the rear right wheel.
         gyro_yaw_rad: the yaw-rate gyro's angle over each second (left turns
             positive), rad; NaN where the drive has no yaw rate.
+        backwards: seconds a logger that signs its wheel speeds recorded as driven
+            backwards (:func:`backwards_per_second`; a magnitude logger: none).
         wheels_rad_s: ``(n, 40)`` raw wheel-speed features, rad/s.
         scenario: merged scenario tags per second.
         n_rows: rows in the segment.
@@ -305,6 +334,7 @@ class SegmentSeconds:
     omega_end_rl_rad_s: np.ndarray
     omega_end_rr_rad_s: np.ndarray
     gyro_yaw_rad: np.ndarray
+    backwards: np.ndarray
     wheels_rad_s: np.ndarray
     scenario: np.ndarray
     n_rows: int
@@ -321,20 +351,14 @@ def segment_arrays(table: pa.Table) -> dict[str, np.ndarray | pa.ChunkedArray]:
 
     Returns:
         ``t_s, lat_deg, lon_deg, omega_*`` and, where present, ``yaw_rate_rad_s`` as
-        float64 numpy arrays (wheel speeds as magnitudes; missing values NaN) and
-        ``scenario`` as it is (Arrow), for :func:`segment_seconds`.
+        float64 numpy arrays (wheel speeds as logged, signed or not; missing values
+        NaN) and ``scenario`` as it is (Arrow), for :func:`segment_seconds`.
     """
-    arrays = {
+    return {
         name: table[name] if name == c.SCENARIO else np.asarray(table[name], dtype=np.float64)
         for name in table.column_names
         if name in SEGMENT_COLUMNS
     }
-    # Wheel speeds are magnitudes; validate lets negative ones through only where a logger
-    # that signs its speeds recorded reversing (all four wheels together).
-    for name in c.WHEELS:
-        if name in arrays:
-            arrays[name] = np.abs(arrays[name])
-    return arrays
 
 
 def check_segment(frame: Mapping[str, ArrayLike], file: str) -> None:
@@ -410,7 +434,11 @@ def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> 
     # were taken there, the stamps only say when the logger wrote them. A clean drive's
     # stamps are kept as they are.
     t = label_times(np.asarray(frame[c.T_S], dtype=np.float64), 1.0 / ROWS_PER_SECOND)
-    omega = {w: np.asarray(frame[w], dtype=np.float64) for w in c.WHEELS}
+    # Wheel speeds are magnitudes; validate lets negative ones through only where a logger
+    # that signs its speeds recorded reversing (all four wheels together), which says
+    # which way the car went (the navigation filter's, not the distance's).
+    signed = {w: np.asarray(frame[w], dtype=np.float64) for w in c.WHEELS}
+    omega = {w: np.abs(v) for w, v in signed.items()}
     tags = frame[c.SCENARIO] if c.SCENARIO in frame else np.full(t.size, "")
     lat = np.asarray(frame[c.LAT_DEG], dtype=np.float64)
     lon = np.asarray(frame[c.LON_DEG], dtype=np.float64)
@@ -425,6 +453,7 @@ def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> 
         omega_end_rl_rad_s=end_of_second(omega[c.OMEGA_RL]),
         omega_end_rr_rad_s=end_of_second(omega[c.OMEGA_RR]),
         gyro_yaw_rad=gyro_yaw_rad(t, frame.get(c.YAW_RATE_RAD_S)),
+        backwards=backwards_per_second(t, signed[c.OMEGA_RL], signed[c.OMEGA_RR]),
         wheels_rad_s=wheel_features_rad_s([omega[w] for w in c.FEATURE_WHEEL_ORDER]),
         scenario=scenario_per_second(tags),
         n_rows=t.size,

@@ -64,7 +64,13 @@ forwards again; and the straight seconds since the last stop that were driven
 forwards (slowly) before the turn told otherwise are turned round when it does (the
 position moves back by twice their travel, heading untouched: the gyro's
 yaw holds either way). A straight reverse between two stops shows no turn and
-stays undetected.
+stays undetected, unless the log says so: a logger that signs its wheel speeds
+tells every second driven backwards (``NavInputs.backwards``,
+:func:`rwhonet.features.seconds.backwards_per_second`), with every control. Such a
+second moves the car backwards, and its wheel yaw, from magnitudes, is read as
+the reversed turn (``Y_w = (−δ − β d − β_v d²)(1 + c d²) / s_w + ε_w``: the
+signed model with the travel ``−d``, negated), so it still measures the turn;
+the turn-based rule is for the other seconds.
 
 The filter starts on the first second with a course (its azimuth, the fix), or
 from a state handed over (:class:`NavStart`: a run over a whole drive segment
@@ -243,6 +249,8 @@ class NavInputs:
             second ``k`` and column ``k + 1`` ends it; NaN where no valid fix
             (an outage).
         fix_n_m: their north offsets, m.
+        backwards: (W, n) bool, seconds the log says were driven backwards (a logger
+            that signs its wheel speeds); None: the log cannot say (magnitudes).
     """
 
     dist_m: np.ndarray
@@ -251,12 +259,15 @@ class NavInputs:
     gyro_yaw_rad: np.ndarray
     fix_e_m: np.ndarray
     fix_n_m: np.ndarray
+    backwards: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         shape = np.shape(self.dist_m)
         if len(shape) != 2:
             raise ValueError(f"NavInputs arrays must be (windows, seconds), got {shape}")
-        for name in ("dist_var_m2", "wheel_yaw_rad", "gyro_yaw_rad"):
+        for name in ("dist_var_m2", "wheel_yaw_rad", "gyro_yaw_rad", "backwards"):
+            if name == "backwards" and self.backwards is None:
+                continue
             if np.shape(getattr(self, name)) != shape:
                 raise ValueError(f"{name} is {np.shape(getattr(self, name))}, expected {shape}")
         for name in ("fix_e_m", "fix_n_m"):
@@ -633,6 +644,9 @@ def run(
     fe = np.asarray(inputs.fix_e_m, np.float64)
     fn = np.asarray(inputs.fix_n_m, np.float64)
     w, n = dist.shape
+    told_back = (
+        np.zeros((w, n), bool) if inputs.backwards is None else np.asarray(inputs.backwards, bool)
+    )
     gn = cfg.gnss
     r_gyro = cfg.gyro.yaw_sd_rad() ** 2
     wheel_var = cfg.wheels.yaw_sd_rad() ** 2 + cfg.wheels.model_sd_rad**2
@@ -706,12 +720,14 @@ def run(
         )
         g_k = np.where(np.isfinite(y_g[:, k]), y_g[:, k], np.nan)
         wh_k = np.where(np.isfinite(y_w[:, k]), y_w[:, k], np.nan)
+        told = told_back[:, k]  # the log says this second went backwards
         first = ~on & has_course
         if on.any():
             # 1. the second's yaw joins the state
             guess_g = x[:, SG] * (g_k - x[:, BG])
             c_d2 = 1.0 + x[:, CW] * d * d
             guess_w = x[:, SW] * (wh_k - x[:, EW]) / c_d2 + (x[:, BW] + x[:, BV] * d) * d
+            guess_w = np.where(told, -guess_w, guess_w)
             delta0 = np.where(use_gyro & np.isfinite(g_k), guess_g, np.nan)
             delta0 = np.where(np.isfinite(delta0), delta0, np.where(use_wheels, guess_w, np.nan))
             delta0 = np.nan_to_num(delta0)
@@ -730,9 +746,10 @@ def run(
             if use_wheels:
                 s_w, dl, beta, c = xa[:, SW], xa[:, DELTA], xa[:, BW], xa[:, CW]
                 c_d2 = 1.0 + c * d * d
-                turn = dl - (beta + xa[:, BV] * d) * d
+                way = np.where(told, -1.0, 1.0)  # a told reverse: the reversed turn
+                turn = way * dl - (beta + xa[:, BV] * d) * d
                 h_row = np.zeros((w, S + 1))
-                h_row[:, DELTA] = c_d2 / s_w
+                h_row[:, DELTA] = way * c_d2 / s_w
                 h_row[:, BW] = -d * c_d2 / s_w
                 h_row[:, CW] = turn * d * d / s_w
                 h_row[:, SW] = -turn * c_d2 / s_w**2
@@ -747,6 +764,7 @@ def run(
                         pa, h_row, innov, r, flip, measured, backwards, cfg.yaw_gate
                     )
                     backwards &= on & (d0 >= cfg.reverse_stop_m) & (d0 <= cfg.reverse_max_m_s)
+                    backwards &= ~told  # told, not guessed: its wheel yaw is measured
                     rejected["reversing"] += int(backwards.sum())
                     # the run's straight start, driven forwards so far, turned round
                     turned = backwards & ~before
@@ -756,7 +774,7 @@ def run(
                 xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, on & ~backwards, gate)
                 rejected["wheels"] += int((on & ~backwards & np.isfinite(wh_k) & ~ok).sum())
             # 2. the arc of the second (backwards in a reversing second)
-            d_signed = np.where(backwards, -d, d)
+            d_signed = np.where(backwards | told, -d, d)
             xa_new, jac, ge, gnn = propagate(xa, d_signed)
             xa_new[:, GE] *= phi
             xa_new[:, GN] *= phi
@@ -775,7 +793,9 @@ def run(
             pa_new[:, E, N] += var_d * ge * gnn
             pa_new[:, N, E] += var_d * ge * gnn
             # a reversing run is slow throughout: a faster second cannot be one's start
-            forwards = on & ~backwards & (d0 >= cfg.reverse_stop_m) & (d0 <= cfg.reverse_max_m_s)
+            forwards = (
+                on & ~backwards & ~told & (d0 >= cfg.reverse_stop_m) & (d0 <= cfg.reverse_max_m_s)
+            )
             moved = xa_new[:, [E, N]] - xa[:, [E, N]]
             since_stop = np.where(forwards[:, None], since_stop + moved, 0.0)
             xa = np.where(on[:, None], xa_new, xa)

@@ -78,7 +78,13 @@ def run_outage(
     fe[:, outage_start + 1 :] = np.nan
     fn[:, outage_start + 1 :] = np.nan
     masked = NavInputs(
-        inputs.dist_m, inputs.dist_var_m2, inputs.wheel_yaw_rad, inputs.gyro_yaw_rad, fe, fn
+        inputs.dist_m,
+        inputs.dist_var_m2,
+        inputs.wheel_yaw_rad,
+        inputs.gyro_yaw_rad,
+        fe,
+        fn,
+        inputs.backwards,
     )
     track = run(masked, config, control)
     calibrated = track.started[:, outage_start - 1]
@@ -109,7 +115,8 @@ def window_inputs(
 
     Args:
         per_second: the segment's (n,) arrays named as :data:`PER_SECOND` (a
-            missing sensor: an all-NaN array).
+            missing sensor: an all-NaN array) and, where the log says it, ``backwards``
+            (bool: seconds driven backwards, :class:`~rwhonet.nav.filter.NavInputs`).
         fix_e_m: (n + 1,) its fixes, east, m (the fix before second 0 first).
         fix_n_m: (n + 1,) north, m.
         starts: (W,) each outage's first second, each ≥ ``calibration_s`` and
@@ -134,8 +141,10 @@ def window_inputs(
     rows = starts[:, None] - calibration_s + np.arange(calibration_s + outage_s)
     fix_rows = starts[:, None] - calibration_s + np.arange(calibration_s + outage_s + 1)
     arrays = {key: np.asarray(per_second[key], np.float64)[rows] for key in PER_SECOND}
+    back = per_second.get("backwards")
     return NavInputs(
         fix_e_m=np.asarray(fix_e_m, np.float64)[fix_rows],
         fix_n_m=np.asarray(fix_n_m, np.float64)[fix_rows],
+        backwards=None if back is None else np.asarray(back, bool)[rows],
         **arrays,
     )

@@ -216,7 +216,9 @@ class StreamNavigator:
         Args:
             sec: per second ``disp_corrected_m``, ``disp_gnss_m``, ``angle_rl_rad``,
                 ``angle_rr_rad``, ``gyro_yaw_rad``, ``lat_deg`` and ``lon_deg`` (the fix
-                ending the second; NaN where none).
+                ending the second; NaN where none) and, optionally, ``backwards`` (bool:
+                the log says the second was driven backwards, a logger that signs its
+                wheel speeds).
             withheld: (n,) seconds inside an outage: their fixes do not reach the filter.
 
         Returns:
@@ -267,6 +269,7 @@ class StreamNavigator:
             gyro_yaw_rad=gyro[None],
             fix_e_m=seen_e[None],
             fix_n_m=seen_n[None],
+            backwards=np.asarray(sec.get("backwards", np.zeros(n, bool)), bool)[None],
         )
         start = None
         if self._x is not None:

@@ -49,6 +49,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
+    backwards_per_second,
     end_of_second,
     gnss_displacement_m,
     gyro_yaw_rad,
@@ -366,6 +367,8 @@ class SecondStream:
 
     def _seconds(self, n_sec: int) -> dict[str, np.ndarray]:
         rows = {k: v[: n_sec * ROWS_PER_SECOND + 1] for k, v in self._rows.items()}
+        # which way a logger that signs its wheel speeds says the car went (the filter's)
+        backwards = backwards_per_second(rows[c.T_S], rows[c.OMEGA_RL], rows[c.OMEGA_RR])
         for w in c.WHEELS:  # magnitudes, as the label stage takes them (a signing logger)
             rows[w] = np.abs(rows[w])
         t = rows[c.T_S]
@@ -432,6 +435,7 @@ class SecondStream:
                     "angle_rl_rad": angles[0],
                     "angle_rr_rad": angles[1],
                     "gyro_yaw_rad": gyro_yaw_rad(t, rows.get(c.YAW_RATE_RAD_S)),
+                    "backwards": backwards,
                     "lat_deg": fix["lat"],
                     "lon_deg": fix["lon"],
                 },
