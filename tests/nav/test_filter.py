@@ -346,10 +346,10 @@ def test_a_straight_reverse_between_two_stops_is_driven_backwards_only_when_the_
         assert np.all(end < 1.0), (control, end)
 
 
-def test_a_told_reversing_turn_keeps_the_wheels_yaw_as_a_measurement():
-    """Told which seconds went backwards, the filter reads the wheels' yaw from magnitudes
-    as the reversed turn: the wheels alone now follow a reversing turn too, and the fused
-    filter neither guesses nor leaves a wheel yaw out."""
+def test_a_told_reversing_turn_is_followed_by_every_control():
+    """Told which seconds went backwards, the wheels alone read their yaw from magnitudes
+    as the reversed turn and follow a reversing turn too; the fused filter does not
+    guess, and leaves those seconds' wheel yaw out (the gyro's turn)."""
     cfg = NavConfig()
     inputs, outage = _reversing_drive(np.random.default_rng(7))
     assert np.all(run_outage(inputs, outage, cfg, "wheels").horizontal_m > 30.0)

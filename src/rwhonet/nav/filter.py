@@ -67,10 +67,12 @@ yaw holds either way). A straight reverse between two stops shows no turn and
 stays undetected, unless the log says so: a logger that signs its wheel speeds
 tells every second driven backwards (``NavInputs.backwards``,
 :func:`rwhonet.features.seconds.backwards_per_second`), with every control. Such a
-second moves the car backwards, and its wheel yaw, from magnitudes, is read as
-the reversed turn (``Y_w = (−δ − β d − β_v d²)(1 + c d²) / s_w + ε_w``: the
-signed model with the travel ``−d``, negated), so it still measures the turn;
-the turn-based rule is for the other seconds.
+second moves the car backwards; with the gyro its wheel yaw is left out, as
+the turn-based rule leaves it out (on a simulated reverse round a tight bend
+the rear wheels' turn came 4 % above the gyro's: the model's terms are learnt
+going forwards), and the wheels alone read it as the reversed turn (``Y_w =
+(−δ − β d − β_v d²)(1 + c d²) / s_w + ε_w``: the signed model with the travel
+``−d``, negated), their only yaw. The turn-based rule is for the other seconds.
 
 The filter starts on the first second with a course (its azimuth, the fix), or
 from a state handed over (:class:`NavStart`: a run over a whole drive segment
@@ -771,8 +773,11 @@ def run(
                     xa[:, [E, N]] -= np.where(turned[:, None], 2.0 * since_stop, 0.0)
                     since_stop = np.where(turned[:, None], 0.0, since_stop)
                 gate = np.where(measured, cfg.yaw_gate, np.inf)
-                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, on & ~backwards, gate)
-                rejected["wheels"] += int((on & ~backwards & np.isfinite(wh_k) & ~ok).sum())
+                # with the gyro, a reversing second's wheel yaw is left out, told or not:
+                # the wheel-yaw model, fitted going forwards, fits a reversing turn less well
+                use = on & ~backwards & ~(told & use_gyro)
+                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, use, gate)
+                rejected["wheels"] += int((use & np.isfinite(wh_k) & ~ok).sum())
             # 2. the arc of the second (backwards in a reversing second)
             d_signed = np.where(backwards | told, -d, d)
             xa_new, jac, ge, gnn = propagate(xa, d_signed)
