@@ -199,8 +199,8 @@ def backwards_per_second(
     together through: :func:`rwhonet.data.plausibility.reversing_rows`) also says
     which way the car went. A second is driven backwards when the rear wheels'
     signed mean angle over it (:func:`integrate_per_second`) is negative. The
-    navigation filter then moves the car backwards through it and reads its wheel
-    yaw reversed (:mod:`rwhonet.nav.filter`, Reversing). A logger of magnitudes
+    navigation filter then moves the car backwards through it (:mod:`rwhonet.nav.filter`,
+    Reversing). A logger of magnitudes
     never gives one: its reverses are told by their turns alone.
 
     Args:

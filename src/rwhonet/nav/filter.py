@@ -766,7 +766,7 @@ def run(
                         pa, h_row, innov, r, flip, measured, backwards, cfg.yaw_gate
                     )
                     backwards &= on & (d0 >= cfg.reverse_stop_m) & (d0 <= cfg.reverse_max_m_s)
-                    backwards &= ~told  # told, not guessed: its wheel yaw is measured
+                    backwards &= ~told  # told, not guessed (nor its start turned round)
                     rejected["reversing"] += int(backwards.sum())
                     # the run's straight start, driven forwards so far, turned round
                     turned = backwards & ~before
