@@ -372,3 +372,43 @@ def test_rows_the_resampler_flagged_are_repaired_though_the_10_hz_screen_passes_
     assert abs(unflagged["disp_wpm_m"][k] - plain["disp_wpm_m"][k]) > 0.05  # it moved the WPM
     for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
         np.testing.assert_allclose(out[q], plain[q], atol=0.01)
+
+
+def _straight_reverse(signed: bool) -> pd.DataFrame:
+    """Straight on at 15 m/s (azimuth 30 deg), then at 150 s a stop, 15 s straight back at
+    2 m/s (about 30 m), a stop and on again; exact fixes, a gyro reading the straight road's
+    zero turn; wheel speeds signed (a logger that signs them) or as magnitudes."""
+    from geographiclib.geodesic import Geodesic
+
+    from rwhonet.data import canonical as c
+
+    t = np.round(45000.0 + 0.1 * np.arange(3001), 6)
+    knots = [(0, 15), (150, 15), (155, 0), (157, 0), (158, -2), (172, -2), (173, 0), (175, 0)]
+    knots += [(180, 15), (300, 15)]
+    v = np.interp(t - t[0], *zip(*knots, strict=True))
+    s = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * 0.1)]
+    geo = [Geodesic.WGS84.Direct(52.4, -1.5, 30.0, d) for d in s]
+    omega = (v if signed else np.abs(v)) / RADIUS_M
+    return pd.DataFrame(
+        {
+            c.T_S: t,
+            c.LAT_DEG: [g["lat2"] for g in geo],
+            c.LON_DEG: [g["lon2"] for g in geo],
+            **{w: omega for w in c.WHEELS},
+            c.N_SATS: np.full(t.size, 9.0),
+            c.YAW_RATE_RAD_S: np.random.default_rng(0).normal(0.0, 6e-4, t.size),
+        }
+    )
+
+
+def test_a_straight_reverse_is_driven_backwards_when_the_logger_signs_its_wheel_speeds(bundle):
+    """No turn tells a straight reverse; a logger that signs its wheel speeds does."""
+    model = load_served(bundle["model_onnx"])
+    ends = {}
+    for signed in (False, True):
+        out, stream = stream_all(
+            model, blocks_of(_straight_reverse(signed), [700] * 5), [Outage(100, 220)]
+        )
+        ends[signed] = stream.summary()[0]["pos_err_end_m"]
+    # magnitudes: the 30 m back counted forwards, about 60 m off at the end
+    assert ends[False] > 45.0 and ends[True] < 5.0, ends
