@@ -75,6 +75,11 @@ def store(tmp_path_factory):
     uri = f"sqlite:///{a}/mlruns/mlflow.db"
     b_overrides = {**OVERRIDES, ("seeds",): [2], ("tracking", "tracking_uri"): uri}
     b = scratch_project(base / "b", b_overrides)
+    # The data stages first, as a user's sweep starts from a reproduced workspace: two
+    # workers running the same stage at once race on DVC's run cache (one worker's
+    # temporary run-cache file vanished: treeverse/dvc#10673), which no sweep need meet.
+    data = dvc(a, "repro", "label")
+    assert data.returncode == 0, data.stdout + data.stderr
     for name, settings in QUEUED.items():
         sets = [arg for k, v in settings.items() for arg in ("-S", f"{k}={v}")]
         out = dvc(a, "exp", "run", "--queue", "-n", name, *sets)
