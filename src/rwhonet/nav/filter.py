@@ -46,7 +46,9 @@ Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
    enough apart) and the fix itself (antenna = rear axle + lever arm + ``g``)
    update the state, innovations beyond ``gnss.gate`` standard deviations left
    out (jumps); through an outage the fixes are absent and steps 1-2 alone
-   dead-reckon;
+   dead-reckon. Before either update, the fix's density under its prediction
+   is kept (:attr:`NavTrack.fix_logpdf`): summed over a drive, the log score of
+   the filter's predictions of its GNSS;
 4. ``δ`` is marginalised out.
 
 Reversing. Wheel speeds are magnitudes, so a car reversing is dead-reckoned
@@ -313,6 +315,12 @@ class NavTrack:
         snapshot_x: (W, K, S) the state at the end of each second of ``snapshots``
             (NaN where the row had not started), or None.
         snapshot_cov: (W, K, S, S) its covariance, or None.
+        fix_logpdf: (W, n) the log density of each second's fix (fix ``k + 1``) under
+            the filter's prediction of it made before it saw it or the course it ends
+            (:func:`fix_log_score`): summed over a drive, the log score of the
+            filter's one-step predictions of its GNSS, by which configurations
+            (sensor figures) can be compared on drives with GNSS. 0 where there is
+            no fix, the filter had not started, or the fix lies beyond the gate.
     """
 
     x: np.ndarray
@@ -324,6 +332,7 @@ class NavTrack:
     rejected: dict[str, int]
     snapshot_x: np.ndarray | None = None
     snapshot_cov: np.ndarray | None = None
+    fix_logpdf: np.ndarray | None = None
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -513,6 +522,43 @@ def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
 MOVED_ROWS = np.array([E, N, PSI, BG, GE, GN, EW, BD])
 
 
+def fix_log_score(
+    pa: np.ndarray,
+    h_mat: np.ndarray,
+    innov: np.ndarray,
+    r_mat: np.ndarray,
+    use: np.ndarray,
+    gate: float,
+) -> np.ndarray:
+    """Each row's log density of a fix under its prediction: ``log N(innov; 0, H P Hᵀ + R)``.
+
+    Args:
+        pa: (W, K, K) the state's covariance before the fix.
+        h_mat: (W, 2, K) the fix model's Jacobian (:func:`fix_model`).
+        innov: (W, 2) the fix less its prediction, m.
+        r_mat: (W, 2, 2) the fix's white noise, m².
+        use: (W,) rows with a fix to score.
+        gate: rows whose squared Mahalanobis distance exceeds ``gate²`` score 0 (a
+            jump the update would leave out too), as do rows not used.
+
+    Returns:
+        (W,) nats.
+    """
+    s = h_mat @ pa @ np.swapaxes(h_mat, 1, 2) + r_mat
+    det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
+    ok = use & np.isfinite(innov).all(axis=1) & (det > 0)
+    det = np.where(ok, det, 1.0)
+    i_ok = np.where(ok[:, None], innov, 0.0)
+    # (e, n) S⁻¹ (e, n)ᵀ with the 2 × 2 inverse written out
+    m2 = (
+        s[:, 1, 1] * i_ok[:, 0] ** 2
+        - (s[:, 0, 1] + s[:, 1, 0]) * i_ok[:, 0] * i_ok[:, 1]
+        + s[:, 0, 0] * i_ok[:, 1] ** 2
+    ) / det
+    ok &= m2 <= gate * gate
+    return np.where(ok, -0.5 * (m2 + np.log((2.0 * np.pi) ** 2 * det)), 0.0)
+
+
 def _sandwich(p: np.ndarray, jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """``J P Jᵀ`` for a Jacobian equal to the identity outside ``rows`` (W, K, K).
 
@@ -697,6 +743,7 @@ def run(
     snap_x = np.full((w, snap.size, S), np.nan) if snapshots is not None else None
     snap_p = np.full((w, snap.size, S, S), np.nan) if snapshots is not None else None
     rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0, "reversing": 0}
+    fix_logpdf = np.zeros((w, n))
     refused = np.zeros(w, np.int64)  # consecutive fixes the gate refused
     backwards = np.zeros(w, bool)  # in a reversing run (module docstring)
     since_stop = np.zeros((w, 2))  # east/north travel since the car last stood, forwards
@@ -805,13 +852,15 @@ def run(
             since_stop = np.where(forwards[:, None], since_stop + moved, 0.0)
             xa = np.where(on[:, None], xa_new, xa)
             pa = np.where(on[:, None, None], pa_new, pa)
-            # 3. GNSS
+            # 3. GNSS (the fix's prediction scored first, before any of it is seen)
+            z = np.stack([fe[:, k + 1], fn[:, k + 1]], axis=1)
+            h2, h_mat = fix_model(xa, cfg.antenna_m)
+            fix_logpdf[:, k] = fix_log_score(pa, h_mat, z - h2, r_fix, on & has_fix, gn.gate)
             h, h_row = course_model(xa, d_signed, cfg.antenna_m)
             innov = _wrap(course - h)
             xa, pa, ok = _scalar_update(xa, pa, h_row, innov, course_var, on & has_course, gn.gate)
             rejected["course"] += int((on & has_course & ~ok).sum())
             h2, h_mat = fix_model(xa, cfg.antenna_m)
-            z = np.stack([fe[:, k + 1], fn[:, k + 1]], axis=1)
             xa, pa, ok = _vector_update(xa, pa, h_mat, z - h2, r_fix, on & has_fix, gn.gate)
             rejected["fix"] += int((on & has_fix & ~ok).sum())
             refused = np.where(on & has_fix, np.where(ok, 0, refused + 1), refused)
@@ -862,4 +911,4 @@ def run(
             snap_x[:, i] = xs[:, k]
             snap_p[:, i] = np.where(on[:, None, None], p, np.nan)
         started[:, k] = on
-    return NavTrack(xs, covs, p, fix_pred, fix_cov, started, rejected, snap_x, snap_p)
+    return NavTrack(xs, covs, p, fix_pred, fix_cov, started, rejected, snap_x, snap_p, fix_logpdf)
