@@ -8,6 +8,7 @@ import re
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -119,6 +120,42 @@ def execution_runs(repo: Path) -> list:
     )
     execution = latest.data.tags["rwhonet.execution"]
     return client.search_runs([exp], f"tags.`rwhonet.execution` = '{execution}'", max_results=5000)
+
+
+def test_the_gyro_figures_benchmark_scores_a_grid_on_the_reproduced_project(repo, ci_repro):
+    # benchmarks/gyro_figures.py reads the reproduced project (samples, models, the
+    # receiver drift in eval.json) and prints one line per grid point and the per-window pick
+    from support.project import BIN, env
+
+    out = subprocess.run(
+        [str(BIN / "python"), "benchmarks/gyro_figures.py", "--outage", "30", "--per-window"]
+        + ["--grid", "bias_instability=0.0025,0.04"],
+        cwd=repo,
+        env=env(repo),
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    lines = re.findall(
+        r"^bias_instability=(\S+) \| train score +(\S+) \| test fused (\S+) % gyro (\S+) %$",
+        out.stdout,
+        re.M,
+    )
+    assert [b for b, *_ in lines] == ["0.0025", "0.04"], out.stdout
+    for _, score, fused, gyro in lines:
+        assert all(np.isfinite(float(v)) for v in (score, fused, gyro))
+        assert float(fused) > 0 and float(gyro) > 0
+    assert lines[0][1] != lines[1][1]  # the figure changes the score
+    assert re.search(r"^per window, .*: fused \d+\.\d+ %$", out.stdout, re.M), out.stdout
+    bad = subprocess.run(
+        [str(BIN / "python"), "benchmarks/gyro_figures.py", "--grid", "no_such_field=1"],
+        cwd=repo,
+        env=env(repo),
+        capture_output=True,
+        text=True,
+    )
+    assert bad.returncode != 0 and "GyroSpec field" in bad.stderr
 
 
 def test_a_run_whose_timing_is_gone_is_logged_at_evaluates_time(repo):
