@@ -539,7 +539,11 @@ def fix_log_score(
         r_mat: (W, 2, 2) the fix's white noise, m².
         use: (W,) rows with a fix to score.
         gate: rows whose squared Mahalanobis distance exceeds ``gate²`` score 0 (a
-            jump the update would leave out too), as do rows not used.
+            jump the update would leave out too), as do rows not used. Scored in
+            full, the few seconds where the filter has lost the car (before its pose
+            restarts) outweighed every other second: on a built-in world's training
+            drives two gyro noise figures' sums parted by 1,440 nats ungated and by 8
+            gated (docs/positioning.md section 4).
 
     Returns:
         (W,) nats.
