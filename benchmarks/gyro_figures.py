@@ -66,6 +66,19 @@ def _grid(specs: list[str]) -> list[tuple[str, list[float]]]:
     return axes
 
 
+def _inputs(segs: P.Segments, odometry: P.Odometry) -> NavInputs:
+    """One run's distances over every segment, with the segments' sensors and fixes."""
+    return NavInputs(
+        segs.gather(odometry.dist_m),
+        segs.gather(odometry.var_m2),
+        segs.wheel_yaw,
+        segs.gyro_yaw,
+        segs.fix_e,
+        segs.fix_n,
+        segs.backwards,
+    )
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", nargs="+", default=["bias_instability=0.0025,0.01,0.04"])
@@ -73,6 +86,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--per-window", action="store_true")
     args = ap.parse_args(argv)
     axes = _grid(args.grid)
+    for needed in (paths.PARAMS, paths.EVAL_JSON):
+        if not needed.is_file():
+            raise SystemExit(f"{needed}: not there; run this in a reproduced project (make run)")
     params = load_params(paths.PARAMS)
     selection = read_selection(params, paths.SAMPLES, paths.MODELS)
     choice = choose(params, recommend(selection_scores(selection, params), params))
@@ -82,8 +98,11 @@ def main(argv: list[str] | None = None) -> None:
     model = plan["control_model"]
     errors = [t for t in training_errors(evidence, [model], params) if not t.per_window]
     fits = fit_variances(evidence, errors, params)
-    receiver = json.loads(paths.EVAL_JSON.read_text())["position_controls"]["receiver"]
-    base = P.nav_config(params).with_receiver(receiver["sigma_m"], receiver.get("tau_s"))
+    evaluated = json.loads(paths.EVAL_JSON.read_text())
+    receiver = (evaluated.get("position_controls") or {}).get("receiver") or {}
+    base = P.nav_config(params)
+    if receiver.get("sigma_m") is not None:  # the drift the evaluation fitted, as it ran
+        base = base.with_receiver(receiver["sigma_m"], receiver.get("tau_s"))
     train = evidence.frame
     train_gnss = train[k.DISP_GNSS_M].to_numpy(np.float64)
     train_segs = P.nav_segments(train, params, k.TARGET_TRAIN)
@@ -119,16 +138,7 @@ def main(argv: list[str] | None = None) -> None:
         cfg = replace(base, gyro=replace(base.gyro, **figures))
         score = 0.0
         for r in train_runs:
-            inputs = NavInputs(
-                train_segs.gather(r.dist_m),
-                train_segs.gather(r.var_m2),
-                train_segs.wheel_yaw,
-                train_segs.gyro_yaw,
-                train_segs.fix_e,
-                train_segs.fix_n,
-                train_segs.backwards,
-            )
-            score += run(inputs, cfg, "fused").fix_logpdf.sum() / len(params.seeds)
+            score += run(_inputs(train_segs, r), cfg, "fused").fix_logpdf.sum() / len(params.seeds)
         ends = P.filter_windows(frame, params, test_runs, [args.outage], cfg)
         ends = ends[ends.counted.astype(bool)]
         pct = {
@@ -144,16 +154,7 @@ def main(argv: list[str] | None = None) -> None:
             fused = [r for r in test_runs if r.control == "fused"]
             seen = []
             for r in fused:
-                inputs = NavInputs(
-                    segs.gather(r.dist_m),
-                    segs.gather(r.var_m2),
-                    segs.wheel_yaw,
-                    segs.gyro_yaw,
-                    segs.fix_e,
-                    segs.fix_n,
-                    segs.backwards,
-                )
-                cum = np.cumsum(run(inputs, cfg, "fused").fix_logpdf, axis=1)
+                cum = np.cumsum(run(_inputs(segs, r), cfg, "fused").fix_logpdf, axis=1)
                 seen.append(np.where(before > 0, cum[seg, np.maximum(before - 1, 0)], 0.0))
             mine = ends[ends.control == "fused"].sort_values(["seed", "window"])
             per_window.append((np.concatenate(seen), mine))
