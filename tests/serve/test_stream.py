@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 from rwhonet.cli.drive import calibration_of, load_drive
+from rwhonet.cli.predict import render_summary
 from rwhonet.config import load_params
 from rwhonet.data.incremental import read_rows
 from rwhonet.errors import InputError
@@ -404,11 +405,18 @@ def _straight_reverse(signed: bool) -> pd.DataFrame:
 def test_a_straight_reverse_is_driven_backwards_when_the_logger_signs_its_wheel_speeds(bundle):
     """No turn tells a straight reverse; a logger that signs its wheel speeds does."""
     model = load_served(bundle["model_onnx"])
-    ends = {}
+    ends, told = {}, {}
     for signed in (False, True):
         out, stream = stream_all(
             model, blocks_of(_straight_reverse(signed), [700] * 5), [Outage(100, 220)]
         )
         ends[signed] = stream.summary()[0]["pos_err_end_m"]
+        told[signed] = stream.backwards_s
+    # the seconds whose rear wheels' net angle is backwards: 157.5 ... 172.5 s in, by hand
+    assert told[False] == [] and told[True] == list(range(158, 174)), told
+    line = render_summary(
+        {"file": "f.csv", "rows": 3001, "seconds": 300, "outages": [], "backwards_s": told[True]}
+    )
+    assert "backwards in 16 s (the seconds ending 158 ... 173 s into the drive)" in line, line
     # magnitudes: the 30 m back counted forwards, about 60 m off at the end
     assert ends[False] > 45.0 and ends[True] < 5.0, ends

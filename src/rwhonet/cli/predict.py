@@ -253,6 +253,7 @@ def run(
         "outages": stream.summary(),
         "file": name,
         "glitches": stream.glitches,
+        "backwards_s": list(stream.backwards_s),
         "stream_glitches": list(stream_glitches or []),
         "unit_note": unit_note,
         "yaw_note": check.yaw_note,
@@ -356,11 +357,28 @@ def glitch_lines(
     ]
 
 
+def reversing_lines(elapsed_s: list[float]) -> list[str]:
+    """A line naming the seconds a logger that signs its wheel speeds told as reversing.
+
+    Args:
+        elapsed_s: each such second's end, s after the drive's first row (as ``--outage``
+            counts; :attr:`rwhonet.serve.stream.SecondStream.backwards_s`).
+    """
+    if not elapsed_s:
+        return []
+    return [
+        f"reversing: the signed wheel speeds say the car went backwards in {len(elapsed_s)} s "
+        f"(the seconds ending {elapsed_s[0]:.6g} ... {elapsed_s[-1]:.6g} s into the drive); "
+        "the position moves backwards there, the distances are magnitudes"
+    ]
+
+
 def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
     lines += glitch_lines(out.get("glitches", []), samples=out.get("stream_glitches"))
     lines += [out[k] for k in ("unit_note", "yaw_note") if out.get(k)]
+    lines += reversing_lines(out.get("backwards_s", []))
     for o in out["outages"]:
         if not o["seconds"]:
             lines.append(f"outage {o['outage']} s: no second of the drive falls in it")

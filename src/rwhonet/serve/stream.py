@@ -196,6 +196,7 @@ class SecondStream:
     _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
     totals: dict[str, _Totals] = field(default_factory=dict)
     glitches: list[dict[str, float | int | str]] = field(default_factory=list)
+    backwards_s: list[float] = field(default_factory=list)  # told seconds' ends, elapsed_s
 
     def __post_init__(self) -> None:
         spans = sorted((o.start_s, o.end_s) for o in self.outages)
@@ -413,6 +414,7 @@ class SecondStream:
         with np.errstate(invalid="ignore"):
             gnss = gnss_displacement_m(rows[c.LAT_DEG], rows[c.LON_DEG])
         t_end = end_of_second(t)
+        self.backwards_s += (t_end[backwards] - self._t0).tolist()
         out = {
             "t_s": t_end,
             "elapsed_s": t_end - self._t0,
