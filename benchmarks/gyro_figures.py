@@ -2,9 +2,9 @@
 
 Run in a reproduced workspace or a world's folder (``build/worlds/<name>``): it
 reads that folder's ``params.yaml``, samples, models and ``metrics/eval.json``
-(the receiver drift the evaluation fitted). For each combination of the grid of
-the filter's gyro figures (``rwhonet.nav.GyroSpec`` fields; angular ones in
-degrees, as ``params.yaml`` writes them) it runs the fused filter on the
+(the receiver drift, antenna and gyro latency the evaluation fitted). For each
+combination of the grid of the filter's gyro figures (``rwhonet.nav.GyroSpec``
+fields; angular ones in degrees, as ``params.yaml`` writes them) it runs the fused filter on the
 control model's distances (R-WhONet's, or G's where the rule chose a continuous
 recipe; every seed) and prints:
 
@@ -101,6 +101,13 @@ def main(argv: list[str] | None = None) -> None:
     evaluated = json.loads(paths.EVAL_JSON.read_text())
     receiver = (evaluated.get("position_controls") or {}).get("receiver") or {}
     base = P.nav_config(params)
+    geometry = (evaluated.get("position_controls") or {}).get("geometry") or {}
+    if geometry.get("antenna_m") is not None:  # the antenna and latency it fitted, as it ran
+        base = replace(
+            base,
+            antenna_m=tuple(geometry["antenna_m"]),
+            gyro=replace(base.gyro, latency_s=geometry["gyro_latency_s"]),
+        )
     if receiver.get("sigma_m") is not None:  # the drift the evaluation fitted, as it ran
         base = base.with_receiver(receiver["sigma_m"], receiver.get("tau_s"))
     train = evidence.frame

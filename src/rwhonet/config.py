@@ -799,6 +799,9 @@ class NavGyroParams:
     warm_rate_k_s: float  # the sensor's warm-up rate at power-on
     warm_tau_s: float  # the warm-up's time constant
     scale_sd: float  # scale-factor error spread (fraction)
+    # how late the channel reads the turn against the fixes, s (the starting point of its
+    # fit on the target training drives: NavigationParams.fit_geometry)
+    latency_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -830,6 +833,10 @@ class NavigationParams:
     gyro: NavGyroParams
     wheels: NavWheelParams
     gnss: NavGnssParams
+    # the antenna's place and the gyro's latency fitted on the target training drives by how
+    # well the filter predicts their fixes (rwhonet.evaluation.position.fit_geometry); the
+    # configured ones are the starting point
+    fit_geometry: bool = True
 
     def __post_init__(self) -> None:
         if len(self.antenna_m) != 2:
@@ -845,9 +852,12 @@ class NavigationParams:
             **{f"wheels.{k}": v for k, v in dataclasses.asdict(self.wheels).items()},
             **{f"gnss.{k}": v for k, v in dataclasses.asdict(self.gnss).items()},
         }
+        late = figures.pop("gyro.latency_s")
         bad = [f"evaluate.navigation.{k} = {v}" for k, v in figures.items() if not v > 0]
         if bad:
             raise ConfigError("sensor figures must be > 0: " + ", ".join(bad))
+        if not late >= 0:
+            raise ConfigError(f"evaluate.navigation.gyro.latency_s must be >= 0 s, got {late}")
 
 
 @dataclass(frozen=True)

@@ -64,6 +64,8 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
     nav = {
         "receiver_sigma_m": 2.7,
         "receiver_tau_s": 100.0,
+        "antenna_m": [0.95, -0.2],
+        "gyro_latency_s": 0.11,
         "calibration": {"scales": {"30": 0.7, "180": 0.6}, "dofs": {"30": 5.0, "180": None}},
         "from": "evaluate",
     }
@@ -72,6 +74,10 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
     for bad in (
         "a string",
         {"receiver_sigma_m": -1.0},
+        {"gyro_latency_s": -0.1},
+        {"gyro_latency_s": float("nan")},
+        {"antenna_m": [1.0]},
+        {"antenna_m": [1.0, "left"]},
         {"calibration": {"scales": {"thirty": 0.7}}},
         {"calibration": {"scales": {"30": 0.0}}},
         {"calibration": {"scales": {"30": 0.7}, "dof": "many"}},

@@ -60,3 +60,12 @@ def test_the_fitted_receiver_drift_goes_into_the_filter():
     cfg = cal.nav_config(NavConfig())
     assert cfg.gnss.sigma_m == 2.7 and cfg.gnss.tau_s == 100.0
     assert cfg.gyro == NavConfig().gyro and cfg.gnss.white_m == NavConfig().gnss.white_m
+    assert cfg.antenna_m == NavConfig().antenna_m
+
+
+def test_the_fitted_antenna_and_gyro_latency_go_into_the_filter():
+    cal = PositionCalibration.from_meta({"antenna_m": [0.95, -0.2], "gyro_latency_s": 0.11})
+    cfg = cal.nav_config(NavConfig())
+    assert cfg.antenna_m == (0.95, -0.2) and cfg.gyro.latency_s == 0.11
+    assert cfg.gnss == NavConfig().gnss
+    assert cfg.gyro.noise_density == NavConfig().gyro.noise_density

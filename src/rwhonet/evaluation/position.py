@@ -43,6 +43,7 @@ The row :data:`HEADING_ONLY` dead-reckons the GNSS's own distances.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -463,6 +464,7 @@ def filter_windows(
             calibrated = (ready >= 0)[None, :] & track.started[row, np.maximum(ready, 0)[None, :]]
             sec = s[:, None] + np.arange(L)  # (W, L) seconds of the segment
             gyro_w = segs.gyro_yaw[g[:, None], sec]
+            gyro_before = np.where(s > 0, segs.gyro_yaw[g, np.maximum(s - 1, 0)], np.nan)
             has_gyro = np.isfinite(gyro_w).all(axis=1)
             counted = calibrated & (has_gyro[None, :] if control != "wheels" else True)
             flat = n_run * n_win
@@ -489,6 +491,7 @@ def filter_windows(
                     np.broadcast_to(segs.backwards[g[:, None], sec], (n_run, n_win, L)).reshape(
                         flat, L
                     ),
+                    np.broadcast_to(gyro_before, (n_run, n_win)).reshape(flat),
                 ),
                 cfg,
                 control,
@@ -856,7 +859,8 @@ def fit_receiver(
     their own calibration (:func:`calibrated_nll`). The spreads tried step by
     :data:`RECEIVER_STEP` from the configured one towards the likelier side until the
     likelihood falls again (within :data:`RECEIVER_SIGMA_M`); the answer is the
-    vertex of the parabola through the best and its two neighbours in ``ln σ``.
+    vertex of the parabola through the best and its two neighbours in ``ln σ``
+    (:func:`ascend`).
 
     ``tau_s`` is held: the windows' likelihood runs along a ridge of nearly equal
     values where ``σ²/τ`` (the rate at which the drift wanders) is constant, so the
@@ -890,25 +894,249 @@ def fit_receiver(
     hi = int(np.floor(np.log(RECEIVER_SIGMA_M[1] / configured) / np.log(RECEIVER_STEP)))
     if np.isnan(score(0)) or scores[0][1] < MIN_T2_WINDOWS:  # NaN: no window counted
         return replace(out, n_windows=scores[0][1])
+    best = ascend(lambda step: -score(step), lo, hi)
+    return replace(
+        out,
+        sigma_m=float(configured * RECEIVER_STEP**best),
+        fitted=True,
+        nll={configured * RECEIVER_STEP**s: v for s, (v, _) in scores.items()},
+        n_windows=scores[round(best)][1],
+    )
+
+
+def fix_score(
+    frame: pd.DataFrame,
+    params: Params,
+    runs: list[Odometry],
+    rows: np.ndarray,
+    cfg: NavConfig,
+    role: str = k.TARGET_TRAIN,
+) -> tuple[float, int]:
+    """The fixes' log score of the filter's runs over one role's segments, at ``rows``.
+
+    Each run's filter passes over every segment of ``role`` with GNSS throughout (no
+    outage); each second's fix is scored by its density under the filter's one-step
+    prediction of it (:attr:`rwhonet.nav.NavTrack.fix_logpdf`; 0 where the gate
+    refuses it), and the scores of the frame's ``rows`` are summed.
+
+    Args:
+        frame: the samples (``role``'s drives among them).
+        params: as :func:`filter_windows`.
+        runs: the runs (one control).
+        rows: the frame rows whose fixes are scored.
+        cfg: the filter's settings.
+        role: whose drives.
+
+    Returns:
+        ``(score summed over the rows, mean over the runs, nats; seconds scored per run)``.
+    """
+    segs = nav_segments(frame, params, role)
+    if not len(segs.first_row) or not runs:
+        return float("nan"), 0
+    dist = np.stack([segs.gather(r.dist_m) for r in runs])  # (R, G, n)
+    var = np.stack([segs.gather(r.var_m2) for r in runs])
+    shape = (len(runs) * dist.shape[1], dist.shape[2])
+    tile = (len(runs), 1)
+    track = run(
+        NavInputs(
+            dist.reshape(shape),
+            var.reshape(shape),
+            np.tile(segs.wheel_yaw, tile),
+            np.tile(segs.gyro_yaw, tile),
+            np.tile(segs.fix_e, tile),
+            np.tile(segs.fix_n, tile),
+            np.tile(segs.backwards, tile),
+        ),
+        cfg,
+        runs[0].control,
+    )
+    chosen = np.zeros(len(frame))
+    chosen[np.asarray(rows, np.int64)] = 1.0
+    scored = np.tile(segs.gather(chosen) > 0.5, tile)
+    logpdf = np.where(scored, track.fix_logpdf, 0.0)
+    return float(logpdf.sum()) / len(runs), int(np.count_nonzero(logpdf)) // len(runs)
+
+
+@dataclass(frozen=True)
+class GeometryFit:
+    """Where the GNSS antenna sits on the car and how late its gyro reads, as fitted.
+
+    Attributes:
+        antenna_m: the antenna ahead of and left of the rear-axle centre, m.
+        latency_s: how late the gyro's channel reads the turn against the fixes, s.
+        configured_antenna_m: ``evaluate.navigation.antenna_m``.
+        configured_latency_s: ``evaluate.navigation.gyro.latency_s``.
+        fitted: False: not asked for (``fit_geometry: false``) or nothing to fit on.
+        score: the training fixes' log score at the fit, nats (:func:`fix_score`).
+        configured_score: at the configured figures.
+        n_seconds: the training seconds scored (per run).
+        tried: how many settings were scored.
+    """
+
+    antenna_m: tuple[float, float]
+    latency_s: float
+    configured_antenna_m: tuple[float, float]
+    configured_latency_s: float
+    fitted: bool = False
+    score: float = float("nan")
+    configured_score: float = float("nan")
+    n_seconds: int = 0
+    tried: int = 0
+
+    def apply(self, cfg: NavConfig) -> NavConfig:
+        """``cfg`` with this antenna and gyro latency."""
+        return replace(
+            cfg,
+            antenna_m=(float(self.antenna_m[0]), float(self.antenna_m[1])),
+            gyro=replace(cfg.gyro, latency_s=float(self.latency_s)),
+        )
+
+    def as_dict(self) -> dict:
+        """eval.json's ``position_controls.geometry``."""
+        return {
+            "antenna_m": [round(float(v), 3) for v in self.antenna_m],
+            "gyro_latency_s": round(float(self.latency_s), 4),
+            "configured_antenna_m": [float(v) for v in self.configured_antenna_m],
+            "configured_gyro_latency_s": float(self.configured_latency_s),
+            "fitted": self.fitted,
+            "score": round(self.score, 2) if np.isfinite(self.score) else None,
+            "configured_score": (
+                round(self.configured_score, 2) if np.isfinite(self.configured_score) else None
+            ),
+            "n_seconds": self.n_seconds,
+            "tried": self.tried,
+        }
+
+
+# The geometry's fit: (step, lowest, highest) of the antenna ahead and left, m, and the
+# gyro's latency, s; each searched from the configured value in these steps.
+ANTENNA_AHEAD_M = (0.25, -2.0, 5.0)
+ANTENNA_LEFT_M = (0.25, -2.0, 2.0)
+GYRO_LATENCY_S = (0.025, 0.0, 0.5)
+GEOMETRY_ROUNDS = 4  # rounds over the three at most (the antenna ahead and the latency trade off)
+
+
+def ascend(score: Callable[[int], float], lo: int, hi: int) -> float:
+    """The integer step in ``[lo, hi]`` where ``score`` peaks, from 0, refined by a parabola.
+
+    Steps from 0 towards the rising side until the score falls again (one side only:
+    where the first side rises the other is not searched); the answer is the best
+    step, moved to the vertex of the parabola through it and its two neighbours
+    (at most half a step) where it lies inside the range and the curve is concave.
+
+    Args:
+        score: the score of a step (to maximise; NaN never wins).
+        lo: the lowest step allowed (``≤ 0``).
+        hi: the highest (``≥ 0``).
+    """
     best = 0
     for direction in (1, -1):
         step = best + direction
-        while lo <= step <= hi and score(step) < score(best):
+        while lo <= step <= hi and score(step) > score(best):
             best, step = step, step + direction
         if best != 0:
-            break  # a descent found: the other side rises
-    sigma = configured * RECEIVER_STEP**best
+            break  # a rise found: the other side falls
     if lo < best < hi:
         f0, f1, f2 = score(best - 1), score(best), score(best + 1)
         curve = f0 - 2.0 * f1 + f2
-        if curve > 0:
-            sigma *= RECEIVER_STEP ** float(np.clip(0.5 * (f0 - f2) / curve, -0.5, 0.5))
+        if curve < 0:
+            return best + float(np.clip(0.5 * (f0 - f2) / curve, -0.5, 0.5))
+    return float(best)
+
+
+def fit_geometry(
+    frame: pd.DataFrame | None,
+    params: Params,
+    passes: list[tuple[list[Odometry], dict[int, np.ndarray]]],
+    plan: dict,
+    cfg: NavConfig,
+) -> GeometryFit:
+    """The antenna's place and the gyro's latency that best predict the training drives' fixes.
+
+    Neither is on a data sheet a user has: where the receiver's antenna sits on the
+    car moves each fix by the lever arm as the car turns, and the gyro's channel
+    reads the turn late (the sensor's low-pass, the CAN cycle, the logger's
+    stamping), which leaves the heading behind the car's in every bend. With either
+    wrong the filter's heading disagrees with the fixes' track in bends: in the
+    simulated worlds, whose cars carry their antenna 0.95-1.25 m ahead of the rear
+    axle and a gyro 30-100 ms late, the fixes' log score rises by hundreds of
+    nats at the cars' own figures (docs/positioning.md). So they are fitted on the
+    target training drives (never a test drive), by the fixes' log score of the
+    control model's run on its first seed (:func:`fix_score`, the seconds of the
+    training windows; the geometry is the car's, not the model's): the antenna
+    ahead, the latency (with a gyro), the antenna left, each by :func:`ascend` from
+    the value so far in the steps of :data:`ANTENNA_AHEAD_M`, :data:`GYRO_LATENCY_S`,
+    :data:`ANTENNA_LEFT_M`, in rounds until none moves (at most
+    :data:`GEOMETRY_ROUNDS`: a lever arm ahead and a late gyro both put the
+    heading behind the track in a bend, one by ``a/v``, the other by ``L``, so
+    the two trade off along a ridge that only the drives' range of speeds
+    tells apart).
+
+    Args:
+        frame: the target training drives' samples (None: none).
+        params: ``evaluate.navigation.fit_geometry``; as :func:`filter_windows`.
+        passes: the training runs and windows (:func:`training_passes`).
+        plan: :func:`rwhonet.evaluation.study.navigation_plan`'s ``control_model``
+            and ``control``.
+        cfg: the filter's settings (their antenna and latency the starting point).
+
+    Returns:
+        The fit (the configured figures, not fitted, when ``fit_geometry`` is false or
+        the control model has no training run or window).
+    """
+    out = GeometryFit(cfg.antenna_m, cfg.gyro.latency_s, cfg.antenna_m, cfg.gyro.latency_s)
+    mine = [
+        ([r for r in runs if r.model == plan["control_model"] and r.control == plan["control"]], w)
+        for runs, w in passes
+    ]
+    mine = [(runs, w) for runs, w in mine if runs and w]
+    if not params.evaluate.navigation.fit_geometry or frame is None or not mine:
+        return out
+    runs, windows = mine[0]
+    runs = runs[:1]  # the car's geometry, not the model's: one seed's distances tell it
+    rows = np.unique(windows[min(windows)])
+    if not rows.size:
+        return out
+    x = {"ahead": cfg.antenna_m[0], "left": cfg.antenna_m[1], "latency": cfg.gyro.latency_s}
+    scores: dict[tuple[float, float, float], tuple[float, int]] = {}
+
+    def at(values: dict[str, float]) -> float:
+        key = (round(values["ahead"], 6), round(values["left"], 6), round(values["latency"], 6))
+        if key not in scores:
+            fit = replace(out, antenna_m=(key[0], key[1]), latency_s=key[2])
+            scores[key] = fix_score(frame, params, runs, rows, fit.apply(cfg))
+        return scores[key][0]
+
+    axes = {"ahead": ANTENNA_AHEAD_M, "left": ANTENNA_LEFT_M, "latency": GYRO_LATENCY_S}
+    order = ["ahead", "latency", "left"]
+    if plan["control"] == "wheels":  # no gyro: no latency to fit
+        order.remove("latency")
+    configured = at(x)
+    for _ in range(GEOMETRY_ROUNDS):
+        moved = False
+        for name in order:
+            step, lo, hi = axes[name]
+            x0 = x[name]
+
+            def along(i: int, name: str = name, x0: float = x0, step: float = step) -> float:
+                return at({**x, name: x0 + i * step})
+
+            low = int(np.ceil((lo - x0) / step - 1e-9))
+            high = int(np.floor((hi - x0) / step + 1e-9))
+            x[name] = x0 + ascend(along, min(low, 0), max(high, 0)) * step
+            moved |= abs(x[name] - x0) > 0.5 * step
+        if not moved:
+            break
+    best = at(x)
     return replace(
         out,
-        sigma_m=float(sigma),
+        antenna_m=(x["ahead"], x["left"]),
+        latency_s=x["latency"],
         fitted=True,
-        nll={configured * RECEIVER_STEP**s: v for s, (v, _) in scores.items()},
-        n_windows=scores[best][1],
+        score=best,
+        configured_score=configured,
+        n_seconds=max(n for _, n in scores.values()),
+        tried=len(scores),
     )
 
 

@@ -220,6 +220,7 @@ def _position_controls(ev: Evaluation) -> dict:
         "distance": "R" if cm == ev.choice.model else cm,
         "unavailable": list(plan["unavailable"]),
         "receiver": dict(plan.get("receiver", {})),
+        "geometry": dict(plan.get("geometry", {})),
         "rows": {},
     }
     for (model, control), g in pos.groupby(["model", "control"], sort=False):

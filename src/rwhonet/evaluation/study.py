@@ -41,6 +41,7 @@ from rwhonet.evaluation.position import (
     calibrate_on_training,
     filter_models,
     filter_windows,
+    fit_geometry,
     fit_receiver,
     gnss_run,
     model_runs,
@@ -252,6 +253,8 @@ def evaluate(
         if training is not None and len(training)
         else []
     )
+    geometry = fit_geometry(training, params, passes, nav, cfg)  # none: as configured
+    cfg = geometry.apply(cfg)
     receiver = fit_receiver(training, params, passes, nav, outages, cfg)  # none: as configured
     cfg = cfg.with_receiver(receiver.sigma_m)  # the runs stay: they do not read it
     calibrations = calibrate_on_training(training, params, passes, outages, cfg)[0]
@@ -299,7 +302,7 @@ def evaluate(
         position_windows=windows_2d,
         position_dead_reckoning=dead,
         position_plan={key: v for key, v in nav.items() if key != "models"}
-        | {"receiver": receiver.as_dict()},
+        | {"receiver": receiver.as_dict(), "geometry": geometry.as_dict()},
         uncertainty=uncertainty,
         variance=variance.assign(fitted=evidence is not None),
         scenario_outages=scenario_outage_summary(pd.DataFrame(scen_out), scenario.counts),

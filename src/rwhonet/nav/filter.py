@@ -91,7 +91,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from rwhonet.nav.sensors import GATE_SD, GnssSpec, GyroSpec, WheelSpec
+from rwhonet.nav.sensors import GATE_SD, GnssSpec, GyroSpec, WheelSpec, lag_compensated
 
 Control = Literal["wheels", "gyro", "fused"]
 CONTROLS: tuple[str, ...] = ("wheels", "gyro", "fused")
@@ -226,6 +226,7 @@ def config_from_params(
             warm_rate_k_s=g.warm_rate_k_s,
             warm_tau_s=g.warm_tau_s,
             scale_sd=g.scale_sd,
+            latency_s=g.latency_s,
         ),
         wheels=WheelSpec(
             quantum_rad_s=w.quantum_rad_s,
@@ -255,6 +256,9 @@ class NavInputs:
         fix_n_m: their north offsets, m.
         backwards: (W, n) bool, seconds the log says were driven backwards (a logger
             that signs its wheel speeds); None: the log cannot say (magnitudes).
+        gyro_yaw_before_rad: (W,) the gyro's yaw over the second before each window's
+            first, rad (a window cut from a longer run; NaN or None: none), for the
+            channel's latency (:func:`rwhonet.nav.sensors.lag_compensated`).
     """
 
     dist_m: np.ndarray
@@ -264,11 +268,15 @@ class NavInputs:
     fix_e_m: np.ndarray
     fix_n_m: np.ndarray
     backwards: np.ndarray | None = None
+    gyro_yaw_before_rad: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         shape = np.shape(self.dist_m)
         if len(shape) != 2:
             raise ValueError(f"NavInputs arrays must be (windows, seconds), got {shape}")
+        before = self.gyro_yaw_before_rad
+        if before is not None and np.shape(before) != shape[:1]:
+            raise ValueError(f"gyro_yaw_before_rad is {np.shape(before)}, expected {shape[:1]}")
         for name in ("dist_var_m2", "wheel_yaw_rad", "gyro_yaw_rad", "backwards"):
             if name == "backwards" and self.backwards is None:
                 continue
@@ -692,7 +700,7 @@ def run(
     dist = np.asarray(inputs.dist_m, np.float64)
     dist_var = np.asarray(inputs.dist_var_m2, np.float64)
     y_w = np.asarray(inputs.wheel_yaw_rad, np.float64)
-    y_g = np.asarray(inputs.gyro_yaw_rad, np.float64)
+    y_g = lag_compensated(inputs.gyro_yaw_rad, cfg.gyro.latency_s, inputs.gyro_yaw_before_rad)
     fe = np.asarray(inputs.fix_e_m, np.float64)
     fn = np.asarray(inputs.fix_n_m, np.float64)
     w, n = dist.shape

@@ -85,6 +85,7 @@ def run_outage(
         fe,
         fn,
         inputs.backwards,
+        inputs.gyro_yaw_before_rad,
     )
     track = run(masked, config, control)
     calibrated = track.started[:, outage_start - 1]
@@ -142,9 +143,11 @@ def window_inputs(
     fix_rows = starts[:, None] - calibration_s + np.arange(calibration_s + outage_s + 1)
     arrays = {key: np.asarray(per_second[key], np.float64)[rows] for key in PER_SECOND}
     back = per_second.get("backwards")
+    gyro = np.r_[np.nan, np.asarray(per_second["gyro_yaw_rad"], np.float64)]
     return NavInputs(
         fix_e_m=np.asarray(fix_e_m, np.float64)[fix_rows],
         fix_n_m=np.asarray(fix_n_m, np.float64)[fix_rows],
         backwards=None if back is None else np.asarray(back, bool)[rows],
+        gyro_yaw_before_rad=gyro[rows[:, 0]],  # the second before each window's first
         **arrays,
     )

@@ -19,7 +19,11 @@ that comes with no data sheet.
   ``K per s``) that decays with the warm-up's time constant, which the filter
   carries as a state of its own (a ramp, not a random walk: a random walk
   of the same rate per square-root second would grow as ``r sqrt(T)`` where
-  the ramp grows as ``r T``, 13 times less over 180 s);
+  the ramp grows as ``r T``, 13 times less over 180 s); and its channel reads
+  the turn late (the sensor's low-pass, the CAN cycle, the logger's stamping:
+  ``latency_s``), which leaves the integrated heading ``latency_s`` behind the
+  car's, ``latency_s`` times the yaw rate: in a bend, a heading error the fixes
+  see and a dead-reckoned track carries (:func:`lag_compensated`);
 - **wheels**: the rear wheels' travel difference over one second, from CAN
   wheel speeds with white noise ``σ`` and resolution ``q`` (rounding: ``q²/12``
   per sample) on both wheels, times ``r / b`` (radius over rear track);
@@ -70,6 +74,8 @@ class GyroSpec:
         warm_rate_k_s: the sensor's warm-up rate at power-on, K/s.
         warm_tau_s: the warm-up's time constant, s (the drift rate decays with it).
         scale_sd: spread of the scale-factor error (the filter's prior).
+        latency_s: how late the channel reads the turn against the fixes, s
+            (:func:`lag_compensated`; 0: read as stamped).
     """
 
     noise_density: float = float(np.radians(0.02))
@@ -81,11 +87,17 @@ class GyroSpec:
     warm_rate_k_s: float = 15.0 / 600.0
     warm_tau_s: float = 600.0
     scale_sd: float = 0.02
+    latency_s: float = 0.0
 
     def yaw_sd_rad(self, rows_per_second: int = ROWS_PER_SECOND) -> float:
-        """Noise of one second's integrated yaw, rad."""
+        """Noise of one second's integrated yaw as the filter reads it (lag-compensated), rad.
+
+        The compensation (:func:`lag_compensated`) adds ``L`` times the difference of
+        two seconds' yaws, so each second's noise enters ``(1 + L)² + L²`` times.
+        """
         quant = self.lsb**2 / 12.0 * trapezoid_weight_sq(rows_per_second)
-        return float(np.sqrt(self.noise_density**2 * 1.0 + quant))
+        gain = (1.0 + self.latency_s) ** 2 + self.latency_s**2
+        return float(np.sqrt((self.noise_density**2 * 1.0 + quant) * gain))
 
     def bias_walk_rad_s(self) -> float:
         """Random walk of the bias per square-root second (its instability), rad/s/sqrt(s)."""
@@ -94,6 +106,39 @@ class GyroSpec:
     def drift_rate_sd(self) -> float:
         """Spread of the bias's drift rate at power-on (warming up), rad/s per s."""
         return float(abs(self.temp_drift_per_k) * self.warm_rate_k_s)
+
+
+def lag_compensated(
+    yaw_rad: np.ndarray, latency_s: float, before_rad: np.ndarray | None = None
+) -> np.ndarray:
+    """Each second's gyro yaw as the turn of that second, for a channel ``latency_s`` late.
+
+    A channel that reads the yaw rate ``L`` seconds late integrates over second
+    ``k`` the turn of ``[k − 1 − L, k − L]``: summed, the heading it gives lags the
+    car's by ``L`` times the rate. Adding ``L`` times the change of rate since the
+    second before, ``y_k + L (y_k − y_(k−1))``, makes the sum the lagging heading
+    plus ``L`` times the latest second's mean rate, which is half a second old: on a
+    turn whose rate changes by ``a`` per second the heading then stays behind by
+    ``a L (1 + L) / 2`` instead of ``L`` times the rate. Causal: a stream can do
+    it second by second; on simulated drives it predicted the fixes better than
+    the interpolation towards the next second's yaw, which a stream does not have
+    yet (docs/positioning.md).
+
+    Args:
+        yaw_rad: (..., n) the gyro's yaw over each second, rad (NaN: none).
+        latency_s: ``L``, s (0: unchanged).
+        before_rad: (...,) the yaw over the second before the first (NaN or None:
+            none; the first second is then taken as read).
+
+    Returns:
+        The compensated yaws, (..., n); a second with no yaw before it as read.
+    """
+    y = np.asarray(yaw_rad, np.float64)
+    if latency_s == 0.0 or y.shape[-1] == 0:
+        return y
+    first = np.full(y.shape[:-1], np.nan) if before_rad is None else np.asarray(before_rad)
+    prev = np.concatenate([np.asarray(first, np.float64)[..., None], y[..., :-1]], axis=-1)
+    return np.where(np.isfinite(prev), y + latency_s * (y - prev), y)
 
 
 @dataclass(frozen=True)

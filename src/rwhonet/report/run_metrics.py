@@ -78,6 +78,11 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
     receiver = plan.get("receiver", {})
     if name == plan["control_model"] and receiver.get("fitted"):
         out["pos/receiver_sigma_m"] = float(receiver["sigma_m"])
+    geometry = plan.get("geometry", {})
+    if name == plan["control_model"] and geometry.get("fitted"):
+        out["pos/antenna_ahead_m"] = float(geometry["antenna_m"][0])
+        out["pos/antenna_left_m"] = float(geometry["antenna_m"][1])
+        out["pos/gyro_latency_s"] = float(geometry["gyro_latency_s"])
     for r in ev.uncertainty[ev.uncertainty["model"] == name].itertuples():
         for stat, col in (
             ("crse_cover_1sigma", "cover_1sigma"),

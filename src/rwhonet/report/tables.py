@@ -493,7 +493,30 @@ def nav_calibration_table(ev: Evaluation) -> str | None:
         f"The calibration (mean over seeds; c and ν at {at} s: a length's own ν where "
         "Akaike's criterion took it, else the one fitted over every length; ∞: a normal)"
     )
-    return f"{table}\n\n{head}: {calib}.{_receiver_line(plan.get('receiver', {}))}"
+    receiver = _receiver_line(plan.get("receiver", {}))
+    return f"{table}\n\n{head}: {calib}.{_geometry_line(plan.get('geometry', {}))}{receiver}"
+
+
+def _geometry_line(geometry: dict) -> str:
+    """Where the filter took the antenna to sit and how late the gyro, and where from."""
+    if not geometry:
+        return ""
+    ahead, left = geometry["antenna_m"]
+    late = geometry["gyro_latency_s"]
+    if not geometry["fitted"]:
+        return (
+            f"\n\nThe antenna {ahead:g} m ahead of and {left:g} m left of the rear axle, the "
+            f"gyro {late:g} s late: as configured."
+        )
+    c_ahead, c_left = geometry["configured_antenna_m"]
+    return (
+        f"\n\nThe antenna and the gyro's latency, fitted on the target training drives by the "
+        f"fixes' log score: the antenna {ahead:.2f} m ahead of and {left:.2f} m left of the "
+        f"rear axle, the gyro {1000 * late:.0f} ms late (configured {c_ahead:g} m, {c_left:g} m, "
+        f"{1000 * geometry['configured_gyro_latency_s']:g} ms; score {geometry['score']:.1f} "
+        f"against {geometry['configured_score']:.1f} nats over {geometry['n_seconds']} s, "
+        f"{geometry['tried']} settings tried)."
+    )
 
 
 def _receiver_line(receiver: dict) -> str:

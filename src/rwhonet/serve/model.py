@@ -20,6 +20,7 @@ file, a bundle folder holding ``model.onnx``, or an MLflow model folder
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,7 @@ class ServedMeta:
             :class:`rwhonet.models.adapt.ShrinkEvidence` as data, or null); None: not known.
         navigation: what the evaluation measured of the navigation filter with this
             model on its car (``vehicle``, ``receiver_sigma_m``, ``receiver_tau_s``,
+            ``antenna_m`` ([ahead, left], m) and ``gyro_latency_s`` as fitted (or null),
             ``calibration``: ``{"scales": {outage s: c}, "dofs": {outage s: ν or
             null for a normal}}`` (a bundle registered before ``ν`` was fitted per
             length: one ``"dof"`` for every length), ``from``;
@@ -124,7 +126,8 @@ class ServedMeta:
                     source,
                     None,
                     "navigation",
-                    "null or {receiver_sigma_m, receiver_tau_s, calibration: {scales, dofs}}",
+                    "null or {receiver_sigma_m, receiver_tau_s, antenna_m, gyro_latency_s, "
+                    "calibration: {scales, dofs}}",
                     repr(raw.get("navigation"))[:80],
                 )
             )
@@ -153,8 +156,12 @@ class ServedMeta:
         )
 
 
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def _positive(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and value > 0
+    return _number(value) and value > 0
 
 
 def _navigation_ok(nav: Any) -> bool:
@@ -166,6 +173,16 @@ def _navigation_ok(nav: Any) -> bool:
     for key in ("receiver_sigma_m", "receiver_tau_s"):
         if nav.get(key) is not None and not _positive(nav[key]):
             return False
+    late = nav.get("gyro_latency_s")
+    if late is not None and not (_number(late) and 0 <= late < 5):
+        return False
+    antenna = nav.get("antenna_m")
+    if antenna is not None and not (
+        isinstance(antenna, list | tuple)
+        and len(antenna) == 2
+        and all(_number(v) and abs(v) < 50 for v in antenna)
+    ):
+        return False
     cal = nav.get("calibration")
     if cal is None:
         return True

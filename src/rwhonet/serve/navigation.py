@@ -16,15 +16,16 @@ seconds outside the outages where GNSS is there (least squares of ``e²`` on
 ``0.05² + (0.01 d)²`` until :data:`MIN_SECONDS` seconds are in). The filter
 takes those errors as independent from second to second; the evaluation
 (:mod:`rwhonet.evaluation.uncertainty`) also calibrates how they last. What the
-evaluation measured of the filter on the model's car (the receiver drift it
-fitted, its 2D calibration), when the model carries it, sets the filter's receiver
-and sizes the outage's regions (:class:`PositionCalibration`).
+evaluation measured of the filter on the model's car (the receiver drift, the
+antenna's place and the gyro's latency it fitted, its 2D calibration), when the
+model carries it, sets the filter's receiver, antenna and gyro and sizes the
+outage's regions (:class:`PositionCalibration`).
 Nothing here imports torch.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -54,6 +55,9 @@ class PositionCalibration:
         receiver_sigma_m: the receiver drift's spread the filter is to use, m
             (None: the filter's generic one).
         receiver_tau_s: its correlation time, s.
+        antenna_m: where the evaluation fitted the antenna, ahead of and left of the
+            rear axle, m (None: the filter's configured place).
+        gyro_latency_s: how late it fitted the gyro to read, s (None: as configured).
     """
 
     scales: dict[int, float] = field(default_factory=dict)
@@ -61,6 +65,8 @@ class PositionCalibration:
     receiver_sigma_m: float | None = None
     receiver_tau_s: float | None = None
     dofs: dict[int, float] = field(default_factory=dict)
+    antenna_m: tuple[float, float] | None = None
+    gyro_latency_s: float | None = None
 
     @property
     def calibrated(self) -> bool:
@@ -73,6 +79,7 @@ class PositionCalibration:
             return cls()
         cal = navigation.get("calibration") or {}
         dof = cal.get("dof")
+        antenna, late = navigation.get("antenna_m"), navigation.get("gyro_latency_s")
         return cls(
             {int(L): float(c) for L, c in (cal.get("scales") or {}).items()},
             float(dof) if dof is not None else float("inf"),
@@ -82,10 +89,16 @@ class PositionCalibration:
                 int(L): float(v) if v is not None else float("inf")
                 for L, v in (cal.get("dofs") or {}).items()
             },
+            None if antenna is None else (float(antenna[0]), float(antenna[1])),
+            None if late is None else float(late),
         )
 
     def nav_config(self, config: NavConfig) -> NavConfig:
-        """``config`` with the fitted receiver drift, if one is known."""
+        """``config`` with the fitted receiver drift, antenna and gyro latency, where known."""
+        if self.antenna_m is not None:
+            config = replace(config, antenna_m=self.antenna_m)
+        if self.gyro_latency_s is not None:
+            config = replace(config, gyro=replace(config.gyro, latency_s=self.gyro_latency_s))
         if self.receiver_sigma_m is None:
             return config
         return config.with_receiver(self.receiver_sigma_m, self.receiver_tau_s)
@@ -193,6 +206,7 @@ class StreamNavigator:
     _last_latlon: tuple[float, float] = (np.nan, np.nan)  # ... as a fix
     _last_withheld: bool = False  # ... and kept from the filter (an outage's second)
     _last_pred: tuple[float, float] = (np.nan, np.nan)
+    _last_gyro: float = np.nan  # the gyro's yaw over the last second (its latency's)
     _sums: np.ndarray = field(default_factory=lambda: np.zeros(5))
 
     @property
@@ -204,6 +218,7 @@ class StreamNavigator:
         self._x = self._p = None
         self._last_fix = self._last_pred = self._last_latlon = (np.nan, np.nan)
         self._last_withheld = False
+        self._last_gyro = np.nan
 
     def variance(self) -> tuple[float, float]:
         """``(a, b)`` of the corrected distance's variance so far (module docstring)."""
@@ -270,6 +285,7 @@ class StreamNavigator:
             fix_e_m=seen_e[None],
             fix_n_m=seen_n[None],
             backwards=np.asarray(sec.get("backwards", np.zeros(n, bool)), bool)[None],
+            gyro_yaw_before_rad=np.array([self._last_gyro]),
         )
         start = None
         if self._x is not None:
@@ -286,6 +302,7 @@ class StreamNavigator:
         self._last_fix = (float(fix_e[-1]), float(fix_n[-1]))
         self._last_latlon = (float(lat[-1]), float(lon[-1]))
         self._last_withheld = bool(withheld[-1])
+        self._last_gyro = float(gyro[-1]) if n else np.nan
         self._last_pred = (float(pred_lat[-1]), float(pred_lon[-1]))
         return {
             "pred_lat": pred_lat,
