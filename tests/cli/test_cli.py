@@ -574,3 +574,47 @@ def test_predict_repairs_and_reports_a_glitched_sample_of_a_100_hz_wheel_stream(
     assert len(fixed) == len(clean) > 30
     for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
         np.testing.assert_allclose(fixed[q], clean[q], atol=0.01)
+
+
+def _stream_drive(tmp_path, tables):
+    """A folder of stream CSVs and its signal map file, for --format stream_csv."""
+    import yaml
+
+    from rwhonet.sim.streams import SIGNAL_MAP
+    from support.stream_corpus import write_good
+
+    smap = tmp_path / "map.yaml"
+    smap.write_text(
+        yaml.safe_dump({k: {"column": c, "unit": u} for k, (c, u) in SIGNAL_MAP.items()})
+    )
+    return write_good("csv", tmp_path, tables), [
+        "--format",
+        "stream_csv",
+        "--signal-map",
+        str(smap),
+    ]
+
+
+def test_predict_and_recalibrate_refuse_wheels_logged_too_slowly_for_the_grid(
+    bundle, tmp_path, capsys
+):
+    """Wheel speeds at 4 Hz: every grid row would span a longer step than the resampler
+    allows. Both commands refuse with the stream, its channels and its steps (not a
+    traceback, not an empty output); predict writes nothing."""
+    from rwhonet.sim.streams import StreamTables
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    good = good_tables()
+    slow = StreamTables(good.wheels.iloc[::25].reset_index(drop=True), good.gnss)
+    drive, fmt = _stream_drive(tmp_path, slow)
+    fmt += ["--nominal-radius", str(RADIUS_M)]
+    out = tmp_path / "p.csv"
+    assert main(predict_args(bundle, drive, out, *fmt)) == 2
+    err = capsys.readouterr().err
+    assert "wheels.csv" in err and "WheelSpeed_RL" in err and "steps of 0.25 s" in err
+    assert "max_wheel_gap_s" in err and "Traceback" not in err
+    assert not out.exists() and list(tmp_path.glob(".*partial")) == []
+    base = str(bundle["model_onnx"].parent)
+    assert main(["recalibrate", "--base", base, "--drive", str(drive), *fmt]) == 2
+    err = capsys.readouterr().err
+    assert "wheels.csv" in err and "steps of 0.25 s" in err

@@ -253,3 +253,9 @@ def test_implied_speed_is_exact_above_the_screening_threshold():
     exact = implied_speed_m_s(t, lat, lon)
     assert screened[12] == exact[12] > 35.0  # the jump: geodesic, bit for bit
     np.testing.assert_allclose(screened, exact, rtol=1e-7)
+
+
+def test_a_drive_without_rows_has_no_segment_and_no_cut():
+    empty = {name: np.zeros(0) for name in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+    result = assess(empty, POLICY, PERIOD_S)
+    assert (result.segments, result.cuts, result.n_rows, result.n_seconds) == ([], [], 0, 0)

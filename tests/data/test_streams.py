@@ -223,3 +223,40 @@ def test_a_wheel_stream_without_values_is_refused():
         resample(streams)
     (p,) = err.value.problems
     assert p.file == "wheels.csv [wheels]" and p.found == f"0 of {t_w.size}"
+
+
+@pytest.mark.parametrize(
+    ("t_w", "steps"),
+    [
+        (np.arange(0.0, 60.0, 0.25), "steps of 0.25 s"),  # wheels logged at 4 Hz
+        (np.arange(0.0, 60.0, 0.2) + np.resize([0.0, 0.02, -0.02], 300), "steps of 0.16-0.22 s"),
+        (np.arange(0.0, 60_000.0, 20.0), "steps of 20 s"),  # 50 Hz stamped in ms, read as s
+    ],
+)
+def test_a_wheel_stream_too_slow_for_the_grid_is_refused_naming_its_steps(t_w, steps):
+    """Every row would span a step longer than max_wheel_gap_s: refused (not an empty or
+    nearly empty grid), naming the stream, its wheel channels and its steps."""
+    t_g = np.arange(0.0, t_w[-1], 0.2 if t_w[-1] < 100 else 200.0)
+    with pytest.raises(InputError) as err:
+        resample(_moving(t_w, t_g))
+    (p,) = err.value.problems
+    assert p.file == "wheels.csv [wheels]" and p.column == ", ".join(c.WHEELS)
+    assert "max_wheel_gap_s" in p.expected and steps in p.found
+    assert "10 Hz or faster" in p.fix and "ms read as s" in p.fix
+
+
+def test_a_wheel_stream_with_one_long_pause_is_resampled_with_a_gap():
+    """A stream that stops for a minute (the logger paused) is no slow stream."""
+    t_w = np.r_[np.arange(0.0, 60.0, 0.01), np.arange(120.0, 180.0, 0.01)]
+    t = resample(_moving(t_w, np.arange(0.0, 180.0, 0.1))).drive.columns[c.T_S]
+    assert t[0] < 1.0 and t[-1] > 179.0 and np.diff(t).max() > 60.0
+
+
+def test_streams_without_a_common_row_are_refused():
+    """Wheels and fixes overlap in time, but no row has both within their gap limits."""
+    t_w = np.arange(0.0, 30.0, 0.01)
+    t_g = np.arange(0.0, 30.0, 5.0)
+    with pytest.raises(InputError) as err:
+        resample(_moving(t_w, t_g), max_fix_gap_s=1.0)
+    (p,) = err.value.problems
+    assert "wheels.csv" in p.file and "gnss.csv" in p.file and p.found.startswith("none of")

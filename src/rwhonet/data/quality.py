@@ -280,6 +280,8 @@ def assess(
     wheel = 0.5 * (np.abs(np.asarray(drive[c.OMEGA_RL])) + np.abs(np.asarray(drive[c.OMEGA_RR])))
     n_per_s = round(1.0 / sample_period_s)
     n = t.size
+    if not n:  # no row, no second: nothing valid and nothing to cut
+        return Assessment([], [], 0, 0, dict.fromkeys(RULES, 0), dict.fromkeys(RULES, 0))
 
     # Jittered stamps are taken at their slots on the drive's sample grid (seconds, and the
     # fix-to-fix speed, whose steps a few ms of jitter would otherwise distort).

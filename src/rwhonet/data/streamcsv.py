@@ -31,6 +31,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec
 from rwhonet.data.columnmap import find_column
 from rwhonet.data.csvio import read_header, read_numeric
+from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.timebase import MIDNIGHT_WINDOW_S, SECONDS_PER_DAY, unwrap_midnight
@@ -104,12 +105,14 @@ def read_stream_csvs(
             )
             continue
         time_at[file] = pos
+        problems += _unit_problems(file, header[pos], "t", time_spec, name)
         for key, spec in signal_map.items():
             if key == "t":
                 continue
             at = find_column(header, spec.column)
             if at is not None:
                 found.setdefault(key, []).append((file, at))
+                problems += _unit_problems(file, header[at], key, spec, name)
     for key, spec in signal_map.items():
         if key == "t":
             continue
@@ -163,6 +166,28 @@ def read_stream_csvs(
     groups = _next_day_starts(groups, notes)
     streams = build_streams(groups, CLOCK)
     return dataclasses.replace(streams, notes=(*streams.notes, *notes)) if notes else streams
+
+
+def _unit_problems(file: str, cell: str, key: str, spec: ColumnSpec, name: str) -> list[Problem]:
+    """A header cell whose unit suffix contradicts the map's unit (``Time [ms]`` mapped as s).
+
+    As for an MDF4 signal's own unit: only units both spell (:func:`unit_name`) are
+    compared; a header without a unit suffix says nothing.
+    """
+    declared = unit_name(header_key(cell)[1])
+    mapped = unit_name(spec.unit.removesuffix(" cw"))
+    if declared is None or mapped is None or declared == mapped:
+        return []
+    return [
+        Problem(
+            file,
+            None,
+            cell.strip(),
+            f"the unit {spec.unit!r} ({name}.{key})",
+            f"the header says {declared!r}",
+            f"set {name}.{key}.unit to the file's unit",
+        )
+    ]
 
 
 def _next_day_starts(groups: list[Group], notes: list[str]) -> list[Group]:

@@ -46,7 +46,10 @@ Gaps
     next to it until the hole in the grid is longer than ``split_gap_s``
     (``validate.gnss.max_gap_s``): validate then cuts the seconds there as a
     ``gap`` and splits the drive, exactly as for a 10 Hz file with a GNSS outage.
-    Optional channels without data in a kept row are NaN.
+    Optional channels without data in a kept row are NaN. A wheel stream with more
+    than :data:`SLOW_STREAM_SHARE` of its steps longer than ``max_wheel_gap_s`` (logged
+    at 4-5 Hz, or stamped in ms read as s) is refused rather than resampled into an
+    empty or nearly empty grid, and so are streams that leave no row.
 
 Glitches
     A stream that carries all four wheel speeds is screened sample by sample with
@@ -77,6 +80,9 @@ MAX_WHEEL_GAP_S = 0.2  # 10 to 20 sample periods of a 50-100 Hz CAN stream
 FIX_GAP_FACTOR = 1.5  # default max_fix_gap_s: this x the median fix interval...
 MIN_FIX_GAP_S = 0.25  # ...and at least this (one missed fix of a 10 Hz receiver)
 SPLIT_GAP_S = 0.5  # validate.gnss.max_gap_s: a hole in the grid must be longer
+# A wheel stream with more of its steps longer than max_wheel_gap_s is too slow for the
+# grid (wheels logged at 4-5 Hz, or a time in ms read as s), not one with dropouts: refused.
+SLOW_STREAM_SHARE = 0.1
 
 # Canonical channels averaged over each row's window (rates), and those of the GNSS stream.
 RATE_CHANNELS = (*c.WHEELS, c.YAW_RATE_RAD_S, c.SPEED_VEHICLE_M_S, c.ACC_LON_M_S2, c.ACC_LAT_M_S2)
@@ -490,8 +496,8 @@ def resample(
         The canonical drive on the grid and the glitched rows.
 
     Raises:
-        InputError: the streams' problems (:func:`check_streams`), or streams that share
-            no stretch of time.
+        InputError: the streams' problems (:func:`check_streams`), streams that share
+            no stretch of time, a wheel stream too slow for the grid, or no row left.
     """
     check_streams(streams)
     half = 0.5 * period_s
@@ -535,8 +541,11 @@ def resample(
         sources[name] = streams.gnss.label(name)
 
     n_wheel_streams = len(streams.wheels)
+    slow: list[Problem] = []
     for i, s in enumerate((*streams.wheels, *streams.extra)):
         t, chans = _finite_rows(s, notes, required=i < n_wheel_streams)
+        if i < n_wheel_streams:
+            slow += _slow_wheel_stream(s, t, max_wheel_gap_s, period_s)
         names = [n for n in RATE_CHANNELS if n in chans]
         if not names or t.size < 2:  # an optional stream without values: its channels stay out
             continue
@@ -560,7 +569,26 @@ def resample(
                     for i in rows
                 ]
 
+    if slow:
+        raise InputError(slow, summary="wheel speeds too sparse for the grid")
     keep = _widen_holes(keep, split_gap_s, period_s)
+    if not keep.any():
+        raise InputError(
+            [
+                Problem(
+                    ", ".join(s.where() for s in required),
+                    None,
+                    None,
+                    "grid rows with the four wheel speeds and a GNSS fix (rates: no step "
+                    f"between samples longer than {max_wheel_gap_s:g} s over a row; fixes: at "
+                    f"most {fix_gap:.3g} s apart around it)",
+                    f"none of the {grid.size} rows of {start:.6g}-{end:.6g} s",
+                    "export the wheel speeds and the fixes of the same stretch of the drive, "
+                    "each at its logger's rate",
+                )
+            ],
+            summary="no grid row to keep",
+        )
     for name, values in fixes.items():  # optional GNSS channels: NaN where no fix
         if name not in (c.LAT_DEG, c.LON_DEG):
             columns[name] = np.where(fix_ok, values, np.nan)
@@ -617,6 +645,40 @@ def _finite_rows(
         )
     notes.append(f"{s.where()}: {int((~ok).sum())} sample(s) without a value left out")
     return t[ok], {k: v[ok] for k, v in chans.items()}
+
+
+def _slow_wheel_stream(
+    s: Stream, t: np.ndarray, max_gap_s: float, period_s: float
+) -> list[Problem]:
+    """A wheel stream most of whose steps no grid row may span (:data:`SLOW_STREAM_SHARE`).
+
+    A stream with dropouts has a few long steps among short ones, and the rows over them
+    are left out as gaps; a stream logged too slowly (or stamped in another unit than
+    declared) has them everywhere, and would leave an empty or nearly empty grid.
+    """
+    step = np.diff(t)
+    long = int((step > max_gap_s).sum())
+    if not step.size or long <= SLOW_STREAM_SHARE * step.size:
+        return []
+    lo, mid, hi = (float(x) for x in np.percentile(step, [5, 50, 95]))
+    steps = f"{lo:.3g} s" if f"{lo:.3g}" == f"{hi:.3g}" else f"{lo:.3g}-{hi:.3g} s"
+    wheels = [w for w in c.WHEELS if w in s.channels]
+    time = s.sources.get(c.T_S, "time")
+    return [
+        Problem(
+            s.where(),
+            None,
+            ", ".join(s.sources.get(w, w) for w in wheels),
+            f"wheel speeds sampled at {1.0 / period_s:g} Hz or faster: steps between samples "
+            f"of at most {max_gap_s:g} s (max_wheel_gap_s), the longest a {period_s:g} s grid "
+            "row may span",
+            f"{long} of {step.size} steps longer: steps of {steps} (median {mid:.3g} s, "
+            f"about {1.0 / mid:.3g} Hz)",
+            "log the wheel speeds at 10 Hz or faster (CAN wheel-speed messages come at "
+            f"50-100 Hz); if the logger did, check the unit of the time {time!r} (a time in "
+            "ms read as s makes every step 1000 times longer)",
+        )
+    ]
 
 
 def _rows_using(t: np.ndarray, rows: np.ndarray, grid: np.ndarray, half: float) -> np.ndarray:
