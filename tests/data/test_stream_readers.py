@@ -38,7 +38,7 @@ MDF_MAP = _spec(
 )
 
 
-def _write_mdf(path, yaw_deg_s: float = 3.0) -> None:
+def _write_mdf(path, yaw_deg_s: float = 3.0, yaw_t0_s: float = 0.0) -> None:
     from asammdf import MDF, Signal
 
     mdf = MDF(version="4.10")
@@ -68,7 +68,7 @@ def _write_mdf(path, yaw_deg_s: float = 3.0) -> None:
     )
     t_s = np.arange(0.0, 40.0, 1.0)  # satellites from the receiver's status message, 1 Hz
     mdf.append([Signal(np.full(t_s.size, 11, dtype=np.uint8), t_s, name="GPS_NumSV", unit="")])
-    t_y = np.arange(0.0, 40.0, 0.01)
+    t_y = np.arange(0.0, 40.0, 0.01) + yaw_t0_s
     mdf.append([Signal(np.full(t_y.size, yaw_deg_s), t_y, name="YawRate", unit="deg/s")])
     mdf.save(path, overwrite=True)
     mdf.close()
@@ -86,6 +86,18 @@ def test_an_mdf4_file_reads_through_its_signal_map(tmp_path):
     np.testing.assert_array_equal(d[c.N_SATS], 11.0)
     np.testing.assert_allclose(d[c.LAT_DEG], 48.1 + V * d[c.T_S] / 111_200.0, atol=1e-12)
     assert d[c.T_S][0] == pytest.approx(0.1) and np.allclose(np.diff(d[c.T_S]), 0.1)
+
+
+def test_a_yaw_rate_on_another_time_base_is_refused_not_dropped(tmp_path):
+    """The YawRate group stamped in UNIX time, the others from the measurement's start."""
+    path = tmp_path / "log.mf4"
+    _write_mdf(path, yaw_t0_s=1.7e9)
+    with pytest.raises(InputError) as err:
+        resample(read_mdf4(path, MDF_MAP, R, display="log.mf4"), nominal_radius_m=R)
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("log.mf4 [channel group 4]", "master time")
+    assert "one clock" in p.expected and "no common stretch" in p.found
+    assert "log.mf4 [channel group 4] 1.7e+09-1.7e+09 s" in p.found
 
 
 def test_a_signal_in_two_groups_is_refused(tmp_path):

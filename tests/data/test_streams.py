@@ -260,3 +260,25 @@ def test_streams_without_a_common_row_are_refused():
         resample(_moving(t_w, t_g), max_fix_gap_s=1.0)
     (p,) = err.value.problems
     assert "wheels.csv" in p.file and "gnss.csv" in p.file and p.found.startswith("none of")
+
+
+def test_a_gyro_on_another_clock_is_refused_naming_both_spans():
+    """The imu's time in ms while the wheels and fixes are in s: not dropped in silence.
+    Where the two clocks still overlap (both from 0), no row spans short steps of it."""
+    t_w = 5000.0 + np.arange(0.0, 30.0, 0.01)
+    streams = _moving(t_w, 5000.0 + np.arange(0.0, 30.0, 0.1))
+    t_y = (5000.0 + np.arange(0.0, 30.0, 0.01)) * 1000.0
+    yaw = Stream("gyro", "imu.csv", t_y, {c.YAW_RATE_RAD_S: np.full(t_y.size, 0.2)})
+    with pytest.raises(InputError) as err:
+        resample(DriveStreams(streams.wheels, streams.gnss, (yaw,)))
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("imu.csv [gyro]", "time") and "one clock" in p.expected
+    assert "imu.csv [gyro] 5e+06-5.02999e+06 s" in p.found
+    assert "wheels.csv [wheels] 5000-5029.99 s" in p.found
+    streams = _moving(t_w - 5000.0, np.arange(0.0, 30.0, 0.1))
+    yaw = Stream("gyro", "imu.csv", t_y - 5e6, {c.YAW_RATE_RAD_S: np.full(t_y.size, 0.2)})
+    with pytest.raises(InputError) as err:
+        resample(DriveStreams(streams.wheels, streams.gnss, (yaw,)))
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("imu.csv [gyro]", c.YAW_RATE_RAD_S)
+    assert "steps of 10 s" in p.found and "ms read as s" in p.fix

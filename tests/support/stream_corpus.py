@@ -408,6 +408,20 @@ def _(root: Path) -> None:
     write_good("comma2k19", root, StreamTables(t.wheels.iloc[::25].reset_index(drop=True), t.gnss))
 
 
+@case(
+    "comma_gyro_in_ns",
+    "comma2k19",
+    "IMU/gyro/t in ns while every other channel's t is in s",
+    Refuse("seg [IMU/gyro]", None, "t", "one clock", "no common stretch"),
+)
+def _(root: Path) -> None:
+    gyro = write_good("comma2k19", root) / "processed_log/IMU/gyro"
+    gyro.mkdir(parents=True)
+    t = T0_S + np.arange(0.0, 40.0, 0.01)
+    _save(gyro / "t", t * 1e9)
+    _save(gyro / "value", np.zeros((t.size, 3)))
+
+
 def read_case(fmt: str, root: Path):
     """Read and resample a case's drive as a user's command would."""
     from rwhonet.data.comma2k19 import read_comma2k19

@@ -304,6 +304,8 @@ def _position_text(o: dict[str, Any]) -> str:
     if math.isnan(o.get("east_end_m", math.nan)):
         return "; position: none (the filter had not started)"
     yaw = "gyro + wheels" if o["control"] == "fused" else "wheels alone (no yaw rate)"
+    if o["control"] == "fused" and o.get("gyro_s", o["seconds"]) < o["seconds"]:
+        yaw += f", wheels alone in {o['seconds'] - o['gyro_s']} s without one"
     how = (
         "calibrated on the model's target training drives"
         if o["calibrated"]

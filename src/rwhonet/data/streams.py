@@ -545,14 +545,18 @@ def resample(
     for i, s in enumerate((*streams.wheels, *streams.extra)):
         t, chans = _finite_rows(s, notes, required=i < n_wheel_streams)
         if i < n_wheel_streams:
-            slow += _slow_wheel_stream(s, t, max_wheel_gap_s, period_s)
+            slow += _slow_stream(s, t, max_wheel_gap_s, period_s)
         names = [n for n in RATE_CHANNELS if n in chans]
         if not names or t.size < 2:  # an optional stream without values: its channels stay out
             continue
+        if i >= n_wheel_streams:  # a gyro on another clock would drop out without a word
+            _on_the_clock(s, t, float(grid[0]), float(grid[-1]), required, period_s)
         means, ok = window_means(t, [chans[n] for n in names], lo, hi, max_wheel_gap_s)
         wheel_stream = any(n in c.WHEELS for n in names)
         if wheel_stream:
             keep &= ok
+        if not wheel_stream and not ok.any():  # overlapping, but no row spans short steps
+            slow += _slow_stream(s, t, max_wheel_gap_s, period_s, always=True)
         for name, row in zip(names, means, strict=True):
             columns[name] = row if wheel_stream else np.where(ok, row, np.nan)
             sources[name] = s.label(name)
@@ -570,7 +574,7 @@ def resample(
                 ]
 
     if slow:
-        raise InputError(slow, summary="wheel speeds too sparse for the grid")
+        raise InputError(slow, summary="streams too sparse for the grid")
     keep = _widen_holes(keep, split_gap_s, period_s)
     if not keep.any():
         raise InputError(
@@ -647,34 +651,78 @@ def _finite_rows(
     return t[ok], {k: v[ok] for k, v in chans.items()}
 
 
-def _slow_wheel_stream(
-    s: Stream, t: np.ndarray, max_gap_s: float, period_s: float
+def _on_the_clock(
+    s: Stream,
+    t: np.ndarray,
+    start_s: float,
+    end_s: float,
+    required: Sequence[Stream],
+    period_s: float,
+) -> None:
+    """Refuse an optional stream that shares no stretch of time with the grid.
+
+    All streams of a drive share one clock; a gyro stamped in ms while the others are in
+    s, or an MDF4 group on another time base, lies wholly beside the wheel speeds and
+    fixes, and its channel would be NaN in every row. One that covers part of the drive
+    (started late, stopped early) is kept: its rows outside it are NaN.
+
+    Raises:
+        InputError: naming the stream, its time column, and both spans.
+    """
+    if min(float(t[-1]), end_s) - max(float(t[0]), start_s) >= period_s:
+        return
+    time = s.sources.get(c.T_S, "time")
+    spans = "; ".join(
+        f"{r.where()} {float(r.t_s[0]):.6g}-{float(r.t_s[-1]):.6g} s" for r in required
+    )
+    raise InputError(
+        [
+            Problem(
+                s.where(),
+                None,
+                time,
+                "every stream on the drive's one clock, overlapping the wheel speeds and "
+                f"fixes ({start_s:.6g}-{end_s:.6g} s on the grid)",
+                f"no common stretch: {s.where()} {float(t[0]):.6g}-{float(t[-1]):.6g} s; {spans}",
+                "stamp every stream on one clock (the same unit and origin as the wheel "
+                "speeds' time), or leave this stream out of the drive",
+            )
+        ],
+        summary=f"{s.where()} is on another clock than the wheel speeds and fixes",
+    )
+
+
+def _slow_stream(
+    s: Stream, t: np.ndarray, max_gap_s: float, period_s: float, always: bool = False
 ) -> list[Problem]:
-    """A wheel stream most of whose steps no grid row may span (:data:`SLOW_STREAM_SHARE`).
+    """A rate stream most of whose steps no grid row may span (:data:`SLOW_STREAM_SHARE`).
 
     A stream with dropouts has a few long steps among short ones, and the rows over them
     are left out as gaps; a stream logged too slowly (or stamped in another unit than
-    declared) has them everywhere, and would leave an empty or nearly empty grid.
+    declared) has them everywhere, and would leave an empty or nearly empty grid (wheel
+    speeds) or a channel without a value (an optional rate). ``always``: the problem,
+    whatever the share (a stream that gave no row a value).
     """
     step = np.diff(t)
     long = int((step > max_gap_s).sum())
-    if not step.size or long <= SLOW_STREAM_SHARE * step.size:
+    if not step.size or (long <= SLOW_STREAM_SHARE * step.size and not always):
         return []
     lo, mid, hi = (float(x) for x in np.percentile(step, [5, 50, 95]))
     steps = f"{lo:.3g} s" if f"{lo:.3g}" == f"{hi:.3g}" else f"{lo:.3g}-{hi:.3g} s"
-    wheels = [w for w in c.WHEELS if w in s.channels]
+    rates = [n for n in RATE_CHANNELS if n in s.channels]
+    what = "wheel speeds" if any(n in c.WHEELS for n in rates) else "rates"
     time = s.sources.get(c.T_S, "time")
     return [
         Problem(
             s.where(),
             None,
-            ", ".join(s.sources.get(w, w) for w in wheels),
-            f"wheel speeds sampled at {1.0 / period_s:g} Hz or faster: steps between samples "
+            ", ".join(s.sources.get(n, n) for n in rates),
+            f"{what} sampled at {1.0 / period_s:g} Hz or faster: steps between samples "
             f"of at most {max_gap_s:g} s (max_wheel_gap_s), the longest a {period_s:g} s grid "
             "row may span",
             f"{long} of {step.size} steps longer: steps of {steps} (median {mid:.3g} s, "
             f"about {1.0 / mid:.3g} Hz)",
-            "log the wheel speeds at 10 Hz or faster (CAN wheel-speed messages come at "
+            f"log the {what} at 10 Hz or faster (CAN wheel-speed messages come at "
             f"50-100 Hz); if the logger did, check the unit of the time {time!r} (a time in "
             "ms read as s makes every step 1000 times longer)",
         )
