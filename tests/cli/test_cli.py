@@ -618,3 +618,46 @@ def test_predict_and_recalibrate_refuse_wheels_logged_too_slowly_for_the_grid(
     assert main(["recalibrate", "--base", base, "--drive", str(drive), *fmt]) == 2
     err = capsys.readouterr().err
     assert "wheels.csv" in err and "steps of 0.25 s" in err
+
+
+def test_predict_takes_a_fix_validate_would_not_use_as_no_fix(bundle, tmp_path, capsys):
+    """Fixes at latitude = longitude = 0 (a receiver without a fix) and fixes with fewer than
+    validate.gnss.min_sats satellites give predict exactly what empty fix cells give, in a
+    10 Hz file and in stream CSVs, and stderr says how many rows it took out."""
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import StreamTables
+    from support.drives import write_iovnbd
+    from support.serving import wavy_drive
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    df = wavy_drive(200.0)
+    no_fix = (df[c.T_S] > df[c.T_S].iloc[0] + 60) & (df[c.T_S] < df[c.T_S].iloc[0] + 75)
+    low = (df[c.T_S] > df[c.T_S].iloc[0] + 120) & (df[c.T_S] < df[c.T_S].iloc[0] + 130)
+    empty = df.copy()
+    empty.loc[no_fix | low, [c.LAT_DEG, c.LON_DEG]] = np.nan
+    bad = df.copy()
+    bad.loc[no_fix, [c.LAT_DEG, c.LON_DEG]] = 0.0
+    bad.loc[low, c.N_SATS] = 3.0
+    out = {}
+    for name, frame in (("empty", empty), ("bad", bad)):
+        drive = write_iovnbd(frame, tmp_path / f"V-{name}.csv")
+        out[name] = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, drive, out[name], "--outage", "100:160")) == 0
+    err = capsys.readouterr().err
+    assert out["bad"].read_text() == out["empty"].read_text()
+    assert "248 row(s) taken as without a GNSS fix, as validate cuts them: 149 at latitude " in err
+    assert "99 with fewer than validate.gnss.min_sats 4 satellites" in err
+    # stream CSVs: the fixes at (0, 0) are left out as the deleted ones are
+    good = good_tables()
+    zeros = good.gnss.copy()
+    gap = (zeros[c.T_S] > 1010.0) & (zeros[c.T_S] < 1012.0)
+    zeros.loc[gap, [c.LAT_DEG, c.LON_DEG]] = 0.0
+    for name, gnss in (("deleted", good.gnss[~gap]), ("zeros", zeros)):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, StreamTables(good.wheels, gnss))
+        out[name] = tmp_path / f"{name}.csv"
+        fmt += ["--nominal-radius", str(RADIUS_M)]
+        assert main(predict_args(bundle, drive, out[name], *fmt)) == 0
+    err = capsys.readouterr().err
+    assert out["zeros"].read_text() == out["deleted"].read_text()
+    assert "gnss.csv]: 20 fix(es) at latitude = longitude = 0 left out" in err

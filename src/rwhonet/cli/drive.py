@@ -379,13 +379,27 @@ _FORM = {
 }
 
 
+@dataclass(frozen=True)
+class DriveBlocks:
+    """A drive read whole, to be streamed: what :func:`canonical_blocks` returns.
+
+    Attributes:
+        names: canonical name -> the source's channel.
+        blocks: ``(first_row, columns)`` blocks (1-based rows of the drive or its grid).
+        glitch_samples: the glitched samples the resampler found (``(stream, 1-based
+            sample row, t_s, channel)``; empty for a 10 Hz drive).
+        notes: what the resampler left out or changed, for stderr (empty for a 10 Hz drive).
+    """
+
+    names: dict[str, str]
+    blocks: Iterator[tuple[int, dict[str, np.ndarray]]]
+    glitch_samples: list[tuple[str, int, float, str]]
+    notes: tuple[str, ...] = ()
+
+
 def canonical_blocks(
     path: Path, params: Params, vehicle: str, fmt: str, rows: int = 600
-) -> tuple[
-    dict[str, str],
-    Iterator[tuple[int, dict[str, np.ndarray]]],
-    list[tuple[str, int, float, str]],
-]:
+) -> DriveBlocks:
     """A drive read whole (a stream format: resampled), handed on in blocks of grid rows.
 
     What ``rwhonet predict`` streams for a format that cannot be read as it arrives
@@ -396,10 +410,8 @@ def canonical_blocks(
     canonical name, booleans), for ``predict`` to repair as it repairs a 10 Hz glitch.
 
     Returns:
-        ``(names, blocks, samples)``: canonical name -> the source's channel, ``(first_row,
-        columns)`` blocks of ``rows`` rows (1-based rows of the drive or its grid), and the
-        glitched samples the resampler found (``(stream, 1-based sample row, t_s,
-        channel)``; empty for a 10 Hz drive).
+        The channels' names, blocks of ``rows`` rows, the glitched samples and what the
+        resampler left out (:class:`DriveBlocks`).
     """
     from rwhonet.data import canonical as c
     from rwhonet.data.incremental import carried_channels, placed
@@ -422,7 +434,8 @@ def canonical_blocks(
 
     clock = StreamClock(params.validate.sample_period_s)
     names = {name: raw.source_columns.get(name, name) for name in carried}
-    return names, placed(blocks(), clock), samples
+    lost = facts.lost if facts is not None else ()
+    return DriveBlocks(names, placed(blocks(), clock), samples, lost)
 
 
 def calibration_of(radii: tuple[float, float], source: str) -> Calibration:

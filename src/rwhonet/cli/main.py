@@ -111,6 +111,7 @@ def _predict(args: argparse.Namespace) -> int:
     else:  # a model file and a 10 Hz CSV: the project's validate and cars, where there is one
         params = _params_here()
     column_map, drive_blocks, stream_glitches, period_s = None, None, None, 0.1
+    drive_notes: tuple[str, ...] = ()
     validate, nominal, radius_from = None, args.nominal_radius, None
     if args.vehicle_file is not None:
         radius_from = f"--vehicle-file {args.vehicle_file}"
@@ -148,10 +149,9 @@ def _predict(args: argparse.Namespace) -> int:
                         )
                     ]
                 )
-            names, blocks, stream_glitches = canonical_blocks(
-                Path(args.drive), params, PREDICT_CAR, args.format
-            )
-            drive_blocks = (names, blocks)
+            whole = canonical_blocks(Path(args.drive), params, PREDICT_CAR, args.format)
+            drive_blocks = (whole.names, whole.blocks)
+            stream_glitches, drive_notes = whole.glitch_samples, whole.notes
     model = predict.open_model(args.model, uri)
     out = predict.run(
         model,
@@ -165,13 +165,15 @@ def _predict(args: argparse.Namespace) -> int:
         drive_blocks=drive_blocks,
         unit_check=predict.UnitCheck(validate, nominal, radius_from),
         stream_glitches=stream_glitches,
+        drive_notes=drive_notes,
     )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)
     else:  # repaired or unchecked input is never silent
         said = [
+            *out["drive_notes"],
             *predict.glitch_lines(out["glitches"], samples=out["stream_glitches"]),
-            *([out["unit_note"]] * bool(out["unit_note"])),
+            *(out[k] for k in ("fix_note", "unit_note") if out[k]),
         ]
         if said:
             print("\n".join(said), file=sys.stderr)

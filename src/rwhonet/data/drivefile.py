@@ -94,6 +94,8 @@ class StreamFacts:
             the channel as the stream names it.
         glitch_wheels: per wheel (canonical name), the grid rows whose mean of that wheel
             used a glitched sample (:attr:`rwhonet.data.streams.Resampled.glitch_wheels`).
+        lost: what the grid left out or changed, said on ``predict``'s stderr
+            (:attr:`rwhonet.data.streams.Resampled.lost`; among the drive's notes too).
     """
 
     clock: str
@@ -102,6 +104,7 @@ class StreamFacts:
     glitch_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     glitch_samples: list[tuple[str, int, float, str]] = field(default_factory=list)
     glitch_wheels: dict[str, np.ndarray] = field(default_factory=dict)
+    lost: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's ``streams`` record (rows 0-based on the grid; samples 1-based)."""
@@ -281,6 +284,7 @@ def _read_streams(
             for where, row, t, wheel in res.glitch_samples
         ],
         glitch_wheels=res.glitch_wheels,
+        lost=res.lost,
     )
     return res.drive, facts
 

@@ -29,7 +29,9 @@ Rules (a second is cut by the first that applies, in this order)
     partial_second  it holds a number of rows other than ``1 / sample_period_s`` (the drive's
                     first/last second, dropped or extra samples)
     low_sats        a row has fewer than ``min_sats`` satellites (or no count), when the
-                    drive has a satellite column
+                    drive has a satellite column; or no fix at all: latitude and longitude
+                    both exactly 0, what a receiver without a fix writes
+                    (:func:`no_fix_rows`)
     jump            the fix-to-fix distance of a row implies a speed > ``max_speed_m_s``
     frozen          the fix stayed identical while the rear wheels turned faster than
                     ``moving_wheel_speed_rad_s`` for ``frozen_min_s`` in all (from the first
@@ -236,6 +238,37 @@ def frozen_rows(
     return frozen_run[run] & (row >= first_moving[run])
 
 
+def no_fix_rows(
+    lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
+    n_sats: np.ndarray | None = None,
+    min_sats: float = 0.0,
+) -> np.ndarray:
+    """Rows whose fix the GNSS policy does not use as a fix.
+
+    A fix is missing where latitude or longitude has no value; where both are exactly 0
+    (a receiver without a fix writes zeros, and the Gulf of Guinea's null island is no
+    place a car drives); and, for a drive that counts its satellites, where it has fewer
+    than ``min_sats`` (or no count). ``low_sats`` cuts these rows in validate, and
+    ``rwhonet predict`` takes them as rows without a fix.
+
+    Args:
+        lat_deg: latitudes, deg.
+        lon_deg: longitudes, deg.
+        n_sats: satellites per row, or None when the drive has no such column.
+        min_sats: ``validate.gnss.min_sats``.
+
+    Returns:
+        Boolean mask, True for rows without a usable fix.
+    """
+    lat = np.asarray(lat_deg, dtype=np.float64)
+    lon = np.asarray(lon_deg, dtype=np.float64)
+    bad = ~(np.isfinite(lat) & np.isfinite(lon)) | ((lat == 0.0) & (lon == 0.0))
+    if n_sats is not None:
+        bad |= ~(np.asarray(n_sats, dtype=np.float64) >= min_sats)  # NaN: no count
+    return bad
+
+
 def manual_rows(t_s: np.ndarray, cuts: Sequence[CutSpec]) -> np.ndarray:
     """Rows inside a manual cut: ``start_s <= t_s <= end_s`` of any of ``cuts``.
 
@@ -303,7 +336,7 @@ def assess(
     manual_row = manual_rows(t, cuts)
     has_sats = c.N_SATS in drive
     sats = np.asarray(drive[c.N_SATS], dtype=np.float64) if has_sats else np.full(n, np.inf)
-    low_sats_row = ~(sats >= policy.min_sats)  # NaN: no count, not trusted
+    low_sats_row = no_fix_rows(lat, lon, sats, policy.min_sats)  # NaN count: not trusted
     # Jumps are decided on geodesic distances: the tangent-plane screen (1e-6 relative)
     # only spares the geodesic for steps far below the threshold.
     with np.errstate(divide="ignore", invalid="ignore"):  # two rows in one slot: a jump
@@ -359,6 +392,7 @@ def assess(
     rows_in = {
         "dt": np.r_[np.nan, np.diff(t)],
         "sats": sats,
+        "zero": (lat == 0.0) & (lon == 0.0),
         "speed": speed,
         "wheel": wheel,
         "count": count,
@@ -416,8 +450,15 @@ def _detail(
         return f"seconds with {counts} rows, a whole second has {n_per_s}"
     if rule == "low_sats":
         sats = rows["sats"][lo:hi]
-        fewest = "no count" if np.isnan(sats).any() else f"{int(np.nanmin(sats))} satellites"
-        return f"{fewest} (min_sats {policy.min_sats})"
+        said = []
+        if rows["zero"][lo:hi].any():
+            said.append("no fix (latitude = longitude = 0)")
+        low = sats[~(sats >= policy.min_sats)]
+        if np.isnan(low).any():
+            said.append("no count")
+        elif low.size:
+            said.append(f"{int(np.min(low))} satellites")
+        return f"{'; '.join(said)} (min_sats {policy.min_sats})"
     if rule == "jump":
         return (
             f"fix-to-fix speed up to {np.max(rows['speed'][lo:hi]):.4g} m/s "

@@ -32,7 +32,9 @@ Rates (wheel speeds, yaw rate, accelerations, vehicle speed): a time-weighted me
     trapezoid integral at the window's edges (no loop over samples).
 
 Positions: interpolated between fixes, never across a gap, never extrapolated
-    Latitude and longitude (longitude unwrapped, so the antimeridian is no jump)
+    A fix at latitude = longitude = 0 is what a receiver without a fix writes: it is
+    no fix (:func:`rwhonet.data.quality.no_fix_rows`), left out as a sample without a
+    value is. Latitude and longitude (longitude unwrapped, so the antimeridian is no jump)
     are interpolated linearly in time between the two fixes around ``t_k``, only
     when they are at most ``max_fix_gap_s`` apart; before the first fix, after
     the last, and between fixes further apart, a row has no position. Speed,
@@ -73,6 +75,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.problems import row_problems
+from rwhonet.data.quality import no_fix_rows
 from rwhonet.errors import InputError, Problem
 
 GRID_PERIOD_S = 0.1
@@ -226,6 +229,9 @@ class Resampled:
         glitch_wheels: per wheel (canonical name), the grid rows whose mean of that wheel
             used a glitched sample of it (``glitch`` is their union); what ``rwhonet
             predict`` repairs.
+        lost: the notes (among the drive's) that say what of the drive the grid leaves
+            out or changes, which ``rwhonet predict`` says on stderr: fixes at latitude =
+            longitude = 0, the stretch of a stream beyond the others'.
     """
 
     drive: RawDrive
@@ -233,6 +239,7 @@ class Resampled:
     glitch_samples: list[tuple[str, int, float, str]]
     n_input_rows: int
     glitch_wheels: dict[str, np.ndarray] = field(default_factory=dict)
+    lost: tuple[str, ...] = ()
 
 
 # --------------------------------------------------------------------------- checks
@@ -529,9 +536,11 @@ def resample(
     by_wheel = {w: np.zeros(grid.size, dtype=bool) for w in c.WHEELS}
     glitch_samples: list[tuple[str, int, float, str]] = []
     notes = list(streams.notes)
+    lost: list[str] = []  # the notes predict says too
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
-    gnss_t, gnss = _finite_rows(streams.gnss, notes, required=True)
+    gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
+    notes += lost
     fixes, fix_ok = interpolate_fixes(
         gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
     )
@@ -616,6 +625,7 @@ def resample(
         glitch_samples,
         streams.n_input_rows,
         {w: rows[keep] for w, rows in by_wheel.items()},
+        tuple(lost),
     )
 
 
@@ -727,6 +737,39 @@ def _slow_stream(
             "ms read as s makes every step 1000 times longer)",
         )
     ]
+
+
+def _real_fixes(
+    s: Stream, t: np.ndarray, fixes: dict[str, np.ndarray], notes: list[str]
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The fixes less those at latitude = longitude = 0 (a receiver without a fix writes
+    zeros: :func:`rwhonet.data.quality.no_fix_rows`), which are no fix, said in a note.
+
+    Raises:
+        InputError: fewer than two fixes are left.
+    """
+    zero = no_fix_rows(fixes[c.LAT_DEG], fixes[c.LON_DEG])
+    if not zero.any():
+        return t, fixes
+    if (~zero).sum() < 2:
+        lat, lon = (s.sources.get(k, k) for k in (c.LAT_DEG, c.LON_DEG))
+        raise InputError(
+            [
+                Problem(
+                    s.where(),
+                    None,
+                    f"{lat} / {lon}",
+                    "GNSS fixes (latitude = longitude = 0 is a receiver without a fix)",
+                    f"{int((~zero).sum())} of {zero.size} samples not at (0, 0)",
+                    "export the drive's fixes (a log from before the receiver had a fix has none)",
+                )
+            ]
+        )
+    notes.append(
+        f"{s.where()}: {int(zero.sum())} fix(es) at latitude = longitude = 0 left out (a "
+        "receiver without a fix writes zeros): no position there"
+    )
+    return t[~zero], {k: v[~zero] for k, v in fixes.items()}
 
 
 def _rows_using(t: np.ndarray, rows: np.ndarray, grid: np.ndarray, half: float) -> np.ndarray:
