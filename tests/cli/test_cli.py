@@ -661,3 +661,31 @@ def test_predict_takes_a_fix_validate_would_not_use_as_no_fix(bundle, tmp_path, 
     err = capsys.readouterr().err
     assert out["zeros"].read_text() == out["deleted"].read_text()
     assert "gnss.csv]: 20 fix(es) at latitude = longitude = 0 left out" in err
+
+
+def test_predict_drives_a_stream_drive_through_a_gnss_outage(bundle, tmp_path, capsys):
+    """No fix for 10 s in gnss.csv (a tunnel): predict keeps the wheel rows, as it keeps a
+    10 Hz file's rows with empty fix cells, and dead-reckons through the outage; the
+    seconds and their WPM are the whole drive's."""
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import StreamTables
+    from support.stream_corpus import RADIUS_M, T0_S, good_tables
+
+    good = good_tables()
+    tunnel = good.gnss[(good.gnss[c.T_S] < T0_S + 15.0) | (good.gnss[c.T_S] > T0_S + 25.0)]
+    frames = {}
+    for name, gnss in (("whole", good.gnss), ("tunnel", tunnel)):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, StreamTables(good.wheels, gnss))
+        out = tmp_path / f"{name}.csv"
+        fmt += ["--nominal-radius", str(RADIUS_M), "--outage", "15:25"]
+        assert main(predict_args(bundle, drive, out, *fmt)) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (whole, _), (tunnel, said) = frames["whole"], frames["tunnel"]
+    assert len(tunnel) == len(whole) == 38
+    np.testing.assert_array_equal(tunnel["disp_wpm_m"], whole["disp_wpm_m"])
+    inside = tunnel["outage"] == "15:25"
+    assert inside.sum() == 10 and tunnel["disp_gnss_m"][inside].isna().all()
+    assert np.isfinite(tunnel["east_m"][inside]).all()
+    assert "grid rows have the wheel speeds but no fix" in said and "kept without" in said
+    assert "no second of the drive falls in it" not in said

@@ -282,3 +282,35 @@ def test_a_gyro_on_another_clock_is_refused_naming_both_spans():
     (p,) = err.value.problems
     assert (p.file, p.column) == ("imu.csv [gyro]", c.YAW_RATE_RAD_S)
     assert "steps of 10 s" in p.found and "ms read as s" in p.fix
+
+
+def test_without_require_fix_rows_in_a_fix_gap_are_kept_without_a_position():
+    """predict's resampling: a GNSS outage of 10 s keeps its wheel rows, lat/lon NaN there;
+    the pipeline's (the default) leaves them out for validate to cut as a gap."""
+    t_w = np.arange(0.0, 40.0, 0.01)
+    t_g = np.r_[np.arange(0.0, 15.0, 0.1), np.arange(25.0, 40.0, 0.1)]
+    kept = resample(_moving(t_w, t_g), require_fix=False)
+    d = kept.drive.columns
+    np.testing.assert_allclose(np.diff(d[c.T_S]), 0.1, atol=1e-9)  # no row left out
+    gap = (d[c.T_S] > 14.95) & (d[c.T_S] < 25.0)
+    assert np.isnan(d[c.LAT_DEG][gap]).all() and np.isnan(d[c.LON_DEG][gap]).all()
+    assert np.isfinite(d[c.LAT_DEG][~gap]).all() and np.isfinite(d[c.OMEGA_RL]).all()
+    assert kept.lost == (
+        f"gnss.csv [gnss]: {gap.sum()} of {gap.size} grid rows have the wheel speeds but no "
+        "fix (no two fixes at most 0.25 s apart around them): kept without a position",
+    )
+    pipeline = resample(_moving(t_w, t_g)).drive.columns
+    assert np.isfinite(pipeline[c.LAT_DEG]).all() and pipeline[c.T_S].size < d[c.T_S].size
+
+
+def test_a_stream_running_on_beyond_the_others_is_said():
+    """Wheel speeds that stop 20 s before the fixes: the drive is cut to their common
+    stretch, and a note says so (the manifest's, and predict's stderr)."""
+    res = resample(_moving(np.arange(0.0, 40.0, 0.01), np.arange(0.0, 60.0, 0.1)))
+    assert res.drive.columns[c.T_S][-1] == pytest.approx(39.9)
+    (note,) = res.lost
+    assert note == (
+        "the drive is cut to 0-39.99 s, where the wheel speeds and the fixes all have samples; "
+        "beyond it: gnss.csv [gnss] 0-59.9 s"
+    )
+    assert note in res.drive.notes

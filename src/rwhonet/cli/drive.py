@@ -330,11 +330,14 @@ def drive_id(path: Path) -> str:
     return path.name if path.is_dir() else path.stem
 
 
-def read_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Any:
+def read_drive_file(
+    path: Path, params: Params, vehicle: str, fmt: str, require_fix: bool = True
+) -> Any:
     """Read a drive the command line names, as ingest reads it (:func:`read_canonical`).
 
     Stream formats are resampled onto ``validate.sample_period_s`` with the vehicle's
-    nominal radius (linear wheel speeds, the glitch screen).
+    nominal radius (linear wheel speeds, the glitch screen); ``require_fix`` False keeps
+    the grid rows without a fix (``predict``), their position NaN.
 
     Raises:
         InputError: no such drive, or its reader's problems.
@@ -367,7 +370,9 @@ def read_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Any:
     spec = params.data.signal_maps.get(fmt)
     f = DriveFile(drive_id(path), ROLE, vehicle, fmt, path, spec.source if spec else None)
     vp = params.validate
-    return read_canonical(f, params.data, paths.rel, radius, vp.sample_period_s, vp.gnss.max_gap_s)
+    return read_canonical(
+        f, params.data, paths.rel, radius, vp.sample_period_s, vp.gnss.max_gap_s, require_fix
+    )
 
 
 _FORM = {
@@ -403,7 +408,8 @@ def canonical_blocks(
     """A drive read whole (a stream format: resampled), handed on in blocks of grid rows.
 
     What ``rwhonet predict`` streams for a format that cannot be read as it arrives
-    (a folder, an MDF4 file): the canonical channels of :func:`read_drive_file`, with the
+    (a folder, an MDF4 file): the canonical channels of :func:`read_drive_file` (grid rows
+    without a fix kept, their position NaN, as a 10 Hz file's empty fix cells), with the
     time placed as ``predict`` places a CSV's (:class:`rwhonet.data.timebase.StreamClock`),
     and for a resampled drive the resampler's glitch flags: per wheel, the grid rows whose
     mean used a glitched sample (:data:`rwhonet.serve.stream.GLITCH_FLAG` + the wheel's
@@ -418,7 +424,7 @@ def canonical_blocks(
     from rwhonet.data.timebase import StreamClock
     from rwhonet.serve.stream import GLITCH_FLAG
 
-    drive = read_drive_file(path, params, vehicle, fmt)
+    drive = read_drive_file(path, params, vehicle, fmt, require_fix=False)
     raw, facts = drive.raw, drive.streams
     carried = carried_channels(raw.columns)  # as a 10 Hz file's: the yaw rate where it has one
     columns = {name: raw.columns[name] for name in carried}

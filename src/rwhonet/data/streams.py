@@ -47,7 +47,9 @@ Gaps
     wheel speeds or without a position is left out of the grid, and so are the rows
     next to it until the hole in the grid is longer than ``split_gap_s``
     (``validate.gnss.max_gap_s``): validate then cuts the seconds there as a
-    ``gap`` and splits the drive, exactly as for a 10 Hz file with a GNSS outage.
+    ``gap`` and splits the drive, exactly as for a 10 Hz file with a GNSS outage
+    (``require_fix=False``, what ``rwhonet predict`` reads: a row without a position is
+    kept with NaN latitude and longitude, and only wheel holes are left out).
     Optional channels without data in a kept row are NaN. A wheel stream with more
     than :data:`SLOW_STREAM_SHARE` of its steps longer than ``max_wheel_gap_s`` (logged
     at 4-5 Hz, or stamped in ms read as s) is refused rather than resampled into an
@@ -86,6 +88,9 @@ SPLIT_GAP_S = 0.5  # validate.gnss.max_gap_s: a hole in the grid must be longer
 # A wheel stream with more of its steps longer than max_wheel_gap_s is too slow for the
 # grid (wheels logged at 4-5 Hz, or a time in ms read as s), not one with dropouts: refused.
 SLOW_STREAM_SHARE = 0.1
+# A wheel or GNSS stream running on this much beyond the others (s) is said: the grid
+# spans only the stretch they all cover (streams end a fraction of a second apart).
+SPAN_NOTE_S = 1.0
 
 # Canonical channels averaged over each row's window (rates), and those of the GNSS stream.
 RATE_CHANNELS = (*c.WHEELS, c.YAW_RATE_RAD_S, c.SPEED_VEHICLE_M_S, c.ACC_LON_M_S2, c.ACC_LAT_M_S2)
@@ -485,6 +490,7 @@ def resample(
     split_gap_s: float = SPLIT_GAP_S,
     nominal_radius_m: float | None = None,
     glitch_g: float = WHEEL_GLITCH_G,
+    require_fix: bool = True,
 ) -> Resampled:
     """Put a drive's streams on the pipeline's grid (the method: see the module docstring).
 
@@ -498,6 +504,10 @@ def resample(
         nominal_radius_m: the car's nominal tyre radius, for the sample-level glitch screen
             of streams carrying all four wheels (None: not screened here).
         glitch_g: the glitch bound (:data:`rwhonet.data.glitches.WHEEL_GLITCH_G`).
+        require_fix: a row needs a position (the pipeline: validate's schema wants one in
+            every row, and cuts the hole as a gap). False (``rwhonet predict``): a row with
+            the four wheel speeds but no fix is kept, its latitude and longitude NaN, as a
+            10 Hz file with empty fix cells is read, so an outage can be driven through.
 
     Returns:
         The canonical drive on the grid and the glitched rows.
@@ -537,16 +547,26 @@ def resample(
     glitch_samples: list[tuple[str, int, float, str]] = []
     notes = list(streams.notes)
     lost: list[str] = []  # the notes predict says too
+    beyond = [
+        f"{r.where()} {float(r.t_s[0]):.6g}-{float(r.t_s[-1]):.6g} s"
+        for r in required
+        if start - float(r.t_s[0]) > SPAN_NOTE_S or float(r.t_s[-1]) - end > SPAN_NOTE_S
+    ]
+    if beyond:
+        lost.append(
+            f"the drive is cut to {start:.6g}-{end:.6g} s, where the wheel speeds and the "
+            f"fixes all have samples; beyond it: {'; '.join(beyond)}"
+        )
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
     gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
-    notes += lost
     fixes, fix_ok = interpolate_fixes(
         gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
     )
-    keep &= fix_ok
-    for name, values in fixes.items():
-        columns[name] = values
+    if require_fix:
+        keep &= fix_ok
+    for name, values in fixes.items():  # NaN where no fix (rows the pipeline leaves out)
+        columns[name] = np.where(fix_ok, values, np.nan)
         sources[name] = streams.gnss.label(name)
 
     n_wheel_streams = len(streams.wheels)
@@ -602,22 +622,27 @@ def resample(
             ],
             summary="no grid row to keep",
         )
-    for name, values in fixes.items():  # optional GNSS channels: NaN where no fix
-        if name not in (c.LAT_DEG, c.LON_DEG):
-            columns[name] = np.where(fix_ok, values, np.nan)
     dropped = int((~keep).sum())
     if dropped:
         notes.append(
-            f"{dropped} of {grid.size} grid rows left out (no wheel speeds or no fix within "
-            f"the gap limits: wheels {max_wheel_gap_s:g} s, fixes {fix_gap:.3g} s), so that "
-            f"validate cuts those seconds as gaps"
+            f"{dropped} of {grid.size} grid rows left out (no wheel speeds "
+            + ("or no fix " if require_fix else "")
+            + f"within the gap limits: wheels {max_wheel_gap_s:g} s, fixes {fix_gap:.3g} s), "
+            "so that validate cuts those seconds as gaps"
+        )
+    unfixed = int((keep & ~fix_ok).sum())
+    if unfixed:
+        lost.append(
+            f"{streams.gnss.where()}: {unfixed} of {int(keep.sum())} grid rows have the wheel "
+            f"speeds but no fix (no two fixes at most {fix_gap:.3g} s apart around them): kept "
+            "without a position"
         )
     order = [n for n in (*c.REQUIRED, *c.OPTIONAL) if n in columns]
     drive = RawDrive(
         columns={n: np.ascontiguousarray(columns[n][keep]) for n in order},
         source_columns={n: sources[n] for n in order},
         header_match="streams",
-        notes=tuple(notes),
+        notes=(*notes, *lost),
     )
     return Resampled(
         drive,
