@@ -16,7 +16,7 @@ radius check, and no exception anywhere.
 
 NO_FIX: the one place left out is a fix at exactly latitude = longitude = 0 (a
 drive moved to start there, or within float rounding of it), what a receiver without
-a fix writes (:func:`rwhonet.data.quality.no_fix_rows`): validate cuts such rows
+a fix writes (:func:`rwhonet.data.fixes.no_fix_rows`): validate cuts such rows
 (``tests/data/test_gnss_quality.py``). Drives around that point are moved there as
 anywhere else.
 """

@@ -10,13 +10,13 @@ from geographiclib.geodesic import Geodesic
 
 from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data.fixes import no_fix_rows
 from rwhonet.data.plausibility import implied_radius, unit_mistake
 from rwhonet.data.quality import (
     assess,
     frozen_rows,
     implied_speed_m_s,
     local_step_distance_m,
-    no_fix_rows,
     second_index,
 )
 from support.drives import straight_drive

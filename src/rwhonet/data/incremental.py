@@ -158,7 +158,7 @@ def placed(
 class FixScreen:
     """Rows whose fix validate's GNSS policy would not use, made rows without a fix.
 
-    :func:`rwhonet.data.quality.no_fix_rows` decides, as it does for validate's
+    :func:`rwhonet.data.fixes.no_fix_rows` decides, as it does for validate's
     ``low_sats`` rule: latitude = longitude = 0 (a receiver without a fix writes zeros)
     and, where the drive counts satellites, fewer than ``min_sats`` (or no count). Such a
     row's latitude and longitude become NaN, as a missing fix is, so ``predict`` never
@@ -183,7 +183,7 @@ class FixScreen:
 
     def screen(self, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """One block's columns with its unusable fixes taken out (counted)."""
-        from rwhonet.data.quality import no_fix_rows
+        from rwhonet.data.fixes import no_fix_rows
 
         lat, lon = columns[c.LAT_DEG], columns[c.LON_DEG]
         bad = no_fix_rows(lat, lon, columns.get(c.N_SATS), self.min_sats)

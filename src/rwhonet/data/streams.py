@@ -33,7 +33,7 @@ Rates (wheel speeds, yaw rate, accelerations, vehicle speed): a time-weighted me
 
 Positions: interpolated between fixes, never across a gap, never extrapolated
     A fix at latitude = longitude = 0 is what a receiver without a fix writes: it is
-    no fix (:func:`rwhonet.data.quality.no_fix_rows`), left out as a sample without a
+    no fix (:func:`rwhonet.data.fixes.no_fix_rows`), left out as a sample without a
     value is. Latitude and longitude (longitude unwrapped, so the antimeridian is no jump)
     are interpolated linearly in time between the two fixes around ``t_k``, only
     when they are at most ``max_fix_gap_s`` apart; before the first fix, after
@@ -75,9 +75,9 @@ from scipy.ndimage import maximum_filter1d
 
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
+from rwhonet.data.fixes import no_fix_rows
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.problems import row_problems
-from rwhonet.data.quality import no_fix_rows
 from rwhonet.errors import InputError, Problem
 
 GRID_PERIOD_S = 0.1
@@ -768,7 +768,7 @@ def _real_fixes(
     s: Stream, t: np.ndarray, fixes: dict[str, np.ndarray], notes: list[str]
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """The fixes less those at latitude = longitude = 0 (a receiver without a fix writes
-    zeros: :func:`rwhonet.data.quality.no_fix_rows`), which are no fix, said in a note.
+    zeros: :func:`rwhonet.data.fixes.no_fix_rows`), which are no fix, said in a note.
 
     Raises:
         InputError: fewer than two fixes are left.
