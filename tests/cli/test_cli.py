@@ -689,3 +689,73 @@ def test_predict_drives_a_stream_drive_through_a_gnss_outage(bundle, tmp_path, c
     assert np.isfinite(tunnel["east_m"][inside]).all()
     assert "grid rows have the wheel speeds but no fix" in said and "kept without" in said
     assert "no second of the drive falls in it" not in said
+
+
+@pytest.mark.crash
+@pytest.mark.parametrize("signum", ["SIGTERM", "SIGHUP", "SIGINT"])
+def test_a_signal_mid_predict_leaves_no_half_written_output(bundle, drive, tmp_path, signum):
+    """predict stopped while it streams a drive from a pipe: its hidden .partial output is
+    removed (rwhonet.libraries.interruptible, the stage runner's mechanism), nothing is
+    put in place, and the status says which signal."""
+    import signal
+    import time
+
+    out = tmp_path / "live.csv"
+    partial = tmp_path / ".live.csv.partial"
+    env = dict(os.environ, PYTHONPATH=str(paths.ROOT / "src"))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "from rwhonet.cli.main import entry; entry()"]
+        + predict_args(bundle, "-", out),
+        stdin=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        cwd=paths.ROOT,
+    )
+    lines = drive.read_bytes().splitlines(keepends=True)
+    proc.stdin.write(b"".join(lines[:1500]))  # 150 s: more than the unit check holds back
+    proc.stdin.flush()
+    deadline = time.monotonic() + 120
+    while not (partial.exists() and partial.stat().st_size > 1000):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+        time.sleep(0.05)
+    proc.send_signal(getattr(signal, signum))
+    _, err = proc.communicate(timeout=60)
+    number = int(getattr(signal, signum))
+    assert proc.returncode == 128 + number, err.decode()
+    assert f"interrupted by {signum}; stopped, nothing half-written left" in err.decode()
+    assert "Traceback" not in err.decode()
+    assert not out.exists() and not partial.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_signal_mid_recalibrate_leaves_no_temporary_folder_and_no_running_run(
+    bundle, drive, tmp_path, monkeypatch, capsys
+):
+    """recalibrate stopped while it fits: its temporary folder goes, and the command ends
+    by the signal's status (the MLflow run, if one was opened, is ended FAILED)."""
+    import glob
+    import signal
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+
+    def stopped(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)  # as `kill` would, mid-fit
+        raise AssertionError("the signal did not interrupt")
+
+    import rwhonet.models.checkpoint
+
+    monkeypatch.setattr(rwhonet.models.checkpoint, "load_whonet", stopped)  # in its temp folder
+    base = str(bundle["model_onnx"].parent)
+
+    def unhandled(signum, frame):  # the command did not take it: fail here, not die
+        raise AssertionError("SIGTERM reached no handler of the command")
+
+    before = signal.signal(signal.SIGTERM, unhandled)
+    try:
+        code = main(["recalibrate", "--base", base, "--drive", str(drive), "--recipe", "radius+G"])
+    finally:
+        signal.signal(signal.SIGTERM, before)
+    assert code == 128 + signal.SIGTERM, capsys.readouterr().err
+    assert "interrupted by SIGTERM" in capsys.readouterr().err
+    assert glob.glob(str(tmp_path / "rwhonet-recalibrate-*")) == []

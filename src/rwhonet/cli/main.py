@@ -7,8 +7,10 @@ model, second by second), ``export`` (a model as one ``.onnx`` file), ``gate``
 
 Bad input ends a command with the project's report (file, row, column,
 expected, found, what to do) on stderr and exit status 2; a bug with its
-traceback and status 1. Each command imports only what it needs: ``predict``
-never imports torch or Lightning.
+traceback and status 1; SIGTERM, SIGINT or SIGHUP with status 128 + the signal's
+number, after the command has unwound (:func:`rwhonet.libraries.interruptible`:
+``predict``'s half-written output and ``recalibrate``'s temporary files removed). Each
+command imports only what it needs: ``predict`` never imports torch or Lightning.
 """
 
 from __future__ import annotations
@@ -400,11 +402,12 @@ def main(argv: list[str] | None = None) -> int:
 
         return gate.main(argv[1:])
     args = parser().parse_args(argv)
-    from rwhonet.libraries import quiet
+    from rwhonet.libraries import Interrupted, ignore_interrupts, interruptible, quiet
 
     quiet()
     try:
-        return args.func(args)
+        with interruptible():  # a stopped command unwinds: predict's partial output goes
+            return args.func(args)
     except (InputError, ConfigError) as err:
         print(f"{PROG} {args.command}: error:\n{err}", file=sys.stderr)
         return EXIT_INPUT
@@ -412,6 +415,10 @@ def main(argv: list[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except Interrupted as err:  # SIGTERM, SIGINT, SIGHUP: cleaned up on the way out
+        ignore_interrupts()
+        print(f"{PROG} {args.command}: {err}; stopped, nothing half-written left", file=sys.stderr)
+        return 128 + err.signum
     except KeyboardInterrupt:
         return 130
 
