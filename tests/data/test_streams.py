@@ -222,7 +222,8 @@ def test_a_wheel_stream_without_values_is_refused():
     with pytest.raises(InputError) as err:
         resample(streams)
     (p,) = err.value.problems
-    assert p.file == "wheels.csv [wheels]" and p.found == f"0 of {t_w.size}"
+    assert p.file == "wheels.csv [wheels]" and p.column == c.OMEGA_FL
+    assert p.found == f"0 of {t_w.size}; blank or NaN cells: '{c.OMEGA_FL}' in {t_w.size}"
 
 
 @pytest.mark.parametrize(

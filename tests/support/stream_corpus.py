@@ -422,6 +422,18 @@ def _(root: Path) -> None:
     _save(gyro / "value", np.zeros((t.size, 3)))
 
 
+@case(
+    "comma_times_saved_as_float32",
+    "comma2k19",
+    "CAN/wheel_speed/t saved as float32: at 400000 s of boot clock, 31 ms apart at best",
+    Refuse("seg/CAN/wheel_speed/t", None, "t", "saved as float64", "float32 stamps"),
+)
+def _(root: Path) -> None:
+    t = good_tables(t0_s=400_000.0)
+    path = write_good("comma2k19", root, t) / "processed_log/CAN/wheel_speed/t"
+    _save(path, np.load(path).astype(np.float32))
+
+
 def read_case(fmt: str, root: Path):
     """Read and resample a case's drive as a user's command would."""
     from rwhonet.data.comma2k19 import read_comma2k19

@@ -302,14 +302,16 @@ def _stream_problems(s: Stream) -> list[Problem]:
     time = s.sources.get(c.T_S, "time")
     out: list[Problem] = []
     if t.ndim != 1 or t.size < 2:
+        named = ", ".join(s.sources.get(k, k) for k in s.channels) or time
         return [
             Problem(
                 file,
                 None,
-                time,
+                named,
                 "at least two samples",
                 f"{t.size} sample(s)",
-                "a stream needs samples over the drive",
+                "a stream needs samples over the drive: log the channel, or leave it out of "
+                "the map",
             )
         ]
     for name, values in s.channels.items():
@@ -670,15 +672,20 @@ def _finite_rows(
     if ok.all():
         return t, chans
     if required and ok.sum() < 2:
+        blank = {k: int((~np.isfinite(v)).sum()) for k, v in chans.items()}
+        named = [s.sources.get(k, k) for k, n in blank.items() if n]
         raise InputError(
             [
                 Problem(
                     s.where(),
                     None,
-                    None,
+                    ", ".join(named),
                     "samples with a value in every channel",
-                    f"{int(ok.sum())} of {ok.size}",
-                    "export the stream's values (empty or NaN cells are no samples)",
+                    f"{int(ok.sum())} of {ok.size}; blank or NaN cells: "
+                    + ", ".join(f"{s.sources.get(k, k)!r} in {n}" for k, n in blank.items() if n),
+                    "export the stream's values (empty or NaN cells are no samples); a file "
+                    "that holds several messages, each row one message's samples, needs each "
+                    "message's columns filled in the same rows, or one file per message",
                 )
             ]
         )
