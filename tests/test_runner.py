@@ -2,7 +2,7 @@
 
 In-process tests raise from a stage body; the slow ones run a real stage
 process (``runner.run`` around a body that sleeps inside its atomic output
-folder) and send it SIGTERM or SIGINT. Every test points
+folder) and send it SIGTERM, SIGINT or SIGHUP. Every test points
 ``$MLFLOW_TRACKING_URI`` at a store of its own.
 """
 
@@ -20,6 +20,7 @@ import pytest
 
 from rwhonet import paths, runner
 from rwhonet.errors import InputError, Problem
+from rwhonet.libraries import INTERRUPTS
 from support.store import store_runs
 
 
@@ -88,11 +89,11 @@ def test_reading_an_undeclared_param_is_a_failed_run(store, capsys):
 
 
 def test_a_stage_that_succeeds_logs_nothing(store):
-    before = [signal.getsignal(s) for s in runner.INTERRUPTS]
+    before = [signal.getsignal(s) for s in INTERRUPTS]
     seen = []
     runner.run("label", lambda params: seen.append(params.label.wpm_mode))
     assert seen == ["integrated"] and not Path(store.removeprefix("sqlite:///")).exists()
-    assert [signal.getsignal(s) for s in runner.INTERRUPTS] == before  # handlers restored
+    assert [signal.getsignal(s) for s in INTERRUPTS] == before  # handlers restored
 
 
 @pytest.mark.crash
@@ -184,7 +185,9 @@ def _start_sleeper(root: Path, store: str) -> subprocess.Popen:
 
 @pytest.mark.crash
 @pytest.mark.slow
-@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+@pytest.mark.parametrize(
+    "signum", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP], ids=["SIGTERM", "SIGINT", "SIGHUP"]
+)
 def test_a_signal_mid_stage_is_a_killed_run_and_the_process_dies_of_it(tmp_path, signum):
     store = f"sqlite:///{tmp_path}/store/mlflow.db"
     proc = _start_sleeper(tmp_path / "project", store)

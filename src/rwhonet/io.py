@@ -2,7 +2,7 @@
 
 A stage writes each output (a folder or a file) into a temporary sibling and
 moves them all into place only when everything succeeded
-(:func:`atomic_outputs`). The moves happen back to back with SIGINT/SIGTERM
+(:func:`atomic_outputs`). The moves happen back to back with SIGINT/SIGTERM/SIGHUP
 held off (:func:`held_signals`), so an interrupted stage leaves either its old
 outputs or its new ones, never a mix; only a SIGKILL inside those few renames
 could split them.
@@ -37,14 +37,17 @@ import pyarrow.parquet as pq
 
 from rwhonet.contracts import SCENARIO
 
-HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# The signals that stop a stage (rwhonet.libraries.INTERRUPTS; io sits below libraries)
+HELD_SIGNALS = tuple(
+    s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None
+)
 T = TypeVar("T")
 R = TypeVar("R")
 
 
 @contextmanager
 def held_signals(signals: tuple[int, ...] = HELD_SIGNALS) -> Iterator[None]:
-    """Handle SIGINT and SIGTERM that arrive inside the block only once it has finished.
+    """Handle SIGINT, SIGTERM and SIGHUP that arrive inside the block only once it has finished.
 
     The block runs with handlers that only note a signal; on the way out the
     previous handlers come back and each noted signal is raised again, so it

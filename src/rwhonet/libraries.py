@@ -1,10 +1,19 @@
 """Quiet third-party libraries: telemetry, import tips and deprecation noise a user cannot act on;
-and a process end their native threads cannot turn into a crash.
+a process end their native threads cannot turn into a crash; and a stopped process that
+cleans up.
 
 Below every layer (like ``io.py``): the stage runner, the ``rwhonet`` command,
 ``python -m rwhonet.tracking`` and the tests call :func:`quiet` before the
 libraries speak; the stage scripts and the ``rwhonet`` command end by
 :func:`exit_process` (:func:`exit_with`: a piece of work, then that).
+
+Signals: the stage runner (:mod:`rwhonet.runner`) and the ``rwhonet`` command
+(:mod:`rwhonet.cli.main`) run their work inside :func:`interruptible`, so SIGTERM,
+SIGINT or SIGHUP raises :class:`Interrupted` where the process is, and ``finally``
+blocks and context managers run on the way out (a stage's atomic outputs are
+discarded, ``predict``'s half-written output file is removed, ``recalibrate``'s
+temporary folder goes); the caller then reports it and ends the process. Without it,
+each of these signals ends Python at once, and nothing is cleaned up.
 """
 
 from __future__ import annotations
@@ -12,11 +21,14 @@ from __future__ import annotations
 import atexit
 import logging
 import os
+import signal
 import sys
 import threading
 import warnings
-from collections.abc import Callable
-from typing import NoReturn
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from types import FrameType
+from typing import Any, NoReturn
 
 
 def quiet() -> None:
@@ -78,3 +90,69 @@ def exit_process(code: int | str | None) -> NoReturn:
         except (OSError, ValueError):  # closed, or a reader gone: nothing more to say
             pass
     os._exit(status)
+
+
+# Stop a process: kill and the service manager (SIGTERM), Ctrl-C (SIGINT), the terminal
+# closing under it (SIGHUP, where the platform has one).
+INTERRUPTS = tuple(
+    s for s in (signal.SIGTERM, signal.SIGINT, getattr(signal, "SIGHUP", None)) if s is not None
+)  # rwhonet.io.HELD_SIGNALS holds the same ones off during its renames
+
+
+class Interrupted(BaseException):
+    """A signal of :data:`INTERRUPTS` reached the process (raised by the handler).
+
+    A ``BaseException``, like ``KeyboardInterrupt``: ``except Exception`` in library
+    code does not swallow it, and ``finally`` blocks and ``atomic_outputs`` clean up
+    on the way out.
+    """
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        super().__init__(f"interrupted by {signal.Signals(signum).name}")
+
+
+# The process that installed the handlers and the handlers it had before (_raise_interrupted).
+_installed: dict[str, Any] = {"pid": None, "previous": {}}
+
+
+def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
+    if os.getpid() != _installed["pid"]:
+        # A forked worker (the adapt stage's process pool) inherited this handler: it does
+        # what it did before, e.g. dies quietly when its pool terminates it at exit.
+        previous = _installed["previous"].get(signum, signal.SIG_DFL)
+        if callable(previous):
+            previous(signum, frame)
+        elif previous != signal.SIG_IGN:
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+        return
+    raise Interrupted(signum)
+
+
+@contextmanager
+def interruptible() -> Iterator[None]:
+    """Within the block, a signal of :data:`INTERRUPTS` raises :class:`Interrupted`; the
+    handlers the process had are restored after it."""
+    previous = {signum: signal.signal(signum, _raise_interrupted) for signum in INTERRUPTS}
+    _installed.update(pid=os.getpid(), previous=previous)
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def ignore_interrupts() -> None:
+    """Let the process report what happened: a second signal no longer interrupts."""
+    for signum in INTERRUPTS:
+        signal.signal(signum, signal.SIG_IGN)
+
+
+def die_of(signum: int) -> NoReturn:
+    """End the process by ``signum`` (default action), as if it had not been caught."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+    sys.exit(128 + signum)  # not reached unless the signal could not end the process

@@ -8,8 +8,9 @@ value changes. Input and config errors exit with status 2 and a readable
 report, never a traceback.
 
 A stage that fails (any exception, input and config errors included) or is
-interrupted (SIGTERM, SIGINT) leaves a run in the project's MLflow store with
-status FAILED or KILLED (:mod:`rwhonet.tracking.failure`); MLflow is imported
+interrupted (SIGTERM, SIGINT, SIGHUP: :func:`rwhonet.libraries.interruptible`) leaves
+a run in the project's MLflow store with status FAILED or KILLED
+(:mod:`rwhonet.tracking.failure`); MLflow is imported
 only then. An interrupted stage unwinds (its atomic outputs are discarded),
 logs, and then dies of the same signal, so DVC and shells see what happened.
 """
@@ -23,8 +24,6 @@ import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from types import FrameType
-from typing import Any
 
 import yaml
 
@@ -32,42 +31,17 @@ from rwhonet import paths
 from rwhonet.config import ConfigError, Params, load_params
 from rwhonet.errors import InputError
 from rwhonet.io import system_memory_pool
-from rwhonet.libraries import exit_with, quiet
+from rwhonet.libraries import (
+    Interrupted,
+    die_of,
+    exit_with,
+    ignore_interrupts,
+    interruptible,
+    quiet,
+)
 
 EXIT_INPUT = 2
 EXIT_FAILED = 1
-INTERRUPTS = (signal.SIGTERM, signal.SIGINT)
-
-
-class Interrupted(BaseException):
-    """SIGTERM or SIGINT reached a running stage (raised by the runner's signal handler).
-
-    A ``BaseException``, like ``KeyboardInterrupt``: ``except Exception`` in library
-    code does not swallow it, and ``finally`` blocks and ``atomic_outputs`` clean up
-    on the way out.
-    """
-
-    def __init__(self, signum: int) -> None:
-        self.signum = signum
-        super().__init__(f"interrupted by {signal.Signals(signum).name}")
-
-
-# The stage process and the handlers it had before the runner's (see _raise_interrupted).
-_installed: dict[str, Any] = {"pid": None, "previous": {}}
-
-
-def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
-    if os.getpid() != _installed["pid"]:
-        # A forked worker (the adapt stage's process pool) inherited this handler: it does
-        # what it did before, e.g. dies quietly when its pool terminates it at exit.
-        previous = _installed["previous"].get(signum, signal.SIG_DFL)
-        if callable(previous):
-            previous(signum, frame)
-        elif previous != signal.SIG_IGN:
-            signal.signal(signum, signal.SIG_DFL)
-            os.kill(os.getpid(), signum)
-        return
-    raise Interrupted(signum)
 
 
 def declared_params(stage: str, dvc_yaml: Path | None = None) -> list[str]:
@@ -101,8 +75,8 @@ def run(stage: str, main: Callable[[Params], None]) -> None:
     """Run a stage's ``main`` with its declared params; record any failure in MLflow.
 
     Input and config errors print their report and exit 2; any other exception
-    prints its traceback and exits 1; SIGTERM or SIGINT ends the process by that
-    signal. Each leaves a FAILED or KILLED run in the project's MLflow store.
+    prints its traceback and exits 1; SIGTERM, SIGINT or SIGHUP ends the process by
+    that signal. Each leaves a FAILED or KILLED run in the project's MLflow store.
 
     Args:
         stage: the stage's name in ``dvc.yaml``.
@@ -110,13 +84,8 @@ def run(stage: str, main: Callable[[Params], None]) -> None:
     """
     quiet()
     started = time.time()
-    previous = {signum: signal.signal(signum, _raise_interrupted) for signum in INTERRUPTS}
-    _installed.update(pid=os.getpid(), previous=previous)
-    try:
+    with interruptible():
         _run(stage, main, started)
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
 
 
 def run_script(stage: str, main: Callable[[Params], None]) -> None:
@@ -138,35 +107,29 @@ def _run(stage: str, main: Callable[[Params], None], started: float) -> None:
         with system_memory_pool():  # Arrow's buffers from malloc (rwhonet.io: faster here)
             main(params)
     except (InputError, ConfigError) as err:
-        _ignore_interrupts()
+        ignore_interrupts()
         print(
             f"\nERROR in stage {stage} ({os.path.basename(sys.argv[0])}):\n{err}", file=sys.stderr
         )
         _record(stage, "FAILED", err, EXIT_INPUT, started)
         sys.exit(EXIT_INPUT)
     except Interrupted as err:
-        _ignore_interrupts()
+        ignore_interrupts()
         print(f"\nstage {stage} {err}", file=sys.stderr)
         _record(stage, "KILLED", err, -err.signum, started)
-        _die_of(err.signum)
+        die_of(err.signum)
     except SystemExit as err:
         if err.code in (None, 0):
             raise
-        _ignore_interrupts()
+        ignore_interrupts()
         code = err.code if isinstance(err.code, int) else EXIT_FAILED
         _record(stage, "FAILED", err, code, started)
         raise
     except BaseException as err:  # anything else: a bug or a library failure
-        _ignore_interrupts()
+        ignore_interrupts()
         traceback.print_exception(err, file=sys.stderr)
         _record(stage, "FAILED", err, EXIT_FAILED, started)
         sys.exit(EXIT_FAILED)
-
-
-def _ignore_interrupts() -> None:
-    """Let the failure be recorded: a second SIGTERM/SIGINT no longer interrupts."""
-    for signum in INTERRUPTS:
-        signal.signal(signum, signal.SIG_IGN)
 
 
 def _record(stage: str, status: str, err: BaseException, exit_code: int, started: float) -> None:
@@ -196,12 +159,3 @@ def _record(stage: str, status: str, err: BaseException, exit_code: int, started
         print(f"(the failure could not be logged to MLflow: {log_err})", file=sys.stderr)
         return
     print(f"MLflow: {status} run {run_id} in {uri}", file=sys.stderr)
-
-
-def _die_of(signum: int) -> None:
-    """End the process by ``signum`` (default action), as if it had not been caught."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    signal.signal(signum, signal.SIG_DFL)
-    os.kill(os.getpid(), signum)
-    sys.exit(128 + signum)  # not reached unless the signal could not end the process

@@ -574,3 +574,188 @@ def test_predict_repairs_and_reports_a_glitched_sample_of_a_100_hz_wheel_stream(
     assert len(fixed) == len(clean) > 30
     for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
         np.testing.assert_allclose(fixed[q], clean[q], atol=0.01)
+
+
+def _stream_drive(tmp_path, tables):
+    """A folder of stream CSVs and its signal map file, for --format stream_csv."""
+    import yaml
+
+    from rwhonet.sim.streams import SIGNAL_MAP
+    from support.stream_corpus import write_good
+
+    smap = tmp_path / "map.yaml"
+    smap.write_text(
+        yaml.safe_dump({k: {"column": c, "unit": u} for k, (c, u) in SIGNAL_MAP.items()})
+    )
+    return write_good("csv", tmp_path, tables), [
+        "--format",
+        "stream_csv",
+        "--signal-map",
+        str(smap),
+    ]
+
+
+def test_predict_and_recalibrate_refuse_wheels_logged_too_slowly_for_the_grid(
+    bundle, tmp_path, capsys
+):
+    """Wheel speeds at 4 Hz: every grid row would span a longer step than the resampler
+    allows. Both commands refuse with the stream, its channels and its steps (not a
+    traceback, not an empty output); predict writes nothing."""
+    from rwhonet.sim.streams import StreamTables
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    good = good_tables()
+    slow = StreamTables(good.wheels.iloc[::25].reset_index(drop=True), good.gnss)
+    drive, fmt = _stream_drive(tmp_path, slow)
+    fmt += ["--nominal-radius", str(RADIUS_M)]
+    out = tmp_path / "p.csv"
+    assert main(predict_args(bundle, drive, out, *fmt)) == 2
+    err = capsys.readouterr().err
+    assert "wheels.csv" in err and "WheelSpeed_RL" in err and "steps of 0.25 s" in err
+    assert "max_wheel_gap_s" in err and "Traceback" not in err
+    assert not out.exists() and list(tmp_path.glob(".*partial")) == []
+    base = str(bundle["model_onnx"].parent)
+    assert main(["recalibrate", "--base", base, "--drive", str(drive), *fmt]) == 2
+    err = capsys.readouterr().err
+    assert "wheels.csv" in err and "steps of 0.25 s" in err
+
+
+def test_predict_takes_a_fix_validate_would_not_use_as_no_fix(bundle, tmp_path, capsys):
+    """Fixes at latitude = longitude = 0 (a receiver without a fix) and fixes with fewer than
+    validate.gnss.min_sats satellites give predict exactly what empty fix cells give, in a
+    10 Hz file and in stream CSVs, and stderr says how many rows it took out."""
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import StreamTables
+    from support.drives import write_iovnbd
+    from support.serving import wavy_drive
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    df = wavy_drive(200.0)
+    no_fix = (df[c.T_S] > df[c.T_S].iloc[0] + 60) & (df[c.T_S] < df[c.T_S].iloc[0] + 75)
+    low = (df[c.T_S] > df[c.T_S].iloc[0] + 120) & (df[c.T_S] < df[c.T_S].iloc[0] + 130)
+    empty = df.copy()
+    empty.loc[no_fix | low, [c.LAT_DEG, c.LON_DEG]] = np.nan
+    bad = df.copy()
+    bad.loc[no_fix, [c.LAT_DEG, c.LON_DEG]] = 0.0
+    bad.loc[low, c.N_SATS] = 3.0
+    out = {}
+    for name, frame in (("empty", empty), ("bad", bad)):
+        drive = write_iovnbd(frame, tmp_path / f"V-{name}.csv")
+        out[name] = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, drive, out[name], "--outage", "100:160")) == 0
+    err = capsys.readouterr().err
+    assert out["bad"].read_text() == out["empty"].read_text()
+    assert "248 row(s) taken as without a GNSS fix, as validate cuts them: 149 at latitude " in err
+    assert "99 with fewer than validate.gnss.min_sats 4 satellites" in err
+    # stream CSVs: the fixes at (0, 0) are left out as the deleted ones are
+    good = good_tables()
+    zeros = good.gnss.copy()
+    gap = (zeros[c.T_S] > 1010.0) & (zeros[c.T_S] < 1012.0)
+    zeros.loc[gap, [c.LAT_DEG, c.LON_DEG]] = 0.0
+    for name, gnss in (("deleted", good.gnss[~gap]), ("zeros", zeros)):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, StreamTables(good.wheels, gnss))
+        out[name] = tmp_path / f"{name}.csv"
+        fmt += ["--nominal-radius", str(RADIUS_M)]
+        assert main(predict_args(bundle, drive, out[name], *fmt)) == 0
+    err = capsys.readouterr().err
+    assert out["zeros"].read_text() == out["deleted"].read_text()
+    assert "gnss.csv]: 20 fix(es) at latitude = longitude = 0 left out" in err
+
+
+def test_predict_drives_a_stream_drive_through_a_gnss_outage(bundle, tmp_path, capsys):
+    """No fix for 10 s in gnss.csv (a tunnel): predict keeps the wheel rows, as it keeps a
+    10 Hz file's rows with empty fix cells, and dead-reckons through the outage; the
+    seconds and their WPM are the whole drive's."""
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import StreamTables
+    from support.stream_corpus import RADIUS_M, T0_S, good_tables
+
+    good = good_tables()
+    tunnel = good.gnss[(good.gnss[c.T_S] < T0_S + 15.0) | (good.gnss[c.T_S] > T0_S + 25.0)]
+    frames = {}
+    for name, gnss in (("whole", good.gnss), ("tunnel", tunnel)):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, StreamTables(good.wheels, gnss))
+        out = tmp_path / f"{name}.csv"
+        fmt += ["--nominal-radius", str(RADIUS_M), "--outage", "15:25"]
+        assert main(predict_args(bundle, drive, out, *fmt)) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (whole, _), (tunnel, said) = frames["whole"], frames["tunnel"]
+    assert len(tunnel) == len(whole) == 38
+    np.testing.assert_array_equal(tunnel["disp_wpm_m"], whole["disp_wpm_m"])
+    inside = tunnel["outage"] == "15:25"
+    assert inside.sum() == 10 and tunnel["disp_gnss_m"][inside].isna().all()
+    assert np.isfinite(tunnel["east_m"][inside]).all()
+    assert "grid rows have the wheel speeds but no fix" in said and "kept without" in said
+    assert "no second of the drive falls in it" not in said
+
+
+@pytest.mark.crash
+@pytest.mark.parametrize("signum", ["SIGTERM", "SIGHUP", "SIGINT"])
+def test_a_signal_mid_predict_leaves_no_half_written_output(bundle, drive, tmp_path, signum):
+    """predict stopped while it streams a drive from a pipe: its hidden .partial output is
+    removed (rwhonet.libraries.interruptible, the stage runner's mechanism), nothing is
+    put in place, and the status says which signal."""
+    import signal
+    import time
+
+    out = tmp_path / "live.csv"
+    partial = tmp_path / ".live.csv.partial"
+    env = dict(os.environ, PYTHONPATH=str(paths.ROOT / "src"))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "from rwhonet.cli.main import entry; entry()"]
+        + predict_args(bundle, "-", out),
+        stdin=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        cwd=paths.ROOT,
+    )
+    lines = drive.read_bytes().splitlines(keepends=True)
+    proc.stdin.write(b"".join(lines[:1500]))  # 150 s: more than the unit check holds back
+    proc.stdin.flush()
+    deadline = time.monotonic() + 120
+    while not (partial.exists() and partial.stat().st_size > 1000):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+        time.sleep(0.05)
+    proc.send_signal(getattr(signal, signum))
+    _, err = proc.communicate(timeout=60)
+    number = int(getattr(signal, signum))
+    assert proc.returncode == 128 + number, err.decode()
+    assert f"interrupted by {signum}; stopped, nothing half-written left" in err.decode()
+    assert "Traceback" not in err.decode()
+    assert not out.exists() and not partial.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_signal_mid_recalibrate_leaves_no_temporary_folder_and_no_running_run(
+    bundle, drive, tmp_path, monkeypatch, capsys
+):
+    """recalibrate stopped while it fits: its temporary folder goes, and the command ends
+    by the signal's status (the MLflow run, if one was opened, is ended FAILED)."""
+    import glob
+    import signal
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+
+    def stopped(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)  # as `kill` would, mid-fit
+        raise AssertionError("the signal did not interrupt")
+
+    import rwhonet.models.checkpoint
+
+    monkeypatch.setattr(rwhonet.models.checkpoint, "load_whonet", stopped)  # in its temp folder
+    base = str(bundle["model_onnx"].parent)
+
+    def unhandled(signum, frame):  # the command did not take it: fail here, not die
+        raise AssertionError("SIGTERM reached no handler of the command")
+
+    before = signal.signal(signal.SIGTERM, unhandled)
+    try:
+        code = main(["recalibrate", "--base", base, "--drive", str(drive), "--recipe", "radius+G"])
+    finally:
+        signal.signal(signal.SIGTERM, before)
+    assert code == 128 + signal.SIGTERM, capsys.readouterr().err
+    assert "interrupted by SIGTERM" in capsys.readouterr().err
+    assert glob.glob(str(tmp_path / "rwhonet-recalibrate-*")) == []

@@ -68,3 +68,12 @@ def test_without_a_fix_or_moving_seconds_the_check_says_why_it_did_not_run():
     short = {k: v[:200] for k, v in _drive().items()}  # 20 s: no valid stretch of 30 s
     check, _ = _push(short, 50, vp)
     assert "only 0 moving s" in check.note
+
+
+def test_the_stream_check_of_a_drive_without_rows_ends_undecided_with_a_note():
+    check = StreamRadiusCheck(ENTRY, R_M, load_params().validate)
+    assert check.finish() == (
+        "V-Car.csv: wheel speeds' unit not checked against GNSS (validate's tyre-radius "
+        "check): the drive has no GNSS fix; make sure they are rad/s"
+    )
+    assert check.decided and check.yaw_decided

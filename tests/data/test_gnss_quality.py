@@ -10,6 +10,7 @@ from geographiclib.geodesic import Geodesic
 
 from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data.fixes import no_fix_rows
 from rwhonet.data.plausibility import implied_radius, unit_mistake
 from rwhonet.data.quality import (
     assess,
@@ -253,3 +254,32 @@ def test_implied_speed_is_exact_above_the_screening_threshold():
     exact = implied_speed_m_s(t, lat, lon)
     assert screened[12] == exact[12] > 35.0  # the jump: geodesic, bit for bit
     np.testing.assert_allclose(screened, exact, rtol=1e-7)
+
+
+def test_a_drive_without_rows_has_no_segment_and_no_cut():
+    empty = {name: np.zeros(0) for name in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+    result = assess(empty, POLICY, PERIOD_S)
+    assert (result.segments, result.cuts, result.n_rows, result.n_seconds) == ([], [], 0, 0)
+
+
+def test_a_fix_at_latitude_and_longitude_zero_is_no_fix_with_or_without_a_satellite_count():
+    """A receiver without a fix writes zeros: a parked car's first 10 s at (0, 0) are cut
+    (low_sats: no fix), not kept as seconds with no GNSS displacement."""
+    for drop_sats in (False, True):
+        drive = straight_drive(duration_s=40.0, speed_m_s=0.0)
+        drive.loc[: row(T0 + 9.9), [c.LAT_DEG, c.LON_DEG]] = 0.0
+        if drop_sats:
+            drive = drive.drop(columns=[c.N_SATS])
+        result = assess(drive, POLICY, PERIOD_S)
+        assert all(s.start_s >= T0 + 10 for s in result.segments), spans(result)
+        (low,) = [cut for cut in result.cuts if cut.rule == "low_sats"]
+        assert (low.start_s, low.end_s) == (T0, T0 + 10)
+        assert low.detail == "no fix (latitude = longitude = 0) (min_sats 4)"
+
+
+def test_no_fix_rows_are_missing_zero_or_low_satellite_fixes():
+    lat = np.array([52.0, 0.0, 0.0, np.nan, 52.0, 52.0, 52.0])
+    lon = np.array([-1.0, 0.0, -1.0, -1.0, -1.0, -1.0, -1.0])
+    sats = np.array([9.0, 9.0, 9.0, 9.0, 3.0, np.nan, 4.0])
+    assert no_fix_rows(lat, lon).tolist() == [0, 1, 0, 1, 0, 0, 0]
+    assert no_fix_rows(lat, lon, sats, 4).tolist() == [0, 1, 0, 1, 1, 1, 0]

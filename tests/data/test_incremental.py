@@ -75,3 +75,32 @@ def test_a_short_row_and_a_bad_header_are_refused(tmp_path):
         read_rows(io.BytesIO(b"a,b,c\n1,2,3\n"), "x.csv")
     with pytest.raises(InputError, match="at least one data row"):
         collect(read_rows(io.BytesIO(lines[0].encode() + b"\n"), "x.csv")[1])
+
+
+def test_the_fix_screen_takes_out_the_fixes_validate_would_not_use():
+    from rwhonet.data.incremental import FixScreen
+
+    screen = FixScreen(min_sats=4)
+    cols = {
+        c.LAT_DEG: np.array([52.0, 0.0, 52.0, np.nan, 52.0]),
+        c.LON_DEG: np.array([-1.0, 0.0, -1.0, np.nan, -1.0]),
+        c.N_SATS: np.array([9.0, 0.0, 3.0, 0.0, np.nan]),
+    }
+    out = screen.screen(cols)
+    assert np.isnan(out[c.LAT_DEG]).tolist() == [False, True, True, True, True]
+    assert np.isnan(out[c.LON_DEG]).tolist() == [False, True, True, True, True]
+    assert (screen.zeros, screen.low_sats) == (1, 2)  # the missing fix is not counted
+    assert screen.note("V-A.csv") == (
+        "V-A.csv: 3 row(s) taken as without a GNSS fix, as validate cuts them: 1 at latitude "
+        "= longitude = 0 (what a receiver without a fix writes); 2 with fewer than "
+        "validate.gnss.min_sats 4 satellites or no count"
+    )
+    assert FixScreen(4).note("V-A.csv") is None
+
+
+def test_predict_reads_the_satellite_count_where_the_layout_has_one(tmp_path):
+    path = write_drive(tmp_path / "V-A.csv", duration_s=30)
+    with open(path, "rb") as f:
+        lay, blocks = read_rows(f, "V-A.csv")
+        _, cols = collect(blocks)
+    assert lay.names[c.N_SATS] == "Sats"

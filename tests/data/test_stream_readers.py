@@ -38,7 +38,9 @@ MDF_MAP = _spec(
 )
 
 
-def _write_mdf(path, yaw_deg_s: float = 3.0) -> None:
+def _write_mdf(
+    path, yaw_deg_s: float = 3.0, yaw_t0_s: float = 0.0, yaw_samples: int | None = None
+) -> None:
     from asammdf import MDF, Signal
 
     mdf = MDF(version="4.10")
@@ -68,7 +70,7 @@ def _write_mdf(path, yaw_deg_s: float = 3.0) -> None:
     )
     t_s = np.arange(0.0, 40.0, 1.0)  # satellites from the receiver's status message, 1 Hz
     mdf.append([Signal(np.full(t_s.size, 11, dtype=np.uint8), t_s, name="GPS_NumSV", unit="")])
-    t_y = np.arange(0.0, 40.0, 0.01)
+    t_y = (np.arange(0.0, 40.0, 0.01) + yaw_t0_s)[:yaw_samples]
     mdf.append([Signal(np.full(t_y.size, yaw_deg_s), t_y, name="YawRate", unit="deg/s")])
     mdf.save(path, overwrite=True)
     mdf.close()
@@ -86,6 +88,28 @@ def test_an_mdf4_file_reads_through_its_signal_map(tmp_path):
     np.testing.assert_array_equal(d[c.N_SATS], 11.0)
     np.testing.assert_allclose(d[c.LAT_DEG], 48.1 + V * d[c.T_S] / 111_200.0, atol=1e-12)
     assert d[c.T_S][0] == pytest.approx(0.1) and np.allclose(np.diff(d[c.T_S]), 0.1)
+
+
+def test_a_yaw_rate_on_another_time_base_is_refused_not_dropped(tmp_path):
+    """The YawRate group stamped in UNIX time, the others from the measurement's start."""
+    path = tmp_path / "log.mf4"
+    _write_mdf(path, yaw_t0_s=1.7e9)
+    with pytest.raises(InputError) as err:
+        resample(read_mdf4(path, MDF_MAP, R, display="log.mf4"), nominal_radius_m=R)
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("log.mf4 [channel group 4]", "master time")
+    assert "one clock" in p.expected and "no common stretch" in p.found
+    assert "log.mf4 [channel group 4] 1.7e+09-1.7e+09 s" in p.found
+
+
+def test_a_yaw_rate_with_one_sample_is_refused_by_its_name(tmp_path):
+    path = tmp_path / "log.mf4"
+    _write_mdf(path, yaw_samples=1)
+    with pytest.raises(InputError) as err:
+        resample(read_mdf4(path, MDF_MAP, R, display="log.mf4"), nominal_radius_m=R)
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("log.mf4 [channel group 4]", "YawRate")
+    assert p.expected == "at least two samples" and p.found == "1 sample(s)"
 
 
 def test_a_signal_in_two_groups_is_refused(tmp_path):
@@ -248,3 +272,42 @@ def test_time_going_back_in_a_stream_csv_outside_midnight_is_still_refused(tmp_p
     streams = read_stream_csvs(sorted(tmp_path.glob("*.csv")), smap, R)
     with pytest.raises(InputError, match="strictly increasing"):
         resample(streams, nominal_radius_m=R)
+
+
+def test_a_wide_csv_of_several_messages_reads_as_one_stream_per_message(tmp_path):
+    """Wheel speeds at 50 Hz and the yaw rate at 100 Hz in one file, each row one
+    message's samples and the other cells blank: read as two streams, the drive the two
+    files give. A column blank throughout is refused, named."""
+    t_w = np.arange(0.0, 30.0, 0.02) + 5000.0
+    t_y = np.arange(0.0, 30.0, 0.01) + 5000.003
+    wheels = pd.DataFrame({"Time": t_w, **{f"W{k}": V / R for k in ("FL", "FR", "RL", "RR")}})
+    yaw = pd.DataFrame({"Time": t_y, "Yaw": 0.05 + 0.01 * np.sin(t_y)})
+    t_g = np.arange(0.0, 30.0, 0.1) + 5000.05
+    gps = pd.DataFrame({"Time": t_g, "Lat": 48.1 + V * (t_g - 5000.0) / 111_200.0, "Lon": 11.5})
+    smap = _spec(
+        t=("Time", "s"),
+        **{f"omega_{k.lower()}": (f"W{k}", "rad/s") for k in ("FL", "FR", "RL", "RR")},
+        lat=("Lat", "deg"),
+        lon=("Lon", "deg"),
+        yaw_rate=("Yaw", "rad/s"),
+    )
+    apart, wide = tmp_path / "apart", tmp_path / "wide"
+    for folder in (apart, wide):
+        folder.mkdir()
+        gps.to_csv(folder / "gps.csv", index=False)
+    wheels.to_csv(apart / "can.csv", index=False)
+    yaw.to_csv(apart / "imu.csv", index=False)
+    pd.concat([wheels, yaw]).sort_values("Time").to_csv(wide / "can.csv", index=False)
+    d = {
+        f.name: resample(read_stream_csvs(sorted(f.glob("*.csv")), smap, R)) for f in (apart, wide)
+    }
+    for name in (*c.WHEELS, c.YAW_RATE_RAD_S, c.LAT_DEG):
+        np.testing.assert_allclose(d["wide"].drive.columns[name], d["apart"].drive.columns[name])
+    assert any("several messages in one file" in n for n in d["wide"].drive.notes)
+    blank = wheels.assign(WFL=np.nan)
+    blank.to_csv(wide / "can.csv", index=False)
+    with pytest.raises(InputError) as err:
+        no_yaw = {k: v for k, v in smap.items() if k != "yaw_rate"}
+        resample(read_stream_csvs([wide / "can.csv", wide / "gps.csv"], no_yaw, R))
+    (p,) = err.value.problems
+    assert p.column == "WFL" and "'WFL' in 1500" in p.found and "one file per message" in p.fix

@@ -222,4 +222,96 @@ def test_a_wheel_stream_without_values_is_refused():
     with pytest.raises(InputError) as err:
         resample(streams)
     (p,) = err.value.problems
-    assert p.file == "wheels.csv [wheels]" and p.found == f"0 of {t_w.size}"
+    assert p.file == "wheels.csv [wheels]" and p.column == c.OMEGA_FL
+    assert p.found == f"0 of {t_w.size}; blank or NaN cells: '{c.OMEGA_FL}' in {t_w.size}"
+
+
+@pytest.mark.parametrize(
+    ("t_w", "steps"),
+    [
+        (np.arange(0.0, 60.0, 0.25), "steps of 0.25 s"),  # wheels logged at 4 Hz
+        (np.arange(0.0, 60.0, 0.2) + np.resize([0.0, 0.02, -0.02], 300), "steps of 0.16-0.22 s"),
+        (np.arange(0.0, 60_000.0, 20.0), "steps of 20 s"),  # 50 Hz stamped in ms, read as s
+    ],
+)
+def test_a_wheel_stream_too_slow_for_the_grid_is_refused_naming_its_steps(t_w, steps):
+    """Every row would span a step longer than max_wheel_gap_s: refused (not an empty or
+    nearly empty grid), naming the stream, its wheel channels and its steps."""
+    t_g = np.arange(0.0, t_w[-1], 0.2 if t_w[-1] < 100 else 200.0)
+    with pytest.raises(InputError) as err:
+        resample(_moving(t_w, t_g))
+    (p,) = err.value.problems
+    assert p.file == "wheels.csv [wheels]" and p.column == ", ".join(c.WHEELS)
+    assert "max_wheel_gap_s" in p.expected and steps in p.found
+    assert "10 Hz or faster" in p.fix and "ms read as s" in p.fix
+
+
+def test_a_wheel_stream_with_one_long_pause_is_resampled_with_a_gap():
+    """A stream that stops for a minute (the logger paused) is no slow stream."""
+    t_w = np.r_[np.arange(0.0, 60.0, 0.01), np.arange(120.0, 180.0, 0.01)]
+    t = resample(_moving(t_w, np.arange(0.0, 180.0, 0.1))).drive.columns[c.T_S]
+    assert t[0] < 1.0 and t[-1] > 179.0 and np.diff(t).max() > 60.0
+
+
+def test_streams_without_a_common_row_are_refused():
+    """Wheels and fixes overlap in time, but no row has both within their gap limits."""
+    t_w = np.arange(0.0, 30.0, 0.01)
+    t_g = np.arange(0.0, 30.0, 5.0)
+    with pytest.raises(InputError) as err:
+        resample(_moving(t_w, t_g), max_fix_gap_s=1.0)
+    (p,) = err.value.problems
+    assert "wheels.csv" in p.file and "gnss.csv" in p.file and p.found.startswith("none of")
+
+
+def test_a_gyro_on_another_clock_is_refused_naming_both_spans():
+    """The imu's time in ms while the wheels and fixes are in s: not dropped in silence.
+    Where the two clocks still overlap (both from 0), no row spans short steps of it."""
+    t_w = 5000.0 + np.arange(0.0, 30.0, 0.01)
+    streams = _moving(t_w, 5000.0 + np.arange(0.0, 30.0, 0.1))
+    t_y = (5000.0 + np.arange(0.0, 30.0, 0.01)) * 1000.0
+    yaw = Stream("gyro", "imu.csv", t_y, {c.YAW_RATE_RAD_S: np.full(t_y.size, 0.2)})
+    with pytest.raises(InputError) as err:
+        resample(DriveStreams(streams.wheels, streams.gnss, (yaw,)))
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("imu.csv [gyro]", "time") and "one clock" in p.expected
+    assert "imu.csv [gyro] 5e+06-5.02999e+06 s" in p.found
+    assert "wheels.csv [wheels] 5000-5029.99 s" in p.found
+    streams = _moving(t_w - 5000.0, np.arange(0.0, 30.0, 0.1))
+    yaw = Stream("gyro", "imu.csv", t_y - 5e6, {c.YAW_RATE_RAD_S: np.full(t_y.size, 0.2)})
+    with pytest.raises(InputError) as err:
+        resample(DriveStreams(streams.wheels, streams.gnss, (yaw,)))
+    (p,) = err.value.problems
+    assert (p.file, p.column) == ("imu.csv [gyro]", c.YAW_RATE_RAD_S)
+    assert "steps of 10 s" in p.found and "ms read as s" in p.fix
+
+
+def test_without_require_fix_rows_in_a_fix_gap_are_kept_without_a_position():
+    """predict's resampling: a GNSS outage of 10 s keeps its wheel rows, lat/lon NaN there;
+    the pipeline's (the default) leaves them out for validate to cut as a gap."""
+    t_w = np.arange(0.0, 40.0, 0.01)
+    t_g = np.r_[np.arange(0.0, 15.0, 0.1), np.arange(25.0, 40.0, 0.1)]
+    kept = resample(_moving(t_w, t_g), require_fix=False)
+    d = kept.drive.columns
+    np.testing.assert_allclose(np.diff(d[c.T_S]), 0.1, atol=1e-9)  # no row left out
+    gap = (d[c.T_S] > 14.95) & (d[c.T_S] < 25.0)
+    assert np.isnan(d[c.LAT_DEG][gap]).all() and np.isnan(d[c.LON_DEG][gap]).all()
+    assert np.isfinite(d[c.LAT_DEG][~gap]).all() and np.isfinite(d[c.OMEGA_RL]).all()
+    assert kept.lost == (
+        f"gnss.csv [gnss]: {gap.sum()} of {gap.size} grid rows have the wheel speeds but no "
+        "fix (no two fixes at most 0.25 s apart around them): kept without a position",
+    )
+    pipeline = resample(_moving(t_w, t_g)).drive.columns
+    assert np.isfinite(pipeline[c.LAT_DEG]).all() and pipeline[c.T_S].size < d[c.T_S].size
+
+
+def test_a_stream_running_on_beyond_the_others_is_said():
+    """Wheel speeds that stop 20 s before the fixes: the drive is cut to their common
+    stretch, and a note says so (the manifest's, and predict's stderr)."""
+    res = resample(_moving(np.arange(0.0, 40.0, 0.01), np.arange(0.0, 60.0, 0.1)))
+    assert res.drive.columns[c.T_S][-1] == pytest.approx(39.9)
+    (note,) = res.lost
+    assert note == (
+        "the drive is cut to 0-39.99 s, where the wheel speeds and the fixes all have samples; "
+        "beyond it: gnss.csv [gnss] 0-59.9 s"
+    )
+    assert note in res.drive.notes

@@ -420,3 +420,28 @@ def test_a_straight_reverse_is_driven_backwards_when_the_logger_signs_its_wheel_
     assert "backwards in 16 s (the seconds ending 158 ... 173 s into the drive)" in line, line
     # magnitudes: the 30 m back counted forwards, about 60 m off at the end
     assert ends[False] > 45.0 and ends[True] < 5.0, ends
+
+
+def test_the_summary_says_wheels_where_the_yaw_column_has_no_value(bundle):
+    """A yaw-rate column that is empty (a resampled gyro that never overlapped) is no gyro:
+    the outage is said to be steered by the wheels alone; a gyro gap inside an outage is
+    said too, with the seconds it lasted."""
+    model = load_served(bundle["model_onnx"])
+    empty = _straight(260.0)
+    empty["yaw_rate_rad_s"] = np.nan
+    _, stream = stream_all(model, blocks_of(empty, [700] * 5), [Outage(100, 250)])
+    (summary,) = stream.summary()
+    assert stream.control == "wheels" and summary["control"] == "wheels"
+    assert summary["gyro_s"] == 0
+    gap = _straight(260.0)
+    gap.loc[1500:1800, "yaw_rate_rad_s"] = (
+        np.nan
+    )  # rows 150-180 s: the 32 seconds ending 150 ... 181 s use one
+    _, stream = stream_all(model, blocks_of(gap, [700] * 5), [Outage(100, 250)])
+    (summary,) = stream.summary()
+    assert stream.control == "fused" and summary["control"] == "fused"
+    assert summary["seconds"] == 150 and summary["gyro_s"] == 150 - 32
+    line = render_summary(
+        {"file": "f.csv", "rows": 2601, "seconds": 260, "outages": stream.summary()}
+    )
+    assert "yaw: gyro + wheels, wheels alone in 32 s without one)" in line, line

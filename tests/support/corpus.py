@@ -943,7 +943,7 @@ def _(raw: Path) -> None:
 @case(
     "no_fix_written_as_zeros",
     "20 s of latitude and longitude 0.0 (a logger's 'no fix')",
-    Repair("frozen", 19),
+    Repair("low_sats", 20),  # no fix: cut by the rule for fixes not trusted (no_fix_rows)
 )
 def _(raw: Path) -> None:
     df = _long_target()

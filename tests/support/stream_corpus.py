@@ -355,6 +355,85 @@ def _(root: Path) -> None:
     write_good("csv", root, StreamTables(t.wheels, gnss))
 
 
+@case(
+    "csv_wheels_at_4_hz",
+    "csv",
+    "wheels.csv logged at 4 Hz: every step longer than a grid row may span",
+    Refuse(
+        "wheels.csv",
+        None,
+        "WheelSpeed_FL, WheelSpeed_FR, WheelSpeed_RL, WheelSpeed_RR",
+        "max_wheel_gap_s",
+        "steps of 0.25 s",
+    ),
+)
+def _(root: Path) -> None:
+    t = good_tables()
+    write_good("csv", root, StreamTables(t.wheels.iloc[::25].reset_index(drop=True), t.gnss))
+
+
+@case(
+    "csv_time_unit_contradicts_map",
+    "csv",
+    "wheels.csv's time column says ms ('Time [ms]'), the map says s",
+    Refuse("wheels.csv", None, "Time [ms]", "the unit 's'", "the header says 'ms'"),
+)
+def _(root: Path) -> None:
+    def edit(lines):
+        rows = [x.split(",", 1) for x in lines[1:]]
+        return [lines[0].replace("Time", "Time [ms]", 1)] + [
+            f"{float(t) * 1000.0!r},{rest}" for t, rest in rows
+        ]
+
+    _edit_csv(root, "wheels.csv", edit)
+
+
+@case(
+    "comma_wheels_at_4_hz",
+    "comma2k19",
+    "CAN/wheel_speed logged at 4 Hz",
+    Refuse(
+        "seg [CAN/wheel_speed]",
+        None,
+        ", ".join(
+            f"value[:, {k}] ({w}, m/s)"
+            for k, w in enumerate(("front left", "front right", "rear left", "rear right"))
+        ),
+        "10 Hz or faster",
+        "steps of 0.25 s",
+    ),
+)
+def _(root: Path) -> None:
+    t = good_tables()
+    write_good("comma2k19", root, StreamTables(t.wheels.iloc[::25].reset_index(drop=True), t.gnss))
+
+
+@case(
+    "comma_gyro_in_ns",
+    "comma2k19",
+    "IMU/gyro/t in ns while every other channel's t is in s",
+    Refuse("seg [IMU/gyro]", None, "t", "one clock", "no common stretch"),
+)
+def _(root: Path) -> None:
+    gyro = write_good("comma2k19", root) / "processed_log/IMU/gyro"
+    gyro.mkdir(parents=True)
+    t = T0_S + np.arange(0.0, 40.0, 0.01)
+    _save(gyro / "t", t * 1e9)
+    _save(gyro / "value", np.zeros((t.size, 3)))
+
+
+@case(
+    "comma_times_saved_as_float32",
+    "comma2k19",
+    "CAN/wheel_speed/t saved as float32: at 400000 s of boot clock, 31 ms apart at best",
+    Refuse("seg/CAN/wheel_speed/t", None, "t", "saved as float64", "float32 stamps"),
+)
+def _(root: Path) -> None:
+    t = good_tables(t0_s=400_000.0)
+    path = write_good("comma2k19", root, t) / "processed_log/CAN/wheel_speed/t"
+    _save(path, np.load(path).astype(np.float32))
+
+
 def read_case(fmt: str, root: Path):
     """Read and resample a case's drive as a user's command would."""
     from rwhonet.data.comma2k19 import read_comma2k19

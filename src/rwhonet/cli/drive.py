@@ -330,11 +330,14 @@ def drive_id(path: Path) -> str:
     return path.name if path.is_dir() else path.stem
 
 
-def read_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Any:
+def read_drive_file(
+    path: Path, params: Params, vehicle: str, fmt: str, require_fix: bool = True
+) -> Any:
     """Read a drive the command line names, as ingest reads it (:func:`read_canonical`).
 
     Stream formats are resampled onto ``validate.sample_period_s`` with the vehicle's
-    nominal radius (linear wheel speeds, the glitch screen).
+    nominal radius (linear wheel speeds, the glitch screen); ``require_fix`` False keeps
+    the grid rows without a fix (``predict``), their position NaN.
 
     Raises:
         InputError: no such drive, or its reader's problems.
@@ -367,7 +370,9 @@ def read_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Any:
     spec = params.data.signal_maps.get(fmt)
     f = DriveFile(drive_id(path), ROLE, vehicle, fmt, path, spec.source if spec else None)
     vp = params.validate
-    return read_canonical(f, params.data, paths.rel, radius, vp.sample_period_s, vp.gnss.max_gap_s)
+    return read_canonical(
+        f, params.data, paths.rel, radius, vp.sample_period_s, vp.gnss.max_gap_s, require_fix
+    )
 
 
 _FORM = {
@@ -379,34 +384,47 @@ _FORM = {
 }
 
 
+@dataclass(frozen=True)
+class DriveBlocks:
+    """A drive read whole, to be streamed: what :func:`canonical_blocks` returns.
+
+    Attributes:
+        names: canonical name -> the source's channel.
+        blocks: ``(first_row, columns)`` blocks (1-based rows of the drive or its grid).
+        glitch_samples: the glitched samples the resampler found (``(stream, 1-based
+            sample row, t_s, channel)``; empty for a 10 Hz drive).
+        notes: what the resampler left out or changed, for stderr (empty for a 10 Hz drive).
+    """
+
+    names: dict[str, str]
+    blocks: Iterator[tuple[int, dict[str, np.ndarray]]]
+    glitch_samples: list[tuple[str, int, float, str]]
+    notes: tuple[str, ...] = ()
+
+
 def canonical_blocks(
     path: Path, params: Params, vehicle: str, fmt: str, rows: int = 600
-) -> tuple[
-    dict[str, str],
-    Iterator[tuple[int, dict[str, np.ndarray]]],
-    list[tuple[str, int, float, str]],
-]:
+) -> DriveBlocks:
     """A drive read whole (a stream format: resampled), handed on in blocks of grid rows.
 
     What ``rwhonet predict`` streams for a format that cannot be read as it arrives
-    (a folder, an MDF4 file): the canonical channels of :func:`read_drive_file`, with the
+    (a folder, an MDF4 file): the canonical channels of :func:`read_drive_file` (grid rows
+    without a fix kept, their position NaN, as a 10 Hz file's empty fix cells), with the
     time placed as ``predict`` places a CSV's (:class:`rwhonet.data.timebase.StreamClock`),
     and for a resampled drive the resampler's glitch flags: per wheel, the grid rows whose
     mean used a glitched sample (:data:`rwhonet.serve.stream.GLITCH_FLAG` + the wheel's
     canonical name, booleans), for ``predict`` to repair as it repairs a 10 Hz glitch.
 
     Returns:
-        ``(names, blocks, samples)``: canonical name -> the source's channel, ``(first_row,
-        columns)`` blocks of ``rows`` rows (1-based rows of the drive or its grid), and the
-        glitched samples the resampler found (``(stream, 1-based sample row, t_s,
-        channel)``; empty for a 10 Hz drive).
+        The channels' names, blocks of ``rows`` rows, the glitched samples and what the
+        resampler left out (:class:`DriveBlocks`).
     """
     from rwhonet.data import canonical as c
     from rwhonet.data.incremental import carried_channels, placed
     from rwhonet.data.timebase import StreamClock
     from rwhonet.serve.stream import GLITCH_FLAG
 
-    drive = read_drive_file(path, params, vehicle, fmt)
+    drive = read_drive_file(path, params, vehicle, fmt, require_fix=False)
     raw, facts = drive.raw, drive.streams
     carried = carried_channels(raw.columns)  # as a 10 Hz file's: the yaw rate where it has one
     columns = {name: raw.columns[name] for name in carried}
@@ -422,7 +440,8 @@ def canonical_blocks(
 
     clock = StreamClock(params.validate.sample_period_s)
     names = {name: raw.source_columns.get(name, name) for name in carried}
-    return names, placed(blocks(), clock), samples
+    lost = facts.lost if facts is not None else ()
+    return DriveBlocks(names, placed(blocks(), clock), samples, lost)
 
 
 def calibration_of(radii: tuple[float, float], source: str) -> Calibration:

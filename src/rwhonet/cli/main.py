@@ -7,8 +7,10 @@ model, second by second), ``export`` (a model as one ``.onnx`` file), ``gate``
 
 Bad input ends a command with the project's report (file, row, column,
 expected, found, what to do) on stderr and exit status 2; a bug with its
-traceback and status 1. Each command imports only what it needs: ``predict``
-never imports torch or Lightning.
+traceback and status 1; SIGTERM, SIGINT or SIGHUP with status 128 + the signal's
+number, after the command has unwound (:func:`rwhonet.libraries.interruptible`:
+``predict``'s half-written output and ``recalibrate``'s temporary files removed). Each
+command imports only what it needs: ``predict`` never imports torch or Lightning.
 """
 
 from __future__ import annotations
@@ -111,6 +113,7 @@ def _predict(args: argparse.Namespace) -> int:
     else:  # a model file and a 10 Hz CSV: the project's validate and cars, where there is one
         params = _params_here()
     column_map, drive_blocks, stream_glitches, period_s = None, None, None, 0.1
+    drive_notes: tuple[str, ...] = ()
     validate, nominal, radius_from = None, args.nominal_radius, None
     if args.vehicle_file is not None:
         radius_from = f"--vehicle-file {args.vehicle_file}"
@@ -148,10 +151,9 @@ def _predict(args: argparse.Namespace) -> int:
                         )
                     ]
                 )
-            names, blocks, stream_glitches = canonical_blocks(
-                Path(args.drive), params, PREDICT_CAR, args.format
-            )
-            drive_blocks = (names, blocks)
+            whole = canonical_blocks(Path(args.drive), params, PREDICT_CAR, args.format)
+            drive_blocks = (whole.names, whole.blocks)
+            stream_glitches, drive_notes = whole.glitch_samples, whole.notes
     model = predict.open_model(args.model, uri)
     out = predict.run(
         model,
@@ -165,13 +167,15 @@ def _predict(args: argparse.Namespace) -> int:
         drive_blocks=drive_blocks,
         unit_check=predict.UnitCheck(validate, nominal, radius_from),
         stream_glitches=stream_glitches,
+        drive_notes=drive_notes,
     )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)
     else:  # repaired or unchecked input is never silent
         said = [
+            *out["drive_notes"],
             *predict.glitch_lines(out["glitches"], samples=out["stream_glitches"]),
-            *([out["unit_note"]] * bool(out["unit_note"])),
+            *(out[k] for k in ("fix_note", "unit_note") if out[k]),
         ]
         if said:
             print("\n".join(said), file=sys.stderr)
@@ -398,11 +402,12 @@ def main(argv: list[str] | None = None) -> int:
 
         return gate.main(argv[1:])
     args = parser().parse_args(argv)
-    from rwhonet.libraries import quiet
+    from rwhonet.libraries import Interrupted, ignore_interrupts, interruptible, quiet
 
     quiet()
     try:
-        return args.func(args)
+        with interruptible():  # a stopped command unwinds: predict's partial output goes
+            return args.func(args)
     except (InputError, ConfigError) as err:
         print(f"{PROG} {args.command}: error:\n{err}", file=sys.stderr)
         return EXIT_INPUT
@@ -410,6 +415,10 @@ def main(argv: list[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except Interrupted as err:  # SIGTERM, SIGINT, SIGHUP: cleaned up on the way out
+        ignore_interrupts()
+        print(f"{PROG} {args.command}: {err}; stopped, nothing half-written left", file=sys.stderr)
+        return 128 + err.signum
     except KeyboardInterrupt:
         return 130
 

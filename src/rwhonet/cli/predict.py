@@ -147,6 +147,7 @@ def run(
     drive_blocks: tuple[dict[str, str], Iterable[tuple[int, dict[str, np.ndarray]]]] | None = None,
     unit_check: UnitCheck | None = None,
     stream_glitches: list[tuple[str, int, float, str]] | None = None,
+    drive_notes: Iterable[str] = (),
 ) -> dict[str, Any]:
     """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary.
 
@@ -154,11 +155,15 @@ def run(
     comes read and resampled already (``drive_blocks``: the source's channel names and the
     row blocks, :func:`rwhonet.cli.drive.canonical_blocks`, with the resampler's glitch
     flags, which the stream repairs; ``stream_glitches``: the glitched samples the
-    resampler found, for the summary). A file output is written
+    resampler found, for the summary; ``drive_notes``: what the resampler left out, for
+    the summary too). A file output is written
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
 
-    The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
+    A row whose fix validate's GNSS policy would not use (latitude = longitude = 0, fewer
+    than ``validate.gnss.min_sats`` satellites where the drive counts them) is taken as a
+    row without a fix (:class:`rwhonet.data.incremental.FixScreen`; ``fix_note`` says how
+    many). The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
     against the GNSS distance, :class:`rwhonet.data.drivechecks.StreamRadiusCheck`), as
     ``unit_check`` says (:class:`UnitCheck`; None: its defaults), and a yaw rate's unit
     and sign as validate checks them (the GNSS course's turn against it). No second is
@@ -169,7 +174,7 @@ def run(
     the check fails later.
     """
     from rwhonet.data.drivechecks import StreamRadiusCheck
-    from rwhonet.data.incremental import read_rows
+    from rwhonet.data.incremental import FixScreen, read_rows
 
     with ExitStack() as stack:
         if drive_blocks is not None:
@@ -208,11 +213,14 @@ def run(
                 lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
                 names = lay.names
             uc = unit_check or UnitCheck()
+            vp = uc.validate or default_validate()
+            fixes = FixScreen(vp.gnss.min_sats)  # a fix validate would not use is none
+            blocks = fixes.blocks(iter(blocks))
             nominal = uc.nominal_radius_m or float(np.mean(model.meta.source_radii))
             check = StreamRadiusCheck(
                 {"source_file": name, "columns": names, "vehicle": "the car"},
                 nominal,
-                uc.validate or default_validate(),
+                vp,
                 uc.radius_from
                 or f"--nominal-radius (without it: the model's source radius, {nominal:.4g} m)",
             )
@@ -255,8 +263,10 @@ def run(
         "glitches": stream.glitches,
         "backwards_s": list(stream.backwards_s),
         "stream_glitches": list(stream_glitches or []),
+        "drive_notes": list(drive_notes),
         "unit_note": unit_note,
         "yaw_note": check.yaw_note,
+        "fix_note": fixes.note(name),
     }
 
 
@@ -304,6 +314,8 @@ def _position_text(o: dict[str, Any]) -> str:
     if math.isnan(o.get("east_end_m", math.nan)):
         return "; position: none (the filter had not started)"
     yaw = "gyro + wheels" if o["control"] == "fused" else "wheels alone (no yaw rate)"
+    if o["control"] == "fused" and o.get("gyro_s", o["seconds"]) < o["seconds"]:
+        yaw += f", wheels alone in {o['seconds'] - o['gyro_s']} s without one"
     how = (
         "calibrated on the model's target training drives"
         if o["calibrated"]
@@ -376,8 +388,9 @@ def reversing_lines(elapsed_s: list[float]) -> list[str]:
 def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
+    lines += out.get("drive_notes", [])
     lines += glitch_lines(out.get("glitches", []), samples=out.get("stream_glitches"))
-    lines += [out[k] for k in ("unit_note", "yaw_note") if out.get(k)]
+    lines += [out[k] for k in ("fix_note", "unit_note", "yaw_note") if out.get(k)]
     lines += reversing_lines(out.get("backwards_s", []))
     for o in out["outages"]:
         if not o["seconds"]:

@@ -8,6 +8,7 @@
   sidecar (:mod:`~rwhonet.data.scenarios`) and canonical table.
 - :mod:`~rwhonet.data.schema`: the pandera schema of a canonical drive.
 - :mod:`~rwhonet.data.quality`: the GNSS-quality policy and the valid segments.
+- :mod:`~rwhonet.data.fixes`: what counts as a GNSS fix (not (0, 0), enough satellites).
 - :mod:`~rwhonet.data.plausibility`: units, signs, stuck or silent wheel sensors,
   swapped coordinates, as arrays and runs of rows.
 - :mod:`~rwhonet.data.drivechecks`: everything ``validate`` checks on one drive,

@@ -200,6 +200,10 @@ def read_comma2k19(
                 )
             )
             return np.zeros(0), np.zeros((0, columns or 1))
+        coarse = _coarse_times(t, f"{name}/{sub}/t")
+        if coarse is not None:
+            problems.append(coarse)
+            return np.zeros(0), np.zeros((0, columns or 1))
         return t.astype(np.float64), v.astype(np.float64)
 
     gnss_sub = next((g for g in GNSS if (root / g).is_dir()), GNSS[0])
@@ -272,6 +276,30 @@ def read_comma2k19(
         )
     return DriveStreams(
         (wheels,), gnss, tuple(extra), clock="the device's boot clock", notes=tuple(notes)
+    )
+
+
+def _coarse_times(t: np.ndarray, where: str) -> Problem | None:
+    """Time stamps saved in a float type too coarse for the clock: the cause named.
+
+    comma's arrays are float64; saved as float32 (about 7 digits), a boot clock of hours
+    keeps only a few milliseconds, and an 83 Hz CAN stream's samples repeat their stamps,
+    which the resampler would report as time going back.
+    """
+    if t.dtype.kind != "f" or t.dtype.itemsize >= 8 or t.size < 2:
+        return None
+    repeated = int((np.diff(t) <= 0).sum())
+    if not repeated:
+        return None
+    finest = float(np.spacing(np.abs(t).max()))
+    return Problem(
+        where,
+        None,
+        "t",
+        "time stamps saved as float64 (numpy.save of the log's times)",
+        f"{t.dtype} stamps: at {float(np.abs(t).max()):.6g} s they are {finest:.3g} s apart "
+        f"at the finest, so {repeated} of {t.size} samples repeat the stamp before them",
+        "save the arrays as float64: float32 keeps about 7 digits, too few for a clock of hours",
     )
 
 

@@ -510,6 +510,10 @@ class StreamRadiusCheck:
         return self.note
 
     def _try(self, final: bool) -> None:
+        if not self.parts:  # a drive that ended without a row: nothing to tell
+            self.decided = self.yaw_decided = True
+            self.note = self._why_not(False, {})
+            return
         keys = self.keys or self.KEYS
         rows = {k: np.concatenate([p[k] for p in self.parts]) for k in keys}
         self.parts = [rows]

@@ -94,6 +94,8 @@ class StreamFacts:
             the channel as the stream names it.
         glitch_wheels: per wheel (canonical name), the grid rows whose mean of that wheel
             used a glitched sample (:attr:`rwhonet.data.streams.Resampled.glitch_wheels`).
+        lost: what the grid left out or changed, said on ``predict``'s stderr
+            (:attr:`rwhonet.data.streams.Resampled.lost`; among the drive's notes too).
     """
 
     clock: str
@@ -102,6 +104,7 @@ class StreamFacts:
     glitch_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     glitch_samples: list[tuple[str, int, float, str]] = field(default_factory=list)
     glitch_wheels: dict[str, np.ndarray] = field(default_factory=dict)
+    lost: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's ``streams`` record (rows 0-based on the grid; samples 1-based)."""
@@ -138,6 +141,7 @@ def read_any(
     radius_m: float | None,
     period_s: float,
     split_gap_s: float,
+    require_fix: bool = True,
 ) -> tuple[RawDrive, StreamFacts | None]:
     """Read one drive with the reader its format names, if it is not too large.
 
@@ -156,6 +160,8 @@ def read_any(
             logged as linear speeds (m/s, km/h) and for the sample-level glitch screen.
         period_s: the grid period (``validate.sample_period_s``).
         split_gap_s: holes in the grid are made longer than this (``validate.gnss.max_gap_s``).
+        require_fix: a stream drive's grid rows need a fix (the pipeline); False keeps rows
+            without one, their position NaN (``rwhonet predict``; :func:`resample`).
 
     Returns:
         The drive's channels, canonical names, SI units; and for a stream drive what the
@@ -193,7 +199,7 @@ def read_any(
             return read_iovnbd(f.path, file), None
         if kind == COLUMN_MAP:
             return read_columnmap(f.path, data.column_maps[f.format], f.format, file), None
-        return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s)
+        return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
     except MemoryError:
         raise out_of_memory(f, rel) from None
 
@@ -238,6 +244,7 @@ def _read_streams(
     radius_m: float | None,
     period_s: float,
     split_gap_s: float,
+    require_fix: bool = True,
 ) -> tuple[RawDrive, StreamFacts]:
     """Read a stream drive with its reader and resample it onto the grid."""
     from rwhonet.data.streams import resample
@@ -259,7 +266,13 @@ def _read_streams(
         signals = data.signal_maps[f.format].signals
         shown = {p: rel(p) for p in files}
         streams = read_stream_csvs(files, signals, radius_m, _map_name(f), shown)
-    res = resample(streams, period_s=period_s, split_gap_s=split_gap_s, nominal_radius_m=radius_m)
+    res = resample(
+        streams,
+        period_s=period_s,
+        split_gap_s=split_gap_s,
+        nominal_radius_m=radius_m,
+        require_fix=require_fix,
+    )
     sources = {s.where(): s.sources for s in streams.streams}
     facts = StreamFacts(
         clock=streams.clock,
@@ -281,6 +294,7 @@ def _read_streams(
             for where, row, t, wheel in res.glitch_samples
         ],
         glitch_wheels=res.glitch_wheels,
+        lost=res.lost,
     )
     return res.drive, facts
 
@@ -336,6 +350,7 @@ def read_canonical(
     radius_m: float | None = None,
     period_s: float = 0.1,
     split_gap_s: float = 0.5,
+    require_fix: bool = True,
 ) -> CanonicalDrive:
     """Read one drive (:func:`read_any`) and its optional scenario sidecar.
 
@@ -347,7 +362,7 @@ def read_canonical(
     Raises:
         InputError: the problems of the drive or of its sidecar.
     """
-    raw, streams = read_any(f, data, rel, radius_m, period_s, split_gap_s)
+    raw, streams = read_any(f, data, rel, radius_m, period_s, split_gap_s, require_fix)
     sidecar = sidecar_path(f.path)
     if not sidecar.is_file():
         return CanonicalDrive(raw, [], None, streams)

@@ -34,8 +34,9 @@ from rwhonet.errors import InputError, Problem
 BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s of 10 Hz rows)
 MISSING = {"", "nan", "na", "n/a", "null", "none", "-nan"}
 CHANNELS = c.REQUIRED  # what a second needs: time, fix, four wheel speeds
-# Read too where the layout has them: the yaw rate (predict's navigation filter).
-OPTIONAL_CHANNELS = (c.YAW_RATE_RAD_S,)
+# Read too where the layout has them: the yaw rate (predict's navigation filter) and the
+# satellite count (a fix validate's GNSS policy would not use is no fix: FixScreen).
+OPTIONAL_CHANNELS = (c.YAW_RATE_RAD_S, c.N_SATS)
 
 
 def carried_channels(available: Collection[str]) -> tuple[str, ...]:
@@ -151,6 +152,68 @@ def placed(
         first, columns = _joined(held)
         columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
         yield first, columns
+
+
+@dataclass
+class FixScreen:
+    """Rows whose fix validate's GNSS policy would not use, made rows without a fix.
+
+    :func:`rwhonet.data.fixes.no_fix_rows` decides, as it does for validate's
+    ``low_sats`` rule: latitude = longitude = 0 (a receiver without a fix writes zeros)
+    and, where the drive counts satellites, fewer than ``min_sats`` (or no count). Such a
+    row's latitude and longitude become NaN, as a missing fix is, so ``predict`` never
+    measures a GNSS displacement or updates its filter with it.
+
+    Attributes:
+        min_sats: ``validate.gnss.min_sats``.
+        zeros: rows taken out so far at latitude = longitude = 0.
+        low_sats: rows taken out so far for their satellite count.
+    """
+
+    min_sats: float
+    zeros: int = 0
+    low_sats: int = 0
+
+    def blocks(
+        self, blocks: Iterator[tuple[int, dict[str, np.ndarray]]]
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """The row blocks with every unusable fix taken out."""
+        for first, columns in blocks:
+            yield first, self.screen(columns)
+
+    def screen(self, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """One block's columns with its unusable fixes taken out (counted)."""
+        from rwhonet.data.fixes import no_fix_rows
+
+        lat, lon = columns[c.LAT_DEG], columns[c.LON_DEG]
+        bad = no_fix_rows(lat, lon, columns.get(c.N_SATS), self.min_sats)
+        bad &= np.isfinite(lat) & np.isfinite(lon)  # a missing fix is not taken out again
+        if not bad.any():
+            return columns
+        zero = bad & (lat == 0.0) & (lon == 0.0)
+        self.zeros += int(zero.sum())
+        self.low_sats += int((bad & ~zero).sum())
+        return columns | {
+            c.LAT_DEG: np.where(bad, np.nan, lat),
+            c.LON_DEG: np.where(bad, np.nan, lon),
+        }
+
+    def note(self, file: str) -> str | None:
+        """What was taken out, for stderr (None: nothing)."""
+        if not self.zeros and not self.low_sats:
+            return None
+        said = [
+            f"{n} at latitude = longitude = 0 (what a receiver without a fix writes)"
+            if k == "zeros"
+            else f"{n} with fewer than validate.gnss.min_sats {self.min_sats:g} satellites "
+            "or no count"
+            for k, n in (("zeros", self.zeros), ("low_sats", self.low_sats))
+            if n
+        ]
+        return (
+            f"{file}: {self.zeros + self.low_sats} row(s) taken as without a GNSS fix, as "
+            f"validate cuts them: {'; '.join(said)}"
+        )
 
 
 def _joined(

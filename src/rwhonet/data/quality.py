@@ -29,7 +29,9 @@ Rules (a second is cut by the first that applies, in this order)
     partial_second  it holds a number of rows other than ``1 / sample_period_s`` (the drive's
                     first/last second, dropped or extra samples)
     low_sats        a row has fewer than ``min_sats`` satellites (or no count), when the
-                    drive has a satellite column
+                    drive has a satellite column; or no fix at all: latitude and longitude
+                    both exactly 0, what a receiver without a fix writes
+                    (:func:`no_fix_rows`)
     jump            the fix-to-fix distance of a row implies a speed > ``max_speed_m_s``
     frozen          the fix stayed identical while the rear wheels turned faster than
                     ``moving_wheel_speed_rad_s`` for ``frozen_min_s`` in all (from the first
@@ -54,6 +56,7 @@ import numpy as np
 
 from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data.fixes import no_fix_rows
 from rwhonet.data.timebase import TIME_EPS_S, nominal_times
 from rwhonet.geo import geodesic_distance_m, local_step_distance_m
 
@@ -280,6 +283,8 @@ def assess(
     wheel = 0.5 * (np.abs(np.asarray(drive[c.OMEGA_RL])) + np.abs(np.asarray(drive[c.OMEGA_RR])))
     n_per_s = round(1.0 / sample_period_s)
     n = t.size
+    if not n:  # no row, no second: nothing valid and nothing to cut
+        return Assessment([], [], 0, 0, dict.fromkeys(RULES, 0), dict.fromkeys(RULES, 0))
 
     # Jittered stamps are taken at their slots on the drive's sample grid (seconds, and the
     # fix-to-fix speed, whose steps a few ms of jitter would otherwise distort).
@@ -301,7 +306,7 @@ def assess(
     manual_row = manual_rows(t, cuts)
     has_sats = c.N_SATS in drive
     sats = np.asarray(drive[c.N_SATS], dtype=np.float64) if has_sats else np.full(n, np.inf)
-    low_sats_row = ~(sats >= policy.min_sats)  # NaN: no count, not trusted
+    low_sats_row = no_fix_rows(lat, lon, sats, policy.min_sats)  # NaN count: not trusted
     # Jumps are decided on geodesic distances: the tangent-plane screen (1e-6 relative)
     # only spares the geodesic for steps far below the threshold.
     with np.errstate(divide="ignore", invalid="ignore"):  # two rows in one slot: a jump
@@ -357,6 +362,7 @@ def assess(
     rows_in = {
         "dt": np.r_[np.nan, np.diff(t)],
         "sats": sats,
+        "zero": (lat == 0.0) & (lon == 0.0),
         "speed": speed,
         "wheel": wheel,
         "count": count,
@@ -414,8 +420,15 @@ def _detail(
         return f"seconds with {counts} rows, a whole second has {n_per_s}"
     if rule == "low_sats":
         sats = rows["sats"][lo:hi]
-        fewest = "no count" if np.isnan(sats).any() else f"{int(np.nanmin(sats))} satellites"
-        return f"{fewest} (min_sats {policy.min_sats})"
+        said = []
+        if rows["zero"][lo:hi].any():
+            said.append("no fix (latitude = longitude = 0)")
+        low = sats[~(sats >= policy.min_sats)]
+        if np.isnan(low).any():
+            said.append("no count")
+        elif low.size:
+            said.append(f"{int(np.min(low))} satellites")
+        return f"{'; '.join(said)} (min_sats {policy.min_sats})"
     if rule == "jump":
         return (
             f"fix-to-fix speed up to {np.max(rows['speed'][lo:hi]):.4g} m/s "

@@ -31,6 +31,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec
 from rwhonet.data.columnmap import find_column
 from rwhonet.data.csvio import read_header, read_numeric
+from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.timebase import MIDNIGHT_WINDOW_S, SECONDS_PER_DAY, unwrap_midnight
@@ -104,12 +105,14 @@ def read_stream_csvs(
             )
             continue
         time_at[file] = pos
+        problems += _unit_problems(file, header[pos], "t", time_spec, name)
         for key, spec in signal_map.items():
             if key == "t":
                 continue
             at = find_column(header, spec.column)
             if at is not None:
                 found.setdefault(key, []).append((file, at))
+                problems += _unit_problems(file, header[at], key, spec, name)
     for key, spec in signal_map.items():
         if key == "t":
             continue
@@ -145,7 +148,7 @@ def read_stream_csvs(
         if wraps.size:
             shown = ", ".join(str(int(r) + 1) for r in wraps[:5])
             notes.append(f"{file}: time of day passed midnight before row(s) {shown}: a day added")
-        groups.append(
+        groups += _per_message(
             Group(
                 Path(file).name,
                 file,
@@ -156,13 +159,77 @@ def read_stream_csvs(
                 },
                 {"t": header[time_at[file]].strip()}
                 | {k: header[at].strip() for k, at in keys.items()},
-            )
+            ),
+            notes,
         )
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
     groups = _next_day_starts(groups, notes)
     streams = build_streams(groups, CLOCK)
     return dataclasses.replace(streams, notes=(*streams.notes, *notes)) if notes else streams
+
+
+def _per_message(g: Group, notes: list[str]) -> list[Group]:
+    """A "wide" file split into one group per set of columns logged together.
+
+    A logger that writes several messages into one file (the wheel speeds at 50 Hz and
+    the yaw rate at 100 Hz, each row one message's samples) leaves the other messages'
+    cells blank: no row has a value in every column. Such a file is read as one stream
+    per set of columns whose cells are filled in the same rows, each with those rows'
+    times. A file with rows that hold every column is one stream, as it was (its blank
+    cells are samples without a value).
+    """
+    if len(g.channels) < 2:
+        return [g]
+    filled = {k: np.isfinite(v) for k, v in g.channels.items()}
+    if np.logical_and.reduce(list(filled.values())).sum() >= 2:
+        return [g]
+    sets: dict[bytes, list[str]] = {}
+    for k, mask in filled.items():
+        sets.setdefault(np.packbits(mask).tobytes(), []).append(k)
+    if len(sets) < 2 or any(filled[keys[0]].sum() < 2 for keys in sets.values()):
+        return [g]  # one set, or a column without values: refused, naming it
+    out = []
+    for keys in sets.values():
+        rows = filled[keys[0]]
+        names = ", ".join(g.sources[k] for k in keys)
+        out.append(
+            Group(
+                f"{g.name}: {names}",
+                g.file,
+                np.ascontiguousarray(g.t_s[rows]),
+                {k: np.ascontiguousarray(g.channels[k][rows]) for k in keys},
+                {"t": g.sources["t"]} | {k: g.sources[k] for k in keys},
+            )
+        )
+    shown = "; ".join(f"[{o.name.split(': ', 1)[1]}] {o.t_s.size} rows" for o in out)
+    notes.append(
+        f"{g.file}: no row has a value in every column (several messages in one file): "
+        f"read as one stream per set of columns filled together: {shown}"
+    )
+    return out
+
+
+def _unit_problems(file: str, cell: str, key: str, spec: ColumnSpec, name: str) -> list[Problem]:
+    """A header cell whose unit suffix contradicts the map's unit (``Time [ms]`` mapped as s).
+
+    As for an MDF4 signal's own unit: only units both spell (:func:`unit_name`) are
+    compared; a header without a unit suffix says nothing.
+    """
+    declared = unit_name(header_key(cell)[1])
+    mapped = unit_name(spec.unit.removesuffix(" cw"))
+    if declared is None or mapped is None or declared == mapped:
+        return []
+    return [
+        Problem(
+            file,
+            None,
+            cell.strip(),
+            f"the unit {spec.unit!r} ({name}.{key})",
+            f"the header says {declared!r}",
+            f"set {name}.{key}.unit to the file's unit",
+        )
+    ]
 
 
 def _next_day_starts(groups: list[Group], notes: list[str]) -> list[Group]:

@@ -32,7 +32,9 @@ Rates (wheel speeds, yaw rate, accelerations, vehicle speed): a time-weighted me
     trapezoid integral at the window's edges (no loop over samples).
 
 Positions: interpolated between fixes, never across a gap, never extrapolated
-    Latitude and longitude (longitude unwrapped, so the antimeridian is no jump)
+    A fix at latitude = longitude = 0 is what a receiver without a fix writes: it is
+    no fix (:func:`rwhonet.data.fixes.no_fix_rows`), left out as a sample without a
+    value is. Latitude and longitude (longitude unwrapped, so the antimeridian is no jump)
     are interpolated linearly in time between the two fixes around ``t_k``, only
     when they are at most ``max_fix_gap_s`` apart; before the first fix, after
     the last, and between fixes further apart, a row has no position. Speed,
@@ -45,8 +47,13 @@ Gaps
     wheel speeds or without a position is left out of the grid, and so are the rows
     next to it until the hole in the grid is longer than ``split_gap_s``
     (``validate.gnss.max_gap_s``): validate then cuts the seconds there as a
-    ``gap`` and splits the drive, exactly as for a 10 Hz file with a GNSS outage.
-    Optional channels without data in a kept row are NaN.
+    ``gap`` and splits the drive, exactly as for a 10 Hz file with a GNSS outage
+    (``require_fix=False``, what ``rwhonet predict`` reads: a row without a position is
+    kept with NaN latitude and longitude, and only wheel holes are left out).
+    Optional channels without data in a kept row are NaN. A wheel stream with more
+    than :data:`SLOW_STREAM_SHARE` of its steps longer than ``max_wheel_gap_s`` (logged
+    at 4-5 Hz, or stamped in ms read as s) is refused rather than resampled into an
+    empty or nearly empty grid, and so are streams that leave no row.
 
 Glitches
     A stream that carries all four wheel speeds is screened sample by sample with
@@ -68,6 +75,7 @@ from scipy.ndimage import maximum_filter1d
 
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
+from rwhonet.data.fixes import no_fix_rows
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.problems import row_problems
 from rwhonet.errors import InputError, Problem
@@ -77,6 +85,12 @@ MAX_WHEEL_GAP_S = 0.2  # 10 to 20 sample periods of a 50-100 Hz CAN stream
 FIX_GAP_FACTOR = 1.5  # default max_fix_gap_s: this x the median fix interval...
 MIN_FIX_GAP_S = 0.25  # ...and at least this (one missed fix of a 10 Hz receiver)
 SPLIT_GAP_S = 0.5  # validate.gnss.max_gap_s: a hole in the grid must be longer
+# A wheel stream with more of its steps longer than max_wheel_gap_s is too slow for the
+# grid (wheels logged at 4-5 Hz, or a time in ms read as s), not one with dropouts: refused.
+SLOW_STREAM_SHARE = 0.1
+# A wheel or GNSS stream running on this much beyond the others (s) is said: the grid
+# spans only the stretch they all cover (streams end a fraction of a second apart).
+SPAN_NOTE_S = 1.0
 
 # Canonical channels averaged over each row's window (rates), and those of the GNSS stream.
 RATE_CHANNELS = (*c.WHEELS, c.YAW_RATE_RAD_S, c.SPEED_VEHICLE_M_S, c.ACC_LON_M_S2, c.ACC_LAT_M_S2)
@@ -220,6 +234,9 @@ class Resampled:
         glitch_wheels: per wheel (canonical name), the grid rows whose mean of that wheel
             used a glitched sample of it (``glitch`` is their union); what ``rwhonet
             predict`` repairs.
+        lost: the notes (among the drive's) that say what of the drive the grid leaves
+            out or changes, which ``rwhonet predict`` says on stderr: fixes at latitude =
+            longitude = 0, the stretch of a stream beyond the others'.
     """
 
     drive: RawDrive
@@ -227,6 +244,7 @@ class Resampled:
     glitch_samples: list[tuple[str, int, float, str]]
     n_input_rows: int
     glitch_wheels: dict[str, np.ndarray] = field(default_factory=dict)
+    lost: tuple[str, ...] = ()
 
 
 # --------------------------------------------------------------------------- checks
@@ -284,14 +302,16 @@ def _stream_problems(s: Stream) -> list[Problem]:
     time = s.sources.get(c.T_S, "time")
     out: list[Problem] = []
     if t.ndim != 1 or t.size < 2:
+        named = ", ".join(s.sources.get(k, k) for k in s.channels) or time
         return [
             Problem(
                 file,
                 None,
-                time,
+                named,
                 "at least two samples",
                 f"{t.size} sample(s)",
-                "a stream needs samples over the drive",
+                "a stream needs samples over the drive: log the channel, or leave it out of "
+                "the map",
             )
         ]
     for name, values in s.channels.items():
@@ -472,6 +492,7 @@ def resample(
     split_gap_s: float = SPLIT_GAP_S,
     nominal_radius_m: float | None = None,
     glitch_g: float = WHEEL_GLITCH_G,
+    require_fix: bool = True,
 ) -> Resampled:
     """Put a drive's streams on the pipeline's grid (the method: see the module docstring).
 
@@ -485,13 +506,17 @@ def resample(
         nominal_radius_m: the car's nominal tyre radius, for the sample-level glitch screen
             of streams carrying all four wheels (None: not screened here).
         glitch_g: the glitch bound (:data:`rwhonet.data.glitches.WHEEL_GLITCH_G`).
+        require_fix: a row needs a position (the pipeline: validate's schema wants one in
+            every row, and cuts the hole as a gap). False (``rwhonet predict``): a row with
+            the four wheel speeds but no fix is kept, its latitude and longitude NaN, as a
+            10 Hz file with empty fix cells is read, so an outage can be driven through.
 
     Returns:
         The canonical drive on the grid and the glitched rows.
 
     Raises:
-        InputError: the streams' problems (:func:`check_streams`), or streams that share
-            no stretch of time.
+        InputError: the streams' problems (:func:`check_streams`), streams that share
+            no stretch of time, a wheel stream too slow for the grid, or no row left.
     """
     check_streams(streams)
     half = 0.5 * period_s
@@ -523,27 +548,46 @@ def resample(
     by_wheel = {w: np.zeros(grid.size, dtype=bool) for w in c.WHEELS}
     glitch_samples: list[tuple[str, int, float, str]] = []
     notes = list(streams.notes)
+    lost: list[str] = []  # the notes predict says too
+    beyond = [
+        f"{r.where()} {float(r.t_s[0]):.6g}-{float(r.t_s[-1]):.6g} s"
+        for r in required
+        if start - float(r.t_s[0]) > SPAN_NOTE_S or float(r.t_s[-1]) - end > SPAN_NOTE_S
+    ]
+    if beyond:
+        lost.append(
+            f"the drive is cut to {start:.6g}-{end:.6g} s, where the wheel speeds and the "
+            f"fixes all have samples; beyond it: {'; '.join(beyond)}"
+        )
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
-    gnss_t, gnss = _finite_rows(streams.gnss, notes, required=True)
+    gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
     fixes, fix_ok = interpolate_fixes(
         gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
     )
-    keep &= fix_ok
-    for name, values in fixes.items():
-        columns[name] = values
+    if require_fix:
+        keep &= fix_ok
+    for name, values in fixes.items():  # NaN where no fix (rows the pipeline leaves out)
+        columns[name] = np.where(fix_ok, values, np.nan)
         sources[name] = streams.gnss.label(name)
 
     n_wheel_streams = len(streams.wheels)
+    slow: list[Problem] = []
     for i, s in enumerate((*streams.wheels, *streams.extra)):
         t, chans = _finite_rows(s, notes, required=i < n_wheel_streams)
+        if i < n_wheel_streams:
+            slow += _slow_stream(s, t, max_wheel_gap_s, period_s)
         names = [n for n in RATE_CHANNELS if n in chans]
         if not names or t.size < 2:  # an optional stream without values: its channels stay out
             continue
+        if i >= n_wheel_streams:  # a gyro on another clock would drop out without a word
+            _on_the_clock(s, t, float(grid[0]), float(grid[-1]), required, period_s)
         means, ok = window_means(t, [chans[n] for n in names], lo, hi, max_wheel_gap_s)
         wheel_stream = any(n in c.WHEELS for n in names)
         if wheel_stream:
             keep &= ok
+        if not wheel_stream and not ok.any():  # overlapping, but no row spans short steps
+            slow += _slow_stream(s, t, max_wheel_gap_s, period_s, always=True)
         for name, row in zip(names, means, strict=True):
             columns[name] = row if wheel_stream else np.where(ok, row, np.nan)
             sources[name] = s.label(name)
@@ -560,23 +604,47 @@ def resample(
                     for i in rows
                 ]
 
+    if slow:
+        raise InputError(slow, summary="streams too sparse for the grid")
     keep = _widen_holes(keep, split_gap_s, period_s)
-    for name, values in fixes.items():  # optional GNSS channels: NaN where no fix
-        if name not in (c.LAT_DEG, c.LON_DEG):
-            columns[name] = np.where(fix_ok, values, np.nan)
+    if not keep.any():
+        raise InputError(
+            [
+                Problem(
+                    ", ".join(s.where() for s in required),
+                    None,
+                    None,
+                    "grid rows with the four wheel speeds and a GNSS fix (rates: no step "
+                    f"between samples longer than {max_wheel_gap_s:g} s over a row; fixes: at "
+                    f"most {fix_gap:.3g} s apart around it)",
+                    f"none of the {grid.size} rows of {start:.6g}-{end:.6g} s",
+                    "export the wheel speeds and the fixes of the same stretch of the drive, "
+                    "each at its logger's rate",
+                )
+            ],
+            summary="no grid row to keep",
+        )
     dropped = int((~keep).sum())
     if dropped:
         notes.append(
-            f"{dropped} of {grid.size} grid rows left out (no wheel speeds or no fix within "
-            f"the gap limits: wheels {max_wheel_gap_s:g} s, fixes {fix_gap:.3g} s), so that "
-            f"validate cuts those seconds as gaps"
+            f"{dropped} of {grid.size} grid rows left out (no wheel speeds "
+            + ("or no fix " if require_fix else "")
+            + f"within the gap limits: wheels {max_wheel_gap_s:g} s, fixes {fix_gap:.3g} s), "
+            "so that validate cuts those seconds as gaps"
+        )
+    unfixed = int((keep & ~fix_ok).sum())
+    if unfixed:
+        lost.append(
+            f"{streams.gnss.where()}: {unfixed} of {int(keep.sum())} grid rows have the wheel "
+            f"speeds but no fix (no two fixes at most {fix_gap:.3g} s apart around them): kept "
+            "without a position"
         )
     order = [n for n in (*c.REQUIRED, *c.OPTIONAL) if n in columns]
     drive = RawDrive(
         columns={n: np.ascontiguousarray(columns[n][keep]) for n in order},
         source_columns={n: sources[n] for n in order},
         header_match="streams",
-        notes=tuple(notes),
+        notes=(*notes, *lost),
     )
     return Resampled(
         drive,
@@ -584,6 +652,7 @@ def resample(
         glitch_samples,
         streams.n_input_rows,
         {w: rows[keep] for w, rows in by_wheel.items()},
+        tuple(lost),
     )
 
 
@@ -603,20 +672,136 @@ def _finite_rows(
     if ok.all():
         return t, chans
     if required and ok.sum() < 2:
+        blank = {k: int((~np.isfinite(v)).sum()) for k, v in chans.items()}
+        named = [s.sources.get(k, k) for k, n in blank.items() if n]
         raise InputError(
             [
                 Problem(
                     s.where(),
                     None,
-                    None,
+                    ", ".join(named),
                     "samples with a value in every channel",
-                    f"{int(ok.sum())} of {ok.size}",
-                    "export the stream's values (empty or NaN cells are no samples)",
+                    f"{int(ok.sum())} of {ok.size}; blank or NaN cells: "
+                    + ", ".join(f"{s.sources.get(k, k)!r} in {n}" for k, n in blank.items() if n),
+                    "export the stream's values (empty or NaN cells are no samples); a file "
+                    "that holds several messages, each row one message's samples, needs each "
+                    "message's columns filled in the same rows, or one file per message",
                 )
             ]
         )
     notes.append(f"{s.where()}: {int((~ok).sum())} sample(s) without a value left out")
     return t[ok], {k: v[ok] for k, v in chans.items()}
+
+
+def _on_the_clock(
+    s: Stream,
+    t: np.ndarray,
+    start_s: float,
+    end_s: float,
+    required: Sequence[Stream],
+    period_s: float,
+) -> None:
+    """Refuse an optional stream that shares no stretch of time with the grid.
+
+    All streams of a drive share one clock; a gyro stamped in ms while the others are in
+    s, or an MDF4 group on another time base, lies wholly beside the wheel speeds and
+    fixes, and its channel would be NaN in every row. One that covers part of the drive
+    (started late, stopped early) is kept: its rows outside it are NaN.
+
+    Raises:
+        InputError: naming the stream, its time column, and both spans.
+    """
+    if min(float(t[-1]), end_s) - max(float(t[0]), start_s) >= period_s:
+        return
+    time = s.sources.get(c.T_S, "time")
+    spans = "; ".join(
+        f"{r.where()} {float(r.t_s[0]):.6g}-{float(r.t_s[-1]):.6g} s" for r in required
+    )
+    raise InputError(
+        [
+            Problem(
+                s.where(),
+                None,
+                time,
+                "every stream on the drive's one clock, overlapping the wheel speeds and "
+                f"fixes ({start_s:.6g}-{end_s:.6g} s on the grid)",
+                f"no common stretch: {s.where()} {float(t[0]):.6g}-{float(t[-1]):.6g} s; {spans}",
+                "stamp every stream on one clock (the same unit and origin as the wheel "
+                "speeds' time), or leave this stream out of the drive",
+            )
+        ],
+        summary=f"{s.where()} is on another clock than the wheel speeds and fixes",
+    )
+
+
+def _slow_stream(
+    s: Stream, t: np.ndarray, max_gap_s: float, period_s: float, always: bool = False
+) -> list[Problem]:
+    """A rate stream most of whose steps no grid row may span (:data:`SLOW_STREAM_SHARE`).
+
+    A stream with dropouts has a few long steps among short ones, and the rows over them
+    are left out as gaps; a stream logged too slowly (or stamped in another unit than
+    declared) has them everywhere, and would leave an empty or nearly empty grid (wheel
+    speeds) or a channel without a value (an optional rate). ``always``: the problem,
+    whatever the share (a stream that gave no row a value).
+    """
+    step = np.diff(t)
+    long = int((step > max_gap_s).sum())
+    if not step.size or (long <= SLOW_STREAM_SHARE * step.size and not always):
+        return []
+    lo, mid, hi = (float(x) for x in np.percentile(step, [5, 50, 95]))
+    steps = f"{lo:.3g} s" if f"{lo:.3g}" == f"{hi:.3g}" else f"{lo:.3g}-{hi:.3g} s"
+    rates = [n for n in RATE_CHANNELS if n in s.channels]
+    what = "wheel speeds" if any(n in c.WHEELS for n in rates) else "rates"
+    time = s.sources.get(c.T_S, "time")
+    return [
+        Problem(
+            s.where(),
+            None,
+            ", ".join(s.sources.get(n, n) for n in rates),
+            f"{what} sampled at {1.0 / period_s:g} Hz or faster: steps between samples "
+            f"of at most {max_gap_s:g} s (max_wheel_gap_s), the longest a {period_s:g} s grid "
+            "row may span",
+            f"{long} of {step.size} steps longer: steps of {steps} (median {mid:.3g} s, "
+            f"about {1.0 / mid:.3g} Hz)",
+            f"log the {what} at 10 Hz or faster (CAN wheel-speed messages come at "
+            f"50-100 Hz); if the logger did, check the unit of the time {time!r} (a time in "
+            "ms read as s makes every step 1000 times longer)",
+        )
+    ]
+
+
+def _real_fixes(
+    s: Stream, t: np.ndarray, fixes: dict[str, np.ndarray], notes: list[str]
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The fixes less those at latitude = longitude = 0 (a receiver without a fix writes
+    zeros: :func:`rwhonet.data.fixes.no_fix_rows`), which are no fix, said in a note.
+
+    Raises:
+        InputError: fewer than two fixes are left.
+    """
+    zero = no_fix_rows(fixes[c.LAT_DEG], fixes[c.LON_DEG])
+    if not zero.any():
+        return t, fixes
+    if (~zero).sum() < 2:
+        lat, lon = (s.sources.get(k, k) for k in (c.LAT_DEG, c.LON_DEG))
+        raise InputError(
+            [
+                Problem(
+                    s.where(),
+                    None,
+                    f"{lat} / {lon}",
+                    "GNSS fixes (latitude = longitude = 0 is a receiver without a fix)",
+                    f"{int((~zero).sum())} of {zero.size} samples not at (0, 0)",
+                    "export the drive's fixes (a log from before the receiver had a fix has none)",
+                )
+            ]
+        )
+    notes.append(
+        f"{s.where()}: {int(zero.sum())} fix(es) at latitude = longitude = 0 left out (a "
+        "receiver without a fix writes zeros): no position there"
+    )
+    return t[~zero], {k: v[~zero] for k, v in fixes.items()}
 
 
 def _rows_using(t: np.ndarray, rows: np.ndarray, grid: np.ndarray, half: float) -> np.ndarray:

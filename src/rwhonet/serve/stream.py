@@ -149,6 +149,7 @@ class _Totals:
     # each cumulative column's value at the last second so far
     sums: dict[str, float] = field(default_factory=lambda: dict.fromkeys(CUMULATIVE_COLUMNS, 0.0))
     gnss_s: int = 0  # seconds with a GNSS displacement
+    gyro_s: int = 0  # seconds with the gyro's yaw (the filter's yaw fused, not wheels alone)
     origin: tuple[float, float] | None = None  # the position the outage starts from
     east: float = math.nan  # the filter's position at the last second so far
     north: float = math.nan
@@ -188,6 +189,7 @@ class SecondStream:
     unit_check: StreamRadiusCheck | None = None
     calibration: PositionCalibration = field(default_factory=PositionCalibration)
     _keys: tuple[str, ...] = c.REQUIRED  # the channels kept: the yaw rate too, if there
+    _gyro_seen: bool = False  # a yaw rate with a value has come
     _navigator: StreamNavigator | None = None
     _rows: dict[str, np.ndarray] | None = None  # rows from the current anchor on
     _row0: int = 1  # data row of _rows' first row
@@ -216,8 +218,10 @@ class SecondStream:
 
     @property
     def control(self) -> str:
-        """The navigation filter's yaw: ``fused`` (gyro and wheels), or ``wheels`` alone."""
-        return "fused" if c.YAW_RATE_RAD_S in self._keys else "wheels"
+        """The navigation filter's yaw so far: ``fused`` (gyro and wheels), or ``wheels``
+        alone (no yaw-rate column, or none with a value: the filter cannot fuse a gyro it
+        never had)."""
+        return "fused" if self._gyro_seen else "wheels"
 
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none)."""
@@ -228,12 +232,14 @@ class SecondStream:
         if self._rows is None:
             self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
             self._navigator = StreamNavigator(
-                self.nav, tuple(self.model.meta.source_radii), self.control == "fused"
+                self.nav, tuple(self.model.meta.source_radii), c.YAW_RATE_RAD_S in self._keys
             )
             self._rows, self._row0 = {k: columns[k] for k in self._keys}, first_row
             self._t0 = float(columns[c.T_S][0])
         else:
             self._rows = {k: np.concatenate([self._rows[k], columns[k]]) for k in self._keys}
+        if not self._gyro_seen and c.YAW_RATE_RAD_S in self._keys:
+            self._gyro_seen = bool(np.isfinite(columns[c.YAW_RATE_RAD_S]).any())
         parts = []
         while True:
             t = self._rows[c.T_S]
@@ -424,6 +430,7 @@ class SecondStream:
             "disp_gnss_m": gnss,
         }
         fix = {"lat": end_of_second(rows[c.LAT_DEG]), "lon": end_of_second(rows[c.LON_DEG])}
+        gyro = gyro_yaw_rad(t, rows.get(c.YAW_RATE_RAD_S))  # NaN: a second without a gyro
         nav = None
         # the filter runs while an outage is still to come (its positions are the outages')
         if self.outages and out["elapsed_s"][0] <= max(o.end_s for o in self.outages):
@@ -436,14 +443,14 @@ class SecondStream:
                     "disp_gnss_m": gnss,
                     "angle_rl_rad": angles[0],
                     "angle_rr_rad": angles[1],
-                    "gyro_yaw_rad": gyro_yaw_rad(t, rows.get(c.YAW_RATE_RAD_S)),
+                    "gyro_yaw_rad": gyro,
                     "backwards": backwards,
                     "lat_deg": fix["lat"],
                     "lon_deg": fix["lon"],
                 },
                 withheld,
             )
-        out.update(self._outage_columns(out, nav, fix))
+        out.update(self._outage_columns(out, nav, fix, np.isfinite(gyro)))
         return out
 
     def _outage_columns(
@@ -451,6 +458,7 @@ class SecondStream:
         sec: dict[str, np.ndarray],
         nav: dict[str, np.ndarray] | None,
         fix: dict[str, np.ndarray],
+        gyro: np.ndarray,
     ) -> dict[str, np.ndarray]:
         n = len(sec["t_s"])
         out: dict[str, np.ndarray] = {"outage": np.full(n, "", dtype=object)}
@@ -486,6 +494,7 @@ class SecondStream:
                 out[name][rows] = np.where(keep, values, np.nan)
             tot.n += len(rows)
             tot.gnss_s = int(gnss_so_far[-1])
+            tot.gyro_s += int(gyro[rows].sum())
             tot.sums = {name: float(values[-1]) for name, values in cum.items()}
             if nav is not None:
                 self._position(tot, rows, nav, fix, out)
@@ -542,7 +551,8 @@ class SecondStream:
         of the regions holding 68.27 % and 95.45 % (``calibrated``: by the evaluation's
         calibration the model carries, else the filter's own normal); ``pos_err_end_m``:
         its distance to the GNSS fix there (NaN when the file has none); ``control``: the
-        filter's yaw (``fused`` or ``wheels``).
+        filter's yaw in the outage (``fused``: the gyro's in ``gyro_s`` of its seconds, the
+        others' the wheels' alone; ``wheels``: in none).
         """
         rows = []
         for label, tot in self.totals.items():
@@ -568,7 +578,8 @@ class SecondStream:
                     "r95_end_m": tot.r95,
                     "calibrated": self.calibration.calibrated,
                     "pos_err_end_m": tot.pos_err,
-                    "control": self.control,
+                    "control": "fused" if tot.gyro_s else "wheels",
+                    "gyro_s": tot.gyro_s,
                 }
             )
         return rows
