@@ -69,6 +69,7 @@ from rwhonet.nav import (
     NavConfig,
     NavInputs,
     NavStart,
+    NavTrack,
     config_from_params,
     coverage_2d,
     fit_t2,
@@ -358,6 +359,34 @@ def nav_segments(frame: pd.DataFrame, params: Params, role: str = k.TARGET_TEST)
     )
 
 
+def segment_pass(
+    segs: Segments, runs: list[Odometry], cfg: NavConfig, snapshots: np.ndarray | None = None
+) -> NavTrack:
+    """One filter pass of every run (one control) over every segment with GNSS throughout.
+
+    Returns:
+        The track, rows run-major: row ``i · G + g`` is run ``i`` on segment ``g``.
+    """
+    dist = np.stack([segs.gather(r.dist_m) for r in runs])  # (R, G, n)
+    var = np.stack([segs.gather(r.var_m2) for r in runs])
+    shape = (len(runs) * dist.shape[1], dist.shape[2])
+    tile = (len(runs), 1)
+    return run(
+        NavInputs(
+            dist.reshape(shape),
+            var.reshape(shape),
+            np.tile(segs.wheel_yaw, tile),
+            np.tile(segs.gyro_yaw, tile),
+            np.tile(segs.fix_e, tile),
+            np.tile(segs.fix_n, tile),
+            np.tile(segs.backwards, tile),
+        ),
+        cfg,
+        runs[0].control,
+        snapshots=snapshots,
+    )
+
+
 def target_windows(
     frame: pd.DataFrame, params: Params, outage_s: int, role: str = k.TARGET_TEST
 ) -> np.ndarray:
@@ -436,23 +465,7 @@ def filter_windows(
         mine = [r for r in runs if r.control == control]
         n_run = len(mine)
         dist = np.stack([segs.gather(r.dist_m) for r in mine])  # (R, G, n)
-        var = np.stack([segs.gather(r.var_m2) for r in mine])
-        shape = (n_run * n_seg, dist.shape[2])
-        tile = (n_run, 1)
-        track = run(
-            NavInputs(
-                dist.reshape(shape),
-                var.reshape(shape),
-                np.tile(segs.wheel_yaw, tile),
-                np.tile(segs.gyro_yaw, tile),
-                np.tile(segs.fix_e, tile),
-                np.tile(segs.fix_n, tile),
-                np.tile(segs.backwards, tile),
-            ),
-            cfg,
-            control,
-            snapshots=snaps,
-        )
+        track = segment_pass(segs, mine, cfg, snaps)
         for L, rows in windows.items():
             g, s = where[L]
             n_win = len(g)
@@ -933,23 +946,8 @@ def fix_score(
     segs = nav_segments(frame, params, role)
     if not len(segs.first_row) or not runs:
         return float("nan"), 0
-    dist = np.stack([segs.gather(r.dist_m) for r in runs])  # (R, G, n)
-    var = np.stack([segs.gather(r.var_m2) for r in runs])
-    shape = (len(runs) * dist.shape[1], dist.shape[2])
+    track = segment_pass(segs, runs, cfg)
     tile = (len(runs), 1)
-    track = run(
-        NavInputs(
-            dist.reshape(shape),
-            var.reshape(shape),
-            np.tile(segs.wheel_yaw, tile),
-            np.tile(segs.gyro_yaw, tile),
-            np.tile(segs.fix_e, tile),
-            np.tile(segs.fix_n, tile),
-            np.tile(segs.backwards, tile),
-        ),
-        cfg,
-        runs[0].control,
-    )
     chosen = np.zeros(len(frame))
     chosen[np.asarray(rows, np.int64)] = 1.0
     scored = np.tile(segs.gather(chosen) > 0.5, tile)
