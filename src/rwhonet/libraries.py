@@ -112,8 +112,9 @@ class Interrupted(BaseException):
         super().__init__(f"interrupted by {signal.Signals(signum).name}")
 
 
-# The process that installed the handlers and the handlers it had before (_raise_interrupted).
-_installed: dict[str, Any] = {"pid": None, "previous": {}}
+# The process that installed the handlers, the handlers it had before (_raise_interrupted),
+# and the signal a handler raised for (raise_if_interrupted).
+_installed: dict[str, Any] = {"pid": None, "previous": {}, "caught": None}
 
 
 def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
@@ -127,7 +128,20 @@ def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
             signal.signal(signum, signal.SIG_DFL)
             os.kill(os.getpid(), signum)
         return
+    _installed["caught"] = signum
     raise Interrupted(signum)
+
+
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` again where a handler raised it and it was lost.
+
+    A C library that checks for signals inside a long call (``PyErr_CheckSignals``) runs
+    the handler there, and one that drops the error it returns loses the exception:
+    numpy's ``np.char.mod`` did, and a live ``predict`` went on reading its pipe after
+    SIGTERM (one run in some fifty on a loaded machine). Loops that may wait call this.
+    """
+    if _installed["caught"] is not None and os.getpid() == _installed["pid"]:
+        raise Interrupted(_installed["caught"])
 
 
 @contextmanager
@@ -135,12 +149,13 @@ def interruptible() -> Iterator[None]:
     """Within the block, a signal of :data:`INTERRUPTS` raises :class:`Interrupted`; the
     handlers the process had are restored after it."""
     previous = {signum: signal.signal(signum, _raise_interrupted) for signum in INTERRUPTS}
-    _installed.update(pid=os.getpid(), previous=previous)
+    _installed.update(pid=os.getpid(), previous=previous, caught=None)
     try:
         yield
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        _installed["caught"] = None
 
 
 def ignore_interrupts() -> None:

@@ -104,3 +104,75 @@ def test_predict_reads_the_satellite_count_where_the_layout_has_one(tmp_path):
         lay, blocks = read_rows(f, "V-A.csv")
         _, cols = collect(blocks)
     assert lay.names[c.N_SATS] == "Sats"
+
+
+def test_a_pipe_is_read_as_its_file_is(tmp_path):
+    """A pipe goes through the unbuffered path (select, a byte-wise header): same rows."""
+    import os
+    import threading
+
+    path = write_drive(tmp_path / "V-A.csv", duration_s=40)
+    data = path.read_bytes()
+    r, w = os.pipe()
+
+    def feed():  # in pieces that cut lines, as a logger's pipe does
+        with os.fdopen(w, "wb", buffering=0) as out:
+            for i in range(0, len(data), 3001):
+                out.write(data[i : i + 3001])
+
+    writer = threading.Thread(target=feed)
+    writer.start()
+    with os.fdopen(r, "rb") as f:
+        lay, blocks = read_rows(f, "<stdin>", block_bytes=4096)
+        _, cols = collect(blocks)
+    writer.join()
+    with open(path, "rb") as f:
+        ref_lay, ref_blocks = read_rows(f, "V-A.csv", block_bytes=4096)
+        _, ref = collect(ref_blocks)
+    assert lay.names == ref_lay.names
+    for k in c.REQUIRED:
+        np.testing.assert_array_equal(cols[k], ref[k])
+
+
+WAITING_READER = """
+import os, signal, sys, threading, time
+from rwhonet.data.incremental import read_rows
+
+class Stop(BaseException):
+    pass
+
+def handler(signum, frame):
+    raise Stop
+
+signal.signal(signal.SIGTERM, handler)
+r, w = os.pipe()
+os.write(w, open(sys.argv[1], "rb").read()[:20000])  # a header and some rows; w stays open
+
+def other_thread_takes_the_signal():
+    time.sleep(0.5)
+    signal.pthread_kill(threading.get_ident(), signal.SIGTERM)
+
+threading.Thread(target=other_thread_takes_the_signal).start()
+try:
+    for _ in read_rows(os.fdopen(r, "rb"), "<stdin>")[1]:
+        pass
+except Stop:
+    print("stopped")
+"""
+
+
+def test_a_signal_another_thread_took_ends_a_read_waiting_on_a_pipe(tmp_path):
+    """A process's SIGTERM can land on any thread (numpy's, ONNX Runtime's); Python runs the
+    handler on the main thread, which a read() blocked on a paused pipe never reached: a live
+    ``predict`` ignored SIGTERM until its next row came (CI, the signal test)."""
+    import subprocess
+    import sys
+
+    path = write_drive(tmp_path / "V-A.csv", duration_s=40)
+    done = subprocess.run(
+        [sys.executable, "-c", WAITING_READER, str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.stdout.strip() == "stopped", done.stderr

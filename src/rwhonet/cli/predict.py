@@ -65,11 +65,10 @@ class CsvSink:
 
 
 def _format(values: np.ndarray, decimals: int) -> list[str]:
-    text = np.char.mod(f"%.{decimals}f", values).tolist()
-    if np.isnan(values).any():
-        for i in np.flatnonzero(np.isnan(values)):
-            text[i] = ""
-    return text
+    # Python's own formatting, not np.char.mod: that C loop ran a signal's handler and
+    # lost the exception it raised (rwhonet.libraries.raise_if_interrupted)
+    spec = f".{decimals}f"
+    return ["" if v != v else format(v, spec) for v in values.tolist()]
 
 
 class ParquetSink:
@@ -175,6 +174,7 @@ def run(
     """
     from rwhonet.data.drivechecks import StreamRadiusCheck
     from rwhonet.data.incremental import FixScreen, read_rows
+    from rwhonet.libraries import raise_if_interrupted
 
     with ExitStack() as stack:
         if drive_blocks is not None:
@@ -230,6 +230,7 @@ def run(
             held: list[dict[str, np.ndarray]] = []  # seconds not written before the check
             n_held, released = 0, False
             for first, columns in blocks:
+                raise_if_interrupted()  # a stop a C library's signal check lost
                 held.append(stream.push(first, columns))
                 n_held += len(held[-1]["t_s"])
                 rows = first + len(columns["t_s"]) - 1

@@ -20,6 +20,9 @@ from __future__ import annotations
 
 import csv
 import io
+import os
+import select
+import stat
 from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass
 from typing import BinaryIO
@@ -32,6 +35,11 @@ from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
 from rwhonet.errors import InputError, Problem
 
 BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s of 10 Hz rows)
+# A pipe's reader wakes this often while it waits for data, so that a signal another thread
+# of the process took (numpy's and ONNX Runtime's threads can take a process's SIGTERM) is
+# handled: Python runs handlers on the main thread only, and a read() the signal did not
+# interrupt would wait for the next row, forever on a live stream that has paused.
+PIPE_WAKE_S = 0.2
 MISSING = {"", "nan", "na", "n/a", "null", "none", "-nan"}
 CHANNELS = c.REQUIRED  # what a second needs: time, fix, four wheel speeds
 # Read too where the layout has them: the yaw rate (predict's navigation filter) and the
@@ -125,9 +133,59 @@ def read_rows(
     """
     from rwhonet.data.csvio import HEADER_MAX_BYTES, parse_header
 
-    header = parse_header(stream.readline(HEADER_MAX_BYTES + 1), file)
+    pipe = _pipe_reader(stream)
+    header = parse_header(_readline(pipe or stream, HEADER_MAX_BYTES + 1, pipe), file)
     lay = layout(header, fmt, column_map, file)
-    return lay, placed(_blocks(stream, lay, file, block_bytes), StreamClock(period_s))
+    return lay, placed(_blocks(stream, lay, file, block_bytes, pipe), StreamClock(period_s))
+
+
+def _pipe_reader(stream: BinaryIO) -> io.FileIO | None:
+    """An unbuffered reader of ``stream``'s file descriptor where it is a pipe, FIFO,
+    terminal or socket (None for a regular file or an in-memory stream), so that
+    :func:`_wait_readable` sees whether data waits (a buffer could hold rows select()
+    does not see); nothing must have been read from ``stream`` yet, and ``stream`` must
+    stay open while the reader is used (it owns the descriptor)."""
+    try:
+        fd = stream.fileno()
+        mode = os.fstat(fd).st_mode
+    except (AttributeError, OSError, ValueError):  # io.BytesIO and the like
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISBLK(mode) or os.name == "nt":  # select(): sockets only there
+        return None
+    return io.FileIO(fd, "rb", closefd=False)
+
+
+def _wait_readable(stream: io.FileIO) -> None:
+    """Return when the pipe has data (or has ended), waking every :data:`PIPE_WAKE_S`.
+
+    Raises:
+        rwhonet.libraries.Interrupted: a signal of ``interruptible`` came, also one whose
+            exception a C library lost (:func:`rwhonet.libraries.raise_if_interrupted`).
+    """
+    from rwhonet.libraries import raise_if_interrupted
+
+    fd = stream.fileno()
+    raise_if_interrupted()
+    while not select.select([fd], [], [], PIPE_WAKE_S)[0]:
+        raise_if_interrupted()  # back in Python between waits: a pending handler runs here
+
+
+def _readline(stream: BinaryIO, limit: int, pipe: io.FileIO | None) -> bytes:
+    """The first line (at most ``limit`` bytes); a pipe's is read a byte at a time, as
+    its data arrives, so that no row after it is read ahead."""
+    if pipe is None:
+        return stream.readline(limit)
+    stream = pipe
+    line = bytearray()
+    while len(line) < limit:
+        _wait_readable(stream)
+        byte = stream.read(1)
+        if not byte:
+            break
+        line += byte
+        if byte == b"\n":
+            break
+    return bytes(line)
 
 
 def placed(
@@ -227,11 +285,19 @@ def _joined(
 
 
 def _blocks(
-    stream: BinaryIO, lay: Layout, file: str, block_bytes: int
+    stream: BinaryIO,
+    lay: Layout,
+    file: str,
+    block_bytes: int,
+    pipe: io.FileIO | None = None,
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-    read = getattr(stream, "read1", stream.read)  # read1: what a pipe has, without waiting
+    # read1: what a buffered file has, without waiting; a raw pipe's read() returns what
+    # the pipe has (the generator holds ``stream``, which owns the pipe's descriptor)
+    read = pipe.read if pipe is not None else getattr(stream, "read1", stream.read)
     row, pending = 1, b""
     while True:
+        if pipe is not None:
+            _wait_readable(pipe)
         chunk = read(block_bytes)
         if not chunk:
             break
