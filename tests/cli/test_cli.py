@@ -446,6 +446,33 @@ def test_predict_refuses_a_clockwise_yaw_rate_as_validate_does_and_writes_nothin
     assert err.count("yaw rate's unit and sign not told") == 1 and "not checked" not in err
 
 
+def test_predict_repairs_a_yaw_rate_s_invalid_code_and_says_so(bundle, tmp_path, capsys):
+    """One row of 327.67 deg/s (an int16 at full scale) turned the dead-reckoned track by
+    33 degrees; it is interpolated across, as the label does, and named even when quiet."""
+    import numpy as np
+    import pandas as pd
+
+    from rwhonet.data import canonical as c
+    from support.corpus import TARGET_RADIUS_M, weaving_target
+    from support.drives import write_iovnbd
+
+    car = ["--nominal-radius", str(TARGET_RADIUS_M), "--outage", "60:140"]
+    df = weaving_target()
+    clean = write_iovnbd(df, tmp_path / "V-Turns.csv")
+    df.loc[704, c.YAW_RATE_RAD_S] = np.radians(327.67)  # data row 705, inside the outage
+    spiked = write_iovnbd(df, tmp_path / "V-Spike.csv")
+    assert main(predict_args(bundle, clean, tmp_path / "clean.csv", *car)) == 0
+    capsys.readouterr()
+    for extra in ([], ["--quiet"]):
+        assert main(predict_args(bundle, spiked, tmp_path / "spiked.csv", *car, *extra)) == 0
+        err = capsys.readouterr().err
+        assert "yaw-rate glitch: 1 sample(s)" in err and "row 705 (t = " in err
+        assert "5.719 -> " in err
+    a, b = pd.read_csv(tmp_path / "clean.csv"), pd.read_csv(tmp_path / "spiked.csv")
+    moved = np.hypot(a["east_m"] - b["east_m"], a["north_m"] - b["north_m"])
+    assert moved.notna().sum() >= 80 and moved.max() < 0.05  # metres
+
+
 @pytest.mark.parametrize("unit, refused", [("deg/s cw", False), ("deg/s", True)])
 def test_predict_takes_a_stream_drive_s_yaw_rate_to_its_check_and_filter(
     bundle, tmp_path, capsys, unit, refused

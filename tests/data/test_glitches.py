@@ -203,3 +203,60 @@ def test_running_max_skips_nan_unless_the_whole_window_is_nan():
     x = np.array([1.0, np.nan, 3.0, np.nan, np.nan, np.nan, 0.5])
     np.testing.assert_array_equal(running_max(x, 3), [1.0, 3.0, 3.0, 3.0, np.nan, 0.5, 0.5])
     assert running_max(np.zeros(0), 5).size == 0
+
+
+# ------------------------------------------------ the yaw rate's glitches (issue 17)
+
+
+def test_a_yaw_rate_beyond_any_car_s_is_interpolated_across_and_a_missing_one_stays():
+    from rwhonet.data.glitches import YAW_RATE_LIMIT_RAD_S, repaired_yaw_rate
+
+    t = np.arange(8) * 0.1
+    rate = np.array([0.1, 0.2, np.radians(327.67), 0.4, np.nan, 0.6, -5.0, 0.7])
+    fixed, mask = repaired_yaw_rate(t, rate)  # two of seven beyond: more than 1 %, left
+    assert not mask.any() and np.array_equal(fixed, rate, equal_nan=True)
+    fixed, mask = repaired_yaw_rate(t, rate, max_share=0.5)
+    assert mask.tolist() == [False, False, True, False, False, False, True, False]
+    np.testing.assert_allclose(fixed[[2, 6]], [0.3, 0.65])  # in time between the good ones
+    assert np.isnan(fixed[4]) and fixed[0] == 0.1
+    assert YAW_RATE_LIMIT_RAD_S == pytest.approx(2.0)
+    lone = repaired_yaw_rate(t[:2], np.array([9.0, np.nan]), max_share=1.0)[0]
+    assert np.isnan(lone).all()  # nothing good to take it from: missing
+
+
+def test_a_channel_beyond_the_limit_throughout_is_left_for_the_unit_check():
+    from rwhonet.data.glitches import repaired_yaw_rate
+
+    t = np.arange(1000) * 0.1
+    deg_as_rad = 20.0 * np.sin(t / 5.0)  # deg/s values declared rad/s: most beyond 2
+    fixed, mask = repaired_yaw_rate(t, deg_as_rad)
+    assert not mask.any() and np.array_equal(fixed, deg_as_rad)
+
+
+def test_the_label_s_gyro_yaw_ignores_a_one_row_invalid_code():
+    from rwhonet.features.seconds import gyro_yaw_rad
+
+    t = 45000.0 + np.arange(601) * 0.1
+    rate = 0.2 * np.sin(2 * np.pi * (t - t[0]) / 40.0)
+    spiked = rate.copy()
+    spiked[305] = np.radians(327.67)  # int16 full scale at 0.01 deg/s per bit
+    clean, got = gyro_yaw_rad(t, rate), gyro_yaw_rad(t, spiked)
+    assert np.abs(got - clean).max() < 1e-4  # rad: was 0.55 (32 deg) in that second
+
+
+def test_validate_lists_a_yaw_rate_glitch_and_still_checks_the_channel():
+    from rwhonet.data.drivechecks import yaw_problems
+    from rwhonet.data.quality import assess
+    from support.corpus import weaving_target
+
+    params = load_params()
+    drive = {k: np.asarray(v) for k, v in weaving_target(300.0).items()}
+    drive[c.YAW_RATE_RAD_S] = drive[c.YAW_RATE_RAD_S].copy()
+    drive[c.YAW_RATE_RAD_S][1204] = np.radians(327.67)
+    segments = assess(drive, params.validate.gnss, params.validate.sample_period_s).segments
+    entry = {"source_file": "V-T.csv", "columns": {}}
+    problems, record = yaw_problems(entry, drive, segments, params.validate)
+    assert problems == [] and record["checked"] and abs(record["gain"] - 1.0) < 0.02
+    assert record["glitches"]["rows"] == 1
+    assert record["glitches"]["listed"][0]["row"] == 1205
+    assert record["glitches"]["listed"][0]["rad_s"] == pytest.approx(np.radians(327.67))

@@ -339,6 +339,29 @@ def test_a_one_row_wheel_glitch_is_repaired_and_listed_whatever_the_blocking(bun
     np.testing.assert_array_equal(out["disp_gnss_m"], plain["disp_gnss_m"])
 
 
+@pytest.mark.parametrize("sizes", [[100_000], [7] * 1000, [10] * 200])
+def test_a_yaw_rate_s_invalid_code_is_repaired_and_listed_whatever_the_blocking(bundle, sizes):
+    # One row of 327.67 deg/s (an int16 at full scale) inside an outage moved the track's
+    # end by 389 m; repaired from the rate's neighbours it moves it by millimetres. With
+    # blocks of one second the second's own rows hold one glitch in ten, more than the
+    # label's share (1 %): the stream's running count repairs it all the same.
+    from support.corpus import weaving_target
+
+    model = load_served(bundle["model_onnx"])
+    clean = weaving_target()
+    spiked = clean.copy()
+    spiked.loc[704, "yaw_rate_rad_s"] = np.radians(327.67)
+    outage = [parse_outage("60:140")]
+    plain, _ = stream_all(model, blocks_of(clean, [len(clean)]), outage)
+    out, s = stream_all(model, blocks_of(spiked, sizes), outage)
+    assert [(g["row"], g["channel"], g.get("yaw")) for g in s.glitches] == [
+        (705, "yaw_rate_rad_s", True)
+    ]
+    assert s.glitches[0]["found_rad_s"] == pytest.approx(np.radians(327.67))
+    moved = np.hypot(out["east_m"] - plain["east_m"], out["north_m"] - plain["north_m"])
+    assert np.isfinite(moved).sum() == 80 and np.nanmax(moved) < 0.05
+
+
 def test_a_clean_drive_has_nothing_repaired(bundle):
     model = load_served(bundle["model_onnx"])
     out, s = stream_all(model, blocks_of(wavy_drive(120), [333] * 5))

@@ -25,7 +25,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from rwhonet.data.glitches import WHEEL_GLITCH_G
+from rwhonet.data.glitches import WHEEL_GLITCH_G, YAW_RATE_LIMIT_RAD_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.serve.stream import COLUMNS, Outage, SecondStream
 
@@ -338,7 +338,8 @@ def glitch_lines(
     listed: int = 5,
     samples: list[tuple[str, int, float, str]] | None = None,
 ) -> list[str]:
-    """What the stream repaired: wheel samples that changed faster than any tyre can.
+    """What the stream repaired: wheel samples that changed faster than any tyre can, yaw
+    rates beyond any car's.
 
     ``samples``: a stream drive's glitched samples as the resampler found them (stream,
     sample row, time, channel); the grid rows whose means used them are among the rows
@@ -355,19 +356,32 @@ def glitch_lines(
             f"faster than any tyre can (> {WHEEL_GLITCH_G:g} g above the other wheels): "
             f"{shown}{more}; the grid rows whose means used them were repaired as below"
         )
-    if not glitches:
-        return lines
+    wheels = [g for g in glitches if not g.get("yaw")]
+    yaws = [g for g in glitches if g.get("yaw")]
+    if wheels:
+        lines.append(
+            f"wheel glitch: {len(wheels)} sample(s) rose faster than any tyre can (> "
+            f"{WHEEL_GLITCH_G:g} g above the other wheels) and were replaced by the wheel's own "
+            f"speed interpolated across them: {_listed(wheels, listed)}"
+        )
+    if yaws:
+        lines.append(
+            f"yaw-rate glitch: {len(yaws)} sample(s) lay beyond any car's yaw rate (|rate| > "
+            f"{YAW_RATE_LIMIT_RAD_S:g} rad/s, {math.degrees(YAW_RATE_LIMIT_RAD_S):.0f} deg/s: "
+            "a logger's glitch or a signal's invalid code) and were replaced by the rate "
+            f"interpolated across them: {_listed(yaws, listed)}"
+        )
+    return lines
+
+
+def _listed(glitches: list[dict[str, Any]], listed: int) -> str:
     shown = "; ".join(
         f"row {g['row']} (t = {g['t_s']:.6g} s), {g['channel'].strip()!r}: "
         f"{g['found_rad_s']:.4g} -> {g['replaced_rad_s']:.4g} rad/s"
         for g in glitches[:listed]
     )
     more = f"; and {len(glitches) - listed} more" if len(glitches) > listed else ""
-    return lines + [
-        f"wheel glitch: {len(glitches)} sample(s) rose faster than any tyre can (> "
-        f"{WHEEL_GLITCH_G:g} g above the other wheels) and were replaced by the wheel's own "
-        f"speed interpolated across them: {shown}{more}"
-    ]
+    return shown + more
 
 
 def reversing_lines(elapsed_s: list[float]) -> list[str]:

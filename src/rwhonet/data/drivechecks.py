@@ -25,7 +25,13 @@ import numpy as np
 from rwhonet import contracts
 from rwhonet.config import CutSpec, Params, ValidateParams
 from rwhonet.data import canonical as c
-from rwhonet.data.glitches import REFUSE_SHARE, WHEEL_GLITCH_G, glitch_mask
+from rwhonet.data.glitches import (
+    REFUSE_SHARE,
+    WHEEL_GLITCH_G,
+    YAW_RATE_LIMIT_RAD_S,
+    glitch_mask,
+    repaired_yaw_rate,
+)
 from rwhonet.data.plausibility import (
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
@@ -45,6 +51,8 @@ from rwhonet.data.plausibility import (
 from rwhonet.data.problems import stretch_problems
 from rwhonet.data.quality import Assessment, Segment, assess, manual_rows, second_index
 from rwhonet.errors import InputError, Problem
+
+YAW_GLITCHES_LISTED = 10  # yaw-rate glitches listed one by one in the record (all counted)
 
 
 def target_test_min_s(params: Params) -> int:
@@ -291,11 +299,15 @@ def yaw_problems(
     Returns:
         ``(problems, record)``: the record as validate reports it (``checked``, the gain
         and its standard error, the pairs of seconds, the span the course swung through,
-        and a note when not checked).
+        a note when not checked, and ``glitches`` where samples lay beyond any car's yaw
+        rate: :func:`rwhonet.data.glitches.repaired_yaw_rate`, which the check and the
+        label take interpolated across).
     """
     if c.YAW_RATE_RAD_S not in df or not np.isfinite(np.asarray(df[c.YAW_RATE_RAD_S])).any():
         return [], {"checked": False, "note": "no yaw rate"}
     est = yaw_gain(df, segments, YAW_MIN_STEP_M, vp.sample_period_s)
+    # the samples the check and the label take interpolated across (none where too many)
+    glitched = np.flatnonzero(repaired_yaw_rate(df[c.T_S], df[c.YAW_RATE_RAD_S])[1])
     checked, mistake = yaw_mistake(est, vp.yaw_gain_tolerance)
     record: dict[str, Any] = {
         "checked": checked,
@@ -313,6 +325,18 @@ def yaw_problems(
         record["note"] = f"turned too little to tell (gain {est.gain:.3g} ± {est.gain_se:.2g})"
     elif not checked:
         record["note"] = "the yaw rate never changed, nor did the course turn enough to tell"
+    if glitched.size:
+        t, rate = np.asarray(df[c.T_S]), np.asarray(df[c.YAW_RATE_RAD_S])
+        record["glitches"] = {
+            "rows": int(glitched.size),
+            "listed": [
+                {"row": int(i) + 1, "t_s": float(t[i]), "rad_s": float(rate[i])}
+                for i in glitched[:YAW_GLITCHES_LISTED]
+            ],
+            "rows_are": "rows of the canonical drive (1-based)",
+            "limit_rad_s": YAW_RATE_LIMIT_RAD_S,
+            "repair": "interpolated in time across (the check and the label)",
+        }
     if mistake is None:
         return [], record
     column = entry["columns"].get(c.YAW_RATE_RAD_S, c.YAW_RATE_RAD_S)

@@ -186,3 +186,50 @@ def glitch_rows_mask(
         bound_g,
     )
     return mask.any(axis=0)
+
+
+# A yaw rate no car turns at on its tyres. Turning on a circle of radius R at speed v takes
+# v / R, with v^2 / R at most the friction's mu g and R at least the car's tightest:
+# v / R <= sqrt(mu g / R_min) = 1.83 rad/s (105 deg/s) for mu = 1.2 (a sports tyre on dry
+# asphalt) and R_min = 3.5 m (the rear axle's centre of a small car on full lock, 5 m kerb
+# radius, 2.5 m wheelbase). A sample beyond 2 rad/s (115 deg/s) is a logger's glitch or a
+# CAN signal's "invalid" code (an int16 at its full scale: 327.67 deg/s at 0.01 deg/s per
+# bit), never a turn: one such 0.1 s row turns the dead-reckoned heading by 33 degrees.
+# A car spinning beyond it has left its tyres' grip and every odometry with it.
+YAW_RATE_LIMIT_RAD_S = 2.0
+# A channel with more of its samples beyond the limit is not glitching but wrong (degrees
+# per second declared as radians: every turn beyond 2 deg/s): it is left as it is, for the
+# yaw-rate check to name (rwhonet.data.drivechecks.yaw_problems).
+YAW_GLITCH_SHARE = 0.01
+
+
+def yaw_rate_glitches(yaw_rate_rad_s: np.ndarray) -> np.ndarray:
+    """Per sample, whether the yaw rate lies beyond :data:`YAW_RATE_LIMIT_RAD_S` (NaN: no)."""
+    rate = np.asarray(yaw_rate_rad_s, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.abs(rate) > YAW_RATE_LIMIT_RAD_S
+
+
+def repaired_yaw_rate(
+    t_s: np.ndarray, yaw_rate_rad_s: np.ndarray, max_share: float = YAW_GLITCH_SHARE
+) -> tuple[np.ndarray, np.ndarray]:
+    """The yaw rate with its glitches (:func:`yaw_rate_glitches`) replaced.
+
+    A glitched sample takes the rate interpolated in time between the nearest samples that
+    are not glitched (the nearest one's beyond the first or last); with none, it is missing
+    (NaN). A missing sample stays missing. A channel with more than ``max_share`` of its
+    samples beyond the limit is returned as it is (:data:`YAW_GLITCH_SHARE`).
+
+    Returns:
+        ``(rate, mask)``: the repaired rate (a copy where anything was replaced) and the
+        samples replaced.
+    """
+    rate = np.asarray(yaw_rate_rad_s, dtype=np.float64)
+    mask = yaw_rate_glitches(rate)
+    if not mask.any() or mask.sum() > max_share * np.isfinite(rate).sum():
+        return rate, np.zeros_like(mask)
+    t = np.asarray(t_s, dtype=np.float64)
+    good = np.isfinite(rate) & ~mask
+    fixed = rate.copy()
+    fixed[mask] = np.interp(t[mask], t[good], rate[good]) if good.any() else np.nan
+    return fixed, mask

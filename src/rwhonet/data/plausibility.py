@@ -33,6 +33,7 @@ import numpy as np
 
 from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data.glitches import repaired_yaw_rate
 from rwhonet.data.quality import Segment, second_index
 from rwhonet.geo import geodesic_distance_m, local_distance_m, local_step_distance_m
 from rwhonet.geo.geodesic import wgs84
@@ -176,7 +177,8 @@ def yaw_gain(
         yaw rate that never changed over them).
     """
     t = np.asarray(drive[c.T_S], dtype=np.float64)
-    rate = np.asarray(drive[c.YAW_RATE_RAD_S], dtype=np.float64)
+    # as the label integrates it: a glitch (beyond any car's yaw rate) interpolated across
+    rate, _ = repaired_yaw_rate(t, np.asarray(drive[c.YAW_RATE_RAD_S], dtype=np.float64))
     prev, this, gap = _second_chords(t, segments, sample_period_s)
     if prev.size < 2:
         return YawEstimate(float("nan"), math.inf, 0, 0.0)

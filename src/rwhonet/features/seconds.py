@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike
 
 from rwhonet.contracts import ROWS_PER_SECOND
 from rwhonet.data import canonical as c
+from rwhonet.data.glitches import repaired_yaw_rate
 from rwhonet.data.timebase import label_times
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo import geodesic_distance_m
@@ -175,6 +176,9 @@ def gyro_yaw_rad(t_s: np.ndarray, yaw_rate_rad_s: ArrayLike | None) -> np.ndarra
     half a record period (0.05 s) early; the heading this shifts by that time is
     not an accumulating error (it is undone when the turn ends).
 
+    A sample beyond any car's yaw rate (a logger's glitch, a CAN signal's invalid code:
+    :func:`rwhonet.data.glitches.repaired_yaw_rate`) takes the rate interpolated across it.
+
     Args:
         t_s: per-row time, s.
         yaw_rate_rad_s: per-row yaw rate, rad/s, left turns positive; None when the
@@ -186,7 +190,8 @@ def gyro_yaw_rad(t_s: np.ndarray, yaw_rate_rad_s: ArrayLike | None) -> np.ndarra
     """
     if yaw_rate_rad_s is None:
         return np.full(n_seconds(len(t_s)), np.nan)
-    return integrate_per_second(t_s, np.asarray(yaw_rate_rad_s, dtype=np.float64))
+    rate, _ = repaired_yaw_rate(t_s, np.asarray(yaw_rate_rad_s, dtype=np.float64))
+    return integrate_per_second(t_s, rate)
 
 
 def backwards_per_second(

@@ -46,7 +46,13 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from rwhonet.contracts import ROWS_PER_SECOND
 from rwhonet.data import canonical as c
-from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
+from rwhonet.data.glitches import (
+    WHEEL_GLITCH_G,
+    YAW_GLITCH_SHARE,
+    glitch_mask,
+    repaired_yaw_rate,
+    yaw_rate_glitches,
+)
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
     backwards_per_second,
@@ -176,7 +182,8 @@ class SecondStream:
             :class:`rwhonet.nav.NavConfig` with the model's rear radius and the
             receiver drift the model's evaluation fitted, if it carries one).
         unit_check: validate's wheel-unit check, fed the rows as they come (after the
-            glitch repair); it refuses the drive from the block where it can decide
+            wheels' glitch repair, before the yaw rate's, which it makes itself as
+            validate does); it refuses the drive from the block where it can decide
             (:class:`rwhonet.data.drivechecks.StreamRadiusCheck`). None: not checked.
     """
 
@@ -198,6 +205,7 @@ class SecondStream:
     _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
     totals: dict[str, _Totals] = field(default_factory=dict)
     glitches: list[dict[str, float | int | str]] = field(default_factory=list)
+    _yaw_counts: list[int] = field(default_factory=lambda: [0, 0])  # samples, beyond the limit
     backwards_s: list[float] = field(default_factory=list)  # told seconds' ends, elapsed_s
 
     def __post_init__(self) -> None:
@@ -229,6 +237,7 @@ class SecondStream:
         columns = self._repair_glitches(first_row, columns)
         if self.unit_check is not None:
             self.unit_check.push(columns)
+        columns = self._repair_yaw(first_row, columns)
         if self._rows is None:
             self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
             self._navigator = StreamNavigator(
@@ -322,6 +331,43 @@ class SecondStream:
                 for i in bad
             ]
         return columns
+
+    def _repair_yaw(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The block with its yaw-rate glitches replaced, each one listed in ``self.glitches``.
+
+        A sample beyond any car's yaw rate (:func:`rwhonet.data.glitches.repaired_yaw_rate`,
+        as the label takes it) is interpolated in time across, with the rows still held
+        before it as context, while such samples are at most ``YAW_GLITCH_SHARE`` of the
+        channel's so far (more: a channel in the wrong unit, left for the yaw-rate check).
+        """
+        rate = columns.get(c.YAW_RATE_RAD_S)
+        if rate is None:
+            return columns
+        rate = np.asarray(rate, dtype=np.float64)
+        mask = yaw_rate_glitches(rate)
+        self._yaw_counts[0] += int(np.isfinite(rate).sum())
+        self._yaw_counts[1] += int(mask.sum())
+        if not mask.any() or self._yaw_counts[1] > YAW_GLITCH_SHARE * self._yaw_counts[0]:
+            return columns
+        held = 0 if self._rows is None else len(self._rows[c.T_S])
+        t = np.asarray(columns[c.T_S], dtype=np.float64)
+        if held:
+            t = np.concatenate([self._rows[c.T_S], t])
+            rate = np.concatenate([self._rows[c.YAW_RATE_RAD_S], rate])
+        fixed, replaced = repaired_yaw_rate(t, rate, max_share=1.0)
+        name = self.names.get(c.YAW_RATE_RAD_S, c.YAW_RATE_RAD_S)
+        self.glitches += [
+            {
+                "row": first_row + int(i) - held,
+                "t_s": float(t[i]),
+                "channel": name,
+                "found_rad_s": float(rate[i]),
+                "replaced_rad_s": float(fixed[i]),
+                "yaw": True,
+            }
+            for i in np.flatnonzero(replaced[held:]) + held
+        ]
+        return dict(columns) | {c.YAW_RATE_RAD_S: fixed[held:]}
 
     def _drop(self, n: int) -> None:
         self._rows = {k: v[n:] for k, v in self._rows.items()}
