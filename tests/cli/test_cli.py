@@ -791,3 +791,45 @@ def test_a_signal_mid_recalibrate_leaves_no_temporary_folder_and_no_running_run(
     assert code == 128 + signal.SIGTERM, capsys.readouterr().err
     assert "interrupted by SIGTERM" in capsys.readouterr().err
     assert glob.glob(str(tmp_path / "rwhonet-recalibrate-*")) == []
+
+
+def test_predict_makes_a_missing_folder_and_refuses_a_folder_as_output(bundle, tmp_path, capsys):
+    """A folder given as --output was a traceback after the whole drive (its .partial
+    left beside it); a missing folder was a traceback before the first row. Now the
+    folder is made, as export makes its own, and a folder is refused before any work."""
+    drive = write_drive(tmp_path / "V-A.csv", duration_s=30)
+    nested = tmp_path / "out" / "day1" / "p.csv"
+    assert main(predict_args(bundle, drive, nested)) == 0
+    assert nested.is_file() and len(nested.read_text().splitlines()) == 31
+    capsys.readouterr()
+    folder = tmp_path / "out"
+    assert main(predict_args(bundle, drive, folder)) == 2
+    err = capsys.readouterr().err
+    assert f"--output: expected a CSV or .parquet file to write; found {folder}: a folder" in err
+    assert "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.rglob("*partial*")) == []
+    blocked = tmp_path / "V-A.csv" / "p.csv"  # its folder would be a file
+    assert main(predict_args(bundle, drive, blocked)) == 2
+    assert "its folder cannot be made" in capsys.readouterr().err
+
+
+def test_predict_refuses_a_time_in_milliseconds_that_made_no_second(bundle, tmp_path, capsys):
+    """Every step 100 "s": each row was a gap, and predict said "1501 rows -> 0 seconds",
+    exit 0, an empty output. Now it names the time column and its step, and writes nothing;
+    a drive shorter than a second still passes with 0 seconds."""
+    import pandas as pd
+
+    df = pd.read_csv(write_drive(tmp_path / "V-A.csv", duration_s=30))
+    time = df.columns[1]
+    df[time] = (df[time] - df[time].iloc[0]) * 1000.0
+    ms = tmp_path / "V-Ms.csv"
+    df.to_csv(ms, index=False)
+    out = tmp_path / "p.csv"
+    assert main(predict_args(bundle, ms, out)) == 2
+    err = capsys.readouterr().err
+    assert f"{ms}, column '{time}'" in err and "a median time step of 100 s" in err
+    assert "unit: ms" in err and not out.exists() and not list(tmp_path.glob(".*partial"))
+    short = tmp_path / "V-Short.csv"
+    pd.read_csv(tmp_path / "V-A.csv").head(6).to_csv(short, index=False)
+    assert main(predict_args(bundle, short, out)) == 0
+    assert "6 rows -> 0 seconds" in capsys.readouterr().err

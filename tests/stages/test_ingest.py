@@ -64,6 +64,21 @@ def test_round_trip_manifest_and_canonical_file(tmp_path):
     assert df.loc[df[c.T_S] == 45000.5, c.SCENARIO].item() == "roundabout;wet_road"
 
 
+def test_macos_appledouble_and_hidden_files_are_no_drives(tmp_path):
+    """A fleet copied from a Mac to an exFAT disk has a ``._V-S1.csv`` (binary resource
+    data) beside every file; pathlib's glob matched it and ingest refused the fleet."""
+    raw = tmp_path / "raw"
+    files = write_fleet(raw, duration_s=5.0)
+    for path in files.values():
+        (path.parent / f"._{path.name}").write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X")
+    (raw / "source_train" / ".DS_Store").write_bytes(b"\x00\x00\x00\x01Bud1")
+    hidden = raw / "source_train" / ".trash"
+    hidden.mkdir()
+    (hidden / "V-Old.csv").write_bytes(files["source_train"].read_bytes())
+    manifest = ingest(make_params(raw), tmp_path / "drives")
+    assert [d["drive"] for d in manifest["drives"]] == ["V-S1", "C-A1", "C-B1"]
+
+
 def test_source_calibration_role_and_column_map_format(tmp_path):
     raw = tmp_path / "raw"
     write_fleet(raw, duration_s=3.0)

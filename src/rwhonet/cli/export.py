@@ -75,6 +75,7 @@ def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) 
 
 def run(spec: str, output: str | None, tracking_uri: str | None, wpm_mode: str) -> dict[str, Any]:
     """Export and check; return the file, its size and the parity error."""
+    from rwhonet.cli.predict import output_file
     from rwhonet.models.checkpoint import load_whonet
     from rwhonet.models.loop import predict
     from rwhonet.serve.bundle import export_model
@@ -85,8 +86,7 @@ def run(spec: str, output: str | None, tracking_uri: str | None, wpm_mode: str) 
         default = meta.info.get("name") or Path(model_file).stem
         if meta.info.get("version"):
             default += f"-v{meta.info['version']}"
-        out = Path(output or f"{default}.onnx")
-        out.parent.mkdir(parents=True, exist_ok=True)
+        out = output_file(output or f"{default}.onnx", "an .onnx file")
         export_model(Path(model_file), meta, out)
         net, hparams = load_whonet(model_file)
     served = load_served(out)

@@ -34,9 +34,53 @@ STDIO = "-"
 # starts without a fix (a tunnel, a car park) is not held to its end. Validate's check
 # needs radius_min_moving_s (30) moving seconds with GNSS; 120 s leaves room for stops.
 HOLD_MAX_S = 120
+STEPS_KEPT = 100  # time steps kept from the first rows, to say why a drive made no second
 DEFAULTS = "validate_defaults.yaml"  # validate's settings outside a project
 # times to the millisecond, degrees to 1e-8 (about a millimetre), metres to 0.1 mm
 DECIMALS = {"t_s": 3, "elapsed_s": 3, "lat_deg": 8, "lon_deg": 8}
+
+
+def output_file(path: str, what: str, option: str = "--output") -> Path:
+    """The file a command is to write, its folder made where missing (as ``export`` did).
+
+    Raises:
+        InputError: the path is a folder, or its folder cannot be made (named with the
+            option and what it was expected to be).
+    """
+    out = Path(path)
+    if out.is_dir():
+        raise InputError(
+            [Problem(option, None, None, f"{what} to write", f"{path}: a folder")],
+            f"bad {option}",
+        )
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        found = f"{path}: its folder cannot be made ({getattr(err, 'strerror', None) or err})"
+        problem = Problem(option, None, None, f"{what} to write", found)
+        raise InputError([problem], f"bad {option}") from None
+    return out
+
+
+def no_seconds_problem(
+    name: str, names: dict[str, str], steps: list[float], period_s: float
+) -> Problem:
+    """Why a drive with rows made no whole second: its time steps, named with the column
+    (``predict`` refuses such a drive when its median step is not within a factor of two
+    of the sample period; one shorter than a second passes with 0 seconds)."""
+    step = float(np.median(steps))
+    return Problem(
+        name,
+        None,
+        names.get("t_s", "t_s"),
+        f"rows {period_s:g} s apart (validate.sample_period_s), in seconds, that make whole "
+        "seconds without a gap",
+        f"a median time step of {step:.6g} s over the first {len(steps) + 1} rows: no second "
+        "was made",
+        "a time in milliseconds needs a column map that says so (t: {column: ..., unit: ms}); "
+        "a drive logged at another rate is resampled by the stream formats (--format "
+        "stream_csv)",
+    )
 
 
 class CsvSink:
@@ -196,7 +240,7 @@ def run(
                     ]
                 )
             source, name = stack.enter_context(open(path, "rb")), drive
-        final = None if output == STDIO else Path(output)
+        final = None if output == STDIO else output_file(output, "a CSV or .parquet file")
         partial = None if final is None else final.with_name(f".{final.name}.partial")
         if final is None:
             sink: Any = CsvSink(stdout or sys.stdout)
@@ -229,8 +273,11 @@ def run(
             )
             held: list[dict[str, np.ndarray]] = []  # seconds not written before the check
             n_held, released = 0, False
+            steps: list[float] = []  # the first rows' time steps, to say why no second came
             for first, columns in blocks:
                 raise_if_interrupted()  # a stop a C library's signal check lost
+                if len(steps) < STEPS_KEPT:
+                    steps += np.diff(columns["t_s"][: STEPS_KEPT + 1]).tolist()
                 held.append(stream.push(first, columns))
                 n_held += len(held[-1]["t_s"])
                 rows = first + len(columns["t_s"]) - 1
@@ -246,6 +293,8 @@ def run(
             for block in held:
                 sink.write(block)
                 seconds += len(block["t_s"])
+            if not seconds and steps and not 0.5 <= np.median(steps) / period_s <= 2.0:
+                raise InputError([no_seconds_problem(name, names, steps, period_s)])
             done = True
         finally:
             sink.close()

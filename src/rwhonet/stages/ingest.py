@@ -75,12 +75,24 @@ def check_data_params(data: DataParams) -> None:
             check_signal_map(name, data.signal_maps[name].signals, with_time=kind == STREAM_CSV)
 
 
+def _hidden(path: Path, root: Path) -> bool:
+    """A name starting with a dot on the path below ``root``: macOS's AppleDouble files
+    (``._V-A.csv``, written beside every file copied to a FAT or exFAT disk), ``.DS_Store``,
+    an editor's swap file. pathlib's glob matches them, the shell's does not."""
+    try:
+        parts = path.relative_to(root).parts
+    except ValueError:  # a glob that leaves the root: its own name only
+        parts = (path.name,)
+    return any(part.startswith(".") and part not in (".", "..") for part in parts)
+
+
 def discover(data: DataParams) -> list[DriveFile]:
     """List the drives of every role, sorted by role (in ``ROLES`` order) and name.
 
     A role's glob matches files for the formats that read one file per drive (IO-VNBD,
     column maps, MDF4) and folders for those that read one folder per drive (comma2k19,
-    stream CSVs); the drive id is the file's stem or the folder's name.
+    stream CSVs); the drive id is the file's stem or the folder's name. Hidden files and
+    folders (a name starting with a dot, as macOS's ``._`` files) are no drives.
 
     Args:
         data: the ``data`` section (globs are relative to ``data.root``).
@@ -98,7 +110,11 @@ def discover(data: DataParams) -> list[DriveFile]:
     for role in (r for r in contracts.ROLES if r in data.roles):
         spec = data.roles[role]
         folders = is_folder_format(spec.format, data)
-        found = sorted(p for p in root.glob(spec.glob) if (p.is_dir() if folders else p.is_file()))
+        found = sorted(
+            p
+            for p in root.glob(spec.glob)
+            if not _hidden(p, root) and (p.is_dir() if folders else p.is_file())
+        )
         if not found and spec.required:
             folder = (root / spec.glob).parent
             near = sorted(p.name for p in folder.iterdir())[:5] if folder.is_dir() else []
