@@ -833,3 +833,30 @@ def test_predict_refuses_a_time_in_milliseconds_that_made_no_second(bundle, tmp_
     pd.read_csv(tmp_path / "V-A.csv").head(6).to_csv(short, index=False)
     assert main(predict_args(bundle, short, out)) == 0
     assert "6 rows -> 0 seconds" in capsys.readouterr().err
+
+
+def test_predict_takes_a_jumped_or_frozen_fix_as_no_fix_as_validate_cuts_it(
+    bundle, tmp_path, capsys
+):
+    """A fix 500 m off for one row, and a receiver that held its fix for 5 s while the car
+    drove on, give predict what empty fix cells in the rows validate's rules take out give:
+    the outage's GNSS reference and the filter's updates never see them."""
+    from rwhonet.data import canonical as c
+    from support.drives import write_iovnbd
+    from support.serving import wavy_drive
+
+    df = wavy_drive(200.0)
+    bad = df.copy()
+    bad.loc[300, c.LAT_DEG] += 500.0 / 111_000.0
+    bad.loc[600:649, [c.LAT_DEG, c.LON_DEG]] = df.loc[600, [c.LAT_DEG, c.LON_DEG]].to_numpy()
+    empty = df.copy()
+    empty.loc[[300, 301, *range(619, 651)], [c.LAT_DEG, c.LON_DEG]] = np.nan
+    empty.loc[600:618, [c.LAT_DEG, c.LON_DEG]] = df.loc[600, [c.LAT_DEG, c.LON_DEG]].to_numpy()
+    out = {}
+    for name, frame in (("empty", empty), ("bad", bad)):
+        drive = write_iovnbd(frame, tmp_path / f"V-{name}.csv")
+        out[name] = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, drive, out[name], "--outage", "30:150")) == 0
+    err = capsys.readouterr().err
+    assert out["bad"].read_text() == out["empty"].read_text()
+    assert "34 row(s) taken as without a GNSS fix, as validate cuts them: 3 implying" in err

@@ -98,6 +98,52 @@ def test_the_fix_screen_takes_out_the_fixes_validate_would_not_use():
     assert FixScreen(4).note("V-A.csv") is None
 
 
+def _screened(df, sizes, policy):
+    from rwhonet.data.incremental import FixScreen
+
+    screen = FixScreen(4, policy, 0.1)
+    cols = {k: df[k].to_numpy(np.float64) for k in df.select_dtypes("number").columns}
+    out, i = [], 0
+    for n in sizes:
+        out.append(screen.screen({k: v[i : i + n] for k, v in cols.items()}))
+        i += n
+    lat = np.concatenate([o[c.LAT_DEG] for o in out])
+    return np.isnan(lat) & np.isfinite(cols[c.LAT_DEG]), screen
+
+
+@pytest.mark.parametrize("sizes", [[1201], [7] * 172, [300, 1, 1, 899]])
+def test_the_fix_screen_takes_out_jumps_and_a_frozen_receiver_as_validate_does(sizes):
+    """validate's jump and frozen rules on a stream, whatever its blocking: a fix 500 m
+    off for one row (it and the row back are jumps), a receiver that held one fix for 5 s
+    while the car drove on (taken out once the wheels have turned 2 s under it), and a
+    standstill whose identical fixes are right."""
+    from rwhonet.config import load_params
+    from rwhonet.data.quality import frozen_rows, implied_speed_m_s
+
+    policy = load_params().validate.gnss
+    df = wavy_drive(120)
+    df.loc[300, c.LAT_DEG] += 500.0 / 111_000.0  # a jump, and back
+    df.loc[600:649, [c.LAT_DEG, c.LON_DEG]] = df.loc[600, [c.LAT_DEG, c.LON_DEG]].to_numpy()
+    df.loc[900:999, [c.OMEGA_FL, c.OMEGA_FR, c.OMEGA_RL, c.OMEGA_RR]] = 0.0  # stands 10 s,
+    df.loc[900:999, [c.LAT_DEG, c.LON_DEG]] = df.loc[900, [c.LAT_DEG, c.LON_DEG]].to_numpy()
+    out, screen = _screened(df, sizes, policy)
+    t, lat, lon = (df[k].to_numpy() for k in (c.T_S, c.LAT_DEG, c.LON_DEG))
+    jump = implied_speed_m_s(t, lat, lon) > policy.max_speed_m_s
+    # the first fix after the held one (and after the 'standstill', whose wheels alone
+    # stood) jumps too, as validate finds it
+    assert np.flatnonzero(jump).tolist() == [300, 301, 650, 1000]
+    wheel = 0.5 * (df[c.OMEGA_RL] + df[c.OMEGA_RR]).to_numpy()
+    held = list(range(600, 650))  # validate: the whole run, from its first moving row
+    assert np.flatnonzero(frozen_rows(lat, lon, wheel, 0.1, 2.0, 1.0)).tolist() == held
+    # the stream: from the row where the wheels have turned 2 s under the held fix
+    assert np.flatnonzero(out).tolist() == [300, 301, *range(619, 651), 1000]
+    assert (screen.jumps, screen.frozen, screen.zeros, screen.low_sats) == (4, 31, 0, 0)
+    note = screen.note("V-A.csv")
+    assert "35 row(s) taken as without a GNSS fix" in note
+    assert "4 implying more than validate.gnss.max_speed_m_s 70 m/s" in note
+    assert "31 unchanged while the wheels turned for validate.gnss.frozen_min_s 2 s" in note
+
+
 def test_predict_reads_the_satellite_count_where_the_layout_has_one(tmp_path):
     path = write_drive(tmp_path / "V-A.csv", duration_s=30)
     with open(path, "rb") as f:

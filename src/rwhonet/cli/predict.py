@@ -258,7 +258,8 @@ def run(
                 names = lay.names
             uc = unit_check or UnitCheck()
             vp = uc.validate or default_validate()
-            fixes = FixScreen(vp.gnss.min_sats)  # a fix validate would not use is none
+            # a fix validate would not use (satellites, a jump, a frozen receiver) is none
+            fixes = FixScreen(vp.gnss.min_sats, vp.gnss, vp.sample_period_s)
             blocks = fixes.blocks(iter(blocks))
             nominal = uc.nominal_radius_m or float(np.mean(model.meta.source_radii))
             check = StreamRadiusCheck(

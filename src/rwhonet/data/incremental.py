@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 import select
 import stat
@@ -29,6 +30,7 @@ from typing import BinaryIO
 
 import numpy as np
 
+from rwhonet.config import GnssPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.problems import no_data_rows
 from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
@@ -218,19 +220,36 @@ class FixScreen:
 
     :func:`rwhonet.data.fixes.no_fix_rows` decides, as it does for validate's
     ``low_sats`` rule: latitude = longitude = 0 (a receiver without a fix writes zeros)
-    and, where the drive counts satellites, fewer than ``min_sats`` (or no count). Such a
-    row's latitude and longitude become NaN, as a missing fix is, so ``predict`` never
-    measures a GNSS displacement or updates its filter with it.
+    and, where the drive counts satellites, fewer than ``min_sats`` (or no count). With
+    ``policy`` (``validate.gnss``) validate's ``jump`` and ``frozen`` rules too
+    (:mod:`rwhonet.data.quality`): a fix implying more than ``max_speed_m_s`` from the row
+    before it (the last block's last row for a block's first; a row the satellite rule took
+    out has no fix to compare, where validate compares the zeros), and a fix unchanged while
+    the rear wheels turned faster than ``moving_wheel_speed_rad_s`` for ``frozen_min_s``
+    in all, from the row where that time is reached to the end of the run of identical
+    fixes (validate also takes out the run's moving rows before it, which a stream has
+    passed on already). Such a row's latitude and longitude become NaN, as a missing fix
+    is, so ``predict`` never measures a GNSS displacement or updates its filter with it.
 
     Attributes:
         min_sats: ``validate.gnss.min_sats``.
+        policy: ``validate.gnss`` (None: the satellite rule alone).
+        sample_period_s: ``validate.sample_period_s`` (a row's share of a run's time).
         zeros: rows taken out so far at latitude = longitude = 0.
         low_sats: rows taken out so far for their satellite count.
+        jumps: rows taken out so far as jumps.
+        frozen: rows taken out so far as frozen.
     """
 
     min_sats: float
+    policy: GnssPolicy | None = None
+    sample_period_s: float = 0.1
     zeros: int = 0
     low_sats: int = 0
+    jumps: int = 0
+    frozen: int = 0
+    _last: tuple[float, float, float] | None = None  # the last row's time and fix
+    _run_moving_s: float = 0.0  # moving time of the run of identical fixes it ends
 
     def blocks(
         self, blocks: Iterator[tuple[int, dict[str, np.ndarray]]]
@@ -244,34 +263,86 @@ class FixScreen:
         from rwhonet.data.fixes import no_fix_rows
 
         lat, lon = columns[c.LAT_DEG], columns[c.LON_DEG]
-        bad = no_fix_rows(lat, lon, columns.get(c.N_SATS), self.min_sats)
-        bad &= np.isfinite(lat) & np.isfinite(lon)  # a missing fix is not taken out again
-        if not bad.any():
+        has = np.isfinite(lat) & np.isfinite(lon)  # a missing fix is not taken out again
+        bad = no_fix_rows(lat, lon, columns.get(c.N_SATS), self.min_sats) & has
+        if self.policy is not None and len(lat):
+            usable = {c.LAT_DEG: np.where(bad, np.nan, lat), c.LON_DEG: np.where(bad, np.nan, lon)}
+            jump, frozen = self._jumps_and_frozen(columns | usable)
+            jump &= has & ~bad
+            frozen &= has & ~bad & ~jump
+            self.jumps += int(jump.sum())
+            self.frozen += int(frozen.sum())
+            screened = bad | jump | frozen
+        else:
+            screened = bad
+        if not screened.any():
             return columns
         zero = bad & (lat == 0.0) & (lon == 0.0)
         self.zeros += int(zero.sum())
         self.low_sats += int((bad & ~zero).sum())
         return columns | {
-            c.LAT_DEG: np.where(bad, np.nan, lat),
-            c.LON_DEG: np.where(bad, np.nan, lon),
+            c.LAT_DEG: np.where(screened, np.nan, lat),
+            c.LON_DEG: np.where(screened, np.nan, lon),
         }
+
+    def _jumps_and_frozen(self, columns: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        from rwhonet.data.quality import implied_speed_m_s
+        from rwhonet.data.timebase import TIME_EPS_S
+
+        policy = self.policy
+        assert policy is not None
+        t, lat, lon = columns[c.T_S], columns[c.LAT_DEG], columns[c.LON_DEG]
+        before = self._last or (math.nan, math.nan, math.nan)
+        te, la, lo = (np.r_[before[k], x] for k, x in enumerate((t, lat, lon)))
+        with np.errstate(divide="ignore", invalid="ignore"):  # two rows in one slot: a jump
+            # a fix off the globe is the stream's to refuse (SecondStream), not a jump
+            on_earth = (np.abs(la) <= 90.0) & (np.abs(lo) <= 360.0)
+            speed = implied_speed_m_s(
+                te,
+                np.where(on_earth, la, np.nan),
+                np.where(on_earth, lo, np.nan),
+                exact_above_m_s=0.5 * policy.max_speed_m_s,
+            )
+            jump = speed[1:] > policy.max_speed_m_s
+        wheel = 0.5 * (np.abs(columns[c.OMEGA_RL]) + np.abs(columns[c.OMEGA_RR]))
+        same = (la[1:] == la[:-1]) & (lo[1:] == lo[:-1])  # each row's fix as the row before's
+        run = np.cumsum(~same)  # 0: the run the last block ended in
+        moved = (wheel > policy.moving_wheel_speed_rad_s) * self.sample_period_s
+        total = np.cumsum(moved)
+        starts = np.flatnonzero(~same)
+        before_run = np.zeros(int(run[-1]) + 1)
+        before_run[0] = -self._run_moving_s
+        before_run[run[starts]] = total[starts] - moved[starts]
+        moving_s = total - before_run[run]
+        frozen = moving_s >= policy.frozen_min_s - TIME_EPS_S
+        self._last = (float(t[-1]), float(lat[-1]), float(lon[-1]))
+        self._run_moving_s = float(moving_s[-1])
+        return jump, frozen
 
     def note(self, file: str) -> str | None:
         """What was taken out, for stderr (None: nothing)."""
-        if not self.zeros and not self.low_sats:
-            return None
-        said = [
-            f"{n} at latitude = longitude = 0 (what a receiver without a fix writes)"
-            if k == "zeros"
-            else f"{n} with fewer than validate.gnss.min_sats {self.min_sats:g} satellites "
-            "or no count"
-            for k, n in (("zeros", self.zeros), ("low_sats", self.low_sats))
-            if n
-        ]
-        return (
-            f"{file}: {self.zeros + self.low_sats} row(s) taken as without a GNSS fix, as "
-            f"validate cuts them: {'; '.join(said)}"
+        counts = (
+            ("zeros", self.zeros),
+            ("low_sats", self.low_sats),
+            ("jump", self.jumps),
+            ("frozen", self.frozen),
         )
+        if not any(n for _, n in counts):
+            return None
+        policy = self.policy
+        said = {
+            "zeros": "at latitude = longitude = 0 (what a receiver without a fix writes)",
+            "low_sats": f"with fewer than validate.gnss.min_sats {self.min_sats:g} satellites "
+            "or no count",
+            "jump": "implying more than validate.gnss.max_speed_m_s "
+            f"{getattr(policy, 'max_speed_m_s', math.nan):g} m/s from the row before (a jump)",
+            "frozen": "unchanged while the wheels turned for validate.gnss.frozen_min_s "
+            f"{getattr(policy, 'frozen_min_s', math.nan):g} s (a frozen receiver)",
+        }
+        total = sum(n for _, n in counts)
+        listed = "; ".join(f"{n} {said[k]}" for k, n in counts if n)
+        head = f"{file}: {total} row(s) taken as without a GNSS fix, as validate cuts them"
+        return f"{head}: {listed}"
 
 
 def _joined(
