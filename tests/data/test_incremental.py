@@ -222,3 +222,62 @@ def test_a_signal_another_thread_took_ends_a_read_waiting_on_a_pipe(tmp_path):
         timeout=60,
     )
     assert done.stdout.strip() == "stopped", done.stderr
+
+
+def _piped(data: bytes, piece: int = 3001):
+    """A pipe fed ``data`` in pieces from a thread: (reader file, writer thread)."""
+    import os
+    import threading
+
+    r, w = os.pipe()
+
+    def feed():
+        with os.fdopen(w, "wb", buffering=0) as out:
+            for i in range(0, len(data), piece):
+                out.write(data[i : i + piece])
+
+    writer = threading.Thread(target=feed)
+    writer.start()
+    return os.fdopen(r, "rb"), writer
+
+
+@pytest.mark.parametrize("ending", [b"\r", b"\r\n"])
+@pytest.mark.parametrize("source", ["file", "memory", "pipe"])
+def test_classic_mac_and_windows_line_ends_read_as_lf(tmp_path, ending, source):
+    """Excel's 'CSV (Macintosh)' ends lines in a lone CR: read as the LF file (it read as
+    'no data rows' before), whether the header's CR comes with the rows or alone."""
+    path = write_drive(tmp_path / "V-A.csv", duration_s=40)
+    with open(path, "rb") as f:
+        _, ref_blocks = read_rows(f, "V-A.csv", block_bytes=4096)
+        _, ref = collect(ref_blocks)
+    data = path.read_bytes().replace(b"\n", ending)
+    assert b"\n" not in data or ending == b"\r\n"
+    if source == "file":
+        (tmp_path / "mac.csv").write_bytes(data)
+        f, writer = open(tmp_path / "mac.csv", "rb"), None
+    elif source == "memory":
+        f, writer = io.BytesIO(data), None
+    else:  # the header's CR and the byte after it arrive in separate writes
+        f, writer = _piped(data, piece=data.index(b"\r") + 1)
+    with f:
+        _, blocks = read_rows(f, "mac.csv", block_bytes=4096)
+        blocks, cols = collect(blocks)
+    if writer is not None:
+        writer.join()
+    assert blocks[0][0] == 1
+    for k in c.REQUIRED:
+        np.testing.assert_array_equal(cols[k], ref[k])
+
+
+def test_the_ingest_reader_reads_a_classic_mac_file_beyond_the_header_limit(tmp_path):
+    """A lone-CR file longer than the header's 1 MB limit was refused as 'no line break'."""
+    from rwhonet.data.csvio import HEADER_MAX_BYTES
+
+    path = write_drive(tmp_path / "V-A.csv", duration_s=1200)
+    data = path.read_bytes()
+    assert len(data) > HEADER_MAX_BYTES
+    mac = tmp_path / "V-mac.csv"
+    mac.write_bytes(data.replace(b"\n", b"\r"))
+    ref, got = read_iovnbd(path), read_iovnbd(mac)
+    for k in c.REQUIRED:
+        np.testing.assert_array_equal(got.columns[k], ref.columns[k])

@@ -119,6 +119,12 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
     return parse_header(line, file)
 
 
+def first_line_end(data: bytes) -> int:
+    """Where the first line of ``data`` ends: its first CR or LF (``len(data)``: neither)."""
+    ends = [i for i in (data.find(b"\r"), data.find(b"\n")) if i >= 0]
+    return min(ends) if ends else len(data)
+
+
 def parse_header(line: bytes, file: str) -> list[str]:
     """Return the cells of a CSV file's first line (see :func:`read_header`).
 
@@ -135,6 +141,9 @@ def parse_header(line: bytes, file: str) -> list[str]:
     for signature, what in _SIGNATURES:
         if line.startswith(signature):
             raise _not_text(file, what)
+    # A file saved with classic Mac line ends (a lone CR: Excel's "CSV (Macintosh)") has
+    # no LF: its first line ends at the first CR, as the readers' CSV parsers take it.
+    read, line = line, line[: first_line_end(line)]
     if b"\x00" in line:
         raise _not_text(file, "binary data (NUL bytes) in the first line")
     if len(line) > HEADER_MAX_BYTES:
@@ -151,7 +160,7 @@ def parse_header(line: bytes, file: str) -> list[str]:
                     None,
                     None,
                     "a header row followed by data rows",
-                    "an empty file" if not line else "an empty first line",
+                    "an empty file" if not read else "an empty first line",
                     "put the column names in the first line (the IO-VNBD names, or the names "
                     "data.column_maps gives)",
                 )

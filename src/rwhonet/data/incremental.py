@@ -136,9 +136,13 @@ def read_rows(
     from rwhonet.data.csvio import HEADER_MAX_BYTES, parse_header
 
     pipe = _pipe_reader(stream)
-    header = parse_header(_readline(pipe or stream, HEADER_MAX_BYTES + 1, pipe), file)
+    line, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
+    header = parse_header(line, file)
     lay = layout(header, fmt, column_map, file)
-    return lay, placed(_blocks(stream, lay, file, block_bytes, pipe), StreamClock(period_s))
+    # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
+    # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
+    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest)
+    return lay, placed(blocks, StreamClock(period_s))
 
 
 def _pipe_reader(stream: BinaryIO) -> io.FileIO | None:
@@ -172,22 +176,39 @@ def _wait_readable(stream: io.FileIO) -> None:
         raise_if_interrupted()  # back in Python between waits: a pending handler runs here
 
 
-def _readline(stream: BinaryIO, limit: int, pipe: io.FileIO | None) -> bytes:
-    """The first line (at most ``limit`` bytes); a pipe's is read a byte at a time, as
-    its data arrives, so that no row after it is read ahead."""
+def _header_line(
+    stream: BinaryIO, limit: int, pipe: io.FileIO | None
+) -> tuple[bytes, bytes | None]:
+    """The first line (at most ``limit`` bytes) and, where it ends in a lone CR (classic
+    Mac line ends, no LF in the file), the bytes read after it (else None).
+
+    A pipe's line is read a byte at a time, as its data arrives, so that no row after it
+    is read ahead (after a CR, one byte more: whether an LF follows).
+    """
+    from rwhonet.data.csvio import first_line_end
+
     if pipe is None:
-        return stream.readline(limit)
-    stream = pipe
+        line = stream.readline(limit)
+        end = first_line_end(line)
+        if line[end : end + 1] == b"\r" and line[end + 1 : end + 2] != b"\n":
+            return line[: end + 1], line[end + 1 :]
+        return line, None
     line = bytearray()
     while len(line) < limit:
-        _wait_readable(stream)
-        byte = stream.read(1)
+        _wait_readable(pipe)
+        byte = pipe.read(1)
         if not byte:
             break
         line += byte
-        if byte == b"\n":
+        if byte == b"\r":
+            _wait_readable(pipe)
+            after = pipe.read(1)
+            if after != b"\n":
+                return bytes(line), after
+            line += after
+        if line.endswith(b"\n"):
             break
-    return bytes(line)
+    return bytes(line), None
 
 
 def placed(
@@ -361,18 +382,20 @@ def _blocks(
     file: str,
     block_bytes: int,
     pipe: io.FileIO | None = None,
+    cr_rest: bytes | None = None,
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     # read1: what a buffered file has, without waiting; a raw pipe's read() returns what
     # the pipe has (the generator holds ``stream``, which owns the pipe's descriptor)
     read = pipe.read if pipe is not None else getattr(stream, "read1", stream.read)
-    row, pending = 1, b""
+    cr = cr_rest is not None  # lines end in a lone CR: read as LF (blank lines are skipped)
+    row, pending = 1, (cr_rest or b"").replace(b"\r", b"\n")
     while True:
         if pipe is not None:
             _wait_readable(pipe)
         chunk = read(block_bytes)
         if not chunk:
             break
-        pending += chunk
+        pending += chunk.replace(b"\r", b"\n") if cr else chunk
         end = pending.rfind(b"\n")
         if end < 0:
             continue
