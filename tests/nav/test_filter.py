@@ -415,3 +415,28 @@ def test_the_fixes_log_score_is_highest_for_the_gyro_figure_the_drives_were_draw
         wheels.add(run(inputs, dataclasses.replace(cfg, gyro=b), "wheels").fix_logpdf.sum())
     assert total[1.0] > max(total[0.5], total[2.0]) + 50.0, total
     assert len(wheels) == 1
+
+
+@pytest.mark.parametrize("control", ["wheels", "gyro", "fused"])
+def test_a_second_s_added_yaw_variance_widens_the_heading_by_it(control):
+    """``yaw_var_rad2`` (a second whose yaw was drawn across a logger's gap): zeros change
+    nothing; a variance v on one second's gyro yaw, with no fix to correct it, widens the
+    heading's variance by about v (the wheels' yaw is read through their model, scale and
+    load term, so there it widens by less; fused, the two sensors share it)."""
+    cfg, inputs = _straight_with_bias(0.0, np.random.default_rng(8), w=3, n=200)
+    fe, fn = inputs.fix_e_m.copy(), inputs.fix_n_m.copy()
+    fe[:, 150:] = fn[:, 150:] = np.nan  # an outage from second 149 on
+    inputs = dataclasses.replace(inputs, fix_e_m=fe, fix_n_m=fn)
+    plain = run(inputs, cfg, control, keep_cov=True)
+    zeros = run(dataclasses.replace(inputs, yaw_var_rad2=np.zeros((3, 200))), cfg, control)
+    np.testing.assert_array_equal(zeros.x, plain.x)
+    extra = np.zeros((3, 200))
+    extra[:, 160] = 0.05**2
+    wide = run(dataclasses.replace(inputs, yaw_var_rad2=extra), cfg, control, keep_cov=True)
+    np.testing.assert_array_equal(wide.x[:, :160], plain.x[:, :160])
+    grown = wide.cov[:, -1, 2, 2] - plain.cov[:, -1, 2, 2]
+    if control == "gyro":
+        np.testing.assert_allclose(grown, 0.05**2, rtol=0.05)
+    assert np.all(grown > 0.1 * 0.05**2) and np.all(grown < 1.05 * 0.05**2)
+    with pytest.raises(ValueError, match="yaw_var_rad2"):
+        dataclasses.replace(inputs, yaw_var_rad2=np.zeros((3, 5)))

@@ -468,3 +468,78 @@ def test_the_summary_says_wheels_where_the_yaw_column_has_no_value(bundle):
         {"file": "f.csv", "rows": 2601, "seconds": 260, "outages": stream.summary()}
     )
     assert "yaw: gyro + wheels, wheels alone in 32 s without one)" in line, line
+
+
+def _with_gap(df: pd.DataFrame, start_s: float, length_s: float) -> pd.DataFrame:
+    """``df`` without its rows from ``start_s`` (s after its first row) for ``length_s``."""
+    el = df["t_s"] - df["t_s"].iloc[0]
+    return df[~((el > start_s) & (el < start_s + length_s))].reset_index(drop=True)
+
+
+@pytest.mark.parametrize("yaw", [True, False])
+@pytest.mark.parametrize("sizes", [[100_000], [333] * 20, [7] * 5000])
+def test_a_logger_gap_inside_an_outage_is_bridged_not_the_end_of_the_position(bundle, yaw, sizes):
+    """A 2 s logger gap 60 s into an outage: the filter went back to waiting for a GNSS
+    course, so the outage's remaining 58 s had no position; now it goes on across."""
+    model = load_served(bundle["model_onnx"])
+    df = _straight(300.0, yaw=yaw)
+    gapped = _with_gap(df, 160.05, 2.0)
+    plain, _ = stream_all(model, blocks_of(df, [100_000]), [Outage(100, 220)])
+    out, stream = stream_all(model, blocks_of(gapped, sizes), [Outage(100, 220)])
+    inside = out["outage"] == "100:220"
+    assert inside.sum() == 120 - 3  # the seconds the gap cut give no row
+    for col in POSITION_COLUMNS:
+        assert np.isfinite(out[col][inside]).all(), col
+    assert stream.gaps == [
+        {
+            "from_s": pytest.approx(160.0),
+            "gap_s": pytest.approx(2.1),
+            "bridged": True,
+            "filtering": True,
+        }
+    ]
+    # straight on at a steady speed: where the gapless drive's filter puts the car
+    end = stream.summary()[0]
+    ref = plain["outage"] == "100:220"
+    assert end["east_end_m"] == pytest.approx(plain["east_m"][ref][-1], abs=0.5)
+    assert end["north_end_m"] == pytest.approx(plain["north_m"][ref][-1], abs=0.5)
+    assert end["pos_err_end_m"] < 5.0
+    text = render_summary(
+        {"file": "t.csv", "rows": 1, "seconds": 1, "outages": [end]}
+        | {"gaps": stream.gaps, "max_gap_s": 0.5}
+    )
+    assert "logger gap: 1 time step(s) longer than 0.5 s" in text
+    assert "2.1 s after 160 s (the position carried across)" in text
+
+
+def test_a_bridge_widens_the_region_by_how_fast_the_drive_turned(bundle):
+    """The same gap on a weaving drive: the line across it may miss the turn, so the
+    region after it is wider than the gapless drive's, and still holds the fix."""
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(300)
+    gapped = _with_gap(df, 160.05, 2.0)
+    plain, _ = stream_all(model, blocks_of(df, [100_000]), [Outage(100, 200)])
+    out, stream = stream_all(model, blocks_of(gapped, [100_000]), [Outage(100, 200)])
+    assert stream.gaps[0]["bridged"]
+    a, b = plain["outage"] == "100:200", out["outage"] == "100:200"
+    assert out["r95_m"][b][-1] > plain["r95_m"][a][-1]
+    assert out["pos_err_m"][b][-1] < out["r95_m"][b][-1]
+
+
+def test_a_gap_longer_than_the_bridge_starts_the_filter_afresh(bundle):
+    from rwhonet.serve.stream import BRIDGE_MAX_S
+
+    model = load_served(bundle["model_onnx"])
+    gapped = _with_gap(_straight(300.0), 160.05, BRIDGE_MAX_S + 2.0)
+    out, stream = stream_all(model, blocks_of(gapped, [100_000]), [Outage(100, 220)])
+    inside = out["outage"] == "100:220"
+    after = inside & (out["elapsed_s"] > 160.0)
+    assert (
+        np.isfinite(out["east_m"][inside & ~after]).all() and np.isnan(out["east_m"][after]).all()
+    )
+    assert [g["bridged"] for g in stream.gaps] == [False] and stream.gaps[0]["filtering"]
+    text = render_summary(
+        {"file": "t.csv", "rows": 1, "seconds": 1, "outages": []}
+        | {"gaps": stream.gaps, "max_gap_s": 0.5}
+    )
+    assert "(the position filter started afresh)" in text and "waits for the next course" in text

@@ -27,7 +27,7 @@ import numpy as np
 
 from rwhonet.data.glitches import WHEEL_GLITCH_G, YAW_RATE_LIMIT_RAD_S
 from rwhonet.errors import InputError, Problem
-from rwhonet.serve.stream import COLUMNS, Outage, SecondStream
+from rwhonet.serve.stream import BRIDGE_MAX_S, COLUMNS, Outage, SecondStream
 
 STDIO = "-"
 # Seconds held back, at most, while the wheel-unit check waits for GNSS: a live stream that
@@ -313,6 +313,8 @@ def run(
         "file": name,
         "glitches": stream.glitches,
         "backwards_s": list(stream.backwards_s),
+        "gaps": list(stream.gaps),
+        "max_gap_s": max_gap_s,
         "stream_glitches": list(stream_glitches or []),
         "drive_notes": list(drive_notes),
         "unit_note": unit_note,
@@ -450,6 +452,40 @@ def reversing_lines(elapsed_s: list[float]) -> list[str]:
     ]
 
 
+def gap_lines(gaps: list[dict[str, Any]], max_gap_s: float, listed: int = 5) -> list[str]:
+    """A line on the logger's gaps in the rows (``SecondStream.gaps``): where, how long,
+    and whether the navigation filter went on across each."""
+    if not gaps:
+        return []
+
+    def one(g: dict[str, Any]) -> str:
+        text = f"{g['gap_s']:.3g} s after {g['from_s']:.6g} s"
+        if g["bridged"]:
+            return text + " (the position carried across)"
+        if g["filtering"]:
+            return text + " (the position filter started afresh)"
+        return text
+
+    shown = "; ".join(one(g) for g in gaps[:listed])
+    more = f"; and {len(gaps) - listed} more" if len(gaps) > listed else ""
+    lines = [
+        f"logger gap: {len(gaps)} time step(s) longer than {max_gap_s:g} s, each ending a run "
+        f"of seconds (the rows up to the next whole second give no second): {shown}{more}"
+    ]
+    if any(g["bridged"] for g in gaps):
+        lines.append(
+            "  across a gap of at most "
+            f"{BRIDGE_MAX_S:g} s the filter takes the wheel speeds and the yaw rate as "
+            "changing linearly and widens its spread by how fast they changed on this drive"
+        )
+    if any(g["filtering"] and not g["bridged"] for g in gaps):
+        lines.append(
+            "  after a longer gap (or one before the filter had a GNSS course) it waits for "
+            "the next course: inside an outage, no position until the outage ends"
+        )
+    return lines
+
+
 def render_summary(out: dict[str, Any]) -> str:
     """The outage summary printed on stderr."""
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
@@ -457,6 +493,7 @@ def render_summary(out: dict[str, Any]) -> str:
     lines += glitch_lines(out.get("glitches", []), samples=out.get("stream_glitches"))
     lines += [out[k] for k in ("fix_note", "unit_note", "yaw_note") if out.get(k)]
     lines += reversing_lines(out.get("backwards_s", []))
+    lines += gap_lines(out.get("gaps", []), out.get("max_gap_s", math.nan))
     for o in out["outages"]:
         if not o["seconds"]:
             lines.append(f"outage {o['outage']} s: no second of the drive falls in it")

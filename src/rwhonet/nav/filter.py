@@ -259,6 +259,10 @@ class NavInputs:
         gyro_yaw_before_rad: (W,) the gyro's yaw over the second before each window's
             first, rad (a window cut from a longer run; NaN or None: none), for the
             channel's latency (:func:`rwhonet.nav.sensors.lag_compensated`).
+        yaw_var_rad2: (W, n) variance added to each second's yaw measurements, gyro's
+            and wheels' alike, rad² (a second whose yaw was interpolated across a
+            logger's gap: :meth:`rwhonet.serve.navigation.StreamNavigator.bridge`); None:
+            none.
     """
 
     dist_m: np.ndarray
@@ -269,6 +273,7 @@ class NavInputs:
     fix_n_m: np.ndarray
     backwards: np.ndarray | None = None
     gyro_yaw_before_rad: np.ndarray | None = None
+    yaw_var_rad2: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         shape = np.shape(self.dist_m)
@@ -277,8 +282,8 @@ class NavInputs:
         before = self.gyro_yaw_before_rad
         if before is not None and np.shape(before) != shape[:1]:
             raise ValueError(f"gyro_yaw_before_rad is {np.shape(before)}, expected {shape[:1]}")
-        for name in ("dist_var_m2", "wheel_yaw_rad", "gyro_yaw_rad", "backwards"):
-            if name == "backwards" and self.backwards is None:
+        for name in ("dist_var_m2", "wheel_yaw_rad", "gyro_yaw_rad", "backwards", "yaw_var_rad2"):
+            if name in ("backwards", "yaw_var_rad2") and getattr(self, name) is None:
                 continue
             if np.shape(getattr(self, name)) != shape:
                 raise ValueError(f"{name} is {np.shape(getattr(self, name))}, expected {shape}")
@@ -709,6 +714,7 @@ def run(
     )
     gn = cfg.gnss
     r_gyro = cfg.gyro.yaw_sd_rad() ** 2
+    yaw_extra = np.zeros((w, n)) if inputs.yaw_var_rad2 is None else np.asarray(inputs.yaw_var_rad2)
     wheel_var = cfg.wheels.yaw_sd_rad() ** 2 + cfg.wheels.model_sd_rad**2
     phi = np.exp(-1.0 / gn.tau_s)
     q_g = gn.sigma_m**2 * (1.0 - phi * phi)
@@ -802,7 +808,7 @@ def run(
                 h_row = np.zeros((w, S + 1))
                 h_row[:, DELTA], h_row[:, SG], h_row[:, BG] = 1.0 / s_g, -dl / s_g**2, 1.0
                 innov = g_k - (dl / s_g + xa[:, BG])
-                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, np.full(w, r_gyro), on)
+                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r_gyro + yaw_extra[:, k], on)
                 measured |= ok
             if use_wheels:
                 s_w, dl, beta, c = xa[:, SW], xa[:, DELTA], xa[:, BW], xa[:, CW]
@@ -817,7 +823,7 @@ def run(
                 h_row[:, EW] = 1.0
                 h_row[:, BV] = -d * d * c_d2 / s_w
                 innov = wh_k - turn * c_d2 / s_w - xa[:, EW]
-                r = wheel_var + (cfg.wheels.model_rel * np.nan_to_num(wh_k)) ** 2
+                r = wheel_var + (cfg.wheels.model_rel * np.nan_to_num(wh_k)) ** 2 + yaw_extra[:, k]
                 if use_gyro:
                     flip = 2.0 * dl * c_d2 / s_w
                     before = backwards

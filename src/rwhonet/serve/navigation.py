@@ -185,6 +185,9 @@ def variance_fit(sums: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.where(few, ASSUMED_A_M2, a), np.where(few, ASSUMED_B, b)
 
 
+MIN_CHANGES = 30  # second-to-second changes seen before a gap can be bridged (diffusion)
+
+
 @dataclass
 class StreamNavigator:
     """The filter's state between blocks of seconds.
@@ -208,6 +211,15 @@ class StreamNavigator:
     _last_pred: tuple[float, float] = (np.nan, np.nan)
     _last_gyro: float = np.nan  # the gyro's yaw over the last second (its latency's)
     _sums: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    # how fast the speed and the yaw rate change (bridge): the last second's distance and
+    # yaw, then the number of second-to-second changes seen and their sums of squares
+    _prev: tuple[float, float] = (np.nan, np.nan)
+    _changes: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @property
+    def started(self) -> bool:
+        """Whether the filter has a state (it starts on a GNSS course)."""
+        return self._x is not None
 
     @property
     def control(self) -> str:
@@ -219,6 +231,105 @@ class StreamNavigator:
         self._last_fix = self._last_pred = self._last_latlon = (np.nan, np.nan)
         self._last_withheld = False
         self._last_gyro = np.nan
+        self._prev = (np.nan, np.nan)
+
+    def diffusion(self) -> tuple[float, float] | None:
+        """How fast the car's speed and yaw rate wander, from its seconds so far:
+        ``(q_v in m²/s³, q_r in rad²/s³)``, or None before :data:`MIN_CHANGES` changes.
+
+        Taken as Brownian (a random walk of the speed and of the yaw rate), the change
+        between two consecutive seconds' means has variance ``2/3 q``, so ``q`` is 1.5
+        times the mean squared change of the per-second distance and yaw.
+        """
+        n, sv, sr = self._changes
+        if n < MIN_CHANGES:
+            return None
+        return 1.5 * sv / n, 1.5 * sr / n
+
+    def bridge(
+        self,
+        t_s: np.ndarray,
+        omega_rl: np.ndarray,
+        omega_rr: np.ndarray,
+        yaw_rate: np.ndarray | None,
+        end_fix: tuple[float, float],
+        end_withheld: bool,
+    ) -> bool:
+        """Carry the filter across a logger's gap instead of starting afresh.
+
+        The rows run from the end of the last second filtered, across the gap, to the
+        row that starts the next one (the rows on either side are the logger's own; inside
+        the gap the wheels' speeds and the yaw rate are taken as changing linearly). The
+        span is cut into ``round(span)`` steps of about a second, each step's wheel angles
+        and gyro yaw integrated by the trapezoid rule, its distance the rear wheels' travel
+        with the WPM's radii (the model needs whole seconds of rows), and its yaw the gyro's
+        (the wheels' where the drive has no gyro: one line across the gap is one guess of
+        the turn, not two sensors' news). What the line across the gap may miss is added to
+        the steps' variances: a speed and a yaw rate that wander as random walks
+        (:meth:`diffusion`) leave ``q g³ / 12`` on the integral across a gap of ``g`` s
+        (a Brownian bridge's integral), shared out over the steps. The fix ending the span
+        updates the filter unless it is withheld (an outage's).
+
+        Returns:
+            Whether the filter was carried across (False: it had not started, or the drive
+            has not shown how fast its speed changes yet; then it starts afresh).
+        """
+        q = self.diffusion()
+        t = np.asarray(t_s, np.float64)
+        if not self.started or q is None or len(t) < 2:
+            self.reset()
+            return False
+        span = float(t[-1] - t[0])
+        k = max(1, round(span))
+        edges = t[0] + span * np.arange(k + 1) / k
+
+        def per_step(values: np.ndarray) -> np.ndarray:
+            v = np.asarray(values, np.float64)
+            cum = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))]
+            return np.diff(np.interp(edges, t, cum))
+
+        a_rl, a_rr = per_step(np.abs(omega_rl)), per_step(np.abs(omega_rr))
+        r_rl, r_rr = self.radii_m
+        dist = 0.5 * (a_rl * r_rl + a_rr * r_rr)
+        gyro = per_step(yaw_rate) if yaw_rate is not None else np.full(k, np.nan)
+        gaps3 = float(np.sum(np.diff(t) ** 3)) / 12.0 / k  # each step's share
+        a, b = self.variance()
+        lat, lon = (float(v) for v in end_fix)
+        fix = (np.nan, np.nan)  # the fix ending the span, raw, m
+        if self._ref is not None and np.isfinite(lat) and np.isfinite(lon):
+            e, n = offsets_m(*self._ref, np.array([lat]), np.array([lon]))
+            fix = (float(e[0]), float(n[0]))
+        seen_e = np.full(k + 1, np.nan)
+        seen_n = np.full(k + 1, np.nan)
+        if not self._last_withheld:
+            seen_e[0], seen_n[0] = self._last_fix
+        if not end_withheld:
+            seen_e[-1], seen_n[-1] = fix
+        wheels = wheel_yaw_rad(a_rl, a_rr, r_rl, r_rr, self.config.wheels.track_rear_m)
+        # the line across the gap is one guess of the turn, whichever sensor it is drawn
+        # through: the gyro's where it has one, so that its spread is not counted twice
+        wheels = np.where(np.isfinite(gyro), np.nan, wheels)
+        inputs = NavInputs(
+            dist_m=dist[None],
+            dist_var_m2=(a + b * dist**2 + q[0] * gaps3)[None],
+            wheel_yaw_rad=wheels[None],
+            gyro_yaw_rad=gyro[None],
+            fix_e_m=seen_e[None],
+            fix_n_m=seen_n[None],
+            gyro_yaw_before_rad=np.array([self._last_gyro]),
+            yaw_var_rad2=np.full((1, k), q[1] * gaps3),
+        )
+        start = NavStart(self._x[None], self._p[None], np.ones(1, bool))
+        track = run(inputs, self.config, self.control, start=start)
+        self._x, self._p = track.x[0, -1], track.last_cov[0]
+        self._last_fix = fix
+        self._last_latlon = (lat, lon)
+        self._last_withheld = bool(end_withheld)
+        self._last_gyro = float(gyro[-1])
+        pred = track.fix_pred[0, -1]
+        self._last_pred = tuple(float(v[0]) for v in self._latlon(pred[:1], pred[1:]))
+        self._prev = (np.nan, np.nan)  # the steps are not seconds of the drive's own
+        return True
 
     def variance(self) -> tuple[float, float]:
         """``(a, b)`` of the corrected distance's variance so far (module docstring)."""
@@ -271,6 +382,13 @@ class StreamNavigator:
             sec["angle_rl_rad"], sec["angle_rr_rad"], r_rl, r_rr, self.config.wheels.track_rear_m
         )
         gyro = np.asarray(sec["gyro_yaw_rad"], np.float64)
+        # how fast the speed and the yaw change from second to second (bridge)
+        turn = np.where(np.isfinite(gyro), gyro, yaw)
+        chg_d = np.diff(np.r_[self._prev[0], dist])
+        chg_r = np.diff(np.r_[self._prev[1], turn])
+        ok = np.isfinite(chg_d) & np.isfinite(chg_r)
+        self._changes += (ok.sum(), np.sum(chg_d[ok] ** 2), np.sum(chg_r[ok] ** 2))
+        self._prev = (float(dist[-1]), float(turn[-1])) if n else self._prev
         # the filter sees the fixes of the seconds outside the outages, and the fix that
         # starts the block unless the second that ended on it was an outage's
         seen_e = np.r_[self._last_fix[0], np.where(withheld, np.nan, fix_e)]

@@ -72,6 +72,11 @@ from rwhonet.serve.navigation import PositionCalibration, StreamNavigator
 if TYPE_CHECKING:  # built by rwhonet.cli.predict (data checks stay out of this import)
     from rwhonet.data.drivechecks import StreamRadiusCheck
 
+# A logger's gap of rows is bridged by the navigation filter up to this span (from the
+# last whole second before it to the first after it; StreamNavigator.bridge), s: the
+# dropouts of a CAN logger (a bus-off recovery, a storage stall) are a few seconds; over a
+# longer one the line drawn across it says little of where the car turned.
+BRIDGE_MAX_S = 10.0
 SPAN_TOLERANCE_S = 0.5  # ten rows span 1 s +/- this (rwhonet.features.seconds.SPAN_TOLERANCE_S)
 COLUMNS = (
     "t_s",
@@ -203,6 +208,9 @@ class SecondStream:
     _anchored: bool = False
     _t0: float | None = None
     _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
+    # the rows from the last second's end to a gap, until the next run's first second
+    _across: dict[str, np.ndarray] | None = None
+    gaps: list[dict[str, float | bool]] = field(default_factory=list)  # gaps met (_bridge)
     totals: dict[str, _Totals] = field(default_factory=dict)
     glitches: list[dict[str, float | int | str]] = field(default_factory=list)
     _yaw_counts: list[int] = field(default_factory=lambda: [0, 0])  # samples, beyond the limit
@@ -257,7 +265,10 @@ class SecondStream:
                 later = np.flatnonzero(t > whole)
                 if not len(later):
                     break  # the anchor is not in yet
-                self._drop(int(later[0]) - 1)
+                anchor = int(later[0]) - 1
+                if self._across is not None:  # a gap behind: the filter across it
+                    self._bridge({k: v[: anchor + 1] for k, v in self._rows.items()})
+                self._drop(anchor)
                 self._anchored, self._history = True, None
                 continue
             steps = np.diff(t)
@@ -269,14 +280,55 @@ class SecondStream:
                 self._drop(n_sec * ROWS_PER_SECOND)
                 continue
             if len(gap):
-                self._drop(int(gap[0]) + 1)  # the next run starts after the gap
+                # the next run starts after the gap; the filter goes on across it (or
+                # starts afresh) when the next run's first second is found
+                self._across = {k: v[: int(gap[0]) + 1] for k, v in self._rows.items()}
+                self._drop(int(gap[0]) + 1)
                 self._anchored = False
-                self._navigator.reset()  # and the filter with it
                 continue
             break
         if not parts:
             return empty_block()
         return {name: np.concatenate([p[name] for p in parts]) for name in COLUMNS}
+
+    def _bridge(self, after: dict[str, np.ndarray]) -> None:
+        """The filter across a gap in the rows: ``self._across`` (from the last second's
+        end to the gap) and ``after`` (from the gap to the next run's first second).
+
+        A gap of at most :data:`BRIDGE_MAX_S` while an outage is still to come is bridged
+        (:meth:`rwhonet.serve.navigation.StreamNavigator.bridge`); a longer one, or one
+        before the filter has started, starts it afresh (it waits for a GNSS course, so
+        inside an outage it gives no position until the outage ends). Each gap is listed
+        in ``self.gaps``.
+        """
+        before, self._across = self._across, None
+        rows = {k: np.concatenate([before[k], after[k]]) for k in self._keys}
+        t = rows[c.T_S]
+        steps = np.diff(t)
+        i = int(np.argmax(steps)) if len(steps) else 0
+        elapsed = float(t[-1] - self._t0)
+        ahead = bool(self.outages) and elapsed <= max(o.end_s for o in self.outages)
+        bridged = False
+        if ahead and float(t[-1] - t[0]) <= BRIDGE_MAX_S:
+            inside = any(o.start_s < elapsed <= o.end_s for o in self.outages)
+            bridged = self._navigator.bridge(
+                t,
+                rows[c.OMEGA_RL],
+                rows[c.OMEGA_RR],
+                rows.get(c.YAW_RATE_RAD_S),
+                (float(rows[c.LAT_DEG][-1]), float(rows[c.LON_DEG][-1])),
+                inside,
+            )
+        else:
+            self._navigator.reset()
+        self.gaps.append(
+            {
+                "from_s": float(t[i] - self._t0) if len(steps) else elapsed,
+                "gap_s": float(steps[i]) if len(steps) else 0.0,
+                "bridged": bridged,
+                "filtering": ahead,
+            }
+        )
 
     def _repair_glitches(
         self, first_row: int, columns: dict[str, np.ndarray]
