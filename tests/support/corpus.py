@@ -979,6 +979,19 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "latlon_swapped_told_by_the_turns",
+    "latitude and longitude swapped on a weaving drive: every turn of the course mirrored",
+    Refuse(
+        "validate", None, " Lat /  Long", "the latitude in ' Lat'", "times with the two exchanged"
+    ),
+)
+def _(raw: Path) -> None:
+    df = weaving_target()
+    df[[c.LAT_DEG, c.LON_DEG]] = df[[c.LON_DEG, c.LAT_DEG]].to_numpy()
+    write_target(raw, df)
+
+
+@case(
     "yaw_rate_in_rad_s",
     "a turning drive whose yaw-rate column (deg/s by the layout) holds rad/s",
     Refuse("validate", None, YAW_COLUMN, "in the declared unit", "rad/s where deg/s"),

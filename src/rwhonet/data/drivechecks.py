@@ -35,6 +35,7 @@ from rwhonet.data.glitches import (
 from rwhonet.data.plausibility import (
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
+    YawEstimate,
     gnss_path_m,
     implied_radius,
     latlon_swapped_by_range,
@@ -339,6 +340,21 @@ def yaw_problems(
         }
     if mistake is None:
         return [], record
+    swapped = swapped_fixes_gain(df, segments, vp)
+    # Exchanged, the fixes mirror the track (east for north, each axis scaled as the
+    # meridians converge), which a clockwise gyro mimics: a swap is named only where it
+    # explains the turns better than a clockwise gyro does (a clockwise gyro on a drive
+    # near Coventry gave -0.999 as the columns are, 0.83 exchanged; swapped fixes there
+    # -0.74 as they are, 1.003 exchanged).
+    if swapped is not None and abs(swapped.gain - 1.0) < abs(est.gain + 1.0):
+        record["swapped_gain"] = swapped.gain
+        evidence = (
+            f"the GNSS course turned {est.gain:.4g} ± {est.gain_se:.2g} times what the yaw "
+            f"rate says as the columns are, and {swapped.gain:.4g} ± {swapped.gain_se:.2g} "
+            "times with the two exchanged (exchanged, they mirror the track: every turn goes "
+            "the other way)"
+        )
+        return [_swapped_problem(entry, None, None, None, evidence)], record
     column = entry["columns"].get(c.YAW_RATE_RAD_S, c.YAW_RATE_RAD_S)
     gain = (
         "it never changes"
@@ -361,6 +377,27 @@ def yaw_problems(
             "yaw rate",
         )
     ], record
+
+
+def swapped_fixes_gain(
+    df: Mapping[str, Any], segments: Sequence[Segment], vp: ValidateParams
+) -> YawEstimate | None:
+    """The yaw estimate with latitude and longitude exchanged, where that one passes.
+
+    Asked when the yaw rate disagrees with the course: latitude and longitude written
+    the other way round mirror the track (east for north), so every turn of the course
+    goes the other way and the yaw check takes the gyro for a clockwise one. None: the
+    exchanged values are no latitudes, or the course exchanged does not agree either.
+    """
+    lat = np.asarray(df[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(df[c.LON_DEG], dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        if not np.isfinite(lon).any() or np.nanmax(np.abs(lon)) > 90.0:
+            return None
+    exchanged = {k: df[k] for k in (c.T_S, c.YAW_RATE_RAD_S)} | {c.LAT_DEG: lon, c.LON_DEG: lat}
+    est = yaw_gain(exchanged, segments, YAW_MIN_STEP_M, vp.sample_period_s)
+    checked, mistake = yaw_mistake(est, vp.yaw_gain_tolerance)
+    return est if checked and mistake is None else None
 
 
 @np.errstate(invalid="ignore", over="ignore", divide="ignore")
@@ -563,8 +600,8 @@ class StreamRadiusCheck:
                 if yawed:
                     raise InputError(
                         yawed,
-                        f"{self.entry['source_file']}: a yaw rate that does not turn as the "
-                        "GNSS course does (validate's yaw-rate check)",
+                        f"{self.entry['source_file']}: a yaw rate and a GNSS course that do "
+                        "not turn alike (validate's yaw-rate check)",
                     )
         if problems:
             raise InputError(
@@ -606,11 +643,15 @@ def _swapped_problem(
     radius_m: float | None,
     swapped_m: float | None,
     nominal_m: float | None,
+    evidence: str | None = None,
 ) -> Problem:
-    """Latitude and longitude look swapped (by the radius they imply, or by their ranges)."""
+    """Latitude and longitude look swapped (by the radius they imply, by their ranges, or
+    by the way the course turns against the yaw rate: ``evidence``)."""
     columns = entry["columns"]
     lat, lon = columns.get(c.LAT_DEG, c.LAT_DEG), columns.get(c.LON_DEG, c.LON_DEG)
-    if radius_m is None:
+    if evidence is not None:
+        pass
+    elif radius_m is None:
         evidence = (
             f"most values of {lat!r} lie beyond ±90 deg and every value of {lon!r} within ±90 deg"
         )
