@@ -436,7 +436,7 @@ class SecondStream:
                     first_row + int(i),
                     self.names.get(name, name),
                     "a number (time and wheel speeds cannot be missing)",
-                    repr(columns[name][i]),
+                    _found(columns[name][i]),
                 )
                 for i in bad[:5]
             ]
@@ -463,7 +463,7 @@ class SecondStream:
                 first_row + int(i) - len(before) + 1,
                 self.names.get(c.T_S, c.T_S),
                 "a time after the previous row's",
-                f"{t[i - len(before) + 1]!r}",
+                _found(t[i - len(before) + 1]),
             )
             for i in back[:5]
         ]
@@ -681,6 +681,12 @@ class SecondStream:
                 }
             )
         return rows
+
+
+def _found(value: float) -> str:
+    """A cell's value as a message shows it: the number (not numpy's repr), or empty."""
+    value = float(value)
+    return "an empty cell (or NaN)" if math.isnan(value) else repr(value)
 
 
 def empty_block() -> dict[str, np.ndarray]:
