@@ -860,3 +860,45 @@ def test_predict_takes_a_jumped_or_frozen_fix_as_no_fix_as_validate_cuts_it(
     err = capsys.readouterr().err
     assert out["bad"].read_text() == out["empty"].read_text()
     assert "34 row(s) taken as without a GNSS fix, as validate cuts them: 3 implying" in err
+
+
+WHEEL_SENSOR_RULES = ("each wheel turning", "follow the GNSS speed", "change with", ">= 0")
+
+
+def _wheel_sensor_cases():
+    from support.corpus import CASES, Accept, Refuse
+
+    refused = [
+        x
+        for x in CASES
+        if isinstance(x.expect, Refuse)
+        and x.expect.stage == "validate"
+        and any(rule in x.expect.expected for rule in WHEEL_SENSOR_RULES)
+        and not x.overrides
+    ]
+    signed = [x for x in CASES if x.name in ("signed_wheel_speeds", "reversing")]
+    assert len(refused) >= 5 and all(isinstance(x.expect, Accept) for x in signed)
+    return refused + signed
+
+
+@pytest.mark.parametrize("case", _wheel_sensor_cases(), ids=lambda x: x.name)
+def test_predict_refuses_the_wheel_sensors_validate_refuses(case, bundle, tmp_path, capsys):
+    """A negated column, a stuck or silent wheel, stale values: predict wrote them on
+    (a negated drive driven backwards, 2 km off at the end of a 60 s outage; a stuck wheel
+    made the corrected CRSE ten times the WPM's) where validate refuses them; now it exits
+    2 naming what validate names, and writes nothing. A signing logger's reverse passes."""
+    from support.corpus import TARGET_RADIUS_M, Refuse, target_path
+
+    raw = tmp_path / "raw"
+    case.write(raw)
+    out = tmp_path / "out.csv"
+    args = predict_args(bundle, target_path(raw), out, "--nominal-radius", str(TARGET_RADIUS_M))
+    code = main(args)
+    err = capsys.readouterr().err
+    if not isinstance(case.expect, Refuse):
+        assert code == 0 and out.exists(), err
+        return
+    assert code == 2 and not out.exists() and list(tmp_path.glob(".*partial")) == []
+    assert "validate's wheel-sensor checks" in err, err
+    assert f"row {case.expect.row}, column '{case.expect.column}'" in err, err
+    assert case.expect.expected in err and case.expect.found in err, err

@@ -101,7 +101,8 @@ def check_drive(
         glitch, glitches = wheel_glitches(df, entry, params.nominal_radius_m(entry["vehicle"]))
         found = _glitches_out_of_range(found, df, glitch, entry["columns"], vp)
         result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts, wheel_glitch=glitch)
-        wheels = _wheel_problems(params, entry, df, drive_cuts, result)
+        nominal = params.nominal_radius_m(entry["vehicle"])
+        wheels = wheel_problems(params.validate, nominal, entry, df, drive_cuts, result)
         wheels += _glitch_problems(entry, df, glitch, glitches, vp.sample_period_s)
         more, units = _drive_problems(params, entry, df, result, check_units=not wheels)
         found = found + wheels + more
@@ -542,6 +543,7 @@ class StreamRadiusCheck:
         self.decided = self.yaw_decided = False
         self.note: str | None = None
         self.yaw_note: str | None = None
+        self.wheel_parts: list[dict[str, np.ndarray]] = []  # every row, for finish()
 
     def push(self, columns: Mapping[str, np.ndarray]) -> bool:
         """Add rows; return whether the checks have decided.
@@ -550,6 +552,7 @@ class StreamRadiusCheck:
             InputError: the wheel speeds do not fit the nominal radius against GNSS, or the
                 yaw rate does not turn as the GNSS course does.
         """
+        self.wheel_parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS})
         if self.decided and self.yaw_decided:
             return True
         if self.keys is None:
@@ -568,7 +571,30 @@ class StreamRadiusCheck:
         """
         if not (self.decided and self.yaw_decided):
             self._try(final=True)
+        self._wheel_sensors()
         return self.note
+
+    def _wheel_sensors(self) -> None:
+        """validate's wheel-sensor checks on the whole drive (:func:`wheel_problems`: a
+        negated column, a stuck or silent wheel, stale values), at its end.
+
+        Raises:
+            InputError: as validate refuses the drive.
+        """
+        parts, self.wheel_parts = self.wheel_parts, []
+        if not parts:
+            return
+        rows = {k: np.concatenate([p[k] for p in parts]) for k in self.KEYS}
+        fix = np.isfinite(rows[c.LAT_DEG]) & np.isfinite(rows[c.LON_DEG])
+        result = assess(rows, self.vp.gnss, self.vp.sample_period_s, wheel_glitch=~fix)
+        entry = {"drive": self.entry["source_file"]} | self.entry
+        problems = wheel_problems(self.vp, self.nominal_m, entry, rows, [], result)
+        if problems:
+            raise InputError(
+                problems,
+                f"{self.entry['source_file']}: wheel speeds validate refuses (validate's "
+                "wheel-sensor checks: sign, stuck or silent wheels)",
+            )
 
     def _try(self, final: bool) -> None:
         if not self.parts:  # a drive that ended without a row: nothing to tell
@@ -684,15 +710,24 @@ def _swapped_by_range(
 
 
 @np.errstate(invalid="ignore", over="ignore", divide="ignore")
-def _wheel_problems(
-    params: Params,
+def wheel_problems(
+    vp: ValidateParams,
+    nominal_m: float,
     entry: dict[str, Any],
     df: Mapping[str, np.ndarray],
     drive_cuts: list[CutSpec],
     result: Assessment,
 ) -> list[Problem]:
-    """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all."""
-    vp = params.validate
+    """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all.
+
+    Args:
+        vp: ``validate``.
+        nominal_m: the car's nominal tyre radius, m.
+        entry: ``source_file``, ``columns`` (canonical -> the file's name), ``drive``.
+        df: the canonical drive.
+        drive_cuts: its manual cuts (``validate.cuts``).
+        result: validate's GNSS assessment of it.
+    """
     file, columns = entry["source_file"], entry["columns"]
     ignore = manual_rows(np.asarray(df[c.T_S], dtype=np.float64), drive_cuts)
     problems = []
@@ -812,8 +847,7 @@ def _wheel_problems(
             "stale wheel data",
         )
 
-    nominal = params.nominal_radius_m(entry["vehicle"])
-    runs = wheel_gnss_runs(df, result.segments, nominal, vp.wheels, vp.sample_period_s, ignore)
+    runs = wheel_gnss_runs(df, result.segments, nominal_m, vp.wheels, vp.sample_period_s, ignore)
     for found, problem in zip(runs, (silent, stale), strict=True):
         problems += stretch_problems(found, problem)
     return problems
