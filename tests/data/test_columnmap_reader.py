@@ -79,3 +79,39 @@ def test_check_column_map_lists_every_issue():
     assert "data.column_maps.cupac.lon: missing" in text
     assert "data.column_maps.cupac.t.unit: expected one of ['s', 'ms'], got 'min'" in text
     assert "data.column_maps.cupac.omega_rr.unit" in text and "'km/h'" in text
+
+
+@pytest.mark.parametrize(
+    ("header_unit", "declared", "refused"),
+    [
+        ("(rpm)", "rpm", False),
+        ("(rpm)", "rad/s", True),
+        (" [rad/s]", "rpm", True),
+        ("", "rad/s", False),
+    ],
+)
+def test_a_unit_the_header_names_must_be_the_one_the_map_declares(
+    tmp_path, header_unit, declared, refused
+):
+    """'WheelSpeedRL (rpm)' mapped as rad/s: the map's unit was taken, the header's not read."""
+    text = FIXTURE.read_text().replace("WheelSpeedRL", f"WheelSpeedRL{header_unit}", 1)
+    path = tmp_path / "C-U.csv"
+    path.write_text(text)
+    cmap = cupac_map(omega_rl=("WheelSpeedRL", declared))
+    if not refused:
+        read_columnmap(path, cmap, "cupac")
+        return
+    with pytest.raises(InputError) as err:
+        read_columnmap(path, cmap, "cupac")
+    (problem,) = err.value.problems
+    assert problem.column == f"WheelSpeedRL{header_unit}" and problem.row is None
+    assert f"data.column_maps.cupac.omega_rl.unit declares, {declared!r}" in problem.expected
+    assert "the header names the column's unit" in problem.found
+
+
+def test_a_clockwise_gyro_s_declared_unit_matches_its_header_s():
+    from rwhonet.data.columnmap import columnmap_positions
+
+    header = ["t (s)", "lat", "lon", "fl", "fr", "rl", "rr", "Yaw Rate (deg/s)"]
+    cmap = {"yaw_rate": ColumnSpec("Yaw Rate", "deg/s cw"), "lat": ColumnSpec("lat", "deg")}
+    assert columnmap_positions(header, cmap, "m", "f.csv") == {"yaw_rate": 7, "lat": 1}

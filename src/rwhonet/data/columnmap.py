@@ -18,7 +18,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive, read_header, read_numeric
-from rwhonet.data.headers import header_key
+from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.timebase import unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -149,6 +149,25 @@ def columnmap_positions(
     ]
     if problems:
         raise InputError(problems, summary=f"missing column(s) in {file}")
+    # A header that names its unit ("Wheel Speed RL (rpm)") against a map that declares
+    # another: one of the two is wrong, and a factor of 9.5 or 57 goes unseen otherwise
+    for key, pos in found.items():
+        said = unit_name(header_key(header[pos])[1])
+        declared = column_map[key].unit
+        if said is not None and said != unit_name(declared.removesuffix(" cw")):
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    header[pos],
+                    f"the unit data.column_maps.{name}.{key}.unit declares, {declared!r}",
+                    f"the header names the column's unit {said!r}",
+                    f"set data.column_maps.{name}.{key}.unit to the column's unit (one of "
+                    f"{sorted(KEYS[key][1])}), or correct the header",
+                )
+            )
+    if problems:
+        raise InputError(problems, summary=f"units in {file} that the column map contradicts")
     return {key: pos for key, pos in found.items() if pos is not None}
 
 
