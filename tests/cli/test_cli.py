@@ -902,3 +902,26 @@ def test_predict_refuses_the_wheel_sensors_validate_refuses(case, bundle, tmp_pa
     assert "validate's wheel-sensor checks" in err, err
     assert f"row {case.expect.row}, column '{case.expect.column}'" in err, err
     assert case.expect.expected in err and case.expect.found in err, err
+
+
+def test_predict_refuses_a_wheel_s_invalid_code_held_for_seconds(bundle, tmp_path, capsys):
+    """655.35 rad/s (a 16-bit signal's full scale at 0.01 rad/s) held 5 s on the rear-left
+    wheel: the glitch repair interpolates only towards it, and predict wrote the rest on
+    (the WPM's CRSE 405 m over a 60 s outage). Now validate's range check refuses it, naming
+    the file's value; a one-row spike of it is still repaired."""
+    from support.drives import write_iovnbd
+    from support.serving import wavy_drive
+
+    df = wavy_drive(120)
+    held = df.copy()
+    held.loc[700:749, "omega_rl_rad_s"] = 655.35
+    out = tmp_path / "held.csv"
+    assert main(predict_args(bundle, write_iovnbd(held, tmp_path / "V-Held.csv"), out)) == 2
+    err = capsys.readouterr().err
+    assert "validate.max_abs_wheel_speed_rad_s" in err and "found 655.35 rad/s" in err, err
+    assert "Wheel Speed Rear Left" in err and not out.exists()
+    spike = df.copy()
+    spike.loc[700, "omega_rl_rad_s"] = 655.35
+    path = write_iovnbd(spike, tmp_path / "V-Spike.csv")
+    assert main(predict_args(bundle, path, tmp_path / "spike.csv")) == 0
+    assert "wheel glitch: 1 sample(s)" in capsys.readouterr().err

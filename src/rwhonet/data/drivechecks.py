@@ -544,15 +544,26 @@ class StreamRadiusCheck:
         self.note: str | None = None
         self.yaw_note: str | None = None
         self.wheel_parts: list[dict[str, np.ndarray]] = []  # every row, for finish()
+        self.n_wheel_rows = 0  # rows pushed (the range check's row numbers)
+        self.range_problems: list[Problem] = []  # each wheel's first row out of range
 
-    def push(self, columns: Mapping[str, np.ndarray]) -> bool:
+    def push(
+        self, columns: Mapping[str, np.ndarray], raw: Mapping[str, np.ndarray] | None = None
+    ) -> bool:
         """Add rows; return whether the checks have decided.
 
+        Args:
+            columns: the rows (their wheel glitches repaired).
+            raw: the same rows as the file has them, for the range check's report (None:
+                ``columns``).
+
         Raises:
-            InputError: the wheel speeds do not fit the nominal radius against GNSS, or the
-                yaw rate does not turn as the GNSS course does.
+            InputError: a wheel speed beyond ``validate.max_abs_wheel_speed_rad_s``, the
+                wheel speeds do not fit the nominal radius against GNSS, or the yaw rate
+                does not turn as the GNSS course does.
         """
         self.wheel_parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS})
+        self._in_range(self.wheel_parts[-1], columns if raw is None else raw)
         if self.decided and self.yaw_decided:
             return True
         if self.keys is None:
@@ -571,8 +582,55 @@ class StreamRadiusCheck:
         """
         if not (self.decided and self.yaw_decided):
             self._try(final=True)
+        self._refuse_range()
         self._wheel_sensors()
         return self.note
+
+    def _in_range(self, rows: Mapping[str, np.ndarray], raw: Mapping[str, np.ndarray]) -> None:
+        """validate's range check of the wheel speeds, on the rows as they come.
+
+        The stream has repaired its glitches (a one-row spike) before; what is left out
+        of range (a CAN signal's invalid code held for seconds, 655.35 rad/s at full
+        scale, which the stream's glitch repair can only interpolate towards) is refused
+        as validate refuses it.
+
+        Raises:
+            InputError: naming each wheel's first row beyond the limit after the repair,
+                with the value the file has there.
+        """
+        limit = self.vp.max_abs_wheel_speed_rad_s
+        first = self.n_wheel_rows + 1
+        self.n_wheel_rows += rows[c.T_S].size
+        problems = []
+        for w in c.WHEELS:
+            with np.errstate(invalid="ignore"):
+                bad = np.flatnonzero(np.abs(rows[w]) >= limit)
+            problems += [
+                Problem(
+                    self.entry["source_file"],
+                    first + int(i),
+                    self.entry["columns"].get(w, w),
+                    f"|wheel speed| < {limit:g} rad/s (validate.max_abs_wheel_speed_rad_s)",
+                    f"{float(raw[w][i]):.6g} rad/s",
+                    "a value a wheel cannot turn at: a signal's invalid code or a unit mistake; "
+                    "export the wheel speeds without it (an empty cell stops predict too)",
+                )
+                for i in bad[:1]
+            ]
+        # a unit mistake (rpm for rad/s) puts whole drives out of range: the unit check
+        # names it, so the range refusal waits for its decision as validate's report has it
+        seen = {p.column for p in self.range_problems}
+        self.range_problems += [p for p in problems if p.column not in seen]
+        if self.decided:
+            self._refuse_range()
+
+    def _refuse_range(self) -> None:
+        if self.range_problems:
+            raise InputError(
+                self.range_problems,
+                f"{self.entry['source_file']}: wheel speeds beyond any tyre's (validate's "
+                "range check)",
+            )
 
     def _wheel_sensors(self) -> None:
         """validate's wheel-sensor checks on the whole drive (:func:`wheel_problems`: a
@@ -637,6 +695,7 @@ class StreamRadiusCheck:
             )
         if not self.decided and (record["checked"] or final):
             self.decided = True
+            self._refuse_range()
             if not record["checked"]:
                 self.note = self._why_not(fix.any(), record)
         if not self.yaw_decided and (yaw_record["checked"] or final):

@@ -242,9 +242,9 @@ class SecondStream:
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none)."""
         self._check(first_row, columns)
-        columns = self._repair_glitches(first_row, columns)
+        raw, columns = columns, self._repair_glitches(first_row, columns)
         if self.unit_check is not None:
-            self.unit_check.push(columns)
+            self.unit_check.push(columns, raw)
         columns = self._repair_yaw(first_row, columns)
         if self._rows is None:
             self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
