@@ -98,11 +98,11 @@ def check_drive(
     found = _swapped_by_range(schema_found, df, entry)
     result = units = glitches = None
     if not found or _only_wheel_ranges(found, df, entry["columns"]):
-        glitch, glitches = wheel_glitches(df, entry, params.nominal_radius_m(entry["vehicle"]))
+        nominal = params.nominal_radius_m(entry["vehicle"])
+        glitch, glitches = wheel_glitches(df, entry, nominal)
         found = _glitches_out_of_range(found, df, glitch, entry["columns"], vp)
         result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts, wheel_glitch=glitch)
-        nominal = params.nominal_radius_m(entry["vehicle"])
-        wheels = wheel_problems(params.validate, nominal, entry, df, drive_cuts, result)
+        wheels = wheel_problems(vp, nominal, entry, df, drive_cuts, result)
         wheels += _glitch_problems(entry, df, glitch, glitches, vp.sample_period_s)
         more, units = _drive_problems(params, entry, df, result, check_units=not wheels)
         found = found + wheels + more
@@ -734,13 +734,11 @@ def _swapped_problem(
     by the way the course turns against the yaw rate: ``evidence``)."""
     columns = entry["columns"]
     lat, lon = columns.get(c.LAT_DEG, c.LAT_DEG), columns.get(c.LON_DEG, c.LON_DEG)
-    if evidence is not None:
-        pass
-    elif radius_m is None:
+    if evidence is None and radius_m is None:
         evidence = (
             f"most values of {lat!r} lie beyond ±90 deg and every value of {lon!r} within ±90 deg"
         )
-    else:
+    elif evidence is None:
         evidence = (
             f"the wheels imply a tyre radius of {radius_m:.4g} m as the columns are, and "
             f"{swapped_m:.4g} m (nominal {nominal_m} m) with the two exchanged"
