@@ -77,11 +77,14 @@ def test_time_in_ms_is_recognised(drive, vp):
     assert p.row is None and "ms instead of s" in p.found
 
 
-def test_irregular_step_is_reported_but_gaps_are_allowed(drive, vp):
-    irregular = drive.drop(index=[12, 13])  # a 0.3 s step: neither regular nor a gap
-    irregular = irregular.reset_index(drop=True)
-    (p,) = problems(irregular, vp)
-    assert p.row == 13 and "step +0.3 s" in p.found and "max_gap_s" in p.expected
+def test_a_step_too_short_for_the_grid_is_reported_but_dropped_samples_and_gaps_pass(drive, vp):
+    short = drive.copy()
+    short.loc[13:, c.T_S] -= 0.07  # a 0.03 s step: a sample off the logger's clock
+    (p,) = problems(short, vp)
+    assert p.row == 14 and "step +0.03 s" in p.found and "dropped sample" in p.expected
+    # two samples lost (a 0.3 s step): the GNSS policy cuts their second (partial_second)
+    dropped = drive.drop(index=[12, 13]).reset_index(drop=True)
+    assert problems(dropped, vp) == []
     gap = drive.drop(index=range(12, 20)).reset_index(drop=True)  # a 0.9 s gap
     assert problems(gap, vp) == []
 
@@ -130,9 +133,10 @@ def test_stacked_drives_are_reported_as_if_validated_alone(vp):
 
     alone = [schema_problems(d, vp, f, s) for d, f, s in zip(drives, files, sources, strict=True)]
     assert batch == alone
-    # backwards: a step back, then one of 0.35 s; gaps: two NaN, a repeat, two 0.2 s steps.
-    assert [len(p) for p in batch] == [2, 1, 0, 2, 0, 5, 0]
-    assert [p.row for p in batch[5]] == [1, 21, 34, 22, 35]
+    # backwards: a step back (the 0.35 s step after it is a dropped sample: cut, not refused);
+    # gaps: two NaN and a repeat (its two 0.2 s steps are dropped samples too).
+    assert [len(p) for p in batch] == [1, 1, 0, 2, 0, 3, 0]
+    assert [p.row for p in batch[5]] == [1, 21, 34]
     (ms,) = batch[1]
     assert ms.row is None and ms.file == files[1] and "ms instead of s" in ms.found
     assert [(p.row, p.column) for p in batch[3]] == [(31, " Lat"), (1, " Lat")]

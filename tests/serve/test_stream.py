@@ -495,6 +495,7 @@ def test_a_logger_gap_inside_an_outage_is_bridged_not_the_end_of_the_position(bu
         {
             "from_s": pytest.approx(160.0),
             "gap_s": pytest.approx(2.1),
+            "dropped": False,
             "bridged": True,
             "filtering": True,
         }
@@ -544,3 +545,72 @@ def test_a_gap_longer_than_the_bridge_starts_the_filter_afresh(bundle):
         | {"gaps": stream.gaps, "max_gap_s": 0.5}
     )
     assert "(the position filter started afresh)" in text and "waits for the next course" in text
+
+
+def _without_rows(df: pd.DataFrame, at_s: list[float]) -> pd.DataFrame:
+    """``df`` without its rows ``at_s`` (s after its first row): samples a logger dropped."""
+    el = np.round(df["t_s"].to_numpy() - df["t_s"].iloc[0], 6)
+    return df[~np.isin(el, at_s)].reset_index(drop=True)
+
+
+# Samples dropped 40.3 s in (inside a second), 80.1 s (the first slot of second 81: the
+# second before it is whole), 120.0 s (the last slot of second 120: the second after it
+# is whole, its start fix the row before the drop) and 160.3-160.4 s (two in a row);
+# every piece between them at least validate's min_segment_s (30 s) long, so the label
+# stage keeps every second the stream can cut.
+DROPPED_S = [40.3, 80.1, 120.0, 160.3, 160.4]
+
+
+@pytest.mark.parametrize("sizes", [[100_000], [7] * 3000, [401, 1, 399, 2] * 10])
+def test_dropped_samples_cut_their_seconds_as_the_label_stage_does(bundle, tmp_path, sizes):
+    """A dropped sample shifted every later second of a run by 0.1 s (ten rows cut a
+    second, whatever their times): the seconds ended 0.1 s after whole seconds until the
+    next gap, and validate refused the drive. Now the stream cuts the second that lost a
+    row and starts again on the next whole second, where the label stage does."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    df = _without_rows(wavy_drive(200), DROPPED_S)
+    assert len(df) == 2001 - len(DROPPED_S)
+    path = write_iovnbd(df, tmp_path / "V-Dropped.csv")
+    ref = reference_samples(path, seq_len=1)
+    out, stream = stream_all(model, blocks_of(df, sizes))
+    t_ref = ref.frame["t_s"].to_numpy()
+    # every second ends on a whole second; the four cut ones are missing
+    assert np.array_equal(out["t_s"], t_ref) and np.all(t_ref == np.round(t_ref))
+    el = out["t_s"] - 45000.0
+    assert len(el) == 200 - 4 and not np.isin([41.0, 81.0, 120.0, 161.0], el).any()
+    assert np.isin([80.0, 121.0], el).all()  # whole: 121 from the row before the drop
+    for k in ("disp_wpm_m", "disp_gnss_m"):
+        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), atol=1e-9)
+    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
+    assert [(round(g["from_s"], 6), round(g["gap_s"], 6), g["dropped"]) for g in stream.gaps] == [
+        (40.2, 0.2, True),
+        (80.0, 0.2, True),
+        (119.9, 0.2, True),
+        (160.2, 0.3, True),
+    ]
+
+
+def test_dropped_samples_inside_an_outage_keep_the_position(bundle):
+    model = load_served(bundle["model_onnx"])
+    df = _straight(300.0)
+    plain, _ = stream_all(model, blocks_of(df, [100_000]), [Outage(100, 220)])
+    out, stream = stream_all(
+        model, blocks_of(_without_rows(df, [130.5, 170.1, 200.0]), [333] * 20), [Outage(100, 220)]
+    )
+    inside = out["outage"] == "100:220"
+    assert inside.sum() == 120 - 3
+    for col in POSITION_COLUMNS:
+        assert np.isfinite(out[col][inside]).all(), col
+    assert [g["bridged"] for g in stream.gaps] == [True] * 3
+    end, ref = stream.summary()[0], plain["outage"] == "100:220"
+    assert end["east_end_m"] == pytest.approx(plain["east_m"][ref][-1], abs=0.5)
+    assert end["north_end_m"] == pytest.approx(plain["north_m"][ref][-1], abs=0.5)
+    text = render_summary(
+        {"file": "t.csv", "rows": 1, "seconds": 1, "outages": [end]}
+        | {"gaps": stream.gaps, "max_gap_s": 0.5}
+    )
+    assert "dropped samples: 3 time step(s) that skip a slot" in text
+    assert "0.2 s after 130.4 s (the position carried across)" in text
+    assert "logger gap" not in text

@@ -270,7 +270,14 @@ def run(
                 or f"--nominal-radius (without it: the model's source radius, {nominal:.4g} m)",
             )
             stream = SecondStream(
-                model, outages, file=name, names=names, max_gap_s=max_gap_s, unit_check=check
+                model,
+                outages,
+                file=name,
+                names=names,
+                max_gap_s=max_gap_s,
+                period_s=period_s,
+                period_tol_s=vp.sample_period_tol_s,
+                unit_check=check,
             )
             held: list[dict[str, np.ndarray]] = []  # seconds not written before the check
             n_held, released = 0, False
@@ -453,8 +460,8 @@ def reversing_lines(elapsed_s: list[float]) -> list[str]:
 
 
 def gap_lines(gaps: list[dict[str, Any]], max_gap_s: float, listed: int = 5) -> list[str]:
-    """A line on the logger's gaps in the rows (``SecondStream.gaps``): where, how long,
-    and whether the navigation filter went on across each."""
+    """Lines on the splits in the rows (``SecondStream.gaps``): the logger's gaps and its
+    dropped samples, where, how long, and whether the navigation filter went on across each."""
     if not gaps:
         return []
 
@@ -466,12 +473,25 @@ def gap_lines(gaps: list[dict[str, Any]], max_gap_s: float, listed: int = 5) -> 
             return text + " (the position filter started afresh)"
         return text
 
-    shown = "; ".join(one(g) for g in gaps[:listed])
-    more = f"; and {len(gaps) - listed} more" if len(gaps) > listed else ""
-    lines = [
-        f"logger gap: {len(gaps)} time step(s) longer than {max_gap_s:g} s, each ending a run "
-        f"of seconds (the rows up to the next whole second give no second): {shown}{more}"
-    ]
+    def shown(some: list[dict[str, Any]]) -> str:
+        more = f"; and {len(some) - listed} more" if len(some) > listed else ""
+        return "; ".join(one(g) for g in some[:listed]) + more
+
+    lines = []
+    long = [g for g in gaps if not g.get("dropped")]
+    dropped = [g for g in gaps if g.get("dropped")]
+    if long:
+        lines.append(
+            f"logger gap: {len(long)} time step(s) longer than {max_gap_s:g} s, each ending a "
+            f"run of seconds (the rows up to the next whole second give no second): "
+            f"{shown(long)}"
+        )
+    if dropped:
+        lines.append(
+            f"dropped samples: {len(dropped)} time step(s) that skip a slot of the sample "
+            f"grid (at most {max_gap_s:g} s), each cutting its second as validate does "
+            f"(partial_second) and ending a run of seconds: {shown(dropped)}"
+        )
     if any(g["bridged"] for g in gaps):
         lines.append(
             "  across a gap of at most "

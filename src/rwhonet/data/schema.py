@@ -109,9 +109,13 @@ def _drive_checks(
     def regular(s: pd.Series) -> pd.Series:
         d = step(s)
         # Non-positive steps are reported by the two time-order checks, NaN ones by not_nullable;
-        # a step longer than max_gap_s is a gap, which the GNSS policy splits the drive at.
+        # a step longer than max_gap_s is a gap, which the GNSS policy splits the drive at; a
+        # longer step up to it skips a slot of the grid (a dropped sample: the GNSS policy
+        # cuts its second, partial_second, and the drive is split there too). What is left
+        # to refuse is a step too short for the grid (a sample too many, an irregular clock).
         steady = (d - period).abs() <= tol + _STEP_SLACK_S
-        return d.isna() | (d <= 0) | steady | next_slot(s) | (d > gap)
+        dropped = d > period + tol + _STEP_SLACK_S
+        return d.isna() | (d <= 0) | steady | next_slot(s) | dropped
 
     def median_period(s: pd.Series) -> pd.Series:
         # One verdict per drive, put on its first row (reported without a row: _DRIVE_WIDE).
@@ -170,12 +174,12 @@ def _drive_checks(
             _Explain(
                 f"a step of {period} ± {tol} s from the previous row (validate.sample_period_s), "
                 f"or the next slot of the drive's {period} s grid (time stamps jittered by "
-                f"less than half a sample), or a gap > {gap} s (validate.gnss.max_gap_s; the "
-                "drive is split there)",
+                f"less than half a sample), or a longer one (a dropped sample, whose second is "
+                f"cut; a gap > {gap} s, validate.gnss.max_gap_s: the drive is split there)",
                 _time_step,
                 f"the pipeline needs one row every {period} s: re-export the drive at "
-                f"{1.0 / period:.3g} Hz; where the logger dropped samples, delete the rows of "
-                f"that stretch (a gap > {gap} s splits the drive there)",
+                f"{1.0 / period:.3g} Hz; where the logger wrote a sample twice or off its "
+                "clock, delete that row",
             ),
         ),
         "median_sample_period": (
@@ -249,9 +253,10 @@ def drive_schema(vp: ValidateParams, drive_starts: np.ndarray | None = None) -> 
     range; |wheel speed| below ``max_abs_wheel_speed_rad_s``; time finite, strictly
     increasing, every step ``sample_period_s ± sample_period_tol_s``, or into the next slot
     of the drive's sample grid (stamps jittered by less than half a period,
-    :mod:`rwhonet.data.timebase`), or a gap longer than ``gnss.max_gap_s``; and the median
-    step near the nominal period (catches time in ms). A dropped sample (two slots in one
-    step shorter than the gap) fails.
+    :mod:`rwhonet.data.timebase`), or longer (a dropped sample, whose second the GNSS policy
+    cuts as ``partial_second``; a gap longer than ``gnss.max_gap_s``, where it splits the
+    drive); and the median step near the nominal period (catches time in ms). A step too
+    short for the grid (a sample written twice, an irregular clock) fails.
 
     Args:
         vp: the ``validate`` section.

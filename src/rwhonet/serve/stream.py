@@ -53,6 +53,7 @@ from rwhonet.data.glitches import (
     repaired_yaw_rate,
     yaw_rate_glitches,
 )
+from rwhonet.data.timebase import TIME_EPS_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
     backwards_per_second,
@@ -183,6 +184,10 @@ class SecondStream:
         names: canonical name -> the file's column name, for error reports.
         max_gap_s: a time step longer than this ends a run of seconds
             (``validate.gnss.max_gap_s``).
+        period_s, period_tol_s: the sample period and its tolerance
+            (``validate.sample_period_s``, ``validate.sample_period_tol_s``): a step
+            longer than their sum skips a slot of the grid (a dropped sample), which
+            cuts its second and ends the run too.
         nav: the navigation filter's settings (default: the generic
             :class:`rwhonet.nav.NavConfig` with the model's rear radius and the
             receiver drift the model's evaluation fitted, if it carries one).
@@ -197,6 +202,8 @@ class SecondStream:
     file: str = "<stdin>"
     names: dict[str, str] = field(default_factory=dict)
     max_gap_s: float = 0.5
+    period_s: float = 0.1
+    period_tol_s: float = 0.05
     nav: NavConfig | None = None
     unit_check: StreamRadiusCheck | None = None
     calibration: PositionCalibration = field(default_factory=PositionCalibration)
@@ -210,6 +217,8 @@ class SecondStream:
     _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
     # the rows from the last second's end to a gap, until the next run's first second
     _across: dict[str, np.ndarray] | None = None
+    _gap: dict[str, float | bool] = field(default_factory=dict)  # the split _across ends at
+    _fix_skips_slot: bool = False  # the run's start fix is the row before a dropped slot
     gaps: list[dict[str, float | bool]] = field(default_factory=list)  # gaps met (_bridge)
     totals: dict[str, _Totals] = field(default_factory=dict)
     glitches: list[dict[str, float | int | str]] = field(default_factory=list)
@@ -261,6 +270,22 @@ class SecondStream:
         while True:
             t = self._rows[c.T_S]
             if not self._anchored:
+                if (
+                    self._across is not None
+                    and self._gap["dropped"]
+                    and _first_slot(float(t[0]), self.period_s)
+                ):
+                    # A sample dropped just before this second's first slot: the second
+                    # is whole, and its start fix is the last row before the drop (the
+                    # label stage's start fix: the last row of the cut second before it).
+                    before = {k: v[-1:] for k, v in self._across.items()}
+                    self._across = {k: v[:-1] for k, v in self._across.items()}
+                    self._rows = {k: np.concatenate([before[k], self._rows[k]]) for k in self._keys}
+                    self._row0 -= 1
+                    self._bridge({k: v[:1] for k, v in self._rows.items()})
+                    self._anchored, self._history = True, None
+                    self._fix_skips_slot = True  # the step from that fix skips the slot
+                    continue
                 whole = math.ceil(t[0])
                 later = np.flatnonzero(t > whole)
                 if not len(later):
@@ -272,19 +297,34 @@ class SecondStream:
                 self._anchored, self._history = True, None
                 continue
             steps = np.diff(t)
-            gap = np.flatnonzero(steps > self.max_gap_s)
-            usable = int(gap[0]) + 1 if len(gap) else len(t)  # rows before the gap
+            # A step longer than max_gap_s is a logger's gap; one that skips a slot of the
+            # sample grid (more than a period and its tolerance: the clock has placed
+            # jittered stamps on their slots already) is a dropped sample, whose second
+            # the label stage cuts (rwhonet.data.quality, partial_second). Either ends the
+            # run; the next starts at the next whole second.
+            skips = (steps > self.max_gap_s) | (steps > self.period_s + self.period_tol_s)
+            if self._fix_skips_slot and len(skips):
+                skips[0] = False  # the dropped slot before this run's start fix, known
+            split = np.flatnonzero(skips)
+            usable = int(split[0]) + 1 if len(split) else len(t)  # rows before the split
             n_sec = (usable - 1) // ROWS_PER_SECOND
             if n_sec:
                 parts.append(self._seconds(n_sec))
                 self._drop(n_sec * ROWS_PER_SECOND)
+                self._fix_skips_slot = False
                 continue
-            if len(gap):
-                # the next run starts after the gap; the filter goes on across it (or
+            if len(split):
+                # the next run starts after the split; the filter goes on across it (or
                 # starts afresh) when the next run's first second is found
-                self._across = {k: v[: int(gap[0]) + 1] for k, v in self._rows.items()}
-                self._drop(int(gap[0]) + 1)
-                self._anchored = False
+                i = int(split[0])
+                self._gap = {
+                    "from_s": float(t[i] - self._t0),
+                    "gap_s": float(steps[i]),
+                    "dropped": bool(steps[i] <= self.max_gap_s),
+                }
+                self._across = {k: v[: i + 1] for k, v in self._rows.items()}
+                self._drop(i + 1)
+                self._anchored, self._fix_skips_slot = False, False
                 continue
             break
         if not parts:
@@ -292,24 +332,28 @@ class SecondStream:
         return {name: np.concatenate([p[name] for p in parts]) for name in COLUMNS}
 
     def _bridge(self, after: dict[str, np.ndarray]) -> None:
-        """The filter across a gap in the rows: ``self._across`` (from the last second's
-        end to the gap) and ``after`` (from the gap to the next run's first second).
+        """The filter across a split of the rows: ``self._across`` (from the last second's
+        end to the split) and ``after`` (from the split to the next run's first second).
 
-        A gap of at most :data:`BRIDGE_MAX_S` while an outage is still to come is bridged
+        A gap or dropped sample whose rows span at most :data:`BRIDGE_MAX_S` while an
+        outage is still to come is bridged
         (:meth:`rwhonet.serve.navigation.StreamNavigator.bridge`); a longer one, or one
         before the filter has started, starts it afresh (it waits for a GNSS course, so
-        inside an outage it gives no position until the outage ends). Each gap is listed
-        in ``self.gaps``.
+        inside an outage it gives no position until the outage ends). Each split is listed
+        in ``self.gaps`` (``dropped``: a step of at most ``max_gap_s``, a sample or a few
+        missing; else a logger's gap).
         """
         before, self._across = self._across, None
         rows = {k: np.concatenate([before[k], after[k]]) for k in self._keys}
         t = rows[c.T_S]
-        steps = np.diff(t)
-        i = int(np.argmax(steps)) if len(steps) else 0
         elapsed = float(t[-1] - self._t0)
         ahead = bool(self.outages) and elapsed <= max(o.end_s for o in self.outages)
         bridged = False
-        if ahead and float(t[-1] - t[0]) <= BRIDGE_MAX_S:
+        if len(t) < 2:
+            # nothing between the filter's last step and the next run's start fix (a drop
+            # right after a start fix the last split had already reached)
+            bridged = ahead and self._navigator.started
+        elif ahead and float(t[-1] - t[0]) <= BRIDGE_MAX_S:
             inside = any(o.start_s < elapsed <= o.end_s for o in self.outages)
             bridged = self._navigator.bridge(
                 t,
@@ -321,14 +365,7 @@ class SecondStream:
             )
         else:
             self._navigator.reset()
-        self.gaps.append(
-            {
-                "from_s": float(t[i] - self._t0) if len(steps) else elapsed,
-                "gap_s": float(steps[i]) if len(steps) else 0.0,
-                "bridged": bridged,
-                "filtering": ahead,
-            }
-        )
+        self.gaps.append(self._gap | {"bridged": bridged, "filtering": ahead})
 
     def _repair_glitches(
         self, first_row: int, columns: dict[str, np.ndarray]
@@ -681,6 +718,12 @@ class SecondStream:
                 }
             )
         return rows
+
+
+def _first_slot(t_s: float, period_s: float) -> bool:
+    """Whether a row's time is the first slot of its second ``(k - 1, k]``: one period
+    after the whole second before it (within the clock's allowance)."""
+    return t_s - period_s <= math.ceil(t_s - TIME_EPS_S) - 1 + TIME_EPS_S
 
 
 def _found(value: float) -> str:
