@@ -243,7 +243,7 @@ def _drive_problems(
                 + ", ".join(f"{rule} {s} s" for rule, s in by_rule if s)
                 + f" (rule {by_rule[0][0]}: {_first_detail(result, by_rule[0][0])})",
                 "leave this drive out, repair its GNSS data, or relax the rule that cut it "
-                "(validate.gnss) if it is too strict for this receiver",
+                "(validate.gnss) if it is too strict for this receiver" + _dropped_hint(result, vp),
             )
         )
         none = {"checked": False, "note": "no valid segment"}
@@ -263,7 +263,7 @@ def _drive_problems(
                 f"{entry['drive']} keeps {result.seconds_kept} valid s of its "
                 f"{result.n_seconds} s" + (f" (cut: {cut})" if cut else ""),
                 "use a longer drive as target test drive (this one can serve as target_train), "
-                "or lower adapt.m_grid",
+                "or lower adapt.m_grid" + _dropped_hint(result, vp),
             )
         )
 
@@ -949,6 +949,20 @@ def _only_wheel_ranges(
     wheels = {columns.get(w, w) for w in c.WHEELS}
     return all(p.column in wheels for p in found) and not any(
         np.isnan(np.asarray(df[w], dtype=np.float64)).any() for w in c.WHEELS
+    )
+
+
+def _dropped_hint(result: Assessment, vp: ValidateParams) -> str:
+    """What to do when dropped samples cut a drive into pieces (more than its first and
+    last partial second cut as ``partial_second``), for a refusal's fix."""
+    n = result.cut_seconds_by_rule.get("partial_second", 0)
+    if n <= 2:
+        return ""
+    return (
+        f"; {n} s were cut as partial_second (a second that lost a sample is cut and splits "
+        "the drive there, so a logger that drops samples often leaves stretches shorter than "
+        f"validate.gnss.min_segment_s, {vp.gnss.min_segment_s:g} s): export the drive again "
+        "without the drops where the logger can"
     )
 
 

@@ -237,3 +237,29 @@ def test_a_failed_validation_report_stays_until_the_next_success(tmp_path):
     proc = _stage(root, "validate")
     assert proc.returncode == 0, proc.stderr
     assert not failed.exists() and (root / "reports" / "validation.json").is_file()
+
+
+def test_samples_dropped_often_are_named_in_the_refusal(tmp_path):
+    """A sample dropped every 10 s cuts its second and splits the drive each time: no
+    stretch reaches min_segment_s. The refusal says that is why, not only 'repair its GNSS
+    data' (the first rule it names is short_segment, whose cause is the drops)."""
+    raw = tmp_path / "raw"
+    write_good_fleet(raw)
+    df = good_target()
+    write_target(raw, df.drop(index=list(range(55, len(df), 100))).reset_index(drop=True))
+    params = make_params(raw)
+    ingest(params, tmp_path / "drives", tmp_path / "failed" / "ingest.json")
+    with pytest.raises(InputError) as err:
+        validate(
+            params,
+            tmp_path / "drives",
+            tmp_path / "segments",
+            tmp_path / "validation.json",
+            tmp_path / "failed" / "validation.json",
+        )
+    (problem,) = err.value.problems
+    assert problem.expected.startswith("at least one GNSS-valid stretch")
+    # 15 seconds that lost a sample and the drive's first (its start fix alone)
+    assert "partial_second 16 s" in problem.found
+    assert "16 s were cut as partial_second (a second that lost a sample" in problem.fix
+    assert "validate.gnss.min_segment_s, 30 s" in problem.fix
