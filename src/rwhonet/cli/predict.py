@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
@@ -406,14 +406,13 @@ def glitch_lines(
     """
     lines = []
     if samples:
-        shown = "; ".join(
-            f"{s} sample row {r} (t = {t:.6g} s), {ch!r}" for s, r, t, ch in samples[:listed]
+        shown = _first_few(
+            samples, listed, lambda x: f"{x[0]} sample row {x[1]} (t = {x[2]:.6g} s), {x[3]!r}"
         )
-        more = f"; and {len(samples) - listed} more" if len(samples) > listed else ""
         lines.append(
             f"stream glitch: {len(samples)} wheel-speed sample(s) of the drive's streams rose "
             f"faster than any tyre can (> {WHEEL_GLITCH_G:g} g above the other wheels): "
-            f"{shown}{more}; the grid rows whose means used them were repaired as below"
+            f"{shown}; the grid rows whose means used them were repaired as below"
         )
     wheels = [g for g in glitches if not g.get("yaw")]
     yaws = [g for g in glitches if g.get("yaw")]
@@ -434,13 +433,20 @@ def glitch_lines(
 
 
 def _listed(glitches: list[dict[str, Any]], listed: int) -> str:
-    shown = "; ".join(
-        f"row {g['row']} (t = {g['t_s']:.6g} s), {g['channel'].strip()!r}: "
-        f"{g['found_rad_s']:.4g} -> {g['replaced_rad_s']:.4g} rad/s"
-        for g in glitches[:listed]
+    return _first_few(
+        glitches,
+        listed,
+        lambda g: (
+            f"row {g['row']} (t = {g['t_s']:.6g} s), {g['channel'].strip()!r}: "
+            f"{g['found_rad_s']:.4g} -> {g['replaced_rad_s']:.4g} rad/s"
+        ),
     )
-    more = f"; and {len(glitches) - listed} more" if len(glitches) > listed else ""
-    return shown + more
+
+
+def _first_few(items: list[Any], listed: int, say: Callable[[Any], str]) -> str:
+    """The first ``listed`` items as ``say`` words each, then how many more there are."""
+    more = f"; and {len(items) - listed} more" if len(items) > listed else ""
+    return "; ".join(say(x) for x in items[:listed]) + more
 
 
 def reversing_lines(elapsed_s: list[float]) -> list[str]:
@@ -473,10 +479,6 @@ def gap_lines(gaps: list[dict[str, Any]], max_gap_s: float, listed: int = 5) -> 
             return text + " (the position filter started afresh)"
         return text
 
-    def shown(some: list[dict[str, Any]]) -> str:
-        more = f"; and {len(some) - listed} more" if len(some) > listed else ""
-        return "; ".join(one(g) for g in some[:listed]) + more
-
     lines = []
     long = [g for g in gaps if not g.get("dropped")]
     dropped = [g for g in gaps if g.get("dropped")]
@@ -484,13 +486,13 @@ def gap_lines(gaps: list[dict[str, Any]], max_gap_s: float, listed: int = 5) -> 
         lines.append(
             f"logger gap: {len(long)} time step(s) longer than {max_gap_s:g} s, each ending a "
             f"run of seconds (the rows up to the next whole second give no second): "
-            f"{shown(long)}"
+            f"{_first_few(long, listed, one)}"
         )
     if dropped:
         lines.append(
             f"dropped samples: {len(dropped)} time step(s) that skip a slot of the sample "
             f"grid (at most {max_gap_s:g} s), each cutting its second as validate does "
-            f"(partial_second) and ending a run of seconds: {shown(dropped)}"
+            f"(partial_second) and ending a run of seconds: {_first_few(dropped, listed, one)}"
         )
     if any(g["bridged"] for g in gaps):
         lines.append(
