@@ -904,6 +904,28 @@ def test_predict_refuses_the_wheel_sensors_validate_refuses(case, bundle, tmp_pa
     assert case.expect.expected in err and case.expect.found in err, err
 
 
+def test_a_wheel_that_sticks_stops_a_stream_within_minutes_not_at_its_end(bundle, tmp_path, capsys):
+    """The wheel-sensor checks ran at the drive's end, so a live stream to stdout went on
+    for as long as the drive with a dead wheel, then exited 2. Now a stuck wheel (from
+    200 s into a 1,200 s drive) stops it at the next check (every 60 s of rows, on them
+    and the 60 s before): exit 2, validate's report, and the seconds written on stdout end
+    within about a minute of the wheel's. The sign check still waits for the whole
+    drive: a signing logger's reversing is a share of it."""
+    from support.drives import write_iovnbd
+    from support.serving import wavy_drive
+
+    df = wavy_drive(1200)
+    el = df["t_s"] - df["t_s"].iloc[0]
+    df.loc[el > 200.0, "omega_rl_rad_s"] = 0.0
+    path = write_iovnbd(df, tmp_path / "V-Stuck.csv")
+    assert main(predict_args(bundle, path, "-")) == 2
+    cap = capsys.readouterr()
+    assert "validate's wheel-sensor checks" in cap.err and "each wheel turning" in cap.err
+    assert "Wheel Speed Rear Left" in cap.err and "row 2002," in cap.err, cap.err
+    seconds = [line for line in cap.out.splitlines()[1:] if line]
+    assert 200 <= len(seconds) <= 200 + 75, len(seconds)  # the next check, within 60 s
+
+
 def test_predict_refuses_a_wheel_s_invalid_code_held_for_seconds(bundle, tmp_path, capsys):
     """655.35 rad/s (a 16-bit signal's full scale at 0.01 rad/s) held 5 s on the rear-left
     wheel: the glitch repair interpolates only towards it, and predict wrote the rest on

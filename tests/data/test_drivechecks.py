@@ -5,7 +5,7 @@ import pytest
 
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
-from rwhonet.data.drivechecks import StreamRadiusCheck, radius_problems
+from rwhonet.data.drivechecks import StreamRadiusCheck, radius_problems, wheel_problems
 from rwhonet.data.quality import assess
 from rwhonet.errors import InputError
 from support.synthetic import build_drive, wavy_speed
@@ -77,3 +77,42 @@ def test_the_stream_check_of_a_drive_without_rows_ends_undecided_with_a_note():
         "check): the drive has no GNSS fix; make sure they are rad/s"
     )
     assert check.decided and check.yaw_decided
+
+
+def _all_rows(check: StreamRadiusCheck, drive, size: int) -> int:
+    """Push every row of ``drive`` in blocks of ``size``; return the rows pushed."""
+    n = drive[c.T_S].size
+    for a in range(0, n, size):
+        check.push({k: v[a : a + size] for k, v in drive.items()})
+    return n
+
+
+@pytest.mark.parametrize("size", [7, 100, 1000])
+def test_a_stuck_wheel_is_refused_as_the_rows_come_a_negated_one_at_the_end(size):
+    """The stuck-wheel check runs while the drive streams (once the unit check decided)
+    and names validate's first row of the stretch; the sign check, a share of the whole
+    drive's moving rows, runs at its end only."""
+    vp = load_params().validate
+    stuck = _drive()
+    stuck[c.OMEGA_RL] = np.where(stuck[c.T_S] - stuck[c.T_S][0] > 100.0, 0.0, stuck[c.OMEGA_RL])
+    whole = wheel_problems(
+        vp, R_M, ENTRY | {"drive": "V-Car"}, stuck, [], assess(stuck, vp.gnss, vp.sample_period_s)
+    )
+    check = StreamRadiusCheck(ENTRY, R_M, vp)
+    with pytest.raises(InputError) as err:
+        _all_rows(check, stuck, size)
+    # within the next 60 s of rows (and the block that brought them), not at the drive's end
+    assert check.n_wheel_rows <= (100.0 + 60.0 + 3.0) / vp.sample_period_s + size
+    assert [(p.row, p.column) for p in err.value.problems] == [(whole[0].row, whole[0].column)]
+    assert err.value.problems[0].expected == whole[0].expected
+
+    negated = _drive()
+    negated[c.OMEGA_RR] = -negated[c.OMEGA_RR]
+    assert not wheel_problems(
+        vp, R_M, ENTRY | {"drive": "V-Car"}, negated, [], assess(negated, vp.gnss, 0.1), signs=False
+    )
+    check = StreamRadiusCheck(ENTRY, R_M, vp)
+    _all_rows(check, negated, size)  # no refusal while it streams
+    with pytest.raises(InputError) as err:
+        check.finish()
+    assert ">= 0" in err.value.problems[0].expected

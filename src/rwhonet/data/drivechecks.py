@@ -515,6 +515,13 @@ class StreamRadiusCheck:
     policy runs when the rows have grown by half since the last try (at least 30 s), so
     the work stays within a few times one pass over the rows kept.
 
+    Once the unit check has decided, validate's wheel-sensor checks (:func:`wheel_problems`:
+    a stuck or silent wheel, stale values) run every :attr:`SENSOR_STEP_S` of rows on those
+    rows and the :attr:`SENSOR_CONTEXT_S` before them, so a live stream is stopped within
+    about a minute of such a stretch rather than at its end (the work stays one pass
+    over the rows, a few times over); the sign check (a negated column, whose verdict is a
+    share of the whole drive) runs with the others on the whole drive at its end.
+
     Attributes:
         decided: True once the wheel check has run (or the drive ended).
         yaw_decided: True once the yaw-rate check has told (or there is no yaw rate, or
@@ -525,6 +532,12 @@ class StreamRadiusCheck:
     """
 
     KEYS = (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)
+    # the wheel-sensor checks while the drive streams: every 60 s of rows, on those rows and
+    # the 60 s before them (at least validate.gnss.min_segment_s + validate.wheels.stuck_min_s
+    # + 5 s: a stretch too short to tell at the last check, or in a GNSS segment too short
+    # to count then, started within that time before it; a longer one was told then)
+    SENSOR_STEP_S = 60.0  # 30 s: about twice the cost (+0.13-0.23 s an hour of rows)
+    SENSOR_CONTEXT_S = 60.0
 
     def __init__(
         self,
@@ -546,6 +559,10 @@ class StreamRadiusCheck:
         self.wheel_parts: list[dict[str, np.ndarray]] = []  # every row, for finish()
         self.n_wheel_rows = 0  # rows pushed (the range check's row numbers)
         self.range_problems: list[Problem] = []  # each wheel's first row out of range
+        self.sensor_rows = int(np.ceil(self.SENSOR_STEP_S * per_s))
+        context_s = max(self.SENSOR_CONTEXT_S, vp.gnss.min_segment_s + vp.wheels.stuck_min_s + 5.0)
+        self.sensor_context = int(np.ceil(context_s * per_s))
+        self.sensor_checked = 0  # rows the last wheel-sensor check reached
 
     def push(
         self, columns: Mapping[str, np.ndarray], raw: Mapping[str, np.ndarray] | None = None
@@ -564,14 +581,21 @@ class StreamRadiusCheck:
         """
         self.wheel_parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS})
         self._in_range(self.wheel_parts[-1], columns if raw is None else raw)
-        if self.decided and self.yaw_decided:
-            return True
-        if self.keys is None:
-            self.keys = self.KEYS + ((c.YAW_RATE_RAD_S,) if c.YAW_RATE_RAD_S in columns else ())
-        self.parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.keys})
-        self.n_rows += self.parts[-1][c.T_S].size
-        if self.n_rows >= self.next_try:
-            self._try(final=False)
+        if not (self.decided and self.yaw_decided):
+            if self.keys is None:
+                self.keys = self.KEYS + ((c.YAW_RATE_RAD_S,) if c.YAW_RATE_RAD_S in columns else ())
+            self.parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.keys})
+            self.n_rows += self.parts[-1][c.T_S].size
+            if self.n_rows >= self.next_try:
+                self._try(final=False)
+        # the wheel-sensor checks once the unit check has decided (a wrong unit is named
+        # first, as at the drive's end: wheel speeds in m/s read as rad/s look silent)
+        if self.decided and self.n_wheel_rows - self.sensor_checked >= self.sensor_rows:
+            n = min(
+                self.n_wheel_rows, self.n_wheel_rows - self.sensor_checked + self.sensor_context
+            )
+            self._refuse_sensors(self._tail(n), final=False, row0=self.n_wheel_rows - n)
+            self.sensor_checked = self.n_wheel_rows
         return self.decided
 
     def finish(self) -> str | None:
@@ -632,21 +656,43 @@ class StreamRadiusCheck:
                 "range check)",
             )
 
+    def _tail(self, n: int) -> dict[str, np.ndarray]:
+        """The last ``n`` rows kept."""
+        parts, got = [], 0
+        for part in reversed(self.wheel_parts):
+            parts.append(part)
+            got += part[c.T_S].size
+            if got >= n:
+                break
+        return {k: np.concatenate([p[k] for p in reversed(parts)])[got - n :] for k in self.KEYS}
+
     def _wheel_sensors(self) -> None:
-        """validate's wheel-sensor checks on the whole drive (:func:`wheel_problems`: a
-        negated column, a stuck or silent wheel, stale values), at its end.
+        """validate's wheel-sensor checks on the whole drive, at its end.
 
         Raises:
             InputError: as validate refuses the drive.
         """
         parts, self.wheel_parts = self.wheel_parts, []
-        if not parts:
-            return
-        rows = {k: np.concatenate([p[k] for p in parts]) for k in self.KEYS}
+        if parts:
+            rows = {k: np.concatenate([p[k] for p in parts]) for k in self.KEYS}
+            self._refuse_sensors(rows, final=True, row0=0)
+
+    def _refuse_sensors(self, rows: dict[str, np.ndarray], final: bool, row0: int) -> None:
+        """validate's wheel-sensor checks (:func:`wheel_problems`: a negated column, a stuck
+        or silent wheel, stale values) on ``rows``, the drive's from data row ``row0 + 1``.
+
+        While the drive streams (``final`` False: a window of its latest rows) without the
+        sign check, whose verdict needs the whole drive.
+
+        Raises:
+            InputError: as validate refuses the drive.
+        """
         fix = np.isfinite(rows[c.LAT_DEG]) & np.isfinite(rows[c.LON_DEG])
         result = assess(rows, self.vp.gnss, self.vp.sample_period_s, wheel_glitch=~fix)
         entry = {"drive": self.entry["source_file"]} | self.entry
-        problems = wheel_problems(self.vp, self.nominal_m, entry, rows, [], result)
+        problems = wheel_problems(
+            self.vp, self.nominal_m, entry, rows, [], result, signs=final, row0=row0
+        )
         if problems:
             raise InputError(
                 problems,
@@ -774,6 +820,8 @@ def wheel_problems(
     df: Mapping[str, np.ndarray],
     drive_cuts: list[CutSpec],
     result: Assessment,
+    signs: bool = True,
+    row0: int = 0,
 ) -> list[Problem]:
     """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all.
 
@@ -784,12 +832,17 @@ def wheel_problems(
         df: the canonical drive.
         drive_cuts: its manual cuts (``validate.cuts``).
         result: validate's GNSS assessment of it.
+        signs: False leaves out the sign check, whose verdict (the share of the moving rows
+            that are negative) needs the whole drive: a stream's checks before its end. A
+            stuck, silent or stale stretch is one wherever the drive goes on.
+        row0: the file's data rows before ``df``'s first (a stream's window of its rows),
+            added to the rows the problems name.
     """
     file, columns = entry["source_file"], entry["columns"]
     ignore = manual_rows(np.asarray(df[c.T_S], dtype=np.float64), drive_cuts)
     problems = []
     t = np.asarray(df[c.T_S], dtype=np.float64)
-    negative = negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore)
+    negative = negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore) if signs else {}
     reversing = reversing_rows(df, vp.wheels.negative_tol_rad_s) if negative else None
     for wheel, rows in negative.items():
         values = np.asarray(df[wheel], dtype=np.float64)
@@ -805,7 +858,7 @@ def wheel_problems(
         problems.append(
             Problem(
                 file,
-                int(rows[0]) + 1,
+                row0 + int(rows[0]) + 1,
                 columns.get(wheel, wheel),
                 "wheel speeds as magnitudes >= 0 (as ABS sensors give them), or all four "
                 "negative together while reversing on at most "
@@ -813,7 +866,8 @@ def wheel_problems(
                 f"(validate.wheels.negative_tol_rad_s {vp.wheels.negative_tol_rad_s}, "
                 "signed_max_share)",
                 f"{values[rows[0]]:.6g} rad/s, negative in {rows.size} row(s) (rows "
-                f"{int(rows[0]) + 1}-{int(rows[-1]) + 1}; {share:.0%} of the moving rows) while "
+                f"{row0 + int(rows[0]) + 1}-{row0 + int(rows[-1]) + 1}; {share:.0%} of the "
+                "moving rows) while "
                 f"GNSS moved {gnss_path_m(df, rows):.0f} m: {what}",
                 "export the absolute wheel speeds (|value|), or negate this column: the "
                 "pipeline takes the direction from GNSS, never from the wheel speed's sign",
@@ -831,7 +885,7 @@ def wheel_problems(
             start,
             end,
             f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
-            f"{run.row_start + 1}-{run.row_stop}, t = {start:.6g}-{end:.6g} s)",
+            f"{row0 + run.row_start + 1}-{row0 + run.row_stop}, t = {start:.6g}-{end:.6g} s)",
         )
 
     def cut_it(start: float, end: float, reason: str) -> str:
@@ -844,7 +898,7 @@ def wheel_problems(
         start, end, where = stretch(run)
         return Problem(
             file,
-            run.row_start + 1,
+            row0 + run.row_start + 1,
             columns.get(run.wheel, run.wheel),
             "each wheel turning with the others while the car moves (at least "
             f"{vp.wheels.stuck_ratio} x the median of the four wheels for any "
@@ -866,7 +920,7 @@ def wheel_problems(
         start, end, where = stretch(run)
         return Problem(
             file,
-            run.row_start + 1,
+            row0 + run.row_start + 1,
             wheels,
             expected,
             found(where),
