@@ -6,6 +6,7 @@ import pytest
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
 from rwhonet.data.drivechecks import StreamRadiusCheck, radius_problems, wheel_problems
+from rwhonet.data.plausibility import SignTally, sign_tallies
 from rwhonet.data.quality import assess
 from rwhonet.errors import InputError
 from support.synthetic import build_drive, wavy_speed
@@ -88,10 +89,9 @@ def _all_rows(check: StreamRadiusCheck, drive, size: int) -> int:
 
 
 @pytest.mark.parametrize("size", [7, 100, 1000])
-def test_a_stuck_wheel_is_refused_as_the_rows_come_a_negated_one_at_the_end(size):
+def test_a_stuck_wheel_is_refused_as_the_rows_come(size):
     """The stuck-wheel check runs while the drive streams (once the unit check decided)
-    and names validate's first row of the stretch; the sign check, a share of the whole
-    drive's moving rows, runs at its end only."""
+    and names validate's first row of the stretch."""
     vp = load_params().validate
     stuck = _drive()
     stuck[c.OMEGA_RL] = np.where(stuck[c.T_S] - stuck[c.T_S][0] > 100.0, 0.0, stuck[c.OMEGA_RL])
@@ -106,13 +106,90 @@ def test_a_stuck_wheel_is_refused_as_the_rows_come_a_negated_one_at_the_end(size
     assert [(p.row, p.column) for p in err.value.problems] == [(whole[0].row, whole[0].column)]
     assert err.value.problems[0].expected == whole[0].expected
 
-    negated = _drive()
-    negated[c.OMEGA_RR] = -negated[c.OMEGA_RR]
-    assert not wheel_problems(
-        vp, R_M, ENTRY | {"drive": "V-Car"}, negated, [], assess(negated, vp.gnss, 0.1), signs=False
+
+def _whole(vp, drive):
+    return wheel_problems(
+        vp, R_M, ENTRY | {"drive": "V-Car"}, drive, [], assess(drive, vp.gnss, vp.sample_period_s)
     )
+
+
+@pytest.mark.parametrize("size", [7, 100, 1000])
+def test_one_negative_wheel_is_refused_as_it_comes_four_negated_at_the_end(size):
+    """validate refuses a wheel negative while another turns forwards whatever its share:
+    the stream refuses it once the unit check has decided, with validate's first row. Four
+    wheels negative together are a signing logger's reversing up to signed_max_share of the
+    moving rows, a share of the whole drive: the stream refuses them at its end, with the
+    report validate gives on the whole drive, word for word."""
+    vp = load_params().validate
+    one = _drive()
+    t = one[c.T_S] - one[c.T_S][0]
+    one[c.OMEGA_RR] = np.where((t > 150.0) & (t < 160.0), -one[c.OMEGA_RR], one[c.OMEGA_RR])
+    (whole,) = _whole(vp, one)
+    assert "not reversing" in whole.found
     check = StreamRadiusCheck(ENTRY, R_M, vp)
-    _all_rows(check, negated, size)  # no refusal while it streams
+    with pytest.raises(InputError) as err:
+        _all_rows(check, one, size)
+    assert check.n_wheel_rows <= 160.0 / vp.sample_period_s + size  # not at the end (300 s)
+    (p,) = err.value.problems
+    assert (p.row, p.column, p.expected) == (whole.row, whole.column, whole.expected)
+    assert "so far) while GNSS moved" in p.found and "not reversing" in p.found
+
+    negated = _drive()
+    for w in c.WHEELS:
+        negated[w] = -negated[w]
+    whole = _whole(vp, negated)
+    assert len(whole) == 4 and "looks negated" in whole[0].found
+    check = StreamRadiusCheck(ENTRY, R_M, vp)
+    _all_rows(check, negated, size)  # no refusal while it streams: a share of the whole drive
     with pytest.raises(InputError) as err:
         check.finish()
-    assert ">= 0" in err.value.problems[0].expected
+    assert err.value.problems == whole
+
+
+def test_the_sign_tallies_of_blocks_add_up_to_the_whole_drive_s():
+    """A stream keeps the sign check's tallies, not its rows: the tallies of any split of a
+    drive into blocks (each with the row before it as its lead) add up to the whole
+    drive's, field by field."""
+    vp = load_params().validate
+    drive = _drive()
+    t = drive[c.T_S] - drive[c.T_S][0]
+    reverse = (t > 40.0) & (t < 45.0)  # all four together: reversing
+    alone = (t > 200.0) & (t < 201.0)  # the rear right alone
+    for w in c.WHEELS:
+        drive[w] = np.where(reverse | (alone & (w == c.OMEGA_RR)), -drive[w], drive[w])
+    args = (vp.wheels.negative_tol_rad_s, vp.gnss.moving_wheel_speed_rad_s)
+    whole = sign_tallies(drive, *args)
+    assert whole[c.OMEGA_RR].negative > whole[c.OMEGA_RL].negative > 0
+    assert not whole[c.OMEGA_RR].reversing and whole[c.OMEGA_RL].reversing
+    rng = np.random.default_rng(0)
+    n = drive[c.T_S].size
+    cuts = np.unique(np.r_[0, rng.integers(1, n, 40), 1, n - 1, n])
+    summed = dict.fromkeys(c.WHEELS, SignTally())
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        lead = 1 if a else 0
+        block = {k: v[a - lead : b] for k, v in drive.items()}
+        part = sign_tallies(block, *args, row0=int(a), lead=lead)
+        summed = {k: summed[k].add(part[k]) for k in c.WHEELS}
+    for w in c.WHEELS:
+        got, want = summed[w], whole[w]
+        assert got.gnss_m == pytest.approx(want.gnss_m, rel=1e-12)
+        assert got == SignTally(**{**want.__dict__, "gnss_m": got.gnss_m})
+
+
+@pytest.mark.parametrize("size", [7, 1000])
+def test_a_stream_keeps_a_minute_or_two_of_rows_once_decided_not_the_whole_drive(size):
+    """Every row was kept for the wheel checks at the drive's end (2 MB an hour, without
+    bound on a live stream); once the unit check has decided, the rows kept are the ones
+    not checked yet and the minute before them."""
+    vp = load_params().validate
+    drive = _drive()
+    n = drive[c.T_S].size
+    check = StreamRadiusCheck(ENTRY, R_M, vp)
+    kept = []
+    for a in range(0, n, size):
+        check.push({k: v[a : a + size] for k, v in drive.items()})
+        if check.decided and check.yaw_decided:
+            kept.append(sum(p[c.T_S].size for p in check.wheel_parts + check.parts))
+    assert check.finish() is None and check.wheel_parts == []
+    bound = check.sensor_rows + check.sensor_context + size
+    assert kept and max(kept) <= bound < n

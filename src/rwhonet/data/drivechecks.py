@@ -35,13 +35,13 @@ from rwhonet.data.glitches import (
 from rwhonet.data.plausibility import (
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
+    SignTally,
     YawEstimate,
     gnss_path_m,
     implied_radius,
     latlon_swapped_by_range,
-    negative_wheel_rows,
     radians_radius,
-    reversing_rows,
+    sign_tallies,
     stuck_wheel_runs,
     swapped_radius,
     unit_mistake,
@@ -519,8 +519,15 @@ class StreamRadiusCheck:
     a stuck or silent wheel, stale values) run every :attr:`SENSOR_STEP_S` of rows on those
     rows and the :attr:`SENSOR_CONTEXT_S` before them, so a live stream is stopped within
     about a minute of such a stretch rather than at its end (the work stays one pass
-    over the rows, a few times over); the sign check (a negated column, whose verdict is a
-    share of the whole drive) runs with the others on the whole drive at its end.
+    over the rows, a few times over), and at the drive's end on the rows not checked yet.
+    The sign check tallies each wheel's negative and moving rows as they come
+    (:class:`~rwhonet.data.plausibility.SignTally`): a wheel negative while another turns
+    forwards is refused when seen (validate refuses it whatever its share), a column
+    negative on more than ``validate.wheels.signed_max_share`` of the moving rows at the
+    drive's end (a share of the whole drive). Only those tallies and the last
+    :attr:`SENSOR_CONTEXT_S` of rows are kept once the unit check has decided, so the
+    memory of a live stream does not grow with its length (before that decision, which
+    takes GNSS, every row is kept).
 
     Attributes:
         decided: True once the wheel check has run (or the drive ended).
@@ -556,13 +563,15 @@ class StreamRadiusCheck:
         self.decided = self.yaw_decided = False
         self.note: str | None = None
         self.yaw_note: str | None = None
-        self.wheel_parts: list[dict[str, np.ndarray]] = []  # every row, for finish()
+        self.wheel_parts: list[dict[str, np.ndarray]] = []  # the rows not checked, and context
         self.n_wheel_rows = 0  # rows pushed (the range check's row numbers)
         self.range_problems: list[Problem] = []  # each wheel's first row out of range
         self.sensor_rows = int(np.ceil(self.SENSOR_STEP_S * per_s))
         context_s = max(self.SENSOR_CONTEXT_S, vp.gnss.min_segment_s + vp.wheels.stuck_min_s + 5.0)
         self.sensor_context = int(np.ceil(context_s * per_s))
         self.sensor_checked = 0  # rows the last wheel-sensor check reached
+        self.signs = dict.fromkeys(c.WHEELS, SignTally())  # validate's sign check so far
+        self.last_row: dict[str, np.ndarray] | None = None  # the GNSS step into a block
 
     def push(
         self, columns: Mapping[str, np.ndarray], raw: Mapping[str, np.ndarray] | None = None
@@ -579,8 +588,10 @@ class StreamRadiusCheck:
                 wheel speeds do not fit the nominal radius against GNSS, or the yaw rate
                 does not turn as the GNSS course does.
         """
-        self.wheel_parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS})
-        self._in_range(self.wheel_parts[-1], columns if raw is None else raw)
+        block = {k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS}
+        self.wheel_parts.append(block)
+        self._tally_signs(block)
+        self._in_range(block, columns if raw is None else raw)
         if not (self.decided and self.yaw_decided):
             if self.keys is None:
                 self.keys = self.KEYS + ((c.YAW_RATE_RAD_S,) if c.YAW_RATE_RAD_S in columns else ())
@@ -594,8 +605,11 @@ class StreamRadiusCheck:
             n = min(
                 self.n_wheel_rows, self.n_wheel_rows - self.sensor_checked + self.sensor_context
             )
-            self._refuse_sensors(self._tail(n), final=False, row0=self.n_wheel_rows - n)
+            self._refuse_sensors(self._tail(n), row0=self.n_wheel_rows - n)
             self.sensor_checked = self.n_wheel_rows
+            self.wheel_parts = [self._tail(min(self.n_wheel_rows, self.sensor_context))]
+        if self.decided:
+            self._sensor_refusal(self._sign_problems(final=False))
         return self.decided
 
     def finish(self) -> str | None:
@@ -607,8 +621,38 @@ class StreamRadiusCheck:
         if not (self.decided and self.yaw_decided):
             self._try(final=True)
         self._refuse_range()
-        self._wheel_sensors()
+        self._wheel_sensors(self._sign_problems(final=True))
         return self.note
+
+    def _tally_signs(self, block: dict[str, np.ndarray]) -> None:
+        """Add a block's rows to the sign check's tallies (the GNSS step into its first row
+        from the block before's last)."""
+        if block[c.T_S].size == 0:
+            return
+        lead = 0 if self.last_row is None else 1
+        rows = block if lead == 0 else {k: np.r_[self.last_row[k], block[k]] for k in self.KEYS}
+        w = self.vp.wheels
+        tallies = sign_tallies(
+            rows,
+            w.negative_tol_rad_s,
+            self.vp.gnss.moving_wheel_speed_rad_s,
+            row0=self.n_wheel_rows,
+            lead=lead,
+        )
+        self.signs = {k: self.signs[k].add(tallies[k]) for k in c.WHEELS}
+        self.last_row = {k: v[-1:] for k, v in block.items()}
+
+    def _sign_problems(self, final: bool) -> list[Problem]:
+        """validate's sign check on the tallies: at the drive's end (``final``), or, while
+        it streams, of a wheel negative while another turns forwards, which validate
+        refuses whatever its share."""
+        columns = self.entry["columns"]
+        problems = [
+            sign_problem(self.vp, self.entry["source_file"], columns.get(k, k), t, not final)
+            for k, t in self.signs.items()
+            if final or not t.reversing
+        ]
+        return [p for p in problems if p is not None]
 
     def _in_range(self, rows: Mapping[str, np.ndarray], raw: Mapping[str, np.ndarray]) -> None:
         """validate's range check of the wheel speeds, on the rows as they come.
@@ -666,23 +710,29 @@ class StreamRadiusCheck:
                 break
         return {k: np.concatenate([p[k] for p in reversed(parts)])[got - n :] for k in self.KEYS}
 
-    def _wheel_sensors(self) -> None:
-        """validate's wheel-sensor checks on the whole drive, at its end.
+    def _wheel_sensors(self, signs: list[Problem]) -> None:
+        """validate's wheel-sensor checks at the drive's end: the stuck, silent and stale
+        checks on the rows not checked yet and the context before them, refused with the
+        sign check's ``signs``.
 
         Raises:
             InputError: as validate refuses the drive.
         """
-        parts, self.wheel_parts = self.wheel_parts, []
-        if parts:
-            rows = {k: np.concatenate([p[k] for p in parts]) for k in self.KEYS}
-            self._refuse_sensors(rows, final=True, row0=0)
+        if self.wheel_parts and self.n_wheel_rows > self.sensor_checked:
+            n = min(
+                self.n_wheel_rows, self.n_wheel_rows - self.sensor_checked + self.sensor_context
+            )
+            self._refuse_sensors(self._tail(n), row0=self.n_wheel_rows - n, signs=signs)
+            self.sensor_checked = self.n_wheel_rows
+        self._sensor_refusal(signs)
+        self.wheel_parts = []
 
-    def _refuse_sensors(self, rows: dict[str, np.ndarray], final: bool, row0: int) -> None:
-        """validate's wheel-sensor checks (:func:`wheel_problems`: a negated column, a stuck
-        or silent wheel, stale values) on ``rows``, the drive's from data row ``row0 + 1``.
-
-        While the drive streams (``final`` False: a window of its latest rows) without the
-        sign check, whose verdict needs the whole drive.
+    def _refuse_sensors(
+        self, rows: dict[str, np.ndarray], row0: int, signs: Sequence[Problem] = ()
+    ) -> None:
+        """validate's stuck, silent and stale checks (:func:`wheel_problems` without the
+        sign check, which the tallies make) on ``rows``, the drive's from data row
+        ``row0 + 1``; refused with ``signs``, the sign check's problems, before them.
 
         Raises:
             InputError: as validate refuses the drive.
@@ -690,9 +740,10 @@ class StreamRadiusCheck:
         fix = np.isfinite(rows[c.LAT_DEG]) & np.isfinite(rows[c.LON_DEG])
         result = assess(rows, self.vp.gnss, self.vp.sample_period_s, wheel_glitch=~fix)
         entry = {"drive": self.entry["source_file"]} | self.entry
-        problems = wheel_problems(
-            self.vp, self.nominal_m, entry, rows, [], result, signs=final, row0=row0
-        )
+        found = wheel_problems(self.vp, self.nominal_m, entry, rows, [], result, False, row0)
+        self._sensor_refusal([*signs, *found])
+
+    def _sensor_refusal(self, problems: list[Problem]) -> None:
         if problems:
             raise InputError(
                 problems,
@@ -813,6 +864,52 @@ def _swapped_by_range(
 
 
 @np.errstate(invalid="ignore", over="ignore", divide="ignore")
+def sign_problem(
+    vp: ValidateParams, file: str, column: str, tally: SignTally, so_far: bool = False
+) -> Problem | None:
+    """validate's sign check of one wheel from its :class:`SignTally`.
+
+    Wheel speeds are magnitudes; a signing logger's reversing (all four wheels negative
+    together) passes on at most ``validate.wheels.signed_max_share`` of the moving rows.
+
+    Args:
+        vp: ``validate``.
+        file: the drive's file.
+        column: the wheel's column as the file names it.
+        tally: the wheel's tally over the drive (or a stream's rows so far).
+        so_far: the tally is of a stream's first rows (the report says so).
+
+    Returns:
+        The problem, or None when the wheel passes.
+    """
+    if tally.negative == 0:
+        return None
+    share = tally.share
+    if share <= vp.wheels.signed_max_share and tally.reversing:
+        return None  # a signing logger's reversing: label takes the magnitudes
+    what = (
+        "the column looks negated (a sign error in the export)"
+        if share > vp.wheels.signed_max_share
+        else "one wheel negative while another turns forwards (not reversing)"
+    )
+    rows = f"{tally.first_row + 1}-{tally.last_row + 1}"
+    return Problem(
+        file,
+        tally.first_row + 1,
+        column,
+        "wheel speeds as magnitudes >= 0 (as ABS sensors give them), or all four "
+        "negative together while reversing on at most "
+        f"{vp.wheels.signed_max_share:.0%} of the moving rows "
+        f"(validate.wheels.negative_tol_rad_s {vp.wheels.negative_tol_rad_s}, "
+        "signed_max_share)",
+        f"{tally.first_value:.6g} rad/s, negative in {tally.negative} row(s) (rows {rows}; "
+        f"{share:.0%} of the moving rows{' so far' if so_far else ''}) while "
+        f"GNSS moved {tally.gnss_m:.0f} m: {what}",
+        "export the absolute wheel speeds (|value|), or negate this column: the "
+        "pipeline takes the direction from GNSS, never from the wheel speed's sign",
+    )
+
+
 def wheel_problems(
     vp: ValidateParams,
     nominal_m: float,
@@ -842,37 +939,14 @@ def wheel_problems(
     ignore = manual_rows(np.asarray(df[c.T_S], dtype=np.float64), drive_cuts)
     problems = []
     t = np.asarray(df[c.T_S], dtype=np.float64)
-    negative = negative_wheel_rows(df, vp.wheels.negative_tol_rad_s, ignore) if signs else {}
-    reversing = reversing_rows(df, vp.wheels.negative_tol_rad_s) if negative else None
-    for wheel, rows in negative.items():
-        values = np.asarray(df[wheel], dtype=np.float64)
-        moving = int((np.abs(values) > vp.gnss.moving_wheel_speed_rad_s).sum())
-        share = rows.size / max(moving, 1)
-        if share <= vp.wheels.signed_max_share and reversing[rows].all():
-            continue  # a signing logger's reversing: label takes the magnitudes
-        what = (
-            "the column looks negated (a sign error in the export)"
-            if share > vp.wheels.signed_max_share
-            else "one wheel negative while another turns forwards (not reversing)"
+    if signs:
+        tallies = sign_tallies(
+            df, vp.wheels.negative_tol_rad_s, vp.gnss.moving_wheel_speed_rad_s, ignore, row0
         )
-        problems.append(
-            Problem(
-                file,
-                row0 + int(rows[0]) + 1,
-                columns.get(wheel, wheel),
-                "wheel speeds as magnitudes >= 0 (as ABS sensors give them), or all four "
-                "negative together while reversing on at most "
-                f"{vp.wheels.signed_max_share:.0%} of the moving rows "
-                f"(validate.wheels.negative_tol_rad_s {vp.wheels.negative_tol_rad_s}, "
-                "signed_max_share)",
-                f"{values[rows[0]]:.6g} rad/s, negative in {rows.size} row(s) (rows "
-                f"{row0 + int(rows[0]) + 1}-{row0 + int(rows[-1]) + 1}; {share:.0%} of the "
-                "moving rows) while "
-                f"GNSS moved {gnss_path_m(df, rows):.0f} m: {what}",
-                "export the absolute wheel speeds (|value|), or negate this column: the "
-                "pipeline takes the direction from GNSS, never from the wheel speed's sign",
-            )
-        )
+        for wheel, tally in tallies.items():
+            problem = sign_problem(vp, file, columns.get(wheel, wheel), tally)
+            if problem is not None:
+                problems.append(problem)
     runs = stuck_wheel_runs(df, vp.wheels, vp.sample_period_s, ignore)
     by_wheel: dict[str, list] = {}
     for run in runs:

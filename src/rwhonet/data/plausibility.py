@@ -680,6 +680,86 @@ def gnss_path_m(drive: Mapping[str, np.ndarray], rows: np.ndarray) -> float:
     return float(np.nansum(step[rows - 1]))
 
 
+@dataclass(frozen=True)
+class SignTally:
+    """What validate's sign check knows of one wheel over the rows seen: the whole drive,
+    or a stream's rows so far, tallied block by block (:meth:`add`) without keeping them.
+
+    Rows are 0-based over the drive; ``first_row`` is -1 while there is no negative row.
+    """
+
+    negative: int = 0  # rows below -tol (outside the manual cuts)
+    first_row: int = -1  # the first of them
+    first_value: float = math.nan  # its wheel speed, rad/s
+    last_row: int = -1  # the last of them
+    reversing: bool = True  # every one of them a row where all four roll backwards together
+    gnss_m: float = 0.0  # GNSS distance over the steps into them, m
+    moving: int = 0  # rows where this wheel turns faster than the moving threshold
+
+    @property
+    def share(self) -> float:
+        """The negative rows' share of the moving rows."""
+        return self.negative / max(self.moving, 1)
+
+    def add(self, later: SignTally) -> SignTally:
+        """This tally and the one of the rows that follow them."""
+        first = self.negative > 0
+        return SignTally(
+            self.negative + later.negative,
+            self.first_row if first else later.first_row,
+            self.first_value if first else later.first_value,
+            later.last_row if later.negative else self.last_row,
+            self.reversing and later.reversing,
+            self.gnss_m + later.gnss_m,
+            self.moving + later.moving,
+        )
+
+
+def sign_tallies(
+    drive: Mapping[str, np.ndarray],
+    tol_rad_s: float,
+    moving_rad_s: float,
+    ignore: np.ndarray | None = None,
+    row0: int = 0,
+    lead: int = 0,
+) -> dict[str, SignTally]:
+    """Each wheel's :class:`SignTally` over ``drive``'s rows from ``lead`` on.
+
+    Args:
+        drive: canonical columns (the four wheel speeds, latitude, longitude).
+        tol_rad_s: ``validate.wheels.negative_tol_rad_s`` (:func:`negative_wheel_rows`).
+        moving_rad_s: ``validate.gnss.moving_wheel_speed_rad_s``.
+        ignore: rows to leave out of the negative ones (manual cuts), or None.
+        row0: the drive's rows before ``drive``'s row ``lead`` (the tally's row numbers).
+        lead: rows at the start that only lead in (a stream's last row of the block
+            before: the GNSS step into the first row tallied).
+
+    Returns:
+        Wheel (canonical name) -> its tally, for every wheel.
+    """
+    negative = negative_wheel_rows(drive, tol_rad_s, ignore)
+    reversing = reversing_rows(drive, tol_rad_s) if negative else None
+    out = {}
+    for name in c.WHEELS:
+        values = np.asarray(drive[name], dtype=np.float64)[lead:]
+        moving = int((np.abs(values) > moving_rad_s).sum())
+        rows = negative.get(name, np.empty(0, dtype=np.int64))
+        rows = rows[rows >= lead]
+        if rows.size == 0:
+            out[name] = SignTally(moving=moving)
+            continue
+        out[name] = SignTally(
+            int(rows.size),
+            row0 + int(rows[0]) - lead,
+            float(values[rows[0] - lead]),
+            row0 + int(rows[-1]) - lead,
+            bool(reversing[rows].all()),
+            gnss_path_m(drive, rows),
+            moving,
+        )
+    return out
+
+
 # --------------------------------------------------------------------------- positions
 
 
