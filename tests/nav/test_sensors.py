@@ -5,10 +5,12 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 
+from rwhonet import contracts as k
 from rwhonet.config import SimDrive
-from rwhonet.evaluation.position import ascend
+from rwhonet.evaluation.position import ascend, climb, ridge_s_per_m
 from rwhonet.features.deadreckoning import wheel_yaw_rad
 from rwhonet.nav import GnssSpec, GyroSpec, NavConfig, NavInputs, WheelSpec, run
 from rwhonet.nav.sensors import lag_compensated
@@ -59,6 +61,49 @@ def test_ascend_finds_a_parabola_s_vertex_on_either_side_and_stops_at_the_range(
         assert ascend(lambda i, v=vertex: -((i - v) ** 2), -10, 10) == pytest.approx(vertex)
     assert ascend(lambda i: float(i), -10, 4) == 4.0  # rising to the end of the range
     assert ascend(lambda i: -abs(i), -5, 5) == 0.0  # the start is the peak
+
+
+def _ridge(x: dict[str, float]) -> float:
+    # a score with a narrow ridge along a / 10 + L = 0.19 (10 m/s), whose top lies at
+    # a = 0.95, L = 0.095: what the fixes tell of a lever arm ahead and a late gyro
+    lag = x["ahead"] / 10.0 + x["latency"] - 0.19
+    return -1e4 * lag**2 - (x["ahead"] - 0.95) ** 2 - (x["left"] + 0.2) ** 2
+
+
+def test_climbing_along_the_ridge_reaches_its_top_where_the_axes_alone_stop_short():
+    bounds = {"ahead": (-2.0, 5.0), "left": (-2.0, 2.0), "latency": (0.0, 0.5)}
+    axes = {
+        "ahead": ({"ahead": 0.25}, bounds),
+        "latency": ({"latency": 0.025}, bounds),
+        "left": ({"left": 0.25}, bounds),
+    }
+    start = {"ahead": 0.0, "left": 0.0, "latency": 0.0}
+    alone = climb(_ridge, start, axes, 6)
+    assert alone["ahead"] > 1.5  # up to the ridge by the lever arm alone, and stuck there
+    ridged = climb(_ridge, start, axes | {"ridge": ({"ahead": 0.25, "latency": -0.025}, bounds)}, 6)
+    assert _ridge(ridged) > _ridge(alone) + 0.3
+    assert ridged["ahead"] == pytest.approx(0.95, abs=0.1)
+    assert ridged["latency"] == pytest.approx(0.095, abs=0.01)
+    assert ridged["left"] == pytest.approx(-0.2, abs=0.01)
+    # the ranges hold, also along a direction that moves two values at once
+    top = climb(lambda x: x["ahead"] - 10 * x["latency"], start | {"latency": 0.3}, axes, 1)
+    assert top == pytest.approx({"ahead": 5.0, "left": 0.0, "latency": 0.0}, abs=1e-12)
+    diag = {"ridge": ({"ahead": 0.25, "latency": -0.025}, bounds)}
+    stop = climb(lambda x: x["ahead"], start | {"latency": 0.1}, diag, 1)
+    assert stop == pytest.approx({"ahead": 1.0, "left": 0.0, "latency": 0.0}, abs=1e-12)
+
+
+def test_the_ridge_s_ratio_weights_each_second_s_one_over_speed_by_its_turn_squared():
+    frame = pd.DataFrame(
+        {
+            k.DISP_GNSS_M: [10.0, 5.0, 1.0, 20.0, np.nan],
+            k.GYRO_YAW_RAD: [0.1, 0.2, 0.5, 0.0, 0.3],  # 1 m/s: too slow; NaN: no fix
+        }
+    )
+    want = (0.01 / 10 + 0.04 / 5) / (0.01 + 0.04)
+    assert ridge_s_per_m(frame, np.arange(5)) == pytest.approx(want)
+    assert ridge_s_per_m(frame, np.array([2, 3])) is None  # no turn fast enough to tell
+    assert ridge_s_per_m(frame.drop(columns=k.GYRO_YAW_RAD), np.arange(5)) is None
 
 
 def test_the_fixes_log_score_is_highest_at_the_drive_s_antenna_and_gyro_latency(project_params):
