@@ -42,11 +42,16 @@ system-packages:
 	fi
 
 # -rs: a skipped test says why in the summary (the team-mode test without its servers).
+# The suite runs on TEST_JOBS pytest-xdist workers (auto: one per core), each test module
+# whole on one worker (--dist loadfile), so a module's fixtures, most of them a whole DVC
+# pipeline in a scratch project, are built once; TEST_JOBS=0 runs it in this process.
+TEST_JOBS ?= auto
+XDIST = -n $(TEST_JOBS) --dist loadfile
 test: $(STAMP) system-packages
-	$(BIN)/python -m pytest -q -rs
+	$(BIN)/python -m pytest -q -rs $(XDIST)
 
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow" $(XDIST)
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests pipelines benchmarks

@@ -39,7 +39,8 @@ def pytest_collection_modifyitems(session, config, items):
 def ci_pipeline(tmp_path_factory) -> Path:
     """A scratch copy of the project on the small ci pipeline (``support.project.CI_PIPELINE``).
 
-    One per session: ``test_pipeline.py`` runs and probes its stages, the MLflow UI
+    One per session (under ``make test``, one per pytest-xdist worker that runs a module
+    asking for it): ``test_pipeline.py`` runs and probes its stages, the MLflow UI
     test browses the store its runs leave (each runs ``dvc repro`` first, a no-op
     when the other already did).
     """
