@@ -283,6 +283,13 @@ def test_the_filter_s_windows_on_a_straight_drive(samples_dir, params):
     assert set(per_seed.loc[per_seed["model"] == "exact", "seed"]) == {1}
     row = per_seed[(per_seed["model"] == "exact") & (per_seed["outage_s"] == 30)].iloc[0]
     assert row["n_windows_all"] == len(rows) and row["n_windows"] == len(counted)
+    # each window names the drive it starts on; split by it, the cells add up
+    np.testing.assert_array_equal(mine["drive"], frame["drive"].to_numpy()[rows[:, 0]])
+    drives = position_per_seed(w, [1, 2], by=("drive",))
+    exact = drives[(drives["model"] == "exact") & (drives["outage_s"] == 30)]
+    assert set(exact["drive"]) == set(mine["drive"])
+    assert exact["n_windows"].sum() == len(counted)
+    assert exact["n_windows_all"].sum() == len(rows)
 
 
 def test_without_a_yaw_rate_the_gyro_and_fused_rows_are_unavailable(samples_dir, params):

@@ -248,8 +248,20 @@ def test_2d_position_error_is_the_distance_error_on_a_straight_drive(samples_dir
     }
     assert out["position_dead_reckoning"]["G"]["30s"]["pos_mean"] == pytest.approx(3.0, abs=0.3)
     assert set(out["uncertainty"]["models"]) >= {"WPM", "G", "S", "R"}
+    # the control row on each target test drive apart: its windows add up to the row's
+    controls = out["position_controls"]
+    by_drive = controls["by_drive"]
+    tested = set(frame.loc[frame["role"] == "target_test", "drive"])
+    assert set(by_drive) == tested
+    for L in ("30s", "60s"):
+        whole = controls["rows"]["fused"][L]
+        assert sum(d[L]["n_windows"] for d in by_drive.values()) == whole["n_windows"]
+        assert sum(d[L]["n_windows_all"] for d in by_drive.values()) == whole["n_windows_all"]
+        share = sum(d[L]["cover_2sigma"] * d[L]["n_windows"] for d in by_drive.values())
+        assert share / whole["n_windows"] == pytest.approx(whole["cover_2sigma"], abs=1e-3)
     md = render_report(ev, params, "provenance")
     assert "## Where is the car when GNSS returns" in md and "earlier 2D dead reckoning" in md
+    assert "| Test drive | 30 s: 1σ / 2σ (windows); error |" in md
 
 
 def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_dir, params):

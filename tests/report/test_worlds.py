@@ -154,6 +154,13 @@ def test_the_2d_claims_read_the_filter_s_controls(world):
     assert "beyond chance (binomial, 5 %): 30s 2σ (90 % of 100)" in verdict.evidence
     rows["fused"]["30s"]["n_windows"] = 37  # 33 of 37 (p 0.08): what chance gives a calibrated 2σ
     assert "every cell within what chance gives" in wr.fused_coverage(world).evidence
+    assert "by test drive" not in wr.fused_coverage(world).evidence  # none in eval.json
+    world.ev["position_controls"]["by_drive"] = {
+        "V-A": {"180s": _cell(1.1, 0.92, 1.0) | {"n_windows": 39}},
+        "V-B": {"30s": _cell(1.3)},  # no window of the longest outage
+    }
+    verdict = wr.fused_coverage(world)
+    assert verdict.evidence.endswith("; by test drive at 180s: V-A 92 / 100 % (39)")
     world.ev["position"]["R"]["180s"]["pos_pct"] = 1.3  # 0.15 % of the distance off
     verdict = wr.distance_model_same_position(world)
     assert not verdict.holds and "(farthest: R)" in verdict.evidence

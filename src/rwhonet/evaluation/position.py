@@ -403,6 +403,7 @@ WINDOW_COLUMNS = (
     "control",
     "outage_s",
     "window",
+    "drive",
     "counted",
     "err_e_m",
     "err_n_m",
@@ -514,6 +515,7 @@ def filter_windows(
             err = ends.fix_pred[:, -1].reshape(n_run, n_win, 2) - truth[None]
             cov = ends.fix_cov[:, -1].reshape(n_run, n_win, 2, 2)
             driven = gnss[rows].sum(axis=1)
+            drive = frame["drive"].to_numpy()[rows[:, 0]]
             for i, r in enumerate(mine):
                 ok = counted[i]
                 e = np.where(ok[:, None], err[i], np.nan)
@@ -525,6 +527,7 @@ def filter_windows(
                             "control": control,
                             "outage_s": L,
                             "window": np.arange(n_win),
+                            "drive": drive,
                             "counted": ok,
                             "err_e_m": e[:, 0],
                             "err_n_m": e[:, 1],
@@ -698,19 +701,22 @@ def position_per_seed(
     windows: pd.DataFrame,
     seeds: list[int],
     calibrations: dict[tuple, Calibration2D] | None = None,
+    by: tuple[str, ...] = (),
 ) -> pd.DataFrame:
     """Per seed, row (model, control) and outage length: :func:`window_stats`.
 
     Rows the same for every seed (``seed`` None) are repeated for each seed, so
     that every cell's mean over seeds has the same seeds. ``calibrations``
     (:func:`calibrate_2d`) calibrate each run's coverage; a run without one keeps
-    the filter's normal.
+    the filter's normal. ``by``: more columns of ``windows`` to split the cells by
+    (``("drive",)``: each test drive's windows apart, under its run's calibration).
     """
     calibrations = calibrations or {}
     rows = []
-    for (model, control, L, seed), g in windows.groupby(
-        ["model", "control", "outage_s", "seed"], sort=False, dropna=False
+    for key_values, g in windows.groupby(
+        ["model", "control", "outage_s", "seed", *by], sort=False, dropna=False
     ):
+        model, control, L, seed = key_values[:4]
         key = (model, None if pd.isna(seed) else int(seed), control)
         stats = window_stats(g, calibrations.get(key), int(L))
         for s in seeds if pd.isna(seed) else [int(seed)]:
@@ -720,6 +726,7 @@ def position_per_seed(
                     "model": model,
                     "control": control,
                     "outage_s": int(L),
+                    **dict(zip(by, key_values[4:], strict=True)),
                     **stats,
                     "n_windows_all": len(g),
                 }

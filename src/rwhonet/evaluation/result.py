@@ -44,6 +44,7 @@ class Evaluation:
     limits: pd.DataFrame = field(default_factory=_empty)  # evaluation.limits.radius_limits
     position: pd.DataFrame = field(default_factory=_empty)  # the filter: per model, control, L
     position_windows: pd.DataFrame = field(default_factory=_empty)  # ... per window and seed
+    position_drives: pd.DataFrame = field(default_factory=_empty)  # fused, per test drive, L
     position_dead_reckoning: pd.DataFrame = field(default_factory=_empty)  # the earlier 2D
     position_plan: dict = field(default_factory=dict)  # study.navigation_plan, less the models
     uncertainty: pd.DataFrame = field(default_factory=_empty)  # CRSE calibration per model, L
@@ -210,7 +211,11 @@ def _filter_position(ev: Evaluation) -> dict:
 
 
 def _position_controls(ev: Evaluation) -> dict:
-    """The filter's controls on one model's distances, and fused on the GNSS's distances."""
+    """The filter's controls on one model's distances, and fused on the GNSS's distances.
+
+    ``by_drive``: the control row (``control`` on ``distance``'s distances) on each
+    target test drive's windows apart, under the same calibration.
+    """
     plan, pos = ev.position_plan, ev.position
     if pos is None or pos.empty:
         return {}
@@ -231,6 +236,12 @@ def _position_controls(ev: Evaluation) -> dict:
         else:
             continue
         out["rows"][name] = {f"{int(r.outage_s)}s": _filter_cell(r) for r in g.itertuples()}
+    drives = ev.position_drives
+    if drives is not None and not drives.empty:  # the control row, each test drive apart
+        out["by_drive"] = {
+            str(d): {f"{int(r.outage_s)}s": _filter_cell(r) for r in g.itertuples()}
+            for d, g in drives.groupby("drive", sort=False)
+        }
     return out
 
 

@@ -265,6 +265,20 @@ def evaluate(
         ["n_windows", "n_windows_all"]
     ].first()
     position = position.join(counts, on=["model", "control", "outage_s"])
+    # the controls' distance model, fused, each test drive's windows apart: the drives
+    # differ (a leaking tyre, a heavy load, rain), and windows of one drive share them
+    mine = (windows_2d["model"] == nav["control_model"]) & (windows_2d["control"] == nav["control"])
+    by_drive = position_per_seed(windows_2d[mine], params.seeds, calibrations, by=("drive",))
+    position_drives = (
+        over_seeds(by_drive, ["drive", "outage_s"], list(WINDOW_STATS)).join(
+            by_drive.groupby(["drive", "outage_s"], sort=False)[
+                ["n_windows", "n_windows_all"]
+            ].first(),
+            on=["drive", "outage_s"],
+        )
+        if len(by_drive)
+        else pd.DataFrame()
+    )
     check_df = pd.DataFrame(checks)
     uncertainty = over_seeds(
         check_df, ["model", "outage_s"], [c for c in CRSE_CHECK if c in check_df]
@@ -300,6 +314,7 @@ def evaluate(
         limits=radius_limits(frame, params),
         position=position,
         position_windows=windows_2d,
+        position_drives=position_drives,
         position_dead_reckoning=dead,
         position_plan={key: v for key, v in nav.items() if key != "models"}
         | {"receiver": receiver.as_dict(), "geometry": geometry.as_dict()},

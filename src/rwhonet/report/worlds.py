@@ -253,7 +253,16 @@ def fused_coverage(w: World) -> Verdict:
     fused = rows.get("fused") if rows else None
     if not fused:
         return Verdict(None, "no navigation filter in eval.json")
-    return _coverage(fused, "cover_1sigma", "cover_2sigma")
+    verdict = _coverage(fused, "cover_1sigma", "cover_2sigma")
+    drives = w.ev.get("position_controls", {}).get("by_drive", {})
+    at = {d: c[w.longest] for d, c in drives.items() if c.get(w.longest, {}).get("n_windows")}
+    if not at:
+        return verdict
+    each = ", ".join(
+        f"{d} {100 * c['cover_1sigma']:.0f} / {100 * c['cover_2sigma']:.0f} % ({c['n_windows']})"
+        for d, c in at.items()
+    )
+    return Verdict(verdict.holds, f"{verdict.evidence}; by test drive at {w.longest}: {each}")
 
 
 def crse_coverage(w: World) -> Verdict:
