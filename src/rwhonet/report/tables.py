@@ -412,16 +412,35 @@ def _per_model_table(
 
     ``cell`` turns the model's row for that length, or None where there is none, into text.
     """
+    return _per_length_table(
+        rows,
+        ("model", "Model"),
+        heading,
+        cell,
+        lambda m: "fused, GNSS's own distances" if m == GNSS_DISTANCE else _model_label(m, ev),
+    )
+
+
+def _per_length_table(
+    rows: pd.DataFrame,
+    key: tuple[str, str],
+    heading: str,
+    cell: Callable[[Any], str],
+    label: Callable[[Any], str] = str,
+) -> str:
+    """A row per value of ``rows[key[0]]`` (named by ``label``, under the header ``key[1]``),
+    a column per outage length (``"{L} s"`` and ``heading``); ``cell`` as in
+    :func:`_per_model_table`."""
+    column, header = key
     outages = sorted(rows["outage_s"].unique())
-    cells = rows.set_index(["model", "outage_s"])
+    cells = rows.set_index([column, "outage_s"])
     lines = [
-        "| Model | " + " | ".join(f"{L} s{heading}" for L in outages) + " |",
+        f"| {header} | " + " | ".join(f"{L} s{heading}" for L in outages) + " |",
         "|---|" + "---:|" * len(outages),
     ]
-    for m in dict.fromkeys(rows["model"]):
-        row = [cell(cells.loc[(m, L)] if (m, L) in cells.index else None) for L in outages]
-        name = "fused, GNSS's own distances" if m == GNSS_DISTANCE else _model_label(m, ev)
-        lines.append(f"| {name} | " + " | ".join(row) + " |")
+    for v in dict.fromkeys(rows[column]):
+        row = [cell(cells.loc[(v, L)] if (v, L) in cells.index else None) for L in outages]
+        lines.append(f"| {label(v)} | " + " | ".join(row) + " |")
     return "\n".join(lines)
 
 
@@ -524,24 +543,16 @@ def nav_drive_table(ev: Evaluation) -> str | None:
     drives = ev.position_drives
     if drives is None or drives.empty:
         return None
-    outages = sorted(drives["outage_s"].unique())
-    cells = drives.set_index(["drive", "outage_s"])
-    lines = [
-        "| Test drive | " + " | ".join(f"{L} s: 1σ / 2σ (windows); error" for L in outages) + " |",
-        "|---|" + "---:|" * len(outages),
-    ]
-    for d in dict.fromkeys(drives["drive"]):
-        row = []
-        for L in outages:
-            r = cells.loc[(d, L)] if (d, L) in cells.index else None
-            row.append(
-                "–"
-                if r is None or not r.n_windows
-                else f"{100 * r.cover_1sigma:.0f} / {100 * r.cover_2sigma:.0f} % "
-                f"({int(r.n_windows)}); {r.pos_pct:.2f} %"
-            )
-        lines.append(f"| {d} | " + " | ".join(row) + " |")
-    return "\n".join(lines)
+
+    def cell(r) -> str:
+        if r is None or not r.n_windows:
+            return "–"
+        return (
+            f"{100 * r.cover_1sigma:.0f} / {100 * r.cover_2sigma:.0f} % "
+            f"({int(r.n_windows)}); {r.pos_pct:.2f} %"
+        )
+
+    return _per_length_table(drives, ("drive", "Test drive"), ": 1σ / 2σ (windows); error", cell)
 
 
 def _geometry_line(geometry: dict) -> str:
