@@ -2,10 +2,12 @@
 
 import copy
 import json
+import math
 from pathlib import Path
 
 import pytest
 import yaml
+from scipy.stats import t as student_t
 
 from rwhonet.report import worlds as wr
 
@@ -175,5 +177,48 @@ def test_the_crse_coverage_reads_r_s_calibration(world):
     verdict = wr.crse_coverage(world)
     assert not verdict.holds and "180s 50 / 95 %" in verdict.evidence
     assert "180s 1σ (50 % of 100)" in verdict.evidence
+    assert "cluster-robust" not in verdict.evidence  # no CRSE cells by test drive
+    # four drives alike: 50 % of each drive's 25 windows, t = -3.9 on 3 dof (p 0.03)
+    world.ev["uncertainty"]["by_drive"] = {
+        f"V-{k}": {"180s": {"crse_cover_1sigma": 0.5, "crse_cover_2sigma": 0.95, "n_windows": 25}}
+        for k in "ABCD"
+    }
+    verdict = wr.crse_coverage(world)
+    assert verdict.evidence.endswith("(4 drives, cluster-robust t, 5 %): 180s 1σ (50 % of 100)")
     del world.ev["uncertainty"]
     assert wr.crse_coverage(world).holds is None
+
+
+def test_the_drive_clustered_p_value_by_hand():
+    # Two drives of 10 windows, 90 % and 50 % inside: pooled 70 %, cluster-robust variance
+    # 2 / 1 · (2² + 2²) / 20² = 0.04 (above the binomial 0.68 · 0.32 / 20), t = 0.02 / 0.2
+    # on 1 dof (a Cauchy): p = 2 (1/2 − atan(0.1) / π)
+    p = wr.clustered_share_pvalue([0.9, 0.5], [10, 10], 0.68)
+    assert p == pytest.approx(2 * (0.5 - math.atan(0.1) / math.pi), rel=1e-9)
+    # drives that agree have no spread between them: the binomial variance under the
+    # nominal share holds instead, and the reference keeps its D − 1 = 3 dof
+    se = math.sqrt(0.6827 * 0.3173 / 100)
+    p = wr.clustered_share_pvalue([0.9] * 4, [25] * 4, 0.6827)
+    assert p == pytest.approx(2 * student_t.sf((0.9 - 0.6827) / se, 3), rel=1e-9)
+    assert 0.01 < p < 0.05
+    # a drive without windows does not count; one drive cannot tell a shift from chance
+    assert math.isnan(wr.clustered_share_pvalue([0.9, 0.2], [30, 0], 0.6827))
+    assert wr.clustered_share_pvalue([0.68, 0.68, 0.7], [10, 0, 10], 0.68) > 0.5
+
+
+def test_a_miss_the_binomial_calls_beyond_chance_is_put_to_the_drives_too(world):
+    rows = world.ev["position_controls"]["rows"]
+    rows["fused"]["30s"]["cover_1sigma"] = 0.90  # 90 of 100 in 1σ: binomial p ~1e-7
+    drives = {f"V-{k}": {"30s": _cell(1.2, 0.90, 0.95) | {"n_windows": 25}} for k in "ABCD"}
+    world.ev["position_controls"]["by_drive"] = drives
+    verdict = wr.fused_coverage(world)
+    assert "beyond chance (binomial, 5 %): 30s 1σ (90 % of 100)" in verdict.evidence
+    # four drives alike: t = 4.67 on 3 dof, p 0.02: beyond the drives' spread too
+    assert "(4 drives, cluster-robust t, 5 %): 30s 1σ (90 % of 100)" in verdict.evidence
+    for k, share in zip("ABCD", (1.0, 1.0, 0.96, 0.64), strict=True):
+        drives[f"V-{k}"]["30s"]["cover_1sigma"] = share  # the same 90 %, from one drive's miss
+    verdict = wr.fused_coverage(world)
+    assert "beyond chance (binomial, 5 %): 30s 1σ (90 % of 100)" in verdict.evidence
+    assert verdict.evidence.endswith("(4 drives, cluster-robust t, 5 %): none")
+    del world.ev["position_controls"]["by_drive"]
+    assert "cluster-robust" not in wr.fused_coverage(world).evidence
