@@ -264,6 +264,19 @@ def test_2d_position_error_is_the_distance_error_on_a_straight_drive(samples_dir
     assert "| Test drive | 30 s: 1σ / 2σ (windows); error |" in md
 
 
+def _crse_by_drive_adds_up(unc: dict, frame: pd.DataFrame) -> None:
+    """R's CRSE calibration on each target test drive apart: every test drive, and its
+    windows and shares adding up to the whole's."""
+    by_drive, whole = unc["by_drive"], unc["models"]["R"]
+    assert set(by_drive) == set(frame.loc[frame["role"] == "target_test", "drive"])
+    for L in ("30s", "60s"):
+        counts = [d[L]["n_windows"] for d in by_drive.values() if L in d]
+        assert sum(counts) == whole[L]["n_windows"] > 0
+        for key in ("crse_cover_1sigma", "crse_cover_2sigma"):
+            inside = sum(d[L][key] * d[L]["n_windows"] for d in by_drive.values() if L in d)
+            assert inside / whole[L]["n_windows"] == pytest.approx(whole[L][key], abs=1e-3)
+
+
 def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_dir, params):
     from rwhonet.evaluation.uncertainty import FitEvidence
 
@@ -284,6 +297,9 @@ def test_each_model_s_variance_is_fitted_on_the_target_training_drives(samples_d
     out = ev.eval_json["uncertainty"]
     assert out["fitted_on"].startswith("target training drives")
     assert out["models"]["R"]["n_seconds"] == 80 and "30s" in out["models"]["R"]
+    _crse_by_drive_adds_up(out, frame)
+    md = render_report(ev, params, "provenance")
+    assert "| Test drive | 30 s: 1σ / 2σ (windows); NLL |" in md
     # the 2D calibration: one training drive holds too few windows to fit, so every run
     # keeps the filter's own normal (and says so: scale 1, no finite degrees of freedom)
     pos = ev.position[ev.position["n_windows"] > 0]
@@ -323,6 +339,7 @@ def test_a_continuous_recipe_as_r_wh_onet_gets_its_crse_prediction(samples_dir, 
     for L in p.evaluate.outages_s:
         assert r[f"{L}s"]["n_windows"] > 0 and r[f"{L}s"]["crse_nll"] is not None
     assert f"R[{recipe}]" not in set(ev.position["model"])  # no filter on it
+    _crse_by_drive_adds_up(ev.eval_json["uncertainty"], frame)
     md = render_report(ev, p, "provenance")
     assert f"R[{recipe}]" in md.split("σ² = a + b d²: a (cm²)")[1]
 

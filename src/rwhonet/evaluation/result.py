@@ -48,6 +48,7 @@ class Evaluation:
     position_dead_reckoning: pd.DataFrame = field(default_factory=_empty)  # the earlier 2D
     position_plan: dict = field(default_factory=dict)  # study.navigation_plan, less the models
     uncertainty: pd.DataFrame = field(default_factory=_empty)  # CRSE calibration per model, L
+    uncertainty_drives: pd.DataFrame = field(default_factory=_empty)  # R's, per test drive, L
     variance: pd.DataFrame = field(default_factory=_empty)  # each model's variance fit
     scenario_outages: pd.DataFrame = field(default_factory=_empty)  # per tag and model
     scenario_counts: pd.DataFrame = field(default_factory=_empty)  # per tag: events, windows...
@@ -246,7 +247,10 @@ def _position_controls(ev: Evaluation) -> dict:
 
 
 def _uncertainty(ev: Evaluation) -> dict:
-    """Each model's distance variance (means over seeds) and its CRSE calibration per outage."""
+    """Each model's distance variance (means over seeds) and its CRSE calibration per outage.
+
+    ``by_drive``: R-WhONet's CRSE calibration on each target test drive's windows apart.
+    """
     if ev.variance is None or ev.variance.empty:
         return {}
     fitted = bool(ev.variance["fitted"].iloc[0])
@@ -264,16 +268,16 @@ def _uncertainty(ev: Evaluation) -> dict:
         }
     for r in ev.uncertainty.itertuples():
         name = "R" if r.model == ev.choice.model else r.model
-        models[name][f"{int(r.outage_s)}s"] = {
-            "crse_cover_1sigma": _num(r.cover_1sigma),
-            "crse_cover_2sigma": _num(r.cover_2sigma),
-            "crse_nll": _num(r.nll),
-            "crse_cover_1sigma_independent": _num(r.cover_1sigma_independent),
-            "crse_cover_2sigma_independent": _num(r.cover_2sigma_independent),
-            "second_cover_1sigma": _num(r.second_cover_1sigma),
-            "second_cover_2sigma": _num(r.second_cover_2sigma),
-            "n_windows": int(r.n_windows),
+        models[name][f"{int(r.outage_s)}s"] = _crse_cell(r)
+    drives = ev.uncertainty_drives
+    by_drive = (
+        {
+            str(d): {f"{int(r.outage_s)}s": _crse_cell(r) for r in g.itertuples()}
+            for d, g in drives.groupby("drive", sort=False)
         }
+        if drives is not None and not drives.empty
+        else {}
+    )
     return {
         "variance": "sigma_t^2 = a + b d_t^2 per second (d_t: the model's distance)",
         "fitted_on": (
@@ -284,6 +288,21 @@ def _uncertainty(ev: Evaluation) -> dict:
             else "nothing (no target training drives): assumed a = 0.05^2 m^2, b = 0.01^2"
         ),
         "models": models,
+        **({"by_drive": by_drive} if by_drive else {}),
+    }
+
+
+def _crse_cell(r: Any) -> dict:
+    """One CRSE calibration cell (a row of :attr:`Evaluation.uncertainty`, means over seeds)."""
+    return {
+        "crse_cover_1sigma": _num(r.cover_1sigma),
+        "crse_cover_2sigma": _num(r.cover_2sigma),
+        "crse_nll": _num(r.nll),
+        "crse_cover_1sigma_independent": _num(r.cover_1sigma_independent),
+        "crse_cover_2sigma_independent": _num(r.cover_2sigma_independent),
+        "second_cover_1sigma": _num(r.second_cover_1sigma),
+        "second_cover_2sigma": _num(r.second_cover_2sigma),
+        "n_windows": int(r.n_windows),
     }
 
 

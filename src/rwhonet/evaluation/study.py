@@ -167,7 +167,8 @@ def evaluate(
     gnss = frame[k.DISP_GNSS_M].to_numpy(np.float64)
     group = frame["group"].to_numpy()
     test_windows = {L: target_windows(frame, params, L) for L in outages}
-    runs, checks, variances = [], [], []
+    drive_of = frame["drive"].to_numpy()
+    runs, checks, variances, drive_checks = [], [], [], []
     for seed in params.seeds:
         errors = model_errors(frame, preds[seed], wpm_m, params)
         # The GNSS's own distances dead-reckoned: the error left is the heading's alone.
@@ -185,6 +186,12 @@ def evaluate(
                     {"seed": seed, "model": model, "outage_s": L}
                     | crse_check(errors[model], dist, rows, fit, group)
                 )
+                if model == alias:  # R-WhONet on each test drive's windows apart
+                    drive_checks += [
+                        {"seed": seed, "drive": d, "outage_s": L}
+                        | crse_check(errors[model], dist, part, fit, group)
+                        for d, part in _by_drive(rows, drive_of)
+                    ]
             if fixed and seed != params.seeds[0]:
                 continue  # the same run for every seed
             runs += model_runs(model, None if fixed else seed, dist, fit, nav, outages)
@@ -197,6 +204,12 @@ def evaluate(
                     {"seed": seed, "model": model, "outage_s": L}
                     | crse_check(e, gnss - e, rows, fit)
                 )
+                if model == alias:
+                    drive_checks += [
+                        {"seed": seed, "drive": d, "outage_s": L}
+                        | crse_check(e, gnss - e, part, fit)
+                        for d, part in _by_drive(rows, drive_of)
+                    ]
         if seed == params.seeds[0]:
             runs.append(gnss_run(gnss, nav, cfg))
         flat = shortest_runs(errors, outages)
@@ -279,13 +292,8 @@ def evaluate(
         if len(by_drive)
         else pd.DataFrame()
     )
-    check_df = pd.DataFrame(checks)
-    uncertainty = over_seeds(
-        check_df, ["model", "outage_s"], [c for c in CRSE_CHECK if c in check_df]
-    ).join(
-        check_df.groupby(["model", "outage_s"], sort=False)["n_windows"].first(),
-        on=["model", "outage_s"],
-    )
+    uncertainty = _over_seeds_checks(pd.DataFrame(checks), ["model", "outage_s"])
+    uncertainty_drives = _over_seeds_checks(pd.DataFrame(drive_checks), ["drive", "outage_s"])
     variance_df = pd.DataFrame(variances)
     gammas = [c for c in variance_df.columns if c.startswith("gamma_")]
     variance = over_seeds(variance_df, ["model"], [*VARIANCE, *gammas])
@@ -319,12 +327,29 @@ def evaluate(
         position_plan={key: v for key, v in nav.items() if key != "models"}
         | {"receiver": receiver.as_dict(), "geometry": geometry.as_dict()},
         uncertainty=uncertainty,
+        uncertainty_drives=uncertainty_drives,
         variance=variance.assign(fitted=evidence is not None),
         scenario_outages=scenario_outage_summary(pd.DataFrame(scen_out), scenario.counts),
         scenario_counts=scenario.counts,
         scenario_outage_s=scenario.outage_s,
     )
     return dataclasses.replace(result, eval_json=eval_json(result, params))
+
+
+def _by_drive(rows: np.ndarray, drive_of: np.ndarray) -> list[tuple[str, np.ndarray]]:
+    """Windows (``rows``: (W, L) row indices) split by the drive their first second is of."""
+    first = drive_of[rows[:, 0]] if len(rows) else np.array([], dtype=object)
+    return [(str(d), rows[first == d]) for d in dict.fromkeys(first)]
+
+
+def _over_seeds_checks(checks: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+    """CRSE checks (:func:`crse_check` rows, one per seed) as means over seeds per ``keys``,
+    with the windows counted (the same windows every seed); empty without checks."""
+    if checks.empty:
+        return pd.DataFrame()
+    return over_seeds(checks, keys, [c for c in CRSE_CHECK if c in checks]).join(
+        checks.groupby(keys, sort=False)["n_windows"].first(), on=keys
+    )
 
 
 def _variance_row(fit) -> dict[str, float]:
