@@ -237,13 +237,20 @@ def _position_controls(ev: Evaluation) -> dict:
         else:
             continue
         out["rows"][name] = {f"{int(r.outage_s)}s": _filter_cell(r) for r in g.itertuples()}
-    drives = ev.position_drives
-    if drives is not None and not drives.empty:  # the control row, each test drive apart
-        out["by_drive"] = {
-            str(d): {f"{int(r.outage_s)}s": _filter_cell(r) for r in g.itertuples()}
-            for d, g in drives.groupby("drive", sort=False)
-        }
+    by_drive = _by_drive(ev.position_drives, _filter_cell)  # the control row, each drive apart
+    if by_drive:
+        out["by_drive"] = by_drive
     return out
+
+
+def _by_drive(drives: pd.DataFrame | None, cell: Any) -> dict:
+    """Cells per test drive and outage length (``{drive: {"<L>s": cell(row)}}``)."""
+    if drives is None or drives.empty:
+        return {}
+    return {
+        str(d): {f"{int(r.outage_s)}s": cell(r) for r in g.itertuples()}
+        for d, g in drives.groupby("drive", sort=False)
+    }
 
 
 def _uncertainty(ev: Evaluation) -> dict:
@@ -269,15 +276,7 @@ def _uncertainty(ev: Evaluation) -> dict:
     for r in ev.uncertainty.itertuples():
         name = "R" if r.model == ev.choice.model else r.model
         models[name][f"{int(r.outage_s)}s"] = _crse_cell(r)
-    drives = ev.uncertainty_drives
-    by_drive = (
-        {
-            str(d): {f"{int(r.outage_s)}s": _crse_cell(r) for r in g.itertuples()}
-            for d, g in drives.groupby("drive", sort=False)
-        }
-        if drives is not None and not drives.empty
-        else {}
-    )
+    by_drive = _by_drive(ev.uncertainty_drives, _crse_cell)
     return {
         "variance": "sigma_t^2 = a + b d_t^2 per second (d_t: the model's distance)",
         "fitted_on": (

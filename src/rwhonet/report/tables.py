@@ -540,7 +540,12 @@ def nav_drive_table(ev: Evaluation) -> str | None:
     (mean over seeds), its windows, and its end-of-outage error as a share of the
     distance driven.
     """
-    drives = ev.position_drives
+    return _drive_table(ev.position_drives, "error", lambda r: f"{r.pos_pct:.2f} %")
+
+
+def _drive_table(drives: pd.DataFrame | None, what: str, value: Callable[[Any], str]) -> str | None:
+    """Coverage by test drive: a row per drive, a column per outage length, each cell the
+    shares inside 1σ / 2σ, the windows and ``value`` of the cell (headed ``what``)."""
     if drives is None or drives.empty:
         return None
 
@@ -549,10 +554,10 @@ def nav_drive_table(ev: Evaluation) -> str | None:
             return "–"
         return (
             f"{100 * r.cover_1sigma:.0f} / {100 * r.cover_2sigma:.0f} % "
-            f"({int(r.n_windows)}); {r.pos_pct:.2f} %"
+            f"({int(r.n_windows)}); {value(r)}"
         )
 
-    return _per_length_table(drives, ("drive", "Test drive"), ": 1σ / 2σ (windows); error", cell)
+    return _per_length_table(drives, ("drive", "Test drive"), f": 1σ / 2σ (windows); {what}", cell)
 
 
 def _geometry_line(geometry: dict) -> str:
@@ -646,19 +651,7 @@ def crse_drive_table(ev: Evaluation) -> str | None:
     A cell: the share of the drive's windows (mean over seeds), their number and the
     mean negative log-likelihood.
     """
-    drives = ev.uncertainty_drives
-    if drives is None or drives.empty:
-        return None
-
-    def cell(r) -> str:
-        if r is None or not r.n_windows:
-            return "–"
-        return (
-            f"{100 * r.cover_1sigma:.0f} / {100 * r.cover_2sigma:.0f} % "
-            f"({int(r.n_windows)}); {r.nll:.2f}"
-        )
-
-    return _per_length_table(drives, ("drive", "Test drive"), ": 1σ / 2σ (windows); NLL", cell)
+    return _drive_table(ev.uncertainty_drives, "NLL", lambda r: f"{r.nll:.2f}")
 
 
 def position_table(ev: Evaluation, params: Params) -> str | None:
