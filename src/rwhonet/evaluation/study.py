@@ -190,7 +190,7 @@ def evaluate(
                     drive_checks += [
                         {"seed": seed, "drive": d, "outage_s": L}
                         | crse_check(errors[model], dist, part, fit, group)
-                        for d, part in _by_drive(rows, drive_of)
+                        for d, part in _windows_by_drive(rows, drive_of)
                     ]
             if fixed and seed != params.seeds[0]:
                 continue  # the same run for every seed
@@ -208,7 +208,7 @@ def evaluate(
                     drive_checks += [
                         {"seed": seed, "drive": d, "outage_s": L}
                         | crse_check(e, gnss - e, part, fit)
-                        for d, part in _by_drive(rows, drive_of)
+                        for d, part in _windows_by_drive(rows, drive_of)
                     ]
         if seed == params.seeds[0]:
             runs.append(gnss_run(gnss, nav, cfg))
@@ -273,27 +273,15 @@ def evaluate(
     calibrations = calibrate_on_training(training, params, passes, outages, cfg)[0]
     windows_2d = filter_windows(frame, params, runs, outages, cfg)
     nav_seed = position_per_seed(windows_2d, params.seeds, calibrations)
-    position = over_seeds(nav_seed, ["model", "control", "outage_s"], list(WINDOW_STATS))
-    counts = nav_seed.groupby(["model", "control", "outage_s"], sort=False)[
-        ["n_windows", "n_windows_all"]
-    ].first()
-    position = position.join(counts, on=["model", "control", "outage_s"])
+    counted = ["n_windows", "n_windows_all"]
+    position = _seed_means(nav_seed, ["model", "control", "outage_s"], WINDOW_STATS, counted)
     # the controls' distance model, fused, each test drive's windows apart: the drives
     # differ (a leaking tyre, a heavy load, rain), and windows of one drive share them
     mine = (windows_2d["model"] == nav["control_model"]) & (windows_2d["control"] == nav["control"])
     by_drive = position_per_seed(windows_2d[mine], params.seeds, calibrations, by=("drive",))
-    position_drives = (
-        over_seeds(by_drive, ["drive", "outage_s"], list(WINDOW_STATS)).join(
-            by_drive.groupby(["drive", "outage_s"], sort=False)[
-                ["n_windows", "n_windows_all"]
-            ].first(),
-            on=["drive", "outage_s"],
-        )
-        if len(by_drive)
-        else pd.DataFrame()
-    )
-    uncertainty = _over_seeds_checks(pd.DataFrame(checks), ["model", "outage_s"])
-    uncertainty_drives = _over_seeds_checks(pd.DataFrame(drive_checks), ["drive", "outage_s"])
+    position_drives = _seed_means(by_drive, ["drive", "outage_s"], WINDOW_STATS, counted)
+    uncertainty = _seed_means(pd.DataFrame(checks), ["model", "outage_s"], CRSE_CHECK)
+    uncertainty_drives = _seed_means(pd.DataFrame(drive_checks), ["drive", "outage_s"], CRSE_CHECK)
     variance_df = pd.DataFrame(variances)
     gammas = [c for c in variance_df.columns if c.startswith("gamma_")]
     variance = over_seeds(variance_df, ["model"], [*VARIANCE, *gammas])
@@ -336,19 +324,26 @@ def evaluate(
     return dataclasses.replace(result, eval_json=eval_json(result, params))
 
 
-def _by_drive(rows: np.ndarray, drive_of: np.ndarray) -> list[tuple[str, np.ndarray]]:
+def _windows_by_drive(rows: np.ndarray, drive_of: np.ndarray) -> list[tuple[str, np.ndarray]]:
     """Windows (``rows``: (W, L) row indices) split by the drive their first second is of."""
     first = drive_of[rows[:, 0]] if len(rows) else np.array([], dtype=object)
     return [(str(d), rows[first == d]) for d in dict.fromkeys(first)]
 
 
-def _over_seeds_checks(checks: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
-    """CRSE checks (:func:`crse_check` rows, one per seed) as means over seeds per ``keys``,
-    with the windows counted (the same windows every seed); empty without checks."""
-    if checks.empty:
+def _seed_means(
+    per_seed: pd.DataFrame,
+    keys: list[str],
+    values: Sequence[str],
+    counted: Sequence[str] = ("n_windows",),
+) -> pd.DataFrame:
+    """Per-seed cells (a row per seed and ``keys``) as means over seeds with their intervals
+    (:func:`over_seeds`, the ``values`` present), with ``counted`` as the first seed has
+    them (the same windows every seed); empty without cells."""
+    if per_seed.empty:
         return pd.DataFrame()
-    return over_seeds(checks, keys, [c for c in CRSE_CHECK if c in checks]).join(
-        checks.groupby(keys, sort=False)["n_windows"].first(), on=keys
+    present = [c for c in values if c in per_seed]
+    return over_seeds(per_seed, keys, present).join(
+        per_seed.groupby(keys, sort=False)[list(counted)].first(), on=keys
     )
 
 
