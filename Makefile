@@ -44,7 +44,8 @@ system-packages:
 # -rs: a skipped test says why in the summary (the team-mode test without its servers).
 # The suite runs on TEST_JOBS pytest-xdist workers (auto: one per core), each test module
 # whole on one worker (--dist loadfile), so a module's fixtures, most of them a whole DVC
-# pipeline in a scratch project, are built once; TEST_JOBS=0 runs it in this process.
+# pipeline in a scratch project, are built once, and the modules that share the session's
+# ci pipeline all on one (tests/conftest.py); TEST_JOBS=0 runs it in this process.
 TEST_JOBS ?= auto
 XDIST = -n $(TEST_JOBS) --dist loadfile
 test: $(STAMP) system-packages

@@ -26,6 +26,23 @@ COUNTED_MARKERS = ("crash", "concurrency")
 TESTS = Path(__file__).resolve().parent
 
 
+# The modules that take the session's ci pipeline (:func:`ci_pipeline`). ``make test``
+# (pytest-xdist, --dist loadfile) runs each test module whole on one worker, so its module
+# fixtures, most of them a whole DVC pipeline in a scratch project, are built once; these
+# modules run together as one unit (:func:`pytest_xdist_make_scheduler`), so the ci
+# pipeline is built and run once in the suite, not once on each worker.
+CI_PIPELINE_MODULES = frozenset(
+    {
+        "tests/test_pipeline.py",
+        "tests/test_outputs_unchanged.py",
+        "tests/test_real_drive.py",
+        "tests/stages/test_train.py",
+        "tests/tracking/test_ui.py",
+    }
+)
+CI_PIPELINE_UNIT = "the ci pipeline's modules"
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(session, config, items):
     targets = {Path(str(a).split("::")[0]).resolve() for a in config.args}
@@ -33,16 +50,45 @@ def pytest_collection_modifyitems(session, config, items):
         config.stash[SUITE_COUNTS] = {
             m: sum(1 for item in items if item.get_closest_marker(m)) for m in COUNTED_MARKERS
         }
+    strays = sorted(
+        {
+            item.nodeid.split("::", 1)[0]
+            for item in items
+            if "ci_pipeline" in getattr(item, "fixturenames", ())
+            and item.nodeid.split("::", 1)[0] not in CI_PIPELINE_MODULES
+        }
+    )
+    if strays:
+        raise pytest.UsageError(
+            f"{', '.join(strays)} use(s) the ci_pipeline fixture: add it to "
+            "CI_PIPELINE_MODULES in tests/conftest.py (or each pytest-xdist worker that "
+            "runs one builds the whole pipeline again)"
+        )
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile``, but :data:`CI_PIPELINE_MODULES` are one work unit."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class CiPipelineTogether(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            module = super()._split_scope(nodeid)
+            return CI_PIPELINE_UNIT if module in CI_PIPELINE_MODULES else module
+
+    return CiPipelineTogether(config, log)
 
 
 @pytest.fixture(scope="session")
 def ci_pipeline(tmp_path_factory) -> Path:
     """A scratch copy of the project on the small ci pipeline (``support.project.CI_PIPELINE``).
 
-    One per session (under ``make test``, one per pytest-xdist worker that runs a module
-    asking for it): ``test_pipeline.py`` runs and probes its stages, the MLflow UI
-    test browses the store its runs leave (each runs ``dvc repro`` first, a no-op
-    when the other already did).
+    One per session: under ``make test`` the modules asking for it run on one
+    pytest-xdist worker (:data:`CI_PIPELINE_MODULES`). ``test_pipeline.py`` runs and
+    probes its stages, the MLflow UI test browses the store its runs leave (each runs
+    ``dvc repro`` first, a no-op when the other already did).
     """
     from support.project import CI_PIPELINE, scratch_project
 
