@@ -147,7 +147,11 @@ def test_the_2d_claims_read_the_filter_s_controls(world):
     assert wr.fused_coverage(world).holds and wr.distance_model_same_position(world).holds
     rows["fused"]["180s"]["pos_pct"] = 2.01
     assert not wr.fused_within_2pct(world).holds
-    assert not wr.fused_beats_each_sensor(world).holds  # the gyro alone is better now
+    beaten = wr.fused_beats_each_sensor(world)
+    assert not beaten.holds  # the gyro alone is better now
+    gyro = rows["gyro"]["180s"]
+    shown = f"{gyro['pos_pct']:.3f} ± {gyro['pos_pct_ci95']:.3f}"
+    assert f"fused 2.010 ± 0.010 %, gyro alone {shown} %" in beaten.evidence
     assert "every cell within what chance gives" in wr.fused_coverage(world).evidence
     rows["fused"]["30s"]["cover_2sigma"] = 0.90  # 2σ below 95 - 3 % on one length
     verdict = wr.fused_coverage(world)

@@ -203,11 +203,18 @@ def fused_beats_each_sensor(w: World) -> Verdict:
     rows = _fused(w)
     if not rows or not all(k in rows for k in ("fused", "gyro", "wheels")):
         return Verdict(None, "no filter controls in eval.json")
-    pct = {k: rows[k][w.longest]["pos_pct"] for k in ("fused", "gyro", "wheels")}
+    cells = {k: rows[k][w.longest] for k in ("fused", "gyro", "wheels")}
+    pct = {k: c["pos_pct"] for k, c in cells.items()}
+
+    def shown(k: str) -> str:  # three places, with the seeds' interval: a near tie shows
+        ci = cells[k].get("pos_pct_ci95", float("nan"))
+        ci = float("nan") if ci is None else ci
+        return f"{pct[k]:.3f} ± {ci:.3f}" if math.isfinite(ci) and ci > 0 else f"{pct[k]:.3f}"
+
     return Verdict(
         pct["fused"] < min(pct["gyro"], pct["wheels"]),
-        f"fused {pct['fused']:.2f} %, gyro alone {pct['gyro']:.2f} %, "
-        f"wheels alone {pct['wheels']:.2f} %",
+        f"fused {shown('fused')} %, gyro alone {shown('gyro')} %, "
+        f"wheels alone {shown('wheels')} % (means over seeds, their 95 % t intervals)",
     )
 
 
