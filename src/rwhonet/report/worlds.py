@@ -71,8 +71,10 @@ class Verdict:
     evidence: str
 
 
-def _pm(value: float, ci: float) -> str:
-    return f"{value:.2f} ± {ci:.2f}" if math.isfinite(ci) and ci > 0 else f"{value:.2f}"
+def _pm(value: float, ci: float | None, digits: int = 2) -> str:
+    if ci is not None and math.isfinite(ci) and ci > 0:
+        return f"{value:.{digits}f} ± {ci:.{digits}f}"
+    return f"{value:.{digits}f}"
 
 
 def _chosen(w: World) -> tuple[str, int | None]:
@@ -207,9 +209,7 @@ def fused_beats_each_sensor(w: World) -> Verdict:
     pct = {k: c["pos_pct"] for k, c in cells.items()}
 
     def shown(k: str) -> str:  # three places, with the seeds' interval: a near tie shows
-        ci = cells[k].get("pos_pct_ci95", float("nan"))
-        ci = float("nan") if ci is None else ci
-        return f"{pct[k]:.3f} ± {ci:.3f}" if math.isfinite(ci) and ci > 0 else f"{pct[k]:.3f}"
+        return _pm(pct[k], cells[k].get("pos_pct_ci95"), 3)
 
     return Verdict(
         pct["fused"] < min(pct["gyro"], pct["wheels"]),
