@@ -352,6 +352,34 @@ def _wrap(a: np.ndarray) -> np.ndarray:
     return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
+# The filter steps a batch of windows second by second, so a second's cost is mostly
+# numpy's overhead per call: the helpers below give numpy's own results, bit for bit,
+# in fewer calls (benchmarks/bench_nav_filter.py prints the time and a digest).
+_FMAX = np.finfo(np.float64).max
+_EPS = np.finfo(np.float64).eps
+
+
+def _nan0(a: np.ndarray) -> np.ndarray:
+    """``np.nan_to_num(a)`` of a float64 array without its Python wrapper."""
+    return np.minimum(np.maximum(np.where(np.isnan(a), 0.0, a), -_FMAX), _FMAX)
+
+
+def _pick(rows: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.where`` of ``a`` and ``b`` by their first axis: ``a`` itself where every row is."""
+    if rows.all():
+        return a
+    return np.where(rows.reshape(rows.shape + (1,) * (np.ndim(a) - 1)), a, b)
+
+
+def _lever_both(
+    psi: np.ndarray, antenna_m: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`lever` and :func:`lever_dpsi` at once (one sine and cosine)."""
+    x, y = antenna_m
+    s, c = np.sin(psi), np.cos(psi)
+    return x * s - y * c, x * c + y * s, x * c + y * s, -x * s + y * c
+
+
 def lever(psi: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """East/north offset of the antenna from the rear-axle centre at azimuth ``psi``.
 
@@ -375,7 +403,9 @@ def lever_dpsi(psi: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndar
 def sinc_half(delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``f(δ) = sin(δ/2) / (δ/2)`` (the chord of an arc of unit length) and ``f'(δ)``."""
     u = 0.5 * np.asarray(delta, np.float64)
-    f = np.sinc(u / np.pi)
+    y = np.pi * (u / np.pi)  # np.sinc(u / π), written out as numpy computes it
+    y = np.where(y != 0, y, _EPS)
+    f = np.sin(y) / y
     small = np.abs(u) < 1e-4
     safe = np.where(small, 1.0, u)
     df = np.where(small, -u / 6.0, 0.5 * (u * np.cos(u) - np.sin(u)) / (safe * safe))
@@ -407,7 +437,7 @@ def propagate(
     out[:, N] += chord * cm
     out[:, PSI] = psi - delta
     w = xa.shape[0]
-    jac = np.broadcast_to(np.eye(S + 1), (w, S + 1, S + 1)).copy()
+    jac = np.broadcast_to(_EYE_A, (w, S + 1, S + 1)).copy()
     jac[:, E, PSI] = chord * cm
     jac[:, N, PSI] = -chord * sm
     jac[:, E, DELTA] = dist * df * sm - 0.5 * chord * cm
@@ -438,10 +468,8 @@ def course_model(
     mid = psi + 0.5 * delta
     sm, cm = np.sin(mid), np.cos(mid)
     old = psi + delta
-    le1, ln1 = lever(psi, antenna_m)
-    le0, ln0 = lever(old, antenna_m)
-    de1, dn1 = lever_dpsi(psi, antenna_m)
-    de0, dn0 = lever_dpsi(old, antenna_m)
+    le1, ln1, de1, dn1 = _lever_both(psi, antenna_m)
+    le0, ln0, de0, dn0 = _lever_both(old, antenna_m)
     east = chord * sm + le1 - le0
     north = chord * cm + ln1 - ln0
     # derivatives of (east, north) by psi, delta, s_d
@@ -467,9 +495,10 @@ def fix_model(x: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray
         ``(h, H)``: (W, 2) east/north, m; (W, 2, K).
     """
     psi = x[:, PSI]
-    le, ln = lever(psi, antenna_m)
-    de, dn = lever_dpsi(psi, antenna_m)
-    h = np.stack([x[:, E] + le + x[:, GE], x[:, N] + ln + x[:, GN]], axis=1)
+    le, ln, de, dn = _lever_both(psi, antenna_m)
+    h = np.empty((x.shape[0], 2))
+    h[:, 0] = x[:, E] + le + x[:, GE]
+    h[:, 1] = x[:, N] + ln + x[:, GN]
     jac = np.zeros((x.shape[0], 2, x.shape[1]))
     jac[:, 0, E] = jac[:, 1, N] = 1.0
     jac[:, 0, GE] = jac[:, 1, GN] = 1.0
@@ -496,7 +525,7 @@ def _scalar_update(xa, pa, h_row, innov, r, use, gate=None):
     v = np.where(ok[:, None], 0.5 * s[:, None] * k - ph, 0.0)
     kv = k[:, :, None] * v[:, None, :]
     new_p = pa + kv
-    new_p += np.swapaxes(kv, 1, 2)
+    new_p += kv.swapaxes(1, 2)
     return new_x, new_p, ok
 
 
@@ -507,7 +536,7 @@ def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
     P + K Vᵀ + V Kᵀ`` with ``P_H = P Hᵀ``, ``S = H P Hᵀ + R`` and ``V = K S / 2 − P_H``;
     rows not updated get a zero gain.
     """
-    ph = pa @ np.swapaxes(h_mat, 1, 2)  # (W, K, 2)
+    ph = pa @ h_mat.swapaxes(1, 2)  # (W, K, 2)
     s = h_mat @ ph + r_mat
     ok = use & np.isfinite(innov).all(axis=1)
     s = np.where(ok[:, None, None], s, np.eye(2))
@@ -515,24 +544,23 @@ def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
     det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
     ok &= det > 0
     det = np.where(ok, det, 1.0)
-    s_inv = (
-        np.stack(
-            [np.stack([s[:, 1, 1], -s[:, 0, 1]], -1), np.stack([-s[:, 1, 0], s[:, 0, 0]], -1)], 1
-        )
-        / det[:, None, None]
-    )
+    adj = np.empty_like(s)
+    adj[:, 0, 0], adj[:, 0, 1] = s[:, 1, 1], -s[:, 0, 1]
+    adj[:, 1, 0], adj[:, 1, 1] = -s[:, 1, 0], s[:, 0, 0]
+    s_inv = adj / det[:, None, None]
     ok &= (innov * (s_inv @ innov[:, :, None])[:, :, 0]).sum(axis=1) <= gate * gate
     k = np.where(ok[:, None, None], ph @ s_inv, 0.0)
     new_x = xa + (k @ innov[:, :, None])[:, :, 0]
     v = np.where(ok[:, None, None], 0.5 * (k @ s) - ph, 0.0)
     kv = k[:, :, None, 0] * v[:, None, :, 0] + k[:, :, None, 1] * v[:, None, :, 1]
     new_p = pa + kv
-    new_p += np.swapaxes(kv, 1, 2)
+    new_p += kv.swapaxes(1, 2)
     return new_x, new_p, ok
 
 
 # The rows of the propagation's Jacobian that differ from the identity's.
 MOVED_ROWS = np.array([E, N, PSI, BG, GE, GN, EW, BD])
+_EYE_A = np.eye(S + 1)
 
 
 def fix_log_score(
@@ -561,7 +589,7 @@ def fix_log_score(
     Returns:
         (W,) nats.
     """
-    s = h_mat @ pa @ np.swapaxes(h_mat, 1, 2) + r_mat
+    s = h_mat @ pa @ h_mat.swapaxes(1, 2) + r_mat
     det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
     ok = use & np.isfinite(innov).all(axis=1) & (det > 0)
     det = np.where(ok, det, 1.0)
@@ -586,7 +614,7 @@ def _sandwich(p: np.ndarray, jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
     m = p.copy()
     m[:, rows, :] = jr @ p
     out = m.copy()
-    out[:, :, rows] = m @ np.swapaxes(jr, 1, 2)
+    out[:, :, rows] = m @ jr.swapaxes(1, 2)
     return out
 
 
@@ -732,6 +760,8 @@ def run(
     phi_w = np.exp(-1.0 / cfg.wheel_error_tau_s)
     q_diag[EW] = cfg.wheel_error_sd**2 * (1.0 - phi_w * phi_w)
     q_diag[BV] = cfg.wheel_bias_speed_walk**2
+    q_mat = np.diag(q_diag)
+    scale_lo, scale_hi = 1.0 - cfg.scale_max_off, 1.0 + cfg.scale_max_off  # np.clip's bounds
     # the warm-up's drift rate decays and is not driven: a ramp whose start is unknown
     phi_d = np.exp(-1.0 / cfg.gyro.warm_tau_s)
     r_fix = np.broadcast_to(np.eye(2) * gn.white_m**2, (w, 2, 2))
@@ -767,10 +797,12 @@ def run(
     since_stop = np.zeros((w, 2))  # east/north travel since the car last stood, forwards
     for k in range(n):
         d = dist[:, k]
-        d0 = np.nan_to_num(d)
+        d0 = _nan0(d)
         ce, cn = fe[:, k + 1] - fe[:, k], fn[:, k + 1] - fn[:, k]
         chord = np.hypot(ce, cn)
         has_fix = np.isfinite(fe[:, k + 1]) & np.isfinite(fn[:, k + 1])
+        fix_k = np.empty((w, 2))
+        fix_k[:, 0], fix_k[:, 1] = fe[:, k + 1], fn[:, k + 1]
         # A course needs the car to move, by the odometry as well as by the fixes: a
         # standing car's fixes metres apart (a consumer receiver's noise) point anywhere.
         has_course = (
@@ -797,7 +829,7 @@ def run(
             guess_w = np.where(told, -guess_w, guess_w)
             delta0 = np.where(use_gyro & np.isfinite(g_k), guess_g, np.nan)
             delta0 = np.where(np.isfinite(delta0), delta0, np.where(use_wheels, guess_w, np.nan))
-            delta0 = np.nan_to_num(delta0)
+            delta0 = _nan0(delta0)
             xa = np.concatenate([x, delta0[:, None]], axis=1)
             pa = np.zeros((w, S + 1, S + 1))
             pa[:, :S, :S] = p
@@ -823,7 +855,7 @@ def run(
                 h_row[:, EW] = 1.0
                 h_row[:, BV] = -d * d * c_d2 / s_w
                 innov = wh_k - turn * c_d2 / s_w - xa[:, EW]
-                r = wheel_var + (cfg.wheels.model_rel * np.nan_to_num(wh_k)) ** 2 + yaw_extra[:, k]
+                r = wheel_var + (cfg.wheels.model_rel * _nan0(wh_k)) ** 2 + yaw_extra[:, k]
                 if use_gyro:
                     flip = 2.0 * dl * c_d2 / s_w
                     before = backwards
@@ -856,8 +888,8 @@ def run(
             jac[:, BG, BD] = 1.0
             jac[:, BD, BD] = phi_d
             pa_new = _sandwich(pa, jac, MOVED_ROWS)
-            pa_new += np.diag(q_diag)
-            var_d = np.nan_to_num(dist_var[:, k])
+            pa_new += q_mat
+            var_d = _nan0(dist_var[:, k])
             pa_new[:, E, E] += var_d * ge * ge
             pa_new[:, N, N] += var_d * gnn * gnn
             pa_new[:, E, N] += var_d * ge * gnn
@@ -868,10 +900,10 @@ def run(
             )
             moved = xa_new[:, [E, N]] - xa[:, [E, N]]
             since_stop = np.where(forwards[:, None], since_stop + moved, 0.0)
-            xa = np.where(on[:, None], xa_new, xa)
-            pa = np.where(on[:, None, None], pa_new, pa)
+            xa = _pick(on, xa_new, xa)
+            pa = _pick(on, pa_new, pa)
             # 3. GNSS (the fix's prediction scored first, before any of it is seen)
-            z = np.stack([fe[:, k + 1], fn[:, k + 1]], axis=1)
+            z = fix_k
             h2, h_mat = fix_model(xa, cfg.antenna_m)
             fix_logpdf[:, k] = fix_log_score(pa, h_mat, z - h2, r_fix, on & has_fix, gn.gate)
             h, h_row = course_model(xa, d_signed, cfg.antenna_m)
@@ -886,11 +918,11 @@ def run(
             # something (a projection: the load term cannot turn the wheels' yaw
             # around, scales stay near 1), else noisy courses can walk the weakly
             # observed ones into a region where 1 + c d² vanishes
-            xa[:, CW] = np.clip(xa[:, CW], cfg.load_min, cfg.load_max)
+            xa[:, CW] = np.minimum(np.maximum(xa[:, CW], cfg.load_min), cfg.load_max)
             for i in (SG, SD, SW):
-                xa[:, i] = np.clip(xa[:, i], 1.0 - cfg.scale_max_off, 1.0 + cfg.scale_max_off)
-            x = np.where(on[:, None], xa[:, :S], x)
-            p = np.where(on[:, None, None], pa[:, :S, :S], p)
+                xa[:, i] = np.minimum(np.maximum(xa[:, i], scale_lo), scale_hi)
+            x = _pick(on, xa[:, :S], x)
+            p = _pick(on, pa[:, :S, :S], p)
         # A filter that has refused every fix for reset_after_s seconds has lost the car
         # (its own heading went wrong, e.g. the wheels counting a reversing turn the wrong
         # way round, and its covariance no longer covers it): start the pose afresh on
@@ -904,7 +936,7 @@ def run(
             x0, p0 = _initial(
                 course,
                 course_var,
-                np.stack([fe[:, k + 1], fn[:, k + 1]], axis=1),
+                fix_k,
                 yaw_guess,
                 d,
                 cfg,
@@ -916,17 +948,15 @@ def run(
             both = keep[:, :, None] & keep[:, None, :]
             p = np.where(reset[:, None, None] & both, p, np.where(first[:, None, None], p0, p))
             on = on | first
-        p = 0.5 * (p + np.swapaxes(p, 1, 2))
+        p = 0.5 * (p + p.swapaxes(1, 2))
         h2, h_mat = fix_model(x, cfg.antenna_m)
-        xs[:, k] = np.where(on[:, None], x, np.nan)
-        fix_pred[:, k] = np.where(on[:, None], h2, np.nan)
-        fix_cov[:, k] = np.where(
-            on[:, None, None], h_mat @ p @ np.swapaxes(h_mat, 1, 2) + r_fix, np.nan
-        )
+        xs[:, k] = _pick(on, x, np.nan)
+        fix_pred[:, k] = _pick(on, h2, np.nan)
+        fix_cov[:, k] = _pick(on, h_mat @ p @ h_mat.swapaxes(1, 2) + r_fix, np.nan)
         if covs is not None:
-            covs[:, k] = np.where(on[:, None, None], p, np.nan)
+            covs[:, k] = _pick(on, p, np.nan)
         for i in snap_slot.get(k, ()):
             snap_x[:, i] = xs[:, k]
-            snap_p[:, i] = np.where(on[:, None, None], p, np.nan)
+            snap_p[:, i] = _pick(on, p, np.nan)
         started[:, k] = on
     return NavTrack(xs, covs, p, fix_pred, fix_cov, started, rejected, snap_x, snap_p, fix_logpdf)
