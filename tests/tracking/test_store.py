@@ -77,6 +77,36 @@ def test_log_execution_parent_and_children(tmp_path, monkeypatch):
     assert Path(runs.iloc[0]["artifact_uri"].replace("file://", "")).is_relative_to(tmp_path)
 
 
+def test_a_run_over_log_batchs_limits_is_logged_whole_in_as_few_calls_as_fit(tmp_path, monkeypatch):
+    mlflow = pytest.importorskip("mlflow")
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
+    (tmp_path / "mlruns").mkdir()
+    # 230 params (100 a call at most) and 1,950 metric points (1,000 entities a call in all)
+    params = {f"p{i:03d}": i for i in range(230)}
+    history = [{"epoch": e, **{f"m{j}": float(e + j) for j in range(3)}} for e in range(650)]
+    calls = []
+    real = mlflow.MlflowClient.log_batch
+
+    def counting(self, run_id, metrics=(), params=(), tags=(), **kw):
+        calls.append((len(metrics), len(params)))
+        return real(self, run_id, metrics=metrics, params=params, tags=tags, **kw)
+
+    monkeypatch.setattr(mlflow.MlflowClient, "log_batch", counting)
+    rec = RunRecord("big", tags={"model": "G"}, params=params, history=history)
+    log_execution([rec], uri=uri, experiment="t", execution=RunRecord("pipeline"))
+    # the parent has nothing to log; the child: 100 + 900, 100 + 900, 30 + 150
+    assert calls == [(900, 100), (900, 100), (150, 30)]
+    client = mlflow.MlflowClient(uri)
+    run = client.search_runs(client.get_experiment_by_name("t").experiment_id, "tags.model = 'G'")[
+        0
+    ]
+    assert run.data.params == {k: str(v) for k, v in params.items()}
+    for j in range(3):
+        hist = client.get_metric_history(run.info.run_id, f"m{j}")
+        assert sorted((m.step, m.value) for m in hist) == [(e, float(e + j)) for e in range(650)]
+
+
 @pytest.mark.crash
 def test_an_interrupted_execution_leaves_no_run_running(tmp_path, monkeypatch):
     """A logger stopped mid-run marks the run it was writing KILLED (FAILED on an error)."""

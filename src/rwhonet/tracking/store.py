@@ -124,11 +124,15 @@ def log_execution(
                 Metric(k, float(v), now, step) for k, v in row.items() if k != "epoch" and v == v
             ]
         params = [Param(k, str(v)[:6000]) for k, v in sorted(record.params.items())]
-        # log_batch takes at most 1000 metrics / 100 params per call.
-        for i in range(0, max(len(metrics), 1), 1000):
-            retrying(lambda i=i: client.log_batch(rid, metrics=metrics[i : i + 1000]))
-        for i in range(0, len(params), 100):
-            retrying(lambda i=i: client.log_batch(rid, params=params[i : i + 100]))
+        # One log_batch call (a store transaction) for both where they fit: it takes at
+        # most 100 params and 1000 entities in all per call.
+        while metrics or params:
+            batch_params, params = params[:100], params[100:]
+            cut = 1000 - len(batch_params)
+            batch_metrics, metrics = metrics[:cut], metrics[cut:]
+            retrying(
+                lambda m=batch_metrics, p=batch_params: client.log_batch(rid, metrics=m, params=p)
+            )
         for art in record.artifacts:
             f = Path(art) if Path(art).is_absolute() else paths.ROOT / art
             if f.exists():
