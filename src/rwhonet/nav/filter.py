@@ -371,33 +371,20 @@ def _pick(rows: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(rows.reshape(rows.shape + (1,) * (np.ndim(a) - 1)), a, b)
 
 
-def _lever_both(
+def lever(
     psi: np.ndarray, antenna_m: tuple[float, float]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`lever` and :func:`lever_dpsi` at once (one sine and cosine)."""
-    x, y = antenna_m
-    s, c = np.sin(psi), np.cos(psi)
-    return x * s - y * c, x * c + y * s, x * c + y * s, -x * s + y * c
-
-
-def lever(psi: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """East/north offset of the antenna from the rear-axle centre at azimuth ``psi``.
+    """East/north offset of the antenna from the rear-axle centre at azimuth ``psi``, and its slope.
 
     Forward is ``(sin ψ, cos ψ)``, left is ``(−cos ψ, sin ψ)`` (azimuth clockwise from north).
 
     Returns:
-        ``(east, north)``, m.
+        ``(east, north, d east / dψ, d north / dψ)``, m and m/rad.
     """
     x, y = antenna_m
     s, c = np.sin(psi), np.cos(psi)
-    return x * s - y * c, x * c + y * s
-
-
-def lever_dpsi(psi: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Derivative of :func:`lever` with respect to ``psi``."""
-    x, y = antenna_m
-    s, c = np.sin(psi), np.cos(psi)
-    return x * c + y * s, -x * s + y * c
+    north = x * c + y * s  # the east offset's slope too
+    return x * s - y * c, north, north, -x * s + y * c
 
 
 def sinc_half(delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -468,8 +455,8 @@ def course_model(
     mid = psi + 0.5 * delta
     sm, cm = np.sin(mid), np.cos(mid)
     old = psi + delta
-    le1, ln1, de1, dn1 = _lever_both(psi, antenna_m)
-    le0, ln0, de0, dn0 = _lever_both(old, antenna_m)
+    le1, ln1, de1, dn1 = lever(psi, antenna_m)
+    le0, ln0, de0, dn0 = lever(old, antenna_m)
     east = chord * sm + le1 - le0
     north = chord * cm + ln1 - ln0
     # derivatives of (east, north) by psi, delta, s_d
@@ -495,7 +482,7 @@ def fix_model(x: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray
         ``(h, H)``: (W, 2) east/north, m; (W, 2, K).
     """
     psi = x[:, PSI]
-    le, ln, de, dn = _lever_both(psi, antenna_m)
+    le, ln, de, dn = lever(psi, antenna_m)
     h = np.empty((x.shape[0], 2))
     h[:, 0] = x[:, E] + le + x[:, GE]
     h[:, 1] = x[:, N] + ln + x[:, GN]
@@ -637,7 +624,7 @@ def _initial(
         xa[:, PSI] += _wrap(course - course_model(xa, dist, cfg.antenna_m)[0])
     psi = xa[:, PSI]
     psi_var = course_var + 0.02**2  # and half a second's yaw, not known better yet
-    le, ln = lever(psi, cfg.antenna_m)
+    le, ln, de, dn = lever(psi, cfg.antenna_m)
     x[:, E], x[:, N], x[:, PSI] = fix[:, 0] - le, fix[:, 1] - ln, psi
     p = np.zeros((w, S, S))
     g2 = cfg.gnss.sigma_m**2
@@ -656,7 +643,6 @@ def _initial(
     ):
         p[:, i, i] = var
     # p = fix − lever(ψ) − g: the fix's white noise, the drift (less g), the lever's turn
-    de, dn = lever_dpsi(psi, cfg.antenna_m)
     white2 = cfg.gnss.white_m**2
     p[:, PSI, PSI] = psi_var
     p[:, E, E] = white2 + g2 + de * de * psi_var
@@ -903,15 +889,14 @@ def run(
             xa = _pick(on, xa_new, xa)
             pa = _pick(on, pa_new, pa)
             # 3. GNSS (the fix's prediction scored first, before any of it is seen)
-            z = fix_k
             h2, h_mat = fix_model(xa, cfg.antenna_m)
-            fix_logpdf[:, k] = fix_log_score(pa, h_mat, z - h2, r_fix, on & has_fix, gn.gate)
+            fix_logpdf[:, k] = fix_log_score(pa, h_mat, fix_k - h2, r_fix, on & has_fix, gn.gate)
             h, h_row = course_model(xa, d_signed, cfg.antenna_m)
             innov = _wrap(course - h)
             xa, pa, ok = _scalar_update(xa, pa, h_row, innov, course_var, on & has_course, gn.gate)
             rejected["course"] += int((on & has_course & ~ok).sum())
             h2, h_mat = fix_model(xa, cfg.antenna_m)
-            xa, pa, ok = _vector_update(xa, pa, h_mat, z - h2, r_fix, on & has_fix, gn.gate)
+            xa, pa, ok = _vector_update(xa, pa, h_mat, fix_k - h2, r_fix, on & has_fix, gn.gate)
             rejected["fix"] += int((on & has_fix & ~ok).sum())
             refused = np.where(on & has_fix, np.where(ok, 0, refused + 1), refused)
             # 4. marginalise the second's yaw; keep the model's terms where they mean
