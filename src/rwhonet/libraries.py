@@ -139,7 +139,17 @@ def raise_if_interrupted() -> None:
     the handler there, and one that drops the error it returns loses the exception:
     numpy's ``np.char.mod`` did, and a live ``predict`` went on reading its pipe after
     SIGTERM (one run in some fifty on a loaded machine). Loops that may wait call this.
+
+    It first runs the handlers of signals that came but whose handler has not run. A signal
+    that lands on another thread marks itself pending and asks the main thread's eval loop
+    to look, but in CPython 3.11 that request is one flag that any thread may recompute and
+    clear, so a main thread that only waits in ``select()`` could go on waiting with the
+    signal pending: a possible cause, not reproduced here, of a pipe reader that hung
+    through its 60 s timeout in one CI run. ``pthread_sigmask`` with an empty set changes
+    nothing but calls ``PyErr_CheckSignals``, which runs every pending handler.
     """
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, ())  # a pending handler runs (or raises) here
     if _installed["caught"] is not None and os.getpid() == _installed["pid"]:
         raise Interrupted(_installed["caught"])
 

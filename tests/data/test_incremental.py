@@ -181,8 +181,10 @@ def test_a_pipe_is_read_as_its_file_is(tmp_path):
 
 
 WAITING_READER = """
-import os, signal, sys, threading, time
+import faulthandler, os, signal, sys, threading, time
 from rwhonet.data.incremental import read_rows
+
+faulthandler.dump_traceback_later(45, exit=True)  # a hang shows where every thread waits
 
 class Stop(BaseException):
     pass
