@@ -1,8 +1,10 @@
 """An evaluation as MLflow metrics: R's names are the chosen recipe's, every statistic named."""
 
+import math
+
 import pytest
 
-from rwhonet.report.run_metrics import position_metrics, scenario_metrics
+from rwhonet.report.run_metrics import drive_keys, position_metrics, scenario_metrics
 from stages.conftest import evaluated, samples_dir
 
 __all__ = ["evaluated", "samples_dir"]
@@ -33,3 +35,40 @@ def test_position_metrics_name_every_window_statistic_of_the_control(evaluated):
     # no evidence here, so no calibration: scale 1, and no degrees of freedom (a normal)
     assert got["pos/30s/calib_scale"] == 1.0 and "pos/30s/calib_dof" not in got
     assert position_metrics(ev, "R") == position_metrics(ev, ev.choice.model)
+
+
+def test_each_test_drive_s_cells_go_to_the_control_model_s_run(evaluated):
+    _, ev = evaluated
+    control_model = ev.position_plan["control_model"]
+    got = position_metrics(ev, "R" if control_model == ev.choice.model else control_model)
+    assert len(ev.position_drives)
+    for r in ev.position_drives.itertuples():
+        key = f"pos/drive/{r.drive}/{int(r.outage_s)}s"
+        assert got[f"{key}/mean"] == r.pos_mean and got[f"{key}/windows"] == r.n_windows
+        assert got[f"{key}/cover_1sigma"] == r.cover_1sigma
+    other = next(m for m in ("WPM", "G", "S") if m != control_model)
+    assert not any(k.startswith("pos/drive/") for k in position_metrics(ev, other))
+
+
+def test_r_s_crse_calibration_per_test_drive(evaluated):
+    _, ev = evaluated
+    got = position_metrics(ev, "R")
+    assert len(ev.uncertainty_drives)
+    for r in ev.uncertainty_drives.itertuples():
+        key = f"uncertainty/drive/{r.drive}/{int(r.outage_s)}s"
+        if math.isfinite(r.cover_1sigma):
+            assert got[f"{key}/crse_cover_1sigma"] == r.cover_1sigma
+        assert got[f"{key}/windows"] == r.n_windows
+    assert not any(k.startswith("uncertainty/drive/") for k in position_metrics(ev, "WPM"))
+
+
+def test_drive_names_become_valid_distinct_mlflow_names():
+    from mlflow.utils.validation import _validate_metric_name
+
+    drives = ["V-Delta2", "a/b", "a_b", "..", "drive#1 é", "", "."]
+    keys = drive_keys(drives)
+    assert keys["V-Delta2"] == "V-Delta2"  # an ordinary name stays as it is
+    assert keys["a/b"] == "a_b" and keys["a_b"] == "a_b_2"  # no two drives meet
+    assert len(set(keys.values())) == len(drives)
+    for key in keys.values():
+        _validate_metric_name(f"pos/drive/{key}/30s/mean")  # raises on a bad name

@@ -11,6 +11,7 @@ Read from the evaluation package's typed result
 from __future__ import annotations
 
 import math
+import re
 
 import pandas as pd
 
@@ -51,8 +52,13 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
     (the calibrated prediction; the filter's own normal as ``..._filter``, the
     calibration as ``calib_scale`` / ``calib_dof``, absent for a normal),
     the ``ci95`` of the means; on the run whose distances the filter's controls
-    use, every control as ``pos/<control>/180s/mean``, ``.../pct``; and the model's
-    CRSE calibration: ``uncertainty/180s/crse_cover_1sigma``, ``..._2sigma``, ``crse_nll``.
+    use, every control as ``pos/<control>/180s/mean``, ``.../pct``, and each test
+    drive's windows apart as ``pos/drive/<drive>/180s/mean``, ``pct``, ``cover_1sigma``,
+    ``cover_2sigma``, ``windows`` (eval.json's ``position_controls.by_drive``); and the
+    model's CRSE calibration: ``uncertainty/180s/crse_cover_1sigma``, ``..._2sigma``,
+    ``crse_nll``, on R's run also per test drive (``uncertainty/drive/<drive>/180s/...``,
+    eval.json's ``uncertainty.by_drive``). A drive's name is kept where MLflow allows
+    it in a metric's name (:func:`drive_keys`).
     """
     if ev.position is None or ev.position.empty:
         return {}
@@ -83,15 +89,62 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
         out["pos/antenna_ahead_m"] = float(geometry["antenna_m"][0])
         out["pos/antenna_left_m"] = float(geometry["antenna_m"][1])
         out["pos/gyro_latency_s"] = float(geometry["gyro_latency_s"])
+    crse = (
+        ("crse_cover_1sigma", "cover_1sigma"),
+        ("crse_cover_2sigma", "cover_2sigma"),
+        ("crse_nll", "nll"),
+    )
     for r in ev.uncertainty[ev.uncertainty["model"] == name].itertuples():
-        for stat, col in (
-            ("crse_cover_1sigma", "cover_1sigma"),
-            ("crse_cover_2sigma", "cover_2sigma"),
-            ("crse_nll", "nll"),
-        ):
+        for stat, col in crse:
             value = getattr(r, col)
             if math.isfinite(value):
                 out[f"uncertainty/{r.outage_s}s/{stat}"] = float(value)
+    by_drive = (
+        ("mean", "pos_mean"),
+        ("pct", "pos_pct"),
+        ("cover_1sigma", "cover_1sigma"),
+        ("cover_2sigma", "cover_2sigma"),
+        ("windows", "n_windows"),
+    )
+    if name == plan["control_model"]:
+        out |= _per_drive(ev.position_drives, "pos/drive", by_drive)
+    if name == ev.choice.model:
+        out |= _per_drive(
+            ev.uncertainty_drives, "uncertainty/drive", (*crse, ("windows", "n_windows"))
+        )
+    return out
+
+
+def drive_keys(drives: list[str]) -> dict[str, str]:
+    """Each drive's name as a part of an MLflow metric's name.
+
+    MLflow allows letters, digits, ``_ - . :`` and spaces in a name, and no part that a
+    path would resolve away (``.``, ``..``); any other character becomes ``_``, such a
+    part gets a leading ``_``, and two drives that would meet get ``_2``, ``_3`` ...
+    """
+    out: dict[str, str] = {}
+    for drive in drives:
+        key = re.sub(r"[^\w.\- ]", "_", str(drive), flags=re.ASCII).strip() or "_"
+        if set(key) <= {"."}:
+            key = "_" + key
+        base, n = key, 1
+        while key in out.values():
+            n += 1
+            key = f"{base}_{n}"
+        out[drive] = key
+    return out
+
+
+def _per_drive(table: pd.DataFrame, prefix: str, stats: tuple) -> dict[str, float]:
+    if table is None or table.empty:
+        return {}
+    keys = drive_keys(list(dict.fromkeys(table["drive"])))
+    out = {}
+    for r in table.itertuples():
+        for stat, col in stats:
+            value = float(getattr(r, col))
+            if math.isfinite(value):
+                out[f"{prefix}/{keys[r.drive]}/{int(r.outage_s)}s/{stat}"] = value
     return out
 
 
