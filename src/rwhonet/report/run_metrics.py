@@ -118,9 +118,10 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
 def drive_keys(drives: list[str]) -> dict[str, str]:
     """Each drive's name as a part of an MLflow metric's name.
 
-    MLflow allows letters, digits, ``_ - . :`` and spaces in a name, and no part that a
-    path would resolve away (``.``, ``..``); any other character becomes ``_``, such a
-    part gets a leading ``_``, and two drives that would meet get ``_2``, ``_3`` ...
+    MLflow allows letters, digits, ``_ - .`` and spaces in a name on every platform
+    (``:`` not on Windows), and no part that a path would resolve away (``.``, ``..``):
+    any other character becomes ``_``, a name of dots alone gets a leading ``_``, and
+    two drives that would meet get ``_2``, ``_3`` ...
     """
     out: dict[str, str] = {}
     for drive in drives:
