@@ -46,10 +46,13 @@ system-packages:
 # whole on one worker (--dist loadfile), so a module's fixtures, most of them a whole DVC
 # pipeline in a scratch project, are built once, and the modules that share the session's
 # ci pipeline all on one (tests/conftest.py); TEST_JOBS=0 runs it in this process.
+# --durations: the log names the slowest setups and tests, so a CI run shows where the
+# suite's time goes (PYTEST_ARGS="--durations=0 --junitxml=F" for every one).
 TEST_JOBS ?= auto
 XDIST = -n $(TEST_JOBS) --dist loadfile
+PYTEST_ARGS ?= --durations=25
 test: $(STAMP) system-packages
-	$(BIN)/python -m pytest -q -rs $(XDIST)
+	$(BIN)/python -m pytest -q -rs $(XDIST) $(PYTEST_ARGS)
 
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow" $(XDIST)
