@@ -111,6 +111,27 @@ def ci_repro(ci_pipeline):
 
 
 @pytest.fixture(scope="session")
+def migrated_store(tmp_path_factory) -> Path:
+    """One new MLflow SQLite store per pytest process, migrated (``support.store``)."""
+    from support.store import migrated_store
+
+    return migrated_store(tmp_path_factory.mktemp("store") / "mlflow.db")
+
+
+@pytest.fixture
+def store_uri(tmp_path_factory, migrated_store) -> str:
+    """The URI of a new store of the test's own, in a folder of its own beside ``tmp_path``.
+
+    A copy of :func:`migrated_store`: what MLflow makes of a new SQLite file, without
+    its 2 s of migrations in every test that logs. The tests of a store's creation
+    itself (several processes migrating one new file at once) start from no file.
+    """
+    from support.store import copy_store
+
+    return copy_store(migrated_store, tmp_path_factory.mktemp("mlruns") / "mlflow.db")
+
+
+@pytest.fixture(scope="session")
 def project_params() -> Params:
     """The repository's params.yaml, typed."""
     return load_params(paths.PARAMS)

@@ -42,8 +42,8 @@ def bundle(tmp_path_factory):
 
 
 @pytest.fixture(autouse=True)
-def own_store(tmp_path, monkeypatch):
-    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path}/mlruns/mlflow.db")
+def own_store(store_uri, monkeypatch):
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", store_uri)
 
 
 def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capsys) -> dict[str, int]:

@@ -22,11 +22,9 @@ mlflow = pytest.importorskip("mlflow")
 
 
 @pytest.fixture
-def store(tmp_path, monkeypatch):
+def store(store_uri, monkeypatch):
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
-    uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
-    (tmp_path / "mlruns").mkdir()
-    return uri
+    return store_uri
 
 
 def pipeline_file(folder, **kwargs):
