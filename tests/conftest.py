@@ -8,6 +8,7 @@ test-fast`` skips them).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -82,7 +83,22 @@ def pytest_xdist_make_scheduler(config, log):
 
 
 @pytest.fixture(scope="session")
-def ci_pipeline(tmp_path_factory) -> Path:
+def ci_data(tmp_path_factory) -> Path:
+    """A ci-pipeline project whose data stages ran, once for the whole session.
+
+    Every scratch project on the ci profile's drives starts from it
+    (``support.project.scratch_project(..., stages_from=ci_data)``): the data stages
+    (about half a minute) run once in the suite, not in each of the six projects.
+    Under pytest-xdist the workers share it (their temporary folders' parent).
+    """
+    from support.project import data_stages_done
+
+    base = tmp_path_factory.getbasetemp()
+    return data_stages_done(base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base)
+
+
+@pytest.fixture(scope="session")
+def ci_pipeline(tmp_path_factory, ci_data) -> Path:
     """A scratch copy of the project on the small ci pipeline (``support.project.CI_PIPELINE``).
 
     One per session: under ``make test`` the modules asking for it run on one
@@ -92,7 +108,7 @@ def ci_pipeline(tmp_path_factory) -> Path:
     """
     from support.project import CI_PIPELINE, scratch_project
 
-    return scratch_project(tmp_path_factory.mktemp("pipeline") / "repo", CI_PIPELINE)
+    return scratch_project(tmp_path_factory.mktemp("pipeline") / "repo", CI_PIPELINE, ci_data)
 
 
 @pytest.fixture(scope="session")

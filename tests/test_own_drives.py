@@ -25,22 +25,17 @@ ROLES = ("source_train", "target_train", "target_test")
 
 
 @pytest.fixture(scope="module")
-def own(tmp_path_factory):
+def own(tmp_path_factory, ci_data):
     """A scratch project whose data/raw holds the ci drives, after the README's commands.
 
-    The drives come from ``simulate`` in a project of their own, not from the session's
-    ci pipeline (``tests/conftest.py``), which on a pytest-xdist worker of its own this
-    module would otherwise copy only to simulate.
+    The drives are those ``simulate`` wrote in the session's project of the ci data
+    stages (``tests/conftest.py``: ``ci_data``); nothing else of that project is taken.
     """
-    base = tmp_path_factory.mktemp("own")
-    sim = scratch_project(base / "sim", CI_PIPELINE)
-    made = dvc(sim, "repro", "simulate")
-    assert made.returncode == 0, made.stdout + made.stderr
-    repo = scratch_project(base / "repo", CI_PIPELINE)
+    repo = scratch_project(tmp_path_factory.mktemp("own") / "repo", CI_PIPELINE)
     for role in ROLES:
         dest = repo / "data" / "raw" / role
         dest.mkdir(parents=True)
-        for csv in sorted((sim / "data" / "sim" / role).glob("*.csv")):
+        for csv in sorted((ci_data / "data" / "sim" / role).glob("*.csv")):
             shutil.copy2(csv, dest / csv.name)
     added = dvc(repo, "add", "data/raw")
     assert added.returncode == 0, added.stdout + added.stderr

@@ -29,8 +29,8 @@ NETWORK_FREE = ("WPM", "WPM-ref", "WPM-int", "WPM-m@")
 
 
 @pytest.fixture(scope="module")
-def repo(tmp_path_factory):
-    repo = scratch_project(tmp_path_factory.mktemp("tcn") / "repo", OVERRIDES)
+def repo(tmp_path_factory, ci_data):
+    repo = scratch_project(tmp_path_factory.mktemp("tcn") / "repo", OVERRIDES, ci_data)
     out = dvc(repo, "repro")
     assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-4000:]
     return repo

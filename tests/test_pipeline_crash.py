@@ -136,9 +136,9 @@ def _run_watching_cpu(repo: Path, *cmd: str) -> tuple[str, float]:
 
 
 @pytest.fixture(scope="module")
-def project(tmp_path_factory):
+def project(tmp_path_factory, ci_data):
     """The ci pipeline run once, uninterrupted; and the CPU seconds at which G is mid-fit."""
-    repo = scratch_project(tmp_path_factory.mktemp("crash") / "repo", OVERRIDES)
+    repo = scratch_project(tmp_path_factory.mktemp("crash") / "repo", OVERRIDES, ci_data)
     out = dvc(repo, "repro", "label")
     assert out.returncode == 0, out.stdout + out.stderr
     output, stage_cpu_s = _run_watching_cpu(repo, str(BIN / "dvc"), "repro", "train")

@@ -3,11 +3,14 @@
 :func:`scratch_project` copies the working tree's tracked and unignored files
 (``git ls-files -co --exclude-standard``, what ``make variant`` copies), sets
 params overrides, and makes it a git repository of its own with ``data.dvc``
-committed, so ``dvc repro`` there never touches the workspace's outputs.
+committed, so ``dvc repro`` there never touches the workspace's outputs. Given a project where
+the data stages ran (:func:`data_stages_done`, built once per test session), it
+starts from their outputs, as a user's workspace after ``dvc repro label`` does.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import subprocess
@@ -73,12 +76,17 @@ def set_params(repo: Path, overrides: Mapping[tuple[str, ...], Any]) -> None:
     (repo / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
 
 
-def scratch_project(dest: Path, overrides: Mapping[tuple[str, ...], Any]) -> Path:
+def scratch_project(
+    dest: Path, overrides: Mapping[tuple[str, ...], Any], stages_from: Path | None = None
+) -> Path:
     """A copy of the working tree at ``dest``: its own git repository, ``data.dvc`` committed.
 
     Args:
         dest: a folder that does not exist yet.
         overrides: params to set before the snapshot commit.
+        stages_from: a project where the data stages ran (:func:`data_stages_done`):
+            ``dest`` starts with their outputs, cache and ``dvc.lock`` entries
+            (:func:`take_stages`).
 
     Returns:
         ``dest``.
@@ -96,6 +104,8 @@ def scratch_project(dest: Path, overrides: Mapping[tuple[str, ...], Any]) -> Pat
             (dest / f).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, dest / f)
     set_params(dest, overrides)
+    if stages_from is not None:
+        take_stages(stages_from, dest)
     subprocess.run([*GIT, "init", "-q"], cwd=dest, check=True)
     subprocess.run([*GIT, "add", "-A"], cwd=dest, check=True)
     subprocess.run([*GIT, "commit", "-qm", "snapshot"], cwd=dest, check=True)
@@ -103,6 +113,51 @@ def scratch_project(dest: Path, overrides: Mapping[tuple[str, ...], Any]) -> Pat
     out = dvc(dest, "commit", "-q", "-f", "data.dvc")
     assert out.returncode == 0, out.stderr
     return dest
+
+
+# The stages before training: every ci-profile project in the suite would run them alike.
+DATA_STAGES = ("simulate", "ingest", "validate", "label")
+
+
+def take_stages(done: Path, dest: Path, stages: tuple[str, ...] = DATA_STAGES) -> None:
+    """Give ``dest`` what ``stages`` left in ``done``: outputs, DVC cache, ``dvc.lock`` entries.
+
+    DVC then finds each such stage up to date in ``dest`` where its code, params and
+    inputs there are those it ran with in ``done``, and runs it again where they are
+    not (another profile, other validate params): DVC decides, from the lock.
+    """
+    theirs = yaml.safe_load((done / "dvc.lock").read_text())["stages"]
+    lock = dest / "dvc.lock"
+    mine = yaml.safe_load(lock.read_text()) if lock.exists() else {"schema": "2.0", "stages": {}}
+    for stage in stages:
+        mine["stages"][stage] = theirs[stage]
+        for out in theirs[stage].get("outs", []):
+            src, to = done / out["path"], dest / out["path"]
+            if to.is_dir():
+                shutil.rmtree(to)
+            to.parent.mkdir(parents=True, exist_ok=True)
+            (shutil.copytree if src.is_dir() else shutil.copy2)(src, to)
+    lock.write_text(yaml.safe_dump(mine, sort_keys=False))
+    shutil.copytree(done / ".dvc" / "cache", dest / ".dvc" / "cache", dirs_exist_ok=True)
+
+
+def data_stages_done(shared: Path) -> Path:
+    """A ci-pipeline project (:data:`CI_PIPELINE`) under ``shared`` whose data stages ran.
+
+    Built once for every process that asks with the same ``shared`` folder (the
+    pytest-xdist workers of one session: ``tests/conftest.py``), under a lock: the
+    first builds it, the others wait for it.
+    """
+    done = shared / "ci-data-stages"
+    with open(shared / "ci-data-stages.lock", "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        if not (done / ".ran").exists():
+            shutil.rmtree(done, ignore_errors=True)
+            scratch_project(done, CI_PIPELINE)
+            out = dvc(done, "repro", DATA_STAGES[-1])
+            assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-4000:]
+            (done / ".ran").touch()
+    return done
 
 
 def commit(repo: Path, message: str) -> None:

@@ -69,12 +69,12 @@ def _queue_done(repo, timeout_s: float = 900) -> str:
 
 
 @pytest.fixture(scope="module")
-def store(tmp_path_factory):
+def store(tmp_path_factory, ci_data):
     base = tmp_path_factory.mktemp("concurrency")
-    a = scratch_project(base / "a", OVERRIDES)
+    a = scratch_project(base / "a", OVERRIDES, ci_data)
     uri = f"sqlite:///{a}/mlruns/mlflow.db"
     b_overrides = {**OVERRIDES, ("seeds",): [2], ("tracking", "tracking_uri"): uri}
-    b = scratch_project(base / "b", b_overrides)
+    b = scratch_project(base / "b", b_overrides, ci_data)
     # The data stages first, as a user's sweep starts from a reproduced workspace: two
     # workers running the same stage at once race on DVC's run cache (one worker's
     # temporary run-cache file vanished: treeverse/dvc#10673), which no sweep need meet.

@@ -184,8 +184,8 @@ def run(repo: Path, who: dict, *cmd: str, stdin: str | None = None, timeout: flo
 
 
 @pytest.fixture(scope="module")
-def repo(tmp_path_factory):
-    return scratch_project(tmp_path_factory.mktemp("team") / "repo", OVERRIDES)
+def repo(tmp_path_factory, ci_data):
+    return scratch_project(tmp_path_factory.mktemp("team") / "repo", OVERRIDES, ci_data)
 
 
 @pytest.fixture(scope="module")
