@@ -36,13 +36,16 @@ from support.store import integrity, store_runs
 
 pytestmark = [pytest.mark.slow, pytest.mark.crash]
 
-# G's fit lasts several seconds: long enough to be stopped in the middle.
+# G's fit lasts several seconds: long enough to be stopped in the middle. Two recipes
+# after it (the crashes are train's; adapt and evaluate only have to give the metrics).
 OVERRIDES = {
     ("seeds",): [1],
     ("sim", "profile"): "ci",
     ("train", "epochs"): 400,
     ("adapt", "epochs"): 5,
     ("adapt", "m_grid"): [10, 20],
+    ("adapt", "recipes"): ["paper", "radius+G"],
+    ("adapt", "fallback", "recipe"): "radius+G",
     ("adapt", "fallback", "m"): 20,
     ("adapt", "steps", "max_steps"): 20,
     ("evaluate", "outages_s"): [30, 180],

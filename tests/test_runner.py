@@ -25,10 +25,9 @@ from support.store import store_runs
 
 
 @pytest.fixture
-def store(tmp_path, monkeypatch) -> str:
-    uri = f"sqlite:///{tmp_path}/store/mlflow.db"
-    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
-    return uri
+def store(store_uri, monkeypatch) -> str:
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", store_uri)
+    return store_uri
 
 
 @pytest.mark.crash
@@ -88,7 +87,9 @@ def test_reading_an_undeclared_param_is_a_failed_run(store, capsys):
     assert "reads params 'train' but does not declare it" in run.data.tags["rwhonet.error"]
 
 
-def test_a_stage_that_succeeds_logs_nothing(store):
+def test_a_stage_that_succeeds_logs_nothing(tmp_path, monkeypatch):
+    store = f"sqlite:///{tmp_path}/store/mlflow.db"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", store)
     before = [signal.getsignal(s) for s in INTERRUPTS]
     seen = []
     runner.run("label", lambda params: seen.append(params.label.wpm_mode))
@@ -188,8 +189,8 @@ def _start_sleeper(root: Path, store: str) -> subprocess.Popen:
 @pytest.mark.parametrize(
     "signum", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP], ids=["SIGTERM", "SIGINT", "SIGHUP"]
 )
-def test_a_signal_mid_stage_is_a_killed_run_and_the_process_dies_of_it(tmp_path, signum):
-    store = f"sqlite:///{tmp_path}/store/mlflow.db"
+def test_a_signal_mid_stage_is_a_killed_run_and_the_process_dies_of_it(tmp_path, store_uri, signum):
+    store = store_uri
     proc = _start_sleeper(tmp_path / "project", store)
     proc.send_signal(signum)
     time.sleep(0.3)

@@ -42,6 +42,7 @@ from support.corpus import (
     write_target,
 )
 from support.drives import make_params, write_params_yaml
+from support.store import copy_store
 
 REPO = paths.ROOT
 
@@ -167,9 +168,14 @@ def test_reliability_doc_counts_come_from_the_corpus():
 # ------------------------------------------------------------------ the stage scripts
 
 
-def _project(tmp_path: Path, case) -> Path:
-    """A project root (params.yaml, dvc.yaml, data/raw) holding the case, as a user's."""
+def _project(tmp_path: Path, case, store: Path) -> Path:
+    """A project root (params.yaml, dvc.yaml, data/raw) holding the case, as a user's.
+
+    Its MLflow store, where a refusal is logged, is a copy of ``store`` (``migrated_store``
+    in tests/conftest.py), not a new file to migrate.
+    """
     root = tmp_path / "project"
+    copy_store(store, root / "mlruns" / "mlflow.db")
     write_good_fleet(root / "data" / "raw")
     case.write(root / "data" / "raw")
     (root / "dvc.yaml").write_text((REPO / "dvc.yaml").read_text())
@@ -194,10 +200,10 @@ def _stage(root: Path, stage: str) -> subprocess.CompletedProcess:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SCRIPT_CASES)
-def test_stage_scripts(name, tmp_path):
+def test_stage_scripts(name, tmp_path, migrated_store):
     """`python pipelines/ingest.py` then `validate.py`: exit 2 and the message, no traceback."""
     (case,) = [x for x in CASES if x.name == name]
-    root = _project(tmp_path, case)
+    root = _project(tmp_path, case, migrated_store)
     expect = case.expect
     for stage in ("ingest", "validate"):
         proc = _stage(root, stage)
@@ -220,9 +226,9 @@ def test_stage_scripts(name, tmp_path):
 
 
 @pytest.mark.slow
-def test_a_failed_validation_report_stays_until_the_next_success(tmp_path):
+def test_a_failed_validation_report_stays_until_the_next_success(tmp_path, migrated_store):
     (case,) = [x for x in CASES if x.name == "stuck_wheel_whole_drive"]
-    root = _project(tmp_path, case)
+    root = _project(tmp_path, case, migrated_store)
     assert _stage(root, "ingest").returncode == 0
     proc = _stage(root, "validate")
     assert proc.returncode == 2 and "stuck or disconnected wheel-speed sensor" in proc.stderr
