@@ -6,13 +6,13 @@ import yaml
 
 from rwhonet import paths
 from rwhonet.report.plots import plot_frames
-from stages.conftest import evaluated, samples_dir
+from stages.conftest import evaluated_once
 
-__all__ = ["evaluated", "samples_dir"]
+__all__ = ["evaluated_once"]
 
 
-def test_every_outage_gets_its_curves_and_g_s_error_grows_by_its_offset(evaluated):
-    params, ev = evaluated
+def test_every_outage_gets_its_curves_and_g_s_error_grows_by_its_offset(evaluated_once):
+    params, ev = evaluated_once
     out = plot_frames(ev, params)
     assert set(out) == {
         *(f"{m}_evolution_{L}s.csv" for m in ("crse", "cte") for L in (30, 60)),
@@ -28,8 +28,8 @@ def test_every_outage_gets_its_curves_and_g_s_error_grows_by_its_offset(evaluate
         assert (crse["R"] == 0).all() and (crse["S"] == 0).all()
 
 
-def test_the_m_grid_reads_the_longest_outage_s_mean_crse(evaluated):
-    params, ev = evaluated
+def test_the_m_grid_reads_the_longest_outage_s_mean_crse(evaluated_once):
+    params, ev = evaluated_once
     grid = plot_frames(ev, params)["m_grid.csv"]
     assert grid["m"].tolist() == [10, 20]
     s = ev.summary
@@ -38,8 +38,8 @@ def test_the_m_grid_reads_the_longest_outage_s_mean_crse(evaluated):
     assert grid["G"].nunique() == 1 and grid["G"].iloc[0] == pytest.approx(6.0)  # 60 s x 0.1 m
 
 
-def test_over_time_columns_drop_the_chosen_m_so_they_match_dvc_yaml(evaluated):
-    params, ev = evaluated
+def test_over_time_columns_drop_the_chosen_m_so_they_match_dvc_yaml(evaluated_once):
+    params, ev = evaluated_once
     columns = set(plot_frames(ev, params)["crse_over_time.csv"].columns) - {"from_min"}
     assert not any("@" in c for c in columns)
     plots = yaml.safe_load((paths.ROOT / "dvc.yaml").read_text())["plots"]

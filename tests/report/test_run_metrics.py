@@ -5,13 +5,13 @@ import math
 import pytest
 
 from rwhonet.report.run_metrics import drive_keys, position_metrics, scenario_metrics
-from stages.conftest import evaluated, samples_dir
+from stages.conftest import evaluated_once
 
-__all__ = ["evaluated", "samples_dir"]
+__all__ = ["evaluated_once"]
 
 
-def test_scenario_metrics_of_the_chosen_recipe_are_r_s(evaluated):
-    _, ev = evaluated
+def test_scenario_metrics_of_the_chosen_recipe_are_r_s(evaluated_once):
+    _, ev = evaluated_once
     g = scenario_metrics(ev, "G")
     assert g["scenario/hard_brake/crse/mean"] == pytest.approx(1.0)  # 10 s x 0.1 m
     assert g["scenario/hard_brake/windows"] == 1.0
@@ -21,8 +21,8 @@ def test_scenario_metrics_of_the_chosen_recipe_are_r_s(evaluated):
     assert scenario_metrics(ev, "WPM-ref") == {}  # not a scenario-outage model
 
 
-def test_position_metrics_name_every_window_statistic_of_the_control(evaluated):
-    _, ev = evaluated
+def test_position_metrics_name_every_window_statistic_of_the_control(evaluated_once):
+    _, ev = evaluated_once
     got = position_metrics(ev, "G")
     row = ev.position[
         (ev.position["model"] == "G")
@@ -37,8 +37,8 @@ def test_position_metrics_name_every_window_statistic_of_the_control(evaluated):
     assert position_metrics(ev, "R") == position_metrics(ev, ev.choice.model)
 
 
-def test_each_test_drive_s_cells_go_to_the_control_model_s_run(evaluated):
-    _, ev = evaluated
+def test_each_test_drive_s_cells_go_to_the_control_model_s_run(evaluated_once):
+    _, ev = evaluated_once
     control_model = ev.position_plan["control_model"]
     got = position_metrics(ev, "R" if control_model == ev.choice.model else control_model)
     assert len(ev.position_drives)
@@ -50,8 +50,8 @@ def test_each_test_drive_s_cells_go_to_the_control_model_s_run(evaluated):
     assert not any(k.startswith("pos/drive/") for k in position_metrics(ev, other))
 
 
-def test_r_s_crse_calibration_per_test_drive(evaluated):
-    _, ev = evaluated
+def test_r_s_crse_calibration_per_test_drive(evaluated_once):
+    _, ev = evaluated_once
     got = position_metrics(ev, "R")
     assert len(ev.uncertainty_drives)
     for r in ev.uncertainty_drives.itertuples():

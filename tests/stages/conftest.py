@@ -54,10 +54,10 @@ def write_samples(folder, segments, seed=0, true_radius_m=None):
     return folder
 
 
-@pytest.fixture
-def samples_dir(tmp_path):
+def small_samples(folder):
+    """Three target test segments of two drives and one target training segment."""
     return write_samples(
-        tmp_path / "samples",
+        folder,
         [
             ("A__s0", "A", "target_test", 300),
             ("A__s1", "A", "target_test", 200),
@@ -65,6 +65,11 @@ def samples_dir(tmp_path):
             ("T__s0", "T", "target_train", 100),
         ],
     )
+
+
+@pytest.fixture
+def samples_dir(tmp_path):
+    return small_samples(tmp_path / "samples")
 
 
 # An evaluation of the samples above whose rule fell back (no selection evidence).
@@ -81,6 +86,17 @@ FALLBACK_OVERRIDES = {
 @pytest.fixture
 def evaluated(samples_dir):
     """An evaluation with ``adapt.recipe: auto`` that fell back to radius+G at 20 s."""
+    return fallback_evaluation(samples_dir)
+
+
+@pytest.fixture(scope="module")
+def evaluated_once(tmp_path_factory):
+    """:func:`evaluated`, made once for a module whose tests only read it (a few seconds)."""
+    return fallback_evaluation(small_samples(tmp_path_factory.mktemp("samples")))
+
+
+def fallback_evaluation(samples_dir):
+    """The evaluation of :func:`evaluated` on the samples in ``samples_dir``."""
     params = load_params(paths.PARAMS, overrides=FALLBACK_OVERRIDES)
     frame = load_role(samples_dir, ("target_test", "source_test"), seq_len=1).frame
     frame.loc[frame.index[frame["drive"] == "B"][100:103], "scenario"] = "hard_brake"

@@ -10,6 +10,7 @@ from rwhonet.tracking.store import (
     main_repo_root,
     resolve_tracking_uri,
 )
+from support.store import copy_store
 
 
 def test_relative_sqlite_uri_resolves_against_root(tmp_path, monkeypatch):
@@ -40,11 +41,10 @@ def test_record_round_trips_through_dict():
     assert RunRecord.from_dict(rec.to_dict()) == rec
 
 
-def test_log_execution_parent_and_children(tmp_path, monkeypatch):
+def test_log_execution_parent_and_children(tmp_path, monkeypatch, migrated_store):
     mlflow = pytest.importorskip("mlflow")
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
-    uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
-    (tmp_path / "mlruns").mkdir()
+    uri = copy_store(migrated_store, tmp_path / "mlruns" / "mlflow.db")
     art = tmp_path / "model.ckpt"
     art.write_bytes(b"weights")
     g = RunRecord(
@@ -77,11 +77,12 @@ def test_log_execution_parent_and_children(tmp_path, monkeypatch):
     assert Path(runs.iloc[0]["artifact_uri"].replace("file://", "")).is_relative_to(tmp_path)
 
 
-def test_a_run_over_log_batchs_limits_is_logged_whole_in_as_few_calls_as_fit(tmp_path, monkeypatch):
+def test_a_run_over_log_batchs_limits_is_logged_whole_in_as_few_calls_as_fit(
+    tmp_path, monkeypatch, migrated_store
+):
     mlflow = pytest.importorskip("mlflow")
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
-    uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
-    (tmp_path / "mlruns").mkdir()
+    uri = copy_store(migrated_store, tmp_path / "mlruns" / "mlflow.db")
     # 230 params (100 a call at most) and 1,950 metric points (1,000 entities a call in all)
     params = {f"p{i:03d}": i for i in range(230)}
     history = [{"epoch": e, **{f"m{j}": float(e + j) for j in range(3)}} for e in range(650)]
@@ -133,14 +134,15 @@ def test_an_interrupted_execution_leaves_no_run_running(tmp_path, monkeypatch):
     assert statuses == {"pipeline": "FINISHED", "G-WhONet": "KILLED"}
 
 
-def test_the_comparison_goes_on_the_parent_run_and_a_shared_view_shows_its_columns(tmp_path):
+def test_the_comparison_goes_on_the_parent_run_and_a_shared_view_shows_its_columns(
+    tmp_path, migrated_store
+):
     import json
 
     mlflow = pytest.importorskip("mlflow")
     from rwhonet.tracking.store import HEADLINE_VIEW, SHARED_VIEW_TAG, log_comparison
 
-    uri = f"sqlite:///{tmp_path}/mlruns/mlflow.db"
-    (tmp_path / "mlruns").mkdir()
+    uri = copy_store(migrated_store, tmp_path / "mlruns" / "mlflow.db")
     parent = log_execution([], uri=uri, experiment="t", execution=RunRecord("pipeline"))
     rows = [
         {"model": "G", "outage_s": 30, "crse_mean": 2.1, "cte_mean": 1.8},
