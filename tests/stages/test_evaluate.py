@@ -1,6 +1,6 @@
 """The evaluate stage's records: R-WhONet's Choice is passed as a value, params stay the user's."""
 
-from rwhonet.stages.evaluate import evaluation_record, provenance_line
+from rwhonet.stages.evaluate import evaluation_record, provenance_line, seeds_label
 
 
 def test_the_parent_run_logs_what_the_user_set_and_the_choice_apart(evaluated):
@@ -13,3 +13,8 @@ def test_the_parent_run_logs_what_the_user_set_and_the_choice_apart(evaluated):
     assert "R-WhONet = recipe `radius+G` at m = 20 s" in provenance_line(params, ev.choice)
     assert (ev.eval_json["recipe"], ev.eval_json["chosen_m"]) == ("radius+G", 20)
     assert ev.eval_json["selection"]["params"]["recipe"] == "auto"
+
+
+def test_run_names_count_the_seeds_and_take_no_mean_of_one():
+    assert seeds_label([1, 2, 3], "mean of ") == "mean of 3 seeds"
+    assert seeds_label([42], "mean of ") == "1 seed" and seeds_label([7, 8]) == "2 seeds"

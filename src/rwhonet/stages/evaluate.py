@@ -269,7 +269,7 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
             tags["m"] = str(choice.m)
         records.append(
             RunRecord(
-                name=f"{model} (mean of {len(params.seeds)} seeds)",
+                name=f"{model} ({seeds_label(params.seeds, 'mean of ')})",
                 tags=tags,
                 params={
                     "seeds": params.seeds,
@@ -309,6 +309,11 @@ def provenance_line(params: Params, choice: Choice) -> str:
     )
 
 
+def seeds_label(seeds: list[int], many: str = "") -> str:
+    """``3 seeds`` (``many`` before it: ``mean of 3 seeds``), or ``1 seed``: no mean of one."""
+    return "1 seed" if len(seeds) == 1 else f"{many}{len(seeds)} seeds"
+
+
 def evaluation_record(
     params: Params, ev: Evaluation, artifacts: list[Path], started_ms: int | None = None
 ) -> RunRecord:
@@ -320,7 +325,7 @@ def evaluation_record(
     # the headline numbers as the run's own metrics (columns of the runs table), from eval.json
     metrics = headline_metrics(ev.eval_json)
     return RunRecord(
-        name=f"pipeline ({data_label(params)}, {len(params.seeds)} seeds)",
+        name=f"pipeline ({data_label(params)}, {seeds_label(params.seeds)})",
         tags={"model": "pipeline", "dvc_stage": "evaluate", "seeds": str(params.seeds)},
         params={
             **flatten(params.section("evaluate"), "evaluate."),
