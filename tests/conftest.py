@@ -43,6 +43,50 @@ CI_PIPELINE_MODULES = frozenset(
 )
 CI_PIPELINE_UNIT = "the ci pipeline's modules"
 
+# The work units that take longest, longest first (seconds of one CI run, junit, at
+# c1fa618): a worker that is free takes the next unit in this order, then the rest, most
+# tests first (pytest-xdist's own order). Without it the units with a whole pipeline and
+# few tests (crash, concurrency) came last, and one worker ran one of them alone at the
+# end. Only the order: a unit missing here runs all the same.
+LONGEST_FIRST = (
+    CI_PIPELINE_UNIT,  # 545 s
+    "tests/tracking/test_team_server.py",  # 201 s
+    "tests/test_pipeline_crash.py",  # 172 s
+    "tests/tracking/test_concurrency.py",  # 164 s
+    "tests/test_own_drives.py",  # 85 s
+    "tests/test_pipeline_arch.py",  # 82 s
+    "tests/cli/test_cli_corpus.py",  # 56 s
+    "tests/evaluation/test_study.py",  # 44 s
+    "tests/data/bad/test_corpus.py",  # 35 s
+    "tests/cli/test_round_trip.py",  # 33 s
+)
+
+
+def work_unit(module: str) -> str:
+    """The pytest-xdist work unit a test module belongs to (``--dist loadfile``)."""
+    return CI_PIPELINE_UNIT if module in CI_PIPELINE_MODULES else module
+
+
+def longest_first(items: list) -> list:
+    """``items`` with the work units in :data:`LONGEST_FIRST` order, then most tests first.
+
+    A stable sort: the tests of one unit keep their order (the ci pipeline's modules
+    share one project, in collection order).
+    """
+    modules = [item.nodeid.split("::", 1)[0] for item in items]
+    size: dict[str, int] = {}
+    for module in modules:
+        size[work_unit(module)] = size.get(work_unit(module), 0) + 1
+    first = {unit: i for i, unit in enumerate(LONGEST_FIRST)}
+    seen = {unit: i for i, unit in enumerate(dict.fromkeys(map(work_unit, modules)))}
+
+    def rank(module: str) -> tuple[int, int, int]:
+        unit = work_unit(module)
+        return (first.get(unit, len(first)), -size[unit], seen[unit])
+
+    order = sorted(range(len(items)), key=lambda i: rank(modules[i]))
+    return [items[i] for i in order]
+
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(session, config, items):
@@ -65,20 +109,23 @@ def pytest_collection_modifyitems(session, config, items):
             "CI_PIPELINE_MODULES in tests/conftest.py (or each pytest-xdist worker that "
             "runs one builds the whole pipeline again)"
         )
+    items[:] = longest_first(items)
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
-    """``--dist loadfile``, but :data:`CI_PIPELINE_MODULES` are one work unit."""
+    """``--dist loadfile``, but :data:`CI_PIPELINE_MODULES` are one work unit, longest first."""
     if config.getvalue("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
 
     class CiPipelineTogether(LoadFileScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            module = super()._split_scope(nodeid)
-            return CI_PIPELINE_UNIT if module in CI_PIPELINE_MODULES else module
+            return work_unit(super()._split_scope(nodeid))
 
+    # the units in the order the workers collected them (:func:`longest_first`), not
+    # re-sorted by their number of tests
+    config.option.loadscopereorder = False
     return CiPipelineTogether(config, log)
 
 
