@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import sqlite3
 from pathlib import Path
 from typing import Any
@@ -50,6 +51,10 @@ def migrated_store(db: Path) -> Path:
 def copy_store(template: Path, db: Path) -> str:
     """Copy the store ``template`` to ``db`` (SQLite's own backup, whole); return its URI."""
     db.parent.mkdir(parents=True, exist_ok=True)
-    with sqlite3.connect(template) as src, sqlite3.connect(db) as dest:
+    # sqlite3's context manager commits; closing() closes (no connection left to the GC)
+    with (
+        contextlib.closing(sqlite3.connect(template)) as src,
+        contextlib.closing(sqlite3.connect(db)) as dest,
+    ):
         src.backup(dest)
     return f"{SQLITE}{db}"
