@@ -8,7 +8,10 @@ params.yaml), of the stream readers' corpus (:mod:`support.stream_corpus`, with
 on a good drive moved to places across the Earth. Each must end with exit status
 0, or 2 with the report (what was expected, what was found) on stderr; any other
 exception fails the test (``main`` lets it through, where a user would see its
-traceback). A refused ``predict`` leaves no output file behind.
+traceback). A refused ``predict`` leaves no output file behind. Through an outage,
+``predict`` on the moved drive must give what it gives at home: the same distances,
+errors and position error, and the same position and covariance up to the turn of
+the local frame.
 
 Slow (about a minute of CPU: 93 drives, two commands each); ``make test-fast`` skips it.
 """
@@ -18,6 +21,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 import yaml
 
@@ -150,6 +154,67 @@ def test_a_relocated_drive_goes_through_both_commands(place, bundle, tmp_path, c
     path = write_iovnbd(moved, tmp_path / "V-Moved.csv")
     codes = run_both(bundle, path, ["--nominal-radius", "0.294"], tmp_path, capsys)
     assert codes == {"predict": 0, "recalibrate": 0}
+
+
+# The output's position is in the local frame of the last fix before the outage (east,
+# north), which turns with the meridians: near a pole by about 5 degrees per km east. What
+# a relocation must keep is everything else, and the position's range and covariance's
+# invariants in that frame.
+FRAME = ("east_m", "north_m", "lat_deg", "lon_deg", "cov_ee_m2", "cov_en_m2", "cov_nn_m2")
+OUTAGE = "60:150"
+OUTAGE_S = 90
+
+
+def _predicted(bundle, drive, tmp_path: Path, capsys) -> pd.DataFrame:
+    out = tmp_path / f"{drive.stem}.out.csv"
+    code = main(predict_args(bundle, drive, out, "--quiet", "--outage", OUTAGE))
+    assert code == 0, capsys.readouterr().err
+    return pd.read_csv(out)
+
+
+@pytest.fixture
+def at_home(bundle, tmp_path, capsys):
+    """``predict`` through an outage on the corpus's good drive where it was simulated."""
+    home = tmp_path / "home"
+    home.mkdir()
+    return _predicted(bundle, write_iovnbd(good_target(), home / "V-Home.csv"), home, capsys)
+
+
+@pytest.mark.parametrize("place", PLACES)
+def test_a_relocated_drive_predicts_the_same_distances_and_position_error(
+    place, bundle, at_home, tmp_path, capsys
+):
+    drive = good_target()
+    lat, lon = drive[c.LAT_DEG].to_numpy(), drive[c.LON_DEG].to_numpy()
+    east, north = offsets_m(lat[0], lon[0], lat, lon)
+    new_lat, new_lon = latlon_from_offsets_deg(*PLACES[place], east, north)
+    moved = drive.assign(**{c.LAT_DEG: new_lat, c.LON_DEG: new_lon})
+    got = _predicted(bundle, write_iovnbd(moved, tmp_path / "V-Moved.csv"), tmp_path, capsys)
+    home = at_home
+    assert list(got.columns) == list(home.columns) and len(got) == len(home)
+    assert got["east_m"].notna().sum() == OUTAGE_S  # a position every second of the outage
+    for col in home.columns:
+        if col not in FRAME:  # distances, errors, CRSE, the position's error and radii
+            assert got[col].equals(home[col]) or np.allclose(
+                got[col], home[col], rtol=0, atol=1e-3, equal_nan=True
+            ), col
+    # the range from the last fix and the covariance's axes: the frame's turn keeps them
+    np.testing.assert_allclose(
+        np.hypot(got["east_m"], got["north_m"]),
+        np.hypot(home["east_m"], home["north_m"]),
+        atol=1e-3,
+    )
+    np.testing.assert_allclose(_axes(got), _axes(home), atol=1e-3)  # the CSV's 4 decimals
+
+
+def _axes(frame: pd.DataFrame) -> np.ndarray:
+    """The eigenvalues of each row's east/north covariance, m² (NaN where there is none)."""
+    cov = frame[["cov_ee_m2", "cov_en_m2", "cov_en_m2", "cov_nn_m2"]].to_numpy(float)
+    cov = cov.reshape(-1, 2, 2)
+    out = np.full((len(frame), 2), np.nan)
+    ok = np.isfinite(cov).all(axis=(1, 2))
+    out[ok] = np.linalg.eigvalsh(cov[ok])
+    return out
 
 
 @pytest.mark.parametrize("fmt", ["comma2k19", "mdf4", "stream_csv"])
