@@ -207,6 +207,53 @@ def test_a_relocated_drive_predicts_the_same_distances_and_position_error(
     np.testing.assert_allclose(_axes(got), _axes(home), atol=1e-3)  # the CSV's 4 decimals
 
 
+def _columns_shuffled(path: Path) -> Path:
+    """The CSV at ``path`` with its columns in another order (their text as written)."""
+    frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+    order = list(np.random.default_rng(0).permutation(frame.columns))
+    frame[order].to_csv(path, index=False)
+    return path
+
+
+def _jittered(drive: pd.DataFrame) -> pd.DataFrame:
+    """Stamps off their 10 Hz slots by up to 40 ms either way, as a logger's clock jitters."""
+    jitter = np.random.default_rng(1).uniform(-0.04, 0.04, len(drive))
+    return drive.assign(**{c.T_S: drive[c.T_S] + jitter})
+
+
+def _across_midnight(drive: pd.DataFrame) -> pd.DataFrame:
+    """A time-of-day clock that wraps to 0 s at midnight 75 s into the drive (mid-outage)."""
+    t = drive[c.T_S] - drive[c.T_S].iloc[0] + 86400.0 - 75.0
+    return drive.assign(**{c.T_S: np.round(t % 86400.0, 6)})
+
+
+LOGGER_HABITS = {
+    "columns in another order": (lambda d: d, _columns_shuffled),
+    "jittered stamps": (_jittered, lambda p: p),
+    "a clock across midnight": (_across_midnight, lambda p: p),
+}
+
+
+@pytest.mark.parametrize("habit", LOGGER_HABITS)
+def test_a_logger_s_habits_change_nothing_predict_gives_through_an_outage(
+    habit, bundle, at_home, tmp_path, capsys
+):
+    change_drive, change_file = LOGGER_HABITS[habit]
+    path = change_file(write_iovnbd(change_drive(good_target()), tmp_path / "V-Habit.csv"))
+    got, home = _predicted(bundle, path, tmp_path, capsys), at_home
+    assert list(got.columns) == list(home.columns) and len(got) == len(home)
+    if habit == "a clock across midnight":  # one clock, unwrapped: the seconds follow on
+        start, home_start = 86400.0 - 75.0, good_target()[c.T_S].iloc[0]
+        np.testing.assert_allclose(got["t_s"] - start, home["t_s"] - home_start, atol=1e-6)
+        assert got["t_s"].iloc[-1] > 86400.0
+        got = got.assign(t_s=home["t_s"])
+    assert got["east_m"].notna().sum() == OUTAGE_S
+    for col in home.columns:
+        assert got[col].equals(home[col]) or np.allclose(
+            got[col], home[col], rtol=0, atol=1e-3, equal_nan=True
+        ), col
+
+
 def _axes(frame: pd.DataFrame) -> np.ndarray:
     """The eigenvalues of each row's east/north covariance, m² (NaN where there is none)."""
     cov = frame[["cov_ee_m2", "cov_en_m2", "cov_en_m2", "cov_nn_m2"]].to_numpy(float)
