@@ -11,7 +11,8 @@ exception fails the test (``main`` lets it through, where a user would see its
 traceback). A refused ``predict`` leaves no output file behind. Through an outage,
 ``predict`` on the moved drive must give what it gives at home: the same distances,
 errors and position error, and the same position and covariance up to the turn of
-the local frame.
+the local frame; and so must the drive as loggers write it (columns in another
+order, stamps jittered off their slots, a time-of-day clock across midnight).
 
 Slow (about a minute of CPU: 93 drives, two commands each); ``make test-fast`` skips it.
 """
@@ -211,6 +212,7 @@ def _columns_shuffled(path: Path) -> Path:
     """The CSV at ``path`` with its columns in another order (their text as written)."""
     frame = pd.read_csv(path, dtype=str, keep_default_na=False)
     order = list(np.random.default_rng(0).permutation(frame.columns))
+    assert order != list(frame.columns)
     frame[order].to_csv(path, index=False)
     return path
 
