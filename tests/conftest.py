@@ -43,8 +43,8 @@ CI_PIPELINE_MODULES = frozenset(
 )
 CI_PIPELINE_UNIT = "the ci pipeline's modules"
 
-# The work units that take longest, longest first (seconds of one CI run, junit, at
-# c1fa618): a worker that is free takes the next unit in this order, then the rest, most
+# The work units that take longest, longest first (seconds of one CI run, junit, of
+# 8859a25): a worker that is free takes the next unit in this order, then the rest, most
 # tests first (pytest-xdist's own order). Without it the units with a whole pipeline and
 # few tests (crash, concurrency) came last, and one worker ran one of them alone at the
 # end. Only the order: a unit missing here runs all the same.
