@@ -9,6 +9,7 @@ test-fast`` skips them).
 from __future__ import annotations
 
 import os
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -74,9 +75,7 @@ def longest_first(items: list) -> list:
     share one project, in collection order).
     """
     modules = [item.nodeid.split("::", 1)[0] for item in items]
-    size: dict[str, int] = {}
-    for module in modules:
-        size[work_unit(module)] = size.get(work_unit(module), 0) + 1
+    size = Counter(map(work_unit, modules))
     first = {unit: i for i, unit in enumerate(LONGEST_FIRST)}
     seen = {unit: i for i, unit in enumerate(dict.fromkeys(map(work_unit, modules)))}
 

@@ -14,7 +14,8 @@ errors and position error, and the same position and covariance up to the turn o
 the local frame; and so must the drive as loggers write it (columns in another
 order, stamps jittered off their slots, a time-of-day clock across midnight).
 
-Slow (about a minute of CPU: 93 drives, two commands each); ``make test-fast`` skips it.
+Slow (about a minute of CPU: 93 drives, two commands each, and ten predicts through an
+outage); ``make test-fast`` skips it.
 """
 
 from __future__ import annotations
@@ -144,13 +145,18 @@ PLACES = {
 }
 
 
-@pytest.mark.parametrize("place", PLACES)
-def test_a_relocated_drive_goes_through_both_commands(place, bundle, tmp_path, capsys):
+def _moved(place: str) -> pd.DataFrame:
+    """The good drive moved to ``place`` with its local geometry kept (about its first fix)."""
     drive = good_target()
     lat, lon = drive[c.LAT_DEG].to_numpy(), drive[c.LON_DEG].to_numpy()
     east, north = offsets_m(lat[0], lon[0], lat, lon)
     new_lat, new_lon = latlon_from_offsets_deg(*PLACES[place], east, north)
-    moved = drive.assign(**{c.LAT_DEG: new_lat, c.LON_DEG: new_lon})
+    return drive.assign(**{c.LAT_DEG: new_lat, c.LON_DEG: new_lon})
+
+
+@pytest.mark.parametrize("place", PLACES)
+def test_a_relocated_drive_goes_through_both_commands(place, bundle, tmp_path, capsys):
+    moved = _moved(place)
     assert np.ptp(moved[c.LON_DEG]) < 1.0 or place == "antimeridian" or "Pole" in place
     path = write_iovnbd(moved, tmp_path / "V-Moved.csv")
     codes = run_both(bundle, path, ["--nominal-radius", "0.294"], tmp_path, capsys)
@@ -166,39 +172,39 @@ OUTAGE = "60:150"
 OUTAGE_S = 90
 
 
-def _predicted(bundle, drive, tmp_path: Path, capsys) -> pd.DataFrame:
-    out = tmp_path / f"{drive.stem}.out.csv"
-    code = main(predict_args(bundle, drive, out, "--quiet", "--outage", OUTAGE))
-    assert code == 0, capsys.readouterr().err
+def _predicted(bundle, drive: Path) -> pd.DataFrame:
+    """``rwhonet predict`` through :data:`OUTAGE` on ``drive`` (its report on stderr)."""
+    out = drive.with_suffix(".out.csv")
+    assert main(predict_args(bundle, drive, out, "--quiet", "--outage", OUTAGE)) == 0
     return pd.read_csv(out)
 
 
-@pytest.fixture
-def at_home(bundle, tmp_path, capsys):
+@pytest.fixture(scope="module")
+def at_home(bundle, tmp_path_factory):
     """``predict`` through an outage on the corpus's good drive where it was simulated."""
-    home = tmp_path / "home"
-    home.mkdir()
-    return _predicted(bundle, write_iovnbd(good_target(), home / "V-Home.csv"), home, capsys)
+    return _predicted(
+        bundle, write_iovnbd(good_target(), tmp_path_factory.mktemp("home") / "V-Home.csv")
+    )
+
+
+def _assert_same(got: pd.DataFrame, home: pd.DataFrame, but: tuple[str, ...] = ()) -> None:
+    """The same rows and columns, every column but ``but`` equal to the CSV's 4 decimals."""
+    assert list(got.columns) == list(home.columns) and len(got) == len(home)
+    assert got["east_m"].notna().sum() == OUTAGE_S  # a position every second of the outage
+    for col in home.columns:
+        if col not in but:
+            assert got[col].equals(home[col]) or np.allclose(
+                got[col], home[col], rtol=0, atol=1e-3, equal_nan=True
+            ), col
 
 
 @pytest.mark.parametrize("place", PLACES)
 def test_a_relocated_drive_predicts_the_same_distances_and_position_error(
-    place, bundle, at_home, tmp_path, capsys
+    place, bundle, at_home, tmp_path
 ):
-    drive = good_target()
-    lat, lon = drive[c.LAT_DEG].to_numpy(), drive[c.LON_DEG].to_numpy()
-    east, north = offsets_m(lat[0], lon[0], lat, lon)
-    new_lat, new_lon = latlon_from_offsets_deg(*PLACES[place], east, north)
-    moved = drive.assign(**{c.LAT_DEG: new_lat, c.LON_DEG: new_lon})
-    got = _predicted(bundle, write_iovnbd(moved, tmp_path / "V-Moved.csv"), tmp_path, capsys)
+    got = _predicted(bundle, write_iovnbd(_moved(place), tmp_path / "V-Moved.csv"))
     home = at_home
-    assert list(got.columns) == list(home.columns) and len(got) == len(home)
-    assert got["east_m"].notna().sum() == OUTAGE_S  # a position every second of the outage
-    for col in home.columns:
-        if col not in FRAME:  # distances, errors, CRSE, the position's error and radii
-            assert got[col].equals(home[col]) or np.allclose(
-                got[col], home[col], rtol=0, atol=1e-3, equal_nan=True
-            ), col
+    _assert_same(got, home, but=FRAME)  # distances, errors, CRSE, the position's error and radii
     # the range from the last fix and the covariance's axes: the frame's turn keeps them
     np.testing.assert_allclose(
         np.hypot(got["east_m"], got["north_m"]),
@@ -238,22 +244,17 @@ LOGGER_HABITS = {
 
 @pytest.mark.parametrize("habit", LOGGER_HABITS)
 def test_a_logger_s_habits_change_nothing_predict_gives_through_an_outage(
-    habit, bundle, at_home, tmp_path, capsys
+    habit, bundle, at_home, tmp_path
 ):
     change_drive, change_file = LOGGER_HABITS[habit]
     path = change_file(write_iovnbd(change_drive(good_target()), tmp_path / "V-Habit.csv"))
-    got, home = _predicted(bundle, path, tmp_path, capsys), at_home
-    assert list(got.columns) == list(home.columns) and len(got) == len(home)
+    got, home = _predicted(bundle, path), at_home
     if habit == "a clock across midnight":  # one clock, unwrapped: the seconds follow on
         start, home_start = 86400.0 - 75.0, good_target()[c.T_S].iloc[0]
         np.testing.assert_allclose(got["t_s"] - start, home["t_s"] - home_start, atol=1e-6)
         assert got["t_s"].iloc[-1] > 86400.0
         got = got.assign(t_s=home["t_s"])
-    assert got["east_m"].notna().sum() == OUTAGE_S
-    for col in home.columns:
-        assert got[col].equals(home[col]) or np.allclose(
-            got[col], home[col], rtol=0, atol=1e-3, equal_nan=True
-        ), col
+    _assert_same(got, home)
 
 
 def _axes(frame: pd.DataFrame) -> np.ndarray:
