@@ -41,19 +41,11 @@ from support.store import integrity, store_runs
 
 pytestmark = [pytest.mark.slow, pytest.mark.crash]
 
-# G's fit lasts several seconds: long enough to be stopped in the middle. The later
-# stages' params as the ci pipeline's (they never run here: module docstring).
+# G's fit lasts several seconds: long enough to be stopped in the middle.
 OVERRIDES = {
     ("seeds",): [1],
     ("sim", "profile"): "ci",
     ("train", "epochs"): 400,
-    ("adapt", "epochs"): 5,
-    ("adapt", "m_grid"): [10, 20],
-    ("adapt", "recipes"): ["paper", "radius+G"],
-    ("adapt", "fallback", "recipe"): "radius+G",
-    ("adapt", "fallback", "m"): 20,
-    ("adapt", "steps", "max_steps"): 20,
-    ("evaluate", "outages_s"): [30, 180],
 }
 STAGE = "pipelines/train.py"
 DONE = "training seconds from"  # in the line the stage prints once its outputs are written
