@@ -48,6 +48,18 @@ def test_bad_params_name_the_key(override, needle):
     assert needle in str(err.value)
 
 
+@pytest.mark.parametrize("switch", ["gnss.fit_sigma"])
+def test_the_filter_s_fits_can_be_switched_off(switch):
+    # a switch sits among the sensor figures, which must be > 0; false is not a figure
+    nav = load_params(paths.PARAMS, overrides={f"evaluate.navigation.{switch}": False})
+    section, key = switch.split(".")
+    assert getattr(getattr(nav.evaluate.navigation, section), key) is False
+    with pytest.raises(ConfigError, match=f"evaluate.navigation.{switch}: expected true/false"):
+        load_params(paths.PARAMS, overrides={f"evaluate.navigation.{switch}": 1})
+    with pytest.raises(ConfigError, match="sensor figures must be > 0"):
+        load_params(paths.PARAMS, overrides={"evaluate.navigation.gyro.instability_deg_s": 0})
+
+
 def test_flatten_uses_dotted_keys():
     assert flatten({"a": {"b": 1, "c": {"d": 2}}, "e": []}) == {"a.b": 1, "a.c.d": 2, "e": []}
 

@@ -853,6 +853,8 @@ class NavigationParams:
             **{f"gnss.{k}": v for k, v in dataclasses.asdict(self.gnss).items()},
         }
         late = figures.pop("gyro.latency_s")
+        # a switch (gnss.fit_sigma) is not a figure: false is fine
+        figures = {k: v for k, v in figures.items() if not k.split(".")[1].startswith("fit_")}
         bad = [f"evaluate.navigation.{k} = {v}" for k, v in figures.items() if not v > 0]
         if bad:
             raise ConfigError("sensor figures must be > 0: " + ", ".join(bad))
