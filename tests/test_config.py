@@ -48,7 +48,7 @@ def test_bad_params_name_the_key(override, needle):
     assert needle in str(err.value)
 
 
-@pytest.mark.parametrize("switch", ["gnss.fit_sigma"])
+@pytest.mark.parametrize("switch", ["gnss.fit_sigma", "gyro.fit_instability"])
 def test_the_filter_s_fits_can_be_switched_off(switch):
     # a switch sits among the sensor figures, which must be > 0; false is not a figure
     nav = load_params(paths.PARAMS, overrides={f"evaluate.navigation.{switch}": False})

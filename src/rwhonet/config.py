@@ -802,6 +802,9 @@ class NavGyroParams:
     # how late the channel reads the turn against the fixes, s (the starting point of its
     # fit on the target training drives: NavigationParams.fit_geometry)
     latency_s: float = 0.0
+    # instability_deg_s fitted with the receiver's drift on the target training drives
+    # (rwhonet.evaluation.position.fit_noise), the configured one its starting point
+    fit_instability: bool = True
 
 
 @dataclass(frozen=True)
@@ -819,7 +822,7 @@ class NavGnssParams:
     sigma_m: float  # Gauss-Markov drift
     tau_s: float
     white_m: float  # white noise per fix
-    # sigma_m fitted on the target training drives (rwhonet.evaluation.position.fit_receiver)
+    # sigma_m fitted on the target training drives (rwhonet.evaluation.position.fit_noise)
     fit_sigma: bool = True
 
 
@@ -853,7 +856,7 @@ class NavigationParams:
             **{f"gnss.{k}": v for k, v in dataclasses.asdict(self.gnss).items()},
         }
         late = figures.pop("gyro.latency_s")
-        # a switch (gnss.fit_sigma) is not a figure: false is fine
+        # the switches (gnss.fit_sigma, gyro.fit_instability) are not figures: false is fine
         figures = {k: v for k, v in figures.items() if not k.split(".")[1].startswith("fit_")}
         bad = [f"evaluate.navigation.{k} = {v}" for k, v in figures.items() if not v > 0]
         if bad:

@@ -15,7 +15,7 @@ from rwhonet.evaluation.position import (
     calibrate_2d,
     calibrated_nll,
     filter_windows,
-    fit_receiver,
+    fit_noise,
     position_per_seed,
     target_windows,
     window_stats,
@@ -205,30 +205,42 @@ def test_calibrated_nll_is_each_run_s_windows_under_its_own_calibration():
 
 
 class _Navigation:
-    def __init__(self, fit_sigma=True, sigma_m=1.5, tau_s=100.0):
+    def __init__(self, fit_sigma=True, sigma_m=1.5, tau_s=100.0, fit_b=False, b_deg_s=0.01):
         self.gnss = type("G", (), {"sigma_m": sigma_m, "tau_s": tau_s, "fit_sigma": fit_sigma})
+        self.gyro = type("Y", (), {"instability_deg_s": b_deg_s, "fit_instability": fit_b})
 
 
-def _receiver_case(monkeypatch, nll_of_sigma, fit_sigma=True, n_windows=500):
-    """fit_receiver with the filter's training windows replaced by a known likelihood."""
+def _noise_case(monkeypatch, nll_of, fit_sigma=True, fit_b=False, n_windows=500, control="fused"):
+    """fit_noise with the filter's training windows replaced by a known likelihood of
+    (sigma m, B deg/s)."""
     import rwhonet.evaluation.position as position
     from rwhonet.nav import NavConfig
 
     tried = []
 
     def windows(frame, params, passes, outages_s, cfg):
-        tried.append(cfg.gnss.sigma_m)
-        return cfg.gnss.sigma_m
+        tried.append((cfg.gnss.sigma_m, float(np.degrees(cfg.gyro.bias_instability))))
+        return tried[-1]
 
     monkeypatch.setattr(position, "_training_windows", windows)
-    monkeypatch.setattr(position, "calibrated_nll", lambda s: (nll_of_sigma(s), n_windows))
+    monkeypatch.setattr(position, "calibrated_nll", lambda st: (nll_of(*st), n_windows))
     params = type("P", (), {})()
-    params.evaluate = type("E", (), {"navigation": _Navigation(fit_sigma)})()
-    plan = {"control_model": "G", "control": "fused"}
-    run = Odometry("G", 1, "fused", np.zeros(1), np.zeros(1))
+    params.evaluate = type("E", (), {"navigation": _Navigation(fit_sigma, fit_b=fit_b)})()
+    plan = {"control_model": "G", "control": control}
+    run = Odometry("G", 1, control, np.zeros(1), np.zeros(1))
     passes = [([run], {30: np.zeros((0, 30), int)})]
     cfg = NavConfig().with_receiver(1.5)
-    return fit_receiver(None, params, passes, plan, [30], cfg), tried
+    assert np.degrees(cfg.gyro.bias_instability) == pytest.approx(0.01)
+    return fit_noise(None, params, passes, plan, [30], cfg), tried
+
+
+def _receiver_case(monkeypatch, nll_of_sigma, fit_sigma=True, n_windows=500):
+    """The receiver's drift alone (the gyro's B held)."""
+    (fit, gyro), tried = _noise_case(
+        monkeypatch, lambda s, b: nll_of_sigma(s), fit_sigma, n_windows=n_windows
+    )
+    assert not gyro.fitted and not gyro.nll and all(b == pytest.approx(0.01) for _, b in tried)
+    return fit, [s for s, _ in tried]
 
 
 @pytest.mark.parametrize("truth", [0.4, 1.5, 2.5, 7.0])
@@ -250,6 +262,72 @@ def test_the_receiver_fit_stays_in_its_range_and_keeps_what_it_is_told(monkeypat
     fit, tried = _receiver_case(monkeypatch, lambda s: s, n_windows=3)  # too few windows
     assert not fit.fitted and fit.sigma_m == 1.5 and fit.n_windows == 3 and tried == [1.5]
     assert fit.as_dict()["fitted"] is False
+
+
+def _coupled(sigma_truth, b_truth):
+    """A likelihood quadratic in (ln sigma, ln B) whose two figures trade off (a tilted
+    bowl): one pass over each axis does not reach its minimum; rounds do."""
+
+    def nll(sigma, b):
+        u, v = np.log(sigma / sigma_truth), np.log(b / b_truth)
+        return u * u + v * v + 1.2 * u * v
+
+    return nll
+
+
+@pytest.mark.parametrize("b_truth", [0.0025, 0.01, 0.03])
+def test_the_receiver_drift_and_the_gyro_s_instability_are_fitted_together(monkeypatch, b_truth):
+    (receiver, gyro), tried = _noise_case(monkeypatch, _coupled(2.2, b_truth), fit_b=True)
+    assert receiver.fitted and gyro.fitted
+    # to within half a step of each (a round that moves neither by more ends the climb)
+    half = 2.0**0.25
+    assert 1.0 / half < receiver.sigma_m / 2.2 < half
+    assert 1.0 / half < np.degrees(gyro.instability_rad_s) / b_truth < half
+    # and the likeliest setting scored
+    nll = _coupled(2.2, b_truth)
+    b_fit = float(np.degrees(gyro.instability_rad_s))
+    assert nll(receiver.sigma_m, b_fit) == pytest.approx(min(nll(*t) for t in tried))
+    assert gyro.configured_rad_s == pytest.approx(np.radians(0.01))
+    assert len(tried) == len(set(tried))  # each setting scored once
+    # each reports the fit and a step either side of it, scored at the other's fit
+    for fit, value in ((receiver.nll, receiver.sigma_m), (gyro.nll, gyro.instability_rad_s)):
+        tried_here = sorted(fit)
+        assert value in fit and tried_here[0] < value < tried_here[-1]
+        assert min(fit.values()) == fit[value]
+    for sigma, v in receiver.nll.items():
+        assert v == pytest.approx(nll(sigma, b_fit))
+    for b, v in gyro.nll.items():
+        assert v == pytest.approx(nll(receiver.sigma_m, np.degrees(b)))
+    out = gyro.as_dict()
+    assert out["fitted"] is True and out["instability_deg_s"] == pytest.approx(b_fit, abs=1e-6)
+    assert out["configured_instability_deg_s"] == 0.01 and out["n_windows"] == 500
+
+
+def test_the_gyro_s_instability_alone_and_where_it_is_not_fitted(monkeypatch):
+    (receiver, gyro), tried = _noise_case(
+        monkeypatch, _coupled(1.5, 0.004), fit_sigma=False, fit_b=True
+    )
+    assert not receiver.fitted and receiver.sigma_m == 1.5 and {s for s, _ in tried} == {1.5}
+    assert gyro.fitted and gyro.instability_rad_s > 0
+    # without a gyro in the control (the wheels alone), B means nothing: held
+    (receiver, gyro), tried = _noise_case(
+        monkeypatch, _coupled(2.2, 0.004), fit_b=True, control="wheels"
+    )
+    assert receiver.fitted and not gyro.fitted
+    assert all(b == pytest.approx(0.01) for _, b in tried)
+    # likelier without end: B stops at its bound
+    (_, gyro), _ = _noise_case(monkeypatch, lambda s, b: -b, fit_sigma=False, fit_b=True)
+    assert 0.2 / np.sqrt(2.0) < np.degrees(gyro.instability_rad_s) <= 0.2
+    # too few windows: both as configured, said so
+    (receiver, gyro), tried = _noise_case(
+        monkeypatch, _coupled(2.2, 0.004), fit_b=True, n_windows=3
+    )
+    assert not receiver.fitted and not gyro.fitted and len(tried) == 1
+    assert gyro.n_windows == 3 and gyro.as_dict()["fitted"] is False
+    # and the fit goes into the filter's settings
+    from rwhonet.nav import NavConfig
+
+    assert replace(gyro, instability_rad_s=1e-5).apply(NavConfig()).gyro.bias_instability == 1e-5
 
 
 def _frame(samples_dir):

@@ -1,5 +1,6 @@
 """An evaluation as MLflow metrics: R's names are the chosen recipe's, every statistic named."""
 
+import dataclasses
 import math
 
 import pytest
@@ -35,6 +36,30 @@ def test_position_metrics_name_every_window_statistic_of_the_control(evaluated_o
     # no evidence here, so no calibration: scale 1, and no degrees of freedom (a normal)
     assert got["pos/30s/calib_scale"] == 1.0 and "pos/30s/calib_dof" not in got
     assert position_metrics(ev, "R") == position_metrics(ev, ev.choice.model)
+
+
+def test_the_filter_s_fitted_figures_go_to_the_control_model_s_run(evaluated_once):
+    _, ev = evaluated_once
+    control_model = ev.position_plan["control_model"]
+    name = "R" if control_model == ev.choice.model else control_model
+    # nothing fitted here (no training evidence): nothing logged
+    assert not {k for k in position_metrics(ev, name) if k.count("/") == 1}
+    fitted = {
+        "receiver": {"sigma_m": 2.7, "fitted": True},
+        "geometry": {"antenna_m": [0.95, -0.2], "gyro_latency_s": 0.11, "fitted": True},
+        "gyro": {"instability_deg_s": 0.0042, "fitted": True},
+    }
+    ev = dataclasses.replace(ev, position_plan={**ev.position_plan, **fitted})
+    got = {k: v for k, v in position_metrics(ev, name).items() if k.count("/") == 1}
+    assert got == {
+        "pos/receiver_sigma_m": 2.7,
+        "pos/antenna_ahead_m": 0.95,
+        "pos/antenna_left_m": -0.2,
+        "pos/gyro_latency_s": 0.11,
+        "pos/gyro_instability_deg_s": 0.0042,
+    }
+    other = next(m for m in ("WPM", "G", "S") if m != control_model)
+    assert not {k for k in position_metrics(ev, other) if k.count("/") == 1}
 
 
 def test_each_test_drive_s_cells_go_to_the_control_model_s_run(evaluated_once):

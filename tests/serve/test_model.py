@@ -66,6 +66,7 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
         "receiver_tau_s": 100.0,
         "antenna_m": [0.95, -0.2],
         "gyro_latency_s": 0.11,
+        "gyro_instability_deg_s": 0.004,
         "calibration": {"scales": {"30": 0.7, "180": 0.6}, "dofs": {"30": 5.0, "180": None}},
         "from": "evaluate",
     }
@@ -76,6 +77,9 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
         {"receiver_sigma_m": -1.0},
         {"gyro_latency_s": -0.1},
         {"gyro_latency_s": float("nan")},
+        {"gyro_instability_deg_s": 0.0},
+        {"gyro_instability_deg_s": 50.0},
+        {"gyro_instability_deg_s": "0.004"},
         {"antenna_m": [1.0]},
         {"antenna_m": [1.0, "left"]},
         {"calibration": {"scales": {"thirty": 0.7}}},

@@ -63,9 +63,15 @@ def test_the_fitted_receiver_drift_goes_into_the_filter():
     assert cfg.antenna_m == NavConfig().antenna_m
 
 
-def test_the_fitted_antenna_and_gyro_latency_go_into_the_filter():
-    cal = PositionCalibration.from_meta({"antenna_m": [0.95, -0.2], "gyro_latency_s": 0.11})
+def test_the_fitted_antenna_and_gyro_figures_go_into_the_filter():
+    cal = PositionCalibration.from_meta(
+        {"antenna_m": [0.95, -0.2], "gyro_latency_s": 0.11, "gyro_instability_deg_s": 0.004}
+    )
     cfg = cal.nav_config(NavConfig())
     assert cfg.antenna_m == (0.95, -0.2) and cfg.gyro.latency_s == 0.11
+    assert cfg.gyro.bias_instability == pytest.approx(np.radians(0.004))
+    # a bundle registered before the instability was fitted: the filter's own figure
+    old = PositionCalibration.from_meta({"gyro_latency_s": 0.11}).nav_config(NavConfig())
+    assert old.gyro.bias_instability == NavConfig().gyro.bias_instability
     assert cfg.gnss == NavConfig().gnss
     assert cfg.gyro.noise_density == NavConfig().gyro.noise_density

@@ -203,6 +203,7 @@ EVALUATED = {
     "position_controls": {
         "receiver": {"sigma_m": 2.72, "tau_s": 100.0, "fitted": True},
         "geometry": {"antenna_m": [0.95, -0.2], "gyro_latency_s": 0.11, "fitted": True},
+        "gyro": {"instability_deg_s": 0.0042, "fitted": True},
     },
 }
 
@@ -212,6 +213,7 @@ def test_navigation_meta_takes_the_model_s_calibration_and_the_receiver_from_eva
     assert g["vehicle"] == "target" and g["receiver_sigma_m"] == 2.72
     assert g["receiver_tau_s"] == 100.0
     assert g["antenna_m"] == [0.95, -0.2] and g["gyro_latency_s"] == 0.11
+    assert g["gyro_instability_deg_s"] == 0.0042
     assert g["calibration"] == {"scales": {"30": 0.7, "180": 0.6}, "dofs": {"30": 8.0, "180": 10.0}}
     assert "fitted" in g["from"] and "[42, 43]" in g["from"]
     r = navigation_meta(EVALUATED, "R")["calibration"]  # a normal: null ν

@@ -14,8 +14,8 @@ through its outage without GNSS. The error is the horizontal distance between
 the predicted fix and the GNSS fix ending the window; the filter's 2x2
 covariance of that prediction, calibrated as a bivariate Student t on the same
 filter's windows of the target training drives (:func:`calibrate_on_training`;
-the receiver drift the filter uses fitted on the same windows first,
-:func:`fit_receiver`),
+the receiver drift and the gyro's bias instability the filter uses fitted on
+the same windows first, :func:`fit_noise`),
 gives the coverage of its 68.27 % / 95.45 % regions and the negative
 log-likelihood, beside those of the filter's own normal ellipses
 (:mod:`rwhonet.nav.coverage`). A
@@ -853,17 +853,58 @@ class ReceiverFit:
 
 RECEIVER_STEP = float(np.sqrt(2.0))  # the spreads tried: the configured one times powers of this
 RECEIVER_SIGMA_M = (0.1, 30.0)  # and within this range
+# the gyro's bias instability tried, deg/s: the configured one times powers of
+# RECEIVER_STEP, within this range (a MEMS yaw-rate sensor's data sheet: 0.001-0.1 °/s)
+GYRO_INSTABILITY_DEG_S = (0.0005, 0.2)
+NOISE_ROUNDS = 4  # rounds over the two figures at most (:func:`climb`)
 
 
-def fit_receiver(
+@dataclass(frozen=True)
+class InstabilityFit:
+    """The gyro's bias instability the filter uses, fitted with the receiver's drift.
+
+    Attributes:
+        instability_rad_s: the bias's Gauss-Markov spread ``B``
+            (``evaluate.navigation.gyro.instability_deg_s`` when not fitted), rad/s.
+        configured_rad_s: ``evaluate.navigation.gyro.instability_deg_s``, rad/s.
+        fitted: False: not asked for (``gyro.fit_instability: false``), no gyro in the
+            plan's control, or too few windows.
+        nll: the instabilities tried at the fitted receiver drift, rad/s, and the
+            training windows' mean calibrated NLL at each, nats.
+        n_windows: the counted training windows per setting tried.
+    """
+
+    instability_rad_s: float
+    configured_rad_s: float
+    fitted: bool = False
+    nll: dict[float, float] = field(default_factory=dict)
+    n_windows: int = 0
+
+    def apply(self, cfg: NavConfig) -> NavConfig:
+        """``cfg`` with this bias instability."""
+        return replace(cfg, gyro=replace(cfg.gyro, bias_instability=self.instability_rad_s))
+
+    def as_dict(self) -> dict:
+        """eval.json's ``position_controls.gyro`` (deg/s, as params.yaml writes it)."""
+        return {
+            "instability_deg_s": round(float(np.degrees(self.instability_rad_s)), 6),
+            "configured_instability_deg_s": round(float(np.degrees(self.configured_rad_s)), 6),
+            "fitted": self.fitted,
+            "n_windows": self.n_windows,
+            "nll": {f"{np.degrees(b):.4g}": round(v, 5) for b, v in sorted(self.nll.items())},
+        }
+
+
+def fit_noise(
     frame: pd.DataFrame,
     params: Params,
     passes: list[tuple[list[Odometry], dict[int, np.ndarray]]],
     plan: dict,
     outages_s: list[int],
     cfg: NavConfig,
-) -> ReceiverFit:
-    """The receiver drift's spread that makes the training windows' ends likeliest.
+) -> tuple[ReceiverFit, InstabilityFit]:
+    """The receiver drift's spread and the gyro's bias instability that make the training
+    windows' ends likeliest.
 
     The filter's GNSS model (a Gauss-Markov drift, ``sigma_m`` and ``tau_s``, plus
     white noise) is a receiver's datasheet figure, and a car's receiver, antenna and
@@ -871,57 +912,107 @@ def fit_receiver(
     weighs the fixes before an outage wrongly and misjudges the error of the fix that
     ends it (on the large_target_consumer world, whose u-blox M8-class receiver drifts
     2.12 m with 60 s against the configured 1.5 m with 100 s, the calibrated test NLL
-    fell at every outage length with the receiver's own figures). So ``sigma_m`` is
-    fitted by maximum likelihood on the target training drives' windows
+    fell at every outage length with the receiver's own figures). The gyro's bias
+    instability ``B`` is the same kind of figure: the generic 0.01 °/s bounds the
+    automotive sensors whose data sheets the filter's defaults come from, and a
+    better gyro held to it lets the rear wheels pull its bias through every outage
+    (docs/positioning.md: with the antenna and the gyro's latency fitted, the
+    simulated cars' 0.0025 °/s gyros ended 180 s outages about a fifth closer with
+    ``B`` fitted). Both change how far the filter's covariance grows through an
+    outage and trade off against each other there, so they are fitted together, by
+    maximum likelihood on the target training drives' windows
     (:func:`training_passes`), never a test drive: the filter with
     ``control_model``'s distances and ``plan['control']`` (its seeds) runs on them
-    for each spread tried, and each spread is scored by the windows' mean NLL under
-    their own calibration (:func:`calibrated_nll`). The spreads tried step by
-    :data:`RECEIVER_STEP` from the configured one towards the likelier side until the
-    likelihood falls again (within :data:`RECEIVER_SIGMA_M`); the answer is the
-    vertex of the parabola through the best and its two neighbours in ``ln σ``
-    (:func:`ascend`).
+    for each setting tried, and each setting is scored by the windows' mean NLL
+    under their own calibration (:func:`calibrated_nll`). Each figure steps by
+    :data:`RECEIVER_STEP` from the configured one towards the likelier side until
+    the likelihood falls again (within :data:`RECEIVER_SIGMA_M` and
+    :data:`GYRO_INSTABILITY_DEG_S`), refined by the vertex of the parabola through
+    the best and its two neighbours in the figure's logarithm (:func:`ascend`), one
+    figure after the other in rounds until neither moves (:func:`climb`, at most
+    :data:`NOISE_ROUNDS`). Each figure's reported likelihoods are those at the fit and a
+    step either side of it, the other figure held at its fit (with what else was tried
+    there): how sharply the windows tell it.
 
-    ``tau_s`` is held: the windows' likelihood runs along a ridge of nearly equal
-    values where ``σ²/τ`` (the rate at which the drift wanders) is constant, so the
-    data do not tell ``σ`` and ``τ`` apart (docs/positioning.md).
+    ``tau_s`` and the bias's correlation time are held: the windows' likelihood runs
+    along a ridge of nearly equal values where ``σ²/τ`` (the rate at which the drift
+    wanders) is constant, so the data do not tell ``σ`` and ``τ`` apart
+    (docs/positioning.md).
 
     Returns:
-        The fit (not fitted: the configured spread, when ``fit_sigma`` is false, the
-        plan's control model has no run, or its windows are fewer than
-        :data:`~rwhonet.nav.coverage.MIN_T2_WINDOWS`).
+        The receiver's fit and the gyro's (each not fitted, at the configured figure,
+        when its switch, ``gnss.fit_sigma`` or ``gyro.fit_instability``, is false, when
+        the plan's control model has no run, when the control has no gyro (``B``), or
+        when the windows are fewer than :data:`~rwhonet.nav.coverage.MIN_T2_WINDOWS`).
     """
-    gnss = params.evaluate.navigation.gnss
-    configured = float(cfg.gnss.sigma_m)
-    out = ReceiverFit(configured, float(cfg.gnss.tau_s), float(gnss.sigma_m))
+    nav = params.evaluate.navigation
+    sigma0, b0 = float(cfg.gnss.sigma_m), float(cfg.gyro.bias_instability)
+    receiver = ReceiverFit(sigma0, float(cfg.gnss.tau_s), float(nav.gnss.sigma_m))
+    gyro = InstabilityFit(b0, float(np.radians(nav.gyro.instability_deg_s)))
     mine = [
         ([r for r in runs if r.model == plan["control_model"] and r.control == plan["control"]], w)
         for runs, w in passes
     ]
     mine = [(runs, w) for runs, w in mine if runs]
-    if not gnss.fit_sigma or not mine:
-        return out
-    scores: dict[float, tuple[float, int]] = {}
+    log_step = np.log(RECEIVER_STEP)
 
-    def score(step: int) -> float:
-        sigma = configured * RECEIVER_STEP**step
-        if step not in scores:
-            windows = _training_windows(frame, params, mine, outages_s, cfg.with_receiver(sigma))
-            scores[step] = calibrated_nll(windows)
-        return scores[step][0]
+    def steps(lowest: float, highest: float, at: float) -> tuple[float, float]:
+        return (np.log(lowest / at) / log_step, np.log(highest / at) / log_step)
 
-    lo = int(np.ceil(np.log(RECEIVER_SIGMA_M[0] / configured) / np.log(RECEIVER_STEP)))
-    hi = int(np.floor(np.log(RECEIVER_SIGMA_M[1] / configured) / np.log(RECEIVER_STEP)))
-    if np.isnan(score(0)) or scores[0][1] < MIN_T2_WINDOWS:  # NaN: no window counted
-        return replace(out, n_windows=scores[0][1])
-    best = ascend(lambda step: -score(step), lo, hi)
-    return replace(
-        out,
-        sigma_m=float(configured * RECEIVER_STEP**best),
-        fitted=True,
-        nll={configured * RECEIVER_STEP**s: v for s, (v, _) in scores.items()},
-        n_windows=scores[round(best)][1],
-    )
+    axes = {}
+    if nav.gnss.fit_sigma:
+        axes["sigma"] = ({"sigma": 1.0}, {"sigma": steps(*RECEIVER_SIGMA_M, sigma0)})
+    if nav.gyro.fit_instability and plan["control"] != "wheels":
+        lowest, highest = (float(np.radians(b)) for b in GYRO_INSTABILITY_DEG_S)
+        axes["instability"] = ({"instability": 1.0}, {"instability": steps(lowest, highest, b0)})
+    if not axes or not mine:
+        return receiver, gyro
+    # (steps of sigma, steps of B) -> (sigma, B, mean NLL, windows)
+    scores: dict[tuple[float, float], tuple[float, float, float, int]] = {}
+
+    def key(x: dict[str, float]) -> tuple[float, float]:
+        return round(x["sigma"], 6), round(x["instability"], 6)
+
+    def at(x: dict[str, float]) -> float:
+        if key(x) not in scores:
+            sigma, b = sigma0 * RECEIVER_STEP ** x["sigma"], b0 * RECEIVER_STEP ** x["instability"]
+            tried = replace(gyro, instability_rad_s=b).apply(cfg.with_receiver(sigma))
+            windows = _training_windows(frame, params, mine, outages_s, tried)
+            scores[key(x)] = (sigma, b, *calibrated_nll(windows))
+        return -scores[key(x)][2]  # NaN (no window counted) never wins
+
+    x = {"sigma": 0.0, "instability": 0.0}
+    first = at(x)
+    n = scores[key(x)][3]
+    if not np.isfinite(first) or n < MIN_T2_WINDOWS:
+        return replace(receiver, n_windows=n), replace(gyro, n_windows=n)
+    x = climb(at, x, axes, NOISE_ROUNDS)
+    # what the report shows of each figure: the point reached (a parabola's vertex may
+    # not have been scored) and a step either side of it, the other figure held there
+    at(x)
+    for name, (_, bounds) in axes.items():
+        for side in (-1.0, 1.0):
+            if bounds[name][0] <= x[name] + side <= bounds[name][1]:
+                at({**x, name: x[name] + side})
+    sigma, b, _, n = scores[key(x)]
+    i_x, j_x = key(x)
+    if "sigma" in axes:
+        receiver = replace(
+            receiver,
+            sigma_m=float(sigma),
+            fitted=True,
+            nll={s: v for (_, j), (s, _, v, _) in scores.items() if j == j_x},
+            n_windows=n,
+        )
+    if "instability" in axes:
+        gyro = replace(
+            gyro,
+            instability_rad_s=float(b),
+            fitted=True,
+            nll={g: v for (i, _), (_, g, v, _) in scores.items() if i == i_x},
+            n_windows=n,
+        )
+    return receiver, gyro
 
 
 def fix_score(
@@ -1229,7 +1320,8 @@ def calibrate_on_training(
         params: as :func:`filter_windows`.
         passes: the runs and their windows (:func:`training_passes`).
         outages_s: the outage lengths.
-        cfg: the filter's settings (with the receiver drift :func:`fit_receiver` chose).
+        cfg: the filter's settings (with the receiver drift and the gyro's bias instability
+            :func:`fit_noise` chose).
 
     Returns:
         ``({(model, seed, control): calibration}, the training windows' ends)``.

@@ -227,6 +227,7 @@ def _position_controls(ev: Evaluation) -> dict:
         "unavailable": list(plan["unavailable"]),
         "receiver": dict(plan.get("receiver", {})),
         "geometry": dict(plan.get("geometry", {})),
+        "gyro": dict(plan.get("gyro", {})),
         "rows": {},
     }
     for (model, control), g in pos.groupby(["model", "control"], sort=False):

@@ -42,7 +42,7 @@ from rwhonet.evaluation.position import (
     filter_models,
     filter_windows,
     fit_geometry,
-    fit_receiver,
+    fit_noise,
     gnss_run,
     model_runs,
     nav_config,
@@ -257,8 +257,9 @@ def evaluate(
     dead["n_windows_all"] = dead["outage_s"].map(
         {L: int(t["n_windows"]) for L, t in tracks.items()}
     )
-    # the receiver's drift fitted, and the filter's covariance calibrated (scale, tails), on
-    # the target training drives' windows; then the test windows with the fitted receiver
+    # the antenna and the gyro's latency fitted on the target training drives' fixes; the
+    # receiver's drift and the gyro's bias instability, and the filter's covariance
+    # calibrated (scale, tails), on their windows; then the test windows with those figures
     training = evidence.frame if evidence is not None else None
     filtered = [t for t in train_errors if not t.per_window]
     passes = (
@@ -268,8 +269,8 @@ def evaluate(
     )
     geometry = fit_geometry(training, params, passes, nav, cfg)  # none: as configured
     cfg = geometry.apply(cfg)
-    receiver = fit_receiver(training, params, passes, nav, outages, cfg)  # none: as configured
-    cfg = cfg.with_receiver(receiver.sigma_m)  # the runs stay: they do not read it
+    receiver, gyro = fit_noise(training, params, passes, nav, outages, cfg)  # or as configured
+    cfg = gyro.apply(cfg.with_receiver(receiver.sigma_m))  # the runs stay: they do not read it
     calibrations = calibrate_on_training(training, params, passes, outages, cfg)[0]
     windows_2d = filter_windows(frame, params, runs, outages, cfg)
     nav_seed = position_per_seed(windows_2d, params.seeds, calibrations)
@@ -313,7 +314,7 @@ def evaluate(
         position_drives=position_drives,
         position_dead_reckoning=dead,
         position_plan={key: v for key, v in nav.items() if key != "models"}
-        | {"receiver": receiver.as_dict(), "geometry": geometry.as_dict()},
+        | {"receiver": receiver.as_dict(), "geometry": geometry.as_dict(), "gyro": gyro.as_dict()},
         uncertainty=uncertainty,
         uncertainty_drives=uncertainty_drives,
         variance=variance.assign(fitted=evidence is not None),

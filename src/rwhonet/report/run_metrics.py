@@ -57,8 +57,11 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
     ``cover_2sigma``, ``windows`` (eval.json's ``position_controls.by_drive``); and the
     model's CRSE calibration: ``uncertainty/180s/crse_cover_1sigma``, ``..._2sigma``,
     ``crse_nll``, on R's run also per test drive (``uncertainty/drive/<drive>/180s/...``,
-    eval.json's ``uncertainty.by_drive``). A drive's name is kept where MLflow allows
-    it in a metric's name (:func:`drive_keys`).
+    eval.json's ``uncertainty.by_drive``), and the filter's figures the evaluation
+    fitted on the target training drives (``pos/receiver_sigma_m``,
+    ``pos/antenna_ahead_m``, ``pos/antenna_left_m``, ``pos/gyro_latency_s``,
+    ``pos/gyro_instability_deg_s``; each where fitted). A drive's name is kept where
+    MLflow allows it in a metric's name (:func:`drive_keys`).
     """
     if ev.position is None or ev.position.empty:
         return {}
@@ -89,6 +92,9 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
         out["pos/antenna_ahead_m"] = float(geometry["antenna_m"][0])
         out["pos/antenna_left_m"] = float(geometry["antenna_m"][1])
         out["pos/gyro_latency_s"] = float(geometry["gyro_latency_s"])
+    gyro = plan.get("gyro", {})
+    if name == plan["control_model"] and gyro.get("fitted"):
+        out["pos/gyro_instability_deg_s"] = float(gyro["instability_deg_s"])
     crse = (
         ("crse_cover_1sigma", "cover_1sigma"),
         ("crse_cover_2sigma", "cover_2sigma"),

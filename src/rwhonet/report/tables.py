@@ -512,7 +512,7 @@ def nav_calibration_table(ev: Evaluation) -> str | None:
         f"The calibration (mean over seeds; c and ν at {at} s: a length's own ν where "
         "Akaike's criterion took it, else the one fitted over every length; ∞: a normal)"
     )
-    receiver = _receiver_line(plan.get("receiver", {}))
+    receiver = _receiver_line(plan.get("receiver", {})) + _gyro_line(plan.get("gyro", {}))
     return f"{table}\n\n{head}: {calib}.{_geometry_line(plan.get('geometry', {}))}{receiver}"
 
 
@@ -595,6 +595,22 @@ def _receiver_line(receiver: dict) -> str:
         f"\n\nThe receiver's drift, fitted on the target training windows by maximum "
         f"likelihood: σ = {receiver['sigma_m']:.2f} m (configured {configured:g} m; {held}; "
         f"{receiver['n_windows']} windows; mean NLL per window, nats: {tried})."
+    )
+
+
+def _gyro_line(gyro: dict) -> str:
+    """What the filter took for the gyro's bias instability, and where it came from."""
+    if not gyro:
+        return ""
+    if not gyro["fitted"]:
+        return f" The gyro's bias instability: B = {gyro['instability_deg_s']:g} °/s as configured."
+    tried = ", ".join(f"{b} °/s: {v:.3f}" for b, v in gyro["nll"].items())
+    return (
+        f" The gyro's bias instability, fitted on the target training windows by maximum "
+        f"likelihood (with the receiver's drift, where that is fitted): B = "
+        f"{gyro['instability_deg_s']:.4f} °/s (configured {gyro['configured_instability_deg_s']:g}"
+        f" °/s; its correlation time held; {gyro['n_windows']} windows; mean NLL per window at "
+        f"the drift taken, nats: {tried})."
     )
 
 

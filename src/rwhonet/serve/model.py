@@ -58,7 +58,8 @@ class ServedMeta:
             :class:`rwhonet.models.adapt.ShrinkEvidence` as data, or null); None: not known.
         navigation: what the evaluation measured of the navigation filter with this
             model on its car (``vehicle``, ``receiver_sigma_m``, ``receiver_tau_s``,
-            ``antenna_m`` ([ahead, left], m) and ``gyro_latency_s`` as fitted (or null),
+            ``antenna_m`` ([ahead, left], m), ``gyro_latency_s`` and
+            ``gyro_instability_deg_s`` as fitted (or null),
             ``calibration``: ``{"scales": {outage s: c}, "dofs": {outage s: ν or
             null for a normal}}`` (a bundle registered before ``ν`` was fitted per
             length: one ``"dof"`` for every length), ``from``;
@@ -127,6 +128,7 @@ class ServedMeta:
                     None,
                     "navigation",
                     "null or {receiver_sigma_m, receiver_tau_s, antenna_m, gyro_latency_s, "
+                    "gyro_instability_deg_s, "
                     "calibration: {scales, dofs}}",
                     repr(raw.get("navigation"))[:80],
                 )
@@ -175,6 +177,9 @@ def _navigation_ok(nav: Any) -> bool:
             return False
     late = nav.get("gyro_latency_s")
     if late is not None and not (_number(late) and 0 <= late < 5):
+        return False
+    unstable = nav.get("gyro_instability_deg_s")
+    if unstable is not None and not (_positive(unstable) and unstable < 10):
         return False
     antenna = nav.get("antenna_m")
     if antenna is not None and not (

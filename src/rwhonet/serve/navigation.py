@@ -58,6 +58,8 @@ class PositionCalibration:
         antenna_m: where the evaluation fitted the antenna, ahead of and left of the
             rear axle, m (None: the filter's configured place).
         gyro_latency_s: how late it fitted the gyro to read, s (None: as configured).
+        gyro_instability_deg_s: the gyro's bias instability it fitted, °/s (None: as
+            configured).
     """
 
     scales: dict[int, float] = field(default_factory=dict)
@@ -67,6 +69,7 @@ class PositionCalibration:
     dofs: dict[int, float] = field(default_factory=dict)
     antenna_m: tuple[float, float] | None = None
     gyro_latency_s: float | None = None
+    gyro_instability_deg_s: float | None = None
 
     @property
     def calibrated(self) -> bool:
@@ -80,6 +83,7 @@ class PositionCalibration:
         cal = navigation.get("calibration") or {}
         dof = cal.get("dof")
         antenna, late = navigation.get("antenna_m"), navigation.get("gyro_latency_s")
+        unstable = navigation.get("gyro_instability_deg_s")
         return cls(
             {int(L): float(c) for L, c in (cal.get("scales") or {}).items()},
             float(dof) if dof is not None else float("inf"),
@@ -91,14 +95,18 @@ class PositionCalibration:
             },
             None if antenna is None else (float(antenna[0]), float(antenna[1])),
             None if late is None else float(late),
+            None if unstable is None else float(unstable),
         )
 
     def nav_config(self, config: NavConfig) -> NavConfig:
-        """``config`` with the fitted receiver drift, antenna and gyro latency, where known."""
+        """``config`` with the fitted receiver drift, antenna and gyro figures, where known."""
         if self.antenna_m is not None:
             config = replace(config, antenna_m=self.antenna_m)
         if self.gyro_latency_s is not None:
             config = replace(config, gyro=replace(config.gyro, latency_s=self.gyro_latency_s))
+        if self.gyro_instability_deg_s is not None:
+            b = float(np.radians(self.gyro_instability_deg_s))
+            config = replace(config, gyro=replace(config.gyro, bias_instability=b))
         if self.receiver_sigma_m is None:
             return config
         return config.with_receiver(self.receiver_sigma_m, self.receiver_tau_s)

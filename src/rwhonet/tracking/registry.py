@@ -554,6 +554,7 @@ def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> 
         return None
     receiver = (evaluated.get("position_controls") or {}).get("receiver") or {}
     geometry = (evaluated.get("position_controls") or {}).get("geometry") or {}
+    gyro = (evaluated.get("position_controls") or {}).get("gyro") or {}
     scales = {
         str(int(L.removesuffix("s"))): float(c["calib_scale"])
         for L, c in cells.items()
@@ -570,11 +571,13 @@ def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> 
         "receiver_tau_s": receiver.get("tau_s"),
         "antenna_m": geometry.get("antenna_m"),
         "gyro_latency_s": geometry.get("gyro_latency_s"),
+        "gyro_instability_deg_s": gyro.get("instability_deg_s"),
         "calibration": {"scales": scales, "dofs": dofs},
         "from": (
             "evaluate: the filter on the target training drives' windows (receiver drift "
             f"{'fitted' if receiver.get('fitted') else 'as configured'}, antenna and gyro "
-            f"latency {'fitted' if geometry.get('fitted') else 'as configured'}; the calibration's "
+            f"latency {'fitted' if geometry.get('fitted') else 'as configured'}, gyro bias "
+            f"instability {'fitted' if gyro.get('fitted') else 'as configured'}; the calibration's "
             f"means over seeds {evaluated.get('seeds')})"
         ),
     }
