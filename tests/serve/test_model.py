@@ -67,6 +67,7 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
         "antenna_m": [0.95, -0.2],
         "gyro_latency_s": 0.11,
         "gyro_instability_deg_s": 0.004,
+        "outage_scale": {"30": 8.4, "180": 18.8},
         "calibration": {"scales": {"30": 0.7, "180": 0.6}, "dofs": {"30": 5.0, "180": None}},
         "from": "evaluate",
     }
@@ -80,6 +81,9 @@ def test_the_evaluation_s_navigation_travels_in_the_metadata_and_a_bad_one_is_na
         {"gyro_instability_deg_s": 0.0},
         {"gyro_instability_deg_s": 50.0},
         {"gyro_instability_deg_s": "0.004"},
+        {"outage_scale": {"30": 0.0}},
+        {"outage_scale": {"thirty": 8.0}},
+        {"outage_scale": [8.0]},
         {"antenna_m": [1.0]},
         {"antenna_m": [1.0, "left"]},
         {"calibration": {"scales": {"thirty": 0.7}}},

@@ -75,3 +75,37 @@ def test_the_fitted_antenna_and_gyro_figures_go_into_the_filter():
     assert old.gyro.bias_instability == NavConfig().gyro.bias_instability
     assert cfg.gnss == NavConfig().gnss
     assert cfg.gyro.noise_density == NavConfig().gyro.noise_density
+
+
+def _lasting(scales):
+    return PositionCalibration.from_meta({"outage_scale": {str(k): v for k, v in scales.items()}})
+
+
+def test_inside_an_outage_the_distance_variance_grows_as_the_evaluation_measured():
+    rng = np.random.default_rng(3)
+    var = rng.uniform(0.001, 0.01, 400)
+    withheld = np.zeros(400, bool)
+    withheld[50:230] = withheld[300:360] = True  # outages of 180 and 60 s
+    # nothing carried: the seconds as they are
+    same, _ = PositionCalibration().outage_variance(var, withheld)
+    np.testing.assert_array_equal(same, var)
+    # one factor for every length: each outage second's variance times it
+    flat, _ = _lasting({30: 4.0, 180: 4.0}).outage_variance(var, withheld)
+    np.testing.assert_allclose(flat[withheld], 4.0 * var[withheld])
+    np.testing.assert_array_equal(flat[~withheld], var[~withheld])
+    # growing with the length: t seconds into an outage, its summed variance is
+    # gamma(t) times the seconds' own, the evaluation's for an outage of t s
+    cal = _lasting({30: 8.0, 60: 9.0, 120: 15.0, 180: 18.0})
+    grown, carried = cal.outage_variance(var, withheld)
+    for start, end in ((50, 230), (300, 360)):
+        t = np.arange(1, end - start + 1)
+        np.testing.assert_allclose(
+            np.cumsum(grown[start:end]), cal.outage_scale_at(t) * np.cumsum(var[start:end])
+        )
+    assert (grown > 0).all() and carried == (0, 0.0)
+    # block by block as the stream goes, the same
+    parts, state = [], (0, 0.0)
+    for a, b in ((0, 100), (100, 229), (229, 330), (330, 400)):
+        v, state = cal.outage_variance(var[a:b], withheld[a:b], state)
+        parts.append(v)
+    np.testing.assert_allclose(np.concatenate(parts), grown)

@@ -205,6 +205,7 @@ EVALUATED = {
         "geometry": {"antenna_m": [0.95, -0.2], "gyro_latency_s": 0.11, "fitted": True},
         "gyro": {"instability_deg_s": 0.0042, "fitted": True},
     },
+    "uncertainty": {"models": {"G": {"a_m2": 0.002, "outage_scale": {"30s": 8.4, "180s": 18.8}}}},
 }
 
 
@@ -214,6 +215,8 @@ def test_navigation_meta_takes_the_model_s_calibration_and_the_receiver_from_eva
     assert g["receiver_tau_s"] == 100.0
     assert g["antenna_m"] == [0.95, -0.2] and g["gyro_latency_s"] == 0.11
     assert g["gyro_instability_deg_s"] == 0.0042
+    assert g["outage_scale"] == {"30": 8.4, "180": 18.8}
+    assert navigation_meta(EVALUATED, "R")["outage_scale"] == {}  # none measured: 1
     assert g["calibration"] == {"scales": {"30": 0.7, "180": 0.6}, "dofs": {"30": 8.0, "180": 10.0}}
     assert "fitted" in g["from"] and "[42, 43]" in g["from"]
     r = navigation_meta(EVALUATED, "R")["calibration"]  # a normal: null ν

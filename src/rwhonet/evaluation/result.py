@@ -8,6 +8,7 @@ of truth. Numbers in the JSON are rounded to 0.1 mm (4 decimals), NaN as null.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -274,6 +275,14 @@ def _uncertainty(ev: Evaluation) -> dict:
             "n_seconds": int(r.n_seconds),
             "n_windows": int(r.n_windows),
         }
+        # gamma_L: the distance variance's factor inside an outage of L s (errors that last)
+        gammas = {
+            c.removeprefix("gamma_"): round(float(getattr(r, c)), 4)
+            for c in ev.variance.columns
+            if re.fullmatch(r"gamma_\d+s", c) and math.isfinite(getattr(r, c))
+        }
+        if gammas:
+            models["R" if r.model == ev.choice.model else r.model]["outage_scale"] = gammas
     for r in ev.uncertainty.itertuples():
         name = "R" if r.model == ev.choice.model else r.model
         models[name][f"{int(r.outage_s)}s"] = _crse_cell(r)

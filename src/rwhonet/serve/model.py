@@ -59,7 +59,9 @@ class ServedMeta:
         navigation: what the evaluation measured of the navigation filter with this
             model on its car (``vehicle``, ``receiver_sigma_m``, ``receiver_tau_s``,
             ``antenna_m`` ([ahead, left], m), ``gyro_latency_s`` and
-            ``gyro_instability_deg_s`` as fitted (or null),
+            ``gyro_instability_deg_s`` as fitted (or null), ``outage_scale``:
+            ``{outage s: γ}``, the corrected distance's variance factor inside an
+            outage of that length (errors that last; empty or absent: 1),
             ``calibration``: ``{"scales": {outage s: c}, "dofs": {outage s: ν or
             null for a normal}}`` (a bundle registered before ``ν`` was fitted per
             length: one ``"dof"`` for every length), ``from``;
@@ -128,7 +130,7 @@ class ServedMeta:
                     None,
                     "navigation",
                     "null or {receiver_sigma_m, receiver_tau_s, antenna_m, gyro_latency_s, "
-                    "gyro_instability_deg_s, "
+                    "gyro_instability_deg_s, outage_scale: {s: factor}, "
                     "calibration: {scales, dofs}}",
                     repr(raw.get("navigation"))[:80],
                 )
@@ -180,6 +182,11 @@ def _navigation_ok(nav: Any) -> bool:
         return False
     unstable = nav.get("gyro_instability_deg_s")
     if unstable is not None and not (_positive(unstable) and unstable < 10):
+        return False
+    lasting = nav.get("outage_scale", {})
+    if not isinstance(lasting, dict) or not all(
+        str(L).isdigit() and int(L) > 0 and _positive(g) for L, g in lasting.items()
+    ):
         return False
     antenna = nav.get("antenna_m")
     if antenna is not None and not (

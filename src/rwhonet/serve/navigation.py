@@ -13,9 +13,10 @@ dead-reckons, and its predicted fix and covariance are the outage's position.
 The corrected distance's variance ``a + b d²`` is fitted on the stream's own
 seconds outside the outages where GNSS is there (least squares of ``e²`` on
 ``[1, d²]`` from running sums, ``e`` = corrected − GNSS distance; an assumed
-``0.05² + (0.01 d)²`` until :data:`MIN_SECONDS` seconds are in). The filter
-takes those errors as independent from second to second; the evaluation
-(:mod:`rwhonet.evaluation.uncertainty`) also calibrates how they last. What the
+``0.05² + (0.01 d)²`` until :data:`MIN_SECONDS` seconds are in). Inside an
+outage that variance grows by the factor ``γ`` the evaluation fitted for how the
+model's errors last (:mod:`rwhonet.evaluation.uncertainty`), when the model
+carries it (:meth:`PositionCalibration.outage_variance`). What the
 evaluation measured of the filter on the model's car (the receiver drift, the
 antenna's place and the gyro's latency it fitted, its 2D calibration), when the
 model carries it, sets the filter's receiver, antenna and gyro and sizes the
@@ -60,6 +61,10 @@ class PositionCalibration:
         gyro_latency_s: how late it fitted the gyro to read, s (None: as configured).
         gyro_instability_deg_s: the gyro's bias instability it fitted, °/s (None: as
             configured).
+        outage_scales: ``γ`` per evaluated outage length: the factor by which the
+            corrected distance's per-second variance grows inside an outage of that
+            length, fitted on the target training drives (its errors last; the
+            evaluation's filter and calibration use it). Empty: 1, errors independent.
     """
 
     scales: dict[int, float] = field(default_factory=dict)
@@ -70,6 +75,7 @@ class PositionCalibration:
     antenna_m: tuple[float, float] | None = None
     gyro_latency_s: float | None = None
     gyro_instability_deg_s: float | None = None
+    outage_scales: dict[int, float] = field(default_factory=dict)
 
     @property
     def calibrated(self) -> bool:
@@ -96,6 +102,7 @@ class PositionCalibration:
             None if antenna is None else (float(antenna[0]), float(antenna[1])),
             None if late is None else float(late),
             None if unstable is None else float(unstable),
+            {int(L): float(g) for L, g in (navigation.get("outage_scale") or {}).items()},
         )
 
     def nav_config(self, config: NavConfig) -> NavConfig:
@@ -110,6 +117,42 @@ class PositionCalibration:
         if self.receiver_sigma_m is None:
             return config
         return config.with_receiver(self.receiver_sigma_m, self.receiver_tau_s)
+
+    def outage_scale_at(self, elapsed_s: np.ndarray) -> np.ndarray:
+        """``γ`` after ``elapsed_s`` seconds of an outage, interpolated in ``ln L`` (1: none)."""
+        if not self.outage_scales:
+            return np.ones_like(np.asarray(elapsed_s, np.float64))
+        return np.exp(_in_ln_l({L: np.log(g) for L, g in self.outage_scales.items()}, elapsed_s))
+
+    def outage_variance(self, var_m2: np.ndarray, withheld: np.ndarray, carried=(0, 0.0)):
+        """Each second's distance variance for the filter, inside an outage grown by ``γ``.
+
+        The evaluation's filter takes ``γ_L σ_t²`` for every second of an outage of ``L``
+        s, so that its along-track variance at the end is ``γ_L Σ σ_t²``. A stream does
+        not know how long an outage will last; so the ``t``-th second of one adds
+        ``γ(t) S_t − γ(t − 1) S_(t−1)`` (``S_t``: the sum of ``σ²`` over its first ``t``
+        seconds, ``γ(0) = 0``): the variance summed over the outage so far is
+        ``γ(t) S_t`` at every ``t``, the evaluation's at an outage of that length.
+
+        Args:
+            var_m2: (n,) the seconds' variances ``σ²``, m².
+            withheld: (n,) the seconds inside an outage.
+            carried: ``(t, S)`` of an outage running when the block starts.
+
+        Returns:
+            ``(variances (n,), (t, S) at the block's end)``.
+        """
+        var = np.asarray(var_m2, np.float64).copy()
+        t, total = int(carried[0]), float(carried[1])
+        if not self.outage_scales:
+            return var, (0, 0.0)
+        for i in np.flatnonzero(withheld):
+            if i > 0 and not withheld[i - 1]:
+                t, total = 0, 0.0  # a new outage
+            before = float(self.outage_scale_at(np.array([t]))[0]) * total if t else 0.0
+            t, total = t + 1, total + var[i]
+            var[i] = float(self.outage_scale_at(np.array([t]))[0]) * total - before
+        return var, ((t, total) if len(var) and withheld[-1] else (0, 0.0))
 
     def scale_at(self, elapsed_s: np.ndarray) -> np.ndarray:
         """``c`` after ``elapsed_s`` seconds of an outage (1 when not calibrated)."""
@@ -205,11 +248,15 @@ class StreamNavigator:
         radii_m: the rear-left and rear-right radii the wheel angles are turned into
             travel with (the WPM's), m.
         gyro: whether the drive has a yaw rate (control ``fused``, else ``wheels``).
+        calibration: what the evaluation measured (its ``γ`` grows the corrected
+            distance's variance inside an outage: :meth:`PositionCalibration.outage_variance`).
     """
 
     config: NavConfig
     radii_m: tuple[float, float]
     gyro: bool
+    calibration: PositionCalibration = field(default_factory=PositionCalibration)
+    _outage: tuple[int, float] = (0, 0.0)  # seconds into the running outage, their Σσ²
     _x: np.ndarray | None = None
     _p: np.ndarray | None = None
     _ref: tuple[float, float] | None = None
@@ -236,6 +283,7 @@ class StreamNavigator:
     def reset(self) -> None:
         """A new run of seconds (after a gap in the drive): the filter starts afresh."""
         self._x = self._p = None
+        self._outage = (0, 0.0)
         self._last_fix = self._last_pred = self._last_latlon = (np.nan, np.nan)
         self._last_withheld = False
         self._last_gyro = np.nan
@@ -403,9 +451,12 @@ class StreamNavigator:
         seen_n = np.r_[self._last_fix[1], np.where(withheld, np.nan, fix_n)]
         if self._last_withheld:
             seen_e[0] = seen_n[0] = np.nan
+        var, self._outage = self.calibration.outage_variance(
+            a + b * np.nan_to_num(dist) ** 2, withheld, self._outage
+        )
         inputs = NavInputs(
             dist_m=np.nan_to_num(dist)[None],
-            dist_var_m2=(a + b * np.nan_to_num(dist) ** 2)[None],  # (n,) a, b
+            dist_var_m2=var[None],
             wheel_yaw_rad=yaw[None],
             gyro_yaw_rad=gyro[None],
             fix_e_m=seen_e[None],

@@ -258,7 +258,10 @@ class SecondStream:
         if self._rows is None:
             self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
             self._navigator = StreamNavigator(
-                self.nav, tuple(self.model.meta.source_radii), c.YAW_RATE_RAD_S in self._keys
+                self.nav,
+                tuple(self.model.meta.source_radii),
+                c.YAW_RATE_RAD_S in self._keys,
+                self.calibration,
             )
             self._rows, self._row0 = {k: columns[k] for k in self._keys}, first_row
             self._t0 = float(columns[c.T_S][0])

@@ -541,7 +541,10 @@ def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> 
     fitted on the target training drives or as configured) and the model's 2D
     calibration (``position.<model>.<L>s``: ``calib_scale`` and ``calib_dof`` per
     outage length, null ``ν`` a normal; means over the evaluation's seeds, as eval.json
-    keeps them). None without a position block for the model.
+    keeps them), the antenna, the gyro's latency and bias instability as fitted, and the
+    factor ``γ_L`` by which the model's per-second distance variance grows inside an
+    outage of ``L`` s (``uncertainty.models.<model>.outage_scale``: its errors last).
+    None without a position block for the model.
 
     Args:
         evaluated: the parsed eval.json (empty: none).
@@ -555,6 +558,7 @@ def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> 
     receiver = (evaluated.get("position_controls") or {}).get("receiver") or {}
     geometry = (evaluated.get("position_controls") or {}).get("geometry") or {}
     gyro = (evaluated.get("position_controls") or {}).get("gyro") or {}
+    lasting = ((evaluated.get("uncertainty") or {}).get("models") or {}).get(model) or {}
     scales = {
         str(int(L.removesuffix("s"))): float(c["calib_scale"])
         for L, c in cells.items()
@@ -573,6 +577,11 @@ def navigation_meta(evaluated: dict, model: str, vehicle: str | None = None) -> 
         "gyro_latency_s": geometry.get("gyro_latency_s"),
         "gyro_instability_deg_s": gyro.get("instability_deg_s"),
         "calibration": {"scales": scales, "dofs": dofs},
+        # the distance variance's factor inside an outage (evaluate's gamma_L), per length
+        "outage_scale": {
+            str(int(L.removesuffix("s"))): float(g)
+            for L, g in (lasting.get("outage_scale") or {}).items()
+        },
         "from": (
             "evaluate: the filter on the target training drives' windows (receiver drift "
             f"{'fitted' if receiver.get('fitted') else 'as configured'}, antenna and gyro "
