@@ -996,22 +996,14 @@ def fit_noise(
                 at({**x, name: x[name] + side})
     sigma, b, _, n = scores[key(x)]
     i_x, j_x = key(x)
+    # each figure's settings tried with the other at its fit: value -> mean NLL
+    along_sigma = {s: v for (_, j), (s, _, v, _) in scores.items() if j == j_x}
+    along_b = {g: v for (i, _), (_, g, v, _) in scores.items() if i == i_x}
+    done = {"fitted": True, "n_windows": n}
     if "sigma" in axes:
-        receiver = replace(
-            receiver,
-            sigma_m=float(sigma),
-            fitted=True,
-            nll={s: v for (_, j), (s, _, v, _) in scores.items() if j == j_x},
-            n_windows=n,
-        )
+        receiver = replace(receiver, sigma_m=float(sigma), nll=along_sigma, **done)
     if "instability" in axes:
-        gyro = replace(
-            gyro,
-            instability_rad_s=float(b),
-            fitted=True,
-            nll={g: v for (i, _), (_, g, v, _) in scores.items() if i == i_x},
-            n_windows=n,
-        )
+        gyro = replace(gyro, instability_rad_s=float(b), nll=along_b, **done)
     return receiver, gyro
 
 
