@@ -105,7 +105,8 @@ def test_inside_an_outage_the_distance_variance_grows_as_the_evaluation_measured
     assert (grown > 0).all() and carried == (0, 0.0)
     # block by block as the stream goes, the same
     parts, state = [], (0, 0.0)
-    for a, b in ((0, 100), (100, 229), (229, 330), (330, 400)):
+    # (a block of one second; a block that starts as an outage has just ended)
+    for a, b in ((0, 100), (100, 229), (229, 230), (230, 330), (330, 400)):
         v, state = cal.outage_variance(var[a:b], withheld[a:b], state)
         parts.append(v)
     np.testing.assert_allclose(np.concatenate(parts), grown)

@@ -120,9 +120,7 @@ class PositionCalibration:
 
     def outage_scale_at(self, elapsed_s: np.ndarray) -> np.ndarray:
         """``γ`` after ``elapsed_s`` seconds of an outage, interpolated in ``ln L`` (1: none)."""
-        if not self.outage_scales:
-            return np.ones_like(np.asarray(elapsed_s, np.float64))
-        return np.exp(_in_ln_l({L: np.log(g) for L, g in self.outage_scales.items()}, elapsed_s))
+        return _factor_at(self.outage_scales, elapsed_s)
 
     def outage_variance(self, var_m2: np.ndarray, withheld: np.ndarray, carried=(0, 0.0)):
         """Each second's distance variance for the filter, inside an outage grown by ``γ``.
@@ -143,22 +141,26 @@ class PositionCalibration:
             ``(variances (n,), (t, S) at the block's end)``.
         """
         var = np.asarray(var_m2, np.float64).copy()
-        t, total = int(carried[0]), float(carried[1])
-        if not self.outage_scales:
+        withheld = np.asarray(withheld, bool)
+        if not self.outage_scales or not withheld.any():
             return var, (0, 0.0)
-        for i in np.flatnonzero(withheld):
-            if i > 0 and not withheld[i - 1]:
-                t, total = 0, 0.0  # a new outage
-            before = float(self.outage_scale_at(np.array([t]))[0]) * total if t else 0.0
-            t, total = t + 1, total + var[i]
-            var[i] = float(self.outage_scale_at(np.array([t]))[0]) * total - before
-        return var, ((t, total) if len(var) and withheld[-1] else (0, 0.0))
+        t0, s0 = int(carried[0]), float(carried[1])
+        # one run of withheld seconds after another; the first carries on from `carried`
+        edges = np.diff(np.concatenate(([0], withheld.astype(np.int8), [0])))
+        runs = zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True)
+        t, total = 0, 0.0
+        for first, end in runs:
+            t, total = (t0, s0) if first == 0 else (0, 0.0)
+            elapsed = t + np.arange(0, end - first + 1)  # t, t + 1, ..., t + its length
+            summed = total + np.concatenate(([0.0], np.cumsum(var[first:end])))
+            grown = np.where(elapsed > 0, self.outage_scale_at(elapsed) * summed, 0.0)
+            var[first:end] = np.diff(grown)
+            t, total = int(elapsed[-1]), float(summed[-1])
+        return var, ((t, total) if withheld[-1] else (0, 0.0))
 
     def scale_at(self, elapsed_s: np.ndarray) -> np.ndarray:
         """``c`` after ``elapsed_s`` seconds of an outage (1 when not calibrated)."""
-        if not self.scales:
-            return np.ones_like(np.asarray(elapsed_s, np.float64))
-        return np.exp(_in_ln_l({L: np.log(c) for L, c in self.scales.items()}, elapsed_s))
+        return _factor_at(self.scales, elapsed_s)
 
     def dof_at(self, elapsed_s: np.ndarray) -> np.ndarray:
         """``ν`` after ``elapsed_s`` seconds of an outage: ``1/ν`` interpolated in ``ln L``
@@ -193,6 +195,14 @@ class PositionCalibration:
         q = t2_quantile(np.asarray(p, np.float64)[..., None], 1.0, self.dof_at(elapsed_s))
         q = q * self.scale_at(elapsed_s)
         return np.sqrt(np.maximum(lam, 0.0) * q)
+
+
+def _factor_at(factors: dict[int, float], elapsed_s: np.ndarray) -> np.ndarray:
+    """A positive factor per evaluated outage length (``c``, ``γ``) at ``elapsed_s``,
+    interpolated in ``ln L`` on its logarithm (1 where none is known)."""
+    if not factors:
+        return np.ones_like(np.asarray(elapsed_s, np.float64))
+    return np.exp(_in_ln_l({L: np.log(f) for L, f in factors.items()}, elapsed_s))
 
 
 def _in_ln_l(values: dict[int, float], elapsed_s: np.ndarray) -> np.ndarray:
