@@ -186,6 +186,9 @@ def main() -> None:
     ap.add_argument("--calibration", type=int, default=600)
     ap.add_argument("--cases", default=",".join(CASES))
     args = ap.parse_args()
+    unknown = [c for c in args.cases.split(",") if c not in CASES]
+    if unknown:
+        ap.error(f"--cases: unknown {', '.join(map(repr, unknown))}; known: {', '.join(CASES)}")
     params = load_params()
     car = vehicles_from_params(params)["target"]
     print(
