@@ -12,6 +12,7 @@ from rwhonet.evaluation.position import (
     Calibration2D,
     Odometry,
     ReceiverFit,
+    _spaced,
     calibrate_2d,
     calibrated_nll,
     filter_windows,
@@ -249,7 +250,15 @@ def test_the_receiver_fit_finds_the_likeliest_spread(monkeypatch, truth):
     fit, tried = _receiver_case(monkeypatch, lambda s: (np.log(s) - np.log(truth)) ** 2)
     assert fit.fitted and fit.sigma_m == pytest.approx(truth, rel=1e-6)
     assert fit.configured_m == 1.5 and fit.tau_s == 100.0 and fit.n_windows == 500
-    assert set(fit.nll) == set(tried) and len(tried) == len(set(tried))  # each spread once
+    assert len(tried) == len(set(tried))  # each spread once
+    # reported: the fit, a step either side, and what else was tried at least half a
+    # step from those (nearest the fit first)
+    reported = sorted(fit.nll)
+    assert set(reported) <= set(tried) and fit.sigma_m in fit.nll
+    steps = np.log(reported) / np.log(np.sqrt(2.0))
+    assert (np.diff(steps) >= 0.5 - 1e-9).all()
+    at = np.log(fit.sigma_m) / np.log(np.sqrt(2.0))
+    assert np.isclose(steps, at - 1).any() and np.isclose(steps, at + 1).any()
     # it walks from the configured spread towards the likelier side only
     assert all(s <= 1.5 * np.sqrt(2.0) for s in tried) or all(s >= 1.5 / np.sqrt(2) for s in tried)
 
@@ -294,6 +303,8 @@ def test_the_receiver_drift_and_the_gyro_s_instability_are_fitted_together(monke
         tried_here = sorted(fit)
         assert value in fit and tried_here[0] < value < tried_here[-1]
         assert min(fit.values()) == fit[value]
+        steps = np.log(sorted(fit)) / np.log(np.sqrt(2.0))
+        assert (np.diff(steps) >= 0.5 - 1e-9).all()  # no two a hair apart
     for sigma, v in receiver.nll.items():
         assert v == pytest.approx(nll(sigma, b_fit))
     for b, v in gyro.nll.items():
@@ -400,3 +411,20 @@ def test_without_a_yaw_rate_the_gyro_and_fused_rows_are_unavailable(samples_dir,
     assert out["position"]["R"]["30s"]["n_windows"] > 0
     # without target training drives the variance is assumed, and says so
     assert out["uncertainty"]["fitted_on"].startswith("nothing")
+
+
+def test_the_reported_settings_keep_the_fit_its_neighbours_and_the_likeliest_not_near_copies():
+    # steps from the fit -> (figure, mean NLL); earlier rounds left points a hair away
+    tried = {
+        0.0: (1.0, 4.138),
+        -1.0: (0.7, 4.142),
+        -0.9: (0.72, 4.1415),  # a hair from the step below: dropped
+        0.2: (1.07, 4.1379),  # a hair from the fit but likelier: kept
+        1.0: (1.41, 4.142),
+        1.1: (1.45, 4.143),  # dropped
+        2.0: (2.0, 4.16),  # far from all: kept
+        -3.0: (0.35, float("nan")),  # nothing counted there: kept, never the likeliest
+    }
+    got = _spaced(tried)
+    assert list(got) == [0.35, 0.7, 1.0, 1.07, 1.41, 2.0]
+    assert got[1.07] == 4.1379 and np.isnan(got[0.35])

@@ -996,15 +996,34 @@ def fit_noise(
                 at({**x, name: x[name] + side})
     sigma, b, _, n = scores[key(x)]
     i_x, j_x = key(x)
-    # each figure's settings tried with the other at its fit: value -> mean NLL
-    along_sigma = {s: v for (_, j), (s, _, v, _) in scores.items() if j == j_x}
-    along_b = {g: v for (i, _), (_, g, v, _) in scores.items() if i == i_x}
+    # each figure's settings tried with the other at its fit: value -> mean NLL, without
+    # the earlier rounds' points a hair from those kept
+    along_sigma = _spaced({i - i_x: (s, v) for (i, j), (s, _, v, _) in scores.items() if j == j_x})
+    along_b = _spaced({j - j_x: (g, v) for (i, j), (_, g, v, _) in scores.items() if i == i_x})
     done = {"fitted": True, "n_windows": n}
     if "sigma" in axes:
         receiver = replace(receiver, sigma_m=float(sigma), nll=along_sigma, **done)
     if "instability" in axes:
         gyro = replace(gyro, instability_rad_s=float(b), nll=along_b, **done)
     return receiver, gyro
+
+
+def _spaced(tried: dict[float, tuple[float, float]]) -> dict[float, float]:
+    """``{figure: mean NLL}`` of the settings ``tried`` (keyed by their steps from the fit):
+    the fit, a step either side and the likeliest setting scored (the climb stops within
+    half a step of the top, so one tried on the way may score a hair better than the
+    fit), then the others nearest the fit first, each at least half a step from those
+    already taken."""
+    best = min(tried, key=lambda o: np.nan_to_num(tried[o][1], nan=np.inf))
+    kept = [best]
+
+    def first(o: float) -> bool:  # the fit or a step from it (keys are rounded)
+        return min(abs(o), abs(abs(o) - 1.0)) < 1e-5
+
+    for offset in sorted(tried, key=lambda o: (not first(o), abs(o), o)):
+        if first(offset) and offset not in kept or all(abs(offset - k) >= 0.5 for k in kept):
+            kept.append(offset)
+    return {tried[k][0]: tried[k][1] for k in sorted(kept)}
 
 
 def fix_score(
