@@ -27,9 +27,13 @@ control, the end-of-outage error as a share of the distance driven (sum over sum
 the filter's lag: how far its ``beta`` after the outage's first second trails the held
 version's, in seconds of the ramp (median over windows; wheels alone and fused).
 ``--bias-walk`` runs it all again for each random walk of ``beta`` given (the filter's
-``wheel_bias_walk``, rad/m per √s).
+``wheel_bias_walk``, rad/m per √s). ``--drive V-Delta2`` takes that drive of the
+project's profile (``params.yaml``'s ``sim.profile``: its route, tyre state, load and the
+fleet's seed, so the drive the pipeline simulates) instead, with its own leaks replaced
+by ``--leak``; the filter stays configured for the benchmark's target car and gyro.
 
 Usage: python benchmarks/leak_parts.py [--drives 6] [--leak 4] [--bias-walk 2e-6,6e-6]
+    [--drive V-Delta2]
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ from rwhonet.features.deadreckoning import wheel_yaw_rad  # noqa: E402
 from rwhonet.nav import run_outage, window_inputs  # noqa: E402
 from rwhonet.nav.filter import BW  # noqa: E402
 from rwhonet.sim import vehicles_from_params  # noqa: E402
+from rwhonet.sim.fleet import drive_seed  # noqa: E402
 from support.navsim import drive_seconds  # noqa: E402
 
 _CUT = ("dist_m", "dist_var_m2", "wheel_yaw_rad", "gyro_yaw_rad", "fix_e_m", "fix_n_m")
@@ -67,9 +72,9 @@ VARIANTS = ("no leak", "leak", "ramp only", "lag only", "constant")
 CONTROLS = ("wheels", "gyro", "fused")
 
 
-def windows_of(params, car, i: int, leak_psi_h: float, duration_s: float, calibration_s: int):
-    """Drive ``i``'s outage windows (leak drive's inputs), its wheel-yaw versions and ramp."""
-    spec = SimDrive(
+def bench_drive(i: int, duration_s: float) -> SimDrive:
+    """``bench_positioning.py``'s drive ``i`` (seeded 100 + i)."""
+    return SimDrive(
         name=f"B-{i}",
         role="target_test",
         vehicle="target",
@@ -77,12 +82,17 @@ def windows_of(params, car, i: int, leak_psi_h: float, duration_s: float, calibr
         duration_s=duration_s,
         roads={"urban": 0.5, "country": 0.5},
     )
+
+
+def windows_of(params, car, spec: SimDrive, seed, leak_psi_h: float, calibration_s: int):
+    """A drive's outage windows (leak drive's inputs), its wheel-yaw versions and ramp."""
+    spec = replace(spec, leaks=())
     r, track = car.nominal_radius_m, car.params.track_rear_m
     gyro = GYROS["mid"]
-    none = drive_seconds(params, car, spec, 100 + i, gyro=gyro)
-    leak = drive_seconds(params, car, spec, 100 + i, gyro=gyro, leaks=(SimLeak("rl", leak_psi_h),))
+    none = drive_seconds(params, car, spec, seed, gyro=gyro)
+    leak = drive_seconds(params, car, spec, seed, gyro=gyro, leaks=(SimLeak("rl", leak_psi_h),))
     if not np.allclose(none.odo_true_m, leak.odo_true_m):
-        raise RuntimeError(f"drive {i}: the leak changed the route, so the difference is not its")
+        raise RuntimeError(f"{spec.name}: the leak changed the route, so the difference is not its")
     yaw_none = wheel_yaw_rad(none.angle_rl_rad, none.angle_rr_rad, r, r, track)
     yaw_leak = wheel_yaw_rad(leak.angle_rl_rad, leak.angle_rr_rad, r, r, track)
     d = leak.odo_true_m
@@ -116,7 +126,7 @@ def windows_of(params, car, i: int, leak_psi_h: float, duration_s: float, calibr
         "constant": base + held,
     }
     fit_sd = float(np.std(effect[moving] - slope * (d * t)[moving]))
-    return spec.tyre, b_t, fit_sd, float(np.std(effect[moving])), inputs, yaws
+    return b_t, fit_sd, float(np.std(effect[moving])), inputs, yaws
 
 
 def main() -> None:
@@ -126,22 +136,42 @@ def main() -> None:
     ap.add_argument("--calibration", type=int, default=600)
     ap.add_argument("--leak", type=float, default=4.0, help="psi/h, rear left")
     ap.add_argument("--bias-walk", default="", help="comma-separated wheel_bias_walk values")
+    ap.add_argument(
+        "--drive",
+        default="",
+        help="a drive of the project's profile (its route, tyres, load and fleet seed) "
+        "instead of the benchmark's; its own leaks left out, --leak put in",
+    )
     args = ap.parse_args()
     if args.drives < 1 or args.leak <= 0:
         ap.error("--drives must be ≥ 1 and --leak > 0")
     params = load_params()
-    car = vehicles_from_params(params)["target"]
-    cfg0 = nav_config(car, GYROS["mid"])
+    target = vehicles_from_params(params)["target"]
+    cfg0 = nav_config(target, GYROS["mid"])
     walks = [float(w) for w in args.bias_walk.split(",") if w] or [cfg0.wheel_bias_walk]
+    if args.drive:
+        profile = params.sim.profiles[params.sim.profile].drives
+        names = [d.name for d in profile]
+        if args.drive not in names:
+            ap.error(f"--drive: {args.drive!r} is not in profile {params.sim.profile!r}: {names}")
+        i = names.index(args.drive)
+        spec = profile[i]
+        car = vehicles_from_params(params)[spec.vehicle].with_payload(
+            spec.payload_kg, spec.payload_x_m
+        )
+        chosen = [(spec, drive_seed(params.sim.seed, i), car)]
+    else:
+        chosen = [(bench_drive(i, args.duration), 100 + i, target) for i in range(args.drives)]
     t_start = time.perf_counter()
     drives = []
-    for i in range(args.drives):
-        tyre, b_t, fit_sd, eff_sd, inputs, yaws = windows_of(
-            params, car, i, args.leak, args.duration, args.calibration
+    for spec, seed, car in chosen:
+        b_t, fit_sd, eff_sd, inputs, yaws = windows_of(
+            params, car, spec, seed, args.leak, args.calibration
         )
         drives.append((inputs, yaws, b_t))
         print(
-            f"drive {i} (tyre state {tyre}): beta ramps {b_t:+.2e} rad/m per s; the leak's "
+            f"{spec.name} (tyre state {spec.tyre}, {spec.duration_s:.0f} s, "
+            f"{inputs.dist_m.shape[0]} windows): beta ramps {b_t:+.2e} rad/m per s; the leak's "
             f"effect on a second's wheel yaw {eff_sd * 1e3:.2f} mrad sd, "
             f"{fit_sd * 1e3:.2f} mrad left by the ramp",
             flush=True,

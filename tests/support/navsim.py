@@ -22,6 +22,7 @@ from rwhonet.data.iovnbd import LAYOUT
 from rwhonet.features.seconds import integrate_per_second, segment_seconds
 from rwhonet.geo.local import offsets_m
 from rwhonet.sim import SimOptions, Vehicle, generate_route, simulate_drive
+from rwhonet.sim.drive import child_rng, seed_sequence
 
 
 @dataclass(frozen=True)
@@ -141,7 +142,7 @@ def drive_seconds(
     params: Params,
     vehicle: Vehicle,
     spec: SimDrive,
-    seed: int,
+    seed: int | np.random.SeedSequence,
     *,
     gyro: Gyro = Gyro(),
     options: SimOptions | None = None,
@@ -153,7 +154,8 @@ def drive_seconds(
         params: the project's params (``sim`` settings).
         vehicle: the car (its sensors included).
         spec: the drive (its ``gnss_faults`` are ignored: every row stays).
-        seed: the drive's seed (child 0 lays out the route, as the fleet does).
+        seed: the drive's seed (child 0 lays out the route, as the fleet does;
+            ``rwhonet.sim.fleet.drive_seed`` gives a profile's drive its fleet's).
         gyro: the yaw-rate sensor sampled from the true yaw rate.
         options: simulator effects to switch off.
         leaks: slow punctures during the drive.
@@ -161,13 +163,13 @@ def drive_seconds(
     Returns:
         The drive's seconds.
     """
-    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
-    route = generate_route(spec, params.sim, vehicle, rng)
+    seq = seed_sequence(seed)
+    route = generate_route(spec, params.sim, vehicle, child_rng(seq, 0))
     drive = simulate_drive(
         vehicle,
         spec.tyre,
         route,
-        np.random.SeedSequence(seed),
+        seq,
         params.sim,
         options=options or SimOptions(),
         leaks=leaks,
@@ -184,7 +186,7 @@ def drive_seconds(
     lat0, lon0 = params.sim.start_lat_deg, params.sim.start_lon_deg
     e, n = offsets_m(lat0, lon0, frame["lat_deg"][::10], frame["lon_deg"][::10])
     rate = state.motion.yaw_rate_rad_s[idx]
-    g_rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(99,)))
+    g_rng = child_rng(seq, 99)
     measured, bias = gyro.sample(frame["t_s"], rate, g_rng)
     heading = state.pose.heading_rad[anchors]
     s = state.motion.s_m[anchors]
