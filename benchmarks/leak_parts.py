@@ -27,13 +27,14 @@ control, the end-of-outage error as a share of the distance driven (sum over sum
 the filter's lag: how far its ``beta`` after the outage's first second trails the held
 version's, in seconds of the ramp (median over windows; wheels alone and fused).
 ``--bias-walk`` runs it all again for each random walk of ``beta`` given (the filter's
-``wheel_bias_walk``, rad/m per √s). ``--drive V-Delta2`` takes that drive of the
+``wheel_bias_walk``, rad/m per √s); ``--leak-per-h`` gives the filter its leak-rate
+state (``NavConfig.leak_per_h``). ``--drive V-Delta2`` takes that drive of the
 project's profile (``params.yaml``'s ``sim.profile``: its route, tyre state, load and the
 fleet's seed, so the drive the pipeline simulates) instead, with its own leaks replaced
 by ``--leak``; the filter stays configured for the benchmark's target car and gyro.
 
 Usage: python benchmarks/leak_parts.py [--drives 6] [--leak 4] [--bias-walk 2e-6,6e-6]
-    [--drive V-Delta2]
+    [--leak-per-h 0.002] [--drive V-Delta2]
 """
 
 from __future__ import annotations
@@ -137,6 +138,12 @@ def main() -> None:
     ap.add_argument("--leak", type=float, default=4.0, help="psi/h, rear left")
     ap.add_argument("--bias-walk", default="", help="comma-separated wheel_bias_walk values")
     ap.add_argument(
+        "--leak-per-h",
+        type=float,
+        default=0.0,
+        help="the filter's leak-rate state (NavConfig.leak_per_h; 0: none, as shipped)",
+    )
+    ap.add_argument(
         "--drive",
         default="",
         help="a drive of the project's profile (its route, tyres, load and fleet seed) "
@@ -147,7 +154,7 @@ def main() -> None:
         ap.error("--drives must be ≥ 1 and --leak > 0")
     params = load_params()
     target = vehicles_from_params(params)["target"]
-    cfg0 = nav_config(target, GYROS["mid"])
+    cfg0 = replace(nav_config(target, GYROS["mid"]), leak_per_h=args.leak_per_h)
     walks = [float(w) for w in args.bias_walk.split(",") if w] or [cfg0.wheel_bias_walk]
     if args.drive:
         profile = params.sim.profiles[params.sim.profile].drives

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2, multivariate_normal
 
+from rwhonet.config import SimDrive, SimLeak
+from rwhonet.features.deadreckoning import wheel_yaw_rad
 from rwhonet.nav import (
     SIGMA_CONTENT,
     GnssSpec,
@@ -21,6 +23,8 @@ from rwhonet.nav import (
 )
 from rwhonet.nav.filter import (
     BD,
+    BDW,
+    BW,
     CONTROLS,
     DELTA,
     PSI,
@@ -32,6 +36,8 @@ from rwhonet.nav.filter import (
     propagate,
     sinc_half,
 )
+from rwhonet.sim import vehicles_from_params
+from support.navsim import drive_seconds
 
 from .conftest import antenna, model_drives
 
@@ -440,3 +446,76 @@ def test_a_second_s_added_yaw_variance_widens_the_heading_by_it(control):
     assert np.all(grown > 0.1 * 0.05**2) and np.all(grown < 1.05 * 0.05**2)
     with pytest.raises(ValueError, match="yaw_var_rad2"):
         dataclasses.replace(inputs, yaw_var_rad2=np.zeros((3, 5)))
+
+
+def _leaking(rng, cfg, w, n, ramp):
+    """Drives of the filter's own model whose rear wheels' bias per metre also ramps by
+    ``ramp`` rad/m per s (a rear tyre losing air: 4 psi/h is about 3e-7)."""
+    inputs, _ = model_drives(rng, cfg, w, n)
+    t = np.arange(n)
+    return dataclasses.replace(
+        inputs, wheel_yaw_rad=inputs.wheel_yaw_rad - ramp * t * inputs.dist_m
+    )
+
+
+@pytest.mark.parametrize("control", CONTROLS)
+def test_the_leak_rate_state_is_inert_unless_given_a_prior(control):
+    cfg = NavConfig(gnss=GnssSpec(sigma_m=1.0, tau_s=60.0, white_m=0.3))
+    inputs = _leaking(np.random.default_rng(21), cfg, 6, 300, 3e-7)
+    track = run(inputs, cfg, control, keep_cov=True)
+    assert np.all(track.x[:, :, BDW][track.started] == 0.0)
+    assert np.all(track.cov[:, :, BDW, :][track.started] == 0.0)
+    on = run(inputs, dataclasses.replace(cfg, leak_per_h=0.002), control)
+    assert (control == "gyro") == np.allclose(on.x[:, -1, BW], track.x[:, -1, BW])
+
+
+def test_a_leaking_tyre_s_ramp_is_learnt_and_the_wheel_yaw_s_score_tells_it(project_params):
+    # A 40 min simulated drive of the target car (tyre state C), with and without its
+    # rear-left tyre losing 4 psi/h, filtered fused on the true travel with GNSS
+    # throughout. With the leak-rate state the filter's rate of beta at the end is the
+    # leak's ramp (the two drives' wheel-yaw difference fitted on d t), and none without
+    # the leak; the wheel yaw's log score over the drive (NavTrack.wheel_logpdf) is higher
+    # with the state than without it on the leaking drive, lower on the other.
+    car = vehicles_from_params(project_params)["target"]
+    p, r = car.params, car.nominal_radius_m
+    base = NavConfig(
+        wheels=WheelSpec(radius_m=r, track_rear_m=p.track_rear_m),
+        gnss=GnssSpec(sigma_m=p.gnss.sigma_m, tau_s=p.gnss.tau_s, white_m=0.05),
+    )
+    state = dataclasses.replace(base, leak_per_h=0.002)
+    spec = SimDrive(
+        name="K-1",
+        role="target_test",
+        vehicle="target",
+        tyre="C",
+        duration_s=2400.0,
+        roads={"urban": 0.5, "country": 0.5},
+    )
+    seen = {}
+    for name, leaks in (("steady", ()), ("leaking", (SimLeak("rl", 4.0),))):
+        ds = drive_seconds(project_params, car, spec, 7, leaks=leaks)
+        yaw = wheel_yaw_rad(ds.angle_rl_rad, ds.angle_rr_rad, r, r, p.track_rear_m)
+        inputs = NavInputs(
+            ds.odo_true_m[None],
+            np.full((1, len(ds)), 0.05**2),
+            yaw[None],
+            ds.gyro_rad[None],
+            np.r_[ds.start_e_m, ds.fix_e_m][None],
+            np.r_[ds.start_n_m, ds.fix_n_m][None],
+        )
+        track = run(inputs, state, "fused", keep_cov=True)
+        gain = track.wheel_logpdf.sum() - run(inputs, base, "fused").wheel_logpdf.sum()
+        rate, sd = track.x[0, -1, BDW], np.sqrt(track.cov[0, -1, BDW, BDW])
+        seen[name] = (yaw, ds.odo_true_m, rate, sd, gain)
+        for control in ("wheels", "gyro"):
+            assert np.all(run(inputs, state, control).wheel_logpdf == 0.0)
+    d, t = seen["leaking"][1], np.arange(len(seen["leaking"][1]))
+    moving = d > 0.5
+    effect = (seen["leaking"][0] - seen["steady"][0])[moving]
+    ramp = -np.linalg.lstsq((d * t)[moving, None], effect, rcond=None)[0][0]
+    assert 2e-7 < ramp < 5e-7  # a 4 psi/h leak's, by the simulator's tyre physics
+    _, _, rate, sd, gain = seen["leaking"]
+    assert abs(rate - ramp) < 2 * sd and sd < 0.6 * ramp, (rate, sd, ramp)
+    assert gain > 5.0, gain
+    _, _, rate, sd, gain = seen["steady"]
+    assert abs(rate) < 2 * sd and gain < 0.0, (rate, sd, gain)

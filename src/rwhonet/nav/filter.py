@@ -24,6 +24,13 @@ State (per window; :data:`STATE`), in a local east/north frame in metres
                  power-on moves its bias at a rate that decays with the warm-up's
                  time constant (``b_g ← b_g + bd_g``, ``bd_g ← e^{−1/τ_w} bd_g`` each
                  second); learnt from GNSS before an outage, extrapolated through it
+ 14   ``bd_w``   the wheel yaw's bias per metre drifts in time by this, rad/m per s: a
+                 rear tyre losing air shrinks its rolling radius at a steady rate, so
+                 the left/right radius difference, and with it ``beta``, ramps
+                 (``beta ← beta + bd_w`` each second); learnt while the gyro and GNSS
+                 watch the wheels, extrapolated through an outage (the comparison of
+                 wheel speeds with the yaw rate that indirect tyre-pressure monitoring
+                 rests on); inert unless ``NavConfig.leak_per_h`` > 0
 ====  =========  ===================================================================
 
 Each second ``k`` (from fix ``k`` to fix ``k + 1`` of :class:`NavInputs`):
@@ -110,8 +117,9 @@ STATE: tuple[str, ...] = (
     "eps_w",
     "beta_v",
     "bd_g",
+    "bd_w",
 )
-E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV, BD = range(len(STATE))
+E, N, PSI, BG, SG, SD, SW, BW, CW, GE, GN, EW, BV, BD, BDW = range(len(STATE))
 S = len(STATE)
 DELTA = S  # the second's yaw, in the augmented state
 
@@ -143,6 +151,14 @@ class NavConfig:
         wheel_error_tau_s: its correlation time, s.
         wheel_bias_speed_sd: prior spread of ``beta_v`` around 0, rad/m per m/s.
         wheel_bias_speed_walk: its random walk per sqrt(s).
+        leak_per_h: prior spread of the rear tyres' rolling-radius difference
+            changing per hour, as a fraction of the radius (a tyre losing air):
+            ``bd_w``'s prior spread is this over 3,600 s and the rear track
+            (:meth:`leak_rate_sd`). 0: no such state (``beta`` only walks), as in
+            every configuration the pipeline builds today: measured, not yet used
+            (``benchmarks/leak_models.py``, docs/positioning.md section 7).
+        leak_change_s: ``bd_w`` walks by its prior spread over this many seconds (a
+            leak that speeds up, or the warm tyres' pressures settling).
         heading_walk: heading noise per sqrt(s) besides the yaw sensors', rad.
         yaw_gate: a second sensor's yaw beyond this many standard deviations of the
             first's is left out (a reversing manoeuvre, where wheel speeds, being
@@ -173,6 +189,7 @@ class NavConfig:
     wheel_bias_sd: float = 0.003
     load_sd: float = 0.003
     wheel_bias_speed_sd: float = 3e-5
+    leak_per_h: float = 0.0
     delta_prior_sd: float = 1.0
     # The wheel yaw's lasting error ``eps_w``: a Gauss-Markov state, not white noise.
     wheel_error_sd: float = 0.0005
@@ -184,6 +201,7 @@ class NavConfig:
     wheel_bias_walk: float = 2e-6
     load_walk: float = 1e-6
     wheel_bias_speed_walk: float = 1e-7
+    leak_change_s: float = 3600.0
     heading_walk: float = 2e-4
     # Bounds the states are kept within.
     load_min: float = 0.0
@@ -194,6 +212,12 @@ class NavConfig:
     reset_after_s: int = 10
     reverse_stop_m: float = 0.3
     reverse_max_m_s: float = 4.0
+
+    def leak_rate_sd(self) -> float:
+        """Prior spread of ``bd_w``, rad/m per s: a radius difference changing by
+        ``leak_per_h`` per hour bends the wheels' yaw by that fraction over the track
+        per metre."""
+        return float(self.leak_per_h / 3600.0 / self.wheels.track_rear_m)
 
     def with_receiver(self, sigma_m: float, tau_s: float | None = None) -> NavConfig:
         """These settings with the receiver drift's spread (and correlation time) replaced."""
@@ -334,6 +358,9 @@ class NavTrack:
             filter's one-step predictions of its GNSS, by which configurations
             (sensor figures) can be compared on drives with GNSS. 0 where there is
             no fix, the filter had not started, or the fix lies beyond the gate.
+        wheel_logpdf: (W, n) the log density of each second's rear-wheel yaw under
+            its prediction from the state and the gyro's yaw of that second (fused;
+            0 where the gyro gave no yaw, the wheels' yaw was left out or refused).
     """
 
     x: np.ndarray
@@ -346,6 +373,7 @@ class NavTrack:
     snapshot_x: np.ndarray | None = None
     snapshot_cov: np.ndarray | None = None
     fix_logpdf: np.ndarray | None = None
+    wheel_logpdf: np.ndarray | None = None
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -546,7 +574,7 @@ def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
 
 
 # The rows of the propagation's Jacobian that differ from the identity's.
-MOVED_ROWS = np.array([E, N, PSI, BG, GE, GN, EW, BD])
+MOVED_ROWS = np.array([E, N, PSI, BG, BW, GE, GN, EW, BD])
 _EYE_A = np.eye(S + 1)
 
 
@@ -638,6 +666,7 @@ def _initial(
         (EW, cfg.wheel_error_sd**2),
         (BV, cfg.wheel_bias_speed_sd**2),
         (BD, cfg.gyro.drift_rate_sd() ** 2),
+        (BDW, cfg.leak_rate_sd() ** 2),
         (GE, g2),
         (GN, g2),
     ):
@@ -746,6 +775,7 @@ def run(
     phi_w = np.exp(-1.0 / cfg.wheel_error_tau_s)
     q_diag[EW] = cfg.wheel_error_sd**2 * (1.0 - phi_w * phi_w)
     q_diag[BV] = cfg.wheel_bias_speed_walk**2
+    q_diag[BDW] = cfg.leak_rate_sd() ** 2 / cfg.leak_change_s
     q_mat = np.diag(q_diag)
     scale_lo, scale_hi = 1.0 - cfg.scale_max_off, 1.0 + cfg.scale_max_off  # np.clip's bounds
     # the warm-up's drift rate decays and is not driven: a ramp whose start is unknown
@@ -778,6 +808,7 @@ def run(
     snap_p = np.full((w, snap.size, S, S), np.nan) if snapshots is not None else None
     rejected = {"wheels": 0, "course": 0, "fix": 0, "reset": 0, "reversing": 0}
     fix_logpdf = np.zeros((w, n))
+    wheel_logpdf = np.zeros((w, n))
     refused = np.zeros(w, np.int64)  # consecutive fixes the gate refused
     backwards = np.zeros(w, bool)  # in a reversing run (module docstring)
     since_stop = np.zeros((w, 2))  # east/north travel since the car last stood, forwards
@@ -859,7 +890,11 @@ def run(
                 # with the gyro, a reversing second's wheel yaw is left out, told or not:
                 # the wheel-yaw model, fitted going forwards, fits a reversing turn less well
                 use = on & ~backwards & ~(told & use_gyro)
+                s_var = (h_row * (pa @ h_row[:, :, None])[:, :, 0]).sum(axis=1) + r
                 xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, use, gate)
+                wheel_logpdf[:, k] = np.where(
+                    ok & measured, -0.5 * (np.log(2 * np.pi * s_var) + innov**2 / s_var), 0.0
+                )
                 rejected["wheels"] += int((use & np.isfinite(wh_k) & ~ok).sum())
             # 2. the arc of the second (backwards in a reversing second)
             d_signed = np.where(backwards | told, -d, d)
@@ -869,10 +904,12 @@ def run(
             xa_new[:, EW] *= phi_w
             xa_new[:, BG] += xa[:, BD]  # the bias ramps while the sensor warms
             xa_new[:, BD] *= phi_d
+            xa_new[:, BW] += xa[:, BDW]  # a leaking tyre's radius falls steadily
             jac[:, GE, GE] = jac[:, GN, GN] = phi
             jac[:, EW, EW] = phi_w
             jac[:, BG, BD] = 1.0
             jac[:, BD, BD] = phi_d
+            jac[:, BW, BDW] = 1.0
             pa_new = _sandwich(pa, jac, MOVED_ROWS)
             pa_new += q_mat
             var_d = _nan0(dist_var[:, k])
@@ -944,4 +981,6 @@ def run(
             snap_x[:, i] = xs[:, k]
             snap_p[:, i] = _pick(on, p, np.nan)
         started[:, k] = on
-    return NavTrack(xs, covs, p, fix_pred, fix_cov, started, rejected, snap_x, snap_p, fix_logpdf)
+    return NavTrack(
+        xs, covs, p, fix_pred, fix_cov, started, rejected, snap_x, snap_p, fix_logpdf, wheel_logpdf
+    )
