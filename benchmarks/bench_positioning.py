@@ -77,6 +77,18 @@ CASES = {
 }
 
 
+def bench_drive(i: int, duration_s: float) -> SimDrive:
+    """Drive ``i`` of every case (seeded 100 + i): urban and country, tyre state ``TYRES[i]``."""
+    return SimDrive(
+        name=f"B-{i}",
+        role="target_test",
+        vehicle="target",
+        tyre=TYRES[i % len(TYRES)],
+        duration_s=duration_s,
+        roads={"urban": 0.5, "country": 0.5},
+    )
+
+
 def nav_config(car, gyro: Gyro) -> NavConfig:
     """The filter configured from the figures the simulated sensors are made of."""
     p = car.params
@@ -141,14 +153,7 @@ def run_case(params, car0, name, n_drives, calibration_s, duration_s):
     r = car.nominal_radius_m
     rows: dict[tuple[str, str], list] = {}
     for i in range(n_drives):
-        spec = SimDrive(
-            name=f"B-{i}",
-            role="target_test",
-            vehicle="target",
-            tyre=TYRES[i % len(TYRES)],
-            duration_s=duration_s,
-            roads={"urban": 0.5, "country": 0.5},
-        )
+        spec = bench_drive(i, duration_s)
         ds = drive_seconds(params, car, spec, 100 + i, gyro=gyro, leaks=leaks)
         yaw = wheel_yaw_rad(ds.angle_rl_rad, ds.angle_rr_rad, r, r, car.params.track_rear_m)
         wpm = 0.5 * r * (ds.angle_rl_rad + ds.angle_rr_rad)

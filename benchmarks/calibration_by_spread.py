@@ -33,6 +33,7 @@ import rwhonet.stages.evaluate as stage
 from rwhonet import paths
 from rwhonet.config import load_params
 from rwhonet.evaluation.position import _errors_and_covs
+from rwhonet.evaluation.result import Evaluation
 from rwhonet.evaluation.selection import choose, recommend, selection_scores
 from rwhonet.nav.coverage import SIGMA_CONTENT, fit_t2, mahalanobis_sq, t2_quantile
 from rwhonet.runner import declared_params
@@ -51,14 +52,22 @@ def windows_of_the_study() -> tuple[pd.DataFrame, pd.DataFrame, str]:
         return cals, windows
 
     study.calibrate_on_training = keep
+    try:
+        result = run_the_study()
+    finally:
+        study.calibrate_on_training = fitted
+    return kept["train"], result.position_windows, result.position_plan["control_model"]
+
+
+def run_the_study() -> Evaluation:
+    """The evaluate stage's study on this folder's drives and models, in memory."""
     params = load_params(paths.PARAMS, only=declared_params("evaluate"), reader="evaluate")
     selection = stage.read_selection(params, paths.SAMPLES, paths.MODELS)
     scores = selection_scores(selection, params)
     choice = choose(params, recommend(scores, params))
     frame, preds = stage.collect_predictions(params, paths.SAMPLES, paths.MODELS)
     evidence = stage.fit_evidence(params, selection, paths.MODELS)
-    result = study.evaluate(params, choice, frame, preds, scores, evidence)
-    return kept["train"], result.position_windows, result.position_plan["control_model"]
+    return study.evaluate(params, choice, frame, preds, scores, evidence)
 
 
 def radii(windows: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,18 +1,17 @@
 """Choosing the leak-rate state per outage on a built world's test windows.
 
 Run in a built world's folder (the workspace, or ``build/worlds/<name>``): runs the
-evaluate stage's study in memory (``rwhonet.evaluation.study.evaluate``, as
-``calibration_by_spread.py`` does), keeps the arguments of its test-window filter
-(``position.filter_windows``: the test drives, the runs, the fitted filter settings)
-and the 2D calibrations it fitted on the training windows, and filters the control
-model's runs (every control) again with the leak-rate state (``NavConfig.leak_per_h``,
-``--leak-per-h``). Per window, the state is chosen where its log score over the
-segment before the outage beats the shipped filter's by ``--margin`` nats (fused: the
-fixes' and the rear-wheel yaw's, ``NavTrack.fix_logpdf`` + ``wheel_logpdf``; wheels
-alone: the fixes'; the gyro alone never reads the wheels), as
-``benchmarks/leak_models.py`` measures on fresh drives. Nothing is refitted: the
-receiver, geometry and gyro figures and the calibrations are the study's, made
-without the state.
+evaluate stage's study in memory (``calibration_by_spread.run_the_study``), keeps the
+arguments of its test-window filter (``position.filter_windows``: the test drives, the
+runs, the fitted filter settings) and the 2D calibrations it fitted on the training
+windows, and filters the control model's runs (every control) again with the
+leak-rate state (``NavConfig.leak_per_h``, ``--leak-per-h``). Per window, the state is
+chosen where its log score over the segment before the outage beats the shipped
+filter's by ``--margin`` nats (fused: the fixes' and the rear-wheel yaw's,
+``NavTrack.fix_logpdf`` + ``wheel_logpdf``; wheels alone: the fixes'; the gyro alone
+never reads the wheels), as ``benchmarks/leak_models.py`` measures on fresh drives.
+Nothing is refitted: the receiver, geometry and gyro figures and the calibrations are
+the study's, made without the state.
 
 Prints per control and outage length the error as a share of the distance (sum over
 sum, mean over seeds) and the calibrated 1σ / 2σ coverage, without the state, with
@@ -34,9 +33,7 @@ import numpy as np
 import pandas as pd
 
 import rwhonet.evaluation.study as study
-import rwhonet.stages.evaluate as stage
-from rwhonet import paths
-from rwhonet.config import load_params
+from calibration_by_spread import run_the_study
 from rwhonet.evaluation.position import (
     filter_windows,
     nav_segments,
@@ -44,8 +41,6 @@ from rwhonet.evaluation.position import (
     segment_pass,
     target_windows,
 )
-from rwhonet.evaluation.selection import choose, recommend, selection_scores
-from rwhonet.runner import declared_params
 
 KEYS = ["model", "seed", "control", "outage_s", "window"]
 
@@ -67,13 +62,7 @@ def the_study() -> dict:
 
     study.calibrate_on_training, study.filter_windows = keep_calibrations, keep_windows
     try:
-        params = load_params(paths.PARAMS, only=declared_params("evaluate"), reader="evaluate")
-        selection = stage.read_selection(params, paths.SAMPLES, paths.MODELS)
-        scores = selection_scores(selection, params)
-        choice = choose(params, recommend(scores, params))
-        frame, preds = stage.collect_predictions(params, paths.SAMPLES, paths.MODELS)
-        evidence = stage.fit_evidence(params, selection, paths.MODELS)
-        result = study.evaluate(params, choice, frame, preds, scores, evidence)
+        result = run_the_study()
     finally:
         study.calibrate_on_training, study.filter_windows = calibrate, windows
     kept["plan"] = result.position_plan

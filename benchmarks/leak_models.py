@@ -1,6 +1,6 @@
 """A leak-rate state, and the choice per outage between the filter with it and without it.
 
-Simulates ``bench_positioning.py``'s drives (``leak_parts.bench_drive``: its tyre states,
+Simulates ``bench_positioning.py``'s drives (``bench_positioning.bench_drive``: its tyre states,
 seeds 100 + i, urban and country, its mid gyro) for ``--duration`` s, without and with
 the rear-left tyre losing ``--leak`` psi/h, and cuts 180 s outage windows every 180 s
 from ``--first`` s on: the same windows for every history length. For each
@@ -35,8 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT / "tests"))  # the simulated drives of the test suite
 
-from bench_positioning import GYROS, OUTAGE_S, nav_config  # noqa: E402
-from leak_parts import bench_drive  # noqa: E402
+from bench_positioning import GYROS, OUTAGE_S, bench_drive, nav_config  # noqa: E402
 from rwhonet.config import SimLeak, load_params  # noqa: E402
 from rwhonet.features.deadreckoning import wheel_yaw_rad  # noqa: E402
 from rwhonet.nav import window_inputs  # noqa: E402

@@ -51,7 +51,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT / "tests"))  # the simulated drives of the test suite
 
-from bench_positioning import GYROS, OUTAGE_S, TYRES, nav_config  # noqa: E402
+from bench_positioning import GYROS, OUTAGE_S, bench_drive, nav_config  # noqa: E402
 from rwhonet.config import SimDrive, SimLeak, load_params  # noqa: E402
 from rwhonet.features.deadreckoning import wheel_yaw_rad  # noqa: E402
 from rwhonet.nav import run_outage, window_inputs  # noqa: E402
@@ -71,18 +71,6 @@ def _cut(inputs, key: str, calibration_s: int) -> np.ndarray:
 
 VARIANTS = ("no leak", "leak", "ramp only", "lag only", "constant")
 CONTROLS = ("wheels", "gyro", "fused")
-
-
-def bench_drive(i: int, duration_s: float) -> SimDrive:
-    """``bench_positioning.py``'s drive ``i`` (seeded 100 + i)."""
-    return SimDrive(
-        name=f"B-{i}",
-        role="target_test",
-        vehicle="target",
-        tyre=TYRES[i % len(TYRES)],
-        duration_s=duration_s,
-        roads={"urban": 0.5, "country": 0.5},
-    )
 
 
 def windows_of(params, car, spec: SimDrive, seed, leak_psi_h: float, calibration_s: int):
