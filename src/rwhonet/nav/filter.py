@@ -522,7 +522,8 @@ def fix_model(x: np.ndarray, antenna_m: tuple[float, float]) -> tuple[np.ndarray
 
 
 def _scalar_update(xa, pa, h_row, innov, r, use, gate=None):
-    """Joseph-form update by one scalar measurement where ``use``; returns the rows applied.
+    """Joseph-form update by one scalar measurement where ``use``; returns the state, its
+    covariance, the rows applied and the innovation's variance ``hᵀ P h + r`` (before it).
 
     ``(I − k hᵀ) P (I − k hᵀ)ᵀ + r k kᵀ`` expanded (``P`` symmetric, ``p_h = P h``,
     ``s = hᵀ P h + r``): ``P − k p_hᵀ − p_h kᵀ + s k kᵀ = P + k vᵀ + v kᵀ`` with
@@ -541,7 +542,7 @@ def _scalar_update(xa, pa, h_row, innov, r, use, gate=None):
     kv = k[:, :, None] * v[:, None, :]
     new_p = pa + kv
     new_p += kv.swapaxes(1, 2)
-    return new_x, new_p, ok
+    return new_x, new_p, ok, s
 
 
 def _vector_update(xa, pa, h_mat, innov, r_mat, use, gate):
@@ -857,7 +858,7 @@ def run(
                 h_row = np.zeros((w, S + 1))
                 h_row[:, DELTA], h_row[:, SG], h_row[:, BG] = 1.0 / s_g, -dl / s_g**2, 1.0
                 innov = g_k - (dl / s_g + xa[:, BG])
-                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r_gyro + yaw_extra[:, k], on)
+                xa, pa, ok, _ = _scalar_update(xa, pa, h_row, innov, r_gyro + yaw_extra[:, k], on)
                 measured |= ok
             if use_wheels:
                 s_w, dl, beta, c = xa[:, SW], xa[:, DELTA], xa[:, BW], xa[:, CW]
@@ -890,8 +891,7 @@ def run(
                 # with the gyro, a reversing second's wheel yaw is left out, told or not:
                 # the wheel-yaw model, fitted going forwards, fits a reversing turn less well
                 use = on & ~backwards & ~(told & use_gyro)
-                s_var = (h_row * (pa @ h_row[:, :, None])[:, :, 0]).sum(axis=1) + r
-                xa, pa, ok = _scalar_update(xa, pa, h_row, innov, r, use, gate)
+                xa, pa, ok, s_var = _scalar_update(xa, pa, h_row, innov, r, use, gate)
                 wheel_logpdf[:, k] = np.where(
                     ok & measured, -0.5 * (np.log(2 * np.pi * s_var) + innov**2 / s_var), 0.0
                 )
@@ -930,7 +930,9 @@ def run(
             fix_logpdf[:, k] = fix_log_score(pa, h_mat, fix_k - h2, r_fix, on & has_fix, gn.gate)
             h, h_row = course_model(xa, d_signed, cfg.antenna_m)
             innov = _wrap(course - h)
-            xa, pa, ok = _scalar_update(xa, pa, h_row, innov, course_var, on & has_course, gn.gate)
+            xa, pa, ok, _ = _scalar_update(
+                xa, pa, h_row, innov, course_var, on & has_course, gn.gate
+            )
             rejected["course"] += int((on & has_course & ~ok).sum())
             h2, h_mat = fix_model(xa, cfg.antenna_m)
             xa, pa, ok = _vector_update(xa, pa, h_mat, fix_k - h2, r_fix, on & has_fix, gn.gate)
