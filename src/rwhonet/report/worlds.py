@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 BEGIN, END = "<!-- worlds:begin -->", "<!-- worlds:end -->"
@@ -306,6 +307,99 @@ def _unlikely(
     )
 
 
+def band_chance(n: int, p: float, tol: float) -> tuple[float, float, float]:
+    """What a calibrated prediction's share of ``n`` windows does against the band ``p ± tol``.
+
+    The number of windows inside a region of content ``p`` is binomial (``n``, ``p``)
+    when the windows are independent, so its share lands inside the band, above it (the
+    region too wide) or below it (too narrow) with these probabilities. With 37 windows
+    a calibrated 1σ region lands inside 68 ± 5 % about one time in two: the band is
+    narrower than the chance scatter of so few windows. Windows of one drive miss
+    together, which widens the scatter, so these are the most a calibrated prediction
+    can expect inside.
+
+    Returns:
+        (inside, above, below) probabilities; (nan, nan, nan) for no window.
+    """
+    from scipy.stats import binom
+
+    if n <= 0:
+        return math.nan, math.nan, math.nan
+    k = np.arange(n + 1)
+    pmf = binom.pmf(k, n, p)
+    share = k / n
+    eps = 1e-12  # a share exactly on the bound is inside, as in :func:`_coverage`
+    above = float(pmf[share > p + tol + eps].sum())
+    below = float(pmf[share < p - tol - eps].sum())
+    return 1.0 - above - below, above, below
+
+
+@dataclass(frozen=True)
+class BandTally:
+    """Coverage cells against the 68 ± 5 / 95 ± 3 % bands, with what chance would give.
+
+    Attributes:
+        cells: cells counted (two per outage length with windows: 1σ and 2σ).
+        inside, above, below: cells inside the band, above it (the region too wide),
+            below it (too narrow).
+        chance_inside, chance_above, chance_below: the expected counts for a calibrated
+            prediction on the same numbers of windows (:func:`band_chance`).
+    """
+
+    cells: int = 0
+    inside: int = 0
+    above: int = 0
+    below: int = 0
+    chance_inside: float = 0.0
+    chance_above: float = 0.0
+    chance_below: float = 0.0
+
+    def __add__(self, other: BandTally) -> BandTally:
+        return BandTally(*(a + b for a, b in zip(_fields(self), _fields(other), strict=True)))
+
+    def said(self) -> str:
+        return (
+            f"{self.inside} of {self.cells} cells inside the band, {self.above} above "
+            f"(regions too wide), {self.below} below; a calibrated prediction on these "
+            f"numbers of windows: {self.chance_inside:.1f} / {self.chance_above:.1f} / "
+            f"{self.chance_below:.1f} by chance (independent windows; fewer inside where a "
+            "drive's windows miss together)"
+        )
+
+
+def _fields(t: BandTally) -> tuple:
+    return (t.cells, t.inside, t.above, t.below, t.chance_inside, t.chance_above, t.chance_below)
+
+
+def _ordered(cells: dict[str, dict]) -> list[tuple[str, dict]]:
+    return sorted(
+        ((L, c) for L, c in cells.items() if L.endswith("s") and isinstance(c, dict)),
+        key=lambda kv: int(kv[0].removesuffix("s")),
+    )
+
+
+def band_tally(cells: dict[str, dict], one: str, two: str) -> BandTally:
+    """Count the cells (each outage length's ``one`` and ``two`` shares) against the bands."""
+    tally = BandTally()
+    for _, c in _ordered(cells):
+        n = int(c.get("n_windows") or 0)
+        for key, (p, tol) in zip((one, two), COVER, strict=True):
+            share = c.get(key)
+            if not n or share is None or not math.isfinite(share):
+                continue
+            inside, above, below = band_chance(n, p, tol)
+            tally += BandTally(
+                1,
+                int(abs(share - p) <= tol),
+                int(share > p + tol),
+                int(share < p - tol),
+                inside,
+                above,
+                below,
+            )
+    return tally
+
+
 def _coverage(
     cells: dict[str, dict],
     one: str,
@@ -314,20 +408,20 @@ def _coverage(
 ) -> Verdict:
     """Every outage length's shares inside 68 ± 5 % (``one``) and 95 ± 3 % (``two``)."""
     (p1, tol1), (p2, tol2) = COVER
-    ordered = sorted(
-        ((L, c) for L, c in cells.items() if L.endswith("s") and isinstance(c, dict)),
-        key=lambda kv: int(kv[0].removesuffix("s")),
-    )
+    ordered = _ordered(cells)
     inside = [abs(c[one] - p1) <= tol1 and abs(c[two] - p2) <= tol2 for _, c in ordered]
     shares = ", ".join(f"{L} {100 * c[one]:.0f} / {100 * c[two]:.0f} %" for L, c in ordered)
-    return Verdict(all(inside), f"1σ / 2σ: {shares}; {_unlikely(ordered, one, two, drives)}")
+    tally = band_tally(cells, one, two)
+    return Verdict(
+        all(inside),
+        f"1σ / 2σ: {shares}; {tally.said()}; {_unlikely(ordered, one, two, drives)}",
+    )
 
 
 def fused_coverage(w: World) -> Verdict:
     """The fused prediction's 68.27 / 95.45 % regions (the filter's covariance calibrated on
     training windows) hold 68 ± 5 % / 95 ± 3 % at every outage length."""
-    rows = _fused(w)
-    fused = rows.get("fused") if rows else None
+    fused = _fused_cells(w)
     if not fused:
         return Verdict(None, "no navigation filter in eval.json")
     drives = w.ev.get("position_controls", {}).get("by_drive", {})
@@ -345,11 +439,20 @@ def fused_coverage(w: World) -> Verdict:
 def crse_coverage(w: World) -> Verdict:
     """R-WhONet's per-window CRSE within 1σ / 2σ of its prediction (calibrated on the training
     windows) in 68 ± 5 % / 95 ± 3 % of windows at every outage length."""
-    unc = w.ev.get("uncertainty", {})
-    cells = unc.get("models", {}).get("R")
+    cells = _crse_cells(w)
     if not cells:
         return Verdict(None, "no CRSE prediction in eval.json")
-    return _coverage(cells, "crse_cover_1sigma", "crse_cover_2sigma", unc.get("by_drive"))
+    by_drive = w.ev.get("uncertainty", {}).get("by_drive")
+    return _coverage(cells, "crse_cover_1sigma", "crse_cover_2sigma", by_drive)
+
+
+def _fused_cells(w: World) -> dict[str, dict] | None:
+    rows = _fused(w)
+    return rows.get("fused") if rows else None
+
+
+def _crse_cells(w: World) -> dict[str, dict] | None:
+    return w.ev.get("uncertainty", {}).get("models", {}).get("R")
 
 
 def distance_model_same_position(w: World) -> Verdict:
@@ -393,6 +496,23 @@ CLAIMS: list[tuple[str, Callable[[World], Verdict]]] = [
 ]
 
 
+def coverage_summary(worlds: Sequence[World]) -> str:
+    """The coverage cells of every world together, against what chance gives (one line)."""
+    parts = []
+    for what, get, one, two in (
+        ("2D, fused", _fused_cells, "cover_1sigma", "cover_2sigma"),
+        ("R-WhONet's CRSE", _crse_cells, "crse_cover_1sigma", "crse_cover_2sigma"),
+    ):
+        tally = BandTally()
+        for w in worlds:
+            tally += band_tally(get(w) or {}, one, two)
+        if tally.cells:
+            parts.append(f"{what}: {tally.said()}")
+    if not parts:
+        return "Coverage: no calibrated prediction in these evaluations."
+    return f"Coverage over the {len(worlds)} worlds' cells. " + ". ".join(parts) + "."
+
+
 def verdicts(worlds: Sequence[World]) -> list[tuple[str, list[Verdict]]]:
     """Every claim in every world."""
     return [(text, [check(w) for w in worlds]) for text, check in CLAIMS]
@@ -417,6 +537,7 @@ def render(worlds: Sequence[World]) -> str:
     for text, row in table:
         lines.append(f"| {text} | " + " | ".join(_mark(v) for v in row) + " |")
     lines.append("")
+    lines += [coverage_summary(worlds), ""]
     for i, w in enumerate(worlds):
         recipe, m = _chosen(w)
         lines += [
