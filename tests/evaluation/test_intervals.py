@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rwhonet.evaluation.intervals import mean_ci95, over_seeds
+from rwhonet.evaluation.intervals import band_chance, mean_ci95, over_seeds
 
 
 def test_three_seeds_by_hand():
@@ -44,3 +44,16 @@ def test_over_seeds_keeps_cells_apart():
     assert out["model"].tolist() == ["G", "R"]
     assert out["crse"].tolist() == [12.0, 5.0] and out["n_seeds"].tolist() == [3, 3]
     assert out["crse_ci95"].tolist() == pytest.approx([4.96828, 0.0], abs=1e-5)
+
+
+def test_band_chance_by_hand():
+    # 37 windows, 1σ band 68.27 ± 5 %: inside means 24 to 27 windows (64.9 to 73.0 %)
+    n, p = 37, 0.6827
+    pmf = [math.comb(n, k) * p**k * (1 - p) ** (n - k) for k in range(n + 1)]
+    inside, above, below = band_chance(n, p, 0.05)
+    assert inside == pytest.approx(sum(pmf[24:28]), rel=1e-9)
+    assert above == pytest.approx(sum(pmf[28:]), rel=1e-9)
+    assert below == pytest.approx(sum(pmf[:24]), rel=1e-9)
+    # one window: 0 % or 100 %, never inside a ±3 % band about 95.45 %
+    assert band_chance(1, 0.9545, 0.03) == pytest.approx((0.0, 0.9545, 0.0455))
+    assert all(math.isnan(x) for x in band_chance(0, 0.6827, 0.05))

@@ -1,5 +1,6 @@
 """The report's lines on what the navigation filter took for its figures, and where from."""
 
+from rwhonet.report import tables
 from rwhonet.report.tables import _gyro_line, _receiver_line
 
 RECEIVER = {
@@ -34,3 +35,13 @@ def test_figures_not_fitted_are_said_to_be_the_configured_ones():
         {**RECEIVER, "sigma_m": 1.5, "fitted": False}
     )
     assert _gyro_line({}) == "" and _receiver_line({}) == ""  # an eval.json from before
+
+
+def test_the_chance_line_gives_the_binomial_band_probabilities():
+    line = tables.chance_line({180: 37, 30: 236})
+    # binomial(236, 0.6827) inside 63.27-73.27 %: 0.892; binomial(37, ·): 0.520 (24-27 windows)
+    assert "on these 236 / 37 windows of 30 / 180 s" in line
+    assert "1σ share lands inside 68 ± 5 % with probability 89 / 52 %" in line
+    # 2σ: 0.971 and 0.585 (35 or 36 of 37 windows)
+    assert "2σ share inside 95 ± 3 % with 97 / 59 %" in line
+    assert tables.chance_line({}) == ""

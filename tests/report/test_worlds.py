@@ -9,6 +9,7 @@ import pytest
 import yaml
 from scipy.stats import t as student_t
 
+from rwhonet.evaluation.intervals import band_chance
 from rwhonet.report import worlds as wr
 
 FIXTURE = Path(__file__).parents[1] / "evaluation" / "fixtures" / "ci_pipeline_before" / "eval.json"
@@ -228,19 +229,6 @@ def test_a_miss_the_binomial_calls_beyond_chance_is_put_to_the_drives_too(world)
     assert "cluster-robust" not in wr.fused_coverage(world).evidence
 
 
-def test_band_chance_by_hand():
-    # 37 windows, 1σ band 68.27 ± 5 %: inside means 24 to 27 windows (64.9 to 73.0 %)
-    n, p = 37, 0.6827
-    pmf = [math.comb(n, k) * p**k * (1 - p) ** (n - k) for k in range(n + 1)]
-    inside, above, below = wr.band_chance(n, p, 0.05)
-    assert inside == pytest.approx(sum(pmf[24:28]), rel=1e-9)
-    assert above == pytest.approx(sum(pmf[28:]), rel=1e-9)
-    assert below == pytest.approx(sum(pmf[:24]), rel=1e-9)
-    # one window: 0 % or 100 %, never inside a ±3 % band about 95.45 %
-    assert wr.band_chance(1, 0.9545, 0.03) == pytest.approx((0.0, 0.9545, 0.0455))
-    assert all(math.isnan(x) for x in wr.band_chance(0, 0.6827, 0.05))
-
-
 def test_band_tally_counts_cells_and_what_chance_gives(world):
     cells = {
         "30s": {"cover_1sigma": 0.80, "cover_2sigma": 0.95, "n_windows": 37},  # 1σ above
@@ -249,7 +237,7 @@ def test_band_tally_counts_cells_and_what_chance_gives(world):
     }
     t = wr.band_tally(cells, "cover_1sigma", "cover_2sigma")
     assert (t.cells, t.inside, t.above, t.below) == (4, 1, 2, 1)
-    one, two = wr.band_chance(37, 0.6827, 0.05), wr.band_chance(37, 0.9545, 0.03)
+    one, two = band_chance(37, 0.6827, 0.05), band_chance(37, 0.9545, 0.03)
     assert t.chance_inside == pytest.approx(2 * (one[0] + two[0]))
     assert t.chance_above == pytest.approx(2 * (one[1] + two[1]))
     assert (t + t).cells == 8 and (t + t).chance_below == pytest.approx(2 * t.chance_below)

@@ -26,6 +26,7 @@ from rwhonet.contracts import (
     alt_wpm,
     recipe_model,
 )
+from rwhonet.evaluation.intervals import COVER_BANDS, band_chance
 from rwhonet.evaluation.position import GNSS_DISTANCE
 from rwhonet.evaluation.result import Evaluation
 from rwhonet.evaluation.scenarios import PROTOCOL_OUTAGE_S
@@ -513,7 +514,32 @@ def nav_calibration_table(ev: Evaluation) -> str | None:
         "Akaike's criterion took it, else the one fitted over every length; ∞: a normal)"
     )
     receiver = _receiver_line(plan.get("receiver", {})) + _gyro_line(plan.get("gyro", {}))
-    return f"{table}\n\n{head}: {calib}.{_geometry_line(plan.get('geometry', {}))}{receiver}"
+    control = rows[rows["model"] == plan["control_model"]]
+    windows = {int(r.outage_s): int(r.n_windows) for r in control.itertuples() if r.n_windows}
+    chance = chance_line(windows).strip()
+    return f"{table}\n\n{head}: {calib}.{_geometry_line(plan.get('geometry', {}))}{receiver}" + (
+        f"\n\n{chance}" if chance else ""
+    )
+
+
+def chance_line(windows: dict[int, int]) -> str:
+    """How often chance alone puts an honest prediction's share inside issue 17's bands,
+    on these numbers of windows (:func:`rwhonet.evaluation.intervals.band_chance`)."""
+    if not windows:
+        return ""
+    lengths = sorted(windows)
+    (p1, tol1), (p2, tol2) = COVER_BANDS
+    one = " / ".join(f"{100 * band_chance(windows[L], p1, tol1)[0]:.0f}" for L in lengths)
+    two = " / ".join(f"{100 * band_chance(windows[L], p2, tol2)[0]:.0f}" for L in lengths)
+    at = " / ".join(str(L) for L in lengths)
+    n = " / ".join(str(windows[L]) for L in lengths)
+    return (
+        f"How far chance scatters the shares: on these {n} windows of {at} s an honest "
+        f"prediction's 1σ share lands inside {100 * p1:.0f} ± {100 * tol1:.0f} % with "
+        f"probability {one} %, its 2σ share inside {100 * p2:.0f} ± {100 * tol2:.0f} % with "
+        f"{two} % (binomial, the windows taken as independent; a drive's windows miss "
+        "together, so less)."
+    )
 
 
 def _drive_part(ev: Evaluation, plan: dict) -> list[str]:
@@ -644,6 +670,17 @@ def crse_calibration_table(ev: Evaluation) -> str | None:
             f"{100 * r.scale_sd:.2f} | " + " | ".join(row) + " |"
         )
     return "\n".join(lines)
+
+
+def _crse_chance_part(ev: Evaluation) -> list[str]:
+    """Chance's scatter on the CRSE prediction's test windows (the control model's)."""
+    unc = ev.uncertainty
+    if unc is None or unc.empty:
+        return []
+    mine = unc[unc["model"] == ev.position_plan.get("control_model")]
+    windows = {int(r.outage_s): int(r.n_windows) for r in mine.itertuples() if r.n_windows}
+    line = chance_line(windows)
+    return ["", line] if line else []
 
 
 def _crse_drive_part(ev: Evaluation) -> list[str]:
@@ -978,6 +1015,7 @@ def render_report(ev: Evaluation, params: Params, provenance: str) -> str:
             "log-likelihood (rwhonet.evaluation.uncertainty).",
             "",
             crse_calibration_table(ev),
+            *_crse_chance_part(ev),
             *_crse_drive_part(ev),
         ]
     position = position_table(ev, params)

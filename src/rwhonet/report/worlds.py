@@ -28,8 +28,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
+
+from rwhonet.evaluation.intervals import COVER_BANDS, band_chance
 
 BEGIN, END = "<!-- worlds:begin -->", "<!-- worlds:end -->"
 NEAR = 0.05  # "within 5 %": the issue's acceptance bound for R and continuous
@@ -178,7 +179,7 @@ def ten_seconds_harm(w: World) -> Verdict:
 
 
 POSITION_PCT = 2.0  # issue 17: the fused filter's mean error at the longest outage, % of distance
-COVER = ((0.6827, 0.05), (0.9545, 0.03))  # issue 17: 1σ within 68 ± 5 %, 2σ within 95 ± 3 %
+COVER = COVER_BANDS  # issue 17: 1σ within 68 ± 5 %, 2σ within 95 ± 3 %
 SAME_POSITION_PCT = 0.1  # "does not change the position": within 0.1 % of the distance
 
 
@@ -305,33 +306,6 @@ def _unlikely(
         f"{said}; with each test drive's windows together ({n_drives} drives, "
         "cluster-robust t, 5 %): " + (", ".join(clustered) if clustered else "none")
     )
-
-
-def band_chance(n: int, p: float, tol: float) -> tuple[float, float, float]:
-    """What a calibrated prediction's share of ``n`` windows does against the band ``p ± tol``.
-
-    The number of windows inside a region of content ``p`` is binomial (``n``, ``p``)
-    when the windows are independent, so its share lands inside the band, above it (the
-    region too wide) or below it (too narrow) with these probabilities. With 37 windows
-    a calibrated 1σ region lands inside 68 ± 5 % about one time in two: the band is
-    narrower than the chance scatter of so few windows. Windows of one drive miss
-    together, which widens the scatter, so these are the most a calibrated prediction
-    can expect inside.
-
-    Returns:
-        (inside, above, below) probabilities; (nan, nan, nan) for no window.
-    """
-    from scipy.stats import binom
-
-    if n <= 0:
-        return math.nan, math.nan, math.nan
-    k = np.arange(n + 1)
-    pmf = binom.pmf(k, n, p)
-    share = k / n
-    eps = 1e-12  # a share exactly on the bound is inside, as in :func:`_coverage`
-    above = float(pmf[share > p + tol + eps].sum())
-    below = float(pmf[share < p - tol - eps].sum())
-    return 1.0 - above - below, above, below
 
 
 @dataclass(frozen=True)
