@@ -24,7 +24,7 @@ import argparse
 import json
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -329,7 +329,7 @@ class BandTally:
     chance_below: float = 0.0
 
     def __add__(self, other: BandTally) -> BandTally:
-        return BandTally(*(a + b for a, b in zip(_fields(self), _fields(other), strict=True)))
+        return BandTally(*(a + b for a, b in zip(astuple(self), astuple(other), strict=True)))
 
     def said(self) -> str:
         return (
@@ -339,10 +339,6 @@ class BandTally:
             f"{self.chance_below:.1f} by chance (independent windows; fewer inside where a "
             "drive's windows miss together)"
         )
-
-
-def _fields(t: BandTally) -> tuple:
-    return (t.cells, t.inside, t.above, t.below, t.chance_inside, t.chance_above, t.chance_below)
 
 
 def _ordered(cells: dict[str, dict]) -> list[tuple[str, dict]]:
