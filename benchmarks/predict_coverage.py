@@ -25,6 +25,7 @@ import pandas as pd
 from rwhonet import paths
 from rwhonet.data import canonical as c
 from rwhonet.data.iovnbd import read_iovnbd
+from rwhonet.evaluation.intervals import COVER_BANDS, band_chance
 from rwhonet.geo.local import offsets_m
 
 LENGTHS_S = (30, 60, 120, 180)
@@ -85,9 +86,13 @@ def main(argv: list[str] | None = None) -> None:
                 n += len(ends)
                 in68 += int(inside[0].sum())
                 in95 += int(inside[1].sum())
+            (p1, tol1), (p2, tol2) = COVER_BANDS
             print(
                 f"{length} s: {n} outages; in the 68.27 % region {100 * in68 / n:.1f} %, "
-                f"in the 95.45 % region {100 * in95 / n:.1f} %",
+                f"in the 95.45 % region {100 * in95 / n:.1f} % (an honest prediction on {n} "
+                f"outages lands inside 68 ± 5 % with probability "
+                f"{100 * band_chance(n, p1, tol1)[0]:.0f} %, inside 95 ± 3 % with "
+                f"{100 * band_chance(n, p2, tol2)[0]:.0f} %)",
                 flush=True,
             )
 
