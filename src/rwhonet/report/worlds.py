@@ -179,7 +179,6 @@ def ten_seconds_harm(w: World) -> Verdict:
 
 
 POSITION_PCT = 2.0  # issue 17: the fused filter's mean error at the longest outage, % of distance
-COVER = COVER_BANDS  # issue 17: 1σ within 68 ± 5 %, 2σ within 95 ± 3 %
 SAME_POSITION_PCT = 0.1  # "does not change the position": within 0.1 % of the distance
 
 
@@ -282,7 +281,7 @@ def _unlikely(
     """
     from scipy.stats import binomtest
 
-    (p1, _), (p2, _) = COVER
+    (p1, _), (p2, _) = COVER_BANDS
     out, clustered, n_drives = [], [], 0
     for L, c in cells:
         n = int(c.get("n_windows") or 0)
@@ -353,7 +352,7 @@ def band_tally(cells: dict[str, dict], one: str, two: str) -> BandTally:
     tally = BandTally()
     for _, c in _ordered(cells):
         n = int(c.get("n_windows") or 0)
-        for key, (p, tol) in zip((one, two), COVER, strict=True):
+        for key, (p, tol) in zip((one, two), COVER_BANDS, strict=True):
             share = c.get(key)
             if not n or share is None or not math.isfinite(share):
                 continue
@@ -377,7 +376,7 @@ def _coverage(
     drives: Mapping[str, Mapping[str, dict]] | None = None,
 ) -> Verdict:
     """Every outage length's shares inside 68 ± 5 % (``one``) and 95 ± 3 % (``two``)."""
-    (p1, tol1), (p2, tol2) = COVER
+    (p1, tol1), (p2, tol2) = COVER_BANDS
     ordered = _ordered(cells)
     inside = [abs(c[one] - p1) <= tol1 and abs(c[two] - p2) <= tol2 for _, c in ordered]
     shares = ", ".join(f"{L} {100 * c[one]:.0f} / {100 * c[two]:.0f} %" for L, c in ordered)
