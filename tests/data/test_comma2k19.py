@@ -11,6 +11,8 @@ from pyproj import Geod
 from rwhonet import paths
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
+from rwhonet.data import fixtimes
+from rwhonet.data import streams as streams_module
 from rwhonet.data.comma2k19 import read_comma2k19, receiver_epochs
 from rwhonet.data.quality import assess
 from rwhonet.data.streams import resample
@@ -69,26 +71,39 @@ def _gnss_vs_wheels(res) -> tuple[int, float]:
     return len(sec), float(np.abs(r).mean())
 
 
-def test_the_fixes_sit_at_their_receiver_epochs(real, tmp_path):
-    """The log's stamps jitter by ~9 ms against the receiver's epochs; the epochs are used."""
+def test_the_fixes_sit_at_their_receiver_epochs(real, tmp_path, monkeypatch):
+    """The log's stamps jitter by ~9 ms against the receiver's epochs; the epochs are used,
+    and without the UTC column the stamps' own grid gives the same epochs (the wheels
+    choose it)."""
     streams, res = real
     step = np.diff(streams.gnss.t_s)
     np.testing.assert_allclose(step * 10, np.round(step * 10), atol=1e-4)  # whole 100 ms
     assert any("receiver epochs" in n and "579 fixes" in n for n in res.drive.notes)
     n, on_epochs = _gnss_vs_wheels(res)
-    # The same folder without the epochs (UTC column zeroed): the log stamps are kept.
+    # The same folder without the epochs (UTC column zeroed): the reader keeps the log
+    # stamps, and the resampler finds the grid they scatter about.
     copy = tmp_path / "copy" / "processed_log"
     shutil.copytree(REAL / "processed_log", copy)
     value = np.load(copy / "GNSS/live_gnss_ublox/value")
     value[:, 3] = 0.0
     with open(copy / "GNSS/live_gnss_ublox/value", "wb") as f:
         np.save(f, value)
-    stamped = resample(read_comma2k19(copy, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
-    assert any("keep the device's stamps" in x for x in stamped.drive.notes)
-    n_stamped, on_stamps = _gnss_vs_wheels(stamped)
-    assert n == n_stamped == 59
-    # Measured: 0.051 m on the epochs, 0.128 m on the log stamps (the README's 0.13 m).
+    no_utc = read_comma2k19(copy, RAV4_RADIUS_M)
+    gridded = resample(no_utc, nominal_radius_m=RAV4_RADIUS_M)
+    assert any("keep the device's stamps" in x for x in gridded.drive.notes)
+    notes = gridded.drive.notes
+    assert any("10 Hz grid" in x and "placed at the grid's epochs" in x for x in notes)
+    n_gridded, on_grid = _gnss_vs_wheels(gridded)
+    # On the log stamps themselves (the grid switched off).
+    monkeypatch.setattr(
+        streams_module, "fix_times", lambda t, *a, **k: fixtimes.FixTiming(t, False, None)
+    )
+    n_stamped, on_stamps = _gnss_vs_wheels(resample(no_utc, nominal_radius_m=RAV4_RADIUS_M))
+    assert n == n_gridded == n_stamped == 59
+    # Measured: 0.051 m on the epochs and on the grid (the same to 1e-6 m), 0.128 m on the
+    # log stamps (the README's 0.13 m).
     assert on_epochs < 0.06 and on_stamps > 0.12
+    assert on_grid == pytest.approx(on_epochs, abs=1e-5)
 
 
 def test_receiver_epochs_fit_offset_and_drift_through_the_latency():

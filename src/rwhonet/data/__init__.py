@@ -9,6 +9,9 @@
 - :mod:`~rwhonet.data.schema`: the pandera schema of a canonical drive.
 - :mod:`~rwhonet.data.quality`: the GNSS-quality policy and the valid segments.
 - :mod:`~rwhonet.data.fixes`: what counts as a GNSS fix (not (0, 0), enough satellites).
+- :mod:`~rwhonet.data.fixtimes`: when each fix was taken: the receiver's epochs (its own
+  time, or the regular grid a logger's arrival stamps scatter about, where the wheel
+  speeds say so) or the stamps.
 - :mod:`~rwhonet.data.plausibility`: units, signs, stuck or silent wheel sensors,
   swapped coordinates, as arrays and runs of rows.
 - :mod:`~rwhonet.data.drivechecks`: everything ``validate`` checks on one drive,

@@ -29,7 +29,8 @@ GNSS time
     that varies from fix to fix (9 ms standard deviation on the example segment:
     0.15 m of position at 17 m/s). The receiver stamps each fix with its epoch
     (value column 3, UTC in ms, on whole 100 ms of GPS time), as a logger like
-    the VBOX records GNSS on its own time base. :func:`receiver_epochs` maps
+    the VBOX records GNSS on its own time base.
+    :func:`rwhonet.data.fixtimes.receiver_epochs` maps
     those epochs onto the device's clock with one robust straight-line fit of
     ``UTC - t`` against ``t`` over the drive's fixes: an offset and a drift
     (the device clock's rate error; slope: the median of the slopes between
@@ -39,17 +40,20 @@ GNSS time
     then sit at their epochs, 100 ms apart, and the jitter of the log stamps is
     gone. A drive whose UTC column does not fit such a line (missing, not
     increasing, or residuals above :data:`MAX_EPOCH_SCATTER_S`) keeps the log
-    stamps, and the notes say so.
+    stamps, and the notes say so; the resampler then places the fixes on the
+    regular grid of the receiver's rate where the wheel speeds fit that grid
+    better than the stamps (:func:`rwhonet.data.fixtimes.fix_times`: on the example
+    segment without its UTC column it finds the same epochs, to a microsecond).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from rwhonet.data import canonical as c
+from rwhonet.data.fixtimes import MAX_EPOCH_SCATTER_S, receiver_epochs
 from rwhonet.data.streams import DriveStreams, Stream, wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
 
@@ -68,68 +72,6 @@ _GNSS_NAMES = {
     c.HEADING_DEG: "bearing",
 }
 UTC_COLUMN = 3  # of the GNSS value array: the receiver's epoch, UTC, ms
-# Scatter (1.4826 MAD) of UTC - t around the fitted line above which the epochs are not used:
-# well above the log's latency jitter (9 ms), well below a fix interval (100 ms).
-MAX_EPOCH_SCATTER_S = 0.04
-MIN_EPOCH_FIXES = 10
-
-
-@dataclass(frozen=True)
-class EpochFit:
-    """The receiver's epochs on the device clock: ``t_fix = t`` where ``UTC - t = offset +
-    drift (t - t_ref)``.
-
-    Attributes:
-        offset_s: UTC minus device time at ``t_ref_s``, s.
-        drift: rate of the device clock against UTC (s/s).
-        t_ref_s: the reference time (the drive's middle fix), device clock.
-        scatter_s: 1.4826 x the median absolute residual (the log stamps' jitter), s.
-        n_fixes: fixes fitted.
-    """
-
-    offset_s: float
-    drift: float
-    t_ref_s: float
-    scatter_s: float
-    n_fixes: int
-
-    def on_device_clock(self, utc_s: np.ndarray) -> np.ndarray:
-        """Epochs (UTC, s) as times of the device clock."""
-        # utc = t + offset + drift (t - t_ref)  =>  t = (utc - offset + drift t_ref) / (1 + drift)
-        return (np.asarray(utc_s, np.float64) - self.offset_s + self.drift * self.t_ref_s) / (
-            1.0 + self.drift
-        )
-
-
-def receiver_epochs(t_s: np.ndarray, utc_ms: np.ndarray) -> EpochFit | None:
-    """Fit ``UTC - t`` over the fixes robustly (see the module docstring, "GNSS time").
-
-    Args:
-        t_s: the fixes' device-clock stamps, s (increasing).
-        utc_ms: their receiver epochs, UTC in ms.
-
-    Returns:
-        The fit, or None when the epochs are unusable: not finite, not strictly increasing,
-        fewer than ``MIN_EPOCH_FIXES``, or scattered by more than ``MAX_EPOCH_SCATTER_S``.
-    """
-    t = np.asarray(t_s, np.float64)
-    utc = np.asarray(utc_ms, np.float64) / 1000.0
-    n = t.size
-    if n < MIN_EPOCH_FIXES or not np.all(np.isfinite(utc)) or np.any(np.diff(utc) <= 0):
-        return None
-    d = utc - t
-    half = n // 2
-    slopes = (d[half : 2 * half] - d[:half]) / (t[half : 2 * half] - t[:half])
-    drift = float(np.median(slopes))
-    t_ref = float(t[half])
-    residual = d - drift * (t - t_ref)
-    offset = float(np.median(residual))
-    scatter = 1.4826 * float(np.median(np.abs(residual - offset)))
-    if not scatter <= MAX_EPOCH_SCATTER_S:
-        return None
-    return EpochFit(offset, drift, t_ref, scatter, n)
-
-
 _WHEEL_NAMES = {
     c.OMEGA_FL: "front left",
     c.OMEGA_FR: "front right",
@@ -234,7 +176,8 @@ def read_comma2k19(
         notes = [
             f"{name}/{gnss_sub}: the fixes keep the device's stamps t (the receiver's epochs in "
             f"value[:, {UTC_COLUMN}] do not fit one clock offset: missing, not increasing or "
-            f"scattered by more than {MAX_EPOCH_SCATTER_S * 1000:.0f} ms)"
+            f"scattered by more than {MAX_EPOCH_SCATTER_S * 1000:.0f} ms); the resampler moves "
+            "them to the regular grid they scatter about where the wheel speeds say so"
         ]
     else:
         tg = fit.on_device_clock(vg[:, UTC_COLUMN] / 1000.0)

@@ -31,6 +31,13 @@ Rates (wheel speeds, yaw rate, accelerations, vehicle speed): a time-weighted me
     as large as the labels). The mean is computed exactly from the cumulative
     trapezoid integral at the window's edges (no loop over samples).
 
+Fix times: the receiver's epochs where the wheels say so
+    A logger that stamps each fix when it arrives places it a few milliseconds from
+    where the car was. Where the fixes' stamps scatter about a regular grid of a
+    receiver's period and the wheel speeds between fixes fit the grid's epochs
+    better than the stamps, the fixes are placed at the epochs
+    (:func:`rwhonet.data.fixtimes.fix_times`; the drive's notes say which, and why).
+
 Positions: interpolated between fixes, never across a gap, never extrapolated
     A fix at latitude = longitude = 0 is what a receiver without a fix writes: it is
     no fix (:func:`rwhonet.data.fixes.no_fix_rows`), left out as a sample without a
@@ -76,6 +83,7 @@ from scipy.ndimage import maximum_filter1d
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.fixes import no_fix_rows
+from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.problems import row_problems
 from rwhonet.errors import InputError, Problem
@@ -562,6 +570,12 @@ def resample(
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
     gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
+    timing = fix_times(
+        gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], *_wheel_signal(streams), streams.gnss.where()
+    )
+    gnss_t = timing.t_s
+    if timing.note:
+        notes.append(timing.note)
     fixes, fix_ok = interpolate_fixes(
         gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
     )
@@ -654,6 +668,15 @@ def resample(
         {w: rows[keep] for w, rows in by_wheel.items()},
         tuple(lost),
     )
+
+
+def _wheel_signal(streams: DriveStreams) -> tuple[np.ndarray, np.ndarray]:
+    """The first wheel stream's times and the magnitude of its wheels' mean speed (rad/s;
+    NaN where a wheel has no value): how far the car rolled, for
+    :func:`rwhonet.data.fixtimes.fix_times`."""
+    s = streams.wheels[0]
+    wheels = [np.asarray(s.channels[w], np.float64) for w in c.WHEELS if w in s.channels]
+    return np.asarray(s.t_s, np.float64), np.abs(np.mean(wheels, axis=0))
 
 
 def _finite_rows(
