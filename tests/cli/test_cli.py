@@ -603,6 +603,36 @@ def test_predict_repairs_and_reports_a_glitched_sample_of_a_100_hz_wheel_stream(
         np.testing.assert_allclose(fixed[q], clean[q], atol=0.01)
 
 
+def test_predict_says_it_placed_fixes_stamped_on_arrival_at_the_receiver_s_epochs(
+    bundle, tmp_path, capsys
+):
+    """The good stream drive's 10 Hz fixes stamped 20 ± 5 ms late, as a logger stamping
+    them on arrival would: predict moves them to the receiver's grid, says so on stderr
+    (--quiet too), and its seconds are those of the fixes stamped at their epochs."""
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import StreamTables
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    good = good_tables()
+    late = good.gnss[c.T_S] + 0.02 + np.random.default_rng(0).uniform(-0.005, 0.005, len(good.gnss))
+    frames = {}
+    for name, tables in (
+        ("epochs", StreamTables(good.wheels, good.gnss.assign(**{c.T_S: good.gnss[c.T_S] + 0.02}))),
+        ("arrival", StreamTables(good.wheels, good.gnss.assign(**{c.T_S: late}))),
+    ):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, tables)
+        out = tmp_path / f"{name}.csv"
+        fmt += ["--nominal-radius", str(RADIUS_M), "--quiet"]
+        assert main(predict_args(bundle, drive, out, *fmt)) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (at_epochs, said_epochs), (arrived, said) = frames["epochs"], frames["arrival"]
+    assert "grid" not in said_epochs
+    assert "about a regular 10 Hz grid" in said and "placed at the grid's epochs" in said
+    assert len(arrived) == len(at_epochs) > 30
+    np.testing.assert_allclose(arrived["disp_gnss_m"], at_epochs["disp_gnss_m"], atol=1e-3)
+
+
 def _stream_drive(tmp_path, tables):
     """A folder of stream CSVs and its signal map file, for --format stream_csv."""
     import yaml

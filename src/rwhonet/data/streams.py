@@ -574,8 +574,8 @@ def resample(
         gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], *_wheel_signal(streams), streams.gnss.where()
     )
     gnss_t = timing.t_s
-    if timing.note:
-        notes.append(timing.note)
+    if timing.note:  # fixes moved: said by predict too, as what the grid changes
+        (lost if timing.at_epochs else notes).append(timing.note)
     fixes, fix_ok = interpolate_fixes(
         gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
     )
