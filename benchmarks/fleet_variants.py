@@ -58,6 +58,7 @@ import pandas as pd
 import yaml
 
 from rwhonet.geo import latlon_from_offsets_deg, offsets_m
+from rwhonet.sim.streams import SIGNAL_MAP
 
 ROLES = ("source_train", "source_calibration", "source_test", "target_train", "target_test")
 PLACES = {  # role -> new origin (lat, lon) of the fleet's geometry
@@ -77,16 +78,11 @@ WHEELS = {
 MIDNIGHT_AFTER_S = 300.0
 GNSS_PHASE_S = 0.03
 DAY_S = 86400.0
+# The simulator's stream writers' signal map (the same column names), and the gyro.
 STREAM_MAP = {
     "reader": "stream_csv",
-    "signals": {
-        "t": {"column": "Time", "unit": "s"},
-        **{f"omega_{w[-2:].lower()}": {"column": w, "unit": "rad/s"} for w in WHEELS.values()},
-        "lat": {"column": "Latitude", "unit": "deg"},
-        "lon": {"column": "Longitude", "unit": "deg"},
-        "n_sats": {"column": "NumSV", "unit": "count"},
-        "yaw_rate": {"column": "YawRate", "unit": "deg/s cw"},
-    },
+    "signals": {k: {"column": col, "unit": unit} for k, (col, unit) in SIGNAL_MAP.items()}
+    | {"yaw_rate": {"column": "YawRate", "unit": "deg/s cw"}},
 }
 
 
