@@ -51,6 +51,7 @@ import os
 import shutil
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -76,7 +77,6 @@ WHEELS = {
     "Wheel Speed Rear Right (rad/sec)": "WheelSpeed_RR",
 }
 MIDNIGHT_AFTER_S = 300.0
-GNSS_PHASE_S = 0.03
 DAY_S = 86400.0
 # The simulator's stream writers' signal map (the same column names), and the gyro.
 STREAM_MAP = {
@@ -125,8 +125,31 @@ def write_relocated(sim: Path, raw: Path) -> None:
             out.to_csv(raw / role / path.name, index=False)
 
 
+@dataclass(frozen=True)
+class GnssStream:
+    """How the streams variant's receiver and logger write the fixes.
+
+    Attributes:
+        hz: the fix rate (a divisor of the file's 10 Hz).
+        phase_s: the fixes' offset after the file's first row (the receiver's grid
+            against the logger's clock).
+        stamp_error_s: each fix stamped up to this off its epoch (uniform; 0: at it).
+    """
+
+    hz: float = 5.0
+    phase_s: float = 0.03
+    stamp_error_s: float = 0.0
+
+    @property
+    def suffix(self) -> str:
+        """The variant's folder suffix: what differs from the default."""
+        out = "" if self.hz == 5.0 else f"-{self.hz:g}hz"
+        out += "" if self.phase_s == 0.03 else f"-phase{self.phase_s:g}s"
+        return out + ("" if not self.stamp_error_s else f"-stamp{self.stamp_error_s * 1e3:g}ms")
+
+
 def streams(
-    frame: pd.DataFrame, rng: np.random.Generator, stamp_error_s: float = 0.0
+    frame: pd.DataFrame, rng: np.random.Generator, gnss: GnssStream = GnssStream()
 ) -> dict[str, pd.DataFrame]:
     """The drive's wheel, GNSS and gyro streams (module docstring)."""
     t = frame[TIME].to_numpy()
@@ -141,32 +164,33 @@ def streams(
         {"Time": t_w, **{v: np.interp(t_w, t, frame[k].to_numpy()) for k, v in WHEELS.items()}}
     )
     gyro = pd.DataFrame({"Time": t_y, "YawRate": -np.interp(t_y, t, frame[YAW].to_numpy())})
-    # 5 Hz fixes at GNSS_PHASE_S after every second row: each the position interpolated
+    # Fixes every 10 / hz rows, phase_s after the first row: each the position interpolated
     # between the two 10 Hz fixes around it (no fix where either is none), and stamped
     # stamp_error_s off its epoch at most (0: at its epoch, as a receiver's own time).
     lat, lon, sats = (frame[k].to_numpy() for k in (LAT, LON, "Sats"))
-    i = np.arange(0, t.size - 1, 2)
-    w = GNSS_PHASE_S / (t[i + 1] - t[i])
+    rows = round(gnss.phase_s / 0.1 - 0.5)  # the row before each fix
+    i = np.arange(rows, t.size - 1, round(10.0 / gnss.hz))
+    w = (t[0] + gnss.phase_s + (i - rows) * 0.1 - t[i]) / (t[i + 1] - t[i])
     fix = ((lat != 0.0) | (lon != 0.0))[i] & ((lat != 0.0) | (lon != 0.0))[i + 1]
     dlon = (lon[i + 1] - lon[i] + 180.0) % 360.0 - 180.0  # the short way across 180°
-    gnss = pd.DataFrame(
+    table = pd.DataFrame(
         {
-            "Time": t[i] + GNSS_PHASE_S + rng.uniform(-1, 1, i.size) * stamp_error_s,
+            "Time": t[i] + w * (t[i + 1] - t[i]) + rng.uniform(-1, 1, i.size) * gnss.stamp_error_s,
             "Latitude": np.where(fix, lat[i] + w * (lat[i + 1] - lat[i]), 0.0),
             "Longitude": np.where(fix, (lon[i] + w * dlon + 180.0) % 360.0 - 180.0, 0.0),
             "NumSV": np.minimum(sats[i], sats[i + 1]),
         }
     )
-    return {"wheels": wheels, "gnss": gnss, "gyro": gyro}
+    return {"wheels": wheels, "gnss": table, "gyro": gyro}
 
 
-def write_streams(sim: Path, raw: Path, stamp_error_s: float = 0.0) -> None:
+def write_streams(sim: Path, raw: Path, gnss: GnssStream = GnssStream()) -> None:
     rng = np.random.default_rng(20261203)
     for role in ROLES:
         for path in sorted((sim / role).glob("*.csv")):
             folder = raw / role / path.stem
             folder.mkdir(parents=True, exist_ok=True)
-            for name, table in streams(read_drive(path), rng, stamp_error_s).items():
+            for name, table in streams(read_drive(path), rng, gnss).items():
                 table.to_csv(folder / f"{name}.csv", index=False)
 
 
@@ -182,9 +206,9 @@ def set_params(params_file: Path, variant: str) -> None:
     params_file.write_text(yaml.safe_dump(params, sort_keys=False))
 
 
-def run(variant: str, workspace: Path, stamp_error_ms: float = 0.0) -> Path:
+def run(variant: str, workspace: Path, gnss: GnssStream = GnssStream()) -> Path:
     """Write the variant fleet into a scratch copy of the working tree and run the pipeline."""
-    suffix = f"-stamp{stamp_error_ms:g}ms" if variant == "streams" and stamp_error_ms else ""
+    suffix = gnss.suffix if variant == "streams" else ""
     dest = workspace / "build" / "variants" / f"{variant}{suffix}"
     if dest.exists():
         shutil.rmtree(dest)
@@ -206,7 +230,7 @@ def run(variant: str, workspace: Path, stamp_error_ms: float = 0.0) -> Path:
     if variant == "relocated":
         write_relocated(sim, dest / "data" / "raw")
     else:
-        write_streams(sim, dest / "data" / "raw", stamp_error_ms / 1000.0)
+        write_streams(sim, dest / "data" / "raw", gnss)
     set_params(dest / "params.yaml", variant)
     # The stages' `python` must be this interpreter (the project's venv).
     bin_dir = str(Path(sys.executable).parent)
@@ -261,12 +285,15 @@ def main(argv: list[str] | None = None) -> int:
     r = sub.add_parser("run", help="write the variant fleet and run the pipeline on it")
     r.add_argument("variant", choices=("relocated", "streams"))
     r.add_argument("--workspace", type=Path, default=Path("."))
+    r.add_argument("--gnss-hz", type=float, default=5.0, help="streams: 1, 2, 5 or 10")
+    r.add_argument("--gnss-phase-s", type=float, default=0.03, help="streams: fixes' offset")
     r.add_argument("--gnss-stamp-error-ms", type=float, default=0.0)
     c = sub.add_parser("compare", help="headline figures of built folders side by side")
     c.add_argument("folders", type=Path, nargs="+")
     args = ap.parse_args(argv)
     if args.cmd == "run":
-        print(run(args.variant, args.workspace.resolve(), args.gnss_stamp_error_ms))
+        gnss = GnssStream(args.gnss_hz, args.gnss_phase_s, args.gnss_stamp_error_ms / 1000.0)
+        print(run(args.variant, args.workspace.resolve(), gnss))
     else:
         compare(args.folders)
     return 0
