@@ -168,9 +168,10 @@ def streams(
     # between the two 10 Hz fixes around it (no fix where either is none), and stamped
     # stamp_error_s off its epoch at most (0: at its epoch, as a receiver's own time).
     lat, lon, sats = (frame[k].to_numpy() for k in (LAT, LON, "Sats"))
-    rows = round(gnss.phase_s / 0.1 - 0.5)  # the row before each fix
+    rows = int(np.floor(gnss.phase_s / 0.1 + 1e-9))  # the row each fix follows
+    after = gnss.phase_s - 0.1 * rows  # seconds after that row (across a logger's gap too)
     i = np.arange(rows, t.size - 1, round(10.0 / gnss.hz))
-    w = (t[0] + gnss.phase_s + (i - rows) * 0.1 - t[i]) / (t[i + 1] - t[i])
+    w = after / (t[i + 1] - t[i])
     fix = ((lat != 0.0) | (lon != 0.0))[i] & ((lat != 0.0) | (lon != 0.0))[i + 1]
     dlon = (lon[i + 1] - lon[i] + 180.0) % 360.0 - 180.0  # the short way across 180°
     table = pd.DataFrame(
