@@ -179,6 +179,41 @@ def test_the_evidence_is_the_target_car_s_unless_asked_and_the_printout_says_how
     centred = render({**out, "prior_radii": (0.36, 0.3599)})
     assert "prior centred on 0.36000 / 0.35990 m" in centred
     assert "38 % shrunk towards the prior" in centred
+    # what the resampler changed of a stream drive, under the drive's line, as predict says it
+    moved = "d/gnss.csv: the fix stamps scatter 3.7 ms about a regular 5 Hz grid; ..."
+    lines = render({**out, "drive_notes": [moved]}).splitlines()
+    assert lines[:2] == ["d.csv: 300 valid s", moved]
+    assert render(out).splitlines()[1].startswith("recalibrated whonet-G v1")
+
+
+def test_a_stream_drive_s_moved_fixes_reach_recalibrate(tmp_path):
+    """load_drive hands recalibrate what the resampler changed (fixes stamped on arrival
+    moved to the receiver's epochs)."""
+    from rwhonet.cli.drive import calibration_of, load_drive
+    from rwhonet.config import load_params
+    from rwhonet.data import canonical as c
+    from rwhonet.features.scaling import MinMaxScaler
+    from rwhonet.sim.streams import SIGNAL_MAP, StreamTables
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    good = good_tables()
+    late = good.gnss[c.T_S] + 0.02 + np.random.default_rng(1).uniform(-0.005, 0.005, len(good.gnss))
+    drive, _ = _stream_drive(tmp_path, StreamTables(good.wheels, good.gnss.assign(**{c.T_S: late})))
+    smap = {k: {"column": col, "unit": u} for k, (col, u) in SIGNAL_MAP.items()}
+    params = load_params(
+        overrides={"data.signal_maps": {"logger_csv": {"reader": "stream_csv", "signals": smap}}}
+    )
+    data = load_drive(
+        drive,
+        params,
+        vehicle="car",
+        fmt="logger_csv",
+        calibration=calibration_of((RADIUS_M, RADIUS_M), "test"),
+        scaler=MinMaxScaler("global", (0.0,) * 4, (60.0,) * 4, (), 0),
+        wpm_mode="integrated",
+        seq_len=1,
+    )
+    assert len(data.notes) == 1 and "placed at the grid's epochs" in data.notes[0]
 
 
 def test_the_prior_is_centred_on_the_car_s_size_only_for_another_car():

@@ -52,11 +52,14 @@ class DriveSamples:
         samples: the samples, in time order (``frame["k"]``: rank of the second in the drive).
         file: the drive file as the user named it.
         assessment: validate's GNSS-quality assessment (segments, cuts).
+        notes: what the resampler left out or changed of a stream drive (its fixes moved
+            to the receiver's epochs, ...), said on stderr as ``predict`` says it.
     """
 
     samples: SampleSet
     file: str
     assessment: Assessment
+    notes: tuple[str, ...] = ()
 
     def kept_summary(self) -> str:
         """``"540 valid s of 560 s (cut: low_sats 20 s)"``."""
@@ -308,7 +311,8 @@ def load_drive(
         sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)
         samples = sample_table(sec, calibration, scaler, wpm_mode).to_pandas()
         segments.append(({"drive": drive_id(path), "segment": name, "role": ROLE}, samples))
-    return DriveSamples(stack_segments(segments, seq_len), file, result)
+    lost = tuple(drive.streams.lost) if drive.streams is not None else ()
+    return DriveSamples(stack_segments(segments, seq_len), file, result, lost)
 
 
 def drive_sha256(path: Path) -> str:

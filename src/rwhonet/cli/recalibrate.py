@@ -246,6 +246,7 @@ def run(
         "base": base_label,
         "file": data.file,
         "kept": data.kept_summary(),
+        "drive_notes": list(data.notes),
         "n_adapt": int(first.sum()),
         "n_scored": int(rest.sum()),
         "scores": scores,
@@ -477,6 +478,7 @@ def render(out: dict[str, Any]) -> str:
     )
     lines = [
         f"{out['file']}: {out['kept']}",
+        *out.get("drive_notes", []),
         f"recalibrated {out['base']} by `{c.recipe}` ({c.why}) on the first {out['n_adapt']} s, "
         f"seed {out['seed']}, in {out['fit_s']:.2f} s{radii}",
     ]
