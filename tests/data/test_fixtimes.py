@@ -12,6 +12,7 @@ from rwhonet.data.fixtimes import (
     receiver_epochs,
     receiver_period_s,
 )
+from rwhonet.data.streams import wheel_rolled
 from rwhonet.geo import latlon_from_offsets_deg
 
 RADIUS_M = 0.3
@@ -34,10 +35,10 @@ def fixes_at(t: np.ndarray, noise_m: float = 0.0, seed: int = 0) -> tuple[np.nda
     return latlon_from_offsets_deg(52.4, -1.5, s * np.sin(0.7), s * np.cos(0.7))
 
 
-def wheels(duration_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """A 100 Hz wheel-speed stream of the car, rad/s."""
+def wheels(duration_s: float):
+    """How far a 100 Hz wheel-speed stream of the car says it rolled (``wheel_rolled``)."""
     t = np.arange(0.0, duration_s, 0.01)
-    return t, speed(t) / RADIUS_M
+    return wheel_rolled(t, speed(t) / RADIUS_M)
 
 
 def arrival_stamps(epochs: np.ndarray, seed: int = 1) -> np.ndarray:
@@ -91,7 +92,7 @@ def test_fixes_stamped_on_arrival_go_to_the_grid_s_epochs():
     epochs = 0.2 * np.arange(1500)  # 5 Hz, 300 s
     lat, lon = fixes_at(epochs, noise_m=0.01)
     stamps = epochs + 0.03 + np.random.default_rng(5).uniform(-0.005, 0.005, epochs.size)
-    timing = fix_times(stamps, lat, lon, *wheels(300.0), where="gnss.csv")
+    timing = fix_times(stamps, lat, lon, wheels(300.0), where="gnss.csv")
     assert timing.at_epochs
     np.testing.assert_allclose(timing.t_s - epochs, 0.03, atol=5e-4)
     assert "gnss.csv: the fix stamps scatter" in timing.note
@@ -103,7 +104,7 @@ def test_fixes_taken_at_their_stamps_keep_them():
     nominal = 0.2 * np.arange(1500)
     stamps = nominal + 0.03 + np.random.default_rng(6).uniform(-0.005, 0.005, nominal.size)
     lat, lon = fixes_at(stamps, noise_m=0.01)
-    timing = fix_times(stamps, lat, lon, *wheels(300.0))
+    timing = fix_times(stamps, lat, lon, wheels(300.0))
     assert not timing.at_epochs
     assert timing.t_s is stamps or np.array_equal(timing.t_s, stamps)
     assert "stamps kept (the fixes' own times)" in timing.note
@@ -112,7 +113,7 @@ def test_fixes_taken_at_their_stamps_keep_them():
 def test_stamps_on_the_grid_are_left_alone_without_a_word():
     stamps = 0.03 + 0.2 * np.arange(1500)
     lat, lon = fixes_at(stamps)
-    timing = fix_times(stamps, lat, lon, *wheels(300.0))
+    timing = fix_times(stamps, lat, lon, wheels(300.0))
     assert np.array_equal(timing.t_s, stamps) and not timing.at_epochs and timing.note is None
 
 
@@ -121,7 +122,7 @@ def test_a_car_that_hardly_moves_keeps_its_stamps_and_says_why():
     lat, lon = latlon_from_offsets_deg(52.4, -1.5, np.zeros(epochs.size), 0.1 * epochs / 300.0)
     stamps = epochs + np.random.default_rng(7).uniform(-0.005, 0.005, epochs.size)
     t_w = np.arange(0.0, 300.0, 0.01)
-    timing = fix_times(stamps, lat, lon, t_w, np.full(t_w.size, 0.001))
+    timing = fix_times(stamps, lat, lon, wheel_rolled(t_w, np.full(t_w.size, 0.001)))
     assert not timing.at_epochs and np.array_equal(timing.t_s, stamps)
     assert f"too few moving fix pairs (0 of {MIN_PAIRS})" in timing.note
 
@@ -130,7 +131,7 @@ def test_a_rate_no_receiver_has_keeps_its_stamps():
     stamps = np.arange(900) / 3.0 + np.random.default_rng(8).uniform(-0.005, 0.005, 900)
     assert receiver_period_s(stamps) is None
     lat, lon = fixes_at(stamps)
-    timing = fix_times(stamps, lat, lon, *wheels(300.0))
+    timing = fix_times(stamps, lat, lon, wheels(300.0))
     assert np.array_equal(timing.t_s, stamps) and timing.note is None
 
 
@@ -143,7 +144,7 @@ def test_a_receiver_back_on_another_phase_after_a_gap_is_fitted_run_by_run():
     found, _ = grid_epochs(stamps, 0.2)
     np.testing.assert_allclose(found - epochs, 0.03, atol=5e-4)
     lat, lon = fixes_at(epochs, noise_m=0.01)
-    timing = fix_times(stamps, lat, lon, *wheels(310.0))
+    timing = fix_times(stamps, lat, lon, wheels(310.0))
     assert timing.at_epochs
     np.testing.assert_allclose(timing.t_s - epochs, 0.03, atol=5e-4)
 
@@ -155,4 +156,4 @@ def test_a_receiver_s_jumps_do_not_decide():
     jumped = np.random.default_rng(10).choice(epochs.size, 30, replace=False)
     lat[jumped] += 5.0 / 111_000.0
     stamps = epochs + 0.03 + np.random.default_rng(11).uniform(-0.005, 0.005, epochs.size)
-    assert fix_times(stamps, lat, lon, *wheels(300.0)).at_epochs
+    assert fix_times(stamps, lat, lon, wheels(300.0)).at_epochs

@@ -43,6 +43,7 @@ stream whose rate is no receiver's, or too few moving fix pairs to tell
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -230,18 +231,18 @@ class FixTiming:
     note: str | None
 
 
-def _pair_spread_m(
-    t_fix: np.ndarray, step_m: np.ndarray, pairs: np.ndarray, t_w: np.ndarray, cum_w: np.ndarray
-) -> float:
-    """How far the fix-to-fix distances stray from the wheels' distance over the fixes'
-    times (the wheels scaled by the median ratio): 1.4826 x the median absolute
-    deviation, so a receiver's jumps and a few odd pairs do not decide."""
-    w = np.interp(t_fix, t_w, cum_w)
-    wheel = (w[1:] - w[:-1])[pairs]
-    d = step_m[pairs]
+# How far the wheels rolled between two times: ``rolled(start, end) -> (angle, valid)``
+# (:func:`rwhonet.data.streams.wheel_rolled`, the resampler's own integral of the speeds).
+Rolled = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+def _spread_m(step_m: np.ndarray, wheel: np.ndarray) -> float:
+    """How far the fix-to-fix distances stray from the wheels' over the same intervals
+    (scaled by the median ratio): 1.4826 x the median absolute deviation, so a
+    receiver's jumps and a few odd pairs do not decide."""
     ok = wheel > 0
-    scale = float(np.median(d[ok] / wheel[ok])) if ok.any() else 1.0
-    r = d - scale * wheel
+    scale = float(np.median(step_m[ok] / wheel[ok])) if ok.any() else 1.0
+    r = step_m - scale * wheel
     return 1.4826 * float(np.median(np.abs(r - np.median(r))))
 
 
@@ -249,8 +250,7 @@ def fix_times(
     t_s: np.ndarray,
     lat_deg: np.ndarray,
     lon_deg: np.ndarray,
-    t_wheel_s: np.ndarray,
-    wheel_rad_s: np.ndarray,
+    rolled: Rolled,
     where: str = "GNSS",
 ) -> FixTiming:
     """The fixes' times: their stamps, or the receiver grid's epochs where the wheels say so.
@@ -259,8 +259,9 @@ def fix_times(
         t_s: the fixes' stamps (strictly increasing), s.
         lat_deg: their latitudes, deg (real fixes only).
         lon_deg: their longitudes, deg.
-        t_wheel_s: a wheel-speed stream's times (strictly increasing), s.
-        wheel_rad_s: its wheel speed (one wheel, or the mean of several), rad/s.
+        rolled: how far the wheels rolled between two times, rad, and whether the wheel
+            speeds cover the interval (:data:`Rolled`); asked only when the stamps
+            scatter about a grid.
         where: the stream, for the note.
 
     Returns:
@@ -274,23 +275,19 @@ def fix_times(
     if grid is None:
         return FixTiming(t, False, None)
     epochs, scatter = grid
-    rate = f"{1.0 / period:g} Hz"
     if scatter < MIN_SCATTER_S:
         return FixTiming(t, False, None)
-    tw = np.asarray(t_wheel_s, np.float64)
-    omega = np.asarray(wheel_rad_s, np.float64)
-    ok = np.isfinite(omega)
-    tw, omega = tw[ok], omega[ok]
-    cum = np.concatenate([[0.0], np.cumsum(0.5 * (omega[1:] + omega[:-1]) * np.diff(tw))])
     step_m = local_step_distance_m(np.asarray(lat_deg), np.asarray(lon_deg))
-    dt = np.diff(t)
-    inside = (t[:-1] >= tw[0]) & (t[1:] <= tw[-1]) & (np.diff(epochs) > 0)
+    wheel_stamps, on_stamps_ok = rolled(t[:-1], t[1:])
+    wheel_epochs, on_epochs_ok = rolled(epochs[:-1], epochs[1:])
     pairs = np.flatnonzero(
-        inside
-        & (dt <= 1.5 * period)
+        on_stamps_ok
+        & on_epochs_ok
+        & (np.diff(t) <= 1.5 * period)
         & (step_m >= MIN_PAIR_SPEED_M_S * period)
         & np.isfinite(step_m)
     )
+    rate = f"{1.0 / period:g} Hz"
     stamped = f"{where}: the fix stamps scatter {scatter * 1000:.1f} ms about a regular {rate} grid"
     if pairs.size < MIN_PAIRS:
         return FixTiming(
@@ -299,8 +296,8 @@ def fix_times(
             f"{stamped}; too few moving fix pairs ({pairs.size} of {MIN_PAIRS}) for the wheel "
             "speeds to tell whether the fixes were taken at the grid's epochs: stamps kept",
         )
-    on_stamps = _pair_spread_m(t, step_m, pairs, tw, cum)
-    on_epochs = _pair_spread_m(epochs, step_m, pairs, tw, cum)
+    on_stamps = _spread_m(step_m[pairs], wheel_stamps[pairs])
+    on_epochs = _spread_m(step_m[pairs], wheel_epochs[pairs])
     fits = (
         f"the distance between consecutive fixes less the wheels' over the interval "
         f"scatters {on_epochs:.3f} m (1.4826 MAD) at the grid's epochs, {on_stamps:.3f} m "

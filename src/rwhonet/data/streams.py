@@ -74,10 +74,11 @@ Glitches
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
 from scipy.ndimage import maximum_filter1d
 
 from rwhonet.data import canonical as c
@@ -571,7 +572,7 @@ def resample(
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
     gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
     timing = fix_times(
-        gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], *_wheel_signal(streams), streams.gnss.where()
+        gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], _wheel_rolled(streams), streams.gnss.where()
     )
     gnss_t = timing.t_s
     if timing.note:  # fixes moved: said by predict too, as what the grid changes
@@ -670,13 +671,42 @@ def resample(
     )
 
 
-def _wheel_signal(streams: DriveStreams) -> tuple[np.ndarray, np.ndarray]:
-    """The first wheel stream's times and the magnitude of its wheels' mean speed (rad/s;
-    NaN where a wheel has no value): how far the car rolled, for
+def wheel_rolled(
+    t_s: np.ndarray, wheel_rad_s: np.ndarray | Sequence[np.ndarray]
+) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """How far a wheel stream says the car rolled between two times, rad.
+
+    Args:
+        t_s: the stream's times (strictly increasing), s.
+        wheel_rad_s: one wheel's speed, or several (their mean's magnitude is taken),
+            rad/s; samples without a value are left out.
+
+    Returns:
+        ``rolled(start, end) -> (angle, valid)``: the difference of the speed's
+        cumulative trapezoid integral, taken linearly between samples (at 50-100 Hz
+        within ``a dt^2 / 8`` of :func:`window_means`' exact integral), and whether the
+        samples cover the interval. The integral is made on the first call.
+    """
+    made: list[np.ndarray] = []
+
+    def rolled(start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if not made:
+            omega = np.abs(np.mean(np.atleast_2d(np.asarray(wheel_rad_s, np.float64)), axis=0))
+            ok = np.isfinite(omega)
+            t, omega = np.asarray(t_s, np.float64)[ok], omega[ok]
+            made[:] = [t, cumulative_trapezoid(omega, t, initial=0.0)]
+        t, cum = made
+        angle = np.interp(end, t, cum) - np.interp(start, t, cum)
+        return angle, (start >= t[0]) & (end <= t[-1])
+
+    return rolled
+
+
+def _wheel_rolled(streams: DriveStreams) -> Callable:
+    """:func:`wheel_rolled` of the first wheel stream's wheels, for
     :func:`rwhonet.data.fixtimes.fix_times`."""
     s = streams.wheels[0]
-    wheels = [np.asarray(s.channels[w], np.float64) for w in c.WHEELS if w in s.channels]
-    return np.asarray(s.t_s, np.float64), np.abs(np.mean(wheels, axis=0))
+    return wheel_rolled(s.t_s, [s.channels[w] for w in c.WHEELS if w in s.channels])
 
 
 def _finite_rows(
