@@ -18,6 +18,7 @@ from rwhonet.data.quality import assess
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from rwhonet.features.seconds import segment_seconds
+from rwhonet.geo import offsets_m
 
 REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
 RAV4_RADIUS_M = 0.362  # 225/65 R17, unloaded (the folder's README)
@@ -50,12 +51,14 @@ def test_the_real_drive_reads_as_the_readme_says(real):
     assert len(sec) == 59 and sec.t_s[57] == pytest.approx(46467.0)
     assert sec.disp_gnss_m[:58].sum() == pytest.approx(990.9, rel=0.005)
     assert wheel_m[:58].sum() == pytest.approx(979.0, rel=0.005)
-    # Coordinates untouched: each row's fix is the straight interpolation of the logged fixes.
+    # Coordinates untouched: each row's position lies between the logged fixes around it, along
+    # the wheels' and gyro's path, within 1 cm of the straight interpolation (measured: 7 mm
+    # at most, 1.3 mm RMS: between fixes 0.1 s apart the path hardly leaves the chord).
     t = drive[c.T_S]
-    for name in (c.LAT_DEG, c.LON_DEG):
-        np.testing.assert_allclose(
-            drive[name], np.interp(t, gnss.t_s, gnss.channels[name]), rtol=0, atol=1e-12
-        )
+    lat, lon = (np.interp(t, gnss.t_s, gnss.channels[k]) for k in (c.LAT_DEG, c.LON_DEG))
+    east, north = offsets_m(lat[0], lon[0], drive[c.LAT_DEG], drive[c.LON_DEG])
+    east0, north0 = offsets_m(lat[0], lon[0], lat, lon)
+    assert np.hypot(east - east0, north - north0).max() < 0.01
     assert drive[c.LAT_DEG].mean() == pytest.approx(37.72, abs=0.01)
     assert drive[c.LON_DEG].mean() == pytest.approx(-122.47, abs=0.01)
 

@@ -14,10 +14,12 @@ from rwhonet.data.streams import (
     grid_times,
     interpolate_fixes,
     resample,
+    travelled_path,
     wheel_speed_rad_s,
     window_means,
 )
 from rwhonet.errors import InputError
+from rwhonet.geo import latlon_from_offsets_deg, offsets_m
 
 R = 0.3
 
@@ -95,6 +97,113 @@ def test_fixes_across_the_antimeridian_interpolate_the_short_way():
     )
     assert ok.all()
     np.testing.assert_allclose(out[c.LON_DEG], [179.99995, -180.0], atol=1e-9)
+
+
+def _circle(t, radius_m=40.0, v=12.0, lat0=-33.9, lon0=151.2):
+    """A car on a circle (counter-clockwise, starting east-bound at the origin): lat, lon."""
+    a = v * t / radius_m
+    east, north = radius_m * np.sin(a), radius_m * (1.0 - np.cos(a))
+    return latlon_from_offsets_deg(lat0, lon0, east, north)
+
+
+def _placed_m(out, truth_lat, truth_lon, lat0=-33.9, lon0=151.2):
+    e, n = offsets_m(lat0, lon0, out[c.LAT_DEG], out[c.LON_DEG])
+    te, tn = offsets_m(lat0, lon0, truth_lat, truth_lon)
+    return np.hypot(e - te, n - tn)
+
+
+def test_between_1_hz_fixes_the_wheels_and_gyro_place_a_position_on_the_arc_not_the_chord():
+    # 12 m/s round a 40 m circle, fixes each second half a second off the rows: the chord's
+    # middle lies a sagitta, r (1 - cos(v T / 2r)), ~0.45 m, inside the arc.
+    t_w = np.arange(0.0, 20.0, 0.01)
+    omega = np.full(t_w.size, 12.0 / R)
+    t_g = np.arange(0.5, 20.0, 1.0)
+    lat, lon = _circle(t_g)
+    at = np.arange(1.0, 19.0, 0.1)
+    truth = _circle(at)
+    fixes = {c.LAT_DEG: lat, c.LON_DEG: lon}
+    linear, ok = interpolate_fixes(t_g, fixes, at, 1.5)
+    sagitta = 40.0 * (1.0 - np.cos(12.0 / 80.0))
+    assert ok.all() and _placed_m(linear, *truth).max() == pytest.approx(sagitta, rel=0.02)
+    # the wheels alone: the chord, walked by the distance rolled (the same, at a constant speed)
+    straight = interpolate_fixes(t_g, fixes, at, 1.5, travelled_path(t_w, omega))[0]
+    np.testing.assert_allclose(_placed_m(straight, *truth), _placed_m(linear, *truth), atol=1e-3)
+    # turned by the gyro: on the arc, whatever the tyre radius
+    yaw = np.full(t_w.size, 12.0 / 40.0)
+    on_arc = interpolate_fixes(
+        t_g, fixes, at, 1.5, travelled_path(t_w, 1.07 * omega, 0.2, t_w, yaw)
+    )
+    assert _placed_m(on_arc[0], *truth).max() < 1e-5  # 2 µm: the 0.01 s steps of the sum
+    # a gyro bias b bends the L = 12 m between fixes T = 1 s apart by L b T / 8: 2.6 cm at 1 deg/s
+    biased = travelled_path(t_w, omega, 0.2, t_w, yaw + np.radians(1.0))
+    bent = _placed_m(interpolate_fixes(t_g, fixes, at, 1.5, biased)[0], *truth).max()
+    assert bent == pytest.approx(12.0 * np.radians(1.0) / 8.0, rel=0.02)
+
+
+def test_along_the_path_an_accelerating_car_is_placed_where_its_wheels_say():
+    # From rest at 2 m/s^2 north, fixes at 1 Hz: in time the middle is a T^2 / 8 = 0.25 m
+    # ahead; along the wheels' distance, exact.
+    t_w = np.arange(0.0, 10.0, 0.01)
+    t_g = np.arange(0.5, 10.0, 1.0)
+    lat, lon = latlon_from_offsets_deg(52.0, -1.5, 0.0 * t_g, t_g**2)
+    at = np.arange(1.0, 9.0, 0.1)
+    truth = latlon_from_offsets_deg(52.0, -1.5, 0.0 * at, at**2)
+    fixes = {c.LAT_DEG: lat, c.LON_DEG: lon}
+    linear = interpolate_fixes(t_g, fixes, at, 1.5)[0]
+    along = interpolate_fixes(t_g, fixes, at, 1.5, travelled_path(t_w, 2.0 * t_w / R))[0]
+    err = lambda o: _placed_m(o, *truth, 52.0, -1.5)  # noqa: E731
+    assert err(linear).max() == pytest.approx(0.25, rel=0.01)
+    assert err(along).max() < 1e-4
+
+
+def test_without_an_unbroken_path_or_with_the_car_at_rest_positions_go_linearly_in_time():
+    t_g = np.arange(0.5, 10.0, 1.0)
+    lat, lon = latlon_from_offsets_deg(52.0, -1.5, 0.0 * t_g, t_g**2)
+    fixes = {c.LAT_DEG: lat, c.LON_DEG: lon}
+    at = np.arange(1.0, 9.0, 0.1)
+    linear = interpolate_fixes(t_g, fixes, at, 1.5)[0]
+    t_w = np.arange(0.0, 10.0, 0.01)
+    # the wheels pause 0.5 s within 4.5-5.5 s: that second goes in time, the others along
+    gap = (t_w < 4.8) | (t_w > 5.3)
+    broken = interpolate_fixes(t_g, fixes, at, 1.5, travelled_path(t_w[gap], 2.0 * t_w[gap] / R))
+    inside = (at > 4.5) & (at < 5.5)
+    np.testing.assert_array_equal(broken[0][c.LAT_DEG][inside], linear[c.LAT_DEG][inside])
+    assert np.abs(broken[0][c.LAT_DEG][~inside] - linear[c.LAT_DEG][~inside]).max() > 1e-7
+    # wheels that hardly turn (0.5 rad a second) say nothing of where the car is
+    still = interpolate_fixes(t_g, fixes, at, 1.5, travelled_path(t_w, np.full(t_w.size, 0.5)))
+    np.testing.assert_array_equal(still[0][c.LAT_DEG], linear[c.LAT_DEG])
+    # nor do wheel speeds that end before the fixes do
+    short = interpolate_fixes(t_g, fixes, at, 1.5, travelled_path(t_w[:300], 2.0 * t_w[:300] / R))
+    np.testing.assert_array_equal(short[0][c.LAT_DEG][at > 3.5], linear[c.LAT_DEG][at > 3.5])
+
+
+def test_along_the_path_across_the_antimeridian():
+    t_w = np.arange(0.0, 4.0, 0.01)
+    t_g = np.array([0.5, 1.5, 2.5, 3.5])
+    lat, lon = latlon_from_offsets_deg(-17.0, 179.99995, 12.0 * t_g - 18.0, 0.0 * t_g)
+    assert lon[0] > 179.0 and lon[-1] < -179.0
+    at = np.arange(1.0, 3.5, 0.1)
+    out, ok = interpolate_fixes(
+        t_g, {c.LAT_DEG: lat, c.LON_DEG: lon}, at, 1.5, travelled_path(t_w, np.full(400, 40.0))
+    )
+    truth = latlon_from_offsets_deg(-17.0, 179.99995, 12.0 * at - 18.0, 0.0 * at)
+    assert ok.all() and _placed_m(out, *truth, -17.0, 179.99995).max() < 1e-4
+
+
+def test_resample_places_1_hz_fixes_along_the_gyro_s_turn():
+    t_w = np.arange(0.0, 30.0, 0.01) + 0.003
+    t_g = np.arange(0.5, 30.0, 1.0)
+    lat, lon = _circle(t_g)
+    drive = DriveStreams(
+        (_wheels(t_w, np.full(t_w.size, 12.0)),),
+        _gnss(t_g, lat, lon),
+        (Stream("gyro", "gyro.csv", t_w, {c.YAW_RATE_RAD_S: np.full(t_w.size, 0.3)}),),
+    )
+    d = resample(drive, max_fix_gap_s=1.5).drive.columns
+    truth = _circle(d[c.T_S])
+    assert _placed_m(d, *truth).max() < 1e-4
+    plain = resample(DriveStreams(drive.wheels, drive.gnss), max_fix_gap_s=1.5).drive.columns
+    assert _placed_m(plain, *truth).max() > 0.4
 
 
 def test_resample_gives_the_canonical_drive_on_whole_tenths():

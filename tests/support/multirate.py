@@ -44,8 +44,12 @@ POLICY = GnssPolicy(
     max_gap_s=0.5,
     min_segment_s=30.0,
 )
-# Every rate pair of the issue: CAN at 50 and 100 Hz, GNSS at 1, 5 and 10 Hz.
-SPECS = tuple(StreamSpec(w, g) for w in (50.0, 100.0) for g in (1.0, 5.0, 10.0))
+# Every rate pair of the issue: CAN at 50 and 100 Hz, GNSS at 1, 5 and 10 Hz; and at 50 Hz
+# with an ESC gyro at 50 Hz too (positions between fixes along the wheels' path, turned by it).
+SPECS = (
+    *(StreamSpec(w, g) for w in (50.0, 100.0) for g in (1.0, 5.0, 10.0)),
+    *(StreamSpec(50.0, g, gyro_hz=50.0) for g in (1.0, 5.0, 10.0)),
+)
 START_S = 45000.0  # the clock of both versions: seconds of the day
 
 
@@ -116,7 +120,9 @@ def compare(
     radius = vehicle.nominal_radius_m
     tables = stream_tables(state, vehicle, sim, ss, spec, START_S, can_noise)
     files = write_stream_csvs(tables, folder)
-    streams = read_stream_csvs(list(files.values()), signal_map(), radius)
+    streams = read_stream_csvs(
+        list(files.values()), signal_map(gyro=tables.gyro is not None), radius
+    )
     grid = resample(streams, nominal_radius_m=radius).drive
     a = per_second(native, radius)
     b = per_second(grid.columns, radius)

@@ -38,15 +38,24 @@ Fix times: the receiver's epochs where the wheels say so
     better than the stamps, the fixes are placed at the epochs
     (:func:`rwhonet.data.fixtimes.fix_times`; the drive's notes say which, and why).
 
-Positions: interpolated between fixes, never across a gap, never extrapolated
+Positions: along the path between fixes, never across a gap, never extrapolated
     A fix at latitude = longitude = 0 is what a receiver without a fix writes: it is
     no fix (:func:`rwhonet.data.fixes.no_fix_rows`), left out as a sample without a
-    value is. Latitude and longitude (longitude unwrapped, so the antimeridian is no jump)
-    are interpolated linearly in time between the two fixes around ``t_k``, only
-    when they are at most ``max_fix_gap_s`` apart; before the first fix, after
-    the last, and between fixes further apart, a row has no position. Speed,
-    height and course are interpolated the same way (course unwrapped); the
-    satellite count of a row is the smaller of its two fixes'.
+    value is. A row ``t_k`` gets a position only between two fixes around it at most
+    ``max_fix_gap_s`` apart; before the first fix, after the last, and between
+    fixes further apart, it has none. The position is placed *along the car's path*
+    between the two fixes (:func:`travelled_path`): the wheels' rolled distance,
+    turned by the gyro's yaw where the drive has one, traces the path's shape
+    between the fixes up to a rotation and a scale, which the two fixes fix. A
+    position taken linearly in time between fixes a second apart (1 Hz receivers)
+    lies on the chord: a quarter of a metre behind an accelerating car at 2 m/s^2,
+    and up to the sagitta inside a curve (45 cm for 12 m round a 40 m radius),
+    errors every per-second displacement, label and score take
+    (docs/readers.md, "What it costs"). Where the wheels pause within the interval,
+    or roll less than :data:`MIN_PATH_RAD`, the position is taken linearly in time
+    (longitude unwrapped, so the antimeridian is no jump). Speed, height and course
+    are interpolated linearly in time (course unwrapped); the satellite count of a
+    row is the smaller of its two fixes'.
 
 Gaps
     A rate's row needs samples covering its whole window, with no step between
@@ -88,12 +97,16 @@ from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.problems import row_problems
 from rwhonet.errors import InputError, Problem
+from rwhonet.geo.geodesic import wgs84
 
 GRID_PERIOD_S = 0.1
 MAX_WHEEL_GAP_S = 0.2  # 10 to 20 sample periods of a 50-100 Hz CAN stream
 FIX_GAP_FACTOR = 1.5  # default max_fix_gap_s: this x the median fix interval...
 MIN_FIX_GAP_S = 0.25  # ...and at least this (one missed fix of a 10 Hz receiver)
 SPLIT_GAP_S = 0.5  # validate.gnss.max_gap_s: a hole in the grid must be longer
+# Between two fixes the car's wheels rolled less than this (rad, ~0.3 m of a 0.3 m tyre):
+# the position is interpolated in time, not along the path (which says nothing then).
+MIN_PATH_RAD = 1.0
 # A wheel stream with more of its steps longer than max_wheel_gap_s is too slow for the
 # grid (wheels logged at 4-5 Hz, or a time in ms read as s), not one with dropouts: refused.
 SLOW_STREAM_SHARE = 0.1
@@ -443,7 +456,11 @@ def window_means(
 
 
 def interpolate_fixes(
-    t_s: np.ndarray, fixes: Mapping[str, np.ndarray], at_s: np.ndarray, max_gap_s: float
+    t_s: np.ndarray,
+    fixes: Mapping[str, np.ndarray],
+    at_s: np.ndarray,
+    max_gap_s: float,
+    path: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Interpolate GNSS fixes at given times, only between fixes at most ``max_gap_s`` apart.
 
@@ -453,6 +470,11 @@ def interpolate_fixes(
             ``n_sats``, ``speed_gnss_m_s``, ``heading_deg``, ``height_m``.
         at_s: the times wanted (n,).
         max_gap_s: fixes further apart than this are not interpolated between.
+        path: the car's path as its sensors trace it (:func:`travelled_path`), or None.
+            Given, a position between two fixes is placed along it (the module
+            docstring, "Positions") wherever it covers both fixes and the car rolled
+            at least :data:`MIN_PATH_RAD` between them; elsewhere, and for every other
+            channel, linearly in time.
 
     Returns:
         ``(values, valid)``: each channel at ``at_s`` (longitude in [-180, 180), course in
@@ -468,6 +490,7 @@ def interpolate_fixes(
     span = t[j + 1] - t[j]
     valid = ((x >= t[0]) & (x <= t[-1]) & (span <= max_gap_s)) | on_fix
     w = np.clip((x - t[j]) / span, 0.0, 1.0)
+    along = _along_path(path, t, x, j, valid & ~on_fix) if path is not None else None
     out = {}
     for name, values in fixes.items():
         a = np.asarray(values, dtype=np.float64)
@@ -479,12 +502,133 @@ def interpolate_fixes(
             out[name] = np.minimum(a[j], a[j + 1])
             continue
         value = a[j] + w * (a[j + 1] - a[j])
+        if along is not None and name in (c.LAT_DEG, c.LON_DEG):
+            value = _placed(along, name, fixes, value, j)
         if name == c.LON_DEG:
             value = (value + 180.0) % 360.0 - 180.0
         elif name == c.HEADING_DEG:
             value = value % 360.0
         out[name] = value
     return out, valid
+
+
+def travelled_path(
+    t_s: np.ndarray,
+    wheel_rad_s: np.ndarray | Sequence[np.ndarray],
+    max_gap_s: float = MAX_WHEEL_GAP_S,
+    yaw_t_s: np.ndarray | None = None,
+    yaw_rad_s: np.ndarray | None = None,
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The car's path as its wheels (and gyro) trace it, up to a rotation and a scale.
+
+    Args:
+        t_s: the wheel stream's times (strictly increasing), s.
+        wheel_rad_s: one wheel's speed, or several (their mean's magnitude), rad/s;
+            samples without a value are left out.
+        max_gap_s: a step between wheel samples longer than this breaks the path.
+        yaw_t_s: the gyro's times, or None (no gyro: a straight path).
+        yaw_rad_s: its yaw rate (ISO 8855, positive turning left), rad/s.
+
+    Returns:
+        ``path(times) -> (z, piece)``: the complex point (east real, north imaginary,
+        in radians the wheels rolled) the car reached at each time, the rolled angle's
+        cumulative trapezoid integral turned by the gyro's (``z = sum exp(i psi) ds``
+        over the wheel samples, ``psi`` the yaw rate's cumulative integral at them), and
+        the stretch of unbroken wheel samples each time lies in (-1 outside them). Between
+        two times of one stretch, ``z``'s difference is the car's displacement turned and
+        scaled by constants: the gyro's heading offset, the tyre radius and a wheel scale
+        error cancel in :func:`interpolate_fixes`' ratio. A gyro bias ``b`` does not: it
+        bends the path between fixes ``T`` apart and ``L`` metres of chord by ``L b T / 8``
+        at most (2.6 cm for 12 m in a second at 1 deg/s; a straight path without a gyro
+        misses a curve's arc by its sagitta, ``L^2 / (8 radius)``, 45 cm for 12 m on a 40 m
+        radius).
+    """
+    omega = np.abs(np.mean(np.atleast_2d(np.asarray(wheel_rad_s, np.float64)), axis=0))
+    ok = np.isfinite(omega)
+    t, omega = np.asarray(t_s, np.float64)[ok], omega[ok]
+    if t.size < 2:  # no path: every time outside it
+        return lambda x: (np.zeros(np.size(x), np.complex128), np.full(np.size(x), -1))
+    rolled = np.diff(cumulative_trapezoid(omega, t, initial=0.0))
+    if yaw_t_s is None or yaw_rad_s is None:
+        step = rolled.astype(np.complex128)
+    else:
+        ty, r = np.asarray(yaw_t_s, np.float64), np.asarray(yaw_rad_s, np.float64)
+        good = np.isfinite(ty) & np.isfinite(r)
+        psi = np.interp(t, ty[good], cumulative_trapezoid(r[good], ty[good], initial=0.0))
+        step = rolled * np.exp(0.5j * (psi[1:] + psi[:-1]))
+    z = np.concatenate([[0.0], np.cumsum(step)])
+    piece = np.concatenate([[0], np.cumsum(np.diff(t) > max_gap_s)])
+
+    def path(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x = np.asarray(x, np.float64)
+        i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
+        u = np.clip((x - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
+        inside = (x >= t[0]) & (x <= t[-1])
+        at_end = x == t[-1]  # the last sample ends the last step's stretch
+        return z[i] + u * (z[i + 1] - z[i]), np.where(
+            inside, np.where(at_end, piece[-1], piece[i]), -1
+        )
+
+    return path
+
+
+def _along_path(
+    path: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    t: np.ndarray,
+    x: np.ndarray,
+    j: np.ndarray,
+    between: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where along the path between fixes ``j`` and ``j + 1`` each time lies.
+
+    Returns:
+        ``(use, q)``: the times placed along the path (between two fixes of one unbroken
+        stretch of it, the wheels rolling at least :data:`MIN_PATH_RAD` between them), and
+        for those the complex ratio ``(z(x) - z(t_j)) / (z(t_j+1) - z(t_j))``.
+    """
+    use = between.copy()
+    q = np.zeros(x.size, dtype=np.complex128)
+    if not use.any():
+        return use, q
+    k = np.flatnonzero(use)
+    zx, px = path(x[k])
+    za, pa = path(t[j[k]])
+    zb, pb = path(t[j[k] + 1])
+    d = zb - za
+    ok = (pa >= 0) & (pa == pb) & (px == pa) & (np.abs(d) >= MIN_PATH_RAD)
+    use[k] = ok
+    q[k[ok]] = (zx[ok] - za[ok]) / d[ok]
+    return use, q
+
+
+def _placed(
+    along: tuple[np.ndarray, np.ndarray],
+    name: str,
+    fixes: Mapping[str, np.ndarray],
+    linear: np.ndarray,
+    j: np.ndarray,
+) -> np.ndarray:
+    """Latitude or longitude (unwrapped) along the path where :func:`_along_path` placed it.
+
+    The chord between the two fixes, in a local plane where a degree of longitude and one
+    of latitude are the same metres (east scaled by ``cos(lat) N / M``, the WGS84 normal
+    and meridional radii: ``(1 - e^2 sin^2 lat) / (1 - e^2)``), so that turning it is a
+    rotation, is turned and scaled by the ratio ``q``.
+    """
+    use, q = along
+    if not use.any():
+        return linear
+    k = np.flatnonzero(use)
+    lat = np.asarray(fixes[c.LAT_DEG], np.float64)
+    lon = np.unwrap(np.asarray(fixes[c.LON_DEG], np.float64), period=360.0)
+    a, b = j[k], j[k] + 1
+    mid = np.radians(0.5 * (lat[a] + lat[b]))
+    e2 = wgs84().es
+    scale = np.cos(mid) * (1.0 - e2 * np.sin(mid) ** 2) / (1.0 - e2)
+    offset = q[k] * ((lon[b] - lon[a]) * scale + 1j * (lat[b] - lat[a]))
+    out = linear.copy()
+    out[k] = lat[a] + offset.imag if name == c.LAT_DEG else lon[a] + offset.real / scale
+    return out
 
 
 def default_fix_gap_s(t_s: np.ndarray) -> float:
@@ -578,7 +722,11 @@ def resample(
     if timing.note:  # fixes moved: said by predict too, as what the grid changes
         (lost if timing.at_epochs else notes).append(timing.note)
     fixes, fix_ok = interpolate_fixes(
-        gnss_t, {k: v for k, v in gnss.items() if k in FIX_CHANNELS}, grid, fix_gap
+        gnss_t,
+        {k: v for k, v in gnss.items() if k in FIX_CHANNELS},
+        grid,
+        fix_gap,
+        _travelled_path(streams, max_wheel_gap_s),
     )
     if require_fix:
         keep &= fix_ok
@@ -707,6 +855,25 @@ def _wheel_rolled(streams: DriveStreams) -> Callable:
     :func:`rwhonet.data.fixtimes.fix_times`."""
     s = streams.wheels[0]
     return wheel_rolled(s.t_s, [s.channels[w] for w in c.WHEELS if w in s.channels])
+
+
+def _travelled_path(streams: DriveStreams, max_gap_s: float) -> Callable:
+    """:func:`travelled_path` of the first wheel stream's wheels, turned by the drive's
+    gyro where a stream carries a yaw rate with two samples or more."""
+    s = streams.wheels[0]
+    yaw = [
+        r
+        for r in (*streams.wheels, *streams.extra)
+        if c.YAW_RATE_RAD_S in r.channels
+        and np.isfinite(np.asarray(r.channels[c.YAW_RATE_RAD_S], np.float64)).sum() >= 2
+    ]
+    return travelled_path(
+        s.t_s,
+        [s.channels[w] for w in c.WHEELS if w in s.channels],
+        max_gap_s,
+        yaw[0].t_s if yaw else None,
+        yaw[0].channels[c.YAW_RATE_RAD_S] if yaw else None,
+    )
 
 
 def _finite_rows(

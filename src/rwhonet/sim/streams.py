@@ -57,30 +57,36 @@ class StreamSpec:
         wheel_jitter: each CAN stamp is off its nominal instant by up to this fraction of
             the CAN period (uniform), as bus arbitration and logger buffering shift them.
         gnss_jitter_s: each fix's stamp is off by up to this (uniform).
+        gyro_hz: the yaw-rate stream's rate (its stamps jittered as the wheels'), or 0
+            for none.
     """
 
     wheel_hz: float
     gnss_hz: float
     wheel_jitter: float = 0.25
     gnss_jitter_s: float = 0.005
+    gyro_hz: float = 0.0
 
     @property
     def name(self) -> str:
-        """``wheels 100 Hz, GNSS 1 Hz``."""
-        return f"wheels {self.wheel_hz:g} Hz, GNSS {self.gnss_hz:g} Hz"
+        """``wheels 100 Hz, GNSS 1 Hz`` (``, gyro 50 Hz`` with one)."""
+        gyro = f", gyro {self.gyro_hz:g} Hz" if self.gyro_hz else ""
+        return f"wheels {self.wheel_hz:g} Hz, GNSS {self.gnss_hz:g} Hz{gyro}"
 
 
 @dataclass(frozen=True)
 class StreamTables:
-    """One drive as streams: the wheel speeds (rad/s) and the fixes, each with its times."""
+    """One drive as streams: the wheel speeds (rad/s), the fixes and optionally the yaw
+    rate (rad/s, ISO 8855), each with its times."""
 
     wheels: pd.DataFrame  # t_s, omega_fl_rad_s, omega_fr_rad_s, omega_rl_rad_s, omega_rr_rad_s
     gnss: pd.DataFrame  # t_s, lat_deg, lon_deg, n_sats
+    gyro: pd.DataFrame | None = None  # t_s, yaw_rate_rad_s
 
     @property
     def n_rows(self) -> int:
-        """Samples over both streams."""
-        return len(self.wheels) + len(self.gnss)
+        """Samples over every stream."""
+        return len(self.wheels) + len(self.gnss) + (0 if self.gyro is None else len(self.gyro))
 
 
 def fine_truth(
@@ -183,7 +189,8 @@ def stream_tables(
     start_s: float = 0.0,
     can_noise: bool = False,
 ) -> StreamTables:
-    """The drive as a logger's streams: jittered CAN wheel speeds, fixes at a random phase.
+    """The drive as a logger's streams: jittered CAN wheel speeds, fixes at a random phase,
+    and the ideal yaw rate at jittered stamps where ``spec.gyro_hz``.
 
     Args:
         state: the fine ground truth (:func:`fine_truth`).
@@ -195,7 +202,7 @@ def stream_tables(
         can_noise: the simulator's CAN model on the wheel speeds.
 
     Returns:
-        The two streams, times on the same clock as :func:`native_drive`.
+        The streams, times on the same clock as :func:`native_drive`.
     """
     truth_t = state.motion.t_s
     end = float(truth_t[-1])
@@ -220,7 +227,23 @@ def stream_tables(
     gnss = pd.DataFrame(
         {c.T_S: start_s + t_g, c.LAT_DEG: lat, c.LON_DEG: lon, c.N_SATS: np.full(t_g.size, 9.0)}
     )
-    return StreamTables(wheels, gnss)
+    gyro = None
+    if spec.gyro_hz:
+        rng_gyro = child_rng(ss, key + 3)
+        step = 1.0 / spec.gyro_hz
+        nominal_y = np.arange(int(end / step) + 1) * step
+        t_y = (
+            nominal_y
+            + rng_gyro.uniform(-spec.wheel_jitter, spec.wheel_jitter, nominal_y.size) * step
+        )
+        t_y = np.sort(t_y[(t_y >= 0.0) & (t_y <= end)])
+        gyro = pd.DataFrame(
+            {
+                c.T_S: start_s + t_y,
+                c.YAW_RATE_RAD_S: np.interp(t_y, truth_t, state.motion.yaw_rate_rad_s),
+            }
+        )
+    return StreamTables(wheels, gnss, gyro)
 
 
 # How the stream files name their columns (a logger's own names), and the map that reads them.
@@ -231,6 +254,7 @@ WHEEL_COLUMNS = {
     c.OMEGA_RR: "WheelSpeed_RR",
 }
 GNSS_COLUMNS = {c.LAT_DEG: "Latitude", c.LON_DEG: "Longitude", c.N_SATS: "NumSV"}
+GYRO_COLUMNS = {c.YAW_RATE_RAD_S: "YawRate"}
 SIGNAL_MAP: dict[str, tuple[str, str]] = {
     "t": ("Time", "s"),
     "omega_fl": ("WheelSpeed_FL", "rad/s"),
@@ -244,14 +268,16 @@ SIGNAL_MAP: dict[str, tuple[str, str]] = {
 
 
 def write_stream_csvs(tables: StreamTables, folder: Path) -> dict[str, Path]:
-    """Write the streams as one CSV each (``wheels.csv``, ``gnss.csv``) under ``folder``.
+    """Write the streams as one CSV each (``wheels.csv``, ``gnss.csv``, and ``gyro.csv``
+    with a yaw rate) under ``folder``.
 
     Args:
         tables: the streams.
         folder: where to write them (created).
 
     Returns:
-        Stream name -> file. :data:`SIGNAL_MAP` reads them back.
+        Stream name -> file. :func:`signal_map` reads them back (``gyro=True`` with a yaw
+        rate).
     """
     import pyarrow as pa
     import pyarrow.csv as pa_csv
@@ -259,10 +285,10 @@ def write_stream_csvs(tables: StreamTables, folder: Path) -> dict[str, Path]:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     out = {}
-    for name, frame, columns in (
-        ("wheels", tables.wheels, WHEEL_COLUMNS),
-        ("gnss", tables.gnss, GNSS_COLUMNS),
-    ):
+    written = [("wheels", tables.wheels, WHEEL_COLUMNS), ("gnss", tables.gnss, GNSS_COLUMNS)]
+    if tables.gyro is not None:
+        written.append(("gyro", tables.gyro, GYRO_COLUMNS))
+    for name, frame, columns in written:
         names = {c.T_S: "Time", **columns}
         table = pa.table({names[k]: pa.array(frame[k].to_numpy(np.float64)) for k in names})
         path = folder / f"{name}.csv"
@@ -339,10 +365,10 @@ def write_comma2k19(tables: StreamTables, folder: Path, radius_m: float) -> Path
     return log
 
 
-def signal_map(with_time: bool = True) -> Mapping[str, object]:
-    """:data:`SIGNAL_MAP` as ``ColumnSpec`` entries (without ``t`` for MDF4)."""
+def signal_map(with_time: bool = True, gyro: bool = False) -> Mapping[str, object]:
+    """:data:`SIGNAL_MAP` as ``ColumnSpec`` entries (without ``t`` for MDF4; with the yaw
+    rate of ``gyro.csv`` where ``gyro``)."""
     from rwhonet.config import ColumnSpec
 
-    return {
-        k: ColumnSpec(col, unit) for k, (col, unit) in SIGNAL_MAP.items() if with_time or k != "t"
-    }
+    signals = {**SIGNAL_MAP, **({"yaw_rate": ("YawRate", "rad/s")} if gyro else {})}
+    return {k: ColumnSpec(col, unit) for k, (col, unit) in signals.items() if with_time or k != "t"}
