@@ -12,7 +12,7 @@ from rwhonet.data.fixtimes import (
     receiver_epochs,
     receiver_period_s,
 )
-from rwhonet.data.streams import wheel_rolled
+from rwhonet.data.streams import travelled_path
 from rwhonet.geo import latlon_from_offsets_deg
 
 RADIUS_M = 0.3
@@ -36,9 +36,9 @@ def fixes_at(t: np.ndarray, noise_m: float = 0.0, seed: int = 0) -> tuple[np.nda
 
 
 def wheels(duration_s: float):
-    """How far a 100 Hz wheel-speed stream of the car says it rolled (``wheel_rolled``)."""
+    """How far a 100 Hz wheel-speed stream of the car says it rolled (the path's ``rolled``)."""
     t = np.arange(0.0, duration_s, 0.01)
-    return wheel_rolled(t, speed(t) / RADIUS_M)
+    return travelled_path(t, speed(t) / RADIUS_M).rolled
 
 
 def arrival_stamps(epochs: np.ndarray, seed: int = 1) -> np.ndarray:
@@ -122,7 +122,7 @@ def test_a_car_that_hardly_moves_keeps_its_stamps_and_says_why():
     lat, lon = latlon_from_offsets_deg(52.4, -1.5, np.zeros(epochs.size), 0.1 * epochs / 300.0)
     stamps = epochs + np.random.default_rng(7).uniform(-0.005, 0.005, epochs.size)
     t_w = np.arange(0.0, 300.0, 0.01)
-    timing = fix_times(stamps, lat, lon, wheel_rolled(t_w, np.full(t_w.size, 0.001)))
+    timing = fix_times(stamps, lat, lon, travelled_path(t_w, np.full(t_w.size, 0.001)).rolled)
     assert not timing.at_epochs and np.array_equal(timing.t_s, stamps)
     assert f"too few moving fix pairs (0 of {MIN_PAIRS})" in timing.note
 

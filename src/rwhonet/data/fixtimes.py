@@ -47,6 +47,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import median_abs_deviation
 
 from rwhonet.geo import local_step_distance_m
 
@@ -139,7 +140,7 @@ def receiver_epochs(
     t_ref = float(t[half])
     residual = d - drift * (t - t_ref)
     offset = float(np.median(residual))
-    scatter = 1.4826 * float(np.median(np.abs(residual - offset)))
+    scatter = float(median_abs_deviation(residual, scale="normal"))
     if not scatter <= max_scatter_s:
         return None
     return EpochFit(offset, drift, t_ref, scatter, n)
@@ -232,7 +233,7 @@ class FixTiming:
 
 
 # How far the wheels rolled between two times: ``rolled(start, end) -> (angle, valid)``
-# (:func:`rwhonet.data.streams.wheel_rolled`, the resampler's own integral of the speeds).
+# (:meth:`rwhonet.data.streams.TravelledPath.rolled`, the resampler's own integral of the speeds).
 Rolled = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
@@ -243,7 +244,7 @@ def _spread_m(step_m: np.ndarray, wheel: np.ndarray) -> float:
     ok = wheel > 0
     scale = float(np.median(step_m[ok] / wheel[ok])) if ok.any() else 1.0
     r = step_m - scale * wheel
-    return 1.4826 * float(np.median(np.abs(r - np.median(r))))
+    return float(median_abs_deviation(r, scale="normal"))
 
 
 def fix_times(

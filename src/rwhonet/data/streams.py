@@ -83,7 +83,7 @@ Glitches
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -460,7 +460,7 @@ def interpolate_fixes(
     fixes: Mapping[str, np.ndarray],
     at_s: np.ndarray,
     max_gap_s: float,
-    path: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
+    path: TravelledPath | None = None,
 ) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Interpolate GNSS fixes at given times, only between fixes at most ``max_gap_s`` apart.
 
@@ -512,13 +512,53 @@ def interpolate_fixes(
     return out, valid
 
 
+@dataclass(frozen=True)
+class TravelledPath:
+    """The car's path as its wheels (and gyro) trace it (:func:`travelled_path`).
+
+    Attributes:
+        t_s: the wheel samples' times (those with a value), s.
+        rolled_rad: the rolled angle's cumulative trapezoid integral at them, rad.
+        z: the path's complex point at them (east real, north imaginary), rad.
+        piece: the unbroken stretch of wheel samples each begins (steps longer than the
+            gap limit break it).
+    """
+
+    t_s: np.ndarray
+    rolled_rad: np.ndarray
+    z: np.ndarray
+    piece: np.ndarray
+
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(z, piece)`` at times ``x``: the point reached, linear between samples, and
+        the stretch it lies in (-1 outside the samples)."""
+        t, x = self.t_s, np.asarray(x, np.float64)
+        if t.size < 2:
+            return np.zeros(x.size, np.complex128), np.full(x.size, -1)
+        i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
+        u = np.clip((x - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
+        inside = (x >= t[0]) & (x <= t[-1])
+        last = np.where(x == t[-1], self.piece[-1], self.piece[i])  # the end sample's own
+        return self.z[i] + u * (self.z[i + 1] - self.z[i]), np.where(inside, last, -1)
+
+    def rolled(self, start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """How far the wheels rolled between two times (rad; linear between samples, within
+        ``a dt^2 / 8`` of :func:`window_means`' exact integral at 50-100 Hz), and whether
+        the samples cover the interval: ``fix_times``' question."""
+        t, cum = self.t_s, self.rolled_rad
+        if t.size < 2:
+            return np.zeros(np.shape(start)), np.zeros(np.shape(start), dtype=bool)
+        angle = np.interp(end, t, cum) - np.interp(start, t, cum)
+        return angle, (start >= t[0]) & (end <= t[-1])
+
+
 def travelled_path(
     t_s: np.ndarray,
     wheel_rad_s: np.ndarray | Sequence[np.ndarray],
     max_gap_s: float = MAX_WHEEL_GAP_S,
     yaw_t_s: np.ndarray | None = None,
     yaw_rad_s: np.ndarray | None = None,
-) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+) -> TravelledPath:
     """The car's path as its wheels (and gyro) trace it, up to a rotation and a scale.
 
     Args:
@@ -530,50 +570,38 @@ def travelled_path(
         yaw_rad_s: its yaw rate (ISO 8855, positive turning left), rad/s.
 
     Returns:
-        ``path(times) -> (z, piece)``: the complex point (east real, north imaginary,
-        in radians the wheels rolled) the car reached at each time, the rolled angle's
-        cumulative trapezoid integral turned by the gyro's (``z = sum exp(i psi) ds``
-        over the wheel samples, ``psi`` the yaw rate's cumulative integral at them), and
-        the stretch of unbroken wheel samples each time lies in (-1 outside them). Between
-        two times of one stretch, ``z``'s difference is the car's displacement turned and
-        scaled by constants: the gyro's heading offset, the tyre radius and a wheel scale
-        error cancel in :func:`interpolate_fixes`' ratio. A gyro bias ``b`` does not: it
-        bends the path between fixes ``T`` apart and ``L`` metres of chord by ``L b T / 8``
-        at most (2.6 cm for 12 m in a second at 1 deg/s; a straight path without a gyro
-        misses a curve's arc by its sagitta, ``L^2 / (8 radius)``, 45 cm for 12 m on a 40 m
-        radius).
+        The path: called with times, ``(z, piece)``, the complex point (east real, north
+        imaginary, in radians the wheels rolled) the car reached at each time, the
+        rolled angle's cumulative trapezoid integral turned by the gyro's (``z = sum
+        exp(i psi) ds`` over the wheel samples, ``psi`` the yaw rate's cumulative integral
+        at them), and the stretch of unbroken wheel samples each time lies in (-1 outside
+        them). Between two times of one stretch, ``z``'s difference is the car's
+        displacement turned and scaled by constants: the gyro's heading offset, the tyre
+        radius and a wheel scale error cancel in :func:`interpolate_fixes`' ratio. A gyro
+        bias ``b`` does not: it bends the path between fixes ``T`` apart and ``L`` metres
+        of chord by ``L b T / 8`` at most (2.6 cm for 12 m in a second at 1 deg/s; a
+        straight path without a gyro misses a curve's arc by its sagitta,
+        ``L^2 / (8 radius)``, 45 cm for 12 m on a 40 m radius).
     """
     omega = np.abs(np.mean(np.atleast_2d(np.asarray(wheel_rad_s, np.float64)), axis=0))
     ok = np.isfinite(omega)
     t, omega = np.asarray(t_s, np.float64)[ok], omega[ok]
     if t.size < 2:  # no path: every time outside it
-        return lambda x: (np.zeros(np.size(x), np.complex128), np.full(np.size(x), -1))
-    rolled = np.diff(cumulative_trapezoid(omega, t, initial=0.0))
-    if yaw_t_s is None or yaw_rad_s is None:
-        step = rolled.astype(np.complex128)
-    else:
+        return TravelledPath(t, np.zeros(t.size), np.zeros(t.size, np.complex128), np.zeros(0))
+    cum = cumulative_trapezoid(omega, t, initial=0.0)
+    step = np.diff(cum).astype(np.complex128)
+    if yaw_t_s is not None and yaw_rad_s is not None:
         ty, r = np.asarray(yaw_t_s, np.float64), np.asarray(yaw_rad_s, np.float64)
         good = np.isfinite(ty) & np.isfinite(r)
         psi = np.interp(t, ty[good], cumulative_trapezoid(r[good], ty[good], initial=0.0))
-        step = rolled * np.exp(0.5j * (psi[1:] + psi[:-1]))
+        step *= np.exp(0.5j * (psi[1:] + psi[:-1]))
     z = np.concatenate([[0.0], np.cumsum(step)])
     piece = np.concatenate([[0], np.cumsum(np.diff(t) > max_gap_s)])
-
-    def path(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x = np.asarray(x, np.float64)
-        i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
-        u = np.clip((x - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
-        inside = (x >= t[0]) & (x <= t[-1])
-        at_end = x == t[-1]  # the last sample ends the last step's stretch
-        return z[i] + u * (z[i + 1] - z[i]), np.where(
-            inside, np.where(at_end, piece[-1], piece[i]), -1
-        )
-
-    return path
+    return TravelledPath(t, cum, z, piece)
 
 
 def _along_path(
-    path: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    path: TravelledPath,
     t: np.ndarray,
     x: np.ndarray,
     j: np.ndarray,
@@ -715,9 +743,8 @@ def resample(
 
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
     gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
-    timing = fix_times(
-        gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], _wheel_rolled(streams), streams.gnss.where()
-    )
+    path = _travelled_path(streams, max_wheel_gap_s)
+    timing = fix_times(gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], path.rolled, streams.gnss.where())
     gnss_t = timing.t_s
     if timing.note:  # fixes moved: said by predict too, as what the grid changes
         (lost if timing.at_epochs else notes).append(timing.note)
@@ -726,7 +753,7 @@ def resample(
         {k: v for k, v in gnss.items() if k in FIX_CHANNELS},
         grid,
         fix_gap,
-        _travelled_path(streams, max_wheel_gap_s),
+        path,
     )
     if require_fix:
         keep &= fix_ok
@@ -819,45 +846,7 @@ def resample(
     )
 
 
-def wheel_rolled(
-    t_s: np.ndarray, wheel_rad_s: np.ndarray | Sequence[np.ndarray]
-) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
-    """How far a wheel stream says the car rolled between two times, rad.
-
-    Args:
-        t_s: the stream's times (strictly increasing), s.
-        wheel_rad_s: one wheel's speed, or several (their mean's magnitude is taken),
-            rad/s; samples without a value are left out.
-
-    Returns:
-        ``rolled(start, end) -> (angle, valid)``: the difference of the speed's
-        cumulative trapezoid integral, taken linearly between samples (at 50-100 Hz
-        within ``a dt^2 / 8`` of :func:`window_means`' exact integral), and whether the
-        samples cover the interval. The integral is made on the first call.
-    """
-    made: list[np.ndarray] = []
-
-    def rolled(start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if not made:
-            omega = np.abs(np.mean(np.atleast_2d(np.asarray(wheel_rad_s, np.float64)), axis=0))
-            ok = np.isfinite(omega)
-            t, omega = np.asarray(t_s, np.float64)[ok], omega[ok]
-            made[:] = [t, cumulative_trapezoid(omega, t, initial=0.0)]
-        t, cum = made
-        angle = np.interp(end, t, cum) - np.interp(start, t, cum)
-        return angle, (start >= t[0]) & (end <= t[-1])
-
-    return rolled
-
-
-def _wheel_rolled(streams: DriveStreams) -> Callable:
-    """:func:`wheel_rolled` of the first wheel stream's wheels, for
-    :func:`rwhonet.data.fixtimes.fix_times`."""
-    s = streams.wheels[0]
-    return wheel_rolled(s.t_s, [s.channels[w] for w in c.WHEELS if w in s.channels])
-
-
-def _travelled_path(streams: DriveStreams, max_gap_s: float) -> Callable:
+def _travelled_path(streams: DriveStreams, max_gap_s: float) -> TravelledPath:
     """:func:`travelled_path` of the first wheel stream's wheels, turned by the drive's
     gyro where a stream carries a yaw rate with two samples or more."""
     s = streams.wheels[0]
