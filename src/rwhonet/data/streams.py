@@ -490,7 +490,17 @@ def interpolate_fixes(
     span = t[j + 1] - t[j]
     valid = ((x >= t[0]) & (x <= t[-1]) & (span <= max_gap_s)) | on_fix
     w = np.clip((x - t[j]) / span, 0.0, 1.0)
-    along = _along_path(path, t, x, j, valid & ~on_fix) if path is not None else None
+    along = None
+    if path is not None and c.LAT_DEG in fixes and c.LON_DEG in fixes:
+        along = _along_path(
+            path,
+            t,
+            np.asarray(fixes[c.LAT_DEG], np.float64),
+            np.unwrap(np.asarray(fixes[c.LON_DEG], np.float64), period=360.0),
+            x,
+            j,
+            valid & ~on_fix,
+        )
     out = {}
     for name, values in fixes.items():
         a = np.asarray(values, dtype=np.float64)
@@ -503,7 +513,7 @@ def interpolate_fixes(
             continue
         value = a[j] + w * (a[j + 1] - a[j])
         if along is not None and name in (c.LAT_DEG, c.LON_DEG):
-            value = _placed(along, name, fixes, value, j)
+            value[along[0]] = along[1] if name == c.LAT_DEG else along[2]
         if name == c.LON_DEG:
             value = (value + 180.0) % 360.0 - 180.0
         elif name == c.HEADING_DEG:
@@ -519,7 +529,8 @@ class TravelledPath:
     Attributes:
         t_s: the wheel samples' times (those with a value), s.
         rolled_rad: the rolled angle's cumulative trapezoid integral at them, rad.
-        z: the path's complex point at them (east real, north imaginary), rad.
+        z: the path's complex point at them (east real, north imaginary), rad; real
+            (the rolled angle) without a gyro.
         piece: the unbroken stretch of wheel samples each begins (steps longer than the
             gap limit break it).
     """
@@ -589,13 +600,13 @@ def travelled_path(
     if t.size < 2:  # no path: every time outside it
         return TravelledPath(t, np.zeros(t.size), np.zeros(t.size, np.complex128), np.zeros(0))
     cum = cumulative_trapezoid(omega, t, initial=0.0)
-    step = np.diff(cum).astype(np.complex128)
+    z = cum  # without a gyro, a straight line: the rolled angle itself (real)
     if yaw_t_s is not None and yaw_rad_s is not None:
         ty, r = np.asarray(yaw_t_s, np.float64), np.asarray(yaw_rad_s, np.float64)
         good = np.isfinite(ty) & np.isfinite(r)
         psi = np.interp(t, ty[good], cumulative_trapezoid(r[good], ty[good], initial=0.0))
-        step *= np.exp(0.5j * (psi[1:] + psi[:-1]))
-    z = np.concatenate([[0.0], np.cumsum(step)])
+        step = np.diff(cum) * np.exp(0.5j * (psi[1:] + psi[:-1]))
+        z = np.concatenate([[0.0], np.cumsum(step)])
     piece = np.concatenate([[0], np.cumsum(np.diff(t) > max_gap_s)])
     return TravelledPath(t, cum, z, piece)
 
@@ -603,60 +614,48 @@ def travelled_path(
 def _along_path(
     path: TravelledPath,
     t: np.ndarray,
+    lat: np.ndarray,
+    lon: np.ndarray,
     x: np.ndarray,
     j: np.ndarray,
     between: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Where along the path between fixes ``j`` and ``j + 1`` each time lies.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Latitude and longitude (unwrapped) placed along the path between fixes ``j`` and
+    ``j + 1``, where the path can tell.
+
+    A time is placed where it lies between two fixes of one unbroken stretch of the path
+    and the wheels rolled at least :data:`MIN_PATH_RAD` between them. The chord between
+    the two fixes, in a local plane where a degree of longitude and one of latitude are
+    the same metres (east scaled by ``cos(lat) N / M``, the WGS84 normal and meridional
+    radii: ``(1 - e^2 sin^2 lat) / (1 - e^2)``), so that turning it is a rotation, is
+    turned and scaled by the complex ratio ``(z(x) - z(t_j)) / (z(t_j+1) - z(t_j))``.
+
+    Args:
+        path: the path.
+        t: fix times (m,); lat, lon: the fixes, longitude unwrapped.
+        x: the times wanted (n,); j: the fix at or before each; between: the times
+            between two fixes close enough to interpolate across.
 
     Returns:
-        ``(use, q)``: the times placed along the path (between two fixes of one unbroken
-        stretch of it, the wheels rolling at least :data:`MIN_PATH_RAD` between them), and
-        for those the complex ratio ``(z(x) - z(t_j)) / (z(t_j+1) - z(t_j))``.
+        ``(rows, lat, lon)`` for the rows of ``x`` placed, or None when none is.
     """
-    use = between.copy()
-    q = np.zeros(x.size, dtype=np.complex128)
-    if not use.any():
-        return use, q
-    k = np.flatnonzero(use)
+    k = np.flatnonzero(between)
+    if not k.size:
+        return None
     zx, px = path(x[k])
-    za, pa = path(t[j[k]])
-    zb, pb = path(t[j[k] + 1])
-    d = zb - za
-    ok = (pa >= 0) & (pa == pb) & (px == pa) & (np.abs(d) >= MIN_PATH_RAD)
-    use[k] = ok
-    q[k[ok]] = (zx[ok] - za[ok]) / d[ok]
-    return use, q
-
-
-def _placed(
-    along: tuple[np.ndarray, np.ndarray],
-    name: str,
-    fixes: Mapping[str, np.ndarray],
-    linear: np.ndarray,
-    j: np.ndarray,
-) -> np.ndarray:
-    """Latitude or longitude (unwrapped) along the path where :func:`_along_path` placed it.
-
-    The chord between the two fixes, in a local plane where a degree of longitude and one
-    of latitude are the same metres (east scaled by ``cos(lat) N / M``, the WGS84 normal
-    and meridional radii: ``(1 - e^2 sin^2 lat) / (1 - e^2)``), so that turning it is a
-    rotation, is turned and scaled by the ratio ``q``.
-    """
-    use, q = along
-    if not use.any():
-        return linear
-    k = np.flatnonzero(use)
-    lat = np.asarray(fixes[c.LAT_DEG], np.float64)
-    lon = np.unwrap(np.asarray(fixes[c.LON_DEG], np.float64), period=360.0)
+    zf, pf = path(t)  # every fix once
     a, b = j[k], j[k] + 1
+    d = zf[b] - zf[a]
+    ok = (pf[a] >= 0) & (pf[a] == pf[b]) & (px == pf[a]) & (np.abs(d) >= MIN_PATH_RAD)
+    if not ok.any():
+        return None
+    k, a, b = k[ok], a[ok], b[ok]
+    q = (zx[ok] - zf[a]) / d[ok]
     mid = np.radians(0.5 * (lat[a] + lat[b]))
     e2 = wgs84().es
     scale = np.cos(mid) * (1.0 - e2 * np.sin(mid) ** 2) / (1.0 - e2)
-    offset = q[k] * ((lon[b] - lon[a]) * scale + 1j * (lat[b] - lat[a]))
-    out = linear.copy()
-    out[k] = lat[a] + offset.imag if name == c.LAT_DEG else lon[a] + offset.real / scale
-    return out
+    offset = q * ((lon[b] - lon[a]) * scale + 1j * (lat[b] - lat[a]))
+    return k, lat[a] + offset.imag, lon[a] + offset.real / scale
 
 
 def default_fix_gap_s(t_s: np.ndarray) -> float:
