@@ -24,6 +24,7 @@ from rwhonet.data.plausibility import (
     yaw_mistake,
 )
 from rwhonet.data.quality import Segment
+from rwhonet.data.streams import DriveStreams, Stream, resample
 from rwhonet.geo import latlon_from_offsets_deg
 from support.corpus import speed_profile_drive, weaving_drive
 from support.drives import SOURCE_RADIUS_M, straight_drive
@@ -282,3 +283,38 @@ def test_the_yaw_check_is_the_same_near_a_pole():
     a = yaw_gain(home, _whole(home), YAW_MIN_STEP_M, 0.1)
     b = yaw_gain(pole, _whole(pole), YAW_MIN_STEP_M, 0.1)
     assert b.seconds == a.seconds and b.gain == pytest.approx(a.gain, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    "factor, what",
+    [
+        (1.0, None),
+        (-1.0, "positive turning right"),
+        (180.0 / np.pi, "in deg/s where rad/s was declared"),
+    ],
+)
+def test_a_wrong_gyro_bending_1_hz_positions_is_still_named(factor, what):
+    """The resampler turns the path between fixes by the gyro (streams.travelled_path):
+    a gyro of the wrong sign or unit bends the positions between 1 Hz fixes, yet the
+    course between whole seconds still follows the fixes, so the yaw check names it."""
+    drive = _turning_drive(fix_noise_m=0.05)
+    t = drive[c.T_S]
+    fix = np.flatnonzero(np.isclose((t * 10) % 10, 5.0))  # 1 Hz, half a second off
+    omega = np.full(t.size, 10.0 / 0.3)
+    streams = DriveStreams(
+        (Stream("wheels", "w.csv", t, {w: omega for w in c.WHEELS}),),
+        Stream(
+            "gnss",
+            "g.csv",
+            t[fix],
+            {c.LAT_DEG: drive[c.LAT_DEG][fix], c.LON_DEG: drive[c.LON_DEG][fix]},
+        ),
+        (Stream("gyro", "y.csv", t, {c.YAW_RATE_RAD_S: factor * drive[c.YAW_RATE_RAD_S]}),),
+    )
+    grid = resample(streams, max_fix_gap_s=1.5).drive.columns
+    est = yaw_gain(grid, _whole(grid), YAW_MIN_STEP_M, 0.1)
+    checked, mistake = yaw_mistake(est, 0.25)
+    assert checked and (mistake is None if what is None else what in mistake)
+    # the 57-fold gyro loops the path between fixes, and the course takes some of it (the
+    # gain 0.054 against 1/57 = 0.017 measured): still far from 1, still named
+    assert est.gain == pytest.approx(1.0 / factor, rel=0.1 if abs(factor) == 1 else 3.5)
