@@ -490,24 +490,17 @@ def interpolate_fixes(
     span = t[j + 1] - t[j]
     valid = ((x >= t[0]) & (x <= t[-1]) & (span <= max_gap_s)) | on_fix
     w = np.clip((x - t[j]) / span, 0.0, 1.0)
+    # Longitude and course unwrapped (the antimeridian and north are no jump), once.
+    values_of = {
+        name: np.unwrap(a, period=360.0) if name in (c.LON_DEG, c.HEADING_DEG) else a
+        for name, a in ((k, np.asarray(v, dtype=np.float64)) for k, v in fixes.items())
+    }
     along = None
     if path is not None and c.LAT_DEG in fixes and c.LON_DEG in fixes:
-        along = _along_path(
-            path,
-            t,
-            np.asarray(fixes[c.LAT_DEG], np.float64),
-            np.unwrap(np.asarray(fixes[c.LON_DEG], np.float64), period=360.0),
-            x,
-            j,
-            valid & ~on_fix,
-        )
+        lat, lon = values_of[c.LAT_DEG], values_of[c.LON_DEG]
+        along = _along_path(path, t, lat, lon, x, j, valid & ~on_fix)
     out = {}
-    for name, values in fixes.items():
-        a = np.asarray(values, dtype=np.float64)
-        if name == c.LON_DEG:
-            a = np.unwrap(a, period=360.0)
-        elif name == c.HEADING_DEG:
-            a = np.unwrap(a, period=360.0)
+    for name, a in values_of.items():
         if name == c.N_SATS:
             out[name] = np.minimum(a[j], a[j + 1])
             continue

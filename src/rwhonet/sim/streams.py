@@ -211,10 +211,7 @@ def stream_tables(
     # GNSS phase of a rate pair is the same with and without it.
     key = _RNG_STREAMS + 1 + 4 * (round(spec.wheel_hz) * 1000 + round(spec.gnss_hz))
     rng_can, rng_noise, rng_gnss = (child_rng(ss, key + i) for i in range(3))
-    period = 1.0 / spec.wheel_hz
-    nominal = np.arange(int(end / period) + 1) * period
-    t_w = nominal + rng_can.uniform(-spec.wheel_jitter, spec.wheel_jitter, nominal.size) * period
-    t_w = np.sort(t_w[(t_w >= 0.0) & (t_w <= end)])
+    t_w = _can_clock(spec.wheel_hz, spec.wheel_jitter, end, rng_can)
     omega = _wheels(state, t_w, vehicle, rng_noise, can_noise)
     fix_period = 1.0 / spec.gnss_hz
     rng = rng_gnss
@@ -229,14 +226,7 @@ def stream_tables(
     )
     gyro = None
     if spec.gyro_hz:
-        rng_gyro = child_rng(ss, key + 3)
-        step = 1.0 / spec.gyro_hz
-        nominal_y = np.arange(int(end / step) + 1) * step
-        t_y = (
-            nominal_y
-            + rng_gyro.uniform(-spec.wheel_jitter, spec.wheel_jitter, nominal_y.size) * step
-        )
-        t_y = np.sort(t_y[(t_y >= 0.0) & (t_y <= end)])
+        t_y = _can_clock(spec.gyro_hz, spec.wheel_jitter, end, child_rng(ss, key + 3))
         gyro = pd.DataFrame(
             {
                 c.T_S: start_s + t_y,
@@ -244,6 +234,15 @@ def stream_tables(
             }
         )
     return StreamTables(wheels, gnss, gyro)
+
+
+def _can_clock(hz: float, jitter: float, end_s: float, rng: np.random.Generator) -> np.ndarray:
+    """A CAN message's stamps from 0 to ``end_s``: every ``1 / hz``, each off its nominal
+    instant by up to ``jitter`` periods (uniform), sorted, those outside the drive dropped."""
+    period = 1.0 / hz
+    nominal = np.arange(int(end_s / period) + 1) * period
+    t = nominal + rng.uniform(-jitter, jitter, nominal.size) * period
+    return np.sort(t[(t >= 0.0) & (t <= end_s)])
 
 
 # How the stream files name their columns (a logger's own names), and the map that reads them.
