@@ -530,10 +530,19 @@ class DataParams:
     signal_maps: dict[str, SignalMapSpec] = field(default_factory=dict)
     # A larger drive file is refused before it is read: validate holds a drive in memory.
     max_file_mb: float = 512.0
+    # Stream drives' fixes against their wheel speeds' clock (rwhonet.data.fixlag):
+    # "report" estimates the lag and says it, "auto" also moves the fixes where it is
+    # clear, a number (s, within +-1) moves them by that (a fix stamped t taken at t - lag).
+    gnss_lag: Literal["report", "auto"] | float = "report"
 
     def __post_init__(self) -> None:
         if not self.max_file_mb > 0:
             raise ConfigError(f"data.max_file_mb must be > 0, got {self.max_file_mb}")
+        if isinstance(self.gnss_lag, float) and not abs(self.gnss_lag) <= 1.0:
+            raise ConfigError(
+                f"data.gnss_lag must be report, auto or a lag in seconds within ±1, got "
+                f"{self.gnss_lag}"
+            )
         clash = sorted(
             (set(self.column_maps) & set(self.signal_maps))
             | ((set(self.column_maps) | set(self.signal_maps)) & set(BUILTIN_FORMATS))

@@ -12,6 +12,9 @@
 - :mod:`~rwhonet.data.fixtimes`: when each fix was taken: the receiver's epochs (its own
   time, or the regular grid a logger's arrival stamps scatter about, where the wheel
   speeds say so) or the stamps.
+- :mod:`~rwhonet.data.fixlag`: how late the fixes run against the wheel speeds' clock (a
+  receiver's latency), from the wheels with tyre slip told apart; reported, or moved out
+  (``data.gnss_lag``).
 - :mod:`~rwhonet.data.plausibility`: units, signs, stuck or silent wheel sensors,
   swapped coordinates, as arrays and runs of rows.
 - :mod:`~rwhonet.data.drivechecks`: everything ``validate`` checks on one drive,

@@ -272,6 +272,7 @@ def _read_streams(
         split_gap_s=split_gap_s,
         nominal_radius_m=radius_m,
         require_fix=require_fix,
+        gnss_lag=data.gnss_lag,
     )
     sources = {s.where(): s.sources for s in streams.streams}
     facts = StreamFacts(

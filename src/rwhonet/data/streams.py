@@ -37,6 +37,10 @@ Fix times: the receiver's epochs where the wheels say so
     receiver's period and the wheel speeds between fixes fit the grid's epochs
     better than the stamps, the fixes are placed at the epochs
     (:func:`rwhonet.data.fixtimes.fix_times`; the drive's notes say which, and why).
+    A constant lag between the fixes' clock and the wheels' (a receiver's latency
+    the stamps carry) is then estimated from the wheels, tyre slip told apart
+    (:func:`rwhonet.data.fixlag.fix_lag`), said in the notes and, as ``gnss_lag``
+    (``data.gnss_lag``) says, left in (``report``, the default) or moved out.
 
 Positions: along the path between fixes, never across a gap, never extrapolated
     A fix at latitude = longitude = 0 is what a receiver without a fix writes: it is
@@ -93,6 +97,7 @@ from scipy.ndimage import maximum_filter1d
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.fixes import no_fix_rows
+from rwhonet.data.fixlag import lagged_times
 from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.problems import row_problems
@@ -666,6 +671,7 @@ def resample(
     nominal_radius_m: float | None = None,
     glitch_g: float = WHEEL_GLITCH_G,
     require_fix: bool = True,
+    gnss_lag: str | float = "report",
 ) -> Resampled:
     """Put a drive's streams on the pipeline's grid (the method: see the module docstring).
 
@@ -683,6 +689,10 @@ def resample(
             every row, and cuts the hole as a gap). False (``rwhonet predict``): a row with
             the four wheel speeds but no fix is kept, its latitude and longitude NaN, as a
             10 Hz file with empty fix cells is read, so an outage can be driven through.
+        gnss_lag: the fixes against the wheels' clock (``data.gnss_lag``,
+            :func:`rwhonet.data.fixlag.fix_lag`): ``"report"`` estimates the lag and says
+            it in the notes, ``"auto"`` also moves the fixes where the estimate is clear,
+            a number moves them by that many seconds (``t - lag``).
 
     Returns:
         The canonical drive on the grid and the glitched rows.
@@ -740,6 +750,11 @@ def resample(
     gnss_t = timing.t_s
     if timing.note:  # fixes moved: said by predict too, as what the grid changes
         (lost if timing.at_epochs else notes).append(timing.note)
+    gnss_t, lag_note, moved = lagged_times(
+        gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], path, gnss_lag, streams.gnss.where()
+    )
+    if lag_note:
+        (lost if moved else notes).append(lag_note)
     fixes, fix_ok = interpolate_fixes(
         gnss_t,
         {k: v for k, v in gnss.items() if k in FIX_CHANNELS},

@@ -1,0 +1,336 @@
+"""How late the fixes are stamped against the wheel speeds: a constant lag, from the wheels.
+
+:mod:`rwhonet.data.fixtimes` puts each fix at its receiver epoch, or keeps its stamp; a
+log whose stamps carry the receiver's *latency* keeps it either way. comma2k19's
+reader places each fix at its epoch plus the log's median latency
+(:func:`rwhonet.data.fixtimes.receiver_epochs`), and a logger that stamps fixes as they
+arrive places them after the receiver's processing and the link; the wheel speeds'
+CAN stamps carry a latency of their own. What matters to the
+per-second labels is the difference, ``lag``: a fix stamped ``t`` was taken when the
+wheels' clock read ``t - lag``. A per-second GNSS displacement then covers the wheels'
+second shifted by the lag, and differs from the wheels' distance over their own second
+by ``(v(t + 1) - v(t)) lag``: 8.5 cm at a change of 1 m/s with a lag of 85 ms, as
+large as the labels themselves (a lag alone fits comma2k19's example minute best at
+75-100 ms; with tyre slip told apart, below, one minute is too short to say:
+``docs/readers.md``).
+
+The wheels tell the lag. Over pairs of fixes about a second apart
+(:data:`PAIR_SPAN_S`, consecutive at 1 Hz), the distance between the fixes is the
+distance the car covered between their true times, and the wheels' path
+(:class:`rwhonet.data.streams.TravelledPath`: the rolled angle, turned by the gyro where
+the drive has one, so that a bend's chord is a chord on both sides) gives it up to one
+scale between any two times. A lag makes the misfit grow with the speed change over
+the pair.
+
+Tyre slip does too, and must not be taken for a lag. A tyre carries a longitudinal force
+by slipping in proportion to it (the slip stiffness, linear below ~10 % of the
+friction: Pacejka, *Tyre and Vehicle Dynamics*, 2012, ch. 1; Gillespie, *Fundamentals of
+Vehicle Dynamics*, 1992, ch. 2): driving wheels read ``kappa a`` more than the car
+covers when speeding up, braked wheels less when slowing. Over a pair that is
+``kappa a v T``, a lag of ``kappa v``: with the simulator's slip stiffness (25 per unit
+load, a front-driven car: ~0.4 % per m/s^2 on the four wheels' mean) 40 ms at 10 m/s,
+which a fit of the lag alone takes as one (measured: +40 to +45 ms on simulated drives
+whose fixes and wheels share one clock). The two differ in form: a lag's misfit goes
+with the speed change, slip's with the speed change times the speed. So the model is
+
+    d = beta_0 w(lag) + beta_+ a_+ w(lag) + beta_- a_- w(lag)
+
+with ``d`` the distance between the fixes, ``w(lag)`` the wheels' chord between their
+times moved by ``lag`` (rad), ``a_+`` / ``a_-`` the wheels' mean angular acceleration
+over the pair (from its two halves) when positive / negative: one scale and one slip
+figure each way. Pairs whose wheels change speed by more than :data:`MAX_ACC_M_S2`
+over the second are left out: beyond the tyres' linear slip range (a hard brake, a
+launch) the slip is not the linear term's, and those pairs weigh most on the lag.
+:func:`fix_lag` profiles the lag: for each lag of a grid (every
+:data:`COARSE_STEP_S` over ``±``:data:`MAX_LAG_S`, then every :data:`GRID_STEP_S`
+around the best), the three coefficients by Huber's M-estimate (iteratively reweighted
+least squares, the residual scale held, so a receiver's jumps and a hard brake's
+locked wheels count less); the lag is the vertex of the parabola through the best
+three. Its standard error is the larger of two: the objective's curvature there (the
+fixes' and wheels' noise, inflated by how many overlapping pairs share each second),
+and a delete-a-block jackknife over :data:`JACKKNIFE_BLOCKS` stretches of the drive
+(what the model leaves: a slip that changes along the drive, a wet stretch, a load).
+Speed changes carry the information: a drive at a constant speed cannot tell a lag,
+and its standard error says so.
+
+What is done with it is the user's choice (``data.gnss_lag``, :func:`lagged_times`):
+``report`` (the default) says the estimate in the drive's notes and moves nothing,
+so a stream drive's labels are made as a 10 Hz file's are, and as the paper's authors
+made theirs, with whatever lag the logger has; ``auto`` moves the fixes by the lag
+where it is at least :data:`MIN_LAG_S` and :data:`LAG_SIGMAS` standard errors, found
+inside the search over at least :data:`MIN_PAIRS` seconds of moving pairs; a number
+moves them by that. Measured on simulated drives with known latencies
+(``tests/data/test_fixlag.py``, ``docs/readers.md``, "A receiver's latency").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from scipy.stats import median_abs_deviation
+
+from rwhonet.geo import offsets_m
+
+# Fixes about this far apart are paired: long enough for a speed change to show, short
+# enough that the chord between them is the path's (the wheels' path has the same chord).
+PAIR_SPAN_S = 1.0
+# The lags searched: a receiver's latency is tens to hundreds of ms; a second or more is
+# two clocks, not a latency.
+MAX_LAG_S = 1.0
+COARSE_STEP_S = 0.05
+GRID_STEP_S = 0.01
+# Smaller lags are left alone: 10 ms changes a second's displacement by 1 cm per m/s of
+# speed change, and the estimate is 1-3 ms off the truth on simulated drives.
+MIN_LAG_S = 0.01
+LAG_SIGMAS = 3.0
+MAX_ACC_M_S2 = 3.0  # 0.3 g: the linear part of the tyres' slip curve (docs/readers.md)
+JACKKNIFE_BLOCKS = 10
+MAX_SE_S = 0.1  # a standard error beyond this: nothing to say about the lag
+MIN_PAIRS = 30  # seconds of moving pairs
+# The misfit's scale is taken as at least this (a receiver's centimetres, a wheel's
+# resolution over a second): noise-free data must not make a flat misfit look certain.
+MIN_SCATTER_M = 0.001
+MIN_PAIR_SPEED_M_S = 2.0
+
+
+class TravelledPathLike(Protocol):
+    """What :func:`fix_lag` asks of the wheels' path
+    (:class:`rwhonet.data.streams.TravelledPath`)."""
+
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def rolled(self, start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@dataclass(frozen=True)
+class FixLag:
+    """How late the fixes' stamps are against the wheels' clock, as :func:`fix_lag` found.
+
+    Attributes:
+        lag_s: the estimate, s: a fix stamped ``t`` was taken at ``t - lag_s`` of the
+            wheels' clock (NaN: not estimated).
+        se_s: its standard error, s (NaN: not estimated; inf: not determined).
+        n_pairs: seconds of moving fix pairs the estimate rests on (pairs / overlap).
+        clear: whether the lag is clear enough to move the fixes by (at least
+            :data:`MIN_LAG_S` and :data:`LAG_SIGMAS` standard errors, inside the search).
+        finding: what was found, for the drive's notes (None: too few moving pairs).
+    """
+
+    lag_s: float
+    se_s: float
+    n_pairs: int
+    clear: bool
+    finding: str | None
+
+
+def _pairs(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Fix index pairs about :data:`PAIR_SPAN_S` apart (``stride`` fixes), one starting
+    every ``max(1, stride // 2)`` fixes (at 10 Hz two overlapping pairs cover each
+    second: more would repeat the same seconds' misfits), within runs without a missing
+    fix; and how many pairs share a second (``stride / hop``)."""
+    step = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    stride = max(1, int(round(PAIR_SPAN_S / step)))
+    hop = max(1, stride // 2)
+    i = np.arange(0, max(t.size - stride, 0), hop)
+    j = i + stride
+    span = t[j] - t[i]
+    ok = (span > (stride - 0.5) * step) & (span < (stride + 0.5) * step)
+    return i[ok], j[ok], stride / hop
+
+
+HUBER_K = 1.345  # Huber's tuning constant: 95 % efficiency on normal residuals
+IRLS_STEPS = 4
+
+
+def _huber_fit(x: np.ndarray, d: np.ndarray, scale: float) -> tuple[np.ndarray, float]:
+    """Huber's M-estimate of ``d ~ x beta`` with the residual scale held (iteratively
+    reweighted least squares), and its objective ``sum rho(r / scale) scale^2``."""
+    w = np.ones(d.size)
+    beta = np.zeros(x.shape[1])
+    for _ in range(IRLS_STEPS):
+        sw = np.sqrt(w)
+        beta = np.linalg.lstsq(x * sw[:, None], d * sw, rcond=None)[0]
+        u = np.abs(d - x @ beta) / scale
+        w = np.where(u <= HUBER_K, 1.0, HUBER_K / np.maximum(u, 1e-12))
+    u = np.abs(d - x @ beta) / scale
+    rho = np.where(u <= HUBER_K, 0.5 * u**2, HUBER_K * u - 0.5 * HUBER_K**2)
+    return beta, float(2.0 * rho.sum() * scale**2)
+
+
+def _vertex(grid: np.ndarray, costs: np.ndarray) -> tuple[float, float]:
+    """The vertex of the parabola through the grid's best three (kept within a step of the
+    best), and the objective's curvature there (<= 0: none)."""
+    best = int(np.clip(np.argmin(costs), 1, grid.size - 2))
+    c_m, c_0, c_p = costs[best - 1 : best + 2]
+    step = float(grid[1] - grid[0])
+    curv = (c_m - 2.0 * c_0 + c_p) / step**2
+    shift = 0.5 * (c_m - c_p) / (c_m - 2.0 * c_0 + c_p) if curv > 0 else 0.0
+    return float(grid[best] + np.clip(shift, -1.0, 1.0) * step), float(curv)
+
+
+def fix_lag(
+    t_s: np.ndarray,
+    lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
+    path: TravelledPathLike,
+    where: str = "GNSS",
+) -> FixLag:
+    """The fixes' lag against the wheel speeds (the module docstring), and whether to move them.
+
+    Args:
+        t_s: the fixes' times (strictly increasing; after
+            :func:`rwhonet.data.fixtimes.fix_times`), s.
+        lat_deg: their latitudes, deg (real fixes only).
+        lon_deg: their longitudes, deg.
+        path: the wheels' path (:class:`rwhonet.data.streams.TravelledPath`).
+        where: the stream, for the note.
+
+    Returns:
+        The lag, its standard error and the decision.
+    """
+    t = np.asarray(t_s, np.float64)
+    if t.size < MIN_PAIRS:
+        return FixLag(float("nan"), float("nan"), 0, False, None)
+    i, j, overlap = _pairs(t)
+    # Pairs whose wheel path is unbroken however far the lag moves them.
+    _, p_lo = path(t[i] - MAX_LAG_S)
+    _, p_hi = path(t[j] + MAX_LAG_S)
+    east, north = offsets_m(float(lat_deg[0]), float(lon_deg[0]), lat_deg, lon_deg)
+    d = np.hypot(east[j] - east[i], north[j] - north[i])
+    keep = (p_lo >= 0) & (p_lo == p_hi) & np.isfinite(d) & (d >= MIN_PAIR_SPEED_M_S * (t[j] - t[i]))
+    i, j, d = i[keep], j[keep], d[keep]
+    n = int(i.size / overlap)  # seconds of pairs: overlapping pairs are not independent
+    if n < MIN_PAIRS:
+        return FixLag(float("nan"), float("nan"), n, False, None)
+    ti, tj = t[i], t[j]
+    tm, span = 0.5 * (ti + tj), tj - ti
+
+    def design(lag: float) -> np.ndarray:
+        """``[w, a+ w, a- w]``: the wheels' chord over the lagged interval (rad), and it
+        times the interval's mean angular acceleration (``4 (second half - first half)
+        / T^2``, rad/s^2), split by sign: slip's share of the distance (the module
+        docstring)."""
+        w = np.abs(path(tj - lag)[0] - path(ti - lag)[0])
+        first = path.rolled(ti - lag, tm - lag)[0]
+        second = path.rolled(tm - lag, tj - lag)[0]
+        acc = 4.0 * (second - first) / span**2
+        return np.column_stack([w, np.maximum(acc, 0.0) * w, np.minimum(acc, 0.0) * w])
+
+    # Pairs beyond the tyres' linear slip range left out (a hard brake, a launch).
+    x0 = design(0.0)
+    radius = float(np.linalg.lstsq(x0[:, :1], d, rcond=None)[0][0])
+    acc_m_s2 = radius * (x0[:, 1] + x0[:, 2]) / np.maximum(x0[:, 0], 1e-12)
+    linear = np.abs(acc_m_s2) <= MAX_ACC_M_S2
+    ti, tj, tm, span, d = ti[linear], tj[linear], tm[linear], span[linear], d[linear]
+    n = int(ti.size / overlap)
+    if n < MIN_PAIRS:
+        return FixLag(float("nan"), float("nan"), n, False, None)
+    x0 = design(0.0)
+    beta0 = np.linalg.lstsq(x0, d, rcond=None)[0]
+    r0 = d - x0 @ beta0
+    scale = max(float(median_abs_deviation(r0, scale="normal")), MIN_SCATTER_M)
+
+    # Coarse to fine: every COARSE_STEP_S over the search, then every GRID_STEP_S around
+    # the coarse best; the vertex of the parabola through the fine grid's best three.
+    def cost(lag: float) -> float:
+        return _huber_fit(design(lag), d, scale)[1]
+
+    coarse = np.arange(-MAX_LAG_S, MAX_LAG_S + 0.5 * COARSE_STEP_S, COARSE_STEP_S)
+    c_best = int(np.argmin([cost(float(g)) for g in coarse]))
+    if c_best in (0, coarse.size - 1):
+        edge = (
+            f"{where}: the fixes fit the wheel speeds best at the edge of the ±{MAX_LAG_S:g} s "
+            "searched, no lag a receiver has (are the GNSS and the wheel speeds on one clock?)"
+        )
+        return FixLag(float(coarse[c_best]), float("inf"), n, False, edge)
+    grid = coarse[c_best] + np.arange(-COARSE_STEP_S, COARSE_STEP_S + 1e-9, GRID_STEP_S)
+    designs = [design(float(g)) for g in grid]
+    costs = np.array([_huber_fit(x, d, scale)[1] for x in designs])
+    lag, curv = _vertex(grid, costs)
+    beta, _ = _huber_fit(design(lag), d, scale)
+    r = d - design(lag) @ beta
+    sigma = max(float(median_abs_deviation(r, scale="normal")), MIN_SCATTER_M)
+    # The objective's curvature gives the standard error the noise makes: var = 2 sigma^2
+    # / S'' for a least-squares objective S, inflated by the overlap (each second's misfit
+    # counted that many times). What the model leaves (the slip changing along the drive:
+    # a wet stretch, a load) it does not see; the delete-a-block jackknife does (Efron and
+    # Tibshirani, An Introduction to the Bootstrap, 1993, ch. 11): the drive's pairs in
+    # JACKKNIFE_BLOCKS stretches of time, the lag refitted without each, on the same grid.
+    se_noise = float(np.sqrt(2.0 * sigma**2 * overlap / curv)) if curv > 0 else float("inf")
+    block = np.minimum((np.arange(d.size) * JACKKNIFE_BLOCKS) // d.size, JACKKNIFE_BLOCKS - 1)
+    left_out = []
+    for b in range(JACKKNIFE_BLOCKS):
+        keep = block != b
+        c_b = [_huber_fit(x[keep], d[keep], scale)[1] for x in designs]
+        left_out.append(_vertex(grid, np.array(c_b))[0])
+    spread = np.asarray(left_out) - np.mean(left_out)
+    se_jack = float(np.sqrt((JACKKNIFE_BLOCKS - 1) / JACKKNIFE_BLOCKS * np.sum(spread**2)))
+    se = max(se_noise, se_jack)
+    if not se <= MAX_SE_S:
+        vague = (
+            f"{where}: the speed changes too little between fixes for the wheels to tell a "
+            f"lag (its standard error {se:.2g} s over {n} s of moving pairs)"
+        )
+        return FixLag(lag, se, n, False, vague)
+    k = float(beta[0])
+    slip = [100.0 * -b / k**2 for b in beta[1:]]  # % of the distance per m/s^2
+    found = (
+        f"{where}: the distance between fixes {PAIR_SPAN_S:g} s apart fits the wheels' best "
+        f"with the fixes {abs(lag) * 1000:.0f} ± {se * 1000:.0f} ms "
+        f"{'earlier' if lag >= 0 else 'later'} than stamped (it scatters {sigma:.3f} m, "
+        f"1.4826 MAD, against {float(median_abs_deviation(r0, scale='normal')):.3f} m at "
+        f"the stamps; wheel slip {slip[0]:.2f} / {slip[1]:.2f} % per m/s^2 speeding up / "
+        f"slowing; {n} s of moving pairs)"
+    )
+    clear = abs(lag) >= MIN_LAG_S and abs(lag) >= LAG_SIGMAS * se
+    return FixLag(lag, se, n, clear, found)
+
+
+def lagged_times(
+    t_s: np.ndarray,
+    lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
+    path: TravelledPathLike,
+    mode: str | float,
+    where: str = "GNSS",
+) -> tuple[np.ndarray, str | None, bool]:
+    """The fixes' times on the wheels' clock as ``mode`` (``data.gnss_lag``) says.
+
+    Args:
+        t_s, lat_deg, lon_deg, path, where: as :func:`fix_lag`.
+        mode: ``"report"`` (estimate and say it, move nothing), ``"auto"`` (move the
+            fixes by the estimate where it is clear) or a lag in seconds (move them by it).
+
+    Returns:
+        ``(times, note, moved)``: the times, what was found and done (None: nothing
+        to say), and whether the fixes were moved.
+    """
+    t = np.asarray(t_s, np.float64)
+    if isinstance(mode, str) and mode not in ("report", "auto"):
+        raise ValueError(f"gnss_lag must be 'report', 'auto' or seconds, got {mode!r}")
+    lag = fix_lag(t, lat_deg, lon_deg, path, where)
+    if not isinstance(mode, str):
+        said = f"; the wheels' estimate: {lag.finding.split(': ', 1)[1]}" if lag.finding else ""
+        return (
+            t - float(mode),
+            f"{where}: fixes moved by {-float(mode) * 1000:+.0f} ms onto the wheels' clock "
+            f"(data.gnss_lag = {float(mode):g} s){said}",
+            True,
+        )
+    if lag.finding is None:
+        return t, None, False
+    moved = f"{-lag.lag_s * 1000:+.0f} ms onto the wheels' clock"
+    if not lag.clear:
+        rule = f"under {MIN_LAG_S * 1000:.0f} ms or {LAG_SIGMAS:g} standard errors"
+        kept = "" if np.isinf(lag.se_s) else f" ({rule})"
+        return t, f"{lag.finding}: stamps kept{kept}", False
+    if mode == "auto":
+        return t - lag.lag_s, f"{lag.finding}: fixes moved by {moved} (data.gnss_lag = auto)", True
+    return (
+        t,
+        f"{lag.finding}: stamps kept (data.gnss_lag = report; auto would move the fixes by "
+        f"{moved})",
+        False,
+    )
