@@ -39,6 +39,7 @@ Usage (after ``make run``, in the project folder; each run ~15 min on 2 cores):
     python benchmarks/fleet_variants.py run relocated
     python benchmarks/fleet_variants.py run streams
     python benchmarks/fleet_variants.py run streams --gnss-stamp-error-ms 5
+    python benchmarks/fleet_variants.py run streams --gnss-latency-ms 100 [--gnss-lag auto]
     python benchmarks/fleet_variants.py compare . build/variants/relocated \
         build/variants/streams build/variants/streams-stamp5ms
 """
@@ -134,18 +135,25 @@ class GnssStream:
         phase_s: the fixes' offset after the file's first row (the receiver's grid
             against the logger's clock).
         stamp_error_s: each fix stamped up to this off its epoch (uniform; 0: at it).
+        latency_s: each fix stamped this much after its epoch besides (a receiver's
+            processing and link, as a logger stamping on arrival sees it).
+        lag: ``data.gnss_lag`` for the run (``report``, the default, or ``auto``).
     """
 
     hz: float = 5.0
     phase_s: float = 0.03
     stamp_error_s: float = 0.0
+    latency_s: float = 0.0
+    lag: str = "report"
 
     @property
     def suffix(self) -> str:
         """The variant's folder suffix: what differs from the default."""
         out = "" if self.hz == 5.0 else f"-{self.hz:g}hz"
         out += "" if self.phase_s == 0.03 else f"-phase{self.phase_s:g}s"
-        return out + ("" if not self.stamp_error_s else f"-stamp{self.stamp_error_s * 1e3:g}ms")
+        out += "" if not self.stamp_error_s else f"-stamp{self.stamp_error_s * 1e3:g}ms"
+        out += "" if not self.latency_s else f"-late{self.latency_s * 1e3:g}ms"
+        return out + ("" if self.lag == "report" else f"-lag{self.lag}")
 
 
 def streams(
@@ -176,7 +184,10 @@ def streams(
     dlon = (lon[i + 1] - lon[i] + 180.0) % 360.0 - 180.0  # the short way across 180°
     table = pd.DataFrame(
         {
-            "Time": t[i] + w * (t[i + 1] - t[i]) + rng.uniform(-1, 1, i.size) * gnss.stamp_error_s,
+            "Time": t[i]
+            + w * (t[i + 1] - t[i])
+            + rng.uniform(-1, 1, i.size) * gnss.stamp_error_s
+            + gnss.latency_s,
             "Latitude": np.where(fix, lat[i] + w * (lat[i + 1] - lat[i]), 0.0),
             "Longitude": np.where(fix, (lon[i] + w * dlon + 180.0) % 360.0 - 180.0, 0.0),
             "NumSV": np.minimum(sats[i], sats[i + 1]),
@@ -250,7 +261,8 @@ def run(variant: str, workspace: Path, gnss: GnssStream = GnssStream()) -> Path:
     sh(sys.executable, "-m", "dvc", "commit", "-q", "-f", "data.dvc")
     sh(sys.executable, "-m", "rwhonet.tracking", "init")
     files_path = ("-S", "data.source=files", "-S", "data.root=data/raw")
-    sh(sys.executable, "-m", "dvc", "exp", "run", *files_path)
+    lag = ("-S", f"data.gnss_lag={gnss.lag}") if variant == "streams" else ()
+    sh(sys.executable, "-m", "dvc", "exp", "run", *files_path, *lag)
     return dest
 
 
@@ -289,11 +301,19 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--gnss-hz", type=float, default=5.0, help="streams: 1, 2, 5 or 10")
     r.add_argument("--gnss-phase-s", type=float, default=0.03, help="streams: fixes' offset")
     r.add_argument("--gnss-stamp-error-ms", type=float, default=0.0)
+    r.add_argument("--gnss-latency-ms", type=float, default=0.0, help="streams: fixes stamped late")
+    r.add_argument("--gnss-lag", choices=("report", "auto"), default="report")
     c = sub.add_parser("compare", help="headline figures of built folders side by side")
     c.add_argument("folders", type=Path, nargs="+")
     args = ap.parse_args(argv)
     if args.cmd == "run":
-        gnss = GnssStream(args.gnss_hz, args.gnss_phase_s, args.gnss_stamp_error_ms / 1000.0)
+        gnss = GnssStream(
+            args.gnss_hz,
+            args.gnss_phase_s,
+            args.gnss_stamp_error_ms / 1000.0,
+            args.gnss_latency_ms / 1000.0,
+            args.gnss_lag,
+        )
         print(run(args.variant, args.workspace.resolve(), gnss))
     else:
         compare(args.folders)
