@@ -25,11 +25,13 @@ def _drive(
     slip_per_m_s2: tuple[float, float] = (0.0, 0.0),
     speed=None,
     wet_after_s: float | None = None,
+    origin: tuple[float, float] = (LAT0, LON0),
 ):
     """A straight drive north-east: speed ``10 + 4 sin(2 pi t / 20) + 2 sin(2 pi t / 7)``
     m/s (or ``speed(t)``), wheels at 100 Hz that over-read by ``slip x a`` (the first
     figure speeding up, the second slowing), fixes every ``1 / fix_hz`` s stamped
-    ``lag_s`` late; from ``wet_after_s`` on, the slip doubled (a wet road). Returns
+    ``lag_s`` late; from ``wet_after_s`` on, the slip doubled (a wet road); starting at
+    ``origin`` (lat, lon). Returns
     ``(stamps, lat, lon, path)``."""
     t = np.arange(0.0, duration_s + 1e-9, 0.001)
     v = (
@@ -48,7 +50,7 @@ def _drive(
     path = travelled_path(t_w, [omega] * 4)
     true = np.arange(0.5, duration_s - 0.5, 1.0 / fix_hz)
     dist = np.interp(true, t, x)
-    lat, lon = latlon_from_offsets_deg(LAT0, LON0, dist / np.sqrt(2), dist / np.sqrt(2))
+    lat, lon = latlon_from_offsets_deg(*origin, dist / np.sqrt(2), dist / np.sqrt(2))
     return true + lag_s, lat, lon, path
 
 
@@ -61,6 +63,16 @@ def test_a_known_lag_is_found_from_the_wheels(lag_s, fix_hz):
     assert found.se_s < 0.002 and found.clear
     assert found.finding.startswith("gnss.csv: the distance between fixes 1 s apart")
     assert f"{abs(lag_s) * 1000:.0f} ± " in found.finding
+
+
+def test_the_lag_is_the_same_anywhere_on_earth():
+    """The pairs' distances are each pair's own (no plane about the first fix): a drive
+    across the antimeridian, or at 69.6 N, gives Coventry's lag."""
+    here = fix_lag(*_drive(0.085))
+    for origin in ((-16.43, 179.97), (69.65, 18.96)):
+        stamps, lat, lon, path = _drive(0.085, origin=origin)
+        assert origin[1] < 100 or ((lon > 0).any() and (lon < 0).any())  # crosses 180
+        assert fix_lag(stamps, lat, lon, path).lag_s == pytest.approx(here.lag_s, abs=1e-5)
 
 
 def test_tyre_slip_is_not_taken_for_a_lag():

@@ -71,7 +71,7 @@ from typing import Protocol
 import numpy as np
 from scipy.stats import median_abs_deviation
 
-from rwhonet.geo import offsets_m
+from rwhonet.geo import local_distance_m
 
 # Fixes about this far apart are paired: long enough for a speed change to show, short
 # enough that the chord between them is the path's (the wheels' path has the same chord).
@@ -202,8 +202,8 @@ def fix_lag(
     # Pairs whose wheel path is unbroken however far the lag moves them.
     _, p_lo = path(t[i] - MAX_LAG_S)
     _, p_hi = path(t[j] + MAX_LAG_S)
-    east, north = offsets_m(float(lat_deg[0]), float(lon_deg[0]), lat_deg, lon_deg)
-    d = np.hypot(east[j] - east[i], north[j] - north[i])
+    lat, lon = np.asarray(lat_deg, np.float64), np.asarray(lon_deg, np.float64)
+    d = local_distance_m(lat[i], lon[i], lat[j], lon[j])  # as fix_times measures its steps
     keep = (p_lo >= 0) & (p_lo == p_hi) & np.isfinite(d) & (d >= MIN_PAIR_SPEED_M_S * (t[j] - t[i]))
     i, j, d = i[keep], j[keep], d[keep]
     n = int(i.size / overlap)  # seconds of pairs: overlapping pairs are not independent
@@ -232,10 +232,10 @@ def fix_lag(
     n = int(ti.size / overlap)
     if n < MIN_PAIRS:
         return FixLag(float("nan"), float("nan"), n, False, None)
-    x0 = design(0.0)
+    x0 = x0[linear]
     beta0 = np.linalg.lstsq(x0, d, rcond=None)[0]
-    r0 = d - x0 @ beta0
-    scale = max(float(median_abs_deviation(r0, scale="normal")), MIN_SCATTER_M)
+    scatter0 = float(median_abs_deviation(d - x0 @ beta0, scale="normal"))
+    scale = max(scatter0, MIN_SCATTER_M)
 
     # Coarse to fine: every COARSE_STEP_S over the search, then every GRID_STEP_S around
     # the coarse best; the vertex of the parabola through the fine grid's best three.
@@ -254,8 +254,9 @@ def fix_lag(
     designs = [design(float(g)) for g in grid]
     costs = np.array([_huber_fit(x, d, scale)[1] for x in designs])
     lag, curv = _vertex(grid, costs)
-    beta, _ = _huber_fit(design(lag), d, scale)
-    r = d - design(lag) @ beta
+    x_lag = design(lag)
+    beta, _ = _huber_fit(x_lag, d, scale)
+    r = d - x_lag @ beta
     sigma = max(float(median_abs_deviation(r, scale="normal")), MIN_SCATTER_M)
     # The objective's curvature gives the standard error the noise makes: var = 2 sigma^2
     # / S'' for a least-squares objective S, inflated by the overlap (each second's misfit
@@ -285,7 +286,7 @@ def fix_lag(
         f"{where}: the distance between fixes {PAIR_SPAN_S:g} s apart fits the wheels' best "
         f"with the fixes {abs(lag) * 1000:.0f} ± {se * 1000:.0f} ms "
         f"{'earlier' if lag >= 0 else 'later'} than stamped (it scatters {sigma:.3f} m, "
-        f"1.4826 MAD, against {float(median_abs_deviation(r0, scale='normal')):.3f} m at "
+        f"1.4826 MAD, against {scatter0:.3f} m at "
         f"the stamps; wheel slip {slip[0]:.2f} / {slip[1]:.2f} % per m/s^2 speeding up / "
         f"slowing; {n} s of moving pairs)"
     )
