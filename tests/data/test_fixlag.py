@@ -10,6 +10,7 @@ import pytest
 
 from rwhonet.config import ConfigError, load_params
 from rwhonet.data import canonical as c
+from rwhonet.data import fixlag
 from rwhonet.data.fixlag import MIN_PAIRS, fix_lag, lagged_times
 from rwhonet.data.streams import travelled_path
 from rwhonet.geo import latlon_from_offsets_deg
@@ -63,6 +64,41 @@ def test_a_known_lag_is_found_from_the_wheels(lag_s, fix_hz):
     assert found.se_s < 0.002 and found.clear
     assert found.finding.startswith("gnss.csv: the distance between fixes 1 s apart")
     assert f"{abs(lag_s) * 1000:.0f} ± " in found.finding
+
+
+@pytest.mark.parametrize("centre", [-0.033, 0.0, 0.0271, 0.044, 0.049])
+@pytest.mark.parametrize("start", [0, 5, 10])
+def test_the_jackknife_s_descent_finds_the_whole_profile_s_vertex(centre, start):
+    """``_descend`` computes a profile only downhill from another's best point, and its
+    vertex is the whole grid's wherever the profile has one minimum, at the grid's edge
+    too; each point computed once."""
+    grid = np.arange(-0.05, 0.05 + 1e-9, 0.01)
+    profile = 1e4 * (grid - centre) ** 2 + 3.0
+    other = np.full(grid.size, 10.0)
+    other[start] = 0.0
+    asked: list[int] = []
+
+    def cost_at(g: int) -> float:
+        asked.append(g)
+        return float(profile[g])
+
+    costs = fixlag._descend(cost_at, other)
+    assert fixlag._vertex(grid, costs) == fixlag._vertex(grid, profile)
+    assert len(asked) == len(set(asked)) and len(asked) <= grid.size
+
+
+def test_a_long_drive_s_coarse_search_on_every_kth_pair_gives_the_full_search_s_lag(
+    monkeypatch,
+):
+    """The coarse search only places the fine grid: thinned (a long drive's) or not, the
+    lag and its standard error are the same."""
+    stamps, lat, lon, path = _drive(0.085)  # 1,196 pairs: every 5th in the coarse search
+    monkeypatch.setattr(fixlag, "COARSE_PAIRS", 200)
+    thinned = fix_lag(stamps, lat, lon, path)
+    monkeypatch.setattr(fixlag, "COARSE_PAIRS", 10**9)  # every pair
+    full = fix_lag(stamps, lat, lon, path)
+    assert thinned.lag_s == pytest.approx(full.lag_s, abs=1e-12)
+    assert thinned.se_s == pytest.approx(full.se_s, abs=1e-12)
 
 
 def test_the_lag_is_the_same_anywhere_on_earth():

@@ -190,6 +190,21 @@ def test_along_the_path_across_the_antimeridian():
     assert ok.all() and _placed_m(out, *truth, -17.0, 179.99995).max() < 1e-4
 
 
+def test_a_path_sampled_once_gives_its_points_and_rolled_angles():
+    """``TravelledPath.sample`` (one search for both) is the path's point as calling it
+    gives, and differences of its rolled angle are ``rolled``'s, inside the samples, at
+    them, and held beyond either end."""
+    rng = np.random.default_rng(3)
+    t_w = np.cumsum(rng.uniform(0.008, 0.012, 3000))
+    omega = 30.0 + 5.0 * np.sin(t_w)
+    path = travelled_path(t_w, omega, 0.2, t_w, 0.2 * np.cos(0.3 * t_w))
+    x = np.concatenate([rng.uniform(t_w[0] - 1.0, t_w[-1] + 1.0, 500), t_w[[0, 7, -1]]])
+    z, cum = path.sample(x)
+    np.testing.assert_allclose(z, path(x)[0], rtol=0, atol=1e-12)
+    a, b = x[:250], x[250:500]
+    np.testing.assert_allclose(cum[250:500] - cum[:250], path.rolled(a, b)[0], atol=1e-9)
+
+
 def test_resample_places_1_hz_fixes_along_the_gyro_s_turn():
     t_w = np.arange(0.0, 30.0, 0.01) + 0.003
     t_g = np.arange(0.5, 30.0, 1.0)
