@@ -302,7 +302,8 @@ def fix_lag(
     left_out = []
     for b in range(JACKKNIFE_BLOCKS):
         keep = block != b
-        c_b = _descend(lambda g, keep=keep: _huber_fit(designs[g][keep], d[keep], scale)[1], costs)
+        d_b = d[keep]
+        c_b = _descend(lambda g, k=keep, y=d_b: _huber_fit(designs[g][k], y, scale)[1], costs)
         left_out.append(_vertex(grid, c_b)[0])
     spread = np.asarray(left_out) - np.mean(left_out)
     se_jack = float(np.sqrt((JACKKNIFE_BLOCKS - 1) / JACKKNIFE_BLOCKS * np.sum(spread**2)))

@@ -544,22 +544,27 @@ class TravelledPath:
         t, x = self.t_s, np.asarray(x, np.float64)
         if t.size < 2:
             return np.zeros(x.size, np.complex128), np.full(x.size, -1)
-        i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
-        u = np.clip((x - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
+        i, u = self._locate(x)
         inside = (x >= t[0]) & (x <= t[-1])
         last = np.where(x == t[-1], self.piece[-1], self.piece[i])  # the end sample's own
         return self.z[i] + u * (self.z[i + 1] - self.z[i]), np.where(inside, last, -1)
+
+    def _locate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each time's sample interval ``i`` (clipped to the first and last) and its share
+        ``u`` of the way to the next sample (held at 0 or 1 beyond the ends); 2+ samples."""
+        t = self.t_s
+        i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
+        return i, np.clip((x - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
 
     def sample(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(z, rolled)`` at times ``x``, both linear between samples from one search of
         the samples (held at the ends): the point reached, as :meth:`__call__` gives it,
         and the rolled angle's cumulative integral, whose differences :meth:`rolled`
         gives; for a caller that needs both at the same times (``fix_lag``)."""
-        t, x = self.t_s, np.asarray(x, np.float64)
-        if t.size < 2:
+        x = np.asarray(x, np.float64)
+        if self.t_s.size < 2:
             return np.zeros(x.size, np.complex128), np.zeros(x.size)
-        i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
-        u = np.clip((x - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
+        i, u = self._locate(x)
         z, cum = self.z, self.rolled_rad
         return z[i] + u * (z[i + 1] - z[i]), cum[i] + u * (cum[i + 1] - cum[i])
 
