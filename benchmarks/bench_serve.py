@@ -69,6 +69,7 @@ def base_bundle(folder: Path) -> tuple[dict, str]:
     else:
         import torch
 
+        from rwhonet.data.canonical import FEATURE_WHEEL_ORDER
         from rwhonet.models.checkpoint import save_whonet
         from rwhonet.models.whonet import WhONet
 
@@ -86,7 +87,7 @@ def base_bundle(folder: Path) -> tuple[dict, str]:
         save_whonet(WhONet(), hp, g)
         scaler = {
             "kind": "global",
-            "wheels": ["rr", "rl", "fr", "fl"],
+            "wheels": list(FEATURE_WHEEL_ORDER),
             "min_rad_s": [0.0] * 4,
             "max_rad_s": [110.0] * 4,
         }
@@ -209,8 +210,9 @@ def main() -> None:
             [
                 sys.executable,
                 "-c",
-                "import rwhonet.cli.predict, rwhonet.serve.stream,"
-                " rwhonet.data.incremental, onnxruntime",
+                "import rwhonet.cli.main, rwhonet.cli.drive, rwhonet.cli.predict,"
+                " rwhonet.serve.stream, rwhonet.data.incremental, rwhonet.data.drivefile,"
+                " rwhonet.data.drivechecks, onnxruntime",
             ],
             env,
         )
