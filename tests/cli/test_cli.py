@@ -243,11 +243,13 @@ def test_a_recalibrated_model_keeps_the_filter_s_calibration_only_on_the_car_it_
     assert inherited_navigation(None, "target", "whonet-G v1") is None
 
 
-def test_predict_streams_stdin_to_stdout_without_torch(bundle, drive):
+def test_predict_streams_stdin_to_stdout_without_torch_pandas_or_scipy(bundle, drive):
+    # ONNX Runtime serves (no torch); an IO-VNBD drive is read and checked without pandas
+    # and scipy, whose imports took 1 s of a 2 s start (the stream readers import scipy)
     check = (
         "import sys; from rwhonet.cli.main import main; rc = main(sys.argv[1:]); "
-        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in "
-        "('torch', 'lightning', 'pytorch_lightning', 'mlflow')); "
+        "heavy = sorted({m.split('.')[0] for m in sys.modules} & "
+        "{'torch', 'lightning', 'pytorch_lightning', 'mlflow', 'pandas', 'scipy'}); "
         "print('IMPORTED', heavy, file=sys.stderr); sys.exit(rc)"
     )
     out = cli(

@@ -21,7 +21,7 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,11 +35,13 @@ from rwhonet.config import (
     parse_value,
 )
 from rwhonet.data.columnmap import check_column_map
-from rwhonet.data.quality import Assessment
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import Calibration
-from rwhonet.features.samples import SampleSet
 from rwhonet.features.scaling import MinMaxScaler
+
+if TYPE_CHECKING:  # annotations only: `rwhonet predict` starts without pandas
+    from rwhonet.data.quality import Assessment
+    from rwhonet.features.samples import SampleSet
 
 ROLE = "recalibration"  # not a pipeline role: validate's role-specific checks do not apply
 
@@ -196,8 +198,6 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
         InputError: an unknown format, or a reader that needs a map without one;
             ConfigError: a map with unknown keys or units.
     """
-    from rwhonet.data.signalmap import check_signal_map
-
     data = params.data
     if signal_map is None:
         if fmt in data.formats:
@@ -236,6 +236,8 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
                 )
             ]
         )
+    from rwhonet.data.signalmap import check_signal_map  # the stream readers' (scipy) imports
+
     raw = read_yaml(signal_map, "a signal map: key -> {column, unit}")
     if isinstance(raw, dict) and "signals" in raw:
         raw = raw["signals"]

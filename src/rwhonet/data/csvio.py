@@ -32,7 +32,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
@@ -323,6 +322,8 @@ def _parse_block(column: pa.Array) -> tuple[np.ndarray, np.ndarray, list[str]]:
         return pc.cast(column, pa.float64()).to_numpy(zero_copy_only=False), np.zeros(0, int), []
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
         pass
+    import pandas as pd  # only here, on a failure path: `rwhonet predict` starts without it
+
     cells = [None if b is None else b.decode("utf-8", errors="replace") for b in column.to_pylist()]
     text = pd.Series(cells, dtype=object)
     values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=np.float64)

@@ -20,7 +20,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from rwhonet.errors import InputError, Problem
 
@@ -160,6 +159,8 @@ def scenario_codes(
     # Rows with the same tag set share one bit pattern: label each distinct pattern once.
     if len(tags) < 63:
         # The pattern as an int64 (bit j: tags[j]), hashed: much faster than sorting records.
+        import pandas as pd  # here: `rwhonet predict` reads drives without importing it
+
         key = member.view(np.uint8) @ (np.int64(1) << np.arange(len(tags), dtype=np.int64))
         codes, unique_keys = pd.factorize(key)
         patterns = (unique_keys[:, None] >> np.arange(len(tags))) & 1

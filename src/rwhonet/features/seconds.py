@@ -32,9 +32,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 import pyarrow as pa
 from numpy.typing import ArrayLike
 
@@ -44,6 +44,9 @@ from rwhonet.data.glitches import repaired_yaw_rate
 from rwhonet.data.timebase import label_times
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo import geodesic_distance_m
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 # Ten rows must span about one second. This is a gross check (it catches 1 Hz or
 # 100 Hz data, or a gap that validate failed to split on); the fine sample-period
@@ -264,6 +267,8 @@ def _factorize_tags(
         )
         codes = encoded.indices.fill_null(-1).to_numpy(zero_copy_only=False)
         return codes.astype(np.int64), [v or "" for v in encoded.dictionary.to_pylist()]
+    import pandas as pd  # here, not at the top: `rwhonet predict` starts without it (0.4 s)
+
     # A Parquet string column read with pandas is Arrow-backed: factorize it as is.
     values = row_tags if isinstance(row_tags, pd.Series) else np.asarray(row_tags, dtype=object)
     codes, uniques = pd.factorize(values)
@@ -292,6 +297,8 @@ def scenario_per_second(
     # drive has few of those: merge once per combination, then map back.
     if len(values) < 63:
         # A combination as a bit mask over the row values (bit k: some row has value k).
+        import pandas as pd
+
         bit = np.where(per_second >= 0, np.int64(1) << np.maximum(per_second, 0), 0)
         inverse, masks = pd.factorize(np.bitwise_or.reduce(bit, axis=1))
         combos = [np.flatnonzero((int(m) >> np.arange(len(values))) & 1) for m in masks]
