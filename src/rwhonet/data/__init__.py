@@ -23,6 +23,8 @@
 - :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
   write them; a drive's clock (midnight rollover, each row's slot on the grid).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
+- :mod:`~rwhonet.data.robust`: a robust scale (the normal-scaled MAD) and a running
+  trapezoid integral, scipy's arithmetic without scipy's import.
 - Streams (docs/readers.md): :mod:`~rwhonet.data.streams` resamples timestamped
   sensor streams onto the 10 Hz grid; they come from :mod:`~rwhonet.data.comma2k19`
   (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf) or

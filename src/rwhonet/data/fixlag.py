@@ -72,8 +72,8 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-from scipy.stats import median_abs_deviation
 
+from rwhonet.data.robust import mad_normal
 from rwhonet.geo import local_distance_m
 
 # Fixes about this far apart are paired: long enough for a speed change to show, short
@@ -260,7 +260,7 @@ def fix_lag(
         return FixLag(float("nan"), float("nan"), n, False, None)
     x0 = x0[linear]
     beta0 = np.linalg.lstsq(x0, d, rcond=None)[0]
-    scatter0 = float(median_abs_deviation(d - x0 @ beta0, scale="normal"))
+    scatter0 = mad_normal(d - x0 @ beta0)
     scale = max(scatter0, MIN_SCATTER_M)
 
     # Coarse to fine: every COARSE_STEP_S over the search, then every GRID_STEP_S around
@@ -287,7 +287,7 @@ def fix_lag(
     x_lag = design(lag)
     beta, _ = _huber_fit(x_lag, d, scale)
     r = d - x_lag @ beta
-    sigma = max(float(median_abs_deviation(r, scale="normal")), MIN_SCATTER_M)
+    sigma = max(mad_normal(r), MIN_SCATTER_M)
     # The objective's curvature gives the standard error the noise makes: var = 2 sigma^2
     # / S'' for a least-squares objective S, inflated by the overlap (each second's misfit
     # counted that many times). What the model leaves (the slip changing along the drive:

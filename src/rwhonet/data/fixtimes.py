@@ -47,8 +47,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import median_abs_deviation
 
+from rwhonet.data.robust import mad_normal
 from rwhonet.geo import local_step_distance_m
 
 # Scatter (1.4826 MAD) of UTC - t around the fitted line above which the epochs are not
@@ -140,7 +140,7 @@ def receiver_epochs(
     t_ref = float(t[half])
     residual = d - drift * (t - t_ref)
     offset = float(np.median(residual))
-    scatter = float(median_abs_deviation(residual, scale="normal"))
+    scatter = mad_normal(residual)
     if not scatter <= max_scatter_s:
         return None
     return EpochFit(offset, drift, t_ref, scatter, n)
@@ -244,7 +244,7 @@ def _spread_m(step_m: np.ndarray, wheel: np.ndarray) -> float:
     ok = wheel > 0
     scale = float(np.median(step_m[ok] / wheel[ok])) if ok.any() else 1.0
     r = step_m - scale * wheel
-    return float(median_abs_deviation(r, scale="normal"))
+    return mad_normal(r)
 
 
 def fix_times(

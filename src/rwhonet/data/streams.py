@@ -91,8 +91,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
-from scipy.ndimage import maximum_filter1d
 
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
@@ -101,6 +99,7 @@ from rwhonet.data.fixlag import lagged_times
 from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
 from rwhonet.data.problems import row_problems
+from rwhonet.data.robust import cumulative_trapezoid
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo.geodesic import wgs84
 
@@ -615,12 +614,12 @@ def travelled_path(
     t, omega = np.asarray(t_s, np.float64)[ok], omega[ok]
     if t.size < 2:  # no path: every time outside it
         return TravelledPath(t, np.zeros(t.size), np.zeros(t.size, np.complex128), np.zeros(0))
-    cum = cumulative_trapezoid(omega, t, initial=0.0)
+    cum = cumulative_trapezoid(omega, t)
     z = cum  # without a gyro, a straight line: the rolled angle itself (real)
     if yaw_t_s is not None and yaw_rad_s is not None:
         ty, r = np.asarray(yaw_t_s, np.float64), np.asarray(yaw_rad_s, np.float64)
         good = np.isfinite(ty) & np.isfinite(r)
-        psi = np.interp(t, ty[good], cumulative_trapezoid(r[good], ty[good], initial=0.0))
+        psi = np.interp(t, ty[good], cumulative_trapezoid(r[good], ty[good]))
         step = np.diff(cum) * np.exp(0.5j * (psi[1:] + psi[:-1]))
         z = np.concatenate([[0.0], np.cumsum(step)])
     piece = np.concatenate([[0], np.cumsum(np.diff(t) > max_gap_s)])
@@ -1062,4 +1061,8 @@ def _widen_holes(keep: np.ndarray, split_gap_s: float, period_s: float) -> np.nd
     d = max(math.ceil((need - 1) / 2), 0)
     if d == 0 or keep.all():
         return keep
-    return ~maximum_filter1d((~keep).astype(np.uint8), size=2 * d + 1, mode="constant").astype(bool)
+    # a row is left out where any row within d of it is a hole: count holes over the window
+    holes = np.concatenate([[0], np.cumsum(~keep, dtype=np.int64)])
+    i = np.arange(keep.size)
+    near = holes[np.minimum(i + d + 1, keep.size)] - holes[np.maximum(i - d, 0)]
+    return near == 0
