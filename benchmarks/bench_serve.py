@@ -10,7 +10,10 @@ Prints, on this machine:
 2. batch throughput (windows per second) at batch 3,600 (an hour of seconds);
 3. ``rwhonet predict`` end to end on a one-hour simulated drive (36,000 rows):
    a fresh process reading the file, and the same drive piped through stdin,
-   each writing CSV; and the streaming itself inside a warm process;
+   each writing CSV; and the streaming itself inside a warm process; then, where
+   ``--real`` names a comma2k19 segment folder (default: the real RAV4 minute in
+   ``../shared/real``), ``predict`` on it in a fresh process (a stream format: the
+   resampler and the fixes' lag estimate run first);
 4. ``rwhonet recalibrate`` end to end (a fresh process: reading and validating
    the drive, recalibrating at m = 50 s, scoring, exporting, registering in a
    fresh MLflow store) for the ``paper`` and ``radius+G`` recipes.
@@ -35,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+REAL = ROOT / ".." / "shared" / "real" / "comma2k19-example1"
 
 
 def percentiles(times_s: list[float]) -> tuple[float, float]:
@@ -110,6 +114,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=5000, help="single-step calls timed")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each end-to-end command")
+    ap.add_argument("--real", type=Path, default=REAL, help="a comma2k19 segment folder")
     args = ap.parse_args()
 
     import torch
@@ -230,6 +235,31 @@ def main() -> None:
         warm.append(time.perf_counter() - t)
     print(f"   streaming in a warm process:       {_range(warm)} s")
     print("   target: a one-hour drive streamed in < 1 s")
+    if args.real.is_dir():
+        real = [
+            run(
+                [
+                    *cli,
+                    "predict",
+                    "--model",
+                    onnx,
+                    "--drive",
+                    str(args.real),
+                    "--format",
+                    "comma2k19",
+                    "--nominal-radius",
+                    "0.362",
+                    "--output",
+                    str(tmp / "real.csv"),
+                    "--quiet",
+                ],
+                env,
+            )
+            for _ in range(args.repeats)
+        ]
+        print(f"   {args.real.name} (comma2k19 folder) -> CSV, fresh process: {_range(real)} s")
+    else:
+        print(f"   (no comma2k19 folder at {args.real}: its predict not timed)")
 
     print(
         f"\n4. rwhonet recalibrate end to end, m = 50 s, fresh process, {args.repeats} runs "
