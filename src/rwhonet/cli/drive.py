@@ -236,7 +236,7 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
                 )
             ]
         )
-    from rwhonet.data.signalmap import check_signal_map  # the stream readers' (scipy) imports
+    from rwhonet.data.signalmap import check_signal_map  # the stream readers: a map needs them
 
     raw = read_yaml(signal_map, "a signal map: key -> {column, unit}")
     if isinstance(raw, dict) and "signals" in raw:

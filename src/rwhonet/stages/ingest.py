@@ -69,7 +69,7 @@ def check_data_params(data: DataParams) -> None:
         if kind == COLUMN_MAP:
             check_column_map(name, data.column_maps[name])
         elif name in data.signal_maps:
-            # imported here: the stream readers bring scipy, which a 10 Hz fleet never needs
+            # imported here: a 10 Hz fleet never needs the stream readers
             from rwhonet.data.signalmap import check_signal_map
 
             check_signal_map(name, data.signal_maps[name].signals, with_time=kind == STREAM_CSV)
