@@ -447,7 +447,7 @@ def test_a_stream_running_on_beyond_the_others_is_said():
     split_gap_s=st.floats(0.05, 2.5),
 )
 def test_holes_widen_as_a_maximum_filter_over_them_would(keep, split_gap_s):
-    # _widen_holes counts holes over each row's window (numpy) where it used scipy.ndimage's
+    # _widen_holes takes glitches.running_max of the holes where it used scipy.ndimage's
     # maximum_filter1d, whose import cost predict 0.3 s: the same rows either way
     import math
 

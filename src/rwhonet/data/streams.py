@@ -97,7 +97,7 @@ from rwhonet.data.csvio import RawDrive
 from rwhonet.data.fixes import no_fix_rows
 from rwhonet.data.fixlag import lagged_times
 from rwhonet.data.fixtimes import fix_times
-from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask
+from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, running_max
 from rwhonet.data.problems import row_problems
 from rwhonet.data.robust import cumulative_trapezoid
 from rwhonet.errors import InputError, Problem
@@ -1061,8 +1061,6 @@ def _widen_holes(keep: np.ndarray, split_gap_s: float, period_s: float) -> np.nd
     d = max(math.ceil((need - 1) / 2), 0)
     if d == 0 or keep.all():
         return keep
-    # a row is left out where any row within d of it is a hole: count holes over the window
-    holes = np.concatenate([[0], np.cumsum(~keep, dtype=np.int64)])
-    i = np.arange(keep.size)
-    near = holes[np.minimum(i + d + 1, keep.size)] - holes[np.maximum(i - d, 0)]
-    return near == 0
+    # a row is left out where any row within d of it is a hole (the ends held: a hole there
+    # is within d of every row whose window passes the end)
+    return running_max((~keep).astype(np.float64), 2 * d + 1) == 0
