@@ -200,7 +200,21 @@ def test_missing_wheel_speed_and_time_going_back_are_named(bundle):
     df.loc[120, "t_s"] = df.loc[118, "t_s"]
     with pytest.raises(InputError, match="row 121.*a time after") as err:
         stream_all(model, blocks_of(df, [100] * 5))
-    assert f"found {float(df.loc[118, 't_s'])!r}" in str(err.value)  # not numpy's repr
+    back, prev = float(df.loc[118, "t_s"]), float(df.loc[119, "t_s"])
+    assert f"time goes backwards: t = {back!r} s after t = {prev!r} s" in str(err.value)
+    assert "sort the rows by time" in str(err.value)  # not numpy's repr above
+
+
+@pytest.mark.parametrize("sizes", [[3001], [100] * 31])  # the repeat inside a block, or first
+def test_a_row_written_twice_is_named_with_the_row_it_repeats(bundle, sizes):
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(30)
+    df = pd.concat([df.iloc[:200], df.iloc[199:]], ignore_index=True)  # data row 200 twice
+    with pytest.raises(InputError, match="row 201") as err:
+        stream_all(model, blocks_of(df, sizes))
+    t = float(df.loc[199, "t_s"])
+    assert f"t = {t!r} s again (as in row 200)" in str(err.value)
+    assert "delete the repeated rows" in str(err.value)
 
 
 def _straight(duration_s=300.0, yaw=True):

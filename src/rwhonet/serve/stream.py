@@ -496,15 +496,10 @@ class SecondStream:
                 for i in bad[:5]
             ]
         before = self._rows[c.T_S][-1:] if self._rows is not None else np.zeros(0)
-        back = np.flatnonzero(np.diff(np.concatenate([before, t])) <= 0)
+        joined = np.concatenate([before, t])
+        back = np.flatnonzero(np.diff(joined) <= 0)
         problems += [
-            Problem(
-                self.file,
-                first_row + int(i) - len(before) + 1,
-                self.names.get(c.T_S, c.T_S),
-                "a time after the previous row's",
-                _found(t[i - len(before) + 1]),
-            )
+            _time_problem(self.file, first_row + int(i) - len(before) + 1, self.names, joined, i)
             for i in back[:5]
         ]
         if problems:
@@ -727,6 +722,24 @@ def _first_slot(t_s: float, period_s: float) -> bool:
     """Whether a row's time is the first slot of its second ``(k - 1, k]``: one period
     after the whole second before it (within the clock's allowance)."""
     return t_s - period_s <= math.ceil(t_s - TIME_EPS_S) - 1 + TIME_EPS_S
+
+
+def _time_problem(file: str, row: int, names: dict[str, str], t: np.ndarray, i: int) -> Problem:
+    """Row ``row`` (time ``t[i + 1]``) is not after the row before it (``t[i]``), as validate
+    says it (``rwhonet.data.schema``): a repeated row, or a clock going back."""
+    now, prev = float(t[i + 1]), float(t[i])
+    if now == prev:
+        found = f"t = {now!r} s again (as in row {row - 1})"
+        fix = "delete the repeated rows (an export that wrote a sample twice), or re-export"
+    else:
+        found = f"time goes backwards: t = {_found(now)} s after t = {_found(prev)} s"
+        fix = (
+            "sort the rows by time, or split the file into one drive per recording where the "
+            "clock restarts"
+        )
+    return Problem(
+        file, row, names.get(c.T_S, c.T_S), "a time after the previous row's", found, fix
+    )
 
 
 def _found(value: float) -> str:
