@@ -35,6 +35,7 @@ from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.glitches import repaired_yaw_rate
 from rwhonet.data.quality import Segment, second_index
+from rwhonet.data.robust import cumulative_trapezoid
 from rwhonet.geo import geodesic_distance_m, local_distance_m, local_step_distance_m
 from rwhonet.geo.geodesic import wgs84
 
@@ -81,7 +82,7 @@ def implied_radius(
     if prev.size == 0:
         return RadiusEstimate(float("nan"), 0, 0.0, 0.0)
     # Cumulative wheel angle, so the angle between any two rows is one subtraction.
-    angle = np.r_[0.0, np.cumsum(0.5 * (wheel[1:] + wheel[:-1]) * np.diff(t))]
+    angle = cumulative_trapezoid(wheel, t)
     angle_s = angle[this] - angle[prev]
     moving = angle_s / (t[this] - t[prev]) > moving_wheel_speed_rad_s
     lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)

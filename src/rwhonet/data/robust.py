@@ -4,7 +4,8 @@
 stream readers' whole work on a minute of a real log, and ``rwhonet predict`` on a
 stream folder (comma2k19, MDF4, stream CSVs) paid both at every start. Each function
 here is the scipy function's own arithmetic, operation for operation, so the results are
-the same to the bit (``tests/data/test_robust.py`` holds them to scipy's).
+the same to the bit (``tests/data/test_robust.py`` holds them to scipy's). The running
+integral is also the wheel angle of validate's radius check and of predict's gap bridge.
 """
 
 from __future__ import annotations

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from rwhonet.data.robust import cumulative_trapezoid
 from rwhonet.features.deadreckoning import wheel_yaw_rad
 from rwhonet.geo.local import latlon_from_offsets_deg, offsets_m
 from rwhonet.nav import NavConfig, NavInputs, NavStart, run, t2_quantile
@@ -351,7 +352,7 @@ class StreamNavigator:
 
         def per_step(values: np.ndarray) -> np.ndarray:
             v = np.asarray(values, np.float64)
-            cum = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))]
+            cum = cumulative_trapezoid(v, t)
             return np.diff(np.interp(edges, t, cum))
 
         a_rl, a_rr = per_step(np.abs(omega_rl)), per_step(np.abs(omega_rr))
