@@ -335,6 +335,31 @@ def test_predict_says_which_wheel_glitch_it_repaired_even_when_quiet(bundle, tmp
         assert "row 306 (t = " in err and "'Wheel Speed Rear Left (rad/sec)'" in err
 
 
+def test_predict_drops_a_row_written_twice_and_names_the_file_s_rows(bundle, tmp_path, capsys):
+    """A row written twice is dropped as ingest drops it: the output is the drive written
+    once, stderr says which row was dropped, and a glitch after it is named by its row in
+    the file (306), not by its rank among the rows kept (305)."""
+    clean = write_drive(tmp_path / "V-Once.csv", duration_s=60)
+    lines = clean.read_text().splitlines()
+    cells = lines[305].split(",")  # data row 305
+    cells[12] = repr(float(cells[12]) * 10.0)  # rear left, ten times its speed
+    lines[305] = ",".join(cells)
+    clean.write_text("\n".join(lines) + "\n")
+    twice = tmp_path / "V-Twice.csv"
+    twice.write_text("\n".join([*lines[:101], lines[100], *lines[101:]]) + "\n")  # row 100
+    out = {}
+    for path in (clean, twice):
+        out[path] = tmp_path / f"{path.stem}.csv"
+        args = ["predict", "--model", str(bundle["model_onnx"]), "--drive", str(path)]
+        assert main([*args, "--output", str(out[path]), "--quiet"]) == 0
+        err = capsys.readouterr().err
+        assert "wheel glitch: 1 sample(s)" in err
+        row = 306 if path == twice else 305
+        assert f"row {row} (t = " in err
+    assert out[twice].read_text() == out[clean].read_text()
+    assert "1 data row(s) repeat the row before them" in err and "(row(s) 101)" in err
+
+
 @pytest.mark.parametrize("arch", ["tcn", "gru"])
 def test_a_model_with_context_exports_and_predicts_every_second(arch, drive, tmp_path, capsys):
     """model.arch tcn / gru: the stream feeds each second's window of 32 s to ONNX Runtime."""

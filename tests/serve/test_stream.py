@@ -205,16 +205,51 @@ def test_missing_wheel_speed_and_time_going_back_are_named(bundle):
     assert "sort the rows by time" in str(err.value)  # not numpy's repr above
 
 
-@pytest.mark.parametrize("sizes", [[3001], [100] * 31])  # the repeat inside a block, or first
-def test_a_row_written_twice_is_named_with_the_row_it_repeats(bundle, sizes):
+def _written_twice(df, *rows_1based):
+    """``df`` with each named data row (1-based, of the result so far) written again after it."""
+    for r in rows_1based:
+        df = pd.concat([df.iloc[:r], df.iloc[r - 1 :]], ignore_index=True)
+    return df
+
+
+# the copies inside a block, at a block's first row, and a block of copies only
+@pytest.mark.parametrize("sizes", [[3001], [100] * 31, [200, 1, 1, 2000]])
+def test_rows_written_twice_are_dropped_as_ingest_drops_them(bundle, sizes):
+    """A row that repeats the row before in every channel streams as the drive written
+    once (ingest drops it too: rwhonet.data.repeats), and the stream lists it."""
     model = load_served(bundle["model_onnx"])
     df = wavy_drive(30)
-    df = pd.concat([df.iloc[:200], df.iloc[199:]], ignore_index=True)  # data row 200 twice
+    twice = _written_twice(df, 200, 201)  # data row 200 three times: rows 201, 202 copies
+    once, _ = stream_all(model, blocks_of(df, [3000]))
+    out, stream = stream_all(model, blocks_of(twice, sizes))
+    assert_same_seconds(out, once)
+    assert stream.copies.dropped == [201, 202]
+    assert "2 data row(s) repeat the row before them" in stream.copies.note("t.csv")
+
+
+@pytest.mark.parametrize("sizes", [[3001], [100] * 31, [7] * 500])
+def test_after_a_dropped_copy_messages_name_the_file_s_rows(bundle, sizes):
+    """A missing wheel speed after copies is named by its row in the file, not by its
+    rank among the rows kept; so is a second that does not span 1 s."""
+    model = load_served(bundle["model_onnx"])
+    df = _written_twice(wavy_drive(30), 100, 150)
+    df.loc[249, "omega_rl_rad_s"] = np.nan  # data row 250 of the file
+    with pytest.raises(InputError) as err:
+        stream_all(model, blocks_of(df, sizes))
+    assert [p.row for p in err.value.problems] == [250]
+
+
+@pytest.mark.parametrize("sizes", [[100000], [200, 1000]])
+def test_a_row_at_the_time_of_the_row_before_with_other_values_is_not_a_copy(bundle, sizes):
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(30)
+    df.loc[200, "t_s"] = df.loc[199, "t_s"]  # data row 201 at row 200's time, its own values
     with pytest.raises(InputError, match="row 201") as err:
         stream_all(model, blocks_of(df, sizes))
     t = float(df.loc[199, "t_s"])
     assert f"t = {t!r} s again (as in row 200)" in str(err.value)
-    assert "delete the repeated rows" in str(err.value)
+    assert "every value the same" not in str(err.value)
+    assert "delete one of the two rows" in str(err.value)
 
 
 def _straight(duration_s=300.0, yaw=True):

@@ -584,14 +584,52 @@ def _(raw: Path) -> None:
     write_target(raw, df)
 
 
+def _written_twice(df: pd.DataFrame, row: int) -> pd.DataFrame:
+    """``df`` with its data row ``row`` (1-based) written again right after it."""
+    return pd.concat([df.iloc[:row], df.iloc[row - 1 :]], ignore_index=True)
+
+
 @case(
     "duplicated_timestamps",
-    "data row 200 written twice (rows 200 and 201 identical)",
+    "data row 200 written twice (rows 200 and 201 identical in every cell)",
+    Accept("the copy (row 201) is dropped at ingest; its notes and validate's report name it"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, _written_twice(good_target(), 200))
+
+
+@case(
+    "same_time_other_values",
+    "data row 201 stamped with row 200's time, its values its own (a clock that stuck once)",
     Refuse("validate", 201, " Time", "time strictly increasing", "again (as in row 200)"),
 )
 def _(raw: Path) -> None:
     df = good_target()
-    df = pd.concat([df.iloc[:200], df.iloc[199:]], ignore_index=True)
+    df.loc[rows(df, 201, 201), c.T_S] = df.loc[199, c.T_S]
+    write_target(raw, df)
+
+
+@case(
+    "empty_cells_after_a_row_written_twice",
+    "data row 100 written twice, then the latitude of data row 300 left empty",
+    # the file's row, not the drive's 299th after the copy was dropped
+    Refuse("validate", 300, " Lat", "a value", "no value (empty or NaN)"),
+)
+def _(raw: Path) -> None:
+    df = _written_twice(good_target(), 100)
+    df.loc[rows(df, 300, 300), c.LAT_DEG] = np.nan
+    write_target(raw, df)
+
+
+@case(
+    "stuck_wheel_after_rows_written_twice",
+    "data rows 100 and 600 written twice, the rear-right wheel 0 in data rows 502-701",
+    # the file's rows, before and after the copy of row 600 inside the stretch (dropped)
+    Refuse("validate", 502, WHEEL_RR, "each wheel turning", "(rows 502-701,"),
+)
+def _(raw: Path) -> None:
+    df = _written_twice(_written_twice(good_target(), 100), 600)
+    df.loc[rows(df, 502, 701), c.OMEGA_RR] = 0.0
     write_target(raw, df)
 
 

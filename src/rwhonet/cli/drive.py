@@ -55,7 +55,8 @@ class DriveSamples:
         file: the drive file as the user named it.
         assessment: validate's GNSS-quality assessment (segments, cuts).
         notes: what the resampler left out or changed of a stream drive (its fixes moved
-            to the receiver's epochs, ...), said on stderr as ``predict`` says it.
+            to the receiver's epochs, ...), said on stderr as ``predict`` says it; for a
+            10 Hz file what its reader did (rows written twice and dropped, ...).
     """
 
     samples: SampleSet
@@ -280,6 +281,7 @@ def load_drive(
     """
     from rwhonet.data.drivechecks import check_drive
     from rwhonet.data.quality import segment_name
+    from rwhonet.data.repeats import FileRows
     from rwhonet.data.schema import schema_problems
     from rwhonet.features.labels import sample_table
     from rwhonet.features.samples import stack_segments
@@ -301,8 +303,11 @@ def load_drive(
     }
     if drive.streams is not None:  # the grid rows whose mean used a glitched sample
         entry["streams"] = drive.streams.to_dict()
+    if raw.repeated_rows.size:  # rows written twice, dropped: messages name the file's rows
+        entry["repeated_rows"] = [int(r) for r in raw.repeated_rows]
     cuts = [cut for cut in params.validate.cuts if cut.drive == drive_id(path)]
-    found = schema_problems(df, params.validate, file, raw.source_columns)
+    rows = FileRows.of(entry)
+    found = schema_problems(df, params.validate, file, raw.source_columns, rows)
     problems, result, _, _ = check_drive(params, entry, df, found, cuts)
     if problems:
         raise InputError(problems, f"{file}: {len(problems)} problem(s) (validate)")
@@ -313,8 +318,10 @@ def load_drive(
         sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)
         samples = sample_table(sec, calibration, scaler, wpm_mode).to_pandas()
         segments.append(({"drive": drive_id(path), "segment": name, "role": ROLE}, samples))
-    lost = tuple(drive.streams.lost) if drive.streams is not None else ()
-    return DriveSamples(stack_segments(segments, seq_len), file, result, lost)
+    # a stream drive: what the resampler lost; a 10 Hz file: what its reader did (rows
+    # written twice and dropped, the clock passing midnight, columns taken by position)
+    notes = tuple(drive.streams.lost) if drive.streams is not None else raw.notes
+    return DriveSamples(stack_segments(segments, seq_len), file, result, notes)
 
 
 def drive_sha256(path: Path) -> str:

@@ -203,21 +203,25 @@ def run(
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
 
-    A row whose fix validate's GNSS policy would not use (latitude = longitude = 0, fewer
-    than ``validate.gnss.min_sats`` satellites where the drive counts them) is taken as a
-    row without a fix (:class:`rwhonet.data.incremental.FixScreen`; ``fix_note`` says how
-    many). The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
+    A row that repeats the row before it in every column, the time included (a sample
+    written twice), is dropped as ingest drops it (:class:`rwhonet.data.repeats.CopyFilter`;
+    ``drive_notes`` says which); messages still name the file's rows. A row whose fix
+    validate's GNSS policy would not use (latitude = longitude = 0, fewer than
+    ``validate.gnss.min_sats`` satellites where the drive counts them) is taken as a row
+    without a fix (:class:`rwhonet.data.incremental.FixScreen`; ``fix_note`` says how many).
+    The wheel speeds' unit is checked as validate checks it (the tyre radius they imply
     against the GNSS distance, :class:`rwhonet.data.drivechecks.StreamRadiusCheck`), as
-    ``unit_check`` says (:class:`UnitCheck`; None: its defaults), and a yaw rate's unit
-    and sign as validate checks them (the GNSS course's turn against it). No second is
-    written before the checks have decided: a drive whose wheel speeds do not fit, or
-    whose yaw rate turns the wrong way, is refused with nothing written, also on stdout.
-    At most :data:`HOLD_MAX_S` seconds are held: a drive still undecided then (no fix
-    yet) is written on, unchecked, with a note on stderr, and still refused (exit 2) if
-    the check fails later.
+    ``unit_check`` says (:class:`UnitCheck`; None: its defaults), and a yaw rate's unit and
+    sign as validate checks them (the GNSS course's turn against it). No second is written
+    before the checks have decided: a drive whose wheel speeds do not fit, or whose yaw rate
+    turns the wrong way, is refused with nothing written, also on stdout. At most
+    :data:`HOLD_MAX_S` seconds are held: a drive still undecided then (no fix yet) is
+    written on, unchecked, with a note on stderr, and still refused (exit 2) if the check
+    fails later.
     """
     from rwhonet.data.drivechecks import StreamRadiusCheck
     from rwhonet.data.incremental import FixScreen, read_rows
+    from rwhonet.data.repeats import CopyFilter
     from rwhonet.libraries import raise_if_interrupted
 
     with ExitStack() as stack:
@@ -258,9 +262,13 @@ def run(
                 names = lay.names
             uc = unit_check or UnitCheck()
             vp = uc.validate or default_validate()
+            # a row written twice is dropped, as ingest drops it (before the fix screen,
+            # which would take the copy's fix as one that did not move)
+            copies = CopyFilter()
+            blocks = copies.blocks(iter(blocks))
             # a fix validate would not use (satellites, a jump, a frozen receiver) is none
             fixes = FixScreen(vp.gnss.min_sats, vp.gnss, vp.sample_period_s)
-            blocks = fixes.blocks(iter(blocks))
+            blocks = fixes.blocks(blocks)
             nominal = uc.nominal_radius_m or float(np.mean(model.meta.source_radii))
             check = StreamRadiusCheck(
                 {"source_file": name, "columns": names, "vehicle": "the car"},
@@ -323,7 +331,7 @@ def run(
         "gaps": list(stream.gaps),
         "max_gap_s": max_gap_s,
         "stream_glitches": list(stream_glitches or []),
-        "drive_notes": list(drive_notes),
+        "drive_notes": [*drive_notes, *filter(None, [copies.note(name)])],
         "unit_note": unit_note,
         "yaw_note": check.yaw_note,
         "fix_note": fixes.note(name),

@@ -27,7 +27,7 @@ import re
 import sys
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -67,19 +67,25 @@ class RawDrive:
     """The channels of one drive file, in canonical names and SI units.
 
     Attributes:
-        columns: canonical name -> float64 array; element ``i`` is data row ``i + 1``.
+        columns: canonical name -> float64 array; element ``i`` is data row ``i + 1``
+            (but see ``repeated_rows``).
         source_columns: canonical name -> the file's column name it was read from.
         header_match: how the columns were found: ``"name"``, ``"position"``,
             ``"column_map"``, or ``"streams"`` (resampled from timestamped streams,
             :mod:`rwhonet.data.streams`: element ``i`` is then row ``i`` of the 10 Hz grid).
         notes: what the reader did that the user should hear about (columns taken by
-            position, the clock passing midnight, rows of the grid without data).
+            position, the clock passing midnight, rows of the grid without data, rows
+            written twice).
+        repeated_rows: data rows of the file (1-based) left out because they repeat the
+            row before them (:func:`rwhonet.data.repeats.drop_repeated`); element ``i`` of
+            ``columns`` is then the file's row ``FileRows(repeated_rows)(i)``.
     """
 
     columns: dict[str, np.ndarray]
     source_columns: dict[str, str]
     header_match: str
     notes: tuple[str, ...] = ()
+    repeated_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n_rows(self) -> int:

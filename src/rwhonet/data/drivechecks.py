@@ -51,6 +51,7 @@ from rwhonet.data.plausibility import (
 )
 from rwhonet.data.problems import stretch_problems
 from rwhonet.data.quality import Assessment, Segment, assess, manual_rows, second_index
+from rwhonet.data.repeats import FILE_ROW, FileRows
 from rwhonet.errors import InputError, Problem
 
 YAW_GLITCHES_LISTED = 10  # yaw-rate glitches listed one by one in the record (all counted)
@@ -101,7 +102,14 @@ def check_drive(
         nominal = params.nominal_radius_m(entry["vehicle"])
         glitch, glitches = wheel_glitches(df, entry, nominal)
         found = _glitches_out_of_range(found, df, glitch, entry["columns"], vp)
-        result = assess(df, vp.gnss, vp.sample_period_s, drive_cuts, wheel_glitch=glitch)
+        result = assess(
+            df,
+            vp.gnss,
+            vp.sample_period_s,
+            drive_cuts,
+            wheel_glitch=glitch,
+            file_rows=FileRows.of(entry),
+        )
         wheels = wheel_problems(vp, nominal, entry, df, drive_cuts, result)
         wheels += _glitch_problems(entry, df, glitch, glitches, vp.sample_period_s)
         more, units = _drive_problems(params, entry, df, result, check_units=not wheels)
@@ -142,9 +150,9 @@ def wheel_glitches(
     mask[grid_rows] = True
     if not mask.any():
         return mask, None
-    columns = entry["columns"]
+    columns, file_rows = entry["columns"], FileRows.of(entry)
     own = [
-        {"row": int(i) + 1, "t_s": float(t[i]), "channel": columns.get(w, w)}
+        {"row": file_rows(int(i)), "t_s": float(t[i]), "channel": columns.get(w, w)}
         for i in np.flatnonzero(by_wheel.any(axis=0))[:listed]
         for w in (c.WHEELS[int(np.argmax(by_wheel[:, i]))],)
     ]
@@ -329,13 +337,18 @@ def yaw_problems(
         record["note"] = "the yaw rate never changed, nor did the course turn enough to tell"
     if glitched.size:
         t, rate = np.asarray(df[c.T_S]), np.asarray(df[c.YAW_RATE_RAD_S])
+        file_rows = FileRows.of(entry)
         record["glitches"] = {
             "rows": int(glitched.size),
             "listed": [
-                {"row": int(i) + 1, "t_s": float(t[i]), "rad_s": float(rate[i])}
+                {"row": file_rows(int(i)), "t_s": float(t[i]), "rad_s": float(rate[i])}
                 for i in glitched[:YAW_GLITCHES_LISTED]
             ],
-            "rows_are": "rows of the canonical drive (1-based)",
+            "rows_are": (
+                "rows of the drive's 10 Hz grid (1-based)"
+                if entry.get("streams")
+                else "data rows of the file (1-based)"
+            ),
             "limit_rad_s": YAW_RATE_LIMIT_RAD_S,
             "repair": "interpolated in time across (the check and the label)",
         }
@@ -574,7 +587,10 @@ class StreamRadiusCheck:
         self.last_row: dict[str, np.ndarray] | None = None  # the GNSS step into a block
 
     def push(
-        self, columns: Mapping[str, np.ndarray], raw: Mapping[str, np.ndarray] | None = None
+        self,
+        columns: Mapping[str, np.ndarray],
+        raw: Mapping[str, np.ndarray] | None = None,
+        first_row: int | None = None,
     ) -> bool:
         """Add rows; return whether the checks have decided.
 
@@ -582,6 +598,9 @@ class StreamRadiusCheck:
             columns: the rows (their wheel glitches repaired).
             raw: the same rows as the file has them, for the range check's report (None:
                 ``columns``).
+            first_row: the file's data row of the first of them, the others following it
+                (None: the row after the last one pushed). Rows written twice may have
+                been dropped between two blocks (:class:`rwhonet.data.repeats.CopyFilter`).
 
         Raises:
             InputError: a wheel speed beyond ``validate.max_abs_wheel_speed_rad_s``, the
@@ -589,6 +608,8 @@ class StreamRadiusCheck:
                 does not turn as the GNSS course does.
         """
         block = {k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS}
+        first = self.n_wheel_rows + 1 if first_row is None else int(first_row)
+        block[FILE_ROW] = first + np.arange(block[c.T_S].size, dtype=np.float64)
         self.wheel_parts.append(block)
         self._tally_signs(block)
         self._in_range(block, columns if raw is None else raw)
@@ -605,7 +626,7 @@ class StreamRadiusCheck:
             n = min(
                 self.n_wheel_rows, self.n_wheel_rows - self.sensor_checked + self.sensor_context
             )
-            self._refuse_sensors(self._tail(n), row0=self.n_wheel_rows - n)
+            self._refuse_sensors(self._tail(n))
             self.sensor_checked = self.n_wheel_rows
             self.wheel_parts = [self._tail(min(self.n_wheel_rows, self.sensor_context))]
         if self.decided:
@@ -636,7 +657,7 @@ class StreamRadiusCheck:
             rows,
             w.negative_tol_rad_s,
             self.vp.gnss.moving_wheel_speed_rad_s,
-            row0=self.n_wheel_rows,
+            row0=int(block[FILE_ROW][0]) - 1 if block[c.T_S].size else 0,  # the file's rows
             lead=lead,
         )
         self.signs = {k: self.signs[k].add(tallies[k]) for k in c.WHEELS}
@@ -667,7 +688,6 @@ class StreamRadiusCheck:
                 with the value the file has there.
         """
         limit = self.vp.max_abs_wheel_speed_rad_s
-        first = self.n_wheel_rows + 1
         self.n_wheel_rows += rows[c.T_S].size
         problems = []
         for w in c.WHEELS:
@@ -676,7 +696,7 @@ class StreamRadiusCheck:
             problems += [
                 Problem(
                     self.entry["source_file"],
-                    first + int(i),
+                    int(rows[FILE_ROW][i]),
                     self.entry["columns"].get(w, w),
                     f"|wheel speed| < {limit:g} rad/s (validate.max_abs_wheel_speed_rad_s)",
                     f"{float(raw[w][i]):.6g} rad/s",
@@ -708,7 +728,8 @@ class StreamRadiusCheck:
             got += part[c.T_S].size
             if got >= n:
                 break
-        return {k: np.concatenate([p[k] for p in reversed(parts)])[got - n :] for k in self.KEYS}
+        keys = (*self.KEYS, FILE_ROW)
+        return {k: np.concatenate([p[k] for p in reversed(parts)])[got - n :] for k in keys}
 
     def _wheel_sensors(self, signs: list[Problem]) -> None:
         """validate's wheel-sensor checks at the drive's end: the stuck, silent and stale
@@ -722,17 +743,16 @@ class StreamRadiusCheck:
             n = min(
                 self.n_wheel_rows, self.n_wheel_rows - self.sensor_checked + self.sensor_context
             )
-            self._refuse_sensors(self._tail(n), row0=self.n_wheel_rows - n, signs=signs)
+            self._refuse_sensors(self._tail(n), signs=signs)
             self.sensor_checked = self.n_wheel_rows
         self._sensor_refusal(signs)
         self.wheel_parts = []
 
-    def _refuse_sensors(
-        self, rows: dict[str, np.ndarray], row0: int, signs: Sequence[Problem] = ()
-    ) -> None:
+    def _refuse_sensors(self, rows: dict[str, np.ndarray], signs: Sequence[Problem] = ()) -> None:
         """validate's stuck, silent and stale checks (:func:`wheel_problems` without the
-        sign check, which the tallies make) on ``rows``, the drive's from data row
-        ``row0 + 1``; refused with ``signs``, the sign check's problems, before them.
+        sign check, which the tallies make) on ``rows``, the drive's (each with its data
+        row in the file, ``FILE_ROW``); refused with ``signs``, the sign check's problems,
+        before them.
 
         Raises:
             InputError: as validate refuses the drive.
@@ -740,7 +760,16 @@ class StreamRadiusCheck:
         fix = np.isfinite(rows[c.LAT_DEG]) & np.isfinite(rows[c.LON_DEG])
         result = assess(rows, self.vp.gnss, self.vp.sample_period_s, wheel_glitch=~fix)
         entry = {"drive": self.entry["source_file"]} | self.entry
-        found = wheel_problems(self.vp, self.nominal_m, entry, rows, [], result, False, row0)
+        found = wheel_problems(
+            self.vp,
+            self.nominal_m,
+            entry,
+            rows,
+            [],
+            result,
+            False,
+            numbering=lambda i: int(rows[FILE_ROW][i]),
+        )
         self._sensor_refusal([*signs, *found])
 
     def _sensor_refusal(self, problems: list[Problem]) -> None:
@@ -865,7 +894,12 @@ def _swapped_by_range(
 
 @np.errstate(invalid="ignore", over="ignore", divide="ignore")
 def sign_problem(
-    vp: ValidateParams, file: str, column: str, tally: SignTally, so_far: bool = False
+    vp: ValidateParams,
+    file: str,
+    column: str,
+    tally: SignTally,
+    so_far: bool = False,
+    file_rows: Callable[[int], int] | None = None,
 ) -> Problem | None:
     """validate's sign check of one wheel from its :class:`SignTally`.
 
@@ -878,6 +912,8 @@ def sign_problem(
         column: the wheel's column as the file names it.
         tally: the wheel's tally over the drive (or a stream's rows so far).
         so_far: the tally is of a stream's first rows (the report says so).
+        file_rows: the file's data row of each of the tally's rows (None: row ``i`` is
+            data row ``i + 1``; :mod:`rwhonet.data.repeats`).
 
     Returns:
         The problem, or None when the wheel passes.
@@ -892,10 +928,12 @@ def sign_problem(
         if share > vp.wheels.signed_max_share
         else "one wheel negative while another turns forwards (not reversing)"
     )
-    rows = f"{tally.first_row + 1}-{tally.last_row + 1}"
+    numbering = file_rows if file_rows is not None else FileRows()
+    first = numbering(tally.first_row)
+    rows = f"{first}-{numbering(tally.last_row)}"
     return Problem(
         file,
-        tally.first_row + 1,
+        first,
         column,
         "wheel speeds as magnitudes >= 0 (as ABS sensors give them), or all four "
         "negative together while reversing on at most "
@@ -918,7 +956,7 @@ def wheel_problems(
     drive_cuts: list[CutSpec],
     result: Assessment,
     signs: bool = True,
-    row0: int = 0,
+    numbering: Callable[[int], int] | None = None,
 ) -> list[Problem]:
     """Negative wheel speeds (a sign error), stuck wheel sensors and no wheel data at all.
 
@@ -932,19 +970,22 @@ def wheel_problems(
         signs: False leaves out the sign check, whose verdict (the share of the moving rows
             that are negative) needs the whole drive: a stream's checks before its end. A
             stuck, silent or stale stretch is one wherever the drive goes on.
-        row0: the file's data rows before ``df``'s first (a stream's window of its rows),
-            added to the rows the problems name.
+        numbering: the file's data row (1-based) of ``df``'s row ``i`` (0-based), for the
+            rows the problems name (a stream's window of its rows); None: the entry's
+            (:meth:`rwhonet.data.repeats.FileRows.of`: a 10 Hz file may have lost rows
+            written twice).
     """
     file, columns = entry["source_file"], entry["columns"]
+    row_of = FileRows.of(entry) if numbering is None else numbering
     ignore = manual_rows(np.asarray(df[c.T_S], dtype=np.float64), drive_cuts)
     problems = []
     t = np.asarray(df[c.T_S], dtype=np.float64)
     if signs:
         tallies = sign_tallies(
-            df, vp.wheels.negative_tol_rad_s, vp.gnss.moving_wheel_speed_rad_s, ignore, row0
+            df, vp.wheels.negative_tol_rad_s, vp.gnss.moving_wheel_speed_rad_s, ignore
         )
         for wheel, tally in tallies.items():
-            problem = sign_problem(vp, file, columns.get(wheel, wheel), tally)
+            problem = sign_problem(vp, file, columns.get(wheel, wheel), tally, file_rows=row_of)
             if problem is not None:
                 problems.append(problem)
     runs = stuck_wheel_runs(df, vp.wheels, vp.sample_period_s, ignore)
@@ -959,7 +1000,8 @@ def wheel_problems(
             start,
             end,
             f"{(run.row_stop - run.row_start) * vp.sample_period_s:.4g} s (rows "
-            f"{row0 + run.row_start + 1}-{row0 + run.row_stop}, t = {start:.6g}-{end:.6g} s)",
+            f"{row_of(run.row_start)}-{row_of(run.row_stop - 1)}, "
+            f"t = {start:.6g}-{end:.6g} s)",
         )
 
     def cut_it(start: float, end: float, reason: str) -> str:
@@ -972,7 +1014,7 @@ def wheel_problems(
         start, end, where = stretch(run)
         return Problem(
             file,
-            row0 + run.row_start + 1,
+            row_of(run.row_start),
             columns.get(run.wheel, run.wheel),
             "each wheel turning with the others while the car moves (at least "
             f"{vp.wheels.stuck_ratio} x the median of the four wheels for any "
@@ -994,7 +1036,7 @@ def wheel_problems(
         start, end, where = stretch(run)
         return Problem(
             file,
-            row0 + run.row_start + 1,
+            row_of(run.row_start),
             wheels,
             expected,
             found(where),

@@ -51,12 +51,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.fixes import no_fix_rows
+from rwhonet.data.repeats import FileRows
 from rwhonet.data.timebase import TIME_EPS_S, nominal_times
 from rwhonet.geo import geodesic_distance_m, local_step_distance_m
 
@@ -262,6 +264,7 @@ def assess(
     sample_period_s: float,
     cuts: Sequence[CutSpec] = (),
     wheel_glitch: np.ndarray | None = None,
+    file_rows: FileRows | None = None,
 ) -> Assessment:
     """Apply the GNSS-quality policy to one drive (see the module docstring for the rules).
 
@@ -273,6 +276,8 @@ def assess(
         cuts: manual cuts of this drive (``validate.cuts`` entries naming it).
         wheel_glitch: boolean mask of rows whose wheel speeds changed faster than a tyre
             can (:func:`rwhonet.data.glitches.glitch_mask`), or None (no such rule).
+        file_rows: the file's data row of each row, for the cuts' details (None: row ``i``
+            is data row ``i + 1``; :mod:`rwhonet.data.repeats`).
 
     Returns:
         The valid segments and every cut, with per-rule totals.
@@ -367,6 +372,7 @@ def assess(
         "wheel": wheel,
         "count": count,
         "glitch": glitch_row,
+        "file_rows": file_rows if file_rows is not None else FileRows(),
     }
     cut_list = [
         Cut(
@@ -398,7 +404,7 @@ def _detail(
     a: int,
     b: int,
     row_at: np.ndarray,
-    rows: dict[str, np.ndarray],
+    rows: dict[str, Any],
     policy: GnssPolicy,
     n_per_s: int,
     cuts: Sequence[CutSpec],
@@ -435,7 +441,7 @@ def _detail(
             f"(> max_speed_m_s {policy.max_speed_m_s})"
         )
     if rule == "wheel_glitch":
-        rows_hit = np.flatnonzero(rows["glitch"][lo:hi]) + lo + 1
+        rows_hit = rows["file_rows"](np.flatnonzero(rows["glitch"][lo:hi]) + lo)
         shown = ", ".join(str(r) for r in rows_hit[:5]) + (" ..." if rows_hit.size > 5 else "")
         return f"wheel speed changing faster than any tyre can in row(s) {shown}"
     if rule == "start_fix":

@@ -28,6 +28,7 @@ from pandera.errors import SchemaErrors
 from rwhonet.config import ValidateParams
 from rwhonet.data import canonical as c
 from rwhonet.data.problems import ROWS_LISTED, row_problems
+from rwhonet.data.repeats import FileRows
 from rwhonet.data.timebase import grid_phase
 from rwhonet.errors import Problem
 
@@ -41,7 +42,8 @@ class _Explain:
     """How to word one check's failures: what was expected, what was found, what to do."""
 
     expected: str
-    found: Callable[[pd.DataFrame, int, object], str]
+    # (the drive, its 0-based row, the failing value, the file's numbering of its rows)
+    found: Callable[[pd.DataFrame, int, object, FileRows], str]
     fix: str | None = None
 
 
@@ -50,14 +52,14 @@ def _num(x: object) -> str:
     return repr(x.item()) if isinstance(x, np.generic) else repr(x)
 
 
-def _value(df: pd.DataFrame, i: int, case: object) -> str:
+def _value(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
     return _num(case)
 
 
-def _time_step(df: pd.DataFrame, i: int, case: object) -> str:
+def _time_step(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
     t = df[c.T_S].to_numpy()
     return (
-        f"t = {_num(t[i])} s after t = {_num(t[i - 1])} s in row {i} "
+        f"t = {_num(t[i])} s after t = {_num(t[i - 1])} s in row {rows(i - 1)} "
         f"(step {t[i] - t[i - 1]:+.6g} s)"
     )
 
@@ -132,7 +134,7 @@ def _drive_checks(
             ok[a] = steps.size == 0 or abs(float(np.median(steps)) - period) <= tol
         return pd.Series(ok, index=s.index)
 
-    def median_found(df: pd.DataFrame, i: int, case: object) -> str:
+    def median_found(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
         median = float(df[c.T_S].diff().median())
         hint = ""
         if abs(median / 1000.0 - period) <= tol:
@@ -155,16 +157,18 @@ def _drive_checks(
             pa.Check(lambda s: step(s) != 0, name="time_not_repeated"),
             _Explain(
                 increasing,
-                lambda df, i, case: f"t = {_num(case)} s again (as in row {i})",
-                "delete the repeated rows (an export that wrote a sample twice), or re-export "
-                "the drive",
+                lambda df, i, case, rows: f"t = {_num(case)} s again (as in row {rows(i - 1)})",
+                "two samples at one time, their values not the same (an exact copy of the "
+                "row before is dropped at ingest): a clock that stuck, or stamps rounded "
+                "too coarsely; delete one of the two rows, or re-export the drive with "
+                "finer time stamps",
             ),
         ),
         "time_not_backwards": (
             pa.Check(lambda s: ~(step(s) < 0), name="time_not_backwards"),
             _Explain(
                 increasing,
-                lambda df, i, case: "time goes backwards: " + _time_step(df, i, case),
+                lambda df, i, case, rows: "time goes backwards: " + _time_step(df, i, case, rows),
                 "sort the rows by time, or split the file into one drive per recording where "
                 "the clock restarts",
             ),
@@ -234,14 +238,16 @@ _DRIVE_WIDE = ("median_sample_period",)
 _BUILTIN = {
     "not_nullable": _Explain(
         "a value (this channel is required)",
-        lambda df, i, case: "no value (empty or NaN)",
+        lambda df, i, case, rows: "no value (empty or NaN)",
         "fill the empty cells, or delete the rows (a gap longer than validate.gnss.max_gap_s "
         "splits the drive there)",
     ),
-    "column_in_dataframe": _Explain("this required channel", lambda df, i, case: "no such column"),
+    "column_in_dataframe": _Explain(
+        "this required channel", lambda df, i, case, rows: "no such column"
+    ),
     "column_in_schema": _Explain(
         f"only the canonical columns ({', '.join((*c.REQUIRED, *c.OPTIONAL, c.SCENARIO))})",
-        lambda df, i, case: f"column {case!r}",
+        lambda df, i, case, rows: f"column {case!r}",
     ),
 }
 
@@ -303,20 +309,24 @@ def schema_problems(
     vp: ValidateParams,
     source_file: str,
     source_columns: Mapping[str, str],
+    file_rows: FileRows | None = None,
 ) -> list[Problem]:
     """Validate a canonical drive and describe every failure in the source file's terms.
 
     Args:
-        df: the canonical drive (row ``i`` is data row ``i + 1`` of the source file).
+        df: the canonical drive (row ``i`` is data row ``i + 1`` of the source file, unless
+            rows written twice were dropped: ``file_rows``).
         vp: the ``validate`` section.
         source_file: the drive's source file, as the user knows it.
         source_columns: canonical name -> the file's column name (from the ingest manifest).
+        file_rows: the file's row of each of ``df``'s (None: row ``i`` is data row ``i + 1``).
 
     Returns:
         Problems (empty when the drive is valid): per column and check, the first
         ``ROWS_LISTED`` failing rows and a summary of the rest.
     """
-    return schema_problems_batch(df, [0], vp, [source_file], [source_columns])[0]
+    rows = None if file_rows is None else [file_rows]
+    return schema_problems_batch(df, [0], vp, [source_file], [source_columns], rows)[0]
 
 
 @np.errstate(invalid="ignore", over="ignore", divide="ignore")
@@ -326,6 +336,7 @@ def schema_problems_batch(
     vp: ValidateParams,
     source_files: Sequence[str],
     source_columns: Sequence[Mapping[str, str]],
+    file_rows: Sequence[FileRows] | None = None,
 ) -> list[list[Problem]]:
     """Validate drives stacked in one frame in one pandera call; report per drive.
 
@@ -340,6 +351,8 @@ def schema_problems_batch(
         vp: the ``validate`` section.
         source_files: each drive's source file, as the user knows it.
         source_columns: each drive's map canonical name -> the file's column name.
+        file_rows: each drive's numbering of its rows in its file (rows written twice were
+            dropped: :mod:`rwhonet.data.repeats`); None: row ``i`` is data row ``i + 1``.
 
     Returns:
         Per drive, its problems (empty when it is valid).
@@ -357,6 +370,7 @@ def schema_problems_batch(
         return [[] for _ in starts]
     explain = {name: how for name, (_, how) in _drive_checks(vp).items()} | _BUILTIN
     problems: list[list[Problem]] = [[] for _ in starts]
+    numbering = list(file_rows) if file_rows is not None else [FileRows() for _ in starts]
 
     def drive(k: int) -> pd.DataFrame:
         return df.iloc[starts[k] : stops[k]]
@@ -378,7 +392,7 @@ def schema_problems_batch(
                     name = column_name(k, column)
                     if check in ("column_in_schema", "column_in_dataframe"):
                         name = source_columns[k].get(str(case), str(case))
-                    found = how.found(drive(k), 0, case)
+                    found = how.found(drive(k), 0, case, numbering[k])
                     problems[k].append(
                         Problem(source_files[k], None, name, how.expected, found, how.fix)
                     )
@@ -392,7 +406,7 @@ def schema_problems_batch(
             mine = np.flatnonzero(owner == k)
             local = rows[mine] - starts[k]  # 0-based row of drive k
             if check in _DRIVE_WIDE:
-                found = how.found(drive(k), 0, cases_sorted[mine[0]])
+                found = how.found(drive(k), 0, cases_sorted[mine[0]], numbering[k])
                 problems[k].append(
                     Problem(
                         source_files[k], None, column_name(k, column), how.expected, found, how.fix
@@ -401,9 +415,15 @@ def schema_problems_batch(
                 continue
             shown = cases_sorted[mine[:ROWS_LISTED]]
             found = [
-                how.found(drive(k), int(i), case) for i, case in zip(local, shown, strict=False)
+                how.found(drive(k), int(i), case, numbering[k])
+                for i, case in zip(local, shown, strict=False)
             ]
             problems[k] += row_problems(
-                source_files[k], column_name(k, column), local + 1, found, how.expected, fix=how.fix
+                source_files[k],
+                column_name(k, column),
+                numbering[k](local),
+                found,
+                how.expected,
+                fix=how.fix,
             )
     return problems

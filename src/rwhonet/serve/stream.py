@@ -53,6 +53,7 @@ from rwhonet.data.glitches import (
     repaired_yaw_rate,
     yaw_rate_glitches,
 )
+from rwhonet.data.repeats import FILE_ROW, CopyFilter
 from rwhonet.data.timebase import TIME_EPS_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
@@ -211,7 +212,7 @@ class SecondStream:
     _gyro_seen: bool = False  # a yaw rate with a value has come
     _navigator: StreamNavigator | None = None
     _rows: dict[str, np.ndarray] | None = None  # rows from the current anchor on
-    _row0: int = 1  # data row of _rows' first row
+    copies: CopyFilter = field(default_factory=CopyFilter)  # rows written twice, dropped
     _anchored: bool = False
     _t0: float | None = None
     _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
@@ -249,21 +250,43 @@ class SecondStream:
         return "fused" if self._gyro_seen else "wheels"
 
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none)."""
+        """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none).
+
+        A row that repeats the row before it in every channel (a sample written twice) is
+        dropped, as ingest drops it (:class:`rwhonet.data.repeats.CopyFilter`, which lists
+        it in ``copies.dropped``); every message still names the file's rows.
+        """
+        parts = [self._push(f, cols) for f, cols in self.copies.blocks([(first_row, columns)])]
+        if len(parts) == 1:
+            return parts[0]
+        parts = [p for p in parts if len(p["t_s"])]
+        if not parts:
+            return empty_block()
+        return {name: np.concatenate([p[name] for p in parts]) for name in COLUMNS}
+
+    def _push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Add rows that are consecutive rows of the file; return the seconds they complete."""
         self._check(first_row, columns)
         raw, columns = columns, self._repair_glitches(first_row, columns)
         if self.unit_check is not None:
-            self.unit_check.push(columns, raw)
+            self.unit_check.push(columns, raw, first_row)
         columns = self._repair_yaw(first_row, columns)
+        # each row's data row in the file, carried with the rows (the messages' rows)
+        n = len(columns[c.T_S])
+        columns = dict(columns) | {FILE_ROW: first_row + np.arange(n, dtype=np.float64)}
         if self._rows is None:
-            self._keys = (*c.REQUIRED, *(k for k in (c.YAW_RATE_RAD_S,) if k in columns))
+            self._keys = (
+                *c.REQUIRED,
+                *(k for k in (c.YAW_RATE_RAD_S,) if k in columns),
+                FILE_ROW,
+            )
             self._navigator = StreamNavigator(
                 self.nav,
                 tuple(self.model.meta.source_radii),
                 c.YAW_RATE_RAD_S in self._keys,
                 self.calibration,
             )
-            self._rows, self._row0 = {k: columns[k] for k in self._keys}, first_row
+            self._rows = {k: columns[k] for k in self._keys}
             self._t0 = float(columns[c.T_S][0])
         else:
             self._rows = {k: np.concatenate([self._rows[k], columns[k]]) for k in self._keys}
@@ -284,7 +307,6 @@ class SecondStream:
                     before = {k: v[-1:] for k, v in self._across.items()}
                     self._across = {k: v[:-1] for k, v in self._across.items()}
                     self._rows = {k: np.concatenate([before[k], self._rows[k]]) for k in self._keys}
-                    self._row0 -= 1
                     self._bridge({k: v[:1] for k, v in self._rows.items()})
                     self._anchored, self._history = True, None
                     self._fix_skips_slot = True  # the step from that fix skips the slot
@@ -463,7 +485,6 @@ class SecondStream:
 
     def _drop(self, n: int) -> None:
         self._rows = {k: v[n:] for k, v in self._rows.items()}
-        self._row0 += n
 
     def _check(self, first_row: int, columns: dict[str, np.ndarray]) -> None:
         problems = []
@@ -499,7 +520,17 @@ class SecondStream:
         joined = np.concatenate([before, t])
         back = np.flatnonzero(np.diff(joined) <= 0)
         problems += [
-            _time_problem(self.file, first_row + int(i) - len(before) + 1, self.names, joined, i)
+            _time_problem(
+                self.file,
+                first_row + int(i) - len(before) + 1,
+                # the row before: in this block, or the last row held (the file's number)
+                first_row + int(i) - len(before)
+                if i >= len(before)
+                else int(self._rows[FILE_ROW][-1]),
+                self.names,
+                joined,
+                i,
+            )
             for i in back[:5]
         ]
         if problems:
@@ -520,7 +551,7 @@ class SecondStream:
                 [
                     Problem(
                         self.file,
-                        self._row0 + k * ROWS_PER_SECOND,
+                        int(rows[FILE_ROW][k * ROWS_PER_SECOND]),
                         self.names.get(c.T_S, c.T_S),
                         f"{ROWS_PER_SECOND} rows spanning 1 +/- {SPAN_TOLERANCE_S} s (10 Hz data)",
                         f"{spans[k]:.3f} s",
@@ -724,13 +755,21 @@ def _first_slot(t_s: float, period_s: float) -> bool:
     return t_s - period_s <= math.ceil(t_s - TIME_EPS_S) - 1 + TIME_EPS_S
 
 
-def _time_problem(file: str, row: int, names: dict[str, str], t: np.ndarray, i: int) -> Problem:
-    """Row ``row`` (time ``t[i + 1]``) is not after the row before it (``t[i]``), as validate
-    says it (``rwhonet.data.schema``): a repeated row, or a clock going back."""
+def _time_problem(
+    file: str, row: int, before: int, names: dict[str, str], t: np.ndarray, i: int
+) -> Problem:
+    """Row ``row`` (time ``t[i + 1]``) is not after the row before it (row ``before``, time
+    ``t[i]``), as validate says it (``rwhonet.data.schema``): two samples at one time, or
+    a clock going back. (A row that repeats the row before in every channel, a sample
+    written twice, was dropped before: :class:`rwhonet.data.repeats.CopyFilter`.)"""
     now, prev = float(t[i + 1]), float(t[i])
     if now == prev:
-        found = f"t = {now!r} s again (as in row {row - 1})"
-        fix = "delete the repeated rows (an export that wrote a sample twice), or re-export"
+        found = f"t = {now!r} s again (as in row {before})"
+        fix = (
+            "two samples at one time, their values not the same: a clock that stuck, or "
+            "stamps rounded too coarsely; delete one of the two rows, or re-export the "
+            "drive with finer time stamps"
+        )
     else:
         found = f"time goes backwards: t = {_found(now)} s after t = {_found(prev)} s"
         fix = (

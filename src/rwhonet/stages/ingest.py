@@ -281,6 +281,11 @@ def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
         "scenarios_file": None if drive.sidecar is None else paths.rel(drive.sidecar),
         # only when there is something to say (a 10 Hz drive read as it is has neither)
         **({"notes": list(raw.notes)} if raw.notes else {}),
+        # rows written twice and dropped: the file's data rows, every one (validate's
+        # messages name the file's rows through them: rwhonet.data.repeats.FileRows)
+        **(
+            {"repeated_rows": [int(r) for r in raw.repeated_rows]} if raw.repeated_rows.size else {}
+        ),
         **({"streams": drive.streams.to_dict()} if drive.streams is not None else {}),
     }
 
@@ -343,6 +348,9 @@ def main(params: Params) -> None:
     seconds = time.perf_counter() - start
     rows = sum(d["n_rows"] for d in manifest["drives"])
     print(summary_table(manifest))
+    for d in manifest["drives"]:  # what a reader did that the user should hear about
+        for note in d.get("notes", []):
+            print(f"{d['drive']}: {note}")
     cal = manifest["calibration"]
     print(f"calibration: {', '.join(cal['drives'])} ({cal.get('note', cal['role'])})")
     print(

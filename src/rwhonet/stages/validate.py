@@ -31,6 +31,7 @@ from rwhonet.config import ConfigError, CutSpec, Params
 from rwhonet.data.drivechecks import check_drive, target_test_min_s
 from rwhonet.data.plausibility import reversing_rows
 from rwhonet.data.quality import RULES, Assessment, segment_name
+from rwhonet.data.repeats import FileRows
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_outputs, map_in_order, read_arrow, read_json, write_arrow, write_json
@@ -132,6 +133,7 @@ def validate(
                 vp,
                 [entry["source_file"] for entry in batch.entries],
                 [entry["columns"] for entry in batch.entries],
+                [FileRows.of(entry) for entry in batch.entries],
             )
 
             def check(k: int, batch: _Batch = batch, found_by_drive=found_by_drive) -> tuple:
@@ -353,6 +355,9 @@ def _drive_report(
         "radius": units["radius"],
         "yaw_rate": units["yaw_rate"],
     }
+    if entry.get("repeated_rows"):  # rows written twice, dropped by ingest (not in "rows")
+        repeated = entry["repeated_rows"]
+        report["repeated_rows"] = {"rows": len(repeated), "listed": repeated[:50]}
     if glitches is not None:  # only when a row glitched (its seconds: the wheel_glitch cuts)
         report["wheel_glitches"] = glitches
     return report
