@@ -320,13 +320,21 @@ def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):
     assert capsys.readouterr().err == ""
 
 
-def test_predict_says_which_wheel_glitch_it_repaired_even_when_quiet(bundle, tmp_path, capsys):
-    path = write_drive(tmp_path / "V-Glitch.csv", duration_s=60)
+def _glitched_drive(path: Path, row: int) -> list[str]:
+    """A 60 s drive whose rear-left wheel reads ten times its speed in data row ``row``;
+    its lines (line 0: the header)."""
+    path = write_drive(path, duration_s=60)
     lines = path.read_text().splitlines()
-    cells = lines[306].split(",")  # data row 306
-    cells[12] = repr(float(cells[12]) * 10.0)  # rear left, ten times its speed
-    lines[306] = ",".join(cells)
+    cells = lines[row].split(",")
+    cells[12] = repr(float(cells[12]) * 10.0)  # rear left
+    lines[row] = ",".join(cells)
     path.write_text("\n".join(lines) + "\n")
+    return lines
+
+
+def test_predict_says_which_wheel_glitch_it_repaired_even_when_quiet(bundle, tmp_path, capsys):
+    path = tmp_path / "V-Glitch.csv"
+    _glitched_drive(path, 306)
     args = ["predict", "--model", str(bundle["model_onnx"]), "--drive", str(path)]
     for extra in ([], ["--quiet"]):
         assert main([*args, "--output", str(tmp_path / "p.csv"), *extra]) == 0
@@ -339,12 +347,8 @@ def test_predict_drops_a_row_written_twice_and_names_the_file_s_rows(bundle, tmp
     """A row written twice is dropped as ingest drops it: the output is the drive written
     once, stderr says which row was dropped, and a glitch after it is named by its row in
     the file (306), not by its rank among the rows kept (305)."""
-    clean = write_drive(tmp_path / "V-Once.csv", duration_s=60)
-    lines = clean.read_text().splitlines()
-    cells = lines[305].split(",")  # data row 305
-    cells[12] = repr(float(cells[12]) * 10.0)  # rear left, ten times its speed
-    lines[305] = ",".join(cells)
-    clean.write_text("\n".join(lines) + "\n")
+    clean = tmp_path / "V-Once.csv"
+    lines = _glitched_drive(clean, 305)
     twice = tmp_path / "V-Twice.csv"
     twice.write_text("\n".join([*lines[:101], lines[100], *lines[101:]]) + "\n")  # row 100
     out = {}

@@ -13,22 +13,13 @@ from rwhonet.cli.drive import calibration_of, load_drive
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
-from rwhonet.data.repeats import FileRows, drop_repeated, repeated_rows
+from rwhonet.data.repeats import CopyFilter, FileRows, drop_repeated, repeated_rows
 from rwhonet.errors import InputError
 from rwhonet.features.scaling import MinMaxScaler
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.validate import validate
 from support.corpus import DRIVE, good_target, rows, write_good_fleet, write_target
-from support.drives import TARGET_RADIUS_M, make_params, write_iovnbd
-
-
-def _twice(df, *rows_1based):
-    """``df`` with each named data row (1-based, of the result so far) written again after it."""
-    import pandas as pd
-
-    for r in rows_1based:
-        df = pd.concat([df.iloc[:r], df.iloc[r - 1 :]], ignore_index=True)
-    return df
+from support.drives import TARGET_RADIUS_M, make_params, write_iovnbd, written_twice
 
 
 def test_only_rows_equal_in_every_column_repeat():
@@ -74,7 +65,7 @@ def test_file_rows_are_the_kept_rows_of_the_file(dropped_mask):
 def test_ingest_drops_them_and_validate_reports_them(tmp_path, capsys):
     raw = tmp_path / "raw"
     write_good_fleet(raw)
-    df = _twice(good_target(), 200, 700, 701)  # a row twice, and a row three times
+    df = written_twice(good_target(), 200, 700, 701)  # a row twice, and a row three times
     write_target(raw, df)
     params = make_params(raw)
     manifest = ingest(params, tmp_path / "drives", tmp_path / "failed.json")
@@ -103,7 +94,7 @@ def test_validate_names_the_file_s_row_after_a_dropped_copy(tmp_path):
     """A bad cell after dropped copies is named by the file's row (not the drive's)."""
     raw = tmp_path / "raw"
     write_good_fleet(raw)
-    df = _twice(good_target(), 50, 60)
+    df = written_twice(good_target(), 50, 60)
     df.loc[rows(df, 400, 400), c.LAT_DEG] = np.inf
     t = df[c.T_S].to_numpy().copy()
     t[899] = t[898]  # row 900 at row 899's time, its values its own
@@ -133,15 +124,48 @@ def test_recalibrate_reads_a_drive_as_ingest_does(tmp_path):
     )
     write_iovnbd(clean, path)
     once = load_drive(path, **args)
-    write_iovnbd(_twice(clean, 300), path)
+    write_iovnbd(written_twice(clean, 300), path)
     twice = load_drive(path, **args)
     assert any("1 data row(s) repeat" in n and "row(s) 301)" in n for n in twice.notes)
     assert twice.samples.frame.equals(once.samples.frame)
     assert np.array_equal(twice.samples.x, once.samples.x)
     assert np.array_equal(twice.samples.y, once.samples.y)
-    bad = _twice(clean, 300)
+    bad = written_twice(clean, 300)
     bad.loc[rows(bad, 500, 500), c.LON_DEG] = np.inf
     write_iovnbd(bad, path)
     with pytest.raises(InputError) as err:
         load_drive(path, **args)
     assert {(p.row, p.column) for p in err.value.problems} >= {(500, " Long")}
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.integers(0, 3), min_size=1, max_size=40),  # times each row is written
+    st.lists(st.integers(1, 7), min_size=1, max_size=10),  # block sizes, cycled
+)
+def test_copy_filter_hands_on_the_rows_once_each_with_their_file_rows(times, sizes):
+    """Whatever the blocks, the rows handed on are the drive written once, and each row
+    handed on is the file's row its block's first_row says (blocks stay consecutive)."""
+    times = [max(n, 1) for n in times]
+    t_once = np.arange(len(times)) * 0.1
+    a_once = np.arange(len(times), dtype=np.float64) ** 2
+    t_file = np.repeat(t_once, times)
+    a_file = np.repeat(a_once, times)
+    bounds, k = [0], 0
+    while bounds[-1] < t_file.size:
+        bounds.append(min(bounds[-1] + sizes[k % len(sizes)], t_file.size))
+        k += 1
+    blocks = [
+        (a + 1, {c.T_S: t_file[a:b], "a": a_file[a:b]})
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True)
+    ]
+    copies = CopyFilter()
+    out = list(copies.blocks(blocks))
+    got_t = np.concatenate([cols[c.T_S] for _, cols in out])
+    np.testing.assert_array_equal(got_t, t_once)
+    for first, cols in out:
+        rows_in_file = first - 1 + np.arange(cols[c.T_S].size)
+        np.testing.assert_array_equal(t_file[rows_in_file], cols[c.T_S])
+    kept = np.ones(t_file.size, dtype=bool)
+    kept[np.array(copies.dropped, dtype=np.int64) - 1] = False
+    np.testing.assert_array_equal(t_file[kept], t_once)

@@ -12,7 +12,7 @@ from rwhonet.errors import InputError
 from rwhonet.geo.local import offsets_m
 from rwhonet.serve.model import ServedMeta, ServedModel, load_served
 from rwhonet.serve.stream import COLUMNS, POSITION_COLUMNS, Outage, SecondStream, parse_outage
-from support.drives import straight_drive
+from support.drives import straight_drive, written_twice
 from support.serving import RADIUS_M, SCALER, base_bundle, wavy_drive
 
 
@@ -205,13 +205,6 @@ def test_missing_wheel_speed_and_time_going_back_are_named(bundle):
     assert "sort the rows by time" in str(err.value)  # not numpy's repr above
 
 
-def _written_twice(df, *rows_1based):
-    """``df`` with each named data row (1-based, of the result so far) written again after it."""
-    for r in rows_1based:
-        df = pd.concat([df.iloc[:r], df.iloc[r - 1 :]], ignore_index=True)
-    return df
-
-
 # the copies inside a block, at a block's first row, and a block of copies only
 @pytest.mark.parametrize("sizes", [[3001], [100] * 31, [200, 1, 1, 2000]])
 def test_rows_written_twice_are_dropped_as_ingest_drops_them(bundle, sizes):
@@ -219,7 +212,7 @@ def test_rows_written_twice_are_dropped_as_ingest_drops_them(bundle, sizes):
     once (ingest drops it too: rwhonet.data.repeats), and the stream lists it."""
     model = load_served(bundle["model_onnx"])
     df = wavy_drive(30)
-    twice = _written_twice(df, 200, 201)  # data row 200 three times: rows 201, 202 copies
+    twice = written_twice(df, 200, 201)  # data row 200 three times: rows 201, 202 copies
     once, _ = stream_all(model, blocks_of(df, [3000]))
     out, stream = stream_all(model, blocks_of(twice, sizes))
     assert_same_seconds(out, once)
@@ -232,7 +225,7 @@ def test_after_a_dropped_copy_messages_name_the_file_s_rows(bundle, sizes):
     """A missing wheel speed after copies is named by its row in the file, not by its
     rank among the rows kept; so is a second that does not span 1 s."""
     model = load_served(bundle["model_onnx"])
-    df = _written_twice(wavy_drive(30), 100, 150)
+    df = written_twice(wavy_drive(30), 100, 150)
     df.loc[249, "omega_rl_rad_s"] = np.nan  # data row 250 of the file
     with pytest.raises(InputError) as err:
         stream_all(model, blocks_of(df, sizes))

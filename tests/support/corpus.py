@@ -42,6 +42,7 @@ from support.drives import (
     straight_drive,
     write_columnmap,
     write_iovnbd,
+    written_twice,
 )
 
 DRIVE = "C-X1"  # the corrupted drive's id
@@ -584,18 +585,13 @@ def _(raw: Path) -> None:
     write_target(raw, df)
 
 
-def _written_twice(df: pd.DataFrame, row: int) -> pd.DataFrame:
-    """``df`` with its data row ``row`` (1-based) written again right after it."""
-    return pd.concat([df.iloc[:row], df.iloc[row - 1 :]], ignore_index=True)
-
-
 @case(
     "duplicated_timestamps",
     "data row 200 written twice (rows 200 and 201 identical in every cell)",
     Accept("the copy (row 201) is dropped at ingest; its notes and validate's report name it"),
 )
 def _(raw: Path) -> None:
-    write_target(raw, _written_twice(good_target(), 200))
+    write_target(raw, written_twice(good_target(), 200))
 
 
 @case(
@@ -616,7 +612,7 @@ def _(raw: Path) -> None:
     Refuse("validate", 300, " Lat", "a value", "no value (empty or NaN)"),
 )
 def _(raw: Path) -> None:
-    df = _written_twice(good_target(), 100)
+    df = written_twice(good_target(), 100)
     df.loc[rows(df, 300, 300), c.LAT_DEG] = np.nan
     write_target(raw, df)
 
@@ -628,7 +624,7 @@ def _(raw: Path) -> None:
     Refuse("validate", 502, WHEEL_RR, "each wheel turning", "(rows 502-701,"),
 )
 def _(raw: Path) -> None:
-    df = _written_twice(_written_twice(good_target(), 100), 600)
+    df = written_twice(good_target(), 100, 600)
     df.loc[rows(df, 502, 701), c.OMEGA_RR] = 0.0
     write_target(raw, df)
 

@@ -256,3 +256,11 @@ def write_long_iovnbd(path: Path, n_rows: int, chunk_rows: int = 100_000) -> Pat
         if writer is not None:
             writer.close()
     return path
+
+
+def written_twice(df: pd.DataFrame, *rows: int) -> pd.DataFrame:
+    """``df`` with each data row of ``rows`` (1-based, of the frame so far) written again
+    right after it."""
+    for row in rows:
+        df = pd.concat([df.iloc[:row], df.iloc[row - 1 :]], ignore_index=True)
+    return df

@@ -80,18 +80,22 @@ def drop_repeated(raw: RawDrive) -> RawDrive:
         return raw
     keep = np.ones(raw.n_rows, dtype=bool)
     keep[rows] = False
-    shown = ", ".join(str(int(r) + 1) for r in rows[:ROWS_NOTED])
-    more = f" and {rows.size - ROWS_NOTED} more" if rows.size > ROWS_NOTED else ""
-    note = (
-        f"{rows.size} data row(s) repeat the row before them in every column read, the time "
-        f"included (row(s) {shown}{more}): a sample written twice, dropped; rows named in "
-        "messages are still the file's"
-    )
     return replace(
         raw,
         columns={name: values[keep] for name, values in raw.columns.items()},
-        notes=(*raw.notes, note),
+        notes=(*raw.notes, dropped_note(rows + 1)),
         repeated_rows=rows + 1,
+    )
+
+
+def dropped_note(rows: Sequence[int] | np.ndarray) -> str:
+    """What a reader says of the rows it dropped (the file's data rows, 1-based)."""
+    shown = ", ".join(str(int(r)) for r in rows[:ROWS_NOTED])
+    more = f" and {len(rows) - ROWS_NOTED} more" if len(rows) > ROWS_NOTED else ""
+    return (
+        f"{len(rows)} data row(s) repeat the row before them in every column read, the time "
+        f"included (row(s) {shown}{more}): a sample written twice, dropped; rows named in "
+        "messages are still the file's"
     )
 
 
@@ -157,6 +161,10 @@ class CopyFilter:
                 yield first, columns
                 continue
             last, self._last = self._last, {k: np.asarray(v)[-1:] for k, v in columns.items()}
+            t = np.asarray(columns[c.T_S])
+            if not (t[1:] == t[:-1]).any() and (last is None or last[c.T_S][0] != t[0]):
+                yield first, columns  # no two rows at one time: no copy (almost every block)
+                continue
             if last is not None and last.keys() == columns.keys():
                 copies = repeated_rows({k: np.r_[last[k], columns[k]] for k in columns}) - 1
             else:
@@ -172,14 +180,4 @@ class CopyFilter:
 
     def note(self, file: str) -> str | None:
         """What was dropped, for stderr (None: nothing)."""
-        if not self.dropped:
-            return None
-        shown = ", ".join(str(r) for r in self.dropped[:ROWS_NOTED])
-        more = (
-            f" and {len(self.dropped) - ROWS_NOTED} more" if len(self.dropped) > ROWS_NOTED else ""
-        )
-        return (
-            f"{file}: {len(self.dropped)} data row(s) repeat the row before them in every "
-            f"column read, the time included (row(s) {shown}{more}): a sample written twice, "
-            "dropped"
-        )
+        return f"{file}: {dropped_note(self.dropped)}" if self.dropped else None
