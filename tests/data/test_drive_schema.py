@@ -37,10 +37,18 @@ def test_clean_drive_passes(drive, vp):
 
 
 def test_nan_in_a_required_channel(drive, vp):
-    drive.loc[5, c.LAT_DEG] = np.nan
+    drive.loc[5, c.OMEGA_RL] = np.nan
     (p,) = problems(drive, vp)
-    assert (p.file, p.row, p.column) == (FILE, 6, " Lat")
+    assert (p.file, p.row, p.column) == (FILE, 6, " Wheel Speed Rear Left (rad/sec)")
     assert "required" in p.expected and "NaN" in p.found
+
+
+def test_an_empty_fix_is_no_fix_not_a_schema_failure(drive, vp):
+    """An empty latitude or longitude is a row without a fix, which the GNSS policy cuts
+    (rwhonet.data.fixes.no_fix_rows), as rwhonet predict takes it; not a refusal."""
+    drive.loc[5, c.LAT_DEG] = np.nan
+    drive.loc[[7, 8], c.LON_DEG] = np.nan
+    assert problems(drive, vp) == []
 
 
 def test_time_going_backwards(drive, vp):
@@ -116,7 +124,7 @@ def test_stacked_drives_are_reported_as_if_validated_alone(vp):
     backwards.loc[10, c.T_S] = backwards.loc[8, c.T_S] - 0.05
     in_ms = clean.assign(**{c.T_S: clean[c.T_S] * 1000.0})
     bad_lat = clean.copy()
-    bad_lat.loc[[0, 30], c.LAT_DEG] = [95.0, np.nan]
+    bad_lat.loc[[0, 30], c.LAT_DEG] = [95.0, -91.0]
     # The next drive starts 10 h earlier: no time step is taken across a drive boundary.
     later = straight_drive(duration_s=3.0, t0_s=9000.0).assign(**{c.SCENARIO: ""})
     # pandera hands a check the column without its NaN rows: rows are then not positions.
@@ -139,7 +147,7 @@ def test_stacked_drives_are_reported_as_if_validated_alone(vp):
     assert [p.row for p in batch[5]] == [1, 21, 34]
     (ms,) = batch[1]
     assert ms.row is None and ms.file == files[1] and "ms instead of s" in ms.found
-    assert [(p.row, p.column) for p in batch[3]] == [(31, " Lat"), (1, " Lat")]
+    assert [(p.row, p.column) for p in batch[3]] == [(1, " Lat"), (31, " Lat")]
 
 
 def test_stacked_drives_share_a_missing_column(vp):

@@ -277,6 +277,20 @@ def test_a_fix_at_latitude_and_longitude_zero_is_no_fix_with_or_without_a_satell
         assert low.detail == "no fix (latitude = longitude = 0) (min_sats 4)"
 
 
+def test_an_empty_fix_is_no_fix_and_the_cut_says_so():
+    """A logger that leaves the fix's cells empty while the receiver has none: those
+    seconds are cut (low_sats: no fix), the rest kept, whether one cell or both are empty."""
+    drive = straight_drive(duration_s=200.0, speed_m_s=15.0)
+    drive.loc[row(T0 + 40.05) : row(T0 + 49.9), [c.LAT_DEG, c.LON_DEG]] = np.nan
+    drive.loc[row(T0 + 120.5), c.LON_DEG] = np.nan
+    result = assess(drive, POLICY, PERIOD_S)
+    low = [cut for cut in result.cuts if cut.rule == "low_sats"]
+    assert [(x.start_s, x.end_s) for x in low] == [(T0 + 40, T0 + 50), (T0 + 120, T0 + 121)]
+    assert all(x.detail == "no fix (latitude or longitude empty) (min_sats 4)" for x in low)
+    assert {cut.rule for cut in result.cuts} == {"low_sats", "partial_second"}  # + first second
+    assert result.seconds_kept == result.n_seconds - 11 - 1
+
+
 def test_no_fix_rows_are_missing_zero_or_low_satellite_fixes():
     lat = np.array([52.0, 0.0, 0.0, np.nan, 52.0, 52.0, 52.0])
     lon = np.array([-1.0, 0.0, -1.0, -1.0, -1.0, -1.0, -1.0])

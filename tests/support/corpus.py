@@ -554,12 +554,12 @@ def _(raw: Path) -> None:
 
 @case(
     "empty_cells",
-    "latitude cells of data rows 100-102 left empty",
-    Refuse("validate", 100, " Lat", "a value", "no value (empty or NaN)"),
+    "rear-left wheel speed cells of data rows 100-102 left empty",
+    Refuse("validate", 100, WHEEL_RL, "a value", "no value (empty or NaN)"),
 )
 def _(raw: Path) -> None:
     df = good_target()
-    df.loc[rows(df, 100, 102), c.LAT_DEG] = np.nan
+    df.loc[rows(df, 100, 102), c.OMEGA_RL] = np.nan
     write_target(raw, df)
 
 
@@ -607,13 +607,13 @@ def _(raw: Path) -> None:
 
 @case(
     "empty_cells_after_a_row_written_twice",
-    "data row 100 written twice, then the latitude of data row 300 left empty",
+    "data row 100 written twice, then the rear-left wheel speed of data row 300 left empty",
     # the file's row, not the drive's 299th after the copy was dropped
-    Refuse("validate", 300, " Lat", "a value", "no value (empty or NaN)"),
+    Refuse("validate", 300, WHEEL_RL, "a value", "no value (empty or NaN)"),
 )
 def _(raw: Path) -> None:
     df = written_twice(good_target(), 100)
-    df.loc[rows(df, 300, 300), c.LAT_DEG] = np.nan
+    df.loc[rows(df, 300, 300), c.OMEGA_RL] = np.nan
     write_target(raw, df)
 
 
@@ -982,6 +982,28 @@ def _(raw: Path) -> None:
 def _(raw: Path) -> None:
     df = _long_target()
     df.loc[df[c.T_S].between(T0 + 60.05, T0 + 80.0), [c.LAT_DEG, c.LON_DEG]] = 0.0
+    write_target(raw, df)
+
+
+@case(
+    "no_fix_written_as_empty_cells",
+    "20 s of latitude and longitude cells left empty (a logger's 'no fix')",
+    Repair("low_sats", 20),  # an empty fix is no fix, as (0, 0) is (no_fix_rows)
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    df.loc[df[c.T_S].between(T0 + 60.05, T0 + 80.0), [c.LAT_DEG, c.LON_DEG]] = np.nan
+    write_target(raw, df)
+
+
+@case(
+    "one_empty_longitude",
+    "the longitude cell of data row 1200 left empty, its latitude written",
+    Repair("low_sats", 1),
+)
+def _(raw: Path) -> None:
+    df = _long_target()
+    df.loc[rows(df, 1200, 1200), c.LON_DEG] = np.nan
     write_target(raw, df)
 
 

@@ -29,8 +29,8 @@ Rules (a second is cut by the first that applies, in this order)
     partial_second  it holds a number of rows other than ``1 / sample_period_s`` (the drive's
                     first/last second, dropped or extra samples)
     low_sats        a row has fewer than ``min_sats`` satellites (or no count), when the
-                    drive has a satellite column; or no fix at all: latitude and longitude
-                    both exactly 0, what a receiver without a fix writes
+                    drive has a satellite column; or no fix at all: latitude or longitude
+                    empty, or both exactly 0, what a receiver without a fix writes
                     (:func:`no_fix_rows`)
     jump            the fix-to-fix distance of a row implies a speed > ``max_speed_m_s``
     frozen          the fix stayed identical while the rear wheels turned faster than
@@ -269,8 +269,9 @@ def assess(
     """Apply the GNSS-quality policy to one drive (see the module docstring for the rules).
 
     Args:
-        drive: canonical columns (``t_s`` strictly increasing, required channels complete;
-            ``n_sats`` optional), e.g. a DataFrame that passed the schema.
+        drive: canonical columns (``t_s`` strictly increasing, the wheel speeds complete, a
+            fix without a value is no fix; ``n_sats`` optional), e.g. a DataFrame that
+            passed the schema.
         policy: ``validate.gnss``.
         sample_period_s: nominal sample period; ``1 / sample_period_s`` must be an integer.
         cuts: manual cuts of this drive (``validate.cuts`` entries naming it).
@@ -368,6 +369,7 @@ def assess(
         "dt": np.r_[np.nan, np.diff(t)],
         "sats": sats,
         "zero": (lat == 0.0) & (lon == 0.0),
+        "empty": ~(np.isfinite(lat) & np.isfinite(lon)),
         "speed": speed,
         "wheel": wheel,
         "count": count,
@@ -427,6 +429,8 @@ def _detail(
     if rule == "low_sats":
         sats = rows["sats"][lo:hi]
         said = []
+        if rows["empty"][lo:hi].any():
+            said.append("no fix (latitude or longitude empty)")
         if rows["zero"][lo:hi].any():
             said.append("no fix (latitude = longitude = 0)")
         low = sats[~(sats >= policy.min_sats)]

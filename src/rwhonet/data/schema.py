@@ -290,8 +290,10 @@ def drive_schema(vp: ValidateParams, drive_starts: np.ndarray | None = None) -> 
                 "sample_period",
             ),
         ),
-        c.LAT_DEG: pa.Column(float, pick("latitude_range")),
-        c.LON_DEG: pa.Column(float, pick("longitude_range")),
+        # an empty fix is no fix (as (0, 0) is): the GNSS policy cuts its seconds (low_sats,
+        # rwhonet.data.fixes.no_fix_rows), as rwhonet predict takes it as a row without one
+        c.LAT_DEG: pa.Column(float, pick("latitude_range"), nullable=True),
+        c.LON_DEG: pa.Column(float, pick("longitude_range"), nullable=True),
         **{w: pa.Column(float, pick("wheel_speed_range")) for w in c.WHEELS},
         c.N_SATS: pa.Column(float, pick("satellites_non_negative"), nullable=True, required=False),
         **{
