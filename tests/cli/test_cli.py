@@ -294,6 +294,38 @@ def test_predict_streams_stdin_to_stdout_without_torch_pandas_or_scipy(bundle, d
     assert f"68 % / 95 % within {r68:.1f} / {r95:.1f} m, the filter's own, not calibrated" in err
 
 
+def test_export_takes_a_pipeline_model_folder_as_its_model_pt(tmp_path, capsys, monkeypatch):
+    """``rwhonet export --model models/g/seed42`` (the folder the pipeline writes: model.pt,
+    run.json, predictions) exports its model.pt; it said the folder held no model."""
+    import json
+    import shutil
+
+    from rwhonet.serve.model import load_served
+    from support.serving import RADIUS_M, SCALER
+
+    made = base_bundle(tmp_path / "made")
+    folder = tmp_path / "models" / "g" / "seed42"
+    folder.mkdir(parents=True)
+    shutil.copy(tmp_path / "made" / "source.pt", folder / "model.pt")
+    (folder / "run.json").write_text("{}")
+    for name, content in (
+        ("SCALER", SCALER.to_dict()),
+        ("CALIBRATION", {"r_rl_m": RADIUS_M, "r_rr_m": RADIUS_M}),
+    ):
+        monkeypatch.setattr(paths, name, tmp_path / f"{name.lower()}.json")
+        getattr(paths, name).write_text(json.dumps(content))
+    onnx = tmp_path / "g.onnx"
+    assert main(["export", "--model", str(folder), "--output", str(onnx)]) == 0
+    assert f"wrote {onnx}" in capsys.readouterr().out
+    assert load_served(onnx).meta.source_radii == load_served(made["model_onnx"]).meta.source_radii
+    # predict, given the folder, says to export it, naming it
+    drive = write_drive(tmp_path / "V-D.csv", duration_s=20)
+    out = tmp_path / "p.csv"
+    args = ["predict", "--model", str(folder), "--drive", str(drive), "--output", str(out)]
+    assert main(args) == 2
+    assert f"`rwhonet export --model {folder} --output model.onnx`" in capsys.readouterr().err
+
+
 def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):
     onnx = tmp_path / "g.onnx"
     assert main(["export", "--model", str(bundle["model_onnx"].parent), "--output", str(onnx)]) == 0

@@ -28,11 +28,13 @@ def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) 
     pickle once its files are verified (:func:`rwhonet.tracking.registry.fetch_model`);
     one that holds only a ``model.pt`` is refused. A bare model file of this
     project (``model.pt``, read with ``torch.load(weights_only=True)``, or a
-    ``.safetensors``) takes its scaler and source radii from the project's
+    ``.safetensors``, or a pipeline model folder holding a ``model.pt``: ``models/g/seed42``)
+    takes its scaler and source radii from the project's
     ``data/processed/scaler.json`` and ``calibration.json`` (the label stage's).
     """
     from rwhonet.cli.predict import model_path
     from rwhonet.serve.bundle import bundle_parts, make_meta
+    from rwhonet.serve.model import META_FILE, TORCH_FILE
 
     if spec.startswith(("models:/", "runs:/")):
         if tracking_uri is None:
@@ -42,6 +44,8 @@ def model_parts(spec: str, tracking_uri: str | None, dest: Path, wpm_mode: str) 
         local, version = fetch_model(spec, tracking_uri, dest)
         return bundle_parts(local, version_label(version))
     path = Path(spec)
+    if path.is_dir() and (path / TORCH_FILE).is_file() and not (path / META_FILE).is_file():
+        path = path / TORCH_FILE  # a pipeline model folder (models/g/seed42): its model file
     if path.is_file() and path.suffix in (".pt", ".safetensors"):
         from rwhonet.io import read_json
 

@@ -348,7 +348,12 @@ def onnx_file(path: Path) -> Path:
                 None,
                 f"an exported .onnx file, or a model folder holding {ONNX_FILE}",
                 found,
-                "export one with `rwhonet export --model ... --format onnx`, or give a "
+                (
+                    f"export it: `rwhonet export --model {path} --output model.onnx`, then "
+                    "--model model.onnx; or give a registered model (models:/<name>/<version>)"
+                )
+                if path.is_dir() and (path / TORCH_FILE).is_file()
+                else "export one with `rwhonet export --model ... --format onnx`, or give a "
                 "registered model (models:/<name>/<version>)",
             )
         ],
