@@ -190,10 +190,10 @@ def test_bad_outages_are_refused(text):
     assert parse_outage("300:480") == Outage(300.0, 480.0)
 
 
-def test_missing_wheel_speed_and_time_going_back_are_named(bundle):
+def test_missing_time_and_time_going_back_are_named(bundle):
     model = load_served(bundle["model_onnx"])
     df = wavy_drive(30)
-    df.loc[55, "omega_rl_rad_s"] = np.nan
+    df.loc[55, "t_s"] = np.nan
     with pytest.raises(InputError, match="row 56.*found an empty cell"):
         stream_all(model, blocks_of(df, [len(df)]))
     df = wavy_drive(30)
@@ -209,24 +209,25 @@ def test_missing_wheel_speed_and_time_going_back_are_named(bundle):
 @pytest.mark.parametrize("sizes", [[3001], [100] * 31, [200, 1, 1, 2000]])
 def test_rows_written_twice_are_dropped_as_ingest_drops_them(bundle, sizes):
     """A row that repeats the row before in every channel streams as the drive written
-    once (ingest drops it too: rwhonet.data.repeats), and the stream lists it."""
+    once (ingest drops it too: rwhonet.data.droprows), and the stream lists it."""
     model = load_served(bundle["model_onnx"])
     df = wavy_drive(30)
     twice = written_twice(df, 200, 201)  # data row 200 three times: rows 201, 202 copies
     once, _ = stream_all(model, blocks_of(df, [3000]))
     out, stream = stream_all(model, blocks_of(twice, sizes))
     assert_same_seconds(out, once)
-    assert stream.copies.dropped == [201, 202]
-    assert "2 data row(s) repeat the row before them" in stream.copies.note("t.csv")
+    assert stream.dropped.dropped == [201, 202] and stream.dropped.wheelless == []
+    (note,) = stream.dropped.notes("t.csv")
+    assert "2 data row(s) repeat the row before them" in note
 
 
 @pytest.mark.parametrize("sizes", [[3001], [100] * 31, [7] * 500])
 def test_after_a_dropped_copy_messages_name_the_file_s_rows(bundle, sizes):
-    """A missing wheel speed after copies is named by its row in the file, not by its
-    rank among the rows kept; so is a second that does not span 1 s."""
+    """A missing time after copies is named by its row in the file, not by its rank
+    among the rows kept."""
     model = load_served(bundle["model_onnx"])
     df = written_twice(wavy_drive(30), 100, 150)
-    df.loc[249, "omega_rl_rad_s"] = np.nan  # data row 250 of the file
+    df.loc[249, "t_s"] = np.nan  # data row 250 of the file
     with pytest.raises(InputError) as err:
         stream_all(model, blocks_of(df, sizes))
     assert [p.row for p in err.value.problems] == [250]
@@ -632,6 +633,39 @@ def test_dropped_samples_cut_their_seconds_as_the_label_stage_does(bundle, tmp_p
         (119.9, 0.2, True),
         (160.2, 0.3, True),
     ]
+
+
+@pytest.mark.parametrize("sizes", [[100_000], [7] * 3000, [401, 1, 399, 2] * 10])
+def test_a_row_without_a_wheel_speed_is_a_dropped_sample(bundle, tmp_path, sizes):
+    """A row whose time is there but a wheel speed is empty (a CAN frame the logger
+    missed) was refused, in predict and in validate. It is now dropped, so the stream,
+    and the label stage from the same file, give the seconds of the drive without those
+    rows; the rows are listed by their place in the file, a copy after them too."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(200)
+    el = np.round(df["t_s"].to_numpy() - df["t_s"].iloc[0], 6)
+    at = np.flatnonzero(np.isin(el, DROPPED_S))
+    holes = df.copy()
+    for i, wheel in zip(
+        at, ["omega_rl_rad_s", "omega_fl_rad_s", "omega_rr_rad_s"] * 2, strict=False
+    ):
+        holes.loc[i, wheel] = np.nan
+    holes = written_twice(holes, 1700)  # a copy after them: data row 1701
+    path = write_iovnbd(holes, tmp_path / "V-Holes.csv")
+    dropped, _ = stream_all(model, blocks_of(_without_rows(df, DROPPED_S), [100_000]))
+    out, stream = stream_all(model, blocks_of(holes, sizes))
+    assert_same_seconds(out, dropped)
+    assert stream.dropped.wheelless == [int(i) + 1 for i in at]
+    assert stream.dropped.dropped == [1701]
+    ref = reference_samples(path, seq_len=1)  # rwhonet recalibrate's reader, ingest's drop
+    np.testing.assert_array_equal(out["t_s"], ref.frame["t_s"].to_numpy())
+    np.testing.assert_allclose(out["disp_gnss_m"], ref.frame["disp_gnss_m"].to_numpy(), atol=1e-9)
+    copy, holes_note = stream.dropped.notes("t.csv")
+    assert "5 data row(s) have an empty wheel speed (row(s) 404, 802, 1201, 1604, 1605)" in (
+        holes_note
+    )
 
 
 def test_dropped_samples_inside_an_outage_keep_the_position(bundle):

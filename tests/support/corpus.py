@@ -553,13 +553,25 @@ def _(raw: Path) -> None:
 
 
 @case(
-    "empty_cells",
-    "rear-left wheel speed cells of data rows 100-102 left empty",
-    Refuse("validate", 100, WHEEL_RL, "a value", "no value (empty or NaN)"),
+    "wheel_channel_empty",
+    "the rear-left wheel speed column left empty in every row (a channel not logged)",
+    Refuse("ingest", None, WHEEL_RL, "a wheel speed in the rows", "no value in any of"),
 )
 def _(raw: Path) -> None:
     df = good_target()
-    df.loc[rows(df, 100, 102), c.OMEGA_RL] = np.nan
+    df[c.OMEGA_RL] = np.nan
+    write_target(raw, df)
+
+
+@case(
+    "wheel_speed_in_every_other_row",
+    "the wheel speeds written in every other row only (a 5 Hz CAN channel in a 10 Hz file)",
+    # half the rows are not lost samples: a layout, refused where it is read
+    Refuse("ingest", 2, None, "the four wheel speeds in most rows", "(50 %) without all four"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[df.index % 2 == 1, list(c.WHEELS)] = np.nan
     write_target(raw, df)
 
 
@@ -606,14 +618,26 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "empty_cells",
+    "rear-left wheel speed cells of data rows 100-102 left empty (CAN frames missed)",
+    # dropped as lost samples: the two seconds they fall in are cut and split the drive
+    Repair("partial_second", 2),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 100, 102), c.OMEGA_RL] = np.nan
+    write_target(raw, df)
+
+
+@case(
     "empty_cells_after_a_row_written_twice",
-    "data row 100 written twice, then the rear-left wheel speed of data row 300 left empty",
-    # the file's row, not the drive's 299th after the copy was dropped
-    Refuse("validate", 300, WHEEL_RL, "a value", "no value (empty or NaN)"),
+    "data row 100 written twice, then the rear-left wheel speed of data row 800 left empty",
+    # the file's row (800, not the drive's 799th) is the one dropped: its second is cut
+    Repair("partial_second", 1),
 )
 def _(raw: Path) -> None:
     df = written_twice(good_target(), 100)
-    df.loc[rows(df, 300, 300), c.OMEGA_RL] = np.nan
+    df.loc[rows(df, 800, 800), c.OMEGA_RL] = np.nan
     write_target(raw, df)
 
 

@@ -280,8 +280,8 @@ def load_drive(
         InputError: every problem of the file, as the ingest and validate stages report them.
     """
     from rwhonet.data.drivechecks import check_drive
+    from rwhonet.data.droprows import FileRows, manifest_rows
     from rwhonet.data.quality import segment_name
-    from rwhonet.data.repeats import FileRows
     from rwhonet.data.schema import schema_problems
     from rwhonet.features.labels import sample_table
     from rwhonet.features.samples import stack_segments
@@ -303,8 +303,8 @@ def load_drive(
     }
     if drive.streams is not None:  # the grid rows whose mean used a glitched sample
         entry["streams"] = drive.streams.to_dict()
-    if raw.repeated_rows.size:  # rows written twice, dropped: messages name the file's rows
-        entry["repeated_rows"] = [int(r) for r in raw.repeated_rows]
+    # rows written twice or without a wheel speed, dropped: messages name the file's rows
+    entry.update(manifest_rows(raw))
     cuts = [cut for cut in params.validate.cuts if cut.drive == drive_id(path)]
     rows = FileRows.of(entry)
     found = schema_problems(df, params.validate, file, raw.source_columns, rows)

@@ -204,8 +204,10 @@ def run(
     half-written output.
 
     A row that repeats the row before it in every column, the time included (a sample
-    written twice), is dropped as ingest drops it (:class:`rwhonet.data.repeats.CopyFilter`;
-    ``drive_notes`` says which); messages still name the file's rows. A row whose fix
+    written twice), and a row with an empty wheel speed (a lost sample: its second gives no
+    output and ends a run of seconds, as a dropped row's) are dropped as ingest drops them
+    (:class:`rwhonet.data.droprows.RowFilter`; ``drive_notes`` says which); messages still
+    name the file's rows. A row whose fix
     validate's GNSS policy would not use (latitude = longitude = 0, fewer than
     ``validate.gnss.min_sats`` satellites where the drive counts them) is taken as a row
     without a fix (:class:`rwhonet.data.incremental.FixScreen`; ``fix_note`` says how many).
@@ -220,8 +222,8 @@ def run(
     fails later.
     """
     from rwhonet.data.drivechecks import StreamRadiusCheck
+    from rwhonet.data.droprows import RowFilter
     from rwhonet.data.incremental import FixScreen, read_rows
-    from rwhonet.data.repeats import CopyFilter
     from rwhonet.libraries import raise_if_interrupted
 
     with ExitStack() as stack:
@@ -262,10 +264,11 @@ def run(
                 names = lay.names
             uc = unit_check or UnitCheck()
             vp = uc.validate or default_validate()
-            # a row written twice is dropped, as ingest drops it (before the fix screen,
-            # which would take the copy's fix as one that did not move)
-            copies = CopyFilter()
-            blocks = copies.blocks(iter(blocks))
+            # a row written twice, or without a wheel speed, is dropped, as ingest drops
+            # it (before the fix screen, which would take a copy's fix as one that did not
+            # move)
+            dropped = RowFilter()
+            blocks = dropped.blocks(iter(blocks))
             # a fix validate would not use (satellites, a jump, a frozen receiver) is none
             fixes = FixScreen(vp.gnss.min_sats, vp.gnss, vp.sample_period_s)
             blocks = fixes.blocks(blocks)
@@ -331,7 +334,7 @@ def run(
         "gaps": list(stream.gaps),
         "max_gap_s": max_gap_s,
         "stream_glitches": list(stream_glitches or []),
-        "drive_notes": [*drive_notes, *filter(None, [copies.note(name)])],
+        "drive_notes": [*drive_notes, *dropped.notes(name)],
         "unit_note": unit_note,
         "yaw_note": check.yaw_note,
         "fix_note": fixes.note(name),

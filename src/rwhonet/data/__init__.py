@@ -20,8 +20,8 @@
 - :mod:`~rwhonet.data.drivechecks`: everything ``validate`` checks on one drive,
   as problems a user can act on (:mod:`~rwhonet.data.problems` keeps them short).
 - :mod:`~rwhonet.data.incremental`: drive rows read from a stream as they arrive.
-- :mod:`~rwhonet.data.repeats`: rows a logger wrote twice, dropped, and the file's row
-  numbers kept for every message.
+- :mod:`~rwhonet.data.droprows`: rows a logger wrote twice or without a wheel speed,
+  dropped, and the file's row numbers kept for every message.
 - :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
   write them; a drive's clock (midnight rollover, each row's slot on the grid).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.

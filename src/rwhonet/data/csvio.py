@@ -68,17 +68,19 @@ class RawDrive:
 
     Attributes:
         columns: canonical name -> float64 array; element ``i`` is data row ``i + 1``
-            (but see ``repeated_rows``).
+            (but see ``repeated_rows`` and ``wheelless_rows``).
         source_columns: canonical name -> the file's column name it was read from.
         header_match: how the columns were found: ``"name"``, ``"position"``,
             ``"column_map"``, or ``"streams"`` (resampled from timestamped streams,
             :mod:`rwhonet.data.streams`: element ``i`` is then row ``i`` of the 10 Hz grid).
         notes: what the reader did that the user should hear about (columns taken by
             position, the clock passing midnight, rows of the grid without data, rows
-            written twice).
+            written twice or without a wheel speed).
         repeated_rows: data rows of the file (1-based) left out because they repeat the
-            row before them (:func:`rwhonet.data.repeats.drop_repeated`); element ``i`` of
-            ``columns`` is then the file's row ``FileRows(repeated_rows)(i)``.
+            row before them (:func:`rwhonet.data.droprows.drop_rows`).
+        wheelless_rows: data rows of the file (1-based) left out because a wheel speed is
+            empty in them (a lost sample, :func:`rwhonet.data.droprows.drop_rows`). Element
+            ``i`` of ``columns`` is the file's row ``FileRows(both, merged)(i)``.
     """
 
     columns: dict[str, np.ndarray]
@@ -86,6 +88,7 @@ class RawDrive:
     header_match: str
     notes: tuple[str, ...] = ()
     repeated_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    wheelless_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n_rows(self) -> int:

@@ -25,6 +25,7 @@ import numpy as np
 from rwhonet import contracts
 from rwhonet.config import CutSpec, Params, ValidateParams
 from rwhonet.data import canonical as c
+from rwhonet.data.droprows import FILE_ROW, FileRows
 from rwhonet.data.glitches import (
     REFUSE_SHARE,
     WHEEL_GLITCH_G,
@@ -51,7 +52,6 @@ from rwhonet.data.plausibility import (
 )
 from rwhonet.data.problems import stretch_problems
 from rwhonet.data.quality import Assessment, Segment, assess, manual_rows, second_index
-from rwhonet.data.repeats import FILE_ROW, FileRows
 from rwhonet.errors import InputError, Problem
 
 YAW_GLITCHES_LISTED = 10  # yaw-rate glitches listed one by one in the record (all counted)
@@ -600,7 +600,7 @@ class StreamRadiusCheck:
                 ``columns``).
             first_row: the file's data row of the first of them, the others following it
                 (None: the row after the last one pushed). Rows written twice may have
-                been dropped between two blocks (:class:`rwhonet.data.repeats.CopyFilter`).
+                been dropped between two blocks (:class:`rwhonet.data.droprows.RowFilter`).
 
         Raises:
             InputError: a wheel speed beyond ``validate.max_abs_wheel_speed_rad_s``, the
@@ -913,7 +913,7 @@ def sign_problem(
         tally: the wheel's tally over the drive (or a stream's rows so far).
         so_far: the tally is of a stream's first rows (the report says so).
         file_rows: the file's data row of each of the tally's rows (None: row ``i`` is
-            data row ``i + 1``; :mod:`rwhonet.data.repeats`).
+            data row ``i + 1``; :mod:`rwhonet.data.droprows`).
 
     Returns:
         The problem, or None when the wheel passes.
@@ -972,7 +972,7 @@ def wheel_problems(
             stuck, silent or stale stretch is one wherever the drive goes on.
         numbering: the file's data row (1-based) of ``df``'s row ``i`` (0-based), for the
             rows the problems name (a stream's window of its rows); None: the entry's
-            (:meth:`rwhonet.data.repeats.FileRows.of`: a 10 Hz file may have lost rows
+            (:meth:`rwhonet.data.droprows.FileRows.of`: a 10 Hz file may have lost rows
             written twice).
     """
     file, columns = entry["source_file"], entry["columns"]

@@ -57,8 +57,8 @@ import numpy as np
 
 from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data.droprows import FileRows
 from rwhonet.data.fixes import no_fix_rows
-from rwhonet.data.repeats import FileRows
 from rwhonet.data.timebase import TIME_EPS_S, nominal_times
 from rwhonet.geo import geodesic_distance_m, local_step_distance_m
 
@@ -278,7 +278,7 @@ def assess(
         wheel_glitch: boolean mask of rows whose wheel speeds changed faster than a tyre
             can (:func:`rwhonet.data.glitches.glitch_mask`), or None (no such rule).
         file_rows: the file's data row of each row, for the cuts' details (None: row ``i``
-            is data row ``i + 1``; :mod:`rwhonet.data.repeats`).
+            is data row ``i + 1``; :mod:`rwhonet.data.droprows`).
 
     Returns:
         The valid segments and every cut, with per-rule totals.

@@ -27,8 +27,8 @@ from pandera.errors import SchemaErrors
 
 from rwhonet.config import ValidateParams
 from rwhonet.data import canonical as c
+from rwhonet.data.droprows import FileRows
 from rwhonet.data.problems import ROWS_LISTED, row_problems
-from rwhonet.data.repeats import FileRows
 from rwhonet.data.timebase import grid_phase
 from rwhonet.errors import Problem
 
@@ -354,7 +354,7 @@ def schema_problems_batch(
         source_files: each drive's source file, as the user knows it.
         source_columns: each drive's map canonical name -> the file's column name.
         file_rows: each drive's numbering of its rows in its file (rows written twice were
-            dropped: :mod:`rwhonet.data.repeats`); None: row ``i`` is data row ``i + 1``.
+            dropped: :mod:`rwhonet.data.droprows`); None: row ``i`` is data row ``i + 1``.
 
     Returns:
         Per drive, its problems (empty when it is valid).

@@ -46,6 +46,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from rwhonet.contracts import ROWS_PER_SECOND
 from rwhonet.data import canonical as c
+from rwhonet.data.droprows import FILE_ROW, RowFilter
 from rwhonet.data.glitches import (
     WHEEL_GLITCH_G,
     YAW_GLITCH_SHARE,
@@ -53,7 +54,6 @@ from rwhonet.data.glitches import (
     repaired_yaw_rate,
     yaw_rate_glitches,
 )
-from rwhonet.data.repeats import FILE_ROW, CopyFilter
 from rwhonet.data.timebase import TIME_EPS_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
@@ -212,7 +212,7 @@ class SecondStream:
     _gyro_seen: bool = False  # a yaw rate with a value has come
     _navigator: StreamNavigator | None = None
     _rows: dict[str, np.ndarray] | None = None  # rows from the current anchor on
-    copies: CopyFilter = field(default_factory=CopyFilter)  # rows written twice, dropped
+    dropped: RowFilter = field(default_factory=RowFilter)  # copies, rows without wheels
     _anchored: bool = False
     _t0: float | None = None
     _history: np.ndarray | None = None  # the run's last seq_len - 1 feature rows (padded)
@@ -252,11 +252,12 @@ class SecondStream:
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none).
 
-        A row that repeats the row before it in every channel (a sample written twice) is
-        dropped, as ingest drops it (:class:`rwhonet.data.repeats.CopyFilter`, which lists
-        it in ``copies.dropped``); every message still names the file's rows.
+        A row that repeats the row before it in every channel (a sample written twice), and
+        a row with an empty wheel speed (a lost sample), are dropped, as ingest drops them
+        (:class:`rwhonet.data.droprows.RowFilter`, which lists them in ``dropped``); every
+        message still names the file's rows.
         """
-        parts = [self._push(f, cols) for f, cols in self.copies.blocks([(first_row, columns)])]
+        parts = [self._push(f, cols) for f, cols in self.dropped.blocks([(first_row, columns)])]
         if len(parts) == 1:
             return parts[0]
         parts = [p for p in parts if len(p["t_s"])]
@@ -761,7 +762,7 @@ def _time_problem(
     """Row ``row`` (time ``t[i + 1]``) is not after the row before it (row ``before``, time
     ``t[i]``), as validate says it (``rwhonet.data.schema``): two samples at one time, or
     a clock going back. (A row that repeats the row before in every channel, a sample
-    written twice, was dropped before: :class:`rwhonet.data.repeats.CopyFilter`.)"""
+    written twice, was dropped before: :class:`rwhonet.data.droprows.RowFilter`.)"""
     now, prev = float(t[i + 1]), float(t[i])
     if now == prev:
         found = f"t = {now!r} s again (as in row {before})"

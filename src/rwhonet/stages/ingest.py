@@ -31,6 +31,7 @@ from rwhonet.data.drivefile import (
     read_canonical,
     reader_kind,
 )
+from rwhonet.data.droprows import manifest_rows
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_dir, map_in_order, write_arrow, write_json
 from rwhonet.progress import track
@@ -281,11 +282,9 @@ def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
         "scenarios_file": None if drive.sidecar is None else paths.rel(drive.sidecar),
         # only when there is something to say (a 10 Hz drive read as it is has neither)
         **({"notes": list(raw.notes)} if raw.notes else {}),
-        # rows written twice and dropped: the file's data rows, every one (validate's
-        # messages name the file's rows through them: rwhonet.data.repeats.FileRows)
-        **(
-            {"repeated_rows": [int(r) for r in raw.repeated_rows]} if raw.repeated_rows.size else {}
-        ),
+        # rows written twice or without a wheel speed, dropped: the file's data rows, every
+        # one (validate's messages name the file's rows through them: droprows.FileRows)
+        **manifest_rows(raw),
         **({"streams": drive.streams.to_dict()} if drive.streams is not None else {}),
     }
 

@@ -29,9 +29,9 @@ import pyarrow as pa
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
 from rwhonet.data.drivechecks import check_drive, target_test_min_s
+from rwhonet.data.droprows import FileRows, report_rows
 from rwhonet.data.plausibility import reversing_rows
 from rwhonet.data.quality import RULES, Assessment, segment_name
-from rwhonet.data.repeats import FileRows
 from rwhonet.data.schema import schema_problems_batch
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_outputs, map_in_order, read_arrow, read_json, write_arrow, write_json
@@ -355,9 +355,8 @@ def _drive_report(
         "radius": units["radius"],
         "yaw_rate": units["yaw_rate"],
     }
-    if entry.get("repeated_rows"):  # rows written twice, dropped by ingest (not in "rows")
-        repeated = entry["repeated_rows"]
-        report["repeated_rows"] = {"rows": len(repeated), "listed": repeated[:50]}
+    # rows written twice or without a wheel speed, dropped by ingest (not in "rows")
+    report.update(report_rows(entry))
     if glitches is not None:  # only when a row glitched (its seconds: the wheel_glitch cuts)
         report["wheel_glitches"] = glitches
     return report

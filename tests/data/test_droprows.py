@@ -1,4 +1,5 @@
-"""Rows written twice (rwhonet.data.repeats): found, dropped, and the file's rows kept."""
+"""Rows written twice or without a wheel speed (rwhonet.data.droprows): found, dropped, and
+the file's rows kept."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from rwhonet.cli.drive import calibration_of, load_drive
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
-from rwhonet.data.repeats import CopyFilter, FileRows, drop_repeated, repeated_rows
+from rwhonet.data.droprows import FileRows, RowFilter, drop_rows, repeated_rows, wheelless_rows
 from rwhonet.errors import InputError
 from rwhonet.features.scaling import MinMaxScaler
 from rwhonet.stages.ingest import ingest
@@ -34,18 +35,115 @@ def test_only_rows_equal_in_every_column_repeat():
 
 def test_a_drive_without_repeats_is_returned_as_it_is():
     raw = RawDrive({c.T_S: np.arange(5) * 0.1, "a": np.arange(5.0)}, {}, "name")
-    assert drop_repeated(raw) is raw
+    assert drop_rows(raw, "V-T.csv") is raw
 
 
 def test_dropped_rows_are_named_in_the_file_s_numbering():
     t = np.array([0.0, 0.1, 0.1, 0.2, 0.3, 0.3])
     raw = RawDrive({c.T_S: t, "a": np.array([1.0, 2, 2, 3, 4, 4])}, {}, "name", ("earlier",))
-    out = drop_repeated(raw)
+    out = drop_rows(raw, "V-T.csv")
     assert out.columns[c.T_S].tolist() == [0.0, 0.1, 0.2, 0.3]
     assert out.repeated_rows.tolist() == [3, 6]  # data rows of the file, 1-based
     assert out.notes[0] == "earlier" and "2 data row(s)" in out.notes[1]
     assert "row(s) 3, 6)" in out.notes[1]
     assert FileRows(out.repeated_rows)(np.arange(4)).tolist() == [1, 2, 4, 5]
+
+
+def _wheels(n: int, t: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    t = np.arange(n) * 0.1 if t is None else t
+    return {c.T_S: t, **{w: np.full(t.size, 10.0) + np.arange(t.size) for w in c.WHEELS}}
+
+
+def test_rows_without_a_wheel_speed_are_dropped_and_listed():
+    t = np.r_[0.0, 0.1, 0.2, 0.2, 0.3, 0.4, 0.5, 0.5, 0.6 + 0.1 * np.arange(6)]
+    cols = _wheels(t.size, t)
+    cols[c.OMEGA_RL][[1, 5]] = np.nan
+    cols[c.OMEGA_FR][5] = np.nan
+    for w in c.WHEELS:  # row 3 copies row 2; row 7 copies row 6
+        cols[w][3], cols[w][7] = cols[w][2], cols[w][6]
+    cols[c.OMEGA_FL][6] = cols[c.OMEGA_FL][7] = np.nan  # ... and row 7 lacks a wheel, as row 6
+    assert wheelless_rows(cols).tolist() == [1, 5, 6, 7]
+    raw = RawDrive(cols, {w: w.upper() for w in c.WHEELS}, "name")
+    out = drop_rows(raw, "V-T.csv")
+    assert out.columns[c.T_S][:4].tolist() == [0.0, 0.2, 0.3, 0.6] and out.n_rows == 9
+    # a copy of a row without a wheel speed is listed with those rows, once
+    assert out.repeated_rows.tolist() == [4] and out.wheelless_rows.tolist() == [2, 6, 7, 8]
+    assert (
+        "4 of 14 (29 %) data row(s) have an empty wheel speed (row(s) 2, 6, 7, 8)" in out.notes[1]
+    )
+    entry = {"repeated_rows": [4], "wheelless_rows": [2, 6, 7, 8]}
+    assert FileRows.of(entry)(np.arange(4)).tolist() == [1, 3, 5, 9]
+
+
+def test_a_wheel_channel_without_any_value_is_refused():
+    cols = _wheels(20)
+    cols[c.OMEGA_RR][:] = np.nan
+    with pytest.raises(InputError) as err:
+        drop_rows(RawDrive(cols, {c.OMEGA_RR: "WhlSpd_RR"}, "name"), "V-T.csv")
+    (problem,) = err.value.problems
+    assert (problem.file, problem.row, problem.column) == ("V-T.csv", None, "WhlSpd_RR")
+    assert problem.found == "no value in any of the 20 data rows"
+    cols = _wheels(20)  # each wheel in other rows: no row has the four
+    for j, w in enumerate(c.WHEELS):
+        cols[w][np.arange(20) % 4 != j] = np.nan
+    with pytest.raises(InputError, match=r"20 of the 20 data rows \(100 %\)") as err:
+        drop_rows(RawDrive(cols, {}, "name"), "V-T.csv")
+    assert "stream_csv" in str(err.value) and err.value.problems[0].row == 1
+    cols = _wheels(20)  # the four in every other row: half the rows without them
+    cols[c.OMEGA_RL][1::2] = np.nan
+    with pytest.raises(InputError, match=r"10 of the 20 data rows \(50 %\)") as err:
+        drop_rows(RawDrive(cols, {}, "name"), "V-T.csv")
+    assert err.value.problems[0].row == 2
+    cols[c.OMEGA_RL][[1, 3, 5, 7]] = 3.0  # 6 of 20: thinned, not refused
+    assert drop_rows(RawDrive(cols, {}, "name"), "V-T.csv").n_rows == 14
+    cols[c.OMEGA_RL][1] = np.nan  # 7 of 20, more than a third: refused
+    with pytest.raises(InputError, match=r"7 of the 20 data rows \(35 %\)"):
+        drop_rows(RawDrive(cols, {}, "name"), "V-T.csv")
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.integers(0, 5), min_size=1, max_size=40), st.lists(st.integers(1, 9), max_size=12)
+)
+def test_the_row_filter_drops_what_drop_rows_drops(kinds, sizes):
+    """Rows streamed in any blocks lose the rows the whole-file reader loses, named alike.
+
+    ``kinds``: per row, 0-2 a new row, 3 a copy of the row before, 4 a row without a
+    front-right wheel speed, 5 a copy of the row before without that wheel."""
+    t, fr = [], []
+    for i, k in enumerate(kinds):
+        if k in (3, 5) and t:
+            t.append(t[-1])
+            fr.append(np.nan if k == 5 else fr[-1])
+        else:
+            t.append(0.1 * i)
+            fr.append(np.nan if k in (4, 5) else float(i))
+    cols = {c.T_S: np.array(t), **{w: np.arange(len(t), dtype=float) for w in c.WHEELS}}
+    cols[c.OMEGA_FR] = np.array(fr)
+    for w in (c.OMEGA_FL, c.OMEGA_RL, c.OMEGA_RR):  # a copy copies every column
+        cols[w] = np.where(np.r_[False, np.diff(cols[c.T_S]) == 0], np.r_[0, cols[w][:-1]], cols[w])
+    raw = RawDrive(cols, {}, "name")
+    if np.isnan(cols[c.OMEGA_FR]).sum() >= len(t) / 3:
+        return  # refused by drop_rows (tested above); the filter drops them as they come
+    whole = drop_rows(raw, "f")
+    f, blocks, i = RowFilter(), [], 0
+    for n in [*sizes, len(t)]:
+        if i < len(t):
+            blocks.append((i + 1, {k: v[i : i + n] for k, v in cols.items()}))
+        i += n
+    kept = list(f.blocks(blocks))
+    assert f.dropped == whole.repeated_rows.tolist()
+    assert f.wheelless == whole.wheelless_rows.tolist()
+    got_rows = [first + j for first, b in kept for j in range(len(b[c.T_S]))]
+    assert (
+        got_rows
+        == FileRows.of({"repeated_rows": f.dropped, "wheelless_rows": f.wheelless})(
+            np.arange(whole.n_rows)
+        ).tolist()
+    )
+    np.testing.assert_array_equal(
+        np.concatenate([b[c.T_S] for _, b in kept]) if kept else np.zeros(0), whole.columns[c.T_S]
+    )
 
 
 @settings(max_examples=200, deadline=None)
@@ -159,7 +257,7 @@ def test_copy_filter_hands_on_the_rows_once_each_with_their_file_rows(times, siz
         (a + 1, {c.T_S: t_file[a:b], "a": a_file[a:b]})
         for a, b in zip(bounds[:-1], bounds[1:], strict=True)
     ]
-    copies = CopyFilter()
+    copies = RowFilter()
     out = list(copies.blocks(blocks))
     got_t = np.concatenate([cols[c.T_S] for _, cols in out])
     np.testing.assert_array_equal(got_t, t_once)
@@ -169,3 +267,37 @@ def test_copy_filter_hands_on_the_rows_once_each_with_their_file_rows(times, siz
     kept = np.ones(t_file.size, dtype=bool)
     kept[np.array(copies.dropped, dtype=np.int64) - 1] = False
     np.testing.assert_array_equal(t_file[kept], t_once)
+
+
+def test_ingest_drops_rows_without_a_wheel_speed_and_validate_cuts_their_seconds(tmp_path):
+    """The manifest and the report list them by the file's rows (after a copy too), and
+    validate cuts the second each leaves short, as for a row the logger never wrote."""
+    raw = tmp_path / "raw"
+    write_good_fleet(raw)
+    df = written_twice(good_target(), 100)  # data row 101 a copy
+    df.loc[rows(df, 800, 800), c.OMEGA_RL] = np.nan
+    df.loc[rows(df, 1200, 1201), c.OMEGA_FR] = np.nan
+    write_target(raw, df)
+    params = make_params(raw)
+    manifest = ingest(params, tmp_path / "drives", tmp_path / "failed.json")
+    (entry,) = [d for d in manifest["drives"] if d["drive"] == DRIVE]
+    assert entry["repeated_rows"] == [101] and entry["wheelless_rows"] == [800, 1200, 1201]
+    assert entry["n_rows"] == len(df) - 4
+    assert any(
+        "3 of" in n and "empty wheel speed (row(s) 800, 1200, 1201)" in n for n in entry["notes"]
+    )
+    report = validate(params, tmp_path / "drives", tmp_path / "seg", tmp_path / "v.json")
+    (drive,) = [d for d in report["drives"] if d["drive"] == DRIVE]
+    assert drive["wheelless_rows"] == {"rows": 3, "listed": [800, 1200, 1201]}
+    assert drive["repeated_rows"] == {"rows": 1, "listed": [101]}
+    # the drive without those rows, written once: the same seconds and cuts
+    alone = tmp_path / "alone"
+    write_good_fleet(alone)
+    write_target(alone, good_target().drop(index=[799 - 1, 1199 - 1, 1200 - 1]))
+    p_alone = make_params(alone)
+    ingest(p_alone, tmp_path / "d1", tmp_path / "f1.json")
+    ref = validate(p_alone, tmp_path / "d1", tmp_path / "s1", tmp_path / "v1.json")
+    (good,) = [d for d in ref["drives"] if d["drive"] == DRIVE]
+    assert drive["cut_seconds_by_rule"] == good["cut_seconds_by_rule"]
+    assert drive["cut_seconds_by_rule"]["partial_second"] >= 2
+    assert (drive["seconds_kept"], drive["segments"]) == (good["seconds_kept"], good["segments"])

@@ -1,0 +1,304 @@
+"""Rows a 10 Hz reader's callers drop: samples written twice, and samples without a wheel speed.
+
+Two ordinary logger habits leave rows in a 10 Hz drive file (IO-VNBD, a column map) that
+hold no usable sample, and the readers' callers (:func:`drop_rows`, in
+:func:`rwhonet.data.drivefile.read_any`) drop both and say so in the drive's notes and in
+the ingest manifest (the dropped rows, 1-based data rows of the file):
+
+- ``repeated_rows``: a row that repeats the row before it in every column the pipeline
+  reads, the time included (a logger that flushed a buffer twice, an export that wrote a
+  block's boundary row again). The copy carries nothing the first does not. A row at the
+  same time with *any* other value differing is not a copy: validate still refuses it
+  (``time_not_repeated``), as it refuses a clock going back.
+- ``wheelless_rows``: a row whose time is there but one of its four wheel speeds is empty
+  (a CAN frame the logger missed, a logger that starts writing before the first wheel
+  frame arrives). The sample is lost as a dropped row is lost: its slot of the 0.1 s grid
+  is left empty, so validate cuts its second (``partial_second``) and splits the drive
+  there, and ``rwhonet predict`` ends its run of seconds there, exactly as for a row the
+  logger never wrote. Its fix goes with it: a second without the wheels' travel has no
+  label. A wheel channel with no value in any row, and a file whose rows lack a wheel
+  speed in a third of them or more (a channel at its own rate), are refused
+  (:func:`drop_rows`).
+
+The canonical drive then lacks those rows, so its row ``k`` is no longer data row
+``k + 1`` of the file; :class:`FileRows` gives the file's row for every message that
+names one (validate's schema and drive checks, ``rwhonet recalibrate``'s).
+``rwhonet predict``, which reads a drive in blocks as it arrives, drops them with
+:class:`RowFilter`, which splits a block where it drops a row so that every block it
+hands on is still rows ``first_row ..`` of the file, one after the other.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import replace
+from typing import Any, overload
+
+import numpy as np
+
+from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive
+from rwhonet.errors import InputError, Problem
+
+# Dropped rows a note lists one by one (the manifest lists them all).
+ROWS_NOTED = 5
+# A drive that lacks a wheel speed in this share of its rows or more is refused rather
+# than thinned. Dropping a share f of the rows, one here and one there, leaves f / (1 - f)
+# of the kept steps skipping a slot: from f = 1/3 on, half of them or more, and validate
+# would take the median step for the drive's sample rate (0.2 s: "5 Hz, not 10 Hz"). Such
+# rows are not lost samples but a layout: wheel speeds written at their own rate.
+WHEELLESS_MAX_SHARE = 1 / 3
+# The key under which a stream of rows (``rwhonet predict``'s) carries each row's data row
+# in the file with the rows: consecutive within a block, not across blocks once a copy
+# was dropped.
+FILE_ROW = "file_row"
+
+
+def repeated_rows(columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The rows that repeat the row before them in every column (NaN equal to NaN).
+
+    Args:
+        columns: a drive's channels, one array per column, one element per row.
+
+    Returns:
+        0-based rows ``i >= 1`` whose every value equals row ``i - 1``'s, increasing.
+    """
+    arrays = [np.asarray(v) for v in columns.values()]
+    if not arrays or arrays[0].size < 2:
+        return np.zeros(0, dtype=np.int64)
+    # the time first: almost every row differs from the one before there, and only the
+    # rows that do not are compared further
+    order = sorted(range(len(arrays)), key=lambda j: list(columns)[j] != c.T_S)
+    same = np.ones(arrays[0].size - 1, dtype=bool)
+    for j in order:
+        a = arrays[j]
+        rows = np.flatnonzero(same)
+        if rows.size == 0:
+            break
+        now, before = a[rows + 1], a[rows]
+        equal = now == before
+        if a.dtype.kind == "f":
+            equal |= np.isnan(now) & np.isnan(before)
+        same[rows] = equal
+    return np.flatnonzero(same) + 1
+
+
+def wheelless_rows(columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The rows with one wheel speed or more empty (NaN), 0-based, increasing."""
+    wheels = [np.asarray(columns[w]) for w in c.WHEELS if w in columns]
+    if not wheels:
+        return np.zeros(0, dtype=np.int64)
+    return np.flatnonzero(np.any([np.isnan(w) for w in wheels], axis=0))
+
+
+def drop_rows(raw: RawDrive, file: str) -> RawDrive:
+    """A drive read from a 10 Hz file without its copies and its rows without a wheel speed.
+
+    Both are found among the file's rows as written: a copy repeats the file's row before
+    it. A copy of a row without a wheel speed is listed with the rows without one.
+
+    Args:
+        raw: the drive as its reader read it (row ``i`` is data row ``i + 1`` of the file).
+        file: the file as the user knows it, for a refusal.
+
+    Returns:
+        ``raw`` itself when no row is dropped; else a copy without them, whose
+        ``repeated_rows`` and ``wheelless_rows`` list them (1-based data rows of the file)
+        and whose notes say so.
+
+    Raises:
+        InputError: a wheel speed column has no value in any row (a column map naming the
+            wrong column, a channel the logger never had), or :data:`WHEELLESS_MAX_SHARE`
+            (a third) of the rows or more lack a wheel speed (wheel speeds written at their
+            own rate).
+    """
+    wheelless = wheelless_rows(raw.columns)
+    if raw.n_rows and wheelless.size >= WHEELLESS_MAX_SHARE * raw.n_rows:
+        empty = [w for w in c.WHEELS if w in raw.columns and np.isnan(raw.columns[w]).all()]
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    raw.source_columns.get(w, w),
+                    "a wheel speed in the rows (a row without one is dropped as a lost sample)",
+                    f"no value in any of the {raw.n_rows} data rows",
+                    "check that the column holds this wheel's speed (a column map naming "
+                    "another column, a channel the logger did not record)",
+                )
+                for w in empty
+            ]
+            or [
+                Problem(
+                    file,
+                    int(wheelless[0]) + 1,
+                    None,
+                    "the four wheel speeds in most rows (a row without one is dropped as a "
+                    "lost sample)",
+                    f"{wheelless.size} of the {raw.n_rows} data rows "
+                    f"({100 * wheelless.size / raw.n_rows:.3g} %) without all four, the "
+                    f"first {_listed(wheelless[:ROWS_NOTED] + 1)}",
+                    "the wheel speeds are written in other rows than the rest (a CAN "
+                    "channel at its own rate in a 10 Hz file): give each stream with its "
+                    "own times as stream CSVs (format stream_csv), or fill the wheel speeds "
+                    "onto the 10 Hz rows before writing the file",
+                )
+            ]
+        )
+    copies = np.setdiff1d(repeated_rows(raw.columns), wheelless)
+    if copies.size == 0 and wheelless.size == 0:
+        return raw
+    keep = np.ones(raw.n_rows, dtype=bool)
+    keep[copies] = False
+    keep[wheelless] = False
+    notes = [dropped_note(copies + 1)] if copies.size else []
+    if wheelless.size:
+        notes.append(wheelless_note(wheelless + 1, raw.n_rows))
+    return replace(
+        raw,
+        columns={name: values[keep] for name, values in raw.columns.items()},
+        notes=(*raw.notes, *notes),
+        repeated_rows=copies + 1,
+        wheelless_rows=wheelless + 1,
+    )
+
+
+def manifest_rows(raw: RawDrive) -> dict[str, list[int]]:
+    """The rows a drive lost, as the ingest manifest lists them (only the kinds it lost):
+    ``repeated_rows`` and ``wheelless_rows``, the file's data rows, every one."""
+    lists = {"repeated_rows": raw.repeated_rows, "wheelless_rows": raw.wheelless_rows}
+    return {key: [int(r) for r in rows] for key, rows in lists.items() if rows.size}
+
+
+def report_rows(entry: Mapping[str, Any], listed: int = 50) -> dict[str, Any]:
+    """The rows a drive lost, as ``reports/validation.json`` gives them per drive: for each
+    kind, the count and the first ``listed`` rows."""
+    return {
+        key: {"rows": len(entry[key]), "listed": list(entry[key][:listed])}
+        for key in ("repeated_rows", "wheelless_rows")
+        if entry.get(key)
+    }
+
+
+def _listed(rows: Sequence[int] | np.ndarray) -> str:
+    shown = ", ".join(str(int(r)) for r in rows[:ROWS_NOTED])
+    more = f" and {len(rows) - ROWS_NOTED} more" if len(rows) > ROWS_NOTED else ""
+    return f"row(s) {shown}{more}"
+
+
+def dropped_note(rows: Sequence[int] | np.ndarray) -> str:
+    """What a reader says of the copies it dropped (the file's data rows, 1-based)."""
+    return (
+        f"{len(rows)} data row(s) repeat the row before them in every column read, the time "
+        f"included ({_listed(rows)}): a sample written twice, dropped; rows named in "
+        "messages are still the file's"
+    )
+
+
+def wheelless_note(rows: Sequence[int] | np.ndarray, n_rows: int | None = None) -> str:
+    """What a reader says of the rows without a wheel speed it dropped (1-based data rows);
+    ``n_rows``: the file's data rows, for the share (None: a stream, not said)."""
+    share = f" of {n_rows} ({100 * len(rows) / n_rows:.2g} %)" if n_rows else ""
+    return (
+        f"{len(rows)}{share} data row(s) have an empty wheel speed ({_listed(rows)}): each "
+        "is dropped as a lost sample, and the second it leaves short is cut "
+        "(partial_second) and ends a stretch; rows named in messages are still the file's"
+    )
+
+
+class FileRows:
+    """The file's data row of each row of a canonical drive that lost rows (:func:`drop_rows`).
+
+    Args:
+        dropped: the rows dropped (1-based data rows of the file, increasing); empty: row
+            ``k`` is data row ``k + 1``.
+    """
+
+    def __init__(self, dropped: Sequence[int] | np.ndarray = ()) -> None:
+        d = np.asarray(dropped, dtype=np.int64)
+        # canonical row k is data row k + 1 + (the drops at or before it): drop j, the
+        # (j+1)-th, sits after d[j] - 1 - j kept rows
+        self._after = d - 1 - np.arange(d.size)
+
+    @classmethod
+    def of(cls, entry: Mapping[str, Any]) -> FileRows:
+        """The numbering of a drive as the ingest manifest lists it (``repeated_rows`` and
+        ``wheelless_rows``)."""
+        dropped = [*(entry.get("repeated_rows") or ()), *(entry.get("wheelless_rows") or ())]
+        return cls(sorted(dropped))
+
+    @property
+    def identity(self) -> bool:
+        """Whether no row was dropped (canonical row ``k`` is data row ``k + 1``)."""
+        return self._after.size == 0
+
+    @overload
+    def __call__(self, k: int | np.integer) -> int: ...
+
+    @overload
+    def __call__(self, k: np.ndarray) -> np.ndarray: ...
+
+    def __call__(self, k):
+        """The 1-based data row of the file of canonical row(s) ``k`` (0-based)."""
+        if isinstance(k, int | np.integer):
+            return int(k) + 1 + int(np.searchsorted(self._after, int(k), side="right"))
+        k = np.asarray(k, dtype=np.int64)
+        return k + 1 + np.searchsorted(self._after, k, side="right")
+
+
+class RowFilter:
+    """Drop copies and rows without a wheel speed from blocks of rows as they arrive.
+
+    The rows of ``rwhonet predict``'s drive come in blocks ``(first_row, columns)``: data
+    rows ``first_row ..`` of the file. A block that holds such rows is handed on split
+    around them, so each block handed on is still consecutive rows of the file and every
+    message downstream names the file's row; a copy of the previous block's last row is
+    found too. ``dropped`` lists the copies dropped and ``wheelless`` the rows without a
+    wheel speed (the file's, 1-based), as :func:`drop_rows` lists them.
+    """
+
+    def __init__(self) -> None:
+        self.dropped: list[int] = []
+        self.wheelless: list[int] = []
+        self._last: dict[str, np.ndarray] | None = None  # the last row handed in
+
+    def blocks(
+        self, blocks: Iterable[tuple[int, dict[str, np.ndarray]]]
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """The blocks without those rows (a block of such rows only is left out)."""
+        for first, columns in blocks:
+            n = len(columns[c.T_S])
+            if n == 0:
+                yield first, columns
+                continue
+            last, self._last = self._last, {k: np.asarray(v)[-1:] for k, v in columns.items()}
+            t = np.asarray(columns[c.T_S])
+            wheelless = wheelless_rows(columns)
+            if (
+                not wheelless.size
+                and not (t[1:] == t[:-1]).any()
+                and (last is None or last[c.T_S][0] != t[0])
+            ):
+                yield first, columns  # no two rows at one time and every wheel: as it is
+                continue
+            if last is not None and last.keys() == columns.keys():
+                copies = repeated_rows({k: np.r_[last[k], columns[k]] for k in columns}) - 1
+            else:
+                copies = repeated_rows(columns)
+            copies = np.setdiff1d(copies, wheelless)
+            if copies.size == 0 and wheelless.size == 0:
+                yield first, columns
+                continue
+            self.dropped += [first + int(i) for i in copies]
+            self.wheelless += [first + int(i) for i in wheelless]
+            bounds = np.r_[-1, np.union1d(copies, wheelless), n]
+            for a, b in zip(bounds[:-1] + 1, bounds[1:], strict=True):
+                if b > a:
+                    yield first + int(a), {k: v[a:b] for k, v in columns.items()}
+
+    def notes(self, file: str) -> list[str]:
+        """What was dropped, for stderr (none: nothing)."""
+        return [
+            *([f"{file}: {dropped_note(self.dropped)}"] if self.dropped else []),
+            *([f"{file}: {wheelless_note(self.wheelless)}"] if self.wheelless else []),
+        ]
