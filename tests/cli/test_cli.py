@@ -396,6 +396,45 @@ def test_predict_drops_a_row_written_twice_and_names_the_file_s_rows(bundle, tmp
     assert "1 data row(s) repeat the row before them" in err and "(row(s) 101)" in err
 
 
+def test_predict_drops_a_row_without_a_wheel_speed_as_a_lost_sample(bundle, tmp_path, capsys):
+    """A row with an empty wheel speed streams as the row deleted (a dropped sample), and
+    stderr names it by its row in the file; wheel speeds in every other row only, or a
+    wheel column with no value, are refused as ingest refuses them, with nothing written."""
+    lines = write_drive(tmp_path / "V-W.csv", duration_s=60).read_text().splitlines()
+
+    def emptied(cells_of: dict[int, list[int]]) -> list[str]:
+        out = list(lines)
+        for row, cols in cells_of.items():
+            cells = out[row].split(",")
+            for j in cols:
+                cells[j] = ""
+            out[row] = ",".join(cells)
+        return out
+
+    drives = {
+        "deleted": [x for i, x in enumerate(lines) if i not in (1, 205)],
+        "holes": emptied({1: [12], 205: [10, 13]}),  # before the first frame; inside
+        "half": emptied({i: [11] for i in range(2, len(lines), 2)}),
+        "none": emptied({i: [13] for i in range(1, len(lines))}),
+    }
+    out, err = {}, {}
+    for name, text in drives.items():
+        path = tmp_path / f"V-{name}.csv"
+        path.write_text("\n".join(text) + "\n")
+        out[name] = tmp_path / f"{name}.out.csv"
+        args = ["predict", "--model", str(bundle["model_onnx"]), "--drive", str(path)]
+        code = main([*args, "--output", str(out[name]), "--quiet"])
+        assert code == (2 if name in ("half", "none") else 0)
+        err[name] = capsys.readouterr().err
+    assert out["holes"].read_text() == out["deleted"].read_text()
+    assert "2 data row(s) have an empty wheel speed (row(s) 1, 205)" in err["holes"]
+    assert (
+        "300 of the 601 data rows (49.9 %) without all four, the first row(s) 2, 4" in err["half"]
+    )
+    assert "' Wheel Speed Rear Right (rad/sec)'" in err["none"] and "no value in any" in err["none"]
+    assert not out["half"].exists() and not out["none"].exists()
+
+
 @pytest.mark.parametrize("arch", ["tcn", "gru"])
 def test_a_model_with_context_exports_and_predicts_every_second(arch, drive, tmp_path, capsys):
     """model.arch tcn / gru: the stream feeds each second's window of 32 s to ONNX Runtime."""

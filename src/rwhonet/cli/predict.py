@@ -312,6 +312,8 @@ def run(
             for block in held:
                 sink.write(block)
                 seconds += len(block["t_s"])
+            if dropped.problems(name, names):  # a wheel channel empty, or at its own rate
+                raise InputError(dropped.problems(name, names))
             if not seconds and steps and not 0.5 <= np.median(steps) / period_s <= 2.0:
                 raise InputError([no_seconds_problem(name, names, steps, period_s)])
             done = True

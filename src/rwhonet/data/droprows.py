@@ -113,38 +113,11 @@ def drop_rows(raw: RawDrive, file: str) -> RawDrive:
             own rate).
     """
     wheelless = wheelless_rows(raw.columns)
-    if raw.n_rows and wheelless.size >= WHEELLESS_MAX_SHARE * raw.n_rows:
+    if wheelless.size:
         empty = [w for w in c.WHEELS if w in raw.columns and np.isnan(raw.columns[w]).all()]
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    raw.source_columns.get(w, w),
-                    "a wheel speed in the rows (a row without one is dropped as a lost sample)",
-                    f"no value in any of the {raw.n_rows} data rows",
-                    "check that the column holds this wheel's speed (a column map naming "
-                    "another column, a channel the logger did not record)",
-                )
-                for w in empty
-            ]
-            or [
-                Problem(
-                    file,
-                    int(wheelless[0]) + 1,
-                    None,
-                    "the four wheel speeds in most rows (a row without one is dropped as a "
-                    "lost sample)",
-                    f"{wheelless.size} of the {raw.n_rows} data rows "
-                    f"({100 * wheelless.size / raw.n_rows:.3g} %) without all four, the "
-                    f"first {_listed(wheelless[:ROWS_NOTED] + 1)}",
-                    "the wheel speeds are written in other rows than the rest (a CAN "
-                    "channel at its own rate in a 10 Hz file): give each stream with its "
-                    "own times as stream CSVs (format stream_csv), or fill the wheel speeds "
-                    "onto the 10 Hz rows before writing the file",
-                )
-            ]
-        )
+        problems = wheelless_problems(file, raw.n_rows, wheelless + 1, empty, raw.source_columns)
+        if problems:
+            raise InputError(problems)
     copies = np.setdiff1d(repeated_rows(raw.columns), wheelless)
     if copies.size == 0 and wheelless.size == 0:
         return raw
@@ -161,6 +134,55 @@ def drop_rows(raw: RawDrive, file: str) -> RawDrive:
         repeated_rows=copies + 1,
         wheelless_rows=wheelless + 1,
     )
+
+
+def wheelless_problems(
+    file: str,
+    n_rows: int,
+    rows: Sequence[int] | np.ndarray,
+    empty: Sequence[str],
+    names: Mapping[str, str],
+) -> list[Problem]:
+    """Why a drive's rows without a wheel speed are not lost samples (none: they are).
+
+    Args:
+        file: the file as the user knows it.
+        n_rows: the file's data rows.
+        rows: the data rows (1-based) without a wheel speed, increasing.
+        empty: the wheel channels (canonical names) with no value in any row.
+        names: canonical name -> the file's column name.
+
+    Returns:
+        A problem per wheel column with no value in any row; else one problem when
+        :data:`WHEELLESS_MAX_SHARE` of the rows or more lack a wheel speed; else none.
+    """
+    if not n_rows or len(rows) < WHEELLESS_MAX_SHARE * n_rows:
+        return []
+    return [
+        Problem(
+            file,
+            None,
+            names.get(w, w),
+            "a wheel speed in the rows (a row without one is dropped as a lost sample)",
+            f"no value in any of the {n_rows} data rows",
+            "check that the column holds this wheel's speed (a column map naming another "
+            "column, a channel the logger did not record)",
+        )
+        for w in empty
+    ] or [
+        Problem(
+            file,
+            int(rows[0]),
+            None,
+            "the four wheel speeds in most rows (a row without one is dropped as a lost sample)",
+            f"{len(rows)} of the {n_rows} data rows ({100 * len(rows) / n_rows:.3g} %) without "
+            f"all four, the first {_listed(rows[:ROWS_NOTED])}",
+            "the wheel speeds are written in other rows than the rest (a CAN channel at its "
+            "own rate in a 10 Hz file): give each stream with its own times as stream CSVs "
+            "(format stream_csv), or fill the wheel speeds onto the 10 Hz rows before "
+            "writing the file",
+        )
+    ]
 
 
 def manifest_rows(raw: RawDrive) -> dict[str, list[int]]:
@@ -260,6 +282,8 @@ class RowFilter:
     def __init__(self) -> None:
         self.dropped: list[int] = []
         self.wheelless: list[int] = []
+        self.n_rows = 0  # the rows handed in
+        self._valued: set[str] = set()  # the wheel channels seen with a value
         self._last: dict[str, np.ndarray] | None = None  # the last row handed in
 
     def blocks(
@@ -271,9 +295,11 @@ class RowFilter:
             if n == 0:
                 yield first, columns
                 continue
+            self.n_rows = first + n - 1
             last, self._last = self._last, {k: np.asarray(v)[-1:] for k, v in columns.items()}
             t = np.asarray(columns[c.T_S])
             wheelless = wheelless_rows(columns)
+            self._valued |= {w for w in c.WHEELS if w in columns and not np.isnan(columns[w]).all()}
             if (
                 not wheelless.size
                 and not (t[1:] == t[:-1]).any()
@@ -289,12 +315,21 @@ class RowFilter:
             if copies.size == 0 and wheelless.size == 0:
                 yield first, columns
                 continue
+
             self.dropped += [first + int(i) for i in copies]
             self.wheelless += [first + int(i) for i in wheelless]
             bounds = np.r_[-1, np.union1d(copies, wheelless), n]
             for a, b in zip(bounds[:-1] + 1, bounds[1:], strict=True):
                 if b > a:
                     yield first + int(a), {k: v[a:b] for k, v in columns.items()}
+
+    def problems(self, file: str, names: Mapping[str, str]) -> list[Problem]:
+        """Once every row is in: why its rows without a wheel speed are not lost samples,
+        as :func:`drop_rows` says it (none: they are)."""
+        if not self.wheelless:
+            return []
+        empty = [w for w in c.WHEELS if w not in self._valued]
+        return wheelless_problems(file, self.n_rows, self.wheelless, empty, names)
 
     def notes(self, file: str) -> list[str]:
         """What was dropped, for stderr (none: nothing)."""
