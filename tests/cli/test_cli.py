@@ -435,6 +435,43 @@ def test_predict_drops_a_row_without_a_wheel_speed_as_a_lost_sample(bundle, tmp_
     assert not out["half"].exists() and not out["none"].exists()
 
 
+def test_predict_places_fixes_held_from_a_1_hz_receiver_as_ingest_does(bundle, tmp_path, capsys):
+    """A 10 Hz file whose fixes are held from a 1 Hz receiver (the fix arriving 0.4 s
+    after each whole second) gives each second's GNSS displacement of the file with its
+    own fixes, within a centimetre, and says so; read as written it was a second's
+    travel 0.6 s off, and its jumps taken for broken fixes."""
+    from rwhonet.data import canonical as c
+    from rwhonet.data.heldfixes import GNSS_CHANNELS
+    from support.drives import write_iovnbd
+    from support.synthetic import build_drive, wavy_speed
+
+    # exact fixes, so that the file's own and the placed ones can be compared
+    own = build_drive(wavy_speed(120, 12.0, 4.0, 60.0, t0_s=45000.0), wheel_sigma_rad_s=0.05)
+    own[c.N_SATS] = 9.0
+    rows = np.arange(len(own))
+    src = np.maximum(rows - (rows - 4) % 10, 0)
+    held = own.copy()
+    for name in GNSS_CHANNELS:
+        if name in own:
+            held[name] = own[name].to_numpy()[src]
+    out = {}
+    for name, df in (("own", own), ("held", held)):
+        path = write_iovnbd(df, tmp_path / f"V-{name}.csv")
+        out[name] = tmp_path / f"{name}.out.csv"
+        args = ["predict", "--model", str(bundle["model_onnx"]), "--drive", str(path)]
+        assert main([*args, "--output", str(out[name]), "--outage", "40:100"]) == 0
+        err = capsys.readouterr().err
+        assert ("held from a 1 Hz receiver" in err) == (name == "held"), err
+        assert "implying more than" not in err  # no fix taken for a jump
+    a, b = (pd.read_csv(out[k]) for k in ("own", "held"))
+    both = a.merge(b, on="t_s", suffixes=("", "_held"))
+    assert len(both) >= len(a) - 2  # the last second has no fix after it to place by
+    gnss = both[["disp_gnss_m", "disp_gnss_m_held"]].dropna()
+    assert len(gnss) > 100
+    np.testing.assert_allclose(gnss["disp_gnss_m_held"], gnss["disp_gnss_m"], atol=0.01)
+    assert c.LAT_DEG in a
+
+
 @pytest.mark.parametrize("arch", ["tcn", "gru"])
 def test_a_model_with_context_exports_and_predicts_every_second(arch, drive, tmp_path, capsys):
     """model.arch tcn / gru: the stream feeds each second's window of 32 s to ONNX Runtime."""

@@ -1205,6 +1205,24 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "fixes_held_from_a_1_hz_receiver",
+    "the fix (and course, height) of a 1 Hz receiver written into every row until the next, "
+    "each arriving 0.4 s after the second",
+    # placed along the wheels' path from the receiver's fixes (rwhonet.data.heldfixes);
+    # the rows before its first fix and after its last have none: cut as no fix
+    Repair("low_sats", 1),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    rows = np.arange(len(df))
+    src = np.maximum(rows - (rows - 4) % 10, 0)
+    for name in (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M):
+        if name in df:
+            df[name] = df[name].to_numpy()[src]
+    write_target(raw, df)
+
+
+@case(
     "across_midnight",
     "a drive from 23:59:00 that goes on past midnight (time of day restarts at 0)",
     Accept("the reader adds a day after the rollover: one continuous clock"),

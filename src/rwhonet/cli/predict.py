@@ -207,7 +207,10 @@ def run(
     written twice), and a row with an empty wheel speed (a lost sample: its second gives no
     output and ends a run of seconds, as a dropped row's) are dropped as ingest drops them
     (:class:`rwhonet.data.droprows.RowFilter`; ``drive_notes`` says which); messages still
-    name the file's rows. A row whose fix
+    name the file's rows. Fixes held from a slower receiver (the last fix written into
+    every row until the next) are placed along the wheels' path as ingest places them
+    (:class:`rwhonet.data.heldfixes.HeldFixGate`: such a drive is read to its end before
+    its first second is written; ``drive_notes`` says so). A row whose fix
     validate's GNSS policy would not use (latitude = longitude = 0, fewer than
     ``validate.gnss.min_sats`` satellites where the drive counts them) is taken as a row
     without a fix (:class:`rwhonet.data.incremental.FixScreen`; ``fix_note`` says how many).
@@ -223,6 +226,7 @@ def run(
     """
     from rwhonet.data.drivechecks import StreamRadiusCheck
     from rwhonet.data.droprows import RowFilter
+    from rwhonet.data.heldfixes import HeldFixGate
     from rwhonet.data.incremental import FixScreen, read_rows
     from rwhonet.libraries import raise_if_interrupted
 
@@ -269,6 +273,10 @@ def run(
             # move)
             dropped = RowFilter()
             blocks = dropped.blocks(iter(blocks))
+            # fixes held from a slower receiver are placed along the path, as ingest places
+            # them (such a drive is read to its end first: a row's place needs the next fix)
+            held_fixes = HeldFixGate(period_s)
+            blocks = held_fixes.blocks(blocks)
             # a fix validate would not use (satellites, a jump, a frozen receiver) is none
             fixes = FixScreen(vp.gnss.min_sats, vp.gnss, vp.sample_period_s)
             blocks = fixes.blocks(blocks)
@@ -336,7 +344,11 @@ def run(
         "gaps": list(stream.gaps),
         "max_gap_s": max_gap_s,
         "stream_glitches": list(stream_glitches or []),
-        "drive_notes": [*drive_notes, *dropped.notes(name)],
+        "drive_notes": [
+            *drive_notes,
+            *dropped.notes(name),
+            *([f"{name}: {held_fixes.note}"] if held_fixes.note else []),
+        ],
         "unit_note": unit_note,
         "yaw_note": check.yaw_note,
         "fix_note": fixes.note(name),

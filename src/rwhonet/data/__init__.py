@@ -22,6 +22,8 @@
 - :mod:`~rwhonet.data.incremental`: drive rows read from a stream as they arrive.
 - :mod:`~rwhonet.data.droprows`: rows a logger wrote twice or without a wheel speed,
   dropped, and the file's row numbers kept for every message.
+- :mod:`~rwhonet.data.heldfixes`: fixes a 10 Hz file holds from a slower receiver,
+  found and placed along the wheels' path.
 - :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
   write them; a drive's clock (midnight rollover, each row's slot on the grid).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.

@@ -81,6 +81,9 @@ class RawDrive:
         wheelless_rows: data rows of the file (1-based) left out because a wheel speed is
             empty in them (a lost sample, :func:`rwhonet.data.droprows.drop_rows`). Element
             ``i`` of ``columns`` is the file's row ``FileRows(both, merged)(i)``.
+        held_fix_period_rows: the period, in rows, of a slower receiver whose fixes the
+            file held and the reader placed along the path
+            (:func:`rwhonet.data.heldfixes.place_held_fixes`); 0: the rows' own fixes.
     """
 
     columns: dict[str, np.ndarray]
@@ -89,6 +92,7 @@ class RawDrive:
     notes: tuple[str, ...] = ()
     repeated_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     wheelless_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    held_fix_period_rows: int = 0
 
     @property
     def n_rows(self) -> int:

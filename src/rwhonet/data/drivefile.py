@@ -34,6 +34,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import read_columnmap
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import drop_rows
+from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
@@ -196,13 +197,14 @@ def read_any(
             ]
         )
     try:
-        # a row written twice or without a wheel speed is dropped (rwhonet.data.droprows);
-        # the drive says which
+        # a row written twice or without a wheel speed is dropped (rwhonet.data.droprows),
+        # fixes held from a slower receiver are placed along the path (.heldfixes); the
+        # drive says which
         if kind == IOVNBD:
-            return drop_rows(read_iovnbd(f.path, file), file), None
+            return place_held_fixes(drop_rows(read_iovnbd(f.path, file), file), period_s), None
         if kind == COLUMN_MAP:
             raw = read_columnmap(f.path, data.column_maps[f.format], f.format, file)
-            return drop_rows(raw, file), None
+            return place_held_fixes(drop_rows(raw, file), period_s), None
         return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
     except MemoryError:
         raise out_of_memory(f, rel) from None

@@ -185,21 +185,28 @@ def wheelless_problems(
     ]
 
 
-def manifest_rows(raw: RawDrive) -> dict[str, list[int]]:
+def manifest_rows(raw: RawDrive) -> dict[str, Any]:
     """The rows a drive lost, as the ingest manifest lists them (only the kinds it lost):
-    ``repeated_rows`` and ``wheelless_rows``, the file's data rows, every one."""
+    ``repeated_rows`` and ``wheelless_rows``, the file's data rows, every one; and
+    ``held_fix_period_rows`` where its fixes were held (:mod:`rwhonet.data.heldfixes`)."""
     lists = {"repeated_rows": raw.repeated_rows, "wheelless_rows": raw.wheelless_rows}
-    return {key: [int(r) for r in rows] for key, rows in lists.items() if rows.size}
+    out: dict[str, Any] = {key: [int(r) for r in rows] for key, rows in lists.items() if rows.size}
+    if raw.held_fix_period_rows:  # fixes held from a slower receiver, placed (heldfixes)
+        out["held_fix_period_rows"] = raw.held_fix_period_rows
+    return out
 
 
 def report_rows(entry: Mapping[str, Any], listed: int = 50) -> dict[str, Any]:
     """The rows a drive lost, as ``reports/validation.json`` gives them per drive: for each
     kind, the count and the first ``listed`` rows."""
-    return {
+    out: dict[str, Any] = {
         key: {"rows": len(entry[key]), "listed": list(entry[key][:listed])}
         for key in ("repeated_rows", "wheelless_rows")
         if entry.get(key)
     }
+    if entry.get("held_fix_period_rows"):
+        out["held_fix_period_rows"] = entry["held_fix_period_rows"]
+    return out
 
 
 def _listed(rows: Sequence[int] | np.ndarray) -> str:

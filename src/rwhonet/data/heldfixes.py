@@ -1,0 +1,234 @@
+"""Fixes a 10 Hz file holds from a slower receiver: found, and placed along the wheels' path.
+
+A logger that writes a fixed-rate table (one row every 0.1 s) while its receiver gives a
+fix once a second (or five times) writes the last fix it has into every row until the
+next comes: the latitude and longitude stay the same for ten rows (or two) while the
+wheels turn, then jump. Read as they are, the position at a whole second is the fix
+from up to 0.9 s before it, so a second's GNSS displacement, the label the models
+learn from and the truth they are scored against, is the car's travel over another
+second: on the built-in target drive V-Charlie3 written with 1 Hz fixes held (the
+receiver's fix arriving 0.1-0.9 s after the whole second), the per-second GNSS
+displacement moved by 0.08-0.68 m RMS (up to 5.5 m), against labels of about 5 cm RMS;
+validate's ``frozen`` rule (``validate.gnss.frozen_min_s``, 2 s) does not see a fix held
+for 0.9 s, and the radius check over 30 s does not either. And ``rwhonet predict``'s
+filter was updated ten times a second by a fix up to 0.9 s old.
+
+:func:`held_fixes` finds such a file: among the rows where the rear wheels turn faster
+than :data:`MOVING_RAD_S` (about 3 m/s: a 10 Hz receiver's fix moves 0.3 m a row, far
+beyond any logged coordinate's resolution), the fix equals the row before's in at least
+:data:`HELD_SHARE` of them, and the fixes change at one period of whole rows (at least
+:data:`REGULAR_SHARE` of the changes while moving ``k >= 2`` rows apart; a coordinate
+written with too few decimals changes at irregular intervals instead). The receiver's
+fixes are then the rows where the fix changed, and while the car stands, every ``k``-th
+row of the run (a receiver repeats its fix when the car does not move); each is taken at
+its row's time, as the logger wrote it.
+
+:func:`place_held_fixes` puts the position of every row back from those fixes, as the
+stream resampler places a slower receiver's fixes on the 10 Hz grid
+(:func:`rwhonet.data.streams.interpolate_fixes`): along the path the wheels and the gyro
+trace between two fixes (docs/readers.md, "Positions"), linearly in time where the path
+cannot tell; the other GNSS channels (satellites, course, speed, height) linearly, as
+there. The wheel speeds and every other channel stay the file's, row for row. Rows
+before the first fix or after the last, or between fixes further apart than the
+resampler interpolates across, have no fix (empty), which validate's GNSS policy cuts
+as it cuts an empty fix. Measured on V-Charlie3 with 1 Hz fixes held at 0.3 s past the
+second: positions within 1.8 cm RMS of its own 10 Hz fixes, per-second displacements
+within 1.3 cm RMS.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive
+from rwhonet.data.streams import default_fix_gap_s, interpolate_fixes, travelled_path
+
+# The rear wheels' mean speed above which a row counts as moving for the test, rad/s
+# (about 3 m/s on a 0.3 m tyre: 0.3 m between 10 Hz rows).
+MOVING_RAD_S = 10.0
+# Moving rows (with a fix in them and the row before) needed to tell: 30 s at 10 Hz.
+MIN_MOVING_ROWS = 300
+# The share of moving rows whose fix equals the row before's from which the fixes are held
+# (a 5 Hz receiver held: 0.5; 1 Hz: 0.9; a 10 Hz receiver: about 0).
+HELD_SHARE = 0.4
+# The share of the changes while moving that must lie the period apart.
+REGULAR_SHARE = 0.8
+# The rows ``rwhonet predict`` holds back at most to tell (5 min at 10 Hz); a drive still
+# undecided then (parked, or no fix yet) is handed on as it came.
+HOLD_ROWS = 3000
+# The GNSS channels a held fix carries (held with it, placed with it).
+GNSS_CHANNELS = (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M)
+
+
+@dataclass(frozen=True)
+class HeldFixes:
+    """A file's fixes held from a slower receiver (:func:`held_fixes`).
+
+    Attributes:
+        period_rows: the receiver's period in rows (10: a 1 Hz receiver in a 10 Hz file).
+        fresh: the rows (0-based) holding a new fix of the receiver.
+        held_share: the share of moving rows whose fix was the row before's.
+        moving_rows: the moving rows the test looked at.
+    """
+
+    period_rows: int
+    fresh: np.ndarray
+    held_share: float
+    moving_rows: int
+
+
+def _rear_speed(columns: dict[str, np.ndarray]) -> np.ndarray:
+    return 0.5 * np.abs(columns[c.OMEGA_RL] + columns[c.OMEGA_RR])
+
+
+def held_fixes(columns: dict[str, np.ndarray]) -> HeldFixes | None:
+    """Whether a 10 Hz drive's fixes are held from a slower receiver, and its fixes.
+
+    Args:
+        columns: the drive's channels (canonical names), one element per row.
+
+    Returns:
+        The receiver's period and fixes, or None: the fixes are the rows' own (or too few
+        moving rows to tell).
+    """
+    return tell_held(columns)[1]
+
+
+def tell_held(columns: dict[str, np.ndarray]) -> tuple[bool, HeldFixes | None]:
+    """:func:`held_fixes`, and whether the rows were enough to tell (False: fewer than
+    :data:`MIN_MOVING_ROWS` moving rows, or too few changes of the fix among them)."""
+    lat, lon = columns[c.LAT_DEG], columns[c.LON_DEG]
+    n = lat.size
+    if n < 2:
+        return False, None
+    has = np.isfinite(lat) & np.isfinite(lon)
+    same = np.r_[False, (lat[1:] == lat[:-1]) & (lon[1:] == lon[:-1])]  # NaN: never the same
+    fast = _rear_speed(columns) > MOVING_RAD_S
+    moving = fast & np.r_[False, fast[:-1]] & has & np.r_[False, has[:-1]]
+    n_moving = int(moving.sum())
+    if n_moving < MIN_MOVING_ROWS:
+        return False, None
+    share = float(same[moving].mean())
+    if share < HELD_SHARE:
+        return True, None
+    change = np.flatnonzero(has & ~same)
+    gaps = np.diff(change)[moving[change[1:]]]  # changes while moving: rows since the last
+    if gaps.size < 2:
+        return False, None
+    k = int(np.bincount(gaps).argmax())
+    if k < 2 or float(np.mean(gaps == k)) < REGULAR_SHARE:
+        return True, None
+    rows = np.arange(n)
+    last_change = np.maximum.accumulate(np.where(~same, rows, 0))
+    # standing: the receiver repeats its fix each period; moving, an unchanged fix is old
+    fresh = has & (~same | (~fast & ((rows - last_change) % k == 0)))
+    return True, HeldFixes(k, np.flatnonzero(fresh), share, n_moving)
+
+
+def held_note(held: HeldFixes, period_s: float) -> str:
+    """What a reader says of held fixes it placed."""
+    hz = 1.0 / (held.period_rows * period_s)
+    return (
+        f"the fixes are held from a {hz:.3g} Hz receiver: in {100 * held.held_share:.0f} % of "
+        f"the {held.moving_rows} rows where the wheels turn the fix is the row before's, and "
+        f"it changes every {held.period_rows} rows; each row's position is placed between "
+        f"the receiver's {held.fresh.size} fixes (each at its row's time) along the wheels' "
+        "path, as a slower GNSS stream's (rwhonet.data.heldfixes), rows outside them left "
+        "without a fix"
+    )
+
+
+def place_held_fixes(raw: RawDrive, period_s: float = 0.1) -> RawDrive:
+    """A 10 Hz drive whose held fixes are placed along the path (``raw`` itself if none).
+
+    Args:
+        raw: the drive as read (its copies and rows without a wheel speed dropped).
+        period_s: the file's sample period (for the note's rate).
+
+    Returns:
+        The drive with every GNSS channel placed from the receiver's fixes, and a note.
+    """
+    held = held_fixes(raw.columns)
+    if held is None:
+        return raw
+    cols = raw.columns
+    t = cols[c.T_S]
+    fresh = held.fresh
+    gnss = {k: cols[k][fresh] for k in GNSS_CHANNELS if k in cols}
+    yaw = cols.get(c.YAW_RATE_RAD_S)
+    gyro = yaw is not None and np.isfinite(yaw).any()
+    path = travelled_path(
+        t,
+        [cols[c.OMEGA_RL], cols[c.OMEGA_RR]],
+        yaw_t_s=t if gyro else None,
+        yaw_rad_s=yaw if gyro else None,
+    )
+    values, valid = interpolate_fixes(t[fresh], gnss, t, default_fix_gap_s(t[fresh]), path)
+    placed = {k: np.where(valid, values[k], np.nan) for k in gnss}
+    return replace(
+        raw,
+        columns=cols | placed,
+        notes=(*raw.notes, held_note(held, period_s)),
+        held_fix_period_rows=held.period_rows,
+    )
+
+
+class HeldFixGate:
+    """``rwhonet predict``'s rows as they arrive, their held fixes placed as ingest places them.
+
+    The blocks ``(first_row, columns)`` (data rows ``first_row ..`` of the file, consecutive
+    within a block) are held until :func:`tell_held` can tell, at most :data:`HOLD_ROWS`
+    rows. A drive whose fixes are its rows' own is then handed on as it came, block for
+    block. One whose fixes are held is read to its end (placing a row needs the receiver's
+    next fix), its fixes placed (:func:`place_held_fixes`), and handed on in blocks that
+    keep the file's rows. ``note`` says what was done (None: nothing).
+    """
+
+    def __init__(self, period_s: float = 0.1, rows: int = 600) -> None:
+        self.period_s = period_s
+        self.rows = rows
+        self.note: str | None = None
+
+    def blocks(
+        self, blocks: Iterable[tuple[int, dict[str, np.ndarray]]]
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """The blocks, their fixes placed where they are held."""
+        blocks = iter(blocks)
+        held: list[tuple[int, dict[str, np.ndarray]]] = []
+        n = 0
+        for first, columns in blocks:
+            held.append((first, columns))
+            n += len(columns[c.T_S])
+            told, found = tell_held(_joined([b for _, b in held]))
+            if found is not None:
+                held.extend(blocks)  # to the end: each row's place needs the next fix
+                yield from self._placed(held)
+                return
+            if told or n >= HOLD_ROWS:
+                break
+        yield from held
+        yield from blocks
+
+    def _placed(
+        self, held: list[tuple[int, dict[str, np.ndarray]]]
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        held = [(f, b) for f, b in held if len(b[c.T_S])]
+        columns = _joined([b for _, b in held])
+        file_row = np.concatenate([f + np.arange(len(b[c.T_S])) for f, b in held])
+        raw = place_held_fixes(RawDrive(columns, {}, "stream"), self.period_s)
+        self.note = raw.notes[-1] if raw.notes else None
+        n = file_row.size
+        starts = np.union1d(np.arange(0, n, self.rows), np.flatnonzero(np.diff(file_row) != 1) + 1)
+        bounds = np.r_[starts, n]
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            yield int(file_row[a]), {k: v[a:b] for k, v in raw.columns.items()}
+
+
+def _joined(blocks: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    if len(blocks) == 1:
+        return blocks[0]
+    return {k: np.concatenate([b[k] for b in blocks]) for k in blocks[0]}
