@@ -441,19 +441,13 @@ def test_predict_places_fixes_held_from_a_1_hz_receiver_as_ingest_does(bundle, t
     own fixes, within a centimetre, and says so; read as written it was a second's
     travel 0.6 s off, and its jumps taken for broken fixes."""
     from rwhonet.data import canonical as c
-    from rwhonet.data.heldfixes import GNSS_CHANNELS
-    from support.drives import write_iovnbd
+    from support.drives import with_held_fixes, write_iovnbd
     from support.synthetic import build_drive, wavy_speed
 
     # exact fixes, so that the file's own and the placed ones can be compared
     own = build_drive(wavy_speed(120, 12.0, 4.0, 60.0, t0_s=45000.0), wheel_sigma_rad_s=0.05)
     own[c.N_SATS] = 9.0
-    rows = np.arange(len(own))
-    src = np.maximum(rows - (rows - 4) % 10, 0)
-    held = own.copy()
-    for name in GNSS_CHANNELS:
-        if name in own:
-            held[name] = own[name].to_numpy()[src]
+    held = with_held_fixes(own, 10, 4)
     out = {}
     for name, df in (("own", own), ("held", held)):
         path = write_iovnbd(df, tmp_path / f"V-{name}.csv")

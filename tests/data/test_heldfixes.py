@@ -8,12 +8,12 @@ import pytest
 
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
-from rwhonet.data.heldfixes import GNSS_CHANNELS, HeldFixGate, held_fixes, place_held_fixes
+from rwhonet.data.heldfixes import HeldFixGate, held_fixes, place_held_fixes
 from rwhonet.geo import local_distance_m
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.validate import validate
 from support.corpus import DRIVE, good_target, write_good_fleet, write_target
-from support.drives import make_params
+from support.drives import make_params, with_held_fixes
 from support.synthetic import build_drive, piecewise_linear_speed
 
 # 20 m/s down to a 20 s stop and back up to 15 m/s, then 9 m/s: 260 s
@@ -24,18 +24,6 @@ def _drive(gnss_sigma_m: float = 0.0) -> pd.DataFrame:
     df = build_drive(piecewise_linear_speed(*KNOTS), gnss_sigma_m=gnss_sigma_m, seed=3)
     df[c.N_SATS] = 9.0
     return df
-
-
-def held(df: pd.DataFrame, every: int, phase: int) -> pd.DataFrame:
-    """``df`` as a logger writes a receiver of one fix every ``every`` rows, arriving
-    ``phase`` rows into each period: the last fix in every row until the next."""
-    rows = np.arange(len(df))
-    src = np.maximum(rows - (rows - phase) % every, 0)
-    out = df.copy()
-    for name in GNSS_CHANNELS:
-        if name in df:
-            out[name] = df[name].to_numpy()[src]
-    return out
 
 
 def raw_of(df: pd.DataFrame) -> RawDrive:
@@ -60,7 +48,7 @@ def test_a_drive_with_its_own_10_hz_fixes_is_left_as_it_is():
 @pytest.mark.parametrize(("every", "phase"), [(10, 0), (10, 3), (10, 9), (5, 2), (2, 1)])
 def test_held_fixes_are_found_and_placed_back_along_the_path(every, phase):
     truth = _drive()
-    df = held(truth, every, phase)
+    df = with_held_fixes(truth, every, phase)
     found = held_fixes(raw_of(df).columns)
     assert found is not None and found.period_rows == every
     # the receiver's fixes: each row where the fix came, and in the stop every period
@@ -101,7 +89,7 @@ def test_ingest_places_held_fixes_and_validate_keeps_the_drive(tmp_path):
     """The drive with 1 Hz fixes held gives validate the seconds and cuts of the drive
     with its own fixes (before, each fix's jump was cut: 72 m/s between two rows)."""
     kept = {}
-    for name, df in {"own": good_target(), "held": held(good_target(), 10, 4)}.items():
+    for name, df in {"own": good_target(), "held": with_held_fixes(good_target(), 10, 4)}.items():
         raw = tmp_path / name / "raw"
         write_good_fleet(raw)
         write_target(raw, df)
@@ -127,7 +115,7 @@ def test_predict_s_gate_places_them_as_ingest_does_whatever_the_blocks(sizes):
     for block as it came; one with held fixes is read to its end and placed as the whole
     file is, in blocks that keep the file's rows (split where a row was dropped)."""
     own = _drive()
-    df = held(own, 10, 6)
+    df = with_held_fixes(own, 10, 6)
     for frame, is_held in ((own, False), (df, True)):
         cols = {k: frame[k].to_numpy(np.float64) for k in frame if k != c.SCENARIO}
         keep = np.ones(len(frame), dtype=bool)

@@ -40,6 +40,7 @@ from support.drives import (
     TARGET_RADIUS_M,
     column_map_params,
     straight_drive,
+    with_held_fixes,
     write_columnmap,
     write_iovnbd,
     written_twice,
@@ -1213,13 +1214,7 @@ def _(raw: Path) -> None:
     Repair("low_sats", 1),
 )
 def _(raw: Path) -> None:
-    df = good_target()
-    rows = np.arange(len(df))
-    src = np.maximum(rows - (rows - 4) % 10, 0)
-    for name in (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M):
-        if name in df:
-            df[name] = df[name].to_numpy()[src]
-    write_target(raw, df)
+    write_target(raw, with_held_fixes(good_target(), 10, 4))
 
 
 @case(

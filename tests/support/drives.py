@@ -264,3 +264,18 @@ def written_twice(df: pd.DataFrame, *rows: int) -> pd.DataFrame:
     for row in rows:
         df = pd.concat([df.iloc[:row], df.iloc[row - 1 :]], ignore_index=True)
     return df
+
+
+def with_held_fixes(df: pd.DataFrame, every: int, phase: int) -> pd.DataFrame:
+    """``df`` as a logger writes a receiver of one fix every ``every`` rows, arriving
+    ``phase`` rows into each period: its last fix (and course, height, satellites) in every
+    row until the next."""
+    from rwhonet.data.heldfixes import GNSS_CHANNELS
+
+    rows = np.arange(len(df))
+    src = np.maximum(rows - (rows - phase) % every, 0)
+    out = df.copy()
+    for name in GNSS_CHANNELS:
+        if name in df:
+            out[name] = df[name].to_numpy()[src]
+    return out
