@@ -455,7 +455,7 @@ def test_predict_places_fixes_held_from_a_1_hz_receiver_as_ingest_does(bundle, t
         args = ["predict", "--model", str(bundle["model_onnx"]), "--drive", str(path)]
         assert main([*args, "--output", str(out[name]), "--outage", "40:100"]) == 0
         err = capsys.readouterr().err
-        assert ("held from a 1 Hz receiver" in err) == (name == "held"), err
+        assert ("from a 1 Hz receiver, each held" in err) == (name == "held"), err
         assert "implying more than" not in err  # no fix taken for a jump
     a, b = (pd.read_csv(out[k]) for k in ("own", "held"))
     both = a.merge(b, on="t_s", suffixes=("", "_held"))

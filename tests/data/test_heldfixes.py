@@ -45,17 +45,20 @@ def test_a_drive_with_its_own_10_hz_fixes_is_left_as_it_is():
         assert place_held_fixes(raw) is raw
 
 
+@pytest.mark.parametrize("empty", [False, True], ids=["held", "empty_between"])
 @pytest.mark.parametrize(("every", "phase"), [(10, 0), (10, 3), (10, 9), (5, 2), (2, 1)])
-def test_held_fixes_are_found_and_placed_back_along_the_path(every, phase):
+def test_held_fixes_are_found_and_placed_back_along_the_path(every, phase, empty):
+    """Held in every row until the next, or written only in the row they came in."""
     truth = _drive()
-    df = with_held_fixes(truth, every, phase)
+    df = with_held_fixes(truth, every, phase, empty)
     found = held_fixes(raw_of(df).columns)
     assert found is not None and found.period_rows == every
     # the receiver's fixes: each row where the fix came, and in the stop every period
     assert set(np.flatnonzero((np.arange(len(df)) - phase) % every == 0)) <= set(found.fresh)
     out = place_held_fixes(raw_of(df))
     assert out.held_fix_period_rows == every
-    assert "held from a" in out.notes[-1]
+    assert found.empty_between == empty
+    assert ("the cells between empty" in out.notes[-1]) == empty
     for name in c.WHEELS:  # the wheels are the file's, row for row
         np.testing.assert_array_equal(out.columns[name], df[name].to_numpy())
     placed = pd.DataFrame(out.columns)
@@ -74,7 +77,7 @@ def test_held_fixes_are_found_and_placed_back_along_the_path(every, phase):
     d_truth, d_held, d_placed = per_second_m(truth), per_second_m(df), per_second_m(placed)
     good = np.isfinite(d_placed)
     assert np.nanmax(np.abs(d_placed - d_truth)[good]) < 2 * (0.125 * (every / 10) ** 2 + 0.005)
-    if phase:  # held, each second's displacement was another second's
+    if phase and not empty:  # held, each second's displacement was another second's
         assert np.sqrt(np.mean((d_held - d_truth) ** 2)) > 0.1
 
 
@@ -102,7 +105,7 @@ def test_ingest_places_held_fixes_and_validate_keeps_the_drive(tmp_path):
         (kept[name],) = [d for d in report["drives"] if d["drive"] == DRIVE]
         if name == "held":
             assert entry["held_fix_period_rows"] == 10
-            assert any("held from a 1 Hz receiver" in n for n in entry["notes"])
+            assert any("from a 1 Hz receiver, each held" in n for n in entry["notes"])
             assert kept[name]["held_fix_period_rows"] == 10
     assert "held_fix_period_rows" not in kept["own"]
     assert kept["held"]["cut_seconds_by_rule"].get("jump", 0) == 0
@@ -140,7 +143,7 @@ def test_predict_s_gate_places_them_as_ingest_does_whatever_the_blocks(sizes):
         if not is_held:
             assert out == blocks and gate.note is None
             continue
-        assert "held from a 1 Hz receiver" in gate.note
+        assert "from a 1 Hz receiver, each held" in gate.note
         whole = place_held_fixes(raw_of(pd.DataFrame(kept)))
         got = {k: np.concatenate([b[k] for _, b in out]) for k in whole.columns}
         for k, v in whole.columns.items():

@@ -1218,6 +1218,18 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "fixes_only_in_the_rows_they_came_in",
+    "a 1 Hz receiver's fix (and course, height) written only in the row it came in, 0.7 s "
+    "after the second, the cells of the nine rows between empty",
+    # placed along the wheels' path from the receiver's fixes (rwhonet.data.heldfixes);
+    # the rows before its first fix and after its last have none: cut as no fix
+    Repair("low_sats", 1),
+)
+def _(raw: Path) -> None:
+    write_target(raw, with_held_fixes(good_target(), 10, 7, empty=True))
+
+
+@case(
     "across_midnight",
     "a drive from 23:59:00 that goes on past midnight (time of day restarts at 0)",
     Accept("the reader adds a day after the rollover: one continuous clock"),

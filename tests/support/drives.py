@@ -266,16 +266,17 @@ def written_twice(df: pd.DataFrame, *rows: int) -> pd.DataFrame:
     return df
 
 
-def with_held_fixes(df: pd.DataFrame, every: int, phase: int) -> pd.DataFrame:
+def with_held_fixes(df: pd.DataFrame, every: int, phase: int, empty: bool = False) -> pd.DataFrame:
     """``df`` as a logger writes a receiver of one fix every ``every`` rows, arriving
     ``phase`` rows into each period: its last fix (and course, height, satellites) in every
-    row until the next."""
-    from rwhonet.data.heldfixes import GNSS_CHANNELS
-
+    row until the next, or (``empty``) only in the row it came in, the cells between empty."""
     rows = np.arange(len(df))
     src = np.maximum(rows - (rows - phase) % every, 0)
     out = df.copy()
-    for name in GNSS_CHANNELS:
+    for name in (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M):
         if name in df:
-            out[name] = df[name].to_numpy()[src]
+            values = df[name].to_numpy()[src]
+            if empty:
+                values = np.where(src == rows, values, np.nan)
+            out[name] = values
     return out

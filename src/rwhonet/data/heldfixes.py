@@ -1,5 +1,10 @@
 """Fixes a 10 Hz file holds from a slower receiver: found, and placed along the wheels' path.
 
+(The same for a logger that writes the receiver's fix only into the row it came in and
+leaves the cells between empty: each empty row was "no fix", and a 1 Hz receiver's drive
+was cut whole. An empty row counts as holding no new fix below, and ``empty_between``
+says which layout a file has.)
+
 A logger that writes a fixed-rate table (one row every 0.1 s) while its receiver gives a
 fix once a second (or five times) writes the last fix it has into every row until the
 next comes: the latitude and longitude stay the same for ten rows (or two) while the
@@ -71,14 +76,17 @@ class HeldFixes:
     Attributes:
         period_rows: the receiver's period in rows (10: a 1 Hz receiver in a 10 Hz file).
         fresh: the rows (0-based) holding a new fix of the receiver.
-        held_share: the share of moving rows whose fix was the row before's.
+        held_share: the share of moving rows without a new fix (the row before's, or none).
         moving_rows: the moving rows the test looked at.
+        empty_between: the rows between the receiver's fixes are mostly empty rather than
+            holding the last fix (a logger that writes a fix only in the row it came in).
     """
 
     period_rows: int
     fresh: np.ndarray
     held_share: float
     moving_rows: int
+    empty_between: bool = False
 
 
 def _rear_speed(columns: dict[str, np.ndarray]) -> np.ndarray:
@@ -106,16 +114,19 @@ def tell_held(columns: dict[str, np.ndarray]) -> tuple[bool, HeldFixes | None]:
     if n < 2:
         return False, None
     has = np.isfinite(lat) & np.isfinite(lon)
-    same = np.r_[False, (lat[1:] == lat[:-1]) & (lon[1:] == lon[:-1])]  # NaN: never the same
+    # a fix that repeats the row before's (held); a row without one is no new fix either
+    # (a logger that leaves the cells empty between the receiver's fixes)
+    repeat = has & np.r_[False, has[:-1] & (lat[1:] == lat[:-1]) & (lon[1:] == lon[:-1])]
     fast = _rear_speed(columns) > MOVING_RAD_S
-    moving = fast & np.r_[False, fast[:-1]] & has & np.r_[False, has[:-1]]
+    moving = fast & np.r_[False, fast[:-1]]
     n_moving = int(moving.sum())
     if n_moving < MIN_MOVING_ROWS:
         return False, None
-    share = float(same[moving].mean())
+    old = ~has[moving] | repeat[moving]
+    share = float(old.mean())
     if share < HELD_SHARE:
         return True, None
-    change = np.flatnonzero(has & ~same)
+    change = np.flatnonzero(has & ~repeat)
     gaps = np.diff(change)[moving[change[1:]]]  # changes while moving: rows since the last
     if gaps.size < 2:
         return False, None
@@ -123,20 +134,26 @@ def tell_held(columns: dict[str, np.ndarray]) -> tuple[bool, HeldFixes | None]:
     if k < 2 or float(np.mean(gaps == k)) < REGULAR_SHARE:
         return True, None
     rows = np.arange(n)
-    last_change = np.maximum.accumulate(np.where(~same, rows, 0))
+    last_change = np.maximum.accumulate(np.where(~repeat, rows, 0))
     # standing: the receiver repeats its fix each period; moving, an unchanged fix is old
-    fresh = has & (~same | (~fast & ((rows - last_change) % k == 0)))
-    return True, HeldFixes(k, np.flatnonzero(fresh), share, n_moving)
+    fresh = has & (~repeat | (~fast & ((rows - last_change) % k == 0)))
+    empty_between = bool((~has[moving]).sum() > repeat[moving].sum())
+    return True, HeldFixes(k, np.flatnonzero(fresh), share, n_moving, empty_between)
 
 
 def held_note(held: HeldFixes, period_s: float) -> str:
     """What a reader says of held fixes it placed."""
     hz = 1.0 / (held.period_rows * period_s)
+    how = (
+        "written only in the row it came in, the cells between empty"
+        if held.empty_between
+        else "held: written into every row until the next"
+    )
     return (
-        f"the fixes are held from a {hz:.3g} Hz receiver: in {100 * held.held_share:.0f} % of "
-        f"the {held.moving_rows} rows where the wheels turn the fix is the row before's, and "
-        f"it changes every {held.period_rows} rows; each row's position is placed between "
-        f"the receiver's {held.fresh.size} fixes (each at its row's time) along the wheels' "
+        f"the fixes come from a {hz:.3g} Hz receiver, each {how} ({100 * held.held_share:.0f} % "
+        f"of the {held.moving_rows} rows where the wheels turn hold no new fix, and a new one "
+        f"comes every {held.period_rows} rows); each row's position is placed between the "
+        f"receiver's {held.fresh.size} fixes (each at its row's time) along the wheels' "
         "path, as a slower GNSS stream's (rwhonet.data.heldfixes), rows outside them left "
         "without a fix"
     )
