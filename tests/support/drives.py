@@ -276,7 +276,7 @@ def with_held_fixes(df: pd.DataFrame, every: int, phase: int, empty: bool = Fals
     for name in (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M):
         if name in df:
             values = df[name].to_numpy()[src]
-            if empty:
-                values = np.where(src == rows, values, np.nan)
+            if empty:  # only in the rows a fix came in
+                values = np.where((rows - phase) % every == 0, values, np.nan)
             out[name] = values
     return out

@@ -20,13 +20,17 @@ filter was updated ten times a second by a fix up to 0.9 s old.
 
 :func:`held_fixes` finds such a file: among the rows where the rear wheels turn faster
 than :data:`MOVING_RAD_S` (about 3 m/s: a 10 Hz receiver's fix moves 0.3 m a row, far
-beyond any logged coordinate's resolution), the fix equals the row before's in at least
-:data:`HELD_SHARE` of them, and the fixes change at one period of whole rows (at least
-:data:`REGULAR_SHARE` of the changes while moving ``k >= 2`` rows apart; a coordinate
-written with too few decimals changes at irregular intervals instead). The receiver's
-fixes are then the rows where the fix changed, and while the car stands, every ``k``-th
-row of the run (a receiver repeats its fix when the car does not move); each is taken at
-its row's time, as the logger wrote it.
+beyond any logged coordinate's resolution), at least :data:`HELD_SHARE` of them hold no
+new fix, and the fixes change at one period of whole rows (at least :data:`REGULAR_SHARE`
+of the changes while moving within a row of ``k >= 2`` rows apart, their mean within
+:data:`MEAN_OFF` rows of ``k``: a fix reaching the logger near a row's boundary lands a
+row early or late now and then; a coordinate written with too few decimals changes at
+intervals that follow the speed instead). The receiver's fixes are then the rows where
+the fix changed, and while the car stands, every ``k``-th row of the run (a receiver
+repeats its fix when the car does not move); held, the first row's fix came before the
+log began and is left out. Each is taken at the receiver's regular epoch
+(:func:`receiver_epochs_of`), not at its row's time, which a fix landing a row late
+would put 0.1 s off the others.
 
 :func:`place_held_fixes` puts the position of every row back from those fixes, as the
 stream resampler places a slower receiver's fixes on the 10 Hz grid
@@ -55,13 +59,18 @@ from rwhonet.data.streams import default_fix_gap_s, interpolate_fixes, travelled
 # The rear wheels' mean speed above which a row counts as moving for the test, rad/s
 # (about 3 m/s on a 0.3 m tyre: 0.3 m between 10 Hz rows).
 MOVING_RAD_S = 10.0
+# Below this rear wheels' speed the car stands (0.15 m/s on a 0.3 m tyre): an unchanged
+# fix each period is then the receiver's, repeated.
+STANDING_RAD_S = 0.5
 # Moving rows (with a fix in them and the row before) needed to tell: 30 s at 10 Hz.
 MIN_MOVING_ROWS = 300
 # The share of moving rows whose fix equals the row before's from which the fixes are held
 # (a 5 Hz receiver held: 0.5; 1 Hz: 0.9; a 10 Hz receiver: about 0).
 HELD_SHARE = 0.4
-# The share of the changes while moving that must lie the period apart.
+# The share of the changes while moving that must lie within a row of the period apart,
+# and how far (rows) their mean may lie off it.
 REGULAR_SHARE = 0.8
+MEAN_OFF = 0.2
 # The rows ``rwhonet predict`` holds back at most to tell (5 min at 10 Hz); a drive still
 # undecided then (parked, or no fix yet) is handed on as it came.
 HOLD_ROWS = 3000
@@ -131,13 +140,21 @@ def tell_held(columns: dict[str, np.ndarray]) -> tuple[bool, HeldFixes | None]:
     if gaps.size < 2:
         return False, None
     k = int(np.bincount(gaps).argmax())
-    if k < 2 or float(np.mean(gaps == k)) < REGULAR_SHARE:
+    # A fix that reaches the logger near a row's boundary lands a row early or late now
+    # and then (9 or 11 rows after the last about a 1 Hz receiver's 10): the changes lie
+    # within a row of the period, their mean on it. A coordinate written too coarsely
+    # changes at intervals that follow the speed, their mean off any whole row.
+    near = np.abs(gaps - k) <= 1
+    if k < 2 or float(np.mean(near)) < REGULAR_SHARE or abs(np.mean(gaps[near]) - k) > MEAN_OFF:
         return True, None
     rows = np.arange(n)
     last_change = np.maximum.accumulate(np.where(~repeat, rows, 0))
     # standing: the receiver repeats its fix each period; moving, an unchanged fix is old
-    fresh = has & (~repeat | (~fast & ((rows - last_change) % k == 0)))
+    standing = _rear_speed(columns) < STANDING_RAD_S
+    fresh = has & (~repeat | (standing & ((rows - last_change) % k == 0)))
     empty_between = bool((~has[moving]).sum() > repeat[moving].sum())
+    if not empty_between:
+        fresh[0] = False  # held: the first row's fix came before the log began, when unknown
     return True, HeldFixes(k, np.flatnonzero(fresh), share, n_moving, empty_between)
 
 
@@ -153,10 +170,46 @@ def held_note(held: HeldFixes, period_s: float) -> str:
         f"the fixes come from a {hz:.3g} Hz receiver, each {how} ({100 * held.held_share:.0f} % "
         f"of the {held.moving_rows} rows where the wheels turn hold no new fix, and a new one "
         f"comes every {held.period_rows} rows); each row's position is placed between the "
-        f"receiver's {held.fresh.size} fixes (each at its row's time) along the wheels' "
+        f"receiver's {held.fresh.size} fixes along the wheels' "
         "path, as a slower GNSS stream's (rwhonet.data.heldfixes), rows outside them left "
         "without a fix"
     )
+
+
+def receiver_epochs_of(t_s: np.ndarray, period_s: float, row_s: float) -> tuple[np.ndarray, float]:
+    """The receiver's epochs of fixes stamped by the rows they reached the logger in.
+
+    A fix lands in the first row after it reached the logger, so one that arrives near a
+    row's boundary lands a row early or late now and then, its row's time ``row_s`` off
+    the others' latency, and the second's displacement around it jumps by the car's
+    travel in a row's time. In each run of fixes at most 1.5 periods apart, each fix's
+    epoch count is its time over the period from the run's first, rounded; the epochs
+    are the least-squares line through the times by count (the receiver's clock, drifting
+    against the logger's or not; its offset, the mean latency), fitted again on the fixes
+    within 1.5 rows of the first line (a row early or late, not a fix from before the log
+    began). Those fixes take their epoch; the others, the
+    fixes of a run whose counts repeat, and runs of fewer than three fixes keep their times.
+
+    Returns:
+        The times, and the most any was moved (s).
+    """
+    t = np.asarray(t_s, np.float64)
+    out = t.copy()
+    for run in np.split(np.arange(t.size), np.flatnonzero(np.diff(t) > 1.5 * period_s) + 1):
+        if run.size < 3:
+            continue
+        count = np.round((t[run] - t[run[0]]) / period_s)
+        if np.any(np.diff(count) < 1):
+            continue
+        line = np.polyfit(count, t[run], 1)
+        inliers = np.abs(t[run] - np.polyval(line, count)) <= 1.5 * row_s
+        if inliers.sum() < 3:
+            continue
+        line = np.polyfit(count[inliers], t[run][inliers], 1)
+        epochs = np.polyval(line, count)
+        ok = np.abs(t[run] - epochs) <= 1.5 * row_s
+        out[run[ok]] = epochs[ok]
+    return out, float(np.max(np.abs(out - t))) if t.size else 0.0
 
 
 def place_held_fixes(raw: RawDrive, period_s: float = 0.1) -> RawDrive:
@@ -184,12 +237,20 @@ def place_held_fixes(raw: RawDrive, period_s: float = 0.1) -> RawDrive:
         yaw_t_s=t if gyro else None,
         yaw_rad_s=yaw if gyro else None,
     )
-    values, valid = interpolate_fixes(t[fresh], gnss, t, default_fix_gap_s(t[fresh]), path)
+    t_fix, moved = receiver_epochs_of(t[fresh], held.period_rows * period_s, period_s)
+    values, valid = interpolate_fixes(t_fix, gnss, t, default_fix_gap_s(t_fix), path)
     placed = {k: np.where(valid, values[k], np.nan) for k in gnss}
+    notes = [held_note(held, period_s)]
+    if moved > 1e-6:
+        notes.append(
+            "the receiver's fixes are taken at its regular epochs (the line through their "
+            f"rows' times by epoch count), moved by at most {moved * 1000:.0f} ms (a fix "
+            "that reached the logger a row early or late, or a row's jittered stamp)"
+        )
     return replace(
         raw,
         columns=cols | placed,
-        notes=(*raw.notes, held_note(held, period_s)),
+        notes=(*raw.notes, *notes),
         held_fix_period_rows=held.period_rows,
     )
 
@@ -237,7 +298,7 @@ class HeldFixGate:
         columns = _joined([b for _, b in held])
         file_row = np.concatenate([f + np.arange(len(b[c.T_S])) for f, b in held])
         raw = place_held_fixes(RawDrive(columns, {}, "stream"), self.period_s)
-        self.note = raw.notes[-1] if raw.notes else None
+        self.note = "; ".join(raw.notes) or None  # the held fixes, and their epochs
         n = file_row.size
         starts = np.union1d(np.arange(0, n, self.rows), np.flatnonzero(np.diff(file_row) != 1) + 1)
         bounds = np.r_[starts, n]
