@@ -20,6 +20,7 @@ outage); ``make test-fast`` skips it.
 
 from __future__ import annotations
 
+from datetime import UTC, datetime, timedelta, timezone
 from pathlib import Path
 
 import numpy as np
@@ -235,10 +236,34 @@ def _across_midnight(drive: pd.DataFrame) -> pd.DataFrame:
     return drive.assign(**{c.T_S: np.round(t % 86400.0, 6)})
 
 
+def _time_as_text(path: Path, form) -> Path:
+    """The CSV at ``path`` with its time column's seconds written as text by ``form``."""
+    frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+    time = frame.columns[1]
+    assert time.strip() == "Time"
+    frame[time] = [form(float(t)) for t in frame[time]]
+    frame.to_csv(path, index=False)
+    return path
+
+
+def _iso(t: float) -> str:
+    """A time of day (s) on 2019-03-11 as ISO 8601 with the offset of UTC+05:30."""
+    when = ISO_DAY + timedelta(milliseconds=round(t * 1000))
+    return when.astimezone(timezone(timedelta(hours=5, minutes=30))).isoformat("T", "milliseconds")
+
+
+def _clock(t: float) -> str:
+    ms = round(t * 1000)
+    return f"{ms // 3_600_000:02d}:{ms // 60_000 % 60:02d}:{ms % 60_000 / 1000:06.3f}"
+
+
+ISO_DAY = datetime(2019, 3, 11, tzinfo=UTC)
 LOGGER_HABITS = {
     "columns in another order": (lambda d: d, _columns_shuffled),
     "jittered stamps": (_jittered, lambda p: p),
     "a clock across midnight": (_across_midnight, lambda p: p),
+    "jittered ISO 8601 text times": (_jittered, lambda p: _time_as_text(p, _iso)),
+    "hh:mm:ss text across midnight": (_across_midnight, lambda p: _time_as_text(p, _clock)),
 }
 
 
@@ -249,10 +274,13 @@ def test_a_logger_s_habits_change_nothing_predict_gives_through_an_outage(
     change_drive, change_file = LOGGER_HABITS[habit]
     path = change_file(write_iovnbd(change_drive(good_target()), tmp_path / "V-Habit.csv"))
     got, home = _predicted(bundle, path), at_home
-    if habit == "a clock across midnight":  # one clock, unwrapped: the seconds follow on
+    if "midnight" in habit:  # one clock, unwrapped: the seconds follow on
         start, home_start = 86400.0 - 75.0, good_target()[c.T_S].iloc[0]
         np.testing.assert_allclose(got["t_s"] - start, home["t_s"] - home_start, atol=1e-6)
         assert got["t_s"].iloc[-1] > 86400.0
+        got = got.assign(t_s=home["t_s"])
+    if "ISO" in habit:  # seconds since 1970, UTC: the day's and the offset's taken out
+        np.testing.assert_allclose(got["t_s"], home["t_s"] + ISO_DAY.timestamp(), atol=1e-3)
         got = got.assign(t_s=home["t_s"])
     _assert_same(got, home)
 

@@ -1240,6 +1240,71 @@ def _(raw: Path) -> None:
     write_target(raw, df)
 
 
+def _time_as_text(raw: Path, form: Callable[[float], str], df=None) -> None:
+    """The good target drive with its time column (data column 1) written by ``form``."""
+
+    times = (df if df is not None else good_target())[c.T_S]
+
+    def edit(lines):
+        out = [lines[0]]
+        for line, t in zip(lines[1:], times, strict=True):
+            cells = line.split(",")
+            cells[1] = form(float(t))
+            out.append(",".join(cells))
+        return out
+
+    edit_lines(raw, edit, df)
+
+
+def _iso_utc(t: float) -> str:
+    """A time of day (s) on 2019-03-11 as ISO 8601 UTC text, to the millisecond."""
+    ms = round(t * 1000)
+    h, rest = divmod(ms, 3_600_000)
+    m, rest = divmod(rest, 60_000)
+    return f"2019-03-11T{h:02d}:{m:02d}:{rest // 1000:02d}.{rest % 1000:03d}Z"
+
+
+def _clock(t: float) -> str:
+    ms = round(t * 1000)
+    h, rest = divmod(ms, 3_600_000)
+    m, rest = divmod(rest, 60_000)
+    return f"{h:02d}:{m:02d}:{rest / 1000:06.3f}"
+
+
+@case(
+    "time_as_iso_8601_text",
+    "the time column written as ISO 8601 UTC text (2019-03-11T12:30:00.100Z), as many "
+    "loggers and spreadsheet exports write it",
+    Accept("read as seconds since 1970 (UTC); the reader's note says so"),
+)
+def _(raw: Path) -> None:
+    _time_as_text(raw, _iso_utc)
+
+
+@case(
+    "time_as_clock_text_across_midnight",
+    "the time column written as hh:mm:ss.sss time of day, from 23:59:00 on past midnight",
+    Accept("read as h*3600 + m*60 + s; the reader adds a day after the rollover"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[c.T_S] = np.round((df[c.T_S] - T0 + 86340.0) % 86400.0, 6)
+    _time_as_text(raw, _clock, df)
+
+
+@case(
+    "time_as_text_with_an_impossible_time",
+    "ISO 8601 times with one impossible minute (12:61) in data row 400",
+    Refuse("ingest", 400, " Time", "an ISO 8601 date and time", "'2019-03-11T12:61:"),
+)
+def _(raw: Path) -> None:
+    def form(t: float) -> str:
+        text = _iso_utc(t)
+        return text.replace("T12:30:", "T12:61:") if abs(t - (T0 + 39.9)) < 1e-6 else text
+
+    _time_as_text(raw, form)
+
+
 @case(
     "extra_columns_by_name",
     "two extra columns (a comment, a GPS-time string) besides the 29 IO-VNBD ones",

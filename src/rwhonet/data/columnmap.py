@@ -17,8 +17,15 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.csvio import RawDrive, read_header, read_numeric
+from rwhonet.data.csvio import RawDrive, first_cell, read_header, read_numeric
 from rwhonet.data.headers import header_key, unit_name
+from rwhonet.data.texttime import (
+    CLOCK,
+    ISO8601,
+    declared_text_unit,
+    read_time_column,
+    text_time_note,
+)
 from rwhonet.data.timebase import unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -26,7 +33,8 @@ _WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 18
 
 # Column-map key -> (canonical name, {unit: factor to SI}).
 KEYS: dict[str, tuple[str, dict[str, float]]] = {
-    "t": (c.T_S, {"s": 1.0, "ms": 1e-3}),
+    # iso8601 and hh:mm:ss: a time written as text (rwhonet.data.texttime), parsed to seconds
+    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, ISO8601: 1.0, CLOCK: 1.0}),
     "lat": (c.LAT_DEG, {"deg": 1.0}),
     "lon": (c.LON_DEG, {"deg": 1.0}),
     "omega_fl": (c.OMEGA_FL, _WHEEL_UNITS),
@@ -90,7 +98,17 @@ def read_columnmap(
     file = display or str(path)
     header = read_header(path, file)
     positions = columnmap_positions(header, column_map, name, file)
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
+    text_time = None
+    if "t" in positions:
+        where = f"data.column_maps.{name}.t.unit"
+        spec, at = column_map["t"], positions["t"]
+        cell = first_cell(path, at)
+        text_time = declared_text_unit(spec.unit, cell, header[at], where, file)
+    numeric = {pos for key, pos in positions.items() if not (key == "t" and text_time)}
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in numeric}, file)
+    if text_time:
+        pos = positions["t"]
+        values[pos] = read_time_column(path, len(header), pos, header[pos], text_time, file)
     columns = {}
     shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
     for key, spec in column_map.items():
@@ -100,12 +118,14 @@ def read_columnmap(
             columns[canonical] = values[pos] * factor
         else:  # in place: the reader's arrays are ours, and a copy would hold a column twice
             columns[canonical] = np.multiply(values[pos], factor, out=values[pos])
-    notes = ()
+    notes: tuple[str, ...] = ()
+    if text_time:
+        notes = (text_time_note(header[positions["t"]], text_time),)
     if c.T_S in columns:
         columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
         if wraps.size:
             shown = ", ".join(str(int(r) + 1) for r in wraps[:5])
-            notes = (f"time of day passed midnight before data row(s) {shown}: a day added",)
+            notes += (f"time of day passed midnight before data row(s) {shown}: a day added",)
     return RawDrive(
         columns=columns,
         source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items()},

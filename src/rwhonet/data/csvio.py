@@ -131,6 +131,23 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
     return parse_header(line, file)
 
 
+def first_cell(path: Path, pos: int, limit: int = 1 << 16) -> str | None:
+    """The first non-empty cell of column ``pos`` in a CSV file's first data rows (None: none
+    in the first ``limit`` bytes after the header, or the file cannot be read: its reader
+    says why). For telling a time written as text before the numbers are read."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read(limit)
+    except OSError:
+        return None
+    lines = data.decode("utf-8", errors="replace").splitlines()  # LF, CR LF or a lone CR
+    lines = lines[1:-1] if len(data) == limit else lines[1:]  # the header; a cut-off row
+    for cells in csv.reader(line for line in lines if line.strip()):
+        if pos < len(cells) and cells[pos].strip():
+            return cells[pos]
+    return None
+
+
 def first_line_end(data: bytes) -> int:
     """Where the first line of ``data`` ends: its first CR or LF (``len(data)``: neither)."""
     ends = [i for i in (data.find(b"\r"), data.find(b"\n")) if i >= 0]
@@ -285,6 +302,41 @@ def read_numeric(
     if n == 0:
         raise InputError([no_data_rows(file)])
     return {pos: values[:n] for pos, values in out.items()}
+
+
+def read_text_column(path: Path, n_columns: int, pos: int, display: str) -> list[str | None]:
+    """One column of a CSV file (header row first) as text, one cell per data row.
+
+    For a column that is not numbers (a time written as text: :mod:`rwhonet.data.texttime`).
+    Call it after :func:`read_numeric` read the file's other columns: that refuses rows with
+    another number of columns, so the rows here are the same.
+
+    Args:
+        path: the CSV file.
+        n_columns: number of columns of the header.
+        pos: the column's 0-based position.
+        display: how the file is named in error reports.
+
+    Returns:
+        The cells, None for an empty one.
+
+    Raises:
+        InputError: the file cannot be read as CSV text.
+    """
+    names = [f"c{i}" for i in range(n_columns)]
+    cells: list[str | None] = []
+    try:
+        reader = _open_columns(
+            path, names, {pos: names[pos]}, pa.string(), lambda row: "skip", True
+        )
+        for batch in reader:
+            cells += batch.column(names[pos]).to_pylist()
+    except (pa.ArrowInvalid, OSError) as err:
+        message = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise InputError(
+            [Problem(display, None, None, "CSV text", f"unreadable: {message[:160]}", EXPORT_CSV)]
+        ) from None
+    return cells
 
 
 def _grown(values: np.ndarray | None, n: int, capacity: int) -> np.ndarray:

@@ -63,12 +63,18 @@ class Layout:
         positions: canonical name -> 0-based column position.
         factors: canonical name -> factor from the file's unit to SI.
         names: canonical name -> the file's column name (for messages).
+        time_unit: the time column's unit as a column map declares it (``s``, ``ms``,
+            ``iso8601``, ``hh:mm:ss``); None for an IO-VNBD file, whose time is read in the
+            form its first row shows (seconds, or text: :mod:`rwhonet.data.texttime`).
+        time_setting: where a column map declares it (for messages).
     """
 
     n_columns: int
     positions: dict[str, int]
     factors: dict[str, float]
     names: dict[str, str]
+    time_unit: str | None = None
+    time_setting: str = ""
 
 
 def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -> Layout:
@@ -97,12 +103,50 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         factors = {KEYS[key][0]: KEYS[key][1][column_map[key].unit] for key in by_key}
     wanted = carried_channels(positions)
     positions = {name: positions[name] for name in wanted}
+    declared = None if fmt == "iovnbd" else (column_map or {})["t"].unit
     return Layout(
         n_columns=len(header),
         positions=positions,
         factors={name: factors[name] for name in wanted},
         names={name: header[pos] for name, pos in positions.items()},
+        time_unit=declared,
+        time_setting=f"data.column_maps.{fmt}.t.unit",
     )
+
+
+@dataclass
+class _TimeForm:
+    """How a stream's time column is written, decided from its first data row.
+
+    Attributes:
+        text: the text unit (:data:`rwhonet.data.texttime.TEXT_TIME_UNITS`), None: numbers.
+        zoned: whether the first ISO 8601 time gave its zone offset (None: not yet seen).
+    """
+
+    text: str | None = None
+    zoned: bool | None = None
+
+    @classmethod
+    def of(cls, lines: str, lay: Layout, file: str) -> _TimeForm:
+        """The form of the first data row's time cell, checked against a declared unit.
+
+        Raises:
+            InputError: a column map declares numbers (s, ms) and the time is text.
+        """
+        from rwhonet.data.texttime import declared_text_unit
+
+        pos = lay.positions[c.T_S]
+        cell = next(
+            (
+                cells[pos]
+                for cells in csv.reader(_nonblank(lines))
+                if pos < len(cells) and cells[pos].strip()
+            ),
+            None,
+        )
+        return cls(
+            declared_text_unit(lay.time_unit, cell, lay.names[c.T_S], lay.time_setting, file)
+        )
 
 
 def read_rows(
@@ -389,6 +433,7 @@ def _blocks(
     read = pipe.read if pipe is not None else getattr(stream, "read1", stream.read)
     cr = cr_rest is not None  # lines end in a lone CR: read as LF (blank lines are skipped)
     row, pending = 1, (cr_rest or b"").replace(b"\r", b"\n")
+    form: _TimeForm | None = None  # decided on the first whole line
     while True:
         if pipe is not None:
             _wait_readable(pipe)
@@ -400,26 +445,34 @@ def _blocks(
         if end < 0:
             continue
         lines, pending = pending[: end + 1], pending[end + 1 :]
-        columns = parse_lines(lines, lay, row, file)
+        if form is None and lines.strip():
+            form = _TimeForm.of(lines.decode("utf-8", errors="replace"), lay, file)
+        columns = parse_lines(lines, lay, row, file, form)
         if len(columns[c.T_S]):
             yield row, columns
             row += len(columns[c.T_S])
     if pending.strip():
-        columns = parse_lines(pending, lay, row, file)
+        if form is None:
+            form = _TimeForm.of(pending.decode("utf-8", errors="replace"), lay, file)
+        columns = parse_lines(pending, lay, row, file, form)
         yield row, columns
     elif row == 1:
         raise InputError([no_data_rows(file)])
 
 
-def parse_lines(lines: bytes, lay: Layout, first_row: int, file: str) -> dict[str, np.ndarray]:
+def parse_lines(
+    lines: bytes, lay: Layout, first_row: int, file: str, form: _TimeForm | None = None
+) -> dict[str, np.ndarray]:
     """Parse whole CSV lines into the layout's channels (blank lines skipped).
 
     The fast path is numpy's C parser on the wanted columns; a block it refuses
     (a missing value, a stray cell, a short row) is parsed line by line, which
-    names every problem's row and column.
+    names every problem's row and column. A time written as text (``form``) is parsed
+    by :mod:`rwhonet.data.texttime` once the numbers are read.
     """
     text = lines.decode("utf-8", errors="replace")
-    names = list(lay.positions)
+    text_time = form is not None and form.text is not None
+    names = [n for n in lay.positions if not (text_time and n == c.T_S)]
     cols = [lay.positions[n] for n in names]
     commas = {line.count(",") for line in _nonblank(text)}
     try:
@@ -438,10 +491,30 @@ def parse_lines(lines: bytes, lay: Layout, first_row: int, file: str) -> dict[st
             )
     except ValueError:
         values = _parse_slow(text, lay, cols, first_row, file)
-    return {
+    out = {
         name: values[:, i] * lay.factors[name] if lay.factors[name] != 1.0 else values[:, i]
         for i, name in enumerate(names)
     }
+    if text_time:
+        assert form is not None and form.text is not None
+        out[c.T_S] = _text_times(text, lay, first_row, file, form)
+    return out
+
+
+def _text_times(text: str, lay: Layout, first_row: int, file: str, form: _TimeForm) -> np.ndarray:
+    """The time column of whole lines (their columns already checked) written as text."""
+    from rwhonet.data.texttime import check_text_times, parse_text_times
+
+    pos = lay.positions[c.T_S]
+    if '"' in text:  # quoted cells (a decimal comma in one): the csv module splits them
+        cells = [cells[pos] for cells in csv.reader(_nonblank(text))]
+    else:
+        cells = [line.split(",")[pos] for line in _nonblank(text)]
+    assert form.text is not None
+    parsed = parse_text_times(cells, form.text, form.zoned)
+    check_text_times(parsed, cells, file, lay.names[c.T_S], form.text, first_row)
+    form.zoned = parsed.zoned
+    return parsed.seconds
 
 
 def _nonblank(text: str) -> Iterator[str]:

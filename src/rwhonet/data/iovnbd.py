@@ -8,6 +8,7 @@ stripped, case-insensitive name and fall back to position.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -15,8 +16,9 @@ from typing import NamedTuple
 import numpy as np
 
 from rwhonet.data import canonical as c
-from rwhonet.data.csvio import RawDrive, read_header, read_numeric
+from rwhonet.data.csvio import RawDrive, first_cell, read_header, read_numeric
 from rwhonet.data.headers import header_key, unit_name
+from rwhonet.data.texttime import read_time_column, text_time_note, text_time_unit
 from rwhonet.data.timebase import unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -247,6 +249,11 @@ def locate_columns(header: Sequence[str]) -> tuple[dict[str, int], str]:
     raise LayoutError(missing, f"known names at other positions than the layout's: {moved}")
 
 
+# A time column's header suffix that names a form of text time or a zone, not a unit:
+# 'Time (hh:mm:ss.sss)', 'Time [ISO 8601]', 'Time (UTC)' (rwhonet.data.texttime).
+TEXT_TIME_SUFFIX = re.compile(r"h{1,2}:mm(:ss([.,][sfz]+)?)?|iso8601|utc|gmt|local(time)?")
+
+
 def column_factors(header: Sequence[str], positions: dict[str, int]) -> dict[str, float]:
     """Each located channel's factor to SI: from the unit its header declares, else the layout's.
 
@@ -262,7 +269,9 @@ def column_factors(header: Sequence[str], positions: dict[str, int]) -> dict[str
     for name, pos in positions.items():
         unit = header_key(header[pos])[1]
         alias = unit_name(unit)
-        if unit is None or alias == _LAYOUT_UNIT[name]:
+        if name == c.T_S and unit is not None and TEXT_TIME_SUFFIX.fullmatch(unit):
+            out[name] = 1.0  # 'Time (hh:mm:ss)', 'Time (UTC)': text, or seconds as written
+        elif unit is None or alias == _LAYOUT_UNIT[name]:
             out[name] = TO_SI[name]
         else:
             out[name] = _UNITS[_KIND[name]].get(alias or "", float("nan"))
@@ -293,7 +302,14 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
     header = read_header(path, file)
     positions, match = iovnbd_columns(header, file)
     factors = column_factors(header, positions)
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in positions.values()}, file)
+    # a time written as text (2019-03-11T14:22:05.1, 14:22:05.1): read as its first cell's form
+    text_time = text_time_unit(first_cell(path, positions[c.T_S]))
+    numeric = {pos for name, pos in positions.items() if not (name == c.T_S and text_time)}
+    values = read_numeric(path, len(header), {pos: header[pos] for pos in numeric}, file)
+    if text_time:
+        pos = positions[c.T_S]
+        values[pos] = read_time_column(path, len(header), pos, header[pos], text_time, file)
+        factors[c.T_S] = 1.0
     for name, pos in positions.items():
         # In place: the reader's arrays are ours, and a copy would hold a column twice.
         # A factor of 1 needs nothing (x * 1.0 == x, NaN and inf included).
@@ -305,6 +321,8 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
     notes = []
     if match == "position":
         notes.append(position_note(header))
+    if text_time:
+        notes.append(text_time_note(header[positions[c.T_S]], text_time))
     columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
     if wraps.size:
         notes.append(midnight_note(wraps))

@@ -41,13 +41,15 @@ from rwhonet.data.streams import (
     Stream,
     wheel_speed_rad_s,
 )
+from rwhonet.data.texttime import CLOCK, ISO8601
 from rwhonet.errors import InputError, Problem
 
 _SPEED = {"m/s": 1.0, "km/h": c.KMH_M_S, "mph": 0.44704}
 WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys, in order
 # Key -> (canonical name, {unit: factor to SI}); wheel speeds: WHEEL_UNITS via the radius.
 KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
-    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}),
+    # iso8601, hh:mm:ss: a CSV stream's time written as text (rwhonet.data.texttime)
+    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, ISO8601: 1.0, CLOCK: 1.0}),
     "lat": (c.LAT_DEG, {"deg": 1.0}),
     "lon": (c.LON_DEG, {"deg": 1.0}),
     **{key: (name, None) for key, name in zip(WHEEL_KEYS, c.WHEELS, strict=True)},

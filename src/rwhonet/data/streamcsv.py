@@ -30,10 +30,11 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec
 from rwhonet.data.columnmap import find_column
-from rwhonet.data.csvio import read_header, read_numeric
+from rwhonet.data.csvio import first_cell, read_header, read_numeric
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
+from rwhonet.data.texttime import TEXT_TIME_UNITS, declared_text_unit, read_time_column
 from rwhonet.data.timebase import MIDNIGHT_WINDOW_S, SECONDS_PER_DAY, unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -137,13 +138,24 @@ def read_stream_csvs(
         keys = {k: at for k, places in found.items() for f, at in places if f == file}
         if not keys:
             continue
-        wanted = {time_at[file]: header[time_at[file]], **{at: header[at] for at in keys.values()}}
+        at_t = time_at[file]
+        text = time_spec.unit in TEXT_TIME_UNITS
+        wanted = {at: header[at] for at in keys.values()}
+        if not text:
+            wanted[at_t] = header[at_t]
         try:
+            where = f"{name}.t.unit"
+            cell = first_cell(paths_of[file], at_t)
+            declared_text_unit(time_spec.unit, cell, header[at_t], where, file)
             values = read_numeric(paths_of[file], len(header), wanted, file)
+            if text:
+                values[at_t] = read_time_column(
+                    paths_of[file], len(header), at_t, header[at_t], time_spec.unit, file
+                )
         except InputError as err:
             problems += err.problems
             continue
-        t = to_si("t", values[time_at[file]], time_spec.unit, None, file)
+        t = to_si("t", values[at_t], time_spec.unit, None, file)
         t, wraps = unwrap_midnight(t)
         if wraps.size:
             shown = ", ".join(str(int(r) + 1) for r in wraps[:5])

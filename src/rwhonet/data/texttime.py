@@ -1,0 +1,277 @@
+"""Time columns written as text: ISO 8601 date-times and ``hh:mm:ss`` clock times.
+
+Many loggers and spreadsheet exports write each row's time as text rather than as
+seconds: ``2019-03-11T14:22:05.123Z`` (ISO 8601, with or without a zone offset) or
+``14:22:05.1`` (a time of day, or a time since the logger started). A column map's or
+signal map's ``t`` declares such a column with the unit ``iso8601`` or ``hh:mm:ss``;
+an IO-VNBD file whose time column holds such text is read as its first cell's form
+(:func:`text_time_unit`). Every reader then parses it here into seconds:
+
+- ``iso8601``: seconds since 1970-01-01 00:00 UTC. A zone offset (``Z``, ``+01:00``,
+  ``+0100``, ``-05``) is applied, so a drive through a change of summer time stays
+  continuous; without one, the times are taken as written (as UTC). A column that gives
+  the offset in some rows and not in others is refused: their clocks would differ by the
+  unknown offset. Date and time may be separated by ``T`` or a space; the fraction of a
+  second by ``.`` or ``,`` (ISO 8601 allows both).
+- ``hh:mm:ss``: ``h*3600 + m*60 + s``, any number of hours (``0:05:03.1`` since the
+  logger started, ``23:59:59.9`` a time of day). A time of day then continues across
+  midnight by the readers' rule, as a time of day in seconds does
+  (:func:`rwhonet.data.timebase.unwrap_midnight`).
+
+An empty cell (or ``NaN``, ``NA``, ``null``) is a missing time (NaN), which validate
+refuses as it refuses an empty number; any other text that is not of the declared form
+is refused naming the file's row and column.
+
+float64 holds seconds since 1970 to about 0.25 µs, well inside a 0.1 s grid.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.data.problems import RowTally
+from rwhonet.errors import InputError, Problem
+
+ISO8601 = "iso8601"
+CLOCK = "hh:mm:ss"
+TEXT_TIME_UNITS = (ISO8601, CLOCK)
+
+# The missing-value spellings of the numeric readers (csvio.MISSING's words).
+_MISSING = frozenset({"", "nan", "na", "n/a", "null", "none", "-nan"})
+_SECONDS = r"(\d{1,2}(?:[.,]\d*)?)"
+_ISO = re.compile(
+    r"\s*(\d{4})-(\d{2})-(\d{2})[Tt ](\d{2}):(\d{2}):" + _SECONDS + r"\s*"
+    r"(?:(Z)|([+-])(\d{2})(?::?(\d{2}))?)?\s*$",
+    re.IGNORECASE,
+)
+_CLOCK = re.compile(r"\s*(\d+):(\d{2}):" + _SECONDS + r"\s*$")
+
+EXPECTED = {
+    ISO8601: "an ISO 8601 date and time, e.g. 2019-03-11T14:22:05.123 ('T' or a space; "
+    "a zone offset such as Z or +01:00 optional, but in every row or in none)",
+    CLOCK: "a time as hh:mm:ss, e.g. 14:22:05.123 (a time of day or since the logger started)",
+}
+
+
+def text_time_unit(cell: str | None) -> str | None:
+    """The text unit a time cell is written in (:data:`TEXT_TIME_UNITS`), or None."""
+    if cell is None:
+        return None
+    if _ISO.match(_bare(cell)):
+        return ISO8601
+    if _CLOCK.match(_bare(cell)):
+        return CLOCK
+    return None
+
+
+def _bare(cell: str) -> str:
+    """A cell without the spaces and quotes around it."""
+    return cell.strip().strip('"')
+
+
+def text_time_note(column: str, unit: str) -> str:
+    """What a reader says when it read the time column as text."""
+    said = "seconds since 1970 (UTC)" if unit == ISO8601 else "h*3600 + m*60 + s"
+    return f"time column {column.strip()!r} written as text ({unit}): read as {said}"
+
+
+@dataclass(frozen=True)
+class TextTimes:
+    """A text time column parsed (:func:`parse_text_times`).
+
+    Attributes:
+        seconds: float64 seconds (NaN for a missing time and for a bad cell).
+        bad: the 0-based positions of the cells not of the unit's form, each with why.
+        mixed: the 0-based position of the first ISO 8601 cell whose zone offset is given
+            where the first time's is not, or the other way round (None: all agree).
+        zoned: whether the first ISO 8601 time gave its offset (None: no such cell).
+    """
+
+    seconds: np.ndarray
+    bad: list[tuple[int, str]]
+    mixed: int | None
+    zoned: bool | None
+
+
+def parse_text_times(
+    cells: Sequence[str | None], unit: str, zoned: bool | None = None
+) -> TextTimes:
+    """Text times as seconds.
+
+    Args:
+        cells: the column's cells in row order (None: an empty cell).
+        unit: :data:`ISO8601` or :data:`CLOCK`.
+        zoned: whether the column's first time, in an earlier block, gave its zone offset
+            (None: it is in ``cells``).
+    """
+    out = np.full(len(cells), np.nan)
+    bad: list[tuple[int, str]] = []
+    days: dict[tuple[str, str, str], int] = {}
+    first_zoned: bool | None = zoned
+    mixed: int | None = None
+    pattern = _ISO if unit == ISO8601 else _CLOCK
+    for i, cell in enumerate(cells):
+        if cell is None or _bare(cell).lower() in _MISSING:
+            continue
+        m = pattern.match(_bare(cell))
+        if m is None:
+            bad.append((i, repr(cell)))
+            continue
+        if unit == CLOCK:
+            h, mi, s = m.group(1), m.group(2), m.group(3)
+            seconds = float(s.replace(",", "."))
+            if int(mi) >= 60 or seconds >= 60.0:
+                bad.append((i, f"{cell!r} (minutes and seconds are below 60)"))
+                continue
+            out[i] = int(h) * 3600 + int(mi) * 60 + seconds
+            continue
+        y, mo, d, h, mi, s, z, sign, oh, om = m.groups()
+        key = (y, mo, d)
+        if key not in days:
+            try:
+                days[key] = date(int(y), int(mo), int(d)).toordinal() - _EPOCH_ORDINAL
+            except ValueError:
+                bad.append((i, f"{cell!r} (no such date)"))
+                continue
+        seconds = float(s.replace(",", "."))
+        if int(h) >= 24 or int(mi) >= 60 or seconds >= 61.0:  # 60.x: a leap second
+            bad.append((i, f"{cell!r} (hours below 24, minutes and seconds below 60)"))
+            continue
+        offset = 0
+        if sign is not None:
+            if int(oh) >= 24 or int(om or 0) >= 60:
+                bad.append((i, f"{cell!r} (a zone offset of at most 23:59)"))
+                continue
+            offset = (1 if sign == "+" else -1) * (int(oh) * 3600 + int(om or 0) * 60)
+        zoned = z is not None or sign is not None
+        if first_zoned is None:
+            first_zoned = zoned
+        elif zoned != first_zoned and mixed is None:
+            mixed = i
+        out[i] = days[key] * 86400 + int(h) * 3600 + int(mi) * 60 - offset + seconds
+    return TextTimes(out, bad, mixed, first_zoned)
+
+
+_EPOCH_ORDINAL = date(1970, 1, 1).toordinal()
+
+
+def check_text_times(
+    parsed: TextTimes,
+    cells: Sequence[str | None],
+    file: str,
+    column: str,
+    unit: str,
+    first_row: int,
+) -> None:
+    """Refuse a text time column's bad cells, naming the file's rows.
+
+    Args:
+        parsed: :func:`parse_text_times` of ``cells``.
+        cells: the column's cells.
+        file: the file as the user knows it.
+        column: the time column's name in the file.
+        unit: the declared (or detected) text unit.
+        first_row: the 1-based data row of the first cell.
+
+    Raises:
+        InputError: every cell not of ``unit``'s form, and the first whose zone differs.
+    """
+    problems: list[Problem] = []
+    if parsed.bad:
+        tally = RowTally(
+            file,
+            column,
+            EXPECTED[unit],
+            f"write every time in the form of the first rows ({unit}), or write the times "
+            "as seconds",
+        )
+        tally.add([first_row + i for i, _ in parsed.bad], [why for _, why in parsed.bad])
+        problems += tally.problems()
+    if parsed.mixed is not None:
+        cell = cells[parsed.mixed]
+        problems.append(
+            Problem(
+                file,
+                first_row + parsed.mixed,
+                column,
+                "a zone offset (Z, +01:00) in every row or in none",
+                f"{cell!r}, where the first time " + ("has none" if _zoned(cell) else "has one"),
+                "write the times in one zone (or every one with its offset)",
+            )
+        )
+    if problems:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
+
+
+def _zoned(cell: str | None) -> bool:
+    m = _ISO.match(_bare(cell or ""))
+    return bool(m and (m.group(7) is not None or m.group(8) is not None))
+
+
+def read_time_column(
+    path: Path, n_columns: int, pos: int, column: str, unit: str, file: str
+) -> np.ndarray:
+    """A CSV file's text time column as seconds (after the numeric columns were read).
+
+    Args:
+        path: the CSV file (header row first).
+        n_columns: columns of its header.
+        pos: the time column's 0-based position.
+        column: its name in the file (for messages).
+        unit: :data:`ISO8601` or :data:`CLOCK`.
+        file: how the file is named in error reports.
+
+    Returns:
+        float64 seconds, one per data row (NaN for an empty cell).
+
+    Raises:
+        InputError: every cell not of ``unit``'s form, and a zone given in some rows only.
+    """
+    from rwhonet.data.csvio import read_text_column
+
+    cells = read_text_column(path, n_columns, pos, file)
+    parsed = parse_text_times(cells, unit)
+    check_text_times(parsed, cells, file, column, unit, 1)
+    return parsed.seconds
+
+
+def declared_text_unit(
+    unit: str | None, cell: str | None, column: str, where: str, file: str
+) -> str | None:
+    """The text unit of a CSV time column, None for numbers.
+
+    Args:
+        unit: the unit a map declares for it (None: no map, an IO-VNBD file: the form
+            ``cell`` shows).
+        cell: the column's first non-empty cell (:func:`rwhonet.data.csvio.first_cell`).
+        column: the column's name in the file.
+        where: the map's setting, for messages (``data.column_maps.<name>.t.unit``).
+        file: how the file is named in error reports.
+
+    Raises:
+        InputError: the map declares a number unit (s, ms) and ``cell`` is text of a known
+            form; the message says which unit to declare.
+    """
+    if unit in TEXT_TIME_UNITS:
+        return unit
+    found = text_time_unit(cell)
+    if found is None or unit is None:
+        return found
+    raise InputError(
+        [
+            Problem(
+                file,
+                None,
+                column.strip(),
+                f"times in {unit} ({where})",
+                f"times written as text: {cell!r}",
+                f"set {where} to {found!r}",
+            )
+        ]
+    )
