@@ -393,7 +393,7 @@ def test_predict_drops_a_row_written_twice_and_names_the_file_s_rows(bundle, tmp
         row = 306 if path == twice else 305
         assert f"row {row} (t = " in err
     assert out[twice].read_text() == out[clean].read_text()
-    assert "1 data row(s) repeat the row before them" in err and "(row(s) 101)" in err
+    assert "1 data row(s) repeat an earlier row" in err and "(row(s) 101)" in err
 
 
 def test_predict_drops_a_row_without_a_wheel_speed_as_a_lost_sample(bundle, tmp_path, capsys):

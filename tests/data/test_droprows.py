@@ -20,7 +20,13 @@ from rwhonet.features.scaling import MinMaxScaler
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.validate import validate
 from support.corpus import DRIVE, good_target, rows, write_good_fleet, write_target
-from support.drives import TARGET_RADIUS_M, make_params, write_iovnbd, written_twice
+from support.drives import (
+    TARGET_RADIUS_M,
+    make_params,
+    write_iovnbd,
+    written_again,
+    written_twice,
+)
 
 
 def test_only_rows_equal_in_every_column_repeat():
@@ -31,6 +37,55 @@ def test_only_rows_equal_in_every_column_repeat():
     assert repeated_rows({c.T_S: t, "a": a, "b": b}).tolist() == [2, 6, 7]
     assert repeated_rows({"a": a, c.T_S: t}).tolist() == [2, 6, 7]  # column order is free
     assert repeated_rows({c.T_S: t[:1]}).size == 0 and repeated_rows({}).size == 0
+
+
+def test_a_block_written_again_and_an_overlap_repeat_earlier_rows():
+    """A B C D A B C E: the second A B C repeat rows further back; a row at an earlier
+    time with one value its own is no copy (validate refuses its time going back)."""
+    t = np.array([0.0, 0.1, 0.2, 0.3, 0.0, 0.1, 0.2, 0.4, 0.1])
+    a = np.array([1.0, 2.0, 3.0, 4.0, 1.0, 2.0, 3.0, 5.0, 2.5])
+    assert repeated_rows({c.T_S: t, "a": a}).tolist() == [4, 5, 6]  # row 8: 0.1 s, a 2.5
+    nan = np.array([1.0, np.nan, 3.0, -0.0, 1.0, np.nan, 3.0, 0.0, 2.5])
+    assert repeated_rows({c.T_S: t, "a": nan}).tolist() == [4, 5, 6]  # NaN = NaN, -0 = 0
+    assert repeated_rows({c.T_S: np.arange(6) * 0.1, "a": np.zeros(6)}).size == 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(2, 40),
+    st.lists(st.tuples(st.integers(0, 39), st.integers(0, 39), st.integers(1, 15)), max_size=3),
+    st.lists(st.integers(1, 9), max_size=12),
+)
+def test_blocks_written_again_are_dropped_by_the_file_reader_and_the_row_filter(n, replays, sizes):
+    """A drive of ``n`` rows with blocks of it written again anywhere later (``(at, from,
+    length)``): both lose exactly the rows written again, under any blocking, named alike."""
+    t = np.arange(n) * 0.1
+    cols = {c.T_S: t, **{w: 10.0 + np.arange(n) + j for j, w in enumerate(c.WHEELS)}}
+    order = list(range(n))
+    for at, start, length in replays:
+        at, start = at % (len(order) + 1), start % n
+        block = list(range(start, min(start + length, n)))
+        seen = set(order[:at])
+        if not set(block) <= seen:  # written again: only rows already written
+            continue
+        order[at:at] = block
+    file_cols = {k: v[order] for k, v in cols.items()}
+    whole = drop_rows(RawDrive(file_cols, {}, "name"), "f")
+    np.testing.assert_array_equal(whole.columns[c.T_S], t)
+    expected = [i + 1 for i, row in enumerate(order) if row in order[:i]]
+    assert whole.repeated_rows.tolist() == expected
+    f, blocks, i = RowFilter(), [], 0
+    for size in [*sizes, len(order)]:
+        if i < len(order):
+            blocks.append((i + 1, {k: v[i : i + size] for k, v in file_cols.items()}))
+        i += size
+    kept = list(f.blocks(blocks))
+    assert f.dropped == expected
+    np.testing.assert_array_equal(np.concatenate([b[c.T_S] for _, b in kept]), t)
+    for first, b in kept:  # every block handed on is consecutive rows of the file
+        np.testing.assert_array_equal(
+            file_cols[c.T_S][first - 1 : first - 1 + len(b[c.T_S])], b[c.T_S]
+        )
 
 
 def test_a_drive_without_repeats_is_returned_as_it_is():
@@ -186,6 +241,39 @@ def test_ingest_drops_them_and_validate_reports_them(tmp_path, capsys):
     assert (drive["seconds_kept"], drive["segments"]) == (good["seconds_kept"], good["segments"])
     assert "repeated_rows" not in good
     assert json.loads((tmp_path / "v.json").read_text())["drives"] == report["drives"]
+
+
+def test_a_block_written_again_is_dropped_and_the_drive_is_the_one_written_once(tmp_path):
+    """Rows 301-350 written again after row 400 (a logger's retry), and rows 1001-1100
+    again after row 1100 (two exports joined that overlap by 10 s): ingest drops the 150
+    copies and validate keeps the seconds of the drive written once; before, validate
+    refused the time going back."""
+    raw = tmp_path / "raw"
+    write_good_fleet(raw)
+    df = written_again(written_again(good_target(), 400, 301, 350), 1150, 1051, 1150)
+    write_target(raw, df)
+    params = make_params(raw)
+    manifest = ingest(params, tmp_path / "drives", tmp_path / "failed.json")
+    (entry,) = [d for d in manifest["drives"] if d["drive"] == DRIVE]
+    assert entry["repeated_rows"] == [*range(401, 451), *range(1151, 1251)]
+    report = validate(params, tmp_path / "drives", tmp_path / "seg", tmp_path / "v.json")
+    (drive,) = [d for d in report["drives"] if d["drive"] == DRIVE]
+    once = tmp_path / "once"
+    write_good_fleet(once)
+    write_target(once, good_target())
+    p_once = make_params(once)
+    ingest(p_once, tmp_path / "d1", tmp_path / "f1.json")
+    ref = validate(p_once, tmp_path / "d1", tmp_path / "s1", tmp_path / "v1.json")
+    (good,) = [d for d in ref["drives"] if d["drive"] == DRIVE]
+    assert (drive["seconds_kept"], drive["segments"]) == (good["seconds_kept"], good["segments"])
+    # one value of the block written again differs: not a copy, and refused as before
+    bad = written_again(good_target(), 400, 301, 350)
+    bad.loc[410, c.OMEGA_RL] += 0.01  # data row 411, a copy of row 310 but for this
+    write_target(raw, bad)
+    ingest(params, tmp_path / "drives2", tmp_path / "failed2.json")
+    with pytest.raises(InputError) as err:
+        validate(params, tmp_path / "drives2", tmp_path / "seg2", tmp_path / "v2.json")
+    assert any(p.row == 411 and p.column == " Time" for p in err.value.problems), err.value
 
 
 def test_validate_names_the_file_s_row_after_a_dropped_copy(tmp_path):

@@ -218,7 +218,7 @@ def test_rows_written_twice_are_dropped_as_ingest_drops_them(bundle, sizes):
     assert_same_seconds(out, once)
     assert stream.dropped.dropped == [201, 202] and stream.dropped.wheelless == []
     (note,) = stream.dropped.notes("t.csv")
-    assert "2 data row(s) repeat the row before them" in note
+    assert "2 data row(s) repeat an earlier row" in note
 
 
 @pytest.mark.parametrize("sizes", [[3001], [100] * 31, [7] * 500])

@@ -43,6 +43,7 @@ from support.drives import (
     with_held_fixes,
     write_columnmap,
     write_iovnbd,
+    written_again,
     written_twice,
 )
 
@@ -605,6 +606,38 @@ def _(raw: Path) -> None:
 )
 def _(raw: Path) -> None:
     write_target(raw, written_twice(good_target(), 200))
+
+
+@case(
+    "block_written_again",
+    "data rows 301-350 written again after row 400 (a logger that wrote a buffer again "
+    "after a retry): the time goes back 10 s",
+    Accept("the 50 copies (rows 401-450) are dropped at ingest; the drive is the one written once"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, written_again(good_target(), 400, 301, 350))
+
+
+@case(
+    "two_exports_joined_with_an_overlap",
+    "two exports of the drive joined, the second starting 20 s before the first ended "
+    "(rows 701-900 twice)",
+    Accept("the second copy of the overlap (rows 901-1100) is dropped at ingest"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, written_again(good_target(), 900, 701, 900))
+
+
+@case(
+    "block_written_again_with_one_value_changed",
+    "data rows 301-350 written again after row 400, the rear-left wheel speed of row 411 "
+    "not as first written",
+    Refuse("validate", 411, " Time", "time strictly increasing", "time goes backwards"),
+)
+def _(raw: Path) -> None:
+    df = written_again(good_target(), 400, 301, 350)
+    df.loc[rows(df, 411, 411), c.OMEGA_RL] += 0.01
+    write_target(raw, df)
 
 
 @case(

@@ -266,6 +266,14 @@ def written_twice(df: pd.DataFrame, *rows: int) -> pd.DataFrame:
     return df
 
 
+def written_again(df: pd.DataFrame, after: int, first: int, last: int) -> pd.DataFrame:
+    """``df`` with its data rows ``first..last`` (1-based) written again after data row
+    ``after`` (a block a logger wrote again, or two exports joined that overlap)."""
+    return pd.concat(
+        [df.iloc[:after], df.iloc[first - 1 : last], df.iloc[after:]], ignore_index=True
+    )
+
+
 def with_held_fixes(df: pd.DataFrame, every: int, phase: int, empty: bool = False) -> pd.DataFrame:
     """``df`` as a logger writes a receiver of one fix every ``every`` rows, arriving
     ``phase`` rows into each period: its last fix (and course, height, satellites) in every

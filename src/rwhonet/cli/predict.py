@@ -203,7 +203,7 @@ def run(
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
 
-    A row that repeats the row before it in every column, the time included (a sample
+    A row that repeats an earlier row in every column, the time included (a sample
     written twice), and a row with an empty wheel speed (a lost sample: its second gives no
     output and ends a run of seconds, as a dropped row's) are dropped as ingest drops them
     (:class:`rwhonet.data.droprows.RowFilter`; ``drive_notes`` says which); messages still

@@ -5,11 +5,12 @@ hold no usable sample, and the readers' callers (:func:`drop_rows`, in
 :func:`rwhonet.data.drivefile.read_any`) drop both and say so in the drive's notes and in
 the ingest manifest (the dropped rows, 1-based data rows of the file):
 
-- ``repeated_rows``: a row that repeats the row before it in every column the pipeline
-  reads, the time included (a logger that flushed a buffer twice, an export that wrote a
-  block's boundary row again). The copy carries nothing the first does not. A row at the
-  same time with *any* other value differing is not a copy: validate still refuses it
-  (``time_not_repeated``), as it refuses a clock going back.
+- ``repeated_rows``: a row that repeats an earlier row in every column the pipeline
+  reads, the time included: the row before it (a logger that flushed a buffer twice, an
+  export that wrote a block's boundary row again) or one further back (a block written
+  again after a retry, two joined exports that overlap). The copy carries nothing the
+  first does not. A row at an earlier row's time with *any* other value differing is not
+  a copy: validate still refuses it (``time_not_repeated``, ``time_not_backwards``).
 - ``wheelless_rows``: a row whose time is there but one of its four wheel speeds is empty
   (a CAN frame the logger missed, a logger that starts writing before the first wheel
   frame arrives). The sample is lost as a dropped row is lost: its slot of the 0.1 s grid
@@ -55,32 +56,40 @@ FILE_ROW = "file_row"
 
 
 def repeated_rows(columns: Mapping[str, np.ndarray]) -> np.ndarray:
-    """The rows that repeat the row before them in every column (NaN equal to NaN).
+    """The rows that repeat an earlier row in every column (NaN equal to NaN).
+
+    A copy of the row just before (a sample written twice), of a block some rows back (a
+    logger that wrote a buffer again after a retry), or of the rows two joined exports
+    both hold (the second starting before the first ended): each repeats an earlier row,
+    its time included.
 
     Args:
         columns: a drive's channels, one array per column, one element per row.
 
     Returns:
-        0-based rows ``i >= 1`` whose every value equals row ``i - 1``'s, increasing.
+        0-based rows ``i >= 1`` whose every value equals some row ``j < i``'s, increasing.
     """
     arrays = [np.asarray(v) for v in columns.values()]
     if not arrays or arrays[0].size < 2:
         return np.zeros(0, dtype=np.int64)
-    # the time first: almost every row differs from the one before there, and only the
-    # rows that do not are compared further
-    order = sorted(range(len(arrays)), key=lambda j: list(columns)[j] != c.T_S)
-    same = np.ones(arrays[0].size - 1, dtype=bool)
-    for j in order:
-        a = arrays[j]
-        rows = np.flatnonzero(same)
-        if rows.size == 0:
-            break
-        now, before = a[rows + 1], a[rows]
-        equal = now == before
-        if a.dtype.kind == "f":
-            equal |= np.isnan(now) & np.isnan(before)
-        same[rows] = equal
-    return np.flatnonzero(same) + 1
+    t = np.asarray(columns[c.T_S]) if c.T_S in columns else None
+    if t is not None and t.dtype.kind == "f":
+        with np.errstate(invalid="ignore"):
+            if (t[1:] > t[:-1]).all():  # every row later than every one before it
+                return np.zeros(0, dtype=np.int64)
+    keys = row_keys(columns)
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    return np.flatnonzero(first[inverse.ravel()] < np.arange(keys.size))
+
+
+def row_keys(columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Each row's values as one opaque key: equal keys, equal rows (NaN equal to NaN, 0.0
+    to -0.0), in the order of ``columns``' keys."""
+    arrays = [np.asarray(v, dtype=np.float64) for v in columns.values()]
+    table = np.column_stack(arrays) + 0.0  # -0.0 + 0.0 is 0.0
+    table[np.isnan(table)] = np.nan  # one NaN, whatever its payload
+    table = np.ascontiguousarray(table)
+    return table.view(np.dtype((np.void, table.dtype.itemsize * table.shape[1]))).ravel()
 
 
 def wheelless_rows(columns: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -218,8 +227,8 @@ def _listed(rows: Sequence[int] | np.ndarray) -> str:
 def dropped_note(rows: Sequence[int] | np.ndarray) -> str:
     """What a reader says of the copies it dropped (the file's data rows, 1-based)."""
     return (
-        f"{len(rows)} data row(s) repeat the row before them in every column read, the time "
-        f"included ({_listed(rows)}): a sample written twice, dropped; rows named in "
+        f"{len(rows)} data row(s) repeat an earlier row in every column read, the time "
+        f"included ({_listed(rows)}): samples written again, dropped; rows named in "
         "messages are still the file's"
     )
 
@@ -281,9 +290,12 @@ class RowFilter:
     The rows of ``rwhonet predict``'s drive come in blocks ``(first_row, columns)``: data
     rows ``first_row ..`` of the file. A block that holds such rows is handed on split
     around them, so each block handed on is still consecutive rows of the file and every
-    message downstream names the file's row; a copy of the previous block's last row is
-    found too. ``dropped`` lists the copies dropped and ``wheelless`` the rows without a
-    wheel speed (the file's, 1-based), as :func:`drop_rows` lists them.
+    message downstream names the file's row. A copy is a row that repeats any earlier row
+    of the drive (:func:`repeated_rows`), in an earlier block too: every row's key is kept
+    (72 bytes a row for the nine channels predict reads, 26 MB for ten hours at 10 Hz),
+    and looked up only where a block's time does not run past every earlier row's.
+    ``dropped`` lists the copies dropped and ``wheelless`` the rows without a wheel speed
+    (the file's, 1-based), as :func:`drop_rows` lists them.
     """
 
     def __init__(self) -> None:
@@ -291,7 +303,9 @@ class RowFilter:
         self.wheelless: list[int] = []
         self.n_rows = 0  # the rows handed in
         self._valued: set[str] = set()  # the wheel channels seen with a value
-        self._last: dict[str, np.ndarray] | None = None  # the last row handed in
+        self._names: tuple[str, ...] | None = None  # the channels of the first block
+        self._keys: list[np.ndarray] = []  # every row handed in (row_keys), block by block
+        self._t_max = -np.inf  # the latest time handed in
 
     def blocks(
         self, blocks: Iterable[tuple[int, dict[str, np.ndarray]]]
@@ -303,24 +317,13 @@ class RowFilter:
                 yield first, columns
                 continue
             self.n_rows = first + n - 1
-            last, self._last = self._last, {k: np.asarray(v)[-1:] for k, v in columns.items()}
             t = np.asarray(columns[c.T_S])
             wheelless = wheelless_rows(columns)
             self._valued |= {w for w in c.WHEELS if w in columns and not np.isnan(columns[w]).all()}
-            if (
-                not wheelless.size
-                and not (t[1:] == t[:-1]).any()
-                and (last is None or last[c.T_S][0] != t[0])
-            ):
-                yield first, columns  # no two rows at one time and every wheel: as it is
-                continue
-            if last is not None and last.keys() == columns.keys():
-                copies = repeated_rows({k: np.r_[last[k], columns[k]] for k in columns}) - 1
-            else:
-                copies = repeated_rows(columns)
+            copies = self._copies(columns, t)
             copies = np.setdiff1d(copies, wheelless)
             if copies.size == 0 and wheelless.size == 0:
-                yield first, columns
+                yield first, columns  # no copy and every wheel: as it is
                 continue
 
             self.dropped += [first + int(i) for i in copies]
@@ -329,6 +332,25 @@ class RowFilter:
             for a, b in zip(bounds[:-1] + 1, bounds[1:], strict=True):
                 if b > a:
                     yield first + int(a), {k: v[a:b] for k, v in columns.items()}
+
+    def _copies(self, columns: dict[str, np.ndarray], t: np.ndarray) -> np.ndarray:
+        """The block's rows (0-based) that repeat an earlier row of the drive; keeps its keys."""
+        if self._names is None:
+            self._names = tuple(columns)
+        if tuple(columns) != self._names:  # another layout: not comparable, none is a copy
+            return np.zeros(0, dtype=np.int64)
+        keys = row_keys(columns)
+        with np.errstate(invalid="ignore"):
+            later = bool(t[0] > self._t_max) and bool((t[1:] > t[:-1]).all())
+            self._t_max = max(self._t_max, float(np.nanmax(t, initial=-np.inf)))
+        if later:  # every row later than every one before it: no copy
+            self._keys.append(keys)
+            return np.zeros(0, dtype=np.int64)
+        before = sum(k.size for k in self._keys)
+        every = np.concatenate([*self._keys, keys])
+        _, first, inverse = np.unique(every, return_index=True, return_inverse=True)
+        self._keys = [every]  # one array from now on: the next look-up joins nothing
+        return np.flatnonzero(first[inverse.ravel()][before:] < np.arange(before, every.size))
 
     def problems(self, file: str, names: Mapping[str, str]) -> list[Problem]:
         """Once every row is in: why its rows without a wheel speed are not lost samples,

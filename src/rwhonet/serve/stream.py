@@ -252,7 +252,7 @@ class SecondStream:
     def push(self, first_row: int, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Add rows (data rows ``first_row ..``); return the seconds they complete (maybe none).
 
-        A row that repeats the row before it in every channel (a sample written twice), and
+        A row that repeats an earlier row in every channel (a sample written again), and
         a row with an empty wheel speed (a lost sample), are dropped, as ingest drops them
         (:class:`rwhonet.data.droprows.RowFilter`, which lists them in ``dropped``); every
         message still names the file's rows.
@@ -761,7 +761,7 @@ def _time_problem(
 ) -> Problem:
     """Row ``row`` (time ``t[i + 1]``) is not after the row before it (row ``before``, time
     ``t[i]``), as validate says it (``rwhonet.data.schema``): two samples at one time, or
-    a clock going back. (A row that repeats the row before in every channel, a sample
+    a clock going back. (A row that repeats an earlier row in every channel, a sample
     written twice, was dropped before: :class:`rwhonet.data.droprows.RowFilter`.)"""
     now, prev = float(t[i + 1]), float(t[i])
     if now == prev:
