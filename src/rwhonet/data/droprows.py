@@ -291,9 +291,9 @@ class RowFilter:
     rows ``first_row ..`` of the file. A block that holds such rows is handed on split
     around them, so each block handed on is still consecutive rows of the file and every
     message downstream names the file's row. A copy is a row that repeats any earlier row
-    of the drive (:func:`repeated_rows`), in an earlier block too: every row's key is kept
-    (72 bytes a row for the nine channels predict reads, 26 MB for ten hours at 10 Hz),
-    and looked up only where a block's time does not run past every earlier row's.
+    of the drive (:func:`repeated_rows`), in an earlier block too: every row is kept (72
+    bytes a row for the nine channels predict reads, 26 MB for ten hours at 10 Hz), and
+    rows are compared only where a block's time does not run past every earlier row's.
     ``dropped`` lists the copies dropped and ``wheelless`` the rows without a wheel speed
     (the file's, 1-based), as :func:`drop_rows` lists them.
     """
@@ -304,7 +304,10 @@ class RowFilter:
         self.n_rows = 0  # the rows handed in
         self._valued: set[str] = set()  # the wheel channels seen with a value
         self._names: tuple[str, ...] | None = None  # the channels of the first block
-        self._keys: list[np.ndarray] = []  # every row handed in (row_keys), block by block
+        self._keyed: list[np.ndarray] = []  # the keys (row_keys) of the first rows
+        self._n_keyed = 0  # how many
+        self._last_key = np.zeros(0, dtype="V1")  # the last keyed row's
+        self._pending: list[dict[str, np.ndarray]] = []  # the blocks after them, not keyed
         self._t_max = -np.inf  # the latest time handed in
 
     def blocks(
@@ -334,23 +337,42 @@ class RowFilter:
                     yield first + int(a), {k: v[a:b] for k, v in columns.items()}
 
     def _copies(self, columns: dict[str, np.ndarray], t: np.ndarray) -> np.ndarray:
-        """The block's rows (0-based) that repeat an earlier row of the drive; keeps its keys."""
+        """The block's rows (0-based) that repeat an earlier row of the drive; keeps them."""
         if self._names is None:
             self._names = tuple(columns)
         if tuple(columns) != self._names:  # another layout: not comparable, none is a copy
             return np.zeros(0, dtype=np.int64)
-        keys = row_keys(columns)
+        self._pending.append(columns)
         with np.errstate(invalid="ignore"):
-            later = bool(t[0] > self._t_max) and bool((t[1:] > t[:-1]).all())
-            self._t_max = max(self._t_max, float(np.nanmax(t, initial=-np.inf)))
-        if later:  # every row later than every one before it: no copy
-            self._keys.append(keys)
-            return np.zeros(0, dtype=np.int64)
-        before = sum(k.size for k in self._keys)
-        every = np.concatenate([*self._keys, keys])
+            if t[0] > self._t_max and (t[1:] > t[:-1]).all():
+                # every row later than every row before it: no copy (keyed when needed)
+                self._t_max = float(t[-1])
+                return np.zeros(0, dtype=np.int64)
+        latest = np.fmax.accumulate(np.r_[self._t_max, t])  # a NaN time passes nothing
+        self._t_max = float(latest[-1])
+        new = row_keys({k: np.concatenate([b[k] for b in self._pending]) for k in self._names})
+        self._pending = []
+        before = self._n_keyed + new.size - t.size  # the rows before the block
+        self._keyed.append(new)
+        self._n_keyed += new.size
+        keys = new[new.size - t.size :]
+        # a copy of the row just before (the common case) is told from that row; only a row
+        # at or before an earlier row's time that is not is looked up among them all
+        previous = new[-t.size - 1 : -t.size] if new.size > t.size else self._last_key
+        if previous.size:
+            consecutive = np.r_[previous, keys[:-1]] == keys
+        else:
+            consecutive = np.r_[False, keys[1:] == keys[:-1]]
+        self._last_key = keys[-1:]
+        with np.errstate(invalid="ignore"):
+            back = ~(t > latest[:-1]) & ~consecutive  # a NaN time: looked up
+        if not back.any():
+            return np.flatnonzero(consecutive)
+        every = np.concatenate(self._keyed)
+        self._keyed = [every]  # one array: the next look-up joins only what came after
         _, first, inverse = np.unique(every, return_index=True, return_inverse=True)
-        self._keys = [every]  # one array from now on: the next look-up joins nothing
-        return np.flatnonzero(first[inverse.ravel()][before:] < np.arange(before, every.size))
+        copied = first[inverse.ravel()][before:] < np.arange(before, before + t.size)
+        return np.flatnonzero(consecutive | (back & copied))
 
     def problems(self, file: str, names: Mapping[str, str]) -> list[Problem]:
         """Once every row is in: why its rows without a wheel speed are not lost samples,
