@@ -325,7 +325,7 @@ def _(raw: Path) -> None:
 @case(
     "semicolon_separated",
     "';'-separated with decimal commas (a spreadsheet's locale)",
-    Refuse("ingest", None, None, "comma-separated columns", "separated by semicolons"),
+    Accept("read as the comma-separated file it stands for, ',' as the decimal mark"),
 )
 def _(raw: Path) -> None:
     edit_lines(raw, lambda lines: [x.replace(",", ";").replace(".", ",") for x in lines])

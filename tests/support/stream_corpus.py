@@ -334,16 +334,6 @@ def _(root: Path) -> None:
 
 
 @case(
-    "csv_semicolons",
-    "csv",
-    "wheels.csv ';'-separated (a spreadsheet's locale)",
-    Refuse("wheels.csv", None, None, "comma-separated columns", "semicolons"),
-)
-def _(root: Path) -> None:
-    _edit_csv(root, "wheels.csv", lambda lines: [x.replace(",", ";") for x in lines])
-
-
-@case(
     "csv_other_clock",
     "csv",
     "gnss.csv stamped in UNIX time, wheels.csv in seconds from the start",

@@ -17,7 +17,14 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.csvio import RawDrive, first_cell, read_header, read_numeric
+from rwhonet.data.csvio import (
+    RawDrive,
+    delimiter_note,
+    file_delimiter,
+    first_cell,
+    read_header,
+    read_numeric,
+)
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.texttime import (
     CLOCK,
@@ -121,6 +128,8 @@ def read_columnmap(
     notes: tuple[str, ...] = ()
     if text_time:
         notes = (text_time_note(header[positions["t"]], text_time),)
+    if (said := delimiter_note(file_delimiter(path))) is not None:
+        notes += (said,)
     if c.T_S in columns:
         columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
         if wraps.size:

@@ -140,6 +140,7 @@ def first_cell(path: Path, pos: int, limit: int = 1 << 16) -> str | None:
             data = f.read(limit)
     except OSError:
         return None
+    data = as_comma_separated(data, file_delimiter(path))
     lines = data.decode("utf-8", errors="replace").splitlines()  # LF, CR LF or a lone CR
     lines = lines[1:-1] if len(data) == limit else lines[1:]  # the header; a cut-off row
     for cells in csv.reader(line for line in lines if line.strip()):
@@ -195,23 +196,75 @@ def parse_header(line: bytes, file: str) -> list[str]:
                 )
             ]
         )
-    if len(header) == 1:
-        for sep, name in ((";", "semicolons"), ("\t", "tabs")):
-            if sep in header[0]:
-                raise InputError(
-                    [
-                        Problem(
-                            file,
-                            None,
-                            None,
-                            "comma-separated columns",
-                            f"a header separated by {name}: {header[0][:60]!r}",
-                            "save the file comma-separated with '.' as the decimal mark "
-                            "(spreadsheets in some locales write ';' and ',')",
-                        )
-                    ]
-                )
+    delimiter = delimiter_of(line)
+    if delimiter != ",":  # a spreadsheet's locale: ';' or tabs, and perhaps decimal commas
+        header = next(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter))
     return header
+
+
+# Files separated by ';' or tabs (what spreadsheets write in locales whose decimal mark is
+# ','): each is read as the comma-separated file it stands for, every byte of it through
+# this table, the separator becoming ',' and a ',' (a decimal comma there) becoming '.'.
+DELIMITERS = {";": "semicolons", "\t": "tabs"}
+_TABLES = {sep: bytes.maketrans(sep.encode() + b",", b",.") for sep in DELIMITERS}
+
+
+def delimiter_of(line: bytes) -> str:
+    """A CSV file's separator from its first line: ``;`` or a tab where the line has one
+    and no comma (a spreadsheet in a locale whose decimal mark is ','), else ``,``."""
+    if b"," in line:
+        return ","
+    for sep in DELIMITERS:
+        if sep.encode() in line:
+            return sep
+    return ","
+
+
+def file_delimiter(path: Path) -> str:
+    """The separator of a CSV file (:func:`delimiter_of` its first line; ``,`` when it cannot
+    be read: its reader says why)."""
+    try:
+        with open(path, "rb") as f:
+            line = f.readline(HEADER_MAX_BYTES + 1)
+    except OSError:
+        return ","
+    return delimiter_of(line[: first_line_end(line)])
+
+
+def as_comma_separated(data: bytes, delimiter: str) -> bytes:
+    """Bytes of a file separated by ``delimiter`` as those of the comma-separated file it
+    stands for (``;`` -> ``,``, a decimal ``,`` -> ``.``); unchanged for ``,``."""
+    return data if delimiter == "," else data.translate(_TABLES[delimiter])
+
+
+def delimiter_note(delimiter: str) -> str | None:
+    """What a reader says of a file not separated by commas (None: it is)."""
+    if delimiter == ",":
+        return None
+    return (
+        f"separated by {DELIMITERS[delimiter]}, a ',' taken for a decimal mark (a "
+        "spreadsheet's locale); cells quoted in messages are shown with '.'"
+    )
+
+
+class _CommaSeparated(io.RawIOBase):
+    """A file separated by ';' or tabs read as the comma-separated file it stands for."""
+
+    def __init__(self, path: Path, delimiter: str) -> None:
+        self._file = open(path, "rb")  # noqa: SIM115 -- closed by close(), as a file is
+        self._delimiter = delimiter
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        data = as_comma_separated(self._file.read(len(buffer)), self._delimiter)
+        buffer[: len(data)] = data
+        return len(data)
+
+    def close(self) -> None:
+        self._file.close()
+        super().close()
 
 
 @contextmanager
@@ -360,8 +413,10 @@ def _open_columns(
     Single-threaded, so pyarrow numbers the rows it hands to ``on_invalid_row`` and the
     blocks come in file order; ``BLOCK_BYTES`` of text per block.
     """
+    delimiter = file_delimiter(path)
+    source: Any = path if delimiter == "," else io.BufferedReader(_CommaSeparated(path, delimiter))
     return pacsv.open_csv(
-        path,
+        source,
         read_options=pacsv.ReadOptions(
             skip_rows=1, column_names=names, use_threads=False, block_size=BLOCK_BYTES
         ),

@@ -177,7 +177,7 @@ def read_rows(
         InputError: a header the reader refuses (now), a row with another number of columns
             than the header or a cell that is not a number (while iterating).
     """
-    from rwhonet.data.csvio import HEADER_MAX_BYTES, parse_header
+    from rwhonet.data.csvio import HEADER_MAX_BYTES, delimiter_of, first_line_end, parse_header
 
     pipe = _pipe_reader(stream)
     line, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
@@ -185,7 +185,9 @@ def read_rows(
     lay = layout(header, fmt, column_map, file)
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
     # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
-    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest)
+    # a file separated by ';' or tabs (decimal commas): its rows read as comma-separated
+    delimiter = delimiter_of(line[: first_line_end(line)])
+    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter)
     return lay, placed(blocks, StreamClock(period_s))
 
 
@@ -427,12 +429,15 @@ def _blocks(
     block_bytes: int,
     pipe: io.FileIO | None = None,
     cr_rest: bytes | None = None,
+    delimiter: str = ",",
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    from rwhonet.data.csvio import as_comma_separated
+
     # read1: what a buffered file has, without waiting; a raw pipe's read() returns what
     # the pipe has (the generator holds ``stream``, which owns the pipe's descriptor)
     read = pipe.read if pipe is not None else getattr(stream, "read1", stream.read)
     cr = cr_rest is not None  # lines end in a lone CR: read as LF (blank lines are skipped)
-    row, pending = 1, (cr_rest or b"").replace(b"\r", b"\n")
+    row, pending = 1, as_comma_separated((cr_rest or b"").replace(b"\r", b"\n"), delimiter)
     form: _TimeForm | None = None  # decided on the first whole line
     while True:
         if pipe is not None:
@@ -440,6 +445,7 @@ def _blocks(
         chunk = read(block_bytes)
         if not chunk:
             break
+        chunk = as_comma_separated(chunk, delimiter)
         pending += chunk.replace(b"\r", b"\n") if cr else chunk
         end = pending.rfind(b"\n")
         if end < 0:

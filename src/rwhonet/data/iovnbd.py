@@ -16,7 +16,14 @@ from typing import NamedTuple
 import numpy as np
 
 from rwhonet.data import canonical as c
-from rwhonet.data.csvio import RawDrive, first_cell, read_header, read_numeric
+from rwhonet.data.csvio import (
+    RawDrive,
+    delimiter_note,
+    file_delimiter,
+    first_cell,
+    read_header,
+    read_numeric,
+)
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.texttime import read_time_column, text_time_note, text_time_unit
 from rwhonet.data.timebase import unwrap_midnight
@@ -323,6 +330,8 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         notes.append(position_note(header))
     if text_time:
         notes.append(text_time_note(header[positions[c.T_S]], text_time))
+    if (said := delimiter_note(file_delimiter(path))) is not None:
+        notes.append(said)
     columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
     if wraps.size:
         notes.append(midnight_note(wraps))
