@@ -77,7 +77,7 @@ def test_check_column_map_lists_every_issue():
     text = str(err.value)
     assert "data.column_maps.cupac.speed: unknown key" in text
     assert "data.column_maps.cupac.lon: missing" in text
-    units = "['s', 'ms', 'iso8601', 'hh:mm:ss']"
+    units = "['s', 'ms', 'iso8601', 'hh:mm:ss'] or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)"
     assert f"data.column_maps.cupac.t.unit: expected one of {units}, got 'min'" in text
     assert "data.column_maps.cupac.omega_rr.unit" in text and "'km/h'" in text
 

@@ -314,3 +314,66 @@ def test_a_time_header_naming_a_text_form_or_a_zone_is_not_an_unknown_unit(heade
         streamed = np.concatenate([cols[c.T_S] for _, cols in blocks])
     assert lay.names[c.T_S] == header
     np.testing.assert_allclose(streamed, got.columns[c.T_S], rtol=0, atol=1e-5)
+
+
+# -- strptime patterns ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("pattern", "cell", "expected"),
+    [
+        ("%d.%m.%Y %H:%M:%S.%f", "11.03.2019 14:22:05.123", DAY_S + 51725.123),
+        ("%d.%m.%Y %H:%M:%S,%f", "11.03.2019 14:22:05,5", DAY_S + 51725.5),
+        ("%m/%d/%Y %I:%M:%S.%f %p", "03/11/2019 02:22:05.25 PM", DAY_S + 51725.25),
+        ("%Y-%m-%d %H:%M:%S.%f%z", "2019-03-11 15:22:05.0+0100", DAY_S + 51725.0),
+        ("%H:%M:%S.%f", "23:59:59.9", 86399.9),  # no date: a time of day
+    ],
+)
+def test_a_strptime_pattern_reads_what_the_two_forms_do_not(pattern, cell, expected):
+    from rwhonet.data.texttime import pattern_problem
+
+    assert pattern_problem(pattern) is None
+    parsed = parse_text_times([cell, "", "x"], pattern)
+    assert parsed.seconds[0] == pytest.approx(expected, abs=1e-6)
+    assert np.isnan(parsed.seconds[1:]).all() and [i for i, _ in parsed.bad] == [2]
+
+
+def test_a_pattern_without_a_time_or_that_cannot_read_itself_is_refused():
+    from rwhonet.config import ConfigError
+    from rwhonet.data.columnmap import check_column_map
+    from rwhonet.data.signalmap import check_signal_map
+    from rwhonet.data.texttime import pattern_problem
+
+    assert "%H (or %I and %p), %M and %S" in pattern_problem("%d.%m.%Y")
+    assert pattern_problem("%H:%M:%S %Q") is not None  # no such directive
+    with pytest.raises(ConfigError, match=r"cupac\.t\.unit: expected a strptime pattern with"):
+        check_column_map("cupac", _cmap("%d.%m.%Y"))
+    with pytest.raises(ConfigError, match=r"or a strptime pattern .*got 'minutes'"):
+        check_column_map("cupac", _cmap("minutes"))
+    check_column_map("cupac", _cmap("%d.%m.%Y %H:%M:%S.%f"))
+    signals = {k: ColumnSpec(v.column, v.unit) for k, v in _cmap("%H:%M").items()}
+    with pytest.raises(ConfigError, match="strptime pattern with"):
+        check_signal_map("m", signals, with_time=True)
+
+
+def test_a_german_export_reads_through_a_column_map_with_its_pattern(drive, tmp_path):
+    """';'-separated, decimal commas, times as 11.03.2019 23:59:00,000 through midnight:
+    the drive in seconds, 1970's seconds of the day later, in ingest's reader and
+    predict's."""
+    path = write_columnmap(drive, tmp_path / "cupac.csv", CUPAC_MAP | {"t": ("Time", "s")})
+    ref = read_columnmap(path, _cmap("s"), "cupac")
+    text = path.read_text().replace(",", "\0").replace(".", ",").replace("\0", ";")
+    lines = text.splitlines()
+    for i, x in enumerate(iso(drive[c.T_S]), start=1):  # 2019-03-11T23:59:00.000Z
+        cells = lines[i].split(";")
+        cells[1] = f"{x[8:10]}.{x[5:7]}.{x[:4]} {x[11:19]},{x[20:23]}"
+        lines[i] = ";".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    assert path.read_text().splitlines()[1].split(";")[1] == "11.03.2019 23:59:00,000"
+    pattern = "%d.%m.%Y %H:%M:%S.%f"  # a ',' in a ';' file is read as '.'
+    got = read_columnmap(path, _cmap(pattern), "cupac")
+    np.testing.assert_allclose(got.columns[c.T_S], ref.columns[c.T_S] + DAY_S, rtol=0, atol=1e-6)
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, "cupac.csv", "cupac", _cmap(pattern), block_bytes=1024)
+        streamed = np.concatenate([cols[c.T_S] for _, cols in blocks])
+    np.testing.assert_allclose(streamed, got.columns[c.T_S], rtol=0, atol=1e-5)

@@ -30,6 +30,8 @@ from rwhonet.data.texttime import (
     CLOCK,
     ISO8601,
     declared_text_unit,
+    is_pattern,
+    pattern_problem,
     read_time_column,
     text_time_note,
 )
@@ -73,9 +75,16 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
     ]
     issues += [f"{where}.{k}: missing" for k in REQUIRED_KEYS if k not in column_map]
     issues += [
-        f"{where}.{k}.unit: expected one of {list(KEYS[k][1])}, got {spec.unit!r}"
+        f"{where}.{k}.unit: expected one of {list(KEYS[k][1])}"
+        + (" or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)" if k == "t" else "")
+        + f", got {spec.unit!r}"
         for k, spec in column_map.items()
-        if k in KEYS and spec.unit not in KEYS[k][1]
+        if k in KEYS and spec.unit not in KEYS[k][1] and not (k == "t" and is_pattern(spec.unit))
+    ]
+    issues += [
+        f"{where}.t.unit: expected {problem}"
+        for k, spec in column_map.items()
+        if k == "t" and is_pattern(spec.unit) and (problem := pattern_problem(spec.unit))
     ]
     if issues:
         raise ConfigError("\n".join(issues))
@@ -120,7 +129,7 @@ def read_columnmap(
     shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
     for key, spec in column_map.items():
         canonical, factors = KEYS[key]
-        pos, factor = positions[key], factors[spec.unit]
+        pos, factor = positions[key], factors.get(spec.unit, 1.0)  # a strptime pattern: s
         if pos in shared or not values[pos].flags.writeable:  # two keys read one column
             columns[canonical] = values[pos] * factor
         else:  # in place: the reader's arrays are ours, and a copy would hold a column twice

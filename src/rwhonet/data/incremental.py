@@ -100,7 +100,8 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         check_column_map(fmt, column_map or {})
         by_key = columnmap_positions(header, column_map or {}, fmt, file)
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
-        factors = {KEYS[key][0]: KEYS[key][1][column_map[key].unit] for key in by_key}
+        # a strptime pattern for the time is text, read as seconds: factor 1
+        factors = {KEYS[key][0]: KEYS[key][1].get(column_map[key].unit, 1.0) for key in by_key}
     wanted = carried_channels(positions)
     positions = {name: positions[name] for name in wanted}
     declared = None if fmt == "iovnbd" else (column_map or {})["t"].unit
@@ -119,7 +120,7 @@ class _TimeForm:
     """How a stream's time column is written, decided from its first data row.
 
     Attributes:
-        text: the text unit (:data:`rwhonet.data.texttime.TEXT_TIME_UNITS`), None: numbers.
+        text: the text unit (:func:`rwhonet.data.texttime.is_text_unit`), None: numbers.
         zoned: whether the first ISO 8601 time gave its zone offset (None: not yet seen).
     """
 

@@ -41,7 +41,7 @@ from rwhonet.data.streams import (
     Stream,
     wheel_speed_rad_s,
 )
-from rwhonet.data.texttime import CLOCK, ISO8601
+from rwhonet.data.texttime import CLOCK, ISO8601, is_pattern, pattern_problem
 from rwhonet.errors import InputError, Problem
 
 _SPEED = {"m/s": 1.0, "km/h": c.KMH_M_S, "mph": 0.44704}
@@ -99,9 +99,16 @@ def check_signal_map(
     required = (*REQUIRED_KEYS, "t") if with_time else REQUIRED_KEYS
     issues += [f"{where}.{k}: missing" for k in required if k not in signal_map]
     issues += [
-        f"{where}.{k}.unit: expected one of {list(units_of(k))}, got {spec.unit!r}"
+        f"{where}.{k}.unit: expected one of {list(units_of(k))}"
+        + (" or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)" if k == "t" else "")
+        + f", got {spec.unit!r}"
         for k, spec in signal_map.items()
-        if k in KEYS and spec.unit not in units_of(k)
+        if k in KEYS and spec.unit not in units_of(k) and not (k == "t" and is_pattern(spec.unit))
+    ]
+    issues += [
+        f"{where}.t.unit: expected {problem}"
+        for k, spec in signal_map.items()
+        if k == "t" and is_pattern(spec.unit) and (problem := pattern_problem(spec.unit))
     ]
     if issues:
         raise ConfigError("\n".join(issues))
@@ -126,7 +133,8 @@ def to_si(
     if factors is None:
         return wheel_speed_rad_s(values, unit, radius_m, where)
     values = np.asarray(values, dtype=np.float64)
-    return values if factors[unit] == 1.0 else values * factors[unit]  # SI already: no copy
+    factor = factors.get(unit, 1.0)  # a time's strptime pattern: parsed to seconds already
+    return values if factor == 1.0 else values * factor  # SI already: no copy
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ from rwhonet.data.csvio import first_cell, read_header, read_numeric
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
-from rwhonet.data.texttime import TEXT_TIME_UNITS, declared_text_unit, read_time_column
+from rwhonet.data.texttime import declared_text_unit, is_text_unit, read_time_column
 from rwhonet.data.timebase import MIDNIGHT_WINDOW_S, SECONDS_PER_DAY, unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -139,7 +139,7 @@ def read_stream_csvs(
         if not keys:
             continue
         at_t = time_at[file]
-        text = time_spec.unit in TEXT_TIME_UNITS
+        text = is_text_unit(time_spec.unit)
         wanted = {at: header[at] for at in keys.values()}
         if not text:
             wanted[at_t] = header[at_t]

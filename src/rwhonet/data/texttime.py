@@ -18,6 +18,14 @@ an IO-VNBD file whose time column holds such text is read as its first cell's fo
   midnight by the readers' rule, as a time of day in seconds does
   (:func:`rwhonet.data.timebase.unwrap_midnight`).
 
+- a ``strptime`` pattern (any unit with a ``%``; Python's directives), for what the two
+  forms do not cover: ``%d.%m.%Y %H:%M:%S.%f`` (11.03.2019 14:22:05.123),
+  ``%m/%d/%Y %I:%M:%S.%f %p``. With a date (``%d``, ``%j``, ...) the times are seconds
+  since 1970, UTC where ``%z`` gives the offset, as written otherwise; without one they
+  are times of day (``h*3600 + m*60 + s``), continued past midnight. A ``,`` in the
+  pattern or a cell is read as ``.`` (a decimal comma before ``%f``). It must hold ``%H``
+  (or ``%I`` with ``%p``), ``%M`` and ``%S``, and round-trip a time (:func:`pattern_problem`).
+
 An empty cell (or ``NaN``, ``NA``, ``null``) is a missing time (NaN), which validate
 refuses as it refuses an empty number; any other text that is not of the declared form
 is refused naming the file's row and column.
@@ -30,7 +38,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import date
+from datetime import UTC, date, datetime
 from pathlib import Path
 
 import numpy as np
@@ -52,11 +60,48 @@ _ISO = re.compile(
 )
 _CLOCK = re.compile(r"\s*(\d+):(\d{2}):" + _SECONDS + r"\s*$")
 
+
+def expected(unit: str) -> str:
+    """What a cell of a text time column in ``unit`` looks like, for messages."""
+    if is_pattern(unit):
+        return f"a time as the pattern {unit!r} writes it (Python's strptime)"
+    return EXPECTED[unit]
+
+
 EXPECTED = {
     ISO8601: "an ISO 8601 date and time, e.g. 2019-03-11T14:22:05.123 ('T' or a space; "
     "a zone offset such as Z or +01:00 optional, but in every row or in none)",
     CLOCK: "a time as hh:mm:ss, e.g. 14:22:05.123 (a time of day or since the logger started)",
 }
+
+
+_DATE_DIRECTIVES = ("%d", "%j", "%m", "%b", "%B", "%y", "%Y", "%U", "%W", "%a", "%A", "%c", "%x")
+_NAIVE_EPOCH = datetime(1970, 1, 1)
+
+
+def is_pattern(unit: str) -> bool:
+    """Whether a time unit is a ``strptime`` pattern (it holds a ``%``)."""
+    return "%" in unit
+
+
+def is_text_unit(unit: str | None) -> bool:
+    """Whether a time unit is text: ``iso8601``, ``hh:mm:ss`` or a ``strptime`` pattern."""
+    return unit is not None and (unit in TEXT_TIME_UNITS or is_pattern(unit))
+
+
+def pattern_problem(pattern: str) -> str | None:
+    """Why a ``strptime`` pattern cannot be a time column's unit (None: it can)."""
+    hours = "%H" in pattern or ("%I" in pattern and "%p" in pattern)
+    if not (hours and "%M" in pattern and "%S" in pattern):
+        return f"a strptime pattern with %H (or %I and %p), %M and %S; got {pattern!r}"
+    when = datetime(2019, 3, 11, 14, 22, 5, 123000, tzinfo=UTC)
+    try:
+        back = datetime.strptime(when.strftime(pattern), pattern)
+    except ValueError as err:
+        return f"a strptime pattern that reads back what it writes; {pattern!r}: {err}"
+    if (back.hour, back.minute, back.second) != (14, 22, 5):
+        return f"a strptime pattern that reads back the time it writes; got {pattern!r}"
+    return None
 
 
 def text_time_unit(cell: str | None) -> str | None:
@@ -77,7 +122,8 @@ def _bare(cell: str) -> str:
 
 def text_time_note(column: str, unit: str) -> str:
     """What a reader says when it read the time column as text."""
-    said = "seconds since 1970 (UTC)" if unit == ISO8601 else "h*3600 + m*60 + s"
+    dated = unit == ISO8601 or (is_pattern(unit) and any(d in unit for d in _DATE_DIRECTIVES))
+    said = "seconds since 1970 (UTC)" if dated else "h*3600 + m*60 + s"
     return f"time column {column.strip()!r} written as text ({unit}): read as {said}"
 
 
@@ -110,6 +156,8 @@ def parse_text_times(
         zoned: whether the column's first time, in an earlier block, gave its zone offset
             (None: it is in ``cells``).
     """
+    if is_pattern(unit):
+        return _parse_pattern(cells, unit)
     out = np.full(len(cells), np.nan)
     bad: list[tuple[int, str]] = []
     days: dict[tuple[str, str, str], int] = {}
@@ -161,6 +209,30 @@ def parse_text_times(
 _EPOCH_ORDINAL = date(1970, 1, 1).toordinal()
 
 
+def _parse_pattern(cells: Sequence[str | None], pattern: str) -> TextTimes:
+    """Text times read by a ``strptime`` pattern (see the module's docstring)."""
+    out = np.full(len(cells), np.nan)
+    bad: list[tuple[int, str]] = []
+    dated = any(d in pattern for d in _DATE_DIRECTIVES)
+    fmt = pattern.replace(",", ".")
+    for i, cell in enumerate(cells):
+        if cell is None or _bare(cell).lower() in _MISSING:
+            continue
+        try:
+            when = datetime.strptime(_bare(cell).replace(",", "."), fmt)
+        except ValueError as err:
+            bad.append((i, f"{cell!r} ({err})"))
+            continue
+        if not dated:
+            seconds = when.hour * 3600 + when.minute * 60 + when.second
+            out[i] = seconds + when.microsecond * 1e-6
+        elif when.tzinfo is not None:
+            out[i] = when.timestamp()
+        else:
+            out[i] = (when - _NAIVE_EPOCH).total_seconds()
+    return TextTimes(out, bad, None, None)
+
+
 def check_text_times(
     parsed: TextTimes,
     cells: Sequence[str | None],
@@ -187,7 +259,7 @@ def check_text_times(
         tally = RowTally(
             file,
             column,
-            EXPECTED[unit],
+            expected(unit),
             f"write every time in the form of the first rows ({unit}), or write the times "
             "as seconds",
         )
@@ -258,7 +330,7 @@ def declared_text_unit(
         InputError: the map declares a number unit (s, ms) and ``cell`` is text of a known
             form; the message says which unit to declare.
     """
-    if unit in TEXT_TIME_UNITS:
+    if is_text_unit(unit):
         return unit
     found = text_time_unit(cell)
     if found is None or unit is None:
