@@ -1,5 +1,6 @@
 """Time columns written as text (ISO 8601, hh:mm:ss): parsed to seconds by every reader."""
 
+import contextlib
 import io
 from datetime import UTC, datetime, timedelta, timezone
 
@@ -377,3 +378,27 @@ def test_a_german_export_reads_through_a_column_map_with_its_pattern(drive, tmp_
         _, blocks = read_rows(f, "cupac.csv", "cupac", _cmap(pattern), block_bytes=1024)
         streamed = np.concatenate([cols[c.T_S] for _, cols in blocks])
     np.testing.assert_allclose(streamed, got.columns[c.T_S], rtol=0, atol=1e-5)
+
+
+def test_local_times_without_offsets_through_summer_time_s_end_are_refused_with_why(tmp_path):
+    """02:59:59.9 then 02:00:00.0 written without offsets: an hour back. validate and
+    predict refuse it at that row and say what it is likely to be."""
+    from rwhonet.cli.main import main
+    from support.serving import base_bundle, predict_args
+
+    df = wavy_drive(40.0, t0_s=0.0)
+    start = datetime(2019, 10, 27, 0, 59, 50, tzinfo=UTC)
+    cells = []
+    for t in df[c.T_S]:
+        when = start + timedelta(milliseconds=round(t * 1000))
+        local = when.astimezone(timezone(timedelta(hours=2 if when.hour < 1 else 1)))
+        cells.append(local.replace(tzinfo=None).isoformat(timespec="milliseconds"))
+    path = with_time_text(write_iovnbd(df, tmp_path / "V-D.csv"), 1, cells)
+    out = tmp_path / "out.csv"
+    bundle = base_bundle(tmp_path / "bundle")
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert main(predict_args(bundle, path, out)) == 2
+    said = err.getvalue()
+    assert "row 101" in said and "time goes backwards" in said and "summer time" in said
+    assert not out.exists()

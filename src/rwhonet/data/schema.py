@@ -170,7 +170,8 @@ def _drive_checks(
                 increasing,
                 lambda df, i, case, rows: "time goes backwards: " + _time_step(df, i, case, rows),
                 "sort the rows by time, or split the file into one drive per recording where "
-                "the clock restarts",
+                "the clock restarts; a clock set back an hour is summer time ending: write "
+                "the times in UTC or with their zone offset (ISO 8601, +01:00)",
             ),
         ),
         "sample_period": (

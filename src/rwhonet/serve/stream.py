@@ -775,7 +775,8 @@ def _time_problem(
         found = f"time goes backwards: t = {_found(now)} s after t = {_found(prev)} s"
         fix = (
             "sort the rows by time, or split the file into one drive per recording where the "
-            "clock restarts"
+            "clock restarts; a clock set back an hour is summer time ending: write the times "
+            "in UTC or with their zone offset (ISO 8601, +01:00)"
         )
     return Problem(
         file, row, names.get(c.T_S, c.T_S), "a time after the previous row's", found, fix
