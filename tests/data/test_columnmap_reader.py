@@ -116,3 +116,35 @@ def test_a_clockwise_gyro_s_declared_unit_matches_its_header_s():
     header = ["t (s)", "lat", "lon", "fl", "fr", "rl", "rr", "Yaw Rate (deg/s)"]
     cmap = {"yaw_rate": ColumnSpec("Yaw Rate", "deg/s cw"), "lat": ColumnSpec("lat", "deg")}
     assert columnmap_positions(header, cmap, "m", "f.csv") == {"yaw_rate": 7, "lat": 1}
+
+
+def test_coordinates_in_minutes_and_positive_west_convert_to_degrees(tmp_path):
+    """A VBOX-like file (latitude and longitude in minutes of arc, longitude positive
+    west) through a column map: the drive in degrees, in ingest's reader and predict's;
+    a header naming degrees for a column mapped in minutes is refused."""
+    import io
+
+    import pandas as pd
+
+    from rwhonet.data.incremental import read_rows
+    from support.drives import write_columnmap
+    from support.serving import wavy_drive
+
+    df = wavy_drive(30.0)
+    ref = read_columnmap(write_columnmap(df, tmp_path / "deg.csv"), cupac_map(), "cupac")
+    frame = pd.read_csv(tmp_path / "deg.csv")
+    frame["Latitude"] *= 60.0
+    frame["Longitude"] *= -60.0  # minutes, positive west
+    frame.to_csv(tmp_path / "vbox.csv", index=False)
+    cmap = cupac_map(lat=("Latitude", "min"), lon=("Longitude", "min W"))
+    got = read_columnmap(tmp_path / "vbox.csv", cmap, "cupac")
+    np.testing.assert_allclose(got.columns[c.LAT_DEG], ref.columns[c.LAT_DEG], rtol=1e-14)
+    np.testing.assert_allclose(got.columns[c.LON_DEG], ref.columns[c.LON_DEG], rtol=1e-14)
+    _, blocks = read_rows(io.BytesIO((tmp_path / "vbox.csv").read_bytes()), "v", "cupac", cmap)
+    streamed = np.concatenate([b[c.LON_DEG] for _, b in blocks])
+    np.testing.assert_allclose(streamed, ref.columns[c.LON_DEG], rtol=1e-14)
+    frame.rename(columns={"Latitude": "Latitude (deg)"}).to_csv(tmp_path / "x.csv", index=False)
+    with pytest.raises(InputError, match="the header names the column's unit 'deg'"):
+        read_columnmap(tmp_path / "x.csv", cmap, "cupac")
+    with pytest.raises(ConfigError, match=r"cupac\.lat\.unit: expected one of \['deg', 'min'\]"):
+        check_column_map("cupac", cupac_map(lat=("Latitude", "min W")))

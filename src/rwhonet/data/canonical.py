@@ -53,3 +53,8 @@ YAW_RATE_UNITS = {
     "rad/s cw": -1.0,
     "deg/s cw": -math.pi / 180.0,
 }
+# A latitude's and a longitude's units in a column or signal map -> factor to degrees:
+# "min", minutes of arc (Racelogic VBOX files log both so); "W", a longitude positive
+# west (VBOX's convention too: check the logger's), as against ISO 6709's east.
+LAT_UNITS = {"deg": 1.0, "min": 1.0 / 60.0}
+LON_UNITS = {"deg": 1.0, "min": 1.0 / 60.0, "deg W": -1.0, "min W": -1.0 / 60.0}

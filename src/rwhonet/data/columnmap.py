@@ -44,8 +44,9 @@ _WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 18
 KEYS: dict[str, tuple[str, dict[str, float]]] = {
     # iso8601 and hh:mm:ss: a time written as text (rwhonet.data.texttime), parsed to seconds
     "t": (c.T_S, {"s": 1.0, "ms": 1e-3, ISO8601: 1.0, CLOCK: 1.0}),
-    "lat": (c.LAT_DEG, {"deg": 1.0}),
-    "lon": (c.LON_DEG, {"deg": 1.0}),
+    # minutes of arc (Racelogic VBOX logs), a longitude positive west ("W"): c.LAT_UNITS
+    "lat": (c.LAT_DEG, c.LAT_UNITS),
+    "lon": (c.LON_DEG, c.LON_UNITS),
     "omega_fl": (c.OMEGA_FL, _WHEEL_UNITS),
     "omega_fr": (c.OMEGA_FR, _WHEEL_UNITS),
     "omega_rl": (c.OMEGA_RL, _WHEEL_UNITS),

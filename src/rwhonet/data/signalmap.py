@@ -50,8 +50,9 @@ WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys,
 KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     # iso8601, hh:mm:ss: a CSV stream's time written as text (rwhonet.data.texttime)
     "t": (c.T_S, {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, ISO8601: 1.0, CLOCK: 1.0}),
-    "lat": (c.LAT_DEG, {"deg": 1.0}),
-    "lon": (c.LON_DEG, {"deg": 1.0}),
+    # minutes of arc (Racelogic VBOX logs), a longitude positive west ("W"): c.LAT_UNITS
+    "lat": (c.LAT_DEG, c.LAT_UNITS),
+    "lon": (c.LON_DEG, c.LON_UNITS),
     **{key: (name, None) for key, name in zip(WHEEL_KEYS, c.WHEELS, strict=True)},
     "n_sats": (c.N_SATS, {"count": 1.0}),
     "speed_gnss": (c.SPEED_GNSS_M_S, _SPEED),
