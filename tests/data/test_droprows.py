@@ -215,6 +215,18 @@ def test_file_rows_are_the_kept_rows_of_the_file(dropped_mask):
     assert numbering.identity == (dropped.size == 0)
 
 
+def _good_drive_report(tmp_path):
+    """validate's report of the corpus's good target drive, written once."""
+    once = tmp_path / "once"
+    write_good_fleet(once)
+    write_target(once, good_target())
+    p_once = make_params(once)
+    ingest(p_once, tmp_path / "d1", tmp_path / "f1.json")
+    ref = validate(p_once, tmp_path / "d1", tmp_path / "s1", tmp_path / "v1.json")
+    (good,) = [d for d in ref["drives"] if d["drive"] == DRIVE]
+    return good
+
+
 def test_ingest_drops_them_and_validate_reports_them(tmp_path, capsys):
     raw = tmp_path / "raw"
     write_good_fleet(raw)
@@ -231,13 +243,7 @@ def test_ingest_drops_them_and_validate_reports_them(tmp_path, capsys):
     assert drive["repeated_rows"] == {"rows": 3, "listed": [201, 701, 702]}
     assert drive["rows"] == len(df) - 3
     # what is kept is the drive as written once: the same seconds as the good drive
-    once = tmp_path / "once"
-    write_good_fleet(once)
-    write_target(once, good_target())
-    p_once = make_params(once)
-    ingest(p_once, tmp_path / "d1", tmp_path / "f1.json")
-    ref = validate(p_once, tmp_path / "d1", tmp_path / "s1", tmp_path / "v1.json")
-    (good,) = [d for d in ref["drives"] if d["drive"] == DRIVE]
+    good = _good_drive_report(tmp_path)
     assert (drive["seconds_kept"], drive["segments"]) == (good["seconds_kept"], good["segments"])
     assert "repeated_rows" not in good
     assert json.loads((tmp_path / "v.json").read_text())["drives"] == report["drives"]
@@ -258,13 +264,7 @@ def test_a_block_written_again_is_dropped_and_the_drive_is_the_one_written_once(
     assert entry["repeated_rows"] == [*range(401, 451), *range(1151, 1251)]
     report = validate(params, tmp_path / "drives", tmp_path / "seg", tmp_path / "v.json")
     (drive,) = [d for d in report["drives"] if d["drive"] == DRIVE]
-    once = tmp_path / "once"
-    write_good_fleet(once)
-    write_target(once, good_target())
-    p_once = make_params(once)
-    ingest(p_once, tmp_path / "d1", tmp_path / "f1.json")
-    ref = validate(p_once, tmp_path / "d1", tmp_path / "s1", tmp_path / "v1.json")
-    (good,) = [d for d in ref["drives"] if d["drive"] == DRIVE]
+    good = _good_drive_report(tmp_path)
     assert (drive["seconds_kept"], drive["segments"]) == (good["seconds_kept"], good["segments"])
     # one value of the block written again differs: not a copy, and refused as before
     bad = written_again(good_target(), 400, 301, 350)

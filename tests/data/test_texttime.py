@@ -46,6 +46,20 @@ def clock(t_s: np.ndarray) -> list[str]:
     return out
 
 
+def summer_time_ending(t_s, offsets: bool) -> list[str]:
+    """Times (s from 10 s before 01:00 UTC on 2019-10-27) as Central European local ISO
+    text, summer time ending at 01:00 UTC (03:00 CEST -> 02:00 CET), with or without the
+    offsets."""
+    start = datetime(2019, 10, 27, 0, 59, 50, tzinfo=UTC)
+    cells = []
+    for t in np.asarray(t_s):
+        when = start + timedelta(milliseconds=round(t * 1000))
+        local = when.astimezone(timezone(timedelta(hours=2 if when.hour < 1 else 1)))
+        local = local if offsets else local.replace(tzinfo=None)
+        cells.append(local.isoformat(timespec="milliseconds"))
+    return cells
+
+
 def with_time_text(path, column: int, cells: list[str]):
     """A CSV with one column's cells replaced by text (the others as written)."""
     lines = path.read_text().splitlines()
@@ -160,12 +174,7 @@ def test_an_iovnbd_file_with_clock_times_passes_midnight_as_seconds_do(drive, tm
 def test_a_summer_time_change_with_offsets_stays_continuous(tmp_path):
     """Local clock 02:59:59.9+02:00 then 02:00:00.0+01:00: 0.1 s later, not an hour back."""
     df = wavy_drive(20.0, t0_s=0.0)
-    start = datetime(2019, 10, 27, 0, 59, 50, tzinfo=UTC)
-    cells = []
-    for t in df[c.T_S]:
-        when = start + timedelta(milliseconds=round(t * 1000))
-        local = when.astimezone(timezone(timedelta(hours=2 if when.hour < 1 else 1)))
-        cells.append(local.isoformat(timespec="milliseconds"))
+    cells = summer_time_ending(df[c.T_S], offsets=True)
     assert cells[99].startswith("2019-10-27T02:59:59.900+02:00")
     assert cells[100].startswith("2019-10-27T02:00:00.000+01:00")
     got = read_iovnbd(with_time_text(write_iovnbd(df, tmp_path / "V-D.csv"), 1, cells))
@@ -387,12 +396,7 @@ def test_local_times_without_offsets_through_summer_time_s_end_are_refused_with_
     from support.serving import base_bundle, predict_args
 
     df = wavy_drive(40.0, t0_s=0.0)
-    start = datetime(2019, 10, 27, 0, 59, 50, tzinfo=UTC)
-    cells = []
-    for t in df[c.T_S]:
-        when = start + timedelta(milliseconds=round(t * 1000))
-        local = when.astimezone(timezone(timedelta(hours=2 if when.hour < 1 else 1)))
-        cells.append(local.replace(tzinfo=None).isoformat(timespec="milliseconds"))
+    cells = summer_time_ending(df[c.T_S], offsets=False)
     path = with_time_text(write_iovnbd(df, tmp_path / "V-D.csv"), 1, cells)
     out = tmp_path / "out.csv"
     bundle = base_bundle(tmp_path / "bundle")
