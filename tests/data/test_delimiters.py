@@ -44,8 +44,9 @@ def test_an_iovnbd_file_in_another_locale_reads_as_the_comma_separated_one(sep, 
         np.testing.assert_array_equal(got.columns[k], ref.columns[k])
     assert any("separated by" in n and "decimal mark" in n for n in got.notes)
     for data, name in ((path.read_bytes(), "file"), (ref_path.read_bytes(), "ref")):
-        _, blocks = read_rows(io.BytesIO(data), name, block_bytes=2048)
+        lay, blocks = read_rows(io.BytesIO(data), name, block_bytes=2048)
         cols = [b for _, b in blocks]
+        assert any("separated by" in n for n in lay.notes) == (name == "file")
         if name == "file":
             streamed = {k: np.concatenate([b[k] for b in cols]) for k in c.REQUIRED}
         else:

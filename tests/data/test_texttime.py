@@ -15,7 +15,13 @@ from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import read_columnmap
 from rwhonet.data.incremental import read_rows
 from rwhonet.data.iovnbd import read_iovnbd
-from rwhonet.data.texttime import CLOCK, ISO8601, parse_text_times, text_time_unit
+from rwhonet.data.texttime import (
+    CLOCK,
+    ISO8601,
+    parse_text_times,
+    text_time_note,
+    text_time_unit,
+)
 from rwhonet.errors import InputError
 from support.drives import CUPAC_MAP, column_map_params, write_columnmap, write_iovnbd
 from support.serving import wavy_drive
@@ -204,8 +210,10 @@ def test_the_streaming_reader_gives_the_ingest_reader_s_times(drive, tmp_path):
     got = {}
     for name, path in (("s", seconds), ("iso", text)):
         with open(path, "rb") as f:
-            _, blocks = read_rows(f, path.name, block_bytes=2048)
+            lay, blocks = read_rows(f, path.name, block_bytes=2048)
             got[name] = np.concatenate([cols[c.T_S] for _, cols in blocks])
+        # what the reader did, for predict's stderr
+        assert lay.notes == ([] if name == "s" else [text_time_note(" Time", ISO8601)])
     np.testing.assert_allclose(got["iso"], got["s"] + DAY_S, rtol=0, atol=1e-5)
     # a quoted cell with a decimal comma (ISO 8601 allows it) goes through csv's quoting
     comma = with_time_text(

@@ -261,11 +261,12 @@ def run(
         seconds = rows = 0
         done = False
         try:
+            read_notes: list[str] = []  # how the rows were read (text times, ';'), as filled
             if drive_blocks is not None:
                 names, blocks = drive_blocks
             else:
                 lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
-                names = lay.names
+                names, read_notes = lay.names, lay.notes
             uc = unit_check or UnitCheck()
             vp = uc.validate or default_validate()
             # a row written twice, or without a wheel speed, is dropped, as ingest drops
@@ -346,6 +347,7 @@ def run(
         "stream_glitches": list(stream_glitches or []),
         "drive_notes": [
             *drive_notes,
+            *(f"{name}: {note}" for note in read_notes),
             *dropped.notes(name),
             *([f"{name}: {held_fixes.note}"] if held_fixes.note else []),
         ],

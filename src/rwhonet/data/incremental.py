@@ -25,7 +25,7 @@ import os
 import select
 import stat
 from collections.abc import Collection, Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import BinaryIO
 
 import numpy as np
@@ -75,6 +75,9 @@ class Layout:
     names: dict[str, str]
     time_unit: str | None = None
     time_setting: str = ""
+    # how the rows were read where a reader would note it (a time written as text, a file
+    # separated by ';'), filled as the first rows arrive
+    notes: list[str] = field(default_factory=list)
 
 
 def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -> Layout:
@@ -432,7 +435,11 @@ def _blocks(
     cr_rest: bytes | None = None,
     delimiter: str = ",",
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-    from rwhonet.data.csvio import as_comma_separated
+    from rwhonet.data.csvio import as_comma_separated, delimiter_note
+    from rwhonet.data.texttime import text_time_note
+
+    if (said := delimiter_note(delimiter)) is not None:
+        lay.notes.append(said)
 
     # read1: what a buffered file has, without waiting; a raw pipe's read() returns what
     # the pipe has (the generator holds ``stream``, which owns the pipe's descriptor)
@@ -454,6 +461,8 @@ def _blocks(
         lines, pending = pending[: end + 1], pending[end + 1 :]
         if form is None and lines.strip():
             form = _TimeForm.of(lines.decode("utf-8", errors="replace"), lay, file)
+            if form.text is not None:
+                lay.notes.append(text_time_note(lay.names[c.T_S], form.text))
         columns = parse_lines(lines, lay, row, file, form)
         if len(columns[c.T_S]):
             yield row, columns
@@ -461,6 +470,8 @@ def _blocks(
     if pending.strip():
         if form is None:
             form = _TimeForm.of(pending.decode("utf-8", errors="replace"), lay, file)
+            if form.text is not None:
+                lay.notes.append(text_time_note(lay.names[c.T_S], form.text))
         columns = parse_lines(pending, lay, row, file, form)
         yield row, columns
     elif row == 1:
