@@ -25,7 +25,7 @@ import csv
 import io
 import re
 import sys
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -140,9 +140,14 @@ def first_cell(path: Path, pos: int, limit: int = 1 << 16) -> str | None:
             data = f.read(limit)
     except OSError:
         return None
-    data = as_comma_separated(data, file_delimiter(path))
+    data = as_comma_separated(data, delimiter_of(data[: first_line_end(data)]))
     lines = data.decode("utf-8", errors="replace").splitlines()  # LF, CR LF or a lone CR
-    lines = lines[1:-1] if len(data) == limit else lines[1:]  # the header; a cut-off row
+    return first_cell_in(lines[1:-1] if len(data) == limit else lines[1:], pos)  # a cut-off row
+
+
+def first_cell_in(lines: Iterable[str], pos: int) -> str | None:
+    """The first non-empty cell of column ``pos`` in comma-separated data lines (blank
+    lines skipped; None: none)."""
     for cells in csv.reader(line for line in lines if line.strip()):
         if pos < len(cells) and cells[pos].strip():
             return cells[pos]

@@ -137,17 +137,10 @@ class _TimeForm:
         Raises:
             InputError: a column map declares numbers (s, ms) and the time is text.
         """
+        from rwhonet.data.csvio import first_cell_in
         from rwhonet.data.texttime import declared_text_unit
 
-        pos = lay.positions[c.T_S]
-        cell = next(
-            (
-                cells[pos]
-                for cells in csv.reader(_nonblank(lines))
-                if pos < len(cells) and cells[pos].strip()
-            ),
-            None,
-        )
+        cell = first_cell_in(lines.splitlines(), lay.positions[c.T_S])
         return cls(
             declared_text_unit(lay.time_unit, cell, lay.names[c.T_S], lay.time_setting, file)
         )
