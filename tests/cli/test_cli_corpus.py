@@ -257,6 +257,28 @@ def _clock(t: float) -> str:
     return f"{ms // 3_600_000:02d}:{ms // 60_000 % 60:02d}:{ms % 60_000 / 1000:06.3f}"
 
 
+def _nmea_fields(path: Path) -> Path:
+    """The CSV at ``path`` with NMEA's fields as a receiver writes them and headers that say
+    so: the time of day as hhmmss.ss, latitude and longitude as ddmm.mmmm (west negative)."""
+    frame = pd.read_csv(path)
+    renamed = {}
+    for col in frame.columns:
+        if col.strip() in ("Lat", "Long"):
+            deg = frame[col].to_numpy(float)
+            whole = np.trunc(np.abs(deg))
+            frame[col] = np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
+            renamed[col] = f"{col} (ddmm.mmmm)"
+        elif col.strip() == "Time":
+            hours, rest = np.divmod(np.round(frame[col].to_numpy(float), 6), 3600.0)
+            minutes, seconds = np.divmod(rest, 60.0)
+            assert hours.max() < 24
+            frame[col] = 10_000.0 * hours + 100.0 * minutes + seconds
+            renamed[col] = f"{col} (hhmmss.ss)"
+    assert len(renamed) == 3
+    frame.rename(columns=renamed).to_csv(path, index=False)
+    return path
+
+
 ISO_DAY = datetime(2019, 3, 11, tzinfo=UTC)
 LOGGER_HABITS = {
     "columns in another order": (lambda d: d, _columns_shuffled),
@@ -264,6 +286,7 @@ LOGGER_HABITS = {
     "a clock across midnight": (_across_midnight, lambda p: p),
     "jittered ISO 8601 text times": (_jittered, lambda p: _time_as_text(p, _iso)),
     "hh:mm:ss text across midnight": (_across_midnight, lambda p: _time_as_text(p, _clock)),
+    "NMEA's hhmmss.ss and ddmm.mmmm across midnight": (_across_midnight, _nmea_fields),
 }
 
 

@@ -77,7 +77,9 @@ def test_check_column_map_lists_every_issue():
     text = str(err.value)
     assert "data.column_maps.cupac.speed: unknown key" in text
     assert "data.column_maps.cupac.lon: missing" in text
-    units = "['s', 'ms', 'iso8601', 'hh:mm:ss'] or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)"
+    units = (
+        "['s', 'ms', 'iso8601', 'hh:mm:ss', 'hhmmss'] or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)"
+    )
     assert f"data.column_maps.cupac.t.unit: expected one of {units}, got 'min'" in text
     assert "data.column_maps.cupac.omega_rr.unit" in text and "'km/h'" in text
 
@@ -146,5 +148,81 @@ def test_coordinates_in_minutes_and_positive_west_convert_to_degrees(tmp_path):
     frame.rename(columns={"Latitude": "Latitude (deg)"}).to_csv(tmp_path / "x.csv", index=False)
     with pytest.raises(InputError, match="the header names the column's unit 'deg'"):
         read_columnmap(tmp_path / "x.csv", cmap, "cupac")
-    with pytest.raises(ConfigError, match=r"cupac\.lat\.unit: expected one of \['deg', 'min'\]"):
+    with pytest.raises(
+        ConfigError, match=r"cupac\.lat\.unit: expected one of \['deg', 'min', 'ddmm'\]"
+    ):
         check_column_map("cupac", cupac_map(lat=("Latitude", "min W")))
+    # a longitude positive west under a header naming degrees: the direction is no unit
+    frame["Longitude"] /= 60.0
+    frame.rename(columns={"Longitude": "Longitude (deg)"}).to_csv(tmp_path / "w.csv", index=False)
+    west = read_columnmap(tmp_path / "w.csv", cupac_map(lon=("Longitude", "deg W")), "cupac")
+    np.testing.assert_allclose(west.columns[c.LON_DEG], ref.columns[c.LON_DEG], rtol=1e-14)
+
+
+def _ddmm(deg: np.ndarray) -> np.ndarray:
+    whole = np.trunc(np.abs(deg))
+    return np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
+
+
+def _hhmmss(t_s: np.ndarray) -> np.ndarray:
+    hours, rest = np.divmod(np.round(t_s, 3) % 86400.0, 3600.0)
+    minutes, seconds = np.divmod(rest, 60.0)
+    return 10_000.0 * hours + 100.0 * minutes + seconds
+
+
+def test_nmea_coordinates_and_a_packed_time_of_day_across_midnight(tmp_path):
+    """A logger that copies NMEA's fields: latitude and longitude as ddmm.mmmm (a minus
+    sign for west), the UTC time of day as hhmmss.ss passing midnight. Read through a
+    column map as the same drive in degrees and seconds, by ingest's reader and predict's;
+    a minute of 60 or more is refused with its row, and a header naming its unit is held
+    to the map's."""
+    import io
+
+    import pandas as pd
+
+    from rwhonet.data.incremental import read_rows
+    from support.drives import write_columnmap
+    from support.serving import wavy_drive
+
+    df = wavy_drive(30.0)
+    ref = read_columnmap(write_columnmap(df, tmp_path / "deg.csv"), cupac_map(), "cupac")
+    frame = pd.read_csv(tmp_path / "deg.csv")
+    start = 23 * 3600 + 59 * 60 + 50.0  # 10 s before midnight
+    t = ref.columns[c.T_S] - ref.columns[c.T_S][0] + start
+    frame["Time"] = _hhmmss(t)
+    frame["Latitude"] = _ddmm(frame["Latitude"].to_numpy())
+    frame["Longitude"] = _ddmm(-2.0 + frame["Longitude"].to_numpy())  # west of Greenwich
+    frame.rename(columns={"Latitude": "Lat (ddmm.mmmm)"}).to_csv(tmp_path / "n.csv", index=False)
+    cmap = cupac_map(t=("Time", "hhmmss"), lat=("Lat", "ddmm"), lon=("Longitude", "ddmm"))
+    got = read_columnmap(tmp_path / "n.csv", cmap, "cupac")
+    np.testing.assert_allclose(got.columns[c.T_S], t, rtol=0, atol=1e-6)
+    assert got.columns[c.T_S][-1] > 86400.0  # continued past midnight
+    assert any("midnight" in note for note in got.notes)
+    np.testing.assert_allclose(got.columns[c.LAT_DEG], ref.columns[c.LAT_DEG], rtol=0, atol=1e-12)
+    lon = ref.columns[c.LON_DEG] - 2.0
+    np.testing.assert_allclose(got.columns[c.LON_DEG], lon, rtol=0, atol=1e-12)
+    raw = (tmp_path / "n.csv").read_bytes()
+    _, blocks = read_rows(io.BytesIO(raw), "n", "cupac", cmap)
+    blocks = list(blocks)
+    for name, want in ((c.LAT_DEG, ref.columns[c.LAT_DEG]), (c.LON_DEG, lon)):
+        got_streamed = np.concatenate([b[name] for _, b in blocks])
+        np.testing.assert_allclose(got_streamed, want, rtol=0, atol=1e-12)
+    streamed_t = np.concatenate([b[c.T_S] for _, b in blocks])
+    np.testing.assert_allclose(streamed_t % 86400.0, t % 86400.0, rtol=0, atol=1e-6)
+    # row 7's latitude with 61 minutes: refused in both readers, naming row and setting
+    frame.loc[6, "Lat (ddmm.mmmm)"] = 5261.0
+    frame.to_csv(tmp_path / "bad.csv", index=False)
+    for read in (
+        lambda: read_columnmap(tmp_path / "bad.csv", cmap, "cupac"),
+        lambda: list(
+            read_rows(io.BytesIO((tmp_path / "bad.csv").read_bytes()), "b", "cupac", cmap)[1]
+        ),
+    ):
+        with pytest.raises(InputError) as err:
+            read()
+        (problem,) = err.value.problems
+        assert (problem.row, problem.column) == (7, "Lat (ddmm.mmmm)")
+        assert "ddmm.mmmm" in problem.expected and "data.column_maps.cupac.lat.unit" in problem.fix
+    frame.rename(columns={"Lat (ddmm.mmmm)": "Lat (deg)"}).to_csv(tmp_path / "d.csv", index=False)
+    with pytest.raises(InputError, match="the header names the column's unit 'deg'"):
+        read_columnmap(tmp_path / "d.csv", cmap, "cupac")

@@ -106,7 +106,7 @@ def test_a_unit_the_quantity_has_not_is_refused(tmp_path):
         read_iovnbd(_write(df, names, tmp_path / "V-U.csv"))
     (p,) = err.value.problems
     assert (p.file, p.column) == (str(tmp_path / "V-U.csv"), "Latitude (m/s)")
-    assert "a unit of angle (deg)" in p.expected and "'m/s'" in p.found
+    assert "a unit of angle (deg, ddmm)" in p.expected and "'m/s'" in p.found
 
 
 def test_two_columns_naming_one_channel_are_refused(tmp_path):

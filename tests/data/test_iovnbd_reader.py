@@ -180,3 +180,55 @@ def test_file_without_header_row_is_refused_not_shortened(tmp_path):
         read_iovnbd(_write(tmp_path, _lines()[1:]))
     (problem,) = err.value.problems
     assert problem.expected.startswith("a header row first") and "29 numbers" in problem.found
+
+
+def test_nmea_fields_named_in_the_header_are_unpacked_by_both_readers(tmp_path):
+    """'Time (hhmmss.ss)', 'Lat (ddmm.mmmm)', 'Long (ddmm.mmmm)': the header names NMEA's
+    packed fields, and ingest's reader and predict's give the drive in seconds and degrees;
+    a minute of 60 or more is refused with its row, the header named as the declaration;
+    a packed unit on a channel that has none (a heading) is refused as any unknown unit."""
+    import io
+
+    import pandas as pd
+
+    from rwhonet.data.incremental import read_rows
+    from support.drives import write_iovnbd
+    from support.serving import wavy_drive
+
+    ref_path = write_iovnbd(wavy_drive(30.0), tmp_path / "V-Deg.csv")
+    ref = read_iovnbd(ref_path)
+    frame = pd.read_csv(ref_path)
+    for col in (" Lat", " Long"):
+        deg = frame[col].to_numpy(float)
+        whole = np.trunc(np.abs(deg))
+        frame[col] = np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
+    hours, rest = np.divmod(np.round(frame[" Time"].to_numpy(float), 6), 3600.0)
+    frame[" Time"] = 10_000.0 * hours + 100.0 * (rest // 60.0) + rest % 60.0
+    frame = frame.rename(
+        columns={
+            " Time": " Time (hhmmss.ss)",
+            " Lat": " Lat (ddmm.mmmm)",
+            " Long": " Long [ddmm.mmmm]",
+        }
+    )
+    frame.to_csv(tmp_path / "V-Nmea.csv", index=False)
+    got = read_iovnbd(tmp_path / "V-Nmea.csv")
+    assert got.header_match == "name"
+    for name in (c.T_S, c.LAT_DEG, c.LON_DEG, c.OMEGA_RL):
+        np.testing.assert_allclose(got.columns[name], ref.columns[name], rtol=0, atol=1e-9)
+    _, blocks = read_rows(io.BytesIO((tmp_path / "V-Nmea.csv").read_bytes()), "v", "iovnbd")
+    streamed = list(blocks)
+    for name in (c.T_S, c.LAT_DEG, c.LON_DEG):
+        values = np.concatenate([b[name] for _, b in streamed])
+        np.testing.assert_allclose(values, ref.columns[name], rtol=0, atol=1e-9)
+    frame.loc[11, " Long [ddmm.mmmm]"] = -160.5
+    frame.to_csv(tmp_path / "V-Bad.csv", index=False)
+    with pytest.raises(InputError) as err:
+        read_iovnbd(tmp_path / "V-Bad.csv")
+    (problem,) = err.value.problems
+    assert (problem.row, problem.column, problem.found) == (12, "Long [ddmm.mmmm]", "-160.5")
+    assert "its header 'Long [ddmm.mmmm]' declares 'ddmm'" in (problem.fix or "")
+    frame = frame.rename(columns={" Heading": " Heading (ddmm.mmmm)"})
+    frame.to_csv(tmp_path / "V-Heading.csv", index=False)
+    with pytest.raises(InputError, match=r"expected a unit of angle \(deg\)"):
+        read_iovnbd(tmp_path / "V-Heading.csv")

@@ -39,7 +39,11 @@ MDF_MAP = _spec(
 
 
 def _write_mdf(
-    path, yaw_deg_s: float = 3.0, yaw_t0_s: float = 0.0, yaw_samples: int | None = None
+    path,
+    yaw_deg_s: float = 3.0,
+    yaw_t0_s: float = 0.0,
+    yaw_samples: int | None = None,
+    nmea_lat: bool = False,
 ) -> None:
     from asammdf import MDF, Signal
 
@@ -62,9 +66,11 @@ def _write_mdf(
     )
     t_g = np.arange(0.05, 40.0, 0.2)
     lat = 48.1 + V * t_g / 111_200.0
+    if nmea_lat:  # NMEA's ddmm.mmmm, the unit left empty, as a receiver's raw field
+        lat = 4800.0 + 60.0 * (lat - 48.0)
     mdf.append(
         [
-            Signal(lat, t_g, name="GPS_Lat", unit="deg"),
+            Signal(lat, t_g, name="GPS_Lat", unit="" if nmea_lat else "deg"),
             Signal(np.full(t_g.size, 11.5), t_g, name="GPS_Lon", unit="°"),
         ]
     )
@@ -247,6 +253,60 @@ def test_stream_csvs_across_midnight_give_the_labels_of_the_drive_by_day(
     np.testing.assert_allclose(night["t_s"], day["t_s"] + shift, rtol=0, atol=1e-3)
     for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(night[q], day[q], rtol=0, atol=1e-6)
+
+
+def test_nmea_fields_in_stream_csvs_and_an_mdf4_signal_read_as_degrees_and_seconds(tmp_path):
+    """A receiver's file with NMEA's ddmm.mmmm coordinates (south and west as a minus sign)
+    and every file's time of day as hhmmss.ss: the same drive as in degrees and seconds.
+    A minute of 60 or more is refused naming the file, its row and column; an MDF4 signal
+    in ddmm.mmmm reads as degrees, and one whose own unit is degrees is held to it."""
+    t_w = np.arange(0.0, 30.0, 0.0125) + 9 * 3600.0 + 59 * 60.0 + 45.0  # 09:59:45 on
+    t_g = np.arange(0.0, 30.0, 1.0) + t_w[0] + 0.3
+    omega = V / R * 60 / (2 * math.pi)
+    lat = -33.9 - V * (t_g - t_w[0]) / 110_900.0
+    wheels = {f"w{k}": omega for k in range(4)}
+
+    def hhmmss(t: np.ndarray) -> np.ndarray:
+        hours, rest = np.divmod(np.round(t, 4), 3600.0)
+        minutes, seconds = np.divmod(rest, 60.0)
+        return 10_000.0 * hours + 100.0 * minutes + seconds
+
+    def ddmm(deg: np.ndarray) -> np.ndarray:
+        whole = np.trunc(np.abs(deg))
+        return np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
+
+    def write(folder, packed: bool):
+        folder.mkdir()
+        time = hhmmss if packed else (lambda t: t)
+        angle = ddmm if packed else (lambda a: a)
+        pd.DataFrame({"Time": time(t_w), **wheels}).to_csv(folder / "can.csv", index=False)
+        gps = {"Time": time(t_g), "lat": angle(lat), "lon": angle(np.full(t_g.size, -58.4))}
+        pd.DataFrame(gps).to_csv(folder / "gps.csv", index=False)
+        return sorted(folder.glob("*.csv"))
+
+    wheel_keys = {f"omega_{w}": (f"w{k}", "rpm") for k, w in enumerate(("fl", "fr", "rl", "rr"))}
+    plain = _spec(t=("Time", "s"), lat=("lat", "deg"), lon=("lon", "deg"), **wheel_keys)
+    nmea = _spec(t=("Time", "hhmmss"), lat=("lat", "ddmm"), lon=("lon", "ddmm"), **wheel_keys)
+    want = resample(read_stream_csvs(write(tmp_path / "s", False), plain, R)).drive.columns
+    got = resample(read_stream_csvs(write(tmp_path / "p", True), nmea, R)).drive.columns
+    for name in (c.T_S, c.LAT_DEG, c.LON_DEG, c.OMEGA_RL):
+        np.testing.assert_allclose(got[name], want[name], rtol=0, atol=1e-6)
+    gps = pd.read_csv(tmp_path / "p" / "gps.csv")
+    gps.loc[4, "lat"] = -3375.0
+    gps.to_csv(tmp_path / "p" / "gps.csv", index=False)
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(sorted((tmp_path / "p").glob("*.csv")), nmea, R)
+    (problem,) = err.value.problems
+    assert problem.file.endswith("gps.csv") and (problem.row, problem.column) == (5, "lat")
+    assert problem.found == "-3375.0"
+
+    path = tmp_path / "log.mf4"
+    _write_mdf(path, nmea_lat=True)
+    smap = MDF_MAP | _spec(lat=("GPS_Lat", "ddmm"))
+    d = resample(read_mdf4(path, smap, R), max_fix_gap_s=1.5).drive.columns
+    np.testing.assert_allclose(d[c.LAT_DEG], 48.1 + V * d[c.T_S] / 111_200.0, atol=1e-9)
+    with pytest.raises(InputError, match="the file says '°'"):
+        read_mdf4(path, MDF_MAP | _spec(lon=("GPS_Lon", "ddmm")), R)
 
 
 def test_time_going_back_in_a_stream_csv_outside_midnight_is_still_refused(tmp_path):

@@ -27,6 +27,8 @@
 - :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
   write them; a drive's clock (midnight rollover, each row's slot on the grid).
 - :mod:`~rwhonet.data.texttime`: time columns written as text (ISO 8601, ``hh:mm:ss``).
+- :mod:`~rwhonet.data.packed`: NMEA's numbers packed from parts (``ddmm.mmmm`` angles,
+  ``hhmmss.ss`` times of day).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
 - :mod:`~rwhonet.data.robust`: a robust scale (the normal-scaled MAD) and a running
   trapezoid integral, scipy's arithmetic without scipy's import.

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 
+from rwhonet.data.packed import DDMM, DDMM_W
+
 T_S = "t_s"  # time, s (monotonic within a drive)
 LAT_DEG = "lat_deg"  # WGS84 latitude, deg
 LON_DEG = "lon_deg"  # WGS84 longitude, deg
@@ -56,5 +58,14 @@ YAW_RATE_UNITS = {
 # A latitude's and a longitude's units in a column or signal map -> factor to degrees:
 # "min", minutes of arc (Racelogic VBOX files log both so); "W", a longitude positive
 # west (VBOX's convention too: check the logger's), as against ISO 6709's east.
-LAT_UNITS = {"deg": 1.0, "min": 1.0 / 60.0}
-LON_UNITS = {"deg": 1.0, "min": 1.0 / 60.0, "deg W": -1.0, "min W": -1.0 / 60.0}
+# "ddmm": degrees and minutes run together (NMEA's ddmm.mmmm), no factor (NaN: a reader
+# that multiplied by it would give no values, not wrong ones): rwhonet.data.packed.
+LAT_UNITS = {"deg": 1.0, "min": 1.0 / 60.0, DDMM: math.nan}
+LON_UNITS = {
+    "deg": 1.0,
+    "min": 1.0 / 60.0,
+    "deg W": -1.0,
+    "min W": -1.0 / 60.0,
+    DDMM: math.nan,
+    DDMM_W: math.nan,
+}

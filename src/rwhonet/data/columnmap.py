@@ -25,7 +25,8 @@ from rwhonet.data.csvio import (
     read_header,
     read_numeric,
 )
-from rwhonet.data.headers import header_key, unit_name
+from rwhonet.data.headers import header_key, map_unit_name, unit_name
+from rwhonet.data.packed import HHMMSS, is_packed, unpack_or_refuse
 from rwhonet.data.texttime import (
     CLOCK,
     ISO8601,
@@ -42,9 +43,11 @@ _WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 18
 
 # Column-map key -> (canonical name, {unit: factor to SI}).
 KEYS: dict[str, tuple[str, dict[str, float]]] = {
-    # iso8601 and hh:mm:ss: a time written as text (rwhonet.data.texttime), parsed to seconds
-    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, ISO8601: 1.0, CLOCK: 1.0}),
-    # minutes of arc (Racelogic VBOX logs), a longitude positive west ("W"): c.LAT_UNITS
+    # iso8601 and hh:mm:ss: a time written as text (rwhonet.data.texttime), parsed to seconds;
+    # hhmmss: a time of day as the number hhmmss.ss (rwhonet.data.packed)
+    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, ISO8601: 1.0, CLOCK: 1.0, HHMMSS: math.nan}),
+    # minutes of arc (Racelogic VBOX logs), NMEA's ddmm.mmmm (rwhonet.data.packed), a
+    # longitude positive west ("W"): c.LAT_UNITS
     "lat": (c.LAT_DEG, c.LAT_UNITS),
     "lon": (c.LON_DEG, c.LON_UNITS),
     "omega_fl": (c.OMEGA_FL, _WHEEL_UNITS),
@@ -131,7 +134,12 @@ def read_columnmap(
     for key, spec in column_map.items():
         canonical, factors = KEYS[key]
         pos, factor = positions[key], factors.get(spec.unit, 1.0)  # a strptime pattern: s
-        if pos in shared or not values[pos].flags.writeable:  # two keys read one column
+        if is_packed(spec.unit):
+            where = f"data.column_maps.{name}.{key}.unit"
+            columns[canonical] = unpack_or_refuse(
+                values[pos], spec.unit, file, header[pos], setting=where
+            )
+        elif pos in shared or not values[pos].flags.writeable:  # two keys read one column
             columns[canonical] = values[pos] * factor
         else:  # in place: the reader's arrays are ours, and a copy would hold a column twice
             columns[canonical] = np.multiply(values[pos], factor, out=values[pos])
@@ -193,7 +201,7 @@ def columnmap_positions(
     for key, pos in found.items():
         said = unit_name(header_key(header[pos])[1])
         declared = column_map[key].unit
-        if said is not None and said != unit_name(declared.removesuffix(" cw")):
+        if said is not None and said != map_unit_name(declared):
             problems.append(
                 Problem(
                     file,

@@ -29,6 +29,14 @@ UNIT_ALIASES: dict[str, str] = {
     **dict.fromkeys(("g",), "g"),
     **dict.fromkeys(("m/s2", "m/s^2", "m/s²", "m/s/s", "ms-2", "ms^-2"), "m/s2"),
     **dict.fromkeys(("count", "#", "n"), "count"),
+    # an angle in minutes of arc; degrees and minutes run together, NMEA's ddmm.mmmm; a time
+    # of day as hhmmss.ss (rwhonet.data.packed)
+    **dict.fromkeys(("min", "mins", "arcmin", "'"), "min"),
+    **dict.fromkeys(
+        ("ddmm", "dddmm", *(f"{d}mm.{'m' * k}" for d in ("dd", "ddd") for k in range(1, 6))),
+        "ddmm",
+    ),
+    **dict.fromkeys(("hhmmss", *(f"hhmmss.{'s' * k}" for k in range(1, 4))), "hhmmss"),
 }
 # Units a header may end with without brackets (" Velocity kmh", "time_s", "lat_deg").
 TRAILING_UNITS = frozenset(
@@ -68,3 +76,10 @@ def header_key(cell: str) -> tuple[str, str | None]:
 def unit_name(unit: str | None) -> str | None:
     """The unit's name in :data:`UNIT_ALIASES` (None when unknown or not given)."""
     return None if unit is None else UNIT_ALIASES.get(unit.replace(" ", "").lower())
+
+
+def map_unit_name(unit: str) -> str | None:
+    """The name of a unit a column or signal map declares, without the direction it may add
+    (``deg/s cw``: a gyro positive clockwise; ``min W``: a longitude positive west), which a
+    header does not name: ``deg/s cw`` and ``deg/s`` are both the header's ``(deg/s)``."""
+    return unit_name(unit.removesuffix(" cw").removesuffix(" W"))

@@ -32,6 +32,7 @@ import numpy as np
 
 from rwhonet.config import GnssPolicy
 from rwhonet.data import canonical as c
+from rwhonet.data.packed import is_packed, unpack_or_refuse
 from rwhonet.data.problems import no_data_rows
 from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
 from rwhonet.errors import InputError, Problem
@@ -67,6 +68,9 @@ class Layout:
             ``iso8601``, ``hh:mm:ss``); None for an IO-VNBD file, whose time is read in the
             form its first row shows (seconds, or text: :mod:`rwhonet.data.texttime`).
         time_setting: where a column map declares it (for messages).
+        packed: canonical name -> a packed unit a column map declares for it (``ddmm``,
+            ``hhmmss``: :mod:`rwhonet.data.packed`) and where it is declared; unpacked
+            after the factors (whose entry is 1.0).
     """
 
     n_columns: int
@@ -75,6 +79,7 @@ class Layout:
     names: dict[str, str]
     time_unit: str | None = None
     time_setting: str = ""
+    packed: dict[str, tuple[str, str]] = field(default_factory=dict)
     # how the rows were read where a reader would note it (a time written as text, a file
     # separated by ';'), filled as the first rows arrive
     notes: list[str] = field(default_factory=list)
@@ -93,18 +98,37 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         InputError: the channels cannot be located.
     """
     if fmt == "iovnbd":
-        from rwhonet.data.iovnbd import column_factors, iovnbd_columns
+        from rwhonet.data.iovnbd import (
+            column_factors,
+            column_packed,
+            header_setting,
+            iovnbd_columns,
+        )
 
         positions, _ = iovnbd_columns(header, file)
         factors = column_factors(header, positions)
+        packed = {
+            name: (unit, header_setting(header[positions[name]]))
+            for name, unit in column_packed(header, positions).items()
+        }
     else:
         from rwhonet.data.columnmap import KEYS, check_column_map, columnmap_positions
 
         check_column_map(fmt, column_map or {})
         by_key = columnmap_positions(header, column_map or {}, fmt, file)
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
-        # a strptime pattern for the time is text, read as seconds: factor 1
-        factors = {KEYS[key][0]: KEYS[key][1].get(column_map[key].unit, 1.0) for key in by_key}
+        # a strptime pattern for the time is text, read as seconds: factor 1; a packed unit
+        # is unpacked (factor 1 before)
+        units = {key: (column_map or {})[key].unit for key in by_key}
+        factors = {
+            KEYS[key][0]: 1.0 if is_packed(unit) else KEYS[key][1].get(unit, 1.0)
+            for key, unit in units.items()
+        }
+        packed = {
+            KEYS[key][0]: (unit, f"data.column_maps.{fmt}.{key}.unit")
+            for key, unit in units.items()
+            if is_packed(unit)
+        }
     wanted = carried_channels(positions)
     positions = {name: positions[name] for name in wanted}
     declared = None if fmt == "iovnbd" else (column_map or {})["t"].unit
@@ -115,6 +139,7 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         names={name: header[pos] for name, pos in positions.items()},
         time_unit=declared,
         time_setting=f"data.column_maps.{fmt}.t.unit",
+        packed={name: how for name, how in packed.items() if name in wanted},
     )
 
 
@@ -506,6 +531,10 @@ def parse_lines(
         name: values[:, i] * lay.factors[name] if lay.factors[name] != 1.0 else values[:, i]
         for i, name in enumerate(names)
     }
+    for name, (unit, setting) in lay.packed.items():
+        if name in out:
+            rows = first_row + np.arange(len(out[name]))
+            out[name] = unpack_or_refuse(out[name], unit, file, lay.names[name], rows, setting)
     if text_time:
         assert form is not None and form.text is not None
         out[c.T_S] = _text_times(text, lay, first_row, file, form)

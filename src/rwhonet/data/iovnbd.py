@@ -25,6 +25,7 @@ from rwhonet.data.csvio import (
     read_numeric,
 )
 from rwhonet.data.headers import header_key, unit_name
+from rwhonet.data.packed import DDMM, HHMMSS, unpack_or_refuse
 from rwhonet.data.texttime import read_time_column, text_time_note, text_time_unit
 from rwhonet.data.timebase import unwrap_midnight
 from rwhonet.errors import InputError, Problem
@@ -261,6 +262,23 @@ def locate_columns(header: Sequence[str]) -> tuple[dict[str, int], str]:
 TEXT_TIME_SUFFIX = re.compile(r"h{1,2}:mm(:ss([.,][sfz]+)?)?|iso8601|utc|gmt|local(time)?")
 
 
+# Units a header may name that are no factor: a number packed as NMEA writes it (a time of
+# day as hhmmss.ss, a coordinate as ddmm.mmmm, the sign as written), unpacked by the readers
+# (rwhonet.data.packed).
+_PACKED: dict[str, tuple[str, ...]] = {c.T_S: (HHMMSS,), c.LAT_DEG: (DDMM,), c.LON_DEG: (DDMM,)}
+
+
+def column_packed(header: Sequence[str], positions: dict[str, int]) -> dict[str, str]:
+    """The located channels whose header names a packed unit (``Lat (ddmm.mmmm)``,
+    ``Time (hhmmss.ss)``): canonical name -> the unit (:mod:`rwhonet.data.packed`)."""
+    named = {name: unit_name(header_key(header[pos])[1]) for name, pos in positions.items()}
+    return {
+        name: unit
+        for name, unit in named.items()
+        if unit is not None and unit in _PACKED.get(name, ())
+    }
+
+
 def column_factors(header: Sequence[str], positions: dict[str, int]) -> dict[str, float]:
     """Each located channel's factor to SI: from the unit its header declares, else the layout's.
 
@@ -280,6 +298,8 @@ def column_factors(header: Sequence[str], positions: dict[str, int]) -> dict[str
             out[name] = 1.0  # 'Time (hh:mm:ss)', 'Time (UTC)': text, or seconds as written
         elif unit is None or alias == _LAYOUT_UNIT[name]:
             out[name] = TO_SI[name]
+        elif alias in _PACKED.get(name, ()):
+            out[name] = 1.0  # unpacked by the reader (column_packed)
         else:
             out[name] = _UNITS[_KIND[name]].get(alias or "", float("nan"))
     return out
@@ -324,6 +344,12 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
             if not values[pos].flags.writeable:
                 values[pos] = values[pos].copy()
             np.multiply(values[pos], factors[name], out=values[pos])
+    for name, unit in column_packed(header, positions).items():
+        if not (name == c.T_S and text_time):
+            pos = positions[name]
+            values[pos] = unpack_or_refuse(
+                values[pos], unit, file, header[pos].strip(), setting=header_setting(header[pos])
+            )
     columns = {name: values[pos] for name, pos in positions.items()}
     notes = []
     if match == "position":
@@ -341,6 +367,11 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         header_match=match,
         notes=tuple(notes),
     )
+
+
+def header_setting(cell: str) -> str:
+    """Where an IO-VNBD file declares a column's unit, for messages: its header."""
+    return f"its header {cell.strip()!r}"
 
 
 def position_note(header: Sequence[str]) -> str:
@@ -417,7 +448,8 @@ def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], st
             file,
             None,
             header[pos].strip(),
-            f"a unit of {_KIND[name]} ({', '.join(_UNITS[_KIND[name]]) or 'none'})",
+            f"a unit of {_KIND[name]} "
+            f"({', '.join([*_UNITS[_KIND[name]], *_PACKED.get(name, ())]) or 'none'})",
             f"unit {header_key(header[pos])[1]!r} in the header",
             "write the column in one of those units and name it in the header, e.g. "
             f"{LAYOUT[_POSITION_OF[name]].header.strip()!r}",

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.headers import unit_name
+from rwhonet.data.headers import map_unit_name, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.errors import InputError, Problem
@@ -151,7 +151,7 @@ def _read(
             )
             continue
         declared = unit_name(signal.unit or None)
-        mapped = unit_name(spec.unit.removesuffix(" cw"))
+        mapped = map_unit_name(spec.unit)
         if declared is not None and mapped is not None and declared != mapped:
             problems.append(
                 Problem(
@@ -167,7 +167,9 @@ def _read(
         # The signals of a group share its time stamps: keep the first signal's only (a long
         # log's stamps are hundreds of MB per signal).
         t = None if group in by_group else np.asarray(signal.timestamps, dtype=np.float64)
-        values = to_si(key, samples, spec.unit, radius_m, f"{file} {spec.column!r}")
+        values = to_si(
+            key, samples, spec.unit, radius_m, f"{file} {spec.column!r}", (file, spec.column)
+        )
         del signal, samples
         by_group.setdefault(group, {})[key] = (t, values, spec.column)
     if problems:

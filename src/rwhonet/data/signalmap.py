@@ -9,8 +9,12 @@ column) and its unit. Keys and units:
 ``omega_fl``, ``omega_fr``, ``omega_rl``,     ``rad/s``, ``rpm``, ``deg/s``; or the wheel's
 ``omega_rr`` (required)                       circumferential speed ``m/s``, ``km/h``, ``mph``
                                               (divided by the car's nominal tyre radius)
-``lat``, ``lon`` (required)                   ``deg``
-``t`` (CSV streams: required in every file)   ``s``, ``ms``, ``us``, ``ns``
+``lat``, ``lon`` (required)                   ``deg``, ``min`` (minutes of arc), ``ddmm``
+                                              (NMEA's ddmm.mmmm); ``lon`` also ``deg W``,
+                                              ``min W``, ``ddmm W`` (positive west)
+``t`` (CSV streams: required in every file)   ``s``, ``ms``, ``us``, ``ns``; ``hhmmss`` (a
+                                              time of day as hhmmss.ss); as text
+                                              ``iso8601``, ``hh:mm:ss`` or a strptime pattern
 ``n_sats``                                    ``count``
 ``speed_gnss``, ``speed_vehicle``             ``m/s``, ``km/h``, ``mph``
 ``heading``                                   ``deg``
@@ -30,11 +34,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from math import nan
 
 import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
+from rwhonet.data.packed import HHMMSS, is_packed, unpack_or_refuse
 from rwhonet.data.streams import (
     WHEEL_UNITS,
     DriveStreams,
@@ -49,8 +55,13 @@ WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys,
 # Key -> (canonical name, {unit: factor to SI}); wheel speeds: WHEEL_UNITS via the radius.
 KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     # iso8601, hh:mm:ss: a CSV stream's time written as text (rwhonet.data.texttime)
-    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, ISO8601: 1.0, CLOCK: 1.0}),
-    # minutes of arc (Racelogic VBOX logs), a longitude positive west ("W"): c.LAT_UNITS
+    # hhmmss: a time of day as hhmmss.ss (NMEA, VBOX), unpacked (rwhonet.data.packed)
+    "t": (
+        c.T_S,
+        {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, ISO8601: 1.0, CLOCK: 1.0, HHMMSS: nan},
+    ),
+    # minutes of arc (Racelogic VBOX logs), NMEA's ddmm.mmmm (rwhonet.data.packed), a
+    # longitude positive west ("W"): c.LAT_UNITS
     "lat": (c.LAT_DEG, c.LAT_UNITS),
     "lon": (c.LON_DEG, c.LON_UNITS),
     **{key: (name, None) for key, name in zip(WHEEL_KEYS, c.WHEELS, strict=True)},
@@ -116,7 +127,12 @@ def check_signal_map(
 
 
 def to_si(
-    key: str, values: np.ndarray, unit: str, radius_m: float | None, where: str
+    key: str,
+    values: np.ndarray,
+    unit: str,
+    radius_m: float | None,
+    where: str,
+    source: tuple[str, str] | None = None,
 ) -> np.ndarray:
     """A channel's values in the canonical SI unit.
 
@@ -126,13 +142,23 @@ def to_si(
         unit: their unit (checked by :func:`check_signal_map`).
         radius_m: the car's nominal tyre radius (for linear wheel speeds).
         where: the channel, for messages.
+        source: the file and the logger's channel name, for a packed unit's messages
+            (default: ``where`` and the key).
 
     Returns:
         float64 values.
+
+    Raises:
+        InputError: a wheel speed's unit cannot be converted; a packed angle or time
+            (``ddmm``, ``hhmmss``) with cells not of its form, each named by its row
+            (the sample's number, for an MDF4 signal).
     """
     factors = KEYS[key][1]
     if factors is None:
         return wheel_speed_rad_s(values, unit, radius_m, where)
+    if is_packed(unit):
+        file, column = source or (where, key)
+        return unpack_or_refuse(values, unit, file, column, setting=f"the map's {key}.unit")
     values = np.asarray(values, dtype=np.float64)
     factor = factors.get(unit, 1.0)  # a time's strptime pattern: parsed to seconds already
     return values if factor == 1.0 else values * factor  # SI already: no copy

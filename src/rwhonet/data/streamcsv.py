@@ -31,7 +31,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec
 from rwhonet.data.columnmap import find_column
 from rwhonet.data.csvio import first_cell, read_header, read_numeric
-from rwhonet.data.headers import header_key, unit_name
+from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import declared_text_unit, is_text_unit, read_time_column
@@ -155,7 +155,22 @@ def read_stream_csvs(
         except InputError as err:
             problems += err.problems
             continue
-        t = to_si("t", values[at_t], time_spec.unit, None, file)
+        try:
+            t = to_si("t", values[at_t], time_spec.unit, None, file, (file, header[at_t]))
+            channels = {
+                k: to_si(
+                    k,
+                    values[at],
+                    signal_map[k].unit,
+                    radius_m,
+                    f"{file} {header[at]!r}",
+                    (file, header[at]),
+                )
+                for k, at in keys.items()
+            }
+        except InputError as err:
+            problems += err.problems
+            continue
         t, wraps = unwrap_midnight(t)
         if wraps.size:
             shown = ", ".join(str(int(r) + 1) for r in wraps[:5])
@@ -165,10 +180,7 @@ def read_stream_csvs(
                 Path(file).name,
                 file,
                 np.ascontiguousarray(t),
-                {
-                    k: to_si(k, values[at], signal_map[k].unit, radius_m, f"{file} {header[at]!r}")
-                    for k, at in keys.items()
-                },
+                channels,
                 {"t": header[time_at[file]].strip()}
                 | {k: header[at].strip() for k, at in keys.items()},
             ),
@@ -229,7 +241,7 @@ def _unit_problems(file: str, cell: str, key: str, spec: ColumnSpec, name: str) 
     compared; a header without a unit suffix says nothing.
     """
     declared = unit_name(header_key(cell)[1])
-    mapped = unit_name(spec.unit.removesuffix(" cw"))
+    mapped = map_unit_name(spec.unit)
     if declared is None or mapped is None or declared == mapped:
         return []
     return [

@@ -1,0 +1,125 @@
+"""Angles and times packed into one decimal number: NMEA's ``ddmm.mmmm``, ``hhmmss.ss``.
+
+A GNSS receiver's NMEA 0183 sentences write the latitude as ``ddmm.mmmm`` and the
+longitude as ``dddmm.mmmm``: degrees, then minutes and their decimals, run together
+(``5224.1234`` is 52 deg 24.1234 min = 52.402057 deg). Loggers that copy those fields
+into a CSV keep them so, often with a minus sign for south and west in place of NMEA's
+N/S and E/W letters. The same sentences, Racelogic VBOX files and many receivers' CSV
+exports write the UTC time of day as ``hhmmss.ss`` (``142205.10`` is 14:22:05.1, and a
+CSV may drop the leading zeros: ``93005.5`` is 09:30:05.5).
+
+A column or signal map declares such a column with the unit ``ddmm`` (``ddmm W``: a
+longitude positive west) or ``hhmmss``; :func:`unpack` turns it into degrees or seconds of
+the day (which the readers continue past midnight as any time of day). A cell that cannot
+be such a number (minutes or seconds of 60 or more, hours of 24 or more, a negative time)
+is refused naming its row (:func:`unpack_or_refuse`): read as a plain number it would put
+the car a few kilometres off, or the second in the wrong minute, and nothing later could
+tell. A column of plain degrees declared ``ddmm`` cannot be told from one near the equator
+or the prime meridian; the map must be right.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rwhonet.errors import InputError, Problem
+
+DDMM = "ddmm"
+DDMM_W = "ddmm W"
+HHMMSS = "hhmmss"
+PACKED_UNITS = (DDMM, DDMM_W, HHMMSS)
+
+EXPECTED = {
+    DDMM: "degrees and minutes run together, ddmm.mmmm (NMEA: 5224.1234 is 52 deg 24.1234 "
+    "min), the minutes below 60",
+    HHMMSS: "a time of day as hhmmss.ss (142205.1 is 14:22:05.1), hours below 24, minutes "
+    "and seconds below 60",
+}
+EXPECTED[DDMM_W] = EXPECTED[DDMM]
+# A hundredth of a microsecond or of a micro-minute: what a float64 of such a number may
+# be off by after the divisions below, so that 5259.9999999999 is not taken for 60 minutes.
+_EPS = 1e-9
+
+
+def is_packed(unit: str | None) -> bool:
+    """Whether ``unit`` is one of this module's packed units."""
+    return unit in PACKED_UNITS
+
+
+def unpack(values: np.ndarray, unit: str) -> tuple[np.ndarray, np.ndarray]:
+    """Unpack a column of ``ddmm.mmmm`` angles or ``hhmmss.ss`` times.
+
+    Args:
+        values: the numbers as written (NaN: a missing value, kept NaN).
+        unit: ``ddmm``, ``ddmm W`` (the result negated: positive west) or ``hhmmss``.
+
+    Returns:
+        ``(unpacked, bad)``: degrees (the sign as written) or seconds since midnight, as
+        float64; and the indices of the cells that are not of the unit's form (their
+        unpacked value is NaN).
+    """
+    x = np.asarray(values, dtype=np.float64)
+    if unit == HHMMSS:
+        hours = np.floor(x / 10_000.0 + _EPS)
+        rest = x - 10_000.0 * hours
+        minutes = np.floor(rest / 100.0 + _EPS)
+        seconds = np.maximum(rest - 100.0 * minutes, 0.0)
+        out = 3600.0 * hours + 60.0 * minutes + seconds
+        with np.errstate(invalid="ignore"):
+            bad = (x < 0) | (hours >= 24) | (minutes >= 60) | (seconds >= 60.0 - _EPS)
+    elif unit in (DDMM, DDMM_W):
+        a = np.abs(x)
+        degrees = np.floor(a / 100.0 + _EPS)
+        minutes = np.maximum(a - 100.0 * degrees, 0.0)
+        out = np.copysign(degrees + minutes / 60.0, x)
+        if unit == DDMM_W:
+            out = -out
+        with np.errstate(invalid="ignore"):
+            bad = minutes >= 60.0 - _EPS
+    else:
+        raise ValueError(f"not a packed unit: {unit!r}")
+    where_bad = np.flatnonzero(bad)
+    out[where_bad] = np.nan
+    return out, where_bad
+
+
+def unpack_or_refuse(
+    values: np.ndarray,
+    unit: str,
+    file: str,
+    column: str,
+    rows: np.ndarray | None = None,
+    setting: str | None = None,
+) -> np.ndarray:
+    """:func:`unpack`, refusing a column with any cell not of the unit's form.
+
+    Args:
+        values: the numbers as written.
+        unit: the packed unit.
+        file: the file, as the user knows it.
+        column: the file's column (or the logger's channel) name.
+        rows: each value's 1-based data row in the file (default: ``1, 2, ...``).
+        setting: where the unit was declared (``data.column_maps.X.lat.unit``, ``its header
+            'Lat (ddmm.mmmm)'``), for the fix.
+
+    Raises:
+        InputError: every cell that is not of the form, with its row (the first 50 listed).
+    """
+    out, bad = unpack(values, unit)
+    if bad.size == 0:
+        return out
+    x = np.asarray(values, dtype=np.float64)
+    row_of = (lambda i: int(rows[i])) if rows is not None else (lambda i: int(i) + 1)
+    declared = f" ({setting} declares {unit!r})" if setting else ""
+    fix = (
+        f"check the column's unit{declared}: a column of plain degrees or seconds is "
+        "declared 'deg' or 's'; otherwise correct or delete the rows named"
+    )
+    problems = [
+        Problem(file, row_of(i), column, EXPECTED[unit], repr(float(x[i])), fix) for i in bad[:50]
+    ]
+    if bad.size > 50:
+        problems.append(
+            Problem(file, None, column, EXPECTED[unit], f"{bad.size - 50} more such cells", fix)
+        )
+    raise InputError(problems, summary=f"{bad.size} cell(s) in {file} not in the unit {unit!r}")
