@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,7 @@ from rwhonet.data.plausibility import (
     YAW_MIN_STEP_M,
     implied_radius,
     latlon_swapped_by_range,
+    minutes_radius,
     negative_wheel_rows,
     radians_radius,
     reversing_rows,
@@ -136,6 +139,26 @@ def test_coordinates_in_radians_imply_the_radius_once_converted():
     est = radians_radius(in_radians, _segment(drive), 1.0)
     assert est is not None and est.radius_m == pytest.approx(SOURCE_RADIUS_M, rel=1e-6)
     assert radians_radius(drive, _segment(drive), 1.0) is None  # 52.4 deg: not radians
+
+
+@pytest.mark.parametrize("azimuth_deg", [0.0, 90.0])
+def test_degrees_read_as_minutes_imply_the_radius_once_multiplied_by_60(azimuth_deg):
+    """A map's 'min' (or 'ddmm', NMEA's degrees-minutes) on a column of degrees divides
+    the coordinates by 60: the radius found with them times 60 is the car's; the radians
+    reading (x 57.3) comes within 5 % of it, by the heading (so validate names both where
+    both fit); the drive as it is is 36-60 times short."""
+    drive = straight_drive(40.0, azimuth_deg=azimuth_deg)
+    as_minutes = drive.copy()
+    as_minutes[[c.LAT_DEG, c.LON_DEG]] = drive[[c.LAT_DEG, c.LON_DEG]].to_numpy() / 60.0
+    seg = _segment(drive)
+    est = minutes_radius(as_minutes, seg, 1.0)
+    assert est is not None and est.radius_m == pytest.approx(SOURCE_RADIUS_M, rel=1e-6)
+    radians = radians_radius(as_minutes, seg, 1.0)
+    assert radians is not None
+    assert 3.0 / math.pi - 1e-3 < radians.radius_m / SOURCE_RADIUS_M < 1.01
+    as_is = implied_radius(as_minutes, seg, 1.0).radius_m
+    assert 1 / 62 < as_is / SOURCE_RADIUS_M < 1 / 36
+    assert minutes_radius(drive, seg, 1.0) is None  # 52.4 deg x 60: no latitude
 
 
 def test_stale_wheel_values_while_the_car_changes_speed():

@@ -762,6 +762,18 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "coordinates_in_degrees_read_as_minutes",
+    "latitude and longitude divided by 60: degrees that a map's 'min' or 'ddmm' read as "
+    "minutes of arc",
+    Refuse("validate", None, " Lat /  Long", "decimal degrees", "degrees read as minutes of arc"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[[c.LAT_DEG, c.LON_DEG]] = df[[c.LAT_DEG, c.LON_DEG]].to_numpy() / 60.0
+    write_target(raw, df)
+
+
+@case(
     "coordinates_in_radians",
     "latitude and longitude in radians",
     Refuse("validate", None, " Lat /  Long", "decimal degrees", "look like radians"),

@@ -41,6 +41,7 @@ from rwhonet.data.plausibility import (
     gnss_path_m,
     implied_radius,
     latlon_swapped_by_range,
+    minutes_radius,
     radians_radius,
     sign_tallies,
     stuck_wheel_runs,
@@ -474,22 +475,46 @@ def radius_problems(
         if unit_mistake(swapped.radius_m, nominal, vp.radius_tolerance) is None:
             problems.append(_swapped_problem(entry, est.radius_m, swapped.radius_m, nominal))
             return problems, radius
-        in_degrees = radians_radius(df, segments, vp.gnss.moving_wheel_speed_rad_s)
-        if (
-            in_degrees is not None
-            and unit_mistake(in_degrees.radius_m, nominal, vp.radius_tolerance) is None
-        ):
-            lat, lon = (columns.get(x, x) for x in (c.LAT_DEG, c.LON_DEG))
+        lat, lon = (columns.get(x, x) for x in (c.LAT_DEG, c.LON_DEG))
+        moving = vp.gnss.moving_wheel_speed_rad_s
+        in_degrees = radians_radius(df, segments, moving)
+        from_minutes = minutes_radius(df, segments, moving)
+        # The two readings differ by 4.7 % in scale, about what a tyre's radius may differ
+        # from its nominal: where both fit, both are named.
+        readings = {  # name -> (estimate, how it was read, the fix)
+            "radians": (
+                in_degrees,
+                "in degrees from radians",
+                "convert both columns to degrees (x 180/π) if they are radians",
+            ),
+            "minutes": (
+                from_minutes,
+                "with the coordinates times 60",
+                "declare the columns' unit 'deg' where a column or signal map declares 'min' "
+                "or 'ddmm' (NMEA's ddmm.mmmm): those are for columns written so",
+            ),
+        }
+        fit = [
+            (name, est_if, said, fix)
+            for name, (est_if, said, fix) in readings.items()
+            if est_if is not None
+            and unit_mistake(est_if.radius_m, nominal, vp.radius_tolerance) is None
+        ]
+        if fit:
+            looks = " or ".join(name for name, *_ in fit).replace(
+                "minutes", "degrees read as minutes of arc"
+            )
+            implied = ", ".join(f"{e.radius_m:.4g} m {said}" for _, e, said, _ in fit)
             problems.append(
                 Problem(
                     file,
                     None,
                     f"{lat} / {lon}",
                     "latitude and longitude in decimal degrees",
-                    "latitude and longitude look like radians: every value within ±π, and "
+                    f"latitude and longitude look like {looks}: every value within ±π, and "
                     f"the wheels imply a tyre radius of {est.radius_m:.4g} m as they are, "
-                    f"{in_degrees.radius_m:.4g} m (nominal {nominal} m) in degrees",
-                    "convert both columns to degrees (x 180/π)",
+                    f"{implied} (nominal {nominal} m)",
+                    "; ".join(fix for *_, fix in fit),
                 )
             )
             return problems, radius

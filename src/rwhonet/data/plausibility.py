@@ -840,12 +840,45 @@ def radians_radius(
         The estimate with both coordinates converted from radians, or None when some
         latitude lies beyond ±π/2 or longitude beyond ±π (they cannot be radians).
     """
-    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
-    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
-    if np.nanmax(np.abs(lat)) > math.pi / 2 or np.nanmax(np.abs(lon)) > math.pi:
+    return _rescaled_radius(drive, segments, moving_wheel_speed_rad_s, 180.0 / math.pi)
+
+
+def minutes_radius(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    moving_wheel_speed_rad_s: float,
+) -> RadiusEstimate | None:
+    """The effective radius the drive implies if its coordinates are degrees that were read
+    as minutes of arc (a map's ``min``, or ``ddmm`` on a column of degrees below 60).
+
+    Such a drive lies within a degree or so of (0, 0) and every GNSS displacement is about
+    60 times too short (between 37 and 60 times, by the heading, far from the equator). A
+    radians reading (x 57.3) may fit it too; the caller takes the nearer.
+
+    Args:
+        drive: canonical columns.
+        segments: the drive's valid segments.
+        moving_wheel_speed_rad_s: as in :func:`implied_radius`.
+
+    Returns:
+        The estimate with both coordinates multiplied by 60, or None when that puts some
+        latitude beyond ±90 deg or longitude beyond ±180 deg.
+    """
+    return _rescaled_radius(drive, segments, moving_wheel_speed_rad_s, 60.0)
+
+
+def _rescaled_radius(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    moving_wheel_speed_rad_s: float,
+    factor: float,
+) -> RadiusEstimate | None:
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64) * factor
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64) * factor
+    if np.nanmax(np.abs(lat)) > 90.0 or np.nanmax(np.abs(lon)) > 180.0:
         return None
     converted = dict(drive)
-    converted[c.LAT_DEG], converted[c.LON_DEG] = np.degrees(lat), np.degrees(lon)
+    converted[c.LAT_DEG], converted[c.LON_DEG] = lat, lon
     return implied_radius(converted, segments, moving_wheel_speed_rad_s)
 
 
