@@ -414,3 +414,111 @@ def test_local_times_without_offsets_through_summer_time_s_end_are_refused_with_
     said = err.getvalue()
     assert "row 101" in said and "time goes backwards" in said and "summer time" in said
     assert not out.exists()
+
+
+# -- a date in a column of its own ------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("unit", "cell", "expected"),
+    [
+        ("%d/%m/%Y", "11/03/2019", DAY),
+        ("%Y-%m-%d", " 2019-03-11 ", DAY),
+        ("%m/%d/%y", '"03/11/19"', DAY),
+        ("ddmmyy", "110319", DAY),
+        ("ddmmyy", "50319", datetime(2019, 3, 5, tzinfo=UTC)),  # the leading zero dropped
+        ("ddmmyy", "311299", datetime(1999, 12, 31, tzinfo=UTC)),
+        ("ddmmyy", "010180", datetime(1980, 1, 1, tzinfo=UTC)),
+        ("ddmmyy", "110319.0", DAY),  # a spreadsheet's number
+    ],
+)
+def test_a_date_column_gives_each_row_s_midnight_in_seconds_since_1970(unit, cell, expected):
+    from rwhonet.data.texttime import parse_dates
+
+    parsed = parse_dates([cell, None, "nan"], unit)
+    assert parsed.seconds[0] == expected.timestamp() and parsed.bad == []
+    assert np.isnan(parsed.seconds[1:]).all()
+
+
+def test_dates_that_are_none_are_listed_with_why():
+    from rwhonet.data.texttime import parse_dates
+
+    parsed = parse_dates(["110319", "320319", "1103190", "11.5", "x", "110319"], "ddmmyy")
+    assert [i for i, _ in parsed.bad] == [1, 2, 3, 4]
+    assert "day is out of range" in parsed.bad[0][1] and "six digits" in parsed.bad[1][1]
+    assert parsed.seconds[5] == DAY_S
+    parsed = parse_dates(["11/03/2019", "2019-03-11"], "%d/%m/%Y")
+    assert [i for i, _ in parsed.bad] == [1] and "does not match format" in parsed.bad[0][1]
+
+
+def test_a_date_unit_and_the_time_beside_it_are_checked_with_the_params():
+    from rwhonet.config import ConfigError
+    from rwhonet.data.columnmap import check_column_map
+    from rwhonet.data.texttime import date_problem
+
+    assert date_problem("ddmmyy") is None and date_problem("%d.%m.%Y") is None
+    assert "a date alone" in date_problem("%d.%m.%Y %H:%M")
+    assert "with a day, a month and a year" in date_problem("%m/%Y")
+    assert date_problem("dd/mm/yyyy") is not None
+    cmap = _cmap("hh:mm:ss") | {"date": ColumnSpec("Date", "%d/%m/%Y")}
+    check_column_map("cupac", cmap)
+    with pytest.raises(ConfigError, match=r"cupac\.t\.unit: expected a time of day beside"):
+        check_column_map("cupac", _cmap("iso8601") | {"date": ColumnSpec("Date", "ddmmyy")})
+    with pytest.raises(ConfigError, match=r"cupac\.date\.unit: expected 'ddmmyy' or a strptime"):
+        check_column_map("cupac", _cmap("s") | {"date": ColumnSpec("Date", "yyyy-mm-dd")})
+
+
+def _with_date_column(path, cells: list[str], time: list[str] | None = None):
+    """The CSV at ``path`` with a 'Date' column first (and the 'Time' cells replaced)."""
+    frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+    if time is not None:
+        frame["Time"] = time
+    frame.insert(0, "Date", cells)
+    frame.to_csv(path, index=False)
+    return path
+
+
+@pytest.mark.parametrize("nmea", [False, True], ids=["dd/mm/yyyy and hh:mm:ss", "NMEA"])
+def test_a_date_and_a_time_of_day_in_two_columns_read_as_one_clock(drive, tmp_path, nmea):
+    """'Date' and 'Time' columns through midnight (the date turning over with the time of
+    day): seconds since 1970 as written, continuous, in ingest's reader and predict's, with
+    a note; a date that is none is refused with its row."""
+    path = write_columnmap(drive, tmp_path / "cupac.csv", CUPAC_MAP | {"t": ("Time", "s")})
+    ref = read_columnmap(path, _cmap("s"), "cupac")
+    t = ref.columns[c.T_S]
+    day = np.where(t >= 86400.0, 12, 11)
+    if nmea:  # RMC's ddmmyy and hhmmss.ss, as numbers
+        dates = [f"{d}0319" for d in day]
+        hours, rest = np.divmod(np.round(t % 86400.0, 3), 3600.0)
+        time = [f"{v:.3f}" for v in 10_000 * hours + 100 * (rest // 60) + rest % 60]
+        cmap = _cmap("hhmmss") | {"date": ColumnSpec("Date", "ddmmyy")}
+    else:
+        dates = [f"{d}/03/2019" for d in day]
+        time = clock(t % 86400.0)
+        cmap = _cmap("hh:mm:ss") | {"date": ColumnSpec("Date", "%d/%m/%Y")}
+    _with_date_column(path, dates, time)
+    got = read_columnmap(path, cmap, "cupac")
+    np.testing.assert_allclose(got.columns[c.T_S], t + DAY_S, rtol=0, atol=1e-6)
+    assert any("dates of column 'Date'" in note for note in got.notes)
+    assert not any("midnight" in note for note in got.notes)  # the date carries the day
+    assert got.source_columns[c.T_S] == "Time" and "Date" not in got.source_columns.values()
+    with open(path, "rb") as f:
+        lay, blocks = read_rows(f, "cupac.csv", "cupac", cmap, block_bytes=1024)
+        streamed = np.concatenate([cols[c.T_S] for _, cols in blocks])
+    np.testing.assert_allclose(streamed, got.columns[c.T_S], rtol=0, atol=1e-6)
+    assert any("dates of column 'Date'" in note for note in lay.notes)
+    frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+    frame.loc[4, "Date"] = "31/02/2019" if not nmea else "310219"
+    frame.to_csv(path, index=False)
+    for read in (
+        lambda: read_columnmap(path, cmap, "cupac"),
+        lambda: list(read_rows(open(path, "rb"), "cupac.csv", "cupac", cmap)[1]),  # noqa: SIM115
+    ):
+        with pytest.raises(InputError) as err:
+            read()
+        (problem,) = err.value.problems
+        assert (problem.row, problem.column) == (
+            5,
+            "Date",
+        ) and "day is out of range" in problem.found
+        assert "data.column_maps.cupac.date" in (problem.fix or "")

@@ -26,7 +26,8 @@
   found and placed along the wheels' path.
 - :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
   write them; a drive's clock (midnight rollover, each row's slot on the grid).
-- :mod:`~rwhonet.data.texttime`: time columns written as text (ISO 8601, ``hh:mm:ss``).
+- :mod:`~rwhonet.data.texttime`: time columns written as text (ISO 8601, ``hh:mm:ss``), and
+  a date in a column of its own.
 - :mod:`~rwhonet.data.packed`: NMEA's numbers packed from parts (``ddmm.mmmm`` angles,
   ``hhmmss.ss`` times of day).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.

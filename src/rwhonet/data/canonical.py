@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import math
 
-from rwhonet.data.packed import DDMM, DDMM_W
-
 T_S = "t_s"  # time, s (monotonic within a drive)
 LAT_DEG = "lat_deg"  # WGS84 latitude, deg
 LON_DEG = "lon_deg"  # WGS84 longitude, deg
@@ -60,6 +58,8 @@ YAW_RATE_UNITS = {
 # west (VBOX's convention too: check the logger's), as against ISO 6709's east.
 # "ddmm": degrees and minutes run together (NMEA's ddmm.mmmm), no factor (NaN: a reader
 # that multiplied by it would give no values, not wrong ones): rwhonet.data.packed.
+DDMM = "ddmm"
+DDMM_W = "ddmm W"
 LAT_UNITS = {"deg": 1.0, "min": 1.0 / 60.0, DDMM: math.nan}
 LON_UNITS = {
     "deg": 1.0,

@@ -24,14 +24,20 @@ from rwhonet.data.csvio import (
     first_cell,
     read_header,
     read_numeric,
+    read_text_column,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.packed import HHMMSS, is_packed, unpack_or_refuse
 from rwhonet.data.texttime import (
     CLOCK,
     ISO8601,
+    check_dates,
+    date_note,
+    date_problem,
     declared_text_unit,
+    is_dated,
     is_pattern,
+    parse_dates,
     pattern_problem,
     read_time_column,
     text_time_note,
@@ -59,6 +65,9 @@ KEYS: dict[str, tuple[str, dict[str, float]]] = {
     "yaw_rate": (c.YAW_RATE_RAD_S, c.YAW_RATE_UNITS),
 }
 REQUIRED_KEYS = tuple(k for k, (name, _) in KEYS.items() if name in c.REQUIRED)
+# A date in a column of its own (rwhonet.data.texttime.parse_dates): no channel of its own,
+# each row's midnight added to the time of day the ``t`` column then holds.
+DATE = "date"
 
 
 def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
@@ -73,9 +82,9 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
     """
     where = f"data.column_maps.{name}"
     issues = [
-        f"{where}.{k}: unknown key; expected one of {list(KEYS)}"
+        f"{where}.{k}: unknown key; expected one of {[*KEYS, DATE]}"
         for k in column_map
-        if k not in KEYS
+        if k not in KEYS and k != DATE
     ]
     issues += [f"{where}.{k}: missing" for k in REQUIRED_KEYS if k not in column_map]
     issues += [
@@ -90,6 +99,15 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
         for k, spec in column_map.items()
         if k == "t" and is_pattern(spec.unit) and (problem := pattern_problem(spec.unit))
     ]
+    if DATE in column_map:
+        if problem := date_problem(column_map[DATE].unit):
+            issues.append(f"{where}.date.unit: expected {problem}")
+        if "t" in column_map and is_dated(column_map["t"].unit):
+            issues.append(
+                f"{where}.t.unit: expected a time of day beside a date column (s, ms, "
+                f"hhmmss, hh:mm:ss, or a pattern without a date), got {column_map['t'].unit!r}"
+                ": the date would be given twice"
+            )
     if issues:
         raise ConfigError("\n".join(issues))
 
@@ -124,7 +142,9 @@ def read_columnmap(
         spec, at = column_map["t"], positions["t"]
         cell = first_cell(path, at)
         text_time = declared_text_unit(spec.unit, cell, header[at], where, file)
-    numeric = {pos for key, pos in positions.items() if not (key == "t" and text_time)}
+    numeric = {
+        pos for key, pos in positions.items() if not (key == "t" and text_time) and key != DATE
+    }
     values = read_numeric(path, len(header), {pos: header[pos] for pos in numeric}, file)
     if text_time:
         pos = positions["t"]
@@ -132,6 +152,8 @@ def read_columnmap(
     columns = {}
     shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
     for key, spec in column_map.items():
+        if key == DATE:
+            continue
         canonical, factors = KEYS[key]
         pos, factor = positions[key], factors.get(spec.unit, 1.0)  # a strptime pattern: s
         if is_packed(spec.unit):
@@ -148,6 +170,12 @@ def read_columnmap(
         notes = (text_time_note(header[positions["t"]], text_time),)
     if (said := delimiter_note(file_delimiter(path))) is not None:
         notes += (said,)
+    if DATE in positions:
+        pos, unit = positions[DATE], column_map[DATE].unit
+        dates = parse_dates(read_text_column(path, len(header), pos, file), unit)
+        check_dates(dates, file, header[pos].strip(), unit, 1, f"data.column_maps.{name}.date")
+        columns[c.T_S] = columns[c.T_S] + dates.seconds
+        notes += (date_note(header[pos], header[positions["t"]], unit),)
     if c.T_S in columns:
         columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
         if wraps.size:
@@ -155,7 +183,7 @@ def read_columnmap(
             notes += (f"time of day passed midnight before data row(s) {shown}: a day added",)
     return RawDrive(
         columns=columns,
-        source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items()},
+        source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items() if k != DATE},
         header_match="column_map",
         notes=notes,
     )
@@ -199,6 +227,8 @@ def columnmap_positions(
     # A header that names its unit ("Wheel Speed RL (rpm)") against a map that declares
     # another: one of the two is wrong, and a factor of 9.5 or 57 goes unseen otherwise
     for key, pos in found.items():
+        if key == DATE:  # a date's form is no unit ("Date (dd/mm/yyyy)")
+            continue
         said = unit_name(header_key(header[pos])[1])
         declared = column_map[key].unit
         if said is not None and said != map_unit_name(declared):

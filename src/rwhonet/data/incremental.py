@@ -34,6 +34,7 @@ from rwhonet.config import GnssPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.packed import is_packed, unpack_or_refuse
 from rwhonet.data.problems import no_data_rows
+from rwhonet.data.texttime import check_dates, date_note, parse_dates
 from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
 from rwhonet.errors import InputError, Problem
 
@@ -71,6 +72,8 @@ class Layout:
         packed: canonical name -> a packed unit a column map declares for it (``ddmm``,
             ``hhmmss``: :mod:`rwhonet.data.packed`) and where it is declared; unpacked
             after the factors (whose entry is 1.0).
+        date: a column map's date column (``date`` key): its position, unit, name and
+            setting; each row's date is added to its time of day (None: no such column).
     """
 
     n_columns: int
@@ -80,6 +83,7 @@ class Layout:
     time_unit: str | None = None
     time_setting: str = ""
     packed: dict[str, tuple[str, str]] = field(default_factory=dict)
+    date: tuple[int, str, str, str] | None = None
     # how the rows were read where a reader would note it (a time written as text, a file
     # separated by ';'), filled as the first rows arrive
     notes: list[str] = field(default_factory=list)
@@ -97,6 +101,7 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
     Raises:
         InputError: the channels cannot be located.
     """
+    date: tuple[int, str, str, str] | None = None
     if fmt == "iovnbd":
         from rwhonet.data.iovnbd import (
             column_factors,
@@ -112,10 +117,13 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
             for name, unit in column_packed(header, positions).items()
         }
     else:
-        from rwhonet.data.columnmap import KEYS, check_column_map, columnmap_positions
+        from rwhonet.data.columnmap import DATE, KEYS, check_column_map, columnmap_positions
 
         check_column_map(fmt, column_map or {})
         by_key = columnmap_positions(header, column_map or {}, fmt, file)
+        if DATE in by_key:
+            at = by_key.pop(DATE)
+            date = (at, (column_map or {})[DATE].unit, header[at], f"data.column_maps.{fmt}.date")
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
         # a strptime pattern for the time is text, read as seconds: factor 1; a packed unit
         # is unpacked (factor 1 before)
@@ -132,6 +140,7 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
     wanted = carried_channels(positions)
     positions = {name: positions[name] for name in wanted}
     declared = None if fmt == "iovnbd" else (column_map or {})["t"].unit
+    lay_time_name = header[positions[c.T_S]]
     return Layout(
         n_columns=len(header),
         positions=positions,
@@ -140,6 +149,8 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         time_unit=declared,
         time_setting=f"data.column_maps.{fmt}.t.unit",
         packed={name: how for name, how in packed.items() if name in wanted},
+        date=date,
+        notes=[] if date is None else [date_note(date[2], lay_time_name, date[1])],
     )
 
 
@@ -538,6 +549,11 @@ def parse_lines(
     if text_time:
         assert form is not None and form.text is not None
         out[c.T_S] = _text_times(text, lay, first_row, file, form)
+    if lay.date is not None and len(out[c.T_S]):
+        pos, unit, column, setting = lay.date
+        dates = parse_dates(_column_cells(text, pos), unit)
+        check_dates(dates, file, column.strip(), unit, first_row, setting)
+        out[c.T_S] = out[c.T_S] + dates.seconds
     return out
 
 
@@ -545,16 +561,19 @@ def _text_times(text: str, lay: Layout, first_row: int, file: str, form: _TimeFo
     """The time column of whole lines (their columns already checked) written as text."""
     from rwhonet.data.texttime import check_text_times, parse_text_times
 
-    pos = lay.positions[c.T_S]
-    if '"' in text:  # quoted cells (a decimal comma in one): the csv module splits them
-        cells = [cells[pos] for cells in csv.reader(_nonblank(text))]
-    else:
-        cells = [line.split(",")[pos] for line in _nonblank(text)]
+    cells = _column_cells(text, lay.positions[c.T_S])
     assert form.text is not None
     parsed = parse_text_times(cells, form.text, form.zoned)
     check_text_times(parsed, cells, file, lay.names[c.T_S], form.text, first_row)
     form.zoned = parsed.zoned
     return parsed.seconds
+
+
+def _column_cells(text: str, pos: int) -> list[str]:
+    """One column's cells of whole lines (their columns already checked), as text."""
+    if '"' in text:  # quoted cells (a decimal comma in one): the csv module splits them
+        return [cells[pos] for cells in csv.reader(_nonblank(text))]
+    return [line.split(",")[pos] for line in _nonblank(text)]
 
 
 def _nonblank(text: str) -> Iterator[str]:

@@ -22,10 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rwhonet.errors import InputError, Problem
+from rwhonet.data.canonical import DDMM, DDMM_W
+from rwhonet.data.problems import ROWS_LISTED, row_problems
+from rwhonet.errors import InputError
 
-DDMM = "ddmm"
-DDMM_W = "ddmm W"
 HHMMSS = "hhmmss"
 PACKED_UNITS = (DDMM, DDMM_W, HHMMSS)
 
@@ -103,23 +103,19 @@ def unpack_or_refuse(
             'Lat (ddmm.mmmm)'``), for the fix.
 
     Raises:
-        InputError: every cell that is not of the form, with its row (the first 50 listed).
+        InputError: the cells that are not of the form, each with its row (the first few
+            listed, the rest counted: :func:`rwhonet.data.problems.row_problems`).
     """
     out, bad = unpack(values, unit)
     if bad.size == 0:
         return out
     x = np.asarray(values, dtype=np.float64)
-    row_of = (lambda i: int(rows[i])) if rows is not None else (lambda i: int(i) + 1)
     declared = f" ({setting} declares {unit!r})" if setting else ""
     fix = (
         f"check the column's unit{declared}: a column of plain degrees or seconds is "
         "declared 'deg' or 's'; otherwise correct or delete the rows named"
     )
-    problems = [
-        Problem(file, row_of(i), column, EXPECTED[unit], repr(float(x[i])), fix) for i in bad[:50]
-    ]
-    if bad.size > 50:
-        problems.append(
-            Problem(file, None, column, EXPECTED[unit], f"{bad.size - 50} more such cells", fix)
-        )
+    at = np.asarray(rows)[bad] if rows is not None else bad + 1
+    found = [repr(float(v)) for v in x[bad[:ROWS_LISTED]]]
+    problems = row_problems(file, column, at, found, EXPECTED[unit], fix=fix)
     raise InputError(problems, summary=f"{bad.size} cell(s) in {file} not in the unit {unit!r}")

@@ -1,4 +1,4 @@
-"""Time columns written as text: ISO 8601 date-times and ``hh:mm:ss`` clock times.
+"""Time columns written as text: ISO 8601 date-times, ``hh:mm:ss`` clock times, dates.
 
 Many loggers and spreadsheet exports write each row's time as text rather than as
 seconds: ``2019-03-11T14:22:05.123Z`` (ISO 8601, with or without a zone offset) or
@@ -26,6 +26,15 @@ an IO-VNBD file whose time column holds such text is read as its first cell's fo
   pattern or a cell is read as ``.`` (a decimal comma before ``%f``). It must hold ``%H``
   (or ``%I`` with ``%p``), ``%M`` and ``%S``, and round-trip a time (:func:`pattern_problem`).
 
+**A date in a column of its own** (a column map's ``date`` key: NMEA's RMC sentence gives
+the date apart from the time, and many loggers and spreadsheets write "Date" and "Time"
+columns): its unit is ``ddmmyy`` (NMEA's six digits, 110319 for 11 March 2019, the leading
+zero possibly dropped; years 80-99 are 1980-1999, 00-79 2000-2079) or a ``strptime`` pattern
+of a date alone (``%d/%m/%Y``, ``%Y-%m-%d``); :func:`parse_dates` gives each row's
+midnight in seconds since 1970, to which the readers add the ``t`` column's time of day
+(which must then be one: ``s``, ``ms``, ``hhmmss``, ``hh:mm:ss`` or a pattern without a
+date). The times are then as written (no zone is applied), and midnight is the date's.
+
 An empty cell (or ``NaN``, ``NA``, ``null``) is a missing time (NaN), which validate
 refuses as it refuses an empty number; any other text that is not of the declared form
 is refused naming the file's row and column.
@@ -49,6 +58,7 @@ from rwhonet.errors import InputError, Problem
 ISO8601 = "iso8601"
 CLOCK = "hh:mm:ss"
 TEXT_TIME_UNITS = (ISO8601, CLOCK)
+DDMMYY = "ddmmyy"  # a date as NMEA's RMC sentence writes it
 
 # The missing-value spellings of the numeric readers (csvio.MISSING's words).
 _MISSING = frozenset({"", "nan", "na", "n/a", "null", "none", "-nan"})
@@ -104,6 +114,95 @@ def pattern_problem(pattern: str) -> str | None:
     return None
 
 
+def is_dated(unit: str) -> bool:
+    """Whether a time unit gives the date as well (``iso8601``, a pattern with a date)."""
+    return unit == ISO8601 or (is_pattern(unit) and any(d in unit for d in _DATE_DIRECTIVES))
+
+
+_TIME_DIRECTIVES = ("%H", "%I", "%M", "%S", "%f", "%p", "%z", "%Z", "%X", "%c")
+
+
+def date_problem(unit: str) -> str | None:
+    """Why ``unit`` cannot be a date column's unit (None: it can)."""
+    if unit == DDMMYY:
+        return None
+    wanted = f"{DDMMYY!r} or a strptime pattern of a date alone (%d/%m/%Y, %Y-%m-%d)"
+    if not is_pattern(unit) or any(d in unit for d in _TIME_DIRECTIVES):
+        return f"{wanted}; got {unit!r}"
+    day = "%j" in unit or (
+        ("%d" in unit or "%e" in unit) and any(m in unit for m in ("%m", "%b", "%B"))
+    )
+    if not (day and ("%Y" in unit or "%y" in unit)):
+        return f"{wanted}, with a day, a month and a year; got {unit!r}"
+    when = date(2019, 3, 11)
+    try:
+        back = datetime.strptime(when.strftime(unit), unit).date()
+    except ValueError as err:
+        return f"{wanted} that reads back what it writes; {unit!r}: {err}"
+    if back != when:
+        return f"{wanted} that reads back the date it writes; got {unit!r}"
+    return None
+
+
+def date_expected(unit: str) -> str:
+    """What a cell of a date column in ``unit`` looks like, for messages."""
+    if unit == DDMMYY:
+        return "a date as ddmmyy (NMEA: 110319 is 11 March 2019)"
+    return f"a date as the pattern {unit!r} writes it (Python's strptime)"
+
+
+def parse_dates(cells: Sequence[str | None], unit: str) -> TextTimes:
+    """A date column as each row's midnight in seconds since 1970 (the date as written).
+
+    Args:
+        cells: the column's cells in row order (None: an empty cell).
+        unit: :data:`DDMMYY` or a date pattern (:func:`date_problem` None).
+
+    Returns:
+        The seconds (NaN for a missing or bad cell) and the bad cells with why.
+    """
+    out = np.full(len(cells), np.nan)
+    bad: list[tuple[int, str]] = []
+    seen: dict[str, float | str] = {}  # a drive's rows share a date or two: parse each once
+    for i, cell in enumerate(cells):
+        if cell is None or _bare(cell).lower() in _MISSING:
+            continue
+        text = _bare(cell)
+        if text not in seen:
+            seen[text] = _date_seconds(text, unit)
+        got = seen[text]
+        if isinstance(got, str):
+            bad.append((i, f"{cell!r} ({got})"))
+        else:
+            out[i] = got
+    return TextTimes(out, bad, None, None)
+
+
+def _date_seconds(text: str, unit: str) -> float | str:
+    """One date's midnight in seconds since 1970, or why it is none."""
+    try:
+        if unit == DDMMYY:
+            number = float(text)
+            if not (number.is_integer() and 0 < number < 1_000_000):
+                return "six digits ddmmyy"
+            n = int(number)
+            yy = n % 100
+            when = date(1900 + yy if yy >= 80 else 2000 + yy, n // 100 % 100, n // 10_000)
+        else:
+            when = datetime.strptime(text, unit).date()
+    except ValueError as err:
+        return str(err)
+    return float((when.toordinal() - _EPOCH_ORDINAL) * 86400)
+
+
+def date_note(date_column: str, time_column: str, unit: str) -> str:
+    """What a reader says when it added a date column's dates to the times of day."""
+    return (
+        f"dates of column {date_column.strip()!r} ({unit}) added to the times of day of "
+        f"{time_column.strip()!r}: seconds since 1970 as written (no zone applied)"
+    )
+
+
 def text_time_unit(cell: str | None) -> str | None:
     """The text unit a time cell is written in (:data:`TEXT_TIME_UNITS`), or None."""
     if cell is None:
@@ -122,8 +221,7 @@ def _bare(cell: str) -> str:
 
 def text_time_note(column: str, unit: str) -> str:
     """What a reader says when it read the time column as text."""
-    dated = unit == ISO8601 or (is_pattern(unit) and any(d in unit for d in _DATE_DIRECTIVES))
-    said = "seconds since 1970 (UTC)" if dated else "h*3600 + m*60 + s"
+    said = "seconds since 1970 (UTC)" if is_dated(unit) else "h*3600 + m*60 + s"
     return f"time column {column.strip()!r} written as text ({unit}): read as {said}"
 
 
@@ -279,6 +377,34 @@ def check_text_times(
         )
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
+
+
+def check_dates(
+    parsed: TextTimes, file: str, column: str, unit: str, first_row: int, setting: str
+) -> None:
+    """Refuse a date column's bad cells (:func:`parse_dates`), naming the file's rows.
+
+    Args:
+        parsed: the parsed column.
+        file: the file as the user knows it.
+        column: the date column's name in the file.
+        unit: its unit.
+        first_row: the 1-based data row of the first cell.
+        setting: where the unit is declared (``data.column_maps.<name>.date.unit``).
+
+    Raises:
+        InputError: every cell that is no date of ``unit``'s form.
+    """
+    if not parsed.bad:
+        return
+    tally = RowTally(
+        file,
+        column,
+        date_expected(unit),
+        f"write every date in the form {setting} declares ({unit}), or correct it",
+    )
+    tally.add([first_row + i for i, _ in parsed.bad], [why for _, why in parsed.bad])
+    raise InputError(tally.problems(), summary=f"dates in {file} not of the form {unit!r}")
 
 
 def _zoned(cell: str | None) -> bool:
