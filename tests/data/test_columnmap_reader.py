@@ -226,3 +226,64 @@ def test_nmea_coordinates_and_a_packed_time_of_day_across_midnight(tmp_path):
     frame.rename(columns={"Lat (ddmm.mmmm)": "Lat (deg)"}).to_csv(tmp_path / "d.csv", index=False)
     with pytest.raises(InputError, match="the header names the column's unit 'deg'"):
         read_columnmap(tmp_path / "d.csv", cmap, "cupac")
+
+
+def test_nmea_hemisphere_letters_in_columns_of_their_own_sign_the_coordinates(tmp_path):
+    """A GGA sentence split into columns: magnitudes in ddmm.mmmm, the hemisphere in N/S and
+    E/W columns. South and west read negative, by ingest's reader and predict's; an empty
+    letter leaves the fix missing; a letter that is none, or a minus sign beside a letter,
+    is refused with its row; a map that gives the sign twice is refused at once."""
+    import io
+
+    import pandas as pd
+
+    from rwhonet.data.incremental import read_rows
+    from support.drives import write_columnmap
+    from support.serving import wavy_drive
+
+    df = wavy_drive(30.0)
+    ref = read_columnmap(write_columnmap(df, tmp_path / "deg.csv"), cupac_map(), "cupac")
+    frame = pd.read_csv(tmp_path / "deg.csv")
+    lat, lon = -frame["Latitude"].to_numpy(), frame["Longitude"].to_numpy() - 70.0
+    frame["Latitude"], frame["Longitude"] = _ddmm(np.abs(lat)), _ddmm(np.abs(lon))
+    frame.insert(frame.columns.get_loc("Latitude") + 1, "NS", np.where(lat < 0, "S", "N"))
+    frame.insert(frame.columns.get_loc("Longitude") + 1, "EW", np.where(lon < 0, "w", "E"))
+    frame.loc[5, ["NS"]] = ""
+    frame.to_csv(tmp_path / "gga.csv", index=False)
+    cmap = cupac_map(lat=("Latitude", "ddmm"), lon=("Longitude", "ddmm")) | {
+        "lat_hemisphere": ColumnSpec("NS", "N/S"),
+        "lon_hemisphere": ColumnSpec("EW", "E/W"),
+    }
+    got = read_columnmap(tmp_path / "gga.csv", cmap, "cupac")
+    want_lat = -ref.columns[c.LAT_DEG]
+    want_lat[5] = np.nan
+    np.testing.assert_allclose(got.columns[c.LAT_DEG], want_lat, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.columns[c.LON_DEG], ref.columns[c.LON_DEG] - 70.0, atol=1e-12)
+    assert set(got.source_columns.values()) >= {"Latitude", "Longitude"}
+    assert not {"NS", "EW"} & set(got.source_columns.values())
+    _, blocks = read_rows(io.BytesIO((tmp_path / "gga.csv").read_bytes()), "g", "cupac", cmap)
+    streamed = list(blocks)
+    for name, want in ((c.LAT_DEG, want_lat), (c.LON_DEG, ref.columns[c.LON_DEG] - 70.0)):
+        values = np.concatenate([b[name] for _, b in streamed])
+        np.testing.assert_allclose(values, want, rtol=0, atol=1e-12)
+    frame.loc[8, "EW"] = "X"
+    frame.loc[11, "Latitude"] *= -1
+    frame.to_csv(tmp_path / "bad.csv", index=False)
+    for read in (
+        lambda: read_columnmap(tmp_path / "bad.csv", cmap, "cupac"),
+        lambda: list(
+            read_rows(io.BytesIO((tmp_path / "bad.csv").read_bytes()), "b", "cupac", cmap)[1]
+        ),
+    ):
+        with pytest.raises(InputError) as err:
+            read()
+        found = {(p.row, p.column) for p in err.value.problems}
+        assert found == {(9, "EW"), (12, "Latitude")}
+    with pytest.raises(ConfigError) as err:
+        check_column_map(
+            "cupac",
+            cupac_map(lon=("Longitude", "ddmm W"))
+            | {"lon_hemisphere": ColumnSpec("EW", "E/W"), "lat_hemisphere": ColumnSpec("NS", "S")},
+        )
+    assert "cupac.lon.unit: expected a unit without ' W'" in str(err.value)
+    assert "cupac.lat_hemisphere.unit: expected 'N/S', got 'S'" in str(err.value)

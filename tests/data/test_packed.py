@@ -7,7 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from rwhonet.data.packed import DDMM, DDMM_W, HHMMSS, unpack, unpack_or_refuse
+from rwhonet.data.canonical import DDMM, DDMM_W
+from rwhonet.data.packed import (
+    HHMMSS,
+    hemisphere_signs,
+    signed_or_refuse,
+    unpack,
+    unpack_or_refuse,
+)
 from rwhonet.errors import InputError
 
 
@@ -99,3 +106,31 @@ def test_many_refused_cells_are_listed_then_counted() -> None:
     *listed, rest = err.value.problems
     assert [p.row for p in listed] == [1, 2, 3, 4, 5]
     assert rest.row is None and "75 more row(s)" in rest.found and "rows 6-80" in rest.found
+
+
+def test_hemisphere_letters_give_the_signs_nmea_means() -> None:
+    signs, bad = hemisphere_signs(["N", " s ", '"S"', "", None, "nan", "E", "north"], "N/S")
+    np.testing.assert_array_equal(signs[:3], [1.0, -1.0, -1.0])
+    assert np.isnan(signs[3:]).all()
+    assert [i for i, _ in bad] == [6, 7]
+    out = signed_or_refuse(
+        np.array([48.1173, 11.5167, 0.0]), ["N", "S", "S"], "N/S", "f", ("a", "b")
+    )
+    np.testing.assert_array_equal(out, [48.1173, -11.5167, -0.0])
+
+
+def test_a_sign_and_a_letter_both_and_a_letter_that_is_none_are_refused_with_rows() -> None:
+    with pytest.raises(InputError) as err:
+        signed_or_refuse(
+            np.array([1.5, -2.0, 3.0, -4.0]),
+            ["W", "W", "Q", ""],  # row 4: no letter, no fix: its sign does not matter
+            "E/W",
+            "gga.csv",
+            ("Lon", "EW"),
+            first_row=10,
+            setting="data.column_maps.gga.lon_hemisphere",
+        )
+    rows = [(p.row, p.column) for p in err.value.problems]
+    assert rows == [(12, "EW"), (11, "Lon")]
+    assert "E or W" in err.value.problems[0].expected
+    assert "data.column_maps.gga.lon_hemisphere" in (err.value.problems[1].fix or "")

@@ -1393,6 +1393,49 @@ def _(raw: Path) -> None:
     write_target(raw, weaving_target())
 
 
+_NMEA_MAP = CUPAC_MAP | {
+    "date": ("Date", "ddmmyy"),
+    "t": ("UTC", "hhmmss"),
+    "lat": ("Lat", "ddmm"),
+    "lat_hemisphere": ("NS", "N/S"),
+    "lon": ("Lon", "ddmm"),
+    "lon_hemisphere": ("EW", "E/W"),
+}
+
+
+@case(
+    "nmea_fields_through_a_column_map",
+    "a GGA/RMC sentence's fields as columns: date as ddmmyy, UTC as hhmmss.ss, latitude and "
+    "longitude as unsigned ddmm.mmmm with N/S and E/W letters (west of Greenwich)",
+    Accept("the map's date, hhmmss, ddmm and hemisphere keys: the drive in seconds and degrees"),
+    **{
+        "data.column_maps.cupac": column_map_params(_NMEA_MAP),
+        "data.roles.target_test": _CUPAC_ROLE,
+    },
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    path = write_columnmap(df, target_path(raw), CUPAC_MAP | {"t": ("Time", "s")})
+    frame = pd.read_csv(path)
+    hours, rest = np.divmod(np.round(frame.pop("Time").to_numpy(), 3), 3600.0)
+    utc = 10_000.0 * hours + 100.0 * (rest // 60.0) + rest % 60.0
+    parts = {}
+    for key, letters in (("Latitude", "NS"), ("Longitude", "EW")):
+        deg = frame.pop(key).to_numpy()
+        whole = np.trunc(np.abs(deg))
+        parts[key] = (
+            100.0 * whole + 60.0 * (np.abs(deg) - whole),
+            np.where(deg < 0, *letters[::-1]),
+        )
+    frame.insert(0, "Date", "110319")
+    frame.insert(1, "UTC", [f"{x:.2f}" for x in utc])
+    frame.insert(2, "Lat", parts["Latitude"][0])
+    frame.insert(3, "NS", parts["Latitude"][1])
+    frame.insert(4, "Lon", parts["Longitude"][0])
+    frame.insert(5, "EW", parts["Longitude"][1])
+    frame.to_csv(path, index=False)
+
+
 @case(
     "yaw_rate_clockwise_declared",
     "a column-mapped CSV whose gyro is positive clockwise, declared 'deg/s cw' in the map",

@@ -4,7 +4,10 @@
 that holds it and its unit (CUPAC, whose layout is not documented, is read this
 way). With ``iovnbd.py`` this is the only module that knows file column names.
 Columns are matched by name, without regard to case, spaces, punctuation and a unit
-suffix (:func:`find_column`); the time continues across midnight.
+suffix (:func:`find_column`); the time continues across midnight. Besides the channels
+(:data:`KEYS`), a map may name a date column (``date``: the ``t`` column then holds the
+time of day) and hemisphere letter columns (``lat_hemisphere``, ``lon_hemisphere``:
+NMEA's N/S and E/W), which give the channels their day and their signs.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from rwhonet.data.csvio import (
     read_text_column,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
-from rwhonet.data.packed import HHMMSS, is_packed, unpack_or_refuse
+from rwhonet.data.packed import HHMMSS, is_packed, signed_or_refuse, unpack_or_refuse
 from rwhonet.data.texttime import (
     CLOCK,
     ISO8601,
@@ -68,6 +71,10 @@ REQUIRED_KEYS = tuple(k for k, (name, _) in KEYS.items() if name in c.REQUIRED)
 # A date in a column of its own (rwhonet.data.texttime.parse_dates): no channel of its own,
 # each row's midnight added to the time of day the ``t`` column then holds.
 DATE = "date"
+# A coordinate's hemisphere letter in a column of its own (NMEA's N/S and E/W fields): the
+# key -> (the coordinate's key, the letters' unit); rwhonet.data.packed.signed_or_refuse.
+HEMISPHERES = {"lat_hemisphere": ("lat", "N/S"), "lon_hemisphere": ("lon", "E/W")}
+AUX_KEYS = (DATE, *HEMISPHERES)  # keys that name no channel of their own
 
 
 def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
@@ -82,9 +89,9 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
     """
     where = f"data.column_maps.{name}"
     issues = [
-        f"{where}.{k}: unknown key; expected one of {[*KEYS, DATE]}"
+        f"{where}.{k}: unknown key; expected one of {[*KEYS, *AUX_KEYS]}"
         for k in column_map
-        if k not in KEYS and k != DATE
+        if k not in KEYS and k not in AUX_KEYS
     ]
     issues += [f"{where}.{k}: missing" for k in REQUIRED_KEYS if k not in column_map]
     issues += [
@@ -107,6 +114,16 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
                 f"{where}.t.unit: expected a time of day beside a date column (s, ms, "
                 f"hhmmss, hh:mm:ss, or a pattern without a date), got {column_map['t'].unit!r}"
                 ": the date would be given twice"
+            )
+    for key, (coordinate, unit) in HEMISPHERES.items():
+        if key not in column_map:
+            continue
+        if column_map[key].unit != unit:
+            issues.append(f"{where}.{key}.unit: expected {unit!r}, got {column_map[key].unit!r}")
+        if coordinate in column_map and column_map[coordinate].unit.endswith(" W"):
+            issues.append(
+                f"{where}.{coordinate}.unit: expected a unit without ' W' beside "
+                f"{where}.{key} (the letters give the sign), got {column_map[coordinate].unit!r}"
             )
     if issues:
         raise ConfigError("\n".join(issues))
@@ -143,7 +160,9 @@ def read_columnmap(
         cell = first_cell(path, at)
         text_time = declared_text_unit(spec.unit, cell, header[at], where, file)
     numeric = {
-        pos for key, pos in positions.items() if not (key == "t" and text_time) and key != DATE
+        pos
+        for key, pos in positions.items()
+        if not (key == "t" and text_time) and key not in AUX_KEYS
     }
     values = read_numeric(path, len(header), {pos: header[pos] for pos in numeric}, file)
     if text_time:
@@ -152,7 +171,7 @@ def read_columnmap(
     columns = {}
     shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
     for key, spec in column_map.items():
-        if key == DATE:
+        if key in AUX_KEYS:
             continue
         canonical, factors = KEYS[key]
         pos, factor = positions[key], factors.get(spec.unit, 1.0)  # a strptime pattern: s
@@ -170,6 +189,23 @@ def read_columnmap(
         notes = (text_time_note(header[positions["t"]], text_time),)
     if (said := delimiter_note(file_delimiter(path))) is not None:
         notes += (said,)
+    problems: list[Problem] = []
+    for key, (coordinate, unit) in HEMISPHERES.items():
+        if key in positions:
+            pos, canonical = positions[key], KEYS[coordinate][0]
+            try:
+                columns[canonical] = signed_or_refuse(
+                    columns[canonical],
+                    read_text_column(path, len(header), pos, file),
+                    unit,
+                    file,
+                    (header[positions[coordinate]].strip(), header[pos].strip()),
+                    setting=f"data.column_maps.{name}.{key}",
+                )
+            except InputError as err:  # both coordinates' problems in one report
+                problems += err.problems
+    if problems:
+        raise InputError(problems, summary=f"hemispheres in {file} that cannot be read")
     if DATE in positions:
         pos, unit = positions[DATE], column_map[DATE].unit
         dates = parse_dates(read_text_column(path, len(header), pos, file), unit)
@@ -183,7 +219,9 @@ def read_columnmap(
             notes += (f"time of day passed midnight before data row(s) {shown}: a day added",)
     return RawDrive(
         columns=columns,
-        source_columns={KEYS[k][0]: header[pos] for k, pos in positions.items() if k != DATE},
+        source_columns={
+            KEYS[k][0]: header[pos] for k, pos in positions.items() if k not in AUX_KEYS
+        },
         header_match="column_map",
         notes=notes,
     )
@@ -227,7 +265,7 @@ def columnmap_positions(
     # A header that names its unit ("Wheel Speed RL (rpm)") against a map that declares
     # another: one of the two is wrong, and a factor of 9.5 or 57 goes unseen otherwise
     for key, pos in found.items():
-        if key == DATE:  # a date's form is no unit ("Date (dd/mm/yyyy)")
+        if key in AUX_KEYS:  # a date's form, a letter: no unit ("Date (dd/mm/yyyy)")
             continue
         said = unit_name(header_key(header[pos])[1])
         declared = column_map[key].unit

@@ -32,7 +32,7 @@ import numpy as np
 
 from rwhonet.config import GnssPolicy
 from rwhonet.data import canonical as c
-from rwhonet.data.packed import is_packed, unpack_or_refuse
+from rwhonet.data.packed import is_packed, signed_or_refuse, unpack_or_refuse
 from rwhonet.data.problems import no_data_rows
 from rwhonet.data.texttime import check_dates, date_note, parse_dates
 from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
@@ -74,6 +74,9 @@ class Layout:
             after the factors (whose entry is 1.0).
         date: a column map's date column (``date`` key): its position, unit, name and
             setting; each row's date is added to its time of day (None: no such column).
+        hemispheres: canonical name -> a column map's hemisphere letter column for it
+            (``lat_hemisphere``, ``lon_hemisphere``): its position, unit (``N/S``,
+            ``E/W``), name and setting; the letters give the coordinates their signs.
     """
 
     n_columns: int
@@ -84,6 +87,7 @@ class Layout:
     time_setting: str = ""
     packed: dict[str, tuple[str, str]] = field(default_factory=dict)
     date: tuple[int, str, str, str] | None = None
+    hemispheres: dict[str, tuple[int, str, str, str]] = field(default_factory=dict)
     # how the rows were read where a reader would note it (a time written as text, a file
     # separated by ';'), filled as the first rows arrive
     notes: list[str] = field(default_factory=list)
@@ -102,6 +106,7 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         InputError: the channels cannot be located.
     """
     date: tuple[int, str, str, str] | None = None
+    hemispheres: dict[str, tuple[int, str, str, str]] = {}
     if fmt == "iovnbd":
         from rwhonet.data.iovnbd import (
             column_factors,
@@ -117,13 +122,24 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
             for name, unit in column_packed(header, positions).items()
         }
     else:
-        from rwhonet.data.columnmap import DATE, KEYS, check_column_map, columnmap_positions
+        from rwhonet.data.columnmap import (
+            DATE,
+            HEMISPHERES,
+            KEYS,
+            check_column_map,
+            columnmap_positions,
+        )
 
         check_column_map(fmt, column_map or {})
         by_key = columnmap_positions(header, column_map or {}, fmt, file)
         if DATE in by_key:
             at = by_key.pop(DATE)
             date = (at, (column_map or {})[DATE].unit, header[at], f"data.column_maps.{fmt}.date")
+        for key, (coordinate, unit) in HEMISPHERES.items():
+            if key in by_key:
+                at = by_key.pop(key)
+                setting = f"data.column_maps.{fmt}.{key}"
+                hemispheres[KEYS[coordinate][0]] = (at, unit, header[at], setting)
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
         # a strptime pattern for the time is text, read as seconds: factor 1; a packed unit
         # is unpacked (factor 1 before)
@@ -150,6 +166,7 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         time_setting=f"data.column_maps.{fmt}.t.unit",
         packed={name: how for name, how in packed.items() if name in wanted},
         date=date,
+        hemispheres=hemispheres,
         notes=[] if date is None else [date_note(date[2], lay_time_name, date[1])],
     )
 
@@ -546,6 +563,19 @@ def parse_lines(
         if name in out:
             rows = first_row + np.arange(len(out[name]))
             out[name] = unpack_or_refuse(out[name], unit, file, lay.names[name], rows, setting)
+    problems: list[Problem] = []
+    for name, (pos, unit, column, setting) in lay.hemispheres.items():
+        if name in out:
+            columns = (lay.names[name].strip(), column.strip())
+            cells = _column_cells(text, pos)
+            try:
+                out[name] = signed_or_refuse(
+                    out[name], cells, unit, file, columns, first_row, setting
+                )
+            except InputError as err:  # both coordinates' problems in one report
+                problems += err.problems
+    if problems:
+        raise InputError(problems, summary=f"hemispheres in {file} that cannot be read")
     if text_time:
         assert form is not None and form.text is not None
         out[c.T_S] = _text_times(text, lay, first_row, file, form)

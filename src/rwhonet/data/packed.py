@@ -8,6 +8,14 @@ N/S and E/W letters. The same sentences, Racelogic VBOX files and many receivers
 exports write the UTC time of day as ``hhmmss.ss`` (``142205.10`` is 14:22:05.1, and a
 CSV may drop the leading zeros: ``93005.5`` is 09:30:05.5).
 
+NMEA gives the hemisphere as a letter in a field of its own (``N``/``S``, ``E``/``W``), and
+a logger that splits a sentence into CSV columns keeps it so: a column map names that
+column (keys ``lat_hemisphere``, unit ``N/S``; ``lon_hemisphere``, unit ``E/W``), and
+:func:`signed_or_refuse` gives each coordinate the letter's sign. The coordinate beside a
+letter must be a magnitude (a minus sign and a letter both are refused: which one is
+meant cannot be told); an empty letter makes the coordinate missing (NMEA leaves both
+fields empty without a fix).
+
 A column or signal map declares such a column with the unit ``ddmm`` (``ddmm W``: a
 longitude positive west) or ``hhmmss``; :func:`unpack` turns it into degrees or seconds of
 the day (which the readers continue past midnight as any time of day). A cell that cannot
@@ -19,6 +27,8 @@ or the prime meridian; the map must be right.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -39,6 +49,11 @@ EXPECTED[DDMM_W] = EXPECTED[DDMM]
 # A hundredth of a microsecond or of a micro-minute: what a float64 of such a number may
 # be off by after the divisions below, so that 5259.9999999999 is not taken for 60 minutes.
 _EPS = 1e-9
+
+
+# A coordinate's hemisphere letters (positive, negative), as a column map declares them.
+HEMISPHERE_UNITS = {"N/S": ("N", "S"), "E/W": ("E", "W")}
+_MISSING = frozenset({"", "nan", "na", "n/a", "null", "none"})
 
 
 def is_packed(unit: str | None) -> bool:
@@ -119,3 +134,85 @@ def unpack_or_refuse(
     found = [repr(float(v)) for v in x[bad[:ROWS_LISTED]]]
     problems = row_problems(file, column, at, found, EXPECTED[unit], fix=fix)
     raise InputError(problems, summary=f"{bad.size} cell(s) in {file} not in the unit {unit!r}")
+
+
+def hemisphere_signs(
+    cells: Sequence[str | None], unit: str
+) -> tuple[np.ndarray, list[tuple[int, str]]]:
+    """The sign each row's hemisphere letter gives (``N``/``E``: +1, ``S``/``W``: -1).
+
+    Args:
+        cells: the letter column's cells (None: empty).
+        unit: ``N/S`` or ``E/W`` (:data:`HEMISPHERE_UNITS`).
+
+    Returns:
+        The signs (NaN for an empty cell, and for one that is no such letter) and the
+        0-based positions of the cells that are no such letter, each as written.
+    """
+    plus, minus = HEMISPHERE_UNITS[unit]
+    out = np.full(len(cells), np.nan)
+    bad: list[tuple[int, str]] = []
+    for i, cell in enumerate(cells):
+        letter = (cell or "").strip().strip('"').strip().upper()
+        if letter == plus:
+            out[i] = 1.0
+        elif letter == minus:
+            out[i] = -1.0
+        elif letter.lower() not in _MISSING:
+            bad.append((i, repr(cell)))
+    return out, bad
+
+
+def signed_or_refuse(
+    values: np.ndarray,
+    cells: Sequence[str | None],
+    unit: str,
+    file: str,
+    columns: tuple[str, str],
+    first_row: int = 1,
+    setting: str | None = None,
+) -> np.ndarray:
+    """Coordinates given the sign of their hemisphere letters.
+
+    Args:
+        values: the coordinates as magnitudes (degrees, after any unpacking).
+        cells: the letter column's cells, row for row.
+        unit: ``N/S`` or ``E/W``.
+        file: the file, as the user knows it.
+        columns: the coordinate's and the letter's column names.
+        first_row: the 1-based data row of the first value.
+        setting: where the letter column is declared, for the fix.
+
+    Returns:
+        The signed coordinates (NaN where the letter is empty).
+
+    Raises:
+        InputError: a letter that is not one of ``unit``'s, and a coordinate written with a
+            minus sign beside a letter, each with its row.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    signs, bad = hemisphere_signs(cells, unit)
+    with np.errstate(invalid="ignore"):
+        negative = np.flatnonzero((values < 0) & np.isfinite(signs))
+    if not bad and not negative.size:
+        return values * signs
+    coordinate, letter = columns
+    problems = row_problems(
+        file,
+        letter,
+        [first_row + i for i, _ in bad],
+        [why for _, why in bad[:ROWS_LISTED]],
+        f"a hemisphere letter, {' or '.join(HEMISPHERE_UNITS[unit])} ({setting or unit})",
+        fix="write one of the two letters in every row with a fix, or leave it empty",
+    ) + row_problems(
+        file,
+        coordinate,
+        first_row + negative,
+        [repr(float(v)) for v in values[negative[:ROWS_LISTED]]],
+        f"a coordinate without a sign beside its hemisphere letter in {letter!r}",
+        fix=(
+            "write the coordinate as NMEA does, without a sign, or take the letter column "
+            f"out of the map{f' ({setting})' if setting else ''} and keep the sign"
+        ),
+    )
+    raise InputError(problems, summary=f"hemispheres in {file} that cannot be read")
