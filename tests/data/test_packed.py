@@ -45,10 +45,19 @@ def test_angles_under_a_degree_and_at_the_minute_s_edge() -> None:
 
 
 def test_minutes_of_60_or_more_are_not_an_angle() -> None:
-    out, bad = unpack(np.array([5260.0, 5224.0, 5299.9, -375.0]), DDMM)
-    assert bad.tolist() == [0, 2, 3]
-    assert np.isnan(out[[0, 2, 3]]).all()
+    out, bad = unpack(np.array([5261.0, 5224.0, 5299.9, -375.0, 5260.002]), DDMM)
+    assert bad.tolist() == [0, 2, 3, 4]
+    assert np.isnan(out[[0, 2, 3, 4]]).all()
     assert out[1] == pytest.approx(52.4)
+
+
+def test_sixty_minutes_or_seconds_from_a_writer_s_rounding_are_the_next_degree_or_minute():
+    # 52 deg 59.99996 min printed to four decimals; 12:34:59.996 printed to two
+    out, bad = unpack(np.array([5260.0, -5260.0004]), DDMM)
+    assert bad.size == 0
+    np.testing.assert_allclose(out, [53.0, -(53.0 + 0.0004 / 60)], atol=1e-12)
+    out, bad = unpack(np.array([123460.0]), HHMMSS)
+    assert bad.size == 0 and out[0] == 12 * 3600 + 35 * 60
 
 
 def test_a_missing_value_stays_missing_and_is_not_refused() -> None:
@@ -79,7 +88,7 @@ def test_a_tenth_of_a_second_survives_the_unpacking() -> None:
 
 
 def test_impossible_times_are_named() -> None:
-    out, bad = unpack(np.array([126000.0, 120060.0, 240000.0, -1.0, 125959.0]), HHMMSS)
+    out, bad = unpack(np.array([126000.0, 120061.0, 240000.0, -1.0, 125959.0]), HHMMSS)
     assert bad.tolist() == [0, 1, 2, 3]
     assert out[4] == 12 * 3600 + 59 * 60 + 59
 

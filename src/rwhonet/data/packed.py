@@ -19,7 +19,8 @@ fields empty without a fix).
 A column or signal map declares such a column with the unit ``ddmm`` (``ddmm W``: a
 longitude positive west) or ``hhmmss``; :func:`unpack` turns it into degrees or seconds of
 the day (which the readers continue past midnight as any time of day). A cell that cannot
-be such a number (minutes or seconds of 60 or more, hours of 24 or more, a negative time)
+be such a number (minutes or seconds beyond 60, hours of 24 or more, a negative time; 60.000
+itself is a writer's rounding of 59.9999..., read as the next degree or minute)
 is refused naming its row (:func:`unpack_or_refuse`): read as a plain number it would put
 the car a few kilometres off, or the second in the wrong minute, and nothing later could
 tell. A column of plain degrees declared ``ddmm`` cannot be told from one near the equator
@@ -49,6 +50,10 @@ EXPECTED[DDMM_W] = EXPECTED[DDMM]
 # A hundredth of a microsecond or of a micro-minute: what a float64 of such a number may
 # be off by after the divisions below, so that 5259.9999999999 is not taken for 60 minutes.
 _EPS = 1e-9
+# Minutes or seconds from 60 up to this are a writer's rounding (59.99996 min printed to
+# four decimals is 60.0000), read as the value they are (60 min: the next degree); beyond,
+# the cell is not of the form.
+_ROUNDED = 60.001
 
 
 # A coordinate's hemisphere letters (positive, negative), as a column map declares them.
@@ -81,7 +86,7 @@ def unpack(values: np.ndarray, unit: str) -> tuple[np.ndarray, np.ndarray]:
         seconds = np.maximum(rest - 100.0 * minutes, 0.0)
         out = 3600.0 * hours + 60.0 * minutes + seconds
         with np.errstate(invalid="ignore"):
-            bad = (x < 0) | (hours >= 24) | (minutes >= 60) | (seconds >= 60.0 - _EPS)
+            bad = (x < 0) | (hours >= 24) | (minutes >= 60) | (seconds >= _ROUNDED)
     elif unit in (DDMM, DDMM_W):
         a = np.abs(x)
         degrees = np.floor(a / 100.0 + _EPS)
@@ -90,7 +95,7 @@ def unpack(values: np.ndarray, unit: str) -> tuple[np.ndarray, np.ndarray]:
         if unit == DDMM_W:
             out = -out
         with np.errstate(invalid="ignore"):
-            bad = minutes >= 60.0 - _EPS
+            bad = minutes >= _ROUNDED
     else:
         raise ValueError(f"not a packed unit: {unit!r}")
     where_bad = np.flatnonzero(bad)
