@@ -5,6 +5,7 @@ from __future__ import annotations
 import gc
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -307,6 +308,74 @@ def test_nmea_fields_in_stream_csvs_and_an_mdf4_signal_read_as_degrees_and_secon
     np.testing.assert_allclose(d[c.LAT_DEG], 48.1 + V * d[c.T_S] / 111_200.0, atol=1e-9)
     with pytest.raises(InputError, match="the file says '°'"):
         read_mdf4(path, MDF_MAP | _spec(lon=("GPS_Lon", "ddmm")), R)
+
+
+def test_a_date_in_every_stream_file_and_hemisphere_letters_beside_their_coordinates(tmp_path):
+    """A receiver's file as a split RMC sentence (date ddmmyy, time hhmmss.ss, unsigned
+    ddmm.mmmm with S and W letters) and a CAN file with the same date and time columns,
+    through midnight: the drive read from seconds since 1970 in degrees. A file without
+    the date column, and letters in another file than their coordinate, are refused."""
+    from datetime import UTC, datetime
+
+    day_s = datetime(2019, 3, 11, tzinfo=UTC).timestamp()
+    t_w = np.arange(0.0, 30.0, 0.0125) + 86400.0 - 15.0  # 23:59:45 on
+    t_g = np.arange(0.0, 30.0, 1.0) + t_w[0] + 0.3
+    omega = V / R * 60 / (2 * math.pi)
+    lat = -33.9 - V * (t_g - t_w[0]) / 110_900.0
+    wheels = {f"w{k}": omega for k in range(4)}
+
+    def rmc(t: np.ndarray) -> dict:
+        day = np.where(t >= 86400.0, "120319", "110319")
+        hours, rest = np.divmod(np.round(t % 86400.0, 4), 3600.0)
+        return {"Date": day, "UTC": 10_000.0 * hours + 100.0 * (rest // 60.0) + rest % 60.0}
+
+    folder = tmp_path / "nmea"
+    folder.mkdir()
+    pd.DataFrame({**rmc(t_w), **wheels}).to_csv(folder / "can.csv", index=False)
+    lat_mag = np.abs(lat)
+    gps = {
+        **rmc(t_g),
+        "lat": 100.0 * np.trunc(lat_mag) + 60.0 * (lat_mag - np.trunc(lat_mag)),
+        "NS": "S",
+        "lon": 5824.0,  # 58 deg 24 min
+        "EW": "W",
+    }
+    pd.DataFrame(gps).to_csv(folder / "gps.csv", index=False)
+    wheel_keys = {f"omega_{w}": (f"w{k}", "rpm") for k, w in enumerate(("fl", "fr", "rl", "rr"))}
+    nmea = _spec(
+        date=("Date", "ddmmyy"),
+        t=("UTC", "hhmmss"),
+        lat=("lat", "ddmm"),
+        lat_hemisphere=("NS", "N/S"),
+        lon=("lon", "ddmm"),
+        lon_hemisphere=("EW", "E/W"),
+        **wheel_keys,
+    )
+    streams = read_stream_csvs(sorted(folder.glob("*.csv")), nmea, R)
+    assert any("dates of column 'Date'" in note for note in streams.notes)
+    got = resample(streams).drive.columns
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    pd.DataFrame({"t": day_s + t_w, **wheels}).to_csv(plain / "can.csv", index=False)
+    pd.DataFrame({"t": day_s + t_g, "lat": lat, "lon": -58.4}).to_csv(
+        plain / "gps.csv", index=False
+    )
+    smap = _spec(t=("t", "s"), lat=("lat", "deg"), lon=("lon", "deg"), **wheel_keys)
+    want = resample(read_stream_csvs(sorted(plain.glob("*.csv")), smap, R)).drive.columns
+    for name in (c.T_S, c.LAT_DEG, c.LON_DEG, c.OMEGA_RL):
+        np.testing.assert_allclose(got[name], want[name], rtol=0, atol=1e-6)
+    pd.DataFrame({"UTC": rmc(t_w)["UTC"], **wheels, "EW": "W"}).to_csv(
+        folder / "can.csv", index=False
+    )
+    gps.pop("EW")
+    pd.DataFrame(gps).to_csv(folder / "gps.csv", index=False)
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(sorted(folder.glob("*.csv")), nmea, R)
+    said = {(Path(p.file).name, p.column, p.expected.split(" (")[0]) for p in err.value.problems}
+    assert ("can.csv", "Date", "the date column 'Date'") in said
+    assert ("can.csv", "EW", "the hemisphere letters") in said
+    with pytest.raises(ConfigError, match="stream CSVs only"):
+        check_signal_map("log", MDF_MAP | _spec(date=("Date", "ddmmyy")))
 
 
 def test_time_going_back_in_a_stream_csv_outside_midnight_is_still_refused(tmp_path):

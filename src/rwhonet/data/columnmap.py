@@ -106,27 +106,43 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
         for k, spec in column_map.items()
         if k == "t" and is_pattern(spec.unit) and (problem := pattern_problem(spec.unit))
     ]
-    if DATE in column_map:
-        if problem := date_problem(column_map[DATE].unit):
+    issues += aux_key_issues(where, column_map)
+    if issues:
+        raise ConfigError("\n".join(issues))
+
+
+def aux_key_issues(where: str, spec_map: Mapping[str, ColumnSpec]) -> list[str]:
+    """What is wrong with a column or signal map's date and hemisphere keys (:data:`AUX_KEYS`).
+
+    Args:
+        where: how messages name the map (``data.column_maps.<name>``).
+        spec_map: key -> column and unit.
+
+    Returns:
+        One line per problem: a date unit that is none, a dated time beside a date column,
+        a hemisphere unit that is not its letters, a longitude ``... W`` beside letters.
+    """
+    issues = []
+    if DATE in spec_map:
+        if problem := date_problem(spec_map[DATE].unit):
             issues.append(f"{where}.date.unit: expected {problem}")
-        if "t" in column_map and is_dated(column_map["t"].unit):
+        if "t" in spec_map and is_dated(spec_map["t"].unit):
             issues.append(
                 f"{where}.t.unit: expected a time of day beside a date column (s, ms, "
-                f"hhmmss, hh:mm:ss, or a pattern without a date), got {column_map['t'].unit!r}"
+                f"hhmmss, hh:mm:ss, or a pattern without a date), got {spec_map['t'].unit!r}"
                 ": the date would be given twice"
             )
     for key, (coordinate, unit) in HEMISPHERES.items():
-        if key not in column_map:
+        if key not in spec_map:
             continue
-        if column_map[key].unit != unit:
-            issues.append(f"{where}.{key}.unit: expected {unit!r}, got {column_map[key].unit!r}")
-        if coordinate in column_map and column_map[coordinate].unit.endswith(" W"):
+        if spec_map[key].unit != unit:
+            issues.append(f"{where}.{key}.unit: expected {unit!r}, got {spec_map[key].unit!r}")
+        if coordinate in spec_map and spec_map[coordinate].unit.endswith(" W"):
             issues.append(
                 f"{where}.{coordinate}.unit: expected a unit without ' W' beside "
-                f"{where}.{key} (the letters give the sign), got {column_map[coordinate].unit!r}"
+                f"{where}.{key} (the letters give the sign), got {spec_map[coordinate].unit!r}"
             )
-    if issues:
-        raise ConfigError("\n".join(issues))
+    return issues
 
 
 def read_columnmap(

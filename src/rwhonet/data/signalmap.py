@@ -23,6 +23,10 @@ column) and its unit. Keys and units:
                                               8855 z up); ``rad/s cw``, ``deg/s cw`` for a
                                               gyro positive clockwise (z down)
 ``acc_lon``, ``acc_lat``                      ``m/s2``, ``g``
+``date`` (CSV streams: then in every file)    ``ddmmyy`` or a strptime date pattern; ``t``
+                                              is then the time of day
+``lat_hemisphere``, ``lon_hemisphere`` (CSV   ``N/S``, ``E/W``: NMEA's letters, in the file
+streams)                                      of their coordinate, which is then unsigned
 ============================================  =================================================
 
 Channels sampled together (one CSV file, one MDF4 channel group) form one
@@ -40,6 +44,7 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
+from rwhonet.data.columnmap import AUX_KEYS, aux_key_issues
 from rwhonet.data.packed import HHMMSS, is_packed, unpack_or_refuse
 from rwhonet.data.streams import (
     WHEEL_UNITS,
@@ -103,10 +108,13 @@ def check_signal_map(
         ConfigError: naming every unknown key, missing required key and unknown unit.
     """
     where = where or f"data.signal_maps.{name}.signals"
+    # a date and hemisphere letters in columns of their own: stream CSVs, as column maps
+    aux = AUX_KEYS if with_time else ()
     issues = [
-        f"{where}.{k}: unknown key; expected one of {list(KEYS)}"
+        f"{where}.{k}: unknown key; expected one of {[*KEYS, *aux]}"
+        + ("" if k not in AUX_KEYS else " (a date or hemisphere column: stream CSVs only)")
         for k in signal_map
-        if k not in KEYS
+        if k not in KEYS and k not in aux
     ]
     required = (*REQUIRED_KEYS, "t") if with_time else REQUIRED_KEYS
     issues += [f"{where}.{k}: missing" for k in required if k not in signal_map]
@@ -122,6 +130,8 @@ def check_signal_map(
         for k, spec in signal_map.items()
         if k == "t" and is_pattern(spec.unit) and (problem := pattern_problem(spec.unit))
     ]
+    if with_time:
+        issues += aux_key_issues(where, signal_map)
     if issues:
         raise ConfigError("\n".join(issues))
 

@@ -29,12 +29,20 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.columnmap import find_column
-from rwhonet.data.csvio import first_cell, read_header, read_numeric
+from rwhonet.data.columnmap import AUX_KEYS, DATE, HEMISPHERES, find_column
+from rwhonet.data.csvio import first_cell, read_header, read_numeric, read_text_column
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
+from rwhonet.data.packed import signed_or_refuse
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
-from rwhonet.data.texttime import declared_text_unit, is_text_unit, read_time_column
+from rwhonet.data.texttime import (
+    check_dates,
+    date_note,
+    declared_text_unit,
+    is_text_unit,
+    parse_dates,
+    read_time_column,
+)
 from rwhonet.data.timebase import MIDNIGHT_WINDOW_S, SECONDS_PER_DAY, unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -118,6 +126,37 @@ def read_stream_csvs(
         if key == "t":
             continue
         where = found.get(key, [])
+        if key == DATE:  # beside the time, in every file
+            problems += [
+                Problem(
+                    file,
+                    None,
+                    spec.column,
+                    f"the date column {spec.column!r} ({name}.date) in every stream file, "
+                    "as the time",
+                    f"no such name in the header {[h.strip() for h in header]}",
+                    "give every stream file its date column, or drop date from the map and "
+                    "write the times with their dates",
+                )
+                for file, header in headers.items()
+                if file not in {f for f, _ in where}
+            ]
+            continue
+        if key in HEMISPHERES and len(where) == 1:
+            coordinate = HEMISPHERES[key][0]
+            files_of = {f for f, _ in found.get(coordinate, [])}
+            if files_of and where[0][0] not in files_of:
+                problems.append(
+                    Problem(
+                        where[0][0],
+                        None,
+                        spec.column,
+                        f"the hemisphere letters ({name}.{key}) in the file of their "
+                        f"coordinate ({name}.{coordinate})",
+                        f"the coordinate in {', '.join(sorted(files_of))}",
+                        "give the letters and their coordinate in one file",
+                    )
+                )
         if len(where) != 1 and len(time_at) == len(headers):
             problems.append(
                 Problem(
@@ -136,6 +175,7 @@ def read_stream_csvs(
     paths_of = {file: path for path, file in files}
     for file, header in headers.items():
         keys = {k: at for k, places in found.items() for f, at in places if f == file}
+        aux = {k: keys.pop(k) for k in AUX_KEYS if k in keys}
         if not keys:
             continue
         at_t = time_at[file]
@@ -168,6 +208,21 @@ def read_stream_csvs(
                 )
                 for k, at in keys.items()
             }
+            for key, at in aux.items():
+                cells = read_text_column(paths_of[file], len(header), at, file)
+                if key == DATE:
+                    unit = signal_map[DATE].unit
+                    dates = parse_dates(cells, unit)
+                    check_dates(dates, file, header[at].strip(), unit, 1, f"{name}.date")
+                    t = t + dates.seconds
+                    notes.append(f"{file}: " + date_note(header[at], header[at_t], unit))
+                    continue
+                coordinate, unit = HEMISPHERES[key]
+                if coordinate in keys:
+                    columns = (header[keys[coordinate]].strip(), header[at].strip())
+                    channels[coordinate] = signed_or_refuse(
+                        channels[coordinate], cells, unit, file, columns, 1, f"{name}.{key}"
+                    )
         except InputError as err:
             problems += err.problems
             continue
