@@ -38,11 +38,13 @@ from support.drives import (
     CUPAC_MAP,
     SOURCE_RADIUS_M,
     TARGET_RADIUS_M,
+    VBO_MAP,
     column_map_params,
     straight_drive,
     with_held_fixes,
     write_columnmap,
     write_iovnbd,
+    write_vbo,
     written_again,
     written_twice,
 )
@@ -1434,6 +1436,30 @@ def _(raw: Path) -> None:
     frame.insert(4, "Lon", parts["Longitude"][0])
     frame.insert(5, "EW", parts["Longitude"][1])
     frame.to_csv(path, index=False)
+
+
+@case(
+    "racelogic_vbox_file",
+    "a Racelogic VBOX file as the logger writes it (sections, space-separated values, time "
+    "as hhmmss.ss, latitude and longitude in minutes, longitude positive west, CRLF), its "
+    "CAN wheel speeds in rpm",
+    Accept("read through a column map as the CSV it stands for"),
+    **{
+        "data.column_maps.vbox": column_map_params(VBO_MAP),
+        "data.roles.target_test": {**_CUPAC_ROLE, "format": "vbox"},
+    },
+)
+def _(raw: Path) -> None:
+    write_vbo(good_target(), target_path(raw), crlf=True)
+
+
+@case(
+    "racelogic_vbox_file_as_iovnbd",
+    "the same VBOX file given to the IO-VNBD reader (format iovnbd)",
+    Refuse("ingest", None, None, "an IO-VNBD CSV", "a Racelogic VBOX file"),
+)
+def _(raw: Path) -> None:
+    write_vbo(good_target(), target_path(raw))
 
 
 @case(

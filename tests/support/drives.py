@@ -139,9 +139,11 @@ def column_map_params(cmap: dict = CUPAC_MAP) -> dict:
 def _project_yaml() -> dict:
     from rwhonet import paths
 
-    # libyaml's loader when there is one: the tests build params hundreds of times.
+    # libyaml's loader when there is one: the tests build params hundreds of times. The
+    # project's own file, not paths.PARAMS: a test that points that at a params file of
+    # its own (monkeypatch) must not leave it cached for the tests after it.
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    return yaml.load(paths.PARAMS.read_text(encoding="utf-8"), Loader=loader)
+    return yaml.load((paths.ROOT / "params.yaml").read_text(encoding="utf-8"), Loader=loader)
 
 
 @lru_cache(maxsize=1)
@@ -288,3 +290,57 @@ def with_held_fixes(df: pd.DataFrame, every: int, phase: int, empty: bool = Fals
                 values = np.where((rows - phase) % every == 0, values, np.nan)
             out[name] = values
     return out
+
+
+VBO_MAP = {
+    "t": ("time", "hhmmss"),
+    "lat": ("lat", "min"),
+    "lon": ("long", "min W"),
+    "omega_fl": ("Wheel_Speed_FL", "rpm"),
+    "omega_fr": ("Wheel_Speed_FR", "rpm"),
+    "omega_rl": ("Wheel_Speed_RL", "rpm"),
+    "omega_rr": ("Wheel_Speed_RR", "rpm"),
+    "n_sats": ("sats", "count"),
+}
+
+
+def write_vbo(df: pd.DataFrame, path: Path, crlf: bool = False) -> Path:
+    """Write canonical columns as a Racelogic VBOX file (:data:`VBO_MAP`'s columns): its
+    sections, the UTC time of day as hhmmss.ss, latitude and longitude in signed minutes
+    (longitude positive west), the values separated by spaces, in VBOX's fixed widths."""
+    t = df[c.T_S].to_numpy() % 86400.0
+    hours, rest = np.divmod(np.round(t, 2), 3600.0)
+    minutes, seconds = np.divmod(rest, 60.0)
+    rpm = {w: df[w].to_numpy() * 60.0 / (2.0 * np.pi) for w in c.WHEELS}
+    lines = [
+        "File created on 11/03/2019 @ 12:30:00",
+        "",
+        "[header]",
+        "satellites",
+        "time",
+        "latitude",
+        "longitude",
+        "velocity kmh",
+        *(f"Wheel_Speed_{w}" for w in ("FL", "FR", "RL", "RR")),
+        "",
+        "[comments]",
+        "Log rate (Hz) : 10.00",
+        "",
+        "[column names]",
+        "sats time lat long velocity "
+        + " ".join(f"Wheel_Speed_{w}" for w in ("FL", "FR", "RL", "RR")),
+        "",
+        "[data]",
+    ]
+    lat_min = df[c.LAT_DEG].to_numpy() * 60.0
+    long_min = -df[c.LON_DEG].to_numpy() * 60.0
+    for i in range(len(df)):
+        sats = int(df[c.N_SATS].iloc[i]) if c.N_SATS in df else 9
+        hhmmss = 10_000 * hours[i] + 100 * minutes[i] + seconds[i]
+        wheels = " ".join(f"{rpm[w][i]:08.3f}" for w in c.WHEELS)
+        lines.append(
+            f"{sats:03d} {hhmmss:09.2f} {lat_min[i]:+012.7f} {long_min[i]:+013.7f} 050.000 {wheels}"
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(("\r\n" if crlf else "\n").join(lines).encode() + (b"\r\n" if crlf else b"\n"))
+    return path

@@ -14,6 +14,7 @@ its distance to the GNSS fix there, where the file has one.
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import sys
@@ -228,8 +229,10 @@ def run(
     from rwhonet.data.droprows import RowFilter
     from rwhonet.data.heldfixes import HeldFixGate
     from rwhonet.data.incremental import FixScreen, read_rows
+    from rwhonet.data.vbo import VboAsCsv, file_is_vbo, vbo_needs_a_map, vbo_note
     from rwhonet.libraries import raise_if_interrupted
 
+    vbo = False
     with ExitStack() as stack:
         if drive_blocks is not None:
             source, name = None, drive
@@ -250,6 +253,10 @@ def run(
                     ]
                 )
             source, name = stack.enter_context(open(path, "rb")), drive
+            if file_is_vbo(path):  # a Racelogic VBOX file: read as the CSV it stands for
+                if fmt == "iovnbd":
+                    raise InputError([vbo_needs_a_map(drive, fmt)])
+                source, vbo = io.BufferedReader(VboAsCsv(source, name), 1 << 16), True
         final = None if output == STDIO else output_file(output, "a CSV or .parquet file")
         partial = None if final is None else final.with_name(f".{final.name}.partial")
         if final is None:
@@ -267,6 +274,8 @@ def run(
             else:
                 lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
                 names, read_notes = lay.names, lay.notes
+                if vbo:
+                    read_notes.insert(0, vbo_note())
             uc = unit_check or UnitCheck()
             vp = uc.validate or default_validate()
             # a row written twice, or without a wheel speed, is dropped, as ingest drops

@@ -29,7 +29,8 @@
 - :mod:`~rwhonet.data.texttime`: time columns written as text (ISO 8601, ``hh:mm:ss``), and
   a date in a column of its own.
 - :mod:`~rwhonet.data.packed`: NMEA's numbers packed from parts (``ddmm.mmmm`` angles,
-  ``hhmmss.ss`` times of day).
+  ``hhmmss.ss`` times of day) and its hemisphere letters.
+- :mod:`~rwhonet.data.vbo`: Racelogic VBOX files read as the CSV they stand for.
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
 - :mod:`~rwhonet.data.robust`: a robust scale (the normal-scaled MAD) and a running
   trapezoid integral, scipy's arithmetic without scipy's import.

@@ -21,7 +21,9 @@ stage: relative to the project root).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import dataclasses
+import tempfile
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +40,7 @@ from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
+from rwhonet.data.vbo import file_is_vbo, vbo_as_csv, vbo_needs_a_map, vbo_note
 from rwhonet.errors import InputError, Problem
 
 IOVNBD = "iovnbd"
@@ -200,6 +203,11 @@ def read_any(
         # a row written twice or without a wheel speed is dropped (rwhonet.data.droprows),
         # fixes held from a slower receiver are placed along the path (.heldfixes); the
         # drive says which
+        if kind in (IOVNBD, COLUMN_MAP) and file_is_vbo(f.path):
+            if kind == IOVNBD:
+                raise InputError([vbo_needs_a_map(file, f.format)])
+            raw = _read_vbo(f.path, data.column_maps[f.format], f.format, file)
+            return place_held_fixes(drop_rows(raw, file), period_s), None
         if kind == IOVNBD:
             return place_held_fixes(drop_rows(read_iovnbd(f.path, file), file), period_s), None
         if kind == COLUMN_MAP:
@@ -208,6 +216,15 @@ def read_any(
         return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
     except MemoryError:
         raise out_of_memory(f, rel) from None
+
+
+def _read_vbo(path: Path, column_map: Mapping, fmt: str, file: str) -> RawDrive:
+    """A VBOX file through its column map: its CSV written to a scratch file and read."""
+    with tempfile.TemporaryDirectory(prefix="rwhonet-vbo-") as scratch:
+        csv = Path(scratch) / "drive.csv"
+        vbo_as_csv(path, csv, file)
+        raw = read_columnmap(csv, column_map, fmt, file)
+    return dataclasses.replace(raw, notes=(vbo_note(), *raw.notes))
 
 
 def _size_bytes(path: Path, folder: bool) -> int:
