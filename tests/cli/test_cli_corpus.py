@@ -35,7 +35,7 @@ from rwhonet.data import canonical as c
 from rwhonet.geo import latlon_from_offsets_deg, offsets_m
 from rwhonet.sim.streams import SIGNAL_MAP
 from support.corpus import CASES, FILE, good_target, target_path, write_good_fleet
-from support.drives import make_params, write_iovnbd, write_params_yaml
+from support.drives import as_ddmm, as_hhmmss, make_params, write_iovnbd, write_params_yaml
 from support.serving import base_bundle, predict_args
 from support.stream_corpus import CASES as STREAM_CASES
 from support.stream_corpus import RADIUS_M, folder_of
@@ -264,15 +264,11 @@ def _nmea_fields(path: Path) -> Path:
     renamed = {}
     for col in frame.columns:
         if col.strip() in ("Lat", "Long"):
-            deg = frame[col].to_numpy(float)
-            whole = np.trunc(np.abs(deg))
-            frame[col] = np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
+            frame[col] = as_ddmm(frame[col])
             renamed[col] = f"{col} (ddmm.mmmm)"
         elif col.strip() == "Time":
-            hours, rest = np.divmod(np.round(frame[col].to_numpy(float), 6), 3600.0)
-            minutes, seconds = np.divmod(rest, 60.0)
-            assert hours.max() < 24
-            frame[col] = 10_000.0 * hours + 100.0 * minutes + seconds
+            assert frame[col].max() < 86400.0
+            frame[col] = as_hhmmss(frame[col], decimals=6)
             renamed[col] = f"{col} (hhmmss.ss)"
     assert len(renamed) == 3
     frame.rename(columns=renamed).to_csv(path, index=False)

@@ -12,7 +12,7 @@ from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import check_column_map, read_columnmap
 from rwhonet.errors import InputError
-from support.drives import CUPAC_MAP
+from support.drives import CUPAC_MAP, as_ddmm, as_hhmmss
 
 FIXTURE = Path(__file__).parents[1] / "fixtures" / "cupac" / "C-T1.csv"
 
@@ -159,15 +159,21 @@ def test_coordinates_in_minutes_and_positive_west_convert_to_degrees(tmp_path):
     np.testing.assert_allclose(west.columns[c.LON_DEG], ref.columns[c.LON_DEG], rtol=1e-14)
 
 
-def _ddmm(deg: np.ndarray) -> np.ndarray:
-    whole = np.trunc(np.abs(deg))
-    return np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
+def _both_readers_refuse(path, cmap) -> list[InputError]:
+    """The refusals of ingest's reader and predict's (a stream read to its end) of a file."""
+    import io
 
+    from rwhonet.data.incremental import read_rows
 
-def _hhmmss(t_s: np.ndarray) -> np.ndarray:
-    hours, rest = np.divmod(np.round(t_s, 3) % 86400.0, 3600.0)
-    minutes, seconds = np.divmod(rest, 60.0)
-    return 10_000.0 * hours + 100.0 * minutes + seconds
+    errors = []
+    for read in (
+        lambda: read_columnmap(path, cmap, "cupac"),
+        lambda: list(read_rows(io.BytesIO(path.read_bytes()), path.name, "cupac", cmap)[1]),
+    ):
+        with pytest.raises(InputError) as err:
+            read()
+        errors.append(err.value)
+    return errors
 
 
 def test_nmea_coordinates_and_a_packed_time_of_day_across_midnight(tmp_path):
@@ -189,9 +195,9 @@ def test_nmea_coordinates_and_a_packed_time_of_day_across_midnight(tmp_path):
     frame = pd.read_csv(tmp_path / "deg.csv")
     start = 23 * 3600 + 59 * 60 + 50.0  # 10 s before midnight
     t = ref.columns[c.T_S] - ref.columns[c.T_S][0] + start
-    frame["Time"] = _hhmmss(t)
-    frame["Latitude"] = _ddmm(frame["Latitude"].to_numpy())
-    frame["Longitude"] = _ddmm(-2.0 + frame["Longitude"].to_numpy())  # west of Greenwich
+    frame["Time"] = as_hhmmss(t)
+    frame["Latitude"] = as_ddmm(frame["Latitude"].to_numpy())
+    frame["Longitude"] = as_ddmm(-2.0 + frame["Longitude"].to_numpy())  # west of Greenwich
     frame.rename(columns={"Latitude": "Lat (ddmm.mmmm)"}).to_csv(tmp_path / "n.csv", index=False)
     cmap = cupac_map(t=("Time", "hhmmss"), lat=("Lat", "ddmm"), lon=("Longitude", "ddmm"))
     got = read_columnmap(tmp_path / "n.csv", cmap, "cupac")
@@ -212,15 +218,8 @@ def test_nmea_coordinates_and_a_packed_time_of_day_across_midnight(tmp_path):
     # row 7's latitude with 61 minutes: refused in both readers, naming row and setting
     frame.loc[6, "Lat (ddmm.mmmm)"] = 5261.0
     frame.to_csv(tmp_path / "bad.csv", index=False)
-    for read in (
-        lambda: read_columnmap(tmp_path / "bad.csv", cmap, "cupac"),
-        lambda: list(
-            read_rows(io.BytesIO((tmp_path / "bad.csv").read_bytes()), "b", "cupac", cmap)[1]
-        ),
-    ):
-        with pytest.raises(InputError) as err:
-            read()
-        (problem,) = err.value.problems
+    for err in _both_readers_refuse(tmp_path / "bad.csv", cmap):
+        (problem,) = err.problems
         assert (problem.row, problem.column) == (7, "Lat (ddmm.mmmm)")
         assert "ddmm.mmmm" in problem.expected and "data.column_maps.cupac.lat.unit" in problem.fix
     frame.rename(columns={"Lat (ddmm.mmmm)": "Lat (deg)"}).to_csv(tmp_path / "d.csv", index=False)
@@ -245,7 +244,7 @@ def test_nmea_hemisphere_letters_in_columns_of_their_own_sign_the_coordinates(tm
     ref = read_columnmap(write_columnmap(df, tmp_path / "deg.csv"), cupac_map(), "cupac")
     frame = pd.read_csv(tmp_path / "deg.csv")
     lat, lon = -frame["Latitude"].to_numpy(), frame["Longitude"].to_numpy() - 70.0
-    frame["Latitude"], frame["Longitude"] = _ddmm(np.abs(lat)), _ddmm(np.abs(lon))
+    frame["Latitude"], frame["Longitude"] = as_ddmm(np.abs(lat)), as_ddmm(np.abs(lon))
     frame.insert(frame.columns.get_loc("Latitude") + 1, "NS", np.where(lat < 0, "S", "N"))
     frame.insert(frame.columns.get_loc("Longitude") + 1, "EW", np.where(lon < 0, "w", "E"))
     frame.loc[5, ["NS"]] = ""
@@ -269,16 +268,8 @@ def test_nmea_hemisphere_letters_in_columns_of_their_own_sign_the_coordinates(tm
     frame.loc[8, "EW"] = "X"
     frame.loc[11, "Latitude"] *= -1
     frame.to_csv(tmp_path / "bad.csv", index=False)
-    for read in (
-        lambda: read_columnmap(tmp_path / "bad.csv", cmap, "cupac"),
-        lambda: list(
-            read_rows(io.BytesIO((tmp_path / "bad.csv").read_bytes()), "b", "cupac", cmap)[1]
-        ),
-    ):
-        with pytest.raises(InputError) as err:
-            read()
-        found = {(p.row, p.column) for p in err.value.problems}
-        assert found == {(9, "EW"), (12, "Latitude")}
+    for err in _both_readers_refuse(tmp_path / "bad.csv", cmap):
+        assert {(p.row, p.column) for p in err.problems} == {(9, "EW"), (12, "Latitude")}
     with pytest.raises(ConfigError) as err:
         check_column_map(
             "cupac",

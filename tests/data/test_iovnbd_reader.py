@@ -192,18 +192,14 @@ def test_nmea_fields_named_in_the_header_are_unpacked_by_both_readers(tmp_path):
     import pandas as pd
 
     from rwhonet.data.incremental import read_rows
-    from support.drives import write_iovnbd
+    from support.drives import as_ddmm, as_hhmmss, write_iovnbd
     from support.serving import wavy_drive
 
     ref_path = write_iovnbd(wavy_drive(30.0), tmp_path / "V-Deg.csv")
     ref = read_iovnbd(ref_path)
     frame = pd.read_csv(ref_path)
-    for col in (" Lat", " Long"):
-        deg = frame[col].to_numpy(float)
-        whole = np.trunc(np.abs(deg))
-        frame[col] = np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
-    hours, rest = np.divmod(np.round(frame[" Time"].to_numpy(float), 6), 3600.0)
-    frame[" Time"] = 10_000.0 * hours + 100.0 * (rest // 60.0) + rest % 60.0
+    frame[" Lat"], frame[" Long"] = as_ddmm(frame[" Lat"]), as_ddmm(frame[" Long"])
+    frame[" Time"] = as_hhmmss(frame[" Time"], decimals=6)
     frame = frame.rename(
         columns={
             " Time": " Time (hhmmss.ss)",

@@ -18,9 +18,14 @@ from rwhonet.data.signalmap import check_signal_map
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
+from support.drives import as_ddmm, as_hhmmss
 
 R = 0.31
 V = 14.0  # m/s, north
+
+
+# four wheel-speed columns w0..w3 in rpm, as the NMEA stream tests write them
+RPM_WHEELS = {f"omega_{w}": (f"w{k}", "rpm") for k, w in enumerate(("fl", "fr", "rl", "rr"))}
 
 
 def _spec(**entries: tuple[str, str]) -> dict[str, ColumnSpec]:
@@ -267,27 +272,17 @@ def test_nmea_fields_in_stream_csvs_and_an_mdf4_signal_read_as_degrees_and_secon
     lat = -33.9 - V * (t_g - t_w[0]) / 110_900.0
     wheels = {f"w{k}": omega for k in range(4)}
 
-    def hhmmss(t: np.ndarray) -> np.ndarray:
-        hours, rest = np.divmod(np.round(t, 4), 3600.0)
-        minutes, seconds = np.divmod(rest, 60.0)
-        return 10_000.0 * hours + 100.0 * minutes + seconds
-
-    def ddmm(deg: np.ndarray) -> np.ndarray:
-        whole = np.trunc(np.abs(deg))
-        return np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
-
     def write(folder, packed: bool):
         folder.mkdir()
-        time = hhmmss if packed else (lambda t: t)
-        angle = ddmm if packed else (lambda a: a)
+        time = (lambda t: as_hhmmss(t, decimals=4)) if packed else (lambda t: t)
+        angle = as_ddmm if packed else (lambda a: a)
         pd.DataFrame({"Time": time(t_w), **wheels}).to_csv(folder / "can.csv", index=False)
         gps = {"Time": time(t_g), "lat": angle(lat), "lon": angle(np.full(t_g.size, -58.4))}
         pd.DataFrame(gps).to_csv(folder / "gps.csv", index=False)
         return sorted(folder.glob("*.csv"))
 
-    wheel_keys = {f"omega_{w}": (f"w{k}", "rpm") for k, w in enumerate(("fl", "fr", "rl", "rr"))}
-    plain = _spec(t=("Time", "s"), lat=("lat", "deg"), lon=("lon", "deg"), **wheel_keys)
-    nmea = _spec(t=("Time", "hhmmss"), lat=("lat", "ddmm"), lon=("lon", "ddmm"), **wheel_keys)
+    plain = _spec(t=("Time", "s"), lat=("lat", "deg"), lon=("lon", "deg"), **RPM_WHEELS)
+    nmea = _spec(t=("Time", "hhmmss"), lat=("lat", "ddmm"), lon=("lon", "ddmm"), **RPM_WHEELS)
     want = resample(read_stream_csvs(write(tmp_path / "s", False), plain, R)).drive.columns
     got = resample(read_stream_csvs(write(tmp_path / "p", True), nmea, R)).drive.columns
     for name in (c.T_S, c.LAT_DEG, c.LON_DEG, c.OMEGA_RL):
@@ -326,22 +321,19 @@ def test_a_date_in_every_stream_file_and_hemisphere_letters_beside_their_coordin
 
     def rmc(t: np.ndarray) -> dict:
         day = np.where(t >= 86400.0, "120319", "110319")
-        hours, rest = np.divmod(np.round(t % 86400.0, 4), 3600.0)
-        return {"Date": day, "UTC": 10_000.0 * hours + 100.0 * (rest // 60.0) + rest % 60.0}
+        return {"Date": day, "UTC": as_hhmmss(t, decimals=4)}
 
     folder = tmp_path / "nmea"
     folder.mkdir()
     pd.DataFrame({**rmc(t_w), **wheels}).to_csv(folder / "can.csv", index=False)
-    lat_mag = np.abs(lat)
     gps = {
         **rmc(t_g),
-        "lat": 100.0 * np.trunc(lat_mag) + 60.0 * (lat_mag - np.trunc(lat_mag)),
+        "lat": as_ddmm(np.abs(lat)),
         "NS": "S",
         "lon": 5824.0,  # 58 deg 24 min
         "EW": "W",
     }
     pd.DataFrame(gps).to_csv(folder / "gps.csv", index=False)
-    wheel_keys = {f"omega_{w}": (f"w{k}", "rpm") for k, w in enumerate(("fl", "fr", "rl", "rr"))}
     nmea = _spec(
         date=("Date", "ddmmyy"),
         t=("UTC", "hhmmss"),
@@ -349,7 +341,7 @@ def test_a_date_in_every_stream_file_and_hemisphere_letters_beside_their_coordin
         lat_hemisphere=("NS", "N/S"),
         lon=("lon", "ddmm"),
         lon_hemisphere=("EW", "E/W"),
-        **wheel_keys,
+        **RPM_WHEELS,
     )
     streams = read_stream_csvs(sorted(folder.glob("*.csv")), nmea, R)
     assert any("dates of column 'Date'" in note for note in streams.notes)
@@ -360,7 +352,7 @@ def test_a_date_in_every_stream_file_and_hemisphere_letters_beside_their_coordin
     pd.DataFrame({"t": day_s + t_g, "lat": lat, "lon": -58.4}).to_csv(
         plain / "gps.csv", index=False
     )
-    smap = _spec(t=("t", "s"), lat=("lat", "deg"), lon=("lon", "deg"), **wheel_keys)
+    smap = _spec(t=("t", "s"), lat=("lat", "deg"), lon=("lon", "deg"), **RPM_WHEELS)
     want = resample(read_stream_csvs(sorted(plain.glob("*.csv")), smap, R)).drive.columns
     for name in (c.T_S, c.LAT_DEG, c.LON_DEG, c.OMEGA_RL):
         np.testing.assert_allclose(got[name], want[name], rtol=0, atol=1e-6)

@@ -23,7 +23,13 @@ from rwhonet.data.texttime import (
     text_time_unit,
 )
 from rwhonet.errors import InputError
-from support.drives import CUPAC_MAP, column_map_params, write_columnmap, write_iovnbd
+from support.drives import (
+    CUPAC_MAP,
+    as_hhmmss,
+    column_map_params,
+    write_columnmap,
+    write_iovnbd,
+)
 from support.serving import wavy_drive
 
 DAY = datetime(2019, 3, 11, tzinfo=UTC)
@@ -489,8 +495,7 @@ def test_a_date_and_a_time_of_day_in_two_columns_read_as_one_clock(drive, tmp_pa
     day = np.where(t >= 86400.0, 12, 11)
     if nmea:  # RMC's ddmmyy and hhmmss.ss, as numbers
         dates = [f"{d}0319" for d in day]
-        hours, rest = np.divmod(np.round(t % 86400.0, 3), 3600.0)
-        time = [f"{v:.3f}" for v in 10_000 * hours + 100 * (rest // 60) + rest % 60]
+        time = [f"{v:.3f}" for v in as_hhmmss(t)]
         cmap = _cmap("hhmmss") | {"date": ColumnSpec("Date", "ddmmyy")}
     else:
         dates = [f"{d}/03/2019" for d in day]

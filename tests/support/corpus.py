@@ -39,6 +39,8 @@ from support.drives import (
     SOURCE_RADIUS_M,
     TARGET_RADIUS_M,
     VBO_MAP,
+    as_ddmm,
+    as_hhmmss,
     column_map_params,
     straight_drive,
     with_held_fixes,
@@ -1419,16 +1421,11 @@ def _(raw: Path) -> None:
     df = good_target()
     path = write_columnmap(df, target_path(raw), CUPAC_MAP | {"t": ("Time", "s")})
     frame = pd.read_csv(path)
-    hours, rest = np.divmod(np.round(frame.pop("Time").to_numpy(), 3), 3600.0)
-    utc = 10_000.0 * hours + 100.0 * (rest // 60.0) + rest % 60.0
+    utc = as_hhmmss(frame.pop("Time"))
     parts = {}
     for key, letters in (("Latitude", "NS"), ("Longitude", "EW")):
         deg = frame.pop(key).to_numpy()
-        whole = np.trunc(np.abs(deg))
-        parts[key] = (
-            100.0 * whole + 60.0 * (np.abs(deg) - whole),
-            np.where(deg < 0, *letters[::-1]),
-        )
+        parts[key] = (as_ddmm(np.abs(deg)), np.where(deg < 0, *letters[::-1]))
     frame.insert(0, "Date", "110319")
     frame.insert(1, "UTC", [f"{x:.2f}" for x in utc])
     frame.insert(2, "Lat", parts["Latitude"][0])

@@ -292,6 +292,20 @@ def with_held_fixes(df: pd.DataFrame, every: int, phase: int, empty: bool = Fals
     return out
 
 
+def as_ddmm(deg) -> np.ndarray:
+    """Degrees as NMEA writes them: degrees and minutes run together (ddmm.mmmm), signed."""
+    deg = np.asarray(deg, dtype=np.float64)
+    whole = np.trunc(np.abs(deg))
+    return np.copysign(100.0 * whole + 60.0 * (np.abs(deg) - whole), deg)
+
+
+def as_hhmmss(t_s, decimals: int = 3) -> np.ndarray:
+    """Times (s; of the day, taken modulo 86,400) as NMEA's hhmmss.sss numbers."""
+    hours, rest = np.divmod(np.round(np.asarray(t_s, dtype=np.float64), decimals) % 86400.0, 3600.0)
+    minutes, seconds = np.divmod(rest, 60.0)
+    return 10_000.0 * hours + 100.0 * minutes + seconds
+
+
 VBO_MAP = {
     "t": ("time", "hhmmss"),
     "lat": ("lat", "min"),
@@ -308,9 +322,7 @@ def write_vbo(df: pd.DataFrame, path: Path, crlf: bool = False) -> Path:
     """Write canonical columns as a Racelogic VBOX file (:data:`VBO_MAP`'s columns): its
     sections, the UTC time of day as hhmmss.ss, latitude and longitude in signed minutes
     (longitude positive west), the values separated by spaces, in VBOX's fixed widths."""
-    t = df[c.T_S].to_numpy() % 86400.0
-    hours, rest = np.divmod(np.round(t, 2), 3600.0)
-    minutes, seconds = np.divmod(rest, 60.0)
+    times = as_hhmmss(df[c.T_S].to_numpy(), decimals=2)
     rpm = {w: df[w].to_numpy() * 60.0 / (2.0 * np.pi) for w in c.WHEELS}
     lines = [
         "File created on 11/03/2019 @ 12:30:00",
@@ -336,7 +348,7 @@ def write_vbo(df: pd.DataFrame, path: Path, crlf: bool = False) -> Path:
     long_min = -df[c.LON_DEG].to_numpy() * 60.0
     for i in range(len(df)):
         sats = int(df[c.N_SATS].iloc[i]) if c.N_SATS in df else 9
-        hhmmss = 10_000 * hours[i] + 100 * minutes[i] + seconds[i]
+        hhmmss = times[i]
         wheels = " ".join(f"{rpm[w][i]:08.3f}" for w in c.WHEELS)
         lines.append(
             f"{sats:03d} {hhmmss:09.2f} {lat_min[i]:+012.7f} {long_min[i]:+013.7f} 050.000 {wheels}"
