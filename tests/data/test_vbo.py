@@ -66,7 +66,10 @@ def test_lines_split_across_reads_are_joined_before_they_are_converted() -> None
     [
         (b"File created on 11/03/2019\n[header]\nsats\n[data]\n009\n", "[column names]"),
         (b"File created on 11/03/2019\n[column names]\nsats time\n", "[data]"),
+        # a 2 MB first section without a line end: the preamble's limit, not the file's end
+        (b"File created on 11/03/2019\n" + b"x" * (2 << 20), "[column names]"),
     ],
+    ids=["no column names", "no data", "no line end"],
 )
 def test_a_file_without_its_sections_is_refused_naming_it(data: bytes, missing: str) -> None:
     with pytest.raises(InputError) as err:

@@ -100,7 +100,7 @@ class VboAsCsv(io.RawIOBase):
         """Read the sections before ``[data]``; the CSV header line of the column names."""
         section, names, read = b"", None, 0
         while True:
-            line = self._source.readline()
+            line = self._source.readline(PREAMBLE_MAX_BYTES + 1 - read)  # not a whole file
             read += len(line)
             if not line or read > PREAMBLE_MAX_BYTES:
                 break
