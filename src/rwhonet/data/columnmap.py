@@ -30,7 +30,7 @@ from rwhonet.data.csvio import (
     read_text_column,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
-from rwhonet.data.packed import HHMMSS, is_packed, signed_or_refuse, unpack_or_refuse
+from rwhonet.data.packed import HHMMSS, is_packed, signed_coordinates, unpack_or_refuse
 from rwhonet.data.texttime import (
     CLOCK,
     ISO8601,
@@ -205,23 +205,20 @@ def read_columnmap(
         notes = (text_time_note(header[positions["t"]], text_time),)
     if (said := delimiter_note(file_delimiter(path))) is not None:
         notes += (said,)
-    problems: list[Problem] = []
-    for key, (coordinate, unit) in HEMISPHERES.items():
-        if key in positions:
-            pos, canonical = positions[key], KEYS[coordinate][0]
-            try:
-                columns[canonical] = signed_or_refuse(
-                    columns[canonical],
-                    read_text_column(path, len(header), pos, file),
-                    unit,
-                    file,
-                    (header[positions[coordinate]].strip(), header[pos].strip()),
-                    setting=f"data.column_maps.{name}.{key}",
-                )
-            except InputError as err:  # both coordinates' problems in one report
-                problems += err.problems
-    if problems:
-        raise InputError(problems, summary=f"hemispheres in {file} that cannot be read")
+    columns |= signed_coordinates(
+        {
+            KEYS[coordinate][0]: (
+                columns[KEYS[coordinate][0]],
+                read_text_column(path, len(header), positions[key], file),
+                unit,
+                (header[positions[coordinate]].strip(), header[positions[key]].strip()),
+                f"data.column_maps.{name}.{key}",
+            )
+            for key, (coordinate, unit) in HEMISPHERES.items()
+            if key in positions
+        },
+        file,
+    )
     if DATE in positions:
         pos, unit = positions[DATE], column_map[DATE].unit
         dates = parse_dates(read_text_column(path, len(header), pos, file), unit)

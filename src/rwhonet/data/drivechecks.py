@@ -481,30 +481,30 @@ def radius_problems(
         from_minutes = minutes_radius(df, segments, moving)
         # The two readings differ by 4.7 % in scale, about what a tyre's radius may differ
         # from its nominal: where both fit, both are named.
-        readings = {  # name -> (estimate, how it was read, the fix)
-            "radians": (
+        readings = (  # (estimate, what they look like, how it was read, the fix)
+            (
                 in_degrees,
+                "radians",
                 "in degrees from radians",
                 "convert both columns to degrees (x 180/π) if they are radians",
             ),
-            "minutes": (
+            (
                 from_minutes,
+                "degrees read as minutes of arc",
                 "with the coordinates times 60",
                 "declare the columns' unit 'deg' where a column or signal map declares 'min' "
                 "or 'ddmm' (NMEA's ddmm.mmmm): those are for columns written so",
             ),
-        }
+        )
         fit = [
-            (name, est_if, said, fix)
-            for name, (est_if, said, fix) in readings.items()
+            (est_if, looks, said, fix)
+            for est_if, looks, said, fix in readings
             if est_if is not None
             and unit_mistake(est_if.radius_m, nominal, vp.radius_tolerance) is None
         ]
         if fit:
-            looks = " or ".join(name for name, *_ in fit).replace(
-                "minutes", "degrees read as minutes of arc"
-            )
-            implied = ", ".join(f"{e.radius_m:.4g} m {said}" for _, e, said, _ in fit)
+            looks = " or ".join(looks for _, looks, _, _ in fit)
+            implied = ", ".join(f"{e.radius_m:.4g} m {said}" for e, _, said, _ in fit)
             problems.append(
                 Problem(
                     file,

@@ -32,7 +32,7 @@ import numpy as np
 
 from rwhonet.config import GnssPolicy
 from rwhonet.data import canonical as c
-from rwhonet.data.packed import is_packed, signed_or_refuse, unpack_or_refuse
+from rwhonet.data.packed import is_packed, signed_coordinates, unpack_or_refuse
 from rwhonet.data.problems import no_data_rows
 from rwhonet.data.texttime import check_dates, date_note, parse_dates
 from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
@@ -156,7 +156,6 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
     wanted = carried_channels(positions)
     positions = {name: positions[name] for name in wanted}
     declared = None if fmt == "iovnbd" else (column_map or {})["t"].unit
-    lay_time_name = header[positions[c.T_S]]
     return Layout(
         n_columns=len(header),
         positions=positions,
@@ -167,7 +166,7 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         packed={name: how for name, how in packed.items() if name in wanted},
         date=date,
         hemispheres=hemispheres,
-        notes=[] if date is None else [date_note(date[2], lay_time_name, date[1])],
+        notes=[] if date is None else [date_note(date[2], header[positions[c.T_S]], date[1])],
     )
 
 
@@ -563,19 +562,21 @@ def parse_lines(
         if name in out:
             rows = first_row + np.arange(len(out[name]))
             out[name] = unpack_or_refuse(out[name], unit, file, lay.names[name], rows, setting)
-    problems: list[Problem] = []
-    for name, (pos, unit, column, setting) in lay.hemispheres.items():
-        if name in out:
-            columns = (lay.names[name].strip(), column.strip())
-            cells = _column_cells(text, pos)
-            try:
-                out[name] = signed_or_refuse(
-                    out[name], cells, unit, file, columns, first_row, setting
-                )
-            except InputError as err:  # both coordinates' problems in one report
-                problems += err.problems
-    if problems:
-        raise InputError(problems, summary=f"hemispheres in {file} that cannot be read")
+    out |= signed_coordinates(
+        {
+            name: (
+                out[name],
+                _column_cells(text, pos),
+                unit,
+                (lay.names[name].strip(), column.strip()),
+                setting,
+            )
+            for name, (pos, unit, column, setting) in lay.hemispheres.items()
+            if name in out
+        },
+        file,
+        first_row,
+    )
     if text_time:
         assert form is not None and form.text is not None
         out[c.T_S] = _text_times(text, lay, first_row, file, form)

@@ -29,7 +29,7 @@ or the prime meridian; the map must be right.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -221,3 +221,35 @@ def signed_or_refuse(
         ),
     )
     raise InputError(problems, summary=f"hemispheres in {file} that cannot be read")
+
+
+# A coordinate to sign (:func:`signed_coordinates`): its values, its letters' cells, their
+# unit (N/S, E/W), the coordinate's and the letters' column names, and where declared.
+Lettered = tuple[np.ndarray, Sequence[str | None], str, tuple[str, str], str]
+
+
+def signed_coordinates(
+    coordinates: Mapping[str, Lettered], file: str, first_row: int = 1
+) -> dict[str, np.ndarray]:
+    """:func:`signed_or_refuse` for each coordinate, every problem of both in one report.
+
+    Args:
+        coordinates: canonical name -> what :data:`Lettered` holds.
+        file: the file, as the user knows it.
+        first_row: the 1-based data row of the first value.
+
+    Returns:
+        Canonical name -> the signed coordinates.
+
+    Raises:
+        InputError: the problems of every coordinate.
+    """
+    out, problems = {}, []
+    for name, (values, cells, unit, columns, setting) in coordinates.items():
+        try:
+            out[name] = signed_or_refuse(values, cells, unit, file, columns, first_row, setting)
+        except InputError as err:
+            problems += err.problems
+    if problems:
+        raise InputError(problems, summary=f"hemispheres in {file} that cannot be read")
+    return out

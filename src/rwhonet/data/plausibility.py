@@ -853,7 +853,7 @@ def minutes_radius(
 
     Such a drive lies within a degree or so of (0, 0) and every GNSS displacement is about
     60 times too short (between 37 and 60 times, by the heading, far from the equator). A
-    radians reading (x 57.3) may fit it too; the caller takes the nearer.
+    radians reading (x 57.3) may fit it too; validate then names both.
 
     Args:
         drive: canonical columns.
