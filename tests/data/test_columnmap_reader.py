@@ -69,7 +69,7 @@ def test_non_numeric_cell_in_mapped_column(tmp_path):
 
 
 def test_check_column_map_lists_every_issue():
-    cmap = cupac_map(t=("Time", "min"), omega_rr=("WheelSpeedRR", "km/h"))
+    cmap = cupac_map(t=("Time", "min"), omega_rr=("WheelSpeedRR", "kph"))
     del cmap["lon"]
     cmap["speed"] = ColumnSpec("Speed", "m/s")
     with pytest.raises(ConfigError) as err:
@@ -81,7 +81,7 @@ def test_check_column_map_lists_every_issue():
         "['s', 'ms', 'iso8601', 'hh:mm:ss', 'hhmmss'] or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)"
     )
     assert f"data.column_maps.cupac.t.unit: expected one of {units}, got 'min'" in text
-    assert "data.column_maps.cupac.omega_rr.unit" in text and "'km/h'" in text
+    assert "data.column_maps.cupac.omega_rr.unit" in text and "got 'kph'" in text
 
 
 @pytest.mark.parametrize(
@@ -278,3 +278,50 @@ def test_nmea_hemisphere_letters_in_columns_of_their_own_sign_the_coordinates(tm
         )
     assert "cupac.lon.unit: expected a unit without ' W'" in str(err.value)
     assert "cupac.lat_hemisphere.unit: expected 'N/S', got 'S'" in str(err.value)
+
+
+@pytest.mark.parametrize("unit", ["km/h", "m/s", "mph"])
+def test_circumferential_wheel_speeds_are_divided_by_the_nominal_radius(tmp_path, unit):
+    """CAN wheel speeds in km/h (the wheel's circumferential speed, as many cars put it on
+    the bus): divided by the car's nominal radius, the same rad/s as the angular log, in
+    ingest's reader and predict's; the note names the columns and the radius."""
+    import io
+
+    from rwhonet.data.incremental import read_rows
+    from support.drives import write_columnmap
+    from support.serving import wavy_drive
+
+    df, radius = wavy_drive(30.0), 0.31
+    ref = read_columnmap(write_columnmap(df, tmp_path / "rpm.csv"), cupac_map(), "cupac")
+    wheels = {k: (f"WheelSpeed{k[-2:].upper()}", unit) for k in ("omega_rl", "omega_rr")}
+    path = write_columnmap(df, tmp_path / "kmh.csv", CUPAC_MAP | wheels, radius_m=radius)
+    cmap = cupac_map(**wheels)
+    got = read_columnmap(path, cmap, "cupac", radius_m=radius)
+    lay, blocks = read_rows(
+        io.BytesIO(path.read_bytes()), "kmh.csv", "cupac", cmap, radius_m=radius
+    )
+    blocks = [b for _, b in blocks]
+    streamed = {w: np.concatenate([b[w] for b in blocks]) for w in c.WHEELS}
+    for w in c.WHEELS:
+        np.testing.assert_allclose(got.columns[w], ref.columns[w], rtol=1e-12)
+        np.testing.assert_allclose(streamed[w], ref.columns[w], rtol=1e-12)
+    (note,) = [n for n in got.notes if "circumferential" in n]
+    assert f"WheelSpeedRL ({unit}), WheelSpeedRR ({unit})" in note and "0.31 m" in note
+    assert note in lay.notes
+
+
+def test_circumferential_wheel_speeds_without_a_radius_are_refused_naming_the_setting(
+    tmp_path,
+):
+    from support.drives import write_columnmap
+    from support.serving import wavy_drive
+
+    kmh = {"omega_rl": ("WheelSpeedRL", "km/h")}
+    path = write_columnmap(wavy_drive(10.0), tmp_path / "kmh.csv", CUPAC_MAP | kmh, 0.3)
+    with pytest.raises(InputError, match="tyre radius") as err:
+        read_columnmap(path, cupac_map(**kmh), "cupac")
+    assert err.value.problems[0].file == "data.column_maps.cupac.omega_rl.unit"
+    assert "nominal_radius_m" in err.value.problems[0].fix
+    check_column_map("cupac", cupac_map(**kmh))  # the unit itself is one a map may declare
+    with pytest.raises(ConfigError, match="'rad/s', 'rpm', 'deg/s', 'm/s', 'km/h', 'mph'"):
+        check_column_map("cupac", cupac_map(omega_rl=("WheelSpeedRL", "knots")))

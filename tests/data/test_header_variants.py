@@ -109,6 +109,21 @@ def test_a_unit_the_quantity_has_not_is_refused(tmp_path):
     assert "a unit of angle (deg, ddmm)" in p.expected and "'m/s'" in p.found
 
 
+def test_a_wheel_s_circumferential_speed_is_sent_to_a_column_map(tmp_path):
+    """'Wheel Speed RL (km/h)': converting it needs the car's tyre radius, which an IO-VNBD
+    file does not carry; the fix says to read the file through a column map."""
+    df = straight_drive(duration_s=5.0)
+    names = {**VARIANTS, c.OMEGA_RL: "Wheel Speed RL (kph)"}
+    with pytest.raises(InputError) as err:
+        read_iovnbd(_write(df, names, tmp_path / "V-K.csv"))
+    (p,) = err.value.problems
+    assert (
+        p.column == "Wheel Speed RL (kph)" and "a unit of wheel (rad/s, rpm, deg/s)" in p.expected
+    )
+    assert "circumferential speed in km/h" in p.fix and "unit 'km/h'" in p.fix
+    assert "data.column_maps" in p.fix
+
+
 def test_two_columns_naming_one_channel_are_refused(tmp_path):
     header = [*HEADERS, "Latitude"]
     with pytest.raises(LayoutError, match="more than once"):

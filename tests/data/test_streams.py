@@ -15,7 +15,6 @@ from rwhonet.data.streams import (
     interpolate_fixes,
     resample,
     travelled_path,
-    wheel_speed_rad_s,
     window_means,
 )
 from rwhonet.errors import InputError
@@ -272,19 +271,6 @@ def test_missing_values_are_left_out_and_said():
     streams.gnss.channels[c.LAT_DEG][50] = np.nan
     res = resample(streams)
     assert any("1 sample(s) without a value" in n for n in res.drive.notes)
-
-
-@pytest.mark.parametrize(
-    ("unit", "factor"),
-    [("rad/s", 1.0), ("rpm", 2 * np.pi / 60), ("deg/s", np.pi / 180), ("km/h", 1 / 3.6 / R)],
-)
-def test_wheel_units(unit, factor):
-    assert wheel_speed_rad_s(np.array([10.0]), unit, R)[0] == pytest.approx(10.0 * factor)
-
-
-def test_a_linear_wheel_speed_needs_a_radius():
-    with pytest.raises(InputError, match="tyre radius"):
-        wheel_speed_rad_s(np.array([1.0]), "m/s", None)
 
 
 def test_streams_on_different_clocks_are_refused():

@@ -905,6 +905,34 @@ def _(raw: Path) -> None:
     write_target(raw, df)
 
 
+_KMH_WHEELS = {k: (col, "km/h") for k, (col, _) in CUPAC_MAP.items() if k.startswith("omega_")}
+
+
+@case(
+    "can_wheel_speeds_in_kmh_by_column_map",
+    "a column-mapped CSV whose four wheel speeds are in km/h (the wheels' circumferential "
+    "speeds, as many cars put them on the CAN bus), declared km/h in the map",
+    Accept("divided by the car's nominal tyre radius: the drive in rad/s"),
+    **{
+        "data.column_maps.cupac": column_map_params(CUPAC_MAP | _KMH_WHEELS),
+        "data.roles.target_test": _CUPAC_ROLE,
+    },
+)
+def _(raw: Path) -> None:
+    write_columnmap(good_target(), target_path(raw), CUPAC_MAP | _KMH_WHEELS, TARGET_RADIUS_M)
+
+
+@case(
+    "wheel_speeds_in_kmh_headed_so",
+    "an IO-VNBD file whose wheel-speed headers say km/h ('Wheel Speed Rear Left (km/h)')",
+    Refuse("ingest", None, "Wheel Speed Rear Left (km/h)", "a unit of wheel", "unit 'km/h'"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] *= TARGET_RADIUS_M * 3.6
+    write_target(raw, df, tuple(h.replace("(rad/sec)", "(km/h)") for h in HEADERS))
+
+
 @case(
     "wheel_speeds_in_rpm",
     "wheel speeds in rpm instead of rad/s",

@@ -120,10 +120,20 @@ _KEY = {
 }
 
 
-def write_columnmap(df: pd.DataFrame, path: Path, cmap: dict = CUPAC_MAP) -> Path:
-    """Write canonical columns as a CSV described by a column map (key -> (column, unit))."""
+_LINEAR = {"m/s": 1.0, "km/h": 1 / 3.6, "mph": 0.44704}  # a wheel's circumferential speed
+
+
+def write_columnmap(
+    df: pd.DataFrame, path: Path, cmap: dict = CUPAC_MAP, radius_m: float | None = None
+) -> Path:
+    """Write canonical columns as a CSV described by a column map (key -> (column, unit));
+    a wheel speed in m/s, km/h or mph is the wheel's rad/s times ``radius_m``."""
     out = {"Extra": np.arange(len(df))}  # an unmapped column, to be ignored
     for key, (column, unit) in cmap.items():
+        if unit in _LINEAR:
+            assert radius_m is not None, f"{key} in {unit}: give the radius"
+            out[column] = df[_KEY[key]].to_numpy() * radius_m / _LINEAR[unit]
+            continue
         out[column] = df[_KEY[key]].to_numpy() / _TO_SI[unit]
     path.parent.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(out).to_csv(path, index=False)

@@ -269,15 +269,19 @@ def run(
         done = False
         try:
             read_notes: list[str] = []  # how the rows were read (text times, ';'), as filled
+            uc = unit_check or UnitCheck()
+            vp = uc.validate or default_validate()
+            # the car's radius: the wheel-unit check's, and a column map's km/h divided by it
+            nominal = uc.nominal_radius_m or float(np.mean(model.meta.source_radii))
             if drive_blocks is not None:
                 names, blocks = drive_blocks
             else:
-                lay, blocks = read_rows(source, name, fmt, column_map, period_s=period_s)
+                lay, blocks = read_rows(
+                    source, name, fmt, column_map, period_s=period_s, radius_m=nominal
+                )
                 names, read_notes = lay.names, lay.notes
                 if vbo:
                     read_notes.insert(0, vbo_note())
-            uc = unit_check or UnitCheck()
-            vp = uc.validate or default_validate()
             # a row written twice, or without a wheel speed, is dropped, as ingest drops
             # it (before the fix screen, which would take a copy's fix as one that did not
             # move)
@@ -290,7 +294,6 @@ def run(
             # a fix validate would not use (satellites, a jump, a frozen receiver) is none
             fixes = FixScreen(vp.gnss.min_sats, vp.gnss, vp.sample_period_s)
             blocks = fixes.blocks(blocks)
-            nominal = uc.nominal_radius_m or float(np.mean(model.meta.source_radii))
             check = StreamRadiusCheck(
                 {"source_file": name, "columns": names, "vehicle": "the car"},
                 nominal,

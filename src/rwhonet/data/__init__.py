@@ -31,6 +31,8 @@
 - :mod:`~rwhonet.data.packed`: NMEA's numbers packed from parts (``ddmm.mmmm`` angles,
   ``hhmmss.ss`` times of day) and its hemisphere letters.
 - :mod:`~rwhonet.data.vbo`: Racelogic VBOX files read as the CSV they stand for.
+- :mod:`~rwhonet.data.wheelunits`: the units a wheel speed is logged in, angular or the
+  wheel's circumferential speed (divided by the car's nominal tyre radius).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
 - :mod:`~rwhonet.data.robust`: a robust scale (the normal-scaled MAD) and a running
   trapezoid integral, scipy's arithmetic without scipy's import.

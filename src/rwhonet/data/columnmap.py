@@ -46,9 +46,13 @@ from rwhonet.data.texttime import (
     text_time_note,
 )
 from rwhonet.data.timebase import unwrap_midnight
+from rwhonet.data.wheelunits import ANGULAR_WHEEL_UNITS, LINEAR_WHEEL_UNITS, wheel_factor
 from rwhonet.errors import InputError, Problem
 
-_WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
+# A wheel speed: angular, or the wheel's circumferential speed (NaN: its factor needs the
+# car's tyre radius, :func:`key_factor`; a reader that multiplied by it would give no values)
+_WHEEL_UNITS = {**ANGULAR_WHEEL_UNITS, **dict.fromkeys(LINEAR_WHEEL_UNITS, math.nan)}
+WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys, in order
 
 # Column-map key -> (canonical name, {unit: factor to SI}).
 KEYS: dict[str, tuple[str, dict[str, float]]] = {
@@ -145,8 +149,55 @@ def aux_key_issues(where: str, spec_map: Mapping[str, ColumnSpec]) -> list[str]:
     return issues
 
 
+def key_factor(key: str, unit: str, radius_m: float | None, name: str) -> float:
+    """The factor from a map key's unit to SI, as the readers multiply by it.
+
+    Args:
+        key: a channel key (:data:`KEYS`).
+        unit: its unit (checked by :func:`check_column_map`).
+        radius_m: the car's nominal tyre radius (a wheel's circumferential speed).
+        name: the map's name, for messages.
+
+    Returns:
+        The factor; 1.0 for a packed unit (unpacked before) and a time's strptime pattern
+        (parsed to seconds).
+
+    Raises:
+        InputError: a wheel speed in ``m/s``, ``km/h`` or ``mph`` without a radius.
+    """
+    if key in WHEEL_KEYS:
+        return wheel_factor(unit, radius_m, f"data.column_maps.{name}.{key}.unit")
+    if is_packed(unit):
+        return 1.0
+    return KEYS[key][1].get(unit, 1.0)
+
+
+def linear_wheel_note(
+    units: Mapping[str, str], names: Mapping[str, str], radius_m: float | None
+) -> str | None:
+    """How circumferential wheel speeds were read (None: every wheel angular).
+
+    Args:
+        units: key -> declared unit, for the map's keys.
+        names: key -> the file's column name.
+        radius_m: the radius they were divided by.
+    """
+    linear = [k for k in WHEEL_KEYS if units.get(k) in LINEAR_WHEEL_UNITS]
+    if not linear:
+        return None
+    shown = ", ".join(f"{names[k].strip()} ({units[k]})" for k in linear)
+    return (
+        f"wheel speeds {shown} are the wheels' circumferential speeds: divided by the car's "
+        f"nominal tyre radius, {radius_m:g} m, to rad/s"
+    )
+
+
 def read_columnmap(
-    path: Path, column_map: Mapping[str, ColumnSpec], name: str, display: str | None = None
+    path: Path,
+    column_map: Mapping[str, ColumnSpec],
+    name: str,
+    display: str | None = None,
+    radius_m: float | None = None,
 ) -> RawDrive:
     """Read a CSV drive through a column map, converting every quantity to SI.
 
@@ -156,6 +207,8 @@ def read_columnmap(
         column_map: canonical key (``t``, ``lat``, ``omega_rl``, ...) -> column and unit;
             checked with :func:`check_column_map`.
         name: the map's name, for messages.
+        radius_m: the car's nominal tyre radius, by which wheel speeds in ``m/s``,
+            ``km/h`` or ``mph`` (the wheels' circumferential speeds) are divided.
 
     Returns:
         The mapped channels in canonical names and SI units (``header_match="column_map"``).
@@ -169,6 +222,11 @@ def read_columnmap(
     file = display or str(path)
     header = read_header(path, file)
     positions = columnmap_positions(header, column_map, name, file)
+    factors = {
+        key: key_factor(key, spec.unit, radius_m, name)
+        for key, spec in column_map.items()
+        if key not in AUX_KEYS
+    }
     text_time = None
     if "t" in positions:
         where = f"data.column_maps.{name}.t.unit"
@@ -189,8 +247,7 @@ def read_columnmap(
     for key, spec in column_map.items():
         if key in AUX_KEYS:
             continue
-        canonical, factors = KEYS[key]
-        pos, factor = positions[key], factors.get(spec.unit, 1.0)  # a strptime pattern: s
+        canonical, pos, factor = KEYS[key][0], positions[key], factors[key]
         if is_packed(spec.unit):
             where = f"data.column_maps.{name}.{key}.unit"
             columns[canonical] = unpack_or_refuse(
@@ -204,6 +261,9 @@ def read_columnmap(
     if text_time:
         notes = (text_time_note(header[positions["t"]], text_time),)
     if (said := delimiter_note(file_delimiter(path))) is not None:
+        notes += (said,)
+    units = {key: spec.unit for key, spec in column_map.items()}
+    if said := linear_wheel_note(units, {k: header[p] for k, p in positions.items()}, radius_m):
         notes += (said,)
     columns |= signed_coordinates(
         {

@@ -54,7 +54,8 @@ import numpy as np
 
 from rwhonet.data import canonical as c
 from rwhonet.data.fixtimes import MAX_EPOCH_SCATTER_S, receiver_epochs
-from rwhonet.data.streams import DriveStreams, Stream, wheel_speed_rad_s
+from rwhonet.data.streams import DriveStreams, Stream
+from rwhonet.data.wheelunits import wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
 
 WHEEL_SPEED = "CAN/wheel_speed"

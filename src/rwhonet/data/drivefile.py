@@ -161,8 +161,9 @@ def read_any(
         f: the drive (a file, or a folder for comma2k19 and stream CSVs).
         data: the ``data`` section (for the maps and the size limit).
         rel: how messages name a file.
-        radius_m: the car's nominal tyre radius: stream drives need it for wheel speeds
-            logged as linear speeds (m/s, km/h) and for the sample-level glitch screen.
+        radius_m: the car's nominal tyre radius: wheel speeds logged as the wheels'
+            circumferential speeds (m/s, km/h, mph; any reader with a map) are divided by
+            it; stream drives' sample-level glitch screen uses it too.
         period_s: the grid period (``validate.sample_period_s``).
         split_gap_s: holes in the grid are made longer than this (``validate.gnss.max_gap_s``).
         require_fix: a stream drive's grid rows need a fix (the pipeline); False keeps rows
@@ -206,24 +207,26 @@ def read_any(
         if kind in (IOVNBD, COLUMN_MAP) and file_is_vbo(f.path):
             if kind == IOVNBD:
                 raise InputError([vbo_needs_a_map(file, f.format)])
-            raw = _read_vbo(f.path, data.column_maps[f.format], f.format, file)
+            raw = _read_vbo(f.path, data.column_maps[f.format], f.format, file, radius_m)
             return place_held_fixes(drop_rows(raw, file), period_s), None
         if kind == IOVNBD:
             return place_held_fixes(drop_rows(read_iovnbd(f.path, file), file), period_s), None
         if kind == COLUMN_MAP:
-            raw = read_columnmap(f.path, data.column_maps[f.format], f.format, file)
+            raw = read_columnmap(f.path, data.column_maps[f.format], f.format, file, radius_m)
             return place_held_fixes(drop_rows(raw, file), period_s), None
         return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
     except MemoryError:
         raise out_of_memory(f, rel) from None
 
 
-def _read_vbo(path: Path, column_map: Mapping, fmt: str, file: str) -> RawDrive:
+def _read_vbo(
+    path: Path, column_map: Mapping, fmt: str, file: str, radius_m: float | None
+) -> RawDrive:
     """A VBOX file through its column map: its CSV written to a scratch file and read."""
     with tempfile.TemporaryDirectory(prefix="rwhonet-vbo-") as scratch:
         csv = Path(scratch) / "drive.csv"
         vbo_as_csv(path, csv, file)
-        raw = read_columnmap(csv, column_map, fmt, file)
+        raw = read_columnmap(csv, column_map, fmt, file, radius_m)
     return dataclasses.replace(raw, notes=(vbo_note(), *raw.notes))
 
 

@@ -93,7 +93,13 @@ class Layout:
     notes: list[str] = field(default_factory=list)
 
 
-def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -> Layout:
+def layout(
+    header: list[str],
+    fmt: str,
+    column_map: Mapping | None,
+    file: str,
+    radius_m: float | None = None,
+) -> Layout:
     """Locate the channels of ``header`` as the ingest reader of ``fmt`` does.
 
     Args:
@@ -101,12 +107,16 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         fmt: ``iovnbd`` or a column map's name.
         column_map: that column map (``data.column_maps[fmt]``), for a column-mapped file.
         file: how the file is named in error reports.
+        radius_m: the car's nominal tyre radius, for a column map's circumferential wheel
+            speeds (``km/h``, ``m/s``, ``mph``).
 
     Raises:
-        InputError: the channels cannot be located.
+        InputError: the channels cannot be located; a circumferential wheel speed without
+            a radius.
     """
     date: tuple[int, str, str, str] | None = None
     hemispheres: dict[str, tuple[int, str, str, str]] = {}
+    wheel_note = None
     if fmt == "iovnbd":
         from rwhonet.data.iovnbd import (
             column_factors,
@@ -128,6 +138,8 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
             KEYS,
             check_column_map,
             columnmap_positions,
+            key_factor,
+            linear_wheel_note,
         )
 
         check_column_map(fmt, column_map or {})
@@ -142,12 +154,12 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
                 hemispheres[KEYS[coordinate][0]] = (at, unit, header[at], setting)
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
         # a strptime pattern for the time is text, read as seconds: factor 1; a packed unit
-        # is unpacked (factor 1 before)
+        # is unpacked (factor 1 before); a circumferential wheel speed by the radius
         units = {key: (column_map or {})[key].unit for key in by_key}
         factors = {
-            KEYS[key][0]: 1.0 if is_packed(unit) else KEYS[key][1].get(unit, 1.0)
-            for key, unit in units.items()
+            KEYS[key][0]: key_factor(key, unit, radius_m, fmt) for key, unit in units.items()
         }
+        wheel_note = linear_wheel_note(units, {k: header[p] for k, p in by_key.items()}, radius_m)
         packed = {
             KEYS[key][0]: (unit, f"data.column_maps.{fmt}.{key}.unit")
             for key, unit in units.items()
@@ -166,7 +178,10 @@ def layout(header: list[str], fmt: str, column_map: Mapping | None, file: str) -
         packed={name: how for name, how in packed.items() if name in wanted},
         date=date,
         hemispheres=hemispheres,
-        notes=[] if date is None else [date_note(date[2], header[positions[c.T_S]], date[1])],
+        notes=[
+            *([] if date is None else [date_note(date[2], header[positions[c.T_S]], date[1])]),
+            *([] if wheel_note is None else [wheel_note]),
+        ],
     )
 
 
@@ -205,6 +220,7 @@ def read_rows(
     column_map: Mapping | None = None,
     block_bytes: int = BLOCK_BYTES,
     period_s: float = 0.1,
+    radius_m: float | None = None,
 ) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """Read the header now; return the layout and the drive's row blocks as they arrive.
 
@@ -215,6 +231,8 @@ def read_rows(
         column_map: the column map of ``fmt``.
         block_bytes: at most this many bytes are read per step; a pipe yields what it has.
         period_s: the nominal sample period (``validate.sample_period_s``), for the clock.
+        radius_m: the car's nominal tyre radius (a column map's wheel speeds in ``km/h``,
+            ``m/s``, ``mph``).
 
     Returns:
         ``(layout, blocks)``: ``blocks`` yields ``(first_row, columns)``, the 1-based data
@@ -231,7 +249,7 @@ def read_rows(
     pipe = _pipe_reader(stream)
     line, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
     header = parse_header(line, file)
-    lay = layout(header, fmt, column_map, file)
+    lay = layout(header, fmt, column_map, file, radius_m)
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
     # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
     # a file separated by ';' or tabs (decimal commas): its rows read as comma-separated

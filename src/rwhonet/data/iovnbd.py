@@ -28,6 +28,7 @@ from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.packed import DDMM, HHMMSS, unpack_or_refuse
 from rwhonet.data.texttime import read_time_column, text_time_note, text_time_unit
 from rwhonet.data.timebase import unwrap_midnight
+from rwhonet.data.wheelunits import ANGULAR_WHEEL_UNITS, LINEAR_WHEEL_UNITS
 from rwhonet.errors import InputError, Problem
 
 
@@ -96,14 +97,13 @@ _LAYOUT_UNIT: dict[str, str | None] = {
 # when it is one of its quantity's units (a wheel speed "(rpm)" is converted from rpm) and
 # refused when it is not; without one, the layout's unit is assumed.
 
-_WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
 # Quantity -> {unit: factor to the canonical SI unit}.
 _UNITS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "ms": 1e-3},
     "angle": {"deg": 1.0},
     "speed": {"km/h": c.KMH_M_S, "m/s": 1.0, "mph": 0.44704},
     "height": {"km": 1000.0, "m": 1.0},
-    "wheel": _WHEEL_UNITS,
+    "wheel": ANGULAR_WHEEL_UNITS,
     "rate": {"deg/s": math.pi / 180.0, "rad/s": 1.0},
     "acc": {"g": c.G_M_S2, "m/s2": 1.0},
     "count": {},
@@ -279,6 +279,23 @@ def column_packed(header: Sequence[str], positions: dict[str, int]) -> dict[str,
     }
 
 
+def _unit_fix(name: str, cell: str) -> str:
+    """What to do about a header's unit the layout does not take for the channel ``name``."""
+    said = unit_name(header_key(cell)[1])
+    if name in c.WHEELS and said in LINEAR_WHEEL_UNITS:
+        # a wheel's circumferential speed: its conversion needs the car's tyre radius,
+        # which an IO-VNBD file does not carry
+        return (
+            f"a wheel's circumferential speed in {said} is divided by the car's nominal "
+            "tyre radius: read the file through a column map (data.column_maps, unit "
+            f"{said!r} for each wheel; docs/readers.md), or write the column in rad/s"
+        )
+    return (
+        "write the column in one of those units and name it in the header, e.g. "
+        f"{LAYOUT[_POSITION_OF[name]].header.strip()!r}"
+    )
+
+
 def column_factors(header: Sequence[str], positions: dict[str, int]) -> dict[str, float]:
     """Each located channel's factor to SI: from the unit its header declares, else the layout's.
 
@@ -451,8 +468,7 @@ def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], st
             f"a unit of {_KIND[name]} "
             f"({', '.join([*_UNITS[_KIND[name]], *_PACKED.get(name, ())]) or 'none'})",
             f"unit {header_key(header[pos])[1]!r} in the header",
-            "write the column in one of those units and name it in the header, e.g. "
-            f"{LAYOUT[_POSITION_OF[name]].header.strip()!r}",
+            _unit_fix(name, header[pos]),
         )
         for name, pos in positions.items()
         if math.isnan(factors[name])

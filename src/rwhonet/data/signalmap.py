@@ -44,19 +44,14 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.columnmap import AUX_KEYS, aux_key_issues
+from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues
 from rwhonet.data.packed import HHMMSS, is_packed, unpack_or_refuse
-from rwhonet.data.streams import (
-    WHEEL_UNITS,
-    DriveStreams,
-    Stream,
-    wheel_speed_rad_s,
-)
+from rwhonet.data.streams import DriveStreams, Stream
 from rwhonet.data.texttime import CLOCK, ISO8601, is_pattern, pattern_problem
+from rwhonet.data.wheelunits import WHEEL_UNITS, wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
 
 _SPEED = {"m/s": 1.0, "km/h": c.KMH_M_S, "mph": 0.44704}
-WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys, in order
 # Key -> (canonical name, {unit: factor to SI}); wheel speeds: WHEEL_UNITS via the radius.
 KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     # iso8601, hh:mm:ss: a CSV stream's time written as text (rwhonet.data.texttime)

@@ -122,65 +122,6 @@ SPAN_NOTE_S = 1.0
 RATE_CHANNELS = (*c.WHEELS, c.YAW_RATE_RAD_S, c.SPEED_VEHICLE_M_S, c.ACC_LON_M_S2, c.ACC_LAT_M_S2)
 FIX_CHANNELS = (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M)
 
-# Units a wheel speed may come in: factor to rad/s, or to m/s for a linear speed (which
-# needs the tyre radius).
-ANGULAR_WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "deg/s": math.pi / 180.0}
-LINEAR_WHEEL_UNITS = {"m/s": 1.0, "km/h": c.KMH_M_S, "mph": 0.44704}
-WHEEL_UNITS = (*ANGULAR_WHEEL_UNITS, *LINEAR_WHEEL_UNITS)
-
-
-def wheel_speed_rad_s(
-    values: np.ndarray, unit: str, radius_m: float | None, where: str = "wheel speed"
-) -> np.ndarray:
-    """Convert wheel speeds to rad/s.
-
-    Args:
-        values: the wheel speeds as logged.
-        unit: one of :data:`WHEEL_UNITS`: angular (``rad/s``, ``rpm``, ``deg/s``) or the
-            wheel's circumferential speed (``m/s``, ``km/h``, ``mph``; many cars put this on
-            the bus, scaled with their own nominal radius).
-        radius_m: the tyre radius a linear speed is divided by (the car's nominal radius).
-        where: the channel, for messages.
-
-    Returns:
-        float64 rad/s.
-
-    Raises:
-        InputError: an unknown unit, or a linear unit without a positive radius.
-    """
-    values = np.asarray(values, dtype=np.float64)
-    if unit in ANGULAR_WHEEL_UNITS:
-        factor = ANGULAR_WHEEL_UNITS[unit]
-        return values if factor == 1.0 else values * factor  # rad/s: no copy
-    if unit in LINEAR_WHEEL_UNITS:
-        if radius_m is None or not radius_m > 0:
-            raise InputError(
-                [
-                    Problem(
-                        where,
-                        None,
-                        None,
-                        f"the tyre radius to turn a wheel speed in {unit} into rad/s",
-                        f"radius {radius_m!r}",
-                        "give the car's nominal tyre radius (data.vehicles.<car>."
-                        "nominal_radius_m, or --nominal-radius)",
-                    )
-                ]
-            )
-        return values * (LINEAR_WHEEL_UNITS[unit] / radius_m)
-    raise InputError(
-        [
-            Problem(
-                where,
-                None,
-                None,
-                f"a wheel-speed unit among {list(WHEEL_UNITS)}",
-                f"{unit!r}",
-                "name the unit the logger wrote (in the column map or signal map)",
-            )
-        ]
-    )
-
 
 @dataclass(frozen=True, eq=False)  # arrays inside: compared by identity, never element-wise
 class Stream:

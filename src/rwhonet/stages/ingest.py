@@ -23,7 +23,6 @@ from rwhonet.config import ConfigError, DataParams, Params
 from rwhonet.data.columnmap import check_column_map
 from rwhonet.data.drivefile import (
     COLUMN_MAP,
-    IOVNBD,
     STREAM_CSV,
     DriveFile,
     is_folder_format,
@@ -250,21 +249,18 @@ def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
     Raises:
         InputError: the file's problems, or running out of memory on it.
     """
-    data = params.data
-    stream = reader_kind(f.format, data) not in (IOVNBD, COLUMN_MAP)
-    if stream:  # the grid and the car's radius (linear wheel speeds, the glitch screen)
-        vp = params.validate
-        spec = data.vehicles.get(f.vehicle)
-        drive = read_canonical(
-            f,
-            data,
-            paths.rel,
-            radius_m=None if spec is None else spec.nominal_radius_m,
-            period_s=vp.sample_period_s,
-            split_gap_s=vp.gnss.max_gap_s,
-        )
-    else:
-        drive = read_canonical(f, data, paths.rel)
+    data, vp = params.data, params.validate
+    spec = data.vehicles.get(f.vehicle)
+    # the car's radius (wheel speeds logged in km/h, a stream drive's glitch screen) and,
+    # for a stream drive, the grid
+    drive = read_canonical(
+        f,
+        data,
+        paths.rel,
+        radius_m=None if spec is None else spec.nominal_radius_m,
+        period_s=vp.sample_period_s,
+        split_gap_s=vp.gnss.max_gap_s,
+    )
     raw = drive.raw
     try:
         write_arrow(drive.table(), tmp / f"{f.drive}{contracts.TABLE_SUFFIX}")
