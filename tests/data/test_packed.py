@@ -10,6 +10,7 @@ import pytest
 from rwhonet.data.canonical import DDMM, DDMM_W
 from rwhonet.data.packed import (
     HHMMSS,
+    VBOX_SATS,
     hemisphere_signs,
     signed_or_refuse,
     unpack,
@@ -143,3 +144,23 @@ def test_a_sign_and_a_letter_both_and_a_letter_that_is_none_are_refused_with_row
     assert rows == [(12, "EW"), (11, "Lon")]
     assert "E or W" in err.value.problems[0].expected
     assert "data.column_maps.gga.lon_hemisphere" in (err.value.problems[1].fix or "")
+
+
+def test_a_vbox_satellite_count_loses_its_flags() -> None:
+    """64 (brake trigger) and 128 (DGPS) come off: 137 is 9 satellites with DGPS."""
+    out, bad = unpack(np.array([9.0, 137.0, 73.0, 201.0, 0.0, np.nan, 12.0]), VBOX_SATS)
+    np.testing.assert_array_equal(out[[0, 1, 2, 3, 4, 6]], [9, 9, 9, 9, 0, 12])
+    assert np.isnan(out[5]) and bad.size == 0
+
+
+def test_a_vbox_count_that_is_none_is_refused_with_its_row() -> None:
+    with pytest.raises(InputError) as err:
+        unpack_or_refuse(
+            np.array([9.0, 256.0, -1.0, 9.5]),
+            VBOX_SATS,
+            "d.vbo",
+            "sats",
+            setting="data.column_maps.vbox.n_sats.unit",
+        )
+    assert [p.row for p in err.value.problems] == [2, 3, 4]
+    assert "a plain count is declared 'count'" in err.value.problems[0].fix

@@ -12,7 +12,13 @@ from rwhonet.config import ColumnSpec
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import read_columnmap
 from rwhonet.data.incremental import read_rows
-from rwhonet.data.vbo import VboAsCsv, file_is_vbo, is_vbo, vbo_as_csv
+from rwhonet.data.vbo import (
+    VboAsCsv,
+    file_is_vbo,
+    is_vbo,
+    plain_counts_checked,
+    vbo_as_csv,
+)
 from rwhonet.errors import InputError
 from support.drives import VBO_MAP, write_columnmap, write_vbo
 from support.serving import wavy_drive
@@ -84,6 +90,7 @@ def test_a_vbox_drive_reads_as_the_drive_in_degrees_and_seconds(tmp_path) -> Non
     (the scratch CSV) and predict's (the stream converted as it is read)."""
     drive = wavy_drive(60.0, t0_s=86370.0)  # passes midnight 30 s in
     plain = {**VBO_MAP, "t": ("time", "s"), "lat": ("lat", "deg"), "lon": ("long", "deg")}
+    plain["n_sats"] = ("sats", "count")
     ref = read_columnmap(write_columnmap(drive, tmp_path / "ref.csv", plain), _cmap(plain), "ref")
     path = write_vbo(drive, tmp_path / "drive.vbo", crlf=True)
     assert file_is_vbo(path) and not file_is_vbo(tmp_path / "ref.csv")
@@ -152,3 +159,34 @@ def test_ingest_reads_vbo_files_its_role_names_and_says_so(tmp_path) -> None:
     entry = next(d for d in manifest["drives"] if d["source_file"].endswith("C-V1.vbo"))
     assert any("Racelogic VBOX file" in note for note in entry["notes"])
     assert set(Path(tempfile.gettempdir()).glob("rwhonet-vbo-*")) == scratch_before
+
+
+def test_the_satellite_count_s_flags_are_taken_off_or_a_plain_count_refused(tmp_path) -> None:
+    """VBOX adds 128 to its satellite count while it uses DGPS and 64 while the brake
+    trigger is on (Racelogic, 'VBO File Format'): declared 'vbox', 9 satellites read as 9
+    by both readers; declared 'count', predict refuses the first row (ingest: the corpus
+    case racelogic_vbox_satellites_as_a_plain_count)."""
+    drive = wavy_drive(20.0)
+    braking = (np.arange(len(drive)) % 50 < 10) * 64
+    path = write_vbo(drive, tmp_path / "drive.vbo", flags=128 + braking)
+    assert "\n137 " in path.read_text() and "\n201 " in path.read_text()
+    vbo_as_csv(path, tmp_path / "drive.csv", "drive.vbo")
+    got = read_columnmap(tmp_path / "drive.csv", _cmap(VBO_MAP), "vbox", "drive.vbo")
+    np.testing.assert_array_equal(got.columns[c.N_SATS], np.full(len(drive), 9.0))
+    plain = _cmap(VBO_MAP | {"n_sats": ("sats", "count")})
+    with open(path, "rb") as f:
+        reader = io.BufferedReader(VboAsCsv(f, "drive.vbo"))
+        _, blocks = read_rows(reader, "drive.vbo", "vbox", _cmap(VBO_MAP), block_bytes=2048)
+        sats = np.concatenate([b[c.N_SATS] for _, b in blocks])
+    np.testing.assert_array_equal(sats, np.full(len(drive), 9.0))
+    with open(path, "rb") as f:
+        reader = io.BufferedReader(VboAsCsv(f, "drive.vbo"))
+        _, blocks = read_rows(reader, "drive.vbo", "vbox", plain, block_bytes=2048)
+        checked = plain_counts_checked(
+            blocks, "drive.vbo", "sats", "data.column_maps.vbox.n_sats.unit"
+        )
+        with pytest.raises(InputError) as err:
+            list(checked)
+    first = err.value.problems[0]
+    assert (first.file, first.row, first.column, first.found) == ("drive.vbo", 1, "sats", "201.0")
+    assert "'vbox'" in first.fix and "data.column_maps.vbox.n_sats.unit" in first.fix

@@ -1466,8 +1466,8 @@ def _(raw: Path) -> None:
 @case(
     "racelogic_vbox_file",
     "a Racelogic VBOX file as the logger writes it (sections, space-separated values, time "
-    "as hhmmss.ss, latitude and longitude in minutes, longitude positive west, CRLF), its "
-    "CAN wheel speeds in rpm",
+    "as hhmmss.ss, latitude and longitude in minutes, longitude positive west, CRLF, the "
+    "satellite count with its DGPS and brake-trigger flags), its CAN wheel speeds in rpm",
     Accept("read through a column map as the CSV it stands for"),
     **{
         "data.column_maps.vbox": column_map_params(VBO_MAP),
@@ -1475,7 +1475,23 @@ def _(raw: Path) -> None:
     },
 )
 def _(raw: Path) -> None:
-    write_vbo(good_target(), target_path(raw), crlf=True)
+    df = good_target()
+    braking = (df.index.to_numpy() % 100 < 20) * 64  # the brake trigger, 2 s in 10
+    write_vbo(df, target_path(raw), crlf=True, flags=128 + braking)
+
+
+@case(
+    "racelogic_vbox_satellites_as_a_plain_count",
+    "a VBOX file whose satellite count carries the logger's DGPS flag (128 added: '137' is "
+    "9 satellites), mapped as a plain count",
+    Refuse("ingest", 1, "sats", "a satellite count below 64", "137.0"),
+    **{
+        "data.column_maps.vbox": column_map_params(VBO_MAP | {"n_sats": ("sats", "count")}),
+        "data.roles.target_test": {**_CUPAC_ROLE, "format": "vbox"},
+    },
+)
+def _(raw: Path) -> None:
+    write_vbo(good_target(), target_path(raw), flags=128)
 
 
 @case(

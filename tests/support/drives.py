@@ -324,14 +324,18 @@ VBO_MAP = {
     "omega_fr": ("Wheel_Speed_FR", "rpm"),
     "omega_rl": ("Wheel_Speed_RL", "rpm"),
     "omega_rr": ("Wheel_Speed_RR", "rpm"),
-    "n_sats": ("sats", "count"),
+    "n_sats": ("sats", "vbox"),
 }
 
 
-def write_vbo(df: pd.DataFrame, path: Path, crlf: bool = False) -> Path:
+def write_vbo(
+    df: pd.DataFrame, path: Path, crlf: bool = False, flags: int | np.ndarray = 0
+) -> Path:
     """Write canonical columns as a Racelogic VBOX file (:data:`VBO_MAP`'s columns): its
     sections, the UTC time of day as hhmmss.ss, latitude and longitude in signed minutes
-    (longitude positive west), the values separated by spaces, in VBOX's fixed widths."""
+    (longitude positive west), the values separated by spaces, in VBOX's fixed widths;
+    ``flags`` (per row, or one for all) added to the satellite count (64: brake trigger,
+    128: DGPS)."""
     times = as_hhmmss(df[c.T_S].to_numpy(), decimals=2)
     rpm = {w: df[w].to_numpy() * 60.0 / (2.0 * np.pi) for w in c.WHEELS}
     lines = [
@@ -356,8 +360,9 @@ def write_vbo(df: pd.DataFrame, path: Path, crlf: bool = False) -> Path:
     ]
     lat_min = df[c.LAT_DEG].to_numpy() * 60.0
     long_min = -df[c.LON_DEG].to_numpy() * 60.0
+    added = np.broadcast_to(np.asarray(flags, dtype=int), (len(df),))
     for i in range(len(df)):
-        sats = int(df[c.N_SATS].iloc[i]) if c.N_SATS in df else 9
+        sats = (int(df[c.N_SATS].iloc[i]) if c.N_SATS in df else 9) + int(added[i])
         hhmmss = times[i]
         wheels = " ".join(f"{rpm[w][i]:08.3f}" for w in c.WHEELS)
         lines.append(

@@ -26,6 +26,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from rwhonet.data import canonical as c
 from rwhonet.data.glitches import WHEEL_GLITCH_G, YAW_RATE_LIMIT_RAD_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.serve.stream import BRIDGE_MAX_S, COLUMNS, Outage, SecondStream
@@ -229,7 +230,13 @@ def run(
     from rwhonet.data.droprows import RowFilter
     from rwhonet.data.heldfixes import HeldFixGate
     from rwhonet.data.incremental import FixScreen, read_rows
-    from rwhonet.data.vbo import VboAsCsv, file_is_vbo, vbo_needs_a_map, vbo_note
+    from rwhonet.data.vbo import (
+        VboAsCsv,
+        file_is_vbo,
+        plain_counts_checked,
+        vbo_needs_a_map,
+        vbo_note,
+    )
     from rwhonet.libraries import raise_if_interrupted
 
     vbo = False
@@ -282,6 +289,11 @@ def run(
                 names, read_notes = lay.names, lay.notes
                 if vbo:
                     read_notes.insert(0, vbo_note())
+                    sats = (column_map or {}).get("n_sats")
+                    if sats is not None and sats.unit == "count":  # flags pass any fix
+                        setting = f"data.column_maps.{fmt}.n_sats.unit"
+                        column = names[c.N_SATS].strip()
+                        blocks = plain_counts_checked(blocks, name, column, setting)
             # a row written twice, or without a wheel speed, is dropped, as ingest drops
             # it (before the fix screen, which would take a copy's fix as one that did not
             # move)

@@ -30,7 +30,13 @@ from rwhonet.data.csvio import (
     read_text_column,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
-from rwhonet.data.packed import HHMMSS, is_packed, signed_coordinates, unpack_or_refuse
+from rwhonet.data.packed import (
+    HHMMSS,
+    VBOX_SATS,
+    is_packed,
+    signed_coordinates,
+    unpack_or_refuse,
+)
 from rwhonet.data.texttime import (
     CLOCK,
     ISO8601,
@@ -67,7 +73,8 @@ KEYS: dict[str, tuple[str, dict[str, float]]] = {
     "omega_fr": (c.OMEGA_FR, _WHEEL_UNITS),
     "omega_rl": (c.OMEGA_RL, _WHEEL_UNITS),
     "omega_rr": (c.OMEGA_RR, _WHEEL_UNITS),
-    "n_sats": (c.N_SATS, {"count": 1.0}),
+    # vbox: a Racelogic VBOX's count, its flags (64, 128) taken off (rwhonet.data.packed)
+    "n_sats": (c.N_SATS, {"count": 1.0, VBOX_SATS: math.nan}),
     # the navigation filter's gyro (validate checks its unit and sign against GNSS)
     "yaw_rate": (c.YAW_RATE_RAD_S, c.YAW_RATE_UNITS),
 }

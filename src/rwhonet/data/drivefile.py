@@ -40,7 +40,13 @@ from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
-from rwhonet.data.vbo import file_is_vbo, vbo_as_csv, vbo_needs_a_map, vbo_note
+from rwhonet.data.vbo import (
+    file_is_vbo,
+    plain_count_problems,
+    vbo_as_csv,
+    vbo_needs_a_map,
+    vbo_note,
+)
 from rwhonet.errors import InputError, Problem
 
 IOVNBD = "iovnbd"
@@ -227,6 +233,12 @@ def _read_vbo(
         csv = Path(scratch) / "drive.csv"
         vbo_as_csv(path, csv, file)
         raw = read_columnmap(csv, column_map, fmt, file, radius_m)
+    sats = column_map.get("n_sats")
+    if sats is not None and sats.unit == "count":  # a VBOX's flags would pass any fix
+        setting = f"data.column_maps.{fmt}.n_sats.unit"
+        column = raw.source_columns[c.N_SATS]
+        if problems := plain_count_problems(raw.columns[c.N_SATS], file, column, setting):
+            raise InputError(problems, summary=f"VBOX flags in the satellite count of {file}")
     return dataclasses.replace(raw, notes=(vbo_note(), *raw.notes))
 
 

@@ -16,6 +16,11 @@ letter must be a magnitude (a minus sign and a letter both are refused: which on
 meant cannot be told); an empty letter makes the coordinate missing (NMEA leaves both
 fields empty without a fix).
 
+A Racelogic VBOX packs flags into its satellite count: 64 is added while the brake
+trigger input is on, 128 while the receiver uses a DGPS correction (Racelogic, "VBO File
+Format": ``137`` is 9 satellites with DGPS). Read as a count, a 3-satellite fix with DGPS
+would pass any minimum; the unit ``vbox`` takes the flags off (the count modulo 64).
+
 A column or signal map declares such a column with the unit ``ddmm`` (``ddmm W``: a
 longitude positive west) or ``hhmmss``; :func:`unpack` turns it into degrees or seconds of
 the day (which the readers continue past midnight as any time of day). A cell that cannot
@@ -38,13 +43,18 @@ from rwhonet.data.problems import ROWS_LISTED, row_problems
 from rwhonet.errors import InputError
 
 HHMMSS = "hhmmss"
-PACKED_UNITS = (DDMM, DDMM_W, HHMMSS)
+VBOX_SATS = "vbox"  # a VBOX's satellite count, 64 (brake trigger) and 128 (DGPS) added
+PACKED_UNITS = (DDMM, DDMM_W, HHMMSS, VBOX_SATS)
+# The flags a VBOX adds to its satellite count: the count is below the smallest.
+VBOX_FLAGS = {64: "the brake trigger input on", 128: "a DGPS correction in use"}
 
 EXPECTED = {
     DDMM: "degrees and minutes run together, ddmm.mmmm (NMEA: 5224.1234 is 52 deg 24.1234 "
     "min), the minutes below 60",
     HHMMSS: "a time of day as hhmmss.ss (142205.1 is 14:22:05.1), hours below 24, minutes "
     "and seconds below 60",
+    VBOX_SATS: "a VBOX's satellite count: a whole number from 0 to 255, the count below 64 "
+    "with 64 (brake trigger) and 128 (DGPS) added",
 }
 EXPECTED[DDMM_W] = EXPECTED[DDMM]
 # A hundredth of a microsecond or of a micro-minute: what a float64 of such a number may
@@ -67,16 +77,17 @@ def is_packed(unit: str | None) -> bool:
 
 
 def unpack(values: np.ndarray, unit: str) -> tuple[np.ndarray, np.ndarray]:
-    """Unpack a column of ``ddmm.mmmm`` angles or ``hhmmss.ss`` times.
+    """Unpack a column of ``ddmm.mmmm`` angles, ``hhmmss.ss`` times or VBOX satellite counts.
 
     Args:
         values: the numbers as written (NaN: a missing value, kept NaN).
-        unit: ``ddmm``, ``ddmm W`` (the result negated: positive west) or ``hhmmss``.
+        unit: ``ddmm``, ``ddmm W`` (the result negated: positive west), ``hhmmss`` or
+            ``vbox``.
 
     Returns:
-        ``(unpacked, bad)``: degrees (the sign as written) or seconds since midnight, as
-        float64; and the indices of the cells that are not of the unit's form (their
-        unpacked value is NaN).
+        ``(unpacked, bad)``: degrees (the sign as written), seconds since midnight or the
+        satellite count without its flags, as float64; and the indices of the cells that
+        are not of the unit's form (their unpacked value is NaN).
     """
     x = np.asarray(values, dtype=np.float64)
     if unit == HHMMSS:
@@ -87,6 +98,10 @@ def unpack(values: np.ndarray, unit: str) -> tuple[np.ndarray, np.ndarray]:
         out = 3600.0 * hours + 60.0 * minutes + seconds
         with np.errstate(invalid="ignore"):
             bad = (x < 0) | (hours >= 24) | (minutes >= 60) | (seconds >= _ROUNDED)
+    elif unit == VBOX_SATS:
+        with np.errstate(invalid="ignore"):
+            bad = (x < 0) | (x > 255) | (np.abs(x - np.round(x)) > _EPS)
+            out = np.round(x) % 64.0
     elif unit in (DDMM, DDMM_W):
         a = np.abs(x)
         degrees = np.floor(a / 100.0 + _EPS)
@@ -131,10 +146,12 @@ def unpack_or_refuse(
         return out
     x = np.asarray(values, dtype=np.float64)
     declared = f" ({setting} declares {unit!r})" if setting else ""
-    fix = (
-        f"check the column's unit{declared}: a column of plain degrees or seconds is "
-        "declared 'deg' or 's'; otherwise correct or delete the rows named"
+    plain = (
+        "a plain count is declared 'count'"
+        if unit == VBOX_SATS
+        else ("a column of plain degrees or seconds is declared 'deg' or 's'")
     )
+    fix = f"check the column's unit{declared}: {plain}; otherwise correct or delete the rows named"
     at = np.asarray(rows)[bad] if rows is not None else bad + 1
     found = [repr(float(v)) for v in x[bad[:ROWS_LISTED]]]
     problems = row_problems(file, column, at, found, EXPECTED[unit], fix=fix)

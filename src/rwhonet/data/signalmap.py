@@ -15,7 +15,8 @@ column) and its unit. Keys and units:
 ``t`` (CSV streams: required in every file)   ``s``, ``ms``, ``us``, ``ns``; ``hhmmss`` (a
                                               time of day as hhmmss.ss); as text
                                               ``iso8601``, ``hh:mm:ss`` or a strptime pattern
-``n_sats``                                    ``count``
+``n_sats``                                    ``count``; ``vbox`` (a VBOX's count, its flags
+                                              taken off)
 ``speed_gnss``, ``speed_vehicle``             ``m/s``, ``km/h``, ``mph``
 ``heading``                                   ``deg``
 ``height``                                    ``m``, ``km``
@@ -45,7 +46,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues
-from rwhonet.data.packed import HHMMSS, is_packed, unpack_or_refuse
+from rwhonet.data.packed import HHMMSS, VBOX_SATS, is_packed, unpack_or_refuse
 from rwhonet.data.streams import DriveStreams, Stream
 from rwhonet.data.texttime import CLOCK, ISO8601, is_pattern, pattern_problem
 from rwhonet.data.wheelunits import WHEEL_UNITS, wheel_speed_rad_s
@@ -65,7 +66,7 @@ KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     "lat": (c.LAT_DEG, c.LAT_UNITS),
     "lon": (c.LON_DEG, c.LON_UNITS),
     **{key: (name, None) for key, name in zip(WHEEL_KEYS, c.WHEELS, strict=True)},
-    "n_sats": (c.N_SATS, {"count": 1.0}),
+    "n_sats": (c.N_SATS, {"count": 1.0, VBOX_SATS: nan}),  # vbox: rwhonet.data.packed
     "speed_gnss": (c.SPEED_GNSS_M_S, _SPEED),
     "heading": (c.HEADING_DEG, {"deg": 1.0}),
     "height": (c.HEIGHT_M, {"m": 1.0, "km": 1000.0}),

@@ -20,15 +20,27 @@ long, unit: min W}``, the wheel speeds under their CAN names): :class:`VboAsCsv`
 the file into the CSV it stands for, a header line of the column names and each data
 line's values separated by commas, so every reader, ingest's and ``rwhonet predict``'s,
 reads it unchanged and names its rows as the data lines after ``[data]``.
+
+``sats`` is the satellite count with flags added: 64 while the brake trigger input is on,
+128 while a DGPS correction is used (``137``: 9 satellites with DGPS). A map declares it
+``vbox`` (:data:`rwhonet.data.packed.VBOX_SATS`, the flags taken off); declared a plain
+``count`` in a VBOX file, a count of 64 or more is refused (:func:`plain_counts_checked`),
+as the flags would pass a fix with too few satellites.
 """
 
 from __future__ import annotations
 
 import io
 import re
+from collections.abc import Iterator
 from pathlib import Path
 from typing import BinaryIO
 
+import numpy as np
+
+from rwhonet.data import canonical as c
+from rwhonet.data.packed import VBOX_SATS
+from rwhonet.data.problems import ROWS_LISTED, row_problems
 from rwhonet.errors import InputError, Problem
 
 # How far into a file its [data] section may start: the sections before it are a few
@@ -161,6 +173,50 @@ def vbo_needs_a_map(file: str, fmt: str) -> Problem:
         "a Racelogic VBOX file (its first line 'File created on ...')",
         f"read it through a column map (data.column_maps; format {fmt!r} names none): "
         "t: {column: time, unit: hhmmss}, lat: {column: lat, unit: min}, lon: {column: "
-        "long, unit: min W}, and the wheel speeds under their CAN channels' names "
+        "long, unit: min W}, n_sats: {column: sats, unit: vbox}, and the wheel speeds "
+        "under their CAN channels' names "
         "(docs/readers.md, 'Racelogic VBOX files')",
     )
+
+
+def plain_count_problems(
+    counts: np.ndarray, file: str, column: str, setting: str, first_row: int = 1
+) -> list[Problem]:
+    """A VBOX file's satellite counts read as a plain ``count`` that carry its flags.
+
+    Args:
+        counts: the ``sats`` column as read (plain numbers).
+        file: the file, as the user knows it.
+        column: the file's column name (``sats``).
+        setting: where the unit is declared (``data.column_maps.<map>.n_sats.unit``).
+        first_row: the 1-based data row of ``counts[0]``.
+
+    Returns:
+        One problem per row (the first few; the rest counted) whose count is 64 or more.
+    """
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(np.asarray(counts, dtype=np.float64) >= 64)
+    if bad.size == 0:
+        return []
+    return row_problems(
+        file,
+        column,
+        bad + first_row,
+        [repr(float(counts[i])) for i in bad[:ROWS_LISTED]],
+        "a satellite count below 64 (a VBOX adds 64 while its brake trigger is on and 128 "
+        "while it uses DGPS)",
+        fix=f"declare {setting} {VBOX_SATS!r}: the flags are taken off the count",
+    )
+
+
+def plain_counts_checked(
+    blocks: Iterator[tuple[int, dict[str, np.ndarray]]], file: str, column: str, setting: str
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """``rwhonet predict``'s row blocks of a VBOX file, each refused (InputError) where
+    its plain satellite count carries the VBOX's flags (:func:`plain_count_problems`)."""
+    for first, columns in blocks:
+        if c.N_SATS in columns:
+            problems = plain_count_problems(columns[c.N_SATS], file, column, setting, first)
+            if problems:
+                raise InputError(problems, summary=f"VBOX flags in the satellite count of {file}")
+        yield first, columns
