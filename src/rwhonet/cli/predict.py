@@ -14,7 +14,6 @@ its distance to the GNSS fix there, where the file has one.
 
 from __future__ import annotations
 
-import io
 import math
 import os
 import sys
@@ -26,7 +25,6 @@ from typing import IO, Any
 
 import numpy as np
 
-from rwhonet.data import canonical as c
 from rwhonet.data.glitches import WHEEL_GLITCH_G, YAW_RATE_LIMIT_RAD_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.serve.stream import BRIDGE_MAX_S, COLUMNS, Outage, SecondStream
@@ -230,16 +228,8 @@ def run(
     from rwhonet.data.droprows import RowFilter
     from rwhonet.data.heldfixes import HeldFixGate
     from rwhonet.data.incremental import FixScreen, read_rows
-    from rwhonet.data.vbo import (
-        VboAsCsv,
-        file_is_vbo,
-        plain_counts_checked,
-        vbo_needs_a_map,
-        vbo_note,
-    )
     from rwhonet.libraries import raise_if_interrupted
 
-    vbo = False
     with ExitStack() as stack:
         if drive_blocks is not None:
             source, name = None, drive
@@ -259,11 +249,9 @@ def run(
                         )
                     ]
                 )
+            # a Racelogic VBOX file (here or on stdin): read_rows reads it as the CSV it
+            # stands for
             source, name = stack.enter_context(open(path, "rb")), drive
-            if file_is_vbo(path):  # a Racelogic VBOX file: read as the CSV it stands for
-                if fmt == "iovnbd":
-                    raise InputError([vbo_needs_a_map(drive, fmt)])
-                source, vbo = io.BufferedReader(VboAsCsv(source, name), 1 << 16), True
         final = None if output == STDIO else output_file(output, "a CSV or .parquet file")
         partial = None if final is None else final.with_name(f".{final.name}.partial")
         if final is None:
@@ -287,13 +275,6 @@ def run(
                     source, name, fmt, column_map, period_s=period_s, radius_m=nominal
                 )
                 names, read_notes = lay.names, lay.notes
-                if vbo:
-                    read_notes.insert(0, vbo_note())
-                    sats = (column_map or {}).get("n_sats")
-                    if sats is not None and sats.unit == "count":  # flags pass any fix
-                        setting = f"data.column_maps.{fmt}.n_sats.unit"
-                        column = names[c.N_SATS].strip()
-                        blocks = plain_counts_checked(blocks, name, column, setting)
             # a row written twice, or without a wheel speed, is dropped, as ingest drops
             # it (before the fix screen, which would take a copy's fix as one that did not
             # move)

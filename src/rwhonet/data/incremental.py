@@ -224,6 +224,9 @@ def read_rows(
 ) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """Read the header now; return the layout and the drive's row blocks as they arrive.
 
+    A Racelogic VBOX file (told by its first line, from a file or a pipe) is read through
+    its column map as the CSV it stands for (:func:`_vbo_rows`).
+
     Args:
         stream: the drive, opened in binary mode (``sys.stdin.buffer`` for a pipe).
         file: how the drive is named in error reports (``<stdin>``).
@@ -245,9 +248,15 @@ def read_rows(
             than the header or a cell that is not a number (while iterating).
     """
     from rwhonet.data.csvio import HEADER_MAX_BYTES, delimiter_of, first_line_end, parse_header
+    from rwhonet.data.vbo import is_vbo
 
     pipe = _pipe_reader(stream)
     line, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
+    if is_vbo(line):  # a Racelogic VBOX file, from a file or a pipe
+        head = line + (rest or b"")
+        return _vbo_rows(
+            head, pipe or stream, file, fmt, column_map, block_bytes, period_s, radius_m
+        )
     header = parse_header(line, file)
     lay = layout(header, fmt, column_map, file, radius_m)
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
@@ -256,6 +265,58 @@ def read_rows(
     delimiter = delimiter_of(line[: first_line_end(line)])
     blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter)
     return lay, placed(blocks, StreamClock(period_s))
+
+
+class _Replay(io.RawIOBase):
+    """``head`` (bytes already read from ``source``), then the rest of ``source``."""
+
+    def __init__(self, head: bytes, source: BinaryIO | io.FileIO) -> None:
+        super().__init__()
+        self._head, self._source = head, source
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:  # type: ignore[no-untyped-def]
+        if self._head:
+            n = min(len(buffer), len(self._head))
+            buffer[:n], self._head = self._head[:n], self._head[n:]
+            return n
+        data = self._source.read(len(buffer))
+        buffer[: len(data)] = data
+        return len(data)
+
+
+def _vbo_rows(
+    head: bytes,
+    source: BinaryIO | io.FileIO,
+    file: str,
+    fmt: str,
+    column_map: Mapping | None,
+    block_bytes: int,
+    period_s: float,
+    radius_m: float | None,
+) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
+    """:func:`read_rows` of a VBOX file (``head``: its first line, read already) through its
+    column map, as the CSV it stands for (:class:`rwhonet.data.vbo.VboAsCsv`); a satellite
+    count mapped as a plain ``count`` is refused where it carries the VBOX's flags.
+
+    Raises:
+        InputError: ``fmt`` is ``iovnbd`` (a VBOX file needs a map), or as :func:`read_rows`.
+    """
+    from rwhonet.data.vbo import VboAsCsv, plain_counts_checked, vbo_needs_a_map, vbo_note
+
+    if fmt == "iovnbd":
+        raise InputError([vbo_needs_a_map(file, fmt)])
+    raw = io.BufferedReader(_Replay(head, source), 1 << 16)
+    csv_rows = io.BufferedReader(VboAsCsv(raw, file), 1 << 16)  # type: ignore[arg-type]
+    lay, blocks = read_rows(csv_rows, file, fmt, column_map, block_bytes, period_s, radius_m)
+    lay.notes.insert(0, vbo_note())
+    sats = (column_map or {}).get("n_sats")
+    if sats is not None and sats.unit == "count" and c.N_SATS in lay.names:
+        setting = f"data.column_maps.{fmt}.n_sats.unit"
+        blocks = plain_counts_checked(blocks, file, lay.names[c.N_SATS].strip(), setting)
+    return lay, blocks
 
 
 def _pipe_reader(stream: BinaryIO) -> io.FileIO | None:
