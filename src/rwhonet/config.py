@@ -532,16 +532,17 @@ class DataParams:
     max_file_mb: float = 512.0
     # Stream drives' fixes against their wheel speeds' clock (rwhonet.data.fixlag):
     # "report" estimates the lag and says it, "auto" also moves the fixes where it is
-    # clear, a number (s, within +-1) moves them by that (a fix stamped t taken at t - lag).
+    # clear, a number (s, within +-60) moves them by that (a fix stamped t taken at t - lag).
+    # Fixes stamped by another clock (a lag beyond +-1 s) are refused by report.
     gnss_lag: Literal["report", "auto"] | float = "report"
 
     def __post_init__(self) -> None:
         if not self.max_file_mb > 0:
             raise ConfigError(f"data.max_file_mb must be > 0, got {self.max_file_mb}")
-        if isinstance(self.gnss_lag, float) and not abs(self.gnss_lag) <= 1.0:
+        if isinstance(self.gnss_lag, float) and not abs(self.gnss_lag) <= 60.0:
             raise ConfigError(
-                f"data.gnss_lag must be report, auto or a lag in seconds within ±1, got "
-                f"{self.gnss_lag}"
+                f"data.gnss_lag must be report, auto or a lag in seconds within ±60 (a "
+                f"receiver's latency, or two clocks' offset), got {self.gnss_lag}"
             )
         clash = sorted(
             (set(self.column_maps) & set(self.signal_maps))

@@ -13,6 +13,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data import fixlag
 from rwhonet.data.fixlag import MIN_PAIRS, fix_lag, lagged_times
 from rwhonet.data.streams import travelled_path
+from rwhonet.errors import InputError
 from rwhonet.geo import latlon_from_offsets_deg
 
 RADIUS_M = 0.3
@@ -152,13 +153,53 @@ def test_too_few_moving_seconds_say_nothing():
     assert lagged_times(stamps, lat, lon, path, "auto")[1:] == (None, False)
 
 
-def test_a_lag_beyond_the_search_is_a_clock_problem_not_moved():
-    stamps, lat, lon, path = _drive(3.0)
+@pytest.mark.parametrize(
+    ("offset_s", "known"),
+    [
+        (3.0, None),
+        (18.0, "GPS time runs 18 s ahead of UTC since 2017"),
+        (-14.0, "BeiDou time runs 14 s behind GPS time"),
+        (37.0, "TAI runs 37 s ahead of UTC since 2017"),
+    ],
+)
+def test_fixes_stamped_by_another_clock_are_found_refused_or_moved(offset_s, known):
+    """Seconds off the wheels' clock (GPS time against UTC, a logger's clock set by hand):
+    found by the wide search to a few ms; report refuses the drive with the setting that
+    moves them, auto and the user's figure move them."""
+    stamps, lat, lon, path = _drive(offset_s)
     found = fix_lag(stamps, lat, lon, path, "gnss.csv")
-    assert not found.clear and "edge of the ±1 s searched" in found.finding
+    assert found.two_clocks and found.clear
+    assert found.lag_s == pytest.approx(offset_s, abs=0.005) and found.se_s < 0.01
+    assert "stamped by two clocks" in found.finding
+    assert (known in found.finding) if known else "?)" not in found.finding
+    with pytest.raises(InputError) as err:
+        lagged_times(stamps, lat, lon, path, "report", "gnss.csv")
+    (problem,) = err.value.problems
+    assert problem.file == "gnss.csv" and "stamped by one clock" in problem.expected
+    assert f"set data.gnss_lag: {offset_s:.2f}" in problem.fix  # to the ms: 18.00x
+    times, note, moved = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
+    assert moved and np.allclose(times, stamps - offset_s, atol=0.005)
+    assert note.endswith("onto the wheels' clock (data.gnss_lag = auto)")
+    times, _, moved = lagged_times(stamps, lat, lon, path, offset_s, "gnss.csv")
+    assert moved and np.array_equal(times, stamps - offset_s)
+
+
+def test_a_lag_beyond_the_wide_search_is_a_clock_problem_not_moved():
+    stamps, lat, lon, path = _drive(75.0, duration_s=900.0)
+    found = fix_lag(stamps, lat, lon, path, "gnss.csv")
+    assert not found.clear and not found.two_clocks
+    assert "edge of the ±1 s searched" in found.finding
     times, note, moved = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
     assert not moved and np.array_equal(times, stamps)
     assert "one clock?" in note and note.endswith("stamps kept")
+
+
+def test_a_steady_drive_on_one_clock_is_not_taken_for_two():
+    """The wide search runs where the latency's cannot place a lag (a steady speed): it
+    finds no two clocks in a drive on one."""
+    stamps, lat, lon, path = _drive(0.0, speed=lambda t: np.full(t.size, 12.0))
+    found = fix_lag(stamps, lat, lon, path)
+    assert not found.two_clocks and not found.clear
 
 
 def test_the_modes_report_move_or_take_the_users_figure():
@@ -181,8 +222,9 @@ def test_the_setting_is_checked():
     assert load_params().data.gnss_lag == "report"
     assert load_params(overrides={"data.gnss_lag": "auto"}).data.gnss_lag == "auto"
     assert load_params(overrides={"data.gnss_lag": 0.12}).data.gnss_lag == 0.12
+    assert load_params(overrides={"data.gnss_lag": 18.0}).data.gnss_lag == 18.0
     with pytest.raises(ConfigError, match="data.gnss_lag"):
-        load_params(overrides={"data.gnss_lag": 2.5})
+        load_params(overrides={"data.gnss_lag": 61.0})
     with pytest.raises(ConfigError, match="data.gnss_lag"):
         load_params(overrides={"data.gnss_lag": "sometimes"})
 
@@ -215,3 +257,39 @@ def test_the_simulated_cars_can_latency_is_found_and_moved_by_resample(tmp_path)
         kept = resample(streams, nominal_radius_m=vehicle.nominal_radius_m)
         assert not any("fixes moved" in n for n in kept.lost)
         assert any("auto would move the fixes by +" in n for n in kept.drive.notes)
+
+
+def test_fixes_in_gps_time_beside_wheels_in_utc_are_refused_or_moved_by_resample(tmp_path):
+    """A GNSS stream exported in GPS time beside CAN wheel speeds in UTC: 18 s apart.
+    Before, the drive went through the reader with a note ("are the GNSS and the wheel
+    speeds on one clock?") and validate refused it as wheels that stopped logging; now
+    resample refuses it naming the offset and the setting, and with that setting (or
+    auto) the drive is the one logged on one clock."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from rwhonet.sim.streams import StreamSpec, signal_map, stream_tables, write_stream_csvs
+    from support.multirate import START_S, simulated_drive
+
+    state, vehicle, sim, ss, _ = simulated_drive(300.0, seed=6)
+    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, 5.0), START_S)
+    one = read_stream_csvs(
+        list(write_stream_csvs(tables, tmp_path / "one").values()), signal_map(), None
+    )
+    tables.gnss[c.T_S] += 18.0  # GPS time runs 18 s ahead of UTC
+    two = read_stream_csvs(
+        list(write_stream_csvs(tables, tmp_path / "two").values()), signal_map(), None
+    )
+    radius = vehicle.nominal_radius_m
+    with pytest.raises(InputError) as err:
+        resample(two, nominal_radius_m=radius)
+    (problem,) = err.value.problems
+    assert "stamped by two clocks (GPS time runs 18 s ahead of UTC since 2017?)" in problem.found
+    assert re.search(r"set data\.gnss_lag: 18\.0\d\d \(the fixes moved", problem.fix)
+    ref = resample(one, nominal_radius_m=radius, gnss_lag=0.0).drive.columns
+    # the grid spans what the wheels and the moved fixes cover (before: the raw stamps',
+    # 18 s short); auto's estimate is a few ms off 18 s: positions within 20 cm
+    for mode, atol in ((18.0, 1e-9), ("auto", 3e-6)):
+        got = resample(two, nominal_radius_m=radius, gnss_lag=mode).drive.columns
+        np.testing.assert_array_equal(got[c.T_S], ref[c.T_S])
+        for name in (c.LAT_DEG, c.LON_DEG, c.OMEGA_RL):
+            np.testing.assert_allclose(got[name], ref[name], rtol=0, atol=atol)

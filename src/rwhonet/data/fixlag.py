@@ -74,6 +74,7 @@ from typing import Protocol
 import numpy as np
 
 from rwhonet.data.robust import mad_normal
+from rwhonet.errors import InputError, Problem
 from rwhonet.geo import local_distance_m
 
 # Fixes about this far apart are paired: long enough for a speed change to show, short
@@ -82,6 +83,28 @@ PAIR_SPAN_S = 1.0
 # The lags searched: a receiver's latency is tens to hundreds of ms; a second or more is
 # two clocks, not a latency.
 MAX_LAG_S = 1.0
+# Two clocks are searched for over this much (coarsely, every WIDE_STEP_S) where the lag
+# is not inside the latency's search: GNSS time scales differ from UTC and each other by
+# whole seconds (CLOCK_OFFSETS), a logger's clock set by hand by any amount.
+WIDE_LAG_S = 60.0
+WIDE_STEP_S = 0.25
+# The two-clock fit must explain the fixes this well: the correlation of the fixes'
+# distances with the wheels' chords (0.9999 on simulated drives with a survey-grade
+# receiver; about 0.93 where 1 Hz fixes scatter 1.5 m and the speed 5 m/s).
+WIDE_MIN_CORR = 0.8
+# ... and better than at the profile's every other peak by this factor on the misfit
+# (1 - correlation): a speed that repeats itself (a test track's laps, stop-and-go) fits
+# at several lags alike, and no clock is told.
+WIDE_UNIQUE = 3.0
+# Offsets between time scales (the IERS's leap seconds: TAI - UTC = 37 s since 1 Jan 2017;
+# GPS time = TAI - 19 s; BeiDou time = GPS time - 14 s): offset -> what it is.
+CLOCK_OFFSETS = {
+    18.0: "GPS time runs 18 s ahead of UTC since 2017",
+    14.0: "BeiDou time runs 14 s behind GPS time",
+    4.0: "BeiDou time runs 4 s ahead of UTC since 2017",
+    19.0: "TAI runs 19 s ahead of GPS time",
+    37.0: "TAI runs 37 s ahead of UTC since 2017",
+}
 COARSE_STEP_S = 0.05
 GRID_STEP_S = 0.01
 # Smaller lags are left alone: 10 ms changes a second's displacement by 1 cm per m/s of
@@ -122,6 +145,9 @@ class FixLag:
         clear: whether the lag is clear enough to move the fixes by (at least
             :data:`MIN_LAG_S` and :data:`LAG_SIGMAS` standard errors, inside the search).
         finding: what was found, for the drive's notes (None: too few moving pairs).
+        two_clocks: the lag is beyond a receiver's latency (more than :data:`MAX_LAG_S`,
+            found by :func:`_two_clocks`): the fixes and the wheel speeds are stamped by
+            two clocks.
     """
 
     lag_s: float
@@ -129,6 +155,7 @@ class FixLag:
     n_pairs: int
     clear: bool
     finding: str | None
+    two_clocks: bool = False
 
 
 def _pairs(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -199,12 +226,78 @@ def _descend(cost_at: Callable[[int], float], start: np.ndarray) -> np.ndarray:
         i += step
 
 
+def _two_clocks(
+    t: np.ndarray,
+    lat: np.ndarray,
+    lon: np.ndarray,
+    path: TravelledPathLike,
+    ti: np.ndarray,
+    tj: np.ndarray,
+    d: np.ndarray,
+    n: int,
+    where: str,
+) -> FixLag | None:
+    """The lag of fixes stamped by another clock than the wheels' (None: none found).
+
+    The coarse search: for each lag every :data:`WIDE_STEP_S` over ``±``:data:`WIDE_LAG_S`,
+    the correlation of the pairs' distances ``d`` (fixes ``ti``, ``tj``) with the wheels'
+    chords between the lagged times (pairs whose lagged stretch the wheels' path does not
+    cover left out): the speed's changes line up only at the clocks' offset. Then
+    :func:`fix_lag` on the fixes moved by the best lag, the latency's search around it.
+    Found where the correlation there is at least :data:`WIDE_MIN_CORR`, its misfit is
+    :data:`WIDE_UNIQUE` times smaller than at the profile's every other peak, and the best
+    lag is beyond ``±``:data:`MAX_LAG_S`; placed to within ms by the latency's search
+    around it where that can (standard error at most :data:`MAX_SE_S`), else to within the
+    coarse grid.
+    """
+    lags = np.arange(-WIDE_LAG_S, WIDE_LAG_S + 0.5 * WIDE_STEP_S, WIDE_STEP_S)
+    corr = np.full(lags.size, -np.inf)
+    for k, lag in enumerate(lags):
+        z_a, p_a = path(ti - lag)
+        z_b, p_b = path(tj - lag)
+        ok = (p_a >= 0) & (p_a == p_b)
+        if ok.sum() >= MIN_PAIRS:
+            w = np.abs(z_b[ok] - z_a[ok])
+            if np.std(w) > 0 and np.std(d[ok]) > 0:
+                corr[k] = float(np.corrcoef(w, d[ok])[0, 1])
+    best = int(np.argmax(corr))
+    coarse = float(lags[best])
+    inner = corr[1:-1]
+    peaks = 1 + np.flatnonzero((inner >= corr[:-2]) & (inner >= corr[2:]) & np.isfinite(inner))
+    others = corr[peaks[np.abs(lags[peaks] - coarse) > WIDE_STEP_S]]
+    runner_up = float(others.max()) if others.size else -np.inf
+    unique = 1.0 - runner_up >= WIDE_UNIQUE * (1.0 - corr[best])
+    if not (corr[best] >= WIDE_MIN_CORR and unique and abs(coarse) > MAX_LAG_S):
+        return None
+    # the correlation's peak to within its grid (the parabola's vertex), then to within
+    # ms where the latency's search can place it about there (a noisy receiver's fixes
+    # cannot: the peak's vertex stands, its standard error a quarter step)
+    k = int(np.clip(best, 1, lags.size - 2))
+    lag, curv = _vertex(lags[k - 1 : k + 2], -corr[k - 1 : k + 2])
+    se = 0.25 * WIDE_STEP_S
+    if not (np.isfinite(lag) and curv > 0):
+        lag = coarse
+    fine = fix_lag(t - lag, lat, lon, path, where, wide=False)
+    if fine.finding is not None and fine.se_s <= MAX_SE_S and np.isfinite(fine.lag_s):
+        lag, se, n = lag + fine.lag_s, fine.se_s, fine.n_pairs
+    known = [why for offset, why in CLOCK_OFFSETS.items() if abs(abs(lag) - offset) <= 0.5]
+    finding = (
+        f"{where}: the distance between fixes fits the wheels' path best with the fixes "
+        f"{abs(lag):.3f} ± {se:.3f} s {'earlier' if lag >= 0 else 'later'} than "
+        f"stamped (correlation {corr[best]:.4f}; {n} s of moving pairs): far "
+        f"beyond a receiver's latency, the fixes and the wheel speeds are stamped by two "
+        f"clocks" + (f" ({known[0]}?)" if known else "")
+    )
+    return FixLag(lag, se, n, True, finding, two_clocks=True)
+
+
 def fix_lag(
     t_s: np.ndarray,
     lat_deg: np.ndarray,
     lon_deg: np.ndarray,
     path: TravelledPathLike,
     where: str = "GNSS",
+    wide: bool = True,
 ) -> FixLag:
     """The fixes' lag against the wheel speeds (the module docstring), and whether to move them.
 
@@ -215,6 +308,8 @@ def fix_lag(
         lon_deg: their longitudes, deg.
         path: the wheels' path (:class:`rwhonet.data.streams.TravelledPath`).
         where: the stream, for the note.
+        wide: where the best lag is at the edge of the latency's search, search for two
+            clocks (:func:`_two_clocks`).
 
     Returns:
         The lag, its standard error and the decision.
@@ -275,6 +370,9 @@ def fix_lag(
     coarse = np.arange(-MAX_LAG_S, MAX_LAG_S + 0.5 * COARSE_STEP_S, COARSE_STEP_S)
     c_best = int(np.argmin([cost(float(g)) for g in coarse]))
     if c_best in (0, coarse.size - 1):
+        clocks = _two_clocks(t, lat, lon, path, ti, tj, d, n, where) if wide else None
+        if clocks is not None:
+            return clocks
         edge = (
             f"{where}: the fixes fit the wheel speeds best at the edge of the ±{MAX_LAG_S:g} s "
             "searched, no lag a receiver has (are the GNSS and the wheel speeds on one clock?)"
@@ -309,6 +407,10 @@ def fix_lag(
     se_jack = float(np.sqrt((JACKKNIFE_BLOCKS - 1) / JACKKNIFE_BLOCKS * np.sum(spread**2)))
     se = max(se_noise, se_jack)
     if not se <= MAX_SE_S:
+        # a lag the latency's search cannot place: two clocks far apart give that too
+        clocks = _two_clocks(t, lat, lon, path, ti, tj, d, n, where) if wide else None
+        if clocks is not None:
+            return clocks
         vague = (
             f"{where}: the speed changes too little between fixes for the wheels to tell a "
             f"lag (its standard error {se:.2g} s over {n} s of moving pairs)"
@@ -338,6 +440,9 @@ def lagged_times(
 ) -> tuple[np.ndarray, str | None, bool]:
     """The fixes' times on the wheels' clock as ``mode`` (``data.gnss_lag``) says.
 
+    Fixes stamped by another clock (:attr:`FixLag.two_clocks`) are moved by ``auto`` and
+    by the user's figure, and refused by ``report``.
+
     Args:
         t_s, lat_deg, lon_deg, path, where: as :func:`fix_lag`.
         mode: ``"report"`` (estimate and say it, move nothing), ``"auto"`` (move the
@@ -346,6 +451,9 @@ def lagged_times(
     Returns:
         ``(times, note, moved)``: the times, what was found and done (None: nothing
         to say), and whether the fixes were moved.
+
+    Raises:
+        InputError: ``report`` of fixes stamped by another clock than the wheels'.
     """
     t = np.asarray(t_s, np.float64)
     if isinstance(mode, str) and mode not in ("report", "auto"):
@@ -361,6 +469,27 @@ def lagged_times(
         )
     if lag.finding is None:
         return t, None, False
+    if lag.two_clocks:
+        if mode == "auto":
+            moved = f"{-lag.lag_s:+.2f} s onto the wheels' clock (data.gnss_lag = auto)"
+            return t - lag.lag_s, f"{lag.finding}: fixes moved by {moved}", True
+        # per-second labels of fixes seconds off their wheels' seconds are no labels, and
+        # validate would take the mismatch for wheels that stopped logging
+        raise InputError(
+            [
+                Problem(
+                    where,
+                    None,
+                    None,
+                    "the fixes and the wheel speeds stamped by one clock (the fixes late by "
+                    f"a receiver's latency at most, ±{MAX_LAG_S:g} s)",
+                    lag.finding.split(": ", 1)[1],
+                    f"set data.gnss_lag: {lag.lag_s:.3f} (the fixes moved onto the wheels' "
+                    "clock) or auto, or stamp the streams by one clock",
+                )
+            ],
+            summary=f"{where}: the fixes and the wheel speeds on two clocks",
+        )
     moved = f"{-lag.lag_s * 1000:+.0f} ms onto the wheels' clock"
     if not lag.clear:
         rule = f"under {MIN_LAG_S * 1000:.0f} ms or {LAG_SIGMAS:g} standard errors"

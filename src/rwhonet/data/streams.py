@@ -95,7 +95,7 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.fixes import no_fix_rows
-from rwhonet.data.fixlag import lagged_times
+from rwhonet.data.fixlag import MAX_LAG_S, lagged_times
 from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, running_max
 from rwhonet.data.problems import row_problems
@@ -662,12 +662,37 @@ def resample(
     check_streams(streams)
     half = 0.5 * period_s
     required = (*streams.wheels, streams.gnss)
-    start = max(float(s.t_s[0]) for s in required)
-    end = min(float(s.t_s[-1]) for s in required)
+    notes = list(streams.notes)
+    lost: list[str] = []  # the notes predict says too
+    fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
+    gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
+    path = _travelled_path(streams, max_wheel_gap_s)
+    raw_t, where = gnss_t, streams.gnss.where()
+    timing = fix_times(raw_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], path.rolled, where)
+    stamped = timing.t_s
+    gnss_t, lag_note, moved = lagged_times(
+        stamped, gnss[c.LAT_DEG], gnss[c.LON_DEG], path, gnss_lag, where
+    )
+    shift = float(np.median(gnss_t - stamped)) if moved and gnss_t.size else 0.0
+    if abs(shift) > MAX_LAG_S:  # two clocks: the fix times placed again, on the wheels'
+        timing = fix_times(raw_t + shift, gnss[c.LAT_DEG], gnss[c.LON_DEG], path.rolled, where)
+        gnss_t = timing.t_s
+    if timing.note:  # fixes moved: said by predict too, as what the grid changes
+        (lost if timing.at_epochs else notes).append(timing.note)
+    if lag_note:
+        (lost if moved else notes).append(lag_note)
+    # the fixes' stream where the lag moved it (seconds, for two clocks): the grid spans
+    # what the wheels and the moved fixes both cover
+    spans = {
+        s.where(): (float(s.t_s[0]), float(s.t_s[-1]))
+        if s is not streams.gnss
+        else (float(s.t_s[0]) + shift, float(s.t_s[-1]) + shift)
+        for s in required
+    }
+    start = max(first for first, _ in spans.values())
+    end = min(last for _, last in spans.values())
     if not end - start >= period_s:
-        spans = "; ".join(
-            f"{s.where()} {float(s.t_s[0]):.6g}-{float(s.t_s[-1]):.6g} s" for s in required
-        )
+        shown = "; ".join(f"{w} {a:.6g}-{b:.6g} s" for w, (a, b) in spans.items())
         raise InputError(
             [
                 Problem(
@@ -675,7 +700,7 @@ def resample(
                     None,
                     "time",
                     "wheel-speed and GNSS streams that overlap in time (one clock)",
-                    f"no common stretch: {spans}",
+                    f"no common stretch: {shown}",
                     "stamp every stream on one clock (or give the offset between them)",
                 )
             ]
@@ -688,12 +713,10 @@ def resample(
     glitch = np.zeros(grid.size, dtype=bool)
     by_wheel = {w: np.zeros(grid.size, dtype=bool) for w in c.WHEELS}
     glitch_samples: list[tuple[str, int, float, str]] = []
-    notes = list(streams.notes)
-    lost: list[str] = []  # the notes predict says too
     beyond = [
-        f"{r.where()} {float(r.t_s[0]):.6g}-{float(r.t_s[-1]):.6g} s"
-        for r in required
-        if start - float(r.t_s[0]) > SPAN_NOTE_S or float(r.t_s[-1]) - end > SPAN_NOTE_S
+        f"{w} {a:.6g}-{b:.6g} s"
+        for w, (a, b) in spans.items()
+        if start - a > SPAN_NOTE_S or b - end > SPAN_NOTE_S
     ]
     if beyond:
         lost.append(
@@ -701,18 +724,6 @@ def resample(
             f"fixes all have samples; beyond it: {'; '.join(beyond)}"
         )
 
-    fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
-    gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
-    path = _travelled_path(streams, max_wheel_gap_s)
-    timing = fix_times(gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], path.rolled, streams.gnss.where())
-    gnss_t = timing.t_s
-    if timing.note:  # fixes moved: said by predict too, as what the grid changes
-        (lost if timing.at_epochs else notes).append(timing.note)
-    gnss_t, lag_note, moved = lagged_times(
-        gnss_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], path, gnss_lag, streams.gnss.where()
-    )
-    if lag_note:
-        (lost if moved else notes).append(lag_note)
     fixes, fix_ok = interpolate_fixes(
         gnss_t,
         {k: v for k, v in gnss.items() if k in FIX_CHANNELS},
