@@ -1178,3 +1178,37 @@ def test_predict_takes_a_vbox_file_on_stdin_as_from_its_file(bundle, tmp_path, m
     from_file, from_pipe = pd.read_csv(tmp_path / "file.csv"), pd.read_csv(tmp_path / "pipe.csv")
     assert len(from_file) > 100 and from_file["outage"].notna().sum() == 60
     pd.testing.assert_frame_equal(from_pipe, from_file)
+
+
+def test_predict_refuses_fixes_on_another_clock_and_takes_them_moved(
+    bundle, tmp_path, monkeypatch, capsys
+):
+    """A stream drive whose GNSS is stamped in GPS time, its wheels in UTC (18 s apart):
+    predict refuses it naming the offset and the setting, and writes nothing; with
+    data.gnss_lag: auto it predicts the seconds of the drive logged on one clock."""
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import StreamSpec, stream_tables
+    from support.drives import write_params_yaml
+    from support.multirate import START_S, simulated_drive
+
+    state, vehicle, sim, ss, _ = simulated_drive(300.0, seed=6)
+    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, 5.0), START_S)
+    car = ["--nominal-radius", str(vehicle.nominal_radius_m), "--quiet"]
+    (tmp_path / "one").mkdir()
+    drive, fmt = _stream_drive(tmp_path / "one", tables)
+    assert main(predict_args(bundle, drive, tmp_path / "one.csv", *fmt, *car)) == 0
+    capsys.readouterr()
+    tables.gnss[c.T_S] += 18.0
+    (tmp_path / "two").mkdir()
+    drive, fmt = _stream_drive(tmp_path / "two", tables)
+    out = tmp_path / "two.csv"
+    assert main(predict_args(bundle, drive, out, *fmt, *car)) == 2
+    err = capsys.readouterr().err
+    assert "stamped by two clocks (GPS time runs 18 s ahead of UTC since 2017?)" in err
+    assert "set data.gnss_lag: 18.0" in err and not out.exists()
+    params = write_params_yaml(tmp_path / "params.yaml", **{"data.gnss_lag": "auto"})
+    monkeypatch.setattr(paths, "PARAMS", params)
+    assert main(predict_args(bundle, drive, out, *fmt, *car)) == 0
+    one, two = pd.read_csv(tmp_path / "one.csv"), pd.read_csv(out)
+    assert len(two) == len(one) > 250
+    np.testing.assert_allclose(two["disp_gnss_m"], one["disp_gnss_m"], atol=0.05)
