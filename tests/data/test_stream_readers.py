@@ -432,3 +432,35 @@ def test_a_wide_csv_of_several_messages_reads_as_one_stream_per_message(tmp_path
         resample(read_stream_csvs([wide / "can.csv", wide / "gps.csv"], no_yaw, R))
     (p,) = err.value.problems
     assert p.column == "WFL" and "'WFL' in 1500" in p.found and "one file per message" in p.fix
+
+
+def test_both_coordinates_bad_letters_are_named_in_one_report(tmp_path):
+    """A stream file whose latitude and longitude letters are both wrong (a minus sign
+    beside S, an 'X' for E/W): one report names both rows, as the 10 Hz readers do."""
+    t_w = np.arange(0.0, 30.0, 0.0125)
+    t_g = np.arange(0.0, 30.0, 1.0) + 0.3
+    folder = tmp_path / "nmea"
+    folder.mkdir()
+    omega = V / R * 60 / (2 * math.pi)
+    pd.DataFrame({"t": t_w, **{f"w{k}": omega for k in range(4)}}).to_csv(
+        folder / "can.csv", index=False
+    )
+    lat = np.full(t_g.size, 3354.0)
+    lat[4] = -3354.0  # a sign beside its letter
+    ew = np.full(t_g.size, "W")
+    ew[7] = "X"
+    gps = {"t": t_g, "lat": lat, "NS": "S", "lon": 5824.0, "EW": ew}
+    pd.DataFrame(gps).to_csv(folder / "gps.csv", index=False)
+    spec = _spec(
+        t=("t", "s"),
+        lat=("lat", "ddmm"),
+        lat_hemisphere=("NS", "N/S"),
+        lon=("lon", "ddmm"),
+        lon_hemisphere=("EW", "E/W"),
+        **RPM_WHEELS,
+    )
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(sorted(folder.glob("*.csv")), spec, R)
+    rows = {(p.column, p.row) for p in err.value.problems}
+    assert ("lat", 5) in rows or ("NS", 5) in rows, rows
+    assert ("EW", 8) in rows, rows

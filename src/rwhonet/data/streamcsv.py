@@ -32,7 +32,7 @@ from rwhonet.config import ColumnSpec
 from rwhonet.data.columnmap import AUX_KEYS, DATE, HEMISPHERES, find_column
 from rwhonet.data.csvio import first_cell, read_header, read_numeric, read_text_column
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
-from rwhonet.data.packed import signed_or_refuse
+from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import (
@@ -208,6 +208,7 @@ def read_stream_csvs(
                 )
                 for k, at in keys.items()
             }
+            lettered = {}  # both coordinates' letters checked, their problems in one report
             for key, at in aux.items():
                 cells = read_text_column(paths_of[file], len(header), at, file)
                 if key == DATE:
@@ -220,9 +221,9 @@ def read_stream_csvs(
                 coordinate, unit = HEMISPHERES[key]
                 if coordinate in keys:
                     columns = (header[keys[coordinate]].strip(), header[at].strip())
-                    channels[coordinate] = signed_or_refuse(
-                        channels[coordinate], cells, unit, file, columns, 1, f"{name}.{key}"
-                    )
+                    setting = f"{name}.{key}"
+                    lettered[coordinate] = (channels[coordinate], cells, unit, columns, setting)
+            channels |= signed_coordinates(lettered, file)
         except InputError as err:
             problems += err.problems
             continue
