@@ -12,8 +12,10 @@ wheels share one clock (true lag 0); with the simulator's CAN model the wheels
 are the car's CAN latency late (the ci target: 50 ms, a true lag of -50 ms).
 Printed per drive, sensors and rate: both estimates, the standard error, the
 slip found, and the decision ``auto`` would take; and the time one estimate takes.
+With ``--offset S`` the fixes are stamped S s late besides (a second clock: GPS time
+beside UTC is 18 s): the two-clock search's estimate, its standard error and time.
 
-Usage: python benchmarks/bench_fixlag.py [--drives 3] [--duration 600]
+Usage: python benchmarks/bench_fixlag.py [--drives 3] [--duration 600] [--offset 18]
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--drives", type=int, default=3)
     ap.add_argument("--duration", type=float, default=600.0)
+    ap.add_argument("--offset", type=float, default=0.0, help="fixes stamped this much late")
     args = ap.parse_args()
     print("seed | sensors | streams | lag alone (ms) | fix_lag (ms) | slip +/- (%/m/s^2) | auto")
     with tempfile.TemporaryDirectory() as tmp:
@@ -94,8 +97,16 @@ def main() -> None:
                     lat, lon = g.channels[c.LAT_DEG], g.channels[c.LON_DEG]
                     t = fix_times(g.t_s, lat, lon, path.rolled).t_s
                     t0 = time.perf_counter()
-                    found = fixlag.fix_lag(t, lat, lon, path)
+                    found = fixlag.fix_lag(t + args.offset, lat, lon, path)
                     took = time.perf_counter() - t0
+                    if args.offset:
+                        print(
+                            f"{5 + k} | {'CAN model' if noise else 'ideal'} (true "
+                            f"{args.offset + true / 1000:+.3f} s) | {spec.name} | two clocks "
+                            f"{found.two_clocks}: {found.lag_s:+.3f} ± {found.se_s:.3f} s "
+                            f"({took:.2f} s)"
+                        )
+                        continue
                     slip = found.finding.split("wheel slip ")[1].split(" % per")[0]
                     print(
                         f"{5 + k} | {'CAN model' if noise else 'ideal'} (true {true:+.0f} ms) | "
