@@ -1151,30 +1151,19 @@ def test_predict_takes_a_vbox_file_on_stdin_as_from_its_file(bundle, tmp_path, m
     """`rwhonet predict --drive - --format vbox` with a VBOX file on a pipe: told by its
     first line, read as the CSV it stands for; the same seconds as from the file."""
     import io
-    import threading
 
     from support.corpus import good_target
     from support.drives import VBO_MAP, column_map_params, write_params_yaml, write_vbo
+    from support.pipes import piped
 
     overrides = {"data.column_maps.vbox": column_map_params(VBO_MAP)}
     monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
     drive = write_vbo(good_target(), tmp_path / "drive.vbo", crlf=True, flags=128)
     args = ["--format", "vbox", "--outage", "40:100"]
     assert main(predict_args(bundle, drive, tmp_path / "file.csv", *args)) == 0
-    data = drive.read_bytes()
-    r, w = os.pipe()
-
-    def feed() -> None:
-        with os.fdopen(w, "wb", buffering=0) as out:
-            for i in range(0, len(data), 4093):
-                out.write(data[i : i + 4093])
-
-    writer = threading.Thread(target=feed)
-    writer.start()
-    with os.fdopen(r, "rb") as pipe:
+    with piped(drive.read_bytes(), 4093) as pipe:
         monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(pipe))
         assert main(predict_args(bundle, "-", tmp_path / "pipe.csv", *args)) == 0
-    writer.join()
     from_file, from_pipe = pd.read_csv(tmp_path / "file.csv"), pd.read_csv(tmp_path / "pipe.csv")
     assert len(from_file) > 100 and from_file["outage"].notna().sum() == 60
     pd.testing.assert_frame_equal(from_pipe, from_file)

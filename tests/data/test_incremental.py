@@ -154,24 +154,12 @@ def test_predict_reads_the_satellite_count_where_the_layout_has_one(tmp_path):
 
 def test_a_pipe_is_read_as_its_file_is(tmp_path):
     """A pipe goes through the unbuffered path (select, a byte-wise header): same rows."""
-    import os
-    import threading
+    from support.pipes import piped
 
     path = write_drive(tmp_path / "V-A.csv", duration_s=40)
-    data = path.read_bytes()
-    r, w = os.pipe()
-
-    def feed():  # in pieces that cut lines, as a logger's pipe does
-        with os.fdopen(w, "wb", buffering=0) as out:
-            for i in range(0, len(data), 3001):
-                out.write(data[i : i + 3001])
-
-    writer = threading.Thread(target=feed)
-    writer.start()
-    with os.fdopen(r, "rb") as f:
+    with piped(path.read_bytes()) as f:
         lay, blocks = read_rows(f, "<stdin>", block_bytes=4096)
         _, cols = collect(blocks)
-    writer.join()
     with open(path, "rb") as f:
         ref_lay, ref_blocks = read_rows(f, "V-A.csv", block_bytes=4096)
         _, ref = collect(ref_blocks)

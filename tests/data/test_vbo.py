@@ -195,27 +195,15 @@ def test_the_satellite_count_s_flags_are_taken_off_or_a_plain_count_refused(tmp_
 def test_predict_s_reader_takes_a_vbox_file_from_a_pipe_as_from_its_file(tmp_path) -> None:
     """read_rows tells a VBOX file by its first line, from a file or a pipe (rwhonet
     predict --drive -): the same rows, the reader's note; the IO-VNBD format refuses it."""
-    import os
-    import threading
+    from support.pipes import piped
 
     path = write_vbo(wavy_drive(40.0), tmp_path / "drive.vbo", crlf=True, flags=128)
-    data = path.read_bytes()
     with open(path, "rb") as f:
         ref_lay, blocks = read_rows(f, "drive.vbo", "vbox", _cmap(VBO_MAP), block_bytes=4096)
         ref = [b for _, b in blocks]
-    r, w = os.pipe()
-
-    def feed() -> None:  # in pieces that cut lines, as a logger's pipe does
-        with os.fdopen(w, "wb", buffering=0) as out:
-            for i in range(0, len(data), 3001):
-                out.write(data[i : i + 3001])
-
-    writer = threading.Thread(target=feed)
-    writer.start()
-    with os.fdopen(r, "rb") as f:
+    with piped(path.read_bytes()) as f:
         lay, blocks = read_rows(f, "<stdin>", "vbox", _cmap(VBO_MAP), block_bytes=4096)
         got = [b for _, b in blocks]
-    writer.join()
     assert lay.names == ref_lay.names and "Racelogic VBOX file" in lay.notes[0]
     assert ref_lay.notes == lay.notes
     for name in (c.T_S, c.LAT_DEG, c.OMEGA_RL, c.N_SATS):
@@ -224,4 +212,4 @@ def test_predict_s_reader_takes_a_vbox_file_from_a_pipe_as_from_its_file(tmp_pat
         )
     assert np.concatenate([b[c.N_SATS] for b in got]).max() == 9.0  # 137: DGPS's flag off
     with pytest.raises(InputError, match="a Racelogic VBOX file"):
-        read_rows(io.BytesIO(data), "<stdin>", "iovnbd")
+        read_rows(io.BytesIO(path.read_bytes()), "<stdin>", "iovnbd")
