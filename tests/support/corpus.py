@@ -224,9 +224,14 @@ def write_target(raw: Path, df: pd.DataFrame, headers: tuple[str, ...] = HEADERS
     return write_iovnbd(df, target_path(raw), headers)
 
 
-def edit_lines(raw: Path, edit: Callable[[list[str]], list[str]], df=None) -> None:
+def edit_lines(
+    raw: Path,
+    edit: Callable[[list[str]], list[str]],
+    df=None,
+    headers: tuple[str, ...] = HEADERS,
+) -> None:
     """Write the good target drive, then edit its lines (line 0 is the header)."""
-    path = write_target(raw, good_target() if df is None else df)
+    path = write_target(raw, good_target() if df is None else df, headers)
     lines = path.read_text(encoding="utf-8").splitlines()
     path.write_text("\n".join(edit(lines)) + "\n", encoding="utf-8")
 
@@ -1241,6 +1246,37 @@ def _(raw: Path) -> None:
         return [lines[0], *body, ""]
 
     edit_lines(raw, edit)
+
+
+# the IO-VNBD columns' units (the satellite count's blank), the wheel speeds in rpm
+_UNITS_ROW = (
+    ",s,deg,deg,km/h,deg,m,km/h,s,deg,rpm,rpm,rpm,rpm,deg/s,km/h,g,g,,,,rpm,degC,%,psi,%,V,degC,%"
+)
+
+
+@case(
+    "units_row_under_the_header",
+    "a row of units under the header (s, deg, ..., the wheel speeds in rpm under names "
+    "without a unit), as many loggers' CSV exports write it",
+    Accept("the row read as the columns' units: the wheel speeds converted from rpm"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] *= 60.0 / (2.0 * math.pi)
+    bare = tuple(h.replace(" (rad/sec)", "") for h in HEADERS)
+    edit_lines(raw, lambda lines: [lines[0], _UNITS_ROW, *lines[1:]], df, bare)
+
+
+@case(
+    "units_row_contradicts_the_header",
+    "a row of units saying km/h under wheel-speed headers that say rad/sec",
+    Refuse(
+        "ingest", None, "Wheel Speed Rear Left (rad/sec)", "the unit the header names", "'km/h'"
+    ),
+)
+def _(raw: Path) -> None:
+    units = _UNITS_ROW.replace("rpm,rpm,rpm,rpm", "km/h,km/h,km/h,km/h", 1)
+    edit_lines(raw, lambda lines: [lines[0], units, *lines[1:]])
 
 
 @case(

@@ -28,6 +28,8 @@ from rwhonet.data.csvio import (
     read_header,
     read_numeric,
     read_text_column,
+    units_row,
+    units_row_note,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.packed import (
@@ -269,6 +271,8 @@ def read_columnmap(
         notes = (text_time_note(header[positions["t"]], text_time),)
     if (said := delimiter_note(file_delimiter(path))) is not None:
         notes += (said,)
+    if units_row(path) is not None:
+        notes += (units_row_note(),)
     units = {key: spec.unit for key, spec in column_map.items()}
     if said := linear_wheel_note(units, {k: header[p] for k, p in positions.items()}, radius_m):
         notes += (said,)

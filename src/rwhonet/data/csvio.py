@@ -11,7 +11,13 @@ its row number; only blocks with a bad cell are parsed cell by cell.
 
 Row numbers are 1-based *data* rows: the header is not counted, and neither
 are blank lines (pyarrow skips them). For a file without blank lines, data row
-``r`` is line ``r + 1`` of the file. Readers keep every data row, in order, so
+``r`` is line ``r + 1`` of the file (``r + 2`` under a row of units).
+
+A row of units under the header (``s, deg, deg, rpm, ...``: a second header line many
+loggers' and analysis tools' CSV exports write) is part of the header: :func:`read_header`
+gives each column its unit as a header naming it would (``Time (s)``), so the readers
+honour or check it as they do a unit the header names, and the data rows start after
+it (:func:`units_row`). Readers keep every data row, in order, so
 row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its file;
 ``validate`` relies on this to point at the file's rows.
 
@@ -36,6 +42,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
+from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.problems import RowTally, no_data_rows, unreadable_file
 from rwhonet.errors import InputError, Problem
 
@@ -108,7 +115,8 @@ def _not_text(file: str, found: str) -> InputError:
 
 
 def read_header(path: Path, display: str | None = None) -> list[str]:
-    """Return the header row of a CSV file, cells as written (spaces kept).
+    """Return the header row of a CSV file, cells as written (spaces kept); under a row of
+    units (:func:`units_row`), each cell with its unit as a header names it (``Time (s)``).
 
     Args:
         path: the CSV file.
@@ -120,7 +128,8 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
     Raises:
         InputError: the file cannot be opened, is empty, is not CSV text (UTF-16, a
             workbook, compressed, binary), its first line is not a header of comma-separated
-            names (no line break within ``HEADER_MAX_BYTES``, another separator).
+            names (no line break within ``HEADER_MAX_BYTES``, another separator); a units
+            row naming another unit than the header does for a column.
     """
     file = display or str(path)
     try:
@@ -128,7 +137,99 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
             line = f.readline(HEADER_MAX_BYTES + 1)
     except OSError as err:
         raise InputError([unreadable_file(file, err)]) from None
-    return parse_header(line, file)
+    header = parse_header(line, file)
+    units = units_row(path)
+    return header if units is None else with_units(header, units, file)
+
+
+# A cell of a units row: a unit's spelling ("s", "km/h", "m/s^2", "[deg]", "°C", "%"), no
+# number; and half of a row's filled cells at least must be units the readers know.
+_UNIT_LIKE = re.compile(r"[\[(]?(?:1/)?[A-Za-z°%µ][A-Za-z0-9°%µ/^*·. \-]{0,15}[\])]?")
+
+
+def is_units_row(cells: Iterable[str]) -> bool:
+    """Whether a CSV line's cells are the columns' units, not a row of data: every filled
+    cell spells a unit (letters first, no number) and half of them at least are units the
+    readers know (:data:`rwhonet.data.headers.UNIT_ALIASES`)."""
+    filled = [x.strip() for x in cells if x.strip()]
+    if not filled or not all(_UNIT_LIKE.fullmatch(x) and not _is_number(x) for x in filled):
+        return False
+    known = sum(unit_name(x.strip("[]()")) is not None for x in filled)
+    return 2 * known >= len(filled)
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def units_row(path: Path) -> list[str] | None:
+    """The cells of a CSV file's second line where it is a row of units (:func:`is_units_row`;
+    None: it is not, or the file cannot be read: its reader says why)."""
+    try:
+        with open(path, "rb") as f:
+            data = f.readline(HEADER_MAX_BYTES + 1)
+            end = first_line_end(data)
+            if data[end : end + 1] == b"\r" and data[end + 1 : end + 2] != b"\n":  # lone CR
+                second = data[end + 1 :]
+            else:
+                second = f.readline(HEADER_MAX_BYTES + 1)
+    except OSError:
+        return None
+    return units_row_in(data[:end], second)
+
+
+def units_row_in(header_line: bytes, second: bytes) -> list[str] | None:
+    """:func:`units_row` of a header line and the bytes after it (the second line first)."""
+    delimiter = delimiter_of(header_line)
+    line = as_comma_separated(second[: first_line_end(second)], delimiter)
+    cells = next(csv.reader(io.StringIO(line.decode("utf-8", errors="replace"))), [])
+    return cells if is_units_row(cells) else None
+
+
+def with_units(header: list[str], units: list[str], file: str) -> list[str]:
+    """Header cells with the units of a units row, as a header names them (``Time (s)``).
+
+    A cell that names its own unit keeps it; a units row naming another for it is refused.
+
+    Raises:
+        InputError: the header and the units row name two units for a column.
+    """
+    out, problems = [], []
+    for i, cell in enumerate(header):
+        unit = units[i].strip().strip("[]()").strip() if i < len(units) else ""
+        said = header_key(cell)[1]
+        if unit and said is None:
+            out.append(f"{cell} ({unit})")
+            continue
+        if unit and unit_name(said) != unit_name(unit):
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    cell.strip(),
+                    f"the unit the header names, {said!r}, in the row of units too",
+                    f"{unit!r} in the row of units under the header",
+                    "correct the header or the row of units",
+                )
+            )
+        out.append(cell)
+    if problems:
+        raise InputError(problems, summary=f"a header and its row of units disagree in {file}")
+    return out
+
+
+def header_lines(path: Path) -> int:
+    """Lines before a CSV file's data rows: the header, and a row of units under it."""
+    return 1 if units_row(path) is None else 2
+
+
+def units_row_note() -> str:
+    """What a reader says when a row of units was read under the header."""
+    return "a row of units under the header: each column's unit read from it"
 
 
 def first_cell(path: Path, pos: int, limit: int = 1 << 16) -> str | None:
@@ -142,7 +243,8 @@ def first_cell(path: Path, pos: int, limit: int = 1 << 16) -> str | None:
         return None
     data = as_comma_separated(data, delimiter_of(data[: first_line_end(data)]))
     lines = data.decode("utf-8", errors="replace").splitlines()  # LF, CR LF or a lone CR
-    return first_cell_in(lines[1:-1] if len(data) == limit else lines[1:], pos)  # a cut-off row
+    skip = 2 if len(lines) > 1 and is_units_row(next(csv.reader([lines[1]]), [])) else 1
+    return first_cell_in(lines[skip:-1] if len(data) == limit else lines[skip:], pos)
 
 
 def first_cell_in(lines: Iterable[str], pos: int) -> str | None:
@@ -423,7 +525,10 @@ def _open_columns(
     return pacsv.open_csv(
         source,
         read_options=pacsv.ReadOptions(
-            skip_rows=1, column_names=names, use_threads=False, block_size=BLOCK_BYTES
+            skip_rows=header_lines(path),
+            column_names=names,
+            use_threads=False,
+            block_size=BLOCK_BYTES,
         ),
         parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid_row),
         convert_options=pacsv.ConvertOptions(
@@ -470,9 +575,11 @@ def _read_numeric_slow(
         "decimal comma?); delete or repair these rows",
     )
 
+    skipped = header_lines(path)
+
     def on_invalid_row(row: pacsv.InvalidRow) -> str:
-        # Single-threaded, pyarrow knows the row number; it counts the header line.
-        r = -1 if row.number is None else row.number - 1
+        # Single-threaded, pyarrow knows the row number; it counts the header's lines.
+        r = -1 if row.number is None else row.number - skipped
         bad_rows.append(r)
         rows_tally.add([r], [f"{row.actual_columns} column(s): {row.text[:60]!r}"])
         return "skip"
@@ -516,7 +623,7 @@ def _read_numeric_slow(
         at = re.search(r"Row #(\d+)", message)
         unreadable = Problem(
             file,
-            int(at.group(1)) - 1 if at else None,
+            int(at.group(1)) - skipped if at else None,
             None,
             f"{n_columns} comma-separated columns of UTF-8 text in every row",
             (

@@ -247,7 +247,15 @@ def read_rows(
         InputError: a header the reader refuses (now), a row with another number of columns
             than the header or a cell that is not a number (while iterating).
     """
-    from rwhonet.data.csvio import HEADER_MAX_BYTES, delimiter_of, first_line_end, parse_header
+    from rwhonet.data.csvio import (
+        HEADER_MAX_BYTES,
+        delimiter_of,
+        first_line_end,
+        parse_header,
+        units_row_in,
+        units_row_note,
+        with_units,
+    )
     from rwhonet.data.vbo import is_vbo
 
     pipe = _pipe_reader(stream)
@@ -258,12 +266,25 @@ def read_rows(
             head, pipe or stream, file, fmt, column_map, block_bytes, period_s, radius_m
         )
     header = parse_header(line, file)
+    # a row of units under the header (csvio.units_row): the columns' units, as ingest
+    # reads them; else the line is the first data row
+    if rest is None:
+        second, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
+    else:  # a lone CR: the second line is in the bytes read after the header
+        end = first_line_end(rest)
+        second, rest = rest[: end + 1], rest[end + 1 :]
+    whole = second.endswith((b"\n", b"\r"))  # a pipe's lone-CR file: one byte, no line
+    units = units_row_in(line, second) if whole else None
+    if units is not None:
+        header, second = with_units(header, units, file), b""
     lay = layout(header, fmt, column_map, file, radius_m)
+    if units is not None:
+        lay.notes.append(units_row_note())
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
     # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
     # a file separated by ';' or tabs (decimal commas): its rows read as comma-separated
     delimiter = delimiter_of(line[: first_line_end(line)])
-    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter)
+    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, second)
     return lay, placed(blocks, StreamClock(period_s))
 
 
@@ -558,7 +579,10 @@ def _blocks(
     pipe: io.FileIO | None = None,
     cr_rest: bytes | None = None,
     delimiter: str = ",",
+    head: bytes = b"",
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """The row blocks of ``stream`` after its header: ``head`` (a line read already) first,
+    then ``cr_rest`` (bytes read after a header that ended in a lone CR), then the rest."""
     from rwhonet.data.csvio import as_comma_separated, delimiter_note
     from rwhonet.data.texttime import text_time_note
 
@@ -569,7 +593,8 @@ def _blocks(
     # the pipe has (the generator holds ``stream``, which owns the pipe's descriptor)
     read = pipe.read if pipe is not None else getattr(stream, "read1", stream.read)
     cr = cr_rest is not None  # lines end in a lone CR: read as LF (blank lines are skipped)
-    row, pending = 1, as_comma_separated((cr_rest or b"").replace(b"\r", b"\n"), delimiter)
+    first = (head + (cr_rest or b"")).replace(b"\r", b"\n") if cr else head
+    row, pending = 1, as_comma_separated(first, delimiter)
     form: _TimeForm | None = None  # decided on the first whole line
     while True:
         if pipe is not None:

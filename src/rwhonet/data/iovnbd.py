@@ -23,6 +23,8 @@ from rwhonet.data.csvio import (
     first_cell,
     read_header,
     read_numeric,
+    units_row,
+    units_row_note,
 )
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.packed import DDMM, HHMMSS, unpack_or_refuse
@@ -106,7 +108,7 @@ _UNITS: dict[str, dict[str, float]] = {
     "wheel": ANGULAR_WHEEL_UNITS,
     "rate": {"deg/s": math.pi / 180.0, "rad/s": 1.0},
     "acc": {"g": c.G_M_S2, "m/s2": 1.0},
-    "count": {},
+    "count": {"count": 1.0},
 }
 _KIND: dict[str, str] = {
     c.T_S: "time",
@@ -375,6 +377,8 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         notes.append(text_time_note(header[positions[c.T_S]], text_time))
     if (said := delimiter_note(file_delimiter(path))) is not None:
         notes.append(said)
+    if units_row(path) is not None:
+        notes.append(units_row_note())
     columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
     if wraps.size:
         notes.append(midnight_note(wraps))
