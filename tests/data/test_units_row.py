@@ -82,6 +82,9 @@ def test_a_unit_merges_into_its_header_cell_and_a_contradiction_is_refused():
         "Lat (deg)",
     ]
     assert with_units(header, ["s"], "f.csv") == ["Time (s)", "Speed (km/h)", "Lat"]
+    assert with_units(["Coolant (degC)"], ["degC"], "f.csv") == ["Coolant (degC)"]
+    with pytest.raises(InputError, match="'%'"):
+        with_units(["Coolant (degC)"], ["%"], "f.csv")
     with pytest.raises(InputError) as err:
         with_units(header, ["s", "m/s", ""], "f.csv")
     (problem,) = err.value.problems

@@ -205,7 +205,9 @@ def with_units(header: list[str], units: list[str], file: str) -> list[str]:
         if unit and said is None:
             out.append(f"{cell} ({unit})")
             continue
-        if unit and unit_name(said) != unit_name(unit):
+        named = (unit_name(said), unit_name(unit))
+        # two units the readers do not know (degC, %) are compared as written
+        if unit and (named[0] != named[1] or named[0] is None and said != unit.lower()):
             problems.append(
                 Problem(
                     file,
