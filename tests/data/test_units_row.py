@@ -165,3 +165,38 @@ def test_stream_csvs_with_a_units_row_read_as_without_it(tmp_path):
     got = resample(read_stream_csvs(sorted(united.glob("*.csv")), signal_map(), RADIUS_M))
     for name in (c.T_S, c.LAT_DEG, c.OMEGA_RL):
         np.testing.assert_array_equal(got.drive.columns[name], ref.drive.columns[name])
+
+
+@pytest.mark.parametrize("ending", ["\n", "\r\n", "\r"])
+def test_comment_lines_before_the_header_are_skipped_by_both_readers(tmp_path, ending):
+    """'#' lines before the header (a logger's version, the car, its settings; one with
+    commas, one after a byte-order mark) and a row of units: the drive read as without
+    them, its bad cell named by its data row, by ingest's reader and predict's (a file
+    and a pipe)."""
+    from support.pipes import piped
+
+    df = wavy_drive(30.0)
+    ref = read_iovnbd(write_iovnbd(df, tmp_path / "V-A.csv"))
+    path = write_iovnbd(df, tmp_path / "V-C.csv")
+    lines = path.read_text().splitlines()
+    comments = ["\ufeff# logger v1.2", "# car: Fiesta, tyres 195/55 R15, 10 Hz", "#"]
+    lines = [*comments, lines[0], ",".join(IOVNBD_UNITS), *lines[1:]]
+    path.write_bytes(ending.join(lines).encode() + ending.encode())
+    got = read_iovnbd(path)
+    for name in c.REQUIRED:
+        np.testing.assert_array_equal(got.columns[name], ref.columns[name])
+    assert any("3 comment line(s)" in n for n in got.notes)
+    with piped(path.read_bytes()) as f:
+        lay, blocks = read_rows(f, "<stdin>", block_bytes=4096)
+        streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
+    np.testing.assert_array_equal(streamed, ref.columns[c.OMEGA_RL])
+    assert any("3 comment line(s)" in n for n in lay.notes), lay.notes
+    lines[5 + 6] = lines[5 + 6].replace(",", ",x", 1)  # data row 7
+    path.write_bytes(ending.join(lines).encode() + ending.encode())
+    for read in (
+        lambda: read_iovnbd(path),
+        lambda: list(read_rows(io.BytesIO(path.read_bytes()), "V-C.csv")[1]),
+    ):
+        with pytest.raises(InputError) as err:
+            read()
+        assert err.value.problems[0].row == 7, err.value.problems[0]

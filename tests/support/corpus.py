@@ -1268,6 +1268,17 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "comment_lines_before_the_header",
+    "three lines starting with '#' before the header (the logger's version, the car with "
+    "commas in it, an empty comment), as many loggers write their settings",
+    Accept("the comment lines skipped; the rows numbered from the first after the header"),
+)
+def _(raw: Path) -> None:
+    comments = ["# logger v1.2", "# car: Fiesta, 195/55 R15, 10 Hz", "#"]
+    edit_lines(raw, lambda lines: [*comments, *lines])
+
+
+@case(
     "units_row_contradicts_the_header",
     "a row of units saying km/h under wheel-speed headers that say rad/sec",
     Refuse(

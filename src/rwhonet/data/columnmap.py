@@ -22,6 +22,7 @@ from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import (
     RawDrive,
+    comments_note,
     delimiter_note,
     file_delimiter,
     first_cell,
@@ -273,6 +274,8 @@ def read_columnmap(
         notes += (said,)
     if units_row(path) is not None:
         notes += (units_row_note(),)
+    if (said := comments_note(path)) is not None:
+        notes += (said,)
     units = {key: spec.unit for key, spec in column_map.items()}
     if said := linear_wheel_note(units, {k: header[p] for k, p in positions.items()}, radius_m):
         notes += (said,)

@@ -13,12 +13,13 @@ Row numbers are 1-based *data* rows: the header is not counted, and neither
 are blank lines (pyarrow skips them). For a file without blank lines, data row
 ``r`` is line ``r + 1`` of the file (``r + 2`` under a row of units).
 
-A row of units under the header (``s, deg, deg, rpm, ...``: a second header line many
-loggers' and analysis tools' CSV exports write) is part of the header: :func:`read_header`
-gives each column its unit as a header naming it would (``Time (s)``), so the readers
-honour or check it as they do a unit the header names, and the data rows start after
-it (:func:`units_row`). Readers keep every data row, in order, so
-row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its file;
+Lines before the header that start with ``#`` (a logger's comments) are skipped
+(:func:`head_lines`). A row of units under the header (``s, deg, deg, rpm, ...``: a
+second header line many loggers' and analysis tools' CSV exports write) is part of the
+header: :func:`read_header` gives each column its unit as a header naming it would
+(``Time (s)``), so the readers honour or check it as they do a unit the header names,
+and the data rows start after it (:func:`units_row`). Readers keep every data row, in
+order, so row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its file;
 ``validate`` relies on this to point at the file's rows.
 
 Whatever the bytes, a reader returns the columns or raises
@@ -133,13 +134,63 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
     """
     file = display or str(path)
     try:
-        with open(path, "rb") as f:
-            line = f.readline(HEADER_MAX_BYTES + 1)
+        head = head_lines(path)
     except OSError as err:
         raise InputError([unreadable_file(file, err)]) from None
-    header = parse_header(line, file)
-    units = units_row(path)
+    header = parse_header(head.header, file)
+    units = units_row_in(head.header, head.second)
     return header if units is None else with_units(header, units, file)
+
+
+# Lines before the header that start with '#' (a logger's or tool's comments: its version,
+# the car, the settings) are skipped, at most this many.
+COMMENT_MAX_LINES = 1000
+
+
+@dataclass(frozen=True)
+class HeadLines:
+    """A CSV file's first lines: ``comments`` lines starting with '#' (skipped), the header
+    line, and the line after it (the header's line end and the second line's included)."""
+
+    comments: int
+    header: bytes
+    second: bytes
+
+
+def is_comment(line: bytes) -> bool:
+    """Whether a line before the header is a comment: it starts with '#' (a byte-order mark
+    and spaces before it aside)."""
+    return line.lstrip(b"\xef\xbb\xbf \t").startswith(b"#")
+
+
+def head_lines(path: Path) -> HeadLines:
+    """The comments, header and second line of a CSV file (:class:`HeadLines`).
+
+    Raises:
+        OSError: the file cannot be read.
+    """
+    with open(path, "rb") as f:
+        lines = _lines(f)
+        comments, line = 0, next(lines, b"")
+        while is_comment(line) and comments < COMMENT_MAX_LINES:
+            comments, line = comments + 1, next(lines, b"")
+        return HeadLines(comments, line, next(lines, b""))
+
+
+def _lines(f: Any) -> Iterator[bytes]:
+    """A file's lines of at most ``HEADER_MAX_BYTES`` each, each with its line end: LF, CR
+    LF, or a lone CR (classic Mac), which ``readline`` does not split at."""
+    while True:
+        data = f.readline(HEADER_MAX_BYTES + 1)
+        if not data:
+            return
+        while data:
+            end = first_line_end(data)
+            if data[end : end + 1] == b"\r" and data[end + 1 : end + 2] != b"\n":
+                line, data = data[: end + 1], data[end + 1 :]
+            else:
+                line, data = data, b""
+            yield line
 
 
 # A cell of a units row: a unit's spelling ("s", "km/h", "m/s^2", "[deg]", "°C", "%"), no
@@ -170,21 +221,15 @@ def units_row(path: Path) -> list[str] | None:
     """The cells of a CSV file's second line where it is a row of units (:func:`is_units_row`;
     None: it is not, or the file cannot be read: its reader says why)."""
     try:
-        with open(path, "rb") as f:
-            data = f.readline(HEADER_MAX_BYTES + 1)
-            end = first_line_end(data)
-            if data[end : end + 1] == b"\r" and data[end + 1 : end + 2] != b"\n":  # lone CR
-                second = data[end + 1 :]
-            else:
-                second = f.readline(HEADER_MAX_BYTES + 1)
+        head = head_lines(path)
     except OSError:
         return None
-    return units_row_in(data[:end], second)
+    return units_row_in(head.header, head.second)
 
 
 def units_row_in(header_line: bytes, second: bytes) -> list[str] | None:
     """:func:`units_row` of a header line and the bytes after it (the second line first)."""
-    delimiter = delimiter_of(header_line)
+    delimiter = delimiter_of(header_line[: first_line_end(header_line)])
     line = as_comma_separated(second[: first_line_end(second)], delimiter)
     cells = next(csv.reader(io.StringIO(line.decode("utf-8", errors="replace"))), [])
     return cells if is_units_row(cells) else None
@@ -225,8 +270,25 @@ def with_units(header: list[str], units: list[str], file: str) -> list[str]:
 
 
 def header_lines(path: Path) -> int:
-    """Lines before a CSV file's data rows: the header, and a row of units under it."""
-    return 1 if units_row(path) is None else 2
+    """Lines before a CSV file's data rows: comments, the header, a row of units under it."""
+    try:
+        head = head_lines(path)
+    except OSError:
+        return 1  # unreadable: the reader says why
+    return head.comments + (1 if units_row_in(head.header, head.second) is None else 2)
+
+
+def comments_note(path: Path) -> str | None:
+    """What a reader says of comment lines before the header (None: none)."""
+    try:
+        return comment_lines_note(head_lines(path).comments)
+    except OSError:
+        return None
+
+
+def comment_lines_note(n: int) -> str | None:
+    """What a reader says of ``n`` comment lines skipped before the header (None: none)."""
+    return f"{n} comment line(s) starting with '#' before the header skipped" if n else None
 
 
 def units_row_note() -> str:
@@ -243,9 +305,9 @@ def first_cell(path: Path, pos: int, limit: int = 1 << 16) -> str | None:
             data = f.read(limit)
     except OSError:
         return None
-    data = as_comma_separated(data, delimiter_of(data[: first_line_end(data)]))
+    skip = header_lines(path)
+    data = as_comma_separated(data, file_delimiter(path))
     lines = data.decode("utf-8", errors="replace").splitlines()  # LF, CR LF or a lone CR
-    skip = 2 if len(lines) > 1 and is_units_row(next(csv.reader([lines[1]]), [])) else 1
     return first_cell_in(lines[skip:-1] if len(data) == limit else lines[skip:], pos)
 
 
@@ -330,11 +392,10 @@ def delimiter_of(line: bytes) -> str:
 
 
 def file_delimiter(path: Path) -> str:
-    """The separator of a CSV file (:func:`delimiter_of` its first line; ``,`` when it cannot
+    """The separator of a CSV file (:func:`delimiter_of` its header line; ``,`` when it cannot
     be read: its reader says why)."""
     try:
-        with open(path, "rb") as f:
-            line = f.readline(HEADER_MAX_BYTES + 1)
+        line = head_lines(path).header
     except OSError:
         return ","
     return delimiter_of(line[: first_line_end(line)])

@@ -248,9 +248,12 @@ def read_rows(
             than the header or a cell that is not a number (while iterating).
     """
     from rwhonet.data.csvio import (
+        COMMENT_MAX_LINES,
         HEADER_MAX_BYTES,
+        comment_lines_note,
         delimiter_of,
         first_line_end,
+        is_comment,
         parse_header,
         units_row_in,
         units_row_note,
@@ -265,14 +268,14 @@ def read_rows(
         return _vbo_rows(
             head, pipe or stream, file, fmt, column_map, block_bytes, period_s, radius_m
         )
+    comments = 0  # lines starting with '#' before the header, skipped as ingest skips them
+    while is_comment(line) and comments < COMMENT_MAX_LINES:
+        line, rest = _next_line(pipe or stream, pipe, rest)
+        comments += 1
     header = parse_header(line, file)
     # a row of units under the header (csvio.units_row): the columns' units, as ingest
     # reads them; else the line is the first data row
-    if rest is None:
-        second, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
-    else:  # a lone CR: the second line is in the bytes read after the header
-        end = first_line_end(rest)
-        second, rest = rest[: end + 1], rest[end + 1 :]
+    second, rest = _next_line(pipe or stream, pipe, rest)
     whole = second.endswith((b"\n", b"\r"))  # a pipe's lone-CR file: one byte, no line
     units = units_row_in(line, second) if whole else None
     if units is not None:
@@ -280,6 +283,8 @@ def read_rows(
     lay = layout(header, fmt, column_map, file, radius_m)
     if units is not None:
         lay.notes.append(units_row_note())
+    if (said := comment_lines_note(comments)) is not None:
+        lay.notes.append(said)
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
     # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
     # a file separated by ';' or tabs (decimal commas): its rows read as comma-separated
@@ -338,6 +343,24 @@ def _vbo_rows(
         setting = f"data.column_maps.{fmt}.n_sats.unit"
         blocks = plain_counts_checked(blocks, file, lay.names[c.N_SATS].strip(), setting)
     return lay, blocks
+
+
+def _next_line(
+    source: BinaryIO | io.FileIO, pipe: io.FileIO | None, rest: bytes | None
+) -> tuple[bytes, bytes | None]:
+    """The next line before the data rows, and the bytes read after it: read from
+    ``source`` as :func:`_header_line` reads (``rest`` None), else taken from ``rest``, the
+    bytes read after a line that ended in a lone CR, the line's end read on where ``rest``
+    holds only its start (a pipe's one byte)."""
+    from rwhonet.data.csvio import HEADER_MAX_BYTES, first_line_end
+
+    if rest is None:
+        return _header_line(source, HEADER_MAX_BYTES + 1, pipe)
+    end = first_line_end(rest)
+    if end < len(rest):
+        return rest[: end + 1], rest[end + 1 :]
+    more, after = _header_line(source, HEADER_MAX_BYTES + 1 - len(rest), pipe)
+    return rest + more, after
 
 
 def _pipe_reader(stream: BinaryIO) -> io.FileIO | None:

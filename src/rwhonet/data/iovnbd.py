@@ -18,6 +18,7 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import (
     RawDrive,
+    comments_note,
     delimiter_note,
     file_delimiter,
     first_cell,
@@ -379,6 +380,8 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         notes.append(said)
     if units_row(path) is not None:
         notes.append(units_row_note())
+    if (said := comments_note(path)) is not None:
+        notes.append(said)
     columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
     if wraps.size:
         notes.append(midnight_note(wraps))
