@@ -203,13 +203,14 @@ def is_units_row(cells: Iterable[str]) -> bool:
     cell spells a unit (letters first, no number) and half of them at least are units the
     readers know (:data:`rwhonet.data.headers.UNIT_ALIASES`)."""
     filled = [x.strip() for x in cells if x.strip()]
-    if not filled or not all(_UNIT_LIKE.fullmatch(x) and not _is_number(x) for x in filled):
+    if not filled or not all(_UNIT_LIKE.fullmatch(x) and not is_number(x) for x in filled):
         return False
     known = sum(unit_name(x.strip("[]()")) is not None for x in filled)
     return 2 * known >= len(filled)
 
 
-def _is_number(cell: str) -> bool:
+def is_number(cell: str) -> bool:
+    """Whether a cell reads as a number (``float`` takes it: ``NaN`` and ``inf`` too)."""
     try:
         float(cell)
     except ValueError:

@@ -22,6 +22,7 @@ from rwhonet.data.csvio import (
     delimiter_note,
     file_delimiter,
     first_cell,
+    is_number,
     read_header,
     read_numeric,
     units_row,
@@ -482,7 +483,7 @@ def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], st
     ]
     if bad_units:
         raise InputError(bad_units, summary=f"unknown units in the header of {file}")
-    if match == "position" and all(_is_number(h) for h in header):
+    if match == "position" and all(is_number(h) for h in header):
         # A file without its header row: taking the first data row as the header would
         # drop it silently.
         raise InputError(
@@ -498,11 +499,3 @@ def iovnbd_columns(header: Sequence[str], file: str) -> tuple[dict[str, int], st
             ]
         )
     return positions, match
-
-
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
