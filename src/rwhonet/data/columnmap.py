@@ -22,15 +22,11 @@ from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import (
     RawDrive,
-    comments_note,
-    delimiter_note,
-    file_delimiter,
     first_cell,
+    head_notes,
     read_header,
     read_numeric,
     read_text_column,
-    units_row,
-    units_row_note,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.packed import (
@@ -270,12 +266,7 @@ def read_columnmap(
     notes: tuple[str, ...] = ()
     if text_time:
         notes = (text_time_note(header[positions["t"]], text_time),)
-    if (said := delimiter_note(file_delimiter(path))) is not None:
-        notes += (said,)
-    if units_row(path) is not None:
-        notes += (units_row_note(),)
-    if (said := comments_note(path)) is not None:
-        notes += (said,)
+    notes += head_notes(path)
     units = {key: spec.unit for key, spec in column_map.items()}
     if said := linear_wheel_note(units, {k: header[p] for k, p in positions.items()}, radius_m):
         notes += (said,)

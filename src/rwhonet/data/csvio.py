@@ -18,7 +18,7 @@ Lines before the header that start with ``#`` (a logger's comments) are skipped
 second header line many loggers' and analysis tools' CSV exports write) is part of the
 header: :func:`read_header` gives each column its unit as a header naming it would
 (``Time (s)``), so the readers honour or check it as they do a unit the header names,
-and the data rows start after it (:func:`units_row`). Readers keep every data row, in
+and the data rows start after it (:meth:`HeadLines.units`). Readers keep every data row, in
 order, so row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its file;
 ``validate`` relies on this to point at the file's rows.
 
@@ -117,7 +117,7 @@ def _not_text(file: str, found: str) -> InputError:
 
 def read_header(path: Path, display: str | None = None) -> list[str]:
     """Return the header row of a CSV file, cells as written (spaces kept); under a row of
-    units (:func:`units_row`), each cell with its unit as a header names it (``Time (s)``).
+    units (:meth:`HeadLines.units`), each cell with its unit as a header names it (``Time (s)``).
 
     Args:
         path: the CSV file.
@@ -138,7 +138,7 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
     except OSError as err:
         raise InputError([unreadable_file(file, err)]) from None
     header = parse_header(head.header, file)
-    units = units_row_in(head.header, head.second)
+    units = head.units
     return header if units is None else with_units(header, units, file)
 
 
@@ -155,6 +155,30 @@ class HeadLines:
     comments: int
     header: bytes
     second: bytes
+
+    @property
+    def delimiter(self) -> str:
+        """The separator, told from the header line (:func:`delimiter_of`)."""
+        return delimiter_of(self.header[: first_line_end(self.header)])
+
+    @property
+    def units(self) -> list[str] | None:
+        """The second line's cells where it is a row of units (:func:`units_row_in`)."""
+        return units_row_in(self.header, self.second)
+
+    @property
+    def skipped(self) -> int:
+        """Lines before the data rows: comments, the header, a row of units under it."""
+        return self.comments + (1 if self.units is None else 2)
+
+    def notes(self) -> tuple[str, ...]:
+        """What a reader says of these lines: a separator not ',', a units row, comments."""
+        said = (
+            delimiter_note(self.delimiter),
+            None if self.units is None else units_row_note(),
+            comment_lines_note(self.comments),
+        )
+        return tuple(note for note in said if note is not None)
 
 
 def is_comment(line: bytes) -> bool:
@@ -218,18 +242,9 @@ def is_number(cell: str) -> bool:
     return True
 
 
-def units_row(path: Path) -> list[str] | None:
-    """The cells of a CSV file's second line where it is a row of units (:func:`is_units_row`;
-    None: it is not, or the file cannot be read: its reader says why)."""
-    try:
-        head = head_lines(path)
-    except OSError:
-        return None
-    return units_row_in(head.header, head.second)
-
-
 def units_row_in(header_line: bytes, second: bytes) -> list[str] | None:
-    """:func:`units_row` of a header line and the bytes after it (the second line first)."""
+    """The cells of the line after a CSV header (``second``) where they are a row of units
+    (:func:`is_units_row`; None: they are not)."""
     delimiter = delimiter_of(header_line[: first_line_end(header_line)])
     line = as_comma_separated(second[: first_line_end(second)], delimiter)
     cells = next(csv.reader(io.StringIO(line.decode("utf-8", errors="replace"))), [])
@@ -270,21 +285,17 @@ def with_units(header: list[str], units: list[str], file: str) -> list[str]:
     return out
 
 
-def header_lines(path: Path) -> int:
-    """Lines before a CSV file's data rows: comments, the header, a row of units under it."""
+def _head_or_plain(path: Path) -> HeadLines:
+    """:func:`head_lines`, or a plain file's where it cannot be read (its reader says why)."""
     try:
-        head = head_lines(path)
+        return head_lines(path)
     except OSError:
-        return 1  # unreadable: the reader says why
-    return head.comments + (1 if units_row_in(head.header, head.second) is None else 2)
+        return HeadLines(0, b"", b"")
 
 
-def comments_note(path: Path) -> str | None:
-    """What a reader says of comment lines before the header (None: none)."""
-    try:
-        return comment_lines_note(head_lines(path).comments)
-    except OSError:
-        return None
+def head_notes(path: Path) -> tuple[str, ...]:
+    """What a reader says of the lines before a CSV file's data (:meth:`HeadLines.notes`)."""
+    return _head_or_plain(path).notes()
 
 
 def comment_lines_note(n: int) -> str | None:
@@ -306,8 +317,9 @@ def first_cell(path: Path, pos: int, limit: int = 1 << 16) -> str | None:
             data = f.read(limit)
     except OSError:
         return None
-    skip = header_lines(path)
-    data = as_comma_separated(data, file_delimiter(path))
+    head = _head_or_plain(path)
+    skip = head.skipped
+    data = as_comma_separated(data, head.delimiter)
     lines = data.decode("utf-8", errors="replace").splitlines()  # LF, CR LF or a lone CR
     return first_cell_in(lines[skip:-1] if len(data) == limit else lines[skip:], pos)
 
@@ -390,16 +402,6 @@ def delimiter_of(line: bytes) -> str:
         if sep.encode() in line:
             return sep
     return ","
-
-
-def file_delimiter(path: Path) -> str:
-    """The separator of a CSV file (:func:`delimiter_of` its header line; ``,`` when it cannot
-    be read: its reader says why)."""
-    try:
-        line = head_lines(path).header
-    except OSError:
-        return ","
-    return delimiter_of(line[: first_line_end(line)])
 
 
 def as_comma_separated(data: bytes, delimiter: str) -> bytes:
@@ -584,12 +586,13 @@ def _open_columns(
     Single-threaded, so pyarrow numbers the rows it hands to ``on_invalid_row`` and the
     blocks come in file order; ``BLOCK_BYTES`` of text per block.
     """
-    delimiter = file_delimiter(path)
+    head = _head_or_plain(path)
+    delimiter = head.delimiter
     source: Any = path if delimiter == "," else io.BufferedReader(_CommaSeparated(path, delimiter))
     return pacsv.open_csv(
         source,
         read_options=pacsv.ReadOptions(
-            skip_rows=header_lines(path),
+            skip_rows=head.skipped,
             column_names=names,
             use_threads=False,
             block_size=BLOCK_BYTES,
@@ -639,7 +642,7 @@ def _read_numeric_slow(
         "decimal comma?); delete or repair these rows",
     )
 
-    skipped = header_lines(path)
+    skipped = _head_or_plain(path).skipped
 
     def on_invalid_row(row: pacsv.InvalidRow) -> str:
         # Single-threaded, pyarrow knows the row number; it counts the header's lines.

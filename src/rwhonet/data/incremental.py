@@ -273,7 +273,7 @@ def read_rows(
         line, rest = _next_line(pipe or stream, pipe, rest)
         comments += 1
     header = parse_header(line, file)
-    # a row of units under the header (csvio.units_row): the columns' units, as ingest
+    # a row of units under the header (csvio.units_row_in): the columns' units, as ingest
     # reads them; else the line is the first data row
     second, rest = _next_line(pipe or stream, pipe, rest)
     whole = second.endswith((b"\n", b"\r"))  # a pipe's lone-CR file: one byte, no line

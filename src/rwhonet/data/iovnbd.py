@@ -18,15 +18,11 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import (
     RawDrive,
-    comments_note,
-    delimiter_note,
-    file_delimiter,
     first_cell,
+    head_notes,
     is_number,
     read_header,
     read_numeric,
-    units_row,
-    units_row_note,
 )
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.packed import DDMM, HHMMSS, unpack_or_refuse
@@ -377,12 +373,7 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         notes.append(position_note(header))
     if text_time:
         notes.append(text_time_note(header[positions[c.T_S]], text_time))
-    if (said := delimiter_note(file_delimiter(path))) is not None:
-        notes.append(said)
-    if units_row(path) is not None:
-        notes.append(units_row_note())
-    if (said := comments_note(path)) is not None:
-        notes.append(said)
+    notes += head_notes(path)
     columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
     if wraps.size:
         notes.append(midnight_note(wraps))
