@@ -193,23 +193,26 @@ def test_the_satellite_count_s_flags_are_taken_off_or_a_plain_count_refused(tmp_
 
 
 def test_predict_s_reader_takes_a_vbox_file_from_a_pipe_as_from_its_file(tmp_path) -> None:
-    """read_rows tells a VBOX file by its first line, from a file or a pipe (rwhonet
-    predict --drive -): the same rows, the reader's note; the IO-VNBD format refuses it."""
+    """read_rows tells a VBOX file by its first line (blank lines before it aside), from a
+    file or a pipe (rwhonet predict --drive -): the same rows, the reader's note; the
+    IO-VNBD format refuses it."""
     from support.pipes import piped
 
     path = write_vbo(wavy_drive(40.0), tmp_path / "drive.vbo", crlf=True, flags=128)
     with open(path, "rb") as f:
         ref_lay, blocks = read_rows(f, "drive.vbo", "vbox", _cmap(VBO_MAP), block_bytes=4096)
         ref = [b for _, b in blocks]
-    with piped(path.read_bytes()) as f:
-        lay, blocks = read_rows(f, "<stdin>", "vbox", _cmap(VBO_MAP), block_bytes=4096)
-        got = [b for _, b in blocks]
-    assert lay.names == ref_lay.names and "Racelogic VBOX file" in lay.notes[0]
-    assert ref_lay.notes == lay.notes
-    for name in (c.T_S, c.LAT_DEG, c.OMEGA_RL, c.N_SATS):
-        np.testing.assert_array_equal(
-            np.concatenate([b[name] for b in got]), np.concatenate([b[name] for b in ref])
-        )
+    # blank lines before the first, as ingest's file_is_vbo skips them
+    for data in (path.read_bytes(), b"\r\n\r\n" + path.read_bytes()):
+        with piped(data) as f:
+            lay, blocks = read_rows(f, "<stdin>", "vbox", _cmap(VBO_MAP), block_bytes=4096)
+            got = [b for _, b in blocks]
+        assert lay.names == ref_lay.names and "Racelogic VBOX file" in lay.notes[0]
+        assert ref_lay.notes == lay.notes
+        for name in (c.T_S, c.LAT_DEG, c.OMEGA_RL, c.N_SATS):
+            np.testing.assert_array_equal(
+                np.concatenate([b[name] for b in got]), np.concatenate([b[name] for b in ref])
+            )
     assert np.concatenate([b[c.N_SATS] for b in got]).max() == 9.0  # 137: DGPS's flag off
     with pytest.raises(InputError, match="a Racelogic VBOX file"):
         read_rows(io.BytesIO(path.read_bytes()), "<stdin>", "iovnbd")

@@ -1278,6 +1278,48 @@ def _(raw: Path) -> None:
     edit_lines(raw, lambda lines: [*comments, *lines])
 
 
+# MoTeC i2's "Export Data" CSV: its preamble of key and value lines, two blank lines, the
+# header and a row of units, a blank line, every cell quoted
+_MOTEC_PREAMBLE = [
+    '"Format","MoTeC CSV File",,,"Workbook",""',
+    '"Venue","Coventry",,,"Worksheet",""',
+    '"Device","ADL"',
+    '"Log Date","14/07/2026",,,"Origin Time","0.000","s"',
+    '"Sample Rate","10.000","Hz",,"End Time","150.000","s"',
+    '"Beacon Markers",""',
+    "",
+    "",
+]
+
+
+def _quoted(line: str) -> str:
+    return ",".join(f'"{cell}"' for cell in line.split(","))
+
+
+@case(
+    "motec_i2_csv_export",
+    "the drive as MoTeC i2 exports a CSV: key and value lines before the header (Format, "
+    "Venue, Sample Rate, ...), blank lines, a row of units (wheel speeds in rpm) and every "
+    "cell quoted",
+    Accept("the preamble skipped, the header found above the rows of data; rpm converted"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df[list(c.WHEELS)] *= 60.0 / (2.0 * math.pi)
+    bare = tuple(h.replace(" (rad/sec)", "") for h in HEADERS)
+    edit_lines(
+        raw,
+        lambda lines: [
+            *_MOTEC_PREAMBLE,
+            *map(_quoted, [lines[0], _UNITS_ROW]),
+            "",
+            *map(_quoted, lines[1:]),
+        ],
+        df,
+        bare,
+    )
+
+
 @case(
     "units_row_contradicts_the_header",
     "a row of units saying km/h under wheel-speed headers that say rad/sec",

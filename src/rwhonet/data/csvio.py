@@ -14,7 +14,9 @@ are blank lines (pyarrow skips them). For a file without blank lines, data row
 ``r`` is line ``r + 1`` of the file (``r + 2`` under a row of units).
 
 Lines before the header that start with ``#`` (a logger's comments) are skipped
-(:func:`head_lines`). A row of units under the header (``s, deg, deg, rpm, ...``: a
+(:func:`head_lines`), and so are a tool's preamble and blank lines (MoTeC i2's and AiM's
+key and value lines): the header is then the line of names above the first rows of data
+(:func:`find_header`). A row of units under the header (``s, deg, deg, rpm, ...``: a
 second header line many loggers' and analysis tools' CSV exports write) is part of the
 header: :func:`read_header` gives each column its unit as a header naming it would
 (``Time (s)``), so the readers honour or check it as they do a unit the header names,
@@ -137,7 +139,7 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
         head = head_lines(path)
     except OSError as err:
         raise InputError([unreadable_file(file, err)]) from None
-    header = parse_header(head.header, file)
+    header = parse_header(head.header, file, head.comments)
     units = head.units
     return header if units is None else with_units(header, units, file)
 
@@ -145,16 +147,28 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
 # Lines before the header that start with '#' (a logger's or tool's comments: its version,
 # the car, the settings) are skipped, at most this many.
 COMMENT_MAX_LINES = 1000
+# A tool's preamble before the header (MoTeC i2's and AiM Race Studio's CSV exports: key and
+# value lines, "Format","MoTeC CSV File" / "Venue",... and blank lines) is found within this
+# many lines and bytes: the header is the line of names above the first DATA_RUN rows of data of its
+# width (find_header).
+HEAD_MAX_LINES = 1000
+HEAD_MAX_BYTES = 1 << 20
+DATA_RUN = 3
 
 
 @dataclass(frozen=True)
 class HeadLines:
-    """A CSV file's first lines: ``comments`` lines starting with '#' (skipped), the header
-    line, and the line after it (the header's line end and the second line's included)."""
+    """A CSV file's first lines: ``comments`` lines starting with '#' (skipped), then
+    ``preamble`` lines of a tool's preamble or blank (skipped; ``preamble_first`` the first
+    of them not blank),
+    the header line, and the line after it (the header's line end and the second line's
+    included)."""
 
     comments: int
     header: bytes
     second: bytes
+    preamble: int = 0
+    preamble_first: bytes = b""
 
     @property
     def delimiter(self) -> str:
@@ -168,15 +182,17 @@ class HeadLines:
 
     @property
     def skipped(self) -> int:
-        """Lines before the data rows: comments, the header, a row of units under it."""
-        return self.comments + (1 if self.units is None else 2)
+        """Lines before the data rows: comments, a preamble, the header, a units row."""
+        return self.comments + self.preamble + (1 if self.units is None else 2)
 
     def notes(self) -> tuple[str, ...]:
-        """What a reader says of these lines: a separator not ',', a units row, comments."""
+        """What a reader says of these lines: a separator not ',', a units row, comments,
+        a preamble."""
         said = (
             delimiter_note(self.delimiter),
             None if self.units is None else units_row_note(),
             comment_lines_note(self.comments),
+            preamble_note(self.preamble, self.preamble_first),
         )
         return tuple(note for note in said if note is not None)
 
@@ -188,17 +204,105 @@ def is_comment(line: bytes) -> bool:
 
 
 def head_lines(path: Path) -> HeadLines:
-    """The comments, header and second line of a CSV file (:class:`HeadLines`).
+    """The comments, preamble, header and second line of a CSV file (:class:`HeadLines`).
 
     Raises:
         OSError: the file cannot be read.
     """
     with open(path, "rb") as f:
-        lines = _lines(f)
-        comments, line = 0, next(lines, b"")
-        while is_comment(line) and comments < COMMENT_MAX_LINES:
-            comments, line = comments + 1, next(lines, b"")
-        return HeadLines(comments, line, next(lines, b""))
+        return read_head(_lines(f))[0]
+
+
+def read_head(lines: Iterator[bytes]) -> tuple[HeadLines, list[bytes]]:
+    """The lines before a CSV file's data (:class:`HeadLines`) from its lines as they come,
+    and the lines read after the header (the second line first) to tell where it is."""
+    comments, line = 0, next(lines, b"")
+    while is_comment(line) and comments < COMMENT_MAX_LINES:
+        comments, line = comments + 1, next(lines, b"")
+    if any(line.startswith(signature) for signature, _ in _SIGNATURES) or b"\x00" in line:
+        return HeadLines(comments, line, b""), []  # not text: parse_header says what it is
+    seen, ended, size = [line], not line, len(line)
+    while (at := find_header(seen, ended or size > HEAD_MAX_BYTES)) is None:
+        line = next(lines, b"")
+        ended, size = not line, size + len(line)
+        if line:
+            seen.append(line)
+    after, said = seen[at + 1 :], next((x for x in seen[:at] if x.strip()), b"")
+    return HeadLines(comments, seen[at], after[0] if after else b"", at, said), after
+
+
+def find_header(lines: list[bytes], ended: bool) -> int | None:
+    """Where the header is among a CSV file's first lines (comments skipped), or None where
+    more lines are needed to tell (``ended``: there are no more).
+
+    The first line is the header where the first line after it (after a row of units
+    under it) is a row of data as wide; else a tool's preamble is looked for: the header is
+    the first line of names (every cell filled, one at most aside, none a number) above
+    ``DATA_RUN`` rows of data of its width (a row of units between them allowed), its
+    delimiter theirs. Where none is found, or the line above the one found is a line of
+    names as wide (a second header line: which is the header cannot be told), the first
+    line is the header, as it always was, and its reader says what is wrong.
+    """
+    first = _data_after(lines, 0, 1)
+    if first or (first is None and not ended):
+        return 0 if first else None
+    run, width = 0, -1  # rows of data in a row, of one width, under no header found
+    for i in range(1, min(len(lines), HEAD_MAX_LINES)):
+        if not lines[i].strip():
+            continue
+        found = _data_after(lines, i, DATA_RUN) if _is_names(lines[i]) else False
+        if found is None and not ended:
+            return None
+        if found:
+            above = next((x for x in reversed(lines[:i]) if x.strip()), b"")
+            return 0 if _is_names(above) and _width(above) == _width(lines[i]) else i
+        cells = _cells(lines[i], delimiter_of(lines[0]))
+        if _is_data(cells, width):
+            run += 1
+        else:
+            run, width = int(_is_data(cells, len(cells))), len(cells)
+        if run >= DATA_RUN:  # in the data: no preamble above it
+            return 0
+    return 0 if ended or len(lines) >= HEAD_MAX_LINES else None
+
+
+def _cells(line: bytes, delimiter: str) -> list[str]:
+    """A line's cells, read with ``delimiter`` as its readers read it."""
+    text = as_comma_separated(line[: first_line_end(line)], delimiter)
+    return next(csv.reader([text.decode("utf-8-sig", errors="replace")]), [])
+
+
+def _width(line: bytes) -> int:
+    return len(_cells(line, delimiter_of(line)))
+
+
+def _is_names(line: bytes) -> bool:
+    """Whether a line could be a header: two cells or more, all filled but one at most,
+    none a number."""
+    cells = [x.strip() for x in _cells(line, delimiter_of(line))]
+    filled = [x for x in cells if x]
+    return len(cells) >= 2 and len(filled) >= len(cells) - 1 and not any(map(is_number, filled))
+
+
+def _is_data(cells: list[str], width: int) -> bool:
+    """Whether cells are a row of data ``width`` wide: half of its filled cells numbers."""
+    filled = [x for x in cells if x.strip()]
+    return len(cells) == width and bool(filled) and 2 * sum(map(is_number, filled)) >= len(filled)
+
+
+def _data_after(lines: list[bytes], at: int, rows: int) -> bool | None:
+    """Whether the first ``rows`` non-blank lines after line ``at`` (and a row of units
+    right under it) are rows of data as wide as it, read with its delimiter (None: not
+    enough lines yet)."""
+    delimiter = delimiter_of(lines[at][: first_line_end(lines[at])])
+    width = len(_cells(lines[at], delimiter))
+    after = lines[at + 1 :]
+    if after and units_row_in(lines[at], after[0]) is not None:
+        after = after[1:]
+    data = [x for x in after if x.strip()][:rows]
+    if not all(_is_data(_cells(x, delimiter), width) for x in data):
+        return False
+    return True if len(data) == rows else None
 
 
 def _lines(f: Any) -> Iterator[bytes]:
@@ -303,6 +407,20 @@ def comment_lines_note(n: int) -> str | None:
     return f"{n} comment line(s) starting with '#' before the header skipped" if n else None
 
 
+def preamble_note(n: int, first: bytes) -> str | None:
+    """What a reader says of ``n`` lines of a tool's preamble skipped before the header,
+    ``first`` the first of them not blank (None: none)."""
+    if not n:
+        return None
+    if not first.strip():
+        return f"{n} blank line(s) before the header skipped"
+    start = ", ".join(x.strip() for x in _cells(first, delimiter_of(first)) if x.strip())
+    return (
+        f"{n} line(s) before the header skipped, from {start[:60]!r}: a tool's preamble "
+        "(the header taken as the line of names above the first rows of data)"
+    )
+
+
 def units_row_note() -> str:
     """What a reader says when a row of units was read under the header."""
     return "a row of units under the header: each column's unit read from it"
@@ -339,12 +457,13 @@ def first_line_end(data: bytes) -> int:
     return min(ends) if ends else len(data)
 
 
-def parse_header(line: bytes, file: str) -> list[str]:
+def parse_header(line: bytes, file: str, comments: int = 0) -> list[str]:
     """Return the cells of a CSV file's first line (see :func:`read_header`).
 
     Args:
         line: the first line as read, at most ``HEADER_MAX_BYTES + 1`` bytes.
         file: how the file is named in error reports.
+        comments: the comment lines before it (a file of nothing else is said so).
 
     Returns:
         The header cells.
@@ -374,7 +493,11 @@ def parse_header(line: bytes, file: str) -> list[str]:
                     None,
                     None,
                     "a header row followed by data rows",
-                    "an empty file" if not read else "an empty first line",
+                    "an empty first line"
+                    if read
+                    else f"{comments} comment line(s) starting with '#' and nothing after"
+                    if comments
+                    else "an empty file",
                     "put the column names in the first line (the IO-VNBD names, or the names "
                     "data.column_maps gives)",
                 )

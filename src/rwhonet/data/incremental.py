@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
 import os
 import select
@@ -248,14 +249,14 @@ def read_rows(
             than the header or a cell that is not a number (while iterating).
     """
     from rwhonet.data.csvio import (
-        COMMENT_MAX_LINES,
+        HEAD_MAX_LINES,
         HEADER_MAX_BYTES,
         comment_lines_note,
         delimiter_of,
         first_line_end,
-        is_comment,
         parse_header,
-        units_row_in,
+        preamble_note,
+        read_head,
         units_row_note,
         with_units,
     )
@@ -263,33 +264,36 @@ def read_rows(
 
     pipe = _pipe_reader(stream)
     line, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
+    blank: list[bytes] = []  # blank lines first: a VBOX file is told by its first line after
+    while line and not line.strip() and len(blank) < HEAD_MAX_LINES:
+        blank.append(line)
+        line, rest = _next_line(pipe or stream, pipe, rest)
     if is_vbo(line):  # a Racelogic VBOX file, from a file or a pipe
         head = line + (rest or b"")
         return _vbo_rows(
             head, pipe or stream, file, fmt, column_map, block_bytes, period_s, radius_m
         )
-    comments = 0  # lines starting with '#' before the header, skipped as ingest skips them
-    while is_comment(line) and comments < COMMENT_MAX_LINES:
-        line, rest = _next_line(pipe or stream, pipe, rest)
-        comments += 1
-    header = parse_header(line, file)
-    # a row of units under the header (csvio.units_row_in): the columns' units, as ingest
-    # reads them; else the line is the first data row
-    second, rest = _next_line(pipe or stream, pipe, rest)
+    # comment lines and a tool's preamble before the header, a row of units under it
+    # (csvio.read_head), read as ingest reads them; the lines read after the header to find
+    # it (rows of data: the first ones) go to the blocks first
+    more = _MoreLines(pipe or stream, pipe, rest)
+    head, after = read_head(itertools.chain(blank, [line], more))
+    rest, line, second = more.rest, head.header, head.second
     whole = second.endswith((b"\n", b"\r"))  # a pipe's lone-CR file: one byte, no line
-    units = units_row_in(line, second) if whole else None
+    units = head.units if whole else None
+    header = parse_header(line, file, head.comments)
     if units is not None:
-        header, second = with_units(header, units, file), b""
+        header, after = with_units(header, units, file), after[1:]
     lay = layout(header, fmt, column_map, file, radius_m)
     if units is not None:
         lay.notes.append(units_row_note())
-    if (said := comment_lines_note(comments)) is not None:
-        lay.notes.append(said)
+    said = (comment_lines_note(head.comments), preamble_note(head.preamble, head.preamble_first))
+    lay.notes.extend(note for note in said if note is not None)
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
     # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
     # a file separated by ';' or tabs (decimal commas): its rows read as comma-separated
     delimiter = delimiter_of(line[: first_line_end(line)])
-    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, second)
+    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, b"".join(after))
     return lay, placed(blocks, StreamClock(period_s))
 
 
@@ -343,6 +347,25 @@ def _vbo_rows(
         setting = f"data.column_maps.{fmt}.n_sats.unit"
         blocks = plain_counts_checked(blocks, file, lay.names[c.N_SATS].strip(), setting)
     return lay, blocks
+
+
+class _MoreLines:
+    """The lines after the first, read as :func:`_next_line` reads them; ``rest``: the
+    bytes read after the last line given (see :func:`_next_line`)."""
+
+    def __init__(
+        self, source: BinaryIO | io.FileIO, pipe: io.FileIO | None, rest: bytes | None
+    ) -> None:
+        self.source, self.pipe, self.rest = source, pipe, rest
+
+    def __iter__(self) -> Iterator[bytes]:
+        return self
+
+    def __next__(self) -> bytes:
+        line, self.rest = _next_line(self.source, self.pipe, self.rest)
+        if not line:
+            raise StopIteration
+        return line
 
 
 def _next_line(
@@ -677,6 +700,7 @@ def parse_lines(
                 usecols=cols,
                 ndmin=2,
                 comments=None,
+                quotechar='"',  # cells written quoted ("0.000"), as MoTeC i2 exports them
                 dtype=np.float64,
             )
     except ValueError:
