@@ -167,3 +167,43 @@ def test_a_file_of_comment_lines_only_is_said_so(tmp_path):
         assert (
             "2 comment line(s) starting with '#' and nothing after" in err.value.problems[0].found
         )
+
+
+def test_units_the_readers_do_not_know_make_a_units_row_with_data_under_it():
+    """A tool's export of many channels: most units unknown to the readers (C, kPa, V)
+    make a units row where a row of data as wide is under it, not otherwise."""
+    from rwhonet.data.csvio import is_units_row, units_row_in
+
+    cells = ["s", "C", "kPa", "V", "bar", "%"]
+    assert not is_units_row(cells) and is_units_row(cells, data_below=True)
+    assert not is_units_row(["Venue", "Coventry", "Worksheet"], data_below=True)
+    header, units = b"t,a,b,c,d,e\n", b"s,C,kPa,V,bar,%\n"
+    assert units_row_in(header, units, b"0,1,2,3,4,5\n") == cells
+    for below in (b"", b"0,1,2\n", b"x,y,z,u,v,w\n"):  # none read, not as wide, not data
+        assert units_row_in(header, units, below) is None
+    text = _lines("t,a,b,c,d,e\ns,C,kPa,V,bar,%\n\n0,1,2,3,4,5\n")
+    assert find_header(text[:2], ended=False) is None  # told by the line under it
+    assert find_header(text, ended=False) == 0
+
+
+def test_a_motec_export_of_many_channels_reads_as_the_drive(tmp_path):
+    """Thirty channels more, their units ones the readers do not know (the units row's
+    known units under half of its cells): the same drive, by ingest's reader and
+    predict's from a pipe."""
+    df = wavy_drive(20.0)
+    ref = read_iovnbd(write_iovnbd(df, tmp_path / "V-A.csv"))
+    path = tmp_path / "V-M.csv"
+    lines = _motec(path, df)
+    at = len(MOTEC)
+    extra = [f'"Extra {k}"' for k in range(30)], ['"kPa"', '"C"', '"V"'] * 10, ['"101.3"'] * 30
+    lines[at] += "," + ",".join(extra[0])
+    lines[at + 1] += "," + ",".join(extra[1])
+    lines[at + 3 :] = [line + "," + ",".join(extra[2]) for line in lines[at + 3 :]]
+    path.write_text("\n".join(lines) + "\n")
+    got = read_iovnbd(path)
+    np.testing.assert_array_equal(got.columns[c.OMEGA_RL], ref.columns[c.OMEGA_RL])
+    assert any("a row of units" in n for n in got.notes)
+    with piped(path.read_bytes()) as f:
+        lay, blocks = read_rows(f, "<stdin>", block_bytes=4096)
+        streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
+    np.testing.assert_array_equal(streamed, ref.columns[c.OMEGA_RL])

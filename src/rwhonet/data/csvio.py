@@ -169,6 +169,7 @@ class HeadLines:
     second: bytes
     preamble: int = 0
     preamble_first: bytes = b""
+    below: bytes = b""  # the first line not blank after the second (b"": none read)
 
     @property
     def delimiter(self) -> str:
@@ -178,7 +179,7 @@ class HeadLines:
     @property
     def units(self) -> list[str] | None:
         """The second line's cells where it is a row of units (:func:`units_row_in`)."""
-        return units_row_in(self.header, self.second)
+        return units_row_in(self.header, self.second, self.below)
 
     @property
     def skipped(self) -> int:
@@ -228,7 +229,8 @@ def read_head(lines: Iterator[bytes]) -> tuple[HeadLines, list[bytes]]:
         if line:
             seen.append(line)
     after, said = seen[at + 1 :], next((x for x in seen[:at] if x.strip()), b"")
-    return HeadLines(comments, seen[at], after[0] if after else b"", at, said), after
+    second, below = after[0] if after else b"", next((x for x in after[1:] if x.strip()), b"")
+    return HeadLines(comments, seen[at], second, at, said, below), after
 
 
 def find_header(lines: list[bytes], ended: bool) -> int | None:
@@ -297,8 +299,12 @@ def _data_after(lines: list[bytes], at: int, rows: int) -> bool | None:
     delimiter = delimiter_of(lines[at][: first_line_end(lines[at])])
     width = len(_cells(lines[at], delimiter))
     after = lines[at + 1 :]
-    if after and units_row_in(lines[at], after[0]) is not None:
-        after = after[1:]
+    if after:
+        below = next((x for x in after[1:] if x.strip()), None)
+        if below is None and is_units_row(_cells(after[0], delimiter), data_below=True):
+            return None  # a row of units perhaps, told by the line under it
+        if units_row_in(lines[at], after[0], below or b"") is not None:
+            after = after[1:]
     data = [x for x in after if x.strip()][:rows]
     if not all(_is_data(_cells(x, delimiter), width) for x in data):
         return False
@@ -326,15 +332,17 @@ def _lines(f: Any) -> Iterator[bytes]:
 _UNIT_LIKE = re.compile(r"[\[(]?(?:1/)?[A-Za-z°%µ][A-Za-z0-9°%µ/^*·. \-]{0,15}[\])]?")
 
 
-def is_units_row(cells: Iterable[str]) -> bool:
+def is_units_row(cells: Iterable[str], data_below: bool = False) -> bool:
     """Whether a CSV line's cells are the columns' units, not a row of data: every filled
     cell spells a unit (letters first, no number) and half of them at least are units the
-    readers know (:data:`rwhonet.data.headers.UNIT_ALIASES`)."""
+    readers know (:data:`rwhonet.data.headers.UNIT_ALIASES`), or one at least where a row
+    of data as wide as the header is under the line (``data_below``: a tool's export of
+    many channels whose units the readers do not use, ``C``, ``kPa``, ``V``)."""
     filled = [x.strip() for x in cells if x.strip()]
     if not filled or not all(_UNIT_LIKE.fullmatch(x) and not is_number(x) for x in filled):
         return False
     known = sum(unit_name(x.strip("[]()")) is not None for x in filled)
-    return 2 * known >= len(filled)
+    return 2 * known >= len(filled) or (data_below and known >= 1)
 
 
 def is_number(cell: str) -> bool:
@@ -346,13 +354,15 @@ def is_number(cell: str) -> bool:
     return True
 
 
-def units_row_in(header_line: bytes, second: bytes) -> list[str] | None:
+def units_row_in(header_line: bytes, second: bytes, below: bytes = b"") -> list[str] | None:
     """The cells of the line after a CSV header (``second``) where they are a row of units
-    (:func:`is_units_row`; None: they are not)."""
+    (:func:`is_units_row`, ``below`` the first line not blank under it; None: they are
+    not)."""
     delimiter = delimiter_of(header_line[: first_line_end(header_line)])
-    line = as_comma_separated(second[: first_line_end(second)], delimiter)
-    cells = next(csv.reader(io.StringIO(line.decode("utf-8", errors="replace"))), [])
-    return cells if is_units_row(cells) else None
+    cells = _cells(second, delimiter)
+    width = len(_cells(header_line, delimiter))
+    data_below = bool(below.strip()) and _is_data(_cells(below, delimiter), width)
+    return cells if is_units_row(cells, data_below) else None
 
 
 def with_units(header: list[str], units: list[str], file: str) -> list[str]:
