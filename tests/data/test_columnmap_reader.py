@@ -78,7 +78,8 @@ def test_check_column_map_lists_every_issue():
     assert "data.column_maps.cupac.speed: unknown key" in text
     assert "data.column_maps.cupac.lon: missing" in text
     units = (
-        "['s', 'ms', 'iso8601', 'hh:mm:ss', 'hhmmss'] or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)"
+        "['s', 'ms', 'us', 'ns', 'iso8601', 'hh:mm:ss', 'hhmmss'] "
+        "or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)"
     )
     assert f"data.column_maps.cupac.t.unit: expected one of {units}, got 'min'" in text
     assert "data.column_maps.cupac.omega_rr.unit" in text and "got 'kph'" in text

@@ -79,10 +79,11 @@ def test_wheel_speed_out_of_range_uses_canonical_name_without_source_map(drive, 
     assert "max_abs_wheel_speed_rad_s" in p.expected
 
 
-def test_time_in_ms_is_recognised(drive, vp):
-    drive[c.T_S] = drive[c.T_S] * 1000.0
+@pytest.mark.parametrize(("scale", "unit"), [(1e3, "ms"), (1e6, "us"), (1e9, "ns")])
+def test_time_in_ms_is_recognised(drive, vp, scale, unit):
+    drive[c.T_S] = drive[c.T_S] * scale
     (p,) = [p for p in problems(drive, vp) if "median" in p.expected]
-    assert p.row is None and "ms instead of s" in p.found
+    assert p.row is None and f"time in {unit} instead of s" in p.found
 
 
 def test_a_step_too_short_for_the_grid_is_reported_but_dropped_samples_and_gaps_pass(drive, vp):

@@ -11,7 +11,7 @@ import pytest
 from rwhonet.config import ColumnSpec
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import find_column, read_columnmap
-from rwhonet.data.headers import header_key
+from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.iovnbd import HEADERS, LayoutError, locate_columns, read_iovnbd
 from rwhonet.errors import InputError
 from support.drives import straight_drive, write_iovnbd
@@ -51,6 +51,9 @@ def _write(df: pd.DataFrame, names: dict[str, str], path, extra: bool = True):
         ("vehicle_speed_km_h", "vehiclespeed", "km/h"),
         ("yaw_rate_deg_s", "yawrate", "deg/s"),
         ("gps_time_ms", "gpstime", "ms"),
+        ("timestamp_us", "timestamp", "us"),
+        ("Time [µs]", "time", "µs"),
+        ("stamp_ns", "stamp", "ns"),
         ("speed_m_s_s", "speed", "m/s/s"),
     ],
 )
@@ -97,6 +100,31 @@ def test_a_declared_unit_is_honoured(tmp_path):
     in_rpm = df.assign(**{c.OMEGA_RL: df[c.OMEGA_RL] * 60.0 / (2.0 * math.pi)})
     raw = read_iovnbd(_write(in_rpm, names, tmp_path / "V-R.csv"))
     np.testing.assert_allclose(raw.columns[c.OMEGA_RL], df[c.OMEGA_RL], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("name", "scale"), [("time_ms", 1e3), ("Time (us)", 1e6), ("Time [µs]", 1e6), ("time_ns", 1e9)]
+)
+def test_a_time_in_ms_us_or_ns_is_read_in_seconds(tmp_path, name, scale):
+    """A microcontroller's micros(), a ROS or CAN tool's nanoseconds since the epoch (1.7e18:
+    float64 keeps them to 256 ns), by the IO-VNBD reader and a column map."""
+    df = straight_drive(duration_s=5.0)
+    df[c.T_S] += 1.7e9  # seconds since the epoch
+    raw = read_iovnbd(
+        _write(
+            df.assign(**{c.T_S: df[c.T_S] * scale}), {**VARIANTS, c.T_S: name}, tmp_path / "V-T.csv"
+        )
+    )
+    np.testing.assert_allclose(raw.columns[c.T_S], df[c.T_S], rtol=0, atol=1e-6)
+    unit = unit_name(header_key(name)[1])  # a map spells it as the readers name it: us
+    spec = {k: ColumnSpec(VARIANTS[n], "deg") for k, n in (("lat", c.LAT_DEG), ("lon", c.LON_DEG))}
+    spec |= {
+        k: ColumnSpec(VARIANTS[w], "rad/s")
+        for k, w in zip(("omega_fl", "omega_fr", "omega_rl", "omega_rr"), c.WHEELS, strict=True)
+    }
+    spec["t"] = ColumnSpec(name, unit)
+    got = read_columnmap(tmp_path / "V-T.csv", spec, "mine")
+    np.testing.assert_allclose(got.columns[c.T_S], df[c.T_S], rtol=0, atol=1e-6)
 
 
 def test_a_unit_the_quantity_has_not_is_refused(tmp_path):

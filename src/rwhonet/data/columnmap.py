@@ -63,7 +63,10 @@ WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys,
 KEYS: dict[str, tuple[str, dict[str, float]]] = {
     # iso8601 and hh:mm:ss: a time written as text (rwhonet.data.texttime), parsed to seconds;
     # hhmmss: a time of day as the number hhmmss.ss (rwhonet.data.packed)
-    "t": (c.T_S, {"s": 1.0, "ms": 1e-3, ISO8601: 1.0, CLOCK: 1.0, HHMMSS: math.nan}),
+    "t": (
+        c.T_S,
+        {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, ISO8601: 1.0, CLOCK: 1.0, HHMMSS: math.nan},
+    ),
     # minutes of arc (Racelogic VBOX logs), NMEA's ddmm.mmmm (rwhonet.data.packed), a
     # longitude positive west ("W"): c.LAT_UNITS
     "lat": (c.LAT_DEG, c.LAT_UNITS),

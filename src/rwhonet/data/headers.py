@@ -17,6 +17,9 @@ import re
 UNIT_ALIASES: dict[str, str] = {
     **dict.fromkeys(("s", "sec", "secs", "second", "seconds"), "s"),
     **dict.fromkeys(("ms", "msec", "millisecond", "milliseconds"), "ms"),
+    # microseconds and nanoseconds: a microcontroller's micros(), ROS's and CAN tools' stamps
+    **dict.fromkeys(("us", "µs", "μs", "usec", "microsecond", "microseconds"), "us"),
+    **dict.fromkeys(("ns", "nsec", "nanosecond", "nanoseconds"), "ns"),
     **dict.fromkeys(("deg", "degs", "degree", "degrees", "°"), "deg"),
     **dict.fromkeys(("km/h", "kmh", "kph", "km/hr", "kmph"), "km/h"),
     **dict.fromkeys(("m/s", "mps", "m/sec"), "m/s"),
@@ -40,7 +43,24 @@ UNIT_ALIASES: dict[str, str] = {
 }
 # Units a header may end with without brackets (" Velocity kmh", "time_s", "lat_deg").
 TRAILING_UNITS = frozenset(
-    {"s", "sec", "ms", "deg", "kmh", "kph", "mps", "mph", "rpm", "rads", "radps", "g", "km", "m"}
+    {
+        "s",
+        "sec",
+        "ms",
+        "us",
+        "ns",
+        "deg",
+        "kmh",
+        "kph",
+        "mps",
+        "mph",
+        "rpm",
+        "rads",
+        "radps",
+        "g",
+        "km",
+        "m",
+    }
 )
 
 

@@ -35,6 +35,8 @@ from rwhonet.errors import Problem
 # Float noise on decimal time stamps (45123.1 - 45123.0 = 0.10000000000291) must not fail a
 # step that is exactly at the tolerance.
 _STEP_SLACK_S = 1e-9
+# A median step this many times the period: the time written in another unit than seconds.
+_TIME_UNITS = {1e3: "ms", 1e6: "us", 1e9: "ns"}
 
 
 @dataclass(frozen=True)
@@ -137,8 +139,9 @@ def _drive_checks(
     def median_found(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
         median = float(df[c.T_S].diff().median())
         hint = ""
-        if abs(median / 1000.0 - period) <= tol:
-            hint = "; time in ms instead of s?"
+        scale = next((k for k in _TIME_UNITS if abs(median / k - period) <= tol), None)
+        if scale is not None:
+            hint = f"; time in {_TIME_UNITS[scale]} instead of s?"
         elif median > 0 and np.isfinite(median):
             hint = f": the drive is sampled at {1.0 / median:.3g} Hz, not {1.0 / period:.3g} Hz"
         return f"median step {median:.6g} s{hint}"
