@@ -323,6 +323,28 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "power_cut_after_a_whole_row",
+    "the file ends in 4096 NUL bytes after its last whole row (a logger that lost power: "
+    "the file's length already counted a cluster its data never reached)",
+    Accept("the NUL bytes not read, and said so in the drive's notes"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    path.write_bytes(path.read_bytes() + b"\x00" * 4096)
+
+
+@case(
+    "power_cut_in_the_middle_of_a_row",
+    "the last row cut off where 4096 NUL bytes begin (a logger that lost power while writing it)",
+    Refuse("ingest", 1501, None, "the last row whole before the NUL bytes", "lost power"),
+)
+def _(raw: Path) -> None:
+    path = write_target(raw, good_target())
+    data = path.read_bytes()
+    path.write_bytes(data[: data.rstrip(b"\n").rfind(b"\n") + 40] + b"\x00" * 4096)
+
+
+@case(
     "decimal_commas",
     "decimal commas in a comma-separated file (a spreadsheet's locale)",
     Refuse("ingest", 1, None, "29 comma-separated columns", "column(s)"),

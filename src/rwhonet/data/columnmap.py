@@ -22,8 +22,8 @@ from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import (
     RawDrive,
+    csv_notes,
     first_cell,
-    head_notes,
     read_header,
     read_numeric,
     read_text_column,
@@ -269,7 +269,7 @@ def read_columnmap(
     notes: tuple[str, ...] = ()
     if text_time:
         notes = (text_time_note(header[positions["t"]], text_time),)
-    notes += head_notes(path)
+    notes += csv_notes(path)
     units = {key: spec.unit for key, spec in column_map.items()}
     if said := linear_wheel_note(units, {k: header[p] for k, p in positions.items()}, radius_m):
         notes += (said,)

@@ -407,9 +407,11 @@ def _head_or_plain(path: Path) -> HeadLines:
         return HeadLines(0, b"", b"")
 
 
-def head_notes(path: Path) -> tuple[str, ...]:
-    """What a reader says of the lines before a CSV file's data (:meth:`HeadLines.notes`)."""
-    return _head_or_plain(path).notes()
+def csv_notes(path: Path) -> tuple[str, ...]:
+    """What a reader says of the lines before a CSV file's data (:meth:`HeadLines.notes`)
+    and of NUL bytes it ends in (:func:`nul_tail`)."""
+    said = nul_tail_note(nul_tail(path))
+    return _head_or_plain(path).notes() + (() if said is None else (said,))
 
 
 def comment_lines_note(n: int) -> str | None:
@@ -553,18 +555,64 @@ def delimiter_note(delimiter: str) -> str | None:
     )
 
 
-class _CommaSeparated(io.RawIOBase):
-    """A file separated by ';' or tabs read as the comma-separated file it stands for."""
+def nul_tail(path: Path) -> int:
+    """The NUL bytes a file ends in (0: none, or the file cannot be read: its reader says
+    why): what a logger that lost power leaves where its last data were never written
+    (the file's length already counting a cluster its data never reached)."""
+    n = 0
+    try:
+        with open(path, "rb") as f:
+            end = f.seek(0, io.SEEK_END)
+            while end > 0:
+                step = min(BLOCK_BYTES, end)
+                f.seek(end - step)
+                kept = len(f.read(step).rstrip(b"\x00"))
+                n, end = n + step - kept, end - step
+                if kept:
+                    break
+    except OSError:
+        return 0
+    return n
 
-    def __init__(self, path: Path, delimiter: str) -> None:
+
+def nul_tail_note(n: int) -> str | None:
+    """What a reader says of a file's ``n`` NUL bytes at its end, not read (None: none)."""
+    if not n:
+        return None
+    return (
+        f"{n} NUL byte(s) at the end of the file not read: what a logger that lost power "
+        "leaves where its last data were never written"
+    )
+
+
+def cut_by_nul_tail(file: str, row: int, n: int) -> Problem:
+    """The problem of a last data row cut off where a file's ``n`` NUL bytes begin."""
+    return Problem(
+        file,
+        row,
+        None,
+        "the last row whole before the NUL bytes the file ends in",
+        f"row {row} cut off, then {n} NUL byte(s) to the end of the file: a logger that lost "
+        "power while writing it",
+        f"delete row {row} (the rows before it are read; the NUL bytes after it are not)",
+    )
+
+
+class _Source(io.RawIOBase):
+    """A CSV file's first ``end`` bytes, a file separated by ';' or tabs read as the
+    comma-separated file it stands for."""
+
+    def __init__(self, path: Path, delimiter: str, end: int) -> None:
         self._file = open(path, "rb")  # noqa: SIM115 -- closed by close(), as a file is
-        self._delimiter = delimiter
+        self._delimiter, self._left = delimiter, end
 
     def readable(self) -> bool:
         return True
 
     def readinto(self, buffer: Any) -> int:
-        data = as_comma_separated(self._file.read(len(buffer)), self._delimiter)
+        data = self._file.read(min(len(buffer), self._left))
+        self._left -= len(data)
+        data = as_comma_separated(data, self._delimiter)
         buffer[: len(data)] = data
         return len(data)
 
@@ -720,8 +768,11 @@ def _open_columns(
     blocks come in file order; ``BLOCK_BYTES`` of text per block.
     """
     head = _head_or_plain(path)
-    delimiter = head.delimiter
-    source: Any = path if delimiter == "," else io.BufferedReader(_CommaSeparated(path, delimiter))
+    delimiter, tail = head.delimiter, nul_tail(path)
+    source: Any = path  # pyarrow's own reader, unless the bytes must be changed or cut
+    if delimiter != "," or tail:  # a NUL tail (nul_tail) is not read
+        end = path.stat().st_size - tail
+        source = io.BufferedReader(_Source(path, delimiter, end), BLOCK_BYTES)
     return pacsv.open_csv(
         source,
         read_options=pacsv.ReadOptions(
@@ -842,6 +893,8 @@ def _read_numeric_slow(
     n_total = next_row - 1
     if bad_rows:
         n_total = max(n_total, max(bad_rows))
+    if (tail := nul_tail(path)) and bad_rows and max(bad_rows) == n_total:
+        problems.append(cut_by_nul_tail(file, n_total, tail))
     if not problems and n_total == 0:
         problems.append(no_data_rows(file))
     if problems:

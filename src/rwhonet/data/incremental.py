@@ -629,7 +629,12 @@ def _blocks(
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     """The row blocks of ``stream`` after its header: ``head`` (a line read already) first,
     then ``cr_rest`` (bytes read after a header that ended in a lone CR), then the rest."""
-    from rwhonet.data.csvio import as_comma_separated, delimiter_note
+    from rwhonet.data.csvio import (
+        as_comma_separated,
+        cut_by_nul_tail,
+        delimiter_note,
+        nul_tail_note,
+    )
     from rwhonet.data.texttime import text_time_note
 
     if (said := delimiter_note(delimiter)) is not None:
@@ -662,12 +667,22 @@ def _blocks(
         if len(columns[c.T_S]):
             yield row, columns
             row += len(columns[c.T_S])
+    # NUL bytes the stream ends in (a logger that lost power): not read, as ingest does
+    tail = len(pending) - len(pending.rstrip(b"\x00"))
+    if tail:
+        pending = pending[:-tail]
+        lay.notes.append(nul_tail_note(tail) or "")
     if pending.strip():
         if form is None:
             form = _TimeForm.of(pending.decode("utf-8", errors="replace"), lay, file)
             if form.text is not None:
                 lay.notes.append(text_time_note(lay.names[c.T_S], form.text))
-        columns = parse_lines(pending, lay, row, file, form)
+        try:
+            columns = parse_lines(pending, lay, row, file, form)
+        except InputError as err:  # the last row, cut off where the NUL bytes begin
+            if not tail:
+                raise
+            raise InputError([*err.problems, cut_by_nul_tail(file, row, tail)]) from None
         yield row, columns
     elif row == 1:
         raise InputError([no_data_rows(file)])

@@ -18,8 +18,8 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import (
     RawDrive,
+    csv_notes,
     first_cell,
-    head_notes,
     is_number,
     read_header,
     read_numeric,
@@ -373,7 +373,7 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         notes.append(position_note(header))
     if text_time:
         notes.append(text_time_note(header[positions[c.T_S]], text_time))
-    notes += head_notes(path)
+    notes += csv_notes(path)
     columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
     if wraps.size:
         notes.append(midnight_note(wraps))
