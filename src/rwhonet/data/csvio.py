@@ -559,15 +559,15 @@ def nul_tail(path: Path) -> int:
     """The NUL bytes a file ends in (0: none, or the file cannot be read: its reader says
     why): what a logger that lost power leaves where its last data were never written
     (the file's length already counting a cluster its data never reached)."""
-    n = 0
+    n, size = 0, 4096  # the last 4 KB first (a file of whole rows: its last byte a line end)
     try:
         with open(path, "rb") as f:
             end = f.seek(0, io.SEEK_END)
             while end > 0:
-                step = min(BLOCK_BYTES, end)
+                step = min(size, end)
                 f.seek(end - step)
                 kept = len(f.read(step).rstrip(b"\x00"))
-                n, end = n + step - kept, end - step
+                n, end, size = n + step - kept, end - step, min(2 * size, BLOCK_BYTES)
                 if kept:
                     break
     except OSError:
