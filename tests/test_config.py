@@ -124,6 +124,8 @@ TEXT_PARAMS = {
     "data.signal_maps.*.signals.*.column": "a logged channel's name (MDF4 signal, CSV column)",
     "data.signal_maps.*.signals.*.unit": "a unit's name",
     "data.signal_maps.*.source": "named in messages only (the --signal-map file)",
+    "data.signal_maps.*.dbc": "read from anywhere (a CAN database)",
+    "data.signal_maps.*.dbc[*]": "read from anywhere (a CAN database)",
     "validate.cuts[*].drive": "a drive's name, matched",
     "validate.cuts[*].reason": "free text",
     "sim.profile": "a profile's name",

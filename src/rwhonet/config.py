@@ -503,12 +503,34 @@ class SignalMapSpec:
     :mod:`rwhonet.data.streamcsv`; ``t`` names their common time column). ``signals``:
     key -> the logged channel and its unit (:mod:`rwhonet.data.signalmap`). ``source``:
     the file the map was read from (``rwhonet ... --signal-map FILE``), so messages name
-    it; None for a map in params.yaml (messages name its key).
+    it; None for a map in params.yaml (messages name its key). ``dbc``: the CAN databases
+    (DBC, or ARXML) that decode an MDF4 log of raw CAN frames (a CANedge's, a Vector
+    logger's bus logging) before its signals are read; paths relative to the project root
+    (a map file's: to its folder). Empty: the file holds decoded signals.
     """
 
     reader: Literal["mdf4", "stream_csv"]
     signals: dict[str, ColumnSpec]
     source: str | None = None
+    dbc: list[str] | str = field(default_factory=list)
+
+    @property
+    def dbc_files(self) -> tuple[str, ...]:
+        """The CAN databases (one or a list, as written), relative ones from the project
+        root."""
+        from rwhonet import paths
+
+        files = (self.dbc,) if isinstance(self.dbc, str) else tuple(self.dbc)
+        return tuple(str(paths.resolve(d)) for d in files)
+
+    def dbc_issue(self, where: str) -> str | None:
+        """What is wrong with ``dbc`` (None: nothing), ``where`` naming the map."""
+        if self.dbc_files and self.reader != "mdf4":
+            return (
+                f"{where}.dbc: a CAN database decodes an MDF4 log of raw CAN frames (reader "
+                f"mdf4), not {self.reader}'s CSVs: remove dbc, or decode the frames first"
+            )
+        return None
 
 
 @dataclass(frozen=True)
@@ -544,6 +566,9 @@ class DataParams:
                 f"data.gnss_lag must be report, auto or a lag in seconds within ±60 (a "
                 f"receiver's latency, or two clocks' offset), got {self.gnss_lag}"
             )
+        for name, spec in self.signal_maps.items():
+            if (issue := spec.dbc_issue(f"data.signal_maps.{name}")) is not None:
+                raise ConfigError(issue)
         clash = sorted(
             (set(self.column_maps) & set(self.signal_maps))
             | ((set(self.column_maps) | set(self.signal_maps)) & set(BUILTIN_FORMATS))

@@ -1201,3 +1201,36 @@ def test_predict_refuses_fixes_on_another_clock_and_takes_them_moved(
     one, two = pd.read_csv(tmp_path / "one.csv"), pd.read_csv(out)
     assert len(two) == len(one) > 250
     np.testing.assert_allclose(two["disp_gnss_m"], one["disp_gnss_m"], atol=0.05)
+
+
+def test_predict_reads_a_log_of_raw_can_frames_through_the_map_file_s_dbc(bundle, tmp_path, capsys):
+    """An MDF4 of raw CAN frames and a map file naming its DBC relative to the map: the
+    same seconds and distances as the drive's decoded signals, within the DBC's 0.01 km/h;
+    without the DBC the report says to give it."""
+    from support.canlog import SIGNALS, write_can_log
+
+    df = _rav4_drive()
+    raw = write_can_log(df, tmp_path / "log" / "drive.mf4", RAV4_M)
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    lines = [f"  {k}: {{column: {v['column']}, unit: {v['unit']}}}" for k, v in SIGNALS.items()]
+    with_dbc = maps / "canedge.yaml"
+    with_dbc.write_text("dbc: ../log/drive.dbc\nsignals:\n" + "\n".join(lines) + "\n")
+    car = ["--nominal-radius", str(RAV4_M)]
+    fmt = ["--format", "mdf4", "--signal-map", str(with_dbc), *car]
+    assert main(predict_args(bundle, raw, tmp_path / "raw.csv", *fmt)) == 0, capsys.readouterr()
+    from rwhonet.data import canonical as c
+
+    kmh = df.assign(**{w: df[w] * RAV4_M * 3.6 for w in c.WHEELS})
+    decoded, signal_map = _mdf4_drive(tmp_path, kmh, "km/h")
+    ref = ["--format", "mdf4", "--signal-map", str(signal_map), *car]
+    assert main(predict_args(bundle, decoded, tmp_path / "dec.csv", *ref)) == 0
+    got, want = pd.read_csv(tmp_path / "raw.csv"), pd.read_csv(tmp_path / "dec.csv")
+    assert len(got) == len(want) > 100
+    np.testing.assert_allclose(got["disp_corrected_m"], want["disp_corrected_m"], atol=0.01)
+    without = maps / "bare.yaml"
+    without.write_text("signals:\n" + "\n".join(lines) + "\n")
+    fmt = ["--format", "mdf4", "--signal-map", str(without), *car]
+    capsys.readouterr()
+    assert main(predict_args(bundle, raw, tmp_path / "bare.csv", *fmt)) == 2
+    assert f"raw CAN frames: give dbc in {without}" in capsys.readouterr().err

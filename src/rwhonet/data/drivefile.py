@@ -295,8 +295,8 @@ def _read_streams(
     elif kind == MDF4:
         from rwhonet.data.mdf4 import read_mdf4
 
-        signals = data.signal_maps[f.format].signals
-        streams = read_mdf4(f.path, signals, radius_m, _map_name(f), file)
+        spec = data.signal_maps[f.format]
+        streams = read_mdf4(f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_files)
     else:
         from rwhonet.data.streamcsv import read_stream_csvs
 

@@ -5,15 +5,17 @@ canonical quantity and its unit; the signals' physical values (the file's own
 conversions applied) and time stamps come from ``asammdf.MDF.get``, so no byte of
 the format is parsed here. Signals of one channel group share their time stamps
 and form one stream. The clock is the file's master time: seconds since the
-measurement's start. A CAN log that still holds raw frames must be decoded with
-its DBC first (``asammdf``'s ``extract_bus_logging``, or the logger's tool).
+measurement's start. A log of raw CAN frames (bus logging: a CANedge's, a Vector
+logger's) is decoded with the map's CAN databases (DBC, ARXML) by ``asammdf``'s
+``extract_bus_logging`` first (:func:`_decoded`); its signals are then named as the DBC
+names them (``WhlSpd_FL``, or ``WheelSpeeds.WhlSpd_FL`` where two messages share a name).
 """
 
 from __future__ import annotations
 
 import gc
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +36,7 @@ def read_mdf4(
     radius_m: float | None,
     name: str = "the signal map",
     display: str | None = None,
+    dbc: Sequence[str] = (),
 ) -> DriveStreams:
     """Read a drive's signals from an MDF4 file into streams for ``resample``.
 
@@ -43,15 +46,18 @@ def read_mdf4(
         radius_m: the car's nominal tyre radius, for wheel speeds logged in m/s or km/h.
         name: how messages name the map (``data.signal_maps.<name>.signals``, a map file).
         display: how the file is named in error reports (default: ``path`` as given).
+        dbc: the CAN databases that decode the file's raw CAN frames (none: its signals
+            are decoded already).
 
     Returns:
         The drive's streams, one per channel group used.
 
     Raises:
         ConfigError: the signal map is invalid.
-        InputError: the file cannot be decoded, a mapped signal is missing or in several
-            groups, its unit contradicts the map, or its samples are not numbers; every
-            problem is listed.
+        InputError: the file cannot be decoded, a CAN database is missing, unreadable or
+            decodes none of its frames, a mapped signal is missing or in several groups,
+            its unit contradicts the map, or its samples are not numbers; every problem is
+            listed.
     """
     from asammdf import MDF  # imported here: it takes most of a second to import
 
@@ -63,9 +69,80 @@ def read_mdf4(
     if problem is not None:
         raise InputError([problem], summary=f"cannot decode {file}")
     try:
-        return _read(mdf, signal_map, radius_m, name, file)
+        if not dbc:
+            return _read(mdf, signal_map, radius_m, name, file)
+        decoded = _decoded(mdf, dbc, name, file)
+        try:
+            return _read(decoded, signal_map, radius_m, name, file)
+        finally:
+            decoded.close()
     finally:
         mdf.close()
+
+
+def _dbc_setting(name: str) -> str:
+    """Where a map's CAN databases are set: ``data.signal_maps.<name>.dbc``, or a map
+    file's ``dbc`` (``name``: how messages name the map's signals)."""
+    if name.endswith(".signals"):
+        return name.removesuffix(".signals") + ".dbc"
+    return f"dbc in {name}"
+
+
+def _decoded(mdf, dbc: Sequence[str], name: str, file: str):  # type: ignore[no-untyped-def]
+    """The signals of ``mdf``'s raw CAN frames, decoded by the CAN databases ``dbc``.
+
+    Raises:
+        InputError: a database missing or unreadable, the file without raw CAN frames,
+            or none of its frames' IDs in the databases.
+    """
+    setting = _dbc_setting(name)
+    missing = [d for d in dbc if not Path(d).is_file()]
+    if missing:
+        raise InputError(
+            [
+                Problem(d, None, None, f"a CAN database ({setting})", "no such file", None)
+                for d in missing
+            ]
+        )
+    if not mdf.whereis("CAN_DataFrame"):
+        found = ", ".join(sorted(k for k in mdf.channels_db if k not in ("time", "t")))[:200]
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    f"raw CAN frames (a CAN_DataFrame channel) for {setting} to decode",
+                    f"none; the file has {found}",
+                    f"remove {setting} (the file's signals are decoded already) and map them",
+                )
+            ]
+        )
+    try:
+        decoded = mdf.extract_bus_logging({"CAN": [(str(d), 0) for d in dbc]})
+    except Exception as err:  # a database canmatrix cannot load, a damaged block
+        fix = f"give {setting} a DBC or ARXML file the logger's tool reads"
+        raise InputError(
+            [Problem.unreadable(file, "raw CAN frames the CAN databases decode", err, fix)]
+        ) from None
+    info = mdf.last_call_info.get("CAN", {})
+    if not any(info.get("found_ids", {}).values()):
+        ids = sorted(i for i, _ in info.get("total_unique_ids", ()))
+        shown = ", ".join(f"0x{i:X}" for i in ids[:12]) + (" ..." if len(ids) > 12 else "")
+        decoded.close()
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    f"frames whose IDs the CAN databases of {setting} define",
+                    f"{len(ids)} frame ID(s) ({shown}), none in {', '.join(dbc)}",
+                    "give the DBC of the bus the logger recorded",
+                )
+            ]
+        )
+    return decoded
 
 
 def _open(mdf_class, path: Path, file: str) -> tuple[Any, Problem | None]:
@@ -111,7 +188,10 @@ def _read(
                     f"a signal named {spec.column!r} ({name}.{key})",
                     "no such signal; the file has "
                     + ", ".join(sorted(k for k in mdf.channels_db if k not in ("time", "t")))[:300],
-                    f"name the logged signal in {name}.{key}.column",
+                    f"the file holds raw CAN frames: give {_dbc_setting(name)}, the CAN "
+                    "database (DBC) that decodes them"
+                    if mdf.whereis("CAN_DataFrame")
+                    else f"name the logged signal in {name}.{key}.column",
                 )
             )
             continue
