@@ -17,6 +17,7 @@ from rwhonet.data.incremental import read_rows
 from rwhonet.data.iovnbd import HEADERS, read_iovnbd
 from rwhonet.errors import InputError
 from support.drives import CUPAC_MAP, write_columnmap, write_iovnbd
+from support.readers import refusals
 from support.serving import wavy_drive
 
 # The IO-VNBD layout's units, as a logger's units row writes them (blank: none)
@@ -112,13 +113,8 @@ def test_an_iovnbd_file_with_a_units_row_reads_as_without_it_by_both_readers(tmp
     lines = path.read_text().splitlines()
     lines[2 + 6] = lines[2 + 6].replace(",", ",x", 1)  # data row 7: 'x' in the time
     path.write_text("\n".join(lines) + "\n")
-    for read in (
-        lambda: read_iovnbd(path),
-        lambda: list(read_rows(io.BytesIO(path.read_bytes()), "V-U.csv")[1]),
-    ):
-        with pytest.raises(InputError) as err:
-            read()
-        assert err.value.problems[0].row == 7, err.value.problems[0]
+    for err in refusals(path):
+        assert err.problems[0].row == 7, err.problems[0]
 
 
 def test_a_units_row_s_unit_is_honoured_or_checked(tmp_path):
@@ -193,10 +189,5 @@ def test_comment_lines_before_the_header_are_skipped_by_both_readers(tmp_path, e
     assert any("3 comment line(s)" in n for n in lay.notes), lay.notes
     lines[5 + 6] = lines[5 + 6].replace(",", ",x", 1)  # data row 7
     path.write_bytes(ending.join(lines).encode() + ending.encode())
-    for read in (
-        lambda: read_iovnbd(path),
-        lambda: list(read_rows(io.BytesIO(path.read_bytes()), "V-C.csv")[1]),
-    ):
-        with pytest.raises(InputError) as err:
-            read()
-        assert err.value.problems[0].row == 7, err.value.problems[0]
+    for err in refusals(path):
+        assert err.problems[0].row == 7, err.problems[0]
