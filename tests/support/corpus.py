@@ -323,6 +323,16 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "every_row_ends_in_a_comma",
+    "every data row ends in a comma the header does not (a logger that writes each value "
+    "and a comma after it)",
+    Accept("read as an empty last column, and said so in the drive's notes"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [lines[0], *(line + "," for line in lines[1:])])
+
+
+@case(
     "power_cut_after_a_whole_row",
     "the file ends in 4096 NUL bytes after its last whole row (a logger that lost power: "
     "the file's length already counted a cluster its data never reached)",

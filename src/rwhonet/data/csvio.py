@@ -139,7 +139,7 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
         head = head_lines(path)
     except OSError as err:
         raise InputError([unreadable_file(file, err)]) from None
-    header = parse_header(head.header, file, head.comments)
+    header = parse_header(head.header, file, head.comments) + [""] * head.trailing_cell
     units = head.units
     return header if units is None else with_units(header, units, file)
 
@@ -182,6 +182,22 @@ class HeadLines:
         return units_row_in(self.header, self.second, self.below)
 
     @property
+    def trailing_cell(self) -> bool:
+        """Whether the data rows end in a comma the header does not (a logger that writes
+        each value and a comma after it): the first row of data has one cell more than
+        the header, the last one empty. Readers read it as an unnamed last column."""
+        first = self.below if self.units is not None or not self.second.strip() else self.second
+        delimiter = self.delimiter
+        width = len(_cells(self.header, delimiter))
+        cells = _cells(first, delimiter)
+        return (
+            width >= 2
+            and len(cells) == width + 1
+            and not cells[-1].strip()
+            and _is_data(cells, width)
+        )
+
+    @property
     def skipped(self) -> int:
         """Lines before the data rows: comments, a preamble, the header, a units row."""
         return self.comments + self.preamble + (1 if self.units is None else 2)
@@ -194,6 +210,7 @@ class HeadLines:
             None if self.units is None else units_row_note(),
             comment_lines_note(self.comments),
             preamble_note(self.preamble, self.preamble_first),
+            trailing_cell_note() if self.trailing_cell else None,
         )
         return tuple(note for note in said if note is not None)
 
@@ -287,7 +304,10 @@ def _is_names(line: bytes) -> bool:
 
 
 def _is_data(cells: list[str], width: int) -> bool:
-    """Whether cells are a row of data ``width`` wide: half of its filled cells numbers."""
+    """Whether cells are a row of data ``width`` wide (an empty cell more at its end
+    allowed: :attr:`HeadLines.trailing_cell`): half of its filled cells numbers."""
+    if len(cells) == width + 1 and not cells[-1].strip():
+        cells = cells[:-1]
     filled = [x for x in cells if x.strip()]
     return len(cells) == width and bool(filled) and 2 * sum(map(is_number, filled)) >= len(filled)
 
@@ -431,6 +451,22 @@ def preamble_note(n: int, first: bytes) -> str | None:
         f"{n} line(s) before the header skipped, from {start[:60]!r}: a tool's preamble "
         "(the header taken as the line of names above the first rows of data)"
     )
+
+
+def columns_expected(n_columns: int, trailing_cell: bool) -> str:
+    """What a reader expects of every row's cells (``trailing_cell``: the header's and the
+    empty one its rows end in, :attr:`HeadLines.trailing_cell`)."""
+    if trailing_cell:
+        return (
+            f"{n_columns} comma-separated columns: the header's {n_columns - 1} and the "
+            "empty one the first rows end in"
+        )
+    return f"{n_columns} comma-separated columns, as in the header"
+
+
+def trailing_cell_note() -> str:
+    """What a reader says of data rows that end in a comma the header does not."""
+    return "every row of data ends in a comma the header does not: an empty last column"
 
 
 def units_row_note() -> str:
@@ -821,7 +857,7 @@ def _read_numeric_slow(
     rows_tally = RowTally(
         file,
         None,
-        f"{n_columns} comma-separated columns, as in the header",
+        columns_expected(n_columns, _head_or_plain(path).trailing_cell),
         "give every row the header's columns (a cut-off last row, a stray comma, or a "
         "decimal comma?); delete or repair these rows",
     )

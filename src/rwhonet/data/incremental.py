@@ -26,7 +26,7 @@ import os
 import select
 import stat
 from collections.abc import Collection, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import BinaryIO
 
 import numpy as np
@@ -62,7 +62,8 @@ class Layout:
     """Where the canonical channels are in a file's rows, and their factors to SI.
 
     Attributes:
-        n_columns: columns of the header.
+        n_columns: columns of the header (and the empty one every row ends in, where
+            ``trailing_cell``: csvio.HeadLines.trailing_cell).
         positions: canonical name -> 0-based column position.
         factors: canonical name -> factor from the file's unit to SI.
         names: canonical name -> the file's column name (for messages).
@@ -84,6 +85,7 @@ class Layout:
     positions: dict[str, int]
     factors: dict[str, float]
     names: dict[str, str]
+    trailing_cell: bool = False  # the last column: the empty cell every row ends in
     time_unit: str | None = None
     time_setting: str = ""
     packed: dict[str, tuple[str, str]] = field(default_factory=dict)
@@ -257,6 +259,7 @@ def read_rows(
         parse_header,
         preamble_note,
         read_head,
+        trailing_cell_note,
         units_row_note,
         with_units,
     )
@@ -281,13 +284,17 @@ def read_rows(
     rest, line, second = more.rest, head.header, head.second
     whole = second.endswith((b"\n", b"\r"))  # a pipe's lone-CR file: one byte, no line
     units = head.units if whole else None
-    header = parse_header(line, file, head.comments)
+    header = parse_header(line, file, head.comments) + [""] * head.trailing_cell
     if units is not None:
         header, after = with_units(header, units, file), after[1:]
-    lay = layout(header, fmt, column_map, file, radius_m)
+    lay = replace(layout(header, fmt, column_map, file, radius_m), trailing_cell=head.trailing_cell)
     if units is not None:
         lay.notes.append(units_row_note())
-    said = (comment_lines_note(head.comments), preamble_note(head.preamble, head.preamble_first))
+    said = (
+        comment_lines_note(head.comments),
+        preamble_note(head.preamble, head.preamble_first),
+        trailing_cell_note() if head.trailing_cell else None,
+    )
     lay.notes.extend(note for note in said if note is not None)
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
     # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
@@ -779,6 +786,8 @@ def _nonblank(text: str) -> Iterator[str]:
 
 def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: str) -> np.ndarray:
     """Line by line: missing values as NaN, every other problem named with its row."""
+    from rwhonet.data.csvio import columns_expected
+
     out, problems = [], []
     for i, cells in enumerate(csv.reader(_nonblank(text))):
         row = first_row + i
@@ -788,7 +797,7 @@ def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: s
                     file,
                     row,
                     None,
-                    f"{lay.n_columns} comma-separated columns, as in the header",
+                    columns_expected(lay.n_columns, lay.trailing_cell),
                     f"{len(cells)} column(s): {','.join(cells)[:60]!r}",
                     "give every row the header's columns (a cut-off last row, a stray comma, or a "
                     "decimal comma?)",
