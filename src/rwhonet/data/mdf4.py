@@ -13,6 +13,7 @@ names them (``WhlSpd_FL``, or ``WheelSpeeds.WhlSpd_FL`` where two messages share
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import sys
 from collections.abc import Mapping, Sequence
@@ -73,11 +74,22 @@ def read_mdf4(
             return _read(mdf, signal_map, radius_m, name, file)
         decoded = _decoded(mdf, dbc, name, file)
         try:
-            return _read(decoded, signal_map, radius_m, name, file)
+            streams = _read(decoded, signal_map, radius_m, name, file)
         finally:
             decoded.close()
+        return dataclasses.replace(streams, notes=(*streams.notes, _decoded_note(mdf, dbc)))
     finally:
         mdf.close()
+
+
+def _decoded_note(mdf, dbc: Sequence[str]) -> str:  # type: ignore[no-untyped-def]
+    """What the drive's notes say of raw frames decoded: by which databases, how many of
+    the log's frame IDs they define (the others carry nothing the map can name)."""
+    info = mdf.last_call_info.get("CAN", {})
+    total = len(info.get("total_unique_ids", ()))
+    found = len({i for ids in info.get("found_ids", {}).values() for i in ids})
+    files = ", ".join(Path(d).name for d in dbc)
+    return f"raw CAN frames decoded with {files}: {found} of the log's {total} frame IDs defined"
 
 
 def _dbc_setting(name: str) -> str:
