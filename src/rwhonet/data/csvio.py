@@ -148,11 +148,11 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
 # the car, the settings) are skipped, at most this many.
 COMMENT_MAX_LINES = 1000
 # A tool's preamble before the header (MoTeC i2's and AiM Race Studio's CSV exports: key and
-# value lines, "Format","MoTeC CSV File" / "Venue",... and blank lines) is found within this
-# many lines and bytes: the header is the line of names above the first DATA_RUN rows of data of its
-# width (find_header).
-HEAD_MAX_LINES = 1000
-HEAD_MAX_BYTES = 1 << 20
+# value lines, "Format","MoTeC CSV File" / "Venue",... and blank lines): the header is looked
+# for within this many lines and bytes, as the line of names above the first DATA_RUN rows
+# of data of its width (find_header).
+HEADER_SEARCH_LINES = 1000
+HEADER_SEARCH_BYTES = 1 << 20
 DATA_RUN = 3
 
 
@@ -240,7 +240,7 @@ def read_head(lines: Iterator[bytes]) -> tuple[HeadLines, list[bytes]]:
     if any(line.startswith(signature) for signature, _ in _SIGNATURES) or b"\x00" in line:
         return HeadLines(comments, line, b""), []  # not text: parse_header says what it is
     seen, ended, size = [line], not line, len(line)
-    while (at := find_header(seen, ended or size > HEAD_MAX_BYTES)) is None:
+    while (at := find_header(seen, ended or size > HEADER_SEARCH_BYTES)) is None:
         line = next(lines, b"")
         ended, size = not line, size + len(line)
         if line:
@@ -266,7 +266,7 @@ def find_header(lines: list[bytes], ended: bool) -> int | None:
     if first or (first is None and not ended):
         return 0 if first else None
     run, width = 0, -1  # rows of data in a row, of one width, under no header found
-    for i in range(1, min(len(lines), HEAD_MAX_LINES)):
+    for i in range(1, min(len(lines), HEADER_SEARCH_LINES)):
         if not lines[i].strip():
             continue
         found = _data_after(lines, i, DATA_RUN) if _is_names(lines[i]) else False
@@ -282,7 +282,7 @@ def find_header(lines: list[bytes], ended: bool) -> int | None:
             run, width = int(_is_data(cells, len(cells))), len(cells)
         if run >= DATA_RUN:  # in the data: no preamble above it
             return 0
-    return 0 if ended or len(lines) >= HEAD_MAX_LINES else None
+    return 0 if ended or len(lines) >= HEADER_SEARCH_LINES else None
 
 
 def _cells(line: bytes, delimiter: str) -> list[str]:

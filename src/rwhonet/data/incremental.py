@@ -251,8 +251,8 @@ def read_rows(
             than the header or a cell that is not a number (while iterating).
     """
     from rwhonet.data.csvio import (
-        HEAD_MAX_LINES,
         HEADER_MAX_BYTES,
+        HEADER_SEARCH_LINES,
         comment_lines_note,
         delimiter_of,
         first_line_end,
@@ -268,7 +268,7 @@ def read_rows(
     pipe = _pipe_reader(stream)
     line, rest = _header_line(pipe or stream, HEADER_MAX_BYTES + 1, pipe)
     blank: list[bytes] = []  # blank lines first: a VBOX file is told by its first line after
-    while line and not line.strip() and len(blank) < HEAD_MAX_LINES:
+    while line and not line.strip() and len(blank) < HEADER_SEARCH_LINES:
         blank.append(line)
         line, rest = _next_line(pipe or stream, pipe, rest)
     if is_vbo(line):  # a Racelogic VBOX file, from a file or a pipe
@@ -676,9 +676,9 @@ def _blocks(
             row += len(columns[c.T_S])
     # NUL bytes the stream ends in (a logger that lost power): not read, as ingest does
     tail = len(pending) - len(pending.rstrip(b"\x00"))
-    if tail:
+    if (said := nul_tail_note(tail)) is not None:
         pending = pending[:-tail]
-        lay.notes.append(nul_tail_note(tail) or "")
+        lay.notes.append(said)
     if pending.strip():
         if form is None:
             form = _TimeForm.of(pending.decode("utf-8", errors="replace"), lay, file)
