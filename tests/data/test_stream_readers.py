@@ -217,15 +217,16 @@ def test_one_csv_per_stream_reads_through_its_signal_map(tmp_path):
     np.testing.assert_allclose(d[c.LAT_DEG], -33.9 + V * (d[c.T_S] - 5000.0) / 110_900.0)
 
 
+@pytest.mark.parametrize("period", [86400.0, 604800.0])
 @pytest.mark.parametrize(("gnss_hz", "before_s"), [(10.0, 60.0), (1.0, 1.0)])
 def test_stream_csvs_across_midnight_give_the_labels_of_the_drive_by_day(
-    tmp_path, gnss_hz, before_s
+    tmp_path, gnss_hz, before_s, period
 ):
     """Each file's time of day continues past midnight, as the 10 Hz file's does: the same
     drive starting ``before_s`` before midnight gives the seconds and labels it gives by day
     (within 1e-6 m: only the clock's floating-point rounding differs). With a 1 Hz receiver
     whose first fix comes 1.5 s in, 1 s before midnight, the fixes' file starts past
-    midnight, after the wheels' file."""
+    midnight, after the wheels' file. A GPS time of week across the week's end likewise."""
     from rwhonet.sim.streams import (
         StreamSpec,
         StreamTables,
@@ -240,7 +241,7 @@ def test_stream_csvs_across_midnight_give_the_labels_of_the_drive_by_day(
     tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, gnss_hz), START_S)
     late = tables.gnss[tables.gnss[c.T_S] >= START_S + 1.5] if before_s < 1.5 else tables.gnss
     tables = StreamTables(tables.wheels, late.reset_index(drop=True))
-    shift = 86400.0 - before_s - START_S  # whole seconds: the same seconds
+    shift = period - before_s - START_S  # whole seconds: the same seconds
 
     def read(t: StreamTables, folder):
         files = write_stream_csvs(t, folder)
@@ -249,12 +250,13 @@ def test_stream_csvs_across_midnight_give_the_labels_of_the_drive_by_day(
 
     day, _ = read(tables, tmp_path / "day")
     night_tables = StreamTables(
-        *(d.assign(t_s=(d[c.T_S] + shift) % 86400.0) for d in (tables.wheels, tables.gnss))
+        *(d.assign(t_s=(d[c.T_S] + shift) % period) for d in (tables.wheels, tables.gnss))
     )
     night, streams = read(night_tables, tmp_path / "night")
     said = " ".join(streams.notes)
-    assert "passed midnight" in said
-    assert ("starts past midnight" in said) == (before_s < 1.5)
+    end = "midnight" if period == 86400.0 else "the GPS week's end"
+    assert ("passed midnight" if period == 86400.0 else "passed the week's end") in said
+    assert (f"starts past {end}" in said) == (before_s < 1.5)
     assert len(night) == len(day) > 90
     np.testing.assert_allclose(night["t_s"], day["t_s"] + shift, rtol=0, atol=1e-3)
     for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):

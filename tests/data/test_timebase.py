@@ -140,6 +140,33 @@ def test_a_drive_across_midnight_reads_as_one_clock_and_validates(tmp_path, vp):
     assert _segments(assess(frame, vp.gnss, PERIOD)) == [(0, 601, 86370.0, 86430.0)]
 
 
+def test_a_drive_across_the_gps_week_s_end_reads_as_one_clock_by_both_readers(tmp_path, vp):
+    """A time column in GPS time of week (a u-blox iTOW) steps from 604799.9 back to 0 on
+    Sunday 00:00 GPS time: a week added, as midnight adds a day; a time of day is not
+    touched by the week's rule, nor a time of week by the day's."""
+    import io
+
+    from rwhonet.data.incremental import read_rows
+    from rwhonet.data.timebase import SECONDS_PER_WEEK, unwrap_clock
+
+    week = SECONDS_PER_WEEK
+    drive = straight_drive(duration_s=60.0, t0_s=week - 30.0)
+    drive[c.T_S] = np.round(drive[c.T_S] % week, 6)
+    path = write_iovnbd(drive, tmp_path / "V-W.csv")
+    raw = read_iovnbd(path)
+    t = raw.columns[c.T_S]
+    assert np.all(np.diff(t) > 0) and t[-1] == pytest.approx(week + 30.0)
+    assert any("GPS time of week passed the week's end" in note for note in raw.notes)
+    assert not any("midnight" in note for note in raw.notes)
+    _, blocks = read_rows(io.BytesIO(path.read_bytes()), "V-W.csv", block_bytes=2048)
+    np.testing.assert_allclose(np.concatenate([b[c.T_S] for _, b in blocks]), t, atol=1e-9)
+    frame = straight_drive(duration_s=60.0, t0_s=week - 30.0).assign(**{c.T_S: t, c.SCENARIO: ""})
+    assert schema_problems(frame, vp, "V-W.csv", {}) == []
+    day = np.array([86399.9, 0.0, 0.1])
+    assert unwrap_clock(day)[0][-1] == pytest.approx(86400.1)
+    assert "a day added" in unwrap_clock(day)[1][0] and len(unwrap_clock(day)[1]) == 1
+
+
 # ---------------------------------------------------------------- label times and the stream clock
 
 

@@ -50,7 +50,7 @@ from rwhonet.data.texttime import (
     read_time_column,
     text_time_note,
 )
-from rwhonet.data.timebase import unwrap_midnight
+from rwhonet.data.timebase import unwrap_clock
 from rwhonet.data.wheelunits import ANGULAR_WHEEL_UNITS, LINEAR_WHEEL_UNITS, wheel_factor
 from rwhonet.errors import InputError, Problem
 
@@ -294,10 +294,8 @@ def read_columnmap(
         columns[c.T_S] = columns[c.T_S] + dates.seconds
         notes += (date_note(header[pos], header[positions["t"]], unit),)
     if c.T_S in columns:
-        columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
-        if wraps.size:
-            shown = ", ".join(str(int(r) + 1) for r in wraps[:5])
-            notes += (f"time of day passed midnight before data row(s) {shown}: a day added",)
+        columns[c.T_S], said = unwrap_clock(columns[c.T_S])
+        notes += tuple(said)
     return RawDrive(
         columns=columns,
         source_columns={

@@ -27,7 +27,7 @@ from rwhonet.data.csvio import (
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.packed import DDMM, HHMMSS, unpack_or_refuse
 from rwhonet.data.texttime import read_time_column, text_time_note, text_time_unit
-from rwhonet.data.timebase import unwrap_midnight
+from rwhonet.data.timebase import unwrap_clock
 from rwhonet.data.wheelunits import ANGULAR_WHEEL_UNITS, LINEAR_WHEEL_UNITS
 from rwhonet.errors import InputError, Problem
 
@@ -374,9 +374,8 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
     if text_time:
         notes.append(text_time_note(header[positions[c.T_S]], text_time))
     notes += csv_notes(path)
-    columns[c.T_S], wraps = unwrap_midnight(columns[c.T_S])
-    if wraps.size:
-        notes.append(midnight_note(wraps))
+    columns[c.T_S], said = unwrap_clock(columns[c.T_S])
+    notes += said
     return RawDrive(
         columns=columns,
         source_columns={name: header[pos] for name, pos in positions.items()},
@@ -396,12 +395,6 @@ def position_note(header: Sequence[str]) -> str:
         "columns taken by position (the last resort): the header names no time, latitude, "
         f"longitude and four wheel speeds that the reader knows ({[h.strip() for h in header]})"
     )
-
-
-def midnight_note(rows: np.ndarray) -> str:
-    """What a reader says when the time column passed midnight."""
-    shown = ", ".join(str(int(r) + 1) for r in rows[:5])
-    return f"time of day passed midnight before data row(s) {shown}: a day added after each"
 
 
 TO_SI: dict[str, float] = {col.canonical: col.to_si for col in LAYOUT if col.canonical}

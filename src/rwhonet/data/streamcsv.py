@@ -43,7 +43,12 @@ from rwhonet.data.texttime import (
     parse_dates,
     read_time_column,
 )
-from rwhonet.data.timebase import MIDNIGHT_WINDOW_S, SECONDS_PER_DAY, unwrap_midnight
+from rwhonet.data.timebase import (
+    MIDNIGHT_WINDOW_S,
+    SECONDS_PER_DAY,
+    SECONDS_PER_WEEK,
+    unwrap_clock,
+)
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the stream files' time column"
@@ -227,10 +232,8 @@ def read_stream_csvs(
         except InputError as err:
             problems += err.problems
             continue
-        t, wraps = unwrap_midnight(t)
-        if wraps.size:
-            shown = ", ".join(str(int(r) + 1) for r in wraps[:5])
-            notes.append(f"{file}: time of day passed midnight before row(s) {shown}: a day added")
+        t, said = unwrap_clock(t, "row")
+        notes += [f"{file}: {note}" for note in said]
         groups += _per_message(
             Group(
                 Path(file).name,
@@ -323,10 +326,17 @@ def _next_day_starts(groups: list[Group], notes: list[str]) -> list[Group]:
     starts = [float(g.t_s[0]) for g in groups if g.t_s.size and np.isfinite(g.t_s[0])]
     if not starts or max(starts) < SECONDS_PER_DAY - MIDNIGHT_WINDOW_S:
         return groups
+    # a GPS time of week: files on both sides of the week's end (a time of day never
+    # reaches the week's last hour)
+    week = max(starts) >= SECONDS_PER_WEEK - MIDNIGHT_WINDOW_S
+    period, what = (
+        (SECONDS_PER_WEEK, "the GPS week's end") if week else (SECONDS_PER_DAY, "midnight")
+    )
     out = []
     for g in groups:
         if g.t_s.size and g.t_s[0] < MIDNIGHT_WINDOW_S:
-            g = dataclasses.replace(g, t_s=g.t_s + SECONDS_PER_DAY)
-            notes.append(f"{g.file}: starts past midnight, after the other files: a day added")
+            g = dataclasses.replace(g, t_s=g.t_s + period)
+            added = "a week" if week else "a day"
+            notes.append(f"{g.file}: starts past {what}, after the other files: {added} added")
         out.append(g)
     return out

@@ -9,6 +9,9 @@ mistake for bad data:
   drive reads as one continuous clock (times after midnight then exceed
   86400 s; manual cuts and scenario intervals of such a drive are in that
   continuous clock).
+- **The GPS week's end.** A time column in GPS time of week (a u-blox receiver's iTOW)
+  steps from about 604799.9 back to about 0 each Sunday 00:00 GPS time; the same rule adds
+  a week (:func:`unwrap_clock`).
 - **Jitter.** A CAN logger stamps each row when it writes it, a few
   milliseconds off the nominal instant (still strictly increasing). A row
   stamped 4 ms before a whole second belongs to that second, one stamped 4 ms
@@ -33,6 +36,9 @@ from __future__ import annotations
 import numpy as np
 
 SECONDS_PER_DAY = 86400.0
+# GPS time of week (a u-blox receiver's iTOW, many loggers' "GPS time") starts again at 0
+# each Sunday 00:00 GPS time: the week's end is a rollover as midnight is a day's.
+SECONDS_PER_WEEK = 7 * SECONDS_PER_DAY
 # A step back from the last hour of a day into the first hour of the next is a midnight
 # rollover (the true step across midnight is then shorter than an hour); any other
 # backward step is left for validate to report.
@@ -79,6 +85,37 @@ def unwrap_midnight(
         days[rows] = day_s
         t += np.cumsum(days)
     return t, rows
+
+
+def unwrap_clock(t_s: np.ndarray, rows_named: str = "data row") -> tuple[np.ndarray, list[str]]:
+    """A time column made continuous across midnight and across the GPS week's end
+    (:func:`unwrap_midnight` with a day, then with a week), and what a reader says of it.
+
+    Args:
+        t_s: times, s (a time of day, or a GPS time of week).
+        rows_named: what the notes call a row (``data row``; a stream file's ``row``).
+
+    Returns:
+        ``(t_s continuous, notes)``.
+    """
+    t, days = unwrap_midnight(t_s)
+    t, weeks = unwrap_midnight(t, SECONDS_PER_WEEK)
+    notes = []
+    if days.size:
+        notes.append(
+            f"time of day passed midnight before {rows_named}(s) {_shown(days)}: a day added "
+            "after each"
+        )
+    if weeks.size:
+        notes.append(
+            f"GPS time of week passed the week's end (604,800 s) before {rows_named}(s) "
+            f"{_shown(weeks)}: a week added after each"
+        )
+    return t, notes
+
+
+def _shown(rows: np.ndarray) -> str:
+    return ", ".join(str(int(r) + 1) for r in rows[:5]) + (" ..." if rows.size > 5 else "")
 
 
 def grid_phase(t_s: np.ndarray, period_s: float, whole: bool = True) -> float:
@@ -235,13 +272,14 @@ class StreamClock:
             return t.copy()
         prev = np.zeros(0) if self.last is None else np.array([self.last])
         joined, rows = unwrap_midnight(np.concatenate([prev, t]))
+        joined, weeks = unwrap_midnight(joined, SECONDS_PER_WEEK)  # a GPS time of week's end
         shift = prev.size
         out = joined[shift:] + self.day_s
         finite = np.isfinite(t)
         if finite.any():
             self.last = float(t[finite][-1])
-        self.midnights += [first_row + int(r) - shift for r in rows]
-        self.day_s += SECONDS_PER_DAY * rows.size
+        self.midnights += [first_row + int(r) - shift for r in np.union1d(rows, weeks)]
+        self.day_s += SECONDS_PER_DAY * rows.size + SECONDS_PER_WEEK * weeks.size
         if self.phase is None:
             self.raw_phase = grid_phase(out[finite], self.period_s, whole=False)
             self.phase = grid_phase(out[finite], self.period_s)
