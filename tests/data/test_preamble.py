@@ -114,13 +114,16 @@ def _motec(path, df) -> list[str]:
     return lines
 
 
-def test_a_motec_export_reads_as_the_drive_by_both_readers(tmp_path):
+@pytest.mark.parametrize("ending", ["\n", "\r\n", "\r"])
+def test_a_motec_export_reads_as_the_drive_by_both_readers(tmp_path, ending):
     """The same drive as without the preamble, by ingest's reader and predict's (a file and
-    a pipe); the notes name the preamble; a bad cell is named by its data row."""
+    a pipe), with any line ends; the notes name the preamble; a bad cell is named by its
+    data row."""
     df = wavy_drive(30.0)
     ref = read_iovnbd(write_iovnbd(df, tmp_path / "V-A.csv"))
     path = tmp_path / "V-M.csv"
     lines = _motec(path, df)
+    path.write_bytes(ending.join(lines).encode() + ending.encode())
     assert head_lines(path).skipped == len(MOTEC) + 2
     got = read_iovnbd(path)
     for name in c.REQUIRED:
@@ -137,7 +140,7 @@ def test_a_motec_export_reads_as_the_drive_by_both_readers(tmp_path):
         assert any(said in n for n in lay.notes), lay.notes
     first = len(MOTEC) + 3  # the first data row's line
     lines[first + 6] = lines[first + 6].replace('"', "x", 1)  # data row 7: 'x' in the time
-    path.write_text("\n".join(lines) + "\n")
+    path.write_bytes(ending.join(lines).encode() + ending.encode())
     for err in refusals(path):
         assert err.problems[0].row == 7, err.problems[0]
 
