@@ -24,6 +24,10 @@ and the data rows start after it (:meth:`HeadLines.units`). Readers keep every d
 order, so row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its file;
 ``validate`` relies on this to point at the file's rows.
 
+Rows that end in a comma the header does not are read with an unnamed empty last column
+(:attr:`HeadLines.trailing_cell`), and the NUL bytes a file ends in (a logger that lost
+power) are not read (:func:`nul_tail`).
+
 Whatever the bytes, a reader returns the columns or raises
 :class:`~rwhonet.errors.InputError` (``tests/data/test_reader_fuzz.py``).
 """
