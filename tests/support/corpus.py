@@ -1286,6 +1286,14 @@ _UNITS_ROW = (
 )
 
 
+def _rpm_under_bare_names() -> tuple[pd.DataFrame, tuple[str, ...]]:
+    """The good target drive with its wheel speeds in rpm, and the IO-VNBD headers without
+    their units (a units row gives them)."""
+    df = good_target()
+    df[list(c.WHEELS)] *= 60.0 / (2.0 * math.pi)
+    return df, tuple(h.replace(" (rad/sec)", "") for h in HEADERS)
+
+
 @case(
     "units_row_under_the_header",
     "a row of units under the header (s, deg, ..., the wheel speeds in rpm under names "
@@ -1293,9 +1301,7 @@ _UNITS_ROW = (
     Accept("the row read as the columns' units: the wheel speeds converted from rpm"),
 )
 def _(raw: Path) -> None:
-    df = good_target()
-    df[list(c.WHEELS)] *= 60.0 / (2.0 * math.pi)
-    bare = tuple(h.replace(" (rad/sec)", "") for h in HEADERS)
+    df, bare = _rpm_under_bare_names()
     edit_lines(raw, lambda lines: [lines[0], _UNITS_ROW, *lines[1:]], df, bare)
 
 
@@ -1336,9 +1342,7 @@ def _quoted(line: str) -> str:
     Accept("the preamble skipped, the header found above the rows of data; rpm converted"),
 )
 def _(raw: Path) -> None:
-    df = good_target()
-    df[list(c.WHEELS)] *= 60.0 / (2.0 * math.pi)
-    bare = tuple(h.replace(" (rad/sec)", "") for h in HEADERS)
+    df, bare = _rpm_under_bare_names()
     edit_lines(
         raw,
         lambda lines: [
