@@ -44,6 +44,15 @@ OPTIONAL = (
 )
 
 G_M_S2 = 9.80665
+# How a CSV cell says "no value", case aside: every reader (ingest's, predict's, text
+# times, hemisphere letters) takes these, and only these, for a missing value (NaN). The
+# words of pyarrow's and pandas' defaults: Excel's #N/A, and a NaN as old Microsoft C
+# runtimes print it (1.#QNAN, -1.#IND); a lone '-' is not among them (a cut-off negative
+# number looks the same).
+MISSING_CELLS = frozenset(
+    {"", "nan", "-nan", "na", "n/a", "#n/a", "#na", "#n/a n/a", "null", "none"}
+    | {"1.#ind", "-1.#ind", "1.#qnan", "-1.#qnan"}
+)
 KMH_M_S = 1.0 / 3.6
 # A yaw rate's units in a column or signal map -> factor to rad/s, positive turning left
 # (ISO 8855, z up); "cw": a gyro positive clockwise (z down, SAE J670).

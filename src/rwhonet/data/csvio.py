@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import re
 import sys
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -49,9 +50,20 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
+from rwhonet.data import canonical as c
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.problems import RowTally, no_data_rows, unreadable_file
 from rwhonet.errors import InputError, Problem
+
+# The cells pyarrow takes for a missing value: canonical.MISSING_CELLS in every case (pyarrow
+# matches them as written), as predict's reader takes them.
+NULL_VALUES = sorted(
+    {
+        "".join(x)
+        for word in c.MISSING_CELLS
+        for x in itertools.product(*({ch.lower(), ch.upper()} for ch in word))
+    }
+)
 
 # Text parsed per step. A row longer than this cannot be read (no drive row comes close).
 BLOCK_BYTES = 1 << 20
@@ -825,6 +837,7 @@ def _open_columns(
         convert_options=pacsv.ConvertOptions(
             include_columns=[names[i] for i in wanted],
             column_types={names[i]: column_type for i in wanted},
+            null_values=NULL_VALUES,
             strings_can_be_null=strings_can_be_null,
         ),
     )

@@ -38,7 +38,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from rwhonet.data.canonical import DDMM, DDMM_W
+from rwhonet.data.canonical import DDMM, DDMM_W, MISSING_CELLS
 from rwhonet.data.problems import ROWS_LISTED, row_problems
 from rwhonet.errors import InputError
 
@@ -68,7 +68,7 @@ _ROUNDED = 60.001
 
 # A coordinate's hemisphere letters (positive, negative), as a column map declares them.
 HEMISPHERE_UNITS = {"N/S": ("N", "S"), "E/W": ("E", "W")}
-_MISSING = frozenset({"", "nan", "na", "n/a", "null", "none"})
+_MISSING = MISSING_CELLS
 
 
 def is_packed(unit: str | None) -> bool:

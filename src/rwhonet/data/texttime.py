@@ -52,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rwhonet.data.canonical import MISSING_CELLS
 from rwhonet.data.problems import RowTally
 from rwhonet.errors import InputError, Problem
 
@@ -60,8 +61,7 @@ CLOCK = "hh:mm:ss"
 TEXT_TIME_UNITS = (ISO8601, CLOCK)
 DDMMYY = "ddmmyy"  # a date as NMEA's RMC sentence writes it
 
-# The missing-value spellings of the numeric readers (csvio.MISSING's words).
-_MISSING = frozenset({"", "nan", "na", "n/a", "null", "none", "-nan"})
+_MISSING = MISSING_CELLS  # the numeric readers' missing-value spellings
 _SECONDS = r"(\d{1,2}(?:[.,]\d*)?)"
 _ISO = re.compile(
     r"\s*(\d{4})-(\d{2})-(\d{2})[Tt ](\d{2}):(\d{2}):" + _SECONDS + r"\s*"
