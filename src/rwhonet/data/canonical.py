@@ -44,6 +44,8 @@ OPTIONAL = (
 )
 
 G_M_S2 = 9.80665
+# A time's units as numbers -> factor to seconds (a column map's, a signal map's, a header's).
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 # How a CSV cell says "no value", case aside: every reader (ingest's, predict's, text
 # times, hemisphere letters) takes these, and only these, for a missing value (NaN). The
 # words of pyarrow's and pandas' defaults: Excel's #N/A, and a NaN as old Microsoft C

@@ -65,7 +65,7 @@ KEYS: dict[str, tuple[str, dict[str, float]]] = {
     # hhmmss: a time of day as the number hhmmss.ss (rwhonet.data.packed)
     "t": (
         c.T_S,
-        {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, ISO8601: 1.0, CLOCK: 1.0, HHMMSS: math.nan},
+        {**c.TIME_UNITS, ISO8601: 1.0, CLOCK: 1.0, HHMMSS: math.nan},
     ),
     # minutes of arc (Racelogic VBOX logs), NMEA's ddmm.mmmm (rwhonet.data.packed), a
     # longitude positive west ("W"): c.LAT_UNITS

@@ -45,7 +45,6 @@ BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s o
 # handled: Python runs handlers on the main thread only, and a read() the signal did not
 # interrupt would wait for the next row, forever on a live stream that has paused.
 PIPE_WAKE_S = 0.2
-MISSING = c.MISSING_CELLS
 CHANNELS = c.REQUIRED  # what a second needs: time, fix, four wheel speeds
 # Read too where the layout has them: the yaw rate (predict's navigation filter) and the
 # satellite count (a fix validate's GNSS policy would not use is no fix: FixScreen).
@@ -807,7 +806,7 @@ def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: s
         values = []
         for pos in cols:
             cell = cells[pos].strip()
-            if cell.lower() in MISSING:
+            if cell.lower() in c.MISSING_CELLS:
                 values.append(np.nan)
                 continue
             try:

@@ -99,7 +99,7 @@ _LAYOUT_UNIT: dict[str, str | None] = {
 
 # Quantity -> {unit: factor to the canonical SI unit}.
 _UNITS: dict[str, dict[str, float]] = {
-    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9},
+    "time": c.TIME_UNITS,
     "angle": {"deg": 1.0},
     "speed": {"km/h": c.KMH_M_S, "m/s": 1.0, "mph": 0.44704},
     "height": {"km": 1000.0, "m": 1.0},

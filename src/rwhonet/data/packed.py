@@ -68,7 +68,6 @@ _ROUNDED = 60.001
 
 # A coordinate's hemisphere letters (positive, negative), as a column map declares them.
 HEMISPHERE_UNITS = {"N/S": ("N", "S"), "E/W": ("E", "W")}
-_MISSING = MISSING_CELLS
 
 
 def is_packed(unit: str | None) -> bool:
@@ -180,7 +179,7 @@ def hemisphere_signs(
             out[i] = 1.0
         elif letter == minus:
             out[i] = -1.0
-        elif letter.lower() not in _MISSING:
+        elif letter.lower() not in MISSING_CELLS:
             bad.append((i, repr(cell)))
     return out, bad
 

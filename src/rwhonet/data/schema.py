@@ -36,7 +36,7 @@ from rwhonet.errors import Problem
 # step that is exactly at the tolerance.
 _STEP_SLACK_S = 1e-9
 # A median step this many times the period: the time written in another unit than seconds.
-_TIME_UNITS = {1e3: "ms", 1e6: "us", 1e9: "ns"}
+_TIME_UNITS = {round(1.0 / f): unit for unit, f in c.TIME_UNITS.items() if f < 1.0}
 
 
 @dataclass(frozen=True)

@@ -61,7 +61,6 @@ CLOCK = "hh:mm:ss"
 TEXT_TIME_UNITS = (ISO8601, CLOCK)
 DDMMYY = "ddmmyy"  # a date as NMEA's RMC sentence writes it
 
-_MISSING = MISSING_CELLS  # the numeric readers' missing-value spellings
 _SECONDS = r"(\d{1,2}(?:[.,]\d*)?)"
 _ISO = re.compile(
     r"\s*(\d{4})-(\d{2})-(\d{2})[Tt ](\d{2}):(\d{2}):" + _SECONDS + r"\s*"
@@ -165,7 +164,7 @@ def parse_dates(cells: Sequence[str | None], unit: str) -> TextTimes:
     bad: list[tuple[int, str]] = []
     seen: dict[str, float | str] = {}  # a drive's rows share a date or two: parse each once
     for i, cell in enumerate(cells):
-        if cell is None or _bare(cell).lower() in _MISSING:
+        if cell is None or _bare(cell).lower() in MISSING_CELLS:
             continue
         text = _bare(cell)
         if text not in seen:
@@ -263,7 +262,7 @@ def parse_text_times(
     mixed: int | None = None
     pattern = _ISO if unit == ISO8601 else _CLOCK
     for i, cell in enumerate(cells):
-        if cell is None or _bare(cell).lower() in _MISSING:
+        if cell is None or _bare(cell).lower() in MISSING_CELLS:
             continue
         m = pattern.match(_bare(cell))
         if m is None:
@@ -314,7 +313,7 @@ def _parse_pattern(cells: Sequence[str | None], pattern: str) -> TextTimes:
     dated = any(d in pattern for d in _DATE_DIRECTIVES)
     fmt = pattern.replace(",", ".")
     for i, cell in enumerate(cells):
-        if cell is None or _bare(cell).lower() in _MISSING:
+        if cell is None or _bare(cell).lower() in MISSING_CELLS:
             continue
         try:
             when = datetime.strptime(_bare(cell).replace(",", "."), fmt)
