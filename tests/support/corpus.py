@@ -467,13 +467,44 @@ def _(raw: Path) -> None:
 
 @case(
     "two_files_joined",
-    "a second drive appended with its header (row 1502 repeats the header)",
-    Refuse("ingest", 1502, " Time", "a number", "' Time' (the header again)"),
+    "a second drive appended with its header (row 1502 repeats the header), driven an hour "
+    "earlier: its time goes back",
+    Refuse(
+        "validate",
+        1503,
+        " Time",
+        "time strictly increasing",
+        "the header's line again in row 1502 between them",
+    ),
 )
 def _(raw: Path) -> None:
     path = write_target(raw, good_target())
     lines = path.read_text(encoding="utf-8").splitlines()
-    path.write_text("\n".join(lines + lines) + "\n", encoding="utf-8")
+    earlier = good_target()
+    earlier[c.T_S] -= 3600.0
+    other = write_iovnbd(earlier, path.with_name("earlier.tmp")).read_text(encoding="utf-8")
+    path.with_name("earlier.tmp").unlink()
+    path.write_text("\n".join(lines + other.splitlines()) + "\n", encoding="utf-8")
+
+
+@case(
+    "one_drive_in_three_files_joined",
+    "a logger's three files of one drive (it starts a file every 50 s) joined with cat: the "
+    "header again in rows 501 and 1002",
+    Accept("the header's lines again are dropped at ingest; the drive is the one written once"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda x: x[:501] + x[:1] + x[501:1001] + x[:1] + x[1001:])
+
+
+@case(
+    "logger_restarted_and_wrote_its_header_again",
+    "the logger off for 30 s (data rows 601-900 not written), then its header written again "
+    "as it restarted, appending to the same file, its clock (time of day) going on",
+    Repair("gap", 30),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda x: x[:601] + x[:1] + x[901:], good_target(200.0))
 
 
 @case(

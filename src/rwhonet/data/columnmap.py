@@ -24,9 +24,11 @@ from rwhonet.data.csvio import (
     RawDrive,
     csv_notes,
     first_cell,
+    header_again_note,
     read_header,
-    read_numeric,
+    read_numeric_rows,
     read_text_column,
+    without_rows,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.packed import (
@@ -247,10 +249,12 @@ def read_columnmap(
         for key, pos in positions.items()
         if not (key == "t" and text_time) and key not in AUX_KEYS
     }
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in numeric}, file)
+    values, again = read_numeric_rows(
+        path, len(header), {pos: header[pos] for pos in numeric}, file
+    )
     if text_time:
         pos = positions["t"]
-        values[pos] = read_time_column(path, len(header), pos, header[pos], text_time, file)
+        values[pos] = read_time_column(path, len(header), pos, header[pos], text_time, file, again)
     columns = {}
     shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
     for key, spec in column_map.items():
@@ -277,7 +281,7 @@ def read_columnmap(
         {
             KEYS[coordinate][0]: (
                 columns[KEYS[coordinate][0]],
-                read_text_column(path, len(header), positions[key], file),
+                read_text_column(path, len(header), positions[key], file, again),
                 unit,
                 (header[positions[coordinate]].strip(), header[positions[key]].strip()),
                 f"data.column_maps.{name}.{key}",
@@ -289,10 +293,13 @@ def read_columnmap(
     )
     if DATE in positions:
         pos, unit = positions[DATE], column_map[DATE].unit
-        dates = parse_dates(read_text_column(path, len(header), pos, file), unit)
+        dates = parse_dates(read_text_column(path, len(header), pos, file, again), unit)
         check_dates(dates, file, header[pos].strip(), unit, 1, f"data.column_maps.{name}.date")
         columns[c.T_S] = columns[c.T_S] + dates.seconds
         notes += (date_note(header[pos], header[positions["t"]], unit),)
+    if (again_said := header_again_note(again)) is not None:
+        notes += (again_said,)
+        columns = without_rows(columns, again)
     if c.T_S in columns:
         columns[c.T_S], said = unwrap_clock(columns[c.T_S])
         notes += tuple(said)
@@ -303,6 +310,7 @@ def read_columnmap(
         },
         header_match="column_map",
         notes=notes,
+        header_rows=again,
     )
 
 

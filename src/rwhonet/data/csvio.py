@@ -26,7 +26,10 @@ order, so row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its 
 
 Rows that end in a comma the header does not are read with an unnamed empty last column
 (:attr:`HeadLines.trailing_cell`), and the NUL bytes a file ends in (a logger that lost
-power) are not read (:func:`nul_tail`).
+power) are not read (:func:`nul_tail`). The header's line again among the rows (a logger
+that wrote it each time it started; files joined) is told by :func:`header_again_rows`:
+:func:`read_numeric_rows` reads those rows as NaN, and the 10 Hz readers leave them out
+(:attr:`RawDrive.header_rows`).
 
 Whatever the bytes, a reader returns the columns or raises
 :class:`~rwhonet.errors.InputError` (``tests/data/test_reader_fuzz.py``).
@@ -110,6 +113,10 @@ class RawDrive:
         held_fix_period_rows: the period, in rows, of a slower receiver whose fixes the
             file held and the reader placed along the path
             (:func:`rwhonet.data.heldfixes.place_held_fixes`); 0: the rows' own fixes.
+        header_rows: data rows of the file (1-based) that are its header's line again
+            (and its row of units), left out by the reader (:func:`header_again_rows`).
+            Element ``i`` of ``columns`` is then the file's row ``FileRows(header_rows)(i)``
+            (and through every kind of row dropped: ``FileRows`` of them all merged).
     """
 
     columns: dict[str, np.ndarray]
@@ -119,6 +126,7 @@ class RawDrive:
     repeated_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     wheelless_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     held_fix_period_rows: int = 0
+    header_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n_rows(self) -> int:
@@ -695,10 +703,45 @@ def _quiet_undecodable_rows() -> Iterator[None]:
         sys.unraisablehook = previous
 
 
-@_quiet_undecodable_rows()
 def read_numeric(
     path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None = None
 ) -> dict[int, np.ndarray]:
+    """Read some columns of a CSV file (header row first) as float64, block by block.
+
+    As :func:`read_numeric_rows`, but a line that repeats the header is refused as any
+    row of text in a number column is (the stream CSVs' reader, whose samples are
+    numbered by their rows).
+    """
+    return _read_numeric(path, n_columns, wanted, display, header_again=False)[0]
+
+
+def read_numeric_rows(
+    path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None = None
+) -> tuple[dict[int, np.ndarray], np.ndarray]:
+    """Read some columns of a 10 Hz drive file as float64, and the lines that repeat its
+    header (:func:`header_again_rows`: a logger that wrote its header again each time it
+    started, appending to one file; exports of one drive joined).
+
+    Returns:
+        (column position -> float64 array, one element per data row, NaN in the rows that
+        repeat the header; those rows, 1-based data rows, increasing): a reader keeps
+        ``row i is data row i + 1`` while it reads the file's other columns, then drops
+        them (:attr:`RawDrive.header_rows`).
+
+    Raises:
+        InputError: as :func:`read_numeric`, the header's lines again aside.
+    """
+    return _read_numeric(path, n_columns, wanted, display, header_again=True)
+
+
+@_quiet_undecodable_rows()
+def _read_numeric(
+    path: Path,
+    n_columns: int,
+    wanted: Mapping[int, str],
+    display: str | None,
+    header_again: bool,
+) -> tuple[dict[int, np.ndarray], np.ndarray]:
     """Read some columns of a CSV file (header row first) as float64, block by block.
 
     Empty cells and the usual missing-value spellings (``NaN``, ``NA``, ``null``) become NaN,
@@ -757,13 +800,91 @@ def read_numeric(
         invalid_rows = -1  # a cell that is not a number, or not CSV: find every problem
     if invalid_rows:
         del out
-        return _read_numeric_slow(path, n_columns, wanted, file)
+        again = header_again_rows(path) if header_again else _NO_ROWS
+        return _read_numeric_slow(path, n_columns, wanted, file, again), again
     if n == 0:
         raise InputError([no_data_rows(file)])
-    return {pos: values[:n] for pos, values in out.items()}
+    return {pos: values[:n] for pos, values in out.items()}, _NO_ROWS
 
 
-def read_text_column(path: Path, n_columns: int, pos: int, display: str) -> list[str | None]:
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+_NO_ROWS.flags.writeable = False
+
+
+def header_again_rows(path: Path) -> np.ndarray:
+    """The data rows (1-based) of a CSV file that are its header line again, each with the
+    row of units under it where the file has one under its header.
+
+    A logger that writes its header each time it starts, appending to one file (a
+    microcontroller's ``setup()``; a logger that restarts after losing power), and exports
+    of one drive joined with ``cat``, leave the header's line among the rows. Such a line
+    is the header's to the byte (spaces and a byte-order mark around it aside);
+    the rows after it are read as the file's rows, whatever their time does (a gap, or a
+    clock that went back, which validate refuses). Rows are numbered as the readers number
+    them: lines after the header (and its units row), blank lines not counted.
+
+    Returns:
+        The rows, increasing (none: the file cannot be read, its reader says why).
+    """
+    head = _head_or_plain(path)
+    header = line_key(head.header)
+    units = line_key(head.second) if head.units is not None else None
+    if not header:
+        return _NO_ROWS
+    rows: list[int] = []
+    try:
+        with open(path, "rb") as f:
+            lines = _lines(f)
+            for _ in itertools.islice(lines, head.skipped):
+                pass
+            row, after_header = 0, False
+            for line in lines:
+                if not line.rstrip(b"\r\n"):
+                    continue  # a blank line: not a row
+                row += 1
+                key = line_key(line)
+                if key == header or (after_header and key == units):
+                    rows.append(row)
+                    after_header = key == header
+                else:
+                    after_header = False
+    except OSError:
+        return _NO_ROWS
+    return np.asarray(rows, dtype=np.int64)
+
+
+def without_rows(columns: dict[str, np.ndarray], rows: np.ndarray) -> dict[str, np.ndarray]:
+    """A reader's columns without some data rows (1-based): the header's line again."""
+    if not len(rows):
+        return columns
+    keep = np.ones(len(next(iter(columns.values()))), dtype=bool)
+    keep[np.asarray(rows) - 1] = False
+    return {name: values[keep] for name, values in columns.items()}
+
+
+def line_key(line: bytes) -> bytes:
+    """A line as the readers compare it with the header's (:func:`header_again_rows`):
+    without its line end, spaces around it and a byte-order mark."""
+    return line.strip().removeprefix(b"\xef\xbb\xbf").strip()
+
+
+def header_again_note(rows: np.ndarray) -> str | None:
+    """What a reader says of the lines that repeat the header, dropped (None: none)."""
+    if not len(rows):
+        return None
+    shown = ", ".join(str(int(r)) for r in rows[:5]) + (
+        f" and {len(rows) - 5} more" if len(rows) > 5 else ""
+    )
+    return (
+        f"the header line again in {len(rows)} data row(s) ({shown}): a logger that wrote "
+        "its header each time it started, or files joined; those lines dropped, the rows "
+        "after them read as the drive's (rows named in messages are still the file's)"
+    )
+
+
+def read_text_column(
+    path: Path, n_columns: int, pos: int, display: str, blank_rows: np.ndarray = _NO_ROWS
+) -> list[str | None]:
     """One column of a CSV file (header row first) as text, one cell per data row.
 
     For a column that is not numbers (a time written as text: :mod:`rwhonet.data.texttime`).
@@ -775,6 +896,8 @@ def read_text_column(path: Path, n_columns: int, pos: int, display: str) -> list
         n_columns: number of columns of the header.
         pos: the column's 0-based position.
         display: how the file is named in error reports.
+        blank_rows: data rows (1-based) read as empty: the header's line again
+            (:func:`read_numeric_rows`).
 
     Returns:
         The cells, None for an empty one.
@@ -784,17 +907,28 @@ def read_text_column(path: Path, n_columns: int, pos: int, display: str) -> list
     """
     names = [f"c{i}" for i in range(n_columns)]
     cells: list[str | None] = []
+    skipped, narrow = _head_or_plain(path).skipped, []
+
+    def on_invalid_row(row: pacsv.InvalidRow) -> str:
+        # only the header's line again is left to skip (read_numeric refused any other row
+        # of another width), where the rows end in a cell it lacks: kept as an empty cell
+        narrow.append(-1 if row.number is None else row.number - skipped)
+        return "skip"
+
     try:
-        reader = _open_columns(
-            path, names, {pos: names[pos]}, pa.string(), lambda row: "skip", True
-        )
+        reader = _open_columns(path, names, {pos: names[pos]}, pa.string(), on_invalid_row, True)
         for batch in reader:
             cells += batch.column(names[pos]).to_pylist()
+        for row in sorted(narrow):
+            cells.insert(max(row - 1, 0), None)
     except (pa.ArrowInvalid, OSError) as err:
         message = str(err).splitlines()[0] if str(err) else type(err).__name__
         raise InputError(
             [Problem(display, None, None, "CSV text", f"unreadable: {message[:160]}", EXPORT_CSV)]
         ) from None
+    for row in blank_rows:
+        if row <= len(cells):
+            cells[row - 1] = None
     return cells
 
 
@@ -850,8 +984,13 @@ def _kept_rows(start: int, n: int, bad: np.ndarray) -> np.ndarray:
     return candidates[~np.isin(candidates, bad)][:n]
 
 
-def _parse_block(column: pa.Array) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """One block of a column, as bytes -> float64, the positions that are not numbers, and them."""
+def _parse_block(
+    column: pa.Array, blank: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """One block of a column, as bytes -> float64, the positions that are not numbers, and
+    them; positions where ``blank`` is set (the header's line again) NaN, never a problem."""
+    if blank is not None and blank.any():
+        column = pc.if_else(pa.array(blank), pa.scalar(None, column.type), column)
     try:
         return pc.cast(column, pa.float64()).to_numpy(zero_copy_only=False), np.zeros(0, int), []
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
@@ -866,9 +1005,15 @@ def _parse_block(column: pa.Array) -> tuple[np.ndarray, np.ndarray, list[str]]:
 
 
 def _read_numeric_slow(
-    path: Path, n_columns: int, wanted: Mapping[int, str], file: str
+    path: Path,
+    n_columns: int,
+    wanted: Mapping[int, str],
+    file: str,
+    again: np.ndarray = _NO_ROWS,
 ) -> dict[int, np.ndarray]:
-    """Failure path of :func:`read_numeric`: read as bytes and locate every problem."""
+    """Failure path of :func:`read_numeric`: read as bytes and locate every problem; the
+    rows ``again`` (the header's line again: :func:`header_again_rows`) are NaN, none of
+    their cells a problem."""
     names = [f"c{i}" for i in range(n_columns)]
     bad_rows: list[int] = []  # data rows with the wrong column count, in file order
     rows_tally = RowTally(
@@ -880,11 +1025,16 @@ def _read_numeric_slow(
     )
 
     skipped = _head_or_plain(path).skipped
+    again_set = set(again.tolist())
+    skipped_again: list[int] = []
 
     def on_invalid_row(row: pacsv.InvalidRow) -> str:
         # Single-threaded, pyarrow knows the row number; it counts the header's lines.
         r = -1 if row.number is None else row.number - skipped
         bad_rows.append(r)
+        if r in again_set:  # the header's line again, narrower than the rows (a trailing
+            skipped_again.append(r)  # cell): a NaN row put back for it at the end
+            return "skip"
         rows_tally.add([r], [f"{row.actual_columns} column(s): {row.text[:60]!r}"])
         return "skip"
 
@@ -910,8 +1060,9 @@ def _read_numeric_slow(
             rows = _kept_rows(next_row, batch.num_rows, np.asarray(bad_rows, dtype=np.int64))
             if rows.size:
                 next_row = int(rows[-1]) + 1
+            repeated = np.isin(rows, again) if again_set else None
             for pos in wanted:
-                values, bad, found = _parse_block(batch.column(names[pos]))
+                values, bad, found = _parse_block(batch.column(names[pos]), repeated)
                 header = wanted[pos].strip().lower()
                 cells_tally[pos].add(
                     rows[bad],
@@ -948,9 +1099,13 @@ def _read_numeric_slow(
         n_total = max(n_total, max(bad_rows))
     if (tail := nul_tail(path)) and bad_rows and max(bad_rows) == n_total:
         problems.append(cut_by_nul_tail(file, n_total, tail))
-    if not problems and n_total == 0:
+    if not problems and n_total <= len(again_set):  # none, or the header's line again only
         problems.append(no_data_rows(file))
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) reading {file}")
     # pandas parsed what pyarrow would not (nothing was reported): keep its values.
-    return {pos: np.concatenate(chunks[pos]) if chunks[pos] else np.zeros(0) for pos in wanted}
+    out = {pos: np.concatenate(chunks[pos]) if chunks[pos] else np.zeros(0) for pos in wanted}
+    if skipped_again:  # row r is element r - 1 again
+        at = np.asarray(skipped_again) - 1 - np.arange(len(skipped_again))
+        out = {pos: np.insert(values, at, np.nan) for pos, values in out.items()}
+    return out

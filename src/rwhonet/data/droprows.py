@@ -21,6 +21,11 @@ the ingest manifest (the dropped rows, 1-based data rows of the file):
   speed in a third of them or more (a channel at its own rate), are refused
   (:func:`drop_rows`).
 
+A third kind is left out by the readers themselves: ``header_rows``, the header's line
+again among the rows (:func:`rwhonet.data.csvio.header_again_rows`: a logger that wrote its
+header each time it started, files of one drive joined); :func:`drop_rows` numbers the rows
+it drops through them.
+
 The canonical drive then lacks those rows, so its row ``k`` is no longer data row
 ``k + 1`` of the file; :class:`FileRows` gives the file's row for every message that
 names one (validate's schema and drive checks, ``rwhonet recalibrate``'s).
@@ -49,6 +54,10 @@ ROWS_NOTED = 5
 # would take the median step for the drive's sample rate (0.2 s: "5 Hz, not 10 Hz"). Such
 # rows are not lost samples but a layout: wheel speeds written at their own rate.
 WHEELLESS_MAX_SHARE = 1 / 3
+# The kinds of rows a drive read from a 10 Hz file may lose, as the ingest manifest and
+# reports/validation.json name them: copies, rows without a wheel speed, the header's line
+# again (csvio.header_again_rows, left out by the reader).
+ROW_KINDS = ("repeated_rows", "wheelless_rows", "header_rows")
 # The key under which a stream of rows (``rwhonet predict``'s) carries each row's data row
 # in the file with the rows: consecutive within a block, not across blocks once a copy
 # was dropped.
@@ -121,10 +130,14 @@ def drop_rows(raw: RawDrive, file: str) -> RawDrive:
             (a third) of the rows or more lack a wheel speed (wheel speeds written at their
             own rate).
     """
+    file_row = FileRows(raw.header_rows)  # the reader left out the header's lines again
+    n_file_rows = raw.n_rows + len(raw.header_rows)
     wheelless = wheelless_rows(raw.columns)
     if wheelless.size:
         empty = [w for w in c.WHEELS if w in raw.columns and np.isnan(raw.columns[w]).all()]
-        problems = wheelless_problems(file, raw.n_rows, wheelless + 1, empty, raw.source_columns)
+        problems = wheelless_problems(
+            file, n_file_rows, file_row(wheelless), empty, raw.source_columns
+        )
         if problems:
             raise InputError(problems)
     copies = np.setdiff1d(repeated_rows(raw.columns), wheelless)
@@ -133,15 +146,15 @@ def drop_rows(raw: RawDrive, file: str) -> RawDrive:
     keep = np.ones(raw.n_rows, dtype=bool)
     keep[copies] = False
     keep[wheelless] = False
-    notes = [dropped_note(copies + 1)] if copies.size else []
+    notes = [dropped_note(file_row(copies))] if copies.size else []
     if wheelless.size:
-        notes.append(wheelless_note(wheelless + 1, raw.n_rows))
+        notes.append(wheelless_note(file_row(wheelless), n_file_rows))
     return replace(
         raw,
         columns={name: values[keep] for name, values in raw.columns.items()},
         notes=(*raw.notes, *notes),
-        repeated_rows=copies + 1,
-        wheelless_rows=wheelless + 1,
+        repeated_rows=file_row(copies),
+        wheelless_rows=file_row(wheelless),
     )
 
 
@@ -196,9 +209,14 @@ def wheelless_problems(
 
 def manifest_rows(raw: RawDrive) -> dict[str, Any]:
     """The rows a drive lost, as the ingest manifest lists them (only the kinds it lost):
-    ``repeated_rows`` and ``wheelless_rows``, the file's data rows, every one; and
-    ``held_fix_period_rows`` where its fixes were held (:mod:`rwhonet.data.heldfixes`)."""
-    lists = {"repeated_rows": raw.repeated_rows, "wheelless_rows": raw.wheelless_rows}
+    ``repeated_rows``, ``wheelless_rows`` and ``header_rows`` (the header's line again), the
+    file's data rows, every one; and ``held_fix_period_rows`` where its fixes were held
+    (:mod:`rwhonet.data.heldfixes`)."""
+    lists = {
+        "repeated_rows": raw.repeated_rows,
+        "wheelless_rows": raw.wheelless_rows,
+        "header_rows": raw.header_rows,
+    }
     out: dict[str, Any] = {key: [int(r) for r in rows] for key, rows in lists.items() if rows.size}
     if raw.held_fix_period_rows:  # fixes held from a slower receiver, placed (heldfixes)
         out["held_fix_period_rows"] = raw.held_fix_period_rows
@@ -210,7 +228,7 @@ def report_rows(entry: Mapping[str, Any], listed: int = 50) -> dict[str, Any]:
     kind, the count and the first ``listed`` rows."""
     out: dict[str, Any] = {
         key: {"rows": len(entry[key]), "listed": list(entry[key][:listed])}
-        for key in ("repeated_rows", "wheelless_rows")
+        for key in ROW_KINDS
         if entry.get(key)
     }
     if entry.get("held_fix_period_rows"):
@@ -252,18 +270,29 @@ class FileRows:
             ``k`` is data row ``k + 1``.
     """
 
-    def __init__(self, dropped: Sequence[int] | np.ndarray = ()) -> None:
+    def __init__(
+        self, dropped: Sequence[int] | np.ndarray = (), headers: Sequence[int] | np.ndarray = ()
+    ) -> None:
         d = np.asarray(dropped, dtype=np.int64)
         # canonical row k is data row k + 1 + (the drops at or before it): drop j, the
         # (j+1)-th, sits after d[j] - 1 - j kept rows
         self._after = d - 1 - np.arange(d.size)
+        self.headers = np.asarray(headers, dtype=np.int64)  # of them, the header's line again
 
     @classmethod
     def of(cls, entry: Mapping[str, Any]) -> FileRows:
-        """The numbering of a drive as the ingest manifest lists it (``repeated_rows`` and
-        ``wheelless_rows``)."""
-        dropped = [*(entry.get("repeated_rows") or ()), *(entry.get("wheelless_rows") or ())]
-        return cls(sorted(dropped))
+        """The numbering of a drive as the ingest manifest lists it (:data:`ROW_KINDS`)."""
+        dropped = sorted(r for key in ROW_KINDS for r in entry.get(key) or ())
+        return cls(dropped, entry.get("header_rows") or ())
+
+    def header_between(self, k: int | np.integer) -> int | None:
+        """The file's row of the header's line again between canonical rows ``k - 1`` and
+        ``k`` (None: none; the last of them where several)."""
+        if not self.headers.size:
+            return None
+        lo, hi = self(int(k) - 1), self(int(k))
+        inside = self.headers[(self.headers > lo) & (self.headers < hi)]
+        return int(inside[-1]) if inside.size else None
 
     @property
     def identity(self) -> bool:

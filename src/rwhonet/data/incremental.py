@@ -252,9 +252,11 @@ def read_rows(
     from rwhonet.data.csvio import (
         HEADER_MAX_BYTES,
         HEADER_SEARCH_LINES,
+        as_comma_separated,
         comment_lines_note,
         delimiter_of,
         first_line_end,
+        line_key,
         parse_header,
         preamble_note,
         read_head,
@@ -299,7 +301,12 @@ def read_rows(
     # ended in a lone CR (classic Mac line ends), whose rows are read with CR as LF
     # a file separated by ';' or tabs (decimal commas): its rows read as comma-separated
     delimiter = delimiter_of(line[: first_line_end(line)])
-    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, b"".join(after))
+    # the header's line again among the rows (csvio.header_again_rows), as the rows are read
+    keys = tuple(
+        as_comma_separated(line_key(x), delimiter) if x is not None else None
+        for x in (line, second if units is not None else None)
+    )
+    blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, b"".join(after), keys)
     return lay, placed(blocks, StreamClock(period_s))
 
 
@@ -472,14 +479,31 @@ def placed(
             held.append((first, columns))
             if sum(len(cols[c.T_S]) for _, cols in held) < STREAM_PHASE_ROWS:
                 continue
-            first, columns = _joined(held)
+            yield from _placed_held(held, clock)
             held = []
+            continue
         columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
         yield first, columns
     if held:
-        first, columns = _joined(held)
-        columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
+        yield from _placed_held(held, clock)
+
+
+def _placed_held(
+    held: list[tuple[int, dict[str, np.ndarray]]], clock: StreamClock
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """The first blocks placed on ``clock`` together (its phase taken from all their
+    stamps): one block where they are consecutive rows of the file, else each apart (rows
+    the reader did not read between them: the header's line again)."""
+    first, columns = _joined(held)
+    columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
+    if all(a + len(x[c.T_S]) == b for (a, x), (b, _) in itertools.pairwise(held)):
         yield first, columns
+        return
+    at = 0
+    for first, cols in held:
+        n = len(cols[c.T_S])
+        yield first, {name: values[at : at + n] for name, values in columns.items()}
+        at += n
 
 
 @dataclass
@@ -632,13 +656,18 @@ def _blocks(
     cr_rest: bytes | None = None,
     delimiter: str = ",",
     head: bytes = b"",
+    keys: tuple[bytes | None, ...] = (None, None),
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     """The row blocks of ``stream`` after its header: ``head`` (a line read already) first,
-    then ``cr_rest`` (bytes read after a header that ended in a lone CR), then the rest."""
+    then ``cr_rest`` (bytes read after a header that ended in a lone CR), then the rest.
+    A line that is the header again (``keys``: the header's line and its units row's, as
+    :func:`rwhonet.data.csvio.line_key` gives them) is a row not read, as ingest drops it
+    (:func:`rwhonet.data.csvio.header_again_rows`): a block is split around it."""
     from rwhonet.data.csvio import (
         as_comma_separated,
         cut_by_nul_tail,
         delimiter_note,
+        header_again_note,
         nul_tail_note,
     )
     from rwhonet.data.texttime import text_time_note
@@ -653,6 +682,7 @@ def _blocks(
     first = (head + (cr_rest or b"")).replace(b"\r", b"\n") if cr else head
     row, pending = 1, as_comma_separated(first, delimiter)
     form: _TimeForm | None = None  # decided on the first whole line
+    cut = _HeaderAgain(*keys)
     while True:
         if pipe is not None:
             _wait_readable(pipe)
@@ -669,10 +699,12 @@ def _blocks(
             form = _TimeForm.of(lines.decode("utf-8", errors="replace"), lay, file)
             if form.text is not None:
                 lay.notes.append(text_time_note(lay.names[c.T_S], form.text))
-        columns = parse_lines(lines, lay, row, file, form)
-        if len(columns[c.T_S]):
-            yield row, columns
-            row += len(columns[c.T_S])
+        for at, part in cut.parts(lines, row):
+            columns = parse_lines(part, lay, at, file, form)
+            if len(columns[c.T_S]):
+                yield at, columns
+            row = at + len(columns[c.T_S])
+        row = cut.next_row or row
     # NUL bytes the stream ends in (a logger that lost power): not read, as ingest does
     tail = len(pending) - len(pending.rstrip(b"\x00"))
     if (said := nul_tail_note(tail)) is not None:
@@ -683,15 +715,68 @@ def _blocks(
             form = _TimeForm.of(pending.decode("utf-8", errors="replace"), lay, file)
             if form.text is not None:
                 lay.notes.append(text_time_note(lay.names[c.T_S], form.text))
-        try:
-            columns = parse_lines(pending, lay, row, file, form)
-        except InputError as err:  # the last row, cut off where the NUL bytes begin
-            if not tail:
-                raise
-            raise InputError([*err.problems, cut_by_nul_tail(file, row, tail)]) from None
-        yield row, columns
-    elif row == 1:
+        for at, part in cut.parts(pending, row):
+            try:
+                columns = parse_lines(part, lay, at, file, form)
+            except InputError as err:  # the last row, cut off where the NUL bytes begin
+                if not tail:
+                    raise
+                raise InputError([*err.problems, cut_by_nul_tail(file, at, tail)]) from None
+            if len(columns[c.T_S]):
+                yield at, columns
+            row = at + len(columns[c.T_S])
+        row = cut.next_row or row
+    if (said := header_again_note(np.asarray(cut.rows, dtype=np.int64))) is not None:
+        lay.notes.append(said)
+    if row - 1 <= len(cut.rows):  # no row, or the header's line again only
         raise InputError([no_data_rows(file)])
+
+
+class _HeaderAgain:
+    """Whole lines of a stream split around the lines that repeat its header (and the
+    units row under one, where the header has one), counting rows as :func:`parse_lines`
+    does (blank lines are not rows).
+
+    Attributes:
+        rows: the data rows (1-based) that repeat the header, so far.
+        next_row: the data row of the line after the last lines split (None: they hold no
+            such line and are one part, whose rows the caller counts as it parses them).
+    """
+
+    def __init__(self, header: bytes | None, units: bytes | None) -> None:
+        self._header, self._units = header, units
+        self._after = False  # the last row was the header again: a units row may follow
+        self.rows: list[int] = []
+        self.next_row: int | None = None
+
+    def parts(self, lines: bytes, row: int) -> list[tuple[int, bytes]]:
+        """``lines`` (from data row ``row`` on) as ``(first_row, lines)`` parts without the
+        header's lines again; :attr:`next_row` is the row after them."""
+        if not self._header or (self._header not in lines and not self._after):
+            self.next_row = None  # the rows parse_lines reads from them: the caller counts
+            return [(row, lines)]
+        parts: list[tuple[int, bytes]] = []
+        part: list[bytes] = []
+        start = row
+        for line in lines.splitlines(keepends=True):
+            if not line.strip():
+                part.append(line)
+                continue
+            key = line.strip().removeprefix(b"\xef\xbb\xbf").strip()
+            if key == self._header or (self._after and key == self._units):
+                if part:
+                    parts.append((start, b"".join(part)))
+                self.rows.append(row)
+                self._after, part, row = key == self._header, [], row + 1
+                start = row
+                continue
+            self._after = False
+            part.append(line)
+            row += 1
+        if part:
+            parts.append((start, b"".join(part)))
+        self.next_row = row
+        return parts
 
 
 def parse_lines(

@@ -20,9 +20,11 @@ from rwhonet.data.csvio import (
     RawDrive,
     csv_notes,
     first_cell,
+    header_again_note,
     is_number,
     read_header,
-    read_numeric,
+    read_numeric_rows,
+    without_rows,
 )
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.packed import DDMM, HHMMSS, unpack_or_refuse
@@ -349,10 +351,12 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
     # a time written as text (2019-03-11T14:22:05.1, 14:22:05.1): read as its first cell's form
     text_time = text_time_unit(first_cell(path, positions[c.T_S]))
     numeric = {pos for name, pos in positions.items() if not (name == c.T_S and text_time)}
-    values = read_numeric(path, len(header), {pos: header[pos] for pos in numeric}, file)
+    values, again = read_numeric_rows(
+        path, len(header), {pos: header[pos] for pos in numeric}, file
+    )
     if text_time:
         pos = positions[c.T_S]
-        values[pos] = read_time_column(path, len(header), pos, header[pos], text_time, file)
+        values[pos] = read_time_column(path, len(header), pos, header[pos], text_time, file, again)
         factors[c.T_S] = 1.0
     for name, pos in positions.items():
         # In place: the reader's arrays are ours, and a copy would hold a column twice.
@@ -374,6 +378,9 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
     if text_time:
         notes.append(text_time_note(header[positions[c.T_S]], text_time))
     notes += csv_notes(path)
+    if (again_said := header_again_note(again)) is not None:
+        notes.append(again_said)
+        columns = without_rows(columns, again)
     columns[c.T_S], said = unwrap_clock(columns[c.T_S])
     notes += said
     return RawDrive(
@@ -381,6 +388,7 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         source_columns={name: header[pos] for name, pos in positions.items()},
         header_match=match,
         notes=tuple(notes),
+        header_rows=again,
     )
 
 

@@ -60,10 +60,17 @@ def _value(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
 
 def _time_step(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
     t = df[c.T_S].to_numpy()
-    return (
+    said = (
         f"t = {_num(t[i])} s after t = {_num(t[i - 1])} s in row {rows(i - 1)} "
         f"(step {t[i] - t[i - 1]:+.6g} s)"
     )
+    if (header := rows.header_between(i)) is not None and t[i] <= t[i - 1]:
+        said += (
+            f", the header's line again in row {header} between them: a logger whose clock "
+            f"started again, or two drives joined (split the file at row {header}, one "
+            "drive each)"
+        )
+    return said
 
 
 def _drive_checks(

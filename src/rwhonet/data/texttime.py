@@ -412,7 +412,13 @@ def _zoned(cell: str | None) -> bool:
 
 
 def read_time_column(
-    path: Path, n_columns: int, pos: int, column: str, unit: str, file: str
+    path: Path,
+    n_columns: int,
+    pos: int,
+    column: str,
+    unit: str,
+    file: str,
+    blank_rows: np.ndarray | None = None,
 ) -> np.ndarray:
     """A CSV file's text time column as seconds (after the numeric columns were read).
 
@@ -423,6 +429,8 @@ def read_time_column(
         column: its name in the file (for messages).
         unit: :data:`ISO8601` or :data:`CLOCK`.
         file: how the file is named in error reports.
+        blank_rows: data rows (1-based) read as empty: the header's line again
+            (:func:`rwhonet.data.csvio.read_numeric_rows`).
 
     Returns:
         float64 seconds, one per data row (NaN for an empty cell).
@@ -432,7 +440,10 @@ def read_time_column(
     """
     from rwhonet.data.csvio import read_text_column
 
-    cells = read_text_column(path, n_columns, pos, file)
+    if blank_rows is None:
+        cells = read_text_column(path, n_columns, pos, file)
+    else:
+        cells = read_text_column(path, n_columns, pos, file, blank_rows)
     parsed = parse_text_times(cells, unit)
     check_text_times(parsed, cells, file, column, unit, 1)
     return parsed.seconds
