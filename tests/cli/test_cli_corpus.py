@@ -34,7 +34,7 @@ from rwhonet.config import ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.geo import latlon_from_offsets_deg, offsets_m
 from rwhonet.sim.streams import SIGNAL_MAP
-from support.corpus import CASES, FILE, good_target, target_path, write_good_fleet
+from support.corpus import CASES, FILE, good_target, target_file, write_good_fleet
 from support.drives import as_ddmm, as_hhmmss, make_params, write_iovnbd, write_params_yaml
 from support.serving import base_bundle, predict_args
 from support.stream_corpus import CASES as STREAM_CASES
@@ -104,7 +104,7 @@ def test_every_corpus_case_ends_in_a_report_or_success(case, bundle, tmp_path, m
     case.write(raw)
     overrides = {"data.source": "files", "data.root": str(raw), **case.overrides}
     monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
-    codes = run_both(bundle, target_path(raw), ["--format", _format_of(case)], tmp_path, capsys)
+    codes = run_both(bundle, target_file(raw), ["--format", _format_of(case)], tmp_path, capsys)
     stage = getattr(case.expect, "stage", None)
     if stage == "params" or (stage == "ingest" and case.expect.file == FILE):
         # refused by the same checks as the stages' (predict streams a file: no size limit)

@@ -224,6 +224,13 @@ def write_target(raw: Path, df: pd.DataFrame, headers: tuple[str, ...] = HEADERS
     return write_iovnbd(df, target_path(raw), headers)
 
 
+def target_file(raw: Path) -> Path:
+    """The corrupted drive's file as a case wrote it: ``C-X1.csv``, or the file a case
+    wrote in its place (``C-X1.csv.gz``)."""
+    plain = target_path(raw)
+    return plain if plain.exists() else next(plain.parent.glob(f"{FILE}.*"))
+
+
 def edit_lines(
     raw: Path,
     edit: Callable[[list[str]], list[str]],
@@ -485,6 +492,28 @@ def _(raw: Path) -> None:
     other = write_iovnbd(earlier, path.with_name("earlier.tmp")).read_text(encoding="utf-8")
     path.with_name("earlier.tmp").unlink()
     path.write_text("\n".join(lines + other.splitlines()) + "\n", encoding="utf-8")
+
+
+@case(
+    "drive_file_gzip_compressed",
+    "the drive kept gzip-compressed as C-X1.csv.gz (data.roles.target_test.glob "
+    "'target_test/*.csv.gz'), as fleets archive them",
+    Accept("read as the text it holds, its id C-X1 (the name without .csv.gz)"),
+    **{
+        "data.roles.target_test": {
+            "glob": "target_test/*.csv.gz",
+            "format": "iovnbd",
+            "vehicle": "target",
+            "required": True,
+        }
+    },
+)
+def _(raw: Path) -> None:
+    import gzip
+
+    path = write_target(raw, good_target())
+    path.with_name(f"{FILE}.gz").write_bytes(gzip.compress(path.read_bytes(), mtime=0))
+    path.unlink()
 
 
 @case(

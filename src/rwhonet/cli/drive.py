@@ -347,8 +347,11 @@ def drive_sha256(path: Path) -> str:
 
 
 def drive_id(path: Path) -> str:
-    """A drive's id: a file's stem, a folder's name."""
-    return path.name if path.is_dir() else path.stem
+    """A drive's id: a file's stem (a compressed file's without its compression's suffix:
+    :func:`rwhonet.data.compressed.drive_stem`), a folder's name."""
+    from rwhonet.data.compressed import drive_stem
+
+    return path.name if path.is_dir() else drive_stem(path)
 
 
 def read_drive_file(

@@ -224,12 +224,14 @@ def run(
     written on, unchecked, with a note on stderr, and still refused (exit 2) if the check
     fails later.
     """
+    from rwhonet.data.compressed import compressed_note, compression_of, open_decompressed
     from rwhonet.data.drivechecks import StreamRadiusCheck
     from rwhonet.data.droprows import RowFilter
     from rwhonet.data.heldfixes import HeldFixGate
     from rwhonet.data.incremental import FixScreen, read_rows
     from rwhonet.libraries import raise_if_interrupted
 
+    packed = None  # a compressed drive file's kind
     with ExitStack() as stack:
         if drive_blocks is not None:
             source, name = None, drive
@@ -250,8 +252,13 @@ def run(
                     ]
                 )
             # a Racelogic VBOX file (here or on stdin): read_rows reads it as the CSV it
-            # stands for
-            source, name = stack.enter_context(open(path, "rb")), drive
+            # stands for; a compressed file as the text it holds, decompressed as it is read
+            packed = compression_of(path)
+            if packed is None:
+                source, name = stack.enter_context(open(path, "rb")), drive
+            else:
+                source = stack.enter_context(open_decompressed(path, packed, drive))
+                name = drive
         final = None if output == STDIO else output_file(output, "a CSV or .parquet file")
         partial = None if final is None else final.with_name(f".{final.name}.partial")
         if final is None:
@@ -275,6 +282,8 @@ def run(
                     source, name, fmt, column_map, period_s=period_s, radius_m=nominal
                 )
                 names, read_notes = lay.names, lay.notes
+                if packed is not None:
+                    read_notes.insert(0, compressed_note(packed))
             # a row written twice, or without a wheel speed, is dropped, as ingest drops
             # it (before the fix screen, which would take a copy's fix as one that did not
             # move)

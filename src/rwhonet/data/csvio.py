@@ -54,6 +54,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
 from rwhonet.data import canonical as c
+from rwhonet.data.compressed import MAGIC
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.problems import RowTally, no_data_rows, unreadable_file
 from rwhonet.errors import InputError, Problem
@@ -87,7 +88,11 @@ _SIGNATURES: tuple[tuple[bytes, str], ...] = (
     (b"\xfe\xff", "UTF-16 text (byte-order mark FE FF)"),
     (b"PK\x03\x04", "a ZIP archive (an .xlsx workbook saved with a .csv name?)"),
     (b"\xd0\xcf\x11\xe0", "an OLE2 file (an .xls workbook saved with a .csv name?)"),
-    (b"\x1f\x8b", "gzip-compressed data (decompress it first)"),
+    # a compressed drive file is read by its path (rwhonet.data.compressed), not from a pipe
+    *(
+        (magic, f"{kind}-compressed data (give it as a file, or decompress it first)")
+        for magic, kind, _ in MAGIC
+    ),
 )
 
 
@@ -955,10 +960,14 @@ def _open_columns(
     """
     head = _head_or_plain(path)
     delimiter, tail = head.delimiter, nul_tail(path)
-    source: Any = path  # pyarrow's own reader, unless the bytes must be changed or cut
+    # pyarrow's own reader, unless the bytes must be changed or cut; opened here, as pyarrow
+    # would take a name ending in .gz or .bz2 for compressed data (rwhonet.data.compressed
+    # tells that from the bytes, and hands the readers the text)
     if delimiter != "," or tail:  # a NUL tail (nul_tail) is not read
         end = path.stat().st_size - tail
-        source = io.BufferedReader(_Source(path, delimiter, end), BLOCK_BYTES)
+        source: Any = io.BufferedReader(_Source(path, delimiter, end), BLOCK_BYTES)
+    else:
+        source = pa.OSFile(str(path))
     return pacsv.open_csv(
         source,
         read_options=pacsv.ReadOptions(

@@ -6,7 +6,8 @@ so all of them refuse and convert a drive alike. Formats (``data.roles.<role>.fo
 
 - ``iovnbd`` and a column map's name (``data.column_maps``): one 10 Hz CSV file per
   drive, rows kept exactly as in the file, in order (row ``i`` is data row ``i + 1``
-  of the source file), so ``validate`` can point at the file's rows;
+  of the source file), so ``validate`` can point at the file's rows; the file may be
+  compressed (gzip, bzip2, xz, zstd: :mod:`rwhonet.data.compressed`);
 - ``comma2k19``: one folder per drive (a comma2k19 / openpilot segment);
 - a signal map's name (``data.signal_maps``): one MDF4 file per drive (reader
   ``mdf4``) or one folder of stream CSVs per drive (reader ``stream_csv``).
@@ -34,6 +35,12 @@ import pyarrow as pa
 from rwhonet.config import DataParams
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import read_columnmap
+from rwhonet.data.compressed import (
+    compressed_note,
+    compression_of,
+    decompressed_copy,
+    drive_stem,
+)
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import drop_rows
 from rwhonet.data.heldfixes import place_held_fixes
@@ -206,6 +213,8 @@ def read_any(
                 )
             ]
         )
+    if kind in (IOVNBD, COLUMN_MAP) and (packed := compression_of(f.path)) is not None:
+        return _read_decompressed(f, packed, data, rel, radius_m, period_s, split_gap_s)
     try:
         # a row written twice or without a wheel speed is dropped (rwhonet.data.droprows),
         # fixes held from a slower receiver are placed along the path (.heldfixes); the
@@ -223,6 +232,31 @@ def read_any(
         return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
     except MemoryError:
         raise out_of_memory(f, rel) from None
+
+
+def _read_decompressed(
+    f: DriveFile,
+    packed: str,
+    data: DataParams,
+    rel: Callable[[Path], str],
+    radius_m: float | None,
+    period_s: float,
+    split_gap_s: float,
+) -> tuple[RawDrive, StreamFacts | None]:
+    """A compressed 10 Hz drive file (:mod:`rwhonet.data.compressed`): its text written to
+    a scratch file (at most ``data.max_file_mb``) and read as the file, messages naming it."""
+    file = rel(f.path)
+    with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
+        plain = Path(scratch) / f"{drive_stem(f.path)}.csv"
+        decompressed_copy(f.path, packed, plain, data.max_file_mb, file)
+
+        def shown(path: Path) -> str:
+            return file if path == plain else rel(path)
+
+        raw, facts = read_any(
+            dataclasses.replace(f, path=plain), data, shown, radius_m, period_s, split_gap_s
+        )
+    return dataclasses.replace(raw, notes=(compressed_note(packed), *raw.notes)), facts
 
 
 def _read_vbo(

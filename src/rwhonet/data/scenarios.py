@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rwhonet.data.compressed import drive_stem
 from rwhonet.errors import InputError, Problem
 
 SEPARATOR = ";"
@@ -37,8 +38,9 @@ class ScenarioInterval:
 
 
 def sidecar_path(drive_file: Path) -> Path:
-    """Return the sidecar path of a drive file (``V-S1.csv`` -> ``V-S1.scenarios.json``)."""
-    return drive_file.with_suffix(SUFFIX)
+    """Return the sidecar path of a drive file (``V-S1.csv`` -> ``V-S1.scenarios.json``;
+    ``V-S1.csv.gz`` too: :func:`rwhonet.data.compressed.drive_stem`)."""
+    return drive_file.with_name(drive_stem(drive_file) + SUFFIX)
 
 
 SIDECAR_FIX = (

@@ -21,6 +21,7 @@ from typing import Any
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, DataParams, Params
 from rwhonet.data.columnmap import check_column_map
+from rwhonet.data.compressed import drive_stem
 from rwhonet.data.drivefile import (
     COLUMN_MAP,
     STREAM_CSV,
@@ -134,7 +135,7 @@ def discover(data: DataParams) -> list[DriveFile]:
                 )
             )
         files += [
-            DriveFile(p.name if folders else p.stem, role, spec.vehicle, spec.format, p)
+            DriveFile(p.name if folders else drive_stem(p), role, spec.vehicle, spec.format, p)
             for p in found
         ]
     first_seen: dict[str, DriveFile] = {}

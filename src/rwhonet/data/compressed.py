@@ -1,0 +1,148 @@
+"""Drive files kept compressed: gzip, bzip2, xz and zstd, told by their first bytes.
+
+A fleet's drives are often archived compressed (``V-S1.csv.gz``: a 10 Hz CSV shrinks
+about five times), and pandas reads such a file as it reads the CSV. The 10 Hz readers
+(IO-VNBD, column maps, a VBOX file) read a compressed drive file through a scratch copy
+of its text (:func:`decompressed_copy`, bounded by ``data.max_file_mb`` as the file itself
+is), ``rwhonet predict`` block by block as it decompresses it (:func:`open_decompressed`).
+A drive's id is its file's name without the compression's suffix and the format's
+(:func:`drive_stem`: ``V-S1.csv.gz`` is ``V-S1``), as the drive's uncompressed file names
+it, so its scenario sidecar and every output keep the name.
+
+The kind is told from the file's first bytes, not its name: a ``.csv`` that holds gzip
+data is read, a ``.gz`` that holds text is read as text.
+"""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+import io
+import lzma
+from pathlib import Path
+from typing import Any, BinaryIO
+
+from rwhonet.errors import InputError, Problem
+
+# (first bytes, kind, the suffix a file of it has)
+MAGIC: tuple[tuple[bytes, str, str], ...] = (
+    (b"\x1f\x8b", "gzip", ".gz"),
+    (b"BZh", "bzip2", ".bz2"),
+    (b"\xfd7zXZ\x00", "xz", ".xz"),
+    (b"\x28\xb5\x2f\xfd", "zstd", ".zst"),
+)
+SUFFIXES = tuple(suffix for _, _, suffix in MAGIC)
+COPY_BYTES = 1 << 20  # decompressed per step
+
+
+def compression_of(path: Path) -> str | None:
+    """The compression a file's first bytes show (``gzip``, ``bzip2``, ``xz``, ``zstd``;
+    None: none, or the file cannot be read: its reader says why)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(6)
+    except OSError:
+        return None
+    return next((kind for magic, kind, _ in MAGIC if head.startswith(magic)), None)
+
+
+def open_decompressed(path: Path, kind: str, file: str) -> BinaryIO:
+    """A compressed file's text as a binary stream, decompressed as it is read; data that
+    cannot be decompressed (cut off, corrupted) raises :class:`InputError` naming ``file``
+    where it is met."""
+    if kind == "gzip":
+        raw: Any = gzip.open(path, "rb")
+    elif kind == "bzip2":
+        raw = bz2.open(path, "rb")
+    elif kind == "xz":
+        raw = lzma.open(path, "rb")
+    else:  # zstd: no module of Python's own reads it
+        import pyarrow as pa
+
+        raw = pa.CompressedInputStream(pa.OSFile(str(path)), "zstd")
+    return io.BufferedReader(_Checked(raw, kind, file), COPY_BYTES)
+
+
+class _Checked(io.RawIOBase):
+    """A decompressing stream whose failures are the user's input problem, not a crash."""
+
+    def __init__(self, stream: Any, kind: str, file: str) -> None:
+        super().__init__()
+        self._stream, self._kind, self._file = stream, kind, file
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        try:
+            data = self._stream.read(len(buffer))
+        except (OSError, EOFError, lzma.LZMAError, ValueError) as err:
+            raise InputError([broken(self._file, self._kind, err)]) from None
+        except Exception as err:  # pyarrow's own errors for a broken zstd frame
+            if type(err).__module__.startswith("pyarrow"):
+                raise InputError([broken(self._file, self._kind, err)]) from None
+            raise
+        buffer[: len(data)] = data
+        return len(data)
+
+    def close(self) -> None:
+        self._stream.close()
+        super().close()
+
+
+def decompressed_copy(path: Path, kind: str, dest: Path, max_mb: float, file: str) -> None:
+    """Write a compressed drive file's text to ``dest``, at most ``max_mb`` MB of it.
+
+    Raises:
+        InputError: the text runs past ``max_mb`` (``data.max_file_mb``, which bounds a
+            drive's text as it bounds a plain file), or the file is not whole ``kind``
+            data (cut off, corrupted).
+    """
+    limit, written = int(max_mb * 2**20), 0
+    with open_decompressed(path, kind, file) as src, open(dest, "wb") as out:
+        while chunk := src.read(COPY_BYTES):
+            written += len(chunk)
+            if written > limit:
+                raise InputError(
+                    [
+                        Problem(
+                            file,
+                            None,
+                            None,
+                            f"a drive of at most {max_mb:g} MB of text once decompressed "
+                            "(data.max_file_mb)",
+                            f"more than that in this {kind} file",
+                            "split the drive into several files (one per trip), or raise "
+                            "data.max_file_mb on a machine with the memory",
+                        )
+                    ]
+                )
+            out.write(chunk)
+
+
+def broken(file: str, kind: str, err: BaseException) -> Problem:
+    """The problem of a compressed file that cannot be decompressed to its end."""
+    return Problem(
+        file,
+        None,
+        None,
+        f"whole {kind}-compressed data",
+        f"{type(err).__name__}: {str(err)[:120] or 'cut off'}",
+        "copy the file again (it is cut off or corrupted), or give its decompressed text",
+    )
+
+
+def compressed_note(kind: str) -> str:
+    """What a reader says of a drive file it decompressed."""
+    return f"a {kind}-compressed file, read as the text it holds"
+
+
+def drive_stem(path: Path) -> str:
+    """A drive file's id: its name without a compression's suffix and then its own
+    (``V-S1.csv.gz`` -> ``V-S1``; ``V-S1.csv`` -> ``V-S1``)."""
+    name = path.name
+    for suffix in SUFFIXES:
+        if name.lower().endswith(suffix):
+            name = name[: -len(suffix)]
+            break
+    return Path(name).stem

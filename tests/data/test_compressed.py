@@ -1,0 +1,133 @@
+"""Drive files kept compressed (gzip, bzip2, xz, zstd): read as the text they hold by ingest's
+10 Hz readers (through a scratch copy bounded by data.max_file_mb) and by predict's (as it
+decompresses), named as the user named them; cut-off data refused, not a traceback."""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+import io
+import lzma
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.compressed import (
+    compressed_note,
+    compression_of,
+    drive_stem,
+    open_decompressed,
+)
+from rwhonet.data.drivefile import DriveFile, read_any
+from rwhonet.data.incremental import read_rows
+from rwhonet.data.scenarios import sidecar_path
+from rwhonet.errors import InputError
+from support.drives import make_params, write_iovnbd
+from support.serving import wavy_drive
+
+COMPRESS = {
+    "gzip": lambda data: gzip.compress(data, mtime=0),
+    "bzip2": bz2.compress,
+    "xz": lzma.compress,
+    "zstd": lambda data: pa.compress(data, codec="zstd", asbytes=True),
+}
+SUFFIX = {"gzip": ".gz", "bzip2": ".bz2", "xz": ".xz", "zstd": ".zst"}
+
+
+def _read(path: Path, root: Path, **overrides):
+    data = make_params(root, **overrides).data
+    f = DriveFile(drive_stem(path), "target_test", "target", "iovnbd", path)
+    return read_any(f, data, lambda p: p.name, None, 0.1, 10.0)[0]
+
+
+def _packed(tmp_path: Path, kind: str, text: bytes, name: str = "V-T.csv") -> Path:
+    path = tmp_path / f"{name}{SUFFIX[kind]}"
+    path.write_bytes(COMPRESS[kind](text))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("name", "stem"),
+    [
+        ("V-S1.csv.gz", "V-S1"),
+        ("V-S1.CSV.GZ", "V-S1"),
+        ("V-S1.csv.zst", "V-S1"),
+        ("V-S1.csv", "V-S1"),
+        ("drive.2019.csv.bz2", "drive.2019"),
+        ("V-S1.gz", "V-S1"),
+    ],
+)
+def test_a_drive_id_is_its_name_without_the_compressions_suffix(name, stem):
+    assert drive_stem(Path(name)) == stem
+    assert sidecar_path(Path("raw") / name) == Path("raw") / f"{stem}.scenarios.json"
+
+
+@pytest.mark.parametrize("kind", COMPRESS)
+def test_a_compressed_drive_reads_as_the_text_it_holds(tmp_path, kind):
+    plain = write_iovnbd(wavy_drive(20.0), tmp_path / "V-A.csv")
+    packed = _packed(tmp_path, kind, plain.read_bytes())
+    assert compression_of(packed) == kind and compression_of(plain) is None
+    want, got = _read(plain, tmp_path), _read(packed, tmp_path)
+    for name in want.columns:
+        np.testing.assert_array_equal(got.columns[name], want.columns[name])
+    assert got.notes[0] == compressed_note(kind)
+    with open_decompressed(packed, kind, packed.name) as stream:
+        lay, blocks = read_rows(stream, packed.name, block_bytes=4096)
+        streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
+    np.testing.assert_array_equal(streamed, want.columns[c.OMEGA_RL])
+
+
+def test_the_kind_is_told_from_the_bytes_not_the_name(tmp_path):
+    plain = write_iovnbd(wavy_drive(10.0), tmp_path / "V-A.csv")
+    text_named_gz = tmp_path / "V-B.csv.gz"
+    text_named_gz.write_bytes(plain.read_bytes())
+    gzip_named_csv = tmp_path / "V-C.csv"
+    gzip_named_csv.write_bytes(gzip.compress(plain.read_bytes()))
+    want = _read(plain, tmp_path).columns[c.T_S]
+    np.testing.assert_array_equal(_read(text_named_gz, tmp_path).columns[c.T_S], want)
+    np.testing.assert_array_equal(_read(gzip_named_csv, tmp_path).columns[c.T_S], want)
+
+
+def test_a_problem_names_the_compressed_file_and_its_row(tmp_path):
+    plain = write_iovnbd(wavy_drive(10.0), tmp_path / "V-A.csv")
+    lines = plain.read_text().splitlines()
+    cells = lines[40].split(",")
+    cells[12] = "fast"
+    lines[40] = ",".join(cells)
+    packed = _packed(tmp_path, "gzip", ("\n".join(lines) + "\n").encode())
+    with pytest.raises(InputError) as err:
+        _read(packed, tmp_path)
+    (problem,) = err.value.problems
+    assert (problem.file, problem.row, problem.found) == ("V-T.csv.gz", 40, "'fast'")
+
+
+def test_the_text_is_bounded_by_max_file_mb(tmp_path):
+    text = write_iovnbd(wavy_drive(60.0), tmp_path / "V-A.csv").read_bytes()
+    packed = _packed(tmp_path, "gzip", text)
+    limit_mb = (packed.stat().st_size + len(text)) / 2 / 2**20  # above the file, below its text
+    with pytest.raises(InputError) as err:
+        _read(packed, tmp_path, **{"data.max_file_mb": limit_mb})
+    assert "once decompressed (data.max_file_mb)" in err.value.problems[0].expected
+
+
+@pytest.mark.parametrize("kind", COMPRESS)
+def test_cut_off_compressed_data_is_refused_by_both_readers(tmp_path, kind):
+    text = write_iovnbd(wavy_drive(30.0), tmp_path / "V-A.csv").read_bytes()
+    packed = _packed(tmp_path, kind, text)
+    packed.write_bytes(packed.read_bytes()[: packed.stat().st_size // 2])
+    with pytest.raises(InputError) as err:
+        _read(packed, tmp_path)
+    assert f"whole {kind}-compressed data" in err.value.problems[0].expected
+    with pytest.raises(InputError) as err, open_decompressed(packed, kind, "V-T") as stream:
+        list(read_rows(stream, "V-T", block_bytes=4096)[1])
+    assert f"whole {kind}-compressed data" in err.value.problems[0].expected
+
+
+def test_compressed_bytes_in_a_pipe_are_named(tmp_path):
+    text = write_iovnbd(wavy_drive(10.0), tmp_path / "V-A.csv").read_bytes()
+    with pytest.raises(InputError) as err:
+        read_rows(io.BytesIO(gzip.compress(text)), "<stdin>")
+    assert "gzip-compressed data (give it as a file" in err.value.problems[0].found
