@@ -131,3 +131,57 @@ def test_compressed_bytes_in_a_pipe_are_named(tmp_path):
     with pytest.raises(InputError) as err:
         read_rows(io.BytesIO(gzip.compress(text)), "<stdin>")
     assert "gzip-compressed data (give it as a file" in err.value.problems[0].found
+
+
+def _zipped(path: Path, members: dict[str, bytes]) -> Path:
+    import zipfile
+
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    return path
+
+
+def test_a_zip_archive_of_one_drive_file_reads_as_it(tmp_path):
+    plain = write_iovnbd(wavy_drive(20.0), tmp_path / "V-A.csv")
+    packed = _zipped(tmp_path / "V-T.zip", {"export/V-T.csv": plain.read_bytes()})
+    assert compression_of(packed) == "zip" and drive_stem(packed) == "V-T"
+    want, got = _read(plain, tmp_path), _read(packed, tmp_path)
+    np.testing.assert_array_equal(got.columns[c.OMEGA_RL], want.columns[c.OMEGA_RL])
+    assert got.notes[0] == compressed_note("zip")
+    with open_decompressed(packed, "zip", packed.name) as stream:
+        lay, blocks = read_rows(stream, packed.name, block_bytes=4096)
+        streamed = np.concatenate([b[c.T_S] for _, b in blocks])
+    np.testing.assert_allclose(streamed, want.columns[c.T_S])
+
+
+@pytest.mark.parametrize(
+    ("members", "found"),
+    [
+        ({"a.csv": b"t\n1\n", "b.csv": b"t\n2\n"}, "2 files"),
+        ({}, "no file"),
+        (
+            {"[Content_Types].xml": b"<x/>", "xl/workbook.xml": b"<x/>", "xl/s.xml": b"<x/>"},
+            "an Excel workbook",
+        ),
+        ({"xl/workbook.xml": b"<x/>"}, "an Excel workbook"),
+    ],
+)
+def test_a_zip_archive_not_of_one_drive_file_is_refused(tmp_path, members, found):
+    packed = _zipped(tmp_path / "V-T.zip", members)
+    for read in (
+        lambda: _read(packed, tmp_path),
+        lambda: open_decompressed(packed, "zip", packed.name),
+    ):
+        with pytest.raises(InputError) as err:
+            read()
+        assert found in err.value.problems[0].found
+
+
+def test_a_cut_off_zip_archive_is_refused(tmp_path):
+    text = write_iovnbd(wavy_drive(30.0), tmp_path / "V-A.csv").read_bytes()
+    packed = _zipped(tmp_path / "V-T.zip", {"V-T.csv": text})
+    packed.write_bytes(packed.read_bytes()[: packed.stat().st_size // 2])
+    with pytest.raises(InputError) as err:
+        _read(packed, tmp_path)
+    assert "whole zip-compressed data" in err.value.problems[0].expected

@@ -340,6 +340,16 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "header_ends_in_a_comma",
+    "the header ends in a comma its data rows do not (a header written with a comma after "
+    "each name, the rows without)",
+    Accept("the header's empty last cell not read, and said so in the drive's notes"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, lambda lines: [lines[0] + ",", *lines[1:]])
+
+
+@case(
     "power_cut_after_a_whole_row",
     "the file ends in 4096 NUL bytes after its last whole row (a logger that lost power: "
     "the file's length already counted a cluster its data never reached)",
@@ -549,13 +559,14 @@ def _(raw: Path) -> None:
 @case(
     "xlsx_named_csv",
     "an Excel workbook (a ZIP archive) saved with a .csv name",
-    Refuse("ingest", None, None, "a CSV text file", "ZIP archive"),
+    Refuse("ingest", None, None, "a ZIP archive holding one drive file", "an Excel workbook"),
 )
 def _(raw: Path) -> None:
     import zipfile
 
     target_path(raw).parent.mkdir(parents=True, exist_ok=True)
     with zipfile.ZipFile(target_path(raw), "w") as z:
+        z.writestr("[Content_Types].xml", "<Types/>")
         z.writestr("xl/workbook.xml", "<workbook/>")
 
 

@@ -1,4 +1,5 @@
-"""Drive files kept compressed: gzip, bzip2, xz and zstd, told by their first bytes.
+"""Drive files kept compressed: gzip, bzip2, xz, zstd, or a ZIP archive of one drive file,
+told by their first bytes.
 
 A fleet's drives are often archived compressed (``V-S1.csv.gz``: a 10 Hz CSV shrinks
 about five times), and pandas reads such a file as it reads the CSV. The 10 Hz readers
@@ -19,6 +20,7 @@ import bz2
 import gzip
 import io
 import lzma
+import zipfile
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -30,6 +32,8 @@ MAGIC: tuple[tuple[bytes, str, str], ...] = (
     (b"BZh", "bzip2", ".bz2"),
     (b"\xfd7zXZ\x00", "xz", ".xz"),
     (b"\x28\xb5\x2f\xfd", "zstd", ".zst"),
+    (b"PK\x03\x04", "zip", ".zip"),  # a ZIP archive of one drive file
+    (b"PK\x05\x06", "zip", ".zip"),  # ... or of none
 )
 SUFFIXES = tuple(suffix for _, _, suffix in MAGIC)
 COPY_BYTES = 1 << 20  # decompressed per step
@@ -56,6 +60,9 @@ def open_decompressed(path: Path, kind: str, file: str) -> BinaryIO:
         raw = bz2.open(path, "rb")
     elif kind == "xz":
         raw = lzma.open(path, "rb")
+    elif kind == "zip":
+        archive, member = _one_member(path, file)
+        return io.BufferedReader(_Checked(archive.open(member), kind, file, archive), COPY_BYTES)
     else:  # zstd: no module of Python's own reads it
         import pyarrow as pa
 
@@ -63,12 +70,41 @@ def open_decompressed(path: Path, kind: str, file: str) -> BinaryIO:
     return io.BufferedReader(_Checked(raw, kind, file), COPY_BYTES)
 
 
-class _Checked(io.RawIOBase):
-    """A decompressing stream whose failures are the user's input problem, not a crash."""
+def _one_member(path: Path, file: str) -> tuple[zipfile.ZipFile, zipfile.ZipInfo]:
+    """A ZIP archive and the one file it holds (a drive zipped to be sent or kept).
 
-    def __init__(self, stream: Any, kind: str, file: str) -> None:
+    Raises:
+        InputError: not a whole ZIP archive, an Excel workbook, or not one file in it.
+    """
+    try:
+        archive = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError, EOFError) as err:
+        raise InputError([broken(file, "zip", err)]) from None
+    members = [x for x in archive.infolist() if not x.is_dir()]
+    names = [x.filename for x in members]
+    workbook = any(n == "[Content_Types].xml" or n.startswith("xl/") for n in names)
+    if len(members) == 1 and not workbook:
+        return archive, members[0]
+    archive.close()
+    if workbook:
+        found = "an Excel workbook (.xlsx: a ZIP archive of XML parts), not a CSV file"
+        fix = "save the sheet as CSV (File > Save As > CSV UTF-8) and give that file"
+    else:
+        listed = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+        found = f"{len(names)} files: {listed}" if names else "no file"
+        fix = "zip one drive per archive, or unzip it and give the drive files"
+    raise InputError(
+        [Problem(file, None, None, "a ZIP archive holding one drive file (CSV)", found, fix)]
+    )
+
+
+class _Checked(io.RawIOBase):
+    """A decompressing stream whose failures are the user's input problem, not a crash
+    (``archive``: a ZIP archive the stream is one member of, closed with it)."""
+
+    def __init__(self, stream: Any, kind: str, file: str, archive: Any = None) -> None:
         super().__init__()
-        self._stream, self._kind, self._file = stream, kind, file
+        self._stream, self._kind, self._file, self._archive = stream, kind, file, archive
 
     def readable(self) -> bool:
         return True
@@ -76,7 +112,7 @@ class _Checked(io.RawIOBase):
     def readinto(self, buffer: Any) -> int:
         try:
             data = self._stream.read(len(buffer))
-        except (OSError, EOFError, lzma.LZMAError, ValueError) as err:
+        except (OSError, EOFError, lzma.LZMAError, ValueError, zipfile.BadZipFile) as err:
             raise InputError([broken(self._file, self._kind, err)]) from None
         except Exception as err:  # pyarrow's own errors for a broken zstd frame
             if type(err).__module__.startswith("pyarrow"):
@@ -87,6 +123,8 @@ class _Checked(io.RawIOBase):
 
     def close(self) -> None:
         self._stream.close()
+        if self._archive is not None:
+            self._archive.close()
         super().close()
 
 

@@ -92,6 +92,7 @@ _SIGNATURES: tuple[tuple[bytes, str], ...] = (
     *(
         (magic, f"{kind}-compressed data (give it as a file, or decompress it first)")
         for magic, kind, _ in MAGIC
+        if kind != "zip"  # named above (a workbook is the likelier mistake)
     ),
 )
 
@@ -168,9 +169,19 @@ def read_header(path: Path, display: str | None = None) -> list[str]:
         head = head_lines(path)
     except OSError as err:
         raise InputError([unreadable_file(file, err)]) from None
-    header = parse_header(head.header, file, head.comments) + [""] * head.trailing_cell
+    header = header_cells(head, file)
     units = head.units
     return header if units is None else with_units(header, units, file)
+
+
+def header_cells(head: HeadLines, file: str) -> list[str]:
+    """A header's cells as its rows hold them (:func:`parse_header`): with the empty cell
+    the rows end in (:attr:`HeadLines.trailing_cell`), without the empty one the header
+    ends in and its rows lack (:attr:`HeadLines.short_rows`)."""
+    header = parse_header(head.header, file, head.comments)
+    if head.trailing_cell:
+        return [*header, ""]
+    return header[:-1] if head.short_rows else header
 
 
 # Lines before the header that start with '#' (a logger's or tool's comments: its version,
@@ -227,6 +238,24 @@ class HeadLines:
         )
 
     @property
+    def short_rows(self) -> bool:
+        """Whether the header ends in an empty cell its data rows lack (a header written
+        with a comma after each name, its rows without): the first row of data has one
+        cell fewer than the header, whose last cell is empty. Readers read the header
+        without it."""
+        first = self.below if self.units is not None or not self.second.strip() else self.second
+        delimiter = self.delimiter
+        header = _cells(self.header, delimiter)
+        cells = _cells(first, delimiter)
+        return (
+            len(header) >= 3
+            and not header[-1].strip()
+            and all(x.strip() for x in header[:-1])
+            and len(cells) == len(header) - 1
+            and _is_data(cells, len(cells))
+        )
+
+    @property
     def skipped(self) -> int:
         """Lines before the data rows: comments, a preamble, the header, a units row."""
         return self.comments + self.preamble + (1 if self.units is None else 2)
@@ -240,6 +269,7 @@ class HeadLines:
             comment_lines_note(self.comments),
             preamble_note(self.preamble, self.preamble_first),
             trailing_cell_note() if self.trailing_cell else None,
+            short_rows_note() if self.short_rows else None,
         )
         return tuple(note for note in said if note is not None)
 
@@ -482,15 +512,26 @@ def preamble_note(n: int, first: bytes) -> str | None:
     )
 
 
-def columns_expected(n_columns: int, trailing_cell: bool) -> str:
+def columns_expected(n_columns: int, trailing_cell: bool, short_rows: bool = False) -> str:
     """What a reader expects of every row's cells (``trailing_cell``: the header's and the
-    empty one its rows end in, :attr:`HeadLines.trailing_cell`)."""
+    empty one its rows end in, :attr:`HeadLines.trailing_cell`; ``short_rows``: the
+    header's without the empty one it ends in, :attr:`HeadLines.short_rows`)."""
+    if short_rows:
+        return (
+            f"{n_columns} comma-separated columns: the header's {n_columns + 1} without its "
+            "empty last one, as the first rows hold them"
+        )
     if trailing_cell:
         return (
             f"{n_columns} comma-separated columns: the header's {n_columns - 1} and the "
             "empty one the first rows end in"
         )
     return f"{n_columns} comma-separated columns, as in the header"
+
+
+def short_rows_note() -> str:
+    """What a reader says of a header that ends in a comma its data rows do not."""
+    return "the header ends in a comma its rows do not: its empty last cell not read"
 
 
 def trailing_cell_note() -> str:
@@ -1025,15 +1066,16 @@ def _read_numeric_slow(
     their cells a problem."""
     names = [f"c{i}" for i in range(n_columns)]
     bad_rows: list[int] = []  # data rows with the wrong column count, in file order
+    head = _head_or_plain(path)
     rows_tally = RowTally(
         file,
         None,
-        columns_expected(n_columns, _head_or_plain(path).trailing_cell),
+        columns_expected(n_columns, head.trailing_cell, head.short_rows),
         "give every row the header's columns (a cut-off last row, a stray comma, or a "
         "decimal comma?); delete or repair these rows",
     )
 
-    skipped = _head_or_plain(path).skipped
+    skipped = head.skipped
     again_set = set(again.tolist())
     skipped_again: list[int] = []
 

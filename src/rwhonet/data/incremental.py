@@ -62,7 +62,8 @@ class Layout:
 
     Attributes:
         n_columns: columns of the header (and the empty one every row ends in, where
-            ``trailing_cell``: csvio.HeadLines.trailing_cell).
+            ``trailing_cell``: csvio.HeadLines.trailing_cell; without the empty one the
+            header ends in, where ``short_rows``: csvio.HeadLines.short_rows).
         positions: canonical name -> 0-based column position.
         factors: canonical name -> factor from the file's unit to SI.
         names: canonical name -> the file's column name (for messages).
@@ -85,6 +86,7 @@ class Layout:
     factors: dict[str, float]
     names: dict[str, str]
     trailing_cell: bool = False  # the last column: the empty cell every row ends in
+    short_rows: bool = False  # the header's empty last cell, which its rows lack, not read
     time_unit: str | None = None
     time_setting: str = ""
     packed: dict[str, tuple[str, str]] = field(default_factory=dict)
@@ -256,10 +258,11 @@ def read_rows(
         comment_lines_note,
         delimiter_of,
         first_line_end,
+        header_cells,
         line_key,
-        parse_header,
         preamble_note,
         read_head,
+        short_rows_note,
         trailing_cell_note,
         units_row_note,
         with_units,
@@ -285,16 +288,21 @@ def read_rows(
     rest, line, second = more.rest, head.header, head.second
     whole = second.endswith((b"\n", b"\r"))  # a pipe's lone-CR file: one byte, no line
     units = head.units if whole else None
-    header = parse_header(line, file, head.comments) + [""] * head.trailing_cell
+    header = header_cells(head, file)
     if units is not None:
         header, after = with_units(header, units, file), after[1:]
-    lay = replace(layout(header, fmt, column_map, file, radius_m), trailing_cell=head.trailing_cell)
+    lay = replace(
+        layout(header, fmt, column_map, file, radius_m),
+        trailing_cell=head.trailing_cell,
+        short_rows=head.short_rows,
+    )
     if units is not None:
         lay.notes.append(units_row_note())
     said = (
         comment_lines_note(head.comments),
         preamble_note(head.preamble, head.preamble_first),
         trailing_cell_note() if head.trailing_cell else None,
+        short_rows_note() if head.short_rows else None,
     )
     lay.notes.extend(note for note in said if note is not None)
     # rest is None: lines end in LF (or CR LF); else the bytes read after a header that
@@ -881,7 +889,7 @@ def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: s
                     file,
                     row,
                     None,
-                    columns_expected(lay.n_columns, lay.trailing_cell),
+                    columns_expected(lay.n_columns, lay.trailing_cell, lay.short_rows),
                     f"{len(cells)} column(s): {','.join(cells)[:60]!r}",
                     "give every row the header's columns (a cut-off last row, a stray comma, or a "
                     "decimal comma?)",
