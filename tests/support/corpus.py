@@ -1136,6 +1136,44 @@ def _long_target() -> pd.DataFrame:
     return good_target(200.0)
 
 
+def faster(df: pd.DataFrame, hz: int, fix_hz: int | None = None) -> pd.DataFrame:
+    """A drive logged at ``hz`` rows a second: every channel linear between its 10 Hz
+    rows, the fix held from a ``fix_hz`` receiver (each fix until the next; None: a fix
+    in every row)."""
+    t = df[c.T_S].to_numpy()
+    fast = np.round(t[0] + np.arange(round((t[-1] - t[0]) * hz) + 1) / hz, 6)
+    out = pd.DataFrame({k: np.interp(fast, t, df[k].to_numpy()) for k in df.columns})
+    out[c.T_S] = fast
+    if fix_hz is not None:
+        epoch = np.floor((fast - t[0]) * fix_hz + 1e-9) / fix_hz + t[0]
+        for k in (c.LAT_DEG, c.LON_DEG):
+            out[k] = np.interp(epoch, t, df[k].to_numpy())
+    return out
+
+
+@case(
+    "logged_at_20_hz",
+    "the drive logged at 20 Hz (a VBOX set to 20 Hz): every channel, the fix too, in rows "
+    "every 0.05 s",
+    Repair("partial_second", 2),  # read as streams, resampled: the grid's first and last
+    # rows lack a whole window of samples, so the drive's first and last seconds are cut
+)
+def _(raw: Path) -> None:
+    write_target(raw, faster(_long_target(), 20))
+
+
+@case(
+    "can_table_at_50_hz_with_the_fix_held",
+    "a CAN logger's table at 50 Hz: the wheel speeds in every row, the fix of a 10 Hz "
+    "receiver held over five rows until the next",
+    # as logged_at_20_hz, the fixes taken where they change (the first one held from before
+    # the log began is no fix: its second is cut as start_fix)
+    Repair("partial_second", 1),
+)
+def _(raw: Path) -> None:
+    write_target(raw, faster(_long_target(), 50, fix_hz=10))
+
+
 @case(
     "gap_30s",
     "30 s of rows missing in the middle (a logger pause)",

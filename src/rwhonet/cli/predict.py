@@ -279,7 +279,13 @@ def run(
                 names, blocks = drive_blocks
             else:
                 lay, blocks = read_rows(
-                    source, name, fmt, column_map, period_s=period_s, radius_m=nominal
+                    source,
+                    name,
+                    fmt,
+                    column_map,
+                    period_s=period_s,
+                    radius_m=nominal,
+                    split_gap_s=vp.gnss.max_gap_s,
                 )
                 names, read_notes = lay.names, lay.notes
                 if packed is not None:

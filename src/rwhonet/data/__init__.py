@@ -6,8 +6,10 @@
   streamed numeric CSV reading.
 - :mod:`~rwhonet.data.drivefile`: one drive file: its reader, size limit, scenario
   sidecar (:mod:`~rwhonet.data.scenarios`) and canonical table.
-- :mod:`~rwhonet.data.compressed`: drive files kept compressed (gzip, bzip2, xz, zstd),
-  told by their bytes, and a drive's id without the compression's suffix.
+- :mod:`~rwhonet.data.compressed`: drive files kept compressed (gzip, bzip2, xz, zstd, a
+  ZIP archive of one), told by their bytes, and a drive's id without the suffix.
+- :mod:`~rwhonet.data.fastfile`: a 10 Hz layout logged faster (20-100 Hz), read as streams
+  and resampled onto the grid.
 - :mod:`~rwhonet.data.schema`: the pandera schema of a canonical drive.
 - :mod:`~rwhonet.data.quality`: the GNSS-quality policy and the valid segments.
 - :mod:`~rwhonet.data.fixes`: what counts as a GNSS fix (not (0, 0), enough satellites).

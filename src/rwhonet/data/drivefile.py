@@ -43,10 +43,12 @@ from rwhonet.data.compressed import (
 )
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import drop_rows
+from rwhonet.data.fastfile import as_streams, is_faster_than_grid
 from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
+from rwhonet.data.streams import DriveStreams
 from rwhonet.data.vbo import (
     file_is_vbo,
     plain_count_problems,
@@ -223,13 +225,18 @@ def read_any(
             if kind == IOVNBD:
                 raise InputError([vbo_needs_a_map(file, f.format)])
             raw = _read_vbo(f.path, data.column_maps[f.format], f.format, file, radius_m)
-            return place_held_fixes(drop_rows(raw, file), period_s), None
-        if kind == IOVNBD:
-            return place_held_fixes(drop_rows(read_iovnbd(f.path, file), file), period_s), None
-        if kind == COLUMN_MAP:
+        elif kind == IOVNBD:
+            raw = read_iovnbd(f.path, file)
+        elif kind == COLUMN_MAP:
             raw = read_columnmap(f.path, data.column_maps[f.format], f.format, file, radius_m)
-            return place_held_fixes(drop_rows(raw, file), period_s), None
-        return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
+        else:
+            return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
+        raw = drop_rows(raw, file)
+        if is_faster_than_grid(raw.columns[c.T_S], period_s):  # a 20-100 Hz table
+            return _resampled(
+                as_streams(raw, file), data, radius_m, period_s, split_gap_s, require_fix
+            )
+        return place_held_fixes(raw, period_s), None
     except MemoryError:
         raise out_of_memory(f, rel) from None
 
@@ -319,8 +326,6 @@ def _read_streams(
     require_fix: bool = True,
 ) -> tuple[RawDrive, StreamFacts]:
     """Read a stream drive with its reader and resample it onto the grid."""
-    from rwhonet.data.streams import resample
-
     file = rel(f.path)
     if kind == COMMA2K19:
         from rwhonet.data.comma2k19 import read_comma2k19
@@ -338,6 +343,21 @@ def _read_streams(
         signals = data.signal_maps[f.format].signals
         shown = {p: rel(p) for p in files}
         streams = read_stream_csvs(files, signals, radius_m, _map_name(f), shown)
+    return _resampled(streams, data, radius_m, period_s, split_gap_s, require_fix)
+
+
+def _resampled(
+    streams: DriveStreams,
+    data: DataParams,
+    radius_m: float | None,
+    period_s: float,
+    split_gap_s: float,
+    require_fix: bool,
+) -> tuple[RawDrive, StreamFacts]:
+    """A drive's streams on the grid (:func:`rwhonet.data.streams.resample`), and what the
+    resampler found."""
+    from rwhonet.data.streams import resample
+
     res = resample(
         streams,
         period_s=period_s,

@@ -225,6 +225,7 @@ def read_rows(
     block_bytes: int = BLOCK_BYTES,
     period_s: float = 0.1,
     radius_m: float | None = None,
+    split_gap_s: float = 0.5,
 ) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """Read the header now; return the layout and the drive's row blocks as they arrive.
 
@@ -240,6 +241,9 @@ def read_rows(
         period_s: the nominal sample period (``validate.sample_period_s``), for the clock.
         radius_m: the car's nominal tyre radius (a column map's wheel speeds in ``km/h``,
             ``m/s``, ``mph``).
+        split_gap_s: a table logged faster than the grid is resampled (read whole first:
+            :func:`_placed_or_resampled`), its holes in the grid made longer than this
+            (``validate.gnss.max_gap_s``).
 
     Returns:
         ``(layout, blocks)``: ``blocks`` yields ``(first_row, columns)``, the 1-based data
@@ -278,7 +282,15 @@ def read_rows(
     if is_vbo(line):  # a Racelogic VBOX file, from a file or a pipe
         head = line + (rest or b"")
         return _vbo_rows(
-            head, pipe or stream, file, fmt, column_map, block_bytes, period_s, radius_m
+            head,
+            pipe or stream,
+            file,
+            fmt,
+            column_map,
+            block_bytes,
+            period_s,
+            radius_m,
+            split_gap_s,
         )
     # comment lines and a tool's preamble before the header, a row of units under it
     # (csvio.read_head), read as ingest reads them; the lines read after the header to find
@@ -315,7 +327,80 @@ def read_rows(
         for x in (line, second if units is not None else None)
     )
     blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, b"".join(after), keys)
-    return lay, placed(blocks, StreamClock(period_s))
+    return lay, _placed_or_resampled(blocks, lay, file, period_s, radius_m, split_gap_s)
+
+
+def _placed_or_resampled(
+    blocks: Iterator[tuple[int, dict[str, np.ndarray]]],
+    lay: Layout,
+    file: str,
+    period_s: float,
+    radius_m: float | None,
+    split_gap_s: float,
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """The row blocks placed on the drive's clock (:func:`placed`), or, where the first
+    ``STREAM_PHASE_ROWS`` rows come faster than the grid (a 20-100 Hz table:
+    :func:`rwhonet.data.fastfile.is_faster_than_grid`), the whole drive read, resampled
+    onto the grid as ingest resamples it, and its grid rows handed on."""
+    from rwhonet.data.fastfile import is_faster_than_grid
+
+    head: list[tuple[int, dict[str, np.ndarray]]] = []
+    n = 0
+    for block in blocks:
+        head.append(block)
+        n += len(block[1][c.T_S])
+        if n >= STREAM_PHASE_ROWS:
+            break
+    rows = itertools.chain(head, blocks)
+    t = np.concatenate([cols[c.T_S] for _, cols in head]) if head else np.zeros(0)
+    if not is_faster_than_grid(t, period_s):
+        yield from placed(rows, StreamClock(period_s))
+        return
+    yield from placed(
+        _resampled(list(rows), lay, file, period_s, radius_m, split_gap_s), StreamClock(period_s)
+    )
+
+
+def _resampled(
+    blocks: list[tuple[int, dict[str, np.ndarray]]],
+    lay: Layout,
+    file: str,
+    period_s: float,
+    radius_m: float | None,
+    split_gap_s: float,
+    rows_per_block: int = 600,
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """A faster table's rows (the whole drive) on the grid, in blocks of grid rows: its
+    copies and rows without a wheel speed dropped, then read as streams and resampled
+    (:func:`rwhonet.data.fastfile.as_streams`, :func:`rwhonet.data.streams.resample`,
+    grid rows without a fix kept with NaN positions), as ingest reads it; the notes say so."""
+    from rwhonet.data.csvio import RawDrive
+    from rwhonet.data.droprows import drop_rows
+    from rwhonet.data.fastfile import as_streams
+    from rwhonet.data.streams import resample
+
+    file_rows = np.concatenate([f + np.arange(len(cols[c.T_S])) for f, cols in blocks])
+    names = list(blocks[0][1])
+    raw = RawDrive(
+        {k: np.concatenate([cols[k] for _, cols in blocks]) for k in names},
+        dict(lay.names),
+        "name",
+        # rows the reader did not hand on (the header's line again) keep the file's numbers
+        header_rows=np.setdiff1d(np.arange(1, int(file_rows[-1]) + 1), file_rows),
+    )
+    blocks.clear()
+    res = resample(
+        as_streams(drop_rows(raw, file), file),
+        period_s=period_s,
+        split_gap_s=split_gap_s,
+        nominal_radius_m=radius_m,
+        require_fix=False,
+    )
+    lay.notes.extend(res.drive.notes)
+    grid = res.drive.columns
+    carried = [k for k in names if k in grid]
+    for a in range(0, grid[c.T_S].size, rows_per_block):
+        yield a + 1, {k: grid[k][a : a + rows_per_block] for k in carried}
 
 
 class _Replay(io.RawIOBase):
@@ -347,6 +432,7 @@ def _vbo_rows(
     block_bytes: int,
     period_s: float,
     radius_m: float | None,
+    split_gap_s: float = 0.5,
 ) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """:func:`read_rows` of a VBOX file (``head``: its first line, read already) through its
     column map, as the CSV it stands for (:class:`rwhonet.data.vbo.VboAsCsv`); a satellite
@@ -361,7 +447,9 @@ def _vbo_rows(
         raise InputError([vbo_needs_a_map(file, fmt)])
     raw = io.BufferedReader(_Replay(head, source), 1 << 16)
     csv_rows = io.BufferedReader(VboAsCsv(raw, file), 1 << 16)  # type: ignore[arg-type]
-    lay, blocks = read_rows(csv_rows, file, fmt, column_map, block_bytes, period_s, radius_m)
+    lay, blocks = read_rows(
+        csv_rows, file, fmt, column_map, block_bytes, period_s, radius_m, split_gap_s
+    )
     lay.notes.insert(0, vbo_note())
     sats = (column_map or {}).get("n_sats")
     if sats is not None and sats.unit == "count" and c.N_SATS in lay.names:

@@ -1,0 +1,108 @@
+"""A 10 Hz file's layout logged faster (a VBOX at 20 Hz, a CAN logger's export at 50 or
+100 Hz): its rows read as streams and resampled onto the grid.
+
+The 10 Hz readers (IO-VNBD, column maps, VBOX files) take one row per sample of the grid
+(``validate.sample_period_s``, 0.1 s). Many loggers write the same columns faster: a
+Racelogic VBOX logs at 20 Hz as readily as at 10 Hz, and a CAN logger's export of one
+table samples every signal at the fastest message's rate. Before, validate refused such
+a drive ("the drive is sampled at 20 Hz, not 10 Hz") and the user resampled it by hand.
+Now a file whose rows come at least :data:`FAST_FACTOR` times as often as the grid's
+(median step) is read as the streams it stands for (:func:`as_streams`) and put on the
+grid by the stream resampler (:func:`rwhonet.data.streams.resample`): the wheel speeds
+and the gyro as rates (the mean of each row's window), the fixes placed along the path.
+Fixes a slower receiver held over several rows (a 10 Hz receiver in a 50 Hz table) are
+its fixes where they changed (:func:`rwhonet.data.heldfixes.held_fixes`), as for a 10 Hz
+file. The drive is then a drive on the grid (``header_match="streams"``, its rows the
+grid's, not the file's), and its notes say so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive
+from rwhonet.data.heldfixes import GNSS_CHANNELS, held_fixes
+from rwhonet.data.streams import RATE_CHANNELS, DriveStreams, Stream
+
+# Rows this many times as frequent as the grid's or more (median step at most the grid's
+# period over it): a faster table, resampled. A 10 Hz file's jittered or dropped rows keep
+# its median step near the period; 15 Hz is the slowest rate taken as faster.
+FAST_FACTOR = 1.5
+
+
+def median_step(t_s: np.ndarray) -> float:
+    """The median step between a drive's finite times that move forward (NaN: none)."""
+    t = t_s[np.isfinite(t_s)]
+    steps = np.diff(t)
+    steps = steps[steps > 0]
+    return float(np.median(steps)) if steps.size else float("nan")
+
+
+def is_faster_than_grid(t_s: np.ndarray, period_s: float) -> bool:
+    """Whether a 10 Hz layout's rows come :data:`FAST_FACTOR` times as often as the grid's
+    or more (its median step)."""
+    step = median_step(t_s)
+    return bool(np.isfinite(step) and step * FAST_FACTOR <= period_s)
+
+
+def as_streams(raw: RawDrive, file: str) -> DriveStreams:
+    """A faster table's rows as the streams it stands for: the four wheel speeds in one
+    (the rows with all four), the fixes in another (each row's, or a slower receiver's
+    where the table held them), the other rates (the gyro, ...) each in its own.
+
+    Args:
+        raw: the drive as its 10 Hz reader read it (copies and rows without a wheel speed
+            dropped).
+        file: the file as the user knows it, for messages.
+    """
+    cols = raw.columns
+    t = cols[c.T_S]
+    source = raw.source_columns
+
+    def stream(name: str, rows: np.ndarray, names: tuple[str, ...]) -> Stream:
+        return Stream(
+            name,
+            file,
+            t[rows],
+            {k: cols[k][rows] for k in names},
+            {k: source.get(k, k) for k in (c.T_S, *names)},
+        )
+
+    finite_t = np.isfinite(t)
+    wheels = finite_t & np.all([np.isfinite(cols[w]) for w in c.WHEELS], axis=0)
+    held = held_fixes(cols)
+    has_fix = finite_t & np.isfinite(cols[c.LAT_DEG]) & np.isfinite(cols[c.LON_DEG])
+    fixes = has_fix if held is None else np.isin(np.arange(t.size), held.fresh) & has_fix
+    gnss = tuple(k for k in GNSS_CHANNELS if k in cols)
+    extra = []
+    for name in RATE_CHANNELS:
+        if name in c.WHEELS or name not in cols:
+            continue
+        rows = finite_t & np.isfinite(cols[name])
+        if rows.sum() >= 2:
+            extra.append(
+                stream(f"rows with {source.get(name, name)}", np.flatnonzero(rows), (name,))
+            )
+    note = fast_note(median_step(t), held.period_rows if held is not None else 0)
+    return DriveStreams(
+        wheels=(stream("rows with the wheel speeds", np.flatnonzero(wheels), c.WHEELS),),
+        gnss=stream("rows with a fix", np.flatnonzero(fixes), gnss),
+        extra=tuple(extra),
+        clock="the file's time column",
+        notes=(*raw.notes, note),
+    )
+
+
+def fast_note(step_s: float, held_rows: int) -> str:
+    """What a reader says of a table logged faster than the grid, resampled."""
+    held = (
+        f"; the fixes held over {held_rows} rows (a slower receiver) taken where they change"
+        if held_rows
+        else ""
+    )
+    return (
+        f"rows every {step_s:.3g} s ({1.0 / step_s:.3g} Hz), faster than the grid: read as "
+        "streams and resampled onto it (the wheel speeds and the gyro as each row's window "
+        f"mean, the fixes along the path){held}; rows named in messages are the grid's"
+    )

@@ -1,0 +1,103 @@
+"""A 10 Hz layout logged faster (20, 50 Hz; the fix held from a slower receiver or in every
+row): read as streams and resampled onto the grid, by ingest and by predict alike, giving
+the drive the 10 Hz file gives."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.drivefile import DriveFile, read_any
+from rwhonet.data.fastfile import FAST_FACTOR, is_faster_than_grid
+from rwhonet.data.incremental import read_rows
+from support.corpus import faster, good_target
+from support.drives import make_params, write_iovnbd
+from support.pipes import piped
+
+NOTE = "faster than the grid: read as streams and resampled onto it"
+
+
+def _read(path, root):
+    data = make_params(root).data
+    f = DriveFile(path.stem, "target_test", "target", "iovnbd", path)
+    return read_any(f, data, lambda p: p.name, None, 0.1, 0.5)
+
+
+@pytest.mark.parametrize(
+    ("step", "fast"),
+    [
+        (0.1, False),
+        (0.05, True),
+        (0.02, True),
+        (0.01, True),
+        (0.1 / FAST_FACTOR, True),
+        (0.2, False),
+    ],
+)
+def test_a_table_is_faster_than_the_grid_by_its_median_step(step, fast):
+    rng = np.random.default_rng(0)
+    t = 100.0 + step * np.arange(600) + rng.uniform(-0.2, 0.2, 600) * step
+    assert is_faster_than_grid(t, 0.1) is fast
+
+
+def test_a_10_hz_file_with_dropped_rows_is_not_faster():
+    t = 0.1 * np.delete(np.arange(1000), np.arange(0, 1000, 7))
+    assert not is_faster_than_grid(t, 0.1)
+
+
+@pytest.mark.parametrize(("hz", "fix_hz"), [(20, None), (50, 10), (100, 10), (50, None)])
+def test_a_faster_table_gives_the_10_hz_files_drive(tmp_path, hz, fix_hz):
+    df = good_target(200.0)
+    ten, _ = _read(write_iovnbd(df, tmp_path / "V-A.csv"), tmp_path)
+    path = write_iovnbd(faster(df, hz, fix_hz), tmp_path / "V-F.csv")
+    got, facts = _read(path, tmp_path)
+    assert got.header_match == "streams" and facts is not None
+    assert any(NOTE in note for note in got.notes)
+    t = got.columns[c.T_S]
+    # every grid row but the edges, on the 10 Hz file's times
+    assert (
+        t.size >= ten.n_rows - 2 * 10
+        and np.isin(np.round(t, 6), np.round(ten.columns[c.T_S], 6)).all()
+    )
+    at = np.searchsorted(np.round(ten.columns[c.T_S], 6), np.round(t, 6))
+    # a window's mean of a signal linear between the 10 Hz rows is the row's value but for
+    # its curvature over 0.1 s (the wheel speeds swing 2 m/s over 40 s)
+    for w in c.WHEELS:
+        np.testing.assert_allclose(got.columns[w], ten.columns[w][at], rtol=2e-4)
+    # the fixes where the 10 Hz file has them: each second's position within a millimetre
+    whole = np.isclose(t % 1.0, 0.0, atol=1e-6) | np.isclose(t % 1.0, 1.0, atol=1e-6)
+    for k in (c.LAT_DEG, c.LON_DEG):
+        np.testing.assert_allclose(got.columns[k][whole], ten.columns[k][at][whole], atol=1e-8)
+    # predict, from the file or a pipe, hands on the same grid rows
+    for source in (lambda: io.BytesIO(path.read_bytes()), lambda: piped(path.read_bytes())):
+        with source() as stream:
+            lay, blocks = read_rows(stream, path.name, block_bytes=1 << 14)
+            blocks = list(blocks)
+        streamed = {k: np.concatenate([b[k] for _, b in blocks]) for k in (c.T_S, c.OMEGA_RL)}
+        np.testing.assert_allclose(streamed[c.T_S], t)
+        np.testing.assert_array_equal(streamed[c.OMEGA_RL], got.columns[c.OMEGA_RL])
+        assert any(NOTE in note for note in lay.notes)
+
+
+def test_a_row_written_twice_in_a_faster_table_is_dropped_first(tmp_path):
+    df = faster(good_target(200.0), 20)
+    path = write_iovnbd(df, tmp_path / "V-F.csv")
+    want, _ = _read(path, tmp_path)
+    lines = path.read_text().splitlines()
+    lines.insert(500, lines[499])
+    path.write_text("\n".join(lines) + "\n")
+    got, _ = _read(path, tmp_path)
+    assert any("(row(s) 500)" in note and "repeat" in note for note in got.notes)
+    np.testing.assert_array_equal(got.columns[c.OMEGA_RL], want.columns[c.OMEGA_RL])
+    with io.BytesIO(path.read_bytes()) as stream:
+        lay, blocks = read_rows(stream, path.name)
+        streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
+    np.testing.assert_array_equal(streamed, want.columns[c.OMEGA_RL])
+
+
+def test_a_10_hz_file_is_read_row_for_row(tmp_path):
+    raw, facts = _read(write_iovnbd(good_target(), tmp_path / "V-A.csv"), tmp_path)
+    assert facts is None and raw.header_match == "name"
