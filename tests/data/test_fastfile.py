@@ -14,7 +14,7 @@ from rwhonet.data.drivefile import DriveFile, read_any
 from rwhonet.data.fastfile import FAST_FACTOR, is_faster_than_grid
 from rwhonet.data.incremental import read_rows
 from support.corpus import faster, good_target
-from support.drives import make_params, write_iovnbd
+from support.drives import TARGET_RADIUS_M, make_params, write_iovnbd
 from support.pipes import piped
 
 NOTE = "faster than the grid: read as streams and resampled onto it"
@@ -101,3 +101,21 @@ def test_a_row_written_twice_in_a_faster_table_is_dropped_first(tmp_path):
 def test_a_10_hz_file_is_read_row_for_row(tmp_path):
     raw, facts = _read(write_iovnbd(good_target(), tmp_path / "V-A.csv"), tmp_path)
     assert facts is None and raw.header_match == "name"
+
+
+def test_a_glitched_sample_flags_the_same_grid_rows_for_ingest_and_predict(tmp_path):
+    from rwhonet.data.canonical import GLITCH_FLAG
+
+    df = faster(good_target(200.0), 50)
+    df.loc[3001, c.OMEGA_RL] *= 4.0  # one 50 Hz sample of one wheel at 4x its speed
+    path = write_iovnbd(df, tmp_path / "V-F.csv")
+    data = make_params(tmp_path).data
+    f = DriveFile(path.stem, "target_test", "target", "iovnbd", path)
+    raw, facts = read_any(f, data, lambda p: p.name, TARGET_RADIUS_M, 0.1, 0.5)
+    assert facts is not None and facts.glitch_rows.size >= 1
+    with io.BytesIO(path.read_bytes()) as stream:
+        lay, blocks = read_rows(stream, path.name, radius_m=TARGET_RADIUS_M)
+        blocks = list(blocks)
+    flagged = np.concatenate([b[GLITCH_FLAG + c.OMEGA_RL] for _, b in blocks])
+    np.testing.assert_array_equal(flagged, facts.glitch_wheels[c.OMEGA_RL])
+    assert flagged.sum() == 1

@@ -416,7 +416,7 @@ def test_rows_the_resampler_flagged_are_repaired_though_the_10_hz_screen_passes_
     # A stream drive's grid row whose mean used a glitched sample can rise too little for
     # the 10 Hz screen (one 100 Hz sample of ten); the resampler's flag alone repairs it.
     from rwhonet.data import canonical as c
-    from rwhonet.serve.stream import GLITCH_FLAG
+    from rwhonet.data.canonical import GLITCH_FLAG
 
     model = load_served(bundle["model_onnx"])
     clean = wavy_drive(120)

@@ -436,7 +436,7 @@ def canonical_blocks(
     without a fix kept, their position NaN, as a 10 Hz file's empty fix cells), with the
     time placed as ``predict`` places a CSV's (:class:`rwhonet.data.timebase.StreamClock`),
     and for a resampled drive the resampler's glitch flags: per wheel, the grid rows whose
-    mean used a glitched sample (:data:`rwhonet.serve.stream.GLITCH_FLAG` + the wheel's
+    mean used a glitched sample (:data:`rwhonet.data.canonical.GLITCH_FLAG` + the wheel's
     canonical name, booleans), for ``predict`` to repair as it repairs a 10 Hz glitch.
 
     Returns:
@@ -444,9 +444,9 @@ def canonical_blocks(
         resampler left out (:class:`DriveBlocks`).
     """
     from rwhonet.data import canonical as c
+    from rwhonet.data.canonical import GLITCH_FLAG
     from rwhonet.data.incremental import carried_channels, placed
     from rwhonet.data.timebase import StreamClock
-    from rwhonet.serve.stream import GLITCH_FLAG
 
     drive = read_drive_file(path, params, vehicle, fmt, require_fix=False)
     raw, facts = drive.raw, drive.streams

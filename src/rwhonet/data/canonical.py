@@ -80,3 +80,8 @@ LON_UNITS = {
     DDMM: math.nan,
     DDMM_W: math.nan,
 }
+
+# A row block's column GLITCH_FLAG + wheel (booleans, optional): grid rows the stream
+# resampler flagged, whose mean of that wheel used a glitched sample, which ``rwhonet
+# predict`` repairs (rwhonet.cli.drive.canonical_blocks, rwhonet.data.incremental).
+GLITCH_FLAG = "glitch:"

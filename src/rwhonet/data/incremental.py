@@ -397,8 +397,10 @@ def _resampled(
         require_fix=False,
     )
     lay.notes.extend(res.drive.notes)
-    grid = res.drive.columns
-    carried = [k for k in names if k in grid]
+    # the rows whose mean of a wheel used a glitched sample, for predict to repair, as a
+    # stream drive's (rwhonet.cli.drive.canonical_blocks)
+    grid = res.drive.columns | {c.GLITCH_FLAG + w: rows for w, rows in res.glitch_wheels.items()}
+    carried = [k for k in names if k in grid] + [k for k in grid if k.startswith(c.GLITCH_FLAG)]
     for a in range(0, grid[c.T_S].size, rows_per_block):
         yield a + 1, {k: grid[k][a : a + rows_per_block] for k in carried}
 

@@ -106,9 +106,6 @@ COLUMNS = (
     "r95_m",
     "pos_err_m",
 )
-# A block's column GLITCH_FLAG + wheel (booleans, optional): rows the resampler flagged,
-# whose mean of that wheel used a glitched sample (rwhonet.cli.drive.canonical_blocks).
-GLITCH_FLAG = "glitch:"
 OUTAGE_COLUMNS = COLUMNS[7:]
 CUMULATIVE_COLUMNS = OUTAGE_COLUMNS[:7]  # the running sums over an outage's seconds
 POSITION_COLUMNS = COLUMNS[COLUMNS.index("east_m") :]
@@ -405,7 +402,7 @@ class SecondStream:
         interpolated in time across it, so a one-row CAN glitch moves neither the WPM nor
         the prediction of its second (validate cuts such a second; a stream cannot leave
         it out without breaking the run), and the command says which rows it repaired.
-        A stream drive's rows come with the resampler's flags too (``GLITCH_FLAG`` +
+        A stream drive's rows come with the resampler's flags too (``canonical.GLITCH_FLAG`` +
         wheel: the rows whose mean of that wheel used a glitched sample, which validate
         cuts): those are repaired the same way, whether or not the 10 Hz screen sees them.
         """
@@ -420,7 +417,7 @@ class SecondStream:
             both[c.T_S], [both[w] for w in c.WHEELS], self.nav.wheels.radius_m, WHEEL_GLITCH_G
         )
         for k, w in enumerate(c.WHEELS):
-            flagged = columns.get(GLITCH_FLAG + w)
+            flagged = columns.get(c.GLITCH_FLAG + w)
             if flagged is not None:
                 mask[k, held:] |= np.asarray(flagged, dtype=bool)
         if not mask[:, held:].any():
