@@ -185,3 +185,30 @@ def test_a_cut_off_zip_archive_is_refused(tmp_path):
     with pytest.raises(InputError) as err:
         _read(packed, tmp_path)
     assert "whole zip-compressed data" in err.value.problems[0].expected
+
+
+def test_stream_csvs_kept_compressed_read_as_the_folder_of_their_text(tmp_path):
+    from rwhonet.data.drivefile import read_canonical
+    from support.stream_fleet import role_drive, stream_params, tables_from_drive, write_drive
+
+    tables = tables_from_drive(role_drive("target_test", 60.0))
+    plain = write_drive("stream_csv", tables, tmp_path / "plain", "C-B1", 0.3)
+    packed = write_drive("stream_csv", tables, tmp_path / "packed", "C-B1", 0.3)
+    kinds = iter(COMPRESS)
+    for path in sorted(packed.glob("*.csv")):
+        kind = next(kinds)
+        path.with_name(path.name + SUFFIX[kind]).write_bytes(COMPRESS[kind](path.read_bytes()))
+        path.unlink()
+    params = stream_params(tmp_path, "stream_csv")
+    vp = params.validate
+
+    def read(folder: Path):
+        f = DriveFile("C-B1", "target_test", "target", "logger_csv", folder)
+        return read_canonical(f, params.data, str, 0.3, vp.sample_period_s, vp.gnss.max_gap_s)
+
+    want, got = read(plain), read(packed)
+    for name in want.raw.columns:
+        np.testing.assert_array_equal(got.raw.columns[name], want.raw.columns[name])
+    assert any("compressed" in note for note in got.raw.notes)
+    # each stream named by the file the user has, not by its scratch copy
+    assert {s["file"] for s in got.streams.streams} <= {str(p) for p in packed.iterdir()}

@@ -562,3 +562,19 @@ def test_a_version_registered_with_a_model_pt_is_refused_not_unpickled(
     csv = tmp_path / "p.csv"
     argv = ["--model", "models:/whonet-G/2", "--drive", str(drive), "--output", str(csv)]
     assert main(["predict", *argv, "--quiet"]) == 0 and csv.is_file()
+
+
+def test_predict_opens_a_registered_model_and_leaves_no_copy_behind(
+    store, pipeline_outputs, tmp_path, monkeypatch
+):
+    import tempfile
+
+    from rwhonet.cli.predict import open_model
+
+    register(store, pipeline_outputs, "e1")
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    served = open_model("models:/whonet-G/1", store)
+    assert served.meta.seq_len > 0
+    assert list(scratch.iterdir()) == []  # before: a model copy in the temp folder per run

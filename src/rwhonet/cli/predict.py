@@ -169,10 +169,16 @@ def model_path(spec: str, tracking_uri: str | None, dest: Path | None = None) ->
 
 
 def open_model(spec: str, tracking_uri: str | None) -> Any:
-    """A served model from a path (``.onnx``, bundle or MLflow model folder) or a registry URI."""
+    """A served model from a path (``.onnx``, bundle or MLflow model folder) or a registry URI
+    (fetched into a scratch folder, removed once the model is loaded: a session holds it)."""
+    import tempfile
+
     from rwhonet.serve.model import load_served
 
-    return load_served(model_path(spec, tracking_uri))
+    if not spec.startswith(("models:/", "runs:/")):
+        return load_served(model_path(spec, tracking_uri))
+    with tempfile.TemporaryDirectory(prefix="rwhonet-model-") as scratch:
+        return load_served(model_path(spec, tracking_uri, Path(scratch) / "model"))
 
 
 def run(
@@ -254,11 +260,8 @@ def run(
             # a Racelogic VBOX file (here or on stdin): read_rows reads it as the CSV it
             # stands for; a compressed file as the text it holds, decompressed as it is read
             packed = compression_of(path)
-            if packed is None:
-                source, name = stack.enter_context(open(path, "rb")), drive
-            else:
-                source = stack.enter_context(open_decompressed(path, packed, drive))
-                name = drive
+            opened = open(path, "rb") if packed is None else open_decompressed(path, packed, drive)
+            source, name = stack.enter_context(opened), drive
         final = None if output == STDIO else output_file(output, "a CSV or .parquet file")
         partial = None if final is None else final.with_name(f".{final.name}.partial")
         if final is None:

@@ -175,6 +175,13 @@ def compressed_note(kind: str) -> str:
     return f"a {kind}-compressed file, read as the text it holds"
 
 
+def is_csv_name(name: str) -> bool:
+    """Whether a file's name is a CSV's, kept compressed or not (``wheels.csv``,
+    ``wheels.csv.gz``): a stream CSV of a folder drive."""
+    lower = name.lower()
+    return name.endswith(".csv") or any(lower.endswith(".csv" + s) for s in SUFFIXES)
+
+
 def drive_stem(path: Path) -> str:
     """A drive file's id: its name without a compression's suffix and then its own
     (``V-S1.csv.gz`` -> ``V-S1``; ``V-S1.csv`` -> ``V-S1``)."""

@@ -40,6 +40,7 @@ from rwhonet.data.compressed import (
     compression_of,
     decompressed_copy,
     drive_stem,
+    is_csv_name,
 )
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import drop_rows
@@ -339,10 +340,23 @@ def _read_streams(
     else:
         from rwhonet.data.streamcsv import read_stream_csvs
 
-        files = sorted(p for p in f.path.glob("*.csv") if p.is_file())
+        files = sorted(p for p in f.path.glob("*") if p.is_file() and is_csv_name(p.name))
         signals = data.signal_maps[f.format].signals
-        shown = {p: rel(p) for p in files}
-        streams = read_stream_csvs(files, signals, radius_m, _map_name(f), shown)
+        with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
+            plain, shown, packed = [], {}, []
+            for i, p in enumerate(files):  # a file kept compressed: read as its text
+                kind = compression_of(p)
+                if kind is not None:
+                    q = Path(scratch) / str(i) / p.name[: p.name.lower().rindex(".csv") + 4]
+                    q.parent.mkdir()
+                    decompressed_copy(p, kind, q, data.max_file_mb, rel(p))
+                    packed.append(f"{p.name} ({kind})")
+                shown[q if kind is not None else p] = rel(p)
+                plain.append(q if kind is not None else p)
+            streams = read_stream_csvs(plain, signals, radius_m, _map_name(f), shown)
+        if packed:
+            said = f"stream files kept compressed, read as the text they hold: {', '.join(packed)}"
+            streams = dataclasses.replace(streams, notes=(*streams.notes, said))
     return _resampled(streams, data, radius_m, period_s, split_gap_s, require_fix)
 
 

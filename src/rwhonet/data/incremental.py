@@ -850,6 +850,8 @@ class _HeaderAgain:
     def parts(self, lines: bytes, row: int) -> list[tuple[int, bytes]]:
         """``lines`` (from data row ``row`` on) as ``(first_row, lines)`` parts without the
         header's lines again; :attr:`next_row` is the row after them."""
+        from rwhonet.data.csvio import line_key
+
         if not self._header or (self._header not in lines and not self._after):
             self.next_row = None  # the rows parse_lines reads from them: the caller counts
             return [(row, lines)]
@@ -860,7 +862,7 @@ class _HeaderAgain:
             if not line.strip():
                 part.append(line)
                 continue
-            key = line.strip().removeprefix(b"\xef\xbb\xbf").strip()
+            key = line_key(line)
             if key == self._header or (self._after and key == self._units):
                 if part:
                     parts.append((start, b"".join(part)))
