@@ -212,3 +212,19 @@ def test_stream_csvs_kept_compressed_read_as_the_folder_of_their_text(tmp_path):
     assert any("compressed" in note for note in got.raw.notes)
     # each stream named by the file the user has, not by its scratch copy
     assert {s["file"] for s in got.streams.streams} <= {str(p) for p in packed.iterdir()}
+
+
+@pytest.mark.parametrize("kind", ["gzip", "bzip2", "xz", "zip"])
+def test_corrupted_compressed_data_is_refused_not_a_traceback(tmp_path, kind):
+    text = write_iovnbd(wavy_drive(30.0), tmp_path / "V-A.csv").read_bytes()
+    if kind == "zip":
+        packed = _zipped(tmp_path / "V-T.zip", {"V-T.csv": text})
+    else:
+        packed = _packed(tmp_path, kind, text)
+    data = bytearray(packed.read_bytes())
+    for i in range(len(data) // 3, len(data) // 3 + 40):  # a disk or transfer error
+        data[i] ^= 0x5A
+    packed.write_bytes(bytes(data))
+    with pytest.raises(InputError) as err:
+        _read(packed, tmp_path)
+    assert f"whole {kind}-compressed data" in err.value.problems[0].expected

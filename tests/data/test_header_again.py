@@ -40,6 +40,18 @@ def _joined(path, at: list[int], units: str | None = None) -> list[str]:
     return out
 
 
+def _read_as(path, ref, header_rows: list[int]) -> None:
+    """Ingest's reader and predict's read ``path`` as the drive ``ref``, the rows
+    ``header_rows`` (the header's line again) dropped."""
+    got = read_iovnbd(path)
+    assert got.header_rows.tolist() == header_rows
+    np.testing.assert_array_equal(got.columns[c.T_S], ref.columns[c.T_S])
+    with io.BytesIO(path.read_bytes()) as f:
+        _, blocks = read_rows(f, path.name, block_bytes=2048)
+        streamed = np.concatenate([b[c.T_S] for _, b in blocks])
+    np.testing.assert_allclose(streamed, ref.columns[c.T_S])
+
+
 @pytest.mark.parametrize(
     ("text", "rows"),
     [
@@ -122,13 +134,7 @@ def test_the_units_row_under_the_header_again_is_dropped_with_it(tmp_path):
     path = write_iovnbd(df, tmp_path / "V-T.csv")
     units = ",".join(["count", "s", "deg", "deg"] + [""] * 25)
     _joined(path, [101], units)
-    got = read_iovnbd(path)
-    assert got.header_rows.tolist() == [101, 102]
-    np.testing.assert_array_equal(got.columns[c.T_S], ref.columns[c.T_S])
-    with io.BytesIO(path.read_bytes()) as f:
-        lay, blocks = read_rows(f, path.name, block_bytes=2048)
-        streamed = np.concatenate([b[c.T_S] for _, b in blocks])
-    np.testing.assert_allclose(streamed, ref.columns[c.T_S])
+    _read_as(path, ref, [101, 102])
 
 
 def test_text_times_and_a_column_map_read_past_the_header_again(tmp_path):
@@ -165,13 +171,7 @@ def test_rows_that_end_in_a_comma_and_the_header_again_without_one(tmp_path):
     lines[1:] = [line + "," for line in lines[1:]]
     lines.insert(60, lines[0])  # the header, as the logger writes it: no comma at its end
     path.write_text("\n".join(lines) + "\n")
-    got = read_iovnbd(path)
-    assert got.header_rows.tolist() == [60]
-    np.testing.assert_array_equal(got.columns[c.T_S], ref.columns[c.T_S])
-    with io.BytesIO(path.read_bytes()) as f:
-        lay, blocks = read_rows(f, path.name, block_bytes=2048)
-        streamed = np.concatenate([b[c.T_S] for _, b in blocks])
-    np.testing.assert_allclose(streamed, ref.columns[c.T_S])
+    _read_as(path, ref, [60])
 
 
 def test_text_times_in_rows_that_end_in_a_comma_past_the_header_again(tmp_path):

@@ -30,40 +30,57 @@ def _commas(path, rows=slice(1, None)) -> list[str]:
 
 
 @pytest.mark.parametrize(
-    ("text", "trailing"),
+    ("text", "trailing", "short"),
     [
-        (b"t,a,b\n0,1,2,\n", True),
-        (b"t,a,b\ns,m,m\n\n0,1,2,\n", True),  # under a units row and a blank line
-        (b"t,a,b\n0,1,2\n", False),
-        (b"t,a,b,\n0,1,2,\n", False),  # the header ends in one too: as wide
-        (b"t,a,b\n0,1,2,3\n", False),  # a fourth value: not an empty cell
-        (b"t,a,b\nx,y,z,\n", False),  # not a row of data
+        (b"t,a,b\n0,1,2,\n", True, False),
+        (b"t,a,b\ns,m,m\n\n0,1,2,\n", True, False),  # under a units row and a blank line
+        (b"t,a,b\n0,1,2\n", False, False),
+        (b"t,a,b,\n0,1,2,\n", False, False),  # the header ends in one too: as wide
+        (b"t,a,b\n0,1,2,3\n", False, False),  # a fourth value: not an empty cell
+        (b"t,a,b\nx,y,z,\n", False, False),  # not a row of data
+        (b"t,a,b,\n0,1,2\n", False, True),  # the header ends in one its rows lack
+        (b"t,a,b,\ns,m,m\n\n0,1,2\n", False, True),  # under a units row and a blank line
+        (b"t,a,b,\ns,m,m,\n0,1,2\n", False, True),  # the units row ends in one too
+        (b"t,a,,\n0,1,2\n", False, False),  # two empty names: not one comma too many
+        (b"t,a,b,\nx,y,z\n", False, False),  # not a row of data
     ],
 )
-def test_a_trailing_comma_is_told_from_the_first_row_of_data(tmp_path, text, trailing):
+def test_a_comma_at_the_end_of_the_rows_or_the_header_is_told(tmp_path, text, trailing, short):
     path = tmp_path / "f.csv"
     path.write_bytes(text)
-    assert head_lines(path).trailing_cell is trailing
+    head = head_lines(path)
+    assert (head.trailing_cell, head.short_rows) == (trailing, short)
 
 
-def test_rows_ending_in_a_comma_read_as_the_drive_by_every_reader(tmp_path):
+def _header_comma(path) -> list[str]:
+    lines = path.read_text().splitlines()
+    lines[0] += ","
+    path.write_text("\n".join(lines) + "\n")
+    return lines
+
+
+HEADER_NOTE = "the header ends in a comma its rows do not: its empty last cell not read"
+
+
+@pytest.mark.parametrize(("edit", "note"), [(_commas, NOTE), (_header_comma, HEADER_NOTE)])
+def test_a_comma_at_the_end_of_the_rows_or_the_header_is_read_by_every_reader(tmp_path, edit, note):
     df = wavy_drive(20.0)
     ref = read_iovnbd(write_iovnbd(df, tmp_path / "V-A.csv"))
     path = write_iovnbd(df, tmp_path / "V-T.csv")
-    _commas(path)
+    edit(path)
     got = read_iovnbd(path)
     for name in c.REQUIRED:
         np.testing.assert_array_equal(got.columns[name], ref.columns[name])
-    assert NOTE in got.notes
+    assert note in got.notes
     for source in (lambda: io.BytesIO(path.read_bytes()), lambda: piped(path.read_bytes())):
         with source() as f:
             lay, blocks = read_rows(f, "<stdin>", block_bytes=4096)
             streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
         np.testing.assert_array_equal(streamed, ref.columns[c.OMEGA_RL])
-        assert NOTE in lay.notes
+        assert note in lay.notes
     mapped = write_columnmap(df, tmp_path / "C-T.csv")
     want = read_columnmap_(write_columnmap(df, tmp_path / "C-A.csv"))
-    _commas(mapped)
+    edit(mapped)
     np.testing.assert_array_equal(read_columnmap_(mapped).columns[c.T_S], want.columns[c.T_S])
 
 
@@ -83,56 +100,9 @@ def test_a_row_without_the_comma_is_named_with_what_the_rows_hold(tmp_path):
         assert "30 comma-separated columns: the header's 29 and the empty one" in first.expected
 
 
-HEADER_NOTE = "the header ends in a comma its rows do not: its empty last cell not read"
-
-
-@pytest.mark.parametrize(
-    ("text", "short"),
-    [
-        (b"t,a,b,\n0,1,2\n", True),
-        (b"t,a,b,\ns,m,m\n\n0,1,2\n", True),  # under a units row and a blank line
-        (b"t,a,b,\ns,m,m,\n0,1,2\n", True),  # the units row ends in one too
-        (b"t,a,b,\n0,1,2,\n", False),  # its rows end in one too: as wide
-        (b"t,a,b\n0,1,2\n", False),
-        (b"t,a,,\n0,1,2\n", False),  # two empty names: not one comma too many
-        (b"t,a,b,\nx,y,z\n", False),  # not a row of data
-    ],
-)
-def test_a_header_ending_in_a_comma_its_rows_lack_is_told(tmp_path, text, short):
-    path = tmp_path / "f.csv"
-    path.write_bytes(text)
-    assert head_lines(path).short_rows is short
-
-
-def test_a_header_ending_in_a_comma_its_rows_lack_is_read_by_every_reader(tmp_path):
-    df = wavy_drive(20.0)
-    ref = read_iovnbd(write_iovnbd(df, tmp_path / "V-A.csv"))
-    path = write_iovnbd(df, tmp_path / "V-T.csv")
-    lines = path.read_text().splitlines()
-    lines[0] += ","
-    path.write_text("\n".join(lines) + "\n")
-    got = read_iovnbd(path)
-    for name in c.REQUIRED:
-        np.testing.assert_array_equal(got.columns[name], ref.columns[name])
-    assert HEADER_NOTE in got.notes
-    for source in (lambda: io.BytesIO(path.read_bytes()), lambda: piped(path.read_bytes())):
-        with source() as f:
-            lay, blocks = read_rows(f, "<stdin>", block_bytes=4096)
-            streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
-        np.testing.assert_array_equal(streamed, ref.columns[c.OMEGA_RL])
-        assert HEADER_NOTE in lay.notes
-    mapped = write_columnmap(df, tmp_path / "C-T.csv")
-    want = read_columnmap_(write_columnmap(df, tmp_path / "C-A.csv"))
-    lines = mapped.read_text().splitlines()
-    lines[0] += ","
-    mapped.write_text("\n".join(lines) + "\n")
-    np.testing.assert_array_equal(read_columnmap_(mapped).columns[c.T_S], want.columns[c.T_S])
-
-
 def test_a_row_with_the_headers_comma_is_named_with_what_the_rows_hold(tmp_path):
     path = write_iovnbd(wavy_drive(20.0), tmp_path / "V-T.csv")
-    lines = path.read_text().splitlines()
-    lines[0] += ","
+    lines = _header_comma(path)
     lines[7] += ","  # data row 7 ends in the comma the other rows lack
     path.write_text("\n".join(lines) + "\n")
     for err in refusals(path):

@@ -21,6 +21,7 @@ import gzip
 import io
 import lzma
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -112,7 +113,14 @@ class _Checked(io.RawIOBase):
     def readinto(self, buffer: Any) -> int:
         try:
             data = self._stream.read(len(buffer))
-        except (OSError, EOFError, lzma.LZMAError, ValueError, zipfile.BadZipFile) as err:
+        except (
+            OSError,
+            EOFError,
+            ValueError,
+            lzma.LZMAError,
+            zlib.error,
+            zipfile.BadZipFile,
+        ) as err:
             raise InputError([broken(self._file, self._kind, err)]) from None
         except Exception as err:  # pyarrow's own errors for a broken zstd frame
             if type(err).__module__.startswith("pyarrow"):
