@@ -7,7 +7,8 @@ so all of them refuse and convert a drive alike. Formats (``data.roles.<role>.fo
 - ``iovnbd`` and a column map's name (``data.column_maps``): one 10 Hz CSV file per
   drive, rows kept exactly as in the file, in order (row ``i`` is data row ``i + 1``
   of the source file), so ``validate`` can point at the file's rows; the file may be
-  compressed (gzip, bzip2, xz, zstd: :mod:`rwhonet.data.compressed`);
+  compressed (gzip, bzip2, xz, zstd, or zipped alone: :mod:`rwhonet.data.compressed`), and
+  a table logged faster than the grid is resampled onto it (:mod:`rwhonet.data.fastfile`);
 - ``comma2k19``: one folder per drive (a comma2k19 / openpilot segment);
 - a signal map's name (``data.signal_maps``): one MDF4 file per drive (reader
   ``mdf4``) or one folder of stream CSVs per drive (reader ``stream_csv``).
@@ -216,9 +217,11 @@ def read_any(
                 )
             ]
         )
-    if kind in (IOVNBD, COLUMN_MAP) and (packed := compression_of(f.path)) is not None:
-        return _read_decompressed(f, packed, data, rel, radius_m, period_s, split_gap_s)
     try:
+        if kind in (IOVNBD, COLUMN_MAP) and (packed := compression_of(f.path)) is not None:
+            return _read_decompressed(
+                f, packed, data, rel, radius_m, period_s, split_gap_s, require_fix
+            )
         # a row written twice or without a wheel speed is dropped (rwhonet.data.droprows),
         # fixes held from a slower receiver are placed along the path (.heldfixes); the
         # drive says which
@@ -250,6 +253,7 @@ def _read_decompressed(
     radius_m: float | None,
     period_s: float,
     split_gap_s: float,
+    require_fix: bool,
 ) -> tuple[RawDrive, StreamFacts | None]:
     """A compressed 10 Hz drive file (:mod:`rwhonet.data.compressed`): its text written to
     a scratch file (at most ``data.max_file_mb``) and read as the file, messages naming it."""
@@ -262,7 +266,13 @@ def _read_decompressed(
             return file if path == plain else rel(path)
 
         raw, facts = read_any(
-            dataclasses.replace(f, path=plain), data, shown, radius_m, period_s, split_gap_s
+            dataclasses.replace(f, path=plain),
+            data,
+            shown,
+            radius_m,
+            period_s,
+            split_gap_s,
+            require_fix,
         )
     return dataclasses.replace(raw, notes=(compressed_note(packed), *raw.notes)), facts
 
@@ -345,14 +355,14 @@ def _read_streams(
         with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
             plain, shown, packed = [], {}, []
             for i, p in enumerate(files):  # a file kept compressed: read as its text
-                kind = compression_of(p)
-                if kind is not None:
+                q, packing = p, compression_of(p)
+                if packing is not None:
                     q = Path(scratch) / str(i) / p.name[: p.name.lower().rindex(".csv") + 4]
                     q.parent.mkdir()
-                    decompressed_copy(p, kind, q, data.max_file_mb, rel(p))
-                    packed.append(f"{p.name} ({kind})")
-                shown[q if kind is not None else p] = rel(p)
-                plain.append(q if kind is not None else p)
+                    decompressed_copy(p, packing, q, data.max_file_mb, rel(p))
+                    packed.append(f"{p.name} ({packing})")
+                shown[q] = rel(p)
+                plain.append(q)
             streams = read_stream_csvs(plain, signals, radius_m, _map_name(f), shown)
         if packed:
             said = f"stream files kept compressed, read as the text they hold: {', '.join(packed)}"
