@@ -332,18 +332,9 @@ def columnmap_positions(
     Raises:
         InputError: a mapped column is missing from the header.
     """
-    found = {key: find_column(header, spec.column) for key, spec in column_map.items()}
+    found = {key: find_column(header, spec.column, spec.unit) for key, spec in column_map.items()}
     problems = [
-        Problem(
-            file,
-            None,
-            spec.column,
-            f"a column named {spec.column!r} (data.column_maps.{name}.{key})",
-            f"no such name in the header {[h.strip() for h in header]}",
-            f"name the file's column in data.column_maps.{name}.{key}.column (matched "
-            "without regard to case, spaces, punctuation and a unit suffix), or give the file "
-            "that column",
-        )
+        column_not_found(header, spec.column, f"data.column_maps.{name}.{key}", file)
         for key, spec in column_map.items()
         if found[key] is None
     ]
@@ -373,23 +364,63 @@ def columnmap_positions(
     return {key: pos for key, pos in found.items() if pos is not None}
 
 
-def find_column(header: list[str], column: str) -> int | None:
+def column_not_found(header: list[str], column: str, setting: str, file: str) -> Problem:
+    """The problem of a map's column the header has not, or has more than once."""
+    matches = column_matches(header, column)
+    if len(matches) > 1:
+        return Problem(
+            file,
+            None,
+            column,
+            f"one column named {column!r} ({setting})",
+            f"{len(matches)}: {[header[i].strip() for i in matches]}, the unit {setting}.unit "
+            "declares named by none or by several of them",
+            f"set {setting}.unit to the unit of the one meant (as its header or row of units "
+            "names it), or rename the others in the file",
+        )
+    return Problem(
+        file,
+        None,
+        column,
+        f"a column named {column!r} ({setting})",
+        f"no such name in the header {[h.strip() for h in header]}",
+        f"name the file's column in {setting}.column (matched without regard to case, "
+        "spaces, punctuation and a unit suffix), or give the file that column",
+    )
+
+
+def find_column(header: list[str], column: str, unit: str | None = None) -> int | None:
     """Position of a named column: its stripped, case-insensitive name, else its header key.
 
     The header key (:func:`rwhonet.data.headers.header_key`) leaves case, spaces,
     punctuation and a unit suffix aside: ``"WheelSpeedRL"`` finds ``"Wheel Speed RL (rpm)"``.
-    A key that several columns share matches none of them (ambiguous).
+    A name that several columns share (:func:`column_matches`: a tool's export with a
+    ``Time`` in s and a lap ``Time`` in min) is the one whose header, or row of units,
+    names ``unit`` (the map's); else it matches none of them (ambiguous).
 
     Args:
-        header: the file's header cells.
+        header: the file's header cells (a units row's units in them: ``Time (s)``).
         column: the name to find.
+        unit: the unit a map declares for it (None: not told apart by unit).
 
     Returns:
         The 0-based position, or None.
     """
+    matches = column_matches(header, column)
+    if len(matches) == 1:
+        return matches[0]
+    if unit is not None and len(matches) > 1:
+        named = [i for i in matches if unit_name(header_key(header[i])[1]) == map_unit_name(unit)]
+        if len(named) == 1:
+            return named[0]
+    return None
+
+
+def column_matches(header: list[str], column: str) -> list[int]:
+    """The columns a name finds: those of its stripped, case-insensitive name, else those
+    of its header key (:func:`find_column`)."""
     exact = [i for i, h in enumerate(header) if h.strip().lower() == column.strip().lower()]
-    if len(exact) == 1:
-        return exact[0]
+    if exact:
+        return exact
     key = header_key(column)[0]
-    loose = [i for i, h in enumerate(header) if header_key(h)[0] == key]
-    return loose[0] if len(loose) == 1 and key else None
+    return [i for i, h in enumerate(header) if header_key(h)[0] == key] if key else []

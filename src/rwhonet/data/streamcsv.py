@@ -29,7 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.columnmap import AUX_KEYS, DATE, HEMISPHERES, find_column
+from rwhonet.data.columnmap import (
+    AUX_KEYS,
+    DATE,
+    HEMISPHERES,
+    column_matches,
+    column_not_found,
+    find_column,
+)
 from rwhonet.data.csvio import first_cell, read_header, read_numeric, read_text_column
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.packed import signed_coordinates
@@ -105,10 +112,13 @@ def read_stream_csvs(
     found: dict[str, list[tuple[str, int]]] = {}
     time_at: dict[str, int] = {}
     for file, header in headers.items():
-        pos = find_column(header, time_spec.column)
+        pos = find_column(header, time_spec.column, time_spec.unit)
         if pos is None:
+            several = len(column_matches(header, time_spec.column)) > 1
             problems.append(
-                Problem(
+                column_not_found(header, time_spec.column, f"{name}.t", file)
+                if several
+                else Problem(
                     file,
                     None,
                     time_spec.column,
@@ -123,7 +133,7 @@ def read_stream_csvs(
         for key, spec in signal_map.items():
             if key == "t":
                 continue
-            at = find_column(header, spec.column)
+            at = find_column(header, spec.column, spec.unit)
             if at is not None:
                 found.setdefault(key, []).append((file, at))
                 problems += _unit_problems(file, header[at], key, spec, name)
