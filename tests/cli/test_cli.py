@@ -771,6 +771,36 @@ def test_predict_repairs_and_reports_a_glitched_sample_of_a_100_hz_wheel_stream(
         np.testing.assert_allclose(fixed[q], clean[q], atol=0.01)
 
 
+def test_predict_reads_a_stream_written_twice_and_out_of_order_as_the_clean_one(
+    bundle, tmp_path, capsys
+):
+    """The good stream drive's wheel samples 500-519 written after 520-529 and 880-899
+    written again: predict's seconds are the clean drive's, and stderr says what was
+    dropped and put in order (--quiet too), naming the file's rows."""
+    from rwhonet.sim.streams import StreamTables
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    good = good_tables()
+    order = [*range(500), *range(520, 530), *range(500, 520), *range(530, len(good.wheels))]
+    order[900:900] = range(880, 900)
+    frames = {}
+    for name, tables in (
+        ("clean", good),
+        ("messy", StreamTables(good.wheels.iloc[order], good.gnss)),
+    ):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, tables)
+        out = tmp_path / f"{name}.csv"
+        fmt += ["--nominal-radius", str(RADIUS_M), "--quiet"]
+        assert main(predict_args(bundle, drive, out, *fmt)) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (clean, said_clean), (messy, said) = frames["clean"], frames["messy"]
+    assert "order" not in said_clean and "repeat" not in said_clean
+    assert "20 sample(s) repeat an earlier sample" in said and "row(s) 901, 902" in said
+    assert "20 sample(s) written after a later one" in said and "row(s) 511, 512" in said
+    pd.testing.assert_frame_equal(messy, clean)
+
+
 def test_predict_says_it_placed_fixes_stamped_on_arrival_at_the_receiver_s_epochs(
     bundle, tmp_path, capsys
 ):

@@ -450,3 +450,14 @@ def test_holes_widen_as_a_maximum_filter_over_them_would(keep, split_gap_s):
         hole = maximum_filter1d((~k).astype(np.uint8), size=2 * d + 1, mode="constant")
         expected = ~hole.astype(bool)
     np.testing.assert_array_equal(_widen_holes(k, split_gap_s, 0.1), expected)
+
+
+def test_a_glitched_sample_is_named_by_its_row_after_samples_without_a_value():
+    """Samples without a value are left out before the glitch screen; the glitched sample
+    is still named by its own row (it was named by its place among the samples left)."""
+    t_w = np.arange(0.0, 40.0, 0.01)
+    streams = _moving(t_w, np.arange(0.0, 40.0, 0.1))
+    streams.wheels[0].channels[c.OMEGA_FL][[500, 900]] = np.nan  # two CAN frames missed
+    streams.wheels[0].channels[c.OMEGA_RR][2000] *= 10.0
+    res = resample(streams, nominal_radius_m=R)
+    assert res.glitch_samples == [("wheels.csv [wheels]", 2001, 20.0, c.OMEGA_RR)]

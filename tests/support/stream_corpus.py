@@ -334,6 +334,19 @@ def _(root: Path) -> None:
 
 
 @case(
+    "csv_clock_set_back",
+    "csv",
+    "wheels.csv's clock set back 0.4567 s from data row 1501 on (the two stretches overlap)",
+    Refuse("wheels.csv", 1501, "Time", "strictly increasing", "step -"),
+)
+def _(root: Path) -> None:
+    t = good_tables()
+    wheels = t.wheels.copy()
+    wheels.loc[1500:, c.T_S] -= 0.4567
+    write_good("csv", root, StreamTables(wheels, t.gnss))
+
+
+@case(
     "csv_other_clock",
     "csv",
     "gnss.csv stamped in UNIX time, wheels.csv in seconds from the start",

@@ -45,4 +45,6 @@
   (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf) or
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
   (:mod:`~rwhonet.data.signalmap`).
+- :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those
+  written out of time order put in order where that is all that is wrong.
 """

@@ -47,7 +47,8 @@ from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues
 from rwhonet.data.packed import HHMMSS, VBOX_SATS, is_packed, unpack_or_refuse
-from rwhonet.data.streams import DriveStreams, Stream
+from rwhonet.data.sampleorder import time_order
+from rwhonet.data.streams import DriveStreams, Stream, stream_problems
 from rwhonet.data.texttime import CLOCK, ISO8601, is_pattern, pattern_problem
 from rwhonet.data.wheelunits import WHEEL_UNITS, wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
@@ -180,6 +181,7 @@ class Group:
         t_s: sample times, s.
         channels: signal-map key -> values in SI units.
         sources: signal-map key -> the logger's channel name (``t``: the time's).
+        rows: each sample's row in the file, 1-based (None: sample ``i`` is row ``i + 1``).
     """
 
     name: str
@@ -187,6 +189,26 @@ class Group:
     t_s: np.ndarray
     channels: dict[str, np.ndarray]
     sources: dict[str, str]
+    rows: np.ndarray | None = None
+
+    @property
+    def where(self) -> str:
+        """The group as messages name it (as :meth:`Stream.where` does)."""
+        return f"{self.file} [{self.name}]" if self.name and self.name != self.file else self.file
+
+
+def in_time_order(g: Group) -> tuple[Group, tuple[str, ...]]:
+    """A group with its samples written twice dropped and those written out of time order
+    put in order, where safe (:func:`rwhonet.data.sampleorder.time_order`), and what the
+    reader says of it."""
+    order = time_order(g.t_s, g.channels, g.rows, g.where)
+    if order.index is None:
+        return g, order.notes
+    i = order.index
+    rows = i + 1 if g.rows is None else np.asarray(g.rows)[i]
+    channels = {k: np.ascontiguousarray(np.asarray(v)[i]) for k, v in g.channels.items()}
+    t = np.ascontiguousarray(np.asarray(g.t_s)[i])
+    return Group(g.name, g.file, t, channels, g.sources, rows), order.notes
 
 
 def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
@@ -216,8 +238,16 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
             g.t_s,
             {KEYS[k][0]: g.channels[k] for k in keys},
             {KEYS[k][0]: g.sources[k] for k in (*keys, "t") if k in g.sources},
+            g.rows,
         )
 
+    notes: list[str] = []
+    ordered = []
+    for g in groups:
+        g, said = in_time_order(g)
+        ordered.append(g)
+        notes += said
+    groups = ordered
     wheels, extra = [], []
     fix_group = None
     for g in groups:
@@ -238,6 +268,10 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
     for g in groups:
         if g is fix_group:
             continue
+        if any(k in g.channels for k in FIX_KEYS):  # taken at the fixes' times: in order
+            problems = stream_problems(stream(g, [k for k in g.channels if k in FIX_KEYS]))
+            if problems:
+                raise InputError(problems, summary=f"{len(problems)} problem(s) in {g.where}")
         for k in FIX_KEYS:
             if k in g.channels:
                 fixes[k] = _at_times(k, g.t_s, g.channels[k], fix_group.t_s)
@@ -248,8 +282,9 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
         fix_group.t_s,
         {KEYS[k][0]: v for k, v in fixes.items()},
         {KEYS[k][0]: s for k, s in sources.items()},
+        fix_group.rows,
     )
-    return DriveStreams(tuple(wheels), gnss, tuple(extra), clock)
+    return DriveStreams(tuple(wheels), gnss, tuple(extra), clock, changed=tuple(notes))
 
 
 def _at_times(key: str, t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:

@@ -293,6 +293,7 @@ def _per_message(g: Group, notes: list[str]) -> list[Group]:
                 np.ascontiguousarray(g.t_s[rows]),
                 {k: np.ascontiguousarray(g.channels[k][rows]) for k in keys},
                 {"t": g.sources["t"]} | {k: g.sources[k] for k in keys},
+                np.flatnonzero(rows) + 1 if g.rows is None else np.asarray(g.rows)[rows],
             )
         )
     shown = "; ".join(f"[{o.name.split(': ', 1)[1]}] {o.t_s.size} rows" for o in out)

@@ -100,6 +100,7 @@ from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, running_max
 from rwhonet.data.problems import row_problems
 from rwhonet.data.robust import cumulative_trapezoid
+from rwhonet.data.sampleorder import MAX_LATE_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo.geodesic import wgs84
 
@@ -134,6 +135,9 @@ class Stream:
         t_s: sample times, s, on the drive's clock.
         channels: canonical name -> values in SI units (one per sample).
         sources: canonical name -> the source's own channel name (``t_s``: the time's).
+        rows: each sample's row in its source, 1-based, for messages (None: sample ``i``
+            is row ``i + 1``; a reader that dropped or reordered samples, or split a file
+            of several messages, gives them).
     """
 
     name: str
@@ -141,6 +145,12 @@ class Stream:
     t_s: np.ndarray
     channels: dict[str, np.ndarray]
     sources: dict[str, str] = field(default_factory=dict)
+    rows: np.ndarray | None = None
+
+    def file_rows(self, index: np.ndarray) -> np.ndarray:
+        """The source's 1-based rows of samples ``index`` (0-based positions)."""
+        index = np.asarray(index, dtype=np.int64)
+        return index + 1 if self.rows is None else np.asarray(self.rows)[index]
 
     @property
     def n_rows(self) -> int:
@@ -170,6 +180,9 @@ class DriveStreams:
         clock: what the time stamps are (for the notes: "boot clock of the device", ...).
         notes: what the reader did that the user should hear about (how the fixes were
             timed, ...); :func:`resample` passes them on in the drive's notes.
+        changed: what the reader changed of the samples (copies dropped, samples put in
+            time order: :mod:`rwhonet.data.sampleorder`); in the drive's notes too, and
+            among those ``rwhonet predict`` says (:attr:`Resampled.lost`).
     """
 
     wheels: tuple[Stream, ...]
@@ -177,6 +190,7 @@ class DriveStreams:
     extra: tuple[Stream, ...] = ()
     clock: str = "the streams' own clock"
     notes: tuple[str, ...] = ()
+    changed: tuple[str, ...] = ()
 
     @property
     def streams(self) -> tuple[Stream, ...]:
@@ -258,12 +272,12 @@ def check_streams(streams: DriveStreams) -> None:
                 )
             )
     for s in streams.streams:
-        problems += _stream_problems(s)
+        problems += stream_problems(s)
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the drive's streams")
 
 
-def _stream_problems(s: Stream) -> list[Problem]:
+def stream_problems(s: Stream) -> list[Problem]:
     t = np.asarray(s.t_s, dtype=np.float64)
     file = s.where()
     time = s.sources.get(c.T_S, "time")
@@ -297,7 +311,7 @@ def _stream_problems(s: Stream) -> list[Problem]:
     out += row_problems(
         file,
         time,
-        bad + 1,
+        s.file_rows(bad),
         [repr(float(t[i])) for i in bad[:5]],
         "a finite time in seconds",
         fix="give every sample its time, or delete the sample",
@@ -309,14 +323,17 @@ def _stream_problems(s: Stream) -> list[Problem]:
     out += row_problems(
         file,
         time,
-        back + 1,
+        s.file_rows(back),
         [
             f"t = {float(t[i])!r} s after t = {float(t[i - 1])!r} s (step {t[i] - t[i - 1]:+.6g} s)"
             for i in back[:5]
         ],
         "a time after the previous sample's (strictly increasing)",
-        fix="sort the samples by time and delete repeated ones; a stream whose clock "
-        "restarts is two recordings: split it",
+        fix="a clock that went back (a restart, a clock set back) makes two recordings: "
+        "split the stream there; a stream's files joined out of order: join them in time "
+        "order; a sample at another's time with other values is no copy (delete the wrong "
+        f"one); samples written twice, or up to {MAX_LATE_S:g} s out of order, the reader "
+        "puts right",
     )
     for name, limit in ((c.LAT_DEG, 90.0), (c.LON_DEG, 180.0)):
         if name not in s.channels or np.shape(s.channels[name]) != t.shape:
@@ -326,7 +343,7 @@ def _stream_problems(s: Stream) -> list[Problem]:
         out += row_problems(
             file,
             s.sources.get(name, name),
-            off + 1,
+            s.file_rows(off),
             [f"{float(values[i])!r} at t = {float(t[i])!r} s" for i in off[:5]],
             f"a {'latitude' if name == c.LAT_DEG else 'longitude'} in [-{limit:g}, {limit:g}] deg",
             fix="map the latitude and longitude channels the right way round, in degrees",
@@ -663,9 +680,10 @@ def resample(
     half = 0.5 * period_s
     required = (*streams.wheels, streams.gnss)
     notes = list(streams.notes)
-    lost: list[str] = []  # the notes predict says too
+    lost: list[str] = list(streams.changed)  # the notes predict says too
     fix_gap = default_fix_gap_s(streams.gnss.t_s) if max_fix_gap_s is None else max_fix_gap_s
-    gnss_t, gnss = _real_fixes(streams.gnss, *_finite_rows(streams.gnss, notes, True), lost)
+    gnss_t, gnss, _ = _finite_rows(streams.gnss, notes, True)
+    gnss_t, gnss = _real_fixes(streams.gnss, gnss_t, gnss, lost)
     path = _travelled_path(streams, max_wheel_gap_s)
     raw_t, where = gnss_t, streams.gnss.where()
     timing = fix_times(raw_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], path.rolled, where)
@@ -740,7 +758,7 @@ def resample(
     n_wheel_streams = len(streams.wheels)
     slow: list[Problem] = []
     for i, s in enumerate((*streams.wheels, *streams.extra)):
-        t, chans = _finite_rows(s, notes, required=i < n_wheel_streams)
+        t, chans, kept = _finite_rows(s, notes, required=i < n_wheel_streams)
         if i < n_wheel_streams:
             slow += _slow_stream(s, t, max_wheel_gap_s, period_s)
         names = [n for n in RATE_CHANNELS if n in chans]
@@ -766,8 +784,8 @@ def resample(
                     if bad[k].any():
                         by_wheel[w] |= _rows_using(t, np.flatnonzero(bad[k]), grid, half)
                 glitch_samples += [
-                    (s.where(), int(i) + 1, float(t[i]), c.WHEELS[int(np.argmax(bad[:, i]))])
-                    for i in rows
+                    (s.where(), int(r), float(t[i]), c.WHEELS[int(np.argmax(bad[:, i]))])
+                    for i, r in zip(rows, s.file_rows(kept[rows]), strict=True)
                 ]
 
     if slow:
@@ -843,8 +861,9 @@ def _travelled_path(streams: DriveStreams, max_gap_s: float) -> TravelledPath:
 
 def _finite_rows(
     s: Stream, notes: list[str], required: bool = False
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """A stream's samples whose every channel has a value (a NaN fix is no fix).
+) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """A stream's samples whose every channel has a value (a NaN fix is no fix): their
+    times, values, and positions in the stream (0-based, for the source's rows).
 
     Raises:
         InputError: a ``required`` stream (wheel speeds, fixes) has fewer than two such samples.
@@ -852,10 +871,10 @@ def _finite_rows(
     t = np.asarray(s.t_s, dtype=np.float64)
     chans = {k: np.asarray(v, dtype=np.float64) for k, v in s.channels.items()}
     if not chans:
-        return t, chans
+        return t, chans, np.arange(t.size)
     ok = np.logical_and.reduce([np.isfinite(v) for v in chans.values()])
     if ok.all():
-        return t, chans
+        return t, chans, np.arange(t.size)
     if required and ok.sum() < 2:
         blank = {k: int((~np.isfinite(v)).sum()) for k, v in chans.items()}
         named = [s.sources.get(k, k) for k, n in blank.items() if n]
@@ -875,7 +894,7 @@ def _finite_rows(
             ]
         )
     notes.append(f"{s.where()}: {int((~ok).sum())} sample(s) without a value left out")
-    return t[ok], {k: v[ok] for k, v in chans.items()}
+    return t[ok], {k: v[ok] for k, v in chans.items()}, np.flatnonzero(ok)
 
 
 def _on_the_clock(

@@ -1,0 +1,126 @@
+"""A stream's samples written twice or out of time order, put right where that is safe.
+
+The 10 Hz readers drop a row written again (:mod:`rwhonet.data.droprows`); a stream
+(one CSV file per message, an MDF4 channel group: :mod:`rwhonet.data.signalmap`) was
+refused for it, and for samples written out of their time order, which loggers do too:
+a buffer flushed twice after a retry, a logger that merges its receive buffers (two
+FIFOs, two interfaces) in arrival order rather than by time stamp. Here, per stream:
+
+1. **Copies.** A sample equal to an earlier one in its time and every channel (NaN equal
+   to NaN) holds nothing new; it is dropped, as the 10 Hz readers drop a row written
+   again (:func:`rwhonet.data.droprows.repeated_rows`).
+2. **Out of order.** The samples left are put in time order where the order is all that
+   is wrong: sorted by time, no two samples may lie closer than 0.6 of the stream's
+   median step unless they already did so in the file. Samples merely written late fill the
+   slots the stream's rate left for them; a clock that went back (a restart, a clock
+   set back by NTP) makes two recordings overlap in time, and sorting would crowd them
+   into one at twice the rate; a sample stamped wrongly lands beside another's slot.
+   Either is left as written, and refused by the stream checks
+   (:func:`rwhonet.data.streams.check_streams`), naming the file's row.
+3. **A time twice with other values** (a clock that stuck) is no copy and has no order:
+   refused as before.
+
+Every message after it still names the source's row: the stream carries each sample's
+row (:attr:`rwhonet.data.streams.Stream.rows`). A stream already in order costs one
+comparison of its times.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from rwhonet.data.droprows import repeated_rows
+
+# Sorting may not bring two samples closer than this share of the stream's median step
+# unless the file already had them so close. A clock set back by anything but a whole
+# number of periods puts each sample of the overlap at most half a period from another's
+# (a whole number: at the same times, refused as a time twice); samples written late
+# fill their own slots, a period from the next (jitter of a few % aside).
+CROWDED_SHARE = 0.6
+# A sample written later than this after one stamped later than it is no buffering (a
+# logger's receive buffers hold milliseconds to a few hundred ms of messages).
+MAX_LATE_S = 1.0
+ROWS_NOTED = 5
+
+
+@dataclass(frozen=True)
+class Order:
+    """What :func:`time_order` did to a stream.
+
+    Attributes:
+        index: the samples kept, in time order (0-based positions in the stream as read);
+            None where the stream is left as it is.
+        notes: what the reader says (copies dropped, samples put in order).
+    """
+
+    index: np.ndarray | None
+    notes: tuple[str, ...] = ()
+
+
+def time_order(
+    t_s: np.ndarray,
+    channels: Mapping[str, np.ndarray],
+    rows: np.ndarray | None,
+    where: str,
+) -> Order:
+    """A stream's copies dropped and its samples put in time order, where safe.
+
+    Args:
+        t_s: the sample times as read.
+        channels: the values, one array per channel, one element per sample.
+        rows: each sample's row in its source, 1-based (None: sample ``i`` is row ``i + 1``).
+        where: the stream as messages name it.
+
+    Returns:
+        The order to take the samples in, or None where the stream stays as it is (in
+        order already; a time that is not finite or repeats with other values, or an
+        order sorting would crowd: the stream checks refuse those).
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.size < 2 or not np.isfinite(t).all():
+        return Order(None)
+    if (t[1:] > t[:-1]).all():
+        return Order(None)
+    row = np.arange(1, t.size + 1) if rows is None else np.asarray(rows)
+    copies = repeated_rows({"t_s": t, **channels})
+    keep = np.ones(t.size, dtype=bool)
+    keep[copies] = False
+    index = np.flatnonzero(keep)
+    notes = []
+    if copies.size:
+        notes.append(
+            f"{where}: {copies.size} sample(s) repeat an earlier sample in every channel, "
+            f"the time included ({_listed(row[copies])}): written again, dropped"
+        )
+    kept = t[index]
+    if (kept[1:] > kept[:-1]).all():
+        return Order(index, tuple(notes))
+    order = np.argsort(kept, kind="stable")
+    ordered = kept[order]
+    step = np.diff(ordered)
+    if not (step > 0).all():  # a time twice with other values: refused as it is
+        return Order(index if copies.size else None, tuple(notes))
+    before = np.maximum.accumulate(kept)
+    late = np.flatnonzero(np.r_[False, kept[1:] < before[:-1]])
+    by = float(np.max(before[late - 1] - kept[late]))
+    limit = CROWDED_SHARE * float(np.median(step))
+    as_written = np.diff(kept)
+    crowded = int((step < limit).sum()) > int(((as_written > 0) & (as_written < limit)).sum())
+    if crowded or by > MAX_LATE_S:
+        return Order(index if copies.size else None, tuple(notes))
+    notes.append(
+        f"{where}: {late.size} sample(s) written after a later one (up to {by:.3g} s "
+        f"late: {_listed(row[index[late]])}) put in time order (sorted, no "
+        "two samples lie closer than 0.6 of the stream's median step that the file did "
+        "not have so close: a reordering, not a clock gone back)"
+    )
+    return Order(index[order], tuple(notes))
+
+
+def _listed(rows: np.ndarray) -> str:
+    shown = ", ".join(str(int(r)) for r in rows[:ROWS_NOTED])
+    more = f" and {rows.size - ROWS_NOTED} more" if rows.size > ROWS_NOTED else ""
+    return f"row(s) {shown}{more}"

@@ -1,0 +1,186 @@
+"""A stream's samples written twice or out of time order (rwhonet.data.sampleorder)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rwhonet.data import canonical as c
+from rwhonet.data.sampleorder import MAX_LATE_S, time_order
+from rwhonet.data.streamcsv import read_stream_csvs
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+from rwhonet.sim.streams import StreamTables, signal_map
+from support.stream_corpus import RADIUS_M, good_tables, read_case, write_good
+
+PERIOD = 0.01  # a 100 Hz CAN message
+
+
+def _stream(n: int = 400, seed: int = 0) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    rng = np.random.default_rng(seed)
+    t = 1000.0 + PERIOD * np.arange(n) + rng.uniform(-3e-4, 3e-4, n)  # CAN stamps' jitter
+    return t, {"w": 30.0 + np.cumsum(rng.normal(0.0, 0.05, n))}
+
+
+def test_a_stream_in_order_is_left_as_it_is():
+    t, ch = _stream()
+    assert time_order(t, ch, None, "s").index is None
+
+
+def test_copies_are_dropped_naming_the_files_rows_nan_equal_to_nan():
+    t, ch = _stream(50)
+    ch["w"][10] = np.nan
+    take = [*range(20), 10, 11, 12, *range(20, 50), 49]  # rows 10-12 and the last again
+    rows = np.arange(1, 55) + 100  # the stream's samples are rows 101-154 of its file
+    order = time_order(t[take], {"w": ch["w"][take]}, rows, "f.csv")
+    np.testing.assert_array_equal(t[take][order.index], t)
+    assert order.notes == (
+        "f.csv: 4 sample(s) repeat an earlier sample in every channel, the time included "
+        "(row(s) 121, 122, 123, 154): written again, dropped",
+    )
+
+
+def test_samples_written_a_little_late_are_put_in_order():
+    t, ch = _stream()
+    take = list(range(t.size))
+    take[100], take[101] = 101, 100  # two swapped
+    take[300:305] = take[300:305][::-1]  # five reversed: a buffer read backwards
+    order = time_order(t[take], {"w": ch["w"][take]}, None, "f.csv")
+    np.testing.assert_array_equal(np.asarray(take)[order.index], np.arange(t.size))
+    assert "5 sample(s) written after a later one" in order.notes[0]
+    assert "row(s) 102, 302, 303, 304, 305" in order.notes[0]
+
+
+@pytest.mark.parametrize("back_periods", [0.37, 0.5, 0.505, 0.9, 3.3, 20.5, 99.6])
+def test_a_clock_set_back_is_not_put_in_order(back_periods):
+    t, ch = _stream()
+    t[200:] -= back_periods * PERIOD  # two recordings overlapping in time
+    assert time_order(t, ch, None, "f.csv").index is None
+
+
+def test_a_block_later_than_a_second_before_the_rows_above_is_not_put_in_order():
+    t, ch = _stream(400)
+    take = [*range(200, 400), *range(200)]  # joined out of order: 2 s blocks swapped
+    assert time_order(t[take], {"w": ch["w"][take]}, None, "f.csv").index is None
+    take = [*range(150), *range(200, 250), *range(150, 200), *range(250, 400)]  # 0.99 s late
+    order = time_order(t[take], {"w": ch["w"][take]}, None, "f.csv")
+    assert order.index is not None and "up to 0.99 s late" in order.notes[0]
+    assert MAX_LATE_S == 1.0
+
+
+def test_a_sample_stamped_wrongly_and_a_time_twice_are_not_put_in_order():
+    t, ch = _stream()
+    wrong = t.copy()
+    wrong[250] -= 0.4321  # lands beside another sample's slot
+    assert time_order(wrong, ch, None, "f.csv").index is None
+    twice = t.copy()
+    twice[250] = twice[248]  # a clock that stuck: the time again, other values
+    assert time_order(twice, ch, None, "f.csv").index is None
+    nan = t.copy()
+    nan[5], nan[7] = np.nan, t[3]
+    assert time_order(nan, ch, None, "f.csv").index is None  # the checks name the NaN
+
+
+def test_copies_are_dropped_where_the_rest_is_still_refused():
+    t, ch = _stream(50)
+    t[30] = t[28]  # a time twice with other values: refused
+    take = [*range(50), 10]
+    order = time_order(t[take], {"w": ch["w"][take]}, None, "f.csv")
+    np.testing.assert_array_equal(order.index, np.arange(50))
+    assert "(row(s) 51)" in order.notes[0] and len(order.notes) == 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), window=st.integers(2, 40), share=st.floats(0.0, 0.3))
+def test_any_local_shuffle_of_a_jittered_stream_is_undone(seed, window, share):
+    """Samples each written up to ``window`` places (at most 0.4 s) from their own,
+    some written twice: the stream as logged comes back, sample for sample."""
+    t, ch = _stream(400, seed % 1000)
+    rng = np.random.default_rng(seed)
+    key = np.arange(t.size) + rng.uniform(0, window, t.size)
+    take = np.argsort(key)
+    again = rng.random(t.size) < share / 10
+    take = np.concatenate([take, np.flatnonzero(again)])
+    order = time_order(t[take], {"w": ch["w"][take]}, None, "f.csv")
+    got = take if order.index is None else take[order.index]
+    np.testing.assert_array_equal(got, np.arange(t.size))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), back=st.floats(0.001, 0.999), at=st.integers(20, 380))
+def test_no_clock_set_back_by_under_a_second_is_sorted_into_the_stream(seed, back, at):
+    """The clock set back by any amount under a second but a whole number of periods
+    (within the stamps' jitter: that makes times twice): never put in order."""
+    t, ch = _stream(400, seed % 1000)
+    periods = back / PERIOD
+    if abs(periods - round(periods)) * PERIOD < 1e-3:
+        return
+    t[at:] -= back
+    assert time_order(t, ch, None, "f.csv").index is None
+
+
+# --------------------------------------------------------------------------- through the readers
+
+
+def _varied() -> StreamTables:
+    tables = good_tables()
+    w = tables.wheels.copy()
+    speed = 12.0 + 2.0 * np.sin(np.arange(len(w)) * 0.003)  # no two samples alike
+    for k, wheel in enumerate(c.WHEELS):
+        w[wheel] = speed / RADIUS_M * (1.0 + 1e-3 * k)
+    return StreamTables(w, tables.gnss)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "mdf4"])
+def test_streams_written_twice_and_out_of_order_read_as_the_drive_logged_in_order(tmp_path, fmt):
+    tables = _varied()
+    clean = read_case(fmt, write_good(fmt, tmp_path / "clean", tables).parents[0])
+    w, g = tables.wheels, tables.gnss
+    wheel_rows = [*range(500), *range(520, 530), *range(500, 520), *range(530, len(w))]
+    wheel_rows[900:900] = range(880, 900)  # a buffer written again
+    fix_rows = [*range(100), 101, 100, *range(102, len(g))]
+    messy = StreamTables(w.iloc[wheel_rows], g.iloc[fix_rows])
+    got = read_case(fmt, write_good(fmt, tmp_path / "messy", messy).parents[0])
+    for name, values in clean.drive.columns.items():
+        np.testing.assert_array_equal(got.drive.columns[name], values)
+    said = " ".join(got.drive.notes)
+    assert "20 sample(s) repeat an earlier sample" in said
+    assert "20 sample(s) written after a later one (up to 0.29 s late" in said
+    assert "1 sample(s) written after a later one" in said
+
+
+def test_a_clock_set_back_in_a_stream_csv_is_refused_naming_the_files_row(tmp_path):
+    tables = _varied()
+    w = tables.wheels.copy()
+    w.loc[1500:, c.T_S] -= 0.4567
+    root = tmp_path / "d"
+    write_good("csv", root, StreamTables(w, tables.gnss))
+    with pytest.raises(InputError) as err:
+        read_case("csv", root)
+    (p,) = err.value.problems
+    assert (p.file, p.row, p.column) == ("wheels.csv", 1501, "Time")
+    assert "a clock that went back" in p.fix
+
+
+def test_a_wide_files_messages_name_the_files_rows(tmp_path):
+    """A file of two messages (the wheels at 100 Hz, a yaw rate at 50 Hz in rows of its
+    own): a problem in the second names the file's row, not the message's sample."""
+    folder = tmp_path / "streams"
+    write_good("csv", tmp_path)
+    wheels = pd.read_csv(folder / "wheels.csv")
+    yaw = pd.DataFrame({"Time": wheels["Time"].iloc[::2] + 0.005})
+    yaw["YawRate"] = 1e-4 * np.arange(len(yaw))
+    wide = pd.concat([wheels, yaw]).sort_values("Time", kind="stable").reset_index(drop=True)
+    yaw_rows = np.flatnonzero(wide["YawRate"].notna())
+    at = int(yaw_rows[100])
+    wide.loc[at, "Time"] = wide.loc[yaw_rows[99], "Time"]  # the yaw's 100th time twice
+    wide.to_csv(folder / "wheels.csv", index=False)
+    files = sorted(folder.glob("*.csv"))
+    streams = read_stream_csvs(files, signal_map(gyro=True), RADIUS_M)
+    with pytest.raises(InputError) as err:
+        resample(streams, nominal_radius_m=RADIUS_M)
+    rows = {p.row for p in err.value.problems if "YawRate" in p.file}
+    assert rows == {at + 1}
