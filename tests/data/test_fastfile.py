@@ -119,3 +119,25 @@ def test_a_glitched_sample_flags_the_same_grid_rows_for_ingest_and_predict(tmp_p
     flagged = np.concatenate([b[GLITCH_FLAG + c.OMEGA_RL] for _, b in blocks])
     np.testing.assert_array_equal(flagged, facts.glitch_wheels[c.OMEGA_RL])
     assert flagged.sum() == 1
+
+
+@pytest.mark.parametrize("lag", [0.2, "auto"])
+def test_predict_moves_a_faster_tables_fixes_by_the_projects_lag_as_ingest(tmp_path, lag):
+    """A project that sets data.gnss_lag (a number, or auto): predict's reader moves a
+    20 Hz table's fixes as ingest's does; before, it took the default ("report") and its
+    positions were the stamps' where ingest's were moved."""
+    path = write_iovnbd(faster(good_target(200.0), 20), tmp_path / "V-F.csv")
+    data = make_params(tmp_path, **{"data.gnss_lag": lag}).data
+    f = DriveFile(path.stem, "target_test", "target", "iovnbd", path)
+    raw, _ = read_any(f, data, lambda p: p.name, None, 0.1, 0.5)
+    report, _ = _read(path, tmp_path)
+    with io.BytesIO(path.read_bytes()) as stream:
+        lay, blocks = read_rows(stream, path.name, gnss_lag=lag)
+        blocks = list(blocks)
+    lat = np.concatenate([b[c.LAT_DEG] for _, b in blocks])
+    np.testing.assert_array_equal(lat, raw.columns[c.LAT_DEG])
+    if lag == 0.2:  # moved: 0.2 s of driving, about 3 m, on the rows both have
+        t = np.round(np.concatenate([b[c.T_S] for _, b in blocks]), 6)
+        _, mine, theirs = np.intersect1d(t, np.round(report.columns[c.T_S], 6), True, True)
+        assert mine.size > 1900
+        assert np.nanmax(np.abs(lat[mine] - report.columns[c.LAT_DEG][theirs])) > 1e-5

@@ -168,6 +168,7 @@ def _predict(args: argparse.Namespace) -> int:
         unit_check=predict.UnitCheck(validate, nominal, radius_from),
         stream_glitches=stream_glitches,
         drive_notes=drive_notes,
+        gnss_lag=params.data.gnss_lag if params is not None else "report",
     )
     if not args.quiet:
         print(predict.render_summary(out), file=sys.stderr)

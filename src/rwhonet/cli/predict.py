@@ -197,6 +197,7 @@ def run(
     unit_check: UnitCheck | None = None,
     stream_glitches: list[tuple[str, int, float, str]] | None = None,
     drive_notes: Iterable[str] = (),
+    gnss_lag: str | float = "report",
 ) -> dict[str, Any]:
     """Stream ``drive`` through ``model`` into ``output``; return counts and the outage summary.
 
@@ -205,7 +206,9 @@ def run(
     row blocks, :func:`rwhonet.cli.drive.canonical_blocks`, with the resampler's glitch
     flags, which the stream repairs; ``stream_glitches``: the glitched samples the
     resampler found, for the summary; ``drive_notes``: what the resampler left out, for
-    the summary too). A file output is written
+    the summary too). A CSV table logged faster than the grid is resampled as ingest
+    resamples it, its fixes' lag as ``gnss_lag`` says (``data.gnss_lag``). A file output is
+    written
     beside its name and put in place when the drive is through: a refused drive leaves no
     half-written output.
 
@@ -289,6 +292,7 @@ def run(
                     period_s=period_s,
                     radius_m=nominal,
                     split_gap_s=vp.gnss.max_gap_s,
+                    gnss_lag=gnss_lag,
                 )
                 names, read_notes = lay.names, lay.notes
                 if packed is not None:

@@ -226,6 +226,7 @@ def read_rows(
     period_s: float = 0.1,
     radius_m: float | None = None,
     split_gap_s: float = 0.5,
+    gnss_lag: str | float = "report",
 ) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """Read the header now; return the layout and the drive's row blocks as they arrive.
 
@@ -244,6 +245,8 @@ def read_rows(
         split_gap_s: a table logged faster than the grid is resampled (read whole first:
             :func:`_placed_or_resampled`), its holes in the grid made longer than this
             (``validate.gnss.max_gap_s``).
+        gnss_lag: such a table's fixes against its wheels' clock (``data.gnss_lag``, as
+            ingest resamples it: :func:`rwhonet.data.streams.resample`).
 
     Returns:
         ``(layout, blocks)``: ``blocks`` yields ``(first_row, columns)``, the 1-based data
@@ -291,6 +294,7 @@ def read_rows(
             period_s,
             radius_m,
             split_gap_s,
+            gnss_lag,
         )
     # comment lines and a tool's preamble before the header, a row of units under it
     # (csvio.read_head), read as ingest reads them; the lines read after the header to find
@@ -327,7 +331,8 @@ def read_rows(
         for x in (line, second if units is not None else None)
     )
     blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, b"".join(after), keys)
-    return lay, _placed_or_resampled(blocks, lay, file, period_s, radius_m, split_gap_s)
+    fast = _placed_or_resampled(blocks, lay, file, period_s, radius_m, split_gap_s, gnss_lag)
+    return lay, fast
 
 
 def _placed_or_resampled(
@@ -337,6 +342,7 @@ def _placed_or_resampled(
     period_s: float,
     radius_m: float | None,
     split_gap_s: float,
+    gnss_lag: str | float = "report",
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     """The row blocks placed on the drive's clock (:func:`placed`), or, where the first
     ``STREAM_PHASE_ROWS`` rows come faster than the grid (a 20-100 Hz table:
@@ -356,9 +362,8 @@ def _placed_or_resampled(
     if not is_faster_than_grid(t, period_s):
         yield from placed(rows, StreamClock(period_s))
         return
-    yield from placed(
-        _resampled(list(rows), lay, file, period_s, radius_m, split_gap_s), StreamClock(period_s)
-    )
+    grid = _resampled(list(rows), lay, file, period_s, radius_m, split_gap_s, gnss_lag)
+    yield from placed(grid, StreamClock(period_s))
 
 
 def _resampled(
@@ -368,6 +373,7 @@ def _resampled(
     period_s: float,
     radius_m: float | None,
     split_gap_s: float,
+    gnss_lag: str | float = "report",
     rows_per_block: int = 600,
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     """A faster table's rows (the whole drive) on the grid, in blocks of grid rows: its
@@ -395,6 +401,7 @@ def _resampled(
         split_gap_s=split_gap_s,
         nominal_radius_m=radius_m,
         require_fix=False,
+        gnss_lag=gnss_lag,
     )
     lay.notes.extend(res.drive.notes)
     # the rows whose mean of a wheel used a glitched sample, for predict to repair, as a
@@ -435,6 +442,7 @@ def _vbo_rows(
     period_s: float,
     radius_m: float | None,
     split_gap_s: float = 0.5,
+    gnss_lag: str | float = "report",
 ) -> tuple[Layout, Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """:func:`read_rows` of a VBOX file (``head``: its first line, read already) through its
     column map, as the CSV it stands for (:class:`rwhonet.data.vbo.VboAsCsv`); a satellite
@@ -450,7 +458,7 @@ def _vbo_rows(
     raw = io.BufferedReader(_Replay(head, source), 1 << 16)
     csv_rows = io.BufferedReader(VboAsCsv(raw, file), 1 << 16)  # type: ignore[arg-type]
     lay, blocks = read_rows(
-        csv_rows, file, fmt, column_map, block_bytes, period_s, radius_m, split_gap_s
+        csv_rows, file, fmt, column_map, block_bytes, period_s, radius_m, split_gap_s, gnss_lag
     )
     lay.notes.insert(0, vbo_note())
     sats = (column_map or {}).get("n_sats")
