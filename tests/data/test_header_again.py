@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rwhonet.data import canonical as c
-from rwhonet.data.csvio import header_again_rows, read_numeric, read_numeric_rows
+from rwhonet.data.csvio import header_again_rows, read_numeric_rows
 from rwhonet.data.droprows import FileRows, drop_rows, manifest_rows
 from rwhonet.data.incremental import read_rows
 from rwhonet.data.iovnbd import read_iovnbd
@@ -201,10 +201,32 @@ def test_a_file_of_its_header_again_only_has_no_data_rows(tmp_path, text):
         assert "at least one data row" in refused.problems[0].expected
 
 
-def test_a_stream_file_still_refuses_the_header_again(tmp_path):
-    # a stream CSV's samples are numbered by their rows: the header again stays refused there
-    path = tmp_path / "wheels.csv"
-    path.write_text("t,w\n0.0,1\n0.02,1\nt,w\n0.04,1\n")
-    with pytest.raises(InputError) as err:
-        read_numeric(path, 2, {0: "t", 1: "w"})
-    assert "(the header again)" in err.value.problems[0].found
+def test_a_stream_csv_with_its_header_again_reads_as_the_file_without_it(tmp_path):
+    """A stream CSV whose logger wrote its header again (files of one stream joined, a
+    restart appending to the file): the line dropped, the samples the clean file's; where
+    the clock restarted with the logger, refused naming the file's row after the line."""
+    from support.stream_corpus import folder_of, read_case, write_good
+
+    write_good("csv", tmp_path / "clean")
+    clean = read_case("csv", tmp_path / "clean")
+    for case in ("joined", "restarted"):
+        write_good("csv", tmp_path / case)
+        path = folder_of("csv", tmp_path / case) / "wheels.csv"
+        lines = path.read_text().splitlines()
+        after = lines[1501:]
+        if case == "restarted":  # the logger's clock from 0 again: 1,015 s back
+            after = [
+                ",".join([f"{float(x.split(',')[0]) - 1015.0:.2f}", *x.split(",")[1:]])
+                for x in after
+            ]
+        path.write_text("\n".join([*lines[:1501], lines[0], *after]) + "\n")
+        if case == "restarted":
+            with pytest.raises(InputError) as err:
+                read_case("csv", tmp_path / case)
+            (p,) = err.value.problems
+            assert (p.file, p.row, p.column) == ("wheels.csv", 1502, "Time")
+            continue
+        got = read_case("csv", tmp_path / case)
+        for name, values in clean.drive.columns.items():
+            np.testing.assert_array_equal(got.drive.columns[name], values)
+        assert any("wheels.csv: " + NOTE + " 1 data row(s) (1501)" in n for n in got.drive.notes)

@@ -28,8 +28,9 @@ Rows that end in a comma the header does not are read with an unnamed empty last
 (:attr:`HeadLines.trailing_cell`), and the NUL bytes a file ends in (a logger that lost
 power) are not read (:func:`nul_tail`). The header's line again among the rows (a logger
 that wrote it each time it started; files joined) is told by :func:`header_again_rows`:
-:func:`read_numeric_rows` reads those rows as NaN, and the 10 Hz readers leave them out
-(:attr:`RawDrive.header_rows`).
+:func:`read_numeric_rows` reads those rows as NaN, and the readers leave them out
+(:attr:`RawDrive.header_rows`; a stream CSV's samples keep their rows'
+numbers: :attr:`rwhonet.data.signalmap.Group.rows`).
 
 Whatever the bytes, a reader returns the columns or raises
 :class:`~rwhonet.errors.InputError` (``tests/data/test_reader_fuzz.py``).
@@ -749,24 +750,13 @@ def _quiet_undecodable_rows() -> Iterator[None]:
         sys.unraisablehook = previous
 
 
-def read_numeric(
-    path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None = None
-) -> dict[int, np.ndarray]:
-    """Read some columns of a CSV file (header row first) as float64, block by block.
-
-    As :func:`read_numeric_rows`, but a line that repeats the header is refused as any
-    row of text in a number column is (the stream CSVs' reader, whose samples are
-    numbered by their rows).
-    """
-    return _read_numeric(path, n_columns, wanted, display, header_again=False)[0]
-
-
 def read_numeric_rows(
     path: Path, n_columns: int, wanted: Mapping[int, str], display: str | None = None
 ) -> tuple[dict[int, np.ndarray], np.ndarray]:
-    """Read some columns of a 10 Hz drive file as float64, and the lines that repeat its
-    header (:func:`header_again_rows`: a logger that wrote its header again each time it
-    started, appending to one file; exports of one drive joined).
+    """Read some columns of a CSV drive file (a 10 Hz file, a stream CSV) as float64, block
+    by block, and the lines that repeat its header (:func:`header_again_rows`: a logger
+    that wrote its header again each time it started, appending to one file; exports of
+    one drive joined).
 
     Returns:
         (column position -> float64 array, one element per data row, NaN in the rows that
@@ -775,9 +765,11 @@ def read_numeric_rows(
         them (:attr:`RawDrive.header_rows`).
 
     Raises:
-        InputError: as :func:`read_numeric`, the header's lines again aside.
+        InputError: a row with another number of columns than the header, a cell that is
+            not a number (the header's lines again aside): every such row, by the slow path
+            (:func:`_read_numeric_slow`).
     """
-    return _read_numeric(path, n_columns, wanted, display, header_again=True)
+    return _read_numeric(path, n_columns, wanted, display)
 
 
 @_quiet_undecodable_rows()
@@ -786,7 +778,6 @@ def _read_numeric(
     n_columns: int,
     wanted: Mapping[int, str],
     display: str | None,
-    header_again: bool,
 ) -> tuple[dict[int, np.ndarray], np.ndarray]:
     """Read some columns of a CSV file (header row first) as float64, block by block.
 
@@ -846,7 +837,7 @@ def _read_numeric(
         invalid_rows = -1  # a cell that is not a number, or not CSV: find every problem
     if invalid_rows:
         del out
-        again = header_again_rows(path) if header_again else _NO_ROWS
+        again = header_again_rows(path)
         return _read_numeric_slow(path, n_columns, wanted, file, again), again
     if n == 0:
         raise InputError([no_data_rows(file)])
@@ -934,7 +925,7 @@ def read_text_column(
     """One column of a CSV file (header row first) as text, one cell per data row.
 
     For a column that is not numbers (a time written as text: :mod:`rwhonet.data.texttime`).
-    Call it after :func:`read_numeric` read the file's other columns: that refuses rows with
+    Call it after :func:`read_numeric_rows` read the file's other columns: that refuses rows with
     another number of columns, so the rows here are the same.
 
     Args:
@@ -956,7 +947,7 @@ def read_text_column(
     skipped, narrow = _head_or_plain(path).skipped, []
 
     def on_invalid_row(row: pacsv.InvalidRow) -> str:
-        # only the header's line again is left to skip (read_numeric refused any other row
+        # only the header's line again is left to skip (read_numeric_rows refused any other row
         # of another width), where the rows end in a cell it lacks: kept as an empty cell
         narrow.append(-1 if row.number is None else row.number - skipped)
         return "skip"
@@ -1061,7 +1052,7 @@ def _read_numeric_slow(
     file: str,
     again: np.ndarray = _NO_ROWS,
 ) -> dict[int, np.ndarray]:
-    """Failure path of :func:`read_numeric`: read as bytes and locate every problem; the
+    """Failure path of :func:`read_numeric_rows`: read as bytes and locate every problem; the
     rows ``again`` (the header's line again: :func:`header_again_rows`) are NaN, none of
     their cells a problem."""
     names = [f"c{i}" for i in range(n_columns)]

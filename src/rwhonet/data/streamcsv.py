@@ -37,7 +37,14 @@ from rwhonet.data.columnmap import (
     column_not_found,
     find_column,
 )
-from rwhonet.data.csvio import first_cell, read_header, read_numeric, read_text_column
+from rwhonet.data.csvio import (
+    first_cell,
+    header_again_note,
+    read_header,
+    read_numeric_rows,
+    read_text_column,
+    without_rows,
+)
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
@@ -202,10 +209,10 @@ def read_stream_csvs(
             where = f"{name}.t.unit"
             cell = first_cell(paths_of[file], at_t)
             declared_text_unit(time_spec.unit, cell, header[at_t], where, file)
-            values = read_numeric(paths_of[file], len(header), wanted, file)
+            values, again = read_numeric_rows(paths_of[file], len(header), wanted, file)
             if text:
                 values[at_t] = read_time_column(
-                    paths_of[file], len(header), at_t, header[at_t], time_spec.unit, file
+                    paths_of[file], len(header), at_t, header[at_t], time_spec.unit, file, again
                 )
         except InputError as err:
             problems += err.problems
@@ -225,7 +232,7 @@ def read_stream_csvs(
             }
             lettered = {}  # both coordinates' letters checked, their problems in one report
             for key, at in aux.items():
-                cells = read_text_column(paths_of[file], len(header), at, file)
+                cells = read_text_column(paths_of[file], len(header), at, file, again)
                 if key == DATE:
                     unit = signal_map[DATE].unit
                     dates = parse_dates(cells, unit)
@@ -242,6 +249,12 @@ def read_stream_csvs(
         except InputError as err:
             problems += err.problems
             continue
+        rows = None  # the header's line again: its rows dropped, the others keep their numbers
+        if (again_said := header_again_note(again)) is not None:
+            notes.append(f"{file}: {again_said}")
+            read = without_rows({"t": t, **channels}, again)
+            t, channels = read.pop("t"), read
+            rows = np.setdiff1d(np.arange(1, t.size + again.size + 1), again)
         t, said = unwrap_clock(t, "row")
         notes += [f"{file}: {note}" for note in said]
         groups += _per_message(
@@ -252,6 +265,7 @@ def read_stream_csvs(
                 channels,
                 {"t": header[time_at[file]].strip()}
                 | {k: header[at].strip() for k, at in keys.items()},
+                rows,
             ),
             notes,
         )
