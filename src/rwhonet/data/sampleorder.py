@@ -10,12 +10,16 @@ FIFOs, two interfaces) in arrival order rather than by time stamp. Here, per str
    to NaN) holds nothing new; it is dropped, as the 10 Hz readers drop a row written
    again (:func:`rwhonet.data.droprows.repeated_rows`).
 2. **Out of order.** The samples left are put in time order where the order is all that
-   is wrong: sorted by time, no two samples may lie closer than 0.6 of the stream's
-   median step unless they already did so in the file. Samples merely written late fill the
-   slots the stream's rate left for them; a clock that went back (a restart, a clock
-   set back by NTP) makes two recordings overlap in time, and sorting would crowd them
-   into one at twice the rate; a sample stamped wrongly lands beside another's slot.
-   Either is left as written, and refused by the stream checks
+   is wrong: no sample written more than :data:`MAX_LATE_S` after one stamped later, and,
+   sorted by time, no two samples closer than 0.6 of the stream's median step unless
+   they already were in the file. Samples merely written late fill the slots the
+   stream's rate left for them. A clock that went back (a restart, a clock set back by
+   NTP or by the receiver's time after boot) makes two recordings overlap in time, and
+   sorting would crowd them into one at twice the rate; a sample stamped wrongly lands
+   beside another's slot; a block stamped more than a second before the rows above it (a
+   clock set back further than it had run, a stream's files joined out of order) crowds
+   nothing, but is no buffering either: which block came first is the stamps' word
+   against the file's. Each is left as written, and refused by the stream checks
    (:func:`rwhonet.data.streams.check_streams`), naming the file's row.
 3. **A time twice with other values** (a clock that stuck) is no copy and has no order:
    refused as before.
