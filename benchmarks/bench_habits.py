@@ -1,5 +1,6 @@
-"""What the stop-60 logger habits cost the readers: one hour of a drive read plain, with its
-header line again, kept compressed, and logged at 50 Hz.
+"""What the stop-60 and stop-61 logger habits cost the readers: one hour of a drive read
+plain, with its header line again, kept compressed, and logged at 50 Hz; and one hour of a
+drive as stream CSVs, plain, with samples written late, written twice, and the header again.
 
 Writes a one-hour IO-VNBD drive (``tests/support/drives.py: write_long_iovnbd``, 36,000
 rows at 10 Hz), then the same drive as a logger that wrote its header again three times
@@ -8,6 +9,14 @@ rows at 10 Hz), then the same drive as a logger that wrote its header again thre
 between the 10 Hz rows: read as streams and resampled onto the grid), and times, in this
 process, ingest's reader (``rwhonet.data.drivefile.read_any``) and predict's
 (``rwhonet.data.incremental.read_rows`` to its last block) on each, best of ``--repeat``.
+
+Then the hour as stream CSVs (``wheels.csv``: 360,000 wheel samples at 100 Hz, stamps
+jittered ±0.3 ms; ``gnss.csv``: 36,000 fixes at 10 Hz): as logged; with 1 % of the wheel
+samples written up to 50 ms late (receive buffers merged in arrival order); with a 10 s
+block of them written twice after a retry, every minute; and with the header line again
+three times. Timed: the stream reader and the resampler
+(``rwhonet.data.streamcsv.read_stream_csvs`` + ``rwhonet.data.streams.resample``), which
+ingest and predict both run, best of ``--repeat``.
 
 Usage: python benchmarks/bench_habits.py [--repeat 3] [--keep DIR]
 """
@@ -24,6 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))  # the drive writers of the test suite
 
+import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pyarrow as pa  # noqa: E402
 
@@ -32,6 +42,9 @@ from rwhonet.data.compressed import compression_of, drive_stem, open_decompresse
 from rwhonet.data.drivefile import DriveFile, read_any  # noqa: E402
 from rwhonet.data.incremental import read_rows  # noqa: E402
 from rwhonet.data.iovnbd import read_iovnbd  # noqa: E402
+from rwhonet.data.streamcsv import read_stream_csvs  # noqa: E402
+from rwhonet.data.streams import resample  # noqa: E402
+from rwhonet.sim.streams import StreamTables, signal_map, write_stream_csvs  # noqa: E402
 from support.corpus import faster  # noqa: E402
 from support.drives import make_params, write_iovnbd, write_long_iovnbd  # noqa: E402
 
@@ -54,6 +67,45 @@ def variants(folder: Path) -> dict[str, Path]:
     drive = read_iovnbd(plain).columns
     frame = pd.DataFrame({k: drive[k] for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)})
     out["50 Hz table"] = write_iovnbd(faster(frame, 50), folder / "V-F.csv")
+    return out
+
+
+RADIUS_M = 0.3
+
+
+def stream_variants(folder: Path) -> dict[str, list[Path]]:
+    """One hour as stream CSVs, as each stream habit writes it (a folder each)."""
+    rng = np.random.default_rng(0)
+    t_w = np.arange(0.0, 3600.0, 0.01)
+    t_w = 1000.0 + t_w + rng.uniform(-3e-4, 3e-4, t_w.size)
+    speed = 15.0 + 5.0 * np.sin(t_w / 40.0)  # no two samples alike
+    wheels = pd.DataFrame({c.T_S: t_w} | {w: speed / RADIUS_M for w in c.WHEELS})
+    t_g = 1000.05 + np.arange(0.0, 3600.0, 0.1)
+    north = np.interp(t_g, t_w, np.cumsum(speed) * 0.01)
+    gnss = pd.DataFrame(
+        {c.T_S: t_g, c.LAT_DEG: 52.0 + north / 111_195.0, c.LON_DEG: -1.5, c.N_SATS: 9.0}
+    )
+    n = len(wheels)
+    late = np.arange(n) + np.where(rng.random(n) < 0.01, rng.uniform(0, 5, n), 0.0)
+    twice = np.concatenate(
+        [np.r_[a : a + 6000, a : a + 1000] for a in range(0, n, 6000)]  # 10 s again a minute
+    )
+    out = {}
+    for name, rows in (
+        ("streams plain", np.arange(n)),
+        ("1 % late", np.argsort(late, kind="stable")),
+        ("10 s twice a min", twice[twice < n]),
+        ("header again x3", np.arange(n)),
+    ):
+        files = write_stream_csvs(StreamTables(wheels.iloc[rows], gnss), folder / name)
+        if name == "header again x3":
+            lines = files["wheels"].read_bytes().split(b"\n")
+            cut = [1, 90_001, 180_001, 270_001, len(lines)]
+            joined = [lines[:1]]
+            for a, b in zip(cut[:-1], cut[1:], strict=False):
+                joined += [lines[a:b], lines[:1]]
+            files["wheels"].write_bytes(b"\n".join(sum(joined[:-1], [])))
+        out[name] = sorted(files.values())
     return out
 
 
@@ -96,6 +148,27 @@ def main() -> None:
             t_out = best(lambda p=path: predict(p), args.repeat)
             mb = path.stat().st_size / 2**20
             print(f"{name:>16}  {mb:6.1f}  {t_in:9.3f}  {t_out:9.3f}  {rows:,}")
+
+        def streams(paths: list[Path]):
+            signals = read_stream_csvs(paths, signal_map(), RADIUS_M)
+            return resample(signals, nominal_radius_m=RADIUS_M)
+
+        print("one hour as stream CSVs (360,000 wheel samples at 100 Hz + 36,000 fixes):")
+        print(f"{'':>16}  {'MB':>6}  {'read+resample s':>15}  samples kept  grid rows  as logged")
+        logged = None
+        for name, paths in stream_variants(folder).items():
+            cols = streams(paths).drive.columns
+            logged = logged or cols
+            same = cols.keys() == logged.keys() and all(
+                np.array_equal(cols[k], logged[k], equal_nan=True) for k in cols
+            )
+            took = best(lambda p=paths: streams(p), args.repeat)
+            res = streams(paths)
+            mb = sum(p.stat().st_size for p in paths) / 2**20
+            print(
+                f"{name:>16}  {mb:6.1f}  {took:15.3f}  {res.n_input_rows:12,}  "
+                f"{res.drive.n_rows:9,}  {'same grid' if same else 'DIFFERS'}"
+            )
 
 
 if __name__ == "__main__":
