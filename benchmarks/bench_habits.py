@@ -1,6 +1,7 @@
 """What the stop-60 and stop-61 logger habits cost the readers: one hour of a drive read
 plain, with its header line again, kept compressed, and logged at 50 Hz; and one hour of a
-drive as stream CSVs, plain, with samples written late, written twice, and the header again.
+drive as stream CSVs, plain, with samples written late, written twice or shuffled, and the
+header again.
 
 Writes a one-hour IO-VNBD drive (``tests/support/drives.py: write_long_iovnbd``, 36,000
 rows at 10 Hz), then the same drive as a logger that wrote its header again three times
@@ -13,8 +14,8 @@ process, ingest's reader (``rwhonet.data.drivefile.read_any``) and predict's
 Then the hour as stream CSVs (``wheels.csv``: 360,000 wheel samples at 100 Hz, stamps
 jittered ±0.3 ms; ``gnss.csv``: 36,000 fixes at 10 Hz): as logged; with 1 % of the wheel
 samples written up to 50 ms late (receive buffers merged in arrival order); with a 10 s
-block of them written twice after a retry, every minute; and with the header line again
-three times. Timed: the stream reader and the resampler
+block of them written twice after a retry, every minute; with its rows shuffled; and with
+the header line again three times. Timed: the stream reader and the resampler
 (``rwhonet.data.streamcsv.read_stream_csvs`` + ``rwhonet.data.streams.resample``), which
 ingest and predict both run, best of ``--repeat``.
 
@@ -95,6 +96,7 @@ def stream_variants(folder: Path) -> dict[str, list[Path]]:
         ("streams plain", np.arange(n)),
         ("1 % late", np.argsort(late, kind="stable")),
         ("10 s twice a min", twice[twice < n]),
+        ("rows shuffled", rng.permutation(n)),
         ("header again x3", np.arange(n)),
     ):
         files = write_stream_csvs(StreamTables(wheels.iloc[rows], gnss), folder / name)

@@ -10,17 +10,17 @@ FIFOs, two interfaces) in arrival order rather than by time stamp. Here, per str
    to NaN) holds nothing new; it is dropped, as the 10 Hz readers drop a row written
    again (:func:`rwhonet.data.droprows.repeated_rows`).
 2. **Out of order.** The samples left are put in time order where the order is all that
-   is wrong: no sample written more than :data:`MAX_LATE_S` after one stamped later, and,
-   sorted by time, no two samples closer than 0.6 of the stream's median step unless
-   they already were in the file. Samples merely written late fill the slots the
-   stream's rate left for them. A clock that went back (a restart, a clock set back by
+   is wrong: sorted by time, the stream may have no more steps shorter than 0.6 of its
+   median step, nor longer than 1.5 of it, than the steps forward in the file's order
+   had. Samples written late, a file shuffled, a stream's files joined out of order:
+   each sample fills the slot the stream's rate left for it, and sorting closes the
+   steps the disorder opened. A clock that went back (a restart, a clock set back by
    NTP or by the receiver's time after boot) makes two recordings overlap in time, and
-   sorting would crowd them into one at twice the rate; a sample stamped wrongly lands
-   beside another's slot; a block stamped more than a second before the rows above it (a
-   clock set back further than it had run, a stream's files joined out of order) crowds
-   nothing, but is no buffering either: which block came first is the stamps' word
-   against the file's. Each is left as written, and refused by the stream checks
-   (:func:`rwhonet.data.streams.check_streams`), naming the file's row.
+   sorting would crowd them into one at twice the rate, or, set back further than it
+   had run, leaves a gap between them that neither had; a sample stamped wrongly lands
+   beside another's slot and leaves its own empty. Each is left as written, and refused
+   by the stream checks (:func:`rwhonet.data.streams.check_streams`), naming the file's
+   row.
 3. **A time twice with other values** (a clock that stuck) is no copy and has no order:
    refused as before.
 
@@ -44,9 +44,10 @@ from rwhonet.data.droprows import repeated_rows
 # (a whole number: at the same times, refused as a time twice); samples written late
 # fill their own slots, a period from the next (jitter of a few % aside).
 CROWDED_SHARE = 0.6
-# A sample written later than this after one stamped later than it is no buffering (a
-# logger's receive buffers hold milliseconds to a few hundred ms of messages).
-MAX_LATE_S = 1.0
+# Nor open a step longer than this share of it that the file's forward steps did not have
+# (two recordings one before the other leave a gap between them; a sample stamped far off
+# leaves its slot empty; samples written late leave none once sorted).
+GAP_SHARE = 1.5
 ROWS_NOTED = 5
 
 
@@ -110,16 +111,19 @@ def time_order(
     before = np.maximum.accumulate(kept)
     late = np.flatnonzero(np.r_[False, kept[1:] < before[:-1]])
     by = float(np.max(before[late - 1] - kept[late]))
-    limit = CROWDED_SHARE * float(np.median(step))
-    as_written = np.diff(kept)
-    crowded = int((step < limit).sum()) > int(((as_written > 0) & (as_written < limit)).sum())
-    if crowded or by > MAX_LATE_S:
+    median = float(np.median(step))
+    forward = np.diff(kept)
+    forward = forward[forward > 0]
+    short, long = CROWDED_SHARE * median, GAP_SHARE * median
+    crowded = int((step < short).sum()) > int((forward < short).sum())
+    opened = int((step > long).sum()) > int((forward > long).sum())
+    if crowded or opened:
         return Order(index if copies.size else None, tuple(notes))
     notes.append(
         f"{where}: {late.size} sample(s) written after a later one (up to {by:.3g} s "
-        f"late: {_listed(row[index[late]])}) put in time order (sorted, no "
-        "two samples lie closer than 0.6 of the stream's median step that the file did "
-        "not have so close: a reordering, not a clock gone back)"
+        f"late: {_listed(row[index[late]])}) put in time order (sorted, the stream has no "
+        "step shorter than 0.6 or longer than 1.5 of its median that the file's order did "
+        "not have: a reordering, not a clock gone back)"
     )
     return Order(index[order], tuple(notes))
 

@@ -100,7 +100,6 @@ from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, running_max
 from rwhonet.data.problems import row_problems
 from rwhonet.data.robust import cumulative_trapezoid
-from rwhonet.data.sampleorder import MAX_LATE_S
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo.geodesic import wgs84
 
@@ -330,10 +329,9 @@ def stream_problems(s: Stream) -> list[Problem]:
         ],
         "a time after the previous sample's (strictly increasing)",
         fix="a clock that went back (a restart, a clock set back) makes two recordings: "
-        "split the stream there; a stream's files joined out of order: join them in time "
-        "order; a sample at another's time with other values is no copy (delete the wrong "
-        f"one); samples written twice, or up to {MAX_LATE_S:g} s out of order, the reader "
-        "puts right",
+        "split the stream there; a sample at another's time with other values is no copy "
+        "(delete the wrong one); samples written twice, or out of order where sorting "
+        "neither crowds them nor leaves a gap, the reader puts right",
     )
     for name, limit in ((c.LAT_DEG, 90.0), (c.LON_DEG, 180.0)):
         if name not in s.channels or np.shape(s.channels[name]) != t.shape:
