@@ -207,10 +207,9 @@ def run(
     flags, which the stream repairs; ``stream_glitches``: the glitched samples the
     resampler found, for the summary; ``drive_notes``: what the resampler left out, for
     the summary too). A CSV table logged faster than the grid is resampled as ingest
-    resamples it, its fixes' lag as ``gnss_lag`` says (``data.gnss_lag``). A file output is
-    written
-    beside its name and put in place when the drive is through: a refused drive leaves no
-    half-written output.
+    resamples it, its fixes' lag as ``gnss_lag`` says (``data.gnss_lag``). A file output
+    is written beside its name and put in place when the drive is through: a refused drive
+    leaves no half-written output.
 
     A row that repeats an earlier row in every column, the time included (a sample
     written twice), and a row with an empty wheel speed (a lost sample: its second gives no
