@@ -200,3 +200,26 @@ def test_system_memory_pool_is_scoped_and_restored_after_an_error():
     with pytest.raises(InputError):
         allocate_then_fail()
     assert pa.default_memory_pool().backend_name == before
+
+
+def test_a_can_database_outside_data_root_is_said_to_be_untracked(tmp_path):
+    """ingest depends on data.root: a DBC elsewhere is read, but dvc repro would not rerun
+    the stage when it changes; the manifest and the stage's output say so."""
+    from rwhonet.data.drivefile import DriveFile
+    from rwhonet.stages.ingest import untracked_inputs
+    from support.canlog import SIGNALS
+
+    root = tmp_path / "raw"
+
+    def data(dbc):
+        maps = {"canedge": {"reader": "mdf4", "signals": SIGNALS, "dbc": dbc}}
+        return make_params(root, **{"data.signal_maps": maps}).data
+
+    drive = DriveFile("D1", "target_test", "target", "canedge", root / "d1.mf4")
+    inside, outside = str(root / "vehicle.dbc"), str(tmp_path / "elsewhere" / "gnss.dbc")
+    assert untracked_inputs(data(inside), [drive]) == []
+    (said,) = untracked_inputs(data([inside, outside]), [drive])
+    assert "gnss.dbc (data.signal_maps.canedge.dbc) lies outside data.root" in said
+    assert "does not rerun ingest" in said
+    other = DriveFile("D2", "target_test", "target", "iovnbd", root / "V-A.csv")
+    assert untracked_inputs(data(outside), [other]) == []  # a map no drive uses

@@ -176,7 +176,9 @@ def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None
         whose reader had something to say has ``notes`` (columns taken by position, the
         clock passing midnight, grid rows without data), and a stream drive ``streams``
         (:meth:`rwhonet.data.drivefile.StreamFacts.to_dict`: each stream's samples and
-        step, and the grid rows whose wheel-speed mean used a glitched sample).
+        step, and the grid rows whose wheel-speed mean used a glitched sample). A
+        manifest has ``untracked`` where a CAN database it read lies outside ``data.root``
+        (:func:`untracked_inputs`).
 
     Raises:
         ConfigError: inconsistent ``data`` parameters.
@@ -237,6 +239,8 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
             "drives": entries,
             "calibration": calibration,
         }
+        if untracked := untracked_inputs(data, files):
+            manifest["untracked"] = untracked
         write_json(tmp / contracts.MANIFEST, manifest)
     return manifest
 
@@ -284,6 +288,29 @@ def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
         **manifest_rows(raw),
         **({"streams": drive.streams.to_dict()} if drive.streams is not None else {}),
     }
+
+
+def untracked_inputs(data: DataParams, files: list[DriveFile]) -> list[str]:
+    """What ingest read that ``dvc repro`` does not track: a CAN database (a signal map's
+    ``dbc``) outside ``data.root``, the folder the stage depends on. A change to it alone
+    would not rerun the stage, and the drives it decodes would stay as first decoded.
+
+    Returns:
+        One line per such file, saying so and what to do (empty: none).
+    """
+    root = paths.resolve(data.root).resolve()
+    used = {f.format for f in files}
+    out = []
+    for name in sorted(used & set(data.signal_maps)):
+        for dbc in data.signal_maps[name].dbc_files:
+            if not Path(dbc).resolve().is_relative_to(root):
+                out.append(
+                    f"{paths.rel(Path(dbc))} (data.signal_maps.{name}.dbc) lies outside "
+                    f"data.root ({paths.rel(root)}), which the ingest stage depends on: "
+                    "dvc repro does not track it, so a change to it alone does not rerun "
+                    f"ingest; keep it under {paths.rel(root)}"
+                )
+    return out
 
 
 def _calibration(files: list[DriveFile]) -> dict[str, Any]:
@@ -347,6 +374,8 @@ def main(params: Params) -> None:
     for d in manifest["drives"]:  # what a reader did that the user should hear about
         for note in d.get("notes", []):
             print(f"{d['drive']}: {note}")
+    for line in manifest.get("untracked", []):  # read, but not a dependency of the stage
+        print(f"warning: {line}")
     cal = manifest["calibration"]
     print(f"calibration: {', '.join(cal['drives'])} ({cal.get('note', cal['role'])})")
     print(
