@@ -277,6 +277,10 @@ def check_streams(streams: DriveStreams) -> None:
 
 
 def stream_problems(s: Stream) -> list[Problem]:
+    """What :func:`check_streams` refuses in one stream: too few samples, a channel whose
+    length is not the time's, a time not finite or not after the previous sample's, a
+    latitude or longitude out of range; each naming the source's row (:attr:`Stream.rows`).
+    """
     t = np.asarray(s.t_s, dtype=np.float64)
     file = s.where()
     time = s.sources.get(c.T_S, "time")
