@@ -5,6 +5,7 @@ decompresses), named as the user named them; cut-off data refused, not a traceba
 from __future__ import annotations
 
 import bz2
+import dataclasses
 import gzip
 import io
 import lzma
@@ -212,6 +213,43 @@ def test_stream_csvs_kept_compressed_read_as_the_folder_of_their_text(tmp_path):
     assert any("compressed" in note for note in got.raw.notes)
     # each stream named by the file the user has, not by its scratch copy
     assert {s["file"] for s in got.streams.streams} <= {str(p) for p in packed.iterdir()}
+
+
+@pytest.mark.parametrize("kind", ["gzip", "zstd", "zip"])
+def test_an_mdf4_log_kept_compressed_reads_as_the_log_it_holds(tmp_path, kind):
+    """A logger's MDF4 file archived compressed (drive.mf4.gz, zipped alone): decompressed
+    to a scratch copy bounded by data.max_file_mb, read as the log, named as kept."""
+    import zipfile
+
+    from rwhonet.data.drivefile import read_canonical
+    from support.stream_fleet import role_drive, stream_params, tables_from_drive, write_drive
+
+    tables = tables_from_drive(role_drive("target_test", 60.0))
+    plain = write_drive("mdf4", tables, tmp_path / "plain", "C-B1", 0.3)
+    if kind == "zip":
+        packed = tmp_path / "C-B1.mf4.zip"
+        with zipfile.ZipFile(packed, "w", zipfile.ZIP_DEFLATED) as archive:
+            archive.write(plain, plain.name)
+    else:
+        packed = _packed(tmp_path, kind, plain.read_bytes(), plain.name)
+    params = stream_params(tmp_path, "mdf4")
+    vp = params.validate
+
+    def read(path: Path, data=params.data):
+        f = DriveFile(drive_stem(path), "target_test", "target", "logger_mf4", path)
+        return read_canonical(f, data, str, 0.3, vp.sample_period_s, vp.gnss.max_gap_s)
+
+    want, got = read(plain), read(packed)
+    assert drive_stem(packed) == "C-B1"
+    for name in want.raw.columns:
+        np.testing.assert_array_equal(got.raw.columns[name], want.raw.columns[name])
+    assert got.raw.notes[0] == f"a {kind}-compressed file, read as the MDF4 log it holds"
+    assert {s["file"] for s in got.streams.streams} == {str(packed)}
+    small = dataclasses.replace(params.data, max_file_mb=plain.stat().st_size / 2**20 / 2)
+    with pytest.raises(InputError) as err:
+        read(packed, small)
+    assert err.value.problems[0].file == str(packed)
+    assert "once decompressed" in err.value.problems[0].expected
 
 
 @pytest.mark.parametrize("kind", ["gzip", "bzip2", "xz", "zip"])

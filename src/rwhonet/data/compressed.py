@@ -3,8 +3,8 @@ told by their first bytes.
 
 A fleet's drives are often archived compressed (``V-S1.csv.gz``: a 10 Hz CSV shrinks
 about five times), and pandas reads such a file as it reads the CSV. The 10 Hz readers
-(IO-VNBD, column maps, a VBOX file) read a compressed drive file through a scratch copy
-of its text (:func:`decompressed_copy`, bounded by ``data.max_file_mb`` as the file itself
+(IO-VNBD, column maps, a VBOX file) and the MDF4 reader read a compressed drive file
+through a scratch copy of what it holds (:func:`decompressed_copy`, bounded by ``data.max_file_mb`` as the file itself
 is), ``rwhonet predict`` block by block as it decompresses it (:func:`open_decompressed`).
 A drive's id is its file's name without the compression's suffix and the format's
 (:func:`drive_stem`: ``V-S1.csv.gz`` is ``V-S1``), as the drive's uncompressed file names
@@ -95,7 +95,7 @@ def _one_member(path: Path, file: str) -> tuple[zipfile.ZipFile, zipfile.ZipInfo
         found = f"{len(names)} files: {listed}" if names else "no file"
         fix = "zip one drive per archive, or unzip it and give the drive files"
     raise InputError(
-        [Problem(file, None, None, "a ZIP archive holding one drive file (CSV)", found, fix)]
+        [Problem(file, None, None, "a ZIP archive holding one drive file", found, fix)]
     )
 
 
@@ -137,7 +137,8 @@ class _Checked(io.RawIOBase):
 
 
 def decompressed_copy(path: Path, kind: str, dest: Path, max_mb: float, file: str) -> None:
-    """Write a compressed drive file's text to ``dest``, at most ``max_mb`` MB of it.
+    """Write what a compressed drive file holds (a CSV's text, an MDF4 log) to ``dest``, at
+    most ``max_mb`` MB of it.
 
     Raises:
         InputError: the text runs past ``max_mb`` (``data.max_file_mb``, which bounds a
@@ -155,7 +156,7 @@ def decompressed_copy(path: Path, kind: str, dest: Path, max_mb: float, file: st
                             file,
                             None,
                             None,
-                            f"a drive of at most {max_mb:g} MB of text once decompressed "
+                            f"a drive of at most {max_mb:g} MB once decompressed "
                             "(data.max_file_mb)",
                             f"more than that in this {kind} file",
                             "split the drive into several files (one per trip), or raise "
@@ -178,9 +179,9 @@ def broken(file: str, kind: str, err: BaseException) -> Problem:
     )
 
 
-def compressed_note(kind: str) -> str:
-    """What a reader says of a drive file it decompressed."""
-    return f"a {kind}-compressed file, read as the text it holds"
+def compressed_note(kind: str, holds: str = "the text") -> str:
+    """What a reader says of a drive file it decompressed (``holds``: what was in it)."""
+    return f"a {kind}-compressed file, read as {holds} it holds"
 
 
 def is_csv_name(name: str) -> bool:

@@ -218,7 +218,7 @@ def read_any(
             ]
         )
     try:
-        if kind in (IOVNBD, COLUMN_MAP) and (packed := compression_of(f.path)) is not None:
+        if kind in (IOVNBD, COLUMN_MAP, MDF4) and (packed := compression_of(f.path)) is not None:
             return _read_decompressed(
                 f, packed, data, rel, radius_m, period_s, split_gap_s, require_fix
             )
@@ -255,11 +255,13 @@ def _read_decompressed(
     split_gap_s: float,
     require_fix: bool,
 ) -> tuple[RawDrive, StreamFacts | None]:
-    """A compressed 10 Hz drive file (:mod:`rwhonet.data.compressed`): its text written to
-    a scratch file (at most ``data.max_file_mb``) and read as the file, messages naming it."""
+    """A compressed drive file (:mod:`rwhonet.data.compressed`: a 10 Hz CSV, an MDF4 log):
+    what it holds written to a scratch file (at most ``data.max_file_mb``) and read as the
+    file, messages naming it."""
     file = rel(f.path)
     with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
-        plain = Path(scratch) / f"{drive_stem(f.path)}.csv"
+        inner = ".mf4" if reader_kind(f.format, data) == MDF4 else ".csv"
+        plain = Path(scratch) / f"{drive_stem(f.path)}{inner}"
         decompressed_copy(f.path, packed, plain, data.max_file_mb, file)
 
         def shown(path: Path) -> str:
@@ -274,7 +276,8 @@ def _read_decompressed(
             split_gap_s,
             require_fix,
         )
-    return dataclasses.replace(raw, notes=(compressed_note(packed), *raw.notes)), facts
+    said = compressed_note(packed, "the MDF4 log" if inner == ".mf4" else "the text")
+    return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
 
 
 def _read_vbo(
