@@ -230,3 +230,4 @@ def test_a_stream_csv_with_its_header_again_reads_as_the_file_without_it(tmp_pat
         for name, values in clean.drive.columns.items():
             np.testing.assert_array_equal(got.drive.columns[name], values)
         assert any("wheels.csv: " + NOTE + " 1 data row(s) (1501)" in n for n in got.drive.notes)
+        assert any(NOTE in n for n in got.lost)  # said by predict too, as a 10 Hz file's

@@ -4,8 +4,9 @@ told by their first bytes.
 A fleet's drives are often archived compressed (``V-S1.csv.gz``: a 10 Hz CSV shrinks
 about five times), and pandas reads such a file as it reads the CSV. The 10 Hz readers
 (IO-VNBD, column maps, a VBOX file) and the MDF4 reader read a compressed drive file
-through a scratch copy of what it holds (:func:`decompressed_copy`, bounded by ``data.max_file_mb`` as the file itself
-is), ``rwhonet predict`` block by block as it decompresses it (:func:`open_decompressed`).
+through a scratch copy of what it holds (:func:`decompressed_copy`, bounded by
+``data.max_file_mb`` as the file itself is), ``rwhonet predict`` a 10 Hz file block by
+block as it decompresses it (:func:`open_decompressed`).
 A drive's id is its file's name without the compression's suffix and the format's
 (:func:`drive_stem`: ``V-S1.csv.gz`` is ``V-S1``), as the drive's uncompressed file names
 it, so its scenario sidecar and every output keep the name.

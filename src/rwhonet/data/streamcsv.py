@@ -194,6 +194,7 @@ def read_stream_csvs(
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
     groups = []
     notes: list[str] = []
+    changed: list[str] = []  # what the reader changed of the samples (DriveStreams.changed)
     paths_of = {file: path for path, file in files}
     for file, header in headers.items():
         keys = {k: at for k, places in found.items() for f, at in places if f == file}
@@ -251,7 +252,7 @@ def read_stream_csvs(
             continue
         rows = None  # the header's line again: its rows dropped, the others keep their numbers
         if (again_said := header_again_note(again)) is not None:
-            notes.append(f"{file}: {again_said}")
+            changed.append(f"{file}: {again_said}")  # said by predict too, as a 10 Hz file's
             read = without_rows({"t": t, **channels}, again)
             t, channels = read.pop("t"), read
             rows = np.setdiff1d(np.arange(1, t.size + again.size + 1), again)
@@ -273,7 +274,9 @@ def read_stream_csvs(
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
     groups = _next_day_starts(groups, notes)
     streams = build_streams(groups, CLOCK)
-    return dataclasses.replace(streams, notes=(*streams.notes, *notes)) if notes else streams
+    return dataclasses.replace(
+        streams, notes=(*streams.notes, *notes), changed=(*changed, *streams.changed)
+    )
 
 
 def _per_message(g: Group, notes: list[str]) -> list[Group]:
