@@ -783,17 +783,8 @@ def test_predict_reads_a_stream_written_twice_and_out_of_order_as_the_clean_one(
     good = good_tables()
     order = [*range(500), *range(520, 530), *range(500, 520), *range(530, len(good.wheels))]
     order[900:900] = range(880, 900)
-    frames = {}
-    for name, tables in (
-        ("clean", good),
-        ("messy", StreamTables(good.wheels.iloc[order], good.gnss)),
-    ):
-        (tmp_path / name).mkdir()
-        drive, fmt = _stream_drive(tmp_path / name, tables)
-        out = tmp_path / f"{name}.csv"
-        fmt += ["--nominal-radius", str(RADIUS_M), "--quiet"]
-        assert main(predict_args(bundle, drive, out, *fmt)) == 0
-        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    messy = StreamTables(good.wheels.iloc[order], good.gnss)
+    frames = _predicted_streams(bundle, tmp_path, capsys, RADIUS_M, clean=good, messy=messy)
     (clean, said_clean), (messy, said) = frames["clean"], frames["messy"]
     assert "order" not in said_clean and "repeat" not in said_clean
     assert "20 sample(s) repeat an earlier sample" in said and "row(s) 901, 902" in said
@@ -813,22 +804,33 @@ def test_predict_says_it_placed_fixes_stamped_on_arrival_at_the_receiver_s_epoch
 
     good = good_tables()
     late = good.gnss[c.T_S] + 0.02 + np.random.default_rng(0).uniform(-0.005, 0.005, len(good.gnss))
-    frames = {}
-    for name, tables in (
-        ("epochs", StreamTables(good.wheels, good.gnss.assign(**{c.T_S: good.gnss[c.T_S] + 0.02}))),
-        ("arrival", StreamTables(good.wheels, good.gnss.assign(**{c.T_S: late}))),
-    ):
-        (tmp_path / name).mkdir()
-        drive, fmt = _stream_drive(tmp_path / name, tables)
-        out = tmp_path / f"{name}.csv"
-        fmt += ["--nominal-radius", str(RADIUS_M), "--quiet"]
-        assert main(predict_args(bundle, drive, out, *fmt)) == 0
-        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    frames = _predicted_streams(
+        bundle,
+        tmp_path,
+        capsys,
+        RADIUS_M,
+        epochs=StreamTables(good.wheels, good.gnss.assign(**{c.T_S: good.gnss[c.T_S] + 0.02})),
+        arrival=StreamTables(good.wheels, good.gnss.assign(**{c.T_S: late})),
+    )
     (at_epochs, said_epochs), (arrived, said) = frames["epochs"], frames["arrival"]
     assert "grid" not in said_epochs
     assert "about a regular 10 Hz grid" in said and "placed at the grid's epochs" in said
     assert len(arrived) == len(at_epochs) > 30
     np.testing.assert_allclose(arrived["disp_gnss_m"], at_epochs["disp_gnss_m"], atol=1e-3)
+
+
+def _predicted_streams(bundle, tmp_path, capsys, radius_m, **drives):
+    """``rwhonet predict --quiet`` on each stream drive (name -> its tables, written as
+    stream CSVs): name -> (the output, stderr)."""
+    frames = {}
+    for name, tables in drives.items():
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, tables)
+        out = tmp_path / f"{name}.csv"
+        fmt += ["--nominal-radius", str(radius_m), "--quiet"]
+        assert main(predict_args(bundle, drive, out, *fmt)) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    return frames
 
 
 def _stream_drive(tmp_path, tables):
