@@ -141,3 +141,25 @@ def test_predict_moves_a_faster_tables_fixes_by_the_projects_lag_as_ingest(tmp_p
         _, mine, theirs = np.intersect1d(t, np.round(report.columns[c.T_S], 6), True, True)
         assert mine.size > 1900
         assert np.nanmax(np.abs(lat[mine] - report.columns[c.LAT_DEG][theirs])) > 1e-5
+
+
+def test_a_glitched_sample_of_a_faster_table_is_named_by_its_file_row(tmp_path):
+    """Rows dropped before the table is read as streams (a row written twice, a row
+    without a wheel speed): the resampler's messages still name the file's rows."""
+    from rwhonet.data.droprows import drop_rows
+    from rwhonet.data.fastfile import as_streams
+    from rwhonet.data.iovnbd import read_iovnbd
+    from rwhonet.data.streams import resample
+
+    df = faster(good_target(200.0), 50)
+    df.loc[3001, c.OMEGA_RL] *= 4.0  # data row 3002 of the file as written
+    path = write_iovnbd(df, tmp_path / "V-F.csv")
+    lines = path.read_text().splitlines()
+    lines.insert(500, lines[499])  # data row 499 written twice: the glitch is now row 3003
+    cells = lines[1001].split(",")  # data row 1001: its rear-left wheel speed lost
+    cells[[k.strip() for k in lines[0].split(",")].index("Wheel Speed Rear Left (rad/sec)")] = ""
+    lines[1001] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    raw = drop_rows(read_iovnbd(path, path.name), path.name)
+    res = resample(as_streams(raw, path.name), nominal_radius_m=TARGET_RADIUS_M)
+    assert [(row, w) for _, row, _, w in res.glitch_samples] == [(3003, c.OMEGA_RL)]

@@ -22,6 +22,7 @@ import numpy as np
 
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
+from rwhonet.data.droprows import FileRows, manifest_rows
 from rwhonet.data.heldfixes import GNSS_CHANNELS, held_fixes
 from rwhonet.data.streams import RATE_CHANNELS, DriveStreams, Stream
 
@@ -59,6 +60,7 @@ def as_streams(raw: RawDrive, file: str) -> DriveStreams:
     cols = raw.columns
     t = cols[c.T_S]
     source = raw.source_columns
+    file_row = FileRows.of(manifest_rows(raw))  # the rows dropped before: messages name the file's
 
     def stream(name: str, rows: np.ndarray, names: tuple[str, ...]) -> Stream:
         return Stream(
@@ -67,6 +69,7 @@ def as_streams(raw: RawDrive, file: str) -> DriveStreams:
             t[rows],
             {k: cols[k][rows] for k in names},
             {k: source.get(k, k) for k in (c.T_S, *names)},
+            file_row(rows),
         )
 
     finite_t = np.isfinite(t)
