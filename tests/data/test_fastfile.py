@@ -13,6 +13,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.drivefile import DriveFile, read_any
 from rwhonet.data.fastfile import FAST_FACTOR, is_faster_than_grid
 from rwhonet.data.incremental import read_rows
+from rwhonet.errors import InputError
 from support.corpus import faster, good_target
 from support.drives import TARGET_RADIUS_M, make_params, write_iovnbd
 from support.pipes import piped
@@ -163,3 +164,31 @@ def test_a_glitched_sample_of_a_faster_table_is_named_by_its_file_row(tmp_path):
     raw = drop_rows(read_iovnbd(path, path.name), path.name)
     res = resample(as_streams(raw, path.name), nominal_radius_m=TARGET_RADIUS_M)
     assert [(row, w) for _, row, _, w in res.glitch_samples] == [(3003, c.OMEGA_RL)]
+
+
+def test_a_faster_tables_rows_out_of_order_are_put_in_order_as_a_streams(tmp_path):
+    """A 50 Hz CAN table whose logger wrote a buffer's rows backwards: read as the table in
+    order, as a stream's samples are (rwhonet.data.sampleorder); its clock set back (the
+    rows of two stretches overlapping) stays refused, naming the file's row."""
+    df = faster(good_target(200.0), 50)
+    want, _ = _read(write_iovnbd(df, tmp_path / "V-A.csv"), tmp_path)
+    path = write_iovnbd(df, tmp_path / "V-F.csv")
+    lines = path.read_text().splitlines()
+    lines[1001:1011] = lines[1001:1011][::-1]  # data rows 1001-1010 written backwards
+    path.write_text("\n".join(lines) + "\n")
+    got, _ = _read(path, tmp_path)
+    for k in want.columns:
+        np.testing.assert_array_equal(got.columns[k], want.columns[k])
+    assert any("9 sample(s) written after a later one" in n for n in got.notes)
+    with io.BytesIO(path.read_bytes()) as stream:  # predict's reader: the same grid rows
+        _, blocks = read_rows(stream, path.name)
+        streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
+    np.testing.assert_array_equal(streamed, want.columns[c.OMEGA_RL])
+    back = df.copy()
+    back.loc[3000:, c.T_S] -= 0.517  # the clock set back half a second at data row 3001
+    path = write_iovnbd(back, tmp_path / "V-B.csv")
+    with pytest.raises(InputError) as err:
+        _read(path, tmp_path)
+    assert {(p.row, "strictly increasing" in p.expected) for p in err.value.problems} >= {
+        (3001, True)
+    }

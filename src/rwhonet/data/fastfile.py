@@ -24,6 +24,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows
 from rwhonet.data.heldfixes import GNSS_CHANNELS, held_fixes
+from rwhonet.data.sampleorder import time_order
 from rwhonet.data.streams import RATE_CHANNELS, DriveStreams, Stream
 
 # Rows this many times as frequent as the grid's or more (median step at most the grid's
@@ -58,9 +59,19 @@ def as_streams(raw: RawDrive, file: str) -> DriveStreams:
         file: the file as the user knows it, for messages.
     """
     cols = raw.columns
-    t = cols[c.T_S]
     source = raw.source_columns
-    file_row = FileRows.of(manifest_rows(raw))  # the rows dropped before: messages name the file's
+    # each row's data row in the file (rows dropped before as copies or without a wheel
+    # speed), so that messages name the file's rows
+    file_row = FileRows.of(manifest_rows(raw))(np.arange(raw.n_rows))
+    # rows written out of time order (a logger's buffers merged as they arrived): put in
+    # order where that is all that is wrong, as a stream's samples are; else left, refused
+    order = time_order(cols[c.T_S], cols, file_row, file)
+    notes = raw.notes
+    if order.index is not None:
+        cols = {k: v[order.index] for k, v in cols.items()}
+        file_row = file_row[order.index]
+        notes = (*notes, *order.notes)
+    t = cols[c.T_S]
 
     def stream(name: str, rows: np.ndarray, names: tuple[str, ...]) -> Stream:
         return Stream(
@@ -69,7 +80,7 @@ def as_streams(raw: RawDrive, file: str) -> DriveStreams:
             t[rows],
             {k: cols[k][rows] for k in names},
             {k: source.get(k, k) for k in (c.T_S, *names)},
-            file_row(rows),
+            file_row[rows],
         )
 
     finite_t = np.isfinite(t)
@@ -93,7 +104,7 @@ def as_streams(raw: RawDrive, file: str) -> DriveStreams:
         gnss=stream("rows with a fix", np.flatnonzero(fixes), gnss),
         extra=tuple(extra),
         clock="the file's time column",
-        notes=(*raw.notes, note),
+        notes=(*notes, note),
     )
 
 
