@@ -353,7 +353,10 @@ def _read_streams(
     else:
         from rwhonet.data.streamcsv import read_stream_csvs
 
-        files = sorted(p for p in f.path.glob("*") if p.is_file() and is_csv_name(p.name))
+        # a hidden file is none of the drive's (macOS's ._wheels.csv beside wheels.csv on
+        # a logger's FAT card: binary metadata), as discover leaves hidden drives out
+        every = sorted(p for p in f.path.glob("*") if p.is_file() and is_csv_name(p.name))
+        files = [p for p in every if not p.name.startswith(".")]
         signals = data.signal_maps[f.format].signals
         with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
             plain, shown, packed = [], {}, []
@@ -367,6 +370,9 @@ def _read_streams(
                 shown[q] = rel(p)
                 plain.append(q)
             streams = read_stream_csvs(plain, signals, radius_m, _map_name(f), shown)
+        if hidden := [p.name for p in every if p.name.startswith(".")]:
+            said = f"hidden files left out (none of the drive's streams): {', '.join(hidden)}"
+            streams = dataclasses.replace(streams, notes=(*streams.notes, said))
         if packed:
             said = f"stream files kept compressed, read as the text they hold: {', '.join(packed)}"
             streams = dataclasses.replace(streams, notes=(*streams.notes, said))

@@ -118,6 +118,17 @@ def read_stream_csvs(
     time_spec = signal_map["t"]
     found: dict[str, list[tuple[str, int]]] = {}
     time_at: dict[str, int] = {}
+    # a logger's other CSVs (its settings, an event list): no time column, nothing mapped;
+    # left out, unless no file has either (the map names none of the drive's columns)
+    left_out = [
+        file
+        for file, header in headers.items()
+        if not any(column_matches(header, spec.column) for spec in signal_map.values())
+    ]
+    if len(left_out) < len(headers):
+        headers = {f: h for f, h in headers.items() if f not in left_out}
+    else:
+        left_out = []
     for file, header in headers.items():
         pos = find_column(header, time_spec.column, time_spec.unit)
         if pos is None:
@@ -193,7 +204,11 @@ def read_stream_csvs(
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
     groups = []
-    notes: list[str] = []
+    notes: list[str] = [
+        f"{file}: neither the time column {time_spec.column!r} nor any other column of "
+        f"{name} in it: not one of the drive's streams, left out"
+        for file in left_out
+    ]
     changed: list[str] = []  # what the reader changed of the samples (DriveStreams.changed)
     paths_of = {file: path for path, file in files}
     for file, header in headers.items():
