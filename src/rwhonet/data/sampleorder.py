@@ -10,17 +10,20 @@ FIFOs, two interfaces) in arrival order rather than by time stamp. Here, per str
    to NaN) holds nothing new; it is dropped, as the 10 Hz readers drop a row written
    again (:func:`rwhonet.data.droprows.repeated_rows`).
 2. **Out of order.** The samples left are put in time order where the order is all that
-   is wrong: sorted by time, the stream may have no more steps shorter than 0.6 of its
-   median step, nor longer than 1.5 of it, than the steps forward in the file's order
-   had. Samples written late, a file shuffled, a stream's files joined out of order:
-   each sample fills the slot the stream's rate left for it, and sorting closes the
-   steps the disorder opened. A clock that went back (a restart, a clock set back by
-   NTP or by the receiver's time after boot) makes two recordings overlap in time, and
-   sorting would crowd them into one at twice the rate, or, set back further than it
-   had run, leaves a gap between them that neither had; a sample stamped wrongly lands
-   beside another's slot and leaves its own empty. Each is left as written, and refused
-   by the stream checks (:func:`rwhonet.data.streams.check_streams`), naming the file's
-   row.
+   is wrong: sorted, no samples may crowd closer than the stream has them, and no step
+   may open longer than 1.5 of its median that the file's forward steps lacked. Samples
+   written late, a file shuffled, a stream's files joined out of order: each sample fills
+   the slot the stream's rate left for it, and sorting closes the steps the disorder
+   opened. A clock that went back (a restart, a clock set back by NTP or by the
+   receiver's time after boot) makes two recordings overlap in time, and sorting would
+   crowd them into one at twice the rate, or, set back further than it had run, leaves
+   a gap between them that neither had; a sample stamped wrongly lands beside another's
+   slot and leaves its own empty. Each is left as written, and refused by the stream
+   checks (:func:`rwhonet.data.streams.check_streams`), naming the file's row.
+   *Crowding* is judged by short steps (under 0.6 of the median) for a regularly stamped
+   stream, by density (samples per 4 median steps) for a jittered one, whose own short
+   steps a reordering breaks up (:func:`_crowded`): in a jittered stream a clock set back
+   by less than two periods, or one sample stamped wrongly, can be sorted in.
 3. **A time twice with other values** (a clock that stuck) is no copy and has no order:
    refused as before.
 
@@ -48,6 +51,11 @@ CROWDED_SHARE = 0.6
 # (two recordings one before the other leave a gap between them; a sample stamped far off
 # leaves its slot empty; samples written late leave none once sorted).
 GAP_SHARE = 1.5
+# A stream whose steps within runs in order are this regular is judged by its short steps;
+# a jittered one (more of them short, or too few to tell) by the density of its samples.
+REGULAR_SHARE = 0.01
+REGULAR_MIN_STEPS = 20
+WINDOW_STEPS = 4
 ROWS_NOTED = 5
 
 
@@ -111,21 +119,56 @@ def time_order(
     before = np.maximum.accumulate(kept)
     late = np.flatnonzero(np.r_[False, kept[1:] < before[:-1]])
     by = float(np.max(before[late - 1] - kept[late]))
-    median = float(np.median(step))
-    forward = np.diff(kept)
-    forward = forward[forward > 0]
-    short, long = CROWDED_SHARE * median, GAP_SHARE * median
-    crowded = int((step < short).sum()) > int((forward < short).sum())
-    opened = int((step > long).sum()) > int((forward > long).sum())
-    if crowded or opened:
+    if _crowded(kept, ordered, step) or _opened(kept, step):
         return Order(index if copies.size else None, tuple(notes))
     notes.append(
         f"{where}: {late.size} sample(s) written after a later one (up to {by:.3g} s "
-        f"late: {_listed(row[index[late]])}) put in time order (sorted, the stream has no "
-        "step shorter than 0.6 or longer than 1.5 of its median that the file's order did "
-        "not have: a reordering, not a clock gone back)"
+        f"late: {_listed(row[index[late]])}) put in time order (sorted, no samples crowd "
+        "closer than the stream's own and no gap opens that the file's order did not "
+        "have: a reordering, not a clock gone back)"
     )
     return Order(index[order], tuple(notes))
+
+
+def _crowded(kept: np.ndarray, ordered: np.ndarray, step: np.ndarray) -> bool:
+    """Whether sorting crowds samples closer than the stream has them.
+
+    A stream whose steps within its runs in order are regular (fewer than
+    :data:`REGULAR_SHARE` of them under :data:`CROWDED_SHARE` of the median: a logger that
+    stamps in hardware) may have no more such short steps sorted than forward in the
+    file's order. A jittered stream (a phone's or a simulator's CAN stamps, steps from a
+    small fraction of the period to twice it) has short steps of its own, which a
+    reordering breaks up in the file's order; for it the test is density: no window of
+    :data:`WINDOW_STEPS` median steps may hold more samples sorted than any such window
+    of a run in the file's order holds (or than a stream of that rate with any jitter
+    under half a period, ``WINDOW_STEPS + 1``). Two stretches overlapping (a clock set back
+    by two periods or more) hold about twice as many.
+    """
+    median = float(np.median(step))
+    short = CROWDED_SHARE * median
+    run = np.r_[0, np.cumsum(kept[1:] <= kept[:-1])]  # a new run at each step back
+    forward = np.diff(kept)
+    in_run = forward[run[1:] == run[:-1]]
+    if in_run.size >= REGULAR_MIN_STEPS and (in_run < short).mean() < REGULAR_SHARE:
+        return int((step < short).sum()) > int(((forward > 0) & (forward < short)).sum())
+    width = WINDOW_STEPS * median
+    sorted_count = np.searchsorted(ordered, ordered + width, side="left") - np.arange(ordered.size)
+    # the same count within each run: runs laid end to end on one axis, apart by more
+    # than a window, so no window reaches from one into the next
+    span = float(ordered[-1] - ordered[0]) + 2.0 * width + 1.0
+    axis = run * span + (kept - ordered[0])
+    run_count = np.searchsorted(axis, axis + width, side="left") - np.arange(axis.size)
+    bound = max(WINDOW_STEPS + 1, int(run_count.max()))
+    return int(sorted_count.max()) > bound
+
+
+def _opened(kept: np.ndarray, step: np.ndarray) -> bool:
+    """Whether sorting opens more steps longer than :data:`GAP_SHARE` of the median than the
+    file's forward steps have (two stretches one before the other leave a gap between
+    them; a sample stamped far off leaves its slot empty)."""
+    long = GAP_SHARE * float(np.median(step))
+    forward = np.diff(kept)
+    return int((step > long).sum()) > int((forward > long).sum())
 
 
 def _listed(rows: np.ndarray) -> str:
