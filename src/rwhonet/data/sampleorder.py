@@ -23,7 +23,7 @@ FIFOs, two interfaces) in arrival order rather than by time stamp. Here, per str
    *Crowding* is judged by short steps (under 0.6 of the median) for a regularly stamped
    stream, by density (samples per 4 median steps) for a jittered one, whose own short
    steps a reordering breaks up (:func:`_crowded`): in a jittered stream a clock set back
-   by less than two periods, or one sample stamped wrongly, can be sorted in.
+   by less than three periods, or one sample stamped wrongly, can be sorted in.
 3. **A time twice with other values** (a clock that stuck) is no copy and has no order:
    refused as before.
 
@@ -51,9 +51,10 @@ CROWDED_SHARE = 0.6
 # (two recordings one before the other leave a gap between them; a sample stamped far off
 # leaves its slot empty; samples written late leave none once sorted).
 GAP_SHARE = 1.5
-# A stream whose steps within runs in order are this regular is judged by its short steps;
-# a jittered one (more of them short, or too few to tell) by the density of its samples.
-REGULAR_SHARE = 0.01
+# A stream whose steps within runs in order are this regular (their interquartile range
+# at most this share of their median, none short) is judged by its short steps; a
+# jittered one (or one with too few such steps to tell) by the density of its samples.
+REGULAR_SPREAD = 0.1
 REGULAR_MIN_STEPS = 20
 WINDOW_STEPS = 4
 ROWS_NOTED = 5
@@ -133,24 +134,28 @@ def time_order(
 def _crowded(kept: np.ndarray, ordered: np.ndarray, step: np.ndarray) -> bool:
     """Whether sorting crowds samples closer than the stream has them.
 
-    A stream whose steps within its runs in order are regular (fewer than
-    :data:`REGULAR_SHARE` of them under :data:`CROWDED_SHARE` of the median: a logger that
-    stamps in hardware) may have no more such short steps sorted than forward in the
-    file's order. A jittered stream (a phone's or a simulator's CAN stamps, steps from a
-    small fraction of the period to twice it) has short steps of its own, which a
-    reordering breaks up in the file's order; for it the test is density: no window of
-    :data:`WINDOW_STEPS` median steps may hold more samples sorted than any such window
-    of a run in the file's order holds (or than a stream of that rate with any jitter
-    under half a period, ``WINDOW_STEPS + 1``). Two stretches overlapping (a clock set back
-    by two periods or more) hold about twice as many.
+    A stream whose steps within its runs in order are regular (their interquartile range
+    at most :data:`REGULAR_SPREAD` of their median, none under :data:`CROWDED_SHARE` of
+    it: a logger that stamps in hardware) may have no more such short steps sorted than
+    forward in the file's order. A jittered stream (a phone's or a simulator's CAN
+    stamps, steps from a small fraction of the period to twice it) has short steps of its
+    own, which a reordering breaks up in the file's order; for it the test is density: no
+    window of :data:`WINDOW_STEPS` median steps may hold more samples sorted than any
+    such window of a run in the file's order holds (or ``WINDOW_STEPS + 2``: a stream of
+    that rate with any jitter under half a period has at most ``WINDOW_STEPS + 1`` in a
+    window of ``WINDOW_STEPS`` periods, and its median step may be a little longer than
+    its period). Two stretches overlapping (a clock set back by three periods or more)
+    hold about twice as many.
     """
     median = float(np.median(step))
     short = CROWDED_SHARE * median
     run = np.r_[0, np.cumsum(kept[1:] <= kept[:-1])]  # a new run at each step back
     forward = np.diff(kept)
     in_run = forward[run[1:] == run[:-1]]
-    if in_run.size >= REGULAR_MIN_STEPS and (in_run < short).mean() < REGULAR_SHARE:
-        return int((step < short).sum()) > int(((forward > 0) & (forward < short)).sum())
+    if in_run.size >= REGULAR_MIN_STEPS:
+        q1, mid, q3 = np.percentile(in_run, [25, 50, 75])
+        if q3 - q1 <= REGULAR_SPREAD * mid and not (in_run < short).any():
+            return int((step < short).sum()) > int(((forward > 0) & (forward < short)).sum())
     width = WINDOW_STEPS * median
     sorted_count = np.searchsorted(ordered, ordered + width, side="left") - np.arange(ordered.size)
     # the same count within each run: runs laid end to end on one axis, apart by more
@@ -158,7 +163,7 @@ def _crowded(kept: np.ndarray, ordered: np.ndarray, step: np.ndarray) -> bool:
     span = float(ordered[-1] - ordered[0]) + 2.0 * width + 1.0
     axis = run * span + (kept - ordered[0])
     run_count = np.searchsorted(axis, axis + width, side="left") - np.arange(axis.size)
-    bound = max(WINDOW_STEPS + 1, int(run_count.max()))
+    bound = max(WINDOW_STEPS + 2, int(run_count.max()))
     return int(sorted_count.max()) > bound
 
 
