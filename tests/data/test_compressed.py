@@ -189,8 +189,13 @@ def test_a_cut_off_zip_archive_is_refused(tmp_path):
 
 
 def test_stream_csvs_kept_compressed_read_as_the_folder_of_their_text(tmp_path):
-    from rwhonet.data.drivefile import read_canonical
-    from support.stream_fleet import role_drive, stream_params, tables_from_drive, write_drive
+    from support.stream_fleet import (
+        read_target_drive,
+        role_drive,
+        stream_params,
+        tables_from_drive,
+        write_drive,
+    )
 
     tables = tables_from_drive(role_drive("target_test", 60.0))
     plain = write_drive("stream_csv", tables, tmp_path / "plain", "C-B1", 0.3)
@@ -201,13 +206,7 @@ def test_stream_csvs_kept_compressed_read_as_the_folder_of_their_text(tmp_path):
         path.with_name(path.name + SUFFIX[kind]).write_bytes(COMPRESS[kind](path.read_bytes()))
         path.unlink()
     params = stream_params(tmp_path, "stream_csv")
-    vp = params.validate
-
-    def read(folder: Path):
-        f = DriveFile("C-B1", "target_test", "target", "logger_csv", folder)
-        return read_canonical(f, params.data, str, 0.3, vp.sample_period_s, vp.gnss.max_gap_s)
-
-    want, got = read(plain), read(packed)
+    want, got = read_target_drive(params, plain), read_target_drive(params, packed)
     for name in want.raw.columns:
         np.testing.assert_array_equal(got.raw.columns[name], want.raw.columns[name])
     assert any("compressed" in note for note in got.raw.notes)
@@ -221,8 +220,13 @@ def test_an_mdf4_log_kept_compressed_reads_as_the_log_it_holds(tmp_path, kind):
     to a scratch copy bounded by data.max_file_mb, read as the log, named as kept."""
     import zipfile
 
-    from rwhonet.data.drivefile import read_canonical
-    from support.stream_fleet import role_drive, stream_params, tables_from_drive, write_drive
+    from support.stream_fleet import (
+        read_target_drive,
+        role_drive,
+        stream_params,
+        tables_from_drive,
+        write_drive,
+    )
 
     tables = tables_from_drive(role_drive("target_test", 60.0))
     plain = write_drive("mdf4", tables, tmp_path / "plain", "C-B1", 0.3)
@@ -233,13 +237,7 @@ def test_an_mdf4_log_kept_compressed_reads_as_the_log_it_holds(tmp_path, kind):
     else:
         packed = _packed(tmp_path, kind, plain.read_bytes(), plain.name)
     params = stream_params(tmp_path, "mdf4")
-    vp = params.validate
-
-    def read(path: Path, data=params.data):
-        f = DriveFile(drive_stem(path), "target_test", "target", "logger_mf4", path)
-        return read_canonical(f, data, str, 0.3, vp.sample_period_s, vp.gnss.max_gap_s)
-
-    want, got = read(plain), read(packed)
+    want, got = read_target_drive(params, plain), read_target_drive(params, packed)
     assert drive_stem(packed) == "C-B1"
     for name in want.raw.columns:
         np.testing.assert_array_equal(got.raw.columns[name], want.raw.columns[name])
@@ -247,7 +245,7 @@ def test_an_mdf4_log_kept_compressed_reads_as_the_log_it_holds(tmp_path, kind):
     assert {s["file"] for s in got.streams.streams} == {str(packed)}
     small = dataclasses.replace(params.data, max_file_mb=plain.stat().st_size / 2**20 / 2)
     with pytest.raises(InputError) as err:
-        read(packed, small)
+        read_target_drive(params, packed, data=small)
     assert err.value.problems[0].file == str(packed)
     assert "once decompressed" in err.value.problems[0].expected
 

@@ -473,8 +473,13 @@ def test_a_loggers_other_files_in_a_stream_folder_are_left_out(tmp_path):
     a CSV of the logger's own (an event list: no time column, nothing the map names) are
     left out with a note; the drive reads as without them. A CSV the map names a column of
     but without the time column is still refused."""
-    from rwhonet.data.drivefile import DriveFile, read_canonical
-    from support.stream_fleet import role_drive, stream_params, tables_from_drive, write_drive
+    from support.stream_fleet import (
+        read_target_drive,
+        role_drive,
+        stream_params,
+        tables_from_drive,
+        write_drive,
+    )
 
     tables = tables_from_drive(role_drive("target_test", 60.0))
     plain = write_drive("stream_csv", tables, tmp_path / "plain", "C-B1", 0.3)
@@ -482,13 +487,7 @@ def test_a_loggers_other_files_in_a_stream_folder_are_left_out(tmp_path):
     (other / "._wheels.csv").write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X        ")
     (other / "events.csv").write_text("Event,Note\nstart,logger v2.1\nstop,card full\n")
     params = stream_params(tmp_path, "stream_csv")
-    vp = params.validate
-
-    def read(folder: Path):
-        f = DriveFile("C-B1", "target_test", "target", "logger_csv", folder)
-        return read_canonical(f, params.data, str, 0.3, vp.sample_period_s, vp.gnss.max_gap_s)
-
-    want, got = read(plain), read(other)
+    want, got = read_target_drive(params, plain), read_target_drive(params, other)
     for name in want.raw.columns:
         np.testing.assert_array_equal(got.raw.columns[name], want.raw.columns[name])
     said = " ".join(got.raw.notes)
@@ -496,5 +495,5 @@ def test_a_loggers_other_files_in_a_stream_folder_are_left_out(tmp_path):
     assert "events.csv: neither the time column" in said and "left out" in said
     (other / "events.csv").write_text("Event,NumSV\nstart,9\n")  # a mapped column, no time
     with pytest.raises(InputError) as err:
-        read(other)
+        read_target_drive(params, other)
     assert any(p.file.endswith("events.csv") for p in err.value.problems)

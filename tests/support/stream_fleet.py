@@ -139,3 +139,17 @@ def stream_params(root: Path, fmt: str, **overrides):
     }
     maps = {name: signal_map_params(fmt)} if fmt in MAP_NAME else {}
     return make_params(root, **{"data.roles": roles, "data.signal_maps": maps, **overrides})
+
+
+def read_target_drive(params, path: Path, radius_m: float = 0.3, data=None):
+    """Read one target-test drive in the format of ``params``' fleet (:func:`stream_params`)
+    as ingest reads it (``rwhonet.data.drivefile.read_canonical``); ``data``: another
+    ``data`` section (a smaller size limit, ...)."""
+    from rwhonet.data.compressed import drive_stem
+    from rwhonet.data.drivefile import DriveFile, read_canonical
+
+    fmt = params.data.roles["target_test"].format
+    vp = params.validate
+    f = DriveFile(drive_stem(path), "target_test", "target", fmt, path)
+    data = params.data if data is None else data
+    return read_canonical(f, data, str, radius_m, vp.sample_period_s, vp.gnss.max_gap_s)
