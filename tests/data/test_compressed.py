@@ -28,6 +28,13 @@ from rwhonet.data.scenarios import sidecar_path
 from rwhonet.errors import InputError
 from support.drives import make_params, write_iovnbd
 from support.serving import wavy_drive
+from support.stream_fleet import (
+    read_target_drive,
+    role_drive,
+    stream_params,
+    tables_from_drive,
+    write_drive,
+)
 
 COMPRESS = {
     "gzip": lambda data: gzip.compress(data, mtime=0),
@@ -189,13 +196,6 @@ def test_a_cut_off_zip_archive_is_refused(tmp_path):
 
 
 def test_stream_csvs_kept_compressed_read_as_the_folder_of_their_text(tmp_path):
-    from support.stream_fleet import (
-        read_target_drive,
-        role_drive,
-        stream_params,
-        tables_from_drive,
-        write_drive,
-    )
 
     tables = tables_from_drive(role_drive("target_test", 60.0))
     plain = write_drive("stream_csv", tables, tmp_path / "plain", "C-B1", 0.3)
@@ -219,14 +219,6 @@ def test_an_mdf4_log_kept_compressed_reads_as_the_log_it_holds(tmp_path, kind):
     """A logger's MDF4 file archived compressed (drive.mf4.gz, zipped alone): decompressed
     to a scratch copy bounded by data.max_file_mb, read as the log, named as kept."""
     import zipfile
-
-    from support.stream_fleet import (
-        read_target_drive,
-        role_drive,
-        stream_params,
-        tables_from_drive,
-        write_drive,
-    )
 
     tables = tables_from_drive(role_drive("target_test", 60.0))
     plain = write_drive("mdf4", tables, tmp_path / "plain", "C-B1", 0.3)

@@ -19,6 +19,13 @@ from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from support.drives import as_ddmm, as_hhmmss
+from support.stream_fleet import (
+    read_target_drive,
+    role_drive,
+    stream_params,
+    tables_from_drive,
+    write_drive,
+)
 
 R = 0.31
 V = 14.0  # m/s, north
@@ -473,13 +480,6 @@ def test_a_loggers_other_files_in_a_stream_folder_are_left_out(tmp_path):
     a CSV of the logger's own (an event list: no time column, nothing the map names) are
     left out with a note; the drive reads as without them. A CSV the map names a column of
     but without the time column is still refused."""
-    from support.stream_fleet import (
-        read_target_drive,
-        role_drive,
-        stream_params,
-        tables_from_drive,
-        write_drive,
-    )
 
     tables = tables_from_drive(role_drive("target_test", 60.0))
     plain = write_drive("stream_csv", tables, tmp_path / "plain", "C-B1", 0.3)
