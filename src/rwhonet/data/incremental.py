@@ -19,13 +19,14 @@ jittered off the drive's sample grid are replaced by their slots' instants, so
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import itertools
 import math
 import os
 import select
 import stat
-from collections.abc import Collection, Iterator, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from typing import BinaryIO
 
@@ -331,23 +332,31 @@ def read_rows(
         for x in (line, second if units is not None else None)
     )
     blocks = _blocks(stream, lay, file, block_bytes, pipe, rest, delimiter, b"".join(after), keys)
-    fast = _placed_or_resampled(blocks, lay, file, period_s, radius_m, split_gap_s, gnss_lag)
-    return lay, fast
+    # a table faster than the grid: resampled whole, as ingest resamples it
+    whole = functools.partial(
+        _resampled,
+        lay=lay,
+        file=file,
+        period_s=period_s,
+        radius_m=radius_m,
+        split_gap_s=split_gap_s,
+        gnss_lag=gnss_lag,
+    )
+    return lay, _placed_or_resampled(blocks, period_s, whole)
 
 
 def _placed_or_resampled(
     blocks: Iterator[tuple[int, dict[str, np.ndarray]]],
-    lay: Layout,
-    file: str,
     period_s: float,
-    radius_m: float | None,
-    split_gap_s: float,
-    gnss_lag: str | float = "report",
+    resampled: Callable[
+        [list[tuple[int, dict[str, np.ndarray]]]], Iterator[tuple[int, dict[str, np.ndarray]]]
+    ],
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     """The row blocks placed on the drive's clock (:func:`placed`), or, where the first
     ``STREAM_PHASE_ROWS`` rows come faster than the grid (a 20-100 Hz table:
-    :func:`rwhonet.data.fastfile.is_faster_than_grid`), the whole drive read, resampled
-    onto the grid as ingest resamples it, and its grid rows handed on."""
+    :func:`rwhonet.data.fastfile.is_faster_than_grid`), the whole drive read and given to
+    ``resampled`` (:func:`_resampled`, its other arguments bound), and its grid rows
+    handed on."""
     from rwhonet.data.fastfile import is_faster_than_grid
 
     head: list[tuple[int, dict[str, np.ndarray]]] = []
@@ -362,8 +371,7 @@ def _placed_or_resampled(
     if not is_faster_than_grid(t, period_s):
         yield from placed(rows, StreamClock(period_s))
         return
-    grid = _resampled(list(rows), lay, file, period_s, radius_m, split_gap_s, gnss_lag)
-    yield from placed(grid, StreamClock(period_s))
+    yield from placed(resampled(list(rows)), StreamClock(period_s))
 
 
 def _resampled(

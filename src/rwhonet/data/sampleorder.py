@@ -120,7 +120,8 @@ def time_order(
     before = np.maximum.accumulate(kept)
     late = np.flatnonzero(np.r_[False, kept[1:] < before[:-1]])
     by = float(np.max(before[late - 1] - kept[late]))
-    if _crowded(kept, ordered, step) or _opened(kept, step):
+    median = float(np.median(step))
+    if _crowded(kept, ordered, step, median) or _opened(kept, step, median):
         return Order(index if copies.size else None, tuple(notes))
     notes.append(
         f"{where}: {late.size} sample(s) written after a later one (up to {by:.3g} s "
@@ -131,7 +132,7 @@ def time_order(
     return Order(index[order], tuple(notes))
 
 
-def _crowded(kept: np.ndarray, ordered: np.ndarray, step: np.ndarray) -> bool:
+def _crowded(kept: np.ndarray, ordered: np.ndarray, step: np.ndarray, median: float) -> bool:
     """Whether sorting crowds samples closer than the stream has them.
 
     A stream whose steps within its runs in order are regular (their interquartile range
@@ -147,7 +148,6 @@ def _crowded(kept: np.ndarray, ordered: np.ndarray, step: np.ndarray) -> bool:
     its period). Two stretches overlapping (a clock set back by three periods or more)
     hold about twice as many.
     """
-    median = float(np.median(step))
     short = CROWDED_SHARE * median
     run = np.r_[0, np.cumsum(kept[1:] <= kept[:-1])]  # a new run at each step back
     forward = np.diff(kept)
@@ -167,11 +167,11 @@ def _crowded(kept: np.ndarray, ordered: np.ndarray, step: np.ndarray) -> bool:
     return int(sorted_count.max()) > bound
 
 
-def _opened(kept: np.ndarray, step: np.ndarray) -> bool:
+def _opened(kept: np.ndarray, step: np.ndarray, median: float) -> bool:
     """Whether sorting opens more steps longer than :data:`GAP_SHARE` of the median than the
     file's forward steps have (two stretches one before the other leave a gap between
     them; a sample stamped far off leaves its slot empty)."""
-    long = GAP_SHARE * float(np.median(step))
+    long = GAP_SHARE * median
     forward = np.diff(kept)
     return int((step > long).sum()) > int((forward > long).sum())
 
