@@ -557,6 +557,10 @@ class DataParams:
     # clear, a number (s, within +-60) moves them by that (a fix stamped t taken at t - lag).
     # Fixes stamped by another clock (a lag beyond +-1 s) are refused by report.
     gnss_lag: Literal["report", "auto"] | float = "report"
+    # A drive ingest or validate refuses: "stop" fails the stage with every problem (nothing
+    # written); "leave_out" goes on without it, named in every manifest and report and in
+    # the tables (rwhonet.data.leftout); a required role left without a drive still fails.
+    refused_drives: Literal["stop", "leave_out"] = "stop"
 
     def __post_init__(self) -> None:
         if not self.max_file_mb > 0:

@@ -51,6 +51,19 @@ class Problem:
         """
         return cls(file, None, column, expected, f"{type(err).__name__}: {str(err)[:160]}", fix)
 
+    @classmethod
+    def from_dict(cls, d: dict[str, object]) -> Problem:
+        """A problem from :meth:`to_dict`'s plain data (a report or manifest read back)."""
+        row, column, fix = d.get("row"), d.get("column"), d.get("fix")
+        return cls(
+            str(d["file"]),
+            None if row is None else int(row),  # type: ignore[call-overload]
+            None if column is None else str(column),
+            str(d["expected"]),
+            str(d["found"]),
+            None if fix is None else str(fix),
+        )
+
     def to_dict(self) -> dict[str, object]:
         """The problem as plain data (for JSON reports)."""
         return {

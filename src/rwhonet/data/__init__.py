@@ -45,6 +45,8 @@
   (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf) or
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
   (:mod:`~rwhonet.data.signalmap`).
+- :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where
+  ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those
   written out of time order put in order where that is all that is wrong.
 """

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import platform
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -294,19 +295,46 @@ def data_label(params: Params) -> str:
     return f"files, {params.data.root}"
 
 
-def provenance_line(params: Params, choice: Choice) -> str:
-    """Where the numbers come from (data source, profile, seeds, machine)."""
+def provenance_line(
+    params: Params, choice: Choice, left_out: list[dict[str, Any]] | None = None
+) -> str:
+    """Where the numbers come from (data source, profile, seeds, machine), and the drives
+    refused and left out (``data.refused_drives: leave_out``), which they do not cover."""
     src = (
         f"simulated fleet, profile `{params.sim.profile}`"
         if params.data.source == "sim"
         else f"drive files under `{params.data.root}`"
     )
-    return (
+    line = (
         f"Data: {src}; training seeds {params.seeds} (every cell: mean over seeds ± the "
         f"half-width of its 95 % t interval); WPM mode `{params.label.wpm_mode}`; "
         f"{params.train.epochs} training epochs; R-WhONet = recipe `{choice.recipe}` "
         f"at m = {choice.m} s; computed on {platform.machine()} CPU by `dvc repro`."
     )
+    if left_out:
+        names = ", ".join(f"`{d['drive']}` ({d['role']}, by {d['stage']})" for d in left_out)
+        line += (
+            f" **{len(left_out)} drive(s) refused and left out** (`data.refused_drives: "
+            f"leave_out`), not in any number here: {names}; their problems: `left_out` in "
+            f"{paths.rel(paths.EVAL_JSON)} and {paths.rel(paths.VALIDATION_REPORT)}."
+        )
+    return line
+
+
+def note_left_out(ev: Evaluation, samples_dir: Path) -> list[dict[str, Any]]:
+    """The drives left out (:func:`left_out_drives`), put in ``ev``'s eval.json as
+    ``left_out`` where there are any: a run without refusals writes what it always did."""
+    left_out = left_out_drives(samples_dir)
+    if left_out:
+        ev.eval_json["left_out"] = left_out
+    return left_out
+
+
+def left_out_drives(samples_dir: Path) -> list[dict[str, Any]]:
+    """The drives ingest or validate left out, as the label stage's manifest carries them
+    (:func:`rwhonet.data.leftout.brief`; empty: none, or no manifest)."""
+    path = Path(samples_dir) / k.MANIFEST
+    return list(read_json(path).get("left_out") or []) if path.is_file() else []
 
 
 def seeds_label(seeds: list[int], many: str = "") -> str:
@@ -337,6 +365,11 @@ def evaluation_record(
             "data.source": params.data.source,
             "data.root": params.data.root,
             "sim.profile": params.sim.profile,
+            **(
+                {"data.drives_left_out": len(left)}  # which: eval.json's left_out
+                if (left := ev.eval_json.get("left_out"))
+                else {}
+            ),
         },
         metrics=metrics,
         artifacts=[paths.rel(a) for a in artifacts],
@@ -361,6 +394,7 @@ def main(params: Params) -> None:
     frame, preds = collect_predictions(params, paths.SAMPLES, paths.MODELS)
     evidence = fit_evidence(params, selection, paths.MODELS)
     result = evaluate(params, choice, frame, preds, scores, evidence)
+    left_out = note_left_out(result, paths.SAMPLES)
     write_outputs(
         params,
         result,
@@ -368,7 +402,7 @@ def main(params: Params) -> None:
         tables_path=paths.TABLES_MD,
         predictions_dir=paths.PREDICTIONS,
         plots_dir=paths.PLOTS,
-        provenance=provenance_line(params, choice),
+        provenance=provenance_line(params, choice, left_out),
     )
     records = run_records(params, result, paths.MODELS)
     parent = evaluation_record(

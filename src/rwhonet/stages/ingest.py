@@ -9,7 +9,9 @@ writes everything at once (:func:`rwhonet.io.atomic_dir`): after a failure the
 previous output is left as it was. Reading one file (its reader, size limit and canonical table) is
 :mod:`rwhonet.data.drivefile`'s, which ``rwhonet recalibrate`` uses too; rows
 are kept exactly as in the file, in order (row ``i`` is data row ``i + 1`` of
-the source file), so ``validate`` can point at the file's rows.
+the source file), so ``validate`` can point at the file's rows. A drive the
+readers refuse fails the stage, or with ``data.refused_drives: leave_out`` is left
+out and named in the manifest's ``left_out`` (:mod:`rwhonet.data.leftout`).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from typing import Any
 
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, DataParams, Params
+from rwhonet.data import leftout
 from rwhonet.data.columnmap import check_column_map
 from rwhonet.data.compressed import drive_stem
 from rwhonet.data.drivefile import (
@@ -178,11 +181,13 @@ def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None
         (:meth:`rwhonet.data.drivefile.StreamFacts.to_dict`: each stream's samples and
         step, and the grid rows whose wheel-speed mean used a glitched sample). A
         manifest has ``untracked`` where a CAN database it read lies outside ``data.root``
-        (:func:`untracked_inputs`).
+        (:func:`untracked_inputs`), and ``left_out`` where ``data.refused_drives: leave_out``
+        left out a drive the readers refused (:func:`rwhonet.data.leftout.left_out_entry`).
 
     Raises:
         ConfigError: inconsistent ``data`` parameters.
-        InputError: one report of every problem in every drive file; nothing is written.
+        InputError: one report of every problem in every drive file (with ``leave_out``: of
+            the drives of a required role left without one); nothing is written.
     """
     try:
         manifest = _ingest(params, out_dir)
@@ -211,9 +216,10 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     data = params.data
     check_data_params(data)
     files = discover(data)
-    calibration = _calibration(files)
+    leave_out = data.refused_drives == leftout.LEAVE_OUT
     problems: list[Problem] = []
-    entries: list[dict[str, Any]] = []
+    entries: list[tuple[DriveFile, dict[str, Any]]] = []
+    left_out: list[dict[str, Any]] = []
     with atomic_dir(out_dir) as tmp:
         # A few drives at once (rwhonet.io.map_in_order: DATA_THREADS threads), each in
         # memory only while it is read and written: _write_drive's locals go when it returns.
@@ -222,27 +228,51 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
             done, desc="ingest", unit="drive", total=len(files), label=lambda x: x[0].drive
         ):
             try:
-                entry = entry_of.result()
+                entries.append((f, entry_of.result()))
             except InputError as err:
                 problems += err.problems  # keep reading: one report covers every file
-                continue
-            entry["calibrates"] = f.drive in calibration["drives"]
-            entries.append(entry)
-        if problems:
+                left_out.append(leftout.left_out_entry(_described(f), "ingest", err.problems))
+        if problems and not leave_out:
             files_bad = len({p.file for p in problems})
             raise InputError(
                 problems, summary=f"ingest: {len(problems)} problem(s) in {files_bad} file(s)"
             )
+        required = [role for role, spec in data.roles.items() if spec.required]
+        kept_roles = [f.role for f, _ in entries]
+        if emptied := leftout.emptied_roles(required, kept_roles, left_out):
+            raise InputError(
+                emptied,
+                summary=f"ingest: a required role has no drive left ({len(left_out)} "
+                "drive(s) refused, data.refused_drives: leave_out)",
+            )
+        for d in left_out:  # a table written before its drive ran out of memory
+            (tmp / f"{d['drive']}{contracts.TABLE_SUFFIX}").unlink(missing_ok=True)
+        calibration = _calibration([f for f, _ in entries])
+        for f, entry in entries:
+            entry["calibrates"] = f.drive in calibration["drives"]
         manifest = {
             "source": data.source,
             "root": paths.rel(paths.resolve(data.root)),
-            "drives": entries,
+            "drives": [entry for _, entry in entries],
             "calibration": calibration,
         }
+        if left_out:  # only then: a run without refusals writes the manifest it always did
+            manifest["left_out"] = left_out
         if untracked := untracked_inputs(data, files):
             manifest["untracked"] = untracked
         write_json(tmp / contracts.MANIFEST, manifest)
     return manifest
+
+
+def _described(f: DriveFile) -> dict[str, Any]:
+    """A drive file as a manifest names it (for a drive left out)."""
+    return {
+        "drive": f.drive,
+        "role": f.role,
+        "vehicle": f.vehicle,
+        "format": f.format,
+        "source_file": paths.rel(f.path),
+    }
 
 
 def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
@@ -315,11 +345,8 @@ def untracked_inputs(data: DataParams, files: list[DriveFile]) -> list[str]:
 
 def _calibration(files: list[DriveFile]) -> dict[str, Any]:
     """Which drives calibrate the wheel radii: source_calibration, else the first source_train."""
-    own = [f.drive for f in files if f.role == contracts.SOURCE_CALIBRATION]
-    if own:
-        return {"role": contracts.SOURCE_CALIBRATION, "drives": own, "fallback": False}
-    fallback = sorted(f.drive for f in files if f.role == contracts.CALIBRATION_FALLBACK_ROLE)
-    if not fallback:
+    chosen = leftout.calibration((f.drive, f.role) for f in files)
+    if chosen is None:
         raise InputError(
             [
                 Problem(
@@ -333,14 +360,7 @@ def _calibration(files: list[DriveFile]) -> dict[str, Any]:
                 )
             ]
         )
-    first = fallback[0]
-    return {
-        "role": contracts.CALIBRATION_FALLBACK_ROLE,
-        "drives": [first],
-        "fallback": True,
-        "note": f"no {contracts.SOURCE_CALIBRATION} drive: the first "
-        f"{contracts.CALIBRATION_FALLBACK_ROLE} drive (sorted by name) calibrates",
-    }
+    return chosen
 
 
 def summary_table(manifest: dict[str, Any]) -> str:
@@ -360,7 +380,9 @@ def summary_table(manifest: dict[str, Any]) -> str:
             f"{d['header_match']}{mark}"
         )
     total = sum(d["n_rows"] for d in manifest["drives"])
-    lines.append(f"{len(manifest['drives'])} drive(s), {total} rows")
+    left = len(manifest.get("left_out", []))
+    out = f" ({left} left out: refused, data.refused_drives: leave_out)" if left else ""
+    lines.append(f"{len(manifest['drives'])} drive(s), {total} rows{out}")
     return "\n".join(lines)
 
 
@@ -375,6 +397,8 @@ def main(params: Params) -> None:
         for note in d.get("notes", []):
             print(f"{d['drive']}: {note}")
     for line in manifest.get("untracked", []):  # read, but not a dependency of the stage
+        print(f"warning: {line}")
+    for line in leftout.summary_lines(manifest.get("left_out", [])):
         print(f"warning: {line}")
     cal = manifest["calibration"]
     print(f"calibration: {', '.join(cal['drives'])} ({cal.get('note', cal['role'])})")

@@ -23,7 +23,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +32,7 @@ import pyarrow as pa
 
 from rwhonet import contracts, paths
 from rwhonet.config import Params
+from rwhonet.data import leftout
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.calibration import (
     Calibration,
@@ -81,11 +82,14 @@ class SegmentManifest:
         entries: the segments.
         calibration_drives: the drives ingest chose to calibrate the radii.
         calibration_role: the role of those drives.
+        left_out: the drives ingest or validate left out (``data.refused_drives:
+            leave_out``), as :func:`rwhonet.data.leftout.brief` gives them.
     """
 
     entries: list[SegmentEntry]
     calibration_drives: list[str]
     calibration_role: str
+    left_out: list[dict[str, Any]] = field(default_factory=list)
 
 
 def read_segment_manifest(path: Path) -> SegmentManifest:
@@ -146,6 +150,7 @@ def read_segment_manifest(path: Path) -> SegmentManifest:
         ],
         calibration_drives=list(drives),
         calibration_role=str(record.get("role")),
+        left_out=[leftout.brief(d) for d in raw.get("left_out") or []],
     )
 
 
@@ -370,7 +375,9 @@ def label(
                         "n_seconds": tables[e.segment].num_rows,
                     }
                     for e in entries
-                ]
+                ],
+                # only where a drive was left out: the manifest a run without is unchanged
+                **({"left_out": manifest.left_out} if manifest.left_out else {}),
             },
         )
         write_json(tmp_calibration, calibration.to_dict())

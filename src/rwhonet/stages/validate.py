@@ -7,8 +7,10 @@ sensors, the plausibility of units and coordinates, a target test drive's
 length), which ``rwhonet recalibrate`` runs on a new car's drive too.
 
 Any problem in any drive fails the stage with one report of all of them and
-writes nothing to its outputs; the full report of the failed run (every
-problem, and what each drive kept and cut) goes to
+writes nothing to its outputs (with ``data.refused_drives: leave_out`` the drive is
+left out instead, and named in the report's and the segments manifest's ``left_out``,
+with the drives ingest left out: :mod:`rwhonet.data.leftout`); the full report of
+the failed run (every problem, and what each drive kept and cut) goes to
 ``reports/failed/validation.json``, a file DVC does not manage (it deletes a
 stage's declared outputs before running it), removed by the next successful
 run. Otherwise the segments are written at once (atomic folder) and the report
@@ -17,7 +19,7 @@ lists, per drive, what was kept and every cut with its rule.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +30,7 @@ import pyarrow as pa
 
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
+from rwhonet.data import leftout
 from rwhonet.data.drivechecks import check_drive, target_test_min_s
 from rwhonet.data.droprows import FileRows, report_rows
 from rwhonet.data.plausibility import reversing_rows
@@ -44,12 +47,16 @@ CONVENTION = (
 )
 
 
-def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
+def check_cuts(
+    params: Params, drives: list[str], left_out: Collection[str] = ()
+) -> dict[str, list[CutSpec]]:
     """Check ``validate.cuts`` against the ingested drives and group them by drive.
 
     Args:
         params: the project parameters.
         drives: ids of the ingested drives.
+        left_out: ids of the drives ingest left out (``data.refused_drives: leave_out``):
+            a cut of one is no mistake, and has nothing to cut.
 
     Returns:
         Drive id -> its manual cuts.
@@ -60,6 +67,8 @@ def check_cuts(params: Params, drives: list[str]) -> dict[str, list[CutSpec]]:
     issues = []
     by_drive: dict[str, list[CutSpec]] = {}
     for i, cut in enumerate(params.validate.cuts):
+        if cut.drive in left_out:
+            continue
         if cut.drive not in drives:
             issues.append(
                 f"validate.cuts[{i}].drive={cut.drive!r}: no such drive; ingested: {sorted(drives)}"
@@ -120,7 +129,11 @@ def validate(
             summary="run the ingest stage first",
         )
     manifest = read_json(manifest_path)
-    cuts = check_cuts(params, [d["drive"] for d in manifest["drives"]])
+    left_out: list[dict[str, Any]] = list(manifest.get("left_out", []))  # by ingest
+    cuts = check_cuts(
+        params, [d["drive"] for d in manifest["drives"]], [d["drive"] for d in left_out]
+    )
+    leave_out = params.data.refused_drives == leftout.LEAVE_OUT
 
     problems: list[Problem] = []
     drive_reports: list[dict[str, Any]] = []
@@ -153,11 +166,23 @@ def validate(
                 # Written whatever other drives found: a failed stage discards them all.
                 return [], report, _write_segments(entry, table, result, tmp)
 
-            for _, checked in map_in_order(check, range(len(batch.entries))):
+            for k, checked in map_in_order(check, range(len(batch.entries))):
                 found, report, segments = checked.result()
+                if found and leave_out:
+                    entry = batch.entries[k]
+                    left_out.append(leftout.left_out_entry(entry, "validate", found) | report)
+                    continue
                 problems += found
                 drive_reports.append(report)
                 segment_entries += segments
+        calibration = manifest.get("calibration")
+        if leave_out and left_out:
+            required = [role for role, spec in params.data.roles.items() if spec.required]
+            kept = [d["role"] for d in drive_reports]
+            problems += leftout.emptied_roles(required, kept, left_out)
+            calibration = _calibration_kept(calibration, drive_reports, manifest_path)
+            if isinstance(calibration, Problem):
+                problems.append(calibration)
         if problems:
             n_files = len({p.file for p in problems})
             summary = f"validate: {len(problems)} problem(s) in {n_files} file(s)"
@@ -178,12 +203,15 @@ def validate(
                 )
                 summary += f" (full report: {paths.rel(failed_report_path)})"
             raise InputError(problems, summary=summary)
+        # left_out only where a drive was: a run without refusals writes what it always did
+        also = {"left_out": left_out} if left_out else {}
         write_json(
             tmp / contracts.MANIFEST,
             {
                 "convention": CONVENTION,
                 "segments": segment_entries,
-                "calibration": manifest.get("calibration"),
+                "calibration": calibration,
+                **also,
             },
         )
         report = {
@@ -192,11 +220,40 @@ def validate(
             "target_test_min_s": target_test_min_s(params),
             "drives": drive_reports,
             "totals": _totals(drive_reports, len(segment_entries)),
+            **also,
         }
+        if left_out:
+            report["totals"]["drives_left_out"] = len(left_out)
         write_json(tmp_report, report)
     if failed_report_path is not None:
         Path(failed_report_path).unlink(missing_ok=True)  # that failure is over
     return report
+
+
+def _calibration_kept(
+    calibration: dict[str, Any] | None, kept: list[dict[str, Any]], manifest_path: Path
+) -> dict[str, Any] | Problem | None:
+    """Ingest's choice of the drives that calibrate the radii, chosen again among the drives
+    kept where validate left out one of them (:func:`rwhonet.data.leftout.calibration`);
+    a problem where no drive is left to calibrate."""
+    kept_ids = {d["drive"] for d in kept}
+    if calibration is None or set(calibration.get("drives", [])) <= kept_ids:
+        return calibration
+    chosen = leftout.calibration((d["drive"], d["role"]) for d in kept)
+    if chosen is None:
+        return Problem(
+            paths.rel(manifest_path),
+            None,
+            "calibration",
+            f"a {contracts.SOURCE_CALIBRATION} or {contracts.CALIBRATION_FALLBACK_ROLE} drive "
+            "to calibrate the wheel radii",
+            f"every one was refused ({', '.join(calibration.get('drives', []))} left out)",
+            "mend the refused drives named above, or add a source_train drive",
+        )
+    return chosen | {
+        "note": f"{', '.join(calibration['drives'])} left out (refused): "
+        + chosen.get("note", f"the {chosen['role']} drives calibrate")
+    }
 
 
 def _write_segments(
@@ -395,9 +452,11 @@ def summary_table(report: dict[str, Any]) -> str:
     t = report["totals"]
     share = t["seconds_kept"] / t["seconds"] if t["seconds"] else 0.0
     cut = ", ".join(f"{r} {s}" for r, s in t["cut_seconds_by_rule"].items() if s) or "-"
+    left = t.get("drives_left_out", 0)
+    out = f"; {left} drive(s) left out (refused, data.refused_drives: leave_out)" if left else ""
     lines.append(
         f"{t['drives']} drive(s): {t['seconds_kept']} of {t['seconds']} s kept ({share:.1%}) "
-        f"in {t['segments']} segment(s); cut: {cut}"
+        f"in {t['segments']} segment(s); cut: {cut}{out}"
     )
     return "\n".join(lines)
 
@@ -412,4 +471,6 @@ def main(params: Params) -> None:
         paths.VALIDATION_FAILED_REPORT,
     )
     print(summary_table(report))
+    for line in leftout.summary_lines(report.get("left_out", [])):
+        print(f"warning: {line}")
     print(f"-> {paths.rel(paths.SEGMENTS)}, {paths.rel(paths.VALIDATION_REPORT)}")

@@ -41,7 +41,7 @@ from support.corpus import (
     write_good_fleet,
     write_target,
 )
-from support.drives import make_params, write_params_yaml
+from support.drives import make_params, write_iovnbd, write_params_yaml
 from support.store import copy_store
 
 REPO = paths.ROOT
@@ -130,6 +130,45 @@ def test_case(case, tmp_path):
     # Exact GNSS, wheels at the true radius: the labels stay near zero (a sign error or a
     # stuck rear wheel would make them as large as the distance travelled).
     assert np.abs(samples["label_m"]).max() < 0.2
+
+
+REFUSED_BY_A_STAGE = [
+    x for x in CASES if isinstance(x.expect, Refuse) and x.expect.stage != "params"
+]
+
+
+@pytest.mark.parametrize("case", REFUSED_BY_A_STAGE, ids=[x.name for x in REFUSED_BY_A_STAGE])
+def test_case_left_out(case, tmp_path):
+    """With ``data.refused_drives: leave_out`` every refused drive is left out by the stage
+    that refuses it, with the problem the refusal names, and a good target test drive beside
+    it carries the run; where the case's params make every drive of the role unreadable (a
+    column map, a size limit), or the roles find no file, the stage still fails."""
+    raw = tmp_path / "raw"
+    write_good_fleet(raw)
+    case.write(raw)
+    write_iovnbd(good_target(), raw / "target_test" / "C-G1.csv")
+    params = make_params(raw, **case.overrides, **{"data.refused_drives": "leave_out"})
+    drives, segments = tmp_path / "drives", tmp_path / "segments"
+    try:
+        ingest(params, drives)
+        report = validate(params, drives, segments, tmp_path / "validation.json")
+    except InputError as err:
+        assert case.overrides, f"refused though one target test drive is good:\n{err}"
+        assert f"{DRIVE}" in str(err)
+        return
+    expect = case.expect
+    [left] = report["left_out"]
+    assert (left["drive"], left["stage"]) == (DRIVE, expect.stage)
+    assert any(
+        p["row"] == expect.row
+        and p["column"] == expect.column
+        and expect.expected in p["expected"]
+        and expect.found in p["found"]
+        for p in left["problems"]
+    ), left["problems"]
+    kept = [d["drive"] for d in report["drives"]]
+    assert "C-G1" in kept and DRIVE not in kept
+    assert not list(segments.glob(f"{DRIVE}__*"))
 
 
 def test_corpus_covers_the_issue():
@@ -223,6 +262,26 @@ def test_stage_scripts(name, tmp_path, migrated_store):
         assert kept["status"] == "failed" and kept["problems"][0]["fix"]
         return
     assert (root / "reports" / "validation.json").is_file()
+
+
+@pytest.mark.slow
+def test_stage_scripts_leave_out_a_refused_drive(tmp_path, migrated_store):
+    """`pipelines/ingest.py` then `validate.py` with ``data.refused_drives: leave_out``: exit 0,
+    the drive named with its first problem, and in reports/validation.json."""
+    (case,) = [x for x in CASES if x.name == "target_test_60s"]
+    root = _project(tmp_path, case, migrated_store)
+    write_iovnbd(good_target(), root / "data" / "raw" / "target_test" / "C-G1.csv")
+    write_params_yaml(
+        root / "params.yaml",
+        **{"data.source": "files", "data.root": "data/raw", "data.refused_drives": "leave_out"},
+    )
+    assert _stage(root, "ingest").returncode == 0
+    proc = _stage(root, "validate")
+    assert proc.returncode == 0, proc.stderr
+    assert f"warning: left out {DRIVE} (target_test, refused by validate): " in proc.stdout
+    assert "1 drive(s) left out (refused, data.refused_drives: leave_out)" in proc.stdout
+    report = json.loads((root / "reports" / "validation.json").read_text())
+    assert [d["drive"] for d in report["left_out"]] == [DRIVE]
 
 
 @pytest.mark.slow
