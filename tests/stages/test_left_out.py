@@ -17,6 +17,7 @@ from rwhonet.stages.label import label
 from rwhonet.stages.validate import summary_table, validate
 from support.corpus import speed_profile_drive
 from support.drives import (
+    SHORT,
     SOURCE_RADIUS_M,
     TARGET_RADIUS_M,
     make_params,
@@ -25,15 +26,6 @@ from support.drives import (
     write_iovnbd,
 )
 
-# Short drives: a target test drive then needs max(m) + min(outage) = 10 valid seconds.
-SHORT = {
-    "validate.gnss.min_segment_s": 5,
-    "validate.radius_min_moving_s": 10,
-    "adapt.m_grid": [5],
-    "adapt.chosen_m": 5,
-    "adapt.recipe": "paper",
-    "evaluate.outages_s": [5],
-}
 LEAVE_OUT = {"data.refused_drives": "leave_out"}
 
 

@@ -17,6 +17,7 @@ from rwhonet.errors import InputError
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.validate import summary_table, validate
 from support.drives import (
+    SHORT,
     SOURCE_RADIUS_M,
     TARGET_RADIUS_M,
     make_params,
@@ -24,16 +25,6 @@ from support.drives import (
     write_fleet,
     write_iovnbd,
 )
-
-# Short drives: a target test drive then needs max(m) + min(outage) = 10 valid seconds.
-SHORT = {
-    "validate.gnss.min_segment_s": 5,
-    "validate.radius_min_moving_s": 10,
-    "adapt.m_grid": [5],
-    "adapt.chosen_m": 5,
-    "adapt.recipe": "paper",
-    "evaluate.outages_s": [5],
-}
 
 
 def run(tmp_path: Path, raw: Path, **overrides):

@@ -161,6 +161,18 @@ def _files_params() -> Params:
     return make_params(Path("<root>"), _cache=False)
 
 
+# Params for short test drives (20-40 s): a target test drive then needs max(adapt.m_grid)
+# + min(evaluate.outages_s) = 10 valid seconds.
+SHORT = {
+    "validate.gnss.min_segment_s": 5,
+    "validate.radius_min_moving_s": 10,
+    "adapt.m_grid": [5],
+    "adapt.chosen_m": 5,
+    "adapt.recipe": "paper",
+    "evaluate.outages_s": [5],
+}
+
+
 def make_params(root: Path, _cache: bool = True, **overrides) -> Params:
     """Project params reading real-style drives from ``root`` (``data.source=files``).
 

@@ -265,7 +265,7 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
 
 
 def _described(f: DriveFile) -> dict[str, Any]:
-    """A drive file as a manifest names it (for a drive left out)."""
+    """A drive file as the manifest names it (the first keys of its entry; a drive left out's)."""
     return {
         "drive": f.drive,
         "role": f.role,
@@ -302,11 +302,7 @@ def _write_drive(f: DriveFile, params: Params, tmp: Path) -> dict[str, Any]:
     except MemoryError:
         raise out_of_memory(f, paths.rel) from None
     return {
-        "drive": f.drive,
-        "role": f.role,
-        "vehicle": f.vehicle,
-        "format": f.format,
-        "source_file": paths.rel(f.path),
+        **_described(f),
         "n_rows": raw.n_rows,
         "header_match": raw.header_match,
         "columns": raw.source_columns,
