@@ -301,6 +301,11 @@ def fix_lag(
 ) -> FixLag:
     """The fixes' lag against the wheel speeds (the module docstring), and whether to move them.
 
+    A wheels' path that cannot be fitted (a wheel sample so large, 1e300 rad/s in a
+    corrupt cell, that its squares overflow: the least squares do not converge) gives no
+    estimate, and a finding that says so; the glitch screen and validate's range check
+    deal with the sample itself.
+
     Args:
         t_s: the fixes' times (strictly increasing; after
             :func:`rwhonet.data.fixtimes.fix_times`), s.
@@ -314,6 +319,26 @@ def fix_lag(
     Returns:
         The lag, its standard error and the decision.
     """
+    try:
+        with np.errstate(all="ignore"):
+            return _fix_lag(t_s, lat_deg, lon_deg, path, where, wide)
+    except np.linalg.LinAlgError:
+        finding = (
+            f"{where}: the fixes' lag against the wheel speeds not estimated: the wheels' "
+            "path does not fit (a wheel speed too large for the arithmetic)"
+        )
+        return FixLag(float("nan"), float("nan"), 0, False, finding)
+
+
+def _fix_lag(
+    t_s: np.ndarray,
+    lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
+    path: TravelledPathLike,
+    where: str,
+    wide: bool,
+) -> FixLag:
+    """:func:`fix_lag`'s estimate (its arguments)."""
     t = np.asarray(t_s, np.float64)
     if t.size < MIN_PAIRS:
         return FixLag(float("nan"), float("nan"), 0, False, None)
