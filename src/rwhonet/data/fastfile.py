@@ -31,6 +31,10 @@ from rwhonet.data.streams import RATE_CHANNELS, DriveStreams, Stream
 # period over it): a faster table, resampled. A 10 Hz file's jittered or dropped rows keep
 # its median step near the period; 15 Hz is the slowest rate taken as faster.
 FAST_FACTOR = 1.5
+# ... but no faster than this step: a table of these channels at more than 1 kHz is no
+# logger's (CAN messages come at 100 Hz at most, a VBOX at 100 Hz), but a time column in
+# another unit than it says; it is read as a 10 Hz file, and validate names its rate.
+MIN_STEP_S = 0.001
 
 
 def median_step(t_s: np.ndarray) -> float:
@@ -43,9 +47,9 @@ def median_step(t_s: np.ndarray) -> float:
 
 def is_faster_than_grid(t_s: np.ndarray, period_s: float) -> bool:
     """Whether a 10 Hz layout's rows come :data:`FAST_FACTOR` times as often as the grid's
-    or more (its median step)."""
+    or more (its median step), and no faster than a logger writes (:data:`MIN_STEP_S`)."""
     step = median_step(t_s)
-    return bool(np.isfinite(step) and step * FAST_FACTOR <= period_s)
+    return bool(np.isfinite(step) and MIN_STEP_S <= step and step * FAST_FACTOR <= period_s)
 
 
 def as_streams(raw: RawDrive, file: str) -> DriveStreams:
