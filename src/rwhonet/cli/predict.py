@@ -331,7 +331,8 @@ def run(
             for first, columns in blocks:
                 raise_if_interrupted()  # a stop a C library's signal check lost
                 if len(steps) < STEPS_KEPT:
-                    steps += np.diff(columns["t_s"][: STEPS_KEPT + 1]).tolist()
+                    with np.errstate(invalid="ignore"):  # inf - inf: NaN, told by the checks
+                        steps += np.diff(columns["t_s"][: STEPS_KEPT + 1]).tolist()
                 held.append(stream.push(first, columns))
                 n_held += len(held[-1]["t_s"])
                 rows = first + len(columns["t_s"]) - 1

@@ -98,6 +98,7 @@ class HeldFixes:
     empty_between: bool = False
 
 
+@np.errstate(invalid="ignore", over="ignore")  # inf - inf in a corrupt row: NaN, not a warning
 def _rear_speed(columns: dict[str, np.ndarray]) -> np.ndarray:
     return 0.5 * np.abs(columns[c.OMEGA_RL] + columns[c.OMEGA_RR])
 

@@ -516,7 +516,8 @@ class SecondStream:
             ]
         before = self._rows[c.T_S][-1:] if self._rows is not None else np.zeros(0)
         joined = np.concatenate([before, t])
-        back = np.flatnonzero(np.diff(joined) <= 0)
+        with np.errstate(invalid="ignore"):  # inf - inf: a time the reader names
+            back = np.flatnonzero(np.diff(joined) <= 0)
         problems += [
             _time_problem(
                 self.file,
