@@ -1,0 +1,137 @@
+"""Hypothesis strategies of corrupted drives, shared by the stages' and the commands' fuzz tests.
+
+- :func:`corrupted_frames`: a good 10 Hz target test drive (``support.corpus``) with a few
+  random edits of its values (cells set to NaN, inf, 0, negative or huge values; rows
+  dropped, repeated or swapped; columns scaled, shifted, exchanged or negated; the drive cut
+  short).
+- :func:`edited_stream_drives`: the stream corpus's good drive as one CSV per stream
+  (``support.stream_corpus``) with a few random edits of the kind loggers and exports make
+  (lines dropped, repeated, swapped, shuffled or written late, the header line again, a
+  cell made text, empty, NaN, inf or huge, the file cut mid-line, bytes flipped).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from hypothesis import strategies as st
+
+from rwhonet.data import canonical as c
+from support.corpus import good_target
+from support.stream_corpus import write_good
+
+COLUMNS = [c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS, c.N_SATS]
+VALUES = [np.nan, np.inf, -np.inf, 0.0, -1.0, 1e9, -1e9, 95.0, 200.0, 1e-9]
+
+
+@st.composite
+def corrupted_frames(draw) -> pd.DataFrame:
+    """A good target drive (shortened at random) with a few random edits of its values."""
+    df = good_target(draw(st.sampled_from([3.0, 40.0, 150.0])))
+    n = len(df)
+    for _ in range(draw(st.integers(1, 4))):
+        if n == 0:
+            break
+        kind = draw(st.sampled_from(["cells", "rows", "column", "truncate"]))
+        a = draw(st.integers(0, n - 1))
+        b = min(n, a + draw(st.integers(1, 400)))
+        col = draw(st.sampled_from(COLUMNS))
+        if kind == "cells":
+            df.loc[a : b - 1, col] = draw(st.sampled_from(VALUES))
+        elif kind == "rows":
+            how = draw(st.sampled_from(["drop", "repeat", "swap"]))
+            if how == "drop":
+                df = df.drop(index=df.index[a:b])
+            elif how == "repeat":
+                df = pd.concat([df.iloc[:b], df.iloc[a:]])
+            else:
+                order = np.arange(len(df))
+                order[a], order[b - 1] = order[b - 1], order[a]
+                df = df.iloc[order]
+            df = df.reset_index(drop=True)
+            n = len(df)
+        elif kind == "column":
+            how = draw(st.sampled_from(["scale", "shift", "negate", "exchange"]))
+            if how == "scale":
+                df[col] = df[col] * draw(st.sampled_from([0.0, 0.001, 0.5, 3.6, 1000.0]))
+            elif how == "shift":
+                df[col] = df[col] + draw(st.sampled_from([-100.0, 0.05, 86400.0]))
+            elif how == "negate":
+                df[col] = -df[col]
+            else:
+                other = draw(st.sampled_from(COLUMNS))
+                df[[col, other]] = df[[other, col]].to_numpy()
+        elif len(df) > 1:
+            df = df.iloc[: draw(st.integers(1, len(df)))].reset_index(drop=True)
+            n = len(df)
+    return df
+
+
+STREAM_FILES = ("wheels.csv", "gnss.csv")
+CELLS = ["abc", "", "NaN", "inf", "-inf", "1e300", "-1", "0"]
+
+
+def _good_stream_lines() -> dict[str, list[str]]:
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = write_good("csv", Path(tmp))
+        return {name: (folder / name).read_text().splitlines() for name in STREAM_FILES}
+
+
+GOOD_STREAMS = _good_stream_lines()
+
+
+@st.composite
+def edited_stream_drives(draw) -> dict[str, bytes]:
+    """The good drive's two files with 1-5 random edits."""
+    lines = {name: list(rows) for name, rows in GOOD_STREAMS.items()}
+    cut: dict[str, int] = {}
+    flips: list[tuple[str, int, int]] = []
+    for _ in range(draw(st.integers(1, 5))):
+        name = draw(st.sampled_from(STREAM_FILES))
+        rows = lines[name]
+        n = len(rows)
+        if n < 3:
+            continue
+        a = draw(st.integers(1, n - 1))  # a data line (0 is the header)
+        b = min(n, a + draw(st.integers(1, 300)))
+        kind = draw(
+            st.sampled_from(
+                ["drop", "repeat", "swap", "shuffle", "late", "header", "cell", "cut", "flip"]
+            )
+        )
+        if kind == "drop":
+            del rows[a:b]
+        elif kind == "repeat":
+            rows[b:b] = rows[a:b]
+        elif kind == "swap":
+            rows[a], rows[b - 1] = rows[b - 1], rows[a]
+        elif kind == "shuffle":
+            block = rows[a:b]
+            order = draw(st.permutations(range(len(block))))
+            rows[a:b] = [block[i] for i in order]
+        elif kind == "late":  # one line written some lines after its place
+            line = rows.pop(a)
+            rows.insert(min(len(rows), a + draw(st.integers(1, 40))), line)
+        elif kind == "header":
+            rows.insert(a, rows[0])
+        elif kind == "cell":
+            cells = rows[a].split(",")
+            cells[draw(st.integers(0, len(cells) - 1))] = draw(st.sampled_from(CELLS))
+            rows[a] = ",".join(cells)
+        elif kind == "cut":
+            cut[name] = draw(st.integers(0, 400))  # bytes kept of the last line... of the file
+        else:
+            flips.append((name, draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
+    out = {}
+    for name, rows in lines.items():
+        data = bytearray(("\n".join(rows) + "\n").encode())
+        for file, at, value in flips:
+            if file == name and data:
+                data[at % len(data)] = value
+        if name in cut:
+            data = data[: max(0, len(data) - cut[name])]
+        out[name] = bytes(data)
+    return out
