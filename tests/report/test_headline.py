@@ -74,3 +74,11 @@ def test_headline_metrics_have_names_mlflow_accepts(ev):
     for name in metrics:
         _validate_metric_name(name)
     assert mlflow
+
+
+def test_the_caption_names_the_drives_left_out_where_there_are_any(ev):
+    assert "left out" not in comparison_markdown(ev)
+    ev["left_out"] = [{"drive": "C-X1", "role": "target_test", "stage": "validate"}]
+    said = "1 drive(s) refused and left out (data.refused_drives: leave_out), not in these "
+    assert said in comparison_markdown(ev) and "C-X1 (target_test)" in comparison_markdown(ev)
+    assert said in comparison_html(ev)

@@ -84,12 +84,20 @@ def _pm(mean: float | None, ci: float | None) -> str:
 
 
 def caption(ev: dict[str, Any]) -> str:
-    """What the numbers are (one sentence)."""
-    return (
+    """What the numbers are (one sentence), and the drives refused and left out of them
+    (``data.refused_drives: leave_out``), where there are any."""
+    text = (
         f"Mean CRSE / CTE (m) over the outage windows of the target test drives, "
         f"{ev['evaluated_on']}; mean over {ev['n_seeds']} training seed(s) ± the half-width "
         f"of its 95 % interval. Source: metrics/eval.json."
     )
+    if left := ev.get("left_out"):
+        names = ", ".join(f"{d['drive']} ({d['role']})" for d in left)
+        text += (
+            f" {len(left)} drive(s) refused and left out (data.refused_drives: leave_out), "
+            f"not in these numbers: {names}; why: left_out in metrics/eval.json."
+        )
+    return text
 
 
 def comparison_markdown(ev: dict[str, Any]) -> str:
