@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -203,3 +204,59 @@ def test_a_copy_of_the_real_folder_reads_the_same(real, tmp_path):
     again = resample(read_comma2k19(copy, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
     for name, values in real[1].drive.columns.items():
         np.testing.assert_array_equal(again.drive.columns[name], values)
+
+
+def _rewrite(folder: Path, sub: str, edit) -> None:
+    """Rewrite a channel's ``t`` and ``value`` arrays through ``edit(t, value) -> (t, value)``."""
+    base = folder / "processed_log" / sub
+    t, v = edit(np.load(base / "t"), np.load(base / "value"))
+    for name, array in (("t", t), ("value", v)):
+        with open(base / name, "wb") as f:
+            np.save(f, array)
+
+
+def test_samples_written_twice_or_out_of_order_are_put_right_as_in_the_other_formats(
+    real, tmp_path
+):
+    """The arrays of a segment joined twice or converted out of order: copies dropped and
+    samples put in time order (rwhonet.data.sampleorder, as for stream CSVs and MDF4), the
+    grid the segment's as logged; a clock set back is still refused, naming the sample."""
+    _, logged = real
+    copy = tmp_path / "seg"
+    shutil.copytree(REAL / "processed_log", copy / "processed_log")
+    rng = np.random.default_rng(7)
+
+    def late(t, v):  # 2 % of the wheel samples written up to 20 places late
+        order = list(range(t.size))
+        for i in sorted(rng.choice(t.size - 30, t.size // 50, replace=False), reverse=True):
+            order.insert(i + int(rng.integers(2, 21)), order.pop(i))
+        return t[order], v[order]
+
+    _rewrite(copy, "CAN/wheel_speed", late)
+    _rewrite(
+        copy,
+        "GNSS/live_gnss_ublox",
+        lambda t, v: (np.r_[t, t[100:130]], v[list(range(t.size)) + list(range(100, 130))]),
+    )  # noqa: E501
+    _rewrite(copy, "IMU/gyro", lambda t, v: (t[::-1], v[::-1]))  # written backwards
+    streams = read_comma2k19(copy, RAV4_RADIUS_M, display="seg")
+    said = " ".join(streams.changed)
+    assert "seg/CAN/wheel_speed: 99 sample(s) written after a later one" in said
+    assert "seg/GNSS/live_gnss_ublox: 30 sample(s) repeat an earlier sample" in said
+    assert "seg/IMU/gyro: 6255 sample(s) written after a later one" in said
+    got = resample(streams, nominal_radius_m=RAV4_RADIUS_M)
+    for k, v in logged.drive.columns.items():
+        np.testing.assert_array_equal(got.drive.columns[k], v, err_msg=k)
+
+    def set_back(t, v):  # the clock set back 0.3 s half way (a restart): refused
+        t = t.copy()
+        t[t.size // 2 :] -= 0.3
+        return t, v
+
+    shutil.rmtree(copy)
+    shutil.copytree(REAL / "processed_log", copy / "processed_log")
+    _rewrite(copy, "CAN/wheel_speed", set_back)
+    with pytest.raises(InputError) as err:
+        resample(read_comma2k19(copy, RAV4_RADIUS_M, display="seg"), nominal_radius_m=0.362)
+    [problem] = err.value.problems  # the sample after the step back, by its place in 't'
+    assert (problem.file, problem.row) == ("seg [CAN/wheel_speed]", 4974 // 2 + 1)

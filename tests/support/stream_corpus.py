@@ -161,13 +161,14 @@ def _(root: Path) -> None:
 @case(
     "comma_time_backwards",
     "comma2k19",
-    "wheel-speed sample 501 stamped as sample 499",
-    Refuse("seg [CAN/wheel_speed]", 501, "t", "strictly increasing", "t = 1004.98"),
+    "wheel-speed sample 501 stamped 1 ms after sample 499 (at 499's time and with its values it "
+    "would be a copy, dropped)",
+    Refuse("seg [CAN/wheel_speed]", 501, "t", "strictly increasing", "t = 1004.981"),
 )
 def _(root: Path) -> None:
     path = write_good("comma2k19", root) / "processed_log/CAN/wheel_speed/t"
     t = np.load(path)
-    t[500] = t[498]
+    t[500] = t[498] + 0.001
     _save(path, t)
 
 

@@ -54,6 +54,7 @@ import numpy as np
 
 from rwhonet.data import canonical as c
 from rwhonet.data.fixtimes import MAX_EPOCH_SCATTER_S, receiver_epochs
+from rwhonet.data.sampleorder import time_order
 from rwhonet.data.streams import DriveStreams, Stream
 from rwhonet.data.wheelunits import wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
@@ -111,6 +112,8 @@ def read_comma2k19(
     root = processed_log(folder)
     name = display or str(folder)
     problems: list[Problem] = []
+    changed: list[str] = []  # what time_order did (copies dropped, samples put in order)
+    rows: dict[str, np.ndarray] = {}  # each sample's index in its arrays + 1, where reordered
     if not root.is_dir():
         raise InputError(
             [
@@ -147,7 +150,16 @@ def read_comma2k19(
         if coarse is not None:
             problems.append(coarse)
             return np.zeros(0), np.zeros((0, columns or 1))
-        return t.astype(np.float64), v.astype(np.float64)
+        t, v = t.astype(np.float64), v.astype(np.float64)
+        # samples written twice dropped, those out of time order put in order where safe,
+        # as for the other stream formats (a segment's arrays joined, a conversion's copy)
+        by_column = {f"value[:, {k}]": v[:, k] for k in range(v.shape[1])}
+        order = time_order(t, by_column, None, f"{name}/{sub}")
+        changed.extend(order.notes)
+        if order.index is not None:
+            t, v = t[order.index], v[order.index]
+            rows[sub] = order.index + 1
+        return t, v
 
     gnss_sub = next((g for g in GNSS if (root / g).is_dir()), GNSS[0])
     tw, vw = channel(WHEEL_SPEED, 4, True)
@@ -170,6 +182,7 @@ def read_comma2k19(
         },
         {c.T_S: "t"}
         | {w: f"value[:, {k}] ({_WHEEL_NAMES[w]}, {wheel_unit})" for k, w in enumerate(c.WHEELS)},
+        rows.get(WHEEL_SPEED),
     )
     fit = receiver_epochs(tg, vg[:, UTC_COLUMN])
     if fit is None:
@@ -196,6 +209,7 @@ def read_comma2k19(
         {k: vg[:, col] for k, col in _GNSS_COLUMNS.items()},
         {c.T_S: time_source}
         | {k: f"value[:, {col}] ({_GNSS_NAMES[k]})" for k, col in _GNSS_COLUMNS.items()},
+        rows.get(gnss_sub),
     )
     extra = []
     if ti is not None and ti.size:
@@ -206,6 +220,7 @@ def read_comma2k19(
                 ti,
                 {c.YAW_RATE_RAD_S: -vi[:, 2]},
                 {c.T_S: "t", c.YAW_RATE_RAD_S: "-value[:, 2] (minus the rate about down)"},
+                rows.get(GYRO),
             )
         )
     if ts is not None and ts.size:
@@ -216,10 +231,16 @@ def read_comma2k19(
                 ts,
                 {c.SPEED_VEHICLE_M_S: vs[:, 0]},
                 {c.T_S: "t", c.SPEED_VEHICLE_M_S: "value"},
+                rows.get(CAR_SPEED),
             )
         )
     return DriveStreams(
-        (wheels,), gnss, tuple(extra), clock="the device's boot clock", notes=tuple(notes)
+        (wheels,),
+        gnss,
+        tuple(extra),
+        clock="the device's boot clock",
+        notes=tuple(notes),
+        changed=tuple(changed),
     )
 
 

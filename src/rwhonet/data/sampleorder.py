@@ -1,7 +1,8 @@
 """A stream's samples written twice or out of time order, put right where that is safe.
 
 The 10 Hz readers drop a row written again (:mod:`rwhonet.data.droprows`); a stream
-(one CSV file per message, an MDF4 channel group: :mod:`rwhonet.data.signalmap`) was
+(one CSV file per message, an MDF4 channel group: :mod:`rwhonet.data.signalmap`; a
+comma2k19 segment's channel: :mod:`rwhonet.data.comma2k19`) was
 refused for it, and for samples written out of their time order, which loggers do too:
 a buffer flushed twice after a retry, a logger that merges its receive buffers (two
 FIFOs, two interfaces) in arrival order rather than by time stamp. Here, per stream:
