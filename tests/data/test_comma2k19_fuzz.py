@@ -30,6 +30,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.comma2k19 import read_comma2k19
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
+from support.fuzz import nothing_on_stdout
 
 REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
 RAV4_RADIUS_M = 0.362
@@ -37,7 +38,11 @@ STREAMS = ("CAN/wheel_speed", "GNSS/live_gnss_ublox", "IMU/gyro")
 FUZZ = settings(
     max_examples=int(os.environ.get("FUZZ_EXAMPLES", 30)),  # more: FUZZ_EXAMPLES=1000
     deadline=10_000,  # ms per example: a hang fails, as does a slow path gone quadratic
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    suppress_health_check=[
+        HealthCheck.too_slow,
+        HealthCheck.data_too_large,
+        HealthCheck.function_scoped_fixture,
+    ],
     derandomize=True,
     database=None,
 )
@@ -116,8 +121,9 @@ def real():
 
 @FUZZ
 @given(changes=edits())
-def test_an_edited_real_segment_reads_or_is_refused_clearly(real, changes):
-    with tempfile.TemporaryDirectory() as tmp:
+def test_an_edited_real_segment_reads_or_is_refused_clearly(real, changes, capfd):
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
         folder = Path(tmp) / "seg"
         shutil.copytree(real / "processed_log", folder / "processed_log")
         broken: set[str] = set()  # a stream cut short or its arrays of two lengths: as left

@@ -19,16 +19,22 @@ from pathlib import Path
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from rwhonet.data import canonical as c
 from rwhonet.errors import InputError
-from support.fuzz import STREAM_FILES, edited_stream_drives
-from support.stream_corpus import folder_of, read_case
+from rwhonet.sim.streams import StreamTables
+from support.fuzz import STREAM_FILES, edited_stream_drives, nothing_on_stdout
+from support.stream_corpus import folder_of, good_tables, read_case, write_good
 
 FUZZ = settings(
     max_examples=int(os.environ.get("FUZZ_EXAMPLES", 40)),  # more: FUZZ_EXAMPLES=1000
     deadline=5000,  # ms per example: a hang fails, as does a slow path gone quadratic
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    suppress_health_check=[
+        HealthCheck.too_slow,
+        HealthCheck.data_too_large,
+        HealthCheck.function_scoped_fixture,
+    ],
     derandomize=True,  # the same examples every run: a failure reproduces
     database=None,
 )
@@ -36,8 +42,9 @@ FUZZ = settings(
 
 @FUZZ
 @given(files=edited_stream_drives())
-def test_an_edited_stream_drive_reads_or_is_refused_clearly(files):
-    with tempfile.TemporaryDirectory() as tmp:
+def test_an_edited_stream_drive_reads_or_is_refused_clearly(files, capfd):
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
         root = Path(tmp)
         folder = folder_of("csv", root)
         folder.mkdir(parents=True)
@@ -50,6 +57,62 @@ def test_an_edited_stream_drive_reads_or_is_refused_clearly(files):
             # a problem of several files names them all ("gnss.csv, wheels.csv")
             named = {Path(part).name for p in err.problems for part in p.file.split(", ")}
             assert named <= {*STREAM_FILES, "streams"}, f"problems name {named}:\n{err}"
+            assert all(p.fix or p.expected for p in err.problems), str(err)
+            return
+        t = np.asarray(drive.columns[c.T_S])
+        assert all(len(np.asarray(v)) == t.size for v in drive.columns.values())
+        assert t.size and (np.diff(t) > 0).all()
+
+
+@st.composite
+def edited_tables(draw) -> StreamTables:
+    """The good drive's two streams with 1-4 random edits of their samples (as a logger
+    writes an MDF4 file: rows dropped, repeated, swapped, shuffled or written late, a value
+    NaN, inf or 1e300)."""
+    good = good_tables()
+    frames = {"wheels": good.wheels.copy(), "gnss": good.gnss.copy()}
+    for _ in range(draw(st.integers(1, 4))):
+        name = draw(st.sampled_from(sorted(frames)))
+        df = frames[name]
+        n = len(df)
+        if n < 3:
+            continue
+        a = draw(st.integers(0, n - 2))
+        b = min(n, a + draw(st.integers(1, 300)))
+        kind = draw(st.sampled_from(["drop", "repeat", "swap", "shuffle", "late", "cell"]))
+        order = np.arange(n)
+        if kind == "drop":
+            order = np.r_[order[:a], order[b:]]
+        elif kind == "repeat":
+            order = np.r_[order[:b], order[a:]]
+        elif kind == "swap":
+            order[a], order[b - 1] = order[b - 1], order[a]
+        elif kind == "shuffle":
+            order[a:b] = order[a:b][list(draw(st.permutations(range(b - a))))]
+        elif kind == "late":
+            order = np.insert(np.delete(order, a), min(n - 1, a + draw(st.integers(1, 40))), a)
+        else:
+            column = draw(st.sampled_from([k for k in df.columns if k != c.T_S]))
+            df.loc[df.index[a], column] = draw(st.sampled_from([np.nan, np.inf, 1e300, -1.0]))
+        frames[name] = df.iloc[order].reset_index(drop=True)
+    return StreamTables(frames["wheels"], frames["gnss"])
+
+
+@FUZZ
+@given(tables=edited_tables(), cut=st.one_of(st.none(), st.floats(0.0, 1.0)))
+def test_an_edited_mdf4_drive_reads_or_is_refused_clearly(tables, cut, capfd):
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
+        root = Path(tmp)
+        path = write_good("mdf4", root, tables)
+        if cut is not None:  # the logger lost power: the file ends early
+            data = path.read_bytes()
+            path.write_bytes(data[: int(cut * len(data))])
+        try:
+            drive = read_case("mdf4", root).drive
+        except InputError as err:
+            assert err.problems, str(err)
+            assert all(p.file.startswith("drive.mf4") for p in err.problems), str(err)
             assert all(p.fix or p.expected for p in err.problems), str(err)
             return
         t = np.asarray(drive.columns[c.T_S])

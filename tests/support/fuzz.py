@@ -8,11 +8,14 @@
   (``support.stream_corpus``) with a few random edits of the kind loggers and exports make
   (lines dropped, repeated, swapped, shuffled or written late, the header line again, a
   cell made text, empty, NaN, inf or huge, the file cut mid-line, bytes flipped).
+- :func:`nothing_on_stdout`: that a fuzzed read printed nothing to the process's stdout.
 """
 
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -135,3 +138,11 @@ def edited_stream_drives(draw) -> dict[str, bytes]:
             data = data[: max(0, len(data) - cut[name])]
         out[name] = bytes(data)
     return out
+
+
+@contextmanager
+def nothing_on_stdout(capfd) -> Iterator[None]:
+    """Nothing written to the process's stdout, by Python or by a C library (LAPACK prints
+    there on a matrix that is not finite): ``rwhonet predict`` writes its seconds there."""
+    yield
+    assert capfd.readouterr().out == ""

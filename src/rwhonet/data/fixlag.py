@@ -177,6 +177,16 @@ HUBER_K = 1.345  # Huber's tuning constant: 95 % efficiency on normal residuals
 IRLS_STEPS = 4
 
 
+def _lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """numpy's least squares, refused before LAPACK sees a value that is not finite: LAPACK
+    then prints "On entry to DLASCL parameter number 4 had an illegal value" to the
+    process's stdout (where ``rwhonet predict`` may be writing its seconds) and numpy
+    raises ``LinAlgError``; here only the error is raised."""
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        raise np.linalg.LinAlgError("values that are not finite")
+    return np.linalg.lstsq(a, b, rcond=None)[0]
+
+
 def _huber_fit(x: np.ndarray, d: np.ndarray, scale: float) -> tuple[np.ndarray, float]:
     """Huber's M-estimate of ``d ~ x beta`` with the residual scale held (iteratively
     reweighted least squares), and its objective ``sum rho(r / scale) scale^2``."""
@@ -189,7 +199,7 @@ def _huber_fit(x: np.ndarray, d: np.ndarray, scale: float) -> tuple[np.ndarray, 
     xs = x / np.where(norm > 0, norm, 1.0)
     for _ in range(IRLS_STEPS):
         xw = xs * w[:, None]
-        coef = np.linalg.lstsq(xw.T @ xs, xw.T @ d, rcond=None)[0]
+        coef = _lstsq(xw.T @ xs, xw.T @ d)
         beta = coef / np.where(norm > 0, norm, 1.0)
         u = np.abs(d - xs @ coef) / scale
         w = np.where(u <= HUBER_K, 1.0, HUBER_K / np.maximum(u, 1e-12))
@@ -371,7 +381,7 @@ def _fix_lag(
 
     # Pairs beyond the tyres' linear slip range left out (a hard brake, a launch).
     x0 = design(0.0)
-    radius = float(np.linalg.lstsq(x0[:, :1], d, rcond=None)[0][0])
+    radius = float(_lstsq(x0[:, :1], d)[0])
     acc_m_s2 = radius * (x0[:, 1] + x0[:, 2]) / np.maximum(x0[:, 0], 1e-12)
     linear = np.abs(acc_m_s2) <= MAX_ACC_M_S2
     ti, tj, tm, span, d = ti[linear], tj[linear], tm[linear], span[linear], d[linear]
@@ -379,7 +389,7 @@ def _fix_lag(
     if n < MIN_PAIRS:
         return FixLag(float("nan"), float("nan"), n, False, None)
     x0 = x0[linear]
-    beta0 = np.linalg.lstsq(x0, d, rcond=None)[0]
+    beta0 = _lstsq(x0, d)
     scatter0 = mad_normal(d - x0 @ beta0)
     scale = max(scatter0, MIN_SCATTER_M)
 
