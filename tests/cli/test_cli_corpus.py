@@ -5,10 +5,13 @@ this process through :func:`rwhonet.cli.main.main`, on every case of the 10 Hz
 bad-input corpus (:mod:`support.corpus`, with the case's params as the project's
 params.yaml), of the stream readers' corpus (:mod:`support.stream_corpus`, with
 ``--format`` and ``--signal-map`` / ``--nominal-radius`` as a user gives them), and
-on a good drive moved to places across the Earth. Each must end with exit status
+on a good drive moved to places across the Earth, and on random edits of a 10 Hz and a
+stream drive (hypothesis: :mod:`support.fuzz`). Each must end with exit status
 0, or 2 with the report (what was expected, what was found) on stderr; any other
 exception fails the test (``main`` lets it through, where a user would see its
-traceback). A refused ``predict`` leaves no output file behind. Through an outage,
+traceback). A refused ``predict`` leaves no output file behind, and ``predict`` writes
+nothing on stdout (its seconds go to ``--output``; a C library's message would corrupt a
+pipe's CSV). Through an outage,
 ``predict`` on the moved drive must give what it gives at home: the same distances,
 errors and position error, and the same position and covariance up to the turn of
 the local frame; and so must the drive as loggers write it (columns in another
@@ -27,6 +30,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from hypothesis import given
 
 from rwhonet import paths
 from rwhonet.cli.main import main
@@ -36,6 +40,7 @@ from rwhonet.geo import latlon_from_offsets_deg, offsets_m
 from rwhonet.sim.streams import SIGNAL_MAP
 from support.corpus import CASES, FILE, good_target, target_file, write_good_fleet
 from support.drives import as_ddmm, as_hhmmss, make_params, write_iovnbd, write_params_yaml
+from support.fuzz import corrupted_frames, edited_stream_drives, fuzz_settings
 from support.serving import base_bundle, predict_args
 from support.stream_corpus import CASES as STREAM_CASES
 from support.stream_corpus import RADIUS_M, folder_of
@@ -53,7 +58,7 @@ def own_store(store_uri, monkeypatch):
     monkeypatch.setenv("MLFLOW_TRACKING_URI", store_uri)
 
 
-def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capsys) -> dict[str, int]:
+def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capfd) -> dict[str, int]:
     """predict and recalibrate on one drive; check each ends well; return their statuses."""
     out = tmp_path / "out.csv"
     commands = {
@@ -72,15 +77,17 @@ def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capsys) -> d
     }
     codes = {}
     for name, argv in commands.items():
-        capsys.readouterr()
+        capfd.readouterr()
         code = main(argv + extra)
-        said = capsys.readouterr()
+        said = capfd.readouterr()
         assert code in (0, 2), f"{name}: exit {code}\n{said.err}"
         if code == 2:
             assert f"rwhonet {name}: error:" in said.err and "expected" in said.err, said.err
         elif name == "recalibrate":
             assert "registered whonet-R-target version" in said.out
-        if name == "predict":
+        if name == "predict":  # its seconds go to --output; stdout holds nothing (no C
+            # library's message either: capfd reads the file descriptor)
+            assert said.out == "", said.out[:2000]
             assert out.exists() == (code == 0), said.err  # refused: nothing half-written
             assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
             out.unlink(missing_ok=True)
@@ -98,13 +105,13 @@ def _format_of(case) -> str:
 
 
 @pytest.mark.parametrize("case", CASES, ids=[x.name for x in CASES])
-def test_every_corpus_case_ends_in_a_report_or_success(case, bundle, tmp_path, monkeypatch, capsys):
+def test_every_corpus_case_ends_in_a_report_or_success(case, bundle, tmp_path, monkeypatch, capfd):
     raw = tmp_path / "raw"
     write_good_fleet(raw)
     case.write(raw)
     overrides = {"data.source": "files", "data.root": str(raw), **case.overrides}
     monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
-    codes = run_both(bundle, target_file(raw), ["--format", _format_of(case)], tmp_path, capsys)
+    codes = run_both(bundle, target_file(raw), ["--format", _format_of(case)], tmp_path, capfd)
     stage = getattr(case.expect, "stage", None)
     if stage == "params" or (stage == "ingest" and case.expect.file == FILE):
         # refused by the same checks as the stages' (predict streams a file: no size limit)
@@ -126,7 +133,7 @@ def _map_file(tmp_path: Path, with_time: bool) -> Path:
 
 
 @pytest.mark.parametrize("case", STREAM_CASES, ids=[x.name for x in STREAM_CASES])
-def test_every_stream_corpus_case_is_refused_with_a_report(case, bundle, tmp_path, capsys):
+def test_every_stream_corpus_case_is_refused_with_a_report(case, bundle, tmp_path, capfd):
     root = tmp_path / "drive"
     root.mkdir()
     case.write(root)
@@ -136,7 +143,7 @@ def test_every_stream_corpus_case_is_refused_with_a_report(case, bundle, tmp_pat
         fmt = "mdf4" if case.fmt == "mdf4" else "stream_csv"
         extra = ["--format", fmt, "--signal-map", str(_map_file(tmp_path, fmt == "stream_csv"))]
         extra += ["--nominal-radius", str(RADIUS_M)]
-    codes = run_both(bundle, folder_of(case.fmt, root), extra, tmp_path, capsys)
+    codes = run_both(bundle, folder_of(case.fmt, root), extra, tmp_path, capfd)
     assert codes == {"predict": 2, "recalibrate": 2}
 
 
@@ -160,11 +167,11 @@ def _moved(place: str) -> pd.DataFrame:
 
 
 @pytest.mark.parametrize("place", PLACES)
-def test_a_relocated_drive_goes_through_both_commands(place, bundle, tmp_path, capsys):
+def test_a_relocated_drive_goes_through_both_commands(place, bundle, tmp_path, capfd):
     moved = _moved(place)
     assert np.ptp(moved[c.LON_DEG]) < 1.0 or place == "antimeridian" or "Pole" in place
     path = write_iovnbd(moved, tmp_path / "V-Moved.csv")
-    codes = run_both(bundle, path, ["--nominal-radius", "0.294"], tmp_path, capsys)
+    codes = run_both(bundle, path, ["--nominal-radius", "0.294"], tmp_path, capfd)
     assert codes == {"predict": 0, "recalibrate": 0}
 
 
@@ -320,7 +327,7 @@ def _axes(frame: pd.DataFrame) -> np.ndarray:
 
 @pytest.mark.parametrize("fmt", ["comma2k19", "mdf4", "stream_csv"])
 def test_a_good_drive_in_every_stream_format_goes_through_both_commands(
-    fmt, bundle, tmp_path, capsys
+    fmt, bundle, tmp_path, capfd
 ):
     from support.stream_fleet import role_drive, tables_from_drive, write_drive
 
@@ -329,4 +336,32 @@ def test_a_good_drive_in_every_stream_format_goes_through_both_commands(
     extra = ["--format", fmt, "--nominal-radius", str(radius)]
     if fmt != "comma2k19":
         extra += ["--signal-map", str(_map_file(tmp_path, fmt == "stream_csv"))]
-    assert run_both(bundle, drive, extra, tmp_path, capsys) == {"predict": 0, "recalibrate": 0}
+    assert run_both(bundle, drive, extra, tmp_path, capfd) == {"predict": 0, "recalibrate": 0}
+
+
+# ------------------------------------------------------------------ random edits (hypothesis)
+# The stages' fuzz tests (tests/data/bad/test_stage_fuzz.py, tests/data/test_stream_fuzz.py)
+# check that ingest, validate and the stream readers end in a drive or a clear refusal
+# whatever the edits. predict reads a 10 Hz drive by its own, incremental reader, so the same
+# random edits (support.fuzz) go through both commands here. More: FUZZ_EXAMPLES=300.
+FUZZ = fuzz_settings(8, deadline_ms=None)
+
+
+@FUZZ
+@given(df=corrupted_frames())
+def test_a_corrupted_10hz_drive(df, bundle, tmp_path_factory, capfd):
+    folder = tmp_path_factory.mktemp("drive")
+    drive = write_iovnbd(df, folder / "C-X1.csv")
+    run_both(bundle, drive, ["--nominal-radius", "0.294"], folder, capfd)
+
+
+@FUZZ
+@given(files=edited_stream_drives())
+def test_an_edited_stream_drive(files, bundle, tmp_path_factory, capfd):
+    folder = tmp_path_factory.mktemp("drive")
+    streams = folder / "streams"
+    streams.mkdir()
+    for name, data in files.items():
+        (streams / name).write_bytes(data)
+    extra = ["--format", "stream_csv", "--signal-map", str(_map_file(folder, True))]
+    run_both(bundle, streams, [*extra, "--nominal-radius", str(RADIUS_M)], folder, capfd)

@@ -15,37 +15,24 @@ exception, never a hang.
 
 from __future__ import annotations
 
-import os
 import shutil
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from rwhonet import paths
-from rwhonet.data import canonical as c
 from rwhonet.data.comma2k19 import read_comma2k19
 from rwhonet.data.streams import resample
-from rwhonet.errors import InputError
-from support.fuzz import nothing_on_stdout
+from support.fuzz import fuzz_settings, grid_or_clear_refusal, nothing_on_stdout
 
 REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
 RAV4_RADIUS_M = 0.362
 STREAMS = ("CAN/wheel_speed", "GNSS/live_gnss_ublox", "IMU/gyro")
-FUZZ = settings(
-    max_examples=int(os.environ.get("FUZZ_EXAMPLES", 30)),  # more: FUZZ_EXAMPLES=1000
-    deadline=10_000,  # ms per example: a hang fails, as does a slow path gone quadratic
-    suppress_health_check=[
-        HealthCheck.too_slow,
-        HealthCheck.data_too_large,
-        HealthCheck.function_scoped_fixture,
-    ],
-    derandomize=True,
-    database=None,
-)
+FUZZ = fuzz_settings(30, deadline_ms=10_000)
 
 
 @st.composite
@@ -132,14 +119,13 @@ def test_an_edited_real_segment_reads_or_is_refused_clearly(real, changes, capfd
                 _apply(folder, edit)
             if edit[1] in ("cut", "drop_values"):
                 broken.add(edit[0])
-        try:
-            streams = read_comma2k19(folder, RAV4_RADIUS_M, display="seg")
-            drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M, require_fix=False).drive
-        except InputError as err:
-            assert err.problems, str(err)
-            assert all(p.file.startswith("seg") for p in err.problems), str(err)
-            assert all(p.fix or p.expected for p in err.problems), str(err)
-            return
-        t = np.asarray(drive.columns[c.T_S])
-        assert all(len(np.asarray(v)) == t.size for v in drive.columns.values())
-        assert t.size and (np.diff(t) > 0).all()
+        grid_or_clear_refusal(
+            lambda: (
+                resample(
+                    read_comma2k19(folder, RAV4_RADIUS_M, display="seg"),
+                    nominal_radius_m=RAV4_RADIUS_M,
+                    require_fix=False,
+                ).drive
+            ),
+            lambda p: p.file.startswith("seg"),
+        )

@@ -9,20 +9,28 @@
   (lines dropped, repeated, swapped, shuffled or written late, the header line again, a
   cell made text, empty, NaN, inf or huge, the file cut mid-line, bytes flipped).
 - :func:`nothing_on_stdout`: that a fuzzed read printed nothing to the process's stdout.
+- :func:`fuzz_settings`: hypothesis's settings for them (fixed examples; ``FUZZ_EXAMPLES``
+  sets how many).
+- :func:`grid_or_clear_refusal`: that a fuzzed stream drive read and resampled into a grid,
+  or was refused naming its own files.
 """
 
 from __future__ import annotations
 
+import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
 from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive
+from rwhonet.errors import InputError, Problem
 from support.corpus import good_target
 from support.stream_corpus import write_good
 
@@ -146,3 +154,36 @@ def nothing_on_stdout(capfd) -> Iterator[None]:
     there on a matrix that is not finite): ``rwhonet predict`` writes its seconds there."""
     yield
     assert capfd.readouterr().out == ""
+
+
+def grid_or_clear_refusal(read: Callable[[], RawDrive], named: Callable[[Problem], bool]) -> None:
+    """``read()`` (a stream drive read and resampled) gives a grid whose columns have one
+    length and whose times increase, or raises :class:`~rwhonet.errors.InputError` whose
+    every problem is ``named`` (names the drive's own files) and says what was expected."""
+    try:
+        drive = read()
+    except InputError as err:
+        assert err.problems, str(err)
+        assert all(named(p) for p in err.problems), str(err)
+        assert all(p.fix or p.expected for p in err.problems), str(err)
+        return
+    t = np.asarray(drive.columns[c.T_S])
+    assert all(len(np.asarray(v)) == t.size for v in drive.columns.values())
+    assert t.size and (np.diff(t) > 0).all()
+
+
+def fuzz_settings(examples: int, deadline_ms: int | None) -> settings:
+    """``examples`` fixed examples per test (``FUZZ_EXAMPLES`` in the environment: that many),
+    the same every run so a failure reproduces; each under ``deadline_ms`` (None: none), so
+    a hang or a path gone quadratic fails."""
+    return settings(
+        max_examples=int(os.environ.get("FUZZ_EXAMPLES", examples)),
+        deadline=deadline_ms,
+        suppress_health_check=[
+            HealthCheck.too_slow,
+            HealthCheck.data_too_large,
+            HealthCheck.function_scoped_fixture,
+        ],
+        derandomize=True,
+        database=None,
+    )

@@ -348,7 +348,7 @@ def _fix_lag(
     where: str,
     wide: bool,
 ) -> FixLag:
-    """:func:`fix_lag`'s estimate (its arguments)."""
+    """:func:`fix_lag`'s estimate, without the guard against a path that does not fit."""
     t = np.asarray(t_s, np.float64)
     if t.size < MIN_PAIRS:
         return FixLag(float("nan"), float("nan"), 0, False, None)

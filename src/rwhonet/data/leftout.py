@@ -31,9 +31,7 @@ from typing import Any
 from rwhonet import contracts
 from rwhonet.errors import Problem
 
-STOP = "stop"
-LEAVE_OUT = "leave_out"
-POLICIES = (STOP, LEAVE_OUT)
+LEAVE_OUT = "leave_out"  # data.refused_drives: go on without a refused drive ("stop": fail)
 
 
 def left_out_entry(drive: Mapping[str, Any], stage: str, problems: Sequence[Problem]) -> dict:
