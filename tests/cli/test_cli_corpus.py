@@ -365,3 +365,18 @@ def test_an_edited_stream_drive(files, bundle, tmp_path_factory, capfd):
         (streams / name).write_bytes(data)
     extra = ["--format", "stream_csv", "--signal-map", str(_map_file(folder, True))]
     run_both(bundle, streams, [*extra, "--nominal-radius", str(RADIUS_M)], folder, capfd)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("edit", ["time_inf", "rear_wheels_inf_and_minus_inf"])
+def test_a_non_finite_cell_gets_a_report_not_a_numpy_warning(edit, bundle, tmp_path, capfd):
+    """Found by the fuzz tests with RuntimeWarnings as errors: predict printed numpy's
+    "invalid value encountered in subtract" on stderr for a time cell inf (its first rows'
+    steps, its time check) and the held-fix check for a rear wheel inf beside one -inf."""
+    df = good_target(40.0)
+    if edit == "time_inf":
+        df.loc[:1, c.T_S] = np.inf
+    else:
+        df.loc[100, [c.OMEGA_RL, c.OMEGA_RR]] = [np.inf, -np.inf]
+    drive = write_iovnbd(df, tmp_path / "C-X1.csv")
+    run_both(bundle, drive, ["--nominal-radius", "0.294"], tmp_path, capfd)

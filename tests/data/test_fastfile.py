@@ -36,12 +36,33 @@ def _read(path, root):
         (0.01, True),
         (0.1 / FAST_FACTOR, True),
         (0.2, False),
+        (0.002, True),  # 500 Hz: a logger's table (up to 1 kHz is taken)
+        (0.0001, False),  # 10 kHz: a time column in another unit (found by the stage fuzz)
     ],
 )
 def test_a_table_is_faster_than_the_grid_by_its_median_step(step, fast):
     rng = np.random.default_rng(0)
     t = 100.0 + step * np.arange(600) + rng.uniform(-0.2, 0.2, 600) * step
     assert is_faster_than_grid(t, 0.1) is fast
+
+
+def test_a_time_column_scaled_down_a_thousand_times_is_refused_with_its_rate(tmp_path):
+    """Found by the stage fuzz test: a 10 Hz file's times scaled by 0.001 (rows 0.1 ms
+    apart) were taken for a table logged faster than the grid and refused for streams with
+    "no common stretch"; read as a 10 Hz file, validate names the rate."""
+    from rwhonet.stages.ingest import ingest
+    from rwhonet.stages.validate import validate
+    from support.corpus import write_good_fleet, write_target
+
+    raw = tmp_path / "raw"
+    write_good_fleet(raw)
+    df = good_target()
+    write_target(raw, df.assign(**{c.T_S: df[c.T_S] * 0.001}))
+    params = make_params(raw)
+    ingest(params, tmp_path / "drives")
+    with pytest.raises(InputError) as err:
+        validate(params, tmp_path / "drives", tmp_path / "segments", tmp_path / "report.json")
+    assert any("sampled at 1e+04 Hz, not 10 Hz" in p.found for p in err.value.problems)
 
 
 def test_a_10_hz_file_with_dropped_rows_is_not_faster():
