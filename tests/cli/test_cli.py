@@ -833,6 +833,36 @@ def _predicted_streams(bundle, tmp_path, capsys, radius_m, **drives):
     return frames
 
 
+def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp_path, capsys):
+    """The good stream drive with its fixes as the receiver's NMEA log (each line after
+    the logger's stamp, kept gzipped: gps.nmea.gz) in place of gnss.csv: predict's seconds
+    are those of the CSV fixes, within the log's ddmm.mmmmmm rounding."""
+    import gzip
+
+    from support.nmea import nmea_lines
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    good = good_tables()
+    frames = {}
+    for name in ("csv", "nmea"):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, good)
+        if name == "nmea":
+            t = good.gnss["t_s"].to_numpy()
+            lines = nmea_lines(good.gnss, 1_552_262_400.0 + t, stamps=t)
+            (drive / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
+            (drive / "gnss.csv").unlink()
+        out = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, drive, out, *fmt, "--nominal-radius", str(RADIUS_M))) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (csv, _), (nmea, said) = frames["csv"], frames["nmea"]
+    assert "38 seconds" in said
+    assert len(nmea) == len(csv) > 30
+    for q in ("t_s", "disp_wpm_m", "pred_error_m", "disp_corrected_m"):
+        np.testing.assert_allclose(nmea[q], csv[q], atol=0.01)
+    np.testing.assert_allclose(nmea["disp_gnss_m"], csv["disp_gnss_m"], atol=0.01)
+
+
 def _stream_drive(tmp_path, tables):
     """A folder of stream CSVs and its signal map file, for --format stream_csv."""
     import yaml

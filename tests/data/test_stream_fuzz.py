@@ -100,3 +100,97 @@ def test_an_edited_mdf4_drive_reads_or_is_refused_clearly(tables, cut, capfd):
         grid_or_clear_refusal(
             lambda: read_case("mdf4", root).drive, lambda p: p.file.startswith("drive.mf4")
         )
+
+
+def _good_nmea_lines() -> list[str]:
+    """The good drive's fixes as the receiver's NMEA log, each line after the stamp."""
+    from support.nmea import nmea_lines
+
+    gnss = good_tables().gnss
+    t = gnss[c.T_S].to_numpy()
+    return nmea_lines(gnss, 1_552_262_400.0 + t, stamps=t)
+
+
+@st.composite
+def edited_nmea_logs(draw) -> bytes:
+    """The good drive's NMEA log with 1-5 random edits: lines dropped, repeated, swapped,
+    shuffled or written late, a field changed (its checksum mended or not), a stamp
+    changed or gone, bytes flipped, the file cut."""
+    from support.nmea import sentence
+
+    rows = _good_nmea_lines()
+    cut, flips = None, []
+    for _ in range(draw(st.integers(1, 5))):
+        n = len(rows)
+        if n < 3:
+            continue
+        a = draw(st.integers(0, n - 2))
+        b = min(n, a + draw(st.integers(1, 90)))
+        kind = draw(
+            st.sampled_from(
+                ["drop", "repeat", "swap", "shuffle", "late", "field", "stamp", "cut", "flip"]
+            )
+        )
+        if kind == "drop":
+            del rows[a:b]
+        elif kind == "repeat":
+            rows[b:b] = rows[a:b]
+        elif kind == "swap":
+            rows[a], rows[b - 1] = rows[b - 1], rows[a]
+        elif kind == "shuffle":
+            block = rows[a:b]
+            rows[a:b] = [block[i] for i in draw(st.permutations(range(len(block))))]
+        elif kind == "late":
+            line = rows.pop(a)
+            rows.insert(min(len(rows), a + draw(st.integers(1, 40))), line)
+        elif kind == "field":
+            stamp, body = rows[a].split("$", 1)
+            fields = body.split("*")[0].split(",")
+            fields[draw(st.integers(1, len(fields) - 1))] = draw(
+                st.sampled_from(["", "x", "nan", "1e300", "-5", "9999.9", "V", "0", "6"])
+            )
+            mended = sentence(",".join(fields))
+            rows[a] = stamp + (mended if draw(st.booleans()) else "$" + mended[1:-2] + "00")
+        elif kind == "stamp":
+            stamp, body = rows[a].split("$", 1)
+            rows[a] = draw(st.sampled_from(["", "x,", "nan,", "-1,", "1e300,"])) + "$" + body
+        elif kind == "cut":
+            cut = draw(st.integers(0, 400))
+        else:
+            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
+    data = bytearray(("\r\n".join(rows) + "\r\n").encode())
+    for at, value in flips:
+        data[at % len(data)] = value
+    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+
+
+@FUZZ
+@given(log=edited_nmea_logs())
+def test_an_edited_nmea_log_reads_or_is_refused_clearly(log, capfd):
+    """The good drive's wheels.csv and its fixes as an NMEA log with random edits."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from rwhonet.sim.streams import signal_map
+    from support.stream_corpus import RADIUS_M
+
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
+        root = Path(tmp)
+        write_good("csv", root)
+        folder = folder_of("csv", root)
+        (folder / "gnss.csv").unlink()
+        (folder / "gps.nmea").write_bytes(log)
+        files = [folder / "wheels.csv", folder / "gps.nmea"]
+        shown = {p: p.name for p in files}
+
+        def read():
+            streams = read_stream_csvs(files, signal_map(), RADIUS_M, display=shown)
+            return resample(streams, nominal_radius_m=RADIUS_M).drive
+
+        grid_or_clear_refusal(
+            read,
+            lambda p: (
+                {Path(part).name for part in p.file.split(", ")}
+                <= {"wheels.csv", "gps.nmea", "streams"}
+            ),
+        )

@@ -90,6 +90,47 @@ def test_every_stream_format_goes_through_ingest_validate_and_label(fmt, native,
         )
 
 
+@pytest.mark.parametrize("stamped", [False, True])
+def test_a_receiver_s_nmea_log_in_place_of_gnss_csv_goes_through_the_stages(
+    stamped, native, tmp_path
+):
+    """Every drive's fixes as the receiver's NMEA log (GGA and RMC, the UTC time of day
+    the wheels' clock counts in; or each line after the logger's stamp) beside wheels.csv:
+    ingest, validate and label give the 10 Hz drives' labels, within the log's
+    ddmm.mmmmmm rounding (under 1 mm a coordinate), and the manifest says where the fixes
+    came from."""
+    from support.nmea import nmea_lines, write_nmea
+
+    paths_ = write_stream_fleet(tmp_path / "raw", "stream_csv")
+    for folder in paths_.values():
+        gnss = pd.read_csv(folder / "gnss.csv").rename(
+            columns={
+                "Time": "t_s",
+                "Latitude": "lat_deg",
+                "Longitude": "lon_deg",
+                "NumSV": "n_sats",
+            }
+        )
+        t = gnss["t_s"].to_numpy()
+        lines = nmea_lines(gnss, 1_552_262_400.0 + t, stamps=t if stamped else None)
+        write_nmea(folder / "gps.nmea", lines)
+        (folder / "gnss.csv").unlink()
+    manifest, report, samples = _stages(stream_params(tmp_path / "raw", "stream_csv"), tmp_path)
+    b1 = {d["drive"]: d for d in manifest["drives"]}["C-B1"]
+    said = " ".join(b1["notes"])
+    assert "an NMEA log: 1500 epochs (1500 GGA, 1500 RMC sentences), 1500 with a fix" in said
+    assert ("logger stamp" in said) == stamped
+    assert ("read as UTC seconds of the day" in said) != stamped
+    assert report["totals"]["segments"] == 3
+    _, _, native_samples = native
+    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
+    assert len(merged) >= len(samples) - 3 and len(merged) > 400
+    for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(
+            merged[f"{col}_streams"], merged[f"{col}_native"], rtol=0, atol=2 * LABEL_TOL_M
+        )
+
+
 def test_a_stream_glitch_is_cut_and_reported_with_its_stream_row(tmp_path):
     """One CAN sample at ten times its wheel's speed: that second is cut, named by its row."""
     root = tmp_path / "raw"

@@ -44,7 +44,8 @@
   sensor streams onto the 10 Hz grid; they come from :mod:`~rwhonet.data.comma2k19`
   (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf) or
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
-  (:mod:`~rwhonet.data.signalmap`).
+  (:mod:`~rwhonet.data.signalmap`); a receiver's NMEA 0183 log among the stream CSVs is
+  read by :mod:`~rwhonet.data.nmea`.
 - :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where
   ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those

@@ -192,12 +192,15 @@ def is_csv_name(name: str) -> bool:
     return name.endswith(".csv") or any(lower.endswith(".csv" + s) for s in SUFFIXES)
 
 
+def without_suffix(name: str) -> str:
+    """A file's name without a compression's suffix (``gps.nmea.gz`` -> ``gps.nmea``)."""
+    for suffix in SUFFIXES:
+        if name.lower().endswith(suffix):
+            return name[: -len(suffix)]
+    return name
+
+
 def drive_stem(path: Path) -> str:
     """A drive file's id: its name without a compression's suffix and then its own
     (``V-S1.csv.gz`` -> ``V-S1``; ``V-S1.csv`` -> ``V-S1``)."""
-    name = path.name
-    for suffix in SUFFIXES:
-        if name.lower().endswith(suffix):
-            name = name[: -len(suffix)]
-            break
-    return Path(name).stem
+    return Path(without_suffix(path.name)).stem

@@ -42,6 +42,7 @@ from rwhonet.data.compressed import (
     decompressed_copy,
     drive_stem,
     is_csv_name,
+    without_suffix,
 )
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import drop_rows
@@ -351,11 +352,17 @@ def _read_streams(
         spec = data.signal_maps[f.format]
         streams = read_mdf4(f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_files)
     else:
+        from rwhonet.data.nmea import is_nmea_name
         from rwhonet.data.streamcsv import read_stream_csvs
 
         # a hidden file is none of the drive's (macOS's ._wheels.csv beside wheels.csv on
         # a logger's FAT card: binary metadata), as discover leaves hidden drives out
-        every = sorted(p for p in f.path.glob("*") if p.is_file() and is_csv_name(p.name))
+        # a receiver's NMEA log beside them (gps.nmea) is read as the GNSS stream
+        every = sorted(
+            p
+            for p in f.path.glob("*")
+            if p.is_file() and (is_csv_name(p.name) or is_nmea_name(p.name))
+        )
         files = [p for p in every if not p.name.startswith(".")]
         signals = data.signal_maps[f.format].signals
         with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
@@ -363,7 +370,7 @@ def _read_streams(
             for i, p in enumerate(files):  # a file kept compressed: read as its text
                 q, packing = p, compression_of(p)
                 if packing is not None:
-                    q = Path(scratch) / str(i) / p.name[: p.name.lower().rindex(".csv") + 4]
+                    q = Path(scratch) / str(i) / without_suffix(p.name)
                     q.parent.mkdir()
                     decompressed_copy(p, packing, q, data.max_file_mb, rel(p))
                     packed.append(f"{p.name} ({packing})")

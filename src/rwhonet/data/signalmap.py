@@ -113,7 +113,8 @@ def check_signal_map(
         for k in signal_map
         if k not in KEYS and k not in aux
     ]
-    required = (*REQUIRED_KEYS, "t") if with_time else REQUIRED_KEYS
+    # CSV streams: the fixes may come from the drive's NMEA log instead (rwhonet.data.nmea)
+    required = (*WHEEL_KEYS, "t") if with_time else REQUIRED_KEYS
     issues += [f"{where}.{k}: missing" for k in required if k not in signal_map]
     issues += [
         f"{where}.{k}.unit: expected one of {list(units_of(k))}"

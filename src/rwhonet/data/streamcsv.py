@@ -46,8 +46,9 @@ from rwhonet.data.csvio import (
     without_rows,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
+from rwhonet.data.nmea import is_nmea_name, on_clock, read_nmea
 from rwhonet.data.packed import signed_coordinates
-from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
+from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import (
     check_dates,
@@ -94,7 +95,9 @@ def read_stream_csvs(
             every problem of every file is listed.
     """
     check_signal_map(name, signal_map, with_time=True, where=name)
-    files = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
+    every = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
+    logs = [(p, f) for p, f in every if is_nmea_name(p.name)]  # a receiver's NMEA log
+    files = [(p, f) for p, f in every if not is_nmea_name(p.name)]
     if not files:
         raise InputError(
             [
@@ -155,6 +158,8 @@ def read_stream_csvs(
             if at is not None:
                 found.setdefault(key, []).append((file, at))
                 problems += _unit_problems(file, header[at], key, spec, name)
+    found_fix = "lat" in found or "lon" in found  # the fixes in a CSV: an NMEA log unused
+    problems += _fix_source_problems(signal_map, logs, found_fix, name, list(headers))
     for key, spec in signal_map.items():
         if key == "t":
             continue
@@ -190,6 +195,8 @@ def read_stream_csvs(
                         "give the letters and their coordinate in one file",
                     )
                 )
+        if not where and logs and key in FIX_KEYS and not found_fix:
+            continue  # the receiver's NMEA log gives it (checked when it is read)
         if len(where) != 1 and len(time_at) == len(headers):
             problems.append(
                 Problem(
@@ -284,6 +291,16 @@ def read_stream_csvs(
                 rows,
             ),
             notes,
+        )
+    if logs and not found_fix and not problems:
+        try:
+            groups.append(_nmea_group(logs[0], signal_map, groups, set(found), name, notes))
+        except InputError as err:
+            problems += err.problems
+    elif logs and found_fix:
+        notes.append(
+            f"{logs[0][1]}: an NMEA log, left out: the fixes are {name}'s columns in "
+            + ", ".join(sorted({f for k in ("lat", "lon") for f, _ in found.get(k, [])}))
         )
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
@@ -383,3 +400,92 @@ def _next_day_starts(groups: list[Group], notes: list[str]) -> list[Group]:
             notes.append(f"{g.file}: starts past {what}, after the other files: {added} added")
         out.append(g)
     return out
+
+
+def _fix_source_problems(
+    signal_map: Mapping[str, ColumnSpec],
+    logs: Sequence[tuple[Path, str]],
+    found_fix: bool,
+    name: str,
+    files: Sequence[str],
+) -> list[Problem]:
+    """Where the fixes come from: a CSV's columns or one NMEA log, not neither."""
+    if len(logs) > 1:
+        return [
+            Problem(
+                ", ".join(f for _, f in logs),
+                None,
+                None,
+                "one NMEA log per drive",
+                f"{len(logs)} logs",
+                "join them in the order they were written (cat), or leave all but one out",
+            )
+        ]
+    missing = [k for k in ("lat", "lon") if k not in signal_map]
+    if missing and not logs:
+        return [
+            Problem(
+                ", ".join(files) or "the drive",
+                None,
+                None,
+                f"the fixes: {name}.lat and {name}.lon naming a stream file's columns, or a "
+                "receiver's NMEA log (*.nmea) among the drive's files",
+                f"{' and '.join(missing)} not in {name}, and no NMEA log",
+                f"name the fixes' columns in {name}, or give the drive its NMEA log",
+            )
+        ]
+    return []
+
+
+def _nmea_group(
+    log_file: tuple[Path, str],
+    signal_map: Mapping[str, ColumnSpec],
+    groups: Sequence[Group],
+    in_csv: set[str],
+    name: str,
+    notes: list[str],
+) -> Group:
+    """The receiver's NMEA log as the drive's GNSS stream, on the stream files' clock.
+
+    It gives the fixes and every GNSS key no stream file's column gives; a key the map
+    names that neither gives is refused.
+    """
+    path, file = log_file
+    log = read_nmea(path, file)
+    keys = [k for k in FIX_KEYS if k in log.channels and k not in in_csv]
+    lacking = [k for k in FIX_KEYS if k in signal_map and k not in in_csv and k not in keys]
+    if lacking:
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    ", ".join(signal_map[k].column for k in lacking),
+                    f"{', '.join(f'{name}.{k}' for k in lacking)} in a stream file or in the "
+                    "NMEA log's sentences",
+                    "in neither (the log's sentences: "
+                    + ", ".join(log.sources[k] for k in log.channels)
+                    + ")",
+                    f"name the column in {name}, or drop the key: the log gives "
+                    + ", ".join(log.channels),
+                )
+            ]
+        )
+    named = [k for k in ("lat", "lon") if k in signal_map]
+    if named:
+        notes.append(
+            f"{file}: the fixes are the NMEA log's ("
+            + ", ".join(repr(signal_map[k].column) for k in named)
+            + f", named in {name}, in no stream file)"
+        )
+    unit = signal_map["t"].unit
+    t, clock, said = on_clock(log, unit, DATE in signal_map, [g.t_s for g in groups], name)
+    notes += [*log.notes, said]
+    return Group(
+        Path(file).name,
+        file,
+        np.ascontiguousarray(t),
+        {k: log.channels[k] for k in keys},
+        {"t": clock} | {k: log.sources[k] for k in keys},
+        log.rows,
+    )

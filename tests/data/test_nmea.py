@@ -1,0 +1,373 @@
+"""A receiver's NMEA 0183 log beside a drive's stream CSVs (rwhonet.data.nmea)."""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet import paths
+from rwhonet.config import ColumnSpec
+from rwhonet.data import canonical as c
+from rwhonet.data.nmea import (
+    DAY_TIME,
+    KNOT_M_S,
+    UTC_TIME,
+    clock_kind,
+    is_nmea_name,
+    read_nmea,
+)
+from rwhonet.data.streamcsv import read_stream_csvs
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+from support.nmea import gga, nmea_lines, rmc, sentence, write_nmea
+
+# 2019-03-11 00:00:00 UTC: the day of the drives below, as Unix seconds
+DAY_S = 1_552_262_400.0
+
+
+@cache
+def _drive():
+    """A simulated 120 s drive's streams: 100 Hz wheels, a 10 Hz receiver (times of day)."""
+    from rwhonet.sim.streams import StreamSpec, stream_tables
+    from support.multirate import START_S, simulated_drive
+
+    state, vehicle, sim, ss, _ = simulated_drive(duration_s=120.0)
+    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, 10.0), START_S)
+    return tables, vehicle.nominal_radius_m
+
+
+def _labels(files, smap=None):
+    from rwhonet.sim.streams import signal_map
+    from support.multirate import per_second
+
+    _, radius = _drive()
+    streams = read_stream_csvs(files, smap or signal_map(), radius)
+    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    return per_second(drive, radius), streams
+
+
+def _wheels(folder, shift_s: float = 0.0):
+    """The drive's wheels.csv, its clock moved by ``shift_s``."""
+    from rwhonet.sim.streams import StreamTables, write_stream_csvs
+
+    tables, _ = _drive()
+    moved = StreamTables(
+        tables.wheels.assign(t_s=tables.wheels[c.T_S] + shift_s), tables.gnss.iloc[:0]
+    )
+    return write_stream_csvs(moved, folder)["wheels"]
+
+
+def _reference(tmp_path, gnss=None):
+    """The labels of the drive's fixes written as gnss.csv (``gnss``: other fixes)."""
+    from rwhonet.sim.streams import StreamTables, write_stream_csvs
+
+    tables, _ = _drive()
+    if gnss is not None:
+        tables = StreamTables(tables.wheels, gnss)
+    files = write_stream_csvs(tables, tmp_path / "csv")
+    return _labels([files["wheels"], files["gnss"]])[0]
+
+
+def _same(got, ref, atol_m):
+    assert len(got) == len(ref) > 100
+    np.testing.assert_allclose(got["t_s"], ref["t_s"], rtol=0, atol=1e-3)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=atol_m)
+
+
+def test_names():
+    assert is_nmea_name("gps.nmea") and is_nmea_name("GPS.NMEA.gz") and is_nmea_name("a.nma")
+    assert not is_nmea_name("gps.csv") and not is_nmea_name("nmea.txt")
+
+
+def test_clock_kinds():
+    unix = [np.array([DAY_S + 45000.0])]
+    own = [np.array([12.5])]
+    assert clock_kind("s", False, unix) == UTC_TIME
+    assert clock_kind("ms", False, own) is None
+    assert clock_kind("s", True, own) == UTC_TIME  # a date column
+    assert clock_kind("iso8601", False, own) == UTC_TIME
+    assert clock_kind("%d.%m.%Y %H:%M:%S.%f", False, own) == UTC_TIME
+    assert clock_kind("hhmmss", False, own) == DAY_TIME
+    assert clock_kind("hh:mm:ss", False, own) == DAY_TIME
+    assert clock_kind("%H:%M:%S", False, own) == DAY_TIME
+
+
+def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
+    """Each sentence after the logger's stamp (its time on the wheels' clock): the seconds
+    and labels of the same fixes as gnss.csv, within the ddmm.mmmmmm rounding (2 mm)."""
+    tables, _ = _drive()
+    g = tables.gnss
+    t = g[c.T_S].to_numpy()
+    log = write_nmea(tmp_path / "nmea" / "gps.nmea", nmea_lines(g, DAY_S + t, stamps=t))
+    got, streams = _labels([_wheels(tmp_path / "nmea"), log])
+    _same(got, _reference(tmp_path), 0.002)
+    said = " ".join(streams.notes)
+    assert "logger stamp is its time" in said
+    assert "1199 epochs (1199 GGA, 1199 RMC sentences), 1199 with a fix" in said
+    gnss = next(s for s in streams.streams if s.name == "gps.nmea")
+    assert gnss.sources[c.T_S] == "logger stamp" and gnss.rows[1] == 4  # line of epoch 2
+    np.testing.assert_allclose(gnss.channels[c.N_SATS], g[c.N_SATS])
+
+
+@pytest.mark.parametrize("sentences", [("GGA", "RMC"), ("GGA",), ("RMC",)])
+def test_utc_times_on_a_unix_clock(tmp_path, sentences):
+    """No stamps: the wheels' clock in Unix seconds, the receiver's UTC times placed on it
+    with RMC's date, or (GGA alone) the day nearest the wheels' start: the labels of the
+    same fixes in gnss.csv, within the ddmm.mmmmmm rounding (2 mm). The fixes' times are
+    written to 0.01 s, as receivers write them, in both."""
+    tables, _ = _drive()
+    g = tables.gnss
+    t = np.round(g[c.T_S].to_numpy(), 2)
+    exact = g.assign(t_s=t)
+    write_nmea(tmp_path / "utc" / "gps.nmea", nmea_lines(exact, DAY_S + t, sentences))
+    files = [_wheels(tmp_path / "utc", DAY_S), tmp_path / "utc" / "gps.nmea"]
+    from rwhonet.sim.streams import signal_map
+
+    smap = {k: v for k, v in signal_map().items() if k != "n_sats" or "GGA" in sentences}
+    got, streams = _labels(files, smap)
+    _same(got.assign(t_s=got["t_s"] - DAY_S), _reference(tmp_path, exact), 0.002)
+    said = " ".join(streams.notes)
+    assert ("RMC dates" in said) == ("RMC" in sentences)
+    assert ("no RMC date" in said) == ("RMC" not in sentences)
+    gnss = next(s for s in streams.streams if s.name == "gps.nmea")
+    assert (c.SPEED_GNSS_M_S in gnss.channels) == ("RMC" in sentences)
+    assert (c.N_SATS in gnss.channels) == ("GGA" in sentences)
+
+
+def test_a_logger_clock_in_local_time_is_refused_with_its_offset(tmp_path):
+    tables, _ = _drive()
+    g = tables.gnss
+    t = g[c.T_S].to_numpy()
+    write_nmea(tmp_path / "d" / "gps.nmea", nmea_lines(g, DAY_S + t))
+    files = [_wheels(tmp_path / "d", DAY_S + 3600.0), tmp_path / "d" / "gps.nmea"]
+    with pytest.raises(InputError) as err:
+        _labels(files)
+    said = str(err.value)
+    assert "gps.nmea" in said and "fixes during the stream files' times" in said
+    assert "1.00 h ahead of the receiver's UTC: a local time?" in said
+
+
+def test_unstamped_sentences_on_a_logger_s_own_clock_are_refused(tmp_path):
+    tables, _ = _drive()
+    g = tables.gnss
+    write_nmea(tmp_path / "d" / "gps.nmea", nmea_lines(g, DAY_S + g[c.T_S].to_numpy()))
+    files = [_wheels(tmp_path / "d", -44_000.0), tmp_path / "d" / "gps.nmea"]  # from 1000 s
+    with pytest.raises(InputError) as err:
+        _labels(files)
+    said = str(err.value)
+    assert "sentences without stamps" in said and "counting from the logger's start" in said
+    assert "have the logger stamp each sentence" in said
+
+
+def _log(tmp_path, lines, name="gps.nmea"):
+    return read_nmea(write_nmea(tmp_path / name, lines), name)
+
+
+def test_no_fix_sentences_keep_their_epoch_without_a_position(tmp_path):
+    """GGA quality 0 and 6 (the receiver's dead reckoning), RMC status V: the epoch is
+    there, its position missing, though the receiver wrote the last one again."""
+    t0 = DAY_S + 45000.0
+    lines = [
+        gga(t0, 52.4, -1.5, 9),
+        rmc(t0, 52.4, -1.5, 10.0, 90.0),
+        gga(t0 + 1, 52.4, -1.5, 9, quality=6),  # estimated
+        rmc(t0 + 1, 52.4, -1.5, 10.0, 90.0),
+        gga(t0 + 2, 52.4, -1.5, 3, quality=0),
+        gga(t0 + 3, 52.41, -1.49, 8),
+        rmc(t0 + 3, 52.41, -1.49, 10.0, 90.0, status="V"),
+        gga(t0 + 4, -33.9, 151.2, 12),
+    ]
+    log = _log(tmp_path, lines)
+    lat = log.channels["lat"]
+    assert np.isnan(lat[1:4]).all() and lat[0] == pytest.approx(52.4, abs=1e-8)
+    assert log.channels["lon"][4] == pytest.approx(151.2, abs=1e-8)
+    assert log.channels["lat"][4] == pytest.approx(-33.9, abs=1e-8)
+    assert log.channels["speed_gnss"][0] == pytest.approx(10.0, abs=1e-3)
+    assert np.isnan(log.channels["speed_gnss"][3])  # RMC void
+    np.testing.assert_allclose(log.tod_s, 45000.0 + np.arange(5))
+    assert log.day_s == DAY_S
+    assert "5 epochs (5 GGA, 3 RMC sentences), 2 with a fix" in log.notes[-1]
+
+
+def test_damaged_lines_are_passed_over_and_counted(tmp_path):
+    t0 = DAY_S + 45000.0
+    good = [gga(t0 + i, 52.4 + i * 1e-4, -1.5, 9) for i in range(6)]
+    bad_sum = good[1][:-2] + ("00" if not good[1].endswith("00") else "01")
+    lines = [
+        "# logger v1.2",
+        good[0],
+        bad_sum,  # a byte lost on the line
+        good[2][:25],  # cut short
+        "\x00\x00\x00garbage",
+        "",
+        sentence("GPGGA,,,,,,0,00,99.99,,,,,,"),  # no time yet
+        "$PUBX,00,foo*00",
+        good[3],
+        good[3],  # twice
+        good[4],
+        good[5],
+    ]
+    log = _log(tmp_path, lines)
+    np.testing.assert_allclose(log.tod_s, 45000.0 + np.array([0, 3, 4, 5]))
+    np.testing.assert_array_equal(log.rows, [2, 9, 11, 12])
+    said = log.notes[-1]
+    assert "1 sentence(s) with a checksum that does not match (first at line 3)" in said
+    assert "1 sentence(s) cut short (first at line 4)" in said
+    assert "1 lines that are no sentence (first at line 5)" in said
+    assert "1 sentence(s) without a UTC time (first at line 7)" in said
+    assert "1 sentence(s) of an epoch already given (first at line 10)" in said
+
+
+def test_a_field_that_is_no_number_is_refused_with_its_line(tmp_path):
+    t0 = DAY_S + 45000.0
+    lines = [
+        gga(t0, 52.4, -1.5, 9),
+        sentence("GPGGA,123001.00,52x4.000,N,00130.000,W,1,09,0.9,112.4,M,47.0,M,,"),
+        sentence("GPGGA,123002.00,5224.000,N,00130.000,X,1,09,0.9,112.4,M,47.0,M,,"),
+        sentence("GPGGA,126002.00,5224.000,N,00130.000,W,1,09,0.9,112.4,M,47.0,M,,"),
+    ]
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, lines)
+    said = str(err.value)
+    assert "gps.nmea, row 2, column 'GGA latitude': expected a number; found '52x4.000'" in said
+    assert "row 3, column 'GGA longitude'" in said and "'00130.000' 'X'" in said
+    assert "row 4, column 'UTC time'" in said
+
+
+def test_a_log_across_midnight_is_continuous_and_contradicting_dates_are_refused(tmp_path):
+    t0 = DAY_S + 86400.0 - 1.5
+    lines = [
+        s for i in range(4) for s in (gga(t0 + i, 52.4, -1.5, 9), rmc(t0 + i, 52.4, -1.5, 1, 0))
+    ]
+    log = _log(tmp_path, lines)
+    np.testing.assert_allclose(log.t_utc_s, t0 + np.arange(4))
+    assert "passed midnight" in " ".join(log.notes)
+    wrong = [*lines, rmc(t0 + 4 + 86400.0, 52.4, -1.5, 1, 0)]  # a day later than its time
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, wrong, "b.nmea")
+    assert "b.nmea, row 9, column 'RMC date'" in str(err.value)
+
+
+def test_a_file_without_gga_or_rmc_is_refused(tmp_path):
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, ["$GPGSV,1,1,01,05,40,083,46*7A", sentence("GPGGA,,,,,,0,00,,,,,,,")])
+    said = str(err.value)
+    assert "expected NMEA 0183 GGA or RMC sentences with a UTC time" in said
+    assert "1 sentence(s) without a UTC time (first at line 2)" in said
+
+
+def _stream_folder(tmp_path, with_nmea=True, with_gnss_csv=False, two=False):
+    from rwhonet.sim.streams import write_stream_csvs
+
+    tables, _ = _drive()
+    files = write_stream_csvs(tables, tmp_path / "d")
+    paths = [files["wheels"]]
+    if with_gnss_csv:
+        paths.append(files["gnss"])
+    if with_nmea:
+        t = tables.gnss[c.T_S].to_numpy()
+        for name in ("gps.nmea", "gps2.nmea")[: 2 if two else 1]:
+            lines = nmea_lines(tables.gnss, DAY_S + t, stamps=t)
+            paths.append(write_nmea(tmp_path / "d" / name, lines))
+    return paths
+
+
+def test_where_the_fixes_come_from(tmp_path):
+    from rwhonet.sim.streams import signal_map
+
+    smap = dict(signal_map())
+    no_fix_keys = {k: v for k, v in smap.items() if k not in ("lat", "lon", "n_sats")}
+    # the map's fixes in gnss.csv: the NMEA log left out, said so
+    _, streams = _labels(_stream_folder(tmp_path / "a", with_gnss_csv=True))
+    assert any("an NMEA log, left out: the fixes are" in n for n in streams.notes)
+    # no fix keys in the map: the log gives them all
+    _, streams = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
+    gnss = next(s for s in streams.streams if s.name == "gps.nmea")
+    assert {c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG} <= set(gnss.channels)
+    # neither
+    with pytest.raises(InputError) as err:
+        _labels(_stream_folder(tmp_path / "c", with_nmea=False), no_fix_keys)
+    assert "lat and lon not in the signal map, and no NMEA log" in str(err.value)
+    with pytest.raises(InputError) as err:
+        _labels(_stream_folder(tmp_path / "e", two=True))
+    assert "expected one NMEA log per drive; found 2 logs" in str(err.value)
+
+
+def test_a_mapped_gnss_key_neither_file_gives_is_refused(tmp_path):
+    tables, _ = _drive()
+    t = tables.gnss[c.T_S].to_numpy()
+    lines = nmea_lines(tables.gnss, DAY_S + t, ("RMC",), stamps=t)
+    files = [_wheels(tmp_path / "d"), write_nmea(tmp_path / "d" / "gps.nmea", lines)]
+    with pytest.raises(InputError) as err:
+        _labels(files)  # the map names NumSV: RMC has no satellites
+    said = str(err.value)
+    assert "the signal map.n_sats in a stream file or in the NMEA log's sentences" in said
+    assert "RMC latitude" in said
+
+
+def test_course_and_speed_units(tmp_path):
+    t0 = DAY_S + 45000.0
+    log = _log(tmp_path, [rmc(t0, 52.4, -1.5, 20.0 * KNOT_M_S, 271.5)])
+    assert log.channels["speed_gnss"][0] == pytest.approx(20.0 * KNOT_M_S, abs=1e-6)
+    assert log.channels["heading"][0] == pytest.approx(271.5)
+    assert math.isnan(log.channels["n_sats"][0]) if "n_sats" in log.channels else True
+
+
+REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
+RAV4_RADIUS_M = 0.362
+
+
+def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_labels(tmp_path):
+    """The real RAV4 minute as a CAN logger and an NMEA logger would have written it: the
+    wheel speeds as wheels.csv on the phone's boot clock, the u-blox fixes as GGA and RMC
+    sentences with the receiver's own UTC times. Each line after the boot-clock stamp:
+    the labels of the comma2k19 reader (measured: 2e-6 m). Without stamps, the wheels'
+    clock put on UTC by the receiver's own clock fit: the UTC times are placed by their
+    dates; the seconds then start 0.354 s later in the drive, so the 59 seconds cover a
+    slightly other stretch (measured: 1003.05 m against 1001.81 m, mean |label| 0.160
+    against 0.158 m)."""
+    if not (REAL / "processed_log").is_dir():
+        pytest.skip(f"the real comma2k19 segment is not on this machine ({REAL})")
+    from rwhonet.data.comma2k19 import read_comma2k19
+    from rwhonet.data.fixtimes import receiver_epochs
+    from support.multirate import per_second
+
+    log = REAL / "processed_log"
+    ref = resample(read_comma2k19(REAL, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
+    ref = per_second(ref.drive.columns, RAV4_RADIUS_M)
+    tw, vw = np.load(log / "CAN/wheel_speed/t"), np.load(log / "CAN/wheel_speed/value")
+    tg, vg = np.load(log / "GNSS/live_gnss_ublox/t"), np.load(log / "GNSS/live_gnss_ublox/value")
+    fit = receiver_epochs(tg, vg[:, 3])
+    smap = {"t": ColumnSpec("t", "s")} | {
+        f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
+    }
+    got = {}
+    for case in ("stamped", "utc"):
+        folder = tmp_path / case
+        folder.mkdir()
+        t = tw if case == "stamped" else tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
+        wheels = {"t": t} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
+        pd.DataFrame(wheels).to_csv(folder / "wheels.csv", index=False, float_format="%.6f")
+        lines = []
+        for i in range(tg.size):
+            utc = vg[i, 3] / 1000.0
+            for s in (gga(utc, vg[i, 0], vg[i, 1], 9), rmc(utc, *vg[i, [0, 1, 2, 5]])):
+                lines.append(f"{tg[i]:.6f} {s}" if case == "stamped" else s)
+        write_nmea(folder / "gps.nmea", lines)
+        streams = read_stream_csvs(
+            [folder / "wheels.csv", folder / "gps.nmea"], smap, RAV4_RADIUS_M
+        )
+        drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
+        got[case] = per_second(drive, RAV4_RADIUS_M)
+    stamped, utc = got["stamped"], got["utc"]
+    assert len(stamped) == len(utc) == len(ref) == 59
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(stamped[q], ref[q], rtol=0, atol=1e-5)
+    np.testing.assert_allclose(utc["t_s"] - fit.offset_s, ref["t_s"] + 0.354, atol=1e-3)
+    assert utc["disp_gnss_m"].sum() == pytest.approx(ref["disp_gnss_m"].sum(), abs=2.0)
+    assert utc["label_m"].abs().mean() == pytest.approx(ref["label_m"].abs().mean(), abs=0.005)

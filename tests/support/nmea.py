@@ -1,0 +1,98 @@
+"""NMEA 0183 logs written from a drive's GNSS table, as a receiver writes them."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from functools import reduce
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rwhonet.data import canonical as c
+
+KNOT_M_S = 1852.0 / 3600.0
+
+
+def sentence(body: str) -> str:
+    """``$body*hh``: a sentence with its checksum (the XOR of its characters)."""
+    return f"${body}*{reduce(lambda a, ch: a ^ ord(ch), body, 0):02X}"
+
+
+def ddmm(value: float, letters: str) -> tuple[str, str]:
+    """A coordinate as NMEA writes it: unsigned ``ddmm.mmmmmm`` and its letter."""
+    if not math.isfinite(value):
+        return "", ""
+    a = abs(value)
+    d = int(a)
+    width = 2 if letters == "NS" else 3
+    return f"{d:0{width}d}{(a - d) * 60.0:09.6f}", letters[0] if value >= 0 else letters[1]
+
+
+def hhmmss(t_s: float) -> str:
+    tod = t_s % 86400.0
+    h, rest = divmod(tod, 3600.0)
+    m, s = divmod(rest, 60.0)
+    return f"{int(h):02d}{int(m):02d}{s:05.2f}"
+
+
+def ddmmyy(t_s: float) -> str:
+    return datetime.fromtimestamp(math.floor(t_s / 86400.0) * 86400.0, UTC).strftime("%d%m%y")
+
+
+def gga(t_s: float, lat: float, lon: float, sats: float, quality: int = 1, talker="GP") -> str:
+    la, ns = ddmm(lat, "NS")
+    lo, ew = ddmm(lon, "EW")
+    n = "" if not math.isfinite(sats) else f"{int(sats):02d}"
+    return sentence(
+        f"{talker}GGA,{hhmmss(t_s)},{la},{ns},{lo},{ew},{quality},{n},0.9,112.4,M,47.0,M,,"
+    )
+
+
+def rmc(
+    t_s: float, lat: float, lon: float, speed_m_s: float, course: float, status="A", talker="GP"
+) -> str:
+    la, ns = ddmm(lat, "NS")
+    lo, ew = ddmm(lon, "EW")
+    kn = f"{speed_m_s / KNOT_M_S:.3f}" if math.isfinite(speed_m_s) else ""
+    cog = f"{course:.2f}" if math.isfinite(course) else ""
+    mode = "A" if status == "A" else "N"
+    return sentence(
+        f"{talker}RMC,{hhmmss(t_s)},{status},{la},{ns},{lo},{ew},{kn},{cog},{ddmmyy(t_s)},,,{mode}"
+    )
+
+
+def nmea_lines(
+    gnss: pd.DataFrame,
+    utc_s: np.ndarray,
+    sentences: Sequence[str] = ("GGA", "RMC"),
+    stamps: np.ndarray | None = None,
+    other: bool = True,
+    stamp_format: str = "{:.6f},",
+) -> list[str]:
+    """The receiver's lines for each fix: GGA and RMC at the fix's UTC time (s since 1970),
+    a GSV between (passed over by the reader), each line after the logger's stamp where
+    ``stamps`` (written by ``stamp_format``)."""
+    lat, lon = gnss[c.LAT_DEG].to_numpy(), gnss[c.LON_DEG].to_numpy()
+    sats = gnss[c.N_SATS].to_numpy() if c.N_SATS in gnss else np.full(len(gnss), 9.0)
+    step = np.gradient(lat * 111_000.0, utc_s) if len(gnss) > 1 else np.zeros(len(gnss))
+    lines = []
+    for i, t in enumerate(utc_s):
+        prefix = "" if stamps is None else stamp_format.format(stamps[i])
+        out = []
+        if "GGA" in sentences:
+            out.append(gga(t, lat[i], lon[i], sats[i]))
+        if other:
+            out.append(sentence("GPGSV,1,1,01,05,40,083,46"))
+        if "RMC" in sentences:
+            out.append(rmc(t, lat[i], lon[i], abs(step[i]), 0.0))
+        lines += [prefix + s for s in out]
+    return lines
+
+
+def write_nmea(path: Path, lines: Sequence[str]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\r\n".join(lines) + "\r\n")  # a serial line's CR LF
+    return path
