@@ -836,7 +836,8 @@ def _predicted_streams(bundle, tmp_path, capsys, radius_m, **drives):
 def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp_path, capsys):
     """The good stream drive with its fixes as the receiver's NMEA log (each line after
     the logger's stamp, kept gzipped: gps.nmea.gz) in place of gnss.csv: predict's seconds
-    are those of the CSV fixes, within the log's ddmm.mmmmmm rounding."""
+    are those of the CSV fixes, within the log's ddmm.mmmmmm rounding. One RMC sentence's
+    checksum is broken: the epoch keeps its GGA, and stderr says what was passed over."""
     import gzip
 
     from support.nmea import nmea_lines
@@ -850,6 +851,7 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
         if name == "nmea":
             t = good.gnss["t_s"].to_numpy()
             lines = nmea_lines(good.gnss, 1_552_262_400.0 + t, stamps=t)
+            lines[302] = lines[302][:-2] + ("00" if lines[302][-2:] != "00" else "01")
             (drive / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
             (drive / "gnss.csv").unlink()
         out = tmp_path / f"{name}.csv"
@@ -857,6 +859,8 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
         frames[name] = (pd.read_csv(out), capsys.readouterr().err)
     (csv, _), (nmea, said) = frames["csv"], frames["nmea"]
     assert "38 seconds" in said
+    assert "gps.nmea.gz: passed over: 1 sentence(s) with a checksum that does not match " in said
+    assert "(first at line 303)" in said
     assert len(nmea) == len(csv) > 30
     for q in ("t_s", "disp_wpm_m", "pred_error_m", "disp_corrected_m"):
         np.testing.assert_allclose(nmea[q], csv[q], atol=0.01)

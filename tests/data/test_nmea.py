@@ -221,6 +221,8 @@ def test_damaged_lines_are_passed_over_and_counted(tmp_path):
     assert "1 lines that are no sentence (first at line 5)" in said
     assert "1 sentence(s) without a UTC time (first at line 7)" in said
     assert "1 sentence(s) of an epoch already given (first at line 10)" in said
+    assert log.dropped.startswith("1 sentence(s) with a checksum")  # predict says it
+    assert log.dropped.endswith("1 lines that are no sentence (first at line 5)")
 
 
 def test_a_field_that_is_no_number_is_refused_with_its_line(tmp_path):

@@ -112,6 +112,8 @@ class NmeaLog:
         sources: key -> the sentence field it came from (``GGA latitude``).
         rows: each epoch's first sentence's line, 1-based.
         notes: what was passed over or dropped, and midnight.
+        dropped: the sentences and lines passed over, counted (empty: none), which
+            ``rwhonet predict`` says too.
     """
 
     file: str
@@ -122,6 +124,7 @@ class NmeaLog:
     sources: dict[str, str]
     rows: np.ndarray
     notes: list[str] = field(default_factory=list)
+    dropped: str = ""
 
     @property
     def t_utc_s(self) -> np.ndarray | None:
@@ -451,6 +454,7 @@ def _fixes(
         {k: sources[k] for k in given},
         rows,
         notes,
+        _passed_over(counts, first)[2:-1],  # " (...)" without its brackets
     )
 
 

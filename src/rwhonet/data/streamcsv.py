@@ -294,7 +294,8 @@ def read_stream_csvs(
         )
     if logs and not found_fix and not problems:
         try:
-            groups.append(_nmea_group(logs[0], signal_map, groups, set(found), name, notes))
+            log = _nmea_group(logs[0], signal_map, groups, set(found), name, notes, changed)
+            groups.append(log)
         except InputError as err:
             problems += err.problems
     elif logs and found_fix:
@@ -444,14 +445,18 @@ def _nmea_group(
     in_csv: set[str],
     name: str,
     notes: list[str],
+    changed: list[str],
 ) -> Group:
     """The receiver's NMEA log as the drive's GNSS stream, on the stream files' clock.
 
     It gives the fixes and every GNSS key no stream file's column gives; a key the map
-    names that neither gives is refused.
+    names that neither gives is refused. Sentences passed over (a checksum that does not
+    match, a line cut short, ...) are said in ``changed`` too, so predict says them.
     """
     path, file = log_file
     log = read_nmea(path, file)
+    if log.dropped:
+        changed.append(f"{file}: passed over: {log.dropped}")
     keys = [k for k in FIX_KEYS if k in log.channels and k not in in_csv]
     lacking = [k for k in FIX_KEYS if k in signal_map and k not in in_csv and k not in keys]
     if lacking:
