@@ -3,7 +3,8 @@
 Simulates one long drive (default 2 h, ci world; truth at 200 Hz, which is
 enough for timing), samples it as a logger's streams (CAN wheel speeds at
 100 Hz with jittered stamps, GNSS at 10 Hz), writes them in each format the
-readers take (one CSV per stream, one MDF4 file, a comma2k19 folder) and times,
+readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
+NMEA log, one MDF4 file, a comma2k19 folder) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
 resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
 sample-level glitch screen). Rows are every stream's samples, counted once.
@@ -51,6 +52,7 @@ from rwhonet.sim.streams import (  # noqa: E402
     write_stream_csvs,
     write_stream_mdf4,
 )
+from support.nmea import nmea_lines, write_nmea  # noqa: E402
 
 
 def best(fn, repeat: int):
@@ -92,9 +94,17 @@ def main() -> None:
         csvs = write_stream_csvs(tables, root / "csv")
         mf4 = write_stream_mdf4(tables, root / "drive.mf4")
         write_comma2k19(tables, root / "seg", radius)
+        # the fixes as the receiver's NMEA log (GGA, GSV, RMC a fix, each after the stamp)
+        t_fix = tables.gnss["t_s"].to_numpy()
+        nmea = write_nmea(
+            root / "csv" / "gps.nmea", nmea_lines(tables.gnss, 1.55e9 + t_fix, stamps=t_fix)
+        )
         readers = {
             "one CSV per stream": lambda: read_stream_csvs(
                 list(csvs.values()), signal_map(), radius
+            ),
+            "CSV + NMEA log": lambda: read_stream_csvs(
+                [csvs["wheels"], nmea], signal_map(), radius
             ),
             "MDF4 (asammdf)": lambda: read_mdf4(mf4, signal_map(with_time=False), radius),
             "comma2k19 folder": lambda: read_comma2k19(root / "seg", radius),

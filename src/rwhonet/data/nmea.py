@@ -43,8 +43,9 @@ the stream files' clock where that clock is UTC too (:func:`on_clock`).
 The sentences are parsed here, not by `pynmea2`: it parses one sentence at a time in
 Python (with the conversions, 2.4 s for a two-hour 10 Hz log, 0.29 M input rows/s
 through the resampler, under the stream readers' 1 M target), and it reads an empty
-latitude as 0.0. Here every GGA and RMC sentence's checksum is computed at once and the
-fields converted column by column: an empty field is missing, and a field that is no
+latitude as 0.0. Here the log's lines are found and every GGA and RMC sentence's checksum
+computed over its bytes at once, and the fields converted column by column (0.91 M rows/s;
+``benchmarks/bench_streams.py``): an empty field is missing, and a field that is no
 number is refused with its line.
 """
 
@@ -132,22 +133,12 @@ class NmeaLog:
         return None if self.day_s is None else self.day_s + self.tod_s
 
 
-@dataclass
-class _Epoch:
-    time: bytes
-    row: int
-    stamp: bytes | None
-    gga: list[bytes] | None = None
-    rmc: list[bytes] | None = None
-
-
 def read_nmea(path: Path, file: str) -> NmeaLog:
     """Read a receiver's GGA and RMC sentences as one fix per epoch.
 
-    The log is scanned line by line for GGA and RMC sentences; their checksums are
-    computed over all of them at once (an XOR ``reduceat`` over the bytes) and their
-    fields converted column by column (``benchmarks/bench_streams.py`` times a two-hour
-    10 Hz log).
+    The GGA and RMC sentences are found and checked over the log's bytes at once
+    (:func:`_scan`), gathered into epochs by their UTC time, and their fields converted
+    column by column (:class:`_Fields`).
 
     Args:
         path: the NMEA log (text).
@@ -157,60 +148,33 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
         InputError: no GGA or RMC sentence with a time; a field that is no number or
             outside its range (with its line); dates that contradict each other.
     """
-    counts = {"checksum": 0, "cut": 0, "no time": 0, "again": 0, "not text": 0}
+    counts = {"checksum": 0, "long": 0, "cut": 0, "no time": 0, "again": 0, "not text": 0}
     first_bad: dict[str, int] = {}
 
-    def passed(kind: str, row: int) -> None:
-        counts[kind] += 1
-        first_bad.setdefault(kind, row)
+    def passed(kind: str, rows: Sequence[int]) -> None:
+        if len(rows):
+            counts[kind] += len(rows)
+            first_bad[kind] = min(first_bad.get(kind, rows[0]), int(np.min(rows)))
 
-    rows, stamps, bodies, sums = [], [], [], []
-    for row, line in enumerate(path.read_bytes().split(b"\n"), start=1):
-        at = line.find(b"$")
-        if at < 0:
-            text = line.strip().strip(b"\x00")
-            if text and not text.startswith(b"#"):
-                passed("not text", row)
-            continue
-        kind = line[at + 3 : at + 6]
-        if kind != b"GGA" and kind != b"RMC":
-            continue
-        sentence = line[at + 1 :].rstrip()
-        star = sentence.rfind(b"*")
-        rows.append(row)
-        stamps.append(line[:at].strip(_STAMP_STRIP) or None)
-        bodies.append(sentence if star < 0 else sentence[:star])
-        sums.append(None if star < 0 else sentence[star + 1 :])
-    ok = _checked(bodies, sums, rows, passed)
-    epochs: list[_Epoch] = []
-    # an epoch's sentences by their UTC time: a sentence written again or late (a logger's
-    # buffer sent twice) joins its epoch, wherever it is in the log
-    by_time: dict[bytes, _Epoch] = {}
-    last: float | None = None
-    for i in np.flatnonzero(ok):
-        fields = bodies[i].split(b",")
-        kind, row = fields[0][2:5], rows[i]
-        if len(fields) <= (GGA_FIELDS if kind == b"GGA" else RMC_FIELDS):
-            passed("cut", row)  # a line cut short
-            continue
-        time = fields[1].strip()
-        if not time:
-            passed("no time", row)
-            continue
-        epoch = by_time.get(time)
-        if epoch is None:
-            now = _quick_time_of_day(time)
-            if now is not None and last is not None and last - now > _NEW_DAY_S:
-                by_time.clear()  # past midnight: the day's times of day come again
-            last = now if now is not None else last
-            epoch = by_time[time] = _Epoch(time, row, stamps[i])
-            epochs.append(epoch)
-        slot = "gga" if kind == b"GGA" else "rmc"
-        if getattr(epoch, slot) is not None:
-            passed("again", row)  # the same epoch's sentence twice: the first kept
-            continue
-        setattr(epoch, slot, fields[1:])
-    if not epochs:
+    data = path.read_bytes()
+    found = _scan(data)
+    passed("not text", found.not_text)
+    for kind, at in found.passed.items():
+        passed(kind, at)
+    kept = np.flatnonzero(found.ok)
+    rows, kinds = found.rows, found.is_gga
+    spans = list(zip(found.body[0][kept].tolist(), found.body[1][kept].tolist(), strict=True))
+    bodies = [data[a:b] for a, b in spans]
+    heads = list(zip(found.head[0][kept].tolist(), found.head[1][kept].tolist(), strict=True))
+    stamps = [data[a:b].strip(_STAMP_STRIP) or None for a, b in heads]
+    row_of = rows[kept]
+    fields = _Fields(bodies)
+    time = fields.column(1)
+    enough = fields.count > max(GGA_FIELDS, RMC_FIELDS)  # the talker and the fields read
+    passed("cut", row_of[~enough])  # a line cut short
+    passed("no time", row_of[enough & (time == b"")])
+    use = np.flatnonzero(enough & (time != b""))
+    if not use.size:
         raise InputError(
             [
                 Problem(
@@ -223,48 +187,165 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
                 )
             ]
         )
-    return _fixes(epochs, file, counts, first_bad)
+    return _fixes(
+        fields,
+        use,
+        row_of,
+        kinds[kept],
+        stamps,
+        file,
+        counts,
+        first_bad,
+        passed,
+    )
 
 
-def _checked(bodies: list[bytes], sums: list[bytes | None], rows: list[int], passed) -> np.ndarray:
-    """Which sentences pass: text (no byte above 127) whose checksum, where it has one, is
-    the XOR of its characters between ``$`` and ``*``."""
-    n = len(bodies)
-    if not n:
-        return np.zeros(0, bool)
-    lengths = np.fromiter(map(len, bodies), np.int64, n)  # >= 5: the talker and "GGA"
-    blob = np.frombuffer(b"".join(bodies), np.uint8)
-    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
-    xor = np.bitwise_xor.reduceat(blob, starts)
-    text = np.maximum.reduceat(blob, starts) < 128
-    ok = np.ones(n, bool)
-    for i in range(n):
-        given = sums[i]
-        if not text[i]:
-            ok[i] = False
-            passed("cut", rows[i])  # bytes that are no text: a line damaged or cut
-        elif given is not None:
-            try:
-                valid = len(given) == 2 and int(given, 16) == xor[i]
-            except ValueError:
-                valid = False
-            if not valid:
-                ok[i] = False
-                passed("checksum" if len(given) == 2 else "cut", rows[i])
-    return ok
+@dataclass(frozen=True)
+class _Found:
+    """The GGA and RMC sentences of a log (:func:`_scan`), in the log's order.
+
+    Attributes:
+        rows: each sentence's line, 1-based.
+        is_gga: GGA (else RMC).
+        head: (start, end) of what stands before its ``$`` (a logger's stamp).
+        body: (start, end) of its characters between ``$`` and ``*`` (or the line's end).
+        ok: whether it is text of a sentence's length whose checksum, where it has one,
+            matches.
+        passed: kind -> the lines of the sentences that are not ``ok``, and why.
+        not_text: lines that are no sentence (no ``$``, not blank, no ``#`` comment).
+    """
+
+    rows: np.ndarray
+    is_gga: np.ndarray
+    head: tuple[np.ndarray, np.ndarray]
+    body: tuple[np.ndarray, np.ndarray]
+    ok: np.ndarray
+    passed: dict[str, np.ndarray]
+    not_text: np.ndarray
 
 
-def _quick_time_of_day(text: bytes) -> float | None:
-    """``hhmmss.ss`` as seconds, or None (checked with its line later)."""
-    try:
-        return int(text[0:2]) * 3600.0 + int(text[2:4]) * 60.0 + float(text[4:])
-    except ValueError:
-        return None
+_HEX = np.full(256, -1, np.int64)  # a hex digit's value by its byte, -1 for none
+_HEX[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
+_HEX[np.frombuffer(b"ABCDEF", np.uint8)] = np.arange(10, 16)
+_HEX[np.frombuffer(b"abcdef", np.uint8)] = np.arange(10, 16)
+_SPACE = np.zeros(256, bool)  # what bytes.rstrip() strips
+_SPACE[np.frombuffer(b" \t\r\x0b\x0c", np.uint8)] = True
+_BLANK_BYTES = b" \t\r\x0b\x0c\x00"  # what a blank line may hold: spaces, a lost power's NULs
+
+
+def _after(positions: np.ndarray, at: np.ndarray, size: int) -> np.ndarray:
+    """The first of ``positions`` at or after each of ``at`` (``size`` where none)."""
+    k = np.searchsorted(positions, at)
+    return np.where(k < positions.size, positions[np.minimum(k, positions.size - 1)], size)
+
+
+def _before(positions: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """The last of ``positions`` before each of ``at`` (-1 where none)."""
+    k = np.searchsorted(positions, at) - 1
+    return np.where(k >= 0, positions[np.maximum(k, 0)], -1)
+
+
+def _scan(data: bytes) -> _Found:
+    """Find the GGA and RMC sentences of a log, and check them, all lines at once.
+
+    A line's sentence begins at its first ``$``; it is a GGA or RMC sentence where the
+    three characters after the talker say so. Its checksum is the XOR of its characters
+    between ``$`` and the last ``*`` (an ``reduceat`` over the log's bytes), compared with
+    the two hex digits after the ``*``; trailing spaces and CR are not the sentence's.
+    """
+    buf = np.frombuffer(data + b"\n", np.uint8)  # a last line without its line end
+    size = buf.size
+    ends = np.flatnonzero(buf == ord("\n"))
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    dollar = _after(np.flatnonzero(buf == ord("$")), starts, size)
+    sentence = dollar < ends
+    not_text = [  # lines without a sentence (few): not blank, no "#" comment
+        i + 1
+        for i in np.flatnonzero(~sentence).tolist()
+        if (text := data[starts[i] : ends[i]].strip(_BLANK_BYTES)) and not text.startswith(b"#")
+    ]
+    line = np.flatnonzero(sentence)
+    at = dollar[line]
+
+    def char(offset: int) -> np.ndarray:
+        return buf[np.minimum(at + offset, size - 1)]
+
+    long_enough = at + 6 <= ends[line]
+    gga = long_enough & (char(3) == ord("G")) & (char(4) == ord("G")) & (char(5) == ord("A"))
+    rmc = long_enough & (char(3) == ord("R")) & (char(4) == ord("M")) & (char(5) == ord("C"))
+    keep = gga | rmc
+    line, at, gga = line[keep], at[keep], gga[keep]
+    end = ends[line]  # without the trailing spaces and CR (bytes.rstrip's)
+    while (step := _SPACE[buf[end - 1]] & (end > at + 6)).any():
+        end = end - step
+    star = _before(np.flatnonzero(buf == ord("*")), end)
+    starred = star > at
+    body_end = np.where(starred, star, end)
+    rows = line + 1
+    n = line.size
+    if n:
+        edges = np.column_stack([at + 1, body_end]).ravel()
+        xor = np.bitwise_xor.reduceat(buf, edges)[::2]
+        text = np.maximum.reduceat(buf, edges)[::2] < 128
+    else:
+        xor, text = np.zeros(0, np.uint8), np.ones(0, bool)
+    digits = end - star - 1
+    hi = _HEX[buf[np.minimum(star + 1, size - 1)]]
+    lo = _HEX[buf[np.minimum(star + 2, size - 1)]]
+    two = starred & (digits == 2) & (hi >= 0) & (lo >= 0)
+    long = body_end - at - 1 > MAX_SENTENCE
+    bad_text = ~long & ~text
+    cut = ~long & text & starred & ~two
+    wrong = ~long & text & two & (hi * 16 + lo != xor)
+    return _Found(
+        rows,
+        gga,
+        (starts[line], at),
+        (at + 1, body_end),
+        ~(long | bad_text | cut | wrong),
+        {
+            "long": rows[long],
+            "cut": rows[bad_text | cut],  # bytes that are no text; a checksum cut short
+            "checksum": rows[wrong],
+        },
+        np.asarray(not_text, np.int64),
+    )
+
+
+class _Fields:
+    """The comma-separated fields of many sentences, held as one byte buffer: field ``j``
+    of every sentence is taken at once (:meth:`column`), without a Python object a field."""
+
+    def __init__(self, bodies: list[bytes]) -> None:
+        n = len(bodies)
+        self.buf = np.frombuffer(b"\n".join(bodies) + b"\n", np.uint8)
+        self.sep = np.flatnonzero((self.buf == ord(",")) | (self.buf == ord("\n")))
+        ends = self.buf[self.sep] == ord("\n")
+        line = np.concatenate([[0], np.cumsum(ends)[:-1]])  # each separator's sentence
+        self.first = np.searchsorted(line, np.arange(n))  # each sentence's first separator
+        self.count = np.bincount(line, minlength=n)  # its fields
+        self.start = np.concatenate([[0], self.sep[ends][:-1] + 1])
+
+    def column(self, j: int, of: np.ndarray | None = None) -> np.ndarray:
+        """Field ``j`` of each sentence (of the sentences ``of``), stripped (``b""`` where
+        one has fewer fields)."""
+        of = np.arange(self.count.size) if of is None else of
+        has = self.count[of] > j
+        k = np.where(has, self.first[of] + j, 0)
+        end = np.where(has, self.sep[k], 0)
+        start = self.start[of] if j == 0 else np.where(has, self.sep[np.maximum(k - 1, 0)] + 1, 0)
+        length = end - start
+        width = max(int(length.max(initial=0)), 1)
+        at = start[:, None] + np.arange(width)
+        chars = self.buf[np.minimum(at, self.buf.size - 1)]
+        chars[np.arange(width) >= length[:, None]] = 0
+        return np.char.strip(np.ascontiguousarray(chars).view(f"S{width}").ravel())
 
 
 def _passed_over(counts: dict[str, int], first: dict[str, int]) -> str:
     said = {
         "checksum": "with a checksum that does not match",
+        "long": "longer than a sentence can be (two run together)",
         "cut": "cut short",
         "no time": "without a UTC time",
         "again": "of an epoch already given",
@@ -281,13 +362,9 @@ def _passed_over(counts: dict[str, int], first: dict[str, int]) -> str:
 
 
 MAX_PROBLEMS = 20  # cells of one column listed in a report
-
-
-def _table(sentences: list[list[bytes]], width: int) -> np.ndarray:
-    """The sentences' first ``width`` fields as one array (``b""`` where a sentence is
-    shorter), stripped: column ``j`` is field ``j``."""
-    padded = [f[:width] if len(f) >= width else f + [b""] * (width - len(f)) for f in sentences]
-    return np.char.strip(np.array(padded, dtype=np.bytes_))
+# NMEA 0183 allows 82 characters a sentence; high-precision receivers write a few more. A
+# longer one is two run together (a lost line end), or no sentence
+MAX_SENTENCE = 120
 
 
 def _numbers(
@@ -354,72 +431,92 @@ def _coordinates(
 
 
 def _fixes(
-    epochs: list[_Epoch], file: str, counts: dict[str, int], first: dict[str, int]
+    fields: _Fields,
+    use: np.ndarray,
+    rows: np.ndarray,
+    is_gga: np.ndarray,
+    stamps: list[bytes | None],
+    file: str,
+    counts: dict[str, int],
+    first: dict[str, int],
+    passed,
 ) -> NmeaLog:
-    """The epochs' fields as channels, converted column by column."""
-    n = len(epochs)
+    """The sentences ``use`` gathered into epochs by UTC time, their fields converted
+    column by column: one fix an epoch."""
     problems: list[Problem] = []
-    rows = np.array([e.row for e in epochs], dtype=np.int64)
-    tod = np.array([_time_of_day(e.time, e.row, file, problems) for e in epochs])
+    tod_s = _times_of_day(fields.column(1, use), rows[use], file, problems)
+    timed = np.isfinite(tod_s)  # a time that is no time: refused below, with the rest
+    use, tod_s = use[timed], tod_s[timed]
+    if not use.size:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
+    # an epoch's sentences by their UTC time: a sentence written again or late (a logger's
+    # buffer sent twice) joins its epoch wherever it is in the log; a time of day far
+    # back from the sentence before is the next day's
+    day = np.concatenate([[0], np.cumsum(np.diff(tod_s) < -_NEW_DAY_S)])
+    key = day * 86_400_000 + np.round(tod_s * 1000.0).astype(np.int64)
+    _, first_at, inverse = np.unique(key, return_index=True, return_inverse=True)
+    order = np.argsort(first_at, kind="stable")  # epochs as they first appear
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    epoch_of = rank[inverse.ravel()]
+    lead = use[first_at[order]]  # each epoch's first sentence
+    n = order.size
+    epoch_rows = rows[lead]
+    tod = tod_s[first_at[order]]
+
+    def firsts(of_kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each epoch's first sentence of a kind: (epochs, sentences)."""
+        at = np.flatnonzero(of_kind)
+        epochs, once = np.unique(epoch_of[at], return_index=True)
+        again = np.setdiff1d(np.arange(at.size), once)
+        passed("again", rows[use[at[again]]])  # the same epoch's sentence twice
+        return epochs, use[at[once]]
+
+    g_at, g_sent = firsts(is_gga[use])
+    r_at, r_sent = firsts(~is_gga[use])
     lat, lon = np.full(n, np.nan), np.full(n, np.nan)
     sats, height = np.full(n, np.nan), np.full(n, np.nan)
     speed, course = np.full(n, np.nan), np.full(n, np.nan)
     valid = np.ones(n, bool)
-    g_at = np.array([i for i, e in enumerate(epochs) if e.gga is not None], np.int64)
-    r_at = np.array([i for i, e in enumerate(epochs) if e.rmc is not None], np.int64)
     if g_at.size:
-        g = _table([epochs[i].gga for i in g_at], 10).T
-        g_rows = rows[g_at]
-        valid[g_at] &= np.isin(g[5], GGA_FIXES)
-        lat[g_at] = _coordinates(g[1], g[2], g_rows, "latitude", "GGA", file, problems)
-        lon[g_at] = _coordinates(g[3], g[4], g_rows, "longitude", "GGA", file, problems)
-        sats[g_at] = _numbers(g[6], g_rows, "GGA satellites", file, problems)
-        metres = np.isin(np.char.upper(g[9]), [b"M", b""])
-        alt = _numbers(g[8], g_rows, "GGA altitude", file, problems)
+        g = {j: fields.column(j, g_sent) for j in (2, 3, 4, 5, 6, 7, 9, 10)}
+        g_rows = rows[g_sent]
+        valid[g_at] &= np.isin(g[6], GGA_FIXES)
+        lat[g_at] = _coordinates(g[2], g[3], g_rows, "latitude", "GGA", file, problems)
+        lon[g_at] = _coordinates(g[4], g[5], g_rows, "longitude", "GGA", file, problems)
+        sats[g_at] = _numbers(g[7], g_rows, "GGA satellites", file, problems)
+        metres = np.isin(np.char.upper(g[10]), [b"M", b""])
+        alt = _numbers(g[9], g_rows, "GGA altitude", file, problems)
         height[g_at] = np.where(metres, alt, np.nan)
-    date_cells: list[str | None] = [None] * n
+    date_at, date_cells = np.zeros(0, np.int64), np.zeros(0, "S1")
     if r_at.size:
-        r = _table([epochs[i].rmc for i in r_at], 12).T
-        r_rows = rows[r_at]
-        mode = np.char.upper(r[11])
-        r_valid = (np.char.upper(r[1]) == b"A") & ((mode == b"") | np.isin(mode, RMC_FIXES))
+        r = {j: fields.column(j, r_sent) for j in (2, 3, 4, 5, 6, 7, 8, 9, 12)}
+        r_rows = rows[r_sent]
+        mode = np.char.upper(r[12])
+        r_valid = (np.char.upper(r[2]) == b"A") & ((mode == b"") | np.isin(mode, RMC_FIXES))
         valid[r_at] &= r_valid
-        alone = np.array([epochs[i].gga is None for i in r_at], bool)
+        alone = ~np.isin(r_at, g_at)
         if alone.any():
             rows_alone, at = r_rows[alone], r_at[alone]
             lat[at] = _coordinates(
-                r[2][alone],
-                r[3][alone],
-                rows_alone,
-                "latitude",
-                "RMC",
-                file,
-                problems,
+                r[3][alone], r[4][alone], rows_alone, "latitude", "RMC", file, problems
             )
             lon[at] = _coordinates(
-                r[4][alone],
-                r[5][alone],
-                rows_alone,
-                "longitude",
-                "RMC",
-                file,
-                problems,
+                r[5][alone], r[6][alone], rows_alone, "longitude", "RMC", file, problems
             )
-        knots = _numbers(r[6], r_rows, "RMC speed", file, problems)
-        cog = _numbers(r[7], r_rows, "RMC course", file, problems)
+        knots = _numbers(r[7], r_rows, "RMC speed", file, problems)
+        cog = _numbers(r[8], r_rows, "RMC course", file, problems)
         speed[r_at] = np.where(r_valid, knots * KNOT_M_S, np.nan)
         course[r_at] = np.where(r_valid, cog, np.nan)
-        dates = r[8]
-        for i, d, ok in zip(r_at, dates, r_valid, strict=True):
-            if ok and d:
-                date_cells[i] = d.decode("ascii")
+        dated = r_valid & (r[9] != b"")
+        date_at, date_cells = r_at[dated], r[9][dated]
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     lat[~valid] = np.nan
     lon[~valid] = np.nan
     tod, said = unwrap_clock(tod, "epoch")
     notes = [f"{file}: {s}" for s in said]
-    day = _first_day(date_cells, tod, rows, file)
+    first_day = _first_day(date_at, date_cells, tod, epoch_rows, file)
     channels = {
         "lat": lat,
         "lon": lon,
@@ -439,7 +536,7 @@ def _fixes(
     if not g_at.size:
         sources |= {"lat": "RMC latitude", "lon": "RMC longitude"}
     given = {k: v for k, v in channels.items() if np.isfinite(v).any() or k in ("lat", "lon")}
-    stamps = [e.stamp for e in epochs]
+    stamps = [stamps[i] for i in lead]
     notes.append(
         f"{file}: an NMEA log: {n} epochs ({g_at.size} GGA, {r_at.size} RMC "
         f"sentences), {int(np.isfinite(lat).sum())} with a fix"
@@ -448,48 +545,77 @@ def _fixes(
     return NmeaLog(
         file,
         tod,
-        day,
+        first_day,
         None if any(x is None for x in stamps) else [x.decode("ascii", "replace") for x in stamps],
         {k: np.ascontiguousarray(v) for k, v in given.items()},
         {k: sources[k] for k in given},
-        rows,
+        epoch_rows,
         notes,
         _passed_over(counts, first)[2:-1],  # " (...)" without its brackets
     )
 
 
-def _time_of_day(text: bytes, row: int, file: str, problems: list[Problem]) -> float:
-    """``hhmmss.ss`` as seconds since midnight (NaN and a problem where it is none)."""
-    t = text.strip()
+def _times_of_day(
+    cells: np.ndarray, rows: np.ndarray, file: str, problems: list[Problem]
+) -> np.ndarray:
+    """``hhmmss.ss`` cells as seconds since midnight (a problem for each that is none)."""
+    width = cells.dtype.itemsize
+    chars = np.ascontiguousarray(cells).view(np.uint8).reshape(-1, width)
+    length = np.char.str_len(cells)
+    ok = length >= 6
+    seconds = np.full(cells.size, np.nan)
+    if width >= 6:
+        digits = chars[:, :4].astype(np.int64) - ord("0")
+        ok &= ((digits >= 0) & (digits <= 9)).all(axis=1)
+        hours = digits[:, 0] * 10 + digits[:, 1]
+        minutes = digits[:, 2] * 10 + digits[:, 3]
+        rest = np.ascontiguousarray(chars[:, 4:]).view(f"S{width - 4}").ravel()
+        sec = _floats_or_nan(rest)
+        with np.errstate(invalid="ignore"):
+            ok &= (hours < 24) & (minutes < 60) & (sec >= 0) & (sec < 61)
+        seconds = np.where(ok, hours * 3600.0 + minutes * 60.0 + sec, np.nan)
+    problems += [
+        Problem(
+            file,
+            int(rows[i]),
+            "UTC time",
+            "a time of day as hhmmss.ss",
+            repr(cells[i].decode("ascii", "replace")),
+        )
+        for i in np.flatnonzero(~ok)[:MAX_PROBLEMS]
+    ]
+    return seconds
+
+
+def _floats_or_nan(cells: np.ndarray) -> np.ndarray:
+    """Cells as floats in one conversion, one by one where one of them is no number."""
     try:
-        h, m, s = int(t[0:2]), int(t[2:4]), float(t[4:])
-        ok = len(t) >= 6 and t[:4].isdigit() and h < 24 and m < 60 and 0 <= s < 61
+        return cells.astype(np.float64)
     except ValueError:
-        ok = False
-    if not ok:
-        shown = repr(t.decode("ascii", "replace"))
-        problems.append(Problem(file, row, "UTC time", "a time of day as hhmmss.ss", shown))
-        return math.nan
-    return h * 3600.0 + m * 60.0 + s
+        return np.array([_float(x) for x in cells])
 
 
 def _first_day(
-    cells: list[str | None], tod: np.ndarray, rows: np.ndarray, file: str
+    at: np.ndarray, cells: np.ndarray, tod: np.ndarray, rows: np.ndarray, file: str
 ) -> float | None:
     """The first epoch's UTC date (s since 1970) from the valid RMC dates, checked to agree.
 
-    Each dated epoch gives the date of the log's first day (its date less the days the
-    time of day was carried across midnight); they must all give one.
+    Each dated epoch (``at``, its date ``cells``) gives the date of the log's first day
+    (its date less the days the time of day was carried across midnight); they must all
+    give one.
     """
-    at = [i for i, c in enumerate(cells) if c is not None]
-    if not at:
+    if not at.size:
         return None
-    dates = parse_dates([cells[i] for i in at], DDMMYY)
+    # a log holds a date or two: each parsed once
+    texts, inverse = np.unique(cells, return_inverse=True)
+    inverse = inverse.ravel()
+    dates = parse_dates([x.decode("ascii") for x in texts], DDMMYY)
     if dates.bad:
-        i, why = dates.bad[0]
+        i = int(np.flatnonzero(inverse == dates.bad[0][0])[0])
+        why = dates.bad[0][1]
         raise InputError([Problem(file, int(rows[at[i]]), "RMC date", "a date as ddmmyy", why)])
     days_in = np.floor(tod[at] / 86400.0) * 86400.0
-    first = dates.seconds - days_in
+    first = dates.seconds[inverse] - days_in
     wrong = np.flatnonzero(first != first[0])
     if wrong.size:
         i = int(wrong[0])
@@ -499,9 +625,9 @@ def _first_day(
                     file,
                     int(rows[at[i]]),
                     "RMC date",
-                    f"the date of the log's earlier sentences ({cells[at[0]]}, line "
+                    f"the date of the log's earlier sentences ({cells[0].decode()}, line "
                     f"{int(rows[at[0]])}) carried on by its UTC times",
-                    repr(cells[at[i]]),
+                    repr(cells[i].decode()),
                     "give the drive one receiver's log, in the order it was written",
                 )
             ]
