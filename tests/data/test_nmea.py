@@ -373,3 +373,15 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
     np.testing.assert_allclose(utc["t_s"] - fit.offset_s, ref["t_s"] + 0.354, atol=1e-3)
     assert utc["disp_gnss_m"].sum() == pytest.approx(ref["disp_gnss_m"].sum(), abs=2.0)
     assert utc["label_m"].abs().mean() == pytest.approx(ref["label_m"].abs().mean(), abs=0.005)
+
+
+def test_two_sentences_run_together_are_passed_over(tmp_path):
+    """A lost line end joins two sentences into one line longer than NMEA's 82 characters
+    (the first's checksum inside, the second's at the end): passed over, not read as one."""
+    t0 = DAY_S + 45000.0
+    good = [gga(t0 + i, 52.4 + i * 1e-4, -1.5, 9) for i in range(4)]
+    log = _log(tmp_path, [good[0], good[1] + good[2], good[3]])
+    np.testing.assert_allclose(log.tod_s, 45000.0 + np.array([0, 3]))
+    assert "1 sentence(s) longer than a sentence can be (two run together) (first at line 2)" in (
+        log.dropped
+    )
