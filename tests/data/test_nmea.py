@@ -385,3 +385,29 @@ def test_two_sentences_run_together_are_passed_over(tmp_path):
     assert "1 sentence(s) longer than a sentence can be (two run together) (first at line 2)" in (
         log.dropped
     )
+
+
+@pytest.mark.parametrize("ending", ["\n\r", "\r"])
+def test_a_serial_line_s_lf_cr_or_cr_alone_is_a_line_end(tmp_path, ending):
+    """A logger writing the serial line's LF CR leaves a CR before each "$" (no stamp);
+    a log of CR line ends alone is read line by line too."""
+    t0 = DAY_S + 45000.0
+    lines = [gga(t0 + i, 52.4 + i * 1e-4, -1.5, 9) for i in range(3)]
+    path = tmp_path / "gps.nmea"
+    path.write_bytes(ending.join(lines).encode() + ending.encode())
+    log = read_nmea(path, "gps.nmea")
+    np.testing.assert_allclose(log.tod_s, 45000.0 + np.arange(3))
+    assert log.stamps is None and log.dropped == ""
+
+
+def test_a_log_stamped_in_part_on_a_logger_s_own_clock_is_refused_saying_so(tmp_path):
+    tables, _ = _drive()
+    g = tables.gnss
+    t = g[c.T_S].to_numpy() - 44_000.0  # the wheels' clock from 1000 s
+    lines = nmea_lines(g, DAY_S + g[c.T_S].to_numpy(), stamps=t)
+    lines[30] = lines[30].split(",", 1)[1]  # epoch 11's GGA without its stamp
+    files = [_wheels(tmp_path / "d", -44_000.0), write_nmea(tmp_path / "d" / "gps.nmea", lines)]
+    with pytest.raises(InputError) as err:
+        _labels(files)
+    said = str(err.value)
+    assert "1 of 1199 epochs' sentences without a logger stamp (first at line 31)" in said

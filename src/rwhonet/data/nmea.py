@@ -85,7 +85,7 @@ GGA_FIELDS = 9  # up to the altitude
 RMC_FIELDS = 9  # up to the date
 # a logger's stamp before the sentence: separated by spaces, a comma, a semicolon, a tab,
 # or in brackets
-_STAMP_STRIP = b" \t,;[]()"
+_STAMP_STRIP = b" \t\r\n\x0b\x0c,;[]()"  # a serial line's LF CR leaves a CR before the "$"
 _NEW_DAY_S = 12 * 3600.0  # a time of day this far back: the next day
 
 
@@ -115,6 +115,7 @@ class NmeaLog:
         notes: what was passed over or dropped, and midnight.
         dropped: the sentences and lines passed over, counted (empty: none), which
             ``rwhonet predict`` says too.
+        unstamped: the lines of the epochs without a logger stamp, where others have one.
     """
 
     file: str
@@ -126,6 +127,7 @@ class NmeaLog:
     rows: np.ndarray
     notes: list[str] = field(default_factory=list)
     dropped: str = ""
+    unstamped: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def t_utc_s(self) -> np.ndarray | None:
@@ -157,6 +159,8 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
             first_bad[kind] = min(first_bad.get(kind, rows[0]), int(np.min(rows)))
 
     data = path.read_bytes()
+    if b"\n" not in data:  # line ends of CR alone (a classic Mac's, some serial loggers')
+        data = data.replace(b"\r", b"\n")
     found = _scan(data)
     passed("not text", found.not_text)
     for kind, at in found.passed.items():
@@ -552,6 +556,7 @@ def _fixes(
         epoch_rows,
         notes,
         _passed_over(counts, first)[2:-1],  # " (...)" without its brackets
+        epoch_rows[[x is None for x in stamps]] if any(stamps) else np.zeros(0, np.int64),
     )
 
 
@@ -715,8 +720,14 @@ def on_clock(
                     "a clock the receiver's UTC times can be placed on: the logger's stamp "
                     "before each sentence, or the stream files' times in UTC (a time of day "
                     "as hhmmss, hh:mm:ss; iso8601; a date column; Unix seconds)",
-                    f"sentences without stamps, and the stream files' time in {unit!r} "
-                    "counting from the logger's start",
+                    (
+                        f"{log.unstamped.size} of {log.rows.size} epochs' sentences without a "
+                        f"logger stamp (first at line {int(log.unstamped[0])})"
+                        if log.unstamped.size
+                        else "sentences without stamps"
+                    )
+                    + f", and the stream files' time in {unit!r} counting from the logger's "
+                    "start",
                     f"have the logger stamp each sentence, or log {name}.t in UTC",
                 )
             ]
