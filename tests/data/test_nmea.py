@@ -181,6 +181,7 @@ def test_no_fix_sentences_keep_their_epoch_without_a_position(tmp_path):
         gga(t0 + 3, 52.41, -1.49, 8),
         rmc(t0 + 3, 52.41, -1.49, 10.0, 90.0, status="V"),
         gga(t0 + 4, -33.9, 151.2, 12),
+        gga(t0 + 5, -33.9, 151.2, 12, quality=9),  # NovAtel's SBAS fix
     ]
     log = _log(tmp_path, lines)
     lat = log.channels["lat"]
@@ -189,9 +190,9 @@ def test_no_fix_sentences_keep_their_epoch_without_a_position(tmp_path):
     assert log.channels["lat"][4] == pytest.approx(-33.9, abs=1e-8)
     assert log.channels["speed_gnss"][0] == pytest.approx(10.0, abs=1e-3)
     assert np.isnan(log.channels["speed_gnss"][3])  # RMC void
-    np.testing.assert_allclose(log.tod_s, 45000.0 + np.arange(5))
+    np.testing.assert_allclose(log.tod_s, 45000.0 + np.arange(6))
     assert log.day_s == DAY_S
-    assert "5 epochs (5 GGA, 3 RMC sentences), 2 with a fix" in log.notes[-1]
+    assert "6 epochs (6 GGA, 3 RMC sentences), 3 with a fix" in log.notes[-1]
 
 
 def test_damaged_lines_are_passed_over_and_counted(tmp_path):

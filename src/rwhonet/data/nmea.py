@@ -76,8 +76,10 @@ from rwhonet.errors import InputError, Problem
 NMEA_SUFFIXES = (".nmea", ".nma")
 KNOT_M_S = 1852.0 / 3600.0
 # GGA fix quality (NMEA 0183 v4.10): 1 GPS, 2 DGPS, 3 PPS, 4 RTK fixed, 5 RTK float are
-# measurements; 0 invalid, 6 estimated (dead reckoning), 7 manual input, 8 simulation not
-GGA_FIXES = (b"1", b"2", b"3", b"4", b"5")
+# measurements, and 9, which NovAtel receivers write for a WAAS (SBAS) fix by default
+# (NovAtel's "Which NovAtel position types correspond to the GGA quality indicator?");
+# 0 invalid, 6 estimated (dead reckoning), 7 manual input, 8 simulation are not
+GGA_FIXES = (b"1", b"2", b"3", b"4", b"5", b"9")
 # RMC mode (v2.3+): A autonomous, D differential, P precise, R RTK, F float RTK; E
 # estimated, N not valid, M manual, S simulator are none
 RMC_FIXES = (b"A", b"D", b"P", b"R", b"F")
