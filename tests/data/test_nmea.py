@@ -292,6 +292,15 @@ def test_where_the_fixes_come_from(tmp_path):
     _, streams = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
     gnss = next(s for s in streams.streams if s.name == "gps.nmea")
     assert {c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG} <= set(gnss.channels)
+    # a map written for another drive's gps.csv, with hemisphere letters: the log's fixes
+    lettered = smap | {
+        "lat": ColumnSpec("Lat", "ddmm"),
+        "lon": ColumnSpec("Lon", "ddmm"),
+        "lat_hemisphere": ColumnSpec("NS", "N/S"),
+        "lon_hemisphere": ColumnSpec("EW", "E/W"),
+    }
+    _, streams = _labels(_stream_folder(tmp_path / "f"), lettered)
+    assert any("the fixes are the NMEA log's ('Lat', 'Lon'" in n for n in streams.notes)
     # neither
     with pytest.raises(InputError) as err:
         _labels(_stream_folder(tmp_path / "c", with_nmea=False), no_fix_keys)

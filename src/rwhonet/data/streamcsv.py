@@ -195,7 +195,7 @@ def read_stream_csvs(
                         "give the letters and their coordinate in one file",
                     )
                 )
-        if not where and logs and key in FIX_KEYS and not found_fix:
+        if not where and logs and (key in FIX_KEYS or key in HEMISPHERES) and not found_fix:
             continue  # the receiver's NMEA log gives it (checked when it is read)
         if len(where) != 1 and len(time_at) == len(headers):
             problems.append(
@@ -294,8 +294,8 @@ def read_stream_csvs(
         )
     if logs and not found_fix and not problems:
         try:
-            log = _nmea_group(logs[0], signal_map, groups, set(found), name, notes, changed)
-            groups.append(log)
+            gnss = _nmea_group(logs[0], signal_map, groups, set(found), name, notes, changed)
+            groups.append(gnss)
         except InputError as err:
             problems += err.problems
     elif logs and found_fix:
