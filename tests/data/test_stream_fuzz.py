@@ -23,10 +23,13 @@ from hypothesis import strategies as st
 from rwhonet.data import canonical as c
 from rwhonet.sim.streams import StreamTables
 from support.fuzz import (
+    LINE_EDITS,
     STREAM_FILES,
+    edit_lines,
     edited_stream_drives,
     fuzz_settings,
     grid_or_clear_refusal,
+    names_only,
     nothing_on_stdout,
 )
 from support.stream_corpus import folder_of, good_tables, read_case, write_good
@@ -44,12 +47,8 @@ def test_an_edited_stream_drive_reads_or_is_refused_clearly(files, capfd):
         folder.mkdir(parents=True)
         for name, data in files.items():
             (folder / name).write_bytes(data)
-        # a problem of several files names them all ("gnss.csv, wheels.csv")
         grid_or_clear_refusal(
-            lambda: read_case("csv", root).drive,
-            lambda p: (
-                {Path(part).name for part in p.file.split(", ")} <= {*STREAM_FILES, "streams"}
-            ),
+            lambda: read_case("csv", root).drive, names_only({*STREAM_FILES, "streams"})
         )
 
 
@@ -131,18 +130,8 @@ def edited_nmea_logs(draw) -> bytes:
                 ["drop", "repeat", "swap", "shuffle", "late", "field", "stamp", "cut", "flip"]
             )
         )
-        if kind == "drop":
-            del rows[a:b]
-        elif kind == "repeat":
-            rows[b:b] = rows[a:b]
-        elif kind == "swap":
-            rows[a], rows[b - 1] = rows[b - 1], rows[a]
-        elif kind == "shuffle":
-            block = rows[a:b]
-            rows[a:b] = [block[i] for i in draw(st.permutations(range(len(block))))]
-        elif kind == "late":
-            line = rows.pop(a)
-            rows.insert(min(len(rows), a + draw(st.integers(1, 40))), line)
+        if kind in LINE_EDITS:
+            edit_lines(draw, rows, kind, a, b)
         elif kind == "field":
             stamp, body = rows[a].split("$", 1)
             fields = body.split("*")[0].split(",")
@@ -187,10 +176,4 @@ def test_an_edited_nmea_log_reads_or_is_refused_clearly(log, capfd):
             streams = read_stream_csvs(files, signal_map(), RADIUS_M, display=shown)
             return resample(streams, nominal_radius_m=RADIUS_M).drive
 
-        grid_or_clear_refusal(
-            read,
-            lambda p: (
-                {Path(part).name for part in p.file.split(", ")}
-                <= {"wheels.csv", "gps.nmea", "streams"}
-            ),
-        )
+        grid_or_clear_refusal(read, names_only({"wheels.csv", "gps.nmea", "streams"}))

@@ -8,11 +8,13 @@
   (``support.stream_corpus``) with a few random edits of the kind loggers and exports make
   (lines dropped, repeated, swapped, shuffled or written late, the header line again, a
   cell made text, empty, NaN, inf or huge, the file cut mid-line, bytes flipped).
+- :func:`edit_lines`: a block of a file's lines dropped, repeated, swapped, shuffled or one
+  written late (for the stream CSVs and the NMEA log alike).
 - :func:`nothing_on_stdout`: that a fuzzed read printed nothing to the process's stdout.
 - :func:`fuzz_settings`: hypothesis's settings for them (fixed examples; ``FUZZ_EXAMPLES``
   sets how many).
 - :func:`grid_or_clear_refusal`: that a fuzzed stream drive read and resampled into a grid,
-  or was refused naming its own files.
+  or was refused naming its own files (:func:`names_only`).
 """
 
 from __future__ import annotations
@@ -94,6 +96,33 @@ def _good_stream_lines() -> dict[str, list[str]]:
 GOOD_STREAMS = _good_stream_lines()
 
 
+LINE_EDITS = ("drop", "repeat", "swap", "shuffle", "late")
+
+
+def edit_lines(draw, rows: list, kind: str, a: int, b: int) -> None:
+    """One of :data:`LINE_EDITS` on lines ``a:b`` of ``rows``, in place: dropped, written
+    again after themselves, the first and last swapped, shuffled, or line ``a`` written up
+    to 40 lines after its place."""
+    if kind == "drop":
+        del rows[a:b]
+    elif kind == "repeat":
+        rows[b:b] = rows[a:b]
+    elif kind == "swap":
+        rows[a], rows[b - 1] = rows[b - 1], rows[a]
+    elif kind == "shuffle":
+        block = rows[a:b]
+        rows[a:b] = [block[i] for i in draw(st.permutations(range(len(block))))]
+    else:  # late
+        line = rows.pop(a)
+        rows.insert(min(len(rows), a + draw(st.integers(1, 40))), line)
+
+
+def names_only(files: set[str]) -> Callable[[Problem], bool]:
+    """Whether a problem names only ``files`` (a problem of several files names them all:
+    ``gnss.csv, wheels.csv``)."""
+    return lambda p: {Path(part).name for part in p.file.split(", ")} <= files
+
+
 @st.composite
 def edited_stream_drives(draw) -> dict[str, bytes]:
     """The good drive's two files with 1-5 random edits."""
@@ -113,19 +142,8 @@ def edited_stream_drives(draw) -> dict[str, bytes]:
                 ["drop", "repeat", "swap", "shuffle", "late", "header", "cell", "cut", "flip"]
             )
         )
-        if kind == "drop":
-            del rows[a:b]
-        elif kind == "repeat":
-            rows[b:b] = rows[a:b]
-        elif kind == "swap":
-            rows[a], rows[b - 1] = rows[b - 1], rows[a]
-        elif kind == "shuffle":
-            block = rows[a:b]
-            order = draw(st.permutations(range(len(block))))
-            rows[a:b] = [block[i] for i in order]
-        elif kind == "late":  # one line written some lines after its place
-            line = rows.pop(a)
-            rows.insert(min(len(rows), a + draw(st.integers(1, 40))), line)
+        if kind in LINE_EDITS:
+            edit_lines(draw, rows, kind, a, b)
         elif kind == "header":
             rows.insert(a, rows[0])
         elif kind == "cell":
