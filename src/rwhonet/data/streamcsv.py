@@ -11,6 +11,10 @@ files are parsed by the same streaming CSV reader as the 10 Hz files
 (:mod:`rwhonet.data.csvio`), so every bad cell is reported with its file, row
 and column. The clock is the files' common time column.
 
+A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``) gives the fixes where no
+CSV holds the map's latitude and longitude: :mod:`rwhonet.data.nmea` reads it and places
+it on the files' clock (``_nmea_group``).
+
 Midnight: a time of day (seconds since the start of the day, as IO-VNBD's) that
 passes midnight continues into the next day, by the rule of the 10 Hz readers
 (:func:`rwhonet.data.timebase.unwrap_midnight`: a step back from the day's last
