@@ -221,3 +221,53 @@ def test_an_unreadable_file_names_the_library_s_error():
     p = Problem.unreadable("a.arrow", "an Arrow file", ValueError("x" * 500), "run it again", "t_s")
     assert p.found == "ValueError: " + "x" * 160 and p.column == "t_s" and p.fix == "run it again"
     assert str(p) == "a.arrow, column 't_s': expected an Arrow file; found ValueError: " + "x" * 160
+
+
+def test_a_killed_process_s_scratch_folder_is_removed_by_the_next_one(tmp_path, monkeypatch):
+    """A command killed by SIGKILL leaves its scratch folder (a decompressed drive, a
+    downloaded model) in the system's temp directory; the next command removes it once
+    it is over an hour old. A folder of a process that still runs, a young one, another
+    program's and a file are left alone."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    import time
+
+    from rwhonet.io import scratch_dir
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    child = subprocess.Popen(
+        [sys.executable, "-c", "import time; time.sleep(60)"], stdin=subprocess.DEVNULL
+    )
+    gone = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    dead = int(gone.stdout)
+    old = time.time() - 7200.0
+    killed = tmp_path / f"rwhonet-unpacked-{dead}-abc123"
+    (killed / "drive.csv").parent.mkdir()
+    (killed / "drive.csv").write_text("t_s\n")
+    young = tmp_path / f"rwhonet-model-{dead}-def456"
+    young.mkdir()
+    running = tmp_path / f"rwhonet-unpacked-{child.pid}-ghi789"
+    running.mkdir()
+    other = tmp_path / "rwhonet-notes"
+    other.mkdir()
+    a_file = tmp_path / f"rwhonet-vbo-{dead}-x"
+    a_file.write_text("")
+    for p in (killed, running, other, a_file):
+        os.utime(p, (old, old))
+    try:
+        with scratch_dir("unpacked") as mine:
+            assert mine.is_dir() and mine.parent == tmp_path
+            assert mine.name.startswith(f"rwhonet-unpacked-{os.getpid()}-")
+            assert not killed.exists()
+            assert young.exists() and running.exists() and other.exists() and a_file.exists()
+        assert not mine.exists()
+    finally:
+        child.kill()
+        child.wait()

@@ -20,10 +20,12 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import tempfile
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -118,6 +120,68 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
         pid = entry.name[len(prefix) :].split("-", 1)[0]
         if pid.isdigit() and not _process_alive(int(pid)):
             _remove(entry)
+            removed.append(entry)
+    return removed
+
+
+SCRATCH_PREFIX = "rwhonet-"
+# rwhonet-<kind>-<pid>-<random>: a scratch folder of :func:`scratch_dir`
+_SCRATCH = re.compile(r"^rwhonet-[a-z]+-(\d+)-")
+STALE_SCRATCH_S = 3600.0
+
+
+@contextmanager
+def scratch_dir(kind: str) -> Iterator[Path]:
+    """A scratch folder in the system's temporary directory, removed when the block ends.
+
+    It is named with this process's id (``rwhonet-<kind>-<pid>-...``), and before it is
+    made the scratch folders of rwhonet processes that no longer run are removed
+    (:func:`remove_stale_scratch`): a command killed by SIGKILL or a power cut cannot
+    remove its own, and a decompressed drive in one can be gigabytes.
+
+    Args:
+        kind: what the folder is for (lower-case letters: ``unpacked``, ``model``, ...).
+    """
+    remove_stale_scratch()
+    with tempfile.TemporaryDirectory(prefix=f"{SCRATCH_PREFIX}{kind}-{os.getpid()}-") as tmp:
+        yield Path(tmp)
+
+
+def remove_stale_scratch(
+    root: Path | None = None, min_age_s: float = STALE_SCRATCH_S
+) -> list[Path]:
+    """Remove the scratch folders (:func:`scratch_dir`) of processes that no longer run.
+
+    A folder is removed only when its process is gone and it was last changed over
+    ``min_age_s`` ago: a process in another PID namespace that shares the temporary
+    directory (a container) looks gone from here, and its folder is left alone for that
+    long.
+
+    Args:
+        root: the temporary directory (default: the system's).
+        min_age_s: how long since the folder last changed.
+
+    Returns:
+        What was removed.
+    """
+    root = Path(root or tempfile.gettempdir())
+    removed: list[Path] = []
+    now = time.time()
+    try:
+        entries = list(root.iterdir())
+    except OSError:
+        return removed
+    for entry in entries:
+        m = _SCRATCH.match(entry.name)
+        if m is None or _process_alive(int(m.group(1))):
+            continue
+        try:
+            stale = entry.is_dir() and not entry.is_symlink()
+            stale = stale and now - entry.stat().st_mtime > min_age_s
+        except OSError:
+            continue
+        if stale:
+            shutil.rmtree(entry, ignore_errors=True)
             removed.append(entry)
     return removed
 

@@ -8,7 +8,6 @@ scaler's range before the command reports success.
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +15,7 @@ import numpy as np
 
 from rwhonet import paths
 from rwhonet.errors import InputError, Problem
+from rwhonet.io import scratch_dir
 
 PARITY_TOL = 1e-5  # metres: |ONNX - PyTorch| on the check windows
 N_CHECK = 1000
@@ -85,7 +85,7 @@ def run(spec: str, output: str | None, tracking_uri: str | None, wpm_mode: str) 
     from rwhonet.serve.bundle import export_model
     from rwhonet.serve.model import load_served
 
-    with tempfile.TemporaryDirectory(prefix="rwhonet-export-") as tmp:
+    with scratch_dir("export") as tmp:
         model_file, meta = model_parts(spec, tracking_uri, Path(tmp), wpm_mode)
         default = meta.info.get("name") or Path(model_file).stem
         if meta.info.get("version"):

@@ -171,13 +171,13 @@ def model_path(spec: str, tracking_uri: str | None, dest: Path | None = None) ->
 def open_model(spec: str, tracking_uri: str | None) -> Any:
     """A served model from a path (``.onnx``, bundle or MLflow model folder) or a registry URI
     (fetched into a scratch folder, removed once the model is loaded: a session holds it)."""
-    import tempfile
 
+    from rwhonet.io import scratch_dir
     from rwhonet.serve.model import load_served
 
     if not spec.startswith(("models:/", "runs:/")):
         return load_served(model_path(spec, tracking_uri))
-    with tempfile.TemporaryDirectory(prefix="rwhonet-model-") as scratch:
+    with scratch_dir("model") as scratch:
         return load_served(model_path(spec, tracking_uri, Path(scratch) / "model"))
 
 

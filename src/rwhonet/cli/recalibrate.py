@@ -17,7 +17,6 @@ m seconds alone fix it, and how much of the refit it kept.
 
 from __future__ import annotations
 
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +27,7 @@ import numpy as np
 from rwhonet import contracts
 from rwhonet.config import AUTO, Params, flatten
 from rwhonet.errors import InputError, Problem
+from rwhonet.io import scratch_dir
 
 ONE_SHOT_RECIPES = ("paper", "head", "ridge_head", "radius+G", "steps", contracts.SHRINK)
 Z95 = 1.959963984540054  # the standard normal's 97.5 % quantile
@@ -129,7 +129,7 @@ def run(
     start = time.perf_counter()
     choice = choose(params, recipe, seconds)
     seed = params.seeds[0] if seed is None else seed
-    with tempfile.TemporaryDirectory(prefix="rwhonet-recalibrate-") as tmp:
+    with scratch_dir("recalibrate") as tmp:
         base_path, base_version = fetch_model(base, tracking_uri, Path(tmp) / "base")
         base_file, base_meta = bundle_parts(
             base_path, version_label(base_version) if base_version is not None else base

@@ -24,7 +24,6 @@ stage: relative to the project root).
 from __future__ import annotations
 
 import dataclasses
-import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,6 +59,7 @@ from rwhonet.data.vbo import (
     vbo_note,
 )
 from rwhonet.errors import InputError, Problem
+from rwhonet.io import scratch_dir
 
 IOVNBD = "iovnbd"
 COMMA2K19 = "comma2k19"
@@ -260,7 +260,7 @@ def _read_decompressed(
     what it holds written to a scratch file (at most ``data.max_file_mb``) and read as the
     file, messages naming it."""
     file = rel(f.path)
-    with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
+    with scratch_dir("unpacked") as scratch:
         inner = ".mf4" if reader_kind(f.format, data) == MDF4 else ".csv"
         plain = Path(scratch) / f"{drive_stem(f.path)}{inner}"
         decompressed_copy(f.path, packed, plain, data.max_file_mb, file)
@@ -285,7 +285,7 @@ def _read_vbo(
     path: Path, column_map: Mapping, fmt: str, file: str, radius_m: float | None
 ) -> RawDrive:
     """A VBOX file through its column map: its CSV written to a scratch file and read."""
-    with tempfile.TemporaryDirectory(prefix="rwhonet-vbo-") as scratch:
+    with scratch_dir("vbo") as scratch:
         csv = Path(scratch) / "drive.csv"
         vbo_as_csv(path, csv, file)
         raw = read_columnmap(csv, column_map, fmt, file, radius_m)
@@ -365,7 +365,7 @@ def _read_streams(
         )
         files = [p for p in every if not p.name.startswith(".")]
         signals = data.signal_maps[f.format].signals
-        with tempfile.TemporaryDirectory(prefix="rwhonet-unpacked-") as scratch:
+        with scratch_dir("unpacked") as scratch:
             plain, shown, packed = [], {}, []
             for i, p in enumerate(files):  # a file kept compressed: read as its text
                 q, packing = p, compression_of(p)

@@ -48,6 +48,7 @@ import numpy as np
 from rwhonet import contracts as k
 from rwhonet import paths
 from rwhonet.errors import InputError, Problem
+from rwhonet.io import scratch_dir
 from rwhonet.serve.bundle import sha256_file  # noqa: F401 - the drive's digest (recalibrate)
 from rwhonet.tracking.client import retrying
 from rwhonet.tracking.credentials import access_error
@@ -111,7 +112,7 @@ def log_bundle(
     from rwhonet.serve.pyfunc import MODEL_CODE, signature
 
     meta = ServedModel(bundle["model_onnx"]).meta
-    with tempfile.TemporaryDirectory(prefix="rwhonet-model-") as tmp, _quiet_mlflow():
+    with scratch_dir("model") as tmp, _quiet_mlflow():
         local = Path(tmp) / MODEL_PATH
         mlflow.pyfunc.save_model(
             local,
@@ -218,7 +219,8 @@ def resolve_model(spec: str, tracking_uri: str, dest: Path | None = None) -> Pat
         spec: ``models:/<name>/<version|latest>``, ``models:/<name>@<alias>``,
             ``runs:/<run>/<path>`` of a registered version, or a local path.
         tracking_uri: the store to resolve registry URIs in.
-        dest: where to download (a temporary folder when None).
+        dest: where to download (when None, a temporary folder named with this process's
+            id, which :func:`rwhonet.io.remove_stale_scratch` removes once it has ended).
 
     Returns:
         The local path (``spec`` itself when it is not a URI).
@@ -239,7 +241,8 @@ def fetch_model(spec: str, tracking_uri: str, dest: Path | None = None) -> tuple
     Args:
         spec: as for :func:`resolve_model`.
         tracking_uri: the store.
-        dest: where to download (a temporary folder when None).
+        dest: where to download (when None, a temporary folder named with this process's
+            id, which :func:`rwhonet.io.remove_stale_scratch` removes once it has ended).
 
     Returns:
         ``(local folder, ModelVersion)``; ``(Path(spec), None)`` for a local path.
@@ -273,7 +276,7 @@ def fetch_model(spec: str, tracking_uri: str, dest: Path | None = None) -> tuple
             retrying(
                 lambda: mlflow.artifacts.download_artifacts(
                     artifact_uri=source,
-                    dst_path=str(dest or tempfile.mkdtemp(prefix="rwhonet-model-")),
+                    dst_path=str(dest or tempfile.mkdtemp(prefix=f"rwhonet-model-{os.getpid()}-")),
                 )
             )
         )
@@ -512,7 +515,7 @@ def register_execution(
             read_json(evidence) if "seed" in rec.tags and evidence.is_file() else None,
             navigation_meta(evaluated, model, target_car),
         )
-        with tempfile.TemporaryDirectory(prefix="rwhonet-bundle-") as tmp:
+        with scratch_dir("bundle") as tmp:
             bundle = write_bundle(model_file, meta, Path(tmp))
             version = log_bundle(
                 client,
