@@ -399,12 +399,13 @@ def test_two_sentences_run_together_are_passed_over(tmp_path):
 
 @pytest.mark.parametrize("ending", ["\n\r", "\r"])
 def test_a_serial_line_s_lf_cr_or_cr_alone_is_a_line_end(tmp_path, ending):
-    """A logger writing the serial line's LF CR leaves a CR before each "$" (no stamp);
-    a log of CR line ends alone is read line by line too."""
+    """A logger writing the serial line's LF CR leaves a CR before each "$" (no stamp; a
+    capture that starts just after a line end has one before its first sentence too); a
+    log of CR line ends alone is read line by line too."""
     t0 = DAY_S + 45000.0
     lines = [gga(t0 + i, 52.4 + i * 1e-4, -1.5, 9) for i in range(3)]
     path = tmp_path / "gps.nmea"
-    path.write_bytes(ending.join(lines).encode() + ending.encode())
+    path.write_bytes((ending + ending.join(lines) + ending).encode())
     log = read_nmea(path, "gps.nmea")
     np.testing.assert_allclose(log.tod_s, 45000.0 + np.arange(3))
     assert log.stamps is None and log.dropped == ""
