@@ -143,8 +143,15 @@ def scratch_dir(kind: str) -> Iterator[Path]:
         kind: what the folder is for (lower-case letters: ``unpacked``, ``model``, ...).
     """
     remove_stale_scratch()
-    with tempfile.TemporaryDirectory(prefix=f"{SCRATCH_PREFIX}{kind}-{os.getpid()}-") as tmp:
+    with tempfile.TemporaryDirectory(prefix=scratch_prefix(kind)) as tmp:
         yield Path(tmp)
+
+
+def scratch_prefix(kind: str) -> str:
+    """The name a scratch folder of this process starts with (``rwhonet-<kind>-<pid>-``),
+    for a folder :func:`scratch_dir` does not remove itself: :func:`remove_stale_scratch`
+    removes it once the process has ended."""
+    return f"{SCRATCH_PREFIX}{kind}-{os.getpid()}-"
 
 
 def remove_stale_scratch(

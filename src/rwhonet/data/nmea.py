@@ -379,10 +379,7 @@ def _numbers(
     """Cells as numbers: NaN where empty; a problem for each that is no finite number."""
     empty = cells == b""
     filled = np.where(empty, b"nan", cells)
-    try:
-        values = filled.astype(np.float64)
-    except ValueError:
-        values = np.array([_float(x) for x in filled], np.float64)
+    values = _floats_or_nan(filled)
     bad = np.flatnonzero(~empty & ~np.isfinite(values))
     problems += [
         Problem(file, int(rows[i]), what, "a number", repr(cells[i].decode("ascii")))
@@ -397,6 +394,14 @@ def _float(cell: bytes) -> float:
         return float(cell)
     except ValueError:
         return math.nan
+
+
+def _floats_or_nan(cells: np.ndarray) -> np.ndarray:
+    """Cells as floats in one conversion, one by one where one of them is no number."""
+    try:
+        return cells.astype(np.float64)
+    except ValueError:
+        return np.array([_float(x) for x in cells])
 
 
 def _coordinates(
@@ -592,14 +597,6 @@ def _times_of_day(
         for i in np.flatnonzero(~ok)[:MAX_PROBLEMS]
     ]
     return seconds
-
-
-def _floats_or_nan(cells: np.ndarray) -> np.ndarray:
-    """Cells as floats in one conversion, one by one where one of them is no number."""
-    try:
-        return cells.astype(np.float64)
-    except ValueError:
-        return np.array([_float(x) for x in cells])
 
 
 def _first_day(

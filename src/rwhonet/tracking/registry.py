@@ -48,7 +48,7 @@ import numpy as np
 from rwhonet import contracts as k
 from rwhonet import paths
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import scratch_dir
+from rwhonet.io import scratch_dir, scratch_prefix
 from rwhonet.serve.bundle import sha256_file  # noqa: F401 - the drive's digest (recalibrate)
 from rwhonet.tracking.client import retrying
 from rwhonet.tracking.credentials import access_error
@@ -276,7 +276,7 @@ def fetch_model(spec: str, tracking_uri: str, dest: Path | None = None) -> tuple
             retrying(
                 lambda: mlflow.artifacts.download_artifacts(
                     artifact_uri=source,
-                    dst_path=str(dest or tempfile.mkdtemp(prefix=f"rwhonet-model-{os.getpid()}-")),
+                    dst_path=str(dest or tempfile.mkdtemp(prefix=scratch_prefix("model"))),
                 )
             )
         )
