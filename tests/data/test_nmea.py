@@ -23,7 +23,7 @@ from rwhonet.data.nmea import (
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
-from support.nmea import gga, nmea_lines, rmc, sentence, write_nmea
+from support.nmea import gga, gll, gns, nmea_lines, rmc, sentence, write_nmea
 
 # 2019-03-11 00:00:00 UTC: the day of the drives below, as Unix seconds
 DAY_S = 1_552_262_400.0
@@ -114,7 +114,9 @@ def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
     np.testing.assert_allclose(gnss.channels[c.N_SATS], g[c.N_SATS])
 
 
-@pytest.mark.parametrize("sentences", [("GGA", "RMC"), ("GGA",), ("RMC",)])
+@pytest.mark.parametrize(
+    "sentences", [("GGA", "RMC"), ("GGA",), ("RMC",), ("GNS", "RMC"), ("GNS",), ("GLL",)]
+)
 def test_utc_times_on_a_unix_clock(tmp_path, sentences):
     """No stamps: the wheels' clock in Unix seconds, the receiver's UTC times placed on it
     with RMC's date, or (GGA alone) the day nearest the wheels' start: the labels of the
@@ -128,15 +130,21 @@ def test_utc_times_on_a_unix_clock(tmp_path, sentences):
     files = [_wheels(tmp_path / "utc", DAY_S), tmp_path / "utc" / "gps.nmea"]
     from rwhonet.sim.streams import signal_map
 
-    smap = {k: v for k, v in signal_map().items() if k != "n_sats" or "GGA" in sentences}
+    counts = "GGA" in sentences or "GNS" in sentences
+    smap = {k: v for k, v in signal_map().items() if k != "n_sats" or counts}
     got, streams = _labels(files, smap)
     _same(got.assign(t_s=got["t_s"] - DAY_S), _reference(tmp_path, exact), 0.002)
     said = " ".join(streams.notes)
     assert ("RMC dates" in said) == ("RMC" in sentences)
     assert ("no RMC date" in said) == ("RMC" not in sentences)
+    read = [k for k in ("GGA", "RMC", "GNS", "GLL") if k in sentences]  # as the note counts
+    assert f"({', '.join(f'1199 {k}' for k in read)} sentences), 1199 with a fix" in said
     gnss = next(s for s in streams.streams if s.name == "gps.nmea")
     assert (c.SPEED_GNSS_M_S in gnss.channels) == ("RMC" in sentences)
-    assert (c.N_SATS in gnss.channels) == ("GGA" in sentences)
+    assert (c.N_SATS in gnss.channels) == counts
+    if counts:
+        np.testing.assert_allclose(gnss.channels[c.N_SATS], g[c.N_SATS])
+    assert gnss.sources[c.LAT_DEG] == f"{sentences[0]} latitude"
 
 
 def test_a_logger_clock_in_local_time_is_refused_with_its_offset(tmp_path):
@@ -193,6 +201,72 @@ def test_no_fix_sentences_keep_their_epoch_without_a_position(tmp_path):
     np.testing.assert_allclose(log.tod_s, 45000.0 + np.arange(6))
     assert log.day_s == DAY_S
     assert "6 epochs (6 GGA, 3 RMC sentences), 3 with a fix" in log.notes[-1]
+
+
+def test_gns_and_gll_say_when_they_have_no_fix(tmp_path):
+    """GNS: a fix where any constellation's mode letter is one (``NA``: GLONASS
+    autonomous), none where all are ``N``/``E``; its navigational status ``V`` is no
+    verdict on the fix (u-blox writes it beside every fix). GLL: status ``V`` or mode
+    ``N`` is no fix. An epoch's GGA gives the position, satellites and altitude before
+    its GNS."""
+    t0 = DAY_S + 45000.0
+    lines = [
+        gns(t0, 52.4, -1.5, 9),
+        gns(t0 + 1, 52.4, -1.5, 4, mode="NA"),
+        gns(t0 + 2, 52.4, -1.5, 0, mode="NN"),
+        gns(t0 + 3, 52.4, -1.5, 3, mode="EN"),  # the receiver's dead reckoning
+        gll(t0 + 4, 52.5, -1.4),
+        gll(t0 + 5, 52.5, -1.4, status="V", mode="N"),
+        gll(t0 + 6, 52.5, -1.4, mode="N"),
+        gga(t0 + 7, -33.9, 151.2, 12),
+        gns(t0 + 7, -33.8, 151.1, 20),
+        gll(t0 + 7, -33.7, 151.0),
+    ]
+    log = _log(tmp_path, lines)
+    lat, lon = log.channels["lat"], log.channels["lon"]
+    assert np.isfinite(lat).tolist() == [True, True, False, False, True, False, False, True]
+    assert lat[4] == pytest.approx(52.5, abs=1e-8) and lon[4] == pytest.approx(-1.4, abs=1e-8)
+    assert lat[7] == pytest.approx(-33.9, abs=1e-8) and lon[7] == pytest.approx(151.2, abs=1e-8)
+    np.testing.assert_array_equal(log.channels["n_sats"], [9, 4, 0, 3, np.nan, np.nan, np.nan, 12])
+    assert log.channels["height"][0] == 112.4 and log.channels["height"][7] == 112.4
+    assert log.sources["lat"] == "GGA latitude" and log.sources["n_sats"] == "GGA satellites"
+    np.testing.assert_allclose(log.tod_s, 45000.0 + np.arange(8))
+    assert log.day_s is None  # no RMC, no date
+    assert "8 epochs (1 GGA, 5 GNS, 4 GLL sentences), 4 with a fix" in log.notes[-1]
+
+
+def test_documented_gll_sentences_read_as_their_positions(tmp_path):
+    """GLL as gpsd's NMEA notes (v2.2, no mode) and u-blox's M8 protocol manual (v4.10)
+    print it, their checksums as printed."""
+    log = _log(
+        tmp_path,
+        [
+            "$GPGLL,4916.45,N,12311.12,W,225444,A,*1D",
+            "$GPGLL,4717.11364,N,00833.91565,E,092321.00,A,A*60",
+        ],
+    )
+    assert log.channels["lat"][0] == pytest.approx(49 + 16.45 / 60, abs=1e-12)
+    assert log.channels["lon"][0] == pytest.approx(-(123 + 11.12 / 60), abs=1e-12)
+    assert log.channels["lat"][1] == pytest.approx(47 + 17.11364 / 60, abs=1e-12)
+    assert log.channels["lon"][1] == pytest.approx(8 + 33.91565 / 60, abs=1e-12)
+    np.testing.assert_allclose(log.tod_s, [22 * 3600 + 54 * 60 + 44, 9 * 3600 + 23 * 60 + 21])
+    assert not log.dropped
+
+
+def test_bad_gns_and_gll_fields_are_refused_with_their_line(tmp_path):
+    t0 = DAY_S + 45000.0
+    lines = [
+        gns(t0, 52.4, -1.5, 9),
+        sentence("GNGNS,123001.00,5224.000,N,00130.000,W,AA,x9,0.9,112.4,47.0,,,V"),
+        sentence("GPGLL,5224.000,N,00130.000,Q,123002.00,A,A"),
+        sentence("GPGLL,5224.000,N,00130.000,W,12x003.00,A,A"),
+    ]
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, lines)
+    said = str(err.value)
+    assert "gps.nmea, row 2, column 'GNS satellites': expected a number; found 'x9'" in said
+    assert "row 3, column 'GLL longitude'" in said and "'00130.000' 'Q'" in said
+    assert "row 4, column 'UTC time'" in said and "'12x003.00'" in said
 
 
 def test_damaged_lines_are_passed_over_and_counted(tmp_path):
@@ -260,7 +334,7 @@ def test_a_file_without_gga_or_rmc_is_refused(tmp_path):
     with pytest.raises(InputError) as err:
         _log(tmp_path, ["$GPGSV,1,1,01,05,40,083,46*7A", sentence("GPGGA,,,,,,0,00,,,,,,,")])
     said = str(err.value)
-    assert "expected NMEA 0183 GGA or RMC sentences with a UTC time" in said
+    assert "expected NMEA 0183 GGA, RMC, GNS or GLL sentences with a UTC time" in said
     assert "1 sentence(s) without a UTC time (first at line 2)" in said
 
 

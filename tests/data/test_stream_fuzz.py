@@ -101,23 +101,24 @@ def test_an_edited_mdf4_drive_reads_or_is_refused_clearly(tables, cut, capfd):
         )
 
 
-def _good_nmea_lines() -> list[str]:
+def _good_nmea_lines(sentences: tuple[str, ...]) -> list[str]:
     """The good drive's fixes as the receiver's NMEA log, each line after the stamp."""
     from support.nmea import nmea_lines
 
     gnss = good_tables().gnss
     t = gnss[c.T_S].to_numpy()
-    return nmea_lines(gnss, 1_552_262_400.0 + t, stamps=t)
+    return nmea_lines(gnss, 1_552_262_400.0 + t, sentences, stamps=t)
 
 
 @st.composite
 def edited_nmea_logs(draw) -> bytes:
     """The good drive's NMEA log with 1-5 random edits: lines dropped, repeated, swapped,
     shuffled or written late, a field changed (its checksum mended or not), a stamp
-    changed or gone, bytes flipped, the file cut."""
+    changed or gone, bytes flipped, the file cut. The receiver writes GGA and RMC, or
+    GNS, RMC and GLL."""
     from support.nmea import sentence
 
-    rows = _good_nmea_lines()
+    rows = _good_nmea_lines(draw(st.sampled_from([("GGA", "RMC"), ("GNS", "RMC", "GLL")])))
     cut, flips = None, []
     for _ in range(draw(st.integers(1, 5))):
         n = len(rows)

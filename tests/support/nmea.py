@@ -64,6 +64,21 @@ def rmc(
     )
 
 
+def gns(t_s: float, lat: float, lon: float, sats: float, mode: str = "AA", talker="GN") -> str:
+    """NMEA 4.10's GNS as u-blox writes it: a mode letter a constellation, the
+    navigational status ``V`` ("not providing navigational status") beside every fix."""
+    la, ns = ddmm(lat, "NS")
+    lo, ew = ddmm(lon, "EW")
+    n = "" if not math.isfinite(sats) else f"{int(sats):02d}"
+    return sentence(f"{talker}GNS,{hhmmss(t_s)},{la},{ns},{lo},{ew},{mode},{n},0.9,112.4,47.0,,,V")
+
+
+def gll(t_s: float, lat: float, lon: float, status="A", mode="A", talker="GP") -> str:
+    la, ns = ddmm(lat, "NS")
+    lo, ew = ddmm(lon, "EW")
+    return sentence(f"{talker}GLL,{la},{ns},{lo},{ew},{hhmmss(t_s)},{status},{mode}")
+
+
 def nmea_lines(
     gnss: pd.DataFrame,
     utc_s: np.ndarray,
@@ -72,7 +87,8 @@ def nmea_lines(
     other: bool = True,
     stamp_format: str = "{:.6f},",
 ) -> list[str]:
-    """The receiver's lines for each fix: GGA and RMC at the fix's UTC time (s since 1970),
+    """The receiver's lines for each fix: the ``sentences`` (GGA, GNS, RMC, GLL) at the
+    fix's UTC time (s since 1970),
     a GSV between (passed over by the reader), each line after the logger's stamp where
     ``stamps`` (written by ``stamp_format``)."""
     lat, lon = gnss[c.LAT_DEG].to_numpy(), gnss[c.LON_DEG].to_numpy()
@@ -86,8 +102,12 @@ def nmea_lines(
             out.append(gga(t, lat[i], lon[i], sats[i]))
         if other:
             out.append(sentence("GPGSV,1,1,01,05,40,083,46"))
+        if "GNS" in sentences:
+            out.append(gns(t, lat[i], lon[i], sats[i]))
         if "RMC" in sentences:
             out.append(rmc(t, lat[i], lon[i], abs(step[i]), 0.0))
+        if "GLL" in sentences:
+            out.append(gll(t, lat[i], lon[i]))
         lines += [prefix + s for s in out]
     return lines
 

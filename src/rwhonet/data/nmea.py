@@ -12,19 +12,27 @@ puts it on the stream files' clock.
   quality, the satellites used, the altitude above mean sea level (``height``);
 - ``RMC``: UTC time, status (``A`` valid, ``V`` void), latitude and longitude, speed over
   ground in knots (``speed_gnss``, 1 kn = 1852/3600 m/s), course over ground (``heading``,
-  degrees true), the UTC date (``ddmmyy``), and from v2.3 a mode letter.
+  degrees true), the UTC date (``ddmmyy``), and from v2.3 a mode letter;
+- ``GNS`` (v3.0+; the multi-constellation fix some receivers send in place of GGA): UTC
+  time, latitude and longitude, a mode letter per constellation (``AN``: GPS autonomous,
+  GLONASS none), the satellites used, the altitude above mean sea level in metres;
+- ``GLL``: latitude and longitude, UTC time, status and, from v2.3, a mode letter.
 
 Every other sentence (GSV, GSA, VTG, a receiver's proprietary ``$P...``) is passed over.
-Sentences of one epoch (the same UTC time) are one fix: the position, satellites and
-altitude from GGA where the epoch has one, speed and course from RMC. A sentence written
+Sentences of one epoch (the same UTC time) are one fix: the position from GGA where the
+epoch has one, else GNS, RMC, GLL; satellites and altitude from GGA, else GNS; speed and
+course from RMC. A sentence written
 again, or written late, joins its epoch wherever it is in the log (the first of two of
 one kind is kept, the second counted); the epochs are in the order they first appear,
 and out of time order where the log was, which the resampler's rule puts right
 (:mod:`rwhonet.data.sampleorder`).
 
 **A fix that is no fix**: GGA quality 0 (invalid), 6 (estimated: the receiver's own dead
-reckoning), 7 (manual input) or 8 (simulation); RMC status ``V``; RMC mode ``E``
-(estimated), ``N`` (not valid), ``M`` (manual) or ``S`` (simulator). Such an epoch is
+reckoning), 7 (manual input) or 8 (simulation); RMC or GLL status ``V``; RMC or GLL mode
+``E`` (estimated), ``N`` (not valid), ``M`` (manual) or ``S`` (simulator); a GNS whose
+mode letters are all of these (GNS's last field, the navigational status, is left alone:
+u-blox writes it ``V``, "not providing navigational status", beside every fix). An epoch
+with any sentence so is no fix. Such an epoch is
 kept, its latitude and longitude missing, as a CSV stream's empty cells are: the
 receiver was there and had no fix. Receivers keep writing the last position in some of
 these sentences; it is not a measurement, and a label must not take it as one.
@@ -43,7 +51,7 @@ the stream files' clock where that clock is UTC too (:func:`on_clock`).
 The sentences are parsed here, not by `pynmea2`: it parses one sentence at a time in
 Python (with the conversions, 2.4 s for a two-hour 10 Hz log, 0.29 M input rows/s
 through the resampler, under the stream readers' 1 M target), and it reads an empty
-latitude as 0.0. Here the log's lines are found and every GGA and RMC sentence's checksum
+latitude as 0.0. Here the log's lines are found and every fix sentence's checksum
 computed over its bytes at once, and the fields converted column by column (0.91 M rows/s;
 ``benchmarks/bench_streams.py``): an empty field is missing, and a field that is no
 number is refused with its line.
@@ -80,11 +88,20 @@ KNOT_M_S = 1852.0 / 3600.0
 # (NovAtel's "Which NovAtel position types correspond to the GGA quality indicator?");
 # 0 invalid, 6 estimated (dead reckoning), 7 manual input, 8 simulation are not
 GGA_FIXES = (b"1", b"2", b"3", b"4", b"5", b"9")
-# RMC mode (v2.3+): A autonomous, D differential, P precise, R RTK, F float RTK; E
-# estimated, N not valid, M manual, S simulator are none
+# the mode of RMC and GLL (v2.3+) and each of GNS's, one a constellation: A autonomous,
+# D differential, P precise, R RTK, F float RTK; E estimated, N not valid, M manual, S
+# simulator are none
 RMC_FIXES = (b"A", b"D", b"P", b"R", b"F")
-GGA_FIELDS = 9  # up to the altitude
-RMC_FIELDS = 9  # up to the date
+# the sentences read, by their code in the scan
+KINDS = (b"GGA", b"RMC", b"GNS", b"GLL")
+GGA, RMC, GNS, GLL = range(len(KINDS))
+# fields a sentence needs (its talker and type the first): up to GGA's and GNS's
+# altitude, RMC's date, GLL's status
+FIELDS_NEEDED = np.array([10, 10, 10, 7])
+# where each gives the UTC time (GLL after its position)
+TIME_FIELD = np.array([1, 1, 1, 5])
+# which sentence's position an epoch takes where it has several
+POSITION_ORDER = (GGA, GNS, RMC, GLL)
 # a logger's stamp before the sentence: separated by spaces, a comma, a semicolon, a tab,
 # or in brackets
 _STAMP_STRIP = b" \t\r\n\x0b\x0c,;[]()"  # a serial line's LF CR leaves a CR before the "$"
@@ -138,9 +155,9 @@ class NmeaLog:
 
 
 def read_nmea(path: Path, file: str) -> NmeaLog:
-    """Read a receiver's GGA and RMC sentences as one fix per epoch.
+    """Read a receiver's GGA, RMC, GNS and GLL sentences as one fix per epoch.
 
-    The GGA and RMC sentences are found and checked over the log's bytes at once
+    The fix sentences are found and checked over the log's bytes at once
     (:func:`_scan`), gathered into epochs by their UTC time, and their fields converted
     column by column (:class:`_Fields`).
 
@@ -149,7 +166,7 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
         file: how messages name it.
 
     Raises:
-        InputError: no GGA or RMC sentence with a time; a field that is no number or
+        InputError: no fix sentence with a time; a field that is no number or
             outside its range (with its line); dates that contradict each other.
     """
     counts = {"checksum": 0, "long": 0, "cut": 0, "no time": 0, "again": 0, "not text": 0}
@@ -168,15 +185,18 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
     for kind, at in found.passed.items():
         passed(kind, at)
     kept = np.flatnonzero(found.ok)
-    rows, kinds = found.rows, found.is_gga
+    rows, kinds = found.rows, found.kind[kept]
     spans = list(zip(found.body[0][kept].tolist(), found.body[1][kept].tolist(), strict=True))
     bodies = [data[a:b] for a, b in spans]
     heads = list(zip(found.head[0][kept].tolist(), found.head[1][kept].tolist(), strict=True))
     stamps = [data[a:b].strip(_STAMP_STRIP) or None for a, b in heads]
     row_of = rows[kept]
     fields = _Fields(bodies)
+    gll = kinds == GLL
     time = fields.column(1)
-    enough = fields.count > max(GGA_FIELDS, RMC_FIELDS)  # the talker and the fields read
+    if gll.any():
+        time = np.where(gll, fields.column(TIME_FIELD[GLL]), time)
+    enough = fields.count >= FIELDS_NEEDED[kinds]
     passed("cut", row_of[~enough])  # a line cut short
     passed("no time", row_of[enough & (time == b"")])
     use = np.flatnonzero(enough & (time != b""))
@@ -187,17 +207,20 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
                     file,
                     None,
                     None,
-                    "NMEA 0183 GGA or RMC sentences with a UTC time ($GPGGA, $GNRMC, ...)",
+                    "NMEA 0183 GGA, RMC, GNS or GLL sentences with a UTC time ($GPGGA, "
+                    "$GNRMC, ...)",
                     "none" + _passed_over(counts, first_bad),
-                    "give the receiver's GGA or RMC output, or leave the file out of the drive",
+                    "give the receiver's GGA, RMC, GNS or GLL output, or leave the file out "
+                    "of the drive",
                 )
             ]
         )
     return _fixes(
         fields,
         use,
+        time[use],
         row_of,
-        kinds[kept],
+        kinds,
         stamps,
         file,
         counts,
@@ -208,11 +231,11 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
 
 @dataclass(frozen=True)
 class _Found:
-    """The GGA and RMC sentences of a log (:func:`_scan`), in the log's order.
+    """The fix sentences of a log (:func:`_scan`), in the log's order.
 
     Attributes:
         rows: each sentence's line, 1-based.
-        is_gga: GGA (else RMC).
+        kind: what it is, an index into :data:`KINDS`.
         head: (start, end) of what stands before its ``$`` (a logger's stamp).
         body: (start, end) of its characters between ``$`` and ``*`` (or the line's end).
         ok: whether it is text of a sentence's length whose checksum, where it has one,
@@ -222,7 +245,7 @@ class _Found:
     """
 
     rows: np.ndarray
-    is_gga: np.ndarray
+    kind: np.ndarray
     head: tuple[np.ndarray, np.ndarray]
     body: tuple[np.ndarray, np.ndarray]
     ok: np.ndarray
@@ -252,9 +275,9 @@ def _before(positions: np.ndarray, at: np.ndarray) -> np.ndarray:
 
 
 def _scan(data: bytes) -> _Found:
-    """Find the GGA and RMC sentences of a log, and check them, all lines at once.
+    """Find the fix sentences of a log, and check them, all lines at once.
 
-    A line's sentence begins at its first ``$``; it is a GGA or RMC sentence where the
+    A line's sentence begins at its first ``$``; it is one of :data:`KINDS` where the
     three characters after the talker say so. Its checksum is the XOR of its characters
     between ``$`` and the last ``*`` (an ``reduceat`` over the log's bytes), compared with
     the two hex digits after the ``*``; trailing spaces and CR are not the sentence's.
@@ -277,10 +300,12 @@ def _scan(data: bytes) -> _Found:
         return buf[np.minimum(at + offset, size - 1)]
 
     long_enough = at + 6 <= ends[line]
-    gga = long_enough & (char(3) == ord("G")) & (char(4) == ord("G")) & (char(5) == ord("A"))
-    rmc = long_enough & (char(3) == ord("R")) & (char(4) == ord("M")) & (char(5) == ord("C"))
-    keep = gga | rmc
-    line, at, gga = line[keep], at[keep], gga[keep]
+    kind = np.full(line.size, -1)
+    third, fourth, fifth = char(3), char(4), char(5)
+    for code, name in enumerate(KINDS):
+        kind[long_enough & (third == name[0]) & (fourth == name[1]) & (fifth == name[2])] = code
+    keep = kind >= 0
+    line, at, kind = line[keep], at[keep], kind[keep]
     end = ends[line]  # without the trailing spaces and CR (bytes.rstrip's)
     while (step := _SPACE[buf[end - 1]] & (end > at + 6)).any():
         end = end - step
@@ -305,7 +330,7 @@ def _scan(data: bytes) -> _Found:
     wrong = ~long & text & two & (hi * 16 + lo != xor)
     return _Found(
         rows,
-        gga,
+        kind,
         (starts[line], at),
         (at + 1, body_end),
         ~(long | bad_text | cut | wrong),
@@ -444,18 +469,19 @@ def _coordinates(
 def _fixes(
     fields: _Fields,
     use: np.ndarray,
+    times: np.ndarray,
     rows: np.ndarray,
-    is_gga: np.ndarray,
+    kinds: np.ndarray,
     stamps: list[bytes | None],
     file: str,
     counts: dict[str, int],
     first: dict[str, int],
     passed,
 ) -> NmeaLog:
-    """The sentences ``use`` gathered into epochs by UTC time, their fields converted
-    column by column: one fix an epoch."""
+    """The sentences ``use`` (their UTC time cells ``times``) gathered into epochs by UTC
+    time, their fields converted column by column: one fix an epoch."""
     problems: list[Problem] = []
-    tod_s = _times_of_day(fields.column(1, use), rows[use], file, problems)
+    tod_s = _times_of_day(times, rows[use], file, problems)
     timed = np.isfinite(tod_s)  # a time that is no time: refused below, with the rest
     use, tod_s = use[timed], tod_s[timed]
     if not use.size:
@@ -475,52 +501,71 @@ def _fixes(
     epoch_rows = rows[lead]
     tod = tod_s[first_at[order]]
 
-    def firsts(of_kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def firsts(kind: int) -> tuple[np.ndarray, np.ndarray]:
         """Each epoch's first sentence of a kind: (epochs, sentences)."""
-        at = np.flatnonzero(of_kind)
+        at = np.flatnonzero(kinds[use] == kind)
         epochs, once = np.unique(epoch_of[at], return_index=True)
         again = np.setdiff1d(np.arange(at.size), once)
         passed("again", rows[use[at[again]]])  # the same epoch's sentence twice
         return epochs, use[at[once]]
 
-    g_at, g_sent = firsts(is_gga[use])
-    r_at, r_sent = firsts(~is_gga[use])
+    of = {kind: firsts(kind) for kind in range(len(KINDS))}
     lat, lon = np.full(n, np.nan), np.full(n, np.nan)
     sats, height = np.full(n, np.nan), np.full(n, np.nan)
     speed, course = np.full(n, np.nan), np.full(n, np.nan)
     valid = np.ones(n, bool)
-    if g_at.size:
-        g = {j: fields.column(j, g_sent) for j in (2, 3, 4, 5, 6, 7, 9, 10)}
-        g_rows = rows[g_sent]
-        valid[g_at] &= np.isin(g[6], GGA_FIXES)
-        lat[g_at] = _coordinates(g[2], g[3], g_rows, "latitude", "GGA", file, problems)
-        lon[g_at] = _coordinates(g[4], g[5], g_rows, "longitude", "GGA", file, problems)
-        sats[g_at] = _numbers(g[7], g_rows, "GGA satellites", file, problems)
-        metres = np.isin(np.char.upper(g[10]), [b"M", b""])
-        alt = _numbers(g[9], g_rows, "GGA altitude", file, problems)
-        height[g_at] = np.where(metres, alt, np.nan)
-    date_at, date_cells = np.zeros(0, np.int64), np.zeros(0, "S1")
-    if r_at.size:
-        r = {j: fields.column(j, r_sent) for j in (2, 3, 4, 5, 6, 7, 8, 9, 12)}
-        r_rows = rows[r_sent]
-        mode = np.char.upper(r[12])
-        r_valid = (np.char.upper(r[2]) == b"A") & ((mode == b"") | np.isin(mode, RMC_FIXES))
-        valid[r_at] &= r_valid
-        alone = ~np.isin(r_at, g_at)
+    placed = np.zeros(n, bool)  # a position from a sentence of an earlier kind
+    counted = np.zeros(n, bool)  # satellites and altitude from GGA
+    # each kind's fields: latitude, its letter, longitude, its letter
+    at_position = {GGA: 2, RMC: 3, GNS: 2, GLL: 1}
+    for kind in POSITION_ORDER:
+        epochs, sent = of[kind]
+        if not epochs.size:
+            continue
+        name = KINDS[kind].decode()
+        kind_rows = rows[sent]
+        valid[epochs] &= _valid(kind, fields, sent)
+        alone = ~placed[epochs]
         if alone.any():
-            rows_alone, at = r_rows[alone], r_at[alone]
+            j = at_position[kind]
+            cells = [fields.column(j + i, sent[alone]) for i in range(4)]
+            at = epochs[alone]
             lat[at] = _coordinates(
-                r[3][alone], r[4][alone], rows_alone, "latitude", "RMC", file, problems
+                cells[0], cells[1], kind_rows[alone], "latitude", name, file, problems
             )
             lon[at] = _coordinates(
-                r[5][alone], r[6][alone], rows_alone, "longitude", "RMC", file, problems
+                cells[2], cells[3], kind_rows[alone], "longitude", name, file, problems
             )
-        knots = _numbers(r[7], r_rows, "RMC speed", file, problems)
-        cog = _numbers(r[8], r_rows, "RMC course", file, problems)
+            placed[at] = True
+        if kind in (GGA, GNS):  # satellites and altitude: GGA's, else GNS's
+            empty = ~counted[epochs]
+            at = epochs[empty]
+            counted[at] = True
+            sats[at] = _numbers(
+                fields.column(7, sent[empty]),
+                kind_rows[empty],
+                f"{name} satellites",
+                file,
+                problems,
+            )
+            alt = _numbers(
+                fields.column(9, sent[empty]), kind_rows[empty], f"{name} altitude", file, problems
+            )
+            if kind == GGA:  # GGA names the altitude's unit; GNS's is metres
+                alt[~np.isin(np.char.upper(fields.column(10, sent[empty])), [b"M", b""])] = np.nan
+            height[at] = alt
+    date_at, date_cells = np.zeros(0, np.int64), np.zeros(0, "S1")
+    r_at, r_sent = of[RMC]
+    if r_at.size:
+        r_rows = rows[r_sent]
+        r_valid = _valid(RMC, fields, r_sent)
+        knots = _numbers(fields.column(7, r_sent), r_rows, "RMC speed", file, problems)
+        cog = _numbers(fields.column(8, r_sent), r_rows, "RMC course", file, problems)
         speed[r_at] = np.where(r_valid, knots * KNOT_M_S, np.nan)
         course[r_at] = np.where(r_valid, cog, np.nan)
-        dated = r_valid & (r[9] != b"")
-        date_at, date_cells = r_at[dated], r[9][dated]
+        dates = fields.column(9, r_sent)
+        dated = r_valid & (dates != b"")
+        date_at, date_cells = r_at[dated], dates[dated]
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     lat[~valid] = np.nan
@@ -536,21 +581,23 @@ def _fixes(
         "speed_gnss": speed,
         "heading": course,
     }
+    given_by = [KINDS[k].decode() for k in POSITION_ORDER if of[k][0].size]
+    counted = [k for k in (GGA, GNS) if of[k][0].size] or [GGA]
+    sats_by = KINDS[counted[0]].decode()
     sources = {
-        "lat": "GGA latitude",
-        "lon": "GGA longitude",
-        "n_sats": "GGA satellites",
-        "height": "GGA altitude",
+        "lat": f"{given_by[0]} latitude",
+        "lon": f"{given_by[0]} longitude",
+        "n_sats": f"{sats_by} satellites",
+        "height": f"{sats_by} altitude",
         "speed_gnss": "RMC speed",
         "heading": "RMC course",
     }
-    if not g_at.size:
-        sources |= {"lat": "RMC latitude", "lon": "RMC longitude"}
     given = {k: v for k, v in channels.items() if np.isfinite(v).any() or k in ("lat", "lon")}
     stamps = [stamps[i] for i in lead]
     notes.append(
-        f"{file}: an NMEA log: {n} epochs ({g_at.size} GGA, {r_at.size} RMC "
-        f"sentences), {int(np.isfinite(lat).sum())} with a fix"
+        f"{file}: an NMEA log: {n} epochs ("
+        + ", ".join(f"{of[k][0].size} {KINDS[k].decode()}" for k in of if of[k][0].size)
+        + f" sentences), {int(np.isfinite(lat).sum())} with a fix"
         + _passed_over(counts, first).replace(" (", ", passed over: (", 1)
     )
     return NmeaLog(
@@ -564,6 +611,20 @@ def _fixes(
         notes,
         _passed_over(counts, first)[2:-1],  # " (...)" without its brackets
         epoch_rows[[x is None for x in stamps]] if any(stamps) else np.zeros(0, np.int64),
+    )
+
+
+def _valid(kind: int, fields: _Fields, sent: np.ndarray) -> np.ndarray:
+    """Whether each of the sentences ``sent`` of a kind says its position is a fix."""
+    if kind == GGA:
+        return np.isin(fields.column(6, sent), GGA_FIXES)
+    if kind == GNS:  # a mode letter a constellation: a fix where any is one
+        modes = np.char.upper(fields.column(6, sent))
+        return np.logical_or.reduce([np.char.find(modes, m) >= 0 for m in RMC_FIXES])
+    status, mode = (2, 12) if kind == RMC else (6, 7)
+    modes = np.char.upper(fields.column(mode, sent))
+    return (np.char.upper(fields.column(status, sent)) == b"A") & (
+        (modes == b"") | np.isin(modes, RMC_FIXES)
     )
 
 
