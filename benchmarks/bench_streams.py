@@ -4,7 +4,8 @@ Simulates one long drive (default 2 h, ci world; truth at 200 Hz, which is
 enough for timing), samples it as a logger's streams (CAN wheel speeds at
 100 Hz with jittered stamps, GNSS at 10 Hz), writes them in each format the
 readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
-NMEA log, one MDF4 file, a comma2k19 folder) and times,
+NMEA log, one MDF4 file, a comma2k19 folder, raw CAN frames as a candump log and a
+Vector BLF with their DBC) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
 resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
 sample-level glitch screen). Rows are every stream's samples, counted once.
@@ -33,7 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # support.multirate
 
-from rwhonet.config import SimDrive, load_params  # noqa: E402
+from rwhonet.config import ColumnSpec, SimDrive, load_params  # noqa: E402
 from rwhonet.data.comma2k19 import read_comma2k19  # noqa: E402
 from rwhonet.data.mdf4 import read_mdf4  # noqa: E402
 from rwhonet.data.quality import assess  # noqa: E402
@@ -52,6 +53,7 @@ from rwhonet.sim.streams import (  # noqa: E402
     write_stream_csvs,
     write_stream_mdf4,
 )
+from support.canlog import DBC, SIGNALS, stream_frames, write_bus_log, write_candump  # noqa: E402
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
 
 
@@ -99,6 +101,14 @@ def main() -> None:
         nmea = write_nmea(
             root / "csv" / "gps.nmea", nmea_lines(tables.gnss, 1.55e9 + t_fix, stamps=t_fix)
         )
+        # the streams as raw CAN frames (wheels, fix, satellites) on a Unix clock: a
+        # candump log (written at once) and a Vector BLF (python-can's writer), and the DBC
+        frames = stream_frames(tables, radius, 1.7e9)
+        candump = write_candump(*frames, root / "bus.log")
+        blf = write_bus_log(*frames, root / "bus.blf")
+        (root / "bus.dbc").write_text(DBC)
+        can_map = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+        dbc = [str(root / "bus.dbc")]
         readers = {
             "one CSV per stream": lambda: read_stream_csvs(
                 list(csvs.values()), signal_map(), radius
@@ -108,13 +118,18 @@ def main() -> None:
             ),
             "MDF4 (asammdf)": lambda: read_mdf4(mf4, signal_map(with_time=False), radius),
             "comma2k19 folder": lambda: read_comma2k19(root / "seg", radius),
+            "candump log + DBC": lambda: read_mdf4(candump, can_map, radius, dbc=dbc),
+            "BLF log + DBC": lambda: read_mdf4(blf, can_map, radius, dbc=dbc),
         }
         print(f"{'format':<20} {'read s':>7} {'resample s':>10} {'total s':>8} {'M rows/s':>9}")
+        results = {}
         for name, read in readers.items():
             streams, t_read = best(read, args.repeat)
             res, t_res = best(lambda s=streams: resample(s, nominal_radius_m=radius), args.repeat)
             total = t_read + t_res
+            results[name] = res, total
             print(f"{name:<20} {t_read:>7.3f} {t_res:>10.3f} {total:>8.3f} {n / total / 1e6:>9.2f}")
+        res, total = results["comma2k19 folder"]
         grid = res.drive.columns
         vp = params.validate
 

@@ -498,15 +498,17 @@ class ColumnSpec:
 class SignalMapSpec:
     """A drive logged as timestamped streams: its reader, and where each quantity is.
 
-    ``reader``: ``mdf4`` (one ASAM MDF4 file per drive, :mod:`rwhonet.data.mdf4`) or
+    ``reader``: ``mdf4`` (one ASAM MDF4 file per drive, :mod:`rwhonet.data.mdf4`, or one
+    bus tool's log of raw CAN frames: candump, ASC, BLF, TRC, :mod:`rwhonet.data.canlog`) or
     ``stream_csv`` (one folder per drive holding one CSV per sensor stream,
     :mod:`rwhonet.data.streamcsv`; ``t`` names their common time column). ``signals``:
     key -> the logged channel and its unit (:mod:`rwhonet.data.signalmap`). ``source``:
     the file the map was read from (``rwhonet ... --signal-map FILE``), so messages name
     it; None for a map in params.yaml (messages name its key). ``dbc``: the CAN databases
-    (DBC, or ARXML) that decode an MDF4 log of raw CAN frames (a CANedge's, a Vector
-    logger's bus logging) before its signals are read; paths relative to the project root
-    (a map file's: to its folder). Empty: the file holds decoded signals.
+    (DBC, or ARXML) that decode a log of raw CAN frames (an MDF4 bus log: a CANedge's, a
+    Vector logger's; a candump, ASC, BLF or TRC log) before its signals are read; paths
+    relative to the project root (a map file's: to its folder). Empty: the file holds
+    decoded signals.
     """
 
     reader: Literal["mdf4", "stream_csv"]
@@ -527,8 +529,9 @@ class SignalMapSpec:
         """What is wrong with ``dbc`` (None: nothing), ``where`` naming the map."""
         if self.dbc_files and self.reader != "mdf4":
             return (
-                f"{where}.dbc: a CAN database decodes an MDF4 log of raw CAN frames (reader "
-                f"mdf4), not {self.reader}'s CSVs: remove dbc, or decode the frames first"
+                f"{where}.dbc: a CAN database decodes a log of raw CAN frames (reader "
+                f"mdf4: an MDF4 bus log, or a candump, ASC, BLF or TRC log), not "
+                f"{self.reader}'s CSVs: remove dbc, or decode the frames first"
             )
         return None
 

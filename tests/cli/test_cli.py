@@ -1269,6 +1269,39 @@ def test_predict_refuses_fixes_on_another_clock_and_takes_them_moved(
     np.testing.assert_allclose(two["disp_gnss_m"], one["disp_gnss_m"], atol=0.05)
 
 
+def test_predict_reads_a_candump_log_kept_compressed_through_the_map_file_s_dbc(
+    bundle, tmp_path, capsys
+):
+    """The same frames as candump writes them (``bus.log.gz``, a frame damaged on the way)
+    and as an MDF4 bus log: the same seconds and distances; the damaged line said on
+    stderr."""
+    import gzip
+
+    from support.canlog import DBC, SIGNALS, can_frames, write_bus_log, write_can_log
+
+    df = _rav4_drive()
+    mf4 = write_can_log(df, tmp_path / "log" / "drive.mf4", RAV4_M)
+    log = write_bus_log(*can_frames(df, RAV4_M, 1_700_000_000.0), tmp_path / "bus.log")
+    lines = log.read_text().splitlines()
+    lines[5] = lines[5].replace("#", "#Z", 1)  # a byte lost on the way: no hex
+    packed = tmp_path / "bus.log.gz"
+    packed.write_bytes(gzip.compress(("\n".join(lines) + "\n").encode()))
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    (maps / "v.dbc").write_text(DBC)
+    signals = [f"  {k}: {{column: {v['column']}, unit: {v['unit']}}}" for k, v in SIGNALS.items()]
+    (maps / "bus.yaml").write_text("dbc: v.dbc\nsignals:\n" + "\n".join(signals) + "\n")
+    fmt = ["--format", "mdf4", "--signal-map", str(maps / "bus.yaml")]
+    car = ["--nominal-radius", str(RAV4_M)]
+    assert main(predict_args(bundle, packed, tmp_path / "log.csv", *fmt, *car)) == 0
+    err = capsys.readouterr().err
+    assert "bus.log.gz: passed over: 1 lines damaged (first at line 6)" in err
+    assert main(predict_args(bundle, mf4, tmp_path / "mf4.csv", *fmt, *car)) == 0
+    got, want = pd.read_csv(tmp_path / "log.csv"), pd.read_csv(tmp_path / "mf4.csv")
+    assert len(got) == len(want) > 100
+    np.testing.assert_allclose(got["disp_corrected_m"], want["disp_corrected_m"], atol=0.02)
+
+
 def test_predict_reads_a_log_of_raw_can_frames_through_the_map_file_s_dbc(bundle, tmp_path, capsys):
     """An MDF4 of raw CAN frames and a map file naming its DBC relative to the map: the
     same seconds and distances as the drive's decoded signals, within the DBC's 0.01 km/h;

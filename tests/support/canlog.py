@@ -56,14 +56,10 @@ _FRAME = np.dtype(
 )
 
 
-def write_can_log(df: pd.DataFrame, path: Path, radius_m: float) -> Path:
-    """Write the canonical drive ``df`` as raw CAN frames (its wheel speeds times
-    ``radius_m`` in km/h, a frame per row; its fixes and satellite counts, a frame each
-    where there is a fix) in an MDF4 file; the DBC goes beside it as ``<stem>.dbc``."""
-    from asammdf import MDF, Signal
-    from asammdf.blocks.v4_blocks import SourceInformation
-    from asammdf.blocks.v4_constants import BUS_TYPE_CAN, SOURCE_BUS
-
+def can_frames(df: pd.DataFrame, radius_m: float, t0_s: float = 0.0):
+    """The canonical drive ``df`` as raw CAN frames: ``(stamps, ids, data)`` in time order
+    (its wheel speeds times ``radius_m`` in km/h, a frame per row; its fixes and satellite
+    counts, a frame each where there is a fix), the stamps from ``t0_s``."""
     t = df[c.T_S].to_numpy() - df[c.T_S].iloc[0]
     kmh = np.ascontiguousarray(
         np.round(df[list(c.WHEELS)].to_numpy() * radius_m * 3.6 / 0.01).astype("<u2")
@@ -78,15 +74,88 @@ def write_can_log(df: pd.DataFrame, path: Path, radius_m: float) -> Path:
     data = np.concatenate([kmh.view(np.uint8), latlon.view(np.uint8), sats])
     stamps = np.r_[t, t[fix] + 0.002, t[fix] + 0.001]  # the status, then the fix, after the row
     order = np.argsort(stamps, kind="stable")
+    return t0_s + stamps[order], ids[order], data[order]
+
+
+def write_can_log(df: pd.DataFrame, path: Path, radius_m: float) -> Path:
+    """Write the canonical drive ``df`` as raw CAN frames (:func:`can_frames`) in an MDF4
+    file; the DBC goes beside it as ``<stem>.dbc``."""
+    from asammdf import MDF, Signal
+    from asammdf.blocks.v4_blocks import SourceInformation
+    from asammdf.blocks.v4_constants import BUS_TYPE_CAN, SOURCE_BUS
+
+    stamps, ids, data = can_frames(df, radius_m)
     frames = np.zeros(len(stamps), _FRAME)
     frames["CAN_DataFrame.BusChannel"] = 1
-    frames["CAN_DataFrame.ID"] = ids[order]
+    frames["CAN_DataFrame.ID"] = ids
     frames["CAN_DataFrame.DLC"] = frames["CAN_DataFrame.DataLength"] = 8
-    frames["CAN_DataFrame.DataBytes"] = data[order]
+    frames["CAN_DataFrame.DataBytes"] = data
     mdf = MDF(version="4.10")
     source = SourceInformation(source_type=SOURCE_BUS, bus_type=BUS_TYPE_CAN)
-    mdf.append(Signal(frames, stamps[order], name="CAN_DataFrame", source=source))
+    mdf.append(Signal(frames, stamps, name="CAN_DataFrame", source=source))
     mdf.save(path, overwrite=True)
     mdf.close()
     path.with_suffix(".dbc").write_text(DBC)
+    return path
+
+
+def write_bus_log(
+    stamps: np.ndarray,
+    ids: np.ndarray,
+    data: np.ndarray,
+    path: Path,
+    channel: str = "can0",
+    extended=None,
+) -> Path:
+    """Frames written by python-can's writer for ``path``'s suffix (candump ``.log``,
+    ``.asc``, ``.blf``, ``.trc``), as a bus tool records them."""
+    import can
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ext = np.zeros(len(ids), bool) if extended is None else extended
+    with can.Logger(str(path)) as writer:
+        for t, i, d, x in zip(stamps.tolist(), ids.tolist(), data, ext.tolist(), strict=True):
+            writer.on_message_received(
+                can.Message(
+                    timestamp=t,
+                    arbitration_id=i,
+                    is_extended_id=x,
+                    data=bytes(d),
+                    channel=channel,
+                )
+            )
+    return path
+
+
+def stream_frames(tables, radius_m: float, t0_s: float = 0.0):
+    """A drive's streams (``rwhonet.sim.streams.StreamTables``: wheels and fixes at their
+    own times) as raw CAN frames in time order: ``(stamps, ids, data)``, as
+    :func:`can_frames` encodes them."""
+    w, g = tables.wheels, tables.gnss
+    kmh = np.round(w[list(c.WHEELS)].to_numpy() * radius_m * 3.6 / 0.01)
+    kmh = np.ascontiguousarray(np.clip(kmh, 0, 65535).astype("<u2"))
+    fix = g[c.LAT_DEG].notna().to_numpy()
+    latlon = np.ascontiguousarray(
+        np.round(g.loc[fix, [c.LAT_DEG, c.LON_DEG]].to_numpy() / 1e-7).astype("<i4")
+    )
+    sats = np.zeros((int(fix.sum()), 8), np.uint8)
+    sats[:, 0] = g.loc[fix, c.N_SATS].to_numpy()
+    tg = g[c.T_S].to_numpy()[fix]
+    ids = np.r_[np.full(len(w), WHEELS_ID), np.full(fix.sum(), SATS_ID), np.full(fix.sum(), FIX_ID)]
+    data = np.concatenate([kmh.view(np.uint8), sats, latlon.view(np.uint8)])
+    stamps = np.r_[w[c.T_S].to_numpy(), tg, tg]
+    order = np.argsort(stamps, kind="stable")
+    return t0_s + stamps[order], ids[order], data[order]
+
+
+def write_candump(stamps: np.ndarray, ids: np.ndarray, data: np.ndarray, path: Path) -> Path:
+    """Frames as ``candump -l`` writes them, many at once (python-can's writer takes a
+    frame at a time: minutes for a long drive)."""
+    hexes = np.char.upper(np.char.mod("%02x", data)).reshape(data.shape)
+    body = ["".join(row) for row in hexes.tolist()]
+    lines = [
+        f"({t:.6f}) can0 {i:03X}#{b}"
+        for t, i, b in zip(stamps.tolist(), ids.tolist(), body, strict=True)
+    ]
+    path.write_text("\n".join(lines) + "\n")
     return path

@@ -45,7 +45,9 @@
   (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf) or
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
   (:mod:`~rwhonet.data.signalmap`); a receiver's NMEA 0183 log among the stream CSVs is
-  read by :mod:`~rwhonet.data.nmea`.
+  read by :mod:`~rwhonet.data.nmea`; a bus tool's log of raw CAN frames (candump, ASC,
+  BLF, TRC) by :mod:`~rwhonet.data.canlog`, laid out as an MDF4 bus log for the map's
+  DBC. :mod:`~rwhonet.data.bytescan` finds things in a text log's bytes at once, for both.
 - :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where
   ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those

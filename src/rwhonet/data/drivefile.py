@@ -34,6 +34,7 @@ import pyarrow as pa
 
 from rwhonet.config import DataParams
 from rwhonet.data import canonical as c
+from rwhonet.data.canlog import is_can_log_name
 from rwhonet.data.columnmap import read_columnmap
 from rwhonet.data.compressed import (
     compressed_note,
@@ -256,12 +257,14 @@ def _read_decompressed(
     split_gap_s: float,
     require_fix: bool,
 ) -> tuple[RawDrive, StreamFacts | None]:
-    """A compressed drive file (:mod:`rwhonet.data.compressed`: a 10 Hz CSV, an MDF4 log):
-    what it holds written to a scratch file (at most ``data.max_file_mb``) and read as the
-    file, messages naming it."""
+    """A compressed drive file (:mod:`rwhonet.data.compressed`: a 10 Hz CSV, an MDF4 log, a
+    bus tool's CAN log): what it holds written to a scratch file (at most
+    ``data.max_file_mb``) and read as the file, messages naming it."""
     file = rel(f.path)
     with scratch_dir("unpacked") as scratch:
         inner = ".mf4" if reader_kind(f.format, data) == MDF4 else ".csv"
+        if inner == ".mf4" and is_can_log_name(f.path.name):  # bus.log.gz: read as a .log
+            inner = Path(without_suffix(f.path.name)).suffix.lower()
         plain = Path(scratch) / f"{drive_stem(f.path)}{inner}"
         decompressed_copy(f.path, packed, plain, data.max_file_mb, file)
 
@@ -277,7 +280,7 @@ def _read_decompressed(
             split_gap_s,
             require_fix,
         )
-    said = compressed_note(packed, "the MDF4 log" if inner == ".mf4" else "the text")
+    said = compressed_note(packed, "the text" if inner == ".csv" else "the log")
     return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
 
 
@@ -313,7 +316,7 @@ def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
     what = {
         COMMA2K19: "a comma2k19 segment folder (holding processed_log, or CAN and GNSS)",
         STREAM_CSV: "a folder holding the drive's stream CSV files",
-        MDF4: "an MDF4 file (.mf4)",
+        MDF4: "an MDF4 file (.mf4), or a CAN log (.log, .asc, .blf, .trc)",
     }.get(kind, "a drive file (CSV)")
     return Problem(
         file,

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from rwhonet.config import ColumnSpec
+from rwhonet.data.canlog import bus_log, is_can_log_name, read_frames
 from rwhonet.data.headers import map_unit_name, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
@@ -66,6 +67,8 @@ def read_mdf4(
     file = display or str(path)
     if not Path(path).is_file():
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
+    if is_can_log_name(Path(path).name):
+        return _read_can_log(Path(path), signal_map, radius_m, name, file, dbc)
     mdf, problem = _open(MDF, path, file)
     if problem is not None:
         raise InputError([problem], summary=f"cannot decode {file}")
@@ -80,6 +83,50 @@ def read_mdf4(
         return dataclasses.replace(streams, notes=(*streams.notes, _decoded_note(mdf, dbc)))
     finally:
         mdf.close()
+
+
+def _read_can_log(
+    path: Path,
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str,
+    file: str,
+    dbc: Sequence[str],
+) -> DriveStreams:
+    """A candump, ASC, BLF or TRC log of raw CAN frames (:mod:`rwhonet.data.canlog`),
+    laid out as an MDF4 bus log and decoded with the map's CAN databases as one."""
+    if not dbc:
+        setting = _dbc_setting(name)
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    f"the CAN databases that decode the log's raw frames ({setting})",
+                    "none given",
+                    f"give {setting}: the DBC (or ARXML) of the bus the log recorded",
+                )
+            ]
+        )
+    frames = read_frames(path, file)
+    mdf = bus_log(frames)
+    try:
+        decoded = _decoded(mdf, dbc, name, file)
+        try:
+            streams = _read(decoded, signal_map, radius_m, name, file, frames.clock)
+        finally:
+            decoded.close()
+        notes = [_decoded_note(mdf, dbc)]
+    finally:
+        mdf.close()
+    buses = ", ".join(frames.buses)
+    notes.append(f"{frames.t_s.size} data frames on {len(frames.buses)} bus(es) ({buses})")
+    notes = [f"{file}: {n}" for n in notes]
+    passed = [f"{file}: passed over: {frames.passed}"] if frames.passed else []
+    return dataclasses.replace(
+        streams, notes=(*streams.notes, *notes, *passed), changed=(*streams.changed, *passed)
+    )
 
 
 def _decoded_note(mdf, dbc: Sequence[str]) -> str:  # type: ignore[no-untyped-def]
@@ -185,7 +232,12 @@ def _mute(_: Any) -> None:
 
 
 def _read(
-    mdf, signal_map: Mapping[str, ColumnSpec], radius_m: float | None, name: str, file: str
+    mdf,
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str,
+    file: str,
+    clock: str = CLOCK,
 ) -> DriveStreams:
     problems: list[Problem] = []
     by_group: dict[int, dict[str, tuple[np.ndarray | None, np.ndarray, str]]] = {}
@@ -275,7 +327,8 @@ def _read(
                 file,
                 t,
                 {k: v for k, (_, v, _) in channels.items()},
-                {"t": "master time"} | {k: s for k, (_, _, s) in channels.items()},
+                {"t": "master time" if clock == CLOCK else "frame time stamp"}
+                | {k: s for k, (_, _, s) in channels.items()},
             )
         )
-    return build_streams(groups, CLOCK)
+    return build_streams(groups, clock)

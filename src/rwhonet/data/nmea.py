@@ -66,6 +66,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rwhonet.data.bytescan import HEX, after, before
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.packed import HHMMSS
 from rwhonet.data.texttime import (
@@ -253,25 +254,9 @@ class _Found:
     not_text: np.ndarray
 
 
-_HEX = np.full(256, -1, np.int64)  # a hex digit's value by its byte, -1 for none
-_HEX[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
-_HEX[np.frombuffer(b"ABCDEF", np.uint8)] = np.arange(10, 16)
-_HEX[np.frombuffer(b"abcdef", np.uint8)] = np.arange(10, 16)
 _SPACE = np.zeros(256, bool)  # what bytes.rstrip() strips
 _SPACE[np.frombuffer(b" \t\r\x0b\x0c", np.uint8)] = True
 _BLANK_BYTES = b" \t\r\x0b\x0c\x00"  # what a blank line may hold: spaces, a lost power's NULs
-
-
-def _after(positions: np.ndarray, at: np.ndarray, size: int) -> np.ndarray:
-    """The first of ``positions`` at or after each of ``at`` (``size`` where none)."""
-    k = np.searchsorted(positions, at)
-    return np.where(k < positions.size, positions[np.minimum(k, positions.size - 1)], size)
-
-
-def _before(positions: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """The last of ``positions`` before each of ``at`` (-1 where none)."""
-    k = np.searchsorted(positions, at) - 1
-    return np.where(k >= 0, positions[np.maximum(k, 0)], -1)
 
 
 def _scan(data: bytes) -> _Found:
@@ -286,7 +271,7 @@ def _scan(data: bytes) -> _Found:
     size = buf.size
     ends = np.flatnonzero(buf == ord("\n"))
     starts = np.concatenate([[0], ends[:-1] + 1])
-    dollar = _after(np.flatnonzero(buf == ord("$")), starts, size)
+    dollar = after(np.flatnonzero(buf == ord("$")), starts, size)
     sentence = dollar < ends
     not_text = [  # lines without a sentence (few): not blank, no "#" comment
         i + 1
@@ -309,7 +294,7 @@ def _scan(data: bytes) -> _Found:
     end = ends[line]  # without the trailing spaces and CR (bytes.rstrip's)
     while (step := _SPACE[buf[end - 1]] & (end > at + 6)).any():
         end = end - step
-    star = _before(np.flatnonzero(buf == ord("*")), end)
+    star = before(np.flatnonzero(buf == ord("*")), end)
     starred = star > at
     body_end = np.where(starred, star, end)
     rows = line + 1
@@ -321,8 +306,8 @@ def _scan(data: bytes) -> _Found:
     else:
         xor, text = np.zeros(0, np.uint8), np.ones(0, bool)
     digits = end - star - 1
-    hi = _HEX[buf[np.minimum(star + 1, size - 1)]]
-    lo = _HEX[buf[np.minimum(star + 2, size - 1)]]
+    hi = HEX[buf[np.minimum(star + 1, size - 1)]]
+    lo = HEX[buf[np.minimum(star + 2, size - 1)]]
     two = starred & (digits == 2) & (hi >= 0) & (lo >= 0)
     long = body_end - at - 1 > MAX_SENTENCE
     bad_text = ~long & ~text

@@ -1,0 +1,352 @@
+"""A log of raw CAN frames as a bus tool writes it: SocketCAN's ``candump -l`` (``.log``),
+Vector CANalyzer/CANoe's ASC and BLF, PEAK PCAN-View's TRC.
+
+Such a log holds the bus as it went: each frame's time stamp, identifier and data bytes,
+and nothing decoded. Its frames are laid out here as an ASAM MDF4 bus log (a
+``CAN_DataFrame`` channel group, as a CANedge or python-can's MF4 writer records the
+bus, :func:`bus_log`), so that the map's CAN databases (DBC, ARXML) decode them in
+:mod:`rwhonet.data.mdf4` exactly as they decode a raw-frame MDF4 file: one decoder for
+every log of raw frames.
+
+**candump** (:func:`_candump`), the format SocketCAN's ``candump -l``/``-L`` and
+python-can's ``CanutilsLogWriter`` write, one frame a line::
+
+    (1436509052.249713) can0 0AA#1A2B3C4D5E6F7081
+    (1436509052.250112) can1 18FEF100##3112233445566778899AABBCC
+
+is parsed over the file's bytes at once (numpy), not a line at a time: a whole bus's
+traffic (thousands of frames a second) for an hour is tens of millions of lines.
+Identifiers of 3 hex digits are standard, of 8 extended; ``##`` and a flags digit begin
+a CAN FD frame's data. Error frames (the identifier's ``0x20000000`` flag), remote
+frames (``#R``) and CAN XL frames (``###``) carry no signal and are passed over, counted;
+so are lines that are no frame, counted with the first of them.
+
+**ASC, BLF, TRC** are read by python-can's readers (``can.LogReader``), a frame at a time
+in Python (``benchmarks/bench_streams.py`` gives the rate); their error and remote frames
+are passed over too.
+
+**The clock** is the log's own time stamps, as python-can and candump give them:
+candump's and BLF's are the logging computer's clock (Unix seconds), TRC's its start time
+plus each frame's offset, ASC's seconds since the measurement's start (python-can's
+default; the ASC's date line is the logging computer's local time, no zone). A drive read
+from one log keeps them as they are; its notes say which.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.data.bytescan import HEX, after, before, texts
+from rwhonet.data.compressed import without_suffix
+from rwhonet.errors import InputError, Problem
+
+CANDUMP, PYTHON_CAN = ".log", (".asc", ".blf", ".trc")
+CAN_LOG_SUFFIXES = (CANDUMP, *PYTHON_CAN)
+ERROR_FLAG = 0x2000_0000  # SocketCAN's CAN_ERR_FLAG in an identifier
+ID_MASK = 0x1FFF_FFFF  # an extended identifier's 29 bits
+MAX_BYTES = 64  # a CAN FD frame's
+# a CAN FD frame's data length code above 8 -> its bytes (ISO 11898-1)
+FD_LENGTHS = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64])
+
+
+def is_can_log_name(name: str) -> bool:
+    """Whether a file's name is a raw CAN log's (``bus.log``, ``drive.asc``, ``d.blf.gz``)."""
+    return Path(without_suffix(name)).suffix.lower() in CAN_LOG_SUFFIXES
+
+
+@dataclass(frozen=True)
+class Frames:
+    """A CAN log's data frames, in the log's order.
+
+    Attributes:
+        t_s: each frame's time stamp, s, on the log's clock.
+        ids: its identifier (29 or 11 bits, without flags).
+        extended: whether the identifier is extended (29 bits).
+        length: its data bytes.
+        data: its bytes, zero after ``length`` (a row of ``data.shape[1]`` bytes).
+        channel: its bus, 1-based (the log's interfaces in the order first seen).
+        buses: the interfaces' names (``can0``), or the channel numbers as the log has them.
+        clock: what the time stamps count.
+        passed: what was passed over (error, remote, CAN XL frames; lines that are no
+            frame), counted; empty when nothing was.
+    """
+
+    t_s: np.ndarray
+    ids: np.ndarray
+    extended: np.ndarray
+    length: np.ndarray
+    data: np.ndarray
+    channel: np.ndarray
+    buses: list[str]
+    clock: str
+    passed: str = ""
+
+
+def read_frames(path: Path, file: str) -> Frames:
+    """A CAN log's data frames: candump's by :func:`_candump`, ASC/BLF/TRC by python-can.
+
+    Args:
+        path: the log (its name's suffix says its format).
+        file: how messages name it.
+
+    Raises:
+        InputError: no data frame in the log; a log python-can cannot read (with the
+            frames read before the damage).
+    """
+    suffix = path.suffix.lower()
+    frames = _candump(path, file) if suffix == CANDUMP else _python_can(path, file, suffix)
+    if not frames.t_s.size:
+        example = {
+            CANDUMP: "as candump -l writes them: (1436509052.249713) can0 0AA#1A2B3C4D",
+        }.get(suffix, f"as {suffix.lstrip('.').upper()} holds them")
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    f"CAN data frames, {example}",
+                    "none" + (f" ({frames.passed})" if frames.passed else ""),
+                    "give the drive's CAN log, or leave the file out",
+                )
+            ]
+        )
+    return frames
+
+
+_CHUNK = 1 << 20  # lines whose data are turned into bytes at once (bounds the memory)
+
+
+def _hex_values(buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: int) -> np.ndarray:
+    """The hex digits ``buf[start:start+count]`` of each line as a (lines, width) matrix
+    of digit values, right-aligned, -1 where a character is no hex digit, 0 before."""
+    at = start[:, None] + np.arange(width) - (width - count)[:, None]
+    inside = at >= start[:, None]
+    digits = HEX[buf[np.clip(at, 0, buf.size - 1)]]
+    return np.where(inside, digits, 0)
+
+
+def _candump(path: Path, file: str) -> Frames:
+    """A candump log's frames, every line parsed at once (see the module's docstring)."""
+    data = path.read_bytes()
+    buf = np.frombuffer(data + b"\n", np.uint8)
+    size = buf.size
+    ends = np.flatnonzero(buf == ord("\n"))
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    end = ends.copy()  # without trailing spaces and CR
+    space = np.zeros(256, bool)
+    space[np.frombuffer(b" \t\r", np.uint8)] = True
+    while (step := space[buf[np.maximum(end - 1, 0)]] & (end > starts)).any():
+        end = end - step
+    first = starts.copy()  # without leading spaces
+    while (step := space[buf[np.minimum(first, size - 1)]] & (first < end)).any():
+        first = first + step
+    blank = first >= end
+    opened = ~blank & (buf[np.minimum(first, size - 1)] == ord("("))
+    close = after(np.flatnonzero(buf == ord(")")), first, size)
+    hashes = np.flatnonzero(buf == ord("#"))
+    hash_at = after(hashes, close, size)
+    spaces = np.flatnonzero(space[buf] & (buf != ord("\r")))
+    iface_at = after(spaces, close, size)  # the space after ")"
+    id_start = before(spaces, hash_at) + 1  # after the last space before "#"
+    shaped = opened & (close < end) & (hash_at < end) & (iface_at < id_start - 1)
+    comment = ~blank & (buf[np.minimum(first, size - 1)] == ord("#"))
+    line = np.flatnonzero(shaped)
+    not_frame = np.flatnonzero(~shaped & ~blank & ~comment) + 1
+    # time stamps: the text between the brackets, converted in one go
+    stamps = texts(buf, first[line] + 1, close[line])
+    t = _floats(stamps)
+    id_len = hash_at[line] - id_start[line]
+    id_digits = _hex_values(buf, id_start[line], id_len, 8)
+    ids = (id_digits.astype(np.int64) << (4 * np.arange(7, -1, -1))).sum(axis=1)
+    behind = np.minimum(hash_at[line] + 1, size - 1)
+    fd = buf[behind] == ord("#")
+    xl = fd & (buf[np.minimum(behind + 1, size - 1)] == ord("#"))
+    remote = buf[behind] == ord("R")
+    data_start = np.where(fd, hash_at[line] + 3, hash_at[line] + 1)  # "##" and a flags digit
+    # the data end at the line's end, a space (newer can-utils and python-can write the
+    # direction after it: " R", " T") or a "_" (a classic frame's DLC above 8 after it)
+    stops = np.flatnonzero((buf == ord("_")) | (buf == ord(" ")) | (buf == ord("\t")))
+    data_end = np.minimum(after(stops, data_start, size), end[line])
+    n_chars = data_end - data_start
+    good = (
+        np.isfinite(t)
+        & ((id_len == 3) | (id_len == 8))
+        & (id_digits >= 0).all(axis=1)
+        & (
+            remote  # "#R", or "#R" and its length code: no data
+            | ((n_chars % 2 == 0) & (n_chars >= 0) & (n_chars <= 2 * np.where(fd, MAX_BYTES, 8)))
+        )
+    )
+    error = good & (ids & ERROR_FLAG != 0) & (id_len == 8)
+    skipped = {
+        "error frames": int(error.sum()),
+        "remote frames": int((good & remote & ~error).sum()),
+        "CAN XL frames": int((good & xl & ~error).sum()),
+    }
+    keep = good & ~error & ~remote & ~xl
+    lengths = n_chars // 2
+    odd_fd = keep & fd & ~np.isin(lengths, FD_LENGTHS)  # an FD frame's bytes are one of these
+    keep &= ~odd_fd
+    damaged = line[~good | odd_fd] + 1
+    kept = np.flatnonzero(keep)
+    width = 8 if not fd[kept].any() else MAX_BYTES
+    payload = np.zeros((kept.size, width), np.uint8)
+    bad_data = np.zeros(kept.size, bool)
+    for a in range(0, kept.size, _CHUNK):
+        k = kept[a : a + _CHUNK]
+        count = n_chars[k]
+        at = data_start[k][:, None] + np.arange(2 * width)
+        inside = np.arange(2 * width) < count[:, None]
+        digits = np.where(inside, HEX[buf[np.minimum(at, size - 1)]], 0)
+        bad_data[a : a + k.size] = (digits < 0).any(axis=1)
+        payload[a : a + k.size] = (digits[:, 0::2] * 16 + digits[:, 1::2]).astype(np.uint8)
+    if bad_data.any():
+        damaged = np.union1d(damaged, line[kept[bad_data]] + 1)
+        kept, payload = kept[~bad_data], payload[~bad_data]
+    names = texts(buf, iface_at[line[kept]] + 1, id_start[line[kept]] - 1)
+    buses, channel = np.unique(names, return_inverse=True)
+    first_seen = np.argsort(np.unique(channel, return_index=True)[1])
+    rank = np.empty_like(first_seen)
+    rank[first_seen] = np.arange(first_seen.size)
+    passed = {k: v for k, v in skipped.items() if v}
+    if damaged.size:
+        passed[f"lines damaged (first at line {int(damaged[0])})"] = int(damaged.size)
+    if not_frame.size:
+        passed[f"lines that are no frame (first at line {int(not_frame[0])})"] = int(not_frame.size)
+    return Frames(
+        t[kept],
+        (ids[kept] & ID_MASK).astype(np.uint32),
+        id_len[kept] == 8,
+        lengths[kept].astype(np.uint8),
+        payload,
+        (rank[channel.ravel()] + 1).astype(np.uint8),
+        [b.decode("ascii", "replace") for b in buses[first_seen]],
+        _clock("candump", t[kept]),
+        ", ".join(f"{v} {k}" for k, v in passed.items()),
+    )
+
+
+def _floats(cells: np.ndarray) -> np.ndarray:
+    """Byte-string cells as floats, NaN where one is no number."""
+    try:
+        return cells.astype(np.float64)
+    except ValueError:
+        out = np.full(cells.size, np.nan)
+        for i, cell in enumerate(cells.tolist()):
+            try:
+                out[i] = float(cell)
+            except ValueError:
+                pass
+        return out
+
+
+def _python_can(path: Path, file: str, suffix: str) -> Frames:
+    """An ASC, BLF or TRC log's data frames, read by python-can a frame at a time."""
+    import can
+
+    t, ids, ext, lengths, payloads, chans = [], [], [], [], [], []
+    skipped = {"error frames": 0, "remote frames": 0}
+    try:
+        with can.LogReader(path) as reader:
+            for msg in reader:
+                if msg.is_error_frame:
+                    skipped["error frames"] += 1
+                    continue
+                if msg.is_remote_frame:
+                    skipped["remote frames"] += 1
+                    continue
+                t.append(msg.timestamp)
+                ids.append(msg.arbitration_id)
+                ext.append(msg.is_extended_id)
+                payloads.append(bytes(msg.data))
+                chans.append(str(msg.channel) if msg.channel is not None else "")
+    except Exception as err:  # python-can's readers raise what their parsers raise
+        read = f"after {len(t)} frame(s)" if t else "before any frame"
+        raise InputError(
+            [
+                Problem.unreadable(
+                    file,
+                    f"a {suffix.lstrip('.').upper()} CAN log python-can reads",
+                    err,
+                    f"export the log again from the bus tool (it failed {read})",
+                )
+            ]
+        ) from None
+    lengths = np.array([len(p) for p in payloads], np.int64)
+    width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
+    data = np.zeros((len(payloads), width), np.uint8)
+    if payloads:
+        flat = np.frombuffer(b"".join(payloads), np.uint8)
+        rows = np.repeat(np.arange(len(payloads)), lengths)
+        cols = np.arange(flat.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+        data[rows, cols] = flat
+    buses, first_at, channel = np.unique(np.array(chans, dtype=object).astype(str), True, True)
+    order = np.argsort(first_at)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return Frames(
+        np.asarray(t, np.float64),
+        np.asarray(ids, np.uint32) & np.uint32(ID_MASK),
+        np.asarray(ext, bool),
+        lengths.astype(np.uint8),
+        data,
+        (rank[channel.ravel()] + 1).astype(np.uint8) if len(t) else np.zeros(0, np.uint8),
+        [str(b) for b in buses[order]],
+        _clock(suffix.lstrip(".").upper(), np.asarray(t, np.float64)),
+        ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
+    )
+
+
+def _clock(kind: str, t_s: np.ndarray) -> str:
+    """What a log's time stamps count, as the drive's notes say it."""
+    unix = t_s.size and 946_684_800.0 <= float(t_s[0]) < 4_102_444_800.0  # 2000-2100
+    counts = "Unix time, s" if unix else "s since the measurement's start"
+    return f"the {kind} log's frame time stamps ({counts})"
+
+
+_FRAME = np.dtype(
+    [
+        ("CAN_DataFrame.BusChannel", "<u1"),
+        ("CAN_DataFrame.ID", "<u4"),
+        ("CAN_DataFrame.IDE", "<u1"),
+        ("CAN_DataFrame.DLC", "<u1"),
+        ("CAN_DataFrame.DataLength", "<u1"),
+        ("CAN_DataFrame.DataBytes", "(8,)u1"),
+        ("CAN_DataFrame.Dir", "<u1"),
+    ]
+)
+
+
+def bus_log(frames: Frames):  # type: ignore[no-untyped-def]
+    """The frames as an in-memory ASAM MDF4 bus log (a ``CAN_DataFrame`` channel group, as
+    python-can's MF4 writer lays it out), for ``MDF.extract_bus_logging`` to decode; its
+    master time is the frames' stamps as logged (float64 holds a Unix time in s to 0.24 µs)."""
+    from asammdf import MDF, Signal
+    from asammdf.blocks.v4_blocks import SourceInformation
+    from asammdf.blocks.v4_constants import BUS_TYPE_CAN, SOURCE_BUS
+
+    width = frames.data.shape[1]
+    dtype = np.dtype(
+        [
+            (n, f"({width},)u1") if n.endswith("DataBytes") else (n, _FRAME.fields[n][0])
+            for n in _FRAME.names
+        ]
+    )
+    rows = np.zeros(frames.t_s.size, dtype)
+    rows["CAN_DataFrame.BusChannel"] = frames.channel
+    rows["CAN_DataFrame.ID"] = frames.ids
+    rows["CAN_DataFrame.IDE"] = frames.extended
+    lengths = frames.length.astype(np.int64)
+    rows["CAN_DataFrame.DLC"] = np.where(
+        lengths <= 8, lengths, np.searchsorted(FD_LENGTHS, lengths)
+    )
+    rows["CAN_DataFrame.DataLength"] = frames.length
+    rows["CAN_DataFrame.DataBytes"] = frames.data
+    mdf = MDF(version="4.10")
+    source = SourceInformation(source_type=SOURCE_BUS, bus_type=BUS_TYPE_CAN)
+    mdf.append(Signal(rows, frames.t_s, name="CAN_DataFrame", source=source))
+    return mdf

@@ -1,0 +1,209 @@
+"""A bus tool's log of raw CAN frames (candump, ASC, BLF, TRC; rwhonet.data.canlog) decoded
+with the signal map's DBC as an MDF4 bus log is (rwhonet.data.mdf4)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rwhonet import paths
+from rwhonet.config import ColumnSpec
+from rwhonet.data import canonical as c
+from rwhonet.data.canlog import is_can_log_name, read_frames
+from rwhonet.data.mdf4 import read_mdf4
+from rwhonet.errors import InputError
+from support.canlog import DBC, SIGNALS, can_frames, write_bus_log
+from support.serving import wavy_drive
+
+RADIUS_M = 0.31
+NAME = "data.signal_maps.bus.signals"
+T0_S = 1_700_000_000.0  # the logging computer's Unix clock
+
+
+def _signals() -> dict[str, ColumnSpec]:
+    return {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+
+
+def test_names():
+    assert is_can_log_name("bus.log") and is_can_log_name("d.ASC") and is_can_log_name("x.blf")
+    assert is_can_log_name("bus.log.gz") and is_can_log_name("a.trc")
+    assert not is_can_log_name("drive.mf4") and not is_can_log_name("gps.nmea")
+
+
+@pytest.mark.parametrize("suffix", [".log", ".asc", ".blf", ".trc"])
+def test_each_bus_tool_s_log_gives_the_drive_s_streams(tmp_path, suffix):
+    """Frames written by python-can's writer of each format: the wheel speeds within half
+    the DBC's 0.01 km/h, the fixes within 1e-7 deg, the satellite count at the fixes'
+    times; the stamps as the log keeps them (ASC: from the measurement's start)."""
+    df = wavy_drive(30.0)
+    stamps, ids, data = can_frames(df, RADIUS_M, T0_S)
+    log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}")
+    (tmp_path / "bus.dbc").write_text(DBC)
+    streams = read_mdf4(log, _signals(), RADIUS_M, NAME, log.name, [str(tmp_path / "bus.dbc")])
+    (wheels,) = streams.wheels
+    t = df[c.T_S].to_numpy() - df[c.T_S].iloc[0]
+    start = 0.0 if suffix == ".asc" else T0_S
+    np.testing.assert_allclose(wheels.t_s - start, t, rtol=0, atol=1e-6)
+    step = 0.01 / 3.6 / RADIUS_M  # one count of the DBC's scale, rad/s
+    for w in c.WHEELS:
+        np.testing.assert_allclose(wheels.channels[w], df[w], rtol=0, atol=step / 2 + 1e-9)
+    fix = df[c.LAT_DEG].notna().to_numpy()
+    np.testing.assert_allclose(streams.gnss.t_s - start, t[fix] + 0.002, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(streams.gnss.channels[c.LAT_DEG], df.loc[fix, c.LAT_DEG], atol=6e-8)
+    np.testing.assert_array_equal(streams.gnss.channels[c.N_SATS], df.loc[fix, c.N_SATS])
+    said = " ".join(streams.notes)
+    assert f"{log.name}: raw CAN frames decoded with bus.dbc: 3 of the log's 3 frame IDs" in said
+    assert f"{log.name}: {len(ids)} data frames on 1 bus(es)" in said
+    assert ("Unix time" in streams.clock) == (suffix != ".asc")
+    assert wheels.sources[c.T_S] == "frame time stamp" and not streams.changed
+
+
+CANDUMP = """\
+(1436509052.249713) can0 0AA#1A2B3C4D5E6F7081
+(1436509052.250000) can0 0AA#1A2B3C4D5E6F7082 R
+(1436509052.250112) can1 18FEF100##31122334455667788990A0B0C0D0E0F10
+(1436509052.251000) can0 20000080#0000000000000000
+(1436509052.252000) can0 123#R
+(1436509052.253000) can1 7FF#
+(1436509052.254000) can0 12345678#DEADBEEF T
+(1436509052.255000) vcan0 001##0AABB
+"""
+
+
+def test_candump_lines_read_as_python_can_reads_them(tmp_path):
+    """Standard and extended identifiers, a CAN FD frame (``##`` and its flags), a frame of
+    no bytes, the direction after the data: the frames python-can's own candump reader
+    gives, bit for bit; its error and remote frames are passed over and counted."""
+    import can
+
+    path = tmp_path / "bus.log"
+    path.write_text(CANDUMP)
+    frames = read_frames(path, "bus.log")
+    with can.LogReader(path) as reader:
+        want = [m for m in reader if not m.is_error_frame and not m.is_remote_frame]
+    assert frames.t_s.tolist() == [m.timestamp for m in want]
+    assert frames.ids.tolist() == [m.arbitration_id for m in want]
+    assert frames.extended.tolist() == [m.is_extended_id for m in want]
+    got = [bytes(row[:n]) for row, n in zip(frames.data, frames.length, strict=True)]
+    assert got == [bytes(m.data) for m in want]
+    assert frames.buses == ["can0", "can1", "vcan0"]
+    assert frames.channel.tolist() == [1, 1, 2, 2, 1, 3]
+    assert frames.data.shape == (6, 64)  # an FD frame among them
+    assert frames.passed == "1 error frames, 1 remote frames"
+
+
+def test_damaged_candump_lines_are_passed_over_and_counted(tmp_path):
+    """A line cut short, data of odd length or no hex, an identifier of neither 3 nor 8
+    digits, a stamp that is no number, an FD frame of a length FD has none of, a CAN XL
+    frame, a line that is no frame: passed over, counted with the first; the rest read."""
+    lines = [
+        "(1.000000) can0 0AA#0102030405060708",
+        "(1.001000) can0 0AA#010203040506070",  # line 2: cut short (odd)
+        "(1.002000) can0 0AA#01020304050607ZZ",  # 3: no hex
+        "(1.003000) can0 0AAA#0102",  # 4: a 4-digit identifier
+        "(1.0x4000) can0 0AA#0102",  # 5: a stamp that is no number
+        "(1.005000) can0 0AA##1" + "00" * 10,  # 6: FD has no 10-byte frame
+        "(1.006000) can0 0AA###80:00:00:00000000:0102",  # CAN XL
+        "garbage",  # 8: no frame
+        "",
+        "(1.009000) can0 0AA#0807060504030201",
+    ]
+    path = tmp_path / "bus.log"
+    path.write_text("\n".join(lines) + "\n")
+    frames = read_frames(path, "bus.log")
+    np.testing.assert_allclose(frames.t_s, [1.0, 1.009])
+    assert frames.data[1].tolist() == [8, 7, 6, 5, 4, 3, 2, 1]
+    assert "1 CAN XL frames" in frames.passed
+    assert "5 lines damaged (first at line 2)" in frames.passed
+    assert "1 lines that are no frame (first at line 8)" in frames.passed
+
+
+def test_a_log_without_a_dbc_or_without_data_frames_is_refused(tmp_path):
+    df = wavy_drive(10.0)
+    log = write_bus_log(*can_frames(df, RADIUS_M, T0_S), tmp_path / "bus.log")
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, _signals(), RADIUS_M, NAME, "bus.log")
+    problem = err.value.problems[0]
+    assert problem.file == "bus.log" and "give data.signal_maps.bus.dbc" in problem.fix
+    empty = tmp_path / "errors.log"
+    empty.write_text("(1.0) can0 20000080#0000000000000000\n")
+    (tmp_path / "bus.dbc").write_text(DBC)
+    with pytest.raises(InputError) as err:
+        read_mdf4(empty, _signals(), RADIUS_M, NAME, "errors.log", [str(tmp_path / "bus.dbc")])
+    said = str(err.value)
+    assert "errors.log: expected CAN data frames, as candump -l writes them" in said
+    assert "found none (1 error frames)" in said
+
+
+def test_a_damaged_blf_is_refused_naming_the_file(tmp_path):
+    df = wavy_drive(10.0)
+    log = write_bus_log(*can_frames(df, RADIUS_M, T0_S), tmp_path / "bus.blf")
+    data = log.read_bytes()
+    log.write_bytes(data[:200] + bytes(range(256)) * 4 + data[1300:])
+    (tmp_path / "bus.dbc").write_text(DBC)
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, _signals(), RADIUS_M, NAME, "bus.blf", [str(tmp_path / "bus.dbc")])
+    problem = err.value.problems[0]
+    assert problem.file == "bus.blf" and "a BLF CAN log python-can reads" in problem.expected
+
+
+# Toyota's wheel-speed message as opendbc (commaai/opendbc, MIT licence) defines it in its
+# Toyota DBCs: four big-endian (Motorola) 16-bit counts of 0.01 km/h, less 67.67 km/h
+TOYOTA_WHEELS = """VERSION ""
+
+NS_ :
+
+BS_:
+
+BU_: XXX
+
+BO_ 170 WHEEL_SPEEDS: 8 XXX
+ SG_ WHEEL_SPEED_FR : 7|16@0+ (0.01,-67.67) [0|250] "km/h" XXX
+ SG_ WHEEL_SPEED_FL : 23|16@0+ (0.01,-67.67) [0|250] "km/h" XXX
+ SG_ WHEEL_SPEED_RR : 39|16@0+ (0.01,-67.67) [0|250] "km/h" XXX
+ SG_ WHEEL_SPEED_RL : 55|16@0+ (0.01,-67.67) [0|250] "km/h" XXX
+"""
+REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
+RAV4_RADIUS_M = 0.362
+
+
+def test_the_real_minute_as_a_candump_log_gives_the_comma2k19_reader_s_labels(tmp_path):
+    """The real RAV4 minute's CAN wheel speeds as the RAV4's own WHEEL_SPEEDS frames
+    (opendbc's Toyota definition: Motorola byte order, an offset) at their logged times,
+    and its u-blox fixes as frames of a GNSS message, in one candump log decoded by the two
+    DBCs: the comma2k19 reader's 59 labelled seconds (measured: within 1.9e-6 m; the
+    fixes rounded to 1e-7 deg, the wheel speeds exact in the DBC's counts)."""
+    if not (REAL / "processed_log").is_dir():
+        pytest.skip(f"the real comma2k19 segment is not on this machine ({REAL})")
+    from rwhonet.data.comma2k19 import read_comma2k19
+    from rwhonet.data.streams import resample
+    from support.canlog import FIX_ID
+    from support.multirate import per_second
+
+    log = REAL / "processed_log"
+    ref = resample(read_comma2k19(REAL, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
+    ref = per_second(ref.drive.columns, RAV4_RADIUS_M)
+    tw, vw = np.load(log / "CAN/wheel_speed/t"), np.load(log / "CAN/wheel_speed/value")
+    tg, vg = np.load(log / "GNSS/live_gnss_ublox/t"), np.load(log / "GNSS/live_gnss_ublox/value")
+    counts = np.round((vw * 3.6 + 67.67) / 0.01).astype(">u2")  # fl, fr, rl, rr
+    wheels = np.ascontiguousarray(counts[:, [1, 0, 3, 2]]).view(np.uint8)  # FR FL RR RL
+    fixes = np.ascontiguousarray(np.round(vg[:, :2] / 1e-7).astype("<i4")).view(np.uint8)
+    stamps = np.r_[tw, tg]
+    order = np.argsort(stamps, kind="stable")
+    ids = np.r_[np.full(tw.size, 170), np.full(tg.size, FIX_ID)]
+    path = write_bus_log(stamps[order], ids[order], np.r_[wheels, fixes][order], tmp_path / "a.log")
+    (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
+    (tmp_path / "gnss.dbc").write_text(DBC)
+    smap = {
+        f"omega_{w}": ColumnSpec(f"WHEEL_SPEED_{w.upper()}", "km/h")
+        for w in ("fl", "fr", "rl", "rr")
+    } | {"lat": ColumnSpec("Lat", "deg"), "lon": ColumnSpec("Lon", "deg")}
+    dbc = [str(tmp_path / "toyota.dbc"), str(tmp_path / "gnss.dbc")]
+    streams = read_mdf4(path, smap, RAV4_RADIUS_M, NAME, "a.log", dbc)
+    (wheel_stream,) = streams.wheels
+    np.testing.assert_allclose(wheel_stream.t_s, tw, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(wheel_stream.channels[c.WHEELS[0]] * RAV4_RADIUS_M, vw[:, 0])
+    got = per_second(resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns, RAV4_RADIUS_M)
+    assert len(got) == len(ref) == 59
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=5e-6)
