@@ -336,6 +336,13 @@ def test_a_file_without_gga_or_rmc_is_refused(tmp_path):
     said = str(err.value)
     assert "expected NMEA 0183 GGA, RMC, GNS or GLL sentences with a UTC time" in said
     assert "1 sentence(s) without a UTC time (first at line 2)" in said
+    # an empty log, a text file named .nmea, a log of satellites in view alone
+    for text in ("", "no sentence here\n", "$GPGSV,1,1,01,05,40,083,46*7A\n"):
+        path = tmp_path / "empty.nmea"
+        path.write_text(text)
+        with pytest.raises(InputError) as err:  # before stop 64: IndexError (no "$" at all)
+            read_nmea(path, "empty.nmea")
+        assert "empty.nmea: expected NMEA 0183 GGA, RMC, GNS or GLL sentences" in str(err.value)
 
 
 def _stream_folder(tmp_path, with_nmea=True, with_gnss_csv=False, two=False):

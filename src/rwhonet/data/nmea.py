@@ -339,7 +339,7 @@ class _Fields:
         ends = self.buf[self.sep] == ord("\n")
         line = np.concatenate([[0], np.cumsum(ends)[:-1]])  # each separator's sentence
         self.first = np.searchsorted(line, np.arange(n))  # each sentence's first separator
-        self.count = np.bincount(line, minlength=n)  # its fields
+        self.count = np.bincount(line, minlength=n)[:n]  # its fields (none: no sentence)
         self.start = np.concatenate([[0], self.sep[ends][:-1] + 1])
 
     def column(self, j: int, of: np.ndarray | None = None) -> np.ndarray:
