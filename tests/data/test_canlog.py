@@ -207,3 +207,21 @@ def test_the_real_minute_as_a_candump_log_gives_the_comma2k19_reader_s_labels(tm
     assert len(got) == len(ref) == 59
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=5e-6)
+
+
+def test_a_refused_frame_is_named_by_its_message_and_line(tmp_path):
+    """A wheel frame stamped far back (a clock set back): the refusal names the log, the
+    message's identifier and the frame's line in the log, not its place in the message."""
+    df = wavy_drive(10.0)
+    log = write_bus_log(*can_frames(df, RADIUS_M, T0_S), tmp_path / "bus.log")
+    lines = log.read_text().splitlines()
+    at = next(i for i, x in enumerate(lines) if " 1A0#" in x and i > 20)
+    lines[at] = "(1600000000.000000)" + lines[at].split(")", 1)[1]
+    log.write_text("\n".join(lines) + "\n")
+    (tmp_path / "bus.dbc").write_text(DBC)
+    from rwhonet.data.streams import resample
+
+    streams = read_mdf4(log, _signals(), RADIUS_M, NAME, "bus.log", [str(tmp_path / "bus.dbc")])
+    with pytest.raises(InputError) as err:
+        resample(streams, nominal_radius_m=RADIUS_M)
+    assert f"bus.log [frames 0x1A0], row {at + 1}, column 'frame time stamp'" in str(err.value)

@@ -178,3 +178,77 @@ def test_an_edited_nmea_log_reads_or_is_refused_clearly(log, capfd):
             return resample(streams, nominal_radius_m=RADIUS_M).drive
 
         grid_or_clear_refusal(read, names_only({"wheels.csv", "gps.nmea", "streams"}))
+
+
+def _good_candump_lines() -> list[str]:
+    """The good drive's streams as raw CAN frames in a candump log (support.canlog)."""
+    from support.canlog import stream_frames
+    from support.stream_corpus import RADIUS_M
+
+    stamps, ids, data = stream_frames(good_tables(), RADIUS_M, 1_700_000_000.0)
+    return [
+        f"({t:.6f}) can0 {i:03X}#{bytes(d).hex().upper()}"
+        for t, i, d in zip(stamps.tolist(), ids.tolist(), data, strict=True)
+    ]
+
+
+@st.composite
+def edited_candump_logs(draw) -> bytes:
+    """The good drive's candump log with 1-5 random edits: lines dropped, repeated, swapped,
+    shuffled or written late, a line's identifier, data or stamp changed, bytes flipped,
+    the file cut."""
+    rows = _good_candump_lines()
+    cut, flips = None, []
+    for _ in range(draw(st.integers(1, 5))):
+        n = len(rows)
+        if n < 3:
+            continue
+        a = draw(st.integers(0, n - 2))
+        b = min(n, a + draw(st.integers(1, 90)))
+        kind = draw(st.sampled_from([*LINE_EDITS, "id", "data", "stamp", "cut", "flip"]))
+        if kind in LINE_EDITS:
+            edit_lines(draw, rows, kind, a, b)
+        elif kind in ("id", "data", "stamp"):
+            stamp, bus, frame = rows[a].split(" ")
+            ident, payload = frame.split("#", 1)
+            new = draw(st.sampled_from(["", "x", "R", "#", "20000080", "1FFFFFFFF", "00" * 9]))
+            if kind == "id":
+                ident = new
+            elif kind == "data":
+                payload = new
+            else:
+                stamp = f"({new})"
+            rows[a] = f"{stamp} {bus} {ident}#{payload}"
+        elif kind == "cut":
+            cut = draw(st.integers(0, 400))
+        else:
+            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
+    data = bytearray(("\n".join(rows) + "\n").encode())
+    for at, value in flips:
+        data[at % len(data)] = value
+    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+
+
+@FUZZ
+@given(log=edited_candump_logs())
+def test_an_edited_candump_log_reads_or_is_refused_clearly(log, capfd):
+    """The good drive's frames as a candump log with random edits, decoded with its DBC."""
+    from rwhonet.config import ColumnSpec
+    from rwhonet.data.mdf4 import read_mdf4
+    from rwhonet.data.streams import resample
+    from support.canlog import DBC, SIGNALS
+    from support.stream_corpus import RADIUS_M
+
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
+        root = Path(tmp)
+        (root / "bus.log").write_bytes(log)
+        (root / "bus.dbc").write_text(DBC)
+        signals = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+
+        def read():
+            dbc = [str(root / "bus.dbc")]
+            streams = read_mdf4(root / "bus.log", signals, RADIUS_M, display="bus.log", dbc=dbc)
+            return resample(streams, nominal_radius_m=RADIUS_M).drive
+
+        grid_or_clear_refusal(read, lambda p: p.file.startswith(("bus.log", "streams")))

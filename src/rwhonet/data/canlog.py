@@ -70,6 +70,8 @@ class Frames:
         channel: its bus, 1-based (the log's interfaces in the order first seen).
         buses: the interfaces' names (``can0``), or the channel numbers as the log has them.
         clock: what the time stamps count.
+        rows: where each frame is in the log, 1-based: its line in a candump log, its
+            number among the log's frames in ASC, BLF, TRC (python-can gives no lines).
         passed: what was passed over (error, remote, CAN XL frames; lines that are no
             frame), counted; empty when nothing was.
     """
@@ -82,7 +84,18 @@ class Frames:
     channel: np.ndarray
     buses: list[str]
     clock: str
+    rows: np.ndarray
     passed: str = ""
+
+    def place(self, t_s: np.ndarray) -> tuple[str, np.ndarray] | None:
+        """The frames a decoded message's samples came from, found by their time stamps:
+        ``(the message's identifier as messages name it, the frames' rows)``; None where
+        no one identifier's frames have exactly these stamps."""
+        for ident in np.unique(self.ids).tolist():
+            at = np.flatnonzero(self.ids == ident)
+            if at.size == t_s.size and np.array_equal(self.t_s[at], t_s):
+                return f"frames 0x{ident:X}", self.rows[at]
+        return None
 
 
 def read_frames(path: Path, file: str) -> Frames:
@@ -226,6 +239,7 @@ def _candump(path: Path, file: str) -> Frames:
         (rank[channel.ravel()] + 1).astype(np.uint8),
         [b.decode("ascii", "replace") for b in buses[first_seen]],
         _clock("candump", t[kept]),
+        line[kept] + 1,
         ", ".join(f"{v} {k}" for k, v in passed.items()),
     )
 
@@ -248,11 +262,11 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
     """An ASC, BLF or TRC log's data frames, read by python-can a frame at a time."""
     import can
 
-    t, ids, ext, lengths, payloads, chans = [], [], [], [], [], []
+    t, ids, ext, lengths, payloads, chans, rows = [], [], [], [], [], [], []
     skipped = {"error frames": 0, "remote frames": 0}
     try:
         with can.LogReader(path) as reader:
-            for msg in reader:
+            for row, msg in enumerate(reader, 1):
                 if msg.is_error_frame:
                     skipped["error frames"] += 1
                     continue
@@ -260,6 +274,7 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
                     skipped["remote frames"] += 1
                     continue
                 t.append(msg.timestamp)
+                rows.append(row)
                 ids.append(msg.arbitration_id)
                 ext.append(msg.is_extended_id)
                 payloads.append(bytes(msg.data))
@@ -297,6 +312,7 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
         (rank[channel.ravel()] + 1).astype(np.uint8) if len(t) else np.zeros(0, np.uint8),
         [str(b) for b in buses[order]],
         _clock(suffix.lstrip(".").upper(), np.asarray(t, np.float64)),
+        np.asarray(rows, np.int64),
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
     )
 

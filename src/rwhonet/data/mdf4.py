@@ -16,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 import gc
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -114,7 +114,7 @@ def _read_can_log(
     try:
         decoded = _decoded(mdf, dbc, name, file)
         try:
-            streams = _read(decoded, signal_map, radius_m, name, file, frames.clock)
+            streams = _read(decoded, signal_map, radius_m, name, file, frames.clock, frames.place)
         finally:
             decoded.close()
         notes = [_decoded_note(mdf, dbc)]
@@ -238,7 +238,10 @@ def _read(
     name: str,
     file: str,
     clock: str = CLOCK,
+    place: Callable[[np.ndarray], tuple[str, np.ndarray] | None] | None = None,
 ) -> DriveStreams:
+    """The mapped signals of ``mdf``, one stream per channel group; ``place`` (a raw log's
+    frames) names a group's message and gives its samples' rows in the log."""
     problems: list[Problem] = []
     by_group: dict[int, dict[str, tuple[np.ndarray | None, np.ndarray, str]]] = {}
     for key, spec in signal_map.items():
@@ -321,14 +324,16 @@ def _read(
     groups = []
     for g, channels in sorted(by_group.items()):
         t = next(iter(channels.values()))[0]  # the group's first signal's stamps
+        found = None if place is None else place(t)
         groups.append(
             Group(
-                f"channel group {g}",
+                f"channel group {g}" if found is None else found[0],
                 file,
                 t,
                 {k: v for k, (_, v, _) in channels.items()},
                 {"t": "master time" if clock == CLOCK else "frame time stamp"}
                 | {k: s for k, (_, _, s) in channels.items()},
+                None if found is None else found[1],
             )
         )
     return build_streams(groups, clock)
