@@ -506,9 +506,9 @@ class SignalMapSpec:
     the file the map was read from (``rwhonet ... --signal-map FILE``), so messages name
     it; None for a map in params.yaml (messages name its key). ``dbc``: the CAN databases
     (DBC, or ARXML) that decode a log of raw CAN frames (an MDF4 bus log: a CANedge's, a
-    Vector logger's; a candump, ASC, BLF or TRC log) before its signals are read; paths
-    relative to the project root (a map file's: to its folder). Empty: the file holds
-    decoded signals.
+    Vector logger's; a candump, ASC, BLF or TRC log, alone or, for ``stream_csv``, among
+    the folder's CSVs and NMEA log) before its signals are read; paths relative to the
+    project root (a map file's: to its folder). Empty: the file holds decoded signals.
     """
 
     reader: Literal["mdf4", "stream_csv"]
@@ -524,16 +524,6 @@ class SignalMapSpec:
 
         files = (self.dbc,) if isinstance(self.dbc, str) else tuple(self.dbc)
         return tuple(str(paths.resolve(d)) for d in files)
-
-    def dbc_issue(self, where: str) -> str | None:
-        """What is wrong with ``dbc`` (None: nothing), ``where`` naming the map."""
-        if self.dbc_files and self.reader != "mdf4":
-            return (
-                f"{where}.dbc: a CAN database decodes a log of raw CAN frames (reader "
-                f"mdf4: an MDF4 bus log, or a candump, ASC, BLF or TRC log), not "
-                f"{self.reader}'s CSVs: remove dbc, or decode the frames first"
-            )
-        return None
 
 
 @dataclass(frozen=True)
@@ -573,9 +563,6 @@ class DataParams:
                 f"data.gnss_lag must be report, auto or a lag in seconds within ±60 (a "
                 f"receiver's latency, or two clocks' offset), got {self.gnss_lag}"
             )
-        for name, spec in self.signal_maps.items():
-            if (issue := spec.dbc_issue(f"data.signal_maps.{name}")) is not None:
-                raise ConfigError(issue)
         clash = sorted(
             (set(self.column_maps) & set(self.signal_maps))
             | ((set(self.column_maps) | set(self.signal_maps)) & set(BUILTIN_FORMATS))

@@ -867,6 +867,48 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
     np.testing.assert_allclose(nmea["disp_gnss_m"], csv["disp_gnss_m"], atol=0.01)
 
 
+def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_path, capsys):
+    """A Linux logger's folder: the wheel speeds as raw CAN frames in can0.log on the
+    computer's Unix clock, the fixes as the receiver's unstamped NMEA log (gps.nmea.gz),
+    a map file with the DBC, the signals and a ``t``: predict's seconds are those of the
+    stream CSVs within the DBC's 0.01 km/h and the log's ddmm.mmmmmm rounding."""
+    import gzip
+
+    from rwhonet.sim.streams import StreamTables
+    from support.canlog import DBC, stream_frames, write_candump
+    from support.nmea import nmea_lines
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    day = 1_552_262_400.0  # 2019-03-11 UTC
+    good = good_tables()
+    (tmp_path / "csv").mkdir()
+    drive, fmt = _stream_drive(tmp_path / "csv", good)
+    car = ["--nominal-radius", str(RADIUS_M)]
+    assert main(predict_args(bundle, drive, tmp_path / "csv.csv", *fmt, *car)) == 0
+    folder = tmp_path / "bus"
+    folder.mkdir()
+    wheels_only = StreamTables(good.wheels, good.gnss.iloc[:0])
+    write_candump(*stream_frames(wheels_only, RADIUS_M, day), folder / "can0.log")
+    t = good.gnss["t_s"].to_numpy()
+    lines = nmea_lines(good.gnss, day + t)
+    (folder / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
+    (tmp_path / "v.dbc").write_text(DBC)
+    wheels = [
+        f"  omega_{w}: {{column: WhlSpd_{w.upper()}, unit: km/h}}" for w in "fl fr rl rr".split()
+    ]
+    smap = tmp_path / "bus.yaml"
+    smap.write_text("dbc: v.dbc\nsignals:\n  t: {column: t, unit: s}\n" + "\n".join(wheels) + "\n")
+    fmt = ["--format", "stream_csv", "--signal-map", str(smap)]
+    capsys.readouterr()
+    assert main(predict_args(bundle, folder, tmp_path / "bus.csv", *fmt, *car)) == 0
+    assert "38 seconds" in capsys.readouterr().err
+    csv, bus = pd.read_csv(tmp_path / "csv.csv"), pd.read_csv(tmp_path / "bus.csv")
+    assert len(bus) == len(csv) > 30
+    np.testing.assert_allclose(bus["t_s"] - day, csv["t_s"], atol=1e-6)
+    for q in ("disp_gnss_m", "disp_wpm_m", "pred_error_m", "disp_corrected_m"):
+        np.testing.assert_allclose(bus[q], csv[q], atol=0.01)
+
+
 def _stream_drive(tmp_path, tables):
     """A folder of stream CSVs and its signal map file, for --format stream_csv."""
     import yaml

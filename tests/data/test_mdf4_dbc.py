@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rwhonet.config import ColumnSpec, ConfigError, DataParams, SignalMapSpec, parse_value
+from rwhonet.config import ColumnSpec, DataParams, SignalMapSpec, parse_value
 from rwhonet.data import canonical as c
 from rwhonet.data.mdf4 import read_mdf4
 from rwhonet.errors import InputError
@@ -89,11 +89,13 @@ def test_a_dbc_for_a_file_of_decoded_signals_is_refused(tmp_path):
     assert "remove data.signal_maps.canedge.dbc" in problem.fix
 
 
-def test_a_dbc_is_one_file_or_a_list_and_only_for_mdf4():
+def test_a_dbc_is_one_file_or_a_list_for_either_reader():
+    """One database or a list; a stream_csv map may have them too (since stop 64: a bus
+    tool's CAN log among the folder's CSVs)."""
     spec = parse_value(SignalMapSpec, {"reader": "mdf4", "signals": SIGNALS, "dbc": "can.dbc"}, "m")
     assert len(spec.dbc_files) == 1 and spec.dbc_files[0].endswith("/can.dbc")
     two = parse_value(SignalMapSpec, {"reader": "mdf4", "signals": SIGNALS, "dbc": ["a", "b"]}, "m")
     assert [f.rsplit("/", 1)[1] for f in two.dbc_files] == ["a", "b"]
     csv = SignalMapSpec("stream_csv", _signals(), dbc=["can.dbc"])
-    with pytest.raises(ConfigError, match=r"data.signal_maps.logger.dbc: a CAN database"):
-        DataParams("files", "data/raw", {}, {}, signal_maps={"logger": csv})
+    data = DataParams("files", "data/raw", {}, {}, signal_maps={"logger": csv})
+    assert data.signal_maps["logger"].dbc_files[0].endswith("/can.dbc")

@@ -250,8 +250,6 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
     folder = Path(signal_map).parent
     files = [str((folder / f).resolve()) for f in ([dbc] if isinstance(dbc, str) else dbc)]
     spec = SignalMapSpec(fmt, signals, source=signal_map, dbc=files)
-    if (issue := spec.dbc_issue(f"--signal-map {signal_map}")) is not None:
-        raise ConfigError(issue)
     maps = {**data.signal_maps, fmt: spec}
     return dataclasses.replace(params, data=dataclasses.replace(data, signal_maps=maps))
 

@@ -280,7 +280,8 @@ def _read_decompressed(
             split_gap_s,
             require_fix,
         )
-    said = compressed_note(packed, "the text" if inner == ".csv" else "the log")
+    what = {".csv": "the text", ".mf4": "the MDF4 log"}.get(inner, "the CAN log")
+    said = compressed_note(packed, what)
     return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
 
 
@@ -360,14 +361,21 @@ def _read_streams(
 
         # a hidden file is none of the drive's (macOS's ._wheels.csv beside wheels.csv on
         # a logger's FAT card: binary metadata), as discover leaves hidden drives out
-        # a receiver's NMEA log beside them (gps.nmea) is read as the GNSS stream
+        # a receiver's NMEA log beside them (gps.nmea) is read as the GNSS stream, and a
+        # bus tool's raw CAN log (can0.log) as its messages' streams where the map has a dbc
+        spec = data.signal_maps[f.format]
         every = sorted(
             p
             for p in f.path.glob("*")
-            if p.is_file() and (is_csv_name(p.name) or is_nmea_name(p.name))
+            if p.is_file()
+            and (
+                is_csv_name(p.name)
+                or is_nmea_name(p.name)
+                or (spec.dbc_files and is_can_log_name(p.name))
+            )
         )
         files = [p for p in every if not p.name.startswith(".")]
-        signals = data.signal_maps[f.format].signals
+        signals = spec.signals
         with scratch_dir("unpacked") as scratch:
             plain, shown, packed = [], {}, []
             for i, p in enumerate(files):  # a file kept compressed: read as its text
@@ -379,7 +387,9 @@ def _read_streams(
                     packed.append(f"{p.name} ({packing})")
                 shown[q] = rel(p)
                 plain.append(q)
-            streams = read_stream_csvs(plain, signals, radius_m, _map_name(f), shown)
+            streams = read_stream_csvs(
+                plain, signals, radius_m, _map_name(f), shown, spec.dbc_files
+            )
         if hidden := [p.name for p in every if p.name.startswith(".")]:
             said = f"hidden files left out (none of the drive's streams): {', '.join(hidden)}"
             streams = dataclasses.replace(streams, notes=(*streams.notes, said))

@@ -95,6 +95,53 @@ def _read_can_log(
 ) -> DriveStreams:
     """A candump, ASC, BLF or TRC log of raw CAN frames (:mod:`rwhonet.data.canlog`),
     laid out as an MDF4 bus log and decoded with the map's CAN databases as one."""
+    log = can_log_groups(path, signal_map, radius_m, name, file, dbc)
+    streams = build_streams(log.groups, log.clock)
+    return dataclasses.replace(
+        streams,
+        notes=(*streams.notes, *log.notes),
+        changed=(*streams.changed, *log.changed),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class CanLogGroups:
+    """A raw CAN log's decoded messages (:func:`can_log_groups`).
+
+    Attributes:
+        groups: one per message holding a mapped signal, its samples' rows the frames'
+            lines in the log.
+        clock: what the log's time stamps count.
+        notes: the decode (databases, frame IDs defined, frames and buses).
+        changed: frames passed over (error, remote, damaged lines), for predict to say.
+    """
+
+    groups: list[Group]
+    clock: str
+    notes: list[str]
+    changed: list[str]
+
+
+def can_log_groups(
+    path: Path,
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str,
+    file: str,
+    dbc: Sequence[str],
+    present_only: bool = False,
+) -> CanLogGroups:
+    """A raw CAN log's mapped signals, decoded by the CAN databases ``dbc``.
+
+    Args:
+        present_only: read the keys whose signal the databases decode from the log and
+            leave the others (a log among a stream folder's CSVs, which give the rest);
+            else a key whose signal is missing is refused.
+
+    Raises:
+        InputError: no ``dbc``; the log or a database unreadable (:func:`_decoded`); a
+            signal missing (unless ``present_only``), its unit contradicting the map.
+    """
     if not dbc:
         setting = _dbc_setting(name)
         raise InputError(
@@ -114,7 +161,9 @@ def _read_can_log(
     try:
         decoded = _decoded(mdf, dbc, name, file)
         try:
-            streams = _read(decoded, signal_map, radius_m, name, file, frames.clock, frames.place)
+            if present_only:
+                signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
+            groups = _groups(decoded, signal_map, radius_m, name, file, False, frames.place)
         finally:
             decoded.close()
         notes = [_decoded_note(mdf, dbc)]
@@ -122,11 +171,9 @@ def _read_can_log(
         mdf.close()
     buses = ", ".join(frames.buses)
     notes.append(f"{frames.t_s.size} data frames on {len(frames.buses)} bus(es) ({buses})")
-    notes = [f"{file}: {n}" for n in notes]
+    notes.append(f"the time stamps are {frames.clock}")
     passed = [f"{file}: passed over: {frames.passed}"] if frames.passed else []
-    return dataclasses.replace(
-        streams, notes=(*streams.notes, *notes, *passed), changed=(*streams.changed, *passed)
-    )
+    return CanLogGroups(groups, frames.clock, [f"{file}: {n}" for n in notes] + passed, passed)
 
 
 def _decoded_note(mdf, dbc: Sequence[str]) -> str:  # type: ignore[no-untyped-def]
@@ -232,16 +279,24 @@ def _mute(_: Any) -> None:
 
 
 def _read(
+    mdf, signal_map: Mapping[str, ColumnSpec], radius_m: float | None, name: str, file: str
+) -> DriveStreams:
+    """The mapped signals of ``mdf``, one stream per channel group."""
+    return build_streams(_groups(mdf, signal_map, radius_m, name, file), CLOCK)
+
+
+def _groups(
     mdf,
     signal_map: Mapping[str, ColumnSpec],
     radius_m: float | None,
     name: str,
     file: str,
-    clock: str = CLOCK,
+    master: bool = True,
     place: Callable[[np.ndarray], tuple[str, np.ndarray] | None] | None = None,
-) -> DriveStreams:
-    """The mapped signals of ``mdf``, one stream per channel group; ``place`` (a raw log's
-    frames) names a group's message and gives its samples' rows in the log."""
+) -> list[Group]:
+    """The mapped signals of ``mdf``, a group per channel group. ``master``: the times are
+    the file's master time (else a raw log's frame stamps); ``place`` (a raw log's frames)
+    names a group's message and gives its samples' rows in the log."""
     problems: list[Problem] = []
     by_group: dict[int, dict[str, tuple[np.ndarray | None, np.ndarray, str]]] = {}
     for key, spec in signal_map.items():
@@ -331,9 +386,9 @@ def _read(
                 file,
                 t,
                 {k: v for k, (_, v, _) in channels.items()},
-                {"t": "master time" if clock == CLOCK else "frame time stamp"}
+                {"t": "master time" if master else "frame time stamp"}
                 | {k: s for k, (_, _, s) in channels.items()},
                 None if found is None else found[1],
             )
         )
-    return build_streams(groups, clock)
+    return groups

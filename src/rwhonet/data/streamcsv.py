@@ -13,7 +13,10 @@ and column. The clock is the files' common time column.
 
 A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``) gives the fixes where no
 CSV holds the map's latitude and longitude: :mod:`rwhonet.data.nmea` reads it and places
-it on the files' clock (``_nmea_group``).
+it on the files' clock (``_nmea_group``). With the map's CAN databases (``dbc``), a bus
+tool's raw CAN log among them (``can0.log`` from ``candump -l``, ASC, BLF, TRC:
+:mod:`rwhonet.data.canlog`) is decoded as the MDF4 reader decodes a bus log, and each of
+its messages holding a mapped signal is a stream, the signal found by name as a column.
 
 Midnight: a time of day (seconds since the start of the day, as IO-VNBD's) that
 passes midnight continues into the next day, by the rule of the 10 Hz readers
@@ -33,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.config import ColumnSpec
+from rwhonet.data.canlog import is_can_log_name
 from rwhonet.data.columnmap import (
     AUX_KEYS,
     DATE,
@@ -50,6 +54,7 @@ from rwhonet.data.csvio import (
     without_rows,
 )
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
+from rwhonet.data.mdf4 import CanLogGroups, can_log_groups
 from rwhonet.data.nmea import is_nmea_name, on_clock, read_nmea
 from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
@@ -79,6 +84,7 @@ def read_stream_csvs(
     radius_m: float | None,
     name: str = "the signal map",
     display: Mapping[Path, str] | None = None,
+    dbc: Sequence[str] = (),
 ) -> DriveStreams:
     """Read a drive given as one CSV per sensor stream.
 
@@ -88,6 +94,10 @@ def read_stream_csvs(
         radius_m: the car's nominal tyre radius, for wheel speeds logged in m/s or km/h.
         name: how messages name the map (``data.signal_maps.<name>.signals``, a map file).
         display: how each file is named in error reports (default: the path as given).
+        dbc: the CAN databases that decode a bus tool's raw CAN log among the files
+            (``can0.log``, ``drive.blf``: :mod:`rwhonet.data.canlog`); its messages are
+            streams as a CSV is, their signals found by the map's names. None: such
+            files are not the drive's.
 
     Returns:
         The drive's streams: one per file that holds a mapped quantity.
@@ -101,8 +111,17 @@ def read_stream_csvs(
     check_signal_map(name, signal_map, with_time=True, where=name)
     every = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
     logs = [(p, f) for p, f in every if is_nmea_name(p.name)]  # a receiver's NMEA log
-    files = [(p, f) for p, f in every if not is_nmea_name(p.name)]
-    if not files:
+    buses = [(p, f) for p, f in every if dbc and is_can_log_name(p.name)]  # raw CAN logs
+    files = [(p, f) for p, f in every if (p, f) not in logs and (p, f) not in buses]
+    problems: list[Problem] = []
+    decoded: dict[str, CanLogGroups] = {}
+    for path, file in buses:
+        not_csv = {k: v for k, v in signal_map.items() if k not in ("t", DATE, *HEMISPHERES)}
+        try:
+            decoded[file] = can_log_groups(path, not_csv, radius_m, name, file, dbc, True)
+        except InputError as err:
+            problems += err.problems
+    if not files and not buses:
         raise InputError(
             [
                 Problem(
@@ -115,7 +134,6 @@ def read_stream_csvs(
                 )
             ]
         )
-    problems: list[Problem] = []
     headers: dict[str, list[str]] = {}
     for path, file in files:
         try:
@@ -162,8 +180,11 @@ def read_stream_csvs(
             if at is not None:
                 found.setdefault(key, []).append((file, at))
                 problems += _unit_problems(file, header[at], key, spec, name)
+    for file, log in decoded.items():  # a raw CAN log's decoded signals, as a CSV's columns
+        for key in {k for g in log.groups for k in g.channels}:
+            found.setdefault(key, []).append((file, -1))
     found_fix = "lat" in found or "lon" in found  # the fixes in a CSV: an NMEA log unused
-    problems += _fix_source_problems(signal_map, logs, found_fix, name, list(headers))
+    problems += _fix_source_problems(signal_map, logs, found_fix, name, [*headers, *decoded])
     for key, spec in signal_map.items():
         if key == "t":
             continue
@@ -204,10 +225,13 @@ def read_stream_csvs(
         if len(where) != 1 and len(time_at) == len(headers):
             problems.append(
                 Problem(
-                    ", ".join(headers) if not where else ", ".join(f for f, _ in where),
+                    ", ".join([*headers, *decoded])
+                    if not where
+                    else ", ".join(f for f, _ in where),
                     None,
                     spec.column,
-                    f"a column named {spec.column!r} ({name}.{key}) in exactly one stream file",
+                    f"a column named {spec.column!r} ({name}.{key}) in exactly one stream file"
+                    + (" or CAN log" if decoded else ""),
                     "in none of them" if not where else f"in {len(where)} files",
                     f"name the column in {name}.{key}.column",
                 )
@@ -221,6 +245,10 @@ def read_stream_csvs(
         for file in left_out
     ]
     changed: list[str] = []  # what the reader changed of the samples (DriveStreams.changed)
+    for log in decoded.values():  # its messages' groups, on the log's own clock
+        groups += log.groups
+        notes += log.notes
+        changed += log.changed
     paths_of = {file: path for path, file in files}
     for file, header in headers.items():
         keys = {k: at for k, places in found.items() for f, at in places if f == file}
