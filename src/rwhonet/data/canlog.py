@@ -130,7 +130,7 @@ def read_frames(path: Path, file: str) -> Frames:
     return frames
 
 
-_CHUNK = 1 << 20  # lines whose data are turned into bytes at once (bounds the memory)
+_CHUNK_CELLS = 1 << 24  # hex digits turned into bytes at once (bounds the memory: 128 MB)
 
 
 def _hex_values(buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: int) -> np.ndarray:
@@ -209,8 +209,9 @@ def _candump(path: Path, file: str) -> Frames:
     width = 8 if not fd[kept].any() else MAX_BYTES
     payload = np.zeros((kept.size, width), np.uint8)
     bad_data = np.zeros(kept.size, bool)
-    for a in range(0, kept.size, _CHUNK):
-        k = kept[a : a + _CHUNK]
+    chunk = max(1, _CHUNK_CELLS // (2 * width))  # lines a chunk: 1 M classic, 131 k FD
+    for a in range(0, kept.size, chunk):
+        k = kept[a : a + chunk]
         count = n_chars[k]
         at = data_start[k][:, None] + np.arange(2 * width)
         inside = np.arange(2 * width) < count[:, None]
