@@ -162,7 +162,7 @@ def _candump(path: Path, file: str) -> Frames:
     close = after(np.flatnonzero(buf == ord(")")), first, size)
     hashes = np.flatnonzero(buf == ord("#"))
     hash_at = after(hashes, close, size)
-    spaces = np.flatnonzero(space[buf] & (buf != ord("\r")))
+    spaces = np.flatnonzero((buf == ord(" ")) | (buf == ord("\t")))
     iface_at = after(spaces, close, size)  # the space after ")"
     id_start = before(spaces, hash_at) + 1  # after the last space before "#"
     shaped = opened & (close < end) & (hash_at < end) & (iface_at < id_start - 1)
@@ -221,11 +221,7 @@ def _candump(path: Path, file: str) -> Frames:
     if bad_data.any():
         damaged = np.union1d(damaged, line[kept[bad_data]] + 1)
         kept, payload = kept[~bad_data], payload[~bad_data]
-    names = texts(buf, iface_at[line[kept]] + 1, id_start[line[kept]] - 1)
-    buses, channel = np.unique(names, return_inverse=True)
-    first_seen = np.argsort(np.unique(channel, return_index=True)[1])
-    rank = np.empty_like(first_seen)
-    rank[first_seen] = np.arange(first_seen.size)
+    names, channel = _interfaces(buf, iface_at[line[kept]] + 1, id_start[line[kept]] - 1)
     passed = {k: v for k, v in skipped.items() if v}
     if damaged.size:
         passed[f"lines damaged (first at line {int(damaged[0])})"] = int(damaged.size)
@@ -237,12 +233,41 @@ def _candump(path: Path, file: str) -> Frames:
         id_len[kept] == 8,
         lengths[kept].astype(np.uint8),
         payload,
-        (rank[channel.ravel()] + 1).astype(np.uint8),
-        [b.decode("ascii", "replace") for b in buses[first_seen]],
+        channel,
+        names,
         _clock("candump", t[kept]),
         line[kept] + 1,
         ", ".join(f"{v} {k}" for k, v in passed.items()),
     )
+
+
+def _interfaces(
+    buf: np.ndarray, start: np.ndarray, end: np.ndarray
+) -> tuple[list[str], np.ndarray]:
+    """Each frame's interface (``buf[start:end]``, ``can0``) as a bus number, 1-based in
+    the order first seen, and the interfaces' names. Names of up to 8 bytes (every
+    SocketCAN name we know) are compared as one 64-bit number each, not as strings."""
+    length = end - start
+    if not length.size:
+        return [], np.zeros(0, np.uint8)
+    if int(length.max()) > 8:
+        keys = texts(buf, start, end)
+    else:
+        at = start[:, None] + np.arange(8)
+        chars = np.where(np.arange(8) < length[:, None], buf[np.minimum(at, buf.size - 1)], 0)
+        keys = np.ascontiguousarray(chars.astype(np.uint8)).view(np.uint64).ravel()
+    if (keys == keys[0]).all():  # one bus: the usual log
+        first = np.zeros(1, np.int64)
+        channel = np.ones(keys.size, np.uint8)
+    else:
+        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        order = np.argsort(first)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        channel = (rank[inverse.ravel()] + 1).astype(np.uint8)
+        first = first[order]
+    names = [bytes(buf[start[i] : end[i]]).decode("ascii", "replace") for i in first.tolist()]
+    return names, channel
 
 
 def _floats(cells: np.ndarray) -> np.ndarray:
