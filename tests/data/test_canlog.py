@@ -225,7 +225,8 @@ def test_a_refused_frame_is_named_by_its_message_and_line(tmp_path):
     streams = read_mdf4(log, _signals(), RADIUS_M, NAME, "bus.log", [str(tmp_path / "bus.dbc")])
     with pytest.raises(InputError) as err:
         resample(streams, nominal_radius_m=RADIUS_M)
-    assert f"bus.log [frames 0x1A0], row {at + 1}, column 'frame time stamp'" in str(err.value)
+    said = str(err.value)
+    assert f"bus.log [WheelSpeeds 0x1A0], row {at + 1}, column 'frame time stamp'" in said
 
 
 def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_path):
@@ -282,3 +283,25 @@ def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_pat
     assert len(got["can"]) == len(got["csv"]) == 59
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got["can"][q], got["csv"][q], rtol=0, atol=1e-6)
+
+
+def test_messages_on_two_buses_are_named_by_bus_and_a_mirrored_one_is_refused(tmp_path):
+    """The wheels on can1 and the fix on can0: each stream named by its bus and message.
+    The wheel message mirrored on can2 too (a gateway's copy): refused with the buses, and
+    how to keep one."""
+    df = wavy_drive(5.0)
+    lines = write_bus_log(*can_frames(df, RADIUS_M, T0_S), tmp_path / "b.log").read_text()
+    two = [x.replace(" can0 ", " can1 ") if " 1A0#" in x else x for x in lines.splitlines()]
+    (tmp_path / "two.log").write_text("\n".join(two) + "\n")
+    (tmp_path / "bus.dbc").write_text(DBC)
+    dbc = [str(tmp_path / "bus.dbc")]
+    streams = read_mdf4(tmp_path / "two.log", _signals(), RADIUS_M, NAME, "two.log", dbc)
+    assert [s.name for s in streams.wheels] == ["can1 WheelSpeeds 0x1A0"]
+    assert streams.gnss.name == "can0 GnssPos 0x600"
+    mirrored = two + [x.replace(" can1 ", " can2 ") for x in two if " 1A0#" in x]
+    (tmp_path / "mirror.log").write_text("\n".join(mirrored) + "\n")
+    with pytest.raises(InputError) as err:
+        read_mdf4(tmp_path / "mirror.log", _signals(), RADIUS_M, NAME, "mirror.log", dbc)
+    problem = err.value.problems[0]
+    assert problem.found == "2 signals of that name, on the buses can1, can2"
+    assert "grep ' can1 '" in problem.fix

@@ -34,6 +34,7 @@ from one log keeps them as they are; its notes say which.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,15 +88,34 @@ class Frames:
     rows: np.ndarray
     passed: str = ""
 
-    def place(self, t_s: np.ndarray) -> tuple[str, np.ndarray] | None:
-        """The frames a decoded message's samples came from, found by their time stamps:
-        ``(the message's identifier as messages name it, the frames' rows)``; None where
-        no one identifier's frames have exactly these stamps."""
-        for ident in np.unique(self.ids).tolist():
-            at = np.flatnonzero(self.ids == ident)
-            if at.size == t_s.size and np.array_equal(self.t_s[at], t_s):
-                return f"frames 0x{ident:X}", self.rows[at]
-        return None
+    def place(self, acq_name: str, comment: str, n: int) -> tuple[str, np.ndarray] | None:
+        """The frames a decoded message's ``n`` samples came from, by the name asammdf
+        gives its channel group (``CAN1 message ID=0x1A0 EXT=False``; ``comment``:
+        ``CAN1 - message WheelSpeeds 0x1A0 EXT=False``): ``(the message as messages name
+        it, the frames' rows)``; None where the name says no message or the count differs.
+        """
+        match = _MESSAGE.fullmatch(acq_name.strip())
+        if match is None:
+            return None
+        bus, ident, ext = int(match[1]), int(match[2], 16), match[3] == "True"
+        at = np.flatnonzero((self.channel == bus) & (self.ids == ident) & (self.extended == ext))
+        if at.size != n:
+            return None
+        said = _MESSAGE_NAME.search(comment)
+        name = f"{said[1]} 0x{ident:X}" if said else f"frames 0x{ident:X}"
+        return (name if len(self.buses) < 2 else f"{self.buses[bus - 1]} {name}"), self.rows[at]
+
+    def bus_of(self, acq_name: str) -> str | None:
+        """The interface a decoded message's channel group came from (``can1``), by the
+        name asammdf gives the group; None where the name says none."""
+        match = _MESSAGE.fullmatch(acq_name.strip())
+        bus = None if match is None else int(match[1])
+        return self.buses[bus - 1] if bus is not None and 0 < bus <= len(self.buses) else None
+
+
+# how asammdf's extract_bus_logging names a decoded message's channel group
+_MESSAGE = re.compile(r"CAN(\d+) message ID=0x([0-9A-Fa-f]+) EXT=(True|False)")
+_MESSAGE_NAME = re.compile(r"message (\S+) 0x")
 
 
 def read_frames(path: Path, file: str) -> Frames:

@@ -16,14 +16,14 @@ from __future__ import annotations
 import dataclasses
 import gc
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.canlog import bus_log, is_can_log_name, read_frames
+from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames
 from rwhonet.data.headers import map_unit_name, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
@@ -163,7 +163,7 @@ def can_log_groups(
         try:
             if present_only:
                 signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
-            groups = _groups(decoded, signal_map, radius_m, name, file, False, frames.place)
+            groups = _groups(decoded, signal_map, radius_m, name, file, False, frames)
         finally:
             decoded.close()
         notes = [_decoded_note(mdf, dbc)]
@@ -292,11 +292,11 @@ def _groups(
     name: str,
     file: str,
     master: bool = True,
-    place: Callable[[np.ndarray], tuple[str, np.ndarray] | None] | None = None,
+    frames: Frames | None = None,
 ) -> list[Group]:
     """The mapped signals of ``mdf``, a group per channel group. ``master``: the times are
-    the file's master time (else a raw log's frame stamps); ``place`` (a raw log's frames)
-    names a group's message and gives its samples' rows in the log."""
+    the file's master time (else a raw log's frame stamps); ``frames`` (the raw log's)
+    name a decoded group's message and bus, and give its samples' rows in the log."""
     problems: list[Problem] = []
     by_group: dict[int, dict[str, tuple[np.ndarray | None, np.ndarray, str]]] = {}
     for key, spec in signal_map.items():
@@ -319,15 +319,19 @@ def _groups(
             continue
         groups = sorted({g for g, _ in where})
         if len(groups) > 1:
-            problems.append(
-                Problem(
-                    file,
-                    None,
-                    spec.column,
-                    f"one signal named {spec.column!r}",
-                    f"{len(groups)} signals of that name, in channel groups {groups}",
-                    "rename the copies, or export only the message that carries it",
+            acq = [mdf.groups[g].channel_group.acq_name or "" for g in groups]
+            buses = None if frames is None else [frames.bus_of(a) for a in acq]
+            if buses and None not in buses and len(set(buses)) > 1:  # a raw log's buses
+                found = f"{len(groups)} signals of that name, on the buses {', '.join(buses)}"
+                fix = (
+                    "keep one bus's frames: log that interface alone (candump -l "
+                    f"{buses[0]}), or keep its lines (grep ' {buses[0]} ')"
                 )
+            else:
+                found = f"{len(groups)} signals of that name, in channel groups {groups}"
+                fix = "rename the copies, or export only the message that carries it"
+            problems.append(
+                Problem(file, None, spec.column, f"one signal named {spec.column!r}", found, fix)
             )
             continue
         group, index = where[0]
@@ -379,7 +383,12 @@ def _groups(
     groups = []
     for g, channels in sorted(by_group.items()):
         t = next(iter(channels.values()))[0]  # the group's first signal's stamps
-        found = None if place is None else place(t)
+        group = mdf.groups[g].channel_group
+        found = (
+            None
+            if frames is None
+            else frames.place(group.acq_name or "", group.comment or "", t.size)
+        )
         groups.append(
             Group(
                 f"channel group {g}" if found is None else found[0],

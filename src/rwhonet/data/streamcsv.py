@@ -96,7 +96,7 @@ def read_stream_csvs(
         display: how each file is named in error reports (default: the path as given).
         dbc: the CAN databases that decode a bus tool's raw CAN log among the files
             (``can0.log``, ``drive.blf``: :mod:`rwhonet.data.canlog`); its messages are
-            streams as a CSV is, their signals found by the map's names. None: such
+            streams as a CSV is, their signals found by the map's names. Empty: such
             files are not the drive's.
 
     Returns:
