@@ -305,3 +305,19 @@ def test_messages_on_two_buses_are_named_by_bus_and_a_mirrored_one_is_refused(tm
     problem = err.value.problems[0]
     assert problem.found == "2 signals of that name, on the buses can1, can2"
     assert "grep ' can1 '" in problem.fix
+
+
+def test_time_stamps_read_as_float_reads_them(tmp_path):
+    """candump's fixed ``%010u.%06u`` stamps are read as one integer each and divided:
+    the bits ``float()`` gives, also past 2**53 microseconds (read one by one) and where
+    the stamps' widths differ."""
+    rng = np.random.default_rng(7)
+    for stamps in (
+        [f"{x:.6f}" for x in 1.7e9 + rng.uniform(0, 86400, 500)],
+        [f"{x:.6f}" for x in 9.0e9 + rng.uniform(0, 1e9, 50)],  # beyond 2**53 us
+        ["1.5", "12.25", "100.125"],
+    ):
+        path = tmp_path / "t.log"
+        path.write_text("".join(f"({s}) can0 0AA#01\n" for s in stamps))
+        got = read_frames(path, "t.log").t_s
+        assert got.tolist() == [float(s) for s in stamps]

@@ -190,8 +190,7 @@ def _candump(path: Path, file: str) -> Frames:
     line = np.flatnonzero(shaped)
     not_frame = np.flatnonzero(~shaped & ~blank & ~comment) + 1
     # time stamps: the text between the brackets, converted in one go
-    stamps = texts(buf, first[line] + 1, close[line])
-    t = _floats(stamps)
+    t = _stamps(buf, first[line] + 1, close[line])
     id_len = hash_at[line] - id_start[line]
     id_digits = _hex_values(buf, id_start[line], id_len, 8)
     ids = (id_digits.astype(np.int64) << (4 * np.arange(7, -1, -1))).sum(axis=1)
@@ -288,6 +287,34 @@ def _interfaces(
         first = first[order]
     names = [bytes(buf[start[i] : end[i]]).decode("ascii", "replace") for i in first.tolist()]
     return names, channel
+
+
+def _stamps(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """The time stamps ``buf[start:end]`` of each line as floats, NaN where one is none.
+
+    candump writes every stamp as ``%010u.%06u`` (python-can's writer ``%.6f``): where all
+    have one length and their point in one place, the digits are read as one integer and
+    divided by the power of ten after the point. Both are exact in float64 (Unix
+    microseconds stay below 2**53 until the year 2255), so the one division rounds as
+    ``float()`` does: the same bits, without a string a line. Other stamps go through
+    ``float()``.
+    """
+    length = end - start
+    if not length.size:
+        return np.zeros(0)
+    width = int(length[0])
+    if 3 <= width <= 17 and (length == width).all():
+        chars = buf[start[:, None] + np.arange(width)]
+        point = chars[0] == ord(".")
+        at = np.flatnonzero(point)
+        if at.size == 1 and (chars[:, at[0]] == ord(".")).all():
+            digits = np.delete(chars, at[0], axis=1).astype(np.int64) - ord("0")
+            if ((digits >= 0) & (digits <= 9)).all():
+                powers = 10 ** np.arange(width - 2, -1, -1, dtype=np.int64)
+                whole = digits @ powers
+                if int(whole.max()) < 2**53:  # exact in float64
+                    return whole / 10.0 ** (width - 1 - int(at[0]))
+    return _floats(texts(buf, start, end))
 
 
 def _floats(cells: np.ndarray) -> np.ndarray:
