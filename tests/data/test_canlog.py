@@ -7,13 +7,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rwhonet import paths
 from rwhonet.config import ColumnSpec
 from rwhonet.data import canonical as c
 from rwhonet.data.canlog import is_can_log_name, read_frames
 from rwhonet.data.mdf4 import read_mdf4
 from rwhonet.errors import InputError
 from support.canlog import DBC, SIGNALS, can_frames, write_bus_log
+from support.realminute import RAV4_RADIUS_M
 from support.serving import wavy_drive
 
 RADIUS_M = 0.31
@@ -164,8 +164,6 @@ BO_ 170 WHEEL_SPEEDS: 8 XXX
  SG_ WHEEL_SPEED_RR : 39|16@0+ (0.01,-67.67) [0|250] "km/h" XXX
  SG_ WHEEL_SPEED_RL : 55|16@0+ (0.01,-67.67) [0|250] "km/h" XXX
 """
-REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
-RAV4_RADIUS_M = 0.362
 
 
 def test_the_real_minute_as_a_candump_log_gives_the_comma2k19_reader_s_labels(tmp_path):
@@ -174,18 +172,14 @@ def test_the_real_minute_as_a_candump_log_gives_the_comma2k19_reader_s_labels(tm
     and its u-blox fixes as frames of a GNSS message, in one candump log decoded by the two
     DBCs: the comma2k19 reader's 59 labelled seconds (measured: within 1.9e-6 m; the
     fixes rounded to 1e-7 deg, the wheel speeds exact in the DBC's counts)."""
-    if not (REAL / "processed_log").is_dir():
-        pytest.skip(f"the real comma2k19 segment is not on this machine ({REAL})")
-    from rwhonet.data.comma2k19 import read_comma2k19
     from rwhonet.data.streams import resample
     from support.canlog import FIX_ID
     from support.multirate import per_second
+    from support.realminute import real_minute, reference_seconds
 
-    log = REAL / "processed_log"
-    ref = resample(read_comma2k19(REAL, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
-    ref = per_second(ref.drive.columns, RAV4_RADIUS_M)
-    tw, vw = np.load(log / "CAN/wheel_speed/t"), np.load(log / "CAN/wheel_speed/value")
-    tg, vg = np.load(log / "GNSS/live_gnss_ublox/t"), np.load(log / "GNSS/live_gnss_ublox/value")
+    minute = real_minute()
+    ref = reference_seconds()
+    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
     counts = np.round((vw * 3.6 + 67.67) / 0.01).astype(">u2")  # fl, fr, rl, rr
     wheels = np.ascontiguousarray(counts[:, [1, 0, 3, 2]]).view(np.uint8)  # FR FL RR RL
     fixes = np.ascontiguousarray(np.round(vg[:, :2] / 1e-7).astype("<i4")).view(np.uint8)
@@ -237,17 +231,15 @@ def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_pat
     are placed by their RMC dates. The labels of the same wheel speeds in wheels.csv
     beside the same log (test_nmea.py's unstamped case: 59 seconds, 0.354 s later in the
     drive than the comma2k19 reader's), measured within 8.3e-8 m."""
-    if not (REAL / "processed_log").is_dir():
-        pytest.skip(f"the real comma2k19 segment is not on this machine ({REAL})")
     from rwhonet.data.fixtimes import receiver_epochs
     from rwhonet.data.streamcsv import read_stream_csvs
     from rwhonet.data.streams import resample
     from support.multirate import per_second
     from support.nmea import gga, rmc, write_nmea
+    from support.realminute import real_minute
 
-    log = REAL / "processed_log"
-    tw, vw = np.load(log / "CAN/wheel_speed/t"), np.load(log / "CAN/wheel_speed/value")
-    tg, vg = np.load(log / "GNSS/live_gnss_ublox/t"), np.load(log / "GNSS/live_gnss_ublox/value")
+    minute = real_minute()
+    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
     fit = receiver_epochs(tg, vg[:, 3])
     utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
     counts = np.round((vw * 3.6 + 67.67) / 0.01).astype(">u2")

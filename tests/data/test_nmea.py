@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rwhonet import paths
 from rwhonet.config import ColumnSpec
 from rwhonet.data import canonical as c
 from rwhonet.data.nmea import (
@@ -411,10 +410,6 @@ def test_course_and_speed_units(tmp_path):
     assert math.isnan(log.channels["n_sats"][0]) if "n_sats" in log.channels else True
 
 
-REAL = paths.ROOT.parent / "shared" / "real" / "comma2k19-example1"
-RAV4_RADIUS_M = 0.362
-
-
 def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_labels(tmp_path):
     """The real RAV4 minute as a CAN logger and an NMEA logger would have written it: the
     wheel speeds as wheels.csv on the phone's boot clock, the u-blox fixes as GGA and RMC
@@ -424,17 +419,13 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
     dates; the seconds then start 0.354 s later in the drive, so the 59 seconds cover a
     slightly other stretch (measured: 1003.05 m against 1001.81 m, mean |label| 0.160
     against 0.158 m)."""
-    if not (REAL / "processed_log").is_dir():
-        pytest.skip(f"the real comma2k19 segment is not on this machine ({REAL})")
-    from rwhonet.data.comma2k19 import read_comma2k19
     from rwhonet.data.fixtimes import receiver_epochs
     from support.multirate import per_second
+    from support.realminute import RAV4_RADIUS_M, real_minute, reference_seconds
 
-    log = REAL / "processed_log"
-    ref = resample(read_comma2k19(REAL, RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
-    ref = per_second(ref.drive.columns, RAV4_RADIUS_M)
-    tw, vw = np.load(log / "CAN/wheel_speed/t"), np.load(log / "CAN/wheel_speed/value")
-    tg, vg = np.load(log / "GNSS/live_gnss_ublox/t"), np.load(log / "GNSS/live_gnss_ublox/value")
+    minute = real_minute()
+    ref = reference_seconds()
+    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
     fit = receiver_epochs(tg, vg[:, 3])
     smap = {"t": ColumnSpec("t", "s")} | {
         f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")

@@ -23,9 +23,8 @@ from hypothesis import strategies as st
 from rwhonet.data import canonical as c
 from rwhonet.sim.streams import StreamTables
 from support.fuzz import (
-    LINE_EDITS,
     STREAM_FILES,
-    edit_lines,
+    edited_log,
     edited_stream_drives,
     fuzz_settings,
     grid_or_clear_refusal,
@@ -112,46 +111,25 @@ def _good_nmea_lines(sentences: tuple[str, ...]) -> list[str]:
 
 @st.composite
 def edited_nmea_logs(draw) -> bytes:
-    """The good drive's NMEA log with 1-5 random edits: lines dropped, repeated, swapped,
-    shuffled or written late, a field changed (its checksum mended or not), a stamp
-    changed or gone, bytes flipped, the file cut. The receiver writes GGA and RMC, or
-    GNS, RMC and GLL."""
+    """The good drive's NMEA log with 1-5 random edits (:func:`support.fuzz.edited_log`),
+    and its own: a field changed (its checksum mended or not), a stamp changed or gone.
+    The receiver writes GGA and RMC, or GNS, RMC and GLL."""
     from support.nmea import sentence
 
-    rows = _good_nmea_lines(draw(st.sampled_from([("GGA", "RMC"), ("GNS", "RMC", "GLL")])))
-    cut, flips = None, []
-    for _ in range(draw(st.integers(1, 5))):
-        n = len(rows)
-        if n < 3:
-            continue
-        a = draw(st.integers(0, n - 2))
-        b = min(n, a + draw(st.integers(1, 90)))
-        kind = draw(
-            st.sampled_from(
-                ["drop", "repeat", "swap", "shuffle", "late", "field", "stamp", "cut", "flip"]
-            )
-        )
-        if kind in LINE_EDITS:
-            edit_lines(draw, rows, kind, a, b)
-        elif kind == "field":
-            stamp, body = rows[a].split("$", 1)
+    def edit(draw, rows: list[str], kind: str, a: int) -> None:
+        stamp, body = rows[a].split("$", 1)
+        if kind == "field":
             fields = body.split("*")[0].split(",")
             fields[draw(st.integers(1, len(fields) - 1))] = draw(
                 st.sampled_from(["", "x", "nan", "1e300", "-5", "9999.9", "V", "0", "6"])
             )
             mended = sentence(",".join(fields))
             rows[a] = stamp + (mended if draw(st.booleans()) else "$" + mended[1:-2] + "00")
-        elif kind == "stamp":
-            stamp, body = rows[a].split("$", 1)
+        else:  # stamp
             rows[a] = draw(st.sampled_from(["", "x,", "nan,", "-1,", "1e300,"])) + "$" + body
-        elif kind == "cut":
-            cut = draw(st.integers(0, 400))
-        else:
-            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
-    data = bytearray(("\r\n".join(rows) + "\r\n").encode())
-    for at, value in flips:
-        data[at % len(data)] = value
-    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+
+    rows = _good_nmea_lines(draw(st.sampled_from([("GGA", "RMC"), ("GNS", "RMC", "GLL")])))
+    return edited_log(draw, rows, ("field", "stamp"), edit, "\r\n")
 
 
 @FUZZ
@@ -194,39 +172,22 @@ def _good_candump_lines() -> list[str]:
 
 @st.composite
 def edited_candump_logs(draw) -> bytes:
-    """The good drive's candump log with 1-5 random edits: lines dropped, repeated, swapped,
-    shuffled or written late, a line's identifier, data or stamp changed, bytes flipped,
-    the file cut."""
-    rows = _good_candump_lines()
-    cut, flips = None, []
-    for _ in range(draw(st.integers(1, 5))):
-        n = len(rows)
-        if n < 3:
-            continue
-        a = draw(st.integers(0, n - 2))
-        b = min(n, a + draw(st.integers(1, 90)))
-        kind = draw(st.sampled_from([*LINE_EDITS, "id", "data", "stamp", "cut", "flip"]))
-        if kind in LINE_EDITS:
-            edit_lines(draw, rows, kind, a, b)
-        elif kind in ("id", "data", "stamp"):
-            stamp, bus, frame = rows[a].split(" ")
-            ident, payload = frame.split("#", 1)
-            new = draw(st.sampled_from(["", "x", "R", "#", "20000080", "1FFFFFFFF", "00" * 9]))
-            if kind == "id":
-                ident = new
-            elif kind == "data":
-                payload = new
-            else:
-                stamp = f"({new})"
-            rows[a] = f"{stamp} {bus} {ident}#{payload}"
-        elif kind == "cut":
-            cut = draw(st.integers(0, 400))
+    """The good drive's candump log with 1-5 random edits (:func:`support.fuzz.edited_log`),
+    and its own: a line's identifier, data or stamp changed."""
+
+    def edit(draw, rows: list[str], kind: str, a: int) -> None:
+        stamp, bus, frame = rows[a].split(" ")
+        ident, payload = frame.split("#", 1)
+        new = draw(st.sampled_from(["", "x", "R", "#", "20000080", "1FFFFFFFF", "00" * 9]))
+        if kind == "id":
+            ident = new
+        elif kind == "data":
+            payload = new
         else:
-            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
-    data = bytearray(("\n".join(rows) + "\n").encode())
-    for at, value in flips:
-        data[at % len(data)] = value
-    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+            stamp = f"({new})"
+        rows[a] = f"{stamp} {bus} {ident}#{payload}"
+
+    return edited_log(draw, _good_candump_lines(), ("id", "data", "stamp"), edit, "\n")
 
 
 @FUZZ

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -115,6 +115,32 @@ def edit_lines(draw, rows: list, kind: str, a: int, b: int) -> None:
     else:  # late
         line = rows.pop(a)
         rows.insert(min(len(rows), a + draw(st.integers(1, 40))), line)
+
+
+def edited_log(draw, rows: list[str], own: Sequence[str], edit_own, line_end: str) -> bytes:
+    """A text log's lines with 1-5 random edits, as bytes: :data:`LINE_EDITS` on a block
+    of up to 90 lines, the file cut up to 400 bytes short, a byte flipped, or one of the
+    log's ``own`` kinds, done by ``edit_own(draw, rows, kind, line)`` in place."""
+    cut, flips = None, []
+    for _ in range(draw(st.integers(1, 5))):
+        n = len(rows)
+        if n < 3:
+            continue
+        a = draw(st.integers(0, n - 2))
+        b = min(n, a + draw(st.integers(1, 90)))
+        kind = draw(st.sampled_from([*LINE_EDITS, *own, "cut", "flip"]))
+        if kind in LINE_EDITS:
+            edit_lines(draw, rows, kind, a, b)
+        elif kind == "cut":
+            cut = draw(st.integers(0, 400))
+        elif kind == "flip":
+            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
+        else:
+            edit_own(draw, rows, kind, a)
+    data = bytearray((line_end.join(rows) + line_end).encode())
+    for at, value in flips:
+        data[at % len(data)] = value
+    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
 
 
 def names_only(files: set[str]) -> Callable[[Problem], bool]:
