@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from rwhonet.data import canonical as c
+from rwhonet.data.canlog import FRAME_DTYPE
 
 WHEELS_ID, FIX_ID, SATS_ID = 0x1A0, 0x600, 0x601
 # Wheel speeds as the wheels' circumferential speeds in 0.01 km/h (16 bits, Intel); the
@@ -43,17 +44,6 @@ SIGNALS = {
     "lon": {"column": "Lon", "unit": "deg"},
     "n_sats": {"column": "Sats", "unit": "count"},
 }
-_FRAME = np.dtype(
-    [
-        ("CAN_DataFrame.BusChannel", "<u1"),
-        ("CAN_DataFrame.ID", "<u4"),
-        ("CAN_DataFrame.IDE", "<u1"),
-        ("CAN_DataFrame.DLC", "<u1"),
-        ("CAN_DataFrame.DataLength", "<u1"),
-        ("CAN_DataFrame.DataBytes", "(8,)u1"),
-        ("CAN_DataFrame.Dir", "<u1"),
-    ]
-)
 
 
 def can_frames(df: pd.DataFrame, radius_m: float, t0_s: float = 0.0):
@@ -85,7 +75,7 @@ def write_can_log(df: pd.DataFrame, path: Path, radius_m: float) -> Path:
     from asammdf.blocks.v4_constants import BUS_TYPE_CAN, SOURCE_BUS
 
     stamps, ids, data = can_frames(df, radius_m)
-    frames = np.zeros(len(stamps), _FRAME)
+    frames = np.zeros(len(stamps), FRAME_DTYPE)
     frames["CAN_DataFrame.BusChannel"] = 1
     frames["CAN_DataFrame.ID"] = ids
     frames["CAN_DataFrame.DLC"] = frames["CAN_DataFrame.DataLength"] = 8

@@ -397,7 +397,9 @@ def _clock(kind: str, t_s: np.ndarray) -> str:
     return f"the {kind} log's frame time stamps ({counts})"
 
 
-_FRAME = np.dtype(
+# one classic frame of an ASAM MDF4 bus log's CAN_DataFrame channel group, as python-can's
+# MF4 writer and a CANedge lay it out (an FD log's DataBytes are 64 wide: bus_log)
+FRAME_DTYPE = np.dtype(
     [
         ("CAN_DataFrame.BusChannel", "<u1"),
         ("CAN_DataFrame.ID", "<u4"),
@@ -421,8 +423,8 @@ def bus_log(frames: Frames):  # type: ignore[no-untyped-def]
     width = frames.data.shape[1]
     dtype = np.dtype(
         [
-            (n, f"({width},)u1") if n.endswith("DataBytes") else (n, _FRAME.fields[n][0])
-            for n in _FRAME.names
+            (n, f"({width},)u1") if n.endswith("DataBytes") else (n, FRAME_DTYPE.fields[n][0])
+            for n in FRAME_DTYPE.names
         ]
     )
     rows = np.zeros(frames.t_s.size, dtype)
