@@ -95,8 +95,9 @@ def test_candump_lines_read_as_python_can_reads_them(tmp_path):
 
 def test_damaged_candump_lines_are_passed_over_and_counted(tmp_path):
     """A line cut short, data of odd length or no hex, an identifier of neither 3 nor 8
-    digits, a stamp that is no number, an FD frame of a length FD has none of, a CAN XL
-    frame, a line that is no frame: passed over, counted with the first; the rest read."""
+    digits, a stamp that is no number, an FD frame of a length FD has none of or a flags
+    digit that is no hex, a CAN XL frame, a line that is no frame: passed over, counted
+    with the first; the rest read."""
     lines = [
         "(1.000000) can0 0AA#0102030405060708",
         "(1.001000) can0 0AA#010203040506070",  # line 2: cut short (odd)
@@ -105,18 +106,19 @@ def test_damaged_candump_lines_are_passed_over_and_counted(tmp_path):
         "(1.0x4000) can0 0AA#0102",  # 5: a stamp that is no number
         "(1.005000) can0 0AA##1" + "00" * 10,  # 6: FD has no 10-byte frame
         "(1.006000) can0 0AA###80:00:00:00000000:0102",  # CAN XL
-        "garbage",  # 8: no frame
+        "(1.007000) can0 0AA##Z0102",  # 8: an FD flags digit that is no hex
+        "garbage",  # 9: no frame
         "",
-        "(1.009000) can0 0AA#0807060504030201",
+        "(1.010000) can0 0AA#0807060504030201",
     ]
     path = tmp_path / "bus.log"
     path.write_text("\n".join(lines) + "\n")
     frames = read_frames(path, "bus.log")
-    np.testing.assert_allclose(frames.t_s, [1.0, 1.009])
+    np.testing.assert_allclose(frames.t_s, [1.0, 1.01])
     assert frames.data[1].tolist() == [8, 7, 6, 5, 4, 3, 2, 1]
     assert "1 CAN XL frames" in frames.passed
-    assert "5 lines damaged (first at line 2)" in frames.passed
-    assert "1 lines that are no frame (first at line 8)" in frames.passed
+    assert "6 lines damaged (first at line 2)" in frames.passed
+    assert "1 lines that are no frame (first at line 9)" in frames.passed
 
 
 def test_a_log_without_a_dbc_or_without_data_frames_is_refused(tmp_path):

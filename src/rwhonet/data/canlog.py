@@ -204,9 +204,11 @@ def _candump(path: Path, file: str) -> Frames:
     stops = np.flatnonzero((buf == ord("_")) | (buf == ord(" ")) | (buf == ord("\t")))
     data_end = np.minimum(after(stops, data_start, size), end[line])
     n_chars = data_end - data_start
+    flags = HEX[buf[np.minimum(hash_at[line] + 2, size - 1)]]  # an FD frame's flags digit
     good = (
         np.isfinite(t)
         & ((id_len == 3) | (id_len == 8))
+        & (~fd | xl | (flags >= 0))
         & (id_digits >= 0).all(axis=1)
         & (
             remote  # "#R", or "#R" and its length code: no data
