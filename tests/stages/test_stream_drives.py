@@ -17,6 +17,7 @@ import pandas as pd
 import pytest
 
 from rwhonet.config import ConfigError
+from rwhonet.data.canonical import WHEELS as WHEEL_KEYS
 from rwhonet.errors import InputError
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.label import label
@@ -121,6 +122,59 @@ def test_a_receiver_s_nmea_log_in_place_of_gnss_csv_goes_through_the_stages(
     assert "an NMEA log: 1500 epochs (1500 GGA, 1500 RMC sentences), 1500 with a fix" in said
     assert ("logger stamp" in said) == stamped
     assert ("read as UTC seconds of the day" in said) != stamped
+    assert report["totals"]["segments"] == 3
+    _, _, native_samples = native
+    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
+    assert len(merged) >= len(samples) - 3 and len(merged) > 400
+    for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(
+            merged[f"{col}_streams"], merged[f"{col}_native"], rtol=0, atol=2 * LABEL_TOL_M
+        )
+
+
+def test_a_candump_log_beside_the_receiver_s_nmea_log_goes_through_the_stages(native, tmp_path):
+    """Every drive as a Linux logger writes it: the wheel speeds as raw CAN frames in
+    can0.log (candump -l, on the fleet's seconds of the day), the fixes as the receiver's
+    unstamped NMEA log; a stream_csv map naming the DBC (under data.root) and its signals.
+    Ingest, validate and label give the 10 Hz drives' labels within the DBC's 0.01 km/h
+    and the log's rounding, and the manifest says what was decoded."""
+    from rwhonet.sim.streams import StreamTables
+    from support.canlog import DBC, stream_frames, write_candump
+    from support.nmea import nmea_lines, write_nmea
+
+    root = tmp_path / "raw"
+    paths_ = write_stream_fleet(root, "stream_csv")
+    for role, folder in paths_.items():
+        wheels = pd.read_csv(folder / "wheels.csv").rename(
+            columns={"Time": "t_s"} | {f"WheelSpeed_{w[6:8].upper()}": w for w in WHEEL_KEYS}
+        )
+        gnss = pd.read_csv(folder / "gnss.csv").rename(
+            columns={
+                "Time": "t_s",
+                "Latitude": "lat_deg",
+                "Longitude": "lon_deg",
+                "NumSV": "n_sats",
+            }
+        )
+        frames = stream_frames(StreamTables(wheels, gnss.iloc[:0]), ROLE_DRIVES[role][1])
+        write_candump(*frames, folder / "can0.log")
+        write_nmea(folder / "gps.nmea", nmea_lines(gnss, 1_552_262_400.0 + gnss["t_s"].to_numpy()))
+        (folder / "wheels.csv").unlink()
+        (folder / "gnss.csv").unlink()
+    (root / "bus.dbc").write_text(DBC)
+    signals = {"t": {"column": "Time", "unit": "s"}} | {
+        f"omega_{w}": {"column": f"WhlSpd_{w.upper()}", "unit": "km/h"}
+        for w in ("fl", "fr", "rl", "rr")
+    }
+    bus_map = {
+        "logger_csv": {"reader": "stream_csv", "signals": signals, "dbc": str(root / "bus.dbc")}
+    }
+    params = stream_params(root, "stream_csv", **{"data.signal_maps": bus_map})
+    manifest, report, samples = _stages(params, tmp_path)
+    b1 = {d["drive"]: d for d in manifest["drives"]}["C-B1"]
+    said = " ".join(b1["notes"])
+    assert "can0.log: raw CAN frames decoded with bus.dbc: 1 of the log's 1 frame IDs" in said
+    assert "read as UTC seconds of the day" in said
     assert report["totals"]["segments"] == 3
     _, _, native_samples = native
     merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
