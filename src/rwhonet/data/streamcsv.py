@@ -233,7 +233,14 @@ def read_stream_csvs(
                     f"a column named {spec.column!r} ({name}.{key}) in exactly one stream file"
                     + (" or CAN log" if decoded else ""),
                     "in none of them" if not where else f"in {len(where)} files",
-                    f"name the column in {name}.{key}.column",
+                    f"name the column in {name}.{key}.column"
+                    + (
+                        "; where the logger split one stream into several files in time "
+                        "(wheels_1.csv, wheels_2.csv), join them in time order, the header "
+                        "once"
+                        if where
+                        else ""
+                    ),
                 )
             )
     if problems:
