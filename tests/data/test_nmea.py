@@ -234,6 +234,25 @@ def test_gns_and_gll_say_when_they_have_no_fix(tmp_path):
     assert "8 epochs (1 GGA, 5 GNS, 4 GLL sentences), 4 with a fix" in log.notes[-1]
 
 
+def test_a_maker_s_own_sentences_are_passed_over_whatever_their_letters(tmp_path):
+    """Garmin's $PGRMC (its sensor configuration) ends in the letters of RMC, and $PGRME
+    and u-blox's $PUBX sit beside the fixes: passed over, not read as fixes (before stop
+    64, $PGRMC was read as an RMC sentence and refused as a time that is no hhmmss)."""
+    t0 = DAY_S + 45000.0
+    lines = [
+        sentence("PGRMC,A,218.8,100,,,,,,A,3,1,1,4,30"),
+        gga(t0, 52.4, -1.5, 9),
+        sentence("PGRME,15.0,M,45.0,M,25.0,M"),
+        rmc(t0, 52.4, -1.5, 10.0, 90.0),
+        sentence("PUBX,00,081350.00,4717.113210,N,00833.915187,E,546.589,G3,2.1,2.0"),
+        gga(t0 + 1, 52.41, -1.5, 9),
+    ]
+    log = _log(tmp_path, lines)
+    np.testing.assert_allclose(log.tod_s, [45000.0, 45001.0])
+    assert "2 epochs (2 GGA, 1 RMC sentences), 2 with a fix" in log.notes[-1]
+    assert not log.dropped
+
+
 def test_documented_gll_sentences_read_as_their_positions(tmp_path):
     """GLL as gpsd's NMEA notes (v2.2, no mode) and u-blox's M8 protocol manual (v4.10)
     print it, their checksums as printed."""

@@ -284,7 +284,9 @@ def _scan(data: bytes) -> _Found:
     def char(offset: int) -> np.ndarray:
         return buf[np.minimum(at + offset, size - 1)]
 
-    long_enough = at + 6 <= ends[line]
+    # a talker's two letters, then the type; "$P..." is a maker's own sentence, whatever
+    # follows (Garmin's $PGRMC is its sensor configuration, no RMC)
+    long_enough = (at + 6 <= ends[line]) & (char(1) != ord("P"))
     kind = np.full(line.size, -1)
     third, fourth, fifth = char(3), char(4), char(5)
     for code, name in enumerate(KINDS):
