@@ -109,6 +109,7 @@ def test_damaged_candump_lines_are_passed_over_and_counted(tmp_path):
         "(1.007000) can0 0AA##Z0102",  # 8: an FD flags digit that is no hex
         "garbage",  # 9: no frame
         "",
+        "(1.008000)  an0 0AA#0102",  # 11: a byte of the interface's name lost
         "(1.010000) can0 0AA#0807060504030201",
     ]
     path = tmp_path / "bus.log"
@@ -118,7 +119,8 @@ def test_damaged_candump_lines_are_passed_over_and_counted(tmp_path):
     assert frames.data[1].tolist() == [8, 7, 6, 5, 4, 3, 2, 1]
     assert "1 CAN XL frames" in frames.passed
     assert "6 lines damaged (first at line 2)" in frames.passed
-    assert "1 lines that are no frame (first at line 9)" in frames.passed
+    assert "2 lines that are no frame (first at line 9)" in frames.passed
+    assert frames.buses == ["can0"]
 
 
 def test_a_log_without_a_dbc_or_without_data_frames_is_refused(tmp_path):
@@ -315,3 +317,22 @@ def test_time_stamps_read_as_float_reads_them(tmp_path):
         path.write_text("".join(f"({s}) can0 0AA#01\n" for s in stamps))
         got = read_frames(path, "t.log").t_s
         assert got.tolist() == [float(s) for s in stamps]
+
+
+def test_a_refused_can_log_in_a_stream_folder_is_said_once_naming_it(tmp_path):
+    """can0.log holds no data frame: the folder is refused by that problem, naming the log,
+    and not again by each wheel key "in none of the files" (a problem naming no file)."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from support.nmea import gga, rmc, write_nmea
+
+    (tmp_path / "can0.log").write_text("(1700000000.0) can0 20000080#0000000000000000\n")
+    t0 = 1_700_000_000.0
+    write_nmea(tmp_path / "gps.nmea", [gga(t0, 52.4, -1.5, 9), rmc(t0, 52.4, -1.5, 1.0, 0.0)])
+    (tmp_path / "bus.dbc").write_text(DBC)
+    smap = {"t": ColumnSpec("t", "s")} | {k: v for k, v in _signals().items() if "omega" in k}
+    files = [tmp_path / "can0.log", tmp_path / "gps.nmea"]
+    shown = {p: p.name for p in files}
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(files, smap, RADIUS_M, NAME, shown, [str(tmp_path / "bus.dbc")])
+    assert [p.file for p in err.value.problems] == ["can0.log"]
+    assert err.value.problems[0].expected.startswith("CAN data frames")

@@ -100,17 +100,20 @@ def test_an_edited_mdf4_drive_reads_or_is_refused_clearly(tables, cut, capfd):
         )
 
 
-def _good_nmea_lines(sentences: tuple[str, ...]) -> list[str]:
-    """The good drive's fixes as the receiver's NMEA log, each line after the stamp."""
+def _good_nmea_lines(
+    sentences: tuple[str, ...], stamped: bool = True, utc0_s: float = 1_552_262_400.0
+) -> list[str]:
+    """The good drive's fixes as the receiver's NMEA log, each line after the stamp (else
+    unstamped), the fixes' UTC times from ``utc0_s``."""
     from support.nmea import nmea_lines
 
     gnss = good_tables().gnss
     t = gnss[c.T_S].to_numpy()
-    return nmea_lines(gnss, 1_552_262_400.0 + t, sentences, stamps=t)
+    return nmea_lines(gnss, utc0_s + t, sentences, stamps=t if stamped else None)
 
 
 @st.composite
-def edited_nmea_logs(draw) -> bytes:
+def edited_nmea_logs(draw, stamped: bool = True, utc0_s: float = 1_552_262_400.0) -> bytes:
     """The good drive's NMEA log with 1-5 random edits (:func:`support.fuzz.edited_log`),
     and its own: a field changed (its checksum mended or not), a stamp changed or gone.
     The receiver writes GGA and RMC, or GNS, RMC and GLL."""
@@ -128,7 +131,8 @@ def edited_nmea_logs(draw) -> bytes:
         else:  # stamp
             rows[a] = draw(st.sampled_from(["", "x,", "nan,", "-1,", "1e300,"])) + "$" + body
 
-    rows = _good_nmea_lines(draw(st.sampled_from([("GGA", "RMC"), ("GNS", "RMC", "GLL")])))
+    kinds = draw(st.sampled_from([("GGA", "RMC"), ("GNS", "RMC", "GLL")]))
+    rows = _good_nmea_lines(kinds, stamped, utc0_s)
     return edited_log(draw, rows, ("field", "stamp"), edit, "\r\n")
 
 
@@ -158,12 +162,18 @@ def test_an_edited_nmea_log_reads_or_is_refused_clearly(log, capfd):
         grid_or_clear_refusal(read, names_only({"wheels.csv", "gps.nmea", "streams"}))
 
 
-def _good_candump_lines() -> list[str]:
-    """The good drive's streams as raw CAN frames in a candump log (support.canlog)."""
+CAN_CLOCK_S = 1_700_000_000.0  # the candump log's Unix clock at the good drive's 0 s
+
+
+def _good_candump_lines(wheels_only: bool = False) -> list[str]:
+    """The good drive's streams (or its wheels alone) as raw CAN frames in a candump log
+    (support.canlog)."""
     from support.canlog import stream_frames
     from support.stream_corpus import RADIUS_M
 
-    stamps, ids, data = stream_frames(good_tables(), RADIUS_M, 1_700_000_000.0)
+    good = good_tables()
+    tables = StreamTables(good.wheels, good.gnss.iloc[:0]) if wheels_only else good
+    stamps, ids, data = stream_frames(tables, RADIUS_M, CAN_CLOCK_S)
     return [
         f"({t:.6f}) can0 {i:03X}#{bytes(d).hex().upper()}"
         for t, i, d in zip(stamps.tolist(), ids.tolist(), data, strict=True)
@@ -171,7 +181,7 @@ def _good_candump_lines() -> list[str]:
 
 
 @st.composite
-def edited_candump_logs(draw) -> bytes:
+def edited_candump_logs(draw, wheels_only: bool = False) -> bytes:
     """The good drive's candump log with 1-5 random edits (:func:`support.fuzz.edited_log`),
     and its own: a line's identifier, data or stamp changed."""
 
@@ -187,7 +197,8 @@ def edited_candump_logs(draw) -> bytes:
             stamp = f"({new})"
         rows[a] = f"{stamp} {bus} {ident}#{payload}"
 
-    return edited_log(draw, _good_candump_lines(), ("id", "data", "stamp"), edit, "\n")
+    rows = _good_candump_lines(wheels_only)
+    return edited_log(draw, rows, ("id", "data", "stamp"), edit, "\n")
 
 
 @FUZZ
@@ -213,3 +224,42 @@ def test_an_edited_candump_log_reads_or_is_refused_clearly(log, capfd):
             return resample(streams, nominal_radius_m=RADIUS_M).drive
 
         grid_or_clear_refusal(read, lambda p: p.file.startswith(("bus.log", "streams")))
+
+
+@FUZZ
+@given(
+    can=edited_candump_logs(wheels_only=True),
+    nmea=edited_nmea_logs(stamped=False, utc0_s=CAN_CLOCK_S),
+)
+def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_clearly(
+    can, nmea, capfd
+):
+    """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, the
+    receiver's unstamped NMEA log placed by its UTC times; both with random edits."""
+    from rwhonet.config import ColumnSpec
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from support.canlog import DBC
+    from support.stream_corpus import RADIUS_M
+
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
+        root = Path(tmp)
+        (root / "can0.log").write_bytes(can)
+        (root / "gps.nmea").write_bytes(nmea)
+        (root / "bus.dbc").write_text(DBC)
+        signals = {"t": ColumnSpec("t", "s")} | {
+            f"omega_{w}": ColumnSpec(f"WhlSpd_{w.upper()}", "km/h")
+            for w in ("fl", "fr", "rl", "rr")
+        }
+        files = [root / "can0.log", root / "gps.nmea"]
+        shown = {p: p.name for p in files}
+
+        def read():
+            dbc = [str(root / "bus.dbc")]
+            streams = read_stream_csvs(files, signals, RADIUS_M, display=shown, dbc=dbc)
+            return resample(streams, nominal_radius_m=RADIUS_M).drive
+
+        grid_or_clear_refusal(
+            read, lambda p: p.file.startswith(("can0.log", "gps.nmea", "streams"))
+        )

@@ -185,7 +185,10 @@ def _candump(path: Path, file: str) -> Frames:
     spaces = np.flatnonzero((buf == ord(" ")) | (buf == ord("\t")))
     iface_at = after(spaces, close, size)  # the space after ")"
     id_start = before(spaces, hash_at) + 1  # after the last space before "#"
-    shaped = opened & (close < end) & (hash_at < end) & (iface_at < id_start - 1)
+    # "(stamp) iface frame": one space each side of the interface's name (candump and
+    # python-can write no other); a name with a space in it is a damaged line
+    between = np.searchsorted(spaces, hash_at) - np.searchsorted(spaces, close)
+    shaped = opened & (close < end) & (hash_at < end) & (iface_at < id_start - 1) & (between == 2)
     comment = ~blank & (buf[np.minimum(first, size - 1)] == ord("#"))
     line = np.flatnonzero(shaped)
     not_frame = np.flatnonzero(~shaped & ~blank & ~comment) + 1

@@ -121,6 +121,7 @@ def read_stream_csvs(
             decoded[file] = can_log_groups(path, not_csv, radius_m, name, file, dbc, True)
         except InputError as err:
             problems += err.problems
+    undecoded = len(decoded) < len(buses)  # a CAN log refused: its keys' absence is said
     if not files and not buses:
         raise InputError(
             [
@@ -222,6 +223,8 @@ def read_stream_csvs(
                 )
         if not where and logs and (key in FIX_KEYS or key in HEMISPHERES) and not found_fix:
             continue  # the receiver's NMEA log gives it (checked when it is read)
+        if not where and undecoded:
+            continue  # the refused CAN log's problems say why its signals are missing
         if len(where) != 1 and len(time_at) == len(headers):
             problems.append(
                 Problem(
