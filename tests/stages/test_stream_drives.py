@@ -55,6 +55,24 @@ def _stages(params, work):
     return manifest, report, samples
 
 
+def _same_labels(native, samples: pd.DataFrame, atol_m: float) -> None:
+    """The stream drives' labelled seconds are the 10 Hz drives' (``native``), within
+    ``atol_m``, all but the few at a drive's ends."""
+    _, _, native_samples = native
+    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
+    assert len(merged) >= len(samples) - 3 and len(merged) > 400
+    for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(
+            merged[f"{col}_streams"], merged[f"{col}_native"], rtol=0, atol=atol_m
+        )
+
+
+def _gnss_table(folder) -> pd.DataFrame:
+    """A stream folder's gnss.csv under the canonical names (for an NMEA log of it)."""
+    names = {"Time": "t_s", "Latitude": "lat_deg", "Longitude": "lon_deg", "NumSV": "n_sats"}
+    return pd.read_csv(folder / "gnss.csv").rename(columns=names)
+
+
 @pytest.fixture(scope="module")
 def native(tmp_path_factory):
     """The same drives as 10 Hz IO-VNBD files."""
@@ -77,18 +95,13 @@ def test_every_stream_format_goes_through_ingest_validate_and_label(fmt, native,
     assert streams["glitch_rows"] == [] and streams["n_glitch_samples"] == 0
     assert {round(1 / s["median_step_s"]) for s in streams["streams"]} == {100, 10}
     assert report["totals"]["segments"] == 3
-    _, native_report, native_samples = native
+    _, native_report, _ = native
     # Fixes at a 30 ms phase: the grid starts and ends inside the 10 Hz drive's span, so
     # the stream drive keeps its seconds but its first (a start fix) and last.
     assert report["totals"]["seconds_kept"] >= native_report["totals"]["seconds_kept"] - 6
     if fmt == "mdf4":  # an MDF4 file's clock starts at its measurement (the drive's 45000 s)
         samples = samples.assign(t_s=samples["t_s"] + 45000.0)
-    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
-    assert len(merged) >= len(samples) - 3 and len(merged) > 400
-    for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
-        np.testing.assert_allclose(
-            merged[f"{col}_streams"], merged[f"{col}_native"], rtol=0, atol=LABEL_TOL_M
-        )
+    _same_labels(native, samples, LABEL_TOL_M)
 
 
 @pytest.mark.parametrize("stamped", [False, True])
@@ -104,14 +117,7 @@ def test_a_receiver_s_nmea_log_in_place_of_gnss_csv_goes_through_the_stages(
 
     paths_ = write_stream_fleet(tmp_path / "raw", "stream_csv")
     for folder in paths_.values():
-        gnss = pd.read_csv(folder / "gnss.csv").rename(
-            columns={
-                "Time": "t_s",
-                "Latitude": "lat_deg",
-                "Longitude": "lon_deg",
-                "NumSV": "n_sats",
-            }
-        )
+        gnss = _gnss_table(folder)
         t = gnss["t_s"].to_numpy()
         lines = nmea_lines(gnss, 1_552_262_400.0 + t, stamps=t if stamped else None)
         write_nmea(folder / "gps.nmea", lines)
@@ -123,13 +129,7 @@ def test_a_receiver_s_nmea_log_in_place_of_gnss_csv_goes_through_the_stages(
     assert ("logger stamp" in said) == stamped
     assert ("read as UTC seconds of the day" in said) != stamped
     assert report["totals"]["segments"] == 3
-    _, _, native_samples = native
-    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
-    assert len(merged) >= len(samples) - 3 and len(merged) > 400
-    for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
-        np.testing.assert_allclose(
-            merged[f"{col}_streams"], merged[f"{col}_native"], rtol=0, atol=2 * LABEL_TOL_M
-        )
+    _same_labels(native, samples, 2 * LABEL_TOL_M)
 
 
 def test_a_candump_log_beside_the_receiver_s_nmea_log_goes_through_the_stages(native, tmp_path):
@@ -148,14 +148,7 @@ def test_a_candump_log_beside_the_receiver_s_nmea_log_goes_through_the_stages(na
         wheels = pd.read_csv(folder / "wheels.csv").rename(
             columns={"Time": "t_s"} | {f"WheelSpeed_{w[6:8].upper()}": w for w in WHEEL_KEYS}
         )
-        gnss = pd.read_csv(folder / "gnss.csv").rename(
-            columns={
-                "Time": "t_s",
-                "Latitude": "lat_deg",
-                "Longitude": "lon_deg",
-                "NumSV": "n_sats",
-            }
-        )
+        gnss = _gnss_table(folder)
         frames = stream_frames(StreamTables(wheels, gnss.iloc[:0]), ROLE_DRIVES[role][1])
         write_candump(*frames, folder / "can0.log")
         write_nmea(folder / "gps.nmea", nmea_lines(gnss, 1_552_262_400.0 + gnss["t_s"].to_numpy()))
@@ -176,13 +169,7 @@ def test_a_candump_log_beside_the_receiver_s_nmea_log_goes_through_the_stages(na
     assert "can0.log: raw CAN frames decoded with bus.dbc: 1 of the log's 1 frame IDs" in said
     assert "read as UTC seconds of the day" in said
     assert report["totals"]["segments"] == 3
-    _, _, native_samples = native
-    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
-    assert len(merged) >= len(samples) - 3 and len(merged) > 400
-    for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
-        np.testing.assert_allclose(
-            merged[f"{col}_streams"], merged[f"{col}_native"], rtol=0, atol=2 * LABEL_TOL_M
-        )
+    _same_labels(native, samples, 2 * LABEL_TOL_M)
 
 
 def test_a_stream_glitch_is_cut_and_reported_with_its_stream_row(tmp_path):
