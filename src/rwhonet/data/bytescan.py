@@ -4,6 +4,8 @@ and candump (:mod:`~rwhonet.data.canlog`)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 HEX = np.full(256, -1, np.int16)  # a hex digit's value by its byte, -1 for none
@@ -37,3 +39,19 @@ def texts(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
     chars = buf[np.clip(at, 0, max(buf.size - 1, 0))].copy()
     chars[np.arange(width) >= length[:, None]] = 0
     return np.ascontiguousarray(chars).view(f"S{width}").ravel()
+
+
+def floats_or_nan(cells: np.ndarray) -> np.ndarray:
+    """Byte-string cells as floats in one conversion, one by one (NaN where one is no
+    number) where any of them is none."""
+    try:
+        return cells.astype(np.float64)
+    except ValueError:
+        return np.array([_float(x) for x in cells.tolist()], np.float64)
+
+
+def _float(cell: bytes) -> float:
+    try:
+        return float(cell)
+    except ValueError:
+        return math.nan

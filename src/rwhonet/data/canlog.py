@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rwhonet.data.bytescan import HEX, after, before, texts
+from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
 from rwhonet.errors import InputError, Problem
 
@@ -94,10 +94,10 @@ class Frames:
         ``CAN1 - message WheelSpeeds 0x1A0 EXT=False``): ``(the message as messages name
         it, the frames' rows)``; None where the name says no message or the count differs.
         """
-        match = _MESSAGE.fullmatch(acq_name.strip())
-        if match is None:
+        message = _message(acq_name)
+        if message is None:
             return None
-        bus, ident, ext = int(match[1]), int(match[2], 16), match[3] == "True"
+        bus, ident, ext = message
         at = np.flatnonzero((self.channel == bus) & (self.ids == ident) & (self.extended == ext))
         if at.size != n:
             return None
@@ -108,14 +108,20 @@ class Frames:
     def bus_of(self, acq_name: str) -> str | None:
         """The interface a decoded message's channel group came from (``can1``), by the
         name asammdf gives the group; None where the name says none."""
-        match = _MESSAGE.fullmatch(acq_name.strip())
-        bus = None if match is None else int(match[1])
+        message = _message(acq_name)
+        bus = None if message is None else message[0]
         return self.buses[bus - 1] if bus is not None and 0 < bus <= len(self.buses) else None
 
 
 # how asammdf's extract_bus_logging names a decoded message's channel group
 _MESSAGE = re.compile(r"CAN(\d+) message ID=0x([0-9A-Fa-f]+) EXT=(True|False)")
 _MESSAGE_NAME = re.compile(r"message (\S+) 0x")
+
+
+def _message(acq_name: str) -> tuple[int, int, bool] | None:
+    """(bus, identifier, extended) of a decoded message's channel group, by its name."""
+    match = _MESSAGE.fullmatch(acq_name.strip())
+    return None if match is None else (int(match[1]), int(match[2], 16), match[3] == "True")
 
 
 def read_frames(path: Path, file: str) -> Frames:
@@ -319,21 +325,7 @@ def _stamps(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
                 whole = digits @ powers
                 if int(whole.max()) < 2**53:  # exact in float64
                     return whole / 10.0 ** (width - 1 - int(at[0]))
-    return _floats(texts(buf, start, end))
-
-
-def _floats(cells: np.ndarray) -> np.ndarray:
-    """Byte-string cells as floats, NaN where one is no number."""
-    try:
-        return cells.astype(np.float64)
-    except ValueError:
-        out = np.full(cells.size, np.nan)
-        for i, cell in enumerate(cells.tolist()):
-            try:
-                out[i] = float(cell)
-            except ValueError:
-                pass
-        return out
+    return floats_or_nan(texts(buf, start, end))
 
 
 def _python_can(path: Path, file: str, suffix: str) -> Frames:

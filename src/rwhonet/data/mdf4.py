@@ -68,7 +68,13 @@ def read_mdf4(
     if not Path(path).is_file():
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
     if is_can_log_name(Path(path).name):
-        return _read_can_log(Path(path), signal_map, radius_m, name, file, dbc)
+        log = can_log_groups(Path(path), signal_map, radius_m, name, file, dbc)
+        streams = build_streams(log.groups, log.clock)
+        return dataclasses.replace(
+            streams,
+            notes=(*streams.notes, *log.notes),
+            changed=(*streams.changed, *log.changed),
+        )
     mdf, problem = _open(MDF, path, file)
     if problem is not None:
         raise InputError([problem], summary=f"cannot decode {file}")
@@ -83,25 +89,6 @@ def read_mdf4(
         return dataclasses.replace(streams, notes=(*streams.notes, _decoded_note(mdf, dbc)))
     finally:
         mdf.close()
-
-
-def _read_can_log(
-    path: Path,
-    signal_map: Mapping[str, ColumnSpec],
-    radius_m: float | None,
-    name: str,
-    file: str,
-    dbc: Sequence[str],
-) -> DriveStreams:
-    """A candump, ASC, BLF or TRC log of raw CAN frames (:mod:`rwhonet.data.canlog`),
-    laid out as an MDF4 bus log and decoded with the map's CAN databases as one."""
-    log = can_log_groups(path, signal_map, radius_m, name, file, dbc)
-    streams = build_streams(log.groups, log.clock)
-    return dataclasses.replace(
-        streams,
-        notes=(*streams.notes, *log.notes),
-        changed=(*streams.changed, *log.changed),
-    )
 
 
 @dataclasses.dataclass(frozen=True)

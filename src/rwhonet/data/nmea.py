@@ -59,14 +59,13 @@ number is refused with its line.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from rwhonet.data.bytescan import HEX, after, before
+from rwhonet.data.bytescan import HEX, after, before, floats_or_nan
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.packed import HHMMSS
 from rwhonet.data.texttime import (
@@ -189,8 +188,11 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
     rows, kinds = found.rows, found.kind[kept]
     spans = list(zip(found.body[0][kept].tolist(), found.body[1][kept].tolist(), strict=True))
     bodies = [data[a:b] for a, b in spans]
-    heads = list(zip(found.head[0][kept].tolist(), found.head[1][kept].tolist(), strict=True))
-    stamps = [data[a:b].strip(_STAMP_STRIP) or None for a, b in heads]
+    head_start, head_end = found.head[0][kept].tolist(), found.head[1][kept].tolist()
+
+    def stamp(i: int) -> bytes | None:  # what stands before sentence i's "$", if anything
+        return data[head_start[i] : head_end[i]].strip(_STAMP_STRIP) or None
+
     row_of = rows[kept]
     fields = _Fields(bodies)
     gll = kinds == GLL
@@ -222,7 +224,7 @@ def read_nmea(path: Path, file: str) -> NmeaLog:
         time[use],
         row_of,
         kinds,
-        stamps,
+        stamp,
         file,
         counts,
         first_bad,
@@ -391,7 +393,7 @@ def _numbers(
     """Cells as numbers: NaN where empty; a problem for each that is no finite number."""
     empty = cells == b""
     filled = np.where(empty, b"nan", cells)
-    values = _floats_or_nan(filled)
+    values = floats_or_nan(filled)
     bad = np.flatnonzero(~empty & ~np.isfinite(values))
     problems += [
         Problem(file, int(rows[i]), what, "a number", repr(cells[i].decode("ascii")))
@@ -399,21 +401,6 @@ def _numbers(
     ]
     values[bad] = np.nan
     return values
-
-
-def _float(cell: bytes) -> float:
-    try:
-        return float(cell)
-    except ValueError:
-        return math.nan
-
-
-def _floats_or_nan(cells: np.ndarray) -> np.ndarray:
-    """Cells as floats in one conversion, one by one where one of them is no number."""
-    try:
-        return cells.astype(np.float64)
-    except ValueError:
-        return np.array([_float(x) for x in cells])
 
 
 def _coordinates(
@@ -459,7 +446,7 @@ def _fixes(
     times: np.ndarray,
     rows: np.ndarray,
     kinds: np.ndarray,
-    stamps: list[bytes | None],
+    stamp: Callable[[int], bytes | None],
     file: str,
     counts: dict[str, int],
     first: dict[str, int],
@@ -580,7 +567,7 @@ def _fixes(
         "heading": "RMC course",
     }
     given = {k: v for k, v in channels.items() if np.isfinite(v).any() or k in ("lat", "lon")}
-    stamps = [stamps[i] for i in lead]
+    stamps = [stamp(i) for i in lead.tolist()]  # each epoch's first sentence's
     notes.append(
         f"{file}: an NMEA log: {n} epochs ("
         + ", ".join(f"{of[k][0].size} {KINDS[k].decode()}" for k in of if of[k][0].size)
@@ -630,7 +617,7 @@ def _times_of_day(
         hours = digits[:, 0] * 10 + digits[:, 1]
         minutes = digits[:, 2] * 10 + digits[:, 3]
         rest = np.ascontiguousarray(chars[:, 4:]).view(f"S{width - 4}").ravel()
-        sec = _floats_or_nan(rest)
+        sec = floats_or_nan(rest)
         with np.errstate(invalid="ignore"):
             ok &= (hours < 24) & (minutes < 60) & (sec >= 0) & (sec < 61)
         seconds = np.where(ok, hours * 3600.0 + minutes * 60.0 + sec, np.nan)
