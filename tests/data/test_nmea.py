@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -386,7 +387,7 @@ def test_where_the_fixes_come_from(tmp_path):
     no_fix_keys = {k: v for k, v in smap.items() if k not in ("lat", "lon", "n_sats")}
     # the map's fixes in gnss.csv: the NMEA log left out, said so
     _, streams = _labels(_stream_folder(tmp_path / "a", with_gnss_csv=True))
-    assert any("an NMEA log, left out: the fixes are" in n for n in streams.notes)
+    assert any("NMEA log(s), left out: the fixes are" in n for n in streams.notes)
     # no fix keys in the map: the log gives them all
     _, streams = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
     gnss = next(s for s in streams.streams if s.name == "gps.nmea")
@@ -404,9 +405,42 @@ def test_where_the_fixes_come_from(tmp_path):
     with pytest.raises(InputError) as err:
         _labels(_stream_folder(tmp_path / "c", with_nmea=False), no_fix_keys)
     assert "lat and lon not in the signal map, and no NMEA log" in str(err.value)
-    with pytest.raises(InputError) as err:
-        _labels(_stream_folder(tmp_path / "e", two=True))
-    assert "expected one NMEA log per drive; found 2 logs" in str(err.value)
+    # the same log twice (gps.nmea, gps2.nmea): a copy, left out, and said
+    got, streams = _labels(_stream_folder(tmp_path / "e", two=True), no_fix_keys)
+    one, _ = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
+    pd.testing.assert_frame_equal(got, one)
+    assert "gps2.nmea [gps2.nmea]: a copy of " in " ".join(streams.changed)
+
+
+@pytest.mark.parametrize("stamped", [True, False])
+def test_a_log_a_logger_rotated_reads_as_the_one_log(tmp_path, stamped):
+    """The receiver's log rotated into three files by size, one cut between an epoch's GGA
+    and its RMC: the fixes are the one log's (that epoch's position, satellites and speed
+    taken from both files), the labels the one log's exactly; with the logger's stamps and
+    with the receiver's UTC times on a Unix clock."""
+    tables, _ = _drive()
+    t = np.round(tables.gnss[c.T_S].to_numpy(), 2)
+    exact = tables.gnss.assign(t_s=t)
+    lines = nmea_lines(exact, DAY_S + t, stamps=DAY_S + t if stamped else None)
+    assert lines[701].split("$")[1].startswith("GPRMC")  # the cut at 701: an epoch split
+    one = write_nmea(tmp_path / "one" / "gps.nmea", lines)
+    wheels = _wheels(tmp_path / "wheels", DAY_S)
+    want, _ = _labels([wheels, one])
+    rotated = [
+        write_nmea(tmp_path / "rotated" / name, part)
+        for name, part in (
+            ("gps_c.nmea", lines[:701]),
+            ("gps_a.nmea", lines[701:1500]),
+            ("gps_b.nmea", lines[1500:]),
+        )
+    ]
+    got, streams = _labels([wheels, *rotated])
+    pd.testing.assert_frame_equal(got, want)
+    (gnss,) = [s for s in streams.streams if s.parts]
+    assert [Path(f).name for f, _ in gnss.parts] == ["gps_c.nmea", "gps_a.nmea", "gps_b.nmea"]
+    assert "gps_a.nmea]: its first 1 sample(s) at the times of the last" in " ".join(
+        streams.changed
+    )
 
 
 def test_a_mapped_gnss_key_neither_file_gives_is_refused(tmp_path):

@@ -497,23 +497,3 @@ def test_a_loggers_other_files_in_a_stream_folder_are_left_out(tmp_path):
     with pytest.raises(InputError) as err:
         read_target_drive(params, other)
     assert any(p.file.endswith("events.csv") for p in err.value.problems)
-
-
-def test_a_stream_split_across_files_is_refused_with_how_to_join_it(tmp_path):
-    """A logger that starts a new file each half of the drive (wheels_1.csv, wheels_2.csv):
-    each wheel key is in two files; the refusal says to join them in time order."""
-    from rwhonet.sim.streams import signal_map, write_stream_csvs
-    from support.stream_corpus import good_tables
-
-    files = write_stream_csvs(good_tables(), tmp_path)
-    lines = files["wheels"].read_text().splitlines()
-    half = len(lines) // 2
-    (tmp_path / "wheels_1.csv").write_text("\n".join(lines[:half]) + "\n")
-    (tmp_path / "wheels_2.csv").write_text("\n".join([lines[0], *lines[half:]]) + "\n")
-    files["wheels"].unlink()
-    paths = [files["gnss"], tmp_path / "wheels_1.csv", tmp_path / "wheels_2.csv"]
-    with pytest.raises(InputError) as err:
-        read_stream_csvs(paths, signal_map(), 0.3)
-    problem = next(p for p in err.value.problems if p.column == "WheelSpeed_FL")
-    assert problem.found == "in 2 files" and problem.file.endswith("wheels_2.csv")
-    assert "join them in time order, the header once" in problem.fix

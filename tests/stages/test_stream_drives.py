@@ -230,3 +230,37 @@ def test_a_linear_wheel_speed_needs_the_vehicle_radius_and_a_bad_folder_says_whe
     (p,) = err.value.problems
     assert p.file.endswith("target_test/C-B1/CAN/wheel_speed/value")
     assert "NumPy array" in p.expected and p.fix
+
+
+def test_a_stream_split_across_files_goes_through_the_stages_naming_each_file_s_rows(tmp_path):
+    """The glitch drive's wheels.csv as a logger rotating its files writes it (wheels_1.csv,
+    wheels_2.csv.gz, the glitch in the second): the same seconds are cut, and validate lists
+    the glitch by the second file and its own row."""
+    import gzip
+
+    root = tmp_path / "raw"
+    write_stream_fleet(root, "stream_csv")
+    tables = tables_from_drive(role_drive("target_test"))
+    wheels = tables.wheels.copy()
+    k = int(np.searchsorted(wheels["t_s"].to_numpy(), 45060.53))
+    wheels.loc[k, "omega_rl_rad_s"] *= 10.0
+    folder = write_drive(
+        "stream_csv", type(tables)(wheels, tables.gnss), root / "target_test", "C-B1", 0
+    )
+    header, *rows = (folder / "wheels.csv").read_text().splitlines()
+    cut = k - 1000
+    (folder / "wheels_1.csv").write_text("\n".join([header, *rows[:cut]]) + "\n")
+    second = "\n".join([header, *rows[cut:]]) + "\n"
+    (folder / "wheels_2.csv.gz").write_bytes(gzip.compress(second.encode()))
+    (folder / "wheels.csv").unlink()
+    params = stream_params(root, "stream_csv")
+    ingest(params, tmp_path / "drives")
+    report = validate(params, tmp_path / "drives", tmp_path / "seg", tmp_path / "v.json")
+    b1 = next(d for d in report["drives"] if d["drive"] == "C-B1")
+    assert (45060.0, 45061.0, "wheel_glitch") in [
+        (x["start_s"], x["end_s"], x["rule"]) for x in b1["cuts"]
+    ]
+    listed = b1["wheel_glitches"]["listed"][0]
+    assert listed["row"] == k + 1 - cut  # the data row of wheels_2.csv.gz
+    assert "target_test/C-B1/wheels_2.csv.gz [" in listed["stream"]
+    assert listed["channel"] == "WheelSpeed_RL"

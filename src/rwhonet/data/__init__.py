@@ -38,6 +38,8 @@
 - :mod:`~rwhonet.data.wheelunits`: the units a wheel speed is logged in, angular or the
   wheel's circumferential speed (divided by the car's nominal tyre radius).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
+- :mod:`~rwhonet.data.fileparts`: a stream a logger split across files in time (rotated
+  CSVs, NMEA and CAN logs), joined, each sample keeping its file and row.
 - :mod:`~rwhonet.data.robust`: a robust scale (the normal-scaled MAD) and a running
   trapezoid integral, scipy's arithmetic without scipy's import.
 - Streams (docs/readers.md): :mod:`~rwhonet.data.streams` resamples timestamped

@@ -183,6 +183,7 @@ class Group:
         channels: signal-map key -> values in SI units.
         sources: signal-map key -> the logger's channel name (``t``: the time's).
         rows: each sample's row in the file, 1-based (None: sample ``i`` is row ``i + 1``).
+        parts, part: a group a logger split across files, as :class:`Stream` has them.
     """
 
     name: str
@@ -191,6 +192,8 @@ class Group:
     channels: dict[str, np.ndarray]
     sources: dict[str, str]
     rows: np.ndarray | None = None
+    parts: tuple[tuple[str, str], ...] = ()
+    part: np.ndarray | None = None
 
     @property
     def where(self) -> str:
@@ -209,7 +212,8 @@ def in_time_order(g: Group) -> tuple[Group, tuple[str, ...]]:
     rows = i + 1 if g.rows is None else np.asarray(g.rows)[i]
     channels = {k: np.ascontiguousarray(np.asarray(v)[i]) for k, v in g.channels.items()}
     t = np.ascontiguousarray(np.asarray(g.t_s)[i])
-    return Group(g.name, g.file, t, channels, g.sources, rows), order.notes
+    part = None if g.part is None else np.asarray(g.part)[i]
+    return Group(g.name, g.file, t, channels, g.sources, rows, g.parts, part), order.notes
 
 
 def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
@@ -240,6 +244,8 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
             {KEYS[k][0]: g.channels[k] for k in keys},
             {KEYS[k][0]: g.sources[k] for k in (*keys, "t") if k in g.sources},
             g.rows,
+            g.parts,
+            g.part,
         )
 
     notes: list[str] = []
@@ -284,6 +290,8 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
         {KEYS[k][0]: v for k, v in fixes.items()},
         {KEYS[k][0]: s for k, s in sources.items()},
         fix_group.rows,
+        fix_group.parts,
+        fix_group.part,
     )
     return DriveStreams(tuple(wheels), gnss, tuple(extra), clock, changed=tuple(notes))
 

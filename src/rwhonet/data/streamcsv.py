@@ -17,6 +17,8 @@ it on the files' clock (``_nmea_group``). With the map's CAN databases (``dbc``)
 tool's raw CAN log among them (``can0.log`` from ``candump -l``, ASC, BLF, TRC:
 :mod:`rwhonet.data.canlog`) is decoded as the MDF4 reader decodes a bus log, and each of
 its messages holding a mapped signal is a stream, the signal found by name as a column.
+Files of one stream a logger split in time (``wheels_000.csv``, ``wheels_001.csv``; NMEA
+logs; raw CAN logs) are joined by :mod:`rwhonet.data.fileparts`.
 
 Midnight: a time of day (seconds since the start of the day, as IO-VNBD's) that
 passes midnight continues into the next day, by the rule of the 10 Hz readers
@@ -53,6 +55,7 @@ from rwhonet.data.csvio import (
     read_text_column,
     without_rows,
 )
+from rwhonet.data.fileparts import join_parts
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.mdf4 import CanLogGroups, can_log_groups
 from rwhonet.data.nmea import is_nmea_name, on_clock, read_nmea
@@ -225,6 +228,8 @@ def read_stream_csvs(
             continue  # the receiver's NMEA log gives it (checked when it is read)
         if not where and undecoded:
             continue  # the refused CAN log's problems say why its signals are missing
+        if len(where) > 1 and _split_stream(where, found):
+            continue  # one stream in several files: joined (fileparts) once read
         if len(where) != 1 and len(time_at) == len(headers):
             problems.append(
                 Problem(
@@ -234,13 +239,21 @@ def read_stream_csvs(
                     None,
                     spec.column,
                     f"a column named {spec.column!r} ({name}.{key}) in exactly one stream file"
-                    + (" or CAN log" if decoded else ""),
-                    "in none of them" if not where else f"in {len(where)} files",
+                    + (" or CAN log" if decoded else "")
+                    + (
+                        ", or in each file of one stream a logger split in time (files with "
+                        "the same mapped columns)"
+                        if where
+                        else ""
+                    ),
+                    "in none of them"
+                    if not where
+                    else f"in {len(where)} files: "
+                    + "; ".join(f"{f} ({', '.join(sorted(_keys_in(f, found)))})" for f, _ in where),
                     f"name the column in {name}.{key}.column"
                     + (
-                        "; where the logger split one stream into several files in time "
-                        "(wheels_1.csv, wheels_2.csv), join them in time order, the header "
-                        "once"
+                        "; give each file of a split stream the same columns, and leave out "
+                        "a file that is not the drive's"
                         if where
                         else ""
                     ),
@@ -336,22 +349,39 @@ def read_stream_csvs(
         )
     if logs and not found_fix and not problems:
         try:
-            gnss = _nmea_group(logs[0], signal_map, groups, set(found), name, notes, changed)
-            groups.append(gnss)
+            groups += _nmea_groups(logs, signal_map, groups, set(found), name, notes, changed)
         except InputError as err:
             problems += err.problems
     elif logs and found_fix:
         notes.append(
-            f"{logs[0][1]}: an NMEA log, left out: the fixes are {name}'s columns in "
+            f"{', '.join(f for _, f in logs)}: NMEA log(s), left out: the fixes are {name}'s "
+            "columns in "
             + ", ".join(sorted({f for k in ("lat", "lon") for f, _ in found.get(k, [])}))
         )
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
-    groups = _next_day_starts(groups, notes)
+    groups = _next_day_starts(join_parts(groups, notes, changed), notes)
     streams = build_streams(groups, CLOCK)
     return dataclasses.replace(
         streams, notes=(*streams.notes, *notes), changed=(*changed, *streams.changed)
     )
+
+
+def _keys_in(file: str, found: Mapping[str, list[tuple[str, int]]]) -> set[str]:
+    return {k for k, places in found.items() if any(f == file for f, _ in places)}
+
+
+def _split_stream(
+    where: Sequence[tuple[str, int]], found: Mapping[str, list[tuple[str, int]]]
+) -> bool:
+    """Whether a key's files are one stream a logger split in time: CSVs with the same mapped
+    columns, or raw CAN logs (whose messages :mod:`rwhonet.data.fileparts` matches)."""
+    if all(at < 0 for _, at in where):
+        return True
+    if any(at < 0 for _, at in where):
+        return False
+    first = _keys_in(where[0][0], found)
+    return all(_keys_in(f, found) == first for f, _ in where[1:])
 
 
 def _per_message(g: Group, notes: list[str]) -> list[Group]:
@@ -452,18 +482,7 @@ def _fix_source_problems(
     name: str,
     files: Sequence[str],
 ) -> list[Problem]:
-    """Where the fixes come from: a CSV's columns or one NMEA log, not neither."""
-    if len(logs) > 1:
-        return [
-            Problem(
-                ", ".join(f for _, f in logs),
-                None,
-                None,
-                "one NMEA log per drive",
-                f"{len(logs)} logs",
-                "join them in the order they were written (cat), or leave all but one out",
-            )
-        ]
+    """Where the fixes come from: a CSV's columns or NMEA logs, not neither."""
     missing = [k for k in ("lat", "lon") if k not in signal_map]
     if missing and not logs:
         return [
@@ -480,32 +499,38 @@ def _fix_source_problems(
     return []
 
 
-def _nmea_group(
-    log_file: tuple[Path, str],
+def _nmea_groups(
+    logs: Sequence[tuple[Path, str]],
     signal_map: Mapping[str, ColumnSpec],
     groups: Sequence[Group],
     in_csv: set[str],
     name: str,
     notes: list[str],
     changed: list[str],
-) -> Group:
-    """The receiver's NMEA log as the drive's GNSS stream, on the stream files' clock.
+) -> list[Group]:
+    """The receiver's NMEA logs as the drive's GNSS stream, each on the stream files' clock.
 
-    It gives the fixes and every GNSS key no stream file's column gives; a key the map
-    names that neither gives is refused. Sentences passed over (a checksum that does not
-    match, a line cut short, ...) are said in ``changed`` too, so predict says them.
+    They give the fixes and every GNSS key no stream file's column gives; a key the map
+    names that a log does not give is refused, naming the log. Several logs are one
+    receiver's log a logger rotated (joined by :mod:`rwhonet.data.fileparts`): each gives
+    the keys all of them give. Sentences passed over (a checksum that does not match, a
+    line cut short, ...) are said in ``changed`` too, so predict says them.
     """
-    path, file = log_file
-    log = read_nmea(path, file)
-    if log.dropped:
-        changed.append(f"{file}: passed over: {log.dropped}")
-    keys = [k for k in FIX_KEYS if k in log.channels and k not in in_csv]
-    lacking = [k for k in FIX_KEYS if k in signal_map and k not in in_csv and k not in keys]
-    if lacking:
-        raise InputError(
-            [
+    read = [read_nmea(path, file) for path, file in logs]
+    common = set.intersection(*(set(log.channels) for log in read))
+    problems = []
+    out = []
+    for log in read:
+        if log.dropped:
+            changed.append(f"{log.file}: passed over: {log.dropped}")
+        keys = [k for k in FIX_KEYS if k in common and k not in in_csv]
+        lacking = [
+            k for k in FIX_KEYS if k in signal_map and k not in in_csv and k not in log.channels
+        ]
+        if lacking:
+            problems.append(
                 Problem(
-                    file,
+                    log.file,
                     None,
                     ", ".join(signal_map[k].column for k in lacking),
                     f"{', '.join(f'{name}.{k}' for k in lacking)} in a stream file or in the "
@@ -516,23 +541,32 @@ def _nmea_group(
                     f"name the column in {name}, or drop the key: the log gives "
                     + ", ".join(log.channels),
                 )
-            ]
+            )
+            continue
+        if len(read) > 1 and (only := [k for k in log.channels if k not in common]):
+            notes.append(
+                f"{log.file}: {', '.join(only)} left out: not in every one of the drive's NMEA logs"
+            )
+        named = [k for k in ("lat", "lon") if k in signal_map]
+        if named:
+            notes.append(
+                f"{log.file}: the fixes are the NMEA log's ("
+                + ", ".join(repr(signal_map[k].column) for k in named)
+                + f", named in {name}, in no stream file)"
+            )
+        unit = signal_map["t"].unit
+        t, clock, said = on_clock(log, unit, DATE in signal_map, [g.t_s for g in groups], name)
+        notes += [*log.notes, said]
+        out.append(
+            Group(
+                Path(log.file).name,
+                log.file,
+                np.ascontiguousarray(t),
+                {k: log.channels[k] for k in keys},
+                {"t": clock} | {k: log.sources[k] for k in keys},
+                log.rows,
+            )
         )
-    named = [k for k in ("lat", "lon") if k in signal_map]
-    if named:
-        notes.append(
-            f"{file}: the fixes are the NMEA log's ("
-            + ", ".join(repr(signal_map[k].column) for k in named)
-            + f", named in {name}, in no stream file)"
-        )
-    unit = signal_map["t"].unit
-    t, clock, said = on_clock(log, unit, DATE in signal_map, [g.t_s for g in groups], name)
-    notes += [*log.notes, said]
-    return Group(
-        Path(file).name,
-        file,
-        np.ascontiguousarray(t),
-        {k: log.channels[k] for k in keys},
-        {"t": clock} | {k: log.sources[k] for k in keys},
-        log.rows,
-    )
+    if problems:
+        raise InputError(problems)
+    return out

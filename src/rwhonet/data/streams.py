@@ -87,7 +87,7 @@ Glitches
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -98,7 +98,7 @@ from rwhonet.data.fixes import no_fix_rows
 from rwhonet.data.fixlag import MAX_LAG_S, lagged_times
 from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, running_max
-from rwhonet.data.problems import row_problems
+from rwhonet.data.problems import ROWS_LISTED, row_problems
 from rwhonet.data.robust import cumulative_trapezoid
 from rwhonet.errors import InputError, Problem
 from rwhonet.geo.geodesic import wgs84
@@ -137,6 +137,11 @@ class Stream:
         rows: each sample's row in its source, 1-based, for messages (None: sample ``i``
             is row ``i + 1``; a reader that dropped or reordered samples, or split a file
             of several messages, gives them).
+        parts: a stream a logger split across files in time (:mod:`rwhonet.data.fileparts`):
+            each file's name and the stream's name in it (``file`` then names them
+            together); empty for a stream of one file.
+        part: each sample's index into ``parts`` (None: one file); ``rows`` are then rows
+            of that file.
     """
 
     name: str
@@ -145,11 +150,53 @@ class Stream:
     channels: dict[str, np.ndarray]
     sources: dict[str, str] = field(default_factory=dict)
     rows: np.ndarray | None = None
+    parts: tuple[tuple[str, str], ...] = ()
+    part: np.ndarray | None = None
 
     def file_rows(self, index: np.ndarray) -> np.ndarray:
-        """The source's 1-based rows of samples ``index`` (0-based positions)."""
+        """The source's 1-based rows of samples ``index`` (0-based positions); for a stream
+        of several files, rows of each sample's own file (:meth:`places`)."""
         index = np.asarray(index, dtype=np.int64)
         return index + 1 if self.rows is None else np.asarray(self.rows)[index]
+
+    def places(self, index: np.ndarray) -> list[tuple[str, int]]:
+        """Where samples ``index`` are: the file as messages name it, and its row."""
+        index = np.asarray(index, dtype=np.int64)
+        rows = self.file_rows(index)
+        if self.part is None:
+            return [(self.where(), int(r)) for r in rows]
+        wheres = [_where(f, n) for f, n in self.parts]
+        return [(wheres[k], int(r)) for k, r in zip(self.part[index], rows, strict=True)]
+
+    def wheres(self) -> list[str]:
+        """How messages name the stream: as a whole, and each of its files."""
+        return [self.where(), *(_where(f, n) for f, n in self.parts)]
+
+    def row_problems(
+        self,
+        column: str | None,
+        index: np.ndarray,
+        found: Callable[[int], str],
+        expected: str,
+        fix: str,
+    ) -> list[Problem]:
+        """One check's bad samples ``index`` (0-based) as problems naming file and row
+        (:func:`rwhonet.data.problems.row_problems`), one list per file of the stream;
+        ``found(i)`` says what sample ``i`` holds."""
+        index = np.asarray(index, dtype=np.int64)
+        if self.part is None:
+            found_ = [found(int(i)) for i in index[:ROWS_LISTED]]
+            return row_problems(
+                self.where(), column, self.file_rows(index), found_, expected, fix=fix
+            )
+        out = []
+        for k, (file, name) in enumerate(self.parts):
+            mine = index[self.part[index] == k]
+            if mine.size:
+                found_ = [found(int(i)) for i in mine[:ROWS_LISTED]]
+                rows = self.file_rows(mine)
+                out += row_problems(_where(file, name), column, rows, found_, expected, fix=fix)
+        return out
 
     @property
     def n_rows(self) -> int:
@@ -158,12 +205,16 @@ class Stream:
 
     def where(self, name: str | None = None) -> str:
         """How a problem names the stream (and a channel of it): file, stream, channel."""
-        what = f"{self.file} [{self.name}]" if self.name and self.name != self.file else self.file
+        what = _where(self.file, self.name)
         return what if name is None else f"{what} {self.sources.get(name, name)!r}"
 
     def label(self, name: str) -> str:
         """A channel as the drive's ``source_columns`` name it: stream and channel."""
         return f"{self.name}: {self.sources.get(name, name)}"
+
+
+def _where(file: str, name: str) -> str:
+    return f"{file} [{name}]" if name and name != file else file
 
 
 @dataclass(frozen=True)
@@ -311,11 +362,10 @@ def stream_problems(s: Stream) -> list[Problem]:
                 )
             )
     bad = np.flatnonzero(~np.isfinite(t))
-    out += row_problems(
-        file,
+    out += s.row_problems(
         time,
-        s.file_rows(bad),
-        [repr(float(t[i])) for i in bad[:5]],
+        bad,
+        lambda i: repr(float(t[i])),
         "a finite time in seconds",
         fix="give every sample its time, or delete the sample",
     )
@@ -323,14 +373,12 @@ def stream_problems(s: Stream) -> list[Problem]:
         return out
     step = np.diff(t)
     back = np.flatnonzero(step <= 0) + 1
-    out += row_problems(
-        file,
+    out += s.row_problems(
         time,
-        s.file_rows(back),
-        [
+        back,
+        lambda i: (
             f"t = {float(t[i])!r} s after t = {float(t[i - 1])!r} s (step {t[i] - t[i - 1]:+.6g} s)"
-            for i in back[:5]
-        ],
+        ),
         "a time after the previous sample's (strictly increasing)",
         fix="a clock that went back (a restart, a clock set back) makes two recordings: "
         "split the stream there; a sample at another's time with other values is no copy "
@@ -342,11 +390,10 @@ def stream_problems(s: Stream) -> list[Problem]:
             continue
         values = np.asarray(s.channels[name], dtype=np.float64)
         off = np.flatnonzero(np.abs(values) > limit)
-        out += row_problems(
-            file,
+        out += s.row_problems(
             s.sources.get(name, name),
-            s.file_rows(off),
-            [f"{float(values[i])!r} at t = {float(t[i])!r} s" for i in off[:5]],
+            off,
+            lambda i, v=values: f"{float(v[i])!r} at t = {float(t[i])!r} s",
             f"a {'latitude' if name == c.LAT_DEG else 'longitude'} in [-{limit:g}, {limit:g}] deg",
             fix="map the latitude and longitude channels the right way round, in degrees",
         )
@@ -786,8 +833,8 @@ def resample(
                     if bad[k].any():
                         by_wheel[w] |= _rows_using(t, np.flatnonzero(bad[k]), grid, half)
                 glitch_samples += [
-                    (s.where(), int(r), float(t[i]), c.WHEELS[int(np.argmax(bad[:, i]))])
-                    for i, r in zip(rows, s.file_rows(kept[rows]), strict=True)
+                    (where, r, float(t[i]), c.WHEELS[int(np.argmax(bad[:, i]))])
+                    for i, (where, r) in zip(rows, s.places(kept[rows]), strict=True)
                 ]
 
     if slow:
