@@ -819,6 +819,74 @@ def test_predict_says_it_placed_fixes_stamped_on_arrival_at_the_receiver_s_epoch
     np.testing.assert_allclose(arrived["disp_gnss_m"], at_epochs["disp_gnss_m"], atol=1e-3)
 
 
+def test_predict_reads_wheel_speeds_a_logger_split_across_files_as_the_one_file(
+    bundle, tmp_path, capsys
+):
+    """The good stream drive's wheels.csv rotated into three files (the last kept gzipped,
+    the rotation's sample written into both of the second pair): predict's seconds are the
+    one file's, exactly, and stderr says the sample dropped."""
+    import gzip
+
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    frames = {}
+    for name in ("one", "split"):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, good_tables())
+        if name == "split":
+            header, *rows = (drive / "wheels.csv").read_text().splitlines()
+            (drive / "wheels_000.csv").write_text("\n".join([header, *rows[:700]]) + "\n")
+            (drive / "wheels_001.csv").write_text("\n".join([header, *rows[700:2100]]) + "\n")
+            last = "\n".join([header, *rows[2099:]]) + "\n"
+            (drive / "wheels_002.csv.gz").write_bytes(gzip.compress(last.encode()))
+            (drive / "wheels.csv").unlink()
+        out = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, drive, out, *fmt, "--nominal-radius", str(RADIUS_M))) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (one, said_one), (split, said) = frames["one"], frames["split"]
+    assert "rotation" not in said_one
+    assert (
+        "wheels_002.csv.gz [wheels_002.csv.gz]: its first 1 sample(s) at the times of the last "
+        in said
+    )
+    pd.testing.assert_frame_equal(split, one)
+
+
+def test_predict_reads_a_folder_of_files_logrotate_numbered(bundle, tmp_path, capsys):
+    """A Linux logger under logrotate: wheels.csv.1 then wheels.csv, the receiver's log as
+    gps.nmea.2.gz, gps.nmea.1 and gps.nmea (oldest first): predict's seconds are those of
+    the one wheels.csv beside the one gps.nmea, exactly."""
+    import gzip
+
+    from support.nmea import nmea_lines
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    good = good_tables()
+    t = good.gnss["t_s"].to_numpy()
+    lines = nmea_lines(good.gnss, 1_552_262_400.0 + t, stamps=t)
+    frames = {}
+    for name in ("one", "rotated"):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, good)
+        (drive / "gnss.csv").unlink()
+        if name == "one":
+            (drive / "gps.nmea").write_text("\r\n".join(lines) + "\r\n")
+        else:
+            header, *rows = (drive / "wheels.csv").read_text().splitlines()
+            (drive / "wheels.csv.1").write_text("\n".join([header, *rows[:1500]]) + "\n")
+            (drive / "wheels.csv").write_text("\n".join([header, *rows[1500:]]) + "\n")
+            old = "\r\n".join(lines[:300]) + "\r\n"
+            (drive / "gps.nmea.2.gz").write_bytes(gzip.compress(old.encode()))
+            (drive / "gps.nmea.1").write_text("\r\n".join(lines[300:901]) + "\r\n")
+            (drive / "gps.nmea").write_text("\r\n".join(lines[901:]) + "\r\n")
+        out = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, drive, out, *fmt, "--nominal-radius", str(RADIUS_M))) == 0
+        frames[name] = (pd.read_csv(out), capsys.readouterr().err)
+    (one, _), (rotated, said) = frames["one"], frames["rotated"]
+    assert "38 seconds" in said
+    pd.testing.assert_frame_equal(rotated, one)
+
+
 def _predicted_streams(bundle, tmp_path, capsys, radius_m, **drives):
     """``rwhonet predict --quiet`` on each stream drive (name -> its tables, written as
     stream CSVs): name -> (the output, stderr)."""

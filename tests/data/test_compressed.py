@@ -256,3 +256,13 @@ def test_corrupted_compressed_data_is_refused_not_a_traceback(tmp_path, kind):
     with pytest.raises(InputError) as err:
         _read(packed, tmp_path)
     assert f"whole {kind}-compressed data" in err.value.problems[0].expected
+
+
+def test_a_log_rotator_s_number_is_left_off_the_name():
+    from rwhonet.data.compressed import without_rotation
+
+    assert without_rotation("gps.nmea.1") == "gps.nmea"
+    assert without_rotation("can0.log.12.gz") == "can0.log.gz"
+    assert without_rotation("wheels.csv") == "wheels.csv"
+    assert without_rotation("drive.2024.csv") == "drive.2024.csv"
+    assert without_rotation("data.1") == "data.1"  # no name with a suffix before it

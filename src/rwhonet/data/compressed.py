@@ -192,6 +192,17 @@ def is_csv_name(name: str) -> bool:
     return name.endswith(".csv") or any(lower.endswith(".csv" + s) for s in SUFFIXES)
 
 
+def without_rotation(name: str) -> str:
+    """A file's name without a log rotator's number (logrotate, ``RotatingFileHandler``:
+    ``gps.nmea.1``, ``can0.log.2.gz`` -> ``gps.nmea``, ``can0.log.gz``): the name a stream
+    folder's file is read by."""
+    inner = without_suffix(name)
+    stem, dot, number = inner.rpartition(".")
+    if not dot or not stem or not number.isdigit() or "." not in stem:
+        return name
+    return stem + name[len(inner) :]
+
+
 def without_suffix(name: str) -> str:
     """A file's name without a compression's suffix (``gps.nmea.gz`` -> ``gps.nmea``)."""
     for suffix in SUFFIXES:

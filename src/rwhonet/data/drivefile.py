@@ -42,6 +42,7 @@ from rwhonet.data.compressed import (
     decompressed_copy,
     drive_stem,
     is_csv_name,
+    without_rotation,
     without_suffix,
 )
 from rwhonet.data.csvio import RawDrive
@@ -362,16 +363,17 @@ def _read_streams(
         # a hidden file is none of the drive's (macOS's ._wheels.csv beside wheels.csv on
         # a logger's FAT card: binary metadata), as discover leaves hidden drives out
         # a receiver's NMEA log beside them (gps.nmea) is read as the GNSS stream, and a
-        # bus tool's raw CAN log (can0.log) as its messages' streams where the map has a dbc
+        # bus tool's raw CAN log (can0.log) as its messages' streams where the map has a dbc;
+        # a log rotator's files (gps.nmea.1, wheels.csv.2.gz) by their names without its number
         spec = data.signal_maps[f.format]
         every = sorted(
             p
             for p in f.path.glob("*")
             if p.is_file()
             and (
-                is_csv_name(p.name)
-                or is_nmea_name(p.name)
-                or (spec.dbc_files and is_can_log_name(p.name))
+                is_csv_name(name := without_rotation(p.name))
+                or is_nmea_name(name)
+                or (spec.dbc_files and is_can_log_name(name))
             )
         )
         files = [p for p in every if not p.name.startswith(".")]
@@ -380,11 +382,16 @@ def _read_streams(
             plain, shown, packed = [], {}, []
             for i, p in enumerate(files):  # a file kept compressed: read as its text
                 q, packing = p, compression_of(p)
+                name = without_suffix(without_rotation(p.name))
                 if packing is not None:
-                    q = Path(scratch) / str(i) / without_suffix(p.name)
+                    q = Path(scratch) / str(i) / name
                     q.parent.mkdir()
                     decompressed_copy(p, packing, q, data.max_file_mb, rel(p))
                     packed.append(f"{p.name} ({packing})")
+                elif name != p.name:  # a rotated file: read under its name without the number
+                    q = Path(scratch) / str(i) / name
+                    q.parent.mkdir()
+                    q.symlink_to(p.resolve())
                 shown[q] = rel(p)
                 plain.append(q)
             streams = read_stream_csvs(
@@ -419,7 +426,7 @@ def _resampled(
         require_fix=require_fix,
         gnss_lag=data.gnss_lag,
     )
-    sources = {s.where(): s.sources for s in streams.streams}
+    sources = {where: s.sources for s in streams.streams for where in s.wheres()}
     facts = StreamFacts(
         clock=streams.clock,
         n_input_rows=res.n_input_rows,
