@@ -17,12 +17,15 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from rwhonet.data import canonical as c
+from rwhonet.errors import InputError
 from rwhonet.sim.streams import StreamTables
 from support.fuzz import (
+    GOOD_STREAMS,
     STREAM_FILES,
     edited_log,
     edited_stream_drives,
@@ -263,3 +266,90 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
         grid_or_clear_refusal(
             read, lambda p: p.file.startswith(("can0.log", "gps.nmea", "streams"))
         )
+
+
+@st.composite
+def rotations(draw) -> dict[str, list[tuple[int, int, str, int]]]:
+    """How a logger rotating its files cuts the good drive's two files: for each, the cuts
+    (data rows), and per file after the first one habit at its cut: none, the last 1-3 rows
+    written into both files (``both``), 1-20 rows lost (``lost``), or (two loggers) the file
+    starting 1-5 rows early with other values (``other``); and the files' names in an order
+    that is not their time order. File -> ``[(cut, order, habit, count)]``."""
+    plan = {}
+    for name, (_, *rows) in GOOD_STREAMS.items():
+        n = len(rows)
+        cuts = sorted(draw(st.sets(st.integers(50, n - 50), min_size=0, max_size=3)))
+        if len(cuts) > 1 and min(np.diff(cuts)) < 30:
+            cuts = cuts[:1]
+        order = draw(st.permutations(range(len(cuts) + 1)))
+        habits = [("none", 0)] + [
+            draw(
+                st.one_of(
+                    st.just(("none", 0)),
+                    st.tuples(st.just("both"), st.integers(1, 3)),
+                    st.tuples(st.just("lost"), st.integers(1, 20)),
+                    st.tuples(st.just("other"), st.integers(1, 5)),
+                )
+            )
+            for _ in cuts
+        ]
+        plan[name] = [
+            (lo, o, h, k) for lo, o, (h, k) in zip([0, *cuts], order, habits, strict=True)
+        ]
+    return plan
+
+
+def _rotated(plan) -> dict[str, bytes]:
+    """The files of :func:`rotations`' plan."""
+    out = {}
+    for name, (header, *rows) in GOOD_STREAMS.items():
+        parts = plan[name]
+        ends = [lo for lo, *_ in parts[1:]] + [len(rows)]
+        for (lo, order, habit, count), hi in zip(parts, ends, strict=True):
+            part = list(rows[lo:hi])
+            if habit == "both":
+                part = rows[lo - count : lo] + part
+            elif habit == "lost":
+                del part[:count]
+            elif habit == "other":
+                part = [
+                    ",".join([r.split(",")[0], *(f"{float(x) + 0.25!r}" for x in r.split(",")[1:])])
+                    for r in rows[lo - count : lo]
+                ] + part
+            out[f"{name.removesuffix('.csv')}_{order}.csv"] = (
+                "\n".join([header, *part]) + "\n"
+            ).encode()
+    return out
+
+
+@FUZZ
+@given(plan=rotations())
+def test_a_stream_split_across_files_reads_as_the_one_file_or_is_refused_clearly(plan, capfd):
+    """Rotated files read as the one file's drive, bit for bit, where no sample was lost or
+    written with other values; two files overlapping with other values are refused, naming
+    the files; rows lost at a rotation give a grid or a clear refusal."""
+    files = _rotated(plan)
+    habits = {h for parts in plan.values() for _, _, h, _ in parts}
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
+        root = Path(tmp)
+        folder = folder_of("csv", root)
+        folder.mkdir(parents=True)
+        for name, data in files.items():
+            (folder / name).write_bytes(data)
+        if "other" in habits:
+            with pytest.raises(InputError) as err:
+                read_case("csv", root)
+            assert any("the files overlap by" in p.found for p in err.value.problems)
+            assert all(names_only(set(files))(p) for p in err.value.problems)
+            return
+        if "lost" in habits:
+            grid_or_clear_refusal(lambda: read_case("csv", root).drive, names_only(set(files)))
+            return
+        got = read_case("csv", root).drive.columns
+    with tempfile.TemporaryDirectory() as tmp:
+        write_good("csv", Path(tmp))
+        want = read_case("csv", Path(tmp)).drive.columns
+    assert got.keys() == want.keys()
+    for k in want:
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k)

@@ -159,18 +159,19 @@ def _joined(parts: Sequence[Group], notes: list[str], changed: list[str]) -> Gro
                 if (at < 0).any():
                     first = int(early[np.argmax(at < 0)])
                     problems.append(_overlap(ordered[q], g, first, rows, last))
-                    continue
-                for key, v in values[q].items():  # one sample's sentences in both files
-                    v[at] = np.where(np.isnan(v[at]), mine[key][early], v[at])
-                keep[early] = False
-                changed.append(
-                    f"{g.where}: a copy of {ordered[q].where} (every sample repeats one of "
-                    "its): left out"
-                    if early.size == t.size
-                    else f"{g.where}: its first {early.size} sample(s) at the times of the "
-                    f"last of {ordered[q].where} (the samples at the files' rotation, written "
-                    "into both): taken as one"
-                )
+                    keep[:] = False  # the file's problem said; the next compared with the last kept
+                else:
+                    for key, v in values[q].items():  # one sample's sentences in both files
+                        v[at] = np.where(np.isnan(v[at]), mine[key][early], v[at])
+                    keep[early] = False
+                    changed.append(
+                        f"{g.where}: a copy of {ordered[q].where} (every sample repeats one of "
+                        "its): left out"
+                        if early.size == t.size
+                        else f"{g.where}: its first {early.size} sample(s) at the times of the "
+                        f"last of {ordered[q].where} (the samples at the files' rotation, written "
+                        "into both): taken as one"
+                    )
         t_parts.append(t[keep])
         rows_parts.append(rows[keep])
         values.append({key: v[keep] for key, v in mine.items()})
