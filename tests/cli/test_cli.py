@@ -935,15 +935,18 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
     np.testing.assert_allclose(nmea["disp_gnss_m"], csv["disp_gnss_m"], atol=0.01)
 
 
-def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_path, capsys):
+@pytest.mark.parametrize("log", ["candump", "canedge"])
+def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_path, capsys, log):
     """A Linux logger's folder: the wheel speeds as raw CAN frames in can0.log on the
-    computer's Unix clock, the fixes as the receiver's unstamped NMEA log (gps.nmea.gz),
-    a map file with the DBC, the signals and a ``t``: predict's seconds are those of the
-    stream CSVs within the DBC's 0.01 km/h and the log's ddmm.mmmmmm rounding."""
+    computer's Unix clock (or a CANedge's MDF4 bus log split into three files, each on its
+    start time: 00000001.MF4 ...), the fixes as the receiver's unstamped NMEA log
+    (gps.nmea.gz), a map file with the DBC, the signals and a ``t``: predict's seconds are
+    those of the stream CSVs within the DBC's 0.01 km/h and the log's ddmm.mmmmmm
+    rounding."""
     import gzip
 
     from rwhonet.sim.streams import StreamTables
-    from support.canlog import DBC, stream_frames, write_candump
+    from support.canlog import DBC, stream_frames, write_candump, write_mdf_bus_log
     from support.nmea import nmea_lines
     from support.stream_corpus import RADIUS_M, good_tables
 
@@ -956,7 +959,12 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_
     folder = tmp_path / "bus"
     folder.mkdir()
     wheels_only = StreamTables(good.wheels, good.gnss.iloc[:0])
-    write_candump(*stream_frames(wheels_only, RADIUS_M, day), folder / "can0.log")
+    stamps, ids, data = stream_frames(wheels_only, RADIUS_M, day)
+    if log == "candump":
+        write_candump(stamps, ids, data, folder / "can0.log")
+    else:
+        for k, i in enumerate(np.array_split(np.arange(stamps.size), 3)):
+            write_mdf_bus_log(stamps[i], ids[i], data[i], folder / f"0000000{k + 1}.MF4")
     t = good.gnss["t_s"].to_numpy()
     lines = nmea_lines(good.gnss, day + t)
     (folder / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))

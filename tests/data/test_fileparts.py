@@ -234,6 +234,44 @@ def test_a_can_log_split_across_files_reads_as_the_one_log(tmp_path):
     assert w.where() == "can0_1.log + can0_2.log [WheelSpeeds 0x1A0]"
 
 
+def test_a_canedge_drive_of_split_mf4_files_reads_as_its_frames_in_one_log(tmp_path):
+    """A CANedge splits its MDF4 bus log into files, each with its own start time and a
+    master time counting from it: three such files (given in no order) beside the DBC read
+    as the same frames in one candump log (each file put on its start; the grid's times
+    within 1 µs, its wheel speeds within 1e-5 rad/s: candump writes its stamps to the µs,
+    which moves a frame near a grid row's edge to the other side)."""
+    from rwhonet.sim.streams import StreamSpec, stream_tables
+    from support.canlog import DBC, SIGNALS, stream_frames, write_candump, write_mdf_bus_log
+    from support.multirate import START_S, simulated_drive
+
+    state, vehicle, sim, ss, _ = simulated_drive(duration_s=60.0)
+    radius = vehicle.nominal_radius_m
+    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(50.0, 5.0), START_S)
+    stamps, ids, data = stream_frames(tables, radius, 1_700_000_000.0)
+    (tmp_path / "bus.dbc").write_text(DBC)
+    dbc = [str(tmp_path / "bus.dbc")]
+    smap = {"t": ColumnSpec("t", "s")} | {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+    one = write_candump(stamps, ids, data, tmp_path / "can0.log")
+    want = _columns(read_stream_csvs([one], smap, radius, "m", {one: "can0.log"}, dbc))
+    cuts = np.searchsorted(stamps, stamps[0] + np.array([20.0, 41.0]))
+    files = [
+        write_mdf_bus_log(stamps[i], ids[i], data[i], tmp_path / "LOG" / f"0000000{k + 1}.MF4")
+        for k, i in enumerate(np.split(np.arange(stamps.size), cuts))
+    ]
+    got_streams = read_stream_csvs(files[::-1], smap, radius, "m", {p: p.name for p in files}, dbc)
+    got = _columns(got_streams)
+    assert got.keys() == want.keys()
+    np.testing.assert_allclose(got[c.T_S], want[c.T_S], rtol=0, atol=1e-6)
+    for k in c.WHEELS:
+        np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-5)
+    np.testing.assert_allclose(got[c.LAT_DEG], want[c.LAT_DEG], rtol=0, atol=1e-9)
+    (w,) = got_streams.wheels
+    assert [f for f, _ in w.parts] == ["00000001.MF4", "00000002.MF4", "00000003.MF4"]
+    said = " ".join(got_streams.notes)
+    start = "(2023-11-15T10:43:40.038663+00:00) plus its master time"
+    assert f"00000002.MF4: its times are its start {start}" in said
+
+
 def test_a_glitch_in_a_later_file_is_placed_in_that_file():
     """The resampler's glitched samples of a joined stream name each sample's own file and
     row (what validate lists)."""

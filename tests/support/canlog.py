@@ -3,6 +3,7 @@ a CANedge or python-can's MF4Writer writes it) and the DBC that decodes them."""
 
 from __future__ import annotations
 
+from datetime import UTC
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,33 @@ def write_can_log(df: pd.DataFrame, path: Path, radius_m: float) -> Path:
     mdf.save(path, overwrite=True)
     mdf.close()
     path.with_suffix(".dbc").write_text(DBC)
+    return path
+
+
+def write_mdf_bus_log(stamps: np.ndarray, ids: np.ndarray, data: np.ndarray, path: Path) -> Path:
+    """Frames as a CANedge writes a split file: an MDF4 bus log whose header's start is the
+    first frame's time (UTC) and whose master time counts from it."""
+    from datetime import datetime
+
+    from asammdf import MDF, Signal
+    from asammdf.blocks.v4_blocks import SourceInformation
+    from asammdf.blocks.v4_constants import BUS_TYPE_CAN, SOURCE_BUS
+
+    frames = np.zeros(len(stamps), FRAME_DTYPE)
+    frames["CAN_DataFrame.BusChannel"] = 1
+    frames["CAN_DataFrame.ID"] = ids
+    frames["CAN_DataFrame.DLC"] = frames["CAN_DataFrame.DataLength"] = data.shape[1]
+    frames["CAN_DataFrame.DataBytes"] = data
+    start_ns = int(round(float(stamps[0]) * 1e6)) * 1000  # whole microseconds
+    mdf = MDF(version="4.10")
+    mdf.header.start_time = datetime.fromtimestamp(start_ns / 1e9, UTC)
+    mdf.header.abs_time = start_ns
+    source = SourceInformation(source_type=SOURCE_BUS, bus_type=BUS_TYPE_CAN)
+    mdf.append(Signal(frames, stamps - start_ns / 1e9, name="CAN_DataFrame", source=source))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    saved = Path(mdf.save(path, overwrite=True))  # asammdf writes the suffix in lower case
+    mdf.close()
+    saved.rename(path)  # a CANedge's: 00000001.MF4
     return path
 
 

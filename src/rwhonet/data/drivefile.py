@@ -357,6 +357,7 @@ def _read_streams(
         spec = data.signal_maps[f.format]
         streams = read_mdf4(f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_files)
     else:
+        from rwhonet.data.mdf4 import is_mdf_name
         from rwhonet.data.nmea import is_nmea_name
         from rwhonet.data.streamcsv import read_stream_csvs
 
@@ -373,7 +374,7 @@ def _read_streams(
             and (
                 is_csv_name(name := without_rotation(p.name))
                 or is_nmea_name(name)
-                or (spec.dbc_files and is_can_log_name(name))
+                or (spec.dbc_files and (is_can_log_name(name) or is_mdf_name(name)))
             )
         )
         files = [p for p in every if not p.name.startswith(".")]

@@ -24,12 +24,15 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec
 from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames
+from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import map_unit_name, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the MDF4 file's master time (s since the measurement start)"
+MDF_SUFFIXES = (".mf4", ".mdf")
+FLAG_HD_LOCAL_TIME = 1  # MDF4's HDBLOCK time flag: the start is local time, not UTC
 
 
 def read_mdf4(
@@ -143,6 +146,8 @@ def can_log_groups(
                 )
             ]
         )
+    if is_mdf_name(path.name):
+        return _mdf_log_groups(path, signal_map, radius_m, name, file, dbc, present_only)
     frames = read_frames(path, file)
     mdf = bus_log(frames)
     try:
@@ -161,6 +166,65 @@ def can_log_groups(
     notes.append(f"the time stamps are {frames.clock}")
     passed = [f"{file}: passed over: {frames.passed}"] if frames.passed else []
     return CanLogGroups(groups, frames.clock, [f"{file}: {n}" for n in notes] + passed, passed)
+
+
+def is_mdf_name(name: str) -> bool:
+    """Whether a file's name is an MDF file's (``00000001.MF4``, ``drive.mf4.gz``, ``x.mdf``)."""
+    return Path(without_suffix(name)).suffix.lower() in MDF_SUFFIXES
+
+
+def _mdf_log_groups(
+    path: Path,
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str,
+    file: str,
+    dbc: Sequence[str],
+    present_only: bool,
+) -> CanLogGroups:
+    """An MDF4 bus log among a stream folder's files (a CANedge's split files), decoded as
+    :func:`read_mdf4` decodes one, its times put on the file's start: each file's master
+    time counts from its own start (``header.start_time``), so only the start makes the
+    split files of one drive one clock, and a clock the folder's other files can share."""
+    from asammdf import MDF
+
+    mdf, problem = _open(MDF, path, file)
+    if problem is not None:
+        raise InputError([problem], summary=f"cannot decode {file}")
+    try:
+        decoded = _decoded(mdf, dbc, name, file)
+        try:
+            if present_only:
+                signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
+            groups = _groups(decoded, signal_map, radius_m, name, file)
+        finally:
+            decoded.close()
+        header = mdf.header
+        start_s = header.abs_time / 1e9
+        local = bool(header.time_flags & FLAG_HD_LOCAL_TIME)
+        clock = (
+            "the MDF4 files' start (local time, no zone given) plus their master time"
+            if local
+            else "Unix time (the MDF4 files' start, UTC, plus their master time)"
+        )
+        notes = [
+            _decoded_note(mdf, dbc),
+            f"its times are its start ({header.start_time.isoformat()}) plus its master time",
+        ]
+    finally:
+        mdf.close()
+    groups = [
+        Group(
+            g.name,
+            g.file,
+            g.t_s + start_s,
+            g.channels,
+            g.sources | {"t": "start + master time"},
+            g.rows,
+        )
+        for g in groups
+    ]
+    return CanLogGroups(groups, clock, [f"{file}: {n}" for n in notes], [])
 
 
 def _decoded_note(mdf, dbc: Sequence[str]) -> str:  # type: ignore[no-untyped-def]

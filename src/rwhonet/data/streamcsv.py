@@ -15,8 +15,9 @@ A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``) gives the fixes w
 CSV holds the map's latitude and longitude: :mod:`rwhonet.data.nmea` reads it and places
 it on the files' clock (``_nmea_group``). With the map's CAN databases (``dbc``), a bus
 tool's raw CAN log among them (``can0.log`` from ``candump -l``, ASC, BLF, TRC:
-:mod:`rwhonet.data.canlog`) is decoded as the MDF4 reader decodes a bus log, and each of
-its messages holding a mapped signal is a stream, the signal found by name as a column.
+:mod:`rwhonet.data.canlog`; or an MDF4 bus log, a CANedge's split files, on each file's
+start time) is decoded as the MDF4 reader decodes a bus log, and each of its messages
+holding a mapped signal is a stream, the signal found by name as a column.
 Files of one stream a logger split in time (``wheels_000.csv``, ``wheels_001.csv``; NMEA
 logs; raw CAN logs) are joined by :mod:`rwhonet.data.fileparts`.
 
@@ -57,7 +58,7 @@ from rwhonet.data.csvio import (
 )
 from rwhonet.data.fileparts import join_parts
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
-from rwhonet.data.mdf4 import CanLogGroups, can_log_groups
+from rwhonet.data.mdf4 import CanLogGroups, can_log_groups, is_mdf_name
 from rwhonet.data.nmea import is_nmea_name, on_clock, read_nmea
 from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
@@ -114,7 +115,8 @@ def read_stream_csvs(
     check_signal_map(name, signal_map, with_time=True, where=name)
     every = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
     logs = [(p, f) for p, f in every if is_nmea_name(p.name)]  # a receiver's NMEA log
-    buses = [(p, f) for p, f in every if dbc and is_can_log_name(p.name)]  # raw CAN logs
+    # raw CAN logs: a bus tool's, or MDF4 bus logs (a CANedge's split files)
+    buses = [(p, f) for p, f in every if dbc and (is_can_log_name(p.name) or is_mdf_name(p.name))]
     files = [(p, f) for p, f in every if (p, f) not in logs and (p, f) not in buses]
     problems: list[Problem] = []
     decoded: dict[str, CanLogGroups] = {}
