@@ -66,6 +66,22 @@ def best(fn, repeat: int):
     return out, min(times)
 
 
+def rotated_csvs(csvs: dict[str, Path], folder: Path, every_s: float) -> list[Path]:
+    """Each stream CSV cut into files of ``every_s`` seconds (``wheels_000.csv``, ...), the
+    header in each, as a logger rotating its files writes them."""
+    folder.mkdir()
+    out = []
+    for name, path in csvs.items():
+        header, *rows = path.read_text().splitlines()
+        t = np.array([float(r.split(",", 1)[0]) for r in rows])
+        cuts = np.flatnonzero(np.diff(np.floor(t / every_s))) + 1
+        for k, part in enumerate(np.split(np.arange(len(rows)), cuts)):
+            f = folder / f"{name}_{k:03d}.csv"
+            f.write_text("\n".join([header, *(rows[i] for i in part)]) + "\n")
+            out.append(f)
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--hours", type=float, default=2.0)
@@ -108,11 +124,14 @@ def main() -> None:
         blf = write_bus_log(*frames, root / "bus.blf")
         (root / "bus.dbc").write_text(DBC)
         can_map = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+        # the stream CSVs as a logger rotating its files every 10 minutes writes them
+        rotated = rotated_csvs(csvs, root / "rotated", 600.0)
         dbc = [str(root / "bus.dbc")]
         readers = {
             "one CSV per stream": lambda: read_stream_csvs(
                 list(csvs.values()), signal_map(), radius
             ),
+            "CSVs in 10 min files": lambda: read_stream_csvs(rotated, signal_map(), radius),
             "CSV + NMEA log": lambda: read_stream_csvs(
                 [csvs["wheels"], nmea], signal_map(), radius
             ),
@@ -129,6 +148,13 @@ def main() -> None:
             total = t_read + t_res
             results[name] = res, total
             print(f"{name:<20} {t_read:>7.3f} {t_res:>10.3f} {total:>8.3f} {n / total / 1e6:>9.2f}")
+        one, split = (
+            results[k][0].drive.columns for k in ("one CSV per stream", "CSVs in 10 min files")
+        )
+        same = one.keys() == split.keys() and all(
+            np.array_equal(one[k], split[k], equal_nan=True) for k in one
+        )
+        print(f"the {len(rotated)} rotated files give the one-file grid bit for bit: {same}")
         res, total = results["comma2k19 folder"]
         grid = res.drive.columns
         vp = params.validate
