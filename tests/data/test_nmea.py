@@ -362,6 +362,13 @@ def test_a_file_without_gga_or_rmc_is_refused(tmp_path):
         with pytest.raises(InputError) as err:  # before stop 64: IndexError (no "$" at all)
             read_nmea(path, "empty.nmea")
         assert "empty.nmea: expected NMEA 0183 GGA, RMC, GNS or GLL sentences" in str(err.value)
+    # two such logs of one drive: both named in one report
+    (tmp_path / "gps_1.nmea").write_text("")
+    (tmp_path / "gps_2.nmea").write_text("no sentence here\n")
+    files = [_wheels(tmp_path / "w"), tmp_path / "gps_1.nmea", tmp_path / "gps_2.nmea"]
+    with pytest.raises(InputError) as err:
+        _labels(files)
+    assert {Path(p.file).name for p in err.value.problems} == {"gps_1.nmea", "gps_2.nmea"}
 
 
 def _stream_folder(tmp_path, with_nmea=True, with_gnss_csv=False, two=False):

@@ -13,7 +13,7 @@ and column. The clock is the files' common time column.
 
 A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``) gives the fixes where no
 CSV holds the map's latitude and longitude: :mod:`rwhonet.data.nmea` reads it and places
-it on the files' clock (``_nmea_group``). With the map's CAN databases (``dbc``), a bus
+it on the files' clock (``_nmea_groups``). With the map's CAN databases (``dbc``), a bus
 tool's raw CAN log among them (``can0.log`` from ``candump -l``, ASC, BLF, TRC:
 :mod:`rwhonet.data.canlog`; or an MDF4 bus log, a CANedge's split files, on each file's
 start time) is decoded as the MDF4 reader decodes a bus log, and each of its messages
@@ -518,9 +518,15 @@ def _nmea_groups(
     the keys all of them give. Sentences passed over (a checksum that does not match, a
     line cut short, ...) are said in ``changed`` too, so predict says them.
     """
-    read = [read_nmea(path, file) for path, file in logs]
+    read, problems = [], []
+    for path, file in logs:  # every log's problems in one report
+        try:
+            read.append(read_nmea(path, file))
+        except InputError as err:
+            problems += err.problems
+    if problems:
+        raise InputError(problems)
     common = set.intersection(*(set(log.channels) for log in read))
-    problems = []
     out = []
     for log in read:
         if log.dropped:
