@@ -268,8 +268,19 @@ def test_a_canedge_drive_of_split_mf4_files_reads_as_its_frames_in_one_log(tmp_p
     (w,) = got_streams.wheels
     assert [f for f, _ in w.parts] == ["00000001.MF4", "00000002.MF4", "00000003.MF4"]
     said = " ".join(got_streams.notes)
-    start = "(2023-11-15T10:43:40.038663+00:00) plus its master time"
+    start = "(2023-11-15T10:43:40.038663+00:00) plus its master time: Unix time"
     assert f"00000002.MF4: its times are its start {start}" in said
+    # a file whose start is marked local time: read as it is, and the note says so
+    from asammdf import MDF
+
+    with MDF(files[0]) as mdf:
+        mdf.header.time_flags = 1  # MDF4's local-time flag
+        mdf.save(tmp_path / "local.mf4", overwrite=True)
+    local = tmp_path / "local.mf4"
+    streams = read_stream_csvs([local], smap, radius, "m", {local: "local.mf4"}, dbc)
+    assert "plus its master time: a local time (the file marks its start as local" in " ".join(
+        streams.notes
+    )
 
 
 def test_a_glitch_in_a_later_file_is_placed_in_that_file():

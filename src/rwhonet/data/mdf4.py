@@ -203,13 +203,14 @@ def _mdf_log_groups(
         start_s = header.abs_time / 1e9
         local = bool(header.time_flags & FLAG_HD_LOCAL_TIME)
         clock = (
-            "the MDF4 files' start (local time, no zone given) plus their master time"
+            "a local time (the file marks its start as local time, without a zone)"
             if local
-            else "Unix time (the MDF4 files' start, UTC, plus their master time)"
+            else "Unix time (the file's start is UTC)"
         )
         notes = [
             _decoded_note(mdf, dbc),
-            f"its times are its start ({header.start_time.isoformat()}) plus its master time",
+            f"its times are its start ({header.start_time.isoformat()}) plus its master time: "
+            + clock,
         ]
     finally:
         mdf.close()
