@@ -64,8 +64,6 @@ def read_mdf4(
             its unit contradicts the map, or its samples are not numbers; every problem is
             listed.
     """
-    from asammdf import MDF  # imported here: it takes most of a second to import
-
     check_signal_map(name, signal_map, where=name)
     file = display or str(path)
     if not Path(path).is_file():
@@ -78,9 +76,7 @@ def read_mdf4(
             notes=(*streams.notes, *log.notes),
             changed=(*streams.changed, *log.changed),
         )
-    mdf, problem = _open(MDF, path, file)
-    if problem is not None:
-        raise InputError([problem], summary=f"cannot decode {file}")
+    mdf = _opened(path, file)
     try:
         if not dbc:
             return _read(mdf, signal_map, radius_m, name, file)
@@ -146,21 +142,25 @@ def can_log_groups(
                 )
             ]
         )
-    if is_mdf_name(path.name):
-        return _mdf_log_groups(path, signal_map, radius_m, name, file, dbc, present_only)
-    frames = read_frames(path, file)
-    mdf = bus_log(frames)
+    frames = None if is_mdf_name(path.name) else read_frames(path, file)
+    mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         decoded = _decoded(mdf, dbc, name, file)
         try:
             if present_only:
                 signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
-            groups = _groups(decoded, signal_map, radius_m, name, file, False, frames)
+            groups = _groups(decoded, signal_map, radius_m, name, file, frames is None, frames)
         finally:
             decoded.close()
         notes = [_decoded_note(mdf, dbc)]
+        start_s, clock, said = (0.0, "", "") if frames is not None else _start(mdf.header)
     finally:
         mdf.close()
+    if frames is None:  # an MDF4 bus log (a CANedge's split file): its times on its start
+        groups = [
+            Group(g.name, g.file, g.t_s + start_s, g.channels, g.sources, g.rows) for g in groups
+        ]
+        return CanLogGroups(groups, clock, [f"{file}: {n}" for n in [*notes, said]], [])
     buses = ", ".join(frames.buses)
     notes.append(f"{frames.t_s.size} data frames on {len(frames.buses)} bus(es) ({buses})")
     notes.append(f"the time stamps are {frames.clock}")
@@ -173,59 +173,29 @@ def is_mdf_name(name: str) -> bool:
     return Path(without_suffix(name)).suffix.lower() in MDF_SUFFIXES
 
 
-def _mdf_log_groups(
-    path: Path,
-    signal_map: Mapping[str, ColumnSpec],
-    radius_m: float | None,
-    name: str,
-    file: str,
-    dbc: Sequence[str],
-    present_only: bool,
-) -> CanLogGroups:
-    """An MDF4 bus log among a stream folder's files (a CANedge's split files), decoded as
-    :func:`read_mdf4` decodes one, its times put on the file's start: each file's master
-    time counts from its own start (``header.start_time``), so only the start makes the
-    split files of one drive one clock, and a clock the folder's other files can share."""
-    from asammdf import MDF
+def _opened(path: Path, file: str):  # type: ignore[no-untyped-def]
+    """``asammdf.MDF(path)``, or its refusal."""
+    from asammdf import MDF  # imported here: it takes most of a second to import
 
     mdf, problem = _open(MDF, path, file)
     if problem is not None:
         raise InputError([problem], summary=f"cannot decode {file}")
-    try:
-        decoded = _decoded(mdf, dbc, name, file)
-        try:
-            if present_only:
-                signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
-            groups = _groups(decoded, signal_map, radius_m, name, file)
-        finally:
-            decoded.close()
-        header = mdf.header
-        start_s = header.abs_time / 1e9
-        local = bool(header.time_flags & FLAG_HD_LOCAL_TIME)
-        clock = (
-            "a local time (the file marks its start as local time, without a zone)"
-            if local
-            else "Unix time (the file's start is UTC)"
-        )
-        notes = [
-            _decoded_note(mdf, dbc),
-            f"its times are its start ({header.start_time.isoformat()}) plus its master time: "
-            + clock,
-        ]
-    finally:
-        mdf.close()
-    groups = [
-        Group(
-            g.name,
-            g.file,
-            g.t_s + start_s,
-            g.channels,
-            g.sources | {"t": "start + master time"},
-            g.rows,
-        )
-        for g in groups
-    ]
-    return CanLogGroups(groups, clock, [f"{file}: {n}" for n in notes], [])
+    return mdf
+
+
+def _start(header) -> tuple[float, str, str]:  # type: ignore[no-untyped-def]
+    """An MDF4 bus log's start among a stream folder's files (a CANedge's split files):
+    each file's master time counts from its own start (``header.start_time``), so only the
+    start makes the split files of one drive one clock, and a clock the folder's other
+    files can share. Returns the start (s), what the clock is, and the note."""
+    local = bool(header.time_flags & FLAG_HD_LOCAL_TIME)
+    clock = (
+        "a local time (the file marks its start as local time, without a zone)"
+        if local
+        else "Unix time (the file's start is UTC)"
+    )
+    said = f"its times are its start ({header.start_time.isoformat()}) plus its master time: "
+    return header.abs_time / 1e9, clock, said + clock
 
 
 def _decoded_note(mdf, dbc: Sequence[str]) -> str:  # type: ignore[no-untyped-def]

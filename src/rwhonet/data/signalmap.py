@@ -48,7 +48,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues
 from rwhonet.data.packed import HHMMSS, VBOX_SATS, is_packed, unpack_or_refuse
 from rwhonet.data.sampleorder import time_order
-from rwhonet.data.streams import DriveStreams, Stream, stream_problems
+from rwhonet.data.streams import DriveStreams, Stream, stream_problems, where_named
 from rwhonet.data.texttime import CLOCK, ISO8601, is_pattern, pattern_problem
 from rwhonet.data.wheelunits import WHEEL_UNITS, wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
@@ -198,7 +198,7 @@ class Group:
     @property
     def where(self) -> str:
         """The group as messages name it (as :meth:`Stream.where` does)."""
-        return f"{self.file} [{self.name}]" if self.name and self.name != self.file else self.file
+        return where_named(self.file, self.name)
 
 
 def in_time_order(g: Group) -> tuple[Group, tuple[str, ...]]:

@@ -165,12 +165,12 @@ class Stream:
         rows = self.file_rows(index)
         if self.part is None:
             return [(self.where(), int(r)) for r in rows]
-        wheres = [_where(f, n) for f, n in self.parts]
+        wheres = [where_named(f, n) for f, n in self.parts]
         return [(wheres[k], int(r)) for k, r in zip(self.part[index], rows, strict=True)]
 
     def wheres(self) -> list[str]:
         """How messages name the stream: as a whole, and each of its files."""
-        return [self.where(), *(_where(f, n) for f, n in self.parts)]
+        return [self.where(), *(where_named(f, n) for f, n in self.parts)]
 
     def row_problems(
         self,
@@ -195,7 +195,9 @@ class Stream:
             if mine.size:
                 found_ = [found(int(i)) for i in mine[:ROWS_LISTED]]
                 rows = self.file_rows(mine)
-                out += row_problems(_where(file, name), column, rows, found_, expected, fix=fix)
+                out += row_problems(
+                    where_named(file, name), column, rows, found_, expected, fix=fix
+                )
         return out
 
     @property
@@ -205,7 +207,7 @@ class Stream:
 
     def where(self, name: str | None = None) -> str:
         """How a problem names the stream (and a channel of it): file, stream, channel."""
-        what = _where(self.file, self.name)
+        what = where_named(self.file, self.name)
         return what if name is None else f"{what} {self.sources.get(name, name)!r}"
 
     def label(self, name: str) -> str:
@@ -213,7 +215,8 @@ class Stream:
         return f"{self.name}: {self.sources.get(name, name)}"
 
 
-def _where(file: str, name: str) -> str:
+def where_named(file: str, name: str) -> str:
+    """How messages name a stream ``name`` of ``file`` (the file alone where they agree)."""
     return f"{file} [{name}]" if name and name != file else file
 
 
