@@ -83,17 +83,13 @@ def test_a_split_stream_across_midnight_gives_the_labels_of_the_drive_by_day(tmp
     and the seconds and labels are those of the same drive by day (within 1e-6 m, the
     clock's rounding). A GPS time of week across the week's end likewise."""
     from rwhonet.sim.streams import (
-        StreamSpec,
         StreamTables,
         signal_map,
-        stream_tables,
         write_stream_csvs,
     )
-    from support.multirate import START_S, per_second, simulated_drive
+    from support.multirate import START_S, per_second, simulated_streams
 
-    state, vehicle, sim, ss, _ = simulated_drive(duration_s=120.0)
-    radius = vehicle.nominal_radius_m
-    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, 10.0), START_S)
+    tables, radius = simulated_streams(120.0, 100.0, 10.0)
     shift = period - 60.0 - START_S  # the drive starts a minute before midnight
 
     def read(files):
@@ -203,24 +199,36 @@ def test_files_with_a_column_in_common_but_not_all_are_refused_naming_each(tmp_p
     assert "each file of one stream a logger split in time" in problem.expected
 
 
-def test_a_can_log_split_across_files_reads_as_the_one_log(tmp_path):
-    """``candump -l`` under a log rotator: can0.log.1 ... as can0_1.log, can0_2.log beside
-    the DBC: each message's frames joined across the logs; the wheel speeds and fixes are
-    the one log's, bit for bit."""
-    from rwhonet.sim.streams import StreamSpec, stream_tables
+def _can_drive(tmp_path):
+    """A simulated minute's streams as raw CAN frames (``(stamps, ids, data)`` on a Unix
+    clock), the car's radius, the map, the DBC beside them, and the frames' streams read
+    from one candump log (one/can0.log)."""
     from support.canlog import DBC, SIGNALS, stream_frames, write_candump
-    from support.multirate import START_S, simulated_drive
+    from support.multirate import simulated_streams
 
-    state, vehicle, sim, ss, _ = simulated_drive(duration_s=60.0)
-    radius = vehicle.nominal_radius_m
-    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(50.0, 5.0), START_S)
-    stamps, ids, data = stream_frames(tables, radius, 1_700_000_000.0)
+    tables, radius = simulated_streams(60.0, 50.0, 5.0)
+    frames = stream_frames(tables, radius, 1_700_000_000.0)
     (tmp_path / "bus.dbc").write_text(DBC)
     dbc = [str(tmp_path / "bus.dbc")]
     smap = {"t": ColumnSpec("t", "s")} | {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
     (tmp_path / "one").mkdir()
-    one = write_candump(stamps, ids, data, tmp_path / "one" / "can0.log")
-    want = read_stream_csvs([one], smap, radius, "m", {one: "can0.log"}, dbc)
+    one = write_candump(*frames, tmp_path / "one" / "can0.log")
+    return (
+        frames,
+        radius,
+        smap,
+        dbc,
+        read_stream_csvs([one], smap, radius, "m", {one: "can0.log"}, dbc),
+    )
+
+
+def test_a_can_log_split_across_files_reads_as_the_one_log(tmp_path):
+    """``candump -l`` under a log rotator: can0.log.1 ... as can0_1.log, can0_2.log beside
+    the DBC: each message's frames joined across the logs; the wheel speeds and fixes are
+    the one log's, bit for bit."""
+    from support.canlog import write_candump
+
+    (stamps, ids, data), radius, smap, dbc, want = _can_drive(tmp_path)
     cut = len(stamps) // 3
     (tmp_path / "split").mkdir()
     logs = [
@@ -240,19 +248,10 @@ def test_a_canedge_drive_of_split_mf4_files_reads_as_its_frames_in_one_log(tmp_p
     as the same frames in one candump log (each file put on its start; the grid's times
     within 1 µs, its wheel speeds within 1e-5 rad/s: candump writes its stamps to the µs,
     which moves a frame near a grid row's edge to the other side)."""
-    from rwhonet.sim.streams import StreamSpec, stream_tables
-    from support.canlog import DBC, SIGNALS, stream_frames, write_candump, write_mdf_bus_log
-    from support.multirate import START_S, simulated_drive
+    from support.canlog import write_mdf_bus_log
 
-    state, vehicle, sim, ss, _ = simulated_drive(duration_s=60.0)
-    radius = vehicle.nominal_radius_m
-    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(50.0, 5.0), START_S)
-    stamps, ids, data = stream_frames(tables, radius, 1_700_000_000.0)
-    (tmp_path / "bus.dbc").write_text(DBC)
-    dbc = [str(tmp_path / "bus.dbc")]
-    smap = {"t": ColumnSpec("t", "s")} | {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
-    one = write_candump(stamps, ids, data, tmp_path / "can0.log")
-    want = _columns(read_stream_csvs([one], smap, radius, "m", {one: "can0.log"}, dbc))
+    (stamps, ids, data), radius, smap, dbc, one = _can_drive(tmp_path)
+    want = _columns(one)
     cuts = np.searchsorted(stamps, stamps[0] + np.array([20.0, 41.0]))
     files = [
         write_mdf_bus_log(stamps[i], ids[i], data[i], tmp_path / "LOG" / f"0000000{k + 1}.MF4")

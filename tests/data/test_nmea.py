@@ -32,12 +32,9 @@ DAY_S = 1_552_262_400.0
 @cache
 def _drive():
     """A simulated 120 s drive's streams: 100 Hz wheels, a 10 Hz receiver (times of day)."""
-    from rwhonet.sim.streams import StreamSpec, stream_tables
-    from support.multirate import START_S, simulated_drive
+    from support.multirate import simulated_streams
 
-    state, vehicle, sim, ss, _ = simulated_drive(duration_s=120.0)
-    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, 10.0), START_S)
-    return tables, vehicle.nominal_radius_m
+    return simulated_streams(120.0, 100.0, 10.0)
 
 
 def _labels(files, smap=None):

@@ -44,14 +44,19 @@ FUZZ = fuzz_settings(40, deadline_ms=5000)
 def test_an_edited_stream_drive_reads_or_is_refused_clearly(files, capfd):
     capfd.readouterr()
     with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
-        root = Path(tmp)
-        folder = folder_of("csv", root)
-        folder.mkdir(parents=True)
-        for name, data in files.items():
-            (folder / name).write_bytes(data)
+        root = _stream_folder(Path(tmp), files)
         grid_or_clear_refusal(
             lambda: read_case("csv", root).drive, names_only({*STREAM_FILES, "streams"})
         )
+
+
+def _stream_folder(root: Path, files: dict[str, bytes]) -> Path:
+    """``files`` written as the stream folder of a case under ``root``; returns ``root``."""
+    folder = folder_of("csv", root)
+    folder.mkdir(parents=True)
+    for name, data in files.items():
+        (folder / name).write_bytes(data)
+    return root
 
 
 @st.composite
@@ -332,11 +337,7 @@ def test_a_stream_split_across_files_reads_as_the_one_file_or_is_refused_clearly
     habits = {h for parts in plan.values() for _, _, h, _ in parts}
     capfd.readouterr()
     with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
-        root = Path(tmp)
-        folder = folder_of("csv", root)
-        folder.mkdir(parents=True)
-        for name, data in files.items():
-            (folder / name).write_bytes(data)
+        root = _stream_folder(Path(tmp), files)
         if "other" in habits:
             with pytest.raises(InputError) as err:
                 read_case("csv", root)

@@ -235,17 +235,13 @@ def test_stream_csvs_across_midnight_give_the_labels_of_the_drive_by_day(
     whose first fix comes 1.5 s in, 1 s before midnight, the fixes' file starts past
     midnight, after the wheels' file. A GPS time of week across the week's end likewise."""
     from rwhonet.sim.streams import (
-        StreamSpec,
         StreamTables,
         signal_map,
-        stream_tables,
         write_stream_csvs,
     )
-    from support.multirate import START_S, per_second, simulated_drive
+    from support.multirate import START_S, per_second, simulated_streams
 
-    state, vehicle, sim, ss, _ = simulated_drive(duration_s=120.0)
-    radius = vehicle.nominal_radius_m
-    tables = stream_tables(state, vehicle, sim, ss, StreamSpec(100.0, gnss_hz), START_S)
+    tables, radius = simulated_streams(120.0, 100.0, gnss_hz)
     late = tables.gnss[tables.gnss[c.T_S] >= START_S + 1.5] if before_s < 1.5 else tables.gnss
     tables = StreamTables(tables.wheels, late.reset_index(drop=True))
     shift = period - before_s - START_S  # whole seconds: the same seconds
