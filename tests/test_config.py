@@ -126,6 +126,9 @@ TEXT_PARAMS = {
     "data.signal_maps.*.source": "named in messages only (the --signal-map file)",
     "data.signal_maps.*.dbc": "read from anywhere (a CAN database)",
     "data.signal_maps.*.dbc[*]": "read from anywhere (a CAN database)",
+    # per bus: the bus (a key) is only matched against the log's buses
+    "data.signal_maps.*.dbc.*": "read from anywhere (a CAN database of one bus)",
+    "data.signal_maps.*.dbc.*[*]": "read from anywhere (a CAN database of one bus)",
     "validate.cuts[*].drive": "a drive's name, matched",
     "validate.cuts[*].reason": "free text",
     "sim.profile": "a profile's name",

@@ -508,22 +508,38 @@ class SignalMapSpec:
     (DBC, or ARXML) that decode a log of raw CAN frames (an MDF4 bus log: a CANedge's, a
     Vector logger's; a candump, ASC, BLF or TRC log, alone or, for ``stream_csv``, among
     the folder's CSVs and NMEA log) before its signals are read; paths relative to the
-    project root (a map file's: to its folder). Empty: the file holds decoded signals.
+    project root (a map file's: to its folder). One file or a list decodes every bus; a
+    mapping from a bus to its file(s) (``{can0: chassis.dbc, can1: [pt.dbc]}``) decodes
+    each bus by its own, the bus named as the log names it (a candump interface, ASC/BLF's
+    channel number; an MDF4 bus log's bus channel number). Empty: the file holds decoded
+    signals.
     """
 
     reader: Literal["mdf4", "stream_csv"]
     signals: dict[str, ColumnSpec]
     source: str | None = None
-    dbc: list[str] | str = field(default_factory=list)
+    dbc: list[str] | str | dict[str, list[str] | str] = field(default_factory=list)
+
+    @property
+    def dbc_buses(self) -> tuple[tuple[str, str | None], ...]:
+        """Each CAN database with the bus it decodes (None: every bus), relative paths from
+        the project root."""
+        from rwhonet import paths
+
+        def files(v: list[str] | str) -> tuple[str, ...]:
+            return (v,) if isinstance(v, str) else tuple(v)
+
+        if isinstance(self.dbc, dict):
+            pairs = [(f, str(bus)) for bus, v in self.dbc.items() for f in files(v)]
+        else:
+            pairs = [(f, None) for f in files(self.dbc)]
+        return tuple((str(paths.resolve(f)), bus) for f, bus in pairs)
 
     @property
     def dbc_files(self) -> tuple[str, ...]:
-        """The CAN databases (one or a list, as written), relative ones from the project
-        root."""
-        from rwhonet import paths
-
-        files = (self.dbc,) if isinstance(self.dbc, str) else tuple(self.dbc)
-        return tuple(str(paths.resolve(d)) for d in files)
+        """The CAN databases (one, a list or per bus, as written), relative ones from the
+        project root."""
+        return tuple(dict.fromkeys(f for f, _ in self.dbc_buses))
 
 
 @dataclass(frozen=True)

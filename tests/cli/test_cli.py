@@ -983,6 +983,11 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_
     np.testing.assert_allclose(bus["t_s"] - day, csv["t_s"], atol=1e-6)
     for q in ("disp_gnss_m", "disp_wpm_m", "pred_error_m", "disp_corrected_m"):
         np.testing.assert_allclose(bus[q], csv[q], atol=0.01)
+    # the map's database given to the log's one bus (can0; a CANedge's bus channel 1)
+    one_bus = "{can0: v.dbc}" if log == "candump" else "{1: [v.dbc]}"
+    smap.write_text(smap.read_text().replace("dbc: v.dbc", f"dbc: {one_bus}"))
+    assert main(predict_args(bundle, folder, tmp_path / "bus1.csv", *fmt, *car)) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "bus1.csv"), bus)
 
 
 def _stream_drive(tmp_path, tables):

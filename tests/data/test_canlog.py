@@ -300,7 +300,22 @@ def test_messages_on_two_buses_are_named_by_bus_and_a_mirrored_one_is_refused(tm
         read_mdf4(tmp_path / "mirror.log", _signals(), RADIUS_M, NAME, "mirror.log", dbc)
     problem = err.value.problems[0]
     assert problem.found == "2 signals of that name, on the buses can1, can2"
-    assert "grep ' can1 '" in problem.fix
+    assert (
+        "grep ' can1 '" in problem.fix
+        and f"{NAME.removesuffix('.signals')}.dbc per bus" in problem.fix
+    )
+    # the map's databases per bus: can2's copy is not decoded, the log reads as two.log
+    per_bus = [(dbc[0], "can0"), (dbc[0], "can1")]
+    got = read_mdf4(tmp_path / "mirror.log", _signals(), RADIUS_M, NAME, "mirror.log", per_bus)
+    (wheels,) = got.wheels
+    np.testing.assert_array_equal(wheels.t_s, streams.wheels[0].t_s)
+    for w in c.WHEELS:
+        np.testing.assert_array_equal(wheels.channels[w], streams.wheels[0].channels[w])
+    assert "bus.dbc (can0), bus.dbc (can1)" in " ".join(got.notes)
+    with pytest.raises(InputError) as err:  # a bus the log does not have
+        read_mdf4(tmp_path / "mirror.log", _signals(), RADIUS_M, NAME, "m.log", [(dbc[0], "can 1")])
+    (problem,) = err.value.problems
+    assert problem.found == "the log's buses are can1, can0, can2"
 
 
 def test_time_stamps_read_as_float_reads_them(tmp_path):

@@ -96,6 +96,30 @@ def test_a_dbc_is_one_file_or_a_list_for_either_reader():
     assert len(spec.dbc_files) == 1 and spec.dbc_files[0].endswith("/can.dbc")
     two = parse_value(SignalMapSpec, {"reader": "mdf4", "signals": SIGNALS, "dbc": ["a", "b"]}, "m")
     assert [f.rsplit("/", 1)[1] for f in two.dbc_files] == ["a", "b"]
+    per_bus = {"reader": "mdf4", "signals": SIGNALS, "dbc": {"can0": "a", 2: ["b", "c"]}}
+    spec = parse_value(SignalMapSpec, per_bus, "m")
+    assert [(f.rsplit("/", 1)[1], b) for f, b in spec.dbc_buses] == [
+        ("a", "can0"),
+        ("b", "2"),
+        ("c", "2"),
+    ]
+    assert [f.rsplit("/", 1)[1] for f in spec.dbc_files] == ["a", "b", "c"]
     csv = SignalMapSpec("stream_csv", _signals(), dbc=["can.dbc"])
     data = DataParams("files", "data/raw", {}, {}, signal_maps={"logger": csv})
     assert data.signal_maps["logger"].dbc_files[0].endswith("/can.dbc")
+
+
+def test_an_mdf4_bus_log_s_database_per_bus_channel(log):
+    """A database given to the MDF4 bus log's bus channel 1 (its only one) decodes it as
+    for every bus; given to channel 2, it is refused, naming the log's channels."""
+    _, path = log
+    dbc = str(path.with_suffix(".dbc"))
+    every = read_mdf4(path, _signals(), RADIUS_M, NAME, dbc=[dbc])
+    one = read_mdf4(path, _signals(), RADIUS_M, NAME, dbc=[(dbc, "1")])
+    np.testing.assert_array_equal(
+        one.wheels[0].channels[c.OMEGA_FL], every.wheels[0].channels[c.OMEGA_FL]
+    )
+    with pytest.raises(InputError) as err:
+        read_mdf4(path, _signals(), RADIUS_M, NAME, dbc=[(dbc, "2")])
+    (problem,) = err.value.problems
+    assert problem.found == "the log's buses are 1" and "bus channel number" in problem.fix

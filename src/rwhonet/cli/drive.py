@@ -240,15 +240,21 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
     from rwhonet.data.signalmap import check_signal_map  # the stream readers: a map needs them
 
     raw = read_yaml(signal_map, "a signal map: key -> {column, unit}")
-    dbc: list[str] | str = []
+    dbc: list[str] | str | dict[str, list[str] | str] = []
     if isinstance(raw, dict) and "signals" in raw:
-        # beside signals: the CAN databases of a log of raw frames, relative to the map file
-        dbc = parse_value(list[str] | str, raw.get("dbc", []), f"--signal-map {signal_map} dbc")
+        # beside signals: the CAN databases of a log of raw frames (one, a list, or per
+        # bus), relative to the map file
+        kind = list[str] | str | dict[str, list[str] | str]
+        dbc = parse_value(kind, raw.get("dbc", []), f"--signal-map {signal_map} dbc")
         raw = raw["signals"]
     signals = parse_value(dict[str, ColumnSpec], raw, f"--signal-map {signal_map}")
     check_signal_map(fmt, signals, with_time=fmt == "stream_csv", where=signal_map)
     folder = Path(signal_map).parent
-    files = [str((folder / f).resolve()) for f in ([dbc] if isinstance(dbc, str) else dbc)]
+
+    def resolved(v: list[str] | str) -> list[str]:
+        return [str((folder / f).resolve()) for f in ([v] if isinstance(v, str) else v)]
+
+    files = {b: resolved(v) for b, v in dbc.items()} if isinstance(dbc, dict) else resolved(dbc)
     spec = SignalMapSpec(fmt, signals, source=signal_map, dbc=files)
     maps = {**data.signal_maps, fmt: spec}
     return dataclasses.replace(params, data=dataclasses.replace(data, signal_maps=maps))

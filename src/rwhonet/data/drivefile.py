@@ -355,7 +355,7 @@ def _read_streams(
         from rwhonet.data.mdf4 import read_mdf4
 
         spec = data.signal_maps[f.format]
-        streams = read_mdf4(f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_files)
+        streams = read_mdf4(f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_buses)
     else:
         from rwhonet.data.mdf4 import is_mdf_name
         from rwhonet.data.nmea import is_nmea_name
@@ -396,7 +396,7 @@ def _read_streams(
                 shown[q] = rel(p)
                 plain.append(q)
             streams = read_stream_csvs(
-                plain, signals, radius_m, _map_name(f), shown, spec.dbc_files
+                plain, signals, radius_m, _map_name(f), shown, spec.dbc_buses
             )
         if hidden := [p.name for p in every if p.name.startswith(".")]:
             said = f"hidden files left out (none of the drive's streams): {', '.join(hidden)}"

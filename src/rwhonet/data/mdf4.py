@@ -31,6 +31,8 @@ from rwhonet.data.streams import DriveStreams
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the MDF4 file's master time (s since the measurement start)"
+# CAN databases: each a file decoding every bus, or (file, bus) decoding that bus alone
+Databases = Sequence[str | tuple[str, str | None]]
 MDF_SUFFIXES = (".mf4", ".mdf")
 FLAG_HD_LOCAL_TIME = 1  # MDF4's HDBLOCK time flag: the start is local time, not UTC
 
@@ -41,7 +43,7 @@ def read_mdf4(
     radius_m: float | None,
     name: str = "the signal map",
     display: str | None = None,
-    dbc: Sequence[str] = (),
+    dbc: Databases = (),
 ) -> DriveStreams:
     """Read a drive's signals from an MDF4 file into streams for ``resample``.
 
@@ -51,7 +53,8 @@ def read_mdf4(
         radius_m: the car's nominal tyre radius, for wheel speeds logged in m/s or km/h.
         name: how messages name the map (``data.signal_maps.<name>.signals``, a map file).
         display: how the file is named in error reports (default: ``path`` as given).
-        dbc: the CAN databases that decode the file's raw CAN frames (none: its signals
+        dbc: the CAN databases that decode the file's raw CAN frames, each a file (for
+            every bus) or ``(file, bus)`` (:attr:`SignalMapSpec.dbc_buses`; none: its signals
             are decoded already).
 
     Returns:
@@ -80,7 +83,7 @@ def read_mdf4(
     try:
         if not dbc:
             return _read(mdf, signal_map, radius_m, name, file)
-        decoded = _decoded(mdf, dbc, name, file)
+        decoded = _decoded(mdf, dbc, name, file, None)
         try:
             streams = _read(decoded, signal_map, radius_m, name, file)
         finally:
@@ -114,7 +117,7 @@ def can_log_groups(
     radius_m: float | None,
     name: str,
     file: str,
-    dbc: Sequence[str],
+    dbc: Databases,
     present_only: bool = False,
 ) -> CanLogGroups:
     """A raw CAN log's mapped signals, decoded by the CAN databases ``dbc``.
@@ -145,7 +148,7 @@ def can_log_groups(
     frames = None if is_mdf_name(path.name) else read_frames(path, file)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
-        decoded = _decoded(mdf, dbc, name, file)
+        decoded = _decoded(mdf, dbc, name, file, frames)
         try:
             if present_only:
                 signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
@@ -198,13 +201,18 @@ def _start(header) -> tuple[float, str, str]:  # type: ignore[no-untyped-def]
     return header.abs_time / 1e9, clock, said + clock
 
 
-def _decoded_note(mdf, dbc: Sequence[str]) -> str:  # type: ignore[no-untyped-def]
+def _pairs(dbc: Databases) -> list[tuple[str, str | None]]:
+    """Each database with its bus (None: every bus)."""
+    return [(d, None) if isinstance(d, str) else (str(d[0]), d[1]) for d in dbc]
+
+
+def _decoded_note(mdf, dbc: Databases) -> str:  # type: ignore[no-untyped-def]
     """What the drive's notes say of raw frames decoded: by which databases, how many of
     the log's frame IDs they define (the others carry nothing the map can name)."""
     info = mdf.last_call_info.get("CAN", {})
     total = len(info.get("total_unique_ids", ()))
     found = len({i for ids in info.get("found_ids", {}).values() for i in ids})
-    files = ", ".join(Path(d).name for d in dbc)
+    files = ", ".join(Path(d).name + (f" ({bus})" if bus else "") for d, bus in _pairs(dbc))
     return f"raw CAN frames decoded with {files}: {found} of the log's {total} frame IDs defined"
 
 
@@ -216,15 +224,18 @@ def _dbc_setting(name: str) -> str:
     return f"dbc in {name}"
 
 
-def _decoded(mdf, dbc: Sequence[str], name: str, file: str):  # type: ignore[no-untyped-def]
-    """The signals of ``mdf``'s raw CAN frames, decoded by the CAN databases ``dbc``.
+def _decoded(mdf, dbc: Databases, name: str, file: str, frames: Frames | None):  # type: ignore[no-untyped-def]
+    """The signals of ``mdf``'s raw CAN frames, decoded by the CAN databases ``dbc``, each
+    for every bus or for its own (named as the log names it: ``frames.buses`` for a bus
+    tool's log, a bus channel number for an MDF4 bus log).
 
     Raises:
-        InputError: a database missing or unreadable, the file without raw CAN frames,
-            or none of its frames' IDs in the databases.
+        InputError: a database missing or unreadable, a bus the log does not have, the file
+            without raw CAN frames, or none of its frames' IDs in the databases.
     """
     setting = _dbc_setting(name)
-    missing = [d for d in dbc if not Path(d).is_file()]
+    pairs = _pairs(dbc)
+    missing = [d for d, _ in pairs if not Path(d).is_file()]
     if missing:
         raise InputError(
             [
@@ -246,8 +257,9 @@ def _decoded(mdf, dbc: Sequence[str], name: str, file: str):  # type: ignore[no-
                 )
             ]
         )
+    channels = _bus_channels(pairs, frames, mdf, setting, file)
     try:
-        decoded = mdf.extract_bus_logging({"CAN": [(str(d), 0) for d in dbc]})
+        decoded = mdf.extract_bus_logging({"CAN": channels})
     except Exception as err:  # a database canmatrix cannot load, a damaged block
         fix = f"give {setting} a DBC or ARXML file the logger's tool reads"
         raise InputError(
@@ -265,12 +277,54 @@ def _decoded(mdf, dbc: Sequence[str], name: str, file: str):  # type: ignore[no-
                     None,
                     None,
                     f"frames whose IDs the CAN databases of {setting} define",
-                    f"{len(ids)} frame ID(s) ({shown}), none in {', '.join(dbc)}",
+                    f"{len(ids)} frame ID(s) ({shown}), none in "
+                    + ", ".join(d + (f" (bus {b})" if b else "") for d, b in pairs),
                     "give the DBC of the bus the logger recorded",
                 )
             ]
         )
     return decoded
+
+
+def _bus_channels(
+    pairs: list[tuple[str, str | None]], frames: Frames | None, mdf, setting: str, file: str
+) -> list[tuple[str, int]]:  # type: ignore[no-untyped-def]
+    """``extract_bus_logging``'s ``(database, bus channel)`` pairs (0: every bus): a bus
+    tool's interface by its place among the log's buses, an MDF4 bus log's by its number.
+
+    Raises:
+        InputError: a bus the log does not have (naming the ones it has).
+    """
+    out, problems = [], []
+    if frames is not None:
+        have = list(frames.buses)
+    else:
+        buses = (
+            mdf.get("CAN_DataFrame.BusChannel", raw=True).samples
+            if mdf.whereis("CAN_DataFrame.BusChannel")
+            else np.zeros(0)
+        )
+        have = [str(int(b)) for b in np.unique(buses)]
+    for d, bus in pairs:
+        if bus is None:
+            out.append((str(d), 0))
+        elif bus in have:
+            out.append((str(d), have.index(bus) + 1 if frames is not None else int(bus)))
+        else:
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    None,
+                    f"the bus {bus!r} that {setting} gives {Path(d).name} to",
+                    f"the log's buses are {', '.join(have) or 'none'}",
+                    "name the bus as the log names it"
+                    + (" (an MDF4 bus log: its bus channel number)" if frames is None else ""),
+                )
+            )
+    if problems:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) decoding {file}")
+    return out
 
 
 def _open(mdf_class, path: Path, file: str) -> tuple[Any, Problem | None]:
@@ -346,7 +400,8 @@ def _groups(
             if buses and None not in buses and len(set(buses)) > 1:  # a raw log's buses
                 found = f"{len(groups)} signals of that name, on the buses {', '.join(buses)}"
                 fix = (
-                    "keep one bus's frames: log that interface alone (candump -l "
+                    f"decode one bus's frames: give {_dbc_setting(name)} per bus "
+                    f"({{{buses[0]}: <the DBC>}}), log that interface alone (candump -l "
                     f"{buses[0]}), or keep its lines (grep ' {buses[0]} ')"
                 )
             else:

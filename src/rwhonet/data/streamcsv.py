@@ -58,7 +58,7 @@ from rwhonet.data.csvio import (
 )
 from rwhonet.data.fileparts import join_parts
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
-from rwhonet.data.mdf4 import CanLogGroups, can_log_groups, is_mdf_name
+from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_name
 from rwhonet.data.nmea import is_nmea_name, on_clock, read_nmea
 from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
@@ -88,7 +88,7 @@ def read_stream_csvs(
     radius_m: float | None,
     name: str = "the signal map",
     display: Mapping[Path, str] | None = None,
-    dbc: Sequence[str] = (),
+    dbc: Databases = (),
 ) -> DriveStreams:
     """Read a drive given as one CSV per sensor stream.
 
