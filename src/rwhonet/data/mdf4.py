@@ -295,6 +295,8 @@ def _bus_channels(
     Raises:
         InputError: a bus the log does not have (naming the ones it has).
     """
+    if all(bus is None for _, bus in pairs):  # every database for every bus
+        return [(str(d), 0) for d, _ in pairs]
     out, problems = [], []
     if frames is not None:
         have = list(frames.buses)
