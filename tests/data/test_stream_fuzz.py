@@ -148,10 +148,7 @@ def edited_nmea_logs(draw, stamped: bool = True, utc0_s: float = 1_552_262_400.0
 @given(log=edited_nmea_logs())
 def test_an_edited_nmea_log_reads_or_is_refused_clearly(log, capfd):
     """The good drive's wheels.csv and its fixes as an NMEA log with random edits."""
-    from rwhonet.data.streamcsv import read_stream_csvs
-    from rwhonet.data.streams import resample
     from rwhonet.sim.streams import signal_map
-    from support.stream_corpus import RADIUS_M
 
     capfd.readouterr()
     with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
@@ -161,13 +158,8 @@ def test_an_edited_nmea_log_reads_or_is_refused_clearly(log, capfd):
         (folder / "gnss.csv").unlink()
         (folder / "gps.nmea").write_bytes(log)
         files = [folder / "wheels.csv", folder / "gps.nmea"]
-        shown = {p: p.name for p in files}
-
-        def read():
-            streams = read_stream_csvs(files, signal_map(), RADIUS_M, display=shown)
-            return resample(streams, nominal_radius_m=RADIUS_M).drive
-
-        grid_or_clear_refusal(read, names_only({"wheels.csv", "gps.nmea", "streams"}))
+        named = names_only({"wheels.csv", "gps.nmea", "streams"})
+        _grid_or_clear_refusal_of(files, signal_map(), named)
 
 
 CAN_CLOCK_S = 1_700_000_000.0  # the candump log's Unix clock at the good drive's 0 s
@@ -245,10 +237,7 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
     """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, the
     receiver's unstamped NMEA log placed by its UTC times; both with random edits."""
     from rwhonet.config import ColumnSpec
-    from rwhonet.data.streamcsv import read_stream_csvs
-    from rwhonet.data.streams import resample
     from support.canlog import DBC
-    from support.stream_corpus import RADIUS_M
 
     capfd.readouterr()
     with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
@@ -261,16 +250,24 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
             for w in ("fl", "fr", "rl", "rr")
         }
         files = [root / "can0.log", root / "gps.nmea"]
-        shown = {p: p.name for p in files}
+        named = lambda p: p.file.startswith(("can0.log", "gps.nmea", "streams"))  # noqa: E731
+        _grid_or_clear_refusal_of(files, signals, named, [str(root / "bus.dbc")])
 
-        def read():
-            dbc = [str(root / "bus.dbc")]
-            streams = read_stream_csvs(files, signals, RADIUS_M, display=shown, dbc=dbc)
-            return resample(streams, nominal_radius_m=RADIUS_M).drive
 
-        grid_or_clear_refusal(
-            read, lambda p: p.file.startswith(("can0.log", "gps.nmea", "streams"))
-        )
+def _grid_or_clear_refusal_of(files, signals, named, dbc=()) -> None:
+    """A stream folder's ``files`` (each named by its own name) read and resampled as
+    ingest and predict do: a grid, or a refusal whose problems are all ``named``."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from support.stream_corpus import RADIUS_M
+
+    shown = {p: p.name for p in files}
+
+    def read():
+        streams = read_stream_csvs(files, signals, RADIUS_M, display=shown, dbc=dbc)
+        return resample(streams, nominal_radius_m=RADIUS_M).drive
+
+    grid_or_clear_refusal(read, named)
 
 
 @st.composite
