@@ -427,19 +427,21 @@ def test_where_the_fixes_come_from(tmp_path):
     assert "gps2.nmea [gps2.nmea]: a copy of " in " ".join(streams.changed)
 
 
-@pytest.mark.parametrize("stamped", [True, False])
-def test_a_log_a_logger_rotated_reads_as_the_one_log(tmp_path, stamped):
+@pytest.mark.parametrize("clock", ["stamp", "unix", "day"])
+def test_a_log_a_logger_rotated_reads_as_the_one_log(tmp_path, clock):
     """The receiver's log rotated into three files by size, one cut between an epoch's GGA
     and its RMC: the fixes are the one log's (that epoch's position, satellites and speed
-    taken from both files), the labels the one log's exactly; with the logger's stamps and
-    with the receiver's UTC times on a Unix clock."""
+    taken from both files), the labels the one log's exactly; with the logger's stamps,
+    with the receiver's UTC times on a Unix clock, and on seconds of the day (IO-VNBD's
+    clock: each file alone covers less than half of the wheels' span, the three do)."""
+    stamped = clock == "stamp"
     tables, _ = _drive()
     t = np.round(tables.gnss[c.T_S].to_numpy(), 2)
     exact = tables.gnss.assign(t_s=t)
     lines = nmea_lines(exact, DAY_S + t, stamps=DAY_S + t if stamped else None)
     assert lines[701].split("$")[1].startswith("GPRMC")  # the cut at 701: an epoch split
     one = write_nmea(tmp_path / "one" / "gps.nmea", lines)
-    wheels = _wheels(tmp_path / "wheels", DAY_S)
+    wheels = _wheels(tmp_path / "wheels", 0.0 if clock == "day" else DAY_S)
     want, _ = _labels([wheels, one])
     rotated = [
         write_nmea(tmp_path / "rotated" / name, part)

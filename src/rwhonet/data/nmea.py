@@ -706,7 +706,12 @@ def clock_kind(unit: str, dated: bool, t_s: Sequence[np.ndarray]) -> str | None:
 
 
 def on_clock(
-    log: NmeaLog, unit: str, dated: bool, t_s: Sequence[np.ndarray], name: str
+    log: NmeaLog,
+    unit: str,
+    dated: bool,
+    t_s: Sequence[np.ndarray],
+    name: str,
+    parts: Sequence[NmeaLog] = (),
 ) -> tuple[np.ndarray, str, str]:
     """A log's epochs on the stream files' clock.
 
@@ -724,6 +729,9 @@ def on_clock(
         dated: whether the map has a ``date`` column.
         t_s: the stream files' times, s.
         name: how messages name the map.
+        parts: the logs of the receiver's one log a logger rotated, ``log`` among them (none:
+            ``log`` is the whole): whether their times of day cover half of the stream
+            files' span is told of them together.
 
     Returns:
         ``(times, what the times are, a note)``.
@@ -738,7 +746,8 @@ def on_clock(
         note = f"{log.file}: each sentence's logger stamp is its time on the stream files' clock"
         return _shared(log, t, t_s, "stamp"), "logger stamp", "; ".join([note, *said])
     kind = clock_kind(unit, dated, t_s)
-    if kind is None and _seconds_of_a_day(log.tod_s, t_s):
+    whole = [p.tod_s for p in parts] or [log.tod_s]
+    if kind is None and _seconds_of_a_day(np.concatenate(whole), t_s):
         note = (
             f"{log.file}: the stream files' times, below a day, read as UTC seconds of the "
             "day (as IO-VNBD's): the receiver's UTC times fall within them"

@@ -563,7 +563,9 @@ def _nmea_groups(
                 + f", named in {name}, in no stream file)"
             )
         unit = signal_map["t"].unit
-        t, clock, said = on_clock(log, unit, DATE in signal_map, [g.t_s for g in groups], name)
+        t, clock, said = on_clock(
+            log, unit, DATE in signal_map, [g.t_s for g in groups], name, read
+        )
         notes += [*log.notes, said]
         out.append(
             Group(
