@@ -935,14 +935,19 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
     np.testing.assert_allclose(nmea["disp_gnss_m"], csv["disp_gnss_m"], atol=0.01)
 
 
-@pytest.mark.parametrize("log", ["candump", "canedge"])
-def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_path, capsys, log):
+@pytest.mark.parametrize(
+    ("log", "receiver"), [("candump", "nmea"), ("canedge", "nmea"), ("candump", "ubx")]
+)
+def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
+    bundle, tmp_path, capsys, log, receiver
+):
     """A Linux logger's folder: the wheel speeds as raw CAN frames in can0.log on the
     computer's Unix clock (or a CANedge's MDF4 bus log split into three files, each on its
     start time: 00000001.MF4 ...), the fixes as the receiver's unstamped NMEA log
-    (gps.nmea.gz), a map file with the DBC, the signals and a ``t``: predict's seconds are
-    those of the stream CSVs within the DBC's 0.01 km/h and the log's ddmm.mmmmmm
-    rounding."""
+    (gps.nmea.gz) or its u-blox binary log (gps.ubx.gz, NAV-PVT among other messages), a
+    map file with the DBC, the signals and a ``t``: predict's seconds are those of the
+    stream CSVs within the DBC's 0.01 km/h and the log's rounding (ddmm.mmmmmm; NAV-PVT's
+    1e-7 degrees, 1.1 cm a coordinate, so 0.02 m a second's GNSS displacement)."""
     import gzip
 
     from rwhonet.sim.streams import StreamTables
@@ -966,8 +971,15 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_
         for k, i in enumerate(np.array_split(np.arange(stamps.size), 3)):
             write_mdf_bus_log(stamps[i], ids[i], data[i], folder / f"0000000{k + 1}.MF4")
     t = good.gnss["t_s"].to_numpy()
-    lines = nmea_lines(good.gnss, day + t)
-    (folder / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
+    if receiver == "nmea":
+        lines = nmea_lines(good.gnss, day + t)
+        (folder / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
+    else:
+        from support.ubx import ubx_messages
+
+        messages = ubx_messages(good.gnss, day + t)
+        messages[300] = messages[300][:-1] + bytes([messages[300][-1] ^ 1])  # its checksum
+        (folder / "gps.ubx.gz").write_bytes(gzip.compress(b"".join(messages)))
     (tmp_path / "v.dbc").write_text(DBC)
     wheels = [
         f"  omega_{w}: {{column: WhlSpd_{w.upper()}, unit: km/h}}" for w in "fl fr rl rr".split()
@@ -977,12 +989,17 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_nmea_log(bundle, tmp_
     fmt = ["--format", "stream_csv", "--signal-map", str(smap)]
     capsys.readouterr()
     assert main(predict_args(bundle, folder, tmp_path / "bus.csv", *fmt, *car)) == 0
-    assert "38 seconds" in capsys.readouterr().err
+    said = capsys.readouterr().err
+    assert "38 seconds" in said
     csv, bus = pd.read_csv(tmp_path / "csv.csv"), pd.read_csv(tmp_path / "bus.csv")
     assert len(bus) == len(csv) > 30
     np.testing.assert_allclose(bus["t_s"] - day, csv["t_s"], atol=1e-6)
-    for q in ("disp_gnss_m", "disp_wpm_m", "pred_error_m", "disp_corrected_m"):
+    for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
         np.testing.assert_allclose(bus[q], csv[q], atol=0.01)
+    gnss_m = 0.01 if receiver == "nmea" else 0.02
+    np.testing.assert_allclose(bus["disp_gnss_m"], csv["disp_gnss_m"], atol=gnss_m)
+    if receiver == "ubx":
+        assert "gps.ubx.gz: passed over: 1 NAV-PVT message(s) with a checksum" in said
     # the map's database given to the log's one bus (can0; a CANedge's bus channel 1)
     one_bus = "{can0: v.dbc}" if log == "candump" else "{1: [v.dbc]}"
     smap.write_text(smap.read_text().replace("dbc: v.dbc", f"dbc: {one_bus}"))

@@ -402,7 +402,7 @@ def test_where_the_fixes_come_from(tmp_path):
     no_fix_keys = {k: v for k, v in smap.items() if k not in ("lat", "lon", "n_sats")}
     # the map's fixes in gnss.csv: the NMEA log left out, said so
     _, streams = _labels(_stream_folder(tmp_path / "a", with_gnss_csv=True))
-    assert any("NMEA log(s), left out: the fixes are" in n for n in streams.notes)
+    assert any("receiver log(s), left out: the fixes are" in n for n in streams.notes)
     # no fix keys in the map: the log gives them all
     _, streams = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
     gnss = next(s for s in streams.streams if s.name == "gps.nmea")
@@ -415,11 +415,11 @@ def test_where_the_fixes_come_from(tmp_path):
         "lon_hemisphere": ColumnSpec("EW", "E/W"),
     }
     _, streams = _labels(_stream_folder(tmp_path / "f"), lettered)
-    assert any("the fixes are the NMEA log's ('Lat', 'Lon'" in n for n in streams.notes)
+    assert any("the fixes are the receiver log's ('Lat', 'Lon'" in n for n in streams.notes)
     # neither
     with pytest.raises(InputError) as err:
         _labels(_stream_folder(tmp_path / "c", with_nmea=False), no_fix_keys)
-    assert "lat and lon not in the signal map, and no NMEA log" in str(err.value)
+    assert "lat and lon not in the signal map, and no receiver log" in str(err.value)
     # the same log twice (gps.nmea, gps2.nmea): a copy, left out, and said
     got, streams = _labels(_stream_folder(tmp_path / "e", two=True), no_fix_keys)
     one, _ = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
@@ -468,7 +468,7 @@ def test_a_mapped_gnss_key_neither_file_gives_is_refused(tmp_path):
     with pytest.raises(InputError) as err:
         _labels(files)  # the map names NumSV: RMC has no satellites
     said = str(err.value)
-    assert "the signal map.n_sats in a stream file or in the NMEA log's sentences" in said
+    assert "the signal map.n_sats in a stream file or in the receiver log's messages" in said
     assert "RMC latitude" in said
 
 

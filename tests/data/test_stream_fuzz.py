@@ -14,6 +14,7 @@ say what to do; never another exception, never a hang.
 from __future__ import annotations
 
 import tempfile
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -251,6 +252,78 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
         }
         files = [root / "can0.log", root / "gps.nmea"]
         named = lambda p: p.file.startswith(("can0.log", "gps.nmea", "streams"))  # noqa: E731
+        _grid_or_clear_refusal_of(files, signals, named, [str(root / "bus.dbc")])
+
+
+@cache
+def _good_ubx_messages() -> tuple[bytes, ...]:
+    """The good drive's fixes as a u-blox receiver's log (pyubx2: NAV-TIMEUTC, NAV-DOP
+    and NAV-PVT an epoch), their UTC times from :data:`CAN_CLOCK_S`."""
+    from support.ubx import ubx_messages
+
+    gnss = good_tables().gnss
+    return tuple(ubx_messages(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy()))
+
+
+@st.composite
+def edited_ubx_logs(draw) -> bytes:
+    """The good drive's UBX log with 1-5 random edits: messages dropped, repeated, swapped,
+    shuffled or written late (:data:`support.fuzz.LINE_EDITS`, an epoch's messages as a
+    line), a NAV-PVT payload byte set (its checksum mended or not: any field, a date, a
+    flag, a coordinate out of range), a byte flipped, the file cut."""
+    from support.fuzz import LINE_EDITS, edit_lines
+
+    rows = list(_good_ubx_messages())
+    cut, flips = None, []
+    for _ in range(draw(st.integers(1, 5))):
+        a = draw(st.integers(0, len(rows) - 2)) if len(rows) > 2 else 0
+        kind = draw(st.sampled_from([*LINE_EDITS, "field", "cut", "flip"]))
+        if kind in LINE_EDITS and len(rows) > 2:
+            edit_lines(draw, rows, kind, a, min(len(rows), a + draw(st.integers(1, 90))))
+        elif kind == "field" and rows:
+            epoch = bytearray(rows[a])
+            pvt = len(epoch) - 100  # the epoch's NAV-PVT: its last 100 bytes
+            epoch[pvt + 6 + draw(st.integers(0, 91))] = draw(st.integers(0, 255))
+            if draw(st.booleans()):  # the checksum mended: a well-formed message
+                ck_a = ck_b = 0
+                for x in epoch[pvt + 2 : pvt + 98]:
+                    ck_a = (ck_a + x) & 0xFF
+                    ck_b = (ck_b + ck_a) & 0xFF
+                epoch[pvt + 98 : pvt + 100] = bytes([ck_a, ck_b])
+            rows[a] = bytes(epoch)
+        elif kind == "cut":
+            cut = draw(st.integers(0, 400))
+        elif kind == "flip":
+            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
+    data = bytearray(b"".join(rows))
+    for at, value in flips:
+        if data:
+            data[at % len(data)] = value
+    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+
+
+@FUZZ
+@given(can=edited_candump_logs(wheels_only=True), ubx=edited_ubx_logs())
+def test_an_edited_candump_log_beside_an_edited_ubx_log_reads_or_is_refused_clearly(
+    can, ubx, capfd
+):
+    """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, the
+    u-blox receiver's binary log placed by its NAV-PVT times; both with random edits."""
+    from rwhonet.config import ColumnSpec
+    from support.canlog import DBC
+
+    capfd.readouterr()
+    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
+        root = Path(tmp)
+        (root / "can0.log").write_bytes(can)
+        (root / "gps.ubx").write_bytes(ubx)
+        (root / "bus.dbc").write_text(DBC)
+        signals = {"t": ColumnSpec("t", "s")} | {
+            f"omega_{w}": ColumnSpec(f"WhlSpd_{w.upper()}", "km/h")
+            for w in ("fl", "fr", "rl", "rr")
+        }
+        files = [root / "can0.log", root / "gps.ubx"]
+        named = lambda p: p.file.startswith(("can0.log", "gps.ubx", "streams"))  # noqa: E731
         _grid_or_clear_refusal_of(files, signals, named, [str(root / "bus.dbc")])
 
 

@@ -39,7 +39,7 @@
   wheel's circumferential speed (divided by the car's nominal tyre radius).
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
 - :mod:`~rwhonet.data.fileparts`: a stream a logger split across files in time (rotated
-  CSVs, NMEA and CAN logs), joined, each sample keeping its file and row.
+  CSVs, NMEA, UBX and CAN logs), joined, each sample keeping its file and row.
 - :mod:`~rwhonet.data.robust`: a robust scale (the normal-scaled MAD) and a running
   trapezoid integral, scipy's arithmetic without scipy's import.
 - Streams (docs/readers.md): :mod:`~rwhonet.data.streams` resamples timestamped
@@ -47,7 +47,8 @@
   (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf) or
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
   (:mod:`~rwhonet.data.signalmap`); a receiver's NMEA 0183 log among the stream CSVs is
-  read by :mod:`~rwhonet.data.nmea`; a bus tool's log of raw CAN frames (candump, ASC,
+  read by :mod:`~rwhonet.data.nmea`, a u-blox receiver's binary log (UBX NAV-PVT) by
+  :mod:`~rwhonet.data.ubx`; a bus tool's log of raw CAN frames (candump, ASC,
   BLF, TRC) by :mod:`~rwhonet.data.canlog`, laid out as an MDF4 bus log for the map's
   DBC. :mod:`~rwhonet.data.bytescan` finds things in a text log's bytes at once, for both.
 - :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where

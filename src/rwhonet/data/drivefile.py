@@ -360,11 +360,13 @@ def _read_streams(
         from rwhonet.data.mdf4 import is_mdf_name
         from rwhonet.data.nmea import is_nmea_name
         from rwhonet.data.streamcsv import read_stream_csvs
+        from rwhonet.data.ubx import is_ubx_name
 
         # a hidden file is none of the drive's (macOS's ._wheels.csv beside wheels.csv on
         # a logger's FAT card: binary metadata), as discover leaves hidden drives out
-        # a receiver's NMEA log beside them (gps.nmea) is read as the GNSS stream, and a
-        # bus tool's raw CAN log (can0.log) as its messages' streams where the map has a dbc;
+        # a receiver's NMEA or UBX log beside them (gps.nmea, gps.ubx) is read as the GNSS
+        # stream, and a bus tool's raw CAN log (can0.log) as its messages' streams where
+        # the map has a dbc;
         # a log rotator's files (gps.nmea.1, wheels.csv.2.gz) by their names without its number
         spec = data.signal_maps[f.format]
         every = sorted(
@@ -374,6 +376,7 @@ def _read_streams(
             and (
                 is_csv_name(name := without_rotation(p.name))
                 or is_nmea_name(name)
+                or is_ubx_name(name)
                 or (spec.dbc_files and (is_can_log_name(name) or is_mdf_name(name)))
             )
         )

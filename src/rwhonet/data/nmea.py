@@ -115,8 +115,9 @@ def is_nmea_name(name: str) -> bool:
 
 
 @dataclass(frozen=True)
-class NmeaLog:
-    """A receiver's fixes read from an NMEA log, one per epoch, in the log's order.
+class FixLog:
+    """A receiver's fixes read from an NMEA log (or a u-blox UBX log:
+    :func:`rwhonet.data.ubx.read_ubx`), one per epoch, in the log's order.
 
     Attributes:
         file: the log as messages name it.
@@ -130,11 +131,13 @@ class NmeaLog:
             ``speed_gnss``, ``heading``) -> values in SI units; only the keys the log
             gives, NaN where an epoch lacks it or has no fix.
         sources: key -> the sentence field it came from (``GGA latitude``).
-        rows: each epoch's first sentence's line, 1-based.
+        rows: each epoch's first sentence's line, 1-based (a UBX log: its NAV-PVT
+            message's number among the log's messages).
         notes: what was passed over or dropped, and midnight.
         dropped: the sentences and lines passed over, counted (empty: none), which
             ``rwhonet predict`` says too.
         unstamped: the lines of the epochs without a logger stamp, where others have one.
+        dated_by: what gave the date (``RMC dates``; a UBX log's ``NAV-PVT dates``).
     """
 
     file: str
@@ -147,6 +150,7 @@ class NmeaLog:
     notes: list[str] = field(default_factory=list)
     dropped: str = ""
     unstamped: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    dated_by: str = "RMC dates"
 
     @property
     def t_utc_s(self) -> np.ndarray | None:
@@ -154,7 +158,7 @@ class NmeaLog:
         return None if self.day_s is None else self.day_s + self.tod_s
 
 
-def read_nmea(path: Path, file: str) -> NmeaLog:
+def read_nmea(path: Path, file: str) -> FixLog:
     """Read a receiver's GGA, RMC, GNS and GLL sentences as one fix per epoch.
 
     The fix sentences are found and checked over the log's bytes at once
@@ -451,7 +455,7 @@ def _fixes(
     counts: dict[str, int],
     first: dict[str, int],
     passed,
-) -> NmeaLog:
+) -> FixLog:
     """The sentences ``use`` (their UTC time cells ``times``) gathered into epochs by UTC
     time, their fields converted column by column: one fix an epoch."""
     problems: list[Problem] = []
@@ -574,7 +578,7 @@ def _fixes(
         + f" sentences), {int(np.isfinite(lat).sum())} with a fix"
         + _passed_over(counts, first).replace(" (", ", passed over: (", 1)
     )
-    return NmeaLog(
+    return FixLog(
         file,
         tod,
         first_day,
@@ -706,12 +710,12 @@ def clock_kind(unit: str, dated: bool, t_s: Sequence[np.ndarray]) -> str | None:
 
 
 def on_clock(
-    log: NmeaLog,
+    log: FixLog,
     unit: str,
     dated: bool,
     t_s: Sequence[np.ndarray],
     name: str,
-    parts: Sequence[NmeaLog] = (),
+    parts: Sequence[FixLog] = (),
 ) -> tuple[np.ndarray, str, str]:
     """A log's epochs on the stream files' clock.
 
@@ -779,7 +783,7 @@ def on_clock(
         note = f"{log.file}: the receiver's UTC times of day, on the stream files' time of day"
         return _shared(log, log.tod_s, t_s, "utc"), "UTC time", note
     if log.day_s is not None:
-        note = f"{log.file}: the receiver's UTC times and RMC dates, on the stream files' UTC"
+        note = f"{log.file}: the receiver's UTC times and {log.dated_by}, on the stream files' UTC"
         return _shared(log, log.day_s + log.tod_s, t_s, "utc"), "UTC time", note
     start = min(float(np.nanmin(t)) for t in t_s if np.isfinite(t).any())
     day = round((start - log.tod_s[0]) / 86400.0) * 86400.0
@@ -804,7 +808,7 @@ def _seconds_of_a_day(tod: np.ndarray, t_s: Sequence[np.ndarray]) -> bool:
     return shared >= 0.5 * (d - c)
 
 
-def _stamps(log: NmeaLog, unit: str, name: str) -> np.ndarray:
+def _stamps(log: FixLog, unit: str, name: str) -> np.ndarray:
     """The logger's stamps in s, read in the map's ``t`` unit."""
     cells = log.stamps or []
     problems = []
@@ -840,7 +844,7 @@ def _stamps(log: NmeaLog, unit: str, name: str) -> np.ndarray:
     return to_si("t", t, unit, None, log.file, (log.file, "logger stamp"))
 
 
-def _shared(log: NmeaLog, t: np.ndarray, t_s: Sequence[np.ndarray], how: str) -> np.ndarray:
+def _shared(log: FixLog, t: np.ndarray, t_s: Sequence[np.ndarray], how: str) -> np.ndarray:
     """The log's times, refused where they share no time with the stream files'."""
     spans = [(float(np.nanmin(x)), float(np.nanmax(x))) for x in t_s if np.isfinite(x).any()]
     if not spans or not np.isfinite(t).any():

@@ -11,15 +11,18 @@ files are parsed by the same streaming CSV reader as the 10 Hz files
 (:mod:`rwhonet.data.csvio`), so every bad cell is reported with its file, row
 and column. The clock is the files' common time column.
 
-A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``) gives the fixes where no
-CSV holds the map's latitude and longitude: :mod:`rwhonet.data.nmea` reads it and places
-it on the files' clock (``_nmea_groups``). With the map's CAN databases (``dbc``), a bus
-tool's raw CAN log among them (``can0.log`` from ``candump -l``, ASC, BLF, TRC:
-:mod:`rwhonet.data.canlog`; or an MDF4 bus log, a CANedge's split files, on each file's
-start time) is decoded as the MDF4 reader decodes a bus log, and each of its messages
-holding a mapped signal is a stream, the signal found by name as a column.
-Files of one stream a logger split in time (``wheels_000.csv``, ``wheels_001.csv``; NMEA
-logs; raw CAN logs) are joined by :mod:`rwhonet.data.fileparts`.
+A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``) or a u-blox receiver's
+binary log (``gps.ubx``) gives the fixes where no CSV holds the map's latitude and
+longitude: :mod:`rwhonet.data.nmea` and :mod:`rwhonet.data.ubx` read them, and the first
+places them on the files' clock (``_receiver_groups``). Where a folder holds both, the UBX
+log is read (its positions to 1e-7 degrees), and the NMEA log left out, said. With the
+map's CAN databases (``dbc``), a bus tool's raw CAN log among them (``can0.log`` from
+``candump -l``, ASC, BLF, TRC: :mod:`rwhonet.data.canlog`; or an MDF4 bus log, a CANedge's
+split files, on each file's start time) is decoded as the MDF4 reader decodes a bus log,
+and each of its messages holding a mapped signal is a stream, the signal found by name as
+a column. Files of one stream a logger split in time (``wheels_000.csv``,
+``wheels_001.csv``; NMEA or UBX logs; raw CAN logs) are joined by
+:mod:`rwhonet.data.fileparts`.
 
 Midnight: a time of day (seconds since the start of the day, as IO-VNBD's) that
 passes midnight continues into the next day, by the rule of the 10 Hz readers
@@ -77,6 +80,7 @@ from rwhonet.data.timebase import (
     SECONDS_PER_WEEK,
     unwrap_clock,
 )
+from rwhonet.data.ubx import is_ubx_name, read_ubx
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the stream files' time column"
@@ -114,7 +118,8 @@ def read_stream_csvs(
     """
     check_signal_map(name, signal_map, with_time=True, where=name)
     every = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
-    logs = [(p, f) for p, f in every if is_nmea_name(p.name)]  # a receiver's NMEA log
+    # a receiver's logs: NMEA, u-blox's UBX
+    logs = [(p, f) for p, f in every if is_nmea_name(p.name) or is_ubx_name(p.name)]
     # raw CAN logs: a bus tool's, or MDF4 bus logs (a CANedge's split files)
     buses = [(p, f) for p, f in every if dbc and (is_can_log_name(p.name) or is_mdf_name(p.name))]
     files = [(p, f) for p, f in every if (p, f) not in logs and (p, f) not in buses]
@@ -351,12 +356,12 @@ def read_stream_csvs(
         )
     if logs and not found_fix and not problems:
         try:
-            groups += _nmea_groups(logs, signal_map, groups, set(found), name, notes, changed)
+            groups += _receiver_groups(logs, signal_map, groups, set(found), name, notes, changed)
         except InputError as err:
             problems += err.problems
     elif logs and found_fix:
         notes.append(
-            f"{', '.join(f for _, f in logs)}: NMEA log(s), left out: the fixes are {name}'s "
+            f"{', '.join(f for _, f in logs)}: receiver log(s), left out: the fixes are {name}'s "
             "columns in "
             + ", ".join(sorted({f for k in ("lat", "lon") for f, _ in found.get(k, [])}))
         )
@@ -484,7 +489,7 @@ def _fix_source_problems(
     name: str,
     files: Sequence[str],
 ) -> list[Problem]:
-    """Where the fixes come from: a CSV's columns or NMEA logs, not neither."""
+    """Where the fixes come from: a CSV's columns or a receiver's logs, not neither."""
     missing = [k for k in ("lat", "lon") if k not in signal_map]
     if missing and not logs:
         return [
@@ -493,15 +498,15 @@ def _fix_source_problems(
                 None,
                 None,
                 f"the fixes: {name}.lat and {name}.lon naming a stream file's columns, or a "
-                "receiver's NMEA log (*.nmea) among the drive's files",
-                f"{' and '.join(missing)} not in {name}, and no NMEA log",
-                f"name the fixes' columns in {name}, or give the drive its NMEA log",
+                "receiver's log among the drive's files (NMEA, *.nmea; u-blox UBX, *.ubx)",
+                f"{' and '.join(missing)} not in {name}, and no receiver log",
+                f"name the fixes' columns in {name}, or give the drive its receiver's log",
             )
         ]
     return []
 
 
-def _nmea_groups(
+def _receiver_groups(
     logs: Sequence[tuple[Path, str]],
     signal_map: Mapping[str, ColumnSpec],
     groups: Sequence[Group],
@@ -510,7 +515,8 @@ def _nmea_groups(
     notes: list[str],
     changed: list[str],
 ) -> list[Group]:
-    """The receiver's NMEA logs as the drive's GNSS stream, each on the stream files' clock.
+    """The receiver's NMEA or UBX logs as the drive's GNSS stream, each on the stream files'
+    clock (the UBX logs alone where there are both, the NMEA logs left out, said).
 
     They give the fixes and every GNSS key no stream file's column gives; a key the map
     names that a log does not give is refused, naming the log. Several logs are one
@@ -518,10 +524,19 @@ def _nmea_groups(
     the keys all of them give. Sentences passed over (a checksum that does not match, a
     line cut short, ...) are said in ``changed`` too, so predict says them.
     """
+    ubx = [(p, f) for p, f in logs if is_ubx_name(p.name)]
+    if ubx and len(ubx) < len(logs):
+        notes.append(
+            ", ".join(f for p, f in logs if not is_ubx_name(p.name))
+            + ": NMEA log(s), left out: the fixes are the receiver's UBX log's ("
+            + ", ".join(f for _, f in ubx)
+            + "), its positions to 1e-7 degrees"
+        )
+        logs = ubx
     read, problems = [], []
     for path, file in logs:  # every log's problems in one report
         try:
-            read.append(read_nmea(path, file))
+            read.append(read_ubx(path, file) if is_ubx_name(path.name) else read_nmea(path, file))
         except InputError as err:
             problems += err.problems
     if problems:
@@ -542,8 +557,8 @@ def _nmea_groups(
                     None,
                     ", ".join(signal_map[k].column for k in lacking),
                     f"{', '.join(f'{name}.{k}' for k in lacking)} in a stream file or in the "
-                    "NMEA log's sentences",
-                    "in neither (the log's sentences: "
+                    "receiver log's messages",
+                    "in neither (the log's: "
                     + ", ".join(log.sources[k] for k in log.channels)
                     + ")",
                     f"name the column in {name}, or drop the key: the log gives "
@@ -553,12 +568,13 @@ def _nmea_groups(
             continue
         if len(read) > 1 and (only := [k for k in log.channels if k not in common]):
             notes.append(
-                f"{log.file}: {', '.join(only)} left out: not in every one of the drive's NMEA logs"
+                f"{log.file}: {', '.join(only)} left out: not in every one of the drive's "
+                "receiver logs"
             )
         named = [k for k in ("lat", "lon") if k in signal_map]
         if named:
             notes.append(
-                f"{log.file}: the fixes are the NMEA log's ("
+                f"{log.file}: the fixes are the receiver log's ("
                 + ", ".join(repr(signal_map[k].column) for k in named)
                 + f", named in {name}, in no stream file)"
             )

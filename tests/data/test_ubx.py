@@ -1,0 +1,329 @@
+"""A u-blox receiver's UBX log beside a drive's stream CSVs (rwhonet.data.ubx).
+
+The logs are written by pyubx2 (tests/support/ubx.py), not by the reader's code, and the
+reader's values are compared with what pyubx2 reads back from the same bytes."""
+
+from __future__ import annotations
+
+import io
+from functools import cache
+
+import numpy as np
+import pytest
+from pyubx2 import UBX_PROTOCOL, UBXReader
+
+from rwhonet.config import ColumnSpec
+from rwhonet.data import canonical as c
+from rwhonet.data.streamcsv import read_stream_csvs
+from rwhonet.data.streams import resample
+from rwhonet.data.ubx import is_ubx_name, read_ubx
+from rwhonet.errors import InputError
+from support.ubx import LEAP_S, itow_ms, nav_pvt, other_messages, ubx_messages, write_ubx
+
+DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
+T0 = DAY_S + 45_000.0
+
+
+@cache
+def _drive():
+    """A simulated 120 s drive's streams: 100 Hz wheels, a 10 Hz receiver (times of day)."""
+    from support.multirate import simulated_streams
+
+    return simulated_streams(120.0, 100.0, 10.0)
+
+
+def _labels(files):
+    from rwhonet.sim.streams import signal_map
+    from support.multirate import per_second
+
+    _, radius = _drive()
+    streams = read_stream_csvs(files, signal_map(), radius)
+    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    return per_second(drive, radius), streams
+
+
+def _folder(tmp_path, gnss_csv: bool):
+    """The drive's wheels.csv (and its gnss.csv where ``gnss_csv``) in ``tmp_path``."""
+    from rwhonet.sim.streams import StreamTables, write_stream_csvs
+
+    tables, _ = _drive()
+    keep = tables if gnss_csv else StreamTables(tables.wheels, tables.gnss.iloc[:0])
+    return write_stream_csvs(keep, tmp_path)
+
+
+def _pyubx2(data: bytes) -> list:
+    """The NAV-PVT messages pyubx2 reads from a log's bytes."""
+    reader = UBXReader(io.BytesIO(data), protfilter=UBX_PROTOCOL)
+    return [m for _, m in reader if m.identity == "NAV-PVT"]
+
+
+def test_names():
+    assert is_ubx_name("gps.ubx") and is_ubx_name("GPS.UBX.gz")
+    assert not is_ubx_name("gps.nmea") and not is_ubx_name("ubx.bin")
+
+
+def test_the_reader_reads_what_pyubx2_reads(tmp_path):
+    """A receiver's log of 1199 epochs (NAV-TIMEUTC and NAV-DOP before each NAV-PVT, an
+    NMEA sentence line between, one NAV-PVT with a byte lost, one written twice, the last
+    cut short): every epoch kept has the values pyubx2 reads from the clean log, scaled to
+    SI; the rest is passed over and counted."""
+    tables, _ = _drive()
+    g = tables.gnss
+    t = DAY_S + g[c.T_S].to_numpy()
+    messages = ubx_messages(g, t)
+    clean = b"".join(messages)
+    expected = _pyubx2(clean)
+    assert len(expected) == len(g)
+    dirty = list(messages)
+    dirty[10] = b"$GPTXT,01,01,02,ANTSTATUS=OK*3B\r\n" + dirty[10]
+    broken = bytearray(dirty[500])
+    broken[-40] ^= 0x10  # a bit flipped in the NAV-PVT's payload
+    dirty[500] = bytes(broken)
+    dirty.insert(701, dirty[700][-100:])  # a NAV-PVT written again
+    dirty[-1] = dirty[-1][:-30]
+    log = read_ubx(write_ubx(tmp_path / "gps.ubx", dirty), "gps.ubx")
+    kept = [i for i in range(len(g)) if i not in (500, len(g) - 1)]
+    assert log.rows.size == len(kept)
+    want = {
+        "lat": [expected[i].lat for i in kept],
+        "lon": [expected[i].lon for i in kept],
+        "n_sats": [expected[i].numSV for i in kept],
+        "height": [expected[i].hMSL / 1000.0 for i in kept],
+        "speed_gnss": [expected[i].gSpeed / 1000.0 for i in kept],
+        "heading": [expected[i].headMot for i in kept],
+    }
+    for key, values in want.items():
+        np.testing.assert_allclose(log.channels[key], values, rtol=0, atol=1e-9, err_msg=key)
+    # placed by iTOW: the UTC times written, to the ms iTOW holds
+    np.testing.assert_allclose(log.day_s + log.tod_s, t[kept], rtol=0, atol=5e-4)
+    assert log.rows[0] == 3 and log.rows[1] == 6  # the 3rd message: after TIMEUTC and DOP
+    said = " ".join(log.notes)
+    assert "a UBX log: 1197 NAV-PVT epochs, 1197 with a fix" in said
+    assert "other messages (NAV-DOP 1199, NAV-TIMEUTC 1199)" in said
+    assert "1 NMEA sentence(s)" in said
+    assert "1 NAV-PVT message(s) with a checksum that does not match (first at byte " in said
+    assert "a NAV-PVT message cut short at the log's end" in said
+    # the copy after the 701st epoch's three messages, less the one with the lost byte
+    assert "1 NAV-PVT message(s) of an epoch already given (first message 2103)" in said
+    assert "checksum" in log.dropped and "already given" in log.dropped
+    assert "NAV-DOP" not in log.dropped  # what a receiver writes besides: no problem
+
+
+@pytest.mark.parametrize(
+    ("kw", "fix"),
+    [
+        ({}, True),
+        ({"fix_type": 2}, True),
+        ({"fix_type": 4}, True),  # GNSS with the receiver's dead reckoning
+        ({"fix_type": 1}, False),  # dead reckoning only
+        ({"fix_type": 5}, False),  # time only
+        ({"fix_ok": 0}, False),
+        ({"invalid_llh": 1}, False),
+    ],
+)
+def test_what_is_a_fix(tmp_path, kw, fix):
+    """gnssFixOK, fixType 2, 3 or 4 and a valid llh make a fix; otherwise the epoch is
+    kept without a position, speed or course."""
+    msgs = [nav_pvt(T0, 52.4, -1.5, speed_m_s=10.0, course_deg=90.0, **kw)]
+    log = read_ubx(write_ubx(tmp_path / "a.ubx", msgs), "a.ubx")
+    for key in ("lat", "lon", "speed_gnss", "heading"):
+        assert np.isfinite(log.channels[key][0]) == fix, key
+    assert log.channels["n_sats"][0] == 12
+
+
+def test_an_84_byte_nav_pvt_of_a_u_blox_7_is_read(tmp_path):
+    """u-blox 7 (protocol 14) writes NAV-PVT in 84 bytes, without flags3 and after."""
+    full = nav_pvt(T0, 52.4, -1.5, invalid_llh=1)  # flags3 set: not in an 84-byte message
+    body = bytearray(full[2:6] + full[6 : 6 + 84])
+    body[2:4] = (84).to_bytes(2, "little")
+    a = b = 0
+    for x in body:
+        a = (a + x) & 0xFF
+        b = (b + a) & 0xFF
+    log = read_ubx(write_ubx(tmp_path / "a.ubx", [b"\xb5\x62" + bytes(body) + bytes([a, b])]), "a")
+    assert log.channels["lat"][0] == pytest.approx(52.4, abs=1e-7)
+
+
+def test_a_cold_start_before_the_leap_seconds_and_the_week_s_end(tmp_path):
+    """The receiver's first epochs before it knew the leap seconds (its UTC 2 s off, not
+    fully resolved) and a drive across the GPS week's end (iTOW back to 0): every epoch is
+    placed by iTOW, on the UTC of the resolved epochs."""
+    sunday = 1_552_176_000.0 - LEAP_S  # GPS week's end 2019-03-10 00:00:00 GPS, in UTC
+    t = sunday - 5.0 + 0.2 * np.arange(50)
+    msgs = [_wrong_utc(x, 2.0) if i < 10 else nav_pvt(x, 52.4, -1.5) for i, x in enumerate(t)]
+    log = read_ubx(write_ubx(tmp_path / "a.ubx", msgs), "a.ubx")
+    np.testing.assert_allclose(log.day_s + log.tod_s, t, rtol=0, atol=5e-4)
+    said = " ".join(log.notes)
+    assert "fully resolved" in said and "may be off" not in said
+    assert "GPS time of week passed the week's end before message(s) 26" in said
+
+
+def _wrong_utc(t: float, off_s: float) -> bytes:
+    """A NAV-PVT whose iTOW is ``t``'s and whose UTC fields are ``off_s`` wrong, not fully
+    resolved (the receiver's default leap seconds)."""
+    from pyubx2 import UBXMessage
+
+    good = UBXReader.parse(nav_pvt(t + off_s, 52.4, -1.5, valid=(1, 1, 0)))
+    fields = {k: v for k, v in vars(good).items() if not k.startswith("_")}
+    fields["iTOW"] = itow_ms(t)
+    return UBXMessage("NAV", "NAV-PVT", 0, **fields).serialize()
+
+
+def test_utc_never_resolved_or_never_valid(tmp_path):
+    t = T0 + 0.1 * np.arange(20)
+    log = read_ubx(
+        write_ubx(tmp_path / "a.ubx", [nav_pvt(x, 52.4, -1.5, valid=(1, 1, 0)) for x in t]), "a"
+    )
+    np.testing.assert_allclose(log.day_s + log.tod_s, t, rtol=0, atol=5e-4)
+    assert "may be off by whole (leap) seconds" in " ".join(log.notes)
+    invalid = [nav_pvt(x, 52.4, -1.5, valid=(0, 0, 0)) for x in t]
+    with pytest.raises(InputError) as err:
+        read_ubx(write_ubx(tmp_path / "b.ubx", invalid), "b.ubx")
+    said = str(err.value)
+    assert "b.ubx, column 'NAV-PVT valid'" in said and "none of 20 NAV-PVT epochs" in said
+
+
+def test_a_log_without_nav_pvt_is_refused_naming_what_it_holds(tmp_path):
+    path = write_ubx(tmp_path / "gps.ubx", [other_messages(1000 * i) for i in range(3)])
+    path.write_bytes(path.read_bytes() + b"$GNGGA,120000.00,,,,,0,00,99.99,,,,,,*7E\r\n")
+    with pytest.raises(InputError) as err:
+        read_ubx(path, "gps.ubx")
+    said = str(err.value)
+    assert "expected UBX-NAV-PVT messages (class 0x01, id 0x07)" in said
+    assert "found other messages (NAV-DOP 3, NAV-TIMEUTC 3); 1 NMEA sentence(s)" in said
+    assert "CFG-MSGOUT-UBX_NAV_PVT" in said
+    with pytest.raises(InputError, match="found no UBX message"):
+        read_ubx(write_ubx(tmp_path / "e.ubx", [b""]), "e.ubx")
+
+
+def test_the_ubx_log_gives_the_labels_of_the_csv_fixes(tmp_path):
+    """wheels.csv on the time of day and the receiver's fixes as gps.ubx: the seconds and
+    labels of the same fixes in gnss.csv, within NAV-PVT's 1e-7 degree (1.1 cm a
+    coordinate: 2 cm a second's displacement)."""
+    tables, _ = _drive()
+    g = tables.gnss
+    ref, _ = _labels(list(_folder(tmp_path / "csv", True).values()))
+    files = list(_folder(tmp_path / "ubx", False).values())
+    files = [f for f in files if f.name != "gnss.csv"]
+    files.append(write_ubx(tmp_path / "ubx" / "gps.ubx", ubx_messages(g, DAY_S + g[c.T_S])))
+    got, streams = _labels(files)
+    assert len(got) == len(ref) > 100
+    np.testing.assert_allclose(got["t_s"], ref["t_s"], rtol=0, atol=1e-3)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=0.02, err_msg=q)
+    gnss = next(s for s in streams.streams if s.name == "gps.ubx")
+    assert gnss.sources[c.LAT_DEG] == "NAV-PVT lat"
+    np.testing.assert_allclose(gnss.channels[c.N_SATS], g[c.N_SATS])
+
+
+def test_beside_the_receiver_s_nmea_log_the_ubx_log_is_read(tmp_path):
+    """A logger that kept both of the receiver's outputs: the UBX log is read, the NMEA
+    log left out, and a note says so."""
+    from support.nmea import nmea_lines, write_nmea
+
+    tables, _ = _drive()
+    g = tables.gnss
+    folder = tmp_path / "both"
+    files = [f for f in _folder(folder, False).values() if f.name != "gnss.csv"]
+    files.append(write_ubx(folder / "gps.ubx", ubx_messages(g, DAY_S + g[c.T_S])))
+    lines = nmea_lines(g.assign(**{c.LAT_DEG: g[c.LAT_DEG] + 1.0}), DAY_S + g[c.T_S])
+    files.append(write_nmea(folder / "gps.nmea", lines))  # another place: must not be read
+    got, streams = _labels(files)
+    ubx_only, _ = _labels([f for f in files if f.name != "gps.nmea"])
+    np.testing.assert_array_equal(got["disp_gnss_m"], ubx_only["disp_gnss_m"])
+    said = " ".join(streams.notes)
+    assert "gps.nmea: NMEA log(s), left out: the fixes are the receiver's UBX log's (" in said
+
+
+def test_the_benchmark_s_writer_writes_pyubx2_s_bytes():
+    """support.ubx.pvt_log (numpy, for the benchmark's hours) against pyubx2's messages."""
+    from support.ubx import pvt_log
+
+    tables, _ = _drive()
+    g = tables.gnss
+    t = DAY_S + g[c.T_S].to_numpy()
+    assert pvt_log(g, t) == b"".join(ubx_messages(g, t, others=False))
+
+
+def test_a_receiver_s_ubx_log_rotated_is_joined(tmp_path):
+    """gps.ubx cut into three files between messages and given in no order: the one log's
+    labels exactly. Cut inside a NAV-PVT (a rotation in mid-write): that epoch is lost, and
+    the note says so; the rest is the one log's."""
+    tables, _ = _drive()
+    g = tables.gnss
+    messages = ubx_messages(g, DAY_S + g[c.T_S])
+    wheels = [f for f in _folder(tmp_path / "w", False).values() if f.name == "wheels.csv"]
+    one, _ = _labels([*wheels, write_ubx(tmp_path / "one" / "gps.ubx", messages)])
+    parts = [messages[:400], messages[400:777], messages[777:]]
+    files = [write_ubx(tmp_path / "three" / f"gps_{k}.ubx", parts[k]) for k in (2, 0, 1)]
+    three, streams = _labels([*wheels, *files])
+    for q in one.columns:
+        np.testing.assert_array_equal(three[q], one[q], err_msg=q)
+    assert "one stream split across 3 files, joined in time order" in " ".join(streams.notes)
+    data = b"".join(messages)
+    cut = sum(map(len, messages[:600])) - 50  # inside the 600th epoch's NAV-PVT
+    files = [
+        write_ubx(tmp_path / "mid" / "gps_b.ubx", [data[cut:]]),
+        write_ubx(tmp_path / "mid" / "gps_a.ubx", [data[:cut]]),
+    ]
+    mid, streams = _labels([*wheels, *files])
+    assert "a NAV-PVT message cut short at the log's end" in " ".join(streams.changed)
+    gnss = next(s for s in streams.streams if c.LAT_DEG in s.channels)
+    assert gnss.channels[c.LAT_DEG].size == len(g) - 1
+    np.testing.assert_allclose(mid["disp_gnss_m"], one["disp_gnss_m"], rtol=0, atol=0.05)
+
+
+def test_the_real_minute_s_fixes_as_a_ubx_log(tmp_path):
+    """The RAV4's wheel speeds in wheels.csv on the receiver's UTC (the boot clock put on
+    UTC by the receiver's own clock fit), its recorded u-blox fixes as NAV-PVT messages
+    (pyubx2, among NAV-TIMEUTC and NAV-DOP) in place of GGA and RMC sentences: the same 59
+    seconds, their GNSS displacements within 2 cm (1e-7 degrees against ddmm.mmmmmm), the
+    wheels' travel the same."""
+    import pandas as pd
+
+    from rwhonet.data.fixtimes import receiver_epochs
+    from support.multirate import per_second
+    from support.nmea import gga, rmc, write_nmea
+    from support.realminute import RAV4_RADIUS_M, real_minute
+
+    minute = real_minute()
+    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
+    fit = receiver_epochs(tg, vg[:, 3])
+    utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
+    # the recorded UTC ms sit 1 ms before the receiver's 100 ms epochs (8.299 s): the
+    # times both logs are written with are the NMEA writer's, to 0.01 s, as on GPS time
+    t = np.round(vg[:, 3] / 1000.0, 2)
+    smap = {"t": ColumnSpec("t", "s")} | {
+        f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
+    }
+    got, said = {}, {}
+    for case in ("nmea", "ubx"):
+        folder = tmp_path / case
+        folder.mkdir()
+        columns = {"t": utc} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
+        pd.DataFrame(columns).to_csv(folder / "wheels.csv", index=False, float_format="%.6f")
+        if case == "nmea":
+            lines = []
+            for i in range(tg.size):
+                lines += [gga(t[i], vg[i, 0], vg[i, 1], 9), rmc(t[i], *vg[i, [0, 1, 2, 5]])]
+            write_nmea(folder / "gps.nmea", lines)
+        else:
+            fixes = pd.DataFrame(
+                {
+                    c.LAT_DEG: vg[:, 0],
+                    c.LON_DEG: vg[:, 1],
+                    c.N_SATS: 9.0,
+                    c.SPEED_GNSS_M_S: vg[:, 2],
+                    c.HEADING_DEG: vg[:, 5],
+                }
+            )
+            write_ubx(folder / "gps.ubx", ubx_messages(fixes, t))
+        streams = read_stream_csvs(sorted(folder.iterdir()), smap, RAV4_RADIUS_M, "map")
+        drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
+        got[case], said[case] = per_second(drive, RAV4_RADIUS_M), " ".join(streams.notes)
+    assert "NAV-PVT dates, on the stream files' UTC" in said["ubx"]
+    assert len(got["ubx"]) == len(got["nmea"]) == 59
+    for q in ("t_s", "disp_wpm_m"):
+        np.testing.assert_array_equal(got["ubx"][q], got["nmea"][q], err_msg=q)
+    for q in ("disp_gnss_m", "label_m"):
+        np.testing.assert_allclose(got["ubx"][q], got["nmea"][q], rtol=0, atol=0.02, err_msg=q)
