@@ -4,8 +4,8 @@ Simulates one long drive (default 2 h, ci world; truth at 200 Hz, which is
 enough for timing), samples it as a logger's streams (CAN wheel speeds at
 100 Hz with jittered stamps, GNSS at 10 Hz), writes them in each format the
 readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
-NMEA log, one MDF4 file, a comma2k19 folder, raw CAN frames as a candump log and a
-Vector BLF with their DBC) and times,
+NMEA log or a u-blox receiver's UBX log, one MDF4 file, a comma2k19 folder, raw CAN
+frames as a candump log and a Vector BLF with their DBC) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
 resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
 sample-level glitch screen). Rows are every stream's samples, counted once.
@@ -55,6 +55,7 @@ from rwhonet.sim.streams import (  # noqa: E402
 )
 from support.canlog import DBC, SIGNALS, stream_frames, write_bus_log, write_candump  # noqa: E402
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
+from support.ubx import pvt_log  # noqa: E402
 
 
 def best(fn, repeat: int):
@@ -117,6 +118,10 @@ def main() -> None:
         nmea = write_nmea(
             root / "csv" / "gps.nmea", nmea_lines(tables.gnss, 1.55e9 + t_fix, stamps=t_fix)
         )
+        # ... and as a u-blox receiver's NAV-PVT messages, placed by their UTC times on the
+        # wheels' clock read as seconds of the day (the day's midnight at the drive's 0 s)
+        ubx = root / "csv" / "gps.ubx"
+        ubx.write_bytes(pvt_log(tables.gnss, 1_552_262_400.0 + t_fix))
         # the streams as raw CAN frames (wheels, fix, satellites) on a Unix clock: a
         # candump log (written at once) and a Vector BLF (python-can's writer), and the DBC
         frames = stream_frames(tables, radius, 1.7e9)
@@ -135,6 +140,7 @@ def main() -> None:
             "CSV + NMEA log": lambda: read_stream_csvs(
                 [csvs["wheels"], nmea], signal_map(), radius
             ),
+            "CSV + UBX log": lambda: read_stream_csvs([csvs["wheels"], ubx], signal_map(), radius),
             "MDF4 (asammdf)": lambda: read_mdf4(mf4, signal_map(with_time=False), radius),
             "comma2k19 folder": lambda: read_comma2k19(root / "seg", radius),
             "candump log + DBC": lambda: read_mdf4(candump, can_map, radius, dbc=dbc),
