@@ -936,7 +936,8 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
 
 
 @pytest.mark.parametrize(
-    ("log", "receiver"), [("candump", "nmea"), ("canedge", "nmea"), ("candump", "ubx")]
+    ("log", "receiver"),
+    [("candump", "nmea"), ("canedge", "nmea"), ("candump", "ubx"), ("candump", "u-blox 6")],
 )
 def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     bundle, tmp_path, capsys, log, receiver
@@ -944,7 +945,8 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     """A Linux logger's folder: the wheel speeds as raw CAN frames in can0.log on the
     computer's Unix clock (or a CANedge's MDF4 bus log split into three files, each on its
     start time: 00000001.MF4 ...), the fixes as the receiver's unstamped NMEA log
-    (gps.nmea.gz) or its u-blox binary log (gps.ubx.gz, NAV-PVT among other messages), a
+    (gps.nmea.gz) or its u-blox binary log (gps.ubx.gz: NAV-PVT among other messages, or
+    a u-blox 6's NAV-POSLLH, NAV-SOL, NAV-VELNED and NAV-TIMEUTC), a
     map file with the DBC, the signals and a ``t``: predict's seconds are those of the
     stream CSVs within the DBC's 0.01 km/h and the log's rounding (ddmm.mmmmmm; NAV-PVT's
     1e-7 degrees, 1.1 cm a coordinate, so 0.02 m a second's GNSS displacement)."""
@@ -975,10 +977,11 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
         lines = nmea_lines(good.gnss, day + t)
         (folder / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
     else:
-        from support.ubx import ubx_messages
+        from support.ubx import u6_messages, ubx_messages
 
-        messages = ubx_messages(good.gnss, day + t)
-        messages[300] = messages[300][:-1] + bytes([messages[300][-1] ^ 1])  # its checksum
+        messages = (ubx_messages if receiver == "ubx" else u6_messages)(good.gnss, day + t)
+        if receiver == "ubx":  # the epoch's last message, NAV-PVT: its checksum broken
+            messages[300] = messages[300][:-1] + bytes([messages[300][-1] ^ 1])
         (folder / "gps.ubx.gz").write_bytes(gzip.compress(b"".join(messages)))
     (tmp_path / "v.dbc").write_text(DBC)
     wheels = [
@@ -996,7 +999,7 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     np.testing.assert_allclose(bus["t_s"] - day, csv["t_s"], atol=1e-6)
     for q in ("disp_wpm_m", "pred_error_m", "disp_corrected_m"):
         np.testing.assert_allclose(bus[q], csv[q], atol=0.01)
-    gnss_m = 0.01 if receiver == "nmea" else 0.02
+    gnss_m = 0.01 if receiver == "nmea" else 0.02  # NAV-PVT's, NAV-POSLLH's 1e-7 deg
     np.testing.assert_allclose(bus["disp_gnss_m"], csv["disp_gnss_m"], atol=gnss_m)
     if receiver == "ubx":
         assert "gps.ubx.gz: passed over: 1 NAV-PVT message(s) with a checksum" in said

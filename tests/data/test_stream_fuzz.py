@@ -256,24 +256,27 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
 
 
 @cache
-def _good_ubx_messages() -> tuple[bytes, ...]:
-    """The good drive's fixes as a u-blox receiver's log (pyubx2: NAV-TIMEUTC, NAV-DOP
-    and NAV-PVT an epoch), their UTC times from :data:`CAN_CLOCK_S`."""
-    from support.ubx import ubx_messages
+def _good_ubx_messages(receiver: str) -> tuple[bytes, ...]:
+    """The good drive's fixes as a u-blox receiver's log (pyubx2), an epoch's messages a
+    row: NAV-TIMEUTC, NAV-DOP and NAV-PVT (``u-blox 8``); NAV-POSLLH, NAV-SOL, NAV-VELNED
+    and NAV-TIMEUTC (``u-blox 6``). Their UTC times from :data:`CAN_CLOCK_S`."""
+    from support.ubx import u6_messages, ubx_messages
 
     gnss = good_tables().gnss
-    return tuple(ubx_messages(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy()))
+    write = ubx_messages if receiver == "u-blox 8" else u6_messages
+    return tuple(write(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy()))
 
 
 @st.composite
 def edited_ubx_logs(draw) -> bytes:
-    """The good drive's UBX log with 1-5 random edits: messages dropped, repeated, swapped,
-    shuffled or written late (:data:`support.fuzz.LINE_EDITS`, an epoch's messages as a
-    line), a NAV-PVT payload byte set (its checksum mended or not: any field, a date, a
-    flag, a coordinate out of range), a byte flipped, the file cut."""
+    """The good drive's UBX log (a u-blox 8's or a u-blox 6's) with 1-5 random edits:
+    epochs' messages dropped, repeated, swapped, shuffled or written late
+    (:data:`support.fuzz.LINE_EDITS`, an epoch's messages as a line), a payload byte of
+    one of an epoch's messages set (its checksum mended or not: any field, a date, a flag,
+    a coordinate out of range), a byte flipped, the file cut."""
     from support.fuzz import LINE_EDITS, edit_lines
 
-    rows = list(_good_ubx_messages())
+    rows = list(_good_ubx_messages(draw(st.sampled_from(["u-blox 8", "u-blox 6"]))))
     cut, flips = None, []
     for _ in range(draw(st.integers(1, 5))):
         a = draw(st.integers(0, len(rows) - 2)) if len(rows) > 2 else 0
@@ -282,14 +285,24 @@ def edited_ubx_logs(draw) -> bytes:
             edit_lines(draw, rows, kind, a, min(len(rows), a + draw(st.integers(1, 90))))
         elif kind == "field" and rows:
             epoch = bytearray(rows[a])
-            pvt = len(epoch) - 100  # the epoch's NAV-PVT: its last 100 bytes
-            epoch[pvt + 6 + draw(st.integers(0, 91))] = draw(st.integers(0, 255))
+            starts = [0]  # the epoch's messages: sync, class, id, length, payload, checksum
+            while starts[-1] + 8 + int.from_bytes(
+                epoch[starts[-1] + 4 : starts[-1] + 6], "little"
+            ) < len(epoch):
+                starts.append(
+                    starts[-1]
+                    + 8
+                    + int.from_bytes(epoch[starts[-1] + 4 : starts[-1] + 6], "little")
+                )
+            m = draw(st.sampled_from(starts))
+            n = int.from_bytes(epoch[m + 4 : m + 6], "little")
+            epoch[m + 6 + draw(st.integers(0, n - 1))] = draw(st.integers(0, 255))
             if draw(st.booleans()):  # the checksum mended: a well-formed message
                 ck_a = ck_b = 0
-                for x in epoch[pvt + 2 : pvt + 98]:
+                for x in epoch[m + 2 : m + 6 + n]:
                     ck_a = (ck_a + x) & 0xFF
                     ck_b = (ck_b + ck_a) & 0xFF
-                epoch[pvt + 98 : pvt + 100] = bytes([ck_a, ck_b])
+                epoch[m + 6 + n : m + 8 + n] = bytes([ck_a, ck_b])
             rows[a] = bytes(epoch)
         elif kind == "cut":
             cut = draw(st.integers(0, 400))

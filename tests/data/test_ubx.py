@@ -18,7 +18,15 @@ from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.data.ubx import is_ubx_name, read_ubx
 from rwhonet.errors import InputError
-from support.ubx import LEAP_S, itow_ms, nav_pvt, other_messages, ubx_messages, write_ubx
+from support.ubx import (
+    LEAP_S,
+    itow_ms,
+    nav_pvt,
+    other_messages,
+    u6_messages,
+    ubx_messages,
+    write_ubx,
+)
 
 DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
 T0 = DAY_S + 45_000.0
@@ -98,7 +106,7 @@ def test_the_reader_reads_what_pyubx2_reads(tmp_path):
     np.testing.assert_allclose(log.day_s + log.tod_s, t[kept], rtol=0, atol=5e-4)
     assert log.rows[0] == 3 and log.rows[1] == 6  # the 3rd message: after TIMEUTC and DOP
     said = " ".join(log.notes)
-    assert "a UBX log: 1197 NAV-PVT epochs, 1197 with a fix" in said
+    assert "a UBX log: 1197 epochs (NAV-PVT), 1197 with a fix" in said
     assert "other messages (NAV-DOP 1199, NAV-TIMEUTC 1199)" in said
     assert "1 NMEA sentence(s)" in said
     assert "1 NAV-PVT message(s) with a checksum that does not match (first at byte " in said
@@ -327,3 +335,71 @@ def test_the_real_minute_s_fixes_as_a_ubx_log(tmp_path):
         np.testing.assert_array_equal(got["ubx"][q], got["nmea"][q], err_msg=q)
     for q in ("disp_gnss_m", "label_m"):
         np.testing.assert_allclose(got["ubx"][q], got["nmea"][q], rtol=0, atol=0.02, err_msg=q)
+
+
+@pytest.mark.parametrize(
+    ("status", "clock"), [("NAV-SOL", "NAV-TIMEUTC"), ("NAV-STATUS", "NAV-TIMEGPS")]
+)
+def test_a_u_blox_6_s_messages_give_the_fixes_nav_pvt_gives(tmp_path, status, clock):
+    """A u-blox 6 has no NAV-PVT: its NAV-POSLLH, the fix in NAV-SOL (or NAV-STATUS),
+    NAV-VELNED and the time in NAV-TIMEUTC (or NAV-TIMEGPS's week less the leap seconds)
+    give the positions and times of the NAV-PVT log of the same fixes exactly, the speed
+    within VELNED's 1 cm/s; the satellites where NAV-SOL gives them."""
+    tables, _ = _drive()
+    g = tables.gnss
+    t = DAY_S + g[c.T_S].to_numpy()
+    pvt = read_ubx(write_ubx(tmp_path / "pvt.ubx", ubx_messages(g, t)), "pvt.ubx")
+    messages = u6_messages(g, t, status=status, clock=clock)
+    log = read_ubx(write_ubx(tmp_path / "u6.ubx", messages), "u6.ubx")
+    np.testing.assert_array_equal(log.day_s + log.tod_s, pvt.day_s + pvt.tod_s)
+    for key in ("lat", "lon", "height", "heading"):
+        np.testing.assert_array_equal(log.channels[key], pvt.channels[key], err_msg=key)
+    np.testing.assert_allclose(log.channels["speed_gnss"], pvt.channels["speed_gnss"], atol=0.005)
+    assert ("n_sats" in log.channels) == (status == "NAV-SOL")
+    if status == "NAV-SOL":
+        np.testing.assert_array_equal(log.channels["n_sats"], pvt.channels["n_sats"])
+    said = " ".join(log.notes)
+    assert "a UBX log: 1199 epochs (NAV-POSLLH, " in said and clock in said
+    assert "1199 with a fix; placed by iTOW on the UTC of the epochs whose date" in said
+    assert log.sources["lat"] == "NAV-POSLLH lat" and log.rows[0] == 1
+
+
+def test_a_u_blox_6_s_fix_status_and_its_leap_seconds(tmp_path):
+    """NAV-SOL's dead reckoning alone is no fix; a NAV-POSLLH with a byte lost is passed
+    over, said; NAV-TIMEGPS without valid leap seconds places the epochs with a note;
+    NAV-POSLLH without NAV-SOL or NAV-STATUS is refused."""
+    t = T0 + 0.1 * np.arange(20)
+    g = _fixes(20)
+    dr = read_ubx(write_ubx(tmp_path / "dr.ubx", u6_messages(g, t, fix_type=1)), "dr")
+    assert not np.isfinite(dr.channels["lat"]).any()
+    messages = u6_messages(g, t)
+    messages[5] = messages[5][:20] + bytes([messages[5][20] ^ 4]) + messages[5][21:]
+    lost = read_ubx(write_ubx(tmp_path / "lost.ubx", messages), "lost")
+    assert lost.rows.size == 19
+    assert "passed over: 1 NAV-POSLLH message(s) with a checksum that does not match" in (
+        " ".join(lost.notes)
+    )
+    messages = u6_messages(g, t, clock="NAV-TIMEGPS", leap_valid=0)
+    log = read_ubx(write_ubx(tmp_path / "leap.ubx", messages), "leap")
+    np.testing.assert_allclose(log.day_s + log.tod_s, t, rtol=0, atol=5e-4)
+    assert "may be off by whole (leap) seconds" in " ".join(log.notes)
+    posllh = [m[:36] for m in u6_messages(g, t)]  # each epoch's NAV-POSLLH alone
+    with pytest.raises(InputError) as err:
+        read_ubx(write_ubx(tmp_path / "pos.ubx", posllh), "pos.ubx")
+    said = str(err.value)
+    assert "NAV-POSLLH with NAV-SOL or NAV-STATUS (its fix)" in said
+    assert "found other messages (NAV-POSLLH 20)" in said
+
+
+def _fixes(n: int):
+    import pandas as pd
+
+    return pd.DataFrame(
+        {
+            c.LAT_DEG: 52.4 + 1e-5 * np.arange(n),
+            c.LON_DEG: -1.5,
+            c.N_SATS: 9.0,
+            c.SPEED_GNSS_M_S: 1.1,
+            c.HEADING_DEG: 0.0,
+        }
+    )

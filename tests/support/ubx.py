@@ -156,3 +156,95 @@ def pvt_log(gnss: pd.DataFrame, t_utc_s: Sequence[float] | np.ndarray) -> bytes:
     out[:, 2:-2] = body
     out[:, -2], out[:, -1] = ck_a[:, -1], ck_b[:, -1]
     return out.tobytes()
+
+
+def u6_messages(
+    gnss: pd.DataFrame,
+    t_utc_s: Sequence[float] | np.ndarray,
+    *,
+    status: str = "NAV-SOL",
+    clock: str = "NAV-TIMEUTC",
+    velned: bool = True,
+    fix_type: int = 3,
+    leap_valid: int = 1,
+) -> list[bytes]:
+    """A u-blox 6's solution for each row of a GNSS table, as pyubx2 writes it: NAV-POSLLH,
+    the fix in ``status`` (NAV-SOL with the satellites, or NAV-STATUS), NAV-VELNED (where
+    ``velned``), and the time in ``clock`` (NAV-TIMEUTC, or NAV-TIMEGPS's week and leap
+    seconds), all of one iTOW."""
+    out = []
+    lat, lon = gnss[c.LAT_DEG].to_numpy(float), gnss[c.LON_DEG].to_numpy(float)
+    sats = gnss[c.N_SATS].to_numpy(float)
+    speed = gnss[c.SPEED_GNSS_M_S].to_numpy(float) if c.SPEED_GNSS_M_S in gnss else None
+    course = gnss[c.HEADING_DEG].to_numpy(float) if c.HEADING_DEG in gnss else None
+    for i, t in enumerate(np.asarray(t_utc_s, float)):
+        itow = itow_ms(float(t))
+        gps = float(t) - GPS_EPOCH_S + LEAP_S
+        week = int(gps // WEEK_S)
+        f_tow = int(round((gps - week * WEEK_S) * 1e9 - itow * 1e6))
+        fixed = math.isfinite(lat[i]) and math.isfinite(lon[i])
+        msgs = [
+            UBXMessage(
+                "NAV",
+                "NAV-POSLLH",
+                0,
+                iTOW=itow,
+                lon=lon[i] if fixed else 0.0,
+                lat=lat[i] if fixed else 0.0,
+                height=159_400,
+                hMSL=112_400,
+            )
+        ]
+        fix = {"gpsFix": fix_type if fixed else 0}
+        if status == "NAV-SOL":
+            n = int(sats[i]) if math.isfinite(sats[i]) else 0
+            kw = fix | {"gpsfixOK": int(fixed), "numSV": n, "week": week, "fTOW": f_tow}
+            msgs.append(UBXMessage("NAV", "NAV-SOL", 0, iTOW=itow, **kw))
+        else:
+            msgs.append(UBXMessage("NAV", "NAV-STATUS", 0, iTOW=itow, gpsFixOk=int(fixed), **fix))
+        if velned:
+            v = 0.0 if speed is None or not math.isfinite(speed[i]) else speed[i]
+            h = 0.0 if course is None or not math.isfinite(course[i]) else course[i] % 360.0
+            msgs.append(
+                UBXMessage(
+                    "NAV", "NAV-VELNED", 0, iTOW=itow, gSpeed=int(round(v * 100.0)), heading=h
+                )
+            )
+        if clock == "NAV-TIMEUTC":
+            whole = math.floor(float(t) + 0.5)
+            when = datetime.fromtimestamp(whole, UTC)
+            msgs.append(
+                UBXMessage(
+                    "NAV",
+                    "NAV-TIMEUTC",
+                    0,
+                    iTOW=itow,
+                    nano=int(round((float(t) - whole) * 1e9)),
+                    year=when.year,
+                    month=when.month,
+                    day=when.day,
+                    hour=when.hour,
+                    min=when.minute,
+                    sec=when.second,
+                    validTOW=1,
+                    validWKN=1,
+                    validUTC=1,
+                )
+            )
+        else:
+            msgs.append(
+                UBXMessage(
+                    "NAV",
+                    "NAV-TIMEGPS",
+                    0,
+                    iTOW=itow,
+                    fTOW=f_tow,
+                    week=week,
+                    leapS=LEAP_S,
+                    towValid=1,
+                    weekValid=1,
+                    leapSValid=leap_valid,
+                )
+            )
+        out.append(b"".join(m.serialize() for m in msgs))
+    return out

@@ -42,26 +42,37 @@ so too. Where no epoch is fully resolved, the valid UTC times give the offset, a
 says that they may be off by whole (leap) seconds; where none is valid, the log is
 refused. A NAV-PVT of an epoch already given (the same iTOW) is passed over, counted.
 
+**A u-blox 6** (NEO-6M and its kin: protocol 7-13, GPS.G6-SW-10018) has no NAV-PVT. Its
+log's epochs are its NAV-POSLLH messages (``lat``, ``lon``, ``hMSL``), joined by iTOW with
+the fix of NAV-SOL (``gpsFix``, ``GPSfixOK``, and ``numSV``) or, without one, NAV-STATUS
+(``gpsFix``, ``gpsFixOk``), with NAV-VELNED's ``gSpeed`` (cm/s) and ``heading``, and with
+the time of NAV-TIMEUTC (valid: ``validTOW`` and ``validWKN``; fully resolved:
+``validUTC``) or, without one, NAV-TIMEGPS (the GPS week and time less ``leapS``; fully
+resolved: ``leapSValid``). A fix is as NAV-PVT's (``gpsFix`` 2, 3 or 4 with the OK flag);
+an epoch without a NAV-SOL or NAV-STATUS of its iTOW has none. A log with NAV-PVT is read
+by its NAV-PVT alone.
+
 **What a log holds besides messages**: a message is framed by its two sync bytes
 (``0xB5 0x62``), class, id, a little-endian payload length and the 8-bit Fletcher checksum
 over class, id, length and payload (section 32.4). A NAV-PVT whose checksum does not match
 (a byte lost on the serial line) and one cut short at the end (a logger that lost power)
 are dropped and counted; a sync pair inside another message's payload is not a message.
 
-**Rows.** A message is named by its number among the log's UBX messages (1-based, as
-``pyubx2``'s ``UBXReader`` with the UBX protocol filter counts them) and, in refusals, its
-byte offset.
+**Rows.** An epoch is named by its NAV-PVT's (NAV-POSLLH's) number among the log's UBX
+messages (1-based, as ``pyubx2``'s ``UBXReader`` with the UBX protocol filter counts them)
+and, in refusals, its byte offset.
 
 The messages are found and checked over the log's bytes at once (numpy: the sync pairs,
-every candidate's checksum from two running sums), and the NAV-PVT payloads read as one
+every candidate's checksum from two running sums), and each kind's payloads read as one
 structured array. ``pyubx2`` reads one message at a time in Python: 9.1 s for a two-hour
-10 Hz log of NAV-PVT alone on this machine (0.008 M messages/s), where this reader takes
-under 0.1 s; the tests read every log they write with ``pyubx2`` too, and compare
-(``tests/data/test_ubx.py``).
+10 Hz log of NAV-PVT alone on this machine (0.008 M messages/s), where this reader took
+0.09-0.23 s (5 Dec 2026); the tests write their logs with ``pyubx2`` and compare with what
+it reads back (``tests/data/test_ubx.py``).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -115,6 +126,43 @@ PVT = np.dtype(
     ]
 )
 assert PVT.itemsize == PVT_LENGTHS[0]
+# a u-blox 6's solution (protocol 7-13, GPS.G6-SW-10018, 35.x; kept by later receivers):
+# NAV-POSLLH, NAV-SOL, NAV-STATUS, NAV-VELNED, NAV-TIMEUTC, NAV-TIMEGPS
+NAV_POSLLH, NAV_STATUS, NAV_SOL = (0x01, 0x02), (0x01, 0x03), (0x01, 0x06)
+NAV_VELNED, NAV_TIMEGPS, NAV_TIMEUTC = (0x01, 0x12), (0x01, 0x20), (0x01, 0x21)
+LEGACY = (NAV_POSLLH, NAV_STATUS, NAV_SOL, NAV_VELNED, NAV_TIMEGPS, NAV_TIMEUTC)
+POSLLH = np.dtype(
+    [("iTOW", "<u4"), ("lon", "<i4"), ("lat", "<i4"), ("height", "<i4"), ("hMSL", "<i4")]
+    + [("hAcc", "<u4"), ("vAcc", "<u4")]
+)
+SOL = np.dtype(
+    [("iTOW", "<u4"), ("fTOW", "<i4"), ("week", "<i2"), ("gpsFix", "u1"), ("flags", "u1")]
+    + [("ecef", "<i4", 3), ("pAcc", "<u4"), ("ecefV", "<i4", 3), ("sAcc", "<u4")]
+    + [("pDOP", "<u2"), ("reserved1", "u1"), ("numSV", "u1"), ("reserved2", "<u4")]
+)
+STATUS = np.dtype(
+    [("iTOW", "<u4"), ("gpsFix", "u1"), ("flags", "u1"), ("fixStat", "u1"), ("flags2", "u1")]
+    + [("ttff", "<u4"), ("msss", "<u4")]
+)
+VELNED = np.dtype(
+    [("iTOW", "<u4"), ("velN", "<i4"), ("velE", "<i4"), ("velD", "<i4"), ("speed", "<u4")]
+    + [("gSpeed", "<u4"), ("heading", "<i4"), ("sAcc", "<u4"), ("cAcc", "<u4")]
+)
+TIMEUTC = np.dtype(
+    [("iTOW", "<u4"), ("tAcc", "<u4"), ("nano", "<i4"), ("year", "<u2"), ("month", "u1")]
+    + [("day", "u1"), ("hour", "u1"), ("min", "u1"), ("sec", "u1"), ("valid", "u1")]
+)
+TIMEGPS = np.dtype(
+    [("iTOW", "<u4"), ("fTOW", "<i4"), ("week", "<i2"), ("leapS", "i1"), ("valid", "u1")]
+    + [("tAcc", "<u4")]
+)
+assert (POSLLH.itemsize, SOL.itemsize, STATUS.itemsize) == (28, 52, 16)
+assert (VELNED.itemsize, TIMEUTC.itemsize, TIMEGPS.itemsize) == (36, 20, 16)
+LENGTHS = {NAV_PVT: PVT_LENGTHS} | {
+    k: (d.itemsize,)
+    for k, d in zip(LEGACY, (POSLLH, STATUS, SOL, VELNED, TIMEGPS, TIMEUTC), strict=True)
+}
+GPS_EPOCH_S = 315_964_800.0  # 1980-01-06 00:00:00 UTC, s since 1970
 # fixType: 2 2D, 3 3D, 4 GNSS + dead reckoning are fixes; 0 none, 1 dead reckoning only,
 # 5 time only are not
 PVT_FIXES = (2, 3, 4)
@@ -168,8 +216,10 @@ class _Frames:
         at: each message's sync position (byte offset).
         cls, ident, length: its class, id and payload length.
         number: its number among the log's messages, 1-based.
-        bad_pvt: byte offsets of NAV-PVT messages whose checksum does not match.
-        cut_pvt: the byte offset of a NAV-PVT cut short at the log's end, or None.
+        bad: (byte offsets, class * 256 + id, payload lengths) of the messages whose
+            checksum does not match (and of sync pairs that frame none).
+        cut: (byte offset, class * 256 + id, payload length) of a message cut short at the
+            log's end (or of a last sync pair that frames none), or None.
         nmea: how many NMEA sentences (``$GPGGA,``) stand between the messages.
     """
 
@@ -200,14 +250,14 @@ class _Frames:
         inside = head < before
         kept = ok & ~inside
         cls, ident = buf[head + 2], buf[head + 3]
-        pvt = (cls == NAV_PVT[0]) & (ident == NAV_PVT[1]) & np.isin(length, PVT_LENGTHS)
+        key = cls.astype(np.int64) * 256 + ident
         self.at = head[kept]
         self.cls, self.ident, self.length = cls[kept], ident[kept], length[kept]
         self.number = np.arange(1, self.at.size + 1)
-        self.bad_pvt = head[pvt & whole & ~ok & ~inside]
-        last_end = int(ends.max(initial=0))
-        cut = head[pvt & ~whole & (head >= last_end)]
-        self.cut_pvt = int(cut[0]) if cut.size else None
+        bad = whole & ~ok & ~inside
+        self.bad = (head[bad], key[bad], length[bad])
+        cut = np.flatnonzero(~whole & (head >= int(ends.max(initial=0))))
+        self.cut = (int(head[cut[0]]), int(key[cut[0]]), int(length[cut[0]])) if cut.size else None
         # an NMEA sentence between the messages: "$", a talker and a type (five capitals
         # or digits: GPGGA, GNRMC), a comma
         dollar = np.flatnonzero(buf[: max(size - 6, 0)] == ord("$"))
@@ -219,22 +269,27 @@ class _Frames:
         self.nmea = int(np.count_nonzero(sentence))
         self._buf = buf
 
-    def payloads(self, which: np.ndarray) -> np.ndarray:
-        """The NAV-PVT payloads of messages ``which`` as :data:`PVT` records (an 84-byte
-        one padded with zeros)."""
-        table = np.zeros((which.size, PVT.itemsize), np.uint8)
-        for n in PVT_LENGTHS:
-            rows = np.flatnonzero(self.length[which] == n)
-            if rows.size:
-                at = self.at[which[rows]][:, None] + HEADER + np.arange(n)
-                table[rows, :n] = self._buf[at]
-        return table.view(PVT).ravel()
+    def which(self, kind: tuple[int, int], lengths: tuple[int, ...]) -> np.ndarray:
+        """The messages of a kind (class, id) with one of its payload lengths."""
+        return np.flatnonzero(
+            (self.cls == kind[0]) & (self.ident == kind[1]) & np.isin(self.length, lengths)
+        )
 
-    def others(self) -> str:
-        """The other messages, counted by kind (the most first)."""
-        other = ~((self.cls == NAV_PVT[0]) & (self.ident == NAV_PVT[1]))
-        keys = self.cls[other].astype(np.int64) * 256 + self.ident[other]
-        kinds, counts = np.unique(keys, return_counts=True)
+    def payloads(self, which: np.ndarray, dtype: np.dtype) -> np.ndarray:
+        """The payloads of messages ``which`` as ``dtype`` records (a shorter one padded
+        with zeros: an 84-byte NAV-PVT)."""
+        table = np.zeros((which.size, dtype.itemsize), np.uint8)
+        for n in np.unique(self.length[which]).tolist():
+            rows = np.flatnonzero(self.length[which] == n)
+            at = self.at[which[rows]][:, None] + HEADER + np.arange(min(n, dtype.itemsize))
+            table[rows, : at.shape[1]] = self._buf[at]
+        return table.view(dtype).ravel()
+
+    def others(self, read: tuple[tuple[int, int], ...]) -> str:
+        """The messages of the kinds not ``read``, counted by kind (the most first)."""
+        keys = self.cls.astype(np.int64) * 256 + self.ident
+        other = ~np.isin(keys, [a * 256 + b for a, b in read])
+        kinds, counts = np.unique(keys[other], return_counts=True)
         order = np.argsort(-counts, kind="stable")
         shown = [
             f"{message_name(int(kinds[i]) >> 8, int(kinds[i]) & 0xFF)} {int(counts[i])}"
@@ -245,80 +300,108 @@ class _Frames:
         return ", ".join(shown)
 
 
+@dataclass
+class _Epochs:
+    """A log's epochs, one a navigation solution, as its messages give them.
+
+    Attributes:
+        itow: GPS time of week, ms.
+        rows: the message that gives the position: its number among the log's messages.
+        offsets: its byte offset.
+        utc: the epoch's UTC as s since 1970 where the log gives one (NaN: none).
+        valid: whether that UTC's date and time are valid.
+        resolved: whether the receiver had fully resolved it (knew the leap seconds).
+        fix: whether the epoch is a fix.
+        channels: signal-map key -> values, SI units (NaN where none).
+        sources: key -> the message field it came from.
+        kind: the message that gives the position (``NAV-PVT``, ``NAV-POSLLH``).
+        what: the messages that gave the epochs, for the note.
+        dated: what gave the dates (``NAV-PVT dates``), for the clock's note.
+    """
+
+    itow: np.ndarray
+    rows: np.ndarray
+    offsets: np.ndarray
+    utc: np.ndarray
+    valid: np.ndarray
+    resolved: np.ndarray
+    fix: np.ndarray
+    channels: dict[str, np.ndarray]
+    sources: dict[str, str]
+    kind: str
+    what: str
+    dated: str
+
+    def take(self, keep: np.ndarray) -> _Epochs:
+        """The epochs ``keep``."""
+        return _Epochs(
+            self.itow[keep],
+            self.rows[keep],
+            self.offsets[keep],
+            self.utc[keep],
+            self.valid[keep],
+            self.resolved[keep],
+            self.fix[keep],
+            {k: v[keep] for k, v in self.channels.items()},
+            self.sources,
+            self.kind,
+            self.what,
+            self.dated,
+        )
+
+
 def read_ubx(path: Path, file: str) -> FixLog:
-    """Read a u-blox receiver's NAV-PVT messages as one fix an epoch.
+    """Read a u-blox receiver's navigation solutions as one fix an epoch: its NAV-PVT
+    messages, or (a u-blox 6, which has none) its NAV-POSLLH with NAV-SOL or NAV-STATUS,
+    NAV-VELNED and NAV-TIMEUTC or NAV-TIMEGPS of the same iTOW.
 
     Args:
         path: the UBX log (binary; a compressed one already unpacked).
         file: how messages name it.
 
     Raises:
-        InputError: no NAV-PVT message (naming what the log holds); no epoch with a valid
-            UTC date and time; a fix outside the latitude's or longitude's range.
+        InputError: neither NAV-PVT nor NAV-POSLLH with a fix status (naming what the log
+            holds); no epoch with a valid UTC date and time; a fix outside the latitude's
+            or longitude's range.
     """
     frames = _Frames(path.read_bytes())
-    is_pvt = (frames.cls == NAV_PVT[0]) & (frames.ident == NAV_PVT[1])
-    is_pvt &= np.isin(frames.length, PVT_LENGTHS)
-    which = np.flatnonzero(is_pvt)
-    besides = _besides(frames)
-    if not which.size:
-        raise InputError(
-            [
-                Problem(
-                    file,
-                    None,
-                    None,
-                    "UBX-NAV-PVT messages (class 0x01, id 0x07), the receiver's solution",
-                    "; ".join(x for x in (besides, _dropped(frames, [])) if x) or "no UBX message",
-                    "enable NAV-PVT on the port the logger records (u-center: UBX-CFG-MSG "
-                    "01-07; u-blox 9 and later: CFG-MSGOUT-UBX_NAV_PVT_<port> = 1), or give "
-                    "the drive the receiver's NMEA log (*.nmea)",
-                )
-            ]
-        )
-    pvt = frames.payloads(which)
-    rows = frames.number[which]
-    offsets = frames.at[which]
+    pvt = frames.which(NAV_PVT, PVT_LENGTHS)
+    besides = _besides(frames, (NAV_PVT,) if pvt.size else LEGACY)
+    epochs = _pvt_epochs(frames, pvt) if pvt.size else _legacy_epochs(frames, file)
     # an epoch given again (its iTOW), passed over: the first is kept
-    _, once = np.unique(pvt["iTOW"], return_index=True)
+    _, once = np.unique(epochs.itow, return_index=True)
     once = np.sort(once)
-    again = np.setdiff1d(rows, rows[once])
-    dropped = _dropped(frames, again)
-    pvt, rows, offsets = pvt[once], rows[once], offsets[once]
-    gps_s, weeks = unwrap_midnight(pvt["iTOW"].astype(np.float64) / 1000.0, SECONDS_PER_WEEK)
-    offset, how = _utc_offset(pvt, gps_s, file)
-    t_utc = gps_s + offset
-    fix = (
-        ((pvt["flags"] & 1) == 1)
-        & np.isin(pvt["fixType"], PVT_FIXES)
-        & ~((frames.length[which][once] == PVT_LENGTHS[0]) & ((pvt["flags3"] & 1) == 1))
-    )
-    lat = np.where(fix, pvt["lat"] * 1e-7, np.nan)
-    lon = np.where(fix, pvt["lon"] * 1e-7, np.nan)
+    again = np.setdiff1d(epochs.rows, epochs.rows[once])
+    epochs = epochs.take(once)
+    dropped = _dropped(frames, again, epochs.kind, (NAV_PVT,) if pvt.size else LEGACY)
+    gps_s, weeks = unwrap_midnight(epochs.itow.astype(np.float64) / 1000.0, SECONDS_PER_WEEK)
+    offset, how = _utc_offset(epochs, gps_s, file)
+    lat, lon = epochs.channels["lat"], epochs.channels["lon"]
     problems = [
         Problem(
             file,
-            int(rows[i]),
-            f"NAV-PVT {what}",
+            int(epochs.rows[i]),
+            f"{epochs.kind} {what}",
             f"a {what} in [-{limit}, {limit}] degrees",
-            f"{values[i]:.7f} (the message at byte {int(offsets[i])})",
+            f"{values[i]:.7f} (the message at byte {int(epochs.offsets[i])})",
         )
         for what, values, limit in (("lat", lat, 90), ("lon", lon, 180))
         for i in np.flatnonzero(np.abs(values) > limit)[:20]
     ]
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
-    day_s = float(np.floor(t_utc[0] / 86400.0) * 86400.0)
+    day_s = float(np.floor((gps_s[0] + offset) / 86400.0) * 86400.0)
     tod_s = gps_s + (offset - day_s)  # whole seconds: the times of day keep their digits
     notes = [
-        f"{file}: a UBX log: {pvt.size} NAV-PVT epochs, {int(fix.sum())} with a fix; {how}"
+        f"{file}: a UBX log: {epochs.itow.size} epochs ({epochs.what}), "
+        f"{int(epochs.fix.sum())} with a fix; {how}"
         + (f"; besides them: {besides}" if besides else "")
         + (f"; passed over: {dropped}" if dropped else "")
     ]
     if weeks.size:
         notes.append(
             f"{file}: GPS time of week passed the week's end before message(s) "
-            + ", ".join(str(int(rows[i])) for i in weeks[:5])
+            + ", ".join(str(int(epochs.rows[i])) for i in weeks[:5])
             + ": a week added after each"
         )
     return FixLog(
@@ -326,9 +409,35 @@ def read_ubx(path: Path, file: str) -> FixLog:
         tod_s,
         day_s,
         None,
+        epochs.channels,
+        {k: epochs.sources[k] for k in epochs.channels},
+        epochs.rows,
+        notes,
+        dropped,
+        dated_by=epochs.dated,
+    )
+
+
+def _pvt_epochs(frames: _Frames, which: np.ndarray) -> _Epochs:
+    """The epochs of a log's NAV-PVT messages ``which``."""
+    pvt = frames.payloads(which, PVT)
+    long = frames.length[which] == PVT_LENGTHS[0]  # an 84-byte one has no flags3
+    fix = (
+        ((pvt["flags"] & 1) == 1)
+        & np.isin(pvt["fixType"], PVT_FIXES)
+        & ~(long & ((pvt["flags3"] & 1) == 1))
+    )
+    return _Epochs(
+        pvt["iTOW"],
+        frames.number[which],
+        frames.at[which],
+        _utc_seconds(pvt, ("year", "month", "day", "hour", "min", "sec", "nano")),
+        (pvt["valid"] & VALID_DATE_TIME) == VALID_DATE_TIME,
+        (pvt["valid"] & FULLY_RESOLVED) == FULLY_RESOLVED,
+        fix,
         {
-            "lat": lat,
-            "lon": lon,
+            "lat": np.where(fix, pvt["lat"] * 1e-7, np.nan),
+            "lon": np.where(fix, pvt["lon"] * 1e-7, np.nan),
             "n_sats": pvt["numSV"].astype(np.float64),
             "height": pvt["hMSL"] * 1e-3,
             "speed_gnss": np.where(fix, pvt["gSpeed"] * 1e-3, np.nan),
@@ -342,98 +451,251 @@ def read_ubx(path: Path, file: str) -> FixLog:
             "speed_gnss": "NAV-PVT gSpeed",
             "heading": "NAV-PVT headMot",
         },
-        rows,
-        notes,
-        dropped,
-        dated_by="NAV-PVT dates",
+        "NAV-PVT",
+        "NAV-PVT",
+        "NAV-PVT dates",
     )
 
 
-def _besides(frames: _Frames) -> str:
-    """What a receiver's log holds besides NAV-PVT: other messages, NMEA sentences."""
+def _legacy_epochs(frames: _Frames, file: str) -> _Epochs:
+    """The epochs of a u-blox 6's messages: NAV-POSLLH's position, the fix from NAV-SOL (else
+    NAV-STATUS) of its iTOW, the satellites from NAV-SOL, speed and course from NAV-VELNED,
+    the UTC from NAV-TIMEUTC (else NAV-TIMEGPS's GPS week and leap seconds).
+
+    Raises:
+        InputError: no NAV-POSLLH, or none with a NAV-SOL or NAV-STATUS of its iTOW.
+    """
+    which = frames.which(NAV_POSLLH, (POSLLH.itemsize,))
+    pos = frames.payloads(which, POSLLH)
+    n = which.size
+    sol = _matched(frames, NAV_SOL, SOL, pos["iTOW"])
+    status = _matched(frames, NAV_STATUS, STATUS, pos["iTOW"])
+    if not n or not (sol.found.any() or status.found.any()):
+        held = "; ".join(
+            x for x in (_besides(frames, ()), _dropped(frames, [], "", (NAV_PVT, *LEGACY))) if x
+        )
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    "UBX-NAV-PVT messages (class 0x01, id 0x07), the receiver's solution; or, "
+                    "from a u-blox 6, NAV-POSLLH with NAV-SOL or NAV-STATUS (its fix)",
+                    held or "no UBX message",
+                    "enable NAV-PVT on the port the logger records (u-center: UBX-CFG-MSG "
+                    "01-07; u-blox 9 and later: CFG-MSGOUT-UBX_NAV_PVT_<port> = 1), or on a "
+                    "u-blox 6 NAV-POSLLH, NAV-SOL and NAV-TIMEUTC; or give the drive the "
+                    "receiver's NMEA log (*.nmea)",
+                )
+            ]
+        )
+    # the fix: NAV-SOL's where the epoch has one, else NAV-STATUS's
+    fix_type = np.where(sol.found, sol.values["gpsFix"], status.values["gpsFix"])
+    fix_ok = np.where(sol.found, sol.values["flags"], status.values["flags"]) & 1
+    fix = (sol.found | status.found) & (fix_ok == 1) & np.isin(fix_type, PVT_FIXES)
+    vel = _matched(frames, NAV_VELNED, VELNED, pos["iTOW"])
+    moving = fix & vel.found
+    channels = {
+        "lat": np.where(fix, pos["lat"] * 1e-7, np.nan),
+        "lon": np.where(fix, pos["lon"] * 1e-7, np.nan),
+        "n_sats": np.where(sol.found, sol.values["numSV"], np.nan),
+        "height": pos["hMSL"] * 1e-3,
+        "speed_gnss": np.where(moving, vel.values["gSpeed"] * 1e-2, np.nan),
+        "heading": np.where(moving, vel.values["heading"] * 1e-5, np.nan),
+    }
+    gave = [n for n, m in (("NAV-SOL", sol), ("NAV-VELNED", vel)) if m.found.any()]
+    keep = {"lat", "lon", "height"} | ({"n_sats"} if sol.found.any() else set())
+    keep |= {"speed_gnss", "heading"} if vel.found.any() else set()
+    utc, valid, resolved, timed = _legacy_utc(frames, pos["iTOW"])
+    what = ", ".join(["NAV-POSLLH", *gave, *([] if sol.found.any() else ["NAV-STATUS"]), timed])
+    return _Epochs(
+        pos["iTOW"],
+        frames.number[which],
+        frames.at[which],
+        utc,
+        valid,
+        resolved,
+        fix,
+        {k: v.astype(np.float64) for k, v in channels.items() if k in keep},
+        {
+            "lat": "NAV-POSLLH lat",
+            "lon": "NAV-POSLLH lon",
+            "n_sats": "NAV-SOL numSV",
+            "height": "NAV-POSLLH hMSL",
+            "speed_gnss": "NAV-VELNED gSpeed",
+            "heading": "NAV-VELNED heading",
+        },
+        "NAV-POSLLH",
+        what.rstrip(", "),
+        "NAV-TIMEUTC dates" if timed.startswith("NAV-TIMEUTC") else "NAV-TIMEGPS weeks",
+    )
+
+
+@dataclass(frozen=True)
+class _Match:
+    """A message kind's payloads matched to epochs by iTOW (the first of each epoch's)."""
+
+    found: np.ndarray
+    values: np.ndarray
+
+
+def _matched(frames: _Frames, kind: tuple[int, int], dtype: np.dtype, itow: np.ndarray) -> _Match:
+    """Each epoch's (``itow``) first message of a kind, where it has one."""
+    which = frames.which(kind, (dtype.itemsize,))
+    records = frames.payloads(which, dtype)
+    out = np.zeros(itow.size, dtype)
+    found = np.zeros(itow.size, bool)
+    if records.size and itow.size:
+        msg_itow, first = np.unique(records["iTOW"], return_index=True)
+        k = np.clip(np.searchsorted(msg_itow, itow), 0, msg_itow.size - 1)
+        found = msg_itow[k] == itow
+        out[found] = records[first[k[found]]]
+    return _Match(found, out)
+
+
+def _legacy_utc(
+    frames: _Frames, itow: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Each epoch's UTC (s since 1970), whether it is valid and fully resolved, from the
+    NAV-TIMEUTC of its iTOW (valid: validTOW and validWKN; resolved: validUTC), else from
+    its NAV-TIMEGPS (GPS week and time less the leap seconds; resolved: leapSValid); and
+    which message gave them."""
+    utc = np.full(itow.size, np.nan)
+    valid = np.zeros(itow.size, bool)
+    resolved = np.zeros(itow.size, bool)
+    said = []
+    timeutc = _matched(frames, NAV_TIMEUTC, TIMEUTC, itow)
+    if timeutc.found.any():
+        v = timeutc.values
+        at = timeutc.found
+        fields = ("year", "month", "day", "hour", "min", "sec", "nano")
+        utc[at] = _utc_seconds(v[at], fields)
+        valid[at] = (v["valid"][at] & 0b011) == 0b011
+        resolved[at] = valid[at] & ((v["valid"][at] & 0b100) == 0b100)
+        said.append("NAV-TIMEUTC")
+    timegps = _matched(frames, NAV_TIMEGPS, TIMEGPS, itow)
+    other = timegps.found & ~timeutc.found
+    if other.any():
+        v = timegps.values[other]
+        utc[other] = (
+            GPS_EPOCH_S
+            + v["week"] * SECONDS_PER_WEEK
+            + v["iTOW"] / 1000.0
+            + v["fTOW"] * 1e-9
+            - v["leapS"]
+        )
+        valid[other] = (v["valid"] & 0b011) == 0b011
+        resolved[other] = valid[other] & ((v["valid"] & 0b100) == 0b100)
+        said.append("NAV-TIMEGPS")
+    return utc, valid, resolved, ", ".join(said)
+
+
+def _besides(frames: _Frames, read: tuple[tuple[int, int], ...]) -> str:
+    """What a receiver's log holds besides the messages ``read``: other messages, NMEA
+    sentences."""
     parts = []
-    if others := frames.others():
+    if others := frames.others(read):
         parts.append(f"other messages ({others})")
     if frames.nmea:
         parts.append(f"{frames.nmea} NMEA sentence(s)")
     return "; ".join(parts)
 
 
-def _dropped(frames: _Frames, again: np.ndarray | list[int]) -> str:
-    """The NAV-PVT messages not read: a checksum that does not match, one cut short at the
-    end, an epoch's given again (``again``: their numbers)."""
+def _dropped(
+    frames: _Frames, again: np.ndarray | list[int], kind: str, read: tuple[tuple[int, int], ...]
+) -> str:
+    """The messages of the kinds ``read`` not read: those whose checksum does not match, one
+    cut short at the log's end; the position messages (``kind``) of an epoch given again
+    (``again``: their numbers)."""
     parts = []
-    if frames.bad_pvt.size:
-        parts.append(
-            f"{frames.bad_pvt.size} NAV-PVT message(s) with a checksum that does not match "
-            f"(first at byte {int(frames.bad_pvt[0])})"
-        )
-    if frames.cut_pvt is not None:
-        parts.append(f"a NAV-PVT message cut short at the log's end (at byte {frames.cut_pvt})")
+    offsets, keys, lengths = frames.bad
+    for k in read:
+        bad = offsets[(keys == k[0] * 256 + k[1]) & np.isin(lengths, LENGTHS[k])]
+        if bad.size:
+            parts.append(
+                f"{bad.size} {message_name(*k)} message(s) with a checksum that does not match "
+                f"(first at byte {int(bad[0])})"
+            )
+    if frames.cut is not None:
+        at, key, length = frames.cut
+        k = (key >> 8, key & 0xFF)
+        if k in read and length in LENGTHS[k]:
+            parts.append(f"a {message_name(*k)} message cut short at the log's end (at byte {at})")
     if len(again):
         parts.append(
-            f"{len(again)} NAV-PVT message(s) of an epoch already given (first message "
+            f"{len(again)} {kind} message(s) of an epoch already given (first message "
             f"{int(again[0])})"
         )
     return "; ".join(parts)
 
 
-def _utc_offset(pvt: np.ndarray, gps_s: np.ndarray, file: str) -> tuple[float, str]:
-    """The whole seconds from the GPS time of week to UTC (s since 1970), and what gave it:
-    the median over the epochs with a fully resolved UTC date and time, else over those with
-    a valid one."""
-    utc = _utc_seconds(pvt)
-    for flags, how in (
+def _utc_offset(epochs: _Epochs, gps_s: np.ndarray, file: str) -> tuple[float, str]:
+    """The whole seconds from the GPS time of week (``gps_s``, continuous) to UTC (s since
+    1970), and what gave it: the median over the epochs with a fully resolved UTC date and
+    time, else over those with a valid one."""
+    for use, how in (
         (
-            FULLY_RESOLVED,
-            "placed by iTOW on the UTC of the epochs whose date and time the "
-            "receiver had fully resolved",
+            epochs.resolved,
+            "placed by iTOW on the UTC of the epochs whose date and time the receiver had "
+            "fully resolved",
         ),
         (
-            VALID_DATE_TIME,
-            "placed by iTOW on the UTC the receiver gave, not fully resolved: "
-            "its times may be off by whole (leap) seconds",
+            epochs.valid,
+            "placed by iTOW on the UTC the receiver gave, not fully resolved: its times may "
+            "be off by whole (leap) seconds",
         ),
     ):
-        use = ((pvt["valid"] & flags) == flags) & np.isfinite(utc)
+        use = use & np.isfinite(epochs.utc)
         if use.any():
-            return float(np.round(np.median(utc[use] - gps_s[use]))), how
+            return float(np.round(np.median(epochs.utc[use] - gps_s[use]))), how
+    legacy = epochs.kind != "NAV-PVT"
     raise InputError(
         [
             Problem(
                 file,
                 None,
-                "NAV-PVT valid",
-                "an epoch with a valid UTC date and time (validDate and validTime set)",
-                f"none of {pvt.size} NAV-PVT epochs",
-                "log the receiver until it has its time (a fix), or give the drive its NMEA "
-                "log with the logger's stamps",
+                "NAV-TIMEUTC valid" if legacy else "NAV-PVT valid",
+                "an epoch with a valid UTC date and time ("
+                + (
+                    "a NAV-TIMEUTC with validTOW and validWKN, or a NAV-TIMEGPS with "
+                    "towValid and weekValid, of its iTOW"
+                    if legacy
+                    else "validDate and validTime set"
+                )
+                + ")",
+                f"none of {epochs.itow.size} {epochs.kind} epochs",
+                "log the receiver until it has its time (a fix)"
+                + (", with NAV-TIMEUTC enabled" if legacy else "")
+                + ", or give the drive its NMEA log with the logger's stamps",
             )
         ]
     )
 
 
-def _utc_seconds(pvt: np.ndarray) -> np.ndarray:
-    """Each epoch's UTC date and time as s since 1970 (NaN where a field is out of range)."""
-    month, day = pvt["month"].astype(np.int64), pvt["day"].astype(np.int64)
+def _utc_seconds(rec: np.ndarray, fields: tuple[str, ...]) -> np.ndarray:
+    """A date and time (``fields``: year, month, day, hour, minute, second, ns) as s since
+    1970 (NaN where a field is out of range)."""
+    year_f, month_f, day_f, hour_f, min_f, sec_f, nano_f = fields
+    month, day = rec[month_f].astype(np.int64), rec[day_f].astype(np.int64)
     ok = (
-        (pvt["year"] >= 1980)
+        (rec[year_f] >= 1980)
         & (month >= 1)
         & (month <= 12)
         & (day >= 1)
         & (day <= 31)
-        & (pvt["hour"] < 24)
-        & (pvt["min"] < 60)
-        & (pvt["sec"] <= 60)
+        & (rec[hour_f] < 24)
+        & (rec[min_f] < 60)
+        & (rec[sec_f] <= 60)
     )
-    years = (np.where(ok, pvt["year"], 1970).astype(np.int64) - 1970).astype("datetime64[Y]")
+    years = (np.where(ok, rec[year_f], 1970).astype(np.int64) - 1970).astype("datetime64[Y]")
     months = years.astype("datetime64[M]") + np.where(ok, month - 1, 0)
     days = (months.astype("datetime64[D]") + np.where(ok, day - 1, 0)).astype(np.int64)
     seconds = (
         days * 86400.0
-        + pvt["hour"] * 3600.0
-        + pvt["min"] * 60.0
-        + pvt["sec"].astype(np.float64)
-        + pvt["nano"] * 1e-9
+        + rec[hour_f] * 3600.0
+        + rec[min_f] * 60.0
+        + rec[sec_f].astype(np.float64)
+        + rec[nano_f] * 1e-9
     )
     return np.where(ok, seconds, np.nan)
