@@ -132,15 +132,23 @@ def test_a_receiver_s_nmea_log_in_place_of_gnss_csv_goes_through_the_stages(
     _same_labels(native, samples, 2 * LABEL_TOL_M)
 
 
-def test_a_candump_log_beside_the_receiver_s_nmea_log_goes_through_the_stages(native, tmp_path):
+@pytest.mark.parametrize("receiver", ["nmea", "ubx"])
+def test_a_candump_log_beside_the_receiver_s_log_goes_through_the_stages(
+    native, tmp_path, receiver
+):
     """Every drive as a Linux logger writes it: the wheel speeds as raw CAN frames in
     can0.log (candump -l, on the fleet's seconds of the day), the fixes as the receiver's
-    unstamped NMEA log; a stream_csv map naming the DBC (under data.root) and its signals.
-    Ingest, validate and label give the 10 Hz drives' labels within the DBC's 0.01 km/h
-    and the log's rounding, and the manifest says what was decoded."""
+    unstamped NMEA log, or its u-blox NAV-PVT messages kept gzipped (gps.ubx.gz); a
+    stream_csv map naming the DBC (under data.root) and its signals. Ingest, validate and
+    label give the 10 Hz drives' labels within the DBC's 0.01 km/h and the log's rounding
+    (NAV-PVT's 1e-7 degrees, truncated by the writer: 1.1 cm a coordinate), and the
+    manifest says what was decoded."""
+    import gzip
+
     from rwhonet.sim.streams import StreamTables
     from support.canlog import DBC, stream_frames, write_candump
     from support.nmea import nmea_lines, write_nmea
+    from support.ubx import pvt_log
 
     root = tmp_path / "raw"
     paths_ = write_stream_fleet(root, "stream_csv")
@@ -151,7 +159,11 @@ def test_a_candump_log_beside_the_receiver_s_nmea_log_goes_through_the_stages(na
         gnss = _gnss_table(folder)
         frames = stream_frames(StreamTables(wheels, gnss.iloc[:0]), ROLE_DRIVES[role][1])
         write_candump(*frames, folder / "can0.log")
-        write_nmea(folder / "gps.nmea", nmea_lines(gnss, 1_552_262_400.0 + gnss["t_s"].to_numpy()))
+        utc = 1_552_262_400.0 + gnss["t_s"].to_numpy()
+        if receiver == "nmea":
+            write_nmea(folder / "gps.nmea", nmea_lines(gnss, utc))
+        else:
+            (folder / "gps.ubx.gz").write_bytes(gzip.compress(pvt_log(gnss, utc)))
         (folder / "wheels.csv").unlink()
         (folder / "gnss.csv").unlink()
     (root / "bus.dbc").write_text(DBC)
@@ -168,8 +180,10 @@ def test_a_candump_log_beside_the_receiver_s_nmea_log_goes_through_the_stages(na
     said = " ".join(b1["notes"])
     assert "can0.log: raw CAN frames decoded with bus.dbc: 1 of the log's 1 frame IDs" in said
     assert "read as UTC seconds of the day" in said
+    if receiver == "ubx":
+        assert "gps.ubx.gz: a UBX log: 1500 epochs (NAV-PVT), 1500 with a fix" in said
     assert report["totals"]["segments"] == 3
-    _same_labels(native, samples, 2 * LABEL_TOL_M)
+    _same_labels(native, samples, 2 * LABEL_TOL_M if receiver == "nmea" else 0.02)
 
 
 def test_a_stream_glitch_is_cut_and_reported_with_its_stream_row(tmp_path):
