@@ -403,3 +403,21 @@ def _fixes(n: int):
             c.HEADING_DEG: 0.0,
         }
     )
+
+
+def test_a_ubx_log_beside_a_logger_s_own_clock_is_refused_saying_what_to_do(tmp_path):
+    """The wheels on the logger's clock from its start (0 s on): a UBX log carries no
+    logger stamp to place it by, and the refusal says so (not "stamp each sentence")."""
+    from rwhonet.sim.streams import StreamTables, write_stream_csvs
+
+    tables, _ = _drive()
+    g = tables.gnss
+    t0 = float(tables.wheels[c.T_S].iloc[0])
+    own = StreamTables(tables.wheels.assign(t_s=tables.wheels[c.T_S] - t0), g.iloc[:0])
+    files = write_stream_csvs(own, tmp_path / "own")
+    log = write_ubx(tmp_path / "own" / "gps.ubx", ubx_messages(g, DAY_S + g[c.T_S]))
+    with pytest.raises(InputError) as err:
+        _labels([files["wheels"], log])
+    said = str(err.value)
+    assert "a UBX log (no logger stamps in it), and the stream files' time in 's'" in said
+    assert "log the signal map.t in UTC, or give the receiver's NMEA log with the" in said

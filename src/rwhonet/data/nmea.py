@@ -131,13 +131,15 @@ class FixLog:
             ``speed_gnss``, ``heading``) -> values in SI units; only the keys the log
             gives, NaN where an epoch lacks it or has no fix.
         sources: key -> the sentence field it came from (``GGA latitude``).
-        rows: each epoch's first sentence's line, 1-based (a UBX log: its NAV-PVT
-            message's number among the log's messages).
+        rows: each epoch's first sentence's line, 1-based (a UBX log: its NAV-PVT's or
+            NAV-POSLLH's number among the log's messages).
         notes: what was passed over or dropped, and midnight.
         dropped: the sentences and lines passed over, counted (empty: none), which
             ``rwhonet predict`` says too.
         unstamped: the lines of the epochs without a logger stamp, where others have one.
-        dated_by: what gave the date (``RMC dates``; a UBX log's ``NAV-PVT dates``).
+        dated_by: what gave the date (``RMC dates``; a UBX log's ``NAV-PVT dates``,
+            ``NAV-TIMEUTC dates``, ``NAV-TIMEGPS weeks``).
+        kind: ``NMEA``, or ``UBX`` (a binary log: no logger stamps).
     """
 
     file: str
@@ -151,6 +153,7 @@ class FixLog:
     dropped: str = ""
     unstamped: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     dated_by: str = "RMC dates"
+    kind: str = "NMEA"
 
     @property
     def t_utc_s(self) -> np.ndarray | None:
@@ -757,6 +760,25 @@ def on_clock(
             "day (as IO-VNBD's): the receiver's UTC times fall within them"
         )
         return log.tod_s, "UTC time", note
+    utc_clock = (
+        "the stream files' times in UTC (a time of day as hhmmss, hh:mm:ss; iso8601; a date "
+        "column; Unix seconds)"
+    )
+    if kind is None and log.kind == "UBX":  # a binary log: no logger stamp before a message
+        raise InputError(
+            [
+                Problem(
+                    log.file,
+                    None,
+                    None,
+                    f"a clock the receiver's UTC times can be placed on: {utc_clock}",
+                    "a UBX log (no logger stamps in it), and the stream files' time in "
+                    f"{unit!r} counting from the logger's start",
+                    f"log {name}.t in UTC, or give the receiver's NMEA log with the logger's "
+                    "stamp before each sentence",
+                )
+            ]
+        )
     if kind is None:
         raise InputError(
             [
@@ -765,8 +787,7 @@ def on_clock(
                     None,
                     None,
                     "a clock the receiver's UTC times can be placed on: the logger's stamp "
-                    "before each sentence, or the stream files' times in UTC (a time of day "
-                    "as hhmmss, hh:mm:ss; iso8601; a date column; Unix seconds)",
+                    f"before each sentence, or {utc_clock}",
                     (
                         f"{log.unstamped.size} of {log.rows.size} epochs' sentences without a "
                         f"logger stamp (first at line {int(log.unstamped[0])})"

@@ -415,6 +415,7 @@ def read_ubx(path: Path, file: str) -> FixLog:
         notes,
         dropped,
         dated_by=epochs.dated,
+        kind="UBX",
     )
 
 
