@@ -237,6 +237,12 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
 ):
     """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, the
     receiver's unstamped NMEA log placed by its UTC times; both with random edits."""
+    _beside_a_candump_log(can, "gps.nmea", nmea, capfd)
+
+
+def _beside_a_candump_log(can: bytes, name: str, log: bytes, capfd) -> None:
+    """A Linux logger's folder (can0.log and the receiver's log ``name``, the map's DBC)
+    read as ingest and predict read it: a grid, or a refusal naming its files."""
     from rwhonet.config import ColumnSpec
     from support.canlog import DBC
 
@@ -244,14 +250,14 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
     with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
         root = Path(tmp)
         (root / "can0.log").write_bytes(can)
-        (root / "gps.nmea").write_bytes(nmea)
+        (root / name).write_bytes(log)
         (root / "bus.dbc").write_text(DBC)
         signals = {"t": ColumnSpec("t", "s")} | {
             f"omega_{w}": ColumnSpec(f"WhlSpd_{w.upper()}", "km/h")
             for w in ("fl", "fr", "rl", "rr")
         }
-        files = [root / "can0.log", root / "gps.nmea"]
-        named = lambda p: p.file.startswith(("can0.log", "gps.nmea", "streams"))  # noqa: E731
+        files = [root / "can0.log", root / name]
+        named = lambda p: p.file.startswith(("can0.log", name, "streams"))  # noqa: E731
         _grid_or_clear_refusal_of(files, signals, named, [str(root / "bus.dbc")])
 
 
@@ -321,23 +327,8 @@ def test_an_edited_candump_log_beside_an_edited_ubx_log_reads_or_is_refused_clea
     can, ubx, capfd
 ):
     """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, the
-    u-blox receiver's binary log placed by its NAV-PVT times; both with random edits."""
-    from rwhonet.config import ColumnSpec
-    from support.canlog import DBC
-
-    capfd.readouterr()
-    with tempfile.TemporaryDirectory() as tmp, nothing_on_stdout(capfd):
-        root = Path(tmp)
-        (root / "can0.log").write_bytes(can)
-        (root / "gps.ubx").write_bytes(ubx)
-        (root / "bus.dbc").write_text(DBC)
-        signals = {"t": ColumnSpec("t", "s")} | {
-            f"omega_{w}": ColumnSpec(f"WhlSpd_{w.upper()}", "km/h")
-            for w in ("fl", "fr", "rl", "rr")
-        }
-        files = [root / "can0.log", root / "gps.ubx"]
-        named = lambda p: p.file.startswith(("can0.log", "gps.ubx", "streams"))  # noqa: E731
-        _grid_or_clear_refusal_of(files, signals, named, [str(root / "bus.dbc")])
+    u-blox receiver's binary log placed by its iTOW on UTC; both with random edits."""
+    _beside_a_candump_log(can, "gps.ubx", ubx, capfd)
 
 
 def _grid_or_clear_refusal_of(files, signals, named, dbc=()) -> None:

@@ -24,6 +24,22 @@ def itow_ms(t_utc_s: float, leap_s: int = LEAP_S) -> int:
     return int(round(((t_utc_s - GPS_EPOCH_S + leap_s) % WEEK_S) * 1000.0)) % 604_800_000
 
 
+def utc_fields(t_utc_s: float) -> dict[str, int]:
+    """A UTC time's date and time fields as u-blox writes them: to the nearest second, the
+    rest in ``nano`` (ns; NAV-TIMEUTC's names, NAV-PVT's but ``second``)."""
+    whole = math.floor(t_utc_s + 0.5)
+    when = datetime.fromtimestamp(whole, UTC)
+    return {
+        "year": when.year,
+        "month": when.month,
+        "day": when.day,
+        "hour": when.hour,
+        "min": when.minute,
+        "sec": when.second,
+        "nano": int(round((t_utc_s - whole) * 1e9)),
+    }
+
+
 def nav_pvt(
     t_utc_s: float,
     lat: float,
@@ -41,24 +57,18 @@ def nav_pvt(
 ) -> bytes:
     """One NAV-PVT message of a UTC time (its date and time fields, nano the rest, as the
     receiver rounds them: to the nearest second) at a position (NaN: no fix, zeros)."""
-    whole = math.floor(t_utc_s + 0.5)
-    when = datetime.fromtimestamp(whole, UTC)
     fixed = math.isfinite(lat) and math.isfinite(lon)
+    date = utc_fields(t_utc_s)
     msg = UBXMessage(
         "NAV",
         "NAV-PVT",
         0,
         iTOW=itow_ms(t_utc_s, leap_s),
-        year=when.year,
-        month=when.month,
-        day=when.day,
-        hour=when.hour,
-        min=when.minute,
-        second=when.second,
+        **{k: v for k, v in date.items() if k != "sec"},
+        second=date["sec"],
         validDate=valid[0],
         validTime=valid[1],
         fullyResolved=valid[2],
-        nano=int(round((t_utc_s - whole) * 1e9)),
         fixType=fix_type if fixed else 0,
         gnssFixOk=fix_ok if fixed else 0,
         numSV=int(sats) if math.isfinite(sats) else 0,
@@ -211,26 +221,9 @@ def u6_messages(
                 )
             )
         if clock == "NAV-TIMEUTC":
-            whole = math.floor(float(t) + 0.5)
-            when = datetime.fromtimestamp(whole, UTC)
-            msgs.append(
-                UBXMessage(
-                    "NAV",
-                    "NAV-TIMEUTC",
-                    0,
-                    iTOW=itow,
-                    nano=int(round((float(t) - whole) * 1e9)),
-                    year=when.year,
-                    month=when.month,
-                    day=when.day,
-                    hour=when.hour,
-                    min=when.minute,
-                    sec=when.second,
-                    validTOW=1,
-                    validWKN=1,
-                    validUTC=1,
-                )
-            )
+            date = utc_fields(float(t))
+            valid = {"validTOW": 1, "validWKN": 1, "validUTC": 1}
+            msgs.append(UBXMessage("NAV", "NAV-TIMEUTC", 0, iTOW=itow, **date, **valid))
         else:
             msgs.append(
                 UBXMessage(
