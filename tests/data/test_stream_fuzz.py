@@ -240,6 +240,26 @@ def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_cle
     _beside_a_candump_log(can, "gps.nmea", nmea, capfd)
 
 
+@FUZZ
+@given(
+    can=edited_candump_logs(wheels_only=True),
+    nmea=edited_nmea_logs(stamped=False, utc0_s=CAN_CLOCK_S),
+)
+def test_an_edited_candump_log_beside_edited_nmea_in_a_ubx_log_reads_or_is_refused_clearly(
+    can, nmea, capfd
+):
+    """u-center's .ubx of a receiver's NMEA output: the edited NMEA log with binary
+    NAV-TIMEUTC and NAV-DOP messages before each GGA on its line, beside an edited
+    candump log."""
+    from support.ubx import other_messages
+
+    lines = nmea.split(b"\n")
+    ubx = b"\n".join(
+        other_messages(1000 * i) + x if b"GGA," in x else x for i, x in enumerate(lines)
+    )
+    _beside_a_candump_log(can, "gps.ubx", ubx, capfd)
+
+
 def _beside_a_candump_log(can: bytes, name: str, log: bytes, capfd) -> None:
     """A Linux logger's folder (can0.log and the receiver's log ``name``, the map's DBC)
     read as ingest and predict read it: a grid, or a refusal naming its files."""

@@ -192,13 +192,14 @@ def test_utc_never_resolved_or_never_valid(tmp_path):
 
 
 def test_a_log_without_nav_pvt_is_refused_naming_what_it_holds(tmp_path):
+    """Neither NAV-PVT nor NAV-POSLLH nor NMEA sentences: refused, naming what the log holds
+    and how to enable NAV-PVT."""
     path = write_ubx(tmp_path / "gps.ubx", [other_messages(1000 * i) for i in range(3)])
-    path.write_bytes(path.read_bytes() + b"$GNGGA,120000.00,,,,,0,00,99.99,,,,,,*7E\r\n")
     with pytest.raises(InputError) as err:
         read_ubx(path, "gps.ubx")
     said = str(err.value)
     assert "expected UBX-NAV-PVT messages (class 0x01, id 0x07)" in said
-    assert "found other messages (NAV-DOP 3, NAV-TIMEUTC 3); 1 NMEA sentence(s)" in said
+    assert "found other messages (NAV-DOP 3, NAV-TIMEUTC 3)\n" in said
     assert "CFG-MSGOUT-UBX_NAV_PVT" in said
     with pytest.raises(InputError, match="found no UBX message"):
         read_ubx(write_ubx(tmp_path / "e.ubx", [b""]), "e.ubx")
@@ -421,3 +422,31 @@ def test_a_ubx_log_beside_a_logger_s_own_clock_is_refused_saying_what_to_do(tmp_
     said = str(err.value)
     assert "a UBX log (no logger stamps in it), and the stream files' time in 's'" in said
     assert "log the signal map.t in UTC, or give the receiver's NMEA log with the" in said
+
+
+@pytest.mark.parametrize("among", [False, True])
+def test_a_ubx_log_of_nmea_sentences_is_read_as_the_nmea_log(tmp_path, among):
+    """u-center records whatever the receiver sends as .ubx, and a u-blox's factory output
+    is NMEA alone: such a gps.ubx (its sentences alone, or each epoch's after binary
+    NAV-TIMEUTC and NAV-DOP messages on the same line) gives the labels of the same
+    sentences as gps.nmea, placed by their UTC times (bytes before a "$" are no stamp)."""
+    from support.nmea import nmea_lines, write_nmea
+
+    tables, _ = _drive()
+    g = tables.gnss
+    t = DAY_S + np.round(g[c.T_S].to_numpy(), 2)
+    lines = nmea_lines(g.assign(t_s=t - DAY_S), t)
+    wheels = [f for f in _folder(tmp_path / "w", False).values() if f.name == "wheels.csv"]
+    want, _ = _labels([*wheels, write_nmea(tmp_path / "nmea" / "gps.nmea", lines)])
+    body, epoch = [], 0
+    for line in lines:
+        head = b""
+        if among and "GGA," in line:  # an epoch's first sentence
+            head = other_messages(itow_ms(float(t[epoch])))
+            epoch += 1
+        body.append(head + line.encode() + b"\r\n")
+    got, streams = _labels([*wheels, write_ubx(tmp_path / "ubx" / "gps.ubx", body)])
+    np.testing.assert_array_equal(got.to_numpy(), want.to_numpy())
+    said = " ".join(streams.notes)
+    assert "gps.ubx: a UBX log without NAV-PVT or NAV-POSLLH: its 3597 NMEA sentence(s)" in said
+    assert ("besides them: NAV-DOP 1199, NAV-TIMEUTC 1199" in said) == among

@@ -161,7 +161,7 @@ class FixLog:
         return None if self.day_s is None else self.day_s + self.tod_s
 
 
-def read_nmea(path: Path, file: str) -> FixLog:
+def read_nmea(path: Path | bytes, file: str) -> FixLog:
     """Read a receiver's GGA, RMC, GNS and GLL sentences as one fix per epoch.
 
     The fix sentences are found and checked over the log's bytes at once
@@ -169,7 +169,8 @@ def read_nmea(path: Path, file: str) -> FixLog:
     column by column (:class:`_Fields`).
 
     Args:
-        path: the NMEA log (text).
+        path: the NMEA log (text), or its bytes (a UBX log's without its binary messages:
+            :mod:`rwhonet.data.ubx`).
         file: how messages name it.
 
     Raises:
@@ -184,7 +185,7 @@ def read_nmea(path: Path, file: str) -> FixLog:
             counts[kind] += len(rows)
             first_bad[kind] = min(first_bad.get(kind, rows[0]), int(np.min(rows)))
 
-    data = path.read_bytes()
+    data = path if isinstance(path, bytes) else path.read_bytes()
     if b"\n" not in data:  # line ends of CR alone (a classic Mac's, some serial loggers')
         data = data.replace(b"\r", b"\n")
     found = _scan(data)

@@ -52,6 +52,12 @@ resolved: ``leapSValid``). A fix is as NAV-PVT's (``gpsFix`` 2, 3 or 4 with the 
 an epoch without a NAV-SOL or NAV-STATUS of its iTOW has none. A log with NAV-PVT is read
 by its NAV-PVT alone.
 
+**NMEA in a .ubx.** A u-blox's factory output is NMEA alone, and u-center records whatever
+the receiver sends as ``.ubx``. A log with neither NAV-PVT nor NAV-POSLLH but NMEA
+sentences is read by :func:`rwhonet.data.nmea.read_nmea`, its UBX messages taken out
+first (each for a line end: their bytes may hold a ``$`` or a line end), and its epochs
+placed by their UTC times (nothing before a ``$`` in it is a logger's stamp).
+
 **What a log holds besides messages**: a message is framed by its two sync bytes
 (``0xB5 0x62``), class, id, a little-endian payload length and the 8-bit Fletcher checksum
 over class, id, length and payload (section 32.4). A NAV-PVT whose checksum does not match
@@ -72,13 +78,14 @@ it reads back (``tests/data/test_ubx.py``).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.nmea import FixLog
+from rwhonet.data.nmea import FixLog, read_nmea
 from rwhonet.data.timebase import SECONDS_PER_WEEK, unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -366,6 +373,8 @@ def read_ubx(path: Path, file: str) -> FixLog:
     """
     frames = _Frames(path.read_bytes())
     pvt = frames.which(NAV_PVT, PVT_LENGTHS)
+    if not pvt.size and not frames.which(NAV_POSLLH, (POSLLH.itemsize,)).size and frames.nmea:
+        return _nmea_in_ubx(path, file, frames)
     besides = _besides(frames, (NAV_PVT,) if pvt.size else LEGACY)
     epochs = _pvt_epochs(frames, pvt) if pvt.size else _legacy_epochs(frames, file)
     # an epoch given again (its iTOW), passed over: the first is kept
@@ -416,6 +425,33 @@ def read_ubx(path: Path, file: str) -> FixLog:
         dropped,
         dated_by=epochs.dated,
         kind="UBX",
+    )
+
+
+def _nmea_in_ubx(path: Path, file: str, frames: _Frames) -> FixLog:
+    """A ``.ubx`` log whose fixes are NMEA sentences (a u-blox's factory output is NMEA
+    alone, and u-center records whatever comes as ``.ubx``), read as an NMEA log: each
+    UBX message is taken out for a line end (its bytes may hold a ``$`` or a line end of
+    their own), and the rest read by the NMEA reader, its lines those of what is left.
+    What stands before a ``$`` then is no logger's stamp, so the epochs are placed by
+    their UTC times."""
+    data = path.read_bytes()
+    ends = frames.at + HEADER + frames.length + 2
+    edges = np.zeros(len(data) + 1, np.int64)
+    np.add.at(edges, frames.at, 1)
+    np.add.at(edges, ends, -1)
+    kept = np.cumsum(edges)[:-1] == 0  # no message's byte (messages do not overlap)
+    text = np.frombuffer(data, np.uint8).copy()
+    text[frames.at] = ord("\n")  # each message's first byte: a line end
+    kept[frames.at] = True
+    log = read_nmea(text[kept].tobytes(), file)
+    held = frames.others(())
+    note = (
+        f"{file}: a UBX log without NAV-PVT or NAV-POSLLH: its {frames.nmea} NMEA "
+        "sentence(s) read as the receiver's NMEA log" + (f" (besides them: {held})" if held else "")
+    )
+    return dataclasses.replace(
+        log, stamps=None, unstamped=np.zeros(0, np.int64), notes=[note, *log.notes]
     )
 
 
