@@ -450,3 +450,42 @@ def test_a_ubx_log_of_nmea_sentences_is_read_as_the_nmea_log(tmp_path, among):
     said = " ".join(streams.notes)
     assert "gps.ubx: a UBX log without NAV-PVT or NAV-POSLLH: its 3597 NMEA sentence(s)" in said
     assert ("besides them: NAV-DOP 1199, NAV-TIMEUTC 1199" in said) == among
+
+
+def test_a_dead_reckoning_receiver_s_yaw_rate_comes_from_its_esf_ins(tmp_path):
+    """A u-blox ADR receiver's log: NAV-PVT and, at 50 Hz, ESF-INS with the car's yaw rate
+    (its z angular rate, z down: the negative). With the map's yaw_rate in no CSV, the log
+    gives it: the grid's yaw rate is gyro.csv's within ESF-INS's 1e-3 deg/s, the labels
+    the same (the gyro's times to the ms in both, as iTOW holds them). Without ESF-INS,
+    the map's yaw_rate is refused naming the log."""
+    from rwhonet.sim.streams import StreamTables, signal_map, write_stream_csvs
+    from support.multirate import per_second, simulated_streams
+    from support.ubx import esf_ins
+
+    tables, radius = simulated_streams(120.0, 100.0, 10.0, gyro_hz=50.0)
+    # the gyro's times to the ms, as ESF-INS's iTOW holds them, in gyro.csv too
+    gyro = tables.gyro.assign(t_s=np.round(tables.gyro[c.T_S], 3))
+    tables = StreamTables(tables.wheels, tables.gnss, gyro)
+    g = tables.gnss
+    smap = signal_map(gyro=True)
+    files = write_stream_csvs(tables, tmp_path / "csv")
+    ref = resample(read_stream_csvs(list(files.values()), smap, radius), nominal_radius_m=radius)
+    pvt = ubx_messages(g, DAY_S + g[c.T_S].to_numpy())
+    ins = esf_ins(DAY_S + gyro[c.T_S].to_numpy(), gyro[c.YAW_RATE_RAD_S].to_numpy())
+    folder = [files["wheels"], write_ubx(tmp_path / "adr" / "gps.ubx", [*pvt, *ins])]
+    streams = read_stream_csvs(folder, smap, radius)
+    got = resample(streams, nominal_radius_m=radius)
+    a, b = got.drive.columns, ref.drive.columns
+    np.testing.assert_array_equal(a[c.T_S], b[c.T_S])
+    step = np.deg2rad(1e-3)  # ESF-INS's resolution, which pyubx2 truncates to
+    np.testing.assert_allclose(a[c.YAW_RATE_RAD_S], b[c.YAW_RATE_RAD_S], rtol=0, atol=step)
+    ref_s, got_s = per_second(b, radius), per_second(a, radius)
+    np.testing.assert_allclose(got_s["label_m"], ref_s["label_m"], rtol=0, atol=0.02)
+    yaw = next(s for s in streams.streams if c.YAW_RATE_RAD_S in s.channels)
+    assert yaw.name == "ESF-INS" and yaw.rows[0] == 3 * len(pvt) + 1  # after 3 an epoch
+    assert f"{len(gyro)} yaw rates (ESF-INS zAngRate negated" in " ".join(streams.notes)
+    only_pvt = [files["wheels"], write_ubx(tmp_path / "pvt" / "gps.ubx", pvt)]
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(only_pvt, smap, radius)
+    said = str(err.value)
+    assert "UBX-ESF-INS z angular rate in its UBX log; found in neither" in said

@@ -109,13 +109,18 @@ def simulated_drive(duration_s: float = 300.0, seed: int = 5, can_noise: bool = 
     return state, vehicle, params.sim, ss, native
 
 
-def simulated_streams(duration_s: float, wheel_hz: float, gnss_hz: float, seed: int = 5):
+def simulated_streams(
+    duration_s: float, wheel_hz: float, gnss_hz: float, seed: int = 5, gyro_hz: float = 0.0
+):
     """:func:`simulated_drive`'s streams as a logger writes them (``StreamTables``: wheels at
-    ``wheel_hz``, fixes at ``gnss_hz``, from :data:`START_S`), and the car's nominal radius."""
+    ``wheel_hz``, fixes at ``gnss_hz``, the ESC's yaw rate at ``gyro_hz`` where given, from
+    :data:`START_S`), and the car's nominal radius."""
     from rwhonet.sim.streams import StreamSpec, stream_tables
 
     state, vehicle, sim, ss, _ = simulated_drive(duration_s, seed)
-    spec = StreamSpec(wheel_hz, gnss_hz)
+    spec = (
+        StreamSpec(wheel_hz, gnss_hz, gyro_hz=gyro_hz) if gyro_hz else StreamSpec(wheel_hz, gnss_hz)
+    )
     return stream_tables(state, vehicle, sim, ss, spec, START_S), vehicle.nominal_radius_m
 
 

@@ -241,3 +241,21 @@ def u6_messages(
             )
         out.append(b"".join(m.serialize() for m in msgs))
     return out
+
+
+def esf_ins(t_utc_s: Sequence[float] | np.ndarray, yaw_rate_rad_s: Sequence[float]) -> list[bytes]:
+    """A u-blox dead-reckoning receiver's UBX-ESF-INS messages (pyubx2) of yaw rates turning
+    left positive: their z angular rate, the vehicle frame's z pointing down, is the
+    negative (deg/s, 1e-3 resolution), marked valid."""
+    return [
+        UBXMessage(
+            "ESF",
+            "ESF-INS",
+            0,
+            version=1,
+            zAngRateValid=1,
+            iTOW=itow_ms(float(t)),
+            zAngRate=-math.degrees(float(r)),
+        ).serialize()
+        for t, r in zip(np.asarray(t_utc_s, float), yaw_rate_rad_s, strict=True)
+    ]

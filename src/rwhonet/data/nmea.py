@@ -115,6 +115,26 @@ def is_nmea_name(name: str) -> bool:
 
 
 @dataclass(frozen=True)
+class ReceiverRates:
+    """A receiver's own stream beside its fixes, at its own times: a u-blox dead-reckoning
+    receiver's yaw rate (UBX-ESF-INS).
+
+    Attributes:
+        tod_s: each sample's UTC time of day, s, on the fixes' day (:attr:`FixLog.day_s`).
+        channels: signal-map key (``yaw_rate``) -> values in SI units.
+        sources: key -> the message field it came from.
+        rows: each sample's message number in the log, 1-based.
+        name: the stream as messages name it (``ESF-INS``).
+    """
+
+    tod_s: np.ndarray
+    channels: dict[str, np.ndarray]
+    sources: dict[str, str]
+    rows: np.ndarray
+    name: str
+
+
+@dataclass(frozen=True)
 class FixLog:
     """A receiver's fixes read from an NMEA log (or a u-blox UBX log:
     :func:`rwhonet.data.ubx.read_ubx`), one per epoch, in the log's order.
@@ -140,6 +160,7 @@ class FixLog:
         dated_by: what gave the date (``RMC dates``; a UBX log's ``NAV-PVT dates``,
             ``NAV-TIMEUTC dates``, ``NAV-TIMEGPS weeks``).
         kind: ``NMEA``, or ``UBX`` (a binary log: no logger stamps).
+        rates: the receiver's yaw rate where its log gives one (a UBX log's ESF-INS).
     """
 
     file: str
@@ -154,6 +175,7 @@ class FixLog:
     unstamped: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     dated_by: str = "RMC dates"
     kind: str = "NMEA"
+    rates: ReceiverRates | None = None
 
     @property
     def t_utc_s(self) -> np.ndarray | None:

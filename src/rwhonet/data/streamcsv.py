@@ -62,7 +62,7 @@ from rwhonet.data.csvio import (
 from rwhonet.data.fileparts import join_parts
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_name
-from rwhonet.data.nmea import is_nmea_name, on_clock, read_nmea
+from rwhonet.data.nmea import FixLog, is_nmea_name, on_clock, read_nmea
 from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
@@ -231,8 +231,10 @@ def read_stream_csvs(
                         "give the letters and their coordinate in one file",
                     )
                 )
-        if not where and logs and (key in FIX_KEYS or key in HEMISPHERES) and not found_fix:
-            continue  # the receiver's NMEA log gives it (checked when it is read)
+        from_log = key in FIX_KEYS or key in HEMISPHERES
+        from_log |= key == "yaw_rate" and any(is_ubx_name(p.name) for p, _ in logs)
+        if not where and logs and from_log and not found_fix:
+            continue  # the receiver's log gives it (checked when it is read)
         if not where and undecoded:
             continue  # the refused CAN log's problems say why its signals are missing
         if len(where) > 1 and _split_stream(where, found):
@@ -593,6 +595,41 @@ def _receiver_groups(
                 log.rows,
             )
         )
+        rates = log.rates
+        if "yaw_rate" in signal_map and "yaw_rate" not in in_csv and rates is not None:
+            # on the fixes' clock: the receiver's times of day, moved as the fixes' were
+            moved = rates.tod_s + (float(t[0]) - float(log.tod_s[0]))
+            out.append(
+                Group(
+                    rates.name,
+                    log.file,
+                    np.ascontiguousarray(moved),
+                    dict(rates.channels),
+                    {"t": clock, **rates.sources},
+                    rates.rows,
+                )
+            )
+    if "yaw_rate" in signal_map and "yaw_rate" not in in_csv:
+        problems += _no_yaw_rate(read, signal_map["yaw_rate"], name)
     if problems:
         raise InputError(problems)
     return out
+
+
+def _no_yaw_rate(read: Sequence[FixLog], spec: ColumnSpec, name: str) -> list[Problem]:
+    """The map's yaw rate found in no stream file: a problem where no receiver log (a UBX
+    log's ESF-INS) gives it either."""
+    if any(log.rates is not None and "yaw_rate" in log.rates.channels for log in read):
+        return []
+    return [
+        Problem(
+            ", ".join(log.file for log in read),
+            None,
+            spec.column,
+            f"{name}.yaw_rate in a stream file, or a u-blox dead-reckoning receiver's "
+            "UBX-ESF-INS z angular rate in its UBX log",
+            "in neither",
+            f"name the yaw rate's column in {name}, enable ESF-INS on the receiver, or drop "
+            "yaw_rate from the map",
+        )
+    ]

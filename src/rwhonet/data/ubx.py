@@ -52,6 +52,17 @@ resolved: ``leapSValid``). A fix is as NAV-PVT's (``gpsFix`` 2, 3 or 4 with the 
 an epoch without a NAV-SOL or NAV-STATUS of its iTOW has none. A log with NAV-PVT is read
 by its NAV-PVT alone.
 
+**The yaw rate of a dead-reckoning receiver.** A u-blox ADR receiver (NEO-M8L, ZED-F9K;
+the ZED-F9R's HPS) writes UBX-ESF-INS: the angular rates its fusion compensated, in the
+vehicle frame, x forward, y right, z down (ZED-F9R integration manual, UBX-20039643,
+3.2.7.4.2 and 3.2.7.4.5), 1e-3 deg/s. Its ``zAngRate`` where valid (``bitfield0`` bit
+10), negated (turning left is a negative rotation about z down), is the log's yaw rate in
+rad/s turning left positive (ISO 8855, as the pipeline's), a stream at its own times
+(:class:`rwhonet.data.nmea.ReceiverRates`). Where the map names ``yaw_rate`` and no stream
+file has it, :mod:`rwhonet.data.streamcsv` takes it from here. A UDR receiver (NEO-M8U)
+writes ESF-INS in its body frame, which is the vehicle's only where it is mounted level
+and straight; ESF-MEAS and ESF-RAW (the IMU's own frame) are not read.
+
 **NMEA in a .ubx.** A u-blox's factory output is NMEA alone, and u-center records whatever
 the receiver sends as ``.ubx``. A log with neither NAV-PVT nor NAV-POSLLH but NMEA
 sentences is read by :func:`rwhonet.data.nmea.read_nmea`, its UBX messages taken out
@@ -85,7 +96,7 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.nmea import FixLog, read_nmea
+from rwhonet.data.nmea import FixLog, ReceiverRates, read_nmea
 from rwhonet.data.timebase import SECONDS_PER_WEEK, unwrap_midnight
 from rwhonet.errors import InputError, Problem
 
@@ -165,7 +176,18 @@ TIMEGPS = np.dtype(
 )
 assert (POSLLH.itemsize, SOL.itemsize, STATUS.itemsize) == (28, 52, 16)
 assert (VELNED.itemsize, TIMEUTC.itemsize, TIMEGPS.itemsize) == (36, 20, 16)
-LENGTHS = {NAV_PVT: PVT_LENGTHS} | {
+# a dead-reckoning receiver's vehicle dynamics (u-blox ADR: NEO-M8L, ZED-F9K; HPS: ZED-F9R):
+# UBX-ESF-INS, the compensated angular rates in the vehicle frame, x forward, y right, z
+# down (ZED-F9R integration manual UBX-20039643, 3.2.7.4.2 and 3.2.7.4.5), 1e-3 deg/s
+ESF_INS = (0x10, 0x15)
+INS = np.dtype(
+    [("bitfield0", "<u4"), ("reserved0", "V4"), ("iTOW", "<u4"), ("xAngRate", "<i4")]
+    + [("yAngRate", "<i4"), ("zAngRate", "<i4"), ("xAccel", "<i4"), ("yAccel", "<i4")]
+    + [("zAccel", "<i4")]
+)
+assert INS.itemsize == 36
+Z_ANG_RATE_VALID = 1 << 10
+LENGTHS = {NAV_PVT: PVT_LENGTHS, ESF_INS: (INS.itemsize,)} | {
     k: (d.itemsize,)
     for k, d in zip(LEGACY, (POSLLH, STATUS, SOL, VELNED, TIMEGPS, TIMEUTC), strict=True)
 }
@@ -375,14 +397,15 @@ def read_ubx(path: Path, file: str) -> FixLog:
     pvt = frames.which(NAV_PVT, PVT_LENGTHS)
     if not pvt.size and not frames.which(NAV_POSLLH, (POSLLH.itemsize,)).size and frames.nmea:
         return _nmea_in_ubx(path, file, frames)
-    besides = _besides(frames, (NAV_PVT,) if pvt.size else LEGACY)
+    read = ((NAV_PVT,) if pvt.size else LEGACY) + (ESF_INS,)
+    besides = _besides(frames, read)
     epochs = _pvt_epochs(frames, pvt) if pvt.size else _legacy_epochs(frames, file)
     # an epoch given again (its iTOW), passed over: the first is kept
     _, once = np.unique(epochs.itow, return_index=True)
     once = np.sort(once)
     again = np.setdiff1d(epochs.rows, epochs.rows[once])
     epochs = epochs.take(once)
-    dropped = _dropped(frames, again, epochs.kind, (NAV_PVT,) if pvt.size else LEGACY)
+    dropped = _dropped(frames, again, epochs.kind, read)
     gps_s, weeks = unwrap_midnight(epochs.itow.astype(np.float64) / 1000.0, SECONDS_PER_WEEK)
     offset, how = _utc_offset(epochs, gps_s, file)
     lat, lon = epochs.channels["lat"], epochs.channels["lon"]
@@ -401,9 +424,16 @@ def read_ubx(path: Path, file: str) -> FixLog:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     day_s = float(np.floor((gps_s[0] + offset) / 86400.0) * 86400.0)
     tod_s = gps_s + (offset - day_s)  # whole seconds: the times of day keep their digits
+    rates = _yaw_rates(frames, gps_s, offset - day_s)
+    yaw = (
+        f"; {rates.rows.size} yaw rates (ESF-INS zAngRate negated: the vehicle frame's z "
+        "points down)"
+        if rates is not None
+        else ""
+    )
     notes = [
         f"{file}: a UBX log: {epochs.itow.size} epochs ({epochs.what}), "
-        f"{int(epochs.fix.sum())} with a fix; {how}"
+        f"{int(epochs.fix.sum())} with a fix{yaw}; {how}"
         + (f"; besides them: {besides}" if besides else "")
         + (f"; passed over: {dropped}" if dropped else "")
     ]
@@ -425,6 +455,31 @@ def read_ubx(path: Path, file: str) -> FixLog:
         dropped,
         dated_by=epochs.dated,
         kind="UBX",
+        rates=rates,
+    )
+
+
+def _yaw_rates(frames: _Frames, gps_s: np.ndarray, to_tod_s: float) -> ReceiverRates | None:
+    """The log's ESF-INS yaw rates with a valid z (none: None), as rad/s turning left
+    positive (ISO 8855; the vehicle frame's z points down), on the epochs' clock: their
+    iTOW made continuous and put in the epochs' week (``gps_s``), then ``to_tod_s`` added."""
+    which = frames.which(ESF_INS, (INS.itemsize,))
+    ins = frames.payloads(which, INS)
+    valid = (ins["bitfield0"] & Z_ANG_RATE_VALID) != 0
+    which, ins = which[valid], ins[valid]
+    _, once = np.unique(ins["iTOW"], return_index=True)
+    once = np.sort(once)
+    if not once.size:
+        return None
+    which, ins = which[once], ins[once]
+    t, _ = unwrap_midnight(ins["iTOW"].astype(np.float64) / 1000.0, SECONDS_PER_WEEK)
+    t += SECONDS_PER_WEEK * np.round((gps_s[0] - t[0]) / SECONDS_PER_WEEK)
+    return ReceiverRates(
+        t + to_tod_s,
+        {"yaw_rate": np.deg2rad(-1e-3 * ins["zAngRate"].astype(np.float64))},
+        {"yaw_rate": "ESF-INS zAngRate (negated: z down)"},
+        frames.number[which],
+        "ESF-INS",
     )
 
 
