@@ -227,30 +227,22 @@ def test_an_edited_candump_log_reads_or_is_refused_clearly(log, capfd):
         grid_or_clear_refusal(read, lambda p: p.file.startswith(("bus.log", "streams")))
 
 
+@pytest.mark.parametrize("in_ubx", [False, True])
 @FUZZ
 @given(
     can=edited_candump_logs(wheels_only=True),
     nmea=edited_nmea_logs(stamped=False, utc0_s=CAN_CLOCK_S),
 )
 def test_an_edited_candump_log_beside_an_edited_nmea_log_reads_or_is_refused_clearly(
-    can, nmea, capfd
+    in_ubx, can, nmea, capfd
 ):
     """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, the
-    receiver's unstamped NMEA log placed by its UTC times; both with random edits."""
-    _beside_a_candump_log(can, "gps.nmea", nmea, capfd)
-
-
-@FUZZ
-@given(
-    can=edited_candump_logs(wheels_only=True),
-    nmea=edited_nmea_logs(stamped=False, utc0_s=CAN_CLOCK_S),
-)
-def test_an_edited_candump_log_beside_edited_nmea_in_a_ubx_log_reads_or_is_refused_clearly(
-    can, nmea, capfd
-):
-    """u-center's .ubx of a receiver's NMEA output: the edited NMEA log with binary
-    NAV-TIMEUTC and NAV-DOP messages before each GGA on its line, beside an edited
-    candump log."""
+    receiver's unstamped NMEA log placed by its UTC times; both with random edits. Or
+    (``in_ubx``) u-center's .ubx of the receiver's NMEA output: the edited log with binary
+    NAV-TIMEUTC and NAV-DOP messages before each GGA on its line."""
+    if not in_ubx:
+        _beside_a_candump_log(can, "gps.nmea", nmea, capfd)
+        return
     from support.ubx import other_messages
 
     lines = nmea.split(b"\n")
