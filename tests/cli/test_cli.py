@@ -665,6 +665,49 @@ def test_predict_takes_a_stream_drive_s_yaw_rate_to_its_check_and_filter(
         assert "yaw: gyro + wheels" in err  # the outage's summary: the gyro was used
 
 
+def test_predict_takes_a_dead_reckoning_receiver_s_yaw_rate_from_its_ubx_log(
+    bundle, tmp_path, capsys
+):
+    """A weaving drive's folder: wheels.csv, and the u-blox ADR receiver's gps.ubx with
+    NAV-PVT and ESF-INS (its z angular rate, z down). The map names yaw_rate, which no CSV
+    has: predict's filter is fused (gyro + wheels) through an outage, and its positions are
+    those of the same yaw rate in gyro.csv within 5 cm."""
+    from rwhonet.data import canonical as c
+    from rwhonet.sim.streams import SIGNAL_MAP, StreamTables, write_stream_csvs
+    from support.corpus import TARGET_RADIUS_M, weaving_target
+    from support.ubx import esf_ins, ubx_messages, write_ubx
+
+    df = weaving_target()
+    wheels = df[[c.T_S, *c.WHEELS]]
+    gnss = df[[c.T_S, c.LAT_DEG, c.LON_DEG, c.N_SATS]]
+    gyro = df[[c.T_S, c.YAW_RATE_RAD_S]]
+    smap = tmp_path / "map.yaml"
+    signals = {**SIGNAL_MAP, "yaw_rate": ("YawRate", "rad/s")}
+    smap.write_text(
+        "\n".join(f"{k}: {{column: {col}, unit: {u}}}" for k, (col, u) in signals.items())
+    )
+    write_stream_csvs(StreamTables(wheels, gnss, gyro), tmp_path / "csv")
+    adr = write_stream_csvs(StreamTables(wheels, gnss.iloc[:0]), tmp_path / "adr")
+    adr["gnss"].unlink()
+    day = 1_552_262_400.0  # 2019-03-11 UTC
+    t = day + df[c.T_S].to_numpy()
+    log = [*ubx_messages(gnss, t), *esf_ins(t, df[c.YAW_RATE_RAD_S].to_numpy())]
+    write_ubx(tmp_path / "adr" / "gps.ubx", log)
+    args = ["--format", "stream_csv", "--signal-map", str(smap), "--outage", "60:120"]
+    args += ["--nominal-radius", str(TARGET_RADIUS_M)]
+    frames = {}
+    for name in ("csv", "adr"):
+        out = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, tmp_path / name, out, *args)) == 0
+        err = capsys.readouterr().err
+        assert "yaw: gyro + wheels" in err, name  # the outage's summary: the gyro was used
+        frames[name] = pd.read_csv(out)
+    a, b = frames["adr"], frames["csv"]
+    assert len(a) == len(b) > 100
+    moved = np.hypot(a["east_m"] - b["east_m"], a["north_m"] - b["north_m"])
+    assert moved.notna().sum() >= 50 and moved.max() < 0.05  # metres
+
+
 def test_predict_says_once_that_a_drive_without_gnss_was_not_unit_checked(bundle, tmp_path, capsys):
     from support.drives import write_iovnbd
 
