@@ -250,6 +250,7 @@ class _Frames:
         cut: (byte offset, class * 256 + id, payload length) of a message cut short at the
             log's end (or of a last sync pair that frames none), or None.
         nmea: how many NMEA sentences (``$GPGGA,``) stand between the messages.
+        data: the log's bytes.
     """
 
     def __init__(self, data: bytes) -> None:
@@ -297,11 +298,12 @@ class _Frames:
         sentence = capital.all(axis=1) & (buf[dollar + 6] == ord(",")) if dollar.size else dollar
         self.nmea = int(np.count_nonzero(sentence))
         self._buf = buf
+        self.data = data
 
-    def which(self, kind: tuple[int, int], lengths: tuple[int, ...]) -> np.ndarray:
-        """The messages of a kind (class, id) with one of its payload lengths."""
+    def which(self, kind: tuple[int, int]) -> np.ndarray:
+        """The messages of a kind (class, id) with one of its payload lengths (:data:`LENGTHS`)."""
         return np.flatnonzero(
-            (self.cls == kind[0]) & (self.ident == kind[1]) & np.isin(self.length, lengths)
+            (self.cls == kind[0]) & (self.ident == kind[1]) & np.isin(self.length, LENGTHS[kind])
         )
 
     def payloads(self, which: np.ndarray, dtype: np.dtype) -> np.ndarray:
@@ -363,19 +365,11 @@ class _Epochs:
 
     def take(self, keep: np.ndarray) -> _Epochs:
         """The epochs ``keep``."""
-        return _Epochs(
-            self.itow[keep],
-            self.rows[keep],
-            self.offsets[keep],
-            self.utc[keep],
-            self.valid[keep],
-            self.resolved[keep],
-            self.fix[keep],
-            {k: v[keep] for k, v in self.channels.items()},
-            self.sources,
-            self.kind,
-            self.what,
-            self.dated,
+        arrays = ("itow", "rows", "offsets", "utc", "valid", "resolved", "fix")
+        return dataclasses.replace(
+            self,
+            **{name: getattr(self, name)[keep] for name in arrays},
+            channels={k: v[keep] for k, v in self.channels.items()},
         )
 
 
@@ -394,9 +388,9 @@ def read_ubx(path: Path, file: str) -> FixLog:
             or longitude's range.
     """
     frames = _Frames(path.read_bytes())
-    pvt = frames.which(NAV_PVT, PVT_LENGTHS)
-    if not pvt.size and not frames.which(NAV_POSLLH, (POSLLH.itemsize,)).size and frames.nmea:
-        return _nmea_in_ubx(path, file, frames)
+    pvt = frames.which(NAV_PVT)
+    if not pvt.size and not frames.which(NAV_POSLLH).size and frames.nmea:
+        return _nmea_in_ubx(file, frames)
     read = ((NAV_PVT,) if pvt.size else LEGACY) + (ESF_INS,)
     besides = _besides(frames, read)
     epochs = _pvt_epochs(frames, pvt) if pvt.size else _legacy_epochs(frames, file)
@@ -463,7 +457,7 @@ def _yaw_rates(frames: _Frames, gps_s: np.ndarray, to_tod_s: float) -> ReceiverR
     """The log's ESF-INS yaw rates with a valid z (none: None), as rad/s turning left
     positive (ISO 8855; the vehicle frame's z points down), on the epochs' clock: their
     iTOW made continuous and put in the epochs' week (``gps_s``), then ``to_tod_s`` added."""
-    which = frames.which(ESF_INS, (INS.itemsize,))
+    which = frames.which(ESF_INS)
     ins = frames.payloads(which, INS)
     valid = (ins["bitfield0"] & Z_ANG_RATE_VALID) != 0
     which, ins = which[valid], ins[valid]
@@ -483,14 +477,14 @@ def _yaw_rates(frames: _Frames, gps_s: np.ndarray, to_tod_s: float) -> ReceiverR
     )
 
 
-def _nmea_in_ubx(path: Path, file: str, frames: _Frames) -> FixLog:
+def _nmea_in_ubx(file: str, frames: _Frames) -> FixLog:
     """A ``.ubx`` log whose fixes are NMEA sentences (a u-blox's factory output is NMEA
     alone, and u-center records whatever comes as ``.ubx``), read as an NMEA log: each
     UBX message is taken out for a line end (its bytes may hold a ``$`` or a line end of
     their own), and the rest read by the NMEA reader, its lines those of what is left.
     What stands before a ``$`` then is no logger's stamp, so the epochs are placed by
     their UTC times."""
-    data = path.read_bytes()
+    data = frames.data
     ends = frames.at + HEADER + frames.length + 2
     edges = np.zeros(len(data) + 1, np.int64)
     np.add.at(edges, frames.at, 1)
@@ -557,7 +551,7 @@ def _legacy_epochs(frames: _Frames, file: str) -> _Epochs:
     Raises:
         InputError: no NAV-POSLLH, or none with a NAV-SOL or NAV-STATUS of its iTOW.
     """
-    which = frames.which(NAV_POSLLH, (POSLLH.itemsize,))
+    which = frames.which(NAV_POSLLH)
     pos = frames.payloads(which, POSLLH)
     n = which.size
     sol = _matched(frames, NAV_SOL, SOL, pos["iTOW"])
@@ -634,7 +628,7 @@ class _Match:
 
 def _matched(frames: _Frames, kind: tuple[int, int], dtype: np.dtype, itow: np.ndarray) -> _Match:
     """Each epoch's (``itow``) first message of a kind, where it has one."""
-    which = frames.which(kind, (dtype.itemsize,))
+    which = frames.which(kind)
     records = frames.payloads(which, dtype)
     out = np.zeros(itow.size, dtype)
     found = np.zeros(itow.size, bool)
