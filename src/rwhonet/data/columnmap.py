@@ -273,7 +273,7 @@ def read_columnmap(
     notes: tuple[str, ...] = ()
     if text_time:
         notes = (text_time_note(header[positions["t"]], text_time),)
-    notes += csv_notes(path)
+    notes += csv_notes(path, len(header), len(next(iter(values.values()))))
     units = {key: spec.unit for key, spec in column_map.items()}
     if said := linear_wheel_note(units, {k: header[p] for k, p in positions.items()}, radius_m):
         notes += (said,)

@@ -26,7 +26,8 @@ order, so row ``i`` (0-based) of a canonical drive is data row ``i + 1`` of its 
 
 Rows that end in a comma the header does not are read with an unnamed empty last column
 (:attr:`HeadLines.trailing_cell`), and the NUL bytes a file ends in (a logger that lost
-power) are not read (:func:`nul_tail`). The header's line again among the rows (a logger
+power) are not read (:func:`nul_tail`), nor is a last row cut short there, with fewer cells
+than a row and no line end (:func:`cut_last_row`). The header's line again among the rows (a logger
 that wrote it each time it started; files joined) is told by :func:`header_again_rows`:
 :func:`read_numeric_rows` reads those rows as NaN, and the readers leave them out
 (:attr:`RawDrive.header_rows`; a stream CSV's samples keep their rows'
@@ -487,11 +488,15 @@ def _head_or_plain(path: Path) -> HeadLines:
         return HeadLines(0, b"", b"")
 
 
-def csv_notes(path: Path) -> tuple[str, ...]:
-    """What a reader says of the lines before a CSV file's data (:meth:`HeadLines.notes`)
-    and of NUL bytes it ends in (:func:`nul_tail`)."""
-    said = nul_tail_note(nul_tail(path))
-    return _head_or_plain(path).notes() + (() if said is None else (said,))
+def csv_notes(path: Path, n_columns: int, n_rows: int) -> tuple[str, ...]:
+    """What a reader says of the lines before a CSV file's data (:meth:`HeadLines.notes`),
+    of NUL bytes it ends in (:func:`nul_tail`) and of a last row cut short after its
+    ``n_rows`` data rows of ``n_columns`` cells (:func:`cut_last_row`)."""
+    said = (
+        nul_tail_note(nul_tail(path)),
+        cut_last_row_note(n_rows + 1, cut_last_row(path, n_columns)),
+    )
+    return _head_or_plain(path).notes() + tuple(x for x in said if x is not None)
 
 
 def comment_lines_note(n: int) -> str | None:
@@ -689,6 +694,57 @@ def nul_tail_note(n: int) -> str | None:
     return (
         f"{n} NUL byte(s) at the end of the file not read: what a logger that lost power "
         "leaves where its last data were never written"
+    )
+
+
+def cut_last_row(path: Path, n_columns: int) -> int:
+    """The bytes of a last data row cut short (0: none): what a logger that lost power while
+    writing a row leaves, or a copy stopped part way.
+
+    The row is the text after the file's last line end (before the NUL bytes it ends in,
+    :func:`nul_tail`), not blank, with fewer cells than the ``n_columns`` every row holds
+    and no quote (a quoted cell may hold a separator). A last row without its line end
+    that holds every cell is read as it stands: many exporters end their last row so, and
+    a cell cut short in it cannot be told from a shorter number.
+
+    Args:
+        path: the CSV file.
+        n_columns: the cells every data row holds.
+
+    Returns:
+        The row's length in bytes (0 also where the file cannot be read: its reader says why).
+    """
+    head = _head_or_plain(path)
+    try:
+        with open(path, "rb") as f:
+            end = f.seek(0, io.SEEK_END) - nul_tail(path)
+            start = max(end - BLOCK_BYTES, 0)
+            f.seek(start)
+            text = f.read(end - start)
+    except OSError:
+        return 0
+    if not text or text.endswith((b"\n", b"\r")):
+        return 0
+    at = max(text.rfind(b"\n"), text.rfind(b"\r"))
+    row = text[at + 1 :]
+    # the header's lines are never a row cut short (nor are a tool's comments)
+    if at < 0 or line_key(row) in (line_key(head.header), line_key(head.second)):
+        return 0
+    if not row.strip() or b'"' in row or is_comment(row):
+        return 0
+    cells = row.count(head.delimiter.encode()) + 1
+    return len(row) if cells < n_columns else 0
+
+
+def cut_last_row_note(row: int, n_bytes: int) -> str | None:
+    """What a reader says of a last data row ``row`` cut short (:func:`cut_last_row`: its
+    ``n_bytes``; 0: none, None said), not read."""
+    if not n_bytes:
+        return None
+    return (
+        f"the last row ({row}) cut short, not read: {n_bytes} byte(s) with fewer cells than "
+        "the header's and no line end, where a logger that lost power stopped writing (its "
+        "sample lost as a dropped one)"
     )
 
 
@@ -992,6 +1048,7 @@ def _open_columns(
     """
     head = _head_or_plain(path)
     delimiter, tail = head.delimiter, nul_tail(path)
+    tail += cut_last_row(path, len(names))  # a last row cut short is not read either
     # pyarrow's own reader, unless the bytes must be changed or cut; opened here, as pyarrow
     # would take a name ending in .gz or .bz2 for compressed data (rwhonet.data.compressed
     # tells that from the bytes, and hands the readers the text)

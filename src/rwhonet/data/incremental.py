@@ -780,6 +780,7 @@ def _blocks(
     from rwhonet.data.csvio import (
         as_comma_separated,
         cut_by_nul_tail,
+        cut_last_row_note,
         delimiter_note,
         header_again_note,
         nul_tail_note,
@@ -824,6 +825,10 @@ def _blocks(
     if (said := nul_tail_note(tail)) is not None:
         pending = pending[:-tail]
         lay.notes.append(said)
+    # a last row cut short (no line end, fewer cells than a row's): not read, as ingest does
+    if pending.strip() and b'"' not in pending and pending.count(b",") + 1 < lay.n_columns:
+        lay.notes.append(cut_last_row_note(row, len(pending)))
+        pending = b""
     if pending.strip():
         if form is None:
             form = _TimeForm.of(pending.decode("utf-8", errors="replace"), lay, file)

@@ -377,7 +377,7 @@ def read_iovnbd(path: Path, display: str | None = None) -> RawDrive:
         notes.append(position_note(header))
     if text_time:
         notes.append(text_time_note(header[positions[c.T_S]], text_time))
-    notes += csv_notes(path)
+    notes += csv_notes(path, len(header), len(next(iter(values.values()))))
     if (again_said := header_again_note(again)) is not None:
         notes.append(again_said)
         columns = without_rows(columns, again)

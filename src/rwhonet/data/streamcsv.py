@@ -52,6 +52,8 @@ from rwhonet.data.columnmap import (
     find_column,
 )
 from rwhonet.data.csvio import (
+    cut_last_row,
+    cut_last_row_note,
     first_cell,
     header_again_note,
     read_header,
@@ -297,6 +299,10 @@ def read_stream_csvs(
             cell = first_cell(paths_of[file], at_t)
             declared_text_unit(time_spec.unit, cell, header[at_t], where, file)
             values, again = read_numeric_rows(paths_of[file], len(header), wanted, file)
+            n_rows = len(values[next(iter(wanted))])
+            cut = cut_last_row_note(n_rows + 1, cut_last_row(paths_of[file], len(header)))
+            if cut is not None:  # a logger that lost power: said by predict too
+                changed.append(f"{file}: {cut}")
             if text:
                 values[at_t] = read_time_column(
                     paths_of[file], len(header), at_t, header[at_t], time_spec.unit, file, again
