@@ -255,6 +255,20 @@ def test_jittered_stamps_give_the_clean_drives_labels(max_s):
     assert np.max(np.abs(stamped - a.angle_rl_rad)) > 100 * JITTER_TOL
 
 
+@pytest.mark.parametrize("sigma_s", [0.015, 0.02])
+def test_stamps_jittered_past_half_a_period_give_the_clean_drives_labels(sigma_s):
+    """A bell curve's jitter: rows nearest another's slot, stamps going back; each row is
+    still integrated at its own slot (rwhonet.data.timebase.grid_slots)."""
+    clean = build_drive(wavy_speed(300.0, 12.0, 5.0, 15.0, t0_s=45000.0))
+    t = clean[c.T_S].to_numpy()
+    stamps = np.round(t + np.random.default_rng(2).normal(0.0, sigma_s, t.size), 3)
+    assert (np.diff(np.rint(stamps / 0.1)) <= 0).any()  # some rows nearest another's slot
+    jittered = clean.assign(**{c.T_S: stamps})
+    a, b = segment_seconds(clean), segment_seconds(jittered)
+    for name in ("angle_rl_rad", "angle_rr_rad", "disp_gnss_m", "span_s", "t_s"):
+        np.testing.assert_allclose(getattr(b, name), getattr(a, name), rtol=0, atol=JITTER_TOL)
+
+
 def test_a_clean_drives_stamps_are_integrated_as_they_are():
     """Decimal stamps (and a logger's constant offset) are kept bit for bit."""
     for t0 in (45000.0, 45000.03):

@@ -364,6 +364,32 @@ def test_a_jittered_drive_across_midnight_streams_as_the_clean_one(bundle, tmp_p
         np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-6)
 
 
+@pytest.mark.parametrize("block_bytes", [3000, 150])
+def test_a_drive_jittered_past_half_a_period_streams_as_the_clean_one(
+    bundle, tmp_path, block_bytes
+):
+    """A bell curve's jitter of 20 ms: stamps going back, rows nearest another's slot;
+    predict places each row in its own slot, whatever the blocks (150 bytes: a row or two
+    at a time, the rows later ones could move held back), across midnight too."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    clean = wavy_drive(300, t0_s=86340.0)
+    t = clean["t_s"].to_numpy()
+    logged = clean.copy()
+    stamps = np.round(t + np.random.default_rng(2).normal(0.0, 0.02, t.size), 3)
+    assert (np.diff(stamps) < 0).sum() > 0 and (np.diff(np.rint(stamps / 0.1)) <= 0).sum() > 5
+    logged["t_s"] = np.round(stamps % 86400.0, 3)
+    want, _ = stream_all(model, blocks_of(clean, [len(clean)]))
+    path = write_iovnbd(logged, tmp_path / "V-Bell.csv")
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, "V-Bell.csv", block_bytes=block_bytes)
+        got, _ = stream_all(model, list(blocks))
+    assert len(got["t_s"]) == len(want["t_s"]) == 300
+    for k in ("t_s", "disp_wpm_m", "disp_gnss_m", "pred_error_m"):
+        np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-6)
+
+
 @pytest.mark.parametrize("sizes", [[100_000], [7] * 1000, [405, 1] + [10] * 100])
 def test_a_one_row_wheel_glitch_is_repaired_and_listed_whatever_the_blocking(bundle, sizes):
     # A CAN glitch (one rear wheel at ten times its speed for one row) must not move the

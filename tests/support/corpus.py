@@ -1553,6 +1553,32 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "time_jitter_20ms_bell_curve",
+    "every time stamp off by a bell curve's jitter (sd 20 ms, to the ms): rows nearest "
+    "another row's slot, stamps going back, as a busy phone or laptop logger writes them",
+    Accept("each row placed in its own slot of the 0.1 s grid by the rows' order"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    jitter = np.random.default_rng(2).normal(0.0, 0.02, len(df))
+    df[c.T_S] = np.round(df[c.T_S] + jitter, 3)
+    assert (np.diff(df[c.T_S]) < 0).any()  # a stamp before the one above it (seed 2: one)
+    write_target(raw, df)
+
+
+@case(
+    "time_jitter_35ms_bell_curve",
+    "every time stamp off by a bell curve's jitter of sd 35 ms: rows two slots off",
+    Refuse("validate", 215, " Time", "time strictly increasing", "the stamps' jitter"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    jitter = np.random.default_rng(15).normal(0.0, 0.035, len(df))
+    df[c.T_S] = np.round(df[c.T_S] + jitter, 3)
+    write_target(raw, df)
+
+
+@case(
     "fixes_held_from_a_1_hz_receiver",
     "the fix (and course, height) of a 1 Hz receiver written into every row until the next, "
     "each arriving 0.4 s after the second",

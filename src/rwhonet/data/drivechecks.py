@@ -53,6 +53,7 @@ from rwhonet.data.plausibility import (
 )
 from rwhonet.data.problems import stretch_problems
 from rwhonet.data.quality import Assessment, Segment, assess, manual_rows, second_index
+from rwhonet.data.timebase import label_times
 from rwhonet.errors import InputError, Problem
 
 YAW_GLITCHES_LISTED = 10  # yaw-rate glitches listed one by one in the record (all counted)
@@ -101,7 +102,7 @@ def check_drive(
     result = units = glitches = None
     if not found or _only_wheel_ranges(found, df, entry["columns"]):
         nominal = params.nominal_radius_m(entry["vehicle"])
-        glitch, glitches = wheel_glitches(df, entry, nominal)
+        glitch, glitches = wheel_glitches(df, entry, nominal, period_s=vp.sample_period_s)
         found = _glitches_out_of_range(found, df, glitch, entry["columns"], vp)
         result = assess(
             df,
@@ -120,7 +121,11 @@ def check_drive(
 
 @np.errstate(invalid="ignore", over="ignore")
 def wheel_glitches(
-    df: Mapping[str, np.ndarray], entry: dict[str, Any], radius_m: float, listed: int = 50
+    df: Mapping[str, np.ndarray],
+    entry: dict[str, Any],
+    radius_m: float,
+    listed: int = 50,
+    period_s: float | None = None,
 ) -> tuple[np.ndarray, dict[str, Any] | None]:
     """The rows where a wheel speed changed faster than any tyre can, and their report.
 
@@ -134,15 +139,21 @@ def wheel_glitches(
         entry: its manifest entry.
         radius_m: the vehicle's nominal tyre radius, m.
         listed: glitches listed one by one in the report (all are counted).
+        period_s: the sample period: jittered stamps are screened at their slots' instants,
+            as ``label`` and ``predict`` take them (:func:`rwhonet.data.timebase.label_times`;
+            None: the stamps).
 
     Returns:
         ``(mask, report)``: per row whether it glitched, and None when no row did, else
         ``{"rows", "listed": [{"row", "t_s", "channel"} or the stream's samples
         {"stream", "row", "t_s", "channel"}], "rows_are"}``.
     """
-    t = np.asarray(df[c.T_S], dtype=np.float64)
+    t = np.asarray(df[c.T_S], dtype=np.float64)  # the report gives the stamps
+    placed = t
+    if period_s is not None and np.isfinite(t).all():
+        placed = label_times(t, period_s)
     by_wheel = glitch_mask(
-        t, np.stack([np.asarray(df[w], dtype=np.float64) for w in c.WHEELS]), radius_m
+        placed, np.stack([np.asarray(df[w], dtype=np.float64) for w in c.WHEELS]), radius_m
     )
     mask = by_wheel.any(axis=0)
     streams = entry.get("streams") or {}

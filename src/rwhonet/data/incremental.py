@@ -585,32 +585,50 @@ def placed(
     """Row blocks with their times placed on ``clock`` (midnight and jitter).
 
     The first blocks are held back until they hold ``STREAM_PHASE_ROWS`` rows (or the
-    drive ends), so the grid's phase is taken from that many stamps.
+    drive ends), so the grid's phase is taken from that many stamps. A block's last rows
+    whose slots the next rows could still change (:meth:`StreamClock.place`) go on with
+    the next block, where it follows them in the file; so every block handed on is still
+    rows ``first ..`` of the file, one after the other.
     """
     held: list[tuple[int, dict[str, np.ndarray]]] = []
-    for first, columns in blocks:
+    carry: tuple[int, dict[str, np.ndarray]] | None = None
+    for block in blocks:
         if clock.phase is None:
-            held.append((first, columns))
+            held.append(block)
             if sum(len(cols[c.T_S]) for _, cols in held) < STREAM_PHASE_ROWS:
                 continue
-            yield from _placed_held(held, clock)
-            held = []
-            continue
-        columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
-        yield first, columns
-    if held:
+            if not _consecutive(held):
+                yield from _placed_held(held, clock)
+                held = []
+                continue
+            block, held = _joined(held), []
+        if carry is not None:
+            if carry[0] + len(carry[1][c.T_S]) == block[0]:
+                block = _joined([carry, block])
+            else:  # the header's line again between them: the rows before placed whole
+                yield from _place(carry, clock, final=True)[0]
+        done, carry = _place(block, clock, final=False)
+        yield from done
+    if held:  # a drive shorter than STREAM_PHASE_ROWS rows
         yield from _placed_held(held, clock)
+    if carry is not None:
+        yield from _place(carry, clock, final=True)[0]
+
+
+def _consecutive(blocks: list[tuple[int, dict[str, np.ndarray]]]) -> bool:
+    """Whether row blocks are consecutive rows of the file."""
+    return all(a + len(x[c.T_S]) == b for (a, x), (b, _) in itertools.pairwise(blocks))
 
 
 def _placed_held(
     held: list[tuple[int, dict[str, np.ndarray]]], clock: StreamClock
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-    """The first blocks placed on ``clock`` together (its phase taken from all their
-    stamps): one block where they are consecutive rows of the file, else each apart (rows
-    the reader did not read between them: the header's line again)."""
+    """The first blocks placed on ``clock`` together, all of them (its phase taken from all
+    their stamps): one block where they are consecutive rows of the file, else each apart
+    (rows the reader did not read between them: the header's line again)."""
     first, columns = _joined(held)
     columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
-    if all(a + len(x[c.T_S]) == b for (a, x), (b, _) in itertools.pairwise(held)):
+    if _consecutive(held):
         yield first, columns
         return
     at = 0
@@ -618,6 +636,20 @@ def _placed_held(
         n = len(cols[c.T_S])
         yield first, {name: values[at : at + n] for name, values in columns.items()}
         at += n
+
+
+def _place(
+    block: tuple[int, dict[str, np.ndarray]], clock: StreamClock, final: bool
+) -> tuple[list[tuple[int, dict[str, np.ndarray]]], tuple[int, dict[str, np.ndarray]] | None]:
+    """A block's settled rows placed (a list of none or one block), and the rows left."""
+    first, columns = block
+    t = clock.place(columns[c.T_S], first - 1, final)
+    n, size = t.size, len(columns[c.T_S])
+    done = []
+    if n:
+        done.append((first, {k: v[:n] for k, v in columns.items()} | {c.T_S: t}))
+    left = (first + n, {k: v[n:] for k, v in columns.items()}) if n < size else None
+    return done, left
 
 
 @dataclass

@@ -29,7 +29,7 @@ from rwhonet.config import ValidateParams
 from rwhonet.data import canonical as c
 from rwhonet.data.droprows import FileRows
 from rwhonet.data.problems import ROWS_LISTED, row_problems
-from rwhonet.data.timebase import grid_phase
+from rwhonet.data.timebase import grid_slots
 from rwhonet.errors import Problem
 
 # Float noise on decimal time stamps (45123.1 - 45123.0 = 0.10000000000291) must not fail a
@@ -73,6 +73,20 @@ def _time_step(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
     return said
 
 
+def _jitter_hint(df: pd.DataFrame, i: int, period: float) -> str:
+    """What a step back of under half a sample says: stamps jittered past what the rows'
+    order places (:func:`rwhonet.data.timebase.grid_slots`)."""
+    t = df[c.T_S].to_numpy()
+    if not 0 < t[i - 1] - t[i] < 0.5 * period:
+        return ""
+    return (
+        "; a step back of under half a sample is the stamps' jitter, here too wide for each "
+        "row to be placed within reach of its stamp (a bell curve's of up to about "
+        f"{0.2 * period:.3g} s is): stamp each row when its sample is taken, not when it "
+        "is written"
+    )
+
+
 def _drive_checks(
     vp: ValidateParams, drive_starts: np.ndarray | None = None
 ) -> dict[str, tuple[pa.Check, _Explain]]:
@@ -102,20 +116,33 @@ def _drive_checks(
         d[first[first < t.size]] = np.nan  # a drive's first row has no previous row
         return pd.Series(d, index=s.index)
 
-    def next_slot(s: pd.Series) -> np.ndarray:
-        # Whether each row sits in the slot after the previous row's on its drive's sample
-        # grid (rwhonet.data.timebase): stamps jittered by up to half a period do, a row
-        # after a dropped sample does not. One phase per drive, not per row.
+    def slot_step(s: pd.Series) -> np.ndarray:
+        # Each row's slot on its drive's sample grid less the previous row's
+        # (rwhonet.data.timebase.grid_slots: stamps jittered by up to half a period sit in
+        # their own slots, rows jittered further are given rising ones where that keeps
+        # each within a period of its stamp; a row after a dropped sample skips one). One
+        # phase per drive, not per row; NaN at a drive's first row and beside a time that
+        # is not finite.
         t = s.to_numpy(np.float64)
-        phase = np.zeros(t.size)
+        slot = np.full(t.size, np.nan)
         bounds = np.r_[first_rows(s), t.size]
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-            phase[a:b] = grid_phase(t[a:b], period)
-        with np.errstate(invalid="ignore"):
-            slot = np.rint((t - phase) / period)
-        out = np.zeros(t.size, dtype=bool)
-        out[1:] = (slot[1:] - slot[:-1]) == 1
+            finite = np.flatnonzero(np.isfinite(t[a:b])) + a
+            if finite.size:
+                slot[finite] = grid_slots(t[finite], period)[0]
+        out = np.full(t.size, np.nan)
+        out[1:] = slot[1:] - slot[:-1]
+        first = first_rows(s)
+        out[first[first < t.size]] = np.nan
         return out
+
+    def next_slot(s: pd.Series) -> np.ndarray:
+        return slot_step(s) == 1
+
+    def in_order(s: pd.Series, ok: pd.Series) -> pd.Series:
+        # a step the stamps' jitter turned back (or to none) is in order where the row
+        # still has a slot after the previous row's
+        return ok | pd.Series(slot_step(s) >= 1, index=s.index)
 
     def regular(s: pd.Series) -> pd.Series:
         d = step(s)
@@ -164,7 +191,7 @@ def _drive_checks(
             ),
         ),
         "time_not_repeated": (
-            pa.Check(lambda s: step(s) != 0, name="time_not_repeated"),
+            pa.Check(lambda s: in_order(s, step(s) != 0), name="time_not_repeated"),
             _Explain(
                 increasing,
                 lambda df, i, case, rows: f"t = {_num(case)} s again (as in row {rows(i - 1)})",
@@ -175,10 +202,14 @@ def _drive_checks(
             ),
         ),
         "time_not_backwards": (
-            pa.Check(lambda s: ~(step(s) < 0), name="time_not_backwards"),
+            pa.Check(lambda s: in_order(s, ~(step(s) < 0)), name="time_not_backwards"),
             _Explain(
                 increasing,
-                lambda df, i, case, rows: "time goes backwards: " + _time_step(df, i, case, rows),
+                lambda df, i, case, rows: (
+                    "time goes backwards: "
+                    + _time_step(df, i, case, rows)
+                    + _jitter_hint(df, i, period)
+                ),
                 "sort the rows by time, or split the file into one drive per recording where "
                 "the clock restarts; a clock set back an hour is summer time ending: write "
                 "the times in UTC or with their zone offset (ISO 8601, +01:00)",
