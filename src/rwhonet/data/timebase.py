@@ -30,12 +30,13 @@ mistake for bad data:
   order in the file is still the order the samples were taken, so where the nearest slots
   do not rise row by row, the rows around (:data:`REPAIR_ROWS` either side) are given the
   rising slots nearest their stamps (least squares: :func:`_rising_slots`). That is done
-  only where every row so placed stays within five of the stamps' own spreads of its stamp
-  (and within a period): two rows swapped whole periods apart, one row stamped far off on
-  a drive stamped on its grid, a clock set back, a second recording are left as they
-  are, and refused as before. The grid's phase is then the mean of the stamps' offsets
-  from their slots, their arc being most of the circle (:func:`grid_phase`). Stamps on
-  whole multiples are never moved. Measured (stop 67, V-Delta2's clock, stamps to the ms):
+  only where every row so placed stays within a period of its stamp (within half a
+  period, the nearest slot, on a drive whose stamps are not jittered: :func:`jitter_reach`):
+  two rows swapped whole periods apart, one row stamped far off on a drive stamped on its
+  grid, a clock set back, a second recording are left as they are, and refused as
+  before. The grid's phase is then the mean of the stamps' offsets from their slots,
+  their arc being most of the circle (:func:`grid_phase`). Stamps on whole multiples are
+  never moved. Measured (stop 67, V-Delta2's clock, stamps to the ms):
   a bell curve of 15, 20 and 25 ms puts 31, 475 and 1,594 of 35,927 rows nearest another
   row's slot; every row gets its own. At 30 ms and over the drive is refused.
 
@@ -71,11 +72,13 @@ WIDE_ARC_SHARE = 0.5
 # together (:func:`_rising_slots`): a row late by more than half a period and the row it
 # crowds, and those beside them.
 REPAIR_ROWS = 3
-# How far from its stamp a row may be placed, in the stamps' own spread (1.4826 MAD of
-# their offsets from the nearest slots): five of them, at least half a period (where the
-# nearest slot is always taken), less than one. A drive stamped on its grid but for one
-# row far off is no jitter: that row is left in its nearest slot and refused.
-REACH_SPREADS = 5.0
+# How far from its stamp a row may be placed: less than a period on a jittered drive (its
+# stamps' spread, 1.4826 MAD of their offsets from the nearest slots, at least this share
+# of a period), half a period (the nearest slot) on one stamped on its grid: a drive stamped
+# on its grid but for one row far off is no jitter, that row is left and refused. Two
+# values, not a multiple of the spread: predict estimates the spread from the first 200
+# rows, the label from the whole drive, and the same rows must be placed alike.
+JITTERED_SPREAD = 0.02
 MAX_REACH = 0.99
 TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the true value
 
@@ -227,15 +230,16 @@ def grid_slots(
 
 
 def jitter_reach(u: np.ndarray) -> float:
-    """How far (in periods) from its stamp :func:`_rising_slots` may place a row: the
-    stamps' spread about their nearest slots times :data:`REACH_SPREADS`, within
-    ``[0.5, MAX_REACH]``. ``u``: stamps in periods from the grid's phase."""
+    """How far (in periods) from its stamp :func:`_rising_slots` may place a row:
+    :data:`MAX_REACH` where the stamps are jittered (their spread about their nearest
+    slots at least :data:`JITTERED_SPREAD`), else half a period. ``u``: stamps in
+    periods from the grid's phase."""
     if not u.size:
         return 0.5
     sample = u[:: -(-u.size // PHASE_SAMPLE)]
     off = sample - np.rint(sample)
     spread = 1.4826 * float(np.median(np.abs(off - np.median(off))))
-    return float(np.clip(REACH_SPREADS * spread, 0.5, MAX_REACH))
+    return MAX_REACH if spread >= JITTERED_SPREAD else 0.5
 
 
 def _rising_slots(
