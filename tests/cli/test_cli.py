@@ -364,6 +364,34 @@ def _glitched_drive(path: Path, row: int) -> list[str]:
     return lines
 
 
+def test_predict_puts_a_files_rows_in_time_order_and_names_the_file_s_rows(
+    bundle, tmp_path, capsys
+):
+    """Rows 200 and 201 swapped, and the drive's two halves joined the wrong way (its rows
+    301-600 first): from a file, predict sorts them as ingest does (the output is the drive
+    in order's), and names a glitch by its row in the file; from a pipe, read as it comes,
+    it refuses the step back, naming the row."""
+    clean = tmp_path / "V-InOrder.csv"
+    lines = _glitched_drive(clean, 250)
+    moved = tmp_path / "V-Moved.csv"
+    rows = lines[1:]
+    rows[199], rows[200] = rows[200], rows[199]
+    moved.write_text("\n".join([lines[0], *rows[300:], *rows[:300]]) + "\n")
+    out = {}
+    for path in (clean, moved):
+        out[path] = tmp_path / f"{path.stem}.out.csv"
+        args = ["predict", "--model", str(bundle["model_onnx"]), "--drive", str(path)]
+        assert main([*args, "--output", str(out[path])]) == 0
+        err = capsys.readouterr().err
+        row = 250 if path == clean else 250 + len(rows) - 300  # its second half first
+        assert f"row {row} (t = " in err, err
+    assert "put in time order" in err
+    assert out[moved].read_text() == out[clean].read_text()
+    done = cli(*predict_args(bundle, "-", "-"), stdin=moved.read_bytes())
+    assert done.returncode == 2
+    assert f"<stdin>, row {len(rows) - 300 + 1}, column ' Time'" in done.stderr.decode()
+
+
 def test_predict_says_which_wheel_glitch_it_repaired_even_when_quiet(bundle, tmp_path, capsys):
     path = tmp_path / "V-Glitch.csv"
     _glitched_drive(path, 306)

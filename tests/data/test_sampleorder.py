@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -9,11 +11,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rwhonet.data import canonical as c
+from rwhonet.data.incremental import read_rows
 from rwhonet.data.sampleorder import time_order
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from rwhonet.sim.streams import StreamTables, signal_map
+from support.drives import write_iovnbd
+from support.pipes import piped
+from support.serving import wavy_drive
 from support.stream_corpus import RADIUS_M, good_tables, read_case, write_good
 
 PERIOD = 0.01  # a 100 Hz CAN message
@@ -271,3 +277,102 @@ def test_the_real_can_streams_stamps_out_of_order_are_put_in_order():
     back = t.copy()
     back[2000:] -= 0.3
     assert time_order(back, w, None, "wheel_speed").index is None
+
+
+# ----------------------------------------------- a 10 Hz file's rows out of time order
+
+
+def _ten_hz(tmp_path, order=None, name="V-O.csv"):
+    """A 10 Hz IO-VNBD file of a weaving drive, its rows in ``order`` (None: as driven)."""
+    df = wavy_drive(120.0)
+    if order is not None:
+        df = df.iloc[order].reset_index(drop=True)
+    return df, write_iovnbd(df, tmp_path / name)
+
+
+def _read(path):
+    """(ingest's drive, predict's rows from a file, predict's rows from a pipe or its
+    refusal)."""
+    from rwhonet.config import load_params
+    from rwhonet.data.drivefile import DriveFile, read_any
+
+    raw, _ = read_any(
+        DriveFile("V-O", "target_test", "target", "iovnbd", path, None),
+        load_params().data,
+        str,
+        None,
+        0.1,
+        1.0,
+    )
+    streamed = []
+    for source in (lambda: io.BytesIO(path.read_bytes()), lambda: piped(path.read_bytes())):
+        try:
+            with source() as f:
+                lay, blocks = read_rows(f, path.name, block_bytes=2000)
+                got = list(blocks)
+            streamed.append((got, lay.notes))
+        except InputError as err:
+            streamed.append(err)
+    return raw, *streamed
+
+
+@pytest.mark.parametrize(
+    "moved",
+    ["swapped", "joined the wrong way", "sorted by a column"],
+)
+def test_a_10_hz_files_rows_out_of_order_are_put_in_order_by_ingest_and_predict(tmp_path, moved):
+    clean, clean_path = _ten_hz(tmp_path, name="V-C.csv")
+    n = len(clean)
+    order = np.arange(n)
+    if moved == "swapped":
+        order[[299, 300]] = order[[300, 299]]
+    elif moved == "joined the wrong way":
+        order = np.r_[order[600:], order[:600]]
+    else:
+        order = np.argsort(-clean[c.OMEGA_RL].to_numpy(), kind="stable")
+    _, path = _ten_hz(tmp_path, order)
+    want, (plain, _), _ = _read(clean_path)
+    raw, from_file, from_pipe = _read(path)
+    for name in c.REQUIRED:
+        np.testing.assert_array_equal(raw.columns[name], want.columns[name])
+    np.testing.assert_array_equal(raw.row_order, np.argsort(order, kind="stable") + 1)
+    assert any("put in time order" in note for note in raw.notes), raw.notes
+    blocks, notes = from_file
+    for first, cols in blocks:  # runs of the file's consecutive rows
+        np.testing.assert_array_equal(
+            raw.row_order[np.searchsorted(raw.columns[c.T_S], cols[c.T_S])],
+            first + np.arange(cols[c.T_S].size),
+        )
+    got = np.concatenate([cols[c.OMEGA_RL] for _, cols in blocks])
+    np.testing.assert_array_equal(got, np.concatenate([b[c.OMEGA_RL] for _, b in plain]))
+    assert any("put in time order" in note for note in notes), notes
+    # from a pipe, read as it comes, the rows are handed on as written (predict's stream
+    # checks refuse the step back, naming the row)
+    piped_blocks, _ = from_pipe
+    logged = np.concatenate([cols[c.OMEGA_RL] for _, cols in piped_blocks])
+    np.testing.assert_array_equal(logged, clean[c.OMEGA_RL].to_numpy()[order])
+
+
+def test_rows_a_jitter_turned_back_are_not_sorted_by_their_stamps(tmp_path):
+    """Stamps of a bell curve's 20 ms: the rows' order is the samples', kept."""
+    clean, _ = _ten_hz(tmp_path)
+    t = clean[c.T_S].to_numpy()
+    stamps = np.round(t + np.random.default_rng(6).normal(0.0, 0.02, t.size), 3)
+    assert (np.diff(stamps) < 0).any()  # seed 6: a stamp before the one above it
+    jittered = clean.assign(**{c.T_S: stamps})
+    path = write_iovnbd(jittered, tmp_path / "V-J.csv")
+    raw, (blocks, notes), _ = _read(path)
+    assert raw.row_order is None and not any("time order" in x for x in raw.notes)
+    np.testing.assert_array_equal(raw.columns[c.OMEGA_RL], clean[c.OMEGA_RL].to_numpy())
+
+
+def test_a_clock_set_back_is_not_sorted_and_stays_refused(tmp_path):
+    """Row 300 stamped 5 s early (on the grid: at another row's time): sorting would put
+    two samples at one time; left as written, validate refuses it."""
+    clean, _ = _ten_hz(tmp_path)
+    back = clean.copy()
+    back.loc[299, c.T_S] -= 5.0
+    path = write_iovnbd(back, tmp_path / "V-B.csv")
+    raw, _, _ = _read(path)
+    assert raw.row_order is None
+    np.testing.assert_array_equal(raw.columns[c.T_S], back[c.T_S].to_numpy())

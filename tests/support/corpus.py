@@ -777,6 +777,59 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "rows_swapped",
+    "data rows 300 and 301 written in each other's place (a logger writing two buffers in turn)",
+    Accept(
+        "the rows put in time order at ingest; the notes name row 301, and messages the file's rows"
+    ),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    order = np.arange(len(df))
+    order[[299, 300]] = order[[300, 299]]
+    write_target(raw, df.iloc[order].reset_index(drop=True))
+
+
+def _joined_the_wrong_way(lines: list[str]) -> list[str]:
+    """A drive's two exports joined with cat in the wrong order: its second half (data
+    rows 751-1501), the header again, then its first half (rows 1-750)."""
+    return [lines[0], *lines[751:], lines[0], *lines[1:751]]
+
+
+@case(
+    "two_exports_joined_in_the_wrong_order",
+    "the drive's two exports joined with cat in the wrong order: its rows 751-1501, the "
+    "header again (data row 752), then its rows 1-750",
+    Accept("the header's line again dropped, the rows put in time order at ingest"),
+)
+def _(raw: Path) -> None:
+    edit_lines(raw, _joined_the_wrong_way)
+
+
+@case(
+    "joined_in_the_wrong_order_and_a_latitude_out_of_range",
+    "as two_exports_joined_in_the_wrong_order, the drive's row 100 (the file's data row 852) "
+    "with a latitude of 95 deg",
+    Refuse("validate", 852, " Lat", "a latitude in [-90, 90] deg", "95.0"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    df.loc[rows(df, 100, 100), c.LAT_DEG] = 95.0
+    edit_lines(raw, _joined_the_wrong_way, df)
+
+
+@case(
+    "rows_sorted_by_speed",
+    "every row in the order of its rear-left wheel speed, fastest first (a spreadsheet's "
+    "table sorted by a column)",
+    Accept("the rows put in time order at ingest"),
+)
+def _(raw: Path) -> None:
+    df = good_target()
+    write_target(raw, df.iloc[np.argsort(-df[c.OMEGA_RL].to_numpy(), kind="stable")])
+
+
+@case(
     "block_written_again_with_one_value_changed",
     "data rows 301-350 written again after row 400, the rear-left wheel speed of row 411 "
     "not as first written",

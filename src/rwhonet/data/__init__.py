@@ -54,5 +54,6 @@
 - :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where
   ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those
-  written out of time order put in order where that is all that is wrong.
+  written out of time order put in order where that is all that is wrong; a 10 Hz file's
+  rows out of time order too (``rows_in_time_order``).
 """

@@ -125,6 +125,9 @@ class RawDrive:
             (and its row of units), left out by the reader (:func:`header_again_rows`).
             Element ``i`` of ``columns`` is then the file's row ``FileRows(header_rows)(i)``
             (and through every kind of row dropped: ``FileRows`` of them all merged).
+        row_order: where the rows were put in time order
+            (:func:`rwhonet.data.sampleorder.rows_in_time_order`), the file's data row of
+            each (1-based); None: the file's order.
     """
 
     columns: dict[str, np.ndarray]
@@ -135,6 +138,7 @@ class RawDrive:
     wheelless_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     held_fix_period_rows: int = 0
     header_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    row_order: np.ndarray | None = None
 
     @property
     def n_rows(self) -> int:

@@ -51,6 +51,7 @@ from rwhonet.data.fastfile import as_streams, is_faster_than_grid
 from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
+from rwhonet.data.sampleorder import rows_in_time_order
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.vbo import (
@@ -226,8 +227,8 @@ def read_any(
                 f, packed, data, rel, radius_m, period_s, split_gap_s, require_fix
             )
         # a row written twice or without a wheel speed is dropped (rwhonet.data.droprows),
-        # fixes held from a slower receiver are placed along the path (.heldfixes); the
-        # drive says which
+        # rows out of time order put in order where that is safe (.sampleorder), fixes held
+        # from a slower receiver are placed along the path (.heldfixes); the drive says which
         if kind in (IOVNBD, COLUMN_MAP) and file_is_vbo(f.path):
             if kind == IOVNBD:
                 raise InputError([vbo_needs_a_map(file, f.format)])
@@ -238,7 +239,7 @@ def read_any(
             raw = read_columnmap(f.path, data.column_maps[f.format], f.format, file, radius_m)
         else:
             return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
-        raw = drop_rows(raw, file)
+        raw = rows_in_time_order(drop_rows(raw, file), file, period_s)
         if is_faster_than_grid(raw.columns[c.T_S], period_s):  # a 20-100 Hz table
             return _resampled(
                 as_streams(raw, file), data, radius_m, period_s, split_gap_s, require_fix

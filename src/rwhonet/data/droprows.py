@@ -58,6 +58,9 @@ WHEELLESS_MAX_SHARE = 1 / 3
 # reports/validation.json name them: copies, rows without a wheel speed, the header's line
 # again (csvio.header_again_rows, left out by the reader).
 ROW_KINDS = ("repeated_rows", "wheelless_rows", "header_rows")
+# The ingest manifest's key for a drive whose rows were put in time order
+# (:func:`rwhonet.data.sampleorder.rows_in_time_order`): the file's data row of each row.
+ROW_ORDER = "row_order"
 # The key under which a stream of rows (``rwhonet predict``'s) carries each row's data row
 # in the file with the rows: consecutive within a block, not across blocks once a copy
 # was dropped.
@@ -220,6 +223,8 @@ def manifest_rows(raw: RawDrive) -> dict[str, Any]:
     out: dict[str, Any] = {key: [int(r) for r in rows] for key, rows in lists.items() if rows.size}
     if raw.held_fix_period_rows:  # fixes held from a slower receiver, placed (heldfixes)
         out["held_fix_period_rows"] = raw.held_fix_period_rows
+    if raw.row_order is not None:  # rows put in time order: each row's file row
+        out[ROW_ORDER] = [int(r) for r in raw.row_order]
     return out
 
 
@@ -271,19 +276,25 @@ class FileRows:
     """
 
     def __init__(
-        self, dropped: Sequence[int] | np.ndarray = (), headers: Sequence[int] | np.ndarray = ()
+        self,
+        dropped: Sequence[int] | np.ndarray = (),
+        headers: Sequence[int] | np.ndarray = (),
+        order: Sequence[int] | np.ndarray | None = None,
     ) -> None:
         d = np.asarray(dropped, dtype=np.int64)
         # canonical row k is data row k + 1 + (the drops at or before it): drop j, the
         # (j+1)-th, sits after d[j] - 1 - j kept rows
         self._after = d - 1 - np.arange(d.size)
         self.headers = np.asarray(headers, dtype=np.int64)  # of them, the header's line again
+        # rows put in time order: each canonical row's file row, given
+        self._order = None if order is None else np.asarray(order, dtype=np.int64)
 
     @classmethod
     def of(cls, entry: Mapping[str, Any]) -> FileRows:
-        """The numbering of a drive as the ingest manifest lists it (:data:`ROW_KINDS`)."""
+        """The numbering of a drive as the ingest manifest lists it (:data:`ROW_KINDS`, and
+        :data:`ROW_ORDER` where its rows were put in time order)."""
         dropped = sorted(r for key in ROW_KINDS for r in entry.get(key) or ())
-        return cls(dropped, entry.get("header_rows") or ())
+        return cls(dropped, entry.get("header_rows") or (), entry.get(ROW_ORDER))
 
     def header_between(self, k: int | np.integer) -> int | None:
         """The file's row of the header's line again between canonical rows ``k - 1`` and
@@ -296,8 +307,8 @@ class FileRows:
 
     @property
     def identity(self) -> bool:
-        """Whether no row was dropped (canonical row ``k`` is data row ``k + 1``)."""
-        return self._after.size == 0
+        """Whether no row was dropped or moved (canonical row ``k`` is data row ``k + 1``)."""
+        return self._after.size == 0 and self._order is None
 
     @overload
     def __call__(self, k: int | np.integer) -> int: ...
@@ -307,6 +318,8 @@ class FileRows:
 
     def __call__(self, k):
         """The 1-based data row of the file of canonical row(s) ``k`` (0-based)."""
+        if self._order is not None:
+            return int(self._order[k]) if isinstance(k, int | np.integer) else self._order[k]
         if isinstance(k, int | np.integer):
             return int(k) + 1 + int(np.searchsorted(self._after, int(k), side="right"))
         k = np.asarray(k, dtype=np.int64)

@@ -342,21 +342,32 @@ def read_rows(
         split_gap_s=split_gap_s,
         gnss_lag=gnss_lag,
     )
-    return lay, _placed_or_resampled(blocks, period_s, whole)
+    # a file (not a pipe) read whole, so that rows out of time order are put in order as
+    # ingest puts them (rwhonet.data.sampleorder.rows_in_time_order)
+    ordered = None
+    if pipe is None:
+        ordered = functools.partial(_in_time_order, lay=lay, file=file, period_s=period_s)
+    return lay, _placed_or_resampled(blocks, period_s, whole, ordered)
+
+
+Whole = Callable[
+    [list[tuple[int, dict[str, np.ndarray]]]], Iterator[tuple[int, dict[str, np.ndarray]]]
+]
 
 
 def _placed_or_resampled(
     blocks: Iterator[tuple[int, dict[str, np.ndarray]]],
     period_s: float,
-    resampled: Callable[
-        [list[tuple[int, dict[str, np.ndarray]]]], Iterator[tuple[int, dict[str, np.ndarray]]]
-    ],
+    resampled: Whole,
+    ordered: Whole | None = None,
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     """The row blocks placed on the drive's clock (:func:`placed`), or, where the first
     ``STREAM_PHASE_ROWS`` rows come faster than the grid (a 20-100 Hz table:
     :func:`rwhonet.data.fastfile.is_faster_than_grid`), the whole drive read and given to
     ``resampled`` (:func:`_resampled`, its other arguments bound), and its grid rows
-    handed on."""
+    handed on. With ``ordered`` (a file, not a pipe), the whole drive is read first, and
+    where its rows are out of time order they are given to ``ordered``
+    (:func:`_in_time_order`)."""
     from rwhonet.data.fastfile import is_faster_than_grid
 
     head: list[tuple[int, dict[str, np.ndarray]]] = []
@@ -368,10 +379,63 @@ def _placed_or_resampled(
             break
     rows = itertools.chain(head, blocks)
     t = np.concatenate([cols[c.T_S] for _, cols in head]) if head else np.zeros(0)
-    if not is_faster_than_grid(t, period_s):
-        yield from placed(rows, StreamClock(period_s))
+    if is_faster_than_grid(t, period_s):
+        yield from placed(resampled(list(rows)), StreamClock(period_s))
         return
-    yield from placed(resampled(list(rows)), StreamClock(period_s))
+    if ordered is not None:
+        every = list(rows)
+        rows = ordered(every) if _out_of_order(every, period_s) else iter(every)
+    yield from placed(rows, StreamClock(period_s))
+
+
+def _out_of_order(blocks: list[tuple[int, dict[str, np.ndarray]]], period_s: float) -> bool:
+    """Whether a drive's rows are out of time order beyond what its clock's midnight and a
+    jitter the rows' order places explain (:func:`rwhonet.data.timebase.grid_slots`)."""
+    from rwhonet.data.timebase import grid_slots, unwrap_clock
+
+    if not blocks:
+        return False
+    t = unwrap_clock(np.concatenate([cols[c.T_S] for _, cols in blocks]))[0]
+    if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
+        return False
+    return not (np.diff(grid_slots(t, period_s)[0]) > 0).all()
+
+
+def _in_time_order(
+    blocks: list[tuple[int, dict[str, np.ndarray]]], lay: Layout, file: str, period_s: float
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """A drive's rows (the whole drive) put in time order as ingest puts them: its copies
+    and rows without a wheel speed dropped, then sorted where that is safe
+    (:func:`rwhonet.data.sampleorder.rows_in_time_order`; else as they are, for the checks
+    downstream to refuse), handed on in runs of consecutive rows of the file; the notes
+    say so."""
+    from rwhonet.data.csvio import RawDrive
+    from rwhonet.data.droprows import drop_rows
+    from rwhonet.data.sampleorder import rows_in_time_order
+    from rwhonet.data.timebase import unwrap_clock
+
+    file_rows = np.concatenate([f + np.arange(len(cols[c.T_S])) for f, cols in blocks])
+    names = list(blocks[0][1])
+    columns = {k: np.concatenate([cols[k] for _, cols in blocks]) for k in names}
+    logged = columns[c.T_S]
+    columns[c.T_S] = unwrap_clock(logged)[0]  # sorted on the continuous clock
+    raw = RawDrive(
+        columns | {"logged_t": logged},
+        dict(lay.names),
+        "name",
+        header_rows=np.setdiff1d(np.arange(1, int(file_rows[-1]) + 1), file_rows),
+    )
+    raw = rows_in_time_order(drop_rows(raw, file), file, period_s)
+    if raw.row_order is None:  # in order, or not safe to sort: as read
+        yield from blocks
+        return
+    lay.notes.extend(note.removeprefix(f"{file}: ") for note in raw.notes)
+    order = raw.row_order
+    kept = {k: v for k, v in raw.columns.items() if k != "logged_t"}
+    kept[c.T_S] = raw.columns["logged_t"]  # placed on the clock as the file has it
+    cuts = np.r_[0, np.flatnonzero(np.diff(order) != 1) + 1, order.size]
+    for a, b in itertools.pairwise(cuts.tolist()):
+        yield int(order[a]), {k: v[a:b] for k, v in kept.items()}
 
 
 def _resampled(

@@ -36,11 +36,14 @@ comparison of its times.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rwhonet.data.droprows import repeated_rows
+from rwhonet.data import canonical as c
+from rwhonet.data.csvio import RawDrive
+from rwhonet.data.droprows import FileRows, manifest_rows, repeated_rows
+from rwhonet.data.timebase import grid_slots
 
 # Sorting may not bring two samples closer than this share of the stream's median step
 # unless the file already had them so close. A clock set back by anything but a whole
@@ -181,3 +184,39 @@ def _listed(rows: np.ndarray) -> str:
     shown = ", ".join(str(int(r)) for r in rows[:ROWS_NOTED])
     more = f" and {rows.size - ROWS_NOTED} more" if rows.size > ROWS_NOTED else ""
     return f"row(s) {shown}{more}"
+
+
+def rows_in_time_order(raw: RawDrive, file: str, period_s: float) -> RawDrive:
+    """A 10 Hz file's rows put in time order where that is all that is wrong, as a
+    stream's samples are (:func:`time_order`): exports of a drive joined in the wrong
+    order, a table sorted by another column, a logger writing two buffers in turn.
+
+    Rows whose stamps a jitter turned back are not out of order: the slots the rows' order
+    gives them rise (:func:`rwhonet.data.timebase.grid_slots`), and they stay as written.
+
+    Args:
+        raw: the drive as its reader read it, its copies and rows without a wheel speed
+            dropped (:func:`rwhonet.data.droprows.drop_rows`), its clock continuous.
+        file: the file as the user knows it, for the notes.
+        period_s: the sample period.
+
+    Returns:
+        ``raw`` itself where its rows are in order, or sorting is not safe (a clock set
+        back, a second recording: validate refuses it, naming the rows); else the drive
+        in time order, ``row_order`` giving each row's file row, the notes saying so.
+    """
+    t = raw.columns[c.T_S]
+    if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
+        return raw
+    if (np.diff(grid_slots(t, period_s)[0]) > 0).all():  # a jitter the rows' order places
+        return raw
+    file_row = FileRows.of(manifest_rows(raw))(np.arange(raw.n_rows))
+    order = time_order(t, raw.columns, file_row, file)
+    if order.index is None or order.index.size != t.size:
+        return raw
+    return replace(
+        raw,
+        columns={k: v[order.index] for k, v in raw.columns.items()},
+        notes=(*raw.notes, *order.notes),
+        row_order=file_row[order.index],
+    )

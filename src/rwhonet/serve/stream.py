@@ -772,9 +772,10 @@ def _time_problem(
     else:
         found = f"time goes backwards: t = {_found(now)} s after t = {_found(prev)} s"
         fix = (
-            "sort the rows by time, or split the file into one drive per recording where the "
-            "clock restarts; a clock set back an hour is summer time ending: write the times "
-            "in UTC or with their zone offset (ISO 8601, +01:00)"
+            "sort the rows by time (a drive given as a file, not from a pipe, has rows out of "
+            "order put in order where sorting is safe), or split the file into one drive per "
+            "recording where the clock restarts; a clock set back an hour is summer time "
+            "ending: write the times in UTC or with their zone offset (ISO 8601, +01:00)"
         )
     return Problem(
         file, row, names.get(c.T_S, c.T_S), "a time after the previous row's", found, fix
