@@ -385,6 +385,7 @@ def test_predict_puts_a_files_rows_in_time_order_and_names_the_file_s_rows(
         err = capsys.readouterr().err
         row = 250 if path == clean else 250 + len(rows) - 300  # its second half first
         assert f"row {row} (t = " in err, err
+        assert f"{path.name}: {len(rows)} rows -> 60 seconds" in err, err  # every row read
     assert "put in time order" in err
     assert out[moved].read_text() == out[clean].read_text()
     done = cli(*predict_args(bundle, "-", "-"), stdin=moved.read_bytes())

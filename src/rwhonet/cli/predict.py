@@ -335,7 +335,8 @@ def run(
                         steps += np.diff(columns["t_s"][: STEPS_KEPT + 1]).tolist()
                 held.append(stream.push(first, columns))
                 n_held += len(held[-1]["t_s"])
-                rows = first + len(columns["t_s"]) - 1
+                # the file's last data row (rows put in time order come in runs of the file's)
+                rows = max(rows, first + len(columns["t_s"]) - 1)
                 if not check.decided and not released and n_held >= HOLD_MAX_S:
                     released = True  # the check goes on; a later refusal still exits 2
                     print(released_note(name, HOLD_MAX_S), file=sys.stderr)
