@@ -402,10 +402,10 @@ class StreamClock:
         Args:
             t_s: the block's times of day as logged, s.
             first_row: 0-based row of the block's first row in the drive (for the notes).
-            final: place every row. Otherwise the last rows whose slots the rows after
-                them could still change (jitter past half a period, within
-                ``2 * REPAIR_ROWS + 2`` rows of the block's end) are left unplaced: the
-                caller gives them again, first, with the next block.
+            final: place every row. Otherwise, on jittered stamps, the rows whose slots
+                the rows after them could still change (the last ``REPAIR_ROWS + 2``, and
+                those placed together with them: :func:`_settled`) are left unplaced:
+                the caller gives them again, first, with the next block.
 
         Returns:
             float64 times of the block's first rows (all of them where ``final``).
