@@ -1,5 +1,6 @@
-"""What the stop-60 and stop-61 logger habits cost the readers: one hour of a drive read
-plain, with its header line again, kept compressed, and logged at 50 Hz; and one hour of a
+"""What the stop-60, stop-61 and stop-67 logger habits cost the readers: one hour of a
+drive read plain, with its header line again, kept compressed, logged at 50 Hz, stamped
+with a bell curve's jitter, its rows out of order and its last row cut; and one hour of a
 drive as stream CSVs, plain, with samples written late, written twice or shuffled, and the
 header again.
 
@@ -7,7 +8,10 @@ Writes a one-hour IO-VNBD drive (``tests/support/drives.py: write_long_iovnbd``,
 rows at 10 Hz), then the same drive as a logger that wrote its header again three times
 (a restart, files joined: the reader's slow path finds them), gzip- and zstd-compressed
 (read through a scratch copy of the text), and a 50 Hz table of it (every channel linear
-between the 10 Hz rows: read as streams and resampled onto the grid), and times, in this
+between the 10 Hz rows: read as streams and resampled onto the grid), stamped with a bell
+curve's jitter of 20 ms (rows placed in their slots by the rows' order), with 20 pairs of
+rows swapped and with its halves joined the wrong way (put in time order), and with its
+last row cut short 40 bytes before its end (not read), and times, in this
 process, ingest's reader (``rwhonet.data.drivefile.read_any``) and predict's
 (``rwhonet.data.incremental.read_rows`` to its last block) on each, best of ``--repeat``.
 
@@ -68,6 +72,20 @@ def variants(folder: Path) -> dict[str, Path]:
     drive = read_iovnbd(plain).columns
     frame = pd.DataFrame({k: drive[k] for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)})
     out["50 Hz table"] = write_iovnbd(faster(frame, 50), folder / "V-F.csv")
+    # stop 67: stamps of a bell curve's 20 ms; 20 pairs of rows swapped; the halves joined
+    # the wrong way (the header again between); the last row cut short by a power cut
+    rng = np.random.default_rng(1)
+    bell = frame.assign(**{c.T_S: np.round(frame[c.T_S] + rng.normal(0, 0.02, len(frame)), 3)})
+    out["bell 20 ms"] = write_iovnbd(bell, folder / "V-B.csv")
+    order = np.arange(len(frame))
+    for k in rng.choice(len(frame) - 1, 20, replace=False):
+        order[[k, k + 1]] = order[[k + 1, k]]
+    out["rows swapped x20"] = write_iovnbd(frame.iloc[order], folder / "V-S.csv")
+    half = 1 + ROWS // 2
+    out["halves swapped"] = folder / "V-W.csv"
+    out["halves swapped"].write_bytes(b"\n".join(lines[:1] + lines[half:-1] + lines[:half]))
+    out["last row cut"] = folder / "V-C.csv"
+    out["last row cut"].write_bytes(text.rstrip(b"\n")[:-40])
     return out
 
 
