@@ -373,9 +373,14 @@ def _(raw: Path) -> None:
     ),
 )
 def _(raw: Path) -> None:
+    _cut_into_the_last_row(raw, b"\x00" * 4096)
+
+
+def _cut_into_the_last_row(raw: Path, tail: bytes = b"") -> None:
+    """The good target drive, its file ending 40 bytes into its last row, then ``tail``."""
     path = write_target(raw, good_target())
     data = path.read_bytes()
-    path.write_bytes(data[: data.rstrip(b"\n").rfind(b"\n") + 40] + b"\x00" * 4096)
+    path.write_bytes(data[: data.rstrip(b"\n").rfind(b"\n") + 40] + tail)
 
 
 @case(
@@ -389,9 +394,7 @@ def _(raw: Path) -> None:
     ),
 )
 def _(raw: Path) -> None:
-    path = write_target(raw, good_target())
-    data = path.read_bytes()
-    path.write_bytes(data[: data.rstrip(b"\n").rfind(b"\n") + 40])
+    _cut_into_the_last_row(raw)
 
 
 @case(
@@ -1612,11 +1615,17 @@ def _(raw: Path) -> None:
     Accept("each row placed in its own slot of the 0.1 s grid by the rows' order"),
 )
 def _(raw: Path) -> None:
-    df = good_target()
-    jitter = np.random.default_rng(2).normal(0.0, 0.02, len(df))
-    df[c.T_S] = np.round(df[c.T_S] + jitter, 3)
+    df = _bell_curve_stamps(0.02, seed=2)
     assert (np.diff(df[c.T_S]) < 0).any()  # a stamp before the one above it (seed 2: one)
     write_target(raw, df)
+
+
+def _bell_curve_stamps(sigma_s: float, seed: int) -> pd.DataFrame:
+    """The good target drive, each stamp off by a bell curve's jitter, to the ms."""
+    df = good_target()
+    jitter = np.random.default_rng(seed).normal(0.0, sigma_s, len(df))
+    df[c.T_S] = np.round(df[c.T_S] + jitter, 3)
+    return df
 
 
 @case(
@@ -1625,10 +1634,7 @@ def _(raw: Path) -> None:
     Refuse("validate", 215, " Time", "time strictly increasing", "the stamps' jitter"),
 )
 def _(raw: Path) -> None:
-    df = good_target()
-    jitter = np.random.default_rng(15).normal(0.0, 0.035, len(df))
-    df[c.T_S] = np.round(df[c.T_S] + jitter, 3)
-    write_target(raw, df)
+    write_target(raw, _bell_curve_stamps(0.035, seed=15))
 
 
 @case(
