@@ -701,27 +701,30 @@ def nul_tail_note(n: int) -> str | None:
     )
 
 
-def cut_last_row(path: Path, n_columns: int) -> int:
+def cut_last_row(
+    path: Path, n_columns: int, head: HeadLines | None = None, nul: int | None = None
+) -> int:
     """The bytes of a last data row cut short (0: none): what a logger that lost power while
     writing a row leaves, or a copy stopped part way.
 
     The row is the text after the file's last line end (before the NUL bytes it ends in,
-    :func:`nul_tail`), not blank, with fewer cells than the ``n_columns`` every row holds
-    and no quote (a quoted cell may hold a separator). A last row without its line end
-    that holds every cell is read as it stands: many exporters end their last row so, and
-    a cell cut short in it cannot be told from a shorter number.
+    :func:`nul_tail`) that :func:`is_cut_short` says is cut short. A last row without its
+    line end that holds every cell is read as it stands: many exporters end their last row
+    so, and a cell cut short in it cannot be told from a shorter number.
 
     Args:
         path: the CSV file.
         n_columns: the cells every data row holds.
+        head: the file's first lines (:func:`head_lines`), where the caller has them.
+        nul: the NUL bytes it ends in (:func:`nul_tail`), where the caller has them.
 
     Returns:
         The row's length in bytes (0 also where the file cannot be read: its reader says why).
     """
-    head = _head_or_plain(path)
+    head = _head_or_plain(path) if head is None else head
     try:
         with open(path, "rb") as f:
-            end = f.seek(0, io.SEEK_END) - nul_tail(path)
+            end = f.seek(0, io.SEEK_END) - (nul_tail(path) if nul is None else nul)
             start = max(end - BLOCK_BYTES, 0)
             f.seek(start)
             text = f.read(end - start)
@@ -734,10 +737,15 @@ def cut_last_row(path: Path, n_columns: int) -> int:
     # the header's lines are never a row cut short (nor are a tool's comments)
     if at < 0 or line_key(row) in (line_key(head.header), line_key(head.second)):
         return 0
-    if not row.strip() or b'"' in row or is_comment(row):
-        return 0
-    cells = row.count(head.delimiter.encode()) + 1
-    return len(row) if cells < n_columns else 0
+    return len(row) if not is_comment(row) and is_cut_short(row, head.delimiter, n_columns) else 0
+
+
+def is_cut_short(row: bytes, delimiter: str, n_columns: int) -> bool:
+    """Whether a last row without its line end is cut short: not blank, no quote (a quoted
+    cell may hold a separator), fewer than ``n_columns`` cells between ``delimiter``s."""
+    if not row.strip() or b'"' in row:
+        return False
+    return row.count(delimiter.encode()) + 1 < n_columns
 
 
 def cut_last_row_note(row: int, n_bytes: int) -> str | None:
@@ -1052,7 +1060,7 @@ def _open_columns(
     """
     head = _head_or_plain(path)
     delimiter, tail = head.delimiter, nul_tail(path)
-    tail += cut_last_row(path, len(names))  # a last row cut short is not read either
+    tail += cut_last_row(path, len(names), head, tail)  # a last row cut short is not read
     # pyarrow's own reader, unless the bytes must be changed or cut; opened here, as pyarrow
     # would take a name ending in .gz or .bz2 for compressed data (rwhonet.data.compressed
     # tells that from the bytes, and hands the readers the text)

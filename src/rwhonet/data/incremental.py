@@ -389,16 +389,16 @@ def _placed_or_resampled(
 
 
 def _out_of_order(blocks: list[tuple[int, dict[str, np.ndarray]]], period_s: float) -> bool:
-    """Whether a drive's rows are out of time order beyond what its clock's midnight and a
-    jitter the rows' order places explain (:func:`rwhonet.data.timebase.grid_slots`)."""
-    from rwhonet.data.timebase import grid_slots, unwrap_clock
+    """Whether a drive's rows are out of time order on its continuous clock (midnight
+    unwrapped), beyond a jitter the rows' order places (:func:`rwhonet.data.sampleorder.
+    out_of_order`)."""
+    from rwhonet.data.sampleorder import out_of_order
+    from rwhonet.data.timebase import unwrap_clock
 
     if not blocks:
         return False
     t = unwrap_clock(np.concatenate([cols[c.T_S] for _, cols in blocks]))[0]
-    if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
-        return False
-    return not (np.diff(grid_slots(t, period_s)[0]) > 0).all()
+    return out_of_order(t, period_s)
 
 
 def _in_time_order(
@@ -879,6 +879,7 @@ def _blocks(
         cut_last_row_note,
         delimiter_note,
         header_again_note,
+        is_cut_short,
         nul_tail_note,
     )
     from rwhonet.data.texttime import text_time_note
@@ -922,7 +923,7 @@ def _blocks(
         pending = pending[:-tail]
         lay.notes.append(said)
     # a last row cut short (no line end, fewer cells than a row's): not read, as ingest does
-    if pending.strip() and b'"' not in pending and pending.count(b",") + 1 < lay.n_columns:
+    if is_cut_short(pending, ",", lay.n_columns):
         lay.notes.append(cut_last_row_note(row, len(pending)))
         pending = b""
     if pending.strip():

@@ -206,9 +206,7 @@ def rows_in_time_order(raw: RawDrive, file: str, period_s: float) -> RawDrive:
         in time order, ``row_order`` giving each row's file row, the notes saying so.
     """
     t = raw.columns[c.T_S]
-    if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
-        return raw
-    if (np.diff(grid_slots(t, period_s)[0]) > 0).all():  # a jitter the rows' order places
+    if not out_of_order(t, period_s):
         return raw
     file_row = FileRows.of(manifest_rows(raw))(np.arange(raw.n_rows))
     order = time_order(t, raw.columns, file_row, file)
@@ -220,3 +218,13 @@ def rows_in_time_order(raw: RawDrive, file: str, period_s: float) -> RawDrive:
         notes=(*raw.notes, *order.notes),
         row_order=file_row[order.index],
     )
+
+
+def out_of_order(t_s: np.ndarray, period_s: float) -> bool:
+    """Whether a 10 Hz drive's finite times are out of order beyond a jitter the rows'
+    order places: not rising, nor their slots on the grid
+    (:func:`rwhonet.data.timebase.grid_slots`)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
+        return False
+    return not (np.diff(grid_slots(t, period_s)[0]) > 0).all()

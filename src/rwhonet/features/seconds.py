@@ -373,13 +373,15 @@ def segment_arrays(table: pa.Table) -> dict[str, np.ndarray | pa.ChunkedArray]:
     }
 
 
-def check_segment(frame: Mapping[str, ArrayLike], file: str) -> None:
+def check_segment(frame: Mapping[str, ArrayLike], file: str, t_s: np.ndarray | None = None) -> None:
     """Check what the per-second computation relies on; raise one report of all problems.
 
     Args:
         frame: a segment in canonical columns: a DataFrame, or a mapping of column name to
             array (what the label stage's ``read_segment`` returns).
         file: the segment's file name, for the report.
+        t_s: its times as the per-second computation takes them (:func:`_placed`; None:
+            placed here).
 
     Raises:
         InputError: missing columns, non-finite values, a latitude out of range,
@@ -403,9 +405,9 @@ def check_segment(frame: Mapping[str, ArrayLike], file: str) -> None:
         Problem(file, int(i) + 1, c.LAT_DEG, "a latitude in [-90, 90] deg", repr(lat[i]))
         for i in np.flatnonzero(np.abs(lat) > 90.0)[:_MAX_PROBLEMS_PER_CHECK]
     ]
-    t = np.asarray(frame[c.T_S], dtype=np.float64)
-    if np.isfinite(t).all():  # jittered stamps in order by their slots, as they are used
-        t = label_times(t, 1.0 / ROWS_PER_SECOND)
+    # jittered stamps in order by their slots, as they are used (placed by the caller, or
+    # here where every time is finite)
+    t = _placed(frame) if t_s is None else t_s
     back = np.flatnonzero(np.diff(t) <= 0)
     problems += [
         Problem(file, int(i) + 2, c.T_S, f"time after the previous row's {t[i]!r}", repr(t[i + 1]))
@@ -428,6 +430,13 @@ def check_segment(frame: Mapping[str, ArrayLike], file: str) -> None:
         raise InputError(problems, f"segment {file} cannot be cut into 10 Hz seconds")
 
 
+def _placed(frame: Mapping[str, ArrayLike]) -> np.ndarray:
+    """A segment's times at their slots' instants (:func:`rwhonet.data.timebase.label_times`)
+    where every time is finite; else as they are (the check names those that are not)."""
+    t = np.asarray(frame[c.T_S], dtype=np.float64)
+    return label_times(t, 1.0 / ROWS_PER_SECOND) if np.isfinite(t).all() else t
+
+
 def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> SegmentSeconds:
     """Compute the raw per-second quantities of one segment.
 
@@ -443,11 +452,12 @@ def segment_seconds(frame: Mapping[str, ArrayLike], file: str = "<segment>") -> 
     Raises:
         InputError: see :func:`check_segment`.
     """
-    check_segment(frame, file)
     # Jittered stamps are taken at their slots' instants (rwhonet.data.timebase): the samples
     # were taken there, the stamps only say when the logger wrote them. A clean drive's
     # stamps are kept as they are.
-    t = label_times(np.asarray(frame[c.T_S], dtype=np.float64), 1.0 / ROWS_PER_SECOND)
+    t = _placed(frame) if c.T_S in frame else None
+    check_segment(frame, file, t)  # a missing column, named there
+    assert t is not None
     # Wheel speeds are magnitudes; validate lets negative ones through only where a logger
     # that signs its speeds recorded reversing (all four wheels together), which says
     # which way the car went (the navigation filter's, not the distance's).
