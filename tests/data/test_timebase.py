@@ -242,15 +242,19 @@ def test_the_stream_clock_gives_any_blocking_the_whole_drives_times(jitter, size
 SIGMAS = [0.15, 0.2]  # in periods
 
 
-def _bell(n: int, sigma: float, seed: int, drop: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def _bell(
+    n: int, sigma: float, seed: int, drop: int = 0, first_row: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
     """(true slots, stamps in s rounded to the ms) of ``n`` rows on whole tenths from T0, a
-    few rows dropped, each stamped ``sigma`` periods (sd) off its instant."""
+    few rows dropped, each stamped ``sigma`` periods (sd) off its instant from the row
+    ``first_row`` on (those before on their instants)."""
     rng = np.random.default_rng(seed)
     slots = np.arange(n) + int(T0 / PERIOD)
     if drop:
         slots = np.delete(slots, rng.choice(np.arange(5, n - 5), drop, replace=False))
-    t = slots * PERIOD + rng.normal(0.0, sigma * PERIOD, slots.size)
-    return slots, np.round(t, 3)
+    jitter = rng.normal(0.0, sigma * PERIOD, slots.size)
+    jitter[:first_row] = 0.0
+    return slots, np.round(slots * PERIOD + jitter, 3)
 
 
 @pytest.mark.parametrize("sigma", SIGMAS)
@@ -305,6 +309,29 @@ def test_the_reach_is_half_a_period_on_a_grid_and_near_one_on_jittered_stamps():
         assert jitter_reach(t / PERIOD) == MAX_REACH
 
 
+@pytest.mark.parametrize("first_row", [200, 12_000, 19_000])
+def test_a_logger_jittered_from_a_row_on_gets_each_row_its_own_slot(first_row):
+    """Stamps on their grid up to a row, then a bell curve of 20 ms (a logger that gets
+    busy during the drive): each row gets its own slot, the reach told by the rows around
+    each place. Taken over the whole drive the stamps of the last 40 or 5 % hardly spread,
+    and the reach of half a period left such rows two in a slot (refused)."""
+    slots, t = _bell(20_000, 0.2, seed=6, first_row=first_row)
+    assert (np.diff(np.rint(t / PERIOD)) <= 0).sum() >= 3
+    got, _ = grid_slots(t, PERIOD)
+    np.testing.assert_array_equal(got, slots)
+
+
+def test_a_row_far_off_among_rows_on_their_grid_is_left_where_the_drive_jitters_elsewhere():
+    """A row stamped 70 ms late among rows on their grid is no jitter (its neighbours on
+    their instants): it stays nearest, two in a slot, and is refused, though the drive's
+    second half is jittered by 20 ms and its rows are placed."""
+    slots, t = _bell(4000, 0.2, seed=6, first_row=2000)
+    t[1000] += 0.07
+    got, _ = grid_slots(t, PERIOD)
+    assert got[1000] == got[1001] == slots[1001]
+    np.testing.assert_array_equal(got[2000:], slots[2000:])
+
+
 def test_the_isotonic_fit_pools_adjacent_violators():
     np.testing.assert_allclose(_isotonic(np.array([3.0, 1.0, 2.0])), [2.0, 2.0, 2.0])
     np.testing.assert_allclose(_isotonic(np.array([1.0, 3.0, 2.0, 4.0])), [1, 2.5, 2.5, 4])
@@ -349,12 +376,15 @@ def test_a_stream_clock_in_blocks_places_the_rows_as_the_whole_drive(sigma, seed
     seed=st.integers(0, 10_000),
     sizes=st.lists(st.integers(1, 400), min_size=1, max_size=40),
     gap_at=st.one_of(st.none(), st.integers(250, 2500)),
+    first_row=st.sampled_from([0, 0, 150, 700, 2900]),
 )
-def test_placed_blocks_are_the_whole_drives_slots_whatever_the_blocking(sigma, seed, sizes, gap_at):
+def test_placed_blocks_are_the_whole_drives_slots_whatever_the_blocking(
+    sigma, seed, sizes, gap_at, first_row
+):
     """predict's blocks, any sizes, a row the reader did not hand on (the header's line
-    again) or none: every row once, in consecutive runs of the file's rows, at the slot
-    the whole drive's stamps give it."""
-    slots, t = _bell(3000, sigma, seed=seed, drop=5)
+    again) or none, the stamps jittered from the first row or a later one: every row once,
+    in consecutive runs of the file's rows, at the slot the whole drive's stamps give it."""
+    slots, t = _bell(3000, sigma, seed=seed, drop=5, first_row=first_row)
     rows = np.arange(1, t.size + 1)
     if gap_at is not None:  # row gap_at not handed on: the rows after it keep their numbers
         rows = np.r_[rows[:gap_at], rows[gap_at:] + 1]

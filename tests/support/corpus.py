@@ -1620,10 +1620,26 @@ def _(raw: Path) -> None:
     write_target(raw, df)
 
 
-def _bell_curve_stamps(sigma_s: float, seed: int) -> pd.DataFrame:
-    """The good target drive, each stamp off by a bell curve's jitter, to the ms."""
+@case(
+    "time_jitter_20ms_from_the_last_minute",
+    "the stamps on their grid for 90 s, then off by a bell curve's jitter (sd 20 ms, to the "
+    "ms), as a logger that gets busy during the drive writes them: rows nearest another "
+    "row's slot where the drive's stamps, taken whole, hardly spread",
+    Accept("each row placed in its own slot, told jittered by the rows around it"),
+)
+def _(raw: Path) -> None:
+    df = _bell_curve_stamps(0.02, seed=5, first_row=900)
+    nearest = np.rint(df[c.T_S].to_numpy() / 0.1)
+    assert (np.diff(nearest) <= 0).sum() >= 3  # rows nearest another's slot, or before it
+    write_target(raw, df)
+
+
+def _bell_curve_stamps(sigma_s: float, seed: int, first_row: int = 0) -> pd.DataFrame:
+    """The good target drive, each stamp from ``first_row`` on off by a bell curve's
+    jitter, to the ms."""
     df = good_target()
     jitter = np.random.default_rng(seed).normal(0.0, sigma_s, len(df))
+    jitter[:first_row] = 0.0
     df[c.T_S] = np.round(df[c.T_S] + jitter, 3)
     return df
 

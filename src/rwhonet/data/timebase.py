@@ -31,7 +31,7 @@ mistake for bad data:
   do not rise row by row, the rows around (:data:`REPAIR_ROWS` either side) are given the
   rising slots nearest their stamps (least squares: :func:`_rising_slots`). That is done
   only where every row so placed stays within a period of its stamp (within half a
-  period, the nearest slot, on a drive whose stamps are not jittered: :func:`jitter_reach`):
+  period, the nearest slot, where the stamps around are not jittered: :func:`jitter_reach`):
   two rows swapped whole periods apart, one row stamped far off on a drive stamped on its
   grid, a clock set back, a second recording are left as they are, and refused as
   before. The grid's phase is then the mean of the stamps' offsets from their slots,
@@ -72,14 +72,18 @@ WIDE_ARC_SHARE = 0.5
 # together (:func:`_rising_slots`): a row late by more than half a period and the row it
 # crowds, and those beside them.
 REPAIR_ROWS = 3
-# How far from its stamp a row may be placed: less than a period on a jittered drive (its
-# stamps' spread, 1.4826 MAD of their offsets from the nearest slots, at least this share
-# of a period), half a period (the nearest slot) on one stamped on its grid: a drive stamped
-# on its grid but for one row far off is no jitter, that row is left and refused. Two
-# values, not a multiple of the spread: predict estimates the spread from the first 200
-# rows, the label from the whole drive, and the same rows must be placed alike.
+# How far from its stamp a row may be placed: less than a period where the stamps are
+# jittered (their spread, 1.4826 MAD of their offsets from the nearest slots, at least this
+# share of a period), half a period (the nearest slot) where they are on their grid: a
+# drive stamped on its grid but for one row far off is no jitter, that row is left and
+# refused. The spread is that of the rows around the place (:data:`SPREAD_ROWS` either side
+# of the stretch placed together), not the drive's: a logger that gets busy an hour into a
+# drive jitters from there on, and the rows one reader has at hand (predict's blocks, the
+# label's segment) must give the same rows the same reach. Two values, not a multiple of
+# the spread, so that a spread measured on a few dozen rows decides no more than which.
 JITTERED_SPREAD = 0.02
 MAX_REACH = 0.99
+SPREAD_ROWS = 16
 TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the true value
 
 
@@ -226,14 +230,15 @@ def grid_slots(
     nearest = np.rint(u).astype(np.int64)
     if (np.diff(nearest) > 0).all():
         return nearest, phase
-    return _rising_slots(u, nearest, jitter_reach(u)), phase
+    return _rising_slots(u, nearest), phase
 
 
 def jitter_reach(u: np.ndarray) -> float:
     """How far (in periods) from its stamp :func:`_rising_slots` may place a row:
     :data:`MAX_REACH` where the stamps are jittered (their spread about their nearest
     slots at least :data:`JITTERED_SPREAD`), else half a period. ``u``: stamps in
-    periods from the grid's phase."""
+    periods from the grid's phase (the rows around a place, :data:`SPREAD_ROWS` either
+    side)."""
     if not u.size:
         return 0.5
     sample = u[:: -(-u.size // PHASE_SAMPLE)]
@@ -243,7 +248,10 @@ def jitter_reach(u: np.ndarray) -> float:
 
 
 def _rising_slots(
-    u: np.ndarray, nearest: np.ndarray, reach: float, floor: int | None = None
+    u: np.ndarray,
+    nearest: np.ndarray,
+    floor: int | None = None,
+    history: np.ndarray | None = None,
 ) -> np.ndarray:
     """Slots that rise row by row, each the nearest to its stamp where the nearest rise.
 
@@ -251,16 +259,18 @@ def _rising_slots(
     rows either side, overlapping stretches joined), the rows are given the rising slots
     of least squared distance to their stamps ``u`` (in periods): ``j_k - k`` is the
     isotonic least-squares fit of ``u_k - k``, rounded (pool adjacent violators). A
-    stretch whose rows would move farther than ``reach`` from their stamps, or fall at or
-    before the slot before it, keeps its nearest slots (the checks downstream refuse
+    stretch whose rows would move farther than its reach from their stamps
+    (:func:`jitter_reach` of the stretch and :data:`SPREAD_ROWS` rows either side), or fall
+    at or before the slot before it, keeps its nearest slots (the checks downstream refuse
     them).
 
     Args:
         u: stamps in periods from the grid's phase (finite).
         nearest: ``rint(u)``.
-        reach: how far from its stamp a row may be placed, in periods (:func:`jitter_reach`).
         floor: a slot every row must lie after (the slot of the row before ``u[0]``,
             placed already; None: none).
+        history: the stamps (in periods, on the same phase) of the rows before ``u[0]``,
+            placed already, the last :data:`SPREAD_ROWS` of them at most (None: none).
 
     Returns:
         int64 slots.
@@ -288,11 +298,22 @@ def _rising_slots(
             slots = np.maximum(slots, before + 1 + np.arange(b - a))
         if b < u.size:
             slots = np.minimum(slots, int(nearest[b]) - (b - a) + np.arange(b - a))
+        reach = jitter_reach(_around(u, a, b, history))
         fits = np.all(np.abs(u[a:b] - slots) <= reach) and (np.diff(slots) > 0).all()
         if fits and (before is None or slots[0] > before):
             out[a:b] = slots
         a, b = lo, hi
     return out
+
+
+def _around(u: np.ndarray, a: int, b: int, history: np.ndarray | None) -> np.ndarray:
+    """The stamps of rows ``a:b`` and :data:`SPREAD_ROWS` rows either side (those before
+    ``u[0]`` from ``history``)."""
+    here = u[max(a - SPREAD_ROWS, 0) : b + SPREAD_ROWS]
+    short = SPREAD_ROWS - a
+    if history is None or short <= 0 or not history.size:
+        return here
+    return np.concatenate([history[-short:], here])
 
 
 def _isotonic(y: np.ndarray) -> np.ndarray:
@@ -394,7 +415,9 @@ class StreamClock:
         self.raw_phase = 0.0  # the stamps' own arc middle
         self.midnights: list[int] = []  # 0-based rows after a rollover
         self.slot: int | None = None  # the slot of the last row placed (jittered stamps)
-        self.reach = 0.5  # how far from its stamp a row may be placed (jitter_reach)
+        # the stamps (periods from the phase) of the last SPREAD_ROWS rows placed: the rows
+        # before a block's first that tell the reach of a place beside them (_rising_slots)
+        self.history = np.zeros(0)
 
     def place(self, t_s: np.ndarray, first_row: int = 0, final: bool = True) -> np.ndarray:
         """The block's times on the drive's continuous clock, jitter removed.
@@ -402,8 +425,9 @@ class StreamClock:
         Args:
             t_s: the block's times of day as logged, s.
             first_row: 0-based row of the block's first row in the drive (for the notes).
-            final: place every row. Otherwise, on jittered stamps, the rows whose slots
-                the rows after them could still change (the last ``REPAIR_ROWS + 2``, and
+            final: place every row. Otherwise, on stamps off their grid, the rows whose
+                slots (or whose reach, :func:`jitter_reach`) the rows after them could
+                still change (the last ``SPREAD_ROWS``, and
                 those placed together with them: :func:`_settled`) are left unplaced:
                 the caller gives them again, first, with the next block.
 
@@ -418,7 +442,6 @@ class StreamClock:
         if self.phase is None:
             self.raw_phase = grid_phase(out[finite], self.period_s, whole=False)
             self.phase = grid_phase(out[finite], self.period_s)
-            self.reach = jitter_reach((out[finite] - self.phase) / self.period_s)
         n = t.size
         if finite.all():  # else the checks downstream report the missing times
             out, n = self._on_grid(out, final)
@@ -447,24 +470,28 @@ class StreamClock:
     def _on_grid(self, out: np.ndarray, final: bool) -> tuple[np.ndarray, int]:
         """Finite times on the grid, and how many of them are settled."""
         period, phase = self.period_s, float(self.phase or 0.0)
-        exact = np.rint((out - self.raw_phase) / period)
-        if np.max(np.abs(out - (self.raw_phase + exact * period))) <= TIME_EPS_S:
-            self.slot = int(np.rint((out[-1] - phase) / period))
-            return out, out.size  # on the grid already (a logger's own offset kept)
         u = (out - phase) / period
         nearest = np.rint(u).astype(np.int64)
-        slots = _rising_slots(u, nearest, self.reach, self.slot)
-        n = out.size if final else _settled(nearest, self.slot)
+        exact = np.rint((out - self.raw_phase) / period)
+        if np.max(np.abs(out - (self.raw_phase + exact * period))) <= TIME_EPS_S:
+            # on the grid already (a logger's own offset kept): no row moved, none held
+            placed, slots, n = out, nearest, out.size
+        else:
+            slots = _rising_slots(u, nearest, self.slot, self.history)
+            placed = phase + slots * period
+            n = out.size if final else _settled(nearest, self.slot)
         if n:
             self.slot = int(slots[n - 1])
-        return phase + slots * period, n
+            self.history = np.concatenate([self.history, u[:n]])[-SPREAD_ROWS:]
+        return placed, n
 
 
 def _settled(nearest: np.ndarray, floor: int | None) -> int:
     """How many of a block's first rows no later row can give another slot: those before
-    the last ``REPAIR_ROWS + 2``, and not in a stretch :func:`_rising_slots` places
-    together with rows after them."""
-    n = nearest.size - (REPAIR_ROWS + 2)
+    the last ``SPREAD_ROWS`` (a later row may start a stretch ``REPAIR_ROWS + 1`` rows back,
+    and a stretch's reach takes ``SPREAD_ROWS`` rows after it), and not in a stretch
+    :func:`_rising_slots` places together with rows after them."""
+    n = nearest.size - max(REPAIR_ROWS + 2, SPREAD_ROWS)
     if n <= 0:
         return 0
     bad = np.flatnonzero(np.diff(nearest) <= 0)
