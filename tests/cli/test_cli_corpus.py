@@ -117,7 +117,9 @@ def test_every_corpus_case_ends_in_a_report_or_success(case, bundle, tmp_path, m
         # refused by the same checks as the stages' (predict streams a file: no size limit)
         assert codes["recalibrate"] == 2
         assert codes["predict"] == (0 if case.name == "file_too_large" else 2)
-    if case.expect.kind == "accepted":  # what the pipeline takes, the commands take too
+    # what the pipeline takes, cut or not, the commands take too (but a cut by hand in
+    # params' validate.cuts, which predict does not read: it refuses what was cut)
+    if case.expect.kind == "accepted" or getattr(case.expect, "rule", "manual") != "manual":
         assert codes == {"predict": 0, "recalibrate": 0}
 
 

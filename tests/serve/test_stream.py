@@ -395,6 +395,38 @@ def test_a_drive_jittered_past_half_a_period_streams_as_the_clean_one(
         np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-6)
 
 
+@pytest.mark.parametrize(("offset_s", "jitter_s"), [(0.03, 0.0), (0.05, 0.0), (0.048, 0.003)])
+@pytest.mark.parametrize("block_bytes", [3000, 150])
+def test_a_logger_restarted_on_another_phase_streams_as_the_label_stage_labels_it(
+    bundle, tmp_path, block_bytes, offset_s, jitter_s
+):
+    """A logger that stopped for 1.3 s and started again with its stamps on another phase
+    of the 0.1 s grid (30 ms, 50 ms, 48 ms jittered by 3 ms): each run on its own phase,
+    the stream's seconds are the label code's, second for second. Before, predict placed
+    the second run on the first run's phase (the rows moved by 30 ms, or two in a slot
+    and refused), and validate counted seconds on a phase between the two runs'."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(200)
+    t = df["t_s"].to_numpy()
+    later = t >= t[0] + 100.0
+    jitter = np.random.default_rng(4).uniform(-jitter_s, jitter_s, later.sum())
+    df.loc[later, "t_s"] = np.round(t[later] + 1.3 + offset_s + jitter, 3)
+    path = write_iovnbd(df, tmp_path / "V-Restarted.csv")
+    ref = reference_samples(path, seq_len=1)
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, "V-Restarted.csv", block_bytes=block_bytes)
+        out, _ = stream_all(model, list(blocks))
+    t_ref = ref.frame["t_s"].to_numpy()
+    # the second run's seconds end on its own phase (its last row in the second)
+    assert len(t_ref) >= 195 and (np.round(t_ref % 1.0, 3) == round(0.9 + offset_s, 3)).sum() >= 95
+    np.testing.assert_allclose(out["t_s"], t_ref, rtol=0, atol=1e-6)
+    for k in ("disp_wpm_m", "disp_gnss_m"):
+        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
+
+
 @pytest.mark.parametrize("sizes", [[100_000], [7] * 1000, [405, 1] + [10] * 100])
 def test_a_one_row_wheel_glitch_is_repaired_and_listed_whatever_the_blocking(bundle, sizes):
     # A CAN glitch (one rear wheel at ten times its speed for one row) must not move the

@@ -586,6 +586,23 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "logger_restarted_on_another_phase",
+    "the logger off for 1.3 s, then its stamps 48 ms later in the tenth than before (its "
+    "clock started again at another instant), jittered by up to 3 ms",
+    # each run on its own phase of the grid (rwhonet.data.timebase.nominal_times): the
+    # second run's rows keep their stamps, its seconds counted on them; the gap cut
+    Repair("gap", 1),
+)
+def _(raw: Path) -> None:
+    df = good_target(200.0)
+    t = df[c.T_S].to_numpy()
+    later = np.arange(t.size) >= 700
+    jitter = np.random.default_rng(8).uniform(-0.003, 0.003, later.sum())
+    df.loc[later, c.T_S] = np.round(t[later] + 1.3 + 0.048 + jitter, 3)
+    write_target(raw, df)
+
+
+@case(
     "utf16_text",
     "saved as UTF-16 ('Unicode Text')",
     Refuse("ingest", None, None, "a CSV text file", "UTF-16"),

@@ -48,6 +48,8 @@ it slips, as they did before.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 SECONDS_PER_DAY = 86400.0
@@ -84,6 +86,10 @@ REPAIR_ROWS = 3
 JITTERED_SPREAD = 0.02
 MAX_REACH = 0.99
 SPREAD_ROWS = 16
+# A step longer than this many periods (0.5 s at 10 Hz, validate.gnss.max_gap_s's default,
+# where validate ends a segment): a logger that stopped and started again, its stamps on a
+# phase of their own. Each run between such steps is placed on its own grid phase.
+RUN_GAP_PERIODS = 5.0
 TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the true value
 
 
@@ -334,6 +340,9 @@ def _isotonic(y: np.ndarray) -> np.ndarray:
 def nominal_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     """Each row's time with its jitter removed: its slot's instant on the drive's grid.
 
+    Each run of rows between steps longer than :data:`RUN_GAP_PERIODS` periods (a logger
+    that stopped and started again) is placed on its own grid phase (:func:`grid_slots`).
+
     Args:
         t_s: times, s (finite, increasing).
         period_s: the nominal sample period, s.
@@ -341,8 +350,19 @@ def nominal_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     Returns:
         float64 times ``phase + j * period``.
     """
-    slots, phase = grid_slots(t_s, period_s)
-    return phase + slots * period_s
+    t = np.asarray(t_s, dtype=np.float64)
+    out = np.empty_like(t)
+    for a, b in run_bounds(t, period_s):
+        slots, phase = grid_slots(t[a:b], period_s)
+        out[a:b] = phase + slots * period_s
+    return out
+
+
+def run_bounds(t_s: np.ndarray, period_s: float) -> list[tuple[int, int]]:
+    """``(first, stop)`` rows of each run between steps longer than
+    :data:`RUN_GAP_PERIODS` periods (one run for a drive without such a step)."""
+    cuts = np.flatnonzero(np.diff(t_s) > RUN_GAP_PERIODS * period_s) + 1
+    return list(itertools.pairwise([0, *cuts.tolist(), int(np.size(t_s))]))
 
 
 def _on_whole_multiples(t: np.ndarray, period_s: float) -> bool:
@@ -397,8 +417,12 @@ class StreamClock:
     drive, kept across blocks: a step back from the last hour of a day into the first
     hour of the next adds a day to that and every later row (:func:`unwrap_midnight`),
     and stamps farther than ``TIME_EPS_S`` from their slot are replaced by the slot's
-    instant, on one grid phase fixed from the first ``STREAM_PHASE_ROWS`` rows (the
+    instant, on a grid phase taken from the first ``STREAM_PHASE_ROWS`` rows (the
     caller hands over at least that many first, or the whole drive when it is shorter).
+    After a step longer than :data:`RUN_GAP_PERIODS` periods (a logger that stopped and
+    started again, placed on a phase of its own by :func:`nominal_times` and the label) the
+    phase is taken again, from that run's first ``STREAM_PHASE_ROWS`` rows: a run shorter
+    than that at a block's end is held back until they are at hand.
     Where jitter past half a period has the rows around a place given rising slots
     (:func:`grid_slots`), the rows that later rows could still move are held back
     (:meth:`place`), so a drive read in blocks gets the slots it gets read whole.
@@ -411,6 +435,7 @@ class StreamClock:
         self.period_s = period_s
         self.day_s = 0.0  # added to the rows of the current day
         self.last: float | None = None  # the previous blocks' last finite time, as logged
+        self.last_run_t: float | None = None  # ... on the continuous clock, not placed
         self.phase: float | None = None  # the grid's phase (near-zero snapped to zero)
         self.raw_phase = 0.0  # the stamps' own arc middle
         self.midnights: list[int] = []  # 0-based rows after a rollover
@@ -439,14 +464,44 @@ class StreamClock:
             return t.copy()
         out = self._continuous(t)[0]
         finite = np.isfinite(t)
-        if self.phase is None:
-            self.raw_phase = grid_phase(out[finite], self.period_s, whole=False)
-            self.phase = grid_phase(out[finite], self.period_s)
         n = t.size
         if finite.all():  # else the checks downstream report the missing times
-            out, n = self._on_grid(out, final)
+            out, n = self._runs(out, final)
+        elif self.phase is None:
+            self._new_run(out[finite])
         self._advance(t[:n], first_row)
         return out[:n]
+
+    def _runs(self, out: np.ndarray, final: bool) -> tuple[np.ndarray, int]:
+        """A block's finite times placed run by run (a new phase after each step longer
+        than :data:`RUN_GAP_PERIODS` periods), and how many of them are settled."""
+        before = out[0] if self.last_run_t is None else self.last_run_t
+        starts = np.flatnonzero(np.diff(np.r_[before, out]) > RUN_GAP_PERIODS * self.period_s)
+        if self.phase is None and (not starts.size or starts[0] != 0):
+            starts = np.r_[0, starts]
+        placed = out.copy()
+        bounds = [*starts.tolist(), out.size]
+        if bounds[0] != 0:  # the run the blocks before began goes on
+            bounds = [0, *bounds]
+        for a, b in itertools.pairwise(bounds):
+            if a in starts:
+                if b == out.size and b - a < STREAM_PHASE_ROWS and not final:
+                    return placed, a  # the run's first rows are not all at hand yet
+                self._new_run(out[a : min(b, a + STREAM_PHASE_ROWS)])
+            got, k = self._on_grid(out[a:b], final or b < out.size)
+            placed[a : a + k] = got[:k]
+            self.last_run_t = float(out[a + k - 1]) if k else self.last_run_t
+            if k < b - a:
+                return placed, a + k
+        return placed, out.size
+
+    def _new_run(self, t: np.ndarray) -> None:
+        """The grid's phase taken from a run's first stamps ``t``; the slots and stamps of
+        the run before forgotten."""
+        self.raw_phase = grid_phase(t, self.period_s, whole=False)
+        self.phase = grid_phase(t, self.period_s)
+        self.slot = None
+        self.history = np.zeros(0)
 
     def _continuous(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times on the continuous clock after the rows placed so far, and the rows (of
