@@ -24,6 +24,11 @@ mistake for bad data:
   empty: at up to 45 % of a period, a few hundred stamps always do (test_timebase).
   A dropped sample still leaves a slot empty (two slots between consecutive rows),
   so a real dropout is never hidden.
+- **A logger restarted.** A logger that stops and starts again stamps the rows after its
+  restart on a phase of their own (48 ms into each tenth where they were on whole
+  tenths). Each run between steps longer than :data:`RUN_GAP_PERIODS` periods is placed on
+  its own phase (:func:`nominal_times`, :func:`run_bounds`; :class:`StreamClock` for a
+  drive read in blocks), as the label places each segment.
 - **Jitter past half a period.** A logger whose stamps scatter wider (a busy phone or
   laptop logger: tens of ms at 10 Hz, the tails of a bell curve) puts now and then a row
   in its neighbour's slot, two rows in one, or a stamp before the one above it. The rows'
