@@ -1,4 +1,4 @@
-"""What the stop-60, stop-61 and stop-67 logger habits cost the readers: one hour of a
+"""What the stop-60, stop-61, stop-67 and stop-68 logger habits cost the readers: one hour of a
 drive read plain, with its header line again, kept compressed, logged at 50 Hz, stamped
 with a bell curve's jitter, its rows out of order and its last row cut; and one hour of a
 drive as stream CSVs, plain, with samples written late, written twice or shuffled, and the
@@ -10,8 +10,10 @@ rows at 10 Hz), then the same drive as a logger that wrote its header again thre
 (read through a scratch copy of the text), and a 50 Hz table of it (every channel linear
 between the 10 Hz rows: read as streams and resampled onto the grid), stamped with a bell
 curve's jitter of 20 ms (rows placed in their slots by the rows' order), with 20 pairs of
-rows swapped and with its halves joined the wrong way (put in time order), and with its
-last row cut short 40 bytes before its end (not read), and times, in this
+rows swapped and with its halves joined the wrong way (put in time order), with its
+last row cut short 40 bytes before its end (not read), jittered by the bell curve from half
+way on only (a logger that gets busy: the reach told by the rows around each place), and
+restarted half way after 1.3 s on a phase 48 ms off (each run on its own), and times, in this
 process, ingest's reader (``rwhonet.data.drivefile.read_any``) and predict's
 (``rwhonet.data.incremental.read_rows`` to its last block) on each, best of ``--repeat``.
 
@@ -86,6 +88,14 @@ def variants(folder: Path) -> dict[str, Path]:
     out["halves swapped"].write_bytes(b"\n".join(lines[:1] + lines[half:-1] + lines[:half]))
     out["last row cut"] = folder / "V-C.csv"
     out["last row cut"].write_bytes(text.rstrip(b"\n")[:-40])
+    # stop 68: the bell curve's 20 ms from half way on (a logger that gets busy); a logger
+    # restarted half way, after 1.3 s, its stamps 48 ms into each tenth
+    busy = bell.copy()
+    busy.loc[: ROWS // 2, c.T_S] = frame.loc[: ROWS // 2, c.T_S]
+    out["busy half way"] = write_iovnbd(busy, folder / "V-U.csv")
+    restarted = frame.copy()
+    restarted.loc[ROWS // 2 :, c.T_S] = np.round(restarted.loc[ROWS // 2 :, c.T_S] + 1.348, 3)
+    out["restart 48 ms"] = write_iovnbd(restarted, folder / "V-R.csv")
     return out
 
 

@@ -254,8 +254,18 @@ def jitter_reach(u: np.ndarray) -> float:
         return 0.5
     sample = u[:: -(-u.size // PHASE_SAMPLE)]
     off = sample - np.rint(sample)
-    spread = 1.4826 * float(np.median(np.abs(off - np.median(off))))
+    spread = 1.4826 * _median(np.abs(off - _median(off)))
     return MAX_REACH if spread >= JITTERED_SPREAD else 0.5
+
+
+def _median(x: np.ndarray) -> float:
+    """``np.median`` of a non-empty array, by partition (a tenth of its cost on the few
+    dozen values of a place's rows, where it runs once per place)."""
+    k = x.size // 2
+    if x.size % 2:
+        return float(np.partition(x, k)[k])
+    low, high = np.partition(x, (k - 1, k))[k - 1 : k + 1]
+    return 0.5 * (float(low) + float(high))
 
 
 def _rising_slots(
