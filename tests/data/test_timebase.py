@@ -78,6 +78,23 @@ def test_jitter_past_half_a_period_passes_the_schema_and_keeps_its_seconds(vp):
     assert _segments(assess(drive, vp.gnss, PERIOD)) == _segments(assess(clean, vp.gnss, PERIOD))
 
 
+def test_a_logger_restarted_on_another_phase_and_jittered_keeps_each_run_s_seconds(vp):
+    """Two runs of a bell curve's 15 ms, the second after a 1.3 s stop 30 ms into each
+    tenth: the schema passes and each row's second is that of its run placed alone. On one
+    phase for the drive (about 15 ms, between the runs') the first run's rows were placed
+    15 ms late, one row of each of its seconds counted in the next (150 rows)."""
+    clean = straight_drive(duration_s=300.0)
+    drive = clean.assign(**{c.SCENARIO: ""})
+    t = drive[c.T_S].to_numpy() + np.random.default_rng(5).normal(0, 0.015, len(drive))
+    t[1500:] += 1.33
+    drive[c.T_S] = np.round(t, 3)
+    assert schema_problems(drive, vp, "V-R.csv", {}) == []
+    t = drive[c.T_S].to_numpy()
+    sec = second_index(t, PERIOD)
+    alone = [second_index(t[a:b], PERIOD) for a, b in ((0, 1500), (1500, t.size))]
+    np.testing.assert_array_equal(sec, np.concatenate(alone))
+
+
 def test_a_real_dropout_is_not_hidden_by_the_jitter_its_second_is_cut(vp):
     drive = _jitter(straight_drive(duration_s=60.0), 0.004).assign(**{c.SCENARIO: ""})
     dropped = drive.drop(index=[305]).reset_index(drop=True)  # one sample lost: a 0.2 s step

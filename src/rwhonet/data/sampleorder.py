@@ -43,7 +43,7 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows, repeated_rows
-from rwhonet.data.timebase import grid_slots
+from rwhonet.data.timebase import run_slots
 
 # Sorting may not bring two samples closer than this share of the stream's median step
 # unless the file already had them so close. A clock set back by anything but a whole
@@ -192,7 +192,7 @@ def rows_in_time_order(raw: RawDrive, file: str, period_s: float) -> RawDrive:
     order, a table sorted by another column, a logger writing two buffers in turn.
 
     Rows whose stamps a jitter turned back are not out of order: the slots the rows' order
-    gives them rise (:func:`rwhonet.data.timebase.grid_slots`), and they stay as written.
+    gives them rise (:func:`rwhonet.data.timebase.run_slots`), and they stay as written.
 
     Args:
         raw: the drive as its reader read it, its copies and rows without a wheel speed
@@ -223,8 +223,8 @@ def rows_in_time_order(raw: RawDrive, file: str, period_s: float) -> RawDrive:
 def out_of_order(t_s: np.ndarray, period_s: float) -> bool:
     """Whether a 10 Hz drive's finite times are out of order beyond a jitter the rows'
     order places: not rising, nor their slots on the grid
-    (:func:`rwhonet.data.timebase.grid_slots`)."""
+    (:func:`rwhonet.data.timebase.run_slots`)."""
     t = np.asarray(t_s, dtype=np.float64)
     if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
         return False
-    return not (np.diff(grid_slots(t, period_s)[0]) > 0).all()
+    return not (np.diff(run_slots(t, period_s)) > 0).all()

@@ -29,7 +29,7 @@ from rwhonet.config import ValidateParams
 from rwhonet.data import canonical as c
 from rwhonet.data.droprows import FileRows
 from rwhonet.data.problems import ROWS_LISTED, row_problems
-from rwhonet.data.timebase import grid_slots
+from rwhonet.data.timebase import run_slots
 from rwhonet.errors import Problem
 
 # Float noise on decimal time stamps (45123.1 - 45123.0 = 0.10000000000291) must not fail a
@@ -75,7 +75,7 @@ def _time_step(df: pd.DataFrame, i: int, case: object, rows: FileRows) -> str:
 
 def _jitter_hint(df: pd.DataFrame, i: int, period: float) -> str:
     """What a step back of under half a sample says: stamps jittered past what the rows'
-    order places (:func:`rwhonet.data.timebase.grid_slots`)."""
+    order places (:func:`rwhonet.data.timebase.run_slots`)."""
     t = df[c.T_S].to_numpy()
     if not 0 < t[i - 1] - t[i] < 0.5 * period:
         return ""
@@ -121,15 +121,15 @@ def _drive_checks(
         # (rwhonet.data.timebase.grid_slots: stamps jittered by up to half a period sit in
         # their own slots, rows jittered further are given rising ones where that keeps
         # each within a period of its stamp; a row after a dropped sample skips one). One
-        # phase per drive, not per row; NaN at a drive's first row and beside a time that
-        # is not finite.
+        # phase per run of a drive (timebase.run_slots: a logger's restart starts a run),
+        # not per row; NaN at a drive's first row and beside a time that is not finite.
         t = s.to_numpy(np.float64)
         slot = np.full(t.size, np.nan)
         bounds = np.r_[first_rows(s), t.size]
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):
             finite = np.flatnonzero(np.isfinite(t[a:b])) + a
             if finite.size:
-                slot[finite] = grid_slots(t[finite], period)[0]
+                slot[finite] = run_slots(t[finite], period)
         out = np.full(t.size, np.nan)
         out[1:] = slot[1:] - slot[:-1]
         first = first_rows(s)

@@ -373,6 +373,17 @@ def nominal_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     return out
 
 
+def run_slots(t_s: np.ndarray, period_s: float) -> np.ndarray:
+    """Each row's slot (:func:`grid_slots`), each run between steps longer than
+    :data:`RUN_GAP_PERIODS` periods on its own grid phase (int64; a slot counts periods
+    from that run's phase)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    out = np.empty(t.size, dtype=np.int64)
+    for a, b in run_bounds(t, period_s):
+        out[a:b] = grid_slots(t[a:b], period_s)[0]
+    return out
+
+
 def run_bounds(t_s: np.ndarray, period_s: float) -> list[tuple[int, int]]:
     """``(first, stop)`` rows of each run between steps longer than
     :data:`RUN_GAP_PERIODS` periods (one run for a drive without such a step)."""
