@@ -11,14 +11,19 @@ import pytest
 
 from rwhonet.data import canonical as c
 from rwhonet.data.drivefile import DriveFile, read_any
-from rwhonet.data.fastfile import FAST_FACTOR, is_faster_than_grid
+from rwhonet.data.fastfile import (
+    FAST_FACTOR,
+    is_faster_than_grid,
+    is_off_the_grid_rate,
+    rate_ratio,
+)
 from rwhonet.data.incremental import read_rows
 from rwhonet.errors import InputError
 from support.corpus import faster, good_target
 from support.drives import TARGET_RADIUS_M, make_params, write_iovnbd
 from support.pipes import piped
 
-NOTE = "faster than the grid: read as streams and resampled onto it"
+NOTE = "read as streams and resampled onto it"
 
 
 def _read(path, root):
@@ -70,14 +75,64 @@ def test_a_10_hz_file_with_dropped_rows_is_not_faster():
     assert not is_faster_than_grid(t, 0.1)
 
 
-@pytest.mark.parametrize(("hz", "fix_hz"), [(20, None), (50, 10), (100, 10), (50, None)])
+def _stamps(hz: float, n: int = 3000, **jitter: float) -> np.ndarray:
+    """``n`` stamps of a logger at ``hz``, to the ms, jittered (``bell``, ``uniform``: s)."""
+    rng = np.random.default_rng(int(hz * 1000) + n)
+    t = 45000.0 + np.arange(n) / hz
+    t = t + rng.normal(0.0, jitter.get("bell", 0.0), n)
+    t = t + rng.uniform(-1.0, 1.0, n) * jitter.get("uniform", 0.0)
+    return np.round(t, 3)
+
+
+@pytest.mark.parametrize("hz", [9.98, 9.9, 9.995, 10.05])
+def test_the_rate_of_a_logger_of_its_own_is_told_from_its_stamps(hz):
+    off, se = rate_ratio(_stamps(hz), 0.1)
+    assert off == pytest.approx(10.0 / hz - 1.0, abs=2e-5) and se < 1e-5
+    assert is_off_the_grid_rate(_stamps(hz), 0.1) is (abs(10.0 / hz - 1.0) >= 3e-4)
+
+
+@pytest.mark.parametrize(
+    "t",
+    [
+        _stamps(10.0),
+        _stamps(10.0 / (1 + 50e-6)),  # a clock 50 ppm off: stamps and sampling alike
+        0.1 * np.delete(np.arange(3000), np.arange(0, 3000, 7)) + 45000.0,  # dropped rows
+        _stamps(10.0, 300, bell=0.02),
+        _stamps(10.0, 36_000, bell=0.02),
+        _stamps(10.0, 3000, uniform=0.04),
+        _stamps(10.0, 200, bell=0.015),
+    ],
+    ids=["exact", "50ppm", "dropped", "bell300", "bell36000", "uniform40", "bell200"],
+)
+def test_a_10_hz_logger_jittered_or_dropping_rows_keeps_the_grid(t):
+    """Jitter moves the rate's estimate by nothing on average, and its standard error says
+    by how much: a 10 Hz drive is not taken for a logger of its own rate."""
+    off, se = rate_ratio(t, 0.1)
+    assert abs(off) < 4.0 * se or abs(off) < 3e-4
+    assert not is_off_the_grid_rate(t, 0.1)
+
+
+@pytest.mark.parametrize(
+    ("hz", "fix_hz"),
+    [(20, None), (50, 10), (100, 10), (50, None), (9.98, None), (9.9, None), (10.05, None)],
+)
 def test_a_faster_table_gives_the_10_hz_files_drive(tmp_path, hz, fix_hz):
+    """Logged faster, or at a rate of the logger's own (a loop that sleeps a period between
+    samples: 9.98, 9.9 Hz; its stamps right): read as streams and resampled, the 10 Hz
+    file's drive. On the grid, before stop 68, the 9.98 Hz drive's rows slipped a slot
+    every 500 rows (a second cut as partial) and its wheels covered 0.2 % less time than
+    its fixes (the labels 2 cm a second off); the 9.9 Hz one was refused."""
     df = good_target(200.0)
     ten, _ = _read(write_iovnbd(df, tmp_path / "V-A.csv"), tmp_path)
-    path = write_iovnbd(faster(df, hz, fix_hz), tmp_path / "V-F.csv")
+    table = faster(df, hz, fix_hz)
+    if hz < 20:  # a software logger's stamps, to the ms
+        table[c.T_S] = np.round(table[c.T_S], 3)
+    path = write_iovnbd(table, tmp_path / "V-F.csv")
     got, facts = _read(path, tmp_path)
     assert got.header_match == "streams" and facts is not None
     assert any(NOTE in note for note in got.notes)
+    if hz < 20:
+        assert any(f"rows at {hz:g} Hz by their stamps" in note for note in got.notes)
     t = got.columns[c.T_S]
     # every grid row but the edges, on the 10 Hz file's times
     assert (

@@ -47,7 +47,7 @@ from rwhonet.data.compressed import (
 )
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import drop_rows
-from rwhonet.data.fastfile import as_streams, is_faster_than_grid
+from rwhonet.data.fastfile import as_streams, needs_resampling
 from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
@@ -240,9 +240,10 @@ def read_any(
         else:
             return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
         raw = rows_in_time_order(drop_rows(raw, file), file, period_s)
-        if is_faster_than_grid(raw.columns[c.T_S], period_s):  # a 20-100 Hz table
+        # a 20-100 Hz table, or one at a rate of the logger's own (9.98 Hz)
+        if needs_resampling(raw.columns[c.T_S], period_s):
             return _resampled(
-                as_streams(raw, file), data, radius_m, period_s, split_gap_s, require_fix
+                as_streams(raw, file, period_s), data, radius_m, period_s, split_gap_s, require_fix
             )
         return place_held_fixes(raw, period_s), None
     except MemoryError:

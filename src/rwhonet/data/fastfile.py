@@ -14,6 +14,20 @@ Fixes a slower receiver held over several rows (a 10 Hz receiver in a 50 Hz tabl
 its fixes where they changed (:func:`rwhonet.data.heldfixes.held_fixes`), as for a 10 Hz
 file. The drive is then a drive on the grid (``header_match="streams"``, its rows the
 grid's, not the file's), and its notes say so.
+
+**A logger at its own rate** (since stop 68). A logger that reads its sensors, writes the
+row and then sleeps a period (a Python or Arduino loop: ``time.sleep(0.1)``) takes a
+little longer each time: 9.98 Hz, 9.9 Hz, its stamps right. On the grid each row's slot
+slips a little further from its stamp until a slot is skipped (every 500 rows at 9.98 Hz,
+every 100 at 9.9 Hz), taken for a dropped sample and its second cut; and the rows'
+wheel speeds, integrated over their slots' 0.1 s, cover 0.2 % (1 %) less time than the
+fixes around them: a label off by 2 cm a second at 9.5 m/s, about half its RMS. A drive
+whose stamps run at another rate than the grid's by :data:`OFF_RATE` or more
+(:func:`rate_ratio`, beyond :data:`OFF_RATE_SE` standard errors) is read as streams and
+resampled as a faster table is: measured on V-Delta2's first hour sampled at 9.98 and
+9.9 Hz, the labels of the 10 Hz drive (mean -0.0261 against -0.0259 m, every second
+kept), where the grid lost 56 seconds and moved the mean label by 1.9 cm at 9.98 Hz, and
+refused the drive at 9.9 Hz (a second cut every 10 s).
 """
 
 from __future__ import annotations
@@ -25,7 +39,7 @@ from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows
 from rwhonet.data.heldfixes import GNSS_CHANNELS, held_fixes
 from rwhonet.data.sampleorder import time_order
-from rwhonet.data.streams import RATE_CHANNELS, DriveStreams, Stream
+from rwhonet.data.streams import GRID_PERIOD_S, RATE_CHANNELS, DriveStreams, Stream
 
 # Rows this many times as frequent as the grid's or more (median step at most the grid's
 # period over it): a faster table, resampled. A 10 Hz file's jittered or dropped rows keep
@@ -35,6 +49,13 @@ FAST_FACTOR = 1.5
 # logger's (CAN messages come at 100 Hz at most, a VBOX at 100 Hz), but a time column in
 # another unit than it says; it is read as a 10 Hz file, and validate names its rate.
 MIN_STEP_S = 0.001
+# A 10 Hz table whose stamps run at another rate than the grid's by this share or more
+# (its rows' period over the grid's, less 1: 3e-4 moves a label by 3 mm a second at 10 m/s
+# and skips a slot every 3,300 rows), and by this many standard errors of the estimate
+# (a jittered drive's): resampled. A logger's clock drift against GNSS time (50 ppm) is
+# in its stamps and its sampling alike, and below it.
+OFF_RATE = 3e-4
+OFF_RATE_SE = 4.0
 
 
 def median_step(t_s: np.ndarray) -> float:
@@ -52,7 +73,60 @@ def is_faster_than_grid(t_s: np.ndarray, period_s: float) -> bool:
     return bool(np.isfinite(step) and MIN_STEP_S <= step and step * FAST_FACTOR <= period_s)
 
 
-def as_streams(raw: RawDrive, file: str) -> DriveStreams:
+def rate_ratio(t_s: np.ndarray, period_s: float) -> tuple[float, float]:
+    """How much the stamps' own period differs from the grid's (their period over the
+    grid's, less 1), and the standard error of that.
+
+    The least-squares slope of stamp against row number, pooled over stretches of rows
+    whose steps all lie within half a period of one period (a dropped sample, a gap, a
+    jittered step past half a period end a stretch; each stretch its own intercept). A
+    symmetric jitter moves it by nothing on average; its standard error says by how much.
+
+    Args:
+        t_s: the drive's times, s, in time order (non-finite ones left out).
+        period_s: the grid's period, s.
+
+    Returns:
+        ``(ratio - 1, standard error)``; ``(0, inf)`` with fewer than 3 rows in stretches.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    t = t[np.isfinite(t)]
+    if t.size < 3:
+        return 0.0, float("inf")
+    even = np.abs(np.diff(t) - period_s) <= 0.5 * period_s
+    starts = np.r_[0, np.flatnonzero(~even) + 1]
+    size = np.diff(np.r_[starts, t.size])
+    stretch = np.repeat(np.arange(starts.size), size)
+    keep = size[stretch] >= 3
+    n_stretches = int((size >= 3).sum())
+    if keep.sum() - n_stretches < 2:
+        return 0.0, float("inf")
+    row = np.arange(t.size, dtype=np.float64)
+    di = (row - (np.bincount(stretch, row) / size)[stretch])[keep]
+    dt = (t - (np.bincount(stretch, t) / size)[stretch])[keep]
+    sxx = float(di @ di)
+    slope = float(di @ dt) / sxx
+    resid = dt - slope * di
+    s2 = float(resid @ resid) / (keep.sum() - n_stretches - 1)
+    return slope / period_s - 1.0, float(np.sqrt(s2 / sxx)) / period_s
+
+
+def is_off_the_grid_rate(t_s: np.ndarray, period_s: float) -> bool:
+    """Whether a 10 Hz layout's stamps run at another rate than the grid's by
+    :data:`OFF_RATE` or more, and by :data:`OFF_RATE_SE` standard errors
+    (:func:`rate_ratio`)."""
+    off, se = rate_ratio(t_s, period_s)
+    return abs(off) >= OFF_RATE and abs(off) >= OFF_RATE_SE * se
+
+
+def needs_resampling(t_s: np.ndarray, period_s: float) -> bool:
+    """Whether a 10 Hz layout's rows are read as streams and resampled onto the grid:
+    logged faster (:func:`is_faster_than_grid`), or at a rate of the logger's own
+    (:func:`is_off_the_grid_rate`)."""
+    return is_faster_than_grid(t_s, period_s) or is_off_the_grid_rate(t_s, period_s)
+
+
+def as_streams(raw: RawDrive, file: str, period_s: float = GRID_PERIOD_S) -> DriveStreams:
     """A faster table's rows as the streams it stands for: the four wheel speeds in one
     (the rows with all four), the fixes in another (each row's, or a slower receiver's
     where the table held them), the other rates (the gyro, ...) each in its own.
@@ -102,7 +176,11 @@ def as_streams(raw: RawDrive, file: str) -> DriveStreams:
             extra.append(
                 stream(f"rows with {source.get(name, name)}", np.flatnonzero(rows), (name,))
             )
-    note = fast_note(median_step(t), held.period_rows if held is not None else 0)
+    held_rows = held.period_rows if held is not None else 0
+    if median_step(t) * FAST_FACTOR <= period_s:
+        note = fast_note(median_step(t), held_rows)
+    else:
+        note = off_rate_note(rate_ratio(t, period_s)[0], period_s, held_rows)
     return DriveStreams(
         wheels=(stream("rows with the wheel speeds", np.flatnonzero(wheels), c.WHEELS),),
         gnss=stream("rows with a fix", np.flatnonzero(fixes), gnss),
@@ -114,13 +192,32 @@ def as_streams(raw: RawDrive, file: str) -> DriveStreams:
 
 def fast_note(step_s: float, held_rows: int) -> str:
     """What a reader says of a table logged faster than the grid, resampled."""
+    return (
+        f"rows every {step_s:.3g} s ({1.0 / step_s:.3g} Hz), faster than the grid: "
+        + _resampled_note(held_rows)
+    )
+
+
+def off_rate_note(off: float, period_s: float, held_rows: int) -> str:
+    """What a reader says of a table whose stamps run at a rate of the logger's own."""
+    rate = 1.0 / (period_s * (1.0 + off))
+    return (
+        f"rows at {rate:.5g} Hz by their stamps, {abs(off):.2%} "
+        f"{'slower' if off > 0 else 'faster'} than the grid's {1.0 / period_s:g} Hz (a "
+        "logger that keeps its own rate, not the grid's: on the grid its rows would slip "
+        "out of their slots and their seconds cover another time than their fixes): "
+        + _resampled_note(held_rows)
+    )
+
+
+def _resampled_note(held_rows: int) -> str:
     held = (
         f"; the fixes held over {held_rows} rows (a slower receiver) taken where they change"
         if held_rows
         else ""
     )
     return (
-        f"rows every {step_s:.3g} s ({1.0 / step_s:.3g} Hz), faster than the grid: read as "
-        "streams and resampled onto it (the wheel speeds and the gyro as each row's window "
-        f"mean, the fixes along the path){held}; rows named in messages are the grid's"
+        "read as streams and resampled onto it (the wheel speeds and the gyro as each "
+        f"row's window mean, the fixes along the path){held}; rows named in messages are "
+        "the grid's"
     )

@@ -361,30 +361,34 @@ def _placed_or_resampled(
     resampled: Whole,
     ordered: Whole | None = None,
 ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-    """The row blocks placed on the drive's clock (:func:`placed`), or, where the first
-    ``STREAM_PHASE_ROWS`` rows come faster than the grid (a 20-100 Hz table:
-    :func:`rwhonet.data.fastfile.is_faster_than_grid`), the whole drive read and given to
+    """The row blocks placed on the drive's clock (:func:`placed`), or, where the rows
+    come faster than the grid (a 20-100 Hz table) or at a rate of the logger's own
+    (:func:`rwhonet.data.fastfile.needs_resampling`), the whole drive read and given to
     ``resampled`` (:func:`_resampled`, its other arguments bound), and its grid rows
-    handed on. With ``ordered`` (a file, not a pipe), the whole drive is read first, and
-    where its rows are out of time order they are given to ``ordered``
-    (:func:`_in_time_order`)."""
-    from rwhonet.data.fastfile import is_faster_than_grid
+    handed on. With ``ordered`` (a file, not a pipe), the whole drive is read first and
+    judged whole, in time order, as ingest judges it; where its rows are out of time order
+    they are given to ``ordered`` (:func:`_in_time_order`). From a pipe, the first
+    ``STREAM_PHASE_ROWS`` rows are judged."""
+    from rwhonet.data.fastfile import needs_resampling
+    from rwhonet.data.timebase import unwrap_clock
 
     head: list[tuple[int, dict[str, np.ndarray]]] = []
     n = 0
     for block in blocks:
         head.append(block)
         n += len(block[1][c.T_S])
-        if n >= STREAM_PHASE_ROWS:
+        if n >= STREAM_PHASE_ROWS and ordered is None:
             break
-    rows = itertools.chain(head, blocks)
     t = np.concatenate([cols[c.T_S] for _, cols in head]) if head else np.zeros(0)
-    if is_faster_than_grid(t, period_s):
-        yield from placed(resampled(list(rows)), StreamClock(period_s))
+    if ordered is not None:  # the whole drive, on its continuous clock, in time order
+        t = np.sort(unwrap_clock(t)[0])
+    if needs_resampling(t, period_s):
+        yield from placed(resampled([*head, *blocks]), StreamClock(period_s))
         return
     if ordered is not None:
-        every = list(rows)
-        rows = ordered(every) if _out_of_order(every, period_s) else iter(every)
+        rows = ordered(head) if _out_of_order(head, period_s) else iter(head)
+    else:
+        rows = itertools.chain(head, blocks)
     yield from placed(rows, StreamClock(period_s))
 
 
@@ -468,7 +472,7 @@ def _resampled(
     )
     blocks.clear()
     res = resample(
-        as_streams(drop_rows(raw, file), file),
+        as_streams(drop_rows(raw, file), file, period_s),
         period_s=period_s,
         split_gap_s=split_gap_s,
         nominal_radius_m=radius_m,
