@@ -8,8 +8,8 @@
   sidecar (:mod:`~rwhonet.data.scenarios`) and canonical table.
 - :mod:`~rwhonet.data.compressed`: drive files kept compressed (gzip, bzip2, xz, zstd, a
   ZIP archive of one), told by their bytes, and a drive's id without the suffix.
-- :mod:`~rwhonet.data.fastfile`: a 10 Hz layout logged faster (20-100 Hz), read as streams
-  and resampled onto the grid.
+- :mod:`~rwhonet.data.fastfile`: a 10 Hz layout logged faster (20-100 Hz), or at a rate of
+  the logger's own (9.98 Hz), read as streams and resampled onto the grid.
 - :mod:`~rwhonet.data.schema`: the pandera schema of a canonical drive.
 - :mod:`~rwhonet.data.quality`: the GNSS-quality policy and the valid segments.
 - :mod:`~rwhonet.data.fixes`: what counts as a GNSS fix (not (0, 0), enough satellites).
@@ -29,7 +29,8 @@
 - :mod:`~rwhonet.data.heldfixes`: fixes a 10 Hz file holds from a slower receiver,
   found and placed along the wheels' path.
 - :mod:`~rwhonet.data.headers`, :mod:`~rwhonet.data.timebase`: header names as users
-  write them; a drive's clock (midnight rollover, each row's slot on the grid).
+  write them; a drive's clock (midnight rollover, each row's slot on the grid, each run
+  after a logger's restart on its own phase).
 - :mod:`~rwhonet.data.texttime`: time columns written as text (ISO 8601, ``hh:mm:ss``), and
   a date in a column of its own.
 - :mod:`~rwhonet.data.packed`: NMEA's numbers packed from parts (``ddmm.mmmm`` angles,
