@@ -104,10 +104,10 @@ def rate_ratio(t_s: np.ndarray, period_s: float) -> tuple[float, float]:
     row = np.arange(t.size, dtype=np.float64)
     di = (row - (np.bincount(stretch, row) / size)[stretch])[keep]
     dt = (t - (np.bincount(stretch, t) / size)[stretch])[keep]
-    sxx = float(di @ di)
-    slope = float(di @ dt) / sxx
+    sxx = float(np.sum(di * di))  # not BLAS: its threads would fight the readers'
+    slope = float(np.sum(di * dt)) / sxx
     resid = dt - slope * di
-    s2 = float(resid @ resid) / (keep.sum() - n_stretches - 1)
+    s2 = float(np.sum(resid * resid)) / (keep.sum() - n_stretches - 1)
     return slope / period_s - 1.0, float(np.sqrt(s2 / sxx)) / period_s
 
 
