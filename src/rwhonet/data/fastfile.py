@@ -21,11 +21,11 @@ little longer each time: 9.98 Hz, 9.9 Hz, its stamps right. On the grid each row
 slips a little further from its stamp until a slot is skipped (every 500 rows at 9.98 Hz,
 every 100 at 9.9 Hz), taken for a dropped sample and its second cut; and the rows'
 wheel speeds, integrated over their slots' 0.1 s, cover 0.2 % (1 %) less time than the
-fixes around them: a label off by 2 cm a second at 9.5 m/s, about half its RMS. A drive
+fixes around them: a label off by 2 cm a second at 9.4 m/s, a third of its RMS. A drive
 whose stamps run at another rate than the grid's by :data:`OFF_RATE` or more
 (:func:`rate_ratio`, beyond :data:`OFF_RATE_SE` standard errors) is read as streams and
-resampled as a faster table is: measured on V-Delta2's first hour sampled at 9.98 and
-9.9 Hz, the labels of the 10 Hz drive (mean -0.0261 against -0.0259 m, every second
+resampled as a faster table is: measured on V-Delta2's first 1,565 s sampled at 9.98 and
+9.9 Hz, the labels of the 10 Hz drive (mean -0.0261 against -0.0259 m, 1,564 seconds
 kept), where the grid lost 56 seconds and moved the mean label by 1.9 cm at 9.98 Hz, and
 refused the drive at 9.9 Hz (a second cut every 10 s).
 """
