@@ -243,6 +243,16 @@ def _jittered(drive: pd.DataFrame) -> pd.DataFrame:
     return drive.assign(**{c.T_S: drive[c.T_S] + jitter})
 
 
+def _busy_from_half_way(drive: pd.DataFrame) -> pd.DataFrame:
+    """Stamps on their slots for half the drive, then off by a bell curve of 20 ms, to the
+    ms (a logger that gets busy): rows nearest another's slot, stamps going back."""
+    jitter = np.random.default_rng(3).normal(0.0, 0.02, len(drive))
+    jitter[: len(drive) // 2] = 0.0
+    t = np.round(drive[c.T_S].to_numpy() + jitter, 3)
+    assert (np.diff(np.rint(t / 0.1)) <= 0).sum() >= 3
+    return drive.assign(**{c.T_S: t})
+
+
 def _across_midnight(drive: pd.DataFrame) -> pd.DataFrame:
     """A time-of-day clock that wraps to 0 s at midnight 75 s into the drive (mid-outage)."""
     t = drive[c.T_S] - drive[c.T_S].iloc[0] + 86400.0 - 75.0
@@ -292,6 +302,7 @@ ISO_DAY = datetime(2019, 3, 11, tzinfo=UTC)
 LOGGER_HABITS = {
     "columns in another order": (lambda d: d, _columns_shuffled),
     "jittered stamps": (_jittered, lambda p: p),
+    "a bell curve's jitter from half way": (_busy_from_half_way, lambda p: p),
     "a clock across midnight": (_across_midnight, lambda p: p),
     "jittered ISO 8601 text times": (_jittered, lambda p: _time_as_text(p, _iso)),
     "hh:mm:ss text across midnight": (_across_midnight, lambda p: _time_as_text(p, _clock)),
