@@ -112,6 +112,46 @@ def test_a_10_hz_logger_jittered_or_dropping_rows_keeps_the_grid(t):
     assert not is_off_the_grid_rate(t, 0.1)
 
 
+def _logged(rng, hz: float, n: int, kind: str, size_s: float, drop: float) -> np.ndarray:
+    """``n`` samples of a logger at ``hz``, a share ``drop`` of them lost, stamped to the ms
+    with a jitter of ``kind`` (bell, uniform, a delay) and size, in time order."""
+    k = np.arange(n)[rng.uniform(size=n) >= drop]
+    t = 45000.0 + k / hz
+    noise = {
+        "bell": lambda: rng.normal(0.0, size_s, k.size),
+        "uniform": lambda: rng.uniform(-1.5 * size_s, 1.5 * size_s, k.size),
+        "delay": lambda: rng.exponential(size_s, k.size) if size_s else np.zeros(k.size),
+    }[kind]()
+    return np.sort(np.round(t + noise, 3))
+
+
+def test_jittered_10_hz_drives_dropping_samples_are_never_taken_for_a_rate_of_their_own():
+    """600 simulated 10 Hz drives: 200 to 36,000 rows, a bell curve, uniform jitter or a
+    one-sided delay of up to 30 ms, up to 10 % of samples lost. Before the band was narrowed
+    and irregular stamps kept on the grid, 235 of 3,000 such drives were taken for a logger
+    of its own rate (a jittered dropout passing for an even step pulled the slope up)."""
+    rng = np.random.default_rng(68)
+    for _ in range(600):
+        kind = str(rng.choice(["bell", "uniform", "delay"]))
+        n = int(rng.choice([200, 1000, 5000, 36_000]))
+        t = _logged(rng, 10.0, n, kind, rng.uniform(0.0, 0.03), rng.uniform(0.0, 0.1))
+        assert not is_off_the_grid_rate(t, 0.1), (kind, n)
+
+
+def test_a_sleeping_loop_s_rate_is_found_through_its_own_jitter_and_dropouts():
+    """A loop at 9.9-9.99 or 10.01-10.1 Hz, its stamps jittered by up to 3 ms and 5 % of
+    its samples lost: taken for a rate of its own, the rate within four standard errors."""
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        hz = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.01, 0.1) + 10.0)
+        kind = str(rng.choice(["bell", "uniform", "delay"]))
+        n = int(rng.choice([1000, 5000, 36_000]))
+        t = _logged(rng, hz, n, kind, rng.uniform(0.0, 0.003), rng.uniform(0.0, 0.05))
+        off, se = rate_ratio(t, 0.1)
+        assert is_off_the_grid_rate(t, 0.1), (hz, kind, n)
+        assert abs(off - (10.0 / hz - 1.0)) <= 4.0 * se + 1e-6, (hz, kind, n, off, se)
+
+
 @pytest.mark.parametrize(
     ("hz", "fix_hz"),
     [(20, None), (50, 10), (100, 10), (50, None), (9.98, None), (9.9, None), (10.05, None)],
