@@ -370,6 +370,7 @@ def _placed_or_resampled(
     they are given to ``ordered`` (:func:`_in_time_order`). From a pipe, the first
     ``STREAM_PHASE_ROWS`` rows are judged."""
     from rwhonet.data.fastfile import needs_resampling
+    from rwhonet.data.sampleorder import out_of_order
     from rwhonet.data.timebase import unwrap_clock
 
     head: list[tuple[int, dict[str, np.ndarray]]] = []
@@ -380,29 +381,17 @@ def _placed_or_resampled(
         if n >= STREAM_PHASE_ROWS and ordered is None:
             break
     t = np.concatenate([cols[c.T_S] for _, cols in head]) if head else np.zeros(0)
-    if ordered is not None:  # the whole drive, on its continuous clock, in time order
-        t = np.sort(unwrap_clock(t)[0])
-    if needs_resampling(t, period_s):
+    if ordered is not None:  # the whole drive, on its continuous clock (midnight unwrapped)
+        t = unwrap_clock(t)[0]
+    # judged in time order, as ingest judges it after putting the rows in order
+    if needs_resampling(np.sort(t) if ordered is not None else t, period_s):
         yield from placed(resampled([*head, *blocks]), StreamClock(period_s))
         return
-    if ordered is not None:
-        rows = ordered(head) if _out_of_order(head, period_s) else iter(head)
+    if ordered is not None:  # out of order beyond a jitter the rows' order places
+        rows = ordered(head) if head and out_of_order(t, period_s) else iter(head)
     else:
         rows = itertools.chain(head, blocks)
     yield from placed(rows, StreamClock(period_s))
-
-
-def _out_of_order(blocks: list[tuple[int, dict[str, np.ndarray]]], period_s: float) -> bool:
-    """Whether a drive's rows are out of time order on its continuous clock (midnight
-    unwrapped), beyond a jitter the rows' order places (:func:`rwhonet.data.sampleorder.
-    out_of_order`)."""
-    from rwhonet.data.sampleorder import out_of_order
-    from rwhonet.data.timebase import unwrap_clock
-
-    if not blocks:
-        return False
-    t = unwrap_clock(np.concatenate([cols[c.T_S] for _, cols in blocks]))[0]
-    return out_of_order(t, period_s)
 
 
 def _in_time_order(

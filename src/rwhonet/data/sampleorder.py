@@ -227,4 +227,4 @@ def out_of_order(t_s: np.ndarray, period_s: float) -> bool:
     t = np.asarray(t_s, dtype=np.float64)
     if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
         return False
-    return not (np.diff(run_slots(t, period_s)) > 0).all()
+    return not (np.diff(run_slots(t, period_s)[0]) > 0).all()

@@ -129,7 +129,7 @@ def _drive_checks(
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):
             finite = np.flatnonzero(np.isfinite(t[a:b])) + a
             if finite.size:
-                slot[finite] = run_slots(t[finite], period)
+                slot[finite] = run_slots(t[finite], period)[0]
         out = np.full(t.size, np.nan)
         out[1:] = slot[1:] - slot[:-1]
         first = first_rows(s)

@@ -365,23 +365,20 @@ def nominal_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     Returns:
         float64 times ``phase + j * period``.
     """
-    t = np.asarray(t_s, dtype=np.float64)
-    out = np.empty_like(t)
-    for a, b in run_bounds(t, period_s):
-        slots, phase = grid_slots(t[a:b], period_s)
-        out[a:b] = phase + slots * period_s
-    return out
+    slots, phases = run_slots(t_s, period_s)
+    return phases + slots * period_s
 
 
-def run_slots(t_s: np.ndarray, period_s: float) -> np.ndarray:
-    """Each row's slot (:func:`grid_slots`), each run between steps longer than
-    :data:`RUN_GAP_PERIODS` periods on its own grid phase (int64; a slot counts periods
-    from that run's phase)."""
+def run_slots(t_s: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's slot (:func:`grid_slots`) and its run's grid phase, each run between
+    steps longer than :data:`RUN_GAP_PERIODS` periods on its own phase (int64 slots, each
+    counting periods from its run's phase; float64 phases, s)."""
     t = np.asarray(t_s, dtype=np.float64)
-    out = np.empty(t.size, dtype=np.int64)
+    slots = np.empty(t.size, dtype=np.int64)
+    phases = np.empty(t.size)
     for a, b in run_bounds(t, period_s):
-        out[a:b] = grid_slots(t[a:b], period_s)[0]
-    return out
+        slots[a:b], phases[a:b] = grid_slots(t[a:b], period_s)
+    return slots, phases
 
 
 def run_bounds(t_s: np.ndarray, period_s: float) -> list[tuple[int, int]]:
