@@ -376,3 +376,97 @@ def test_a_clock_set_back_is_not_sorted_and_stays_refused(tmp_path):
     raw, _, _ = _read(path)
     assert raw.row_order is None
     np.testing.assert_array_equal(raw.columns[c.T_S], back[c.T_S].to_numpy())
+
+
+# --------------------------------------------- a 10 Hz file's clock set back during a drive
+
+
+def _set_back(clean, back_s, at=600, jitter_s=0.0):
+    """``clean`` with its clock set back by ``back_s`` from row ``at`` (0-based) on, its
+    stamps jittered by a bell curve of ``jitter_s``."""
+    t = clean[c.T_S].to_numpy().copy()
+    t[at:] -= back_s
+    t += np.random.default_rng(3).normal(0.0, jitter_s, t.size) if jitter_s else 0.0
+    return clean.assign(**{c.T_S: np.round(t, 3)})
+
+
+@pytest.mark.parametrize(
+    ("back_s", "jitter_s"),
+    [(0.13, 0.0), (0.5, 0.0), (3.0, 0.0), (3600.0, 0.0), (0.23, 0.003), (3.0, 0.003)],
+)
+def test_a_clock_set_back_while_the_car_drives_on_is_put_on_one_clock(tmp_path, back_s, jitter_s):
+    """An NTP step (ntpd steps any offset over 128 ms) or summer time ending: the rows
+    after the step go on as the car did, their stamps earlier. Sorting would crowd them,
+    and validate refused the drive; now the rows after the step are put on by whole
+    seconds, at least 1 s after the row before it (a gap that ends the seconds there), in
+    the file's order, by ingest and by predict from a file alike. Fails on b8771f7."""
+    clean, _ = _ten_hz(tmp_path, name="V-C.csv")
+    logged = _set_back(clean, back_s, jitter_s=jitter_s)
+    path = write_iovnbd(logged, tmp_path / "V-B.csv")
+    raw, (blocks, notes), _ = _read(path)
+    stamps = logged[c.T_S].to_numpy()
+    shift = np.ceil(round(stamps[599] - stamps[600] + 1.0, 6))
+    assert shift >= 1.0 and shift == int(shift)
+    want = np.r_[stamps[:600], stamps[600:] + shift]
+    np.testing.assert_allclose(raw.columns[c.T_S], want, rtol=0, atol=1e-6)
+    for name in c.REQUIRED:
+        if name != c.T_S:
+            np.testing.assert_array_equal(raw.columns[name], clean[name].to_numpy())
+    np.testing.assert_array_equal(raw.row_order, np.arange(1, len(clean) + 1))
+    back = stamps[599] - stamps[600] + 0.1  # the step as the (jittered) stamps give it
+    said = f"row 601 ({round(back, 3):g} s back, its rows {shift:g} s later)"
+    assert any(said in n for n in raw.notes), raw.notes
+    # predict places the rows on their slots' instants, each run on its own phase
+    phase = (-back_s) % 0.1
+    placed = np.r_[np.round(want[:600], 1), np.round(want[600:] - phase, 1) + phase]
+    got = np.concatenate([cols[c.T_S] for _, cols in blocks])
+    # (a jittered run's phase is its stamps' estimate: within 1 ms of 200 rows at 3 ms)
+    np.testing.assert_allclose(got, placed, rtol=0, atol=1e-3 if jitter_s else 1e-6)
+    assert any("the clock set back" in note for note in notes), notes
+
+
+def _moved_away(df):
+    out = df.copy()
+    out.loc[600:, c.LAT_DEG] += 0.27  # 30 km north: another drive, another day
+    return out
+
+
+def _stamped_early(df):
+    out = df.copy()
+    out.loc[600:609, c.T_S] -= 3.0  # ten rows stamped 3 s early, then the clock as it was
+    return out
+
+
+def _stamped_late(df):
+    out = df.copy()
+    out.loc[599, c.T_S] += 5.0  # one row stamped 5 s late
+    return out
+
+
+def _stuck(df):
+    out = df.copy()
+    out.loc[600, c.T_S] = out.loc[599, c.T_S]  # a clock that stuck once
+    return out
+
+
+def _no_fix(df):
+    out = df.copy()
+    out.loc[585:615, [c.LAT_DEG, c.LON_DEG]] = np.nan  # no fix near the step
+    return out
+
+
+@pytest.mark.parametrize(
+    "habit",
+    [_moved_away, _stamped_early, _stamped_late, _stuck, _no_fix],
+    ids=["another-place", "ten-rows-early", "one-row-late", "stuck", "no-fix-near"],
+)
+def test_what_is_no_clock_set_back_stays_as_written_for_validate_to_refuse(tmp_path, habit):
+    """A second recording appended at another place (its fixes 30 km from the first's),
+    rows stamped wrongly whose clock then goes on as it was, a clock that stuck, and a
+    step the fixes cannot judge (none within 10 rows of it): left as written."""
+    clean, _ = _ten_hz(tmp_path)
+    logged = habit(_set_back(clean, 3.0) if habit in (_moved_away, _no_fix) else clean)
+    path = write_iovnbd(logged, tmp_path / "V-N.csv")
+    raw, _, _ = _read(path)
+    assert raw.row_order is None and not any("clock set back" in n for n in raw.notes)
+    np.testing.assert_array_equal(raw.columns[c.T_S], logged[c.T_S].to_numpy())

@@ -2,6 +2,7 @@
 
 import contextlib
 import io
+import sys
 from datetime import UTC, datetime, timedelta, timezone
 
 import numpy as np
@@ -403,10 +404,13 @@ def test_a_german_export_reads_through_a_column_map_with_its_pattern(drive, tmp_
     np.testing.assert_allclose(streamed, got.columns[c.T_S], rtol=0, atol=1e-5)
 
 
-def test_local_times_without_offsets_through_summer_time_s_end_are_refused_with_why(tmp_path):
-    """02:59:59.9 then 02:00:00.0 written without offsets: an hour back. validate and
-    predict refuse it at that row and say what it is likely to be."""
+def test_local_times_without_offsets_through_summer_time_s_end_are_one_clock(tmp_path, monkeypatch):
+    """02:59:59.9 then 02:00:00.0 written without offsets: an hour back, the car driving
+    on. Until stop 68 predict refused it at that row ("time goes backwards", "summer
+    time"); now the hour's rows are put 3601 s on (rwhonet.data.sampleorder.clock_set_back)
+    and the note says so. From a pipe it stays refused, naming the row."""
     from rwhonet.cli.main import main
+    from support.pipes import piped
     from support.serving import base_bundle, predict_args
 
     df = wavy_drive(40.0, t0_s=0.0)
@@ -416,10 +420,18 @@ def test_local_times_without_offsets_through_summer_time_s_end_are_refused_with_
     bundle = base_bundle(tmp_path / "bundle")
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
-        assert main(predict_args(bundle, path, out)) == 2
+        assert main(predict_args(bundle, path, out)) == 0
+    said = err.getvalue()
+    assert "the clock set back" in said and "row 101 (3600 s back, its rows 3601 s later)" in said
+    t = pd.read_csv(out)["t_s"].to_numpy()
+    assert (np.diff(t) > 0).all() and t[-1] > 3600.0
+    piped_out = tmp_path / "piped.csv"
+    with piped(path.read_bytes()) as pipe, contextlib.redirect_stderr(err := io.StringIO()):
+        monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(pipe))
+        assert main(predict_args(bundle, "-", piped_out)) == 2
     said = err.getvalue()
     assert "row 101" in said and "time goes backwards" in said and "summer time" in said
-    assert not out.exists()
+    assert not piped_out.exists()
 
 
 # -- a date in a column of its own ------------------------------------------------------------

@@ -427,6 +427,35 @@ def test_a_logger_restarted_on_another_phase_streams_as_the_label_stage_labels_i
     np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
 
 
+@pytest.mark.parametrize(("back_s", "jitter_s"), [(0.23, 0.0), (3.0, 0.003), (3600.0, 0.0)])
+def test_a_clock_set_back_during_the_drive_streams_as_the_label_stage_labels_it(
+    bundle, tmp_path, back_s, jitter_s
+):
+    """The logger's clock set back by NTP (0.23 s; 3 s, its stamps jittered by 3 ms) or
+    by summer time ending (an hour) while the car drove on, in a file: predict's seconds
+    are the label code's, second for second, the seconds around the step cut. Before,
+    both refused the drive ("time goes backwards")."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(200)
+    t = df["t_s"].to_numpy()
+    later = t >= t[0] + 100.0
+    jitter = np.random.default_rng(5).normal(0.0, jitter_s, t.size) if jitter_s else 0.0
+    df["t_s"] = np.round(t - np.where(later, back_s, 0.0) + jitter, 3)
+    path = write_iovnbd(df, tmp_path / "V-SetBack.csv")
+    ref = reference_samples(path, seq_len=1)
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, "V-SetBack.csv", block_bytes=3000)
+        out, _ = stream_all(model, list(blocks))
+    t_ref = ref.frame["t_s"].to_numpy()
+    assert 196 <= len(t_ref) <= 199  # of 200: the seconds around the step cut
+    np.testing.assert_allclose(out["t_s"], t_ref, rtol=0, atol=1e-6)
+    for k in ("disp_wpm_m", "disp_gnss_m"):
+        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
+
+
 @pytest.mark.parametrize("sizes", [[100_000], [7] * 1000, [405, 1] + [10] * 100])
 def test_a_one_row_wheel_glitch_is_repaired_and_listed_whatever_the_blocking(bundle, sizes):
     # A CAN glitch (one rear wheel at ten times its speed for one row) must not move the

@@ -603,6 +603,45 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "clock_set_back_by_ntp",
+    "the logger's clock stepped back 0.3 s by NTP after data row 700 (its rows stamped "
+    "0.3 s earlier from row 701 on), the car driving on",
+    # rwhonet.data.sampleorder.clock_set_back: the rows from row 701 on put 1 s on, the
+    # fixes either side showing the car went on; the seconds around the step cut
+    Repair("gap", 1),
+)
+def _(raw: Path) -> None:
+    df = good_target(200.0)
+    df.loc[rows(df, 701, len(df)), c.T_S] = np.round(df[c.T_S].to_numpy()[700:] - 0.3, 3)
+    write_target(raw, df)
+
+
+@case(
+    "clock_set_back_an_hour",
+    "a logger on local time, summer time ending after data row 700: its rows from row 701 "
+    "on stamped an hour earlier, the car driving on",
+    Repair("gap", 1),
+)
+def _(raw: Path) -> None:
+    df = good_target(200.0)
+    df.loc[rows(df, 701, len(df)), c.T_S] = np.round(df[c.T_S].to_numpy()[700:] - 3600.0, 3)
+    write_target(raw, df)
+
+
+@case(
+    "second_recording_appended_at_another_place",
+    "a second recording appended to the first without its header, stamped 100 s before "
+    "the first ended, driven 30 km away (another drive logged on another day)",
+    Refuse("validate", 702, " Time", "time strictly increasing", "time goes backwards"),
+)
+def _(raw: Path) -> None:
+    first, second = good_target(70.0), good_target(130.0)
+    second[c.T_S] = np.round(second[c.T_S].to_numpy() + 70.0 - 100.0, 3)
+    second[c.LAT_DEG] = second[c.LAT_DEG] + 0.27  # 30 km north
+    write_target(raw, pd.concat([first, second], ignore_index=True))
+
+
+@case(
     "utf16_text",
     "saved as UTF-16 ('Unicode Text')",
     Refuse("ingest", None, None, "a CSV text file", "UTF-16"),

@@ -383,14 +383,14 @@ def _placed_or_resampled(
     t = np.concatenate([cols[c.T_S] for _, cols in head]) if head else np.zeros(0)
     if ordered is not None:  # the whole drive, on its continuous clock (midnight unwrapped)
         t = unwrap_clock(t)[0]
+        if head and out_of_order(t, period_s):  # beyond a jitter the rows' order places
+            head = list(ordered(head))
+            t = unwrap_clock(np.concatenate([cols[c.T_S] for _, cols in head]))[0]
     # judged in time order, as ingest judges it after putting the rows in order
-    if needs_resampling(np.sort(t) if ordered is not None else t, period_s):
+    if needs_resampling(t, period_s):
         yield from placed(resampled([*head, *blocks]), StreamClock(period_s))
         return
-    if ordered is not None:  # out of order beyond a jitter the rows' order places
-        rows = ordered(head) if head and out_of_order(t, period_s) else iter(head)
-    else:
-        rows = itertools.chain(head, blocks)
+    rows = iter(head) if ordered is not None else itertools.chain(head, blocks)
     yield from placed(rows, StreamClock(period_s))
 
 
@@ -413,7 +413,7 @@ def _in_time_order(
     logged = columns[c.T_S]
     columns[c.T_S] = unwrap_clock(logged)[0]  # sorted on the continuous clock
     raw = RawDrive(
-        columns | {"logged_t": logged},
+        columns | {"logged_t": logged, "unwrapped_t": columns[c.T_S]},
         dict(lay.names),
         "name",
         header_rows=np.setdiff1d(np.arange(1, int(file_rows[-1]) + 1), file_rows),
@@ -424,8 +424,10 @@ def _in_time_order(
         return
     lay.notes.extend(note.removeprefix(f"{file}: ") for note in raw.notes)
     order = raw.row_order
-    kept = {k: v for k, v in raw.columns.items() if k != "logged_t"}
-    kept[c.T_S] = raw.columns["logged_t"]  # placed on the clock as the file has it
+    kept = {k: v for k, v in raw.columns.items() if k not in ("logged_t", "unwrapped_t")}
+    # placed on the clock as the file has it (less what a clock set back moved: sampleorder)
+    moved = raw.columns[c.T_S] - raw.columns["unwrapped_t"]
+    kept[c.T_S] = raw.columns["logged_t"] + moved
     cuts = np.r_[0, np.flatnonzero(np.diff(order) != 1) + 1, order.size]
     for a, b in itertools.pairwise(cuts.tolist()):
         yield int(order[a]), {k: v[a:b] for k, v in kept.items()}

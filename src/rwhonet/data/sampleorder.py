@@ -35,6 +35,7 @@ comparison of its times.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -44,6 +45,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows, repeated_rows
 from rwhonet.data.timebase import run_slots
+from rwhonet.geo.geodesic import geodesic_distance_m
 
 # Sorting may not bring two samples closer than this share of the stream's median step
 # unless the file already had them so close. A clock set back by anything but a whole
@@ -62,6 +64,19 @@ REGULAR_SPREAD = 0.1
 REGULAR_MIN_STEPS = 20
 WINDOW_STEPS = 4
 ROWS_NOTED = 5
+# A clock set back during a drive (:func:`clock_set_back`): the rows after each step back
+# must run on in order for this many rows (a row or a few stamped wrongly are no clock
+# set back); the fixes either side of it, each within STEP_FIX_ROWS rows of it, must lie
+# within STEP_REACH times the farthest the fixes around moved a row, over the rows
+# between them, and STEP_FIX_M (a receiver's noise); the rows after it are put this far
+# after the rows before, a gap that ends a run of seconds (timebase.RUN_GAP_PERIODS) and
+# validate's segment (validate.gnss.max_gap_s, 0.5 s by default)
+STEP_RUN_ROWS = 20
+STEP_FIX_ROWS = 10
+STEP_NEAR_ROWS = 20
+STEP_REACH = 1.5
+STEP_FIX_M = 5.0
+STEP_GAP_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -200,10 +215,14 @@ def rows_in_time_order(raw: RawDrive, file: str, period_s: float) -> RawDrive:
         file: the file as the user knows it, for the notes.
         period_s: the sample period.
 
+    Where sorting is not safe, a clock set back during the drive is put right where the
+    rows went on as the car did (:func:`clock_set_back`).
+
     Returns:
-        ``raw`` itself where its rows are in order, or sorting is not safe (a clock set
-        back, a second recording: validate refuses it, naming the rows); else the drive
-        in time order, ``row_order`` giving each row's file row, the notes saying so.
+        ``raw`` itself where its rows are in order, or neither sorting nor a clock set
+        back puts them right (a second recording, a row stamped wrongly: validate
+        refuses it, naming the rows); else the drive in time order, ``row_order`` giving
+        each row's file row, the notes saying so.
     """
     t = raw.columns[c.T_S]
     if not out_of_order(t, period_s):
@@ -211,7 +230,7 @@ def rows_in_time_order(raw: RawDrive, file: str, period_s: float) -> RawDrive:
     file_row = FileRows.of(manifest_rows(raw))(np.arange(raw.n_rows))
     order = time_order(t, raw.columns, file_row, file)
     if order.index is None or order.index.size != t.size:
-        return raw
+        return clock_set_back(raw, file_row, file, period_s)
     return replace(
         raw,
         columns={k: v[order.index] for k, v in raw.columns.items()},
@@ -228,3 +247,109 @@ def out_of_order(t_s: np.ndarray, period_s: float) -> bool:
     if t.size < 2 or not np.isfinite(t).all() or (np.diff(t) > 0).all():
         return False
     return not (np.diff(run_slots(t, period_s)[0]) > 0).all()
+
+
+def clock_set_back(raw: RawDrive, file_row: np.ndarray, file: str, period_s: float) -> RawDrive:
+    """A 10 Hz drive whose clock was set back while it logged, put on one clock.
+
+    A logger's clock is stepped back by NTP or by a GNSS receiver's time (``ntpd`` steps
+    any offset over 128 ms), or by summer time ending where it logs local time: the rows
+    go on as the car did, and their stamps go back. Sorting would crowd the two stretches
+    into one (:func:`time_order`), and validate refused the drive ("time goes
+    backwards"). Here each step back (a row whose slot on the grid is not after the slot
+    of the row before: :func:`rwhonet.data.timebase.run_slots`) is taken for a clock set
+    back where
+
+    - the rows after it run on in time order for at least :data:`STEP_RUN_ROWS` rows,
+      as the rows before it do, and the :data:`STEP_RUN_ROWS` rows either side of it
+      each a period after the one before (a row or a few stamped wrongly, whose clock
+      then goes on as it was, and a clock that stuck, whose next row is two periods on,
+      are no clock set back);
+    - the car went on: the last fix before it and the first after it (each within
+      :data:`STEP_FIX_ROWS` rows) lie within :data:`STEP_REACH` times the farthest the
+      fixes around (:data:`STEP_NEAR_ROWS` rows either side) moved in a row, over the rows
+      between them, plus :data:`STEP_FIX_M`. A second recording appended to the first
+      (another place, another time) is not.
+
+    The rows after each such step are then put on by whole seconds, the fewest that leave
+    at least :data:`STEP_GAP_S` after the last row before it: a gap that ends a run of
+    seconds and validate's segment there, so the seconds around the step, whose true
+    length the stamps no longer tell, are cut, and each side keeps its own rows, in the
+    file's order, and its seconds as its clock counts them (whole seconds keep where
+    each second begins). The notes say where, by how much the clock went back, and how
+    far on the later rows were put (their times are the logger's plus that).
+
+    Args:
+        raw: the drive, its copies dropped (by :func:`rows_in_time_order`'s caller).
+        file_row: each row's data row in the file (1-based).
+        file: the file as the user knows it, for the notes.
+        period_s: the sample period.
+
+    Returns:
+        ``raw`` itself where any step back is not so (validate refuses it, naming the
+        row), else the drive on one clock, ``row_order`` its file rows, the notes saying
+        so.
+    """
+    t = np.asarray(raw.columns[c.T_S], dtype=np.float64)
+    if t.size < 2 * STEP_RUN_ROWS or not np.isfinite(t).all():
+        return raw
+    steps = np.flatnonzero(np.diff(run_slots(t, period_s)[0]) <= 0) + 1
+    if not steps.size:
+        return raw
+    bounds = np.r_[0, steps, t.size]
+    if np.diff(bounds).min() < STEP_RUN_ROWS:
+        return raw
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        if (np.diff(run_slots(t[a:b], period_s)[0]) <= 0).any():
+            return raw
+    for i in steps.tolist():  # on either side, the rows nearest the step a slot apart
+        near = (t[i - STEP_RUN_ROWS : i], t[i : i + STEP_RUN_ROWS])
+        if any((np.diff(run_slots(x, period_s)[0]) != 1).any() for x in near):
+            return raw
+    lat = np.asarray(raw.columns.get(c.LAT_DEG, np.full(t.size, np.nan)), dtype=np.float64)
+    lon = np.asarray(raw.columns.get(c.LON_DEG, np.full(t.size, np.nan)), dtype=np.float64)
+    if not all(_went_on(lat, lon, int(i)) for i in steps):
+        return raw
+    new = t.copy()
+    said = []
+    for i, stop in zip(steps.tolist(), bounds[2:].tolist(), strict=True):
+        shift = float(math.ceil(round(float(new[i - 1] - t[i]) + STEP_GAP_S, 6)))
+        new[i:stop] = t[i:stop] + shift
+        said.append(
+            f"row {int(file_row[i])} ({round(float(t[i - 1] - t[i]) + period_s, 3):g} s back, "
+            f"its rows {shift:.6g} s later)"
+        )
+    if not (np.diff(new) > 0).all() or out_of_order(new, period_s):
+        return raw
+    note = (
+        f"{file}: the clock set back during the drive at {len(said)} row(s), the rows on "
+        f"either side going on as the car did (an NTP step, summer time ending): "
+        f"{'; '.join(said)}: each step's rows put on by whole seconds, at least "
+        f"{STEP_GAP_S:g} s after the rows before it, the seconds around it cut"
+    )
+    return replace(
+        raw,
+        columns={**raw.columns, c.T_S: new},
+        notes=(*raw.notes, note),
+        row_order=np.asarray(file_row, dtype=np.int64),
+    )
+
+
+def _went_on(lat: np.ndarray, lon: np.ndarray, i: int) -> bool:
+    """Whether the fixes either side of row ``i`` (the first row after a step back) show
+    the car going on, not a second recording (:func:`clock_set_back`)."""
+    ok = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90.0)
+    before = np.flatnonzero(ok[max(i - STEP_FIX_ROWS, 0) : i])
+    after = np.flatnonzero(ok[i : i + STEP_FIX_ROWS])
+    if not before.size or not after.size:
+        return False
+    a = max(i - STEP_FIX_ROWS, 0) + int(before[-1])
+    b = i + int(after[0])
+    moved = 0.0  # the farthest the fixes around moved a row, each side apart
+    for lo, hi in ((max(i - STEP_NEAR_ROWS, 0), i), (i, min(i + STEP_NEAR_ROWS, lat.size))):
+        rows = lo + np.flatnonzero(ok[lo:hi])
+        if rows.size >= 2:
+            d = geodesic_distance_m(lat[rows[:-1]], lon[rows[:-1]], lat[rows[1:]], lon[rows[1:]])
+            moved = max(moved, float(np.max(d / np.diff(rows))))
+    gap = float(geodesic_distance_m(lat[a], lon[a], lat[b], lon[b]))
+    return gap <= STEP_REACH * moved * (b - a) + STEP_FIX_M

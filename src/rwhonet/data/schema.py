@@ -213,8 +213,11 @@ def _drive_checks(
                     + _jitter_hint(df, i, period)
                 ),
                 "sort the rows by time, or split the file into one drive per recording where "
-                "the clock restarts; a clock set back an hour is summer time ending: write "
-                "the times in UTC or with their zone offset (ISO 8601, +01:00)",
+                "the clock restarts (a clock set back while the car drove on is put right at "
+                "ingest where 20 rows either side run on a period apart and a fix within 10 "
+                "rows either side shows the car going on); a clock set back an hour is "
+                "summer time ending: write the times in UTC or with their zone offset "
+                "(ISO 8601, +01:00)",
             ),
         ),
         "sample_period": (

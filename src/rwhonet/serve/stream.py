@@ -773,9 +773,11 @@ def _time_problem(
         found = f"time goes backwards: t = {_found(now)} s after t = {_found(prev)} s"
         fix = (
             "sort the rows by time (a drive given as a file, not from a pipe, has rows out of "
-            "order put in order where sorting is safe), or split the file into one drive per "
-            "recording where the clock restarts; a clock set back an hour is summer time "
-            "ending: write the times in UTC or with their zone offset (ISO 8601, +01:00)"
+            "order put in order where sorting is safe, and a clock set back while the car "
+            "drove on put right where the fixes show it), or split the file into one drive "
+            "per recording where the clock restarts; a clock set back an hour is summer "
+            "time ending: write the times in UTC or with their zone offset (ISO 8601, "
+            "+01:00)"
         )
     return Problem(
         file, row, names.get(c.T_S, c.T_S), "a time after the previous row's", found, fix
@@ -784,8 +786,8 @@ def _time_problem(
 
 def _found(value: float) -> str:
     """A cell's value as a message shows it: the number (not numpy's repr), or empty."""
-    value = float(value)
-    return "an empty cell (or NaN)" if math.isnan(value) else repr(value)
+    value = float(value)  # to the µs: the clock's arithmetic leaves 37803.200000000004
+    return "an empty cell (or NaN)" if math.isnan(value) else repr(round(value, 6))
 
 
 def empty_block() -> dict[str, np.ndarray]:
