@@ -301,10 +301,43 @@ def test_a_faster_tables_rows_out_of_order_are_put_in_order_as_a_streams(tmp_pat
         streamed = np.concatenate([b[c.OMEGA_RL] for _, b in blocks])
     np.testing.assert_array_equal(streamed, want.columns[c.OMEGA_RL])
     back = df.copy()
-    back.loc[3000:, c.T_S] -= 0.517  # the clock set back half a second at data row 3001
+    back.loc[3000:, c.T_S] -= 0.517  # a clock set back half a second at data row 3001 ...
+    back.loc[3000:, c.LAT_DEG] += 0.27  # ... on a recording 30 km away: no car going on
     path = write_iovnbd(back, tmp_path / "V-B.csv")
     with pytest.raises(InputError) as err:
         _read(path, tmp_path)
     assert {(p.row, "strictly increasing" in p.expected) for p in err.value.problems} >= {
         (3001, True)
     }
+
+
+@pytest.mark.parametrize(("hz", "back_s"), [(50, 0.517), (20, 3.0), (100, 3600.0)])
+def test_a_faster_tables_clock_set_back_while_the_car_drove_on_is_put_on_one_clock(
+    tmp_path, hz, back_s
+):
+    """A 20-100 Hz table whose logger's clock was set back (an NTP step, summer time
+    ending) at data row 3001, the car driving on: its rows from there put on by whole
+    seconds (sampleorder.clock_steps, judged at the table's own rate), read as streams
+    and resampled: the grid of the table logged on one clock so moved, ingest and predict
+    from a file alike; the seconds around the step cut. Refused until stop 69."""
+    df = faster(good_target(200.0), hz)
+    t = df[c.T_S].to_numpy()
+    shift = np.ceil(round(back_s - t[1] + t[0] + 1.0, 6))  # whole seconds, at least 1 s on
+    moved = df.copy()
+    moved.loc[3000:, c.T_S] = t[3000:] - back_s + shift  # the table on one clock
+    want, _ = _read(write_iovnbd(moved, tmp_path / "V-A.csv"), tmp_path)
+    back = df.copy()
+    back.loc[3000:, c.T_S] = t[3000:] - back_s
+    path = write_iovnbd(back, tmp_path / "V-B.csv")
+    got, _ = _read(path, tmp_path)
+    for k in (c.T_S, c.OMEGA_RL, c.LAT_DEG):
+        np.testing.assert_allclose(got.columns[k], want.columns[k], rtol=0, atol=1e-9)
+    said = f"row 3001 ({round(back_s, 3):g} s back, its rows {shift:g} s later)"
+    assert any(said in n for n in got.notes), got.notes
+    with io.BytesIO(path.read_bytes()) as stream:  # predict's reader: the same grid rows
+        lay, blocks = read_rows(stream, path.name)
+        blocks = list(blocks)
+    streamed = {k: np.concatenate([b[k] for _, b in blocks]) for k in (c.T_S, c.OMEGA_RL)}
+    np.testing.assert_allclose(streamed[c.T_S], got.columns[c.T_S], rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(streamed[c.OMEGA_RL], got.columns[c.OMEGA_RL])
+    assert any(said in n for n in lay.notes), lay.notes

@@ -56,5 +56,6 @@
   ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those
   written out of time order put in order where that is all that is wrong; a 10 Hz file's
-  rows out of time order too (``rows_in_time_order``).
+  rows out of time order too (``rows_in_time_order``), and a table's clock set back while
+  the car drove on put on one clock (``clock_set_back``, ``clock_steps``).
 """

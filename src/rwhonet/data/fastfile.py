@@ -38,7 +38,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows
 from rwhonet.data.heldfixes import GNSS_CHANNELS, held_fixes
-from rwhonet.data.sampleorder import time_order
+from rwhonet.data.sampleorder import clock_steps, time_order
 from rwhonet.data.streams import GRID_PERIOD_S, RATE_CHANNELS, DriveStreams, Stream
 
 # Rows this many times as frequent as the grid's or more (median step at most the grid's
@@ -168,13 +168,19 @@ def as_streams(raw: RawDrive, file: str, period_s: float = GRID_PERIOD_S) -> Dri
     # speed), so that messages name the file's rows
     file_row = FileRows.of(manifest_rows(raw))(np.arange(raw.n_rows))
     # rows written out of time order (a logger's buffers merged as they arrived): put in
-    # order where that is all that is wrong, as a stream's samples are; else left, refused
+    # order where that is all that is wrong, as a stream's samples are; a clock set back
+    # put on one clock where the car drove on (sampleorder.clock_steps); else left, refused
     order = time_order(cols[c.T_S], cols, file_row, file)
     notes = raw.notes
     if order.index is not None:
         cols = {k: v[order.index] for k, v in cols.items()}
         file_row = file_row[order.index]
         notes = (*notes, *order.notes)
+    elif np.isfinite(own := median_step(cols[c.T_S])) and (
+        moved := clock_steps(cols[c.T_S], cols[c.LAT_DEG], cols[c.LON_DEG], file_row, own)
+    ):  # its clock set back while the car drove on (judged at the table's own rate)
+        cols = {**cols, c.T_S: moved[0]}
+        notes = (*notes, f"{file}: {moved[1]}")
     t = cols[c.T_S]
 
     def stream(name: str, rows: np.ndarray, names: tuple[str, ...]) -> Stream:

@@ -20,7 +20,9 @@ FIFOs, two interfaces) in arrival order rather than by time stamp. Here, per str
    crowd them into one at twice the rate, or, set back further than it had run, leaves
    a gap between them that neither had; a sample stamped wrongly lands beside another's
    slot and leaves its own empty. Each is left as written, and refused by the stream
-   checks (:func:`rwhonet.data.streams.check_streams`), naming the file's row.
+   checks (:func:`rwhonet.data.streams.check_streams`), naming the file's row. (A table's
+   rows, wheels and fixes in each, tell more: where the fixes show the car going on
+   through a step back, its clock is put right, :func:`clock_set_back`.)
    *Crowding* is judged by short steps (under 0.6 of the median) for a regularly stamped
    stream, by density (samples per 4 median steps) for a jittered one, whose own short
    steps a reordering breaks up (:func:`_crowded`): in a jittered stream a clock set back
@@ -291,25 +293,52 @@ def clock_set_back(raw: RawDrive, file_row: np.ndarray, file: str, period_s: flo
         so.
     """
     t = np.asarray(raw.columns[c.T_S], dtype=np.float64)
-    if t.size < 2 * STEP_RUN_ROWS or not np.isfinite(t).all():
+    nan = np.full(t.size, np.nan)
+    lat = np.asarray(raw.columns.get(c.LAT_DEG, nan), dtype=np.float64)
+    lon = np.asarray(raw.columns.get(c.LON_DEG, nan), dtype=np.float64)
+    got = clock_steps(t, lat, lon, file_row, period_s)
+    if got is None:
         return raw
+    new, said = got
+    return replace(
+        raw,
+        columns={**raw.columns, c.T_S: new},
+        notes=(*raw.notes, f"{file}: {said}"),
+        row_order=np.asarray(file_row, dtype=np.int64),
+    )
+
+
+def clock_steps(
+    t_s: np.ndarray, lat: np.ndarray, lon: np.ndarray, file_row: np.ndarray, period_s: float
+) -> tuple[np.ndarray, str] | None:
+    """The times of rows whose clock was set back put on one clock, and what to say, by
+    the rule of :func:`clock_set_back`; None where a step back is not so.
+
+    Args:
+        t_s: the rows' times, s, in the file's order.
+        lat, lon: their fixes, deg (NaN: none).
+        file_row: each row's data row in the file (1-based), for the note.
+        period_s: the rows' period (the grid's; a faster table's own:
+            :func:`rwhonet.data.fastfile.as_streams`).
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.size < 2 * STEP_RUN_ROWS or not np.isfinite(t).all():
+        return None
     steps = np.flatnonzero(np.diff(run_slots(t, period_s)[0]) <= 0) + 1
     if not steps.size:
-        return raw
+        return None
     bounds = np.r_[0, steps, t.size]
     if np.diff(bounds).min() < STEP_RUN_ROWS:
-        return raw
+        return None
     for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
         if (np.diff(run_slots(t[a:b], period_s)[0]) <= 0).any():
-            return raw
+            return None
     for i in steps.tolist():  # on either side, the rows nearest the step a slot apart
         near = (t[i - STEP_RUN_ROWS : i], t[i : i + STEP_RUN_ROWS])
         if any((np.diff(run_slots(x, period_s)[0]) != 1).any() for x in near):
-            return raw
-    lat = np.asarray(raw.columns.get(c.LAT_DEG, np.full(t.size, np.nan)), dtype=np.float64)
-    lon = np.asarray(raw.columns.get(c.LON_DEG, np.full(t.size, np.nan)), dtype=np.float64)
+            return None
     if not all(_went_on(lat, lon, int(i)) for i in steps):
-        return raw
+        return None
     new = t.copy()
     said = []
     for i, stop in zip(steps.tolist(), bounds[2:].tolist(), strict=True):
@@ -320,18 +349,12 @@ def clock_set_back(raw: RawDrive, file_row: np.ndarray, file: str, period_s: flo
             f"its rows {shift:.6g} s later)"
         )
     if not (np.diff(new) > 0).all() or out_of_order(new, period_s):
-        return raw
-    note = (
-        f"{file}: the clock set back during the drive at {len(said)} row(s), the rows on "
-        f"either side going on as the car did (an NTP step, summer time ending): "
+        return None
+    return new, (
+        f"the clock set back during the drive at {len(said)} row(s), the rows on either "
+        f"side going on as the car did (an NTP step, summer time ending): "
         f"{'; '.join(said)}: each step's rows put on by whole seconds, at least "
         f"{STEP_GAP_S:g} s after the rows before it, the seconds around it cut"
-    )
-    return replace(
-        raw,
-        columns={**raw.columns, c.T_S: new},
-        notes=(*raw.notes, note),
-        row_order=np.asarray(file_row, dtype=np.int64),
     )
 
 
