@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import os
 
 import numpy as np
 import pandas as pd
@@ -12,7 +13,7 @@ from hypothesis import strategies as st
 
 from rwhonet.data import canonical as c
 from rwhonet.data.incremental import read_rows
-from rwhonet.data.sampleorder import time_order
+from rwhonet.data.sampleorder import out_of_order, time_order
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
@@ -470,3 +471,54 @@ def test_what_is_no_clock_set_back_stays_as_written_for_validate_to_refuse(tmp_p
     raw, _, _ = _read(path)
     assert raw.row_order is None and not any("clock set back" in n for n in raw.notes)
     np.testing.assert_array_equal(raw.columns[c.T_S], logged[c.T_S].to_numpy())
+
+
+@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 40)), deadline=None)
+@given(
+    steps=st.lists(
+        st.tuples(st.integers(30, 1150), st.sampled_from([0.13, 0.2, 0.5, 1.0, 3.7, 60.0, 3600.0])),
+        min_size=1,
+        max_size=3,
+        unique_by=lambda x: x[0] // 30,
+    ),
+    jitter_s=st.sampled_from([0.0, 0.003, 0.02]),
+    away=st.booleans(),
+    seed=st.integers(0, 2**16),
+)
+def test_any_clock_set_back_is_put_on_one_clock_or_left_never_wrongly(steps, jitter_s, away, seed):
+    """Up to three steps back of 0.13 s to an hour, 30 rows or more apart, on stamps exact
+    or jittered by a bell curve of 3 or 20 ms, the car driving on or (``away``) the rows
+    after the first step 30 km away: either each row keeps its stamp plus the whole
+    seconds the rule puts on after each step (every step found, the rows in the file's
+    order, the times rising), or every stamp is left as written; a step the fixes show
+    to be another place never passes."""
+    from rwhonet.data.sampleorder import clock_steps
+
+    n = 1200
+    rng = np.random.default_rng(seed)
+    t = 45000.0 + 0.1 * np.arange(n) + (rng.normal(0.0, jitter_s, n) if jitter_s else 0.0)
+    at = sorted(i for i, _ in steps)
+    back = dict(steps)
+    for i in at:
+        t[i:] -= back[i]
+    t = np.round(t, 3)
+    lat = 52.41 + 1.3e-4 * np.arange(n)  # 15 m/s north
+    lon = np.full(n, -1.5)
+    if away:
+        lat[at[0] :] += 0.27
+    got = clock_steps(t, lat, lon, np.arange(1, n + 1), 0.1)
+    if got is None:
+        return
+    new, said = got
+    assert not away
+    assert not out_of_order(new, 0.1)  # rising, or slots a jitter's rows' order gives
+    moved = np.round(new - t, 6)
+    assert (moved == np.round(moved)).all() and (np.diff(moved) >= 0).all() and moved[0] == 0
+    # put on at each step (exact stamps: at its row; jittered: a row or two beside it,
+    # where a jitter made the steepest step back), by whole seconds leaving 1-2 s
+    found = np.flatnonzero(np.diff(moved)) + 1
+    assert len(found) == len(at)
+    assert np.abs(found - np.asarray(at)).max() <= (2 if jitter_s else 0)
+    for i in found:
+        assert 1.0 <= new[i] - new[i - 1] < 2.0 + 1e-6
+    assert said.count(" s back, its rows ") == len(at)

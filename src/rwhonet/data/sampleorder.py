@@ -259,8 +259,9 @@ def clock_set_back(raw: RawDrive, file_row: np.ndarray, file: str, period_s: flo
     go on as the car did, and their stamps go back. Sorting would crowd the two stretches
     into one (:func:`time_order`), and validate refused the drive ("time goes
     backwards"). Here each step back (a row whose slot on the grid is not after the slot
-    of the row before: :func:`rwhonet.data.timebase.run_slots`) is taken for a clock set
-    back where
+    of the row before: :func:`rwhonet.data.timebase.run_slots`; where a jitter leaves a
+    row or two beside it so too, the steepest step back among them) is taken for a clock
+    set back where
 
     - the rows after it run on in time order for at least :data:`STEP_RUN_ROWS` rows,
       as the rows before it do, and the :data:`STEP_RUN_ROWS` rows either side of it
@@ -324,31 +325,39 @@ def clock_steps(
     t = np.asarray(t_s, dtype=np.float64)
     if t.size < 2 * STEP_RUN_ROWS or not np.isfinite(t).all():
         return None
-    steps = np.flatnonzero(np.diff(run_slots(t, period_s)[0]) <= 0) + 1
-    if not steps.size:
+    # where the rows' slots do not rise; a jitter beside a step may add a row or two
+    # there, so each cluster's step is its steepest step back
+    back = np.flatnonzero(np.diff(run_slots(t, period_s)[0]) <= 0) + 1
+    if not back.size:
         return None
+    cluster = np.r_[0, np.cumsum(np.diff(back) >= STEP_RUN_ROWS)]
+    dt = np.diff(t)
+    steps = []
+    for k in range(int(cluster[-1]) + 1):
+        near = back[cluster == k]
+        steps.append(int(near[0]) + int(np.argmin(dt[near[0] - 1 : near[-1]])))
     bounds = np.r_[0, steps, t.size]
     if np.diff(bounds).min() < STEP_RUN_ROWS:
         return None
     for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-        if (np.diff(run_slots(t[a:b], period_s)[0]) <= 0).any():
+        # each stretch in order, its rows nearest a step each a slot after the one before
+        rise = np.diff(run_slots(t[a:b], period_s)[0])
+        after = rise[: STEP_RUN_ROWS - 1] if a > 0 else rise[:0]
+        before = rise[-(STEP_RUN_ROWS - 1) :] if b < t.size else rise[:0]
+        if (rise <= 0).any() or (after != 1).any() or (before != 1).any():
             return None
-    for i in steps.tolist():  # on either side, the rows nearest the step a slot apart
-        near = (t[i - STEP_RUN_ROWS : i], t[i : i + STEP_RUN_ROWS])
-        if any((np.diff(run_slots(x, period_s)[0]) != 1).any() for x in near):
-            return None
-    if not all(_went_on(lat, lon, int(i)) for i in steps):
+    if not all(_went_on(lat, lon, i) for i in steps):
         return None
     new = t.copy()
     said = []
-    for i, stop in zip(steps.tolist(), bounds[2:].tolist(), strict=True):
+    for i, stop in zip(steps, bounds[2:].tolist(), strict=True):
         shift = float(math.ceil(round(float(new[i - 1] - t[i]) + STEP_GAP_S, 6)))
         new[i:stop] = t[i:stop] + shift
         said.append(
             f"row {int(file_row[i])} ({round(float(t[i - 1] - t[i]) + period_s, 3):g} s back, "
             f"its rows {shift:.6g} s later)"
         )
-    if not (np.diff(new) > 0).all() or out_of_order(new, period_s):
+    if out_of_order(new, period_s):  # rising, or slots a jitter's rows' order gives
         return None
     return new, (
         f"the clock set back during the drive at {len(said)} row(s), the rows on either "
