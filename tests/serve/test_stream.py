@@ -427,11 +427,14 @@ def test_a_logger_restarted_on_another_phase_streams_as_the_label_stage_labels_i
     np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
 
 
-@pytest.mark.parametrize(("back_s", "jitter_s"), [(0.23, 0.0), (3.0, 0.003), (3600.0, 0.0)])
+@pytest.mark.parametrize(
+    ("back_s", "jitter_s"), [(0.23, 0.0), (3.0, 0.003), (3600.0, 0.0), (0.5, 0.02)]
+)
 def test_a_clock_set_back_during_the_drive_streams_as_the_label_stage_labels_it(
     bundle, tmp_path, back_s, jitter_s
 ):
-    """The logger's clock set back by NTP (0.23 s; 3 s, its stamps jittered by 3 ms) or
+    """The logger's clock set back by NTP (0.23 s; 3 s, its stamps jittered by 3 ms; 0.5 s
+    jittered by a bell curve of 20 ms) or
     by summer time ending (an hour) while the car drove on, in a file: predict's seconds
     are the label code's, second for second, the seconds around the step cut. Before,
     both refused the drive ("time goes backwards")."""
