@@ -522,3 +522,54 @@ def test_any_clock_set_back_is_put_on_one_clock_or_left_never_wrongly(steps, jit
     for i in found:
         assert 1.0 <= new[i] - new[i - 1] < 2.0 + 1e-6
     assert said.count(" s back, its rows ") == len(at)
+
+
+# ------------------------------------- a 10 Hz file stamped to the second (hh:mm:ss, no fraction)
+
+
+def _to_the_second(df, as_text: bool, path):
+    """``df`` written with each row's time cut to the second it starts (the ten rows of
+    (k, k + 1] stamped k), as a number or as ``hh:mm:ss`` text (a spreadsheet's)."""
+    whole = np.floor(df[c.T_S].to_numpy() - 0.1 + 1e-6)
+    write_iovnbd(df.assign(**{c.T_S: whole}), path)
+    if as_text:
+        lines = path.read_text().splitlines()
+        for i, s in enumerate(whole.astype(int), start=1):
+            parts = lines[i].split(",")
+            parts[1] = f"{s // 3600:02d}:{s % 3600 // 60:02d}:{s % 60:02d}"
+            lines[i] = ",".join(parts)
+        path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("as_text", [False, True], ids=["seconds", "hh:mm:ss"])
+@pytest.mark.parametrize("lost", [None, 455], ids=["every-row", "a-row-lost"])
+def test_a_file_stamped_to_the_second_is_placed_a_period_apart_after_each_stamp(
+    tmp_path, as_text, lost
+):
+    """A spreadsheet that shows the time as hh:mm:ss saves it so, its fraction lost: ten
+    rows share each stamp. Refused until stop 69 ("t again ... stamps rounded too
+    coarsely"); now ingest and predict from a file place each stamp's rows 0.1 s apart
+    after it, in the file's order: the drive stamped exactly (its rows at 0.1-1.0 s after
+    each whole second). A row lost: the other rows of its stamp are left out (their times
+    unknown), as if not logged. A standstill's rows sharing a stamp are no copies."""
+    clean, _ = _ten_hz(tmp_path, name="V-C.csv")
+    clean.loc[200:260, c.WHEELS] = 0.0  # a standstill: rows equal but for their time
+    clean.loc[200:260, [c.LAT_DEG, c.LON_DEG]] = clean.loc[200, [c.LAT_DEG, c.LON_DEG]].values
+    if lost is not None:
+        clean = clean.drop(index=lost).reset_index(drop=True)
+    t = clean[c.T_S].to_numpy()
+    # a lost row's second: its other rows untimed (which was lost, the stamps do not tell)
+    untimed = (t > 45045.0 + 1e-6) & (t <= 45046.0 + 1e-6) if lost else np.zeros(t.size, bool)
+    want, _, _ = _read(write_iovnbd(clean[~untimed], tmp_path / "V-E.csv"))
+    path = _to_the_second(clean, as_text, tmp_path / "V-S.csv")
+    raw, (blocks, notes), _ = _read(path)
+    np.testing.assert_allclose(raw.columns[c.T_S], want.columns[c.T_S], rtol=0, atol=1e-6)
+    for name in set(c.REQUIRED) - {c.T_S}:
+        np.testing.assert_array_equal(raw.columns[name], want.columns[name])
+    np.testing.assert_array_equal(raw.untimed_rows, np.flatnonzero(untimed) + 1)
+    assert any("time stamps to 1 s, coarser than its rows" in n for n in raw.notes)
+    got = {k: np.concatenate([b[k] for _, b in blocks]) for k in (c.T_S, c.OMEGA_RL)}
+    np.testing.assert_allclose(got[c.T_S], want.columns[c.T_S], rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(got[c.OMEGA_RL], want.columns[c.OMEGA_RL])
+    assert any("time stamps to 1 s" in n for n in notes)

@@ -17,6 +17,7 @@ from rwhonet.data.timebase import (
     MAX_REACH,
     StreamClock,
     _isotonic,
+    coarse_places,
     grid_phase,
     grid_slots,
     jitter_reach,
@@ -448,3 +449,45 @@ def test_placed_blocks_are_the_whole_drives_slots_whatever_the_blocking(
         # predict, from all of them by the label: a jittered run's within a few ms
         near = 1e-6 if restart is None or sigma == 0.0 else 0.3 * PERIOD
         np.testing.assert_allclose(got, want, rtol=0, atol=near)
+
+
+# -- stamps coarser than the rows (hh:mm:ss without its fraction) ----------------------------
+
+
+def test_rows_of_stamps_to_the_second_are_placed_a_period_apart_after_each():
+    t = T0 + PERIOD * np.arange(1, 301)  # 30 s of rows at 0.1-30.0 s
+    stamps = np.floor(t - PERIOD + 1e-6)  # the ten rows of (T0, T0 + 1] stamped T0, ...
+    placed, q, untimed = coarse_places(stamps, PERIOD)
+    assert q == 1.0 and not untimed.any()
+    np.testing.assert_allclose(placed, t, rtol=0, atol=1e-9)
+    # the logger started 0.4 s into the first second and stopped 0.3 s into the last: the
+    # first stamp's rows in its last slots, the last stamp's in its first
+    got, _, untimed = coarse_places(stamps[6:-7], PERIOD)
+    np.testing.assert_allclose(got, t[6:-7], rtol=0, atol=1e-9)
+    assert not untimed.any()
+    # a sample lost (row 55, 5.6 s): which of its second's rows it was the stamps do not
+    # tell, so the nine rows of that stamp are untimed; the others placed
+    lost = np.delete(stamps, 55)
+    got, _, untimed = coarse_places(lost, PERIOD)
+    np.testing.assert_array_equal(np.flatnonzero(untimed), np.arange(50, 59))
+    np.testing.assert_allclose(got[~untimed], np.delete(t, np.arange(50, 60)), atol=1e-9)
+    # stamps to half a second: five rows a stamp
+    half = np.floor((t - PERIOD + 1e-6) * 2.0) / 2.0
+    got, q, _ = coarse_places(half, PERIOD)
+    assert q == 0.5
+    np.testing.assert_allclose(got, t, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "stamps",
+    [
+        T0 + PERIOD * np.arange(300),  # a 10 Hz drive
+        np.r_[T0 + PERIOD * np.arange(100), T0 + 9.9, T0 + PERIOD * np.arange(100, 300)],  # once
+        np.repeat(T0 + np.arange(30.0), 11),  # eleven rows a second: not 10 Hz
+        np.repeat(T0 + np.arange(30.0), 5),  # five: a 5 Hz drive, refused by its rate
+        np.r_[np.repeat(T0 + np.arange(15.0), 10), np.repeat(T0 + 14 + np.arange(15.0), 10)],
+    ],
+    ids=["10-hz", "a-time-twice", "eleven-a-second", "five-a-second", "clock-back"],
+)
+def test_stamps_that_are_not_coarse_stamps_of_the_rows_are_left(stamps):
+    assert coarse_places(stamps, PERIOD) is None

@@ -459,6 +459,31 @@ def test_a_clock_set_back_during_the_drive_streams_as_the_label_stage_labels_it(
     np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
 
 
+@pytest.mark.parametrize("lost", [None, 1203])
+def test_a_file_stamped_to_the_second_streams_as_the_label_stage_labels_it(bundle, tmp_path, lost):
+    """Each row's time cut to the second (hh:mm:ss without its fraction, a spreadsheet's):
+    predict from a file gives the label code's seconds, second for second, each second
+    the ten rows of its stamp (a lost row's second cut). Before, both refused it."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(200)
+    if lost is not None:
+        df = df.drop(index=lost).reset_index(drop=True)
+    df["t_s"] = np.floor(df["t_s"].to_numpy() - 0.1 + 1e-6)
+    path = write_iovnbd(df, tmp_path / "V-Whole.csv")
+    ref = reference_samples(path, seq_len=1)
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, "V-Whole.csv", block_bytes=3000)
+        out, _ = stream_all(model, list(blocks))
+    t_ref = ref.frame["t_s"].to_numpy()
+    assert len(t_ref) >= (198 if lost else 199)
+    np.testing.assert_allclose(out["t_s"], t_ref, rtol=0, atol=1e-6)
+    for k in ("disp_wpm_m", "disp_gnss_m"):
+        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
+
+
 @pytest.mark.parametrize("sizes", [[100_000], [7] * 1000, [405, 1] + [10] * 100])
 def test_a_one_row_wheel_glitch_is_repaired_and_listed_whatever_the_blocking(bundle, sizes):
     # A CAN glitch (one rear wheel at ten times its speed for one row) must not move the

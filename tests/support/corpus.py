@@ -1810,6 +1810,34 @@ def _(raw: Path) -> None:
     _time_as_text(raw, _clock, df)
 
 
+def _whole_clock(t: float) -> str:  # hh:mm:ss of the second a row's time falls in
+    s = math.floor(t - 0.1 + 1e-6)
+    return f"{s // 3600:02d}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+@case(
+    "time_as_hh_mm_ss_without_its_fraction",
+    "the time column saved by a spreadsheet that shows it as hh:mm:ss: the fraction of "
+    "the second lost, the ten rows of each second stamped alike",
+    # rwhonet.data.timebase.coarse_places: each stamp's rows 0.1 s apart after it
+    Accept("each stamp's rows placed 0.1 s apart after it, in the file's order"),
+)
+def _(raw: Path) -> None:
+    _time_as_text(raw, _whole_clock)
+
+
+@case(
+    "time_to_the_second_and_a_sample_lost",
+    "the time column as hh:mm:ss without its fraction, and data row 500 lost: its "
+    "second's stamp holds nine rows",
+    # its nine rows untimed (which was lost the stamps do not tell), left out: a gap
+    Repair("gap", 2),
+)
+def _(raw: Path) -> None:
+    df = good_target().drop(index=499).reset_index(drop=True)
+    _time_as_text(raw, _whole_clock, df)
+
+
 @case(
     "time_as_text_with_an_impossible_time",
     "ISO 8601 times with one impossible minute (12:61) in data row 400",

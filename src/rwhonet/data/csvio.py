@@ -128,6 +128,9 @@ class RawDrive:
         row_order: where the rows were put in time order
             (:func:`rwhonet.data.sampleorder.rows_in_time_order`), the file's data row of
             each (1-based); None: the file's order.
+        untimed_rows: data rows of the file (1-based) left out because their stamps,
+            coarser than the rows, cannot tell their times (a second's stamp holding
+            fewer rows than a second has: :func:`rwhonet.data.sampleorder.coarse_stamps_placed`).
     """
 
     columns: dict[str, np.ndarray]
@@ -139,6 +142,7 @@ class RawDrive:
     held_fix_period_rows: int = 0
     header_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     row_order: np.ndarray | None = None
+    untimed_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n_rows(self) -> int:

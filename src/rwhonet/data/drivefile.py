@@ -51,7 +51,7 @@ from rwhonet.data.fastfile import as_streams, needs_resampling
 from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
-from rwhonet.data.sampleorder import rows_in_time_order
+from rwhonet.data.sampleorder import coarse_stamps_placed, rows_in_time_order
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.vbo import (
@@ -239,6 +239,7 @@ def read_any(
             raw = read_columnmap(f.path, data.column_maps[f.format], f.format, file, radius_m)
         else:
             return _read_streams(f, kind, data, rel, radius_m, period_s, split_gap_s, require_fix)
+        raw = coarse_stamps_placed(raw, file, period_s)  # hh:mm:ss without its fraction
         raw = rows_in_time_order(drop_rows(raw, file), file, period_s)
         # a 20-100 Hz table, or one at a rate of the logger's own (9.98 Hz)
         if needs_resampling(raw.columns[c.T_S], period_s):

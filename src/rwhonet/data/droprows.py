@@ -23,8 +23,11 @@ the ingest manifest (the dropped rows, 1-based data rows of the file):
 
 A third kind is left out by the readers themselves: ``header_rows``, the header's line
 again among the rows (:func:`rwhonet.data.csvio.header_again_rows`: a logger that wrote its
-header each time it started, files of one drive joined); :func:`drop_rows` numbers the rows
-it drops through them.
+header each time it started, files of one drive joined); a fourth before the copies are
+told: ``untimed_rows``, the rows of a second whose stamp, coarser than the rows, holds fewer
+of them than a second has, so that which sample was lost the stamps cannot tell
+(:func:`rwhonet.data.sampleorder.coarse_stamps_placed`); :func:`drop_rows` numbers the rows
+it drops through both.
 
 The canonical drive then lacks those rows, so its row ``k`` is no longer data row
 ``k + 1`` of the file; :class:`FileRows` gives the file's row for every message that
@@ -56,8 +59,9 @@ ROWS_NOTED = 5
 WHEELLESS_MAX_SHARE = 1 / 3
 # The kinds of rows a drive read from a 10 Hz file may lose, as the ingest manifest and
 # reports/validation.json name them: copies, rows without a wheel speed, the header's line
-# again (csvio.header_again_rows, left out by the reader).
-ROW_KINDS = ("repeated_rows", "wheelless_rows", "header_rows")
+# again (csvio.header_again_rows, left out by the reader), rows whose stamps to the second
+# cannot tell their times (sampleorder.coarse_stamps_placed).
+ROW_KINDS = ("repeated_rows", "wheelless_rows", "header_rows", "untimed_rows")
 # The ingest manifest's key for a drive whose rows were put in time order
 # (:func:`rwhonet.data.sampleorder.rows_in_time_order`): the file's data row of each row.
 ROW_ORDER = "row_order"
@@ -133,8 +137,9 @@ def drop_rows(raw: RawDrive, file: str) -> RawDrive:
             (a third) of the rows or more lack a wheel speed (wheel speeds written at their
             own rate).
     """
-    file_row = FileRows(raw.header_rows)  # the reader left out the header's lines again
-    n_file_rows = raw.n_rows + len(raw.header_rows)
+    # the reader left out the header's lines again; coarse stamps, rows without a time
+    file_row = FileRows(np.union1d(raw.header_rows, raw.untimed_rows))
+    n_file_rows = raw.n_rows + len(raw.header_rows) + len(raw.untimed_rows)
     wheelless = wheelless_rows(raw.columns)
     if wheelless.size:
         empty = [w for w in c.WHEELS if w in raw.columns and np.isnan(raw.columns[w]).all()]
@@ -212,13 +217,15 @@ def wheelless_problems(
 
 def manifest_rows(raw: RawDrive) -> dict[str, Any]:
     """The rows a drive lost, as the ingest manifest lists them (only the kinds it lost):
-    ``repeated_rows``, ``wheelless_rows`` and ``header_rows`` (the header's line again), the
-    file's data rows, every one; and ``held_fix_period_rows`` where its fixes were held
+    ``repeated_rows``, ``wheelless_rows``, ``header_rows`` (the header's line again) and
+    ``untimed_rows`` (stamps to the second that cannot tell them), the file's data rows,
+    every one; and ``held_fix_period_rows`` where its fixes were held
     (:mod:`rwhonet.data.heldfixes`)."""
     lists = {
         "repeated_rows": raw.repeated_rows,
         "wheelless_rows": raw.wheelless_rows,
         "header_rows": raw.header_rows,
+        "untimed_rows": raw.untimed_rows,
     }
     out: dict[str, Any] = {key: [int(r) for r in rows] for key, rows in lists.items() if rows.size}
     if raw.held_fix_period_rows:  # fixes held from a slower receiver, placed (heldfixes)

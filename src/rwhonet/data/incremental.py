@@ -403,8 +403,8 @@ def _in_time_order(
     downstream to refuse), handed on in runs of consecutive rows of the file; the notes
     say so."""
     from rwhonet.data.csvio import RawDrive
-    from rwhonet.data.droprows import drop_rows
-    from rwhonet.data.sampleorder import rows_in_time_order
+    from rwhonet.data.droprows import FileRows, drop_rows, manifest_rows
+    from rwhonet.data.sampleorder import coarse_stamps_placed, rows_in_time_order
     from rwhonet.data.timebase import unwrap_clock
 
     file_rows = np.concatenate([f + np.arange(len(cols[c.T_S])) for f, cols in blocks])
@@ -418,16 +418,18 @@ def _in_time_order(
         "name",
         header_rows=np.setdiff1d(np.arange(1, int(file_rows[-1]) + 1), file_rows),
     )
+    raw = coarse_stamps_placed(raw, file, period_s)  # hh:mm:ss without its fraction
     raw = rows_in_time_order(drop_rows(raw, file), file, period_s)
-    if raw.row_order is None:  # in order, or not safe to sort: as read
+    moved = raw.columns[c.T_S] - raw.columns["unwrapped_t"]  # coarse stamps, a clock set back
+    if raw.row_order is None and not moved.any():  # in order, or not safe to sort: as read
         yield from blocks
         return
     lay.notes.extend(note.removeprefix(f"{file}: ") for note in raw.notes)
     order = raw.row_order
+    if order is None:  # in the file's order, but copies and rows without a wheel dropped
+        order = FileRows.of(manifest_rows(raw))(np.arange(raw.n_rows))
     kept = {k: v for k, v in raw.columns.items() if k not in ("logged_t", "unwrapped_t")}
-    # placed on the clock as the file has it (less what a clock set back moved: sampleorder)
-    moved = raw.columns[c.T_S] - raw.columns["unwrapped_t"]
-    kept[c.T_S] = raw.columns["logged_t"] + moved
+    kept[c.T_S] = raw.columns["logged_t"] + moved  # the clock as the file has it, moved
     cuts = np.r_[0, np.flatnonzero(np.diff(order) != 1) + 1, order.size]
     for a, b in itertools.pairwise(cuts.tolist()):
         yield int(order[a]), {k: v[a:b] for k, v in kept.items()}

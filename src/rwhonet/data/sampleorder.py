@@ -46,7 +46,7 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows, repeated_rows
-from rwhonet.data.timebase import run_slots
+from rwhonet.data.timebase import coarse_places, run_slots
 from rwhonet.geo.geodesic import geodesic_distance_m
 
 # Sorting may not bring two samples closer than this share of the stream's median step
@@ -385,3 +385,39 @@ def _went_on(lat: np.ndarray, lon: np.ndarray, i: int) -> bool:
             moved = max(moved, float(np.max(d / np.diff(rows))))
     gap = float(geodesic_distance_m(lat[a], lon[a], lat[b], lon[b]))
     return gap <= STEP_REACH * moved * (b - a) + STEP_FIX_M
+
+
+def coarse_stamps_placed(raw: RawDrive, file: str, period_s: float) -> RawDrive:
+    """A 10 Hz file whose stamps are coarser than its rows (``hh:mm:ss`` without the
+    fraction: the ten rows of a second share one stamp) placed a period apart after each
+    stamp, in the file's order (:func:`rwhonet.data.timebase.coarse_places`), before its
+    copies are told (rows at a standstill that share a stamp are no copies); the rows of
+    a second whose stamp holds fewer (a sample lost: which, the stamps do not tell) left
+    out as ``untimed_rows``; the note says so. Else ``raw`` itself (validate refuses a
+    time twice, naming the row)."""
+    got = coarse_places(raw.columns[c.T_S], period_s)
+    if got is None:
+        return raw
+    placed, q, untimed = got
+    n = round(q / period_s)
+    note = (
+        f"{file}: time stamps to {q:g} s, coarser than its rows ({n} a stamp, one every "
+        f"{period_s:g} s): each stamp's rows placed {period_s:g} s apart after it, in the "
+        f"file's order (the second up to the next stamp; the first stamp's rows in its "
+        "last slots). Stamps rounded to the nearest "
+        f"{q:g} s (a spreadsheet's) rather than cut put the seconds up to {q / 2:g} s late"
+    )
+    columns = {**raw.columns, c.T_S: placed}
+    rows = np.zeros(0, dtype=np.int64)
+    if untimed.any():
+        at = np.flatnonzero(untimed)
+        rows = FileRows(raw.header_rows)(at)
+        stamps = np.unique(raw.columns[c.T_S][at]).size
+        columns = {k: v[~untimed] for k, v in columns.items()}
+        note += (
+            f"; {rows.size} row(s) of {stamps} stamp(s) holding fewer than {n} "
+            f"({_listed(rows)}): samples lost, which the "
+            "stamps do not tell, so their times are unknown: left out, their seconds and the "
+            "next cut"
+        )
+    return replace(raw, columns=columns, notes=(*raw.notes, note), untimed_rows=rows)

@@ -199,8 +199,9 @@ def _drive_checks(
                 lambda df, i, case, rows: f"t = {_num(case)} s again (as in row {rows(i - 1)})",
                 "two samples at one time, their values not the same (an exact copy of the "
                 "row before is dropped at ingest): a clock that stuck, or stamps rounded "
-                "too coarsely; delete one of the two rows, or re-export the drive with "
-                "finer time stamps",
+                "too coarsely (stamps to the second, every one holding its second's rows "
+                "and most all of them, are placed at ingest); delete one of the two rows, "
+                "or re-export the drive with finer time stamps",
             ),
         ),
         "time_not_backwards": (

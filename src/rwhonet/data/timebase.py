@@ -397,6 +397,56 @@ def _on_whole_multiples(t: np.ndarray, period_s: float) -> bool:
     return bool(np.max(np.abs(t - np.rint(t * per_s) / per_s)) <= TIME_EPS_S)
 
 
+# Stamps coarser than the rows (:func:`coarse_places`): at least this share of the steps
+# between rows are none (the rows of one stamp)
+COARSE_SHARE = 0.5
+
+
+def coarse_places(t_s: np.ndarray, period_s: float) -> tuple[np.ndarray, float, np.ndarray] | None:
+    """Times for rows whose stamps are coarser than their rate, the stamps' step, and the
+    rows whose times they cannot tell.
+
+    A spreadsheet that shows a time as ``hh:mm:ss`` saves it so in a CSV, dropping the
+    fraction; a logger that prints ``%H:%M:%S``, or writes the GNSS receiver's once-a-second
+    time in every row, does the same: the ten rows of each second share one stamp. Such
+    stamps are told by every step between rows being none or a whole number of one
+    step ``q`` (a second) that holds a whole number ``n >= 2`` of periods, at least
+    :data:`COARSE_SHARE` of them none, no stamp holding more than ``n`` rows and most
+    holding ``n``. Each stamp's rows are then placed a period apart after it, in the
+    file's order (``stamp + (k + 1) * period``: the second ``(stamp, stamp + q]``, the
+    grid's second ending at the next stamp). The first stamp's rows take its last slots
+    (the logger started during that second), the last stamp's its first (it stopped).
+    Any other stamp with fewer rows lost a sample, and which the stamps no longer tell:
+    placed in its first slots, its last row would stand a period early as the start of
+    the next second (a label 0.1 s of travel off, 1.7 m at 17 m/s); its rows are
+    *untimed*, for the caller to leave out (a gap: its second and the next are cut).
+
+    Returns:
+        ``(times, q, untimed)`` (``untimed`` a bool mask), or None where the stamps are
+        not so (the rows as stamped).
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.size < 3 or not np.isfinite(t).all():
+        return None
+    step = np.diff(t)
+    if (step < 0).any() or (step == 0).mean() < COARSE_SHARE or not (step > 0).any():
+        return None
+    q = float(step[step > 0].min())
+    n = round(q / period_s)
+    quanta = step[step > 0] / q
+    if n < 2 or abs(q / period_s - n) > 1e-6 * n or np.abs(quanta - np.round(quanta)).max() > 1e-6:
+        return None
+    starts = np.r_[0, np.flatnonzero(step > 0) + 1]
+    rows = np.diff(np.r_[starts, t.size])
+    if rows.max() > n or float(np.median(rows)) != n:
+        return None
+    within = np.arange(t.size) - np.repeat(starts, rows)
+    within[: rows[0]] += n - rows[0]  # the logger started in the first stamp's second
+    short = rows < n
+    short[[0, -1]] = False
+    return t + (within + 1) * period_s, q, np.repeat(short, rows)
+
+
 def label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     """The times a drive's rates are integrated over: the stamps, or their slots' instants.
 

@@ -766,8 +766,9 @@ def _time_problem(
         found = f"t = {now!r} s again (as in row {before})"
         fix = (
             "two samples at one time, their values not the same: a clock that stuck, or "
-            "stamps rounded too coarsely; delete one of the two rows, or re-export the "
-            "drive with finer time stamps"
+            "stamps rounded too coarsely (a drive given as a file, not from a pipe, whose "
+            "stamps to the second each hold their second's rows is placed); delete one of "
+            "the two rows, or re-export the drive with finer time stamps"
         )
     else:
         found = f"time goes backwards: t = {_found(now)} s after t = {_found(prev)} s"
