@@ -1,6 +1,7 @@
-"""What the stop-60, stop-61, stop-67 and stop-68 logger habits cost the readers: one hour of a
-drive read plain, with its header line again, kept compressed, logged at 50 Hz, stamped
-with a bell curve's jitter, its rows out of order and its last row cut; and one hour of a
+"""What the stop-60, stop-61, stop-67, stop-68 and stop-69 logger habits cost the readers: one
+hour of a drive read plain, with its header line again, kept compressed, logged at 50 Hz,
+stamped with a bell curve's jitter, its rows out of order, its last row cut, its clock set
+back and its times cut to the second; and one hour of a
 drive as stream CSVs, plain, with samples written late, written twice or shuffled, and the
 header again.
 
@@ -13,7 +14,9 @@ curve's jitter of 20 ms (rows placed in their slots by the rows' order), with 20
 rows swapped and with its halves joined the wrong way (put in time order), with its
 last row cut short 40 bytes before its end (not read), jittered by the bell curve from half
 way on only (a logger that gets busy: the reach told by the rows around each place), and
-restarted half way after 1.3 s on a phase 48 ms off (each run on its own), and times, in this
+restarted half way after 1.3 s on a phase 48 ms off (each run on its own), its clock set
+back 0.23 s half way (an NTP step: the rows after it put on by whole seconds), and its times
+cut to the second (each stamp's rows placed 0.1 s apart), and times, in this
 process, ingest's reader (``rwhonet.data.drivefile.read_any``) and predict's
 (``rwhonet.data.incremental.read_rows`` to its last block) on each, best of ``--repeat``.
 
@@ -96,6 +99,14 @@ def variants(folder: Path) -> dict[str, Path]:
     restarted = frame.copy()
     restarted.loc[ROWS // 2 :, c.T_S] = np.round(restarted.loc[ROWS // 2 :, c.T_S] + 1.348, 3)
     out["restart 48 ms"] = write_iovnbd(restarted, folder / "V-R.csv")
+    # stop 69: the clock set back 0.23 s half way (an NTP step: put on by whole seconds);
+    # the times cut to the second (hh:mm:ss without its fraction: each stamp's rows placed)
+    set_back = frame.copy()
+    set_back.loc[ROWS // 2 :, c.T_S] = np.round(set_back.loc[ROWS // 2 :, c.T_S] - 0.23, 3)
+    out["clock set back"] = write_iovnbd(set_back, folder / "V-K.csv")
+    whole = frame.copy()
+    whole[c.T_S] = np.floor(whole[c.T_S].to_numpy() - 0.1 + 1e-6)
+    out["to the second"] = write_iovnbd(whole, folder / "V-S.csv")
     return out
 
 
