@@ -106,7 +106,7 @@ def variants(folder: Path) -> dict[str, Path]:
     out["clock set back"] = write_iovnbd(set_back, folder / "V-K.csv")
     whole = frame.copy()
     whole[c.T_S] = np.floor(whole[c.T_S].to_numpy() - 0.1 + 1e-6)
-    out["to the second"] = write_iovnbd(whole, folder / "V-S.csv")
+    out["to the second"] = write_iovnbd(whole, folder / "V-T.csv")
     return out
 
 

@@ -371,7 +371,7 @@ def _placed_or_resampled(
     ``STREAM_PHASE_ROWS`` rows are judged."""
     from rwhonet.data.fastfile import needs_resampling
     from rwhonet.data.sampleorder import out_of_order
-    from rwhonet.data.timebase import unwrap_clock
+    from rwhonet.data.timebase import coarse_places, unwrap_clock
 
     head: list[tuple[int, dict[str, np.ndarray]]] = []
     n = 0
@@ -383,7 +383,9 @@ def _placed_or_resampled(
     t = np.concatenate([cols[c.T_S] for _, cols in head]) if head else np.zeros(0)
     if ordered is not None:  # the whole drive, on its continuous clock (midnight unwrapped)
         t = unwrap_clock(t)[0]
-        if head and out_of_order(t, period_s):  # beyond a jitter the rows' order places
+        # stamps to the second (placed), or out of order beyond a jitter the rows' order
+        # places (coarse stamps first: to out_of_order each second is a run of its own)
+        if head and (coarse_places(t, period_s) is not None or out_of_order(t, period_s)):
             head = list(ordered(head))
             t = unwrap_clock(np.concatenate([cols[c.T_S] for _, cols in head]))[0]
     # judged in time order, as ingest judges it after putting the rows in order
