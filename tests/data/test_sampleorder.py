@@ -573,3 +573,16 @@ def test_a_file_stamped_to_the_second_is_placed_a_period_apart_after_each_stamp(
     np.testing.assert_allclose(got[c.T_S], want.columns[c.T_S], rtol=0, atol=1e-6)
     np.testing.assert_array_equal(got[c.OMEGA_RL], want.columns[c.OMEGA_RL])
     assert any("time stamps to 1 s" in n for n in notes)
+
+
+def test_a_5_hz_drive_written_twice_is_no_drive_stamped_to_0_2_s(tmp_path):
+    """Every row of a 5 Hz drive written twice: two rows a stamp 0.2 s apart, as a 10 Hz
+    drive stamped to 0.2 s would have, but each pair is one sample written again: its
+    copies are dropped and validate names its rate; the rows are not placed 0.1 s apart
+    (found by review: placed, it passed for a 10 Hz drive, each sample held twice)."""
+    clean, _ = _ten_hz(tmp_path)
+    five = clean.iloc[::2].reset_index(drop=True)
+    twice = five.loc[five.index.repeat(2)].reset_index(drop=True)
+    raw, _, _ = _read(write_iovnbd(twice, tmp_path / "V-D.csv"))
+    assert raw.n_rows == len(five) and not any("time stamps to" in n for n in raw.notes)
+    np.testing.assert_array_equal(raw.columns[c.T_S], five[c.T_S].to_numpy())

@@ -394,9 +394,11 @@ def coarse_stamps_placed(raw: RawDrive, file: str, period_s: float) -> RawDrive:
     copies are told (rows at a standstill that share a stamp are no copies); the rows of
     a second whose stamp holds fewer (a sample lost: which, the stamps do not tell) left
     out as ``untimed_rows``; the note says so. Else ``raw`` itself (validate refuses a
-    time twice, naming the row)."""
+    time twice, naming the row): also where most rows that share a stamp repeat the row
+    before them in every column, rows written twice (a 5 Hz drive so written is no 10 Hz
+    drive stamped to 0.2 s: its copies are dropped, and validate names its rate)."""
     got = coarse_places(raw.columns[c.T_S], period_s)
-    if got is None:
+    if got is None or _mostly_copies(raw.columns):
         return raw
     placed, q, untimed = got
     n = round(q / period_s)
@@ -421,3 +423,15 @@ def coarse_stamps_placed(raw: RawDrive, file: str, period_s: float) -> RawDrive:
             "next cut"
         )
     return replace(raw, columns=columns, notes=(*raw.notes, note), untimed_rows=rows)
+
+
+def _mostly_copies(columns: Mapping[str, np.ndarray]) -> bool:
+    """Whether most rows at the time of the row before them repeat it in every column
+    (NaN equal to NaN): rows written twice, not the rows of a stamp to the second."""
+    t = columns[c.T_S]
+    same = t[1:] == t[:-1]
+    copy = same.copy()
+    for values in columns.values():
+        a, b = values[1:], values[:-1]
+        copy &= (a == b) | (np.isnan(a) & np.isnan(b))
+    return bool(same.any() and copy.sum() * 2 > same.sum())
