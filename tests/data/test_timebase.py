@@ -491,3 +491,20 @@ def test_rows_of_stamps_to_the_second_are_placed_a_period_apart_after_each():
 )
 def test_stamps_that_are_not_coarse_stamps_of_the_rows_are_left(stamps):
     assert coarse_places(stamps, PERIOD) is None
+
+
+def test_a_sample_jittered_across_a_second_s_edge_is_placed_in_turn():
+    """A software logger's stamps cut to the second, one sample jittered 5 ms across the
+    edge: a stamp with 11 rows beside one with 9. Their 20 rows are placed in turn, each
+    at its true slot; an 11 alone (no 9 beside it) is no such crossing: left."""
+    true = T0 + PERIOD * np.arange(300)  # the logger's samples at 0.0-29.9 s
+    logged = true.copy()
+    logged[110] -= 0.005  # the sample at 11.0 s logged at 10.995 s: stamped 10, not 11
+    stamps = np.floor(logged + 1e-9)  # cut to the second, as %H:%M:%S writes it
+    assert np.count_nonzero(stamps == T0 + 10) == 11 and np.count_nonzero(stamps == T0 + 11) == 9
+    placed, _, untimed = coarse_places(stamps, PERIOD)
+    assert not untimed.any()
+    # each at its true slot, a period on (a stamp's rows fill the second up to the next)
+    np.testing.assert_allclose(placed, true + PERIOD, rtol=0, atol=1e-9)
+    eleven = np.r_[stamps[:50], T0 + 4, stamps[50:]]  # a row more, none fewer beside it
+    assert coarse_places(eleven, PERIOD) is None

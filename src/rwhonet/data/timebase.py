@@ -412,7 +412,10 @@ def coarse_places(t_s: np.ndarray, period_s: float) -> tuple[np.ndarray, float, 
     stamps are told by every step between rows being none or a whole number of one
     step ``q`` (a second) that holds a whole number ``n >= 2`` of periods, at least
     :data:`COARSE_SHARE` of them none, no stamp holding more than ``n`` rows and most
-    holding ``n``. Each stamp's rows are then placed a period apart after it, in the
+    holding ``n`` (none more, but for a sample a software logger's jitter stamped across
+    a second's edge: an inner stamp with ``n + 1`` rows beside one with ``n - 1``, a
+    second apart, whose ``2n`` rows are placed in turn from the first's). Each stamp's
+    rows are then placed a period apart after it, in the
     file's order (``stamp + (k + 1) * period``: the second ``(stamp, stamp + q]``, the
     grid's second ending at the next stamp). The first stamp's rows take its last slots
     (the logger started during that second), the last stamp's its first (it stopped).
@@ -438,13 +441,32 @@ def coarse_places(t_s: np.ndarray, period_s: float) -> tuple[np.ndarray, float, 
         return None
     starts = np.r_[0, np.flatnonzero(step > 0) + 1]
     rows = np.diff(np.r_[starts, t.size])
-    if rows.max() > n or float(np.median(rows)) != n:
+    if float(np.median(rows)) != n:
         return None
-    within = np.arange(t.size) - np.repeat(starts, rows)
+    # a sample a logger's jitter stamped across a second's edge: an inner stamp with one
+    # row more than a second has beside one with one fewer, a second apart; their 2n rows
+    # are placed in turn from the first's
+    stamp = t[starts]
+    follow = np.zeros(rows.size, dtype=bool)
+    g = 1
+    while g < rows.size - 2:
+        if abs(stamp[g + 1] - stamp[g] - q) <= 1e-6 * q and {rows[g], rows[g + 1]} == {
+            n - 1,
+            n + 1,
+        }:
+            follow[g + 1] = True
+            g += 2
+        else:
+            g += 1
+    paired = follow | np.r_[follow[1:], False]
+    if (rows[~paired] > n).any():
+        return None
+    origin = np.arange(rows.size) - follow  # the stamp each stamp's rows count from
+    within = np.arange(t.size) - np.repeat(starts[origin], rows)
     within[: rows[0]] += n - rows[0]  # the logger started in the first stamp's second
-    short = rows < n
+    short = (rows < n) & ~paired
     short[[0, -1]] = False
-    return t + (within + 1) * period_s, q, np.repeat(short, rows)
+    return np.repeat(stamp[origin], rows) + (within + 1) * period_s, q, np.repeat(short, rows)
 
 
 def label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
