@@ -395,6 +395,21 @@ def test_a_drive_jittered_past_half_a_period_streams_as_the_clean_one(
         np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-6)
 
 
+def _streams_as_labelled(model, path, block_bytes: int = 3000) -> np.ndarray:
+    """``predict``'s seconds of a drive file, read in blocks, checked to be the label
+    code's second for second (times, displacements, predictions); the label's times."""
+    ref = reference_samples(path, seq_len=1)
+    with open(path, "rb") as f:
+        _, blocks = read_rows(f, path.name, block_bytes=block_bytes)
+        out, _ = stream_all(model, list(blocks))
+    t_ref = ref.frame["t_s"].to_numpy()
+    np.testing.assert_allclose(out["t_s"], t_ref, rtol=0, atol=1e-6)
+    for k in ("disp_wpm_m", "disp_gnss_m"):
+        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
+    return t_ref
+
+
 @pytest.mark.parametrize(("offset_s", "jitter_s"), [(0.03, 0.0), (0.05, 0.0), (0.048, 0.003)])
 @pytest.mark.parametrize("block_bytes", [3000, 150])
 def test_a_logger_restarted_on_another_phase_streams_as_the_label_stage_labels_it(
@@ -414,17 +429,9 @@ def test_a_logger_restarted_on_another_phase_streams_as_the_label_stage_labels_i
     jitter = np.random.default_rng(4).uniform(-jitter_s, jitter_s, later.sum())
     df.loc[later, "t_s"] = np.round(t[later] + 1.3 + offset_s + jitter, 3)
     path = write_iovnbd(df, tmp_path / "V-Restarted.csv")
-    ref = reference_samples(path, seq_len=1)
-    with open(path, "rb") as f:
-        _, blocks = read_rows(f, "V-Restarted.csv", block_bytes=block_bytes)
-        out, _ = stream_all(model, list(blocks))
-    t_ref = ref.frame["t_s"].to_numpy()
+    t_ref = _streams_as_labelled(model, path, block_bytes)
     # the second run's seconds end on its own phase (its last row in the second)
     assert len(t_ref) >= 195 and (np.round(t_ref % 1.0, 3) == round(0.9 + offset_s, 3)).sum() >= 95
-    np.testing.assert_allclose(out["t_s"], t_ref, rtol=0, atol=1e-6)
-    for k in ("disp_wpm_m", "disp_gnss_m"):
-        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), rtol=0, atol=1e-6)
-    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
 
 
 @pytest.mark.parametrize(
@@ -446,17 +453,8 @@ def test_a_clock_set_back_during_the_drive_streams_as_the_label_stage_labels_it(
     later = t >= t[0] + 100.0
     jitter = np.random.default_rng(5).normal(0.0, jitter_s, t.size) if jitter_s else 0.0
     df["t_s"] = np.round(t - np.where(later, back_s, 0.0) + jitter, 3)
-    path = write_iovnbd(df, tmp_path / "V-SetBack.csv")
-    ref = reference_samples(path, seq_len=1)
-    with open(path, "rb") as f:
-        _, blocks = read_rows(f, "V-SetBack.csv", block_bytes=3000)
-        out, _ = stream_all(model, list(blocks))
-    t_ref = ref.frame["t_s"].to_numpy()
+    t_ref = _streams_as_labelled(model, write_iovnbd(df, tmp_path / "V-SetBack.csv"))
     assert 196 <= len(t_ref) <= 199  # of 200: the seconds around the step cut
-    np.testing.assert_allclose(out["t_s"], t_ref, rtol=0, atol=1e-6)
-    for k in ("disp_wpm_m", "disp_gnss_m"):
-        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), rtol=0, atol=1e-6)
-    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
 
 
 @pytest.mark.parametrize("lost", [None, 1203])
@@ -471,17 +469,8 @@ def test_a_file_stamped_to_the_second_streams_as_the_label_stage_labels_it(bundl
     if lost is not None:
         df = df.drop(index=lost).reset_index(drop=True)
     df["t_s"] = np.floor(df["t_s"].to_numpy() - 0.1 + 1e-6)
-    path = write_iovnbd(df, tmp_path / "V-Whole.csv")
-    ref = reference_samples(path, seq_len=1)
-    with open(path, "rb") as f:
-        _, blocks = read_rows(f, "V-Whole.csv", block_bytes=3000)
-        out, _ = stream_all(model, list(blocks))
-    t_ref = ref.frame["t_s"].to_numpy()
+    t_ref = _streams_as_labelled(model, write_iovnbd(df, tmp_path / "V-Whole.csv"))
     assert len(t_ref) >= (198 if lost else 199)
-    np.testing.assert_allclose(out["t_s"], t_ref, rtol=0, atol=1e-6)
-    for k in ("disp_wpm_m", "disp_gnss_m"):
-        np.testing.assert_allclose(out[k], ref.frame[k].to_numpy(), rtol=0, atol=1e-6)
-    np.testing.assert_allclose(out["pred_error_m"], model.predict(ref.x), atol=1e-6)
 
 
 @pytest.mark.parametrize("sizes", [[100_000], [7] * 1000, [405, 1] + [10] * 100])

@@ -611,8 +611,14 @@ def _(raw: Path) -> None:
     Repair("gap", 1),
 )
 def _(raw: Path) -> None:
+    _clock_set_back(raw, 0.3)
+
+
+def _clock_set_back(raw: Path, back_s: float) -> None:
+    """The 200 s good target drive, its rows from data row 701 on stamped ``back_s``
+    earlier (the logger's clock set back as the car drove on)."""
     df = good_target(200.0)
-    df.loc[rows(df, 701, len(df)), c.T_S] = np.round(df[c.T_S].to_numpy()[700:] - 0.3, 3)
+    df.loc[rows(df, 701, len(df)), c.T_S] = np.round(df[c.T_S].to_numpy()[700:] - back_s, 3)
     write_target(raw, df)
 
 
@@ -623,9 +629,7 @@ def _(raw: Path) -> None:
     Repair("gap", 1),
 )
 def _(raw: Path) -> None:
-    df = good_target(200.0)
-    df.loc[rows(df, 701, len(df)), c.T_S] = np.round(df[c.T_S].to_numpy()[700:] - 3600.0, 3)
-    write_target(raw, df)
+    _clock_set_back(raw, 3600.0)
 
 
 @case(
