@@ -148,11 +148,13 @@ def read_stream_csvs(
             ]
         )
     headers: dict[str, list[str]] = {}
+    unreadable: list[str] = []
     for path, file in files:
         try:
             headers[file] = read_header(path, file)
         except InputError as err:
             problems += err.problems
+            unreadable.append(file)
     time_spec = signal_map["t"]
     found: dict[str, list[tuple[str, int]]] = {}
     time_at: dict[str, int] = {}
@@ -239,6 +241,8 @@ def read_stream_csvs(
             continue  # the receiver's log gives it (checked when it is read)
         if not where and undecoded:
             continue  # the refused CAN log's problems say why its signals are missing
+        if not where and unreadable:
+            continue  # so do the problems of a stream file whose header could not be read
         if len(where) > 1 and _split_stream(where, found):
             continue  # one stream in several files: joined (fileparts) once read
         if len(where) != 1 and len(time_at) == len(headers):
