@@ -102,7 +102,11 @@ def rate_ratio(t_s: np.ndarray, period_s: float) -> tuple[float, float]:
     t = t[np.isfinite(t)]
     if t.size < 3:
         return 0.0, float("inf")
-    even = _even(np.diff(t), period_s)
+    return _rate_ratio(t, _even(np.diff(t), period_s), period_s)
+
+
+def _rate_ratio(t: np.ndarray, even: np.ndarray, period_s: float) -> tuple[float, float]:
+    """:func:`rate_ratio` of finite times ``t`` (3 or more) whose even steps are told."""
     starts = np.r_[0, np.flatnonzero(~even) + 1]
     size = np.diff(np.r_[starts, t.size])
     stretch = np.repeat(np.arange(starts.size), size)
@@ -134,14 +138,16 @@ def is_off_the_grid_rate(t_s: np.ndarray, period_s: float) -> bool:
     :data:`OFF_RATE` or more, and by :data:`OFF_RATE_SE` standard errors
     (:func:`rate_ratio`)."""
     t = np.asarray(t_s, dtype=np.float64)
-    steps = np.diff(t[np.isfinite(t)])
-    steps = steps[_even(steps, period_s)]
+    t = t[np.isfinite(t)]
+    steps = np.diff(t)
+    even = _even(steps, period_s)
+    steps = steps[even]
     if steps.size < 2:
         return False
     spread = 1.4826 * float(np.median(np.abs(steps - np.median(steps))))
     if spread > REGULAR_SPREAD * period_s:
         return False
-    off, se = rate_ratio(t, period_s)
+    off, se = _rate_ratio(t, even, period_s)
     return abs(off) >= OFF_RATE and abs(off) >= OFF_RATE_SE * se
 
 
@@ -209,8 +215,8 @@ def as_streams(raw: RawDrive, file: str, period_s: float = GRID_PERIOD_S) -> Dri
                 stream(f"rows with {source.get(name, name)}", np.flatnonzero(rows), (name,))
             )
     held_rows = held.period_rows if held is not None else 0
-    if median_step(t) * FAST_FACTOR <= period_s:
-        note = fast_note(median_step(t), held_rows)
+    if (step := median_step(t)) * FAST_FACTOR <= period_s:
+        note = fast_note(step, held_rows)
     else:
         note = off_rate_note(rate_ratio(t, period_s)[0], period_s, held_rows)
     return DriveStreams(

@@ -47,7 +47,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows, repeated_rows
 from rwhonet.data.timebase import coarse_places, run_slots
-from rwhonet.geo.geodesic import geodesic_distance_m
+from rwhonet.geo.geodesic import geodesic_distance_m, local_step_distance_m
 
 # Sorting may not bring two samples closer than this share of the stream's median step
 # unless the file already had them so close. A clock set back by anything but a whole
@@ -381,7 +381,7 @@ def _went_on(lat: np.ndarray, lon: np.ndarray, i: int) -> bool:
     for lo, hi in ((max(i - STEP_NEAR_ROWS, 0), i), (i, min(i + STEP_NEAR_ROWS, lat.size))):
         rows = lo + np.flatnonzero(ok[lo:hi])
         if rows.size >= 2:
-            d = geodesic_distance_m(lat[rows[:-1]], lon[rows[:-1]], lat[rows[1:]], lon[rows[1:]])
+            d = local_step_distance_m(lat[rows], lon[rows])
             moved = max(moved, float(np.max(d / np.diff(rows))))
     gap = float(geodesic_distance_m(lat[a], lon[a], lat[b], lon[b]))
     return gap <= STEP_REACH * moved * (b - a) + STEP_FIX_M
@@ -426,12 +426,9 @@ def coarse_stamps_placed(raw: RawDrive, file: str, period_s: float) -> RawDrive:
 
 
 def _mostly_copies(columns: Mapping[str, np.ndarray]) -> bool:
-    """Whether most rows at the time of the row before them repeat it in every column
-    (NaN equal to NaN): rows written twice, not the rows of a stamp to the second."""
+    """Whether most rows at the time of the row before them repeat an earlier row in every
+    column, the time included (:func:`rwhonet.data.droprows.repeated_rows`): rows written
+    twice, not the rows of a stamp to the second."""
     t = columns[c.T_S]
-    same = t[1:] == t[:-1]
-    copy = same.copy()
-    for values in columns.values():
-        a, b = values[1:], values[:-1]
-        copy &= (a == b) | (np.isnan(a) & np.isnan(b))
-    return bool(same.any() and copy.sum() * 2 > same.sum())
+    same = int(np.count_nonzero(t[1:] == t[:-1]))
+    return bool(same and repeated_rows(columns).size * 2 > same)
