@@ -586,3 +586,23 @@ def test_a_5_hz_drive_written_twice_is_no_drive_stamped_to_0_2_s(tmp_path):
     raw, _, _ = _read(write_iovnbd(twice, tmp_path / "V-D.csv"))
     assert raw.n_rows == len(five) and not any("time stamps to" in n for n in raw.notes)
     np.testing.assert_array_equal(raw.columns[c.T_S], five[c.T_S].to_numpy())
+
+
+def test_rows_the_whole_drive_cannot_place_beside_a_step_are_no_step_of_their_own():
+    """Two steps back of 0.13 s (rows 163 and 399) under 3 ms of jitter: the whole drive's
+    slots, on a phase between its three stretches', left row 130 not after row 129 too.
+    That row was taken for a third step, and the rows from it put 1 s on, a gap where
+    the clock ran on (found by the property test above). Only a row whose time goes back,
+    or on by under half a period, is a step."""
+    from rwhonet.data.sampleorder import clock_steps
+
+    n = 1200
+    t = 45000.0 + 0.1 * np.arange(n) + np.random.default_rng(84).normal(0.0, 0.003, n)
+    t[163:] -= 0.13
+    t[399:] -= 0.13
+    t = np.round(t, 3)
+    lat = 52.41 + 1.3e-4 * np.arange(n)
+    new, said = clock_steps(t, lat, np.full(n, -1.5), np.arange(1, n + 1), 0.1)
+    moved = np.round(new - t, 6)
+    assert set(np.flatnonzero(np.diff(moved)) + 1) == {163, 399}
+    assert said.count(" s back, its rows ") == 2

@@ -335,7 +335,13 @@ def clock_steps(
     steps = []
     for k in range(int(cluster[-1]) + 1):
         near = back[cluster == k]
-        steps.append(int(near[0]) + int(np.argmin(dt[near[0] - 1 : near[-1]])))
+        i = int(near[0]) + int(np.argmin(dt[near[0] - 1 : near[-1]]))
+        if dt[i - 1] < 0.5 * period_s:  # a clock set back: the time goes back, or on by
+            steps.append(i)  # under half a period (0.13 s back under 20 ms of jitter)
+        # else rows the whole drive's slots could not place beside a real step (their
+        # phase between the stretches'): each stretch's own slots judge them below
+    if not steps:
+        return None
     bounds = np.r_[0, steps, t.size]
     if np.diff(bounds).min() < STEP_RUN_ROWS:
         return None
