@@ -18,6 +18,7 @@ from rwhonet.data.timebase import (
     StreamClock,
     _isotonic,
     coarse_places,
+    drive_label_times,
     grid_phase,
     grid_slots,
     jitter_reach,
@@ -224,6 +225,41 @@ def test_label_times_keep_clean_stamps_and_put_jittered_ones_on_their_slots():
     np.testing.assert_array_equal(label_times(offset, PERIOD), offset)
     jittered = clean + np.random.default_rng(2).uniform(-0.04, 0.04, clean.size)
     np.testing.assert_allclose(label_times(jittered, PERIOD), clean, rtol=0, atol=1e-9)
+
+
+def _edge_row_late() -> tuple[np.ndarray, np.ndarray]:
+    """A drive's stamps (jittered by a bell curve of 10 ms) whose rows 469 and 470, the
+    last of a second ending at row 470, are 80 and 25 ms late, and the truth."""
+    truth = np.round(T0 + 0.1 * np.arange(1000), 6)
+    jitter = np.random.default_rng(13).normal(0.0, 0.01, truth.size)
+    jitter[466:476] = 0.0
+    jitter[469], jitter[470] = 0.08, 0.025
+    return np.round(truth + jitter, 3), truth
+
+
+def test_a_drive_s_label_times_keep_its_stamps_on_their_slots_and_place_the_rest():
+    clean = np.round(T0 + 0.1 * np.arange(600), 6)
+    assert drive_label_times(clean, PERIOD) is clean
+    t, truth = _edge_row_late()
+    got = drive_label_times(t, PERIOD)
+    np.testing.assert_allclose(got, truth, rtol=0, atol=1e-9)
+    on_slot = np.abs(label_times(t, PERIOD) - t) <= 1e-6
+    assert on_slot.sum() > 10 and np.array_equal(got[on_slot], t[on_slot])  # bit for bit
+    assert np.array_equal(got[~on_slot], label_times(t, PERIOD)[~on_slot])
+
+
+def test_a_segment_s_edge_rows_keep_the_slots_the_whole_drive_gave_them():
+    """A segment ending at row 470 (a logger's restart or a lost sample after it): placed
+    alone, its rows 469 and 470 (80 and 25 ms late) have no row after them and take the
+    slots a period late, which the drive's rows 471 on had ruled out: its last second
+    would be labelled a row's travel off. The whole drive's times, cut, stay as they are."""
+    t, truth = _edge_row_late()
+    segment = slice(0, 471)
+    alone = label_times(t[segment], PERIOD)
+    assert np.allclose(alone[469:] - truth[469:471], 0.1)  # what placing it alone gives
+    whole = drive_label_times(t, PERIOD)[segment]
+    np.testing.assert_array_equal(label_times(whole, PERIOD), whole)
+    np.testing.assert_allclose(whole, truth[segment], rtol=0, atol=1e-9)
 
 
 @given(

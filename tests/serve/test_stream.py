@@ -457,6 +457,22 @@ def test_a_clock_set_back_during_the_drive_streams_as_the_label_stage_labels_it(
     assert 196 <= len(t_ref) <= 199  # of 200: the seconds around the step cut
 
 
+@pytest.mark.parametrize("block_bytes", [3000, 150])
+def test_rows_late_before_a_restart_stream_as_the_label_stage_labels_them(
+    bundle, tmp_path, block_bytes
+):
+    """The two rows before a logger's restart 80 and 25 ms late, among stamps jittered by
+    10 ms: predict gives them the whole drive's slots, as the label code now does, second
+    for second (the label code once placed the segment alone: its last second 1.7 m off)."""
+    from support.corpus import late_rows_before_a_restart
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    path = write_iovnbd(late_rows_before_a_restart(), tmp_path / "V-Late.csv")
+    t_ref = _streams_as_labelled(model, path, block_bytes)
+    assert len(t_ref) >= 140 and 45047.0 in np.round(t_ref, 6)
+
+
 @pytest.mark.parametrize("lost", [None, 1203])
 def test_a_file_stamped_to_the_second_streams_as_the_label_stage_labels_it(bundle, tmp_path, lost):
     """Each row's time cut to the second (hh:mm:ss without its fraction, a spreadsheet's):

@@ -1718,6 +1718,33 @@ def _bell_curve_stamps(sigma_s: float, seed: int, first_row: int = 0) -> pd.Data
     return df
 
 
+def late_rows_before_a_restart() -> pd.DataFrame:
+    """The good target drive (150 s) stamped with a bell curve's jitter of 10 ms up to
+    row 476, where the logger restarted 1.348 s later (on its grid after it), and the two
+    rows before it, the last of the second ending at row 470 (45047.0 s), 80 and 25 ms
+    late."""
+    df = good_target(150.0)
+    t = df[c.T_S].to_numpy()
+    jitter = np.random.default_rng(13).normal(0.0, 0.01, t.size)
+    jitter[466:] = 0.0
+    jitter[469], jitter[470] = 0.08, 0.025
+    df[c.T_S] = np.round(t + jitter + np.where(np.arange(t.size) >= 476, 1.348, 0.0), 3)
+    return df
+
+
+@case(
+    "time_jitter_rows_late_before_a_restart",
+    "stamps off by a bell curve's jitter (sd 10 ms, to the ms), the two rows before the "
+    "logger's restart 1.3 s later 80 and 25 ms late, past half a period",
+    # validate cuts the gap on the whole drive's slots and writes them into the segments;
+    # placed alone, the segment's last two rows took the next slots and its last second
+    # was labelled 1.7 m off (until stop 70)
+    Repair("gap", 1),
+)
+def _(raw: Path) -> None:
+    write_target(raw, late_rows_before_a_restart())
+
+
 @case(
     "time_jitter_35ms_bell_curve",
     "every time stamp off by a bell curve's jitter of sd 35 ms: rows two slots off",

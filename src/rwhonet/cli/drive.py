@@ -292,6 +292,7 @@ def load_drive(
         InputError: every problem of the file, as the ingest and validate stages report them.
     """
     from rwhonet.data.drivechecks import check_drive
+    from rwhonet.data.drivefile import with_label_times
     from rwhonet.data.droprows import FileRows, manifest_rows
     from rwhonet.data.quality import segment_name
     from rwhonet.data.schema import schema_problems
@@ -325,6 +326,7 @@ def load_drive(
         raise InputError(problems, f"{file}: {len(problems)} problem(s) (validate)")
     assert result is not None  # no problem: the GNSS policy ran
     segments = []
+    table = with_label_times(table, params.validate.sample_period_s)  # as validate writes them
     for j, seg in enumerate(result.segments):
         name = segment_name(drive_id(path), j)
         sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)

@@ -54,6 +54,7 @@ from rwhonet.data.problems import unreadable_file
 from rwhonet.data.sampleorder import coarse_stamps_placed, rows_in_time_order
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
 from rwhonet.data.streams import DriveStreams
+from rwhonet.data.timebase import drive_label_times
 from rwhonet.data.vbo import (
     file_is_vbo,
     plain_count_problems,
@@ -551,6 +552,25 @@ def canonical_table(raw: RawDrive, scenario: np.ndarray | pa.Array) -> pa.Table:
         + [pa.field(c.SCENARIO, pa.string(), nullable=False)]
     )
     return pa.Table.from_arrays(arrays, schema=schema)
+
+
+def with_label_times(table: pa.Table, period_s: float) -> pa.Table:
+    """A canonical drive table with its times as the label takes them, placed on the
+    whole drive (:func:`rwhonet.data.timebase.drive_label_times`): the table itself where
+    every stamp is on its slot, or a time is not finite (validate refuses such a drive).
+
+    Its segments are sliced from it: a segment's rows placed alone would give its edge
+    rows a neighbour on one side only, and under a jitter past half a period a slot the
+    drive's rows beyond the edge had ruled out.
+    """
+    i = table.schema.get_field_index(c.T_S)
+    t = table.column(i).to_numpy()
+    if not np.isfinite(t).all():
+        return table
+    placed = drive_label_times(t, period_s)
+    if placed is t or np.array_equal(placed, t):
+        return table
+    return table.set_column(i, table.schema.field(i), pa.array(placed, type=pa.float64()))
 
 
 def scenario_array(t_s: np.ndarray, intervals: list[ScenarioInterval]) -> pa.Array:

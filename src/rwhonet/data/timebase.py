@@ -500,6 +500,34 @@ def label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     return nominal_times(t, period_s)
 
 
+def drive_label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
+    """A whole drive's :func:`label_times`, each stamp within ``TIME_EPS_S`` of the time
+    given it kept as it is: the times validate writes into the drive's segments.
+
+    Placing a segment's rows alone would give its edge rows a neighbour on one side only:
+    under a jitter past half a period, the last row of a segment ended by a logger's
+    restart or a lost sample (or its first) could then take the slot beside its own, which
+    the drive's rows after it had ruled out, and its second be labelled a row's travel
+    off. The whole drive's slots are the ones validate's seconds and ``rwhonet predict``
+    (:class:`StreamClock`) take. Keeping the stamps on their slots leaves a clean drive's
+    rows, and the rows of a drive jittered only in places, bit for bit as logged; the
+    segment's times are then all on the grid, and :func:`label_times` keeps them.
+
+    Args:
+        t_s: a drive's times, s (finite, strictly increasing).
+        period_s: the nominal sample period, s.
+
+    Returns:
+        float64 times: ``t_s`` itself where :func:`label_times` keeps it, else the slot
+        instants with the stamps on them kept.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    placed = label_times(t, period_s)
+    if placed is t:
+        return t
+    return np.where(np.abs(placed - t) <= TIME_EPS_S, t, placed)
+
+
 # Rows a stream's grid phase is estimated from before its first times are placed: with
 # fewer, the stamps' arc may not yet show where the phase lies.
 STREAM_PHASE_ROWS = 200

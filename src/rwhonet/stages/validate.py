@@ -32,6 +32,7 @@ from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
 from rwhonet.data import leftout
 from rwhonet.data.drivechecks import check_drive, target_test_min_s
+from rwhonet.data.drivefile import with_label_times
 from rwhonet.data.droprows import FileRows, report_rows
 from rwhonet.data.plausibility import reversing_rows
 from rwhonet.data.quality import RULES, Assessment, segment_name
@@ -164,7 +165,7 @@ def validate(
                     reversing_rows(df, vp.wheels.negative_tol_rad_s).sum()
                 )
                 # Written whatever other drives found: a failed stage discards them all.
-                return [], report, _write_segments(entry, table, result, tmp)
+                return [], report, _write_segments(entry, table, result, tmp, vp.sample_period_s)
 
             for k, checked in map_in_order(check, range(len(batch.entries))):
                 found, report, segments = checked.result()
@@ -257,10 +258,17 @@ def _calibration_kept(
 
 
 def _write_segments(
-    entry: dict[str, Any], table: pa.Table, result: Assessment, folder: Path
+    entry: dict[str, Any], table: pa.Table, result: Assessment, folder: Path, period_s: float
 ) -> list[dict[str, Any]]:
-    """Write a drive's segments (slices of its Arrow table); return their manifest entries."""
+    """Write a drive's segments (slices of its Arrow table); return their manifest entries.
+
+    Where the drive's stamps are jittered, the segments' times are the whole drive's
+    slot instants (:func:`rwhonet.data.timebase.drive_label_times`), the slots validate
+    cut the seconds on: placed alone, a segment's edge rows could take other slots.
+    """
     entries = []
+    if result.segments:
+        table = with_label_times(table, period_s)
     for j, seg in enumerate(result.segments):
         name = segment_name(entry["drive"], j)
         # A slice of the drive's Arrow table: its rows, untouched and uncopied.
