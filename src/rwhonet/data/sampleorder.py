@@ -79,6 +79,9 @@ STEP_NEAR_ROWS = 20
 STEP_REACH = 1.5
 STEP_FIX_M = 5.0
 STEP_GAP_S = 1.0
+# A jitter beside a step may have it found this many rows off the row where the clock
+# went back (its fixes are judged beyond them)
+STEP_SLACK_ROWS = 2
 
 
 @dataclass(frozen=True)
@@ -336,8 +339,10 @@ def clock_steps(
     for k in range(int(cluster[-1]) + 1):
         near = back[cluster == k]
         i = int(near[0]) + int(np.argmin(dt[near[0] - 1 : near[-1]]))
-        if dt[i - 1] < 0.5 * period_s:  # a clock set back: the time goes back, or on by
-            steps.append(i)  # under half a period (0.13 s back under 20 ms of jitter)
+        # a clock set back: the time goes back, or on by under half a period (0.13 s back
+        # under 20 ms of jitter), and the rows after it stay back
+        if dt[i - 1] < 0.5 * period_s and _stayed_back(t, i, period_s):
+            steps.append(i)
         # else rows the whole drive's slots could not place beside a real step (their
         # phase between the stretches'): each stretch's own slots judge them below
     if not steps:
@@ -373,18 +378,36 @@ def clock_steps(
     )
 
 
+def _stayed_back(t: np.ndarray, i: int, period_s: float) -> bool:
+    """Whether the rows from row ``i`` on run at least half a period behind the clock of
+    the rows before it: the median of each side's stamps less their rows' periods
+    (:data:`STEP_RUN_ROWS` rows a side). A jitter's one short step (under a bell curve
+    of 20 ms, 4 % of rows step under half a period) leaves the two alike: their
+    medians differ by 8 ms (one standard deviation) at 20 ms."""
+    lo, hi = max(i - STEP_RUN_ROWS, 0), min(i + STEP_RUN_ROWS, t.size)
+    off = t[lo:hi] - t[lo] - period_s * np.arange(hi - lo)
+    return bool(np.median(off[i - lo :]) <= np.median(off[: i - lo]) - 0.5 * period_s)
+
+
 def _went_on(lat: np.ndarray, lon: np.ndarray, i: int) -> bool:
     """Whether the fixes either side of row ``i`` (the first row after a step back) show
-    the car going on, not a second recording (:func:`clock_set_back`)."""
+    the car going on, not a second recording (:func:`clock_set_back`). A jitter may have
+    the step found up to :data:`STEP_SLACK_ROWS` rows off the row where the clock went
+    back: the fixes are taken that far beyond it either side, and so are the rows whose
+    moves say how far the car goes in a row."""
     ok = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90.0)
-    before = np.flatnonzero(ok[max(i - STEP_FIX_ROWS, 0) : i])
-    after = np.flatnonzero(ok[i : i + STEP_FIX_ROWS])
+    end, start = max(i - STEP_SLACK_ROWS, 0), min(i + STEP_SLACK_ROWS, lat.size)
+    before = np.flatnonzero(ok[max(end - STEP_FIX_ROWS, 0) : end])
+    after = np.flatnonzero(ok[start : start + STEP_FIX_ROWS])
     if not before.size or not after.size:
         return False
-    a = max(i - STEP_FIX_ROWS, 0) + int(before[-1])
-    b = i + int(after[0])
+    a = max(end - STEP_FIX_ROWS, 0) + int(before[-1])
+    b = start + int(after[0])
     moved = 0.0  # the farthest the fixes around moved a row, each side apart
-    for lo, hi in ((max(i - STEP_NEAR_ROWS, 0), i), (i, min(i + STEP_NEAR_ROWS, lat.size))):
+    for lo, hi in (
+        (max(end - STEP_NEAR_ROWS, 0), end),
+        (start, min(start + STEP_NEAR_ROWS, lat.size)),
+    ):
         rows = lo + np.flatnonzero(ok[lo:hi])
         if rows.size >= 2:
             d = local_step_distance_m(lat[rows], lon[rows])
