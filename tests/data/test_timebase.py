@@ -401,6 +401,24 @@ def test_each_run_after_a_logger_restarted_keeps_its_own_phase(offset):
     assert run_bounds(t[:600], PERIOD) == [(0, 600)]
 
 
+@pytest.mark.parametrize("sigma_s", [0.01, 0.02])
+def test_a_jittered_run_s_phase_is_taken_from_its_first_rows_as_the_stream_clock_takes_it(
+    sigma_s,
+):
+    """A logger restarted 1.348 s later on another phase, its stamps jittered by a bell
+    curve: the whole drive's times are the stream clock's, bit for bit. Before, the whole
+    drive's second run took the phase of all its rows, the stream clock that of its first
+    200 (the mean of a wide arc's offsets): the seconds' times 1-4 ms apart."""
+    t = T0 + PERIOD * np.arange(3000.0)
+    t[1000:] += 1.348
+    t = np.round(t + np.random.default_rng(5).normal(0.0, sigma_s, t.size), 3)
+    whole = nominal_times(t, PERIOD)
+    clock = StreamClock(PERIOD)
+    np.testing.assert_array_equal(clock.place(t), whole)
+    second = whole[1000:] - (T0 + 1.348 + PERIOD * np.arange(1000.0, 3000.0))
+    assert np.ptp(second) < 1e-6 and abs(second[0]) < 0.005  # one phase, near the truth's
+
+
 def test_the_isotonic_fit_pools_adjacent_violators():
     np.testing.assert_allclose(_isotonic(np.array([3.0, 1.0, 2.0])), [2.0, 2.0, 2.0])
     np.testing.assert_allclose(_isotonic(np.array([1.0, 3.0, 2.0, 4.0])), [1, 2.5, 2.5, 4])

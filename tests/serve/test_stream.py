@@ -434,6 +434,26 @@ def test_a_logger_restarted_on_another_phase_streams_as_the_label_stage_labels_i
     assert len(t_ref) >= 195 and (np.round(t_ref % 1.0, 3) == round(0.9 + offset_s, 3)).sum() >= 95
 
 
+@pytest.mark.parametrize(("sigma_s", "seed"), [(0.01, 15), (0.02, 28)])
+def test_a_restarted_logger_s_bell_curve_jitter_streams_as_the_label_stage_labels_it(
+    bundle, tmp_path, sigma_s, seed
+):
+    """A logger restarted 1.348 s later on another phase, its stamps jittered by a bell
+    curve of 10 or 20 ms: predict's seconds are the label code's to the µs, their times
+    too. Before, the label took the second run's phase from all its rows, predict from its
+    first 200: the seconds' times 3.9 and 3.2 ms apart (the displacements alike)."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(200)
+    t = df["t_s"].to_numpy()
+    later = t >= t[0] + 100.0
+    jitter = np.random.default_rng(seed).normal(0.0, sigma_s, t.size)
+    df["t_s"] = np.round(t + jitter + np.where(later, 1.348, 0.0), 3)
+    t_ref = _streams_as_labelled(model, write_iovnbd(df, tmp_path / "V-Busy.csv"))
+    assert len(t_ref) >= 195
+
+
 @pytest.mark.parametrize(
     ("back_s", "jitter_s"), [(0.23, 0.0), (3.0, 0.003), (3600.0, 0.0), (0.5, 0.02)]
 )

@@ -96,6 +96,10 @@ SPREAD_ROWS = 16
 # phase of their own. Each run between such steps is placed on its own grid phase.
 RUN_GAP_PERIODS = 5.0
 TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the true value
+# Rows a run's grid phase is estimated from (a stream's before its first times are placed:
+# with fewer, the stamps' arc may not yet show where the phase lies); a whole drive's runs
+# take theirs from the same rows, so both place every row alike
+STREAM_PHASE_ROWS = 200
 
 
 def unwrap_midnight(
@@ -371,13 +375,17 @@ def nominal_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
 
 def run_slots(t_s: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Each row's slot (:func:`grid_slots`) and its run's grid phase, each run between
-    steps longer than :data:`RUN_GAP_PERIODS` periods on its own phase (int64 slots, each
-    counting periods from its run's phase; float64 phases, s)."""
+    steps longer than :data:`RUN_GAP_PERIODS` periods on its own phase, taken from the
+    run's first :data:`STREAM_PHASE_ROWS` rows as ``rwhonet predict`` takes it
+    (:class:`StreamClock`: on a jittered run's wide arc the mean of the whole run's
+    offsets lies a millisecond or so from theirs, and the seconds' times with it)
+    (int64 slots, each counting periods from its run's phase; float64 phases, s)."""
     t = np.asarray(t_s, dtype=np.float64)
     slots = np.empty(t.size, dtype=np.int64)
     phases = np.empty(t.size)
     for a, b in run_bounds(t, period_s):
-        slots[a:b], phases[a:b] = grid_slots(t[a:b], period_s)
+        phase = grid_phase(t[a : min(b, a + STREAM_PHASE_ROWS)], period_s)
+        slots[a:b], phases[a:b] = grid_slots(t[a:b], period_s, phase)
     return slots, phases
 
 
@@ -526,11 +534,6 @@ def drive_label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     if placed is t:
         return t
     return np.where(np.abs(placed - t) <= TIME_EPS_S, t, placed)
-
-
-# Rows a stream's grid phase is estimated from before its first times are placed: with
-# fewer, the stamps' arc may not yet show where the phase lies.
-STREAM_PHASE_ROWS = 200
 
 
 class StreamClock:
