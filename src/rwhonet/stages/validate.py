@@ -271,7 +271,7 @@ def _write_segments(
         table = with_label_times(table, period_s)
     for j, seg in enumerate(result.segments):
         name = segment_name(entry["drive"], j)
-        # A slice of the drive's Arrow table: its rows, untouched and uncopied.
+        # A slice of the drive's table, uncopied: its rows as ingested (jittered times placed)
         write_arrow(
             table.slice(seg.row_start, seg.n_rows), folder / f"{name}{contracts.TABLE_SUFFIX}"
         )
