@@ -1554,22 +1554,11 @@ def test_recalibrate_s_reader_labels_a_segment_ended_by_a_restart_on_the_drive_s
     """As validate writes the segments (tests/stages/test_validate.py): the rows before a
     logger's restart, 80 and 25 ms late, keep the whole drive's slots, and every label of
     the drive stays near zero (its last second before the restart was 1.7 m off)."""
-    from rwhonet.cli.drive import calibration_of, load_drive
-    from rwhonet.config import load_params
-    from rwhonet.features.scaling import MinMaxScaler
+    from rwhonet.cli.drive import load_drive
     from support.corpus import late_rows_before_a_restart
-    from support.drives import TARGET_RADIUS_M, write_iovnbd
+    from support.drives import target_drive_args, write_iovnbd
 
     path = write_iovnbd(late_rows_before_a_restart(), tmp_path / "V-T.csv")
-    data = load_drive(
-        path,
-        load_params(),
-        vehicle="target",
-        fmt="iovnbd",
-        calibration=calibration_of((TARGET_RADIUS_M, TARGET_RADIUS_M), "t"),
-        scaler=MinMaxScaler("global", (0.0,) * 4, (60.0,) * 4, (), 0),
-        wpm_mode="integrated",
-        seq_len=1,
-    )
+    data = load_drive(path, **target_drive_args())
     label = data.samples.frame["label_m"].to_numpy()
     assert label.size >= 140 and np.abs(label).max() < 0.2

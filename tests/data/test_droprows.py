@@ -10,19 +10,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rwhonet.cli.drive import calibration_of, load_drive
-from rwhonet.config import load_params
+from rwhonet.cli.drive import load_drive
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, RowFilter, drop_rows, repeated_rows, wheelless_rows
 from rwhonet.errors import InputError
-from rwhonet.features.scaling import MinMaxScaler
 from rwhonet.stages.ingest import ingest
 from rwhonet.stages.validate import validate
 from support.corpus import DRIVE, good_target, rows, write_good_fleet, write_target
 from support.drives import (
-    TARGET_RADIUS_M,
     make_params,
+    target_drive_args,
     write_iovnbd,
     written_again,
     written_twice,
@@ -299,15 +297,7 @@ def test_recalibrate_reads_a_drive_as_ingest_does(tmp_path):
     """``rwhonet recalibrate``'s reader drops the copies, says so, and names the file's rows."""
     path = tmp_path / "V-T.csv"
     clean = good_target()
-    args = dict(
-        params=load_params(),
-        vehicle="target",
-        fmt="iovnbd",
-        calibration=calibration_of((TARGET_RADIUS_M, TARGET_RADIUS_M), "t"),
-        scaler=MinMaxScaler("global", (0.0,) * 4, (60.0,) * 4, (), 0),
-        wpm_mode="integrated",
-        seq_len=1,
-    )
+    args = target_drive_args()
     write_iovnbd(clean, path)
     once = load_drive(path, **args)
     write_iovnbd(written_twice(clean, 300), path)

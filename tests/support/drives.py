@@ -192,6 +192,23 @@ def make_params(root: Path, _cache: bool = True, **overrides) -> Params:
     return build_params(raw)
 
 
+def target_drive_args() -> dict:
+    """``rwhonet.cli.drive.load_drive``'s keyword arguments for a drive of the target car
+    (``write_iovnbd``'s files, its true radius, a global scaler, one-second windows)."""
+    from rwhonet.cli.drive import calibration_of
+    from rwhonet.features.scaling import MinMaxScaler
+
+    return dict(
+        params=load_params(),
+        vehicle="target",
+        fmt="iovnbd",
+        calibration=calibration_of((TARGET_RADIUS_M, TARGET_RADIUS_M), "t"),
+        scaler=MinMaxScaler("global", (0.0,) * 4, (60.0,) * 4, (), 0),
+        wpm_mode="integrated",
+        seq_len=1,
+    )
+
+
 def write_fleet(root: Path, duration_s: float = 40.0) -> dict[str, Path]:
     """One clean IO-VNBD drive per required role (the source vehicle's and target's radii)."""
     return {
