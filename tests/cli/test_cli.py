@@ -795,6 +795,7 @@ def test_a_clean_drive_s_output_is_the_unchecked_stream_s_byte_for_byte(bundle, 
         _, blocks = read_rows(f, str(drive))
         for first, cols in blocks:
             sink.write(stream.push(first, cols))
+        sink.write(stream.finish())
     assert out.read_text() == text.getvalue()
 
 
@@ -1562,3 +1563,18 @@ def test_recalibrate_s_reader_labels_a_segment_ended_by_a_restart_on_the_drive_s
     data = load_drive(path, **target_drive_args())
     label = data.samples.frame["label_m"].to_numpy()
     assert label.size >= 140 and np.abs(label).max() < 0.2
+
+
+def test_recalibrate_s_reader_cuts_seconds_on_rows_leaning_into_lost_samples(tmp_path):
+    """As validate cuts them (tests/stages/test_validate.py): the four seconds that would
+    start or end on a row beside a lost sample stamped 60 ms toward it are cut as
+    ``drop_edge``; labelled, each was a row's travel off (1.3-1.7 m)."""
+    from rwhonet.cli.drive import load_drive
+    from support.corpus import rows_leaning_into_lost_samples
+    from support.drives import target_drive_args, write_iovnbd
+
+    path = write_iovnbd(rows_leaning_into_lost_samples(), tmp_path / "V-T.csv")
+    data = load_drive(path, **target_drive_args())
+    label = data.samples.frame["label_m"].to_numpy()
+    assert label.size == 193 and np.abs(label).max() < 0.2
+    assert data.assessment.cut_seconds_by_rule["drop_edge"] == 4

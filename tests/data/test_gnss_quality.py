@@ -69,6 +69,43 @@ def test_drive_starting_on_a_second_boundary_loses_its_first_second_as_start_fix
     assert spans(result) == [(T0 + 1, T0 + 20)]
 
 
+@pytest.mark.parametrize(("lean_s", "cut"), [(0.03, True), (0.02, False), (-0.03, False)])
+def test_a_second_ending_on_a_row_leaning_into_a_dropped_sample_is_cut(lean_s, cut):
+    """The sample at T0+30.1 dropped and the row at T0+30.0, second T0+30's end fix,
+    stamped ``lean_s`` off its slot: 30 ms late (toward the dropped slot), it may be the
+    dropped sample's and second T0+30 is cut as ``drop_edge``; 20 ms late, or 30 ms early,
+    the second stays. Second T0+31, a row short, is cut either way. (Past the first 200
+    rows, which give the grid's phase.)"""
+    drive = straight_drive(duration_s=60.0)
+    drive = drive.drop(index=row(T0 + 30.1)).reset_index(drop=True)
+    drive.loc[row(T0 + 30.0), c.T_S] += lean_s
+    result = assess(drive, POLICY, PERIOD_S)
+    edge = [(T0 + 29, T0 + 30, "drop_edge")] if cut else []
+    assert cuts(result) == [
+        (T0 - 1, T0, "partial_second"),
+        *edge,
+        (T0 + 30, T0 + 31, "partial_second"),
+    ]
+    assert result.cut_seconds_by_rule["drop_edge"] == int(cut)
+    if cut:
+        assert "row(s) 301 (+30 ms)" in result.cuts[1].detail
+
+
+@pytest.mark.parametrize(("lean_s", "cut"), [(-0.03, True), (-0.02, False)])
+def test_a_stretch_starting_on_a_row_leaning_into_a_dropped_sample_loses_its_first_second(
+    lean_s, cut
+):
+    """The sample at T0+29.9 dropped and the row at T0+30.0, the start fix of second
+    T0+31, stamped 30 ms early (toward the dropped slot): it may be the dropped sample's,
+    and second T0+31 is cut as ``drop_edge`` (20 ms early: the stretch starts there)."""
+    drive = straight_drive(duration_s=60.0)
+    drive = drive.drop(index=row(T0 + 29.9)).reset_index(drop=True)
+    drive.loc[row(T0 + 29.9), c.T_S] += lean_s  # the row at T0 + 30.0, one row up now
+    result = assess(drive, POLICY, PERIOD_S)
+    assert spans(result)[-1] == ((T0 + 31, T0 + 60) if cut else (T0 + 30, T0 + 60))
+    assert ((T0 + 30, T0 + 31, "drop_edge") in cuts(result)) == cut
+
+
 def _move(drive, i, metres):
     g = Geodesic.WGS84.Direct(drive.loc[i, c.LAT_DEG], drive.loc[i, c.LON_DEG], 120.0, metres)
     drive.loc[i, [c.LAT_DEG, c.LON_DEG]] = [g["lat2"], g["lon2"]]

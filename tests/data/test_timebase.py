@@ -23,6 +23,8 @@ from rwhonet.data.timebase import (
     grid_slots,
     jitter_reach,
     label_times,
+    lean_limit_s,
+    leans_into_drop,
     nominal_times,
     run_bounds,
     unwrap_midnight,
@@ -562,3 +564,23 @@ def test_a_sample_jittered_across_a_second_s_edge_is_placed_in_turn():
     np.testing.assert_allclose(placed, true + PERIOD, rtol=0, atol=1e-9)
     eleven = np.r_[stamps[:50], T0 + 4, stamps[50:]]  # a row more, none fewer beside it
     assert coarse_places(eleven, PERIOD) is None
+
+
+def test_rows_beside_a_dropped_sample_that_lean_toward_it():
+    """Rows 0-5 on slots 0.0, 0.1, 0.3, 0.4, 1.0, 1.1 (a sample dropped at 0.2; a gap of
+    0.6 s, longer than max_gap_s, before 1.0): the row before the drop is told where its
+    stamp lies more than a quarter period late, the row after where it lies more than
+    that early; a stamp 25 ms off to the ms is not told, nor any row beside the gap."""
+    placed_t = np.array([0.0, 0.1, 0.3, 0.4, 1.0, 1.1]) + 45000.0
+    step = np.diff(placed_t)
+    lean = np.array([0.0, 0.026, -0.026, 0.0, -0.04, 0.0])
+    got = leans_into_drop(lean, step, 0.1, 0.5)
+    assert got.tolist() == [False, True, True, False, False, False]
+    # the other way, or a quarter period to the ms (45000.125 placed at 45000.1): not told
+    for lean_row1, lean_row2 in [(-0.04, 0.04), (0.025, -0.025)]:
+        lean = np.array([0.0, lean_row1, lean_row2, 0.0, 0.0, 0.0])
+        assert not leans_into_drop(lean, step, 0.1, 0.5).any()
+    stamp = 45000.125
+    assert stamp - 45000.1 <= lean_limit_s(0.1)
+    # a longer max_gap_s makes the 0.6 s step a drop: the row after it, 40 ms early, is told
+    assert leans_into_drop(np.r_[0, 0, 0, 0, -0.04, 0], step, 0.1, 1.0)[4]

@@ -18,7 +18,7 @@ from support.serving import RADIUS_M, SCALER, base_bundle, wavy_drive
 
 def stream_all(model, blocks, outages=()):
     s = SecondStream(model, list(outages), file="t.csv")
-    parts = [s.push(first, cols) for first, cols in blocks]
+    parts = [*(s.push(first, cols) for first, cols in blocks), s.finish()]
     return {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}, s
 
 
@@ -491,6 +491,44 @@ def test_rows_late_before_a_restart_stream_as_the_label_stage_labels_them(
     path = write_iovnbd(late_rows_before_a_restart(), tmp_path / "V-Late.csv")
     t_ref = _streams_as_labelled(model, path, block_bytes)
     assert len(t_ref) >= 140 and 45047.0 in np.round(t_ref, 6)
+
+
+@pytest.mark.parametrize("block_bytes", [3000, 150])
+def test_rows_leaning_into_lost_samples_stream_as_the_label_stage_labels_them(
+    bundle, tmp_path, block_bytes
+):
+    """Four rows beside a lost sample stamped 60 ms toward it, each placed in the slot
+    beside its own at a second's edge: predict cuts the seconds that would start or end on
+    them, as the label code does (which once labelled each a row's travel off), second for
+    second, whatever the blocks."""
+    from support.corpus import rows_leaning_into_lost_samples
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    path = write_iovnbd(rows_leaning_into_lost_samples(), tmp_path / "V-Leaning.csv")
+    t_ref = np.round(_streams_as_labelled(model, path, block_bytes), 6)
+    assert len(t_ref) == 193
+    assert not np.isin([45001.0, 45050.0, 45051.0, 45101.0, 45151.0], t_ref).any()
+
+
+@pytest.mark.parametrize("lean_s", [0.03, 0.02])
+def test_a_last_second_ending_on_a_late_stamp_is_streamed_when_the_drive_ends(
+    bundle, tmp_path, lean_s
+):
+    """The drive's last row, a whole second's end fix, stamped 30 ms late: predict holds
+    its second until it knows no sample was lost after it, and gives it when the drive
+    ends, as the label code labels it (20 ms: not held)."""
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    df = wavy_drive(60)
+    t = df["t_s"].to_numpy().copy()
+    t += np.random.default_rng(6).normal(0.0, 0.01, t.size)
+    t[-2:] = df["t_s"].to_numpy()[-2:]
+    t[-1] += lean_s
+    df["t_s"] = np.round(t, 3)
+    t_ref = _streams_as_labelled(model, write_iovnbd(df, tmp_path / "V-LateEnd.csv"))
+    assert round(t_ref[-1], 6) == round(df["t_s"].iloc[-1] - lean_s, 6)
 
 
 @pytest.mark.parametrize("lost", [None, 1203])

@@ -205,6 +205,39 @@ def test_manual_cuts_checked_against_drives(tmp_path):
     assert report["drives"][0]["cuts"][2]["detail"] == "manual cut: roadworks"
 
 
+def test_seconds_on_rows_leaning_into_lost_samples_are_cut_not_labelled_off(tmp_path):
+    """Four rows beside a lost sample stamped 60 ms toward it, each placed a slot off at a
+    second's edge (tests/support/corpus.py): the four seconds that would start or end on
+    them were labelled a row's travel off (1.3-1.7 m). validate now cuts them as
+    ``drop_edge``, naming the row and its lean; every label left stays near zero."""
+    from rwhonet.stages.label import label
+    from support.corpus import DRIVE, rows_leaning_into_lost_samples, write_good_fleet, write_target
+
+    raw = tmp_path / "raw"
+    write_good_fleet(raw)
+    write_target(raw, rows_leaning_into_lost_samples())
+    params = make_params(raw)
+    ingest(params, tmp_path / "drives")
+    validate(params, tmp_path / "drives", tmp_path / "segments", tmp_path / "report.json")
+    report = json.loads((tmp_path / "report.json").read_text())
+    (drive,) = [d for d in report["drives"] if d["drive"] == DRIVE]
+    edges = [(cut["end_s"], cut["detail"]) for cut in drive["cuts"] if cut["rule"] == "drop_edge"]
+    assert [end for end, _ in edges] == [45001.0, 45050.0, 45101.0, 45151.0]
+    assert "row(s) 501 (+40 ms)" in edges[1][1] and "row(s) 999 (-40 ms)" in edges[2][1]
+    label(
+        params,
+        tmp_path / "segments",
+        tmp_path / "samples",
+        tmp_path / "c.json",
+        tmp_path / "s.json",
+    )
+    samples = pd.concat(
+        pd.read_parquet(p) for p in (tmp_path / "samples").glob(f"{DRIVE}__s*.parquet")
+    )
+    assert len(samples) == 193
+    assert np.abs(samples["label_m"]).max() < 0.2
+
+
 def test_missing_ingest_output(tmp_path):
     params = make_params(tmp_path)
     with pytest.raises(InputError, match="run the ingest stage first"):

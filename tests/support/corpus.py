@@ -1745,6 +1745,44 @@ def _(raw: Path) -> None:
     write_target(raw, late_rows_before_a_restart())
 
 
+def rows_leaning_into_lost_samples() -> pd.DataFrame:
+    """The good target drive (200 s) stamped with a bell curve's jitter of 10 ms, and four
+    rows beside a lost sample placed a slot off, each stamped 60 ms off its own slot (past
+    half a period, as a bell curve of 25 ms does to 2 % of rows):
+
+    - the drive's first row (45000.0) stamped 60 ms early: placed at 44999.9, its slot left
+      empty; the second after it would start on it (the last row before the empty slot);
+    - 45050.0 lost, 45050.1 stamped 60 ms early: placed at 45050.0, the end of a whole
+      second;
+    - 45100.0 lost, 45099.9 stamped 60 ms late: placed at 45100.0, the start of the next;
+    - 45149.9 lost, 45150.0 stamped 60 ms early: placed at 45149.9, the row before a lost
+      whole second, from which the second after it would start.
+
+    Labelled on the placed times, each of those seconds is a row's travel off (the wheels
+    integrated over 0.1 s more or less than the fixes span)."""
+    df = good_target(200.0)
+    t = df[c.T_S].to_numpy()
+    jitter = np.random.default_rng(3).normal(0.0, 0.01, t.size)
+    for row, off in ((0, -0.06), (501, -0.06), (999, 0.06), (1500, -0.06)):
+        jitter[max(row - 1, 0) : row + 2] = 0.0  # the rows beside it on time
+        jitter[row] = off
+    df[c.T_S] = np.round(t + jitter, 3)
+    return df.drop(index=[500, 1000, 1499]).reset_index(drop=True)
+
+
+@case(
+    "time_jitter_rows_leaning_into_lost_samples",
+    "stamps off by a bell curve's jitter (sd 10 ms, to the ms), four rows beside a lost "
+    "sample stamped 60 ms toward it, each placed in a slot beside its own at a second's "
+    "edge",
+    # the seconds that would start or end on such a row are cut as drop_edge; labelled on
+    # it (until stop 71) each was a row's travel (1.3-1.7 m) off
+    Repair("drop_edge", 4),
+)
+def _(raw: Path) -> None:
+    write_target(raw, rows_leaning_into_lost_samples())
+
+
 @case(
     "time_jitter_35ms_bell_curve",
     "every time stamp off by a bell curve's jitter of sd 35 ms: rows two slots off",

@@ -345,6 +345,7 @@ def run(
                         sink.write(block)
                         seconds += len(block["t_s"])
                     held, n_held = [], 0
+            held.append(stream.finish())  # a last second held for a row after it
             unit_note = check.finish()
             for block in held:
                 sink.write(block)

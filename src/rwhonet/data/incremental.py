@@ -37,7 +37,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.packed import is_packed, signed_coordinates, unpack_or_refuse
 from rwhonet.data.problems import no_data_rows
 from rwhonet.data.texttime import check_dates, date_note, parse_dates
-from rwhonet.data.timebase import STREAM_PHASE_ROWS, StreamClock
+from rwhonet.data.timebase import STAMP_LEAN, STREAM_PHASE_ROWS, StreamClock
 from rwhonet.errors import InputError, Problem
 
 BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s of 10 Hz rows)
@@ -651,7 +651,10 @@ def placed(
     drive ends), so the grid's phase is taken from that many stamps. A block's last rows
     whose slots the next rows could still change (:meth:`StreamClock.place`) go on with
     the next block, where it follows them in the file; so every block handed on is still
-    rows ``first ..`` of the file, one after the other.
+    rows ``first ..`` of the file, one after the other. Each block carries each row's
+    stamp less its placed time (:data:`rwhonet.data.timebase.STAMP_LEAN`, s), which
+    ``predict``'s seconds read beside a dropped sample as the label's do
+    (:func:`rwhonet.data.timebase.leans_into_drop`).
     """
     held: list[tuple[int, dict[str, np.ndarray]]] = []
     carry: tuple[int, dict[str, np.ndarray]] | None = None
@@ -691,6 +694,7 @@ def _placed_held(
     (rows the reader did not read between them: the header's line again)."""
     first, columns = _joined(held)
     columns[c.T_S] = clock.place(columns[c.T_S], first - 1)
+    columns[STAMP_LEAN] = clock.lean_s
     if _consecutive(held):
         yield first, columns
         return
@@ -710,7 +714,9 @@ def _place(
     n, size = t.size, len(columns[c.T_S])
     done = []
     if n:
-        done.append((first, {k: v[:n] for k, v in columns.items()} | {c.T_S: t}))
+        done.append(
+            (first, {k: v[:n] for k, v in columns.items()} | {c.T_S: t, STAMP_LEAN: clock.lean_s})
+        )
     left = (first + n, {k: v[n:] for k, v in columns.items()}) if n < size else None
     return done, left
 

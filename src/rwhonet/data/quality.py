@@ -38,6 +38,10 @@ Rules (a second is cut by the first that applies, in this order)
                     such row to the end of the identical run)
     wheel_glitch    a row whose wheel speed changed faster than any tyre can, when the
                     caller passes such rows (:func:`rwhonet.data.glitches.wheel_glitch_rows`)
+    drop_edge       its end fix, or the start fix of a valid stretch's first second, is a
+                    row beside a dropped sample whose stamp lies more than a quarter period
+                    toward it: jittered past half a period, the row may be the dropped
+                    sample's (:func:`rwhonet.data.timebase.leans_into_drop`)
     start_fix       the first second of a valid stretch whose start fix is missing or cut
     short_segment   a run of valid seconds shorter than ``min_segment_s`` (dropped)
 
@@ -59,7 +63,7 @@ from rwhonet.config import CutSpec, GnssPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.droprows import FileRows
 from rwhonet.data.fixes import no_fix_rows
-from rwhonet.data.timebase import TIME_EPS_S, nominal_times
+from rwhonet.data.timebase import TIME_EPS_S, leans_into_drop, nominal_times
 from rwhonet.geo import geodesic_distance_m, local_step_distance_m
 
 RULES = (
@@ -70,6 +74,7 @@ RULES = (
     "jump",
     "frozen",
     "wheel_glitch",
+    "drop_edge",
     "start_fix",
     "short_segment",
 )
@@ -328,6 +333,10 @@ def assess(
     )
     glitch_row = np.zeros(n, dtype=bool) if wheel_glitch is None else np.asarray(wheel_glitch)
     bad_row = manual_row | low_sats_row | jump_row | frozen_row | glitch_row
+    # A row beside a dropped sample stamped toward it may be the dropped sample's: no
+    # second ends on it (a complete second's last row is its end fix), none starts on it.
+    edge_row = leans_into_drop(t - t_grid, np.diff(t_grid), sample_period_s, policy.max_gap_s)
+    ends_second = np.r_[s[1:] != s[:-1], True]
 
     flags = np.stack(
         [
@@ -338,6 +347,7 @@ def assess(
             per_second(jump_row),
             per_second(frozen_row),
             per_second(glitch_row),
+            per_second(edge_row & ends_second),
         ]
     )
     rule = np.where(flags.any(axis=0), flags.argmax(axis=0), -1)  # first rule that applies
@@ -349,6 +359,7 @@ def assess(
     fix = row_at[v_start] - 1
     no_fix = (fix < 0) | bad_row[np.maximum(fix, 0)]
     rule[v_start[no_fix]] = RULES.index("start_fix")
+    rule[v_start[~no_fix & edge_row[np.maximum(fix, 0)]]] = RULES.index("drop_edge")
 
     # Valid runs shorter than min_segment_s are dropped.
     v_start, v_stop = _runs(rule == -1)
@@ -374,6 +385,8 @@ def assess(
         "wheel": wheel,
         "count": count,
         "glitch": glitch_row,
+        "edge": edge_row,
+        "lean": t - t_grid,
         "file_rows": file_rows if file_rows is not None else FileRows(),
     }
     cut_list = [
@@ -448,6 +461,16 @@ def _detail(
         rows_hit = rows["file_rows"](np.flatnonzero(rows["glitch"][lo:hi]) + lo)
         shown = ", ".join(str(r) for r in rows_hit[:5]) + (" ..." if rows_hit.size > 5 else "")
         return f"wheel speed changing faster than any tyre can in row(s) {shown}"
+    if rule == "drop_edge":
+        edge = np.flatnonzero(rows["edge"][max(lo - 1, 0) : hi]) + max(lo - 1, 0)
+        shown = ", ".join(
+            f"{r} ({1e3 * lean:+.0f} ms)"
+            for r, lean in zip(rows["file_rows"](edge[:3]), rows["lean"][edge[:3]], strict=True)
+        )
+        return (
+            f"a fix beside a dropped sample, stamped more than a quarter period toward it, in "
+            f"row(s) {shown}: jittered past half a period, it may be the dropped sample's"
+        )
     if rule == "start_fix":
         return (
             "first second of a valid stretch: no usable fix at its start (drive start or a cut row)"

@@ -96,6 +96,17 @@ SPREAD_ROWS = 16
 # phase of their own. Each run between such steps is placed on its own grid phase.
 RUN_GAP_PERIODS = 5.0
 TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the true value
+# A row beside a dropped sample (a slot left empty within a run) whose stamp lies more than
+# this share of a period from its slot toward the empty one: its stamp may be off by more
+# than half a period the other way, and the row the dropped sample's. Such a row is no
+# fix a second may start or end on (:func:`leans_into_drop`; the label's ``drop_edge``
+# rule, ``rwhonet predict``'s seconds). A quarter period: under a bell curve of 25 ms at
+# 10 Hz, 94 % of the rows placed a slot off beside a drop lean further than that, and
+# stamps within 25 ms of their slots (a logger's few ms) never do.
+DROP_LEAN_SHARE = 0.25
+# The column a drive read block by block carries each row's stamp less its placed time in
+# (s; :func:`rwhonet.data.incremental.placed`), for ``rwhonet predict``'s seconds
+STAMP_LEAN = "stamp_lean_s"
 # Rows a run's grid phase is estimated from (a stream's before its first times are placed:
 # with fewer, the stamps' arc may not yet show where the phase lies); a whole drive's runs
 # take theirs from the same rows, so both place every row alike
@@ -536,6 +547,46 @@ def drive_label_times(t_s: np.ndarray, period_s: float) -> np.ndarray:
     return np.where(np.abs(placed - t) <= TIME_EPS_S, t, placed)
 
 
+def lean_limit_s(period_s: float) -> float:
+    """How far a stamp may lie from its placed time toward a dropped sample beside it and
+    its row still be a fix a second starts or ends on, s (:data:`DROP_LEAN_SHARE` of a
+    period, and the decimal stamps' allowance)."""
+    return DROP_LEAN_SHARE * period_s + TIME_EPS_S
+
+
+def leans_into_drop(
+    lean_s: np.ndarray, step_s: np.ndarray, period_s: float, max_gap_s: float
+) -> np.ndarray:
+    """Rows beside a dropped sample whose stamps lean toward it: none of them is a fix
+    a second may start or end on.
+
+    A step of more than one and a half periods between placed rows, and no longer than
+    ``max_gap_s`` (a longer one ends the run), leaves a slot empty: a sample dropped, or
+    a row beside it placed a slot off, its stamp off by more than half a period. Which of
+    the two the stamps cannot tell; the row beside the empty slot whose stamp leans
+    toward it by more than :data:`DROP_LEAN_SHARE` of a period (a row before it stamped
+    late, a row after it early) may be the one placed off. Stamps within a quarter period
+    of their slots (a clean logger's) never lean so.
+
+    Args:
+        lean_s: each row's stamp less its placed time, s (the stamp on the drive's
+            continuous clock).
+        step_s: the placed times' steps, s (``np.diff`` of the placed times; one fewer).
+        period_s: the nominal sample period, s.
+        max_gap_s: a step longer than this ends the run (``validate.gnss.max_gap_s``).
+
+    Returns:
+        Boolean per row.
+    """
+    lean = np.asarray(lean_s, dtype=np.float64)
+    step = np.asarray(step_s, dtype=np.float64)
+    drop = (step > 1.5 * period_s) & (step <= max_gap_s)
+    far = lean_limit_s(period_s)
+    before_drop = np.r_[drop, False] & (lean > far)
+    after_drop = np.r_[False, drop] & (lean < -far)
+    return before_drop | after_drop
+
+
 class StreamClock:
     """Midnight and jitter for a drive read block by block (``rwhonet predict``).
 
@@ -569,6 +620,9 @@ class StreamClock:
         # the stamps (periods from the phase) of the last SPREAD_ROWS rows placed: the rows
         # before a block's first that tell the reach of a place beside them (_rising_slots)
         self.history = np.zeros(0)
+        # the rows last placed: each stamp (on the continuous clock) less its placed time, s
+        # (:func:`leans_into_drop`)
+        self.lean_s = np.zeros(0)
 
     def place(self, t_s: np.ndarray, first_row: int = 0, final: bool = True) -> np.ndarray:
         """The block's times on the drive's continuous clock, jitter removed.
@@ -583,12 +637,15 @@ class StreamClock:
                 the caller gives them again, first, with the next block.
 
         Returns:
-            float64 times of the block's first rows (all of them where ``final``).
+            float64 times of the block's first rows (all of them where ``final``); each
+            one's stamp less its time is :attr:`lean_s`.
         """
         t = np.asarray(t_s, dtype=np.float64)
         if t.size == 0:
+            self.lean_s = np.zeros(0)
             return t.copy()
-        out = self._continuous(t)[0]
+        stamps = self._continuous(t)[0]
+        out = stamps
         finite = np.isfinite(t)
         n = t.size
         if finite.all():  # else the checks downstream report the missing times
@@ -596,6 +653,7 @@ class StreamClock:
         elif self.phase is None:
             self._new_run(out[finite])
         self._advance(t[:n], first_row)
+        self.lean_s = stamps[:n] - out[:n]
         return out[:n]
 
     def _runs(self, out: np.ndarray, final: bool) -> tuple[np.ndarray, int]:

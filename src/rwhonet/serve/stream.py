@@ -6,7 +6,10 @@ ten rows are in. A second is cut as the label stage cuts it
 (:mod:`rwhonet.features.seconds`): from the fix at a whole second of the
 drive's clock (the last row at or before it) to the fix ten rows later; a
 time gap longer than ``max_gap_s`` ends a run of seconds, and the next run
-starts at the next whole second. Per second:
+starts at the next whole second. A row beside a dropped sample whose stamp leans toward
+it (:func:`rwhonet.data.timebase.leans_into_drop`, the label's ``drop_edge`` rule) is no
+fix a second starts or ends on: a second that would end on such a row before the next
+row is in is held until it comes (or :meth:`SecondStream.finish`). Per second:
 
 - ``disp_wpm_m``: the WPM displacement with the source calibration's radii
   (paper Eqs. 6-10, :mod:`rwhonet.features.wpm`);
@@ -54,7 +57,7 @@ from rwhonet.data.glitches import (
     repaired_yaw_rate,
     yaw_rate_glitches,
 )
-from rwhonet.data.timebase import TIME_EPS_S
+from rwhonet.data.timebase import STAMP_LEAN, TIME_EPS_S, lean_limit_s
 from rwhonet.errors import InputError, Problem
 from rwhonet.features.seconds import (
     backwards_per_second,
@@ -217,6 +220,7 @@ class SecondStream:
     _across: dict[str, np.ndarray] | None = None
     _gap: dict[str, float | bool] = field(default_factory=dict)  # the split _across ends at
     _fix_skips_slot: bool = False  # the run's start fix is the row before a dropped slot
+    _final: bool = False  # the drive has ended (finish): no second is held for the next row
     gaps: list[dict[str, float | bool]] = field(default_factory=list)  # gaps met (_bridge)
     totals: dict[str, _Totals] = field(default_factory=dict)
     glitches: list[dict[str, float | int | str]] = field(default_factory=list)
@@ -275,7 +279,7 @@ class SecondStream:
         if self._rows is None:
             self._keys = (
                 *c.REQUIRED,
-                *(k for k in (c.YAW_RATE_RAD_S,) if k in columns),
+                *(k for k in (c.YAW_RATE_RAD_S, STAMP_LEAN) if k in columns),
                 FILE_ROW,
             )
             self._navigator = StreamNavigator(
@@ -290,14 +294,46 @@ class SecondStream:
             self._rows = {k: np.concatenate([self._rows[k], columns[k]]) for k in self._keys}
         if not self._gyro_seen and c.YAW_RATE_RAD_S in self._keys:
             self._gyro_seen = bool(np.isfinite(columns[c.YAW_RATE_RAD_S]).any())
+        return self._emit()
+
+    def finish(self) -> dict[str, np.ndarray]:
+        """The drive has ended: the seconds held for the row after their end fix (which
+        leans toward the next slot; :func:`rwhonet.data.timebase.leans_into_drop`), which
+        no dropped sample follows now."""
+        self._final = True
+        if self._rows is None:
+            return empty_block()
+        return self._emit()
+
+    def _leans(self, i: int, later: bool) -> bool:
+        """Whether row ``i`` of the rows in hand is stamped more than
+        :func:`rwhonet.data.timebase.lean_limit_s` after its placed time (``later``) or
+        before it."""
+        if STAMP_LEAN not in self._keys:
+            return False
+        lean = float(self._rows[STAMP_LEAN][i])
+        limit = lean_limit_s(self.period_s)
+        return lean > limit if later else lean < -limit
+
+    def _leans_across_end(self) -> bool:
+        """Whether the last row before the split (``self._across``'s) is stamped more than
+        :func:`rwhonet.data.timebase.lean_limit_s` after its placed time."""
+        if self._across is None or STAMP_LEAN not in self._across:
+            return False
+        return float(self._across[STAMP_LEAN][-1]) > lean_limit_s(self.period_s)
+
+    def _emit(self) -> dict[str, np.ndarray]:
+        """The seconds the rows in hand complete (the rows before them dropped)."""
         parts = []
         while True:
             t = self._rows[c.T_S]
             if not self._anchored:
+                after_drop = self._across is not None and bool(self._gap["dropped"])
                 if (
-                    self._across is not None
-                    and self._gap["dropped"]
+                    after_drop
                     and _first_slot(float(t[0]), self.period_s)
+                    # the row before the drop, stamped toward it, is no start fix
+                    and not self._leans_across_end()
                 ):
                     # A sample dropped just before this second's first slot: the second
                     # is whole, and its start fix is the last row before the drop (the
@@ -310,6 +346,8 @@ class SecondStream:
                     self._fix_skips_slot = True  # the step from that fix skips the slot
                     continue
                 whole = math.ceil(t[0])
+                if after_drop and t[0] >= whole and self._leans(0, later=False):
+                    whole += 1  # the first row, on a whole second, stamped toward the drop
                 later = np.flatnonzero(t > whole)
                 if not len(later):
                     break  # the anchor is not in yet
@@ -331,6 +369,14 @@ class SecondStream:
             split = np.flatnonzero(skips)
             usable = int(split[0]) + 1 if len(split) else len(t)  # rows before the split
             n_sec = (usable - 1) // ROWS_PER_SECOND
+            end = n_sec * ROWS_PER_SECOND  # the last second's end fix
+            if n_sec and end == usable - 1 and self._leans(end, later=True):
+                # stamped toward the next slot: no end fix if a sample was dropped there
+                # (the next row not in yet: held until it is)
+                if len(split) and steps[end] <= self.max_gap_s:
+                    n_sec -= 1
+                elif not len(split) and not self._final:
+                    n_sec -= 1
             if n_sec:
                 parts.append(self._seconds(n_sec))
                 self._drop(n_sec * ROWS_PER_SECOND)
