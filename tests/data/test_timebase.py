@@ -584,3 +584,18 @@ def test_rows_beside_a_dropped_sample_that_lean_toward_it():
     assert stamp - 45000.1 <= lean_limit_s(0.1)
     # a longer max_gap_s makes the 0.6 s step a drop: the row after it, 40 ms early, is told
     assert leans_into_drop(np.r_[0, 0, 0, 0, -0.04, 0], step, 0.1, 1.0)[4]
+
+
+@pytest.mark.parametrize("offset_s", [0.0, 0.03])
+@pytest.mark.parametrize("late_s", [[0.04], [0.04, 0.043, 0.045, 0.042]])
+def test_a_logger_s_hiccups_do_not_move_the_grid_phase(offset_s, late_s):
+    """200 stamps within 2 ms of their grid (on whole tenths, or 30 ms after them), one to
+    four of them written 40-45 ms late: the phase is the grid's. The arc's middle once
+    moved with the latest hiccup, by half of it (20-23 ms: off the whole grid, and every
+    slot with it)."""
+    t = 45000.0 + offset_s + 0.1 * np.arange(200)
+    t += np.random.default_rng(0).uniform(-0.002, 0.002, t.size)
+    t[[17, 80, 133, 190][: len(late_s)]] += late_s
+    got = grid_phase(np.round(t, 3), 0.1)
+    assert got == pytest.approx(offset_s, abs=0.0015)
+    assert np.array_equal(grid_slots(np.round(t, 3), 0.1)[0], np.arange(200) + 450000)

@@ -511,6 +511,21 @@ def test_rows_leaning_into_lost_samples_stream_as_the_label_stage_labels_them(
     assert not np.isin([45001.0, 45050.0, 45051.0, 45101.0, 45151.0], t_ref).any()
 
 
+def test_a_logger_s_hiccups_stream_on_whole_seconds_as_the_label_stage_labels_them(
+    bundle, tmp_path
+):
+    """Three rows in the first 20 s written 40-45 ms late among stamps within 2 ms of
+    their grid: predict's clock takes the grid's phase (not 19 ms after it), and its
+    seconds, on whole seconds, are the label code's."""
+    from support.corpus import hiccups_on_a_clean_logger
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    path = write_iovnbd(hiccups_on_a_clean_logger(), tmp_path / "V-Hiccups.csv")
+    t_ref = _streams_as_labelled(model, path)
+    assert len(t_ref) == 150 and np.array_equal(np.round(t_ref, 6), np.round(t_ref))
+
+
 @pytest.mark.parametrize("lean_s", [0.03, 0.02])
 def test_a_last_second_ending_on_a_late_stamp_is_streamed_when_the_drive_ends(
     bundle, tmp_path, lean_s

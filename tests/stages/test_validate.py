@@ -238,6 +238,37 @@ def test_seconds_on_rows_leaning_into_lost_samples_are_cut_not_labelled_off(tmp_
     assert np.abs(samples["label_m"]).max() < 0.2
 
 
+def test_a_logger_s_hiccups_label_the_drive_as_its_grid_stamps(tmp_path):
+    """Stamps within 2 ms of their grid, three rows in the first 20 s written 40-45 ms
+    late: the drive's seconds and labels are those of the same drive stamped on its grid.
+    The hiccups once set the grid's phase 19 ms late, and every second of the drive ended
+    on an x.9 s row, one second fewer."""
+    from rwhonet.stages.label import label
+    from support.corpus import (
+        DRIVE,
+        good_target,
+        hiccups_on_a_clean_logger,
+        write_good_fleet,
+        write_target,
+    )
+
+    got = {}
+    for name, df in (("hiccups", hiccups_on_a_clean_logger()), ("grid", good_target(150.0))):
+        raw, out = tmp_path / name / "raw", tmp_path / name
+        write_good_fleet(raw)
+        write_target(raw, df)
+        params = make_params(raw)
+        ingest(params, out / "drives")
+        validate(params, out / "drives", out / "segments", out / "report.json")
+        label(params, out / "segments", out / "samples", out / "c.json", out / "s.json")
+        got[name] = pd.concat(
+            pd.read_parquet(p) for p in sorted((out / "samples").glob(f"{DRIVE}__s*.parquet"))
+        )
+    assert len(got["hiccups"]) == len(got["grid"]) == 150
+    for k in ("t_s", "label_m", "disp_gnss_m"):
+        np.testing.assert_allclose(got["hiccups"][k], got["grid"][k], rtol=0, atol=1e-9)
+
+
 def test_missing_ingest_output(tmp_path):
     params = make_params(tmp_path)
     with pytest.raises(InputError, match="run the ingest stage first"):

@@ -18,8 +18,9 @@ mistake for bad data:
   after it to the next, so plain rounding of the stamps fills seconds with 9 or
   11 rows. :func:`grid_slots` puts every row on the drive's own sample grid
   instead: its *slot* is the nearest grid instant, ``phase + j * period``, where
-  the phase is the middle of the arc the stamps fill modulo the period (stamps on
-  whole tenths give phase 0; a logger offset by 30 ms keeps its 30 ms). Jitter
+  the phase is the middle of the arc the stamps fill modulo the period, its 2 % at either
+  end left out (stamps on whole tenths give phase 0, a few rows written 40 ms late among
+  them too; a logger offset by 30 ms keeps its 30 ms). Jitter
   below half a period is removed as long as the stamps leave part of that circle
   empty: at up to 45 % of a period, a few hundred stamps always do (test_timebase).
   A dropped sample still leaves a slot empty (two slots between consecutive rows),
@@ -75,6 +76,11 @@ PHASE_SAMPLE = 100_000  # stamps the phase is estimated from (evenly spread over
 # (unbiased for any jitter symmetric about the slots); the arc's middle alone, exact for a
 # tight jitter, rests on the tails there (200 stamps of 15 ms put it 9 ms off).
 WIDE_ARC_SHARE = 0.5
+# The stamps at either end of a narrower arc left out of its middle (:func:`grid_phase`):
+# a logger's hiccups, a row written tens of ms late among stamps on their grid, whose
+# farthest stamp would otherwise set the arc's end (of the 200 stamps a run's phase is
+# taken from, the 4 farthest either way)
+ARC_TRIM_SHARE = 0.02
 # Rows either side of a place where the nearest slots do not rise that are placed again
 # together (:func:`_rising_slots`): a row late by more than half a period and the row it
 # crowds, and those beside them.
@@ -187,8 +193,10 @@ def grid_phase(t_s: np.ndarray, period_s: float, whole: bool = True) -> float:
     The stamps modulo the period fill an arc of the circle ``[0, period)``, narrower than
     the circle when their jitter is below half a period; the phase is that arc's middle
     (opposite the widest empty arc; unlike a circular mean, exact for jitter up to half a
-    period). Where the arc is wider than :data:`WIDE_ARC_SHARE` of the circle (a bell
-    curve's jitter, its tails near or past half a period), the phase is the mean of the
+    period), the :data:`ARC_TRIM_SHARE` of stamps at either end of the arc left out (a
+    logger's hiccups, rows written tens of ms late, set no end). Where the arc is wider
+    than :data:`WIDE_ARC_SHARE` of the circle (a bell curve's jitter, its tails near or
+    past half a period), the phase is the mean of the
     stamps' offsets from their nearest slots about it, taken twice. With ``whole``, a
     phase within ``WHOLE_GRID_FRACTION`` of a period of zero is zero (stamps on whole
     multiples) where every stamp stays within half a period of its slot, or, the arc that
@@ -214,22 +222,38 @@ def grid_phase(t_s: np.ndarray, period_s: float, whole: bool = True) -> float:
     v = np.sort(np.remainder(t, period_s))
     gaps = np.diff(np.r_[v, v[0] + period_s])
     k = int(np.argmax(gaps))
-    # The stamps fill an arc of the circle [0, period); its middle is opposite the empty one.
-    phase = (v[k] + 0.5 * gaps[k] + 0.5 * period_s) % period_s
-    if phase > 0.5 * period_s:
-        phase -= period_s
     if gaps[k] < WIDE_ARC_SHARE * period_s:  # spread wide: the mean of the stamps about it
-        for _ in range(2):  # each stamp's offset from its nearest slot, the slots moved
+        # the arc's middle (opposite the empty arc), then each stamp's offset from its
+        # nearest slot, the slots moved
+        phase = (v[k] + 0.5 * gaps[k] + 0.5 * period_s) % period_s
+        if phase > 0.5 * period_s:
+            phase -= period_s
+        for _ in range(2):
             off = np.remainder(v - phase + 0.5 * period_s, period_s) - 0.5 * period_s
             phase += float(np.mean(off))
         phase = (phase + 0.5 * period_s) % period_s - 0.5 * period_s
         # whole tenths where the phase is near them by more than two standard errors
         near = abs(phase) + 2.0 * float(np.std(off)) / np.sqrt(v.size)
         return 0.0 if whole and near <= WHOLE_GRID_FRACTION * period_s else float(phase)
+    # The stamps fill an arc of the circle [0, period), from v[k + 1] round to v[k]; its
+    # middle is opposite the empty arc between them. The ARC_TRIM_SHARE of stamps at
+    # either end of the arc are left out first: a logger's hiccup (a row written 40 ms
+    # late among stamps within 2 ms of their grid) would move the middle, and every slot
+    # of the run, by half the hiccup.
+    m = int(ARC_TRIM_SHARE * v.size)
+    end, start = (k - m) % v.size, (k + 1 + m) % v.size  # the trimmed arc's two ends
+    empty = (v[start] + (period_s if start <= end else 0.0)) - v[end]
+    phase = (v[end] + 0.5 * empty + 0.5 * period_s) % period_s
+    if phase > 0.5 * period_s:
+        phase -= period_s
     # Snap to the whole grid only where every stamp then still lies within half a period
-    # of its slot (the arc's half-width plus the phase moved): a wide jitter keeps its phase.
-    half_arc = 0.5 * (period_s - gaps[k])
-    snaps = abs(phase) <= WHOLE_GRID_FRACTION * period_s and half_arc + abs(phase) < 0.5 * period_s
+    # of its slot: a wide jitter keeps its phase.
+    off = np.remainder(v - phase + 0.5 * period_s, period_s) - 0.5 * period_s
+    snaps = (
+        abs(phase) <= WHOLE_GRID_FRACTION * period_s
+        and float(np.max(off)) + phase < 0.5 * period_s
+        and float(np.min(off)) + phase > -0.5 * period_s
+    )
     return 0.0 if whole and snaps else float(phase)
 
 
