@@ -379,15 +379,47 @@ def test_a_logger_jittered_from_a_row_on_gets_each_row_its_own_slot(first_row):
     np.testing.assert_array_equal(got, slots)
 
 
-def test_a_row_far_off_among_rows_on_their_grid_is_left_where_the_drive_jitters_elsewhere():
+def test_a_row_far_off_among_rows_on_their_grid_where_the_drive_jitters_elsewhere():
     """A row stamped 70 ms late among rows on their grid is no jitter (its neighbours on
-    their instants): it stays nearest, two in a slot, and is refused, though the drive's
-    second half is jittered by 20 ms and its rows are placed."""
+    their instants) but a row the logger wrote late: it gets its own slot, 70 ms before
+    its stamp (since stop 71; left two in a slot and refused before). Stamped 70 ms early
+    it is no late write: it stays nearest, two in a slot, and is refused. The drive's
+    second half, jittered by 20 ms, has its rows placed either way."""
     slots, t = _bell(4000, 0.2, seed=6, first_row=2000)
-    t[1000] += 0.07
-    got, _ = grid_slots(t, PERIOD)
-    assert got[1000] == got[1001] == slots[1001]
+    late, early = t.copy(), t.copy()
+    late[1000] += 0.07
+    early[1000] -= 0.07
+    got, _ = grid_slots(late, PERIOD)
+    np.testing.assert_array_equal(got, slots)
+    got, _ = grid_slots(early, PERIOD)
+    assert got[999] == got[1000] == slots[999]
     np.testing.assert_array_equal(got[2000:], slots[2000:])
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.03, 0.1])
+@pytest.mark.parametrize("held", [2, 3, 4])
+def test_rows_a_logger_wrote_at_once_after_a_stall_fill_the_slots_they_left(sigma, held):
+    """A logger that stamps rows when it writes them stalls (a garbage collection, a flush
+    to the card) and then writes the rows it held back at once, 1 ms apart, at the time
+    of the last: the rows before them on their grid (or jittered by a bell curve of 3 or
+    10 ms), the held rows crowd after slots left empty. Each is given its own slot, bit
+    for bit the true ones, at three places in the drive. Refused before (two or more rows
+    in a slot) for a stall past half a period."""
+    slots, t = _bell(3000, sigma, seed=8)
+    for at in (500, 1700, 2950):
+        t[at - held + 1 : at + 1] = np.round(t[at] + 0.001 * np.arange(held), 3)
+    got, _ = grid_slots(t, PERIOD)
+    np.testing.assert_array_equal(got, slots)
+
+
+def test_a_stall_s_rows_are_not_taken_for_late_writes_where_the_stamps_jitter_widely():
+    """Among stamps jittered by a bell curve of 20 ms (spread 20 % of a period), rows
+    crowding after an empty slot are as likely a jitter's tail: four rows written at once
+    are left as they are (and refused), not placed as late writes."""
+    slots, t = _bell(3000, 0.2, seed=8)
+    t[1497:1501] = np.round(t[1500] + 0.001 * np.arange(4), 3)
+    got, _ = grid_slots(t, PERIOD)
+    assert (np.diff(got) <= 0).any()
 
 
 @pytest.mark.parametrize("offset", [0.03, 0.05, 0.07])

@@ -526,6 +526,22 @@ def test_a_logger_s_hiccups_stream_on_whole_seconds_as_the_label_stage_labels_th
     assert len(t_ref) == 150 and np.array_equal(np.round(t_ref, 6), np.round(t_ref))
 
 
+@pytest.mark.parametrize("block_bytes", [3000, 150])
+def test_rows_written_at_once_after_stalls_stream_as_the_label_stage_labels_them(
+    bundle, tmp_path, block_bytes
+):
+    """The 2-4 rows a logger held through a stall, written at once: predict's clock gives
+    each the slot its stall left, as the label code does, second for second, whatever the
+    blocks (refused by both before)."""
+    from support.corpus import rows_written_at_once_after_stalls
+    from support.drives import write_iovnbd
+
+    model = load_served(bundle["model_onnx"])
+    path = write_iovnbd(rows_written_at_once_after_stalls(), tmp_path / "V-Stalls.csv")
+    t_ref = _streams_as_labelled(model, path, block_bytes)
+    assert len(t_ref) == 150 and np.array_equal(np.round(t_ref, 6), np.round(t_ref))
+
+
 @pytest.mark.parametrize("lean_s", [0.03, 0.02])
 def test_a_last_second_ending_on_a_late_stamp_is_streamed_when_the_drive_ends(
     bundle, tmp_path, lean_s

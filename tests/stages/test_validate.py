@@ -269,6 +269,37 @@ def test_a_logger_s_hiccups_label_the_drive_as_its_grid_stamps(tmp_path):
         np.testing.assert_allclose(got["hiccups"][k], got["grid"][k], rtol=0, atol=1e-9)
 
 
+def test_rows_written_at_once_after_stalls_label_the_drive_as_its_grid_stamps(tmp_path):
+    """A logger stamping rows when it writes them stalled three times and wrote the 2-4
+    rows it held at once (0.1-0.3 s late): each fills the slot its stall left, and the
+    drive's seconds and labels are those of the drive stamped on its grid. Refused before
+    (two or more rows in one slot)."""
+    from rwhonet.stages.label import label
+    from support.corpus import (
+        DRIVE,
+        good_target,
+        rows_written_at_once_after_stalls,
+        write_good_fleet,
+        write_target,
+    )
+
+    got = {}
+    for name, df in (("stalls", rows_written_at_once_after_stalls()), ("grid", good_target(150.0))):
+        raw, out = tmp_path / name / "raw", tmp_path / name
+        write_good_fleet(raw)
+        write_target(raw, df)
+        params = make_params(raw)
+        ingest(params, out / "drives")
+        validate(params, out / "drives", out / "segments", out / "report.json")
+        label(params, out / "segments", out / "samples", out / "c.json", out / "s.json")
+        got[name] = pd.concat(
+            pd.read_parquet(p) for p in sorted((out / "samples").glob(f"{DRIVE}__s*.parquet"))
+        )
+    assert len(got["stalls"]) == len(got["grid"]) == 150
+    for k in ("t_s", "label_m", "disp_gnss_m"):
+        np.testing.assert_allclose(got["stalls"][k], got["grid"][k], rtol=0, atol=1e-9)
+
+
 def test_missing_ingest_output(tmp_path):
     params = make_params(tmp_path)
     with pytest.raises(InputError, match="run the ingest stage first"):

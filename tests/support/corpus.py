@@ -1808,6 +1808,31 @@ def _(raw: Path) -> None:
     write_target(raw, hiccups_on_a_clean_logger())
 
 
+def rows_written_at_once_after_stalls() -> pd.DataFrame:
+    """The good target drive (150 s) stamped within 2 ms of its grid (uniform, to the ms),
+    by a logger that stamps rows when it writes them and stalls three times: the 2, 3 and
+    4 rows up to rows 400, 800 and 1200 written at once, 1 ms apart from the last one's
+    time (0.1-0.3 s late)."""
+    df = good_target(150.0)
+    t = df[c.T_S].to_numpy() + np.random.default_rng(2).uniform(-0.002, 0.002, len(df))
+    for at, held in ((400, 2), (800, 3), (1200, 4)):
+        t[at - held + 1 : at + 1] = t[at] + 0.001 * np.arange(held)
+    df[c.T_S] = np.round(t, 3)
+    return df
+
+
+@case(
+    "time_rows_written_at_once_after_stalls",
+    "a logger stamping rows when it writes them stalls three times, then writes the 2-4 "
+    "rows it held at once, 1 ms apart (0.1-0.3 s late)",
+    # each held row fills the slot its stall left empty (rows written late: the latest
+    # slot at or before its stamp's); until stop 71 two or more rows in a slot: refused
+    Accept("each row in the slot its stall left, the seconds of the drive stamped on its grid"),
+)
+def _(raw: Path) -> None:
+    write_target(raw, rows_written_at_once_after_stalls())
+
+
 @case(
     "time_jitter_35ms_bell_curve",
     "every time stamp off by a bell curve's jitter of sd 35 ms: rows two slots off",

@@ -96,6 +96,12 @@ REPAIR_ROWS = 3
 # the spread, so that a spread measured on a few dozen rows decides no more than which.
 JITTERED_SPREAD = 0.02
 MAX_REACH = 0.99
+# Rows whose nearest slots do not rise and that no reach places (:func:`_written_late`)
+# are taken for rows a logger wrote late where the stamps beside them spread by less than
+# this share of a period (15 ms at 10 Hz: a row a period off is then more than six
+# standard deviations out, no jitter's; under a bell curve of 20 ms and more, rows
+# crowding may be its tails, and are left)
+LATE_SPREAD = 0.15
 SPREAD_ROWS = 16
 # A step longer than this many periods (0.5 s at 10 Hz, validate.gnss.max_gap_s's default,
 # where validate ends a segment): a logger that stopped and started again, its stamps on a
@@ -291,10 +297,16 @@ def jitter_reach(u: np.ndarray) -> float:
     side)."""
     if not u.size:
         return 0.5
+    return MAX_REACH if _spread(u) >= JITTERED_SPREAD else 0.5
+
+
+def _spread(u: np.ndarray) -> float:
+    """The stamps' spread about their nearest slots, in periods: 1.4826 MAD of their
+    offsets (of every k-th stamp, :data:`PHASE_SAMPLE` of them at most). ``u``: stamps in
+    periods from the grid's phase (non-empty)."""
     sample = u[:: -(-u.size // PHASE_SAMPLE)]
     off = sample - np.rint(sample)
-    spread = 1.4826 * _median(np.abs(off - _median(off)))
-    return MAX_REACH if spread >= JITTERED_SPREAD else 0.5
+    return 1.4826 * _median(np.abs(off - _median(off)))
 
 
 def _median(x: np.ndarray) -> float:
@@ -360,10 +372,27 @@ def _rising_slots(
             slots = np.minimum(slots, int(nearest[b]) - (b - a) + np.arange(b - a))
         reach = jitter_reach(_around(u, a, b, history))
         fits = np.all(np.abs(u[a:b] - slots) <= reach) and (np.diff(slots) > 0).all()
+        if not fits and _spread(_beside(u, a, b, history)) < LATE_SPREAD:
+            # a logger whose stamps keep near their grid around: rows written late?
+            late = _written_late(u[a:b], nearest[a:b], int(nearest[b]) if b < u.size else None)
+            if late is not None:
+                slots, fits = late, True
         if fits and (before is None or slots[0] > before):
             out[a:b] = slots
         a, b = lo, hi
     return out
+
+
+def _beside(u: np.ndarray, a: int, b: int, history: np.ndarray | None) -> np.ndarray:
+    """The stamps of the :data:`SPREAD_ROWS` rows either side of rows ``a:b`` (those before
+    ``u[0]`` from ``history``), without rows ``a:b``; the stretch's own stamps where there
+    are none."""
+    before = u[max(a - SPREAD_ROWS, 0) : a]
+    short = SPREAD_ROWS - a
+    if history is not None and short > 0 and history.size:
+        before = np.r_[history[-short:], before]
+    got = np.r_[before, u[b : b + SPREAD_ROWS]]
+    return got if got.size else u[a:b]
 
 
 def _around(u: np.ndarray, a: int, b: int, history: np.ndarray | None) -> np.ndarray:
@@ -374,6 +403,36 @@ def _around(u: np.ndarray, a: int, b: int, history: np.ndarray | None) -> np.nda
     if history is None or short <= 0 or not history.size:
         return here
     return np.concatenate([history[-short:], here])
+
+
+def _written_late(u: np.ndarray, nearest: np.ndarray, after: int | None) -> np.ndarray | None:
+    """The slots of rows a logger on its grid wrote late, or None.
+
+    A logger that stamps a row when it writes it, not when the sample was taken, stamps
+    rows late and never early: after a stall (a garbage collection, a flush to the card)
+    it writes the rows it held back at once, their stamps crowding after slots left
+    empty. Each row is then given the latest slot at or before its nearest that leaves
+    room for the rows after it (before ``after``, the next row's nearest slot): the empty
+    slots are filled in the rows' order. Where a row would so be placed more than
+    :data:`RUN_GAP_PERIODS` periods before its stamp (a stall that long splits the run),
+    None.
+
+    Args:
+        u: the stretch's stamps, in periods from the grid's phase.
+        nearest: ``rint(u)``.
+        after: the slot the rows must lie before (None: none).
+
+    Returns:
+        int64 slots, rising, each at most its nearest; or None.
+    """
+    k = np.arange(nearest.size)
+    top = nearest - k
+    if after is not None:
+        top = np.minimum(top, after - nearest.size)
+    slots = k + np.minimum.accumulate(top[::-1])[::-1]
+    if np.max(u - slots) > RUN_GAP_PERIODS:
+        return None
+    return slots
 
 
 def _isotonic(y: np.ndarray) -> np.ndarray:
