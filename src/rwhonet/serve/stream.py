@@ -346,9 +346,11 @@ class SecondStream:
                     self._fix_skips_slot = True  # the step from that fix skips the slot
                     continue
                 whole = math.ceil(t[0])
-                if after_drop and t[0] >= whole and self._leans(0, later=False):
-                    whole += 1  # the first row, on a whole second, stamped toward the drop
                 later = np.flatnonzero(t > whole)
+                if len(later) and later[0] == 1 and after_drop and self._leans(0, later=False):
+                    # the start fix, the first row after the drop, stamped toward it: the
+                    # run starts a second later
+                    later = np.flatnonzero(t > whole + 1)
                 if not len(later):
                     break  # the anchor is not in yet
                 anchor = int(later[0]) - 1
