@@ -374,7 +374,9 @@ def _rising_slots(
         fits = np.all(np.abs(u[a:b] - slots) <= reach) and (np.diff(slots) > 0).all()
         if not fits and _spread(_beside(u, a, b, history)) < LATE_SPREAD:
             # a logger whose stamps keep near their grid around: rows written late?
-            late = _written_late(u[a:b], nearest[a:b], int(nearest[b]) if b < u.size else None)
+            late = _written_late(
+                u[a:b], nearest[a:b], before, int(nearest[b]) if b < u.size else None
+            )
             if late is not None:
                 slots, fits = late, True
         if fits and (before is None or slots[0] > before):
@@ -405,7 +407,9 @@ def _around(u: np.ndarray, a: int, b: int, history: np.ndarray | None) -> np.nda
     return np.concatenate([history[-short:], here])
 
 
-def _written_late(u: np.ndarray, nearest: np.ndarray, after: int | None) -> np.ndarray | None:
+def _written_late(
+    u: np.ndarray, nearest: np.ndarray, before: int | None, after: int | None
+) -> np.ndarray | None:
     """The slots of rows a logger on its grid wrote late, or None.
 
     A logger that stamps a row when it writes it, not when the sample was taken, stamps
@@ -413,13 +417,15 @@ def _written_late(u: np.ndarray, nearest: np.ndarray, after: int | None) -> np.n
     it writes the rows it held back at once, their stamps crowding after slots left
     empty. Each row is then given the latest slot at or before its nearest that leaves
     room for the rows after it (before ``after``, the next row's nearest slot): the empty
-    slots are filled in the rows' order. Where a row would so be placed more than
+    slots are filled in the rows' order. None where a row would so be placed more than
     :data:`RUN_GAP_PERIODS` periods before its stamp (a stall that long splits the run),
-    None.
+    or where a slot is left empty just before a row placed so (a sample lost as well:
+    whether before the held rows or among them, the stamps cannot tell).
 
     Args:
         u: the stretch's stamps, in periods from the grid's phase.
         nearest: ``rint(u)``.
+        before: the slot of the row before the stretch (None: none).
         after: the slot the rows must lie before (None: none).
 
     Returns:
@@ -431,6 +437,10 @@ def _written_late(u: np.ndarray, nearest: np.ndarray, after: int | None) -> np.n
         top = np.minimum(top, after - nearest.size)
     slots = k + np.minimum.accumulate(top[::-1])[::-1]
     if np.max(u - slots) > RUN_GAP_PERIODS:
+        return None
+    moved = u - slots > 0.5
+    previous = np.r_[slots[0] - 2 if before is None else before, slots[:-1]]
+    if (moved & (slots - previous > 1)).any():
         return None
     return slots
 

@@ -98,8 +98,10 @@ def clock_habits(draw):
     """The good target drive (150 s, exact fixes, the wheels at the true radius: every
     label near zero) as loggers' clocks write it: a few of stamps jittered by a bell
     curve, a clock set back, a restart on another phase, a row lost, two rows swapped,
-    the times cut to the second; in random order of writing."""
+    the times cut to the second, a row written 30-48 ms late (a hiccup), 2-4 rows held
+    through a stall and written at once; in random order of writing."""
     import numpy as np
+    from hypothesis import note
 
     from rwhonet.data import canonical as c
 
@@ -108,7 +110,18 @@ def clock_habits(draw):
     n = t.size
     habits = draw(
         st.lists(
-            st.sampled_from(["jitter", "set back", "restart", "lost", "swapped", "to the second"]),
+            st.sampled_from(
+                [
+                    "jitter",
+                    "set back",
+                    "restart",
+                    "lost",
+                    "swapped",
+                    "to the second",
+                    "hiccup",
+                    "stall",
+                ]
+            ),
             min_size=1,
             max_size=3,
             unique=True,
@@ -125,6 +138,15 @@ def clock_habits(draw):
     rows = {habit: draw(st.integers(30, n - 30)) for habit in habits}
     if abs(rows.get("lost", -100) - rows.get("set back", 100)) <= 2:
         rows["lost"] += 10
+    # nor a sample lost among the rows a stall held: the one held row before it is then
+    # stamped where the lost one was due (found by this fuzz at stop 71; so on the old code)
+    if {"stall", "lost"} <= rows.keys() and 0 <= rows["stall"] - rows["lost"] <= 4:
+        rows["lost"] = rows["stall"] + 10
+    # nor two rows swapped among the rows a stall held (their stamps, written at once,
+    # keep no order)
+    if {"stall", "swapped"} <= rows.keys() and -2 <= rows["stall"] - rows["swapped"] <= 5:
+        rows["swapped"] = rows["stall"] + 10
+    note(f"habits {habits} at rows {rows}")
     for habit in habits:
         at = rows[habit]
         if habit == "jitter":  # a bell curve of 3, 10 or 20 ms
@@ -136,6 +158,11 @@ def clock_habits(draw):
             t[at:] += 1.3 + 0.048
         elif habit == "lost":
             keep[at] = False
+        elif habit == "hiccup":  # since stop 71: a row written late, among the first 200 too
+            t[at % 200] += draw(st.sampled_from([0.03, 0.04, 0.048]))
+        elif habit == "stall":  # since stop 71: rows held, then written at once
+            held = draw(st.integers(2, 4))
+            t[at - held + 1 : at + 1] = t[at] + 0.001 * np.arange(held)
         elif habit == "swapped":
             order = np.arange(n)
             order[[at, at + 1]] = order[[at + 1, at]]
