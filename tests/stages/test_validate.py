@@ -205,99 +205,62 @@ def test_manual_cuts_checked_against_drives(tmp_path):
     assert report["drives"][0]["cuts"][2]["detail"] == "manual cut: roadworks"
 
 
+def _labelled_target(out, df):
+    """The corpus's good fleet with ``df`` as its target test drive, through ingest,
+    validate and label under ``out``: (the drive's validation report, its samples)."""
+    from rwhonet.stages.label import label
+    from support.corpus import DRIVE, write_good_fleet, write_target
+
+    raw = out / "raw"
+    write_good_fleet(raw)
+    write_target(raw, df)
+    params = make_params(raw)
+    ingest(params, out / "drives")
+    validate(params, out / "drives", out / "segments", out / "report.json")
+    label(params, out / "segments", out / "samples", out / "c.json", out / "s.json")
+    report = json.loads((out / "report.json").read_text())
+    (drive,) = [d for d in report["drives"] if d["drive"] == DRIVE]
+    samples = pd.concat(
+        pd.read_parquet(p) for p in sorted((out / "samples").glob(f"{DRIVE}__s*.parquet"))
+    )
+    return drive, samples
+
+
 def test_seconds_on_rows_leaning_into_lost_samples_are_cut_not_labelled_off(tmp_path):
     """Four rows beside a lost sample stamped 60 ms toward it, each placed a slot off at a
     second's edge (tests/support/corpus.py): the four seconds that would start or end on
     them were labelled a row's travel off (1.3-1.7 m). validate now cuts them as
     ``drop_edge``, naming the row and its lean; every label left stays near zero."""
-    from rwhonet.stages.label import label
-    from support.corpus import DRIVE, rows_leaning_into_lost_samples, write_good_fleet, write_target
+    from support.corpus import rows_leaning_into_lost_samples
 
-    raw = tmp_path / "raw"
-    write_good_fleet(raw)
-    write_target(raw, rows_leaning_into_lost_samples())
-    params = make_params(raw)
-    ingest(params, tmp_path / "drives")
-    validate(params, tmp_path / "drives", tmp_path / "segments", tmp_path / "report.json")
-    report = json.loads((tmp_path / "report.json").read_text())
-    (drive,) = [d for d in report["drives"] if d["drive"] == DRIVE]
+    drive, samples = _labelled_target(tmp_path, rows_leaning_into_lost_samples())
     edges = [(cut["end_s"], cut["detail"]) for cut in drive["cuts"] if cut["rule"] == "drop_edge"]
     assert [end for end, _ in edges] == [45001.0, 45050.0, 45101.0, 45151.0]
     assert "row(s) 501 (+40 ms)" in edges[1][1] and "row(s) 999 (-40 ms)" in edges[2][1]
-    label(
-        params,
-        tmp_path / "segments",
-        tmp_path / "samples",
-        tmp_path / "c.json",
-        tmp_path / "s.json",
-    )
-    samples = pd.concat(
-        pd.read_parquet(p) for p in (tmp_path / "samples").glob(f"{DRIVE}__s*.parquet")
-    )
     assert len(samples) == 193
     assert np.abs(samples["label_m"]).max() < 0.2
 
 
-def test_a_logger_s_hiccups_label_the_drive_as_its_grid_stamps(tmp_path):
-    """Stamps within 2 ms of their grid, three rows in the first 20 s written 40-45 ms
-    late: the drive's seconds and labels are those of the same drive stamped on its grid.
-    The hiccups once set the grid's phase 19 ms late, and every second of the drive ended
-    on an x.9 s row, one second fewer."""
-    from rwhonet.stages.label import label
+@pytest.mark.parametrize("habit", ["hiccups", "stalls"])
+def test_a_logger_s_hiccups_and_stalls_label_the_drive_as_its_grid_stamps(tmp_path, habit):
+    """Stamps within 2 ms of their grid, with three rows in the first 20 s written 40-45
+    ms late (hiccups), or by a logger stamping rows when it writes them that stalled three
+    times and wrote the 2-4 rows it held at once (0.1-0.3 s late): the drive's seconds and
+    labels are those of the same drive stamped on its grid. The hiccups once set the
+    grid's phase 19 ms late (every second of the drive ended on an x.9 s row, one second
+    fewer); the stalls' rows, two or more in a slot, were refused."""
     from support.corpus import (
-        DRIVE,
         good_target,
         hiccups_on_a_clean_logger,
-        write_good_fleet,
-        write_target,
-    )
-
-    got = {}
-    for name, df in (("hiccups", hiccups_on_a_clean_logger()), ("grid", good_target(150.0))):
-        raw, out = tmp_path / name / "raw", tmp_path / name
-        write_good_fleet(raw)
-        write_target(raw, df)
-        params = make_params(raw)
-        ingest(params, out / "drives")
-        validate(params, out / "drives", out / "segments", out / "report.json")
-        label(params, out / "segments", out / "samples", out / "c.json", out / "s.json")
-        got[name] = pd.concat(
-            pd.read_parquet(p) for p in sorted((out / "samples").glob(f"{DRIVE}__s*.parquet"))
-        )
-    assert len(got["hiccups"]) == len(got["grid"]) == 150
-    for k in ("t_s", "label_m", "disp_gnss_m"):
-        np.testing.assert_allclose(got["hiccups"][k], got["grid"][k], rtol=0, atol=1e-9)
-
-
-def test_rows_written_at_once_after_stalls_label_the_drive_as_its_grid_stamps(tmp_path):
-    """A logger stamping rows when it writes them stalled three times and wrote the 2-4
-    rows it held at once (0.1-0.3 s late): each fills the slot its stall left, and the
-    drive's seconds and labels are those of the drive stamped on its grid. Refused before
-    (two or more rows in one slot)."""
-    from rwhonet.stages.label import label
-    from support.corpus import (
-        DRIVE,
-        good_target,
         rows_written_at_once_after_stalls,
-        write_good_fleet,
-        write_target,
     )
 
-    got = {}
-    for name, df in (("stalls", rows_written_at_once_after_stalls()), ("grid", good_target(150.0))):
-        raw, out = tmp_path / name / "raw", tmp_path / name
-        write_good_fleet(raw)
-        write_target(raw, df)
-        params = make_params(raw)
-        ingest(params, out / "drives")
-        validate(params, out / "drives", out / "segments", out / "report.json")
-        label(params, out / "segments", out / "samples", out / "c.json", out / "s.json")
-        got[name] = pd.concat(
-            pd.read_parquet(p) for p in sorted((out / "samples").glob(f"{DRIVE}__s*.parquet"))
-        )
-    assert len(got["stalls"]) == len(got["grid"]) == 150
+    logged = {"hiccups": hiccups_on_a_clean_logger, "stalls": rows_written_at_once_after_stalls}
+    _, got = _labelled_target(tmp_path / habit, logged[habit]())
+    _, grid = _labelled_target(tmp_path / "grid", good_target(150.0))
+    assert len(got) == len(grid) == 150
     for k in ("t_s", "label_m", "disp_gnss_m"):
-        np.testing.assert_allclose(got["stalls"][k], got["grid"][k], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(got[k], grid[k], rtol=0, atol=1e-9)
 
 
 def test_missing_ingest_output(tmp_path):

@@ -113,8 +113,9 @@ TIME_EPS_S = 1e-6  # decimal time stamps stored as floats are within this of the
 # than half a period the other way, and the row the dropped sample's. Such a row is no
 # fix a second may start or end on (:func:`leans_into_drop`; the label's ``drop_edge``
 # rule, ``rwhonet predict``'s seconds). A quarter period: under a bell curve of 25 ms at
-# 10 Hz, 94 % of the rows placed a slot off beside a drop lean further than that, and
-# stamps within 25 ms of their slots (a logger's few ms) never do.
+# 10 Hz, a row placed a slot off beside a drop leans further than that with a chance of
+# 94 % (99 % at 20 ms; a normal's tails), and stamps within 25 ms of their slots (a
+# logger's few ms) never do.
 DROP_LEAN_SHARE = 0.25
 # The column a drive read block by block carries each row's stamp less its placed time in
 # (s; :func:`rwhonet.data.incremental.placed`), for ``rwhonet predict``'s seconds
