@@ -519,7 +519,7 @@ def test_a_logger_s_hiccups_stream_on_whole_seconds_as_the_label_stage_labels_th
     bundle, tmp_path
 ):
     """Three rows in the first 20 s written 40-45 ms late among stamps within 2 ms of
-    their grid: predict's clock takes the grid's phase (not 19 ms after it), and its
+    their grid: predict's clock takes the grid's phase (not 21.5 ms after it), and its
     seconds, on whole seconds, are the label code's."""
     from support.corpus import hiccups_on_a_clean_logger
     from support.drives import write_iovnbd

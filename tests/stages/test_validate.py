@@ -247,7 +247,7 @@ def test_a_logger_s_hiccups_and_stalls_label_the_drive_as_its_grid_stamps(tmp_pa
     ms late (hiccups), or by a logger stamping rows when it writes them that stalled three
     times and wrote the 2-4 rows it held at once (0.1-0.3 s late): the drive's seconds and
     labels are those of the same drive stamped on its grid. The hiccups once set the
-    grid's phase 19 ms late (every second of the drive ended on an x.9 s row, one second
+    grid's phase 21.5 ms late (every second of the drive ended on an x.9 s row, one second
     fewer); the stalls' rows, two or more in a slot, were refused."""
     from support.corpus import (
         good_target,

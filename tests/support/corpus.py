@@ -1800,7 +1800,7 @@ def hiccups_on_a_clean_logger() -> pd.DataFrame:
     "stamps within 2 ms of their grid but three rows in the first 20 s written 40-45 ms "
     "late: a logger's hiccups",
     # the grid's phase is the middle of the arc the stamps fill, its 2 % at either end left
-    # out; until stop 71 the hiccups set the arc's end, the phase moved 19 ms and every
+    # out; until stop 71 the hiccups set the arc's end, the phase moved 21.5 ms and every
     # second of the drive ended on x.9 s rows (the first and last seconds partial)
     Accept("the seconds of the drive stamped on its grid, labels within 1e-9 m"),
 )

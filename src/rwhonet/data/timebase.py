@@ -747,7 +747,8 @@ class StreamClock:
         elif self.phase is None:
             self._new_run(out[finite])
         self._advance(t[:n], first_row)
-        self.lean_s = stamps[:n] - out[:n]
+        with np.errstate(invalid="ignore"):  # inf - inf: NaN, no lean (the checks tell)
+            self.lean_s = stamps[:n] - out[:n]
         return out[:n]
 
     def _runs(self, out: np.ndarray, final: bool) -> tuple[np.ndarray, int]:
