@@ -276,27 +276,10 @@ def test_a_segment_ended_by_a_restart_keeps_the_drive_s_slots_and_its_labels(tmp
     rows, with no row after them, took the slots a period late: the last second was
     labelled 1.7 m off (a 20 ms bell curve with a restart did so in 4 of 100 drives).
     The segments now carry the drive's times; every label stays near zero."""
-    from rwhonet.stages.label import label
-    from support.corpus import DRIVE, late_rows_before_a_restart, write_good_fleet, write_target
+    from support.corpus import DRIVE, late_rows_before_a_restart
 
-    df = late_rows_before_a_restart()
-    raw = tmp_path / "raw"
-    write_good_fleet(raw)
-    write_target(raw, df)
-    params = make_params(raw)
-    ingest(params, tmp_path / "drives")
-    validate(params, tmp_path / "drives", tmp_path / "segments", tmp_path / "report.json")
+    _, samples = _labelled_target(tmp_path, late_rows_before_a_restart())
     first = feather.read_table(tmp_path / "segments" / f"{DRIVE}__s000.arrow")
     assert first.column(c.T_S)[-1].as_py() == pytest.approx(45047.0, abs=1e-9)
-    label(
-        params,
-        tmp_path / "segments",
-        tmp_path / "samples",
-        tmp_path / "c.json",
-        tmp_path / "s.json",
-    )
-    samples = pd.concat(
-        pd.read_parquet(p) for p in (tmp_path / "samples").glob(f"{DRIVE}__s*.parquet")
-    )
     assert len(samples) >= 140
     assert np.abs(samples["label_m"]).max() < 0.2
