@@ -37,13 +37,13 @@ def _drive():
     return simulated_streams(120.0, 100.0, 10.0)
 
 
-def _labels(files, smap=None):
+def _labels(files, smap=None, gnss_lag="report"):
     from rwhonet.sim.streams import signal_map
     from support.multirate import per_second
 
     _, radius = _drive()
     streams = read_stream_csvs(files, smap or signal_map(), radius)
-    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    drive = resample(streams, nominal_radius_m=radius, gnss_lag=gnss_lag).drive.columns
     return per_second(drive, radius), streams
 
 
@@ -155,6 +155,31 @@ def test_a_logger_clock_in_local_time_is_refused_with_its_offset(tmp_path):
     said = str(err.value)
     assert "gps.nmea" in said and "fixes during the stream files' times" in said
     assert "1.00 h ahead of the receiver's UTC: a local time?" in said
+
+
+def test_a_logger_clock_on_gps_time_is_found_by_the_wheels_and_refused_as_two_clocks(tmp_path):
+    """A logger whose clock runs on GPS time (18 s ahead of UTC) beside unstamped sentences:
+    their UTC times alone cannot tell it, but the fixes' distances fit the wheels' path
+    only 18 s later (the resampler's wide search, rwhonet.data.fixlag). Refused with the
+    setting that moves them; with it set, the labels of the drive logged on UTC, exactly,
+    18 s later on the logger's clock."""
+    tables, _ = _drive()
+    g = tables.gnss
+    t = np.round(g[c.T_S].to_numpy(), 2)
+    exact = g.assign(t_s=t)
+    for name, shift in (("utc", 0.0), ("gps", 18.0)):
+        write_nmea(tmp_path / name / "gps.nmea", nmea_lines(exact, DAY_S + t))
+        _wheels(tmp_path / name, DAY_S + shift)
+    gps = [tmp_path / "gps" / "wheels.csv", tmp_path / "gps" / "gps.nmea"]
+    with pytest.raises(InputError) as err:
+        _labels(gps)
+    said = str(err.value)
+    assert "the fixes and the wheel speeds on two clocks" in said
+    assert "(GPS time runs 18 s ahead of UTC since 2017?)" in said
+    assert "set data.gnss_lag: -17.9" in said or "set data.gnss_lag: -18.0" in said
+    ref = _labels([tmp_path / "utc" / "wheels.csv", tmp_path / "utc" / "gps.nmea"])[0]
+    got = _labels(gps, gnss_lag=-18.0)[0]
+    _same(got.assign(t_s=got["t_s"] - 18.0), ref, 1e-9)
 
 
 def test_unstamped_sentences_on_a_logger_s_own_clock_are_refused(tmp_path):
