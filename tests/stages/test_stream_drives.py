@@ -49,7 +49,10 @@ def _stages(params, work):
         work / "scaler.json",
     )
     samples = pd.concat(
-        [pd.read_parquet(p) for p in sorted((work / "samples").glob("*.parquet"))],
+        [
+            pd.read_parquet(p).assign(drive=p.stem.split("__")[0])
+            for p in sorted((work / "samples").glob("*.parquet"))
+        ],
         ignore_index=True,
     )
     return manifest, report, samples
@@ -59,7 +62,7 @@ def _same_labels(native, samples: pd.DataFrame, atol_m: float) -> None:
     """The stream drives' labelled seconds are the 10 Hz drives' (``native``), within
     ``atol_m``, all but the few at a drive's ends."""
     _, _, native_samples = native
-    merged = native_samples.merge(samples, on="t_s", suffixes=("_native", "_streams"))
+    merged = native_samples.merge(samples, on=["drive", "t_s"], suffixes=("_native", "_streams"))
     assert len(merged) >= len(samples) - 3 and len(merged) > 400
     for col in ("disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(
@@ -278,3 +281,53 @@ def test_a_stream_split_across_files_goes_through_the_stages_naming_each_file_s_
     assert listed["row"] == k + 1 - cut  # the data row of wheels_2.csv.gz
     assert "target_test/C-B1/wheels_2.csv.gz [" in listed["stream"]
     assert listed["channel"] == "WheelSpeed_RL"
+
+
+# IO-VNBD's columns (rwhonet.data.iovnbd.LAYOUT) as a stream folder's signal map: the
+# headers matched as any CSV's (case, spaces and the unit suffix aside)
+IOVNBD_SIGNALS = {
+    "t": ("Time", "s"),
+    "lat": ("Lat", "deg"),
+    "lon": ("Long", "deg"),
+    "n_sats": ("Sats", "count"),
+    "omega_fl": ("Wheel Speed Front Left", "rad/s"),
+    "omega_fr": ("Wheel Speed Front Right", "rad/s"),
+    "omega_rl": ("Wheel Speed Rear Left", "rad/s"),
+    "omega_rr": ("Wheel Speed Rear Right", "rad/s"),
+}
+
+
+def test_a_10_hz_logger_s_rotated_files_go_through_the_stages_as_one_drive(native, tmp_path):
+    """A 10 Hz logger that rotates its file (``C-B1_000.csv``, ``C-B1_001.csv``, ...): each
+    file would be a drive of its own, too short for a long outage. Its files in one folder,
+    read through a signal map of the same columns (``reader: stream_csv``), are joined in
+    time order and go through the stages as the one drive: the labels of the IO-VNBD file
+    within the resampler's cost (its first and last 0.3 s are no grid rows)."""
+    root = tmp_path / "raw"
+    for role, (drive, *_) in ROLE_DRIVES.items():
+        one = write_iovnbd(role_drive(role), tmp_path / "one" / f"{drive}.csv")
+        header, *rows = one.read_text().splitlines()
+        bounds = [0, 517, 1003, len(rows)]
+        folder = root / role / drive
+        folder.mkdir(parents=True)
+        for k in (2, 0, 1):  # written in no order
+            part = rows[bounds[k] : bounds[k + 1]]
+            (folder / f"{drive}_{k:03d}.csv").write_text("\n".join([header, *part]) + "\n")
+    signals = {k: {"column": col, "unit": unit} for k, (col, unit) in IOVNBD_SIGNALS.items()}
+    roles = stream_params(root, "stream_csv").data.roles
+    params = make_params(
+        root,
+        **{
+            "data.roles": {
+                r: {"glob": s.glob, "format": "rotated", "vehicle": s.vehicle, "required": True}
+                for r, s in roles.items()
+            },
+            "data.signal_maps": {"rotated": {"reader": "stream_csv", "signals": signals}},
+        },
+    )
+    manifest, report, samples = _stages(params, tmp_path)
+    b1 = next(d for d in manifest["drives"] if d["drive"] == "C-B1")
+    assert "C-B1_000.csv + " in " ".join(b1["notes"])
+    assert "one stream split across 3 files, joined in time order" in " ".join(b1["notes"])
+    assert report["totals"]["segments"] == 3
+    _same_labels(native, samples, LABEL_TOL_M)
