@@ -643,6 +643,37 @@ def test_predict_refuses_a_clockwise_yaw_rate_as_validate_does_and_writes_nothin
     assert err.count("yaw rate's unit and sign not told") == 1 and "not checked" not in err
 
 
+def test_predict_refuses_an_axle_s_wheels_exchanged_as_validate_does_and_writes_nothing(
+    bundle, tmp_path, capsys
+):
+    """The rear wheels' speeds written to each other's columns turn the wheels' yaw the wrong
+    way (2D dead reckoning without a gyro): refused, naming both columns; in their columns
+    they pass with nothing said; wheels that never differ say the sides were not told."""
+    from rwhonet.data import canonical as c
+    from support.corpus import TARGET_RADIUS_M, weaving_drive, weaving_target
+    from support.drives import write_iovnbd
+
+    car = ["--nominal-radius", str(TARGET_RADIUS_M)]
+    df = weaving_drive(150.0, track_m=1.5)
+    good = write_iovnbd(df, tmp_path / "V-Turns.csv")
+    assert main(predict_args(bundle, good, tmp_path / "good.csv", *car)) == 0
+    assert "wheels not told" not in capsys.readouterr().err
+    df[[c.OMEGA_RL, c.OMEGA_RR]] = df[[c.OMEGA_RR, c.OMEGA_RL]].to_numpy()
+    swapped = write_iovnbd(df, tmp_path / "V-Swapped.csv")
+    out = tmp_path / "swapped.csv"
+    assert main(predict_args(bundle, swapped, out, *car)) == 2
+    err = capsys.readouterr().err
+    assert "Wheel Speed Rear Left (rad/sec) /  Wheel Speed Rear Right (rad/sec)" in err
+    assert "validate's wheel-sides check" in err and "look exchanged (left for right)" in err
+    assert "Front" not in err
+    assert not out.exists() and list(tmp_path.glob(".*partial")) == []
+    same = write_iovnbd(weaving_target(), tmp_path / "V-Same.csv")  # every wheel alike
+    assert main(predict_args(bundle, same, tmp_path / "same.csv", *car)) == 0
+    err = capsys.readouterr().err
+    assert err.count("left and right wheels not told against the GNSS course") == 1
+    assert "the rear wheels never differed" in err
+
+
 def test_predict_repairs_a_yaw_rate_s_invalid_code_and_says_so(bundle, tmp_path, capsys):
     """One row of 327.67 deg/s (an int16 at full scale) turned the dead-reckoned track by
     33 degrees; it is interpolated across, as the label does, and named even when quiet."""

@@ -20,9 +20,11 @@ from rwhonet.data.plausibility import (
     negative_wheel_rows,
     radians_radius,
     reversing_rows,
+    side_mistake,
     stuck_wheel_runs,
     swapped_radius,
     wheel_gnss_runs,
+    wheel_side_gains,
     yaw_gain,
     yaw_mistake,
 )
@@ -341,3 +343,60 @@ def test_a_wrong_gyro_bending_1_hz_positions_is_still_named(factor, what):
     # the 57-fold gyro loops the path between fixes, and the course takes some of it (the
     # gain 0.054 against 1/57 = 0.017 measured): still far from 1, still named
     assert est.gain == pytest.approx(1.0 / factor, rel=0.1 if abs(factor) == 1 else 3.5)
+
+
+# ------------------------------------------------------------------------ the wheels' sides
+
+
+def _wheels_turning(**kw) -> dict[str, np.ndarray]:
+    """A car weaving at 10 m/s (±0.2 rad/s), each side's wheels at their own speed (a
+    1.5 m track), its fixes noisy."""
+    df = weaving_drive(300, 10.0, fix_noise_m=0.3, track_m=1.5, **kw)
+    return {k: df[k].to_numpy(copy=True) for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+
+
+def _sides(drive, track_m: float = 1.5):
+    return wheel_side_gains(drive, _whole(drive), YAW_MIN_STEP_M, 0.1, 0.3, track_m)
+
+
+def test_each_axle_s_wheels_turn_as_the_course_turns():
+    """Ideal rolling (no load transfer, no slip): each axle's gain is 1 on the car's track
+    and scales with the track given (only its sign is told)."""
+    drive = _wheels_turning()
+    for axle, est in _sides(drive).items():
+        assert est.seconds == 299
+        assert est.gain == pytest.approx(1.0, abs=4 * est.gain_se) and est.gain_se < 0.04, axle
+        assert side_mistake(est) == (True, False)
+    wide = _sides(drive, track_m=3.0)["rear"]
+    assert wide.gain == pytest.approx(2.0 * _sides(drive)["rear"].gain, rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    "exchanged, told",
+    [
+        ((c.OMEGA_RL, c.OMEGA_RR), {"rear": True, "front": False}),
+        ((c.OMEGA_FL, c.OMEGA_FR), {"rear": False, "front": True}),
+    ],
+)
+def test_an_axle_s_left_and_right_exchanged_turn_against_the_course(exchanged, told):
+    drive = _wheels_turning()
+    left, right = exchanged
+    drive[left], drive[right] = drive[right].copy(), drive[left].copy()
+    for axle, est in _sides(drive).items():
+        assert side_mistake(est) == (True, told[axle]), axle
+        if told[axle]:
+            assert est.gain == pytest.approx(-1.0, abs=4 * est.gain_se)
+
+
+def test_wheels_that_cannot_tell_their_sides_pass():
+    """Every wheel at the car's speed (an axle's mean speed written to both), a drive
+    that hardly turns, or one too slow for a course: no side is told, none is exchanged."""
+    same = weaving_drive(300, 10.0, fix_noise_m=0.3)  # no track: every wheel alike
+    same = {k: same[k].to_numpy() for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+    gentle = _wheels_turning(turn_rad_s=0.0005)
+    slow = weaving_drive(300, 4.0, fix_noise_m=0.3, track_m=1.5)
+    slow = {k: slow[k].to_numpy() for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+    for drive in (same, gentle, slow):
+        for est in _sides(drive).values():
+            assert side_mistake(est) == (False, False)
+    assert all(est.seconds < YAW_MIN_SECONDS for est in _sides(slow).values())

@@ -180,11 +180,14 @@ def weaving_drive(
     gyro_scale: float = 1.0,
     gyro_bias_rad_s: float = 0.0,
     seed: int = 0,
+    track_m: float = 0.0,
 ) -> pd.DataFrame:
     """A drive that weaves: yaw rate ``turn_rad_s · sin(2π t / 40 s)`` (left positive) at a
     constant speed from ``(lat0_deg, -1.5)``, 10 Hz from T0; the fixes with white noise,
     the yaw-rate column (rad/s) the true rate times ``gyro_scale`` plus a bias and, when
-    the fixes are noisy, 0.002 rad/s of white noise."""
+    the fixes are noisy, 0.002 rad/s of white noise. Every wheel turns at the car's
+    speed, or with ``track_m`` each side's wheels at their own in the turns (the speed
+    ± the yaw rate times half the track: ideal rolling, no load transfer)."""
     from rwhonet.geo import latlon_from_offsets_deg
 
     rng = np.random.default_rng(seed)
@@ -206,7 +209,10 @@ def weaving_drive(
             c.T_S: t,
             c.LAT_DEG: lat,
             c.LON_DEG: lon,
-            **{w: np.full(t.size, speed_m_s / radius_m) for w in c.WHEELS},
+            **{
+                w: (speed_m_s + side * 0.5 * track_m * rate) / radius_m
+                for w, side in zip(c.WHEELS, (-1.0, 1.0, -1.0, 1.0), strict=True)
+            },
             c.N_SATS: np.full(t.size, 9.0),
             c.YAW_RATE_RAD_S: gyro,
         }
@@ -1458,6 +1464,23 @@ def _(raw: Path) -> None:
 def _(raw: Path) -> None:
     df = weaving_target()
     df[[c.LAT_DEG, c.LON_DEG]] = df[[c.LON_DEG, c.LAT_DEG]].to_numpy()
+    write_target(raw, df)
+
+
+@case(
+    "rear_wheels_left_and_right_exchanged",
+    "a turning drive whose rear wheels' speeds are written to each other's columns",
+    Refuse(
+        "validate",
+        None,
+        " Wheel Speed Rear Left (rad/sec) /  Wheel Speed Rear Right (rad/sec)",
+        "the rear left wheel's speed in ' Wheel Speed Rear Left (rad/sec)'",
+        "the two columns look exchanged (left for right)",
+    ),
+)
+def _(raw: Path) -> None:
+    df = weaving_drive(DURATION_S, track_m=1.5)
+    df[[c.OMEGA_RL, c.OMEGA_RR]] = df[[c.OMEGA_RR, c.OMEGA_RL]].to_numpy()
     write_target(raw, df)
 
 

@@ -34,6 +34,7 @@ from rwhonet.data.glitches import (
     repaired_yaw_rate,
 )
 from rwhonet.data.plausibility import (
+    AXLES,
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
     SignTally,
@@ -43,11 +44,13 @@ from rwhonet.data.plausibility import (
     latlon_swapped_by_range,
     minutes_radius,
     radians_radius,
+    side_mistake,
     sign_tallies,
     stuck_wheel_runs,
     swapped_radius,
     unit_mistake,
     wheel_gnss_runs,
+    wheel_side_gains,
     yaw_gain,
     yaw_mistake,
 )
@@ -57,6 +60,9 @@ from rwhonet.data.timebase import label_times
 from rwhonet.errors import InputError, Problem
 
 YAW_GLITCHES_LISTED = 10  # yaw-rate glitches listed one by one in the record (all counted)
+# A car's track where predict is not told it: the wheel-sides check tells a sign, whatever the
+# track (it scales the gain it reports).
+DEFAULT_TRACK_M = 1.5
 
 
 def target_test_min_s(params: Params) -> int:
@@ -267,7 +273,7 @@ def _drive_problems(
             )
         )
         none = {"checked": False, "note": "no valid segment"}
-        return problems, {"radius": none, "yaw_rate": dict(none)}
+        return problems, {"radius": none, "yaw_rate": dict(none), "wheel_sides": dict(none)}
 
     need = target_test_min_s(params)
     if entry["role"] == contracts.TARGET_TEST and result.seconds_kept < need:
@@ -290,7 +296,10 @@ def _drive_problems(
     nominal = params.nominal_radius_m(entry["vehicle"])
     more, radius = radius_problems(entry, df, result.segments, nominal, vp, check_units)
     yawed, yaw = yaw_problems(entry, df, result.segments, vp)
-    return problems + more + yawed, {"radius": radius, "yaw_rate": yaw}
+    track = params.track_rear_m(entry["vehicle"])
+    sided, sides = side_problems(entry, df, result.segments, vp, nominal, track)
+    checks = {"radius": radius, "yaw_rate": yaw, "wheel_sides": sides}
+    return problems + more + yawed + sided, checks
 
 
 def yaw_problems(
@@ -426,6 +435,86 @@ def swapped_fixes_gain(
     return est if checked and mistake is None else None
 
 
+def side_problems(
+    entry: dict[str, Any],
+    df: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    vp: ValidateParams,
+    radius_m: float,
+    track_m: float,
+) -> tuple[list[Problem], dict[str, Any]]:
+    """The wheel-sides check: each axle's left and right wheel speeds in their columns.
+
+    The GNSS course turns with the right wheel's speed less the left's
+    (:func:`rwhonet.data.plausibility.wheel_side_gains`); an axle whose gain is told
+    negative (:func:`~rwhonet.data.plausibility.side_mistake`: 4 standard errors from 0)
+    has its two columns exchanged, a mistake of a column map, a signal map or a DBC's
+    signal names that no other check sees: a wheel's speed is the same whichever side it
+    is written to, so the distance and the label do not change, but the wheels' yaw,
+    which 2D dead reckoning turns by where there is no gyro, turns every track the wrong
+    way (the built-in V-Charlie3's rear wheels exchanged, without its yaw rate: 2,169 m
+    off at the end of a 180 s outage of 2,166 m, against 38 m). A drive that turned too
+    little to tell passes, with a note in the record.
+
+    Args:
+        entry: ``source_file``, ``columns`` (canonical -> the file's name).
+        df: the canonical drive.
+        segments: its GNSS-valid segments.
+        vp: ``validate``.
+        radius_m: the car's nominal tyre radius.
+        track_m: its rear track (the gains' scale; only their signs are told).
+
+    Returns:
+        ``(problems, record)``: the record as validate reports it: ``checked`` (both
+        axles told, or one told exchanged), per axle its gain, standard error and pairs of
+        seconds, and a note when not checked.
+    """
+    gains = wheel_side_gains(df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m)
+    record: dict[str, Any] = {}
+    problems, told = [], []
+    for axle, est in gains.items():
+        checked, exchanged = side_mistake(est)
+        told.append(checked)
+        record[axle] = {
+            "gain": None if np.isnan(est.gain) else est.gain,
+            "gain_se": None if not np.isfinite(est.gain_se) else est.gain_se,
+            "seconds": est.seconds,
+        }
+        if not exchanged:
+            continue
+        left, right = (entry["columns"].get(k, k) for k in AXLES[axle])
+        problems.append(
+            Problem(
+                entry["source_file"],
+                None,
+                f"{left} / {right}",
+                f"the {axle} left wheel's speed in {left!r} and the {axle} right wheel's in "
+                f"{right!r}: the GNSS course turning with the right wheel's speed less the "
+                "left's, as the outer wheel runs faster",
+                f"over {est.seconds} pairs of moving seconds in valid segments the course "
+                f"turned {est.gain:.3g} ± {est.gain_se:.2g} times the turn the {axle} wheels "
+                "say: against them, so the two columns look exchanged (left for right)",
+                "exchange the two columns (their names in the header, or the two keys in the "
+                "column map or signal map)",
+            )
+        )
+    record["checked"] = all(told) or bool(problems)
+    if not record["checked"]:
+        axle, est = next((a, e) for (a, e), t in zip(gains.items(), told, strict=True) if not t)
+        if est.seconds < YAW_MIN_SECONDS:
+            record["note"] = (
+                f"only {est.seconds} pairs of seconds at >= {YAW_MIN_STEP_M:g} m/s in valid "
+                f"segments (< {YAW_MIN_SECONDS})"
+            )
+        elif np.isnan(est.gain):
+            record["note"] = f"the {axle} wheels never differed (one speed written to both?)"
+        else:
+            record["note"] = (
+                f"turned too little to tell ({axle} gain {est.gain:.3g} ± {est.gain_se:.2g})"
+            )
+    return problems, record
+
+
 @np.errstate(invalid="ignore", over="ignore", divide="ignore")
 def radius_problems(
     entry: dict[str, Any],
@@ -557,7 +646,9 @@ class StreamRadiusCheck:
     report validate gives. The rows of a drive with a yaw rate (in its first block) are
     kept on until :func:`yaw_problems` can tell too (the course has turned enough),
     without holding the wheel check's decision: a yaw rate that turns the wrong way is
-    refused as validate refuses it, when that is told. Rows without a fix are bad rows for
+    refused as validate refuses it, when that is told; so are an axle's left and right
+    wheels exchanged (:func:`side_problems`), on every drive, until told (a track that
+    turned too little keeps them to its end). Rows without a fix are bad rows for
     the policy (a stream may miss fixes; validate's schema refuses them). A drive that
     ends undecided (no GNSS, or too few moving seconds) leaves :attr:`note` saying why
     the wheels were not checked, and :attr:`yaw_note` why the yaw rate was not. The
@@ -574,9 +665,10 @@ class StreamRadiusCheck:
     forwards is refused when seen (validate refuses it whatever its share), a column
     negative on more than ``validate.wheels.signed_max_share`` of the moving rows at the
     drive's end (a share of the whole drive). Only those tallies and the last
-    :attr:`SENSOR_CONTEXT_S` of rows are kept once the unit check has decided, so the
-    memory of a live stream does not grow with its length (before that decision, which
-    takes GNSS, every row is kept).
+    :attr:`SENSOR_CONTEXT_S` of rows are kept once the unit check has decided, and for the
+    wheel-sides check the last :attr:`SIDES_WINDOW_S`, so the memory of a live stream does
+    not grow with its length (before that decision, which takes GNSS, every row is kept;
+    and while a yaw rate is not told).
 
     Attributes:
         decided: True once the wheel check has run (or the drive ended).
@@ -585,6 +677,9 @@ class StreamRadiusCheck:
         note: why the wheel check could not run (None: it ran, or not decided yet).
         yaw_note: why the yaw-rate check could not tell (None: it did, the drive has no
             yaw rate, or not decided yet).
+        sides_decided: True once the wheel-sides check has told (or the drive ended).
+        sides_note: why the wheel-sides check could not tell (None: it did, or not
+            decided yet).
     """
 
     KEYS = (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)
@@ -594,6 +689,9 @@ class StreamRadiusCheck:
     # to count then, started within that time before it; a longer one was told then)
     SENSOR_STEP_S = 60.0  # 30 s: about twice the cost (+0.13-0.23 s an hour of rows)
     SENSOR_CONTEXT_S = 60.0
+    # the wheel-sides check, once the others have decided, on the last 10 min of rows (a
+    # motorway that never turns enough to tell is not kept whole; told on ~30 s of turns)
+    SIDES_WINDOW_S = 600.0
 
     def __init__(
         self,
@@ -601,17 +699,20 @@ class StreamRadiusCheck:
         nominal_m: float,
         vp: ValidateParams,
         radius_from: str | None = None,
+        track_m: float = DEFAULT_TRACK_M,
     ) -> None:
         self.entry, self.nominal_m, self.vp, self.radius_from = entry, nominal_m, vp, radius_from
+        self.track_m = track_m
         self.parts: list[dict[str, np.ndarray]] = []
         self.keys: tuple[str, ...] | None = None  # KEYS, and the yaw rate if the drive has one
         self.n_rows = 0
         per_s = 1.0 / vp.sample_period_s
         self.next_try = int(np.ceil((vp.radius_min_moving_s + 2.0) * per_s))
         self.step_rows = int(np.ceil(30.0 * per_s))
-        self.decided = self.yaw_decided = False
+        self.decided = self.yaw_decided = self.sides_decided = False
         self.note: str | None = None
         self.yaw_note: str | None = None
+        self.sides_note: str | None = None
         self.wheel_parts: list[dict[str, np.ndarray]] = []  # the rows not checked, and context
         self.n_wheel_rows = 0  # rows pushed (the range check's row numbers)
         self.range_problems: list[Problem] = []  # each wheel's first row out of range
@@ -641,7 +742,7 @@ class StreamRadiusCheck:
         Raises:
             InputError: a wheel speed beyond ``validate.max_abs_wheel_speed_rad_s``, the
                 wheel speeds do not fit the nominal radius against GNSS, or the yaw rate
-                does not turn as the GNSS course does.
+                does not turn as the GNSS course does, or an axle's wheels turn against it.
         """
         block = {k: np.asarray(columns[k], dtype=np.float64) for k in self.KEYS}
         first = self.n_wheel_rows + 1 if first_row is None else int(first_row)
@@ -649,7 +750,7 @@ class StreamRadiusCheck:
         self.wheel_parts.append(block)
         self._tally_signs(block)
         self._in_range(block, columns if raw is None else raw)
-        if not (self.decided and self.yaw_decided):
+        if not self._all_decided():
             if self.keys is None:
                 self.keys = self.KEYS + ((c.YAW_RATE_RAD_S,) if c.YAW_RATE_RAD_S in columns else ())
             self.parts.append({k: np.asarray(columns[k], dtype=np.float64) for k in self.keys})
@@ -675,7 +776,7 @@ class StreamRadiusCheck:
         Raises:
             InputError: as :meth:`push`.
         """
-        if not (self.decided and self.yaw_decided):
+        if not self._all_decided():
             self._try(final=True)
         self._refuse_range()
         self._wheel_sensors(self._sign_problems(final=True))
@@ -816,9 +917,12 @@ class StreamRadiusCheck:
                 "wheel-sensor checks: sign, stuck or silent wheels)",
             )
 
+    def _all_decided(self) -> bool:
+        return self.decided and self.yaw_decided and self.sides_decided
+
     def _try(self, final: bool) -> None:
         if not self.parts:  # a drive that ended without a row: nothing to tell
-            self.decided = self.yaw_decided = True
+            self.decided = self.yaw_decided = self.sides_decided = True
             self.note = self._why_not(False, {})
             return
         keys = self.keys or self.KEYS
@@ -830,6 +934,7 @@ class StreamRadiusCheck:
             "checked": self.yaw_decided or c.YAW_RATE_RAD_S not in rows,
             "note": "no GNSS-valid stretch",
         }
+        sides_record: dict[str, Any] = {"checked": False, "note": "no GNSS-valid stretch"}
         if rows[c.T_S].size > 1 and fix.any():
             result = assess(rows, self.vp.gnss, self.vp.sample_period_s, wheel_glitch=~fix)
             if result.segments and not self.decided:
@@ -849,6 +954,16 @@ class StreamRadiusCheck:
                         f"{self.entry['source_file']}: a yaw rate and a GNSS course that do "
                         "not turn alike (validate's yaw-rate check)",
                     )
+            if result.segments and not self.sides_decided:
+                sided, sides_record = side_problems(
+                    self.entry, rows, result.segments, self.vp, self.nominal_m, self.track_m
+                )
+                if sided:
+                    raise InputError(
+                        sided,
+                        f"{self.entry['source_file']}: an axle's wheels that turn the car "
+                        "against the GNSS course (validate's wheel-sides check)",
+                    )
         if problems:
             raise InputError(
                 problems,
@@ -867,9 +982,21 @@ class StreamRadiusCheck:
                     f"{self.entry['source_file']}: yaw rate's unit and sign not told against "
                     "the GNSS course (validate's yaw-rate check): " + yaw_record["note"]
                 )
-        if self.decided and self.yaw_decided:
+        if not self.sides_decided and (sides_record["checked"] or final):
+            self.sides_decided = True
+            if not sides_record["checked"]:
+                self.sides_note = (
+                    f"{self.entry['source_file']}: left and right wheels not told against the "
+                    "GNSS course (validate's wheel-sides check): " + sides_record["note"]
+                )
+        if self._all_decided():
             self.parts = []
             return
+        if self.decided and self.yaw_decided:  # only the sides to tell: the last stretch
+            keep = int(np.ceil(self.SIDES_WINDOW_S / self.vp.sample_period_s))
+            if rows[c.T_S].size > keep:
+                self.parts = [{k: v[-keep:] for k, v in rows.items()}]
+                self.n_rows = keep
         self.next_try = max(int(1.5 * self.n_rows), self.n_rows + self.step_rows)
 
     def _why_not(self, any_fix: bool, record: dict[str, Any]) -> str:

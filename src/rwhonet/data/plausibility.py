@@ -20,7 +20,10 @@ A yaw rate turns the car as the GNSS course turns (:func:`yaw_gain`): the gain o
 course's turn on the gyro's is about 1 for a yaw rate in the declared unit and sign,
 -1 for a gyro positive clockwise (SAE J670's z down) read as ISO 8855's positive left,
 π/180 for degrees read as radians and 180/π the other way round, and about 0 for a
-channel that does not follow the car (zeros, another signal).
+channel that does not follow the car (zeros, another signal). Each axle's wheels turn it
+too (:func:`wheel_side_gains`): the outer wheel runs faster, so the course turns with the
+right wheel's speed less the left's, and a pair whose columns are exchanged turns it the
+other way.
 """
 
 from __future__ import annotations
@@ -227,6 +230,66 @@ def yaw_gain(
     dof = n - count.size - 1  # a slope, and an intercept per block
     se = math.sqrt(float(resid @ resid) / max(dof, 1) / sxx)
     return YawEstimate(gain, se, n, span)
+
+
+# Each axle's two wheels, left then right, for :func:`wheel_side_gains`.
+AXLES: dict[str, tuple[str, str]] = {
+    "rear": (c.OMEGA_RL, c.OMEGA_RR),
+    "front": (c.OMEGA_FL, c.OMEGA_FR),
+}
+
+
+def wheel_side_gains(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    min_step_m: float,
+    sample_period_s: float | None,
+    radius_m: float,
+    track_m: float,
+) -> dict[str, YawEstimate]:
+    """The gain of the GNSS course's turn on each axle's wheel yaw, over the valid segments.
+
+    In a turn the outer wheels roll a longer arc: an axle's yaw rate is about
+    ``(ω_right − ω_left) r / track`` (the rear axle's is what 2D dead reckoning turns
+    by without a gyro). :func:`yaw_gain` of that yaw rate is positive for wheels in their
+    columns and negative for a left and a right column exchanged. Its size is not 1: a
+    turn's load transfer shrinks the outer tyres' rolling radii and their slip adds to
+    it, so the wheels overstate a turn, more the faster it is taken (the built-in
+    drives' rear axles give 0.43-0.92: docs/readers.md); only its sign tells anything.
+
+    Args:
+        drive: canonical columns (``t_s``, ``lat_deg``, ``lon_deg``, the wheel speeds).
+        segments: the drive's GNSS-valid segments.
+        min_step_m: a chord shorter than this has no course (:func:`yaw_gain`).
+        sample_period_s: the nominal sample period.
+        radius_m: the car's nominal tyre radius.
+        track_m: its track width (the rear's serves both axles: only the sign is told).
+
+    Returns:
+        Per axle (``rear``, ``front``) its estimate.
+    """
+    out = {}
+    for axle, (left, right) in AXLES.items():
+        yaw = (np.asarray(drive[right], np.float64) - np.asarray(drive[left], np.float64)) * (
+            radius_m / track_m
+        )
+        turned = {k: drive[k] for k in (c.T_S, c.LAT_DEG, c.LON_DEG)} | {c.YAW_RATE_RAD_S: yaw}
+        out[axle] = yaw_gain(turned, segments, min_step_m, sample_period_s)
+    return out
+
+
+def side_mistake(est: YawEstimate) -> tuple[bool, bool]:
+    """Whether an axle's wheel-yaw gain (:func:`wheel_side_gains`) tells its sides, and
+    whether they are exchanged: told where the gain lies :data:`YAW_EVIDENCE_SE` standard
+    errors from 0, over at least :data:`YAW_MIN_SECONDS` pairs of seconds.
+
+    Returns:
+        ``(checked, exchanged)``.
+    """
+    if est.seconds < YAW_MIN_SECONDS or not math.isfinite(est.gain):
+        return False, False
+    told = abs(est.gain) > YAW_EVIDENCE_SE * est.gain_se
+    return told, told and est.gain < 0.0
 
 
 # (what the yaw rate really is, the gain of the course's turn on it)

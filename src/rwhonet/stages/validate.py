@@ -419,6 +419,7 @@ def _drive_report(
         "cut_rows_by_rule": result.cut_rows_by_rule,
         "radius": units["radius"],
         "yaw_rate": units["yaw_rate"],
+        "wheel_sides": units["wheel_sides"],
     }
     # rows written twice or without a wheel speed, dropped by ingest (not in "rows")
     report.update(report_rows(entry))

@@ -1,0 +1,84 @@
+"""The wheel-sides check on every built-in drive of each profile, and with its rear wheels'
+columns exchanged.
+
+For each profile named: the simulator's fleet (``rwhonet.sim.simulate_fleet``) to a
+scratch folder, each drive read back as ingest reads it (the IO-VNBD reader), validate's
+GNSS policy (``quality.assess``) and the check itself
+(``rwhonet.data.drivechecks.side_problems``, with the car's nominal radius and rear
+track as validate takes them). It prints per profile: the drives, those refused as they
+are (none expected), those the check could not tell and why, the range and median of
+each axle's gain, and how many are refused with the rear wheels' columns exchanged.
+Nothing is written outside the scratch folder. ``docs/readers.md`` ("An axle's left
+and right wheels") reports what this gave.
+
+Usage: python benchmarks/wheel_sides.py [profile ...]   (default: the four worlds and ci)
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.config import load_params
+from rwhonet.data import canonical as c
+from rwhonet.data.drivechecks import side_problems
+from rwhonet.data.iovnbd import read_iovnbd
+from rwhonet.data.quality import assess
+from rwhonet.sim import simulate_fleet
+
+PROFILES = ("paper", "large_target", "paper_consumer", "large_target_consumer", "ci")
+
+
+def profile_sides(profile: str) -> dict:
+    """The check's verdicts on one profile's fleet (see the module docstring)."""
+    params = load_params(overrides={"sim.profile": profile})
+    vp = params.validate
+    gains: dict[str, list[float]] = {"rear": [], "front": []}
+    refused, untold, exchanged_refused = [], [], 0
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = simulate_fleet(params, Path(tmp) / "sim")
+        for d in summary["drives"]:
+            path = Path(tmp) / "sim" / d["role"] / f"{d['drive']}.csv"
+            drive = read_iovnbd(path).columns
+            segments = assess(drive, vp.gnss, vp.sample_period_s).segments
+            vehicle = d["vehicle"]
+            radius, track = params.nominal_radius_m(vehicle), params.track_rear_m(vehicle)
+            entry = {"source_file": path.name, "columns": {}}
+            problems, record = side_problems(entry, drive, segments, vp, radius, track)
+            if problems:
+                refused.append(d["drive"])
+            if not record["checked"]:
+                untold.append([d["drive"], record["note"]])
+            for axle, g in gains.items():
+                if record[axle]["gain"] is not None:
+                    g.append(record[axle]["gain"])
+            swapped = dict(drive)
+            swapped[c.OMEGA_RL], swapped[c.OMEGA_RR] = drive[c.OMEGA_RR], drive[c.OMEGA_RL]
+            exchanged_refused += bool(side_problems(entry, swapped, segments, vp, radius, track)[0])
+    return {
+        "drives": len(summary["drives"]),
+        "refused": refused,
+        "untold": untold,
+        "rear_exchanged_refused": exchanged_refused,
+        **{
+            f"{axle}_gain_min_max_median": [
+                round(min(g), 3),
+                round(max(g), 3),
+                round(float(np.median(g)), 3),
+            ]
+            for axle, g in gains.items()
+        },
+    }
+
+
+def main(argv: list[str]) -> None:
+    for profile in argv or PROFILES:
+        print(profile, json.dumps(profile_sides(profile)), flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
