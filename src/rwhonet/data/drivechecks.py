@@ -37,8 +37,10 @@ from rwhonet.data.plausibility import (
     AXLES,
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
+    CourseTurns,
     SignTally,
     YawEstimate,
+    course_turns,
     gnss_path_m,
     implied_radius,
     latlon_swapped_by_range,
@@ -295,9 +297,11 @@ def _drive_problems(
 
     nominal = params.nominal_radius_m(entry["vehicle"])
     more, radius = radius_problems(entry, df, result.segments, nominal, vp, check_units)
-    yawed, yaw = yaw_problems(entry, df, result.segments, vp)
+    # the course's turns, which the yaw rate and each axle's wheels are fitted against
+    turns = course_turns(df, result.segments, YAW_MIN_STEP_M, vp.sample_period_s)
+    yawed, yaw = yaw_problems(entry, df, result.segments, vp, turns)
     track = params.track_rear_m(entry["vehicle"])
-    sided, sides = side_problems(entry, df, result.segments, vp, nominal, track)
+    sided, sides = side_problems(entry, df, result.segments, vp, nominal, track, turns)
     checks = {"radius": radius, "yaw_rate": yaw, "wheel_sides": sides}
     return problems + more + yawed + sided, checks
 
@@ -307,6 +311,7 @@ def yaw_problems(
     df: Mapping[str, np.ndarray],
     segments: Sequence[Segment],
     vp: ValidateParams,
+    turns: CourseTurns | None = None,
 ) -> tuple[list[Problem], dict[str, Any]]:
     """The yaw-rate check: the GNSS course's turn against the gyro's, and what it says.
 
@@ -326,6 +331,8 @@ def yaw_problems(
         df: the canonical drive.
         segments: its GNSS-valid segments.
         vp: ``validate``.
+        turns: the course's turns over them
+            (:func:`rwhonet.data.plausibility.course_turns`), where already computed.
 
     Returns:
         ``(problems, record)``: the record as validate reports it (``checked``, the gain
@@ -336,7 +343,7 @@ def yaw_problems(
     """
     if c.YAW_RATE_RAD_S not in df or not np.isfinite(np.asarray(df[c.YAW_RATE_RAD_S])).any():
         return [], {"checked": False, "note": "no yaw rate"}
-    est = yaw_gain(df, segments, YAW_MIN_STEP_M, vp.sample_period_s)
+    est = yaw_gain(df, segments, YAW_MIN_STEP_M, vp.sample_period_s, turns)
     # the samples the check and the label take interpolated across (none where too many)
     glitched = np.flatnonzero(repaired_yaw_rate(df[c.T_S], df[c.YAW_RATE_RAD_S])[1])
     checked, mistake = yaw_mistake(est, vp.yaw_gain_tolerance)
@@ -442,6 +449,7 @@ def side_problems(
     vp: ValidateParams,
     radius_m: float,
     track_m: float,
+    turns: CourseTurns | None = None,
 ) -> tuple[list[Problem], dict[str, Any]]:
     """The wheel-sides check: each axle's left and right wheel speeds in their columns.
 
@@ -463,13 +471,16 @@ def side_problems(
         vp: ``validate``.
         radius_m: the car's nominal tyre radius.
         track_m: its rear track (the gains' scale; only their signs are told).
+        turns: the course's turns, where already computed (as :func:`yaw_problems`).
 
     Returns:
         ``(problems, record)``: the record as validate reports it: ``checked`` (both
         axles told, or one told exchanged), per axle its gain, standard error and pairs of
         seconds, and a note when not checked.
     """
-    gains = wheel_side_gains(df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m)
+    gains = wheel_side_gains(
+        df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m, turns
+    )
     record: dict[str, Any] = {}
     problems, told = [], []
     for axle, est in gains.items():
@@ -946,8 +957,11 @@ class StreamRadiusCheck:
                     self.vp,
                     radius_from=self.radius_from,
                 )
+            turns = None
+            if result.segments and not (yaw_record["checked"] and self.sides_decided):
+                turns = course_turns(rows, result.segments, YAW_MIN_STEP_M, self.vp.sample_period_s)
             if result.segments and not yaw_record["checked"]:
-                yawed, yaw_record = yaw_problems(self.entry, rows, result.segments, self.vp)
+                yawed, yaw_record = yaw_problems(self.entry, rows, result.segments, self.vp, turns)
                 if yawed:
                     raise InputError(
                         yawed,
@@ -956,7 +970,7 @@ class StreamRadiusCheck:
                     )
             if result.segments and not self.sides_decided:
                 sided, sides_record = side_problems(
-                    self.entry, rows, result.segments, self.vp, self.nominal_m, self.track_m
+                    self.entry, rows, result.segments, self.vp, self.nominal_m, self.track_m, turns
                 )
                 if sided:
                     raise InputError(

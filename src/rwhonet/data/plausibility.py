@@ -147,12 +147,56 @@ YAW_BLOCK_S = 120.0
 YAW_FLAT_SPAN_RAD = math.pi / 2  # a flat yaw rate is refused once the course swung this far
 
 
+@dataclass(frozen=True)
+class CourseTurns:
+    """The GNSS course's turns between the chords of consecutive seconds (:func:`course_turns`),
+    which every yaw rate of a drive is fitted against (:func:`yaw_gain`)."""
+
+    t: np.ndarray  # the drive's times
+    a: np.ndarray  # per pair of chords, the first chord's middle time
+    b: np.ndarray  # and the second's
+    y: np.ndarray  # the course's yaw over the pair, rad, left positive (ISO 8855)
+    block: np.ndarray  # the pair's block of YAW_BLOCK_S from the drive's start
+
+
+@np.errstate(invalid="ignore", divide="ignore")
+def course_turns(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    min_step_m: float,
+    sample_period_s: float | None = None,
+) -> CourseTurns | None:
+    """The course's turns :func:`yaw_gain` fits a yaw rate against (its docstring says how);
+    None where fewer than two chords lie in the segments."""
+    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    prev, this, gap = _second_chords(t, segments, sample_period_s)
+    if prev.size < 2:
+        return None
+    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
+    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
+    # Each chord's azimuth where it leaves and where it arrives (its back azimuth turned
+    # round): two chords are compared at the fix they share, so the meridians' convergence
+    # (a straight geodesic's azimuth changes along it, by degrees per second near a pole)
+    # is no turn.
+    leave, back, dist = wgs84().inv(lon[prev], lat[prev], lon[this], lat[this])
+    leave = np.radians(np.asarray(leave, dtype=np.float64))
+    arrive = np.radians(np.asarray(back, dtype=np.float64)) + math.pi
+    chord = (gap == 1) & (np.asarray(dist) >= min_step_m)
+    mid = 0.5 * (t[prev] + t[this])
+    pair = chord[1:] & chord[:-1] & (this[:-1] == prev[1:])
+    a, b = mid[:-1][pair], mid[1:][pair]
+    y = -((leave[1:] - arrive[:-1] + math.pi) % (2.0 * math.pi) - math.pi)[pair]
+    block = np.floor((a - t[0]) / YAW_BLOCK_S).astype(np.int64)
+    return CourseTurns(t, a, b, y, block)
+
+
 @np.errstate(invalid="ignore", divide="ignore")
 def yaw_gain(
     drive: Mapping[str, np.ndarray],
     segments: Sequence[Segment],
     min_step_m: float,
     sample_period_s: float | None = None,
+    turns: CourseTurns | None = None,
 ) -> YawEstimate:
     """The gain of the GNSS course's turn on the yaw rate's, over the valid segments.
 
@@ -175,42 +219,32 @@ def yaw_gain(
         segments: the drive's GNSS-valid segments.
         min_step_m: a chord shorter than this has no course worth the name.
         sample_period_s: the nominal sample period (as :func:`implied_radius`).
+        turns: the course's turns over the segments (:func:`course_turns` of the same
+            drive, segments, ``min_step_m`` and period), where several yaw rates are
+            fitted on one drive; None: computed here.
 
     Returns:
         The estimate (``gain`` NaN with fewer than :data:`YAW_MIN_SECONDS` pairs, or a
         yaw rate that never changed over them).
     """
-    t = np.asarray(drive[c.T_S], dtype=np.float64)
+    if turns is None:
+        turns = course_turns(drive, segments, min_step_m, sample_period_s)
+    if turns is None:
+        return YawEstimate(float("nan"), math.inf, 0, 0.0)
+    t = turns.t
     # as the label integrates it: a glitch (beyond any car's yaw rate) interpolated across
     rate, _ = repaired_yaw_rate(t, np.asarray(drive[c.YAW_RATE_RAD_S], dtype=np.float64))
-    prev, this, gap = _second_chords(t, segments, sample_period_s)
-    if prev.size < 2:
-        return YawEstimate(float("nan"), math.inf, 0, 0.0)
-    lat = np.asarray(drive[c.LAT_DEG], dtype=np.float64)
-    lon = np.asarray(drive[c.LON_DEG], dtype=np.float64)
-    # Each chord's azimuth where it leaves and where it arrives (its back azimuth turned
-    # round): two chords are compared at the fix they share, so the meridians' convergence
-    # (a straight geodesic's azimuth changes along it, by degrees per second near a pole)
-    # is no turn.
-    leave, back, dist = wgs84().inv(lon[prev], lat[prev], lon[this], lat[this])
-    leave = np.radians(np.asarray(leave, dtype=np.float64))
-    arrive = np.radians(np.asarray(back, dtype=np.float64)) + math.pi
-    chord = (gap == 1) & (np.asarray(dist) >= min_step_m)
-    mid = 0.5 * (t[prev] + t[this])
     # Cumulative gyro angle: the angle between two times is one subtraction. A row
     # without a yaw rate makes every angle after it NaN in a cumsum, so its intervals
     # are taken as 0 and the pairs that span it dropped below.
     step = 0.5 * (rate[1:] + rate[:-1]) * np.diff(t)
     angle = np.r_[0.0, np.cumsum(np.where(np.isfinite(step), step, 0.0))]
     missing = np.r_[0, np.cumsum(~np.isfinite(step))]
-    pair = chord[1:] & chord[:-1] & (this[:-1] == prev[1:])
-    a, b = mid[:-1][pair], mid[1:][pair]
+    a, b = turns.a, turns.b
     pair_missing = np.interp(b, t, missing) - np.interp(a, t, missing)
     x = np.interp(b, t, angle) - np.interp(a, t, angle)
-    y = -((leave[1:] - arrive[:-1] + math.pi) % (2.0 * math.pi) - math.pi)[pair]
-    block = np.floor((a - t[0]) / YAW_BLOCK_S).astype(np.int64)
     keep = pair_missing == 0
-    x, y, block = x[keep], y[keep], block[keep]
+    x, y, block = x[keep], turns.y[keep], turns.block[keep]
     _, block, per_block = np.unique(block, return_inverse=True, return_counts=True)
     alone = per_block[block] < 2  # a block's only pair: its intercept would take it all
     x, y = x[~alone], y[~alone]
@@ -246,6 +280,7 @@ def wheel_side_gains(
     sample_period_s: float | None,
     radius_m: float,
     track_m: float,
+    turns: CourseTurns | None = None,
 ) -> dict[str, YawEstimate]:
     """The gain of the GNSS course's turn on each axle's wheel yaw, over the valid segments.
 
@@ -264,17 +299,20 @@ def wheel_side_gains(
         sample_period_s: the nominal sample period.
         radius_m: the car's nominal tyre radius.
         track_m: its track width (the rear's serves both axles: only the sign is told).
+        turns: the course's turns (:func:`course_turns`), where already computed.
 
     Returns:
         Per axle (``rear``, ``front``) its estimate.
     """
+    if turns is None:
+        turns = course_turns(drive, segments, min_step_m, sample_period_s)
     out = {}
     for axle, (left, right) in AXLES.items():
         yaw = (np.asarray(drive[right], np.float64) - np.asarray(drive[left], np.float64)) * (
             radius_m / track_m
         )
-        turned = {k: drive[k] for k in (c.T_S, c.LAT_DEG, c.LON_DEG)} | {c.YAW_RATE_RAD_S: yaw}
-        out[axle] = yaw_gain(turned, segments, min_step_m, sample_period_s)
+        turned = {c.T_S: drive[c.T_S], c.YAW_RATE_RAD_S: yaw}
+        out[axle] = yaw_gain(turned, segments, min_step_m, sample_period_s, turns)
     return out
 
 
