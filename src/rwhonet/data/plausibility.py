@@ -238,12 +238,16 @@ def yaw_gain(
     # without a yaw rate makes every angle after it NaN in a cumsum, so its intervals
     # are taken as 0 and the pairs that span it dropped below.
     step = 0.5 * (rate[1:] + rate[:-1]) * np.diff(t)
-    angle = np.r_[0.0, np.cumsum(np.where(np.isfinite(step), step, 0.0))]
-    missing = np.r_[0, np.cumsum(~np.isfinite(step))]
+    finite = np.isfinite(step)
     a, b = turns.a, turns.b
-    pair_missing = np.interp(b, t, missing) - np.interp(a, t, missing)
+    if finite.all():  # every row has one (a wheel yaw, most gyros): no pair to drop
+        angle = np.r_[0.0, np.cumsum(step)]
+        keep = np.ones(a.size, dtype=bool)
+    else:
+        angle = np.r_[0.0, np.cumsum(np.where(finite, step, 0.0))]
+        missing = np.r_[0, np.cumsum(~finite)]
+        keep = np.interp(b, t, missing) - np.interp(a, t, missing) == 0
     x = np.interp(b, t, angle) - np.interp(a, t, angle)
-    keep = pair_missing == 0
     x, y, block = x[keep], turns.y[keep], turns.block[keep]
     _, block, per_block = np.unique(block, return_inverse=True, return_counts=True)
     alone = per_block[block] < 2  # a block's only pair: its intercept would take it all
