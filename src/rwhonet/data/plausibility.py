@@ -294,7 +294,7 @@ def wheel_side_gains(
     columns and negative for a left and a right column exchanged. Its size is not 1: a
     turn's load transfer shrinks the outer tyres' rolling radii and their slip adds to
     it, so the wheels overstate a turn, more the faster it is taken (the built-in
-    drives' rear axles give 0.43-0.92: docs/readers.md); only its sign tells anything.
+    drives' rear axles give 0.42-0.92: docs/readers.md); only its sign tells anything.
 
     Args:
         drive: canonical columns (``t_s``, ``lat_deg``, ``lon_deg``, the wheel speeds).
