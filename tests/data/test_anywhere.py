@@ -243,6 +243,7 @@ def checked(params, frame: pd.DataFrame) -> dict:
         "cuts": [(x.start_s, x.end_s, x.rule) for x in result.cuts],
         "radius": units["radius"],
         "yaw_rate": units["yaw_rate"],
+        "wheel_sides": units["wheel_sides"],
         "glitches": glitches,
         "gnss": np.concatenate([sec.disp_gnss_m for sec in seconds]),
         "label": np.concatenate(labels),
@@ -286,5 +287,12 @@ def test_validate_s_per_drive_check_passes_a_relocated_drive_alike(
     assert got["yaw_rate"]["checked"] and want["yaw_rate"]["checked"]
     assert got["yaw_rate"]["seconds"] == want["yaw_rate"]["seconds"]
     assert got["yaw_rate"]["gain"] == pytest.approx(want["yaw_rate"]["gain"], abs=1e-6)
+    # and each axle's wheels: their sides told alike (stop 72)
+    assert got["wheel_sides"]["checked"] and want["wheel_sides"]["checked"]
+    for axle in ("rear", "front"):
+        assert got["wheel_sides"][axle]["seconds"] == want["wheel_sides"][axle]["seconds"]
+        assert got["wheel_sides"][axle]["gain"] == pytest.approx(
+            want["wheel_sides"][axle]["gain"], abs=1e-6
+        )
     np.testing.assert_allclose(got["gnss"], want["gnss"], rtol=0, atol=TOL_M)
     np.testing.assert_allclose(got["label"], want["label"], rtol=0, atol=TOL_M)
