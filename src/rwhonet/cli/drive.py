@@ -106,9 +106,11 @@ def set_vehicle(
         ConfigError: a radius or track that is not a positive number.
     """
     if track_rear_m is None:
+        from rwhonet.data.drivechecks import DEFAULT_TRACK_M
+
         known = params.data.vehicles
         spec = known.get(vehicle) or known.get(TRACK_FROM) or next(iter(known.values()), None)
-        track_rear_m = spec.track_rear_m if spec is not None else 1.5
+        track_rear_m = spec.track_rear_m if spec is not None else DEFAULT_TRACK_M
     for what, value in (("--nominal-radius", nominal_radius_m), ("--track-rear", track_rear_m)):
         if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
             raise ConfigError(f"{what}: expected a length in metres > 0, got {value!r}")

@@ -62,9 +62,17 @@ from rwhonet.data.timebase import label_times
 from rwhonet.errors import InputError, Problem
 
 YAW_GLITCHES_LISTED = 10  # yaw-rate glitches listed one by one in the record (all counted)
-# A car's track where predict is not told it: the wheel-sides check tells a sign, whatever the
-# track (it scales the gain it reports).
+# A car's rear track where none is known (predict's wheel-sides check, a car with no
+# data.vehicles entry): the check tells a sign whatever the track (it scales the gain).
 DEFAULT_TRACK_M = 1.5
+
+
+def _few_pairs_note(seconds: int) -> str:
+    """Why the yaw-rate or wheel-sides check could not tell: too few pairs of seconds."""
+    return (
+        f"only {seconds} pairs of seconds at >= {YAW_MIN_STEP_M:g} m/s in valid segments "
+        f"(< {YAW_MIN_SECONDS})"
+    )
 
 
 def target_test_min_s(params: Params) -> int:
@@ -355,10 +363,7 @@ def yaw_problems(
         "course_span_deg": float(np.degrees(est.course_span_rad)),
     }
     if not checked and est.seconds < YAW_MIN_SECONDS:
-        record["note"] = (
-            f"only {est.seconds} pairs of seconds at >= {YAW_MIN_STEP_M:g} m/s in valid "
-            f"segments (< {YAW_MIN_SECONDS})"
-        )
+        record["note"] = _few_pairs_note(est.seconds)
     elif not checked and np.isfinite(est.gain_se):
         record["note"] = f"turned too little to tell (gain {est.gain:.3g} ± {est.gain_se:.2g})"
     elif not checked:
@@ -513,10 +518,7 @@ def side_problems(
     if not record["checked"]:
         axle, est = next((a, e) for (a, e), t in zip(gains.items(), told, strict=True) if not t)
         if est.seconds < YAW_MIN_SECONDS:
-            record["note"] = (
-                f"only {est.seconds} pairs of seconds at >= {YAW_MIN_STEP_M:g} m/s in valid "
-                f"segments (< {YAW_MIN_SECONDS})"
-            )
+            record["note"] = _few_pairs_note(est.seconds)
         elif np.isnan(est.gain):
             record["note"] = f"the {axle} wheels never differed (one speed written to both?)"
         else:
