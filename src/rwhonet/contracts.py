@@ -8,6 +8,8 @@ of the package: everything may import this module.
 
 from __future__ import annotations
 
+import re
+
 # --------------------------------------------------------------------------- roles
 
 SOURCE_TRAIN = "source_train"  # drives of the car G is trained on
@@ -87,6 +89,36 @@ def alt_wpm(wpm_mode: str) -> tuple[str, str]:
     if wpm_mode == "integrated":
         return "WPM-ref", DISP_WPM_REFERENCE_M
     return "WPM-int", DISP_WPM_INTEGRATED_M
+
+
+def drive_keys(drives: list[str]) -> dict[str, str]:
+    """Each drive's name as a part of an MLflow metric's name.
+
+    MLflow allows letters, digits, ``_ - .`` and spaces in a name on every platform
+    (``:`` not on Windows), and no part that a path would resolve away (``.``, ``..``).
+    A name MLflow allows is kept as it is; in any other, every other character becomes
+    ``_`` (a comma2k19 route ``b0c9d2329ad1606b|2018-08-02--08-34-47``, a file ``drive
+    (2).csv``), a name of dots alone gets a leading ``_``, and one that would meet another
+    drive's gets ``_2``, ``_3`` ... So a drive's key does not depend on which other
+    drives are named, unless two would meet.
+    """
+    out: dict[str, str] = {}
+    wanted = {d: _metric_part(str(d)) for d in drives}
+    taken = {d for d, key in wanted.items() if key == d}
+    for drive in drives:
+        key = base = wanted[drive]
+        if drive not in taken:
+            n = 1
+            while key in taken or key in out.values():
+                n += 1
+                key = f"{base}_{n}"
+        out[drive] = key
+    return out
+
+
+def _metric_part(name: str) -> str:
+    key = re.sub(r"[^\w.\- ]", "_", name, flags=re.ASCII).strip() or "_"
+    return "_" + key if set(key) <= {"."} else key
 
 
 # --------------------------------------------------------------------------- files

@@ -90,10 +90,13 @@ def test_r_s_crse_calibration_per_test_drive(evaluated_once):
 def test_drive_names_become_valid_distinct_mlflow_names():
     from mlflow.utils.validation import _validate_metric_name
 
-    drives = ["V-Delta2", "a/b", "a_b", "..", "drive#1 é", "", "."]
+    route = "b0c9d2329ad1606b|2018-08-02--08-34-47"  # a comma2k19 route folder's name
+    drives = ["V-Delta2", "a/b", "a_b", "..", "drive#1 é", "", ".", route, "x (2)"]
     keys = drive_keys(drives)
     assert keys["V-Delta2"] == "V-Delta2"  # an ordinary name stays as it is
-    assert keys["a/b"] == "a_b" and keys["a_b"] == "a_b_2"  # no two drives meet
+    assert keys["a/b"] == "a_b_2" and keys["a_b"] == "a_b"  # no two drives meet...
+    assert drive_keys(["a_b", "a/b"]) == {"a_b": "a_b", "a/b": "a_b_2"}  # ...in either order
+    assert keys[route] == "b0c9d2329ad1606b_2018-08-02--08-34-47" and keys["x (2)"] == "x _2_"
     assert len(set(keys.values())) == len(drives)
     for key in keys.values():
         _validate_metric_name(f"pos/drive/{key}/30s/mean")  # raises on a bad name

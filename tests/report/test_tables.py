@@ -1,5 +1,7 @@
 """The report's lines on what the navigation filter took for its figures, and where from."""
 
+import re
+
 from rwhonet.report import tables
 from rwhonet.report.tables import _gyro_line, _receiver_line
 
@@ -45,3 +47,12 @@ def test_the_chance_line_gives_the_binomial_band_probabilities():
     # 2σ: 0.971 and 0.585 (35 or 36 of 37 windows)
     assert "2σ share inside 95 ± 3 % with 97 / 59 %" in line
     assert tables.chance_line({}) == ""
+
+
+def test_a_drive_id_with_a_bar_stays_in_its_table_cell():
+    route = "b0c9d2329ad1606b|2018-08-02--08-34-47"  # a comma2k19 route folder's name
+    row = f"| {tables.md_cell(route)} | 1.0 |"
+    # a Markdown table splits a row at the bars a backslash does not escape
+    cells = [c.strip() for c in re.split(r"(?<!\\)\|", row)[1:-1]]
+    assert cells == ["b0c9d2329ad1606b\\|2018-08-02--08-34-47", "1.0"]
+    assert tables.md_cell("V-Delta2") == "V-Delta2"

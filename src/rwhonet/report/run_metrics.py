@@ -11,11 +11,11 @@ Read from the evaluation package's typed result
 from __future__ import annotations
 
 import math
-import re
 
 import pandas as pd
 
 from rwhonet import contracts as k
+from rwhonet.contracts import drive_keys
 from rwhonet.evaluation.position import WINDOW_STATS
 from rwhonet.evaluation.result import Evaluation
 from rwhonet.evaluation.scoring import STATS
@@ -118,27 +118,6 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
         out |= _per_drive(
             ev.uncertainty_drives, "uncertainty/drive", (*crse, ("windows", "n_windows"))
         )
-    return out
-
-
-def drive_keys(drives: list[str]) -> dict[str, str]:
-    """Each drive's name as a part of an MLflow metric's name.
-
-    MLflow allows letters, digits, ``_ - .`` and spaces in a name on every platform
-    (``:`` not on Windows), and no part that a path would resolve away (``.``, ``..``):
-    any other character becomes ``_``, a name of dots alone gets a leading ``_``, and
-    two drives that would meet get ``_2``, ``_3`` ...
-    """
-    out: dict[str, str] = {}
-    for drive in drives:
-        key = re.sub(r"[^\w.\- ]", "_", str(drive), flags=re.ASCII).strip() or "_"
-        if set(key) <= {"."}:
-            key = "_" + key
-        base, n = key, 1
-        while key in out.values():
-            n += 1
-            key = f"{base}_{n}"
-        out[drive] = key
     return out
 
 

@@ -174,6 +174,12 @@ def domain_gap_table(ev: Evaluation, params: Params) -> str | None:
     return "\n".join(lines)
 
 
+def md_cell(text: object) -> str:
+    """Text in a Markdown table's cell: a ``|`` in it (a comma2k19 route's drive id,
+    ``dongle|start``) escaped, so it does not end the cell."""
+    return str(text).replace("|", "\\|")
+
+
 def m_grid_table(ev: Evaluation, params: Params, outage_s: int) -> str:
     """The paper's Table 2: R-WhONet's CRSE for every m, per drive (μ with its interval)."""
     grid = params.adapt.m_grid
@@ -183,7 +189,7 @@ def m_grid_table(ev: Evaluation, params: Params, outage_s: int) -> str:
     ]
     for drive, first, stat, label, per_model in _drive_stats(ev, outage_s):
         cells = [_stat_cell(per_model, f"R@{m}", "crse", stat, 1) for m in grid]
-        lines.append(f"| {drive if first else ''} | {label} | {' | '.join(cells)} |")
+        lines.append(f"| {md_cell(drive) if first else ''} | {label} | {' | '.join(cells)} |")
     return "\n".join(lines)
 
 
@@ -302,7 +308,8 @@ def outage_table(ev: Evaluation, params: Params, outage_s: int, metric: str) -> 
         dist = _fmt(per_model.iloc[0][f"dist_{stat}"])
         n = str(int(per_model.iloc[0]["n_windows"])) if first else ""
         lines.append(
-            f"| {drive if first else ''} | {stat_label} | {' | '.join(cells)} | {dist} | {n} |"
+            f"| {md_cell(drive) if first else ''} | {stat_label} | {' | '.join(cells)} | {dist} "
+            f"| {n} |"
         )
     return "\n".join(lines)
 
@@ -441,7 +448,7 @@ def _per_length_table(
     ]
     for v in dict.fromkeys(rows[column]):
         row = [cell(cells.loc[(v, L)] if (v, L) in cells.index else None) for L in outages]
-        lines.append(f"| {label(v)} | " + " | ".join(row) + " |")
+        lines.append(f"| {md_cell(label(v))} | " + " | ".join(row) + " |")
     return "\n".join(lines)
 
 

@@ -52,7 +52,7 @@ import pandas as pd
 
 from rwhonet import contracts, paths
 from rwhonet.config import AdaptParams, Params
-from rwhonet.contracts import CONTINUOUS, CONTINUOUS_RECIPES, recipe_model
+from rwhonet.contracts import CONTINUOUS, CONTINUOUS_RECIPES, drive_keys, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.evaluation.windows import outage_windows
 from rwhonet.features.calibration import calibration_from_dict
@@ -537,19 +537,22 @@ def _record(
 ) -> RunRecord:
     """The run record of one recipe at one m.
 
-    Per-drive facts are ``drive/<d>/...`` metrics. The fine-tuning curves are not: one
+    Per-drive facts are ``drive/<d>/...`` metrics (``<d>`` as MLflow allows a name:
+    :func:`rwhonet.contracts.drive_keys`). The fine-tuning curves are not: one
     metric per drive and epoch made about 65,000 of an execution's 75,000 MLflow metric rows
     (most of ``evaluate``'s logging time, and a run page of a thousand charts). The run's
     ``train/loss`` / ``val/loss`` history is their mean over the drives still fine-tuning at
     each epoch; every drive's own curve is the run's artifact ``fine_tune.csv``.
     """
     metrics: dict[str, float] = {}
+    names = drive_keys(sorted({t.drive for t, _, _ in mine}))  # as MLflow allows a name
     for t, _, result in mine:
         for key, value in result.info.items():
             if isinstance(value, bool | int | float):
-                metrics[f"drive/{t.drive}/{key}"] = float(value)
+                metrics[f"drive/{names[t.drive]}/{key}"] = float(value)
         if result.radii is not None:
-            metrics[f"drive/{t.drive}/r_rl_m"], metrics[f"drive/{t.drive}/r_rr_m"] = result.radii
+            rl, rr = f"drive/{names[t.drive]}/r_rl_m", f"drive/{names[t.drive]}/r_rr_m"
+            metrics[rl], metrics[rr] = result.radii
     first = mine[0][2]
     metrics.update(n_trainable_params=first.n_trainable, n_total_params=first.n_total)
     history: list[dict[str, float]] = []

@@ -23,7 +23,7 @@ import pandas as pd
 from rwhonet import contracts as k
 from rwhonet import paths
 from rwhonet.config import Params, flatten
-from rwhonet.contracts import CONTINUOUS_RECIPES, alt_wpm, recipe_model
+from rwhonet.contracts import CONTINUOUS_RECIPES, alt_wpm, drive_keys, recipe_model
 from rwhonet.errors import InputError, Problem
 from rwhonet.evaluation.names import at_chosen_m
 from rwhonet.evaluation.result import Evaluation
@@ -219,9 +219,10 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
     """The execution's runs for MLflow.
 
     Every trained model per seed (G, S, and R for every recipe and m, with its
-    per-drive CRSE/CTE as ``drive/<d>/...`` metrics), and the headline models
-    as means over seeds with their intervals (tag ``aggregate=seeds``), with
-    their 2D and scenario-outage metrics.
+    per-drive CRSE/CTE as ``drive/<d>/...`` metrics, ``<d>`` as MLflow allows a name:
+    :func:`rwhonet.contracts.drive_keys`), and the headline models as means over seeds
+    with their intervals (tag ``aggregate=seeds``), with their 2D and scenario-outage
+    metrics.
     """
     records = []
     choice = ev.choice
@@ -244,9 +245,13 @@ def run_records(params: Params, ev: Evaluation, models_root: Path) -> list[RunRe
                     & (mine["role"] == k.TARGET_TEST),
                     "drive",
                 ].unique()
+                names = drive_keys(sorted(drives))  # as adapt names them
                 for d in drives:
                     rec.metrics.update(
-                        {f"drive/{d}/{key}": v for key, v in stat_metrics(mine, model, d).items()}
+                        {
+                            f"drive/{names[d]}/{key}": v
+                            for key, v in stat_metrics(mine, model, d).items()
+                        }
                     )
             if model == choice.model:
                 rec.tags["chosen"] = "true"
