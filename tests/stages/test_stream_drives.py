@@ -97,6 +97,10 @@ def test_every_stream_format_goes_through_ingest_validate_and_label(fmt, native,
     assert streams["n_input_rows"] == sum(s["rows"] for s in streams["streams"])
     assert streams["glitch_rows"] == [] and streams["n_glitch_samples"] == 0
     assert {round(1 / s["median_step_s"]) for s in streams["streams"]} == {100, 10}
+    if fmt == "comma2k19_route":  # 150 s in one-minute segments 0, 1, 2: one drive
+        said = " ".join(b1["notes"])
+        assert "a comma2k19 route of 3 segment(s) (0-2), read as one drive" in said
+        assert "CAN/wheel_speed of 3 segments joined in time order" in said
     assert report["totals"]["segments"] == 3
     _, native_report, _ = native
     # Fixes at a 30 ms phase: the grid starts and ends inside the 10 Hz drive's span, so

@@ -22,14 +22,16 @@ from rwhonet.sim.streams import (
     SIGNAL_MAP,
     StreamTables,
     write_comma2k19,
+    write_comma2k19_route,
     write_stream_csvs,
     write_stream_mdf4,
 )
 from support.corpus import speed_profile_drive
 from support.drives import SOURCE_RADIUS_M, TARGET_RADIUS_M, make_params
 
-FORMATS = ("comma2k19", "mdf4", "stream_csv")
-MAP_NAME = {"mdf4": "logger_mf4", "stream_csv": "logger_csv"}
+# comma2k19_route: a comma2k19 route, the drive's one-minute segments in numbered folders
+FORMATS = ("comma2k19", "comma2k19_route", "mdf4", "stream_csv")
+MAP_NAME = {"mdf4": "logger_mf4", "stream_csv": "logger_csv", "comma2k19_route": "comma2k19"}
 ROLE_DRIVES = {  # role -> (drive id, radius, azimuth, start latitude)
     "source_train": ("V-S1", SOURCE_RADIUS_M, 30.0, 52.40),
     "target_train": ("C-A1", TARGET_RADIUS_M, 100.0, 52.42),
@@ -86,6 +88,9 @@ def write_drive(fmt: str, tables: StreamTables, folder: Path, drive: str, radius
     if fmt == "comma2k19":
         write_comma2k19(tables, folder / drive, radius_m)
         return folder / drive
+    if fmt == "comma2k19_route":
+        write_comma2k19_route(tables, folder / drive, radius_m)
+        return folder / drive
     if fmt == "mdf4":
         t0 = float(tables.wheels[c.T_S].iloc[0])  # an MDF4 clock starts at its measurement
         shifted = StreamTables(
@@ -137,7 +142,7 @@ def stream_params(root: Path, fmt: str, **overrides):
             ("target_test", "target"),
         )
     }
-    maps = {name: signal_map_params(fmt)} if fmt in MAP_NAME else {}
+    maps = {name: signal_map_params(fmt)} if fmt in ("mdf4", "stream_csv") else {}
     return make_params(root, **{"data.roles": roles, "data.signal_maps": maps, **overrides})
 
 

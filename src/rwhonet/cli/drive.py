@@ -220,8 +220,8 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
                     "--signal-map",
                     repr(fmt) + need,
                     "name the drive's format: iovnbd (IO-VNBD CSV), comma2k19 (an openpilot "
-                    "segment folder), a column map or signal map of params.yaml, or mdf4 / "
-                    "stream_csv with --signal-map",
+                    "segment or route folder), a column map or signal map of params.yaml, or "
+                    "mdf4 / stream_csv with --signal-map",
                 )
             ],
             "unknown --format",
@@ -410,7 +410,7 @@ def read_drive_file(
 _FORM = {
     "iovnbd": "an IO-VNBD CSV file",
     "column_map": "a CSV file",
-    "comma2k19": "a segment folder",
+    "comma2k19": "a segment folder, or a route folder of segments",
     "mdf4": "an MDF4 file",
     "stream_csv": "a folder of stream CSVs",
 }

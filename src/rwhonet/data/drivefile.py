@@ -9,7 +9,7 @@ so all of them refuse and convert a drive alike. Formats (``data.roles.<role>.fo
   of the source file), so ``validate`` can point at the file's rows; the file may be
   compressed (gzip, bzip2, xz, zstd, or zipped alone: :mod:`rwhonet.data.compressed`), and
   a table logged faster than the grid is resampled onto it (:mod:`rwhonet.data.fastfile`);
-- ``comma2k19``: one folder per drive (a comma2k19 / openpilot segment);
+- ``comma2k19``: one folder per drive (a comma2k19 / openpilot segment, or a route of them);
 - a signal map's name (``data.signal_maps``): one MDF4 file per drive (reader
   ``mdf4``) or one folder of stream CSVs per drive (reader ``stream_csv``).
 
@@ -320,7 +320,8 @@ def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
     if not f.path.exists() or f.path.is_dir() == folder:
         return None
     what = {
-        COMMA2K19: "a comma2k19 segment folder (holding processed_log, or CAN and GNSS)",
+        COMMA2K19: "a comma2k19 segment folder (holding processed_log, or CAN and GNSS), or a "
+        "route folder of numbered segment folders",
         STREAM_CSV: "a folder holding the drive's stream CSV files",
         MDF4: "an MDF4 file (.mf4), or a CAN log (.log, .asc, .blf, .trc)",
     }.get(kind, "a drive file (CSV)")

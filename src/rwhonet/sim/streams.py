@@ -22,7 +22,7 @@ each rate, as real sensors would.
 :func:`write_stream_csvs` and :func:`write_stream_mdf4` write the streams the way
 loggers export them (one CSV per stream; one MDF4 file with one channel group per
 stream), with the signal map that reads them back; :func:`write_comma2k19` the way
-comma's openpilot logs them.
+comma's openpilot logs them (:func:`write_comma2k19_route`: a route of one-minute segments).
 """
 
 from __future__ import annotations
@@ -362,6 +362,49 @@ def write_comma2k19(tables: StreamTables, folder: Path, radius_m: float) -> Path
             with open(log / sub / name, "wb") as f:  # np.save on a path would add ".npy"
                 np.save(f, array)
     return log
+
+
+def write_comma2k19_route(
+    tables: StreamTables,
+    folder: Path,
+    radius_m: float,
+    segment_s: float = 60.0,
+    first: int = 0,
+    leave_out: tuple[int, ...] = (),
+) -> list[Path]:
+    """Write the streams as a comma2k19 route: one segment folder per ``segment_s`` of it.
+
+    openpilot's logger cuts a drive (a route, ``dongle_id|start time``) into one-minute
+    segments, numbered from 0, each a folder of its own ``processed_log`` on the one boot
+    clock of the device (the comma2k19 dataset's layout, ``commaai/comma2k19`` README).
+
+    Args:
+        tables: the streams.
+        folder: the route folder; segment ``n`` goes to ``folder / str(n)``
+            (:func:`write_comma2k19`).
+        radius_m: as for :func:`write_comma2k19`.
+        segment_s: each segment's span, s, from the first wheel sample.
+        first: the first segment's number.
+        leave_out: segment numbers not written (a route the dataset keeps in part).
+
+    Returns:
+        The ``processed_log`` folders written, in segment order.
+    """
+    t0 = float(tables.wheels[c.T_S].iloc[0])
+    end = max(float(tables.wheels[c.T_S].iloc[-1]), float(tables.gnss[c.T_S].iloc[-1]))
+    written = []
+    for k in range(int((end - t0) // segment_s) + 1):
+        lo, hi = t0 + k * segment_s, t0 + (k + 1) * segment_s
+        if first + k in leave_out:
+            continue
+
+        def part(table: pd.DataFrame, lo: float = lo, hi: float = hi) -> pd.DataFrame:
+            t = table[c.T_S].to_numpy(np.float64)
+            return table[(t >= lo) & (t < hi)].reset_index(drop=True)
+
+        segment = StreamTables(part(tables.wheels), part(tables.gnss))
+        written.append(write_comma2k19(segment, Path(folder) / str(first + k), radius_m))
+    return written
 
 
 def signal_map(with_time: bool = True, gyro: bool = False) -> Mapping[str, object]:
