@@ -674,6 +674,38 @@ def test_predict_refuses_an_axle_s_wheels_exchanged_as_validate_does_and_writes_
     assert "the rear wheels never differed" in err
 
 
+def test_predict_s_dead_reckoning_turns_the_wheels_yaw_by_the_track_given(bundle, tmp_path):
+    """Without a gyro, the wheels' yaw is the rear wheels' travel difference over the rear
+    track: the track of --track-rear or --vehicle-file reaches the navigation filter (and
+    the wheel-sides check), and without one that of data.vehicles.target, as the help says.
+    Before, predict dead-reckoned every car on the filter's own 1.46 m."""
+    from rwhonet.config import load_params
+    from rwhonet.data import canonical as c
+    from support.corpus import TARGET_RADIUS_M, weaving_drive
+    from support.drives import write_iovnbd
+
+    df = weaving_drive(150.0, track_m=1.7).assign(**{c.YAW_RATE_RAD_S: np.nan})  # no gyro
+    drive = write_iovnbd(df, tmp_path / "V-Wide.csv")
+    car = ["--nominal-radius", str(TARGET_RADIUS_M), "--outage", "40:140"]
+    (tmp_path / "car.yaml").write_text(f"nominal_radius_m: {TARGET_RADIUS_M}\ntrack_rear_m: 1.7\n")
+    target = load_params().data.vehicles["target"].track_rear_m
+    runs = {
+        "default": car,
+        "target": [*car, "--track-rear", str(target)],
+        "given": [*car, "--track-rear", "1.7"],
+        "file": ["--vehicle-file", str(tmp_path / "car.yaml"), "--outage", "40:140"],
+    }
+    east = {}
+    for name, extra in runs.items():
+        out = tmp_path / f"{name}.csv"
+        assert main(predict_args(bundle, drive, out, *extra)) == 0
+        east[name] = pd.read_csv(out)["east_m"].to_numpy()
+    np.testing.assert_array_equal(east["given"], east["file"])
+    np.testing.assert_array_equal(east["default"], east["target"])
+    moved = np.abs(east["given"] - east["default"])
+    assert np.nanmax(moved) > 10.0  # metres: another track, another turn
+
+
 def test_predict_repairs_a_yaw_rate_s_invalid_code_and_says_so(bundle, tmp_path, capsys):
     """One row of 327.67 deg/s (an int16 at full scale) turned the dead-reckoned track by
     33 degrees; it is interpolated across, as the label does, and named even when quiet."""

@@ -119,10 +119,12 @@ def _predict(args: argparse.Namespace) -> int:
         radius_from = f"--vehicle-file {args.vehicle_file}"
     elif args.nominal_radius is not None:
         radius_from = "--nominal-radius"
+    track = args.track_rear  # the car's rear track: the wheels' yaw in dead reckoning
     if params is None and args.vehicle_file is not None:
         from rwhonet.cli.drive import vehicle_from_file
 
-        nominal = vehicle_from_file(args.vehicle_file).nominal_radius_m
+        car = vehicle_from_file(args.vehicle_file)
+        nominal, track = car.nominal_radius_m, car.track_rear_m
     if params is not None:
         from rwhonet.cli.drive import PREDICT_CAR, canonical_blocks
         from rwhonet.data.drivefile import COLUMN_MAP, reader_kind
@@ -132,6 +134,7 @@ def _predict(args: argparse.Namespace) -> int:
         validate = params.validate
         if radius_from is not None:  # the car of the command line (else the model's radius)
             nominal = params.nominal_radius_m(PREDICT_CAR)
+            track = params.track_rear_m(PREDICT_CAR)  # given, or data.vehicles.target's
         kind = reader_kind(args.format, params.data)
         if kind == COLUMN_MAP:
             column_map = params.data.column_maps[args.format]
@@ -165,7 +168,7 @@ def _predict(args: argparse.Namespace) -> int:
         max_gap_s=args.max_gap,
         period_s=period_s,
         drive_blocks=drive_blocks,
-        unit_check=predict.UnitCheck(validate, nominal, radius_from),
+        unit_check=predict.UnitCheck(validate, nominal, radius_from, track),
         stream_glitches=stream_glitches,
         drive_notes=drive_notes,
         gnss_lag=params.data.gnss_lag if params is not None else "report",

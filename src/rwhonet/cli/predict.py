@@ -233,7 +233,7 @@ def run(
     fails later.
     """
     from rwhonet.data.compressed import compressed_note, compression_of, open_decompressed
-    from rwhonet.data.drivechecks import StreamRadiusCheck
+    from rwhonet.data.drivechecks import DEFAULT_TRACK_M, StreamRadiusCheck
     from rwhonet.data.droprows import RowFilter
     from rwhonet.data.heldfixes import HeldFixGate
     from rwhonet.data.incremental import FixScreen, read_rows
@@ -314,6 +314,7 @@ def run(
                 vp,
                 uc.radius_from
                 or f"--nominal-radius (without it: the model's source radius, {nominal:.4g} m)",
+                track_m=uc.track_rear_m or DEFAULT_TRACK_M,
             )
             stream = SecondStream(
                 model,
@@ -324,6 +325,7 @@ def run(
                 period_s=period_s,
                 period_tol_s=vp.sample_period_tol_s,
                 unit_check=check,
+                track_rear_m=uc.track_rear_m,
             )
             held: list[dict[str, np.ndarray]] = []  # seconds not written before the check
             n_held, released = 0, False
@@ -395,11 +397,16 @@ class UnitCheck:
         validate: validate's settings (``params.validate``; None: :func:`default_validate`).
         nominal_radius_m: the car's nominal tyre radius (None: the model's source radius).
         radius_from: where that radius came from, for the report (``--nominal-radius``...).
+        track_rear_m: the car's rear track (``--track-rear``, ``--vehicle-file``): the
+            scale of the wheels' yaw in 2D dead reckoning and in the wheel-sides check
+            (None: the navigation filter's default and the check's
+            :data:`~rwhonet.data.drivechecks.DEFAULT_TRACK_M`).
     """
 
     validate: Any = None
     nominal_radius_m: float | None = None
     radius_from: str | None = None
+    track_rear_m: float | None = None
 
 
 def released_note(name: str, hold_s: int) -> str:

@@ -190,12 +190,14 @@ class SecondStream:
             longer than their sum skips a slot of the grid (a dropped sample), which
             cuts its second and ends the run too.
         nav: the navigation filter's settings (default: the generic
-            :class:`rwhonet.nav.NavConfig` with the model's rear radius and the
-            receiver drift the model's evaluation fitted, if it carries one).
+            :class:`rwhonet.nav.NavConfig` with the model's rear radius, ``track_rear_m``
+            and the receiver drift the model's evaluation fitted, if it carries one).
         unit_check: validate's wheel-unit check, fed the rows as they come (after the
             wheels' glitch repair, before the yaw rate's, which it makes itself as
             validate does); it refuses the drive from the block where it can decide
             (:class:`rwhonet.data.drivechecks.StreamRadiusCheck`). None: not checked.
+        track_rear_m: the car's rear track, m, for the default ``nav`` (the wheels' yaw
+            is their travel difference over it); None: the filter's default.
     """
 
     model: ServedModel
@@ -207,6 +209,7 @@ class SecondStream:
     period_tol_s: float = 0.05
     nav: NavConfig | None = None
     unit_check: StreamRadiusCheck | None = None
+    track_rear_m: float | None = None
     calibration: PositionCalibration = field(default_factory=PositionCalibration)
     _keys: tuple[str, ...] = c.REQUIRED  # the channels kept: the yaw rate too, if there
     _gyro_seen: bool = False  # a yaw rate with a value has come
@@ -239,9 +242,9 @@ class SecondStream:
         radii = tuple(self.model.meta.source_radii)
         self.calibration = PositionCalibration.from_meta(self.model.meta.navigation)
         if self.nav is None:
-            self.nav = self.calibration.nav_config(
-                NavConfig(wheels=WheelSpec(radius_m=float(np.mean(radii))))
-            )
+            track = {} if self.track_rear_m is None else {"track_rear_m": float(self.track_rear_m)}
+            wheels = WheelSpec(radius_m=float(np.mean(radii)), **track)
+            self.nav = self.calibration.nav_config(NavConfig(wheels=wheels))
 
     @property
     def control(self) -> str:
