@@ -4,7 +4,8 @@ Simulates one long drive (default 2 h, ci world; truth at 200 Hz, which is
 enough for timing), samples it as a logger's streams (CAN wheel speeds at
 100 Hz with jittered stamps, GNSS at 10 Hz), writes them in each format the
 readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
-NMEA log or a u-blox receiver's UBX log, one MDF4 file, a comma2k19 folder, raw CAN
+NMEA log or a u-blox receiver's UBX log, one MDF4 file, a comma2k19 folder and a
+comma2k19 route of one-minute segment folders, raw CAN
 frames as a candump log and a Vector BLF with their DBC) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
 resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
@@ -50,6 +51,7 @@ from rwhonet.sim.streams import (  # noqa: E402
     signal_map,
     stream_tables,
     write_comma2k19,
+    write_comma2k19_route,
     write_stream_csvs,
     write_stream_mdf4,
 )
@@ -113,6 +115,7 @@ def main() -> None:
         csvs = write_stream_csvs(tables, root / "csv")
         mf4 = write_stream_mdf4(tables, root / "drive.mf4")
         write_comma2k19(tables, root / "seg", radius)
+        route = write_comma2k19_route(tables, root / "route", radius)
         # the fixes as the receiver's NMEA log (GGA, GSV, RMC a fix, each after the stamp)
         t_fix = tables.gnss["t_s"].to_numpy()
         nmea = write_nmea(
@@ -143,6 +146,7 @@ def main() -> None:
             "CSV + UBX log": lambda: read_stream_csvs([csvs["wheels"], ubx], signal_map(), radius),
             "MDF4 (asammdf)": lambda: read_mdf4(mf4, signal_map(with_time=False), radius),
             "comma2k19 folder": lambda: read_comma2k19(root / "seg", radius),
+            "comma2k19 route": lambda: read_comma2k19(root / "route", radius),
             "candump log + DBC": lambda: read_mdf4(candump, can_map, radius, dbc=dbc),
             "BLF log + DBC": lambda: read_mdf4(blf, can_map, radius, dbc=dbc),
         }
@@ -161,6 +165,11 @@ def main() -> None:
             np.array_equal(one[k], split[k], equal_nan=True) for k in one
         )
         print(f"the {len(rotated)} rotated files give the one-file grid bit for bit: {same}")
+        seg, joined = (results[k][0].drive.columns for k in ("comma2k19 folder", "comma2k19 route"))
+        same = seg.keys() == joined.keys() and all(
+            np.array_equal(seg[k], joined[k], equal_nan=True) for k in seg
+        )
+        print(f"the route's {len(route)} segments give the one folder's grid bit for bit: {same}")
         res, total = results["comma2k19 folder"]
         grid = res.drive.columns
         vp = params.validate
@@ -179,10 +188,10 @@ def main() -> None:
             "comma2k19 folder)"
         )
         print("through the data stages (the drive as each of 3 roles' drive; wall, CPU):")
-        for fmt in ("stream_csv", "mdf4", "comma2k19"):
+        for fmt in ("stream_csv", "mdf4", "comma2k19", "comma2k19_route"):
             wall, cpu = best(lambda f=fmt: stages(f, tables, radius, root / f), args.repeat)[0]
             print(
-                f"  {fmt:<11} ingest+validate+label {wall:.2f} s wall, {cpu:.2f} s CPU: "
+                f"  {fmt:<15} ingest+validate+label {wall:.2f} s wall, {cpu:.2f} s CPU: "
                 f"{3 * n / wall / 1e6:.2f} M input rows/s ({3 * n:,} rows)"
             )
 

@@ -383,14 +383,14 @@ def write_comma2k19_route(
         folder: the route folder; segment ``n`` goes to ``folder / str(n)``
             (:func:`write_comma2k19`).
         radius_m: as for :func:`write_comma2k19`.
-        segment_s: each segment's span, s, from the first wheel sample.
+        segment_s: each segment's span, s, from the first sample.
         first: the first segment's number.
         leave_out: segment numbers not written (a route the dataset keeps in part).
 
     Returns:
         The ``processed_log`` folders written, in segment order.
     """
-    t0 = float(tables.wheels[c.T_S].iloc[0])
+    t0 = min(float(tables.wheels[c.T_S].iloc[0]), float(tables.gnss[c.T_S].iloc[0]))
     end = max(float(tables.wheels[c.T_S].iloc[-1]), float(tables.gnss[c.T_S].iloc[-1]))
     written = []
     for k in range(int((end - t0) // segment_s) + 1):
