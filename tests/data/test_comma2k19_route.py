@@ -186,3 +186,19 @@ def test_a_folder_of_routes_is_refused_saying_to_give_each_route(minute, tmp_pat
     (problem,) = err.value.problems
     assert problem.file == "Chunk_1" and "a folder of 2 route(s)" in problem.found
     assert "'Chunk_1/*'" in problem.fix
+
+
+def test_the_channel_folders_as_the_dataset_s_readme_names_them_read_alike(minute, tmp_path):
+    """The dataset's folders are CAN/wheel_speed and CAN/speed; its README writes
+    wheel_speeds and car_speed. A copy named as the README says reads the same."""
+    _, whole = minute
+    copy = tmp_path / "seg" / "processed_log"
+    shutil.copytree(REAL / "processed_log", copy)
+    (copy / "CAN/wheel_speed").rename(copy / "CAN/wheel_speeds")
+    (copy / "CAN/speed").rename(copy / "CAN/car_speed")
+    streams = read_comma2k19(copy.parent, RAV4_RADIUS_M, display="seg")
+    assert streams.wheels[0].name == "CAN/wheel_speeds"
+    assert "CAN/car_speed" in {s.name for s in streams.extra}
+    got = resample(streams, nominal_radius_m=RAV4_RADIUS_M)
+    for k, v in whole.drive.columns.items():
+        np.testing.assert_array_equal(got.drive.columns[k], v, err_msg=k)

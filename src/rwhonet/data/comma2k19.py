@@ -9,14 +9,19 @@ module only knows which folder holds what:
 ==============================  =============================================================
 ``CAN/wheel_speed``             four columns: front left, front right, rear left, rear right,
                                 m/s (the car's circumferential wheel speeds; divided by the
-                                tyre radius here)
+                                tyre radius here); ``CAN/wheel_speeds`` as the dataset's
+                                README names it
 ``GNSS/live_gnss_ublox``        latitude (deg), longitude (deg), speed (m/s), UTC time (ms),
                                 altitude (m), bearing (deg) (``GNSS/live_gnss_qcom``, the
                                 phone's own receiver, when there is no u-blox)
 ``IMU/gyro``                    angular rate about the phone's [forward, right, down] axes,
                                 rad/s (optional)
-``CAN/speed``                   the car's speed, m/s (optional)
+``CAN/speed``                   the car's speed, m/s (optional; ``CAN/car_speed``)
 ==============================  =============================================================
+
+A route (the dataset's ``<dongle_id>|<start time>`` folder) holds one such folder per
+one-minute segment, named by its number, on the device's one boot clock: read as one
+drive (:func:`route_segments`, :func:`read_comma2k19`).
 
 The yaw rate is the rate about the vertical, in the canonical convention of
 ISO 8855 (z up, positive turning left, as the simulator writes it): minus the
@@ -61,10 +66,12 @@ from rwhonet.data.streams import DriveStreams, Stream
 from rwhonet.data.wheelunits import wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
 
-WHEEL_SPEED = "CAN/wheel_speed"
+# Each channel's folder: the first of the names that is there. The dataset's folders are
+# CAN/wheel_speed and CAN/speed; its README (Log Format) writes wheel_speeds and car_speed.
+WHEEL_SPEED = ("CAN/wheel_speed", "CAN/wheel_speeds")
 GNSS = ("GNSS/live_gnss_ublox", "GNSS/live_gnss_qcom")
-GYRO = "IMU/gyro"
-CAR_SPEED = "CAN/speed"
+GYRO = ("IMU/gyro",)
+CAR_SPEED = ("CAN/speed", "CAN/car_speed")
 PROCESSED_LOG = "processed_log"
 SEGMENT_FOLDERS = ("CAN", "GNSS", "IMU")  # under processed_log: what makes a segment
 # Columns of the GNSS value array.
@@ -199,11 +206,13 @@ def read_comma2k19(
             rows = order.index + 1
         return _group(sub, name, t, v, rows)
 
-    gnss_sub = next((g for g in GNSS if (root / g).is_dir()), GNSS[0])
-    wheels = channel(WHEEL_SPEED, 4, True)
-    gnss = channel(gnss_sub, 6, True)
-    gyro = channel(GYRO, 3, False) if (root / GYRO).is_dir() else None
-    speed = channel(CAR_SPEED, 1, False) if (root / CAR_SPEED).is_dir() else None
+    def there(names: tuple[str, ...]) -> str:
+        return next((g for g in names if (root / g).is_dir()), names[0])
+
+    wheels = channel(there(WHEEL_SPEED), 4, True)
+    gnss = channel(there(GNSS), 6, True)
+    gyro = channel(there(GYRO), 3, False) if (root / there(GYRO)).is_dir() else None
+    speed = channel(there(CAR_SPEED), 1, False) if (root / there(CAR_SPEED)).is_dir() else None
     if problems or wheels is None or gnss is None:
         raise InputError(problems, summary=f"cannot read the comma2k19 segment {name}")
     return _drive_streams(name, wheels, gnss, gyro, speed, radius_m, wheel_unit, [], changed)
@@ -270,10 +279,10 @@ def _read_route(segments: list[Path], radius_m: float, name: str, wheel_unit: st
         notes.append(f"{name}: {sub} of {len(groups)} segments joined in time order{widest}")
         return joined
 
-    wheels = channel((WHEEL_SPEED,), 4, True)
+    wheels = channel(WHEEL_SPEED, 4, True)
     gnss = channel(GNSS, 6, True)
-    gyro = channel((GYRO,), 3, False)
-    speed = channel((CAR_SPEED,), 1, False)
+    gyro = channel(GYRO, 3, False)
+    speed = channel(CAR_SPEED, 1, False)
     if problems or wheels is None or gnss is None:
         raise InputError(problems, summary=f"cannot read the comma2k19 route {name}")
     return _drive_streams(name, wheels, gnss, gyro, speed, radius_m, wheel_unit, notes, changed)
