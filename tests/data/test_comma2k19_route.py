@@ -202,3 +202,22 @@ def test_the_channel_folders_as_the_dataset_s_readme_names_them_read_alike(minut
     got = resample(streams, nominal_radius_m=RAV4_RADIUS_M)
     for k, v in whole.drive.columns.items():
         np.testing.assert_array_equal(got.drive.columns[k], v, err_msg=k)
+
+
+def test_predict_through_a_route_s_missing_segment_says_why_there_is_no_position(
+    minute, tmp_path, capsys
+):
+    """A segment missing inside an outage is a logger gap of 10 s: predict's filter starts
+    afresh after it and waits for a GNSS course, so the outage ends without a position,
+    and the summary says why."""
+    from rwhonet.cli.main import main
+    from support.serving import base_bundle, predict_args
+
+    arrays, _ = minute
+    route = _cut(arrays, tmp_path / ROUTE, at=(20.0, 30.0), leave_out={(10, None)})
+    bundle = base_bundle(tmp_path / "bundle")
+    args = ["--format", "comma2k19", "--nominal-radius", "0.362", "--outage", "5:45"]
+    assert main(predict_args(bundle, route, tmp_path / "out.csv", *args)) == 0
+    err = capsys.readouterr().err
+    assert "10.6 s after 19.6 s (the position filter started afresh)" in err
+    assert "position: none at its end" in err and "started it afresh" in err

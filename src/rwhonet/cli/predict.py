@@ -436,7 +436,10 @@ def default_validate() -> Any:
 def _position_text(o: dict[str, Any]) -> str:
     """The filter's end-of-outage position, and its error where GNSS is there to compare."""
     if math.isnan(o.get("east_end_m", math.nan)):
-        return "; position: none (the filter had not started)"
+        return (
+            "; position: none at its end (the filter had no GNSS course yet, or a logger gap "
+            "of more than 10 s inside the outage started it afresh)"
+        )
     yaw = "gyro + wheels" if o["control"] == "fused" else "wheels alone (no yaw rate)"
     if o["control"] == "fused" and o.get("gyro_s", o["seconds"]) < o["seconds"]:
         yaw += f", wheels alone in {o['seconds'] - o['gyro_s']} s without one"
