@@ -438,7 +438,7 @@ def _position_text(o: dict[str, Any]) -> str:
     if math.isnan(o.get("east_end_m", math.nan)):
         return (
             "; position: none at its end (the filter had no GNSS course yet, or a logger gap "
-            "of more than 10 s inside the outage started it afresh)"
+            f"of more than {BRIDGE_MAX_S:g} s inside the outage started it afresh)"
         )
     yaw = "gyro + wheels" if o["control"] == "fused" else "wheels alone (no yaw rate)"
     if o["control"] == "fused" and o.get("gyro_s", o["seconds"]) < o["seconds"]:
