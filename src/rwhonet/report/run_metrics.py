@@ -124,7 +124,7 @@ def position_metrics(ev: Evaluation, model: str) -> dict[str, float]:
 def _per_drive(table: pd.DataFrame, prefix: str, stats: tuple) -> dict[str, float]:
     if table is None or table.empty:
         return {}
-    keys = drive_keys(list(dict.fromkeys(table["drive"])))
+    keys = drive_keys(sorted(set(table["drive"])))  # as adapt and evaluate name them
     out = {}
     for r in table.itertuples():
         for stat, col in stats:
