@@ -465,9 +465,9 @@ def side_problems(
     signal names that no other check sees: a wheel's speed is the same whichever side it
     is written to, so the distance and the label do not change, but the wheels' yaw,
     which 2D dead reckoning turns by where there is no gyro, turns every track the wrong
-    way (the built-in V-Charlie3's rear wheels exchanged, without its yaw rate: 2,169 m
-    off at the end of a 180 s outage of 2,166 m, against 38 m). A drive that turned too
-    little to tell passes, with a note in the record.
+    way (the built-in V-Charlie3's rear wheels exchanged, without its yaw rate: 2,493 m
+    off at the end of a 180 s outage of 2,166 m, against 67 m; docs/readers.md). A drive
+    that turned too little to tell passes, with a note in the record.
 
     Args:
         entry: ``source_file``, ``columns`` (canonical -> the file's name).
