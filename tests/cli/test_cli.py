@@ -647,14 +647,15 @@ def test_predict_refuses_an_axle_s_wheels_exchanged_as_validate_does_and_writes_
     bundle, tmp_path, capsys
 ):
     """The rear wheels' speeds written to each other's columns turn the wheels' yaw the wrong
-    way (2D dead reckoning without a gyro): refused, naming both columns; in their columns
-    they pass with nothing said; wheels that never differ say the sides were not told."""
+    way (2D dead reckoning without a gyro): refused, naming both columns; the front and rear
+    columns exchanged, refused naming all four; in their columns they pass with nothing
+    said; wheels that never differ say the sides and the axles were not told."""
     from rwhonet.data import canonical as c
     from support.corpus import TARGET_RADIUS_M, weaving_drive, weaving_target
     from support.drives import write_iovnbd
 
     car = ["--nominal-radius", str(TARGET_RADIUS_M)]
-    df = weaving_drive(150.0, track_m=1.5)
+    df = weaving_drive(150.0, 8.0, 0.6, track_m=1.5, wheelbase_m=2.7)  # tight turns
     good = write_iovnbd(df, tmp_path / "V-Turns.csv")
     assert main(predict_args(bundle, good, tmp_path / "good.csv", *car)) == 0
     assert "wheels not told" not in capsys.readouterr().err
@@ -667,11 +668,22 @@ def test_predict_refuses_an_axle_s_wheels_exchanged_as_validate_does_and_writes_
     assert "validate's wheel-sides check" in err and "look exchanged (left for right)" in err
     assert "Front" not in err
     assert not out.exists() and list(tmp_path.glob(".*partial")) == []
+    df[[c.OMEGA_RL, c.OMEGA_RR]] = df[[c.OMEGA_RR, c.OMEGA_RL]].to_numpy()  # back in place
+    front, rear = [c.OMEGA_FL, c.OMEGA_FR], [c.OMEGA_RL, c.OMEGA_RR]
+    df[front + rear] = df[rear + front].to_numpy()
+    axles = write_iovnbd(df, tmp_path / "V-Axles.csv")
+    assert main(predict_args(bundle, axles, out, *car)) == 2
+    err = capsys.readouterr().err
+    assert "Wheel Speed Front Left (rad/sec) /  Wheel Speed Front Right (rad/sec) / " in err
+    assert "validate's wheel-axles check" in err and "front and rear columns look exchanged" in err
+    assert not out.exists() and list(tmp_path.glob(".*partial")) == []
     same = write_iovnbd(weaving_target(), tmp_path / "V-Same.csv")  # every wheel alike
     assert main(predict_args(bundle, same, tmp_path / "same.csv", *car)) == 0
     err = capsys.readouterr().err
     assert err.count("left and right wheels not told against the GNSS course") == 1
     assert "the rear wheels never differed" in err
+    assert err.count("front and rear wheels not told against the GNSS course") == 1
+    assert "the front and rear wheels never differed" in err
 
 
 def test_predict_s_dead_reckoning_turns_the_wheels_yaw_by_the_track_given(bundle, tmp_path):

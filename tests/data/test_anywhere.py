@@ -244,6 +244,7 @@ def checked(params, frame: pd.DataFrame) -> dict:
         "radius": units["radius"],
         "yaw_rate": units["yaw_rate"],
         "wheel_sides": units["wheel_sides"],
+        "wheel_axles": units["wheel_axles"],
         "glitches": glitches,
         "gnss": np.concatenate([sec.disp_gnss_m for sec in seconds]),
         "label": np.concatenate(labels),
@@ -294,5 +295,10 @@ def test_validate_s_per_drive_check_passes_a_relocated_drive_alike(
         assert got["wheel_sides"][axle]["gain"] == pytest.approx(
             want["wheel_sides"][axle]["gain"], abs=1e-6
         )
+    # and the front axle's wider arc in the turns (stop 74): told alike
+    axles, home = got["wheel_axles"], want["wheel_axles"]
+    assert axles["checked"] == home["checked"] and axles["seconds"] == home["seconds"]
+    assert axles["tight_turns"] == home["tight_turns"]
+    assert axles["gain"] == pytest.approx(home["gain"], rel=1e-6)
     np.testing.assert_allclose(got["gnss"], want["gnss"], rtol=0, atol=TOL_M)
     np.testing.assert_allclose(got["label"], want["label"], rtol=0, atol=TOL_M)

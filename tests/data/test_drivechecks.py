@@ -222,3 +222,87 @@ def test_the_real_rav4_minute_s_rear_wheels_are_told_in_their_columns():
     drive[c.OMEGA_RL], drive[c.OMEGA_RR] = drive[c.OMEGA_RR], drive[c.OMEGA_RL]
     found, record = side_problems(entry, drive, segments, vp, RAV4_RADIUS_M, 1.6)
     assert [p.column for p in found] == [f"{c.OMEGA_RL} / {c.OMEGA_RR}"] and record["checked"]
+
+
+def _axles_drive(exchanged: bool = False) -> dict[str, np.ndarray]:
+    """A car weaving through tight turns (8 m/s, ±0.6 rad/s), its front wheels on the front
+    axle's wider arc; ``exchanged``: the front and rear columns written to each other's."""
+    from support.corpus import weaving_drive
+
+    df = weaving_drive(300, 8.0, 0.6, radius_m=R_M, fix_noise_m=0.3, track_m=1.5, wheelbase_m=2.7)
+    out = {k: df[k].to_numpy(np.float64) for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+    if exchanged:
+        for front, rear in ((c.OMEGA_FL, c.OMEGA_RL), (c.OMEGA_FR, c.OMEGA_RR)):
+            out[front], out[rear] = out[rear], out[front]
+    return out
+
+
+def test_the_front_and_rear_columns_exchanged_are_refused_naming_all_four():
+    """validate's wheel-axles check: in their columns the axles pass, told (the record's
+    gain, its standard error, the pairs and the tight turns); exchanged, one problem names
+    the four columns as the map calls them and says to exchange front with rear."""
+    from rwhonet.data.drivechecks import axle_problems
+
+    vp = load_params().validate
+    names = {w: f"Wheel_{i}" for i, w in enumerate(c.WHEELS, start=1)}
+    entry = {"source_file": "V-Car.csv", "columns": names}
+    drive = _axles_drive()
+    segments = assess(drive, vp.gnss, vp.sample_period_s).segments
+    found, record = axle_problems(entry, drive, segments, vp, R_M)
+    assert found == [] and record["checked"] and "note" not in record
+    assert record["gain"] > 4 * record["gain_se"] and record["tight_turns"] >= 10
+    found, record = axle_problems(entry, _axles_drive(exchanged=True), segments, vp, R_M)
+    assert record["checked"] and record["gain"] < -4 * record["gain_se"]
+    (p,) = found
+    assert p.file == "V-Car.csv" and p.row is None
+    assert p.column == "Wheel_1 / Wheel_2 / Wheel_3 / Wheel_4"
+    assert "front wheels' speeds in 'Wheel_1' and 'Wheel_2'" in p.expected
+    assert "the front and rear columns look exchanged" in p.found
+    assert "exchange the front and rear columns (left with left" in p.fix
+
+
+def test_the_stream_check_refuses_the_axles_exchanged_once_told_and_keeps_a_note_otherwise():
+    """predict's check tells the axles as the rows come, and refuses them exchanged as
+    validate does; a drive that never turns tightly ends with a note saying why."""
+    vp = load_params().validate
+    check = StreamRadiusCheck(ENTRY, R_M, vp)
+    drive = _axles_drive(exchanged=True)
+    with pytest.raises(InputError) as err:
+        for a in range(0, drive[c.T_S].size, 100):
+            check.push({k: v[a : a + 100] for k, v in drive.items()})
+        check.finish()
+    assert "validate's wheel-axles check" in err.value.summary
+    assert "look exchanged" in str(err.value)
+
+    def streamed(drive):
+        check = StreamRadiusCheck(ENTRY, R_M, vp)
+        for a in range(0, drive[c.T_S].size, 100):
+            check.push({k: v[a : a + 100] for k, v in drive.items()})
+        check.finish()
+        return check
+
+    check = streamed(_axles_drive())
+    assert check.axles_decided and check.axles_note is None
+    straight = streamed(_drive())
+    assert straight.axles_decided
+    assert "front and rear wheels not told" in straight.axles_note
+    assert "the front and rear wheels never differed" in straight.axles_note
+
+
+def test_the_real_rav4_minute_s_axles_are_not_told_on_a_highway():
+    """The one real drive turns through about a degree: no tight turn, nothing told."""
+    from rwhonet.data.comma2k19 import read_comma2k19
+    from rwhonet.data.drivechecks import axle_problems
+    from rwhonet.data.streams import resample
+    from support.realminute import RAV4_RADIUS_M, REAL, real_minute
+
+    real_minute()  # skipped where the segment is not on this machine
+    vp = load_params().validate
+    res = resample(read_comma2k19(REAL, radius_m=RAV4_RADIUS_M), nominal_radius_m=RAV4_RADIUS_M)
+    drive = {k: np.asarray(v) for k, v in res.drive.columns.items() if k != c.SCENARIO}
+    segments = assess(drive, vp.gnss, vp.sample_period_s).segments
+    found, record = axle_problems(
+        {"source_file": "rav4", "columns": {}}, drive, segments, vp, RAV4_RADIUS_M
+    )
+    assert found == [] and not record["checked"] and record["tight_turns"] == 0
+    assert record["note"].startswith("only 0 pairs of seconds in a tight turn")

@@ -11,9 +11,14 @@ from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data import plausibility
 from rwhonet.data.plausibility import (
+    AXLE_MIN_TIGHT,
+    AXLE_TIGHT_TERM,
+    AXLE_WHEELBASE_M,
     YAW_FLAT_SPAN_RAD,
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
+    axle_mistake,
+    axle_order_gain,
     implied_radius,
     latlon_swapped_by_range,
     minutes_radius,
@@ -31,7 +36,7 @@ from rwhonet.data.plausibility import (
 from rwhonet.data.quality import Segment
 from rwhonet.data.streams import DriveStreams, Stream, resample
 from rwhonet.geo import latlon_from_offsets_deg
-from support.corpus import speed_profile_drive, weaving_drive
+from support.corpus import TARGET_RADIUS_M, speed_profile_drive, weaving_drive
 from support.drives import SOURCE_RADIUS_M, straight_drive
 
 POLICY = WheelPolicy(
@@ -400,3 +405,82 @@ def test_wheels_that_cannot_tell_their_sides_pass():
         for est in _sides(drive).values():
             assert side_mistake(est) == (False, False)
     assert all(est.seconds < YAW_MIN_SECONDS for est in _sides(slow).values())
+
+
+# ------------------------------------------------------------------ the front and rear axles
+
+
+def _axles_turning(**kw) -> dict[str, np.ndarray]:
+    """A car weaving at 8 m/s through tight turns (±0.6 rad/s: a radius down to 13 m),
+    its front wheels on the front axle's wider arc (``wheelbase_m``), its fixes noisy
+    (0.3 m, white: every fix's own)."""
+    kw = {"wheelbase_m": AXLE_WHEELBASE_M, "turn_rad_s": 0.6, "fix_noise_m": 0.3} | kw
+    df = weaving_drive(300, kw.pop("speed_m_s", 8.0), track_m=1.5, **kw)
+    return {k: df[k].to_numpy(copy=True) for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+
+
+def _axles(drive):
+    return axle_order_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1, TARGET_RADIUS_M)
+
+
+def _exchanged(drive) -> dict[str, np.ndarray]:
+    out = dict(drive)
+    for front, rear in ((c.OMEGA_FL, c.OMEGA_RL), (c.OMEGA_FR, c.OMEGA_RR)):
+        out[front], out[rear] = drive[rear], drive[front]
+    return out
+
+
+def test_the_front_wheels_run_faster_in_a_turn_by_the_wheelbase_squared():
+    """The front axle on sqrt(R^2 + L^2): with exact fixes the gain is 1 on the wheelbase
+    the fit assumes (0.99: sqrt(1 + u) is 1 + u / 2 less u^2 / 8) and (L /
+    AXLE_WHEELBASE_M)^2 on another. Noisy fixes dilute it (their course's noise squared
+    adds to the turn's term: 0.74 with 0.3 m white fix noise), only its sign is told: in
+    their columns the axles are told, not exchanged."""
+    exact = _axles(_axles_turning(fix_noise_m=0.0))
+    assert exact.seconds == 299 and exact.tight >= AXLE_MIN_TIGHT
+    assert exact.gain == pytest.approx(0.99, abs=0.005) and exact.gain_se < 0.001
+    long = _axles(_axles_turning(fix_noise_m=0.0, wheelbase_m=AXLE_WHEELBASE_M * math.sqrt(2)))
+    assert long.gain == pytest.approx(2.0 * exact.gain, rel=0.01)
+    noisy = _axles(_axles_turning())
+    assert 0.5 < noisy.gain < exact.gain and noisy.gain > 20 * noisy.gain_se
+    assert axle_mistake(noisy) == (True, False)
+
+
+def test_the_front_and_rear_columns_exchanged_run_slower_in_the_turns():
+    assert _axles(_exchanged(_axles_turning(fix_noise_m=0.0))).gain == pytest.approx(-1, abs=0.02)
+    est = _axles(_exchanged(_axles_turning()))
+    assert est.gain < -20 * est.gain_se
+    assert axle_mistake(est) == (True, True)
+
+
+def test_axles_that_cannot_be_told_apart_pass():
+    """Every wheel at the rear axle's speed (no wheelbase), turns too wide to count, or a
+    car too slow for a course: the axles are not told, nor exchanged."""
+    alike = _axles(_axles_turning(wheelbase_m=0.0))
+    assert math.isnan(alike.gain) and axle_mistake(alike) == (False, False)
+    wide = _axles(_axles_turning(turn_rad_s=0.1, speed_m_s=15.0))  # radius 150 m and more
+    assert wide.tight == 0 and axle_mistake(wide) == (False, False)
+    assert axle_mistake(_axles(_exchanged(_axles_turning(turn_rad_s=0.1, speed_m_s=15.0)))) == (
+        False,
+        False,
+    )
+    slow = _axles(_axles_turning(speed_m_s=4.0))
+    assert slow.seconds < YAW_MIN_SECONDS and axle_mistake(slow) == (False, False)
+
+
+def test_a_drift_of_the_axles_ratio_over_wide_turns_is_no_evidence():
+    """Wide turns (their term under AXLE_TIGHT_TERM), with the front axle's speed over the
+    rear's falling 300 times the term (a drift with speed, as a straight built-in drive
+    showed): the gain lies far below 0 by its standard error, yet too few tight turns tell
+    nothing."""
+    drive = _axles_turning(turn_rad_s=0.05, speed_m_s=15.0, wheelbase_m=0.0, fix_noise_m=0.02)
+    term = 0.5 * (AXLE_WHEELBASE_M * 0.05 / 15.0) ** 2
+    assert 300 * term < 0.05 and term < AXLE_TIGHT_TERM
+    t = drive[c.T_S]
+    rate = 0.05 * np.sin(2.0 * np.pi * (t - t[0]) / 40.0)
+    slower = 1.0 - 300.0 * 0.5 * (AXLE_WHEELBASE_M * rate / 15.0) ** 2
+    for w in (c.OMEGA_FL, c.OMEGA_FR):
+        drive[w] = drive[w] * slower
+    est = _axles(drive)
+    assert est.gain < -4 * est.gain_se and est.tight == 0
+    assert axle_mistake(est) == (False, False)

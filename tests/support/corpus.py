@@ -181,13 +181,16 @@ def weaving_drive(
     gyro_bias_rad_s: float = 0.0,
     seed: int = 0,
     track_m: float = 0.0,
+    wheelbase_m: float = 0.0,
 ) -> pd.DataFrame:
     """A drive that weaves: yaw rate ``turn_rad_s · sin(2π t / 40 s)`` (left positive) at a
     constant speed from ``(lat0_deg, -1.5)``, 10 Hz from T0; the fixes with white noise,
     the yaw-rate column (rad/s) the true rate times ``gyro_scale`` plus a bias and, when
     the fixes are noisy, 0.002 rad/s of white noise. Every wheel turns at the car's
     speed, or with ``track_m`` each side's wheels at their own in the turns (the speed
-    ± the yaw rate times half the track: ideal rolling, no load transfer)."""
+    ± the yaw rate times half the track: ideal rolling, no load transfer); with
+    ``wheelbase_m`` the front wheels ``sqrt(1 + (wheelbase · curvature)²)`` times faster
+    (the front axle's wider arc about a centre level with the rear axle)."""
     from rwhonet.geo import latlon_from_offsets_deg
 
     rng = np.random.default_rng(seed)
@@ -204,14 +207,17 @@ def weaving_drive(
         north = north + rng.normal(0.0, fix_noise_m, t.size)
         gyro = gyro + rng.normal(0.0, 0.002, t.size)
     lat, lon = latlon_from_offsets_deg(lat0_deg, -1.5, east, north)
+    arc = np.sqrt(1.0 + (wheelbase_m * rate / speed_m_s) ** 2) if wheelbase_m else 1.0
     return pd.DataFrame(
         {
             c.T_S: t,
             c.LAT_DEG: lat,
             c.LON_DEG: lon,
             **{
-                w: (speed_m_s + side * 0.5 * track_m * rate) / radius_m
-                for w, side in zip(c.WHEELS, (-1.0, 1.0, -1.0, 1.0), strict=True)
+                w: (speed_m_s + side * 0.5 * track_m * rate) / radius_m * (arc if front else 1.0)
+                for w, side, front in zip(
+                    c.WHEELS, (-1.0, 1.0, -1.0, 1.0), (True, True, False, False), strict=True
+                )
             },
             c.N_SATS: np.full(t.size, 9.0),
             c.YAW_RATE_RAD_S: gyro,
@@ -1481,6 +1487,26 @@ def _(raw: Path) -> None:
 def _(raw: Path) -> None:
     df = weaving_drive(DURATION_S, track_m=1.5)
     df[[c.OMEGA_RL, c.OMEGA_RR]] = df[[c.OMEGA_RR, c.OMEGA_RL]].to_numpy()
+    write_target(raw, df)
+
+
+@case(
+    "front_and_rear_wheels_exchanged",
+    "a drive through tight turns whose front wheels' speeds are written to the rear columns "
+    "and the rear wheels' to the front (left with left, right with right)",
+    Refuse(
+        "validate",
+        None,
+        " Wheel Speed Front Left (rad/sec) /  Wheel Speed Front Right (rad/sec) /  Wheel Speed "
+        "Rear Left (rad/sec) /  Wheel Speed Rear Right (rad/sec)",
+        "the front axle runs on the wider arc in a turn",
+        "the front and rear columns look exchanged",
+    ),
+)
+def _(raw: Path) -> None:
+    df = weaving_drive(DURATION_S, 8.0, 0.6, track_m=1.5, wheelbase_m=2.7)
+    front, rear = [c.OMEGA_FL, c.OMEGA_FR], [c.OMEGA_RL, c.OMEGA_RR]
+    df[front + rear] = df[rear + front].to_numpy()
     write_target(raw, df)
 
 

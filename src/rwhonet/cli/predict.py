@@ -385,6 +385,7 @@ def run(
         "unit_note": unit_note,
         "yaw_note": check.yaw_note,
         "sides_note": check.sides_note,
+        "axles_note": check.axles_note,
         "fix_note": fixes.note(name),
     }
 
@@ -580,7 +581,11 @@ def render_summary(out: dict[str, Any]) -> str:
     lines = [f"{out['file']}: {out['rows']} rows -> {out['seconds']} seconds"]
     lines += out.get("drive_notes", [])
     lines += glitch_lines(out.get("glitches", []), samples=out.get("stream_glitches"))
-    lines += [out[k] for k in ("fix_note", "unit_note", "yaw_note", "sides_note") if out.get(k)]
+    lines += [
+        out[k]
+        for k in ("fix_note", "unit_note", "yaw_note", "sides_note", "axles_note")
+        if out.get(k)
+    ]
     lines += reversing_lines(out.get("backwards_s", []))
     lines += gap_lines(out.get("gaps", []), out.get("max_gap_s", math.nan))
     for o in out["outages"]:

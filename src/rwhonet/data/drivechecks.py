@@ -34,12 +34,17 @@ from rwhonet.data.glitches import (
     repaired_yaw_rate,
 )
 from rwhonet.data.plausibility import (
+    AXLE_MIN_TIGHT,
+    AXLE_TIGHT_TERM,
+    AXLE_WHEELBASE_M,
     AXLES,
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
     CourseTurns,
     SignTally,
     YawEstimate,
+    axle_mistake,
+    axle_order_gain,
     course_turns,
     gnss_path_m,
     implied_radius,
@@ -106,8 +111,9 @@ def check_drive(
 
     Returns:
         ``(problems, assessment, unit checks, wheel glitches)``; the unit checks are
-        ``{"radius": ..., "yaw_rate": ...}`` (:func:`radius_problems`' and
-        :func:`yaw_problems`' records); the assessment and unit checks are None when the
+        ``{"radius": ..., "yaw_rate": ..., "wheel_sides": ..., "wheel_axles": ...}``
+        (:func:`radius_problems`', :func:`yaw_problems`', :func:`side_problems`' and
+        :func:`axle_problems`' records); the assessment and unit checks are None when the
         schema problems stopped the drive before the GNSS policy; the glitches
         (:func:`wheel_glitches`' report) None when no row glitched.
     """
@@ -283,7 +289,12 @@ def _drive_problems(
             )
         )
         none = {"checked": False, "note": "no valid segment"}
-        return problems, {"radius": none, "yaw_rate": dict(none), "wheel_sides": dict(none)}
+        return problems, {
+            "radius": none,
+            "yaw_rate": dict(none),
+            "wheel_sides": dict(none),
+            "wheel_axles": dict(none),
+        }
 
     need = target_test_min_s(params)
     if entry["role"] == contracts.TARGET_TEST and result.seconds_kept < need:
@@ -310,8 +321,9 @@ def _drive_problems(
     yawed, yaw = yaw_problems(entry, df, result.segments, vp, turns)
     track = params.track_rear_m(entry["vehicle"])
     sided, sides = side_problems(entry, df, result.segments, vp, nominal, track, turns)
-    checks = {"radius": radius, "yaw_rate": yaw, "wheel_sides": sides}
-    return problems + more + yawed + sided, checks
+    axled, axles = axle_problems(entry, df, result.segments, vp, nominal, turns)
+    checks = {"radius": radius, "yaw_rate": yaw, "wheel_sides": sides, "wheel_axles": axles}
+    return problems + more + yawed + sided + axled, checks
 
 
 def yaw_problems(
@@ -528,6 +540,85 @@ def side_problems(
     return problems, record
 
 
+def axle_problems(
+    entry: dict[str, Any],
+    df: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    vp: ValidateParams,
+    radius_m: float,
+    turns: CourseTurns | None = None,
+) -> tuple[list[Problem], dict[str, Any]]:
+    """The wheel-axles check: the front wheels' speeds in the front columns, the rear's in
+    the rear.
+
+    In a tight turn the front axle runs on a wider arc than the rear, so the front wheels
+    turn faster (:func:`rwhonet.data.plausibility.axle_order_gain`); where the rear columns
+    run faster in the turns (the gain told negative:
+    :func:`~rwhonet.data.plausibility.axle_mistake`, 4 standard errors from 0 over at least
+    :data:`~rwhonet.data.plausibility.AXLE_MIN_TIGHT` tight turns), the front and rear
+    columns are exchanged: a mistake of a column map, a signal map or a DBC's signal names
+    (wheel speeds numbered 1 to 4, or a message's front and rear signals in another order).
+    The distance then rolls on the front wheels, which slip as they drive and steer and
+    run wider in every turn: the WPM on the built-in test drives' front wheels, each axle
+    with its own best radius, misses by 0.70 m a 30 s window against 0.56 m on the rear
+    wheels (docs/readers.md). A drive with too few tight turns passes, with a note in the
+    record.
+
+    Args:
+        entry: ``source_file``, ``columns`` (canonical -> the file's name).
+        df: the canonical drive.
+        segments: its GNSS-valid segments.
+        vp: ``validate``.
+        radius_m: the car's nominal tyre radius (the curvature's distance).
+        turns: the course's turns, where already computed (as :func:`yaw_problems`).
+
+    Returns:
+        ``(problems, record)``: the record as validate reports it: ``checked``, the gain,
+        its standard error, the pairs of seconds and the tight turns among them, and a note
+        when not checked.
+    """
+    est = axle_order_gain(df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, turns)
+    checked, exchanged = axle_mistake(est)
+    record: dict[str, Any] = {
+        "checked": checked,
+        "gain": None if np.isnan(est.gain) else est.gain,
+        "gain_se": None if not np.isfinite(est.gain_se) else est.gain_se,
+        "seconds": est.seconds,
+        "tight_turns": est.tight,
+    }
+    if not checked:
+        if est.seconds < YAW_MIN_SECONDS:
+            record["note"] = _few_pairs_note(est.seconds)
+        elif np.isnan(est.gain):
+            record["note"] = "the front and rear wheels never differed (one speed written to all?)"
+        elif est.tight < AXLE_MIN_TIGHT:
+            record["note"] = (
+                f"only {est.tight} pairs of seconds in a tight turn (a radius under "
+                f"{AXLE_WHEELBASE_M / np.sqrt(2 * AXLE_TIGHT_TERM):.0f} m; < {AXLE_MIN_TIGHT})"
+            )
+        else:
+            record["note"] = f"turned too little to tell (gain {est.gain:.3g} ± {est.gain_se:.2g})"
+        return [], record
+    if not exchanged:
+        return [], record
+    columns = [entry["columns"].get(k, k) for k in (*AXLES["front"], *AXLES["rear"])]
+    front, rear = " and ".join(map(repr, columns[:2])), " and ".join(map(repr, columns[2:]))
+    problem = Problem(
+        entry["source_file"],
+        None,
+        " / ".join(columns),
+        f"the front wheels' speeds in {front} and the rear wheels' in {rear}: the front "
+        "axle runs on the wider arc in a turn, so its wheels turn faster the tighter the turn",
+        f"over {est.seconds} pairs of moving seconds in valid segments ({est.tight} in tight "
+        f"turns) the front columns turned {est.gain:.3g} ± {est.gain_se:.2g} times the "
+        "excess a front axle has: slower than the rear in the turns, so the front and rear "
+        "columns look exchanged",
+        "exchange the front and rear columns (left with left, right with right: their names "
+        "in the header, or the keys in the column map or signal map)",
+    )
+    return [problem], record
+
+
 @np.errstate(invalid="ignore", over="ignore", divide="ignore")
 def radius_problems(
     entry: dict[str, Any],
@@ -660,8 +751,9 @@ class StreamRadiusCheck:
     kept on until :func:`yaw_problems` can tell too (the course has turned enough),
     without holding the wheel check's decision: a yaw rate that turns the wrong way is
     refused as validate refuses it, when that is told; so are an axle's left and right
-    wheels exchanged (:func:`side_problems`), on every drive, until told (a track that
-    turned too little keeps them to its end). Rows without a fix are bad rows for
+    wheels exchanged (:func:`side_problems`) and the front and rear axles'
+    (:func:`axle_problems`), on every drive, until told (a track that turned too little
+    keeps them to its end). Rows without a fix are bad rows for
     the policy (a stream may miss fixes; validate's schema refuses them). A drive that
     ends undecided (no GNSS, or too few moving seconds) leaves :attr:`note` saying why
     the wheels were not checked, and :attr:`yaw_note` why the yaw rate was not. The
@@ -693,6 +785,9 @@ class StreamRadiusCheck:
         sides_decided: True once the wheel-sides check has told (or the drive ended).
         sides_note: why the wheel-sides check could not tell (None: it did, or not
             decided yet).
+        axles_decided: True once the wheel-axles check has told (or the drive ended).
+        axles_note: why the wheel-axles check could not tell (None: it did, or not
+            decided yet).
     """
 
     KEYS = (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)
@@ -702,8 +797,9 @@ class StreamRadiusCheck:
     # to count then, started within that time before it; a longer one was told then)
     SENSOR_STEP_S = 60.0  # 30 s: about twice the cost (+0.13-0.23 s an hour of rows)
     SENSOR_CONTEXT_S = 60.0
-    # the wheel-sides check, once the others have decided, on the last 10 min of rows (a
-    # motorway that never turns enough to tell is not kept whole; told on ~30 s of turns)
+    # the wheel-sides and wheel-axles checks, once the others have decided, on the last 10
+    # min of rows (a motorway that never turns enough to tell is not kept whole; the sides
+    # are told on ~30 s of turns, the axles on 10 s of tight turns)
     SIDES_WINDOW_S = 600.0
 
     def __init__(
@@ -722,10 +818,11 @@ class StreamRadiusCheck:
         per_s = 1.0 / vp.sample_period_s
         self.next_try = int(np.ceil((vp.radius_min_moving_s + 2.0) * per_s))
         self.step_rows = int(np.ceil(30.0 * per_s))
-        self.decided = self.yaw_decided = self.sides_decided = False
+        self.decided = self.yaw_decided = self.sides_decided = self.axles_decided = False
         self.note: str | None = None
         self.yaw_note: str | None = None
         self.sides_note: str | None = None
+        self.axles_note: str | None = None
         self.wheel_parts: list[dict[str, np.ndarray]] = []  # the rows not checked, and context
         self.n_wheel_rows = 0  # rows pushed (the range check's row numbers)
         self.range_problems: list[Problem] = []  # each wheel's first row out of range
@@ -931,11 +1028,11 @@ class StreamRadiusCheck:
             )
 
     def _all_decided(self) -> bool:
-        return self.decided and self.yaw_decided and self.sides_decided
+        return self.decided and self.yaw_decided and self.sides_decided and self.axles_decided
 
     def _try(self, final: bool) -> None:
         if not self.parts:  # a drive that ended without a row: nothing to tell
-            self.decided = self.yaw_decided = self.sides_decided = True
+            self.decided = self.yaw_decided = self.sides_decided = self.axles_decided = True
             self.note = self._why_not(False, {})
             return
         keys = self.keys or self.KEYS
@@ -948,6 +1045,7 @@ class StreamRadiusCheck:
             "note": "no GNSS-valid stretch",
         }
         sides_record: dict[str, Any] = {"checked": False, "note": "no GNSS-valid stretch"}
+        axles_record: dict[str, Any] = dict(sides_record)
         if rows[c.T_S].size > 1 and fix.any():
             result = assess(rows, self.vp.gnss, self.vp.sample_period_s, wheel_glitch=~fix)
             if result.segments and not self.decided:
@@ -960,7 +1058,9 @@ class StreamRadiusCheck:
                     radius_from=self.radius_from,
                 )
             turns = None
-            if result.segments and not (yaw_record["checked"] and self.sides_decided):
+            if result.segments and not (
+                yaw_record["checked"] and self.sides_decided and self.axles_decided
+            ):
                 turns = course_turns(rows, result.segments, YAW_MIN_STEP_M, self.vp.sample_period_s)
             if result.segments and not yaw_record["checked"]:
                 yawed, yaw_record = yaw_problems(self.entry, rows, result.segments, self.vp, turns)
@@ -979,6 +1079,16 @@ class StreamRadiusCheck:
                         sided,
                         f"{self.entry['source_file']}: an axle's wheels that turn the car "
                         "against the GNSS course (validate's wheel-sides check)",
+                    )
+            if result.segments and not self.axles_decided:
+                axled, axles_record = axle_problems(
+                    self.entry, rows, result.segments, self.vp, self.nominal_m, turns
+                )
+                if axled:
+                    raise InputError(
+                        axled,
+                        f"{self.entry['source_file']}: front wheels slower than the rear in "
+                        "the turns (validate's wheel-axles check)",
                     )
         if problems:
             raise InputError(
@@ -1005,10 +1115,17 @@ class StreamRadiusCheck:
                     f"{self.entry['source_file']}: left and right wheels not told against the "
                     "GNSS course (validate's wheel-sides check): " + sides_record["note"]
                 )
+        if not self.axles_decided and (axles_record["checked"] or final):
+            self.axles_decided = True
+            if not axles_record["checked"]:
+                self.axles_note = (
+                    f"{self.entry['source_file']}: front and rear wheels not told against the "
+                    "GNSS course (validate's wheel-axles check): " + axles_record["note"]
+                )
         if self._all_decided():
             self.parts = []
             return
-        if self.decided and self.yaw_decided:  # only the sides to tell: the last stretch
+        if self.decided and self.yaw_decided:  # only the wheels' places: the last stretch
             keep = int(np.ceil(self.SIDES_WINDOW_S / self.vp.sample_period_s))
             if rows[c.T_S].size > keep:
                 self.parts = [{k: v[-keep:] for k, v in rows.items()}]

@@ -23,7 +23,9 @@ course's turn on the gyro's is about 1 for a yaw rate in the declared unit and s
 channel that does not follow the car (zeros, another signal). Each axle's wheels turn it
 too (:func:`wheel_side_gains`): the outer wheel runs faster, so the course turns with the
 right wheel's speed less the left's, and a pair whose columns are exchanged turns it the
-other way.
+other way. And the front axle runs on a wider arc than the rear in a tight turn
+(:func:`axle_order_gain`): its wheels turn faster, the rear ones where the front and rear
+columns are exchanged.
 """
 
 from __future__ import annotations
@@ -249,25 +251,41 @@ def yaw_gain(
         keep = np.interp(b, t, missing) - np.interp(a, t, missing) == 0
     x = np.interp(b, t, angle) - np.interp(a, t, angle)
     x, y, block = x[keep], turns.y[keep], turns.block[keep]
+    fit = _slope_by_blocks(x, y, block)
+    span = float(np.ptp(np.r_[0.0, np.cumsum(fit.y)]))
+    return YawEstimate(fit.gain, fit.gain_se, fit.n, span)
+
+
+@dataclass(frozen=True)
+class _Slope:
+    gain: float  # NaN: too few pairs, or a regressor that never varied
+    gain_se: float  # inf when the gain cannot be told
+    n: int  # pairs that entered the fit
+    x: np.ndarray  # those pairs' regressor
+    y: np.ndarray  # and response
+
+
+def _slope_by_blocks(x: np.ndarray, y: np.ndarray, block: np.ndarray) -> _Slope:
+    """The least-squares slope of ``y`` on ``x`` with an intercept for each block, and its
+    standard error; a block's only pair is left out (its intercept would take it all)."""
     _, block, per_block = np.unique(block, return_inverse=True, return_counts=True)
-    alone = per_block[block] < 2  # a block's only pair: its intercept would take it all
+    alone = per_block[block] < 2
     x, y = x[~alone], y[~alone]
     block = np.unique(block[~alone], return_inverse=True)[1]
     n = x.size
-    span = float(np.ptp(np.r_[0.0, np.cumsum(y)]))
     if n < YAW_MIN_SECONDS or np.ptp(x) < 1e-9:  # too few, or one value (to the sum's rounding)
-        return YawEstimate(float("nan"), math.inf, n, span)
+        return _Slope(float("nan"), math.inf, n, x, y)
     count = np.bincount(block)
     xc = x - (np.bincount(block, x) / count)[block]
     yc = y - (np.bincount(block, y) / count)[block]
     sxx = float(xc @ xc)
     if not sxx > 0.0:  # one value in each block: nothing to regress on
-        return YawEstimate(float("nan"), math.inf, n, span)
+        return _Slope(float("nan"), math.inf, n, x, y)
     gain = float(xc @ yc) / sxx
     resid = yc - gain * xc
     dof = n - count.size - 1  # a slope, and an intercept per block
     se = math.sqrt(float(resid @ resid) / max(dof, 1) / sxx)
-    return YawEstimate(gain, se, n, span)
+    return _Slope(gain, se, n, x, y)
 
 
 # Each axle's two wheels, left then right, for :func:`wheel_side_gains`.
@@ -329,6 +347,93 @@ def side_mistake(est: YawEstimate) -> tuple[bool, bool]:
         ``(checked, exchanged)``.
     """
     if est.seconds < YAW_MIN_SECONDS or not math.isfinite(est.gain):
+        return False, False
+    told = abs(est.gain) > YAW_EVIDENCE_SE * est.gain_se
+    return told, told and est.gain < 0.0
+
+
+# The front and rear axles (:func:`axle_order_gain`): an ordinary car's wheelbase (the
+# gain's scale, (wheelbase / this) squared; only its sign is told), and how tight a turn
+# must be to count: (wheelbase x curvature)^2 / 2 of at least this (a turn radius under
+# 27 m at this wheelbase: a junction's, where the front axle runs 0.5 % or more faster),
+# in at least so many pairs of seconds.
+AXLE_WHEELBASE_M = 2.7
+AXLE_TIGHT_TERM = 0.005
+AXLE_MIN_TIGHT = 10
+
+
+@dataclass(frozen=True)
+class AxleEstimate:
+    """How the front wheels' speed over the rear's grows with the turn (:func:`axle_order_gain`)."""
+
+    gain: float  # per unit of the turn's term (NaN: too few pairs, or no turn)
+    gain_se: float  # its standard error (inf when it cannot be told)
+    seconds: int  # pairs of seconds that entered the fit
+    tight: int  # of which turned at least AXLE_TIGHT_TERM
+
+
+@np.errstate(invalid="ignore", divide="ignore")
+def axle_order_gain(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    min_step_m: float,
+    sample_period_s: float | None,
+    radius_m: float,
+    turns: CourseTurns | None = None,
+) -> AxleEstimate:
+    """How much faster the front wheels turn than the rear ones as the car turns.
+
+    In a turn the front axle runs on a wider arc than the rear: a car turning about a
+    centre level with its rear axle at radius ``R`` (low speed, no slip: the kinematic
+    bicycle model, Rajamani, *Vehicle Dynamics and Control*, 2nd ed., sec. 2.2) moves its
+    front axle on ``sqrt(R^2 + L^2)``, so the front wheels' mean speed over the rear's is
+    ``sqrt(1 + (L k)^2) ~ 1 + (L k)^2 / 2`` for curvature ``k``, whichever way it turns.
+    Over each pair of seconds of :func:`course_turns` the curvature is the course's turn
+    over the rear wheels' distance (their angle times ``radius_m``), and the fit is the
+    least-squares slope of ``front / rear - 1`` on ``(L k)^2 / 2`` (``L`` =
+    :data:`AXLE_WHEELBASE_M`) with an intercept for each :data:`YAW_BLOCK_S` (the two axles'
+    tyres differ, and warm, by as much). Wheels in their columns give a gain near
+    ``(wheelbase / L)^2``, about 1 (0.70-1.10 on the built-in drives); the front and rear
+    columns exchanged, its negative. At speed the rear tyres' slip moves the turn's centre
+    forward and shrinks the gain, but the tight turns, which weigh most, are slow.
+
+    Returns:
+        The estimate (``gain`` NaN with fewer than :data:`YAW_MIN_SECONDS` pairs, or with
+        axles that never differed).
+    """
+    if turns is None:
+        turns = course_turns(drive, segments, min_step_m, sample_period_s)
+    if turns is None:
+        return AxleEstimate(float("nan"), math.inf, 0, 0)
+    t = turns.t
+
+    def angle(left: str, right: str) -> np.ndarray:
+        wheel = 0.5 * (np.abs(np.asarray(drive[left])) + np.abs(np.asarray(drive[right])))
+        whole = cumulative_trapezoid(wheel, t)
+        return np.interp(turns.b, t, whole) - np.interp(turns.a, t, whole)
+
+    front, rear = angle(*AXLES["front"]), angle(*AXLES["rear"])
+    term = 0.5 * (AXLE_WHEELBASE_M * turns.y / (rear * radius_m)) ** 2
+    ratio = front / rear - 1.0
+    keep = np.isfinite(term) & np.isfinite(ratio) & (rear > 0)
+    fit = _slope_by_blocks(term[keep], ratio[keep], turns.block[keep])
+    tight = int(np.count_nonzero(fit.x >= AXLE_TIGHT_TERM))
+    if fit.y.size and np.ptp(fit.y) < 1e-12:  # the axles never differed: nothing to tell
+        return AxleEstimate(float("nan"), math.inf, fit.n, tight)
+    return AxleEstimate(fit.gain, fit.gain_se, fit.n, tight)
+
+
+def axle_mistake(est: AxleEstimate) -> tuple[bool, bool]:
+    """Whether the front and rear wheels are told apart (:func:`axle_order_gain`), and
+    whether their columns are exchanged: told where the gain lies :data:`YAW_EVIDENCE_SE`
+    standard errors from 0 over at least :data:`AXLE_MIN_TIGHT` tight turns (a drive
+    without them can still fit a gain far from 0: the axles' speed ratio drifts with
+    speed, and a straight drive's small curvatures grow as its speed falls).
+
+    Returns:
+        ``(checked, exchanged)``.
+    """
+    if est.tight < AXLE_MIN_TIGHT or not math.isfinite(est.gain):
         return False, False
     told = abs(est.gain) > YAW_EVIDENCE_SE * est.gain_se
     return told, told and est.gain < 0.0

@@ -420,6 +420,7 @@ def _drive_report(
         "radius": units["radius"],
         "yaw_rate": units["yaw_rate"],
         "wheel_sides": units["wheel_sides"],
+        "wheel_axles": units["wheel_axles"],
     }
     # rows written twice or without a wheel speed, dropped by ingest (not in "rows")
     report.update(report_rows(entry))
