@@ -1,5 +1,5 @@
-"""The wheel-sides check on every built-in drive of each profile, and with its rear wheels'
-columns exchanged.
+"""The wheel-sides and wheel-axles checks on every built-in drive of each profile, and with
+its rear wheels' columns exchanged (sides) or its front and rear columns (axles).
 
 For each profile named: the simulator's fleet (``rwhonet.sim.simulate_fleet``) to a
 scratch folder, each drive read back as ingest reads it (the IO-VNBD reader), validate's
@@ -8,8 +8,11 @@ GNSS policy (``quality.assess``) and the check itself
 track as validate takes them). It prints per profile: the drives, those refused as they
 are (none expected), those the check could not tell and why, the range and median of
 each axle's gain, and how many are refused with the rear wheels' columns exchanged.
+Then the same for the wheel-axles check (``axle_problems``): refused as they are, not
+told (the count), the gain's range and median over the drives told, and how many are
+refused with the front and rear columns exchanged (left with left, right with right).
 Nothing is written outside the scratch folder. ``docs/readers.md`` ("An axle's left
-and right wheels") reports what this gave.
+and right wheels", "Front and rear") reports what this gave.
 
 Usage: python benchmarks/wheel_sides.py [profile ...]   (default: the four worlds and ci)
 """
@@ -25,7 +28,7 @@ import numpy as np
 
 from rwhonet.config import load_params
 from rwhonet.data import canonical as c
-from rwhonet.data.drivechecks import side_problems
+from rwhonet.data.drivechecks import axle_problems, side_problems
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.quality import assess
 from rwhonet.sim import simulate_fleet
@@ -39,6 +42,7 @@ def profile_sides(profile: str) -> dict:
     vp = params.validate
     gains: dict[str, list[float]] = {"rear": [], "front": []}
     refused, untold, exchanged_refused = [], [], 0
+    axles = {"refused": [], "untold": 0, "gains": [], "exchanged_refused": 0}
     with tempfile.TemporaryDirectory() as tmp:
         summary = simulate_fleet(params, Path(tmp) / "sim")
         for d in summary["drives"]:
@@ -59,6 +63,20 @@ def profile_sides(profile: str) -> dict:
             swapped = dict(drive)
             swapped[c.OMEGA_RL], swapped[c.OMEGA_RR] = drive[c.OMEGA_RR], drive[c.OMEGA_RL]
             exchanged_refused += bool(side_problems(entry, swapped, segments, vp, radius, track)[0])
+            problems, record = axle_problems(entry, drive, segments, vp, radius)
+            if problems:
+                axles["refused"].append(d["drive"])
+            if record["checked"]:
+                axles["gains"].append(record["gain"])
+            else:
+                axles["untold"] += 1
+            swapped = dict(drive)
+            for front, rear in ((c.OMEGA_FL, c.OMEGA_RL), (c.OMEGA_FR, c.OMEGA_RR)):
+                swapped[front], swapped[rear] = drive[rear], drive[front]
+            axles["exchanged_refused"] += bool(
+                axle_problems(entry, swapped, segments, vp, radius)[0]
+            )
+    g = axles.pop("gains")
     return {
         "drives": len(summary["drives"]),
         "refused": refused,
@@ -71,6 +89,16 @@ def profile_sides(profile: str) -> dict:
                 round(float(np.median(g)), 3),
             ]
             for axle, g in gains.items()
+        },
+        "axles": axles
+        | {
+            "gain_min_max_median": [
+                round(min(g), 3),
+                round(max(g), 3),
+                round(float(np.median(g)), 3),
+            ]
+            if g
+            else None
         },
     }
 
