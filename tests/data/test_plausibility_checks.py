@@ -11,6 +11,7 @@ from rwhonet.config import WheelPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data import plausibility
 from rwhonet.data.plausibility import (
+    AXLE_EXCHANGED_GAIN,
     AXLE_MIN_TIGHT,
     AXLE_TIGHT_TERM,
     AXLE_WHEELBASE_M,
@@ -483,4 +484,18 @@ def test_a_drift_of_the_axles_ratio_over_wide_turns_is_no_evidence():
         drive[w] = drive[w] * slower
     est = _axles(drive)
     assert est.gain < -4 * est.gain_se and est.tight == 0
+    assert axle_mistake(est) == (False, False)
+
+
+def test_front_wheels_a_little_slower_in_the_turns_are_no_exchange():
+    """Front wheels that run slower in the tight turns by a tenth of the arc's excess (its
+    brakes, or the rear's drive, slipping more there than the arc adds): the gain is told
+    negative, but an exchange would make it about -1: neither told nor refused."""
+    drive = _axles_turning(wheelbase_m=0.0, fix_noise_m=0.02)
+    t = drive[c.T_S]
+    rate = 0.6 * np.sin(2.0 * np.pi * (t - t[0]) / 40.0)
+    for w in (c.OMEGA_FL, c.OMEGA_FR):
+        drive[w] = drive[w] * (1.0 - 0.1 * 0.5 * (AXLE_WHEELBASE_M * rate / 8.0) ** 2)
+    est = _axles(drive)
+    assert AXLE_EXCHANGED_GAIN < est.gain < -4 * est.gain_se and est.tight >= AXLE_MIN_TIGHT
     assert axle_mistake(est) == (False, False)

@@ -34,10 +34,12 @@ from rwhonet.data.glitches import (
     repaired_yaw_rate,
 )
 from rwhonet.data.plausibility import (
+    AXLE_EXCHANGED_GAIN,
     AXLE_MIN_TIGHT,
     AXLE_TIGHT_TERM,
     AXLE_WHEELBASE_M,
     AXLES,
+    YAW_EVIDENCE_SE,
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
     CourseTurns,
@@ -553,9 +555,10 @@ def axle_problems(
 
     In a tight turn the front axle runs on a wider arc than the rear, so the front wheels
     turn faster (:func:`rwhonet.data.plausibility.axle_order_gain`); where the rear columns
-    run faster in the turns (the gain told negative:
+    run faster in the turns (the gain told negative, as an exchange makes it:
     :func:`~rwhonet.data.plausibility.axle_mistake`, 4 standard errors from 0 over at least
-    :data:`~rwhonet.data.plausibility.AXLE_MIN_TIGHT` tight turns), the front and rear
+    :data:`~rwhonet.data.plausibility.AXLE_MIN_TIGHT` tight turns and below
+    :data:`~rwhonet.data.plausibility.AXLE_EXCHANGED_GAIN`), the front and rear
     columns are exchanged: a mistake of a column map, a signal map or a DBC's signal names
     (wheel speeds numbered 1 to 4, or a message's front and rear signals in another order).
     The distance then rolls on the front wheels, which slip as they drive and steer and
@@ -595,6 +598,12 @@ def axle_problems(
             record["note"] = (
                 f"only {est.tight} pairs of seconds in a tight turn (a radius under "
                 f"{AXLE_WHEELBASE_M / np.sqrt(2 * AXLE_TIGHT_TERM):.0f} m; < {AXLE_MIN_TIGHT})"
+            )
+        elif est.gain < 0.0 and abs(est.gain) > YAW_EVIDENCE_SE * est.gain_se:
+            record["note"] = (
+                f"the front wheels ran slower in the turns, by less than an exchange would "
+                f"(gain {est.gain:.3g} ± {est.gain_se:.2g}, above {AXLE_EXCHANGED_GAIN:g}): "
+                "brakes or drive slip, not told"
             )
         else:
             record["note"] = f"turned too little to tell (gain {est.gain:.3g} ± {est.gain_se:.2g})"

@@ -360,6 +360,11 @@ def side_mistake(est: YawEstimate) -> tuple[bool, bool]:
 AXLE_WHEELBASE_M = 2.7
 AXLE_TIGHT_TERM = 0.005
 AXLE_MIN_TIGHT = 10
+# An exchange gives about -(wheelbase / AXLE_WHEELBASE_M)^2: -0.73 for a city car's 2.3 m,
+# diluted to about three quarters of that by noisy fixes (their course's noise adds to
+# the turn's term). A gain told negative but above this is no exchange's: the front axle's
+# brakes or the rear's drive slipping more in the turns than the arc adds; not told.
+AXLE_EXCHANGED_GAIN = -0.25
 
 
 @dataclass(frozen=True)
@@ -428,7 +433,8 @@ def axle_mistake(est: AxleEstimate) -> tuple[bool, bool]:
     whether their columns are exchanged: told where the gain lies :data:`YAW_EVIDENCE_SE`
     standard errors from 0 over at least :data:`AXLE_MIN_TIGHT` tight turns (a drive
     without them can still fit a gain far from 0: the axles' speed ratio drifts with
-    speed, and a straight drive's small curvatures grow as its speed falls).
+    speed, and a straight drive's small curvatures grow as its speed falls), and either
+    positive or below :data:`AXLE_EXCHANGED_GAIN` (exchanged).
 
     Returns:
         ``(checked, exchanged)``.
@@ -436,7 +442,8 @@ def axle_mistake(est: AxleEstimate) -> tuple[bool, bool]:
     if est.tight < AXLE_MIN_TIGHT or not math.isfinite(est.gain):
         return False, False
     told = abs(est.gain) > YAW_EVIDENCE_SE * est.gain_se
-    return told, told and est.gain < 0.0
+    exchanged = told and est.gain < AXLE_EXCHANGED_GAIN
+    return told and (est.gain > 0.0 or exchanged), exchanged
 
 
 # (what the yaw rate really is, the gain of the course's turn on it)
