@@ -499,3 +499,16 @@ def test_front_wheels_a_little_slower_in_the_turns_are_no_exchange():
     est = _axles(drive)
     assert AXLE_EXCHANGED_GAIN < est.gain < -4 * est.gain_se and est.tight >= AXLE_MIN_TIGHT
     assert axle_mistake(est) == (False, False)
+
+
+def test_both_diagonal_pairs_exchanged_are_three_exchanges_told():
+    """The four columns turned round (front left holding the rear right's speed, and so
+    on): each axle's sides are told exchanged and the axles too, so the three fixes the
+    refusals give, made together, put every wheel back."""
+    drive = _axles_turning()
+    turned = dict(drive)
+    for a, b in ((c.OMEGA_FL, c.OMEGA_RR), (c.OMEGA_FR, c.OMEGA_RL)):
+        turned[a], turned[b] = drive[b], drive[a]
+    assert axle_mistake(_axles(turned)) == (True, True)
+    for est in wheel_side_gains(turned, _whole(turned), YAW_MIN_STEP_M, 0.1, 0.3, 1.5).values():
+        assert side_mistake(est) == (True, True)
