@@ -56,7 +56,7 @@ def cli(*args, stdin=None, code=None):
     )
 
 
-@pytest.mark.parametrize("command", ["recalibrate", "predict", "export", "gate"])
+@pytest.mark.parametrize("command", ["recalibrate", "predict", "check", "export", "gate"])
 def test_every_command_has_help(command, capsys):
     with pytest.raises(SystemExit) as done:
         main([command, "--help"])

@@ -293,19 +293,63 @@ def load_drive(
     Raises:
         InputError: every problem of the file, as the ingest and validate stages report them.
     """
-    from rwhonet.data.drivechecks import check_drive
     from rwhonet.data.drivefile import with_label_times
-    from rwhonet.data.droprows import FileRows, manifest_rows
     from rwhonet.data.quality import segment_name
-    from rwhonet.data.schema import schema_problems
     from rwhonet.features.labels import sample_table
     from rwhonet.features.samples import stack_segments
     from rwhonet.features.seconds import segment_arrays, segment_seconds
 
     path = Path(path)
-    file = paths.rel(path)
     nominal = 0.5 * (calibration.r_rl_m + calibration.r_rr_m)
     params = with_vehicle(params, vehicle, nominal)
+    checked = check_drive_file(path, params, vehicle, fmt)
+    file, result = checked.file, checked.assessment
+    segments = []
+    table = with_label_times(checked.table, params.validate.sample_period_s)  # as validate
+    for j, seg in enumerate(result.segments):
+        name = segment_name(drive_id(path), j)
+        sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)
+        samples = sample_table(sec, calibration, scaler, wpm_mode).to_pandas()
+        segments.append(({"drive": drive_id(path), "segment": name, "role": ROLE}, samples))
+    return DriveSamples(stack_segments(segments, seq_len), file, result, checked.notes)
+
+
+@dataclass(frozen=True)
+class CheckedDrive:
+    """A drive read and checked as ingest and validate would (:func:`check_drive_file`).
+
+    Attributes:
+        file: the drive as messages name it.
+        table: the canonical drive (a pyarrow table; a stream drive on its 10 Hz grid).
+        assessment: validate's GNSS-quality assessment (segments, cuts).
+        checks: validate's records of the drive's checks as ``validation.json`` has them:
+            ``radius``, ``yaw_rate``, ``wheel_sides``, ``wheel_axles``.
+        columns: canonical name -> the drive's own column or channel.
+        notes: what the reader or resampler did (:class:`DriveSamples`' notes).
+    """
+
+    file: str
+    table: Any
+    assessment: Assessment
+    checks: dict[str, Any]
+    columns: dict[str, str]
+    notes: tuple[str, ...]
+
+
+def check_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> CheckedDrive:
+    """Read one drive and run validate's checks on it (its schema, the GNSS policy, the
+    wheel sensors, the tyre radius, the yaw rate, the wheels' columns).
+
+    Raises:
+        InputError: every problem of the drive, as the ingest and validate stages report
+            them.
+    """
+    from rwhonet.data.drivechecks import check_drive
+    from rwhonet.data.droprows import FileRows, manifest_rows
+    from rwhonet.data.schema import schema_problems
+
+    path = Path(path)
+    file = paths.rel(path)
     drive = read_drive_file(path, params, vehicle, fmt)
     raw, table = drive.raw, drive.table()
     df = table.to_pandas(split_blocks=True)
@@ -323,21 +367,14 @@ def load_drive(
     cuts = [cut for cut in params.validate.cuts if cut.drive == drive_id(path)]
     rows = FileRows.of(entry)
     found = schema_problems(df, params.validate, file, raw.source_columns, rows)
-    problems, result, _, _ = check_drive(params, entry, df, found, cuts)
+    problems, result, checks, _ = check_drive(params, entry, df, found, cuts)
     if problems:
         raise InputError(problems, f"{file}: {len(problems)} problem(s) (validate)")
-    assert result is not None  # no problem: the GNSS policy ran
-    segments = []
-    table = with_label_times(table, params.validate.sample_period_s)  # as validate writes them
-    for j, seg in enumerate(result.segments):
-        name = segment_name(drive_id(path), j)
-        sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)
-        samples = sample_table(sec, calibration, scaler, wpm_mode).to_pandas()
-        segments.append(({"drive": drive_id(path), "segment": name, "role": ROLE}, samples))
+    assert result is not None and checks is not None  # no problem: the GNSS policy ran
     # a stream drive: what the resampler lost; a 10 Hz file: what its reader did (rows
     # written twice and dropped, the clock passing midnight, columns taken by position)
-    notes = tuple(drive.streams.lost) if drive.streams is not None else raw.notes
-    return DriveSamples(stack_segments(segments, seq_len), file, result, notes)
+    notes = tuple(drive.streams.lost) if drive.streams is not None else tuple(raw.notes)
+    return CheckedDrive(file, table, result, checks, dict(raw.source_columns), notes)
 
 
 def drive_sha256(path: Path) -> str:

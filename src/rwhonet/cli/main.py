@@ -16,6 +16,7 @@ command imports only what it needs: ``predict`` never imports torch or Lightning
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from pathlib import Path
@@ -183,6 +184,16 @@ def _predict(args: argparse.Namespace) -> int:
         ]
         if said:
             print("\n".join(said), file=sys.stderr)
+    return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    from rwhonet.cli import check
+
+    params, _ = _project(required=True)
+    params = _drive_params(params, args, args.vehicle)
+    out = check.run(params, Path(args.drive), args.format, args.vehicle)
+    print(json.dumps(out, indent=1, default=str) if args.json else check.render(out))
     return 0
 
 
@@ -391,6 +402,32 @@ def parser() -> argparse.ArgumentParser:
     ex.add_argument(
         "--output", default=None, help="the .onnx file (default: <model name>.onnx here)"
     )
+
+    ck = _command(
+        sub,
+        "check",
+        _check,
+        help="read a drive and check it as ingest and validate would, before a run",
+        description="Read a drive in --format and run validate's checks on it (schema, GNSS "
+        "quality, wheel sensors, and against the GNSS: the tyre radius the wheels imply, the "
+        "yaw rate's unit and sign, each axle's left and right wheels, the front and rear "
+        "wheels). Exit 2 with validate's report where it would refuse the drive; else print "
+        "what it would keep and what each check told, or why it could not tell.",
+    )
+    ck.add_argument(
+        "--drive",
+        required=True,
+        help="a file (IO-VNBD or column-mapped CSV, MDF4) or a folder (comma2k19 segment or "
+        "route, stream CSVs), in --format",
+    )
+    ck.add_argument(
+        "--vehicle",
+        default="target",
+        help="the car of data.vehicles whose nominal tyre radius and rear track the checks "
+        "take, unless --nominal-radius or --vehicle-file gives them (default: %(default)s)",
+    )
+    _drive_options(ck)
+    ck.add_argument("--json", action="store_true", help="print the records as JSON")
 
     sub.add_parser(
         "gate", help="the CI regression gate on mean CRSE/CTE (rwhonet gate --help)", add_help=False

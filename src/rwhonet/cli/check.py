@@ -1,0 +1,110 @@
+"""``rwhonet check``: a drive read and checked as ingest and validate would, before a run.
+
+A user with drives of their own reads each through the format they declare and sees, in
+a few seconds and without ``dvc repro``, what validate would say of it: refused (exit 2,
+the problems as validate reports them, naming the file, row and column), or accepted,
+with what it kept (the valid seconds and segments, the cuts by rule) and what each of
+validate's checks against GNSS told: the tyre radius the wheels imply (their unit), the
+yaw rate's unit and sign, each axle's left and right wheels, the front and rear wheels
+(the records of ``reports/validation.json``, :mod:`rwhonet.data.drivechecks`). A check
+that could not tell (a highway that never turns tightly, a drive without a yaw rate) says
+why, so a column map's mistake it could not see is not taken as ruled out.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from rwhonet.cli.drive import check_drive_file
+from rwhonet.config import Params
+
+
+def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
+    """Read and check ``drive`` as the car ``vehicle`` of ``params``.
+
+    Returns:
+        ``file``, ``vehicle``, ``rows`` (of the drive, or its 10 Hz grid), ``seconds``,
+        ``seconds_kept``, ``segments``, ``cut_seconds_by_rule`` (the rules that cut),
+        validate's records (``radius``, ``yaw_rate``, ``wheel_sides``, ``wheel_axles``),
+        ``columns`` (canonical -> the drive's own) and the reader's ``notes``.
+
+    Raises:
+        InputError: the drive's problems (validate would refuse it).
+    """
+    checked = check_drive_file(drive, params, vehicle, fmt)
+    a = checked.assessment
+    return {
+        "file": checked.file,
+        "vehicle": vehicle,
+        "rows": checked.table.num_rows,
+        "seconds": a.n_seconds,
+        "seconds_kept": a.seconds_kept,
+        "segments": len(a.segments),
+        "cut_seconds_by_rule": {r: n for r, n in a.cut_seconds_by_rule.items() if n},
+        **checked.checks,
+        "columns": checked.columns,
+        "notes": list(checked.notes),
+    }
+
+
+def _told(record: dict[str, Any], said: str) -> str:
+    return said if record.get("checked") else f"not told: {record.get('note', 'no reason given')}"
+
+
+def _gain(record: dict[str, Any]) -> str:
+    return f"{record['gain']:.3g} ± {record['gain_se']:.2g}"
+
+
+def render(out: dict[str, Any]) -> str:
+    """What :func:`run` found, as lines for a person."""
+    cut = ", ".join(f"{rule} {n} s" for rule, n in out["cut_seconds_by_rule"].items())
+    lines = [
+        f"{out['file']}: {out['rows']} rows, {out['seconds']} s; {out['seconds_kept']} s "
+        f"valid in {out['segments']} segment(s)" + (f" (cut: {cut})" if cut else ""),
+        *(f"  note: {n}" for n in out["notes"]),
+    ]
+    radius = out["radius"]
+    lines.append(
+        "  tyre radius: "
+        + _told(
+            radius,
+            f"{radius.get('implied_m', float('nan')):.4g} m implied over "
+            f"{radius.get('moving_s', 0)} moving s against {out['vehicle']}'s nominal "
+            f"{radius.get('nominal_m', float('nan')):.4g} m: the wheel speeds' unit fits",
+        )
+    )
+    yaw = out["yaw_rate"]
+    lines.append(
+        "  yaw rate: "
+        + _told(
+            yaw,
+            f"turns as the GNSS course turns (gain {_gain(yaw)} over {yaw.get('seconds')} "
+            "pairs of seconds)"
+            if yaw.get("checked")
+            else "",
+        )
+    )
+    sides = out["wheel_sides"]
+    lines.append(
+        "  left and right wheels: "
+        + _told(
+            sides,
+            f"in their columns (rear gain {_gain(sides['rear'])}, front {_gain(sides['front'])})"
+            if sides.get("checked")
+            else "",
+        )
+    )
+    axles = out["wheel_axles"]
+    lines.append(
+        "  front and rear wheels: "
+        + _told(
+            axles,
+            f"in their columns (gain {_gain(axles)}, {axles.get('tight_turns')} pairs of "
+            "seconds in tight turns)"
+            if axles.get("checked")
+            else "",
+        )
+    )
+    lines.append(f"{out['file']}: validate would accept it as {out['vehicle']}'s drive")
+    return "\n".join(lines)

@@ -1,0 +1,81 @@
+"""``rwhonet check``: a drive read and checked as ingest and validate would, before a run."""
+
+import json
+
+import pytest
+
+from rwhonet.cli.main import main
+from rwhonet.data import canonical as c
+from support.corpus import TARGET_RADIUS_M, weaving_drive
+from support.drives import write_iovnbd
+
+CAR = ["--nominal-radius", str(TARGET_RADIUS_M)]
+
+
+def _turns():
+    """A drive through tight turns (8 m/s, ±0.6 rad/s), its wheels where they belong."""
+    return weaving_drive(150.0, 8.0, 0.6, track_m=1.5, wheelbase_m=2.7)
+
+
+def test_a_good_drive_passes_and_every_check_says_what_it_told(tmp_path, capsys):
+    drive = write_iovnbd(_turns(), tmp_path / "V-Turns.csv")
+    assert main(["check", "--drive", str(drive), *CAR]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert (
+        out[0]
+        == f"{drive}: 1501 rows, 151 s; 150 s valid in 1 segment(s) (cut: partial_second 1 s)"
+    )
+    assert out[1].startswith("  tyre radius: 0.29") and "the wheel speeds' unit fits" in out[1]
+    assert out[2].startswith("  yaw rate: turns as the GNSS course turns (gain 0.999 ± ")
+    assert out[3].startswith("  left and right wheels: in their columns (rear gain ")
+    assert out[4].startswith("  front and rear wheels: in their columns (gain ")
+    assert out[-1] == f"{drive}: validate would accept it as target's drive"
+    assert main(["check", "--drive", str(drive), *CAR, "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["seconds_kept"] == 150 and record["segments"] == 1
+    assert record["wheel_axles"]["checked"] and record["wheel_axles"]["tight_turns"] >= 10
+    assert record["columns"][c.OMEGA_FL] == " Wheel Speed Front Left (rad/sec)"
+
+
+def test_a_check_that_cannot_tell_says_why(tmp_path, capsys):
+    """Every wheel at the car's speed and wide turns: the sides and axles are not told, and
+    the lines say so (a mapping mistake they could not see is not ruled out)."""
+    drive = write_iovnbd(weaving_drive(150.0), tmp_path / "V-Wide.csv")
+    assert main(["check", "--drive", str(drive), *CAR]) == 0
+    out = capsys.readouterr().out
+    assert "  left and right wheels: not told: the rear wheels never differed" in out
+    assert "  front and rear wheels: not told: the front and rear wheels never differed" in out
+
+
+def test_a_drive_validate_would_refuse_exits_2_with_its_report(tmp_path, capsys):
+    df = _turns()
+    front, rear = [c.OMEGA_FL, c.OMEGA_FR], [c.OMEGA_RL, c.OMEGA_RR]
+    df[front + rear] = df[rear + front].to_numpy()
+    drive = write_iovnbd(df, tmp_path / "V-Axles.csv")
+    assert main(["check", "--drive", str(drive), *CAR]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert "rwhonet check: error:" in captured.err and str(drive) in captured.err
+    assert (
+        "Wheel Speed Front Left (rad/sec) /  Wheel Speed Front Right (rad/sec) / " in captured.err
+    )
+    assert "the front and rear columns look exchanged" in captured.err
+
+
+def test_the_real_minute_is_accepted_and_its_untold_checks_named(capsys):
+    from support.realminute import REAL, real_minute
+
+    real_minute()  # skipped where the segment is not on this machine
+    args = ["check", "--drive", str(REAL), "--format", "comma2k19", "--nominal-radius", "0.362"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert ": 597 rows, 61 s; 59 s valid in 1 segment(s) (cut: partial_second 2 s)" in out
+    assert "  yaw rate: not told: turned too little to tell (gain 0.972" in out
+    assert "  front and rear wheels: not told: only 0 pairs of seconds in a tight turn" in out
+
+
+@pytest.mark.parametrize("bad", [["--drive", "nowhere.csv"], ["--drive", "x", "--format", "nope"]])
+def test_a_drive_that_cannot_be_read_is_a_clear_error(bad, capsys):
+    assert main(["check", *bad]) == 2
+    err = capsys.readouterr().err
+    assert "rwhonet check: error:" in err and "Traceback" not in err
