@@ -59,7 +59,12 @@ def own_store(store_uri, monkeypatch):
 
 
 def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capfd) -> dict[str, int]:
-    """predict and recalibrate on one drive; check each ends well; return their statuses."""
+    """predict and recalibrate on one drive; check each ends well; return their statuses.
+
+    ``rwhonet check`` runs on it too (since stop 74), ending in a report or its verdict:
+    its checks are the ones recalibrate runs first, so recalibrate refuses whatever check
+    refuses (check's status is not among those returned: recalibrate may refuse more, a
+    drive too short to recalibrate on)."""
     out = tmp_path / "out.csv"
     commands = {
         "predict": predict_args(bundle, drive, out, "--quiet"),
@@ -74,6 +79,7 @@ def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capfd) -> di
             "--recipe",
             "radius+G",
         ],
+        "check": ["check", "--drive", str(drive)],
     }
     codes = {}
     for name, argv in commands.items():
@@ -85,6 +91,8 @@ def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capfd) -> di
             assert f"rwhonet {name}: error:" in said.err and "expected" in said.err, said.err
         elif name == "recalibrate":
             assert "registered whonet-R-target version" in said.out
+        elif name == "check":
+            assert said.out.rstrip().endswith("validate would accept it as target's drive")
         if name == "predict":  # its seconds go to --output; stdout holds nothing (no C
             # library's message either: capfd reads the file descriptor)
             assert said.out == "", said.out[:2000]
@@ -92,6 +100,8 @@ def run_both(bundle, drive: Path, extra: list[str], tmp_path: Path, capfd) -> di
             assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
             out.unlink(missing_ok=True)
         codes[name] = code
+    checked = codes.pop("check")
+    assert checked == 0 or codes["recalibrate"] == 2, "check refused what recalibrate took"
     return codes
 
 
