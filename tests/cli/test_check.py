@@ -79,3 +79,18 @@ def test_a_drive_that_cannot_be_read_is_a_clear_error(bad, capsys):
     assert main(["check", *bad]) == 2
     err = capsys.readouterr().err
     assert "rwhonet check: error:" in err and "Traceback" not in err
+
+
+def test_several_drives_each_get_a_verdict_and_the_refused_ones_one_report(tmp_path, capsys):
+    good = write_iovnbd(_turns(), tmp_path / "V-Turns.csv")
+    df = _turns()
+    df[[c.OMEGA_RL, c.OMEGA_RR]] = df[[c.OMEGA_RR, c.OMEGA_RL]].to_numpy()
+    sides = write_iovnbd(df, tmp_path / "V-Sides.csv")
+    argv = ["check", "--drive", str(sides), str(good), str(tmp_path / "V-None.csv"), *CAR]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out.count("validate would accept it") == 1 and str(good) in captured.out
+    assert f"in 2 of 3 drives ({sides}, {tmp_path / 'V-None.csv'})" in captured.err
+    assert "look exchanged (left for right)" in captured.err and "no such file" in captured.err
+    assert main([*argv[:2], str(good), str(good), *CAR, "--json"]) == 0
+    assert [r["file"] for r in json.loads(capsys.readouterr().out)] == [str(good)] * 2

@@ -192,8 +192,24 @@ def _check(args: argparse.Namespace) -> int:
 
     params, _ = _project(required=True)
     params = _drive_params(params, args, args.vehicle)
-    out = check.run(params, Path(args.drive), args.format, args.vehicle)
-    print(json.dumps(out, indent=1, default=str) if args.json else check.render(out))
+    outs, problems, refused = [], [], []
+    for drive in args.drive:  # each drive's verdict; the refused ones' reports together
+        try:
+            outs.append(check.run(params, Path(drive), args.format, args.vehicle))
+        except InputError as err:
+            problems += err.problems
+            refused.append(drive)
+    if args.json:
+        print(json.dumps(outs[0] if len(args.drive) == 1 else outs, indent=1, default=str))
+    elif outs:
+        print("\n\n".join(check.render(out) for out in outs))
+    if refused:
+        summary = f"{len(problems)} problem(s)" + (
+            f" in {len(refused)} of {len(args.drive)} drives ({', '.join(refused)})"
+            if len(args.drive) > 1
+            else f" in {refused[0]}"
+        )
+        raise InputError(problems, summary)
     return 0
 
 
@@ -417,8 +433,10 @@ def parser() -> argparse.ArgumentParser:
     ck.add_argument(
         "--drive",
         required=True,
-        help="a file (IO-VNBD or column-mapped CSV, MDF4) or a folder (comma2k19 segment or "
-        "route, stream CSVs), in --format",
+        nargs="+",
+        help="one or more drives, each a file (IO-VNBD or column-mapped CSV, MDF4) or a "
+        "folder (comma2k19 segment or route, stream CSVs), in --format; exit 2 when "
+        "validate would refuse any of them, after the others' verdicts",
     )
     ck.add_argument(
         "--vehicle",
