@@ -94,3 +94,17 @@ def test_several_drives_each_get_a_verdict_and_the_refused_ones_one_report(tmp_p
     assert "look exchanged (left for right)" in captured.err and "no such file" in captured.err
     assert main([*argv[:2], str(good), str(good), *CAR, "--json"]) == 0
     assert [r["file"] for r in json.loads(capsys.readouterr().out)] == [str(good)] * 2
+
+
+def test_json_of_a_refused_drive_and_an_unknown_car_are_clear_errors(tmp_path, capsys):
+    """Found reviewing: --json with its one drive refused ended in an IndexError; a car
+    params.yaml does not know named the simulator's profile and not what to give."""
+    assert main(["check", "--drive", str(tmp_path / "V-None.csv"), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "no such file" in captured.err
+    drive = write_iovnbd(_turns(), tmp_path / "V-Turns.csv")
+    assert main(["check", "--drive", str(drive), "--vehicle", "van"]) == 2
+    err = capsys.readouterr().err
+    assert "--vehicle van: not a car params.yaml knows" in err and "--nominal-radius" in err
+    assert main(["check", "--drive", str(drive), "--vehicle", "van", *CAR]) == 0
+    assert capsys.readouterr().out.endswith("validate would accept it as van's drive\n")

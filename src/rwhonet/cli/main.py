@@ -192,6 +192,13 @@ def _check(args: argparse.Namespace) -> int:
 
     params, _ = _project(required=True)
     params = _drive_params(params, args, args.vehicle)
+    try:  # the car's radius and track: the checks against GNSS need them
+        params.nominal_radius_m(args.vehicle)
+    except ConfigError as err:
+        raise ConfigError(
+            f"--vehicle {args.vehicle}: not a car params.yaml knows ({err}); give its "
+            "--nominal-radius (and --track-rear) or --vehicle-file"
+        ) from err
     outs, problems, refused = [], [], []
     for drive in args.drive:  # each drive's verdict; the refused ones' reports together
         try:
@@ -199,7 +206,7 @@ def _check(args: argparse.Namespace) -> int:
         except InputError as err:
             problems += err.problems
             refused.append(drive)
-    if args.json:
+    if args.json and (outs or len(args.drive) > 1):
         print(json.dumps(outs[0] if len(args.drive) == 1 else outs, indent=1, default=str))
     elif outs:
         print("\n\n".join(check.render(out) for out in outs))
