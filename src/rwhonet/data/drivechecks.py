@@ -619,9 +619,9 @@ def axle_problems(
         f"the front wheels' speeds in {front} and the rear wheels' in {rear}: the front "
         "axle runs on the wider arc in a turn, so its wheels turn faster the tighter the turn",
         f"over {est.seconds} pairs of moving seconds in valid segments ({est.tight} in tight "
-        f"turns) the front columns turned {est.gain:.3g} ± {est.gain_se:.2g} times the "
-        "excess a front axle has: slower than the rear in the turns, so the front and rear "
-        "columns look exchanged",
+        f"turns) the front columns' excess over the rear was {est.gain:.3g} ± "
+        f"{est.gain_se:.2g} times a front axle's: slower than the rear in the turns, so the "
+        "front and rear columns look exchanged",
         "exchange the front and rear columns (left with left, right with right: their names "
         "in the header, or the keys in the column map or signal map)",
     )
@@ -808,7 +808,7 @@ class StreamRadiusCheck:
     SENSOR_CONTEXT_S = 60.0
     # the wheel-sides and wheel-axles checks, once the others have decided, on the last 10
     # min of rows (a motorway that never turns enough to tell is not kept whole; the sides
-    # are told on ~30 s of turns, the axles on 10 s of tight turns)
+    # are told on ~30 s of turns, the axles on 10 pairs of seconds in tight turns)
     SIDES_WINDOW_S = 600.0
 
     def __init__(
