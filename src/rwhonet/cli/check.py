@@ -13,6 +13,7 @@ why, so a column map's mistake it could not see is not taken as ruled out.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -48,12 +49,41 @@ def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
     }
 
 
-def _told(record: dict[str, Any], said: str) -> str:
-    return said if record.get("checked") else f"not told: {record.get('note', 'no reason given')}"
-
-
 def _gain(record: dict[str, Any]) -> str:
     return f"{record['gain']:.3g} ± {record['gain_se']:.2g}"
+
+
+# each check against GNSS: its line's name, its record's key, and what it says when told
+_CHECKS: tuple[tuple[str, str, Callable[[dict[str, Any], str], str]], ...] = (
+    (
+        "tyre radius",
+        "radius",
+        lambda r, car: (
+            f"{r['implied_m']:.4g} m implied over {r['moving_s']} moving s against "
+            f"{car}'s nominal {r['nominal_m']:.4g} m: the wheel speeds' unit fits"
+        ),
+    ),
+    (
+        "yaw rate",
+        "yaw_rate",
+        lambda r, _: (
+            f"turns as the GNSS course turns (gain {_gain(r)} over {r['seconds']} pairs of seconds)"
+        ),
+    ),
+    (
+        "left and right wheels",
+        "wheel_sides",
+        lambda r, _: f"in their columns (rear gain {_gain(r['rear'])}, front {_gain(r['front'])})",
+    ),
+    (
+        "front and rear wheels",
+        "wheel_axles",
+        lambda r, _: (
+            f"in their columns (gain {_gain(r)}, {r['tight_turns']} pairs of seconds "
+            "in tight turns)"
+        ),
+    ),
+)
 
 
 def render(out: dict[str, Any]) -> str:
@@ -64,47 +94,13 @@ def render(out: dict[str, Any]) -> str:
         f"valid in {out['segments']} segment(s)" + (f" (cut: {cut})" if cut else ""),
         *(f"  note: {n}" for n in out["notes"]),
     ]
-    radius = out["radius"]
-    lines.append(
-        "  tyre radius: "
-        + _told(
-            radius,
-            f"{radius.get('implied_m', float('nan')):.4g} m implied over "
-            f"{radius.get('moving_s', 0)} moving s against {out['vehicle']}'s nominal "
-            f"{radius.get('nominal_m', float('nan')):.4g} m: the wheel speeds' unit fits",
+    for name, key, told in _CHECKS:
+        record = out[key]
+        said = (
+            told(record, out["vehicle"])
+            if record.get("checked")
+            else f"not told: {record.get('note', 'no reason given')}"
         )
-    )
-    yaw = out["yaw_rate"]
-    lines.append(
-        "  yaw rate: "
-        + _told(
-            yaw,
-            f"turns as the GNSS course turns (gain {_gain(yaw)} over {yaw.get('seconds')} "
-            "pairs of seconds)"
-            if yaw.get("checked")
-            else "",
-        )
-    )
-    sides = out["wheel_sides"]
-    lines.append(
-        "  left and right wheels: "
-        + _told(
-            sides,
-            f"in their columns (rear gain {_gain(sides['rear'])}, front {_gain(sides['front'])})"
-            if sides.get("checked")
-            else "",
-        )
-    )
-    axles = out["wheel_axles"]
-    lines.append(
-        "  front and rear wheels: "
-        + _told(
-            axles,
-            f"in their columns (gain {_gain(axles)}, {axles.get('tight_turns')} pairs of "
-            "seconds in tight turns)"
-            if axles.get("checked")
-            else "",
-        )
-    )
+        lines.append(f"  {name}: {said}")
     lines.append(f"{out['file']}: validate would accept it as {out['vehicle']}'s drive")
     return "\n".join(lines)
