@@ -70,6 +70,9 @@ def test_the_real_minute_is_accepted_and_its_untold_checks_named(capsys):
     assert main(args) == 0
     out = capsys.readouterr().out
     assert ": 597 rows, 61 s; 59 s valid in 1 segment(s) (cut: partial_second 2 s)" in out
+    # what the reader did: the fixes placed at their receiver epochs, their lag estimated
+    assert "  note: " in out and "fixes placed at their receiver epochs" in out
+    assert "earlier than stamped" in out and "stamps kept" in out
     assert "  yaw rate: not told: turned too little to tell (gain 0.972" in out
     assert "  front and rear wheels: not told: only 0 pairs of seconds in a tight turn" in out
 

@@ -28,7 +28,8 @@ def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
         ``file``, ``vehicle``, ``rows`` (of the drive, or its 10 Hz grid), ``seconds``,
         ``seconds_kept``, ``segments``, ``cut_seconds_by_rule`` (the rules that cut),
         validate's records (``radius``, ``yaw_rate``, ``wheel_sides``, ``wheel_axles``),
-        ``columns`` (canonical -> the drive's own) and the reader's ``notes``.
+        ``columns`` (canonical -> the drive's own) and the ``notes`` of the reader and
+        the resampler (for a stream drive: where its fixes were placed, their lag).
 
     Raises:
         InputError: the drive's problems (validate would refuse it).
@@ -45,7 +46,7 @@ def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
         "cut_seconds_by_rule": {r: n for r, n in a.cut_seconds_by_rule.items() if n},
         **checked.checks,
         "columns": checked.columns,
-        "notes": list(checked.notes),
+        "notes": list(dict.fromkeys([*checked.reader_notes, *checked.notes])),
     }
 
 

@@ -326,6 +326,8 @@ class CheckedDrive:
             ``radius``, ``yaw_rate``, ``wheel_sides``, ``wheel_axles``.
         columns: canonical name -> the drive's own column or channel.
         notes: what the reader or resampler did (:class:`DriveSamples`' notes).
+        reader_notes: everything the reader said (the ingest manifest's ``notes``: for a
+            stream drive also where its fixes were placed and their lag estimated).
     """
 
     file: str
@@ -334,6 +336,7 @@ class CheckedDrive:
     checks: dict[str, Any]
     columns: dict[str, str]
     notes: tuple[str, ...]
+    reader_notes: tuple[str, ...] = ()
 
 
 def check_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> CheckedDrive:
@@ -374,7 +377,8 @@ def check_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Chec
     # a stream drive: what the resampler lost; a 10 Hz file: what its reader did (rows
     # written twice and dropped, the clock passing midnight, columns taken by position)
     notes = tuple(drive.streams.lost) if drive.streams is not None else tuple(raw.notes)
-    return CheckedDrive(file, table, result, checks, dict(raw.source_columns), notes)
+    columns = dict(raw.source_columns)
+    return CheckedDrive(file, table, result, checks, columns, notes, tuple(raw.notes))
 
 
 def drive_sha256(path: Path) -> str:
