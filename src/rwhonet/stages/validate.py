@@ -442,6 +442,17 @@ def _totals(drives: list[dict[str, Any]], n_segments: int) -> dict[str, Any]:
     }
 
 
+# validate's checks against the GNSS course, as the summary names them: a check that could
+# not tell on a drive (too few turns, no yaw rate) rules no mistake out there
+TOLD_CHECKS = (
+    ("radius", "tyre radius"),
+    ("yaw_rate", "yaw rate"),
+    ("wheel_sides", "left and right wheels"),
+    ("wheel_axles", "front and rear wheels"),
+)
+NAMES_LISTED = 4  # drives named per check in the summary (all in the report)
+
+
 def summary_table(report: dict[str, Any]) -> str:
     """Return a short text table of what validation kept and cut (for the stage's output).
 
@@ -449,7 +460,8 @@ def summary_table(report: dict[str, Any]) -> str:
         report: what :func:`validate` returned.
 
     Returns:
-        One line per drive (seconds kept, segments, seconds cut per rule) and a total line.
+        One line per drive (seconds kept, segments, seconds cut per rule), a total line,
+        and where a check against GNSS could not tell on some drives, a line naming them.
     """
     head = f"{'drive':<24} {'role':<18} {'kept s':>8} {'of s':>8} {'segs':>5}  cut (s by rule)"
     lines = [head]
@@ -468,6 +480,18 @@ def summary_table(report: dict[str, Any]) -> str:
         f"{t['drives']} drive(s): {t['seconds_kept']} of {t['seconds']} s kept ({share:.1%}) "
         f"in {t['segments']} segment(s); cut: {cut}{out}"
     )
+    untold = []
+    for key, name in TOLD_CHECKS:
+        drives = [d["drive"] for d in report["drives"] if not d.get(key, {}).get("checked", True)]
+        if drives:
+            more = len(drives) - NAMES_LISTED
+            shown = ", ".join(drives[:NAMES_LISTED]) + (f", +{more}" if more > 0 else "")
+            untold.append(f"{name} on {len(drives)} ({shown})")
+    if untold:
+        lines.append(
+            "not told against the GNSS course (each drive's note in the report says why): "
+            + "; ".join(untold)
+        )
     return "\n".join(lines)
 
 
