@@ -202,7 +202,9 @@ def test_the_real_rav4_minute_s_rear_wheels_are_told_in_their_columns():
     """The one real drive: a highway minute that hardly turns (its yaw rate cannot be told,
     the course swung through about a degree), yet its rear wheels' difference follows the
     course's small turns (gain 0.70 ± 0.10, 58 pairs of seconds): told in their columns;
-    exchanged, refused. Its front pair is not told (0.33 ± 0.09)."""
+    exchanged, refused. Its front pair is not told (0.33 ± 0.09). Its diagonal gain is 0.00
+    ± 0.02; with the front right and rear left exchanged, -0.76 ± 0.10: refused as that
+    diagonal pair."""
     from rwhonet.data.comma2k19 import read_comma2k19
     from rwhonet.data.drivechecks import side_problems
     from rwhonet.data.streams import resample
@@ -219,9 +221,18 @@ def test_the_real_rav4_minute_s_rear_wheels_are_told_in_their_columns():
     assert record["rear"]["gain"] == pytest.approx(0.70, abs=0.01)
     assert record["rear"]["gain"] > 7 * record["rear"]["gain_se"]
     assert not record["checked"] and "front gain 0.333" in record["note"]
-    drive[c.OMEGA_RL], drive[c.OMEGA_RR] = drive[c.OMEGA_RR], drive[c.OMEGA_RL]
-    found, record = side_problems(entry, drive, segments, vp, RAV4_RADIUS_M, 1.6)
+    assert abs(record["diagonal"]["gain"]) < 0.05 and "misplaced" not in record
+    rear = dict(drive)
+    rear[c.OMEGA_RL], rear[c.OMEGA_RR] = drive[c.OMEGA_RR], drive[c.OMEGA_RL]
+    found, record = side_problems(entry, rear, segments, vp, RAV4_RADIUS_M, 1.6)
     assert [p.column for p in found] == [f"{c.OMEGA_RL} / {c.OMEGA_RR}"] and record["checked"]
+    # one diagonal pair exchanged: each axle's sides then untold, the diagonal told
+    diagonal = dict(drive)
+    diagonal[c.OMEGA_FR], diagonal[c.OMEGA_RL] = drive[c.OMEGA_RL], drive[c.OMEGA_FR]
+    found, record = side_problems(entry, diagonal, segments, vp, RAV4_RADIUS_M, 1.6)
+    assert [p.column for p in found] == [f"{c.OMEGA_FR} / {c.OMEGA_RL}"]
+    assert record["diagonal"]["gain"] == pytest.approx(-0.76, abs=0.01)
+    assert record["diagonal"]["gain"] < -7 * record["diagonal"]["gain_se"]
 
 
 def _axles_drive(exchanged: bool = False) -> dict[str, np.ndarray]:
@@ -268,6 +279,59 @@ def test_the_front_and_rear_columns_exchanged_are_refused_naming_all_four():
     found, record = axle_problems(entry, slower, segments, vp, R_M)
     assert found == [] and not record["checked"]
     assert record["note"].startswith("the front wheels ran slower in the turns, by less than")
+
+
+def _diagonal_drive() -> dict[str, np.ndarray]:
+    """:func:`_axles_drive` with its front left and rear right columns exchanged."""
+    out = _axles_drive()
+    out[c.OMEGA_FL], out[c.OMEGA_RR] = out[c.OMEGA_RR], out[c.OMEGA_FL]
+    return out
+
+
+def test_one_diagonal_pair_exchanged_is_refused_as_one_exchange_and_the_axles_not_fitted():
+    """validate's wheel-sides check: in their columns the record holds the diagonal gain
+    near 0 and no problem; the front left and rear right exchanged, one problem names the
+    two columns as the map calls them and says to exchange them, in the place of any
+    axle's own (each axle's columns then hold two wheels of one side), and the axles check
+    is not fitted on such columns."""
+    from rwhonet.data.drivechecks import axle_problems, side_problems
+
+    vp = load_params().validate
+    names = {w: f"Wheel_{i}" for i, w in enumerate(c.WHEELS, start=1)}
+    entry = {"source_file": "V-Car.csv", "columns": names}
+    drive = _axles_drive()
+    segments = assess(drive, vp.gnss, vp.sample_period_s).segments
+    found, record = side_problems(entry, drive, segments, vp, R_M, 1.5)
+    assert found == [] and record["checked"] and "misplaced" not in record
+    assert abs(record["diagonal"]["gain"]) < 4 * record["diagonal"]["gain_se"]
+    found, record = side_problems(entry, _diagonal_drive(), segments, vp, R_M, 1.5)
+    (p,) = found
+    assert record["misplaced"] == [c.OMEGA_FL, c.OMEGA_RR] and record["diagonal"]["gain"] > 0.5
+    assert p.file == "V-Car.csv" and p.row is None and p.column == "Wheel_1 / Wheel_4"
+    assert "the front left wheel's speed in 'Wheel_1' and the rear right wheel's in" in p.expected
+    assert "as if the front columns held both right wheels" in p.found
+    assert p.found.endswith("(a diagonal pair: front left for rear right)")
+    assert p.fix.startswith("exchange the two columns")
+    found, axles = axle_problems(
+        entry, _diagonal_drive(), segments, vp, R_M, misplaced=record["misplaced"]
+    )
+    assert found == [] and not axles["checked"]
+    assert axles["note"] == (
+        "not fitted: 'Wheel_1', 'Wheel_4' look exchanged (a diagonal pair: the wheel-sides check)"
+    )
+
+
+def test_the_stream_check_refuses_one_diagonal_pair_exchanged():
+    """predict's check refuses it as validate does, naming the wheel-sides check."""
+    vp = load_params().validate
+    check = StreamRadiusCheck(ENTRY, R_M, vp)
+    drive = _diagonal_drive()
+    with pytest.raises(InputError) as err:
+        for a in range(0, drive[c.T_S].size, 100):
+            check.push({k: v[a : a + 100] for k, v in drive.items()})
+        check.finish()
+    assert "validate's wheel-sides check" in err.value.summary
+    assert "(a diagonal pair: front left for rear right)" in str(err.value)
 
 
 def test_the_stream_check_refuses_the_axles_exchanged_once_told_and_keeps_a_note_otherwise():

@@ -15,11 +15,14 @@ from rwhonet.data.plausibility import (
     AXLE_MIN_TIGHT,
     AXLE_TIGHT_TERM,
     AXLE_WHEELBASE_M,
+    DIAGONAL_MIN_GAIN,
     YAW_FLAT_SPAN_RAD,
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
     axle_mistake,
     axle_order_gain,
+    diagonal_gain,
+    diagonal_mistake,
     implied_radius,
     latlon_swapped_by_range,
     minutes_radius,
@@ -512,3 +515,95 @@ def test_both_diagonal_pairs_exchanged_are_three_exchanges_told():
     assert axle_mistake(_axles(turned)) == (True, True)
     for est in wheel_side_gains(turned, _whole(turned), YAW_MIN_STEP_M, 0.1, 0.3, 1.5).values():
         assert side_mistake(est) == (True, True)
+
+
+# ------------------------------------------------------------------ one diagonal pair
+
+
+def _diagonal(drive):
+    return diagonal_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1, TARGET_RADIUS_M, 1.5)
+
+
+def _with(drive, *pairs: tuple[str, str]) -> dict[str, np.ndarray]:
+    out = dict(drive)
+    for a, b in pairs:
+        out[a], out[b] = out[b], out[a]
+    return out
+
+
+FL_RR, FR_RL = (c.OMEGA_FL, c.OMEGA_RR), (c.OMEGA_FR, c.OMEGA_RL)
+
+
+def test_one_diagonal_pair_exchanged_turns_the_front_less_the_rear_with_the_course():
+    """Ideal rolling through tight turns, exact fixes: in their columns the sides take the
+    turn and the diagonal gain is 0 (the front axle's wider arc turns with neither sign);
+    the front left and rear right exchanged, the front columns hold both right wheels and
+    it is the sides' gain, 1; the front right and rear left, -1. Noisy fixes (0.3 m, white)
+    leave it told."""
+    exact = _axles_turning(fix_noise_m=0.0)
+    est = _diagonal(exact)
+    assert est.seconds == 299 and abs(est.gain) < 0.01 and diagonal_mistake(est) is None
+    flrr, frrl = _diagonal(_with(exact, FL_RR)), _diagonal(_with(exact, FR_RL))
+    assert flrr.gain == pytest.approx(1.0, abs=0.01) and diagonal_mistake(flrr) == FL_RR
+    assert frrl.gain == pytest.approx(-1.0, abs=0.01) and diagonal_mistake(frrl) == FR_RL
+    noisy = _axles_turning()
+    assert diagonal_mistake(_diagonal(noisy)) is None
+    told = _diagonal(_with(noisy, FL_RR))
+    assert told.gain > 20 * told.gain_se and diagonal_mistake(told) == FL_RR
+
+
+@pytest.mark.parametrize(
+    "pairs",
+    [
+        [(c.OMEGA_RL, c.OMEGA_RR)],
+        [(c.OMEGA_FL, c.OMEGA_FR), (c.OMEGA_RL, c.OMEGA_RR)],
+        [(c.OMEGA_FL, c.OMEGA_RL), (c.OMEGA_FR, c.OMEGA_RR)],
+        [FL_RR, FR_RL],
+    ],
+    ids=["rear_sides", "both_sides", "axles", "both_diagonals"],
+)
+def test_other_exchanges_are_no_diagonal_pair(pairs):
+    """An axle's sides exchanged leave the front less the rear as it is, the axles
+    exchanged negate it, both diagonals do both: no turn in it, none told a diagonal (the
+    sides and axles checks tell those)."""
+    est = _diagonal(_with(_axles_turning(), *pairs))
+    assert abs(est.gain) < DIAGONAL_MIN_GAIN and diagonal_mistake(est) is None
+
+
+def test_the_load_transfer_in_the_front_less_the_rear_is_no_diagonal_pair():
+    """Front wheels that run faster than the rear in every turn, more the harder it is taken
+    (a tenth of the wheel yaw's size, whichever way it turns: what load transfer and the
+    front's wider arc put there), through turns mostly one way (the course's turn then
+    follows the size of the turn too): fitted alone, the front less the rear would take a
+    share of the turn (told); fitted with the sides, nothing told."""
+    drive = _wheels_turning()
+    t = drive[c.T_S]
+    rate = 0.2 * np.sin(2.0 * np.pi * (t - t[0]) / 40.0)
+    one_way = np.where(rate > 0, 1.0, 0.3)  # left turns taken three times as hard
+    for w in (c.OMEGA_FL, c.OMEGA_FR):
+        drive[w] = drive[w] * (1.0 + 0.1 * np.abs(rate) * one_way)
+    alone = yaw_gain(
+        {
+            c.T_S: t,
+            c.YAW_RATE_RAD_S: 0.5
+            * (0.3 / 1.5)
+            * ((drive[c.OMEGA_FL] + drive[c.OMEGA_FR]) - (drive[c.OMEGA_RL] + drive[c.OMEGA_RR])),
+            c.LAT_DEG: drive[c.LAT_DEG],
+            c.LON_DEG: drive[c.LON_DEG],
+        },
+        _whole(drive),
+        YAW_MIN_STEP_M,
+        0.1,
+    )
+    assert alone.gain > 4 * alone.gain_se, alone
+    est = diagonal_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1, 0.3, 1.5)
+    assert abs(est.gain) < 4 * est.gain_se and diagonal_mistake(est) is None
+
+
+def test_a_drive_too_short_or_straight_tells_no_diagonal_pair():
+    slow = weaving_drive(300, 4.0, fix_noise_m=0.3, track_m=1.5)
+    slow = {k: slow[k].to_numpy() for k in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS)}
+    est = _diagonal(_with(slow, FL_RR))
+    assert est.seconds < YAW_MIN_SECONDS and diagonal_mistake(est) is None
+    gentle = _wheels_turning(turn_rad_s=0.0005)
+    assert diagonal_mistake(_diagonal(_with(gentle, FL_RR))) is None

@@ -1511,6 +1511,25 @@ def _(raw: Path) -> None:
 
 
 @case(
+    "one_diagonal_pair_of_wheels_exchanged",
+    "a drive through tight turns whose front left wheel's speed is written to the rear right "
+    "column and the rear right's to the front left (a diagonal pair: each axle's columns "
+    "then hold two wheels of one side)",
+    Refuse(
+        "validate",
+        None,
+        " Wheel Speed Front Left (rad/sec) /  Wheel Speed Rear Right (rad/sec)",
+        "the front left wheel's speed in ' Wheel Speed Front Left (rad/sec)'",
+        "(a diagonal pair: front left for rear right)",
+    ),
+)
+def _(raw: Path) -> None:
+    df = weaving_drive(DURATION_S, 8.0, 0.6, track_m=1.5, wheelbase_m=2.7)
+    df[[c.OMEGA_FL, c.OMEGA_RR]] = df[[c.OMEGA_RR, c.OMEGA_FL]].to_numpy()
+    write_target(raw, df)
+
+
+@case(
     "yaw_rate_in_rad_s",
     "a turning drive whose yaw-rate column (deg/s by the layout) holds rad/s",
     Refuse("validate", None, YAW_COLUMN, "in the declared unit", "rad/s where deg/s"),

@@ -43,11 +43,14 @@ from rwhonet.data.plausibility import (
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
     CourseTurns,
+    DiagonalEstimate,
     SignTally,
     YawEstimate,
     axle_mistake,
     axle_order_gain,
     course_turns,
+    diagonal_gain,
+    diagonal_mistake,
     gnss_path_m,
     implied_radius,
     latlon_swapped_by_range,
@@ -323,7 +326,8 @@ def _drive_problems(
     yawed, yaw = yaw_problems(entry, df, result.segments, vp, turns)
     track = params.track_rear_m(entry["vehicle"])
     sided, sides = side_problems(entry, df, result.segments, vp, nominal, track, turns)
-    axled, axles = axle_problems(entry, df, result.segments, vp, nominal, turns)
+    misplaced = sides.get("misplaced", ())
+    axled, axles = axle_problems(entry, df, result.segments, vp, nominal, turns, misplaced)
     checks = {"radius": radius, "yaw_rate": yaw, "wheel_sides": sides, "wheel_axles": axles}
     return problems + more + yawed + sided + axled, checks
 
@@ -470,7 +474,8 @@ def side_problems(
     track_m: float,
     turns: CourseTurns | None = None,
 ) -> tuple[list[Problem], dict[str, Any]]:
-    """The wheel-sides check: each axle's left and right wheel speeds in their columns.
+    """The wheel-sides check: each axle's left and right wheel speeds in their columns,
+    and each wheel column on its side of the car.
 
     The GNSS course turns with the right wheel's speed less the left's
     (:func:`rwhonet.data.plausibility.wheel_side_gains`); an axle whose gain is told
@@ -480,8 +485,13 @@ def side_problems(
     is written to, so the distance and the label do not change, but the wheels' yaw,
     which 2D dead reckoning turns by where there is no gyro, turns every track the wrong
     way (the built-in V-Charlie3's rear wheels exchanged, without its yaw rate: 2,493 m
-    off at the end of a 180 s outage of 2,166 m, against 67 m; docs/readers.md). A drive
-    that turned too little to tell passes, with a note in the record.
+    off at the end of a 180 s outage of 2,166 m, against 67 m; docs/readers.md). One
+    diagonal pair exchanged (front left for rear right, or front right for rear left)
+    puts each axle's two columns on one side, which the axles' gains cannot tell (they
+    scatter either side of 0, and a refusal of theirs would name the wrong fix): it is
+    told by :func:`~rwhonet.data.plausibility.diagonal_gain` and refused as one exchange of
+    the two columns, in the place of the axles' refusals. A drive that turned too little
+    to tell passes, with a note in the record.
 
     Args:
         entry: ``source_file``, ``columns`` (canonical -> the file's name).
@@ -494,8 +504,10 @@ def side_problems(
 
     Returns:
         ``(problems, record)``: the record as validate reports it: ``checked`` (both
-        axles told, or one told exchanged), per axle its gain, standard error and pairs of
-        seconds, and a note when not checked.
+        axles told, or a problem), per axle its gain, standard error and pairs of seconds,
+        ``diagonal`` (the diagonal gain and its standard error), a note when not checked,
+        and ``misplaced`` (the two canonical columns of a diagonal pair told exchanged),
+        only where they are.
     """
     gains = wheel_side_gains(
         df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m, turns
@@ -505,11 +517,7 @@ def side_problems(
     for axle, est in gains.items():
         checked, exchanged = side_mistake(est)
         told.append(checked)
-        record[axle] = {
-            "gain": None if np.isnan(est.gain) else est.gain,
-            "gain_se": None if not np.isfinite(est.gain_se) else est.gain_se,
-            "seconds": est.seconds,
-        }
+        record[axle] = _gain_record(est) | {"seconds": est.seconds}
         if not exchanged:
             continue
         left, right = (entry["columns"].get(k, k) for k in AXLES[axle])
@@ -528,6 +536,14 @@ def side_problems(
                 "column map or signal map)",
             )
         )
+    diagonal = diagonal_gain(
+        df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m, turns
+    )
+    record["diagonal"] = _gain_record(diagonal)
+    pair = diagonal_mistake(diagonal)
+    if pair is not None:
+        record["misplaced"] = list(pair)
+        problems = [_diagonal_problem(entry, pair, diagonal)]
     record["checked"] = all(told) or bool(problems)
     if not record["checked"]:
         axle, est = next((a, e) for (a, e), t in zip(gains.items(), told, strict=True) if not t)
@@ -542,6 +558,47 @@ def side_problems(
     return problems, record
 
 
+def _gain_record(est: YawEstimate | DiagonalEstimate) -> dict[str, float | None]:
+    """An estimate's gain and standard error as a record holds them (None where not told)."""
+    return {
+        "gain": None if np.isnan(est.gain) else est.gain,
+        "gain_se": None if not np.isfinite(est.gain_se) else est.gain_se,
+    }
+
+
+# Each wheel column as a person names it.
+WHEEL_PLACES: dict[str, str] = {
+    c.OMEGA_FL: "front left",
+    c.OMEGA_FR: "front right",
+    c.OMEGA_RL: "rear left",
+    c.OMEGA_RR: "rear right",
+}
+
+
+def _diagonal_problem(
+    entry: dict[str, Any], pair: tuple[str, str], est: DiagonalEstimate
+) -> Problem:
+    """One diagonal pair of wheel columns told exchanged (:func:`side_problems`)."""
+    front, rear = pair
+    fname, rname = (entry["columns"].get(k, k) for k in pair)
+    side = "right" if est.gain > 0.0 else "left"
+    return Problem(
+        entry["source_file"],
+        None,
+        f"{fname} / {rname}",
+        f"the {WHEEL_PLACES[front]} wheel's speed in {fname!r} and the {WHEEL_PLACES[rear]} "
+        f"wheel's in {rname!r}: the GNSS course turning with each axle's right wheel's speed "
+        "less its left's, not with the front wheels' less the rear's",
+        f"over {est.seconds} pairs of moving seconds in valid segments the course turned "
+        f"{est.gain:.3g} ± {est.gain_se:.2g} times the turn the front columns' speeds less "
+        f"the rear columns' say, as if the front columns held both {side} wheels: the two "
+        f"columns look exchanged (a diagonal pair: {WHEEL_PLACES[front]} for "
+        f"{WHEEL_PLACES[rear]})",
+        "exchange the two columns (their names in the header, or the two keys in the column "
+        "map or signal map)",
+    )
+
+
 def axle_problems(
     entry: dict[str, Any],
     df: Mapping[str, np.ndarray],
@@ -549,6 +606,7 @@ def axle_problems(
     vp: ValidateParams,
     radius_m: float,
     turns: CourseTurns | None = None,
+    misplaced: Sequence[str] = (),
 ) -> tuple[list[Problem], dict[str, Any]]:
     """The wheel-axles check: the front wheels' speeds in the front columns, the rear's in
     the rear.
@@ -574,12 +632,19 @@ def axle_problems(
         vp: ``validate``.
         radius_m: the car's nominal tyre radius (the curvature's distance).
         turns: the course's turns, where already computed (as :func:`yaw_problems`).
+        misplaced: the two wheel columns the wheel-sides check told exchanged as a
+            diagonal pair (:func:`side_problems`' ``misplaced``): each axle's mean then
+            mixes a front and a rear wheel, so the axles are not fitted.
 
     Returns:
         ``(problems, record)``: the record as validate reports it: ``checked``, the gain,
         its standard error, the pairs of seconds and the tight turns among them, and a note
         when not checked.
     """
+    if misplaced:
+        named = ", ".join(repr(entry["columns"].get(k, k)) for k in misplaced)
+        note = f"not fitted: {named} look exchanged (a diagonal pair: the wheel-sides check)"
+        return [], {"checked": False, "note": note}
     est = axle_order_gain(df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, turns)
     checked, exchanged = axle_mistake(est)
     record: dict[str, Any] = {
@@ -1086,7 +1151,7 @@ class StreamRadiusCheck:
                 if sided:
                     raise InputError(
                         sided,
-                        f"{self.entry['source_file']}: an axle's wheels that turn the car "
+                        f"{self.entry['source_file']}: wheel speeds that turn the car "
                         "against the GNSS course (validate's wheel-sides check)",
                     )
             if result.segments and not self.axles_decided:

@@ -233,12 +233,22 @@ def yaw_gain(
         turns = course_turns(drive, segments, min_step_m, sample_period_s)
     if turns is None:
         return YawEstimate(float("nan"), math.inf, 0, 0.0)
+    x, keep = _pair_angles(turns, np.asarray(drive[c.YAW_RATE_RAD_S], dtype=np.float64))
+    x, y, block = x[keep], turns.y[keep], turns.block[keep]
+    fit = _slope_by_blocks(x, y, block)
+    span = float(np.ptp(np.r_[0.0, np.cumsum(fit.y)]))
+    return YawEstimate(fit.gain, fit.gain_se, fit.n, span)
+
+
+def _pair_angles(turns: CourseTurns, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A yaw rate's angle over each pair of :func:`course_turns` (the trapezoid integral
+    between the pair's two middle times, a glitch beyond any car's yaw rate interpolated
+    across, as the label integrates it), and which pairs have it (no row without one)."""
     t = turns.t
-    # as the label integrates it: a glitch (beyond any car's yaw rate) interpolated across
-    rate, _ = repaired_yaw_rate(t, np.asarray(drive[c.YAW_RATE_RAD_S], dtype=np.float64))
-    # Cumulative gyro angle: the angle between two times is one subtraction. A row
-    # without a yaw rate makes every angle after it NaN in a cumsum, so its intervals
-    # are taken as 0 and the pairs that span it dropped below.
+    rate, _ = repaired_yaw_rate(t, rate)
+    # Cumulative angle: the angle between two times is one subtraction. A row without a
+    # yaw rate makes every angle after it NaN in a cumsum, so its intervals are taken as
+    # 0 and the pairs that span it dropped.
     step = 0.5 * (rate[1:] + rate[:-1]) * np.diff(t)
     finite = np.isfinite(step)
     a, b = turns.a, turns.b
@@ -249,11 +259,7 @@ def yaw_gain(
         angle = np.r_[0.0, np.cumsum(np.where(finite, step, 0.0))]
         missing = np.r_[0, np.cumsum(~finite)]
         keep = np.interp(b, t, missing) - np.interp(a, t, missing) == 0
-    x = np.interp(b, t, angle) - np.interp(a, t, angle)
-    x, y, block = x[keep], turns.y[keep], turns.block[keep]
-    fit = _slope_by_blocks(x, y, block)
-    span = float(np.ptp(np.r_[0.0, np.cumsum(fit.y)]))
-    return YawEstimate(fit.gain, fit.gain_se, fit.n, span)
+    return np.interp(b, t, angle) - np.interp(a, t, angle), keep
 
 
 @dataclass(frozen=True)
@@ -286,6 +292,38 @@ def _slope_by_blocks(x: np.ndarray, y: np.ndarray, block: np.ndarray) -> _Slope:
     dof = n - count.size - 1  # a slope, and an intercept per block
     se = math.sqrt(float(resid @ resid) / max(dof, 1) / sxx)
     return _Slope(gain, se, n, x, y)
+
+
+@dataclass(frozen=True)
+class _Slopes:
+    gain: np.ndarray  # per regressor (NaN: too few pairs, or regressors not told apart)
+    gain_se: np.ndarray  # their standard errors (inf when they cannot be told)
+    n: int  # pairs that entered the fit
+
+
+def _slopes_by_blocks(x: np.ndarray, y: np.ndarray, block: np.ndarray) -> _Slopes:
+    """As :func:`_slope_by_blocks`, with several regressors (the columns of ``x``) fitted
+    at once."""
+    _, block, per_block = np.unique(block, return_inverse=True, return_counts=True)
+    alone = per_block[block] < 2
+    x, y = x[~alone], y[~alone]
+    block = np.unique(block[~alone], return_inverse=True)[1]
+    n, k = x.shape
+    nan = _Slopes(np.full(k, np.nan), np.full(k, np.inf), n)
+    if n < YAW_MIN_SECONDS:
+        return nan
+    count = np.bincount(block)
+    xc = x - (np.stack([np.bincount(block, col) for col in x.T], axis=1) / count[:, None])[block]
+    yc = y - (np.bincount(block, y) / count)[block]
+    sxx = xc.T @ xc
+    if not np.all(np.isfinite(sxx)) or np.linalg.cond(sxx) > 1e12:  # one value, or collinear
+        return nan
+    inv = np.linalg.inv(sxx)
+    gain = inv @ (xc.T @ yc)
+    resid = yc - xc @ gain
+    dof = n - count.size - k  # the slopes, and an intercept per block
+    se = np.sqrt(np.diag(inv) * float(resid @ resid) / max(dof, 1))
+    return _Slopes(gain, se, n)
 
 
 # Each axle's two wheels, left then right, for :func:`wheel_side_gains`.
@@ -336,6 +374,98 @@ def wheel_side_gains(
         turned = {c.T_S: drive[c.T_S], c.YAW_RATE_RAD_S: yaw}
         out[axle] = yaw_gain(turned, segments, min_step_m, sample_period_s, turns)
     return out
+
+
+# One diagonal pair of wheel columns exchanged (:func:`diagonal_gain`): told where the
+# gain lies YAW_EVIDENCE_SE standard errors from 0 and at least this far. An exchange gives
+# about the wheels' own side gain (1 for ideal rolling; the built-in drives' 0.42-0.93,
+# the real RAV4 minute's 0.76); wheels in their columns leave a few tenths at most (the
+# built-in drives' -0.28..0.11: what the turns' load transfer and the front axle's wider
+# arc put in the front wheels' speeds over the rear's that the sides' gains do not take).
+DIAGONAL_MIN_GAIN = 0.35
+
+
+@dataclass(frozen=True)
+class DiagonalEstimate:
+    """How the course turns with the front columns' speeds over the rear columns'
+    (:func:`diagonal_gain`)."""
+
+    gain: float  # NaN: too few pairs, or regressors that cannot be told apart
+    gain_se: float  # inf when it cannot be told
+    seconds: int  # pairs of seconds that entered the fit
+
+
+@np.errstate(invalid="ignore", divide="ignore")
+def diagonal_gain(
+    drive: Mapping[str, np.ndarray],
+    segments: Sequence[Segment],
+    min_step_m: float,
+    sample_period_s: float | None,
+    radius_m: float,
+    track_m: float,
+    turns: CourseTurns | None = None,
+) -> DiagonalEstimate:
+    """Whether one diagonal pair of wheel columns holds each other's speeds.
+
+    The front left wheel's speed written to the rear right's column and the rear right's
+    to the front left's (or the front right's and the rear left's) leaves each axle's two
+    columns holding two wheels of one side: their difference carries no turn (the sides'
+    gains of :func:`wheel_side_gains` scatter either side of 0), and the front columns'
+    speeds less the rear columns' carry the whole of it, since the front columns then
+    hold both right wheels (or both left ones). So the course's turn over each pair of
+    seconds of :func:`course_turns` is fitted by least squares on three yaws at once, each
+    integrated over the pair as :func:`yaw_gain` integrates a yaw rate: the front columns'
+    right less left, the rear columns' right less left (each times ``radius_m /
+    track_m``), and the front columns' mean speed less the rear columns' (times the same:
+    for a diagonal pair exchanged, the sides' yaw), with an
+    intercept for each :data:`YAW_BLOCK_S`. The gain is the last one's coefficient: with
+    the wheels in their columns the sides take the turn and it stays near 0 (the front
+    wheels' speed over the rear's turns with the car only as its load transfer and the
+    front axle's wider arc make it); with the front left and rear right exchanged it is
+    the sides' gain, with the front right and rear left its negative. Exchanges within an
+    axle or of the axles leave it near 0 (the first leaves the front less the rear as it
+    is, the second negates it). Fitted together, the sides' yaws take what the front less
+    the rear shares with the turn by its load transfer alone, which fitted alone would
+    tell gains of ±2.7 on a quarter of the built-in drives.
+
+    Args:
+        as :func:`wheel_side_gains`.
+
+    Returns:
+        The estimate (``gain`` NaN with fewer than :data:`YAW_MIN_SECONDS` pairs).
+    """
+    if turns is None:
+        turns = course_turns(drive, segments, min_step_m, sample_period_s)
+    if turns is None:
+        return DiagonalEstimate(float("nan"), math.inf, 0)
+    w = {k: np.asarray(drive[k], np.float64) for k in (*AXLES["front"], *AXLES["rear"])}
+    scale = radius_m / track_m
+    (fl, fr), (rl, rr) = AXLES["front"], AXLES["rear"]
+    rates = (
+        scale * (w[fr] - w[fl]),
+        scale * (w[rr] - w[rl]),
+        0.5 * scale * ((w[fl] + w[fr]) - (w[rl] + w[rr])),
+    )
+    angles, keep = zip(*(_pair_angles(turns, rate) for rate in rates), strict=True)
+    kept = np.logical_and.reduce(keep)
+    x = np.stack([angle[kept] for angle in angles], axis=1)
+    fit = _slopes_by_blocks(x, turns.y[kept], turns.block[kept])
+    return DiagonalEstimate(float(fit.gain[-1]), float(fit.gain_se[-1]), fit.n)
+
+
+def diagonal_mistake(est: DiagonalEstimate) -> tuple[str, str] | None:
+    """The two wheel columns :func:`diagonal_gain` tells exchanged, or None: told where the
+    gain lies :data:`YAW_EVIDENCE_SE` standard errors from 0, over at least
+    :data:`YAW_MIN_SECONDS` pairs of seconds, and at least :data:`DIAGONAL_MIN_GAIN` from 0;
+    positive, the front left and the rear right (the front columns then hold the right
+    wheels, faster in a left turn); negative, the front right and the rear left.
+    """
+    if est.seconds < YAW_MIN_SECONDS or not math.isfinite(est.gain):
+        return None
+    if abs(est.gain) <= max(YAW_EVIDENCE_SE * est.gain_se, DIAGONAL_MIN_GAIN):
+        return None
+    (fl, fr), (rl, rr) = AXLES["front"], AXLES["rear"]
+    return (fl, rr) if est.gain > 0.0 else (fr, rl)
 
 
 def side_mistake(est: YawEstimate) -> tuple[bool, bool]:
