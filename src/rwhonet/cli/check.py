@@ -74,7 +74,11 @@ _CHECKS: tuple[tuple[str, str, Callable[[dict[str, Any], str], str]], ...] = (
     (
         "left and right wheels",
         "wheel_sides",
-        lambda r, _: f"in their columns (rear gain {_gain(r['rear'])}, front {_gain(r['front'])})",
+        lambda r, _: (
+            f"in their columns (rear gain {_gain(r['rear'])}, front {_gain(r['front'])}"
+            + (f"; diagonal {_gain(r['diagonal'])}" if r["diagonal"]["gain"] is not None else "")
+            + ")"
+        ),
     ),
     (
         "front and rear wheels",
