@@ -7,8 +7,12 @@ GNSS policy (``quality.assess``) and the check itself
 (``rwhonet.data.drivechecks.side_problems``, with the car's nominal radius and rear
 track as validate takes them). It prints per profile: the drives, those refused as they
 are (none expected), those the check could not tell and why, the range and median of
-each axle's gain, and how many are refused with the rear wheels' columns exchanged.
-Then the same for the wheel-axles check (``axle_problems``): refused as they are, not
+each axle's gain, and how many are refused with the rear wheels' columns exchanged;
+the diagonal gain's range as the drives are (``plausibility.diagonal_gain``) and, with
+each diagonal pair of columns exchanged in turn (the front left with the rear right, the
+front right with the rear left), how many drives the sides and axles checks together
+refuse as that exchange, how many they refuse otherwise (a wrong fix), and the told
+gains' sizes. Then the same for the wheel-axles check (``axle_problems``): refused as they are, not
 told (the count), the gain's range and median over the drives told, and how many are
 refused with the front and rear columns exchanged (left with left, right with right).
 Nothing is written outside the scratch folder. ``docs/readers.md`` ("An axle's left
@@ -33,6 +37,11 @@ from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.quality import assess
 from rwhonet.sim import simulate_fleet
 
+# one diagonal pair of columns exchanged, each way
+DIAGONALS = {
+    "front_left_for_rear_right": (c.OMEGA_FL, c.OMEGA_RR),
+    "front_right_for_rear_left": (c.OMEGA_FR, c.OMEGA_RL),
+}
 PROFILES = ("paper", "large_target", "paper_consumer", "large_target_consumer", "ci")
 
 
@@ -43,6 +52,9 @@ def profile_sides(profile: str) -> dict:
     gains: dict[str, list[float]] = {"rear": [], "front": []}
     refused, untold, exchanged_refused = [], [], 0
     axles = {"refused": [], "untold": 0, "gains": [], "exchanged_refused": 0}
+    columns: dict = {"gains": []} | {
+        name: {"refused_as_diagonal": 0, "refused_otherwise": 0, "gains": []} for name in DIAGONALS
+    }
     with tempfile.TemporaryDirectory() as tmp:
         summary = simulate_fleet(params, Path(tmp) / "sim")
         for d in summary["drives"]:
@@ -76,6 +88,18 @@ def profile_sides(profile: str) -> dict:
             axles["exchanged_refused"] += bool(
                 axle_problems(entry, swapped, segments, vp, radius)[0]
             )
+            diagonal = side_problems(entry, drive, segments, vp, radius, track)[1]["diagonal"]
+            if diagonal["gain"] is not None:
+                columns["gains"].append(diagonal["gain"])
+            for name, (a, b) in DIAGONALS.items():
+                swapped = dict(drive)
+                swapped[a], swapped[b] = drive[b], drive[a]
+                said, record = _sides_and_axles(entry, swapped, segments, vp, radius, track)
+                told = record.get("misplaced") == [a, b]
+                columns[name]["refused_as_diagonal"] += told
+                columns[name]["refused_otherwise"] += bool(said) and not told
+                if told:
+                    columns[name]["gains"].append(record["diagonal"]["gain"])
     g = axles.pop("gains")
     return {
         "drives": len(summary["drives"]),
@@ -90,6 +114,13 @@ def profile_sides(profile: str) -> dict:
             ]
             for axle, g in gains.items()
         },
+        "diagonal": {
+            "gain_min_max": _span(columns.pop("gains")),
+            **{
+                name: v | {"gain_min_max": _span(v.pop("gains"), absolute=True)}
+                for name, v in columns.items()
+            },
+        },
         "axles": axles
         | {
             "gain_min_max_median": [
@@ -101,6 +132,22 @@ def profile_sides(profile: str) -> dict:
             else None
         },
     }
+
+
+def _span(values: list[float], absolute: bool = False) -> list[float] | None:
+    """The least and the greatest (of their sizes where ``absolute``), to 3 places."""
+    if not values:
+        return None
+    v = np.abs(values) if absolute else np.asarray(values)
+    return [round(float(v.min()), 3), round(float(v.max()), 3)]
+
+
+def _sides_and_axles(entry, drive, segments, vp, radius, track) -> tuple[list, dict]:
+    """The sides' and the axles' problems, as validate finds them together, and the sides'
+    record."""
+    sided, record = side_problems(entry, drive, segments, vp, radius, track)
+    misplaced = record.get("misplaced", ())
+    return sided + axle_problems(entry, drive, segments, vp, radius, None, misplaced)[0], record
 
 
 def main(argv: list[str]) -> None:
