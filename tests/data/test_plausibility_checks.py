@@ -19,6 +19,7 @@ from rwhonet.data.plausibility import (
     YAW_FLAT_SPAN_RAD,
     YAW_MIN_SECONDS,
     YAW_MIN_STEP_M,
+    YawEstimate,
     axle_mistake,
     axle_order_gain,
     diagonal_gain,
@@ -300,6 +301,26 @@ def test_a_straight_or_slow_drive_cannot_tell_and_says_so():
     drive[c.YAW_RATE_RAD_S] = np.zeros_like(t)
     est = yaw_gain(drive, _whole(drive), YAW_MIN_STEP_M, 0.1)
     assert est.course_span_rad < YAW_FLAT_SPAN_RAD and yaw_mistake(est, 0.25) == (False, None)
+
+
+def test_no_yaw_mistake_is_told_on_a_straight_stretch():
+    """predict's first tries on the paper world's V-Delta1: over 104 pairs of seconds the
+    course swung through 0.9 deg and the gain came out -1.47 ± 0.55, 4 standard errors
+    from a right gyro's band; the gyro was right (1.005 ± 0.034 once the course swung 5
+    deg). No mistake is told before the course swung through 10 deg; the same gain over a
+    bend is told, and a right gain is told on any swing."""
+    straight = YawEstimate(-1.47, 0.553, 104, math.radians(0.9))
+    assert yaw_mistake(straight, 0.25) == (False, None)
+    bend = YawEstimate(-1.47, 0.553, 104, math.radians(10.5))
+    assert yaw_mistake(bend, 0.25) == (
+        True,
+        "does not follow the GNSS course (another signal, or another drive's?)",
+    )
+    assert yaw_mistake(YawEstimate(1.005, 0.034, 164, math.radians(0.9)), 0.25) == (True, None)
+    flipped = YawEstimate(-1.0, 0.01, 300, math.radians(9.0))
+    assert yaw_mistake(flipped, 0.25) == (False, None)
+    turned = YawEstimate(-1.0, 0.01, 300, math.radians(11.0))
+    assert yaw_mistake(turned, 0.25)[1].startswith("looks positive turning right")
 
 
 def test_a_second_without_a_yaw_rate_drops_only_the_pairs_around_it():

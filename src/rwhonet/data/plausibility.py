@@ -147,6 +147,13 @@ YAW_MIN_STEP_M = 5.0  # a chord shorter than this (a second slower than 5 m/s) h
 # seconds gets its own intercept, so that a drifting bias is no turn.
 YAW_BLOCK_S = 120.0
 YAW_FLAT_SPAN_RAD = math.pi / 2  # a flat yaw rate is refused once the course swung this far
+# Any other mistake of a yaw rate is told only once the course swung this far (a bend's
+# worth). Over a straight stretch the gyro's bias wandering within a block and the fixes'
+# slowly drifting errors are all the gain is fitted on, and its standard error (white
+# noise's) does not see them: `predict`'s first tries on the built-in V-Delta1 (the paper
+# world's), 84-144 pairs of seconds over which the course swung 0.9 deg, gave -1.6 to -1.2
+# ± 0.4-0.6 and refused a right gyro; 20 pairs later, the course 5 deg round, 1.005 ± 0.034.
+YAW_TELL_SPAN_RAD = math.radians(10.0)
 
 
 @dataclass(frozen=True)
@@ -377,12 +384,14 @@ def wheel_side_gains(
 
 
 # One diagonal pair of wheel columns exchanged (:func:`diagonal_gain`): told where the
-# gain lies YAW_EVIDENCE_SE standard errors from 0 and at least this far. An exchange gives
-# about the wheels' own side gain (1 for ideal rolling; the built-in drives' 0.42-0.93,
-# the real RAV4 minute's 0.76); wheels in their columns leave a few tenths at most (the
-# built-in drives' -0.28..0.11: what the turns' load transfer and the front axle's wider
-# arc put in the front wheels' speeds over the rear's that the sides' gains do not take).
-DIAGONAL_MIN_GAIN = 0.35
+# gain's size lies YAW_EVIDENCE_SE standard errors beyond this. An exchange gives about the
+# wheels' own side gain (1 for ideal rolling; the built-in drives' 0.42-0.93, the real
+# RAV4 minute's 0.76); wheels in their columns leave a few tenths at most (the built-in
+# drives' -0.18..0.11 over a whole drive; on fewer pairs, as `predict` tries them, up to
+# -0.23 ± 0.07 on the paper world's V-Vta21, where a fit without the fourth term of
+# diagonal_gain gave -0.35 ± 0.07 at 61 pairs: what the turns' load transfer puts in the
+# front wheels' speeds over the rear's that the sides' yaws do not take).
+DIAGONAL_MIN_GAIN = 0.25
 
 
 @dataclass(frozen=True)
@@ -413,20 +422,23 @@ def diagonal_gain(
     gains of :func:`wheel_side_gains` scatter either side of 0), and the front columns'
     speeds less the rear columns' carry the whole of it, since the front columns then
     hold both right wheels (or both left ones). So the course's turn over each pair of
-    seconds of :func:`course_turns` is fitted by least squares on three yaws at once, each
-    integrated over the pair as :func:`yaw_gain` integrates a yaw rate: the front columns'
-    right less left, the rear columns' right less left (each times ``radius_m /
-    track_m``), and the front columns' mean speed less the rear columns' (times the same:
-    for a diagonal pair exchanged, the sides' yaw), with an
-    intercept for each :data:`YAW_BLOCK_S`. The gain is the last one's coefficient: with
-    the wheels in their columns the sides take the turn and it stays near 0 (the front
-    wheels' speed over the rear's turns with the car only as its load transfer and the
-    front axle's wider arc make it); with the front left and rear right exchanged it is
-    the sides' gain, with the front right and rear left its negative. Exchanges within an
-    axle or of the axles leave it near 0 (the first leaves the front less the rear as it
-    is, the second negates it). Fitted together, the sides' yaws take what the front less
-    the rear shares with the turn by its load transfer alone, which fitted alone would
-    tell gains of ±2.7 on a quarter of the built-in drives.
+    seconds of :func:`course_turns` is fitted by least squares on four terms at once,
+    with an intercept for each :data:`YAW_BLOCK_S`: three yaws, each integrated over the
+    pair as :func:`yaw_gain` integrates a yaw rate, the front columns' right less left, the
+    rear columns' right less left (each times ``radius_m / track_m``) and the front
+    columns' mean speed less the rear columns' (times the same: for a diagonal pair
+    exchanged, the sides' yaw); and the sides' mean yaw times its size (the wheels
+    overstate a turn the more the harder it is taken, as load transfer shrinks the outer
+    tyres: a course that is not the sides' yaw times one gain). The gain is the third
+    term's coefficient: with the wheels in their columns the sides take the turn and it
+    stays near 0; with the front left and rear right exchanged it is the sides' gain, with
+    the front right and rear left its negative. Exchanges within an axle or of the axles
+    leave it near 0 (the first leaves the front less the rear as it is, the second negates
+    it). The front wheels' speed over the rear's grows in the harder turns whichever way
+    they go (load transfer, the front axle's wider arc), so over a drive whose turns are
+    not balanced it follows the course a little: fitted alone it told gains of ±2.7 on a
+    quarter of the built-in drives; with the sides' yaws, -0.28..0.11 over whole drives;
+    with the fourth term too, -0.18..0.11.
 
     Args:
         as :func:`wheel_side_gains`.
@@ -449,20 +461,22 @@ def diagonal_gain(
     angles, keep = zip(*(_pair_angles(turns, rate) for rate in rates), strict=True)
     kept = np.logical_and.reduce(keep)
     x = np.stack([angle[kept] for angle in angles], axis=1)
+    sides = 0.5 * (x[:, 0] + x[:, 1])
+    x = np.c_[x, sides * np.abs(sides)]  # the wheels overstating the harder turns more
     fit = _slopes_by_blocks(x, turns.y[kept], turns.block[kept])
-    return DiagonalEstimate(float(fit.gain[-1]), float(fit.gain_se[-1]), fit.n)
+    return DiagonalEstimate(float(fit.gain[2]), float(fit.gain_se[2]), fit.n)
 
 
 def diagonal_mistake(est: DiagonalEstimate) -> tuple[str, str] | None:
     """The two wheel columns :func:`diagonal_gain` tells exchanged, or None: told where the
-    gain lies :data:`YAW_EVIDENCE_SE` standard errors from 0, over at least
-    :data:`YAW_MIN_SECONDS` pairs of seconds, and at least :data:`DIAGONAL_MIN_GAIN` from 0;
+    gain's size lies :data:`YAW_EVIDENCE_SE` standard errors beyond
+    :data:`DIAGONAL_MIN_GAIN`, over at least :data:`YAW_MIN_SECONDS` pairs of seconds;
     positive, the front left and the rear right (the front columns then hold the right
     wheels, faster in a left turn); negative, the front right and the rear left.
     """
     if est.seconds < YAW_MIN_SECONDS or not math.isfinite(est.gain):
         return None
-    if abs(est.gain) <= max(YAW_EVIDENCE_SE * est.gain_se, DIAGONAL_MIN_GAIN):
+    if abs(est.gain) - YAW_EVIDENCE_SE * est.gain_se <= DIAGONAL_MIN_GAIN:
         return None
     (fl, fr), (rl, rr) = AXLES["front"], AXLES["rear"]
     return (fl, rr) if est.gain > 0.0 else (fr, rl)
@@ -595,7 +609,9 @@ def yaw_mistake(est: YawEstimate, tolerance: float) -> tuple[bool, str | None]:
     that band; then the mistake is named (a gain within the same band around -1, π/180,
     180/π or their negatives, and told from 0), or the channel does not follow the car.
     A channel that holds one value while the course swung through
-    :data:`YAW_FLAT_SPAN_RAD` or more is no yaw rate (zeros where a log had none?).
+    :data:`YAW_FLAT_SPAN_RAD` or more is no yaw rate (zeros where a log had none?). No
+    mistake is told before the course swung through :data:`YAW_TELL_SPAN_RAD` (a right
+    yaw rate can be told on less).
 
     Args:
         est: :func:`yaw_gain`'s estimate.
@@ -616,6 +632,8 @@ def yaw_mistake(est: YawEstimate, tolerance: float) -> tuple[bool, str | None]:
     margin = YAW_EVIDENCE_SE * est.gain_se
     if est.gain + margin >= low and est.gain - margin <= high:
         return 2.0 * margin <= high - low, None
+    if est.course_span_rad < YAW_TELL_SPAN_RAD:  # no mistake told on a straight
+        return False, None
     if abs(est.gain) > margin:  # the channel follows the course, in some unit and sign
         for what, gain in _YAW_MISTAKES:
             lo, hi = sorted((gain * low, gain * high))
