@@ -475,7 +475,7 @@ def side_problems(
     turns: CourseTurns | None = None,
 ) -> tuple[list[Problem], dict[str, Any]]:
     """The wheel-sides check: each axle's left and right wheel speeds in their columns,
-    and each wheel column on its side of the car.
+    and no diagonal pair of wheel columns exchanged.
 
     The GNSS course turns with the right wheel's speed less the left's
     (:func:`rwhonet.data.plausibility.wheel_side_gains`); an axle whose gain is told
@@ -567,7 +567,7 @@ def _gain_record(est: YawEstimate | DiagonalEstimate) -> dict[str, float | None]
 
 
 # Each wheel column as a person names it.
-WHEEL_PLACES: dict[str, str] = {
+_WHEEL_PLACES: dict[str, str] = {
     c.OMEGA_FL: "front left",
     c.OMEGA_FR: "front right",
     c.OMEGA_RL: "rear left",
@@ -586,14 +586,14 @@ def _diagonal_problem(
         entry["source_file"],
         None,
         f"{fname} / {rname}",
-        f"the {WHEEL_PLACES[front]} wheel's speed in {fname!r} and the {WHEEL_PLACES[rear]} "
+        f"the {_WHEEL_PLACES[front]} wheel's speed in {fname!r} and the {_WHEEL_PLACES[rear]} "
         f"wheel's in {rname!r}: the GNSS course turning with each axle's right wheel's speed "
         "less its left's, not with the front wheels' less the rear's",
         f"over {est.seconds} pairs of moving seconds in valid segments the course turned "
         f"{est.gain:.3g} ± {est.gain_se:.2g} times the turn the front columns' speeds less "
         f"the rear columns' say, as if the front columns held both {side} wheels: the two "
-        f"columns look exchanged (a diagonal pair: {WHEEL_PLACES[front]} for "
-        f"{WHEEL_PLACES[rear]})",
+        f"columns look exchanged (a diagonal pair: {_WHEEL_PLACES[front]} for "
+        f"{_WHEEL_PLACES[rear]})",
         "exchange the two columns (their names in the header, or the two keys in the column "
         "map or signal map)",
     )
