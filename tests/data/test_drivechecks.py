@@ -321,31 +321,30 @@ def test_one_diagonal_pair_exchanged_is_refused_as_one_exchange_and_the_axles_no
     )
 
 
-def test_the_stream_check_refuses_one_diagonal_pair_exchanged():
-    """predict's check refuses it as validate does, naming the wheel-sides check."""
-    vp = load_params().validate
-    check = StreamRadiusCheck(ENTRY, R_M, vp)
-    drive = _diagonal_drive()
+def _stream_refusal(drive) -> InputError:
+    """What predict's check refuses a drive with, its rows pushed 100 at a time."""
+    check = StreamRadiusCheck(ENTRY, R_M, load_params().validate)
     with pytest.raises(InputError) as err:
         for a in range(0, drive[c.T_S].size, 100):
             check.push({k: v[a : a + 100] for k, v in drive.items()})
         check.finish()
-    assert "validate's wheel-sides check" in err.value.summary
-    assert "(a diagonal pair: front left for rear right)" in str(err.value)
+    return err.value
+
+
+def test_the_stream_check_refuses_one_diagonal_pair_exchanged():
+    """predict's check refuses it as validate does, naming the wheel-sides check."""
+    err = _stream_refusal(_diagonal_drive())
+    assert "validate's wheel-sides check" in err.summary
+    assert "(a diagonal pair: front left for rear right)" in str(err)
 
 
 def test_the_stream_check_refuses_the_axles_exchanged_once_told_and_keeps_a_note_otherwise():
     """predict's check tells the axles as the rows come, and refuses them exchanged as
     validate does; a drive that never turns tightly ends with a note saying why."""
     vp = load_params().validate
-    check = StreamRadiusCheck(ENTRY, R_M, vp)
-    drive = _axles_drive(exchanged=True)
-    with pytest.raises(InputError) as err:
-        for a in range(0, drive[c.T_S].size, 100):
-            check.push({k: v[a : a + 100] for k, v in drive.items()})
-        check.finish()
-    assert "validate's wheel-axles check" in err.value.summary
-    assert "look exchanged" in str(err.value)
+    err = _stream_refusal(_axles_drive(exchanged=True))
+    assert "validate's wheel-axles check" in err.summary
+    assert "look exchanged" in str(err)
 
     def streamed(drive):
         check = StreamRadiusCheck(ENTRY, R_M, vp)

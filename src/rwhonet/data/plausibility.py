@@ -278,13 +278,21 @@ class _Slope:
     y: np.ndarray  # and response
 
 
-def _slope_by_blocks(x: np.ndarray, y: np.ndarray, block: np.ndarray) -> _Slope:
-    """The least-squares slope of ``y`` on ``x`` with an intercept for each block, and its
-    standard error; a block's only pair is left out (its intercept would take it all)."""
+def _without_lone_pairs(
+    x: np.ndarray, y: np.ndarray, block: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs of blocks with two or more (a block's only pair would be all its intercept
+    takes), and their blocks numbered from 0."""
     _, block, per_block = np.unique(block, return_inverse=True, return_counts=True)
     alone = per_block[block] < 2
     x, y = x[~alone], y[~alone]
-    block = np.unique(block[~alone], return_inverse=True)[1]
+    return x, y, np.unique(block[~alone], return_inverse=True)[1]
+
+
+def _slope_by_blocks(x: np.ndarray, y: np.ndarray, block: np.ndarray) -> _Slope:
+    """The least-squares slope of ``y`` on ``x`` with an intercept for each block, and its
+    standard error; a block's only pair is left out (its intercept would take it all)."""
+    x, y, block = _without_lone_pairs(x, y, block)
     n = x.size
     if n < YAW_MIN_SECONDS or np.ptp(x) < 1e-9:  # too few, or one value (to the sum's rounding)
         return _Slope(float("nan"), math.inf, n, x, y)
@@ -311,10 +319,7 @@ class _Slopes:
 def _slopes_by_blocks(x: np.ndarray, y: np.ndarray, block: np.ndarray) -> _Slopes:
     """As :func:`_slope_by_blocks`, with several regressors (the columns of ``x``) fitted
     at once."""
-    _, block, per_block = np.unique(block, return_inverse=True, return_counts=True)
-    alone = per_block[block] < 2
-    x, y = x[~alone], y[~alone]
-    block = np.unique(block[~alone], return_inverse=True)[1]
+    x, y, block = _without_lone_pairs(x, y, block)
     n, k = x.shape
     nan = _Slopes(np.full(k, np.nan), np.full(k, np.inf), n)
     if n < YAW_MIN_SECONDS:
