@@ -124,6 +124,7 @@ TEXT_PARAMS = {
     "data.signal_maps.*.signals.*.column": "a logged channel's name (MDF4 signal, CSV column)",
     "data.signal_maps.*.signals.*.unit": "a unit's name",
     "data.signal_maps.*.source": "named in messages only (the --signal-map file)",
+    "data.signal_maps.*.local_zone": "a time zone's name, checked against the IANA database",
     "data.signal_maps.*.dbc": "read from anywhere (a CAN database)",
     "data.signal_maps.*.dbc[*]": "read from anywhere (a CAN database)",
     # per bus: the bus (a key) is only matched against the log's buses
@@ -185,3 +186,15 @@ def test_a_stage_s_params_view_pickles_with_its_guard():
     assert back.seeds == view.seeds and back.train.epochs == view.train.epochs
     with pytest.raises(ConfigError, match="stage train reads params 'adapt'"):
         back.adapt  # noqa: B018
+
+
+def test_a_signal_map_s_local_zone_must_be_a_time_zone():
+    """A logger's local clock is put on UTC in the map's local_zone: an IANA name, checked
+    when the params load (a misspelt zone would place every frame hours off)."""
+    maps = {"bus": {"reader": "mdf4", "signals": {}, "local_zone": "Europe/Berlin"}}
+    spec = load_params(paths.PARAMS, overrides={"data.signal_maps": maps}).data.signal_maps
+    assert spec["bus"].local_zone == "Europe/Berlin"
+    for bad in ("Europe/Berln", "CEST+2", "../etc/passwd"):
+        maps["bus"]["local_zone"] = bad
+        with pytest.raises(ConfigError, match="no time zone the IANA database names"):
+            load_params(paths.PARAMS, overrides={"data.signal_maps": maps})

@@ -512,13 +512,30 @@ class SignalMapSpec:
     mapping from a bus to its file(s) (``{can0: chassis.dbc, can1: [pt.dbc]}``) decodes
     each bus by its own, the bus named as the log names it (a candump interface, ASC/BLF's
     channel number; an MDF4 bus log's bus channel number). Empty: the file holds decoded
-    signals.
+    signals. ``local_zone``: the time zone (IANA, ``Europe/Berlin``) of a logger whose clock
+    is local time without a zone, so its times can be put on UTC beside a receiver's: an ASC
+    log's date line (the logging computer's clock at the measurement's start), an MDF4 file
+    whose start is marked local time; None: such times are kept as the log gives them.
     """
 
     reader: Literal["mdf4", "stream_csv"]
     signals: dict[str, ColumnSpec]
     source: str | None = None
     dbc: list[str] | str | dict[str, list[str] | str] = field(default_factory=list)
+    local_zone: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.local_zone is not None:
+            from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+            try:
+                ZoneInfo(self.local_zone)
+            except (ZoneInfoNotFoundError, ValueError):
+                where = self.source or "the signal map"
+                raise ConfigError(
+                    f"{where}: local_zone {self.local_zone!r} is no time zone the IANA "
+                    "database names (Europe/Berlin, America/Detroit, Asia/Tokyo, UTC)"
+                ) from None
 
     @property
     def dbc_buses(self) -> tuple[tuple[str, str | None], ...]:

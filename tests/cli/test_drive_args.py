@@ -94,6 +94,21 @@ def test_every_reader_is_a_format(params, tmp_path):
             assert got.data.signal_maps[fmt].source == path  # messages name the user's file
 
 
+def test_a_map_file_gives_its_loggers_time_zone(params, tmp_path):
+    """A map file beside its signals: the logging computer's time zone (an ASC log's date
+    line, local time), kept on the map; a name the IANA database lacks is refused naming
+    the file."""
+    path = tmp_path / "map.yaml"
+    assert _map(tmp_path, True, True) == str(path)  # the signals, nested, written there
+    signals = yaml.safe_load(path.read_text())["signals"]
+    path.write_text(yaml.safe_dump({"signals": signals, "local_zone": "America/Detroit"}))
+    got = with_format(params, "stream_csv", str(path))
+    assert got.data.signal_maps["stream_csv"].local_zone == "America/Detroit"
+    path.write_text(yaml.safe_dump({"signals": signals, "local_zone": "Detroit"}))
+    with pytest.raises(ConfigError, match=r"map.yaml: local_zone 'Detroit' is no time zone"):
+        with_format(params, "stream_csv", str(path))
+
+
 def test_a_format_without_its_map_or_an_unknown_one_is_refused(params, tmp_path):
     with pytest.raises(InputError) as err:
         with_format(params, "mdf4")

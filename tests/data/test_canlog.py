@@ -351,3 +351,110 @@ def test_a_refused_can_log_in_a_stream_folder_is_said_once_naming_it(tmp_path):
         read_stream_csvs(files, smap, RADIUS_M, NAME, shown, [str(tmp_path / "bus.dbc")])
     assert [p.file for p in err.value.problems] == ["can0.log"]
     assert err.value.problems[0].expected.startswith("CAN data frames")
+
+
+@pytest.mark.parametrize("zone", ["Europe/Berlin", "America/Detroit", "Asia/Kolkata"])
+def test_an_asc_log_s_date_line_in_the_map_s_zone_puts_its_frames_on_utc(
+    tmp_path, monkeypatch, zone
+):
+    """CANalyzer on a computer keeping local time: its ASC counts seconds from the
+    measurement's start, whose date line is that computer's wall clock. With the map's
+    local_zone the frames are read on UTC at the stamps they were logged at (within the
+    µs the ASC writes), whatever zone the reading machine keeps (here Asia/Tokyo); the
+    notes say the date line and the zone. Without it, as before: from the start."""
+    import time
+
+    from support.canlog import write_asc_in_zone
+
+    df = wavy_drive(30.0)
+    stamps, ids, data = can_frames(df, RADIUS_M, T0_S)
+    log = tmp_path / "bus.asc"
+    start = write_asc_in_zone(stamps, ids, data, log, zone)
+    monkeypatch.setenv("TZ", "Asia/Tokyo")
+    time.tzset()
+    try:
+        frames = read_frames(log, "bus.asc", zone)
+    finally:
+        monkeypatch.undo()
+        time.tzset()
+    np.testing.assert_allclose(frames.t_s, np.r_[start, stamps], rtol=0, atol=2e-6)
+    assert frames.clock.startswith("the ASC log's frame time stamps, s since the measurement")
+    assert f" in {zone}): Unix time, s" in frames.clock
+    plain = read_frames(log, "bus.asc")
+    np.testing.assert_allclose(plain.t_s, np.r_[start, stamps] - start, rtol=0, atol=2e-6)
+
+
+def test_an_asc_log_without_a_date_line_is_refused_where_the_map_gives_a_zone(tmp_path):
+    from support.canlog import write_asc_in_zone
+
+    df = wavy_drive(10.0)
+    stamps, ids, data = can_frames(df, RADIUS_M, T0_S)
+    log = tmp_path / "bus.asc"
+    write_asc_in_zone(stamps, ids, data, log, "UTC")
+    lines = log.read_text().splitlines(keepends=True)
+    log.write_text("".join(lines[1:]))  # the date line dropped
+    with pytest.raises(InputError) as err:
+        read_frames(log, "bus.asc", "UTC")
+    (p,) = err.value.problems
+    assert p.file == "bus.asc" and p.row is None and p.found == "none"
+    assert p.expected.startswith("a date line before the first frame")
+    assert "leave local_zone out of the map" in p.fix
+    log.write_text("date Fri Dec 37 10:15:30.123 am 2026\n" + "".join(lines[1:]))
+    with pytest.raises(InputError) as err:
+        read_frames(log, "bus.asc", "UTC")
+    (p,) = err.value.problems
+    assert p.row == 1 and "which python-can cannot read" in p.found
+    assert read_frames(log, "bus.asc").t_s.size == len(ids) + 1  # no zone: no date needed
+
+
+def test_the_real_minute_as_an_asc_log_in_local_time_beside_the_receiver_s_nmea_log(tmp_path):
+    """The RAV4's WHEEL_SPEEDS frames as CANalyzer on a computer in Detroit would log them
+    (an ASC counting from its measurement's start, its date line in local time), beside
+    its u-blox fixes as an unstamped NMEA log on UTC: with the map's local_zone the same
+    labels as the frames in a candump log on UTC (within 1e-6 m); without it, refused
+    naming the log counting from its start and the local_zone to give."""
+    from rwhonet.data.fixtimes import receiver_epochs
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from support.canlog import write_asc_in_zone
+    from support.multirate import per_second
+    from support.nmea import gga, rmc, write_nmea
+    from support.realminute import real_minute
+
+    minute = real_minute()
+    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
+    fit = receiver_epochs(tg, vg[:, 3])
+    utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
+    counts = np.round((vw * 3.6 + 67.67) / 0.01).astype(">u2")
+    wheels = np.ascontiguousarray(counts[:, [1, 0, 3, 2]]).view(np.uint8)
+    lines = []
+    for i in range(tg.size):
+        t = vg[i, 3] / 1000.0
+        lines += [gga(t, vg[i, 0], vg[i, 1], 9), rmc(t, *vg[i, [0, 1, 2, 5]])]
+    folders = {case: tmp_path / case for case in ("candump", "asc")}
+    for folder in folders.values():
+        write_nmea(folder / "gps.nmea", lines)
+    write_bus_log(utc, np.full(tw.size, 170), wheels, folders["candump"] / "can0.log")
+    write_asc_in_zone(
+        utc, np.full(tw.size, 170), wheels, folders["asc"] / "can.asc", "America/Detroit"
+    )
+    (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
+    smap = {"t": ColumnSpec("t", "s")} | {
+        f"omega_{w}": ColumnSpec(f"WHEEL_SPEED_{w.upper()}", "km/h")
+        for w in ("fl", "fr", "rl", "rr")
+    }
+    dbc = [str(tmp_path / "toyota.dbc")]
+    got = {}
+    for case, zone in (("candump", None), ("asc", "America/Detroit")):
+        files = sorted(folders[case].iterdir())
+        streams = read_stream_csvs(files, smap, RAV4_RADIUS_M, NAME, dbc=dbc, local_zone=zone)
+        got[case] = per_second(
+            resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns, RAV4_RADIUS_M
+        )
+    assert len(got["asc"]) == len(got["candump"]) == 59
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got["asc"][q], got["candump"][q], rtol=0, atol=1e-6)
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(sorted(folders["asc"].iterdir()), smap, RAV4_RADIUS_M, NAME, dbc=dbc)
+    said = str(err.value)
+    assert "gps.nmea" in said and "local_zone" in said

@@ -280,6 +280,13 @@ def test_a_canedge_drive_of_split_mf4_files_reads_as_its_frames_in_one_log(tmp_p
     assert "plus its master time: a local time (the file marks its start as local" in " ".join(
         streams.notes
     )
+    # with the map's local_zone, that local start is put on UTC: Tokyo's 9 h ahead of it
+    zoned = read_stream_csvs(
+        [local], smap, radius, "m", {local: "local.mf4"}, dbc, local_zone="Asia/Tokyo"
+    )
+    (w0,), (w1,) = streams.wheels, zoned.wheels
+    np.testing.assert_allclose(w1.t_s, w0.t_s - 9 * 3600.0, rtol=0, atol=1e-6)
+    assert "local time; in Asia/Tokyo, the map's local_zone" in " ".join(zoned.notes)
 
 
 def test_a_glitch_in_a_later_file_is_placed_in_that_file():

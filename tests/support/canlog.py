@@ -177,3 +177,34 @@ def write_candump(stamps: np.ndarray, ids: np.ndarray, data: np.ndarray, path: P
     ]
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def write_asc_in_zone(
+    stamps: np.ndarray, ids: np.ndarray, data: np.ndarray, path: Path, zone: str
+) -> float:
+    """Frames as CANalyzer on a computer whose clock keeps ``zone``'s local time logs
+    them: an ASC whose date line is the measurement's start on that clock (to the
+    millisecond, as CANoe writes it) and whose stamps are seconds since it. The start is a
+    whole millisecond 0.5 s before the first frame, where a frame of an identifier no
+    database defines (0x7FF, other traffic on the bus) is logged. Returns the start, Unix
+    seconds."""
+    from datetime import datetime
+    from zoneinfo import ZoneInfo
+
+    from can.io.asc import ASCWriter
+
+    start = np.floor((float(stamps[0]) - 0.5) * 1000.0) / 1000.0
+    first = np.zeros((1, data.shape[1]), data.dtype)
+    write_bus_log(
+        np.r_[start, stamps], np.r_[0x7FF, ids], np.vstack([first, data]), path, channel="1"
+    )
+    wall = datetime.fromtimestamp(start, ZoneInfo(zone)).replace(tzinfo=None)
+    date = ASCWriter._format_header_datetime(ASCWriter, wall)  # python-can writing it
+    lines = path.read_text().splitlines(keepends=True)
+    assert lines[0].startswith("date ")
+    lines[0] = f"date {date}\n"
+    lines = [
+        f"Begin Triggerblock {date}\n" if x.startswith("Begin Triggerblock") else x for x in lines
+    ]
+    path.write_text("".join(lines))
+    return start

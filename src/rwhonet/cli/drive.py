@@ -243,11 +243,15 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
 
     raw = read_yaml(signal_map, "a signal map: key -> {column, unit}")
     dbc: list[str] | str | dict[str, list[str] | str] = []
+    zone: str | None = None
     if isinstance(raw, dict) and "signals" in raw:
         # beside signals: the CAN databases of a log of raw frames (one, a list, or per
-        # bus), relative to the map file
+        # bus), relative to the map file; the loggers' time zone where a clock is local
         kind = list[str] | str | dict[str, list[str] | str]
         dbc = parse_value(kind, raw.get("dbc", []), f"--signal-map {signal_map} dbc")
+        zone = parse_value(
+            str | None, raw.get("local_zone"), f"--signal-map {signal_map} local_zone"
+        )
         raw = raw["signals"]
     signals = parse_value(dict[str, ColumnSpec], raw, f"--signal-map {signal_map}")
     check_signal_map(fmt, signals, with_time=fmt == "stream_csv", where=signal_map)
@@ -257,7 +261,7 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
         return [str((folder / f).resolve()) for f in ([v] if isinstance(v, str) else v)]
 
     files = {b: resolved(v) for b, v in dbc.items()} if isinstance(dbc, dict) else resolved(dbc)
-    spec = SignalMapSpec(fmt, signals, source=signal_map, dbc=files)
+    spec = SignalMapSpec(fmt, signals, source=signal_map, dbc=files, local_zone=zone)
     maps = {**data.signal_maps, fmt: spec}
     return dataclasses.replace(params, data=dataclasses.replace(data, signal_maps=maps))
 

@@ -28,12 +28,15 @@ are passed over too.
 **The clock** is the log's own time stamps, as python-can and candump give them:
 candump's and BLF's are the logging computer's clock (Unix seconds), TRC's its start time
 plus each frame's offset, ASC's seconds since the measurement's start (python-can's
-default; the ASC's date line is the logging computer's local time, no zone). A drive read
+default). An ASC's date line is that start on the logging computer's clock, local time
+without a zone: with the signal map's ``local_zone`` (:func:`asc_start`) it puts the
+frames on UTC, Unix seconds, which a receiver's log beside it can share. A drive read
 from one log keeps them as they are; its notes say which.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -124,19 +127,25 @@ def _message(acq_name: str) -> tuple[int, int, bool] | None:
     return None if match is None else (int(match[1]), int(match[2], 16), match[3] == "True")
 
 
-def read_frames(path: Path, file: str) -> Frames:
+def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
     """A CAN log's data frames: candump's by :func:`_candump`, ASC/BLF/TRC by python-can.
 
     Args:
         path: the log (its name's suffix says its format).
         file: how messages name it.
+        local_zone: the logging computer's time zone (IANA): an ASC log's stamps are then
+            put on UTC by its date line (:func:`asc_start`); other logs keep their clocks.
 
     Raises:
         InputError: no data frame in the log; a log python-can cannot read (with the
-            frames read before the damage).
+            frames read before the damage); an ASC log with ``local_zone`` and no date
+            line python-can reads.
     """
     suffix = path.suffix.lower()
     frames = _candump(path, file) if suffix == CANDUMP else _python_can(path, file, suffix)
+    if suffix == ".asc" and local_zone is not None and frames.t_s.size:
+        start, said = asc_start(path, file, local_zone)
+        frames = dataclasses.replace(frames, t_s=frames.t_s + start, clock=said)
     if not frames.t_s.size:
         example = {
             CANDUMP: "as candump -l writes them: (1436509052.249713) can0 0AA#1A2B3C4D",
@@ -385,6 +394,64 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
         np.asarray(rows, np.int64),
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
     )
+
+
+def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
+    """An ASC log's measurement start in Unix seconds, by its date line
+    (``date Fri Dec 5 10:15:30.123 am 2026``: the logging computer's clock, local time)
+    read as python-can reads it, in ``zone``; and the clock as the drive's notes say it.
+
+    Raises:
+        InputError: no date line before the first frame, or one python-can cannot read.
+    """
+    from datetime import datetime
+    from zoneinfo import ZoneInfo
+
+    from can.io.asc import ASCReader
+
+    line, at = None, None
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for row, text in enumerate(f, 1):
+            match = _ASC_DATE.match(text.strip())
+            if match is not None:
+                line, at = match["when"], row
+                break
+            if _ASC_HEADER.match(text.strip()) is None:  # past the header: no date line
+                break
+    wall = None
+    if line is not None:
+        try:  # python-can's reading (its month names, 12 and 24 h) gives the machine's epoch;
+            # back to the wall clock as written (exact but in the machine's own DST gap)
+            wall = datetime.fromtimestamp(ASCReader._datetime_to_timestamp(line))
+        except (ValueError, OverflowError, OSError):
+            wall = None
+    if wall is None:
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    at,
+                    None,
+                    "a date line before the first frame, as CANalyzer and CANoe write it "
+                    "(date Fri Dec 5 10:15:30.123 am 2026): the measurement's start, which "
+                    "the signal map's local_zone puts on UTC",
+                    f"{line!r}, which python-can cannot read" if line else "none",
+                    "give the log as the bus tool wrote it, or leave local_zone out of the "
+                    "map (the frames then keep seconds since the measurement's start)",
+                )
+            ]
+        )
+    start = wall.replace(tzinfo=ZoneInfo(zone)).timestamp()
+    said = (
+        f"the ASC log's frame time stamps, s since the measurement's start, plus its date "
+        f"line ({wall.isoformat()} in {zone}): Unix time, s"
+    )
+    return start, said
+
+
+# an ASC log's header lines (python-can's ASCReader takes the same)
+_ASC_DATE = re.compile(r"date\s+\w+\s+(?P<when>.+)", re.IGNORECASE)
+_ASC_HEADER = re.compile(r"(date\s|base\s|//|no\s+internal|internal\s|$)", re.IGNORECASE)
 
 
 def _clock(kind: str, t_s: np.ndarray) -> str:

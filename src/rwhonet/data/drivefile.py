@@ -360,7 +360,9 @@ def _read_streams(
         from rwhonet.data.mdf4 import read_mdf4
 
         spec = data.signal_maps[f.format]
-        streams = read_mdf4(f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_buses)
+        streams = read_mdf4(
+            f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_buses, spec.local_zone
+        )
     else:
         from rwhonet.data.mdf4 import is_mdf_name
         from rwhonet.data.nmea import is_nmea_name
@@ -404,7 +406,7 @@ def _read_streams(
                 shown[q] = rel(p)
                 plain.append(q)
             streams = read_stream_csvs(
-                plain, signals, radius_m, _map_name(f), shown, spec.dbc_buses
+                plain, signals, radius_m, _map_name(f), shown, spec.dbc_buses, spec.local_zone
             )
         if hidden := [p.name for p in every if p.name.startswith(".")]:
             said = f"hidden files left out (none of the drive's streams): {', '.join(hidden)}"

@@ -44,6 +44,7 @@ def read_mdf4(
     name: str = "the signal map",
     display: str | None = None,
     dbc: Databases = (),
+    local_zone: str | None = None,
 ) -> DriveStreams:
     """Read a drive's signals from an MDF4 file into streams for ``resample``.
 
@@ -56,6 +57,8 @@ def read_mdf4(
         dbc: the CAN databases that decode the file's raw CAN frames, each a file (for
             every bus) or ``(file, bus)`` (:attr:`SignalMapSpec.dbc_buses`; none: its signals
             are decoded already).
+        local_zone: the logger's time zone (:attr:`SignalMapSpec.local_zone`), for a raw
+            CAN log whose clock is local time (an ASC log's date line).
 
     Returns:
         The drive's streams, one per channel group used.
@@ -72,7 +75,7 @@ def read_mdf4(
     if not Path(path).is_file():
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
     if is_can_log_name(Path(path).name):
-        log = can_log_groups(Path(path), signal_map, radius_m, name, file, dbc)
+        log = can_log_groups(Path(path), signal_map, radius_m, name, file, dbc, False, local_zone)
         streams = build_streams(log.groups, log.clock)
         return dataclasses.replace(
             streams,
@@ -119,6 +122,7 @@ def can_log_groups(
     file: str,
     dbc: Databases,
     present_only: bool = False,
+    local_zone: str | None = None,
 ) -> CanLogGroups:
     """A raw CAN log's mapped signals, decoded by the CAN databases ``dbc``.
 
@@ -126,6 +130,8 @@ def can_log_groups(
         present_only: read the keys whose signal the databases decode from the log and
             leave the others (a log among a stream folder's CSVs, which give the rest);
             else a key whose signal is missing is refused.
+        local_zone: the logger's time zone (IANA): a clock of local time (an ASC log's
+            date line, an MDF4 bus log whose start is marked local) is put on UTC by it.
 
     Raises:
         InputError: no ``dbc``; the log or a database unreadable (:func:`_decoded`); a
@@ -145,7 +151,7 @@ def can_log_groups(
                 )
             ]
         )
-    frames = None if is_mdf_name(path.name) else read_frames(path, file)
+    frames = None if is_mdf_name(path.name) else read_frames(path, file, local_zone)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         decoded = _decoded(mdf, dbc, name, file, frames)
@@ -156,7 +162,9 @@ def can_log_groups(
         finally:
             decoded.close()
         notes = [_decoded_note(mdf, dbc)]
-        start_s, clock, said = (0.0, "", "") if frames is not None else _start(mdf.header)
+        start_s, clock, said = (
+            (0.0, "", "") if frames is not None else _start(mdf.header, local_zone)
+        )
     finally:
         mdf.close()
     if frames is None:  # an MDF4 bus log (a CANedge's split file): its times on its start
@@ -186,19 +194,27 @@ def _opened(path: Path, file: str):  # type: ignore[no-untyped-def]
     return mdf
 
 
-def _start(header) -> tuple[float, str, str]:  # type: ignore[no-untyped-def]
+def _start(header, zone: str | None = None) -> tuple[float, str, str]:  # type: ignore[no-untyped-def]
     """An MDF4 bus log's start among a stream folder's files (a CANedge's split files):
     each file's master time counts from its own start (``header.start_time``), so only the
     start makes the split files of one drive one clock, and a clock the folder's other
-    files can share. Returns the start (s), what the clock is, and the note."""
+    files can share. A start marked local time (no zone) is put on UTC in ``zone`` where
+    given. Returns the start (s), what the clock is, and the note."""
     local = bool(header.time_flags & FLAG_HD_LOCAL_TIME)
-    clock = (
-        "a local time (the file marks its start as local time, without a zone)"
-        if local
-        else "Unix time (the file's start is UTC)"
-    )
+    start = header.abs_time / 1e9
+    if local and zone is not None:
+        from zoneinfo import ZoneInfo
+
+        start = header.start_time.replace(tzinfo=ZoneInfo(zone)).timestamp()
+        clock = (
+            f"Unix time (the file marks its start as local time; in {zone}, the map's local_zone)"
+        )
+    elif local:
+        clock = "a local time (the file marks its start as local time, without a zone)"
+    else:
+        clock = "Unix time (the file's start is UTC)"
     said = f"its times are its start ({header.start_time.isoformat()}) plus its master time: "
-    return header.abs_time / 1e9, clock, said + clock
+    return start, clock, said + clock
 
 
 def _pairs(dbc: Databases) -> list[tuple[str, str | None]]:

@@ -95,6 +95,7 @@ def read_stream_csvs(
     name: str = "the signal map",
     display: Mapping[Path, str] | None = None,
     dbc: Databases = (),
+    local_zone: str | None = None,
 ) -> DriveStreams:
     """Read a drive given as one CSV per sensor stream.
 
@@ -108,6 +109,9 @@ def read_stream_csvs(
             (``can0.log``, ``drive.blf``: :mod:`rwhonet.data.canlog`); its messages are
             streams as a CSV is, their signals found by the map's names. Empty: such
             files are not the drive's.
+        local_zone: the loggers' time zone (:attr:`SignalMapSpec.local_zone`): a raw CAN
+            log's local clock (an ASC log's date line) put on UTC, as the CSVs' and a
+            receiver's times are.
 
     Returns:
         The drive's streams: one per file that holds a mapped quantity.
@@ -130,7 +134,9 @@ def read_stream_csvs(
     for path, file in buses:
         not_csv = {k: v for k, v in signal_map.items() if k not in ("t", DATE, *HEMISPHERES)}
         try:
-            decoded[file] = can_log_groups(path, not_csv, radius_m, name, file, dbc, True)
+            decoded[file] = can_log_groups(
+                path, not_csv, radius_m, name, file, dbc, True, local_zone
+            )
         except InputError as err:
             problems += err.problems
     undecoded = len(decoded) < len(buses)  # a CAN log refused: its keys' absence is said
@@ -370,7 +376,7 @@ def read_stream_csvs(
         try:
             groups += _receiver_groups(logs, signal_map, groups, set(found), name, notes, changed)
         except InputError as err:
-            problems += err.problems
+            problems += _local_clock_hint(err.problems, decoded, name, local_zone)
     elif logs and found_fix:
         notes.append(
             f"{', '.join(f for _, f in logs)}: receiver log(s), left out: the fixes are {name}'s "
@@ -516,6 +522,27 @@ def _fix_source_problems(
             )
         ]
     return []
+
+
+def _local_clock_hint(
+    problems: list[Problem], decoded: Mapping[str, CanLogGroups], name: str, zone: str | None
+) -> list[Problem]:
+    """The receiver's log refused on the stream files' clock, where a raw CAN log among them
+    keeps a local clock (an ASC log's seconds from its measurement's start, an MDF4 bus log
+    marked local time) and the map gives no ``local_zone``: each fix says how to put it on
+    UTC."""
+    local = [
+        f for f, g in decoded.items() if "measurement's start" in g.clock or "local" in g.clock
+    ]
+    if zone is not None or not local:
+        return problems
+    where = name.removesuffix(".signals")
+    hint = (
+        f"; {', '.join(local)} keeps the logging computer's local clock: give the signal map "
+        f"({where}) local_zone, that computer's time zone (Europe/Berlin), and the log's date "
+        "line puts it on UTC"
+    )
+    return [dataclasses.replace(p, fix=(p.fix or "") + hint) for p in problems]
 
 
 def _receiver_groups(
