@@ -532,7 +532,10 @@ def _local_clock_hint(
     marked local time) and the map gives no ``local_zone``: each fix says how to put it on
     UTC."""
     local = [
-        f for f, g in decoded.items() if "measurement's start" in g.clock or "local" in g.clock
+        f
+        for f, g in decoded.items()
+        if (g.clock.startswith("the ASC log's") and "measurement's start" in g.clock)
+        or "a local time" in g.clock
     ]
     if zone is not None or not local:
         return problems
