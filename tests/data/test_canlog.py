@@ -227,19 +227,13 @@ def test_a_refused_frame_is_named_by_its_message_and_line(tmp_path):
     assert f"bus.log [WheelSpeeds 0x1A0], row {at + 1}, column 'frame time stamp'" in said
 
 
-def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_path):
-    """A stream folder as a Linux logger writes it: the RAV4's WHEEL_SPEEDS frames in
-    ``can0.log`` on the computer's UTC clock (the boot clock put on UTC by the receiver's
-    own clock fit), the u-blox fixes as GGA and RMC sentences in ``gps.nmea`` without
-    stamps. The map names the DBC's signals and a ``t`` no CSV has; the log's UTC times
-    are placed by their RMC dates. The labels of the same wheel speeds in wheels.csv
-    beside the same log (test_nmea.py's unstamped case: 59 seconds, 0.354 s later in the
-    drive than the comma2k19 reader's), measured within 8.3e-8 m."""
+def _real_minute_frames():
+    """The real RAV4 minute as a logger beside its receiver has it: the WHEEL_SPEEDS frames'
+    UTC stamps (its boot clock put on UTC by the receiver's own clock fit) and bytes
+    (opendbc's Toyota layout: four big-endian counts of 0.01 km/h less 67.67, FR FL RR RL),
+    its wheel speeds (m/s), and its u-blox fixes as GGA and RMC sentences."""
     from rwhonet.data.fixtimes import receiver_epochs
-    from rwhonet.data.streamcsv import read_stream_csvs
-    from rwhonet.data.streams import resample
-    from support.multirate import per_second
-    from support.nmea import gga, rmc, write_nmea
+    from support.nmea import gga, rmc
     from support.realminute import real_minute
 
     minute = real_minute()
@@ -248,16 +242,33 @@ def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_pat
     utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
     counts = np.round((vw * 3.6 + 67.67) / 0.01).astype(">u2")
     wheels = np.ascontiguousarray(counts[:, [1, 0, 3, 2]]).view(np.uint8)
+    lines = []
+    for i in range(tg.size):
+        t = vg[i, 3] / 1000.0
+        lines += [gga(t, vg[i, 0], vg[i, 1], 9), rmc(t, *vg[i, [0, 1, 2, 5]])]
+    return utc, wheels, vw, lines
+
+
+def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_path):
+    """A stream folder as a Linux logger writes it: the RAV4's WHEEL_SPEEDS frames in
+    ``can0.log`` on the computer's UTC clock (the boot clock put on UTC by the receiver's
+    own clock fit), the u-blox fixes as GGA and RMC sentences in ``gps.nmea`` without
+    stamps. The map names the DBC's signals and a ``t`` no CSV has; the log's UTC times
+    are placed by their RMC dates. The labels of the same wheel speeds in wheels.csv
+    beside the same log (test_nmea.py's unstamped case: 59 seconds, 0.354 s later in the
+    drive than the comma2k19 reader's), measured within 8.3e-8 m."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from support.multirate import per_second
+    from support.nmea import write_nmea
+
+    utc, wheels, vw, lines = _real_minute_frames()
     folders = {}
     for case in ("can", "csv"):
         folder = tmp_path / case
-        lines = []
-        for i in range(tg.size):
-            t = vg[i, 3] / 1000.0
-            lines += [gga(t, vg[i, 0], vg[i, 1], 9), rmc(t, *vg[i, [0, 1, 2, 5]])]
         write_nmea(folder / "gps.nmea", lines)
         folders[case] = folder
-    write_bus_log(utc, np.full(tw.size, 170), wheels, folders["can"] / "can0.log")
+    write_bus_log(utc, np.full(utc.size, 170), wheels, folders["can"] / "can0.log")
     (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
     columns = {"t": utc} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
     pd.DataFrame(columns).to_csv(folders["csv"] / "wheels.csv", index=False, float_format="%.6f")
@@ -413,30 +424,19 @@ def test_the_real_minute_as_an_asc_log_in_local_time_beside_the_receiver_s_nmea_
     its u-blox fixes as an unstamped NMEA log on UTC: with the map's local_zone the same
     labels as the frames in a candump log on UTC (within 1e-6 m); without it, refused
     naming the log counting from its start and the local_zone to give."""
-    from rwhonet.data.fixtimes import receiver_epochs
     from rwhonet.data.streamcsv import read_stream_csvs
     from rwhonet.data.streams import resample
     from support.canlog import write_asc_in_zone
     from support.multirate import per_second
-    from support.nmea import gga, rmc, write_nmea
-    from support.realminute import real_minute
+    from support.nmea import write_nmea
 
-    minute = real_minute()
-    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
-    fit = receiver_epochs(tg, vg[:, 3])
-    utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
-    counts = np.round((vw * 3.6 + 67.67) / 0.01).astype(">u2")
-    wheels = np.ascontiguousarray(counts[:, [1, 0, 3, 2]]).view(np.uint8)
-    lines = []
-    for i in range(tg.size):
-        t = vg[i, 3] / 1000.0
-        lines += [gga(t, vg[i, 0], vg[i, 1], 9), rmc(t, *vg[i, [0, 1, 2, 5]])]
+    utc, wheels, _, lines = _real_minute_frames()
     folders = {case: tmp_path / case for case in ("candump", "asc")}
     for folder in folders.values():
         write_nmea(folder / "gps.nmea", lines)
-    write_bus_log(utc, np.full(tw.size, 170), wheels, folders["candump"] / "can0.log")
+    write_bus_log(utc, np.full(utc.size, 170), wheels, folders["candump"] / "can0.log")
     write_asc_in_zone(
-        utc, np.full(tw.size, 170), wheels, folders["asc"] / "can.asc", "America/Detroit"
+        utc, np.full(utc.size, 170), wheels, folders["asc"] / "can.asc", "America/Detroit"
     )
     (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
     smap = {"t": ColumnSpec("t", "s")} | {
