@@ -19,6 +19,7 @@ from typing import Any
 
 from rwhonet.cli.drive import check_drive_file
 from rwhonet.config import Params
+from rwhonet.data.drivechecks import TOLD_CHECKS
 
 
 def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
@@ -54,41 +55,25 @@ def _gain(record: dict[str, Any]) -> str:
     return f"{record['gain']:.3g} ± {record['gain_se']:.2g}"
 
 
-# each check against GNSS: its line's name, its record's key, and what it says when told
-_CHECKS: tuple[tuple[str, str, Callable[[dict[str, Any], str], str]], ...] = (
-    (
-        "tyre radius",
-        "radius",
-        lambda r, car: (
-            f"{r['implied_m']:.4g} m implied over {r['moving_s']} moving s against "
-            f"{car}'s nominal {r['nominal_m']:.4g} m: the wheel speeds' unit fits"
-        ),
+# what each check against GNSS says when told, by its record's key (the checks and
+# their names: TOLD_CHECKS)
+_TOLD: dict[str, Callable[[dict[str, Any], str], str]] = {
+    "radius": lambda r, car: (
+        f"{r['implied_m']:.4g} m implied over {r['moving_s']} moving s against "
+        f"{car}'s nominal {r['nominal_m']:.4g} m: the wheel speeds' unit fits"
     ),
-    (
-        "yaw rate",
-        "yaw_rate",
-        lambda r, _: (
-            f"turns as the GNSS course turns (gain {_gain(r)} over {r['seconds']} pairs of seconds)"
-        ),
+    "yaw_rate": lambda r, _: (
+        f"turns as the GNSS course turns (gain {_gain(r)} over {r['seconds']} pairs of seconds)"
     ),
-    (
-        "left and right wheels",
-        "wheel_sides",
-        lambda r, _: (
-            f"in their columns (rear gain {_gain(r['rear'])}, front {_gain(r['front'])}"
-            + (f"; diagonal {_gain(r['diagonal'])}" if r["diagonal"]["gain"] is not None else "")
-            + ")"
-        ),
+    "wheel_sides": lambda r, _: (
+        f"in their columns (rear gain {_gain(r['rear'])}, front {_gain(r['front'])}"
+        + (f"; diagonal {_gain(r['diagonal'])}" if r["diagonal"]["gain"] is not None else "")
+        + ")"
     ),
-    (
-        "front and rear wheels",
-        "wheel_axles",
-        lambda r, _: (
-            f"in their columns (gain {_gain(r)}, {r['tight_turns']} pairs of seconds "
-            "in tight turns)"
-        ),
+    "wheel_axles": lambda r, _: (
+        f"in their columns (gain {_gain(r)}, {r['tight_turns']} pairs of seconds in tight turns)"
     ),
-)
+}
 
 
 def render(out: dict[str, Any]) -> str:
@@ -99,10 +84,10 @@ def render(out: dict[str, Any]) -> str:
         f"valid in {out['segments']} segment(s)" + (f" (cut: {cut})" if cut else ""),
         *(f"  note: {n}" for n in out["notes"]),
     ]
-    for name, key, told in _CHECKS:
+    for key, name in TOLD_CHECKS:
         record = out[key]
         said = (
-            told(record, out["vehicle"])
+            _TOLD[key](record, out["vehicle"])
             if record.get("checked")
             else f"not told: {record.get('note', 'no reason given')}"
         )

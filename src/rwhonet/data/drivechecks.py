@@ -75,6 +75,16 @@ YAW_GLITCHES_LISTED = 10  # yaw-rate glitches listed one by one in the record (a
 # A car's rear track where none is known (predict's wheel-sides check, a car with no
 # data.vehicles entry): the check tells a sign whatever the track (it scales the gain).
 DEFAULT_TRACK_M = 1.5
+# The checks against the GNSS course whose records a drive's report carries, each as its
+# record's key and the name a summary gives it: a check that could not tell on a drive
+# (too few turns, no yaw rate) rules no mistake out there. validate's summary and
+# ``rwhonet check`` both list them from here.
+TOLD_CHECKS = (
+    ("radius", "tyre radius"),
+    ("yaw_rate", "yaw rate"),
+    ("wheel_sides", "left and right wheels"),
+    ("wheel_axles", "front and rear wheels"),
+)
 
 
 def _few_pairs_note(seconds: int) -> str:

@@ -31,7 +31,7 @@ import pyarrow as pa
 from rwhonet import contracts, paths
 from rwhonet.config import ConfigError, CutSpec, Params
 from rwhonet.data import leftout
-from rwhonet.data.drivechecks import check_drive, target_test_min_s
+from rwhonet.data.drivechecks import TOLD_CHECKS, check_drive, target_test_min_s
 from rwhonet.data.drivefile import with_label_times
 from rwhonet.data.droprows import FileRows, report_rows
 from rwhonet.data.plausibility import reversing_rows
@@ -442,14 +442,6 @@ def _totals(drives: list[dict[str, Any]], n_segments: int) -> dict[str, Any]:
     }
 
 
-# validate's checks against the GNSS course, as the summary names them: a check that could
-# not tell on a drive (too few turns, no yaw rate) rules no mistake out there
-TOLD_CHECKS = (
-    ("radius", "tyre radius"),
-    ("yaw_rate", "yaw rate"),
-    ("wheel_sides", "left and right wheels"),
-    ("wheel_axles", "front and rear wheels"),
-)
 NAMES_LISTED = 4  # drives named per check in the summary (all in the report)
 
 
