@@ -378,3 +378,30 @@ def test_the_real_rav4_minute_s_axles_are_not_told_on_a_highway():
     )
     assert found == [] and not record["checked"] and record["tight_turns"] == 0
     assert record["note"].startswith("only 0 pairs of seconds in a tight turn")
+
+
+def test_the_wheel_sides_check_integrates_each_axle_s_yaw_once(monkeypatch):
+    """validate's wheel-sides check fits each axle's yaw (its sides' gains) and the two
+    axles' yaws again beside the front less the rear (the diagonal gain): each is
+    integrated over the course's pairs once, three integrals in all, and the record is
+    what the axles' and diagonal fits give on their own."""
+    from rwhonet.data import plausibility
+    from rwhonet.data.drivechecks import side_problems
+
+    step_m = plausibility.YAW_MIN_STEP_M
+    vp = load_params().validate
+    drive = _axles_drive()
+    segments = assess(drive, vp.gnss, vp.sample_period_s).segments
+    alone = plausibility.wheel_side_gains(drive, segments, step_m, vp.sample_period_s, R_M, 1.5)
+    diagonal = plausibility.diagonal_gain(drive, segments, step_m, vp.sample_period_s, R_M, 1.5)
+    integrals = []
+    pair_angles = plausibility._pair_angles
+    monkeypatch.setattr(
+        plausibility, "_pair_angles", lambda *a: integrals.append(1) or pair_angles(*a)
+    )
+    entry = {"source_file": "V-Car.csv", "columns": {}}
+    _, record = side_problems(entry, drive, segments, vp, R_M, 1.5)
+    assert len(integrals) == 3
+    assert record["rear"]["gain"] == alone["rear"].gain
+    assert record["front"]["gain_se"] == alone["front"].gain_se
+    assert record["diagonal"]["gain"] == diagonal.gain

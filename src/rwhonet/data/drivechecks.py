@@ -57,6 +57,7 @@ from rwhonet.data.plausibility import (
     minutes_radius,
     radians_radius,
     side_mistake,
+    side_yaws,
     sign_tallies,
     stuck_wheel_runs,
     swapped_radius,
@@ -519,8 +520,12 @@ def side_problems(
         and ``misplaced`` (the two canonical columns of a diagonal pair told exchanged),
         only where they are.
     """
+    if turns is None:
+        turns = course_turns(df, segments, YAW_MIN_STEP_M, vp.sample_period_s)
+    # each axle's yaw integrated once, for the axles' gains and the diagonal's
+    sides = None if turns is None else side_yaws(df, turns, radius_m, track_m)
     gains = wheel_side_gains(
-        df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m, turns
+        df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m, turns, sides
     )
     record: dict[str, Any] = {}
     problems, told = [], []
@@ -547,7 +552,7 @@ def side_problems(
             )
         )
     diagonal = diagonal_gain(
-        df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m, turns
+        df, segments, YAW_MIN_STEP_M, vp.sample_period_s, radius_m, track_m, turns, sides
     )
     record["diagonal"] = _gain_record(diagonal)
     pair = diagonal_mistake(diagonal)

@@ -241,8 +241,13 @@ def yaw_gain(
     if turns is None:
         return YawEstimate(float("nan"), math.inf, 0, 0.0)
     x, keep = _pair_angles(turns, np.asarray(drive[c.YAW_RATE_RAD_S], dtype=np.float64))
-    x, y, block = x[keep], turns.y[keep], turns.block[keep]
-    fit = _slope_by_blocks(x, y, block)
+    return _angles_gain(turns, x, keep)
+
+
+def _angles_gain(turns: CourseTurns, x: np.ndarray, keep: np.ndarray) -> YawEstimate:
+    """:func:`yaw_gain`'s fit of the course's turns on a yaw rate's angles over the pairs
+    (:func:`_pair_angles`), over the pairs that have one."""
+    fit = _slope_by_blocks(x[keep], turns.y[keep], turns.block[keep])
     span = float(np.ptp(np.r_[0.0, np.cumsum(fit.y)]))
     return YawEstimate(fit.gain, fit.gain_se, fit.n, span)
 
@@ -345,6 +350,32 @@ AXLES: dict[str, tuple[str, str]] = {
 }
 
 
+@dataclass(frozen=True)
+class SideYaws:
+    """Each axle's wheel yaw, ``(ω_right − ω_left) r / track``, integrated over each pair of
+    seconds of the course's turns (:func:`side_yaws`): what :func:`wheel_side_gains` and
+    :func:`diagonal_gain` both fit, integrated once where a drive goes through both."""
+
+    turns: CourseTurns
+    angle: dict[str, np.ndarray]  # per axle (AXLES), its yaw over each pair, rad
+    keep: dict[str, np.ndarray]  # per axle, the pairs that have it (no row without)
+
+
+def side_yaws(
+    drive: Mapping[str, np.ndarray], turns: CourseTurns, radius_m: float, track_m: float
+) -> SideYaws:
+    """Each axle's wheel yaw over the pairs of ``turns`` (:class:`SideYaws`), integrated as
+    :func:`yaw_gain` integrates a yaw rate."""
+    angle, keep = {}, {}
+    for axle, (left, right) in AXLES.items():
+        yaw = (np.asarray(drive[right], np.float64) - np.asarray(drive[left], np.float64)) * (
+            radius_m / track_m
+        )
+        angle[axle], keep[axle] = _pair_angles(turns, yaw)
+    return SideYaws(turns, angle, keep)
+
+
+@np.errstate(invalid="ignore", divide="ignore")
 def wheel_side_gains(
     drive: Mapping[str, np.ndarray],
     segments: Sequence[Segment],
@@ -353,6 +384,7 @@ def wheel_side_gains(
     radius_m: float,
     track_m: float,
     turns: CourseTurns | None = None,
+    sides: SideYaws | None = None,
 ) -> dict[str, YawEstimate]:
     """The gain of the GNSS course's turn on each axle's wheel yaw, over the valid segments.
 
@@ -372,20 +404,20 @@ def wheel_side_gains(
         radius_m: the car's nominal tyre radius.
         track_m: its track width (the rear's serves both axles: only the sign is told).
         turns: the course's turns (:func:`course_turns`), where already computed.
+        sides: the axles' yaws over those turns (:func:`side_yaws` of the same drive,
+            turns, radius and track), where already computed; None: computed here.
 
     Returns:
-        Per axle (``rear``, ``front``) its estimate.
+        Per axle (``rear``, ``front``) its estimate (``gain`` NaN with fewer than
+        :data:`YAW_MIN_SECONDS` pairs).
     """
-    if turns is None:
-        turns = course_turns(drive, segments, min_step_m, sample_period_s)
-    out = {}
-    for axle, (left, right) in AXLES.items():
-        yaw = (np.asarray(drive[right], np.float64) - np.asarray(drive[left], np.float64)) * (
-            radius_m / track_m
-        )
-        turned = {c.T_S: drive[c.T_S], c.YAW_RATE_RAD_S: yaw}
-        out[axle] = yaw_gain(turned, segments, min_step_m, sample_period_s, turns)
-    return out
+    if sides is None:
+        if turns is None:
+            turns = course_turns(drive, segments, min_step_m, sample_period_s)
+        if turns is None:
+            return {axle: YawEstimate(float("nan"), math.inf, 0, 0.0) for axle in AXLES}
+        sides = side_yaws(drive, turns, radius_m, track_m)
+    return {axle: _angles_gain(sides.turns, sides.angle[axle], sides.keep[axle]) for axle in AXLES}
 
 
 # One diagonal pair of wheel columns exchanged (:func:`diagonal_gain`): told where the
@@ -418,6 +450,7 @@ def diagonal_gain(
     radius_m: float,
     track_m: float,
     turns: CourseTurns | None = None,
+    sides: SideYaws | None = None,
 ) -> DiagonalEstimate:
     """Whether one diagonal pair of wheel columns holds each other's speeds.
 
@@ -446,25 +479,24 @@ def diagonal_gain(
     with the fourth term too, -0.18..0.11.
 
     Args:
-        as :func:`wheel_side_gains`.
+        as :func:`wheel_side_gains` (``sides``: the axles' yaws, where already integrated).
 
     Returns:
         The estimate (``gain`` NaN with fewer than :data:`YAW_MIN_SECONDS` pairs).
     """
-    if turns is None:
-        turns = course_turns(drive, segments, min_step_m, sample_period_s)
-    if turns is None:
-        return DiagonalEstimate(float("nan"), math.inf, 0)
+    if sides is None:
+        if turns is None:
+            turns = course_turns(drive, segments, min_step_m, sample_period_s)
+        if turns is None:
+            return DiagonalEstimate(float("nan"), math.inf, 0)
+        sides = side_yaws(drive, turns, radius_m, track_m)
+    turns = sides.turns
     w = {k: np.asarray(drive[k], np.float64) for k in (*AXLES["front"], *AXLES["rear"])}
-    scale = radius_m / track_m
     (fl, fr), (rl, rr) = AXLES["front"], AXLES["rear"]
-    rates = (
-        scale * (w[fr] - w[fl]),
-        scale * (w[rr] - w[rl]),
-        0.5 * scale * ((w[fl] + w[fr]) - (w[rl] + w[rr])),
-    )
-    angles, keep = zip(*(_pair_angles(turns, rate) for rate in rates), strict=True)
-    kept = np.logical_and.reduce(keep)
+    ahead = 0.5 * (radius_m / track_m) * ((w[fl] + w[fr]) - (w[rl] + w[rr]))
+    front_less_rear, ahead_keep = _pair_angles(turns, ahead)
+    angles = (sides.angle["front"], sides.angle["rear"], front_less_rear)
+    kept = sides.keep["front"] & sides.keep["rear"] & ahead_keep
     x = np.stack([angle[kept] for angle in angles], axis=1)
     sides = 0.5 * (x[:, 0] + x[:, 1])
     x = np.c_[x, sides * np.abs(sides)]  # the wheels overstating the harder turns more
