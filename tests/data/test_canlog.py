@@ -390,9 +390,10 @@ def test_an_asc_log_s_date_line_in_the_map_s_zone_puts_its_frames_on_utc(
         time.tzset()
     np.testing.assert_allclose(frames.t_s, np.r_[start, stamps], rtol=0, atol=2e-6)
     assert frames.clock.startswith("the ASC log's frame time stamps, s since the measurement")
-    assert f" in {zone}): Unix time, s" in frames.clock
+    assert f" in {zone}): Unix time, s" in frames.clock and not frames.local_start
     plain = read_frames(log, "bus.asc")
     np.testing.assert_allclose(plain.t_s, np.r_[start, stamps] - start, rtol=0, atol=2e-6)
+    assert plain.local_start  # from a start on the laptop's clock: no UTC stream shares it
 
 
 def test_an_asc_log_without_a_date_line_is_refused_where_the_map_gives_a_zone(tmp_path):

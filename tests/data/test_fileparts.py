@@ -287,6 +287,16 @@ def test_a_canedge_drive_of_split_mf4_files_reads_as_its_frames_in_one_log(tmp_p
     (w0,), (w1,) = streams.wheels, zoned.wheels
     np.testing.assert_allclose(w1.t_s, w0.t_s - 9 * 3600.0, rtol=0, atol=1e-6)
     assert "local time; in Asia/Tokyo, the map's local_zone" in " ".join(zoned.notes)
+    # the flag a receiver's UTC log beside it reads, to name local_zone in its refusal: a
+    # local start without the zone (a start on UTC, or put on it, is no local clock)
+    from rwhonet.data.mdf4 import can_log_groups
+
+    flagged = {
+        zone: can_log_groups(local, smap, radius, "m", "local.mf4", dbc, True, zone).local_clock
+        for zone in (None, "Asia/Tokyo")
+    }
+    utc = can_log_groups(files[0], smap, radius, "m", "f.mf4", dbc, True).local_clock
+    assert flagged == {None: True, "Asia/Tokyo": False} and not utc
 
 
 def test_a_glitch_in_a_later_file_is_placed_in_that_file():

@@ -78,6 +78,9 @@ class Frames:
             number among the log's frames in ASC, BLF, TRC (python-can gives no lines).
         passed: what was passed over (error, remote, CAN XL frames; lines that are no
             frame), counted; empty when nothing was.
+        local_start: the stamps count from a start the log gives only on the logging
+            computer's local clock (an ASC log's date line), not put on UTC (no
+            ``local_zone``): a clock no UTC stream can share.
     """
 
     t_s: np.ndarray
@@ -90,6 +93,7 @@ class Frames:
     clock: str
     rows: np.ndarray
     passed: str = ""
+    local_start: bool = False
 
     def place(self, acq_name: str, comment: str, n: int) -> tuple[str, np.ndarray] | None:
         """The frames a decoded message's ``n`` samples came from, by the name asammdf
@@ -143,9 +147,12 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
     """
     suffix = path.suffix.lower()
     frames = _candump(path, file) if suffix == CANDUMP else _python_can(path, file, suffix)
-    if suffix == ".asc" and local_zone is not None and frames.t_s.size:
-        start, said = asc_start(path, file, local_zone)
-        frames = dataclasses.replace(frames, t_s=frames.t_s + start, clock=said)
+    if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
+        if local_zone is None:
+            frames = dataclasses.replace(frames, local_start=True)
+        else:
+            start, said = asc_start(path, file, local_zone)
+            frames = dataclasses.replace(frames, t_s=frames.t_s + start, clock=said)
     if not frames.t_s.size:
         example = {
             CANDUMP: "as candump -l writes them: (1436509052.249713) can0 0AA#1A2B3C4D",
@@ -454,10 +461,15 @@ _ASC_DATE = re.compile(r"date\s+\w+\s+(?P<when>.+)", re.IGNORECASE)
 _ASC_HEADER = re.compile(r"(date\s|base\s|//|no\s+internal|internal\s|$)", re.IGNORECASE)
 
 
+def _counts_unix(t_s: np.ndarray) -> bool:
+    """Whether a log's time stamps are Unix seconds (its first in 2000-2100), not seconds
+    since its measurement's start."""
+    return bool(t_s.size) and 946_684_800.0 <= float(t_s[0]) < 4_102_444_800.0
+
+
 def _clock(kind: str, t_s: np.ndarray) -> str:
     """What a log's time stamps count, as the drive's notes say it."""
-    unix = t_s.size and 946_684_800.0 <= float(t_s[0]) < 4_102_444_800.0  # 2000-2100
-    counts = "Unix time, s" if unix else "s since the measurement's start"
+    counts = "Unix time, s" if _counts_unix(t_s) else "s since the measurement's start"
     return f"the {kind} log's frame time stamps ({counts})"
 
 

@@ -106,12 +106,16 @@ class CanLogGroups:
         clock: what the log's time stamps count.
         notes: the decode (databases, frame IDs defined, frames and buses).
         changed: frames passed over (error, remote, damaged lines), for predict to say.
+        local_clock: its stamps are on the logging computer's local clock, which no
+            ``local_zone`` put on UTC (an ASC log's seconds from its measurement's start,
+            an MDF4 bus log whose start is marked local time).
     """
 
     groups: list[Group]
     clock: str
     notes: list[str]
     changed: list[str]
+    local_clock: bool = False
 
 
 def can_log_groups(
@@ -162,8 +166,8 @@ def can_log_groups(
         finally:
             decoded.close()
         notes = [_decoded_note(mdf, dbc)]
-        start_s, clock, said = (
-            (0.0, "", "") if frames is not None else _start(mdf.header, local_zone)
+        start_s, clock, said, local = (
+            (0.0, "", "", False) if frames is not None else _start(mdf.header, local_zone)
         )
     finally:
         mdf.close()
@@ -171,12 +175,18 @@ def can_log_groups(
         groups = [
             Group(g.name, g.file, g.t_s + start_s, g.channels, g.sources, g.rows) for g in groups
         ]
-        return CanLogGroups(groups, clock, [f"{file}: {n}" for n in [*notes, said]], [])
+        return CanLogGroups(groups, clock, [f"{file}: {n}" for n in [*notes, said]], [], local)
     buses = ", ".join(frames.buses)
     notes.append(f"{frames.t_s.size} data frames on {len(frames.buses)} bus(es) ({buses})")
     notes.append(f"the time stamps are {frames.clock}")
     passed = [f"{file}: passed over: {frames.passed}"] if frames.passed else []
-    return CanLogGroups(groups, frames.clock, [f"{file}: {n}" for n in notes] + passed, passed)
+    return CanLogGroups(
+        groups,
+        frames.clock,
+        [f"{file}: {n}" for n in notes] + passed,
+        passed,
+        frames.local_start,
+    )
 
 
 def is_mdf_name(name: str) -> bool:
@@ -194,12 +204,13 @@ def _opened(path: Path, file: str):  # type: ignore[no-untyped-def]
     return mdf
 
 
-def _start(header, zone: str | None = None) -> tuple[float, str, str]:  # type: ignore[no-untyped-def]
+def _start(header, zone: str | None = None) -> tuple[float, str, str, bool]:  # type: ignore[no-untyped-def]
     """An MDF4 bus log's start among a stream folder's files (a CANedge's split files):
     each file's master time counts from its own start (``header.start_time``), so only the
     start makes the split files of one drive one clock, and a clock the folder's other
     files can share. A start marked local time (no zone) is put on UTC in ``zone`` where
-    given. Returns the start (s), what the clock is, and the note."""
+    given. Returns the start (s), what the clock is, the note, and whether it stays on
+    local time (marked local, no ``zone``)."""
     local = bool(header.time_flags & FLAG_HD_LOCAL_TIME)
     start = header.abs_time / 1e9
     if local and zone is not None:
@@ -214,7 +225,7 @@ def _start(header, zone: str | None = None) -> tuple[float, str, str]:  # type: 
     else:
         clock = "Unix time (the file's start is UTC)"
     said = f"its times are its start ({header.start_time.isoformat()}) plus its master time: "
-    return start, clock, said + clock
+    return start, clock, said + clock, local and zone is None
 
 
 def _pairs(dbc: Databases) -> list[tuple[str, str | None]]:

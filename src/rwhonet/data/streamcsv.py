@@ -376,7 +376,7 @@ def read_stream_csvs(
         try:
             groups += _receiver_groups(logs, signal_map, groups, set(found), name, notes, changed)
         except InputError as err:
-            problems += _local_clock_hint(err.problems, decoded, name, local_zone)
+            problems += _local_clock_hint(err.problems, decoded, name)
     elif logs and found_fix:
         notes.append(
             f"{', '.join(f for _, f in logs)}: receiver log(s), left out: the fixes are {name}'s "
@@ -525,19 +525,14 @@ def _fix_source_problems(
 
 
 def _local_clock_hint(
-    problems: list[Problem], decoded: Mapping[str, CanLogGroups], name: str, zone: str | None
+    problems: list[Problem], decoded: Mapping[str, CanLogGroups], name: str
 ) -> list[Problem]:
     """The receiver's log refused on the stream files' clock, where a raw CAN log among them
     keeps a local clock (an ASC log's seconds from its measurement's start, an MDF4 bus log
     marked local time) and the map gives no ``local_zone``: each fix says how to put it on
     UTC."""
-    local = [
-        f
-        for f, g in decoded.items()
-        if (g.clock.startswith("the ASC log's") and "measurement's start" in g.clock)
-        or "a local time" in g.clock
-    ]
-    if zone is not None or not local:
+    local = [f for f, g in decoded.items() if g.local_clock]
+    if not local:
         return problems
     where = name.removesuffix(".signals")
     hint = (
