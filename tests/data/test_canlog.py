@@ -227,6 +227,27 @@ def test_a_refused_frame_is_named_by_its_message_and_line(tmp_path):
     assert f"bus.log [WheelSpeeds 0x1A0], row {at + 1}, column 'frame time stamp'" in said
 
 
+@pytest.mark.parametrize("suffix", [".asc", ".blf", ".trc"])
+def test_a_refused_frame_of_a_python_can_log_is_named_by_its_number(tmp_path, suffix):
+    """As above for the logs python-can reads, which give no lines: the refusal names the
+    frame's number among the log's frames."""
+    stamps, ids, data = can_frames(wavy_drive(10.0), RADIUS_M, T0_S)
+    at = next(i for i, x in enumerate(ids) if x == 0x1A0 and i > 200)
+    stamps = stamps.copy()
+    stamps[at] -= (
+        5.0  # a wheel frame stamped 5 s back (after the log's start, which ASC counts from)
+    )
+    log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}")
+    (tmp_path / "bus.dbc").write_text(DBC)
+    from rwhonet.data.streams import resample
+
+    file = log.name
+    streams = read_mdf4(log, _signals(), RADIUS_M, NAME, file, [str(tmp_path / "bus.dbc")])
+    with pytest.raises(InputError) as err:
+        resample(streams, nominal_radius_m=RADIUS_M)
+    assert f"{file} [WheelSpeeds 0x1A0], row {at + 1}, column 'frame time stamp'" in str(err.value)
+
+
 def _real_minute_frames():
     """The real RAV4 minute as a logger beside its receiver has it: the WHEEL_SPEEDS frames'
     UTC stamps (its boot clock put on UTC by the receiver's own clock fit) and bytes

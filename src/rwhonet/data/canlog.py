@@ -382,9 +382,9 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
     data = np.zeros((len(payloads), width), np.uint8)
     if payloads:
         flat = np.frombuffer(b"".join(payloads), np.uint8)
-        rows = np.repeat(np.arange(len(payloads)), lengths)
+        at = np.repeat(np.arange(len(payloads)), lengths)  # each byte's frame
         cols = np.arange(flat.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
-        data[rows, cols] = flat
+        data[at, cols] = flat
     buses, first_at, channel = np.unique(np.array(chans, dtype=object).astype(str), True, True)
     order = np.argsort(first_at)
     rank = np.empty_like(order)
