@@ -28,10 +28,14 @@ are passed over too.
 **The clock** is the log's own time stamps, as python-can and candump give them:
 candump's and BLF's are the logging computer's clock (Unix seconds), TRC's its start time
 plus each frame's offset, ASC's seconds since the measurement's start (python-can's
-default). An ASC's date line is that start on the logging computer's clock, local time
-without a zone: with the signal map's ``local_zone`` (:func:`asc_start`) it puts the
-frames on UTC, Unix seconds, which a receiver's log beside it can share. A drive read
-from one log keeps them as they are; its notes say which.
+default). An ASC whose header says ``timestamps relative`` stamps each event with the
+time since the event before it (Vector's ASC format), which python-can reads as if
+absolute: its stamps are summed (:class:`_SummedStamps`, to the nanosecond the format
+writes), every stamped event line counting, and python-can reads the sums. An ASC's
+date line is that start on the logging computer's clock, local time without a zone:
+with the signal map's ``local_zone`` (:func:`asc_start`) it puts the frames on UTC, Unix
+seconds, which a receiver's log beside it can share. A drive read from one log keeps
+them as they are; its notes say which.
 """
 
 from __future__ import annotations
@@ -347,11 +351,14 @@ def _stamps(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
 def _python_can(path: Path, file: str, suffix: str) -> Frames:
     """An ASC, BLF or TRC log's data frames, read by python-can a frame at a time."""
     import can
+    from can.io.asc import ASCReader
 
     t, ids, ext, lengths, payloads, chans, rows = [], [], [], [], [], [], []
     skipped = {"error frames": 0, "remote frames": 0}
+    kind = suffix.lstrip(".").upper()
+    relative = suffix == ".asc" and asc_header(path).relative
     try:
-        with can.LogReader(path) as reader:
+        with ASCReader(_SummedStamps(path)) if relative else can.LogReader(path) as reader:
             for row, msg in enumerate(reader, 1):
                 if msg.is_error_frame:
                     skipped["error frames"] += 1
@@ -371,7 +378,7 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
             [
                 Problem.unreadable(
                     file,
-                    f"a {suffix.lstrip('.').upper()} CAN log python-can reads",
+                    f"a {kind} CAN log python-can reads",
                     err,
                     f"export the log again from the bus tool (it failed {read})",
                 )
@@ -397,7 +404,8 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
         data,
         (rank[channel.ravel()] + 1).astype(np.uint8) if len(t) else np.zeros(0, np.uint8),
         [str(b) for b in buses[order]],
-        _clock(suffix.lstrip(".").upper(), np.asarray(t, np.float64)),
+        _clock(kind, np.asarray(t, np.float64))
+        + (", each event's time since the one before, summed" if relative else ""),
         np.asarray(rows, np.int64),
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
     )
@@ -416,15 +424,8 @@ def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
 
     from can.io.asc import ASCReader
 
-    line, at = None, None
-    with open(path, encoding="utf-8", errors="replace") as f:
-        for row, text in enumerate(f, 1):
-            match = _ASC_DATE.match(text.strip())
-            if match is not None:
-                line, at = match["when"], row
-                break
-            if _ASC_HEADER.match(text.strip()) is None:  # past the header: no date line
-                break
+    head = asc_header(path)
+    line, at = head.date, head.date_row
     wall = None
     if line is not None:
         try:  # python-can's reading (its month names, 12 and 24 h) gives the machine's epoch;
@@ -458,7 +459,65 @@ def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
 
 # an ASC log's header lines (python-can's ASCReader takes the same)
 _ASC_DATE = re.compile(r"date\s+\w+\s+(?P<when>.+)", re.IGNORECASE)
+_ASC_BASE = re.compile(r"base\s+(hex|dec)\s+timestamps\s+(?P<stamps>absolute|relative)", re.I)
 _ASC_HEADER = re.compile(r"(date\s|base\s|//|no\s+internal|internal\s|$)", re.IGNORECASE)
+# an ASC event line's time stamp: seconds, a point, its fraction (CANoe writes 6 or 9 digits)
+_ASC_STAMP = re.compile(r"(?P<lead>\s*)(?P<s>\d+)\.(?P<frac>\d+)(?P<rest>\s.*)", re.DOTALL)
+
+
+@dataclass(frozen=True)
+class AscHeader:
+    """What an ASC log's header says (:func:`asc_header`)."""
+
+    date: str | None  # the date line's date, as written (None: no date line)
+    date_row: int | None  # its line, 1-based
+    relative: bool  # ``timestamps relative``: each event stamped since the one before
+
+
+def asc_header(path: Path) -> AscHeader:
+    """The header lines of an ASC log before its first event, as python-can's ASCReader
+    reads them."""
+    date, row, relative = None, None, False
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for at, text in enumerate(f, 1):
+            line = text.strip()
+            if (match := _ASC_DATE.match(line)) is not None and date is None:
+                date, row = match["when"], at
+            elif (match := _ASC_BASE.match(line)) is not None:
+                relative = match["stamps"].lower() == "relative"
+            elif _ASC_HEADER.match(line) is None:  # the first event: the header is over
+                break
+    return AscHeader(date, row, relative)
+
+
+class _SummedStamps:
+    """An ASC log of relative time stamps (each event's time since the event before it)
+    read line by line as one of absolute stamps: each event line's stamp replaced by the
+    sum of the stamps so far, in integer nanoseconds (no float drift over millions of
+    events), for python-can's ``ASCReader`` to read. Lines without a stamp (the header,
+    trigger blocks, comments) pass as they are."""
+
+    def __init__(self, path: Path) -> None:
+        self._file = open(path, encoding="utf-8", errors="replace")  # closed by the reader (close)
+        self._ns = 0
+
+    # python-can takes an object with ``read`` and ``write`` as an opened file
+    read = write = None
+
+    def __iter__(self) -> _SummedStamps:
+        return self
+
+    def __next__(self) -> str:
+        line = next(self._file)
+        match = _ASC_STAMP.fullmatch(line)
+        if match is None:
+            return line
+        self._ns += int(match["s"]) * 1_000_000_000 + int(match["frac"][:9].ljust(9, "0"))
+        seconds, ns = divmod(self._ns, 1_000_000_000)
+        return f"{match['lead']}{seconds}.{ns:09d}{match['rest']}"
+
+    def close(self) -> None:
+        self._file.close()
 
 
 def _counts_unix(t_s: np.ndarray) -> bool:
