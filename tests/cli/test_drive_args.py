@@ -109,6 +109,21 @@ def test_a_map_file_gives_its_loggers_time_zone(params, tmp_path):
         with_format(params, "stream_csv", str(path))
 
 
+def test_a_map_file_s_misspelt_key_beside_its_signals_is_refused(params, tmp_path):
+    """A key beside ``signals`` that the map file does not take (``local_zon``) would be
+    dropped in silence, and with it the zone an ASC log needs: refused, naming the file,
+    the key and the keys it takes."""
+    path = tmp_path / "map.yaml"
+    _map(tmp_path, True, True)
+    signals = yaml.safe_load(path.read_text())["signals"]
+    path.write_text(yaml.safe_dump({"signals": signals, "local_zon": "America/Detroit"}))
+    with pytest.raises(ConfigError) as err:
+        with_format(params, "stream_csv", str(path))
+    said = str(err.value)
+    assert f"--signal-map {path}: unknown key(s) 'local_zon' beside signals" in said
+    assert said.endswith("expected signals, dbc, local_zone")
+
+
 def test_a_format_without_its_map_or_an_unknown_one_is_refused(params, tmp_path):
     with pytest.raises(InputError) as err:
         with_format(params, "mdf4")

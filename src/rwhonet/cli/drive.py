@@ -191,6 +191,10 @@ def with_car(
     return params
 
 
+# a --signal-map file's keys where it has more than its signals
+MAP_FILE_KEYS = ("signals", "dbc", "local_zone")
+
+
 def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Params:
     """``params`` that can read ``--format``: a known format, or a reader with a map file.
 
@@ -247,6 +251,12 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
     if isinstance(raw, dict) and "signals" in raw:
         # beside signals: the CAN databases of a log of raw frames (one, a list, or per
         # bus), relative to the map file; the loggers' time zone where a clock is local
+        unknown = sorted(str(k) for k in raw if k not in MAP_FILE_KEYS)
+        if unknown:  # a misspelt key (local_zon) would otherwise be dropped in silence
+            raise ConfigError(
+                f"--signal-map {signal_map}: unknown key(s) {', '.join(map(repr, unknown))} "
+                f"beside signals; expected {', '.join(MAP_FILE_KEYS)}"
+            )
         kind = list[str] | str | dict[str, list[str] | str]
         dbc = parse_value(kind, raw.get("dbc", []), f"--signal-map {signal_map} dbc")
         zone = parse_value(
