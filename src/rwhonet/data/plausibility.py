@@ -153,6 +153,13 @@ YAW_FLAT_SPAN_RAD = math.pi / 2  # a flat yaw rate is refused once the course sw
 # noise's) does not see them: `predict`'s first tries on the built-in V-Delta1 (the paper
 # world's), 84-144 pairs of seconds over which the course swung 0.9 deg, gave -1.6 to -1.2
 # ± 0.4-0.6 and refused a right gyro; 20 pairs later, the course 5 deg round, 1.005 ± 0.034.
+# A wider standard error does not mend it: Newey-West's (Bartlett, 3-30 pairs of lags)
+# gives 0.47-0.59 where white noise's gives 0.55 on those tries, and less than white
+# noise's once the car turns (consecutive pairs share a chord; benchmarks/yaw_se.py). The
+# pairs' residuals are not what is short of independence at up to 30 lags: what misleads
+# the fit on a straight wanders more slowly (the gyro's bias, the fixes' smoothed error,
+# over minutes), which no estimate from a few minutes of pairs can size. Only a course
+# that turns puts a signal above it.
 YAW_TELL_SPAN_RAD = math.radians(10.0)
 
 
