@@ -112,11 +112,12 @@ def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "sentences", [("GGA", "RMC"), ("GGA",), ("RMC",), ("GNS", "RMC"), ("GNS",), ("GLL",)]
+    "sentences",
+    [("GGA", "RMC"), ("GGA",), ("RMC",), ("GNS", "RMC"), ("GNS",), ("GLL",), ("GGA", "ZDA")],
 )
 def test_utc_times_on_a_unix_clock(tmp_path, sentences):
     """No stamps: the wheels' clock in Unix seconds, the receiver's UTC times placed on it
-    with RMC's date, or (GGA alone) the day nearest the wheels' start: the labels of the
+    with RMC's or ZDA's date, or (GGA alone) the day nearest the wheels' start: the labels of the
     same fixes in gnss.csv, within the ddmm.mmmmmm rounding (2 mm). The fixes' times are
     written to 0.01 s, as receivers write them, in both."""
     tables, _ = _drive()
@@ -133,8 +134,11 @@ def test_utc_times_on_a_unix_clock(tmp_path, sentences):
     _same(got.assign(t_s=got["t_s"] - DAY_S), _reference(tmp_path, exact), 0.002)
     said = " ".join(streams.notes)
     assert ("RMC dates" in said) == ("RMC" in sentences)
-    assert ("no RMC date" in said) == ("RMC" not in sentences)
+    assert ("ZDA dates" in said) == ("ZDA" in sentences)
+    assert ("no RMC or ZDA date" in said) == ("RMC" not in sentences and "ZDA" not in sentences)
     read = [k for k in ("GGA", "RMC", "GNS", "GLL") if k in sentences]  # as the note counts
+    if "ZDA" in sentences:  # no fix: it dates the epoch of its time
+        assert "; 1199 ZDA sentences, 1199 dating an epoch of their time" in said
     assert f"({', '.join(f'1199 {k}' for k in read)} sentences), 1199 with a fix" in said
     gnss = next(s for s in streams.streams if s.name == "gps.nmea")
     assert (c.SPEED_GNSS_M_S in gnss.channels) == ("RMC" in sentences)
@@ -380,6 +384,40 @@ def test_a_log_across_midnight_is_continuous_and_contradicting_dates_are_refused
     with pytest.raises(InputError) as err:
         _log(tmp_path, wrong, "b.nmea")
     assert "b.nmea, row 9, column 'RMC date'" in str(err.value)
+
+
+def test_zda_dates_the_epoch_of_its_time_and_is_checked_against_rmc(tmp_path):
+    """A receiver set to GGA and ZDA (no RMC): ZDA's day, month and year date the epoch of
+    its time, across midnight as RMC's do. A ZDA at a time no fix has dates nothing, makes
+    no epoch; ZDA alone is no fix. A ZDA that contradicts the RMC dates, or holds no date,
+    is refused naming its line and the ZDA date."""
+    from support.nmea import zda
+
+    t0 = DAY_S + 86400.0 - 1.5  # 23:59:58.5 on 11 March 2019
+    lines = [s for i in range(4) for s in (gga(t0 + i, 52.4, -1.5, 9), zda(t0 + i))]
+    log = _log(tmp_path, [zda(t0 - 0.5), *lines])  # the first at a time of no fix
+    assert log.tod_s.size == 4 and log.dated_by == "ZDA dates"
+    np.testing.assert_allclose(log.t_utc_s, t0 + np.arange(4))
+    assert "; 5 ZDA sentences, 4 dating an epoch of their time" in " ".join(log.notes)
+    both = [
+        s for i in range(4) for s in (gga(t0 + i, 52.4, -1.5, 9), rmc(t0 + i, 52.4, -1.5, 1, 0))
+    ]
+    log = _log(tmp_path, [*both, zda(t0 + 3)], "both.nmea")
+    assert log.dated_by == "RMC and ZDA dates" and log.day_s == DAY_S
+    with pytest.raises(InputError) as err:  # a day later than its time
+        _log(tmp_path, [*both, zda(t0 + 3 + 86400.0)], "late.nmea")
+    (p,) = err.value.problems
+    assert (p.file, p.row, p.column) == ("late.nmea", 9, "ZDA date")
+    assert p.expected.startswith("the date of the log's earlier sentences (RMC 110319, line 2)")
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, [*lines[:2], sentence("GPZDA,235958.50,32,03,2019,,")], "bad.nmea")
+    (p,) = err.value.problems
+    assert (p.file, p.row, p.column) == ("bad.nmea", 3, "ZDA date")
+    assert p.expected.startswith("a date in ZDA's day, month and year fields")
+    assert p.found.startswith("'32,03,2019'")
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, [zda(t0), zda(t0 + 1)], "alone.nmea")
+    assert "expected NMEA 0183 GGA, RMC, GNS or GLL sentences" in str(err.value)
 
 
 def test_a_file_without_gga_or_rmc_is_refused(tmp_path):

@@ -79,6 +79,13 @@ def gll(t_s: float, lat: float, lon: float, status="A", mode="A", talker="GP") -
     return sentence(f"{talker}GLL,{la},{ns},{lo},{ew},{hhmmss(t_s)},{status},{mode}")
 
 
+def zda(t_s: float, talker="GP") -> str:
+    """ZDA: the UTC time and date (day, month, four-digit year), the local zone's hours and
+    minutes left empty, as receivers write them."""
+    day = datetime.fromtimestamp(math.floor(t_s / 86400.0) * 86400.0, UTC)
+    return sentence(f"{talker}ZDA,{hhmmss(t_s)},{day:%d},{day:%m},{day:%Y},,")
+
+
 def nmea_lines(
     gnss: pd.DataFrame,
     utc_s: np.ndarray,
@@ -87,7 +94,7 @@ def nmea_lines(
     other: bool = True,
     stamp_format: str = "{:.6f},",
 ) -> list[str]:
-    """The receiver's lines for each fix: the ``sentences`` (GGA, GNS, RMC, GLL) at the
+    """The receiver's lines for each fix: the ``sentences`` (GGA, GNS, RMC, GLL, ZDA) at the
     fix's UTC time (s since 1970),
     a GSV between (passed over by the reader), each line after the logger's stamp where
     ``stamps`` (written by ``stamp_format``)."""
@@ -108,6 +115,8 @@ def nmea_lines(
             out.append(rmc(t, lat[i], lon[i], abs(step[i]), 0.0))
         if "GLL" in sentences:
             out.append(gll(t, lat[i], lon[i]))
+        if "ZDA" in sentences:
+            out.append(zda(t))
         lines += [prefix + s for s in out]
     return lines
 

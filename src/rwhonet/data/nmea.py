@@ -16,7 +16,10 @@ puts it on the stream files' clock.
 - ``GNS`` (v3.0+; the multi-constellation fix some receivers send in place of GGA): UTC
   time, latitude and longitude, a mode letter per constellation (``AN``: GPS autonomous,
   GLONASS none), the satellites used, the altitude above mean sea level in metres;
-- ``GLL``: latitude and longitude, UTC time, status and, from v2.3, a mode letter.
+- ``GLL``: latitude and longitude, UTC time, status and, from v2.3, a mode letter;
+- ``ZDA``: UTC time and date (day, month, four-digit year), no fix: its date dates the
+  epoch of its time (a receiver set to GGA and ZDA, as survey and RTK receivers often
+  are, gives no RMC), checked against the RMC dates where both come.
 
 Every other sentence (GSV, GSA, VTG, a receiver's proprietary ``$P...``) is passed over.
 Sentences of one epoch (the same UTC time) are one fix: the position from GGA where the
@@ -42,7 +45,7 @@ its characters is dropped (a byte lost on the serial line), so is a sentence cut
 logger that lost power) and one without a UTC time (a receiver still searching); blank
 lines, ``#`` comments and bytes that are no text are passed over. The notes count each.
 
-**The clock.** A sentence carries the receiver's UTC time of day, and RMC its date. A line
+**The clock.** A sentence carries the receiver's UTC time of day, and RMC and ZDA its date. A line
 may also begin with the logger's own stamp before the ``$`` (``1712345678.123 $GPGGA,...``,
 ``12.345,$GPRMC,...``): where every epoch has one, the stamps are its times on the
 logger's clock, as a CSV stream's time column is. Otherwise the UTC times are placed on
@@ -93,13 +96,15 @@ GGA_FIXES = (b"1", b"2", b"3", b"4", b"5", b"9")
 # simulator are none
 RMC_FIXES = (b"A", b"D", b"P", b"R", b"F")
 # the sentences read, by their code in the scan
-KINDS = (b"GGA", b"RMC", b"GNS", b"GLL")
-GGA, RMC, GNS, GLL = range(len(KINDS))
+KINDS = (b"GGA", b"RMC", b"GNS", b"GLL", b"ZDA")
+GGA, RMC, GNS, GLL, ZDA = range(len(KINDS))
+FIX_KINDS = (GGA, RMC, GNS, GLL)  # the sentences that make an epoch (ZDA only dates one)
 # fields a sentence needs (its talker and type the first): up to GGA's and GNS's
-# altitude, RMC's date, GLL's status
-FIELDS_NEEDED = np.array([10, 10, 10, 7])
+# altitude, RMC's date, GLL's status, ZDA's year
+FIELDS_NEEDED = np.array([10, 10, 10, 7, 5])
 # where each gives the UTC time (GLL after its position)
-TIME_FIELD = np.array([1, 1, 1, 5])
+TIME_FIELD = np.array([1, 1, 1, 5, 1])
+ZDA_DATE = "%d,%m,%Y"  # ZDA's day, month and year fields, as the sentence writes them
 # which sentence's position an epoch takes where it has several
 POSITION_ORDER = (GGA, GNS, RMC, GLL)
 # a logger's stamp before the sentence: separated by spaces, a comma, a semicolon, a tab,
@@ -143,8 +148,8 @@ class FixLog:
         file: the log as messages name it.
         tod_s: each epoch's UTC time of day, s, made continuous across midnight (a day
             added where the time steps back from the day's last hour into the next's first).
-        day_s: the first epoch's UTC date as s since 1970 (from RMC), or None (no valid
-            RMC gave a date).
+        day_s: the first epoch's UTC date as s since 1970 (from RMC or ZDA), or None (no
+            valid RMC and no ZDA gave a date).
         stamps: each epoch's logger stamp as written (the first sentence's), or None
             where not every epoch has one.
         channels: signal-map key (``lat``, ``lon``, ``n_sats``, ``height``,
@@ -157,7 +162,7 @@ class FixLog:
         dropped: the sentences and lines passed over, counted (empty: none), which
             ``rwhonet predict`` says too.
         unstamped: the lines of the epochs without a logger stamp, where others have one.
-        dated_by: what gave the date (``RMC dates``; a UBX log's ``NAV-PVT dates``,
+        dated_by: what gave the date (``RMC dates``, ``ZDA dates``; a UBX log's ``NAV-PVT dates``,
             ``NAV-TIMEUTC dates``, ``NAV-TIMEGPS weeks``).
         kind: ``NMEA``, or ``UBX`` (a binary log: no logger stamps).
         rates: the receiver's yaw rate where its log gives one (a UBX log's ESF-INS).
@@ -233,7 +238,7 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
     passed("cut", row_of[~enough])  # a line cut short
     passed("no time", row_of[enough & (time == b"")])
     use = np.flatnonzero(enough & (time != b""))
-    if not use.size:
+    if not np.isin(kinds[use], FIX_KINDS).any():  # no fix sentence (ZDA alone dates none)
         raise InputError(
             [
                 Problem(
@@ -483,18 +488,22 @@ def _fixes(
     passed,
 ) -> FixLog:
     """The sentences ``use`` (their UTC time cells ``times``) gathered into epochs by UTC
-    time, their fields converted column by column: one fix an epoch."""
+    time, their fields converted column by column: one fix an epoch; a ZDA dates the
+    epoch of its time."""
     problems: list[Problem] = []
     tod_s = _times_of_day(times, rows[use], file, problems)
     timed = np.isfinite(tod_s)  # a time that is no time: refused below, with the rest
     use, tod_s = use[timed], tod_s[timed]
-    if not use.size:
+    if not np.isin(kinds[use], FIX_KINDS).any():
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     # an epoch's sentences by their UTC time: a sentence written again or late (a logger's
     # buffer sent twice) joins its epoch wherever it is in the log; a time of day far
     # back from the sentence before is the next day's
     day = np.concatenate([[0], np.cumsum(np.diff(tod_s) < -_NEW_DAY_S)])
     key = day * 86_400_000 + np.round(tod_s * 1000.0).astype(np.int64)
+    zda = kinds[use] == ZDA  # no fix: each dates the epoch of its time, if there is one
+    zda_sent, zda_key = use[zda], key[zda]
+    use, tod_s, key = use[~zda], tod_s[~zda], key[~zda]
     _, first_at, inverse = np.unique(key, return_index=True, return_inverse=True)
     order = np.argsort(first_at, kind="stable")  # epochs as they first appear
     rank = np.empty_like(order)
@@ -513,7 +522,7 @@ def _fixes(
         passed("again", rows[use[at[again]]])  # the same epoch's sentence twice
         return epochs, use[at[once]]
 
-    of = {kind: firsts(kind) for kind in range(len(KINDS))}
+    of = {kind: firsts(kind) for kind in FIX_KINDS}
     lat, lon = np.full(n, np.nan), np.full(n, np.nan)
     sats, height = np.full(n, np.nan), np.full(n, np.nan)
     speed, course = np.full(n, np.nan), np.full(n, np.nan)
@@ -558,7 +567,7 @@ def _fixes(
             if kind == GGA:  # GGA names the altitude's unit; GNS's is metres
                 alt[~np.isin(np.char.upper(fields.column(10, sent[empty])), [b"M", b""])] = np.nan
             height[at] = alt
-    date_at, date_cells = np.zeros(0, np.int64), np.zeros(0, "S1")
+    dated: list[_Dates] = []
     r_at, r_sent = of[RMC]
     if r_at.size:
         r_rows = rows[r_sent]
@@ -568,15 +577,17 @@ def _fixes(
         speed[r_at] = np.where(r_valid, knots * KNOT_M_S, np.nan)
         course[r_at] = np.where(r_valid, cog, np.nan)
         dates = fields.column(9, r_sent)
-        dated = r_valid & (dates != b"")
-        date_at, date_cells = r_at[dated], dates[dated]
+        has = r_valid & (dates != b"")
+        dated.append(_Dates("RMC", r_at[has], dates[has], DDMMYY, r_rows[has]))
+    if zda_sent.size:
+        dated.append(_zda_dates(fields, zda_sent, zda_key, key[first_at[order]], rows))
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     lat[~valid] = np.nan
     lon[~valid] = np.nan
     tod, said = unwrap_clock(tod, "epoch")
     notes = [f"{file}: {s}" for s in said]
-    first_day = _first_day(date_at, date_cells, tod, epoch_rows, file)
+    first_day, dated_by = _first_day(dated, tod, file)
     channels = {
         "lat": lat,
         "lon": lon,
@@ -602,6 +613,7 @@ def _fixes(
         f"{file}: an NMEA log: {n} epochs ("
         + ", ".join(f"{of[k][0].size} {KINDS[k].decode()}" for k in of if of[k][0].size)
         + f" sentences), {int(np.isfinite(lat).sum())} with a fix"
+        + _zda_said(dated, zda_sent.size)
         + _passed_over(counts, first).replace(" (", ", passed over: (", 1)
     )
     return FixLog(
@@ -615,7 +627,41 @@ def _fixes(
         notes,
         _passed_over(counts, first)[2:-1],  # " (...)" without its brackets
         epoch_rows[[x is None for x in stamps]] if any(stamps) else np.zeros(0, np.int64),
+        dated_by,
     )
+
+
+@dataclass(frozen=True)
+class _Dates:
+    """The dates one kind of sentence gives its epochs (:func:`_first_day`)."""
+
+    kind: str  # RMC, ZDA
+    at: np.ndarray  # the epochs dated
+    cells: np.ndarray  # each one's date as the sentence writes it (ZDA's three fields)
+    unit: str  # how to read it: DDMMYY, ZDA_DATE
+    rows: np.ndarray  # the dating sentences' lines
+
+
+def _zda_dates(
+    fields: _Fields, sent: np.ndarray, keys: np.ndarray, epoch_keys: np.ndarray, rows: np.ndarray
+) -> _Dates:
+    """The ZDA sentences ``sent`` (their epochs' ``keys``) as the dates of the epochs of
+    the same UTC time (``epoch_keys``); a ZDA at a time no fix has, or without its date,
+    dates none."""
+    day, month, year = (fields.column(i, sent) for i in (2, 3, 4))
+    order = np.argsort(epoch_keys)
+    at = np.minimum(np.searchsorted(epoch_keys[order], keys), max(order.size - 1, 0))
+    hit = (epoch_keys[order][at] == keys) & (day != b"") & (month != b"") & (year != b"")
+    cells = np.char.add(np.char.add(np.char.add(np.char.add(day, b","), month), b","), year)
+    return _Dates("ZDA", order[at[hit]], cells[hit], ZDA_DATE, rows[sent[hit]])
+
+
+def _zda_said(dated: Sequence[_Dates], n: int) -> str:
+    """The log note's words on its ZDA sentences (none: nothing)."""
+    if not n:
+        return ""
+    used = sum(d.at.size for d in dated if d.kind == "ZDA")
+    return f"; {n} ZDA sentences, {used} dating an epoch of their time"
 
 
 def _valid(kind: int, fields: _Fields, sent: np.ndarray) -> np.ndarray:
@@ -664,27 +710,44 @@ def _times_of_day(
     return seconds
 
 
-def _first_day(
-    at: np.ndarray, cells: np.ndarray, tod: np.ndarray, rows: np.ndarray, file: str
-) -> float | None:
-    """The first epoch's UTC date (s since 1970) from the valid RMC dates, checked to agree.
+def _first_day(dated: Sequence[_Dates], tod: np.ndarray, file: str) -> tuple[float | None, str]:
+    """The first epoch's UTC date (s since 1970) from the valid RMC and ZDA dates, checked
+    to agree, and what gave it (``RMC dates``, ``ZDA dates``, ``RMC and ZDA dates``).
 
-    Each dated epoch (``at``, its date ``cells``) gives the date of the log's first day
-    (its date less the days the time of day was carried across midnight); they must all
-    give one.
+    Each dated epoch (its date as its sentence writes it) gives the date of the log's
+    first day (its date less the days the time of day was carried across midnight); they
+    must all give one.
     """
-    if not at.size:
-        return None
-    # a log holds a date or two: each parsed once
-    texts, inverse = np.unique(cells, return_inverse=True)
-    inverse = inverse.ravel()
-    dates = parse_dates([x.decode("ascii") for x in texts], DDMMYY)
-    if dates.bad:
-        i = int(np.flatnonzero(inverse == dates.bad[0][0])[0])
-        why = dates.bad[0][1]
-        raise InputError([Problem(file, int(rows[at[i]]), "RMC date", "a date as ddmmyy", why)])
-    days_in = np.floor(tod[at] / 86400.0) * 86400.0
-    first = dates.seconds[inverse] - days_in
+    firsts, cells, rows, kinds = [], [], [], []
+    for d in dated:
+        if not d.at.size:
+            continue
+        # a log holds a date or two: each parsed once
+        texts, inverse = np.unique(d.cells, return_inverse=True)
+        inverse = inverse.ravel()
+        dates = parse_dates([x.decode("ascii", "replace") for x in texts], d.unit)
+        if dates.bad:
+            i = int(np.flatnonzero(inverse == dates.bad[0][0])[0])
+            raise InputError(
+                [
+                    Problem(
+                        file,
+                        int(d.rows[i]),
+                        f"{d.kind} date",
+                        "a date in ZDA's day, month and year fields (11,03,2019)"
+                        if d.kind == "ZDA"
+                        else "a date as ddmmyy",
+                        dates.bad[0][1],
+                    )
+                ]
+            )
+        firsts.append(dates.seconds[inverse] - np.floor(tod[d.at] / 86400.0) * 86400.0)
+        cells += [x.decode("ascii", "replace") for x in d.cells.tolist()]
+        rows.append(d.rows)
+        kinds += [d.kind] * d.at.size
+    if not firsts:
+        return None, "RMC dates"
+    first, line = np.concatenate(firsts), np.concatenate(rows)
     wrong = np.flatnonzero(first != first[0])
     if wrong.size:
         i = int(wrong[0])
@@ -692,16 +755,17 @@ def _first_day(
             [
                 Problem(
                     file,
-                    int(rows[at[i]]),
-                    "RMC date",
-                    f"the date of the log's earlier sentences ({cells[0].decode()}, line "
-                    f"{int(rows[at[0]])}) carried on by its UTC times",
-                    repr(cells[i].decode()),
+                    int(line[i]),
+                    f"{kinds[i]} date",
+                    f"the date of the log's earlier sentences ({kinds[0]} {cells[0]}, line "
+                    f"{int(line[0])}) carried on by its UTC times",
+                    repr(cells[i]),
                     "give the drive one receiver's log, in the order it was written",
                 )
             ]
         )
-    return float(first[0])
+    by = sorted(set(kinds), key=("RMC", "ZDA").index)
+    return float(first[0]), " and ".join(by) + " dates"
 
 
 UNIX_FROM_S = 946_684_800.0  # 2000-01-01 UTC: a stream clock in s from here on is Unix time
@@ -748,7 +812,7 @@ def on_clock(
     Where every epoch has the logger's stamp (and the map has no ``date`` column, which a
     stamp lacks), the stamps are the times, read in the map's ``t`` unit as a time
     column's cells. Otherwise the receiver's UTC times are placed: on a UTC clock with
-    the RMC date (a log without one takes the day that puts its first fix nearest the
+    the RMC or ZDA date (a log without one takes the day that puts its first fix nearest the
     stream files' start), on a time-of-day clock as they are, and on seconds below two
     days (IO-VNBD's time of day) where the receiver's times of day cover at least half of
     the stream files' span.
@@ -832,8 +896,8 @@ def on_clock(
     start = min(float(np.nanmin(t)) for t in t_s if np.isfinite(t).any())
     day = round((start - log.tod_s[0]) / 86400.0) * 86400.0
     note = (
-        f"{log.file}: the receiver's UTC times, on the stream files' UTC; no RMC date, so the "
-        "day is the one that puts the first fix nearest the stream files' start"
+        f"{log.file}: the receiver's UTC times, on the stream files' UTC; no RMC or ZDA date, so "
+        "the day is the one that puts the first fix nearest the stream files' start"
     )
     return _shared(log, day + log.tod_s, t_s, "utc"), "UTC time", note
 
