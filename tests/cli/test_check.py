@@ -111,3 +111,47 @@ def test_json_of_a_refused_drive_and_an_unknown_car_are_clear_errors(tmp_path, c
     assert "--vehicle van: not a car params.yaml knows" in err and "--nominal-radius" in err
     assert main(["check", "--drive", str(drive), "--vehicle", "van", *CAR]) == 0
     assert capsys.readouterr().out.endswith("validate would accept it as van's drive\n")
+
+
+def test_a_canedge_log_the_logger_packed_is_refused_saying_how_to_unpack_it(tmp_path, capsys):
+    """A CANedge set to compress (``.MFC``) or encrypt (``.MFE``, ``.MFM``) its MDF4 log
+    files, which asammdf cannot open: in a stream folder beside the receiver's log (where
+    it was left out, and the drive then refused for wheels it did not find) and given
+    alone as an ``mdf4`` drive (refused as an unreadable MDF4), each is refused naming
+    the file, how it was packed and the maker's converter, exit 2."""
+    from rwhonet.sim.streams import StreamTables
+    from support.canlog import DBC, stream_frames, write_mdf_bus_log
+    from support.nmea import nmea_lines
+    from support.stream_corpus import RADIUS_M, good_tables
+
+    day = 1_552_262_400.0
+    good = good_tables()
+    stamps, ids, data = stream_frames(StreamTables(good.wheels, good.gnss.iloc[:0]), RADIUS_M, day)
+    folder = tmp_path / "LOG"
+    folder.mkdir()
+    half = stamps.size // 2
+    write_mdf_bus_log(stamps[:half], ids[:half], data[:half], folder / "00000001.MF4")
+    write_mdf_bus_log(stamps[half:], ids[half:], data[half:], folder / "00000002.MF4")
+    (folder / "00000002.MF4").rename(folder / "00000002.MFC")  # as the logger names it
+    (folder / "gps.nmea").write_text("\r\n".join(nmea_lines(good.gnss, day + good.gnss["t_s"])))
+    (tmp_path / "v.dbc").write_text(DBC)
+    wheels = [
+        f"  omega_{w}: {{column: WhlSpd_{w.upper()}, unit: km/h}}" for w in ("fl", "fr", "rl", "rr")
+    ]
+    smap = tmp_path / "bus.yaml"
+    smap.write_text("dbc: v.dbc\nsignals:\n  t: {column: t, unit: s}\n" + "\n".join(wheels) + "\n")
+    car = ["--nominal-radius", str(RADIUS_M)]
+    fmt = ["--format", "stream_csv", "--signal-map", str(smap)]
+    assert main(["check", "--drive", str(folder), *fmt, *car]) == 2
+    said = capsys.readouterr().err
+    assert "00000002.MFC: expected an MDF4 log as asammdf reads it (.MF4)" in said
+    assert "found a CANedge log file the logger compressed (.MFC)" in said
+    assert "CSS Electronics' MDF converter (mdf2finalized" in said
+    (folder / "00000002.MFC").rename(tmp_path / "00000002.MFE")
+    one = ["--format", "mdf4", "--signal-map", str(smap.with_name("one.yaml"))]
+    fixes = ["  lat: {column: Latitude, unit: deg}", "  lon: {column: Longitude, unit: deg}"]
+    smap.with_name("one.yaml").write_text("dbc: v.dbc\nsignals:\n" + "\n".join(wheels + fixes))
+    assert main(["check", "--drive", str(tmp_path / "00000002.MFE"), *one, *car]) == 2
+    said = capsys.readouterr().err
+    assert "found a CANedge log file the logger encrypted (.MFE)" in said
+    assert "the device's passwords.json" in said

@@ -364,7 +364,7 @@ def _read_streams(
             f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_buses, spec.local_zone
         )
     else:
-        from rwhonet.data.mdf4 import is_mdf_name
+        from rwhonet.data.mdf4 import canedge_packed, canedge_packed_problem, is_mdf_name
         from rwhonet.data.nmea import is_nmea_name
         from rwhonet.data.streamcsv import read_stream_csvs
         from rwhonet.data.ubx import is_ubx_name
@@ -384,10 +384,15 @@ def _read_streams(
                 is_csv_name(name := without_rotation(p.name))
                 or is_nmea_name(name)
                 or is_ubx_name(name)
-                or (spec.dbc_files and (is_can_log_name(name) or is_mdf_name(name)))
+                or (
+                    spec.dbc_files
+                    and (is_can_log_name(name) or is_mdf_name(name) or canedge_packed(name))
+                )
             )
         )
         files = [p for p in every if not p.name.startswith(".")]
+        if packed_logs := [(p, how) for p in files if (how := canedge_packed(p.name))]:
+            raise InputError([canedge_packed_problem(rel(p), how) for p, how in packed_logs])
         signals = spec.signals
         with scratch_dir("unpacked") as scratch:
             plain, shown, packed = [], {}, []

@@ -34,6 +34,9 @@ CLOCK = "the MDF4 file's master time (s since the measurement start)"
 # CAN databases: each a file decoding every bus, or (file, bus) decoding that bus alone
 Databases = Sequence[str | tuple[str, str | None]]
 MDF_SUFFIXES = (".mf4", ".mdf")
+# A CANedge's own packing of its MDF4 log files (CSS Electronics' suffixes), which asammdf
+# does not read: only the maker's converters unpack them.
+CANEDGE_PACKED = {".mfc": "compressed", ".mfe": "encrypted", ".mfm": "compressed and encrypted"}
 FLAG_HD_LOCAL_TIME = 1  # MDF4's HDBLOCK time flag: the start is local time, not UTC
 
 
@@ -74,6 +77,8 @@ def read_mdf4(
     file = display or str(path)
     if not Path(path).is_file():
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
+    if (how := canedge_packed(Path(path).name)) is not None:
+        raise InputError([canedge_packed_problem(file, how)])
     if is_can_log_name(Path(path).name):
         log = can_log_groups(Path(path), signal_map, radius_m, name, file, dbc, False, local_zone)
         streams = build_streams(log.groups, log.clock)
@@ -186,6 +191,26 @@ def can_log_groups(
         [f"{file}: {n}" for n in notes] + passed,
         passed,
         frames.local_start,
+    )
+
+
+def canedge_packed(name: str) -> str | None:
+    """How a CANedge packed a log file, by its name (``00000001.MFC``: ``compressed``), or
+    None where it did not."""
+    return CANEDGE_PACKED.get(Path(without_suffix(name)).suffix.lower())
+
+
+def canedge_packed_problem(file: str, how: str) -> Problem:
+    """A CANedge log file the logger packed (:data:`CANEDGE_PACKED`), refused with how to
+    unpack it."""
+    return Problem(
+        file,
+        None,
+        None,
+        "an MDF4 log as asammdf reads it (.MF4)",
+        f"a CANedge log file the logger {how} ({Path(without_suffix(file)).suffix})",
+        "turn it into a plain .MF4 with CSS Electronics' MDF converter (mdf2finalized; an "
+        "encrypted file needs the device's passwords.json), and give that",
     )
 
 
