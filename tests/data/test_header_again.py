@@ -231,3 +231,45 @@ def test_a_stream_csv_with_its_header_again_reads_as_the_file_without_it(tmp_pat
             np.testing.assert_array_equal(got.drive.columns[name], values)
         assert any("wheels.csv: " + NOTE + " 1 data row(s) (1501)" in n for n in got.drive.notes)
         assert any(NOTE in n for n in got.lost)  # said by predict too, as a 10 Hz file's
+
+
+@pytest.mark.parametrize("change", ["reordered", "added"])
+def test_a_stream_csv_whose_logger_restarted_with_other_columns_is_refused_at_that_line(
+    tmp_path, change
+):
+    """A logger that restarted with another configuration, appending to its file: the
+    header line again with two wheels' columns in the other order (the rows after it
+    would be read into each other's columns) or with a column added (every row after it
+    one cell wider). Refused at that line, naming it and how to split the file (first,
+    before the wider rows after it); split as it says (two parts of the stream, each
+    under its own header), the folder reads as the clean drive."""
+    from support.stream_corpus import folder_of, read_case, write_good
+
+    write_good("csv", tmp_path / "clean")
+    clean = read_case("csv", tmp_path / "clean")
+    write_good("csv", tmp_path / change)
+    path = folder_of("csv", tmp_path / change) / "wheels.csv"
+    lines = path.read_text().splitlines()
+    head = lines[0].split(",")
+    if change == "reordered":
+        order = [0, 2, 1, 3, 4]  # front right before front left
+        second = [",".join(head[i] for i in order)]
+        second += [",".join(x.split(",")[i] for i in order) for x in lines[1501:]]
+    else:
+        second = [lines[0] + ",Brake"] + [x + ",0" for x in lines[1501:]]
+    path.write_text("\n".join([*lines[:1501], *second]) + "\n")
+    with pytest.raises(InputError) as err:
+        read_case("csv", tmp_path / change)
+    p, *after = err.value.problems  # added: the rows after it, a cell wider, listed after it
+    assert all(q.expected.startswith("5 comma-separated") for q in after) and bool(after) == (
+        change == "added"
+    )
+    assert (p.file, p.row, p.column) == ("wheels.csv", 1501, None)
+    assert p.found.startswith("a header line again with other columns or another order: ")
+    assert second[0].split(",")[1] in p.found
+    assert p.fix.startswith("split the file at this row, each part under its own header")
+    path.write_text("\n".join(lines[:1501]) + "\n")  # split as the fix says
+    path.with_name("wheels_2.csv").write_text("\n".join(second) + "\n")
+    got = read_case("csv", tmp_path / change)
+    for name, values in clean.drive.columns.items():
+        np.testing.assert_array_equal(got.drive.columns[name], values)

@@ -44,7 +44,7 @@ import io
 import itertools
 import re
 import sys
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,7 +58,7 @@ import pyarrow.csv as pacsv
 from rwhonet.data import canonical as c
 from rwhonet.data.compressed import MAGIC
 from rwhonet.data.headers import header_key, unit_name
-from rwhonet.data.problems import RowTally, no_data_rows, unreadable_file
+from rwhonet.data.problems import ROWS_LISTED, RowTally, no_data_rows, unreadable_file
 from rwhonet.errors import InputError, Problem
 
 # The cells pyarrow takes for a missing value: canonical.MISSING_CELLS in every case (pyarrow
@@ -1118,6 +1118,70 @@ def _parse_block(
     return values, bad, [cells[i] for i in bad[:50]]
 
 
+def _cell_names(line: bytes | str) -> list[str]:
+    """A header line's column names as a restarted header is compared with them: each
+    cell without spaces around it, in lower case."""
+    text = line.decode("utf-8", "replace") if isinstance(line, bytes) else line
+    return [x.strip().lower() for x in text.strip().removeprefix("\ufeff").split(",")]
+
+
+def _is_header_like(cells: Sequence[str], names: Sequence[str]) -> bool:
+    """Whether a row's cells are a header line's (a logger that restarted with another
+    configuration): none a number, and at least half of them names of the file's header."""
+    cells = [x.strip().lower() for x in cells]
+    if not any(cells) or any(_is_number(x) for x in cells if x):
+        return False
+    return 2 * sum(x in set(names) for x in cells) >= len(cells)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _headers_in_another_order(
+    parsed: Mapping[int, tuple[np.ndarray, np.ndarray, list[str]]],
+    rows: np.ndarray,
+    wanted: Mapping[int, str],
+    names: Sequence[str],
+) -> list[tuple[int, str]]:
+    """The rows of a block whose wanted cells are all names of the file's header, not each
+    its own column's: the header line again with its columns in another order (or
+    renamed), whose rows after it a reader by the first header would put in the wrong
+    columns. Returns each such row with its cells, as the row shows them."""
+    cells: dict[int, dict[int, str]] = {}
+    for pos, (_, bad, found) in parsed.items():
+        for r, x in zip(rows[bad].tolist(), found, strict=False):
+            cells.setdefault(r, {})[pos] = x
+    out = []
+    for r, by_pos in cells.items():
+        if len(by_pos) < len(wanted):
+            continue
+        own = all(by_pos[pos].strip().lower() == wanted[pos].strip().lower() for pos in wanted)
+        if not own and _is_header_like(list(by_pos.values()), names):
+            out.append((r, ",".join(by_pos[pos] for pos in sorted(by_pos))))
+    return out
+
+
+def _restarted_problem(file: str, row: int, text: str) -> Problem:
+    """A header line again with other columns (:func:`_is_header_like`)."""
+    return Problem(
+        file,
+        row,
+        None,
+        "the header's columns, in its order, in every row",
+        f"a header line again with other columns or another order: {text[:80]!r} (a "
+        "logger that restarted with another configuration, or files of two configurations "
+        "joined); the rows after it cannot be read by the first header",
+        "split the file at this row, each part under its own header: a stream folder reads "
+        "a stream's parts (wheels_1.csv, wheels_2.csv) as one stream; a 10 Hz drive file's "
+        "parts are two drives",
+    )
+
+
 def _read_numeric_slow(
     path: Path,
     n_columns: int,
@@ -1142,6 +1206,8 @@ def _read_numeric_slow(
     skipped = head.skipped
     again_set = set(again.tolist())
     skipped_again: list[int] = []
+    header_names = _cell_names(head.header)
+    restarted: list[tuple[int, str]] = []  # a header line again, with other columns
 
     def on_invalid_row(row: pacsv.InvalidRow) -> str:
         # Single-threaded, pyarrow knows the row number; it counts the header's lines.
@@ -1149,6 +1215,9 @@ def _read_numeric_slow(
         bad_rows.append(r)
         if r in again_set:  # the header's line again, narrower than the rows (a trailing
             skipped_again.append(r)  # cell): a NaN row put back for it at the end
+            return "skip"
+        if _is_header_like(row.text.split(","), header_names):
+            restarted.append((r, row.text))
             return "skip"
         rows_tally.add([r], [f"{row.actual_columns} column(s): {row.text[:60]!r}"])
         return "skip"
@@ -1176,14 +1245,18 @@ def _read_numeric_slow(
             if rows.size:
                 next_row = int(rows[-1]) + 1
             repeated = np.isin(rows, again) if again_set else None
-            for pos in wanted:
-                values, bad, found = _parse_block(batch.column(names[pos]), repeated)
+            parsed = {pos: _parse_block(batch.column(names[pos]), repeated) for pos in wanted}
+            moved = _headers_in_another_order(parsed, rows, wanted, header_names)
+            restarted += moved
+            for pos, (values, bad, found) in parsed.items():
                 header = wanted[pos].strip().lower()
+                keep = ~np.isin(rows[bad], [r for r, _ in moved])
                 cells_tally[pos].add(
-                    rows[bad],
+                    rows[bad][keep],
                     [
                         repr(x) + (" (the header again)" if x.strip().lower() == header else "")
-                        for x in found
+                        for x, k in zip(found, keep, strict=False)
+                        if k
                     ],
                 )
                 chunks[pos].append(values)
@@ -1204,7 +1277,8 @@ def _read_numeric_slow(
             ),
             EXPORT_CSV,
         )
-    problems = rows_tally.problems()
+    problems = [_restarted_problem(file, r, text) for r, text in sorted(restarted)[:ROWS_LISTED]]
+    problems += rows_tally.problems()
     for tally in cells_tally.values():
         problems += tally.problems()
     if unreadable is not None:
