@@ -273,3 +273,21 @@ def test_a_stream_csv_whose_logger_restarted_with_other_columns_is_refused_at_th
     got = read_case("csv", tmp_path / change)
     for name, values in clean.drive.columns.items():
         np.testing.assert_array_equal(got.drive.columns[name], values)
+
+
+def test_a_10_hz_file_s_header_again_in_another_order_is_refused_by_ingest_and_predict(tmp_path):
+    """An IO-VNBD file whose logger restarted with the latitude and the time in each
+    other's places: ingest's reader and predict's (block by block) refuse it at that line
+    alone, in the same words; the header again in its own order is still dropped."""
+    path = write_iovnbd(wavy_drive(30.0), tmp_path / "V-T.csv")
+    lines = path.read_text().splitlines()
+    head = lines[0].split(",")
+    order = [0, 2, 1, *range(3, len(head))]  # Lat before Time
+    second = [",".join(head[i] for i in order)]
+    second += [",".join(x.split(",")[i] for i in order) for x in lines[151:]]
+    path.write_text("\n".join([*lines[:151], *second]) + "\n")
+    for err in refusals(path):
+        (p,) = err.problems
+        assert (p.row, p.column) == (151, None), p
+        assert p.found.startswith("a header line again with other columns or another order")
+        assert p.fix.startswith("split the file at this row")

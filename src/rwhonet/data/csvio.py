@@ -1118,14 +1118,14 @@ def _parse_block(
     return values, bad, [cells[i] for i in bad[:50]]
 
 
-def _cell_names(line: bytes | str) -> list[str]:
+def cell_names(line: bytes | str) -> list[str]:
     """A header line's column names as a restarted header is compared with them: each
     cell without spaces around it, in lower case."""
     text = line.decode("utf-8", "replace") if isinstance(line, bytes) else line
     return [x.strip().lower() for x in text.strip().removeprefix("\ufeff").split(",")]
 
 
-def _is_header_like(cells: Sequence[str], names: Sequence[str]) -> bool:
+def is_header_like(cells: Sequence[str], names: Sequence[str]) -> bool:
     """Whether a row's cells are a header line's (a logger that restarted with another
     configuration): none a number, and at least half of them names of the file's header."""
     cells = [x.strip().lower() for x in cells]
@@ -1161,13 +1161,13 @@ def _headers_in_another_order(
         if len(by_pos) < len(wanted):
             continue
         own = all(by_pos[pos].strip().lower() == wanted[pos].strip().lower() for pos in wanted)
-        if not own and _is_header_like(list(by_pos.values()), names):
+        if not own and is_header_like(list(by_pos.values()), names):
             out.append((r, ",".join(by_pos[pos] for pos in sorted(by_pos))))
     return out
 
 
-def _restarted_problem(file: str, row: int, text: str) -> Problem:
-    """A header line again with other columns (:func:`_is_header_like`)."""
+def restarted_problem(file: str, row: int, text: str) -> Problem:
+    """A header line again with other columns (:func:`is_header_like`)."""
     return Problem(
         file,
         row,
@@ -1206,7 +1206,7 @@ def _read_numeric_slow(
     skipped = head.skipped
     again_set = set(again.tolist())
     skipped_again: list[int] = []
-    header_names = _cell_names(head.header)
+    header_names = cell_names(head.header)
     restarted: list[tuple[int, str]] = []  # a header line again, with other columns
 
     def on_invalid_row(row: pacsv.InvalidRow) -> str:
@@ -1216,7 +1216,7 @@ def _read_numeric_slow(
         if r in again_set:  # the header's line again, narrower than the rows (a trailing
             skipped_again.append(r)  # cell): a NaN row put back for it at the end
             return "skip"
-        if _is_header_like(row.text.split(","), header_names):
+        if is_header_like(row.text.split(","), header_names):
             restarted.append((r, row.text))
             return "skip"
         rows_tally.add([r], [f"{row.actual_columns} column(s): {row.text[:60]!r}"])
@@ -1277,7 +1277,7 @@ def _read_numeric_slow(
             ),
             EXPORT_CSV,
         )
-    problems = [_restarted_problem(file, r, text) for r, text in sorted(restarted)[:ROWS_LISTED]]
+    problems = [restarted_problem(file, r, text) for r, text in sorted(restarted)[:ROWS_LISTED]]
     problems += rows_tally.problems()
     for tally in cells_tally.values():
         problems += tally.problems()

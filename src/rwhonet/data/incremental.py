@@ -80,6 +80,8 @@ class Layout:
         hemispheres: canonical name -> a column map's hemisphere letter column for it
             (``lat_hemisphere``, ``lon_hemisphere``): its position, unit (``N/S``,
             ``E/W``), name and setting; the letters give the coordinates their signs.
+        header: every header cell, to tell a header line of other columns among the rows
+            (a logger that restarted with another configuration).
     """
 
     n_columns: int
@@ -93,6 +95,7 @@ class Layout:
     packed: dict[str, tuple[str, str]] = field(default_factory=dict)
     date: tuple[int, str, str, str] | None = None
     hemispheres: dict[str, tuple[int, str, str, str]] = field(default_factory=dict)
+    header: tuple[str, ...] = ()
     # how the rows were read where a reader would note it (a time written as text, a file
     # separated by ';'), filled as the first rows arrive
     notes: list[str] = field(default_factory=list)
@@ -183,6 +186,7 @@ def layout(
         packed={name: how for name, how in packed.items() if name in wanted},
         date=date,
         hemispheres=hemispheres,
+        header=tuple(header),
         notes=[
             *([] if date is None else [date_note(date[2], header[positions[c.T_S]], date[1])]),
             *([] if wheel_note is None else [wheel_note]),
@@ -1093,11 +1097,16 @@ def _nonblank(text: str) -> Iterator[str]:
 
 def _parse_slow(text: str, lay: Layout, cols: list[int], first_row: int, file: str) -> np.ndarray:
     """Line by line: missing values as NaN, every other problem named with its row."""
-    from rwhonet.data.csvio import columns_expected
+    from rwhonet.data.csvio import cell_names, columns_expected, is_header_like, restarted_problem
 
     out, problems = [], []
+    names = cell_names(",".join(lay.header))
     for i, cells in enumerate(csv.reader(_nonblank(text))):
         row = first_row + i
+        if is_header_like(cells, names) and [x.strip().lower() for x in cells] != names:
+            # the header again with other columns or another order, as ingest says it
+            problems.append(restarted_problem(file, row, ",".join(cells)))
+            continue
         if len(cells) != lay.n_columns:
             problems.append(
                 Problem(
