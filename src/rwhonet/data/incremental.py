@@ -80,8 +80,9 @@ class Layout:
         hemispheres: canonical name -> a column map's hemisphere letter column for it
             (``lat_hemisphere``, ``lon_hemisphere``): its position, unit (``N/S``,
             ``E/W``), name and setting; the letters give the coordinates their signs.
-        header: every header cell, to tell a header line of other columns among the rows
-            (a logger that restarted with another configuration).
+        header: every header cell as written (without a units row's units), to tell a
+            header line of other columns among the rows (a logger that restarted with
+            another configuration).
     """
 
     n_columns: int
@@ -309,13 +310,14 @@ def read_rows(
     rest, line, second = more.rest, head.header, head.second
     whole = second.endswith((b"\n", b"\r"))  # a pipe's lone-CR file: one byte, no line
     units = head.units if whole else None
-    header = header_cells(head, file)
+    header = written = header_cells(head, file)
     if units is not None:
         header, after = with_units(header, units, file), after[1:]
     lay = replace(
         layout(header, fmt, column_map, file, radius_m),
         trailing_cell=head.trailing_cell,
         short_rows=head.short_rows,
+        header=tuple(written),  # as a restarted logger would write it again
     )
     if units is not None:
         lay.notes.append(units_row_note())
