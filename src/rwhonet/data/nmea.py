@@ -718,7 +718,7 @@ def _first_day(dated: Sequence[_Dates], tod: np.ndarray, file: str) -> tuple[flo
     first day (its date less the days the time of day was carried across midnight); they
     must all give one.
     """
-    firsts, cells, rows, kinds = [], [], [], []
+    firsts, given = [], []
     for d in dated:
         if not d.at.size:
             continue
@@ -742,30 +742,38 @@ def _first_day(dated: Sequence[_Dates], tod: np.ndarray, file: str) -> tuple[flo
                 ]
             )
         firsts.append(dates.seconds[inverse] - np.floor(tod[d.at] / 86400.0) * 86400.0)
-        cells += [x.decode("ascii", "replace") for x in d.cells.tolist()]
-        rows.append(d.rows)
-        kinds += [d.kind] * d.at.size
+        given.append(d)
     if not firsts:
         return None, "RMC dates"
-    first, line = np.concatenate(firsts), np.concatenate(rows)
-    wrong = np.flatnonzero(first != first[0])
+    first, lines = np.concatenate(firsts), np.concatenate([d.rows for d in given])
+    ref = int(np.argmin(lines))  # the log's first dated sentence
+    wrong = np.flatnonzero(first != first[ref])
     if wrong.size:
-        i = int(wrong[0])
+        (d0, j0), (d, j) = _nth(given, ref), _nth(given, int(wrong[np.argmin(lines[wrong])]))
         raise InputError(
             [
                 Problem(
                     file,
-                    int(line[i]),
-                    f"{kinds[i]} date",
-                    f"the date of the log's earlier sentences ({kinds[0]} {cells[0]}, line "
-                    f"{int(line[0])}) carried on by its UTC times",
-                    repr(cells[i]),
+                    int(d.rows[j]),
+                    f"{d.kind} date",
+                    f"the date of the log's earlier sentences ({d0.kind} "
+                    f"{d0.cells[j0].decode('ascii', 'replace')}, line {int(d0.rows[j0])}) "
+                    "carried on by its UTC times",
+                    repr(d.cells[j].decode("ascii", "replace")),
                     "give the drive one receiver's log, in the order it was written",
                 )
             ]
         )
-    by = sorted(set(kinds), key=("RMC", "ZDA").index)
-    return float(first[0]), " and ".join(by) + " dates"
+    return float(first[ref]), " and ".join(d.kind for d in given) + " dates"
+
+
+def _nth(dated: Sequence[_Dates], i: int) -> tuple[_Dates, int]:
+    """The ``i``-th dated epoch of the sources taken in turn: its source and place there."""
+    for d in dated:
+        if i < d.at.size:
+            return d, i
+        i -= d.at.size
+    raise IndexError(i)
 
 
 UNIX_FROM_S = 946_684_800.0  # 2000-01-01 UTC: a stream clock in s from here on is Unix time
