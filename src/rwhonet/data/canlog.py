@@ -356,8 +356,9 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
     t, ids, ext, lengths, payloads, chans, rows = [], [], [], [], [], [], []
     skipped = {"error frames": 0, "remote frames": 0}
     kind = suffix.lstrip(".").upper()
-    relative = suffix == ".asc" and asc_header(path).relative
+    relative = False
     try:
+        relative = suffix == ".asc" and asc_header(path).relative
         with ASCReader(_SummedStamps(path)) if relative else can.LogReader(path) as reader:
             for row, msg in enumerate(reader, 1):
                 if msg.is_error_frame:
