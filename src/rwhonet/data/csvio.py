@@ -1131,7 +1131,8 @@ def is_header_like(cells: Sequence[str], names: Sequence[str]) -> bool:
     cells = [x.strip().lower() for x in cells]
     if not any(cells) or any(_is_number(x) for x in cells if x):
         return False
-    return 2 * sum(x in set(names) for x in cells) >= len(cells)
+    known = set(names)
+    return 2 * sum(x in known for x in cells) >= len(cells)
 
 
 def _is_number(text: str) -> bool:
