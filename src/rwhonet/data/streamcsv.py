@@ -537,8 +537,8 @@ def _local_clock_hint(
     where = name.removesuffix(".signals")
     hint = (
         f"; {', '.join(local)} keeps the logging computer's local clock: give the signal map "
-        f"({where}) local_zone, that computer's time zone (Europe/Berlin), and the log's date "
-        "line puts it on UTC"
+        f"({where}) local_zone, that computer's time zone (Europe/Berlin), which puts the "
+        "log's start (an ASC log's date line, an MDF4 file's start) on UTC"
     )
     return [dataclasses.replace(p, fix=(p.fix or "") + hint) for p in problems]
 
