@@ -6,7 +6,8 @@ enough for timing), samples it as a logger's streams (CAN wheel speeds at
 readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
 NMEA log or a u-blox receiver's UBX log, one MDF4 file, a comma2k19 folder and a
 comma2k19 route of one-minute segment folders, raw CAN
-frames as a candump log and a Vector BLF with their DBC) and times,
+frames as a candump log, a Vector BLF and a Vector ASC, absolute and relative stamps, with
+their DBC) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
 resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
 sample-level glitch screen). Rows are every stream's samples, counted once.
@@ -55,7 +56,14 @@ from rwhonet.sim.streams import (  # noqa: E402
     write_stream_csvs,
     write_stream_mdf4,
 )
-from support.canlog import DBC, SIGNALS, stream_frames, write_bus_log, write_candump  # noqa: E402
+from support.canlog import (  # noqa: E402
+    DBC,
+    SIGNALS,
+    asc_as_relative,
+    stream_frames,
+    write_bus_log,
+    write_candump,
+)
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
 from support.ubx import pvt_log  # noqa: E402
 
@@ -130,6 +138,13 @@ def main() -> None:
         frames = stream_frames(tables, radius, 1.7e9)
         candump = write_candump(*frames, root / "bus.log")
         blf = write_bus_log(*frames, root / "bus.blf")
+        # and Vector ASC (python-can's writer: stamps from the measurement's start), and the
+        # same log with relative stamps (each event's time since the one before), as CANoe
+        # can log it
+        asc = write_bus_log(*frames, root / "bus.asc")
+        relative_asc = root / "relative" / "bus.asc"
+        relative_asc.parent.mkdir()
+        relative_asc.write_text(asc_as_relative(asc.read_text()))
         (root / "bus.dbc").write_text(DBC)
         can_map = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
         # the stream CSVs as a logger rotating its files every 10 minutes writes them
@@ -149,6 +164,8 @@ def main() -> None:
             "comma2k19 route": lambda: read_comma2k19(root / "route", radius),
             "candump log + DBC": lambda: read_mdf4(candump, can_map, radius, dbc=dbc),
             "BLF log + DBC": lambda: read_mdf4(blf, can_map, radius, dbc=dbc),
+            "ASC log + DBC": lambda: read_mdf4(asc, can_map, radius, dbc=dbc),
+            "ASC relative + DBC": lambda: read_mdf4(relative_asc, can_map, radius, dbc=dbc),
         }
         print(f"{'format':<20} {'read s':>7} {'resample s':>10} {'total s':>8} {'M rows/s':>9}")
         results = {}
@@ -170,6 +187,13 @@ def main() -> None:
             np.array_equal(seg[k], joined[k], equal_nan=True) for k in seg
         )
         print(f"the route's {len(route)} segments give the one folder's grid bit for bit: {same}")
+        plain, summed = (
+            results[k][0].drive.columns for k in ("ASC log + DBC", "ASC relative + DBC")
+        )
+        same = plain.keys() == summed.keys() and all(
+            np.array_equal(plain[k], summed[k], equal_nan=True) for k in plain
+        )
+        print(f"the ASC of relative stamps gives the absolute one's grid bit for bit: {same}")
         res, total = results["comma2k19 folder"]
         grid = res.drive.columns
         vp = params.validate

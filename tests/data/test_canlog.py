@@ -482,21 +482,6 @@ def test_the_real_minute_as_an_asc_log_in_local_time_beside_the_receiver_s_nmea_
     assert "gps.nmea" in said and "local_zone" in said
 
 
-def _as_relative(text: str) -> str:
-    """An ASC log of absolute stamps written again as CANoe logs it with relative ones:
-    ``timestamps relative`` in its header, each event line's stamp the time since the
-    event line before it (in whole µs, as the log's 6 digits hold them)."""
-    out, before = [], 0
-    for line in text.splitlines(keepends=True):
-        head = line.split(maxsplit=1)
-        if head and head[0].replace(".", "", 1).isdigit():
-            us = round(float(head[0]) * 1e6)
-            gap, before = us - before, us
-            line = line.replace(head[0], f"{gap // 1_000_000}.{gap % 1_000_000:06d}", 1)
-        out.append(line.replace("timestamps absolute", "timestamps relative"))
-    return "".join(out)
-
-
 @pytest.mark.parametrize("zone", [None, "Europe/Berlin"])
 def test_an_asc_log_of_relative_stamps_is_read_on_the_measurement_s_clock(tmp_path, zone):
     """CANoe's logging block set to relative time: each event's stamp is the time since
@@ -504,7 +489,7 @@ def test_an_asc_log_of_relative_stamps_is_read_on_the_measurement_s_clock(tmp_pa
     Its frames are read at the stamps an absolute log of the same events gives (every
     stamped event counting: the start of measurement, an error frame, a bus statistic
     python-can passes over), with the map's local_zone too, and the clock says so."""
-    from support.canlog import write_asc_in_zone
+    from support.canlog import asc_as_relative, write_asc_in_zone
 
     df = wavy_drive(10.0)
     stamps, ids, data = can_frames(df, RADIUS_M, T0_S)
@@ -519,7 +504,7 @@ def test_an_asc_log_of_relative_stamps_is_read_on_the_measurement_s_clock(tmp_pa
     ]
     absolute.write_text("".join(lines))
     relative = tmp_path / "bus.asc"
-    relative.write_text(_as_relative(absolute.read_text()))
+    relative.write_text(asc_as_relative(absolute.read_text()))
     assert "timestamps relative" in relative.read_text()
     want, got = read_frames(absolute, "bus.asc", zone), read_frames(relative, "bus.asc", zone)
     assert got.t_s.size == want.t_s.size == len(ids) + 1

@@ -208,3 +208,18 @@ def write_asc_in_zone(
     ]
     path.write_text("".join(lines))
     return start
+
+
+def asc_as_relative(text: str) -> str:
+    """An ASC log of absolute stamps written again as CANoe logs it with relative ones:
+    ``timestamps relative`` in its header, each event line's stamp the time since the
+    event line before it (in whole µs, as the log's 6 digits hold them)."""
+    out, before = [], 0
+    for line in text.splitlines(keepends=True):
+        head = line.split(maxsplit=1)
+        if head and head[0].replace(".", "", 1).isdigit():
+            us = round(float(head[0]) * 1e6)
+            gap, before = us - before, us
+            line = line.replace(head[0], f"{gap // 1_000_000}.{gap % 1_000_000:06d}", 1)
+        out.append(line.replace("timestamps absolute", "timestamps relative"))
+    return "".join(out)
