@@ -551,7 +551,7 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
     clock put on UTC by the receiver's own clock fit: the UTC times are placed by their
     dates; the seconds then start 0.354 s later in the drive, so the 59 seconds cover a
     slightly other stretch (measured: 1003.05 m against 1001.81 m, mean |label| 0.160
-    against 0.158 m)."""
+    against 0.158 m). GGA and ZDA sentences, without stamps, give those seconds too."""
     from rwhonet.data.fixtimes import receiver_epochs
     from support.multirate import per_second
     from support.realminute import RAV4_RADIUS_M, real_minute, reference_seconds
@@ -563,8 +563,10 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
     smap = {"t": ColumnSpec("t", "s")} | {
         f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
     }
-    got = {}
-    for case in ("stamped", "utc"):
+    from support.nmea import zda
+
+    got, said = {}, {}
+    for case in ("stamped", "utc", "zda"):
         folder = tmp_path / case
         folder.mkdir()
         t = tw if case == "stamped" else tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
@@ -573,7 +575,8 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
         lines = []
         for i in range(tg.size):
             utc = vg[i, 3] / 1000.0
-            for s in (gga(utc, vg[i, 0], vg[i, 1], 9), rmc(utc, *vg[i, [0, 1, 2, 5]])):
+            dated = zda(utc) if case == "zda" else rmc(utc, *vg[i, [0, 1, 2, 5]])
+            for s in (gga(utc, vg[i, 0], vg[i, 1], 9), dated):
                 lines.append(f"{tg[i]:.6f} {s}" if case == "stamped" else s)
         write_nmea(folder / "gps.nmea", lines)
         streams = read_stream_csvs(
@@ -581,6 +584,7 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
         )
         drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
         got[case] = per_second(drive, RAV4_RADIUS_M)
+        said[case] = " ".join(streams.notes)
     stamped, utc = got["stamped"], got["utc"]
     assert len(stamped) == len(utc) == len(ref) == 59
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
@@ -588,6 +592,9 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
     np.testing.assert_allclose(utc["t_s"] - fit.offset_s, ref["t_s"] + 0.354, atol=1e-3)
     assert utc["disp_gnss_m"].sum() == pytest.approx(ref["disp_gnss_m"].sum(), abs=2.0)
     assert utc["label_m"].abs().mean() == pytest.approx(ref["label_m"].abs().mean(), abs=0.005)
+    # a receiver set to GGA and ZDA: the same seconds, dated by ZDA
+    pd.testing.assert_frame_equal(got["zda"], utc)
+    assert "UTC times and RMC dates" in said["utc"] and "UTC times and ZDA dates" in said["zda"]
 
 
 def test_two_sentences_run_together_are_passed_over(tmp_path):
