@@ -1129,18 +1129,10 @@ def is_header_like(cells: Sequence[str], names: Sequence[str]) -> bool:
     """Whether a row's cells are a header line's (a logger that restarted with another
     configuration): none a number, and at least half of them names of the file's header."""
     cells = [x.strip().lower() for x in cells]
-    if not any(cells) or any(_is_number(x) for x in cells if x):
+    if not any(cells) or any(is_number(x) for x in cells if x):
         return False
     known = set(names)
     return 2 * sum(x in known for x in cells) >= len(cells)
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _headers_in_another_order(
