@@ -191,8 +191,11 @@ def with_car(
     return params
 
 
-# a --signal-map file's keys where it has more than its signals
-MAP_FILE_KEYS = ("signals", "dbc", "local_zone")
+# a --signal-map file's keys where it has more than its signals: a signal map's own
+# settings (SignalMapSpec), less the reader (--format names it) and the source (the file)
+MAP_FILE_KEYS = tuple(
+    f.name for f in dataclasses.fields(SignalMapSpec) if f.name not in ("reader", "source")
+)
 
 
 def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Params:
