@@ -1085,7 +1085,13 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
 
 @pytest.mark.parametrize(
     ("log", "receiver"),
-    [("candump", "nmea"), ("canedge", "nmea"), ("candump", "ubx"), ("candump", "u-blox 6")],
+    [
+        ("candump", "nmea"),
+        ("canedge", "nmea"),
+        ("candump", "ubx"),
+        ("candump", "u-blox 6"),
+        ("candump", "gpx"),
+    ],
 )
 def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     bundle, tmp_path, capsys, log, receiver
@@ -1094,7 +1100,8 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     computer's Unix clock (or a CANedge's MDF4 bus log split into three files, each on its
     start time: 00000001.MF4 ...), the fixes as the receiver's unstamped NMEA log
     (gps.nmea.gz) or its u-blox binary log (gps.ubx.gz: NAV-PVT among other messages, or
-    a u-blox 6's NAV-POSLLH, NAV-SOL, NAV-VELNED and NAV-TIMEUTC), a
+    a u-blox 6's NAV-POSLLH, NAV-SOL, NAV-VELNED and NAV-TIMEUTC), or a phone logger's GPX
+    track (track.gpx.gz, one point written twice), a
     map file with the DBC, the signals and a ``t``: predict's seconds are those of the
     stream CSVs within the DBC's 0.01 km/h and the log's rounding (ddmm.mmmmmm; NAV-PVT's
     1e-7 degrees, 1.1 cm a coordinate, so 0.02 m a second's GNSS displacement)."""
@@ -1124,6 +1131,14 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     if receiver == "nmea":
         lines = nmea_lines(good.gnss, day + t)
         (folder / "gps.nmea.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
+    elif receiver == "gpx":
+        from support.gpx import track
+
+        text = track(good.gnss, day + t).to_xml("1.0").splitlines(keepends=True)
+        at = [i for i, line in enumerate(text) if "<trkpt" in line][300]
+        end = next(i for i in range(at, len(text)) if "</trkpt>" in text[i])
+        text[at:at] = text[at : end + 1]  # the 301st point written twice
+        (folder / "track.gpx.gz").write_bytes(gzip.compress("".join(text).encode()))
     else:
         from support.ubx import u6_messages, ubx_messages
 
@@ -1151,6 +1166,8 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     np.testing.assert_allclose(bus["disp_gnss_m"], csv["disp_gnss_m"], atol=gnss_m)
     if receiver == "ubx":
         assert "gps.ubx.gz: passed over: 1 NAV-PVT message(s) with a checksum" in said
+    if receiver == "gpx":
+        assert "track.gpx.gz: passed over: 1 track point(s) at an earlier one's time" in said
     # the map's database given to the log's one bus (can0; a CANedge's bus channel 1)
     one_bus = "{can0: v.dbc}" if log == "candump" else "{1: [v.dbc]}"
     smap.write_text(smap.read_text().replace("dbc: v.dbc", f"dbc: {one_bus}"))

@@ -142,7 +142,8 @@ class ReceiverRates:
 @dataclass(frozen=True)
 class FixLog:
     """A receiver's fixes read from an NMEA log (or a u-blox UBX log:
-    :func:`rwhonet.data.ubx.read_ubx`), one per epoch, in the log's order.
+    :func:`rwhonet.data.ubx.read_ubx`; a GPX track: :func:`rwhonet.data.gpx.read_gpx`), one
+    per epoch, in the log's order.
 
     Attributes:
         file: the log as messages name it.
@@ -164,7 +165,8 @@ class FixLog:
         unstamped: the lines of the epochs without a logger stamp, where others have one.
         dated_by: what gave the date (``RMC dates``, ``ZDA dates``; a UBX log's ``NAV-PVT dates``,
             ``NAV-TIMEUTC dates``, ``NAV-TIMEGPS weeks``).
-        kind: ``NMEA``, or ``UBX`` (a binary log: no logger stamps).
+        kind: ``NMEA``, ``UBX`` (a binary log: no logger stamps), or ``GPX`` (a track:
+            :func:`rwhonet.data.gpx.read_gpx`; UTC times, no logger stamps).
         rates: the receiver's yaw rate where its log gives one (a UBX log's ESF-INS).
     """
 
@@ -859,7 +861,7 @@ def on_clock(
         "the stream files' times in UTC (a time of day as hhmmss, hh:mm:ss; iso8601; a date "
         "column; Unix seconds)"
     )
-    if kind is None and log.kind == "UBX":  # a binary log: no logger stamp before a message
+    if kind is None and log.kind != "NMEA":  # UBX, GPX: no logger stamp before an epoch
         raise InputError(
             [
                 Problem(
@@ -867,7 +869,7 @@ def on_clock(
                     None,
                     None,
                     f"a clock the receiver's UTC times can be placed on: {utc_clock}",
-                    "a UBX log (no logger stamps in it), and the stream files' time in "
+                    f"a {log.kind} log (no logger stamps in it), and the stream files' time in "
                     f"{unit!r} counting from the logger's start",
                     f"log {name}.t in UTC, or give the receiver's NMEA log with the logger's "
                     "stamp before each sentence",

@@ -11,17 +11,19 @@ files are parsed by the same streaming CSV reader as the 10 Hz files
 (:mod:`rwhonet.data.csvio`), so every bad cell is reported with its file, row
 and column. The clock is the files' common time column.
 
-A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``) or a u-blox receiver's
-binary log (``gps.ubx``) gives the fixes where no CSV holds the map's latitude and
-longitude: :mod:`rwhonet.data.nmea` and :mod:`rwhonet.data.ubx` read them, and the first
-places them on the files' clock (``_receiver_groups``). Where a folder holds both, the UBX
-log is read (its positions to 1e-7 degrees), and the NMEA log left out, said. With the
+A GNSS receiver's NMEA 0183 log among the files (``gps.nmea``), a u-blox receiver's
+binary log (``gps.ubx``) or a GPS track in GPX (``track.gpx``: a phone's or handheld's
+logger) gives the fixes where no CSV holds the map's latitude and longitude:
+:mod:`rwhonet.data.nmea`, :mod:`rwhonet.data.ubx` and :mod:`rwhonet.data.gpx` read them,
+and the first places them on the files' clock (``_receiver_groups``). Where a folder holds
+several kinds, the first of UBX (its positions to 1e-7 degrees), NMEA (the receiver's own
+sentences), GPX (a track written from them) is read and the others left out, said. With the
 map's CAN databases (``dbc``), a bus tool's raw CAN log among them (``can0.log`` from
 ``candump -l``, ASC, BLF, TRC: :mod:`rwhonet.data.canlog`; or an MDF4 bus log, a CANedge's
 split files, on each file's start time) is decoded as the MDF4 reader decodes a bus log,
 and each of its messages holding a mapped signal is a stream, the signal found by name as
 a column. Files of one stream a logger split in time (``wheels_000.csv``,
-``wheels_001.csv``; NMEA or UBX logs; raw CAN logs) are joined by
+``wheels_001.csv``; NMEA, UBX or GPX logs; raw CAN logs) are joined by
 :mod:`rwhonet.data.fileparts`.
 
 Midnight: a time of day (seconds since the start of the day, as IO-VNBD's) that
@@ -62,6 +64,7 @@ from rwhonet.data.csvio import (
     without_rows,
 )
 from rwhonet.data.fileparts import join_parts
+from rwhonet.data.gpx import is_gpx_name, read_gpx
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_name
 from rwhonet.data.nmea import FixLog, is_nmea_name, on_clock, read_nmea
@@ -124,8 +127,8 @@ def read_stream_csvs(
     """
     check_signal_map(name, signal_map, with_time=True, where=name)
     every = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
-    # a receiver's logs: NMEA, u-blox's UBX
-    logs = [(p, f) for p, f in every if is_nmea_name(p.name) or is_ubx_name(p.name)]
+    # a receiver's logs: NMEA, u-blox's UBX, a GPX track
+    logs = [(p, f) for p, f in every if log_kind(p.name)]
     # raw CAN logs: a bus tool's, or MDF4 bus logs (a CANedge's split files)
     buses = [(p, f) for p, f in every if dbc and (is_can_log_name(p.name) or is_mdf_name(p.name))]
     files = [(p, f) for p, f in every if (p, f) not in logs and (p, f) not in buses]
@@ -516,7 +519,8 @@ def _fix_source_problems(
                 None,
                 None,
                 f"the fixes: {name}.lat and {name}.lon naming a stream file's columns, or a "
-                "receiver's log among the drive's files (NMEA, *.nmea; u-blox UBX, *.ubx)",
+                "receiver's log among the drive's files (NMEA, *.nmea; u-blox UBX, *.ubx; a "
+                "GPX track, *.gpx)",
                 f"{' and '.join(missing)} not in {name}, and no receiver log",
                 f"name the fixes' columns in {name}, or give the drive its receiver's log",
             )
@@ -543,6 +547,23 @@ def _local_clock_hint(
     return [dataclasses.replace(p, fix=(p.fix or "") + hint) for p in problems]
 
 
+# a receiver's logs, the most precise kind first -> why: where a folder holds several
+# kinds, the first is read and the others left out
+LOG_KINDS = {
+    "UBX": "its positions to 1e-7 degrees",
+    "NMEA": "the receiver's own sentences",
+    "GPX": "a track written from them",
+}
+LOG_NAMES = {"UBX": is_ubx_name, "NMEA": is_nmea_name, "GPX": is_gpx_name}
+LOG_READERS = {"UBX": read_ubx, "NMEA": read_nmea, "GPX": read_gpx}
+
+
+def log_kind(name: str) -> str | None:
+    """A receiver's log's kind by its name (``gps.ubx``, ``gps.nmea.gz``, ``track.gpx``),
+    or None: no receiver log."""
+    return next((k for k, named in LOG_NAMES.items() if named(name)), None)
+
+
 def _receiver_groups(
     logs: Sequence[tuple[Path, str]],
     signal_map: Mapping[str, ColumnSpec],
@@ -552,8 +573,9 @@ def _receiver_groups(
     notes: list[str],
     changed: list[str],
 ) -> list[Group]:
-    """The receiver's NMEA or UBX logs as the drive's GNSS stream, each on the stream files'
-    clock (the UBX logs alone where there are both, the NMEA logs left out, said).
+    """The receiver's NMEA, UBX or GPX logs as the drive's GNSS stream, each on the stream
+    files' clock (those of the first kind of :data:`LOG_KINDS` alone where there are
+    several, the others left out, said).
 
     They give the fixes and every GNSS key no stream file's column gives; a key the map
     names that a log does not give is refused, naming the log. Several logs are one
@@ -561,19 +583,19 @@ def _receiver_groups(
     the keys all of them give. Sentences passed over (a checksum that does not match, a
     line cut short, ...) are said in ``changed`` too, so predict says them.
     """
-    ubx = [(p, f) for p, f in logs if is_ubx_name(p.name)]
-    if ubx and len(ubx) < len(logs):
-        notes.append(
-            ", ".join(f for p, f in logs if not is_ubx_name(p.name))
-            + ": NMEA log(s), left out: the fixes are the receiver's UBX log's ("
-            + ", ".join(f for _, f in ubx)
-            + "), its positions to 1e-7 degrees"
-        )
-        logs = ubx
+    first = next(k for k in LOG_KINDS if any(log_kind(p.name) == k for p, _ in logs))
+    kept = [(p, f) for p, f in logs if log_kind(p.name) == first]
+    for kind in LOG_KINDS:
+        if kind != first and (out := [f for p, f in logs if log_kind(p.name) == kind]):
+            notes.append(
+                f"{', '.join(out)}: {kind} log(s), left out: the fixes are the receiver's "
+                f"{first} log's ({', '.join(f for _, f in kept)}), {LOG_KINDS[first]}"
+            )
+    logs = kept
     read, problems = [], []
     for path, file in logs:  # every log's problems in one report
         try:
-            read.append(read_ubx(path, file) if is_ubx_name(path.name) else read_nmea(path, file))
+            read.append(LOG_READERS[first](path, file))
         except InputError as err:
             problems += err.problems
     if problems:
