@@ -246,9 +246,10 @@ def test_a_route_or_waypoints_alone_are_refused_naming_what_the_file_holds(tmp_p
 
 
 def test_entities_are_refused(tmp_path):
-    doc = '<?xml version="1.0"?>\n<!DOCTYPE gpx [<!ENTITY a "aaaa">]>\n' + _doc(
-        _point("2019-03-11T12:00:00Z")
-    ).split("\n", 1)[1]
+    doc = (
+        '<?xml version="1.0"?>\n<!DOCTYPE gpx [<!ENTITY a "aaaa">]>\n'
+        + _doc(_point("2019-03-11T12:00:00Z")).split("\n", 1)[1]
+    )
     with pytest.raises(InputError, match="a.gpx, row 2: expected a GPX file .GPX declares no"):
         read_gpx(write_gpx(tmp_path / "a.gpx", doc), "a.gpx")
 
@@ -300,9 +301,7 @@ def test_a_gpx_track_beside_a_logger_s_own_clock_is_refused_saying_what_to_do(tm
     gpx = write_gpx(tmp_path / "own" / "track.gpx", track(g, DAY_S + g[c.T_S].to_numpy()))
     with pytest.raises(InputError) as err:
         _labels([files["wheels"], gpx])
-    assert "a GPX log (no logger stamps in it), and the stream files' time in 's'" in str(
-        err.value
-    )
+    assert "a GPX log (no logger stamps in it), and the stream files' time in 's'" in str(err.value)
 
 
 def test_the_real_minute_s_fixes_as_a_gpx_track(tmp_path):
@@ -355,3 +354,33 @@ def test_the_real_minute_s_fixes_as_a_gpx_track(tmp_path):
         np.testing.assert_array_equal(got["gpx"][q], got["nmea"][q], err_msg=q)
     for q in ("disp_gnss_m", "label_m"):
         np.testing.assert_allclose(got["gpx"][q], got["nmea"][q], rtol=0, atol=2e-3, err_msg=q)
+
+
+def test_times_read_at_once_are_those_read_cell_by_cell(tmp_path):
+    """GPX writers' usual form (``...Z``) is parsed by numpy at once; one time with an
+    offset sends them all the cell-by-cell way of a text time column: the same seconds.
+    A leap second (60 s, which numpy refuses) is read too."""
+    stamps = [f"2019-03-11T12:00:{k:02d}.{k * 37 % 1000:03d}Z" for k in range(20)]
+    stamps[7] = "2019-03-11T12:00:07Z"  # no fraction
+    stamps[8] = "2019-03-11T12:00:08.123456789Z"  # to the nanosecond
+    points = "".join(_point(t, lat=f"52.{k}") for k, t in enumerate(stamps))
+    fast = read_gpx(write_gpx(tmp_path / "a.gpx", _doc(points)), "a.gpx")
+    slow = read_gpx(
+        write_gpx(tmp_path / "b.gpx", _doc(points.replace("12:00:19.703Z", "12:00:19.703+00:00"))),
+        "b.gpx",
+    )
+    np.testing.assert_allclose(fast.day_s + fast.tod_s, slow.day_s + slow.tod_s, rtol=0, atol=1e-6)
+    want = DAY_S + 43200.0 + np.array([float(t[17:-1]) for t in stamps])
+    np.testing.assert_allclose(fast.day_s + fast.tod_s, want, rtol=0, atol=1e-6)
+    leap = _doc(_point("2016-12-31T23:59:59Z") + _point("2016-12-31T23:59:60Z", lat="52.5"))
+    log = read_gpx(write_gpx(tmp_path / "c.gpx", leap), "c.gpx")
+    assert np.diff(log.tod_s).tolist() == [1.0]
+
+
+def test_a_file_that_names_no_namespace_reads_as_gpx_1_1(tmp_path):
+    points = _point("2019-03-11T12:00:00Z", inner="<ele>3</ele>") + _point(
+        "2019-03-11T12:00:01Z", lat="52.41"
+    )
+    text = _doc(points).replace(' xmlns="http://www.topografix.com/GPX/1/1"', "")
+    log = read_gpx(write_gpx(tmp_path / "a.gpx", text), "a.gpx")
+    assert log.channels["lat"].tolist() == [52.4, 52.41] and log.rows.tolist() == [3, 3]

@@ -35,8 +35,10 @@ def track(
     out.tracks.append(trk)
     if extensions:
         out.nsmap["gpxtpx"] = GARMIN_TPX
-    cols = {k: fixes[k].to_numpy() if k in fixes else None for k in
-            (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M)}
+    cols = {
+        k: fixes[k].to_numpy() if k in fixes else None
+        for k in (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M)
+    }
     for part in np.array_split(np.arange(len(fixes)), segments):
         seg = gpx.GPXTrackSegment()
         trk.segments.append(seg)

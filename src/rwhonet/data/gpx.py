@@ -70,7 +70,7 @@ import pandas as pd
 
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.nmea import FixLog
-from rwhonet.data.texttime import ISO8601, expected, parse_text_times
+from rwhonet.data.texttime import ISO8601, TextTimes, expected, parse_text_times
 from rwhonet.errors import InputError, Problem
 
 GPX_SUFFIXES = (".gpx",)
@@ -81,7 +81,9 @@ ELEMENTS = {"height": "ele", "n_sats": "sat", "speed_gnss": "speed", "heading": 
 IN_EXTENSIONS = ("speed", "course")
 FIX_ONLY = ("speed_gnss", "heading")  # NaN where no fix, as a position
 LISTED = 20  # problems listed of one kind
-_POINT = re.compile(rb"<(?:[A-Za-z_][\w.-]*:)?trkpt[\s/>]")
+_POINT = re.compile(rb"<(?:[A-Za-z_][\w.-]*:)?trkpt[\s/>]")  # a point's start tag
+# a point's end tag, or its start tag closing it (<trkpt lat=".." lon=".."/>)
+_CLOSED = re.compile(rb"</(?:[A-Za-z_][\w.-]*:)?trkpt\s*>|<(?:[A-Za-z_][\w.-]*:)?trkpt\s[^>]*/>")
 
 
 def is_gpx_name(name: str) -> bool:
@@ -119,9 +121,14 @@ class _Points:
     others: dict[str, int]
     cut: int | None
 
+    def drop_last(self) -> None:
+        """Leave the last point out (the file ends inside it)."""
+        for cells in (self.lat, self.lon, self.time, self.fix, self.segment, *self.values.values()):
+            cells.pop()
 
-def _text(el: ET.Element | None) -> str | None:
-    return None if el is None or el.text is None else el.text.strip()
+
+def _stripped(text: str | None) -> str | None:
+    return None if text is None else text.strip()
 
 
 def _parse(data: bytes, file: str) -> _Points:
@@ -141,11 +148,10 @@ def _parse(data: bytes, file: str) -> _Points:
                 )
             ]
         )
-    parser = ET.XMLPullParser(events=("end",))
-    parser.feed(data)  # an error inside the data is queued after the events before it
-    points = _Points([], [], [], [], {k: [] for k in ELEMENTS}, [], {"wpt": 0, "rtept": 0}, None)
+    builder = ET.TreeBuilder()
+    parser = ET.XMLParser(target=builder)
     try:
-        _gather(parser, points)
+        parser.feed(data)  # an error inside the data: here; the data ending early: at close
     except ET.ParseError as err:
         line, col = err.position
         raise InputError(
@@ -161,59 +167,56 @@ def _parse(data: bytes, file: str) -> _Points:
                 )
             ]
         ) from None
+    cut = None
     try:
         parser.close()
     except ET.ParseError as err:  # the data ended inside an element: cut short
-        points.cut = int(err.position[0])
+        cut = int(err.position[0])
+    root = builder.close()  # the tree as far as it goes
+    points = _Points([], [], [], [], {k: [] for k in ELEMENTS}, [], {"wpt": 0, "rtept": 0}, cut)
+    if root is not None:
+        _gather(root, points)
+    if cut is not None and len(points.lat) > len(_CLOSED.findall(data)):
+        points.drop_last()  # the point the file ends in, unfinished
     return points
 
 
-def _gather(parser: ET.XMLPullParser, points: _Points) -> None:
-    """The parser's complete track points, in the file's order, into ``points``."""
-    segment = -1
-    for _, el in parser.read_events():
-        name = _local(el.tag)
-        if name == "trkseg":
-            segment += 1
-        elif name in points.others:
-            points.others[name] += 1
-        if name != "trkpt":
-            continue
-        children = {}
-        extensions = None
-        for child in el:
-            n = _local(child.tag)
-            if n == "extensions":
-                extensions = child
-            else:
-                children.setdefault(n, child)
-        points.lat.append(el.get("lat"))
-        points.lon.append(el.get("lon"))
-        points.time.append(_text(children.get("time")))
-        points.fix.append(_text(children.get("fix")))
-        for key, n in ELEMENTS.items():
-            found = children.get(n)
-            if found is None and n in IN_EXTENSIONS and extensions is not None:
-                found = next((e for e in extensions.iter() if _local(e.tag) == n), None)
-            points.values[key].append(_text(found))
-        points.segment.append(segment + 1)  # a point's trkseg ends after it
-        el.clear()
+def _gather(root: ET.Element, points: _Points) -> None:
+    """The tree's track points, in the file's order, into ``points``."""
+    names: dict[str, str] = {}  # tag -> its local name
+    for segment, seg in enumerate(root.iterfind("{*}trk/{*}trkseg")):
+        for pt in seg.iterfind("{*}trkpt"):
+            children = {}
+            extensions = None
+            for child in pt:
+                n = names.get(child.tag) or names.setdefault(child.tag, _local(child.tag))
+                if n == "extensions":
+                    extensions = child
+                elif n not in children:
+                    children[n] = child.text
+            points.lat.append(pt.get("lat"))
+            points.lon.append(pt.get("lon"))
+            points.time.append(_stripped(children.get("time")))
+            points.fix.append(_stripped(children.get("fix")))
+            for key, n in ELEMENTS.items():
+                text = children.get(n)
+                if text is None and n in IN_EXTENSIONS and extensions is not None:
+                    text = next((e.text for e in extensions.iter() if _local(e.tag) == n), None)
+                points.values[key].append(_stripped(text))
+            points.segment.append(segment)
+    points.others["wpt"] = sum(1 for _ in root.iterfind("{*}wpt"))
+    points.others["rtept"] = sum(1 for _ in root.iterfind("{*}rte/{*}rtept"))
 
 
-def _lines(data: bytes, n: int, cut: bool) -> tuple[np.ndarray, str]:
+def _lines(data: bytes, starts: list[int], n: int, lost: bool) -> tuple[np.ndarray, str]:
     """Each complete track point's line (1-based), and how points are named: by line where
-    the file's ``<trkpt`` tags are its points one for one (one more where the file is
-    ``cut`` inside its last), else by their number (a ``<trkpt`` in a comment)."""
-    starts = [m.start() for m in _POINT.finditer(data)]
-    if len(starts) in (n, n + cut):
+    the file's ``<trkpt`` tags (at ``starts``) are its points one for one (one more where
+    the file was cut inside its last: ``lost``), else by their number (a ``<trkpt`` in a
+    comment)."""
+    if len(starts) == n + lost:
         breaks = np.flatnonzero(np.frombuffer(data, np.uint8) == 0x0A)
         return np.searchsorted(breaks, np.asarray(starts[:n]), side="left") + 1, "line"
     return np.arange(1, n + 1), "point"
-
-
-def _last_point_end(data: bytes) -> int:
-    """Where the file's last complete track point ends (0: none)."""
-    return max(data.rfind(b"trkpt>"), 0)
 
 
 def _numbers(
@@ -241,9 +244,10 @@ def read_gpx(path: Path, file: str) -> FixLog:
     """
     data = path.read_bytes()
     pts = _parse(data, file)
-    # a file cut short inside a point: a <trkpt start after the last complete point
-    lost = pts.cut is not None and len(_POINT.findall(data, _last_point_end(data))) > 0
-    rows, named = _lines(data, len(pts.lat), lost)
+    starts = [m.start() for m in _POINT.finditer(data)]
+    # a file cut short inside a point: more <trkpt starts than points closed
+    lost = pts.cut is not None and len(starts) > len(_CLOSED.findall(data))
+    rows, named = _lines(data, starts, len(pts.lat), lost)
     timed = np.array([bool(t) for t in pts.time], dtype=bool)
     if not timed.any():
         raise InputError([_no_track(pts, file)])
@@ -364,11 +368,36 @@ def _columns(pts: _Points, rows: np.ndarray, file: str):
         if any(v for v in pts.values[key]):
             values[key], p = _numbers(pts.values[key], file, rows, element, "a number")
             problems += p
-    times = parse_text_times(pts.time, ISO8601)
+    times = _utc_times(pts.time)
     problems += [
         Problem(file, int(rows[i]), "time", expected(ISO8601), why) for i, why in times.bad[:LISTED]
     ]
     return coords[0], coords[1], fix, values, times, problems
+
+
+def _utc_times(cells: list[str | None]) -> TextTimes:
+    """The points' times as s since 1970, UTC: as a text time column's ISO 8601 cells
+    (:func:`rwhonet.data.texttime.parse_text_times`), where every time is written as GPX
+    writers write it (``2019-03-11T12:00:00.25Z``, each cell its own form) parsed at once by
+    numpy, which gives the same seconds (a leap second's 60, which numpy refuses, goes the
+    cell-by-cell way)."""
+    if all(
+        c is not None
+        and len(c) >= 20
+        and c[-1] in "Zz"
+        and c[10] in "Tt"
+        and c[13] == c[16] == ":"
+        and "+" not in c
+        and "-" not in c[10:]
+        for c in cells
+    ):
+        try:
+            ns = np.array([c[:-1] for c in cells], dtype="datetime64[ns]").astype(np.int64)
+        except ValueError:
+            pass
+        else:
+            return TextTimes(ns / 1e9, [], None, True)
+    return parse_text_times(cells, ISO8601)
 
 
 def _again(
