@@ -198,6 +198,7 @@ def test_bad_values_are_refused_naming_the_point_s_line_and_element(tmp_path):
             _point("2019-03-11T25:00:04Z"),
             _point("2019-03-11T12:00:05Z", inner="<fix>3D-fix</fix>"),
             '<trkpt lat="52.4"><time>2019-03-11T12:00:06Z</time></trkpt>',
+            _point("2019-03-11T12:00:07Z", lat=""),
         ]
     )
     with pytest.raises(InputError) as err:
@@ -206,6 +207,8 @@ def test_bad_values_are_refused_naming_the_point_s_line_and_element(tmp_path):
     for line, column in ((4, "lat"), (5, "lon"), (6, "ele"), (7, "time"), (8, "fix"), (9, "lon")):
         assert f"a.gpx, row {line}, column '{column}'" in said, (line, column)
     assert "a lat in [-90, 90] degrees; found '95.0'" in said
+    assert "row 9, column 'lon': expected the point's lon attribute; found none" in said
+    assert "row 10, column 'lat': expected the point's lat attribute; found an empty one" in said
 
 
 def test_points_without_a_time_or_given_twice_are_passed_over(tmp_path):

@@ -198,6 +198,25 @@ def test_unstamped_sentences_on_a_logger_s_own_clock_are_refused(tmp_path):
     assert "have the logger stamp each sentence" in said
 
 
+def test_one_stamp_gone_to_0_on_a_unix_clock_is_refused_where_it_is(tmp_path):
+    """The wheels on Unix seconds, one sample's stamp written as 0 (a logger's glitch): the
+    clock is still UTC, so the receiver's log is placed, and the stamp is refused at its row
+    (not the whole drive as on "a clock counting from the logger's start")."""
+    import pandas as pd
+
+    tables, _ = _drive()
+    g = tables.gnss
+    write_nmea(tmp_path / "d" / "gps.nmea", nmea_lines(g, DAY_S + g[c.T_S].to_numpy()))
+    wheels = _wheels(tmp_path / "d", DAY_S)
+    df = pd.read_csv(wheels)
+    df.loc[46, df.columns[0]] = 0.0
+    df.to_csv(wheels, index=False, float_format="%.6f")
+    with pytest.raises(InputError) as err:
+        _labels([wheels, tmp_path / "d" / "gps.nmea"])
+    said = str(err.value)
+    assert "wheels.csv], row 47, column 'Time'" in said and "logger's start" not in said
+
+
 def _log(tmp_path, lines, name="gps.nmea"):
     return read_nmea(write_nmea(tmp_path / name, lines), name)
 

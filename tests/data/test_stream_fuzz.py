@@ -455,3 +455,53 @@ def test_a_stream_split_across_files_reads_as_the_one_file_or_is_refused_clearly
     assert got.keys() == want.keys()
     for k in want:
         np.testing.assert_array_equal(got[k], want[k], err_msg=k)
+
+
+@cache
+def _good_gpx_lines() -> tuple[str, ...]:
+    """The good drive's fixes as a GPX 1.0 track (gpxpy's), one line a point (its elements
+    joined), the header's and the closing tags' lines around them; UTC from
+    :data:`CAN_CLOCK_S`."""
+    from support.gpx import track
+
+    gnss = good_tables().gnss
+    text = track(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy()).to_xml("1.0")
+    lines: list[str] = []
+    for line in text.splitlines():
+        if lines and lines[-1].lstrip().startswith("<trkpt") and "</trkpt>" not in lines[-1]:
+            lines[-1] += line.strip()
+        else:
+            lines.append(line)
+    return tuple(lines)
+
+
+@st.composite
+def edited_gpx_tracks(draw) -> bytes:
+    """The good drive's GPX track with 1-5 random edits (:func:`support.fuzz.edited_log`:
+    lines, points among them, dropped, repeated, swapped, shuffled or written late; the
+    file cut; a byte flipped), and its own: an element's or attribute's value changed (to
+    nothing, text, NaN, a huge number, out of range, ``none``), a point's time changed."""
+    import re
+
+    def edit(draw, rows: list[str], kind: str, a: int) -> None:
+        values = list(re.finditer(r'(?<=>)[^<]*(?=</)|(?<=")[^"]*(?=")', rows[a]))
+        if not values:
+            return
+        v = draw(st.sampled_from(values))
+        if kind == "value":
+            new = draw(st.sampled_from(["", "x", "nan", "1e300", "-95", "200", "none", "2d"]))
+        else:  # time
+            new = draw(st.sampled_from(["", "2019-02-30T00:00:00Z", "12:00:00", "2023-11-14"]))
+        rows[a] = rows[a][: v.start()] + new + rows[a][v.end() :]
+
+    return edited_log(draw, list(_good_gpx_lines()), ("value", "time"), edit, "\n")
+
+
+@FUZZ
+@given(can=edited_candump_logs(wheels_only=True), gpx=edited_gpx_tracks())
+def test_an_edited_candump_log_beside_an_edited_gpx_track_reads_or_is_refused_clearly(
+    can, gpx, capfd
+):
+    """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, a phone
+    logger's GPX track placed by its UTC times; both with random edits."""
+    _beside_a_candump_log(can, "track.gpx", gpx, capfd)

@@ -344,7 +344,13 @@ def _columns(pts: _Points, rows: np.ndarray, file: str):
         x, p = _numbers(cells, file, rows, what, f"a {what} in decimal degrees")
         problems += p
         problems += [
-            Problem(file, int(rows[i]), what, f"the point's {what} attribute", "none")
+            Problem(
+                file,
+                int(rows[i]),
+                what,
+                f"the point's {what} attribute",
+                "none" if cells[i] is None else "an empty one",
+            )
             for i in [i for i, cell in enumerate(cells) if not cell][:LISTED]
         ]
         problems += [

@@ -803,8 +803,9 @@ def clock_kind(unit: str, dated: bool, t_s: Sequence[np.ndarray]) -> str | None:
         return UTC_TIME
     if unit in (HHMMSS, CLOCK) or is_pattern(unit):
         return DAY_TIME
-    firsts = [float(np.nanmin(t)) for t in t_s if np.isfinite(t).any()]
-    if firsts and all(UNIX_FROM_S <= f < UNIX_TO_S for f in firsts):
+    # each file's median, not its first: one stamp gone to 0 is no clock of its own
+    typical = [float(np.nanmedian(t)) for t in t_s if np.isfinite(t).any()]
+    if typical and all(UNIX_FROM_S <= f < UNIX_TO_S for f in typical):
         return UTC_TIME
     return None
 
