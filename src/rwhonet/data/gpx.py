@@ -251,15 +251,20 @@ def read_gpx(path: Path, file: str) -> FixLog:
     timed = np.array([bool(t) for t in pts.time], dtype=bool)
     if not timed.any():
         raise InputError([_no_track(pts, file)])
-    lat, lon, fix, values, times, problems = _columns(pts, rows, file)
+    at = np.flatnonzero(timed)
+    lat, lon, fix, values, problems = _columns(pts, rows, file)
+    times = _utc_times([pts.time[i] for i in at])
+    problems += [
+        Problem(file, int(rows[at[i]]), "time", expected(ISO8601), why)
+        for i, why in times.bad[:LISTED]
+    ]
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
-    at = np.flatnonzero(timed)
-    again, problems = _again(times.seconds[at], lat[at], lon[at], rows[at], file, named)
+    again, problems = _again(times.seconds, lat[at], lon[at], rows[at], file, named)
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     keep = at[~again]
-    t = times.seconds[keep]
+    t = times.seconds[~again]
     day_s = float(np.floor(t[0] / 86400.0) * 86400.0)
     fixed = fix[keep]
     channels = {k: np.where(fixed, v[keep], np.nan) for k, v in (("lat", lat), ("lon", lon))}
@@ -337,7 +342,7 @@ def _no_track(pts: _Points, file: str) -> Problem:
 
 
 def _columns(pts: _Points, rows: np.ndarray, file: str):
-    """The points' coordinates, fix, values and times as numbers, and every problem."""
+    """The points' coordinates, fix and values as numbers, and every problem."""
     problems: list[Problem] = []
     coords = []
     for what, cells, limit in (("lat", pts.lat, 90), ("lon", pts.lon, 180)):
@@ -374,22 +379,17 @@ def _columns(pts: _Points, rows: np.ndarray, file: str):
         if any(v for v in pts.values[key]):
             values[key], p = _numbers(pts.values[key], file, rows, element, "a number")
             problems += p
-    times = _utc_times(pts.time)
-    problems += [
-        Problem(file, int(rows[i]), "time", expected(ISO8601), why) for i, why in times.bad[:LISTED]
-    ]
-    return coords[0], coords[1], fix, values, times, problems
+    return coords[0], coords[1], fix, values, problems
 
 
-def _utc_times(cells: list[str | None]) -> TextTimes:
-    """The points' times as s since 1970, UTC: as a text time column's ISO 8601 cells
+def _utc_times(cells: list[str]) -> TextTimes:
+    """The timed points' times as s since 1970, UTC: as a text time column's ISO 8601 cells
     (:func:`rwhonet.data.texttime.parse_text_times`), where every time is written as GPX
     writers write it (``2019-03-11T12:00:00.25Z``, each cell its own form) parsed at once by
     numpy, which gives the same seconds (a leap second's 60, which numpy refuses, goes the
     cell-by-cell way)."""
     if all(
-        c is not None
-        and len(c) >= 20
+        len(c) >= 20
         and c[-1] in "Zz"
         and c[10] in "Tt"
         and c[13] == c[16] == ":"
