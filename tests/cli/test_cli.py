@@ -1091,6 +1091,7 @@ def test_predict_reads_the_receiver_s_nmea_log_beside_the_wheels_csv(bundle, tmp
         ("candump", "ubx"),
         ("candump", "u-blox 6"),
         ("candump", "gpx"),
+        ("candump", "novatel"),
     ],
 )
 def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
@@ -1101,7 +1102,8 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
     start time: 00000001.MF4 ...), the fixes as the receiver's unstamped NMEA log
     (gps.nmea.gz) or its u-blox binary log (gps.ubx.gz: NAV-PVT among other messages, or
     a u-blox 6's NAV-POSLLH, NAV-SOL, NAV-VELNED and NAV-TIMEUTC), or a phone logger's GPX
-    track (track.gpx.gz, one point written twice), a
+    track (track.gpx.gz, one point written twice), or a NovAtel receiver's ASCII logs
+    (drive.gps.gz: TIMEA and BESTPOSA, one CRC broken), a
     map file with the DBC, the signals and a ``t``: predict's seconds are those of the
     stream CSVs within the DBC's 0.01 km/h and the log's rounding (ddmm.mmmmmm; NAV-PVT's
     1e-7 degrees, 1.1 cm a coordinate, so 0.02 m a second's GNSS displacement)."""
@@ -1139,6 +1141,12 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
         end = next(i for i in range(at, len(text)) if "</trkpt>" in text[i])
         text[at:at] = text[at : end + 1]  # the 301st point written twice
         (folder / "track.gpx.gz").write_bytes(gzip.compress("".join(text).encode()))
+    elif receiver == "novatel":
+        from support.novatel import novatel_lines
+
+        lines = novatel_lines(good.gnss, day + t)
+        lines[601] = lines[601][:-1] + ("0" if lines[601][-1] != "0" else "1")  # a TIMEA
+        (folder / "drive.gps.gz").write_bytes(gzip.compress("\r\n".join(lines).encode()))
     else:
         from support.ubx import u6_messages, ubx_messages
 
@@ -1168,6 +1176,11 @@ def test_predict_reads_a_candump_log_beside_the_receiver_s_log(
         assert "gps.ubx.gz: passed over: 1 NAV-PVT message(s) with a checksum" in said
     if receiver == "gpx":
         assert "track.gpx.gz: passed over: 1 track point(s) at an earlier one's time" in said
+    if receiver == "novatel":
+        assert (
+            "drive.gps.gz: passed over: 1 log(s) whose CRC does not match (first at line 602)"
+            in said
+        )
     # the map's database given to the log's one bus (can0; a CANedge's bus channel 1)
     one_bus = "{can0: v.dbc}" if log == "candump" else "{1: [v.dbc]}"
     smap.write_text(smap.read_text().replace("dbc: v.dbc", f"dbc: {one_bus}"))

@@ -505,3 +505,38 @@ def test_an_edited_candump_log_beside_an_edited_gpx_track_reads_or_is_refused_cl
     """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, a phone
     logger's GPX track placed by its UTC times; both with random edits."""
     _beside_a_candump_log(can, "track.gpx", gpx, capfd)
+
+
+@st.composite
+def edited_novatel_logs(draw) -> bytes:
+    """The good drive's fixes as a NovAtel receiver's ASCII logs (TIMEA, BESTPOSA) with 1-5
+    random edits (:func:`support.fuzz.edited_log`), and its own: a field changed, its CRC
+    mended or not."""
+    from support.novatel import crc32
+
+    def edit(draw, rows: list[str], kind: str, a: int) -> None:
+        body = rows[a][1:].rsplit("*", 1)[0]
+        head, _, tail = body.partition(";")
+        fields = tail.split(",")
+        fields[draw(st.integers(0, len(fields) - 1))] = draw(
+            st.sampled_from(["", "x", "nan", "1e300", "-95", "200", "NONE", "PROPAGATED"])
+        )
+        body = f"{head};{','.join(fields)}"
+        crc = crc32(body.encode()) if draw(st.booleans()) else 0
+        rows[a] = f"#{body}*{crc:08x}"
+
+    from support.novatel import novatel_lines
+
+    gnss = good_tables().gnss
+    rows = novatel_lines(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy())
+    return edited_log(draw, rows, ("field",), edit, "\r\n")
+
+
+@FUZZ
+@given(can=edited_candump_logs(wheels_only=True), log=edited_novatel_logs())
+def test_an_edited_candump_log_beside_an_edited_novatel_log_reads_or_is_refused_clearly(
+    can, log, capfd
+):
+    """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, a NovAtel
+    receiver's logs (drive.gps) placed by their GPS weeks on UTC; both with random edits."""
+    _beside_a_candump_log(can, "drive.gps", log, capfd)

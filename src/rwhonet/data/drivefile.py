@@ -369,9 +369,9 @@ def _read_streams(
 
         # a hidden file is none of the drive's (macOS's ._wheels.csv beside wheels.csv on
         # a logger's FAT card: binary metadata), as discover leaves hidden drives out
-        # a receiver's NMEA, UBX or GPX log beside them (gps.nmea, gps.ubx, track.gpx) is
-        # read as the GNSS stream, and a bus tool's raw CAN log (can0.log) as its messages'
-        # streams where the map has a dbc;
+        # a receiver's NMEA, UBX, NovAtel or GPX log beside them (gps.nmea, gps.ubx,
+        # drive.gps, track.gpx) is read as the GNSS stream, and a bus tool's raw CAN log
+        # (can0.log) as its messages' streams where the map has a dbc;
         # a log rotator's files (gps.nmea.1, wheels.csv.2.gz) by their names without its number
         spec = data.signal_maps[f.format]
         every = sorted(
@@ -380,7 +380,7 @@ def _read_streams(
             if p.is_file()
             and (
                 is_csv_name(name := without_rotation(p.name))
-                or log_kind(name)
+                or log_kind(name, p)
                 or (
                     spec.dbc_files
                     and (is_can_log_name(name) or is_mdf_name(name) or canedge_packed(name))

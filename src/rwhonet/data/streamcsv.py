@@ -68,6 +68,7 @@ from rwhonet.data.gpx import is_gpx_name, read_gpx
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_name
 from rwhonet.data.nmea import FixLog, is_nmea_name, on_clock, read_nmea
+from rwhonet.data.novatel import is_novatel_log, is_novatel_name, read_novatel
 from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
@@ -128,9 +129,13 @@ def read_stream_csvs(
     check_signal_map(name, signal_map, with_time=True, where=name)
     every = [(Path(p), (display or {}).get(Path(p), str(p))) for p in paths]
     # a receiver's logs: NMEA, u-blox's UBX, a GPX track
-    logs = [(p, f) for p, f in every if log_kind(p.name)]
+    logs = [(p, f) for p, f in every if log_kind(p.name, p)]
     # raw CAN logs: a bus tool's, or MDF4 bus logs (a CANedge's split files)
-    buses = [(p, f) for p, f in every if dbc and (is_can_log_name(p.name) or is_mdf_name(p.name))]
+    buses = [
+        (p, f)
+        for p, f in every
+        if dbc and (p, f) not in logs and (is_can_log_name(p.name) or is_mdf_name(p.name))
+    ]
     files = [(p, f) for p, f in every if (p, f) not in logs and (p, f) not in buses]
     problems: list[Problem] = []
     decoded: dict[str, CanLogGroups] = {}
@@ -519,8 +524,8 @@ def _fix_source_problems(
                 None,
                 None,
                 f"the fixes: {name}.lat and {name}.lon naming a stream file's columns, or a "
-                "receiver's log among the drive's files (NMEA, *.nmea; u-blox UBX, *.ubx; a "
-                "GPX track, *.gpx)",
+                "receiver's log among the drive's files (NMEA, *.nmea; u-blox UBX, *.ubx; "
+                "NovAtel ASCII, *.gps; a GPX track, *.gpx)",
                 f"{' and '.join(missing)} not in {name}, and no receiver log",
                 f"name the fixes' columns in {name}, or give the drive its receiver's log",
             )
@@ -551,17 +556,27 @@ def _local_clock_hint(
 # kinds, the first is read and the others left out
 LOG_KINDS = {
     "UBX": "its positions to 1e-7 degrees",
+    "NovAtel": "its GNSS solution to 1e-11 degrees",
     "NMEA": "the receiver's own sentences",
     "GPX": "a track written from them",
 }
-LOG_NAMES = {"UBX": is_ubx_name, "NMEA": is_nmea_name, "GPX": is_gpx_name}
-LOG_READERS = {"UBX": read_ubx, "NMEA": read_nmea, "GPX": read_gpx}
+LOG_NAMES = {
+    "UBX": is_ubx_name,
+    "NovAtel": is_novatel_name,
+    "NMEA": is_nmea_name,
+    "GPX": is_gpx_name,
+}
+LOG_READERS = {"UBX": read_ubx, "NovAtel": read_novatel, "NMEA": read_nmea, "GPX": read_gpx}
 
 
-def log_kind(name: str) -> str | None:
-    """A receiver's log's kind by its name (``gps.ubx``, ``gps.nmea.gz``, ``track.gpx``),
-    or None: no receiver log."""
-    return next((k for k, named in LOG_NAMES.items() if named(name)), None)
+def log_kind(name: str, path: Path | None = None) -> str | None:
+    """A receiver's log's kind by its name (``gps.ubx``, ``gps.nmea.gz``, ``track.gpx``,
+    ``drive.gps``), or, given its ``path``, a ``*.asc`` or ``*.log`` that holds a NovAtel
+    receiver's logs (:func:`rwhonet.data.novatel.is_novatel_log`); None: no receiver log."""
+    kind = next((k for k, named in LOG_NAMES.items() if named(name)), None)
+    if kind is None and path is not None and is_novatel_log(path, name):
+        return "NovAtel"
+    return kind
 
 
 def _receiver_groups(
@@ -573,7 +588,7 @@ def _receiver_groups(
     notes: list[str],
     changed: list[str],
 ) -> list[Group]:
-    """The receiver's NMEA, UBX or GPX logs as the drive's GNSS stream, each on the stream
+    """The receiver's NMEA, UBX, NovAtel or GPX logs as the drive's GNSS stream, each on the stream
     files' clock (those of the first kind of :data:`LOG_KINDS` alone where there are
     several, the others left out, said).
 
@@ -583,10 +598,11 @@ def _receiver_groups(
     the keys all of them give. Sentences passed over (a checksum that does not match, a
     line cut short, ...) are said in ``changed`` too, so predict says them.
     """
-    first = next(k for k in LOG_KINDS if any(log_kind(p.name) == k for p, _ in logs))
-    kept = [(p, f) for p, f in logs if log_kind(p.name) == first]
+    kinds = {p: log_kind(p.name, p) for p, _ in logs}
+    first = next(k for k in LOG_KINDS if k in kinds.values())
+    kept = [(p, f) for p, f in logs if kinds[p] == first]
     for kind in LOG_KINDS:
-        if kind != first and (out := [f for p, f in logs if log_kind(p.name) == kind]):
+        if kind != first and (out := [f for p, f in logs if kinds[p] == kind]):
             notes.append(
                 f"{', '.join(out)}: {kind} log(s), left out: the fixes are the receiver's "
                 f"{first} log's ({', '.join(f for _, f in kept)}), {LOG_KINDS[first]}"

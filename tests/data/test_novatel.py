@@ -1,0 +1,291 @@
+"""A NovAtel receiver's ASCII logs beside a drive's stream CSVs (rwhonet.data.novatel).
+
+The logs are written by tests/support/novatel.py, whose CRC-32 is computed bit by bit as
+NovAtel's reference code does, and three BESTPOSA lines published with their CRCs (by
+NovAtel's decoder's tests and a ROS driver's) are read as printed."""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.novatel import crc32, gps_utc_s, is_novatel_log, read_novatel
+from rwhonet.data.streamcsv import read_stream_csvs
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+from support.novatel import GPS_EPOCH_UNIX_S, log, novatel_lines, write_novatel
+
+DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
+PUBLISHED = [
+    # NovAtel EDIE's tests
+    "#BESTPOSA,COM1,0,83.5,FINESTEERING,2163,329760.000,02400000,b1f6,65535;SOL_COMPUTED,"
+    "SINGLE,51.15043874397,-114.03066788586,1097.6822,-17.0000,WGS84,1.3648,1.1806,3.1112,"
+    '"",0.000,0.000,18,18,18,0,00,02,11,01*c3194e35',
+    "#BESTPOSA,COM1,0,60.5,FINESTEERING,2166,327153.000,02000000,b1f6,16248;SOL_COMPUTED,WAAS,"
+    "51.15043699323,-114.03067932462,1096.9772,-17.0000,WGS84,0.6074,0.5792,0.9564,"
+    '"131",7.000,0.000,42,34,34,28,00,0b,1f,37*47bbdc4f',
+    # swri-robotics' novatel_gps_driver's tests
+    "#BESTPOSA,ICOM1,0,87.5,FINESTEERING,1956,157432.000,00000800,7145,6938;SOL_COMPUTED,"
+    "SINGLE,29.44391220792,-98.61476921244,261.4344,-26.0000,WGS84,2.1382,3.1092,4.0429,"
+    '"",0.000,0.000,8,8,8,8,0,06,00,03*ecf2202b',
+]
+
+
+@cache
+def _drive():
+    from support.multirate import simulated_streams
+
+    return simulated_streams(120.0, 100.0, 10.0)
+
+
+def _labels(files, smap=None):
+    from rwhonet.sim.streams import signal_map
+    from support.multirate import per_second
+
+    _, radius = _drive()
+    streams = read_stream_csvs(files, smap or signal_map(), radius)
+    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    return per_second(drive, radius), streams
+
+
+def _folder(tmp_path, gnss):
+    from rwhonet.sim.streams import StreamTables, write_stream_csvs
+
+    tables, _ = _drive()
+    return write_stream_csvs(StreamTables(tables.wheels, gnss), tmp_path)
+
+
+def _exact():
+    """The drive's fixes at times to the millisecond, as a NovAtel header writes them."""
+    g = _drive()[0].gnss
+    return g.assign(t_s=np.round(g[c.T_S].to_numpy(), 3))
+
+
+def test_published_lines_are_read_as_printed(tmp_path):
+    for line in PUBLISHED:
+        body, crc = line[1:].split("*")
+        assert crc32(body.encode()) == int(crc, 16)
+    log_ = read_novatel(write_novatel(tmp_path / "a.gps", PUBLISHED), "a.gps")
+    # in the log's order of GPS time: weeks 2163, 2166, 1956
+    np.testing.assert_array_equal(
+        log_.channels["lat"], [51.15043874397, 51.15043699323, 29.44391220792]
+    )
+    np.testing.assert_array_equal(log_.channels["n_sats"], [18, 34, 8])
+    np.testing.assert_array_equal(log_.channels["height"], [1097.6822, 1096.9772, 261.4344])
+    utc = log_.day_s + log_.tod_s
+    assert utc[0] == GPS_EPOCH_UNIX_S + 2163 * 604800 + 329760.0 - 18
+    assert "by the leap seconds to its date (18 s; no valid TIME log" in log_.notes[0]
+
+
+def test_leap_seconds():
+    assert gps_utc_s(DAY_S) == 18
+    assert gps_utc_s(1_483_228_799) == 17 and gps_utc_s(1_483_228_800) == 18
+    assert gps_utc_s(1_000_000_000) == 13  # 2001
+
+
+def test_the_novatel_log_gives_the_labels_of_the_csv_fixes(tmp_path):
+    """wheels.csv on the time of day, the fixes as drive.gps (TIMEA and BESTPOSA an
+    epoch; the table has no speed, so no BESTVELA): the labels of the same fixes in
+    gnss.csv, within 0.01 mm (2.4 um measured: 1e-11 degrees and the CSV's digits)."""
+    g = _exact()
+    ref, _ = _labels(list(_folder(tmp_path / "csv", g).values()))
+    files = [_folder(tmp_path / "gps", g.iloc[:0])["wheels"]]
+    files.append(write_novatel(tmp_path / "gps" / "drive.gps", novatel_lines(g, DAY_S + g[c.T_S])))
+    got, streams = _labels(files)
+    assert len(got) == len(ref) > 100
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
+    said = " ".join(streams.notes)
+    assert "a NovAtel log: 1199 epochs (BESTPOSA), 1199 with a fix" in said
+    assert "GPS time put on UTC by its TIME logs' utc_offset (-18 s)" in said
+    gnss = next(s for s in streams.streams if s.name == "drive.gps")
+    assert gnss.sources[c.LAT_DEG] == "BESTPOSA lat" and gnss.rows[1] == 4  # TIMEA, BESTPOSA
+
+
+@pytest.mark.parametrize(
+    ("status", "kind", "fix"),
+    [
+        ("SOL_COMPUTED", "SINGLE", True),
+        ("SOL_COMPUTED", "NARROW_INT", True),
+        ("SOL_COMPUTED", "INS_RTKFIXED", True),
+        ("SOL_COMPUTED", "PROPAGATED", False),
+        ("SOL_COMPUTED", "FIXEDPOS", False),
+        ("INSUFFICIENT_OBS", "NONE", False),
+        ("COLD_START", "SINGLE", False),
+    ],
+)
+def test_what_is_a_fix(tmp_path, status, kind, fix):
+    t = DAY_S - GPS_EPOCH_UNIX_S + 18 + 45000.0
+    fields = [
+        status,
+        kind,
+        "52.4",
+        "-1.5",
+        "112.0",
+        "-17.0",
+        "WGS84",
+        "1",
+        "1",
+        "1",
+        '""',
+        "0",
+        "0",
+        "12",
+        "10",
+        "10",
+        "0",
+        "00",
+        "02",
+        "11",
+        "01",
+    ]
+    vel = ["SOL_COMPUTED", "DOPPLER_VELOCITY", "0.15", "0", "10.5", "90.0", "0", "0"]
+    lines = [log("BESTPOSA", t, fields), log("BESTVELA", t, vel)]
+    got = read_novatel(write_novatel(tmp_path / "a.gps", lines), "a.gps")
+    for key in ("lat", "lon", "speed_gnss", "heading"):
+        assert np.isfinite(got.channels[key][0]) == fix, key
+    assert got.channels["n_sats"][0] == 10
+
+
+def test_damage_is_passed_over_and_counted(tmp_path):
+    """A CRC that does not match, a line cut short, an epoch given twice, a time status
+    UNKNOWN: passed over, counted with their first lines; the rest read."""
+    g = _exact().iloc[:20]
+    lines = novatel_lines(g, DAY_S + g[c.T_S], velocity=None, time_logs=False)
+    lines[3] = lines[3].replace("52.", "53.", 1)  # the CRC no longer matches
+    lines[5] = lines[5][:60]  # cut short
+    lines.insert(8, lines[7])  # written twice
+    t_gps = DAY_S + float(g[c.T_S].iloc[10]) - GPS_EPOCH_UNIX_S + 18
+    lines[11] = log("BESTPOSA", t_gps, lines[11].split(";")[1].split("*")[0].split(","), "UNKNOWN")
+    got = read_novatel(write_novatel(tmp_path / "a.gps", lines), "a.gps")
+    assert got.rows.size == 17
+    assert got.dropped == (
+        "1 log(s) whose CRC does not match (first at line 4); 1 log(s) cut short (first at "
+        "line 6); 1 BESTPOSA log(s) of the time status UNKNOWN (first at line 12); 1 BESTPOSA "
+        "log(s) of an epoch already given (first at line 9)"
+    )
+
+
+def test_bestgnsspos_is_read_before_bestpos(tmp_path):
+    """A SPAN system logs BESTPOS blended with its INS and BESTGNSSPOS from the GNSS alone:
+    the GNSS's are the fixes."""
+    g = _exact().iloc[:30]
+    t = DAY_S + g[c.T_S]
+    moved = g.assign(**{c.LAT_DEG: g[c.LAT_DEG] + 0.001})
+    lines = novatel_lines(moved, t, "BESTPOSA") + novatel_lines(
+        g, t, "BESTGNSSPOSA", time_logs=False
+    )
+    got = read_novatel(write_novatel(tmp_path / "a.gps", lines), "a.gps")
+    np.testing.assert_array_equal(got.channels["lat"], np.round(g[c.LAT_DEG].to_numpy(), 11))
+    assert "left out: BESTPOSA 30 (the GNSS-only solution read)" in got.notes[0]
+
+
+def test_a_log_without_a_position_log_is_refused_naming_what_it_holds(tmp_path):
+    t = 2_000_000_000.0
+    lines = [log("RANGEA", t + k, ["0"]) for k in range(3)] + [log("RXSTATUSA", t, ["0"])]
+    with pytest.raises(InputError) as err:
+        read_novatel(write_novatel(tmp_path / "a.gps", lines), "a.gps")
+    said = str(err.value)
+    assert "expected a NovAtel receiver's BESTPOSA or BESTGNSSPOSA logs" in said
+    assert "other logs (RANGEA 3, RXSTATUSA 1)" in said
+
+
+def test_bad_fields_are_refused_at_their_line(tmp_path):
+    g = _exact().iloc[:5]
+    lines = novatel_lines(g, DAY_S + g[c.T_S], velocity=None, time_logs=False)
+    fields = lines[2].split(";")[1].split("*")[0].split(",")
+    t_gps = DAY_S + float(g[c.T_S].iloc[2]) - GPS_EPOCH_UNIX_S + 18
+    lines[2] = log("BESTPOSA", t_gps, fields[:2] + ["95.0", "x"] + fields[4:])
+    with pytest.raises(InputError) as err:
+        read_novatel(write_novatel(tmp_path / "a.gps", lines), "a.gps")
+    said = str(err.value)
+    assert "a.gps, row 3, column 'lon': expected a number; found 'x'" in said
+    assert "a.gps, row 3, column 'lat': expected a lat in [-90, 90] degrees" in said
+
+
+def test_a_novatel_asc_or_log_beside_a_candump_log_is_told_by_what_it_holds(tmp_path):
+    """A NovAtel log named drive.log (or .asc, as NovAtel's converter writes) among a Linux
+    logger's can0.log with the map's DBC: read as the fixes, the candump log as the bus;
+    the same labels as the NovAtel log named drive.gps."""
+    from rwhonet.config import ColumnSpec
+    from rwhonet.sim.streams import StreamTables
+    from support.canlog import DBC, stream_frames, write_candump
+
+    tables, radius = _drive()
+    g = _exact()
+    wheels_only = StreamTables(tables.wheels, tables.gnss.iloc[:0])
+    frames = stream_frames(wheels_only, radius, DAY_S)
+    signals = {"t": ColumnSpec("t", "s")} | {
+        f"omega_{w}": ColumnSpec(f"WhlSpd_{w.upper()}", "km/h") for w in ("fl", "fr", "rl", "rr")
+    }
+    (tmp_path / "bus.dbc").write_text(DBC)
+    got = {}
+    for name in ("drive.gps", "drive.log", "drive.asc"):
+        folder = tmp_path / name.replace(".", "_")
+        folder.mkdir()
+        can = write_candump(*frames, folder / "can0.log")
+        gps = write_novatel(folder / name, novatel_lines(g, DAY_S + g[c.T_S]))
+        assert is_novatel_log(gps) and not is_novatel_log(can)
+        streams = read_stream_csvs(
+            [can, gps], signals, radius, "map", None, [str(tmp_path / "bus.dbc")]
+        )
+        got[name] = resample(streams, nominal_radius_m=radius).drive.columns
+    for name in ("drive.log", "drive.asc"):
+        for k, v in got["drive.gps"].items():
+            np.testing.assert_array_equal(got[name][k], v, err_msg=f"{name} {k}")
+
+
+def test_the_real_minute_s_fixes_as_a_novatel_log(tmp_path):
+    """The RAV4's wheel speeds in wheels.csv on the receiver's UTC, its recorded u-blox
+    fixes written as BESTPOSA and BESTVELA logs (with TIMEA) in place of GGA and RMC: the
+    NMEA log's 59 seconds, times and wheel travel identical, the GNSS displacement within
+    2 mm (the NMEA log's ddmm.mmmmmm against 1e-11 degrees)."""
+    from rwhonet.config import ColumnSpec
+    from rwhonet.data.fixtimes import receiver_epochs
+    from support.multirate import per_second
+    from support.nmea import gga, rmc, write_nmea
+    from support.realminute import RAV4_RADIUS_M, real_minute
+
+    minute = real_minute()
+    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
+    fit = receiver_epochs(tg, vg[:, 3])
+    utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
+    t = np.round(vg[:, 3] / 1000.0, 2)
+    smap = {"t": ColumnSpec("t", "s")} | {
+        f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
+    }
+    got, said = {}, {}
+    for case in ("nmea", "novatel"):
+        folder = tmp_path / case
+        folder.mkdir()
+        columns = {"t": utc} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
+        pd.DataFrame(columns).to_csv(folder / "wheels.csv", index=False, float_format="%.6f")
+        if case == "nmea":
+            lines = []
+            for i in range(tg.size):
+                lines += [gga(t[i], vg[i, 0], vg[i, 1], 9), rmc(t[i], *vg[i, [0, 1, 2, 5]])]
+            write_nmea(folder / "gps.nmea", lines)
+        else:
+            fixes = pd.DataFrame(
+                {
+                    c.LAT_DEG: vg[:, 0],
+                    c.LON_DEG: vg[:, 1],
+                    c.N_SATS: 9.0,
+                    c.SPEED_GNSS_M_S: vg[:, 2],
+                    c.HEADING_DEG: vg[:, 5],
+                }
+            )
+            write_novatel(folder / "drive.gps", novatel_lines(fixes, t))
+        streams = read_stream_csvs(sorted(folder.iterdir()), smap, RAV4_RADIUS_M, "map")
+        drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
+        got[case], said[case] = per_second(drive, RAV4_RADIUS_M), " ".join(streams.notes)
+    assert "GPS weeks, on the stream files' UTC" in said["novatel"]
+    assert len(got["novatel"]) == len(got["nmea"]) == 59
+    for q in ("t_s", "disp_wpm_m"):
+        np.testing.assert_array_equal(got["novatel"][q], got["nmea"][q], err_msg=q)
+    for q in ("disp_gnss_m", "label_m"):
+        np.testing.assert_allclose(got["novatel"][q], got["nmea"][q], rtol=0, atol=2e-3, err_msg=q)
