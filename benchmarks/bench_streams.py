@@ -4,7 +4,8 @@ Simulates one long drive (default 2 h, ci world; truth at 200 Hz, which is
 enough for timing), samples it as a logger's streams (CAN wheel speeds at
 100 Hz with jittered stamps, GNSS at 10 Hz), writes them in each format the
 readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
-NMEA log, a u-blox receiver's UBX log or a GPX track (gpxpy's, GPX 1.0), one MDF4
+NMEA log, a u-blox receiver's UBX log, a NovAtel receiver's ASCII logs (BESTPOSA an
+epoch, TIMEA a second) or a GPX track (gpxpy's, GPX 1.0), one MDF4
 file, a comma2k19 folder and a comma2k19 route of one-minute segment folders, raw CAN
 frames as a candump log, a Vector BLF and a Vector ASC, absolute and relative stamps, with
 their DBC) and times,
@@ -66,6 +67,7 @@ from support.canlog import (  # noqa: E402
 )
 from support.gpx import track, write_gpx  # noqa: E402
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
+from support.novatel import novatel_lines, write_novatel  # noqa: E402
 from support.ubx import pvt_log  # noqa: E402
 
 
@@ -134,6 +136,12 @@ def main() -> None:
         # wheels' clock read as seconds of the day (the day's midnight at the drive's 0 s)
         ubx = root / "csv" / "gps.ubx"
         ubx.write_bytes(pvt_log(tables.gnss, 1_552_262_400.0 + t_fix))
+        # ... and as a NovAtel receiver's ASCII logs (BESTPOSA an epoch, TIMEA a second),
+        # placed so too
+        novatel = write_novatel(
+            root / "csv" / "drive.gps",
+            novatel_lines(tables.gnss, 1_552_262_400.0 + t_fix, time_every=10),
+        )
         # ... and as a phone logger's GPX track (gpxpy writes it), placed so too
         gpx = write_gpx(root / "csv" / "track.gpx", track(tables.gnss, 1_552_262_400.0 + t_fix))
         # the streams as raw CAN frames (wheels, fix, satellites) on a Unix clock: a
@@ -162,6 +170,9 @@ def main() -> None:
                 [csvs["wheels"], nmea], signal_map(), radius
             ),
             "CSV + UBX log": lambda: read_stream_csvs([csvs["wheels"], ubx], signal_map(), radius),
+            "CSV + NovAtel log": lambda: read_stream_csvs(
+                [csvs["wheels"], novatel], signal_map(), radius
+            ),
             "CSV + GPX track": lambda: read_stream_csvs(
                 [csvs["wheels"], gpx], signal_map(), radius
             ),

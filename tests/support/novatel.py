@@ -44,10 +44,12 @@ def novatel_lines(
     position: str = "BESTPOSA",
     velocity: str | None = "BESTVELA",
     time_logs: bool = True,
+    time_every: int = 1,
 ) -> list[str]:
     """The fixes as the receiver's logs, an epoch's lines together: TIMEA (where
-    ``time_logs``), the position log and the velocity log (where given and the table has
-    a speed and course)."""
+    ``time_logs``, every ``time_every`` epochs: 10 is a receiver's ``LOG TIMEA ONTIME 1``
+    at 10 Hz), the position log and the velocity log (where given and the table has a
+    speed and course)."""
     lines = []
     gps = np.asarray(t_utc_s, dtype=float) - GPS_EPOCH_UNIX_S + LEAP_S
     speed = g[c.SPEED_GNSS_M_S].to_numpy() if c.SPEED_GNSS_M_S in g else None
@@ -56,7 +58,7 @@ def novatel_lines(
     sats = g[c.N_SATS].to_numpy() if c.N_SATS in g else np.full(len(g), 9.0)
     lat, lon = g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy()
     for i, t in enumerate(gps):
-        if time_logs:
+        if time_logs and i % time_every == 0:
             lines.append(
                 log(
                     "TIMEA",
