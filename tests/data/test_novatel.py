@@ -192,6 +192,10 @@ def test_a_log_without_a_position_log_is_refused_naming_what_it_holds(tmp_path):
     said = str(err.value)
     assert "expected a NovAtel receiver's BESTPOSA or BESTGNSSPOSA logs" in said
     assert "other logs (RANGEA 3, RXSTATUSA 1)" in said
+    stamped = [f"{12.5 + k:.3f} {line}" for k, line in enumerate(PUBLISHED)]
+    with pytest.raises(InputError) as err:
+        read_novatel(write_novatel(tmp_path / "b.gps", stamped), "b.gps")
+    assert "a log after other text on its line (line 1: a logger's stamp?)" in str(err.value)
 
 
 def test_bad_fields_are_refused_at_their_line(tmp_path):

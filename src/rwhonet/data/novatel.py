@@ -140,6 +140,7 @@ class _Logs:
     others: Counter = field(default_factory=Counter)
     bad_crc: list[int] = field(default_factory=list)
     cut: list[int] = field(default_factory=list)
+    prefixed: list[int] = field(default_factory=list)  # a log after other text on its line
 
 
 READ = (*POSITIONS, *VELOCITIES, "TIMEA")
@@ -151,6 +152,8 @@ def _scan(data: bytes) -> _Logs:
     for number, line in enumerate(data.splitlines(), 1):
         line = line.strip()
         if not line.startswith((b"#", b"%", b"<")):
+            if b"#BEST" in line and len(out.prefixed) < 1:
+                out.prefixed.append(number)
             continue
         name = line[1:].split(b",", 1)[0].decode("ascii", "replace")
         if not line.startswith(b"#") or name not in READ:
@@ -207,7 +210,13 @@ def read_novatel(path: Path, file: str) -> FixLog:
                     None,
                     "a NovAtel receiver's BESTPOSA or BESTGNSSPOSA logs (ASCII, with a CRC)",
                     f"other logs ({held})"
-                    + (f"; {len(found.bad_crc)} whose CRC does not match" if found.bad_crc else ""),
+                    + (f"; {len(found.bad_crc)} whose CRC does not match" if found.bad_crc else "")
+                    + (
+                        f"; a log after other text on its line (line {found.prefixed[0]}: a "
+                        "logger's stamp?), which is not read"
+                        if found.prefixed
+                        else ""
+                    ),
                     "log BESTPOSA (LOG BESTPOSA ONTIME 0.1) with the drive, or give the "
                     "receiver's NMEA output (GPGGA, GPRMC)",
                 )
@@ -232,7 +241,9 @@ def read_novatel(path: Path, file: str) -> FixLog:
         seen.add(t)
         rows.append(line)
         gps_s.append(t)
-        fix.append(body[0] == b"SOL_COMPUTED" and body[1].decode() not in NO_FIX_TYPES)
+        fix.append(
+            body[0] == b"SOL_COMPUTED" and body[1].decode("ascii", "replace") not in NO_FIX_TYPES
+        )
         lat.append(_number(body[2], file, line, "lat", problems))
         lon.append(_number(body[3], file, line, "lon", problems))
         hgt.append(_number(body[4], file, line, "hgt", problems))
