@@ -109,7 +109,7 @@ ZDA_DATE = "%d,%m,%Y"  # ZDA's day, month and year fields, as the sentence write
 POSITION_ORDER = (GGA, GNS, RMC, GLL)
 # a logger's stamp before the sentence: separated by spaces, a comma, a semicolon, a tab,
 # or in brackets
-_STAMP_STRIP = b" \t\r\n\x0b\x0c,;[]()"  # a serial line's LF CR leaves a CR before the "$"
+STAMP_STRIP = b" \t\r\n\x0b\x0c,;[]()"  # a serial line's LF CR leaves a CR before the "$"
 _NEW_DAY_S = 12 * 3600.0  # a time of day this far back: the next day
 
 
@@ -228,7 +228,7 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
     head_start, head_end = found.head[0][kept].tolist(), found.head[1][kept].tolist()
 
     def stamp(i: int) -> bytes | None:  # what stands before sentence i's "$", if anything
-        return data[head_start[i] : head_end[i]].strip(_STAMP_STRIP) or None
+        return data[head_start[i] : head_end[i]].strip(STAMP_STRIP) or None
 
     row_of = rows[kept]
     fields = _Fields(bodies)
@@ -862,7 +862,8 @@ def on_clock(
         "the stream files' times in UTC (a time of day as hhmmss, hh:mm:ss; iso8601; a date "
         "column; Unix seconds)"
     )
-    if kind is None and log.kind != "NMEA":  # UBX, GPX: no logger stamp before an epoch
+    if kind is None and log.kind != "NMEA" and not log.unstamped.size:
+        # UBX, GPX, a NovAtel log without stamps: no logger stamp before an epoch
         raise InputError(
             [
                 Problem(

@@ -38,7 +38,10 @@ checked against published BESTPOSA lines in the tests).
 Every other log (RANGE, INSPVA, RXSTATUS, ...) and abbreviated ASCII (``<``) is passed over
 and counted by name; a SPAN system's INS solution (INSPVA) is not a GNSS fix.
 
-**The clock.** Each epoch's time is its header's GPS week and seconds, put on UTC by the
+**The clock.** Where every epoch's log stands after the logger's stamp (``[12.345]
+#BESTPOSA,...``), the stamps are the fixes' times, as an NMEA log's
+(:func:`rwhonet.data.nmea.on_clock`). Otherwise each epoch's time is its header's GPS
+week and seconds, put on UTC by the
 log's own ``TIME`` (``utc_offset``) or, without one, by the leap seconds IERS announced
 (:data:`GPS_UTC_S`: 18 s since 2017-01-01, the last announced when this was written; a
 later one would put the fixes a second off, which the resampler's search for two clocks
@@ -63,13 +66,16 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.nmea import FixLog
+from rwhonet.data.nmea import STAMP_STRIP, FixLog
 from rwhonet.errors import InputError, Problem
 
 NOVATEL_SUFFIXES = (".gps",)
 SNIFFED_SUFFIXES = (".asc", ".log")  # a CAN log's names too: told apart by the content
 SNIFF_BYTES = 4096
-_HEADER = re.compile(rb"(?m)^#[A-Z][A-Z0-9_]*A,[^,;]*,\d+,[\d.]+,[A-Z_]+,\d+,[\d.]+,")
+# a log's header at a line's start, or after a logger's stamp
+_HEADER = re.compile(rb"(?m)^[^#\r\n]{0,40}#[A-Z][A-Z0-9_]*A,[^,;]*,\d+,[\d.]+,[A-Z_]+,\d+,[\d.]+,")
+# a log after a logger's stamp on its line (``12.345 #BESTPOSA,...``)
+_AFTER_STAMP = re.compile(rb"[#%<][A-Z][A-Z0-9_]*,")
 GPS_EPOCH_UNIX_S = 315_964_800  # 1980-01-06 00:00:00 UTC
 SECONDS_PER_WEEK = 604_800
 # GPS time less UTC (s), from each date (UTC, Unix s) on: the leap seconds since 1980
@@ -140,21 +146,26 @@ class _Logs:
     others: Counter = field(default_factory=Counter)
     bad_crc: list[int] = field(default_factory=list)
     cut: list[int] = field(default_factory=list)
-    prefixed: list[int] = field(default_factory=list)  # a log after other text on its line
+    stamps: dict[int, bytes] = field(default_factory=dict)  # line -> the logger's stamp
 
 
 READ = (*POSITIONS, *VELOCITIES, "TIMEA")
 
 
 def _scan(data: bytes) -> _Logs:
-    """Every ``#`` line's log, its CRC checked."""
+    """Every ``#`` line's log, its CRC checked; what stands before a line's ``#`` is the
+    logger's stamp (as before an NMEA sentence's ``$``)."""
     out = _Logs()
     for number, line in enumerate(data.splitlines(), 1):
         line = line.strip()
         if not line.startswith((b"#", b"%", b"<")):
-            if b"#BEST" in line and len(out.prefixed) < 1:
-                out.prefixed.append(number)
-            continue
+            at = _AFTER_STAMP.search(line)
+            if at is None:
+                continue
+            stamp = line[: at.start()].strip(STAMP_STRIP)
+            if stamp:
+                out.stamps[number] = stamp
+            line = line[at.start() :]
         name = line[1:].split(b",", 1)[0].decode("ascii", "replace")
         if not line.startswith(b"#") or name not in READ:
             out.others[name if line.startswith(b"#") else f"{line[:1].decode()}{name}"] += 1
@@ -210,13 +221,7 @@ def read_novatel(path: Path, file: str) -> FixLog:
                     None,
                     "a NovAtel receiver's BESTPOSA or BESTGNSSPOSA logs (ASCII, with a CRC)",
                     f"other logs ({held})"
-                    + (f"; {len(found.bad_crc)} whose CRC does not match" if found.bad_crc else "")
-                    + (
-                        f"; a log after other text on its line (line {found.prefixed[0]}: a "
-                        "logger's stamp?), which is not read"
-                        if found.prefixed
-                        else ""
-                    ),
+                    + (f"; {len(found.bad_crc)} whose CRC does not match" if found.bad_crc else ""),
                     "log BESTPOSA (LOG BESTPOSA ONTIME 0.1) with the drive, or give the "
                     "receiver's NMEA output (GPGGA, GPRMC)",
                 )
@@ -277,6 +282,13 @@ def read_novatel(path: Path, file: str) -> FixLog:
         )
     gps = np.array(gps_s)
     fixed = np.array(fix, dtype=bool)
+    stamped = [found.stamps.get(r) for r in rows]
+    stamps = None if None in stamped else [x.decode("ascii", "replace") for x in stamped]
+    some = stamps is None and any(x is not None for x in stamped)
+    unstamped = np.array(
+        [r for r, x in zip(rows, stamped, strict=True) if x is None] if some else [],
+        dtype=np.int64,
+    )
     offset_s, how = _utc_offset(found, gps, file)
     utc = GPS_EPOCH_UNIX_S + gps + offset_s
     day_s = float(np.floor(utc[0] / 86400.0) * 86400.0)
@@ -332,12 +344,13 @@ def read_novatel(path: Path, file: str) -> FixLog:
         file,
         utc - day_s,
         day_s,
-        None,
+        stamps,
         channels,
         sources,
         np.array(rows),
         notes,
         dropped,
+        unstamped,
         dated_by="GPS weeks",
         kind="NovAtel",
     )
