@@ -5,34 +5,22 @@ reader's values are compared with what gpxpy reads back from the same file."""
 
 from __future__ import annotations
 
-from functools import cache
-
 import gpxpy
 import numpy as np
-import pandas as pd
 import pytest
 
 from rwhonet.data import canonical as c
 from rwhonet.data.gpx import is_gpx_name, read_gpx
-from rwhonet.data.streamcsv import read_stream_csvs
-from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from support.gpx import track, write_gpx
+from support.multirate import receiver_drive, receiver_labels
 
 DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
 
 
-@cache
-def _drive():
-    """A simulated 120 s drive's streams: 100 Hz wheels, a 10 Hz receiver (times of day)."""
-    from support.multirate import simulated_streams
-
-    return simulated_streams(120.0, 100.0, 10.0)
-
-
 def _fixes():
     """The drive's fixes with a height, speed and course of their own, to be read back."""
-    g = _drive()[0].gnss
+    g = receiver_drive()[0].gnss
     k = np.arange(len(g))
     return g.assign(
         **{
@@ -43,20 +31,10 @@ def _fixes():
     )
 
 
-def _labels(files):
-    from rwhonet.sim.streams import signal_map
-    from support.multirate import per_second
-
-    _, radius = _drive()
-    streams = read_stream_csvs(files, signal_map(), radius)
-    drive = resample(streams, nominal_radius_m=radius).drive.columns
-    return per_second(drive, radius), streams
-
-
 def _folder(tmp_path, gnss_csv: bool):
     from rwhonet.sim.streams import StreamTables, write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     keep = tables if gnss_csv else StreamTables(tables.wheels, tables.gnss.iloc[:0])
     return write_stream_csvs(keep, tmp_path)
 
@@ -120,10 +98,10 @@ def test_the_gpx_track_gives_the_labels_of_the_csv_fixes(tmp_path):
     """wheels.csv on the time of day and the receiver's fixes as track.gpx: the seconds and
     labels of the same fixes in gnss.csv, within 0.1 mm (GPX writes the coordinates in
     full, the times to the microsecond: 12 um measured)."""
-    g = _drive()[0].gnss
-    ref, _ = _labels(list(_folder(tmp_path / "csv", True).values()))
+    g = receiver_drive()[0].gnss
+    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", True).values()))
     gpx = write_gpx(tmp_path / "gpx" / "track.gpx", track(g, DAY_S + g[c.T_S].to_numpy()))
-    got, streams = _labels([*_wheels(tmp_path / "gpx"), gpx])
+    got, streams = receiver_labels([*_wheels(tmp_path / "gpx"), gpx])
     assert len(got) == len(ref) > 100
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-4, err_msg=q)
@@ -261,15 +239,15 @@ def test_beside_the_receiver_s_nmea_log_the_nmea_log_is_read(tmp_path):
     """A phone app that kept both: the NMEA log is read, the GPX track left out, said."""
     from support.nmea import nmea_lines, write_nmea
 
-    g = _drive()[0].gnss
+    g = receiver_drive()[0].gnss
     t = DAY_S + g[c.T_S].to_numpy()
     folder = tmp_path / "both"
     wheels = _wheels(folder)
     nmea = write_nmea(folder / "gps.nmea", nmea_lines(g, t))
     moved = g.assign(**{c.LAT_DEG: g[c.LAT_DEG] + 1.0})  # another place: must not be read
     gpx = write_gpx(folder / "track.gpx", track(moved, t))
-    got, streams = _labels([*wheels, nmea, gpx])
-    alone, _ = _labels([*wheels, nmea])
+    got, streams = receiver_labels([*wheels, nmea, gpx])
+    alone, _ = receiver_labels([*wheels, nmea])
     np.testing.assert_array_equal(got["disp_gnss_m"], alone["disp_gnss_m"])
     said = " ".join(streams.notes)
     assert "track.gpx: GPX log(s), left out: the fixes are the receiver's NMEA log's" in said
@@ -278,16 +256,16 @@ def test_beside_the_receiver_s_nmea_log_the_nmea_log_is_read(tmp_path):
 def test_a_gpx_track_per_hour_is_joined(tmp_path):
     """A logger that starts a file a period: the files, given in no order, are the one
     track's labels exactly."""
-    g = _drive()[0].gnss
+    g = receiver_drive()[0].gnss
     t = DAY_S + g[c.T_S].to_numpy()
     wheels = _wheels(tmp_path / "w")
-    one, _ = _labels([*wheels, write_gpx(tmp_path / "one" / "track.gpx", track(g, t))])
+    one, _ = receiver_labels([*wheels, write_gpx(tmp_path / "one" / "track.gpx", track(g, t))])
     cuts = [0, 400, 777, len(g)]
     files = [
         write_gpx(tmp_path / "three" / f"track_{k}.gpx", track(g.iloc[a:b], t[a:b]))
         for k, (a, b) in enumerate(zip(cuts, cuts[1:], strict=False))
     ]
-    three, streams = _labels([*wheels, *files[::-1]])
+    three, streams = receiver_labels([*wheels, *files[::-1]])
     for q in one.columns:
         np.testing.assert_array_equal(three[q], one[q], err_msg=q)
     assert "one stream split across 3 files, joined in time order" in " ".join(streams.notes)
@@ -296,14 +274,14 @@ def test_a_gpx_track_per_hour_is_joined(tmp_path):
 def test_a_gpx_track_beside_a_logger_s_own_clock_is_refused_saying_what_to_do(tmp_path):
     from rwhonet.sim.streams import StreamTables, write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t0 = float(tables.wheels[c.T_S].iloc[0])
     own = StreamTables(tables.wheels.assign(t_s=tables.wheels[c.T_S] - t0), g.iloc[:0])
     files = write_stream_csvs(own, tmp_path / "own")
     gpx = write_gpx(tmp_path / "own" / "track.gpx", track(g, DAY_S + g[c.T_S].to_numpy()))
     with pytest.raises(InputError) as err:
-        _labels([files["wheels"], gpx])
+        receiver_labels([files["wheels"], gpx])
     assert "a GPX log (no logger stamps in it), and the stream files' time in 's'" in str(err.value)
 
 
@@ -312,51 +290,18 @@ def test_the_real_minute_s_fixes_as_a_gpx_track(tmp_path):
     as a GPX track (gpxpy, GPX 1.0 with speed and course) in place of GGA and RMC
     sentences: the same 59 seconds, their GNSS displacements within 2 mm (the NMEA log's
     ddmm.mmmmmm against GPX's full digits), the wheels' travel the same."""
-    from rwhonet.config import ColumnSpec
-    from rwhonet.data.fixtimes import receiver_epochs
-    from support.multirate import per_second
-    from support.nmea import gga, rmc, write_nmea
-    from support.realminute import RAV4_RADIUS_M, real_minute
+    from support.realminute import minute_seconds, write_minute_nmea
 
-    minute = real_minute()
-    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
-    fit = receiver_epochs(tg, vg[:, 3])
-    utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
-    t = np.round(vg[:, 3] / 1000.0, 2)
-    smap = {"t": ColumnSpec("t", "s")} | {
-        f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
-    }
-    got, said = {}, {}
-    for case in ("nmea", "gpx"):
-        folder = tmp_path / case
-        folder.mkdir()
-        columns = {"t": utc} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
-        pd.DataFrame(columns).to_csv(folder / "wheels.csv", index=False, float_format="%.6f")
-        if case == "nmea":
-            lines = []
-            for i in range(tg.size):
-                lines += [gga(t[i], vg[i, 0], vg[i, 1], 9), rmc(t[i], *vg[i, [0, 1, 2, 5]])]
-            write_nmea(folder / "gps.nmea", lines)
-        else:
-            fixes = pd.DataFrame(
-                {
-                    c.LAT_DEG: vg[:, 0],
-                    c.LON_DEG: vg[:, 1],
-                    c.N_SATS: 9.0,
-                    c.SPEED_GNSS_M_S: vg[:, 2],
-                    c.HEADING_DEG: vg[:, 5],
-                }
-            )
-            write_gpx(folder / "track.gpx", track(fixes, t))
-        streams = read_stream_csvs(sorted(folder.iterdir()), smap, RAV4_RADIUS_M, "map")
-        drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
-        got[case], said[case] = per_second(drive, RAV4_RADIUS_M), " ".join(streams.notes)
-    assert "GPX dates, on the stream files' UTC" in said["gpx"]
-    assert len(got["gpx"]) == len(got["nmea"]) == 59
+    ref, _ = minute_seconds(tmp_path / "nmea", write_minute_nmea)
+    got, said = minute_seconds(
+        tmp_path / "gpx", lambda d, f, t: write_gpx(d / "track.gpx", track(f, t))
+    )
+    assert "GPX dates, on the stream files' UTC" in said
+    assert len(got) == len(ref) == 59
     for q in ("t_s", "disp_wpm_m"):
-        np.testing.assert_array_equal(got["gpx"][q], got["nmea"][q], err_msg=q)
+        np.testing.assert_array_equal(got[q], ref[q], err_msg=q)
     for q in ("disp_gnss_m", "label_m"):
-        np.testing.assert_allclose(got["gpx"][q], got["nmea"][q], rtol=0, atol=2e-3, err_msg=q)
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=2e-3, err_msg=q)
 
 
 def test_times_read_at_once_are_those_read_cell_by_cell(tmp_path):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -23,35 +22,18 @@ from rwhonet.data.nmea import (
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
+from support.multirate import receiver_drive, receiver_labels
 from support.nmea import gga, gll, gns, nmea_lines, rmc, sentence, write_nmea
 
 # 2019-03-11 00:00:00 UTC: the day of the drives below, as Unix seconds
 DAY_S = 1_552_262_400.0
 
 
-@cache
-def _drive():
-    """A simulated 120 s drive's streams: 100 Hz wheels, a 10 Hz receiver (times of day)."""
-    from support.multirate import simulated_streams
-
-    return simulated_streams(120.0, 100.0, 10.0)
-
-
-def _labels(files, smap=None, gnss_lag="report"):
-    from rwhonet.sim.streams import signal_map
-    from support.multirate import per_second
-
-    _, radius = _drive()
-    streams = read_stream_csvs(files, smap or signal_map(), radius)
-    drive = resample(streams, nominal_radius_m=radius, gnss_lag=gnss_lag).drive.columns
-    return per_second(drive, radius), streams
-
-
 def _wheels(folder, shift_s: float = 0.0):
     """The drive's wheels.csv, its clock moved by ``shift_s``."""
     from rwhonet.sim.streams import StreamTables, write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     moved = StreamTables(
         tables.wheels.assign(t_s=tables.wheels[c.T_S] + shift_s), tables.gnss.iloc[:0]
     )
@@ -62,11 +44,11 @@ def _reference(tmp_path, gnss=None):
     """The labels of the drive's fixes written as gnss.csv (``gnss``: other fixes)."""
     from rwhonet.sim.streams import StreamTables, write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     if gnss is not None:
         tables = StreamTables(tables.wheels, gnss)
     files = write_stream_csvs(tables, tmp_path / "csv")
-    return _labels([files["wheels"], files["gnss"]])[0]
+    return receiver_labels([files["wheels"], files["gnss"]])[0]
 
 
 def _same(got, ref, atol_m):
@@ -97,11 +79,11 @@ def test_clock_kinds():
 def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
     """Each sentence after the logger's stamp (its time on the wheels' clock): the seconds
     and labels of the same fixes as gnss.csv, within the ddmm.mmmmmm rounding (2 mm)."""
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = g[c.T_S].to_numpy()
     log = write_nmea(tmp_path / "nmea" / "gps.nmea", nmea_lines(g, DAY_S + t, stamps=t))
-    got, streams = _labels([_wheels(tmp_path / "nmea"), log])
+    got, streams = receiver_labels([_wheels(tmp_path / "nmea"), log])
     _same(got, _reference(tmp_path), 0.002)
     said = " ".join(streams.notes)
     assert "logger stamp is its time" in said
@@ -120,7 +102,7 @@ def test_utc_times_on_a_unix_clock(tmp_path, sentences):
     with RMC's or ZDA's date, or (GGA alone) the day nearest the wheels' start: the labels of the
     same fixes in gnss.csv, within the ddmm.mmmmmm rounding (2 mm). The fixes' times are
     written to 0.01 s, as receivers write them, in both."""
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = np.round(g[c.T_S].to_numpy(), 2)
     exact = g.assign(t_s=t)
@@ -130,7 +112,7 @@ def test_utc_times_on_a_unix_clock(tmp_path, sentences):
 
     counts = "GGA" in sentences or "GNS" in sentences
     smap = {k: v for k, v in signal_map().items() if k != "n_sats" or counts}
-    got, streams = _labels(files, smap)
+    got, streams = receiver_labels(files, smap)
     _same(got.assign(t_s=got["t_s"] - DAY_S), _reference(tmp_path, exact), 0.002)
     said = " ".join(streams.notes)
     assert ("RMC dates" in said) == ("RMC" in sentences)
@@ -149,13 +131,13 @@ def test_utc_times_on_a_unix_clock(tmp_path, sentences):
 
 
 def test_a_logger_clock_in_local_time_is_refused_with_its_offset(tmp_path):
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = g[c.T_S].to_numpy()
     write_nmea(tmp_path / "d" / "gps.nmea", nmea_lines(g, DAY_S + t))
     files = [_wheels(tmp_path / "d", DAY_S + 3600.0), tmp_path / "d" / "gps.nmea"]
     with pytest.raises(InputError) as err:
-        _labels(files)
+        receiver_labels(files)
     said = str(err.value)
     assert "gps.nmea" in said and "fixes during the stream files' times" in said
     assert "1.00 h ahead of the receiver's UTC: a local time?" in said
@@ -167,7 +149,7 @@ def test_a_logger_clock_on_gps_time_is_found_by_the_wheels_and_refused_as_two_cl
     only 18 s later (the resampler's wide search, rwhonet.data.fixlag). Refused with the
     setting that moves them; with it set, the labels of the drive logged on UTC, exactly,
     18 s later on the logger's clock."""
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = np.round(g[c.T_S].to_numpy(), 2)
     exact = g.assign(t_s=t)
@@ -176,23 +158,23 @@ def test_a_logger_clock_on_gps_time_is_found_by_the_wheels_and_refused_as_two_cl
         _wheels(tmp_path / name, DAY_S + shift)
     gps = [tmp_path / "gps" / "wheels.csv", tmp_path / "gps" / "gps.nmea"]
     with pytest.raises(InputError) as err:
-        _labels(gps)
+        receiver_labels(gps)
     said = str(err.value)
     assert "the fixes and the wheel speeds on two clocks" in said
     assert "(GPS time runs 18 s ahead of UTC since 2017?)" in said
     assert "set data.gnss_lag: -17.9" in said or "set data.gnss_lag: -18.0" in said
-    ref = _labels([tmp_path / "utc" / "wheels.csv", tmp_path / "utc" / "gps.nmea"])[0]
-    got = _labels(gps, gnss_lag=-18.0)[0]
+    ref = receiver_labels([tmp_path / "utc" / "wheels.csv", tmp_path / "utc" / "gps.nmea"])[0]
+    got = receiver_labels(gps, gnss_lag=-18.0)[0]
     _same(got.assign(t_s=got["t_s"] - 18.0), ref, 1e-9)
 
 
 def test_unstamped_sentences_on_a_logger_s_own_clock_are_refused(tmp_path):
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     write_nmea(tmp_path / "d" / "gps.nmea", nmea_lines(g, DAY_S + g[c.T_S].to_numpy()))
     files = [_wheels(tmp_path / "d", -44_000.0), tmp_path / "d" / "gps.nmea"]  # from 1000 s
     with pytest.raises(InputError) as err:
-        _labels(files)
+        receiver_labels(files)
     said = str(err.value)
     assert "sentences without stamps" in said and "counting from the logger's start" in said
     assert "have the logger stamp each sentence" in said
@@ -204,7 +186,7 @@ def test_one_stamp_gone_to_0_on_a_unix_clock_is_refused_where_it_is(tmp_path):
     (not the whole drive as on "a clock counting from the logger's start")."""
     import pandas as pd
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     write_nmea(tmp_path / "d" / "gps.nmea", nmea_lines(g, DAY_S + g[c.T_S].to_numpy()))
     wheels = _wheels(tmp_path / "d", DAY_S)
@@ -212,7 +194,7 @@ def test_one_stamp_gone_to_0_on_a_unix_clock_is_refused_where_it_is(tmp_path):
     df.loc[46, df.columns[0]] = 0.0
     df.to_csv(wheels, index=False, float_format="%.6f")
     with pytest.raises(InputError) as err:
-        _labels([wheels, tmp_path / "d" / "gps.nmea"])
+        receiver_labels([wheels, tmp_path / "d" / "gps.nmea"])
     said = str(err.value)
     assert "wheels.csv], row 47, column 'Time'" in said and "logger's start" not in said
 
@@ -457,14 +439,14 @@ def test_a_file_without_gga_or_rmc_is_refused(tmp_path):
     (tmp_path / "gps_2.nmea").write_text("no sentence here\n")
     files = [_wheels(tmp_path / "w"), tmp_path / "gps_1.nmea", tmp_path / "gps_2.nmea"]
     with pytest.raises(InputError) as err:
-        _labels(files)
+        receiver_labels(files)
     assert {Path(p.file).name for p in err.value.problems} == {"gps_1.nmea", "gps_2.nmea"}
 
 
 def _stream_folder(tmp_path, with_nmea=True, with_gnss_csv=False, two=False):
     from rwhonet.sim.streams import write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     files = write_stream_csvs(tables, tmp_path / "d")
     paths = [files["wheels"]]
     if with_gnss_csv:
@@ -483,10 +465,10 @@ def test_where_the_fixes_come_from(tmp_path):
     smap = dict(signal_map())
     no_fix_keys = {k: v for k, v in smap.items() if k not in ("lat", "lon", "n_sats")}
     # the map's fixes in gnss.csv: the NMEA log left out, said so
-    _, streams = _labels(_stream_folder(tmp_path / "a", with_gnss_csv=True))
+    _, streams = receiver_labels(_stream_folder(tmp_path / "a", with_gnss_csv=True))
     assert any("receiver log(s), left out: the fixes are" in n for n in streams.notes)
     # no fix keys in the map: the log gives them all
-    _, streams = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
+    _, streams = receiver_labels(_stream_folder(tmp_path / "b"), no_fix_keys)
     gnss = next(s for s in streams.streams if s.name == "gps.nmea")
     assert {c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG} <= set(gnss.channels)
     # a map written for another drive's gps.csv, with hemisphere letters: the log's fixes
@@ -496,15 +478,15 @@ def test_where_the_fixes_come_from(tmp_path):
         "lat_hemisphere": ColumnSpec("NS", "N/S"),
         "lon_hemisphere": ColumnSpec("EW", "E/W"),
     }
-    _, streams = _labels(_stream_folder(tmp_path / "f"), lettered)
+    _, streams = receiver_labels(_stream_folder(tmp_path / "f"), lettered)
     assert any("the fixes are the receiver log's ('Lat', 'Lon'" in n for n in streams.notes)
     # neither
     with pytest.raises(InputError) as err:
-        _labels(_stream_folder(tmp_path / "c", with_nmea=False), no_fix_keys)
+        receiver_labels(_stream_folder(tmp_path / "c", with_nmea=False), no_fix_keys)
     assert "lat and lon not in the signal map, and no receiver log" in str(err.value)
     # the same log twice (gps.nmea, gps2.nmea): a copy, left out, and said
-    got, streams = _labels(_stream_folder(tmp_path / "e", two=True), no_fix_keys)
-    one, _ = _labels(_stream_folder(tmp_path / "b"), no_fix_keys)
+    got, streams = receiver_labels(_stream_folder(tmp_path / "e", two=True), no_fix_keys)
+    one, _ = receiver_labels(_stream_folder(tmp_path / "b"), no_fix_keys)
     pd.testing.assert_frame_equal(got, one)
     assert "gps2.nmea [gps2.nmea]: a copy of " in " ".join(streams.changed)
 
@@ -517,14 +499,14 @@ def test_a_log_a_logger_rotated_reads_as_the_one_log(tmp_path, clock):
     with the receiver's UTC times on a Unix clock, and on seconds of the day (IO-VNBD's
     clock: each file alone covers less than half of the wheels' span, the three do)."""
     stamped = clock == "stamp"
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     t = np.round(tables.gnss[c.T_S].to_numpy(), 2)
     exact = tables.gnss.assign(t_s=t)
     lines = nmea_lines(exact, DAY_S + t, stamps=DAY_S + t if stamped else None)
     assert lines[701].split("$")[1].startswith("GPRMC")  # the cut at 701: an epoch split
     one = write_nmea(tmp_path / "one" / "gps.nmea", lines)
     wheels = _wheels(tmp_path / "wheels", 0.0 if clock == "day" else DAY_S)
-    want, _ = _labels([wheels, one])
+    want, _ = receiver_labels([wheels, one])
     rotated = [
         write_nmea(tmp_path / "rotated" / name, part)
         for name, part in (
@@ -533,7 +515,7 @@ def test_a_log_a_logger_rotated_reads_as_the_one_log(tmp_path, clock):
             ("gps_b.nmea", lines[1500:]),
         )
     ]
-    got, streams = _labels([wheels, *rotated])
+    got, streams = receiver_labels([wheels, *rotated])
     pd.testing.assert_frame_equal(got, want)
     (gnss,) = [s for s in streams.streams if s.parts]
     assert [Path(f).name for f, _ in gnss.parts] == ["gps_c.nmea", "gps_a.nmea", "gps_b.nmea"]
@@ -543,12 +525,12 @@ def test_a_log_a_logger_rotated_reads_as_the_one_log(tmp_path, clock):
 
 
 def test_a_mapped_gnss_key_neither_file_gives_is_refused(tmp_path):
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     t = tables.gnss[c.T_S].to_numpy()
     lines = nmea_lines(tables.gnss, DAY_S + t, ("RMC",), stamps=t)
     files = [_wheels(tmp_path / "d"), write_nmea(tmp_path / "d" / "gps.nmea", lines)]
     with pytest.raises(InputError) as err:
-        _labels(files)  # the map names NumSV: RMC has no satellites
+        receiver_labels(files)  # the map names NumSV: RMC has no satellites
     said = str(err.value)
     assert "the signal map.n_sats in a stream file or in the receiver log's messages" in said
     assert "RMC latitude" in said
@@ -643,13 +625,13 @@ def test_a_serial_line_s_lf_cr_or_cr_alone_is_a_line_end(tmp_path, ending):
 
 
 def test_a_log_stamped_in_part_on_a_logger_s_own_clock_is_refused_saying_so(tmp_path):
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = g[c.T_S].to_numpy() - 44_000.0  # the wheels' clock from 1000 s
     lines = nmea_lines(g, DAY_S + g[c.T_S].to_numpy(), stamps=t)
     lines[30] = lines[30].split(",", 1)[1]  # epoch 11's GGA without its stamp
     files = [_wheels(tmp_path / "d", -44_000.0), write_nmea(tmp_path / "d" / "gps.nmea", lines)]
     with pytest.raises(InputError) as err:
-        _labels(files)
+        receiver_labels(files)
     said = str(err.value)
     assert "1 of 1199 epochs' sentences without a logger stamp (first at line 31)" in said

@@ -6,8 +6,6 @@ NovAtel's decoder's tests and a ROS driver's) are read as printed."""
 
 from __future__ import annotations
 
-from functools import cache
-
 import numpy as np
 import pandas as pd
 import pytest
@@ -17,6 +15,7 @@ from rwhonet.data.novatel import crc32, gps_utc_s, is_novatel_log, read_novatel
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
+from support.multirate import receiver_drive, receiver_labels
 from support.novatel import GPS_EPOCH_UNIX_S, log, novatel_lines, write_novatel
 
 DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
@@ -35,33 +34,16 @@ PUBLISHED = [
 ]
 
 
-@cache
-def _drive():
-    from support.multirate import simulated_streams
-
-    return simulated_streams(120.0, 100.0, 10.0)
-
-
-def _labels(files, smap=None):
-    from rwhonet.sim.streams import signal_map
-    from support.multirate import per_second
-
-    _, radius = _drive()
-    streams = read_stream_csvs(files, smap or signal_map(), radius)
-    drive = resample(streams, nominal_radius_m=radius).drive.columns
-    return per_second(drive, radius), streams
-
-
 def _folder(tmp_path, gnss):
     from rwhonet.sim.streams import StreamTables, write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     return write_stream_csvs(StreamTables(tables.wheels, gnss), tmp_path)
 
 
 def _exact():
     """The drive's fixes at times to the millisecond, as a NovAtel header writes them."""
-    g = _drive()[0].gnss
+    g = receiver_drive()[0].gnss
     return g.assign(t_s=np.round(g[c.T_S].to_numpy(), 3))
 
 
@@ -88,14 +70,14 @@ def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
     placed as unstamped, and refused beside the logger's own clock, naming its line."""
     g = _exact()
     t = g[c.T_S].to_numpy()
-    ref, _ = _labels(list(_folder(tmp_path / "csv", g).values()))
+    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
     lines = novatel_lines(g, DAY_S + t, time_logs=False)
     stamped = [f"[{x:.3f}] {line}" for x, line in zip(t, lines, strict=True)]
     wheels = _folder(tmp_path / "gps", g.iloc[:0])["wheels"]
     log_ = write_novatel(tmp_path / "gps" / "drive.gps", stamped)
     assert read_novatel(log_, "drive.gps").stamps[:2] == [f"{x:.3f}" for x in t[:2]]
     assert is_novatel_log(write_novatel(tmp_path / "stamped" / "drive.log", stamped))
-    got, streams = _labels([wheels, log_])
+    got, streams = receiver_labels([wheels, log_])
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
     assert "logger stamp is its time on the stream files' clock" in " ".join(streams.notes)
@@ -107,7 +89,7 @@ def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
     own_stamps[5] = lines[5]  # the sixth epoch's log without its stamp
     log_ = write_novatel(tmp_path / "own" / "drive.gps", own_stamps)
     with pytest.raises(InputError) as err:
-        _labels([own, log_])
+        receiver_labels([own, log_])
     said = str(err.value)
     assert "1 of 1199 epochs' sentences without a logger stamp (first at line 6)" in said
 
@@ -123,10 +105,10 @@ def test_the_novatel_log_gives_the_labels_of_the_csv_fixes(tmp_path):
     epoch; the table has no speed, so no BESTVELA): the labels of the same fixes in
     gnss.csv, within 0.01 mm (2.4 um measured: 1e-11 degrees and the CSV's digits)."""
     g = _exact()
-    ref, _ = _labels(list(_folder(tmp_path / "csv", g).values()))
+    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
     files = [_folder(tmp_path / "gps", g.iloc[:0])["wheels"]]
     files.append(write_novatel(tmp_path / "gps" / "drive.gps", novatel_lines(g, DAY_S + g[c.T_S])))
-    got, streams = _labels(files)
+    got, streams = receiver_labels(files)
     assert len(got) == len(ref) > 100
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
@@ -246,7 +228,7 @@ def test_a_novatel_asc_or_log_beside_a_candump_log_is_told_by_what_it_holds(tmp_
     from rwhonet.sim.streams import StreamTables
     from support.canlog import DBC, stream_frames, write_candump
 
-    tables, radius = _drive()
+    tables, radius = receiver_drive()
     g = _exact()
     wheels_only = StreamTables(tables.wheels, tables.gnss.iloc[:0])
     frames = stream_frames(wheels_only, radius, DAY_S)
@@ -275,48 +257,16 @@ def test_the_real_minute_s_fixes_as_a_novatel_log(tmp_path):
     fixes written as BESTPOSA and BESTVELA logs (with TIMEA) in place of GGA and RMC: the
     NMEA log's 59 seconds, times and wheel travel identical, the GNSS displacement within
     2 mm (the NMEA log's ddmm.mmmmmm against 1e-11 degrees)."""
-    from rwhonet.config import ColumnSpec
-    from rwhonet.data.fixtimes import receiver_epochs
-    from support.multirate import per_second
-    from support.nmea import gga, rmc, write_nmea
-    from support.realminute import RAV4_RADIUS_M, real_minute
+    from support.realminute import minute_seconds, write_minute_nmea
 
-    minute = real_minute()
-    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
-    fit = receiver_epochs(tg, vg[:, 3])
-    utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
-    t = np.round(vg[:, 3] / 1000.0, 2)
-    smap = {"t": ColumnSpec("t", "s")} | {
-        f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
-    }
-    got, said = {}, {}
-    for case in ("nmea", "novatel"):
-        folder = tmp_path / case
-        folder.mkdir()
-        columns = {"t": utc} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
-        pd.DataFrame(columns).to_csv(folder / "wheels.csv", index=False, float_format="%.6f")
-        if case == "nmea":
-            lines = []
-            for i in range(tg.size):
-                lines += [gga(t[i], vg[i, 0], vg[i, 1], 9), rmc(t[i], *vg[i, [0, 1, 2, 5]])]
-            write_nmea(folder / "gps.nmea", lines)
-        else:
-            fixes = pd.DataFrame(
-                {
-                    c.LAT_DEG: vg[:, 0],
-                    c.LON_DEG: vg[:, 1],
-                    c.N_SATS: 9.0,
-                    c.SPEED_GNSS_M_S: vg[:, 2],
-                    c.HEADING_DEG: vg[:, 5],
-                }
-            )
-            write_novatel(folder / "drive.gps", novatel_lines(fixes, t))
-        streams = read_stream_csvs(sorted(folder.iterdir()), smap, RAV4_RADIUS_M, "map")
-        drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
-        got[case], said[case] = per_second(drive, RAV4_RADIUS_M), " ".join(streams.notes)
-    assert "GPS weeks, on the stream files' UTC" in said["novatel"]
-    assert len(got["novatel"]) == len(got["nmea"]) == 59
+    ref, _ = minute_seconds(tmp_path / "nmea", write_minute_nmea)
+    got, said = minute_seconds(
+        tmp_path / "novatel",
+        lambda d, f, t: write_novatel(d / "drive.gps", novatel_lines(f, t)),
+    )
+    assert "GPS weeks, on the stream files' UTC" in said
+    assert len(got) == len(ref) == 59
     for q in ("t_s", "disp_wpm_m"):
-        np.testing.assert_array_equal(got["novatel"][q], got["nmea"][q], err_msg=q)
+        np.testing.assert_array_equal(got[q], ref[q], err_msg=q)
     for q in ("disp_gnss_m", "label_m"):
-        np.testing.assert_allclose(got["novatel"][q], got["nmea"][q], rtol=0, atol=2e-3, err_msg=q)
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=2e-3, err_msg=q)

@@ -6,18 +6,17 @@ reader's values are compared with what pyubx2 reads back from the same bytes."""
 from __future__ import annotations
 
 import io
-from functools import cache
 
 import numpy as np
 import pytest
 from pyubx2 import UBX_PROTOCOL, UBXReader
 
-from rwhonet.config import ColumnSpec
 from rwhonet.data import canonical as c
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.data.ubx import is_ubx_name, read_ubx
 from rwhonet.errors import InputError
+from support.multirate import receiver_drive, receiver_labels
 from support.ubx import (
     LEAP_S,
     itow_ms,
@@ -32,29 +31,11 @@ DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
 T0 = DAY_S + 45_000.0
 
 
-@cache
-def _drive():
-    """A simulated 120 s drive's streams: 100 Hz wheels, a 10 Hz receiver (times of day)."""
-    from support.multirate import simulated_streams
-
-    return simulated_streams(120.0, 100.0, 10.0)
-
-
-def _labels(files):
-    from rwhonet.sim.streams import signal_map
-    from support.multirate import per_second
-
-    _, radius = _drive()
-    streams = read_stream_csvs(files, signal_map(), radius)
-    drive = resample(streams, nominal_radius_m=radius).drive.columns
-    return per_second(drive, radius), streams
-
-
 def _folder(tmp_path, gnss_csv: bool):
     """The drive's wheels.csv (and its gnss.csv where ``gnss_csv``) in ``tmp_path``."""
     from rwhonet.sim.streams import StreamTables, write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     keep = tables if gnss_csv else StreamTables(tables.wheels, tables.gnss.iloc[:0])
     return write_stream_csvs(keep, tmp_path)
 
@@ -75,7 +56,7 @@ def test_the_reader_reads_what_pyubx2_reads(tmp_path):
     NMEA sentence line between, one NAV-PVT with a byte lost, one written twice, the last
     cut short): every epoch kept has the values pyubx2 reads from the clean log, scaled to
     SI; the rest is passed over and counted."""
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = DAY_S + g[c.T_S].to_numpy()
     messages = ubx_messages(g, t)
@@ -209,13 +190,13 @@ def test_the_ubx_log_gives_the_labels_of_the_csv_fixes(tmp_path):
     """wheels.csv on the time of day and the receiver's fixes as gps.ubx: the seconds and
     labels of the same fixes in gnss.csv, within NAV-PVT's 1e-7 degree (1.1 cm a
     coordinate: 2 cm a second's displacement)."""
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
-    ref, _ = _labels(list(_folder(tmp_path / "csv", True).values()))
+    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", True).values()))
     files = list(_folder(tmp_path / "ubx", False).values())
     files = [f for f in files if f.name != "gnss.csv"]
     files.append(write_ubx(tmp_path / "ubx" / "gps.ubx", ubx_messages(g, DAY_S + g[c.T_S])))
-    got, streams = _labels(files)
+    got, streams = receiver_labels(files)
     assert len(got) == len(ref) > 100
     np.testing.assert_allclose(got["t_s"], ref["t_s"], rtol=0, atol=1e-3)
     for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
@@ -230,15 +211,15 @@ def test_beside_the_receiver_s_nmea_log_the_ubx_log_is_read(tmp_path):
     log left out, and a note says so."""
     from support.nmea import nmea_lines, write_nmea
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     folder = tmp_path / "both"
     files = [f for f in _folder(folder, False).values() if f.name != "gnss.csv"]
     files.append(write_ubx(folder / "gps.ubx", ubx_messages(g, DAY_S + g[c.T_S])))
     lines = nmea_lines(g.assign(**{c.LAT_DEG: g[c.LAT_DEG] + 1.0}), DAY_S + g[c.T_S])
     files.append(write_nmea(folder / "gps.nmea", lines))  # another place: must not be read
-    got, streams = _labels(files)
-    ubx_only, _ = _labels([f for f in files if f.name != "gps.nmea"])
+    got, streams = receiver_labels(files)
+    ubx_only, _ = receiver_labels([f for f in files if f.name != "gps.nmea"])
     np.testing.assert_array_equal(got["disp_gnss_m"], ubx_only["disp_gnss_m"])
     said = " ".join(streams.notes)
     assert "gps.nmea: NMEA log(s), left out: the fixes are the receiver's UBX log's (" in said
@@ -248,7 +229,7 @@ def test_the_benchmark_s_writer_writes_pyubx2_s_bytes():
     """support.ubx.pvt_log (numpy, for the benchmark's hours) against pyubx2's messages."""
     from support.ubx import pvt_log
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = DAY_S + g[c.T_S].to_numpy()
     assert pvt_log(g, t) == b"".join(ubx_messages(g, t, others=False))
@@ -258,14 +239,14 @@ def test_a_receiver_s_ubx_log_rotated_is_joined(tmp_path):
     """gps.ubx cut into three files between messages and given in no order: the one log's
     labels exactly. Cut inside a NAV-PVT (a rotation in mid-write): that epoch is lost, and
     the note says so; the rest is the one log's."""
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     messages = ubx_messages(g, DAY_S + g[c.T_S])
     wheels = [f for f in _folder(tmp_path / "w", False).values() if f.name == "wheels.csv"]
-    one, _ = _labels([*wheels, write_ubx(tmp_path / "one" / "gps.ubx", messages)])
+    one, _ = receiver_labels([*wheels, write_ubx(tmp_path / "one" / "gps.ubx", messages)])
     parts = [messages[:400], messages[400:777], messages[777:]]
     files = [write_ubx(tmp_path / "three" / f"gps_{k}.ubx", parts[k]) for k in (2, 0, 1)]
-    three, streams = _labels([*wheels, *files])
+    three, streams = receiver_labels([*wheels, *files])
     for q in one.columns:
         np.testing.assert_array_equal(three[q], one[q], err_msg=q)
     assert "one stream split across 3 files, joined in time order" in " ".join(streams.notes)
@@ -275,7 +256,7 @@ def test_a_receiver_s_ubx_log_rotated_is_joined(tmp_path):
         write_ubx(tmp_path / "mid" / "gps_b.ubx", [data[cut:]]),
         write_ubx(tmp_path / "mid" / "gps_a.ubx", [data[:cut]]),
     ]
-    mid, streams = _labels([*wheels, *files])
+    mid, streams = receiver_labels([*wheels, *files])
     assert "a NAV-PVT message cut short at the log's end" in " ".join(streams.changed)
     gnss = next(s for s in streams.streams if c.LAT_DEG in s.channels)
     assert gnss.channels[c.LAT_DEG].size == len(g) - 1
@@ -287,55 +268,19 @@ def test_the_real_minute_s_fixes_as_a_ubx_log(tmp_path):
     UTC by the receiver's own clock fit), its recorded u-blox fixes as NAV-PVT messages
     (pyubx2, among NAV-TIMEUTC and NAV-DOP) in place of GGA and RMC sentences: the same 59
     seconds, their GNSS displacements within 2 cm (1e-7 degrees against ddmm.mmmmmm), the
-    wheels' travel the same."""
-    import pandas as pd
+    wheels' travel the same. Both logs' times are the NMEA writer's, to 0.01 s."""
+    from support.realminute import minute_seconds, write_minute_nmea
 
-    from rwhonet.data.fixtimes import receiver_epochs
-    from support.multirate import per_second
-    from support.nmea import gga, rmc, write_nmea
-    from support.realminute import RAV4_RADIUS_M, real_minute
-
-    minute = real_minute()
-    tw, vw, tg, vg = minute.t_wheels, minute.wheels, minute.t_gnss, minute.gnss
-    fit = receiver_epochs(tg, vg[:, 3])
-    utc = tw + fit.offset_s + fit.drift * (tw - fit.t_ref_s)
-    # the recorded UTC ms sit 1 ms before the receiver's 100 ms epochs (8.299 s): the
-    # times both logs are written with are the NMEA writer's, to 0.01 s, as on GPS time
-    t = np.round(vg[:, 3] / 1000.0, 2)
-    smap = {"t": ColumnSpec("t", "s")} | {
-        f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
-    }
-    got, said = {}, {}
-    for case in ("nmea", "ubx"):
-        folder = tmp_path / case
-        folder.mkdir()
-        columns = {"t": utc} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
-        pd.DataFrame(columns).to_csv(folder / "wheels.csv", index=False, float_format="%.6f")
-        if case == "nmea":
-            lines = []
-            for i in range(tg.size):
-                lines += [gga(t[i], vg[i, 0], vg[i, 1], 9), rmc(t[i], *vg[i, [0, 1, 2, 5]])]
-            write_nmea(folder / "gps.nmea", lines)
-        else:
-            fixes = pd.DataFrame(
-                {
-                    c.LAT_DEG: vg[:, 0],
-                    c.LON_DEG: vg[:, 1],
-                    c.N_SATS: 9.0,
-                    c.SPEED_GNSS_M_S: vg[:, 2],
-                    c.HEADING_DEG: vg[:, 5],
-                }
-            )
-            write_ubx(folder / "gps.ubx", ubx_messages(fixes, t))
-        streams = read_stream_csvs(sorted(folder.iterdir()), smap, RAV4_RADIUS_M, "map")
-        drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
-        got[case], said[case] = per_second(drive, RAV4_RADIUS_M), " ".join(streams.notes)
-    assert "NAV-PVT dates, on the stream files' UTC" in said["ubx"]
-    assert len(got["ubx"]) == len(got["nmea"]) == 59
+    ref, _ = minute_seconds(tmp_path / "nmea", write_minute_nmea)
+    got, said = minute_seconds(
+        tmp_path / "ubx", lambda d, f, t: write_ubx(d / "gps.ubx", ubx_messages(f, t))
+    )
+    assert "NAV-PVT dates, on the stream files' UTC" in said
+    assert len(got) == len(ref) == 59
     for q in ("t_s", "disp_wpm_m"):
-        np.testing.assert_array_equal(got["ubx"][q], got["nmea"][q], err_msg=q)
+        np.testing.assert_array_equal(got[q], ref[q], err_msg=q)
     for q in ("disp_gnss_m", "label_m"):
-        np.testing.assert_allclose(got["ubx"][q], got["nmea"][q], rtol=0, atol=0.02, err_msg=q)
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=0.02, err_msg=q)
 
 
 @pytest.mark.parametrize(
@@ -346,7 +291,7 @@ def test_a_u_blox_6_s_messages_give_the_fixes_nav_pvt_gives(tmp_path, status, cl
     NAV-VELNED and the time in NAV-TIMEUTC (or NAV-TIMEGPS's week less the leap seconds)
     give the positions and times of the NAV-PVT log of the same fixes exactly, the speed
     within VELNED's 1 cm/s; the satellites where NAV-SOL gives them."""
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = DAY_S + g[c.T_S].to_numpy()
     pvt = read_ubx(write_ubx(tmp_path / "pvt.ubx", ubx_messages(g, t)), "pvt.ubx")
@@ -411,14 +356,14 @@ def test_a_ubx_log_beside_a_logger_s_own_clock_is_refused_saying_what_to_do(tmp_
     logger stamp to place it by, and the refusal says so (not "stamp each sentence")."""
     from rwhonet.sim.streams import StreamTables, write_stream_csvs
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t0 = float(tables.wheels[c.T_S].iloc[0])
     own = StreamTables(tables.wheels.assign(t_s=tables.wheels[c.T_S] - t0), g.iloc[:0])
     files = write_stream_csvs(own, tmp_path / "own")
     log = write_ubx(tmp_path / "own" / "gps.ubx", ubx_messages(g, DAY_S + g[c.T_S]))
     with pytest.raises(InputError) as err:
-        _labels([files["wheels"], log])
+        receiver_labels([files["wheels"], log])
     said = str(err.value)
     assert "a UBX log (no logger stamps in it), and the stream files' time in 's'" in said
     assert "log the signal map.t in UTC, or give the receiver's NMEA log with the" in said
@@ -432,12 +377,12 @@ def test_a_ubx_log_of_nmea_sentences_is_read_as_the_nmea_log(tmp_path, among):
     sentences as gps.nmea, placed by their UTC times (bytes before a "$" are no stamp)."""
     from support.nmea import nmea_lines, write_nmea
 
-    tables, _ = _drive()
+    tables, _ = receiver_drive()
     g = tables.gnss
     t = DAY_S + np.round(g[c.T_S].to_numpy(), 2)
     lines = nmea_lines(g.assign(t_s=t - DAY_S), t)
     wheels = [f for f in _folder(tmp_path / "w", False).values() if f.name == "wheels.csv"]
-    want, _ = _labels([*wheels, write_nmea(tmp_path / "nmea" / "gps.nmea", lines)])
+    want, _ = receiver_labels([*wheels, write_nmea(tmp_path / "nmea" / "gps.nmea", lines)])
     body, epoch = [], 0
     for line in lines:
         head = b""
@@ -445,7 +390,7 @@ def test_a_ubx_log_of_nmea_sentences_is_read_as_the_nmea_log(tmp_path, among):
             head = other_messages(itow_ms(float(t[epoch])))
             epoch += 1
         body.append(head + line.encode() + b"\r\n")
-    got, streams = _labels([*wheels, write_ubx(tmp_path / "ubx" / "gps.ubx", body)])
+    got, streams = receiver_labels([*wheels, write_ubx(tmp_path / "ubx" / "gps.ubx", body)])
     np.testing.assert_array_equal(got.to_numpy(), want.to_numpy())
     said = " ".join(streams.notes)
     assert "gps.ubx: a UBX log without NAV-PVT or NAV-POSLLH: its 3597 NMEA sentence(s)" in said

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -122,6 +123,23 @@ def simulated_streams(
         StreamSpec(wheel_hz, gnss_hz, gyro_hz=gyro_hz) if gyro_hz else StreamSpec(wheel_hz, gnss_hz)
     )
     return stream_tables(state, vehicle, sim, ss, spec, START_S), vehicle.nominal_radius_m
+
+
+@cache
+def receiver_drive():
+    """A simulated 120 s drive's streams (100 Hz wheels, a 10 Hz receiver, on the time of
+    day) and the car's nominal radius: the drive the receiver logs' tests write (NMEA,
+    UBX, NovAtel, GPX)."""
+    return simulated_streams(120.0, 100.0, 10.0)
+
+
+def receiver_labels(files, smap=None, gnss_lag="report"):
+    """The labelled seconds of :func:`receiver_drive`'s stream ``files`` as a stream folder
+    reads them (its signal map, or ``smap``), and the streams."""
+    _, radius = receiver_drive()
+    streams = read_stream_csvs(files, smap or signal_map(), radius)
+    drive = resample(streams, nominal_radius_m=radius, gnss_lag=gnss_lag).drive.columns
+    return per_second(drive, radius), streams
 
 
 def compare(
