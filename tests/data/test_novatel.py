@@ -16,7 +16,15 @@ from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from support.multirate import receiver_drive, receiver_labels
-from support.novatel import GPS_EPOCH_UNIX_S, log, novatel_lines, write_novatel
+from support.novatel import (
+    GPS_EPOCH_UNIX_S,
+    binary_log,
+    log,
+    novatel_binary,
+    novatel_lines,
+    write_binary,
+    write_novatel,
+)
 
 DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
 PUBLISHED = [
@@ -92,6 +100,55 @@ def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
         receiver_labels([own, log_])
     said = str(err.value)
     assert "1 of 1199 epochs' sentences without a logger stamp (first at line 6)" in said
+
+
+# NovAtel EDIE's tests: a binary BESTPOS (104 bytes: its header, message and CRC)
+PUBLISHED_BINARY = bytes.fromhex(
+    "aa44121c2a00002048000000a3b4730898 74a81300000002f6b1ffff".replace(" ", "")
+    + "000000001000000 0fcabe182419349 40ba32868af6815c c00010e5df712391 40".replace(" ", "")
+    + "000088c13d0000002421a53ff18f8f3f43743c40000000000000000000000000"
+    + "151515000002110155cec389"
+)
+
+
+def test_a_published_binary_log_is_read(tmp_path):
+    """BESTPOSB: week 2163, 329807.000 s, SOL_COMPUTED SINGLE, 21 satellites, its CRC."""
+    assert len(PUBLISHED_BINARY) == 104
+    log_ = read_novatel(write_binary(tmp_path / "a.gps", [PUBLISHED_BINARY]), "a.gps")
+    assert log_.channels["lat"][0] == pytest.approx(51.150436744872394, abs=1e-12)
+    assert log_.channels["lon"][0] == pytest.approx(-114.03067267518318, abs=1e-12)
+    assert log_.channels["n_sats"][0] == 21 and log_.sources["lat"] == "BESTPOSB lat"
+    assert log_.day_s + log_.tod_s[0] == GPS_EPOCH_UNIX_S + 2163 * 604800 + 329807.0 - 18
+    assert "a NovAtel log (binary): 1 epochs (BESTPOSB), 1 with a fix" in log_.notes[0]
+
+
+def test_binary_logs_give_the_ascii_logs_labels(tmp_path):
+    """The drive's fixes as binary TIMEB, BESTPOSB and BESTVELB logs (among other binary
+    messages): the labels of the ASCII logs within 0.01 mm (the ASCII's 11 decimals); a
+    CRC broken and the last log cut short: passed over, counted by log number. Named
+    drive.log beside nothing else, it is told a NovAtel log by its bytes."""
+    g = _exact()
+    t = DAY_S + g[c.T_S].to_numpy()
+    wheels = _folder(tmp_path / "a", g.iloc[:0])["wheels"]
+    ascii_, _ = receiver_labels(
+        [wheels, write_novatel(tmp_path / "a" / "drive.gps", novatel_lines(g, t))]
+    )
+    messages = novatel_binary(g, t)
+    messages.insert(5, binary_log(43, t[1] - GPS_EPOCH_UNIX_S + 18, b"\0" * 40))  # a RANGEB
+    broken = bytearray(messages[7])
+    broken[40] ^= 1
+    messages[7] = bytes(broken)
+    messages.append(messages[-1][:50])
+    log_ = write_binary(tmp_path / "b" / "drive.log", messages)
+    assert is_novatel_log(log_)
+    wheels = _folder(tmp_path / "b", g.iloc[:0])["wheels"]
+    got, streams = receiver_labels([wheels, log_])
+    for q in ascii_.columns:
+        np.testing.assert_allclose(got[q], ascii_[q], rtol=0, atol=1e-5, err_msg=q)
+    said = " ".join(streams.notes)
+    assert "besides them: message ID 43 (binary) 1" in said
+    assert "1 log(s) whose CRC does not match (first at binary log 8)" in said
+    assert "1 log(s) cut short (first at binary log " in said
 
 
 def test_leap_seconds():

@@ -540,3 +540,46 @@ def test_an_edited_candump_log_beside_an_edited_novatel_log_reads_or_is_refused_
     """A Linux logger's folder: the wheels' frames in can0.log on a Unix clock, a NovAtel
     receiver's logs (drive.gps) placed by their GPS weeks on UTC; both with random edits."""
     _beside_a_candump_log(can, "drive.gps", log, capfd)
+
+
+@st.composite
+def edited_novatel_binary_logs(draw) -> bytes:
+    """The good drive's fixes as a NovAtel receiver's binary logs (TIMEB, BESTPOSB a
+    message each) with 1-5 random edits: messages dropped, repeated, swapped, shuffled or
+    written late (:data:`support.fuzz.LINE_EDITS`), a byte of one set (its CRC mended or
+    not), a byte flipped, the file cut."""
+    from support.fuzz import LINE_EDITS, edit_lines
+    from support.novatel import crc32, novatel_binary
+
+    gnss = good_tables().gnss
+    rows = novatel_binary(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy())
+    cut, flips = None, []
+    for _ in range(draw(st.integers(1, 5))):
+        a = draw(st.integers(0, len(rows) - 2)) if len(rows) > 2 else 0
+        kind = draw(st.sampled_from([*LINE_EDITS, "field", "cut", "flip"]))
+        if kind in LINE_EDITS and len(rows) > 2:
+            edit_lines(draw, rows, kind, a, min(len(rows), a + draw(st.integers(1, 90))))
+        elif kind == "field" and rows:
+            m = bytearray(rows[a])
+            m[draw(st.integers(3, len(m) - 5))] = draw(st.integers(0, 255))
+            if draw(st.booleans()):
+                m[-4:] = crc32(bytes(m[:-4])).to_bytes(4, "little")
+            rows[a] = bytes(m)
+        elif kind == "cut":
+            cut = draw(st.integers(0, 400))
+        elif kind == "flip":
+            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
+    data = bytearray(b"".join(rows))
+    for at, value in flips:
+        if data:
+            data[at % len(data)] = value
+    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+
+
+@FUZZ
+@given(can=edited_candump_logs(wheels_only=True), log=edited_novatel_binary_logs())
+def test_an_edited_candump_log_beside_an_edited_novatel_binary_log_reads_or_is_refused_clearly(
+    can, log, capfd
+):
+    """The same folder with the NovAtel receiver's binary logs (drive.gps)."""
+    _beside_a_candump_log(can, "drive.gps", log, capfd)

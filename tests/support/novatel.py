@@ -5,6 +5,7 @@ does (not by the reader's zlib call)."""
 from __future__ import annotations
 
 import math
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -132,4 +133,84 @@ def novatel_lines(
 def write_novatel(path: Path, lines: list[str]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_bytes(("\r\n".join(lines) + "\r\n").encode())
+    return path
+
+
+BESTPOS_B = struct.Struct("<IIdddfIfff4sffBBBBBBBB")
+BESTVEL_B = struct.Struct("<IIffdddf")
+TIME_B = struct.Struct("<IdddIBBBBII")
+
+
+def binary_log(msg_id: int, gps_s: float, body: bytes, time_status: int = 180) -> bytes:
+    """One binary log (sync, 28-byte header, ``body``, CRC-32) at GPS time ``gps_s``."""
+    week, seconds = divmod(gps_s, 604_800.0)
+    header = struct.pack(
+        "<3sBHBBHHBBHIIHH",
+        b"\xaa\x44\x12",
+        28,
+        msg_id,
+        0,
+        0x20,
+        len(body),
+        0,
+        160,
+        time_status,
+        int(week),
+        round(seconds * 1000.0),
+        0x02000000,
+        0xB1F6,
+        16248,
+    )
+    return header + body + struct.pack("<I", crc32(header + body))
+
+
+def novatel_binary(g: pd.DataFrame, t_utc_s: np.ndarray, position: int = 42) -> list[bytes]:
+    """The fixes as binary logs, an epoch's together: TIMEB, the position log (BESTPOSB,
+    or message ID ``position``) and BESTVELB where the table has a speed and course."""
+    out = []
+    gps = np.asarray(t_utc_s, dtype=float) - GPS_EPOCH_UNIX_S + LEAP_S
+    lat, lon = g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy()
+    sats = g[c.N_SATS].to_numpy() if c.N_SATS in g else np.full(len(g), 9.0)
+    speed = g[c.SPEED_GNSS_M_S].to_numpy() if c.SPEED_GNSS_M_S in g else None
+    course = g[c.HEADING_DEG].to_numpy() if c.HEADING_DEG in g else None
+    for i, t in enumerate(gps):
+        out.append(
+            binary_log(101, t, TIME_B.pack(0, 0.0, 0.0, -float(LEAP_S), 2019, 3, 11, 0, 0, 0, 1))
+        )
+        ok = math.isfinite(lat[i])
+        n = int(sats[i]) if math.isfinite(sats[i]) else 0
+        body = BESTPOS_B.pack(
+            0 if ok else 1,
+            16 if ok else 0,
+            lat[i] if ok else 0.0,
+            lon[i] if ok else 0.0,
+            112.4,
+            -17.0,
+            61,
+            1.0,
+            1.0,
+            2.0,
+            b"\0" * 4,
+            0.0,
+            0.0,
+            n + 2,
+            n,
+            n,
+            0,
+            0,
+            2,
+            0x11,
+            1,
+        )
+        out.append(binary_log(position, t, body))
+        if speed is not None and course is not None:
+            out.append(
+                binary_log(99, t, BESTVEL_B.pack(0, 8, 0.15, 0.0, speed[i], course[i], 0.0, 0.0))
+            )
+    return out
+
+
+def write_binary(path: Path, messages: list[bytes]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"".join(messages))
     return path

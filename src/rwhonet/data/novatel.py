@@ -21,6 +21,12 @@ the log's fields, ``*`` and the CRC-32 of everything between ``#`` and ``*`` (po
 0xEDB88320, initial value 0, no final inversion: zlib's CRC-32 with its inversions undone;
 checked against published BESTPOSA lines in the tests).
 
+**Binary logs** (``BESTPOSB``, ...: NovAtel Connect's and Inertial Explorer's ``.gps``
+files): sync ``0xAA 0x44 0x12``, a 28-byte header, the message (its fields in the ASCII
+log's order) and the same CRC-32 over both (the manual's "Binary" section). A file that
+holds any is read by its binary logs (:func:`_scan_binary`), each named by its number among
+the file's binary logs; its fields are written as the ASCII log's, so the rest is one path.
+
 **The logs read:**
 
 - ``BESTGNSSPOS`` (the GNSS-only solution; a SPAN system's ``BESTPOS`` blends its INS), or
@@ -58,6 +64,7 @@ without BESTPOS or BESTGNSSPOS, naming the logs it holds.
 from __future__ import annotations
 
 import re
+import struct
 import zlib
 from collections import Counter
 from dataclasses import dataclass, field
@@ -123,7 +130,8 @@ def is_novatel_log(path: Path, name: str | None = None) -> bool:
         return False
     try:
         with open(path, "rb") as f:
-            return _HEADER.search(f.read(SNIFF_BYTES)) is not None
+            head = f.read(SNIFF_BYTES)
+        return BINARY_SYNC in head or _HEADER.search(head) is not None
     except OSError:
         return False
 
@@ -147,9 +155,92 @@ class _Logs:
     bad_crc: list[int] = field(default_factory=list)
     cut: list[int] = field(default_factory=list)
     stamps: dict[int, bytes] = field(default_factory=dict)  # line -> the logger's stamp
+    binary: bool = False  # whether the logs read are binary (named by number, not line)
 
 
 READ = (*POSITIONS, *VELOCITIES, "TIMEA")
+
+# The binary form (NovAtel OEM7 manual, "Binary"): sync 0xAA 0x44 0x12, a 28-byte header
+# (little-endian: header length, message ID, message type, port, message length,
+# sequence, idle time, time status, GPS week, GPS milliseconds of the week, receiver
+# status, reserved, software version), the message, and the CRC-32 of both.
+BINARY_SYNC = b"\xaa\x44\x12\x1c"
+_BINARY_HEADER = struct.Struct("<3sBHBBHHBBHIIHH")
+# message ID -> its ASCII name, and its fields as the ASCII log orders them
+BINARY_LOGS = {
+    42: ("BESTPOSA", struct.Struct("<IIdddfIfff4sffBBBBBBBB")),
+    1429: ("BESTGNSSPOSA", struct.Struct("<IIdddfIfff4sffBBBBBBBB")),
+    99: ("BESTVELA", struct.Struct("<IIffdddf")),
+    1430: ("BESTGNSSVELA", struct.Struct("<IIffdddf")),
+    101: ("TIMEA", struct.Struct("<IdddIBBBBII")),
+}
+TIME_STATUS_UNKNOWN = 20
+# the enumerations' values the reader tells apart (the rest are named by number)
+SOLUTION_STATUS = {0: "SOL_COMPUTED"}
+POSITION_TYPE = {
+    0: "NONE",
+    1: "FIXEDPOS",
+    2: "FIXEDHEIGHT",
+    8: "DOPPLER_VELOCITY",
+    16: "SINGLE",
+    19: "PROPAGATED",
+}
+UTC_STATUS = {0: "INVALID", 1: "VALID", 2: "WARNING"}
+
+
+def _binary_tokens(name: str, values: tuple) -> list[bytes]:
+    """A binary log's fields as its ASCII twin writes them (the enumerations by name)."""
+    out = [repr(v).encode() if isinstance(v, float) else str(v).encode() for v in values]
+    if name.startswith("BEST"):
+        out[0] = SOLUTION_STATUS.get(values[0], f"STATUS_{values[0]}").encode()
+        out[1] = POSITION_TYPE.get(values[1], f"TYPE_{values[1]}").encode()
+    else:  # TIME: its UTC status last
+        out[10] = UTC_STATUS.get(values[10], f"STATUS_{values[10]}").encode()
+    return out
+
+
+def _scan_binary(data: bytes, out: _Logs) -> None:
+    """Every binary log in ``data`` of the kinds read, its CRC checked, into ``out``; each
+    named by its number among the file's binary logs (as a line is an ASCII log's)."""
+    out.binary = True
+    number = 0
+    for m in re.finditer(re.escape(BINARY_SYNC), data):
+        at = m.start()
+        if at + 28 > len(data):
+            continue
+        head = _BINARY_HEADER.unpack_from(data, at)
+        msg_id, msg_type, length = head[2], head[3], head[5]
+        if msg_type & 0x60:  # not binary (ASCII or NMEA in binary framing)
+            continue
+        number += 1
+        end = at + 28 + length
+        if end + 4 > len(data):
+            out.cut.append(number)
+            continue
+        if int.from_bytes(data[end : end + 4], "little") != crc32(data[at:end]):
+            out.bad_crc.append(number)
+            continue
+        known = BINARY_LOGS.get(msg_id)
+        if known is None:
+            out.others[f"message ID {msg_id} (binary)"] += 1
+            continue
+        name, layout = known
+        if length < layout.size:
+            out.cut.append(number)
+            continue
+        week, ms = head[9], head[10]
+        status = b"UNKNOWN" if head[8] == TIME_STATUS_UNKNOWN else str(head[8]).encode()
+        header = [
+            name.encode(),
+            b"",
+            b"",
+            b"",
+            status,
+            str(week).encode(),
+            repr(ms / 1000.0).encode(),
+        ]
+        fields = _binary_tokens(name, layout.unpack_from(data, at + 28))
+        out.logs.setdefault(name, []).append((number, header, fields))
 
 
 def _scan(data: bytes) -> _Logs:
@@ -209,7 +300,10 @@ def read_novatel(path: Path, file: str) -> FixLog:
         InputError: no BESTPOS or BESTGNSSPOS log; a field that is no number; a latitude
             or longitude out of range.
     """
-    found = _scan(path.read_bytes())
+    data = path.read_bytes()
+    found = _scan(data) if BINARY_SYNC not in data else _Logs()
+    if BINARY_SYNC in data:
+        _scan_binary(data, found)
     kind = next((k for k in POSITIONS if k in found.logs), None)
     if kind is None:
         held = ", ".join(f"{k} {v}" for k, v in found.others.most_common(6)) or "none"
@@ -298,32 +392,36 @@ def read_novatel(path: Path, file: str) -> FixLog:
         "height": np.array(hgt),
         "n_sats": np.array(sats),
     }
+    shown = {k: k[:-1] + ("B" if found.binary else "A") for k in READ}  # BESTPOSB: binary
     sources = {
-        "lat": f"{kind} lat",
-        "lon": f"{kind} lon",
-        "height": f"{kind} hgt",
-        "n_sats": f"{kind} #solnSVs",
+        "lat": f"{shown[kind]} lat",
+        "lon": f"{shown[kind]} lon",
+        "height": f"{shown[kind]} hgt",
+        "n_sats": f"{shown[kind]} #solnSVs",
     }
     vel = next((k for k in VELOCITIES if k in found.logs), None)
     if vel is not None:
         speed, course = _velocities(found.logs[vel], gps, file)
         channels["speed_gnss"] = np.where(fixed, speed, np.nan)
         channels["heading"] = np.where(fixed, course, np.nan)
-        sources |= {"speed_gnss": f"{vel} hor_spd", "heading": f"{vel} trk_gnd"}
+        sources |= {"speed_gnss": f"{shown[vel]} hor_spd", "heading": f"{shown[vel]} trk_gnd"}
+    at = "binary log" if found.binary else "line"
     dropped = "; ".join(
         part
         for part in (
-            f"{len(found.bad_crc)} log(s) whose CRC does not match (first at line "
+            f"{len(found.bad_crc)} log(s) whose CRC does not match (first at {at} "
             f"{found.bad_crc[0]})"
             if found.bad_crc
             else "",
-            f"{len(found.cut)} log(s) cut short (first at line {found.cut[0]})"
+            f"{len(found.cut)} log(s) cut short (first at {at} {found.cut[0]})"
             if found.cut
             else "",
-            f"{len(unknown)} {kind} log(s) of the time status UNKNOWN (first at line {unknown[0]})"
+            f"{len(unknown)} {shown[kind]} log(s) of the time status UNKNOWN (first at {at} "
+            f"{unknown[0]})"
             if unknown
             else "",
-            f"{len(again)} {kind} log(s) of an epoch already given (first at line {again[0]})"
+            f"{len(again)} {shown[kind]} log(s) of an epoch already given (first at {at} "
+            f"{again[0]})"
             if again
             else "",
         )
@@ -331,10 +429,11 @@ def read_novatel(path: Path, file: str) -> FixLog:
     )
     besides = ", ".join(f"{k} {v}" for k, v in found.others.most_common(6))
     unused = [k for k in (*POSITIONS, *VELOCITIES) if k in found.logs and k not in (kind, vel)]
-    left = ", ".join(f"{k} {len(found.logs[k])}" for k in unused)
+    left = ", ".join(f"{shown[k]} {len(found.logs[k])}" for k in unused)
     notes = [
-        f"{file}: a NovAtel log: {gps.size} epochs ({kind}"
-        + (f", {vel}" if vel else "")
+        f"{file}: a NovAtel log{' (binary)' if found.binary else ''}: {gps.size} epochs "
+        f"({shown[kind]}"
+        + (f", {shown[vel]}" if vel else "")
         + f"), {int(fixed.sum())} with a fix; {how}"
         + (f"; left out: {left} (the GNSS-only solution read)" if left else "")
         + (f"; besides them: {besides}" if besides else "")
