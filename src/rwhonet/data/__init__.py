@@ -49,7 +49,7 @@
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
   (:mod:`~rwhonet.data.signalmap`); a receiver's NMEA 0183 log among the stream CSVs is
   read by :mod:`~rwhonet.data.nmea`, a u-blox receiver's binary log (UBX NAV-PVT) by
-  :mod:`~rwhonet.data.ubx`, a NovAtel receiver's ASCII logs (BESTPOS) by
+  :mod:`~rwhonet.data.ubx`, a NovAtel receiver's logs (BESTPOS, ASCII or binary) by
   :mod:`~rwhonet.data.novatel`, a GPS track in GPX (a phone's or handheld's logger) by
   :mod:`~rwhonet.data.gpx`; a bus tool's log of raw CAN frames (candump, ASC,
   BLF, TRC) by :mod:`~rwhonet.data.canlog`, laid out as an MDF4 bus log for the map's

@@ -1,4 +1,4 @@
-"""A NovAtel receiver's ASCII logs: its best GNSS positions, one fix an epoch.
+"""A NovAtel receiver's logs, ASCII or binary: its best GNSS positions, one fix an epoch.
 
 Research vehicles' reference receivers are often NovAtel's (OEM6, OEM7, the SPAN
 GNSS/INS systems), and their logs are recorded as the receiver writes them: ASCII lines
