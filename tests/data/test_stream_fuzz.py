@@ -507,6 +507,17 @@ def test_an_edited_candump_log_beside_an_edited_gpx_track_reads_or_is_refused_cl
     _beside_a_candump_log(can, "track.gpx", gpx, capfd)
 
 
+@cache
+def _good_novatel_logs(binary: bool) -> tuple:
+    """The good drive's fixes as a NovAtel receiver's logs (TIMEA and BESTPOSA an epoch; or
+    their binary forms), UTC from :data:`CAN_CLOCK_S`; their CRCs, computed bit by bit, once."""
+    from support.novatel import novatel_binary, novatel_lines
+
+    gnss = good_tables().gnss
+    t = CAN_CLOCK_S + gnss[c.T_S].to_numpy()
+    return tuple(novatel_binary(gnss, t) if binary else novatel_lines(gnss, t))
+
+
 @st.composite
 def edited_novatel_logs(draw) -> bytes:
     """The good drive's fixes as a NovAtel receiver's ASCII logs (TIMEA, BESTPOSA) with 1-5
@@ -525,11 +536,7 @@ def edited_novatel_logs(draw) -> bytes:
         crc = crc32(body.encode()) if draw(st.booleans()) else 0
         rows[a] = f"#{body}*{crc:08x}"
 
-    from support.novatel import novatel_lines
-
-    gnss = good_tables().gnss
-    rows = novatel_lines(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy())
-    return edited_log(draw, rows, ("field",), edit, "\r\n")
+    return edited_log(draw, list(_good_novatel_logs(False)), ("field",), edit, "\r\n")
 
 
 @FUZZ
@@ -549,10 +556,9 @@ def edited_novatel_binary_logs(draw) -> bytes:
     written late (:data:`support.fuzz.LINE_EDITS`), a byte of one set (its CRC mended or
     not), a byte flipped, the file cut."""
     from support.fuzz import LINE_EDITS, edit_lines
-    from support.novatel import crc32, novatel_binary
+    from support.novatel import crc32
 
-    gnss = good_tables().gnss
-    rows = novatel_binary(gnss, CAN_CLOCK_S + gnss[c.T_S].to_numpy())
+    rows = list(_good_novatel_logs(True))
     cut, flips = None, []
     for _ in range(draw(st.integers(1, 5))):
         a = draw(st.integers(0, len(rows) - 2)) if len(rows) > 2 else 0
