@@ -29,6 +29,7 @@ from support.fuzz import (
     GOOD_STREAMS,
     STREAM_FILES,
     edited_log,
+    edited_messages,
     edited_stream_drives,
     fuzz_settings,
     grid_or_clear_refusal,
@@ -306,46 +307,31 @@ def edited_ubx_logs(draw) -> bytes:
     epochs' messages dropped, repeated, swapped, shuffled or written late
     (:data:`support.fuzz.LINE_EDITS`, an epoch's messages as a line), a payload byte of
     one of an epoch's messages set (its checksum mended or not: any field, a date, a flag,
-    a coordinate out of range), a byte flipped, the file cut."""
-    from support.fuzz import LINE_EDITS, edit_lines
+    a coordinate out of range), a byte flipped, the file cut
+    (:func:`support.fuzz.edited_messages`)."""
+
+    def edit(draw, rows: list[bytes], a: int) -> None:
+        epoch = bytearray(rows[a])
+        starts = [0]  # the epoch's messages: sync, class, id, length, payload, checksum
+        while starts[-1] + 8 + int.from_bytes(
+            epoch[starts[-1] + 4 : starts[-1] + 6], "little"
+        ) < len(epoch):
+            starts.append(
+                starts[-1] + 8 + int.from_bytes(epoch[starts[-1] + 4 : starts[-1] + 6], "little")
+            )
+        m = draw(st.sampled_from(starts))
+        n = int.from_bytes(epoch[m + 4 : m + 6], "little")
+        epoch[m + 6 + draw(st.integers(0, n - 1))] = draw(st.integers(0, 255))
+        if draw(st.booleans()):  # the checksum mended: a well-formed message
+            ck_a = ck_b = 0
+            for x in epoch[m + 2 : m + 6 + n]:
+                ck_a = (ck_a + x) & 0xFF
+                ck_b = (ck_b + ck_a) & 0xFF
+            epoch[m + 6 + n : m + 8 + n] = bytes([ck_a, ck_b])
+        rows[a] = bytes(epoch)
 
     rows = list(_good_ubx_messages(draw(st.sampled_from(["u-blox 8", "u-blox 6"]))))
-    cut, flips = None, []
-    for _ in range(draw(st.integers(1, 5))):
-        a = draw(st.integers(0, len(rows) - 2)) if len(rows) > 2 else 0
-        kind = draw(st.sampled_from([*LINE_EDITS, "field", "cut", "flip"]))
-        if kind in LINE_EDITS and len(rows) > 2:
-            edit_lines(draw, rows, kind, a, min(len(rows), a + draw(st.integers(1, 90))))
-        elif kind == "field" and rows:
-            epoch = bytearray(rows[a])
-            starts = [0]  # the epoch's messages: sync, class, id, length, payload, checksum
-            while starts[-1] + 8 + int.from_bytes(
-                epoch[starts[-1] + 4 : starts[-1] + 6], "little"
-            ) < len(epoch):
-                starts.append(
-                    starts[-1]
-                    + 8
-                    + int.from_bytes(epoch[starts[-1] + 4 : starts[-1] + 6], "little")
-                )
-            m = draw(st.sampled_from(starts))
-            n = int.from_bytes(epoch[m + 4 : m + 6], "little")
-            epoch[m + 6 + draw(st.integers(0, n - 1))] = draw(st.integers(0, 255))
-            if draw(st.booleans()):  # the checksum mended: a well-formed message
-                ck_a = ck_b = 0
-                for x in epoch[m + 2 : m + 6 + n]:
-                    ck_a = (ck_a + x) & 0xFF
-                    ck_b = (ck_b + ck_a) & 0xFF
-                epoch[m + 6 + n : m + 8 + n] = bytes([ck_a, ck_b])
-            rows[a] = bytes(epoch)
-        elif kind == "cut":
-            cut = draw(st.integers(0, 400))
-        elif kind == "flip":
-            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
-    data = bytearray(b"".join(rows))
-    for at, value in flips:
-        if data:
-            data[at % len(data)] = value
-    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+    return edited_messages(draw, rows, edit)
 
 
 @FUZZ
@@ -555,31 +541,16 @@ def edited_novatel_binary_logs(draw) -> bytes:
     message each) with 1-5 random edits: messages dropped, repeated, swapped, shuffled or
     written late (:data:`support.fuzz.LINE_EDITS`), a byte of one set (its CRC mended or
     not), a byte flipped, the file cut."""
-    from support.fuzz import LINE_EDITS, edit_lines
     from support.novatel import crc32
 
-    rows = list(_good_novatel_logs(True))
-    cut, flips = None, []
-    for _ in range(draw(st.integers(1, 5))):
-        a = draw(st.integers(0, len(rows) - 2)) if len(rows) > 2 else 0
-        kind = draw(st.sampled_from([*LINE_EDITS, "field", "cut", "flip"]))
-        if kind in LINE_EDITS and len(rows) > 2:
-            edit_lines(draw, rows, kind, a, min(len(rows), a + draw(st.integers(1, 90))))
-        elif kind == "field" and rows:
-            m = bytearray(rows[a])
-            m[draw(st.integers(3, len(m) - 5))] = draw(st.integers(0, 255))
-            if draw(st.booleans()):
-                m[-4:] = crc32(bytes(m[:-4])).to_bytes(4, "little")
-            rows[a] = bytes(m)
-        elif kind == "cut":
-            cut = draw(st.integers(0, 400))
-        elif kind == "flip":
-            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
-    data = bytearray(b"".join(rows))
-    for at, value in flips:
-        if data:
-            data[at % len(data)] = value
-    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+    def edit(draw, rows: list[bytes], a: int) -> None:
+        m = bytearray(rows[a])
+        m[draw(st.integers(3, len(m) - 5))] = draw(st.integers(0, 255))
+        if draw(st.booleans()):
+            m[-4:] = crc32(bytes(m[:-4])).to_bytes(4, "little")
+        rows[a] = bytes(m)
+
+    return edited_messages(draw, list(_good_novatel_logs(True)), edit)
 
 
 @FUZZ

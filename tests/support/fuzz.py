@@ -143,6 +143,30 @@ def edited_log(draw, rows: list[str], own: Sequence[str], edit_own, line_end: st
     return bytes(data if cut is None else data[: max(0, len(data) - cut)])
 
 
+def edited_messages(draw, rows: list[bytes], edit_one) -> bytes:
+    """A binary log's messages (an epoch's a row) with 1-5 random edits, as bytes:
+    :data:`LINE_EDITS` on a block of up to 90 rows, one row's message edited by
+    ``edit_one(draw, rows, row)`` in place (a byte set, its checksum mended or not), the
+    file cut up to 400 bytes short, a byte flipped."""
+    cut, flips = None, []
+    for _ in range(draw(st.integers(1, 5))):
+        a = draw(st.integers(0, len(rows) - 2)) if len(rows) > 2 else 0
+        kind = draw(st.sampled_from([*LINE_EDITS, "field", "cut", "flip"]))
+        if kind in LINE_EDITS and len(rows) > 2:
+            edit_lines(draw, rows, kind, a, min(len(rows), a + draw(st.integers(1, 90))))
+        elif kind == "field" and rows:
+            edit_one(draw, rows, a)
+        elif kind == "cut":
+            cut = draw(st.integers(0, 400))
+        elif kind == "flip":
+            flips.append((draw(st.integers(0, 10**6)), draw(st.integers(0, 255))))
+    data = bytearray(b"".join(rows))
+    for at, value in flips:
+        if data:
+            data[at % len(data)] = value
+    return bytes(data if cut is None else data[: max(0, len(data) - cut)])
+
+
 def names_only(files: set[str]) -> Callable[[Problem], bool]:
     """Whether a problem names only ``files`` (a problem of several files names them all:
     ``gnss.csv, wheels.csv``)."""
