@@ -142,7 +142,7 @@ def test_a_steady_speed_tells_no_lag():
     found = fix_lag(stamps, lat, lon, path, "gnss.csv")
     assert not found.clear and found.se_s > 0.1
     assert found.finding.startswith("gnss.csv: the speed changes too little between fixes")
-    times, note, moved = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
+    times, note, moved, _ = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
     assert not moved and np.array_equal(times, stamps) and "stamps kept" in note
 
 
@@ -150,13 +150,17 @@ def test_too_few_moving_seconds_say_nothing():
     stamps, lat, lon, path = _drive(0.1, duration_s=MIN_PAIRS - 5.0)
     found = fix_lag(stamps, lat, lon, path)
     assert found.finding is None and not found.clear
-    assert lagged_times(stamps, lat, lon, path, "auto")[1:] == (None, False)
+    assert lagged_times(stamps, lat, lon, path, "auto")[1:] == (None, False, False)
 
 
 @pytest.mark.parametrize(
     ("offset_s", "known"),
     [
         (3.0, None),
+        # a leap second: 1 s, the latency search's edge (before stop 78 said there and kept)
+        (1.0, "a leap second: UTC by a leap-second count one out of date"),
+        (-1.0, "a leap second: UTC by a leap-second count one out of date"),
+        (0.98, "a leap second: UTC by a leap-second count one out of date"),
         (18.0, "GPS time runs 18 s ahead of UTC since 2017"),
         (-14.0, "BeiDou time runs 14 s behind GPS time"),
         (37.0, "TAI runs 37 s ahead of UTC since 2017"),
@@ -177,11 +181,11 @@ def test_fixes_stamped_by_another_clock_are_found_refused_or_moved(offset_s, kno
     (problem,) = err.value.problems
     assert problem.file == "gnss.csv" and "stamped by one clock" in problem.expected
     assert f"set data.gnss_lag: {offset_s:.2f}" in problem.fix  # to the ms: 18.00x
-    times, note, moved = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
-    assert moved and np.allclose(times, stamps - offset_s, atol=0.005)
+    times, note, moved, two_clocks = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
+    assert moved and two_clocks and np.allclose(times, stamps - offset_s, atol=0.005)
     assert note.endswith("onto the wheels' clock (data.gnss_lag = auto)")
-    times, _, moved = lagged_times(stamps, lat, lon, path, offset_s, "gnss.csv")
-    assert moved and np.array_equal(times, stamps - offset_s)
+    times, _, moved, two_clocks = lagged_times(stamps, lat, lon, path, offset_s, "gnss.csv")
+    assert moved and two_clocks and np.array_equal(times, stamps - offset_s)
 
 
 def test_a_lag_beyond_the_wide_search_is_a_clock_problem_not_moved():
@@ -189,7 +193,7 @@ def test_a_lag_beyond_the_wide_search_is_a_clock_problem_not_moved():
     found = fix_lag(stamps, lat, lon, path, "gnss.csv")
     assert not found.clear and not found.two_clocks
     assert "edge of the ±1 s searched" in found.finding
-    times, note, moved = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
+    times, note, moved, _ = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
     assert not moved and np.array_equal(times, stamps)
     assert "one clock?" in note and note.endswith("stamps kept")
 
@@ -204,14 +208,14 @@ def test_a_steady_drive_on_one_clock_is_not_taken_for_two():
 
 def test_the_modes_report_move_or_take_the_users_figure():
     stamps, lat, lon, path = _drive(0.085)
-    times, note, moved = lagged_times(stamps, lat, lon, path, "report", "gnss.csv")
+    times, note, moved, _ = lagged_times(stamps, lat, lon, path, "report", "gnss.csv")
     assert not moved and np.array_equal(times, stamps)
     assert "stamps kept (data.gnss_lag = report; auto would move the fixes by -85 ms" in note
-    times, note, moved = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
-    assert moved and np.allclose(times, stamps - 0.085, atol=0.002)
+    times, note, moved, two_clocks = lagged_times(stamps, lat, lon, path, "auto", "gnss.csv")
+    assert moved and not two_clocks and np.allclose(times, stamps - 0.085, atol=0.002)
     assert note.endswith("fixes moved by -85 ms onto the wheels' clock (data.gnss_lag = auto)")
-    times, note, moved = lagged_times(stamps, lat, lon, path, 0.1, "gnss.csv")
-    assert moved and np.array_equal(times, stamps - 0.1)
+    times, note, moved, two_clocks = lagged_times(stamps, lat, lon, path, 0.1, "gnss.csv")
+    assert moved and not two_clocks and np.array_equal(times, stamps - 0.1)
     assert note.startswith("gnss.csv: fixes moved by -100 ms onto the wheels' clock ")
     assert "the wheels' estimate: the distance between fixes" in note
     with pytest.raises(ValueError, match="gnss_lag"):
@@ -259,12 +263,23 @@ def test_the_simulated_cars_can_latency_is_found_and_moved_by_resample(tmp_path)
         assert any("auto would move the fixes by +" in n for n in kept.drive.notes)
 
 
-def test_fixes_in_gps_time_beside_wheels_in_utc_are_refused_or_moved_by_resample(tmp_path):
-    """A GNSS stream exported in GPS time beside CAN wheel speeds in UTC: 18 s apart.
-    Before, the drive went through the reader with a note ("are the GNSS and the wheel
-    speeds on one clock?") and validate refused it as wheels that stopped logging; now
-    resample refuses it naming the offset and the setting, and with that setting (or
-    auto) the drive is the one logged on one clock."""
+@pytest.mark.parametrize(
+    ("offset_s", "known"),
+    [
+        (18.0, "GPS time runs 18 s ahead of UTC since 2017"),
+        (1.0, "a leap second: UTC by a leap-second count one out of date"),
+    ],
+)
+def test_fixes_in_gps_time_beside_wheels_in_utc_are_refused_or_moved_by_resample(
+    tmp_path, offset_s, known
+):
+    """A GNSS stream exported in GPS time beside CAN wheel speeds in UTC: 18 s apart (or
+    a leap second apart: 1 s, a NovAtel log without TIME after a leap second the reader's
+    table does not know). Before, the drive went through the reader with a note ("are the
+    GNSS and the wheel speeds on one clock?") and validate refused it as wheels that
+    stopped logging (1 s: until stop 78, kept with that note, labels a second off their
+    wheels); now resample refuses it naming the offset and the setting, and with that
+    setting (or auto) the drive is the one logged on one clock."""
     from rwhonet.data.streamcsv import read_stream_csvs
     from rwhonet.data.streams import resample
     from rwhonet.sim.streams import StreamSpec, signal_map, stream_tables, write_stream_csvs
@@ -275,7 +290,7 @@ def test_fixes_in_gps_time_beside_wheels_in_utc_are_refused_or_moved_by_resample
     one = read_stream_csvs(
         list(write_stream_csvs(tables, tmp_path / "one").values()), signal_map(), None
     )
-    tables.gnss[c.T_S] += 18.0  # GPS time runs 18 s ahead of UTC
+    tables.gnss[c.T_S] += offset_s
     two = read_stream_csvs(
         list(write_stream_csvs(tables, tmp_path / "two").values()), signal_map(), None
     )
@@ -283,12 +298,12 @@ def test_fixes_in_gps_time_beside_wheels_in_utc_are_refused_or_moved_by_resample
     with pytest.raises(InputError) as err:
         resample(two, nominal_radius_m=radius)
     (problem,) = err.value.problems
-    assert "stamped by two clocks (GPS time runs 18 s ahead of UTC since 2017?)" in problem.found
-    assert re.search(r"set data\.gnss_lag: 18\.0\d\d \(the fixes moved", problem.fix)
+    assert f"stamped by two clocks ({known}?)" in problem.found
+    assert re.search(rf"set data\.gnss_lag: {offset_s:.0f}\.0\d\d \(the fixes moved", problem.fix)
     ref = resample(one, nominal_radius_m=radius, gnss_lag=0.0).drive.columns
     # the grid spans what the wheels and the moved fixes cover (before: the raw stamps',
     # 18 s short); auto's estimate is a few ms off 18 s: positions within 20 cm
-    for mode, atol in ((18.0, 1e-9), ("auto", 3e-6)):
+    for mode, atol in ((offset_s, 1e-9), ("auto", 3e-6)):
         got = resample(two, nominal_radius_m=radius, gnss_lag=mode).drive.columns
         np.testing.assert_array_equal(got[c.T_S], ref[c.T_S])
         for name in (c.LAT_DEG, c.LON_DEG, c.OMEGA_RL):
@@ -308,6 +323,6 @@ def test_a_wheel_sample_too_large_for_the_arithmetic_gives_no_estimate_not_a_cra
     found = fix_lag(stamps, lat, lon, travelled_path(t_w, [omega] * 4), "gnss.csv")
     assert np.isnan(found.lag_s) and not found.clear
     assert found.finding.startswith("gnss.csv: the fixes' lag against the wheel speeds not ")
-    times, note, moved = lagged_times(stamps, lat, lon, travelled_path(t_w, [omega] * 4), "auto")
+    times, note, moved, _ = lagged_times(stamps, lat, lon, travelled_path(t_w, [omega] * 4), "auto")
     assert not moved and np.array_equal(times, stamps) and "not estimated" in note
     assert capfd.readouterr().out == ""

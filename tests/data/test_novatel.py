@@ -6,6 +6,8 @@ NovAtel's decoder's tests and a ROS driver's) are read as printed."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -174,6 +176,35 @@ def test_the_novatel_log_gives_the_labels_of_the_csv_fixes(tmp_path):
     assert "GPS time put on UTC by its TIME logs' utc_offset (-18 s)" in said
     gnss = next(s for s in streams.streams if s.name == "drive.gps")
     assert gnss.sources[c.LAT_DEG] == "BESTPOSA lat" and gnss.rows[1] == 4  # TIMEA, BESTPOSA
+
+
+def test_a_leap_second_the_table_does_not_know_is_found_by_the_wheels(tmp_path):
+    """A log without TIME, recorded after a leap second later than the reader's table
+    (GPS time 19 s ahead of UTC, the table's 18): its fixes land a second late. The
+    docstring's claim, checked: the resampler's search for two clocks finds the second
+    (before stop 78 it stood at the latency search's edge and the fixes were kept a second
+    off their wheels); report refuses the drive naming it, auto gives the labels of the
+    drive's fixes on their true times."""
+    g = _exact()
+    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
+    files = [_folder(tmp_path / "gps", g.iloc[:0])["wheels"]]
+    late = novatel_lines(g, DAY_S + g[c.T_S] + 1.0, time_logs=False)
+    files.append(write_novatel(tmp_path / "gps" / "drive.gps", late))
+    with pytest.raises(InputError) as err:
+        receiver_labels(files)
+    (problem,) = err.value.problems
+    assert re.search(r"the fixes 1\.00\d ± 0\.00\d s earlier than stamped", problem.found)
+    assert "(a leap second: UTC by a leap-second count one out of date?)" in problem.found
+    assert re.match(r"set data\.gnss_lag: 1\.00\d ", problem.fix)
+    # the user's 1 s gives the labels to 2.4 um; auto's estimate (1.005 s, the wheels'
+    # slip terms' few ms) moves a second's displacement by up to 2.9 cm where it brakes
+    for mode, atol in ((1.0, 1e-5), ("auto", 0.05)):
+        got, streams = receiver_labels(files, gnss_lag=mode)
+        assert "put on UTC by the leap seconds" in " ".join(streams.notes)
+        assert len(got) == len(ref) > 100
+        np.testing.assert_array_equal(got["t_s"], ref["t_s"])
+        for q in ("disp_gnss_m", "label_m"):
+            np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=atol, err_msg=q)
 
 
 @pytest.mark.parametrize(

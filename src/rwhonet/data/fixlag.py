@@ -69,7 +69,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -104,6 +104,7 @@ CLOCK_OFFSETS = {
     4.0: "BeiDou time runs 4 s ahead of UTC since 2017",
     19.0: "TAI runs 19 s ahead of GPS time",
     37.0: "TAI runs 37 s ahead of UTC since 2017",
+    1.0: "a leap second: UTC by a leap-second count one out of date",
 }
 COARSE_STEP_S = 0.05
 GRID_STEP_S = 0.01
@@ -256,7 +257,8 @@ def _two_clocks(
     :func:`fix_lag` on the fixes moved by the best lag, the latency's search around it.
     Found where the correlation there is at least :data:`WIDE_MIN_CORR`, its misfit is
     :data:`WIDE_UNIQUE` times smaller than at the profile's every other peak, and the best
-    lag is beyond ``±``:data:`MAX_LAG_S`; placed to within ms by the latency's search
+    lag is at or beyond ``±``:data:`MAX_LAG_S` (the latency's search's edge: a leap
+    second's offset is 1 s exactly); placed to within ms by the latency's search
     around it where that can (standard error at most :data:`MAX_SE_S`), else to within the
     coarse grid.
     """
@@ -277,7 +279,7 @@ def _two_clocks(
     others = corr[peaks[np.abs(lags[peaks] - coarse) > WIDE_STEP_S]]
     runner_up = float(others.max()) if others.size else -np.inf
     unique = 1.0 - runner_up >= WIDE_UNIQUE * (1.0 - corr[best])
-    if not (corr[best] >= WIDE_MIN_CORR and unique and abs(coarse) > MAX_LAG_S):
+    if not (corr[best] >= WIDE_MIN_CORR and unique and abs(coarse) >= MAX_LAG_S):
         return None
     # the correlation's peak to within its grid (the parabola's vertex), then to within
     # ms where the latency's search can place it about there (a noisy receiver's fixes
@@ -465,6 +467,23 @@ def _fix_lag(
     return FixLag(lag, se, n, clear, found)
 
 
+class LaggedTimes(NamedTuple):
+    """The fixes' times on the wheels' clock (:func:`lagged_times`).
+
+    Attributes:
+        t_s: the times, s.
+        note: what was found and done (None: nothing to say).
+        moved: whether the fixes were moved.
+        two_clocks: moved by two clocks' offset (at least :data:`MAX_LAG_S`), not a
+            receiver's latency: the fix times are then placed again on the wheels' clock.
+    """
+
+    t_s: np.ndarray
+    note: str | None
+    moved: bool
+    two_clocks: bool = False
+
+
 def lagged_times(
     t_s: np.ndarray,
     lat_deg: np.ndarray,
@@ -472,7 +491,7 @@ def lagged_times(
     path: TravelledPathLike,
     mode: str | float,
     where: str = "GNSS",
-) -> tuple[np.ndarray, str | None, bool]:
+) -> LaggedTimes:
     """The fixes' times on the wheels' clock as ``mode`` (``data.gnss_lag``) says.
 
     Fixes stamped by another clock (:attr:`FixLag.two_clocks`) are moved by ``auto`` and
@@ -484,8 +503,8 @@ def lagged_times(
             fixes by the estimate where it is clear) or a lag in seconds (move them by it).
 
     Returns:
-        ``(times, note, moved)``: the times, what was found and done (None: nothing
-        to say), and whether the fixes were moved.
+        The times, what was found and done, whether the fixes were moved, and whether by
+        two clocks' offset (:class:`LaggedTimes`).
 
     Raises:
         InputError: ``report`` of fixes stamped by another clock than the wheels'.
@@ -496,18 +515,19 @@ def lagged_times(
     lag = fix_lag(t, lat_deg, lon_deg, path, where)
     if not isinstance(mode, str):
         said = f"; the wheels' estimate: {lag.finding.split(': ', 1)[1]}" if lag.finding else ""
-        return (
+        return LaggedTimes(
             t - float(mode),
             f"{where}: fixes moved by {-float(mode) * 1000:+.0f} ms onto the wheels' clock "
             f"(data.gnss_lag = {float(mode):g} s){said}",
             True,
+            lag.two_clocks or abs(float(mode)) >= MAX_LAG_S,  # as auto's, where it finds them
         )
     if lag.finding is None:
-        return t, None, False
+        return LaggedTimes(t, None, False)
     if lag.two_clocks:
         if mode == "auto":
             moved = f"{-lag.lag_s:+.2f} s onto the wheels' clock (data.gnss_lag = auto)"
-            return t - lag.lag_s, f"{lag.finding}: fixes moved by {moved}", True
+            return LaggedTimes(t - lag.lag_s, f"{lag.finding}: fixes moved by {moved}", True, True)
         # per-second labels of fixes seconds off their wheels' seconds are no labels, and
         # validate would take the mismatch for wheels that stopped logging
         raise InputError(
@@ -529,10 +549,11 @@ def lagged_times(
     if not lag.clear:
         rule = f"under {MIN_LAG_S * 1000:.0f} ms or {LAG_SIGMAS:g} standard errors"
         kept = "" if np.isinf(lag.se_s) else f" ({rule})"
-        return t, f"{lag.finding}: stamps kept{kept}", False
+        return LaggedTimes(t, f"{lag.finding}: stamps kept{kept}", False)
     if mode == "auto":
-        return t - lag.lag_s, f"{lag.finding}: fixes moved by {moved} (data.gnss_lag = auto)", True
-    return (
+        note = f"{lag.finding}: fixes moved by {moved} (data.gnss_lag = auto)"
+        return LaggedTimes(t - lag.lag_s, note, True)
+    return LaggedTimes(
         t,
         f"{lag.finding}: stamps kept (data.gnss_lag = report; auto would move the fixes by "
         f"{moved})",

@@ -47,12 +47,13 @@ and counted by name; a SPAN system's INS solution (INSPVA) is not a GNSS fix.
 **The clock.** Where every epoch's log stands after the logger's stamp (``[12.345]
 #BESTPOSA,...``), the stamps are the fixes' times, as an NMEA log's
 (:func:`rwhonet.data.nmea.on_clock`). Otherwise each epoch's time is its header's GPS
-week and seconds, put on UTC by the
-log's own ``TIME`` (``utc_offset``) or, without one, by the leap seconds IERS announced
-(:data:`GPS_UTC_S`: 18 s since 2017-01-01, the last announced when this was written; a
-later one would put the fixes a second off, which the resampler's search for two clocks
-tells from the wheels). The notes say which. An epoch whose time status is ``UNKNOWN``
-(a receiver that has not yet set its clock) has no time and is passed over, counted.
+week and seconds, put on UTC by the log's own ``TIME`` (``utc_offset``) or, without one,
+by the leap seconds IERS announced (:data:`GPS_UTC_S`: 18 s since 2017-01-01, the last
+announced when this was written; a later one would put the fixes a second off, which the
+resampler's search for two clocks tells from the wheels:
+:data:`rwhonet.data.fixlag.CLOCK_OFFSETS`, tested). The notes say which. An epoch whose
+time status is ``UNKNOWN`` (a receiver that has not yet set its clock) has no time and
+is passed over, counted.
 
 **Damage**: a line whose CRC does not match, one cut short (no ``*`` and CRC: a logger
 that lost power) and a position log of an epoch already given are passed over and

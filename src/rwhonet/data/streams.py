@@ -95,7 +95,7 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.fixes import no_fix_rows
-from rwhonet.data.fixlag import MAX_LAG_S, lagged_times
+from rwhonet.data.fixlag import lagged_times
 from rwhonet.data.fixtimes import fix_times
 from rwhonet.data.glitches import WHEEL_GLITCH_G, glitch_mask, running_max
 from rwhonet.data.problems import ROWS_LISTED, row_problems
@@ -740,11 +740,11 @@ def resample(
     raw_t, where = gnss_t, streams.gnss.where()
     timing = fix_times(raw_t, gnss[c.LAT_DEG], gnss[c.LON_DEG], path.rolled, where)
     stamped = timing.t_s
-    gnss_t, lag_note, moved = lagged_times(
+    gnss_t, lag_note, moved, two_clocks = lagged_times(
         stamped, gnss[c.LAT_DEG], gnss[c.LON_DEG], path, gnss_lag, where
     )
     shift = float(np.median(gnss_t - stamped)) if moved and gnss_t.size else 0.0
-    if abs(shift) > MAX_LAG_S:  # two clocks: the fix times placed again, on the wheels'
+    if two_clocks:  # the fix times placed again, on the wheels'
         timing = fix_times(raw_t + shift, gnss[c.LAT_DEG], gnss[c.LON_DEG], path.rolled, where)
         gnss_t = timing.t_s
     if timing.note:  # fixes moved: said by predict too, as what the grid changes
