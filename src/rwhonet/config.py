@@ -591,9 +591,11 @@ class DataParams:
     def __post_init__(self) -> None:
         if not self.max_file_mb > 0:
             raise ConfigError(f"data.max_file_mb must be > 0, got {self.max_file_mb}")
-        if isinstance(self.gnss_lag, float) and not abs(self.gnss_lag) <= 60.0:
+        # ±61 s: what the search for two clocks can find (its ±60 s and the latency's
+        # ±1 s about it: rwhonet.data.fixlag), so that the setting a refusal names loads
+        if isinstance(self.gnss_lag, float) and not abs(self.gnss_lag) <= 61.0:
             raise ConfigError(
-                f"data.gnss_lag must be report, auto or a lag in seconds within ±60 (a "
+                f"data.gnss_lag must be report, auto or a lag in seconds within ±61 (a "
                 f"receiver's latency, or two clocks' offset), got {self.gnss_lag}"
             )
         clash = sorted(

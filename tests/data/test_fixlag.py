@@ -228,7 +228,20 @@ def test_the_setting_is_checked():
     assert load_params(overrides={"data.gnss_lag": 0.12}).data.gnss_lag == 0.12
     assert load_params(overrides={"data.gnss_lag": 18.0}).data.gnss_lag == 18.0
     with pytest.raises(ConfigError, match="data.gnss_lag"):
-        load_params(overrides={"data.gnss_lag": 61.0})
+        load_params(overrides={"data.gnss_lag": 61.5})
+
+
+def test_the_setting_a_refusal_names_at_the_wide_search_s_edge_loads():
+    """Fixes 60.1 s off, beyond the wide search's ±60 s grid, are found (its edge's peak
+    and the latency's search about it); the setting the refusal names loads (until stop 78
+    the setting was refused beyond ±60 s)."""
+    stamps, lat, lon, path = _drive(60.1, duration_s=900.0)
+    with pytest.raises(InputError) as err:
+        lagged_times(stamps, lat, lon, path, "report", "gnss.csv")
+    (problem,) = err.value.problems
+    setting = float(re.search(r"set data\.gnss_lag: (\S+) ", problem.fix).group(1))
+    assert setting == pytest.approx(60.1, abs=0.005)
+    assert load_params(overrides={"data.gnss_lag": setting}).data.gnss_lag == setting
     with pytest.raises(ConfigError, match="data.gnss_lag"):
         load_params(overrides={"data.gnss_lag": "sometimes"})
 
