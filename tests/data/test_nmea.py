@@ -130,6 +130,36 @@ def test_utc_times_on_a_unix_clock(tmp_path, sentences):
     assert gnss.sources[c.LAT_DEG] == f"{sentences[0]} latitude"
 
 
+@pytest.mark.parametrize("sentences", [("GGA", "RMC"), ("GGA", "ZDA")])
+def test_dates_a_gps_week_rollover_early_are_moved_onto_the_wheels_clock(tmp_path, sentences):
+    """A receiver whose firmware does not carry GPS's 10-bit week past a rollover dates its
+    fixes 1024 weeks early (2019-03-11 as 1999-07-26), the time of day right: placed 1024
+    weeks later, the labels of the fixes dated right (before stop 78: refused as fixes
+    that share no time with the wheels). Fixes dated 1024 weeks late are no rollover:
+    refused as before."""
+    from rwhonet.data.nmea import GPS_ROLLOVER_S
+
+    tables, _ = receiver_drive()
+    t = np.round(tables.gnss[c.T_S].to_numpy(), 2)
+    exact = tables.gnss.assign(t_s=t)
+    early = nmea_lines(exact, DAY_S - GPS_ROLLOVER_S + t, sentences)
+    assert any(",260799," in x or ",26,07,1999," in x for x in early)
+    write_nmea(tmp_path / "early" / "gps.nmea", early)
+    files = [_wheels(tmp_path / "early", DAY_S), tmp_path / "early" / "gps.nmea"]
+    got, streams = receiver_labels(files)
+    _same(got.assign(t_s=got["t_s"] - DAY_S), _reference(tmp_path, exact), 0.002)
+    assert (
+        "gps.nmea: the receiver's dates (1999-07-26 on) 1024 weeks before the stream files' "
+        "times: a GPS week-number rollover the receiver's firmware does not carry (its week "
+        "modulo 1024), the fixes moved 1024 weeks later"
+    ) in " ".join(streams.notes)
+    late = nmea_lines(exact, DAY_S + GPS_ROLLOVER_S + t, sentences)
+    write_nmea(tmp_path / "late" / "gps.nmea", late)
+    files = [_wheels(tmp_path / "late", DAY_S), tmp_path / "late" / "gps.nmea"]
+    with pytest.raises(InputError, match="fixes during the stream files' times"):
+        receiver_labels(files)
+
+
 def test_a_logger_clock_in_local_time_is_refused_with_its_offset(tmp_path):
     tables, _ = receiver_drive()
     g = tables.gnss

@@ -64,6 +64,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -783,6 +784,10 @@ UNIX_TO_S = 4_102_444_800.0  # 2100-01-01 UTC
 UTC_TIME = "utc"  # the stream files' clock: s since 1970, UTC
 DAY_TIME = "day"  # a time of day (s since a midnight)
 _HOUR_S = 3600.0
+# GPS's week number is 10 bits in the navigation message: a receiver whose firmware does
+# not carry it past a rollover (1999-08-22, 2019-04-07, next 2038-11-21) dates its fixes
+# 1024 weeks early (IS-GPS-200, 20.3.3.3.1.1: the week number modulo 1024).
+GPS_ROLLOVER_S = 1024 * 7 * 86400.0
 
 
 def clock_kind(unit: str, dated: bool, t_s: Sequence[np.ndarray]) -> str | None:
@@ -849,7 +854,7 @@ def on_clock(
         t = _stamps(log, unit, name)
         t, said = unwrap_clock(t, "epoch")
         note = f"{log.file}: each sentence's logger stamp is its time on the stream files' clock"
-        return _shared(log, t, t_s, "stamp"), "logger stamp", "; ".join([note, *said])
+        return _shared(log, t, t_s, "stamp")[0], "logger stamp", "; ".join([note, *said])
     kind = clock_kind(unit, dated, t_s)
     whole = [p.tod_s for p in parts] or [log.tod_s]
     if kind is None and _seconds_of_a_day(np.concatenate(whole), t_s):
@@ -901,17 +906,18 @@ def on_clock(
         )
     if kind == DAY_TIME:
         note = f"{log.file}: the receiver's UTC times of day, on the stream files' time of day"
-        return _shared(log, log.tod_s, t_s, "utc"), "UTC time", note
+        return _shared(log, log.tod_s, t_s, "utc")[0], "UTC time", note
     if log.day_s is not None:
         note = f"{log.file}: the receiver's UTC times and {log.dated_by}, on the stream files' UTC"
-        return _shared(log, log.day_s + log.tod_s, t_s, "utc"), "UTC time", note
+        t, rolled = _shared(log, log.day_s + log.tod_s, t_s, "utc", dated=True)
+        return t, "UTC time", "; ".join([note, *rolled])
     start = min(float(np.nanmin(t)) for t in t_s if np.isfinite(t).any())
     day = round((start - log.tod_s[0]) / 86400.0) * 86400.0
     note = (
         f"{log.file}: the receiver's UTC times, on the stream files' UTC; no RMC or ZDA date, so "
         "the day is the one that puts the first fix nearest the stream files' start"
     )
-    return _shared(log, day + log.tod_s, t_s, "utc"), "UTC time", note
+    return _shared(log, day + log.tod_s, t_s, "utc")[0], "UTC time", note
 
 
 def _seconds_of_a_day(tod: np.ndarray, t_s: Sequence[np.ndarray]) -> bool:
@@ -964,16 +970,30 @@ def _stamps(log: FixLog, unit: str, name: str) -> np.ndarray:
     return to_si("t", t, unit, None, log.file, (log.file, "logger stamp"))
 
 
-def _shared(log: FixLog, t: np.ndarray, t_s: Sequence[np.ndarray], how: str) -> np.ndarray:
-    """The log's times, refused where they share no time with the stream files'."""
+def _shared(
+    log: FixLog, t: np.ndarray, t_s: Sequence[np.ndarray], how: str, dated: bool = False
+) -> tuple[np.ndarray, list[str]]:
+    """The log's times, refused where they share no time with the stream files'; and a
+    note where they were dated a whole number of GPS week rollovers early (``dated``: the
+    receiver's own dates) and moved onto the stream files' span by that."""
     spans = [(float(np.nanmin(x)), float(np.nanmax(x))) for x in t_s if np.isfinite(x).any()]
     if not spans or not np.isfinite(t).any():
-        return t
+        return t, []
     a, b = float(np.nanmin(t)), float(np.nanmax(t))
     c, d = min(s for s, _ in spans), max(e for _, e in spans)
     if a <= d and c <= b:
-        return t
+        return t, []
     offset = a - c
+    rollovers = round(-offset / GPS_ROLLOVER_S)
+    moved = rollovers * GPS_ROLLOVER_S
+    if dated and rollovers > 0 and a + moved <= d and c <= b + moved:
+        first = datetime.fromtimestamp(a, UTC).date().isoformat()
+        return t + moved, [
+            f"{log.file}: the receiver's dates ({first} on) {rollovers * 1024} weeks before "
+            f"the stream files' times: a GPS week-number rollover the receiver's firmware "
+            f"does not carry (its week modulo 1024), the fixes moved {rollovers * 1024} "
+            "weeks later"
+        ]
     hours = offset / _HOUR_S
     zone = (
         abs(offset) <= 14 * _HOUR_S
