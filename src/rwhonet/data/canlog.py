@@ -21,9 +21,11 @@ a CAN FD frame's data. Error frames (the identifier's ``0x20000000`` flag), remo
 frames (``#R``) and CAN XL frames (``###``) carry no signal and are passed over, counted;
 so are lines that are no frame, counted with the first of them.
 
-**ASC, BLF, TRC** are read by python-can's readers (``can.LogReader``), a frame at a time
-in Python (``benchmarks/bench_streams.py`` gives the rate); their error and remote frames
-are passed over too.
+**BLF** (:func:`_blf`) is parsed over the file's objects at once by
+:func:`rwhonet.data.blf.blf_frames`: python-can's BLF reader's frames, bit for bit, at
+several times its rate. **ASC and TRC** are read by python-can's readers
+(``can.LogReader``), a frame at a time in Python (``benchmarks/bench_streams.py`` gives
+the rates); their error and remote frames are passed over too, as BLF's are.
 
 **The clock** is the log's own time stamps, as python-can and candump give them:
 candump's and BLF's are the logging computer's clock (Unix seconds), TRC's its start time
@@ -136,7 +138,8 @@ def _message(acq_name: str) -> tuple[int, int, bool] | None:
 
 
 def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
-    """A CAN log's data frames: candump's by :func:`_candump`, ASC/BLF/TRC by python-can.
+    """A CAN log's data frames: candump's by :func:`_candump`, BLF's by :func:`_blf`,
+    ASC's and TRC's by python-can.
 
     Args:
         path: the log (its name's suffix says its format).
@@ -150,7 +153,12 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
             line python-can reads.
     """
     suffix = path.suffix.lower()
-    frames = _candump(path, file) if suffix == CANDUMP else _python_can(path, file, suffix)
+    if suffix == CANDUMP:
+        frames = _candump(path, file)
+    elif suffix == ".blf":
+        frames = _blf(path, file)
+    else:
+        frames = _python_can(path, file, suffix)
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
         if local_zone is None:
             frames = dataclasses.replace(frames, local_start=True)
@@ -408,6 +416,52 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
         _clock(kind, np.asarray(t, np.float64))
         + (", each event's time since the one before, summed" if relative else ""),
         np.asarray(rows, np.int64),
+        ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
+    )
+
+
+def _blf(path: Path, file: str) -> Frames:
+    """A BLF log's data frames, the frames python-can's reader gives, parsed at once
+    (:func:`rwhonet.data.blf.blf_frames`)."""
+    from rwhonet.data.blf import CAN_MSG_EXT, BlfError, blf_frames
+
+    try:
+        got = blf_frames(path.read_bytes())
+    except BlfError as err:
+        read = f"after {err.data_frames} frame(s)" if err.data_frames else "before any frame"
+        raise InputError(
+            [
+                Problem.unreadable(
+                    file,
+                    "a BLF CAN log python-can reads",
+                    err,
+                    f"export the log again from the bus tool (it failed {read})",
+                )
+            ]
+        ) from None
+    keep = ~got.error & ~got.remote
+    skipped = {
+        "error frames": int(got.error.sum()),
+        "remote frames": int((got.remote & ~got.error).sum()),
+    }
+    lengths = got.length[keep]
+    width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
+    t = got.t_s[keep]
+    chans = got.channel[keep].astype(str)
+    buses, first_at, channel = np.unique(chans, True, True)
+    order = np.argsort(first_at)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return Frames(
+        t,
+        (got.ids[keep] & ID_MASK).astype(np.uint32),
+        (got.ids[keep] & CAN_MSG_EXT) != 0,
+        lengths.astype(np.uint8),
+        np.ascontiguousarray(got.data[keep][:, :width]),
+        (rank[channel.ravel()] + 1).astype(np.uint8) if t.size else np.zeros(0, np.uint8),
+        [str(b) for b in buses[order]],
+        _clock("BLF", t),
+        np.flatnonzero(keep).astype(np.int64) + 1,
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
     )
 

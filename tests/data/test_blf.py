@@ -1,0 +1,284 @@
+"""A Vector BLF log's frames parsed at once (rwhonet.data.blf): python-can's reader's
+messages, bit for bit, on logs its writer wrote, on objects built by its layouts (the ones
+its writer does not write), on every cut of a log, and on damaged and edited logs."""
+
+from __future__ import annotations
+
+import zlib
+from pathlib import Path
+
+import can
+import numpy as np
+import pytest
+from can.io.blf import (
+    CAN_FD_MSG_64_STRUCT,
+    CAN_MSG_STRUCT,
+    FILE_HEADER_SIZE,
+    FILE_HEADER_STRUCT,
+    LOG_CONTAINER_STRUCT,
+    OBJ_HEADER_BASE_STRUCT,
+    OBJ_HEADER_V1_STRUCT,
+    OBJ_HEADER_V2_STRUCT,
+)
+from hypothesis import given
+from hypothesis import strategies as st
+
+from rwhonet.data.blf import BlfError, blf_frames
+from rwhonet.data.canlog import _blf, _python_can
+from rwhonet.errors import InputError
+from support.fuzz import fuzz_settings
+
+T0_S = 1_700_000_000.0
+
+
+def _python_can_messages(path: Path) -> tuple[list[can.Message], Exception | None]:
+    """What python-can's reader yields, and the error it stops with (None: none)."""
+    got: list[can.Message] = []
+    try:
+        with can.BLFReader(path) as reader:
+            got.extend(reader)
+    except Exception as err:  # whatever its parsers raise
+        return got, err
+    return got, None
+
+
+def _same_as_python_can(path: Path) -> int:
+    """That the reader gives python-can's messages, or stops where python-can stops with
+    the data frames it yielded before; the messages' count (-1: both refused). python-can
+    is not asked where the reader finds an object of size 0: its reader would find that
+    object again for ever (-2)."""
+    try:
+        got = blf_frames(path.read_bytes())
+    except BlfError as err:
+        if "an object of size 0" in str(err):
+            return -2
+        want, error = _python_can_messages(path)
+        assert error is not None, f"python-can read {len(want)} messages; ours: {err}"
+        data = [m for m in want if not m.is_error_frame and not m.is_remote_frame]
+        assert err.data_frames in (len(data), None)
+        return -1
+    want, error = _python_can_messages(path)
+    assert error is None, f"python-can stopped with {error!r}; ours read {got.t_s.size}"
+    assert got.t_s.tolist() == [m.timestamp for m in want]
+    assert (got.ids & 0x1FFF_FFFF).tolist() == [m.arbitration_id for m in want]
+    assert ((got.ids & 0x8000_0000) != 0).tolist() == [m.is_extended_id for m in want]
+    assert got.error.tolist() == [m.is_error_frame for m in want]
+    assert got.remote.tolist() == [m.is_remote_frame for m in want]
+    assert got.channel.tolist() == [m.channel for m in want]
+    data = [
+        bytes(row[:n]) for row, n, r in zip(got.data, got.length, got.remote, strict=True) if not r
+    ]
+    assert data == [bytes(m.data) for m in want if not m.is_remote_frame]
+    return len(want)
+
+
+def _written(path: Path, n: int = 3000, seed: int = 0) -> Path:
+    """python-can's writer's log of ``n`` messages: standard and extended data frames of
+    0-8 bytes, CAN FD frames of every length, remote and error frames, on three channels,
+    some of whose data hold ``LOBJ`` (an object's signature inside another's bytes)."""
+    rng = np.random.default_rng(seed)
+    t = T0_S + np.cumsum(rng.uniform(0.0, 0.002, n))
+    fd_lengths = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64]
+    with can.BLFWriter(str(path)) as writer:
+        for i in range(n):
+            kind, channel = int(rng.integers(0, 6)), int(rng.integers(0, 3))
+            payload = bytes(rng.integers(0, 256, int(rng.integers(0, 9))).tolist())
+            if kind == 0:
+                msg = can.Message(arbitration_id=int(rng.integers(0, 0x800)), data=payload)
+            elif kind == 1:
+                msg = can.Message(
+                    arbitration_id=int(rng.integers(0, 0x2000_0000)),
+                    is_extended_id=True,
+                    data=payload,
+                )
+            elif kind == 2:
+                size = fd_lengths[int(rng.integers(0, 16))]
+                msg = can.Message(
+                    arbitration_id=0x123,
+                    is_fd=True,
+                    bitrate_switch=True,
+                    data=bytes(rng.integers(0, 256, size).tolist()),
+                )
+            elif kind == 3:
+                msg = can.Message(arbitration_id=0x55, is_remote_frame=True, dlc=4)
+            elif kind == 4:
+                msg = can.Message(arbitration_id=0x2000_0080, is_error_frame=True)
+            else:
+                msg = can.Message(arbitration_id=0x1A0, data=b"LOBJ" + payload[:4])
+            msg.timestamp, msg.channel = float(t[i]), channel
+            writer.on_message_received(msg)
+    return path
+
+
+def test_python_can_s_writer_s_log_reads_as_python_can_reads_it(tmp_path):
+    path = _written(tmp_path / "bus.blf")
+    assert _same_as_python_can(path) == 3000
+    # and the Frames the pipeline decodes: python-can's reader's, array for array
+    ours, theirs = _blf(path, "bus.blf"), _python_can(path, "bus.blf", ".blf")
+    for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
+        a, b = getattr(ours, name), getattr(theirs, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+    assert (ours.buses, ours.clock, ours.passed) == (theirs.buses, theirs.clock, theirs.passed)
+    assert "error frames" in ours.passed and "remote frames" in ours.passed
+
+
+def test_every_cut_of_a_log_reads_as_python_can_reads_it(tmp_path):
+    """A logger that lost power: the file cut at any byte (in the header, in a container's
+    header, inside its deflated data, between containers) gives python-can's messages."""
+    raw = _written(tmp_path / "whole.blf", n=1500).read_bytes()
+    counts = []
+    for cut in [*range(0, 200, 7), *range(200, len(raw), max(1, len(raw) // 150)), len(raw)]:
+        path = tmp_path / "cut.blf"
+        path.write_bytes(raw[:cut])
+        counts.append(_same_as_python_can(path))
+    assert counts[-1] == 1500 and len({c for c in counts if c > 0}) > 50
+
+
+def _object(kind: int, body: bytes, stamp: int, version: int = 1, flags: int = 2) -> bytes:
+    """An inner object: its base header, its version's header, the body, padded to 4."""
+    if version == 1:
+        head = OBJ_HEADER_V1_STRUCT.pack(flags, 0, 0, stamp)
+    elif version == 2:
+        head = OBJ_HEADER_V2_STRUCT.pack(flags, 0, 0, stamp)
+    else:
+        head = bytes(16)
+    size = OBJ_HEADER_BASE_STRUCT.size + len(head) + len(body)
+    base = OBJ_HEADER_BASE_STRUCT.pack(b"LOBJ", 16 + len(head), version, size, kind)
+    return base + head + body + bytes(size % 4)
+
+
+def _log(inner: bytes, split: int | None = None, methods=(2, 2)) -> bytes:
+    """A BLF file of the inner objects in one or two containers (split at byte ``split``):
+    method 2 deflated, 0 stored, anything else a method python-can passes over."""
+    header = FILE_HEADER_STRUCT.pack(
+        b"LOGG", FILE_HEADER_SIZE, 5, 0, 0, 0, 4, 0, 0, 0, 0, 0, 0, 0,
+        *(2023, 11, 2, 14, 22, 13, 20, 0), *(2023, 11, 2, 14, 22, 13, 21, 0),
+    )  # fmt: skip
+    out = header + bytes(FILE_HEADER_SIZE - len(header))
+    parts = [inner] if split is None else [inner[:split], inner[split:]]
+    for part, method in zip(parts, methods, strict=False):
+        data = zlib.compress(part) if method == 2 else part
+        body = LOG_CONTAINER_STRUCT.pack(method, len(part)) + data
+        size = 16 + len(body)
+        out += OBJ_HEADER_BASE_STRUCT.pack(b"LOBJ", 16, 1, size, 10) + body + bytes(size % 4)
+    return out
+
+
+def _built() -> bytes:
+    """Objects python-can's writer does not write and its reader reads or passes over:
+    CAN_MESSAGE2, CAN_FD_MESSAGE_64 (data frames and a remote one), header version 2,
+    stamps in 10 µs, a marker (passed over), an object of an unknown header version."""
+    classic = CAN_MSG_STRUCT.pack(2, 0, 8, 0x1A0, bytes(range(8)))
+    fd64_head = CAN_FD_MSG_64_STRUCT.pack(
+        1, 13, 32, 0, 0x8000_0123, 0, 0x1000, 0, 0, 0, 0, 0, 0, 0, 0
+    )
+    fd64_remote = CAN_FD_MSG_64_STRUCT.pack(3, 4, 0, 0, 0x77, 0, 0x0010, 0, 0, 0, 0, 0, 0, 0, 0)
+    return b"".join(
+        [
+            _object(1, classic, 1_000_000),
+            _object(86, CAN_MSG_STRUCT.pack(1, 0, 3, 0x2A, b"abc" + bytes(5)), 2_000_000),
+            _object(101, fd64_head + bytes(range(32)), 3_000_000),
+            _object(101, fd64_remote, 3_500_000),
+            _object(96, bytes(40), 4_000_000),  # a global marker
+            _object(1, classic, 5_000_000, version=2),
+            _object(1, classic, 500, flags=1),  # 10 µs stamps: 5 ms
+            _object(1, classic, 6_000_000, version=3),  # an unknown header version
+            _object(86, CAN_MSG_STRUCT.pack(1, 0x80, 2, 0x31, bytes(8)), 7_000_000),  # remote
+        ]
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("split", "methods"), [(None, (2,)), (None, (0,)), (100, (2, 2)), (37, (0, 2)), (150, (2, 9))]
+)
+def test_objects_python_can_s_writer_does_not_write_read_as_python_can_reads_them(
+    tmp_path, split, methods
+):
+    """In one container or two (an object split across them), deflated or stored, or the
+    second of a compression method python-can passes over."""
+    path = tmp_path / "built.blf"
+    path.write_bytes(_log(_built(), split, methods))
+    n = _same_as_python_can(path)
+    assert n == 7 if methods[-1] != 9 else 0 < n < 7
+    if split is None:
+        got = blf_frames(path.read_bytes())
+        assert got.length.tolist() == [8, 3, 32, 0, 8, 8, 2]
+        assert got.remote.tolist() == [False, False, False, True, False, False, True]
+
+
+def test_damage_python_can_stops_at_is_refused_with_the_frames_before(tmp_path):
+    """Bytes that are no object between two objects, a top-level object whose signature
+    was lost, a container zlib cannot inflate: refused where python-can's reader stops,
+    naming the data frames read before; through the pipeline's reader, an input error
+    naming the file."""
+    objects = _built()
+    garbage = objects[:48] + b"\x00" * 12 + objects[48:]  # after the first object (48 bytes)
+    cases = {
+        "garbage": _log(garbage),
+        "signature": (lambda r: r[:FILE_HEADER_SIZE] + b"XOBJ" + r[FILE_HEADER_SIZE + 4 :])(
+            _log(objects)
+        ),
+        "deflate": (lambda r: r[:-20] + bytes(20))(_log(objects)),
+        "second_signature": (lambda r, at: r[:at] + b"XOBJ" + r[at + 4 :])(
+            _log(objects, 100), len(_log(objects[:100]))
+        ),
+    }
+    for name, raw in cases.items():
+        path = tmp_path / f"{name}.blf"
+        path.write_bytes(raw)
+        assert _same_as_python_can(path) == -1, name
+        with pytest.raises(InputError) as err:
+            _blf(path, path.name)
+        (problem,) = err.value.problems
+        assert problem.file == path.name and "a BLF CAN log python-can reads" in problem.expected
+    with pytest.raises(BlfError) as err:
+        blf_frames(_log(garbage))
+    assert err.value.data_frames == 1 and "no object where the one before ends" in str(err.value)
+
+
+def test_an_object_of_size_0_is_refused_where_python_can_would_read_it_for_ever(tmp_path):
+    first = _built()[:48]
+    zero = OBJ_HEADER_BASE_STRUCT.pack(b"LOBJ", 32, 1, 0, 1) + bytes(36)
+    with pytest.raises(BlfError, match="an object of size 0") as err:
+        blf_frames(_log(first + zero))
+    assert err.value.data_frames == 1
+
+
+def test_a_file_that_is_no_blf_is_refused(tmp_path):
+    path = tmp_path / "bus.blf"
+    path.write_bytes(b"date Fri Dec 05 10:15:30.123 am 2025\n" * 10)
+    with pytest.raises(InputError) as err:
+        _blf(path, "bus.blf")
+    assert "before any frame" in err.value.problems[0].fix
+
+
+@st.composite
+def _edited(draw) -> bytes:
+    """A log with a few bytes overwritten, a block dropped or repeated, or cut; its
+    containers mostly stored (not deflated), so that the edits reach the objects."""
+    methods = draw(st.sampled_from([(0, 0), (0, 0), (0, 2), (2, 2)]))
+    raw = bytearray(_log(_built() * 3, split=200, methods=methods))
+    for _ in range(draw(st.integers(1, 3))):
+        if not raw:
+            break
+        at = draw(st.integers(0, len(raw) - 1))
+        kind = draw(st.sampled_from(["bytes", "drop", "repeat", "cut"]))
+        if kind == "bytes":
+            raw[at : at + 4] = draw(st.binary(min_size=1, max_size=4))
+        elif kind == "drop":
+            del raw[at : at + draw(st.integers(1, 64))]
+        elif kind == "repeat":
+            raw[at:at] = raw[at : at + draw(st.integers(1, 64))]
+        else:
+            del raw[at:]
+    return bytes(raw)
+
+
+@given(_edited())
+@fuzz_settings(60, 10_000)
+def test_an_edited_log_reads_as_python_can_reads_it_or_both_stop(tmp_path_factory, raw):
+    """Whatever the edits, the reader gives python-can's messages or stops where it stops
+    (python-can not asked where an object's size is 0: its reader would not end)."""
+    path = tmp_path_factory.mktemp("edited") / "bus.blf"
+    path.write_bytes(raw)
+    _same_as_python_can(path)
