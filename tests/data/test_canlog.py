@@ -270,14 +270,16 @@ def _real_minute_frames():
     return utc, wheels, vw, lines
 
 
-def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_path):
+@pytest.mark.parametrize("log_name", ["can0.log", "can0.blf"])
+def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_path, log_name):
     """A stream folder as a Linux logger writes it: the RAV4's WHEEL_SPEEDS frames in
     ``can0.log`` on the computer's UTC clock (the boot clock put on UTC by the receiver's
     own clock fit), the u-blox fixes as GGA and RMC sentences in ``gps.nmea`` without
     stamps. The map names the DBC's signals and a ``t`` no CSV has; the log's UTC times
     are placed by their RMC dates. The labels of the same wheel speeds in wheels.csv
     beside the same log (test_nmea.py's unstamped case: 59 seconds, 0.354 s later in the
-    drive than the comma2k19 reader's), measured within 8.3e-8 m."""
+    drive than the comma2k19 reader's), measured within 8.3e-8 m. The same frames in a
+    Vector BLF (python-can's writer; read by rwhonet.data.blf, stop 78) give them too."""
     from rwhonet.data.streamcsv import read_stream_csvs
     from rwhonet.data.streams import resample
     from support.multirate import per_second
@@ -289,7 +291,15 @@ def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_pat
         folder = tmp_path / case
         write_nmea(folder / "gps.nmea", lines)
         folders[case] = folder
-    write_bus_log(utc, np.full(utc.size, 170), wheels, folders["can"] / "can0.log")
+    log = write_bus_log(utc, np.full(utc.size, 170), wheels, folders["can"] / log_name)
+    if log_name.endswith(".blf"):
+        # a BLF keeps its start to the millisecond (the header's SYSTEMTIME) and each
+        # frame's time from it: the CSV's wheels at the stamps python-can's reader gives
+        import can
+
+        with can.BLFReader(log) as reader:
+            utc = np.array([m.timestamp for m in reader])
+        assert np.abs(utc - _real_minute_frames()[0]).max() < 5e-4
     (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
     columns = {"t": utc} | {w: vw[:, k] for k, w in enumerate(("fl", "fr", "rl", "rr"))}
     pd.DataFrame(columns).to_csv(folders["csv"] / "wheels.csv", index=False, float_format="%.6f")
@@ -307,7 +317,7 @@ def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_pat
         drive = resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns
         got[case], said[case] = per_second(drive, RAV4_RADIUS_M), " ".join(streams.notes)
     assert "RMC dates, on the stream files' UTC" in said["can"]
-    assert "can0.log: raw CAN frames decoded with toyota.dbc: 1 of the log's 1" in said["can"]
+    assert f"{log_name}: raw CAN frames decoded with toyota.dbc: 1 of the log's 1" in said["can"]
     assert len(got["can"]) == len(got["csv"]) == 59
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got["can"][q], got["csv"][q], rtol=0, atol=1e-6)
