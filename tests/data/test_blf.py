@@ -236,6 +236,18 @@ def test_damage_python_can_stops_at_is_refused_with_the_frames_before(tmp_path):
     assert err.value.data_frames == 1 and "no object where the one before ends" in str(err.value)
 
 
+@pytest.mark.parametrize("header_size", [60, 71, 72, 100, 144, 4000])
+def test_a_file_header_s_size_is_taken_as_python_can_takes_it(tmp_path, header_size):
+    """The header's own size field (144 as written; its fields take 72 bytes): python-can
+    reads that many bytes before the objects (71, or more than the file holds: the rest of
+    the file, no frame; under 71: it refuses)."""
+    raw = _log(_built())
+    path = tmp_path / "bus.blf"
+    path.write_bytes(raw[:4] + header_size.to_bytes(4, "little") + raw[8:])
+    n = _same_as_python_can(path)
+    assert n == (7 if header_size == 144 else 0 if header_size in (71, 4000) else -1)
+
+
 def test_an_object_of_size_0_is_refused_where_python_can_would_read_it_for_ever(tmp_path):
     first = _built()[:48]
     zero = OBJ_HEADER_BASE_STRUCT.pack(b"LOBJ", 32, 1, 0, 1) + bytes(36)

@@ -113,18 +113,10 @@ def _u(buf: np.ndarray, at: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
-@dataclass
-class _Damage:
-    """Where python-can's reader stops with an error: the message and the inner stream's
-    length before it (the frames of objects ending there were yielded)."""
-
-    message: str
-    inner_at: int
-
-
-def _inner(raw: bytes) -> tuple[bytes, float, _Damage | None]:
-    """The file's inner objects' bytes (its containers inflated, one after the other), its
-    start time, and the damage python-can's reader would stop at (None: none)."""
+def _inner(raw: bytes) -> tuple[bytes, float, str | None]:
+    """The file's inner objects' bytes (its containers inflated, one after the other, up to
+    any damage), its start time, and the damage python-can's reader would stop at after
+    reading them (None: none)."""
     import struct
 
     from can.io.blf import FILE_HEADER_STRUCT, LOG_CONTAINER_STRUCT, systemtime_to_timestamp
@@ -133,37 +125,37 @@ def _inner(raw: bytes) -> tuple[bytes, float, _Damage | None]:
         raise BlfError("the file does not start with a BLF header (LOGG)", None)
     header = FILE_HEADER_STRUCT.unpack_from(raw)
     start = systemtime_to_timestamp(header[14:22])
-    pos, parts, inner = max(header[1], FILE_HEADER_STRUCT.size), [], 0
+    rest = header[1] - FILE_HEADER_STRUCT.size  # python-can reads this much more of it
+    if rest < -1:
+        raise BlfError(f"a file header of {header[1]} bytes, less than its fields", None)
+    pos, parts = len(raw) if rest == -1 else FILE_HEADER_STRUCT.size + rest, []
     while pos < len(raw):
         if len(raw) - pos < BASE_SIZE:
-            return b"".join(parts), start, _Damage("an object header cut short", inner)
+            return b"".join(parts), start, "an object header cut short"
         signature, _, _, size, kind = struct.unpack_from("<4sHHLL", raw, pos)
         if signature != LOBJ:
-            return b"".join(parts), start, _Damage(f"no object at byte {pos}", inner)
+            return b"".join(parts), start, f"no object at byte {pos}"
         if size == BASE_SIZE - 1:  # python-can reads the rest of the file as its body
             body, pos = raw[pos + BASE_SIZE :], len(raw)
         elif size < BASE_SIZE:
-            damage = _Damage(f"an object of {size} bytes, less than its header", inner)
-            return b"".join(parts), start, damage
+            return b"".join(parts), start, f"an object of {size} bytes, less than its header"
         else:
             body = raw[pos + BASE_SIZE : pos + size]
             pos += size + size % 4
         if kind != LOG_CONTAINER:
             continue
         if len(body) < LOG_CONTAINER_STRUCT.size:
-            return b"".join(parts), start, _Damage("a log container cut short", inner)
+            return b"".join(parts), start, "a log container cut short"
         method, _ = LOG_CONTAINER_STRUCT.unpack_from(body)
         data = body[LOG_CONTAINER_STRUCT.size :]
         if method == ZLIB_DEFLATE:
             try:
                 data = zlib.decompressobj().decompress(data)
             except zlib.error as err:
-                damage = _Damage(f"a log container zlib cannot inflate ({err})", inner)
-                return b"".join(parts), start, damage
+                return b"".join(parts), start, f"a log container zlib cannot inflate ({err})"
         elif method != NO_COMPRESSION:
             continue  # python-can warns and passes the container over
         parts.append(data)
-        inner += len(data)
     return b"".join(parts), start, None
 
 
@@ -286,5 +278,5 @@ def blf_frames(raw: bytes) -> BlfFrames:
     data = np.where(cols < length[:, None], buf[idx] if n else 0, 0).astype(np.uint8)
     error = kind == CAN_ERROR_EXT
     if stop is not None or damage is not None:
-        raise BlfError(stop or damage.message, int(np.sum(~error & ~remote)))
+        raise BlfError(stop or damage, int(np.sum(~error & ~remote)))
     return BlfFrames(t_s, ids, remote, error, length, data, channel - 1)
