@@ -401,23 +401,32 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
         at = np.repeat(np.arange(len(payloads)), lengths)  # each byte's frame
         cols = np.arange(flat.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
         data[at, cols] = flat
-    buses, first_at, channel = np.unique(np.array(chans, dtype=object).astype(str), True, True)
-    order = np.argsort(first_at)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
+    channel, buses = _buses(np.array(chans, dtype=object).astype(str))
     return Frames(
         np.asarray(t, np.float64),
         np.asarray(ids, np.uint32) & np.uint32(ID_MASK),
         np.asarray(ext, bool),
         lengths.astype(np.uint8),
         data,
-        (rank[channel.ravel()] + 1).astype(np.uint8) if len(t) else np.zeros(0, np.uint8),
-        [str(b) for b in buses[order]],
+        channel,
+        buses,
         _clock(kind, np.asarray(t, np.float64))
         + (", each event's time since the one before, summed" if relative else ""),
         np.asarray(rows, np.int64),
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
     )
+
+
+def _buses(chans: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Each frame's channel (python-can's, as text) as a bus number, 1-based in the order
+    first seen, and the buses' names in that order."""
+    if not chans.size:
+        return np.zeros(0, np.uint8), []
+    buses, first_at, channel = np.unique(chans, True, True)
+    order = np.argsort(first_at)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return (rank[channel.ravel()] + 1).astype(np.uint8), [str(b) for b in buses[order]]
 
 
 def _blf(path: Path, file: str) -> Frames:
@@ -447,19 +456,15 @@ def _blf(path: Path, file: str) -> Frames:
     lengths = got.length[keep]
     width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
     t = got.t_s[keep]
-    chans = got.channel[keep].astype(str)
-    buses, first_at, channel = np.unique(chans, True, True)
-    order = np.argsort(first_at)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
+    channel, buses = _buses(got.channel[keep].astype(str))
     return Frames(
         t,
         (got.ids[keep] & ID_MASK).astype(np.uint32),
         (got.ids[keep] & CAN_MSG_EXT) != 0,
         lengths.astype(np.uint8),
         np.ascontiguousarray(got.data[keep][:, :width]),
-        (rank[channel.ravel()] + 1).astype(np.uint8) if t.size else np.zeros(0, np.uint8),
-        [str(b) for b in buses[order]],
+        channel,
+        buses,
         _clock("BLF", t),
         np.flatnonzero(keep).astype(np.int64) + 1,
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),

@@ -434,7 +434,7 @@ def is_units_row(cells: Iterable[str], data_below: bool = False) -> bool:
     return 2 * known >= len(filled) or (data_below and known >= 1)
 
 
-def is_number(cell: str) -> bool:
+def is_number(cell: str | bytes) -> bool:
     """Whether a cell reads as a number (``float`` takes it: ``NaN`` and ``inf`` too)."""
     try:
         float(cell)

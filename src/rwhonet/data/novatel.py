@@ -74,6 +74,7 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.data.compressed import without_suffix
+from rwhonet.data.csvio import is_number
 from rwhonet.data.nmea import STAMP_STRIP, FixLog
 from rwhonet.errors import InputError, Problem
 
@@ -462,7 +463,7 @@ def _utc_offset(found: _Logs, gps: np.ndarray, file: str) -> tuple[float, str]:
     valid = [
         float(body[3])
         for _, _, body in found.logs.get("TIMEA", [])
-        if len(body) >= 11 and body[10] == b"VALID" and _is_number(body[3])
+        if len(body) >= 11 and body[10] == b"VALID" and is_number(body[3])
     ]
     if valid:
         offset = float(np.median(valid))
@@ -472,14 +473,6 @@ def _utc_offset(found: _Logs, gps: np.ndarray, file: str) -> tuple[float, str]:
         f"GPS time put on UTC by the leap seconds to its date ({leap} s; no valid TIME log "
         "in the file)"
     )
-
-
-def _is_number(cell: bytes) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
 
 
 def _velocities(
@@ -494,7 +487,7 @@ def _velocities(
     for line, head, body in logs:
         if len(head) < 7 or len(body) < 6 or body[0] != b"SOL_COMPUTED":
             continue
-        if not (_is_number(head[5]) and _is_number(head[6])):
+        if not (is_number(head[5]) and is_number(head[6])):
             continue
         i = at.get(float(head[5]) * SECONDS_PER_WEEK + float(head[6]))
         if i is None or np.isfinite(speed[i]):
