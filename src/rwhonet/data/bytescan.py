@@ -1,6 +1,6 @@
 """Finding things in a text log's bytes all at once (numpy), for the line-oriented
-readers that parse a whole file without a Python loop a line: NMEA (:mod:`~rwhonet.data.nmea`)
-and candump (:mod:`~rwhonet.data.canlog`)."""
+readers that parse a whole file without a Python loop a line: NMEA (:mod:`~rwhonet.data.nmea`),
+candump (:mod:`~rwhonet.data.canlog`) and ASC (:mod:`~rwhonet.data.asc`)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,21 @@ HEX = np.full(256, -1, np.int16)  # a hex digit's value by its byte, -1 for none
 HEX[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
 HEX[np.frombuffer(b"ABCDEF", np.uint8)] = np.arange(10, 16)
 HEX[np.frombuffer(b"abcdef", np.uint8)] = np.arange(10, 16)
+DEC = np.full(256, -1, np.int16)  # a decimal digit's value by its byte, -1 for none
+DEC[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
+
+
+def digit_matrix(
+    buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: int, table: np.ndarray = HEX
+) -> np.ndarray:
+    """The digits ``buf[start:start+count]`` of each span as a (spans, width) matrix of
+    their values by ``table`` (:data:`HEX`, :data:`DEC`), right-aligned, -1 where a
+    character is no digit, 0 before (a count of 0 or less: a row of zeros)."""
+    count = np.clip(count, 0, width)
+    at = start[:, None] + np.arange(width) - (width - count)[:, None]
+    inside = at >= start[:, None]
+    digits = table[buf[np.clip(at, 0, max(buf.size - 1, 0))]] if buf.size else at * 0
+    return np.where(inside, digits, 0)
 
 
 def after(positions: np.ndarray, at: np.ndarray, size: int) -> np.ndarray:

@@ -22,10 +22,12 @@ frames (``#R``) and CAN XL frames (``###``) carry no signal and are passed over,
 so are lines that are no frame, counted with the first of them.
 
 **BLF** (:func:`_blf`) is parsed over the file's objects at once by
-:func:`rwhonet.data.blf.blf_frames`: python-can's BLF reader's frames, bit for bit, at
-several times its rate. **ASC and TRC** are read by python-can's readers
-(``can.LogReader``), a frame at a time in Python (``benchmarks/bench_streams.py`` gives
-the rates); their error and remote frames are passed over too, as BLF's are.
+:func:`rwhonet.data.blf.blf_frames`, and **ASC** (:func:`_asc`) over the file's lines at
+once by :func:`rwhonet.data.asc.asc_frames`: python-can's readers' frames, bit for bit, at
+several times their rates (an ASC with a byte outside ASCII, or ``base dec``, still goes
+through python-can). **TRC** is read by python-can's reader (``can.LogReader``), a frame
+at a time in Python (``benchmarks/bench_streams.py`` gives the rates); error and remote
+frames are passed over and counted in every one.
 
 **The clock** is the log's own time stamps, as python-can and candump give them:
 candump's and BLF's are the logging computer's clock (Unix seconds), TRC's its start time
@@ -46,12 +48,18 @@ import dataclasses
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
+from rwhonet.data.asc import STAMP, stamp_ns
+from rwhonet.data.bytescan import HEX, after, before, digit_matrix, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
 from rwhonet.errors import InputError, Problem
+
+if TYPE_CHECKING:
+    from rwhonet.data.asc import AscFrames
+    from rwhonet.data.blf import BlfFrames
 
 CANDUMP, PYTHON_CAN = ".log", (".asc", ".blf", ".trc")
 CAN_LOG_SUFFIXES = (CANDUMP, *PYTHON_CAN)
@@ -139,7 +147,8 @@ def _message(acq_name: str) -> tuple[int, int, bool] | None:
 
 def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
     """A CAN log's data frames: candump's by :func:`_candump`, BLF's by :func:`_blf`,
-    ASC's and TRC's by python-can.
+    ASC's by :func:`_asc` (python-can's where it leaves the log to it), TRC's by
+    python-can.
 
     Args:
         path: the log (its name's suffix says its format).
@@ -157,6 +166,8 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
         frames = _candump(path, file)
     elif suffix == ".blf":
         frames = _blf(path, file)
+    elif suffix == ".asc" and (got := _asc(path, file)) is not None:
+        frames = got
     else:
         frames = _python_can(path, file, suffix)
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
@@ -185,15 +196,6 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
 
 
 _CHUNK_CELLS = 1 << 24  # hex digits turned into bytes at once (bounds the memory: 128 MB)
-
-
-def _hex_values(buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: int) -> np.ndarray:
-    """The hex digits ``buf[start:start+count]`` of each line as a (lines, width) matrix
-    of digit values, right-aligned, -1 where a character is no hex digit, 0 before."""
-    at = start[:, None] + np.arange(width) - (width - count)[:, None]
-    inside = at >= start[:, None]
-    digits = HEX[buf[np.clip(at, 0, buf.size - 1)]]
-    return np.where(inside, digits, 0)
 
 
 def _candump(path: Path, file: str) -> Frames:
@@ -229,7 +231,7 @@ def _candump(path: Path, file: str) -> Frames:
     # time stamps: the text between the brackets, converted in one go
     t = _stamps(buf, first[line] + 1, close[line])
     id_len = hash_at[line] - id_start[line]
-    id_digits = _hex_values(buf, id_start[line], id_len, 8)
+    id_digits = digit_matrix(buf, id_start[line], id_len, 8)
     ids = (id_digits.astype(np.int64) << (4 * np.arange(7, -1, -1))).sum(axis=1)
     behind = np.minimum(hash_at[line] + 1, size - 1)
     fd = buf[behind] == ord("#")
@@ -357,7 +359,9 @@ def _stamps(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
 
 
 def _python_can(path: Path, file: str, suffix: str) -> Frames:
-    """An ASC, BLF or TRC log's data frames, read by python-can a frame at a time."""
+    """An ASC, BLF or TRC log's data frames, read by python-can a frame at a time (the
+    pipeline's path for TRC, and for an ASC :func:`_asc` leaves to it; the tests' reference
+    for BLF and ASC)."""
     import can
     from can.io.asc import ASCReader
 
@@ -387,7 +391,7 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
             [
                 Problem.unreadable(
                     file,
-                    f"a {kind} CAN log python-can reads",
+                    f"{'an' if kind == 'ASC' else 'a'} {kind} CAN log python-can reads",
                     err,
                     f"export the log again from the bus tool (it failed {read})",
                 )
@@ -448,6 +452,16 @@ def _blf(path: Path, file: str) -> Frames:
                 )
             ]
         ) from None
+    return _yielded("BLF", got, got.ids & ID_MASK, (got.ids & CAN_MSG_EXT) != 0)
+
+
+def _yielded(
+    kind: str, got: BlfFrames | AscFrames, ids: np.ndarray, extended: np.ndarray, said: str = ""
+) -> Frames:
+    """The data frames among the messages python-can's reader yields for a log, given as
+    arrays (``got``), with their identifiers without flags (``ids``) and whether each is
+    extended; error and remote frames passed over and counted, the frames numbered among
+    all the messages; ``said`` is added to the clock's words."""
     keep = ~got.error & ~got.remote
     skipped = {
         "error frames": int(got.error.sum()),
@@ -456,19 +470,46 @@ def _blf(path: Path, file: str) -> Frames:
     lengths = got.length[keep]
     width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
     t = got.t_s[keep]
-    channel, buses = _buses(got.channel[keep].astype(str))
+    bus, buses = _buses(got.channel[keep])
     return Frames(
         t,
-        (got.ids[keep] & ID_MASK).astype(np.uint32),
-        (got.ids[keep] & CAN_MSG_EXT) != 0,
+        ids[keep].astype(np.uint32),
+        extended[keep],
         lengths.astype(np.uint8),
         np.ascontiguousarray(got.data[keep][:, :width]),
-        channel,
+        bus,
         buses,
-        _clock("BLF", t),
+        _clock(kind, t) + said,
         np.flatnonzero(keep).astype(np.int64) + 1,
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
     )
+
+
+def _asc(path: Path, file: str) -> Frames | None:
+    """An ASC log's data frames, the frames python-can's reader gives, parsed at once
+    (:func:`rwhonet.data.asc.asc_frames`); None where the log is one python-can reads
+    itself (a byte outside ASCII, ``base dec``)."""
+    from rwhonet.data.asc import AscError, asc_frames
+
+    relative = asc_header(path).relative
+    try:
+        got = asc_frames(path.read_bytes(), relative)
+    except AscError as err:
+        read = f"after {err.data_frames} frame(s)" if err.data_frames else "before any frame"
+        raise InputError(
+            [
+                Problem.unreadable(
+                    file,
+                    "an ASC CAN log python-can reads",
+                    err.cause,
+                    f"export the log again from the bus tool (it failed {read})",
+                )
+            ]
+        ) from None
+    if got is None:
+        return None
+    said = ", each event's time since the one before, summed" if relative else ""
+    return _yielded("ASC", got, got.ids & ID_MASK, got.extended, said)
 
 
 def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
@@ -521,8 +562,6 @@ def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
 _ASC_DATE = re.compile(r"date\s+\w+\s+(?P<when>.+)", re.IGNORECASE)
 _ASC_BASE = re.compile(r"base\s+(hex|dec)\s+timestamps\s+(?P<stamps>absolute|relative)", re.I)
 _ASC_HEADER = re.compile(r"(date\s|base\s|//|no\s+internal|internal\s|$)", re.IGNORECASE)
-# an ASC event line's time stamp: seconds, a point, its fraction (CANoe writes 6 or 9 digits)
-_ASC_STAMP = re.compile(r"(?P<lead>\s*)(?P<s>\d+)\.(?P<frac>\d+)(?P<rest>\s.*)", re.DOTALL)
 
 
 @dataclass(frozen=True)
@@ -569,10 +608,10 @@ class _SummedStamps:
 
     def __next__(self) -> str:
         line = next(self._file)
-        match = _ASC_STAMP.fullmatch(line)
+        match = STAMP.fullmatch(line)
         if match is None:
             return line
-        self._ns += int(match["s"]) * 1_000_000_000 + int(match["frac"][:9].ljust(9, "0"))
+        self._ns += stamp_ns(match)
         seconds, ns = divmod(self._ns, 1_000_000_000)
         return f"{match['lead']}{seconds}.{ns:09d}{match['rest']}"
 
