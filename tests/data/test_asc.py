@@ -37,8 +37,8 @@ logging.getLogger("can.io.asc").setLevel(logging.ERROR)
 # J1939 transport line), then forms no bus tool writes but a text log may hold: fewer
 # bytes than the length code, a length code above 8, one-digit and three-digit bytes, a
 # channel of two digits, a hex prefix, an identifier python-can's int() reads with an
-# underscore, a lower-case direction and CANFD, a stamp of 24 digits, stamps of 1 and 9
-# decimals.
+# underscore, a lower-case direction and CANFD, stamps of 1 and 9 decimals, a channel
+# and an identifier beyond 64 bits, a stamp of 25 characters.
 CANOE = """\
 date Fri Dec 04 09:12:44.512 am 2026
 base hex  timestamps absolute
@@ -75,6 +75,8 @@ Begin Triggerblock Fri Dec 04 09:12:44.512 am 2026
    1.110204 canfd 1 Rx 1a0 1 0 8 8 00 00 00 00 00 00 00 00 x
    1.2 1  1A0 Rx d 2 0c 1f
    1.300000000 1 1A0 Rx d 1 ff
+   1.400000 123456789012345678901 1A0 Rx d 1 01
+   1.500000 1 123456789012345678901234 Rx d 1 02
    100000000.000000000000001 1  1A0             Rx   d 2 0c 1f
 End TriggerBlock
 """
@@ -180,7 +182,14 @@ def test_canoe_s_line_forms_and_others_read_as_python_can_reads_them(tmp_path, l
         text = text.replace("timestamps absolute", "timestamps relative")
     path = tmp_path / "canoe.asc"
     path.write_bytes(text.encode())
-    assert _same_as_python_can(path, relative) == 24
+    assert _same_as_python_can(path, relative) == 26
+    # and the Frames decoded: python-can's path's (identifiers to 29 bits in both)
+    ours, theirs = _asc(path, "canoe.asc"), _python_can(path, "canoe.asc", ".asc")
+    assert ours is not None
+    for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
+        a, b = getattr(ours, name), getattr(theirs, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+    assert (ours.buses, ours.clock, ours.passed) == (theirs.buses, theirs.clock, theirs.passed)
 
 
 def test_lines_python_can_s_code_raises_on_are_refused_with_the_frames_before(tmp_path):
@@ -199,7 +208,7 @@ def test_lines_python_can_s_code_raises_on_are_refused_with_the_frames_before(tm
             read_frames(path, path.name)
         (p,) = err.value.problems
         assert p.file == path.name and p.found.startswith("ValueError")
-        assert "it failed after 17 frame(s)" in p.fix
+        assert "it failed after 19 frame(s)" in p.fix
 
 
 def test_the_line_that_ends_the_header_is_taken_as_python_can_takes_it(tmp_path):
@@ -227,7 +236,7 @@ def test_every_cut_of_a_log_reads_as_python_can_reads_it(tmp_path, relative):
     counts = [
         _same_as_python_can(_at(tmp_path, raw[:cut]), relative) for cut in range(len(raw) + 1)
     ]
-    assert counts[-1] == 24 and len({c for c in counts if c and c > 0}) == 24
+    assert counts[-1] == 26 and len({c for c in counts if c and c > 0}) == 26
     assert -1 in counts  # some cuts leave a line python-can's code raises on
 
 
@@ -287,6 +296,7 @@ _TOKENS = [
     "canfd", "Rx", "rx", " d ", " r ", "-1", "+1", "0x", "_", "// c\n", "internal events logged\n",
     "date Fri Dec 04 09:12:44.512 am 2026\n", "1234567890123456789012345.5", " 1234567890 ",
     "\n 1.5 CANFD 1 Rx 1a0 1 0 8 8 ", "\n 1.5 1 12345678x Rx d 8 ", "1 0 d 64 ", " 99 ",
+    "123456789012345678901234", "\n 2.5 123456789012345678901 1A0 Rx d 1 01\n",
 ]  # fmt: skip
 
 

@@ -113,13 +113,14 @@ class AscFrames:
     Attributes:
         t_s: each message's time stamp, s, as the log writes it (or the sums of its
             relative stamps).
-        ids: its identifier, python-can's ``arbitration_id`` (0 for an error frame).
+        ids: its identifier, python-can's ``arbitration_id`` (0 for an error frame; int64,
+            or Python's integers where a line python-can reads has one beyond).
         extended: whether the identifier is extended.
         remote: whether it is a remote frame.
         error: whether it is an error frame.
         length: its data bytes.
         data: its bytes, zero after ``length`` (8 a row, or 64 where any frame has more).
-        channel: its channel as python-can numbers it (the log's, less one).
+        channel: its channel as python-can numbers it (the log's, less one; as ``ids``).
     """
 
     t_s: np.ndarray
@@ -144,11 +145,10 @@ def asc_frames(raw: bytes, relative: bool) -> AscFrames | None:
     Raises:
         AscError: python-can's reader stops at a line (with the data frames before it).
     """
-    buf = np.frombuffer(raw, np.uint8)
-    control = (buf < 32) & (buf != 9) & (buf != 10) & (buf != 13)
-    if (buf >= 128).any() or control.any():
+    allowed = sum(raw.count(b) for b in (b"\t", b"\n", b"\r"))  # the only control bytes
+    if not raw.isascii() or np.count_nonzero(np.frombuffer(raw, np.uint8) < 32) != allowed:
         return None
-    text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")  # universal newlines
+    text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n") if b"\r" in raw else raw
     header = _header(text, relative)
     if header is None:
         return None
@@ -260,17 +260,23 @@ class _Fields:
         return ok, np.where(ok, value, 0)
 
     def byte(self, at: np.ndarray) -> np.ndarray:
-        """The byte at each of ``at`` (clipped to the chunk)."""
-        return self.c[np.clip(at, 0, max(self.c.size - 1, 0))] if self.c.size else at * 0
+        """The byte at each of ``at`` (at most the chunk's last; -1, where a field that
+        is not there ends, reads the last byte too: the callers mask it)."""
+        return self.c[np.minimum(at, self.c.size - 1)] if self.c.size else at * 0
 
     def is_(self, s: np.ndarray, e: np.ndarray, word: bytes, fold: bool = False) -> np.ndarray:
         """Whether each field is ``word`` (``fold``: any case of its letters, and a field
-        that starts with it counts)."""
-        m, _ = self.chars(s, e, len(word))
-        want = np.frombuffer(word, np.uint8)
-        if fold:
-            return (e - s >= len(word)) & ((m | 32) == want).all(axis=1)
-        return (e - s == len(word)) & (m == want).all(axis=1)
+        that starts with it counts): its first byte compared for every field, the rest for
+        those that start so."""
+        n = len(word)
+        fold_bit = 32 if fold else 0
+        ok = ((e - s >= n) if fold else (e - s == n)) & (self.byte(s) | fold_bit == word[0])
+        at = np.flatnonzero(ok)
+        for j in range(1, n):
+            at = at[(self.byte(s[at] + j) | fold_bit) == word[j]]
+        ok[:] = False
+        ok[at] = True
+        return ok
 
 
 STAMP_WIDTH = 24  # the longest stamp read here (float() reads the rest)
@@ -421,11 +427,17 @@ def _chunk(chunk: bytes, relative: bool, carry: int) -> _Part | None:
     most = int(nbytes[got].max(initial=0))
     payload = np.zeros((got.size, 8 if most <= 8 else 64), np.uint8)
     good = np.ones(got.size, bool)
-    for j in range(most):
-        inside = nbytes[got] > j
-        ok, value = _small_hex(f, *f.field(first_byte[got] + j, got))
-        good &= ~inside | ok
-        payload[:, j] = np.where(inside & ok, value, 0)
+    if most:
+        # every field of the chunk as a byte (1-2 hex digits) at once, then each frame's
+        every = np.arange(f.start.size)
+        hexes, values = _small_hex(f, every >= 0, f.start, f.end)
+        at = f.first[got] + first_byte[got]
+        for j in range(most):
+            inside = nbytes[got] > j
+            field = np.minimum(at + j, max(f.start.size - 1, 0))
+            ok = hexes[field]
+            good &= ~inside | ok
+            payload[:, j] = np.where(inside & ok, values[field], 0)
     fast[got[~good]] = False
     nbytes[got[~good]] = 0
     rows = np.flatnonzero(fast)
@@ -528,14 +540,23 @@ def _of_messages(messages: list) -> AscFrames:  # type: ignore[type-arg]
         data[k, : lengths[k]] = np.frombuffer(bytes(m.data), np.uint8)
     return AscFrames(
         np.array([m.timestamp for m in messages], np.float64),
-        np.array([m.arbitration_id for m in messages], np.int64),
+        _ints([m.arbitration_id for m in messages]),
         np.array([m.is_extended_id for m in messages], bool),
         np.array([m.is_remote_frame for m in messages], bool),
         np.array([m.is_error_frame for m in messages], bool),
         lengths,
         data,
-        np.array([m.channel for m in messages], np.int64),
+        _ints([m.channel for m in messages]),
     )
+
+
+def _ints(values: list[int]) -> np.ndarray:
+    """Integers as int64, or as Python's where one is beyond (python-can reads a field of
+    any length: an identifier or channel of 20 digits in a damaged line)."""
+    try:
+        return np.array(values, np.int64)
+    except OverflowError:
+        return np.array(values, object)
 
 
 def _take(frames: AscFrames, index: np.ndarray) -> AscFrames:

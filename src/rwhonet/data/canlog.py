@@ -381,7 +381,7 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
                     continue
                 t.append(msg.timestamp)
                 rows.append(row)
-                ids.append(msg.arbitration_id)
+                ids.append(msg.arbitration_id & ID_MASK)  # python-can takes any int
                 ext.append(msg.is_extended_id)
                 payloads.append(bytes(msg.data))
                 chans.append(str(msg.channel) if msg.channel is not None else "")
