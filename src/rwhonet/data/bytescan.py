@@ -16,19 +16,6 @@ DEC = np.full(256, -1, np.int16)  # a decimal digit's value by its byte, -1 for 
 DEC[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
 
 
-def digit_matrix(
-    buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: int, table: np.ndarray = HEX
-) -> np.ndarray:
-    """The digits ``buf[start:start+count]`` of each span as a (spans, width) matrix of
-    their values by ``table`` (:data:`HEX`, :data:`DEC`), right-aligned, -1 where a
-    character is no digit, 0 before (a count of 0 or less: a row of zeros)."""
-    count = np.clip(count, 0, width)
-    at = start[:, None] + np.arange(width) - (width - count)[:, None]
-    inside = at >= start[:, None]
-    digits = table[buf[np.clip(at, 0, max(buf.size - 1, 0))]] if buf.size else at * 0
-    return np.where(inside, digits, 0)
-
-
 def after(positions: np.ndarray, at: np.ndarray, size: int) -> np.ndarray:
     """The first of the sorted ``positions`` at or after each of ``at`` (``size`` where
     none, and where there are no positions)."""

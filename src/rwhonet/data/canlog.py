@@ -53,7 +53,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rwhonet.data.asc import STAMP, stamp_ns
-from rwhonet.data.bytescan import HEX, after, before, digit_matrix, floats_or_nan, texts
+from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
 from rwhonet.errors import InputError, Problem
 
@@ -198,6 +198,15 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
 _CHUNK_CELLS = 1 << 24  # hex digits turned into bytes at once (bounds the memory: 128 MB)
 
 
+def _hex_values(buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: int) -> np.ndarray:
+    """The hex digits ``buf[start:start+count]`` of each line as a (lines, width) matrix
+    of digit values, right-aligned, -1 where a character is no hex digit, 0 before."""
+    at = start[:, None] + np.arange(width) - (width - count)[:, None]
+    inside = at >= start[:, None]
+    digits = HEX[buf[np.clip(at, 0, buf.size - 1)]]
+    return np.where(inside, digits, 0)
+
+
 def _candump(path: Path, file: str) -> Frames:
     """A candump log's frames, every line parsed at once (see the module's docstring)."""
     data = path.read_bytes()
@@ -231,7 +240,7 @@ def _candump(path: Path, file: str) -> Frames:
     # time stamps: the text between the brackets, converted in one go
     t = _stamps(buf, first[line] + 1, close[line])
     id_len = hash_at[line] - id_start[line]
-    id_digits = digit_matrix(buf, id_start[line], id_len, 8)
+    id_digits = _hex_values(buf, id_start[line], id_len, 8)
     ids = (id_digits.astype(np.int64) << (4 * np.arange(7, -1, -1))).sum(axis=1)
     behind = np.minimum(hash_at[line] + 1, size - 1)
     fd = buf[behind] == ord("#")
@@ -488,7 +497,7 @@ def _yielded(
 def _asc(path: Path, file: str) -> Frames | None:
     """An ASC log's data frames, the frames python-can's reader gives, parsed at once
     (:func:`rwhonet.data.asc.asc_frames`); None where the log is one python-can reads
-    itself (a byte outside ASCII, ``base dec``)."""
+    itself (a byte outside ASCII, ``base dec``: :mod:`rwhonet.data.asc` says which)."""
     from rwhonet.data.asc import AscError, asc_frames
 
     relative = asc_header(path).relative
