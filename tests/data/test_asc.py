@@ -23,7 +23,7 @@ import rwhonet.data.asc as asc
 from rwhonet.data.asc import AscError, asc_frames
 from rwhonet.data.canlog import _asc, _python_can, _SummedStamps, read_frames
 from rwhonet.errors import InputError
-from support.canlog import asc_as_relative
+from support.canlog import asc_as_relative, assert_same_frames
 from support.fuzz import fuzz_settings
 
 # python-can warns of an FD frame whose length code and data length disagree: the fuzz
@@ -157,10 +157,7 @@ def test_python_can_s_writer_s_log_reads_as_python_can_reads_it(tmp_path):
     # and the Frames the pipeline decodes: python-can's reader's, array for array
     ours, theirs = _asc(path, "bus.asc"), _python_can(path, "bus.asc", ".asc")
     assert ours is not None
-    for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
-        a, b = getattr(ours, name), getattr(theirs, name)
-        assert a.dtype == b.dtype and np.array_equal(a, b), name
-    assert (ours.buses, ours.clock, ours.passed) == (theirs.buses, theirs.clock, theirs.passed)
+    assert_same_frames(ours, theirs)
     assert "error frames" in ours.passed and "remote frames" in ours.passed
 
 
@@ -186,10 +183,7 @@ def test_canoe_s_line_forms_and_others_read_as_python_can_reads_them(tmp_path, l
     # and the Frames decoded: python-can's path's (identifiers to 29 bits in both)
     ours, theirs = _asc(path, "canoe.asc"), _python_can(path, "canoe.asc", ".asc")
     assert ours is not None
-    for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
-        a, b = getattr(ours, name), getattr(theirs, name)
-        assert a.dtype == b.dtype and np.array_equal(a, b), name
-    assert (ours.buses, ours.clock, ours.passed) == (theirs.buses, theirs.clock, theirs.passed)
+    assert_same_frames(ours, theirs)
 
 
 def test_lines_python_can_s_code_raises_on_are_refused_with_the_frames_before(tmp_path):

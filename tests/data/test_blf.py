@@ -26,6 +26,7 @@ from hypothesis import strategies as st
 from rwhonet.data.blf import BlfError, blf_frames
 from rwhonet.data.canlog import _blf, _python_can
 from rwhonet.errors import InputError
+from support.canlog import assert_same_frames
 from support.fuzz import fuzz_settings
 
 T0_S = 1_700_000_000.0
@@ -115,10 +116,7 @@ def test_python_can_s_writer_s_log_reads_as_python_can_reads_it(tmp_path):
     assert _same_as_python_can(path) == 3000
     # and the Frames the pipeline decodes: python-can's reader's, array for array
     ours, theirs = _blf(path, "bus.blf"), _python_can(path, "bus.blf", ".blf")
-    for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
-        a, b = getattr(ours, name), getattr(theirs, name)
-        assert a.dtype == b.dtype and np.array_equal(a, b), name
-    assert (ours.buses, ours.clock, ours.passed) == (theirs.buses, theirs.clock, theirs.passed)
+    assert_same_frames(ours, theirs)
     assert "error frames" in ours.passed and "remote frames" in ours.passed
 
 

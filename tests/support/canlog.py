@@ -223,3 +223,12 @@ def asc_as_relative(text: str) -> str:
             line = line.replace(head[0], f"{gap // 1_000_000}.{gap % 1_000_000:06d}", 1)
         out.append(line.replace("timestamps absolute", "timestamps relative"))
     return "".join(out)
+
+
+def assert_same_frames(ours, theirs) -> None:  # type: ignore[no-untyped-def]
+    """Two readers' ``Frames`` of one log alike, array for array (dtypes too), with the
+    same buses, clock and passed-over count."""
+    for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
+        a, b = getattr(ours, name), getattr(theirs, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+    assert (ours.buses, ours.clock, ours.passed) == (theirs.buses, theirs.clock, theirs.passed)

@@ -395,17 +395,7 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
                 payloads.append(bytes(msg.data))
                 chans.append(str(msg.channel) if msg.channel is not None else "")
     except Exception as err:  # python-can's readers raise what their parsers raise
-        read = f"after {len(t)} frame(s)" if t else "before any frame"
-        raise InputError(
-            [
-                Problem.unreadable(
-                    file,
-                    f"{'an' if kind == 'ASC' else 'a'} {kind} CAN log python-can reads",
-                    err,
-                    f"export the log again from the bus tool (it failed {read})",
-                )
-            ]
-        ) from None
+        raise _unreadable(file, kind, err, len(t)) from None
     lengths = np.array([len(p) for p in payloads], np.int64)
     width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
     data = np.zeros((len(payloads), width), np.uint8)
@@ -430,6 +420,22 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
     )
 
 
+def _unreadable(file: str, kind: str, err: BaseException, frames: int | None) -> InputError:
+    """A log python-can's reader (or ours, reading as it does) stops in: its error, and
+    the data frames read before it."""
+    read = f"after {frames} frame(s)" if frames else "before any frame"
+    return InputError(
+        [
+            Problem.unreadable(
+                file,
+                f"{'an' if kind == 'ASC' else 'a'} {kind} CAN log python-can reads",
+                err,
+                f"export the log again from the bus tool (it failed {read})",
+            )
+        ]
+    )
+
+
 def _buses(chans: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """Each frame's channel (python-can's, as text) as a bus number, 1-based in the order
     first seen, and the buses' names in that order."""
@@ -450,17 +456,7 @@ def _blf(path: Path, file: str) -> Frames:
     try:
         got = blf_frames(path.read_bytes())
     except BlfError as err:
-        read = f"after {err.data_frames} frame(s)" if err.data_frames else "before any frame"
-        raise InputError(
-            [
-                Problem.unreadable(
-                    file,
-                    "a BLF CAN log python-can reads",
-                    err,
-                    f"export the log again from the bus tool (it failed {read})",
-                )
-            ]
-        ) from None
+        raise _unreadable(file, "BLF", err, err.data_frames) from None
     return _yielded("BLF", got, got.ids & ID_MASK, (got.ids & CAN_MSG_EXT) != 0)
 
 
@@ -504,17 +500,7 @@ def _asc(path: Path, file: str) -> Frames | None:
     try:
         got = asc_frames(path.read_bytes(), relative)
     except AscError as err:
-        read = f"after {err.data_frames} frame(s)" if err.data_frames else "before any frame"
-        raise InputError(
-            [
-                Problem.unreadable(
-                    file,
-                    "an ASC CAN log python-can reads",
-                    err.cause,
-                    f"export the log again from the bus tool (it failed {read})",
-                )
-            ]
-        ) from None
+        raise _unreadable(file, "ASC", err.cause, err.data_frames) from None
     if got is None:
         return None
     said = ", each event's time since the one before, summed" if relative else ""
