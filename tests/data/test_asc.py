@@ -52,6 +52,7 @@ Begin Triggerblock Fri Dec 04 09:12:44.512 am 2026
    0.010204 1  1A0             Rx   d 8 0C 1F 0C 22 0C 0E 0C 13  Length = 231910 BitCount = 119 ID = 416
    0.010391 2  18FEF121x       Rx   d 8 FF 7D 20 4E FF FF FF FF  Length = 273910 BitCount = 141 ID = 419361057x
    0.011100 1  2B0             Tx   d 5 01 02 03 04 05  Length = 160000 BitCount = 83 ID = 688
+   0.011150 1  2B0             TxRq d 5 01 02 03 04 05
    0.012000 1  3C1             Rx   r
    0.012500 1  3C2             Rx   r 4  Length = 80000 BitCount = 44 ID = 962
    0.013000 2  ErrorFrame
@@ -179,11 +180,35 @@ def test_canoe_s_line_forms_and_others_read_as_python_can_reads_them(tmp_path, l
         text = text.replace("timestamps absolute", "timestamps relative")
     path = tmp_path / "canoe.asc"
     path.write_bytes(text.encode())
-    assert _same_as_python_can(path, relative) == 26
+    assert _same_as_python_can(path, relative) == 27
     # and the Frames decoded: python-can's path's (identifiers to 29 bits in both)
     ours, theirs = _asc(path, "canoe.asc"), _python_can(path, "canoe.asc", ".asc")
     assert ours is not None
     assert_same_frames(ours, theirs)
+
+
+def test_the_forms_bus_tools_write_are_read_without_python_can_s_code(monkeypatch):
+    """Speed, not exactness (python-can's code is exact for any line): every form CANoe
+    writes (named and unnamed FD frames, TxRq, error frames with details, remote frames)
+    is read at once; only the odd lines, and those python-can's pattern may match that
+    are no frame (a statistic, a J1939 line), go through its code a line at a time."""
+    lines = []
+    one_line = asc._one_line
+    monkeypatch.setattr(asc, "_one_line", lambda r, line: lines.append(line) or one_line(r, line))
+    asc_frames(CANOE.encode(), False)
+    stamps = [line.split()[0] for line in lines]
+    assert stamps == [
+        "1.003117",  # Statistic:
+        "1.010000",  # J1939TP
+        "1.060204",  # 0x1A0
+        "1.080204",  # 0x0c
+        "1.090204",  # 00c
+        "1.100204",  # 1_A0
+        "1.110204",  # canfd
+        "1.400000",  # a channel of 21 digits
+        "1.500000",  # an identifier of 24 digits
+        "100000000.000000000000001",  # a stamp of 25 characters
+    ]
 
 
 def test_lines_python_can_s_code_raises_on_are_refused_with_the_frames_before(tmp_path):
@@ -202,7 +227,7 @@ def test_lines_python_can_s_code_raises_on_are_refused_with_the_frames_before(tm
             read_frames(path, path.name)
         (p,) = err.value.problems
         assert p.file == path.name and p.found.startswith("ValueError")
-        assert "it failed after 19 frame(s)" in p.fix
+        assert "it failed after 20 frame(s)" in p.fix
 
 
 def test_the_line_that_ends_the_header_is_taken_as_python_can_takes_it(tmp_path):
@@ -230,7 +255,7 @@ def test_every_cut_of_a_log_reads_as_python_can_reads_it(tmp_path, relative):
     counts = [
         _same_as_python_can(_at(tmp_path, raw[:cut]), relative) for cut in range(len(raw) + 1)
     ]
-    assert counts[-1] == 26 and len({c for c in counts if c and c > 0}) == 26
+    assert counts[-1] == 27 and len({c for c in counts if c and c > 0}) == 27
     assert -1 in counts  # some cuts leave a line python-can's code raises on
 
 

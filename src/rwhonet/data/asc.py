@@ -24,7 +24,7 @@ kinds, field by field, with no Python per line:
   few fields: python-can's event pattern (``ASC_MESSAGE_REGEX``) cannot match, and it
   passes the line over (comments, ``Start of measurement``, trigger blocks, statistics);
 - *an event in the forms bus tools write*: a classic data frame (channel, identifier of
-  1-8 hex digits and an optional ``x``, ``Rx``/``Tx``, ``d``, a length code of 1-2 hex
+  1-8 hex digits and an optional ``x``, ``Rx``/``Tx``/``TxRq``, ``d``, a length code of 1-2 hex
   digits, bytes of 1-2 hex digits each), a classic remote frame (``r``), an error frame
   (``ErrorFrame``), a CAN FD frame (``CANFD``, channel, direction, identifier, a frame
   name or none, bit-rate switch, error state, length code, data length of 1-2 decimal
@@ -380,7 +380,8 @@ def _chunk(chunk: bytes, relative: bool, carry: int) -> _Part | None:
     fast[rc[error]], kind[rc[error]] = True, 2
     idok, idv, idx = _identifier(f, has2, s2, e2)
     _, s3, e3 = f.field(3, rc)
-    direction = f.is_(s3, e3, b"Rx") | f.is_(s3, e3, b"Tx")
+    # python-can's pattern wants a direction starting Rx or Tx (CANoe's TxRq too), any case
+    direction = f.is_(s3, e3, b"rx", fold=True) | f.is_(s3, e3, b"tx", fold=True)
     has4, s4, e4 = f.field(4, rc)
     framed = ~error & idok & direction & has4
     remote = framed & ((f.byte(s4) | 32) == ord("r"))
@@ -407,7 +408,9 @@ def _chunk(chunk: bytes, relative: bool, carry: int) -> _Part | None:
     has5, s5, e5 = f.field(5, rf)
     brs, _ = f.number(s5, e5, 9, 10)
     brs &= has5
-    plain = ~has5 | (e5 - s5 <= 9)  # a longer fifth field: python-can's code decides
+    # a fifth field of over 9 characters that starts with a digit (a long bit-rate switch,
+    # or a frame name python-can takes for one?): python-can's code decides
+    plain = ~(has5 & (e5 - s5 > 9) & (DEC[f.byte(s5)] >= 0))
     at = np.where(brs, 7, 8)  # the length code's field; the data length's after it
     dlc_ok, _ = _small_hex(f, *f.field(at, rf))
     has_l, sl, el = f.field(at + 1, rf)
