@@ -20,7 +20,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import rwhonet.data.asc as asc
-from rwhonet.data.asc import AscError, asc_frames
+from rwhonet.data.asc import AscError, asc_frames, encoding_of
 from rwhonet.data.canlog import _asc, _python_can, _SummedStamps, read_frames
 from rwhonet.errors import InputError
 from support.canlog import asc_as_relative, assert_same_frames
@@ -88,8 +88,11 @@ def _python_can_messages(path: Path, relative: bool) -> tuple[list[can.Message],
     with (None: none)."""
     got: list[can.Message] = []
     try:
-        # can.LogReader(path), as the pipeline opens it, is ASCReader(path) for '.asc'
-        with ASCReader(_SummedStamps(path) if relative else path) as reader:
+        # can.LogReader(path) is ASCReader(path) for '.asc', in the locale's encoding; the
+        # pipeline gives it the file opened in the encoding it reads the bytes in
+        encoding = encoding_of(path.read_bytes())
+        opened = _SummedStamps(path, encoding) if relative else open(path, encoding=encoding)
+        with ASCReader(opened) as reader:
             got.extend(reader)
     except Exception as err:  # whatever its parsers raise
         return got, err
@@ -285,17 +288,16 @@ def test_chunks_of_a_few_lines_give_the_whole_log_s_messages(tmp_path, monkeypat
 @pytest.mark.parametrize(
     "edit",
     [
-        lambda t: t.replace("// version", "// version \u00e4"),  # a byte outside ASCII
         lambda t: t.replace("base hex", "base dec"),  # decimal identifiers and bytes
         lambda t: t.replace("base hex", "base HEX"),  # python-can refuses the base
         lambda t: t.replace("0.011100 1 ", "0.011100\x0b1 "),  # a vertical tab
     ],
-    ids=["utf-8 comment", "base dec", "base HEX", "vertical tab"],
+    ids=["base dec", "base HEX", "vertical tab"],
 )
 def test_logs_the_reader_leaves_to_python_can_read_as_it_reads_them(tmp_path, edit):
-    """What python-can's text reading sees otherwise than the reader's bytes (a byte
-    outside ASCII, a control character) or reads otherwise (decimal), and a base it
-    refuses: left to python-can, which read_frames then asks, as before the reader."""
+    """What python-can's text reading sees otherwise than the reader's bytes (a control
+    character) or reads otherwise (decimal), and a base it refuses: left to python-can,
+    which read_frames then asks, as before the reader."""
     path = tmp_path / "bus.asc"
     path.write_bytes(edit(CANOE).encode())
     assert asc_frames(path.read_bytes(), False) is None
@@ -310,12 +312,34 @@ def test_logs_the_reader_leaves_to_python_can_read_as_it_reads_them(tmp_path, ed
     assert frames.t_s.tolist() == [m.timestamp for m in data]
 
 
+@pytest.mark.parametrize("encoding", ["utf-8", "cp1252"])
+def test_a_log_with_umlauts_reads_in_its_encoding(tmp_path, encoding):
+    """CANoe on a German installation: 'Mär' in its date and trigger lines, umlauts in a
+    comment and in FD frames' names, the file in UTF-8 or in Windows' cp1252 (which
+    python-can, opening it in a UTF-8 locale, refused whole): the frames of the same log
+    in ASCII, the lines with umlauts read by python-can's code in that encoding; with the
+    map's local_zone, the date line puts them on UTC."""
+    german = CANOE.replace("Fri Dec 04", "Fr Mär 05").replace("// version", "// Prüfstand")
+    german = german.replace("WheelSpeedsFD  ", "Radgeschw_Ä_FD").replace("Remote  ", "Fern_Ö  ")
+    plain = tmp_path / "plain.asc"
+    plain.write_text(CANOE.replace("Fri Dec 04", "Fr Mar 05"), encoding="ascii")
+    path = tmp_path / "german.asc"
+    path.write_bytes(german.encode(encoding))
+    assert encoding_of(path.read_bytes()) == encoding
+    assert _same_as_python_can(path) == 27
+    assert_same_frames(read_frames(path, "log.asc"), read_frames(plain, "log.asc"))
+    zoned = read_frames(path, "log.asc", "Europe/Berlin")
+    assert zoned.t_s[0] == pytest.approx(1_772_698_364.512 + 0.010204, abs=1e-6)
+    assert "2026-03-05T09:12:44.512000 in Europe/Berlin" in zoned.clock
+
+
 _TOKENS = [
     " ", "\t", "\n", "\r\n", "x", ".", "0.5", " 8 ", " 64 ", " 0 ", "ErrorFrame", "CANFD",
     "canfd", "Rx", "rx", " d ", " r ", "-1", "+1", "0x", "_", "// c\n", "internal events logged\n",
     "date Fri Dec 04 09:12:44.512 am 2026\n", "1234567890123456789012345.5", " 1234567890 ",
     "\n 1.5 CANFD 1 Rx 1a0 1 0 8 8 ", "\n 1.5 1 12345678x Rx d 8 ", "1 0 d 64 ", " 99 ",
     "123456789012345678901234", "\n 2.5 123456789012345678901 1A0 Rx d 1 01\n",
+    "\u00e4", "M\u00e4r", "\u00a0", " 1A0\u00a0Rx ", "\u2003", "\u0663",
 ]  # fmt: skip
 
 

@@ -38,13 +38,20 @@ kinds, field by field, with no Python per line:
   through python-can's own code, the body of ``ASCReader.__iter__`` on that line alone
   (:func:`_one_line`), which yields what python-can yields or raises what it raises.
 
-The file itself goes to python-can whole (:func:`asc_frames` returns None) where the
-fields would not be the ones python-can's text reading sees: a byte outside ASCII
-(python-can decodes with the locale's encoding, strictly), a control character other
-than tab and the line ends (``str.split`` splits at some of them, the event pattern does
-not), a header whose ``base`` python-can refuses, ``base dec`` (rare; its fields are
-decimal), and relative stamps whose sums reach 2**53 ns (104 days) or that have 10**9 s
-or more, or a first field of over 24 characters, in them (no bus tool writes these).
+**The text encoding** (:func:`encoding_of`) is UTF-8 where the bytes are UTF-8, else
+Windows' cp1252 (CANoe on a German installation writes ``Mär`` and umlauts in comments
+and frame names so; python-can, which decodes with the locale's encoding, refused such a
+log whole on a UTF-8 machine). A line with a byte outside ASCII is never read here:
+where python-can's event pattern may match it, python-can's code reads it, decoded.
+
+The file itself goes to python-can whole (:func:`asc_frames` returns None, and
+:func:`rwhonet.data.canlog._python_can` opens it in the same encoding) where the fields
+would not be the ones python-can's text reading sees: a control character other than tab
+and the line ends (``str.split`` splits at some of them, the event pattern does not), a
+header whose ``base`` python-can refuses, ``base dec`` (rare; its fields are decimal),
+and relative stamps with a byte outside ASCII (the summing pattern's Unicode digits and
+spaces), whose sums reach 2**53 ns (104 days), or that have 10**9 s or more, or a first
+field of over 24 characters (no bus tool writes these).
 
 **The header** is read as ``ASCReader._extract_header`` reads it, and like it, takes
 the line that ends the header as its own: the first line after the date, base and
@@ -133,7 +140,7 @@ class AscFrames:
     channel: np.ndarray
 
 
-def asc_frames(raw: bytes, relative: bool) -> AscFrames | None:
+def asc_frames(raw: bytes, relative: bool, encoding: str | None = None) -> AscFrames | None:
     """The messages python-can's ASC reader yields for the log ``raw``, or None where the
     log is one for python-can to read itself (see the module's docstring).
 
@@ -141,15 +148,19 @@ def asc_frames(raw: bytes, relative: bool) -> AscFrames | None:
         raw: the log's bytes.
         relative: its stamps are each event's time since the one before (they are summed
             first, as :class:`rwhonet.data.canlog._SummedStamps` sums them).
+        encoding: its text encoding (None: :func:`encoding_of` it).
 
     Raises:
         AscError: python-can's reader stops at a line (with the data frames before it).
     """
     allowed = sum(raw.count(b) for b in (b"\t", b"\n", b"\r"))  # the only control bytes
-    if not raw.isascii() or np.count_nonzero(np.frombuffer(raw, np.uint8) < 32) != allowed:
+    if np.count_nonzero(np.frombuffer(raw, np.uint8) < 32) != allowed:
+        return None
+    encoding = encoding or encoding_of(raw)
+    if relative and not raw.isascii():  # _SummedStamps' pattern: Unicode digits, spaces
         return None
     text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n") if b"\r" in raw else raw
-    header = _header(text, relative)
+    header = _header(text, relative, encoding)
     if header is None:
         return None
     at, carry = header
@@ -157,7 +168,7 @@ def asc_frames(raw: bytes, relative: bool) -> AscFrames | None:
     while at < len(text):
         end = text.find(b"\n", min(at + CHUNK_BYTES, len(text)) - 1)
         end = len(text) if end < 0 else end + 1
-        part = _chunk(text[at:end], relative, carry)
+        part = _chunk(text[at:end], relative, carry, encoding)
         if part is None:
             return None
         parts.append(part.frames)
@@ -169,7 +180,22 @@ def asc_frames(raw: bytes, relative: bool) -> AscFrames | None:
     return _joined(parts)
 
 
-def _header(text: bytes, relative: bool) -> tuple[int, int] | None:
+def encoding_of(raw: bytes) -> str:
+    """The text encoding an ASC log is read in: UTF-8 where its bytes are UTF-8 (what
+    python-can reads on a machine whose locale is UTF-8), else Windows' Western code page
+    cp1252 (what CANoe's own machine writes and python-can reads there: a German
+    installation's ``Mär`` in a date line, an umlaut in a comment), else Latin-1 (any
+    bytes)."""
+    for encoding in ("utf-8", "cp1252"):
+        try:
+            raw.decode(encoding)
+        except UnicodeDecodeError:
+            continue
+        return encoding
+    return "latin-1"
+
+
+def _header(text: bytes, relative: bool, encoding: str) -> tuple[int, int] | None:
     """Where the events start (after the line ``_extract_header`` ends on, which it takes)
     and the relative stamps' sum over the header's lines, ns; None where python-can's
     header reading refuses the base, or the base is decimal."""
@@ -177,7 +203,7 @@ def _header(text: bytes, relative: bool) -> tuple[int, int] | None:
     while at < len(text):
         end = text.find(b"\n", at)
         end = len(text) if end < 0 else end + 1
-        line = text[at:end].decode("ascii")
+        line = text[at:end].decode(encoding)
         at = end
         if relative and (match := STAMP.fullmatch(line)) is not None:
             carry += stamp_ns(match)
@@ -323,10 +349,16 @@ def _small_hex(f: _Fields, has: np.ndarray, s: np.ndarray, e: np.ndarray) -> tup
     return ok, np.where(one, hi, hi * 16 + lo)
 
 
-def _chunk(chunk: bytes, relative: bool, carry: int) -> _Part | None:
+def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | None:
     """One chunk of whole lines' messages (see the module's docstring)."""
     f = _Fields(np.frombuffer(chunk, np.uint8))
     rows = np.arange(f.lines)
+    # a line with a byte outside ASCII is never read here (str.split may split it at a
+    # Unicode space): python-can's code reads it where its event pattern may match
+    ascii_line = np.ones(f.lines, bool)
+    high = np.flatnonzero(f.c >= 128)
+    if high.size:
+        ascii_line[np.searchsorted(f.newlines, high)] = False
     has0, s0, e0 = f.field(0, rows)
     stamp, exact, seconds, frac, whole_n, frac_n = _stamps(f, s0, e0)
     stamp &= has0
@@ -363,7 +395,7 @@ def _chunk(chunk: bytes, relative: bool, carry: int) -> _Part | None:
         has1 & (e1 - s1 > 9) & (DEC[f.byte(s1)] >= 0)
     )  # digits, maybe: python-can's code decides
     may = stamp & ((digits1 & (f.count >= 3)) | long1 | f.is_(s1, e1, b"canfd", fold=True))
-    candidate = np.flatnonzero(may)
+    candidate = np.flatnonzero(may & ascii_line)
     may |= long0
     fast = np.zeros(f.lines, bool)
     kind = np.zeros(f.lines, np.int8)  # 0 data, 1 remote, 2 error
@@ -457,7 +489,8 @@ def _chunk(chunk: bytes, relative: bool, carry: int) -> _Part | None:
         data,
         chan[rows],
     )
-    frames, failed = _with_python_can(chunk, f, sums, rows, read, np.flatnonzero(may & ~fast))
+    slow = np.flatnonzero(may & ~fast)
+    frames, failed = _with_python_can(chunk, f, sums, rows, read, slow, encoding)
     return _Part(frames, carry, failed)
 
 
@@ -477,6 +510,7 @@ def _with_python_can(
     rows: np.ndarray,
     read: AscFrames,
     slow: np.ndarray,
+    encoding: str,
 ) -> tuple[AscFrames, Exception | None]:
     """The chunk's messages in line order: those ``read`` here (at lines ``rows``), and
     python-can's for the ``slow`` lines (:func:`_one_line`), up to the first line its code
@@ -490,7 +524,7 @@ def _with_python_can(
     for i in slow.tolist():
         first = f.first[i]
         end = int(f.newlines[i]) if i < f.newlines.size else len(chunk)
-        line = chunk[int(f.start[first]) : end].decode("ascii")
+        line = chunk[int(f.start[first]) : end].decode(encoding)
         if sums is not None:  # python-can reads the stamp as the sum
             seconds, ns = divmod(int(sums[i]), 1_000_000_000)
             line = f"{seconds}.{ns:09d}" + line[int(f.end[first] - f.start[first]) :]

@@ -24,10 +24,11 @@ so are lines that are no frame, counted with the first of them.
 **BLF** (:func:`_blf`) is parsed over the file's objects at once by
 :func:`rwhonet.data.blf.blf_frames`, and **ASC** (:func:`_asc`) over the file's lines at
 once by :func:`rwhonet.data.asc.asc_frames`: python-can's readers' frames, bit for bit, at
-several times their rates (an ASC with a byte outside ASCII, or ``base dec``, still goes
-through python-can). **TRC** is read by python-can's reader (``can.LogReader``), a frame
-at a time in Python (``benchmarks/bench_streams.py`` gives the rates); error and remote
-frames are passed over and counted in every one.
+several times their rates (an ASC of ``base dec``, or with a control character, still
+goes through python-can; an ASC's text is read as UTF-8, else cp1252:
+:func:`rwhonet.data.asc.encoding_of`). **TRC** is read by python-can's reader
+(``can.LogReader``), a frame at a time in Python (``benchmarks/bench_streams.py``
+gives the rates); error and remote frames are passed over and counted in every one.
 
 **The clock** is the log's own time stamps, as python-can and candump give them:
 candump's and BLF's are the logging computer's clock (Unix seconds), TRC's its start time
@@ -52,7 +53,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rwhonet.data.asc import STAMP, stamp_ns
+from rwhonet.data.asc import STAMP, encoding_of, stamp_ns
 from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
 from rwhonet.errors import InputError, Problem
@@ -379,8 +380,14 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
     kind = suffix.lstrip(".").upper()
     relative = False
     try:
-        relative = suffix == ".asc" and asc_header(path).relative
-        with ASCReader(_SummedStamps(path)) if relative else can.LogReader(path) as reader:
+        if suffix == ".asc":  # read in the encoding the fast reader takes (encoding_of)
+            encoding = encoding_of(path.read_bytes())
+            relative = asc_header(path, encoding).relative
+            opened = _SummedStamps(path, encoding) if relative else open(path, encoding=encoding)
+            reader = ASCReader(opened)
+        else:
+            reader = can.LogReader(path)
+        with reader:
             for row, msg in enumerate(reader, 1):
                 if msg.is_error_frame:
                     skipped["error frames"] += 1
@@ -493,12 +500,14 @@ def _yielded(
 def _asc(path: Path, file: str) -> Frames | None:
     """An ASC log's data frames, the frames python-can's reader gives, parsed at once
     (:func:`rwhonet.data.asc.asc_frames`); None where the log is one python-can reads
-    itself (a byte outside ASCII, ``base dec``: :mod:`rwhonet.data.asc` says which)."""
+    itself (``base dec``, a control character: :mod:`rwhonet.data.asc` says which)."""
     from rwhonet.data.asc import AscError, asc_frames
 
-    relative = asc_header(path).relative
+    raw = path.read_bytes()
+    encoding = encoding_of(raw)
+    relative = asc_header(path, encoding).relative
     try:
-        got = asc_frames(path.read_bytes(), relative)
+        got = asc_frames(raw, relative, encoding)
     except AscError as err:
         raise _unreadable(file, "ASC", err.cause, err.data_frames) from None
     if got is None:
@@ -568,11 +577,12 @@ class AscHeader:
     relative: bool  # ``timestamps relative``: each event stamped since the one before
 
 
-def asc_header(path: Path) -> AscHeader:
+def asc_header(path: Path, encoding: str | None = None) -> AscHeader:
     """The header lines of an ASC log before its first event, as python-can's ASCReader
-    reads them."""
+    reads them, in its text ``encoding`` (None: :func:`rwhonet.data.asc.encoding_of` it)."""
     date, row, relative = None, None, False
-    with open(path, encoding="utf-8", errors="replace") as f:
+    encoding = encoding or encoding_of(path.read_bytes())
+    with open(path, encoding=encoding) as f:
         for at, text in enumerate(f, 1):
             line = text.strip()
             if (match := _ASC_DATE.match(line)) is not None and date is None:
@@ -591,8 +601,8 @@ class _SummedStamps:
     events), for python-can's ``ASCReader`` to read. Lines without a stamp (the header,
     trigger blocks, comments) pass as they are."""
 
-    def __init__(self, path: Path) -> None:
-        self._file = open(path, encoding="utf-8", errors="replace")  # closed by the reader (close)
+    def __init__(self, path: Path, encoding: str) -> None:
+        self._file = open(path, encoding=encoding)  # closed by the reader (close)
         self._ns = 0
 
     # python-can takes an object with ``read`` and ``write`` as an opened file
