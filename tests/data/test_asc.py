@@ -315,18 +315,23 @@ def test_logs_the_reader_leaves_to_python_can_read_as_it_reads_them(tmp_path, ed
 @pytest.mark.parametrize("encoding", ["utf-8", "cp1252"])
 def test_a_log_with_umlauts_reads_in_its_encoding(tmp_path, encoding):
     """CANoe on a German installation: 'Mär' in its date and trigger lines, umlauts in a
-    comment and in FD frames' names, the file in UTF-8 or in Windows' cp1252 (which
+    comment and in FD frames' names, a frame indented with a no-break space, the file in
+    UTF-8 or in Windows' cp1252 (which
     python-can, opening it in a UTF-8 locale, refused whole): the frames of the same log
     in ASCII, the lines with umlauts read by python-can's code in that encoding; with the
     map's local_zone, the date line puts them on UTC."""
     german = CANOE.replace("Fri Dec 04", "Fr Mär 05").replace("// version", "// Prüfstand")
     german = german.replace("WheelSpeedsFD  ", "Radgeschw_Ä_FD").replace("Remote  ", "Fern_Ö  ")
+    # and a frame indented with a no-break space, which str.strip() takes for white space
+    frame = "0.011120 1  2B1             Rx   d 1 05\n"
+    german = german.replace("   0.011150 ", "\u00a0  " + frame + "   0.011150 ")
     plain = tmp_path / "plain.asc"
-    plain.write_text(CANOE.replace("Fri Dec 04", "Fr Mar 05"), encoding="ascii")
+    text = CANOE.replace("Fri Dec 04", "Fr Mar 05")
+    plain.write_text(text.replace("   0.011150 ", "   " + frame + "   0.011150 "), "ascii")
     path = tmp_path / "german.asc"
     path.write_bytes(german.encode(encoding))
     assert encoding_of(path.read_bytes()) == encoding
-    assert _same_as_python_can(path) == 27
+    assert _same_as_python_can(path) == 28
     assert_same_frames(read_frames(path, "log.asc"), read_frames(plain, "log.asc"))
     zoned = read_frames(path, "log.asc", "Europe/Berlin")
     assert zoned.t_s[0] == pytest.approx(1_772_698_364.512 + 0.010204, abs=1e-6)

@@ -42,7 +42,8 @@ kinds, field by field, with no Python per line:
 Windows' cp1252 (CANoe on a German installation writes ``Mär`` and umlauts in comments
 and frame names so; python-can, which decodes with the locale's encoding, refused such a
 log whole on a UTF-8 machine). A line with a byte outside ASCII is never read here:
-where python-can's event pattern may match it, python-can's code reads it, decoded.
+python-can's code reads it, decoded (its ``strip`` and ``split`` take Unicode spaces for
+white space).
 
 The file itself goes to python-can whole (:func:`asc_frames` returns None, and
 :func:`rwhonet.data.canlog._python_can` opens it in the same encoding) where the fields
@@ -186,6 +187,8 @@ def encoding_of(raw: bytes) -> str:
     cp1252 (what CANoe's own machine writes and python-can reads there: a German
     installation's ``Mär`` in a date line, an umlaut in a comment), else Latin-1 (any
     bytes)."""
+    if raw.isascii():  # the usual log: no text decoded to tell
+        return "utf-8"
     for encoding in ("utf-8", "cp1252"):
         try:
             raw.decode(encoding)
@@ -353,8 +356,8 @@ def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | N
     """One chunk of whole lines' messages (see the module's docstring)."""
     f = _Fields(np.frombuffer(chunk, np.uint8))
     rows = np.arange(f.lines)
-    # a line with a byte outside ASCII is never read here (str.split may split it at a
-    # Unicode space): python-can's code reads it where its event pattern may match
+    # a line with a byte outside ASCII is never read here (str.strip and str.split take a
+    # Unicode space for white space): python-can's code reads it
     ascii_line = np.ones(f.lines, bool)
     high = np.flatnonzero(f.c >= 128)
     if high.size:
@@ -396,7 +399,7 @@ def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | N
     )  # digits, maybe: python-can's code decides
     may = stamp & ((digits1 & (f.count >= 3)) | long1 | f.is_(s1, e1, b"canfd", fold=True))
     candidate = np.flatnonzero(may & ascii_line)
-    may |= long0
+    may |= long0 | ~ascii_line  # str.strip() takes Unicode spaces too: its code decides
     fast = np.zeros(f.lines, bool)
     kind = np.zeros(f.lines, np.int8)  # 0 data, 1 remote, 2 error
     chan = np.where(digits1, chan1 - 1, 0)
