@@ -12,7 +12,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.canlog import is_can_log_name, read_frames
 from rwhonet.data.mdf4 import read_mdf4
 from rwhonet.errors import InputError
-from support.canlog import DBC, SIGNALS, can_frames, write_bus_log
+from support.canlog import DBC, SIGNALS, assert_same_frames, can_frames, write_bus_log
 from support.realminute import RAV4_RADIUS_M
 from support.serving import wavy_drive
 
@@ -57,6 +57,25 @@ def test_each_bus_tool_s_log_gives_the_drive_s_streams(tmp_path, suffix):
     assert f"{log.name}: {len(ids)} data frames on 1 bus(es)" in said
     assert ("Unix time" in streams.clock) == (suffix != ".asc")
     assert wheels.sources[c.T_S] == "frame time stamp" and not streams.changed
+
+
+@pytest.mark.parametrize("suffix", [".asc", ".trc"])
+def test_a_text_log_in_windows_code_page_reads_as_the_same_log_in_ascii(tmp_path, suffix):
+    """A bus tool's text log written on a German Windows installation (cp1252: a comment
+    with umlauts, CRLF line ends): python-can, decoding with a UTF-8 locale, refused it
+    whole; read in cp1252, its frames are those of the same log in ASCII."""
+    stamps, ids, data = can_frames(wavy_drive(10.0), RADIUS_M, T0_S)
+    plain = write_bus_log(stamps, ids, data, tmp_path / f"plain{suffix}")
+    comment = "// Prüfstand, Straße" if suffix == ".asc" else ";   Prüfstand, Straße"
+    lines = plain.read_text().splitlines()
+    lines.insert(2 if suffix == ".asc" else 1, comment)  # among the header's lines
+    german = tmp_path / f"german{suffix}"
+    german.write_bytes("\r\n".join(lines).encode("cp1252") + b"\r\n")
+    with pytest.raises(UnicodeDecodeError):
+        german.read_bytes().decode("utf-8")
+    got, want = read_frames(german, german.name), read_frames(plain, plain.name)
+    assert got.t_s.size == len(ids)
+    assert_same_frames(got, want)
 
 
 CANDUMP = """\

@@ -182,7 +182,7 @@ def asc_frames(raw: bytes, relative: bool, encoding: str | None = None) -> AscFr
 
 
 def encoding_of(raw: bytes) -> str:
-    """The text encoding an ASC log is read in: UTF-8 where its bytes are UTF-8 (what
+    """The text encoding an ASC (or TRC) log is read in: UTF-8 where its bytes are UTF-8 (what
     python-can reads on a machine whose locale is UTF-8), else Windows' Western code page
     cp1252 (what CANoe's own machine writes and python-can reads there: a German
     installation's ``Mär`` in a date line, an umlaut in a comment), else Latin-1 (any

@@ -25,7 +25,7 @@ so are lines that are no frame, counted with the first of them.
 :func:`rwhonet.data.blf.blf_frames`, and **ASC** (:func:`_asc`) over the file's lines at
 once by :func:`rwhonet.data.asc.asc_frames`: python-can's readers' frames, bit for bit, at
 several times their rates (an ASC of ``base dec``, or with a control character, still
-goes through python-can; an ASC's text is read as UTF-8, else cp1252:
+goes through python-can; an ASC's and a TRC's text is read as UTF-8, else cp1252:
 :func:`rwhonet.data.asc.encoding_of`). **TRC** is read by python-can's reader
 (``can.LogReader``), a frame at a time in Python (``benchmarks/bench_streams.py``
 gives the rates); error and remote frames are passed over and counted in every one.
@@ -374,6 +374,7 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
     for BLF and ASC)."""
     import can
     from can.io.asc import ASCReader
+    from can.io.trc import TRCReader
 
     t, ids, ext, lengths, payloads, chans, rows = [], [], [], [], [], [], []
     skipped = {"error frames": 0, "remote frames": 0}
@@ -385,6 +386,8 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
             relative = asc_header(path, encoding).relative
             opened = _SummedStamps(path, encoding) if relative else open(path, encoding=encoding)
             reader = ASCReader(opened)
+        elif suffix == ".trc":  # a text log too: UTF-8, else cp1252 (PCAN-View on Windows)
+            reader = TRCReader(open(path, encoding=encoding_of(path.read_bytes())))
         else:
             reader = can.LogReader(path)
         with reader:
