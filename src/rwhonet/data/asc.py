@@ -82,7 +82,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rwhonet.data.bytescan import DEC, HEX
+from rwhonet.data.bytescan import DEC, Fields, small_hex
 
 CHUNK_BYTES = 1 << 23  # lines split into fields at once (8 MB of text; bounds the memory)
 EXACT = 2**53  # integers float64 holds exactly
@@ -239,79 +239,10 @@ class _Part:
     failed: Exception | None
 
 
-class _Fields:
-    """A chunk's lines split into whitespace-separated fields (their starts and ends, each
-    line's first field and count), the bytes at once: white space is every byte up to the
-    space (no other control character is left, see :func:`asc_frames`)."""
-
-    def __init__(self, c: np.ndarray) -> None:
-        self.c = c
-        edge = np.ones(c.size + 2, bool)
-        edge[1:-1] = c <= 32
-        bounds = np.flatnonzero(edge[1:] != edge[:-1])  # a field's start, its end, ...
-        self.start, self.end = bounds[0::2], bounds[1::2]
-        self.newlines = np.flatnonzero(c == 10)
-        begins = np.concatenate([[0], self.newlines + 1])
-        if begins[-1] == c.size:
-            begins = begins[:-1]
-        self.lines = begins.size
-        self.first = np.searchsorted(self.start, begins)
-        self.count = np.diff(np.concatenate([self.first, [self.start.size]]))
-
-    def field(self, k: int | np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Field ``k`` (0-based; a number or one a row) of the lines ``rows``: whether the
-        line has it, its start and its end (both 0 where it has none)."""
-        has = self.count[rows] > k
-        if not self.start.size:
-            return has, np.zeros(rows.size, np.int64), np.zeros(rows.size, np.int64)
-        i = np.minimum(self.first[rows] + k, self.start.size - 1)
-        return has, np.where(has, self.start[i], 0), np.where(has, self.end[i], 0)
-
-    def chars(self, s: np.ndarray, e: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
-        """The first ``width`` bytes of each field (a row each), and which are inside it."""
-        j = np.arange(width)
-        m = self.c[np.minimum(s[:, None] + j, max(self.c.size - 1, 0))] if self.c.size else None
-        inside = j < (e - s)[:, None]
-        return (m if m is not None else np.zeros(inside.shape, np.uint8)), inside
-
-    def number(self, s: np.ndarray, e: np.ndarray, width: int, base: int) -> tuple:
-        """Whether each field is 1 to ``width`` digits of ``base`` (10 or 16), and its
-        value (0 where not): read a column at a time, as far as the longest field goes."""
-        n = e - s
-        ok = (n >= 1) & (n <= width)
-        value = np.zeros(n.size, np.int64)
-        table = DEC if base == 10 else HEX
-        for j in range(min(width, int(n.max(initial=0)))):
-            inside = j < n
-            d = table[self.byte(s + j)]
-            ok &= ~inside | (d >= 0)
-            value = np.where(inside, value * base + d, value)
-        return ok, np.where(ok, value, 0)
-
-    def byte(self, at: np.ndarray) -> np.ndarray:
-        """The byte at each of ``at`` (at most the chunk's last; -1, where a field that
-        is not there ends, reads the last byte too: the callers mask it)."""
-        return self.c[np.minimum(at, self.c.size - 1)] if self.c.size else at * 0
-
-    def is_(self, s: np.ndarray, e: np.ndarray, word: bytes, fold: bool = False) -> np.ndarray:
-        """Whether each field is ``word`` (``fold``: any case of its letters, and a field
-        that starts with it counts): its first byte compared for every field, the rest for
-        those that start so."""
-        n = len(word)
-        fold_bit = 32 if fold else 0
-        ok = ((e - s >= n) if fold else (e - s == n)) & (self.byte(s) | fold_bit == word[0])
-        at = np.flatnonzero(ok)
-        for j in range(1, n):
-            at = at[(self.byte(s[at] + j) | fold_bit) == word[j]]
-        ok[:] = False
-        ok[at] = True
-        return ok
-
-
 STAMP_WIDTH = 24  # the longest stamp read here (float() reads the rest)
 
 
-def _stamps(f: _Fields, s: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, ...]:
+def _stamps(f: Fields, s: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, ...]:
     """Which first fields are ``digits.digits`` stamps of at most :data:`STAMP_WIDTH`
     characters, and their seconds, decimals (as an integer) and count of decimals."""
     n = e - s
@@ -343,18 +274,9 @@ def _stamps(f: _Fields, s: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, ...]:
     return stamp, exact, seconds, frac, whole_n, frac_n
 
 
-def _small_hex(f: _Fields, has: np.ndarray, s: np.ndarray, e: np.ndarray) -> tuple:
-    """Whether each field is 1-2 hex digits, and its value."""
-    n = e - s
-    hi, lo = HEX[f.byte(s)], HEX[f.byte(s + 1)]
-    one = n == 1
-    ok = has & (hi >= 0) & (one | ((n == 2) & (lo >= 0)))
-    return ok, np.where(one, hi, hi * 16 + lo)
-
-
 def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | None:
     """One chunk of whole lines' messages (see the module's docstring)."""
-    f = _Fields(np.frombuffer(chunk, np.uint8))
+    f = Fields(np.frombuffer(chunk, np.uint8))
     rows = np.arange(f.lines)
     # a line with a byte outside ASCII is never read here (str.strip and str.split take a
     # Unicode space for white space): python-can's code reads it
@@ -421,7 +343,7 @@ def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | N
     framed = ~error & idok & direction & has4
     remote = framed & ((f.byte(s4) | 32) == ord("r"))
     data = framed & f.is_(s4, e4, b"d") & (f.count[rc] >= 6)
-    dlc_ok, dlc = _small_hex(f, *f.field(5, rc))
+    dlc_ok, dlc = small_hex(f, *f.field(5, rc))
     data &= dlc_ok
     n = np.minimum(8, dlc)  # python-can's min(8, dlc2len(dlc)): the same for every code
     n = np.minimum(n, f.count[rc] - 6)
@@ -447,7 +369,7 @@ def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | N
     # or a frame name python-can takes for one?): python-can's code decides
     plain = ~(has5 & (e5 - s5 > 9) & (DEC[f.byte(s5)] >= 0))
     at = np.where(brs, 7, 8)  # the length code's field; the data length's after it
-    dlc_ok, _ = _small_hex(f, *f.field(at, rf))
+    dlc_ok, _ = small_hex(f, *f.field(at, rf))
     has_l, sl, el = f.field(at + 1, rf)
     len_ok, length = f.number(sl, el, 2, 10)
     len_ok &= has_l
@@ -468,7 +390,7 @@ def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | N
     if most:
         # every field of the chunk as a byte (1-2 hex digits) at once, then each frame's
         every = np.arange(f.start.size)
-        hexes, values = _small_hex(f, every >= 0, f.start, f.end)
+        hexes, values = small_hex(f, every >= 0, f.start, f.end)
         at = f.first[got] + first_byte[got]
         for j in range(most):
             inside = nbytes[got] > j
@@ -497,7 +419,7 @@ def _chunk(chunk: bytes, relative: bool, carry: int, encoding: str) -> _Part | N
     return _Part(frames, carry, failed)
 
 
-def _identifier(f: _Fields, has: np.ndarray, s: np.ndarray, e: np.ndarray) -> tuple:
+def _identifier(f: Fields, has: np.ndarray, s: np.ndarray, e: np.ndarray) -> tuple:
     """Whether each field is an identifier of 1-8 hex digits and an optional ``x``
     (python-can: extended), its value and whether it is extended."""
     last = f.byte(e - 1) | 32
@@ -508,7 +430,7 @@ def _identifier(f: _Fields, has: np.ndarray, s: np.ndarray, e: np.ndarray) -> tu
 
 def _with_python_can(
     chunk: bytes,
-    f: _Fields,
+    f: Fields,
     sums: np.ndarray | None,
     rows: np.ndarray,
     read: AscFrames,
