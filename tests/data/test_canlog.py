@@ -3,6 +3,8 @@ with the signal map's DBC as an MDF4 bus log is (rwhonet.data.mdf4)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -75,6 +77,9 @@ def test_a_text_log_in_windows_code_page_reads_as_the_same_log_in_ascii(tmp_path
         german.read_bytes().decode("utf-8")
     got, want = read_frames(german, german.name), read_frames(plain, plain.name)
     assert got.t_s.size == len(ids)
+    if suffix == ".trc":  # a TRC's frames are named by their lines: the comment is above
+        np.testing.assert_array_equal(got.rows, want.rows + 1)
+        got = dataclasses.replace(got, rows=want.rows)
     assert_same_frames(got, want)
 
 
@@ -249,7 +254,7 @@ def test_a_refused_frame_is_named_by_its_message_and_line(tmp_path):
 @pytest.mark.parametrize("suffix", [".asc", ".blf", ".trc"])
 def test_a_refused_frame_of_a_python_can_log_is_named_by_its_number(tmp_path, suffix):
     """As above for the logs python-can reads, which give no lines: the refusal names the
-    frame's number among the log's frames."""
+    frame's number among the log's frames (a TRC, read here since stop 80: its line)."""
     stamps, ids, data = can_frames(wavy_drive(10.0), RADIUS_M, T0_S)
     at = next(i for i, x in enumerate(ids) if x == 0x1A0 and i > 200)
     stamps = stamps.copy()
@@ -264,7 +269,12 @@ def test_a_refused_frame_of_a_python_can_log_is_named_by_its_number(tmp_path, su
     streams = read_mdf4(log, _signals(), RADIUS_M, NAME, file, [str(tmp_path / "bus.dbc")])
     with pytest.raises(InputError) as err:
         resample(streams, nominal_radius_m=RADIUS_M)
-    assert f"{file} [WheelSpeeds 0x1A0], row {at + 1}, column 'frame time stamp'" in str(err.value)
+    row = at + 1
+    if suffix == ".trc":
+        lines = log.read_text().splitlines()
+        row = [i for i, x in enumerate(lines, 1) if not x.startswith(";")][at]
+        assert row == at + 1 + 18  # python-can's writer's 18 header lines
+    assert f"{file} [WheelSpeeds 0x1A0], row {row}, column 'frame time stamp'" in str(err.value)
 
 
 def _real_minute_frames():

@@ -53,9 +53,10 @@
   :mod:`~rwhonet.data.novatel`, a GPS track in GPX (a phone's or handheld's logger) by
   :mod:`~rwhonet.data.gpx`; a bus tool's log of raw CAN frames (candump, ASC,
   BLF, TRC) by :mod:`~rwhonet.data.canlog` (a Vector BLF's objects parsed at once by
-  :mod:`~rwhonet.data.blf`, an ASC's lines by :mod:`~rwhonet.data.asc`), laid out as an
-  MDF4 bus log for the map's DBC. :mod:`~rwhonet.data.bytescan` finds things in a text
-  log's bytes at once, for the NMEA, candump and ASC readers.
+  :mod:`~rwhonet.data.blf`, an ASC's lines by :mod:`~rwhonet.data.asc`, a PEAK TRC's
+  by :mod:`~rwhonet.data.trc`), laid out as an MDF4 bus log for the map's DBC.
+  :mod:`~rwhonet.data.bytescan` finds things in a text log's bytes at once, for the NMEA,
+  candump, ASC and TRC readers.
 - :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where
   ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those

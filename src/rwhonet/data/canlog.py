@@ -25,10 +25,12 @@ so are lines that are no frame, counted with the first of them.
 :func:`rwhonet.data.blf.blf_frames`, and **ASC** (:func:`_asc`) over the file's lines at
 once by :func:`rwhonet.data.asc.asc_frames`: python-can's readers' frames, bit for bit, at
 several times their rates (an ASC of ``base dec``, or with a control character, still
-goes through python-can; an ASC's and a TRC's text is read as UTF-8, else cp1252:
-:func:`rwhonet.data.asc.encoding_of`). **TRC** is read by python-can's reader
-(``can.LogReader``), a frame at a time in Python (``benchmarks/bench_streams.py``
-gives the rates); error and remote frames are passed over and counted in every one.
+goes through python-can; an ASC's text is read as UTF-8, else cp1252:
+:func:`rwhonet.data.asc.encoding_of`). **TRC** (:func:`_trc`) is parsed over the file's
+lines at once by :func:`rwhonet.data.trc.trc_frames`, in PEAK's format of each version
+(1.0-2.1): python-can's frames where python-can reads the log, and the logs it refused
+whole (a remote frame in 1.x, a 1.2 log) read. Error and remote frames are passed over
+and counted in every one (``benchmarks/bench_streams.py`` gives the rates).
 
 **The clock** is the log's own time stamps, as python-can and candump give them:
 candump's and BLF's are the logging computer's clock (Unix seconds), TRC's its start time
@@ -89,8 +91,9 @@ class Frames:
         channel: its bus, 1-based (the log's interfaces in the order first seen).
         buses: the interfaces' names (``can0``), or the channel numbers as the log has them.
         clock: what the time stamps count.
-        rows: where each frame is in the log, 1-based: its line in a candump log, its
-            number among the log's frames in ASC, BLF, TRC (python-can gives no lines).
+        rows: where each frame is in the log, 1-based: its line in a candump or TRC log,
+            its number among the log's frames in ASC and BLF (as python-can, which gives
+            no lines, numbers them).
         passed: what was passed over (error, remote, CAN XL frames; lines that are no
             frame), counted; empty when nothing was.
         local_start: the stamps count from a start the log gives only on the logging
@@ -149,7 +152,7 @@ def _message(acq_name: str) -> tuple[int, int, bool] | None:
 def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
     """A CAN log's data frames: candump's by :func:`_candump`, BLF's by :func:`_blf`,
     ASC's by :func:`_asc` (python-can's where it leaves the log to it), TRC's by
-    python-can.
+    :func:`_trc`.
 
     Args:
         path: the log (its name's suffix says its format).
@@ -160,7 +163,7 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
     Raises:
         InputError: no data frame in the log; a log python-can cannot read (with the
             frames read before the damage); an ASC log with ``local_zone`` and no date
-            line python-can reads.
+            line python-can reads; a TRC header PEAK's format has not.
     """
     suffix = path.suffix.lower()
     if suffix == CANDUMP:
@@ -169,6 +172,8 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
         frames = _blf(path, file)
     elif suffix == ".asc" and (got := _asc(path, file)) is not None:
         frames = got
+    elif suffix == ".trc":
+        frames = _trc(path, file)
     else:
         frames = _python_can(path, file, suffix)
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
@@ -370,8 +375,8 @@ def _stamps(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
 
 def _python_can(path: Path, file: str, suffix: str) -> Frames:
     """An ASC, BLF or TRC log's data frames, read by python-can a frame at a time (the
-    pipeline's path for TRC, and for an ASC :func:`_asc` leaves to it; the tests' reference
-    for BLF and ASC)."""
+    pipeline's path for an ASC :func:`_asc` leaves to it; the tests' reference for BLF,
+    ASC and TRC)."""
     import can
     from can.io.asc import ASCReader
     from can.io.trc import TRCReader
@@ -517,6 +522,28 @@ def _asc(path: Path, file: str) -> Frames | None:
         return None
     said = ", each event's time since the one before, summed" if relative else ""
     return _yielded("ASC", got, got.ids & ID_MASK, got.extended, said)
+
+
+def _trc(path: Path, file: str) -> Frames:
+    """A TRC log's data frames, parsed at once in PEAK's format of its version
+    (:func:`rwhonet.data.trc.trc_frames`): python-can's where it reads the log."""
+    from rwhonet.data.trc import trc_frames
+
+    got = trc_frames(path.read_bytes(), file)
+    bus, buses = _buses(got.bus.astype(str))
+    width = MAX_BYTES if got.length.max(initial=0) > 8 else 8
+    return Frames(
+        got.t_s,
+        (got.ids & ID_MASK).astype(np.uint32),
+        got.extended,
+        got.length.astype(np.uint8),
+        np.ascontiguousarray(got.data[:, :width]),
+        bus,
+        buses,
+        _clock("TRC", got.t_s) + f", TRC {got.version}",
+        got.rows,
+        ", ".join(f"{v} {k}" for k, v in got.passed.items()),
+    )
 
 
 def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
