@@ -7,8 +7,8 @@ readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver
 NMEA log, a u-blox receiver's UBX log, a NovAtel receiver's ASCII logs (BESTPOSA an
 epoch, TIMEA a second) or a GPX track (gpxpy's, GPX 1.0), one MDF4
 file, a comma2k19 folder and a comma2k19 route of one-minute segment folders, raw CAN
-frames as a candump log, a Vector BLF and a Vector ASC, absolute and relative stamps, with
-their DBC) and times,
+frames as a candump log, a Vector BLF, a Vector ASC, absolute and relative stamps, and a PEAK
+TRC, with their DBC) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
 resampling them onto the 10 Hz grid (``rwhonet.data.streams.resample``, with the
 sample-level glitch screen). Rows are every stream's samples, counted once.
@@ -156,6 +156,8 @@ def main() -> None:
         relative_asc = root / "relative" / "bus.asc"
         relative_asc.parent.mkdir()
         relative_asc.write_text(asc_as_relative(asc.read_text()))
+        # and PEAK's TRC (python-can's writer: TRC 2.1, its start and each frame's offset)
+        trc = write_bus_log(*frames, root / "bus.trc")
         (root / "bus.dbc").write_text(DBC)
         can_map = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
         # the stream CSVs as a logger rotating its files every 10 minutes writes them
@@ -183,6 +185,7 @@ def main() -> None:
             "BLF log + DBC": lambda: read_mdf4(blf, can_map, radius, dbc=dbc),
             "ASC log + DBC": lambda: read_mdf4(asc, can_map, radius, dbc=dbc),
             "ASC relative + DBC": lambda: read_mdf4(relative_asc, can_map, radius, dbc=dbc),
+            "TRC log + DBC": lambda: read_mdf4(trc, can_map, radius, dbc=dbc),
         }
         print(f"{'format':<20} {'read s':>7} {'resample s':>10} {'total s':>8} {'M rows/s':>9}")
         results = {}
