@@ -299,7 +299,7 @@ def _real_minute_frames():
     return utc, wheels, vw, lines
 
 
-@pytest.mark.parametrize("log_name", ["can0.log", "can0.blf"])
+@pytest.mark.parametrize("log_name", ["can0.log", "can0.blf", "can0.trc"])
 def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_path, log_name):
     """A stream folder as a Linux logger writes it: the RAV4's WHEEL_SPEEDS frames in
     ``can0.log`` on the computer's UTC clock (the boot clock put on UTC by the receiver's
@@ -308,7 +308,8 @@ def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_pat
     are placed by their RMC dates. The labels of the same wheel speeds in wheels.csv
     beside the same log (test_nmea.py's unstamped case: 59 seconds, 0.354 s later in the
     drive than the comma2k19 reader's), measured within 8.3e-8 m. The same frames in a
-    Vector BLF (python-can's writer; read by rwhonet.data.blf, stop 78) give them too."""
+    Vector BLF (python-can's writer; read by rwhonet.data.blf, stop 78) and in a PEAK TRC
+    (python-can's writer's 2.1; rwhonet.data.trc, stop 80) give them too."""
     from rwhonet.data.streamcsv import read_stream_csvs
     from rwhonet.data.streams import resample
     from support.multirate import per_second
@@ -321,12 +322,13 @@ def test_the_real_minute_as_a_candump_log_beside_the_receiver_s_nmea_log(tmp_pat
         write_nmea(folder / "gps.nmea", lines)
         folders[case] = folder
     log = write_bus_log(utc, np.full(utc.size, 170), wheels, folders["can"] / log_name)
-    if log_name.endswith(".blf"):
-        # a BLF keeps its start to the millisecond (the header's SYSTEMTIME) and each
-        # frame's time from it: the CSV's wheels at the stamps python-can's reader gives
+    if not log_name.endswith(".log"):
+        # a BLF keeps its start to the millisecond (the header's SYSTEMTIME), a TRC each
+        # frame's offset to the microsecond: the CSV's wheels at the stamps python-can's
+        # reader gives
         import can
 
-        with can.BLFReader(log) as reader:
+        with can.LogReader(log) as reader:
             utc = np.array([m.timestamp for m in reader])
         assert np.abs(utc - _real_minute_frames()[0]).max() < 5e-4
     (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
