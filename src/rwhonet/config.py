@@ -514,8 +514,9 @@ class SignalMapSpec:
     channel number; an MDF4 bus log's bus channel number). Empty: the file holds decoded
     signals. ``local_zone``: the time zone (IANA, ``Europe/Berlin``) of a logger whose clock
     is local time without a zone, so its times can be put on UTC beside a receiver's: an ASC
-    log's date line (the logging computer's clock at the measurement's start), an MDF4 file
-    whose start is marked local time; None: such times are kept as the log gives them.
+    log's date line (the logging computer's clock at the measurement's start), a PEAK TRC's
+    ``$STARTTIME`` (the same, as PCAN-View writes it), an MDF4 file whose start is marked
+    local time; None: such times are kept as the log gives them.
     """
 
     reader: Literal["mdf4", "stream_csv"]

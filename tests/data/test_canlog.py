@@ -523,6 +523,58 @@ def test_the_real_minute_as_an_asc_log_in_local_time_beside_the_receiver_s_nmea_
     assert "gps.nmea" in said and "local_zone" in said
 
 
+def test_the_real_minute_as_a_pcan_view_trc_in_local_time_beside_the_receiver_s_nmea_log(
+    tmp_path,
+):
+    """The RAV4's WHEEL_SPEEDS frames as PCAN-View on a computer in Berlin would log them (a
+    TRC whose $STARTTIME is the start on the computer's local clock, ten decimals of a day),
+    beside its u-blox fixes as an unstamped NMEA log on UTC: with the map's local_zone the
+    labels of the frames in a candump log on UTC (within 1e-5 m: the start to 4 µs; August:
+    CEST, UTC+2 h);
+    without it, refused naming the TRC's local clock and the local_zone to give. A TRC
+    without $STARTTIME (1.0) is refused where the map gives a zone."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from support.canlog import write_trc_in_zone
+    from support.multirate import per_second
+    from support.nmea import write_nmea
+
+    utc, wheels, _, lines = _real_minute_frames()
+    folders = {case: tmp_path / case for case in ("candump", "trc")}
+    for folder in folders.values():
+        write_nmea(folder / "gps.nmea", lines)
+    write_bus_log(utc, np.full(utc.size, 170), wheels, folders["candump"] / "can0.log")
+    log = folders["trc"] / "can.trc"
+    write_trc_in_zone(utc, np.full(utc.size, 170), wheels, log, "Europe/Berlin")
+    (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
+    smap = {"t": ColumnSpec("t", "s")} | {
+        f"omega_{w}": ColumnSpec(f"WHEEL_SPEED_{w.upper()}", "km/h")
+        for w in ("fl", "fr", "rl", "rr")
+    }
+    dbc = [str(tmp_path / "toyota.dbc")]
+    got, notes = {}, {}
+    for case, zone in (("candump", None), ("trc", "Europe/Berlin")):
+        files = sorted(folders[case].iterdir())
+        streams = read_stream_csvs(files, smap, RAV4_RADIUS_M, NAME, dbc=dbc, local_zone=zone)
+        notes[case] = " ".join(streams.notes)
+        got[case] = per_second(
+            resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns, RAV4_RADIUS_M
+        )
+    assert "in Europe/Berlin, UTC+2 h) plus each frame's offset" in notes["trc"]
+    assert len(got["trc"]) == len(got["candump"]) == 59
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got["trc"][q], got["candump"][q], rtol=0, atol=1e-5)
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(sorted(folders["trc"].iterdir()), smap, RAV4_RADIUS_M, NAME, dbc=dbc)
+    said = str(err.value)
+    assert "gps.nmea" in said and "can.trc keeps the logging computer's local clock" in said
+    assert "a TRC's $STARTTIME" in said
+    log.write_text(";   Start time: 02.08.2018 18:14:47.000\n     1)      1841  00AA  1  0C\n")
+    with pytest.raises(InputError) as err:
+        read_frames(log, log.name, local_zone="Europe/Berlin")
+    assert "column '$STARTTIME'" in str(err.value) and "none (a TRC 1.0 log" in str(err.value)
+
+
 @pytest.mark.parametrize("zone", [None, "Europe/Berlin"])
 def test_an_asc_log_of_relative_stamps_is_read_on_the_measurement_s_clock(tmp_path, zone):
     """CANoe's logging block set to relative time: each event's stamp is the time since

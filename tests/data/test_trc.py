@@ -172,7 +172,11 @@ def test_where_python_can_reads_a_log_the_frames_are_its_own(tmp_path, version):
     want = _python_can(path, path.name, ".trc")
     assert got.t_s.size == want.t_s.size > 0
     assert_same_frames(dataclasses.replace(got, rows=want.rows, passed="", clock=want.clock), want)
-    assert got.clock == want.clock + f", TRC {version}"
+    # PEAK's tools write their start on the logging computer's local clock: read as UTC, as
+    # python-can reads it, and marked so (python-can's own writer's, below, is UTC)
+    local = "" if version == "1.0" else ", its $STARTTIME the logging computer's local clock"
+    assert got.clock == want.clock + f", TRC {version}" + (local and local + ", read as UTC")
+    assert got.local_start and not want.local_start
 
 
 def _writer_log(path, version: str, n: int, seed: int):  # type: ignore[no-untyped-def]
@@ -210,6 +214,7 @@ def test_python_can_s_writer_s_log_reads_as_python_can_reads_it(tmp_path, versio
     got = read_frames(path, path.name)
     want = _python_can(path, path.name, ".trc")
     assert got.t_s.size == 2000 and got.passed == ""
+    assert got.local_start == (version == "1.0")  # 2.1: python-can's writer's start is UTC
     assert_same_frames(dataclasses.replace(got, rows=want.rows, clock=want.clock), want)
     header = 18 if version == "2.1" else 16
     np.testing.assert_array_equal(got.rows, want.rows + header)
@@ -380,3 +385,29 @@ def test_crlf_and_cr_line_ends_read_as_lf(end):
         for name in ("t_s", "ids", "extended", "length", "data", "bus", "rows"):
             np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
         assert got.passed == want.passed
+
+
+@pytest.mark.parametrize(
+    ("version", "zone", "hours"),
+    [
+        ("1.1", "Europe/Berlin", 1.0),
+        ("2.1", "Europe/Berlin", 2.0),
+        ("2.1", "America/Detroit", -4.0),
+    ],
+)
+def test_the_map_s_zone_puts_a_peak_start_on_utc(tmp_path, version, zone, hours):
+    """PEAK's $STARTTIME is the logging computer's local clock: with the map's local_zone
+    the frames move by the zone's offset on that date (Berlin: CET in March 2003, CEST in
+    May 2014; Detroit: EDT), and the log is no longer marked a local clock; python-can's
+    writer's start (UTC, as its header says) is kept."""
+    path = tmp_path / "bus.trc"
+    path.write_text(PEAK[version])
+    plain = read_frames(path, path.name)
+    zoned = read_frames(path, path.name, local_zone=zone)
+    np.testing.assert_allclose(zoned.t_s - plain.t_s, -hours * 3600.0, rtol=0, atol=1e-6)
+    assert plain.local_start and not zoned.local_start
+    assert f"in {zone}, UTC{hours:+g} h) plus each frame's offset: Unix time" in zoned.clock
+    written = _writer_log(tmp_path / "python_can.trc", "2.1", 10, seed=3)
+    kept = read_frames(written, written.name, local_zone=zone)
+    np.testing.assert_array_equal(kept.t_s, read_frames(written, written.name).t_s)
+    assert not kept.local_start

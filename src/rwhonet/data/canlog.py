@@ -158,7 +158,8 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
         path: the log (its name's suffix says its format).
         file: how messages name it.
         local_zone: the logging computer's time zone (IANA): an ASC log's stamps are then
-            put on UTC by its date line (:func:`asc_start`); other logs keep their clocks.
+            put on UTC by its date line (:func:`asc_start`), a TRC's by its ``$STARTTIME``
+            (:func:`_trc`); other logs keep their clocks.
 
     Raises:
         InputError: no data frame in the log; a log python-can cannot read (with the
@@ -173,7 +174,7 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
     elif suffix == ".asc" and (got := _asc(path, file)) is not None:
         frames = got
     elif suffix == ".trc":
-        frames = _trc(path, file)
+        frames = _trc(path, file, local_zone)
     else:
         frames = _python_can(path, file, suffix)
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
@@ -524,25 +525,73 @@ def _asc(path: Path, file: str) -> Frames | None:
     return _yielded("ASC", got, got.ids & ID_MASK, got.extended, said)
 
 
-def _trc(path: Path, file: str) -> Frames:
+def _trc(path: Path, file: str, local_zone: str | None = None) -> Frames:
     """A TRC log's data frames, parsed at once in PEAK's format of its version
-    (:func:`rwhonet.data.trc.trc_frames`): python-can's where it reads the log."""
+    (:func:`rwhonet.data.trc.trc_frames`): python-can's where it reads the log.
+
+    PEAK's tools write ``$STARTTIME`` on the logging computer's clock, local time without
+    a zone (a Windows date; the header's ``Start time`` comment beside it prints the same
+    time). python-can reads it as UTC, and so do the frames here unless the signal map
+    gives ``local_zone``, which puts the start on UTC; without it a log of PEAK's keeps
+    python-can's reading, marked a local clock (a refusal of a receiver's log beside it
+    then says to give ``local_zone``). python-can's own writer's start is UTC, as its
+    header says, and is kept. A 1.0 log (no start) keeps its offsets; with ``local_zone``
+    it is refused, as an ASC without a date line is.
+
+    Raises:
+        InputError: ``local_zone`` given and the log has no ``$STARTTIME``.
+    """
+    from datetime import UTC
+    from zoneinfo import ZoneInfo
+
     from rwhonet.data.trc import trc_frames
 
     got = trc_frames(path.read_bytes(), file)
     bus, buses = _buses(got.bus.astype(str))
     width = MAX_BYTES if got.length.max(initial=0) > 8 else 8
+    t, clock = got.t_s, _clock("TRC", got.t_s) + f", TRC {got.version}"
+    local = got.start_wall is None or not got.start_utc
+    if got.start_wall is None and local_zone is not None and got.t_s.size:
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    "$STARTTIME",
+                    "the measurement's start, which the signal map's local_zone puts on "
+                    "UTC (PEAK's TRC 1.1 and later write it: ;$STARTTIME=45930.5)",
+                    f"none (a TRC {got.version} log: its frames' offsets only)",
+                    "export the log again as TRC 2.1 (PCAN-View, PEAK-Converter), or leave "
+                    "local_zone out of the map (the frames then keep their offsets)",
+                )
+            ]
+        )
+    if got.start_wall is not None and not got.start_utc:
+        if local_zone is None:
+            clock += ", its $STARTTIME the logging computer's local clock, read as UTC"
+        else:
+            wall = got.start_wall
+            start = wall.replace(tzinfo=ZoneInfo(local_zone)).timestamp()
+            t = got.offset_s + start
+            local = False
+            shift = (start - wall.replace(tzinfo=UTC).timestamp()) / 3600.0
+            clock = (
+                f"the TRC log's frame time stamps: its $STARTTIME ({wall.isoformat()} in "
+                f"{local_zone}, UTC{-shift:+g} h) plus each frame's offset: Unix time, s, "
+                f"TRC {got.version}"
+            )
     return Frames(
-        got.t_s,
+        t,
         (got.ids & ID_MASK).astype(np.uint32),
         got.extended,
         got.length.astype(np.uint8),
         np.ascontiguousarray(got.data[:, :width]),
         bus,
         buses,
-        _clock("TRC", got.t_s) + f", TRC {got.version}",
+        clock,
         got.rows,
         ", ".join(f"{v} {k}" for k, v in got.passed.items()),
+        local,
     )
 
 

@@ -537,9 +537,9 @@ def _local_clock_hint(
     problems: list[Problem], decoded: Mapping[str, CanLogGroups], name: str
 ) -> list[Problem]:
     """The receiver's log refused on the stream files' clock, where a raw CAN log among them
-    keeps a local clock (an ASC log's seconds from its measurement's start, an MDF4 bus log
-    marked local time) and the map gives no ``local_zone``: each fix says how to put it on
-    UTC."""
+    keeps a local clock (an ASC log's seconds from its measurement's start, a TRC's start
+    as PEAK's tools write it, an MDF4 bus log marked local time) and the map gives no
+    ``local_zone``: each fix says how to put it on UTC."""
     local = [f for f, g in decoded.items() if g.local_clock]
     if not local:
         return problems
@@ -547,7 +547,7 @@ def _local_clock_hint(
     hint = (
         f"; {', '.join(local)} keeps the logging computer's local clock: give the signal map "
         f"({where}) local_zone, that computer's time zone (Europe/Berlin), which puts the "
-        "log's start (an ASC log's date line, an MDF4 file's start) on UTC"
+        "log's start (an ASC log's date line, a TRC's $STARTTIME, an MDF4 file's start) on UTC"
     )
     return [dataclasses.replace(p, fix=(p.fix or "") + hint) for p in problems]
 
