@@ -3,9 +3,11 @@ the file's lines at once (numpy), in each version of PEAK's format, 1.0 to 2.1.
 
 PEAK's "PEAK CAN TRC File Format" (PEAK-System Technik, 2010-2023) writes a header of
 comment lines (``;``), three of them keys: ``;$FILEVERSION=2.1``, ``;$STARTTIME=45930.5``
-(the measurement's start in days since 1899-12-30, an OLE Automation date, UTC as
-python-can reads it) and, from 2.0, ``;$COLUMNS=N,O,T,B,I,d,R,L,D``. Then one message a
-line, its columns separated by spaces::
+(the measurement's start in days since 1899-12-30, an OLE Automation date, on the
+logging computer's clock; python-can reads it as UTC, and
+:func:`rwhonet.data.canlog._trc` puts it on UTC with the map's ``local_zone``) and,
+from 2.0, ``;$COLUMNS=N,O,T,B,I,d,R,L,D``. Then one message a line, its columns
+separated by spaces::
 
     1.0   1)  1841  0001  8  00 11 22 33 44 55 66 77      N) offset ID DLC bytes
     1.1   1)  1059.9  Rx  0300  7  00 00 00 00 04 00 00   N) offset type ID DLC bytes
