@@ -41,8 +41,9 @@ absolute: its stamps are summed (:class:`_SummedStamps`, to the nanosecond the f
 writes), every stamped event line counting, and python-can reads the sums. An ASC's
 date line is that start on the logging computer's clock, local time without a zone:
 with the signal map's ``local_zone`` (:func:`asc_start`) it puts the frames on UTC, Unix
-seconds, which a receiver's log beside it can share. A drive read from one log keeps
-them as they are; its notes say which.
+seconds, which a receiver's log beside it can share; so does a TRC's start, which PEAK's
+tools write on that clock too (:func:`_trc`; python-can reads it as UTC). A drive read
+from one log keeps them as they are; its notes say which.
 """
 
 from __future__ import annotations
