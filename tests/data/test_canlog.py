@@ -481,45 +481,55 @@ def test_an_asc_log_without_a_date_line_is_refused_where_the_map_gives_a_zone(tm
     assert read_frames(log, "bus.asc").t_s.size == len(ids) + 1  # no zone: no date needed
 
 
-def test_the_real_minute_as_an_asc_log_in_local_time_beside_the_receiver_s_nmea_log(tmp_path):
-    """The RAV4's WHEEL_SPEEDS frames as CANalyzer on a computer in Detroit would log them
-    (an ASC counting from its measurement's start, its date line in local time), beside
-    its u-blox fixes as an unstamped NMEA log on UTC: with the map's local_zone the same
-    labels as the frames in a candump log on UTC (within 1e-6 m); without it, refused
-    naming the log counting from its start and the local_zone to give."""
+def _real_minute_in_zone(tmp_path, name: str, zone: str, atol_m: float):  # type: ignore[no-untyped-def]
+    """The RAV4's WHEEL_SPEEDS frames as a laptop in ``zone`` logs them (``name``:
+    ``can.asc``, CANalyzer's ASC, or ``can.trc``, PCAN-View's TRC) and in a candump log on
+    UTC, each beside its u-blox fixes as an unstamped NMEA log on UTC. Read with the map's
+    local_zone, the laptop's 59 seconds are the candump folder's (within ``atol_m``);
+    returns the laptop folder's notes, its refusal without local_zone, and its files."""
     from rwhonet.data.streamcsv import read_stream_csvs
     from rwhonet.data.streams import resample
-    from support.canlog import write_asc_in_zone
+    from support.canlog import write_asc_in_zone, write_trc_in_zone
     from support.multirate import per_second
     from support.nmea import write_nmea
 
     utc, wheels, _, lines = _real_minute_frames()
-    folders = {case: tmp_path / case for case in ("candump", "asc")}
+    folders = {case: tmp_path / case for case in ("candump", "laptop")}
     for folder in folders.values():
         write_nmea(folder / "gps.nmea", lines)
     write_bus_log(utc, np.full(utc.size, 170), wheels, folders["candump"] / "can0.log")
-    write_asc_in_zone(
-        utc, np.full(utc.size, 170), wheels, folders["asc"] / "can.asc", "America/Detroit"
-    )
+    write = write_asc_in_zone if name.endswith(".asc") else write_trc_in_zone
+    write(utc, np.full(utc.size, 170), wheels, folders["laptop"] / name, zone)
     (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
     smap = {"t": ColumnSpec("t", "s")} | {
         f"omega_{w}": ColumnSpec(f"WHEEL_SPEED_{w.upper()}", "km/h")
         for w in ("fl", "fr", "rl", "rr")
     }
     dbc = [str(tmp_path / "toyota.dbc")]
-    got = {}
-    for case, zone in (("candump", None), ("asc", "America/Detroit")):
+    got, notes = {}, {}
+    for case, local_zone in (("candump", None), ("laptop", zone)):
         files = sorted(folders[case].iterdir())
-        streams = read_stream_csvs(files, smap, RAV4_RADIUS_M, NAME, dbc=dbc, local_zone=zone)
+        streams = read_stream_csvs(files, smap, RAV4_RADIUS_M, NAME, dbc=dbc, local_zone=local_zone)
+        notes[case] = " ".join(streams.notes)
         got[case] = per_second(
             resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns, RAV4_RADIUS_M
         )
-    assert len(got["asc"]) == len(got["candump"]) == 59
+    assert len(got["laptop"]) == len(got["candump"]) == 59
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
-        np.testing.assert_allclose(got["asc"][q], got["candump"][q], rtol=0, atol=1e-6)
+        np.testing.assert_allclose(got["laptop"][q], got["candump"][q], rtol=0, atol=atol_m)
+    files = sorted(folders["laptop"].iterdir())
     with pytest.raises(InputError) as err:
-        read_stream_csvs(sorted(folders["asc"].iterdir()), smap, RAV4_RADIUS_M, NAME, dbc=dbc)
-    said = str(err.value)
+        read_stream_csvs(files, smap, RAV4_RADIUS_M, NAME, dbc=dbc)
+    return notes["laptop"], str(err.value), files
+
+
+def test_the_real_minute_as_an_asc_log_in_local_time_beside_the_receiver_s_nmea_log(tmp_path):
+    """The RAV4's WHEEL_SPEEDS frames as CANalyzer on a computer in Detroit would log them
+    (an ASC counting from its measurement's start, its date line in local time), beside
+    its u-blox fixes as an unstamped NMEA log on UTC: with the map's local_zone the same
+    labels as the frames in a candump log on UTC (within 1e-6 m); without it, refused
+    naming the log counting from its start and the local_zone to give."""
+    _, said, _ = _real_minute_in_zone(tmp_path, "can.asc", "America/Detroit", 1e-6)
     assert "gps.nmea" in said and "local_zone" in said
 
 
@@ -530,45 +540,13 @@ def test_the_real_minute_as_a_pcan_view_trc_in_local_time_beside_the_receiver_s_
     TRC whose $STARTTIME is the start on the computer's local clock, ten decimals of a day),
     beside its u-blox fixes as an unstamped NMEA log on UTC: with the map's local_zone the
     labels of the frames in a candump log on UTC (within 1e-5 m: the start to 4 µs; August:
-    CEST, UTC+2 h);
-    without it, refused naming the TRC's local clock and the local_zone to give. A TRC
-    without $STARTTIME (1.0) is refused where the map gives a zone."""
-    from rwhonet.data.streamcsv import read_stream_csvs
-    from rwhonet.data.streams import resample
-    from support.canlog import write_trc_in_zone
-    from support.multirate import per_second
-    from support.nmea import write_nmea
-
-    utc, wheels, _, lines = _real_minute_frames()
-    folders = {case: tmp_path / case for case in ("candump", "trc")}
-    for folder in folders.values():
-        write_nmea(folder / "gps.nmea", lines)
-    write_bus_log(utc, np.full(utc.size, 170), wheels, folders["candump"] / "can0.log")
-    log = folders["trc"] / "can.trc"
-    write_trc_in_zone(utc, np.full(utc.size, 170), wheels, log, "Europe/Berlin")
-    (tmp_path / "toyota.dbc").write_text(TOYOTA_WHEELS)
-    smap = {"t": ColumnSpec("t", "s")} | {
-        f"omega_{w}": ColumnSpec(f"WHEEL_SPEED_{w.upper()}", "km/h")
-        for w in ("fl", "fr", "rl", "rr")
-    }
-    dbc = [str(tmp_path / "toyota.dbc")]
-    got, notes = {}, {}
-    for case, zone in (("candump", None), ("trc", "Europe/Berlin")):
-        files = sorted(folders[case].iterdir())
-        streams = read_stream_csvs(files, smap, RAV4_RADIUS_M, NAME, dbc=dbc, local_zone=zone)
-        notes[case] = " ".join(streams.notes)
-        got[case] = per_second(
-            resample(streams, nominal_radius_m=RAV4_RADIUS_M).drive.columns, RAV4_RADIUS_M
-        )
-    assert "in Europe/Berlin, UTC+2 h) plus each frame's offset" in notes["trc"]
-    assert len(got["trc"]) == len(got["candump"]) == 59
-    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
-        np.testing.assert_allclose(got["trc"][q], got["candump"][q], rtol=0, atol=1e-5)
-    with pytest.raises(InputError) as err:
-        read_stream_csvs(sorted(folders["trc"].iterdir()), smap, RAV4_RADIUS_M, NAME, dbc=dbc)
-    said = str(err.value)
+    CEST, UTC+2 h); without it, refused naming the TRC's local clock and the local_zone to
+    give. A TRC without $STARTTIME (1.0) is refused where the map gives a zone."""
+    notes, said, files = _real_minute_in_zone(tmp_path, "can.trc", "Europe/Berlin", 1e-5)
+    assert "in Europe/Berlin, UTC+2 h) plus each frame's offset" in notes
     assert "gps.nmea" in said and "can.trc keeps the logging computer's local clock" in said
     assert "a TRC's $STARTTIME" in said
+    log = next(f for f in files if f.suffix == ".trc")
     log.write_text(";   Start time: 02.08.2018 18:14:47.000\n     1)      1841  00AA  1  0C\n")
     with pytest.raises(InputError) as err:
         read_frames(log, log.name, local_zone="Europe/Berlin")
