@@ -376,12 +376,14 @@ def test_edited_logs_read_each_frame_as_python_can_reads_its_line(tmp_path, vers
             assert msg.timestamp == got.t_s[k]
 
 
-@pytest.mark.parametrize("end", ["\r\n", "\r"])
-def test_crlf_and_cr_line_ends_read_as_lf(end):
-    """PEAK writes CR LF; a log of CR alone (a classic Mac's) reads as well."""
+@pytest.mark.parametrize(("end", "bom"), [("\r\n", ""), ("\r", ""), ("\r\n", "\ufeff")])
+def test_crlf_and_cr_line_ends_and_a_byte_order_mark_read_as_the_plain_log(end, bom):
+    """PEAK writes CR LF; a log of CR alone (a classic Mac's) reads as well, and one a
+    Windows editor saved again as UTF-8 with a byte-order mark before its header."""
     for version in ("1.1", "2.1"):
         want = _frames(version)
-        got = trc.trc_frames(PEAK[version].replace("\n", end).encode(), "bus.trc")
+        text = bom + PEAK[version].replace("\n", end)
+        got = trc.trc_frames(text.encode(), "bus.trc")
         for name in ("t_s", "ids", "extended", "length", "data", "bus", "rows"):
             np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
         assert got.passed == want.passed
