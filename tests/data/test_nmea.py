@@ -665,3 +665,62 @@ def test_a_log_stamped_in_part_on_a_logger_s_own_clock_is_refused_saying_so(tmp_
         receiver_labels(files)
     said = str(err.value)
     assert "1 of 1199 epochs' sentences without a logger stamp (first at line 31)" in said
+
+
+def _leap_log(tmp_path, leap_s: float, stamped: bool = False, after_s: float = 60.0, moved=None):
+    """The drive's fixes on the receiver's 10 Hz grid, its UTC ``leap_s`` ahead for the first
+    ``after_s`` seconds (a receiver started without the leap seconds, before it decoded
+    them), then right; ``moved``: degrees added to the positions after the step."""
+    tables, _ = receiver_drive()
+    g = tables.gnss
+    t = np.round(g[c.T_S].to_numpy(), 1)  # a receiver's epochs: its 10 Hz grid
+    exact = g.assign(t_s=t)
+    before = t < t[0] + after_s
+    utc = DAY_S + t + np.where(before, leap_s, 0.0)
+    shown = (
+        exact if moved is None else exact.assign(lat_deg=g[c.LAT_DEG] + np.where(before, 0, moved))
+    )
+    lines = nmea_lines(shown, utc, ("GGA", "RMC"), stamps=t if stamped else None)
+    folder = tmp_path / ("stamped" if stamped else "utc")
+    log = write_nmea(folder / "gps.nmea", lines)
+    return exact, log, _wheels(folder, 0.0 if stamped else DAY_S)
+
+
+@pytest.mark.parametrize(("leap_s", "stamped"), [(2.0, False), (1.0, False), (3.0, True)])
+def test_a_receiver_s_step_onto_the_leap_seconds_is_undone(tmp_path, leap_s, stamped):
+    """A receiver started without the leap seconds gives UTC some whole seconds ahead until
+    it decodes them from the navigation message (up to 12.5 min), then steps back: the
+    fixes before the step are moved back, and the labels are those of the fixes dated
+    right (within the ddmm.mmmmmm rounding, 2 mm). Before stop 80 the fixes after the step
+    fell on the times of those before (each "of an epoch already given", dropped), the
+    ones before it stayed ahead, and the drive was refused as two clocks or misplaced."""
+    exact, log, wheels = _leap_log(tmp_path, leap_s, stamped)
+    got, streams = receiver_labels([wheels, log])
+    ref = _reference(tmp_path, exact)
+    _same(got.assign(t_s=got["t_s"] - (0.0 if stamped else DAY_S)), ref, 0.002)
+    said = " ".join(streams.notes)
+    assert f"the receiver's UTC stepped back {leap_s:.0f} s at line 1801, 60 s into the log" in said
+    assert "already given" not in said
+
+
+def test_a_step_back_that_is_no_leap_second_step_is_left_alone(tmp_path, monkeypatch):
+    """A step back of a second and a half, one after the first 15 min, one where the car's
+    position jumps, and a block of lines sent twice are no receiver learning its leap
+    seconds: the times are left as they are."""
+    from rwhonet.data import nmea
+
+    def note(log) -> str:
+        return " ".join(read_nmea(log, log.name).notes)
+
+    assert "stepped back" in note(_leap_log(tmp_path / "a", 2.0)[1])
+    assert "stepped back" not in note(_leap_log(tmp_path / "b", 1.5)[1])
+    assert "stepped back" not in note(_leap_log(tmp_path / "c", 2.0, moved=0.01)[1])
+    monkeypatch.setattr(nmea, "LEAP_WITHIN_S", 30.0)
+    assert "stepped back" not in note(_leap_log(tmp_path / "d", 2.0)[1])
+    monkeypatch.undo()
+    log = _leap_log(tmp_path / "e", 0.0)[1]
+    lines = log.read_text().splitlines()
+    resent = lines[:1800] + lines[1770:1800] + lines[1800:]  # 10 epochs sent again
+    log.write_text("\n".join(resent) + "\n")
+    said = note(log)
+    assert "stepped back" not in said and "20 sentence(s) of an epoch already given" in said

@@ -49,7 +49,10 @@ lines, ``#`` comments and bytes that are no text are passed over. The notes coun
 may also begin with the logger's own stamp before the ``$`` (``1712345678.123 $GPGGA,...``,
 ``12.345,$GPRMC,...``): where every epoch has one, the stamps are its times on the
 logger's clock, as a CSV stream's time column is. Otherwise the UTC times are placed on
-the stream files' clock where that clock is UTC too (:func:`on_clock`).
+the stream files' clock where that clock is UTC too (:func:`on_clock`). A receiver
+started without the leap seconds gives UTC whole seconds ahead until it decodes them
+from the navigation message, then steps back: the times before such a step are moved
+back (:func:`_leap_step`, which tells it from a clock set back or a buffer sent twice).
 
 The sentences are parsed here, not by `pynmea2`: it parses one sentence at a time in
 Python (with the conversions, 2.4 s for a two-hour 10 Hz log, 0.29 M input rows/s
@@ -497,6 +500,7 @@ def _fixes(
     tod_s = _times_of_day(times, rows[use], file, problems)
     timed = np.isfinite(tod_s)  # a time that is no time: refused below, with the rest
     use, tod_s = use[timed], tod_s[timed]
+    tod_s, leap_said = _leap_step(tod_s, use, kinds, fields, rows, file)
     if not np.isin(kinds[use], FIX_KINDS).any():
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     # an epoch's sentences by their UTC time: a sentence written again or late (a logger's
@@ -589,7 +593,7 @@ def _fixes(
     lat[~valid] = np.nan
     lon[~valid] = np.nan
     tod, said = unwrap_clock(tod, "epoch")
-    notes = [f"{file}: {s}" for s in said]
+    notes = [f"{file}: {s}" for s in said] + ([f"{file}: {leap_said}"] if leap_said else [])
     first_day, dated_by = _first_day(dated, tod, file)
     channels = {
         "lat": lat,
@@ -678,6 +682,101 @@ def _valid(kind: int, fields: _Fields, sent: np.ndarray) -> np.ndarray:
     modes = np.char.upper(fields.column(mode, sent))
     return (np.char.upper(fields.column(status, sent)) == b"A") & (
         (modes == b"") | np.isin(modes, RMC_FIXES)
+    )
+
+
+# GPS's UTC parameters (the leap seconds, GPS less UTC) come in subframe 4, page 18, of
+# the navigation message, every 12.5 min (IS-GPS-200, 20.3.3.5.1.6 and 20.3.3.5.2.4)
+UTC_PARAMETERS_EVERY_S = 750.0
+LEAP_WITHIN_S = UTC_PARAMETERS_EVERY_S + 150.0  # of the log's first fix: 15 min
+MAX_LEAP_S = 18  # GPS less UTC since 2017 (GPS_UTC_S): no receiver's step is larger
+LEAP_TOLERANCE_S = 0.05  # a step's distance from whole seconds
+MAX_SPEED_M_S = 70.0  # a car's, between the fixes either side of a step
+
+
+def _leap_step(
+    tod_s: np.ndarray,
+    use: np.ndarray,
+    kinds: np.ndarray,
+    fields: _Fields,
+    rows: np.ndarray,
+    file: str,
+) -> tuple[np.ndarray, str | None]:
+    """The sentences' UTC times of day (``tod_s``, of the sentences ``use``, in the log's
+    order) with a receiver's step onto the leap seconds undone, and a note saying so.
+
+    A receiver without the leap seconds stored (a cold start, a module without its backup
+    battery) gives UTC as GPS time less the value its firmware holds until it decodes the
+    navigation message's UTC parameters (up to 12.5 min), then steps its UTC by the
+    difference: whole seconds, back where the held value was short. Such a step puts the
+    fixes before it that many seconds ahead, and the ones after it on the times of those
+    before, each an "epoch already given". It is told here from a clock set back or a
+    buffer sent twice by all of: the only step back in the log but a new day's; within 15
+    min of the log's first fix; the times' step back within 0.05 s of whole seconds less
+    the epoch period, 1 to 18 s; and the positions either side of it no farther apart than
+    a car goes in two epochs, and the sentence after it not the same, field for field, as
+    one before it of its kind and time (a buffer sent twice repeats its sentences). The
+    sentences before it are moved back by the whole seconds; the note names the line.
+    Otherwise the times are left as they are (a step back is refused as a clock set back).
+    """
+    fix = np.flatnonzero(np.isin(kinds[use], FIX_KINDS))
+    if fix.size < 3:
+        return tod_s, None
+    t = tod_s[fix]
+    d = np.diff(t)
+    ahead = d[d > 1e-6]
+    back = np.flatnonzero((d < -0.5) & (d > -_NEW_DAY_S))
+    if back.size != 1 or not ahead.size:
+        return tod_s, None
+    j = int(back[0])
+    period = float(np.median(ahead))
+    leap = period - float(d[j])
+    k = round(leap)
+    if not (1 <= k <= MAX_LEAP_S and abs(leap - k) <= LEAP_TOLERANCE_S):
+        return tod_s, None
+    if t[j] - t[0] > LEAP_WITHIN_S:
+        return tod_s, None
+    either = use[fix[[j, j + 1]]]
+    after_step = int(either[1])  # a sentence of the same kind and time before it, the same
+    same = fix[
+        : j + 1
+    ][  # sentence field for field: a buffer sent twice, no step
+        (kinds[use[fix[: j + 1]]] == kinds[after_step]) & (np.abs(t[: j + 1] - t[j + 1]) < 5e-4)
+    ]
+    if same.size and _same_fields(fields, int(use[same[0]]), after_step):
+        return tod_s, None
+    at_position = {GGA: 2, RMC: 3, GNS: 2, GLL: 1}
+    where = []
+    for i in either.tolist():
+        col = at_position[int(kinds[i])]
+        cells = [fields.column(col + c, np.array([i])) for c in range(4)]
+        ignored: list[Problem] = []
+        lat = _coordinates(cells[0], cells[1], rows[[i]], "latitude", "", file, ignored)
+        lon = _coordinates(cells[2], cells[3], rows[[i]], "longitude", "", file, ignored)
+        where.append((float(lat[0]), float(lon[0])))
+    (lat0, lon0), (lat1, lon1) = where
+    north = (lat1 - lat0) * 111_320.0
+    east = (lon1 - lon0) * 111_320.0 * np.cos(np.radians(lat0))
+    if not np.hypot(north, east) <= MAX_SPEED_M_S * 2.0 * max(period, 0.1):  # NaN: no fix
+        return tod_s, None
+    moved = tod_s.copy()
+    moved[: fix[j] + 1] -= k
+    line = int(rows[either[1]])
+    said = (
+        f"the receiver's UTC stepped back {k} s at line {line}, {t[j] - t[0]:.0f} s into the "
+        f"log: the leap seconds it decoded from the navigation message after a start without "
+        f"them (GPS's UTC parameters come every 12.5 min); the {fix[j] + 1} sentences before "
+        f"it moved {k} s back"
+    )
+    return moved, said
+
+
+def _same_fields(fields: _Fields, a: int, b: int) -> bool:
+    """Whether sentences ``a`` and ``b`` have the same fields."""
+    n = int(fields.count[a])
+    pair = np.array([a, b])
+    return n == int(fields.count[b]) and all(
+        (col := fields.column(j, pair))[0] == col[1] for j in range(n)
     )
 
 
