@@ -667,7 +667,14 @@ def test_a_log_stamped_in_part_on_a_logger_s_own_clock_is_refused_saying_so(tmp_
     assert "1 of 1199 epochs' sentences without a logger stamp (first at line 31)" in said
 
 
-def _leap_log(tmp_path, leap_s: float, stamped: bool = False, after_s: float = 60.0, moved=None):
+def _leap_log(
+    tmp_path,
+    leap_s: float,
+    stamped: bool = False,
+    after_s: float = 60.0,
+    moved=None,
+    sentences=("GGA", "RMC"),
+):
     """The drive's fixes on the receiver's 10 Hz grid, its UTC ``leap_s`` ahead for the first
     ``after_s`` seconds (a receiver started without the leap seconds, before it decoded
     them), then right; ``moved``: degrees added to the positions after the step."""
@@ -680,27 +687,41 @@ def _leap_log(tmp_path, leap_s: float, stamped: bool = False, after_s: float = 6
     shown = (
         exact if moved is None else exact.assign(lat_deg=g[c.LAT_DEG] + np.where(before, 0, moved))
     )
-    lines = nmea_lines(shown, utc, ("GGA", "RMC"), stamps=t if stamped else None)
+    lines = nmea_lines(shown, utc, sentences, stamps=t if stamped else None)
     folder = tmp_path / ("stamped" if stamped else "utc")
     log = write_nmea(folder / "gps.nmea", lines)
     return exact, log, _wheels(folder, 0.0 if stamped else DAY_S)
 
 
-@pytest.mark.parametrize(("leap_s", "stamped"), [(2.0, False), (1.0, False), (3.0, True)])
-def test_a_receiver_s_step_onto_the_leap_seconds_is_undone(tmp_path, leap_s, stamped):
+@pytest.mark.parametrize(
+    ("leap_s", "stamped", "sentences"),
+    [
+        (2.0, False, ("GGA", "RMC")),
+        (1.0, False, ("GGA", "RMC")),
+        (3.0, True, ("GGA", "RMC")),
+        (2.0, False, ("GGA", "ZDA")),
+    ],
+)
+def test_a_receiver_s_step_onto_the_leap_seconds_is_undone(tmp_path, leap_s, stamped, sentences):
     """A receiver started without the leap seconds gives UTC some whole seconds ahead until
     it decodes them from the navigation message (up to 12.5 min), then steps back: the
     fixes before the step are moved back, and the labels are those of the fixes dated
     right (within the ddmm.mmmmmm rounding, 2 mm). Before stop 80 the fixes after the step
     fell on the times of those before (each "of an epoch already given", dropped), the
     ones before it stayed ahead, and the drive was refused as two clocks or misplaced."""
-    exact, log, wheels = _leap_log(tmp_path, leap_s, stamped)
-    got, streams = receiver_labels([wheels, log])
+    exact, log, wheels = _leap_log(tmp_path, leap_s, stamped, sentences=sentences)
+    from rwhonet.sim.streams import signal_map
+
+    smap = {k: v for k, v in signal_map().items() if k not in ("speed_gnss", "heading")}
+    got, streams = receiver_labels([wheels, log], smap)
     ref = _reference(tmp_path, exact)
     _same(got.assign(t_s=got["t_s"] - (0.0 if stamped else DAY_S)), ref, 0.002)
     said = " ".join(streams.notes)
     assert f"the receiver's UTC stepped back {leap_s:.0f} s at line 1801, 60 s into the log" in said
+    assert "the 1200 sentences before it moved" in said  # 600 epochs' GGA and RMC (or ZDA)
     assert "already given" not in said
+    if "ZDA" in sentences:  # each dates its own epoch, the one after its epoch's GGA too
+        assert "1199 ZDA sentences, 1199 dating an epoch of their time" in said
 
 
 def test_a_step_back_that_is_no_leap_second_step_is_left_alone(tmp_path, monkeypatch):

@@ -737,12 +737,12 @@ def _leap_step(
     if t[j] - t[0] > LEAP_WITHIN_S:
         return tod_s, None
     either = use[fix[[j, j + 1]]]
-    after_step = int(either[1])  # a sentence of the same kind and time before it, the same
-    same = fix[
-        : j + 1
-    ][  # sentence field for field: a buffer sent twice, no step
-        (kinds[use[fix[: j + 1]]] == kinds[after_step]) & (np.abs(t[: j + 1] - t[j + 1]) < 5e-4)
-    ]
+    after_step = int(either[1])
+    # a sentence of its kind and time before the step, the same field for field: a buffer
+    # sent twice, no step
+    earlier = fix[: j + 1]
+    alike = (kinds[use[earlier]] == kinds[after_step]) & (np.abs(t[: j + 1] - t[j + 1]) < 5e-4)
+    same = earlier[alike]
     if same.size and _same_fields(fields, int(use[same[0]]), after_step):
         return tod_s, None
     at_position = {GGA: 2, RMC: 3, GNS: 2, GLL: 1}
@@ -759,13 +759,17 @@ def _leap_step(
     east = (lon1 - lon0) * 111_320.0 * np.cos(np.radians(lat0))
     if not np.hypot(north, east) <= MAX_SPEED_M_S * 2.0 * max(period, 0.1):  # NaN: no fix
         return tod_s, None
+    # every sentence before the step's last fix sentence, and those between it and the
+    # next fix sentence that are not of the next one's time (a ZDA after its epoch's GGA)
+    between = np.arange(fix[j] + 1, fix[j + 1])
+    before = np.r_[np.arange(fix[j] + 1), between[np.abs(tod_s[between] - t[j + 1]) > 0.5]]
     moved = tod_s.copy()
-    moved[: fix[j] + 1] -= k
+    moved[before] -= k
     line = int(rows[either[1]])
     said = (
         f"the receiver's UTC stepped back {k} s at line {line}, {t[j] - t[0]:.0f} s into the "
         f"log: the leap seconds it decoded from the navigation message after a start without "
-        f"them (GPS's UTC parameters come every 12.5 min); the {fix[j] + 1} sentences before "
+        f"them (GPS's UTC parameters come every 12.5 min); the {before.size} sentences before "
         f"it moved {k} s back"
     )
     return moved, said
