@@ -87,6 +87,7 @@ from rwhonet.data.texttime import (
 )
 from rwhonet.data.timebase import unwrap_clock
 from rwhonet.errors import InputError, Problem
+from rwhonet.geo import local_distance_m
 
 NMEA_SUFFIXES = (".nmea", ".nma")
 KNOT_M_S = 1852.0 / 3600.0
@@ -111,6 +112,8 @@ TIME_FIELD = np.array([1, 1, 1, 5, 1])
 ZDA_DATE = "%d,%m,%Y"  # ZDA's day, month and year fields, as the sentence writes them
 # which sentence's position an epoch takes where it has several
 POSITION_ORDER = (GGA, GNS, RMC, GLL)
+# each kind's first position field: latitude, its letter, longitude, its letter
+POSITION_FIELD = {GGA: 2, RMC: 3, GNS: 2, GLL: 1}
 # a logger's stamp before the sentence: separated by spaces, a comma, a semicolon, a tab,
 # or in brackets
 STAMP_STRIP = b" \t\r\n\x0b\x0c,;[]()"  # a serial line's LF CR leaves a CR before the "$"
@@ -536,8 +539,6 @@ def _fixes(
     valid = np.ones(n, bool)
     placed = np.zeros(n, bool)  # a position from a sentence of an earlier kind
     counted = np.zeros(n, bool)  # satellites and altitude from GGA
-    # each kind's fields: latitude, its letter, longitude, its letter
-    at_position = {GGA: 2, RMC: 3, GNS: 2, GLL: 1}
     for kind in POSITION_ORDER:
         epochs, sent = of[kind]
         if not epochs.size:
@@ -547,7 +548,7 @@ def _fixes(
         valid[epochs] &= _valid(kind, fields, sent)
         alone = ~placed[epochs]
         if alone.any():
-            j = at_position[kind]
+            j = POSITION_FIELD[kind]
             cells = [fields.column(j + i, sent[alone]) for i in range(4)]
             at = epochs[alone]
             lat[at] = _coordinates(
@@ -745,19 +746,17 @@ def _leap_step(
     same = earlier[alike]
     if same.size and _same_fields(fields, int(use[same[0]]), after_step):
         return tod_s, None
-    at_position = {GGA: 2, RMC: 3, GNS: 2, GLL: 1}
     where = []
     for i in either.tolist():
-        col = at_position[int(kinds[i])]
+        col = POSITION_FIELD[int(kinds[i])]
         cells = [fields.column(col + c, np.array([i])) for c in range(4)]
         ignored: list[Problem] = []
         lat = _coordinates(cells[0], cells[1], rows[[i]], "latitude", "", file, ignored)
         lon = _coordinates(cells[2], cells[3], rows[[i]], "longitude", "", file, ignored)
         where.append((float(lat[0]), float(lon[0])))
     (lat0, lon0), (lat1, lon1) = where
-    north = (lat1 - lat0) * 111_320.0
-    east = (lon1 - lon0) * 111_320.0 * np.cos(np.radians(lat0))
-    if not np.hypot(north, east) <= MAX_SPEED_M_S * 2.0 * max(period, 0.1):  # NaN: no fix
+    apart = local_distance_m(*(np.array([x]) for x in (lat0, lon0, lat1, lon1)))[0]
+    if not apart <= MAX_SPEED_M_S * 2.0 * max(period, 0.1):  # NaN: no fix
         return tod_s, None
     # every sentence before the step's last fix sentence, and those between it and the
     # next fix sentence that are not of the next one's time (a ZDA after its epoch's GGA)
