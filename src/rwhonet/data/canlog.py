@@ -59,6 +59,7 @@ import numpy as np
 from rwhonet.data.asc import STAMP, encoding_of, stamp_ns
 from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
+from rwhonet.data.trc import FD_LENGTHS, MAX_BYTES, trc_frames
 from rwhonet.errors import InputError, Problem
 
 if TYPE_CHECKING:
@@ -69,9 +70,6 @@ CANDUMP, PYTHON_CAN = ".log", (".asc", ".blf", ".trc")
 CAN_LOG_SUFFIXES = (CANDUMP, *PYTHON_CAN)
 ERROR_FLAG = 0x2000_0000  # SocketCAN's CAN_ERR_FLAG in an identifier
 ID_MASK = 0x1FFF_FFFF  # an extended identifier's 29 bits
-MAX_BYTES = 64  # a CAN FD frame's
-# a CAN FD frame's data length code above 8 -> its bytes (ISO 11898-1)
-FD_LENGTHS = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64])
 
 
 def is_can_log_name(name: str) -> bool:
@@ -544,8 +542,6 @@ def _trc(path: Path, file: str, local_zone: str | None = None) -> Frames:
     """
     from datetime import UTC
     from zoneinfo import ZoneInfo
-
-    from rwhonet.data.trc import trc_frames
 
     got = trc_frames(path.read_bytes(), file)
     bus, buses = _buses(got.bus.astype(str))

@@ -69,15 +69,15 @@ CHUNK_BYTES = 1 << 23  # lines split into fields at once (8 MB of text; bounds t
 VERSIONS = ("1.0", "1.1", "1.2", "1.3", "2.0", "2.1")
 # the 1.x columns (0-based, the message number first): offset, bus, type, ID, DLC; the
 # bytes follow the DLC
+# a CAN FD frame's bytes by its DLC (ISO 11898-1), and the most a frame has
+FD_LENGTHS = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64])
+MAX_BYTES = 64
 LAYOUT_1 = {
     "1.0": (1, None, None, 2, 3),
     "1.1": (1, None, 2, 3, 4),
     "1.2": (1, 2, 3, 4, 5),
     "1.3": (1, 2, 3, 4, 6),
 }
-# a CAN FD frame's bytes by its DLC (ISO 11898-1)
-FD_LENGTHS = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64])
-MAX_BYTES = 64
 FD_TYPES = (b"FD", b"FB", b"FE", b"BI")
 STATUS_TYPES = (b"ST", b"EC", b"EV")
 OFFSET_DIGITS = 18  # an offset's digits read as one exact integer (longer: float())
