@@ -587,3 +587,152 @@ def test_an_asc_log_of_relative_stamps_is_read_on_the_measurement_s_clock(tmp_pa
     assert "each event's time since the one before, summed" in (
         got.clock if zone is None else read_frames(relative, "bus.asc").clock
     )
+
+
+# A whole bus's log: the drive's messages among the rest of the bus's traffic (a message
+# the DBC defines that the map does not name, identifiers the DBC does not define, extended
+# identifiers), as a logger on a car's bus records it.
+OTHER_DBC = DBC + '\nBO_ 800 Other: 8 ESC\n SG_ Junk : 0|16@1+ (1,0) [0|65535] "" Vector__XXX\n'
+
+
+def _whole_bus(df, seed: int = 3):  # type: ignore[no-untyped-def]
+    stamps, ids, data = can_frames(df, RADIUS_M, T0_S)
+    rng = np.random.default_rng(seed)
+    n = 4 * len(stamps)
+    other_t = rng.uniform(stamps[0], stamps[-1], n)
+    other_ids = rng.choice([800, 0x123, 0x7FF, 0x18FEF100, 0x1A1], n)
+    other = rng.integers(0, 256, (n, 8), dtype=np.uint8)
+    order = np.argsort(np.r_[stamps, other_t], kind="stable")
+    return (
+        np.r_[stamps, other_t][order],
+        np.r_[ids, other_ids][order],
+        np.concatenate([data, other])[order],
+        np.r_[np.zeros(len(ids), bool), other_ids > 0x7FF][order],
+    )
+
+
+@pytest.mark.parametrize("suffix", [".log", ".asc", ".blf", ".trc"])
+def test_a_whole_bus_log_is_decoded_from_the_map_s_messages_alone(tmp_path, suffix, monkeypatch):
+    """Read keeping only the frames of the messages the map's signals are in, a whole bus's
+    log gives the streams (times, values, rows), notes and frame-ID count it gave read
+    whole, the frames left out counted; ``read_frames`` with the filter gives exactly the
+    frames read whole that the filter keeps, and every frame's ID in ``log_ids``."""
+    from rwhonet.data import mdf4
+    from rwhonet.data.canlog import FrameFilter, frame_keys
+
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}", extended=ext)
+    (tmp_path / "bus.dbc").write_text(OTHER_DBC)
+    dbc = [str(tmp_path / "bus.dbc")]
+    kept = read_mdf4(log, _signals(), RADIUS_M, NAME, log.name, dbc)
+    with monkeypatch.context() as m:
+        m.setattr(mdf4, "_wanted", lambda *a: None)
+        whole = read_mdf4(log, _signals(), RADIUS_M, NAME, log.name, dbc)
+    for a, b in [*zip(kept.wheels, whole.wheels, strict=True), (kept.gnss, whole.gnss)]:
+        assert a.name == b.name
+        np.testing.assert_array_equal(a.t_s, b.t_s)
+        for k in b.channels:
+            np.testing.assert_array_equal(a.channels[k], b.channels[k])
+        np.testing.assert_array_equal(a.rows, b.rows)
+    note = (
+        f"{log.name}: {len(ids) - 4 * len(ids) // 5} of them decoded, those of the 3 "
+        "message(s) the map's signals are in; the other frames were counted and left out as "
+        "the log was read"
+    )
+    assert [n for n in kept.notes if n != note] == list(whole.notes)
+    said = " ".join(kept.notes)
+    assert "bus.dbc: 4 of the log's 8 frame IDs defined" in said
+    assert f"{len(ids)} data frames on 1 bus(es)" in said
+    keep = FrameFilter(frozenset({(0x1A0, False), (0x600, False), (800, False)}))
+    every, some = read_frames(log, log.name), read_frames(log, log.name, keep=keep)
+    at = np.flatnonzero(keep.mask(every.ids, every.extended))
+    assert_same_frames(some, dataclasses.replace(every, **_taken(every, at)))
+    assert some.dropped == every.t_s.size - at.size and some.in_log == every.in_log
+    np.testing.assert_array_equal(
+        some.log_ids, np.unique(frame_keys(every.channel, every.ids, every.extended))
+    )
+
+
+def _taken(frames, at):  # type: ignore[no-untyped-def]
+    names = ("t_s", "ids", "extended", "length", "data", "channel", "rows")
+    return {n: getattr(frames, n)[at] for n in names}
+
+
+def test_a_candump_log_read_in_parts_gives_the_frames_read_whole(tmp_path, monkeypatch):
+    """Parts of 1 kB (about 25 lines each): an interface first seen in a later part and one
+    seen in an earlier part first numbered by the log's order, damaged lines, lines that
+    are no frame and comments counted with the log's first, an FD frame in a late part,
+    the last line without its line end; with a filter, the same frames kept and IDs seen."""
+    from rwhonet.data import canlog
+    from rwhonet.data.canlog import FrameFilter
+
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    lines = write_bus_log(stamps, ids, data, tmp_path / "b.log", extended=ext).read_text()
+    lines = lines.splitlines()
+    lines[300] = lines[300].replace(" can0 ", " vcan1 ")
+    lines[100] = lines[100].replace(" can0 ", " can1 ")
+    lines[700] = lines[700].replace(" can0 ", " can1 ")
+    lines[120] = "garbage"
+    lines[400] = lines[400].removesuffix(" R")[:-1]  # a digit lost: damaged
+    lines[500] = "# a comment"
+    lines[650] = "(1700000010.000000) can0 0AA##1" + "AB" * 12
+    lines[800] = "more garbage"
+    lines[900] = lines[900].replace("#", "#Z")
+    (tmp_path / "bus.log").write_text("\n".join(lines))
+    path = tmp_path / "bus.log"
+    monkeypatch.setattr(canlog, "_CANDUMP_PART_BYTES", 1 << 30)
+    whole = read_frames(path, "bus.log")
+    keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True)}))
+    whole_kept = read_frames(path, "bus.log", keep=keep)
+    monkeypatch.setattr(canlog, "_CANDUMP_PART_BYTES", 1 << 10)
+    parts = read_frames(path, "bus.log")
+    assert_same_frames(parts, whole)
+    assert whole.buses == ["can0", "can1", "vcan1"] and whole.data.shape[1] == 64
+    assert "2 lines damaged (first at line 401)" in whole.passed
+    assert "2 lines that are no frame (first at line 121)" in whole.passed
+    assert parts.rows[-1] == len(lines)
+    parts_kept = read_frames(path, "bus.log", keep=keep)
+    assert_same_frames(parts_kept, whole_kept)
+    np.testing.assert_array_equal(parts_kept.log_ids, whole_kept.log_ids)
+    assert parts_kept.dropped == whole_kept.dropped > 0
+
+
+def test_the_map_s_messages_are_kept_by_the_names_of_their_signals(tmp_path):
+    """A signal named alone, by its message or by its bus and message keeps its message;
+    the log is read whole where a column is no signal of the databases (unless the log is
+    one of a stream folder's files, whose other files give it), where a database is not
+    there, or where it is J1939's (matched by parameter group, not identifier)."""
+    from rwhonet.data.mdf4 import _wanted
+
+    (tmp_path / "bus.dbc").write_text(OTHER_DBC)
+    dbc = [str(tmp_path / "bus.dbc")]
+    got = _wanted(dbc, ["WhlSpd_FL", "WheelSpeeds.WhlSpd_RR", "CAN2.GnssPos.Lat"], False)
+    assert got is not None and got.keep.messages == {(0x1A0, False), (0x600, False)}
+    assert _wanted(dbc, ["WhlSpd_FL", "gps_lat"], False) is None
+    got = _wanted(dbc, ["WhlSpd_FL", "gps_lat"], True)
+    assert got is not None and got.keep.messages == {(0x1A0, False)}
+    assert _wanted(dbc, ["gps_lat"], True) is None
+    assert _wanted([str(tmp_path / "none.dbc")], ["WhlSpd_FL"], False) is None
+    (tmp_path / "j1939.dbc").write_text(
+        OTHER_DBC.replace(
+            "BU_:", 'BA_DEF_ "ProtocolType" STRING ;\nBA_ "ProtocolType" "J1939";\nBU_:'
+        )
+    )
+    assert _wanted([str(tmp_path / "j1939.dbc")], ["WhlSpd_FL"], False) is None
+
+
+def test_a_map_s_message_missing_from_the_log_is_said_as_for_a_log_read_whole(tmp_path):
+    """The map names the yaw rate, which the DBC defines and the log has no frame of: the
+    log is read again whole, and refused as before, naming the signals it has."""
+    df = wavy_drive(5.0)
+    log = write_bus_log(*_whole_bus(df)[:3], tmp_path / "bus.log")
+    (tmp_path / "bus.dbc").write_text(
+        OTHER_DBC
+        + '\nBO_ 900 Yaw: 8 ESC\n SG_ YawRate : 0|16@1- (0.01,0) [-300|300] "deg/s" Vector__XXX\n'
+    )
+    signals = {**_signals(), "yaw_rate": ColumnSpec(column="YawRate", unit="deg/s")}
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(tmp_path / "bus.dbc")])
+    (problem,) = err.value.problems
+    assert problem.column == "YawRate" and "no such signal; the file has" in problem.found
+    assert "Junk" in problem.found  # the log's other message, decoded as before

@@ -15,7 +15,11 @@ python-can's ``CanutilsLogWriter`` write, one frame a line::
     (1436509052.250112) can1 18FEF100##3112233445566778899AABBCC
 
 is parsed over the file's bytes at once (numpy), not a line at a time: a whole bus's
-traffic (thousands of frames a second) for an hour is tens of millions of lines.
+traffic (thousands of frames a second) for an hour is tens of millions of lines. It is
+read 32 MB of lines at a time, so that its memory is a part's and that of the frames
+kept: given a :class:`FrameFilter` (the messages the map's signals are in,
+:func:`rwhonet.data.mdf4.can_log_groups`), each part's other frames are counted, their
+IDs noted (``Frames.log_ids``), and left out as it is read.
 Identifiers of 3 hex digits are standard, of 8 extended; ``##`` and a flags digit begin
 a CAN FD frame's data. Error frames (the identifier's ``0x20000000`` flag), remote
 frames (``#R``) and CAN XL frames (``###``) carry no signal and are passed over, counted;
@@ -50,6 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -98,6 +103,11 @@ class Frames:
         local_start: the stamps count from a start the log gives only on the logging
             computer's local clock (an ASC log's date line), not put on UTC (no
             ``local_zone``): a clock no UTC stream can share.
+        dropped: the log's data frames left out by a :class:`FrameFilter` (read, counted,
+            not kept).
+        log_ids: where a filter was given, every data frame's bus, identifier and
+            whether it is extended, once each (:func:`frame_keys`), the frames left out
+            included; None where every data frame is here.
     """
 
     t_s: np.ndarray
@@ -111,6 +121,13 @@ class Frames:
     rows: np.ndarray
     passed: str = ""
     local_start: bool = False
+    dropped: int = 0
+    log_ids: np.ndarray | None = None
+
+    @property
+    def in_log(self) -> int:
+        """The log's data frames, those a filter left out included."""
+        return int(self.t_s.size) + self.dropped
 
     def place(self, acq_name: str, comment: str, n: int) -> tuple[str, np.ndarray] | None:
         """The frames a decoded message's ``n`` samples came from, by the name asammdf
@@ -148,7 +165,60 @@ def _message(acq_name: str) -> tuple[int, int, bool] | None:
     return None if match is None else (int(match[1]), int(match[2], 16), match[3] == "True")
 
 
-def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
+def frame_keys(channel: np.ndarray, ids: np.ndarray, extended: np.ndarray) -> np.ndarray:
+    """Each frame's bus, identifier and whether it is extended as one number:
+    ``bus << 40 | extended << 32 | identifier``."""
+    return (
+        (channel.astype(np.int64) << 40) | (extended.astype(np.int64) << 32) | ids.astype(np.int64)
+    )
+
+
+def key_id(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`frame_keys` taken apart: (bus, identifier, extended)."""
+    return keys >> 40, keys & 0xFFFF_FFFF, (keys >> 32) & 1 != 0
+
+
+@dataclass(frozen=True)
+class FrameFilter:
+    """The frames a decode needs: those whose identifier (and whether it is extended) is
+    one of ``messages``', on any bus. A whole bus's log holds mostly frames of messages
+    the map's signals are not in; left out as each part of the log is read, they take
+    neither memory nor the decoder's time (:func:`read_frames`).
+
+    Attributes:
+        messages: ``(identifier, extended)`` of each message kept.
+    """
+
+    messages: frozenset[tuple[int, bool]]
+
+    def mask(self, ids: np.ndarray, extended: np.ndarray) -> np.ndarray:
+        """Which frames are of a kept message."""
+        code = ids.astype(np.int64) | (extended.astype(np.int64) << 32)
+        wanted = np.array(sorted(i | (int(x) << 32) for i, x in self.messages), np.int64)
+        return np.isin(code, wanted)
+
+
+def _kept(frames: Frames, keep: FrameFilter) -> Frames:
+    """``frames`` without those ``keep`` leaves out, their IDs kept in ``log_ids``."""
+    keys = np.unique(frame_keys(frames.channel, frames.ids, frames.extended))
+    at = np.flatnonzero(keep.mask(frames.ids, frames.extended))
+    return dataclasses.replace(
+        frames,
+        t_s=frames.t_s[at],
+        ids=frames.ids[at],
+        extended=frames.extended[at],
+        length=frames.length[at],
+        data=frames.data[at],
+        channel=frames.channel[at],
+        rows=frames.rows[at],
+        dropped=frames.in_log - at.size,
+        log_ids=keys,
+    )
+
+
+def read_frames(
+    path: Path, file: str, local_zone: str | None = None, keep: FrameFilter | None = None
+) -> Frames:
     """A CAN log's data frames: candump's by :func:`_candump`, BLF's by :func:`_blf`,
     ASC's by :func:`_asc` (python-can's where it leaves the log to it), TRC's by
     :func:`_trc`.
@@ -159,6 +229,10 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
         local_zone: the logging computer's time zone (IANA): an ASC log's stamps are then
             put on UTC by its date line (:func:`asc_start`), a TRC's by its ``$STARTTIME``
             (:func:`_trc`); other logs keep their clocks.
+        keep: the messages to keep (the others counted and left out, their IDs kept in
+            ``log_ids``): a candump log is read a part at a time and each part's other
+            frames left out at once, so its memory is that of a part and of the frames
+            kept; other logs are left out of when read whole.
 
     Raises:
         InputError: no data frame in the log; a log python-can cannot read (with the
@@ -167,7 +241,7 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
     """
     suffix = path.suffix.lower()
     if suffix == CANDUMP:
-        frames = _candump(path, file)
+        frames = _candump(path, file, keep)
     elif suffix == ".blf":
         frames = _blf(path, file)
     elif suffix == ".asc" and (got := _asc(path, file)) is not None:
@@ -182,7 +256,9 @@ def read_frames(path: Path, file: str, local_zone: str | None = None) -> Frames:
         else:
             start, said = asc_start(path, file, local_zone)
             frames = dataclasses.replace(frames, t_s=frames.t_s + start, clock=said)
-    if not frames.t_s.size:
+    if keep is not None and frames.log_ids is None:
+        frames = _kept(frames, keep)
+    if not frames.in_log:
         example = {
             CANDUMP: "as candump -l writes them: (1436509052.249713) can0 0AA#1A2B3C4D",
         }.get(suffix, f"as {suffix.lstrip('.').upper()} holds them")
@@ -213,9 +289,112 @@ def _hex_values(buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: in
     return np.where(inside, digits, 0)
 
 
-def _candump(path: Path, file: str) -> Frames:
-    """A candump log's frames, every line parsed at once (see the module's docstring)."""
-    data = path.read_bytes()
+@dataclass
+class _Lines:
+    """A part of a candump log, its lines parsed (:func:`_candump_lines`): its data frames
+    (``rows`` the lines in the log, ``channel`` numbering ``names``), what it passed over
+    (counts by kind; damaged lines and lines that are no frame with the first of each)."""
+
+    t_s: np.ndarray
+    ids: np.ndarray
+    extended: np.ndarray
+    length: np.ndarray
+    data: np.ndarray
+    channel: np.ndarray
+    names: list[str]
+    rows: np.ndarray
+    skipped: dict[str, int]
+    damaged: tuple[int, int]  # (count, first line)
+    not_frame: tuple[int, int]
+
+
+_CANDUMP_PART_BYTES = 1 << 25  # a candump log read 32 MB of lines at a time
+
+
+def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
+    """A candump log's frames: its lines parsed at once a part of
+    :data:`_CANDUMP_PART_BYTES` at a time (:func:`_candump_lines`), the parts' frames
+    joined (their interfaces numbered in the order first seen in the log), each part's
+    frames of messages ``keep`` leaves out dropped as it is read (see the module's
+    docstring)."""
+    names: list[str] = []
+    parts: list[_Lines] = []
+    keys: list[np.ndarray] = []
+    skipped: dict[str, int] = {}
+    damaged = not_frame = (0, 0)
+    dropped, line0 = 0, 0
+    for data in _whole_lines(path, _CANDUMP_PART_BYTES):
+        part = _candump_lines(data, line0)
+        line0 += data.count(b"\n")
+        new = [n for n in part.names if n not in names]
+        names += new
+        if part.names != names[: len(part.names)]:  # the part's numbers on the log's
+            number = np.array([0] + [names.index(n) + 1 for n in part.names], np.uint8)
+            part.channel = number[part.channel]
+        for k, v in part.skipped.items():
+            skipped[k] = skipped.get(k, 0) + v
+        damaged, not_frame = _first(damaged, part.damaged), _first(not_frame, part.not_frame)
+        if keep is not None:
+            keys.append(np.unique(frame_keys(part.channel, part.ids, part.extended)))
+            at = np.flatnonzero(keep.mask(part.ids, part.extended))
+            dropped += part.t_s.size - at.size
+            for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
+                setattr(part, name, getattr(part, name)[at])
+        parts.append(part)
+    width = max((p.data.shape[1] for p in parts), default=8)
+    passed = {k: v for k, v in skipped.items() if v}
+    if damaged[0]:
+        passed[f"lines damaged (first at line {damaged[1]})"] = damaged[0]
+    if not_frame[0]:
+        passed[f"lines that are no frame (first at line {not_frame[1]})"] = not_frame[0]
+    t = _joined(parts, "t_s", np.float64)
+    return Frames(
+        t,
+        _joined(parts, "ids", np.uint32),
+        _joined(parts, "extended", bool),
+        _joined(parts, "length", np.uint8),
+        np.concatenate(
+            [np.pad(p.data, ((0, 0), (0, width - p.data.shape[1]))) for p in parts]
+            or [np.zeros((0, width), np.uint8)]
+        ),
+        _joined(parts, "channel", np.uint8),
+        names,
+        _clock("candump", t),
+        _joined(parts, "rows", np.int64),
+        ", ".join(f"{v} {k}" for k, v in passed.items()),
+        dropped=dropped,
+        log_ids=None if keep is None else np.unique(np.concatenate([*keys, np.zeros(0, np.int64)])),
+    )
+
+
+def _joined(parts: list[_Lines], name: str, dtype: type) -> np.ndarray:
+    """The parts' arrays ``name`` one after the other."""
+    return np.concatenate([getattr(p, name) for p in parts] or [np.zeros(0, dtype)])
+
+
+def _first(seen: tuple[int, int], part: tuple[int, int]) -> tuple[int, int]:
+    """(count, first line) of lines of a kind, over the parts read so far."""
+    return (seen[0] + part[0], seen[1] if seen[0] else part[1])
+
+
+def _whole_lines(path: Path, size: int) -> Iterator[bytes]:
+    """A file's bytes in parts of about ``size`` bytes, each ending at a line's end (the
+    last where the file ends); a line longer than ``size`` makes its part longer."""
+    carry = b""
+    with open(path, "rb") as f:
+        while block := f.read(size):
+            data = carry + block
+            cut = data.rfind(b"\n") + 1
+            carry, data = data[cut:], data[:cut]
+            if data:
+                yield data
+    if carry:
+        yield carry
+
+
+def _candump_lines(data: bytes, line0: int) -> _Lines:
+    """A part of a candump log (whole lines, the first the log's line ``line0 + 1``), every
+    line parsed at once."""
     buf = np.frombuffer(data + b"\n", np.uint8)
     size = buf.size
     ends = np.flatnonzero(buf == ord("\n"))
@@ -297,12 +476,7 @@ def _candump(path: Path, file: str) -> Frames:
         damaged = np.union1d(damaged, line[kept[bad_data]] + 1)
         kept, payload = kept[~bad_data], payload[~bad_data]
     names, channel = _interfaces(buf, iface_at[line[kept]] + 1, id_start[line[kept]] - 1)
-    passed = {k: v for k, v in skipped.items() if v}
-    if damaged.size:
-        passed[f"lines damaged (first at line {int(damaged[0])})"] = int(damaged.size)
-    if not_frame.size:
-        passed[f"lines that are no frame (first at line {int(not_frame[0])})"] = int(not_frame.size)
-    return Frames(
+    return _Lines(
         t[kept],
         (ids[kept] & ID_MASK).astype(np.uint32),
         id_len[kept] == 8,
@@ -310,9 +484,10 @@ def _candump(path: Path, file: str) -> Frames:
         payload,
         channel,
         names,
-        _clock("candump", t[kept]),
-        line[kept] + 1,
-        ", ".join(f"{v} {k}" for k, v in passed.items()),
+        line0 + line[kept] + 1,
+        skipped,
+        (int(damaged.size), line0 + int(damaged[0]) if damaged.size else 0),
+        (int(not_frame.size), line0 + int(not_frame[0]) if not_frame.size else 0),
     )
 
 

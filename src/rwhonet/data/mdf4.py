@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import gc
+import re
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -23,7 +24,14 @@ from typing import Any
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames
+from rwhonet.data.canlog import (
+    FrameFilter,
+    Frames,
+    bus_log,
+    is_can_log_name,
+    key_id,
+    read_frames,
+)
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import map_unit_name, unit_name
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
@@ -160,7 +168,14 @@ def can_log_groups(
                 )
             ]
         )
-    frames = None if is_mdf_name(path.name) else read_frames(path, file, local_zone)
+    frames, wanted = None, None
+    if not is_mdf_name(path.name):
+        wanted = _wanted(dbc, [spec.column for spec in signal_map.values()], present_only)
+        frames = read_frames(path, file, local_zone, None if wanted is None else wanted.keep)
+        if wanted is not None and not wanted.all_in(frames):
+            # a message the map needs is not in the log: read it whole, so that what is
+            # missing is said (or, among a stream folder's files, left) as for any log
+            wanted, frames = None, read_frames(path, file, local_zone)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         decoded = _decoded(mdf, dbc, name, file, frames)
@@ -170,7 +185,11 @@ def can_log_groups(
             groups = _groups(decoded, signal_map, radius_m, name, file, frames is None, frames)
         finally:
             decoded.close()
-        notes = [_decoded_note(mdf, dbc)]
+        notes = [
+            _decoded_note(mdf, dbc)
+            if wanted is None or frames is None
+            else wanted.note(frames, _bus_channels(_pairs(dbc), frames, None, "", file))
+        ]
         start_s, clock, said, local = (
             (0.0, "", "", False) if frames is not None else _start(mdf.header, local_zone)
         )
@@ -182,7 +201,13 @@ def can_log_groups(
         ]
         return CanLogGroups(groups, clock, [f"{file}: {n}" for n in [*notes, said]], [], local)
     buses = ", ".join(frames.buses)
-    notes.append(f"{frames.t_s.size} data frames on {len(frames.buses)} bus(es) ({buses})")
+    notes.append(f"{frames.in_log} data frames on {len(frames.buses)} bus(es) ({buses})")
+    if frames.log_ids is not None:
+        notes.append(
+            f"{frames.t_s.size} of them decoded, those of the {len(wanted.keep.messages)} "
+            "message(s) the map's signals are in; the other frames were counted and left "
+            "out as the log was read"
+        )
     notes.append(f"the time stamps are {frames.clock}")
     passed = [f"{file}: passed over: {frames.passed}"] if frames.passed else []
     return CanLogGroups(
@@ -266,6 +291,90 @@ def _decoded_note(mdf, dbc: Databases) -> str:  # type: ignore[no-untyped-def]
     found = len({i for ids in info.get("found_ids", {}).values() for i in ids})
     files = ", ".join(Path(d).name + (f" ({bus})" if bus else "") for d, bus in _pairs(dbc))
     return f"raw CAN frames decoded with {files}: {found} of the log's {total} frame IDs defined"
+
+
+@dataclasses.dataclass(frozen=True)
+class _Wanted:
+    """The messages a raw CAN log's decode needs (:func:`_wanted`).
+
+    Attributes:
+        keep: the messages that carry the map's signals.
+        pairs: the map's databases, each with its bus (None: every bus).
+        defined: each database's messages, ``(identifier, extended)``, in ``pairs``' order
+            (for the note of the log's frame IDs they define).
+    """
+
+    keep: FrameFilter
+    pairs: list[tuple[str, str | None]]
+    defined: list[frozenset[tuple[int, bool]]]
+
+    def all_in(self, frames: Frames) -> bool:
+        """Whether the log has frames of every message kept (on any bus)."""
+        _, ident, ext = key_id(frames.log_ids)
+        return self.keep.messages <= set(zip(ident.tolist(), ext.tolist(), strict=True))
+
+    def note(self, frames: Frames, channels: list[tuple[str, int]]) -> str:
+        """:func:`_decoded_note` for a log read with ``keep``: of the IDs on the buses a
+        database decodes (every bus, or its own: ``channels``, as :func:`_bus_channels`
+        numbers them), those it defines."""
+        bus, ident, ext = key_id(frames.log_ids)
+        on_bus = list(
+            zip(bus.tolist(), zip(ident.tolist(), ext.tolist(), strict=True), strict=True)
+        )
+        total: set[tuple[int, bool]] = set()
+        found: set[tuple[int, bool]] = set()
+        for (_, channel), messages in zip(channels, self.defined, strict=True):
+            on = {i for b, i in on_bus if channel in (0, b)}
+            total |= on
+            found |= on & messages
+        files = ", ".join(Path(d).name + (f" ({b})" if b else "") for d, b in self.pairs)
+        return (
+            f"raw CAN frames decoded with {files}: {len(found)} of the log's {len(total)} "
+            "frame IDs defined"
+        )
+
+
+_ON_BUS = re.compile(r"CAN\d+\.")  # a decoded signal's name with its bus: CAN1.Message.Signal
+
+
+def _wanted(dbc: Databases, columns: list[str], present_only: bool) -> _Wanted | None:
+    """The messages of the CAN databases ``dbc`` that carry the signals ``columns`` name
+    (a signal's name, ``Message.Signal`` or ``CAN1.Message.Signal``, as the decoded log
+    names them), for :func:`rwhonet.data.canlog.read_frames` to keep. None where the log
+    is to be read whole: a database missing or not loaded (:func:`_decoded` refuses it),
+    a column no database's signal (unless ``present_only``: there such a column is
+    another file's, and where none is, the log's decode finds nothing either), or a J1939
+    database or message (asammdf matches those by parameter group, not identifier)."""
+    from asammdf.blocks.utils import load_can_database
+
+    pairs = _pairs(dbc)
+    bare = {c: c[m.end() :] if (m := _ON_BUS.match(c)) else c for c in columns}
+    keys: set[tuple[int, bool]] = set()
+    named: set[str] = set()
+    defined: list[frozenset[tuple[int, bool]]] = []
+    for d, _ in pairs:
+        try:
+            db = load_can_database(Path(d)) if Path(d).is_file() else None
+        except Exception:  # noqa: BLE001 (the decode says what is wrong with the database)
+            db = None
+        if db is None or db.attributes.get("ProtocolType", "").lower() == "j1939":
+            return None
+        ids = set()
+        for message in db:
+            key = (int(message.arbitration_id.id), bool(message.arbitration_id.extended))
+            ids.add(key)
+            names = {s.name for s in message.signals}
+            names |= {f"{message.name}.{n}" for n in names}
+            hit = {c for c, b in bare.items() if b in names}
+            if hit:
+                if message.is_j1939:
+                    return None
+                keys.add(key)
+                named |= hit
+        defined.append(frozenset(ids))
+    if not keys or (not present_only and named != set(columns)):
+        return None
+    return _Wanted(FrameFilter(frozenset(keys)), pairs, defined)
 
 
 def _dbc_setting(name: str) -> str:
