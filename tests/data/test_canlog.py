@@ -736,3 +736,50 @@ def test_a_map_s_message_missing_from_the_log_is_said_as_for_a_log_read_whole(tm
     (problem,) = err.value.problems
     assert problem.column == "YawRate" and "no such signal; the file has" in problem.found
     assert "Junk" in problem.found  # the log's other message, decoded as before
+
+
+def _on_buses(path, stamps, ids, data, ext, channels):  # type: ignore[no-untyped-def]
+    """Frames written by python-can's writer for ``path``'s suffix, each on its bus."""
+    import can
+
+    with can.Logger(str(path)) as writer:
+        for t, i, d, x, ch in zip(
+            stamps.tolist(), ids.tolist(), data, ext.tolist(), channels.tolist(), strict=True
+        ):
+            writer.on_message_received(
+                can.Message(
+                    timestamp=t, arbitration_id=i, is_extended_id=x, data=bytes(d), channel=ch
+                )
+            )
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".trc"])
+def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_read_whole(
+    tmp_path, monkeypatch, suffix
+):
+    """Parts of 2 kB: the buses numbered in the order first seen among every frame (bus 2
+    first, then bus 1 in the same part, bus 3 first in a later part), the frames kept
+    those of the log read whole that the filter keeps, every frame's bus and ID in
+    ``log_ids``."""
+    from rwhonet.data import asc, trc
+    from rwhonet.data.canlog import FrameFilter, frame_keys
+
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    n = np.arange(len(ids))
+    channels = np.where((n > 150) & (n % 7 == 3), 2, np.where((n > 400) & (n % 5 == 1), 1, 0))
+    channels[0] = 1
+    log = _on_buses(tmp_path / f"bus{suffix}", stamps, ids, data, ext, channels)
+    every = read_frames(log, log.name)
+    # TRC numbers python-can's channel 0 as bus 1; ASC and BLF read back python-can's own
+    assert every.buses == (["2", "1", "3"] if suffix == ".trc" else ["1", "0", "2"])
+    for module in (trc, asc):
+        monkeypatch.setattr(module, "CHUNK_BYTES", 2048)
+    keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))
+    some = read_frames(log, log.name, keep=keep)
+    at = np.flatnonzero(keep.mask(every.ids, every.extended))
+    assert_same_frames(some, dataclasses.replace(every, **_taken(every, at)))
+    assert some.dropped == every.t_s.size - at.size > 0
+    np.testing.assert_array_equal(
+        some.log_ids, np.unique(frame_keys(every.channel, every.ids, every.extended))
+    )

@@ -52,7 +52,9 @@ from one log keeps them as they are; its notes say which.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import mmap
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -64,7 +66,7 @@ import numpy as np
 from rwhonet.data.asc import STAMP, encoding_of, stamp_ns
 from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.trc import FD_LENGTHS, MAX_BYTES, trc_frames
+from rwhonet.data.trc import FD_LENGTHS, ID_MASK, MAX_BYTES, trc_frames
 from rwhonet.errors import InputError, Problem
 
 if TYPE_CHECKING:
@@ -74,7 +76,6 @@ if TYPE_CHECKING:
 CANDUMP, PYTHON_CAN = ".log", (".asc", ".blf", ".trc")
 CAN_LOG_SUFFIXES = (CANDUMP, *PYTHON_CAN)
 ERROR_FLAG = 0x2000_0000  # SocketCAN's CAN_ERR_FLAG in an identifier
-ID_MASK = 0x1FFF_FFFF  # an extended identifier's 29 bits
 
 
 def is_can_log_name(name: str) -> bool:
@@ -247,7 +248,7 @@ def read_frames(
     elif suffix == ".asc" and (got := _asc(path, file)) is not None:
         frames = got
     elif suffix == ".trc":
-        frames = _trc(path, file, local_zone)
+        frames = _trc(path, file, local_zone, keep)
     else:
         frames = _python_can(path, file, suffix)
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
@@ -699,7 +700,9 @@ def _asc(path: Path, file: str) -> Frames | None:
     return _yielded("ASC", got, got.ids & ID_MASK, got.extended, said)
 
 
-def _trc(path: Path, file: str, local_zone: str | None = None) -> Frames:
+def _trc(
+    path: Path, file: str, local_zone: str | None = None, keep: FrameFilter | None = None
+) -> Frames:
     """A TRC log's data frames, parsed at once in PEAK's format of its version
     (:func:`rwhonet.data.trc.trc_frames`): python-can's where it reads the log.
 
@@ -718,8 +721,13 @@ def _trc(path: Path, file: str, local_zone: str | None = None) -> Frames:
     from datetime import UTC
     from zoneinfo import ZoneInfo
 
-    got = trc_frames(path.read_bytes(), file)
-    bus, buses = _buses(got.bus.astype(str))
+    with _mapped(path) as raw:
+        got = trc_frames(raw, file, None if keep is None else keep.mask)
+    if got.bus_order is None:
+        bus, buses = _buses(got.bus.astype(str))
+    else:  # numbered in the order first seen among every frame, those left out included
+        buses = [str(b) for b in got.bus_order.tolist()]
+        bus, log_ids = _numbered(got.bus_order, got.bus, got.seen)
     width = MAX_BYTES if got.length.max(initial=0) > 8 else 8
     t, clock = got.t_s, _clock("TRC", got.t_s) + f", TRC {got.version}"
     local = got.start_wall is None or not got.start_utc
@@ -764,7 +772,34 @@ def _trc(path: Path, file: str, local_zone: str | None = None) -> Frames:
         got.rows,
         ", ".join(f"{v} {k}" for k, v in got.passed.items()),
         local,
+        got.dropped,
+        None if got.bus_order is None else log_ids,
     )
+
+
+def _numbered(
+    order: np.ndarray, bus: np.ndarray, seen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Frames' buses as a log numbers them (``bus``), and the keys of every frame seen
+    (``seen``: that bus, ``<< 40``, over :func:`frame_keys`' identifier and extended bit),
+    numbered 1, 2, ... in ``order`` (the buses in the order first seen)."""
+    rank = np.argsort(order)
+
+    def number(values: np.ndarray) -> np.ndarray:
+        return rank[np.searchsorted(order, values, sorter=rank)].astype(np.int64) + 1
+
+    keys = (number(seen >> 40) << 40) | (seen & ((1 << 40) - 1))
+    return number(bus).astype(np.uint8), np.unique(keys)
+
+
+@contextlib.contextmanager
+def _mapped(path: Path) -> Iterator[bytes | mmap.mmap]:
+    """A file's bytes mapped in memory (read as needed, not held); an empty file's ``b""``."""
+    if path.stat().st_size == 0:
+        yield b""
+        return
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as raw:
+        yield raw
 
 
 def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
