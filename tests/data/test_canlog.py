@@ -739,22 +739,33 @@ def test_a_map_s_message_missing_from_the_log_is_said_as_for_a_log_read_whole(tm
 
 
 def _on_buses(path, stamps, ids, data, ext, channels):  # type: ignore[no-untyped-def]
-    """Frames written by python-can's writer for ``path``'s suffix, each on its bus."""
+    """Frames written by python-can's writer for ``path``'s suffix, each on its bus; every
+    97th a remote frame, every 89th an error frame (not in TRC: python-can's writer writes
+    neither)."""
     import can
 
     with can.Logger(str(path)) as writer:
-        for t, i, d, x, ch in zip(
-            stamps.tolist(), ids.tolist(), data, ext.tolist(), channels.tolist(), strict=True
+        for n, (t, i, d, x, ch) in enumerate(
+            zip(stamps.tolist(), ids.tolist(), data, ext.tolist(), channels.tolist(), strict=True)
         ):
+            other = path.suffix != ".trc"
+            remote, error = other and n % 97 == 96, other and n % 89 == 88
             writer.on_message_received(
                 can.Message(
-                    timestamp=t, arbitration_id=i, is_extended_id=x, data=bytes(d), channel=ch
+                    timestamp=t,
+                    arbitration_id=i,
+                    is_extended_id=x,
+                    data=None if remote else bytes(d),
+                    dlc=8,
+                    is_remote_frame=remote,
+                    is_error_frame=error,
+                    channel=ch,
                 )
             )
     return path
 
 
-@pytest.mark.parametrize("suffix", [".trc"])
+@pytest.mark.parametrize("suffix", [".trc", ".asc"])
 def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_read_whole(
     tmp_path, monkeypatch, suffix
 ):
@@ -773,6 +784,8 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
     every = read_frames(log, log.name)
     # TRC numbers python-can's channel 0 as bus 1; ASC and BLF read back python-can's own
     assert every.buses == (["2", "1", "3"] if suffix == ".trc" else ["1", "0", "2"])
+    if suffix != ".trc":
+        assert "error frames" in every.passed and "remote frames" in every.passed
     for module in (trc, asc):
         monkeypatch.setattr(module, "CHUNK_BYTES", 2048)
     keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))

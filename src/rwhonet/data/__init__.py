@@ -56,7 +56,8 @@
   :mod:`~rwhonet.data.blf`, an ASC's lines by :mod:`~rwhonet.data.asc`, a PEAK TRC's
   by :mod:`~rwhonet.data.trc`), laid out as an MDF4 bus log for the map's DBC.
   :mod:`~rwhonet.data.bytescan` finds things in a text log's bytes at once, for the NMEA,
-  candump, ASC and TRC readers.
+  candump, ASC and TRC readers; :mod:`~rwhonet.data.keptframes` keeps, a part of a log at a
+  time, only the frames of the messages the map's signals are in.
 - :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where
   ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those

@@ -83,6 +83,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rwhonet.data.bytescan import DEC, Fields, small_hex
+from rwhonet.data.keptframes import ID_MASK, Kept
 
 CHUNK_BYTES = 1 << 23  # lines split into fields at once (8 MB of text; bounds the memory)
 EXACT = 2**53  # integers float64 holds exactly
@@ -141,7 +142,9 @@ class AscFrames:
     channel: np.ndarray
 
 
-def asc_frames(raw: bytes, relative: bool, encoding: str | None = None) -> AscFrames | None:
+def asc_frames(
+    raw: bytes, relative: bool, encoding: str | None = None, kept: Kept | None = None
+) -> AscFrames | None:
     """The messages python-can's ASC reader yields for the log ``raw``, or None where the
     log is one for python-can to read itself (see the module's docstring).
 
@@ -150,6 +153,8 @@ def asc_frames(raw: bytes, relative: bool, encoding: str | None = None) -> AscFr
         relative: its stamps are each event's time since the one before (they are summed
             first, as :class:`rwhonet.data.canlog._SummedStamps` sums them).
         encoding: its text encoding (None: :func:`encoding_of` it).
+        kept: the messages to keep (the data frames left out counted there, and dropped
+            from each chunk as it is parsed); None: every message.
 
     Raises:
         AscError: python-can's reader stops at a line (with the data frames before it).
@@ -166,17 +171,22 @@ def asc_frames(raw: bytes, relative: bool, encoding: str | None = None) -> AscFr
         return None
     at, carry = header
     parts: list[AscFrames] = []
+    data_frames = 0  # read so far, those left out included
     while at < len(text):
         end = text.find(b"\n", min(at + CHUNK_BYTES, len(text)) - 1)
         end = len(text) if end < 0 else end + 1
         part = _chunk(text[at:end], relative, carry, encoding)
         if part is None:
             return None
-        parts.append(part.frames)
+        got = part.frames
+        data_frames += int((~got.error & ~got.remote).sum())
+        if kept is not None:
+            ids = np.asarray(got.ids & ID_MASK).astype(np.int64)
+            got = _take(got, kept.part(ids, got.extended, got.channel, got.error | got.remote))
+        parts.append(got)
         carry = part.carry
         if part.failed is not None:
-            frames = sum(int((~p.error & ~p.remote).sum()) for p in parts)
-            raise AscError(part.failed, frames)
+            raise AscError(part.failed, data_frames)
         at = end
     return _joined(parts)
 

@@ -66,7 +66,8 @@ import numpy as np
 from rwhonet.data.asc import STAMP, encoding_of, stamp_ns
 from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.trc import FD_LENGTHS, ID_MASK, MAX_BYTES, trc_frames
+from rwhonet.data.keptframes import ID_MASK, FrameFilter, Kept, frame_keys
+from rwhonet.data.trc import FD_LENGTHS, MAX_BYTES, trc_frames
 from rwhonet.errors import InputError, Problem
 
 if TYPE_CHECKING:
@@ -166,39 +167,6 @@ def _message(acq_name: str) -> tuple[int, int, bool] | None:
     return None if match is None else (int(match[1]), int(match[2], 16), match[3] == "True")
 
 
-def frame_keys(channel: np.ndarray, ids: np.ndarray, extended: np.ndarray) -> np.ndarray:
-    """Each frame's bus, identifier and whether it is extended as one number:
-    ``bus << 40 | extended << 32 | identifier``."""
-    return (
-        (channel.astype(np.int64) << 40) | (extended.astype(np.int64) << 32) | ids.astype(np.int64)
-    )
-
-
-def key_id(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`frame_keys` taken apart: (bus, identifier, extended)."""
-    return keys >> 40, keys & 0xFFFF_FFFF, (keys >> 32) & 1 != 0
-
-
-@dataclass(frozen=True)
-class FrameFilter:
-    """The frames a decode needs: those whose identifier (and whether it is extended) is
-    one of ``messages``', on any bus. A whole bus's log holds mostly frames of messages
-    the map's signals are not in; left out as each part of the log is read, they take
-    neither memory nor the decoder's time (:func:`read_frames`).
-
-    Attributes:
-        messages: ``(identifier, extended)`` of each message kept.
-    """
-
-    messages: frozenset[tuple[int, bool]]
-
-    def mask(self, ids: np.ndarray, extended: np.ndarray) -> np.ndarray:
-        """Which frames are of a kept message."""
-        code = ids.astype(np.int64) | (extended.astype(np.int64) << 32)
-        wanted = np.array(sorted(i | (int(x) << 32) for i, x in self.messages), np.int64)
-        return np.isin(code, wanted)
-
-
 def _kept(frames: Frames, keep: FrameFilter) -> Frames:
     """``frames`` without those ``keep`` leaves out, their IDs kept in ``log_ids``."""
     keys = np.unique(frame_keys(frames.channel, frames.ids, frames.extended))
@@ -245,7 +213,7 @@ def read_frames(
         frames = _candump(path, file, keep)
     elif suffix == ".blf":
         frames = _blf(path, file)
-    elif suffix == ".asc" and (got := _asc(path, file)) is not None:
+    elif suffix == ".asc" and (got := _asc(path, file, keep)) is not None:
         frames = got
     elif suffix == ".trc":
         frames = _trc(path, file, local_zone, keep)
@@ -320,10 +288,10 @@ def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
     docstring)."""
     names: list[str] = []
     parts: list[_Lines] = []
-    keys: list[np.ndarray] = []
+    kept = None if keep is None else Kept(keep)
     skipped: dict[str, int] = {}
     damaged = not_frame = (0, 0)
-    dropped, line0 = 0, 0
+    line0 = 0
     for data in _whole_lines(path, _CANDUMP_PART_BYTES):
         part = _candump_lines(data, line0)
         line0 += data.count(b"\n")
@@ -335,10 +303,8 @@ def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
         for k, v in part.skipped.items():
             skipped[k] = skipped.get(k, 0) + v
         damaged, not_frame = _first(damaged, part.damaged), _first(not_frame, part.not_frame)
-        if keep is not None:
-            keys.append(np.unique(frame_keys(part.channel, part.ids, part.extended)))
-            at = np.flatnonzero(keep.mask(part.ids, part.extended))
-            dropped += part.t_s.size - at.size
+        if kept is not None:
+            at = kept.part(part.ids, part.extended, part.channel)
             for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
                 setattr(part, name, getattr(part, name)[at])
         parts.append(part)
@@ -363,9 +329,13 @@ def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
         _clock("candump", t),
         _joined(parts, "rows", np.int64),
         ", ".join(f"{v} {k}" for k, v in passed.items()),
-        dropped=dropped,
-        log_ids=None if keep is None else np.unique(np.concatenate([*keys, np.zeros(0, np.int64)])),
+        **_left_out(kept),
     )
+
+
+def _left_out(kept: Kept | None) -> dict:  # type: ignore[type-arg]
+    """:class:`Frames`' fields of what a filter left out (none where there was none)."""
+    return {} if kept is None else {"dropped": kept.dropped, "log_ids": kept.log_ids()}
 
 
 def _joined(parts: list[_Lines], name: str, dtype: type) -> np.ndarray:
@@ -652,12 +622,18 @@ def _blf(path: Path, file: str) -> Frames:
 
 
 def _yielded(
-    kind: str, got: BlfFrames | AscFrames, ids: np.ndarray, extended: np.ndarray, said: str = ""
+    kind: str,
+    got: BlfFrames | AscFrames,
+    ids: np.ndarray,
+    extended: np.ndarray,
+    said: str = "",
+    kept: Kept | None = None,
 ) -> Frames:
     """The data frames among the messages python-can's reader yields for a log, given as
     arrays (``got``), with their identifiers without flags (``ids``) and whether each is
     extended; error and remote frames passed over and counted, the frames numbered among
-    all the messages; ``said`` is added to the clock's words."""
+    all the messages; ``said`` is added to the clock's words. ``kept``: ``got`` holds the
+    messages it kept (numbered among all the log's there), not all."""
     keep = ~got.error & ~got.remote
     skipped = {
         "error frames": int(got.error.sum()),
@@ -666,7 +642,11 @@ def _yielded(
     lengths = got.length[keep]
     width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
     t = got.t_s[keep]
-    bus, buses = _buses(got.channel[keep])
+    if kept is None:
+        bus, buses = _buses(got.channel[keep])
+        rows = np.flatnonzero(keep).astype(np.int64) + 1
+    else:
+        bus, buses, rows = kept.channel(got.channel[keep]), kept.buses, kept.numbers[keep]
     return Frames(
         t,
         ids[keep].astype(np.uint32),
@@ -676,12 +656,13 @@ def _yielded(
         bus,
         buses,
         _clock(kind, t) + said,
-        np.flatnonzero(keep).astype(np.int64) + 1,
+        rows,
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
+        **_left_out(kept),
     )
 
 
-def _asc(path: Path, file: str) -> Frames | None:
+def _asc(path: Path, file: str, keep: FrameFilter | None = None) -> Frames | None:
     """An ASC log's data frames, the frames python-can's reader gives, parsed at once
     (:func:`rwhonet.data.asc.asc_frames`); None where the log is one python-can reads
     itself (``base dec``, a control character: :mod:`rwhonet.data.asc` says which)."""
@@ -690,14 +671,15 @@ def _asc(path: Path, file: str) -> Frames | None:
     raw = path.read_bytes()
     encoding = encoding_of(raw)
     relative = asc_header(path, encoding).relative
+    kept = None if keep is None else Kept(keep)
     try:
-        got = asc_frames(raw, relative, encoding)
+        got = asc_frames(raw, relative, encoding, kept)
     except AscError as err:
         raise _unreadable(file, "ASC", err.cause, err.data_frames) from None
     if got is None:
         return None
     said = ", each event's time since the one before, summed" if relative else ""
-    return _yielded("ASC", got, got.ids & ID_MASK, got.extended, said)
+    return _yielded("ASC", got, got.ids & ID_MASK, got.extended, said, kept)
 
 
 def _trc(
@@ -721,13 +703,12 @@ def _trc(
     from datetime import UTC
     from zoneinfo import ZoneInfo
 
+    kept = None if keep is None else Kept(keep)
     with _mapped(path) as raw:
-        got = trc_frames(raw, file, None if keep is None else keep.mask)
-    if got.bus_order is None:
-        bus, buses = _buses(got.bus.astype(str))
-    else:  # numbered in the order first seen among every frame, those left out included
-        buses = [str(b) for b in got.bus_order.tolist()]
-        bus, log_ids = _numbered(got.bus_order, got.bus, got.seen)
+        got = trc_frames(raw, file, kept)
+    bus, buses = (
+        _buses(got.bus.astype(str)) if kept is None else (kept.channel(got.bus), kept.buses)
+    )
     width = MAX_BYTES if got.length.max(initial=0) > 8 else 8
     t, clock = got.t_s, _clock("TRC", got.t_s) + f", TRC {got.version}"
     local = got.start_wall is None or not got.start_utc
@@ -772,24 +753,8 @@ def _trc(
         got.rows,
         ", ".join(f"{v} {k}" for k, v in got.passed.items()),
         local,
-        got.dropped,
-        None if got.bus_order is None else log_ids,
+        **_left_out(kept),
     )
-
-
-def _numbered(
-    order: np.ndarray, bus: np.ndarray, seen: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Frames' buses as a log numbers them (``bus``), and the keys of every frame seen
-    (``seen``: that bus, ``<< 40``, over :func:`frame_keys`' identifier and extended bit),
-    numbered 1, 2, ... in ``order`` (the buses in the order first seen)."""
-    rank = np.argsort(order)
-
-    def number(values: np.ndarray) -> np.ndarray:
-        return rank[np.searchsorted(order, values, sorter=rank)].astype(np.int64) + 1
-
-    keys = (number(seen >> 40) << 40) | (seen & ((1 << 40) - 1))
-    return number(bus).astype(np.uint8), np.unique(keys)
 
 
 @contextlib.contextmanager

@@ -24,16 +24,10 @@ from typing import Any
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.canlog import (
-    FrameFilter,
-    Frames,
-    bus_log,
-    is_can_log_name,
-    key_id,
-    read_frames,
-)
+from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import map_unit_name, unit_name
+from rwhonet.data.keptframes import FrameFilter, key_id
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.errors import InputError, Problem
