@@ -1,6 +1,7 @@
-"""A Vector BLF log's frames parsed at once (rwhonet.data.blf): python-can's reader's
-messages, bit for bit, on logs its writer wrote, on objects built by its layouts (the ones
-its writer does not write), on every cut of a log, and on damaged and edited logs."""
+"""A Vector BLF log's frames parsed a batch of objects at a time (rwhonet.data.blf):
+python-can's reader's messages, bit for bit, on logs its writer wrote, on objects built by
+its layouts (the ones its writer does not write), on every cut of a log, and on damaged and
+edited logs; each in one batch, a container a batch, and batches of 200 bytes."""
 
 from __future__ import annotations
 
@@ -30,6 +31,18 @@ from support.canlog import assert_same_frames
 from support.fuzz import fuzz_settings
 
 T0_S = 1_700_000_000.0
+
+
+@pytest.fixture(autouse=True, params=["whole", 1, 200])
+def batch(request, monkeypatch):  # type: ignore[no-untyped-def]
+    """Every test on the objects parsed in one batch (a log here is far below
+    BATCH_BYTES), a container a batch, and batches of about 200 inflated bytes: objects
+    run on from one batch into the next, cut anywhere."""
+    from rwhonet.data import blf
+
+    if request.param != "whole":
+        monkeypatch.setattr(blf, "BATCH_BYTES", request.param)
+    return request.param
 
 
 def _python_can_messages(path: Path) -> tuple[list[can.Message], Exception | None]:
@@ -187,13 +200,15 @@ def _built() -> bytes:
 
 
 @pytest.mark.parametrize(
-    ("split", "methods"), [(None, (2,)), (None, (0,)), (100, (2, 2)), (37, (0, 2)), (150, (2, 9))]
+    ("split", "methods"),
+    [(None, (2,)), (None, (0,)), (100, (2, 2)), (37, (0, 2)), (10, (0, 2)), (150, (2, 9))],
 )
 def test_objects_python_can_s_writer_does_not_write_read_as_python_can_reads_them(
     tmp_path, split, methods
 ):
-    """In one container or two (an object split across them), deflated or stored, or the
-    second of a compression method python-can passes over."""
+    """In one container or two (an object split across them, or the first object's header:
+    10 bytes), deflated or stored, or the second of a compression method python-can passes
+    over."""
     path = tmp_path / "built.blf"
     path.write_bytes(_log(_built(), split, methods))
     n = _same_as_python_can(path)
@@ -292,3 +307,29 @@ def test_an_edited_log_reads_as_python_can_reads_it_or_both_stop(tmp_path_factor
     path = tmp_path_factory.mktemp("edited") / "bus.blf"
     path.write_bytes(raw)
     _same_as_python_can(path)
+
+
+def test_an_object_that_runs_past_its_container_is_read_from_the_next(tmp_path):
+    """A classic message object 8 bytes short (python-can reads its message on into the
+    next object's bytes), its container ending where it ends: read with the next
+    container's bytes as python-can reads it, in every batching (a batch ending there goes
+    on from the object, not after it)."""
+    short = _object(1, CAN_MSG_STRUCT.pack(2, 0, 8, 0x1A0, bytes(range(8)))[:8], 1_000_000)
+    inner = short + _built()
+    path = tmp_path / "short.blf"
+    path.write_bytes(_log(inner, split=len(short), methods=(0, 2)))
+    assert _same_as_python_can(path) == 8
+    assert blf_frames(path.read_bytes()).ids[0] == 0x1A0
+
+
+def test_no_object_where_the_inner_stream_starts_is_said_so_in_every_batching(tmp_path):
+    """Six bytes that are no object before the first (in a container of their own): python-
+    can stops before any frame, and so does this, saying where, however the objects are
+    batched."""
+    path = tmp_path / "garbage.blf"
+    path.write_bytes(_log(b"\x00" * 6 + _built(), split=6, methods=(0, 2)))
+    assert _same_as_python_can(path) == -1
+    with pytest.raises(BlfError) as err:
+        blf_frames(path.read_bytes())
+    assert "no object where the inner stream starts" in str(err.value)
+    assert err.value.data_frames == 0

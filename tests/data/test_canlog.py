@@ -765,15 +765,15 @@ def _on_buses(path, stamps, ids, data, ext, channels):  # type: ignore[no-untype
     return path
 
 
-@pytest.mark.parametrize("suffix", [".trc", ".asc"])
+@pytest.mark.parametrize("suffix", [".trc", ".asc", ".blf"])
 def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_read_whole(
     tmp_path, monkeypatch, suffix
 ):
-    """Parts of 2 kB: the buses numbered in the order first seen among every frame (bus 2
-    first, then bus 1 in the same part, bus 3 first in a later part), the frames kept
-    those of the log read whole that the filter keeps, every frame's bus and ID in
-    ``log_ids``."""
-    from rwhonet.data import asc, trc
+    """Parts of 2 kB (BLF: of its objects inflated): the buses numbered in the order first
+    seen among every frame (bus 2 first, then bus 1 in the same part, bus 3 first in a
+    later part), the frames kept those of the log read whole that the filter keeps, every
+    frame's bus and ID in ``log_ids``."""
+    from rwhonet.data import asc, blf, trc
     from rwhonet.data.canlog import FrameFilter, frame_keys
 
     stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
@@ -788,6 +788,7 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
         assert "error frames" in every.passed and "remote frames" in every.passed
     for module in (trc, asc):
         monkeypatch.setattr(module, "CHUNK_BYTES", 2048)
+    monkeypatch.setattr(blf, "BATCH_BYTES", 2048)
     keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))
     some = read_frames(log, log.name, keep=keep)
     at = np.flatnonzero(keep.mask(every.ids, every.extended))

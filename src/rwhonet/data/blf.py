@@ -1,11 +1,15 @@
-"""A Vector BLF log's CAN frames, parsed over the file's objects at once (numpy).
+"""A Vector BLF log's CAN frames, parsed over the file's objects a batch at a time (numpy).
 
 Vector's Binary Logging Format (CANoe, CANalyzer, Vector's loggers) is the bus tools'
 most common log, and a whole bus for an hour is tens of millions of frames. python-can's
 :class:`can.io.blf.BLFReader` builds a ``Message`` a frame at a time in Python (0.56 M
 frames/s on this machine, 500,000 frames of 8 bytes); this reader gives the same frames,
 bit for bit, from the file's objects found and read column by column (2.0 M frames/s):
-:func:`blf_frames`.
+:func:`blf_frames`. The containers are inflated and their objects parsed
+:data:`BATCH_BYTES` (16 MB) at a time, each batch going on from where python-can's reader
+would (the object it had not all of, or where the last one ended), so that a long log's
+memory is a batch's and that of the frames kept (a :class:`rwhonet.data.keptframes.Kept`
+leaves out, a batch at a time, the frames of messages the map does not name).
 
 **The layout** (python-can's reader, which follows Toby Lorenz's Vector BLF library; no
 official specification is published): a file header (``LOGG``, its size, the start as
@@ -40,10 +44,15 @@ plus each object's stamp times its factor, in the same floating-point operations
 
 from __future__ import annotations
 
+import dataclasses
+import mmap
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+
+from rwhonet.data.keptframes import ID_MASK, Kept
 
 LOGG, LOBJ = b"LOGG", b"LOBJ"
 LOG_CONTAINER = 10
@@ -57,6 +66,7 @@ REMOTE_FLAG = 0x80  # CAN_MESSAGE's and CAN_FD_MESSAGE's flags
 FD64_REMOTE = 0x0010  # CAN_FD_MESSAGE_64's flags
 FD64_DATA_AT = 40  # CAN_FD_MESSAGE_64's message header before its data
 NO_COMPRESSION, ZLIB_DEFLATE = 0, 2
+Buffer = bytes | mmap.mmap
 
 
 class BlfError(Exception):
@@ -113,10 +123,10 @@ def _u(buf: np.ndarray, at: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
-def _inner(raw: bytes) -> tuple[bytes, float, str | None]:
-    """The file's inner objects' bytes (its containers inflated, one after the other, up to
-    any damage), its start time, and the damage python-can's reader would stop at after
-    reading them (None: none)."""
+def _containers(raw: Buffer) -> tuple[float, Iterator[bytes], list[str]]:
+    """The file's start time, its containers' inner bytes (inflated, one after the other,
+    up to any damage), and the damage python-can's reader would stop at after reading them
+    (appended to the list once the containers run out; none: it reads to the end)."""
     import struct
 
     from can.io.blf import FILE_HEADER_STRUCT, LOG_CONTAINER_STRUCT, systemtime_to_timestamp
@@ -128,40 +138,52 @@ def _inner(raw: bytes) -> tuple[bytes, float, str | None]:
     rest = header[1] - FILE_HEADER_STRUCT.size  # python-can reads this much more of it
     if rest < -1:
         raise BlfError(f"a file header of {header[1]} bytes, less than its fields", None)
-    pos, parts = len(raw) if rest == -1 else FILE_HEADER_STRUCT.size + rest, []
-    while pos < len(raw):
-        if len(raw) - pos < BASE_SIZE:
-            return b"".join(parts), start, "an object header cut short"
-        signature, _, _, size, kind = struct.unpack_from("<4sHHLL", raw, pos)
-        if signature != LOBJ:
-            return b"".join(parts), start, f"no object at byte {pos}"
-        if size == BASE_SIZE - 1:  # python-can reads the rest of the file as its body
-            body, pos = raw[pos + BASE_SIZE :], len(raw)
-        elif size < BASE_SIZE:
-            return b"".join(parts), start, f"an object of {size} bytes, less than its header"
-        else:
-            body = raw[pos + BASE_SIZE : pos + size]
-            pos += size + size % 4
-        if kind != LOG_CONTAINER:
-            continue
-        if len(body) < LOG_CONTAINER_STRUCT.size:
-            return b"".join(parts), start, "a log container cut short"
-        method, _ = LOG_CONTAINER_STRUCT.unpack_from(body)
-        data = body[LOG_CONTAINER_STRUCT.size :]
-        if method == ZLIB_DEFLATE:
-            try:
-                data = zlib.decompressobj().decompress(data)
-            except zlib.error as err:
-                return b"".join(parts), start, f"a log container zlib cannot inflate ({err})"
-        elif method != NO_COMPRESSION:
-            continue  # python-can warns and passes the container over
-        parts.append(data)
-    return b"".join(parts), start, None
+    damage: list[str] = []
+
+    def inflated() -> Iterator[bytes]:
+        pos = len(raw) if rest == -1 else FILE_HEADER_STRUCT.size + rest
+        while pos < len(raw):
+            if len(raw) - pos < BASE_SIZE:
+                damage.append("an object header cut short")
+                return
+            signature, _, _, size, kind = struct.unpack_from("<4sHHLL", raw, pos)
+            if signature != LOBJ:
+                damage.append(f"no object at byte {pos}")
+                return
+            if size == BASE_SIZE - 1:  # python-can reads the rest of the file as its body
+                body, pos = raw[pos + BASE_SIZE :], len(raw)
+            elif size < BASE_SIZE:
+                damage.append(f"an object of {size} bytes, less than its header")
+                return
+            else:
+                body = raw[pos + BASE_SIZE : pos + size]
+                pos += size + size % 4
+            if kind != LOG_CONTAINER:
+                continue
+            if len(body) < LOG_CONTAINER_STRUCT.size:
+                damage.append("a log container cut short")
+                return
+            method, _ = LOG_CONTAINER_STRUCT.unpack_from(body)
+            data = body[LOG_CONTAINER_STRUCT.size :]
+            if method == ZLIB_DEFLATE:
+                try:
+                    data = zlib.decompressobj().decompress(data)
+                except zlib.error as err:
+                    damage.append(f"a log container zlib cannot inflate ({err})")
+                    return
+            elif method != NO_COMPRESSION:
+                continue  # python-can warns and passes the container over
+            yield data
+
+    return start, inflated(), damage
 
 
-def _chain(buf: np.ndarray) -> tuple[np.ndarray, str | None]:
-    """The inner objects' offsets as python-can's reader walks them, and why it stops
-    with an error (None: it reads to the stream's end).
+def _chain(buf: np.ndarray, first: bool = True) -> tuple[np.ndarray, str | None, int | None]:
+    """The inner objects' offsets as python-can's reader walks them, why it stops with an
+    error (None: it reads to the stream's end), and where it would go on reading were
+    more of the stream there (the object it has not all of, or where the last ends; None
+    after an error). ``first``: ``buf`` starts the stream (else it starts where the
+    object before it ended).
 
     Each object is the first ``LOBJ`` within 4 bytes after the one before ends (its offset
     plus its size). Every ``LOBJ`` in the stream is a candidate; where each one's successor
@@ -171,7 +193,7 @@ def _chain(buf: np.ndarray) -> tuple[np.ndarray, str | None]:
     n = buf.size
     none = np.zeros(0, np.int64)
     if n < 4:
-        return none, None
+        return none, None, 0
     # the signature as a 4-byte integer, looked for in the stream viewed as such integers
     # at each of its 4 alignments (a pass a quarter of the stream's size each)
     sig = int.from_bytes(LOBJ, "little")
@@ -181,10 +203,13 @@ def _chain(buf: np.ndarray) -> tuple[np.ndarray, str | None]:
         found.append(np.flatnonzero(buf[r : r + 4 * items].view("<u4") == sig) * 4 + r)
     cand = np.sort(np.concatenate(found)).astype(np.int64)
     if not cand.size or cand[0] > 4:  # python-can's first search: LOBJ within [0, 4]
-        return none, (None if n < 8 else "no object where the inner stream starts")
+        if n < 8:
+            return none, None, 0
+        where = "the inner stream starts" if first else "the one before ends"
+        return none, f"no object where {where}", None
     whole = cand[cand + BASE_SIZE <= n]  # those with a header to read
     if not whole.size or whole[0] != cand[0]:
-        return none, None  # the first object's header cut: nothing read
+        return none, None, 0  # the first object's header cut: nothing read
     size = _u(buf, whole + 8, 4)
     end = whole + size
     at = np.searchsorted(cand, end)
@@ -198,7 +223,7 @@ def _chain(buf: np.ndarray) -> tuple[np.ndarray, str | None]:
         while True:
             walked.append(i)
             if size[i] == 0:  # python-can's reader would find this object for ever
-                return whole[walked[:-1]], "an object of size 0"
+                return whole[walked[:-1]], "an object of size 0", None
             j = index.get(int(succ[i])) if ok[i] else None
             if j is None:
                 break
@@ -206,24 +231,86 @@ def _chain(buf: np.ndarray) -> tuple[np.ndarray, str | None]:
         chain, last = whole[walked], i
     stop = int(end[last])
     if stop > n:  # the last object runs past the stream's end: cut, not read
-        return chain[:-1], None
+        return chain[:-1], None, int(chain[-1])
     after = cand[(cand >= stop) & (cand <= stop + 4)]
     if after.size or stop + 8 > n:
-        return chain, None  # the next object's header cut, or the stream's end
-    return chain, "no object where the one before ends"
+        return chain, None, stop  # the next object's header cut, or the stream's end
+    return chain, "no object where the one before ends", None
 
 
-def blf_frames(raw: bytes) -> BlfFrames:
+BATCH_BYTES = 1 << 24  # inner objects parsed at once (16 MB inflated; bounds the memory)
+
+
+def blf_frames(raw: Buffer, kept: Kept | None = None) -> BlfFrames:
     """The messages python-can's BLF reader yields for the log's bytes ``raw`` (module
-    docstring).
+    docstring): its containers inflated and their objects parsed :data:`BATCH_BYTES` at a
+    time, each batch from where the objects before it end.
+
+    Args:
+        raw: the log's bytes (or the file mapped in memory).
+        kept: the messages to keep (the data frames left out counted there, and dropped
+            from each batch as it is parsed); None: every message.
 
     Raises:
         BlfError: where python-can's reader raises, with the messages it yielded before.
     """
-    inner, start, damage = _inner(raw)
-    buf = np.frombuffer(inner, np.uint8)
+    start, containers, damage = _containers(raw)
+    parts: list[BlfFrames] = []
+    carry, batch, size, data_frames = b"", [], 0, 0
+    first = True
+    for inner in containers:
+        batch.append(inner)
+        size += len(inner)
+        if size < BATCH_BYTES:
+            continue
+        buf = carry + b"".join(batch)
+        got, stop, resume = _objects(np.frombuffer(buf, np.uint8), start, first)
+        carry, batch, size = buf[resume:] if resume is not None else b"", [], 0
+        first = first and resume == 0
+        data_frames += _kept_part(got, kept, parts)
+        if stop is not None:
+            raise BlfError(stop, data_frames)
+    buf = carry + b"".join(batch)
+    got, stop, _ = _objects(np.frombuffer(buf, np.uint8), start, first)
+    data_frames += _kept_part(got, kept, parts)
+    if stop is not None or damage:
+        raise BlfError(stop or damage[0], data_frames)
+    return _joined(parts)
+
+
+def _kept_part(got: BlfFrames, kept: Kept | None, parts: list[BlfFrames]) -> int:
+    """Add a batch's messages to ``parts`` (those ``kept`` keeps); its data frames, those
+    left out included."""
+    data_frames = int(np.sum(~got.error & ~got.remote))
+    if kept is not None:
+        ids = (got.ids & ID_MASK).astype(np.int64)
+        at = kept.part(ids, (got.ids & CAN_MSG_EXT) != 0, got.channel, got.error | got.remote)
+        got = BlfFrames(*(getattr(got, f.name)[at] for f in dataclasses.fields(BlfFrames)))
+    parts.append(got)
+    return data_frames
+
+
+def _joined(parts: list[BlfFrames]) -> BlfFrames:
+    """Batches' messages one after the other (their data as wide as the widest's)."""
+    width = max((p.data.shape[1] for p in parts), default=8)
+    return BlfFrames(
+        *(
+            np.concatenate([np.pad(p.data, ((0, 0), (0, width - p.data.shape[1]))) for p in parts])
+            if f.name == "data"
+            else np.concatenate([getattr(p, f.name) for p in parts])
+            for f in dataclasses.fields(BlfFrames)
+        )
+    )
+
+
+def _objects(
+    buf: np.ndarray, start: float, first: bool
+) -> tuple[BlfFrames, str | None, int | None]:
+    """The messages of the inner objects in ``buf`` (the stream's first bytes where
+    ``first``), why python-can's reader stops with an error in it (None: it does not),
+    and where it goes on reading in the next batch, if there is one (None: it stops)."""
     n = buf.size
-    chain, stop = _chain(buf)
+    chain, stop, resume = _chain(buf, first)
     version = _u(buf, chain + 6, 2)
     kind = _u(buf, chain + 12, 4)
     read = np.isin(version, (1, 2))
@@ -238,11 +325,12 @@ def blf_frames(raw: bytes) -> BlfFrames:
         [16, 84, FD64_DATA_AT, 32],
         0,
     )
-    # an object whose header or message runs past the stream's end ends the reading: python-
-    # can waits for the next container, and there is none
+    # an object whose header or message runs past the stream's end: python-can waits for
+    # the next container (in the next batch, or none: the reading ends)
     past = read & (body + msg_size > n)
     if past.any():
         keep = int(np.argmax(past))
+        resume = int(chain[keep])
         chain, version, kind, read, body = (x[:keep] for x in (chain, version, kind, read, body))
         stop = None
     yielded = read & np.isin(kind, YIELDED)
@@ -277,6 +365,4 @@ def blf_frames(raw: bytes) -> BlfFrames:
     idx = np.minimum(data_at[:, None] + cols, max(n - 1, 0))
     data = np.where(cols < length[:, None], buf[idx] if n else 0, 0).astype(np.uint8)
     error = kind == CAN_ERROR_EXT
-    if stop is not None or damage is not None:
-        raise BlfError(stop or damage, int(np.sum(~error & ~remote)))
-    return BlfFrames(t_s, ids, remote, error, length, data, channel - 1)
+    return BlfFrames(t_s, ids, remote, error, length, data, channel - 1), stop, resume

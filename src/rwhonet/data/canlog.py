@@ -212,7 +212,7 @@ def read_frames(
     if suffix == CANDUMP:
         frames = _candump(path, file, keep)
     elif suffix == ".blf":
-        frames = _blf(path, file)
+        frames = _blf(path, file, keep)
     elif suffix == ".asc" and (got := _asc(path, file, keep)) is not None:
         frames = got
     elif suffix == ".trc":
@@ -609,16 +609,19 @@ def _buses(chans: np.ndarray) -> tuple[np.ndarray, list[str]]:
     return (rank[channel.ravel()] + 1).astype(np.uint8), [str(b) for b in buses[order]]
 
 
-def _blf(path: Path, file: str) -> Frames:
-    """A BLF log's data frames, the frames python-can's reader gives, parsed at once
-    (:func:`rwhonet.data.blf.blf_frames`)."""
+def _blf(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
+    """A BLF log's data frames, the frames python-can's reader gives, parsed a batch of
+    objects at a time (:func:`rwhonet.data.blf.blf_frames`)."""
     from rwhonet.data.blf import CAN_MSG_EXT, BlfError, blf_frames
 
+    kept = None if keep is None else Kept(keep)
     try:
-        got = blf_frames(path.read_bytes())
+        with _mapped(path) as raw:
+            got = blf_frames(raw, kept)
     except BlfError as err:
         raise _unreadable(file, "BLF", err, err.data_frames) from None
-    return _yielded("BLF", got, got.ids & ID_MASK, (got.ids & CAN_MSG_EXT) != 0)
+    extended = (got.ids & CAN_MSG_EXT) != 0
+    return _yielded("BLF", got, got.ids & ID_MASK, extended, kept=kept)
 
 
 def _yielded(
