@@ -16,7 +16,7 @@ python-can's ``CanutilsLogWriter`` write, one frame a line::
 
 is parsed over the file's bytes at once (numpy), not a line at a time: a whole bus's
 traffic (thousands of frames a second) for an hour is tens of millions of lines. It is
-read 32 MB of lines at a time, so that its memory is a part's and that of the frames
+read 8 MB of lines at a time, so that its memory is a part's and that of the frames
 kept: given a :class:`FrameFilter` (the messages the map's signals are in,
 :func:`rwhonet.data.mdf4.can_log_groups`), each part's other frames are counted, their
 IDs noted (``Frames.log_ids``), and left out as it is read.
@@ -277,7 +277,7 @@ class _Lines:
     not_frame: tuple[int, int]
 
 
-_CANDUMP_PART_BYTES = 1 << 25  # a candump log read 32 MB of lines at a time
+_CANDUMP_PART_BYTES = 1 << 23  # a candump log read 8 MB of lines at a time
 
 
 def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:

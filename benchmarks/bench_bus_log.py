@@ -1,0 +1,154 @@
+"""A whole bus's raw CAN log -> the drive's streams: time and peak memory, per log format.
+
+A logger on a car's bus records every message on it, not only the ones the map's signals
+are in. This simulates one drive (``ci`` world) of ``--minutes``, its wheel speeds (100 Hz),
+fixes and satellite counts (10 Hz) as raw CAN frames (the test suite's DBC,
+``tests/support/canlog.py``), among the rest of the bus: ``--other-fps`` frames a second of
+60 other standard identifiers with random bytes (a 500 kbit/s bus at about half its load
+carries 2,000-4,000 frames a second). It writes them as a ``candump -l`` log, a Vector BLF,
+a Vector ASC and a PEAK TRC (python-can's writers; candump at once), then reads each
+through the map and its DBC (``rwhonet.data.mdf4.read_mdf4``, what ingest and predict call)
+in a fresh interpreter, so that each peak is its own. Printed per format: the file's size,
+its frames, the wall time of the read and decode, the peak resident memory (``VmHWM``:
+``ru_maxrss`` would keep this script's own, from before the interpreter started) and that
+after the imports alone.
+
+The code measured is the one the interpreter imports: ``PYTHONPATH=<other checkout>/src``
+measures another (the logs are written once, by this checkout's test support, with
+``--keep DIR``; ``--reuse DIR`` reads them again).
+
+Usage: python benchmarks/bench_bus_log.py [--minutes 20] [--other-fps 3000]
+       [--formats log,blf,asc,trc] [--keep DIR | --reuse DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))  # the CAN log writers of the test suite
+
+import numpy as np  # noqa: E402
+
+CHILD = """
+import json, re, sys, time
+sys.path.insert(0, sys.argv[3])
+
+
+def peak_gb():  # the address space's own high-water mark (ru_maxrss keeps the parent's)
+    status = open("/proc/self/status").read()
+    return int(re.search(r"VmHWM:\\s+(\\d+) kB", status)[1]) / 1e6
+
+
+from pathlib import Path
+from rwhonet.config import ColumnSpec
+from rwhonet.data.mdf4 import read_mdf4
+import asammdf, can
+from support.canlog import SIGNALS
+imported = peak_gb()
+path = Path(sys.argv[1])
+start = time.perf_counter()
+streams = read_mdf4(
+    path, {k: ColumnSpec(**v) for k, v in SIGNALS.items()}, float(sys.argv[2]),
+    dbc=[str(path.parent / "bus.dbc")],
+)
+wall = time.perf_counter() - start
+rows = sum(len(w.t_s) for w in streams.wheels) + len(streams.gnss.t_s)
+print(json.dumps({
+    "s": wall, "peak_gb": peak_gb(),
+    "imports_gb": imported, "rows": rows,
+    "frames": next((n.split(": ", 1)[1].split(" data frames")[0] for n in streams.notes
+                    if " data frames on " in n), "?"),
+}))
+"""
+
+
+def write_logs(folder: Path, minutes: float, other_fps: float, formats: list[str]) -> float:
+    """The drive among the bus's other traffic, in each format; the car's nominal radius."""
+    from rwhonet.config import SimDrive, load_params
+    from rwhonet.sim import generate_route, vehicles_from_params
+    from rwhonet.sim.drive import child_rng
+    from rwhonet.sim.streams import StreamSpec, fine_truth, stream_tables
+    from support.canlog import DBC, stream_frames, write_bus_log, write_candump
+
+    params = load_params(overrides={"sim.profile": "ci"})
+    vehicle = vehicles_from_params(params)["target"]
+    spec = SimDrive(
+        name="B-1",
+        role="target_test",
+        vehicle="target",
+        tyre="B",
+        duration_s=minutes * 60.0,
+        roads={"urban": 0.4, "country": 0.4, "motorway": 0.2},
+    )
+    ss = np.random.SeedSequence(1)
+    route = generate_route(spec, params.sim, vehicle, child_rng(ss, 0))
+    state = fine_truth(vehicle, spec.tyre, route, ss, params.sim, truth_hz=200)
+    tables = stream_tables(state, vehicle, params.sim, ss, StreamSpec(100.0, 10.0), 0.0, True)
+    t, ids, data = stream_frames(tables, vehicle.nominal_radius_m, 1.7e9)
+    rng = np.random.default_rng(2)
+    n = int(other_fps * (t[-1] - t[0]))
+    others = rng.choice(np.arange(0x100, 0x7FF), 60)  # the DBC's 0x1A0, 0x600, 0x601 not among them
+    others = others[~np.isin(others, (0x1A0, 0x600, 0x601))]
+    stamps = np.r_[t, rng.uniform(t[0], t[-1], n)]
+    order = np.argsort(stamps, kind="stable")
+    stamps = stamps[order]
+    ids = np.r_[ids, others[rng.integers(0, others.size, n)]][order]
+    data = np.concatenate([data, rng.integers(0, 256, (n, 8), dtype=np.uint8)])[order]
+    print(f"{minutes:g} min drive: {t.size:,} frames of its 3 messages among {n:,} others")
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "bus.dbc").write_text(DBC)
+    for fmt in formats:
+        path = folder / f"bus.{fmt}"
+        if fmt == "log":
+            write_candump(stamps, ids, data, path)
+        else:
+            write_bus_log(stamps, ids, data, path)
+    return vehicle.nominal_radius_m
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--minutes", type=float, default=20.0)
+    ap.add_argument("--other-fps", type=float, default=3000.0)
+    ap.add_argument("--formats", default="log,blf,asc,trc")
+    ap.add_argument("--keep", type=Path, help="write the logs here and keep them")
+    ap.add_argument("--reuse", type=Path, help="read the logs a --keep run wrote")
+    args = ap.parse_args()
+    formats = args.formats.split(",")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = args.reuse or args.keep or Path(tmp)
+        radius_file = folder / "radius.txt"
+        if args.reuse is None:
+            radius = write_logs(folder, args.minutes, args.other_fps, formats)
+            radius_file.write_text(repr(radius))
+        radius = float(radius_file.read_text())
+        print(f"code: {os.environ.get('PYTHONPATH') or 'this checkout'}")
+        print(
+            f"{'format':<8} {'MB':>7} {'frames':>10} {'rows':>8} {'s':>7} "
+            f"{'peak GB':>8} {'imports GB':>10}"
+        )
+        for fmt in formats:
+            path = folder / f"bus.{fmt}"
+            out = subprocess.run(
+                [sys.executable, "-c", CHILD, str(path), str(radius), str(ROOT / "tests")],
+                capture_output=True,
+                text=True,
+                check=True,
+            )
+            got = json.loads(out.stdout.strip().splitlines()[-1])
+            print(
+                f"{fmt:<8} {path.stat().st_size / 1e6:>7.0f} {got['frames']:>10} "
+                f"{got['rows']:>8} {got['s']:>7.2f} {got['peak_gb']:>8.2f} "
+                f"{got['imports_gb']:>10.2f}"
+            )
+
+
+if __name__ == "__main__":
+    main()
