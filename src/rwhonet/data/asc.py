@@ -182,7 +182,8 @@ def asc_frames(
         data_frames += int((~got.error & ~got.remote).sum())
         if kept is not None:
             ids = np.asarray(got.ids & ID_MASK).astype(np.int64)
-            got = _take(got, kept.part(ids, got.extended, got.channel, got.error | got.remote))
+            at = kept.part(ids, got.extended, got.channel, got.error | got.remote)
+            got = got if at.size == ids.size else _take(got, at)
         parts.append(got)
         carry = part.carry
         if part.failed is not None:

@@ -285,13 +285,16 @@ def _kept_part(got: BlfFrames, kept: Kept | None, parts: list[BlfFrames]) -> int
     if kept is not None:
         ids = (got.ids & ID_MASK).astype(np.int64)
         at = kept.part(ids, (got.ids & CAN_MSG_EXT) != 0, got.channel, got.error | got.remote)
-        got = BlfFrames(*(getattr(got, f.name)[at] for f in dataclasses.fields(BlfFrames)))
+        if at.size < got.t_s.size:
+            got = BlfFrames(*(getattr(got, f.name)[at] for f in dataclasses.fields(BlfFrames)))
     parts.append(got)
     return data_frames
 
 
 def _joined(parts: list[BlfFrames]) -> BlfFrames:
     """Batches' messages one after the other (their data as wide as the widest's)."""
+    if len(parts) == 1:
+        return parts[0]
     width = max((p.data.shape[1] for p in parts), default=8)
     return BlfFrames(
         *(

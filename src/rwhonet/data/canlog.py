@@ -305,7 +305,8 @@ def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
         damaged, not_frame = _first(damaged, part.damaged), _first(not_frame, part.not_frame)
         if kept is not None:
             at = kept.part(part.ids, part.extended, part.channel)
-            for name in ("t_s", "ids", "extended", "length", "data", "channel", "rows"):
+            fields = ("t_s", "ids", "extended", "length", "data", "channel", "rows")
+            for name in fields if at.size < part.t_s.size else ():
                 setattr(part, name, getattr(part, name)[at])
         parts.append(part)
     width = max((p.data.shape[1] for p in parts), default=8)

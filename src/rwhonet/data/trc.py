@@ -179,7 +179,8 @@ def trc_frames(raw: Buffer, file: str, kept: Kept | None = None) -> TrcFrames:
         if kept is not None:
             _, ids, extended, _, _, bus, _ = part.frames
             keep = kept.part(ids.astype(np.int64) & ID_MASK, extended.astype(bool), bus)
-            part = _Part(tuple(x[keep] for x in part.frames), part.passed)
+            if keep.size < ids.size:
+                part = _Part(tuple(x[keep] for x in part.frames), part.passed)
         parts.append(part)
         line += chunk.count(b"\n")
         at = end
