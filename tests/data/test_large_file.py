@@ -18,6 +18,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from rwhonet import paths
@@ -124,3 +125,74 @@ def test_file_above_the_limit_is_refused_before_reading(project):
     assert "Traceback" not in proc.stderr
     assert "MLflow: FAILED run" in proc.stderr  # the failure is on record as well
     assert usage["growth_mb"] < 64
+
+
+def test_a_raw_can_log_above_the_limit_is_told_its_memory_is_not_its_size(tmp_path):
+    """Above data.max_file_mb, a CSV (or a folder of them) is told to split or to raise
+    the limit where 3x its size fits; a raw CAN log (alone, or among a folder's streams) to
+    raise it: only the frames of the map's messages are kept, a part at a time."""
+    from rwhonet.data.drivefile import _too_large_fix
+
+    (tmp_path / "d.csv").write_text("t\n")
+    assert "validate holds about 3x" in _too_large_fix(tmp_path / "d.csv", False)
+    assert "validate holds about 3x" in _too_large_fix(tmp_path, True)
+    (tmp_path / "can0.log.gz").write_bytes(b"")
+    for fix in (_too_large_fix(tmp_path / "can0.log.gz", False), _too_large_fix(tmp_path, True)):
+        assert fix.startswith("raise data.max_file_mb: a raw CAN log is read a part at a time")
+
+
+# A raw CAN log read through the map's DBC under an address-space limit: imports first.
+CAN_CHILD = """
+import json, resource, sys
+sys.path.insert(0, sys.argv[3])
+from pathlib import Path
+from rwhonet.config import ColumnSpec
+from rwhonet.data.mdf4 import read_mdf4
+import asammdf, canmatrix.formats.dbc
+from support.canlog import SIGNALS
+def vm_bytes():
+    with open("/proc/self/status") as f:
+        return next(int(x.split()[1]) * 1024 for x in f if x.startswith("VmSize"))
+budget = vm_bytes() + int(sys.argv[2]) * 2**20
+resource.setrlimit(resource.RLIMIT_AS, (budget, resource.RLIM_INFINITY))
+path = Path(sys.argv[1])
+streams = read_mdf4(
+    path, {k: ColumnSpec(**v) for k, v in SIGNALS.items()}, 0.31,
+    dbc=[str(path.parent / "bus.dbc")],
+)
+print(json.dumps({"wheels": len(streams.wheels[0].t_s)}))
+"""
+
+
+def test_a_whole_bus_candump_log_is_read_in_a_fraction_of_its_size(tmp_path):
+    """A drive's three messages among 2 M frames of the rest of the bus (a 90 MB candump
+    log) decoded within 150 MB of address space beyond the imports: read 8 MB at a time,
+    the other frames left out as each part is read. Read whole, every frame parsed and
+    decoded (the base 17a8748), it ran out of memory at once (about 500 bytes a frame:
+    5.7 GB for an hour of a bus)."""
+    from support.canlog import DBC, can_frames, write_candump
+    from support.serving import wavy_drive
+
+    stamps, ids, data = can_frames(wavy_drive(600.0), 0.31, 1.7e9)
+    rng = np.random.default_rng(0)
+    n = 2_000_000
+    other = np.r_[stamps, rng.uniform(stamps[0], stamps[-1], n)]
+    order = np.argsort(other, kind="stable")
+    path = write_candump(
+        other[order],
+        np.r_[ids, rng.choice(np.arange(0x100, 0x180), n)][order],
+        np.concatenate([data, rng.integers(0, 256, (n, 8), dtype=np.uint8)])[order],
+        tmp_path / "bus.log",
+    )
+    (tmp_path / "bus.dbc").write_text(DBC)
+    proc = subprocess.run(
+        [sys.executable, "-c", CAN_CHILD, str(path), "150", str(paths.ROOT / "tests")],
+        env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert got["wheels"] == int(np.sum(ids == 0x1A0))

@@ -217,8 +217,7 @@ def read_any(
                     None,
                     f"a drive file of at most {data.max_file_mb:g} MB (data.max_file_mb)",
                     _mb(size_mb),
-                    f"{SPLIT_DRIVE}, or raise data.max_file_mb on a machine with the memory "
-                    "(validate holds about 3x the file's size)",
+                    _too_large_fix(f.path, kind in FOLDER_READERS),
                 )
             ]
         )
@@ -305,6 +304,25 @@ def _read_vbo(
         if problems := plain_count_problems(raw.columns[c.N_SATS], file, column, setting):
             raise InputError(problems, summary=f"VBOX flags in the satellite count of {file}")
     return dataclasses.replace(raw, notes=(vbo_note(), *raw.notes))
+
+
+def _too_large_fix(path: Path, folder: bool) -> str:
+    """What to do with a drive above ``data.max_file_mb``. A raw CAN log's memory is not
+    its size's: it is read a part at a time, only the frames of the messages the map's
+    signals are in kept (:mod:`rwhonet.data.keptframes`), so a whole bus's log takes a
+    fraction of its size (``benchmarks/bench_bus_log.py``)."""
+    files = [p for p in path.rglob("*") if p.is_file()] if folder else [path]
+    if any(is_can_log_name(p.name) for p in files):
+        return (
+            "raise data.max_file_mb: a raw CAN log is read a part at a time, keeping only the "
+            "frames of the messages the map's signals are in, so a log of a whole bus takes "
+            f"a fraction of its size in memory (docs/readers.md, 'A whole bus's log'); or "
+            f"{SPLIT_DRIVE}"
+        )
+    return (
+        f"{SPLIT_DRIVE}, or raise data.max_file_mb on a machine with the memory (validate "
+        "holds about 3x the file's size)"
+    )
 
 
 def _size_bytes(path: Path, folder: bool) -> int:
