@@ -797,3 +797,37 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
     np.testing.assert_array_equal(
         some.log_ids, np.unique(frame_keys(every.channel, every.ids, every.extended))
     )
+
+
+def test_two_whole_bus_logs_of_a_stream_folder_each_keep_the_map_s_messages_they_have(
+    tmp_path, monkeypatch
+):
+    """A folder of two candump logs, one a bus each (the wheels on one, the fix and its
+    satellites on the other, each among its bus's other traffic): each keeps the map's
+    messages it has, not read whole for the ones the other has, and the folder gives the
+    streams it gives read whole."""
+    from rwhonet.data import mdf4
+    from rwhonet.data.streamcsv import read_stream_csvs
+
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    wheels = np.isin(ids, (0x1A0, 0x123, 0x7FF))
+    write_bus_log(stamps[wheels], ids[wheels], data[wheels], tmp_path / "can0.log")
+    write_bus_log(
+        stamps[~wheels], ids[~wheels], data[~wheels], tmp_path / "can1.log", "can1", ext[~wheels]
+    )
+    (tmp_path / "bus.dbc").write_text(OTHER_DBC)
+    smap = {"t": ColumnSpec("t", "s")} | _signals()
+    files = [tmp_path / "can0.log", tmp_path / "can1.log"]
+    args = (smap, RADIUS_M, NAME, {p: p.name for p in files}, [str(tmp_path / "bus.dbc")])
+    kept = read_stream_csvs(files, *args)
+    with monkeypatch.context() as m:
+        m.setattr(mdf4, "_wanted", lambda *a: None)
+        whole = read_stream_csvs(files, *args)
+    for a, b in [*zip(kept.wheels, whole.wheels, strict=True), (kept.gnss, whole.gnss)]:
+        np.testing.assert_array_equal(a.t_s, b.t_s)
+        for k in b.channels:
+            np.testing.assert_array_equal(a.channels[k], b.channels[k])
+    said = " ".join(kept.notes)
+    for log in ("can0.log", "can1.log"):
+        assert f"{log}: " in said and "those of the 3 message(s) the map's signals are in" in said
+    assert said.count("those of the 3 message(s)") == 2

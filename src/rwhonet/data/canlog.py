@@ -108,7 +108,8 @@ class Frames:
         dropped: the log's data frames left out by a :class:`FrameFilter` (read, counted,
             not kept).
         log_ids: where a filter was given, every data frame's bus, identifier and
-            whether it is extended, once each (:func:`frame_keys`), the frames left out
+            whether it is extended, once each (:func:`~rwhonet.data.keptframes.frame_keys`;
+            the bus numbered as ``channel`` numbers it), the frames left out
             included; None where every data frame is here.
     """
 
@@ -199,9 +200,10 @@ def read_frames(
             put on UTC by its date line (:func:`asc_start`), a TRC's by its ``$STARTTIME``
             (:func:`_trc`); other logs keep their clocks.
         keep: the messages to keep (the others counted and left out, their IDs kept in
-            ``log_ids``): a candump log is read a part at a time and each part's other
-            frames left out at once, so its memory is that of a part and of the frames
-            kept; other logs are left out of when read whole.
+            ``log_ids``): each log is read a part at a time (candump's lines, ASC's and
+            TRC's chunks, BLF's batches of objects) and each part's other frames left
+            out as it is read, so its memory is that of a part and of the frames kept; a
+            log python-can reads itself is left out of once read whole.
 
     Raises:
         InputError: no data frame in the log; a log python-can cannot read (with the

@@ -166,9 +166,9 @@ def can_log_groups(
     if not is_mdf_name(path.name):
         wanted = _wanted(dbc, [spec.column for spec in signal_map.values()], present_only)
         frames = read_frames(path, file, local_zone, None if wanted is None else wanted.keep)
-        if wanted is not None and not wanted.all_in(frames):
+        if wanted is not None and not wanted.in_log(frames, present_only):
             # a message the map needs is not in the log: read it whole, so that what is
-            # missing is said (or, among a stream folder's files, left) as for any log
+            # missing is said as for any log
             wanted, frames = None, read_frames(path, file, local_zone)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
@@ -302,10 +302,12 @@ class _Wanted:
     pairs: list[tuple[str, str | None]]
     defined: list[frozenset[tuple[int, bool]]]
 
-    def all_in(self, frames: Frames) -> bool:
-        """Whether the log has frames of every message kept (on any bus)."""
+    def in_log(self, frames: Frames, present_only: bool) -> bool:
+        """Whether the log has frames of every message kept (on any bus); among a stream
+        folder's files (``present_only``: the others may hold the rest), of any."""
         _, ident, ext = key_id(frames.log_ids)
-        return self.keep.messages <= set(zip(ident.tolist(), ext.tolist(), strict=True))
+        found = self.keep.messages & set(zip(ident.tolist(), ext.tolist(), strict=True))
+        return bool(found) if present_only else found == self.keep.messages
 
     def note(self, frames: Frames, channels: list[tuple[str, int]]) -> str:
         """:func:`_decoded_note` for a log read with ``keep``: of the IDs on the buses a
