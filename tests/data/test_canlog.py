@@ -618,7 +618,8 @@ def test_a_whole_bus_log_is_decoded_from_the_map_s_messages_alone(tmp_path, suff
     whole, the frames left out counted; ``read_frames`` with the filter gives exactly the
     frames read whole that the filter keeps, and every frame's ID in ``log_ids``."""
     from rwhonet.data import mdf4
-    from rwhonet.data.canlog import FrameFilter, frame_keys
+    from rwhonet.data.canlog import _taken
+    from rwhonet.data.keptframes import FrameFilter, frame_keys
 
     stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
     log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}", extended=ext)
@@ -646,16 +647,11 @@ def test_a_whole_bus_log_is_decoded_from_the_map_s_messages_alone(tmp_path, suff
     keep = FrameFilter(frozenset({(0x1A0, False), (0x600, False), (800, False)}))
     every, some = read_frames(log, log.name), read_frames(log, log.name, keep=keep)
     at = np.flatnonzero(keep.mask(every.ids, every.extended))
-    assert_same_frames(some, dataclasses.replace(every, **_taken(every, at)))
+    assert_same_frames(some, _taken(every, at))
     assert some.dropped == every.t_s.size - at.size and some.in_log == every.in_log
     np.testing.assert_array_equal(
         some.log_ids, np.unique(frame_keys(every.channel, every.ids, every.extended))
     )
-
-
-def _taken(frames, at):  # type: ignore[no-untyped-def]
-    names = ("t_s", "ids", "extended", "length", "data", "channel", "rows")
-    return {n: getattr(frames, n)[at] for n in names}
 
 
 def test_a_candump_log_read_in_parts_gives_the_frames_read_whole(tmp_path, monkeypatch):
@@ -664,7 +660,7 @@ def test_a_candump_log_read_in_parts_gives_the_frames_read_whole(tmp_path, monke
     are no frame and comments counted with the log's first, an FD frame in a late part,
     the last line without its line end; with a filter, the same frames kept and IDs seen."""
     from rwhonet.data import canlog
-    from rwhonet.data.canlog import FrameFilter
+    from rwhonet.data.keptframes import FrameFilter
 
     stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
     lines = write_bus_log(stamps, ids, data, tmp_path / "b.log", extended=ext).read_text()
@@ -774,7 +770,8 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
     later part), the frames kept those of the log read whole that the filter keeps, every
     frame's bus and ID in ``log_ids``."""
     from rwhonet.data import asc, blf, trc
-    from rwhonet.data.canlog import FrameFilter, frame_keys
+    from rwhonet.data.canlog import _taken
+    from rwhonet.data.keptframes import FrameFilter, frame_keys
 
     stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
     n = np.arange(len(ids))
@@ -792,7 +789,7 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
     keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))
     some = read_frames(log, log.name, keep=keep)
     at = np.flatnonzero(keep.mask(every.ids, every.extended))
-    assert_same_frames(some, dataclasses.replace(every, **_taken(every, at)))
+    assert_same_frames(some, _taken(every, at))
     assert some.dropped == every.t_s.size - at.size > 0
     np.testing.assert_array_equal(
         some.log_ids, np.unique(frame_keys(every.channel, every.ids, every.extended))

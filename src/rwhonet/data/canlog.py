@@ -168,22 +168,21 @@ def _message(acq_name: str) -> tuple[int, int, bool] | None:
     return None if match is None else (int(match[1]), int(match[2], 16), match[3] == "True")
 
 
+FRAME_ARRAYS = ("t_s", "ids", "extended", "length", "data", "channel", "rows")  # one a frame
+
+
+def _taken(frames: Frames, at: np.ndarray, **changes) -> Frames:  # type: ignore[no-untyped-def]
+    """The frames ``at`` of ``frames`` (and ``changes`` to its other fields)."""
+    return dataclasses.replace(
+        frames, **{name: getattr(frames, name)[at] for name in FRAME_ARRAYS}, **changes
+    )
+
+
 def _kept(frames: Frames, keep: FrameFilter) -> Frames:
     """``frames`` without those ``keep`` leaves out, their IDs kept in ``log_ids``."""
     keys = np.unique(frame_keys(frames.channel, frames.ids, frames.extended))
     at = np.flatnonzero(keep.mask(frames.ids, frames.extended))
-    return dataclasses.replace(
-        frames,
-        t_s=frames.t_s[at],
-        ids=frames.ids[at],
-        extended=frames.extended[at],
-        length=frames.length[at],
-        data=frames.data[at],
-        channel=frames.channel[at],
-        rows=frames.rows[at],
-        dropped=frames.in_log - at.size,
-        log_ids=keys,
-    )
+    return _taken(frames, at, dropped=frames.in_log - at.size, log_ids=keys)
 
 
 def read_frames(
@@ -260,22 +259,16 @@ def _hex_values(buf: np.ndarray, start: np.ndarray, count: np.ndarray, width: in
     return np.where(inside, digits, 0)
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Lines:
     """A part of a candump log, its lines parsed (:func:`_candump_lines`): its data frames
-    (``rows`` the lines in the log, ``channel`` numbering ``names``), what it passed over
-    (counts by kind; damaged lines and lines that are no frame with the first of each)."""
+    (``rows`` the lines in the log; ``buses`` the part's own interfaces, in the order first
+    seen in it), what it passed over (counts by kind; damaged lines and lines that are no
+    frame, each (count, first line))."""
 
-    t_s: np.ndarray
-    ids: np.ndarray
-    extended: np.ndarray
-    length: np.ndarray
-    data: np.ndarray
-    channel: np.ndarray
-    names: list[str]
-    rows: np.ndarray
+    frames: Frames
     skipped: dict[str, int]
-    damaged: tuple[int, int]  # (count, first line)
+    damaged: tuple[int, int]
     not_frame: tuple[int, int]
 
 
@@ -289,7 +282,7 @@ def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
     frames of messages ``keep`` leaves out dropped as it is read (see the module's
     docstring)."""
     names: list[str] = []
-    parts: list[_Lines] = []
+    parts: list[Frames] = []
     kept = None if keep is None else Kept(keep)
     skipped: dict[str, int] = {}
     damaged = not_frame = (0, 0)
@@ -297,20 +290,18 @@ def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
     for data in _whole_lines(path, _CANDUMP_PART_BYTES):
         part = _candump_lines(data, line0)
         line0 += data.count(b"\n")
-        new = [n for n in part.names if n not in names]
-        names += new
-        if part.names != names[: len(part.names)]:  # the part's numbers on the log's
-            number = np.array([0] + [names.index(n) + 1 for n in part.names], np.uint8)
-            part.channel = number[part.channel]
+        frames, own = part.frames, part.frames.buses
+        names += [n for n in own if n not in names]
+        if own != names[: len(own)]:  # the part's numbers on the log's
+            number = np.array([0] + [names.index(n) + 1 for n in own], np.uint8)
+            frames = dataclasses.replace(frames, channel=number[frames.channel])
         for k, v in part.skipped.items():
             skipped[k] = skipped.get(k, 0) + v
         damaged, not_frame = _first(damaged, part.damaged), _first(not_frame, part.not_frame)
         if kept is not None:
-            at = kept.part(part.ids, part.extended, part.channel)
-            fields = ("t_s", "ids", "extended", "length", "data", "channel", "rows")
-            for name in fields if at.size < part.t_s.size else ():
-                setattr(part, name, getattr(part, name)[at])
-        parts.append(part)
+            at = kept.part(frames.ids, frames.extended, frames.channel)
+            frames = frames if at.size == frames.t_s.size else _taken(frames, at)
+        parts.append(frames)
     width = max((p.data.shape[1] for p in parts), default=8)
     passed = {k: v for k, v in skipped.items() if v}
     if damaged[0]:
@@ -341,7 +332,7 @@ def _left_out(kept: Kept | None) -> dict:  # type: ignore[type-arg]
     return {} if kept is None else {"dropped": kept.dropped, "log_ids": kept.log_ids()}
 
 
-def _joined(parts: list[_Lines], name: str, dtype: type) -> np.ndarray:
+def _joined(parts: list[Frames], name: str, dtype: type) -> np.ndarray:
     """The parts' arrays ``name`` one after the other."""
     return np.concatenate([getattr(p, name) for p in parts] or [np.zeros(0, dtype)])
 
@@ -450,7 +441,7 @@ def _candump_lines(data: bytes, line0: int) -> _Lines:
         damaged = np.union1d(damaged, line[kept[bad_data]] + 1)
         kept, payload = kept[~bad_data], payload[~bad_data]
     names, channel = _interfaces(buf, iface_at[line[kept]] + 1, id_start[line[kept]] - 1)
-    return _Lines(
+    frames = Frames(
         t[kept],
         (ids[kept] & ID_MASK).astype(np.uint32),
         id_len[kept] == 8,
@@ -458,7 +449,11 @@ def _candump_lines(data: bytes, line0: int) -> _Lines:
         payload,
         channel,
         names,
+        "",
         line0 + line[kept] + 1,
+    )
+    return _Lines(
+        frames,
         skipped,
         (int(damaged.size), line0 + int(damaged[0]) if damaged.size else 0),
         (int(not_frame.size), line0 + int(not_frame[0]) if not_frame.size else 0),
