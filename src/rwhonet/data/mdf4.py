@@ -14,6 +14,7 @@ names them (``WhlSpd_FL``, or ``WheelSpeeds.WhlSpd_FL`` where two messages share
 from __future__ import annotations
 
 import dataclasses
+import functools
 import gc
 import re
 import sys
@@ -172,7 +173,8 @@ def can_log_groups(
             wanted, frames = None, read_frames(path, file, local_zone)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
-        decoded = _decoded(mdf, dbc, name, file, frames)
+        loaded = None if wanted is None else wanted.databases
+        decoded = _decoded(mdf, dbc, name, file, frames, loaded)
         try:
             if present_only:
                 signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
@@ -296,11 +298,14 @@ class _Wanted:
         pairs: the map's databases, each with its bus (None: every bus).
         defined: each database's messages, ``(identifier, extended)``, in ``pairs``' order
             (for the note of the log's frame IDs they define).
+        databases: each database as loaded (canmatrix), in ``pairs``' order: the decode
+            takes them, not loading each file again.
     """
 
     keep: FrameFilter
     pairs: list[tuple[str, str | None]]
     defined: list[frozenset[tuple[int, bool]]]
+    databases: list[Any]  # the CanMatrix of each, for the decode
 
     def in_log(self, frames: Frames, present_only: bool) -> bool:
         """Whether the log has frames of every message kept (on any bus); among a stream
@@ -341,20 +346,17 @@ def _wanted(dbc: Databases, columns: list[str], present_only: bool) -> _Wanted |
     a column no database's signal (unless ``present_only``: there such a column is
     another file's, and where none is, the log's decode finds nothing either), or a J1939
     database or message (asammdf matches those by parameter group, not identifier)."""
-    from asammdf.blocks.utils import load_can_database
-
     pairs = _pairs(dbc)
     bare = {c: c[m.end() :] if (m := _ON_BUS.match(c)) else c for c in columns}
     keys: set[tuple[int, bool]] = set()
     named: set[str] = set()
     defined: list[frozenset[tuple[int, bool]]] = []
+    databases = []
     for d, _ in pairs:
-        try:
-            db = load_can_database(Path(d)) if Path(d).is_file() else None
-        except Exception:  # noqa: BLE001 (the decode says what is wrong with the database)
-            db = None
+        db = _database(Path(d))
         if db is None or db.attributes.get("ProtocolType", "").lower() == "j1939":
             return None
+        databases.append(db)
         ids = set()
         for message in db:
             key = (int(message.arbitration_id.id), bool(message.arbitration_id.extended))
@@ -370,7 +372,30 @@ def _wanted(dbc: Databases, columns: list[str], present_only: bool) -> _Wanted |
         defined.append(frozenset(ids))
     if not keys or (not present_only and named != set(columns)):
         return None
-    return _Wanted(FrameFilter(frozenset(keys)), pairs, defined)
+    return _Wanted(FrameFilter(frozenset(keys)), pairs, defined, databases)
+
+
+def _database(path: Path):  # type: ignore[no-untyped-def]
+    """A CAN database as asammdf loads it (canmatrix), kept for the process by the file's
+    path, size and time: a car's DBC of some 2,000 messages takes 0.1-0.2 s to load, once
+    a log (a folder of rotated logs, predict's every call). None: not there, or not
+    loaded."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return _database_of(str(path.resolve()), stat.st_size, stat.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=16)
+def _database_of(path: str, size: int, mtime_ns: int):  # type: ignore[no-untyped-def]
+    """:func:`_database`, cached by the file's size and time."""
+    from asammdf.blocks.utils import load_can_database
+
+    try:
+        return load_can_database(Path(path))
+    except Exception:  # noqa: BLE001 (the decode says what is wrong with the database)
+        return None
 
 
 def _dbc_setting(name: str) -> str:
@@ -381,7 +406,9 @@ def _dbc_setting(name: str) -> str:
     return f"dbc in {name}"
 
 
-def _decoded(mdf, dbc: Databases, name: str, file: str, frames: Frames | None):  # type: ignore[no-untyped-def]
+def _decoded(  # type: ignore[no-untyped-def]
+    mdf, dbc: Databases, name: str, file: str, frames: Frames | None, loaded: list | None = None
+):
     """The signals of ``mdf``'s raw CAN frames, decoded by the CAN databases ``dbc``, each
     for every bus or for its own (named as the log names it: ``frames.buses`` for a bus
     tool's log, a bus channel number for an MDF4 bus log).
@@ -415,6 +442,8 @@ def _decoded(mdf, dbc: Databases, name: str, file: str, frames: Frames | None): 
             ]
         )
     channels = _bus_channels(pairs, frames, mdf, setting, file)
+    if loaded is not None:  # the databases :func:`_wanted` loaded, not loaded again
+        channels = [(db, bus) for db, (_, bus) in zip(loaded, channels, strict=True)]
     try:
         decoded = mdf.extract_bus_logging({"CAN": channels})
     except Exception as err:  # a database canmatrix cannot load, a damaged block
