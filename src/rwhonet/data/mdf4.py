@@ -285,7 +285,13 @@ def _decoded_note(mdf, dbc: Databases) -> str:  # type: ignore[no-untyped-def]
     info = mdf.last_call_info.get("CAN", {})
     total = len(info.get("total_unique_ids", ()))
     found = len({i for ids in info.get("found_ids", {}).values() for i in ids})
-    files = ", ".join(Path(d).name + (f" ({bus})" if bus else "") for d, bus in _pairs(dbc))
+    return _ids_note(_pairs(dbc), found, total)
+
+
+def _ids_note(pairs: list[tuple[str, str | None]], found: int, total: int) -> str:
+    """The note of a decode: its databases (each with its bus), and of the log's ``total``
+    frame IDs, the ``found`` ones they define."""
+    files = ", ".join(Path(d).name + (f" ({bus})" if bus else "") for d, bus in pairs)
     return f"raw CAN frames decoded with {files}: {found} of the log's {total} frame IDs defined"
 
 
@@ -328,11 +334,7 @@ class _Wanted:
             on = {i for b, i in on_bus if channel in (0, b)}
             total |= on
             found |= on & messages
-        files = ", ".join(Path(d).name + (f" ({b})" if b else "") for d, b in self.pairs)
-        return (
-            f"raw CAN frames decoded with {files}: {len(found)} of the log's {len(total)} "
-            "frame IDs defined"
-        )
+        return _ids_note(self.pairs, len(found), len(total))
 
 
 _ON_BUS = re.compile(r"CAN\d+\.")  # a decoded signal's name with its bus: CAN1.Message.Signal
