@@ -7,6 +7,7 @@ a log, across chunks, and on edited logs; and the logs left to python-can itself
 from __future__ import annotations
 
 import functools
+import io
 import logging
 import tempfile
 from pathlib import Path
@@ -104,7 +105,8 @@ def _same_as_python_can(path: Path, relative: bool = False) -> int | None:
     same exception, and the data frames it yielded before); the messages' count, -1 where
     both stop, None where the reader leaves the log to python-can."""
     try:
-        got = asc_frames(path.read_bytes(), relative)
+        with open(path, "rb") as f:  # as the pipeline reads it: a part at a time
+            got = asc_frames(f, relative)
     except AscError as err:
         want, error = _python_can_messages(path, relative)
         assert error is not None, f"python-can read {len(want)} messages; ours: {err}"
@@ -268,20 +270,27 @@ def _at(tmp_path: Path, raw: bytes) -> Path:
     return path
 
 
+@pytest.mark.parametrize("end", ["\n", "\r\n", "\r"], ids=["LF", "CRLF", "CR"])
 @pytest.mark.parametrize("relative", [False, True])
-def test_chunks_of_a_few_lines_give_the_whole_log_s_messages(tmp_path, monkeypatch, relative):
+def test_chunks_of_a_few_lines_give_the_whole_log_s_messages(tmp_path, monkeypatch, relative, end):
     """The file is read a chunk of whole lines at a time (bounding the memory): chunks of
-    one line and a few, the relative stamps summed across them, give the same messages."""
+    one line and a few, the relative stamps summed across them, give the same messages,
+    its lines ended as Unix, Windows or old Macs end them (a CR LF cut between two blocks
+    read is one line end)."""
     path = _written(tmp_path / "abs.asc", n=400)
+    text = path.read_text()
     if relative:
-        path = tmp_path / "rel.asc"
-        path.write_text(asc_as_relative((tmp_path / "abs.asc").read_text()))
+        text = asc_as_relative(text)
+    path = tmp_path / "bus.asc"
+    path.write_bytes(text.replace("\n", end).encode())
     whole = asc_frames(path.read_bytes(), relative)
-    for size in (1, 60, 500):
+    assert whole is not None and whole.t_s.size == 400
+    for size in (1, 2, 59, 60, 61, 500):
         monkeypatch.setattr(asc, "CHUNK_BYTES", size)
         assert _same_as_python_can(path, relative) == 400
-        part = asc_frames(path.read_bytes(), relative)
-        assert whole is not None and part is not None
+        with open(path, "rb") as f:
+            part = asc_frames(f, relative)
+        assert part is not None
         assert np.array_equal(part.t_s, whole.t_s) and np.array_equal(part.data, whole.data)
 
 
@@ -331,6 +340,8 @@ def test_a_log_with_umlauts_reads_in_its_encoding(tmp_path, encoding):
     path = tmp_path / "german.asc"
     path.write_bytes(german.encode(encoding))
     assert encoding_of(path.read_bytes()) == encoding
+    with open(path, "rb") as f:
+        assert encoding_of(f) == encoding
     assert _same_as_python_can(path) == 28
     assert_same_frames(read_frames(path, "log.asc"), read_frames(plain, "log.asc"))
     zoned = read_frames(path, "log.asc", "Europe/Berlin")
@@ -338,8 +349,49 @@ def test_a_log_with_umlauts_reads_in_its_encoding(tmp_path, encoding):
     assert "2026-03-05T09:12:44.512000 in Europe/Berlin" in zoned.clock
 
 
+@given(st.binary().map(lambda b: bytes(b"ab\r\n"[x % 4] for x in b)), st.integers(1, 9))
+@fuzz_settings(200, 2_000)
+def test_the_text_is_cut_after_line_ends_its_crlf_whole(raw, chunk):
+    """A file read a block at a time is cut into chunks of whole lines, their line ends
+    (CR LF, a lone CR) made line feeds: one after the other, the whole file's text so
+    made; each chunk but the last ends a line, and a CR LF cut between blocks is one line
+    end (two would add a blank line, which ends an ASC's header early)."""
+    saved = asc.CHUNK_BYTES
+    asc.CHUNK_BYTES = chunk
+    try:
+        parts = list(asc._text_parts(io.BytesIO(raw)))
+    finally:
+        asc.CHUNK_BYTES = saved
+    assert b"".join(parts) == raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    assert all(p.endswith(b"\n") for p in parts[:-1]) and all(parts)
+
+
+@pytest.mark.parametrize("scan", [1, 2, 3, 7])
+@pytest.mark.parametrize(
+    ("text", "encoding", "want"),
+    [
+        ("plain ASCII\n", "ascii", "utf-8"),
+        ("Fr M\u00e4r 05 \u20ac \U0001f697\n", "utf-8", "utf-8"),
+        ("Fr M\u00e4r 05 \u20ac Pr\u00fcfstand\n", "cp1252", "cp1252"),
+        ("\u00e4\u00f6", "utf-8", "utf-8"),
+    ],
+)
+def test_the_encoding_is_told_a_block_at_a_time(monkeypatch, scan, text, encoding, want):
+    """The bytes are looked over a block at a time, a file's not held whole: a character
+    of 2-4 bytes cut between blocks is read whole (UTF-8), a cp1252 byte that is no UTF-8
+    anywhere in the file makes it cp1252, a file's last character cut short is no
+    UTF-8."""
+    monkeypatch.setattr(asc, "SCAN_BYTES", scan)
+    raw = text.encode(encoding)
+    assert encoding_of(raw) == encoding_of(io.BytesIO(raw)) == want
+    if want == "utf-8" and not text[-1].isascii():  # its last character cut short
+        cut = raw[:-1]
+        assert encoding_of(cut) == encoding_of(io.BytesIO(cut)) != "utf-8"
+    assert encoding_of(bytes([0x81, 0x8D])) == "latin-1"  # neither UTF-8 nor cp1252
+
+
 _TOKENS = [
-    " ", "\t", "\n", "\r\n", "x", ".", "0.5", " 8 ", " 64 ", " 0 ", "ErrorFrame", "CANFD",
+    " ", "\t", "\n", "\r\n", "\r", "\x0c", "x", ".", "0.5", " 8 ", " 64 ", " 0 ", "ErrorFrame", "CANFD",
     "canfd", "Rx", "rx", " d ", " r ", "-1", "+1", "0x", "_", "// c\n", "internal events logged\n",
     "date Fri Dec 04 09:12:44.512 am 2026\n", "1234567890123456789012345.5", " 1234567890 ",
     "\n 1.5 CANFD 1 Rx 1a0 1 0 8 8 ", "\n 1.5 1 12345678x Rx d 8 ", "1 0 d 64 ", " 99 ",

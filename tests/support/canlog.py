@@ -166,6 +166,26 @@ def stream_frames(tables, radius_m: float, t0_s: float = 0.0):
     return t0_s + stamps[order], ids[order], data[order]
 
 
+def write_asc(stamps: np.ndarray, ids: np.ndarray, data: np.ndarray, path: Path) -> Path:
+    """Frames as python-can's ASC writer (and CANalyzer) writes them, many at once: its
+    header, then a line a frame, each stamp since the first (python-can's writer takes a
+    frame at a time: minutes for a long drive)."""
+    hexes = np.char.upper(np.char.mod("%02x", data)).reshape(data.shape)
+    body = [" ".join(row) for row in hexes.tolist()]
+    t = stamps - stamps[0]
+    head = (
+        "date Sun Dec 06 23:12:13.18 2026\nbase hex  timestamps absolute\n"
+        "internal events logged\nBegin Triggerblock Sun Dec 06 23:12:13.18 2026\n"
+        " 0.000000 Start of measurement\n"
+    )
+    lines = [
+        f"{s:9.6f} 1  {i:<15X} Rx   d {len(b) // 3 + 1:X} {b}"
+        for s, i, b in zip(t.tolist(), ids.tolist(), body, strict=True)
+    ]
+    path.write_text(head + "\n".join(lines) + "\nEnd TriggerBlock\n")
+    return path
+
+
 def write_candump(stamps: np.ndarray, ids: np.ndarray, data: np.ndarray, path: Path) -> Path:
     """Frames as ``candump -l`` writes them, many at once (python-can's writer takes a
     frame at a time: minutes for a long drive)."""

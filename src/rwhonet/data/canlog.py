@@ -531,12 +531,12 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
     relative = False
     try:
         if suffix == ".asc":  # read in the encoding the fast reader takes (encoding_of)
-            encoding = encoding_of(path.read_bytes())
+            encoding = file_encoding(path)
             relative = asc_header(path, encoding).relative
             opened = _SummedStamps(path, encoding) if relative else open(path, encoding=encoding)
             reader = ASCReader(opened)
         elif suffix == ".trc":  # a text log too: UTF-8, else cp1252 (PCAN-View on Windows)
-            reader = TRCReader(open(path, encoding=encoding_of(path.read_bytes())))
+            reader = TRCReader(open(path, encoding=file_encoding(path)))
         else:
             reader = can.LogReader(path)
         with reader:
@@ -669,12 +669,12 @@ def _asc(path: Path, file: str, keep: FrameFilter | None = None) -> Frames | Non
     itself (``base dec``, a control character: :mod:`rwhonet.data.asc` says which)."""
     from rwhonet.data.asc import AscError, asc_frames
 
-    raw = path.read_bytes()
-    encoding = encoding_of(raw)
-    relative = asc_header(path, encoding).relative
     kept = None if keep is None else Kept(keep)
     try:
-        got = asc_frames(raw, relative, encoding, kept)
+        with open(path, "rb") as raw:  # read a part at a time
+            encoding = encoding_of(raw)
+            relative = asc_header(path, encoding).relative
+            got = asc_frames(raw, relative, encoding, kept)
     except AscError as err:
         raise _unreadable(file, "ASC", err.cause, err.data_frames) from None
     if got is None:
@@ -768,6 +768,13 @@ def _mapped(path: Path) -> Iterator[bytes | mmap.mmap]:
         yield raw
 
 
+def file_encoding(path: Path) -> str:
+    """A text log's encoding (:func:`rwhonet.data.asc.encoding_of`), its bytes read a part
+    at a time, not held whole."""
+    with open(path, "rb") as raw:
+        return encoding_of(raw)
+
+
 def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
     """An ASC log's measurement start in Unix seconds, by its date line
     (``date Fri Dec 5 10:15:30.123 am 2026``: the logging computer's clock, local time)
@@ -833,7 +840,7 @@ def asc_header(path: Path, encoding: str | None = None) -> AscHeader:
     """The header lines of an ASC log before its first event, as python-can's ASCReader
     reads them, in its text ``encoding`` (None: :func:`rwhonet.data.asc.encoding_of` it)."""
     date, row, relative = None, None, False
-    encoding = encoding or encoding_of(path.read_bytes())
+    encoding = encoding or file_encoding(path)
     with open(path, encoding=encoding) as f:
         for at, text in enumerate(f, 1):
             line = text.strip()
