@@ -12,9 +12,19 @@ import pytest
 from rwhonet.config import ColumnSpec
 from rwhonet.data import canonical as c
 from rwhonet.data.canlog import is_can_log_name, read_frames
+from rwhonet.data.keptframes import FrameFilter
 from rwhonet.data.mdf4 import read_mdf4
 from rwhonet.errors import InputError
-from support.canlog import DBC, SIGNALS, assert_same_frames, can_frames, write_bus_log
+from support.canlog import (
+    DBC,
+    J1939_DBC,
+    J1939_FLAG,
+    J1939_SENT,
+    SIGNALS,
+    assert_same_frames,
+    can_frames,
+    write_bus_log,
+)
 from support.realminute import RAV4_RADIUS_M
 from support.serving import wavy_drive
 
@@ -693,6 +703,64 @@ def test_a_candump_log_read_in_parts_gives_the_frames_read_whole(tmp_path, monke
     assert parts_kept.dropped == whole_kept.dropped > 0
 
 
+@pytest.mark.parametrize("suffix", [".log", ".blf"])
+def test_a_truck_s_j1939_bus_is_decoded_from_the_map_s_parameter_groups_alone(
+    tmp_path, suffix, monkeypatch
+):
+    """A J1939 database's messages are matched by parameter group and the frame's source
+    address, not identifier: read keeping only the frames of the map's groups, a truck's
+    whole bus (its ECUs' own priorities and addresses, other groups, a group on data page
+    1, standard identifiers that asammdf takes for group 0's TSC1) gives the streams, rows,
+    notes and count of frame IDs decoded it gave read whole, and the filter keeps every
+    frame read whole of the map's groups; a second ECU sending a map's group is refused
+    as read whole (two signals of the name)."""
+    from rwhonet.data import mdf4
+    from rwhonet.data.canlog import _taken
+    from rwhonet.data.keptframes import FrameFilter
+
+    stamps, ids, data, _ = _whole_bus(wavy_drive(20.0))
+    sent = np.array([J1939_SENT.get(int(i), int(i)) for i in ids], np.int64)
+    other = np.flatnonzero(sent == 0x18FEF100)
+    sent[other[::2]] = 0x19FEBF0B  # EBC2's group on data page 1: another group
+    sent[other[1::4]] = 0x18000023  # TSC1 from 0x23, as 0x123 reads: one found, two IDs
+    ext = sent > 0x7FF
+    log = write_bus_log(stamps, sent, data, tmp_path / f"bus{suffix}", extended=ext)
+    (tmp_path / "truck.dbc").write_text(J1939_DBC)
+    dbc = [str(tmp_path / "truck.dbc")]
+    signals = _signals()
+    kept = read_mdf4(log, signals, RADIUS_M, NAME, log.name, dbc)
+    with monkeypatch.context() as m:
+        m.setattr(mdf4, "_wanted", lambda *a: None)
+        whole = read_mdf4(log, signals, RADIUS_M, NAME, log.name, dbc)
+    for a, b in [*zip(kept.wheels, whole.wheels, strict=True), (kept.gnss, whole.gnss)]:
+        assert a.name == b.name
+        np.testing.assert_array_equal(a.t_s, b.t_s)
+        for k in b.channels:
+            np.testing.assert_array_equal(a.channels[k], b.channels[k])
+        np.testing.assert_array_equal(a.rows, b.rows)
+    extra = [n for n in kept.notes if n not in whole.notes]
+    assert len(extra) == 1 and "message(s) the map's signals are in" in extra[0]
+    assert [n for n in kept.notes if n not in extra] == list(whole.notes)
+    said = " ".join(whole.notes)
+    assert "truck.dbc: 7 of the log's 10 frame IDs defined" in said  # TSC1 from 4 addresses
+    keep = FrameFilter(frozenset(), frozenset({0xFEBF, 0xEF00, 0xFF21}))
+    every, some = read_frames(log, log.name), read_frames(log, log.name, keep=keep)
+    at = np.flatnonzero(keep.mask(every.ids, every.extended))
+    assert at.size == len(ids) - 4 * len(ids) // 5
+    assert_same_frames(some, _taken(every, at))
+    # a second ECU sending the fix's group: two of its signals, refused alike
+    sent[other[1::2]] = 0x18EF0B2A
+    log = write_bus_log(stamps, sent, data, tmp_path / f"two{suffix}", extended=ext)
+    with pytest.raises(InputError) as kept_error:
+        read_mdf4(log, signals, RADIUS_M, NAME, log.name, dbc)
+    with monkeypatch.context() as m, pytest.raises(InputError) as whole_error:
+        m.setattr(mdf4, "_wanted", lambda *a: None)
+        read_mdf4(log, signals, RADIUS_M, NAME, log.name, dbc)
+    assert str(kept_error.value) == str(whole_error.value)
+    said = "found 2 signals of that name, in the messages GnssPos 0x18EF0B1C, GnssPos 0x18EF0B2A"
+    assert said in str(kept_error.value)
+
+
 def test_the_map_s_messages_are_kept_by_the_names_of_their_signals(tmp_path):
     """A signal named alone, by its message or by its bus and message keeps its message;
     the log is read whole where a column is no signal of the databases (unless the log is
@@ -709,12 +777,17 @@ def test_the_map_s_messages_are_kept_by_the_names_of_their_signals(tmp_path):
     assert got is not None and got.keep.messages == {(0x1A0, False)}
     assert _wanted(dbc, ["gps_lat"], True) is None
     assert _wanted([str(tmp_path / "none.dbc")], ["WhlSpd_FL"], False) is None
-    (tmp_path / "j1939.dbc").write_text(
-        OTHER_DBC.replace(
-            "BU_:", 'BA_DEF_ "ProtocolType" STRING ;\nBA_ "ProtocolType" "J1939";\nBU_:'
-        )
+    # marked J1939 with standard identifiers: asammdf drops the flag, so by identifier
+    (tmp_path / "j1939.dbc").write_text(OTHER_DBC.replace("BU_:", J1939_FLAG + "BU_:"))
+    got = _wanted([str(tmp_path / "j1939.dbc")], ["WhlSpd_FL"], False)
+    assert got is not None and got.keep == FrameFilter(frozenset({(0x1A0, False)}))
+    # a truck's: by parameter group (a PDU2 group's extension in it, a PDU1's address not)
+    (tmp_path / "truck.dbc").write_text(J1939_DBC)
+    got = _wanted([str(tmp_path / "truck.dbc")], ["WhlSpd_FL", "Lat", "Sats"], False)
+    assert got is not None and got.keep == FrameFilter(
+        frozenset(), frozenset({0xFEBF, 0xEF00, 0xFF21})
     )
-    assert _wanted([str(tmp_path / "j1939.dbc")], ["WhlSpd_FL"], False) is None
+    assert got.messages == 3
 
 
 def test_a_map_s_message_missing_from_the_log_is_said_as_for_a_log_read_whole(tmp_path):

@@ -47,6 +47,26 @@ SIGNALS = {
 }
 
 
+# The same messages as a truck's J1939 database defines them (extended identifiers: EBC2's
+# group, a PDU1 group with a destination address, a proprietary PDU2 group), a message the
+# map does not name at group 0 (TSC1: which a standard identifier's group is too), and the
+# frames as the truck's ECUs send them: their own priorities and source addresses.
+J1939_FLAG = 'BA_DEF_ "ProtocolType" STRING ;\nBA_ "ProtocolType" "J1939";\n'
+J1939_IDS = {WHEELS_ID: 0x18FEBFFE, FIX_ID: 0x18EF00FE, SATS_ID: 0x18FF21FE}
+J1939_SENT = {WHEELS_ID: 0x0CFEBF0B, FIX_ID: 0x18EF0B1C, SATS_ID: 0x18FF211C}
+
+
+def _j1939_dbc() -> str:
+    text = DBC
+    for ours, theirs in J1939_IDS.items():
+        text = text.replace(f"BO_ {ours} ", f"BO_ {theirs | 0x80000000} ")
+    tsc1 = '\nBO_ 2348810494 TSC1: 8 EMS\n SG_ Torque : 0|8@1+ (1,0) [0|255] "" Vector__XXX\n'
+    return text.replace("BU_:", J1939_FLAG + "BU_:") + tsc1
+
+
+J1939_DBC = _j1939_dbc()
+
+
 def can_frames(df: pd.DataFrame, radius_m: float, t0_s: float = 0.0):
     """The canonical drive ``df`` as raw CAN frames: ``(stamps, ids, data)`` in time order
     (its wheel speeds times ``radius_m`` in km/h, a frame per row; its fixes and satellite

@@ -66,7 +66,7 @@ import numpy as np
 from rwhonet.data.asc import STAMP, encoding_of, stamp_ns
 from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.keptframes import ID_MASK, FrameFilter, Kept, frame_keys
+from rwhonet.data.keptframes import ID_MASK, FrameFilter, Kept, frame_keys, j1939_pgn
 from rwhonet.data.trc import FD_LENGTHS, MAX_BYTES, trc_frames
 from rwhonet.errors import InputError, Problem
 
@@ -135,31 +135,45 @@ class Frames:
     def place(self, acq_name: str, comment: str, n: int) -> tuple[str, np.ndarray] | None:
         """The frames a decoded message's ``n`` samples came from, by the name asammdf
         gives its channel group (``CAN1 message ID=0x1A0 EXT=False``; ``comment``:
-        ``CAN1 - message WheelSpeeds 0x1A0 EXT=False``): ``(the message as messages name
-        it, the frames' rows)``; None where the name says no message or the count differs.
-        """
-        message = _message(acq_name)
-        if message is None:
+        ``CAN1 - message WheelSpeeds 0x1A0 EXT=False``; a J1939 message's, by parameter
+        group and source address, in its comment alone: ``CAN1 ID=0xCFEBF0B WheelSpeeds
+        PGN=0xFEBF SA=0xB``): ``(the message as messages name it, the frames' rows)``; None
+        where the names say no message or the count differs."""
+        if (group := _J1939_GROUP.fullmatch(comment.strip())) is not None:
+            bus, ident, pgn, source = (int(group[k], 0) for k in ("bus", "id", "pgn", "sa"))
+            on = (self.channel == bus) & ((self.ids & 0xFF) == source)
+            at = np.flatnonzero(on & (j1939_pgn(self.ids) == pgn))
+            name = f"{group['name']} 0x{ident:X}"
+        elif (message := _message(acq_name)) is not None:
+            bus, ident, ext = message
+            at = np.flatnonzero(
+                (self.channel == bus) & (self.ids == ident) & (self.extended == ext)
+            )
+            said = _MESSAGE_NAME.search(comment)
+            name = f"{said[1]} 0x{ident:X}" if said else f"frames 0x{ident:X}"
+        else:
             return None
-        bus, ident, ext = message
-        at = np.flatnonzero((self.channel == bus) & (self.ids == ident) & (self.extended == ext))
         if at.size != n:
             return None
-        said = _MESSAGE_NAME.search(comment)
-        name = f"{said[1]} 0x{ident:X}" if said else f"frames 0x{ident:X}"
         return (name if len(self.buses) < 2 else f"{self.buses[bus - 1]} {name}"), self.rows[at]
 
-    def bus_of(self, acq_name: str) -> str | None:
+    def bus_of(self, acq_name: str, comment: str = "") -> str | None:
         """The interface a decoded message's channel group came from (``can1``), by the
-        name asammdf gives the group; None where the name says none."""
+        names asammdf gives the group (:meth:`place`); None where they say none."""
+        group = _J1939_GROUP.fullmatch(comment.strip())
         message = _message(acq_name)
-        bus = None if message is None else message[0]
+        bus = int(group["bus"]) if group else None if message is None else message[0]
         return self.buses[bus - 1] if bus is not None and 0 < bus <= len(self.buses) else None
 
 
 # how asammdf's extract_bus_logging names a decoded message's channel group
 _MESSAGE = re.compile(r"CAN(\d+) message ID=0x([0-9A-Fa-f]+) EXT=(True|False)")
 _MESSAGE_NAME = re.compile(r"message (\S+) 0x")
+# and a J1939 message's, in the group's comment (its acquisition name: the source address)
+_J1939_GROUP = re.compile(
+    r"CAN(?P<bus>\d+) ID=(?P<id>0x[0-9A-Fa-f]+) (?P<name>\S+) "
+    r"PGN=(?P<pgn>0x[0-9A-Fa-f]+) SA=(?P<sa>0x[0-9A-Fa-f]+)"
+)
 
 
 def _message(acq_name: str) -> tuple[int, int, bool] | None:

@@ -35,22 +35,39 @@ def key_id(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return keys >> 40, keys & 0xFFFF_FFFF, (keys >> 32) & 1 != 0
 
 
+def j1939_pgn(ids: np.ndarray) -> np.ndarray:
+    """Each identifier's J1939 parameter group number, as asammdf's bus-logging decode
+    reckons it for any frame (``MDF4._extract_can_logging``): the data page bits and PDU
+    format, and the PDU specific where the format is 240 or more (PDU2: a group extension,
+    not a destination); a standard identifier's is 0."""
+    ids = ids.astype(np.int64) & ID_MASK
+    shifted = ids >> 8
+    base = shifted & 0x3FF00
+    return np.where(((ids >> 16) & 0xFF) >= 240, base + (shifted & 0xFF), base)
+
+
 @dataclass(frozen=True)
 class FrameFilter:
     """The frames a decode needs: those whose identifier (and whether it is extended) is
-    one of ``messages``', on any bus.
+    one of ``messages``', or whose J1939 parameter group is one of ``pgns``, on any bus.
 
     Attributes:
         messages: ``(identifier, extended)`` of each message kept.
+        pgns: the parameter groups of the J1939 messages kept (which a decode matches by
+            group and the frame's own source address, not by identifier).
     """
 
     messages: frozenset[tuple[int, bool]]
+    pgns: frozenset[int] = frozenset()
 
     def mask(self, ids: np.ndarray, extended: np.ndarray) -> np.ndarray:
         """Which frames are of a kept message."""
         code = ids.astype(np.int64) | (extended.astype(np.int64) << 32)
         wanted = np.array(sorted(i | (int(x) << 32) for i, x in self.messages), np.int64)
-        return np.isin(code, wanted)
+        keep = np.isin(code, wanted)
+        if self.pgns:
+            keep |= np.isin(j1939_pgn(ids), np.array(sorted(self.pgns), np.int64))
+        return keep
 
 
 class Kept:

@@ -28,7 +28,7 @@ from rwhonet.config import ColumnSpec
 from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import map_unit_name, unit_name
-from rwhonet.data.keptframes import FrameFilter, key_id
+from rwhonet.data.keptframes import FrameFilter, j1939_pgn, key_id
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.errors import InputError, Problem
@@ -200,7 +200,7 @@ def can_log_groups(
     notes.append(f"{frames.in_log} data frames on {len(frames.buses)} bus(es) ({buses})")
     if frames.log_ids is not None:
         notes.append(
-            f"{frames.t_s.size} of them decoded, those of the {len(wanted.keep.messages)} "
+            f"{frames.t_s.size} of them decoded, those of the {wanted.messages} "
             "message(s) the map's signals are in; the other frames were counted and left "
             "out as the log was read"
         )
@@ -295,45 +295,115 @@ def _ids_note(pairs: list[tuple[str, str | None]], found: int, total: int) -> st
     return f"raw CAN frames decoded with {files}: {found} of the log's {total} frame IDs defined"
 
 
+Key = tuple[int, bool]  # a message's identifier and whether it is extended
+
+
+@dataclasses.dataclass(frozen=True)
+class _Matcher:
+    """Which message of one CAN database asammdf's bus-logging decode gives a frame
+    (``MDF4._extract_can_logging``, asammdf 8.8): the message of the frame's identifier,
+    else the first J1939 message of the frame's parameter group (:func:`j1939_pgn`). A
+    J1939 message is one canmatrix marks so, or any of a database whose ``ProtocolType`` is
+    J1939 where all its identifiers are extended (asammdf drops the database's flag
+    otherwise).
+
+    Attributes:
+        exact: each message's key -> (its key, name, parameter group where J1939 else None).
+        by_group: each J1939 parameter group -> its first message's, as in ``exact``.
+    """
+
+    exact: dict[Key, tuple[Key, str, int | None]]
+    by_group: dict[int, tuple[Key, str, int | None]]
+
+    @classmethod
+    def of(cls, db: Any) -> _Matcher:
+        """The database's messages, as asammdf looks them up (its later duplicates win)."""
+        flagged = db.attributes.get("ProtocolType", "").lower() == "j1939"
+        every = flagged and all(m.arbitration_id.extended for m in db)
+
+        def entry(m: Any) -> tuple[Key, str, int | None]:
+            key = (int(m.arbitration_id.id), bool(m.arbitration_id.extended))
+            return key, m.name, int(m.arbitration_id.pgn) if m.is_j1939 or every else None
+
+        exact = {(int(m.arbitration_id.id), bool(m.arbitration_id.extended)): entry(m) for m in db}
+        groups = {
+            (int(m.arbitration_id.pgn), m.arbitration_id.j1939_source): entry(m)
+            for m in db
+            if m.is_j1939 or every
+        }
+        by_group: dict[int, tuple[Key, str, int | None]] = {}
+        for (pgn, _), item in groups.items():
+            by_group.setdefault(pgn, item)
+        return cls(exact, by_group)
+
+    def decoded(self, ids: list[Key]) -> list[tuple[Key, tuple[Any, ...], str]]:
+        """For each frame identifier the database decodes: its message's key, asammdf's
+        key of what it found (``(group, source address, True)`` for a J1939 message,
+        ``(identifier, extended, False)`` else), and the message's name."""
+        groups = j1939_pgn(np.array([i for i, _ in ids], np.int64)).tolist() if ids else []
+        out = []
+        for (i, x), group in zip(ids, groups, strict=True):
+            item = self.exact.get((i, x)) or self.by_group.get(group)
+            if item is not None:
+                key, name, pgn = item
+                found = (pgn, i & 0xFF, True) if pgn is not None else (i, x, False)
+                out.append((key, found, name))
+        return out
+
+
 @dataclasses.dataclass(frozen=True)
 class _Wanted:
     """The messages a raw CAN log's decode needs (:func:`_wanted`).
 
     Attributes:
-        keep: the messages that carry the map's signals.
+        keep: the frames of the messages that carry the map's signals (a J1939 message's
+            by its parameter group).
         pairs: the map's databases, each with its bus (None: every bus).
-        defined: each database's messages, ``(identifier, extended)``, in ``pairs``' order
-            (for the note of the log's frame IDs they define).
+        matchers: how each database's messages are found, in ``pairs``' order.
+        wanted: each database's messages that carry the map's signals (their keys).
         databases: each database as loaded (canmatrix), in ``pairs``' order: the decode
             takes them, not loading each file again.
     """
 
     keep: FrameFilter
     pairs: list[tuple[str, str | None]]
-    defined: list[frozenset[tuple[int, bool]]]
+    matchers: list[_Matcher]
+    wanted: list[frozenset[Key]]
     databases: list[Any]  # the CanMatrix of each, for the decode
 
+    @property
+    def messages(self) -> int:
+        """How many messages carry the map's signals."""
+        return len(frozenset().union(*self.wanted))
+
     def in_log(self, frames: Frames, present_only: bool) -> bool:
-        """Whether the log has frames of every message kept (on any bus); among a stream
-        folder's files (``present_only``: the others may hold the rest), of any."""
+        """Whether the log has frames that decode as every message wanted (on any bus);
+        among a stream folder's files (``present_only``: the others may hold the rest), as
+        any."""
         _, ident, ext = key_id(frames.log_ids)
-        found = self.keep.messages & set(zip(ident.tolist(), ext.tolist(), strict=True))
-        return bool(found) if present_only else found == self.keep.messages
+        ids = list(zip(ident.tolist(), ext.tolist(), strict=True))
+        needed = {(k, key) for k, keys in enumerate(self.wanted) for key in keys}
+        found = {
+            (k, key)
+            for k, matcher in enumerate(self.matchers)
+            for key, _, _ in matcher.decoded(ids)
+            if key in self.wanted[k]
+        }
+        return bool(found) if present_only else found == needed
 
     def note(self, frames: Frames, channels: list[tuple[str, int]]) -> str:
         """:func:`_decoded_note` for a log read with ``keep``: of the IDs on the buses a
         database decodes (every bus, or its own: ``channels``, as :func:`_bus_channels`
-        numbers them), those it defines."""
+        numbers them), those it decodes, counted as asammdf counts them (a J1939 message's
+        by parameter group and source address)."""
         bus, ident, ext = key_id(frames.log_ids)
-        on_bus = list(
-            zip(bus.tolist(), zip(ident.tolist(), ext.tolist(), strict=True), strict=True)
-        )
-        total: set[tuple[int, bool]] = set()
-        found: set[tuple[int, bool]] = set()
-        for (_, channel), messages in zip(channels, self.defined, strict=True):
-            on = {i for b, i in on_bus if channel in (0, b)}
-            total |= on
-            found |= on & messages
+        on_bus = list(zip(bus.tolist(), ident.tolist(), ext.tolist(), strict=True))
+        total: set[Key] = set()
+        found: set[tuple[tuple[Any, ...], str]] = set()
+        for (_, channel), matcher in zip(channels, self.matchers, strict=True):
+            on = sorted({(i, x) for b, i, x in on_bus if channel in (0, b)})
+            total |= set(on)
+            found |= {(key, name) for _, key, name in matcher.decoded(on)}
         return _ids_note(self.pairs, len(found), len(total))
 
 
@@ -343,38 +413,50 @@ _ON_BUS = re.compile(r"CAN\d+\.")  # a decoded signal's name with its bus: CAN1.
 def _wanted(dbc: Databases, columns: list[str], present_only: bool) -> _Wanted | None:
     """The messages of the CAN databases ``dbc`` that carry the signals ``columns`` name
     (a signal's name, ``Message.Signal`` or ``CAN1.Message.Signal``, as the decoded log
-    names them), for :func:`rwhonet.data.canlog.read_frames` to keep. None where the log
-    is to be read whole: a database missing or not loaded (:func:`_decoded` refuses it),
-    a column no database's signal (unless ``present_only``: there such a column is
-    another file's, and where none is, the log's decode finds nothing either), or a J1939
-    database or message (asammdf matches those by parameter group, not identifier)."""
+    names them), for :func:`rwhonet.data.canlog.read_frames` to keep: by identifier, and a
+    J1939 message by its parameter group (:class:`_Matcher`: the decode matches those by
+    group and the frame's source address, as a truck's ECUs send them). None where the
+    log is to be read whole: a database missing or not loaded (:func:`_decoded` refuses
+    it), one whose J1939 messages canmatrix cannot group, or a column no database's signal
+    (unless ``present_only``: there such a column is another file's, and where none is,
+    the log's decode finds nothing either)."""
     pairs = _pairs(dbc)
     bare = {c: c[m.end() :] if (m := _ON_BUS.match(c)) else c for c in columns}
-    keys: set[tuple[int, bool]] = set()
+    keys: set[Key] = set()
+    groups: set[int] = set()
     named: set[str] = set()
-    defined: list[frozenset[tuple[int, bool]]] = []
+    matchers: list[_Matcher] = []
+    wanted: list[frozenset[Key]] = []
     databases = []
     for d, _ in pairs:
         db = _database(Path(d))
-        if db is None or db.attributes.get("ProtocolType", "").lower() == "j1939":
+        if db is None:
+            return None
+        try:
+            matcher = _Matcher.of(db)
+        except Exception:  # noqa: BLE001 (a J1939 message of a standard identifier: the decode says)
             return None
         databases.append(db)
-        ids = set()
+        matchers.append(matcher)
+        mine: set[Key] = set()
         for message in db:
             key = (int(message.arbitration_id.id), bool(message.arbitration_id.extended))
-            ids.add(key)
             names = {s.name for s in message.signals}
             names |= {f"{message.name}.{n}" for n in names}
             hit = {c for c, b in bare.items() if b in names}
             if hit:
-                if message.is_j1939:
-                    return None
-                keys.add(key)
+                _, _, group = matcher.exact[key]
+                if group is None:
+                    keys.add(key)
+                else:
+                    groups.add(group)
+                mine.add(key)
                 named |= hit
-        defined.append(frozenset(ids))
-    if not keys or (not present_only and named != set(columns)):
+        wanted.append(frozenset(mine))
+    if not named or (not present_only and named != set(columns)):
         return None
-    return _Wanted(FrameFilter(frozenset(keys)), pairs, defined, databases)
+    keep = FrameFilter(frozenset(keys), frozenset(groups))
+    return _Wanted(keep, pairs, matchers, wanted, databases)
 
 
 def _database(path: Path):  # type: ignore[no-untyped-def]
@@ -585,8 +667,12 @@ def _groups(
             continue
         groups = sorted({g for g, _ in where})
         if len(groups) > 1:
-            acq = [mdf.groups[g].channel_group.acq_name or "" for g in groups]
-            buses = None if frames is None else [frames.bus_of(a) for a in acq]
+            cgs = [mdf.groups[g].channel_group for g in groups]
+            buses = (
+                None
+                if frames is None
+                else [frames.bus_of(cg.acq_name or "", cg.comment or "") for cg in cgs]
+            )
             if buses and None not in buses and len(set(buses)) > 1:  # a raw log's buses
                 found = f"{len(groups)} signals of that name, on the buses {', '.join(buses)}"
                 fix = (
@@ -594,8 +680,19 @@ def _groups(
                     f"({{{buses[0]}: <the DBC>}}), log that interface alone (candump -l "
                     f"{buses[0]}), or keep its lines (grep ' {buses[0]} ')"
                 )
-            else:
-                found = f"{len(groups)} signals of that name, in channel groups {groups}"
+            else:  # a raw log's messages by their names (group numbers are the decode's)
+                placed = [
+                    None
+                    if frames is None
+                    else frames.place(cg.acq_name or "", cg.comment or "", cg.cycles_nr)
+                    for cg in cgs
+                ]
+                where_said = (
+                    f"in the messages {', '.join(p[0] for p in placed if p)}"
+                    if all(placed)
+                    else f"in channel groups {groups}"
+                )
+                found = f"{len(groups)} signals of that name, {where_said}"
                 fix = "rename the copies, or export only the message that carries it"
             problems.append(
                 Problem(file, None, spec.column, f"one signal named {spec.column!r}", found, fix)
