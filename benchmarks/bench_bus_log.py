@@ -17,7 +17,12 @@ The code measured is the one the interpreter imports: ``PYTHONPATH=<other checko
 measures another (the logs are written once, by this checkout's test support, with
 ``--keep DIR``; ``--reuse DIR`` reads them again).
 
-Usage: python benchmarks/bench_bus_log.py [--minutes 20] [--other-fps 3000]
+``--j1939``: a truck's bus instead, every identifier extended: the drive's messages sent
+with their ECUs' own priorities and source addresses, a J1939 database naming them by
+parameter group (``tests/support/canlog.py``'s ``J1939_DBC``), the other traffic 60
+other PDU2 groups (candump then through python-can's writer too).
+
+Usage: python benchmarks/bench_bus_log.py [--minutes 20] [--other-fps 3000] [--j1939]
        [--formats log,blf,asc,trc] [--keep DIR | --reuse DIR]
 """
 
@@ -69,13 +74,23 @@ print(json.dumps({
 """
 
 
-def write_logs(folder: Path, minutes: float, other_fps: float, formats: list[str]) -> float:
+def write_logs(
+    folder: Path, minutes: float, other_fps: float, formats: list[str], j1939: bool = False
+) -> float:
     """The drive among the bus's other traffic, in each format; the car's nominal radius."""
     from rwhonet.config import SimDrive, load_params
+    from rwhonet.data.keptframes import j1939_pgn
     from rwhonet.sim import generate_route, vehicles_from_params
     from rwhonet.sim.drive import child_rng
     from rwhonet.sim.streams import StreamSpec, fine_truth, stream_tables
-    from support.canlog import DBC, stream_frames, write_bus_log, write_candump
+    from support.canlog import (
+        DBC,
+        J1939_DBC,
+        J1939_SENT,
+        stream_frames,
+        write_bus_log,
+        write_candump,
+    )
 
     params = load_params(overrides={"sim.profile": "ci"})
     vehicle = vehicles_from_params(params)["target"]
@@ -94,8 +109,15 @@ def write_logs(folder: Path, minutes: float, other_fps: float, formats: list[str
     t, ids, data = stream_frames(tables, vehicle.nominal_radius_m, 1.7e9)
     rng = np.random.default_rng(2)
     n = int(other_fps * (t[-1] - t[0]))
-    others = rng.choice(np.arange(0x100, 0x7FF), 60)  # the DBC's 0x1A0, 0x600, 0x601 not among them
-    others = others[~np.isin(others, (0x1A0, 0x600, 0x601))]
+    if j1939:  # a truck's bus: the drive's messages from its ECUs, 60 other groups' frames
+        ids = np.array([J1939_SENT[int(i)] for i in ids], np.int64)
+        pf = rng.choice(np.r_[0xF0:0xFF], 60)  # PDU2 groups, none the drive's
+        others = 0x18000000 | (pf << 16) | (rng.integers(0, 256, 60) << 8) | 0x21
+        groups = j1939_pgn(others)
+        others = others[~np.isin(groups, j1939_pgn(np.array(list(J1939_SENT.values()))))]
+    else:
+        others = rng.choice(np.arange(0x100, 0x7FF), 60)  # not the DBC's 0x1A0, 0x600, 0x601
+        others = others[~np.isin(others, (0x1A0, 0x600, 0x601))]
     stamps = np.r_[t, rng.uniform(t[0], t[-1], n)]
     order = np.argsort(stamps, kind="stable")
     stamps = stamps[order]
@@ -103,13 +125,13 @@ def write_logs(folder: Path, minutes: float, other_fps: float, formats: list[str
     data = np.concatenate([data, rng.integers(0, 256, (n, 8), dtype=np.uint8)])[order]
     print(f"{minutes:g} min drive: {t.size:,} frames of its 3 messages among {n:,} others")
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "bus.dbc").write_text(DBC)
+    (folder / "bus.dbc").write_text(J1939_DBC if j1939 else DBC)
     for fmt in formats:
         path = folder / f"bus.{fmt}"
-        if fmt == "log":
+        if fmt == "log" and not j1939:
             write_candump(stamps, ids, data, path)
         else:
-            write_bus_log(stamps, ids, data, path)
+            write_bus_log(stamps, ids, data, path, extended=ids > 0x7FF)
     return vehicle.nominal_radius_m
 
 
@@ -118,6 +140,11 @@ def main() -> None:
     ap.add_argument("--minutes", type=float, default=20.0)
     ap.add_argument("--other-fps", type=float, default=3000.0)
     ap.add_argument("--formats", default="log,blf,asc,trc")
+    ap.add_argument(
+        "--j1939",
+        action="store_true",
+        help="a truck's bus: the messages with J1939 identifiers and database, all extended",
+    )
     ap.add_argument("--keep", type=Path, help="write the logs here and keep them")
     ap.add_argument("--reuse", type=Path, help="read the logs a --keep run wrote")
     args = ap.parse_args()
@@ -126,7 +153,7 @@ def main() -> None:
         folder = args.reuse or args.keep or Path(tmp)
         radius_file = folder / "radius.txt"
         if args.reuse is None:
-            radius = write_logs(folder, args.minutes, args.other_fps, formats)
+            radius = write_logs(folder, args.minutes, args.other_fps, formats, args.j1939)
             radius_file.write_text(repr(radius))
         radius = float(radius_file.read_text())
         print(f"code: {os.environ.get('PYTHONPATH') or 'this checkout'}")
