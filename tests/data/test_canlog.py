@@ -869,6 +869,48 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
     )
 
 
+def test_an_asc_python_can_reads_is_kept_a_batch_at_a_time_as_read_whole(tmp_path, monkeypatch):
+    """An ASC the fast reader leaves to python-can (a form feed in a comment line: a stray
+    control byte) is read by it a batch of messages at a time: batches of 50 give the
+    frames one batch gives (the fast reader's, of the log without the byte), buses
+    numbered in the order first seen among every frame; with a filter, the frames read
+    whole that it keeps, the others counted, every frame's bus and ID in ``log_ids``."""
+    from rwhonet.data import canlog
+    from rwhonet.data.canlog import _asc, _taken
+    from rwhonet.data.keptframes import frame_keys
+
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    n = np.arange(len(ids))
+    channels = np.where((n > 150) & (n % 7 == 3), 2, np.where((n > 400) & (n % 5 == 1), 1, 0))
+    channels[0] = 1
+    plain = _on_buses(tmp_path / "plain.asc", stamps, ids, data, ext, channels)
+    text = plain.read_text()
+    log = tmp_path / "bus.asc"
+    log.write_text(text.replace("End TriggerBlock", "// a page break \x0c\nEnd TriggerBlock"))
+    assert _asc(log, log.name) is None  # python-can's to read
+    monkeypatch.setattr(canlog, "PYTHON_CAN_BATCH", 1 << 30)
+    whole = read_frames(log, log.name)
+    assert_same_frames(whole, read_frames(plain, log.name))
+    assert whole.buses == ["1", "0", "2"]
+    monkeypatch.setattr(canlog, "PYTHON_CAN_BATCH", 50)
+    assert_same_frames(read_frames(log, log.name), whole)
+    keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))
+    some = read_frames(log, log.name, keep=keep)
+    at = np.flatnonzero(keep.mask(whole.ids, whole.extended))
+    assert_same_frames(some, _taken(whole, at))
+    assert some.dropped == whole.t_s.size - at.size > 0
+    np.testing.assert_array_equal(
+        some.log_ids, np.unique(frame_keys(whole.channel, whole.ids, whole.extended))
+    )
+    # a byte python-can cannot read after 120 data frames: its error, and those counted
+    lines = log.read_text().splitlines(keepends=True)
+    events = [i for i, x in enumerate(lines) if " Rx   d " in x]
+    lines.insert(events[120], " 9.000000 1  1A0             Rx   d 2 zz 1f\n")
+    log.write_text("".join(lines))
+    with pytest.raises(InputError, match=r"it failed after 120 frame\(s\)"):
+        read_frames(log, log.name, keep=keep)
+
+
 def test_two_whole_bus_logs_of_a_stream_folder_each_keep_the_map_s_messages_they_have(
     tmp_path, monkeypatch
 ):

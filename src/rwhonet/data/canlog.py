@@ -59,7 +59,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -214,9 +214,9 @@ def read_frames(
             (:func:`_trc`); other logs keep their clocks.
         keep: the messages to keep (the others counted and left out, their IDs kept in
             ``log_ids``): each log is read a part at a time (candump's lines, ASC's and
-            TRC's chunks, BLF's batches of objects) and each part's other frames left
-            out as it is read, so its memory is that of a part and of the frames kept; a
-            log python-can reads itself is left out of once read whole.
+            TRC's chunks, BLF's batches of objects, the batches of messages python-can
+            yields where it reads the log itself) and each part's other frames left out
+            as it is read, so its memory is that of a part and of the frames kept.
 
     Raises:
         InputError: no data frame in the log; a log python-can cannot read (with the
@@ -233,7 +233,7 @@ def read_frames(
     elif suffix == ".trc":
         frames = _trc(path, file, local_zone, keep)
     else:
-        frames = _python_can(path, file, suffix)
+        frames = _python_can(path, file, suffix, keep)
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
         if local_zone is None:
             frames = dataclasses.replace(frames, local_start=True)
@@ -531,18 +531,29 @@ def _stamps(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
     return floats_or_nan(texts(buf, start, end))
 
 
-def _python_can(path: Path, file: str, suffix: str) -> Frames:
+PYTHON_CAN_BATCH = 100_000  # python-can's messages held as Python objects at once
+
+
+def _python_can(path: Path, file: str, suffix: str, keep: FrameFilter | None = None) -> Frames:
     """An ASC, BLF or TRC log's data frames, read by python-can a frame at a time (the
     pipeline's path for an ASC :func:`_asc` leaves to it; the tests' reference for BLF,
-    ASC and TRC)."""
+    ASC and TRC). The messages are held as Python objects :data:`PYTHON_CAN_BATCH` at a
+    time, each batch made arrays and, with ``keep``, its other frames left out
+    (:class:`Kept`) before the next is read: a whole bus's ASC that python-can reads
+    (``base dec``, a stray control byte) takes the memory of a batch and of the frames
+    kept, not of every message."""
     import can
     from can.io.asc import ASCReader
     from can.io.trc import TRCReader
 
-    t, ids, ext, lengths, payloads, chans, rows = [], [], [], [], [], [], []
+    kept = None if keep is None else Kept(keep)
+    batch = _Batch()
+    parts: list[_Batch] = []
+    codes: dict[str, int] = {}  # each bus's name -> its number, in the order first seen
     skipped = {"error frames": 0, "remote frames": 0}
     kind = suffix.lstrip(".").upper()
     relative = False
+    read = 0  # data frames read
     try:
         if suffix == ".asc":  # read in the encoding the fast reader takes (encoding_of)
             encoding = file_encoding(path)
@@ -561,36 +572,80 @@ def _python_can(path: Path, file: str, suffix: str) -> Frames:
                 if msg.is_remote_frame:
                     skipped["remote frames"] += 1
                     continue
-                t.append(msg.timestamp)
-                rows.append(row)
-                ids.append(msg.arbitration_id & ID_MASK)  # python-can takes any int
-                ext.append(msg.is_extended_id)
-                payloads.append(bytes(msg.data))
-                chans.append(str(msg.channel) if msg.channel is not None else "")
+                name = str(msg.channel) if msg.channel is not None else ""
+                batch.add(msg, row, codes.setdefault(name, len(codes)))
+                read += 1
+                if len(batch.t) >= PYTHON_CAN_BATCH:
+                    parts.append(batch.arrays(kept))
+                    batch = _Batch()
     except Exception as err:  # python-can's readers raise what their parsers raise
-        raise _unreadable(file, kind, err, len(t)) from None
-    lengths = np.array([len(p) for p in payloads], np.int64)
-    width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
-    data = np.zeros((len(payloads), width), np.uint8)
-    if payloads:
-        flat = np.frombuffer(b"".join(payloads), np.uint8)
-        at = np.repeat(np.arange(len(payloads)), lengths)  # each byte's frame
-        cols = np.arange(flat.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
-        data[at, cols] = flat
-    channel, buses = _buses(np.array(chans, dtype=object).astype(str))
+        raise _unreadable(file, kind, err, read) from None
+    parts.append(batch.arrays(kept))
+    width = max(p.data.shape[1] for p in parts)
+    code = np.concatenate([p.code for p in parts])
+    t = np.concatenate([p.t for p in parts])
     return Frames(
-        np.asarray(t, np.float64),
-        np.asarray(ids, np.uint32) & np.uint32(ID_MASK),
-        np.asarray(ext, bool),
-        lengths.astype(np.uint8),
-        data,
-        channel,
-        buses,
-        _clock(kind, np.asarray(t, np.float64))
-        + (", each event's time since the one before, summed" if relative else ""),
-        np.asarray(rows, np.int64),
+        t,
+        np.concatenate([p.ids for p in parts]) & np.uint32(ID_MASK),
+        np.concatenate([p.ext for p in parts]),
+        np.concatenate([p.lengths for p in parts]).astype(np.uint8),
+        np.concatenate([np.pad(p.data, ((0, 0), (0, width - p.data.shape[1]))) for p in parts]),
+        (code + 1).astype(np.uint8) if kept is None else kept.channel(code),
+        list(codes),  # first seen among every data frame: the codes' order
+        _clock(kind, t) + (", each event's time since the one before, summed" if relative else ""),
+        np.concatenate([p.rows for p in parts]),
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
+        **_left_out(kept),
     )
+
+
+@dataclass
+class _Batch:
+    """python-can's data frames as it yields them (lists), then as arrays (:meth:`arrays`)."""
+
+    t: Any = dataclasses.field(default_factory=list)
+    ids: Any = dataclasses.field(default_factory=list)
+    ext: Any = dataclasses.field(default_factory=list)
+    payloads: Any = dataclasses.field(default_factory=list)
+    code: Any = dataclasses.field(default_factory=list)
+    rows: Any = dataclasses.field(default_factory=list)
+    lengths: Any = None
+    data: Any = None
+
+    def add(self, msg: Any, row: int, code: int) -> None:
+        """A data frame, its number among the log's messages and its bus's number."""
+        self.t.append(msg.timestamp)
+        self.rows.append(row)
+        self.ids.append(msg.arbitration_id & ID_MASK)  # python-can takes any int
+        self.ext.append(msg.is_extended_id)
+        self.payloads.append(bytes(msg.data))
+        self.code.append(code)
+
+    def arrays(self, kept: Kept | None) -> _Batch:
+        """The batch as arrays, the frames ``kept`` leaves out left out."""
+        ids = np.asarray(self.ids, np.int64)
+        ext = np.asarray(self.ext, bool)
+        code = np.asarray(self.code, np.int64)
+        at = np.arange(ids.size) if kept is None else kept.part(ids, ext, code)
+        payloads = [self.payloads[i] for i in at.tolist()]
+        lengths = np.array([len(x) for x in payloads], np.int64)
+        width = 8 if lengths.max(initial=0) <= 8 else MAX_BYTES
+        data = np.zeros((len(payloads), width), np.uint8)
+        if payloads:
+            flat = np.frombuffer(b"".join(payloads), np.uint8)
+            each = np.repeat(np.arange(len(payloads)), lengths)  # each byte's frame
+            cols = np.arange(flat.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+            data[each, cols] = flat
+        return _Batch(
+            np.asarray(self.t, np.float64)[at],
+            ids[at].astype(np.uint32),
+            ext[at],
+            None,
+            code[at],
+            np.asarray(self.rows, np.int64)[at],
+            lengths,
+            data,
+        )
 
 
 def _unreadable(file: str, kind: str, err: BaseException, frames: int | None) -> InputError:
