@@ -834,6 +834,33 @@ def _on_buses(path, stamps, ids, data, ext, channels):  # type: ignore[no-untype
     return path
 
 
+def _on_three_buses(path):  # type: ignore[no-untyped-def]
+    """A whole bus's log on three buses: its first frame on bus 1, most on bus 0, some on
+    bus 2 from the 152nd and on bus 1 from the 402nd (python-can's channel numbers)."""
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    n = np.arange(len(ids))
+    channels = np.where((n > 150) & (n % 7 == 3), 2, np.where((n > 400) & (n % 5 == 1), 1, 0))
+    channels[0] = 1
+    return _on_buses(path, stamps, ids, data, ext, channels)
+
+
+def _assert_kept_as_read_whole(log, whole) -> FrameFilter:  # type: ignore[no-untyped-def]
+    """That the log read with a filter gives the frames of ``whole`` (it read whole) the
+    filter keeps, the others counted, every frame's bus and ID in ``log_ids``."""
+    from rwhonet.data.canlog import _taken
+    from rwhonet.data.keptframes import frame_keys
+
+    keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))
+    some = read_frames(log, log.name, keep=keep)
+    at = np.flatnonzero(keep.mask(whole.ids, whole.extended))
+    assert_same_frames(some, _taken(whole, at))
+    assert some.dropped == whole.t_s.size - at.size > 0
+    np.testing.assert_array_equal(
+        some.log_ids, np.unique(frame_keys(whole.channel, whole.ids, whole.extended))
+    )
+    return keep
+
+
 @pytest.mark.parametrize("suffix", [".trc", ".asc", ".blf"])
 def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_read_whole(
     tmp_path, monkeypatch, suffix
@@ -843,14 +870,8 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
     later part), the frames kept those of the log read whole that the filter keeps, every
     frame's bus and ID in ``log_ids``."""
     from rwhonet.data import asc, blf, trc
-    from rwhonet.data.canlog import _taken
-    from rwhonet.data.keptframes import FrameFilter, frame_keys
 
-    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
-    n = np.arange(len(ids))
-    channels = np.where((n > 150) & (n % 7 == 3), 2, np.where((n > 400) & (n % 5 == 1), 1, 0))
-    channels[0] = 1
-    log = _on_buses(tmp_path / f"bus{suffix}", stamps, ids, data, ext, channels)
+    log = _on_three_buses(tmp_path / f"bus{suffix}")
     every = read_frames(log, log.name)
     # TRC numbers python-can's channel 0 as bus 1; ASC and BLF read back python-can's own
     assert every.buses == (["2", "1", "3"] if suffix == ".trc" else ["1", "0", "2"])
@@ -859,14 +880,7 @@ def test_a_log_on_three_buses_read_a_part_at_a_time_keeps_the_frames_it_would_re
     for module in (trc, asc):
         monkeypatch.setattr(module, "CHUNK_BYTES", 2048)
     monkeypatch.setattr(blf, "BATCH_BYTES", 2048)
-    keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))
-    some = read_frames(log, log.name, keep=keep)
-    at = np.flatnonzero(keep.mask(every.ids, every.extended))
-    assert_same_frames(some, _taken(every, at))
-    assert some.dropped == every.t_s.size - at.size > 0
-    np.testing.assert_array_equal(
-        some.log_ids, np.unique(frame_keys(every.channel, every.ids, every.extended))
-    )
+    _assert_kept_as_read_whole(log, every)
 
 
 def test_an_asc_python_can_reads_is_kept_a_batch_at_a_time_as_read_whole(tmp_path, monkeypatch):
@@ -876,14 +890,9 @@ def test_an_asc_python_can_reads_is_kept_a_batch_at_a_time_as_read_whole(tmp_pat
     numbered in the order first seen among every frame; with a filter, the frames read
     whole that it keeps, the others counted, every frame's bus and ID in ``log_ids``."""
     from rwhonet.data import canlog
-    from rwhonet.data.canlog import _asc, _taken
-    from rwhonet.data.keptframes import frame_keys
+    from rwhonet.data.canlog import _asc
 
-    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
-    n = np.arange(len(ids))
-    channels = np.where((n > 150) & (n % 7 == 3), 2, np.where((n > 400) & (n % 5 == 1), 1, 0))
-    channels[0] = 1
-    plain = _on_buses(tmp_path / "plain.asc", stamps, ids, data, ext, channels)
+    plain = _on_three_buses(tmp_path / "plain.asc")
     text = plain.read_text()
     log = tmp_path / "bus.asc"
     log.write_text(text.replace("End TriggerBlock", "// a page break \x0c\nEnd TriggerBlock"))
@@ -894,14 +903,7 @@ def test_an_asc_python_can_reads_is_kept_a_batch_at_a_time_as_read_whole(tmp_pat
     assert whole.buses == ["1", "0", "2"]
     monkeypatch.setattr(canlog, "PYTHON_CAN_BATCH", 50)
     assert_same_frames(read_frames(log, log.name), whole)
-    keep = FrameFilter(frozenset({(0x1A0, False), (0x18FEF100, True), (0x123, False)}))
-    some = read_frames(log, log.name, keep=keep)
-    at = np.flatnonzero(keep.mask(whole.ids, whole.extended))
-    assert_same_frames(some, _taken(whole, at))
-    assert some.dropped == whole.t_s.size - at.size > 0
-    np.testing.assert_array_equal(
-        some.log_ids, np.unique(frame_keys(whole.channel, whole.ids, whole.extended))
-    )
+    keep = _assert_kept_as_read_whole(log, whole)
     # a byte python-can cannot read after 120 data frames: its error, and those counted
     lines = log.read_text().splitlines(keepends=True)
     events = [i for i, x in enumerate(lines) if " Rx   d " in x]
