@@ -621,20 +621,11 @@ def _whole_bus(df, seed: int = 3):  # type: ignore[no-untyped-def]
     )
 
 
-@pytest.mark.parametrize("suffix", [".log", ".asc", ".blf", ".trc"])
-def test_a_whole_bus_log_is_decoded_from_the_map_s_messages_alone(tmp_path, suffix, monkeypatch):
-    """Read keeping only the frames of the messages the map's signals are in, a whole bus's
-    log gives the streams (times, values, rows), notes and frame-ID count it gave read
-    whole, the frames left out counted; ``read_frames`` with the filter gives exactly the
-    frames read whole that the filter keeps, and every frame's ID in ``log_ids``."""
+def _kept_and_whole(log, dbc, monkeypatch):  # type: ignore[no-untyped-def]
+    """The log's streams through the map, read keeping the map's messages and read whole
+    (asserted the same: names, times, values, rows)."""
     from rwhonet.data import mdf4
-    from rwhonet.data.canlog import _taken
-    from rwhonet.data.keptframes import FrameFilter, frame_keys
 
-    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
-    log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}", extended=ext)
-    (tmp_path / "bus.dbc").write_text(OTHER_DBC)
-    dbc = [str(tmp_path / "bus.dbc")]
     kept = read_mdf4(log, _signals(), RADIUS_M, NAME, log.name, dbc)
     with monkeypatch.context() as m:
         m.setattr(mdf4, "_wanted", lambda *a: None)
@@ -645,6 +636,23 @@ def test_a_whole_bus_log_is_decoded_from_the_map_s_messages_alone(tmp_path, suff
         for k in b.channels:
             np.testing.assert_array_equal(a.channels[k], b.channels[k])
         np.testing.assert_array_equal(a.rows, b.rows)
+    return kept, whole
+
+
+@pytest.mark.parametrize("suffix", [".log", ".asc", ".blf", ".trc"])
+def test_a_whole_bus_log_is_decoded_from_the_map_s_messages_alone(tmp_path, suffix, monkeypatch):
+    """Read keeping only the frames of the messages the map's signals are in, a whole bus's
+    log gives the streams (times, values, rows), notes and frame-ID count it gave read
+    whole, the frames left out counted; ``read_frames`` with the filter gives exactly the
+    frames read whole that the filter keeps, and every frame's ID in ``log_ids``."""
+    from rwhonet.data.canlog import _taken
+    from rwhonet.data.keptframes import FrameFilter, frame_keys
+
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}", extended=ext)
+    (tmp_path / "bus.dbc").write_text(OTHER_DBC)
+    dbc = [str(tmp_path / "bus.dbc")]
+    kept, whole = _kept_and_whole(log, dbc, monkeypatch)
     note = (
         f"{log.name}: {len(ids) - 4 * len(ids) // 5} of them decoded, those of the 3 "
         "message(s) the map's signals are in; the other frames were counted and left out as "
@@ -728,16 +736,7 @@ def test_a_truck_s_j1939_bus_is_decoded_from_the_map_s_parameter_groups_alone(
     (tmp_path / "truck.dbc").write_text(J1939_DBC)
     dbc = [str(tmp_path / "truck.dbc")]
     signals = _signals()
-    kept = read_mdf4(log, signals, RADIUS_M, NAME, log.name, dbc)
-    with monkeypatch.context() as m:
-        m.setattr(mdf4, "_wanted", lambda *a: None)
-        whole = read_mdf4(log, signals, RADIUS_M, NAME, log.name, dbc)
-    for a, b in [*zip(kept.wheels, whole.wheels, strict=True), (kept.gnss, whole.gnss)]:
-        assert a.name == b.name
-        np.testing.assert_array_equal(a.t_s, b.t_s)
-        for k in b.channels:
-            np.testing.assert_array_equal(a.channels[k], b.channels[k])
-        np.testing.assert_array_equal(a.rows, b.rows)
+    kept, whole = _kept_and_whole(log, dbc, monkeypatch)
     extra = [n for n in kept.notes if n not in whole.notes]
     assert len(extra) == 1 and "message(s) the map's signals are in" in extra[0]
     assert [n for n in kept.notes if n not in extra] == list(whole.notes)
