@@ -963,3 +963,192 @@ def test_a_can_database_is_loaded_once_a_process_until_its_file_changes(tmp_path
     again = _database(path)
     assert again is not first and len(again.frames) == len(first.frames) + 1
     assert _database(tmp_path / "none.dbc") is None
+
+
+def _bus_drive(tmp_path, seconds: float = 60.0, other: int = 20):  # type: ignore[no-untyped-def]
+    """A whole bus's candump log of a ``seconds`` drive (``other`` frames of the rest of
+    the bus to each of the drive's) in ``tmp_path/raw``, with its DBC."""
+    stamps, ids, data = can_frames(wavy_drive(seconds), RADIUS_M, T0_S)
+    rng = np.random.default_rng(0)
+    n = other * len(stamps)
+    t = np.r_[stamps, rng.uniform(stamps[0], stamps[-1], n)]
+    order = np.argsort(t, kind="stable")
+    log = write_bus_log(
+        t[order],
+        np.r_[ids, rng.choice(np.arange(0x100, 0x180), n)][order],
+        np.concatenate([data, rng.integers(0, 256, (n, 8), dtype=np.uint8)])[order],
+        tmp_path / "raw" / "bus.log",
+    )
+    (tmp_path / "raw" / "bus.dbc").write_text(DBC)
+    return log, len(ids)
+
+
+def _read_drive(path, max_mb: float, fmt: str = "bus", reader: str = "mdf4"):  # type: ignore[no-untyped-def]
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from support.drives import make_params
+
+    root = path.parent if path.is_file() else path
+    dbc = str(root / "bus.dbc") if (root / "bus.dbc").exists() else str(root.parent / "bus.dbc")
+    signals = SIGNALS if reader == "mdf4" else {"t": {"column": "t", "unit": "s"}, **SIGNALS}
+    maps = {fmt: {"reader": reader, "signals": signals, "dbc": dbc}} if fmt != "iovnbd" else {}
+    data = make_params(root, **{"data.signal_maps": maps, "data.max_file_mb": max_mb}).data
+    f = DriveFile("bus", "target_test", "target", fmt, path)
+    return read_any(f, data, lambda p: p.name, RADIUS_M, 0.1, 10.0)[0]
+
+
+@pytest.mark.parametrize("suffix", [".log", ".asc", ".blf", ".trc"])
+def test_a_log_keeps_at_most_the_bound_s_frames_naming_the_row_past_it(tmp_path, suffix):
+    """A filter's ``max_frames``: the frames kept up to it are those kept without it; one
+    more is refused, naming the log and the frame one too many by its row (a candump or
+    TRC log's line, an ASC or BLF log's number among its messages), as a decode names a
+    frame."""
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}", extended=ext)
+    keep = FrameFilter(frozenset({(0x1A0, False), (0x600, False)}))
+    every = read_frames(log, log.name, keep=keep)
+    n = every.t_s.size
+    assert_same_frames(
+        read_frames(log, log.name, keep=dataclasses.replace(keep, max_frames=n)), every
+    )
+    for limit in (n - 1, n // 3):
+        with pytest.raises(InputError) as err:
+            read_frames(log, log.name, keep=dataclasses.replace(keep, max_frames=limit))
+        (problem,) = err.value.problems
+        assert (problem.file, problem.row) == (log.name, every.rows[limit])
+        assert problem.expected == (
+            f"at most {limit:,} frames of the messages the map's signals are in "
+            "(data.max_file_mb at 256 bytes a frame kept)"
+        )
+        assert "split the log into several" in problem.fix
+
+
+def test_a_candump_log_s_bound_is_kept_across_its_parts(tmp_path, monkeypatch):
+    """Parts of 1 kB: the frame past the bound named by its line in whichever part, a
+    damaged line before it (which is no frame, so lines and frames differ)."""
+    from rwhonet.data import canlog
+
+    stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
+    path = write_bus_log(stamps, ids, data, tmp_path / "bus.log", extended=ext)
+    lines = path.read_text().splitlines()
+    lines[50] = "garbage"
+    path.write_text("\n".join(lines) + "\n")
+    keep = FrameFilter(frozenset({(0x1A0, False)}))
+    every = read_frames(path, "bus.log", keep=keep)
+    monkeypatch.setattr(canlog, "_CANDUMP_PART_BYTES", 1 << 10)
+    with pytest.raises(InputError) as err:
+        read_frames(path, "bus.log", keep=dataclasses.replace(keep, max_frames=150))
+    assert err.value.problems[0].row == every.rows[150] > 150 * 5 // 2
+
+
+def test_a_whole_bus_log_above_max_file_mb_is_read_its_kept_frames_bounded(tmp_path):
+    """data.max_file_mb bounds a drive by its file's size, but a raw CAN log is read a part
+    at a time: a whole bus's candump (alone, kept compressed, or in a stream folder beside
+    the receiver's log) three times the limit is read, as with the limit raised; the same
+    log's map's messages above the limit's frames (256 bytes each) are refused naming
+    it. A CSV of the log's size is still refused."""
+    import gzip
+    import shutil
+
+    log, kept = _bus_drive(tmp_path)
+    size_mb = log.stat().st_size / 2**20
+    limit_mb = size_mb / 3
+    assert FrameFilter.frames_for(limit_mb) > kept > FrameFilter.frames_for(limit_mb / 2)
+    wide = _read_drive(log, 10 * size_mb)
+    got = _read_drive(log, limit_mb)
+    for k in (c.T_S, *c.WHEELS, c.LAT_DEG):
+        np.testing.assert_array_equal(got.columns[k], wide.columns[k])
+    with pytest.raises(InputError) as err:
+        _read_drive(log, limit_mb / 2)
+    (problem,) = err.value.problems
+    assert problem.file == "bus.log" and problem.row is not None
+    assert f"at most {FrameFilter.frames_for(limit_mb / 2):,} frames" in problem.expected
+    packed = tmp_path / "packed"
+    packed.mkdir()
+    shutil.copy(tmp_path / "raw" / "bus.dbc", packed / "bus.dbc")
+    (packed / "bus.log.gz").write_bytes(gzip.compress(log.read_bytes()))
+    got = _read_drive(packed / "bus.log.gz", limit_mb)
+    np.testing.assert_array_equal(got.columns[c.T_S], wide.columns[c.T_S])
+    (tmp_path / "raw" / "big.csv").write_bytes(b"t\n" + b"0\n" * int(size_mb * 2**19))
+    with pytest.raises(InputError) as err:
+        _read_drive(tmp_path / "raw" / "big.csv", limit_mb, "iovnbd")
+    assert "a drive file of at most" in err.value.problems[0].expected
+
+
+def test_a_compressed_can_log_s_copy_is_bounded_by_the_scratch_disk(tmp_path, monkeypatch):
+    """A raw CAN log kept compressed is written to a scratch file (read from there a part
+    at a time): a copy that would leave less than the reserve free is refused, naming it."""
+    import gzip
+
+    from rwhonet.data import compressed
+
+    log, _ = _bus_drive(tmp_path, 10.0, 2)
+    packed = log.with_name("bus.log.gz")
+    packed.write_bytes(gzip.compress(log.read_bytes()))
+    log.unlink()
+    free_mb = shutil_free_mb(tmp_path)
+    monkeypatch.setattr(compressed, "SCRATCH_RESERVE_MB", free_mb + 10**6)
+    with pytest.raises(InputError) as err:
+        _read_drive(packed, 512)
+    (problem,) = err.value.problems
+    assert problem.file == "bus.log.gz"
+    assert problem.expected.startswith("a CAN log that fits the scratch disk once decompressed")
+    assert "more than that in this gzip file" in problem.found and "TMPDIR" in problem.fix
+
+
+def shutil_free_mb(path) -> int:  # type: ignore[no-untyped-def]
+    import shutil
+
+    return shutil.disk_usage(path).free // 2**20
+
+
+def test_a_can_log_read_whole_is_bounded_by_its_size(tmp_path, monkeypatch):
+    """Where the map's messages cannot be told apart (a signal's database not loaded) or
+    one is missing from the log (read again whole, to say what it has), the log is read
+    whole, every frame held: above data.max_file_mb it is refused first, the missing
+    message named."""
+    from rwhonet.data import mdf4
+
+    log, _ = _bus_drive(tmp_path)
+    limit_mb = log.stat().st_size / 2**20 / 3
+    with monkeypatch.context() as m:
+        m.setattr(mdf4, "_wanted", lambda *a: None)
+        with pytest.raises(InputError) as err:
+            _read_drive(log, limit_mb)
+    (problem,) = err.value.problems
+    assert problem.expected == f"a CAN log read whole of at most {limit_mb:g} MB (data.max_file_mb)"
+    assert problem.found == f"{log.stat().st_size / 2**20:,.1f} MB"
+    dbc = tmp_path / "raw" / "bus.dbc"
+    dbc.write_text(
+        DBC
+        + '\nBO_ 900 Yaw: 8 ESC\n SG_ YawRate : 0|16@1- (0.01,0) [-300|300] "deg/s" Vector__XXX\n'
+    )
+    signals = {**_signals(), "yaw_rate": ColumnSpec(column="YawRate", unit="deg/s")}
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(dbc)], max_mb=limit_mb)
+    assert err.value.problems[0].found.endswith("; the log has no frame of Yaw 0x384")
+    with pytest.raises(InputError) as err:  # within the limit: read whole, said as before
+        read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(dbc)], max_mb=3 * limit_mb)
+    assert "no such signal; the file has" in err.value.problems[0].found
+
+
+def test_a_stream_folder_s_size_leaves_its_raw_can_logs_out():
+    """Its CSVs and receiver logs are counted (read whole), its raw CAN logs, rotated or
+    kept compressed, are not; a NovAtel receiver's .log is a receiver's log, counted."""
+    import tempfile
+    from pathlib import Path
+
+    from rwhonet.data.drivefile import _size_bytes
+
+    with tempfile.TemporaryDirectory() as d:
+        root = Path(d)
+        (root / "wheels.csv").write_bytes(b"x" * 100)
+        (root / "gps.nmea").write_bytes(b"x" * 20)
+        for name in ("can0.log", "can0.log.1", "can1.asc.gz", "bus.blf", "x.trc"):
+            (root / name).write_bytes(b"x" * 1000)
+        (root / "rx.log").write_bytes(
+            b"#BESTPOSA,COM1,0,55.0,FINESTEERING,2167,318043.000,02000020,cdba,32768;x\n" + b"x" * 3
+        )
+        novatel = (root / "rx.log").stat().st_size
+        assert _size_bytes(root, True, True) == 120 + novatel
+        assert _size_bytes(root, True, False) == 120 + 5000 + novatel
+        assert _size_bytes(root / "can0.log", False, True) == 0

@@ -66,7 +66,15 @@ import numpy as np
 from rwhonet.data.asc import STAMP, encoding_of, stamp_ns
 from rwhonet.data.bytescan import HEX, after, before, floats_or_nan, texts
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.keptframes import ID_MASK, FrameFilter, Kept, frame_keys, j1939_pgn
+from rwhonet.data.keptframes import (
+    ID_MASK,
+    KEPT_FRAME_BYTES,
+    FrameFilter,
+    Kept,
+    TooManyFrames,
+    frame_keys,
+    j1939_pgn,
+)
 from rwhonet.data.trc import FD_LENGTHS, MAX_BYTES, trc_frames
 from rwhonet.errors import InputError, Problem
 
@@ -76,6 +84,7 @@ if TYPE_CHECKING:
 
 CANDUMP, PYTHON_CAN = ".log", (".asc", ".blf", ".trc")
 CAN_LOG_SUFFIXES = (CANDUMP, *PYTHON_CAN)
+SPLIT_CAN_LOG = "split the log into several (candump and loggers rotate theirs by size)"
 ERROR_FLAG = 0x2000_0000  # SocketCAN's CAN_ERR_FLAG in an identifier
 
 
@@ -195,8 +204,42 @@ def _taken(frames: Frames, at: np.ndarray, **changes) -> Frames:  # type: ignore
 def _kept(frames: Frames, keep: FrameFilter) -> Frames:
     """``frames`` without those ``keep`` leaves out, their IDs kept in ``log_ids``."""
     keys = np.unique(frame_keys(frames.channel, frames.ids, frames.extended))
-    at = np.flatnonzero(keep.mask(frames.ids, frames.extended))
+    mask = keep.mask(frames.ids, frames.extended)
+    keep.bound(0, mask, frames.rows.item)
+    at = np.flatnonzero(mask)
     return _taken(frames, at, dropped=frames.in_log - at.size, log_ids=keys)
+
+
+def _read(
+    path: Path, file: str, suffix: str, local_zone: str | None, keep: FrameFilter | None
+) -> Frames:
+    """:func:`read_frames`' reader for the log's format."""
+    if suffix == CANDUMP:
+        frames = _candump(path, file, keep)
+    elif suffix == ".blf":
+        frames = _blf(path, file, keep)
+    elif suffix == ".asc" and (got := _asc(path, file, keep)) is not None:
+        frames = got
+    elif suffix == ".trc":
+        frames = _trc(path, file, local_zone, keep)
+    else:
+        frames = _python_can(path, file, suffix, keep)
+    if keep is not None and frames.log_ids is None:
+        frames = _kept(frames, keep)
+    return frames
+
+
+def _too_many(file: str, err: TooManyFrames) -> Problem:
+    """The problem of a log whose frames of the map's messages pass the bound."""
+    return Problem(
+        file,
+        err.row,
+        None,
+        f"at most {err.max_frames:,} frames of the messages the map's signals are in "
+        f"(data.max_file_mb at {KEPT_FRAME_BYTES} bytes a frame kept)",
+        "more: this row's frame is one too many",
+        f"{SPLIT_CAN_LOG}, or raise data.max_file_mb on a machine with the memory",
+    )
 
 
 def read_frames(
@@ -216,32 +259,26 @@ def read_frames(
             ``log_ids``): each log is read a part at a time (candump's lines, ASC's and
             TRC's chunks, BLF's batches of objects, the batches of messages python-can
             yields where it reads the log itself) and each part's other frames left out
-            as it is read, so its memory is that of a part and of the frames kept.
+            as it is read, so its memory is that of a part and of the frames kept (at
+            most ``keep.max_frames`` of them).
 
     Raises:
-        InputError: no data frame in the log; a log python-can cannot read (with the
-            frames read before the damage); an ASC log with ``local_zone`` and no date
-            line python-can reads; a TRC header PEAK's format has not.
+        InputError: no data frame in the log; more frames kept than ``keep.max_frames``;
+            a log python-can cannot read (with the frames read before the damage); an ASC
+            log with ``local_zone`` and no date line python-can reads; a TRC header PEAK's
+            format has not.
     """
     suffix = path.suffix.lower()
-    if suffix == CANDUMP:
-        frames = _candump(path, file, keep)
-    elif suffix == ".blf":
-        frames = _blf(path, file, keep)
-    elif suffix == ".asc" and (got := _asc(path, file, keep)) is not None:
-        frames = got
-    elif suffix == ".trc":
-        frames = _trc(path, file, local_zone, keep)
-    else:
-        frames = _python_can(path, file, suffix, keep)
+    try:
+        frames = _read(path, file, suffix, local_zone, keep)
+    except TooManyFrames as err:
+        raise InputError([_too_many(file, err)]) from None
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
         if local_zone is None:
             frames = dataclasses.replace(frames, local_start=True)
         else:
             start, said = asc_start(path, file, local_zone)
             frames = dataclasses.replace(frames, t_s=frames.t_s + start, clock=said)
-    if keep is not None and frames.log_ids is None:
-        frames = _kept(frames, keep)
     if not frames.in_log:
         example = {
             CANDUMP: "as candump -l writes them: (1436509052.249713) can0 0AA#1A2B3C4D",
@@ -313,7 +350,7 @@ def _candump(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
             skipped[k] = skipped.get(k, 0) + v
         damaged, not_frame = _first(damaged, part.damaged), _first(not_frame, part.not_frame)
         if kept is not None:
-            at = kept.part(frames.ids, frames.extended, frames.channel)
+            at = kept.part(frames.ids, frames.extended, frames.channel, rows=frames.rows)
             frames = frames if at.size == frames.t_s.size else _taken(frames, at)
         parts.append(frames)
     width = max((p.data.shape[1] for p in parts), default=8)

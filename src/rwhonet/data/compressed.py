@@ -5,8 +5,9 @@ A fleet's drives are often archived compressed (``V-S1.csv.gz``: a 10 Hz CSV shr
 about five times), and pandas reads such a file as it reads the CSV. The 10 Hz readers
 (IO-VNBD, column maps, a VBOX file) and the MDF4 reader read a compressed drive file
 through a scratch copy of what it holds (:func:`decompressed_copy`, bounded by
-``data.max_file_mb`` as the file itself is), ``rwhonet predict`` a 10 Hz file block by
-block as it decompresses it (:func:`open_decompressed`).
+``data.max_file_mb`` as the file itself is; a raw CAN log's, read a part at a time, by the
+scratch disk's room), ``rwhonet predict`` a 10 Hz file block by block as it decompresses
+it (:func:`open_decompressed`).
 A drive's id is its file's name without the compression's suffix and the format's
 (:func:`drive_stem`: ``V-S1.csv.gz`` is ``V-S1``), as the drive's uncompressed file names
 it, so its scenario sidecar and every output keep the name.
@@ -21,6 +22,7 @@ import bz2
 import gzip
 import io
 import lzma
+import shutil
 import zipfile
 import zlib
 from pathlib import Path
@@ -39,6 +41,7 @@ MAGIC: tuple[tuple[bytes, str, str], ...] = (
 )
 SUFFIXES = tuple(suffix for _, _, suffix in MAGIC)
 COPY_BYTES = 1 << 20  # decompressed per step
+SCRATCH_RESERVE_MB = 1024  # what a raw CAN log's scratch copy leaves free on its disk
 
 
 def compression_of(path: Path) -> str | None:
@@ -137,34 +140,41 @@ class _Checked(io.RawIOBase):
         super().close()
 
 
-def decompressed_copy(path: Path, kind: str, dest: Path, max_mb: float, file: str) -> None:
-    """Write what a compressed drive file holds (a CSV's text, an MDF4 log) to ``dest``, at
-    most ``max_mb`` MB of it.
+def decompressed_copy(path: Path, kind: str, dest: Path, max_mb: float | None, file: str) -> None:
+    """Write what a compressed drive file holds (a CSV's text, an MDF4 log, a raw CAN log)
+    to ``dest``, at most ``max_mb`` MB of it.
+
+    ``max_mb`` None: a raw CAN log, whose reader takes a part of it at a time (its memory
+    bounded by the frames it keeps, not by its size), so its copy is bounded by the
+    scratch disk instead: it must leave :data:`SCRATCH_RESERVE_MB` free there.
 
     Raises:
         InputError: the text runs past ``max_mb`` (``data.max_file_mb``, which bounds a
-            drive's text as it bounds a plain file), or the file is not whole ``kind``
-            data (cut off, corrupted).
+            drive's text as it bounds a plain file) or past the scratch disk's room, or
+            the file is not whole ``kind`` data (cut off, corrupted).
     """
-    limit, written = int(max_mb * 2**20), 0
+    if max_mb is None:
+        room = shutil.disk_usage(dest.parent).free / 2**20 - SCRATCH_RESERVE_MB
+        expected = (
+            f"a CAN log that fits the scratch disk once decompressed ({max(room, 0):,.0f} MB "
+            f"there, leaving {SCRATCH_RESERVE_MB:,} MB free)"
+        )
+        fix = "free disk space where temporary files go (TMPDIR), or give the log decompressed"
+        limit = int(max(room, 0) * 2**20)
+    else:
+        expected = f"a drive of at most {max_mb:g} MB once decompressed (data.max_file_mb)"
+        fix = (
+            "split the drive into several files (one per trip), or raise data.max_file_mb "
+            "on a machine with the memory"
+        )
+        limit = int(max_mb * 2**20)
+    written = 0
     with open_decompressed(path, kind, file) as src, open(dest, "wb") as out:
         while chunk := src.read(COPY_BYTES):
             written += len(chunk)
             if written > limit:
-                raise InputError(
-                    [
-                        Problem(
-                            file,
-                            None,
-                            None,
-                            f"a drive of at most {max_mb:g} MB once decompressed "
-                            "(data.max_file_mb)",
-                            f"more than that in this {kind} file",
-                            "split the drive into several files (one per trip), or raise "
-                            "data.max_file_mb on a machine with the memory",
-                        )
-                    ]
-                )
+                found = f"more than that in this {kind} file"
+                raise InputError([Problem(file, None, None, expected, found, fix)])
             out.write(chunk)
 
 

@@ -177,7 +177,10 @@ def read_any(
     The readers stream a file, but the drive is then held in memory (by ingest and
     validate), so a drive above ``data.max_file_mb`` (a folder: its files together) is
     refused before it is read, and running out of memory while reading is reported as a
-    problem of that drive. A stream drive is resampled onto the grid.
+    problem of that drive. A raw CAN log is not counted there: it is read a part at a
+    time, and what it may hold is its frames of the map's messages, bounded as they are
+    kept (:func:`rwhonet.data.mdf4.can_log_groups`). A stream drive is resampled onto the
+    grid.
 
     Args:
         f: the drive (a file, or a folder for comma2k19 and stream CSVs).
@@ -205,7 +208,7 @@ def read_any(
     if wrong is not None:
         raise InputError([wrong])
     try:
-        size_mb = _size_bytes(f.path, kind in FOLDER_READERS) / 2**20
+        size_mb = _size_bytes(f.path, kind in FOLDER_READERS, kind in (MDF4, STREAM_CSV)) / 2**20
     except OSError as err:  # gone since it was listed, or unreadable
         raise InputError([unreadable_file(file, err)]) from None
     if size_mb > data.max_file_mb:
@@ -217,7 +220,8 @@ def read_any(
                     None,
                     f"a drive file of at most {data.max_file_mb:g} MB (data.max_file_mb)",
                     _mb(size_mb),
-                    _too_large_fix(f.path, kind in FOLDER_READERS),
+                    f"{SPLIT_DRIVE}, or raise data.max_file_mb on a machine with the memory "
+                    "(validate holds about 3x the file's size)",
                 )
             ]
         )
@@ -270,7 +274,8 @@ def _read_decompressed(
         if inner == ".mf4" and is_can_log_name(f.path.name):  # bus.log.gz: read as a .log
             inner = Path(without_suffix(f.path.name)).suffix.lower()
         plain = Path(scratch) / f"{drive_stem(f.path)}{inner}"
-        decompressed_copy(f.path, packed, plain, data.max_file_mb, file)
+        bound = None if is_can_log_name(f.path.name) else data.max_file_mb
+        decompressed_copy(f.path, packed, plain, bound, file)
 
         def shown(path: Path) -> str:
             return file if path == plain else rel(path)
@@ -306,30 +311,19 @@ def _read_vbo(
     return dataclasses.replace(raw, notes=(vbo_note(), *raw.notes))
 
 
-def _too_large_fix(path: Path, folder: bool) -> str:
-    """What to do with a drive above ``data.max_file_mb``. A raw CAN log's memory is not
-    its size's: it is read a part at a time, only the frames of the messages the map's
-    signals are in kept (:mod:`rwhonet.data.keptframes`), so a whole bus's log takes a
-    fraction of its size (``benchmarks/bench_bus_log.py``)."""
+def _size_bytes(path: Path, folder: bool, can_logs_apart: bool) -> int:
+    """A drive file's size, or a folder drive's files together (OSError: not there);
+    with ``can_logs_apart``, raw CAN logs' files (``bus.log``, ``can0.log.1.gz``) not
+    counted: their frames are bounded as they are kept. A NovAtel receiver's ``.log`` or
+    ``.asc``, read whole, is."""
+    from rwhonet.data.streamcsv import log_kind
+
+    def counted(p: Path) -> bool:
+        name = without_rotation(p.name)
+        return not (can_logs_apart and is_can_log_name(name) and log_kind(name, p) is None)
+
     files = [p for p in path.rglob("*") if p.is_file()] if folder else [path]
-    if any(is_can_log_name(p.name) for p in files):
-        return (
-            "raise data.max_file_mb: a raw CAN log is read a part at a time, keeping only the "
-            "frames of the messages the map's signals are in, so a log of a whole bus takes "
-            f"a fraction of its size in memory (docs/readers.md, 'A whole bus's log'); or "
-            f"{SPLIT_DRIVE}"
-        )
-    return (
-        f"{SPLIT_DRIVE}, or raise data.max_file_mb on a machine with the memory (validate "
-        "holds about 3x the file's size)"
-    )
-
-
-def _size_bytes(path: Path, folder: bool) -> int:
-    """A drive file's size, or a folder drive's files together (OSError: not there)."""
-    if not folder:
-        return path.stat().st_size
-    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
+    return sum(p.stat().st_size for p in files if counted(p))
 
 
 def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
@@ -379,7 +373,14 @@ def _read_streams(
 
         spec = data.signal_maps[f.format]
         streams = read_mdf4(
-            f.path, spec.signals, radius_m, _map_name(f), file, spec.dbc_buses, spec.local_zone
+            f.path,
+            spec.signals,
+            radius_m,
+            _map_name(f),
+            file,
+            spec.dbc_buses,
+            spec.local_zone,
+            data.max_file_mb,
         )
     else:
         from rwhonet.data.mdf4 import canedge_packed, canedge_packed_problem, is_mdf_name
@@ -417,7 +418,8 @@ def _read_streams(
                 if packing is not None:
                     q = Path(scratch) / str(i) / name
                     q.parent.mkdir()
-                    decompressed_copy(p, packing, q, data.max_file_mb, rel(p))
+                    bound = None if is_can_log_name(name) else data.max_file_mb
+                    decompressed_copy(p, packing, q, bound, rel(p))
                     packed.append(f"{p.name} ({packing})")
                 elif name != p.name:  # a rotated file: read under its name without the number
                     q = Path(scratch) / str(i) / name
@@ -426,7 +428,14 @@ def _read_streams(
                 shown[q] = rel(p)
                 plain.append(q)
             streams = read_stream_csvs(
-                plain, signals, radius_m, _map_name(f), shown, spec.dbc_buses, spec.local_zone
+                plain,
+                signals,
+                radius_m,
+                _map_name(f),
+                shown,
+                spec.dbc_buses,
+                spec.local_zone,
+                data.max_file_mb,
             )
         if hidden := [p.name for p in every if p.name.startswith(".")]:
             said = f"hidden files left out (none of the drive's streams): {', '.join(hidden)}"

@@ -10,15 +10,26 @@ gives: so the log's other frames take neither memory nor the decoder's time. Wha
 out is still counted, each frame's bus and identifier noted (for the drive's notes and for
 a message the map needs that the log lacks), and the buses numbered in the order first
 seen among every frame, as they are when the whole log is kept.
+
+So a raw CAN log's memory is not its file's size but that of the frames kept: a filter
+bounds them (:attr:`FrameFilter.max_frames`, from ``data.max_file_mb`` and
+:data:`KEPT_FRAME_BYTES`), and a log whose kept frames pass it is refused as they do
+(:class:`TooManyFrames`), before the decode holds them.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 ID_MASK = 0x1FFF_FFFF  # an extended identifier's 29 bits
+# what a kept frame costs through the read and decode (``rwhonet.data.mdf4.read_mdf4``),
+# at most: a log of the map's messages alone, 216,000 frames against 864,000, took 46
+# (candump) and 123 (BLF) bytes a frame more at its peak (``benchmarks/bench_bus_log.py
+# --other-fps 0``); 256 leaves room for FD frames' longer payloads
+KEPT_FRAME_BYTES = 256
 _LOW = (1 << 40) - 1
 
 
@@ -55,10 +66,31 @@ class FrameFilter:
         messages: ``(identifier, extended)`` of each message kept.
         pgns: the parameter groups of the J1939 messages kept (which a decode matches by
             group and the frame's own source address, not by identifier).
+        max_frames: the most data frames kept (None: no bound).
     """
 
     messages: frozenset[tuple[int, bool]]
     pgns: frozenset[int] = frozenset()
+    max_frames: int | None = None
+
+    @staticmethod
+    def frames_for(max_mb: float) -> int:
+        """The frames kept in ``max_mb`` MB of memory (``data.max_file_mb``), at
+        :data:`KEPT_FRAME_BYTES` each."""
+        return int(max_mb * 2**20 // KEPT_FRAME_BYTES)
+
+    def bound(
+        self, before: int, kept: np.ndarray, row: Callable[[int], int] = lambda i: i + 1
+    ) -> int:
+        """How many frames are kept with the part ``kept`` (a mask) after ``before``;
+        :class:`TooManyFrames` where that passes :attr:`max_frames`, naming the frame that
+        does by ``row`` (of its place in the part)."""
+        total = before + int(np.count_nonzero(kept))
+        if self.max_frames is not None and total > self.max_frames:
+            raise TooManyFrames(
+                self.max_frames, row(int(np.flatnonzero(kept)[self.max_frames - before]))
+            )
+        return total
 
     def mask(self, ids: np.ndarray, extended: np.ndarray) -> np.ndarray:
         """Which frames are of a kept message."""
@@ -68,6 +100,20 @@ class FrameFilter:
         if self.pgns:
             keep |= np.isin(j1939_pgn(ids), np.array(sorted(self.pgns), np.int64))
         return keep
+
+
+class TooManyFrames(Exception):
+    """A log's kept frames passed :attr:`FrameFilter.max_frames`.
+
+    Attributes:
+        max_frames: the bound.
+        row: the frame that passed it, as ``Frames.rows`` numbers it: its line in a candump
+            or TRC log, its number among the log's messages in ASC and BLF.
+    """
+
+    def __init__(self, max_frames: int, row: int) -> None:
+        super().__init__(f"more than {max_frames} frames kept, at row {row}")
+        self.max_frames, self.row = max_frames, row
 
 
 class Kept:
@@ -84,6 +130,7 @@ class Kept:
         self.keep = keep
         self.messages = 0  # messages handed in so far
         self.dropped = 0
+        self.kept = 0  # data frames kept so far
         self._numbers: list[np.ndarray] = []
         self._seen: list[np.ndarray] = []
         self._order: list[int] = []  # buses, in the order first seen among the data frames
@@ -94,6 +141,7 @@ class Kept:
         extended: np.ndarray,
         bus: np.ndarray,
         not_data: np.ndarray | None = None,
+        rows: np.ndarray | None = None,
     ) -> np.ndarray:
         """The messages of the next part to keep (their indices in it).
 
@@ -102,6 +150,9 @@ class Kept:
             extended: whether it is extended.
             bus: its bus, an integer as the log numbers it.
             not_data: which messages are no data frame (None: all are data frames).
+            rows: each message's row where the reader numbers them otherwise than among
+                the log's messages (a candump or TRC log's lines), to name a frame past
+                :attr:`FrameFilter.max_frames` by.
         """
         bus = np.asarray(bus).astype(np.int64)
         data = np.ones(ids.size, bool) if not_data is None else ~not_data
@@ -109,6 +160,10 @@ class Kept:
         self._order += [b for b in on[np.argsort(first)].tolist() if b not in self._order]
         self._seen.append(np.unique(frame_keys(bus[data], ids[data], extended[data])))
         wanted = data & self.keep.mask(ids, extended)
+        first = self.messages
+        self.kept = self.keep.bound(
+            self.kept, wanted, (lambda i: first + i + 1) if rows is None else rows.item
+        )
         self.dropped += int(data.sum() - wanted.sum())
         at = np.flatnonzero(wanted if not_data is None else wanted | not_data)
         self._numbers.append(self.messages + at + 1)

@@ -51,6 +51,7 @@ def read_mdf4(
     display: str | None = None,
     dbc: Databases = (),
     local_zone: str | None = None,
+    max_mb: float | None = None,
 ) -> DriveStreams:
     """Read a drive's signals from an MDF4 file into streams for ``resample``.
 
@@ -65,6 +66,8 @@ def read_mdf4(
             are decoded already).
         local_zone: the logger's time zone (:attr:`SignalMapSpec.local_zone`), for a raw
             CAN log whose clock is local time (an ASC log's date line).
+        max_mb: the memory a raw CAN log may take (``data.max_file_mb``; None: no bound;
+            :func:`can_log_groups`).
 
     Returns:
         The drive's streams, one per channel group used.
@@ -83,7 +86,9 @@ def read_mdf4(
     if (how := canedge_packed(Path(path).name)) is not None:
         raise InputError([canedge_packed_problem(file, how)])
     if is_can_log_name(Path(path).name):
-        log = can_log_groups(Path(path), signal_map, radius_m, name, file, dbc, False, local_zone)
+        log = can_log_groups(
+            Path(path), signal_map, radius_m, name, file, dbc, False, local_zone, max_mb
+        )
         streams = build_streams(log.groups, log.clock)
         return dataclasses.replace(
             streams,
@@ -135,6 +140,7 @@ def can_log_groups(
     dbc: Databases,
     present_only: bool = False,
     local_zone: str | None = None,
+    max_mb: float | None = None,
 ) -> CanLogGroups:
     """A raw CAN log's mapped signals, decoded by the CAN databases ``dbc``.
 
@@ -144,10 +150,14 @@ def can_log_groups(
             else a key whose signal is missing is refused.
         local_zone: the logger's time zone (IANA): a clock of local time (an ASC log's
             date line, an MDF4 bus log whose start is marked local) is put on UTC by it.
+        max_mb: the memory a raw CAN log may take (``data.max_file_mb``; None: no bound):
+            read a part at a time, its frames of the map's messages are bounded
+            (:meth:`FrameFilter.frames_for`); read whole, its file's size.
 
     Raises:
         InputError: no ``dbc``; the log or a database unreadable (:func:`_decoded`); a
-            signal missing (unless ``present_only``), its unit contradicting the map.
+            signal missing (unless ``present_only``), its unit contradicting the map; the
+            log above ``max_mb``.
     """
     if not dbc:
         setting = _dbc_setting(name)
@@ -166,11 +176,20 @@ def can_log_groups(
     frames, wanted = None, None
     if not is_mdf_name(path.name):
         wanted = _wanted(dbc, [spec.column for spec in signal_map.values()], present_only)
-        frames = read_frames(path, file, local_zone, None if wanted is None else wanted.keep)
-        if wanted is not None and not wanted.in_log(frames, present_only):
-            # a message the map needs is not in the log: read it whole, so that what is
-            # missing is said as for any log
-            wanted, frames = None, read_frames(path, file, local_zone)
+        if wanted is None:
+            _whole_fits(path, file, max_mb)
+            frames = read_frames(path, file, local_zone)
+        else:
+            bound = None if max_mb is None else FrameFilter.frames_for(max_mb)
+            wanted = dataclasses.replace(
+                wanted, keep=dataclasses.replace(wanted.keep, max_frames=bound)
+            )
+            frames = read_frames(path, file, local_zone, wanted.keep)
+            if not wanted.in_log(frames, present_only):
+                # a message the map needs is not in the log: read it whole, so that what
+                # is missing is said as for any log
+                _whole_fits(path, file, max_mb, wanted.missing(frames))
+                wanted, frames = None, read_frames(path, file, local_zone)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         loaded = None if wanted is None else wanted.databases
@@ -212,6 +231,30 @@ def can_log_groups(
         [f"{file}: {n}" for n in notes] + passed,
         passed,
         frames.local_start,
+    )
+
+
+def _whole_fits(path: Path, file: str, max_mb: float | None, missing: Sequence[str] = ()) -> None:
+    """Refuse a raw CAN log read whole (the map's messages not told apart: a database not
+    loaded, a signal no database has; or told, to say what is ``missing``) where its file
+    is above ``max_mb`` (``data.max_file_mb``): read whole, every frame is held."""
+    size_mb = path.stat().st_size / 2**20
+    if max_mb is None or size_mb <= max_mb:
+        return
+    lacks = f"; the log has no frame of {', '.join(missing)}" if missing else ""
+    raise InputError(
+        [
+            Problem(
+                file,
+                None,
+                None,
+                f"a CAN log read whole of at most {max_mb:g} MB (data.max_file_mb)",
+                f"{size_mb:,.1f} MB{lacks}",
+                "give the map's databases and signals as the log has them (its frames "
+                "are then read a part at a time, only the map's messages kept), or raise "
+                "data.max_file_mb on a machine with the memory",
+            )
+        ]
     )
 
 
@@ -380,16 +423,33 @@ class _Wanted:
         """Whether the log has frames that decode as every message wanted (on any bus);
         among a stream folder's files (``present_only``: the others may hold the rest), as
         any."""
+        found = self._found(frames)
+        return bool(found) if present_only else found == self._needed()
+
+    def missing(self, frames: Frames) -> list[str]:
+        """The messages wanted that no frame of the log decodes as, each named with its
+        identifier (``WheelSpeeds 0x1A0``), sorted."""
+        return sorted(
+            {
+                f"{name} 0x{i:0{8 if x else 3}X}"
+                for k, key in self._needed() - self._found(frames)
+                for (i, x), name, _ in [self.matchers[k].exact[key]]
+            }
+        )
+
+    def _needed(self) -> set[tuple[int, Key]]:
+        return {(k, key) for k, keys in enumerate(self.wanted) for key in keys}
+
+    def _found(self, frames: Frames) -> set[tuple[int, Key]]:
+        """Each database's wanted messages some frame of the log decodes as."""
         _, ident, ext = key_id(frames.log_ids)
         ids = list(zip(ident.tolist(), ext.tolist(), strict=True))
-        needed = {(k, key) for k, keys in enumerate(self.wanted) for key in keys}
-        found = {
+        return {
             (k, key)
             for k, matcher in enumerate(self.matchers)
             for key, _, _ in matcher.decoded(ids)
             if key in self.wanted[k]
         }
-        return bool(found) if present_only else found == needed
 
     def note(self, frames: Frames, channels: list[tuple[str, int]]) -> str:
         """:func:`_decoded_note` for a log read with ``keep``: of the IDs on the buses a

@@ -100,6 +100,7 @@ def read_stream_csvs(
     display: Mapping[Path, str] | None = None,
     dbc: Databases = (),
     local_zone: str | None = None,
+    max_mb: float | None = None,
 ) -> DriveStreams:
     """Read a drive given as one CSV per sensor stream.
 
@@ -116,6 +117,8 @@ def read_stream_csvs(
         local_zone: the loggers' time zone (:attr:`SignalMapSpec.local_zone`): a raw CAN
             log's local clock (an ASC log's date line) put on UTC, as the CSVs' and a
             receiver's times are.
+        max_mb: the memory a raw CAN log among the files may take (``data.max_file_mb``;
+            None: no bound; :func:`rwhonet.data.mdf4.can_log_groups`).
 
     Returns:
         The drive's streams: one per file that holds a mapped quantity.
@@ -143,7 +146,7 @@ def read_stream_csvs(
         not_csv = {k: v for k, v in signal_map.items() if k not in ("t", DATE, *HEMISPHERES)}
         try:
             decoded[file] = can_log_groups(
-                path, not_csv, radius_m, name, file, dbc, True, local_zone
+                path, not_csv, radius_m, name, file, dbc, True, local_zone, max_mb
             )
         except InputError as err:
             problems += err.problems

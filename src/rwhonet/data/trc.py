@@ -177,8 +177,8 @@ def trc_frames(raw: Buffer, file: str, kept: Kept | None = None) -> TrcFrames:
         chunk = raw[at:end]
         part = _chunk(chunk, layout, line, version)
         if kept is not None:
-            _, ids, extended, _, _, bus, _ = part.frames
-            keep = kept.part(ids.astype(np.int64) & ID_MASK, extended.astype(bool), bus)
+            _, ids, extended, _, _, bus, rows = part.frames
+            keep = kept.part(ids.astype(np.int64) & ID_MASK, extended.astype(bool), bus, rows=rows)
             if keep.size < ids.size:
                 part = _Part(tuple(x[keep] for x in part.frames), part.passed)
         parts.append(part)
