@@ -1102,22 +1102,26 @@ def shutil_free_mb(path) -> int:  # type: ignore[no-untyped-def]
 
 
 def test_a_can_log_read_whole_is_bounded_by_its_size(tmp_path, monkeypatch):
-    """Where the map's messages cannot be told apart (a signal's database not loaded) or
+    """Where the map's messages cannot be told apart (a signal no database defines) or
     one is missing from the log (read again whole, to say what it has), the log is read
-    whole, every frame held: above data.max_file_mb it is refused first, the missing
-    message named."""
-    from rwhonet.data import mdf4
+    whole, every frame held: above data.max_file_mb it is refused first, saying why it
+    would be read whole. A database that is not there is refused before the log is read."""
+    from rwhonet.data import canlog
 
     log, _ = _bus_drive(tmp_path)
-    limit_mb = log.stat().st_size / 2**20 / 3
-    with monkeypatch.context() as m:
-        m.setattr(mdf4, "_wanted", lambda *a: None)
-        with pytest.raises(InputError) as err:
-            _read_drive(log, limit_mb)
+    size_mb = log.stat().st_size / 2**20
+    limit_mb = size_mb / 3
+    renamed = {**SIGNALS, "n_sats": {"column": "Satellites", "unit": "count"}}
+    dbc = tmp_path / "raw" / "bus.dbc"
+    signals = {k: ColumnSpec(**v) for k, v in renamed.items()}
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(dbc)], max_mb=limit_mb)
     (problem,) = err.value.problems
     assert problem.expected == f"a CAN log read whole of at most {limit_mb:g} MB (data.max_file_mb)"
-    assert problem.found == f"{log.stat().st_size / 2**20:,.1f} MB"
-    dbc = tmp_path / "raw" / "bus.dbc"
+    assert problem.found == f"{size_mb:,.1f} MB, to be read whole as no database defines Satellites"
+    with pytest.raises(InputError) as err:  # within the limit: read whole, said as before
+        read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(dbc)], max_mb=3 * size_mb)
+    assert "no such signal; the file has" in err.value.problems[0].found
     dbc.write_text(
         DBC
         + '\nBO_ 900 Yaw: 8 ESC\n SG_ YawRate : 0|16@1- (0.01,0) [-300|300] "deg/s" Vector__XXX\n'
@@ -1125,10 +1129,14 @@ def test_a_can_log_read_whole_is_bounded_by_its_size(tmp_path, monkeypatch):
     signals = {**_signals(), "yaw_rate": ColumnSpec(column="YawRate", unit="deg/s")}
     with pytest.raises(InputError) as err:
         read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(dbc)], max_mb=limit_mb)
-    assert err.value.problems[0].found.endswith("; the log has no frame of Yaw 0x384")
-    with pytest.raises(InputError) as err:  # within the limit: read whole, said as before
-        read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(dbc)], max_mb=3 * limit_mb)
+    assert err.value.problems[0].found.endswith("as the log has no frame of Yaw 0x384")
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, signals, RADIUS_M, NAME, "bus.log", [str(dbc)], max_mb=3 * size_mb)
     assert "no such signal; the file has" in err.value.problems[0].found
+    monkeypatch.setattr(canlog, "_read", lambda *a: pytest.fail("the log was read"))
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, _signals(), RADIUS_M, NAME, "bus.log", [str(tmp_path / "none.dbc")])
+    assert err.value.problems[0].found == "no such file"
 
 
 def test_a_stream_folder_s_size_leaves_its_raw_can_logs_out():

@@ -175,9 +175,17 @@ def can_log_groups(
         )
     frames, wanted = None, None
     if not is_mdf_name(path.name):
-        wanted = _wanted(dbc, [spec.column for spec in signal_map.values()], present_only)
+        _databases_there(dbc, name)  # before the log is read
+        columns = [spec.column for spec in signal_map.values()]
+        wanted = _wanted(dbc, columns, present_only)
         if wanted is None:
-            _whole_fits(path, file, max_mb)
+            undefined = _undefined(dbc, columns)
+            why = (
+                f"no database defines {', '.join(undefined)}"
+                if undefined
+                else "the databases' J1939 messages cannot be grouped"
+            )
+            _whole_fits(path, file, max_mb, why)
             frames = read_frames(path, file, local_zone)
         else:
             bound = None if max_mb is None else FrameFilter.frames_for(max_mb)
@@ -188,7 +196,8 @@ def can_log_groups(
             if not wanted.in_log(frames, present_only):
                 # a message the map needs is not in the log: read it whole, so that what
                 # is missing is said as for any log
-                _whole_fits(path, file, max_mb, wanted.missing(frames))
+                lacks = f"the log has no frame of {', '.join(wanted.missing(frames))}"
+                _whole_fits(path, file, max_mb, lacks)
                 wanted, frames = None, read_frames(path, file, local_zone)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
@@ -234,14 +243,13 @@ def can_log_groups(
     )
 
 
-def _whole_fits(path: Path, file: str, max_mb: float | None, missing: Sequence[str] = ()) -> None:
-    """Refuse a raw CAN log read whole (the map's messages not told apart: a database not
-    loaded, a signal no database has; or told, to say what is ``missing``) where its file
-    is above ``max_mb`` (``data.max_file_mb``): read whole, every frame is held."""
+def _whole_fits(path: Path, file: str, max_mb: float | None, why: str) -> None:
+    """Refuse a raw CAN log to be read whole (the map's messages not told apart, or told
+    and one missing, read again to say what the log has: ``why``) where its file is
+    above ``max_mb`` (``data.max_file_mb``): read whole, every frame is held."""
     size_mb = path.stat().st_size / 2**20
     if max_mb is None or size_mb <= max_mb:
         return
-    lacks = f"; the log has no frame of {', '.join(missing)}" if missing else ""
     raise InputError(
         [
             Problem(
@@ -249,10 +257,11 @@ def _whole_fits(path: Path, file: str, max_mb: float | None, missing: Sequence[s
                 None,
                 None,
                 f"a CAN log read whole of at most {max_mb:g} MB (data.max_file_mb)",
-                f"{size_mb:,.1f} MB{lacks}",
-                "give the map's databases and signals as the log has them (its frames "
-                "are then read a part at a time, only the map's messages kept), or raise "
-                "data.max_file_mb on a machine with the memory",
+                f"{size_mb:,.1f} MB, to be read whole as {why}",
+                "give the map's signals as the CAN databases name them and the databases "
+                "of the log's messages (its frames are then read a part at a time, only "
+                "the map's messages kept), or raise data.max_file_mb on a machine with "
+                "the memory",
             )
         ]
     )
@@ -481,7 +490,7 @@ def _wanted(dbc: Databases, columns: list[str], present_only: bool) -> _Wanted |
     (unless ``present_only``: there such a column is another file's, and where none is,
     the log's decode finds nothing either)."""
     pairs = _pairs(dbc)
-    bare = {c: c[m.end() :] if (m := _ON_BUS.match(c)) else c for c in columns}
+    bare = _bare(columns)
     keys: set[Key] = set()
     groups: set[int] = set()
     named: set[str] = set()
@@ -501,8 +510,7 @@ def _wanted(dbc: Databases, columns: list[str], present_only: bool) -> _Wanted |
         mine: set[Key] = set()
         for message in db:
             key = (int(message.arbitration_id.id), bool(message.arbitration_id.extended))
-            names = {s.name for s in message.signals}
-            names |= {f"{message.name}.{n}" for n in names}
+            names = _signal_names(message)
             hit = {c for c, b in bare.items() if b in names}
             if hit:
                 _, _, group = matcher.exact[key]
@@ -517,6 +525,28 @@ def _wanted(dbc: Databases, columns: list[str], present_only: bool) -> _Wanted |
         return None
     keep = FrameFilter(frozenset(keys), frozenset(groups))
     return _Wanted(keep, pairs, matchers, wanted, databases)
+
+
+def _bare(columns: Sequence[str]) -> dict[str, str]:
+    """Each column's signal name without its bus (``CAN1.Message.Signal``: ``Message.Signal``)."""
+    return {c: c[m.end() :] if (m := _ON_BUS.match(c)) else c for c in columns}
+
+
+def _signal_names(message: Any) -> set[str]:
+    """The names a decode gives a database message's signals: ``Signal`` and
+    ``Message.Signal``."""
+    names = {s.name for s in message.signals}
+    return names | {f"{message.name}.{n}" for n in names}
+
+
+def _undefined(dbc: Databases, columns: Sequence[str]) -> list[str]:
+    """The columns no loaded database among ``dbc`` has a signal of (a database not
+    loaded defines none)."""
+    names: set[str] = set()
+    for d, _ in _pairs(dbc):
+        db = _database(Path(d))
+        names |= {n for message in db or () for n in _signal_names(message)}
+    return sorted(c for c, b in _bare(columns).items() if b not in names)
 
 
 def _database(path: Path):  # type: ignore[no-untyped-def]
@@ -550,6 +580,19 @@ def _dbc_setting(name: str) -> str:
     return f"dbc in {name}"
 
 
+def _databases_there(dbc: Databases, name: str) -> None:
+    """Refuse the CAN databases that are not there, each named."""
+    missing = [d for d, _ in _pairs(dbc) if not Path(d).is_file()]
+    if missing:
+        setting = _dbc_setting(name)
+        raise InputError(
+            [
+                Problem(d, None, None, f"a CAN database ({setting})", "no such file", None)
+                for d in missing
+            ]
+        )
+
+
 def _decoded(  # type: ignore[no-untyped-def]
     mdf, dbc: Databases, name: str, file: str, frames: Frames | None, loaded: list | None = None
 ):
@@ -563,14 +606,7 @@ def _decoded(  # type: ignore[no-untyped-def]
     """
     setting = _dbc_setting(name)
     pairs = _pairs(dbc)
-    missing = [d for d, _ in pairs if not Path(d).is_file()]
-    if missing:
-        raise InputError(
-            [
-                Problem(d, None, None, f"a CAN database ({setting})", "no such file", None)
-                for d in missing
-            ]
-        )
+    _databases_there(dbc, name)
     if not mdf.whereis("CAN_DataFrame"):
         found = ", ".join(sorted(k for k in mdf.channels_db if k not in ("time", "t")))[:200]
         raise InputError(
