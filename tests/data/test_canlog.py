@@ -1160,3 +1160,8 @@ def test_a_stream_folder_s_size_leaves_its_raw_can_logs_out():
         assert _size_bytes(root, True, True) == 120 + novatel
         assert _size_bytes(root, True, False) == 120 + 5000 + novatel
         assert _size_bytes(root / "can0.log", False, True) == 0
+        # a drive out of memory is told its whole size
+        from rwhonet.data.drivefile import DriveFile, out_of_memory
+
+        (problem,) = out_of_memory(DriveFile("d", "target_test", "target", "f", root)).problems
+        assert problem.found == f"out of memory on its {(5120 + novatel) / 2**20:.3g} MB"

@@ -311,7 +311,7 @@ def _read_vbo(
     return dataclasses.replace(raw, notes=(vbo_note(), *raw.notes))
 
 
-def _size_bytes(path: Path, folder: bool, can_logs_apart: bool) -> int:
+def _size_bytes(path: Path, folder: bool, can_logs_apart: bool = False) -> int:
     """A drive file's size, or a folder drive's files together (OSError: not there);
     with ``can_logs_apart``, raw CAN logs' files (``bus.log``, ``can0.log.1.gz``) not
     counted: their frames are bounded as they are kept. A NovAtel receiver's ``.log`` or
