@@ -7,8 +7,9 @@ fixes and satellite counts (10 Hz) as raw CAN frames (the test suite's DBC,
 60 other standard identifiers with random bytes (a 500 kbit/s bus at about half its load
 carries 2,000-4,000 frames a second). It writes them as a ``candump -l`` log, a Vector BLF,
 a Vector ASC and a PEAK TRC (python-can's writers; candump at once), then reads each
-through the map and its DBC (``rwhonet.data.mdf4.read_mdf4``, what ingest and predict call)
-in a fresh interpreter, so that each peak is its own. Printed per format: the file's size,
+through the map and its DBC (``rwhonet.data.mdf4.read_mdf4``, what ingest and predict call,
+its kept frames bounded by the default ``data.max_file_mb`` as theirs are) in a fresh
+interpreter, so that each peak is its own. Printed per format: the file's size,
 its frames, the wall time of the read and decode, the peak resident memory (``VmHWM``:
 ``ru_maxrss`` would keep this script's own, from before the interpreter started) and that
 after the imports alone.
@@ -58,10 +59,14 @@ import asammdf, can
 from support.canlog import SIGNALS
 imported = peak_gb()
 path = Path(sys.argv[1])
+# the kept frames bounded as ingest bounds them (data.max_file_mb), where the code can
+import inspect
+takes = inspect.signature(read_mdf4).parameters
+bounded = {"max_mb": float(sys.argv[4])} if "max_mb" in takes else {}
 start = time.perf_counter()
 streams = read_mdf4(
     path, {k: ColumnSpec(**v) for k, v in SIGNALS.items()}, float(sys.argv[2]),
-    dbc=[str(path.parent / "bus.dbc")],
+    dbc=[str(path.parent / "bus.dbc")], **bounded,
 )
 wall = time.perf_counter() - start
 rows = sum(len(w.t_s) for w in streams.wheels) + len(streams.gnss.t_s)
@@ -157,6 +162,9 @@ def main() -> None:
             radius_file.write_text(repr(radius))
         radius = float(radius_file.read_text())
         print(f"code: {os.environ.get('PYTHONPATH') or 'this checkout'}")
+        from rwhonet.config import load_params
+
+        max_mb = load_params().data.max_file_mb  # the default, as ingest reads
         print(
             f"{'format':<8} {'MB':>7} {'frames':>10} {'rows':>8} {'s':>7} "
             f"{'peak GB':>8} {'imports GB':>10}"
@@ -164,7 +172,15 @@ def main() -> None:
         for fmt in formats:
             path = folder / f"bus.{fmt}"
             out = subprocess.run(
-                [sys.executable, "-c", CHILD, str(path), str(radius), str(ROOT / "tests")],
+                [
+                    sys.executable,
+                    "-c",
+                    CHILD,
+                    str(path),
+                    str(radius),
+                    str(ROOT / "tests"),
+                    str(max_mb),
+                ],
                 capture_output=True,
                 text=True,
                 check=True,
