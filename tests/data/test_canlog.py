@@ -1165,3 +1165,48 @@ def test_a_stream_folder_s_size_leaves_its_raw_can_logs_out():
 
         (problem,) = out_of_memory(DriveFile("d", "target_test", "target", "f", root)).problems
         assert problem.found == f"out of memory on its {(5120 + novatel) / 2**20:.3g} MB"
+
+
+@pytest.mark.parametrize("suffix", [".asc", ".trc"])
+@pytest.mark.parametrize("utc_hour", [0, 1])
+def test_a_start_in_the_hour_the_clocks_went_back_is_refused_not_guessed(
+    tmp_path, suffix, utc_hour
+):
+    """CANalyzer (an ASC's date line) or PCAN-View (a TRC's $STARTTIME) starting at 02:30
+    in Berlin on 27 October 2024, a wall time the clocks showed twice (00:30 and 01:30
+    UTC): with local_zone Europe/Berlin the log is refused naming its start's line or
+    column, both offsets and the fixed zones that say which; with the fixed zone the
+    logger kept (Etc/GMT-2 the first time, Etc/GMT-1 the second) its frames are on UTC
+    at the stamps they were logged at."""
+    from datetime import UTC, datetime
+
+    from support.canlog import write_asc_in_zone
+
+    start = datetime(2024, 10, 27, utc_hour, 30, tzinfo=UTC).timestamp()
+    kept = "Etc/GMT-2" if utc_hour == 0 else "Etc/GMT-1"
+    stamps, ids, data = can_frames(wavy_drive(5.0), RADIUS_M, start + 0.5)
+    log = tmp_path / f"bus{suffix}"
+    if suffix == ".asc":
+        first = write_asc_in_zone(stamps, ids, data, log, kept)
+        assert first == start
+        stamps = np.r_[start, stamps]
+        where = "row 1"
+    else:
+        write_bus_log(stamps, ids, data, log)
+        # python-can's offsets count from the first frame: 02:30:00.5 on the wall
+        days = (stamps[0] + 3600.0 * (2 if utc_hour == 0 else 1)) / 86400.0 + 25569.0
+        lines = log.read_text().splitlines()
+        at = next(i for i, x in enumerate(lines) if x.startswith(";$STARTTIME="))
+        lines[at] = f";$STARTTIME={days:.10f}"
+        lines = [x for x in lines if not x.startswith((";   Start time:", ";   Generated"))]
+        log.write_text("\n".join(lines) + "\n")  # PCAN-View's: its start the local clock's
+        where = "column '$STARTTIME'"
+    with pytest.raises(InputError) as err:
+        read_frames(log, log.name, "Europe/Berlin")
+    said = str(err.value)
+    assert f"bus{suffix}, {where}" in said
+    assert "found 2024-10-27T02:30:00" in said  # (a TRC's start: to its ten decimals)
+    assert " in Europe/Berlin, in the hour its clocks went back: UTC+2 or UTC+1" in said
+    assert "Etc/GMT-2 (UTC+2) or Etc/GMT-1 (UTC+1)" in said
+    frames = read_frames(log, log.name, kept)
+    np.testing.assert_allclose(frames.t_s, stamps, rtol=0, atol=1e-5)

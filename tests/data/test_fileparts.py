@@ -324,3 +324,34 @@ def test_a_glitch_in_a_later_file_is_placed_in_that_file():
 def test_files_label():
     assert files_label(["a.csv", "b.csv"]) == "a.csv + b.csv"
     assert files_label([f"w{k}.csv" for k in range(5)]) == "w0.csv + ... + w4.csv (5 files)"
+
+
+def test_an_mdf4_bus_log_s_local_start_in_the_hour_the_clocks_went_back_is_refused(tmp_path):
+    """A CANedge's file whose start is marked local time, 02:30 on the night Berlin's
+    clocks went back: with local_zone Europe/Berlin it is two instants, refused naming the
+    file and both offsets; with the fixed zone the logger kept, read an hour apart."""
+    from datetime import UTC, datetime
+
+    from asammdf import MDF
+
+    from support.canlog import write_mdf_bus_log
+
+    (stamps, ids, data), radius, smap, dbc, _ = _can_drive(tmp_path)
+    plain = write_mdf_bus_log(stamps, ids, data, tmp_path / "LOG" / "00000001.MF4")
+    with MDF(plain) as mdf:
+        mdf.header.start_time = datetime(2024, 10, 27, 2, 30)
+        mdf.header.time_flags = 1  # MDF4's local-time flag
+        mdf.save(tmp_path / "local.mf4", overwrite=True)
+    local = tmp_path / "local.mf4"
+    with pytest.raises(InputError) as err:
+        read_stream_csvs([local], smap, radius, "m", {local: "local.mf4"}, dbc, "Europe/Berlin")
+    said = str(err.value)
+    assert "local.mf4, column 'start time'" in said
+    assert "in the hour its clocks went back: UTC+2 or UTC+1" in said
+    first, second = (
+        read_stream_csvs([local], smap, radius, "m", {local: "local.mf4"}, dbc, z).wheels[0].t_s
+        for z in ("Etc/GMT-2", "Etc/GMT-1")
+    )
+    np.testing.assert_allclose(second - first, 3600.0, rtol=0, atol=1e-6)
+    at = datetime(2024, 10, 27, 0, 30, tzinfo=UTC).timestamp()  # 02:30 at UTC+2
+    assert at <= first[0] < at + 60.0

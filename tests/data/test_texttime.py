@@ -539,3 +539,63 @@ def test_a_date_and_a_time_of_day_in_two_columns_read_as_one_clock(drive, tmp_pa
             "Date",
         ) and "day is out of range" in problem.found
         assert "data.column_maps.cupac.date" in (problem.fix or "")
+
+
+# A start on a local clock put on UTC (rwhonet.data.texttime.local_to_unix)
+@pytest.mark.parametrize(
+    ("wall", "zone", "unix"),
+    [
+        (datetime(2024, 6, 1, 12, 0), "Europe/Berlin", 1717236000.0),  # CEST, UTC+2
+        (datetime(2024, 1, 15, 9, 30, 0, 250000), "America/Detroit", 1705329000.25),  # EST
+        (datetime(2024, 10, 27, 3, 0), "Europe/Berlin", 1729994400.0),  # just after the hour
+        (datetime(2024, 10, 27, 1, 59, 59), "Europe/Berlin", 1729987199.0),  # just before
+        (datetime(2024, 4, 7, 14, 0), "Australia/Adelaide", 1712464200.0),  # +9:30 after
+        (datetime(2024, 3, 31, 2, 30), "Asia/Kolkata", 1711832400.0),  # no summer time
+    ],
+)
+def test_a_local_wall_time_is_the_instant_its_zone_kept(wall, zone, unix):
+    from rwhonet.data.texttime import local_to_unix
+
+    assert local_to_unix(wall, zone) == unix
+
+
+@pytest.mark.parametrize(
+    ("wall", "zone", "found", "fix"),
+    [
+        (
+            datetime(2024, 10, 27, 2, 30),
+            "Europe/Berlin",
+            "2024-10-27T02:30:00 in Europe/Berlin, in the hour its clocks went back: UTC+2 "
+            "or UTC+1",
+            "give local_zone as the fixed offset the logger's clock kept then: Etc/GMT-2 "
+            "(UTC+2) or Etc/GMT-1 (UTC+1)",
+        ),
+        (
+            datetime(2024, 3, 10, 2, 15),
+            "America/Detroit",
+            "2024-03-10T02:15:00 in America/Detroit, in the hour its clocks skipped: no such "
+            "time there",
+            "give local_zone as the fixed offset the logger's clock kept then: Etc/GMT+5 "
+            "(UTC-5) or Etc/GMT+4 (UTC-4)",
+        ),
+        (
+            datetime(2024, 4, 7, 2, 45),
+            "Australia/Adelaide",
+            "2024-04-07T02:45:00 in Australia/Adelaide, in the hour its clocks went back: "
+            "UTC+10:30 or UTC+9:30",
+            "give the log with its start on UTC",
+        ),
+    ],
+)
+def test_a_wall_time_a_change_of_summer_time_repeats_or_skips_is_refused(wall, zone, found, fix):
+    """Two instants an hour apart, or none: neither is guessed. The fixed zones it names
+    (POSIX's sign: Etc/GMT-2 is UTC+2) read it as each offset."""
+    from rwhonet.data.texttime import LocalTimeUnclear, local_to_unix
+
+    with pytest.raises(LocalTimeUnclear) as err:
+        local_to_unix(wall, zone)
+    assert (err.value.found, err.value.fix) == (found, fix)
+    if zone == "Europe/Berlin":
+        first, second = local_to_unix(wall, "Etc/GMT-2"), local_to_unix(wall, "Etc/GMT-1")
+        assert second - first == 3600.0
+        assert datetime.fromtimestamp(first, UTC) == datetime(2024, 10, 27, 0, 30, tzinfo=UTC)

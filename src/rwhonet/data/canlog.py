@@ -75,6 +75,7 @@ from rwhonet.data.keptframes import (
     frame_keys,
     j1939_pgn,
 )
+from rwhonet.data.texttime import LocalTimeUnclear, local_to_unix, unclear_start
 from rwhonet.data.trc import FD_LENGTHS, MAX_BYTES, trc_frames
 from rwhonet.errors import InputError, Problem
 
@@ -808,7 +809,6 @@ def _trc(
         InputError: ``local_zone`` given and the log has no ``$STARTTIME``.
     """
     from datetime import UTC
-    from zoneinfo import ZoneInfo
 
     kept = None if keep is None else Kept(keep)
     with _mapped(path) as raw:
@@ -839,7 +839,10 @@ def _trc(
             clock += ", its $STARTTIME the logging computer's local clock, read as UTC"
         else:
             wall = got.start_wall
-            start = wall.replace(tzinfo=ZoneInfo(local_zone)).timestamp()
+            try:
+                start = local_to_unix(wall, local_zone)
+            except LocalTimeUnclear as err:
+                raise InputError([unclear_start(file, None, "$STARTTIME", err)]) from None
             t = got.offset_s + start
             local = False
             shift = (start - wall.replace(tzinfo=UTC).timestamp()) / 3600.0
@@ -890,7 +893,6 @@ def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
         InputError: no date line before the first frame, or one python-can cannot read.
     """
     from datetime import datetime
-    from zoneinfo import ZoneInfo
 
     from can.io.asc import ASCReader
 
@@ -919,7 +921,10 @@ def asc_start(path: Path, file: str, zone: str) -> tuple[float, str]:
                 )
             ]
         )
-    start = wall.replace(tzinfo=ZoneInfo(zone)).timestamp()
+    try:
+        start = local_to_unix(wall, zone)
+    except LocalTimeUnclear as err:
+        raise InputError([unclear_start(file, at, None, err)]) from None
     said = (
         f"the ASC log's frame time stamps, s since the measurement's start, plus its date "
         f"line ({wall.isoformat()} in {zone}): Unix time, s"

@@ -31,6 +31,7 @@ from rwhonet.data.headers import map_unit_name, unit_name
 from rwhonet.data.keptframes import FrameFilter, j1939_pgn, key_id
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
+from rwhonet.data.texttime import LocalTimeUnclear, local_to_unix, unclear_start
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the MDF4 file's master time (s since the measurement start)"
@@ -215,7 +216,7 @@ def can_log_groups(
             else wanted.note(frames, _bus_channels(_pairs(dbc), frames, None, "", file))
         ]
         start_s, clock, said, local = (
-            (0.0, "", "", False) if frames is not None else _start(mdf.header, local_zone)
+            (0.0, "", "", False) if frames is not None else _started(mdf.header, local_zone, file)
         )
     finally:
         mdf.close()
@@ -302,6 +303,14 @@ def _opened(path: Path, file: str):  # type: ignore[no-untyped-def]
     return mdf
 
 
+def _started(header, zone: str | None, file: str) -> tuple[float, str, str, bool]:  # type: ignore[no-untyped-def]
+    """:func:`_start`, a start :func:`local_to_unix` refuses refused naming ``file``."""
+    try:
+        return _start(header, zone)
+    except LocalTimeUnclear as err:
+        raise InputError([unclear_start(file, None, "start time", err)]) from None
+
+
 def _start(header, zone: str | None = None) -> tuple[float, str, str, bool]:  # type: ignore[no-untyped-def]
     """An MDF4 bus log's start among a stream folder's files (a CANedge's split files):
     each file's master time counts from its own start (``header.start_time``), so only the
@@ -312,9 +321,7 @@ def _start(header, zone: str | None = None) -> tuple[float, str, str, bool]:  # 
     local = bool(header.time_flags & FLAG_HD_LOCAL_TIME)
     start = header.abs_time / 1e9
     if local and zone is not None:
-        from zoneinfo import ZoneInfo
-
-        start = header.start_time.replace(tzinfo=ZoneInfo(zone)).timestamp()
+        start = local_to_unix(header.start_time.replace(tzinfo=None), zone)
         clock = (
             f"Unix time (the file marks its start as local time; in {zone}, the map's local_zone)"
         )

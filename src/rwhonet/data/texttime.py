@@ -40,6 +40,12 @@ refuses as it refuses an empty number; any other text that is not of the declare
 is refused naming the file's row and column.
 
 float64 holds seconds since 1970 to about 0.25 µs, well inside a 0.1 s grid.
+
+**A start on a local clock** (an ASC log's date line, a PEAK TRC's ``$STARTTIME``, an
+MDF4 bus log's start marked local) is put on UTC in the signal map's ``local_zone`` by
+:func:`local_to_unix`: a wall time in the hour a change of summer time repeats is two
+instants an hour apart, and one in the hour it skips is none, so either is refused
+(:class:`LocalTimeUnclear`) rather than read as one of them.
 """
 
 from __future__ import annotations
@@ -47,7 +53,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import UTC, date, datetime
+from datetime import UTC, date, datetime, timedelta
 from pathlib import Path
 
 import numpy as np
@@ -483,3 +489,75 @@ def declared_text_unit(
             )
         ]
     )
+
+
+class LocalTimeUnclear(ValueError):
+    """A local wall time a zone's change of summer time makes two instants or none.
+
+    Attributes:
+        found: what the time is (``2024-10-27T02:30:00 in Europe/Berlin, in the hour its
+            clocks went back: UTC+2 or UTC+1``).
+        fix: how to say which offset the clock kept.
+    """
+
+    def __init__(self, found: str, fix: str) -> None:
+        super().__init__(found)
+        self.found, self.fix = found, fix
+
+
+def local_to_unix(wall: datetime, zone: str) -> float:
+    """A wall time (naive) on a clock kept in the IANA ``zone``, as Unix seconds.
+
+    Raises:
+        LocalTimeUnclear: ``wall`` is in the hour ``zone``'s clocks went back (two
+            instants) or skipped (none).
+    """
+    from zoneinfo import ZoneInfo
+
+    tz = ZoneInfo(zone)
+    first, second = (wall.replace(tzinfo=tz, fold=k) for k in (0, 1))
+    if first.utcoffset() == second.utcoffset():
+        return first.timestamp()
+    offsets = [_utc_offset(t.utcoffset()) for t in (first, second)]
+    fixed = [z for z in (_fixed_zone(t.utcoffset()) for t in (first, second)) if z]
+    say = f"{wall.isoformat()} in {zone}"
+    if datetime.fromtimestamp(first.timestamp(), tz).replace(tzinfo=None) == wall:
+        found = f"{say}, in the hour its clocks went back: {offsets[0]} or {offsets[1]}"
+    else:
+        found = f"{say}, in the hour its clocks skipped: no such time there"
+    fix = (
+        "give local_zone as the fixed offset the logger's clock kept then: "
+        + " or ".join(f"{z} ({o})" for z, o in zip(fixed, offsets, strict=True))
+        if len(fixed) == 2
+        else "give the log with its start on UTC"
+    )
+    raise LocalTimeUnclear(found, fix)
+
+
+def unclear_start(file: str, row: int | None, column: str | None, err: LocalTimeUnclear) -> Problem:
+    """The problem of a log whose start on a local clock :func:`local_to_unix` refused."""
+    return Problem(
+        file,
+        row,
+        column,
+        "a start the signal map's local_zone puts on one instant of UTC",
+        err.found,
+        err.fix,
+    )
+
+
+def _utc_offset(offset: timedelta | None) -> str:
+    """``UTC+2``, ``UTC+5:30``, ``UTC-3``."""
+    minutes = int((offset or timedelta(0)).total_seconds() // 60)
+    hours, rest = divmod(abs(minutes), 60)
+    return f"UTC{'-' if minutes < 0 else '+'}{hours}" + (f":{rest:02d}" if rest else "")
+
+
+def _fixed_zone(offset: timedelta | None) -> str | None:
+    """The IANA zone of a whole-hour offset from UTC (``Etc/GMT-2`` is UTC+2: POSIX's sign),
+    None for another offset."""
+    minutes = int((offset or timedelta(0)).total_seconds() // 60)
+    if minutes % 60:
+        return None
+    hours = minutes // 60
+    return "Etc/UTC" if hours == 0 else f"Etc/GMT{-hours:+d}"
