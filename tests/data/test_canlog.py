@@ -1004,8 +1004,11 @@ def test_a_log_keeps_at_most_the_bound_s_frames_naming_the_row_past_it(tmp_path,
     frame."""
     stamps, ids, data, ext = _whole_bus(wavy_drive(20.0))
     log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}", extended=ext)
+    from rwhonet.data.canlog import _kept
+    from rwhonet.data.keptframes import TooManyFrames
+
     keep = FrameFilter(frozenset({(0x1A0, False), (0x600, False)}))
-    every = read_frames(log, log.name, keep=keep)
+    every, whole = read_frames(log, log.name, keep=keep), read_frames(log, log.name)
     n = every.t_s.size
     assert_same_frames(
         read_frames(log, log.name, keep=dataclasses.replace(keep, max_frames=n)), every
@@ -1020,6 +1023,9 @@ def test_a_log_keeps_at_most_the_bound_s_frames_naming_the_row_past_it(tmp_path,
             "(data.max_file_mb at 256 bytes a frame kept)"
         )
         assert "split the log into several" in problem.fix
+        with pytest.raises(TooManyFrames) as bound:  # frames read whole, then kept
+            _kept(whole, dataclasses.replace(keep, max_frames=limit))
+        assert bound.value.row == every.rows[limit]
 
 
 def test_a_candump_log_s_bound_is_kept_across_its_parts(tmp_path, monkeypatch):
@@ -1210,3 +1216,50 @@ def test_a_start_in_the_hour_the_clocks_went_back_is_refused_not_guessed(
     assert "Etc/GMT-2 (UTC+2) or Etc/GMT-1 (UTC+1)" in said
     frames = read_frames(log, log.name, kept)
     np.testing.assert_allclose(frames.t_s, stamps, rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("suffix", [".asc", ".log"])
+def test_a_frame_shorter_than_its_message_is_passed_over_not_decoded_from_zeros(tmp_path, suffix):
+    """A logger that lost power cuts its last line (an ASC's ``d 8 43 EA``: two of eight
+    bytes), a damaged candump line holds two bytes (``600#43EA``): decoded, the signals
+    past the frame's end came from zeros, a fix at latitude 0.006. Such a frame is passed
+    over and counted, named by its row, message and bytes (for predict too), and the
+    drive's other frames read as they were."""
+    df = wavy_drive(10.0)
+    stamps, ids, data = can_frames(df, RADIUS_M, T0_S)
+    log = write_bus_log(stamps, ids, data, tmp_path / f"bus{suffix}")
+    (tmp_path / "bus.dbc").write_text(DBC)
+    dbc = [str(tmp_path / "bus.dbc")]
+    lines = log.read_text().splitlines()
+    fix_lines = [i for i, x in enumerate(lines) if " 600 " in x or " 600#" in x]
+    at = fix_lines[-1] if suffix == ".asc" else fix_lines[40]
+    whole = read_mdf4(log, _signals(), RADIUS_M, NAME, log.name, dbc)
+    if suffix == ".asc":  # cut in its data, as the last line a logger wrote
+        cut = lines[at][: lines[at].index(" d 8 ") + len(" d 8 43 EA")]
+        log.write_text("\n".join([*lines[:at], cut]))
+    else:
+        head, _ = lines[at].split("#")
+        lines[at] = head + "#43EA"
+        log.write_text("\n".join(lines) + "\n")
+    got = read_mdf4(log, _signals(), RADIUS_M, NAME, log.name, dbc)
+    first = next(i for i, x in enumerate(lines) if " 1A0 " in x or " 1A0#" in x)
+    row = at + 1 if suffix == ".log" else at - first + 1  # an ASC's frames by their number
+    said = (
+        f"{log.name}: passed over: 1 frames shorter than their message in the CAN database, "
+        f"not decoded (first at row {row}: GnssPos 0x600, 2 of 8 bytes)"
+    )
+    assert said in got.notes and said in got.changed
+    kept = np.ones(whole.gnss.t_s.size, bool)
+    kept[fix_lines.index(at)] = False
+    np.testing.assert_array_equal(got.gnss.t_s, whole.gnss.t_s[kept])
+    np.testing.assert_array_equal(
+        got.gnss.channels[c.LAT_DEG], whole.gnss.channels[c.LAT_DEG][kept]
+    )
+    assert got.gnss.channels[c.LAT_DEG].min() > 52.0
+    never = [x for x in lines[at + 1 :] if " Rx " in x] if suffix == ".asc" else []  # cut off
+    assert got.wheels[0].t_s.size == whole.wheels[0].t_s.size - sum(" 1A0 " in x for x in never)
+    # the short frame is one of the log's data frames, not decoded
+    n = len(ids) - len(never)
+    bus = "(0)" if suffix == ".asc" else "(can0)"
+    assert f"{log.name}: {n} data frames on 1 bus(es) {bus}" in got.notes
+    assert any(note.startswith(f"{log.name}: {n - 1} of them decoded") for note in got.notes)

@@ -56,7 +56,7 @@ import contextlib
 import dataclasses
 import mmap
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -240,6 +240,32 @@ def _too_many(file: str, err: TooManyFrames) -> Problem:
         f"(data.max_file_mb at {KEPT_FRAME_BYTES} bytes a frame kept)",
         "more: this row's frame is one too many",
         f"{SPLIT_CAN_LOG}, or raise data.max_file_mb on a machine with the memory",
+    )
+
+
+def short_passed(frames: Frames, need: np.ndarray, name_of: Callable[[int], str]) -> Frames:
+    """``frames`` without those shorter than ``need`` bytes (their message's length in the
+    CAN database), counted with what was passed over and with the frames left out.
+
+    A frame shorter than its message (a line a logger cut short as it lost power, ``8 43
+    EA`` of an ASC's eight bytes; a damaged candump line ``600#43EA``) would decode the
+    signals past its end from zeros: a fix at latitude 0.006. cantools refuses such a
+    frame by default (``Wrong data size``); asammdf decodes it. It is passed over here.
+    """
+    short = frames.length.astype(np.int64) < need
+    if not short.any():
+        return frames
+    n, first = int(short.sum()), int(np.flatnonzero(short)[0])
+    said = (
+        f"{n} frames shorter than their message in the CAN database, not decoded (first "
+        f"at row {frames.rows[first]}: {name_of(first)}, {frames.length[first]} of "
+        f"{need[first]} bytes)"
+    )
+    return _taken(
+        frames,
+        np.flatnonzero(~short),
+        dropped=frames.dropped + n,
+        passed=", ".join(p for p in (frames.passed, said) if p),
     )
 
 

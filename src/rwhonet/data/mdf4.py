@@ -18,17 +18,17 @@ import functools
 import gc
 import re
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames
+from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames, short_passed
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import map_unit_name, unit_name
-from rwhonet.data.keptframes import FrameFilter, j1939_pgn, key_id
+from rwhonet.data.keptframes import FrameFilter, frame_keys, j1939_pgn, key_id
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import LocalTimeUnclear, local_to_unix, unclear_start
@@ -200,6 +200,8 @@ def can_log_groups(
                 lacks = f"the log has no frame of {', '.join(wanted.missing(frames))}"
                 _whole_fits(path, file, max_mb, lacks)
                 wanted, frames = None, read_frames(path, file, local_zone)
+            else:  # a frame shorter than its message: its signals past its end are none
+                frames = short_passed(frames, *wanted.lengths(frames))
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         loaded = None if wanted is None else wanted.databases
@@ -369,10 +371,12 @@ class _Matcher:
     Attributes:
         exact: each message's key -> (its key, name, parameter group where J1939 else None).
         by_group: each J1939 parameter group -> its first message's, as in ``exact``.
+        sizes: each message's key -> its length in the database, bytes.
     """
 
     exact: dict[Key, tuple[Key, str, int | None]]
     by_group: dict[int, tuple[Key, str, int | None]]
+    sizes: dict[Key, int] = dataclasses.field(default_factory=dict)
 
     @classmethod
     def of(cls, db: Any) -> _Matcher:
@@ -393,7 +397,10 @@ class _Matcher:
         by_group: dict[int, tuple[Key, str, int | None]] = {}
         for (pgn, _), item in groups.items():
             by_group.setdefault(pgn, item)
-        return cls(exact, by_group)
+        sizes = {
+            (int(m.arbitration_id.id), bool(m.arbitration_id.extended)): int(m.size) for m in db
+        }
+        return cls(exact, by_group, sizes)
 
     def decoded(self, ids: list[Key]) -> list[tuple[Key, tuple[Any, ...], str]]:
         """For each frame identifier the database decodes: its message's key, asammdf's
@@ -452,6 +459,22 @@ class _Wanted:
                 for (i, x), name, _ in [self.matchers[k].exact[key]]
             }
         )
+
+    def lengths(self, frames: Frames) -> tuple[np.ndarray, Callable[[int], str]]:
+        """Each frame's length in the database of the wanted message it decodes as (the
+        longest where databases differ; 0 where none), and the name of frame ``n``'s
+        message (``GnssPos 0x600``), for :func:`rwhonet.data.canlog.short_passed`."""
+        keys = frame_keys(np.zeros(frames.t_s.size, np.int64), frames.ids, frames.extended)
+        unique, inverse = np.unique(keys, return_inverse=True)
+        _, ident, ext = key_id(unique)
+        need = np.zeros(unique.size, np.int64)
+        names: dict[int, str] = {}
+        for u, (i, x) in enumerate(zip(ident.tolist(), ext.tolist(), strict=True)):
+            for k, matcher in enumerate(self.matchers):
+                for key, _, name in matcher.decoded([(i, x)]):
+                    if key in self.wanted[k] and matcher.sizes.get(key, 0) > need[u]:
+                        need[u], names[u] = matcher.sizes[key], f"{name} 0x{i:X}"
+        return need[inverse], lambda n: names.get(int(inverse[n]), "")
 
     def _needed(self) -> set[tuple[int, Key]]:
         return {(k, key) for k, keys in enumerate(self.wanted) for key in keys}
