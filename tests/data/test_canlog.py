@@ -1263,3 +1263,25 @@ def test_a_frame_shorter_than_its_message_is_passed_over_not_decoded_from_zeros(
     bus = "(0)" if suffix == ".asc" else "(can0)"
     assert f"{log.name}: {n} data frames on 1 bus(es) {bus}" in got.notes
     assert any(note.startswith(f"{log.name}: {n - 1} of them decoded") for note in got.notes)
+
+
+def test_a_message_every_frame_of_which_is_short_is_refused_naming_it(tmp_path):
+    """An ECU that sends the fix in 6 bytes where the database says 8: every one of its
+    frames passed over would leave Lat and Lon missing, refused as "no such signal". It
+    is refused naming the message, its length, the frames and the first one's row."""
+    df = wavy_drive(10.0)
+    log = write_bus_log(*can_frames(df, RADIUS_M, T0_S), tmp_path / "bus.log")
+    lines = [
+        x.split("#")[0] + "#" + x.split("#")[1][:12] if " 600#" in x else x
+        for x in log.read_text().splitlines()
+    ]
+    log.write_text("\n".join(lines) + "\n")
+    (tmp_path / "bus.dbc").write_text(DBC)
+    with pytest.raises(InputError) as err:
+        read_mdf4(log, _signals(), RADIUS_M, NAME, "bus.log", [str(tmp_path / "bus.dbc")])
+    (problem,) = err.value.problems
+    first = next(i for i, x in enumerate(lines) if " 600#" in x)
+    assert (problem.file, problem.row) == ("bus.log", first + 1)
+    assert problem.expected == "frames of GnssPos 0x600 of its 8 bytes in the CAN database"
+    n = sum(" 600#" in x for x in lines)
+    assert problem.found == f"every one of its {n} frames shorter (this row's: 6 bytes)"

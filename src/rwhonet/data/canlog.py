@@ -243,7 +243,9 @@ def _too_many(file: str, err: TooManyFrames) -> Problem:
     )
 
 
-def short_passed(frames: Frames, need: np.ndarray, name_of: Callable[[int], str]) -> Frames:
+def short_passed(
+    frames: Frames, need: np.ndarray, name_of: Callable[[int], str], file: str
+) -> Frames:
     """``frames`` without those shorter than ``need`` bytes (their message's length in the
     CAN database), counted with what was passed over and with the frames left out.
 
@@ -251,10 +253,18 @@ def short_passed(frames: Frames, need: np.ndarray, name_of: Callable[[int], str]
     EA`` of an ASC's eight bytes; a damaged candump line ``600#43EA``) would decode the
     signals past its end from zeros: a fix at latitude 0.006. cantools refuses such a
     frame by default (``Wrong data size``); asammdf decodes it. It is passed over here.
+
+    Raises:
+        InputError: every frame of a message is short (an ECU that sends it shorter than
+            the database says), which would leave its signals missing for no said reason.
     """
     short = frames.length.astype(np.int64) < need
     if not short.any():
         return frames
+    keys = frame_keys(frames.channel, frames.ids, frames.extended)
+    every = [k for k in np.unique(keys[short]) if short[keys == k].all()]
+    if every:
+        raise InputError([_all_short(frames, keys, k, need, name_of, file) for k in every])
     n, first = int(short.sum()), int(np.flatnonzero(short)[0])
     said = (
         f"{n} frames shorter than their message in the CAN database, not decoded (first "
@@ -266,6 +276,28 @@ def short_passed(frames: Frames, need: np.ndarray, name_of: Callable[[int], str]
         np.flatnonzero(~short),
         dropped=frames.dropped + n,
         passed=", ".join(p for p in (frames.passed, said) if p),
+    )
+
+
+def _all_short(
+    frames: Frames,
+    keys: np.ndarray,
+    key: int,
+    need: np.ndarray,
+    name_of: Callable[[int], str],
+    file: str,
+) -> Problem:
+    """The problem of a message every frame of which is shorter than the database says."""
+    mine = np.flatnonzero(keys == key)
+    at = int(mine[0])
+    return Problem(
+        file,
+        int(frames.rows[at]),
+        None,
+        f"frames of {name_of(at)} of its {need[at]} bytes in the CAN database",
+        f"every one of its {mine.size} frames shorter (this row's: {frames.length[at]} bytes)",
+        "give the CAN database of the car's own bus (the message's length there), or the "
+        "log as the logger wrote it",
     )
 
 

@@ -201,7 +201,7 @@ def can_log_groups(
                 _whole_fits(path, file, max_mb, lacks)
                 wanted, frames = None, read_frames(path, file, local_zone)
             else:  # a frame shorter than its message: its signals past its end are none
-                frames = short_passed(frames, *wanted.lengths(frames))
+                frames = short_passed(frames, *wanted.lengths(frames), file)
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         loaded = None if wanted is None else wanted.databases
