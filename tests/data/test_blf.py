@@ -145,6 +145,40 @@ def test_every_cut_of_a_log_reads_as_python_can_reads_it(tmp_path):
     assert counts[-1] == 1500 and len({c for c in counts if c > 0}) > 50
 
 
+def test_a_log_cut_inside_an_object_says_so(tmp_path):
+    """A cut inside a container (or any top-level object) is read as far as it goes, as
+    python-can reads it, and said with what was passed over (for the drive's notes and
+    predict's summary): where, and how much of the object is there. A log cut between
+    objects, or whole, says nothing; a cut in an object's header is refused, as python-can
+    refuses it (above)."""
+    import struct
+
+    raw = _written(tmp_path / "whole.blf", n=12000).read_bytes()
+    header = FILE_HEADER_STRUCT.unpack_from(raw)[1]
+    starts, pos = [], header
+    while pos + 16 <= len(raw):
+        starts.append(pos)
+        pos += struct.unpack_from("<L", raw, pos + 8)[0]
+        pos += (pos - starts[-1]) % 4
+    assert len(starts) > 2 and pos == len(raw)
+    second, third = starts[1], starts[2]
+    size = struct.unpack_from("<L", raw, second + 8)[0]  # without its padding to 4
+    for cut, said in [
+        (len(raw), None),
+        (third, None),
+        (
+            second + 100,
+            f"the log cut short: it ends in an object of {size:,} bytes at byte {second:,}, "
+            "100 of them there (read as far as it goes)",
+        ),
+    ]:
+        path = tmp_path / "cut.blf"
+        path.write_bytes(raw[:cut])
+        frames = _blf(path, "cut.blf")
+        assert (said in frames.passed) if said else "cut short" not in frames.passed
+        assert _same_as_python_can(path) > 0  # python-can's messages, bit for bit
+
+
 def _object(kind: int, body: bytes, stamp: int, version: int = 1, flags: int = 2) -> bytes:
     """An inner object: its base header, its version's header, the body, padded to 4."""
     if version == 1:

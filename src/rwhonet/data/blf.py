@@ -123,10 +123,13 @@ def _u(buf: np.ndarray, at: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
-def _containers(raw: Buffer) -> tuple[float, Iterator[bytes], list[str]]:
+def _containers(
+    raw: Buffer, cut: list[str] | None = None
+) -> tuple[float, Iterator[bytes], list[str]]:
     """The file's start time, its containers' inner bytes (inflated, one after the other,
     up to any damage), and the damage python-can's reader would stop at after reading them
-    (appended to the list once the containers run out; none: it reads to the end)."""
+    (appended to the list once the containers run out; none: it reads to the end).
+    ``cut``: where the file ends inside an object (a logger that lost power), said."""
     import struct
 
     from can.io.blf import FILE_HEADER_STRUCT, LOG_CONTAINER_STRUCT, systemtime_to_timestamp
@@ -157,6 +160,11 @@ def _containers(raw: Buffer) -> tuple[float, Iterator[bytes], list[str]]:
                 return
             else:
                 body = raw[pos + BASE_SIZE : pos + size]
+                if pos + size > len(raw) and cut is not None:
+                    cut.append(
+                        f"the log cut short: it ends in an object of {size:,} bytes at byte "
+                        f"{pos:,}, {len(raw) - pos:,} of them there (read as far as it goes)"
+                    )
                 pos += size + size % 4
             if kind != LOG_CONTAINER:
                 continue
@@ -241,7 +249,7 @@ def _chain(buf: np.ndarray, first: bool = True) -> tuple[np.ndarray, str | None,
 BATCH_BYTES = 1 << 24  # inner objects parsed at once (16 MB inflated; bounds the memory)
 
 
-def blf_frames(raw: Buffer, kept: Kept | None = None) -> BlfFrames:
+def blf_frames(raw: Buffer, kept: Kept | None = None, cut: list[str] | None = None) -> BlfFrames:
     """The messages python-can's BLF reader yields for the log's bytes ``raw`` (module
     docstring): its containers inflated and their objects parsed :data:`BATCH_BYTES` at a
     time, each batch from where the objects before it end.
@@ -250,11 +258,13 @@ def blf_frames(raw: Buffer, kept: Kept | None = None) -> BlfFrames:
         raw: the log's bytes (or the file mapped in memory).
         kept: the messages to keep (the data frames left out counted there, and dropped
             from each batch as it is parsed); None: every message.
+        cut: where the log ends inside an object is appended to it (a logger that lost
+            power: read as far as it goes, as python-can reads it, and said).
 
     Raises:
         BlfError: where python-can's reader raises, with the messages it yielded before.
     """
-    start, containers, damage = _containers(raw)
+    start, containers, damage = _containers(raw, cut)
     parts: list[BlfFrames] = []
     carry, batch, size, data_frames = b"", [], 0, 0
     first = True

@@ -778,13 +778,17 @@ def _blf(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
     from rwhonet.data.blf import CAN_MSG_EXT, BlfError, blf_frames
 
     kept = None if keep is None else Kept(keep)
+    cut: list[str] = []
     try:
         with _mapped(path) as raw:
-            got = blf_frames(raw, kept)
+            got = blf_frames(raw, kept, cut)
     except BlfError as err:
         raise _unreadable(file, "BLF", err, err.data_frames) from None
     extended = (got.ids & CAN_MSG_EXT) != 0
-    return _yielded("BLF", got, got.ids & ID_MASK, extended, kept=kept)
+    frames = _yielded("BLF", got, got.ids & ID_MASK, extended, kept=kept)
+    if not cut:
+        return frames
+    return dataclasses.replace(frames, passed=", ".join(p for p in (frames.passed, *cut) if p))
 
 
 def _yielded(
