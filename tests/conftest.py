@@ -9,6 +9,7 @@ test-fast`` skips them).
 from __future__ import annotations
 
 import os
+import time
 from collections import Counter
 from pathlib import Path
 
@@ -18,6 +19,14 @@ import pytest
 from rwhonet import paths
 from rwhonet.config import Params, load_params
 from rwhonet.libraries import quiet
+
+# The suite runs on a UTC clock, wherever it runs. python-can's BLF writer writes a log's
+# start on the writing machine's local clock (and its reader reads it on the reading
+# machine's), while the project reads a BLF's start as UTC, or in the map's local_zone
+# (rwhonet.data.blf.blf_start): the logs python-can writes here are a UTC logger's. Tests
+# of other zones set TZ themselves.
+os.environ["TZ"] = "UTC"
+time.tzset()
 
 quiet()
 

@@ -5,7 +5,11 @@ edited logs; each in one batch, a container a batch, and batches of 200 bytes.""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import time
 import zlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import can
@@ -45,11 +49,29 @@ def batch(request, monkeypatch):  # type: ignore[no-untyped-def]
     return request.param
 
 
+@contextlib.contextmanager
+def _in_zone(zone: str) -> Iterator[None]:
+    """The process's local time zone set to ``zone`` (python-can reads a BLF's start on
+    it), then set back."""
+    before = os.environ.get("TZ")
+    os.environ["TZ"] = zone
+    time.tzset()
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["TZ"]
+        else:
+            os.environ["TZ"] = before
+        time.tzset()
+
+
 def _python_can_messages(path: Path) -> tuple[list[can.Message], Exception | None]:
-    """What python-can's reader yields, and the error it stops with (None: none)."""
+    """What python-can's reader yields, and the error it stops with (None: none), read on
+    a UTC clock, as this reader reads a BLF's start wherever it runs."""
     got: list[can.Message] = []
     try:
-        with can.BLFReader(path) as reader:
+        with _in_zone("UTC"), can.BLFReader(path) as reader:
             got.extend(reader)
     except Exception as err:  # whatever its parsers raise
         return got, err
@@ -367,3 +389,39 @@ def test_no_object_where_the_inner_stream_starts_is_said_so_in_every_batching(tm
         blf_frames(path.read_bytes())
     assert "no object where the inner stream starts" in str(err.value)
     assert err.value.data_frames == 0
+
+
+@pytest.mark.parametrize("zone", ["Europe/Berlin", "America/Detroit", "UTC"])
+def test_a_blf_s_start_reads_alike_on_every_machine_and_in_the_map_s_zone(tmp_path, zone):
+    """The header's start is a wall time without a zone: python-can reads it on the
+    reading machine's clock (an hour apart in Berlin and on a UTC server); here it reads
+    as UTC wherever the reader runs, and in the map's local_zone where given (14 Nov
+    2023: CET, UTC+1 h; EST, UTC-5 h), its frames then on UTC an hour (five) earlier
+    (later); a start in the hour Berlin's clocks went back is refused."""
+    from datetime import UTC, datetime
+
+    from rwhonet.data.canlog import read_frames
+
+    path = _written(tmp_path / "bus.blf", n=200)
+    with _in_zone("UTC"):
+        utc = read_frames(path, "bus.blf")
+    with _in_zone(zone):
+        here = read_frames(path, "bus.blf")
+        zoned = read_frames(path, "bus.blf", "Europe/Berlin")
+        detroit = read_frames(path, "bus.blf", "America/Detroit")
+    np.testing.assert_array_equal(here.t_s, utc.t_s)
+    np.testing.assert_allclose(zoned.t_s, utc.t_s - 3600.0, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(detroit.t_s, utc.t_s + 5 * 3600.0, rtol=0, atol=1e-6)
+    assert zoned.clock.endswith(", its header's start in Europe/Berlin")
+    raw = bytearray(path.read_bytes())
+    start = FILE_HEADER_STRUCT.unpack_from(raw)[14:22]
+    fields = list(FILE_HEADER_STRUCT.unpack_from(raw))
+    fields[14:22] = [2024, 10, 0, 27, 2, 30, 0, 0]  # 02:30 on the night the clocks went back
+    raw[: FILE_HEADER_STRUCT.size] = FILE_HEADER_STRUCT.pack(*fields)
+    path.write_bytes(bytes(raw))
+    with pytest.raises(InputError) as err:
+        read_frames(path, "bus.blf", "Europe/Berlin")
+    assert "in the hour its clocks went back: UTC+2 or UTC+1" in str(err.value)
+    first = read_frames(path, "bus.blf", "Etc/GMT-2").t_s[0]
+    assert datetime(2024, 10, 27, 0, 30, tzinfo=UTC).timestamp() <= first
+    assert start[0] == 2023  # the writer's start (16 Nov 2023), as it wrote it

@@ -37,9 +37,14 @@ A log cut short (a logger that lost power) gives the frames it holds whole, as
 python-can's reader does: the last container inflated as far as it goes, an object cut
 at the end left out.
 
-**The time stamps** are python-can's: the header's start (SYSTEMTIME read by
-``can.io.blf.systemtime_to_timestamp``, a local time on the reading computer's clock)
-plus each object's stamp times its factor, in the same floating-point operations.
+**The time stamps** are the header's start plus each object's stamp times its factor,
+in python-can's floating-point operations. The start is a Windows SYSTEMTIME, a wall
+time without a zone (python-can's writer writes the writing computer's local time).
+python-can reads it on the *reading* computer's clock (``systemtime_to_timestamp``), so
+one log read in Berlin and on a UTC server gave times an hour apart. Here it is read as
+UTC, as python-can reads it on a UTC machine, wherever it is read; or, with the signal
+map's ``local_zone``, in that zone (:func:`blf_start`; a start in the hour a change of
+summer time repeats or skips is refused, :func:`rwhonet.data.texttime.local_to_unix`).
 """
 
 from __future__ import annotations
@@ -53,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rwhonet.data.keptframes import ID_MASK, Kept
+from rwhonet.data.texttime import local_to_unix
 
 LOGG, LOBJ = b"LOGG", b"LOBJ"
 LOG_CONTAINER = 10
@@ -123,21 +129,41 @@ def _u(buf: np.ndarray, at: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
+def blf_start(systemtime: tuple[int, ...], zone: str | None = None) -> float:
+    """A BLF header's start (its SYSTEMTIME's eight fields) in Unix seconds: as UTC, or
+    in ``zone`` (IANA); 0 where the fields are no date, as python-can reads them.
+
+    Raises:
+        LocalTimeUnclear: the start is in the hour ``zone``'s clocks went back or skipped.
+    """
+    from datetime import UTC, datetime
+
+    try:
+        year, month, _, day, hour, minute, second, ms = systemtime
+        wall = datetime(year, month, day, hour, minute, second, ms * 1000)
+    except ValueError:
+        return 0.0
+    if zone is None:
+        return wall.replace(tzinfo=UTC).timestamp()
+    return local_to_unix(wall, zone)
+
+
 def _containers(
-    raw: Buffer, cut: list[str] | None = None
+    raw: Buffer, cut: list[str] | None = None, zone: str | None = None
 ) -> tuple[float, Iterator[bytes], list[str]]:
     """The file's start time, its containers' inner bytes (inflated, one after the other,
     up to any damage), and the damage python-can's reader would stop at after reading them
     (appended to the list once the containers run out; none: it reads to the end).
-    ``cut``: where the file ends inside an object (a logger that lost power), said."""
+    ``cut``: where the file ends inside an object (a logger that lost power), said;
+    ``zone``: the start's (:func:`blf_start`)."""
     import struct
 
-    from can.io.blf import FILE_HEADER_STRUCT, LOG_CONTAINER_STRUCT, systemtime_to_timestamp
+    from can.io.blf import FILE_HEADER_STRUCT, LOG_CONTAINER_STRUCT
 
     if raw[:4] != LOGG or len(raw) < FILE_HEADER_STRUCT.size:
         raise BlfError("the file does not start with a BLF header (LOGG)", None)
     header = FILE_HEADER_STRUCT.unpack_from(raw)
-    start = systemtime_to_timestamp(header[14:22])
+    start = blf_start(header[14:22], zone)
     rest = header[1] - FILE_HEADER_STRUCT.size  # python-can reads this much more of it
     if rest < -1:
         raise BlfError(f"a file header of {header[1]} bytes, less than its fields", None)
@@ -249,7 +275,9 @@ def _chain(buf: np.ndarray, first: bool = True) -> tuple[np.ndarray, str | None,
 BATCH_BYTES = 1 << 24  # inner objects parsed at once (16 MB inflated; bounds the memory)
 
 
-def blf_frames(raw: Buffer, kept: Kept | None = None, cut: list[str] | None = None) -> BlfFrames:
+def blf_frames(
+    raw: Buffer, kept: Kept | None = None, cut: list[str] | None = None, zone: str | None = None
+) -> BlfFrames:
     """The messages python-can's BLF reader yields for the log's bytes ``raw`` (module
     docstring): its containers inflated and their objects parsed :data:`BATCH_BYTES` at a
     time, each batch from where the objects before it end.
@@ -260,11 +288,13 @@ def blf_frames(raw: Buffer, kept: Kept | None = None, cut: list[str] | None = No
             from each batch as it is parsed); None: every message.
         cut: where the log ends inside an object is appended to it (a logger that lost
             power: read as far as it goes, as python-can reads it, and said).
+        zone: the logging computer's time zone, which puts the header's start on UTC
+            (None: it is read as UTC; :func:`blf_start`).
 
     Raises:
         BlfError: where python-can's reader raises, with the messages it yielded before.
     """
-    start, containers, damage = _containers(raw, cut)
+    start, containers, damage = _containers(raw, cut, zone)
     parts: list[BlfFrames] = []
     carry, batch, size, data_frames = b"", [], 0, 0
     first = True

@@ -218,7 +218,7 @@ def _read(
     if suffix == CANDUMP:
         frames = _candump(path, file, keep)
     elif suffix == ".blf":
-        frames = _blf(path, file, keep)
+        frames = _blf(path, file, keep, local_zone)
     elif suffix == ".asc" and (got := _asc(path, file, keep)) is not None:
         frames = got
     elif suffix == ".trc":
@@ -772,20 +772,26 @@ def _buses(chans: np.ndarray) -> tuple[np.ndarray, list[str]]:
     return (rank[channel.ravel()] + 1).astype(np.uint8), [str(b) for b in buses[order]]
 
 
-def _blf(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
+def _blf(
+    path: Path, file: str, keep: FrameFilter | None = None, local_zone: str | None = None
+) -> Frames:
     """A BLF log's data frames, the frames python-can's reader gives, parsed a batch of
-    objects at a time (:func:`rwhonet.data.blf.blf_frames`)."""
+    objects at a time (:func:`rwhonet.data.blf.blf_frames`), the header's start read as
+    UTC, or in ``local_zone`` (the clock note then says it)."""
     from rwhonet.data.blf import CAN_MSG_EXT, BlfError, blf_frames
 
     kept = None if keep is None else Kept(keep)
     cut: list[str] = []
     try:
         with _mapped(path) as raw:
-            got = blf_frames(raw, kept, cut)
+            got = blf_frames(raw, kept, cut, local_zone)
     except BlfError as err:
         raise _unreadable(file, "BLF", err, err.data_frames) from None
+    except LocalTimeUnclear as err:
+        raise InputError([unclear_start(file, None, "start time", err)]) from None
     extended = (got.ids & CAN_MSG_EXT) != 0
-    frames = _yielded("BLF", got, got.ids & ID_MASK, extended, kept=kept)
+    said = "" if local_zone is None else f", its header's start in {local_zone}"
+    frames = _yielded("BLF", got, got.ids & ID_MASK, extended, said, kept)
     if not cut:
         return frames
     return dataclasses.replace(frames, passed=", ".join(p for p in (frames.passed, *cut) if p))
