@@ -274,7 +274,7 @@ def _read_decompressed(
         if inner == ".mf4" and is_can_log_name(f.path.name):  # bus.log.gz: read as a .log
             inner = Path(without_suffix(f.path.name)).suffix.lower()
         plain = Path(scratch) / f"{drive_stem(f.path)}{inner}"
-        bound = None if is_can_log_name(f.path.name) else data.max_file_mb
+        bound = None if _read_in_parts(f.path.name, f.path) else data.max_file_mb
         decompressed_copy(f.path, packed, plain, bound, file)
 
         def shown(path: Path) -> str:
@@ -316,14 +316,21 @@ def _size_bytes(path: Path, folder: bool, can_logs_apart: bool = False) -> int:
     with ``can_logs_apart``, raw CAN logs' files (``bus.log``, ``can0.log.1.gz``) not
     counted: their frames are bounded as they are kept. A NovAtel receiver's ``.log`` or
     ``.asc``, read whole, is."""
+    files = [p for p in path.rglob("*") if p.is_file()] if folder else [path]
+    return sum(
+        p.stat().st_size
+        for p in files
+        if not (can_logs_apart and _read_in_parts(without_rotation(p.name), p))
+    )
+
+
+def _read_in_parts(name: str, path: Path) -> bool:
+    """Whether a drive's file, read by ``name``, is a raw CAN log: read a part at a time,
+    bounded by the frames it keeps, not by its size (a NovAtel receiver's ``.log`` or
+    ``.asc`` is read whole)."""
     from rwhonet.data.streamcsv import log_kind
 
-    def counted(p: Path) -> bool:
-        name = without_rotation(p.name)
-        return not (can_logs_apart and is_can_log_name(name) and log_kind(name, p) is None)
-
-    files = [p for p in path.rglob("*") if p.is_file()] if folder else [path]
-    return sum(p.stat().st_size for p in files if counted(p))
+    return is_can_log_name(name) and log_kind(name, path) is None
 
 
 def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
@@ -418,7 +425,7 @@ def _read_streams(
                 if packing is not None:
                     q = Path(scratch) / str(i) / name
                     q.parent.mkdir()
-                    bound = None if is_can_log_name(name) else data.max_file_mb
+                    bound = None if _read_in_parts(name, p) else data.max_file_mb
                     decompressed_copy(p, packing, q, bound, rel(p))
                     packed.append(f"{p.name} ({packing})")
                 elif name != p.name:  # a rotated file: read under its name without the number

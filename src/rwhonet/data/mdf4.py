@@ -376,7 +376,7 @@ class _Matcher:
 
     exact: dict[Key, tuple[Key, str, int | None]]
     by_group: dict[int, tuple[Key, str, int | None]]
-    sizes: dict[Key, int] = dataclasses.field(default_factory=dict)
+    sizes: dict[Key, int]
 
     @classmethod
     def of(cls, db: Any) -> _Matcher:
