@@ -43,7 +43,8 @@ def test_raw_frames_decoded_by_the_dbc_give_the_drive_s_streams(log):
     np.testing.assert_allclose(streams.gnss.channels[c.LAT_DEG], df.loc[fix, c.LAT_DEG], atol=6e-8)
     np.testing.assert_array_equal(streams.gnss.channels[c.N_SATS], df.loc[fix, c.N_SATS])
     assert (
-        "raw CAN frames decoded with drive.dbc: 3 of the log's 3 frame IDs defined" in streams.notes
+        f"{path}: raw CAN frames decoded with drive.dbc: 3 of the log's 3 frame IDs defined"
+        in streams.notes
     )
 
 

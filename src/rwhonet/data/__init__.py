@@ -57,7 +57,8 @@
   by :mod:`~rwhonet.data.trc`), laid out as an MDF4 bus log for the map's DBC.
   :mod:`~rwhonet.data.bytescan` finds things in a text log's bytes at once, for the NMEA,
   candump, ASC and TRC readers; :mod:`~rwhonet.data.keptframes` keeps, a part of a log at a
-  time, only the frames of the messages the map's signals are in.
+  time, only the frames of the messages the map's signals are in; an MDF4 bus log's frames
+  (a CANedge's, a Vector logger's) are read so by :mod:`~rwhonet.data.mdfframes`.
 - :mod:`~rwhonet.data.leftout`: drives ingest or validate refused, left out of a run where
   ``data.refused_drives: leave_out`` says so, and named in every manifest and report.
 - :mod:`~rwhonet.data.sampleorder`: a stream's samples written twice dropped, and those

@@ -230,7 +230,7 @@ def _read(
     return frames
 
 
-def _too_many(file: str, err: TooManyFrames) -> Problem:
+def too_many(file: str, err: TooManyFrames) -> Problem:
     """The problem of a log whose frames of the map's messages pass the bound."""
     return Problem(
         file,
@@ -331,7 +331,7 @@ def read_frames(
     try:
         frames = _read(path, file, suffix, local_zone, keep)
     except TooManyFrames as err:
-        raise InputError([_too_many(file, err)]) from None
+        raise InputError([too_many(file, err)]) from None
     if suffix == ".asc" and frames.t_s.size and not _counts_unix(frames.t_s):
         if local_zone is None:
             frames = dataclasses.replace(frames, local_start=True)

@@ -25,10 +25,18 @@ from typing import Any
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.canlog import Frames, bus_log, is_can_log_name, read_frames, short_passed
+from rwhonet.data.canlog import (
+    Frames,
+    bus_log,
+    is_can_log_name,
+    read_frames,
+    short_passed,
+    too_many,
+)
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import map_unit_name, unit_name
-from rwhonet.data.keptframes import FrameFilter, frame_keys, j1939_pgn, key_id
+from rwhonet.data.keptframes import FrameFilter, TooManyFrames, frame_keys, j1939_pgn, key_id
+from rwhonet.data.mdfframes import frame_groups, mdf_frames
 from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import LocalTimeUnclear, local_to_unix, unclear_start
@@ -96,16 +104,19 @@ def read_mdf4(
             notes=(*streams.notes, *log.notes),
             changed=(*streams.changed, *log.changed),
         )
+    if dbc:  # an MDF4 bus log: its frames decoded as a bus tool's log, on its master time
+        log = can_log_groups(
+            Path(path), signal_map, radius_m, name, file, dbc, False, None, max_mb, False
+        )
+        streams = build_streams(log.groups, log.clock)
+        return dataclasses.replace(
+            streams,
+            notes=(*streams.notes, *log.notes),
+            changed=(*streams.changed, *log.changed),
+        )
     mdf = _opened(path, file)
     try:
-        if not dbc:
-            return _read(mdf, signal_map, radius_m, name, file)
-        decoded = _decoded(mdf, dbc, name, file, None)
-        try:
-            streams = _read(decoded, signal_map, radius_m, name, file)
-        finally:
-            decoded.close()
-        return dataclasses.replace(streams, notes=(*streams.notes, _decoded_note(mdf, dbc)))
+        return _read(mdf, signal_map, radius_m, name, file)
     finally:
         mdf.close()
 
@@ -142,6 +153,7 @@ def can_log_groups(
     present_only: bool = False,
     local_zone: str | None = None,
     max_mb: float | None = None,
+    on_start: bool = True,
 ) -> CanLogGroups:
     """A raw CAN log's mapped signals, decoded by the CAN databases ``dbc``.
 
@@ -154,6 +166,9 @@ def can_log_groups(
         max_mb: the memory a raw CAN log may take (``data.max_file_mb``; None: no bound):
             read a part at a time, its frames of the map's messages are bounded
             (:meth:`FrameFilter.frames_for`); read whole, its file's size.
+        on_start: an MDF4 bus log's times are its start plus its master time (a stream
+            folder's CANedge files, :func:`_start`); else its master time (one MDF4 file
+            a drive).
 
     Raises:
         InputError: no ``dbc``; the log or a database unreadable (:func:`_decoded`); a
@@ -174,8 +189,13 @@ def can_log_groups(
                 )
             ]
         )
-    frames, wanted = None, None
-    if not is_mdf_name(path.name):
+    frames, wanted, said = None, None, ""
+    if is_mdf_name(path.name):  # an MDF4 bus log: a part at a time where it can be
+        columns = [spec.column for spec in signal_map.values()]
+        got = _mdf_kept(path, file, columns, dbc, name, present_only, local_zone, max_mb, on_start)
+        if got is not None:
+            frames, wanted, said = got
+    else:
         _databases_there(dbc, name)  # before the log is read
         columns = [spec.column for spec in signal_map.values()]
         wanted = _wanted(dbc, columns, present_only)
@@ -205,11 +225,12 @@ def can_log_groups(
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         loaded = None if wanted is None else wanted.databases
-        decoded = _decoded(mdf, dbc, name, file, frames, loaded)
+        decoded = _decoded(mdf, dbc, name, file, frames, loaded, is_mdf_name(path.name))
         try:
             if present_only:
                 signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
-            groups = _groups(decoded, signal_map, radius_m, name, file, frames is None, frames)
+            master = frames is None or is_mdf_name(path.name)
+            groups = _groups(decoded, signal_map, radius_m, name, file, master, frames)
         finally:
             decoded.close()
         notes = [
@@ -217,16 +238,17 @@ def can_log_groups(
             if wanted is None or frames is None
             else wanted.note(frames, _bus_channels(_pairs(dbc), frames, None, "", file))
         ]
-        start_s, clock, said, local = (
-            (0.0, "", "", False) if frames is not None else _started(mdf.header, local_zone, file)
-        )
+        start_s, clock, local = 0.0, CLOCK, False
+        if frames is None and on_start:
+            start_s, clock, said, local = _started(mdf.header, local_zone, file)
     finally:
         mdf.close()
-    if frames is None:  # an MDF4 bus log (a CANedge's split file): its times on its start
+    if frames is None:  # an MDF4 bus log decoded whole (a CANedge's split file: on its start)
         groups = [
             Group(g.name, g.file, g.t_s + start_s, g.channels, g.sources, g.rows) for g in groups
         ]
-        return CanLogGroups(groups, clock, [f"{file}: {n}" for n in [*notes, said]], [], local)
+        told = [n for n in [*notes, said] if n]
+        return CanLogGroups(groups, clock, [f"{file}: {n}" for n in told], [], local)
     buses = ", ".join(frames.buses)
     notes.append(f"{frames.in_log} data frames on {len(frames.buses)} bus(es) ({buses})")
     if frames.log_ids is not None:
@@ -235,7 +257,7 @@ def can_log_groups(
             "message(s) the map's signals are in; the other frames were counted and left "
             "out as the log was read"
         )
-    notes.append(f"the time stamps are {frames.clock}")
+    notes.append(said or f"the time stamps are {frames.clock}")
     passed = [f"{file}: passed over: {frames.passed}"] if frames.passed else []
     return CanLogGroups(
         groups,
@@ -244,6 +266,58 @@ def can_log_groups(
         passed,
         frames.local_start,
     )
+
+
+def _mdf_kept(
+    path: Path,
+    file: str,
+    columns: list[str],
+    dbc: Databases,
+    name: str,
+    present_only: bool,
+    local_zone: str | None,
+    max_mb: float | None,
+    on_start: bool,
+) -> tuple[Frames, _Wanted, str] | None:
+    """An MDF4 bus log's frames of the map's messages, read a part at a time
+    (:func:`~rwhonet.data.mdfframes.mdf_frames`), at most ``max_mb``'s worth
+    (:meth:`FrameFilter.frames_for`), those shorter than their message passed over; on its
+    start (``on_start``, :func:`_start`: with its note) or its master time. None where it
+    is decoded whole by asammdf instead, as before: the map's messages not told apart, no
+    raw CAN frames in the file (:func:`_decoded` says so), or a message the map needs
+    missing (so that what is missing is said as for any log).
+
+    Raises:
+        InputError: a database missing; the file unreadable; its start unclear; more
+            frames kept than ``max_mb`` holds.
+    """
+    _databases_there(dbc, name)
+    wanted = _wanted(dbc, columns, present_only)
+    if wanted is None:
+        return None
+    mdf = _opened(path, file, process_bus_logging=False)
+    try:
+        if not frame_groups(mdf):
+            return None
+        start_s, clock, said, local = (
+            _started(mdf.header, local_zone, file) if on_start else (0.0, CLOCK, "", False)
+        )
+        bound = None if max_mb is None else FrameFilter.frames_for(max_mb)
+        keep = dataclasses.replace(wanted.keep, max_frames=bound)
+        try:
+            frames = mdf_frames(mdf, keep, start_s, clock, local)
+        except TooManyFrames as err:
+            raise InputError([too_many(file, err)]) from None
+        except Exception as err:  # a damaged block is the file's problem
+            fix = "export the log again from the logger's software"
+            raise InputError(
+                [Problem.unreadable(file, "raw CAN frames asammdf reads", err, fix)]
+            ) from None
+    finally:
+        mdf.close()
+    if not wanted.in_log(frames, present_only):
+        return None
+    return short_passed(frames, *wanted.lengths(frames), file), wanted, said
 
 
 def _whole_fits(path: Path, file: str, max_mb: float | None, why: str) -> None:
@@ -295,11 +369,11 @@ def is_mdf_name(name: str) -> bool:
     return Path(without_suffix(name)).suffix.lower() in MDF_SUFFIXES
 
 
-def _opened(path: Path, file: str):  # type: ignore[no-untyped-def]
-    """``asammdf.MDF(path)``, or its refusal."""
+def _opened(path: Path, file: str, **options: Any):  # type: ignore[no-untyped-def]
+    """``asammdf.MDF(path, **options)``, or its refusal."""
     from asammdf import MDF  # imported here: it takes most of a second to import
 
-    mdf, problem = _open(MDF, path, file)
+    mdf, problem = _open(functools.partial(MDF, **options), path, file)
     if problem is not None:
         raise InputError([problem], summary=f"cannot decode {file}")
     return mdf
@@ -624,11 +698,18 @@ def _databases_there(dbc: Databases, name: str) -> None:
 
 
 def _decoded(  # type: ignore[no-untyped-def]
-    mdf, dbc: Databases, name: str, file: str, frames: Frames | None, loaded: list | None = None
+    mdf,
+    dbc: Databases,
+    name: str,
+    file: str,
+    frames: Frames | None,
+    loaded: list | None = None,
+    numbered: bool = False,
 ):
     """The signals of ``mdf``'s raw CAN frames, decoded by the CAN databases ``dbc``, each
     for every bus or for its own (named as the log names it: ``frames.buses`` for a bus
-    tool's log, a bus channel number for an MDF4 bus log).
+    tool's log, a bus channel number for an MDF4 bus log, ``numbered``, or ``mdf`` itself
+    without ``frames``).
 
     Raises:
         InputError: a database missing or unreadable, a bus the log does not have, the file
@@ -651,7 +732,7 @@ def _decoded(  # type: ignore[no-untyped-def]
                 )
             ]
         )
-    channels = _bus_channels(pairs, frames, mdf, setting, file)
+    channels = _bus_channels(pairs, frames, mdf, setting, file, numbered)
     if loaded is not None:  # the databases :func:`_wanted` loaded, not loaded again
         channels = [(db, bus) for db, (_, bus) in zip(loaded, channels, strict=True)]
     try:
@@ -683,10 +764,16 @@ def _decoded(  # type: ignore[no-untyped-def]
 
 
 def _bus_channels(
-    pairs: list[tuple[str, str | None]], frames: Frames | None, mdf, setting: str, file: str
+    pairs: list[tuple[str, str | None]],
+    frames: Frames | None,
+    mdf,
+    setting: str,
+    file: str,
+    numbered: bool = False,
 ) -> list[tuple[str, int]]:  # type: ignore[no-untyped-def]
     """``extract_bus_logging``'s ``(database, bus channel)`` pairs (0: every bus): a bus
-    tool's interface by its place among the log's buses, an MDF4 bus log's by its number.
+    tool's interface by its place among the log's buses, an MDF4 bus log's by its number
+    (its frames' ``buses`` its numbers where ``numbered``).
 
     Raises:
         InputError: a bus the log does not have (naming the ones it has).
@@ -717,7 +804,11 @@ def _bus_channels(
                     f"the bus {bus!r} that {setting} gives {Path(d).name} to",
                     f"the log's buses are {', '.join(have) or 'none'}",
                     "name the bus as the log names it"
-                    + (" (an MDF4 bus log: its bus channel number)" if frames is None else ""),
+                    + (
+                        " (an MDF4 bus log: its bus channel number)"
+                        if frames is None or numbered
+                        else ""
+                    ),
                 )
             )
     if problems:
