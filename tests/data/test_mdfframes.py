@@ -100,11 +100,21 @@ def _same(a, b) -> None:  # type: ignore[no-untyped-def]
 
 
 def test_a_bus_log_read_in_parts_decodes_as_asammdf_decodes_it_whole(bus, monkeypatch):
-    """Read 7 records at a time, the map's frames kept, the streams are asammdf's decode of
-    the whole file to the bit; the other frames counted, not decoded."""
+    """Read 200 bytes of records at a time (8 frames), the map's frames kept, the streams
+    are asammdf's decode of the whole file to the bit; the other frames counted, not
+    decoded."""
     df, path, (_, ids, _) = bus
-    monkeypatch.setattr(mdfframes, "RECORDS", 7)
+    monkeypatch.setattr(mdfframes, "FRAGMENT_BYTES", 200)
+    sizes: list[int] = []
+    part = mdfframes._part
+
+    def counted(records, stamps, kept):  # type: ignore[no-untyped-def]
+        sizes.append(records.size)
+        return part(records, stamps, kept)
+
+    monkeypatch.setattr(mdfframes, "_part", counted)
     parts = _read(path)
+    assert max(sizes) == 8 and sum(sizes) == ids.size
     _same(parts, _whole(path, monkeypatch))
     np.testing.assert_allclose(parts.wheels[0].t_s, df[c.T_S] - df[c.T_S].iloc[0], atol=1e-9)
     kept = int(np.isin(ids, [WHEELS_ID, FIX_ID, SATS_ID]).sum())
@@ -151,7 +161,7 @@ def test_a_bus_log_past_its_kept_frames_bound_is_refused_naming_the_frame(bus, m
     """Bounded as a bus tool's log is: the frame one too many named by its number in the
     file (the drive's 301 + 2 x 31 frames against 1,228 + 1 room left here)."""
     _, path, (_, ids, _) = bus
-    monkeypatch.setattr(mdfframes, "RECORDS", 100)
+    monkeypatch.setattr(mdfframes, "FRAGMENT_BYTES", 2000)
     mine = np.flatnonzero(np.isin(ids, [WHEELS_ID, FIX_ID, SATS_ID]))
     max_mb = 0.05  # 204 frames at 256 bytes each
     bound = FrameFilter.frames_for(max_mb)

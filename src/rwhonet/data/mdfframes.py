@@ -4,9 +4,9 @@ CANedge or a Vector logger writes them), read a part at a time into
 
 asammdf's own decode (``MDF.extract_bus_logging``) decodes every frame of the file, and
 opening the file reads every frame's identifier and bus first (``process_bus_logging``):
-20 minutes of a whole bus (94 MB) took 0.83 GB. Read here with asammdf's
-``MDF.get(record_offset=, record_count=)`` :data:`RECORDS` records at a time, each part's
-frames of other messages left out as it is read (:class:`~rwhonet.data.keptframes.Kept`),
+20 minutes of a whole bus (94 MB) took 0.83 GB. Read here with asammdf's ``MDF.iter_get``
+:data:`FRAGMENT_BYTES` of records at a time (each compressed block inflated once), each
+part's frames of other messages left out as it is read (:class:`~rwhonet.data.keptframes.Kept`),
 an MDF4 bus log is decoded as a bus tool's log is (:func:`rwhonet.data.mdf4.can_log_groups`):
 its memory that of a part and of the frames kept (at most ``keep.max_frames``), its frames
 shorter than their message passed over (:func:`rwhonet.data.canlog.short_passed`).
@@ -22,7 +22,9 @@ from rwhonet.data.canlog import Frames
 from rwhonet.data.keptframes import ID_MASK, FrameFilter, Kept
 from rwhonet.data.trc import FD_LENGTHS
 
-RECORDS = 1 << 18  # records read at a time: 262,144 frames, some 20 MB of a part
+# the bytes of records read at a time (asammdf's ``read_fragment_size``): some 100,000
+# frames of a CAN FD layout's 64-byte payloads, 360,000 of a classic one's 8
+FRAGMENT_BYTES = 8 << 20
 DATA_FRAME = "CAN_DataFrame"
 # the other frames ASAM bus logging records, each in channel groups of their own
 OTHER_FRAMES = {"CAN_ErrorFrame": "error frames", "CAN_RemoteFrame": "remote frames"}
@@ -55,10 +57,11 @@ def mdf_frames(
     """
     kept = Kept(keep)
     parts: list[tuple[np.ndarray, ...]] = []
+    mdf.configure(read_fragment_size=FRAGMENT_BYTES)
     for g in frame_groups(mdf):
-        names = [ch.name for ch in mdf.groups[g].channels]
-        for offset in range(0, int(mdf.groups[g].channel_group.cycles_nr), RECORDS):
-            parts.append(_part(mdf, g, names, offset, kept))
+        index = [ch.name for ch in mdf.groups[g].channels].index(DATA_FRAME)
+        for got in mdf.iter_get(group=g, index=index, raw=True):
+            parts.append(_part(got.samples, got.timestamps, kept))
     t, ids, ext, length, bus, rows = (
         np.concatenate([p[k] for p in parts] or [np.zeros(0, d)])
         for k, d in enumerate((np.float64, np.uint32, bool, np.uint8, np.int64, np.int64))
@@ -94,40 +97,32 @@ def _has(group: Any, name: str) -> bool:
     return any(ch.name == name for ch in group.channels)
 
 
-def _part(mdf: Any, group: int, names: list[str], offset: int, kept: Kept) -> tuple[Any, ...]:
-    """The kept frames of the group's records from ``offset``: (time, identifier, extended,
-    length, bus, row, data)."""
+def _part(records: np.ndarray, stamps: np.ndarray, kept: Kept) -> tuple[Any, ...]:
+    """The kept frames of a part's ``CAN_DataFrame`` records (a structured array of its
+    fields: ``CAN_DataFrame.ID``, ...): (time, identifier, extended, length, bus, row,
+    data)."""
+    names = records.dtype.names or ()
 
-    def field(name: str) -> Any:
-        if f"{DATA_FRAME}.{name}" not in names:
-            return None
-        index = names.index(f"{DATA_FRAME}.{name}")
-        return mdf.get(
-            f"{DATA_FRAME}.{name}",
-            group=group,
-            index=index,
-            raw=True,
-            record_offset=offset,
-            record_count=RECORDS,
-        )
+    def field(name: str) -> np.ndarray | None:
+        key = f"{DATA_FRAME}.{name}"
+        return np.asarray(records[key]) if key in names else None
 
-    got = field("ID")
-    raw_ids = np.asarray(got.samples).astype(np.uint32)
+    raw_ids = np.asarray(field("ID")).astype(np.uint32)
     ide = field("IDE")
-    ext = (raw_ids >> 31).astype(bool) if ide is None else np.asarray(ide.samples) != 0
+    ext = (raw_ids >> 31).astype(bool) if ide is None else ide != 0
     ids = raw_ids & np.uint32(ID_MASK)
-    bus_field = field("BusChannel")
-    bus = np.ones(ids.size, np.int64) if bus_field is None else np.asarray(bus_field.samples)
+    channel = field("BusChannel")
+    bus = np.ones(ids.size, np.int64) if channel is None else channel.astype(np.int64)
     first = kept.messages
-    at = kept.part(ids, ext, bus.astype(np.int64))
-    data = payloads(np.asarray(field("DataBytes").samples)[at])
+    at = kept.part(ids, ext, bus)
+    data = payloads(np.asarray(field("DataBytes"))[at])
     length = _lengths(field("DataLength"), field("DLC"), data, at)
     return (
-        np.asarray(got.timestamps, np.float64)[at],
+        np.asarray(stamps, np.float64)[at],
         ids[at],
         ext[at],
         np.minimum(length, data.shape[1]).astype(np.uint8),
-        bus.astype(np.int64)[at],
+        bus[at],
         first + at.astype(np.int64) + 1,
         data,
     )
@@ -148,12 +143,14 @@ def payloads(samples: np.ndarray) -> np.ndarray:
     return data
 
 
-def _lengths(length: Any, dlc: Any, data: np.ndarray, at: np.ndarray) -> np.ndarray:
+def _lengths(
+    length: np.ndarray | None, dlc: np.ndarray | None, data: np.ndarray, at: np.ndarray
+) -> np.ndarray:
     """Each kept frame's data length: ``DataLength`` where the file has it, else its
     ``DLC`` (an FD frame's code past 8 as its bytes), else its data's width."""
     if length is not None:
-        return np.asarray(length.samples)[at].astype(np.int64)
+        return length[at].astype(np.int64)
     if dlc is not None:
-        code = np.asarray(dlc.samples)[at].astype(np.int64)
-        return np.where(code <= 8, code, np.asarray(FD_LENGTHS)[np.minimum(code, 15)])
+        code = dlc[at].astype(np.int64)
+        return np.where(code <= 8, code, FD_LENGTHS[np.minimum(code, 15)])
     return np.full(at.size, data.shape[1], np.int64)
