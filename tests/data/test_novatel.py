@@ -358,3 +358,53 @@ def test_the_real_minute_s_fixes_as_a_novatel_log(tmp_path):
         np.testing.assert_array_equal(got[q], ref[q], err_msg=q)
     for q in ("disp_gnss_m", "label_m"):
         np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=2e-3, err_msg=q)
+
+
+@pytest.mark.parametrize("name", ["drive.log.gz", "drive.asc.zst"])
+@pytest.mark.parametrize("dbc", [False, True])
+def test_a_novatel_asc_or_log_kept_compressed_is_told_by_what_it_holds(tmp_path, name, dbc):
+    """A NovAtel log named drive.log.gz (or .asc.zst) in a stream folder is told from a CAN
+    log by the text it unpacks to, as drive.log is: read as the fixes (before, without a
+    map's dbc the folder left it out, and with one it was taken for a raw CAN log, its
+    unpacked copy unbounded by data.max_file_mb and its size not counted); the labels of
+    the same log as drive.gps."""
+    import gzip
+
+    import pyarrow as pa
+
+    from rwhonet.data.compressed import without_suffix
+    from rwhonet.data.drivefile import DriveFile, _read_in_parts, read_any
+    from support.canlog import DBC
+    from support.drives import make_params
+    from support.stream_fleet import signal_map_params
+
+    g = _exact()
+    text = "\n".join(novatel_lines(g, DAY_S + g[c.T_S])).encode() + b"\n"
+    packed = (
+        gzip.compress(text, mtime=0)
+        if name.endswith(".gz")
+        else pa.compress(text, codec="zstd", asbytes=True)
+    )
+    smap = signal_map_params("stream_csv")
+    if dbc:
+        (tmp_path / "bus.dbc").write_text(DBC)
+        smap["dbc"] = str(tmp_path / "bus.dbc")
+    got = {}
+    for kept in ("drive.gps", name):
+        folder = tmp_path / kept.replace(".", "_")
+        for k, written in _folder(folder, g.iloc[:0]).items():
+            if k != "wheels":  # the fixes are the log's
+                written.unlink()
+        if kept == name:
+            (folder / kept).write_bytes(packed)
+            assert is_novatel_log(folder / kept)
+            # a receiver's log, read whole: counted in the drive's size, unpacked under it
+            assert not _read_in_parts(without_suffix(name), folder / kept)
+        else:
+            write_novatel(folder / kept, novatel_lines(g, DAY_S + g[c.T_S]))
+        data = make_params(tmp_path, **{"data.signal_maps": {"logger": smap}}).data
+        f = DriveFile(kept, "target_test", "target", "logger", folder)
+        drive, facts = read_any(f, data, lambda p: p.name, receiver_drive()[1], 0.1, 10.0)
+        got[kept] = drive
+    for k, v in got["drive.gps"].columns.items():
+        np.testing.assert_array_equal(got[name].columns[k], v, err_msg=k)

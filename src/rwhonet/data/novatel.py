@@ -73,7 +73,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rwhonet.data.compressed import without_suffix
+from rwhonet.data.compressed import compression_of, open_decompressed, without_suffix
 from rwhonet.data.csvio import is_number
 from rwhonet.data.nmea import STAMP_STRIP, FixLog
 from rwhonet.errors import InputError, Problem
@@ -123,19 +123,22 @@ def is_novatel_name(name: str) -> bool:
 
 def is_novatel_log(path: Path, name: str | None = None) -> bool:
     """Whether a file is a NovAtel ASCII log: named so (``*.gps``), or a ``*.asc`` or
-    ``*.log`` whose first :data:`SNIFF_BYTES` hold a NovAtel log's header (a file kept
-    compressed is judged by its name alone)."""
+    ``*.log`` whose first :data:`SNIFF_BYTES` hold a NovAtel log's header; one kept
+    compressed (``drive.log.gz``) by the first bytes it unpacks to. A file that cannot be
+    read or unpacked is not (read as a CAN log, its reader says what is wrong)."""
     name = name or path.name
     if is_novatel_name(name):
         return True
-    if Path(name).suffix.lower() not in SNIFFED_SUFFIXES:
+    if Path(without_suffix(name)).suffix.lower() not in SNIFFED_SUFFIXES:
         return False
     try:
-        with open(path, "rb") as f:
+        packing = compression_of(path)
+        opened = open(path, "rb") if packing is None else open_decompressed(path, packing, name)
+        with opened as f:
             head = f.read(SNIFF_BYTES)
-        return BINARY_SYNC in head or _HEADER.search(head) is not None
-    except OSError:
+    except (OSError, InputError, EOFError):
         return False
+    return BINARY_SYNC in head or _HEADER.search(head) is not None
 
 
 def gps_utc_s(unix_s: float) -> int:
