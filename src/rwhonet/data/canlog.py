@@ -202,15 +202,6 @@ def _taken(frames: Frames, at: np.ndarray, **changes) -> Frames:  # type: ignore
     )
 
 
-def _kept(frames: Frames, keep: FrameFilter) -> Frames:
-    """``frames`` without those ``keep`` leaves out, their IDs kept in ``log_ids``."""
-    keys = np.unique(frame_keys(frames.channel, frames.ids, frames.extended))
-    mask = keep.mask(frames.ids, frames.extended)
-    keep.bound(0, mask, frames.rows.item)
-    at = np.flatnonzero(mask)
-    return _taken(frames, at, dropped=frames.in_log - at.size, log_ids=keys)
-
-
 def _read(
     path: Path, file: str, suffix: str, local_zone: str | None, keep: FrameFilter | None
 ) -> Frames:
@@ -225,8 +216,6 @@ def _read(
         frames = _trc(path, file, local_zone, keep)
     else:
         frames = _python_can(path, file, suffix, keep)
-    if keep is not None and frames.log_ids is None:
-        frames = _kept(frames, keep)
     return frames
 
 
