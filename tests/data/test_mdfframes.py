@@ -302,3 +302,78 @@ def test_a_stream_folder_s_canedge_file_read_in_parts_is_on_its_start(tmp_path, 
             np.testing.assert_array_equal(a.channels[k], b.channels[k])
     np.testing.assert_allclose(parts.groups[0].t_s[0], stamps[0], atol=1e-6)
     assert any("plus its master time" in n for n in parts.notes)
+
+
+def _fat_bus(tmp_path: Path, others: int = 20) -> tuple[Path, int]:
+    """The drive's frames, each followed by ``others`` of another message: (the log, how
+    many frames of the drive's)."""
+    stamps, ids, data = can_frames(wavy_drive(30.0), RADIUS_M)
+    n = stamps.size
+    step = np.arange(1, others + 1) * 1e-5
+    stamps = np.r_[stamps, np.repeat(stamps, others) + np.tile(step, n)]
+    order = np.argsort(stamps, kind="stable")
+    ids = np.r_[ids, np.full(others * n, OTHER_ID)][order]
+    data = np.r_[data, np.full((others * n, 8), 0xAB, np.uint8)][order]
+    path = _write(tmp_path / "bus.mf4", [("CAN_DataFrame", stamps[order], _records(ids, data))])
+    return path, n
+
+
+def _drive(path: Path, max_mb: float, signals=None, dbc: bool = True):  # type: ignore[no-untyped-def]
+    """The drive as ingest reads it (``read_any``) under ``data.max_file_mb``: a file with
+    ``reader: mdf4``, a folder with ``reader: stream_csv``."""
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from support.drives import make_params
+
+    spec = {"reader": "mdf4", "signals": signals or SIGNALS}
+    if path.is_dir():
+        spec = {"reader": "stream_csv", "signals": {"t": {"column": "t", "unit": "s"}, **SIGNALS}}
+    if dbc:
+        spec["dbc"] = str((path if path.is_dir() else path.parent) / "bus.dbc")
+    params = {"data.signal_maps": {"bus": spec}, "data.max_file_mb": max_mb}
+    data = make_params(path.parent, **params).data
+    f = DriveFile("bus", "target_test", "target", "bus", path)
+    return read_any(f, data, lambda p: p.name, RADIUS_M, 0.1, 10.0)[0]
+
+
+def test_an_mdf4_bus_log_above_the_size_limit_is_read_bounded_by_its_kept_frames(tmp_path):
+    """A bus log of 0.45 MB under a data.max_file_mb of 0.3 (1,228 frames): its 903 frames of
+    the map's messages are kept, as a bus tool's log's are (the base 3308815 refused it by
+    its size); kept compressed too (its copy bounded by the disk), and as a CANedge
+    session's file in a stream folder. Where it would be read
+    whole (a signal no database defines) its size is bounded, the reason said."""
+    import gzip
+
+    path, n = _fat_bus(tmp_path)
+    size_mb = path.stat().st_size / 2**20
+    assert size_mb > 0.4 and FrameFilter.frames_for(0.3) >= n > FrameFilter.frames_for(0.2)
+    got = _drive(path, 0.3)
+    assert got.columns[c.T_S].size > 200
+    with pytest.raises(InputError) as err:
+        _drive(path, 0.2)  # 819 frames
+    assert "frames of the messages the map's signals are in" in err.value.problems[0].expected
+    packed = tmp_path / "bus.mf4.gz"
+    packed.write_bytes(gzip.compress(path.read_bytes(), mtime=0))
+    np.testing.assert_array_equal(_drive(packed, 0.3).columns[c.T_S], got.columns[c.T_S])
+    folder = tmp_path / "LOG"  # a CANedge's session: the file on its start
+    folder.mkdir()
+    path.rename(folder / "00000001.MF4")
+    (folder / "bus.dbc").write_text(DBC)
+    assert _drive(folder, 0.3).columns[c.T_S].size == got.columns[c.T_S].size
+    (folder / "00000001.MF4").rename(path)
+    (folder / "00000001.MF4.gz").write_bytes(packed.read_bytes())  # kept compressed there
+    assert _drive(folder, 0.3).columns[c.T_S].size == got.columns[c.T_S].size
+    yaw = {**SIGNALS, "yaw_rate": {"column": "YawRate", "unit": "deg/s"}}
+    with pytest.raises(InputError) as err:
+        _drive(path, 0.3, yaw)
+    (problem,) = err.value.problems
+    assert problem.expected == "a CAN log read whole of at most 0.3 MB (data.max_file_mb)"
+    assert problem.found.endswith("to be read whole as no database defines YawRate")
+
+
+def test_an_mdf4_file_without_a_dbc_still_counts_by_its_size(tmp_path):
+    """Without the map's dbc an MDF4 file's signals are decoded already, read whole: the
+    file is refused above data.max_file_mb before it is read."""
+    path, _ = _fat_bus(tmp_path)
+    with pytest.raises(InputError) as err:
+        _drive(path, 0.3, dbc=False)
+    assert err.value.problems[0].expected == "a drive file of at most 0.3 MB (data.max_file_mb)"

@@ -208,7 +208,12 @@ def read_any(
     if wrong is not None:
         raise InputError([wrong])
     try:
-        size_mb = _size_bytes(f.path, kind in FOLDER_READERS, kind in (MDF4, STREAM_CSV)) / 2**20
+        size_mb = (
+            _size_bytes(
+                f.path, kind in FOLDER_READERS, kind in (MDF4, STREAM_CSV), _bus_logs(f, data)
+            )
+            / 2**20
+        )
     except OSError as err:  # gone since it was listed, or unreadable
         raise InputError([unreadable_file(file, err)]) from None
     if size_mb > data.max_file_mb:
@@ -274,7 +279,8 @@ def _read_decompressed(
         if inner == ".mf4" and is_can_log_name(f.path.name):  # bus.log.gz: read as a .log
             inner = Path(without_suffix(f.path.name)).suffix.lower()
         plain = Path(scratch) / f"{drive_stem(f.path)}{inner}"
-        bound = None if _read_in_parts(f.path.name, f.path) else data.max_file_mb
+        parts = _read_in_parts(f.path.name, f.path, _bus_logs(f, data))
+        bound = None if parts else data.max_file_mb
         decompressed_copy(f.path, packed, plain, bound, file)
 
         def shown(path: Path) -> str:
@@ -311,26 +317,39 @@ def _read_vbo(
     return dataclasses.replace(raw, notes=(vbo_note(), *raw.notes))
 
 
-def _size_bytes(path: Path, folder: bool, can_logs_apart: bool = False) -> int:
+def _size_bytes(
+    path: Path, folder: bool, can_logs_apart: bool = False, bus_logs: bool = False
+) -> int:
     """A drive file's size, or a folder drive's files together (OSError: not there);
-    with ``can_logs_apart``, raw CAN logs' files (``bus.log``, ``can0.log.1.gz``) not
-    counted: their frames are bounded as they are kept. A NovAtel receiver's ``.log`` or
-    ``.asc``, read whole, is."""
+    with ``can_logs_apart``, raw CAN logs' files (``bus.log``, ``can0.log.1.gz``; with
+    ``bus_logs``, MDF4 files too) not counted: their frames are bounded as they are kept.
+    A NovAtel receiver's ``.log`` or ``.asc``, read whole, is."""
     files = [p for p in path.rglob("*") if p.is_file()] if folder else [path]
     return sum(
         p.stat().st_size
         for p in files
-        if not (can_logs_apart and _read_in_parts(without_rotation(p.name), p))
+        if not (can_logs_apart and _read_in_parts(without_rotation(p.name), p, bus_logs))
     )
 
 
-def _read_in_parts(name: str, path: Path) -> bool:
+def _read_in_parts(name: str, path: Path, bus_logs: bool = False) -> bool:
     """Whether a drive's file, read by ``name``, is a raw CAN log: read a part at a time,
     bounded by the frames it keeps, not by its size (a NovAtel receiver's ``.log`` or
-    ``.asc`` is read whole)."""
+    ``.asc`` is read whole). With ``bus_logs`` (its signal map has a ``dbc``, which only
+    an MDF4 file of raw CAN frames takes), an MDF4 file is: a bus log
+    (:mod:`rwhonet.data.mdfframes`)."""
+    from rwhonet.data.mdf4 import is_mdf_name
     from rwhonet.data.streamcsv import log_kind
 
+    if bus_logs and is_mdf_name(name):
+        return True
     return is_can_log_name(name) and log_kind(name, path) is None
+
+
+def _bus_logs(f: DriveFile, data: DataParams) -> bool:
+    """Whether the drive's signal map decodes raw CAN frames (has a ``dbc``)."""
+    spec = data.signal_maps.get(f.format)
+    return spec is not None and bool(spec.dbc_files)
 
 
 def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
@@ -425,7 +444,8 @@ def _read_streams(
                 if packing is not None:
                     q = Path(scratch) / str(i) / name
                     q.parent.mkdir()
-                    bound = None if _read_in_parts(name, p) else data.max_file_mb
+                    parts = _read_in_parts(name, p, bool(spec.dbc_files))
+                    bound = None if parts else data.max_file_mb
                     decompressed_copy(p, packing, q, bound, rel(p))
                     packed.append(f"{p.name} ({packing})")
                 elif name != p.name:  # a rotated file: read under its name without the number

@@ -200,13 +200,7 @@ def can_log_groups(
         columns = [spec.column for spec in signal_map.values()]
         wanted = _wanted(dbc, columns, present_only)
         if wanted is None:
-            undefined = _undefined(dbc, columns)
-            why = (
-                f"no database defines {', '.join(undefined)}"
-                if undefined
-                else "the databases' J1939 messages cannot be grouped"
-            )
-            _whole_fits(path, file, max_mb, why)
+            _whole_fits(path, file, max_mb, _not_told_apart(dbc, columns))
             frames = read_frames(path, file, local_zone)
         else:
             bound = None if max_mb is None else FrameFilter.frames_for(max_mb)
@@ -285,15 +279,17 @@ def _mdf_kept(
     start (``on_start``, :func:`_start`: with its note) or its master time. None where it
     is decoded whole by asammdf instead, as before: the map's messages not told apart, no
     raw CAN frames in the file (:func:`_decoded` says so), or a message the map needs
-    missing (so that what is missing is said as for any log).
+    missing (so that what is missing is said as for any log); read whole, its file's size
+    is bounded by ``max_mb`` (:func:`_whole_fits`).
 
     Raises:
         InputError: a database missing; the file unreadable; its start unclear; more
-            frames kept than ``max_mb`` holds.
+            frames kept than ``max_mb`` holds; to be read whole and above ``max_mb``.
     """
     _databases_there(dbc, name)
     wanted = _wanted(dbc, columns, present_only)
     if wanted is None:
+        _whole_fits(path, file, max_mb, _not_told_apart(dbc, columns))
         return None
     mdf = _opened(path, file, process_bus_logging=False)
     try:
@@ -316,8 +312,20 @@ def _mdf_kept(
     finally:
         mdf.close()
     if not wanted.in_log(frames, present_only):
+        _whole_fits(
+            path, file, max_mb, f"the log has no frame of {', '.join(wanted.missing(frames))}"
+        )
         return None
     return short_passed(frames, *wanted.lengths(frames), file), wanted, said
+
+
+def _not_told_apart(dbc: Databases, columns: list[str]) -> str:
+    """Why a raw CAN log's messages the map needs cannot be told apart (:func:`_wanted`
+    gave none), for :func:`_whole_fits`."""
+    undefined = _undefined(dbc, columns)
+    if undefined:
+        return f"no database defines {', '.join(undefined)}"
+    return "the databases' J1939 messages cannot be grouped"
 
 
 def _whole_fits(path: Path, file: str, max_mb: float | None, why: str) -> None:
