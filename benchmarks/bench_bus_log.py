@@ -6,7 +6,9 @@ fixes and satellite counts (10 Hz) as raw CAN frames (the test suite's DBC,
 ``tests/support/canlog.py``), among the rest of the bus: ``--other-fps`` frames a second of
 60 other standard identifiers with random bytes (a 500 kbit/s bus at about half its load
 carries 2,000-4,000 frames a second). It writes them as a ``candump -l`` log, a Vector BLF,
-a Vector ASC and a PEAK TRC (python-can's writers; candump at once), then reads each
+a Vector ASC and a PEAK TRC (python-can's writers; candump at once), and with
+``--formats mf4`` an ASAM MDF4 bus log (python-can's MF4 writer: compressed blocks, 64-byte
+payload fields; read a part at a time by ``rwhonet.data.mdfframes``), then reads each
 through the map and its DBC (``rwhonet.data.mdf4.read_mdf4``, what ingest and predict call,
 its kept frames bounded by the default ``data.max_file_mb`` as theirs are) in a fresh
 interpreter, so that each peak is its own. Printed per format: the file's size,
