@@ -377,3 +377,13 @@ def test_an_mdf4_file_without_a_dbc_still_counts_by_its_size(tmp_path):
     with pytest.raises(InputError) as err:
         _drive(path, 0.3, dbc=False)
     assert err.value.problems[0].expected == "a drive file of at most 0.3 MB (data.max_file_mb)"
+
+
+def test_an_mdf_bus_log_of_another_suffix_is_read_as_an_mdf_file(bus, tmp_path):
+    """A logger's MDF file named otherwise (``drive.dat``, as INCA and older Vector tools
+    name theirs) is asammdf's to open, read a part at a time as any MDF4 bus log."""
+    _, path, (_, ids, _) = bus
+    dat = path.rename(path.with_suffix(".dat"))
+    streams = read_mdf4(dat, _signals(), RADIUS_M, NAME, dbc=[str(path.with_suffix(".dbc"))])
+    assert streams.wheels[0].t_s.size == int((ids == WHEELS_ID).sum())
+    assert f"{dat}: {ids.size} data frames on 1 bus(es) (1)" in streams.notes

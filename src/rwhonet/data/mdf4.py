@@ -190,7 +190,8 @@ def can_log_groups(
             ]
         )
     frames, wanted, said = None, None, ""
-    if is_mdf_name(path.name):  # an MDF4 bus log: a part at a time where it can be
+    mdf_file = not is_can_log_name(path.name)  # asammdf's to open (.mf4, an MDF 3 .dat)
+    if mdf_file:  # an MDF4 bus log: a part at a time where it can be
         columns = [spec.column for spec in signal_map.values()]
         got = _mdf_kept(path, file, columns, dbc, name, present_only, local_zone, max_mb, on_start)
         if got is not None:
@@ -219,12 +220,11 @@ def can_log_groups(
     mdf = _opened(path, file) if frames is None else bus_log(frames)
     try:
         loaded = None if wanted is None else wanted.databases
-        decoded = _decoded(mdf, dbc, name, file, frames, loaded, is_mdf_name(path.name))
+        decoded = _decoded(mdf, dbc, name, file, frames, loaded, mdf_file)
         try:
             if present_only:
                 signal_map = {k: v for k, v in signal_map.items() if decoded.whereis(v.column)}
-            master = frames is None or is_mdf_name(path.name)
-            groups = _groups(decoded, signal_map, radius_m, name, file, master, frames)
+            groups = _groups(decoded, signal_map, radius_m, name, file, mdf_file, frames)
         finally:
             decoded.close()
         notes = [
