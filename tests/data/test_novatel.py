@@ -408,3 +408,60 @@ def test_a_novatel_asc_or_log_kept_compressed_is_told_by_what_it_holds(tmp_path,
         got[kept] = drive
     for k, v in got["drive.gps"].columns.items():
         np.testing.assert_array_equal(got[name].columns[k], v, err_msg=k)
+
+
+# NovAtel EDIE's tests: a BESTPOS in abbreviated ASCII as a terminal shows it, the
+# receiver's prompt after it
+ABBREVIATED = [
+    "<BESTPOS COM1 0 72.0 FINESTEERING 2215 148248.000 02000020 cdba 32768",
+    "<     SOL_COMPUTED SINGLE 51.15043711386 -114.03067767000 1097.2099 -17.0000 WGS84 "
+    '0.9038 0.8534 1.7480 "" 0.000 0.000 35 30 30 30 00 06 39 33',
+    "[COM1]",
+]
+
+
+def _abbreviate(line: str) -> list[str]:
+    """An ASCII log (``#BESTPOSA,...;...*crc``) as abbreviated ASCII writes it: the
+    header spaced without the name's ``A``, the fields spaced on a line of their own."""
+    head, body = line[1 : line.rindex("*")].split(";")
+    name, *rest = head.split(",")
+    return [" ".join([f"<{name[:-1]}", *rest]), "<     " + " ".join(body.split(","))]
+
+
+def test_a_published_abbreviated_log_is_read_as_printed(tmp_path):
+    log_ = read_novatel(write_novatel(tmp_path / "a.gps", ABBREVIATED), "a.gps")
+    np.testing.assert_array_equal(log_.channels["lat"], [51.15043711386])
+    np.testing.assert_array_equal(log_.channels["lon"], [-114.03067767])
+    np.testing.assert_array_equal(log_.channels["height"], [1097.2099])
+    np.testing.assert_array_equal(log_.channels["n_sats"], [30])
+    assert log_.day_s + log_.tod_s[0] == GPS_EPOCH_UNIX_S + 2215 * 604800 + 148248.0 - 18
+    assert log_.rows.tolist() == [1] and log_.stamps is None
+    assert "(1 logs in abbreviated ASCII: no CRC to check)" in log_.notes[0]
+    assert is_novatel_log(write_novatel(tmp_path / "drive.log", ABBREVIATED))
+
+
+def test_an_abbreviated_log_gives_the_labels_of_the_ascii_log(tmp_path):
+    """The drive's fixes logged from a terminal (``LOG BESTPOS ONTIME 0.1``, ``LOG
+    BESTVEL``, ``LOG TIME``: abbreviated ASCII, the receiver's prompt ``[COM1]`` before
+    each log): the labels of the same logs in ASCII, bit for bit. A header whose fields
+    line is lost, a fields line cut short and a header the log ends after are passed over
+    as cut, with their lines."""
+    g = _exact()
+    lines = novatel_lines(g, DAY_S + g[c.T_S])
+    wheels = _folder(tmp_path / "ascii", g.iloc[:0])["wheels"]
+    ascii_log = write_novatel(tmp_path / "ascii" / "drive.gps", lines)
+    short = [f"[COM1]{x}" if i % 2 == 0 else x for y in lines for i, x in enumerate(_abbreviate(y))]
+    abbreviated = write_novatel(tmp_path / "ascii" / "drive.log", short)
+    ref, _ = receiver_labels([wheels, ascii_log])
+    got, streams = receiver_labels([wheels, abbreviated])
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(got[q], ref[q], err_msg=q)
+    assert "abbreviated ASCII: no CRC to check" in " ".join(streams.notes)
+    position = [i for i, x in enumerate(short) if x.startswith("[COM1]<BESTPOS ")]
+    damaged = list(short)
+    damaged[position[3] + 1] = ""  # the fourth position's fields lost
+    damaged[position[5] + 1] = damaged[position[5] + 1][:40]  # the sixth's cut
+    damaged = damaged[: position[-1] + 1]  # the log ends at the last position's header
+    log_ = read_novatel(write_novatel(tmp_path / "damaged.log", damaged), "damaged.log")
+    assert log_.rows.size == len(position) - 3
+    assert f"3 log(s) cut short (first at line {position[3] + 1})" in log_.notes[0]

@@ -41,8 +41,17 @@ the file's binary logs; its fields are written as the ASCII log's, so the rest i
 - ``TIME``: ``utc_offset``, GPS time less UTC's leap seconds (-18 s since 2017), where
   its UTC status is ``VALID``.
 
-Every other log (RANGE, INSPVA, RXSTATUS, ...) and abbreviated ASCII (``<``) is passed over
-and counted by name; a SPAN system's INS solution (INSPVA) is not a GNSS fix.
+Every other log (RANGE, INSPVA, RXSTATUS, ...) is passed over and counted by name; a SPAN
+system's INS solution (INSPVA) is not a GNSS fix.
+
+**Abbreviated ASCII** (the manual's "Abbreviated ASCII": what a terminal shows for ``LOG
+BESTPOS``, and what a capture of that session holds): a header line ``<BESTPOS COM1 0 72.0
+FINESTEERING 2215 148248.000 02000020 cdba 32768`` (the ASCII header's fields spaced, the
+name without its ``A``) and the log's fields spaced on the ``<`` line after it. These are
+read as the ASCII logs are, each named by its header's line; they carry no CRC, so a log
+whose fields line is missing or shorter than its kind's is passed over as cut, and the
+notes say how many logs had no CRC to check. The receiver's prompt a capture holds before a
+log (``[COM1]``) is no logger's stamp.
 
 **The clock.** Where every epoch's log stands after the logger's stamp (``[12.345]
 #BESTPOSA,...``), the stamps are the fixes' times, as an NMEA log's
@@ -81,10 +90,17 @@ from rwhonet.errors import InputError, Problem
 NOVATEL_SUFFIXES = (".gps",)
 SNIFFED_SUFFIXES = (".asc", ".log")  # a CAN log's names too: told apart by the content
 SNIFF_BYTES = 4096
-# a log's header at a line's start, or after a logger's stamp
-_HEADER = re.compile(rb"(?m)^[^#\r\n]{0,40}#[A-Z][A-Z0-9_]*A,[^,;]*,\d+,[\d.]+,[A-Z_]+,\d+,[\d.]+,")
-# a log after a logger's stamp on its line (``12.345 #BESTPOSA,...``)
-_AFTER_STAMP = re.compile(rb"[#%<][A-Z][A-Z0-9_]*,")
+# a log's header at a line's start, or after a logger's stamp: ASCII's, or abbreviated
+# ASCII's (``<BESTPOS COM1 0 72.0 FINESTEERING 2215 148248.000 ...``)
+_HEADER = re.compile(
+    rb"(?m)^[^#<\r\n]{0,40}(?:#[A-Z][A-Z0-9_]*A,[^,;]*,\d+,[\d.]+,[A-Z_]+,\d+,[\d.]+,"
+    rb"|<[A-Z][A-Z0-9_]* +[A-Z0-9_]+ +\d+ +[\d.]+ +[A-Z_]+ +\d+ +[\d.]+ )"
+)
+# a log after a logger's stamp on its line (``12.345 #BESTPOSA,...``); an abbreviated
+# log's header (``<BESTPOS COM1``) or its fields' line (``<     SOL_COMPUTED``)
+_AFTER_STAMP = re.compile(rb"[#%<][A-Z][A-Z0-9_]*,|<[A-Z][A-Z0-9_]* |<\s")
+# the receiver's prompt a terminal's capture holds before a log (``[COM1]``): no stamp
+_PROMPT = re.compile(rb"[A-Z]+\d*")
 GPS_EPOCH_UNIX_S = 315_964_800  # 1980-01-06 00:00:00 UTC
 SECONDS_PER_WEEK = 604_800
 # GPS time less UTC (s), from each date (UTC, Unix s) on: the leap seconds since 1980
@@ -161,6 +177,7 @@ class _Logs:
     cut: list[int] = field(default_factory=list)
     stamps: dict[int, bytes] = field(default_factory=dict)  # line -> the logger's stamp
     binary: bool = False  # whether the logs read are binary (named by number, not line)
+    abbreviated: int = 0  # logs of the kinds read in abbreviated ASCII (no CRC to check)
 
 
 READ = (*POSITIONS, *VELOCITIES, "TIMEA")
@@ -249,9 +266,12 @@ def _scan_binary(data: bytes, out: _Logs) -> None:
 
 
 def _scan(data: bytes) -> _Logs:
-    """Every ``#`` line's log, its CRC checked; what stands before a line's ``#`` is the
-    logger's stamp (as before an NMEA sentence's ``$``)."""
+    """Every ``#`` line's log, its CRC checked, and every abbreviated ASCII log (a ``<``
+    header line, its fields on the ``<`` line after it, spaced: :func:`_abbreviated`);
+    what stands before a line's ``#`` or ``<`` is the logger's stamp (as before an NMEA
+    sentence's ``$``), but for the receiver's prompt (``[COM1]``)."""
     out = _Logs()
+    header: tuple[int, str, list[bytes]] | None = None  # an abbreviated log's, waiting
     for number, line in enumerate(data.splitlines(), 1):
         line = line.strip()
         if not line.startswith((b"#", b"%", b"<")):
@@ -259,9 +279,12 @@ def _scan(data: bytes) -> _Logs:
             if at is None:
                 continue
             stamp = line[: at.start()].strip(STAMP_STRIP)
-            if stamp:
+            if stamp and not _PROMPT.fullmatch(stamp):
                 out.stamps[number] = stamp
             line = line[at.start() :]
+        if line.startswith(b"<"):
+            header = _abbreviated(out, number, line, header)
+            continue
         name = line[1:].split(b",", 1)[0].decode("ascii", "replace")
         if not line.startswith(b"#") or name not in READ:
             out.others[name if line.startswith(b"#") else f"{line[:1].decode()}{name}"] += 1
@@ -277,9 +300,37 @@ def _scan(data: bytes) -> _Logs:
         if not ok:
             out.bad_crc.append(number)
             continue
-        header, _, body = line[1:star].partition(b";")
-        out.logs.setdefault(name, []).append((number, header.split(b","), body.split(b",")))
+        head, _, body = line[1:star].partition(b";")
+        out.logs.setdefault(name, []).append((number, head.split(b","), body.split(b",")))
+    if header is not None and header[1] in READ:  # the last header, its fields not there
+        out.cut.append(header[0])
     return out
+
+
+def _abbreviated(
+    out: _Logs, number: int, line: bytes, header: tuple[int, str, list[bytes]] | None
+) -> tuple[int, str, list[bytes]] | None:
+    """One line of abbreviated ASCII, what a terminal shows for ``LOG BESTPOS``: a header
+    line (``<BESTPOS COM1 0 72.0 FINESTEERING 2215 148248.000 02000020 cdba 32768``: the
+    ASCII header's fields, spaced, the name without its ``A``), then the log's fields on
+    the next ``<`` line (``<     SOL_COMPUTED SINGLE 51.15043711386 ...``; a list's on
+    several). A header line is returned to wait for its fields; a fields line after a
+    header of a kind read gives that log (named by its header's line, its stamp the
+    header's), after any other is passed over. There is no CRC: a log whose fields are
+    fewer than its kind's is taken as cut short where it is read."""
+    fields = line[1:].split()
+    if not fields or line[1:2].isspace():  # the fields of the header before it
+        if header is not None and header[1] in READ:
+            out.logs.setdefault(header[1], []).append((header[0], header[2], fields))
+            out.abbreviated += 1
+        return None
+    if header is not None and header[1] in READ:  # the header before it had no fields
+        out.cut.append(header[0])
+    raw = fields[0].decode("ascii", "replace")
+    name = raw if raw.endswith("A") and raw in READ else f"{raw}A"
+    if name not in READ:
+        out.others[f"<{raw}"] += 1
+    return number, name, [name.encode(), *fields[1:]]
 
 
 def _number(cell: bytes, file: str, line: int, what: str, problems: list[Problem]) -> float:
@@ -436,7 +487,13 @@ def read_novatel(path: Path, file: str) -> FixLog:
     unused = [k for k in (*POSITIONS, *VELOCITIES) if k in found.logs and k not in (kind, vel)]
     left = ", ".join(f"{shown[k]} {len(found.logs[k])}" for k in unused)
     notes = [
-        f"{file}: a NovAtel log{' (binary)' if found.binary else ''}: {gps.size} epochs "
+        f"{file}: a NovAtel log{' (binary)' if found.binary else ''}"
+        + (
+            f" ({found.abbreviated} logs in abbreviated ASCII: no CRC to check)"
+            if found.abbreviated
+            else ""
+        )
+        + f": {gps.size} epochs "
         f"({shown[kind]}"
         + (f", {shown[vel]}" if vel else "")
         + f"), {int(fixed.sum())} with a fix; {how}"
