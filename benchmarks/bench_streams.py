@@ -5,7 +5,8 @@ enough for timing), samples it as a logger's streams (CAN wheel speeds at
 100 Hz with jittered stamps, GNSS at 10 Hz), writes them in each format the
 readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
 NMEA log, a u-blox receiver's UBX log, a NovAtel receiver's ASCII logs (BESTPOSA an
-epoch, TIMEA a second) or a GPX track (gpxpy's, GPX 1.0), one MDF4
+epoch, TIMEA a second), a Septentrio receiver's SBF log (pysbf2's: PVTGeodetic and DOP an
+epoch, ReceiverTime a second) or a GPX track (gpxpy's, GPX 1.0), one MDF4
 file, a comma2k19 folder and a comma2k19 route of one-minute segment folders, raw CAN
 frames as a candump log, a Vector BLF, a Vector ASC, absolute and relative stamps, and a PEAK
 TRC, with their DBC) and times,
@@ -68,6 +69,7 @@ from support.canlog import (  # noqa: E402
 from support.gpx import track, write_gpx  # noqa: E402
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
 from support.novatel import novatel_lines, write_novatel  # noqa: E402
+from support.sbf import sbf_blocks, write_sbf  # noqa: E402
 from support.ubx import pvt_log  # noqa: E402
 
 
@@ -142,6 +144,9 @@ def main() -> None:
             root / "csv" / "drive.gps",
             novatel_lines(tables.gnss, 1_552_262_400.0 + t_fix, time_every=10),
         )
+        # ... and as a Septentrio receiver's SBF log (pysbf2 writes it: PVTGeodetic and DOP
+        # an epoch, ReceiverTime a second), placed so too
+        sbf = write_sbf(root / "csv" / "log.sbf", sbf_blocks(tables.gnss, 1_552_262_400.0 + t_fix))
         # ... and as a phone logger's GPX track (gpxpy writes it), placed so too
         gpx = write_gpx(root / "csv" / "track.gpx", track(tables.gnss, 1_552_262_400.0 + t_fix))
         # the streams as raw CAN frames (wheels, fix, satellites) on a Unix clock: a
@@ -175,6 +180,7 @@ def main() -> None:
             "CSV + NovAtel log": lambda: read_stream_csvs(
                 [csvs["wheels"], novatel], signal_map(), radius
             ),
+            "CSV + SBF log": lambda: read_stream_csvs([csvs["wheels"], sbf], signal_map(), radius),
             "CSV + GPX track": lambda: read_stream_csvs(
                 [csvs["wheels"], gpx], signal_map(), radius
             ),

@@ -16,8 +16,9 @@ binary log (``gps.ubx``) or a GPS track in GPX (``track.gpx``: a phone's or hand
 logger) gives the fixes where no CSV holds the map's latitude and longitude:
 :mod:`rwhonet.data.nmea`, :mod:`rwhonet.data.ubx` and :mod:`rwhonet.data.gpx` read them,
 and the first places them on the files' clock (``_receiver_groups``). Where a folder holds
-several kinds, the first of UBX (its positions to 1e-7 degrees), NMEA (the receiver's own
-sentences), GPX (a track written from them) is read and the others left out, said. With the
+several kinds, the first of UBX (its positions to 1e-7 degrees), NovAtel, Septentrio's
+SBF (:mod:`rwhonet.data.sbf`), NMEA (the receiver's own sentences), GPX (a track written
+from them) is read and the others left out, said. With the
 map's CAN databases (``dbc``), a bus tool's raw CAN log among them (``can0.log`` from
 ``candump -l``, ASC, BLF, TRC: :mod:`rwhonet.data.canlog`; or an MDF4 bus log, a CANedge's
 split files, on each file's start time) is decoded as the MDF4 reader decodes a bus log,
@@ -70,6 +71,7 @@ from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_na
 from rwhonet.data.nmea import FixLog, is_nmea_name, on_clock, read_nmea
 from rwhonet.data.novatel import is_novatel_log, is_novatel_name, read_novatel
 from rwhonet.data.packed import signed_coordinates
+from rwhonet.data.sbf import is_sbf_name, read_sbf
 from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import (
@@ -528,7 +530,7 @@ def _fix_source_problems(
                 None,
                 f"the fixes: {name}.lat and {name}.lon naming a stream file's columns, or a "
                 "receiver's log among the drive's files (NMEA, *.nmea; u-blox UBX, *.ubx; "
-                "NovAtel ASCII, *.gps; a GPX track, *.gpx)",
+                "NovAtel ASCII, *.gps; Septentrio SBF, *.sbf; a GPX track, *.gpx)",
                 f"{' and '.join(missing)} not in {name}, and no receiver log",
                 f"name the fixes' columns in {name}, or give the drive its receiver's log",
             )
@@ -560,16 +562,24 @@ def _local_clock_hint(
 LOG_KINDS = {
     "UBX": "its positions to 1e-7 degrees",
     "NovAtel": "its GNSS solution to 1e-11 degrees",
+    "SBF": "its positions in radians as 8-byte floats",
     "NMEA": "the receiver's own sentences",
     "GPX": "a track written from them",
 }
 LOG_NAMES = {
     "UBX": is_ubx_name,
     "NovAtel": is_novatel_name,
+    "SBF": is_sbf_name,
     "NMEA": is_nmea_name,
     "GPX": is_gpx_name,
 }
-LOG_READERS = {"UBX": read_ubx, "NovAtel": read_novatel, "NMEA": read_nmea, "GPX": read_gpx}
+LOG_READERS = {
+    "UBX": read_ubx,
+    "NovAtel": read_novatel,
+    "SBF": read_sbf,
+    "NMEA": read_nmea,
+    "GPX": read_gpx,
+}
 
 
 def log_kind(name: str, path: Path | None = None) -> str | None:

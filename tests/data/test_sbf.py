@@ -1,0 +1,208 @@
+"""A Septentrio receiver's SBF log (``rwhonet.data.sbf``), written by ``pysbf2``: its fixes'
+labels are those of the same fixes in gnss.csv; each field as pysbf2 parses it; what is
+no fix, what is damaged, and the leap seconds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.sbf import is_sbf_name, read_sbf
+from rwhonet.data.streamcsv import log_kind
+from rwhonet.errors import InputError
+from support.multirate import receiver_drive, receiver_labels
+from support.sbf import (
+    DNU,
+    GPS_EPOCH_UNIX_S,
+    LEAP_S,
+    dop,
+    pvt,
+    pvt_untimed,
+    sbf_blocks,
+    write_sbf,
+)
+
+DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
+GPS_S = DAY_S + 45_000.0 - GPS_EPOCH_UNIX_S + LEAP_S
+
+
+def _folder(tmp_path, gnss):
+    from rwhonet.sim.streams import StreamTables, write_stream_csvs
+
+    tables, _ = receiver_drive()
+    return write_stream_csvs(StreamTables(tables.wheels, gnss), tmp_path)
+
+
+def _exact():
+    """The drive's fixes at times to the millisecond, as an SBF block's TOW holds them."""
+    g = receiver_drive()[0].gnss
+    return g.assign(t_s=np.round(g[c.T_S].to_numpy(), 3))
+
+
+def test_the_sbf_log_gives_the_labels_of_the_csv_fixes(tmp_path):
+    """wheels.csv on the time of day, the fixes as log.sbf (PVTGeodetic, ReceiverTime
+    every 10 epochs, a DOP block after each): the labels of the same fixes in gnss.csv,
+    within 0.01 mm."""
+    g = _exact()
+    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
+    wheels = _folder(tmp_path / "sbf", g.iloc[:0])["wheels"]
+    log_ = write_sbf(tmp_path / "sbf" / "log.sbf", sbf_blocks(g, DAY_S + g[c.T_S]))
+    assert log_kind(log_.name, log_) == "SBF"
+    got, streams = receiver_labels([wheels, log_])
+    assert len(got) == len(ref) > 100
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
+    said = " ".join(streams.notes)
+    assert f"an SBF log: {len(g)} epochs (PVTGeodetic), {len(g)} with a fix" in said
+    assert "by its ReceiverTime blocks' DeltaLS (18 s)" in said
+    assert f"besides them: DOP {len(g)}" in said
+    gnss = next(s for s in streams.streams if s.name == "log.sbf")
+    assert gnss.sources[c.LAT_DEG] == "PVTGeodetic Latitude" and gnss.rows[0] == 2
+
+
+def test_every_field_is_as_pysbf2_parses_it(tmp_path):
+    """Position, height above the geoid, satellites, speed and course, epoch by epoch, as
+    pysbf2's reader gives the same blocks (the height: Height less Undulation)."""
+    from pysbf2 import SBFReader
+
+    g = _exact()
+    turn = np.linspace(0.0, 350.0, len(g))
+    g = g.assign(**{c.SPEED_GNSS_M_S: 8.0 + np.sin(turn / 50.0), c.HEADING_DEG: turn})
+    log_ = write_sbf(tmp_path / "log.sbf", sbf_blocks(g, DAY_S + g[c.T_S]))
+    fixes = read_sbf(log_, "log.sbf")
+    with open(log_, "rb") as f:
+        theirs = [p for _, p in SBFReader(f) if p.identity == "PVTGeodetic"]
+    assert len(theirs) == fixes.rows.size
+    np.testing.assert_array_equal(fixes.channels["lat"], [math.degrees(p.Latitude) for p in theirs])
+    np.testing.assert_array_equal(
+        fixes.channels["lon"], [math.degrees(p.Longitude) for p in theirs]
+    )
+    np.testing.assert_allclose(
+        fixes.channels["height"], [p.Height - p.Undulation for p in theirs], rtol=0, atol=1e-9
+    )
+    np.testing.assert_array_equal(fixes.channels["n_sats"], [p.NrSV for p in theirs])
+    np.testing.assert_allclose(
+        fixes.channels["speed_gnss"], [math.hypot(p.Vn, p.Ve) for p in theirs], atol=1e-9
+    )
+    np.testing.assert_allclose(fixes.channels["heading"], [p.COG for p in theirs], atol=1e-9)
+    utc = fixes.day_s + fixes.tod_s
+    gps = [p.WNc * 604_800 + p.TOW / 1000.0 for p in theirs]  # pysbf2 gives TOW in ms
+    np.testing.assert_allclose(utc, np.array(gps) + GPS_EPOCH_UNIX_S - LEAP_S, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("mode", "error", "fix"),
+    [
+        (1, 0, True),  # stand-alone
+        (4, 0, True),  # RTK fixed
+        (10, 0, True),  # PPP
+        (0x81, 0, True),  # stand-alone, 2D
+        (0, 0, False),  # no PVT
+        (3, 0, False),  # a fixed location, set by command
+        (1, 4, False),  # an error
+    ],
+)
+def test_what_is_a_fix(tmp_path, mode, error, fix):
+    blocks = [
+        pvt(GPS_S, Type=1, Error=0, Latitude=0.91, Longitude=-0.03, NrSV=9),
+        pvt(
+            GPS_S + 0.1,
+            Type=mode & 0x0F,
+            **{"2D": mode >> 7},
+            Error=error,
+            Latitude=0.91,
+            Longitude=-0.03,
+            NrSV=9,
+        ),
+    ]
+    got = read_sbf(write_sbf(tmp_path / "log.sbf", blocks), "log.sbf")
+    assert np.isfinite(got.channels["lat"][1]) == fix
+    assert np.isfinite(got.channels["lon"][1]) == fix
+
+
+def test_do_not_use_fields_are_missing(tmp_path):
+    """A field the receiver does not know holds its do-not-use value: missing in that
+    epoch; a position of one is no fix; a field no epoch has is no channel."""
+    known = {"Height": 160.0, "Undulation": 48.0, "Vn": 3.0, "Ve": 4.0, "COG": 36.87}
+    blocks = [
+        pvt(GPS_S, Type=1, Latitude=0.91, Longitude=-0.03, **known, NrSV=9),
+        pvt(
+            GPS_S + 0.1,
+            Type=1,
+            Latitude=0.91,
+            Longitude=-0.03,
+            Height=DNU,
+            Undulation=48.0,
+            Vn=DNU,
+            Ve=1.0,
+            COG=DNU,
+            NrSV=255,
+        ),
+        pvt(GPS_S + 0.2, Type=1, Latitude=DNU, Longitude=-0.03, **known, NrSV=7),
+    ]
+    got = read_sbf(write_sbf(tmp_path / "log.sbf", blocks), "log.sbf")
+    assert got.channels["height"][0] == 112.0 and got.channels["speed_gnss"][0] == 5.0
+    for key in ("height", "speed_gnss", "heading", "n_sats"):
+        assert np.isnan(got.channels[key][1]), key
+    assert np.isnan(got.channels["lat"][2]) and np.isnan(got.channels["lon"][2])
+    assert got.channels["n_sats"][2] == 7
+    none = [pvt(GPS_S, Type=1, Latitude=0.91, Longitude=-0.03, Vn=DNU, Ve=DNU, COG=DNU)]
+    assert "speed_gnss" not in read_sbf(write_sbf(tmp_path / "n.sbf", none), "n.sbf").channels
+
+
+def test_damage_is_passed_over_and_counted(tmp_path):
+    """A block with a byte changed (its CRC), one cut by the file's end, an epoch given
+    twice, one of a do-not-use time; a DOP block whose PDOP's bytes are ``$@`` and whose
+    next fields make a block's header (a sync pair inside a good block) is no block."""
+    good = [pvt(GPS_S + k * 0.1, Type=1, Latitude=0.91, Longitude=-0.03, NrSV=9) for k in range(6)]
+    flipped = bytearray(good[2])
+    flipped[20] ^= 0xFF
+    untimed = pvt_untimed()
+    # PDOP 16420 (0x4024: "$@" little-endian), then TDOP, HDOP and VDOP 8 where a block's
+    # CRC, ID and length would be: a block of 8 bytes to a reader that looked inside
+    sync_inside = dop(GPS_S, pdop=164.20, vdop=0.08)
+    assert b"$@" in sync_inside[2:]
+    blocks = [
+        good[0],
+        sync_inside,
+        good[1],
+        bytes(flipped),
+        good[3],
+        good[3],
+        untimed,
+        good[4],
+        good[5][:50],
+    ]
+    got = read_sbf(write_sbf(tmp_path / "log.sbf", blocks), "log.sbf")
+    assert got.rows.tolist() == [1, 3, 4, 7]  # good blocks: PVT, DOP, PVT, PVT, PVT, PVT, PVT
+    start = sum(len(b) for b in blocks[:3])
+    assert got.dropped == (
+        f"1 block(s) whose CRC does not match (first at byte {start}); 1 block(s) cut short "
+        f"(first at byte {sum(len(b) for b in blocks[:8])}); 1 PVTGeodetic block(s) of a "
+        "do-not-use time (first: block 6); 1 PVTGeodetic block(s) of an epoch already given "
+        "(first: block 5)"
+    )
+
+
+def test_without_receiver_time_the_leap_seconds_table_puts_it_on_utc(tmp_path):
+    g = _exact()
+    log_ = write_sbf(tmp_path / "log.sbf", sbf_blocks(g, DAY_S + g[c.T_S], leap=False))
+    got = read_sbf(log_, "log.sbf")
+    np.testing.assert_allclose(got.day_s + got.tod_s, DAY_S + g[c.T_S], rtol=0, atol=1e-6)
+    assert "by the leap seconds to its date (18 s; no ReceiverTime block" in got.notes[0]
+
+
+def test_a_log_without_pvtgeodetic_is_refused_naming_what_it_holds(tmp_path):
+    log_ = write_sbf(tmp_path / "log.sbf", [dop(GPS_S), dop(GPS_S + 1)])
+    with pytest.raises(InputError) as err:
+        read_sbf(log_, "log.sbf")
+    (problem,) = err.value.problems
+    assert problem.found == "DOP 2" and "PVTGeodetic" in problem.fix
+
+
+def test_names():
+    assert is_sbf_name("log.sbf") and is_sbf_name("LOG.SBF.gz") and is_sbf_name("sept3400.24_")
+    assert not is_sbf_name("gps.nmea") and not is_sbf_name("log.sbf.csv")

@@ -1,0 +1,107 @@
+"""A Septentrio receiver's SBF log written from a drive's GNSS table by ``pysbf2`` (a
+generator and parser of SBF written from Septentrio's reference guide, not by the
+reader): PVTGeodetic revision 2 blocks, a ReceiverTime every ``time_every`` epochs, and
+the receiver's other blocks between them (DOP)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rwhonet.data import canonical as c
+
+GPS_EPOCH_UNIX_S = 315_964_800
+LEAP_S = 18  # GPS less UTC since 2017-01-01
+DNU = -2e10
+
+
+def pvt(gps_s: float, **fields) -> bytes:  # type: ignore[no-untyped-def]
+    """One PVTGeodetic block at GPS time ``gps_s`` (s since 1980-01-06)."""
+    from pysbf2 import SBFMessage
+
+    week, seconds = divmod(gps_s, 604_800.0)
+    tow = int(round(seconds * 1000.0))
+    return SBFMessage("PVTGeodetic", revno=2, TOW=tow, WNc=int(week), **fields).serialize()
+
+
+def receiver_time(gps_s: float, delta_ls: int = LEAP_S) -> bytes:
+    from pysbf2 import SBFMessage
+
+    week, seconds = divmod(gps_s, 604_800.0)
+    tow = int(round(seconds * 1000.0))
+    return SBFMessage(
+        "ReceiverTime", TOW=tow, WNc=int(week), DeltaLS=delta_ls, SyncLevel=3
+    ).serialize()
+
+
+def dop(gps_s: float, pdop: float = 1.5, vdop: float = 1.2) -> bytes:
+    from pysbf2 import SBFMessage
+
+    week, seconds = divmod(gps_s, 604_800.0)
+    tow = int(round(seconds * 1000.0))
+    return SBFMessage(
+        "DOP", TOW=tow, WNc=int(week), NrSV=9, PDOP=pdop, TDOP=0.9, HDOP=1.0, VDOP=vdop
+    ).serialize()
+
+
+def pvt_untimed() -> bytes:
+    """A PVTGeodetic of a do-not-use time: a receiver that has not set its clock."""
+    from pysbf2 import SBFMessage
+
+    return SBFMessage(
+        "PVTGeodetic",
+        revno=2,
+        TOW=4_294_967_295,
+        WNc=65_535,
+        Type=1,
+        Latitude=0.91,
+        Longitude=-0.03,
+        NrSV=9,
+    ).serialize()
+
+
+def sbf_blocks(
+    g: pd.DataFrame, t_utc_s: np.ndarray, time_every: int = 10, leap: bool = True
+) -> list[bytes]:
+    """The fixes as the receiver's blocks, an epoch's together: a ReceiverTime (where
+    ``leap``, every ``time_every`` epochs), the PVTGeodetic (mode 1, stand-alone, where
+    the table has a fix; 0, no PVT, its fields do-not-use, where not) and a DOP."""
+    gps = np.asarray(t_utc_s, dtype=float) - GPS_EPOCH_UNIX_S + LEAP_S
+    lat, lon = g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy()
+    speed = g[c.SPEED_GNSS_M_S].to_numpy() if c.SPEED_GNSS_M_S in g else None
+    course = g[c.HEADING_DEG].to_numpy() if c.HEADING_DEG in g else None
+    sats = g[c.N_SATS].to_numpy() if c.N_SATS in g else np.full(len(g), 9.0)
+    out = []
+    for i, t in enumerate(gps):
+        if leap and i % time_every == 0:
+            out.append(receiver_time(t))
+        ok = math.isfinite(lat[i])
+        v = speed[i] if speed is not None and ok else DNU
+        h = math.radians(course[i]) if course is not None and ok else None
+        out.append(
+            pvt(
+                t,
+                Type=1 if ok else 0,
+                Error=0 if ok else 1,
+                Latitude=math.radians(lat[i]) if ok else DNU,
+                Longitude=math.radians(lon[i]) if ok else DNU,
+                Height=160.4 if ok else DNU,
+                Undulation=48.0 if ok else DNU,
+                Vn=v * math.cos(h) if h is not None and v != DNU else DNU,
+                Ve=v * math.sin(h) if h is not None and v != DNU else DNU,
+                Vu=0.0,
+                COG=course[i] if course is not None and ok else DNU,
+                NrSV=int(sats[i]) if math.isfinite(sats[i]) else 255,
+            )
+        )
+        out.append(dop(t))
+    return out
+
+
+def write_sbf(path: Path, blocks: list[bytes]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"".join(blocks))
+    return path
