@@ -206,3 +206,31 @@ def test_a_log_without_pvtgeodetic_is_refused_naming_what_it_holds(tmp_path):
 def test_names():
     assert is_sbf_name("log.sbf") and is_sbf_name("LOG.SBF.gz") and is_sbf_name("sept3400.24_")
     assert not is_sbf_name("gps.nmea") and not is_sbf_name("log.sbf.csv")
+
+
+def test_a_drive_folder_s_sbf_log_kept_compressed_or_named_by_the_receiver(tmp_path):
+    """Through ingest's reader (``read_any``), a folder's ``log.sbf.gz`` and a receiver's
+    own ``sept3400.19_`` give the grid of its ``log.sbf``, bit for bit."""
+    import gzip
+
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from support.drives import make_params
+    from support.stream_fleet import signal_map_params
+
+    g = _exact()
+    raw = b"".join(sbf_blocks(g, DAY_S + g[c.T_S]))
+    smap = {"data.signal_maps": {"logger": signal_map_params("stream_csv")}}
+    grids = {}
+    for name in ("log.sbf", "log.sbf.gz", "sept3400.19_"):
+        folder = tmp_path / name.replace(".", "_")
+        for k, written in _folder(folder, g.iloc[:0]).items():
+            if k != "wheels":  # the fixes are the log's
+                written.unlink()
+        (folder / name).write_bytes(gzip.compress(raw, mtime=0) if name.endswith(".gz") else raw)
+        f = DriveFile(name, "target_test", "target", "logger", folder)
+        data = make_params(tmp_path, **smap).data
+        grids[name] = read_any(f, data, lambda p: p.name, receiver_drive()[1], 0.1, 10.0)[0]
+    assert np.isfinite(grids["log.sbf"].columns[c.LAT_DEG]).sum() > 1000
+    for name in ("log.sbf.gz", "sept3400.19_"):
+        for k, v in grids["log.sbf"].columns.items():
+            np.testing.assert_array_equal(grids[name].columns[k], v, err_msg=f"{name} {k}")
