@@ -17,7 +17,7 @@ from rwhonet.data.novatel import crc32, gps_utc_s, is_novatel_log, read_novatel
 from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
-from support.multirate import receiver_drive, receiver_labels
+from support.multirate import fixes_to_the_ms, receiver_drive, receiver_folder, receiver_labels
 from support.novatel import (
     GPS_EPOCH_UNIX_S,
     binary_log,
@@ -44,19 +44,6 @@ PUBLISHED = [
 ]
 
 
-def _folder(tmp_path, gnss):
-    from rwhonet.sim.streams import StreamTables, write_stream_csvs
-
-    tables, _ = receiver_drive()
-    return write_stream_csvs(StreamTables(tables.wheels, gnss), tmp_path)
-
-
-def _exact():
-    """The drive's fixes at times to the millisecond, as a NovAtel header writes them."""
-    g = receiver_drive()[0].gnss
-    return g.assign(t_s=np.round(g[c.T_S].to_numpy(), 3))
-
-
 def test_published_lines_are_read_as_printed(tmp_path):
     for line in PUBLISHED:
         body, crc = line[1:].split("*")
@@ -78,12 +65,12 @@ def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
     wheels' clock, here the logger's own): the stamps are the fixes' times, and the labels
     are those of the same fixes in gnss.csv, within 0.01 mm. One epoch without a stamp:
     placed as unstamped, and refused beside the logger's own clock, naming its line."""
-    g = _exact()
+    g = fixes_to_the_ms()
     t = g[c.T_S].to_numpy()
-    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
+    ref, _ = receiver_labels(list(receiver_folder(tmp_path / "csv", g).values()))
     lines = novatel_lines(g, DAY_S + t, time_logs=False)
     stamped = [f"[{x:.3f}] {line}" for x, line in zip(t, lines, strict=True)]
-    wheels = _folder(tmp_path / "gps", g.iloc[:0])["wheels"]
+    wheels = receiver_folder(tmp_path / "gps", g.iloc[:0])["wheels"]
     log_ = write_novatel(tmp_path / "gps" / "drive.gps", stamped)
     assert read_novatel(log_, "drive.gps").stamps[:2] == [f"{x:.3f}" for x in t[:2]]
     assert is_novatel_log(write_novatel(tmp_path / "stamped" / "drive.log", stamped))
@@ -91,7 +78,7 @@ def test_logger_stamps_give_the_labels_of_the_csv_fixes(tmp_path):
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
     assert "logger stamp is its time on the stream files' clock" in " ".join(streams.notes)
-    own = _folder(tmp_path / "own", g.iloc[:0])["wheels"]
+    own = receiver_folder(tmp_path / "own", g.iloc[:0])["wheels"]
     df = pd.read_csv(own)
     df[df.columns[0]] -= 44_000.0  # the logger's clock from its start (1000 s on)
     df.to_csv(own, index=False, float_format="%.6f")
@@ -129,9 +116,9 @@ def test_binary_logs_give_the_ascii_logs_labels(tmp_path):
     messages): the labels of the ASCII logs within 0.01 mm (the ASCII's 11 decimals); a
     CRC broken and the last log cut short: passed over, counted by log number. Named
     drive.log beside nothing else, it is told a NovAtel log by its bytes."""
-    g = _exact()
+    g = fixes_to_the_ms()
     t = DAY_S + g[c.T_S].to_numpy()
-    wheels = _folder(tmp_path / "a", g.iloc[:0])["wheels"]
+    wheels = receiver_folder(tmp_path / "a", g.iloc[:0])["wheels"]
     ascii_, _ = receiver_labels(
         [wheels, write_novatel(tmp_path / "a" / "drive.gps", novatel_lines(g, t))]
     )
@@ -143,7 +130,7 @@ def test_binary_logs_give_the_ascii_logs_labels(tmp_path):
     messages.append(messages[-1][:50])
     log_ = write_binary(tmp_path / "b" / "drive.log", messages)
     assert is_novatel_log(log_)
-    wheels = _folder(tmp_path / "b", g.iloc[:0])["wheels"]
+    wheels = receiver_folder(tmp_path / "b", g.iloc[:0])["wheels"]
     got, streams = receiver_labels([wheels, log_])
     for q in ascii_.columns:
         np.testing.assert_allclose(got[q], ascii_[q], rtol=0, atol=1e-5, err_msg=q)
@@ -163,9 +150,9 @@ def test_the_novatel_log_gives_the_labels_of_the_csv_fixes(tmp_path):
     """wheels.csv on the time of day, the fixes as drive.gps (TIMEA and BESTPOSA an
     epoch; the table has no speed, so no BESTVELA): the labels of the same fixes in
     gnss.csv, within 0.01 mm (2.4 um measured: 1e-11 degrees and the CSV's digits)."""
-    g = _exact()
-    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
-    files = [_folder(tmp_path / "gps", g.iloc[:0])["wheels"]]
+    g = fixes_to_the_ms()
+    ref, _ = receiver_labels(list(receiver_folder(tmp_path / "csv", g).values()))
+    files = [receiver_folder(tmp_path / "gps", g.iloc[:0])["wheels"]]
     files.append(write_novatel(tmp_path / "gps" / "drive.gps", novatel_lines(g, DAY_S + g[c.T_S])))
     got, streams = receiver_labels(files)
     assert len(got) == len(ref) > 100
@@ -185,9 +172,9 @@ def test_a_leap_second_the_table_does_not_know_is_found_by_the_wheels(tmp_path):
     (before stop 78 it stood at the latency search's edge and the fixes were kept a second
     off their wheels); report refuses the drive naming it, auto gives the labels of the
     drive's fixes on their true times."""
-    g = _exact()
-    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
-    files = [_folder(tmp_path / "gps", g.iloc[:0])["wheels"]]
+    g = fixes_to_the_ms()
+    ref, _ = receiver_labels(list(receiver_folder(tmp_path / "csv", g).values()))
+    files = [receiver_folder(tmp_path / "gps", g.iloc[:0])["wheels"]]
     late = novatel_lines(g, DAY_S + g[c.T_S] + 1.0, time_logs=False)
     files.append(write_novatel(tmp_path / "gps" / "drive.gps", late))
     with pytest.raises(InputError) as err:
@@ -255,7 +242,7 @@ def test_what_is_a_fix(tmp_path, status, kind, fix):
 def test_damage_is_passed_over_and_counted(tmp_path):
     """A CRC that does not match, a line cut short, an epoch given twice, a time status
     UNKNOWN: passed over, counted with their first lines; the rest read."""
-    g = _exact().iloc[:20]
+    g = fixes_to_the_ms().iloc[:20]
     lines = novatel_lines(g, DAY_S + g[c.T_S], velocity=None, time_logs=False)
     lines[3] = lines[3].replace("52.", "53.", 1)  # the CRC no longer matches
     lines[5] = lines[5][:60]  # cut short
@@ -274,7 +261,7 @@ def test_damage_is_passed_over_and_counted(tmp_path):
 def test_bestgnsspos_is_read_before_bestpos(tmp_path):
     """A SPAN system logs BESTPOS blended with its INS and BESTGNSSPOS from the GNSS alone:
     the GNSS's are the fixes."""
-    g = _exact().iloc[:30]
+    g = fixes_to_the_ms().iloc[:30]
     t = DAY_S + g[c.T_S]
     moved = g.assign(**{c.LAT_DEG: g[c.LAT_DEG] + 0.001})
     lines = novatel_lines(moved, t, "BESTPOSA") + novatel_lines(
@@ -296,7 +283,7 @@ def test_a_log_without_a_position_log_is_refused_naming_what_it_holds(tmp_path):
 
 
 def test_bad_fields_are_refused_at_their_line(tmp_path):
-    g = _exact().iloc[:5]
+    g = fixes_to_the_ms().iloc[:5]
     lines = novatel_lines(g, DAY_S + g[c.T_S], velocity=None, time_logs=False)
     fields = lines[2].split(";")[1].split("*")[0].split(",")
     t_gps = DAY_S + float(g[c.T_S].iloc[2]) - GPS_EPOCH_UNIX_S + 18
@@ -317,7 +304,7 @@ def test_a_novatel_asc_or_log_beside_a_candump_log_is_told_by_what_it_holds(tmp_
     from support.canlog import DBC, stream_frames, write_candump
 
     tables, radius = receiver_drive()
-    g = _exact()
+    g = fixes_to_the_ms()
     wheels_only = StreamTables(tables.wheels, tables.gnss.iloc[:0])
     frames = stream_frames(wheels_only, radius, DAY_S)
     signals = {"t": ColumnSpec("t", "s")} | {
@@ -378,7 +365,7 @@ def test_a_novatel_asc_or_log_kept_compressed_is_told_by_what_it_holds(tmp_path,
     from support.drives import make_params
     from support.stream_fleet import signal_map_params
 
-    g = _exact()
+    g = fixes_to_the_ms()
     text = "\n".join(novatel_lines(g, DAY_S + g[c.T_S])).encode() + b"\n"
     packed = (
         gzip.compress(text, mtime=0)
@@ -392,7 +379,7 @@ def test_a_novatel_asc_or_log_kept_compressed_is_told_by_what_it_holds(tmp_path,
     got = {}
     for kept in ("drive.gps", name):
         folder = tmp_path / kept.replace(".", "_")
-        for k, written in _folder(folder, g.iloc[:0]).items():
+        for k, written in receiver_folder(folder, g.iloc[:0]).items():
             if k != "wheels":  # the fixes are the log's
                 written.unlink()
         if kept == name:
@@ -446,9 +433,9 @@ def test_an_abbreviated_log_gives_the_labels_of_the_ascii_log(tmp_path):
     each log): the labels of the same logs in ASCII, bit for bit. A header whose fields
     line is lost, a fields line cut short and a header the log ends after are passed over
     as cut, with their lines."""
-    g = _exact()
+    g = fixes_to_the_ms()
     lines = novatel_lines(g, DAY_S + g[c.T_S])
-    wheels = _folder(tmp_path / "ascii", g.iloc[:0])["wheels"]
+    wheels = receiver_folder(tmp_path / "ascii", g.iloc[:0])["wheels"]
     ascii_log = write_novatel(tmp_path / "ascii" / "drive.gps", lines)
     short = [f"[COM1]{x}" if i % 2 == 0 else x for y in lines for i, x in enumerate(_abbreviate(y))]
     abbreviated = write_novatel(tmp_path / "ascii" / "drive.log", short)

@@ -13,7 +13,7 @@ from rwhonet.data import canonical as c
 from rwhonet.data.sbf import is_sbf_name, read_sbf
 from rwhonet.data.streamcsv import log_kind
 from rwhonet.errors import InputError
-from support.multirate import receiver_drive, receiver_labels
+from support.multirate import fixes_to_the_ms, receiver_drive, receiver_folder, receiver_labels
 from support.sbf import (
     DNU,
     GPS_EPOCH_UNIX_S,
@@ -29,26 +29,13 @@ DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
 GPS_S = DAY_S + 45_000.0 - GPS_EPOCH_UNIX_S + LEAP_S
 
 
-def _folder(tmp_path, gnss):
-    from rwhonet.sim.streams import StreamTables, write_stream_csvs
-
-    tables, _ = receiver_drive()
-    return write_stream_csvs(StreamTables(tables.wheels, gnss), tmp_path)
-
-
-def _exact():
-    """The drive's fixes at times to the millisecond, as an SBF block's TOW holds them."""
-    g = receiver_drive()[0].gnss
-    return g.assign(t_s=np.round(g[c.T_S].to_numpy(), 3))
-
-
 def test_the_sbf_log_gives_the_labels_of_the_csv_fixes(tmp_path):
     """wheels.csv on the time of day, the fixes as log.sbf (PVTGeodetic, ReceiverTime
     every 10 epochs, a DOP block after each): the labels of the same fixes in gnss.csv,
     within 0.01 mm."""
-    g = _exact()
-    ref, _ = receiver_labels(list(_folder(tmp_path / "csv", g).values()))
-    wheels = _folder(tmp_path / "sbf", g.iloc[:0])["wheels"]
+    g = fixes_to_the_ms()
+    ref, _ = receiver_labels(list(receiver_folder(tmp_path / "csv", g).values()))
+    wheels = receiver_folder(tmp_path / "sbf", g.iloc[:0])["wheels"]
     log_ = write_sbf(tmp_path / "sbf" / "log.sbf", sbf_blocks(g, DAY_S + g[c.T_S]))
     assert log_kind(log_.name, log_) == "SBF"
     got, streams = receiver_labels([wheels, log_])
@@ -68,7 +55,7 @@ def test_every_field_is_as_pysbf2_parses_it(tmp_path):
     pysbf2's reader gives the same blocks (the height: Height less Undulation)."""
     from pysbf2 import SBFReader
 
-    g = _exact()
+    g = fixes_to_the_ms()
     turn = np.linspace(0.0, 350.0, len(g))
     g = g.assign(**{c.SPEED_GNSS_M_S: 8.0 + np.sin(turn / 50.0), c.HEADING_DEG: turn})
     log_ = write_sbf(tmp_path / "log.sbf", sbf_blocks(g, DAY_S + g[c.T_S]))
@@ -188,7 +175,7 @@ def test_damage_is_passed_over_and_counted(tmp_path):
 
 
 def test_without_receiver_time_the_leap_seconds_table_puts_it_on_utc(tmp_path):
-    g = _exact()
+    g = fixes_to_the_ms()
     log_ = write_sbf(tmp_path / "log.sbf", sbf_blocks(g, DAY_S + g[c.T_S], leap=False))
     got = read_sbf(log_, "log.sbf")
     np.testing.assert_allclose(got.day_s + got.tod_s, DAY_S + g[c.T_S], rtol=0, atol=1e-6)
@@ -217,13 +204,13 @@ def test_a_drive_folder_s_sbf_log_kept_compressed_or_named_by_the_receiver(tmp_p
     from support.drives import make_params
     from support.stream_fleet import signal_map_params
 
-    g = _exact()
+    g = fixes_to_the_ms()
     raw = b"".join(sbf_blocks(g, DAY_S + g[c.T_S]))
     smap = {"data.signal_maps": {"logger": signal_map_params("stream_csv")}}
     grids = {}
     for name in ("log.sbf", "log.sbf.gz", "sept3400.19_"):
         folder = tmp_path / name.replace(".", "_")
-        for k, written in _folder(folder, g.iloc[:0]).items():
+        for k, written in receiver_folder(folder, g.iloc[:0]).items():
             if k != "wheels":  # the fixes are the log's
                 written.unlink()
         (folder / name).write_bytes(gzip.compress(raw, mtime=0) if name.endswith(".gz") else raw)

@@ -133,6 +133,22 @@ def receiver_drive():
     return simulated_streams(120.0, 100.0, 10.0)
 
 
+def receiver_folder(folder: Path, gnss):  # type: ignore[no-untyped-def]
+    """:func:`receiver_drive`'s wheels with the fixes ``gnss`` as stream CSVs in
+    ``folder`` (``gnss.iloc[:0]``: none, for a receiver's log to give them)."""
+    from rwhonet.sim.streams import StreamTables, write_stream_csvs
+
+    tables, _ = receiver_drive()
+    return write_stream_csvs(StreamTables(tables.wheels, gnss), folder)
+
+
+def fixes_to_the_ms():  # type: ignore[no-untyped-def]
+    """:func:`receiver_drive`'s fixes at times to the millisecond, as a receiver's log
+    holds them (a NovAtel header's seconds, an SBF block's TOW)."""
+    g = receiver_drive()[0].gnss
+    return g.assign(t_s=np.round(g[c.T_S].to_numpy(), 3))
+
+
 def receiver_labels(files, smap=None, gnss_lag="report"):
     """The labelled seconds of :func:`receiver_drive`'s stream ``files`` as a stream folder
     reads them (its signal map, or ``smap``), and the streams."""
