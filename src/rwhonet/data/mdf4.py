@@ -190,15 +190,14 @@ def can_log_groups(
             ]
         )
     frames, wanted, said = None, None, ""
+    columns = [spec.column for spec in signal_map.values()]
     mdf_file = not is_can_log_name(path.name)  # asammdf's to open (.mf4, an MDF 3 .dat)
     if mdf_file:  # an MDF4 bus log: a part at a time where it can be
-        columns = [spec.column for spec in signal_map.values()]
         got = _mdf_kept(path, file, columns, dbc, name, present_only, local_zone, max_mb, on_start)
         if got is not None:
             frames, wanted, said = got
     else:
         _databases_there(dbc, name)  # before the log is read
-        columns = [spec.column for spec in signal_map.values()]
         wanted = _wanted(dbc, columns, present_only)
         if wanted is None:
             _whole_fits(path, file, max_mb, _not_told_apart(dbc, columns))

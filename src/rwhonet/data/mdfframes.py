@@ -58,7 +58,8 @@ def mdf_frames(
     kept = Kept(keep)
     parts: list[tuple[np.ndarray, ...]] = []
     mdf.configure(read_fragment_size=FRAGMENT_BYTES)
-    for g in frame_groups(mdf):
+    groups = frame_groups(mdf)
+    for g in groups:
         index = [ch.name for ch in mdf.groups[g].channels].index(DATA_FRAME)
         for got in mdf.iter_get(group=g, index=index, raw=True):
             parts.append(_part(got.samples, got.timestamps, kept))
@@ -71,7 +72,7 @@ def mdf_frames(
         [np.pad(p[6], ((0, 0), (0, width - p[6].shape[1]))) for p in parts]
         or [np.zeros((0, width), np.uint8)]
     )
-    order = np.argsort(t, kind="stable") if len(frame_groups(mdf)) > 1 else slice(None)
+    order = np.argsort(t, kind="stable") if len(groups) > 1 else slice(None)
     skipped = {
         said: sum(int(g.channel_group.cycles_nr) for g in mdf.groups if _has(g, name))
         for name, said in OTHER_FRAMES.items()
