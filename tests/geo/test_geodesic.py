@@ -96,3 +96,19 @@ def test_the_tangent_plane_distance_of_pairs_is_that_of_steps_and_near_the_geode
     far = local_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:])
     exact = geodesic_distance_m(lat[:-k], lon[:-k], lat[k:], lon[k:])
     np.testing.assert_allclose(far, exact, rtol=1e-6)
+
+
+def test_the_tangent_plane_east_and_north_make_its_distance_and_the_geodesic_s_azimuth():
+    from rwhonet.geo import local_distance_m, local_step_en_m
+    from rwhonet.geo.geodesic import wgs84
+
+    rng = np.random.default_rng(6)
+    lat1 = rng.uniform(-80, 80, 300)
+    lon1 = rng.uniform(-180, 180, 300)
+    lat2 = lat1 + rng.uniform(-1e-3, 1e-3, 300)
+    lon2 = (lon1 + rng.uniform(-1e-3, 1e-3, 300) + 180.0) % 360.0 - 180.0
+    east, north = local_step_en_m(lat1, lon1, lat2, lon2)
+    np.testing.assert_array_equal(np.hypot(north, east), local_distance_m(lat1, lon1, lat2, lon2))
+    az, _, dist = wgs84().inv(lon1, lat1, lon2, lat2)
+    np.testing.assert_allclose(east, dist * np.sin(np.radians(az)), rtol=0, atol=1e-3)
+    np.testing.assert_allclose(north, dist * np.cos(np.radians(az)), rtol=0, atol=1e-3)

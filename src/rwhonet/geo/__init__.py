@@ -1,7 +1,8 @@
 """Geodesy on the WGS84 ellipsoid (GeographicLib algorithms).
 
 - :mod:`rwhonet.geo.geodesic`: distances between fixes (paper Eq. 11's x_GNSS), and a
-  fast tangent-plane distance for screening every step of a track.
+  fast tangent-plane distance (and its east and north) for screening every step of a
+  track.
 - :mod:`rwhonet.geo.local`: local east/north offsets around a reference fix.
 """
 
@@ -10,6 +11,7 @@ from rwhonet.geo.geodesic import (
     geodesic_distance_reference_m,
     local_distance_m,
     local_step_distance_m,
+    local_step_en_m,
 )
 from rwhonet.geo.local import destination_deg, latlon_from_offsets_deg, offsets_m
 
@@ -20,5 +22,6 @@ __all__ = [
     "latlon_from_offsets_deg",
     "local_distance_m",
     "local_step_distance_m",
+    "local_step_en_m",
     "offsets_m",
 ]

@@ -172,10 +172,40 @@ def local_distance_m(
     )
 
 
+def local_step_en_m(
+    lat1_deg: np.ndarray, lon1_deg: np.ndarray, lat2_deg: np.ndarray, lon2_deg: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """East and north from the first points to the second on the local tangent plane, m
+    (the components of :func:`local_distance_m`'s distance).
+
+    Args:
+        lat1_deg, lon1_deg, lat2_deg, lon2_deg: as for :func:`local_distance_m`.
+
+    Returns:
+        ``(east_m, north_m)``.
+    """
+    r = np.radians
+    return _tangent_plane_en(
+        r(np.asarray(lat1_deg, np.float64)),
+        r(np.asarray(lon1_deg, np.float64)),
+        r(np.asarray(lat2_deg, np.float64)),
+        r(np.asarray(lon2_deg, np.float64)),
+    )
+
+
 def _tangent_plane_m(
     lat1: np.ndarray, lon1: np.ndarray, lat2: np.ndarray, lon2: np.ndarray
 ) -> np.ndarray:
     """Tangent-plane distance between pairs given in radians."""
+    east, north = _tangent_plane_en(lat1, lon1, lat2, lon2)
+    return np.hypot(north, east)
+
+
+def _tangent_plane_en(
+    lat1: np.ndarray, lon1: np.ndarray, lat2: np.ndarray, lon2: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent-plane east and north from the first points to the second, in radians: the
+    meridional and prime-vertical radii of curvature of WGS84 at the mid latitude."""
     mid = 0.5 * (lat2 + lat1)
     sin_mid = np.sin(mid)
     w2 = 1.0 - _WGS84_E2 * (sin_mid * sin_mid)
@@ -183,4 +213,4 @@ def _tangent_plane_m(
     prime_vertical = _WGS84_A_M / w
     meridional = prime_vertical * ((1.0 - _WGS84_E2) / w2)  # a (1 - e2) / w2^1.5
     d_lon = (lon2 - lon1 + np.pi) % (2.0 * np.pi) - np.pi  # across the antimeridian
-    return np.hypot(meridional * (lat2 - lat1), prime_vertical * np.cos(mid) * d_lon)
+    return prime_vertical * np.cos(mid) * d_lon, meridional * (lat2 - lat1)
