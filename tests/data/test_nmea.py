@@ -23,7 +23,7 @@ from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from support.multirate import receiver_drive, receiver_labels
-from support.nmea import gga, gll, gns, nmea_lines, rmc, sentence, write_nmea
+from support.nmea import gga, gll, gns, nmea_lines, rmc, sentence, vtg, write_nmea, zda
 
 # 2019-03-11 00:00:00 UTC: the day of the drives below, as Unix seconds
 DAY_S = 1_552_262_400.0
@@ -422,8 +422,6 @@ def test_zda_dates_the_epoch_of_its_time_and_is_checked_against_rmc(tmp_path):
     its time, across midnight as RMC's do. A ZDA at a time no fix has dates nothing, makes
     no epoch; ZDA alone is no fix. A ZDA that contradicts the RMC dates, or holds no date,
     is refused naming its line and the ZDA date."""
-    from support.nmea import zda
-
     t0 = DAY_S + 86400.0 - 1.5  # 23:59:58.5 on 11 March 2019
     lines = [s for i in range(4) for s in (gga(t0 + i, 52.4, -1.5, 9), zda(t0 + i))]
     log = _log(tmp_path, [zda(t0 - 0.5), *lines])  # the first at a time of no fix
@@ -594,8 +592,6 @@ def test_the_real_minute_s_fixes_as_nmea_sentences_give_the_comma2k19_reader_s_l
     smap = {"t": ColumnSpec("t", "s")} | {
         f"omega_{w}": ColumnSpec(w, "m/s") for w in ("fl", "fr", "rl", "rr")
     }
-    from support.nmea import zda
-
     got, said = {}, {}
     for case in ("stamped", "utc", "zda"):
         folder = tmp_path / case
@@ -745,3 +741,166 @@ def test_a_step_back_that_is_no_leap_second_step_is_left_alone(tmp_path, monkeyp
     log.write_text("\n".join(resent) + "\n")
     said = note(log)
     assert "stepped back" not in said and "20 sentence(s) of an epoch already given" in said
+
+
+def _velocity_1hz():
+    """:func:`receiver_drive`'s fixes a second apart (every tenth), and each one's velocity
+    from its 10 Hz neighbours (0.1 s either side): speed, m/s, and course, degrees."""
+    from rwhonet.geo import local_step_en_m
+
+    g = receiver_drive()[0].gnss
+    lat, lon, t = (g[k].to_numpy() for k in (c.LAT_DEG, c.LON_DEG, c.T_S))
+    east, north = local_step_en_m(lat[:-2], lon[:-2], lat[2:], lon[2:])
+    at = np.arange(10, len(g) - 10, 10)
+    dt = t[at + 1] - t[at - 1]
+    speed = np.hypot(east[at - 1], north[at - 1]) / dt
+    course = np.degrees(np.arctan2(east[at - 1], north[at - 1])) % 360.0
+    return g.iloc[at].reset_index(drop=True), np.round(speed, 2), np.round(course, 2)
+
+
+@pytest.mark.parametrize(
+    "burst",
+    [
+        ("GGA", "VTG", "ZDA"),  # a survey receiver's: the VTG between its epoch's sentences
+        ("GGA", "VTG"),  # the VTG after its epoch's GGA
+        ("VTG", "GGA", "GSA", "GLL"),  # a u-blox's with RMC off: each epoch begins with VTG
+    ],
+)
+def test_vtg_gives_the_speed_and_course_of_the_epoch_it_is_written_with(tmp_path, burst):
+    """A receiver set to GGA and VTG (and ZDA) writes no RMC: the speed and course are
+    VTG's. A VTG has no time: it is its epoch's by its place among the epoch's sentences,
+    or, between two epochs' sentences, the way its velocity fits the fixes'. Each epoch
+    gets its own VTG's speed and course exactly: taken the other way they would be a
+    second late or early (up to 7 m/s and 110 degrees apart on this drive)."""
+    fixes, speed, course = _velocity_1hz()
+    t = DAY_S + np.round(fixes[c.T_S].to_numpy(), 2)
+    lines = []
+    for i in range(len(fixes)):
+        lat, lon = fixes[c.LAT_DEG][i], fixes[c.LON_DEG][i]
+        written = {
+            "GGA": gga(t[i], lat, lon, 9),
+            "VTG": vtg(speed[i], course[i]),
+            "ZDA": zda(t[i]),
+            "GSA": sentence("GPGSA,A,3,05,13,15,18,,,,,,,,,1.9,0.9,1.7"),
+            "GLL": gll(t[i], lat, lon),
+        }
+        lines += [written[k] for k in burst]
+    log = _log(tmp_path, lines)
+    assert log.tod_s.size == len(fixes)
+    np.testing.assert_allclose(log.channels["speed_gnss"], speed, rtol=0, atol=2e-3)
+    np.testing.assert_allclose(log.channels["heading"], course, rtol=0, atol=1e-9)
+    assert log.sources["speed_gnss"] == "VTG speed"
+    assert log.sources["heading"] == "VTG course"
+    assert f"{len(fixes)} GGA sentences" not in log.notes[-1]  # with the VTG count
+    assert f", {len(fixes)} VTG sentences)" in log.notes[-1]
+    assert not log.dropped
+    said = " ".join(log.notes)
+    if burst[-1] == "ZDA":
+        assert "stand between" not in said
+    else:
+        way = "after" if burst[0] == "VTG" else "before"
+        assert f"each is taken as the epoch {way} it, whose fixes' velocity" in said
+    # a second later or earlier: the data tell which (the wrong way fits much worse)
+    assert np.nanmax(np.abs(np.diff(speed))) > 5.0
+    assert np.nanmax(np.abs((np.diff(course) + 180.0) % 360.0 - 180.0)) > 90.0
+
+
+def test_vtg_beside_rmc_fills_only_the_epochs_without_one(tmp_path):
+    """RMC's speed and course where the epoch has an RMC, the VTG's where it has none; a
+    VTG of a mode that is no fix, or of an epoch without a fix, gives none; the speed
+    from km/h where the knots are empty; a value whose letter is not its unit's is none;
+    a VTG before the log's first epoch (the epoch before it, cut off) is counted."""
+    t0 = DAY_S + 45000.0
+    lines = [
+        vtg(4.0, 10.0),  # the last epoch's before the log began: trailing VTGs below
+        gga(t0, 52.4, -1.5, 9),
+        rmc(t0, 52.4, -1.5, 10.0, 90.0),
+        vtg(11.0, 95.0),  # RMC's are kept
+        gga(t0 + 1, 52.4001, -1.5, 9),
+        vtg(12.0, 100.0),
+        gga(t0 + 2, 52.4002, -1.5, 9),
+        vtg(13.0, 105.0, mode="N"),
+        gga(t0 + 3, 52.4003, -1.5, 9, quality=0),
+        vtg(14.0, 110.0),
+        gga(t0 + 4, 52.4004, -1.5, 9),
+        vtg(15.0, 115.0, knots=False),
+        gga(t0 + 5, 52.4005, -1.5, 9),
+        sentence("GPVTG,120.00,M,,M,32.0,K,59.3,K,A"),  # course not true, knots not knots
+        gga(t0 + 6, 52.4006, -1.5, 9),
+        sentence("GPVTG,,T,,M,,N,3.2,N,A"),  # no course (standing), km/h not km/h
+    ]
+    log = _log(tmp_path, lines)
+    np.testing.assert_allclose(
+        log.channels["speed_gnss"],
+        [10.0, 12.0, np.nan, np.nan, 15.0, 59.3 / 3.6, np.nan],
+        rtol=0,
+        atol=2e-3,
+    )
+    np.testing.assert_allclose(
+        log.channels["heading"],
+        [90.0, 100.0, np.nan, np.nan, 115.0, np.nan, np.nan],
+        rtol=0,
+        atol=1e-9,
+    )
+    assert log.sources["heading"] == "RMC course (VTG's where an epoch has no RMC)"
+    assert "1 sentence(s) (VTG) whose epoch the log does not hold" in log.dropped
+    assert "(first at line 1)" in log.dropped
+    assert "without a UTC time" not in log.dropped  # a VTG has none, and needs none
+
+
+def test_the_fixes_velocity_is_taken_only_from_epochs_close_either_side():
+    """The velocity a VTG is compared with is the fixes' at its epoch: from the epochs
+    either side, none where they are more than 5 s apart (a gap in the fixes), none at
+    the log's ends and without a fix."""
+    from rwhonet.data.nmea import _misfit, _Track
+    from rwhonet.geo import latlon_from_offsets_deg
+
+    # east at 10 m/s, one epoch a second, a gap of 9 s after the fourth, one without a fix
+    t = np.array([0.0, 1.0, 2.0, 3.0, 12.0, 13.0, 14.0, 15.0])
+    lat, lon = latlon_from_offsets_deg(52.4, -1.5, 10.0 * t, np.zeros(t.size))
+    lat[6] = lon[6] = np.nan
+    got = _misfit(_Track(lat, lon, t), np.arange(8), np.full(8, 10.0), np.zeros(8))
+    np.testing.assert_allclose(got[[1, 2]], 0.0, atol=1e-6)  # (1e-3 m/s)^2
+    assert np.isnan(got[[0, 3, 4, 5, 7]]).all()  # ends, a gap either side, no fix beside
+
+
+def test_a_vtg_field_that_is_no_number_is_refused_with_its_line(tmp_path):
+    t0 = DAY_S + 45000.0
+    lines = [gga(t0, 52.4, -1.5, 9), sentence("GPVTG,1O.5,T,,M,3.0,N,5.6,K,A")]
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, lines)
+    said = str(err.value)
+    assert "row 2" in said and "VTG course" in said and "'1O.5'" in said
+
+
+def test_a_gga_and_vtg_log_gives_the_drive_its_course_as_an_rmc_log_does(tmp_path):
+    """Through a stream folder: the receiver's GGA and VTG give the drive the speed and
+    course an RMC log of the same fixes gives, and the same labels."""
+    from rwhonet.sim.streams import signal_map
+
+    fixes, speed, course = _velocity_1hz()
+    t = np.round(fixes[c.T_S].to_numpy(), 2)
+    lat, lon = fixes[c.LAT_DEG].to_numpy(), fixes[c.LON_DEG].to_numpy()
+    wheels = _wheels(tmp_path / "w", DAY_S)
+    with_rmc = [
+        s
+        for i in range(len(t))
+        for s in (
+            gga(DAY_S + t[i], lat[i], lon[i], 9),
+            rmc(DAY_S + t[i], lat[i], lon[i], speed[i], course[i]),
+        )
+    ]
+    with_vtg = [
+        s
+        for i in range(len(t))
+        for s in (gga(DAY_S + t[i], lat[i], lon[i], 9), vtg(speed[i], course[i]))
+    ]
+    smap = {k: v for k, v in signal_map().items() if k not in ("lat", "lon", "n_sats")}
+    one = receiver_labels([wheels, write_nmea(tmp_path / "r" / "gps.nmea", with_rmc)], smap)
+    two = receiver_labels([wheels, write_nmea(tmp_path / "v" / "gps.nmea", with_vtg)], smap)
+    pd.testing.assert_frame_equal(one[0], two[0])
+    (a,) = [s for s in one[1].streams if s.name == "gps.nmea"]
+    (b,) = [s for s in two[1].streams if s.name == "gps.nmea"]
+    for key in (c.SPEED_GNSS_M_S, c.HEADING_DEG):
+        np.testing.assert_allclose(b.channels[key], a.channels[key], rtol=0, atol=2e-3)
+        assert np.isfinite(b.channels[key]).sum() > 100

@@ -79,6 +79,17 @@ def gll(t_s: float, lat: float, lon: float, status="A", mode="A", talker="GP") -
     return sentence(f"{talker}GLL,{la},{ns},{lo},{ew},{hhmmss(t_s)},{status},{mode}")
 
 
+def vtg(speed_m_s: float, course: float, mode: str = "A", talker="GP", knots: bool = True) -> str:
+    """VTG: course true and magnetic (left empty, as most receivers do), speed in knots
+    (empty where not ``knots``) and in km/h, the mode letter (v2.3+; ``""``: none, as
+    before v2.3)."""
+    cog = f"{course:.2f}" if math.isfinite(course) else ""
+    kn = f"{speed_m_s / KNOT_M_S:.3f}" if math.isfinite(speed_m_s) and knots else ""
+    kmh = f"{speed_m_s * 3.6:.3f}" if math.isfinite(speed_m_s) else ""
+    tail = f",{mode}" if mode else ""
+    return sentence(f"{talker}VTG,{cog},T,,M,{kn},N,{kmh},K{tail}")
+
+
 def zda(t_s: float, talker="GP") -> str:
     """ZDA: the UTC time and date (day, month, four-digit year), the local zone's hours and
     minutes left empty, as receivers write them."""

@@ -20,11 +20,14 @@ puts it on the stream files' clock.
 - ``ZDA``: UTC time and date (day, month, four-digit year), no fix: its date dates the
   epoch of its time (a receiver set to GGA and ZDA, as survey and RTK receivers often
   are, gives no RMC), checked against the RMC dates where both come.
+- ``VTG``: course over ground (degrees true), speed over ground in knots and in km/h,
+  from v2.3 a mode letter; no time: it is the epoch's it is written with
+  (:func:`_vtg_epochs`).
 
-Every other sentence (GSV, GSA, VTG, a receiver's proprietary ``$P...``) is passed over.
+Every other sentence (GSV, GSA, a receiver's proprietary ``$P...``) is passed over.
 Sentences of one epoch (the same UTC time) are one fix: the position from GGA where the
 epoch has one, else GNS, RMC, GLL; satellites and altitude from GGA, else GNS; speed and
-course from RMC. A sentence written
+course from RMC, else VTG. A sentence written
 again, or written late, joins its epoch wherever it is in the log (the first of two of
 one kind is kept, the second counted); the epochs are in the order they first appear,
 and out of time order where the log was, which the resampler's rule puts right
@@ -65,6 +68,7 @@ number is refused with its line.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -87,7 +91,7 @@ from rwhonet.data.texttime import (
 )
 from rwhonet.data.timebase import unwrap_clock
 from rwhonet.errors import InputError, Problem
-from rwhonet.geo import local_distance_m
+from rwhonet.geo import local_distance_m, local_step_en_m
 
 NMEA_SUFFIXES = (".nmea", ".nma")
 KNOT_M_S = 1852.0 / 3600.0
@@ -101,14 +105,14 @@ GGA_FIXES = (b"1", b"2", b"3", b"4", b"5", b"9")
 # simulator are none
 RMC_FIXES = (b"A", b"D", b"P", b"R", b"F")
 # the sentences read, by their code in the scan
-KINDS = (b"GGA", b"RMC", b"GNS", b"GLL", b"ZDA")
-GGA, RMC, GNS, GLL, ZDA = range(len(KINDS))
+KINDS = (b"GGA", b"RMC", b"GNS", b"GLL", b"ZDA", b"VTG")
+GGA, RMC, GNS, GLL, ZDA, VTG = range(len(KINDS))
 FIX_KINDS = (GGA, RMC, GNS, GLL)  # the sentences that make an epoch (ZDA only dates one)
 # fields a sentence needs (its talker and type the first): up to GGA's and GNS's
-# altitude, RMC's date, GLL's status, ZDA's year
-FIELDS_NEEDED = np.array([10, 10, 10, 7, 5])
-# where each gives the UTC time (GLL after its position)
-TIME_FIELD = np.array([1, 1, 1, 5, 1])
+# altitude, RMC's date, GLL's status, ZDA's year, VTG's km/h letter
+FIELDS_NEEDED = np.array([10, 10, 10, 7, 5, 9])
+# where each gives the UTC time (GLL after its position; VTG none)
+TIME_FIELD = np.array([1, 1, 1, 5, 1, -1])
 ZDA_DATE = "%d,%m,%Y"  # ZDA's day, month and year fields, as the sentence writes them
 # which sentence's position an epoch takes where it has several
 POSITION_ORDER = (GGA, GNS, RMC, GLL)
@@ -213,7 +217,15 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
         InputError: no fix sentence with a time; a field that is no number or
             outside its range (with its line); dates that contradict each other.
     """
-    counts = {"checksum": 0, "long": 0, "cut": 0, "no time": 0, "again": 0, "not text": 0}
+    counts = {
+        "checksum": 0,
+        "long": 0,
+        "cut": 0,
+        "no time": 0,
+        "again": 0,
+        "no epoch": 0,
+        "not text": 0,
+    }
     first_bad: dict[str, int] = {}
 
     def passed(kind: str, rows: Sequence[int]) -> None:
@@ -240,13 +252,14 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
     row_of = rows[kept]
     fields = _Fields(bodies)
     gll = kinds == GLL
+    vtg = kinds == VTG  # no time: it joins an epoch by its place in the log (_vtg_epochs)
     time = fields.column(1)
     if gll.any():
         time = np.where(gll, fields.column(TIME_FIELD[GLL]), time)
     enough = fields.count >= FIELDS_NEEDED[kinds]
     passed("cut", row_of[~enough])  # a line cut short
-    passed("no time", row_of[enough & (time == b"")])
-    use = np.flatnonzero(enough & (time != b""))
+    passed("no time", row_of[enough & ~vtg & (time == b"")])
+    use = np.flatnonzero(enough & ~vtg & (time != b""))
     if not np.isin(kinds[use], FIX_KINDS).any():  # no fix sentence (ZDA alone dates none)
         raise InputError(
             [
@@ -273,6 +286,7 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
         counts,
         first_bad,
         passed,
+        np.flatnonzero(enough & vtg),
     )
 
 
@@ -413,6 +427,7 @@ def _passed_over(counts: dict[str, int], first: dict[str, int]) -> str:
         "cut": "cut short",
         "no time": "without a UTC time",
         "again": "of an epoch already given",
+        "no epoch": "(VTG) whose epoch the log does not hold (at its start or end)",
         "not text": "lines that are no sentence",
     }
     parts = [
@@ -495,10 +510,12 @@ def _fixes(
     counts: dict[str, int],
     first: dict[str, int],
     passed,
+    vtg: np.ndarray,
 ) -> FixLog:
     """The sentences ``use`` (their UTC time cells ``times``) gathered into epochs by UTC
     time, their fields converted column by column: one fix an epoch; a ZDA dates the
-    epoch of its time."""
+    epoch of its time; a VTG (``vtg``) gives the speed and course of the epoch it is
+    written with (:func:`_vtg_epochs`) where that epoch has no RMC."""
     problems: list[Problem] = []
     tod_s = _times_of_day(times, rows[use], file, problems)
     timed = np.isfinite(tod_s)  # a time that is no time: refused below, with the rest
@@ -589,12 +606,38 @@ def _fixes(
         dated.append(_Dates("RMC", r_at[has], dates[has], DDMMYY, r_rows[has]))
     if zda_sent.size:
         dated.append(_zda_dates(fields, zda_sent, zda_key, key[first_at[order]], rows))
+    vtg_speed, vtg_course = _vtg_velocity(fields, vtg, rows[vtg], file, problems)
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     lat[~valid] = np.nan
     lon[~valid] = np.nan
     tod, said = unwrap_clock(tod, "epoch")
     notes = [f"{file}: {s}" for s in said] + ([f"{file}: {leap_said}"] if leap_said else [])
+    by_vtg = np.zeros(n, bool)  # speed and course from a VTG: an epoch without an RMC
+    if vtg.size:
+        # each timed sentence's epoch, in the log's order: a ZDA's is that of its time
+        zda_epoch = _epochs_of_keys(zda_key, key[first_at[order]])
+        timed = np.concatenate([use, zda_sent[zda_epoch >= 0]])
+        timed_epoch = np.concatenate([epoch_of, zda_epoch[zda_epoch >= 0]])
+        sort = np.argsort(timed, kind="stable")
+        v_epoch, v_said = _vtg_epochs(
+            vtg,
+            timed[sort],
+            timed_epoch[sort],
+            _Track(lat, lon, tod),
+            vtg_speed,
+            vtg_course,
+        )
+        notes += [f"{file}: {v_said}"] if v_said else []
+        passed("no epoch", rows[vtg[v_epoch < 0]])
+        at = np.flatnonzero(v_epoch >= 0)
+        epochs, once = np.unique(v_epoch[at], return_index=True)
+        passed("again", rows[vtg[np.setdiff1d(at, at[once])]])
+        fill = ~np.isin(epochs, r_at)
+        epochs, one = epochs[fill], at[once][fill]
+        by_vtg[epochs] = True
+        speed[epochs] = np.where(valid[epochs], vtg_speed[one], np.nan)
+        course[epochs] = np.where(valid[epochs], vtg_course[one], np.nan)
     first_day, dated_by = _first_day(dated, tod, file)
     channels = {
         "lat": lat,
@@ -607,19 +650,25 @@ def _fixes(
     given_by = [KINDS[k].decode() for k in POSITION_ORDER if of[k][0].size]
     counted = [k for k in (GGA, GNS) if of[k][0].size] or [GGA]
     sats_by = KINDS[counted[0]].decode()
+    velocity_by = (
+        ("RMC {} (VTG's where an epoch has no RMC)" if r_at.size else "VTG {}")
+        if by_vtg.any()
+        else "RMC {}"
+    )
     sources = {
         "lat": f"{given_by[0]} latitude",
         "lon": f"{given_by[0]} longitude",
         "n_sats": f"{sats_by} satellites",
         "height": f"{sats_by} altitude",
-        "speed_gnss": "RMC speed",
-        "heading": "RMC course",
+        "speed_gnss": velocity_by.format("speed"),
+        "heading": velocity_by.format("course"),
     }
     given = {k: v for k, v in channels.items() if np.isfinite(v).any() or k in ("lat", "lon")}
     stamps = [stamp(i) for i in lead.tolist()]  # each epoch's first sentence's
     notes.append(
         f"{file}: an NMEA log: {n} epochs ("
         + ", ".join(f"{of[k][0].size} {KINDS[k].decode()}" for k in of if of[k][0].size)
+        + (f", {vtg.size} VTG" if vtg.size else "")
         + f" sentences), {int(np.isfinite(lat).sum())} with a fix"
         + _zda_said(dated, zda_sent.size)
         + _passed_over(counts, first).replace(" (", ", passed over: (", 1)
@@ -640,6 +689,135 @@ def _fixes(
 
 
 @dataclass(frozen=True)
+class _Track:
+    """The epochs' positions (degrees, NaN without a fix) and UTC times of day."""
+
+    lat: np.ndarray
+    lon: np.ndarray
+    tod: np.ndarray
+
+
+def _vtg_velocity(
+    fields: _Fields, sent: np.ndarray, rows: np.ndarray, file: str, problems: list[Problem]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The VTG sentences ``sent`` as speed over ground (m/s) and course (degrees true).
+
+    VTG (NMEA 0183 v4.10): course true, ``T``; course magnetic, ``M``; speed in knots,
+    ``N``; speed in km/h, ``K``; from v2.3 a mode letter. The speed is the knots' where
+    they are given, else the km/h's; a value whose letter is not its unit's is none (as
+    GGA's altitude in another unit). A mode ``E``, ``N``, ``M`` or ``S`` is no fix: no speed
+    and no course, as RMC's.
+    """
+    if not sent.size:
+        return np.zeros(0), np.zeros(0)
+
+    def letter(j: int, want: bytes) -> np.ndarray:
+        return np.char.upper(fields.column(j, sent)) == want
+
+    cog = _numbers(fields.column(1, sent), rows, "VTG course", file, problems)
+    knots = _numbers(fields.column(5, sent), rows, "VTG speed (knots)", file, problems)
+    kmh = _numbers(fields.column(7, sent), rows, "VTG speed (km/h)", file, problems)
+    knots[~letter(6, b"N")] = np.nan
+    kmh[~letter(8, b"K")] = np.nan
+    speed = np.where(np.isfinite(knots), knots * KNOT_M_S, kmh / 3.6)
+    course = np.where(letter(2, b"T"), cog, np.nan)
+    modes = np.char.upper(fields.column(9, sent))
+    fix = (modes == b"") | np.isin(modes, RMC_FIXES)
+    return np.where(fix, speed, np.nan), np.where(fix, course, np.nan)
+
+
+def _epochs_of_keys(keys: np.ndarray, epoch_keys: np.ndarray) -> np.ndarray:
+    """The epoch (an index into ``epoch_keys``) of each key; -1 where no epoch has it."""
+    order = np.argsort(epoch_keys)
+    at = np.minimum(np.searchsorted(epoch_keys[order], keys), max(order.size - 1, 0))
+    hit = epoch_keys[order][at] == keys if order.size else np.zeros(keys.size, bool)
+    return np.where(hit, order[at] if order.size else -1, -1)
+
+
+# the fixes' velocity at an epoch: from the epochs either side, at most this far apart
+VELOCITY_SPAN_S = 5.0
+
+
+def _vtg_epochs(
+    vtg: np.ndarray,
+    timed: np.ndarray,
+    timed_epoch: np.ndarray,
+    track: _Track,
+    speed: np.ndarray,
+    course: np.ndarray,
+) -> tuple[np.ndarray, str]:
+    """The epoch each VTG sentence is written with (-1: one the log does not hold), and
+    a note where the log's order had to tell.
+
+    A VTG carries no time: it belongs to the epoch whose sentences the receiver wrote it
+    among. Between two sentences of one epoch (a GGA, VTG, ZDA burst) it is that epoch's.
+    Between the last sentence of one epoch and the first of the next (a GGA and VTG
+    receiver's; a u-blox's with RMC off begins each epoch with VTG), the order alone
+    cannot say which: a receiver writes its epoch's sentences in a fixed order, so every
+    such VTG of the log is taken the same way, the one its velocity fits. Its speed and
+    course are compared with the fixes' velocity at the epoch before and at the epoch
+    after (the central difference of the positions either side), the sum of squared
+    differences over the log; the smaller wins, the epoch before where they are equal or
+    cannot be compared (a car standing still or driving straight at one speed: there
+    the two are alike).
+
+    Args:
+        vtg: the VTG sentences (indices into the log's sentences, in its order).
+        timed: the sentences with an epoch, in the log's order.
+        timed_epoch: each one's epoch.
+        track: the epochs' positions and times.
+        speed: each VTG's speed, m/s (NaN: none).
+        course: each VTG's course, degrees (NaN: none).
+    """
+    i = np.searchsorted(timed, vtg)
+    last = max(timed.size - 1, 0)
+    before = np.where(i > 0, timed_epoch[np.maximum(i - 1, 0)], -1)
+    after = np.where(i < timed.size, timed_epoch[np.minimum(i, last)], -1)
+    edge = before != after
+    if not edge.any():
+        return before, ""
+    heading = np.radians(course)
+    v_east, v_north = speed * np.sin(heading), speed * np.cos(heading)
+    both = edge & (before >= 0) & (after >= 0)
+    misfit = [_misfit(track, e[both], v_east[both], v_north[both]) for e in (before, after)]
+    compared = np.isfinite(misfit[0]) & np.isfinite(misfit[1])
+    sums = [float(m[compared].sum()) for m in misfit]
+    later = bool(compared.any()) and sums[1] < sums[0]
+    chosen = np.where(edge, after if later else before, before)
+    n = int(compared.sum())
+    said = (
+        f"{int(edge.sum())} of its {vtg.size} VTG sentences (no time of their own) stand "
+        f"between one epoch's sentences and the next's; each is taken as the epoch "
+        f"{'after' if later else 'before'} it"
+    )
+    if n:
+        rms = [math.sqrt(x / n) for x in sums]
+        first, other = (rms[1], rms[0]) if later else (rms[0], rms[1])
+        said += (
+            f", whose fixes' velocity its speed and course fit ({first:.2f} m/s RMS, "
+            f"{other:.2f} m/s the other way, over {n})"
+        )
+    else:
+        said += " (no epoch's velocity from its fixes to compare its speed and course with)"
+    return chosen, said
+
+
+def _misfit(track: _Track, epoch: np.ndarray, east: np.ndarray, north: np.ndarray) -> np.ndarray:
+    """The squared difference, (m/s)^2, between each velocity (east, north) and the fixes'
+    at its epoch: the positions of the epochs either side over their time apart; NaN
+    where there is none."""
+    n = track.lat.size
+    ok = (epoch >= 1) & (epoch < n - 1)
+    a, b = np.where(ok, epoch - 1, 0), np.where(ok, epoch + 1, 0)
+    dt = track.tod[b] - track.tod[a]
+    ok &= (dt > 0) & (dt <= VELOCITY_SPAN_S)
+    de, dn = local_step_en_m(track.lat[a], track.lon[a], track.lat[b], track.lon[b])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = (de / dt - east) ** 2 + (dn / dt - north) ** 2
+    return np.where(ok, out, np.nan)
+
+
+@dataclass(frozen=True)
 class _Dates:
     """The dates one kind of sentence gives its epochs (:func:`_first_day`)."""
 
@@ -657,11 +835,10 @@ def _zda_dates(
     the same UTC time (``epoch_keys``); a ZDA at a time no fix has, or without its date,
     dates none."""
     day, month, year = (fields.column(i, sent) for i in (2, 3, 4))
-    order = np.argsort(epoch_keys)
-    at = np.minimum(np.searchsorted(epoch_keys[order], keys), max(order.size - 1, 0))
-    hit = (epoch_keys[order][at] == keys) & (day != b"") & (month != b"") & (year != b"")
+    epoch = _epochs_of_keys(keys, epoch_keys)
+    hit = (epoch >= 0) & (day != b"") & (month != b"") & (year != b"")
     cells = np.char.add(np.char.add(np.char.add(np.char.add(day, b","), month), b","), year)
-    return _Dates("ZDA", order[at[hit]], cells[hit], ZDA_DATE, rows[sent[hit]])
+    return _Dates("ZDA", epoch[hit], cells[hit], ZDA_DATE, rows[sent[hit]])
 
 
 def _zda_said(dated: Sequence[_Dates], n: int) -> str:
