@@ -38,6 +38,8 @@
 - :mod:`~rwhonet.data.vbo`: Racelogic VBOX files read as the CSV they stand for.
 - :mod:`~rwhonet.data.wheelunits`: the units a wheel speed is logged in, angular or the
   wheel's circumferential speed (divided by the car's nominal tyre radius).
+- :mod:`~rwhonet.data.wheelpulses`: a wheel's pulse counter (the ABS unit's count of the
+  tone wheel's teeth) as its angular speed, once its samples are in time order.
 - :mod:`~rwhonet.data.glitches`: wheel speeds that change faster than any tyre can.
 - :mod:`~rwhonet.data.fileparts`: a stream a logger split across files in time (rotated
   CSVs, NMEA, UBX and CAN logs), joined, each sample keeping its file and row.

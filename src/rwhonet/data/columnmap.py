@@ -53,6 +53,7 @@ from rwhonet.data.texttime import (
     text_time_note,
 )
 from rwhonet.data.timebase import unwrap_clock
+from rwhonet.data.wheelpulses import is_pulse_unit
 from rwhonet.data.wheelunits import ANGULAR_WHEEL_UNITS, LINEAR_WHEEL_UNITS, wheel_factor
 from rwhonet.errors import InputError, Problem
 
@@ -113,6 +114,12 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
         f"{where}.{k}.unit: expected one of {list(KEYS[k][1])}"
         + (" or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)" if k == "t" else "")
         + f", got {spec.unit!r}"
+        + (
+            " (a pulse counter is differenced sample to sample, as the bus carried it: give "
+            "the drive as streams, through a signal map)"
+            if is_pulse_unit(spec.unit)
+            else ""
+        )
         for k, spec in column_map.items()
         if k in KEYS and spec.unit not in KEYS[k][1] and not (k == "t" and is_pattern(spec.unit))
     ]

@@ -37,9 +37,10 @@ from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import map_unit_name, unit_name
 from rwhonet.data.keptframes import FrameFilter, TooManyFrames, frame_keys, j1939_pgn, key_id
 from rwhonet.data.mdfframes import frame_groups, mdf_frames
-from rwhonet.data.signalmap import Group, build_streams, check_signal_map, to_si
+from rwhonet.data.signalmap import Group, build_streams, check_signal_map, pulse_units, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import LocalTimeUnclear, local_to_unix, unclear_start
+from rwhonet.data.wheelpulses import is_pulse_unit
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the MDF4 file's master time (s since the measurement start)"
@@ -98,7 +99,7 @@ def read_mdf4(
         log = can_log_groups(
             Path(path), signal_map, radius_m, name, file, dbc, False, local_zone, max_mb
         )
-        streams = build_streams(log.groups, log.clock)
+        streams = build_streams(log.groups, log.clock, pulse_units(signal_map))
         return dataclasses.replace(
             streams,
             notes=(*streams.notes, *log.notes),
@@ -108,7 +109,7 @@ def read_mdf4(
         log = can_log_groups(
             Path(path), signal_map, radius_m, name, file, dbc, False, None, max_mb, False
         )
-        streams = build_streams(log.groups, log.clock)
+        streams = build_streams(log.groups, log.clock, pulse_units(signal_map))
         return dataclasses.replace(
             streams,
             notes=(*streams.notes, *log.notes),
@@ -854,7 +855,9 @@ def _read(
     mdf, signal_map: Mapping[str, ColumnSpec], radius_m: float | None, name: str, file: str
 ) -> DriveStreams:
     """The mapped signals of ``mdf``, one stream per channel group."""
-    return build_streams(_groups(mdf, signal_map, radius_m, name, file), CLOCK)
+    return build_streams(
+        _groups(mdf, signal_map, radius_m, name, file), CLOCK, pulse_units(signal_map)
+    )
 
 
 def _groups(
@@ -945,7 +948,7 @@ def _groups(
             )
             continue
         declared = unit_name(signal.unit or None)
-        mapped = map_unit_name(spec.unit)
+        mapped = "count" if is_pulse_unit(spec.unit) else map_unit_name(spec.unit)
         if declared is not None and mapped is not None and declared != mapped:
             problems.append(
                 Problem(

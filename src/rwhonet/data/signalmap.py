@@ -8,7 +8,10 @@ column) and its unit. Keys and units:
 ============================================  =================================================
 ``omega_fl``, ``omega_fr``, ``omega_rl``,     ``rad/s``, ``rpm``, ``deg/s``; or the wheel's
 ``omega_rr`` (required)                       circumferential speed ``m/s``, ``km/h``, ``mph``
-                                              (divided by the car's nominal tyre radius)
+                                              (divided by the car's nominal tyre radius);
+                                              or the wheel's pulse counter, ``pulses/N``
+                                              or ``pulses/N mod M``
+                                              (:mod:`rwhonet.data.wheelpulses`)
 ``lat``, ``lon`` (required)                   ``deg``, ``min`` (minutes of arc), ``ddmm``
                                               (NMEA's ddmm.mmmm); ``lon`` also ``deg W``,
                                               ``min W``, ``ddmm W`` (positive west)
@@ -37,6 +40,7 @@ the wheel, GNSS and other streams :func:`rwhonet.data.streams.resample` takes.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from math import nan
@@ -50,6 +54,13 @@ from rwhonet.data.packed import HHMMSS, VBOX_SATS, is_packed, unpack_or_refuse
 from rwhonet.data.sampleorder import time_order
 from rwhonet.data.streams import DriveStreams, Stream, stream_problems, where_named
 from rwhonet.data.texttime import CLOCK, ISO8601, is_pattern, pattern_problem
+from rwhonet.data.wheelpulses import (
+    PULSE_UNIT_FORM,
+    PulseUnit,
+    is_pulse_unit,
+    pulse_unit,
+    pulses_to_rad_s,
+)
 from rwhonet.data.wheelunits import WHEEL_UNITS, wheel_speed_rad_s
 from rwhonet.errors import InputError, Problem
 
@@ -119,9 +130,13 @@ def check_signal_map(
     issues += [
         f"{where}.{k}.unit: expected one of {list(units_of(k))}"
         + (" or a strptime pattern (%d.%m.%Y %H:%M:%S.%f)" if k == "t" else "")
+        + (f" or {PULSE_UNIT_FORM}" if k in WHEEL_KEYS else "")
         + f", got {spec.unit!r}"
         for k, spec in signal_map.items()
-        if k in KEYS and spec.unit not in units_of(k) and not (k == "t" and is_pattern(spec.unit))
+        if k in KEYS
+        and spec.unit not in units_of(k)
+        and not (k == "t" and is_pattern(spec.unit))
+        and not (k in WHEEL_KEYS and is_pulse_unit(spec.unit))
     ]
     issues += [
         f"{where}.t.unit: expected {problem}"
@@ -154,7 +169,8 @@ def to_si(
             (default: ``where`` and the key).
 
     Returns:
-        float64 values.
+        float64 values (a wheel's pulse counter: its counts, which :func:`build_streams`
+        makes speeds once its samples are in time order).
 
     Raises:
         InputError: a wheel speed's unit cannot be converted; a packed angle or time
@@ -162,6 +178,8 @@ def to_si(
             (the sample's number, for an MDF4 signal).
     """
     factors = KEYS[key][1]
+    if factors is None and is_pulse_unit(unit):  # counts: a speed once in time order
+        return np.asarray(values, dtype=np.float64)
     if factors is None:
         return wheel_speed_rad_s(values, unit, radius_m, where)
     if is_packed(unit):
@@ -216,7 +234,31 @@ def in_time_order(g: Group) -> tuple[Group, tuple[str, ...]]:
     return Group(g.name, g.file, t, channels, g.sources, rows, g.parts, part), order.notes
 
 
-def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
+def pulse_units(signal_map: Mapping[str, ColumnSpec]) -> dict[str, PulseUnit]:
+    """The wheels a map gives as pulse counters, and their units."""
+    return {
+        k: unit
+        for k, spec in signal_map.items()
+        if k in WHEEL_KEYS and (unit := pulse_unit(spec.unit)) is not None
+    }
+
+
+def _counted(g: Group, pulses: Mapping[str, PulseUnit]) -> tuple[Group, list[str]]:
+    """A group (in time order) with its wheels' pulse counts made speeds, and the notes."""
+    counted = [k for k in g.channels if k in pulses]
+    if not counted:
+        return g, []
+    channels, notes = dict(g.channels), []
+    for k in counted:
+        got = pulses_to_rad_s(g.t_s, g.channels[k], pulses[k], g.where, g.sources[k], g.rows)
+        channels[k] = got.rad_s
+        notes.append(f"{g.where}: {got.said(g.sources[k], pulses[k])}")
+    return dataclasses.replace(g, channels=channels), notes
+
+
+def build_streams(
+    groups: Sequence[Group], clock: str, pulses: Mapping[str, PulseUnit] | None = None
+) -> DriveStreams:
     """Sort groups of channels into the wheel, GNSS and other streams of a drive.
 
     A group holding wheel speeds is a wheel stream (with any other rates it holds); the
@@ -228,12 +270,16 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
     Args:
         groups: the channel groups (each key in one group; ``t`` not among the channels).
         clock: what the times are.
+        pulses: the wheels given as pulse counters (:func:`pulse_units`): their counts
+            are made speeds once the samples are in time order
+            (:func:`rwhonet.data.wheelpulses.pulses_to_rad_s`).
 
     Returns:
         The drive's streams.
 
     Raises:
-        InputError: latitude and longitude in different groups with different times.
+        InputError: latitude and longitude in different groups with different times; a
+            pulse count that is no count.
     """
 
     def stream(g: Group, keys: Sequence[str]) -> Stream:
@@ -249,11 +295,14 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
         )
 
     notes: list[str] = []
+    converted: list[str] = []
     ordered = []
     for g in groups:
         g, said = in_time_order(g)
+        g, counted = _counted(g, pulses or {})
         ordered.append(g)
         notes += said
+        converted += counted
     groups = ordered
     wheels, extra = [], []
     fix_group = None
@@ -293,7 +342,9 @@ def build_streams(groups: Sequence[Group], clock: str) -> DriveStreams:
         fix_group.parts,
         fix_group.part,
     )
-    return DriveStreams(tuple(wheels), gnss, tuple(extra), clock, changed=tuple(notes))
+    return DriveStreams(
+        tuple(wheels), gnss, tuple(extra), clock, notes=tuple(converted), changed=tuple(notes)
+    )
 
 
 def _at_times(key: str, t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:

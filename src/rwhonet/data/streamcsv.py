@@ -72,7 +72,14 @@ from rwhonet.data.nmea import FixLog, is_nmea_name, on_clock, read_nmea
 from rwhonet.data.novatel import is_novatel_log, is_novatel_name, read_novatel
 from rwhonet.data.packed import signed_coordinates
 from rwhonet.data.sbf import is_sbf_name, read_sbf
-from rwhonet.data.signalmap import FIX_KEYS, Group, build_streams, check_signal_map, to_si
+from rwhonet.data.signalmap import (
+    FIX_KEYS,
+    Group,
+    build_streams,
+    check_signal_map,
+    pulse_units,
+    to_si,
+)
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import (
     check_dates,
@@ -399,7 +406,7 @@ def read_stream_csvs(
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
     groups = _next_day_starts(join_parts(groups, notes, changed), notes)
-    streams = build_streams(groups, CLOCK)
+    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
     return dataclasses.replace(
         streams, notes=(*streams.notes, *notes), changed=(*changed, *streams.changed)
     )

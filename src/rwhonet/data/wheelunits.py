@@ -8,7 +8,8 @@ tyre radius (``data.vehicles.<car>.nominal_radius_m``, predict's ``--nominal-rad
 which undoes that scaling where the two radii agree; where they do not, the difference is
 a wheel scale validate's radius check sees and the models learn, as a worn tyre's.
 Every reader that takes a unit from a map (column maps, signal maps, comma2k19) converts
-through :func:`wheel_factor`.
+through :func:`wheel_factor`. A signal map may also give a wheel as its pulse counter, the
+count itself (:mod:`rwhonet.data.wheelpulses`).
 """
 
 from __future__ import annotations
