@@ -18,17 +18,23 @@ ESP_VL_Radimpulszaehler, unit: pulses/96 mod 1024}``. Its samples, once in time 
 (:func:`pulses_to_rad_s`):
 
 - each step's pulses are the difference of two counts, modulo ``M``, and its angle
-  ``2 pi pulses / N`` over the step's time;
-- a sample's speed is the central difference, the two steps either side together
-  (``(angle before + angle after) / (their time)``: no half-step lag, and the speeds'
-  trapezoid integral over the drive is the counted angle within a step's at each end),
-  one step where the other has none;
+  ``2 pi pulses / N``: the wheel's angle, counted, at each sample;
+- a sample's speed is the angle it turned through in :data:`SPAN_S` (0.2 s) centred on
+  it, the angle linear between samples, over that time (no lag; near a stretch's ends,
+  the part of the span inside it). A pulse is a coarse step: 96 a turn on a 0.36 m tyre
+  are 2.4 cm, which over one 12 ms step of an 83 Hz message would be 2 m/s, and a speed
+  that jumps so from sample to sample is what the glitch check
+  (:mod:`rwhonet.data.glitches`, 10 g) cuts as no tyre's. Over 0.2 s a pulse is 0.12 m/s,
+  under a tenth of that bound even at 100 Hz, and the wheel's distance over any second is
+  still the counted angle within a pulse at each end; the grid's 0.1 s rows average
+  the samples anyway;
 - a step is **none** where a count is missing, where it is too long to tell the
   counter's wraps apart (the wheel could have turned ``M / N`` turns in it: at most
   :data:`MAX_WHEEL_RAD_S`, a car's 300 km/h on a 0.25 m tyre; 0.20 s for 96 pulses a
   turn and a 10-bit counter: 10 frames of a 50 Hz message lost), or, for a counter
-  that does not wrap, where its count goes back (the unit restarted). A sample with no
-  step either side has no speed, a hole the wheel stream's rules then take as any other.
+  that does not wrap, where its count goes back (the unit restarted). Such a step ends
+  a stretch: no span reaches across it. A sample with no step either side has no speed,
+  a hole the wheel stream's rules then take as any other.
 
 A count that is no whole number from 0 to ``M - 1`` (a map that names another signal, a
 DBC whose scale is not the counter's) is refused with its row. The counter gives no
@@ -50,6 +56,8 @@ from rwhonet.errors import InputError, Problem
 # a car's top speed over a small tyre's rolling radius: 300 km/h on 0.25 m, rad/s; the
 # most a wheel can turn in a step, which a wrapping counter's steps must stay below
 MAX_WHEEL_RAD_S = (300.0 / 3.6) / 0.25
+# the time a sample's speed is the angle over, centred on it: two 0.1 s grid rows
+SPAN_S = 0.2
 PULSE_UNIT_FORM = "pulses/N or pulses/N mod M (a pulse counter: N a wheel turn, wrapping at M)"
 _PULSES = re.compile(r"^\s*pulses\s*/\s*(\d+)(?:\s+mod\s+(\d+))?\s*$", re.IGNORECASE)
 MAX_LISTED = 20  # rows of bad counts a problem lists
@@ -103,8 +111,8 @@ class Pulses:
         """The note on how the counter became a speed."""
         gone = [f"{n} {why}" for why, n in self.no_step.items() if n]
         return (
-            f"{channel}: a pulse counter ({unit.said()}) as wheel speed, the central "
-            f"difference of its counts over {self.steps} steps"
+            f"{channel}: a pulse counter ({unit.said()}) as wheel speed, the angle its "
+            f"counts turned over {SPAN_S:g} s about each sample ({self.steps} steps)"
             + (f"; steps without a speed: {', '.join(gone)}" if gone else "")
         )
 
@@ -171,13 +179,7 @@ def pulses_to_rad_s(
         with np.errstate(invalid="ignore"):
             back = ~missing & (step < 0)
     ok = ~missing & ~long & ~back & (dt > 0)
-    angle = np.where(ok, 2.0 * math.pi * step / unit.per_turn, 0.0)
-    span = np.where(ok, dt, 0.0)
-    # each sample: the steps either side that have a speed, together
-    a = np.concatenate([[0.0], angle]) + np.concatenate([angle, [0.0]])
-    s = np.concatenate([[0.0], span]) + np.concatenate([span, [0.0]])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rad_s = np.where(s > 0, a / s, np.nan)
+    rad_s = _over_span(t, np.where(ok, 2.0 * math.pi * step / unit.per_turn, 0.0), ok)
     no_step = {
         "missing": int(missing.sum()),
         "long": int(long.sum()),
@@ -189,3 +191,18 @@ def pulses_to_rad_s(
         "back": "went back",
     }
     return Pulses(rad_s, int(dt.size), {names[k]: v for k, v in no_step.items()})
+
+
+def _over_span(t: np.ndarray, angle: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """Each sample's speed: the angle turned in :data:`SPAN_S` centred on it over that
+    time, within its stretch of steps that have one (``ok``; ``angle`` each step's); NaN
+    for a sample of no such step."""
+    stretch = np.concatenate([[0], np.cumsum(~ok)])  # a step without a speed ends one
+    theta = np.concatenate([[0.0], np.cumsum(angle)])  # flat across such a step
+    first = np.searchsorted(stretch, stretch, side="left")
+    last = np.searchsorted(stretch, stretch, side="right") - 1
+    lo = np.maximum(t - 0.5 * SPAN_S, t[first])
+    hi = np.minimum(t + 0.5 * SPAN_S, t[last])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rad_s = (np.interp(hi, t, theta) - np.interp(lo, t, theta)) / (hi - lo)
+    return np.where(last > first, rad_s, np.nan)
