@@ -6,7 +6,9 @@ enough for timing), samples it as a logger's streams (CAN wheel speeds at
 readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver's
 NMEA log, a u-blox receiver's UBX log, a NovAtel receiver's ASCII logs (BESTPOSA an
 epoch, TIMEA a second), a Septentrio receiver's SBF log (pysbf2's: PVTGeodetic and DOP an
-epoch, ReceiverTime a second) or a GPX track (gpxpy's, GPX 1.0), one MDF4
+epoch, ReceiverTime a second), a phone's GnssLogger log (its GPS and fused providers'
+Fix records an epoch among Raw, Status and gyro records) or a GPX track (gpxpy's, GPX
+1.0), one MDF4
 file, a comma2k19 folder and a comma2k19 route of one-minute segment folders, raw CAN
 frames as a candump log, a Vector BLF, a Vector ASC, absolute and relative stamps, and a PEAK
 TRC, with their DBC) and times,
@@ -66,6 +68,7 @@ from support.canlog import (  # noqa: E402
     write_bus_log,
     write_candump,
 )
+from support.gnsslogger import gnsslogger_lines, write_gnsslogger  # noqa: E402
 from support.gpx import track, write_gpx  # noqa: E402
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
 from support.novatel import novatel_lines, write_novatel  # noqa: E402
@@ -147,6 +150,12 @@ def main() -> None:
         # ... and as a Septentrio receiver's SBF log (pysbf2 writes it: PVTGeodetic and DOP
         # an epoch, ReceiverTime a second), placed so too
         sbf = write_sbf(root / "csv" / "log.sbf", sbf_blocks(tables.gnss, 1_552_262_400.0 + t_fix))
+        # ... and as a phone's GnssLogger log (a GPS and a fused Fix record an epoch, two
+        # Raw, a Status and an UncalGyro record), placed so too
+        phone = write_gnsslogger(
+            root / "csv" / "gnss_log.txt", gnsslogger_lines(tables.gnss, 1_552_262_400.0 + t_fix)
+        )
+        no_sats = {k: v for k, v in signal_map().items() if k != "n_sats"}  # a phone gives none
         # ... and as a phone logger's GPX track (gpxpy writes it), placed so too
         gpx = write_gpx(root / "csv" / "track.gpx", track(tables.gnss, 1_552_262_400.0 + t_fix))
         # the streams as raw CAN frames (wheels, fix, satellites) on a Unix clock: a
@@ -181,6 +190,7 @@ def main() -> None:
                 [csvs["wheels"], novatel], signal_map(), radius
             ),
             "CSV + SBF log": lambda: read_stream_csvs([csvs["wheels"], sbf], signal_map(), radius),
+            "CSV + GnssLogger": lambda: read_stream_csvs([csvs["wheels"], phone], no_sats, radius),
             "CSV + GPX track": lambda: read_stream_csvs(
                 [csvs["wheels"], gpx], signal_map(), radius
             ),

@@ -65,6 +65,7 @@ from rwhonet.data.csvio import (
     without_rows,
 )
 from rwhonet.data.fileparts import join_parts
+from rwhonet.data.gnsslogger import is_gnsslogger_log, read_gnsslogger
 from rwhonet.data.gpx import is_gpx_name, read_gpx
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_name
@@ -571,6 +572,7 @@ LOG_KINDS = {
     "NovAtel": "its GNSS solution to 1e-11 degrees",
     "SBF": "its positions in radians as 8-byte floats",
     "NMEA": "the receiver's own sentences",
+    "GnssLogger": "a phone's fixes as Android gives them",
     "GPX": "a track written from them",
 }
 LOG_NAMES = {
@@ -585,6 +587,7 @@ LOG_READERS = {
     "NovAtel": read_novatel,
     "SBF": read_sbf,
     "NMEA": read_nmea,
+    "GnssLogger": read_gnsslogger,
     "GPX": read_gpx,
 }
 
@@ -592,10 +595,14 @@ LOG_READERS = {
 def log_kind(name: str, path: Path | None = None) -> str | None:
     """A receiver's log's kind by its name (``gps.ubx``, ``gps.nmea.gz``, ``track.gpx``,
     ``drive.gps``), or, given its ``path``, a ``*.asc`` or ``*.log`` that holds a NovAtel
-    receiver's logs (:func:`rwhonet.data.novatel.is_novatel_log`); None: no receiver log."""
+    receiver's logs (:func:`rwhonet.data.novatel.is_novatel_log`) or a ``*.txt`` that is
+    a phone's GnssLogger log (:func:`rwhonet.data.gnsslogger.is_gnsslogger_log`); None:
+    no receiver log."""
     kind = next((k for k, named in LOG_NAMES.items() if named(name)), None)
     if kind is None and path is not None and is_novatel_log(path, name):
         return "NovAtel"
+    if kind is None and path is not None and is_gnsslogger_log(path, name):
+        return "GnssLogger"
     return kind
 
 
@@ -608,9 +615,9 @@ def _receiver_groups(
     notes: list[str],
     changed: list[str],
 ) -> list[Group]:
-    """The receiver's NMEA, UBX, NovAtel or GPX logs as the drive's GNSS stream, each on the stream
-    files' clock (those of the first kind of :data:`LOG_KINDS` alone where there are
-    several, the others left out, said).
+    """The receiver's UBX, NovAtel, SBF, NMEA, GnssLogger or GPX logs as the drive's GNSS
+    stream, each on the stream files' clock (those of the first kind of :data:`LOG_KINDS`
+    alone where there are several, the others left out, said).
 
     They give the fixes and every GNSS key no stream file's column gives; a key the map
     names that a log does not give is refused, naming the log. Several logs are one

@@ -1,0 +1,299 @@
+"""Google's GnssLogger app's log (Android): a phone's fixes, from its Fix or NMEA records.
+
+A phone in the car is many fleets' GNSS receiver, and GnssLogger (Google's
+gps-measurement-tools; the Smartphone Decimeter Challenge's ``*_GnssLog.txt``) is how
+its fixes are logged: one text file of records, a kind a line, each a comma-separated row
+after its kind: ``Raw`` (the chip's measurements), ``Status``, ``Fix`` (a location
+Android gives), ``NMEA`` (a sentence the chip writes), the phone's sensors
+(``UncalGyro``, ``OrientationDeg`` ...). A header of ``#`` lines names each kind's
+columns: ``# Fix,Provider,LatitudeDegrees,LongitudeDegrees,AltitudeMeters,SpeedMps,
+AccuracyMeters,BearingDegrees,UnixTimeMillis,...`` (GnssLogger 1.x: ``# Fix,Provider,
+Latitude,Longitude,Altitude,Speed,Accuracy,(UTC)TimeInMs``).
+
+Such a file in a stream folder (a ``*.txt``, kept compressed too, told by its first
+:data:`SNIFF_BYTES`: a ``# Fix,Provider`` header line, or a ``Fix`` or ``NMEA`` record) is
+the drive's GNSS stream (:func:`read_gnsslogger`), placed by its UTC times:
+
+- **its Fix records of the GPS provider**: the chip's own fix (Android's
+  ``LocationManager.GPS_PROVIDER``), by the header's columns: latitude and longitude in
+  degrees, speed over ground (m/s, ``speed_gnss``) and bearing (degrees, ``heading``), at
+  ``UnixTimeMillis``, the fix's UTC time (Android's ``Location.getTime()``). A record of
+  another provider (``fused``/``FLP``: Android's blend of GNSS, Wi-Fi, cell towers and
+  the phone's sensors; ``network``/``NLP``) is no receiver's fix, nor is one marked
+  ``MockLocation`` (an app's location, not the chip's): they are passed over and
+  counted. Two records of one time: the first is kept, the other counted. The altitude
+  (above the WGS84 ellipsoid, where NMEA's GGA gives it above mean sea level) and the
+  signal count (signals, two a satellite on L1 and L5, not satellites) are not read.
+- **where it has none** (Location logging turned off), **its NMEA records**: ``NMEA,``
+  before each sentence and ``,UnixTimeMillis`` after its checksum (the phone's clock when
+  the sentence came; on some phones the sentence's own line end splits the record, that
+  time alone on the next line) are taken off, and the sentences read by
+  :func:`rwhonet.data.nmea.read_nmea`, each named by its line in the file.
+
+The other records are passed over, counted by kind in the notes. A file with neither is
+refused, naming what it holds. The phone's gyro (``Gyro``, ``UncalGyro``) is in the
+phone's axes, which the log does not tie to the car's: no yaw rate is read from it.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from rwhonet.data.bytescan import floats_or_nan
+from rwhonet.data.compressed import compression_of, open_decompressed, without_suffix
+from rwhonet.data.nmea import FixLog, read_nmea
+from rwhonet.errors import InputError, Problem
+
+SNIFF_BYTES = 1 << 16  # the header (about 40 lines) and the first records
+_SNIFF = re.compile(rb"(?m)^(#\s*Fix,Provider,|Fix,|NMEA,\$)")
+_HEADER = re.compile(rb"(?m)^#\s*Fix,(.*?)\s*$")
+_SUFFIX = re.compile(rb"(\*[0-9A-Fa-f]{2}),\s*\d+\s*$")  # a sentence's checksum, the time
+GPS_PROVIDERS = ("gps",)  # LocationManager.GPS_PROVIDER, as GnssLogger writes it
+LISTED = 20  # problems listed a column
+# the Fix header's column names (lower case) for each quantity, every GnssLogger version's
+COLUMNS = {
+    "provider": ("provider",),
+    "lat": ("latitudedegrees", "latitude"),
+    "lon": ("longitudedegrees", "longitude"),
+    "speed_gnss": ("speedmps", "speed"),
+    "heading": ("bearingdegrees", "bearing"),
+    "time": ("unixtimemillis", "(utc)timeinms", "utctimemillis"),
+    "mock": ("mocklocation",),
+}
+
+
+def is_gnsslogger_log(path: Path, name: str | None = None) -> bool:
+    """Whether a file is a GnssLogger log: a ``*.txt`` (compressed or not) whose first
+    :data:`SNIFF_BYTES` hold a ``# Fix,Provider`` header line or a Fix or NMEA record. A
+    file that cannot be read is not."""
+    name = name or path.name
+    if Path(without_suffix(name)).suffix.lower() != ".txt":
+        return False
+    try:
+        packing = compression_of(path)
+        opened = open(path, "rb") if packing is None else open_decompressed(path, packing, name)
+        with opened as f:
+            head = f.read(SNIFF_BYTES)
+    except (OSError, InputError, EOFError):
+        return False
+    return _SNIFF.search(head) is not None
+
+
+def read_gnsslogger(path: Path, file: str) -> FixLog:
+    """Read a GnssLogger log's fixes: its Fix records of the GPS provider, else its NMEA
+    records (see the module's docstring).
+
+    Args:
+        path: the log (text; a compressed one already unpacked).
+        file: how messages name it.
+
+    Raises:
+        InputError: neither a GPS Fix record nor an NMEA record (naming the records it
+            holds); Fix records without the header line naming their columns, or a cell
+            that is no number (with its line); what :func:`read_nmea` refuses.
+    """
+    data = path.read_bytes()
+    lines = data.replace(b"\r\n", b"\n").split(b"\n")
+    kinds = Counter(line.split(b",", 1)[0].strip() for line in lines if line and line[:1] != b"#")
+    kinds.pop(b"", None)
+    fixes = [i for i, line in enumerate(lines) if line.startswith(b"Fix,")]
+    header = _HEADER.search(data)
+    if fixes:
+        if header is None:
+            raise InputError([_no_header(file, fixes[0] + 1)])
+        got = _fix_records(lines, fixes, header.group(1), file, kinds)
+        if got is not None:
+            return got
+    if kinds.get(b"NMEA"):
+        return _nmea_records(lines, file, kinds)
+    held = ", ".join(f"{n} {k.decode('latin-1')}" for k, n in kinds.most_common(8)) or "none"
+    raise InputError(
+        [
+            Problem(
+                file,
+                None,
+                None,
+                "GnssLogger's Fix records of the GPS provider, or its NMEA records",
+                f"records: {held}",
+                "turn on Location (Fix) or NMEA logging in GnssLogger's settings, or leave "
+                "the file out of the drive",
+            )
+        ]
+    )
+
+
+def _no_header(file: str, row: int) -> Problem:
+    return Problem(
+        file,
+        row,
+        None,
+        "the header line naming the Fix records' columns (# Fix,Provider,LatitudeDegrees,"
+        "...) before them, as GnssLogger writes it",
+        "Fix records without it",
+        "give the log as GnssLogger wrote it, its # header lines kept",
+    )
+
+
+def _column(names: list[str], key: str) -> int | None:
+    return next((names.index(n) for n in COLUMNS[key] if n in names), None)
+
+
+def _fix_records(
+    lines: list[bytes], at: list[int], header: bytes, file: str, kinds: Counter[bytes]
+) -> FixLog | None:
+    """The Fix records at lines ``at`` (0-based) of the GPS provider as a fix log, by the
+    header's columns; None where none is of that provider (the NMEA records are read)."""
+    names = [x.strip().lower() for x in header.decode("latin-1").split(",")]
+    where = {k: _column(names, k) for k in COLUMNS}
+    lacking = [k for k in ("provider", "lat", "lon", "time") if where[k] is None]
+    if lacking:
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    "# Fix header",
+                    "the Fix records' Provider, latitude, longitude and UnixTimeMillis columns",
+                    f"no column for {', '.join(lacking)} in {header.decode('latin-1')!r}",
+                    "give the log as GnssLogger wrote it",
+                )
+            ]
+        )
+    rows = [line.rstrip(b"\r").split(b",")[1:] for line in (lines[i] for i in at)]
+    provider = [
+        r[where["provider"]].strip().lower() if len(r) > where["provider"] else b"" for r in rows
+    ]
+    gps = np.array([p.decode("latin-1") in GPS_PROVIDERS for p in provider], bool)
+    if not gps.any():
+        return None
+    mock_at = where["mock"]
+    mock = np.array(
+        [
+            mock_at is not None and len(r) > mock_at and r[mock_at].strip() in (b"1", b"true")
+            for r in rows
+        ],
+        bool,
+    )
+    line_no = np.asarray(at, np.int64) + 1
+    problems: list[Problem] = []
+
+    def numbers(key: str, required: bool) -> np.ndarray:
+        """A column's cells of the GPS records as numbers, converted at once (NaN: empty,
+        or another provider's); a problem for each that is none."""
+        j = where[key]
+        if j is None:
+            return np.full(len(rows), np.nan)
+        cells = np.array([r[j].strip() if len(r) > j else b"" for r in rows], dtype=bytes)
+        empty = cells == b""
+        values = floats_or_nan(np.where(empty, b"nan", cells))
+        bad = gps & ~empty & ~np.isfinite(values)
+        for i in np.flatnonzero(bad | (gps & empty & required))[: max(0, LISTED - len(problems))]:
+            found = "empty" if empty[i] else repr(cells[i].decode("latin-1"))
+            problems.append(Problem(file, int(line_no[i]), names[j], "a number", found))
+        return np.where(gps & ~bad, values, np.nan)
+
+    lat, lon = numbers("lat", True), numbers("lon", True)
+    time_ms = numbers("time", True)
+    speed, heading = numbers("speed_gnss", False), numbers("heading", False)
+    with np.errstate(invalid="ignore"):
+        out_of_range = gps & ((np.abs(lat) > 90) | (np.abs(lon) > 180))
+    problems += [
+        Problem(
+            file,
+            int(line_no[i]),
+            "latitude, longitude",
+            "degrees within ±90, ±180",
+            f"{lat[i]}, {lon[i]}",
+        )
+        for i in np.flatnonzero(out_of_range)[:LISTED]
+    ]
+    if problems:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
+    use = gps & ~mock
+    if not use.any():  # every GPS fix an app's: the NMEA records, if any, are the chip's
+        return None
+    _, first = np.unique(time_ms[use], return_index=True)
+    keep = np.flatnonzero(use)[np.sort(first)]
+    again = int(use.sum()) - keep.size
+    utc = time_ms[keep] / 1000.0
+    day_s = float(math.floor(utc[0] / 86400.0) * 86400.0)
+    channels = {"lat": lat[keep], "lon": lon[keep]}
+    sources = {"lat": f"Fix {names[where['lat']]}", "lon": f"Fix {names[where['lon']]}"}
+    for key in ("speed_gnss", "heading"):
+        if (
+            where[key] is not None
+            and np.isfinite(v := (speed if key == "speed_gnss" else heading)[keep]).any()
+        ):
+            channels[key] = v
+            sources[key] = f"Fix {names[where[key]]}"
+    others = Counter(p.decode("latin-1") for p, g in zip(provider, gps, strict=True) if not g)
+    passed = [
+        f"{n} Fix record(s) of the {p or '(empty)'} provider (no receiver's fix)"
+        for p, n in sorted(others.items())
+    ]
+    if mock[gps].any():
+        passed.append(f"{int((mock & gps).sum())} marked MockLocation")
+    if again:
+        passed.append(f"{again} of a time already given")
+    dropped = "; ".join(passed)
+    notes = [
+        f"{file}: a GnssLogger log: {keep.size} Fix records of the GPS provider read"
+        + _records_said(kinds, b"Fix")
+        + (f"; passed over: {dropped}" if dropped else "")
+    ]
+    return FixLog(
+        file,
+        utc - day_s,
+        day_s,
+        None,
+        channels,
+        sources,
+        line_no[keep],
+        notes,
+        dropped,
+        dated_by="Fix UnixTimeMillis",
+        kind="GnssLogger",
+    )
+
+
+def _records_said(kinds: Counter[bytes], read: bytes) -> str:
+    others = [(k, n) for k, n in kinds.most_common() if k != read]
+    if not others:
+        return ""
+    return "; its other records passed over: " + ", ".join(
+        f"{n} {k.decode('latin-1')}" for k, n in others
+    )
+
+
+def _nmea_records(lines: list[bytes], file: str, kinds: Counter[bytes]) -> FixLog:
+    """The log's NMEA records as an NMEA log, a line for each of the file's (the others
+    blank), each sentence without GnssLogger's ``NMEA,`` and its time after the
+    checksum."""
+    out = []
+    for line in lines:
+        if line.startswith(b"NMEA,"):
+            out.append(_SUFFIX.sub(rb"\1", line[5:].rstrip(b"\r")))
+        else:  # another record, a comment, or a record's time on a line of its own
+            out.append(b"")
+    log = read_nmea(b"\n".join(out), file)
+    said = (
+        f"{file}: a GnssLogger log without Fix records of the GPS provider: its NMEA records read"
+    )
+    return FixLog(
+        log.file,
+        log.tod_s,
+        log.day_s,
+        None,
+        log.channels,
+        log.sources,
+        log.rows,
+        [said + _records_said(kinds, b"NMEA"), *log.notes],
+        log.dropped,
+        dated_by=log.dated_by,
+        kind="GnssLogger",
+    )

@@ -1,0 +1,187 @@
+"""A phone's GnssLogger log (``rwhonet.data.gnsslogger``): its Fix records of the GPS
+provider, else its NMEA records, give the labels of the same fixes in gnss.csv."""
+
+from __future__ import annotations
+
+import gzip
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.gnsslogger import is_gnsslogger_log, read_gnsslogger
+from rwhonet.data.streamcsv import log_kind
+from rwhonet.errors import InputError
+from support.gnsslogger import HEADER_V3, fix_v3, gnsslogger_lines, write_gnsslogger
+from support.multirate import fixes_to_the_ms, receiver_folder, receiver_labels
+from support.nmea import gga, nmea_lines, rmc, write_nmea
+
+DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
+
+
+def _no_sats():
+    """The drives' map without the satellite count, which a phone's log does not give."""
+    from rwhonet.sim.streams import signal_map
+
+    return {k: v for k, v in signal_map().items() if k != "n_sats"}
+
+
+def _reference(tmp_path, g):
+    return receiver_labels(list(receiver_folder(tmp_path / "csv", g).values()), _no_sats())[0]
+
+
+@pytest.mark.parametrize("version", [3, 1])
+def test_the_gps_provider_s_fix_records_give_the_labels_of_the_csv_fixes(tmp_path, version):
+    """wheels.csv on the time of day, the fixes as a GnssLogger log's Fix records among its
+    Raw, Status and UncalGyro records, each beside the fused (v3) or network (v1)
+    provider's fix of the same time elsewhere: the labels of the same fixes in gnss.csv
+    within 0.01 mm (the records' coordinates as Java writes a double, in full); the
+    other providers' fixes and the other records passed over, counted."""
+    g = fixes_to_the_ms()
+    ref = _reference(tmp_path, g)
+    wheels = receiver_folder(tmp_path / "log", g.iloc[:0])["wheels"]
+    lines = gnsslogger_lines(g, DAY_S + g[c.T_S].to_numpy(), version=version)
+    log_ = write_gnsslogger(tmp_path / "log" / "gnss_log_2019_03_11_12_30_00.txt", lines)
+    assert log_kind(log_.name, log_) == "GnssLogger"
+    got, streams = receiver_labels([wheels, log_], _no_sats())
+    assert len(got) == len(ref) > 100
+    for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
+    said = " ".join(streams.notes)
+    other = "FLP" if version == 3 else "network"
+    assert f"a GnssLogger log: {len(g)} Fix records of the GPS provider read" in said
+    assert f"{len(g)} Fix record(s) of the {other.lower()} provider (no receiver's fix)" in said
+    assert f"its other records passed over: {2 * len(g)} Raw" in said
+    gnss = next(s for s in streams.streams if s.name == log_.name)
+    lat_name = "latitudedegrees" if version == 3 else "latitude"
+    assert gnss.sources[c.LAT_DEG] == f"Fix {lat_name}"
+    assert gnss.rows[0] == len(HEADER_V3 if version == 3 else lines[:9]) + 4  # after 2 Raw, 1 gyro
+
+
+def test_speed_bearing_mock_and_a_time_twice(tmp_path):
+    """Speed and bearing as the records give them; a record marked MockLocation and a second
+    record of one time are passed over and said."""
+    t0 = int((DAY_S + 45_000.0) * 1000)
+    lines = [
+        *HEADER_V3,
+        fix_v3("GPS", 52.4, -1.5, 12.5, 271.25, t0),
+        fix_v3("gps", 52.4001, -1.5, 13.0, 272.0, t0 + 1000),
+        fix_v3("GPS", 52.9, -1.9, 13.0, 272.0, t0 + 1000),  # the same time again
+        fix_v3("GPS", 40.0, 10.0, 0.0, 0.0, t0 + 2000, mock=1),  # an app's location
+        fix_v3("GPS", 52.4002, -1.5, 13.5, 273.0, t0 + 3000),
+    ]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "a.txt", lines), "a.txt")
+    np.testing.assert_allclose(log.channels["lat"], [52.4, 52.4001, 52.4002])
+    np.testing.assert_allclose(log.channels["speed_gnss"], [12.5, 13.0, 13.5])
+    np.testing.assert_allclose(log.channels["heading"], [271.25, 272.0, 273.0])
+    np.testing.assert_allclose(log.tod_s, [45_000.0, 45_001.0, 45_003.0])
+    assert log.day_s == DAY_S and log.kind == "GnssLogger"
+    assert log.dropped == "1 marked MockLocation; 1 of a time already given"
+    np.testing.assert_array_equal(log.rows, [len(HEADER_V3) + k for k in (1, 2, 5)])
+
+
+def test_without_fix_records_its_nmea_records_are_read_as_the_nmea_log(tmp_path):
+    """Location logging off: the NMEA records, each ``NMEA,`` before the sentence and the
+    phone's time after its checksum, some split by the sentence's own line end (the time
+    alone on the next line): the same fixes, rows and labels as the sentences in gps.nmea."""
+    g = fixes_to_the_ms()
+    t = DAY_S + g[c.T_S].to_numpy()
+    sentences = nmea_lines(g, t, other=False)
+    records = []
+    for i, s in enumerate(sentences):
+        ms = int(round(t[i // 2] * 1000.0)) + 12
+        records += [f"NMEA,{s}\r", f",{ms}"] if i % 7 == 0 else [f"NMEA,{s},{ms}", "Raw,1,2,3"]
+    log_ = write_gnsslogger(tmp_path / "log" / "gnss_log.txt", [*HEADER_V3, *records])
+    want = write_nmea(tmp_path / "nmea" / "gps.nmea", sentences)
+    wheels = receiver_folder(tmp_path / "log", g.iloc[:0])["wheels"]
+    got, streams = receiver_labels([wheels, log_], _no_sats())
+    ref, _ = receiver_labels([wheels, want], _no_sats())
+    pd.testing.assert_frame_equal(got, ref)
+    log = read_gnsslogger(log_, "gnss_log.txt")
+    assert log.kind == "GnssLogger" and not log.dropped
+    assert log.notes[0].startswith(
+        "gnss_log.txt: a GnssLogger log without Fix records of the GPS provider: its NMEA "
+        "records read; its other records passed over:"
+    )
+    assert log.rows[0] == len(HEADER_V3) + 1  # the file's own line
+
+
+def test_what_is_no_gnsslogger_log_or_holds_no_fix_is_refused_or_passed_by(tmp_path):
+    notes = tmp_path / "notes.txt"
+    notes.write_text("the drive to work, tyres at 2.3 bar\nFixed the logger's clock\n")
+    assert not is_gnsslogger_log(notes) and log_kind(notes.name, notes) is None
+    lines = gnsslogger_lines(fixes_to_the_ms().iloc[:5], DAY_S + 45_000.0 + np.arange(5))
+    packed = tmp_path / "gnss_log.txt.gz"
+    packed.write_bytes(gzip.compress(("\n".join(lines) + "\n").encode()))
+    assert is_gnsslogger_log(packed) and log_kind(packed.name, packed) == "GnssLogger"
+    assert not is_gnsslogger_log(tmp_path / "missing.txt")
+    # only the fused provider's fixes and raw measurements: refused, naming what it holds
+    fused = [x for x in lines if not x.startswith("Fix,GPS")]
+    with pytest.raises(InputError) as err:
+        read_gnsslogger(write_gnsslogger(tmp_path / "b.txt", fused), "b.txt")
+    said = str(err.value)
+    assert "GnssLogger's Fix records of the GPS provider, or its NMEA records" in said
+    assert "records: 10 Raw, 5 UncalGyro, 5 Fix, 5 Status" in said
+    assert "turn on Location (Fix) or NMEA logging" in said
+
+
+def test_fix_records_without_their_header_or_with_a_bad_cell_are_refused_with_the_line(tmp_path):
+    t0 = int((DAY_S + 45_000.0) * 1000)
+    with pytest.raises(InputError) as err:
+        read_gnsslogger(
+            write_gnsslogger(tmp_path / "a.txt", [fix_v3("GPS", 52.4, -1.5, 1.0, 0.0, t0)]), "a.txt"
+        )
+    assert "row 1" in str(err.value) and "the header line naming the Fix records' columns" in str(
+        err.value
+    )
+    bad = fix_v3("GPS", 52.4, -1.5, 1.0, 0.0, t0).replace("GPS,52.4,", "GPS,52,4O,")
+    lines = [*HEADER_V3, fix_v3("GPS", 52.4, -1.5, 1.0, 0.0, t0 - 1000), bad]
+    with pytest.raises(InputError) as err:
+        read_gnsslogger(write_gnsslogger(tmp_path / "b.txt", lines), "b.txt")
+    said = str(err.value)
+    assert f"b.txt, row {len(HEADER_V3) + 2}" in said and "longitudedegrees" in said
+    empty = fix_v3("GPS", 52.4, -1.5, 1.0, 0.0, t0).replace("GPS,52.4,", "GPS,,")
+    with pytest.raises(InputError) as err:
+        read_gnsslogger(write_gnsslogger(tmp_path / "e.txt", [*HEADER_V3, empty]), "e.txt")
+    assert "latitudedegrees" in str(err.value) and "empty" in str(err.value)
+    far = fix_v3("GPS", 52.4, -191.5, 1.0, 0.0, t0)
+    with pytest.raises(InputError) as err:
+        read_gnsslogger(write_gnsslogger(tmp_path / "c.txt", [*HEADER_V3, far]), "c.txt")
+    assert "degrees within ±90, ±180" in str(err.value)
+
+
+def test_an_nmea_log_beside_a_phone_s_log_is_the_receiver_s(tmp_path):
+    """A receiver's gps.nmea and the phone's GnssLogger log in one folder: the NMEA log's
+    fixes, the phone's left out and said; a GPX track beside the phone's log: the phone's
+    records (in full precision), the track left out."""
+    g = fixes_to_the_ms()
+    t = DAY_S + g[c.T_S].to_numpy()
+    folder = tmp_path / "d"
+    wheels = receiver_folder(folder, g.iloc[:0])["wheels"]
+    nmea = write_nmea(
+        folder / "gps.nmea",
+        [
+            s
+            for i in range(len(g))
+            for s in (
+                gga(t[i], g[c.LAT_DEG].iloc[i], g[c.LON_DEG].iloc[i], 9),
+                rmc(t[i], g[c.LAT_DEG].iloc[i], g[c.LON_DEG].iloc[i], 10.0, 0.0),
+            )
+        ],
+    )
+    phone = write_gnsslogger(folder / "gnss_log.txt", gnsslogger_lines(g, t + 0.5))
+    _, streams = receiver_labels([wheels, nmea, phone], _no_sats())
+    assert any(
+        "gnss_log.txt: GnssLogger log(s), left out: the fixes are the receiver's NMEA log's" in n
+        for n in streams.notes
+    )
+    # a GPX track beside the phone's log: the phone's own records, the track left out
+    from support.gpx import track, write_gpx
+
+    gpx = write_gpx(folder / "track.gpx", track(g, t))
+    _, streams = receiver_labels([wheels, gpx, phone], _no_sats())
+    assert any(
+        "track.gpx: GPX log(s), left out: the fixes are the receiver's GnssLogger log's" in n
+        for n in streams.notes
+    )
