@@ -14,7 +14,7 @@ from rwhonet.data.gnsslogger import is_gnsslogger_log, read_gnsslogger
 from rwhonet.data.streamcsv import log_kind
 from rwhonet.errors import InputError
 from support.gnsslogger import HEADER_V3, fix_v3, gnsslogger_lines, write_gnsslogger
-from support.multirate import fixes_to_the_ms, receiver_folder, receiver_labels
+from support.multirate import fixes_to_the_ms, receiver_drive, receiver_folder, receiver_labels
 from support.nmea import gga, nmea_lines, rmc, write_nmea
 
 DAY_S = 1_552_262_400.0  # 2019-03-11 00:00:00 UTC
@@ -185,3 +185,38 @@ def test_an_nmea_log_beside_a_phone_s_log_is_the_receiver_s(tmp_path):
         "track.gpx: GPX log(s), left out: the fixes are the receiver's GnssLogger log's" in n
         for n in streams.notes
     )
+
+
+def test_a_drive_folder_s_gnsslogger_log_plain_or_compressed_through_ingest_s_reader(tmp_path):
+    """Through ingest's reader (``read_any``), a folder's ``gnss_log.txt`` is found by what
+    it holds, beside a ``notes.txt`` that is no log; kept compressed it gives the same
+    grid, bit for bit; the fixes are the CSVs' within 1e-9 degrees."""
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from support.drives import make_params
+    from support.stream_fleet import signal_map_params
+
+    g = fixes_to_the_ms()
+    text = ("\n".join(gnsslogger_lines(g, DAY_S + g[c.T_S].to_numpy())) + "\n").encode()
+    params = signal_map_params("stream_csv")
+    params["signals"].pop("n_sats")
+    data = make_params(tmp_path, **{"data.signal_maps": {"logger": params}}).data
+    grids = {}
+    for name in ("gnss_log.txt", "gnss_log.txt.gz", "csv"):
+        folder = tmp_path / name.replace(".", "_")
+        for k, written in receiver_folder(folder, g if name == "csv" else g.iloc[:0]).items():
+            if k != "wheels" and name != "csv":  # the fixes are the log's
+                written.unlink()
+        if name != "csv":
+            (folder / name).write_bytes(
+                gzip.compress(text, mtime=0) if name.endswith(".gz") else text
+            )
+            (folder / "notes.txt").write_text("tyres at 2.3 bar\n")
+        f = DriveFile(name, "target_test", "target", "logger", folder)
+        grids[name] = read_any(f, data, lambda p: p.name, receiver_drive()[1], 0.1, 10.0)[0]
+    assert np.isfinite(grids["gnss_log.txt"].columns[c.LAT_DEG]).sum() > 1000
+    for k, v in grids["gnss_log.txt"].columns.items():
+        np.testing.assert_array_equal(grids["gnss_log.txt.gz"].columns[k], v, err_msg=k)
+    for k in (c.LAT_DEG, c.LON_DEG):
+        np.testing.assert_allclose(
+            grids["gnss_log.txt"].columns[k], grids["csv"].columns[k], rtol=0, atol=1e-9
+        )
