@@ -55,6 +55,19 @@ def compression_of(path: Path) -> str | None:
     return next((kind for magic, kind, _ in MAGIC if head.startswith(magic)), None)
 
 
+def head_bytes(path: Path, name: str, size: int) -> bytes | None:
+    """The first ``size`` bytes of a file, or of what it unpacks to where it is kept
+    compressed (``drive.log.gz``: told by its magic); None where it cannot be read or
+    unpacked. For a reader that tells its files by what they hold."""
+    try:
+        packing = compression_of(path)
+        opened = open(path, "rb") if packing is None else open_decompressed(path, packing, name)
+        with opened as f:
+            return f.read(size)
+    except (OSError, InputError, EOFError):
+        return None
+
+
 def open_decompressed(path: Path, kind: str, file: str) -> BinaryIO:
     """A compressed file's text as a binary stream, decompressed as it is read; data that
     cannot be decompressed (cut off, corrupted) raises :class:`InputError` naming ``file``

@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.data.bytescan import floats_or_nan
-from rwhonet.data.compressed import compression_of, open_decompressed, without_suffix
+from rwhonet.data.compressed import head_bytes, without_suffix
 from rwhonet.data.nmea import FixLog, read_nmea
 from rwhonet.errors import InputError, Problem
 
@@ -74,14 +74,8 @@ def is_gnsslogger_log(path: Path, name: str | None = None) -> bool:
     name = name or path.name
     if Path(without_suffix(name)).suffix.lower() != ".txt":
         return False
-    try:
-        packing = compression_of(path)
-        opened = open(path, "rb") if packing is None else open_decompressed(path, packing, name)
-        with opened as f:
-            head = f.read(SNIFF_BYTES)
-    except (OSError, InputError, EOFError):
-        return False
-    return _SNIFF.search(head) is not None
+    head = head_bytes(path, name, SNIFF_BYTES)
+    return head is not None and _SNIFF.search(head) is not None
 
 
 def read_gnsslogger(path: Path, file: str) -> FixLog:

@@ -82,7 +82,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rwhonet.data.compressed import compression_of, open_decompressed, without_suffix
+from rwhonet.data.compressed import head_bytes, without_suffix
 from rwhonet.data.csvio import is_number
 from rwhonet.data.nmea import STAMP_STRIP, FixLog
 from rwhonet.errors import InputError, Problem
@@ -147,14 +147,8 @@ def is_novatel_log(path: Path, name: str | None = None) -> bool:
         return True
     if Path(without_suffix(name)).suffix.lower() not in SNIFFED_SUFFIXES:
         return False
-    try:
-        packing = compression_of(path)
-        opened = open(path, "rb") if packing is None else open_decompressed(path, packing, name)
-        with opened as f:
-            head = f.read(SNIFF_BYTES)
-    except (OSError, InputError, EOFError):
-        return False
-    return BINARY_SYNC in head or _HEADER.search(head) is not None
+    head = head_bytes(path, name, SNIFF_BYTES)
+    return head is not None and (BINARY_SYNC in head or _HEADER.search(head) is not None)
 
 
 def gps_utc_s(unix_s: float) -> int:

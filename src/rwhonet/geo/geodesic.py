@@ -163,13 +163,8 @@ def local_distance_m(
     Returns:
         Distances, m (within 1e-6 relative of the geodesic for pairs up to kilometres apart).
     """
-    r = np.radians
-    return _tangent_plane_m(
-        r(np.asarray(lat1_deg, np.float64)),
-        r(np.asarray(lon1_deg, np.float64)),
-        r(np.asarray(lat2_deg, np.float64)),
-        r(np.asarray(lon2_deg, np.float64)),
-    )
+    east, north = local_step_en_m(lat1_deg, lon1_deg, lat2_deg, lon2_deg)
+    return np.hypot(north, east)
 
 
 def local_step_en_m(
