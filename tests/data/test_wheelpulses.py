@@ -107,6 +107,11 @@ def test_steps_that_cannot_tell_the_speed_are_none_and_said():
     assert got.no_step["went back"] == 1
     assert np.isfinite(got.rad_s).all()  # each sample beside it has its other step
     assert "steps without a speed: 1 went back" in got.said("P", PulseUnit(TEETH, None))
+    # no sample, one sample: no speed
+    assert pulses_to_rad_s(np.zeros(0), np.zeros(0), PulseUnit(TEETH, 4), "w", "P").rad_s.size == 0
+    assert np.isnan(
+        pulses_to_rad_s(np.zeros(1), np.ones(1), PulseUnit(TEETH, 4), "w", "P").rad_s
+    ).all()
     # a one-step log's lone step gone: no speed at all
     got = pulses_to_rad_s(np.array([0.0, 1.0]), np.array([1.0, 3.0]), PulseUnit(TEETH, 4), "w", "P")
     assert np.isnan(got.rad_s).all()

@@ -166,6 +166,8 @@ def pulses_to_rad_s(
                 )
             ]
         )
+    if t.size == 0:
+        return Pulses(np.zeros(0), 0, {})
     dt = np.diff(t)
     step = np.diff(n)
     missing = ~(has[1:] & has[:-1])
