@@ -342,3 +342,18 @@ def test_a_column_map_refuses_a_pulse_unit_saying_why():
     said = str(err.value)
     assert "data.column_maps.logger.omega_fl.unit: expected one of" in said
     assert "a pulse counter is differenced sample to sample" in said
+
+
+def test_a_header_that_says_a_speed_unit_contradicts_a_pulse_counter(tmp_path):
+    """wheels.csv whose wheel columns say ``(rad/s)``, mapped as pulse counters: refused,
+    naming the header, as any unit the map contradicts."""
+    tables, radius = _drive()
+    files = _pulse_csvs(tmp_path, tables)
+    text = files["wheels"].read_text()
+    head, rest = text.split("\n", 1)
+    files["wheels"].write_text(head.replace("WheelSpeed_FL", "WheelSpeed_FL (rad/s)") + "\n" + rest)
+    with pytest.raises(InputError) as err:
+        _labels(list(files.values()), _pulse_map(), radius)
+    said = str(err.value)
+    assert "WheelSpeed_FL (rad/s)" in said and "the header says 'rad/s'" in said
+    assert "the unit 'pulses/96 mod 1024'" in said

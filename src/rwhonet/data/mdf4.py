@@ -34,13 +34,19 @@ from rwhonet.data.canlog import (
     too_many,
 )
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.headers import map_unit_name, unit_name
+from rwhonet.data.headers import unit_name
 from rwhonet.data.keptframes import FrameFilter, TooManyFrames, frame_keys, j1939_pgn, key_id
 from rwhonet.data.mdfframes import frame_groups, mdf_frames
-from rwhonet.data.signalmap import Group, build_streams, check_signal_map, pulse_units, to_si
+from rwhonet.data.signalmap import (
+    Group,
+    build_streams,
+    check_signal_map,
+    mapped_unit_name,
+    pulse_units,
+    to_si,
+)
 from rwhonet.data.streams import DriveStreams
 from rwhonet.data.texttime import LocalTimeUnclear, local_to_unix, unclear_start
-from rwhonet.data.wheelpulses import is_pulse_unit
 from rwhonet.errors import InputError, Problem
 
 CLOCK = "the MDF4 file's master time (s since the measurement start)"
@@ -948,7 +954,7 @@ def _groups(
             )
             continue
         declared = unit_name(signal.unit or None)
-        mapped = "count" if is_pulse_unit(spec.unit) else map_unit_name(spec.unit)
+        mapped = mapped_unit_name(spec.unit)
         if declared is not None and mapped is not None and declared != mapped:
             problems.append(
                 Problem(

@@ -50,6 +50,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues
+from rwhonet.data.headers import map_unit_name
 from rwhonet.data.packed import HHMMSS, VBOX_SATS, is_packed, unpack_or_refuse
 from rwhonet.data.sampleorder import time_order
 from rwhonet.data.streams import DriveStreams, Stream, stream_problems, where_named
@@ -232,6 +233,13 @@ def in_time_order(g: Group) -> tuple[Group, tuple[str, ...]]:
     t = np.ascontiguousarray(np.asarray(g.t_s)[i])
     part = None if g.part is None else np.asarray(g.part)[i]
     return Group(g.name, g.file, t, channels, g.sources, rows, g.parts, part), order.notes
+
+
+def mapped_unit_name(unit: str) -> str | None:
+    """The name a signal map's unit has among the units a header or an MDF4 signal says
+    (:func:`rwhonet.data.headers.map_unit_name`); a wheel's pulse counter is a count, so a
+    header or signal that says ``rad/s`` contradicts it."""
+    return "count" if is_pulse_unit(unit) else map_unit_name(unit)
 
 
 def pulse_units(signal_map: Mapping[str, ColumnSpec]) -> dict[str, PulseUnit]:

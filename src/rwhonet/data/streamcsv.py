@@ -67,7 +67,7 @@ from rwhonet.data.csvio import (
 from rwhonet.data.fileparts import join_parts
 from rwhonet.data.gnsslogger import is_gnsslogger_log, read_gnsslogger
 from rwhonet.data.gpx import is_gpx_name, read_gpx
-from rwhonet.data.headers import header_key, map_unit_name, unit_name
+from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_name
 from rwhonet.data.nmea import FixLog, is_nmea_name, on_clock, read_nmea
 from rwhonet.data.novatel import is_novatel_log, is_novatel_name, read_novatel
@@ -78,6 +78,7 @@ from rwhonet.data.signalmap import (
     Group,
     build_streams,
     check_signal_map,
+    mapped_unit_name,
     pulse_units,
     to_si,
 )
@@ -479,7 +480,7 @@ def _unit_problems(file: str, cell: str, key: str, spec: ColumnSpec, name: str) 
     compared; a header without a unit suffix says nothing.
     """
     declared = unit_name(header_key(cell)[1])
-    mapped = map_unit_name(spec.unit)
+    mapped = mapped_unit_name(spec.unit)
     if declared is None or mapped is None or declared == mapped:
         return []
     return [
