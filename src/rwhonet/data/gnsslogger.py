@@ -37,7 +37,6 @@ phone's axes, which the log does not tie to the car's: no yaw rate is read from 
 
 from __future__ import annotations
 
-import math
 import re
 from collections import Counter
 from pathlib import Path
@@ -215,7 +214,6 @@ def _fix_records(
     keep = np.flatnonzero(use)[np.sort(first)]
     again = int(use.sum()) - keep.size
     utc = time_ms[keep] / 1000.0
-    day_s = float(math.floor(utc[0] / 86400.0) * 86400.0)
     channels = {"lat": lat[keep], "lon": lon[keep]}
     sources = {"lat": f"Fix {names[where['lat']]}", "lon": f"Fix {names[where['lon']]}"}
     for key in ("speed_gnss", "heading"):
@@ -240,11 +238,9 @@ def _fix_records(
         + _records_said(kinds, b"Fix")
         + (f"; passed over: {dropped}" if dropped else "")
     ]
-    return FixLog(
+    return FixLog.on_utc(
         file,
-        utc - day_s,
-        day_s,
-        None,
+        utc,
         channels,
         sources,
         line_no[keep],

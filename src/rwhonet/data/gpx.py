@@ -265,7 +265,6 @@ def read_gpx(path: Path, file: str) -> FixLog:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     keep = at[~again]
     t = times.seconds[~again]
-    day_s = float(np.floor(t[0] / 86400.0) * 86400.0)
     fixed = fix[keep]
     channels = {k: np.where(fixed, v[keep], np.nan) for k, v in (("lat", lat), ("lon", lon))}
     for key, v in values.items():
@@ -305,11 +304,9 @@ def read_gpx(path: Path, file: str) -> FixLog:
         )
         + (f"; passed over: {dropped}" if dropped else "")
     ]
-    return FixLog(
+    return FixLog.on_utc(
         file,
-        t - day_s,
-        day_s,
-        None,
+        t,
         channels,
         {k: sources[k] for k in channels},
         rows[keep],

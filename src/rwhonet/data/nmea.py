@@ -195,6 +195,40 @@ class FixLog:
     kind: str = "NMEA"
     rates: ReceiverRates | None = None
 
+    @classmethod
+    def on_utc(
+        cls,
+        file: str,
+        utc_s: np.ndarray,
+        channels: dict[str, np.ndarray],
+        sources: dict[str, str],
+        rows: np.ndarray,
+        notes: list[str],
+        dropped: str,
+        *,
+        dated_by: str,
+        kind: str,
+        stamps: list[str] | None = None,
+        unstamped: np.ndarray | None = None,
+    ) -> FixLog:
+        """A log whose epochs' times are UTC (s since 1970, a GPX track's, a binary
+        receiver log's once on UTC): their times of day on the first epoch's UTC date."""
+        day_s = float(np.floor(utc_s[0] / 86400.0) * 86400.0)
+        return cls(
+            file,
+            utc_s - day_s,
+            day_s,
+            stamps,
+            channels,
+            sources,
+            rows,
+            notes,
+            dropped,
+            np.zeros(0, np.int64) if unstamped is None else unstamped,
+            dated_by,
+            kind,
+        )
+
     @property
     def t_utc_s(self) -> np.ndarray | None:
         """Each epoch's UTC time as s since 1970, where the log gives its date."""

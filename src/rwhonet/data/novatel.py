@@ -435,7 +435,6 @@ def read_novatel(path: Path, file: str) -> FixLog:
     )
     offset_s, how = _utc_offset(found, gps, file)
     utc = GPS_EPOCH_UNIX_S + gps + offset_s
-    day_s = float(np.floor(utc[0] / 86400.0) * 86400.0)
     channels = {
         "lat": np.where(fixed, lat_a, np.nan),
         "lon": np.where(fixed, lon_a, np.nan),
@@ -495,19 +494,18 @@ def read_novatel(path: Path, file: str) -> FixLog:
         + (f"; besides them: {besides}" if besides else "")
         + (f"; passed over: {dropped}" if dropped else "")
     ]
-    return FixLog(
+    return FixLog.on_utc(
         file,
-        utc - day_s,
-        day_s,
-        stamps,
+        utc,
         channels,
         sources,
         np.array(rows),
         notes,
         dropped,
-        unstamped,
         dated_by="GPS weeks",
         kind="NovAtel",
+        stamps=stamps,
+        unstamped=unstamped,
     )
 
 

@@ -280,7 +280,6 @@ def read_sbf(path: Path, file: str) -> FixLog:
     }
     offset_s, how = _utc_offset(blocks, gps)
     utc = GPS_EPOCH_UNIX_S + gps + offset_s
-    day_s = float(np.floor(utc[0] / 86400.0) * 86400.0)
     dropped = "; ".join(
         part
         for part in (
@@ -307,11 +306,9 @@ def read_sbf(path: Path, file: str) -> FixLog:
         + (f"; besides them: {besides}" if besides else "")
         + (f"; passed over: {dropped}" if dropped else "")
     ]
-    return FixLog(
+    return FixLog.on_utc(
         file,
-        utc - day_s,
-        day_s,
-        None,
+        utc,
         channels,
         {k: sources[k] for k in channels},
         rows,
