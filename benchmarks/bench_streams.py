@@ -8,8 +8,9 @@ NMEA log, a u-blox receiver's UBX log, a NovAtel receiver's ASCII logs (BESTPOSA
 epoch, TIMEA a second), a Septentrio receiver's SBF log (pysbf2's: PVTGeodetic and DOP an
 epoch, ReceiverTime a second), a phone's GnssLogger log (its GPS and fused providers'
 Fix records an epoch among Raw, Status and gyro records) or a GPX track (gpxpy's, GPX
-1.0), one MDF4
-file, a comma2k19 folder and a comma2k19 route of one-minute segment folders, raw CAN
+1.0), one MDF4 file, a ROS 1 bag (rosbags' writer: a drive-by-wire kit's wheel-speed
+report and a NavSatFix, each stamped), a comma2k19 folder and a comma2k19 route of
+one-minute segment folders, raw CAN
 frames as a candump log, a Vector BLF, a Vector ASC, absolute and relative stamps, and a PEAK
 TRC, with their DBC) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
@@ -72,6 +73,7 @@ from support.gnsslogger import gnsslogger_lines, write_gnsslogger  # noqa: E402
 from support.gpx import track, write_gpx  # noqa: E402
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
 from support.novatel import novatel_lines, write_novatel  # noqa: E402
+from support.rosbag import bag_map, tables_bag  # noqa: E402
 from support.sbf import sbf_blocks, write_sbf  # noqa: E402
 from support.ubx import pvt_log  # noqa: E402
 
@@ -158,6 +160,9 @@ def main() -> None:
         no_sats = {k: v for k, v in signal_map().items() if k != "n_sats"}  # a phone gives none
         # ... and as a phone logger's GPX track (gpxpy writes it), placed so too
         gpx = write_gpx(root / "csv" / "track.gpx", track(tables.gnss, 1_552_262_400.0 + t_fix))
+        # ... and the wheels and the fixes as a ROS 1 bag's topics (a WheelSpeedReport and a
+        # NavSatFix a sample, each stamped by its header)
+        bag = tables_bag(root / "drive.bag", tables)
         # the streams as raw CAN frames (wheels, fix, satellites) on a Unix clock: a
         # candump log (written at once) and a Vector BLF (python-can's writer), and the DBC
         frames = stream_frames(tables, radius, 1.7e9)
@@ -195,6 +200,7 @@ def main() -> None:
                 [csvs["wheels"], gpx], signal_map(), radius
             ),
             "MDF4 (asammdf)": lambda: read_mdf4(mf4, signal_map(with_time=False), radius),
+            "ROS 1 bag": lambda: read_mdf4(bag, bag_map(), radius),
             "comma2k19 folder": lambda: read_comma2k19(root / "seg", radius),
             "comma2k19 route": lambda: read_comma2k19(root / "route", radius),
             "candump log + DBC": lambda: read_mdf4(candump, can_map, radius, dbc=dbc),

@@ -499,7 +499,8 @@ class SignalMapSpec:
     """A drive logged as timestamped streams: its reader, and where each quantity is.
 
     ``reader``: ``mdf4`` (one ASAM MDF4 file per drive, :mod:`rwhonet.data.mdf4`, or one
-    bus tool's log of raw CAN frames: candump, ASC, BLF, TRC, :mod:`rwhonet.data.canlog`) or
+    bus tool's log of raw CAN frames: candump, ASC, BLF, TRC, :mod:`rwhonet.data.canlog`, or
+    one ROS 1 bag, its signals ``/topic.field``: :mod:`rwhonet.data.rosbag`) or
     ``stream_csv`` (one folder per drive holding one CSV per sensor stream,
     :mod:`rwhonet.data.streamcsv`; ``t`` names their common time column). ``signals``:
     key -> the logged channel and its unit (:mod:`rwhonet.data.signalmap`). ``source``:

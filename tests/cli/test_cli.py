@@ -1683,3 +1683,52 @@ def test_recalibrate_s_reader_cuts_seconds_on_rows_leaning_into_lost_samples(tmp
     label = data.samples.frame["label_m"].to_numpy()
     assert label.size == 193 and np.abs(label).max() < 0.2
     assert data.assessment.cut_seconds_by_rule["drop_edge"] == 4
+
+
+def test_predict_reads_a_ros_bag_as_the_same_drive_in_an_mdf4_file(bundle, tmp_path, capsys):
+    """``--format mdf4 --signal-map`` with a ROS 1 bag (wheel speeds in a drive-by-wire
+    kit's report, NavSatFix fixes, an IMU's yaw rate; rwhonet.data.rosbag): the seconds the
+    MDF4 file of the same drive gives, on the bag's ROS time; the map's topics and fields
+    in the notes of what was read."""
+    from rwhonet.data import canonical as c
+    from support.corpus import TARGET_RADIUS_M, weaving_target
+    from support.rosbag import FIX_TOPIC, IMU_TOPIC, WHEEL_TOPIC, write_bag
+
+    df = weaving_target()
+    t = df[c.T_S].to_numpy()
+    for w in c.WHEELS:  # as the report's float32 fields hold them
+        df[w] = df[w].to_numpy().astype(np.float32).astype(np.float64)
+    drive, mdf_map = _mdf4_drive(tmp_path, df, "rad/s", "deg/s")
+    unix = 1_500_000_000.0 + t - t[0]
+    bag = write_bag(
+        tmp_path / "drive.bag",
+        (unix, df[list(c.WHEELS)].to_numpy()),
+        (unix, df[c.LAT_DEG].to_numpy(), df[c.LON_DEG].to_numpy()),
+        (unix, df[c.YAW_RATE_RAD_S].to_numpy()),
+    )
+    names = ("front_left", "front_right", "rear_left", "rear_right")
+    bag_map = tmp_path / "bag.yaml"
+    bag_map.write_text(
+        "".join(
+            f"omega_{w}: {{column: {WHEEL_TOPIC}.{n}, unit: rad/s}}\n"
+            for w, n in zip(("fl", "fr", "rl", "rr"), names, strict=True)
+        )
+        + f"lat: {{column: {FIX_TOPIC}.latitude, unit: deg}}\n"
+        + f"lon: {{column: {FIX_TOPIC}.longitude, unit: deg}}\n"
+        + f"yaw_rate: {{column: {IMU_TOPIC}.angular_velocity.z, unit: rad/s}}\n"
+    )
+    car = ["--nominal-radius", str(TARGET_RADIUS_M)]
+    outs = {}
+    for name, path, smap in (("mdf", drive, mdf_map), ("bag", bag, bag_map)):
+        out = tmp_path / f"{name}.csv"
+        args = predict_args(bundle, path, out, "--format", "mdf4", "--signal-map", str(smap))
+        assert main([*args, *car]) == 0, capsys.readouterr().err
+        outs[name] = pd.read_csv(out, comment="#")
+        capsys.readouterr()
+    a, b = outs["mdf"], outs["bag"]
+    assert len(a) == len(b) > 100
+    time = a.columns[0]
+    np.testing.assert_allclose(b[time] - 1_500_000_000.0, a[time], rtol=0, atol=1e-3)
+    for k in a.columns[1:]:
+        if pd.api.types.is_numeric_dtype(a[k]):
+            np.testing.assert_allclose(b[k], a[k], rtol=0, atol=1e-4, err_msg=k)

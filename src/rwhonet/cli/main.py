@@ -317,8 +317,8 @@ def parser() -> argparse.ArgumentParser:
     rc.add_argument(
         "--drive",
         required=True,
-        help="the new car's drive: a file (IO-VNBD or column-mapped CSV, MDF4) or a folder "
-        "(comma2k19 segment, stream CSVs), in --format",
+        help="the new car's drive: a file (IO-VNBD or column-mapped CSV, MDF4, CAN log, "
+        "ROS bag) or a folder (comma2k19 segment, stream CSVs), in --format",
     )
     rc.add_argument(
         "--seconds",
@@ -441,8 +441,8 @@ def parser() -> argparse.ArgumentParser:
         "--drive",
         required=True,
         nargs="+",
-        help="one or more drives, each a file (IO-VNBD or column-mapped CSV, MDF4) or a "
-        "folder (comma2k19 segment or route, stream CSVs), in --format; exit 2 when "
+        help="one or more drives, each a file (IO-VNBD or column-mapped CSV, MDF4, CAN log, "
+        "ROS bag) or a folder (comma2k19 segment or route, stream CSVs), in --format; exit 2 when "
         "validate would refuse any of them, after the others' verdicts",
     )
     ck.add_argument(

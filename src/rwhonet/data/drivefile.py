@@ -51,6 +51,7 @@ from rwhonet.data.fastfile import as_streams, needs_resampling
 from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
+from rwhonet.data.rosbag import is_rosbag_name
 from rwhonet.data.sampleorder import coarse_stamps_placed, rows_in_time_order
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
 from rwhonet.data.streams import DriveStreams
@@ -276,7 +277,9 @@ def _read_decompressed(
     file = rel(f.path)
     with scratch_dir("unpacked") as scratch:
         inner = ".mf4" if reader_kind(f.format, data) == MDF4 else ".csv"
-        if inner == ".mf4" and is_can_log_name(f.path.name):  # bus.log.gz: read as a .log
+        if inner == ".mf4" and (
+            is_can_log_name(f.path.name) or is_rosbag_name(f.path.name)
+        ):  # bus.log.gz, drive.bag.gz: read as a .log, a .bag
             inner = Path(without_suffix(f.path.name)).suffix.lower()
         plain = Path(scratch) / f"{drive_stem(f.path)}{inner}"
         parts = _read_in_parts(f.path.name, f.path, _bus_logs(f, data))
@@ -295,7 +298,9 @@ def _read_decompressed(
             split_gap_s,
             require_fix,
         )
-    what = {".csv": "the text", ".mf4": "the MDF4 log"}.get(inner, "the CAN log")
+    what = {".csv": "the text", ".mf4": "the MDF4 log", ".bag": "the ROS bag"}.get(
+        inner, "the CAN log"
+    )
     said = compressed_note(packed, what)
     return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
 
@@ -361,7 +366,7 @@ def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
         COMMA2K19: "a comma2k19 segment folder (holding processed_log, or CAN and GNSS), or a "
         "route folder of numbered segment folders",
         STREAM_CSV: "a folder holding the drive's stream CSV files",
-        MDF4: "an MDF4 file (.mf4), or a CAN log (.log, .asc, .blf, .trc)",
+        MDF4: "an MDF4 file (.mf4), a CAN log (.log, .asc, .blf, .trc) or a ROS 1 bag (.bag)",
     }.get(kind, "a drive file (CSV)")
     return Problem(
         file,

@@ -9,6 +9,8 @@ measurement's start. A log of raw CAN frames (bus logging: a CANedge's, a Vector
 logger's) is decoded with the map's CAN databases (DBC, ARXML) by ``asammdf``'s
 ``extract_bus_logging`` first (:func:`_decoded`); its signals are then named as the DBC
 names them (``WhlSpd_FL``, or ``WheelSpeeds.WhlSpd_FL`` where two messages share a name).
+A ROS 1 bag (``.bag``) given to this reader is read by :mod:`rwhonet.data.rosbag`, its
+signals its topics' fields (``/gps/fix.latitude``).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import unit_name
 from rwhonet.data.keptframes import FrameFilter, TooManyFrames, frame_keys, j1939_pgn, key_id
 from rwhonet.data.mdfframes import frame_groups, mdf_frames
+from rwhonet.data.rosbag import is_rosbag_name
 from rwhonet.data.signalmap import (
     Group,
     build_streams,
@@ -101,6 +104,12 @@ def read_mdf4(
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
     if (how := canedge_packed(Path(path).name)) is not None:
         raise InputError([canedge_packed_problem(file, how)])
+    if is_rosbag_name(Path(path).name):  # a ROS 1 bag: its topics' fields
+        if dbc:
+            raise InputError([_bag_with_dbc(file, name)])
+        from rwhonet.data.rosbag import read_rosbag
+
+        return read_rosbag(Path(path), signal_map, radius_m, name, file)
     if is_can_log_name(Path(path).name):
         log = can_log_groups(
             Path(path), signal_map, radius_m, name, file, dbc, False, local_zone, max_mb
@@ -126,6 +135,20 @@ def read_mdf4(
         return _read(mdf, signal_map, radius_m, name, file)
     finally:
         mdf.close()
+
+
+def _bag_with_dbc(file: str, name: str) -> Problem:
+    """A map with CAN databases for a ROS bag, whose raw CAN frames are not decoded here."""
+    return Problem(
+        file,
+        None,
+        None,
+        f"a map without CAN databases for a ROS bag ({_dbc_setting(name)}): its signals "
+        "are its topics' fields",
+        "CAN databases given",
+        "map the topics a driver decoded (a drive-by-wire kit's reports); a bag's raw "
+        "frames (can_msgs/Frame) can be written to a candump log and given with the DBC",
+    )
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,0 +1,444 @@
+"""A ROS 1 bag (``rosbag record``'s ``.bag``): the topics a signal map names, read by
+``rosbags``.
+
+Research vehicles that run ROS record their drives as bags: a drive-by-wire kit's wheel
+speeds (Dataspeed's ``dbw_mkz_msgs/WheelSpeedReport``: ``front_left`` ... ``rear_right``,
+rad/s, as Udacity's self-driving car bags hold them), the receiver's fixes
+(``sensor_msgs/NavSatFix``), an IMU's rates (``sensor_msgs/Imu``). A ``.bag`` given to the
+``mdf4`` reader (one file per drive, as a bus tool's CAN log is) is read here
+(:func:`read_rosbag`); ``rosbags`` (Ternaris, Apache-2.0) reads the bag's records and
+deserialises its messages by the message definitions the bag itself carries, so a kit's
+own message types need nothing installed, and ROS need not be.
+
+**Signals.** A signal map's channel names a topic and a field of its messages, with a
+``.`` between: ``/vehicle/wheel_speed_report.front_left``, ``/gps/fix.latitude``,
+``/imu/data.angular_velocity.z``; an element of an array field by its index,
+``/joint_states.velocity[2]`` (ROS's names hold no ``.``, so the first one ends the topic).
+The map gives each unit: ROS's messages carry none (REP 103's are SI: rad/s, m/s, and
+NavSatFix's degrees). A field that is not a number (a string, a message) is refused on the
+first message, naming the message type's fields; an index past a later message's array is
+no value, counted.
+
+**Times.** Each topic is a stream of its own. Its samples are timed by its messages'
+``header.stamp`` (the sensor driver's time of the measurement, ROS's convention) where its
+type has a header and no stamp is zero; otherwise by the times the bag recorded them (the
+recorder's receipt). The notes say which, per topic. Both are ROS time, the recording
+computer's clock: seconds since 1970 (a driver may stamp with the receiver's UTC instead;
+``data.gnss_lag`` reports an offset between the fixes and the wheels).
+
+**Fixes.** Where the latitude's message has a ``status.status`` (NavSatFix's, gps_common's
+GPSFix's), a message whose status is below 0 (``STATUS_NO_FIX``) has no position; the
+notes count them. A NavSatFix holds no satellite count (GPSFix's ``status.satellites_used``
+can be mapped as ``n_sats``).
+
+**Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file ``rosbags`` cannot
+read (a recording cut short is left unindexed, ``.bag.active``: ``rosbag reindex`` mends
+it); a topic the bag does not have (its topics and types listed); a topic recorded with two
+message types; a field the type does not have, or not a number.
+
+**Rows.** A sample is named by its message's number among its topic's messages (1-based).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import operator
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data.compressed import without_suffix
+from rwhonet.data.signalmap import Group, build_streams, pulse_units, to_si
+from rwhonet.data.streams import DriveStreams
+from rwhonet.errors import InputError, Problem
+
+ROSBAG_SUFFIXES = (".bag",)
+UNFINISHED = ".bag.active"  # rosbag record's file while it records, left so when it is killed
+CLOCK = "ROS time (s since 1970: the recording computer's clock)"
+_TOPIC = r"[^.\s\[\]]+"  # ROS's names: letters, digits, _, / and ~
+_FIELD = r"[A-Za-z_]\w*(?:\[\d+\])*"
+_SIGNAL = re.compile(rf"^({_TOPIC})\.({_FIELD}(?:\.{_FIELD})*)$")
+_INDEX = re.compile(r"\[(\d+)\]")
+READ_HOW = "rosbags' reader of ROS 1 bags (format 2.0)"
+
+
+def is_rosbag_name(name: str) -> bool:
+    """Whether a file's name is a ROS 1 bag's (``.bag``, kept compressed too: ``.bag.gz``;
+    or an unfinished ``.bag.active``)."""
+    low = without_suffix(name).lower()
+    return low.endswith(ROSBAG_SUFFIXES) or low.endswith(UNFINISHED)
+
+
+@dataclass(frozen=True)
+class Field:
+    """A signal map's channel in a bag: a topic and the path to a field of its messages."""
+
+    topic: str
+    path: tuple[str | int, ...]
+    text: str
+
+
+def field_of(text: str) -> Field | None:
+    """The topic and field a channel names (``/imu/data.angular_velocity.z``,
+    ``/joint_states.velocity[2]``), or None where it names none."""
+    m = _SIGNAL.match(text.strip())
+    if m is None:
+        return None
+    path: list[str | int] = []
+    for part in m.group(2).split("."):
+        name = part.split("[", 1)[0]
+        path.append(name)
+        path += [int(i) for i in _INDEX.findall(part)]
+    return Field(m.group(1), tuple(path), text.strip())
+
+
+def _fields(signal_map: Mapping[str, ColumnSpec], where: str) -> dict[str, Field]:
+    fields, issues = {}, []
+    for key, spec in signal_map.items():
+        f = field_of(spec.column)
+        if f is None:
+            issues.append(
+                f"{where}.{key}: a ROS bag's signal is a topic and a field of its messages, "
+                f"as /topic.field or /topic.field.sub[index] (e.g. /gps/fix.latitude), got "
+                f"{spec.column!r}"
+            )
+        else:
+            fields[key] = f
+    if issues:
+        raise ConfigError("\n".join(issues))
+    return fields
+
+
+def _names(obj: Any) -> list[str]:
+    """A message's field names, in its type's order."""
+    names = getattr(obj, "__dataclass_fields__", None)
+    return [n for n in names if not n.startswith("__")] if names else []
+
+
+def _type_name(obj: Any) -> str:
+    t = getattr(obj, "__msgtype__", None)
+    if t:
+        return str(t)
+    if isinstance(obj, np.ndarray):
+        return f"an array of {obj.dtype}"
+    return type(obj).__name__
+
+
+class _Missing(Exception):
+    """A field path a message does not have: the object it stopped at and the step."""
+
+    def __init__(self, at: Any, step: str | int) -> None:
+        super().__init__(step)
+        self.at, self.step = at, step
+
+
+def _value(msg: Any, path: tuple[str | int, ...]) -> Any:
+    obj = msg
+    for step in path:
+        if isinstance(step, int):
+            try:
+                obj = obj[step]
+            except (IndexError, TypeError, KeyError):
+                raise _Missing(obj, step) from None
+        else:
+            if step not in _names(obj):
+                raise _Missing(obj, step)
+            obj = getattr(obj, step)
+    return obj
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating, np.bool_)) and not isinstance(v, str)
+
+
+def _stamp_ns(msg: Any) -> int | None:
+    """A message's ``header.stamp`` in ns (None: no header; 0: a zero stamp)."""
+    header = getattr(msg, "header", None)
+    stamp = getattr(header, "stamp", None)
+    if stamp is None:
+        return None
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def _fix_status(msg: Any) -> float:
+    status = getattr(getattr(msg, "status", None), "status", None)
+    return float(status) if _is_number(status) else np.nan
+
+
+@dataclass
+class _Topic:
+    """One topic's samples as read."""
+
+    topic: str
+    msgtype: str
+    keys: list[str]
+    values: dict[str, list[float]]
+    stamps: list[int | None]
+    recorded: list[int]
+    status: list[float]
+    past_end: dict[str, int]
+
+
+def _unreadable(file: str, err: BaseException) -> InputError:
+    fix = (
+        "a recording cut short is left unindexed: `rosbag reindex` it (ROS 1's tools), or "
+        "record the drive again; a ROS 2 bag (a folder of metadata.yaml and .db3/.mcap) is "
+        "converted to a ROS 1 bag by `rosbags-convert`"
+    )
+    return InputError([Problem.unreadable(file, f"a ROS 1 bag ({READ_HOW})", err, fix)])
+
+
+def read_rosbag(
+    path: Path,
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str,
+    file: str,
+) -> DriveStreams:
+    """Read a drive's signals from a ROS 1 bag into streams for ``resample``.
+
+    Args:
+        path: the bag.
+        signal_map: key -> ``/topic.field`` and unit (checked already:
+            :func:`rwhonet.data.signalmap.check_signal_map`).
+        radius_m: the car's nominal tyre radius, for wheel speeds given in m/s or km/h.
+        name: how messages name the map.
+        file: how messages name the bag.
+
+    Returns:
+        The drive's streams, one per topic.
+
+    Raises:
+        ConfigError: a channel that names no topic and field.
+        InputError: the bag unreadable, a topic missing or of two types, a field missing or
+            no number (every problem listed).
+    """
+    from rosbags.highlevel import AnyReader, AnyReaderError
+
+    fields = _fields(signal_map, name)
+    if path.name.lower().endswith(UNFINISHED):
+        raise _unreadable(file, ValueError("the recording did not finish (.bag.active)"))
+    by_topic: dict[str, list[str]] = {}
+    for key, f in fields.items():
+        by_topic.setdefault(f.topic, []).append(key)
+    try:
+        with AnyReader([path]) as bag:
+            read = _read_topics(bag, by_topic, fields, file)
+            n_messages, n_topics = bag.message_count, len(bag.topics)
+    except InputError:
+        raise
+    except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
+        raise _unreadable(file, err) from None
+    except Exception as err:  # rosbags' ReaderError and deserialisation errors
+        if type(err).__module__.startswith("rosbags"):
+            raise _unreadable(file, err) from None
+        raise
+    groups, notes = (
+        [],
+        [
+            f"{file}: a ROS 1 bag of {n_messages} messages on {n_topics} topic(s); read "
+            f"{len(read)} of them ({READ_HOW})"
+        ],
+    )
+    for topic in read:
+        group, said = _group(topic, fields, signal_map, radius_m, file)
+        groups.append(group)
+        notes += said
+    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
+    return dataclasses.replace(streams, notes=(*streams.notes, *notes))
+
+
+def _read_topics(
+    bag: Any, by_topic: Mapping[str, list[str]], fields: Mapping[str, Field], file: str
+) -> list[_Topic]:
+    """The mapped topics' samples, each topic's messages in the bag's order."""
+    present: dict[str, list[Any]] = {}
+    for con in bag.connections:
+        present.setdefault(con.topic, []).append(con)
+    listed = ", ".join(
+        f"{t} ({', '.join(sorted({c.msgtype for c in cons}))})"
+        for t, cons in sorted(present.items())
+    )
+    problems = []
+    for topic, keys in by_topic.items():
+        if topic not in present:
+            problems += [
+                Problem(
+                    file,
+                    None,
+                    fields[k].text,
+                    f"a topic {topic} in the bag",
+                    f"none; its topics: {listed or 'none'}",
+                    "name the topic as `rosbag info` lists it",
+                )
+                for k in keys
+            ]
+        elif len(types := sorted({c.msgtype for c in present[topic]})) > 1:
+            problems.append(
+                Problem(
+                    file,
+                    None,
+                    topic,
+                    "one message type a topic",
+                    f"{' and '.join(types)}",
+                    "record each sensor's messages on a topic of their own",
+                )
+            )
+    if problems:
+        raise InputError(problems)
+    out = []
+    for topic, keys in by_topic.items():
+        cons = present[topic]
+        msgtype = cons[0].msgtype
+        t = _Topic(topic, msgtype, keys, {k: [] for k in keys}, [], [], [], dict.fromkeys(keys, 0))
+        fix = "lat" in keys or "lon" in keys
+        getters: dict[str, tuple[Any, bool]] = {}
+        stamp = status = None
+        for con, recorded_ns, raw in bag.messages(connections=cons):
+            msg = bag.deserialize(raw, con.msgtype)
+            if not t.recorded:  # the first message: every field checked, then read as it
+                for k in keys:
+                    try:
+                        v = _value(msg, fields[k].path)
+                    except _Missing as miss:
+                        raise InputError([_no_field(file, fields[k], msg, miss)]) from None
+                    if not _is_number(v):
+                        raise InputError([_not_a_number(file, fields[k], msgtype, v, 0)])
+                    getters[k] = _getter(fields[k].path)
+                stamp = _stamp_getter(msg)
+                status = _status_getter(msg) if fix else None
+            for k, (get, indexed) in getters.items():
+                if indexed:
+                    try:
+                        v = get(msg)
+                    except IndexError:
+                        t.past_end[k] += 1
+                        v = np.nan
+                    t.values[k].append(v)
+                else:
+                    t.values[k].append(get(msg))
+            t.stamps.append(None if stamp is None else stamp(msg))
+            t.recorded.append(recorded_ns)
+            if status is not None:
+                t.status.append(status(msg))
+        out.append(t)
+    return out
+
+
+def _getter(path: tuple[str | int, ...]) -> tuple[Any, bool]:
+    """A field's reader for every message of a topic (its path checked on the first), and
+    whether it indexes an array (which a later message may hold fewer of)."""
+    if all(isinstance(step, str) for step in path):
+        return operator.attrgetter(".".join(path)), False  # type: ignore[arg-type]
+
+    def get(msg: Any) -> Any:
+        obj = msg
+        for step in path:
+            obj = obj[step] if isinstance(step, int) else getattr(obj, step)
+        return obj
+
+    return get, True
+
+
+def _stamp_getter(msg: Any) -> Any:
+    """A reader of a message's ``header.stamp`` in ns (None: its type has no header)."""
+    if _stamp_ns(msg) is None:
+        return None
+    sec, nanosec = operator.attrgetter("header.stamp.sec", "header.stamp.nanosec")(msg)
+    if not (_is_number(sec) and _is_number(nanosec)):
+        return None
+    return _stamp_ns
+
+
+def _status_getter(msg: Any) -> Any:
+    """A reader of a fix message's ``status.status`` (None: its type has none)."""
+    return _fix_status if np.isfinite(_fix_status(msg)) else None
+
+
+def _no_field(file: str, f: Field, msg: Any, miss: _Missing) -> Problem:
+    at = miss.at
+    if isinstance(miss.step, int):
+        found = f"{_type_name(at)} of {len(at) if hasattr(at, '__len__') else 0} element(s)"
+        expected = f"an element [{miss.step}]"
+    else:
+        have = _names(at)
+        found = (
+            f"{_type_name(at)}, whose fields are {', '.join(have)}"
+            if have
+            else f"{_type_name(at)}, which has no fields"
+        )
+        expected = f"a field {miss.step!r}"
+    return Problem(
+        file,
+        1,
+        f.text,
+        f"{expected} in the messages of {f.topic} ({_type_name(msg)})",
+        found,
+        "name the field as `rosmsg show` gives the type (/topic.field.sub[index])",
+    )
+
+
+def _not_a_number(file: str, f: Field, msgtype: str, v: Any, row: int) -> Problem:
+    shown = repr(v) if isinstance(v, str) else _type_name(v)
+    return Problem(
+        file,
+        row + 1,
+        f.text,
+        f"a number in the messages of {f.topic} ({msgtype})",
+        shown[:80],
+        "map a numeric field (a message's own fields: /topic.field.sub)",
+    )
+
+
+def _group(
+    t: _Topic,
+    fields: Mapping[str, Field],
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    file: str,
+) -> tuple[Group, list[str]]:
+    """One topic's samples as a channel group, on its stamps or its record times."""
+    n = len(t.recorded)
+    stamps = t.stamps
+    zero = sum(1 for s in stamps if s == 0)
+    if n and all(s is not None for s in stamps) and zero == 0:
+        t_ns = np.array(stamps, dtype=np.int64)
+        how = "on their header stamps"
+    else:
+        t_ns = np.array(t.recorded, dtype=np.int64)
+        how = (
+            "on the times the bag recorded them (the type has no header)"
+            if any(s is None for s in stamps) or not n
+            else f"on the times the bag recorded them ({zero} of the header stamps are zero)"
+        )
+    t_s = t_ns / 1e9
+    channels = {}
+    for k in t.keys:
+        where = f"{file} [{fields[k].text}]"
+        values = np.array(t.values[k], dtype=np.float64)
+        channels[k] = to_si(k, values, signal_map[k].unit, radius_m, where, (file, fields[k].text))
+    said = [f"{file}: {t.topic}: {n} message(s) ({t.msgtype}), {how}"]
+    if t.status:
+        status = np.array(t.status)
+        no_fix = status < 0
+        if no_fix.any():
+            for k in ("lat", "lon"):
+                if k in channels:
+                    channels[k] = np.where(no_fix, np.nan, channels[k])
+            said.append(
+                f"{file}: {t.topic}: {int(no_fix.sum())} message(s) with status.status below 0 "
+                "(no fix): no position"
+            )
+    said += [
+        f"{file}: {fields[k].text}: {c} message(s) whose array has no such element: no value"
+        for k, c in t.past_end.items()
+        if c
+    ]
+    sources = {k: fields[k].text for k in t.keys}
+    sources["t"] = f"{t.topic} header.stamp" if how.startswith("on their header") else t.topic
+    return Group(t.topic, file, t_s, channels, sources), said

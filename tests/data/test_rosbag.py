@@ -1,0 +1,296 @@
+"""A ROS 1 bag (``rwhonet.data.rosbag``): the topics' fields a signal map names give the
+labels of the same samples in stream CSVs."""
+
+from __future__ import annotations
+
+import gzip
+import shutil
+
+import numpy as np
+import pytest
+
+from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.data.mdf4 import read_mdf4
+from rwhonet.data.rosbag import field_of, is_rosbag_name
+from rwhonet.data.streamcsv import read_stream_csvs
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+from support.multirate import per_second, simulated_streams
+from support.rosbag import (
+    FIX_TOPIC,
+    IMU_TOPIC,
+    NO_HEADER,
+    WHEEL_TOPIC,
+    bag_map,
+    tables_bag,
+    typestore,
+    write_bag,
+)
+
+
+def _float32_wheels(tables):
+    """The streams with the wheel speeds as a float32 message field holds them."""
+    from rwhonet.sim.streams import StreamTables
+
+    w = tables.wheels.copy()
+    for k in c.WHEELS:
+        w[k] = w[k].to_numpy().astype(np.float32).astype(np.float64)
+    return StreamTables(w, tables.gnss, tables.gyro)
+
+
+def _drive():
+    tables, radius = simulated_streams(120.0, 100.0, 10.0, gyro_hz=50.0)
+    return _float32_wheels(tables), radius
+
+
+def _grid(streams, radius):
+    return resample(streams, nominal_radius_m=radius).drive.columns
+
+
+def test_names():
+    assert field_of("/vehicle/gps/fix.latitude").topic == "/vehicle/gps/fix"
+    assert field_of("/imu/data.angular_velocity.z").path == ("angular_velocity", "z")
+    assert field_of(" /joint_states.velocity[2] ").path == ("velocity", 2)
+    assert field_of("/m.data[1][0].x").path == ("data", 1, 0, "x")
+    for bad in ("/gps/fix", "/gps/fix.", "/gps/fix.lat itude", "/a.b[x]", ".latitude", "/a.1b"):
+        assert field_of(bad) is None, bad
+    assert is_rosbag_name("drive.BAG") and is_rosbag_name("d.bag.gz")
+    assert is_rosbag_name("d.bag.active") and not is_rosbag_name("bag.csv")
+
+
+def test_a_bag_gives_the_labels_and_yaw_rate_of_the_same_streams_in_csvs(tmp_path):
+    """A 120 s simulated drive (100 Hz wheels in a Dataspeed WheelSpeedReport, 10 Hz
+    NavSatFix fixes, a 50 Hz IMU), each message stamped by its header and recorded 30 ms
+    later: the grid of the same streams in stream CSVs within 1e-7 (the stamps are whole
+    ns: 5e-9 rad/s moved), the labels within 0.1 um; each topic a stream, on its stamps."""
+    from rwhonet.sim.streams import signal_map, write_stream_csvs
+
+    tables, radius = _drive()
+    files = write_stream_csvs(tables, tmp_path / "csv")
+    want = _grid(read_stream_csvs(list(files.values()), signal_map(gyro=True), radius), radius)
+    bag = tables_bag(tmp_path / "drive.bag", tables, lag_ns=30_000_000)
+    streams = read_mdf4(bag, bag_map(yaw=True), radius, "map.yaml", "drive.bag")
+    got = _grid(streams, radius)
+    assert got[c.T_S].size == want[c.T_S].size > 1000
+    for k in (c.T_S, *c.WHEELS, c.LAT_DEG, c.LON_DEG, c.YAW_RATE_RAD_S):
+        np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-7, err_msg=k)
+    a, b = per_second(got, radius), per_second(want, radius)
+    assert len(a) == len(b) > 100
+    np.testing.assert_allclose(a["label_m"], b["label_m"], rtol=0, atol=1e-7)
+    said = "\n".join(streams.notes)
+    assert f"a ROS 1 bag of {tables.n_rows} messages on 3 topic(s); read 3 of them" in said
+    n = len(tables.wheels)
+    kit = "dbw_mkz_msgs/msg/WheelSpeedReport"
+    assert f"{WHEEL_TOPIC}: {n} message(s) ({kit}), on their header stamps" in said
+    assert f"{FIX_TOPIC}: {len(tables.gnss)} message(s) (sensor_msgs/msg/NavSatFix)" in said
+    assert [s.name for s in streams.streams] == [WHEEL_TOPIC, FIX_TOPIC, IMU_TOPIC]
+    assert streams.gnss.sources[c.LAT_DEG] == f"{FIX_TOPIC}.latitude"
+    assert streams.gnss.sources[c.T_S] == f"{FIX_TOPIC} header.stamp"
+
+
+def test_without_stamps_a_topic_is_timed_by_the_bag_s_record_times(tmp_path):
+    """Wheels of a type without a header, fixes whose stamps are zero: each on the times
+    the bag recorded them, the notes saying why; the grid is the stamped bag's moved by the
+    recorder's 20 ms."""
+    tables, radius = _drive()
+    stamped = read_mdf4(tables_bag(tmp_path / "a.bag", tables), bag_map(), radius, "m", "a.bag")
+    w, g = tables.wheels, tables.gnss
+    wheels = (w[c.T_S].to_numpy(), w[list(c.WHEELS)].to_numpy())
+    fixes = (g[c.T_S].to_numpy(), g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy())
+    headless = write_bag(tmp_path / "b.bag", wheels, fixes, lag_ns=20_000_000, wheel_type=NO_HEADER)
+    smap = bag_map() | {
+        f"omega_{w}": ColumnSpec(f"{WHEEL_TOPIC}.{w}", "rad/s") for w in ("fl", "fr", "rl", "rr")
+    }
+    got = read_mdf4(headless, smap, radius, "m", "b.bag")
+    said = "\n".join(got.notes)
+    assert f"{WHEEL_TOPIC}: {len(w)} message(s) ({NO_HEADER}), on the times the bag " in said
+    assert "recorded them (the type has no header)" in said
+    assert f"{FIX_TOPIC}: {len(g)} message(s) (sensor_msgs/msg/NavSatFix), on their header" in said
+    np.testing.assert_allclose(got.wheels[0].t_s, stamped.wheels[0].t_s + 0.02, atol=1e-6)
+    unstamped = write_bag(tmp_path / "c.bag", wheels, fixes, lag_ns=20_000_000, stamped=False)
+    said = "\n".join(read_mdf4(unstamped, bag_map(), radius, "m", "c.bag").notes)
+    assert f"on the times the bag recorded them ({len(g)} of the header stamps are zero)" in said
+
+
+def test_a_fix_whose_status_says_no_fix_has_no_position(tmp_path):
+    """NavSatFix status -1 (STATUS_NO_FIX) on 25 fixes: those have no position (its last
+    coordinates, as some drivers repeat them, are not taken), counted; status 0-2 are fixes."""
+    tables, radius = _drive()
+    status = np.zeros(len(tables.gnss), dtype=int)
+    status[300:325] = -1
+    status[400:410] = 2  # GBAS fix
+    bag = tables_bag(tmp_path / "d.bag", tables, status=status)
+    streams = read_mdf4(bag, bag_map(), radius, "m", "d.bag")
+    lat = streams.gnss.channels[c.LAT_DEG]
+    assert np.isnan(lat[300:325]).all() and not np.isnan(np.delete(lat, range(300, 325))).any()
+    assert f"{FIX_TOPIC}: 25 message(s) with status.status below 0 (no fix)" in "\n".join(
+        streams.notes
+    )
+
+
+def test_an_array_s_element_and_one_missing_from_a_later_message(tmp_path):
+    """Wheel speeds as a JointState's velocity[0..3] (a robot's wheel joints): read by index;
+    three messages with two elements give no value for the rear wheels, counted; the first
+    message short is refused with its row."""
+    tables, radius = _drive()
+    ts = typestore()
+    js, hdr = ts.types["sensor_msgs/msg/JointState"], ts.types["std_msgs/msg/Header"]
+    time = ts.types["builtin_interfaces/msg/Time"]
+    w = tables.wheels
+    msgs = []
+    for i, (t, *v) in enumerate(w[[c.T_S, *c.WHEELS]].to_numpy()):
+        ns = int(round(t * 1e9))
+        vel = np.array(v[:2] if i in (500, 501, 502) else v)
+        h = hdr(seq=i, stamp=time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id="")
+        msgs.append((ns, js(h, ["fl", "fr", "rl", "rr"], np.zeros(4), vel, np.zeros(4))))
+    g = tables.gnss
+    fixes = (g[c.T_S].to_numpy(), g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy())
+    extra = [("/joint_states", "sensor_msgs/msg/JointState", msgs)]
+    bag = write_bag(tmp_path / "j.bag", None, fixes, extra=extra)
+    smap = bag_map() | {
+        f"omega_{w}": ColumnSpec(f"/joint_states.velocity[{k}]", "rad/s")
+        for k, w in enumerate(("fl", "fr", "rl", "rr"))
+    }
+    streams = read_mdf4(bag, smap, radius, "m", "j.bag")
+    rl = streams.wheels[0].channels[c.OMEGA_RL]
+    assert np.isnan(rl[500:503]).all() and np.isnan(rl).sum() == 3
+    np.testing.assert_array_equal(streams.wheels[0].channels[c.OMEGA_FL], w[c.OMEGA_FL])
+    said = "\n".join(streams.notes)
+    assert "/joint_states.velocity[2]: 3 message(s) whose array has no such element" in said
+    msgs[0] = (msgs[0][0], js(msgs[0][1].header, ["fl"], np.zeros(1), np.zeros(1), np.zeros(1)))
+    bag = write_bag(tmp_path / "k.bag", None, fixes, extra=extra)
+    with pytest.raises(InputError) as err:
+        read_mdf4(bag, smap, radius, "m", "k.bag")
+    text = str(err.value)
+    assert "k.bag, row 1, column '/joint_states.velocity[1]': expected an element [1]" in text
+    assert "found an array of float64 of 1 element(s)" in text
+
+
+def test_what_the_bag_does_not_hold_is_refused_naming_what_it_holds(tmp_path):
+    tables, radius = _drive()
+    bag = tables_bag(tmp_path / "d.bag", tables)
+
+    def refused(smap, **kw):
+        with pytest.raises((InputError, ConfigError)) as err:
+            read_mdf4(bag, smap, radius, "map.yaml", "d.bag", **kw)
+        return str(err.value)
+
+    text = refused(bag_map() | {"lat": ColumnSpec("/gps/fix.latitude", "deg")})
+    assert "column '/gps/fix.latitude': expected a topic /gps/fix in the bag" in text
+    assert f"its topics: {IMU_TOPIC} (sensor_msgs/msg/Imu), {FIX_TOPIC} (sensor_msgs" in text
+    assert "rosbag info" in text
+    text = refused(bag_map() | {"lat": ColumnSpec(f"{FIX_TOPIC}.lat", "deg")})
+    assert (
+        f"expected a field 'lat' in the messages of {FIX_TOPIC} (sensor_msgs/msg/NavSatFix)" in text
+    )
+    assert "found sensor_msgs/msg/NavSatFix, whose fields are header, status, latitude, " in text
+    text = refused(bag_map() | {"lat": ColumnSpec(f"{FIX_TOPIC}.status.x", "deg")})
+    assert "found sensor_msgs/msg/NavSatStatus, whose fields are status, service" in text
+    text = refused(bag_map() | {"n_sats": ColumnSpec(f"{FIX_TOPIC}.header.frame_id", "count")})
+    assert "d.bag, row 1, column '/vehicle/gps/fix.header.frame_id': expected a number" in text
+    assert "found ''" in text
+    text = refused(bag_map() | {"yaw_rate": ColumnSpec(f"{IMU_TOPIC}.angular_velocity", "rad/s")})
+    assert "expected a number" in text and "found geometry_msgs/msg/Vector3" in text
+    text = refused(bag_map() | {"lat": ColumnSpec("Latitude", "deg")})
+    assert "map.yaml.lat: a ROS bag's signal is a topic and a field of its messages" in text
+    ts = typestore()
+    vec = ts.types["geometry_msgs/msg/Vector3"]
+    two = [(IMU_TOPIC, "geometry_msgs/msg/Vector3", [(10**9, vec(0.0, 0.0, 0.1))])]
+    bag = tables_bag(tmp_path / "two.bag", tables, extra=two)
+    text = refused(bag_map(yaw=True))
+    assert f"column '{IMU_TOPIC}': expected one message type a topic" in text
+    assert "found geometry_msgs/msg/Vector3 and sensor_msgs/msg/Imu" in text
+    text = refused(bag_map(), dbc=["car.dbc"])
+    assert "a map without CAN databases for a ROS bag" in text
+    assert "can_msgs/Frame" in text
+
+
+def test_a_file_that_is_no_bag_or_was_not_finished_is_refused(tmp_path):
+    _, radius = _drive()
+    junk = tmp_path / "junk.bag"
+    junk.write_bytes(b"#ROSBAG V2.0\n" + bytes(range(256)) * 4)
+    cut = tmp_path / "cut.bag.active"  # rosbag record's name while it records
+    shutil.copy(tables_bag(tmp_path / "whole.bag", _drive()[0]), cut)
+    for path in (junk, cut):
+        with pytest.raises(InputError) as err:
+            read_mdf4(path, bag_map(), radius, "m", path.name)
+        text = str(err.value)
+        assert f"{path.name}: expected a ROS 1 bag (rosbags' reader" in text
+        assert "rosbag reindex" in text
+    assert "the recording did not finish (.bag.active)" in text
+
+
+def test_a_wheel_s_pulse_counter_in_a_bag_is_read_as_its_speed(tmp_path):
+    """A kit's report of the four wheels' 10-bit counters of 96 pulses a turn (uint16, at
+    100 Hz): each second's wheel distance within 1.5 pulses of the speeds' bag's."""
+    from rosbags.typesys import get_types_from_msg
+
+    tables, radius = _drive()
+    w = tables.wheels
+    t = w[c.T_S].to_numpy()
+    counts = []
+    for k in c.WHEELS:
+        v = w[k].to_numpy()
+        angle = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+        counts.append(np.mod(100 + np.floor(angle * 96 / (2 * np.pi)), 1024))
+    ts = typestore()
+    pulses = "rwhonet_test/msg/WheelPulses"
+    pulses_def = "std_msgs/Header header\nuint16 fl\nuint16 fr\nuint16 rl\nuint16 rr\n"
+    ts.register(get_types_from_msg(pulses_def, pulses))
+    hdr, time = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
+    msgs = []
+    for i in range(t.size):
+        ns = int(round(t[i] * 1e9))
+        h = hdr(seq=i, stamp=time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id="")
+        msgs.append((ns, ts.types[pulses](h, *(int(n[i]) for n in counts))))
+    g = tables.gnss
+    fixes = (g[c.T_S].to_numpy(), g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy())
+    bag = write_bag(
+        tmp_path / "p.bag",
+        None,
+        fixes,
+        extra=[("/wheel_pulses", pulses, msgs)],
+        msgdefs={pulses: pulses_def},
+    )
+    smap = bag_map() | {
+        f"omega_{k}": ColumnSpec(f"/wheel_pulses.{k}", "pulses/96 mod 1024")
+        for k in ("fl", "fr", "rl", "rr")
+    }
+    streams = read_mdf4(bag, smap, radius, "m", "p.bag")
+    got = per_second(_grid(streams, radius), radius)
+    want = per_second(
+        _grid(
+            read_mdf4(tables_bag(tmp_path / "s.bag", tables), bag_map(), radius, "m", "s.bag"),
+            radius,
+        ),
+        radius,
+    )
+    assert len(got) == len(want) > 100
+    pulse_m = 2 * np.pi * radius / 96
+    assert np.abs(got["disp_wpm_m"] - want["disp_wpm_m"]).max() < 1.5 * pulse_m
+    assert any("pulses" in n for n in streams.notes)
+
+
+def test_a_bag_plain_or_compressed_through_ingest_s_reader(tmp_path):
+    """``reader: mdf4`` with a ``.bag`` and a ``.bag.gz``: the same drive, the compressed
+    one said so; a bag's own times (ROS time) and its notes in the drive's."""
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from support.drives import make_params
+
+    tables, radius = _drive()
+    bag = tables_bag(tmp_path / "raw" / "V-1.bag", tables)
+    (tmp_path / "raw" / "V-2.bag.gz").write_bytes(gzip.compress(bag.read_bytes(), mtime=0))
+    signals = {k: {"column": v.column, "unit": v.unit} for k, v in bag_map().items()}
+    maps = {"ros": {"reader": "mdf4", "signals": signals}}
+    data = make_params(tmp_path, **{"data.signal_maps": maps}).data
+    got = {}
+    for name in ("V-1.bag", "V-2.bag.gz"):
+        f = DriveFile(name.split(".")[0], "target_test", "target", "ros", tmp_path / "raw" / name)
+        got[name] = read_any(f, data, lambda p: p.name, radius, 0.1, 10.0)[0]
+    a, b = got["V-1.bag"], got["V-2.bag.gz"]
+    assert a.columns[c.T_S].size > 1000
+    for k, v in a.columns.items():
+        np.testing.assert_array_equal(b.columns[k], v, err_msg=k)
+    assert any("a ROS 1 bag of" in n for n in a.notes)
+    assert any("the ROS bag" in n for n in b.notes)
