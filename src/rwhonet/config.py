@@ -500,7 +500,8 @@ class SignalMapSpec:
 
     ``reader``: ``mdf4`` (one ASAM MDF4 file per drive, :mod:`rwhonet.data.mdf4`, or one
     bus tool's log of raw CAN frames: candump, ASC, BLF, TRC, :mod:`rwhonet.data.canlog`, or
-    one ROS 1 bag, its signals ``/topic.field``: :mod:`rwhonet.data.rosbag`) or
+    one ROS bag, a ROS 2 bag's folder too, its signals ``/topic.field``:
+    :mod:`rwhonet.data.rosbag`) or
     ``stream_csv`` (one folder per drive holding one CSV per sensor stream,
     :mod:`rwhonet.data.streamcsv`; ``t`` names their common time column). ``signals``:
     key -> the logged channel and its unit (:mod:`rwhonet.data.signalmap`). ``source``:

@@ -1688,8 +1688,8 @@ def test_recalibrate_s_reader_cuts_seconds_on_rows_leaning_into_lost_samples(tmp
 def test_predict_reads_a_ros_bag_as_the_same_drive_in_an_mdf4_file(bundle, tmp_path, capsys):
     """``--format mdf4 --signal-map`` with a ROS 1 bag (wheel speeds in a drive-by-wire
     kit's report, NavSatFix fixes, an IMU's yaw rate; rwhonet.data.rosbag): the seconds the
-    MDF4 file of the same drive gives, on the bag's ROS time; the map's topics and fields
-    in the notes of what was read."""
+    MDF4 file of the same drive gives, on the bag's ROS time; the same drive as a ROS 2
+    bag's folder (mcap) writes the same file."""
     from rwhonet.data import canonical as c
     from support.corpus import TARGET_RADIUS_M, weaving_target
     from support.rosbag import FIX_TOPIC, IMU_TOPIC, WHEEL_TOPIC, write_bag
@@ -1700,12 +1700,13 @@ def test_predict_reads_a_ros_bag_as_the_same_drive_in_an_mdf4_file(bundle, tmp_p
         df[w] = df[w].to_numpy().astype(np.float32).astype(np.float64)
     drive, mdf_map = _mdf4_drive(tmp_path, df, "rad/s", "deg/s")
     unix = 1_500_000_000.0 + t - t[0]
-    bag = write_bag(
-        tmp_path / "drive.bag",
+    streams = (
         (unix, df[list(c.WHEELS)].to_numpy()),
         (unix, df[c.LAT_DEG].to_numpy(), df[c.LON_DEG].to_numpy()),
         (unix, df[c.YAW_RATE_RAD_S].to_numpy()),
     )
+    bag = write_bag(tmp_path / "drive.bag", *streams)
+    bag2 = write_bag(tmp_path / "ros2_drive", *streams, ros2="mcap")  # a ROS 2 bag's folder
     names = ("front_left", "front_right", "rear_left", "rear_right")
     bag_map = tmp_path / "bag.yaml"
     bag_map.write_text(
@@ -1719,13 +1720,18 @@ def test_predict_reads_a_ros_bag_as_the_same_drive_in_an_mdf4_file(bundle, tmp_p
     )
     car = ["--nominal-radius", str(TARGET_RADIUS_M)]
     outs = {}
-    for name, path, smap in (("mdf", drive, mdf_map), ("bag", bag, bag_map)):
+    for name, path, smap in (
+        ("mdf", drive, mdf_map),
+        ("bag", bag, bag_map),
+        ("bag2", bag2, bag_map),
+    ):
         out = tmp_path / f"{name}.csv"
         args = predict_args(bundle, path, out, "--format", "mdf4", "--signal-map", str(smap))
         assert main([*args, *car]) == 0, capsys.readouterr().err
         outs[name] = pd.read_csv(out, comment="#")
         capsys.readouterr()
     a, b = outs["mdf"], outs["bag"]
+    pd.testing.assert_frame_equal(outs["bag2"], b)
     assert len(a) == len(b) > 100
     time = a.columns[0]
     np.testing.assert_allclose(b[time] - 1_500_000_000.0, a[time], rtol=0, atol=1e-3)

@@ -3,6 +3,7 @@ labels of the same samples in stream CSVs."""
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import shutil
 
@@ -294,3 +295,109 @@ def test_a_bag_plain_or_compressed_through_ingest_s_reader(tmp_path):
         np.testing.assert_array_equal(b.columns[k], v, err_msg=k)
     assert any("a ROS 1 bag of" in n for n in a.notes)
     assert any("the ROS bag" in n for n in b.notes)
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_a_ros2_bag_s_folder_gives_the_ros1_bag_s_grid_bit_for_bit(tmp_path, storage):
+    """The same drive recorded by ``ros2 bag record`` (format 9, the types' definitions in
+    it), in either storage: the ROS 1 bag's grid bit for bit (CDR and ROS 1's serialisation
+    hold the same float32 and float64 values), the notes saying a ROS 2 bag."""
+    tables, radius = _drive()
+    one = _grid(
+        read_mdf4(tables_bag(tmp_path / "a.bag", tables), bag_map(yaw=True), radius), radius
+    )
+    bag = tables_bag(tmp_path / "drive", tables, ros2=storage)
+    assert (bag / "metadata.yaml").is_file()
+    streams = read_mdf4(bag, bag_map(yaw=True), radius, "m", "drive")
+    two = _grid(streams, radius)
+    assert one.keys() == two.keys()
+    for k in one:
+        np.testing.assert_array_equal(two[k], one[k], err_msg=k)
+    said = "\n".join(streams.notes)
+    assert f"drive: a ROS 2 bag of {tables.n_rows} messages on 3 topic(s); read 3" in said
+    assert "no message definitions" not in said
+
+
+def test_a_ros2_bag_without_definitions_reads_ros_s_own_types_and_refuses_a_kit_s(tmp_path):
+    """A ROS 2 bag as Humble's recorder writes it, without the types' definitions (here: a
+    format-9 bag's definitions deleted): NavSatFix and a JointState's wheel velocities are
+    read by ROS's own types, the notes saying so; a kit's WheelSpeedReport is refused,
+    naming the type."""
+    import sqlite3
+
+    tables, radius = _drive()
+
+    def without_definitions(bag):
+        with sqlite3.connect(next(bag.glob("*.db3"))) as db:
+            db.execute("DELETE FROM message_definitions")
+        return bag
+
+    bag = without_definitions(tables_bag(tmp_path / "kit", tables, ros2="sqlite3"))
+    with pytest.raises(InputError) as err:
+        read_mdf4(bag, bag_map(), radius, "m", "kit")
+    text = str(err.value)
+    assert "kit: expected the definition of dbw_mkz_msgs/msg/WheelSpeedReport" in text
+    assert "found none in the bag (a ROS 2 bag recorded before Iron carries none)" in text
+    ts = typestore(ros2=True)
+    js, hdr = ts.types["sensor_msgs/msg/JointState"], ts.types["std_msgs/msg/Header"]
+    time = ts.types["builtin_interfaces/msg/Time"]
+    msgs = []
+    for t, *v in tables.wheels[[c.T_S, *c.WHEELS]].to_numpy():
+        ns = int(round(t * 1e9))
+        h = hdr(stamp=time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id="")
+        msgs.append((ns, js(h, ["fl", "fr", "rl", "rr"], np.zeros(4), np.array(v), np.zeros(4))))
+    g = tables.gnss
+    fixes = (g[c.T_S].to_numpy(), g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy())
+    extra = [("/joint_states", "sensor_msgs/msg/JointState", msgs)]
+    bag = without_definitions(write_bag(tmp_path / "js", None, fixes, extra=extra, ros2="sqlite3"))
+    smap = bag_map() | {
+        f"omega_{w}": ColumnSpec(f"/joint_states.velocity[{k}]", "rad/s")
+        for k, w in enumerate(("fl", "fr", "rl", "rr"))
+    }
+    streams = read_mdf4(bag, smap, radius, "m", "js")
+    np.testing.assert_array_equal(streams.wheels[0].channels[c.OMEGA_RR], tables.wheels[c.OMEGA_RR])
+    assert "the bag carries no message definitions: ROS's own types" in "\n".join(streams.notes)
+
+
+def test_a_ros2_bag_s_folder_is_a_drive_of_a_role_and_a_folder_without_metadata_is_not(
+    tmp_path,
+):
+    """ingest's listing takes a ROS 2 bag's folder as an ``mdf4`` role's drive (named by
+    the folder), beside a ROS 1 bag; a folder without metadata.yaml is passed over, and
+    given to the reader it is refused as a folder; the bag's files count against
+    ``data.max_file_mb``."""
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from rwhonet.stages.ingest import discover
+    from support.drives import make_params
+
+    tables, radius = _drive()
+    raw = tmp_path / "raw" / "target_test"
+    tables_bag(raw / "V-1.bag", tables)
+    tables_bag(raw / "V-2.ros2", tables, ros2="mcap")  # a folder's name is its drive
+    (raw / "V-3").mkdir()
+    (raw / "V-3" / "notes.txt").write_text("no bag\n")
+    signals = {k: {"column": v.column, "unit": v.unit} for k, v in bag_map().items()}
+    overrides = {
+        "data.source": "files",
+        "data.root": str(tmp_path / "raw"),
+        "data.signal_maps": {"ros": {"reader": "mdf4", "signals": signals}},
+    }
+    data = make_params(tmp_path, **overrides).data
+    roles = {r: dataclasses.replace(spec, format="ros") for r, spec in data.roles.items()}
+    roles["target_test"] = dataclasses.replace(roles["target_test"], glob="target_test/*")
+    data = dataclasses.replace(data, roles={"target_test": roles["target_test"]})
+    found = discover(data)
+    assert [(f.drive, f.path.name) for f in found] == [("V-1", "V-1.bag"), ("V-2.ros2",) * 2]
+    grids = [read_any(f, data, lambda p: p.name, radius, 0.1, 10.0)[0] for f in found]
+    for k, v in grids[0].columns.items():
+        np.testing.assert_array_equal(grids[1].columns[k], v, err_msg=k)
+    small = dataclasses.replace(data, max_file_mb=0.1)  # the folder's files count
+    with pytest.raises(InputError) as err:
+        read_any(found[1], small, lambda p: p.name, radius, 0.1, 10.0)
+    assert "V-2.ros2: expected a drive file of at most 0.1 MB (data.max_file_mb)" in str(err.value)
+    f = DriveFile("V-3", "target_test", "target", "ros", raw / "V-3")
+    with pytest.raises(InputError) as err:
+        read_any(f, data, lambda p: p.name, radius, 0.1, 10.0)
+    assert "or a ROS 2 bag's folder (holding metadata.yaml) (format 'ros'); found a folder" in str(
+        err.value
+    )

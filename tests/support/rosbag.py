@@ -26,11 +26,11 @@ NO_HEADER = "rwhonet_test/msg/Wheels"  # a kit's type without a header
 NO_HEADER_DEF = "float64 fl\nfloat64 fr\nfloat64 rl\nfloat64 rr\n"
 
 
-def typestore():  # type: ignore[no-untyped-def]
-    """ROS Noetic's types and the kits' wheel-speed types."""
+def typestore(ros2: bool = False):  # type: ignore[no-untyped-def]
+    """ROS Noetic's (or ROS 2 Humble's) types and the kits' wheel-speed types."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    ts = get_typestore(Stores.ROS1_NOETIC)
+    ts = get_typestore(Stores.ROS2_HUMBLE if ros2 else Stores.ROS1_NOETIC)
     ts.register(get_types_from_msg(WHEEL_SPEED_DEF, WHEEL_SPEED_REPORT))
     ts.register(get_types_from_msg(NO_HEADER_DEF, NO_HEADER))
     return ts
@@ -43,7 +43,10 @@ def _ns(t_s: np.ndarray) -> np.ndarray:
 def _header(ts, seq: int, t_ns: int, stamped: bool = True):  # type: ignore[no-untyped-def]
     h, time = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
     t_ns = t_ns if stamped else 0
-    return h(seq=seq, stamp=time(sec=t_ns // 10**9, nanosec=t_ns % 10**9), frame_id="")
+    stamp = time(sec=t_ns // 10**9, nanosec=t_ns % 10**9)
+    if "seq" not in h.__dataclass_fields__:  # ROS 2's header has none
+        return h(stamp=stamp, frame_id="")
+    return h(seq=seq, stamp=stamp, frame_id="")
 
 
 def write_bag(
@@ -57,6 +60,7 @@ def write_bag(
     wheel_type: str = WHEEL_SPEED_REPORT,
     extra: Sequence[tuple[str, str, list[tuple[int, object]]]] = (),
     msgdefs: dict[str, str] | None = None,
+    ros2: str | None = None,
 ) -> Path:
     """A bag of a drive's streams, each message recorded ``lag_ns`` after its stamp.
 
@@ -69,10 +73,29 @@ def write_bag(
         wheel_type: :data:`WHEEL_SPEED_REPORT` or :data:`NO_HEADER`.
         extra: more topics: name, type, (record time ns, message) pairs.
         msgdefs: more message types (name -> definition), for ``extra``.
+        ros2: a ROS 2 bag's folder (``path``) in this storage (``sqlite3``, ``mcap``), as
+            ``ros2 bag record`` writes it (format 9, the types' definitions in it); None: a
+            ROS 1 bag.
     """
-    from rosbags.rosbag1 import Writer
+    ts = typestore(ros2 is not None)
+    if ros2 is None:
+        from rosbags.rosbag1 import Writer
 
-    ts = typestore()
+        def writer():  # type: ignore[no-untyped-def]
+            return Writer(path)
+
+        def serialize(msg, msgtype):  # type: ignore[no-untyped-def]
+            return ts.serialize_ros1(msg, msgtype)
+    else:
+        from rosbags.rosbag2 import StoragePlugin
+        from rosbags.rosbag2 import Writer as Writer2
+
+        def writer():  # type: ignore[no-untyped-def]
+            return Writer2(path, version=9, storage_plugin=StoragePlugin[ros2.upper()])
+
+        def serialize(msg, msgtype):  # type: ignore[no-untyped-def]
+            return ts.serialize_cdr(msg, msgtype)
+
     if msgdefs:
         from rosbags.typesys import get_types_from_msg
 
@@ -80,7 +103,7 @@ def write_bag(
             ts.register(get_types_from_msg(text, name))
     path.parent.mkdir(parents=True, exist_ok=True)
     records: list[tuple[int, int, bytes]] = []  # record time, connection, bytes
-    with Writer(path) as w:
+    with writer() as w:
         cons = []
 
         def add(topic: str, msgtype: str) -> int:
@@ -96,7 +119,7 @@ def write_bag(
                     msg = cls(_header(ts, i, int(t[i]), stamped), *map(float, v[i]))
                 else:
                     msg = cls(*map(float, v[i]))
-                records.append((int(t[i]) + lag_ns, k, ts.serialize_ros1(msg, wheel_type)))
+                records.append((int(t[i]) + lag_ns, k, serialize(msg, wheel_type)))
         if fixes is not None:
             k = add(FIX_TOPIC, "sensor_msgs/msg/NavSatFix")
             nav, st = (
@@ -115,7 +138,7 @@ def write_bag(
                     np.zeros(9),
                     0,
                 )
-                records.append((int(t[i]) + lag_ns, k, ts.serialize_ros1(msg, nav.__msgtype__)))
+                records.append((int(t[i]) + lag_ns, k, serialize(msg, nav.__msgtype__)))
         if yaw is not None:
             k = add(IMU_TOPIC, "sensor_msgs/msg/Imu")
             imu, v3 = ts.types["sensor_msgs/msg/Imu"], ts.types["geometry_msgs/msg/Vector3"]
@@ -131,10 +154,10 @@ def write_bag(
                     v3(0.0, 0.0, 9.81),
                     np.zeros(9),
                 )
-                records.append((int(t[i]) + lag_ns, k, ts.serialize_ros1(msg, imu.__msgtype__)))
+                records.append((int(t[i]) + lag_ns, k, serialize(msg, imu.__msgtype__)))
         for topic, msgtype, messages in extra:
             k = add(topic, msgtype)
-            records += [(t, k, ts.serialize_ros1(m, msgtype)) for t, m in messages]
+            records += [(t, k, serialize(m, msgtype)) for t, m in messages]
         for t_rec, k, raw in sorted(records, key=lambda r: r[0]):  # a recorder's order
             w.write(cons[k], t_rec, raw)
     return path

@@ -469,7 +469,7 @@ _FORM = {
     "iovnbd": "an IO-VNBD CSV file",
     "column_map": "a CSV file",
     "comma2k19": "a segment folder, or a route folder of segments",
-    "mdf4": "an MDF4 file, a CAN log or a ROS 1 bag",
+    "mdf4": "an MDF4 file, a CAN log, a ROS 1 bag or a ROS 2 bag's folder",
     "stream_csv": "a folder of stream CSVs",
 }
 

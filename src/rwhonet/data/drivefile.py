@@ -51,7 +51,7 @@ from rwhonet.data.fastfile import as_streams, needs_resampling
 from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
-from rwhonet.data.rosbag import is_rosbag_name
+from rwhonet.data.rosbag import is_rosbag2_folder, is_rosbag_name
 from rwhonet.data.sampleorder import coarse_stamps_placed, rows_in_time_order
 from rwhonet.data.scenarios import ScenarioInterval, read_scenarios, scenario_codes, sidecar_path
 from rwhonet.data.streams import DriveStreams
@@ -211,7 +211,10 @@ def read_any(
     try:
         size_mb = (
             _size_bytes(
-                f.path, kind in FOLDER_READERS, kind in (MDF4, STREAM_CSV), _bus_logs(f, data)
+                f.path,
+                kind in FOLDER_READERS or f.path.is_dir(),  # a ROS 2 bag's folder
+                kind in (MDF4, STREAM_CSV),
+                _bus_logs(f, data),
             )
             / 2**20
         )
@@ -362,11 +365,14 @@ def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
     folder = kind in FOLDER_READERS
     if not f.path.exists() or f.path.is_dir() == folder:
         return None
+    if kind == MDF4 and is_rosbag2_folder(f.path):  # a ROS 2 bag: one folder a drive
+        return None
     what = {
         COMMA2K19: "a comma2k19 segment folder (holding processed_log, or CAN and GNSS), or a "
         "route folder of numbered segment folders",
         STREAM_CSV: "a folder holding the drive's stream CSV files",
-        MDF4: "an MDF4 file (.mf4), a CAN log (.log, .asc, .blf, .trc) or a ROS 1 bag (.bag)",
+        MDF4: "an MDF4 file (.mf4), a CAN log (.log, .asc, .blf, .trc), a ROS 1 bag (.bag) "
+        "or a ROS 2 bag's folder (holding metadata.yaml)",
     }.get(kind, "a drive file (CSV)")
     return Problem(
         file,

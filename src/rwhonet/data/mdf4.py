@@ -9,8 +9,8 @@ measurement's start. A log of raw CAN frames (bus logging: a CANedge's, a Vector
 logger's) is decoded with the map's CAN databases (DBC, ARXML) by ``asammdf``'s
 ``extract_bus_logging`` first (:func:`_decoded`); its signals are then named as the DBC
 names them (``WhlSpd_FL``, or ``WheelSpeeds.WhlSpd_FL`` where two messages share a name).
-A ROS 1 bag (``.bag``) given to this reader is read by :mod:`rwhonet.data.rosbag`, its
-signals its topics' fields (``/gps/fix.latitude``).
+A ROS 1 bag (``.bag``) or a ROS 2 bag's folder given to this reader is read by
+:mod:`rwhonet.data.rosbag`, its signals its topics' fields (``/gps/fix.latitude``).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import unit_name
 from rwhonet.data.keptframes import FrameFilter, TooManyFrames, frame_keys, j1939_pgn, key_id
 from rwhonet.data.mdfframes import frame_groups, mdf_frames
-from rwhonet.data.rosbag import is_rosbag_name
+from rwhonet.data.rosbag import is_rosbag2_folder, is_rosbag_name
 from rwhonet.data.signalmap import (
     Group,
     build_streams,
@@ -100,16 +100,16 @@ def read_mdf4(
     """
     check_signal_map(name, signal_map, where=name)
     file = display or str(path)
-    if not Path(path).is_file():
-        raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
-    if (how := canedge_packed(Path(path).name)) is not None:
-        raise InputError([canedge_packed_problem(file, how)])
-    if is_rosbag_name(Path(path).name):  # a ROS 1 bag: its topics' fields
+    if is_rosbag_name(Path(path).name) or is_rosbag2_folder(Path(path)):  # topics' fields
         if dbc:
             raise InputError([_bag_with_dbc(file, name)])
         from rwhonet.data.rosbag import read_rosbag
 
         return read_rosbag(Path(path), signal_map, radius_m, name, file)
+    if not Path(path).is_file():
+        raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
+    if (how := canedge_packed(Path(path).name)) is not None:
+        raise InputError([canedge_packed_problem(file, how)])
     if is_can_log_name(Path(path).name):
         log = can_log_groups(
             Path(path), signal_map, radius_m, name, file, dbc, False, local_zone, max_mb

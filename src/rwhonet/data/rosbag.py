@@ -1,14 +1,17 @@
-"""A ROS 1 bag (``rosbag record``'s ``.bag``): the topics a signal map names, read by
-``rosbags``.
+"""A ROS bag: a ROS 1 ``.bag`` (``rosbag record``) or a ROS 2 bag's folder (``ros2 bag
+record``: ``metadata.yaml`` beside its ``.db3`` or ``.mcap`` files); the topics a signal map
+names, read by ``rosbags``.
 
 Research vehicles that run ROS record their drives as bags: a drive-by-wire kit's wheel
 speeds (Dataspeed's ``dbw_mkz_msgs/WheelSpeedReport``: ``front_left`` ... ``rear_right``,
 rad/s, as Udacity's self-driving car bags hold them), the receiver's fixes
-(``sensor_msgs/NavSatFix``), an IMU's rates (``sensor_msgs/Imu``). A ``.bag`` given to the
-``mdf4`` reader (one file per drive, as a bus tool's CAN log is) is read here
-(:func:`read_rosbag`); ``rosbags`` (Ternaris, Apache-2.0) reads the bag's records and
-deserialises its messages by the message definitions the bag itself carries, so a kit's
-own message types need nothing installed, and ROS need not be.
+(``sensor_msgs/NavSatFix``), an IMU's rates (``sensor_msgs/Imu``). A bag given to the
+``mdf4`` reader (one file per drive, as a bus tool's CAN log is; a ROS 2 bag one folder) is
+read here (:func:`read_rosbag`); ``rosbags`` (Ternaris, Apache-2.0) reads the bag's records
+and deserialises its messages by the message definitions the bag itself carries, so a
+kit's own message types need nothing installed, and ROS need not be. A ROS 2 bag recorded
+before Iron carries none: ROS's own types are known (the latest LTS's), a kit's are
+refused, naming the type.
 
 **Signals.** A signal map's channel names a topic and a field of its messages, with a
 ``.`` between: ``/vehicle/wheel_speed_report.front_left``, ``/gps/fix.latitude``,
@@ -31,10 +34,11 @@ GPSFix's), a message whose status is below 0 (``STATUS_NO_FIX``) has no position
 notes count them. A NavSatFix holds no satellite count (GPSFix's ``status.satellites_used``
 can be mapped as ``n_sats``).
 
-**Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file ``rosbags`` cannot
-read (a recording cut short is left unindexed, ``.bag.active``: ``rosbag reindex`` mends
-it); a topic the bag does not have (its topics and types listed); a topic recorded with two
-message types; a field the type does not have, or not a number.
+**Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file or folder
+``rosbags`` cannot read (a ROS 1 recording cut short is left unindexed, ``.bag.active``:
+``rosbag reindex`` mends it); a topic the bag does not have (its topics and types listed);
+a topic recorded with two message types; a mapped topic's type the bag does not define; a
+field the type does not have, or not a number.
 
 **Rows.** A sample is named by its message's number among its topic's messages (1-based).
 """
@@ -65,6 +69,13 @@ _FIELD = r"[A-Za-z_]\w*(?:\[\d+\])*"
 _SIGNAL = re.compile(rf"^({_TOPIC})\.({_FIELD}(?:\.{_FIELD})*)$")
 _INDEX = re.compile(r"\[(\d+)\]")
 READ_HOW = "rosbags' reader of ROS 1 bags (format 2.0)"
+READ_HOW_2 = "rosbags' reader of ROS 2 bags (sqlite3 or mcap storage)"
+METADATA = "metadata.yaml"  # a ROS 2 bag folder's description of its storage files
+
+
+def is_rosbag2_folder(path: Path) -> bool:
+    """Whether a path is a ROS 2 bag: a folder holding its ``metadata.yaml``."""
+    return path.is_dir() and (path / METADATA).is_file()
 
 
 def is_rosbag_name(name: str) -> bool:
@@ -184,11 +195,17 @@ class _Topic:
     past_end: dict[str, int]
 
 
-def _unreadable(file: str, err: BaseException) -> InputError:
+def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError:
+    if ros2:
+        fix = (
+            "give the bag's folder as `ros2 bag record` wrote it (metadata.yaml beside its "
+            ".db3 or .mcap files); a recording cut short has no metadata.yaml: `ros2 bag "
+            "reindex` writes it"
+        )
+        return InputError([Problem.unreadable(file, f"a ROS 2 bag ({READ_HOW_2})", err, fix)])
     fix = (
         "a recording cut short is left unindexed: `rosbag reindex` it (ROS 1's tools), or "
-        "record the drive again; a ROS 2 bag (a folder of metadata.yaml and .db3/.mcap) is "
-        "converted to a ROS 1 bag by `rosbags-convert`"
+        "record the drive again"
     )
     return InputError([Problem.unreadable(file, f"a ROS 1 bag ({READ_HOW})", err, fix)])
 
@@ -200,10 +217,11 @@ def read_rosbag(
     name: str,
     file: str,
 ) -> DriveStreams:
-    """Read a drive's signals from a ROS 1 bag into streams for ``resample``.
+    """Read a drive's signals from a ROS 1 bag, or a ROS 2 bag's folder, into streams for
+    ``resample``.
 
     Args:
-        path: the bag.
+        path: the bag (a ROS 2 bag: its folder).
         signal_map: key -> ``/topic.field`` and unit (checked already:
             :func:`rwhonet.data.signalmap.check_signal_map`).
         radius_m: the car's nominal tyre radius, for wheel speeds given in m/s or km/h.
@@ -219,32 +237,39 @@ def read_rosbag(
             no number (every problem listed).
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.typesys import Stores, get_typestore
 
     fields = _fields(signal_map, name)
+    ros2 = path.is_dir()
     if path.name.lower().endswith(UNFINISHED):
         raise _unreadable(file, ValueError("the recording did not finish (.bag.active)"))
     by_topic: dict[str, list[str]] = {}
     for key, f in fields.items():
         by_topic.setdefault(f.topic, []).append(key)
     try:
-        with AnyReader([path]) as bag:
+        # a ROS 2 bag recorded before Iron carries no message definitions: ROS's own
+        # messages are known by the latest LTS's (their layouts have not changed)
+        known = get_typestore(Stores.LATEST) if ros2 else None
+        with AnyReader([path], default_typestore=known) as bag:
             read = _read_topics(bag, by_topic, fields, file)
             n_messages, n_topics = bag.message_count, len(bag.topics)
+            carried = _carries_definitions(bag)
     except InputError:
         raise
     except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
-        raise _unreadable(file, err) from None
+        raise _unreadable(file, err, ros2) from None
     except Exception as err:  # rosbags' ReaderError and deserialisation errors
         if type(err).__module__.startswith("rosbags"):
-            raise _unreadable(file, err) from None
+            raise _unreadable(file, err, ros2) from None
         raise
-    groups, notes = (
-        [],
-        [
-            f"{file}: a ROS 1 bag of {n_messages} messages on {n_topics} topic(s); read "
-            f"{len(read)} of them ({READ_HOW})"
-        ],
-    )
+    kind, how = ("a ROS 2 bag", READ_HOW_2) if ros2 else ("a ROS 1 bag", READ_HOW)
+    notes = [
+        f"{file}: {kind} of {n_messages} messages on {n_topics} topic(s); read {len(read)} "
+        f"of them ({how}"
+        + ("" if carried else "; the bag carries no message definitions: ROS's own types")
+        + ")"
+    ]
+    groups = []
     for topic in read:
         group, said = _group(topic, fields, signal_map, radius_m, file)
         groups.append(group)
@@ -260,6 +285,12 @@ def _read_topics(
     present: dict[str, list[Any]] = {}
     for con in bag.connections:
         present.setdefault(con.topic, []).append(con)
+    unknown = sorted(
+        {c.msgtype for t in by_topic if t in present for c in present[t]}
+        - set(bag.typestore.fielddefs)
+    )
+    if unknown:
+        raise InputError([_no_definition(file, t) for t in unknown])
     listed = ", ".join(
         f"{t} ({', '.join(sorted({c.msgtype for c in cons}))})"
         for t, cons in sorted(present.items())
@@ -328,6 +359,26 @@ def _read_topics(
                 t.status.append(status(msg))
         out.append(t)
     return out
+
+
+def _carries_definitions(bag: Any) -> bool:
+    from rosbags.interfaces import MessageDefinitionFormat
+
+    return any(c.msgdef.format != MessageDefinitionFormat.NONE for c in bag.connections)
+
+
+def _no_definition(file: str, msgtype: str) -> Problem:
+    """A mapped topic's type the bag does not define and ROS's own types do not hold."""
+    return Problem(
+        file,
+        None,
+        None,
+        f"the definition of {msgtype}, a mapped topic's message type (a bag carries its "
+        "types' definitions; ROS's own are known here)",
+        "none in the bag (a ROS 2 bag recorded before Iron carries none)",
+        "record the drive with ROS 2 Iron or later, or with mcap storage, which keep the "
+        "definitions; or give it as a ROS 1 bag (`rosbags-convert`)",
+    )
 
 
 def _getter(path: tuple[str | int, ...]) -> tuple[Any, bool]:

@@ -27,6 +27,7 @@ from rwhonet.data.columnmap import check_column_map
 from rwhonet.data.compressed import drive_stem
 from rwhonet.data.drivefile import (
     COLUMN_MAP,
+    MDF4,
     STREAM_CSV,
     DriveFile,
     is_folder_format,
@@ -35,6 +36,7 @@ from rwhonet.data.drivefile import (
     reader_kind,
 )
 from rwhonet.data.droprows import manifest_rows
+from rwhonet.data.rosbag import is_rosbag2_folder
 from rwhonet.errors import InputError, Problem
 from rwhonet.io import atomic_dir, map_in_order, write_arrow, write_json
 from rwhonet.progress import track
@@ -94,8 +96,9 @@ def discover(data: DataParams) -> list[DriveFile]:
     """List the drives of every role, sorted by role (in ``ROLES`` order) and name.
 
     A role's glob matches files for the formats that read one file per drive (IO-VNBD,
-    column maps, MDF4) and folders for those that read one folder per drive (comma2k19,
-    stream CSVs); the drive id is the file's stem or the folder's name. Hidden files and
+    column maps, MDF4; and a ROS 2 bag's folder for MDF4's reader) and folders for those
+    that read one folder per drive (comma2k19, stream CSVs); the drive id is the file's stem
+    or the folder's name. Hidden files and
     folders (a name starting with a dot, as macOS's ``._`` files) are no drives.
 
     Args:
@@ -114,10 +117,12 @@ def discover(data: DataParams) -> list[DriveFile]:
     for role in (r for r in contracts.ROLES if r in data.roles):
         spec = data.roles[role]
         folders = is_folder_format(spec.format, data)
+        bags = reader_kind(spec.format, data) == MDF4  # a ROS 2 bag is a folder
         found = sorted(
             p
             for p in root.glob(spec.glob)
-            if not _hidden(p, root) and (p.is_dir() if folders else p.is_file())
+            if not _hidden(p, root)
+            and (p.is_dir() if folders else p.is_file() or (bags and is_rosbag2_folder(p)))
         )
         if not found and spec.required:
             folder = (root / spec.glob).parent
@@ -138,7 +143,7 @@ def discover(data: DataParams) -> list[DriveFile]:
                 )
             )
         files += [
-            DriveFile(p.name if folders else drive_stem(p), role, spec.vehicle, spec.format, p)
+            DriveFile(p.name if p.is_dir() else drive_stem(p), role, spec.vehicle, spec.format, p)
             for p in found
         ]
     first_seen: dict[str, DriveFile] = {}
