@@ -202,9 +202,6 @@ def test_what_the_bag_does_not_hold_is_refused_naming_what_it_holds(tmp_path):
     text = refused(bag_map(yaw=True))
     assert f"column '{IMU_TOPIC}': expected one message type a topic" in text
     assert "found geometry_msgs/msg/Vector3 and sensor_msgs/msg/Imu" in text
-    text = refused(bag_map(), dbc=["car.dbc"])
-    assert "a map without CAN databases for a ROS bag" in text
-    assert "can_msgs/Frame" in text
 
 
 def test_a_file_that_is_no_bag_or_was_not_finished_is_refused(tmp_path):
@@ -401,3 +398,143 @@ def test_a_ros2_bag_s_folder_is_a_drive_of_a_role_and_a_folder_without_metadata_
     assert "or a ROS 2 bag's folder (holding metadata.yaml) (format 'ros'); found a folder" in str(
         err.value
     )
+
+
+@pytest.mark.parametrize("ros2", [None, "mcap"])
+def test_a_bag_s_raw_can_frames_are_decoded_by_the_map_s_dbc_as_a_candump_log_s(tmp_path, ros2):
+    """socketcan_bridge's can_msgs/Frame messages of the drive's frames (wheels at 100 Hz,
+    the fix and the satellite count at 10 Hz), an error and a remote frame after every
+    500th, each recorded 4 ms after its stamp, the status message one byte long: the map's
+    DBC decodes them as it decodes the same frames in a candump log (the grid within 1e-6:
+    a bag's stamps are ns, candump's us), on their stamps, those passed over counted;
+    with the fixes from a NavSatFix topic instead (a channel whose topic the bag has is
+    that topic's field), the fixes' grid is the NavSatFix bag's."""
+    from rwhonet.data.rosbag import bag_frames
+    from support.canlog import DBC, SATS_ID, SIGNALS, stream_frames, write_candump
+    from support.rosbag import CAN_FRAME, CAN_FRAME_DEF, CAN_TOPIC, can_messages
+
+    tables, radius = _drive()
+    stamps, ids, data = stream_frames(tables, radius, 1.5e9)
+    stamps = np.round(stamps, 6)
+    dbc = tmp_path / "car.dbc"
+    dbc.write_text(DBC)
+    smap = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+    log = write_candump(stamps, ids, data, tmp_path / "bus.log")
+    want = _grid(read_mdf4(log, smap, radius, "m", "bus.log", dbc=[str(dbc)]), radius)
+    lengths = np.where(ids == SATS_ID, 1, 8)  # the status message's one byte, as sent
+    messages = can_messages(stamps, ids, data, ros2 is not None, 500, 4_000_000, lengths)
+    extra = [(CAN_TOPIC, CAN_FRAME, messages)]  # recorded 4 ms after their stamps
+    path = tmp_path / ("bus" if ros2 else "bus.bag")
+    bag = write_bag(path, None, None, extra=extra, msgdefs={CAN_FRAME: CAN_FRAME_DEF}, ros2=ros2)
+    frames = bag_frames(bag, bag.name)
+    np.testing.assert_array_equal(frames.length, lengths)
+    assert frames.buses == [CAN_TOPIC] and frames.t_s[0] == stamps[0]
+    streams = read_mdf4(bag, smap, radius, "m", bag.name, dbc=[str(dbc)])
+    got = _grid(streams, radius)
+    assert got[c.T_S].size == want[c.T_S].size > 1000
+    for k in (c.T_S, *c.WHEELS, c.LAT_DEG, c.LON_DEG, c.N_SATS):
+        np.testing.assert_allclose(got[k], want[k], rtol=0, atol=1e-6, err_msg=k)
+    said = "\n".join(streams.notes)
+    errors = len(range(0, len(ids), 500))
+    assert f"{len(ids)} data frames on 1 bus(es) ({CAN_TOPIC})" in said
+    assert f"passed over: {errors} error frames, {errors} remote frames" in said
+    # the fixes from the receiver's topic, the wheels from the bus
+    g = tables.gnss
+    fixes = (1.5e9 + g[c.T_S].to_numpy(), g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy())
+    both = write_bag(
+        tmp_path / ("both" if ros2 else "both.bag"),
+        None,
+        fixes,
+        extra=extra,
+        msgdefs={CAN_FRAME: CAN_FRAME_DEF},
+        ros2=ros2,
+    )
+    mixed = {k: v for k, v in smap.items() if k not in ("lat", "lon", "n_sats")} | {
+        # a DBC's message.signal, which no topic of the bag is: the bus's
+        "omega_fl": ColumnSpec("WheelSpeeds.WhlSpd_FL", "km/h"),
+        "lat": ColumnSpec(f"{FIX_TOPIC}.latitude", "deg"),
+        "lon": ColumnSpec(f"{FIX_TOPIC}.longitude", "deg"),
+    }
+    streams = read_mdf4(both, mixed, radius, "m", both.name, dbc=[str(dbc)])
+    assert streams.gnss.name == FIX_TOPIC
+    assert streams.wheels[0].sources[c.OMEGA_FL] == "WheelSpeeds.WhlSpd_FL"
+    np.testing.assert_array_equal(streams.gnss.channels[c.LAT_DEG], g[c.LAT_DEG])
+    mixed_grid = _grid(streams, radius)
+    for k in c.WHEELS:
+        np.testing.assert_allclose(mixed_grid[k], want[k], rtol=0, atol=1e-6, err_msg=k)
+
+
+def test_a_bag_without_can_frames_for_the_map_s_dbc_is_refused_naming_its_topics(tmp_path):
+    from support.canlog import DBC, SIGNALS
+
+    tables, radius = _drive()
+    bag = tables_bag(tmp_path / "d.bag", tables)
+    dbc = tmp_path / "car.dbc"
+    dbc.write_text(DBC)
+    smap = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+    with pytest.raises(InputError) as err:
+        read_mdf4(bag, smap, radius, "m", "d.bag", dbc=[str(dbc)])
+    text = str(err.value)
+    assert "d.bag: expected a topic of raw CAN frames (can_msgs/Frame" in text
+    assert f"found none; its topics: {WHEEL_TOPIC} (dbw_mkz_msgs/msg/WheelSpeedReport)" in text
+
+
+def test_two_can_topics_are_two_buses_each_decoded_by_its_own_dbc(tmp_path):
+    """The wheels' frames in Dataspeed's CanMessageStamped on /can_b, the fix's and the
+    status's in can_msgs/Frame on /can_a (with an extended frame no database defines):
+    two buses, named by their topics in the order their frames first came, each decoded by
+    the database the map gives it; the grid is the one-topic bag's."""
+    from rosbags.typesys import get_types_from_msg
+
+    from rwhonet.data.rosbag import bag_frames
+    from support.canlog import DBC, SIGNALS, WHEELS_ID, stream_frames
+    from support.rosbag import CAN_FRAME, CAN_FRAME_DEF, can_messages
+
+    tables, radius = _drive()
+    stamps, ids, data = stream_frames(tables, radius, 1.5e9)
+    wheels = ids == WHEELS_ID
+    dbc = tmp_path / "car.dbc"
+    dbc.write_text(DBC)
+    smap = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+    one = write_bag(
+        tmp_path / "one.bag",
+        None,
+        None,
+        extra=[("/can", CAN_FRAME, can_messages(stamps, ids, data))],
+        msgdefs={CAN_FRAME: CAN_FRAME_DEF},
+    )
+    want = _grid(read_mdf4(one, smap, radius, "m", "one.bag", dbc=[str(dbc)]), radius)
+    stamped = "dataspeed_can_msgs/msg/CanMessageStamped"
+    defs = {
+        CAN_FRAME: CAN_FRAME_DEF,
+        "dataspeed_can_msgs/msg/CanMessage": "uint8[8] data\nuint32 id\nbool extended\nuint8 dlc\n",
+        stamped: "std_msgs/Header header\ndataspeed_can_msgs/CanMessage msg\n",
+    }
+    ts = typestore()
+    for name, text in defs.items():
+        ts.register(get_types_from_msg(text, name))
+    inner, outer = ts.types["dataspeed_can_msgs/msg/CanMessage"], ts.types[stamped]
+    kit = [
+        (t, outer(m.header, inner(m.data, m.id, False, 8)))
+        for t, m in can_messages(stamps[wheels], ids[wheels], data[wheels])
+    ]
+    bus_a = can_messages(stamps[~wheels], ids[~wheels], data[~wheels])
+    frame = ts.types[CAN_FRAME]
+    late = bus_a[-1][0] + 1
+    bus_a.append((late, frame(bus_a[-1][1].header, 0x18FEF100, False, True, False, 8, data[0])))
+    bag = write_bag(
+        tmp_path / "two.bag",
+        None,
+        None,
+        extra=[("/can_b", stamped, kit), ("/can_a", CAN_FRAME, bus_a)],
+        msgdefs=defs,
+    )
+    frames = bag_frames(bag, "two.bag")
+    assert frames.buses == ["/can_a", "/can_b"] and int(frames.extended.sum()) == 1
+    per_bus = [(str(dbc), "/can_b"), (str(dbc), "/can_a")]
+    streams = read_mdf4(bag, smap, radius, "m", "two.bag", dbc=per_bus)
+    said = "\n".join(streams.notes)
+    assert f"{len(ids) + 1} data frames on 2 bus(es) (/can_b, /can_a)" in said
+    got = _grid(streams, radius)
+    for k in (c.T_S, *c.WHEELS, c.LAT_DEG, c.LON_DEG, c.N_SATS):
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k)

@@ -189,3 +189,34 @@ def tables_bag(path: Path, tables, **kw) -> Path:  # type: ignore[no-untyped-def
     if tables.gyro is not None:
         yaw = (tables.gyro[c.T_S].to_numpy(), tables.gyro[c.YAW_RATE_RAD_S].to_numpy())
     return write_bag(path, wheels, fixes, yaw, **kw)
+
+
+CAN_FRAME = "can_msgs/msg/Frame"  # socketcan_bridge's (can_msgs, BSD)
+CAN_FRAME_DEF = (
+    "std_msgs/Header header\nuint32 id\nbool is_rtr\nbool is_extended\nbool is_error\n"
+    "uint8 dlc\nuint8[8] data\n"
+)
+CAN_TOPIC = "/can_tx"
+
+
+def can_messages(  # type: ignore[no-untyped-def]
+    stamps, ids, data, ros2: bool = False, every_error: int = 0, lag_ns: int = 0, lengths=None
+):
+    """Raw CAN frames (``support.canlog.stream_frames``) as can_msgs/Frame messages, each
+    stamped at its time and recorded ``lag_ns`` later; with ``every_error``, an error frame
+    and a remote frame after every that many; ``lengths``: each frame's dlc (default 8)."""
+    from rosbags.typesys import get_types_from_msg
+
+    ts = typestore(ros2)
+    ts.register(get_types_from_msg(CAN_FRAME_DEF, CAN_FRAME))
+    frame = ts.types[CAN_FRAME]
+    out = []
+    for i, (t, ident, d) in enumerate(zip(_ns(stamps).tolist(), ids.tolist(), data, strict=True)):
+        h = _header(ts, i, t)
+        n = 8 if lengths is None else int(lengths[i])
+        r = t + lag_ns
+        out.append((r, frame(h, int(ident), False, False, False, n, np.asarray(d, np.uint8))))
+        if every_error and i % every_error == 0:
+            out.append((r, frame(h, 0, False, False, True, 0, np.zeros(8, np.uint8))))
+            out.append((r, frame(h, int(ident), True, False, False, 8, np.zeros(8, np.uint8))))
+    return out

@@ -10,7 +10,9 @@ logger's) is decoded with the map's CAN databases (DBC, ARXML) by ``asammdf``'s
 ``extract_bus_logging`` first (:func:`_decoded`); its signals are then named as the DBC
 names them (``WhlSpd_FL``, or ``WheelSpeeds.WhlSpd_FL`` where two messages share a name).
 A ROS 1 bag (``.bag``) or a ROS 2 bag's folder given to this reader is read by
-:mod:`rwhonet.data.rosbag`, its signals its topics' fields (``/gps/fix.latitude``).
+:mod:`rwhonet.data.rosbag`, its signals its topics' fields (``/gps/fix.latitude``); with the
+map's CAN databases, its topics of raw CAN frames are decoded as a bus tool's log
+(:func:`_bag_and_bus`).
 """
 
 from __future__ import annotations
@@ -101,11 +103,11 @@ def read_mdf4(
     check_signal_map(name, signal_map, where=name)
     file = display or str(path)
     if is_rosbag_name(Path(path).name) or is_rosbag2_folder(Path(path)):  # topics' fields
-        if dbc:
-            raise InputError([_bag_with_dbc(file, name)])
         from rwhonet.data.rosbag import read_rosbag
 
-        return read_rosbag(Path(path), signal_map, radius_m, name, file)
+        if not dbc:
+            return read_rosbag(Path(path), signal_map, radius_m, name, file)
+        return _bag_and_bus(Path(path), signal_map, radius_m, name, file, dbc, max_mb)
     if not Path(path).is_file():
         raise InputError([Problem(file, None, None, "an MDF4 file", "no such file", None)])
     if (how := canedge_packed(Path(path).name)) is not None:
@@ -137,17 +139,48 @@ def read_mdf4(
         mdf.close()
 
 
-def _bag_with_dbc(file: str, name: str) -> Problem:
-    """A map with CAN databases for a ROS bag, whose raw CAN frames are not decoded here."""
-    return Problem(
-        file,
-        None,
-        None,
-        f"a map without CAN databases for a ROS bag ({_dbc_setting(name)}): its signals "
-        "are its topics' fields",
-        "CAN databases given",
-        "map the topics a driver decoded (a drive-by-wire kit's reports); a bag's raw "
-        "frames (can_msgs/Frame) can be written to a candump log and given with the DBC",
+def _bag_and_bus(
+    path: Path,
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str,
+    file: str,
+    dbc: Databases,
+    max_mb: float | None,
+) -> DriveStreams:
+    """A ROS bag with CAN databases: a channel whose topic the bag has is that topic's
+    field (:func:`rwhonet.data.rosbag.rosbag_groups`), any other a signal the databases
+    decode from the bag's topics of raw CAN frames
+    (:func:`rwhonet.data.rosbag.bag_frames`, each topic a bus), as from a bus tool's log."""
+    from rwhonet.data.rosbag import CLOCK, bag_frames, bag_topics, field_of, rosbag_groups
+
+    topics = bag_topics(path, file)
+    on_topics = {
+        k: spec
+        for k, spec in signal_map.items()
+        if (f := field_of(spec.column)) is not None and f.topic in topics
+    }
+    on_bus = {k: spec for k, spec in signal_map.items() if k not in on_topics}
+    groups, notes, changed = [], [], []
+    if on_topics:
+        groups, notes = rosbag_groups(path, on_topics, radius_m, name, file)
+    if on_bus:
+        log = can_log_groups(
+            path,
+            on_bus,
+            radius_m,
+            name,
+            file,
+            dbc,
+            max_mb=max_mb,
+            frames_of=lambda keep: bag_frames(path, file, keep),
+        )
+        groups += log.groups
+        notes += log.notes
+        changed += log.changed
+    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
+    return dataclasses.replace(
+        streams, notes=(*streams.notes, *notes), changed=(*streams.changed, *changed)
     )
 
 
@@ -184,6 +217,7 @@ def can_log_groups(
     local_zone: str | None = None,
     max_mb: float | None = None,
     on_start: bool = True,
+    frames_of: Callable[[FrameFilter | None], Frames] | None = None,
 ) -> CanLogGroups:
     """A raw CAN log's mapped signals, decoded by the CAN databases ``dbc``.
 
@@ -199,6 +233,9 @@ def can_log_groups(
         on_start: an MDF4 bus log's times are its start plus its master time (a stream
             folder's CANedge files, :func:`_start`); else its master time (one MDF4 file
             a drive).
+        frames_of: where the frames come from other than a log's file (a ROS bag's topics
+            of them: :func:`rwhonet.data.rosbag.bag_frames`), given the messages to keep;
+            None: :func:`~rwhonet.data.canlog.read_frames` reads ``path``.
 
     Raises:
         InputError: no ``dbc``; the log or a database unreadable (:func:`_decoded`); a
@@ -221,7 +258,14 @@ def can_log_groups(
         )
     frames, wanted, said = None, None, ""
     columns = [spec.column for spec in signal_map.values()]
-    mdf_file = not is_can_log_name(path.name)  # asammdf's to open (.mf4, an MDF 3 .dat)
+    # asammdf's to open (.mf4, an MDF 3 .dat)
+    mdf_file = frames_of is None and not is_can_log_name(path.name)
+
+    def read(keep: FrameFilter | None = None) -> Frames:
+        if frames_of is not None:
+            return frames_of(keep)
+        return read_frames(path, file, local_zone, keep)
+
     if mdf_file:  # an MDF4 bus log: a part at a time where it can be
         got = _mdf_kept(path, file, columns, dbc, name, present_only, local_zone, max_mb, on_start)
         if got is not None:
@@ -231,19 +275,19 @@ def can_log_groups(
         wanted = _wanted(dbc, columns, present_only)
         if wanted is None:
             _whole_fits(path, file, max_mb, _not_told_apart(dbc, columns))
-            frames = read_frames(path, file, local_zone)
+            frames = read()
         else:
             bound = None if max_mb is None else FrameFilter.frames_for(max_mb)
             wanted = dataclasses.replace(
                 wanted, keep=dataclasses.replace(wanted.keep, max_frames=bound)
             )
-            frames = read_frames(path, file, local_zone, wanted.keep)
+            frames = read(wanted.keep)
             if not wanted.in_log(frames, present_only):
                 # a message the map needs is not in the log: read it whole, so that what
                 # is missing is said as for any log
                 lacks = f"the log has no frame of {', '.join(wanted.missing(frames))}"
                 _whole_fits(path, file, max_mb, lacks)
-                wanted, frames = None, read_frames(path, file, local_zone)
+                wanted, frames = None, read()
             else:  # a frame shorter than its message: its signals past its end are none
                 frames = short_passed(frames, *wanted.lengths(frames), file)
     mdf = _opened(path, file) if frames is None else bus_log(frames)

@@ -40,18 +40,26 @@ can be mapped as ``n_sats``).
 a topic recorded with two message types; a mapped topic's type the bag does not define; a
 field the type does not have, or not a number.
 
-**Rows.** A sample is named by its message's number among its topic's messages (1-based).
+**Raw CAN frames.** With the map's CAN databases, a bag's topics of raw frames
+(socketcan_bridge's and ros2_socketcan's ``can_msgs/Frame``, Dataspeed's
+``CanMessageStamped``) are a CAN log's frames (:func:`bag_frames`, each topic a bus named
+by it), decoded as :mod:`rwhonet.data.mdf4` decodes a bus tool's log; a channel whose
+topic the bag has stays that topic's field.
+
+**Rows.** A sample is named by its message's number among its topic's messages (1-based);
+a CAN frame by its number among the bag's messages of frames.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import operator
 import re
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -60,6 +68,10 @@ from rwhonet.data.compressed import without_suffix
 from rwhonet.data.signalmap import Group, build_streams, pulse_units, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.errors import InputError, Problem
+
+if TYPE_CHECKING:
+    from rwhonet.data.canlog import Frames
+    from rwhonet.data.keptframes import FrameFilter
 
 ROSBAG_SUFFIXES = (".bag",)
 UNFINISHED = ".bag.active"  # rosbag record's file while it records, left so when it is killed
@@ -210,6 +222,39 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
     return InputError([Problem.unreadable(file, f"a ROS 1 bag ({READ_HOW})", err, fix)])
 
 
+@contextlib.contextmanager
+def _opened(path: Path, file: str) -> Iterator[Any]:
+    """The bag open for reading (``rosbags``' ``AnyReader``); its failures refused as the
+    bag's (:func:`_unreadable`)."""
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.typesys import Stores, get_typestore
+
+    ros2 = path.is_dir()
+    if path.name.lower().endswith(UNFINISHED):
+        raise _unreadable(file, ValueError("the recording did not finish (.bag.active)"))
+    try:
+        # a ROS 2 bag recorded before Iron carries no message definitions: ROS's own
+        # messages are known by the latest LTS's (their layouts have not changed)
+        known = get_typestore(Stores.LATEST) if ros2 else None
+        with AnyReader([path], default_typestore=known) as bag:
+            yield bag
+    except InputError:
+        raise
+    except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
+        raise _unreadable(file, err, ros2) from None
+    except Exception as err:  # rosbags' ReaderError and deserialisation errors
+        if type(err).__module__.startswith("rosbags"):
+            raise _unreadable(file, err, ros2) from None
+        raise
+
+
+def bag_topics(path: Path, file: str) -> set[str]:
+    """The bag's topics (a map's channel whose topic is none of them, with a ``dbc``, is a
+    signal of the bag's CAN frames)."""
+    with _opened(path, file) as bag:
+        return {c.topic for c in bag.connections}
+
+
 def read_rosbag(
     path: Path,
     signal_map: Mapping[str, ColumnSpec],
@@ -218,7 +263,25 @@ def read_rosbag(
     file: str,
 ) -> DriveStreams:
     """Read a drive's signals from a ROS 1 bag, or a ROS 2 bag's folder, into streams for
-    ``resample``.
+    ``resample`` (:func:`rosbag_groups`, every channel a topic's field).
+
+    Raises:
+        ConfigError: a channel that names no topic and field.
+        InputError: as :func:`rosbag_groups`.
+    """
+    groups, notes = rosbag_groups(path, signal_map, radius_m, name, file)
+    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
+    return dataclasses.replace(streams, notes=(*streams.notes, *notes))
+
+
+def rosbag_groups(
+    path: Path,
+    signal_map: Mapping[str, ColumnSpec],
+    radius_m: float | None,
+    name: str,
+    file: str,
+) -> tuple[list[Group], list[str]]:
+    """A bag's mapped topics' fields as channel groups, one a topic, and the notes.
 
     Args:
         path: the bag (a ROS 2 bag: its folder).
@@ -228,40 +291,20 @@ def read_rosbag(
         name: how messages name the map.
         file: how messages name the bag.
 
-    Returns:
-        The drive's streams, one per topic.
-
     Raises:
         ConfigError: a channel that names no topic and field.
-        InputError: the bag unreadable, a topic missing or of two types, a field missing or
-            no number (every problem listed).
+        InputError: the bag unreadable, a topic missing or of two types, its type not
+            defined, a field missing or no number (every problem listed).
     """
-    from rosbags.highlevel import AnyReader, AnyReaderError
-    from rosbags.typesys import Stores, get_typestore
-
     fields = _fields(signal_map, name)
-    ros2 = path.is_dir()
-    if path.name.lower().endswith(UNFINISHED):
-        raise _unreadable(file, ValueError("the recording did not finish (.bag.active)"))
     by_topic: dict[str, list[str]] = {}
     for key, f in fields.items():
         by_topic.setdefault(f.topic, []).append(key)
-    try:
-        # a ROS 2 bag recorded before Iron carries no message definitions: ROS's own
-        # messages are known by the latest LTS's (their layouts have not changed)
-        known = get_typestore(Stores.LATEST) if ros2 else None
-        with AnyReader([path], default_typestore=known) as bag:
-            read = _read_topics(bag, by_topic, fields, file)
-            n_messages, n_topics = bag.message_count, len(bag.topics)
-            carried = _carries_definitions(bag)
-    except InputError:
-        raise
-    except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
-        raise _unreadable(file, err, ros2) from None
-    except Exception as err:  # rosbags' ReaderError and deserialisation errors
-        if type(err).__module__.startswith("rosbags"):
-            raise _unreadable(file, err, ros2) from None
-        raise
+    with _opened(path, file) as bag:
+        read = _read_topics(bag, by_topic, fields, file)
+        n_messages, n_topics = bag.message_count, len(bag.topics)
+        carried = _carries_definitions(bag)
+    ros2 = path.is_dir()
     kind, how = ("a ROS 2 bag", READ_HOW_2) if ros2 else ("a ROS 1 bag", READ_HOW)
     notes = [
         f"{file}: {kind} of {n_messages} messages on {n_topics} topic(s); read {len(read)} "
@@ -274,8 +317,144 @@ def read_rosbag(
         group, said = _group(topic, fields, signal_map, radius_m, file)
         groups.append(group)
         notes += said
-    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
-    return dataclasses.replace(streams, notes=(*streams.notes, *notes))
+    return groups, notes
+
+
+# A topic of raw CAN frames: socketcan_bridge's and ros2_socketcan's can_msgs/Frame (id,
+# is_extended, is_error, is_rtr, dlc, data[8]), Dataspeed's CanMessageStamped (its msg:
+# id, extended, dlc, data[8])
+_CAN_FIELDS = ({"id", "dlc", "data", "is_extended"}, {"id", "dlc", "data", "extended"})
+FRAME_BATCH = 100_000  # a bag's CAN frames held as Python objects at once
+
+
+def _frame_of(fields: dict[str, Any], msgtype: str) -> str | None:
+    """Where a message type holds a CAN frame: ``""`` (its own fields), ``"msg"`` (a
+    stamped wrapper's), or None (no frame)."""
+    own = {n for n, _ in fields[msgtype][1]}
+    if any(need <= own for need in _CAN_FIELDS):
+        return ""
+    inner = dict(fields[msgtype][1]).get("msg")  # (node type, the type's name)
+    name = inner[1] if isinstance(inner, tuple) and len(inner) == 2 else None
+    if isinstance(name, str) and name in fields and _frame_of(fields, name) == "":
+        return "msg"
+    return None
+
+
+def can_topics(path: Path, file: str) -> list[tuple[str, str]]:
+    """The bag's topics of raw CAN frames and their types."""
+    with _opened(path, file) as bag:
+        defs = bag.typestore.fielddefs
+        found = {(c.topic, c.msgtype) for c in bag.connections if c.msgtype in defs}
+        return sorted((t, m) for t, m in found if _frame_of(defs, m) is not None)
+
+
+def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
+    """The raw CAN frames a bag's topics of them hold, each topic a bus (named by it), in
+    the bag's order, as a CAN log's (:class:`~rwhonet.data.canlog.Frames`): timed by their
+    header stamps, else by the times the bag recorded them; error and remote frames passed
+    over, counted; with ``keep``, the frames of other messages counted and left out as the
+    bag is read.
+
+    Raises:
+        InputError: the bag unreadable; no topic of CAN frames, or none in them.
+    """
+    from rwhonet.data.canlog import Frames, too_many
+    from rwhonet.data.keptframes import ID_MASK, Kept, TooManyFrames
+
+    topics = can_topics(path, file)
+    if not topics:
+        with _opened(path, file) as bag:
+            listed = ", ".join(f"{c.topic} ({c.msgtype})" for c in bag.connections)
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    "a topic of raw CAN frames (can_msgs/Frame, dataspeed_can_msgs/"
+                    "CanMessageStamped) for the map's dbc to decode",
+                    f"none; its topics: {listed or 'none'}",
+                    "record the bus's frames (socketcan_bridge, ros2_socketcan), or map "
+                    "the topics a driver decoded",
+                )
+            ]
+        )
+    kept = None if keep is None else Kept(keep)
+    bus = {t: k for k, (t, _) in enumerate(topics)}
+    parts: list[dict[str, np.ndarray]] = []
+    skipped = {"error frames": 0, "remote frames": 0}
+    rows = 0
+    with _opened(path, file) as bag:
+        defs = bag.typestore.fielddefs
+        where = {m: _frame_of(defs, m) for _, m in topics}
+        cons = [c for c in bag.connections if (c.topic, c.msgtype) in set(topics)]
+        batch: dict[str, list[Any]] = {k: [] for k in ("t", "id", "ext", "data", "code", "row")}
+
+        def flush() -> None:
+            ids = np.asarray(batch["id"], np.int64) & ID_MASK
+            ext = np.asarray(batch["ext"], bool)
+            code = np.asarray(batch["code"], np.int64)
+            try:
+                at = np.arange(ids.size) if kept is None else kept.part(ids, ext, code)
+            except TooManyFrames as err:  # more of the map's messages than max_mb holds
+                raise InputError([too_many(file, err)]) from None
+            data = [batch["data"][i] for i in at.tolist()]
+            lengths = np.array([len(d) for d in data], np.int64)
+            table = np.zeros((len(data), 8), np.uint8)
+            for i, d in enumerate(data):
+                table[i, : len(d)] = np.frombuffer(d, np.uint8)
+            parts.append(
+                {
+                    "t": np.asarray(batch["t"], np.int64)[at],
+                    "id": ids[at].astype(np.uint32),
+                    "ext": ext[at],
+                    "len": lengths.astype(np.uint8),
+                    "data": table,
+                    "code": code[at],
+                    "row": np.asarray(batch["row"], np.int64)[at],
+                }
+            )
+            for v in batch.values():
+                v.clear()
+
+        for con, recorded_ns, raw in bag.messages(connections=cons):
+            msg = bag.deserialize(raw, con.msgtype)
+            rows += 1
+            frame = msg.msg if where[con.msgtype] == "msg" else msg
+            if getattr(frame, "is_error", False):
+                skipped["error frames"] += 1
+                continue
+            if getattr(frame, "is_rtr", False):
+                skipped["remote frames"] += 1
+                continue
+            stamp = _stamp_ns(msg)
+            batch["t"].append(recorded_ns if not stamp else stamp)
+            batch["id"].append(int(frame.id))
+            ext = frame.is_extended if hasattr(frame, "is_extended") else frame.extended
+            batch["ext"].append(bool(ext))
+            n = min(int(frame.dlc), len(frame.data))
+            batch["data"].append(bytes(np.asarray(frame.data, np.uint8)[:n]))
+            batch["code"].append(bus[con.topic])
+            batch["row"].append(rows)
+            if len(batch["t"]) >= FRAME_BATCH:
+                flush()
+        flush()
+    got = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    channel = (got["code"] + 1).astype(np.uint8) if kept is None else kept.channel(got["code"])
+    names = [t for t, _ in topics] if kept is None else [topics[int(b)][0] for b in kept.buses]
+    return Frames(
+        got["t"] / 1e9,
+        got["id"],
+        got["ext"],
+        got["len"],
+        got["data"],
+        channel,
+        names,
+        f"the bag's CAN frames' header stamps, else their record times ({CLOCK})",
+        got["row"],
+        ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
+        **({} if kept is None else {"dropped": kept.dropped, "log_ids": kept.log_ids()}),
+    )
 
 
 def _read_topics(
