@@ -8,6 +8,7 @@ import gzip
 import shutil
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from rwhonet.config import ColumnSpec, ConfigError
@@ -204,19 +205,65 @@ def test_what_the_bag_does_not_hold_is_refused_naming_what_it_holds(tmp_path):
     assert "found geometry_msgs/msg/Vector3 and sensor_msgs/msg/Imu" in text
 
 
-def test_a_file_that_is_no_bag_or_was_not_finished_is_refused(tmp_path):
+def test_a_file_that_is_no_bag_is_refused(tmp_path):
     _, radius = _drive()
     junk = tmp_path / "junk.bag"
     junk.write_bytes(b"#ROSBAG V2.0\n" + bytes(range(256)) * 4)
-    cut = tmp_path / "cut.bag.active"  # rosbag record's name while it records
-    shutil.copy(tables_bag(tmp_path / "whole.bag", _drive()[0]), cut)
-    for path in (junk, cut):
+    with pytest.raises(InputError) as err:
+        read_mdf4(junk, bag_map(), radius, "m", junk.name)
+    text = str(err.value)
+    assert "junk.bag: expected a ROS 1 bag (rosbags' reader" in text
+    assert "rosbag reindex" in text
+
+
+def _cut(bag, at: float):
+    """A bag as a recorder killed while recording leaves it: no index (the header's
+    index_pos 0), the file ending at ``at`` of its length (inside a chunk)."""
+    data = bytearray(bag.read_bytes())
+    i = data.index(b"index_pos=") + len(b"index_pos=")
+    data[i : i + 8] = bytes(8)
+    cut = bag.with_name(bag.name + ".active")
+    cut.write_bytes(bytes(data[: int(len(data) * at)]))
+    return cut
+
+
+@pytest.mark.parametrize("compression", [None, "lz4"])
+def test_a_recording_cut_short_is_read_as_far_as_it_goes(tmp_path, compression):
+    """A bag of 64 KB chunks without its index, cut at 60 % of its length (rosbag record
+    killed: the .bag.active): read record by record, its whole messages; the seconds it
+    holds are the whole bag's, bit for bit (the last, where the file ends, aside); an
+    uncompressed chunk cut short gives its whole records, an lz4 one none (cut inside its
+    first, the bag is refused); a whole bag renamed .bag.active is read whole so."""
+    tables, radius = _drive()
+    whole = tables_bag(tmp_path / "d.bag", tables, compression=compression, chunk_bytes=1 << 16)
+    want = per_second(_grid(read_mdf4(whole, bag_map(), radius, "m", "d.bag"), radius), radius)
+    cut = _cut(whole, 0.6)
+    streams = read_mdf4(cut, bag_map(), radius, "m", cut.name)
+    said = "\n".join(streams.notes)
+    assert "the bag has no index (a recording cut short" in said
+    stops = "inside a lz4 chunk" if compression else "inside a chunk"
+    assert f"whole messages; it stops {stops} at byte" in said
+    got = per_second(_grid(streams, radius), radius)
+    assert 0.4 * len(want) < len(got) < 0.7 * len(want)
+    both = want.merge(got, on="t_s", suffixes=("", "_cut"))
+    assert len(both) == len(got)  # every second it holds is one of the whole bag's
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(both[q][:-1], both[f"{q}_cut"][:-1], err_msg=q)
+    early = _cut(whole, 0.01)  # inside its first chunk: an lz4 one gives nothing whole
+    if compression:
         with pytest.raises(InputError) as err:
-            read_mdf4(path, bag_map(), radius, "m", path.name)
+            read_mdf4(early, bag_map(), radius, "m", "early.bag.active")
         text = str(err.value)
-        assert f"{path.name}: expected a ROS 1 bag (rosbags' reader" in text
-        assert "rosbag reindex" in text
-    assert "the recording did not finish (.bag.active)" in text
+        assert "no whole message: the recording was cut short inside its first chunk" in text
+    else:
+        streams = read_mdf4(early, bag_map(), radius, "m", "early.bag.active")
+        assert 0 < streams.wheels[0].t_s.size < 0.05 * len(tables.wheels)
+    renamed = tmp_path / "r.bag.active"
+    shutil.copy(whole, renamed)
+    streams = read_mdf4(renamed, bag_map(), radius, "m", renamed.name)
+    again = per_second(_grid(streams, radius), radius)
+    pd.testing.assert_frame_equal(again, want)
+    assert "it stops" not in "\n".join(streams.notes)
 
 
 def test_a_wheel_s_pulse_counter_in_a_bag_is_read_as_its_speed(tmp_path):
@@ -574,3 +621,39 @@ def test_the_real_minute_as_a_bag_gives_the_comma2k19_reader_s_seconds(tmp_path)
     assert len(got) == len(ref) == 59
     for q in ("t_s", "disp_gnss_m", "disp_wpm_m", "label_m"):
         np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
+
+
+@pytest.mark.parametrize("compression", [None, "bz2", "lz4"])
+def test_a_bag_read_record_by_record_gives_rosbags_messages(tmp_path, compression):
+    """A whole bag read record by record (rwhonet.data.bagscan) gives what rosbags' indexed
+    reader gives: the same connections, and every message's topic, record time and bytes,
+    in the same order; a header that points past the file's end (a copy cut short) or to
+    no index (0) is read so, not refused."""
+    from rosbags.highlevel import AnyReader
+
+    from rwhonet.data.bagscan import ScannedBag, has_index
+
+    tables, radius = _drive()
+    bag = tables_bag(tmp_path / "d.bag", tables, compression=compression, chunk_bytes=1 << 16)
+    with AnyReader([bag]) as ref, ScannedBag(bag) as got:
+        assert [(c.topic, c.msgtype) for c in got.connections] == [
+            (c.topic, c.msgtype) for c in ref.connections
+        ]
+        want = [(c.topic, t, bytes(raw)) for c, t, raw in ref.messages()]
+        assert [(c.topic, t, raw) for c, t, raw in got.messages()] == want
+        assert got.message_count == len(want) == tables.n_rows
+    assert has_index(bag)
+    data = bag.read_bytes()
+    short = tmp_path / "short.bag"  # its index lost with its end
+    short.write_bytes(data[: int(len(data) * 0.9)])
+    zero = tmp_path / "zero.bag"
+    i = data.index(b"index_pos=") + len(b"index_pos=")
+    zero.write_bytes(data[:i] + bytes(8) + data[i + 8 :])
+    assert not has_index(short) and not has_index(zero)
+    want = _grid(read_mdf4(bag, bag_map(), radius, "m", "d.bag"), radius)
+    streams = read_mdf4(zero, bag_map(), radius, "m", "zero.bag")
+    assert any("the bag has no index" in n for n in streams.notes)
+    got = _grid(streams, radius)
+    for k in want:
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k)
+    assert any("it stops" in n for n in read_mdf4(short, bag_map(), radius, "m", "s").notes)

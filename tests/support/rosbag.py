@@ -61,6 +61,8 @@ def write_bag(
     extra: Sequence[tuple[str, str, list[tuple[int, object]]]] = (),
     msgdefs: dict[str, str] | None = None,
     ros2: str | None = None,
+    compression: str | None = None,
+    chunk_bytes: int = 1 << 20,
 ) -> Path:
     """A bag of a drive's streams, each message recorded ``lag_ns`` after its stamp.
 
@@ -76,13 +78,19 @@ def write_bag(
         ros2: a ROS 2 bag's folder (``path``) in this storage (``sqlite3``, ``mcap``), as
             ``ros2 bag record`` writes it (format 9, the types' definitions in it); None: a
             ROS 1 bag.
+        compression: a ROS 1 bag's chunks compressed so (``bz2``, ``lz4``).
+        chunk_bytes: a ROS 1 bag's chunks' size (rosbags' 1 MB; rosbag record's 768 KB).
     """
     ts = typestore(ros2 is not None)
     if ros2 is None:
         from rosbags.rosbag1 import Writer
 
         def writer():  # type: ignore[no-untyped-def]
-            return Writer(path)
+            w = Writer(path)
+            w.chunk_threshold = chunk_bytes
+            if compression:
+                w.set_compression(Writer.CompressionFormat[compression.upper()])
+            return w
 
         def serialize(msg, msgtype):  # type: ignore[no-untyped-def]
             return ts.serialize_ros1(msg, msgtype)

@@ -34,9 +34,11 @@ GPSFix's), a message whose status is below 0 (``STATUS_NO_FIX``) has no position
 notes count them. A NavSatFix holds no satellite count (GPSFix's ``status.satellites_used``
 can be mapped as ``n_sats``).
 
+**A recording cut short** (``rosbag record`` killed: ``drive.bag.active``, no index) is
+read record by record as far as it goes (:mod:`rwhonet.data.bagscan`), the notes saying so.
+
 **Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file or folder
-``rosbags`` cannot read (a ROS 1 recording cut short is left unindexed, ``.bag.active``:
-``rosbag reindex`` mends it); a topic the bag does not have (its topics and types listed);
+``rosbags`` cannot read; a topic the bag does not have (its topics and types listed);
 a topic recorded with two message types; a mapped topic's type the bag does not define; a
 field the type does not have, or not a number.
 
@@ -216,8 +218,8 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
         )
         return InputError([Problem.unreadable(file, f"a ROS 2 bag ({READ_HOW_2})", err, fix)])
     fix = (
-        "a recording cut short is left unindexed: `rosbag reindex` it (ROS 1's tools), or "
-        "record the drive again"
+        "give the bag as rosbag record wrote it (`rosbag check` and `rosbag reindex`, ROS "
+        "1's tools, say what is wrong and mend an index)"
     )
     return InputError([Problem.unreadable(file, f"a ROS 1 bag ({READ_HOW})", err, fix)])
 
@@ -229,10 +231,14 @@ def _opened(path: Path, file: str) -> Iterator[Any]:
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
 
+    from rwhonet.data.bagscan import ScannedBag, has_index
+
     ros2 = path.is_dir()
-    if path.name.lower().endswith(UNFINISHED):
-        raise _unreadable(file, ValueError("the recording did not finish (.bag.active)"))
     try:
+        if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
+            with ScannedBag(path) as scanned:  # a recording cut short: as far as it goes
+                yield scanned
+            return
         # a ROS 2 bag recorded before Iron carries no message definitions: ROS's own
         # messages are known by the latest LTS's (their layouts have not changed)
         known = get_typestore(Stores.LATEST) if ros2 else None
@@ -304,14 +310,19 @@ def rosbag_groups(
         read = _read_topics(bag, by_topic, fields, file)
         n_messages, n_topics = bag.message_count, len(bag.topics)
         carried = _carries_definitions(bag)
+        said = getattr(bag, "said", "")  # a bag without its index, read record by record
     ros2 = path.is_dir()
     kind, how = ("a ROS 2 bag", READ_HOW_2) if ros2 else ("a ROS 1 bag", READ_HOW)
+    if said:
+        how = "record by record, rosbags deserialising"
     notes = [
         f"{file}: {kind} of {n_messages} messages on {n_topics} topic(s); read {len(read)} "
         f"of them ({how}"
         + ("" if carried else "; the bag carries no message definitions: ROS's own types")
         + ")"
     ]
+    if said:
+        notes.append(f"{file}: {said}")
     groups = []
     for topic in read:
         group, said = _group(topic, fields, signal_map, radius_m, file)
@@ -388,6 +399,7 @@ def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames
         defs = bag.typestore.fielddefs
         where = {m: _frame_of(defs, m) for _, m in topics}
         cons = [c for c in bag.connections if (c.topic, c.msgtype) in set(topics)]
+        said = getattr(bag, "said", "")  # a bag without its index, read record by record
         batch: dict[str, list[Any]] = {k: [] for k in ("t", "id", "ext", "data", "code", "row")}
 
         def flush() -> None:
@@ -450,7 +462,8 @@ def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames
         got["data"],
         channel,
         names,
-        f"the bag's CAN frames' header stamps, else their record times ({CLOCK})",
+        f"the bag's CAN frames' header stamps, else their record times ({CLOCK})"
+        + (f"; {said}" if said else ""),
         got["row"],
         ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
         **({} if kept is None else {"dropped": kept.dropped, "log_ids": kept.log_ids()}),

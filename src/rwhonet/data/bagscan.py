@@ -1,0 +1,265 @@
+"""A ROS 1 bag read record by record, without its index: a recording cut short.
+
+``rosbag record`` writes a bag's index (its connections and where each chunk's messages
+are) when it closes the file, and renames ``drive.bag.active`` to ``drive.bag``. A recorder
+that lost power or was killed (the car switched off) leaves the ``.bag.active`` with no
+index; ``rosbags`` refuses it ("not indexed"), and ROS's ``rosbag reindex`` rebuilds the
+index by reading the records in order. :class:`ScannedBag` does that reading here, so that
+:mod:`rwhonet.data.rosbag` reads such a bag as far as it goes: it offers what the reader
+takes of ``rosbags``' ``AnyReader`` (``connections``, ``messages``, ``deserialize``,
+``typestore``, ``message_count``, ``topics``), and ``rosbags`` deserialises the messages
+by the definitions the bag's connection records carry.
+
+**The format** (ROS's "Bag Format 2.0"): the line ``#ROSBAG V2.0``, then records, each a
+header (its length, u4 little-endian, and fields ``name=value``, each with its length, u4)
+and data (its length, u4, and bytes). The ``op`` field says the record: 0x03 the bag's
+header, 0x05 a chunk (its data, ``compression`` none, bz2 or lz4, holds connection and
+message records), 0x07 a connection (``conn``, ``topic``; its data a header of ``type``,
+``md5sum``, ``message_definition``), 0x02 a message (``conn``, ``time``: u4 seconds and u4
+nanoseconds; its data the serialised message), 0x04 and 0x06 the index (passed over).
+
+**As far as it goes.** The records are read in order until one does not fit in the file
+(a chunk the recorder was writing, cut where the file ends: its whole records are read;
+one compressed, whose compression cannot end, is not); the note says how many messages
+were read and where the file stopped.
+"""
+
+from __future__ import annotations
+
+import bz2
+import mmap
+import struct
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+MAGIC = b"#ROSBAG V2.0\n"
+OP_MESSAGE, OP_HEADER, OP_CHUNK, OP_CONNECTION = 2, 3, 5, 7
+_U32 = struct.Struct("<I")
+
+
+@dataclass(frozen=True)
+class _Definition:
+    """A connection's message definition, as ``rosbags`` names its format (MSG)."""
+
+    format: Any
+    data: str
+
+
+@dataclass(frozen=True)
+class ScannedConnection:
+    """A connection record: its number, topic, message type (ROS 2's form, as
+    ``rosbags`` names it: ``sensor_msgs/msg/NavSatFix``) and definition."""
+
+    id: int
+    topic: str
+    msgtype: str
+    msgdef: _Definition
+    md5sum: str
+
+
+@dataclass
+class _Scan:
+    connections: dict[int, ScannedConnection] = field(default_factory=dict)
+    # each message: its connection, time (ns), chunk and place in the chunk's records
+    messages: list[tuple[int, int, int, int, int]] = field(default_factory=list)
+    chunks: list[tuple[int, int, str]] = field(default_factory=list)  # start, bytes, how
+    stopped: str = ""
+
+
+def _fields(header: bytes | memoryview) -> dict[str, bytes]:
+    out, pos, end = {}, 0, len(header)
+    while pos + 4 <= end:
+        (n,) = _U32.unpack_from(header, pos)
+        pos += 4
+        if n > end - pos:
+            break
+        item = bytes(header[pos : pos + n])
+        pos += n
+        name, sep, value = item.partition(b"=")
+        if sep:
+            out[name.decode("latin-1")] = value
+    return out
+
+
+def _records(buf: bytes | memoryview, pos: int) -> Iterator[tuple[dict[str, bytes], int, int]]:
+    """The records from ``pos``: their fields and their data's start and length (the last
+    one's data may run past the buffer: a chunk cut short)."""
+    end = len(buf)
+    while pos + 8 <= end:
+        (hlen,) = _U32.unpack_from(buf, pos)
+        if hlen > end - pos - 8:
+            return
+        fields = _fields(buf[pos + 4 : pos + 4 + hlen])
+        (dlen,) = _U32.unpack_from(buf, pos + 4 + hlen)
+        start = pos + 8 + hlen
+        if "op" not in fields:
+            return  # no record: the file's bytes end here in substance
+        yield fields, start, dlen
+        pos = start + dlen
+
+
+def _connection(fields: dict[str, bytes], data: bytes | memoryview) -> ScannedConnection:
+    from rosbags.interfaces import MessageDefinitionFormat
+    from rosbags.typesys.msg import normalize_msgtype
+
+    more = _fields(data)
+    topic = fields["topic"].decode()
+    return ScannedConnection(
+        _U32.unpack(fields["conn"])[0],
+        topic if topic.startswith("/") else f"/{topic}",
+        normalize_msgtype(more.get("type", b"").decode()),
+        _Definition(MessageDefinitionFormat.MSG, more.get("message_definition", b"").decode()),
+        more.get("md5sum", b"").decode(),
+    )
+
+
+def _scan(buf: bytes | memoryview) -> _Scan:
+    """Every whole connection and message record of the bag, chunk by chunk, in order
+    (a compressed chunk unpacked to find its records, then let go)."""
+    scan = _Scan()
+    for fields, start, dlen in _records(buf, len(MAGIC)):
+        op = fields["op"][0]
+        end = start + dlen
+        if op == OP_CHUNK:
+            how = fields.get("compression", b"none").decode()
+            k = len(scan.chunks)
+            scan.chunks.append((start, min(end, len(buf)) - start, how))
+            try:
+                chunk = _chunk(buf, scan.chunks[k])
+            except Exception:  # a compressed chunk cut short cannot be unpacked
+                scan.stopped = f"inside a {how} chunk at byte {start}, which cannot be unpacked"
+                break
+            for inner, at, n in _records(chunk, 0):
+                if at + n > len(chunk):
+                    break
+                if inner["op"][0] == OP_CONNECTION:
+                    c = _connection(inner, chunk[at : at + n])
+                    scan.connections.setdefault(c.id, c)
+                elif inner["op"][0] == OP_MESSAGE:
+                    sec, nsec = struct.unpack("<II", inner["time"])
+                    conn = _U32.unpack(inner["conn"])[0]
+                    scan.messages.append((conn, sec * 1_000_000_000 + nsec, k, at, n))
+            del chunk
+        elif op == OP_CONNECTION and end <= len(buf):
+            c = _connection(fields, buf[start:end])
+            scan.connections.setdefault(c.id, c)
+        if end > len(buf):
+            what = "chunk" if op == OP_CHUNK else "record"
+            scan.stopped = f"inside a {what} at byte {start} (its whole records read)"
+            break
+    return scan
+
+
+def _chunk(buf: bytes | memoryview, where: tuple[int, int, str]) -> bytes | memoryview:
+    """A chunk's records (unpacked where compressed)."""
+    start, n, how = where
+    raw = buf[start : start + n]
+    return raw if how == "none" else _decompressed(how, bytes(raw))
+
+
+def _decompressed(how: str, data: bytes) -> bytes:
+    if how == "bz2":
+        return bz2.decompress(data)
+    if how == "lz4":
+        from lz4.frame import decompress
+
+        return decompress(data)  # type: ignore[no-any-return]
+    raise ValueError(f"compression {how!r}")
+
+
+def has_index(path: Path) -> bool:
+    """Whether a ROS 1 bag's header points to an index inside the file (``index_pos``:
+    0 while it is recorded; past the end where a copy was cut short). True for a file that
+    is no bag, which ``rosbags`` then refuses, saying so."""
+    with open(path, "rb") as f:
+        head = f.read(len(MAGIC) + 8 + 4096)
+        size = f.seek(0, 2)
+    if not head.startswith(MAGIC):
+        return True
+    for fields, _, _ in _records(head, len(MAGIC)):
+        if fields["op"][0] == OP_HEADER and len(fields.get("index_pos", b"")) == 8:
+            (at,) = struct.unpack("<Q", fields["index_pos"])
+            return 0 < at < size
+        break
+    return True
+
+
+class ScannedBag:
+    """A ROS 1 bag without its index, read record by record (what ``rosbags``'
+    ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`)."""
+
+    def __init__(self, path: Path) -> None:
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+        self._file = open(path, "rb")  # noqa: SIM115 - closed by close()
+        try:
+            self._map = mmap.mmap(self._file.fileno(), 0, access=mmap.ACCESS_READ)
+        except ValueError:  # an empty file
+            self._file.close()
+            raise ValueError("the file is empty") from None
+        if self._map[: len(MAGIC)] != MAGIC:
+            self.close()
+            raise ValueError("the file does not start as a ROS 1 bag (#ROSBAG V2.0)")
+        self._scan = scan = _scan(self._map)
+        if not scan.messages:
+            stopped = scan.stopped or "the file ends"
+            self.close()
+            raise ValueError(
+                f"no whole message: the recording was cut short inside its first chunk ({stopped})"
+            )
+        self.connections: list[ScannedConnection] = [c for _, c in sorted(scan.connections.items())]
+        self.typestore = get_typestore(Stores.EMPTY)
+        types: dict[str, Any] = {}
+        for c in self.connections:
+            if c.msgdef.data:
+                types.update(get_types_from_msg(c.msgdef.data, c.msgtype))
+        self.typestore.register(types)
+
+    @property
+    def message_count(self) -> int:
+        return len(self._scan.messages)
+
+    @property
+    def topics(self) -> dict[str, int]:
+        return {c.topic: c.id for c in self.connections}
+
+    @property
+    def said(self) -> str:
+        """What was read: the messages, and where the file stopped."""
+        end = f"; it stops {self._scan.stopped}" if self._scan.stopped else ""
+        return (
+            f"the bag has no index (a recording cut short: rosbag record leaves "
+            f"drive.bag.active so): read record by record, {self.message_count} whole "
+            f"messages{end}"
+        )
+
+    def messages(
+        self, connections: Sequence[ScannedConnection] = ()
+    ) -> Iterator[tuple[ScannedConnection, int, bytes]]:
+        """The messages of ``connections`` (all where none), in the bag's order."""
+        by_id = {c.id: c for c in (connections or self.connections)}
+        at_chunk, chunk = -1, b""
+        for conn, t, k, at, n in self._scan.messages:
+            c = by_id.get(conn)
+            if c is None:
+                continue
+            if k != at_chunk:
+                at_chunk, chunk = k, _chunk(self._map, self._scan.chunks[k])
+            yield c, t, bytes(chunk[at : at + n])
+
+    def deserialize(self, raw: bytes, msgtype: str) -> Any:
+        return self.typestore.deserialize_ros1(raw, msgtype)
+
+    def close(self) -> None:
+        self._scan = _Scan()
+        if getattr(self, "_map", None) is not None:
+            self._map.close()
+        self._file.close()
+
+    def __enter__(self) -> ScannedBag:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
