@@ -178,7 +178,8 @@ def _value(msg: Any, path: tuple[str | int, ...]) -> Any:
 
 
 def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating, np.bool_)) and not isinstance(v, str)
+    """Whether a field's value is a number (a bool is 0 or 1)."""
+    return isinstance(v, (int, float, np.integer, np.floating, np.bool_))
 
 
 def _stamp_ns(msg: Any) -> int | None:
@@ -325,9 +326,9 @@ def rosbag_groups(
         notes.append(f"{file}: {said}")
     groups = []
     for topic in read:
-        group, said = _group(topic, fields, signal_map, radius_m, file)
+        group, told = _group(topic, fields, signal_map, radius_m, file)
         groups.append(group)
-        notes += said
+        notes += told
     return groups, notes
 
 

@@ -97,9 +97,9 @@ def discover(data: DataParams) -> list[DriveFile]:
 
     A role's glob matches files for the formats that read one file per drive (IO-VNBD,
     column maps, MDF4; and a ROS 2 bag's folder for MDF4's reader) and folders for those
-    that read one folder per drive (comma2k19, stream CSVs); the drive id is the file's stem
-    or the folder's name. Hidden files and
-    folders (a name starting with a dot, as macOS's ``._`` files) are no drives.
+    that read one folder per drive (comma2k19, stream CSVs); the drive id is the file's
+    stem or the folder's name. Hidden files and folders (a name starting with a dot, as
+    macOS's ``._`` files) are no drives.
 
     Args:
         data: the ``data`` section (globs are relative to ``data.root``).
