@@ -657,3 +657,37 @@ def test_a_bag_read_record_by_record_gives_rosbags_messages(tmp_path, compressio
     for k in want:
         np.testing.assert_array_equal(got[k], want[k], err_msg=k)
     assert any("it stops" in n for n in read_mdf4(short, bag_map(), radius, "m", "s").notes)
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_a_ros2_bag_s_storage_file_given_alone_is_read_as_its_folder(tmp_path, storage):
+    """A ROS 2 bag's .mcap or .db3 without its folder's metadata.yaml (as such a recording
+    is often shared), plain and gzipped through ingest's reader: the folder's grid bit for
+    bit, the notes saying so."""
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from support.drives import make_params
+
+    tables, radius = _drive()
+    folder = tables_bag(tmp_path / "drive", tables, ros2=storage)
+    want = _grid(read_mdf4(folder, bag_map(yaw=True), radius, "m", "drive"), radius)
+    suffix = ".mcap" if storage == "mcap" else ".db3"
+    alone = tmp_path / "raw" / f"V-1{suffix}"
+    alone.parent.mkdir()
+    shutil.copy(next(folder.glob(f"*{suffix}")), alone)
+    packed = tmp_path / "raw" / f"V-2{suffix}.gz"
+    packed.write_bytes(gzip.compress(alone.read_bytes(), mtime=0))
+    streams = read_mdf4(alone, bag_map(yaw=True), radius, "m", alone.name)
+    said = f"{alone.name}: a ROS 2 bag's {suffix[1:]} file (without its metadata.yaml) of "
+    assert any(n.startswith(f"{said}{tables.n_rows} messages on 3") for n in streams.notes)
+    got = _grid(streams, radius)
+    for k in want:
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k)
+    signals = {k: {"column": v.column, "unit": v.unit} for k, v in bag_map(yaw=True).items()}
+    maps = {"ros": {"reader": "mdf4", "signals": signals}}
+    data = make_params(tmp_path, **{"data.signal_maps": maps}).data
+    raw = read_any(
+        DriveFile("V-2", "target_test", "target", "ros", packed), data, str, radius, 0.1, 10.0
+    )[0]
+    for k in want:
+        np.testing.assert_array_equal(raw.columns[k], got[k] if k in got else raw.columns[k])
+    assert any("the ROS bag" in n for n in raw.notes)

@@ -301,9 +301,13 @@ def _read_decompressed(
             split_gap_s,
             require_fix,
         )
-    what = {".csv": "the text", ".mf4": "the MDF4 log", ".bag": "the ROS bag"}.get(
-        inner, "the CAN log"
-    )
+    what = {
+        ".csv": "the text",
+        ".mf4": "the MDF4 log",
+        ".bag": "the ROS bag",
+        ".mcap": "the ROS bag",
+        ".db3": "the ROS bag",
+    }.get(inner, "the CAN log")
     said = compressed_note(packed, what)
     return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
 

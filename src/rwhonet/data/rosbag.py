@@ -76,6 +76,8 @@ if TYPE_CHECKING:
     from rwhonet.data.keptframes import FrameFilter
 
 ROSBAG_SUFFIXES = (".bag",)
+# a ROS 2 bag's storage file given without its folder's metadata.yaml (rosbags reads it)
+ROS2_FILES = (".mcap", ".db3")
 UNFINISHED = ".bag.active"  # rosbag record's file while it records, left so when it is killed
 CLOCK = "ROS time (s since 1970: the recording computer's clock)"
 _TOPIC = r"[^.\s\[\]]+"  # ROS's names: letters, digits, _, / and ~
@@ -94,9 +96,15 @@ def is_rosbag2_folder(path: Path) -> bool:
 
 def is_rosbag_name(name: str) -> bool:
     """Whether a file's name is a ROS 1 bag's (``.bag``, kept compressed too: ``.bag.gz``;
-    or an unfinished ``.bag.active``)."""
+    or an unfinished ``.bag.active``) or a ROS 2 bag's storage file given alone (``.mcap``,
+    ``.db3``; ``.mcap.gz``)."""
     low = without_suffix(name).lower()
-    return low.endswith(ROSBAG_SUFFIXES) or low.endswith(UNFINISHED)
+    return low.endswith((*ROSBAG_SUFFIXES, UNFINISHED, *ROS2_FILES))
+
+
+def _is_ros2(path: Path) -> bool:
+    """Whether a bag is ROS 2's: a folder, or its storage file alone."""
+    return path.is_dir() or path.suffix.lower() in ROS2_FILES
 
 
 @dataclass(frozen=True)
@@ -234,7 +242,7 @@ def _opened(path: Path, file: str) -> Iterator[Any]:
 
     from rwhonet.data.bagscan import ScannedBag, has_index
 
-    ros2 = path.is_dir()
+    ros2 = _is_ros2(path)
     try:
         if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
             with ScannedBag(path) as scanned:  # a recording cut short: as far as it goes
@@ -312,8 +320,10 @@ def rosbag_groups(
         n_messages, n_topics = bag.message_count, len(bag.topics)
         carried = _carries_definitions(bag)
         said = getattr(bag, "said", "")  # a bag without its index, read record by record
-    ros2 = path.is_dir()
+    ros2 = _is_ros2(path)
     kind, how = ("a ROS 2 bag", READ_HOW_2) if ros2 else ("a ROS 1 bag", READ_HOW)
+    if ros2 and not path.is_dir():
+        kind = f"a ROS 2 bag's {path.suffix.lstrip('.')} file (without its metadata.yaml)"
     if said:
         how = "record by record, rosbags deserialising"
     notes = [
