@@ -242,7 +242,8 @@ def with_format(params: Params, fmt: str, signal_map: str | None = None) -> Para
                     None,
                     f"--format {' or '.join(STREAM_READERS)} with a signal map",
                     f"--format {fmt}",
-                    "give --format mdf4 (an MDF4 file) or stream_csv (a folder of stream CSVs)",
+                    "give --format mdf4 (an MDF4 file, a CAN log, a ROS bag) or stream_csv (a "
+                    "folder of stream CSVs)",
                 )
             ]
         )
