@@ -55,6 +55,7 @@ def test_names():
     assert field_of("/imu/data.angular_velocity.z").path == ("angular_velocity", "z")
     assert field_of(" /joint_states.velocity[2] ").path == ("velocity", 2)
     assert field_of("/m.data[1][0].x").path == ("data", 1, 0, "x")
+    assert field_of("gps/fix.latitude").topic == "/gps/fix"  # as rosbags names it
     for bad in ("/gps/fix", "/gps/fix.", "/gps/fix.lat itude", "/a.b[x]", ".latitude", "/a.1b"):
         assert field_of(bad) is None, bad
     assert is_rosbag_name("drive.BAG") and is_rosbag_name("d.bag.gz")

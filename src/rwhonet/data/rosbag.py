@@ -118,7 +118,8 @@ class Field:
 
 def field_of(text: str) -> Field | None:
     """The topic and field a channel names (``/imu/data.angular_velocity.z``,
-    ``/joint_states.velocity[2]``), or None where it names none."""
+    ``/joint_states.velocity[2]``; ``gps/fix.latitude`` is ``/gps/fix``'s), or None where it
+    names none."""
     m = _SIGNAL.match(text.strip())
     if m is None:
         return None
@@ -127,7 +128,8 @@ def field_of(text: str) -> Field | None:
         name = part.split("[", 1)[0]
         path.append(name)
         path += [int(i) for i in _INDEX.findall(part)]
-    return Field(m.group(1), tuple(path), text.strip())
+    topic = m.group(1)  # rosbags names every topic from the root, as rostopic lists it
+    return Field(topic if topic.startswith("/") else f"/{topic}", tuple(path), text.strip())
 
 
 def _fields(signal_map: Mapping[str, ColumnSpec], where: str) -> dict[str, Field]:
