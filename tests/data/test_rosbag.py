@@ -692,3 +692,24 @@ def test_a_ros2_bag_s_storage_file_given_alone_is_read_as_its_folder(tmp_path, s
     for k in want:
         np.testing.assert_array_equal(raw.columns[k], got[k] if k in got else raw.columns[k])
     assert any("the ROS bag" in n for n in raw.notes)
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_a_ros2_bag_s_folder_without_its_metadata_is_read_by_its_storage_files(tmp_path, storage):
+    """``ros2 bag record`` writes metadata.yaml as it stops; killed, it leaves the folder
+    with its storage files alone: listed as a drive and read from them, the folder's grid
+    bit for bit, the notes saying so. A folder of neither is no bag."""
+    from rwhonet.data.rosbag import is_rosbag2_folder
+
+    tables, radius = _drive()
+    folder = tables_bag(tmp_path / "drive", tables, ros2=storage)
+    want = _grid(read_mdf4(folder, bag_map(), radius, "m", "drive"), radius)
+    (folder / "metadata.yaml").unlink()
+    assert is_rosbag2_folder(folder) and not is_rosbag2_folder(tmp_path)
+    streams = read_mdf4(folder, bag_map(), radius, "m", "drive")
+    said = "\n".join(streams.notes)
+    assert "drive: the folder has no metadata.yaml (a recording cut short" in said
+    assert "its 1 storage file(s) read alone (drive." in said
+    got = _grid(streams, radius)
+    for k in want:
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k)

@@ -11,7 +11,8 @@ read here (:func:`read_rosbag`); ``rosbags`` (Ternaris, Apache-2.0) reads the ba
 and deserialises its messages by the message definitions the bag itself carries, so a
 kit's own message types need nothing installed, and ROS need not be. A ROS 2 bag recorded
 before Iron carries none: ROS's own types are known (the latest LTS's), a kit's are
-refused, naming the type.
+refused, naming the type. A ROS 2 bag's ``.mcap`` or ``.db3`` given alone, or its folder
+without ``metadata.yaml`` (a recording cut short), is read from its storage files.
 
 **Signals.** A signal map's channel names a topic and a field of its messages, with a
 ``.`` between: ``/vehicle/wheel_speed_report.front_left``, ``/gps/fix.latitude``,
@@ -90,8 +91,18 @@ METADATA = "metadata.yaml"  # a ROS 2 bag folder's description of its storage fi
 
 
 def is_rosbag2_folder(path: Path) -> bool:
-    """Whether a path is a ROS 2 bag: a folder holding its ``metadata.yaml``."""
-    return path.is_dir() and (path / METADATA).is_file()
+    """Whether a path is a ROS 2 bag: a folder holding its ``metadata.yaml``, or only its
+    storage files (``.db3``, ``.mcap``: a recording cut short, before ``ros2 bag record``
+    wrote its ``metadata.yaml``)."""
+    return path.is_dir() and ((path / METADATA).is_file() or bool(_storage_files(path)))
+
+
+def _storage_files(folder: Path) -> list[Path]:
+    """A ROS 2 bag folder's storage files (``drive_0.db3``, ``drive_1.db3``...), in order."""
+    return sorted(
+        (p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in ROS2_FILES),
+        key=lambda p: (len(p.name), p.name),
+    )
 
 
 def is_rosbag_name(name: str) -> bool:
@@ -224,8 +235,7 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
     if ros2:
         fix = (
             "give the bag's folder as `ros2 bag record` wrote it (metadata.yaml beside its "
-            ".db3 or .mcap files); a recording cut short has no metadata.yaml: `ros2 bag "
-            "reindex` writes it"
+            ".db3 or .mcap files); `ros2 bag reindex` mends a recording cut short"
         )
         return InputError([Problem.unreadable(file, f"a ROS 2 bag ({READ_HOW_2})", err, fix)])
     fix = (
@@ -253,6 +263,16 @@ def _opened(path: Path, file: str) -> Iterator[Any]:
         # a ROS 2 bag recorded before Iron carries no message definitions: ROS's own
         # messages are known by the latest LTS's (their layouts have not changed)
         known = get_typestore(Stores.LATEST) if ros2 else None
+        if path.is_dir() and not (path / METADATA).is_file():  # cut short: its files alone
+            files = _storage_files(path)
+            with AnyReader(files, default_typestore=known) as bag:
+                bag.said = (  # type: ignore[attr-defined]
+                    f"the folder has no {METADATA} (a recording cut short: `ros2 bag reindex` "
+                    f"writes it): its {len(files)} storage file(s) read alone "
+                    f"({', '.join(p.name for p in files)})"
+                )
+                yield bag
+            return
         with AnyReader([path], default_typestore=known) as bag:
             yield bag
     except InputError:
@@ -321,12 +341,12 @@ def rosbag_groups(
         read = _read_topics(bag, by_topic, fields, file)
         n_messages, n_topics = bag.message_count, len(bag.topics)
         carried = _carries_definitions(bag)
-        said = getattr(bag, "said", "")  # a bag without its index, read record by record
+        said = getattr(bag, "said", "")  # a recording cut short, read as far as it goes
     ros2 = _is_ros2(path)
     kind, how = ("a ROS 2 bag", READ_HOW_2) if ros2 else ("a ROS 1 bag", READ_HOW)
     if ros2 and not path.is_dir():
         kind = f"a ROS 2 bag's {path.suffix.lstrip('.')} file (without its metadata.yaml)"
-    if said:
+    if said and not ros2:
         how = "record by record, rosbags deserialising"
     notes = [
         f"{file}: {kind} of {n_messages} messages on {n_topics} topic(s); read {len(read)} "
@@ -412,7 +432,7 @@ def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames
         defs = bag.typestore.fielddefs
         where = {m: _frame_of(defs, m) for _, m in topics}
         cons = [c for c in bag.connections if (c.topic, c.msgtype) in set(topics)]
-        said = getattr(bag, "said", "")  # a bag without its index, read record by record
+        said = getattr(bag, "said", "")  # a recording cut short, read as far as it goes
         batch: dict[str, list[Any]] = {k: [] for k in ("t", "id", "ext", "data", "code", "row")}
 
         def flush() -> None:
