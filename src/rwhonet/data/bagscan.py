@@ -40,14 +40,6 @@ _U32 = struct.Struct("<I")
 
 
 @dataclass(frozen=True)
-class _Definition:
-    """A connection's message definition, as ``rosbags`` names its format (MSG)."""
-
-    format: Any
-    data: str
-
-
-@dataclass(frozen=True)
 class ScannedConnection:
     """A connection record: its number, topic, message type (ROS 2's form, as
     ``rosbags`` names it: ``sensor_msgs/msg/NavSatFix``) and definition."""
@@ -55,7 +47,7 @@ class ScannedConnection:
     id: int
     topic: str
     msgtype: str
-    msgdef: _Definition
+    msgdef: Any  # rosbags' MessageDefinition (its format MSG: ROS 1's text)
     md5sum: str
 
 
@@ -101,7 +93,7 @@ def _records(buf: bytes | memoryview, pos: int) -> Iterator[tuple[dict[str, byte
 
 
 def _connection(fields: dict[str, bytes], data: bytes | memoryview) -> ScannedConnection:
-    from rosbags.interfaces import MessageDefinitionFormat
+    from rosbags.interfaces import MessageDefinition, MessageDefinitionFormat
     from rosbags.typesys.msg import normalize_msgtype
 
     more = _fields(data)
@@ -110,7 +102,9 @@ def _connection(fields: dict[str, bytes], data: bytes | memoryview) -> ScannedCo
         _U32.unpack(fields["conn"])[0],
         topic if topic.startswith("/") else f"/{topic}",
         normalize_msgtype(more.get("type", b"").decode()),
-        _Definition(MessageDefinitionFormat.MSG, more.get("message_definition", b"").decode()),
+        MessageDefinition(
+            MessageDefinitionFormat.MSG, more.get("message_definition", b"").decode()
+        ),
         more.get("md5sum", b"").decode(),
     )
 
