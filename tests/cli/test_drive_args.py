@@ -152,3 +152,25 @@ def test_help_says_how_to_give_a_new_car_and_a_format(command, capsys):
     for flag in ("--nominal-radius", "--vehicle-file", "--track-rear", "--signal-map"):
         assert flag in text
     assert "comma2k19" in text and "mdf4" in text and "stream_csv" in text
+
+
+def test_a_map_file_with_an_unquoted_index_in_braces_says_to_quote_it(tmp_path):
+    """YAML reads ``[2]`` inside ``{...}`` as a list and fails: the refusal names the line
+    and says to quote the channel; quoted, the map is read."""
+    line = "omega_rl: {column: %s, unit: rad/s}\n"
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("lat: {column: /fix.latitude, unit: deg}\n" + line % "/js.velocity[2]")
+    with pytest.raises(InputError) as err:
+        with_format(load_params(), "mdf4", str(bad))
+    text = str(err.value)
+    assert "bad.yaml, row 2: expected a signal map" in text
+    assert 'quote a channel with an index in {...}: {column: "/joint_states.velocity[2]"' in text
+    good = tmp_path / "good.yaml"
+    rest = "".join(f"omega_{w}: {{column: /w.{w}, unit: rad/s}}\n" for w in ("fl", "fr", "rr"))
+    good.write_text(
+        "lat: {column: /fix.latitude, unit: deg}\nlon: {column: /fix.longitude, unit: deg}\n"
+        + rest
+        + line % '"/js.velocity[2]"'
+    )
+    spec = with_format(load_params(), "mdf4", str(good)).data.signal_maps["mdf4"]
+    assert spec.signals["omega_rl"].column == "/js.velocity[2]"

@@ -141,8 +141,15 @@ def read_yaml(path: str, what: str) -> Any:
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = None if mark is None else mark.line + 1
+        said = text.splitlines()[line - 1] if line and line <= len(text.splitlines()) else ""
+        # a ROS bag's channel with an index inside {...}: YAML reads [2] as a list
+        fix = (
+            'quote a channel with an index in {...}: {column: "/joint_states.velocity[2]", ...}'
+            if "{" in said and "[" in said
+            else None
+        )
         raise InputError(
-            [Problem(path, line, None, f"{what} in YAML", f"not YAML: {str(err)[:160]}")]
+            [Problem(path, line, None, f"{what} in YAML", f"not YAML: {str(err)[:160]}", fix)]
         ) from None
     raise InputError([Problem(path, None, None, f"{what} in YAML", found)])
 
