@@ -513,7 +513,10 @@ def test_a_bag_s_raw_can_frames_are_decoded_by_the_map_s_dbc_as_a_candump_log_s(
 
 
 def test_a_bag_without_can_frames_for_the_map_s_dbc_is_refused_naming_its_topics(tmp_path):
-    from support.canlog import DBC, SIGNALS
+    """No topic of frames: refused naming the bag's topics; a topic of error frames only:
+    refused as a CAN log without a data frame is, counting them."""
+    from support.canlog import DBC, SIGNALS, stream_frames
+    from support.rosbag import CAN_FRAME, CAN_FRAME_DEF, CAN_TOPIC, can_messages
 
     tables, radius = _drive()
     bag = tables_bag(tmp_path / "d.bag", tables)
@@ -525,6 +528,16 @@ def test_a_bag_without_can_frames_for_the_map_s_dbc_is_refused_naming_its_topics
     text = str(err.value)
     assert "d.bag: expected a topic of raw CAN frames (can_msgs/Frame" in text
     assert f"found none; its topics: {WHEEL_TOPIC} (dbw_mkz_msgs/msg/WheelSpeedReport)" in text
+    stamps, ids, data = stream_frames(tables, radius, 1.5e9)
+    errors = [
+        m for m in can_messages(stamps[:5], ids[:5], data[:5], every_error=1) if m[1].is_error
+    ]
+    extra = [(CAN_TOPIC, CAN_FRAME, errors)]
+    bag = write_bag(tmp_path / "e.bag", None, None, extra=extra, msgdefs={CAN_FRAME: CAN_FRAME_DEF})
+    with pytest.raises(InputError) as err:
+        read_mdf4(bag, smap, radius, "m", "e.bag", dbc=[str(dbc)])
+    said = "e.bag: expected CAN data frames in the bag's topics of them (/can_tx); found none"
+    assert f"{said} (5 error frames)" in str(err.value)
 
 
 def test_two_can_topics_are_two_buses_each_decoded_by_its_own_dbc(tmp_path):

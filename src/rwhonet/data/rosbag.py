@@ -484,6 +484,21 @@ def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames
             if len(batch["t"]) >= FRAME_BATCH:
                 flush()
         flush()
+    passed = ", ".join(f"{v} {k}" for k, v in skipped.items() if v)
+    if rows == sum(skipped.values()):  # as a CAN log without a data frame is refused
+        listed = ", ".join(t for t, _ in topics)
+        raise InputError(
+            [
+                Problem(
+                    file,
+                    None,
+                    None,
+                    f"CAN data frames in the bag's topics of them ({listed})",
+                    f"none ({passed or 'no message'})",
+                    "give the drive's bag with its bus recorded, or map decoded topics",
+                )
+            ]
+        )
     got = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     channel = (got["code"] + 1).astype(np.uint8) if kept is None else kept.channel(got["code"])
     names = [t for t, _ in topics] if kept is None else [topics[int(b)][0] for b in kept.buses]
@@ -498,7 +513,7 @@ def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames
         f"the bag's CAN frames' header stamps, else their record times ({CLOCK})"
         + (f"; {said}" if said else ""),
         got["row"],
-        ", ".join(f"{v} {k}" for k, v in skipped.items() if v),
+        passed,
         **({} if kept is None else {"dropped": kept.dropped, "log_ids": kept.log_ids()}),
     )
 
