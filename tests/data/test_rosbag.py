@@ -457,7 +457,7 @@ def test_a_bag_s_raw_can_frames_are_decoded_by_the_map_s_dbc_as_a_candump_log_s(
     a bag's stamps are ns, candump's us), on their stamps, those passed over counted;
     with the fixes from a NavSatFix topic instead (a channel whose topic the bag has is
     that topic's field), the fixes' grid is the NavSatFix bag's."""
-    from rwhonet.data.rosbag import bag_frames
+    from rwhonet.data.rosbag import bag_frames, opened_bag
     from support.canlog import DBC, SATS_ID, SIGNALS, stream_frames, write_candump
     from support.rosbag import CAN_FRAME, CAN_FRAME_DEF, CAN_TOPIC, can_messages
 
@@ -474,7 +474,8 @@ def test_a_bag_s_raw_can_frames_are_decoded_by_the_map_s_dbc_as_a_candump_log_s(
     extra = [(CAN_TOPIC, CAN_FRAME, messages)]  # recorded 4 ms after their stamps
     path = tmp_path / ("bus" if ros2 else "bus.bag")
     bag = write_bag(path, None, None, extra=extra, msgdefs={CAN_FRAME: CAN_FRAME_DEF}, ros2=ros2)
-    frames = bag_frames(bag, bag.name)
+    with opened_bag(bag, bag.name) as opened:
+        frames = bag_frames(opened, bag.name)
     np.testing.assert_array_equal(frames.length, lengths)
     assert frames.buses == [CAN_TOPIC] and frames.t_s[0] == stamps[0]
     streams = read_mdf4(bag, smap, radius, "m", bag.name, dbc=[str(dbc)])
@@ -547,7 +548,7 @@ def test_two_can_topics_are_two_buses_each_decoded_by_its_own_dbc(tmp_path):
     the database the map gives it; the grid is the one-topic bag's."""
     from rosbags.typesys import get_types_from_msg
 
-    from rwhonet.data.rosbag import bag_frames
+    from rwhonet.data.rosbag import bag_frames, opened_bag
     from support.canlog import DBC, SIGNALS, WHEELS_ID, stream_frames
     from support.rosbag import CAN_FRAME, CAN_FRAME_DEF, can_messages
 
@@ -590,7 +591,8 @@ def test_two_can_topics_are_two_buses_each_decoded_by_its_own_dbc(tmp_path):
         extra=[("/can_b", stamped, kit), ("/can_a", CAN_FRAME, bus_a)],
         msgdefs=defs,
     )
-    frames = bag_frames(bag, "two.bag")
+    with opened_bag(bag, "two.bag") as opened:
+        frames = bag_frames(opened, "two.bag")
     assert frames.buses == ["/can_a", "/can_b"] and int(frames.extended.sum()) == 1
     per_bus = [(str(dbc), "/can_b"), (str(dbc), "/can_a")]
     streams = read_mdf4(bag, smap, radius, "m", "two.bag", dbc=per_bus)

@@ -152,32 +152,33 @@ def _bag_and_bus(
     field (:func:`rwhonet.data.rosbag.rosbag_groups`), any other a signal the databases
     decode from the bag's topics of raw CAN frames
     (:func:`rwhonet.data.rosbag.bag_frames`, each topic a bus), as from a bus tool's log."""
-    from rwhonet.data.rosbag import CLOCK, bag_frames, bag_topics, field_of, rosbag_groups
+    from rwhonet.data.rosbag import CLOCK, bag_frames, field_of, opened_bag, rosbag_groups
 
-    topics = bag_topics(path, file)
-    on_topics = {
-        k: spec
-        for k, spec in signal_map.items()
-        if (f := field_of(spec.column)) is not None and f.topic in topics
-    }
-    on_bus = {k: spec for k, spec in signal_map.items() if k not in on_topics}
     groups, notes, changed = [], [], []
-    if on_topics:
-        groups, notes = rosbag_groups(path, on_topics, radius_m, name, file)
-    if on_bus:
-        log = can_log_groups(
-            path,
-            on_bus,
-            radius_m,
-            name,
-            file,
-            dbc,
-            max_mb=max_mb,
-            frames_of=lambda keep: bag_frames(path, file, keep),
-        )
-        groups += log.groups
-        notes += log.notes
-        changed += log.changed
+    with opened_bag(path, file) as bag:  # once: read record by record, a cut bag is scanned
+        topics = {c.topic for c in bag.connections}
+        on_topics = {
+            k: spec
+            for k, spec in signal_map.items()
+            if (f := field_of(spec.column)) is not None and f.topic in topics
+        }
+        on_bus = {k: spec for k, spec in signal_map.items() if k not in on_topics}
+        if on_topics:
+            groups, notes = rosbag_groups(bag, path, on_topics, radius_m, name, file)
+        if on_bus:
+            log = can_log_groups(
+                path,
+                on_bus,
+                radius_m,
+                name,
+                file,
+                dbc,
+                max_mb=max_mb,
+                frames_of=lambda keep: bag_frames(bag, file, keep),
+            )
+            groups += log.groups
+            notes += log.notes
+            changed += log.changed
     streams = build_streams(groups, CLOCK, pulse_units(signal_map))
     return dataclasses.replace(
         streams, notes=(*streams.notes, *notes), changed=(*streams.changed, *changed)

@@ -246,50 +246,49 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
 
 
 @contextlib.contextmanager
-def _opened(path: Path, file: str) -> Iterator[Any]:
-    """The bag open for reading (``rosbags``' ``AnyReader``); its failures refused as the
-    bag's (:func:`_unreadable`)."""
+def opened_bag(path: Path, file: str) -> Iterator[Any]:
+    """The bag open for reading, once for all that is read of it: ``rosbags``'
+    ``AnyReader``, or a :class:`~rwhonet.data.bagscan.ScannedBag` for a ROS 1 recording cut
+    short. What fails as it opens, and what ``rosbags`` raises while it is read, is refused
+    as the bag's (:func:`_unreadable`); anything else raised inside passes as it is.
+    """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
 
     from rwhonet.data.bagscan import ScannedBag, has_index
 
     ros2 = _is_ros2(path)
-    try:
-        if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
-            with ScannedBag(path) as scanned:  # a recording cut short: as far as it goes
-                yield scanned
-            return
-        # a ROS 2 bag recorded before Iron carries no message definitions: ROS's own
-        # messages are known by the latest LTS's (their layouts have not changed)
-        known = get_typestore(Stores.LATEST) if ros2 else None
-        if path.is_dir() and not (path / METADATA).is_file():  # cut short: its files alone
-            files = _storage_files(path)
-            with AnyReader(files, default_typestore=known) as bag:
-                bag.said = (  # type: ignore[attr-defined]
-                    f"the folder has no {METADATA} (a recording cut short: `ros2 bag reindex` "
-                    f"writes it): its {len(files)} storage file(s) read alone "
-                    f"({', '.join(p.name for p in files)})"
-                )
-                yield bag
-            return
-        with AnyReader([path], default_typestore=known) as bag:
-            yield bag
-    except InputError:
-        raise
-    except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
-        raise _unreadable(file, err, ros2) from None
-    except Exception as err:  # rosbags' ReaderError and deserialisation errors
-        if type(err).__module__.startswith("rosbags"):
+    with contextlib.ExitStack() as stack:
+        try:
+            if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
+                bag = stack.enter_context(ScannedBag(path))  # cut short: as far as it goes
+            else:
+                # a ROS 2 bag recorded before Iron carries no message definitions: ROS's
+                # own messages are known by the latest LTS's (their layouts have not changed)
+                known = get_typestore(Stores.LATEST) if ros2 else None
+                cut = path.is_dir() and not (path / METADATA).is_file()
+                files = _storage_files(path) if cut else [path]  # cut short: its files alone
+                bag = stack.enter_context(AnyReader(files, default_typestore=known))
+                if cut:
+                    bag.said = (
+                        f"the folder has no {METADATA} (a recording cut short: `ros2 bag "
+                        f"reindex` writes it): its {len(files)} storage file(s) read alone "
+                        f"({', '.join(p.name for p in files)})"
+                    )
+        except InputError:
+            raise
+        except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
             raise _unreadable(file, err, ros2) from None
-        raise
-
-
-def bag_topics(path: Path, file: str) -> set[str]:
-    """The bag's topics (a map's channel whose topic is none of them, with a ``dbc``, is a
-    signal of the bag's CAN frames)."""
-    with _opened(path, file) as bag:
-        return {c.topic for c in bag.connections}
+        except Exception as err:  # rosbags' ReaderError
+            if type(err).__module__.startswith("rosbags"):
+                raise _unreadable(file, err, ros2) from None
+            raise
+        try:
+            yield bag
+        except Exception as err:  # rosbags' reading and deserialisation errors
+            if type(err).__module__.startswith("rosbags"):
+                raise _unreadable(file, err, ros2) from None
+            raise
 
 
 def read_rosbag(
@@ -306,12 +305,14 @@ def read_rosbag(
         ConfigError: a channel that names no topic and field.
         InputError: as :func:`rosbag_groups`.
     """
-    groups, notes = rosbag_groups(path, signal_map, radius_m, name, file)
+    with opened_bag(path, file) as bag:
+        groups, notes = rosbag_groups(bag, path, signal_map, radius_m, name, file)
     streams = build_streams(groups, CLOCK, pulse_units(signal_map))
     return dataclasses.replace(streams, notes=(*streams.notes, *notes))
 
 
 def rosbag_groups(
+    bag: Any,
     path: Path,
     signal_map: Mapping[str, ColumnSpec],
     radius_m: float | None,
@@ -321,6 +322,7 @@ def rosbag_groups(
     """A bag's mapped topics' fields as channel groups, one a topic, and the notes.
 
     Args:
+        bag: the bag, open (:func:`opened_bag`).
         path: the bag (a ROS 2 bag: its folder).
         signal_map: key -> ``/topic.field`` and unit (checked already:
             :func:`rwhonet.data.signalmap.check_signal_map`).
@@ -337,11 +339,10 @@ def rosbag_groups(
     by_topic: dict[str, list[str]] = {}
     for key, f in fields.items():
         by_topic.setdefault(f.topic, []).append(key)
-    with _opened(path, file) as bag:
-        read = _read_topics(bag, by_topic, fields, file)
-        n_messages, n_topics = bag.message_count, len(bag.topics)
-        carried = _carries_definitions(bag)
-        said = getattr(bag, "said", "")  # a recording cut short, read as far as it goes
+    read = _read_topics(bag, by_topic, fields, file)
+    n_messages, n_topics = bag.message_count, len(bag.topics)
+    carried = _carries_definitions(bag)
+    said = getattr(bag, "said", "")  # a recording cut short, read as far as it goes
     ros2 = _is_ros2(path)
     kind, how = ("a ROS 2 bag", READ_HOW_2) if ros2 else ("a ROS 1 bag", READ_HOW)
     if ros2 and not path.is_dir():
@@ -384,31 +385,29 @@ def _frame_of(fields: dict[str, Any], msgtype: str) -> str | None:
     return None
 
 
-def can_topics(path: Path, file: str) -> list[tuple[str, str]]:
+def _can_topics(bag: Any) -> list[tuple[str, str]]:
     """The bag's topics of raw CAN frames and their types."""
-    with _opened(path, file) as bag:
-        defs = bag.typestore.fielddefs
-        found = {(c.topic, c.msgtype) for c in bag.connections if c.msgtype in defs}
-        return sorted((t, m) for t, m in found if _frame_of(defs, m) is not None)
+    defs = bag.typestore.fielddefs
+    found = {(c.topic, c.msgtype) for c in bag.connections if c.msgtype in defs}
+    return sorted((t, m) for t, m in found if _frame_of(defs, m) is not None)
 
 
-def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames:
+def bag_frames(bag: Any, file: str, keep: FrameFilter | None = None) -> Frames:
     """The raw CAN frames a bag's topics of them hold, each topic a bus (named by it), in
     the bag's order, as a CAN log's (:class:`~rwhonet.data.canlog.Frames`): timed by their
     header stamps, else by the times the bag recorded them; error and remote frames passed
     over, counted; with ``keep``, the frames of other messages counted and left out as the
-    bag is read.
+    bag is read. ``bag``: the bag, open (:func:`opened_bag`).
 
     Raises:
-        InputError: the bag unreadable; no topic of CAN frames, or none in them.
+        InputError: no topic of CAN frames, or no data frame in them.
     """
     from rwhonet.data.canlog import Frames, too_many
     from rwhonet.data.keptframes import ID_MASK, Kept, TooManyFrames
 
-    topics = can_topics(path, file)
+    topics = _can_topics(bag)
     if not topics:
-        with _opened(path, file) as bag:
-            listed = ", ".join(f"{c.topic} ({c.msgtype})" for c in bag.connections)
+        listed = ", ".join(f"{c.topic} ({c.msgtype})" for c in bag.connections)
         raise InputError(
             [
                 Problem(
@@ -428,62 +427,62 @@ def bag_frames(path: Path, file: str, keep: FrameFilter | None = None) -> Frames
     parts: list[dict[str, np.ndarray]] = []
     skipped = {"error frames": 0, "remote frames": 0}
     rows = 0
-    with _opened(path, file) as bag:
-        defs = bag.typestore.fielddefs
-        where = {m: _frame_of(defs, m) for _, m in topics}
-        cons = [c for c in bag.connections if (c.topic, c.msgtype) in set(topics)]
-        said = getattr(bag, "said", "")  # a recording cut short, read as far as it goes
-        batch: dict[str, list[Any]] = {k: [] for k in ("t", "id", "ext", "data", "code", "row")}
+    defs = bag.typestore.fielddefs
+    where = {m: _frame_of(defs, m) for _, m in topics}
+    taken = set(topics)
+    cons = [c for c in bag.connections if (c.topic, c.msgtype) in taken]
+    said = getattr(bag, "said", "")  # a recording cut short, read as far as it goes
+    batch: dict[str, list[Any]] = {k: [] for k in ("t", "id", "ext", "data", "code", "row")}
 
-        def flush() -> None:
-            ids = np.asarray(batch["id"], np.int64) & ID_MASK
-            ext = np.asarray(batch["ext"], bool)
-            code = np.asarray(batch["code"], np.int64)
-            try:
-                at = np.arange(ids.size) if kept is None else kept.part(ids, ext, code)
-            except TooManyFrames as err:  # more of the map's messages than max_mb holds
-                raise InputError([too_many(file, err)]) from None
-            data = [batch["data"][i] for i in at.tolist()]
-            lengths = np.array([len(d) for d in data], np.int64)
-            table = np.zeros((len(data), 8), np.uint8)
-            for i, d in enumerate(data):
-                table[i, : len(d)] = np.frombuffer(d, np.uint8)
-            parts.append(
-                {
-                    "t": np.asarray(batch["t"], np.int64)[at],
-                    "id": ids[at].astype(np.uint32),
-                    "ext": ext[at],
-                    "len": lengths.astype(np.uint8),
-                    "data": table,
-                    "code": code[at],
-                    "row": np.asarray(batch["row"], np.int64)[at],
-                }
-            )
-            for v in batch.values():
-                v.clear()
+    def flush() -> None:
+        ids = np.asarray(batch["id"], np.int64) & ID_MASK
+        ext = np.asarray(batch["ext"], bool)
+        code = np.asarray(batch["code"], np.int64)
+        try:
+            at = np.arange(ids.size) if kept is None else kept.part(ids, ext, code)
+        except TooManyFrames as err:  # more of the map's messages than max_mb holds
+            raise InputError([too_many(file, err)]) from None
+        data = [batch["data"][i] for i in at.tolist()]
+        lengths = np.array([len(d) for d in data], np.int64)
+        table = np.zeros((len(data), 8), np.uint8)
+        for i, d in enumerate(data):
+            table[i, : len(d)] = np.frombuffer(d, np.uint8)
+        parts.append(
+            {
+                "t": np.asarray(batch["t"], np.int64)[at],
+                "id": ids[at].astype(np.uint32),
+                "ext": ext[at],
+                "len": lengths.astype(np.uint8),
+                "data": table,
+                "code": code[at],
+                "row": np.asarray(batch["row"], np.int64)[at],
+            }
+        )
+        for v in batch.values():
+            v.clear()
 
-        for con, recorded_ns, raw in bag.messages(connections=cons):
-            msg = bag.deserialize(raw, con.msgtype)
-            rows += 1
-            frame = msg.msg if where[con.msgtype] == "msg" else msg
-            if getattr(frame, "is_error", False):
-                skipped["error frames"] += 1
-                continue
-            if getattr(frame, "is_rtr", False):
-                skipped["remote frames"] += 1
-                continue
-            stamp = _stamp_ns(msg)
-            batch["t"].append(recorded_ns if not stamp else stamp)
-            batch["id"].append(int(frame.id))
-            ext = frame.is_extended if hasattr(frame, "is_extended") else frame.extended
-            batch["ext"].append(bool(ext))
-            n = min(int(frame.dlc), len(frame.data))
-            batch["data"].append(bytes(np.asarray(frame.data, np.uint8)[:n]))
-            batch["code"].append(bus[con.topic])
-            batch["row"].append(rows)
-            if len(batch["t"]) >= FRAME_BATCH:
-                flush()
-        flush()
+    for con, recorded_ns, raw in bag.messages(connections=cons):
+        msg = bag.deserialize(raw, con.msgtype)
+        rows += 1
+        frame = msg.msg if where[con.msgtype] == "msg" else msg
+        if getattr(frame, "is_error", False):
+            skipped["error frames"] += 1
+            continue
+        if getattr(frame, "is_rtr", False):
+            skipped["remote frames"] += 1
+            continue
+        stamp = _stamp_ns(msg)
+        batch["t"].append(recorded_ns if not stamp else stamp)
+        batch["id"].append(int(frame.id))
+        ext = frame.is_extended if hasattr(frame, "is_extended") else frame.extended
+        batch["ext"].append(bool(ext))
+        n = min(int(frame.dlc), len(frame.data))
+        batch["data"].append(bytes(np.asarray(frame.data, np.uint8)[:n]))
+        batch["code"].append(bus[con.topic])
+        batch["row"].append(rows)
+        if len(batch["t"]) >= FRAME_BATCH:
+            flush()
+    flush()
     passed = ", ".join(f"{v} {k}" for k, v in skipped.items() if v)
     if rows == sum(skipped.values()):  # as a CAN log without a data frame is refused
         listed = ", ".join(t for t, _ in topics)
