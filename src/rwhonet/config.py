@@ -488,10 +488,23 @@ class RoleSpec:
 
 @dataclass(frozen=True)
 class ColumnSpec:
-    """One canonical quantity in a column-mapped CSV: its column name and unit."""
+    """One canonical quantity in a column-mapped CSV: its column name and unit.
+
+    ``scale`` and ``offset``: a channel logged as raw numbers (a CAN signal's raw value in
+    a CSV export, ``ublox_msgs``' latitude in 1e-7 deg, a speed in mm/s) is read as
+    ``raw * scale + offset`` in ``unit``, a DBC's ``(factor, offset)``, before the unit is
+    converted to SI (:func:`rwhonet.data.columnmap.scale_issues` says where they may be set).
+    """
 
     column: str  # the column (or logged channel) that holds it
-    unit: str  # as the file writes it; readers convert to SI
+    unit: str  # as the file writes it (after scale and offset); readers convert to SI
+    scale: float = 1.0
+    offset: float = 0.0
+
+    @property
+    def scaled(self) -> bool:
+        """Whether the map scales or offsets the logged values."""
+        return self.scale != 1.0 or self.offset != 0.0
 
 
 @dataclass(frozen=True)
@@ -1201,6 +1214,11 @@ def _to_plain(obj: Any) -> Any:
     return obj
 
 
+# A number in exponent form as YAML 1.2 (and DVC, and a DBC) writes it, which PyYAML's
+# YAML 1.1 resolver reads as a string (it wants a dot and a signed exponent: 1.0e-7).
+_EXPONENT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)[eE][-+]?[0-9]+")
+
+
 def _build(tp: Any, value: Any, where: str) -> Any:
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
@@ -1254,6 +1272,8 @@ def _build(tp: Any, value: Any, where: str) -> Any:
             raise ConfigError(f"{label}: expected an integer, got {value!r}")
         return value
     if tp is float:
+        if isinstance(value, str) and _EXPONENT.fullmatch(value.strip()):
+            return float(value)  # YAML 1.2's 1e-7, a string to PyYAML (YAML 1.1)
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ConfigError(f"{label}: expected a number, got {value!r}")
         return float(value)

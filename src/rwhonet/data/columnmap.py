@@ -129,8 +129,61 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
         if k == "t" and is_pattern(spec.unit) and (problem := pattern_problem(spec.unit))
     ]
     issues += aux_key_issues(where, column_map)
+    issues += scale_issues(where, column_map)
     if issues:
         raise ConfigError("\n".join(issues))
+
+
+def scale_issues(where: str, spec_map: Mapping[str, ColumnSpec]) -> list[str]:
+    """A map's ``scale`` and ``offset`` that cannot be applied (a column or signal map's).
+
+    A number logged raw is read as ``raw * scale + offset`` in the key's unit
+    (:func:`scaled`). Refused: a scale of 0 or not finite, an offset not finite; and either
+    on a value that is no plain number: a time or date written as text, a packed unit
+    (``ddmm``, ``hhmmss``, ``vbox``: its digits or bits are its meaning), a wheel's pulse
+    counter (differenced as the bus counted it) and a hemisphere's letters.
+
+    Args:
+        where: how messages name the map (``data.column_maps.<name>``).
+        spec_map: key -> column, unit, scale and offset.
+    """
+    issues = []
+    for k, spec in spec_map.items():
+        if not spec.scaled:
+            continue
+        if not math.isfinite(spec.scale) or spec.scale == 0.0:
+            issues.append(
+                f"{where}.{k}.scale: expected a finite number other than 0, got {spec.scale!r}"
+            )
+        if not math.isfinite(spec.offset):
+            issues.append(f"{where}.{k}.offset: expected a finite number, got {spec.offset!r}")
+        if why := _not_scalable(k, spec.unit):
+            issues.append(
+                f"{where}.{k}: expected no scale or offset on {why} (unit {spec.unit!r}), "
+                f"got scale {spec.scale!r}, offset {spec.offset!r}"
+            )
+    return issues
+
+
+def _not_scalable(key: str, unit: str) -> str | None:
+    """Why a key's values in ``unit`` are no plain number a scale applies to, or None."""
+    if key in AUX_KEYS:
+        return "a column of letters or dates"
+    if key == "t" and (unit in (ISO8601, CLOCK) or is_pattern(unit)):
+        return "a time written as text"
+    if is_packed(unit):
+        return "a packed number, whose digits or bits are its meaning"
+    if is_pulse_unit(unit):
+        return "a pulse counter, differenced as the bus counted it"
+    return None
+
+
+def scaled(values: np.ndarray, spec: ColumnSpec) -> np.ndarray:
+    """A channel's logged numbers as ``values * scale + offset`` (``spec``'s), float64; the
+    values themselves where the map sets neither."""
+    if not spec.scaled:
+        return values
+    return np.asarray(values, dtype=np.float64) * spec.scale + spec.offset
 
 
 def aux_key_issues(where: str, spec_map: Mapping[str, ColumnSpec]) -> list[str]:
@@ -273,6 +326,8 @@ def read_columnmap(
             columns[canonical] = unpack_or_refuse(
                 values[pos], spec.unit, file, header[pos], setting=where
             )
+        elif spec.scaled:  # raw numbers: in the unit once scaled and offset
+            columns[canonical] = scaled(values[pos], spec) * factor
         elif pos in shared or not values[pos].flags.writeable:  # two keys read one column
             columns[canonical] = values[pos] * factor
         else:  # in place: the reader's arrays are ours, and a copy would hold a column twice

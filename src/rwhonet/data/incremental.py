@@ -67,6 +67,9 @@ class Layout:
             header ends in, where ``short_rows``: csvio.HeadLines.short_rows).
         positions: canonical name -> 0-based column position.
         factors: canonical name -> factor from the file's unit to SI.
+        linear: canonical name -> a column map's ``scale`` and ``offset``, which make the
+            file's raw numbers values in its unit before the factor
+            (:func:`rwhonet.data.columnmap.scaled`); none where the map sets neither.
         names: canonical name -> the file's column name (for messages).
         time_unit: the time column's unit as a column map declares it (``s``, ``ms``,
             ``iso8601``, ``hh:mm:ss``); None for an IO-VNBD file, whose time is read in the
@@ -89,6 +92,7 @@ class Layout:
     positions: dict[str, int]
     factors: dict[str, float]
     names: dict[str, str]
+    linear: dict[str, tuple[float, float]] = field(default_factory=dict)
     trailing_cell: bool = False  # the last column: the empty cell every row ends in
     short_rows: bool = False  # the header's empty last cell, which its rows lack, not read
     time_unit: str | None = None
@@ -136,6 +140,7 @@ def layout(
 
         positions, _ = iovnbd_columns(header, file)
         factors = column_factors(header, positions)
+        linear: dict[str, tuple[float, float]] = {}
         packed = {
             name: (unit, header_setting(header[positions[name]]))
             for name, unit in column_packed(header, positions).items()
@@ -168,6 +173,9 @@ def layout(
         factors = {
             KEYS[key][0]: key_factor(key, unit, radius_m, fmt) for key, unit in units.items()
         }
+        # raw numbers (scale, offset: checked above): (raw * scale + offset) * factor
+        specs = {KEYS[key][0]: (column_map or {})[key] for key in by_key}
+        linear = {name: (spec.scale, spec.offset) for name, spec in specs.items() if spec.scaled}
         wheel_note = linear_wheel_note(units, {k: header[p] for k, p in by_key.items()}, radius_m)
         packed = {
             KEYS[key][0]: (unit, f"data.column_maps.{fmt}.{key}.unit")
@@ -182,6 +190,7 @@ def layout(
         positions=positions,
         factors={name: factors[name] for name in wanted},
         names={name: header[pos] for name, pos in positions.items()},
+        linear={name: linear[name] for name in wanted if name in linear},
         time_unit=declared,
         time_setting=f"data.column_maps.{fmt}.t.unit",
         packed={name: how for name, how in packed.items() if name in wanted},
@@ -1040,6 +1049,10 @@ def parse_lines(
             )
     except ValueError:
         values = _parse_slow(text, lay, cols, first_row, file)
+    for i, name in enumerate(names):
+        if name in lay.linear:  # raw numbers: in the file's unit first, as ingest reads them
+            scale, offset = lay.linear[name]
+            values[:, i] = values[:, i] * scale + offset
     out = {
         name: values[:, i] * lay.factors[name] if lay.factors[name] != 1.0 else values[:, i]
         for i, name in enumerate(names)

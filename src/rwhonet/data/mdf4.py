@@ -37,6 +37,7 @@ from rwhonet.data.canlog import (
     short_passed,
     too_many,
 )
+from rwhonet.data.columnmap import scaled
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.headers import unit_name
 from rwhonet.data.keptframes import FrameFilter, TooManyFrames, frame_keys, j1939_pgn, key_id
@@ -1039,7 +1040,12 @@ def _groups(
         # log's stamps are hundreds of MB per signal).
         t = None if group in by_group else np.asarray(signal.timestamps, dtype=np.float64)
         values = to_si(
-            key, samples, spec.unit, radius_m, f"{file} {spec.column!r}", (file, spec.column)
+            key,
+            scaled(samples, spec),
+            spec.unit,
+            radius_m,
+            f"{file} {spec.column!r}",
+            (file, spec.column),
         )
         del signal, samples
         by_group.setdefault(group, {})[key] = (t, values, spec.column)

@@ -1135,6 +1135,7 @@ def on_clock(
     t_s: Sequence[np.ndarray],
     name: str,
     parts: Sequence[FixLog] = (),
+    linear: tuple[float, float] = (1.0, 0.0),
 ) -> tuple[np.ndarray, str, str]:
     """A log's epochs on the stream files' clock.
 
@@ -1155,6 +1156,8 @@ def on_clock(
         parts: the logs of the receiver's one log a logger rotated, ``log`` among them (none:
             ``log`` is the whole): whether their times of day cover half of the stream
             files' span is told of them together.
+        linear: the map's ``t`` scale and offset, which a logger stamp's number takes as a
+            time column's does (:func:`rwhonet.data.columnmap.scaled`).
 
     Returns:
         ``(times, what the times are, a note)``.
@@ -1164,7 +1167,7 @@ def on_clock(
             sentences; fixes that share no time with the stream files.
     """
     if log.stamps is not None and not dated:
-        t = _stamps(log, unit, name)
+        t = _stamps(log, unit, name, linear)
         t, said = unwrap_clock(t, "epoch")
         note = f"{log.file}: each sentence's logger stamp is its time on the stream files' clock"
         return _shared(log, t, t_s, "stamp")[0], "logger stamp", "; ".join([note, *said])
@@ -1247,8 +1250,11 @@ def _seconds_of_a_day(tod: np.ndarray, t_s: Sequence[np.ndarray]) -> bool:
     return shared >= 0.5 * (d - c)
 
 
-def _stamps(log: FixLog, unit: str, name: str) -> np.ndarray:
-    """The logger's stamps in s, read in the map's ``t`` unit."""
+def _stamps(
+    log: FixLog, unit: str, name: str, linear: tuple[float, float] = (1.0, 0.0)
+) -> np.ndarray:
+    """The logger's stamps in s, read in the map's ``t`` unit (numbers: ``* scale + offset``
+    first, ``linear``)."""
     cells = log.stamps or []
     problems = []
     if is_text_unit(unit):
@@ -1280,7 +1286,8 @@ def _stamps(log: FixLog, unit: str, name: str) -> np.ndarray:
         return t
     from rwhonet.data.signalmap import to_si  # signalmap reads stream files; it imports us
 
-    return to_si("t", t, unit, None, log.file, (log.file, "logger stamp"))
+    scale, offset = linear
+    return to_si("t", t * scale + offset, unit, None, log.file, (log.file, "logger stamp"))
 
 
 def _shared(

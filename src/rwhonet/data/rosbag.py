@@ -67,6 +67,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data.columnmap import scaled
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.signalmap import Group, build_streams, pulse_units, to_si
 from rwhonet.data.streams import DriveStreams
@@ -711,6 +712,7 @@ def _group(
     for k in t.keys:
         where = f"{file} [{fields[k].text}]"
         values = np.array(t.values[k], dtype=np.float64)
+        values = scaled(values, signal_map[k])  # a raw integer field: ublox_msgs' 1e-7 deg
         channels[k] = to_si(k, values, signal_map[k].unit, radius_m, where, (file, fields[k].text))
     said = [f"{file}: {t.topic}: {n} message(s) ({t.msgtype}), {how}"]
     if t.status:

@@ -49,7 +49,7 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues
+from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues, scale_issues
 from rwhonet.data.headers import map_unit_name
 from rwhonet.data.packed import HHMMSS, VBOX_SATS, is_packed, unpack_or_refuse
 from rwhonet.data.sampleorder import time_order
@@ -146,6 +146,7 @@ def check_signal_map(
     ]
     if with_time:
         issues += aux_key_issues(where, signal_map)
+    issues += scale_issues(where, signal_map)
     if issues:
         raise ConfigError("\n".join(issues))
 

@@ -53,6 +53,7 @@ from rwhonet.data.columnmap import (
     column_matches,
     column_not_found,
     find_column,
+    scaled,
 )
 from rwhonet.data.csvio import (
     cut_last_row,
@@ -343,11 +344,18 @@ def read_stream_csvs(
             problems += err.problems
             continue
         try:
-            t = to_si("t", values[at_t], time_spec.unit, None, file, (file, header[at_t]))
+            t = to_si(
+                "t",
+                scaled(values[at_t], time_spec),
+                time_spec.unit,
+                None,
+                file,
+                (file, header[at_t]),
+            )
             channels = {
                 k: to_si(
                     k,
-                    values[at],
+                    scaled(values[at], signal_map[k]),
                     signal_map[k].unit,
                     radius_m,
                     f"{file} {header[at]!r}",
@@ -681,9 +689,15 @@ def _receiver_groups(
                 + ", ".join(repr(signal_map[k].column) for k in named)
                 + f", named in {name}, in no stream file)"
             )
-        unit = signal_map["t"].unit
+        time_spec = signal_map["t"]
         t, clock, said = on_clock(
-            log, unit, DATE in signal_map, [g.t_s for g in groups], name, read
+            log,
+            time_spec.unit,
+            DATE in signal_map,
+            [g.t_s for g in groups],
+            name,
+            read,
+            (time_spec.scale, time_spec.offset),
         )
         notes += [*log.notes, said]
         out.append(
