@@ -261,7 +261,8 @@ def test_a_bag_s_ublox_nav_pvt_integers_read_as_a_navsatfix_s_degrees(tmp_path):
     """A ROS bag of a u-blox driver's NAV-PVT messages (latitude and longitude int32 in
     1e-7 deg, ground speed in mm/s, no header: the bag's record times): with the map's
     scales, the 10 Hz grid of a NavSatFix of the same degrees bit for bit, and the
-    ground speed in m/s."""
+    ground speed in m/s; its messages without a fix (fixType 0: latitude and longitude 0)
+    are no fixes, as the NavSatFix's whose status says so."""
     from rwhonet.sim.streams import StreamTables
     from support.rosbag import bag_map, tables_bag, typestore
 
@@ -269,9 +270,14 @@ def test_a_bag_s_ublox_nav_pvt_integers_read_as_a_navsatfix_s_degrees(tmp_path):
     g = tables.gnss
     lat = np.round(g[c.LAT_DEG].to_numpy() * 1e7).astype(np.int32)
     lon = np.round(g[c.LON_DEG].to_numpy() * 1e7).astype(np.int32)
-    speed_mm_s = np.full(lat.size, 15_000)
     as_fix = g.assign(**{c.LAT_DEG: lat * 1e-7, c.LON_DEG: lon * 1e-7})
-    navsatfix = tables_bag(tmp_path / "fix.bag", StreamTables(tables.wheels, as_fix))
+    lost = np.zeros(lat.size, dtype=bool)
+    lost[300:320] = True  # 2 s without a fix: NAV-PVT's fixType 0 at (0, 0), 0 satellites
+    status = np.where(lost, -1, 0)  # the NavSatFix's: STATUS_NO_FIX
+    navsatfix = tables_bag(tmp_path / "fix.bag", StreamTables(tables.wheels, as_fix), status=status)
+    lat[lost], lon[lost] = 0, 0
+    sats = np.where(lost, 0, 12)
+    fix_type = np.where(lost, 0, 3)
 
     from rosbags.typesys import get_types_from_msg
 
@@ -280,7 +286,10 @@ def test_a_bag_s_ublox_nav_pvt_integers_read_as_a_navsatfix_s_degrees(tmp_path):
     cls = ts.types[NAV_PVT]
     t_ns = np.round(g[c.T_S].to_numpy() * 1e9).astype(np.int64)
     messages = [
-        (int(t_ns[i]), cls(0, 3, 1, 12, int(lon[i]), int(lat[i]), 0, int(speed_mm_s[i]), 0))
+        (
+            int(t_ns[i]),
+            cls(0, int(fix_type[i]), 1, int(sats[i]), int(lon[i]), int(lat[i]), 0, 15_000, 0),
+        )
         for i in range(lat.size)
     ]
     pvt = tables_bag(
@@ -299,11 +308,11 @@ def test_a_bag_s_ublox_nav_pvt_integers_read_as_a_navsatfix_s_degrees(tmp_path):
     want = read_mdf4(navsatfix, bag_map(), radius)
     fixes = next(s for s in got.streams if c.LAT_DEG in s.channels)
     np.testing.assert_array_equal(fixes.channels[c.SPEED_GNSS_M_S], np.full(lat.size, 15.0))
-    np.testing.assert_array_equal(fixes.channels[c.N_SATS], np.full(lat.size, 12.0))
+    np.testing.assert_array_equal(fixes.channels[c.N_SATS], sats)
     assert any("/ublox/navpvt" in n and "recorded" in n for n in got.notes)
     grid_a = resample(got, nominal_radius_m=radius).drive.columns
     grid_b = resample(want, nominal_radius_m=radius).drive.columns
-    assert len(grid_b[c.T_S]) > 1000
+    assert len(grid_b[c.T_S]) > 1000 and np.nanmin(np.abs(grid_a[c.LAT_DEG])) > 1.0
     for name in (c.T_S, c.LAT_DEG, c.LON_DEG, *c.WHEELS):
         np.testing.assert_array_equal(grid_a[name], grid_b[name], err_msg=name)
 
