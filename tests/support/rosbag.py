@@ -78,7 +78,8 @@ def write_bag(
         ros2: a ROS 2 bag's folder (``path``) in this storage (``sqlite3``, ``mcap``), as
             ``ros2 bag record`` writes it (format 9, the types' definitions in it); None: a
             ROS 1 bag.
-        compression: a ROS 1 bag's chunks compressed so (``bz2``, ``lz4``).
+        compression: a ROS 1 bag's chunks compressed so (``bz2``, ``lz4``); a ROS 2 mcap
+            bag's (``zstd``).
         chunk_bytes: a ROS 1 bag's chunks' size (rosbags' 1 MB; rosbag record's 768 KB).
     """
     ts = typestore(ros2 is not None)
@@ -99,7 +100,12 @@ def write_bag(
         from rosbags.rosbag2 import Writer as Writer2
 
         def writer():  # type: ignore[no-untyped-def]
-            return Writer2(path, version=9, storage_plugin=StoragePlugin[ros2.upper()])
+            w = Writer2(path, version=9, storage_plugin=StoragePlugin[ros2.upper()])
+            if compression:  # mcap's chunks compressed (rosbag2's zstd presets)
+                from rosbags.rosbag2 import CompressionFormat, CompressionMode
+
+                w.set_compression(CompressionMode.STORAGE, CompressionFormat[compression.upper()])
+            return w
 
         def serialize(msg, msgtype):  # type: ignore[no-untyped-def]
             return ts.serialize_cdr(msg, msgtype)

@@ -35,8 +35,10 @@ GPSFix's), a message whose status is below 0 (``STATUS_NO_FIX``) has no position
 notes count them. A NavSatFix holds no satellite count (GPSFix's ``status.satellites_used``
 can be mapped as ``n_sats``).
 
-**A recording cut short** (``rosbag record`` killed: ``drive.bag.active``, no index) is
-read record by record as far as it goes (:mod:`rwhonet.data.bagscan`), the notes saying so.
+**A recording cut short** (``rosbag record`` killed: ``drive.bag.active``, no index; ``ros2
+bag record`` killed: an ``.mcap`` file without its summary and footer) is read record by
+record as far as it goes (:mod:`rwhonet.data.bagscan`, :mod:`rwhonet.data.mcapscan`), the
+notes saying so.
 
 **Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file or folder
 ``rosbags`` cannot read; a topic the bag does not have (its topics and types listed);
@@ -236,7 +238,8 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
     if ros2:
         fix = (
             "give the bag's folder as `ros2 bag record` wrote it (metadata.yaml beside its "
-            ".db3 or .mcap files); `ros2 bag reindex` mends a recording cut short"
+            ".db3 or .mcap files); an .mcap file cut short is read as far as its whole "
+            "records go (`mcap doctor`, Foxglove's tool, says what is wrong with it)"
         )
         return InputError([Problem.unreadable(file, f"a ROS 2 bag ({READ_HOW_2})", err, fix)])
     fix = (
@@ -257,12 +260,17 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
     from rosbags.typesys import Stores, get_typestore
 
     from rwhonet.data.bagscan import ScannedBag, has_index
+    from rwhonet.data.mcapscan import ScannedMcap
 
     ros2 = _is_ros2(path)
     with contextlib.ExitStack() as stack:
         try:
             if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
                 bag = stack.enter_context(ScannedBag(path))  # cut short: as far as it goes
+            elif ros2 and (unfinished := _unfinished_mcap(path)):
+                bag = stack.enter_context(ScannedMcap(unfinished))  # as far as each goes
+                if path.is_dir() and not (path / METADATA).is_file():
+                    bag.said += f"; the folder has no {METADATA}"
             else:
                 # a ROS 2 bag recorded before Iron carries no message definitions: ROS's
                 # own messages are known by the latest LTS's (their layouts have not changed)
@@ -290,6 +298,17 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
             if type(err).__module__.startswith("rosbags"):
                 raise _unreadable(file, err, ros2) from None
             raise
+
+
+def _unfinished_mcap(path: Path) -> list[Path]:
+    """A ROS 2 bag's MCAP files, in order, where one of them ends without its summary and
+    footer (a recording cut short: :mod:`rwhonet.data.mcapscan`); none where every one is
+    closed (``rosbags`` reads them) or the bag's storage is sqlite3."""
+    from rwhonet.data.mcapscan import is_finished
+
+    files = _storage_files(path) if path.is_dir() else [path]
+    mcaps = [p for p in files if p.suffix.lower() == ".mcap"]
+    return mcaps if any(not is_finished(p) for p in mcaps) else []
 
 
 def read_rosbag(
@@ -350,6 +369,8 @@ def rosbag_groups(
         kind = f"a ROS 2 bag's {path.suffix.lstrip('.')} file (without its metadata.yaml)"
     if said and not ros2:
         how = "record by record, rosbags deserialising"
+    elif said and type(bag).__name__ == "ScannedMcap":
+        how = "its MCAP records one by one, rosbags deserialising"
     notes = [
         f"{file}: {kind} of {n_messages} messages on {n_topics} topic(s); read {len(read)} "
         f"of them ({how}"

@@ -1,0 +1,326 @@
+"""A ROS 2 bag's MCAP files read record by record, without their summary: a recording cut short.
+
+``ros2 bag record`` with MCAP storage (the default since ROS 2 Iron) writes each file's
+summary (its schemas, channels, chunk index and statistics) and footer when it closes it,
+and the folder's ``metadata.yaml`` after that. A recorder that lost power or was killed
+(the car switched off) leaves a file that ends without them, often inside the chunk it was
+writing; ``rosbags`` refuses it ("File end magic is invalid"), and so does ``ros2 bag
+reindex``. :class:`ScannedMcap` reads such files from their start, as ``mcap recover``
+(Foxglove's tool) does, so that :mod:`rwhonet.data.rosbag` reads the drive as far as it
+goes: it offers what the reader takes of ``rosbags``' ``AnyReader`` (``connections``,
+``messages``, ``deserialize``, ``typestore``, ``message_count``, ``topics``), and
+``rosbags`` deserialises the messages by the definitions the files' schema records carry.
+
+**The format** (MCAP, mcap.dev/spec): the magic ``\\x89MCAP0\\r\\n``, then records, each an
+opcode (u8), a length (u64 little-endian) and that many bytes: 0x01 the header (its
+profile ``ros2``), 0x03 a schema (id u16, name, encoding, data: the message definition),
+0x04 a channel (id u16, schema id u16, topic, message encoding, metadata), 0x05 a message
+(channel id u16, sequence u32, log time u64, publish time u64, the serialised message),
+0x06 a chunk (message start and end times u64, uncompressed size u64, CRC-32 u32,
+compression string, its records' bytes: schemas, channels and messages), 0x0F the end of
+the data section; the rest (message and chunk indexes, statistics, metadata, attachments)
+is passed over. Strings are a u32 length and UTF-8 bytes. A message's time is its log
+time, as ``rosbags`` takes it (rosbag2's receipt time).
+
+**As far as it goes.** The records are read in order until one does not fit in the file
+(the record being written when the recorder stopped): an uncompressed chunk cut so gives
+its whole records (rosbag2's default preset writes chunks uncompressed), a compressed one
+nothing. A whole chunk is decompressed and its CRC checked by ``rosbags``. The notes say
+how many messages were read and where each file stopped.
+"""
+
+from __future__ import annotations
+
+import mmap
+import struct
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rwhonet.data.bagscan import ScannedConnection
+
+MAGIC = b"\x89MCAP0\r\n"
+OP_HEADER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_DATA_END = 1, 3, 4, 5, 6, 0x0F
+_NAMES = {OP_HEADER: "header", OP_SCHEMA: "schema", OP_CHANNEL: "channel", OP_MESSAGE: "message"}
+_NAMES |= {OP_CHUNK: "chunk", 7: "message index", 8: "chunk index", 0x0C: "metadata"}
+_U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
+_RECORD = struct.Struct("<BQ")  # opcode, length
+_MESSAGE = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
+_CHUNK = struct.Struct("<QQQI")  # start, end, uncompressed size, CRC
+
+
+def is_finished(path: Path) -> bool:
+    """Whether an MCAP file ends as a closed one does (its footer's closing magic). True for
+    a file that is no MCAP file, which ``rosbags`` then refuses, saying so."""
+    with open(path, "rb") as f:
+        head = f.read(len(MAGIC))
+        if head != MAGIC:
+            return True
+        size = f.seek(0, 2)
+        if size < 2 * len(MAGIC) + 9:
+            return False
+        f.seek(size - len(MAGIC))
+        return f.read(len(MAGIC)) == MAGIC
+
+
+def _string(buf: bytes | memoryview, pos: int) -> tuple[str, int]:
+    (n,) = _U32.unpack_from(buf, pos)
+    return bytes(buf[pos + 4 : pos + 4 + n]).decode("utf-8"), pos + 4 + n
+
+
+@dataclass
+class _File:
+    """One file's records: where its chunks are, and its messages."""
+
+    path: Path
+    size: int = 0
+    # each chunk: its records' start and length in the file, compression, sizes and CRC
+    chunks: list[tuple[int, int, str, int, int]] = field(default_factory=list)
+    # each message: its channel, log time (ns), chunk (-1: the file itself), start, length
+    messages: list[tuple[int, int, int, int, int]] = field(default_factory=list)
+    stopped: str = ""
+
+
+@dataclass
+class _Meta:
+    schemas: dict[tuple[int, int], tuple[str, str, str]] = field(default_factory=dict)
+    channels: dict[tuple[int, int], tuple[str, int]] = field(default_factory=dict)
+
+
+class ScannedMcap:
+    """A ROS 2 bag's MCAP files (in order) read record by record, as far as each goes (what
+    ``rosbags``' ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`).
+
+    Raises:
+        ValueError: a file that is no MCAP file of the ``ros2`` profile; no whole message.
+    """
+
+    def __init__(self, paths: Sequence[Path]) -> None:
+        self._handles: list[tuple[Any, mmap.mmap]] = []
+        self._files: list[_File] = []
+        meta = _Meta()
+        try:
+            for k, path in enumerate(paths):
+                buf = self._open(path)
+                self._files.append(_scan(buf, k, path, meta))
+        except Exception:
+            self.close()
+            raise
+        if not any(f.messages for f in self._files):
+            stops = "; ".join(f"{f.stopped}" for f in self._files if f.stopped)
+            self.close()
+            raise ValueError(f"no whole message: cut short {stops or 'before any'}")
+        self._ids: dict[tuple[int, int], int] = {}
+        connections = []
+        for key, (topic, schema_id) in sorted(meta.channels.items()):
+            name, encoding, data = meta.schemas.get((key[0], schema_id), ("", "", ""))
+            self._ids[key] = len(connections) + 1
+            connections.append(
+                ScannedConnection(len(connections) + 1, topic, name, _msgdef(encoding, data), "")
+            )
+        self.connections: list[ScannedConnection] = connections
+        self.typestore = _typestore(connections)
+        stops = [f"{f.path.name} stops {f.stopped}" for f in self._files if f.stopped]
+        # what was read: the messages, and where each file stopped
+        self.said = (
+            f"{'the file has' if len(self._files) == 1 else 'its files have'} no summary (a "
+            f"recording cut short: ros2 bag record writes it as it closes a file): read "
+            f"record by record, {self.message_count} whole messages"
+            + (f"; {'; '.join(stops)}" if stops else "")
+            + (
+                ""
+                if not any(f.stopped and "compressed" in f.stopped for f in self._files)
+                else " (a compressed chunk cut short: none of its messages read)"
+            )
+        )
+
+    def _open(self, path: Path) -> mmap.mmap:
+        f = open(path, "rb")  # noqa: SIM115 - closed by close()
+        try:
+            buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+        except ValueError:  # an empty file
+            f.close()
+            raise ValueError(f"{path.name} is empty") from None
+        self._handles.append((f, buf))
+        if buf[: len(MAGIC)] != MAGIC:
+            raise ValueError(f"{path.name} does not start as an MCAP file")
+        return buf
+
+    @property
+    def message_count(self) -> int:
+        return sum(len(f.messages) for f in self._files)
+
+    @property
+    def topics(self) -> dict[str, int]:
+        return {c.topic: c.id for c in self.connections}
+
+    def messages(
+        self, connections: Sequence[ScannedConnection] = ()
+    ) -> Iterator[tuple[ScannedConnection, int, bytes]]:
+        """The messages of ``connections`` (all where none), in the files' order."""
+        wanted = {c.id: c for c in (connections or self.connections)}
+        for k, (f, (_, buf)) in enumerate(zip(self._files, self._handles, strict=True)):
+            at_chunk, chunk = -1, b""
+            for channel, t, j, at, n in f.messages:
+                c = wanted.get(self._ids[(k, channel)])
+                if c is None:
+                    continue
+                if j < 0:
+                    yield c, t, buf[at : at + n]
+                    continue
+                if j != at_chunk:
+                    at_chunk, chunk = j, _records_of(buf, f.chunks[j])
+                yield c, t, chunk[at : at + n]
+
+    def deserialize(self, raw: bytes, msgtype: str) -> Any:
+        return self.typestore.deserialize_cdr(raw, msgtype)
+
+    def close(self) -> None:
+        self._files = []
+        for f, buf in self._handles:
+            buf.close()
+            f.close()
+        self._handles = []
+
+    def __enter__(self) -> ScannedMcap:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _records_of(buf: mmap.mmap, chunk: tuple[int, int, str, int, int]) -> bytes:
+    """A chunk's records, decompressed where the chunk is compressed, their CRC checked
+    where it has one (a copy: no view of the map is left open to stop its closing)."""
+    start, n, compression, size, crc = chunk
+    data = buf[start : start + n]
+    if not compression and not crc:  # a chunk cut short (its whole records), or no CRC
+        return data
+    from rosbags.rosbag2.storage_mcap import decompress
+
+    return decompress(data, compression, size, crc)
+
+
+def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
+    """One file's records, as far as they go; schemas and channels into ``meta``."""
+    out = _File(path, len(buf))
+    pos, size = len(MAGIC), len(buf)
+    while pos < size:
+        if pos + _RECORD.size > size:
+            out.stopped = f"{size - pos} byte(s) into a record's opcode and length, at byte {pos}"
+            break
+        op, n = _RECORD.unpack_from(buf, pos)
+        body, end = pos + _RECORD.size, pos + _RECORD.size + n
+        if op == OP_DATA_END:
+            break
+        if op == OP_HEADER:
+            profile, _ = _string(buf, body)
+            if profile != "ros2":
+                raise ValueError(f"{path.name}: the MCAP profile is {profile!r}, not ros2")
+        if end > size:
+            what = _NAMES.get(op, f"0x{op:02x}")
+            out.stopped = f"inside a {what} record at byte {pos} of {size}"
+            if op == OP_CHUNK and (how := _partial_chunk(buf, body, size, k, out, meta)):
+                out.stopped = f"inside a {how}-compressed chunk at byte {pos} of {size}"
+            break
+        if op == OP_CHUNK:
+            _chunk(buf, body, end, k, out, meta)
+        else:
+            _record(buf, op, body, end, k, -1, out, meta)
+        pos = end
+    return out
+
+
+def _chunk(buf: mmap.mmap, body: int, end: int, k: int, out: _File, meta: _Meta) -> None:
+    """A whole chunk: its records read (decompressed, CRC checked)."""
+    _, _, size, crc = _CHUNK.unpack_from(buf, body)
+    compression, at = _string(buf, body + _CHUNK.size)
+    (n,) = _U64.unpack_from(buf, at)
+    out.chunks.append((at + 8, n, compression, size, crc))
+    records = _records_of(buf, out.chunks[-1])
+    _records(records, len(out.chunks) - 1, k, out, meta)
+
+
+def _partial_chunk(
+    buf: mmap.mmap, body: int, size: int, k: int, out: _File, meta: _Meta
+) -> str | None:
+    """A chunk cut where the file ends: its whole records, where it is not compressed;
+    its compression where it is (none of it read)."""
+    if body + _CHUNK.size + 4 > size:
+        return None
+    compression, at = _string(buf, body + _CHUNK.size)
+    if compression or at + 8 > size:
+        return compression or None
+    start = at + 8
+    out.chunks.append((start, size - start, "", 0, 0))
+    _records(buf[start:size], len(out.chunks) - 1, k, out, meta)
+    return None
+
+
+def _records(data: bytes, j: int, k: int, out: _File, meta: _Meta) -> None:
+    """The whole records of a chunk's bytes (those past its end, cut short, passed over)."""
+    pos, size = 0, len(data)
+    while pos + _RECORD.size <= size:
+        op, n = _RECORD.unpack_from(data, pos)
+        body, end = pos + _RECORD.size, pos + _RECORD.size + n
+        if end > size:
+            return
+        _record(data, op, body, end, k, j, out, meta)
+        pos = end
+
+
+def _record(
+    buf: Any, op: int, body: int, end: int, k: int, j: int, out: _File, meta: _Meta
+) -> None:
+    """A schema, channel or message record (anything else passed over)."""
+    if op == OP_MESSAGE:
+        channel, _, log_time, _ = _MESSAGE.unpack_from(buf, body)
+        start = body + _MESSAGE.size
+        out.messages.append((channel, log_time, j, start, end - start))
+    elif op == OP_SCHEMA:
+        (sid,) = _U16.unpack_from(buf, body)
+        name, at = _string(buf, body + 2)
+        encoding, at = _string(buf, at)
+        (n,) = _U32.unpack_from(buf, at)
+        meta.schemas[(k, sid)] = (name, encoding, bytes(buf[at + 4 : at + 4 + n]).decode())
+    elif op == OP_CHANNEL:
+        cid, sid = struct.unpack_from("<HH", buf, body)
+        topic, _ = _string(buf, body + 4)
+        meta.channels[(k, cid)] = (topic, sid)
+
+
+def _msgdef(encoding: str, data: str) -> Any:
+    """A schema's definition as ``rosbags`` holds it."""
+    from rosbags.interfaces import MessageDefinition, MessageDefinitionFormat
+
+    if encoding == "ros2msg" and data:
+        return MessageDefinition(MessageDefinitionFormat.MSG, data)
+    if encoding in ("ros2idl", "omgidl") and data:
+        return MessageDefinition(MessageDefinitionFormat.IDL, data)
+    return MessageDefinition(MessageDefinitionFormat.NONE, "")
+
+
+def _typestore(connections: Sequence[ScannedConnection]) -> Any:
+    """The types of the files' definitions, as ``AnyReader`` registers them; where they carry
+    none, ROS's own types of the latest LTS (as :func:`rwhonet.data.rosbag.opened_bag`)."""
+    from rosbags.interfaces import MessageDefinitionFormat
+    from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+
+    types: dict[str, Any] = {}
+    defined = [c for c in connections if c.msgdef.format != MessageDefinitionFormat.NONE]
+    for c in defined:
+        if c.msgdef.format == MessageDefinitionFormat.MSG:
+            types.update(get_types_from_msg(c.msgdef.data, c.msgtype))
+            continue
+        sep = "=" * 80 + "\n"
+        if c.msgdef.data.startswith(f"{sep}IDL: "):
+            for part in c.msgdef.data.split(sep)[1:]:
+                types.update(get_types_from_idl(part.split("\n", 1)[1]))
+        else:
+            types.update(get_types_from_idl(c.msgdef.data))
+    if not defined:
+        types.update(get_typestore(Stores.LATEST).fielddefs)
+    store = get_typestore(Stores.EMPTY)
+    store.register(types)
+    return store

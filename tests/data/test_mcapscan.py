@@ -1,0 +1,280 @@
+"""A ROS 2 bag's MCAP file cut short, read record by record (rwhonet.data.mcapscan).
+
+``ros2 bag record`` with MCAP storage (ROS 2 Iron's default) writes a file's summary and
+footer as it closes it; killed (the car switched off), it leaves the file without them,
+usually inside the chunk it was writing, and no ``metadata.yaml``. The files here are
+written by ``rosbags``' MCAP writer (chunks of 1 MB, uncompressed or zstd, as rosbag2's
+presets write them) and cut where a recorder killed would leave them.
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.mcapscan import MAGIC, ScannedMcap, is_finished
+from rwhonet.data.mdf4 import read_mdf4
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+from support.multirate import per_second, simulated_streams
+from support.rosbag import bag_map, tables_bag
+
+
+def _drive():
+    """120 s: 100 Hz wheels, 10 Hz fixes, 50 Hz IMU (2.4 MB of messages: three chunks)."""
+    return simulated_streams(120.0, 100.0, 10.0, gyro_hz=50.0)
+
+
+def _mcap(tmp_path: Path, compression: str | None) -> Path:
+    tables, _ = _drive()
+    folder = tables_bag(tmp_path / "drive", tables, ros2="mcap", compression=compression)
+    return next(folder.glob("*.mcap"))
+
+
+def _seconds(path: Path, radius: float, name: str):
+    streams = read_mdf4(path, bag_map(yaw=True), radius, "m", name)
+    grid = resample(streams, nominal_radius_m=radius).drive.columns
+    return per_second(grid, radius), streams
+
+
+def _all(bag) -> list[tuple[str, str, int, bytes]]:
+    return [(c.topic, c.msgtype, t, bytes(raw)) for c, t, raw in bag.messages()]
+
+
+@pytest.mark.parametrize("compression", [None, "zstd"])
+def test_a_closed_file_read_record_by_record_gives_rosbags_messages(tmp_path, compression):
+    """Every message of a closed file, read record by record, is the one ``rosbags``
+    reads by the file's index: the same topic, type, time and bytes, in the same order
+    (chunks decompressed, their CRC checked); the same connections, definitions and
+    deserialised messages."""
+    from rosbags.highlevel import AnyReader
+
+    path = _mcap(tmp_path, compression)
+    assert is_finished(path)
+    with AnyReader([path]) as want, ScannedMcap([path]) as got:
+        assert got.message_count == want.message_count > 19_000
+        assert {c.topic: c.msgtype for c in got.connections} == {
+            c.topic: c.msgtype for c in want.connections
+        }
+        ours = _all(got)
+        theirs = [(c.topic, c.msgtype, t, bytes(raw)) for c, t, raw in want.messages()]
+        assert sorted(ours, key=lambda m: m[2]) == sorted(theirs, key=lambda m: m[2])
+        con, _, raw = next(iter(got.messages()))
+        assert repr(got.deserialize(raw, con.msgtype)) == repr(want.deserialize(raw, con.msgtype))
+        assert len({k for k in got._files[0].chunks}) >= 2  # several chunks
+        assert "stops" not in got.said  # the summary after the data's end not read as data
+
+
+@pytest.mark.parametrize("compression", [None, "zstd"])
+@pytest.mark.parametrize("given", ["file", "folder"])
+def test_a_recording_cut_short_is_read_as_far_as_it_goes(tmp_path, compression, given):
+    """The file cut at 70 % of its length (the recorder killed inside a chunk), alone or in
+    its folder without metadata.yaml: refused by rosbags, read record by record here; the
+    seconds it holds are the whole file's bit for bit (the last, where it ends, aside); an
+    uncompressed chunk cut short gives its whole records, a zstd one none."""
+    _, radius = _drive()
+    whole = _mcap(tmp_path, compression)
+    want, _ = _seconds(whole, radius, "whole.mcap")
+    data = whole.read_bytes()
+    cut = tmp_path / given / "drive_0.mcap"
+    cut.parent.mkdir()
+    cut.write_bytes(data[: int(len(data) * 0.7)])
+    assert not is_finished(cut)
+    got, streams = _seconds(cut if given == "file" else cut.parent, radius, "cut")
+    said = "\n".join(streams.notes)
+    assert "no summary (a recording cut short: ros2 bag record writes it as it closes a" in said
+    assert "its MCAP records one by one, rosbags deserialising" in said
+    cut_in = "a zstd-compressed chunk" if compression else "a chunk record"
+    assert f"drive_0.mcap stops inside {cut_in} at byte" in said
+    if compression:
+        assert "(a compressed chunk cut short: none of its messages read)" in said
+    if given == "folder":
+        assert "; the folder has no metadata.yaml" in said
+    assert 0.3 * len(want) < len(got) < 0.8 * len(want)
+    both = want.merge(got, on="t_s", suffixes=("", "_cut"))
+    assert len(both) == len(got)  # every second it holds is one of the whole file's
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(both[q][:-1], both[f"{q}_cut"][:-1], err_msg=q)
+
+
+def test_a_zstd_file_cut_inside_its_first_chunk_is_refused(tmp_path):
+    path = _mcap(tmp_path, "zstd")
+    cut = tmp_path / "early.mcap"
+    cut.write_bytes(path.read_bytes()[:20_000])
+    with pytest.raises(InputError) as err:
+        read_mdf4(cut, bag_map(), 0.3, "m", "early.mcap")
+    text = str(err.value)
+    assert "early.mcap: expected a ROS 2 bag" in text
+    assert "no whole message: cut short inside a zstd-compressed chunk at byte 43 of 20000" in text
+    assert "an .mcap file cut short is read as far as its whole records go" in text
+
+
+def _records(data: bytes) -> list[tuple[int, bytes]]:
+    """A closed MCAP file's data section as records (opcode, body), chunks' records
+    taken out of them: the file as rosbag2's ``fastwrite`` preset writes it, unchunked."""
+    from rosbags.rosbag2.storage_mcap import decompress
+
+    out, pos = [], len(MAGIC)
+    while True:
+        op, n = struct.unpack_from("<BQ", data, pos)
+        body = data[pos + 9 : pos + 9 + n]
+        pos += 9 + n
+        if op == 0x0F:
+            return out
+        if op == 0x06:
+            size, crc = struct.unpack_from("<QI", body, 16)
+            (k,) = struct.unpack_from("<I", body, 28)
+            comp = body[32 : 32 + k].decode()
+            (m,) = struct.unpack_from("<Q", body, 32 + k)
+            inner = decompress(body[40 + k : 40 + k + m], comp, size, crc)
+            out += _records(MAGIC + inner + struct.pack("<BQ", 0x0F, 4) + bytes(4))
+        elif op != 0x07:  # message indexes point into chunks that are gone
+            out.append((op, body))
+
+
+def test_messages_outside_chunks_cut_inside_one_are_read_to_the_last_whole(tmp_path):
+    """An unchunked file (rosbag2's fastwrite preset) cut inside a message record: every
+    whole message before it read, the seconds the whole file's bit for bit."""
+    _, radius = _drive()
+    whole = _mcap(tmp_path, None)
+    want, _ = _seconds(whole, radius, "whole.mcap")
+    flat = b"".join(struct.pack("<BQ", op, len(b)) + b for op, b in _records(whole.read_bytes()))
+    cut = tmp_path / "flat.mcap"
+    cut.write_bytes(MAGIC + flat[: int(len(flat) * 0.5) + 3])
+    got, streams = _seconds(cut, radius, "flat.mcap")
+    said = "\n".join(streams.notes)
+    assert "flat.mcap stops inside a message record at byte" in said
+    both = want.merge(got, on="t_s", suffixes=("", "_cut"))
+    assert len(both) == len(got) > 0.4 * len(want)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(both[q][:-1], both[f"{q}_cut"][:-1], err_msg=q)
+    with ScannedMcap([cut]) as bag:
+        assert all(j < 0 for _, _, j, _, _ in bag._files[0].messages)
+
+
+def test_a_file_that_is_no_ros2_mcap_file_is_refused(tmp_path):
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"not an mcap file at all")
+    assert is_finished(junk)  # not one to scan: rosbags refuses it
+    with pytest.raises(InputError, match="junk.mcap: expected a ROS 2 bag"):
+        read_mdf4(junk, bag_map(), 0.3, "m", "junk.mcap")
+    other = tmp_path / "other.mcap"
+    header = struct.pack("<I", 4) + b"json" + struct.pack("<I", 0)
+    other.write_bytes(MAGIC + struct.pack("<BQ", 1, len(header)) + header)
+    assert not is_finished(other)
+    with pytest.raises(InputError, match="the MCAP profile is 'json', not ros2"):
+        read_mdf4(other, bag_map(), 0.3, "m", "other.mcap")
+    only = tmp_path / "only.mcap"
+    only.write_bytes(MAGIC)  # killed as it began: the magic alone is no closed file's end
+    assert not is_finished(only)
+    started = tmp_path / "started.mcap"
+    started.write_bytes(MAGIC + b"\x01")  # killed as it wrote its header
+    assert not is_finished(started)
+    with pytest.raises(InputError, match="no whole message: cut short 1 byte"):
+        read_mdf4(started, bag_map(), 0.3, "m", "started.mcap")
+    with pytest.raises(ValueError, match="is empty"):
+        (tmp_path / "empty.mcap").write_bytes(b"")
+        ScannedMcap([tmp_path / "empty.mcap"])
+    assert c.T_S  # the canonical names the drives above are read into
+
+
+def test_a_file_without_definitions_reads_ros_types_and_refuses_a_kit_s(tmp_path):
+    """Schemas without their definitions (as rosbag2 wrote them before Iron), the file cut
+    short: the kit's WheelSpeedReport refused, naming it; a NavSatFix read by ROS's own
+    type (the latest LTS's), its messages up to the cut."""
+    from support.rosbag import FIX_TOPIC, IMU_TOPIC, WHEEL_SPEED_REPORT
+
+    tables, radius = _drive()
+    whole = _mcap(tmp_path, None)
+    bare = []
+    for op, body in _records(whole.read_bytes()):
+        if op == 0x03:  # schema: id, name, encoding, data -> encoding and data empty
+            (k,) = struct.unpack_from("<I", body, 2)
+            body = body[: 6 + k] + struct.pack("<I", 0) + struct.pack("<I", 0)
+        bare.append(struct.pack("<BQ", op, len(body)) + body)
+    cut = tmp_path / "bare.mcap"
+    flat = b"".join(bare)
+    cut.write_bytes(MAGIC + flat[: int(len(flat) * 0.6)])
+    with pytest.raises(InputError) as err:
+        read_mdf4(cut, bag_map(), radius, "m", "bare.mcap")
+    assert f"the definition of {WHEEL_SPEED_REPORT}, a mapped topic's message type" in str(
+        err.value
+    )
+    with ScannedMcap([cut]) as bag:
+        assert {c.topic for c in bag.connections} >= {FIX_TOPIC, IMU_TOPIC}
+        fix = next(con for con in bag.connections if con.topic == FIX_TOPIC)
+        n = sum(1 for _ in bag.messages([fix]))
+        msg = bag.deserialize(next(bag.messages([fix]))[2], fix.msgtype)
+    g = tables.gnss
+    assert 0.3 * len(g) < n < 0.8 * len(g)
+    assert msg.latitude == g[c.LAT_DEG].iloc[0] and msg.longitude == g[c.LON_DEG].iloc[0]
+
+
+def test_a_split_recording_s_last_file_cut_short_is_read_after_the_closed_ones(tmp_path):
+    """``--max-bag-duration`` splits a recording into drive_0.mcap, drive_1.mcap, ...; killed,
+    the recorder leaves the last file open and no metadata.yaml. The closed first file and
+    the cut second are read in order, each with its own channels: the seconds are the
+    whole drive's bit for bit up to the cut."""
+    from rwhonet.sim.streams import StreamTables
+
+    tables, radius = _drive()
+    want, _ = _seconds(
+        next(tables_bag(tmp_path / "w", tables, ros2="mcap").glob("*.mcap")), radius, "w"
+    )
+    t_split = float(tables.wheels[c.T_S].iloc[0]) + 60.0
+    folder = tmp_path / "drive"
+    folder.mkdir()
+    for k, part in enumerate((lambda t: t < t_split, lambda t: t >= t_split)):
+        frames = [f[part(f[c.T_S])] for f in (tables.wheels, tables.gnss, tables.gyro)]
+        written = next(tables_bag(tmp_path / f"p{k}", StreamTables(*frames), ros2="mcap").glob("*"))
+        data = written.read_bytes()
+        (folder / f"drive_{k}.mcap").write_bytes(data if k == 0 else data[: int(len(data) * 0.7)])
+    got, streams = _seconds(folder, radius, "drive")
+    said = "\n".join(streams.notes)
+    assert "its files have no summary" in said and "drive_1.mcap stops inside" in said
+    assert "drive_0.mcap stops" not in said
+    both = want.merge(got, on="t_s", suffixes=("", "_cut"))
+    assert len(both) == len(got) and 0.7 * len(want) < len(got) < 0.95 * len(want)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(both[q][:-1], both[f"{q}_cut"][:-1], err_msg=q)
+
+
+def _first_chunk(data: bytes) -> int:
+    """Where a file's first chunk record starts (after the magic and the header record)."""
+    (n,) = struct.unpack_from("<Q", data, len(MAGIC) + 1)
+    at = len(MAGIC) + 9 + n
+    assert data[at] == 0x06
+    return at
+
+
+def test_a_chunk_s_crc_is_checked_and_a_cut_in_its_header_is_no_message(tmp_path):
+    """A chunk whose records do not match its CRC-32 (a corrupted write) is refused; with
+    its right CRC it is read; a file cut inside the first chunk's header holds no message."""
+    import zlib
+
+    _, radius = _drive()
+    data = bytearray(_mcap(tmp_path, None).read_bytes())
+    at = _first_chunk(bytes(data))
+    (usize,) = struct.unpack_from("<Q", data, at + 9 + 16)
+    (k,) = struct.unpack_from("<I", data, at + 9 + 28)
+    records = bytes(data[at + 9 + 32 + k + 8 : at + 9 + 32 + k + 8 + usize])
+    cut = int(len(data) * 0.7)
+    right = tmp_path / "right.mcap"
+    struct.pack_into("<I", data, at + 9 + 24, zlib.crc32(records))
+    right.write_bytes(bytes(data[:cut]))
+    assert len(_seconds(right, radius, "right.mcap")[0]) > 30
+    struct.pack_into("<I", data, at + 9 + 24, zlib.crc32(records) ^ 1)
+    wrong = tmp_path / "wrong.mcap"
+    wrong.write_bytes(bytes(data[:cut]))
+    with pytest.raises(InputError, match="wrong.mcap: expected a ROS 2 bag .*checksum mismatch"):
+        read_mdf4(wrong, bag_map(), radius, "m", "wrong.mcap")
+    header = tmp_path / "header.mcap"
+    header.write_bytes(bytes(data[: at + 9 + 20]))
+    with pytest.raises(
+        InputError, match=f"no whole message: cut short inside a chunk record at byte {at}"
+    ):
+        read_mdf4(header, bag_map(), radius, "m", "header.mcap")
