@@ -214,11 +214,16 @@ def test_a_file_without_definitions_reads_ros_types_and_refuses_a_kit_s(tmp_path
     assert msg.latitude == g[c.LAT_DEG].iloc[0] and msg.longitude == g[c.LON_DEG].iloc[0]
 
 
-def test_a_split_recording_s_last_file_cut_short_is_read_after_the_closed_ones(tmp_path):
+@pytest.mark.parametrize("packed", [False, True])
+def test_a_split_recording_s_last_file_cut_short_is_read_after_the_closed_ones(tmp_path, packed):
     """``--max-bag-duration`` splits a recording into drive_0.mcap, drive_1.mcap, ...; killed,
     the recorder leaves the last file open and no metadata.yaml. The closed first file and
     the cut second are read in order, each with its own channels: the seconds are the
-    whole drive's bit for bit up to the cut."""
+    whole drive's bit for bit up to the cut. With ``--compression-mode file`` rosbag2
+    compressed the closed file as it closed it (drive_0.mcap.zstd; the open one is not):
+    the same seconds."""
+    import pyarrow as pa
+
     from rwhonet.sim.streams import StreamTables
 
     tables, radius = _drive()
@@ -232,7 +237,15 @@ def test_a_split_recording_s_last_file_cut_short_is_read_after_the_closed_ones(t
         frames = [f[part(f[c.T_S])] for f in (tables.wheels, tables.gnss, tables.gyro)]
         written = next(tables_bag(tmp_path / f"p{k}", StreamTables(*frames), ros2="mcap").glob("*"))
         data = written.read_bytes()
+        if k == 0 and packed:
+            zstd = pa.compress(data, codec="zstd", asbytes=True)
+            (folder / "drive_0.mcap.zstd").write_bytes(zstd)
+            continue
         (folder / f"drive_{k}.mcap").write_bytes(data if k == 0 else data[: int(len(data) * 0.7)])
+    from rwhonet.data.rosbag import _storage_files
+
+    first = "drive_0.mcap.zstd" if packed else "drive_0.mcap"
+    assert [p.name for p in _storage_files(folder)] == [first, "drive_1.mcap"]  # in order
     got, streams = _seconds(folder, radius, "drive")
     said = "\n".join(streams.notes)
     assert "its files have no summary" in said and "drive_1.mcap stops inside" in said
@@ -278,3 +291,47 @@ def test_a_chunk_s_crc_is_checked_and_a_cut_in_its_header_is_no_message(tmp_path
         InputError, match=f"no whole message: cut short inside a chunk record at byte {at}"
     ):
         read_mdf4(header, bag_map(), radius, "m", "header.mcap")
+
+
+def test_a_folder_of_files_rosbag2_compressed_is_read_without_its_metadata(tmp_path):
+    """A recording with ``--compression-mode file`` stopped between files (every file
+    closed, drive_0.db3.zstd, and no metadata.yaml): its files decompressed and read in
+    order, the folder's grid with its metadata bit for bit; a .mcap.zstd alone is a ROS 2
+    bag's file kept compressed (ingest's reader decompresses it)."""
+    import shutil
+
+    import pyarrow as pa
+
+    from rwhonet.data.drivefile import DriveFile, read_any
+    from rwhonet.data.rosbag import is_rosbag2_folder, is_rosbag_name
+    from support.drives import make_params
+
+    tables, radius = _drive()
+    folder = tables_bag(tmp_path / "drive", tables, ros2="sqlite3")
+    want = resample(read_mdf4(folder, bag_map(), radius, "m", "drive"), nominal_radius_m=radius)
+    db3 = next(folder.glob("*.db3"))
+    packed = tmp_path / "packed"
+    packed.mkdir()
+    (packed / (db3.name + ".zstd")).write_bytes(
+        pa.compress(db3.read_bytes(), codec="zstd", asbytes=True)
+    )
+    assert is_rosbag2_folder(packed) and is_rosbag_name("drive_0.mcap.zstd")
+    streams = read_mdf4(packed, bag_map(), radius, "m", "packed")
+    assert any("its 1 storage file(s) read alone (drive.db3)" in n for n in streams.notes)
+    got = resample(streams, nominal_radius_m=radius).drive.columns
+    for k in want.drive.columns:
+        np.testing.assert_array_equal(got[k], want.drive.columns[k], err_msg=k)
+    mcap = _mcap(tmp_path / "m", None)
+    alone = tmp_path / "raw" / "V-1.mcap.zstd"
+    alone.parent.mkdir()
+    alone.write_bytes(pa.compress(mcap.read_bytes(), codec="zstd", asbytes=True))
+    signals = {k: {"column": v.column, "unit": v.unit} for k, v in bag_map().items()}
+    data = make_params(
+        tmp_path, **{"data.signal_maps": {"ros": {"reader": "mdf4", "signals": signals}}}
+    ).data
+    raw = read_any(
+        DriveFile("V-1", "target_test", "target", "ros", alone), data, str, radius, 0.1, 10.0
+    )[0]
+    ref = resample(read_mdf4(mcap, bag_map(), radius, "m", "x"), nominal_radius_m=radius)
+    np.testing.assert_array_equal(raw.columns[c.LAT_DEG], ref.drive.columns[c.LAT_DEG])
+    shutil.rmtree(packed)

@@ -36,6 +36,7 @@ MAGIC: tuple[tuple[bytes, str, str], ...] = (
     (b"BZh", "bzip2", ".bz2"),
     (b"\xfd7zXZ\x00", "xz", ".xz"),
     (b"\x28\xb5\x2f\xfd", "zstd", ".zst"),
+    (b"\x28\xb5\x2f\xfd", "zstd", ".zstd"),  # rosbag2's file compression: drive_0.mcap.zstd
     (b"PK\x03\x04", "zip", ".zip"),  # a ZIP archive of one drive file
     (b"PK\x05\x06", "zip", ".zip"),  # ... or of none
 )

@@ -101,10 +101,15 @@ def is_rosbag2_folder(path: Path) -> bool:
 
 
 def _storage_files(folder: Path) -> list[Path]:
-    """A ROS 2 bag folder's storage files (``drive_0.db3``, ``drive_1.db3``...), in order."""
+    """A ROS 2 bag folder's storage files (``drive_0.db3``, ``drive_1.db3``...; compressed
+    by rosbag2's file compression too: ``drive_0.mcap.zstd``), in order."""
     return sorted(
-        (p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in ROS2_FILES),
-        key=lambda p: (len(p.name), p.name),
+        (
+            p
+            for p in folder.iterdir()
+            if p.is_file() and Path(without_suffix(p.name)).suffix.lower() in ROS2_FILES
+        ),
+        key=lambda p: (len(without_suffix(p.name)), p.name),
     )
 
 
@@ -267,7 +272,7 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
         try:
             if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
                 bag = stack.enter_context(ScannedBag(path))  # cut short: as far as it goes
-            elif ros2 and (unfinished := _unfinished_mcap(path)):
+            elif ros2 and (unfinished := _unfinished_mcap(path, stack, file)):
                 bag = stack.enter_context(ScannedMcap(unfinished))  # as far as each goes
                 if path.is_dir() and not (path / METADATA).is_file():
                     bag.said += f"; the folder has no {METADATA}"
@@ -276,7 +281,8 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
                 # own messages are known by the latest LTS's (their layouts have not changed)
                 known = get_typestore(Stores.LATEST) if ros2 else None
                 cut = path.is_dir() and not (path / METADATA).is_file()
-                files = _storage_files(path) if cut else [path]  # cut short: its files alone
+                # cut short: its files alone
+                files = _plain_storage(path, stack, file) if cut else [path]
                 bag = stack.enter_context(AnyReader(files, default_typestore=known))
                 if cut:
                     bag.said = (
@@ -300,15 +306,40 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
             raise
 
 
-def _unfinished_mcap(path: Path) -> list[Path]:
+def _unfinished_mcap(path: Path, stack: contextlib.ExitStack, file: str) -> list[Path]:
     """A ROS 2 bag's MCAP files, in order, where one of them ends without its summary and
-    footer (a recording cut short: :mod:`rwhonet.data.mcapscan`); none where every one is
+    footer (a recording cut short: :mod:`rwhonet.data.mcapscan`), those rosbag2 compressed
+    as it closed them decompressed (:func:`_plain_storage`); none where every one is
     closed (``rosbags`` reads them) or the bag's storage is sqlite3."""
     from rwhonet.data.mcapscan import is_finished
 
     files = _storage_files(path) if path.is_dir() else [path]
-    mcaps = [p for p in files if p.suffix.lower() == ".mcap"]
-    return mcaps if any(not is_finished(p) for p in mcaps) else []
+    if not any(p.suffix.lower() == ".mcap" and not is_finished(p) for p in files):
+        return []
+    return [p for p in _plain_storage(path, stack, file) if p.suffix.lower() == ".mcap"]
+
+
+def _plain_storage(path: Path, stack: contextlib.ExitStack, file: str) -> list[Path]:
+    """A ROS 2 bag's storage files read without its ``metadata.yaml``, in order: where
+    rosbag2's file compression (``--compression-mode file``) compressed those it closed
+    (``drive_0.mcap.zstd``; the one it was writing is not), each is decompressed into a
+    scratch folder that lives as long as ``stack``."""
+    import tempfile
+
+    from rwhonet.data.compressed import compression_of, decompressed_copy
+
+    files = _storage_files(path) if path.is_dir() else [path]
+    out = []
+    for p in files:
+        kind = compression_of(p)
+        if kind is None:
+            out.append(p)
+            continue
+        scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="rwhonet-bag-")))
+        plain = scratch / without_suffix(p.name)
+        decompressed_copy(p, kind, plain, None, f"{file}/{p.name}" if path.is_dir() else file)
+        out.append(plain)
+    return out
 
 
 def read_rosbag(
