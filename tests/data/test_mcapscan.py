@@ -335,3 +335,100 @@ def test_a_folder_of_files_rosbag2_compressed_is_read_without_its_metadata(tmp_p
     ref = resample(read_mdf4(mcap, bag_map(), radius, "m", "x"), nominal_radius_m=radius)
     np.testing.assert_array_equal(raw.columns[c.LAT_DEG], ref.drive.columns[c.LAT_DEG])
     shutil.rmtree(packed)
+
+
+def test_a_message_of_no_channel_is_passed_over_and_a_damaged_record_ends_the_read(tmp_path):
+    """An unchunked file whose 100th message names a channel no record defines (its id
+    damaged): passed over, counted; a message record further on too short for its header
+    (a damaged write): the file is read up to it, the notes saying where, the seconds
+    before it the whole file's bit for bit."""
+    _, radius = _drive()
+    whole = _mcap(tmp_path, None)
+    want, _ = _seconds(whole, radius, "whole.mcap")
+    records = _records(whole.read_bytes())
+    at = [i for i, (op, _) in enumerate(records) if op == 0x05]
+    op, body = records[at[100]]
+    records[at[100]] = (op, struct.pack("<H", 999) + body[2:])
+    flat = [struct.pack("<BQ", op, len(b)) + b for op, b in records]
+    damaged = at[len(at) // 2]
+    flat[damaged] = struct.pack("<BQ", 0x05, 3) + b"abc"
+    path = tmp_path / "damaged.mcap"
+    path.write_bytes(MAGIC + b"".join(flat))
+    got, streams = _seconds(path, radius, "damaged.mcap")
+    said = "\n".join(streams.notes)
+    byte = len(MAGIC) + sum(len(r) for r in flat[:damaged])
+    assert f"stops at a damaged message record at byte {byte} of" in said
+    assert "(3 bytes, fewer than a message's header)" in said
+    assert "; 1 message(s) of no channel record passed over" in said
+    both = want.merge(got, on="t_s", suffixes=("", "_cut"))
+    assert len(both) == len(got) > 0.3 * len(want)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(both[q][:-1], both[f"{q}_cut"][:-1], err_msg=q)
+
+
+@pytest.mark.parametrize("compression", [None, "zstd"])
+def test_a_file_cut_and_damaged_anywhere_is_read_or_refused_never_a_traceback(
+    tmp_path, compression
+):
+    """120 files cut at random and with up to three random bytes changed (a recorder that
+    lost power mid-write): each is read as far as it goes, or refused with the problem
+    named; none ends in another exception (a struct error, a KeyError, a decompressor's)."""
+    from rwhonet.sim.streams import StreamTables
+
+    tables, radius = simulated_streams(20.0, 100.0, 10.0, gyro_hz=50.0)
+    data = next(
+        tables_bag(
+            tmp_path / "d",
+            StreamTables(tables.wheels, tables.gnss, tables.gyro),
+            ros2="mcap",
+            compression=compression,
+        ).glob("*.mcap")
+    ).read_bytes()
+    rng = np.random.default_rng(7)
+    read = refused = 0
+    for i in range(120):
+        b = bytearray(data[: int(rng.integers(8, len(data) - 1))])
+        for _ in range(int(rng.integers(0, 4))):
+            if len(b) > 9:
+                b[int(rng.integers(8, len(b)))] = int(rng.integers(0, 256))
+        path = tmp_path / f"f{i}.mcap"
+        path.write_bytes(bytes(b))
+        try:
+            read_mdf4(path, bag_map(), radius, "m", path.name)
+            read += 1
+        except InputError as err:
+            assert f"{path.name}: expected a ROS 2 bag" in str(err) or "problem" in str(err)
+            refused += 1
+    assert read > 20 and refused > 5
+
+
+def test_records_damaged_in_their_fields_end_the_read_where_they_are(tmp_path):
+    """A record shorter than its fields at the file's end, a string whose length runs past
+    the data, a schema's name that is no UTF-8 inside the chunk being written: each is
+    where the read stops (or, with no whole message before it, why the file is refused)."""
+    _, radius = _drive()
+    whole = _mcap(tmp_path, None)
+    records = _records(whole.read_bytes())
+    flat = [struct.pack("<BQ", op, len(b)) + b for op, b in records]
+    half = MAGIC + b"".join(flat[: len(flat) // 2])
+    short = tmp_path / "short.mcap"
+    short.write_bytes(half + struct.pack("<BQ", 0x04, 1) + b"x")  # a channel of 1 byte
+    said = "\n".join(_seconds(short, radius, "short.mcap")[1].notes)
+    assert f"stops at a damaged channel record at byte {len(half)} of {len(half) + 10} (" in said
+    channel = next(i for i, (op, _) in enumerate(records) if op == 0x04)
+    op, body = records[channel]
+    flat[channel] = struct.pack("<BQ", op, len(body)) + body[:4] + b"\xff\xff\xff\x7f" + body[8:]
+    long = tmp_path / "long.mcap"
+    long.write_bytes(MAGIC + b"".join(flat))
+    with pytest.raises(InputError, match="a string of 2147483647 bytes past the data's end"):
+        read_mdf4(long, bag_map(), radius, "m", "long.mcap")
+    data = bytearray(whole.read_bytes())
+    at = _first_chunk(bytes(data))
+    name = data.index(b"sensor_msgs/msg/")  # the first schema's name, in the first chunk
+    data[name] = 0xFF
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(bytes(data[: at + 200_000]))
+    with pytest.raises(
+        InputError, match=f"inside a chunk record at byte {at} of {at + 200_000}, damaged in it"
+    ):
+        read_mdf4(cut, bag_map(), radius, "m", "cut.mcap")

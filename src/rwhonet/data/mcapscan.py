@@ -64,8 +64,14 @@ def is_finished(path: Path) -> bool:
         return f.read(len(MAGIC)) == MAGIC
 
 
-def _string(buf: bytes | memoryview, pos: int) -> tuple[str, int]:
+class _Damaged(Exception):
+    """A record that cannot be what its opcode says (a write the recorder left damaged)."""
+
+
+def _string(buf: Any, pos: int) -> tuple[str, int]:
     (n,) = _U32.unpack_from(buf, pos)
+    if pos + 4 + n > len(buf):
+        raise _Damaged(f"a string of {n} bytes past the data's end")
     return bytes(buf[pos + 4 : pos + 4 + n]).decode("utf-8"), pos + 4 + n
 
 
@@ -107,6 +113,12 @@ class ScannedMcap:
         except Exception:
             self.close()
             raise
+        # a message whose channel has no channel record (its id damaged): passed over
+        self.orphans = 0
+        for k, f in enumerate(self._files):
+            kept = [m for m in f.messages if (k, m[0]) in meta.channels]
+            self.orphans += len(f.messages) - len(kept)
+            f.messages = kept
         if not any(f.messages for f in self._files):
             stops = "; ".join(f"{f.stopped}" for f in self._files if f.stopped)
             self.close()
@@ -128,6 +140,11 @@ class ScannedMcap:
             f"recording cut short: ros2 bag record writes it as it closes a file): read "
             f"record by record, {self.message_count} whole messages"
             + (f"; {'; '.join(stops)}" if stops else "")
+            + (
+                f"; {self.orphans} message(s) of no channel record passed over"
+                if self.orphans
+                else ""
+            )
             + (
                 ""
                 if not any(f.stopped and "compressed" in f.stopped for f in self._files)
@@ -199,7 +216,10 @@ def _records_of(buf: mmap.mmap, chunk: tuple[int, int, str, int, int]) -> bytes:
         return data
     from rosbags.rosbag2.storage_mcap import decompress
 
-    return decompress(data, compression, size, crc)
+    try:
+        return decompress(data, compression, size, crc)
+    except Exception as err:  # rosbags' (size, CRC) or the decompressor's own
+        raise _Damaged(f"{compression or 'uncompressed'} data: {err}") from None
 
 
 def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
@@ -221,13 +241,22 @@ def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
         if end > size:
             what = _NAMES.get(op, f"0x{op:02x}")
             out.stopped = f"inside a {what} record at byte {pos} of {size}"
-            if op == OP_CHUNK and (how := _partial_chunk(buf, body, size, k, out, meta)):
-                out.stopped = f"inside a {how}-compressed chunk at byte {pos} of {size}"
+            if op == OP_CHUNK:
+                try:
+                    if how := _partial_chunk(buf, body, size, k, out, meta):
+                        out.stopped = f"inside a {how}-compressed chunk at byte {pos} of {size}"
+                except _Damaged as err:  # its records up to the damage kept
+                    out.stopped += f", damaged in it ({err})"
             break
-        if op == OP_CHUNK:
-            _chunk(buf, body, end, k, out, meta)
-        else:
-            _record(buf, op, body, end, k, -1, out, meta)
+        try:
+            if op == OP_CHUNK:
+                _chunk(buf, body, end, k, out, meta)
+            else:
+                _record(buf, op, body, end, k, -1, out, meta)
+        except _Damaged as err:  # read as far as it goes: up to the damage
+            what = _NAMES.get(op, f"0x{op:02x}")
+            out.stopped = f"at a damaged {what} record at byte {pos} of {size} ({err})"
+            break
         pos = end
     return out
 
@@ -273,8 +302,23 @@ def _records(data: bytes, j: int, k: int, out: _File, meta: _Meta) -> None:
 def _record(
     buf: Any, op: int, body: int, end: int, k: int, j: int, out: _File, meta: _Meta
 ) -> None:
-    """A schema, channel or message record (anything else passed over)."""
+    """A schema, channel or message record (anything else passed over).
+
+    Raises:
+        _Damaged: a record shorter than its fields, or a name that is no UTF-8 text.
+    """
+    try:
+        _fields(buf, op, body, end, k, j, out, meta)
+    except (struct.error, UnicodeDecodeError) as err:
+        raise _Damaged(str(err)) from None
+
+
+def _fields(
+    buf: Any, op: int, body: int, end: int, k: int, j: int, out: _File, meta: _Meta
+) -> None:
     if op == OP_MESSAGE:
+        if end - body < _MESSAGE.size:
+            raise _Damaged(f"{end - body} bytes, fewer than a message's header")
         channel, _, log_time, _ = _MESSAGE.unpack_from(buf, body)
         start = body + _MESSAGE.size
         out.messages.append((channel, log_time, j, start, end - start))
