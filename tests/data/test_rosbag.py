@@ -728,3 +728,35 @@ def test_a_ros2_bag_s_folder_without_its_metadata_is_read_by_its_storage_files(t
     got = _grid(streams, radius)
     for k in want:
         np.testing.assert_array_equal(got[k], want[k], err_msg=k)
+
+
+@pytest.mark.parametrize("compression", [None, "lz4", "bz2"])
+def test_a_damaged_bag_is_read_or_refused_never_a_traceback(tmp_path, compression):
+    """60 whole bags with one to three random bytes changed (a damaged copy): each is read,
+    or refused as the bag's problem; what rosbags' reader meets inside it (an lz4 or bz2
+    chunk that does not decompress, its own assertions, a name that is no UTF-8, an index
+    naming no connection) is never a traceback."""
+    from rwhonet.sim.streams import StreamTables
+
+    tables, radius = simulated_streams(20.0, 100.0, 10.0, gyro_hz=50.0)
+    bag = tables_bag(
+        tmp_path / "d.bag",
+        StreamTables(tables.wheels, tables.gnss, tables.gyro),
+        compression=compression,
+        chunk_bytes=1 << 16,
+    )
+    data = bag.read_bytes()
+    rng = np.random.default_rng(0)
+    refused = 0
+    for i in range(60):
+        b = bytearray(data)
+        for _ in range(int(rng.integers(1, 4))):
+            b[int(rng.integers(13, len(b)))] = int(rng.integers(0, 256))
+        path = tmp_path / f"f{i}.bag"
+        path.write_bytes(bytes(b))
+        try:
+            read_mdf4(path, bag_map(), radius, "m", path.name)
+        except InputError as err:
+            assert f"{path.name}: expected a ROS 1 bag" in str(err) or "problem" in str(err)
+            refused += 1
+    assert refused > 5  # damage is found, not read as data

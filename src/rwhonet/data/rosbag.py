@@ -294,16 +294,32 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
             raise
         except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
             raise _unreadable(file, err, ros2) from None
-        except Exception as err:  # rosbags' ReaderError
-            if type(err).__module__.startswith("rosbags"):
+        except Exception as err:  # rosbags' ReaderError, or what its reading met
+            if _in_rosbags(err):
                 raise _unreadable(file, err, ros2) from None
             raise
         try:
             yield bag
         except Exception as err:  # rosbags' reading and deserialisation errors
-            if type(err).__module__.startswith("rosbags"):
+            if _in_rosbags(err):
                 raise _unreadable(file, err, ros2) from None
             raise
+
+
+def _in_rosbags(err: BaseException) -> bool:
+    """Whether an error is the bag's: ``rosbags``' own, or raised while ``rosbags`` read
+    it (a damaged bag: an lz4 or bz2 chunk that does not decompress, a record that fails
+    its own assertions, a name that is no UTF-8 text, an index naming no connection), not
+    one of our own reading code's."""
+    import traceback
+
+    import rosbags
+
+    if type(err).__module__.startswith("rosbags"):
+        return True
+    homes = tuple(str(Path(p)) for p in rosbags.__path__)  # a namespace package's folders
+    frames = traceback.walk_tb(err.__traceback__)
+    return any(f.f_code.co_filename.startswith(homes) for f, _ in frames)
 
 
 def _unfinished_mcap(path: Path, stack: contextlib.ExitStack, file: str) -> list[Path]:
