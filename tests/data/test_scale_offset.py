@@ -25,7 +25,7 @@ import yaml
 from rwhonet import paths
 from rwhonet.config import ColumnSpec, ConfigError, parse_value
 from rwhonet.data import canonical as c
-from rwhonet.data.columnmap import check_column_map, read_columnmap
+from rwhonet.data.columnmap import KEYS, check_column_map, read_columnmap
 from rwhonet.data.incremental import read_rows
 from rwhonet.data.mdf4 import read_mdf4
 from rwhonet.data.signalmap import check_signal_map
@@ -49,17 +49,7 @@ RAW = {
     # a yaw rate's 16-bit raw value, 0.01 deg/s a bit, offset -327.68 deg/s (ESC signals so)
     "yaw_rate": ("YawRate", "deg/s", 0.01, -327.68),
 }
-CANONICAL = {
-    "t": c.T_S,
-    "lat": c.LAT_DEG,
-    "lon": c.LON_DEG,
-    "omega_fl": c.OMEGA_FL,
-    "omega_fr": c.OMEGA_FR,
-    "omega_rl": c.OMEGA_RL,
-    "omega_rr": c.OMEGA_RR,
-    "n_sats": c.N_SATS,
-    "yaw_rate": c.YAW_RATE_RAD_S,
-}
+CANONICAL = {k: KEYS[k][0] for k in RAW}  # the canonical column each key is read into
 
 
 def _raw_numbers(key: str, si: np.ndarray) -> np.ndarray:
