@@ -154,13 +154,16 @@ class _Checked(io.RawIOBase):
         super().close()
 
 
-def decompressed_copy(path: Path, kind: str, dest: Path, max_mb: float | None, file: str) -> None:
+def decompressed_copy(
+    path: Path, kind: str, dest: Path, max_mb: float | None, file: str, what: str = "a CAN log"
+) -> None:
     """Write what a compressed drive file holds (a CSV's text, an MDF4 log, a raw CAN log)
     to ``dest``, at most ``max_mb`` MB of it.
 
     ``max_mb`` None: a raw CAN log, whose reader takes a part of it at a time (its memory
-    bounded by the frames it keeps, not by its size), so its copy is bounded by the
-    scratch disk instead: it must leave :data:`SCRATCH_RESERVE_MB` free there.
+    bounded by the frames it keeps, not by its size), or a ROS 2 bag's storage file
+    (``what`` names it), so its copy is bounded by the scratch disk instead: it must leave
+    :data:`SCRATCH_RESERVE_MB` free there.
 
     Raises:
         InputError: the text runs past ``max_mb`` (``data.max_file_mb``, which bounds a
@@ -170,7 +173,7 @@ def decompressed_copy(path: Path, kind: str, dest: Path, max_mb: float | None, f
     if max_mb is None:
         room = shutil.disk_usage(dest.parent).free / 2**20 - SCRATCH_RESERVE_MB
         expected = (
-            f"a CAN log that fits the scratch disk once decompressed ({max(room, 0):,.0f} MB "
+            f"{what} that fits the scratch disk once decompressed ({max(room, 0):,.0f} MB "
             f"there, leaving {SCRATCH_RESERVE_MB:,} MB free)"
         )
         fix = "free disk space where temporary files go (TMPDIR), or give the log decompressed"

@@ -345,15 +345,18 @@ def _plain_storage(path: Path, stack: contextlib.ExitStack, file: str) -> list[P
     from rwhonet.data.compressed import compression_of, decompressed_copy
 
     files = _storage_files(path) if path.is_dir() else [path]
-    out = []
+    out: list[Path] = []
+    scratch = None
     for p in files:
         kind = compression_of(p)
         if kind is None:
             out.append(p)
             continue
-        scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="rwhonet-bag-")))
+        if scratch is None:
+            scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="rwhonet-bag-")))
         plain = scratch / without_suffix(p.name)
-        decompressed_copy(p, kind, plain, None, f"{file}/{p.name}" if path.is_dir() else file)
+        shown = f"{file}/{p.name}" if path.is_dir() else file
+        decompressed_copy(p, kind, plain, None, shown, "a ROS 2 bag's storage file")
         out.append(plain)
     return out
 
