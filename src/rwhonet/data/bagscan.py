@@ -184,6 +184,8 @@ class ScannedBag:
     """A ROS 1 bag without its index, read record by record (what ``rosbags``'
     ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`)."""
 
+    how = "record by record, rosbags deserialising"  # how the reader's notes say it was read
+
     def __init__(self, path: Path) -> None:
         from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 

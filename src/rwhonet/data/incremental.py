@@ -32,7 +32,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from rwhonet.config import GnssPolicy
+from rwhonet.config import ColumnSpec, GnssPolicy
 from rwhonet.data import canonical as c
 from rwhonet.data.packed import is_packed, signed_coordinates, unpack_or_refuse
 from rwhonet.data.problems import no_data_rows
@@ -67,8 +67,8 @@ class Layout:
             header ends in, where ``short_rows``: csvio.HeadLines.short_rows).
         positions: canonical name -> 0-based column position.
         factors: canonical name -> factor from the file's unit to SI.
-        linear: canonical name -> a column map's ``scale`` and ``offset``, which make the
-            file's raw numbers values in its unit before the factor
+        linear: canonical name -> a column map's entry whose ``scale`` and ``offset`` make
+            the file's raw numbers values in its unit before the factor
             (:func:`rwhonet.data.columnmap.scaled`); none where the map sets neither.
         names: canonical name -> the file's column name (for messages).
         time_unit: the time column's unit as a column map declares it (``s``, ``ms``,
@@ -92,7 +92,7 @@ class Layout:
     positions: dict[str, int]
     factors: dict[str, float]
     names: dict[str, str]
-    linear: dict[str, tuple[float, float]] = field(default_factory=dict)
+    linear: dict[str, ColumnSpec] = field(default_factory=dict)
     trailing_cell: bool = False  # the last column: the empty cell every row ends in
     short_rows: bool = False  # the header's empty last cell, which its rows lack, not read
     time_unit: str | None = None
@@ -140,7 +140,7 @@ def layout(
 
         positions, _ = iovnbd_columns(header, file)
         factors = column_factors(header, positions)
-        linear: dict[str, tuple[float, float]] = {}
+        linear: dict[str, ColumnSpec] = {}
         packed = {
             name: (unit, header_setting(header[positions[name]]))
             for name, unit in column_packed(header, positions).items()
@@ -175,7 +175,7 @@ def layout(
         }
         # raw numbers (scale, offset: checked above): (raw * scale + offset) * factor
         specs = {KEYS[key][0]: (column_map or {})[key] for key in by_key}
-        linear = {name: (spec.scale, spec.offset) for name, spec in specs.items() if spec.scaled}
+        linear = {name: spec for name, spec in specs.items() if spec.scaled}
         wheel_note = linear_wheel_note(units, {k: header[p] for k, p in by_key.items()}, radius_m)
         packed = {
             KEYS[key][0]: (unit, f"data.column_maps.{fmt}.{key}.unit")
@@ -1051,8 +1051,9 @@ def parse_lines(
         values = _parse_slow(text, lay, cols, first_row, file)
     for i, name in enumerate(names):
         if name in lay.linear:  # raw numbers: in the file's unit first, as ingest reads them
-            scale, offset = lay.linear[name]
-            values[:, i] = values[:, i] * scale + offset
+            from rwhonet.data.columnmap import scaled
+
+            values[:, i] = scaled(values[:, i], lay.linear[name])
     out = {
         name: values[:, i] * lay.factors[name] if lay.factors[name] != 1.0 else values[:, i]
         for i, name in enumerate(names)

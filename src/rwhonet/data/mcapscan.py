@@ -102,6 +102,8 @@ class ScannedMcap:
         ValueError: a file that is no MCAP file of the ``ros2`` profile; no whole message.
     """
 
+    how = "its MCAP records one by one, rosbags deserialising"  # as the reader's notes say
+
     def __init__(self, paths: Sequence[Path]) -> None:
         self._handles: list[tuple[Any, mmap.mmap]] = []
         self._files: list[_File] = []

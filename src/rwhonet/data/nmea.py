@@ -76,7 +76,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rwhonet.config import ColumnSpec
 from rwhonet.data.bytescan import HEX, after, before, floats_or_nan
+from rwhonet.data.columnmap import scaled
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.packed import HHMMSS
 from rwhonet.data.texttime import (
@@ -1135,7 +1137,7 @@ def on_clock(
     t_s: Sequence[np.ndarray],
     name: str,
     parts: Sequence[FixLog] = (),
-    linear: tuple[float, float] = (1.0, 0.0),
+    time: ColumnSpec | None = None,
 ) -> tuple[np.ndarray, str, str]:
     """A log's epochs on the stream files' clock.
 
@@ -1156,8 +1158,8 @@ def on_clock(
         parts: the logs of the receiver's one log a logger rotated, ``log`` among them (none:
             ``log`` is the whole): whether their times of day cover half of the stream
             files' span is told of them together.
-        linear: the map's ``t`` scale and offset, which a logger stamp's number takes as a
-            time column's does (:func:`rwhonet.data.columnmap.scaled`).
+        time: the map's ``t`` entry, whose scale and offset a logger stamp's number takes as
+            a time column's does (:func:`rwhonet.data.columnmap.scaled`); None: neither.
 
     Returns:
         ``(times, what the times are, a note)``.
@@ -1167,7 +1169,7 @@ def on_clock(
             sentences; fixes that share no time with the stream files.
     """
     if log.stamps is not None and not dated:
-        t = _stamps(log, unit, name, linear)
+        t = _stamps(log, unit, name, time)
         t, said = unwrap_clock(t, "epoch")
         note = f"{log.file}: each sentence's logger stamp is its time on the stream files' clock"
         return _shared(log, t, t_s, "stamp")[0], "logger stamp", "; ".join([note, *said])
@@ -1250,11 +1252,9 @@ def _seconds_of_a_day(tod: np.ndarray, t_s: Sequence[np.ndarray]) -> bool:
     return shared >= 0.5 * (d - c)
 
 
-def _stamps(
-    log: FixLog, unit: str, name: str, linear: tuple[float, float] = (1.0, 0.0)
-) -> np.ndarray:
-    """The logger's stamps in s, read in the map's ``t`` unit (numbers: ``* scale + offset``
-    first, ``linear``)."""
+def _stamps(log: FixLog, unit: str, name: str, time: ColumnSpec | None = None) -> np.ndarray:
+    """The logger's stamps in s, read in the map's ``t`` unit (numbers: scaled and offset
+    first, as ``time`` says)."""
     cells = log.stamps or []
     problems = []
     if is_text_unit(unit):
@@ -1286,8 +1286,9 @@ def _stamps(
         return t
     from rwhonet.data.signalmap import to_si  # signalmap reads stream files; it imports us
 
-    scale, offset = linear
-    return to_si("t", t * scale + offset, unit, None, log.file, (log.file, "logger stamp"))
+    if time is not None:
+        t = scaled(t, time)
+    return to_si("t", t, unit, None, log.file, (log.file, "logger stamp"))
 
 
 def _shared(

@@ -268,19 +268,19 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
     from rwhonet.data.mcapscan import ScannedMcap
 
     ros2 = _is_ros2(path)
+    cut = path.is_dir() and not (path / METADATA).is_file()  # a ROS 2 folder cut short
     with contextlib.ExitStack() as stack:
         try:
             if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
                 bag = stack.enter_context(ScannedBag(path))  # cut short: as far as it goes
             elif ros2 and (unfinished := _unfinished_mcap(path, stack, file)):
                 bag = stack.enter_context(ScannedMcap(unfinished))  # as far as each goes
-                if path.is_dir() and not (path / METADATA).is_file():
+                if cut:
                     bag.said += f"; the folder has no {METADATA}"
             else:
                 # a ROS 2 bag recorded before Iron carries no message definitions: ROS's
                 # own messages are known by the latest LTS's (their layouts have not changed)
                 known = get_typestore(Stores.LATEST) if ros2 else None
-                cut = path.is_dir() and not (path / METADATA).is_file()
                 # cut short: its files alone
                 files = _plain_storage(path, stack, file) if cut else [path]
                 bag = stack.enter_context(AnyReader(files, default_typestore=known))
@@ -417,10 +417,7 @@ def rosbag_groups(
     kind, how = ("a ROS 2 bag", READ_HOW_2) if ros2 else ("a ROS 1 bag", READ_HOW)
     if ros2 and not path.is_dir():
         kind = f"a ROS 2 bag's {path.suffix.lstrip('.')} file (without its metadata.yaml)"
-    if said and not ros2:
-        how = "record by record, rosbags deserialising"
-    elif said and type(bag).__name__ == "ScannedMcap":
-        how = "its MCAP records one by one, rosbags deserialising"
+    how = getattr(bag, "how", how)  # a recording cut short, read record by record
     notes = [
         f"{file}: {kind} of {n_messages} messages on {n_topics} topic(s); read {len(read)} "
         f"of them ({how}"

@@ -697,7 +697,7 @@ def _receiver_groups(
             [g.t_s for g in groups],
             name,
             read,
-            (time_spec.scale, time_spec.offset),
+            time_spec,
         )
         notes += [*log.notes, said]
         out.append(
