@@ -639,6 +639,16 @@ class GnssPolicy:
     moving_wheel_speed_rad_s: float
     max_gap_s: float
     min_segment_s: float
+    # A fix whose receiver states a horizontal accuracy worse than this (m, the drive's
+    # h_acc_m), or states none in a drive that has the column, is no fix; None: not screened.
+    max_h_acc_m: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.max_h_acc_m is not None and not self.max_h_acc_m > 0.0:
+            raise ConfigError(
+                f"validate.gnss.max_h_acc_m must be > 0 m (or null: accuracy not screened), "
+                f"got {self.max_h_acc_m}"
+            )
 
 
 @dataclass(frozen=True)

@@ -106,7 +106,7 @@ CUPAC_MAP = {
     "n_sats": ("Satellites", "count"),
 }
 _TO_SI = {"s": 1.0, "ms": 1e-3, "deg": 1.0, "rad/s": 1.0, "rpm": 2 * np.pi / 60, "count": 1.0}
-_TO_SI |= c.YAW_RATE_UNITS
+_TO_SI |= c.YAW_RATE_UNITS | c.ACCURACY_UNITS
 _KEY = {
     "t": c.T_S,
     "lat": c.LAT_DEG,
@@ -116,6 +116,7 @@ _KEY = {
     "omega_rl": c.OMEGA_RL,
     "omega_rr": c.OMEGA_RR,
     "n_sats": c.N_SATS,
+    "h_acc": c.H_ACC_M,
     "yaw_rate": c.YAW_RATE_RAD_S,
 }
 

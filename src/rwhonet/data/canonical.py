@@ -12,6 +12,10 @@ T_S = "t_s"  # time, s (monotonic within a drive)
 LAT_DEG = "lat_deg"  # WGS84 latitude, deg
 LON_DEG = "lon_deg"  # WGS84 longitude, deg
 N_SATS = "n_sats"  # GNSS satellites in the fix, count
+# The receiver's own estimate of its horizontal position error, m: the root of the sum of
+# its east and north variances (DRMS) where it gives them; each reader says what it takes
+# (docs/readers.md, "A receiver's stated accuracy").
+H_ACC_M = "h_acc_m"
 OMEGA_FL = "omega_fl_rad_s"  # wheel angular speed front left, rad/s
 OMEGA_FR = "omega_fr_rad_s"
 OMEGA_RL = "omega_rl_rad_s"
@@ -34,6 +38,7 @@ FEATURE_WHEEL_ORDER = (OMEGA_RR, OMEGA_RL, OMEGA_FR, OMEGA_FL)
 REQUIRED = (T_S, LAT_DEG, LON_DEG, *WHEELS)
 OPTIONAL = (
     N_SATS,
+    H_ACC_M,
     SPEED_GNSS_M_S,
     HEADING_DEG,
     HEIGHT_M,
@@ -44,6 +49,8 @@ OPTIONAL = (
 )
 
 G_M_S2 = 9.80665
+# A stated accuracy's units in a column or signal map -> factor to metres.
+ACCURACY_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 # A time's units as numbers -> factor to seconds (a column map's, a signal map's, a header's).
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 # How a CSV cell says "no value", case aside: every reader (ingest's, predict's, text

@@ -80,6 +80,9 @@ KEYS: dict[str, tuple[str, dict[str, float]]] = {
     "omega_rr": (c.OMEGA_RR, _WHEEL_UNITS),
     # vbox: a Racelogic VBOX's count, its flags (64, 128) taken off (rwhonet.data.packed)
     "n_sats": (c.N_SATS, {"count": 1.0, VBOX_SATS: math.nan}),
+    # the receiver's stated horizontal accuracy (c.H_ACC_M), screened by
+    # validate.gnss.max_h_acc_m
+    "h_acc": (c.H_ACC_M, c.ACCURACY_UNITS),
     # the navigation filter's gyro (validate checks its unit and sign against GNSS)
     "yaw_rate": (c.YAW_RATE_RAD_S, c.YAW_RATE_UNITS),
 }

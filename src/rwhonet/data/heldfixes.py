@@ -75,7 +75,15 @@ MEAN_OFF = 0.2
 # undecided then (parked, or no fix yet) is handed on as it came.
 HOLD_ROWS = 3000
 # The GNSS channels a held fix carries (held with it, placed with it).
-GNSS_CHANNELS = (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M)
+GNSS_CHANNELS = (
+    c.LAT_DEG,
+    c.LON_DEG,
+    c.N_SATS,
+    c.H_ACC_M,
+    c.SPEED_GNSS_M_S,
+    c.HEADING_DEG,
+    c.HEIGHT_M,
+)
 
 
 @dataclass(frozen=True)

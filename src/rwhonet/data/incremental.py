@@ -47,9 +47,10 @@ BLOCK_BYTES = 1 << 16  # at most this much text is parsed per step (about 15 s o
 # interrupt would wait for the next row, forever on a live stream that has paused.
 PIPE_WAKE_S = 0.2
 CHANNELS = c.REQUIRED  # what a second needs: time, fix, four wheel speeds
-# Read too where the layout has them: the yaw rate (predict's navigation filter) and the
-# satellite count (a fix validate's GNSS policy would not use is no fix: FixScreen).
-OPTIONAL_CHANNELS = (c.YAW_RATE_RAD_S, c.N_SATS)
+# Read too where the layout has them: the yaw rate (predict's navigation filter), the
+# satellite count and the receiver's stated accuracy (a fix validate's GNSS policy would
+# not use is no fix: FixScreen).
+OPTIONAL_CHANNELS = (c.YAW_RATE_RAD_S, c.N_SATS, c.H_ACC_M)
 
 
 def carried_channels(available: Collection[str]) -> tuple[str, ...]:
@@ -742,7 +743,9 @@ class FixScreen:
 
     :func:`rwhonet.data.fixes.no_fix_rows` decides, as it does for validate's
     ``low_sats`` rule: latitude = longitude = 0 (a receiver without a fix writes zeros)
-    and, where the drive counts satellites, fewer than ``min_sats`` (or no count). With
+    and, where the drive counts satellites, fewer than ``min_sats`` (or no count); where
+    the drive has its receiver's stated accuracy and ``policy`` sets ``max_h_acc_m``, an
+    accuracy worse than that (or none stated). With
     ``policy`` (``validate.gnss``) validate's ``jump`` and ``frozen`` rules too
     (:mod:`rwhonet.data.quality`): a fix implying more than ``max_speed_m_s`` from the row
     before it (the last block's last row for a block's first; a row the satellite rule took
@@ -759,6 +762,7 @@ class FixScreen:
         sample_period_s: ``validate.sample_period_s`` (a row's share of a run's time).
         zeros: rows taken out so far at latitude = longitude = 0.
         low_sats: rows taken out so far for their satellite count.
+        poor_accuracy: rows taken out so far for their stated accuracy alone.
         jumps: rows taken out so far as jumps.
         frozen: rows taken out so far as frozen.
     """
@@ -768,6 +772,7 @@ class FixScreen:
     sample_period_s: float = 0.1
     zeros: int = 0
     low_sats: int = 0
+    poor_accuracy: int = 0
     jumps: int = 0
     frozen: int = 0
     _last: tuple[float, float, float] | None = None  # the last row's time and fix
@@ -787,6 +792,11 @@ class FixScreen:
         lat, lon = columns[c.LAT_DEG], columns[c.LON_DEG]
         has = np.isfinite(lat) & np.isfinite(lon)  # a missing fix is not taken out again
         bad = no_fix_rows(lat, lon, columns.get(c.N_SATS), self.min_sats) & has
+        max_h_acc_m = getattr(self.policy, "max_h_acc_m", None)
+        poor = np.zeros_like(bad)
+        if max_h_acc_m is not None and c.H_ACC_M in columns:
+            poor = ~bad & has & ~(columns[c.H_ACC_M] <= max_h_acc_m)  # NaN: none stated
+            bad = bad | poor
         if self.policy is not None and len(lat):
             usable = {c.LAT_DEG: np.where(bad, np.nan, lat), c.LON_DEG: np.where(bad, np.nan, lon)}
             jump, frozen = self._jumps_and_frozen(columns | usable)
@@ -801,7 +811,8 @@ class FixScreen:
             return columns
         zero = bad & (lat == 0.0) & (lon == 0.0)
         self.zeros += int(zero.sum())
-        self.low_sats += int((bad & ~zero).sum())
+        self.low_sats += int((bad & ~zero & ~poor).sum())
+        self.poor_accuracy += int(poor.sum())
         return columns | {
             c.LAT_DEG: np.where(screened, np.nan, lat),
             c.LON_DEG: np.where(screened, np.nan, lon),
@@ -846,6 +857,7 @@ class FixScreen:
         counts = (
             ("zeros", self.zeros),
             ("low_sats", self.low_sats),
+            ("poor_accuracy", self.poor_accuracy),
             ("jump", self.jumps),
             ("frozen", self.frozen),
         )
@@ -856,6 +868,9 @@ class FixScreen:
             "zeros": "at latitude = longitude = 0 (what a receiver without a fix writes)",
             "low_sats": f"with fewer than validate.gnss.min_sats {self.min_sats:g} satellites "
             "or no count",
+            "poor_accuracy": "whose receiver states a horizontal accuracy worse than "
+            f"validate.gnss.max_h_acc_m {getattr(policy, 'max_h_acc_m', None) or math.nan:g} m "
+            "or none",
             "jump": "implying more than validate.gnss.max_speed_m_s "
             f"{getattr(policy, 'max_speed_m_s', math.nan):g} m/s from the row before (a jump)",
             "frozen": "unchanged while the wheels turned for validate.gnss.frozen_min_s "

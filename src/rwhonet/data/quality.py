@@ -29,9 +29,11 @@ Rules (a second is cut by the first that applies, in this order)
     partial_second  it holds a number of rows other than ``1 / sample_period_s`` (the drive's
                     first/last second, dropped or extra samples)
     low_sats        a row has fewer than ``min_sats`` satellites (or no count), when the
-                    drive has a satellite column; or no fix at all: latitude or longitude
-                    empty, or both exactly 0, what a receiver without a fix writes
-                    (:func:`no_fix_rows`)
+                    drive has a satellite column; or a horizontal accuracy its receiver
+                    states worse than ``max_h_acc_m`` (or none stated), when that is set
+                    and the drive has an ``h_acc_m`` column; or no fix at all: latitude
+                    or longitude empty, or both exactly 0, what a receiver without a fix
+                    writes (:func:`no_fix_rows`)
     jump            the fix-to-fix distance of a row implies a speed > ``max_speed_m_s``
     frozen          the fix stayed identical while the rear wheels turned faster than
                     ``moving_wheel_speed_rad_s`` for ``frozen_min_s`` in all (from the first
@@ -140,6 +142,9 @@ class Assessment:
     n_seconds: int  # whole seconds spanned by the drive, first to last
     cut_seconds_by_rule: dict[str, int] = field(default_factory=dict)
     cut_rows_by_rule: dict[str, int] = field(default_factory=dict)
+    # the receiver's stated horizontal accuracy over the drive's fixes (accuracy_summary),
+    # None when the drive has no h_acc_m column
+    accuracy: dict[str, Any] | None = None
 
     @property
     def rows_kept(self) -> int:
@@ -275,7 +280,7 @@ def assess(
 
     Args:
         drive: canonical columns (``t_s`` strictly increasing, the wheel speeds complete, a
-            fix without a value is no fix; ``n_sats`` optional), e.g. a DataFrame that
+            fix without a value is no fix; ``n_sats``, ``h_acc_m`` optional), e.g. a DataFrame that
             passed the schema.
         policy: ``validate.gnss``.
         sample_period_s: nominal sample period; ``1 / sample_period_s`` must be an integer.
@@ -317,7 +322,10 @@ def assess(
     manual_row = manual_rows(t, cuts)
     has_sats = c.N_SATS in drive
     sats = np.asarray(drive[c.N_SATS], dtype=np.float64) if has_sats else np.full(n, np.inf)
-    low_sats_row = no_fix_rows(lat, lon, sats, policy.min_sats)  # NaN count: not trusted
+    h_acc = np.asarray(drive[c.H_ACC_M], dtype=np.float64) if c.H_ACC_M in drive else None
+    low_sats_row = no_fix_rows(  # NaN count or accuracy: not trusted
+        lat, lon, sats, policy.min_sats, h_acc, policy.max_h_acc_m
+    )
     # Jumps are decided on geodesic distances: the tangent-plane screen (1e-6 relative)
     # only spares the geodesic for steps far below the threshold.
     with np.errstate(divide="ignore", invalid="ignore"):  # two rows in one slot: a jump
@@ -379,6 +387,7 @@ def assess(
     rows_in = {
         "dt": np.r_[np.nan, np.diff(t)],
         "sats": sats,
+        "h_acc": h_acc,
         "zero": (lat == 0.0) & (lon == 0.0),
         "empty": ~(np.isfinite(lat) & np.isfinite(lon)),
         "speed": speed,
@@ -405,7 +414,23 @@ def assess(
     for cut in cut_list:
         cut_seconds[cut.rule] += cut.n_seconds
         cut_rows[cut.rule] += cut.n_rows
-    return Assessment(segments, cut_list, n, n_sec, cut_seconds, cut_rows)
+    accuracy = None if h_acc is None else accuracy_summary(lat, lon, h_acc)
+    return Assessment(segments, cut_list, n, n_sec, cut_seconds, cut_rows, accuracy)
+
+
+def accuracy_summary(lat: np.ndarray, lon: np.ndarray, h_acc_m: np.ndarray) -> dict[str, Any]:
+    """The receiver's stated horizontal accuracy over a drive's rows with a fix.
+
+    What ``validate.gnss.max_h_acc_m`` would be set from: the rows with a fix (latitude and
+    longitude, not both 0), how many of them state an accuracy, and its median, 95th
+    percentile and largest value (m, rounded to the centimetre; None without any).
+    """
+    fix = ~no_fix_rows(lat, lon)
+    stated = h_acc_m[fix & np.isfinite(h_acc_m)]
+    out: dict[str, Any] = {"fix_rows": int(fix.sum()), "stated_rows": int(stated.size)}
+    for key, q in (("median_m", 50.0), ("p95_m", 95.0), ("max_m", 100.0)):
+        out[key] = round(float(np.percentile(stated, q)), 2) if stated.size else None
+    return out
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -451,7 +476,16 @@ def _detail(
             said.append("no count")
         elif low.size:
             said.append(f"{int(np.min(low))} satellites")
-        return f"{'; '.join(said)} (min_sats {policy.min_sats})"
+        bound = f"min_sats {policy.min_sats}"
+        if rows["h_acc"] is not None and policy.max_h_acc_m is not None:
+            acc = rows["h_acc"][lo:hi]
+            poor = acc[~(acc <= policy.max_h_acc_m)]
+            if np.isnan(poor).any():
+                said.append("no stated accuracy")
+            if np.isfinite(poor).any():
+                said.append(f"stated horizontal accuracy up to {np.nanmax(poor):.3g} m")
+            bound += f", max_h_acc_m {policy.max_h_acc_m:g}"
+        return f"{'; '.join(said)} ({bound})"
     if rule == "jump":
         return (
             f"fix-to-fix speed up to {np.max(rows['speed'][lo:hi]):.4g} m/s "

@@ -275,6 +275,14 @@ def _drive_checks(
             pa.Check(lambda s: s >= 0, name="satellites_non_negative"),
             _Explain("a satellite count >= 0", _value, "check the export of the satellite column"),
         ),
+        "accuracy_non_negative": (
+            pa.Check(lambda s: s >= 0, name="accuracy_non_negative"),
+            _Explain(
+                "a stated horizontal accuracy >= 0 m",
+                _value,
+                "check the accuracy column's unit and scale in the map",
+            ),
+        ),
     }
     return checks
 
@@ -344,10 +352,11 @@ def drive_schema(vp: ValidateParams, drive_starts: np.ndarray | None = None) -> 
         c.LON_DEG: pa.Column(float, pick("longitude_range"), nullable=True),
         **{w: pa.Column(float, pick("wheel_speed_range")) for w in c.WHEELS},
         c.N_SATS: pa.Column(float, pick("satellites_non_negative"), nullable=True, required=False),
+        c.H_ACC_M: pa.Column(float, pick("accuracy_non_negative"), nullable=True, required=False),
         **{
             name: pa.Column(float, nullable=True, required=False)
             for name in c.OPTIONAL
-            if name != c.N_SATS
+            if name not in (c.N_SATS, c.H_ACC_M)
         },
         c.SCENARIO: pa.Column(str),
     }

@@ -20,6 +20,8 @@ column) and its unit. Keys and units:
                                               ``iso8601``, ``hh:mm:ss`` or a strptime pattern
 ``n_sats``                                    ``count``; ``vbox`` (a VBOX's count, its flags
                                               taken off)
+``h_acc``                                     ``m``, ``cm``, ``mm``: the receiver's stated
+                                              horizontal accuracy (DRMS; docs/readers.md)
 ``speed_gnss``, ``speed_vehicle``             ``m/s``, ``km/h``, ``mph``
 ``heading``                                   ``deg``
 ``height``                                    ``m``, ``km``
@@ -80,6 +82,7 @@ KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     "lon": (c.LON_DEG, c.LON_UNITS),
     **{key: (name, None) for key, name in zip(WHEEL_KEYS, c.WHEELS, strict=True)},
     "n_sats": (c.N_SATS, {"count": 1.0, VBOX_SATS: nan}),  # vbox: rwhonet.data.packed
+    "h_acc": (c.H_ACC_M, c.ACCURACY_UNITS),
     "speed_gnss": (c.SPEED_GNSS_M_S, _SPEED),
     "heading": (c.HEADING_DEG, {"deg": 1.0}),
     "height": (c.HEIGHT_M, {"m": 1.0, "km": 1000.0}),
@@ -89,7 +92,7 @@ KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     "acc_lat": (c.ACC_LAT_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
 }
 REQUIRED_KEYS = (*WHEEL_KEYS, "lat", "lon")
-FIX_KEYS = ("lat", "lon", "n_sats", "speed_gnss", "heading", "height")
+FIX_KEYS = ("lat", "lon", "n_sats", "h_acc", "speed_gnss", "heading", "height")
 
 
 def units_of(key: str) -> tuple[str, ...]:

@@ -120,7 +120,15 @@ SPAN_NOTE_S = 1.0
 
 # Canonical channels averaged over each row's window (rates), and those of the GNSS stream.
 RATE_CHANNELS = (*c.WHEELS, c.YAW_RATE_RAD_S, c.SPEED_VEHICLE_M_S, c.ACC_LON_M_S2, c.ACC_LAT_M_S2)
-FIX_CHANNELS = (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S, c.HEADING_DEG, c.HEIGHT_M)
+FIX_CHANNELS = (
+    c.LAT_DEG,
+    c.LON_DEG,
+    c.N_SATS,
+    c.H_ACC_M,
+    c.SPEED_GNSS_M_S,
+    c.HEADING_DEG,
+    c.HEIGHT_M,
+)
 
 
 @dataclass(frozen=True, eq=False)  # arrays inside: compared by identity, never element-wise
@@ -481,7 +489,7 @@ def interpolate_fixes(
     Args:
         t_s: fix times (m,), strictly increasing.
         fixes: canonical channel -> values (m,): ``lat_deg``, ``lon_deg`` and optionally
-            ``n_sats``, ``speed_gnss_m_s``, ``heading_deg``, ``height_m``.
+            ``n_sats``, ``h_acc_m``, ``speed_gnss_m_s``, ``heading_deg``, ``height_m``.
         at_s: the times wanted (n,).
         max_gap_s: fixes further apart than this are not interpolated between.
         path: the car's path as its sensors trace it (:func:`travelled_path`), or None.
@@ -492,7 +500,8 @@ def interpolate_fixes(
 
     Returns:
         ``(values, valid)``: each channel at ``at_s`` (longitude in [-180, 180), course in
-        [0, 360), satellites the smaller count of the two fixes), and whether a time lies
+        [0, 360), satellites the smaller count of the two fixes, a stated accuracy the
+        fix's own on a fix and the larger between two), and whether a time lies
         between two such fixes or on a fix. Never extrapolated.
     """
     t = np.asarray(t_s, dtype=np.float64)
@@ -500,6 +509,7 @@ def interpolate_fixes(
     m = t.size
     j = np.searchsorted(t, x, side="right") - 1  # the fix at or before x
     on_fix = (j >= 0) & (x == t[np.maximum(j, 0)])
+    at_fix = np.maximum(j, 0)
     j = np.clip(j, 0, m - 2)
     span = t[j + 1] - t[j]
     valid = ((x >= t[0]) & (x <= t[-1]) & (span <= max_gap_s)) | on_fix
@@ -517,6 +527,9 @@ def interpolate_fixes(
     for name, a in values_of.items():
         if name == c.N_SATS:
             out[name] = np.minimum(a[j], a[j + 1])
+            continue
+        if name == c.H_ACC_M:  # a fix's own; between two, the worse (NaN if either is)
+            out[name] = np.where(on_fix, a[at_fix], np.maximum(a[j], a[j + 1]))
             continue
         value = a[j] + w * (a[j + 1] - a[j])
         if along is not None and name in (c.LAT_DEG, c.LON_DEG):

@@ -422,6 +422,8 @@ def _drive_report(
         "wheel_sides": units["wheel_sides"],
         "wheel_axles": units["wheel_axles"],
     }
+    if result.accuracy is not None:  # the receiver's stated accuracy, where the drive has it
+        report["gnss_accuracy"] = result.accuracy
     # rows written twice or without a wheel speed, dropped by ingest (not in "rows")
     report.update(report_rows(entry))
     if glitches is not None:  # only when a row glitched (its seconds: the wheel_glitch cuts)
