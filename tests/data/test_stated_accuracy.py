@@ -27,7 +27,8 @@ from rwhonet.data.quality import accuracy_summary, assess
 from rwhonet.data.signalmap import check_signal_map
 from rwhonet.data.streams import interpolate_fixes
 from rwhonet.stages.ingest import ingest
-from rwhonet.stages.validate import validate
+from rwhonet.stages.label import _per_second_all, read_segment_manifest
+from rwhonet.stages.validate import summary_table, validate
 from support.drives import (
     CUPAC_MAP,
     SHORT,
@@ -242,7 +243,17 @@ def test_the_validation_report_gives_a_drive_s_stated_accuracy(tmp_path, bound):
         "max_m": 12.0,
     }
     assert all("gnss_accuracy" not in d for d in report["drives"] if d is not test_drive)
+    assert summary_table(report).splitlines()[-1] == (
+        "stated horizontal accuracy on 1 drive(s) (gnss_accuracy in the report): the highest "
+        "95th percentile 12 m (C-B1.acc, median 1.2 m, max 12 m)"
+    )
     low = [x["detail"] for x in test_drive["cuts"] if x["rule"] == "low_sats"]
+    # the segments carry the column on; the label stage's per-second samples take them
+    # as any other (the constant-speed fleet has no scaler to fit: the stage stops there)
+    entries = read_segment_manifest(tmp_path / "seg" / "manifest.json").entries
+    seconds = _per_second_all(entries, tmp_path / "seg")
+    kept = sum(len(seconds[e.segment]) for e in entries if e.drive == test_drive["drive"])
+    assert kept == test_drive["seconds_kept"]
     if bound is None:
         assert low == []
     else:

@@ -486,6 +486,15 @@ def summary_table(report: dict[str, Any]) -> str:
             "not told against the GNSS course (each drive's note in the report says why): "
             + "; ".join(untold)
         )
+    stated = [d for d in report["drives"] if d.get("gnss_accuracy", {}).get("stated_rows")]
+    if stated:  # what validate.gnss.max_h_acc_m would be set from
+        worst = max(stated, key=lambda d: d["gnss_accuracy"]["p95_m"])
+        acc = worst["gnss_accuracy"]
+        lines.append(
+            f"stated horizontal accuracy on {len(stated)} drive(s) (gnss_accuracy in the "
+            f"report): the highest 95th percentile {acc['p95_m']:g} m ({worst['drive']}, "
+            f"median {acc['median_m']:g} m, max {acc['max_m']:g} m)"
+        )
     return "\n".join(lines)
 
 
