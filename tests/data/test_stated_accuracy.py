@@ -174,17 +174,20 @@ def test_ingest_s_and_predict_s_readers_give_the_accuracy_in_metres(tmp_path):
     np.testing.assert_array_equal(rows, got[c.H_ACC_M])
 
 
-def test_between_two_fixes_the_worse_stated_accuracy_is_taken():
+def test_on_a_fix_its_own_accuracy_and_count_between_two_the_worse():
     t = np.array([0.0, 1.0, 2.0])
     fixes = {
         c.LAT_DEG: np.array([52.0, 52.0001, 52.0002]),
         c.LON_DEG: np.array([-1.0, -1.0, -1.0]),
         c.H_ACC_M: np.array([1.0, 3.0, np.nan]),
+        c.N_SATS: np.array([9.0, 5.0, 3.0]),
     }
     at = np.array([0.0, 0.5, 1.0, 1.5, 2.0])
     out, valid = interpolate_fixes(t, fixes, at, max_gap_s=2.0)
     assert valid.all()  # on a fix, its own; between two, the worse, none where one has none
     np.testing.assert_array_equal(out[c.H_ACC_M], [1.0, 3.0, 3.0, np.nan, np.nan])
+    # satellites alike (before stop 88, a row on a fix had the next fix's count if smaller)
+    np.testing.assert_array_equal(out[c.N_SATS], [9.0, 5.0, 5.0, 3.0, 3.0])
 
 
 def test_predict_takes_a_fix_stated_worse_than_the_bound_as_none():

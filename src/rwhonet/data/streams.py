@@ -500,8 +500,8 @@ def interpolate_fixes(
 
     Returns:
         ``(values, valid)``: each channel at ``at_s`` (longitude in [-180, 180), course in
-        [0, 360), satellites the smaller count of the two fixes, a stated accuracy the
-        fix's own on a fix and the larger between two), and whether a time lies
+        [0, 360), satellites and a stated accuracy a fix's own on it, and between two
+        the smaller count and the larger accuracy), and whether a time lies
         between two such fixes or on a fix. Never extrapolated.
     """
     t = np.asarray(t_s, dtype=np.float64)
@@ -525,10 +525,11 @@ def interpolate_fixes(
         along = _along_path(path, t, lat, lon, x, j, valid & ~on_fix)
     out = {}
     for name, a in values_of.items():
+        # a fix's own count and accuracy on it; between two, the worse (NaN if either is)
         if name == c.N_SATS:
-            out[name] = np.minimum(a[j], a[j + 1])
+            out[name] = np.where(on_fix, a[at_fix], np.minimum(a[j], a[j + 1]))
             continue
-        if name == c.H_ACC_M:  # a fix's own; between two, the worse (NaN if either is)
+        if name == c.H_ACC_M:
             out[name] = np.where(on_fix, a[at_fix], np.maximum(a[j], a[j + 1]))
             continue
         value = a[j] + w * (a[j + 1] - a[j])
