@@ -432,3 +432,88 @@ def test_records_damaged_in_their_fields_end_the_read_where_they_are(tmp_path):
         InputError, match=f"inside a chunk record at byte {at} of {at + 200_000}, damaged in it"
     ):
         read_mdf4(cut, bag_map(), radius, "m", "cut.mcap")
+
+
+def _chunks(data: bytearray) -> list[tuple[int, int]]:
+    """Each top-level chunk record of a file: where it starts and its whole length; each
+    given its CRC-32, as rosbag2's writer (Foxglove's C++ library) gives it by default
+    (``rosbags``' writer leaves it 0: not computed)."""
+    import zlib
+
+    from rosbags.rosbag2.storage_mcap import decompress
+
+    out, pos = [], len(MAGIC)
+    while pos + 9 <= len(data):
+        op, n = struct.unpack_from("<BQ", data, pos)
+        if op == 0x0F:
+            break
+        if op == 0x06:
+            body = pos + 9
+            (size,) = struct.unpack_from("<Q", data, body + 16)
+            (k,) = struct.unpack_from("<I", data, body + 28)
+            comp = bytes(data[body + 32 : body + 32 + k]).decode()
+            (m,) = struct.unpack_from("<Q", data, body + 32 + k)
+            raw = bytes(data[body + 40 + k : body + 40 + k + m])
+            records = decompress(raw, comp, size, 0)
+            struct.pack_into("<I", data, body + 24, zlib.crc32(records))
+            out.append((pos, 9 + n))
+        pos += 9 + n
+    return out
+
+
+@pytest.mark.parametrize("compression", [None, "zstd"])
+def test_a_damaged_chunk_is_passed_over_and_the_records_after_it_read(tmp_path, compression):
+    """A recording cut short whose second chunk was damaged on the disk (a byte of its data
+    changed): as ``mcap recover`` does, that chunk is passed over, said with its byte and
+    why, and the chunks after it are read. Every second read is the whole file's (bit for
+    bit before the damage; after it, to the last bits of a sum); those of the damaged
+    chunk are missing (a gap the grid splits at), and more is read than up to the
+    damage."""
+    _, radius = _drive()
+    whole = _mcap(tmp_path, compression)
+    want, _ = _seconds(whole, radius, "whole.mcap")
+    data = bytearray(whole.read_bytes())
+    chunks = _chunks(data)
+    assert len(chunks) >= 3
+    at, n = chunks[1]
+    data[at + n // 2] ^= 0xFF  # inside its data
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(bytes(data[: chunks[-1][0] + chunks[-1][1]]))  # cut after the last
+    got, streams = _seconds(damaged, radius, "damaged.mcap")
+    said = "\n".join(streams.notes)
+    assert f"damaged.mcap: 1 damaged chunk(s) passed over (byte {at}: " in said
+    both = want.merge(got, on="t_s", suffixes=("", "_cut"))
+    assert len(both) == len(got)  # every second read is one of the whole file's
+    ends = np.flatnonzero(np.diff(got["t_s"].to_numpy()) > 1.5)  # the damaged chunk's gap
+    assert ends.size == 1
+    last = len(got) - 1
+    keep = np.ones(len(both), bool)
+    keep[[ends[0], ends[0] + 1, last]] = False  # beside the gap and the file's end
+    before = keep & (np.arange(len(both)) <= ends[0])
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(both[q][before], both[f"{q}_cut"][before], err_msg=q)
+        # after it, a wheel's rolled angle sums from another start: to its last bits
+        np.testing.assert_allclose(both[q][keep], both[f"{q}_cut"][keep], atol=1e-12, err_msg=q)
+    # more than up to the damage: the chunks after it
+    up_to = damaged.with_name("up_to.mcap")
+    up_to.write_bytes(bytes(data[:at]))
+    assert len(got) > len(_seconds(up_to, radius, "up_to.mcap")[0]) + 20
+
+
+def test_a_damaged_chunk_followed_by_no_record_ends_the_read_there(tmp_path):
+    """A chunk whose data and length are both damaged: where its length says the next
+    record begins there is no opcode of the format, so the read ends at that chunk (no
+    garbage taken for records)."""
+    _, radius = _drive()
+    data = bytearray(_mcap(tmp_path, None).read_bytes())
+    chunks = _chunks(data)
+    at, n = chunks[1]
+    data[at + n // 2] ^= 0xFF
+    short = next(k for k in range(1000, 2000) if data[at + n - k] not in range(1, 16))
+    struct.pack_into("<Q", data, at + 1, n - 9 - short)  # its length that much short
+    path = tmp_path / "twice.mcap"
+    path.write_bytes(bytes(data[: chunks[-1][0] + 100]))
+    _, streams = _seconds(path, radius, "twice.mcap")
+    said = "\n".join(streams.notes)
+    assert f"twice.mcap stops at a damaged chunk record at byte {at} of" in said
+    assert "passed over" not in said

@@ -25,8 +25,14 @@ time, as ``rosbags`` takes it (rosbag2's receipt time).
 **As far as it goes.** The records are read in order until one does not fit in the file
 (the record being written when the recorder stopped): an uncompressed chunk cut so gives
 its whole records (rosbag2's default preset writes chunks uncompressed), a compressed one
-nothing. A whole chunk is decompressed and its CRC checked by ``rosbags``. The notes say
-how many messages were read and where each file stopped.
+nothing. A whole chunk is decompressed and its CRC checked by ``rosbags``. A damaged
+record ends the read there, as the file's end would, with one exception: a whole chunk
+whose data is damaged (its CRC fails, it does not decompress, a record inside it is
+shorter than its fields) is passed over and the records after it are read on, as ``mcap
+recover`` passes over an invalid chunk. Its length, outside its data, says where the
+next record begins; that record must start with an opcode of the format, or the read
+ends at the chunk after all (a length damaged too). The notes say how many messages were
+read, which chunks were passed over, and where each file stopped.
 """
 
 from __future__ import annotations
@@ -42,6 +48,8 @@ from rwhonet.data.bagscan import ScannedConnection
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_HEADER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_DATA_END = 1, 3, 4, 5, 6, 0x0F
+# every opcode of the format (mcap.dev/spec: 0x01 header .. 0x0F data end)
+OPCODES = frozenset(range(0x01, 0x10))
 _NAMES = {OP_HEADER: "header", OP_SCHEMA: "schema", OP_CHANNEL: "channel", OP_MESSAGE: "message"}
 _NAMES |= {OP_CHUNK: "chunk", 7: "message index", 8: "chunk index", 0x0C: "metadata"}
 _U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
@@ -86,6 +94,8 @@ class _File:
     # each message: its channel, log time (ns), chunk (-1: the file itself), start, length
     messages: list[tuple[int, int, int, int, int]] = field(default_factory=list)
     stopped: str = ""
+    # damaged whole chunks passed over: where each is, and why
+    skipped: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -123,7 +133,14 @@ class ScannedMcap:
             f.messages = kept
         if not any(f.messages for f in self._files):
             stops = "; ".join(f"{f.stopped}" for f in self._files if f.stopped)
+            skipped = [x for f in self._files for x in f.skipped]
             self.close()
+            if skipped:  # the cause first: a refusal's text is kept short
+                raise ValueError(
+                    f"no whole message: {len(skipped)} damaged chunk(s) passed over "
+                    f"({'; '.join(skipped)}), {self.orphans} message(s) of no channel record "
+                    "after" + (f"; cut short {stops}" if stops else "")
+                )
             raise ValueError(f"no whole message: cut short {stops or 'before any'}")
         self._ids: dict[tuple[int, int], int] = {}
         connections = []
@@ -136,6 +153,11 @@ class ScannedMcap:
         self.connections: list[ScannedConnection] = connections
         self.typestore = _typestore(connections)
         stops = [f"{f.path.name} stops {f.stopped}" for f in self._files if f.stopped]
+        stops += [
+            f"{f.path.name}: {len(f.skipped)} damaged chunk(s) passed over ({'; '.join(f.skipped)})"
+            for f in self._files
+            if f.skipped
+        ]
         # what was read: the messages, and where each file stopped
         self.said = (
             f"{'the file has' if len(self._files) == 1 else 'its files have'} no summary (a "
@@ -250,6 +272,7 @@ def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
                 except _Damaged as err:  # its records up to the damage kept
                     out.stopped += f", damaged in it ({err})"
             break
+        kept = (len(out.messages), len(out.chunks), dict(meta.schemas), dict(meta.channels))
         try:
             if op == OP_CHUNK:
                 _chunk(buf, body, end, k, out, meta)
@@ -257,17 +280,40 @@ def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
                 _record(buf, op, body, end, k, -1, out, meta)
         except _Damaged as err:  # read as far as it goes: up to the damage
             what = _NAMES.get(op, f"0x{op:02x}")
+            if op == OP_CHUNK and _record_starts(buf, end):  # passed over, as mcap recover
+                del out.messages[kept[0] :], out.chunks[kept[1] :]
+                meta.schemas, meta.channels = kept[2], kept[3]
+                out.skipped.append(f"byte {pos}: {err}")
+                pos = end
+                continue
             out.stopped = f"at a damaged {what} record at byte {pos} of {size} ({err})"
             break
         pos = end
     return out
 
 
+def _record_starts(buf: mmap.mmap, pos: int) -> bool:
+    """Whether a record of the format (or the file's end) begins at ``pos``: where a damaged
+    chunk's length says the next record is."""
+    return pos >= len(buf) or buf[pos] in OPCODES
+
+
 def _chunk(buf: mmap.mmap, body: int, end: int, k: int, out: _File, meta: _Meta) -> None:
-    """A whole chunk: its records read (decompressed, CRC checked)."""
-    _, _, size, crc = _CHUNK.unpack_from(buf, body)
-    compression, at = _string(buf, body + _CHUNK.size)
-    (n,) = _U64.unpack_from(buf, at)
+    """A whole chunk: its records read (decompressed, CRC checked).
+
+    Raises:
+        _Damaged: fields past the chunk's end, a compression that is no UTF-8 text, data
+            that fails its CRC or does not decompress, a record inside shorter than its
+            fields.
+    """
+    try:
+        _, _, size, crc = _CHUNK.unpack_from(buf, body)
+        compression, at = _string(buf, body + _CHUNK.size)
+        (n,) = _U64.unpack_from(buf, at)
+    except (struct.error, UnicodeDecodeError) as err:
+        raise _Damaged(str(err)) from None
+    if at + 8 + n > end:
+        raise _Damaged(f"records of {n} bytes past the chunk's end")
     out.chunks.append((at + 8, n, compression, size, crc))
     records = _records_of(buf, out.chunks[-1])
     _records(records, len(out.chunks) - 1, k, out, meta)
