@@ -517,3 +517,47 @@ def test_a_damaged_chunk_followed_by_no_record_ends_the_read_there(tmp_path):
     said = "\n".join(streams.notes)
     assert f"twice.mcap stops at a damaged chunk record at byte {at} of" in said
     assert "passed over" not in said
+
+
+def _chunk_records(data: bytes, at: int) -> list[tuple[int, int, int]]:
+    """An uncompressed chunk's records: (opcode, where in the file, length)."""
+    (k,) = struct.unpack_from("<I", data, at + 9 + 28)
+    (m,) = struct.unpack_from("<Q", data, at + 9 + 32 + k)
+    pos = start = at + 9 + 32 + k + 8
+    out = []
+    while pos < start + m:
+        op, n = struct.unpack_from("<BQ", data, pos)
+        out.append((op, pos, n))
+        pos += 9 + n
+    return out
+
+
+def test_a_chunk_without_a_crc_gives_its_records_before_the_damaged_one(tmp_path):
+    """A chunk without a CRC (``rosbags``' writer computes none) whose message record
+    halfway has a length too short for a message: its whole records before that one are
+    read (as a chunk cut short gives them), the rest of it passed over, and every chunk
+    after it read; a chunk whose records' length runs past the chunk's own end is passed
+    over, saying so."""
+    whole = _mcap(tmp_path, None)
+    data = bytearray(whole.read_bytes())
+    at = _chunks(bytearray(data))[1][0]  # (a copy: this file's chunks keep no CRC)
+    (crc,) = struct.unpack_from("<I", data, at + 9 + 24)
+    assert crc == 0
+    messages = [r for r in _chunk_records(bytes(data), at) if r[0] == 0x05]
+    damaged = messages[len(messages) // 2]
+    struct.pack_into("<Q", data, damaged[1] + 1, 3)
+    path = tmp_path / "short.mcap"
+    end = len(data) - 200  # its summary and footer cut off
+    path.write_bytes(bytes(data[:end]))
+    with ScannedMcap([whole]) as want, ScannedMcap([path]) as got:
+        assert got.message_count == want.message_count - (len(messages) - len(messages) // 2)
+        assert f"1 damaged chunk(s) passed over (byte {at}: 3 bytes, fewer than a message" in (
+            got.said
+        )
+    (k,) = struct.unpack_from("<I", data, at + 9 + 28)
+    data = bytearray(whole.read_bytes())
+    struct.pack_into("<Q", data, at + 9 + 32 + k, 10**9)  # its records' length
+    path.write_bytes(bytes(data[:end]))
+    with ScannedMcap([whole]) as want, ScannedMcap([path]) as got:
+        assert got.message_count == want.message_count - len(messages)
+        assert f"(byte {at}: records of 1000000000 bytes past the chunk's end)" in got.said

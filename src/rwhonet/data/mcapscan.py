@@ -28,11 +28,13 @@ its whole records (rosbag2's default preset writes chunks uncompressed), a compr
 nothing. A whole chunk is decompressed and its CRC checked by ``rosbags``. A damaged
 record ends the read there, as the file's end would, with one exception: a whole chunk
 whose data is damaged (its CRC fails, it does not decompress, a record inside it is
-shorter than its fields) is passed over and the records after it are read on, as ``mcap
-recover`` passes over an invalid chunk. Its length, outside its data, says where the
-next record begins; that record must start with an opcode of the format, or the read
-ends at the chunk after all (a length damaged too). The notes say how many messages were
-read, which chunks were passed over, and where each file stopped.
+shorter than its fields) is passed over from the damage on (a chunk that fails its CRC
+or does not decompress: all of it; one without a CRC: its whole records before the
+damaged one are read, as those of a chunk cut short are), and the records after it are
+read on, as ``mcap recover`` passes over an invalid chunk. Its length, outside its
+data, says where the next record begins; that record must start with an opcode of the
+format, or the read ends at the chunk after all (a length damaged too). The notes say
+how many messages were read, which chunks were passed over, and where each file stopped.
 """
 
 from __future__ import annotations
@@ -272,7 +274,6 @@ def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
                 except _Damaged as err:  # its records up to the damage kept
                     out.stopped += f", damaged in it ({err})"
             break
-        kept = (len(out.messages), len(out.chunks), dict(meta.schemas), dict(meta.channels))
         try:
             if op == OP_CHUNK:
                 _chunk(buf, body, end, k, out, meta)
@@ -281,8 +282,6 @@ def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
         except _Damaged as err:  # read as far as it goes: up to the damage
             what = _NAMES.get(op, f"0x{op:02x}")
             if op == OP_CHUNK and _record_starts(buf, end):  # passed over, as mcap recover
-                del out.messages[kept[0] :], out.chunks[kept[1] :]
-                meta.schemas, meta.channels = kept[2], kept[3]
                 out.skipped.append(f"byte {pos}: {err}")
                 pos = end
                 continue
