@@ -561,3 +561,19 @@ def test_a_chunk_without_a_crc_gives_its_records_before_the_damaged_one(tmp_path
     with ScannedMcap([whole]) as want, ScannedMcap([path]) as got:
         assert got.message_count == want.message_count - len(messages)
         assert f"(byte {at}: records of 1000000000 bytes past the chunk's end)" in got.said
+
+
+def test_a_chunk_whose_compression_is_no_text_is_passed_over(tmp_path):
+    """A zstd chunk whose compression string was damaged into bytes that are no UTF-8: the
+    chunk is passed over, saying why, and the chunks after it read."""
+    whole = _mcap(tmp_path, "zstd")
+    data = bytearray(whole.read_bytes())
+    at = _chunks(bytearray(data))[1][0]
+    assert data[at + 9 + 32 : at + 9 + 36] == b"zstd"
+    data[at + 9 + 32 : at + 9 + 36] = b"\xff\xfe\xfd\xfc"
+    path = tmp_path / "name.mcap"
+    path.write_bytes(bytes(data[: len(data) - 200]))
+    with ScannedMcap([whole]) as want, ScannedMcap([path]) as got:
+        assert 0 < got.message_count < want.message_count
+        assert f"(byte {at}: 'utf-8' codec can't decode byte 0xff" in got.said
+        assert got._files[0].chunks[-1][0] > at  # a chunk after it read
