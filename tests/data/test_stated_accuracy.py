@@ -298,3 +298,37 @@ def test_stream_csvs_carry_the_accuracy_onto_the_grid(tmp_path):
     worse = (t > t_g[9] + 1e-6) & (t < t_g[11] - 1e-6)  # beside the 9 m fix
     np.testing.assert_allclose(d[c.H_ACC_M][worse], 9.0)
     np.testing.assert_allclose(d[c.H_ACC_M][~worse], 1.5)
+
+
+def test_a_negative_stated_accuracy_is_refused_naming_its_row_and_column():
+    from rwhonet.config import load_params
+    from rwhonet.data.schema import schema_problems
+
+    df = straight_drive(5.0)
+    df[c.H_ACC_M] = 1.5
+    df[c.SCENARIO] = ""
+    df.loc[7, c.H_ACC_M] = -0.2
+    df.loc[9, c.H_ACC_M] = np.nan  # none stated: no refusal
+    found = schema_problems(df, load_params().validate, "d.csv", {c.H_ACC_M: "HAcc"})
+    assert [(p.file, p.row, p.column) for p in found] == [("d.csv", 8, "HAcc")]
+    assert found[0].expected.startswith("a stated horizontal accuracy >= 0 m")
+
+
+def test_fixes_held_from_a_slower_receiver_carry_their_own_accuracy():
+    """A 10 Hz file holding a 1 Hz receiver's fixes and their accuracy in the rows between:
+    placed back along the path, a row between two fixes has the worse of the two (as a
+    stream drive's grid has), not the earlier one held."""
+    from rwhonet.data.csvio import RawDrive
+    from rwhonet.data.heldfixes import place_held_fixes
+    from support.drives import with_held_fixes
+
+    truth = straight_drive(120.0)
+    truth[c.H_ACC_M] = np.where((truth[c.T_S].to_numpy() - T0) % 20 < 10, 1.0, 4.0)
+    df = with_held_fixes(truth, 10, 0, False)
+    raw = RawDrive({k: df[k].to_numpy(np.float64) for k in df if k != c.SCENARIO}, {}, "d")
+    out = place_held_fixes(raw).columns[c.H_ACC_M]
+    t = df[c.T_S].to_numpy() - T0
+    between = (t % 20 > 9.0 + 1e-6) & (t % 20 < 10.0 - 1e-6)  # after a 1 m fix, a 4 m next
+    assert between.sum() > 50
+    np.testing.assert_array_equal(out[between], 4.0)
+    np.testing.assert_array_equal(df[c.H_ACC_M].to_numpy()[between], 1.0)  # as held
