@@ -250,6 +250,16 @@ def test_the_validation_report_gives_a_drive_s_stated_accuracy(tmp_path, bound):
         "stated horizontal accuracy on 1 drive(s) (gnss_accuracy in the report): the highest "
         "95th percentile 12 m (C-B1.acc, median 1.2 m, max 12 m)"
     )
+    better = dict(test_drive, drive="X", gnss_accuracy=dict(test_drive["gnss_accuracy"], p95_m=2))
+    two = dict(report, drives=[better, *report["drives"]])
+    assert (
+        summary_table(two)
+        .splitlines()[-1]
+        .startswith(
+            "stated horizontal accuracy on 2 drive(s) (gnss_accuracy in the report): the highest "
+            "95th percentile 12 m (C-B1.acc, "
+        )
+    )
     low = [x["detail"] for x in test_drive["cuts"] if x["rule"] == "low_sats"]
     # the segments carry the column on; the label stage's per-second samples take them
     # as any other (the constant-speed fleet has no scaler to fit: the stage stops there)

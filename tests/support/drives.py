@@ -106,7 +106,7 @@ CUPAC_MAP = {
     "n_sats": ("Satellites", "count"),
 }
 _TO_SI = {"s": 1.0, "ms": 1e-3, "deg": 1.0, "rad/s": 1.0, "rpm": 2 * np.pi / 60, "count": 1.0}
-_TO_SI |= c.YAW_RATE_UNITS | c.ACCURACY_UNITS
+_TO_SI |= c.YAW_RATE_UNITS | {"m": 1.0, "cm": 0.01, "mm": 0.001}  # written by hand: tested
 _KEY = {
     "t": c.T_S,
     "lat": c.LAT_DEG,
