@@ -13,7 +13,14 @@ from rwhonet.data import canonical as c
 from rwhonet.data.gnsslogger import is_gnsslogger_log, read_gnsslogger
 from rwhonet.data.streamcsv import log_kind
 from rwhonet.errors import InputError
-from support.gnsslogger import HEADER_V3, fix_v3, gnsslogger_lines, write_gnsslogger
+from support.gnsslogger import (
+    HEADER_V1,
+    HEADER_V3,
+    fix_v1,
+    fix_v3,
+    gnsslogger_lines,
+    write_gnsslogger,
+)
 from support.multirate import fixes_to_the_ms, receiver_drive, receiver_folder, receiver_labels
 from support.nmea import gga, nmea_lines, rmc, write_nmea
 
@@ -220,3 +227,48 @@ def test_a_drive_folder_s_gnsslogger_log_plain_or_compressed_through_ingest_s_re
         np.testing.assert_allclose(
             grids["gnss_log.txt"].columns[k], grids["csv"].columns[k], rtol=0, atol=1e-9
         )
+
+
+def test_the_stated_accuracy_is_the_fix_record_s_accuracymeters_as_given(tmp_path):
+    """A GPS Fix record's AccuracyMeters (Android's Location.getAccuracy(), the 68 %
+    radius, m) is h_acc as given: 3.9 and 12.25 m; empty, 0 (getAccuracy()'s "none") and a
+    cell that is no number are NaN, and not refused; the fused provider's is not read.
+    GnssLogger 1.x's column is Accuracy. A log none of whose GPS records states one has no
+    h_acc."""
+    t0 = int((DAY_S + 45_000.0) * 1000)
+    accuracies = ["3.9", "", "0.0", "n/a", "12.25"]
+    lines = [*HEADER_V3]
+    for k, a in enumerate(accuracies):
+        lines.append(fix_v3("GPS", 52.4 + 1e-5 * k, -1.5, 10.0, 0.0, t0 + 1000 * k, accuracy=a))
+        lines.append(fix_v3("FLP", 52.4, -1.5, 10.0, 0.0, t0 + 1000 * k, accuracy="99.0"))
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "a.txt", lines), "a.txt")
+    np.testing.assert_array_equal(log.channels["h_acc"], [3.9, np.nan, np.nan, np.nan, 12.25])
+    assert log.channels["h_acc"].dtype == np.float64
+    assert log.sources["h_acc"] == "Fix accuracymeters"
+    v1 = [*HEADER_V1, *(fix_v1("gps", 52.4, -1.5, 10.0, t0 + 1000 * k, "4.5") for k in range(3))]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "v1.txt", v1), "v1.txt")
+    np.testing.assert_array_equal(log.channels["h_acc"], [4.5, 4.5, 4.5])
+    assert log.sources["h_acc"] == "Fix accuracy"
+    none = [*HEADER_V3, *(fix_v3("GPS", 52.4, -1.5, 1.0, 0.0, t0 + k, accuracy="") for k in (0, 1))]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "n.txt", none), "n.txt")
+    assert "h_acc" not in log.channels and "h_acc" not in log.sources
+
+
+def test_the_phone_s_stated_accuracy_reaches_the_drive(tmp_path):
+    """gnss_log.txt beside wheels.csv, each GPS Fix record's AccuracyMeters 3.9: the GNSS
+    stream's h_acc_m, and every row of the resampled drive with a fix has it."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+
+    g = fixes_to_the_ms()
+    _, radius = receiver_drive()
+    wheels = receiver_folder(tmp_path / "log", g.iloc[:0])["wheels"]
+    lines = gnsslogger_lines(g, DAY_S + g[c.T_S].to_numpy())
+    log_ = write_gnsslogger(tmp_path / "log" / "gnss_log.txt", lines)
+    streams = read_stream_csvs([wheels, log_], _no_sats(), radius)
+    np.testing.assert_array_equal(streams.gnss.channels[c.H_ACC_M], 3.9)
+    assert streams.gnss.sources[c.H_ACC_M] == "Fix accuracymeters"
+    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    fixed = np.isfinite(drive[c.LAT_DEG])
+    assert fixed.sum() > 1000
+    np.testing.assert_array_equal(drive[c.H_ACC_M][fixed], 3.9)

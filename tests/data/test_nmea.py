@@ -23,7 +23,19 @@ from rwhonet.data.streamcsv import read_stream_csvs
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from support.multirate import receiver_drive, receiver_labels
-from support.nmea import gga, gll, gns, nmea_lines, rmc, sentence, vtg, write_nmea, zda
+from support.nmea import (
+    gga,
+    gll,
+    gns,
+    gst,
+    hhmmss,
+    nmea_lines,
+    rmc,
+    sentence,
+    vtg,
+    write_nmea,
+    zda,
+)
 
 # 2019-03-11 00:00:00 UTC: the day of the drives below, as Unix seconds
 DAY_S = 1_552_262_400.0
@@ -904,3 +916,71 @@ def test_a_gga_and_vtg_log_gives_the_drive_its_course_as_an_rmc_log_does(tmp_pat
     for key in (c.SPEED_GNSS_M_S, c.HEADING_DEG):
         np.testing.assert_allclose(b.channels[key], a.channels[key], rtol=0, atol=2e-3)
         assert np.isfinite(b.channels[key]).sum() > 100
+
+
+def test_gst_states_the_accuracy_of_the_epoch_of_its_time(tmp_path):
+    """GST's latitude and longitude errors (m, one sigma) give the epoch of its time h_acc,
+    their root sum of squares: 0.6 and 0.8 make 1.0 m, 3 and 4 make 5 m, wherever in the
+    log the GST stands. A GST with the errors empty, an epoch without a GST: NaN. A second
+    GST of an epoch is passed over, counted; one at a time no fix has makes no epoch. A
+    log without GST has no h_acc, nor one whose GSTs state nothing."""
+    t0 = DAY_S + 45000.0
+    lines = [
+        gst(t0 - 1.0, 0.6, 0.8),  # a time no fix has
+        gga(t0, 52.4, -1.5, 9),
+        rmc(t0, 52.4, -1.5, 1.0, 0.0),
+        gst(t0, 0.6, 0.8),
+        gst(t0 + 1.0, 3.0, 4.0),  # before its epoch's GGA
+        gga(t0 + 1.0, 52.4, -1.5, 9),
+        gga(t0 + 2.0, 52.4, -1.5, 9),
+        gst(t0 + 2.0, math.nan, math.nan),
+        gga(t0 + 3.0, 52.4, -1.5, 9),
+        gst(t0, 9.0, 9.0),  # the first epoch's again
+    ]
+    log = _log(tmp_path, lines)
+    np.testing.assert_array_equal(log.tod_s, 45000.0 + np.arange(4))
+    np.testing.assert_allclose(log.channels["h_acc"], [1.0, 5.0, np.nan, np.nan], atol=1e-12)
+    assert log.channels["h_acc"].dtype == np.float64
+    assert log.sources["h_acc"] == "GST lat/lon error"
+    said = " ".join(log.notes)
+    assert "; 5 GST sentences, 2 stating an epoch's accuracy" in said
+    assert "1 sentence(s) of an epoch already given (first at line 10)" in log.dropped
+    plain = _log(tmp_path, [x for x in lines if "GST" not in x], "plain.nmea")
+    assert "h_acc" not in plain.channels and "h_acc" not in plain.sources
+    for key in plain.channels:
+        np.testing.assert_array_equal(log.channels[key], plain.channels[key], err_msg=key)
+    empty = [gga(t0, 52.4, -1.5, 9), gst(t0, math.nan, math.nan)]
+    assert "h_acc" not in _log(tmp_path, empty, "empty.nmea").channels
+
+
+def test_gst_alone_is_no_fix_and_a_gst_error_that_is_no_number_is_refused(tmp_path):
+    t0 = DAY_S + 45000.0
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, [gst(t0, 0.6, 0.8), gst(t0 + 1.0, 0.6, 0.8)], "alone.nmea")
+    assert "expected NMEA 0183 GGA, RMC, GNS or GLL sentences" in str(err.value)
+    lines = [gga(t0, 52.4, -1.5, 9), sentence(f"GPGST,{hhmmss(t0)},1.8,,,,O.6,0.8,2.2")]
+    with pytest.raises(InputError) as err:
+        _log(tmp_path, lines, "bad.nmea")
+    said = str(err.value)
+    assert "row 2" in said and "GST latitude error" in said and "'O.6'" in said
+
+
+def test_a_gst_log_gives_the_drive_its_stated_accuracy_and_the_same_labels(tmp_path):
+    """Through a stream folder: GGA, RMC and GST, the GST's errors 0.6 and 0.8 times a
+    stated accuracy: the GNSS stream's h_acc_m is it (to GST's mm), the drive has the
+    column, and the labels are those of the same log without GST, bit for bit."""
+    tables, _ = receiver_drive()
+    g = tables.gnss
+    g = g.assign(**{c.H_ACC_M: 0.5 + 0.01 * (np.arange(len(g)) % 40)})
+    t = DAY_S + g[c.T_S].to_numpy()
+    wheels = _wheels(tmp_path / "w")
+    with_gst = write_nmea(tmp_path / "a" / "gps.nmea", nmea_lines(g, t, ("GGA", "RMC", "GST")))
+    plain = write_nmea(tmp_path / "b" / "gps.nmea", nmea_lines(g, t))
+    got, streams = receiver_labels([wheels, with_gst])
+    want, _ = receiver_labels([wheels, plain])
+    pd.testing.assert_frame_equal(got, want)
+    np.testing.assert_allclose(streams.gnss.channels[c.H_ACC_M], g[c.H_ACC_M], atol=1e-3)
+    assert streams.gnss.sources[c.H_ACC_M] == "GST lat/lon error"
+    _, radius = receiver_drive()
+    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    assert np.isfinite(drive[c.H_ACC_M]).sum() > 1000

@@ -452,3 +452,71 @@ def test_an_abbreviated_log_gives_the_labels_of_the_ascii_log(tmp_path):
     log_ = read_novatel(write_novatel(tmp_path / "damaged.log", damaged), "damaged.log")
     assert log_.rows.size == len(position) - 3
     assert f"3 log(s) cut short (first at line {position[3] + 1})" in log_.notes[0]
+
+
+def test_the_stated_accuracy_is_the_root_of_lat_and_lon_sigma_squared(tmp_path):
+    """BESTPOSA's lat σ and lon σ (m, one sigma) give h_acc, the DRMS: 0.6 and 0.8 make
+    1.0 m; an epoch whose solution is not computed (INSUFFICIENT_OBS, its σ zeros) states
+    none; a σ that is no number is none, not refused. The published lines' and the
+    abbreviated log's are their σ's root sum of squares."""
+    g = fixes_to_the_ms().iloc[:4].copy()
+    g.loc[g.index[2], c.LAT_DEG] = np.nan  # no solution
+    t = DAY_S + g[c.T_S].to_numpy()
+    lines = novatel_lines(g, t, velocity=None, time_logs=False, sigma_m=(0.6, 0.8))
+    fields = lines[3][lines[3].index(";") + 1 : lines[3].index("*")].split(",")
+    fields[7] = "x"  # lat σ
+    lines[3] = log("BESTPOSA", t[3] - GPS_EPOCH_UNIX_S + 18, fields)
+    got = read_novatel(write_novatel(tmp_path / "a.gps", lines), "a.gps")
+    np.testing.assert_allclose(got.channels["h_acc"], [1.0, 1.0, np.nan, np.nan], atol=1e-12)
+    assert got.channels["h_acc"].dtype == np.float64
+    assert got.sources["h_acc"] == "BESTPOSA lat σ, lon σ"
+    published = read_novatel(write_novatel(tmp_path / "p.gps", PUBLISHED), "p.gps")
+    np.testing.assert_array_equal(
+        published.channels["h_acc"],
+        [np.hypot(1.3648, 1.1806), np.hypot(0.6074, 0.5792), np.hypot(2.1382, 3.1092)],
+    )
+    short = read_novatel(write_novatel(tmp_path / "s.gps", ABBREVIATED), "s.gps")
+    np.testing.assert_array_equal(short.channels["h_acc"], [np.hypot(0.9038, 0.8534)])
+
+
+def test_a_binary_log_s_stated_accuracy(tmp_path):
+    """BESTPOSB's lat σ and lon σ (float32): 3 and 4 m make 5 m, named BESTPOSB's; the
+    published binary log's (1.29007387, 1.12158024) their root sum of squares."""
+    g = fixes_to_the_ms().iloc[:3]
+    t = DAY_S + g[c.T_S].to_numpy()
+    got = read_novatel(
+        write_binary(tmp_path / "b.gps", novatel_binary(g, t, sigma_m=(3.0, 4.0))), "b"
+    )
+    np.testing.assert_array_equal(got.channels["h_acc"], [5.0, 5.0, 5.0])
+    assert got.sources["h_acc"] == "BESTPOSB lat σ, lon σ"
+    published = read_novatel(write_binary(tmp_path / "p.gps", [PUBLISHED_BINARY]), "p.gps")
+    assert published.channels["h_acc"][0] == pytest.approx(1.7094539584187551, abs=1e-12)
+
+
+def test_a_log_without_a_computed_solution_states_no_accuracy(tmp_path):
+    """Every BESTPOSA of INSUFFICIENT_OBS: no h_acc channel, as before it was read."""
+    g = fixes_to_the_ms().iloc[:5].assign(**{c.LAT_DEG: np.nan, c.LON_DEG: np.nan})
+    lines = novatel_lines(g, DAY_S + g[c.T_S].to_numpy(), velocity=None)
+    got = read_novatel(write_novatel(tmp_path / "n.gps", lines), "n.gps")
+    assert "h_acc" not in got.channels and "h_acc" not in got.sources
+    assert not np.isfinite(got.channels["lat"]).any()
+
+
+def test_the_novatel_log_s_stated_accuracy_reaches_the_drive(tmp_path):
+    """drive.gps beside wheels.csv, each BESTPOSA's σ 0.6 and 0.8 m: the GNSS stream's
+    h_acc_m is 1.0 m (BESTPOSA lat σ, lon σ), and so is every row of the resampled drive's
+    h_acc_m with a fix."""
+    from rwhonet.sim.streams import signal_map
+
+    g = fixes_to_the_ms()
+    _, radius = receiver_drive()
+    wheels = receiver_folder(tmp_path / "gps", g.iloc[:0])["wheels"]
+    lines = novatel_lines(g, DAY_S + g[c.T_S].to_numpy(), sigma_m=(0.6, 0.8))
+    streams = read_stream_csvs(
+        [wheels, write_novatel(tmp_path / "gps" / "drive.gps", lines)], signal_map(), radius
+    )
+    np.testing.assert_allclose(streams.gnss.channels[c.H_ACC_M], 1.0, atol=1e-12)
+    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    fixed = np.isfinite(drive[c.LAT_DEG])
+    assert fixed.sum() > 1000
+    np.testing.assert_allclose(drive[c.H_ACC_M][fixed], 1.0, atol=1e-12)

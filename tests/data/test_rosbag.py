@@ -761,3 +761,62 @@ def test_a_damaged_bag_is_read_or_refused_never_a_traceback(tmp_path, compressio
             assert f"{path.name}: expected a ROS 1 bag" in str(err) or "problem" in str(err)
             refused += 1
     assert refused > 5  # damage is found, not read as data
+
+
+@pytest.mark.parametrize("ros2", [None, "mcap"])
+def test_a_navsatfix_s_position_covariance_gives_the_stated_accuracy(tmp_path, ros2):
+    """NavSatFix's position_covariance (ENU, m²) where its type is not UNKNOWN: h_acc is
+    the root of its east and north variances, 9 and 16 making 5.0 m (DIAGONAL_KNOWN; KNOWN
+    and APPROXIMATED alike); a message of type UNKNOWN (0), or of a variance NaN or
+    negative, states none (NaN). The drive's h_acc_m has it where the fixes state it."""
+    tables, radius = _drive()
+    n = len(tables.gnss)
+    cov = np.zeros((n, 9))
+    cov[:, 0], cov[:, 4], cov[:, 8] = 9.0, 16.0, 25.0
+    cov[:, [1, 3]] = 2.0  # an east-north covariance, which the DRMS leaves out
+    kind = np.full(n, 2)
+    kind[100:110] = 3
+    kind[200:210] = 1
+    kind[300:320] = 0  # UNKNOWN: the driver filled in nothing it knows
+    cov[400, 0] = np.nan
+    cov[401, 4] = -1.0
+    bag = tables_bag(
+        tmp_path / ("drive" if ros2 else "drive.bag"),
+        tables,
+        covariance=cov,
+        covariance_type=kind,
+        ros2=ros2,
+    )
+    streams = read_mdf4(bag, bag_map(), radius, "m", "drive.bag")
+    h = streams.gnss.channels[c.H_ACC_M]
+    assert h.dtype == np.float64
+    unknown = np.zeros(n, bool)
+    unknown[[*range(300, 320), 400, 401]] = True
+    np.testing.assert_array_equal(h[~unknown], 5.0)
+    assert np.isnan(h[unknown]).all()
+    assert streams.gnss.sources[c.H_ACC_M] == f"{FIX_TOPIC}.position_covariance"
+    said = "\n".join(streams.notes)
+    assert f"{FIX_TOPIC}: h_acc from position_covariance, the root of its east and north " in said
+    assert f"on {n - 22} of {n} message(s)" in said
+    grid = _grid(streams, radius)
+    assert np.nanmax(grid[c.H_ACC_M]) == 5.0 and np.isfinite(grid[c.H_ACC_M]).sum() > 1000
+
+
+def test_a_navsatfix_whose_covariance_is_unknown_states_no_accuracy(tmp_path):
+    """A driver that leaves position_covariance_type UNKNOWN (0) on every fix, whatever the
+    covariance holds: no h_acc channel, the grid as before. A map that names h_acc itself
+    takes its field, not the covariance."""
+    tables, radius = _drive()
+    n = len(tables.gnss)
+    cov = np.zeros((n, 9))
+    cov[:, 0] = cov[:, 4] = 4.0
+    bag = tables_bag(tmp_path / "a.bag", tables, covariance=cov, covariance_type=0)
+    streams = read_mdf4(bag, bag_map(), radius, "m", "a.bag")
+    assert c.H_ACC_M not in streams.gnss.channels and c.H_ACC_M not in streams.gnss.sources
+    assert c.H_ACC_M not in _grid(streams, radius)
+    assert "position_covariance" not in "\n".join(streams.notes)
+    known = tables_bag(tmp_path / "b.bag", tables, covariance=cov, covariance_type=2)
+    smap = bag_map() | {"h_acc": ColumnSpec(f"{FIX_TOPIC}.position_covariance[0]", "cm")}
+    streams = read_mdf4(known, smap, radius, "m", "b.bag")
+    np.testing.assert_array_equal(streams.gnss.channels[c.H_ACC_M], 0.04)
+    assert streams.gnss.sources[c.H_ACC_M] == f"{FIX_TOPIC}.position_covariance[0]"

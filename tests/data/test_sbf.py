@@ -18,9 +18,11 @@ from support.sbf import (
     DNU,
     GPS_EPOCH_UNIX_S,
     LEAP_S,
+    NO_H_ACCURACY,
     dop,
     pvt,
     pvt_untimed,
+    revised,
     sbf_blocks,
     write_sbf,
 )
@@ -221,3 +223,73 @@ def test_a_drive_folder_s_sbf_log_kept_compressed_or_named_by_the_receiver(tmp_p
     for name in ("log.sbf.gz", "sept3400.19_"):
         for k, v in grids["log.sbf"].columns.items():
             np.testing.assert_array_equal(grids[name].columns[k], v, err_msg=f"{name} {k}")
+
+
+def test_the_stated_accuracy_is_half_haccuracy_s_2drms(tmp_path):
+    """A revision 2 PVTGeodetic's HAccuracy (0.01 m, 2DRMS) halved is h_acc, the DRMS in
+    metres: 250 gives 1.25 m; its do-not-use 65535 (a block without a PVT too) is NaN; the
+    values as pysbf2 parses the same blocks, halved."""
+    from pysbf2 import SBFReader
+
+    fixed = {"Type": 1, "Latitude": 0.91, "Longitude": -0.03, "NrSV": 9}
+    blocks = [
+        pvt(GPS_S, **fixed, HAccuracy=2.5),
+        pvt(GPS_S + 0.1, **fixed, HAccuracy=NO_H_ACCURACY),
+        pvt(GPS_S + 0.2, **fixed, HAccuracy=0.8),
+        pvt(GPS_S + 0.3, Type=0, Error=1, Latitude=DNU, Longitude=DNU),
+    ]
+    path = write_sbf(tmp_path / "log.sbf", blocks)
+    assert int.from_bytes(blocks[0][90:92], "little") == 250
+    got = read_sbf(path, "log.sbf")
+    np.testing.assert_array_equal(got.channels["h_acc"], [1.25, np.nan, 0.4, np.nan])
+    assert got.channels["h_acc"].dtype == np.float64
+    assert got.sources["h_acc"] == "PVTGeodetic HAccuracy"
+    with open(path, "rb") as f:
+        theirs = [p.HAccuracy / 2.0 for _, p in SBFReader(f) if p.identity == "PVTGeodetic"]
+    np.testing.assert_allclose(got.channels["h_acc"][[0, 2]], [theirs[0], theirs[2]], atol=1e-12)
+
+
+def test_blocks_before_revision_2_state_no_accuracy(tmp_path):
+    """Revision 0 and 1 PVTGeodetic blocks (88 bytes) have no HAccuracy: a log of them has
+    no h_acc, its other channels as before; a revision 2 block's bytes under a revision 0
+    ID (its HAccuracy unread: the ID says the field is not there) states none either. In a
+    log of both, only the revision 2 blocks state one."""
+    fixed = {"Type": 1, "Latitude": 0.91, "Longitude": -0.03, "NrSV": 9}
+    old = [pvt(GPS_S + k * 0.1, revision=k % 2, **fixed) for k in range(4)]
+    assert {len(b) for b in old} == {88}
+    got = read_sbf(write_sbf(tmp_path / "old.sbf", old), "old.sbf")
+    assert "h_acc" not in got.channels and "h_acc" not in got.sources
+    assert got.channels["n_sats"].tolist() == [9.0] * 4
+    unrevised = revised(pvt(GPS_S, **fixed, HAccuracy=2.5), 0)
+    assert len(unrevised) == 96
+    got = read_sbf(write_sbf(tmp_path / "id0.sbf", [unrevised]), "id0.sbf")
+    assert "h_acc" not in got.channels
+    both = [old[0], pvt(GPS_S + 0.1, **fixed, HAccuracy=2.5)]
+    got = read_sbf(write_sbf(tmp_path / "both.sbf", both), "both.sbf")
+    np.testing.assert_array_equal(got.channels["h_acc"], [np.nan, 1.25])
+
+
+def test_the_sbf_log_s_stated_accuracy_reaches_the_drive(tmp_path):
+    """log.sbf beside wheels.csv, each fix's HAccuracy twice the table's h_acc_m: the GNSS
+    stream's h_acc_m is the table's (to HAccuracy's 0.005 m DRMS), and the resampled
+    drive has the column; without HAccuracy (the writer's do-not-use), no column."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+    from rwhonet.sim.streams import signal_map
+
+    g = fixes_to_the_ms()
+    g = g.assign(**{c.H_ACC_M: 0.5 + 0.01 * (np.arange(len(g)) % 50)})
+    _, radius = receiver_drive()
+    wheels = receiver_folder(tmp_path / "sbf", g.iloc[:0])["wheels"]
+    log_ = write_sbf(tmp_path / "sbf" / "log.sbf", sbf_blocks(g, DAY_S + g[c.T_S]))
+    streams = read_stream_csvs([wheels, log_], signal_map(), radius)
+    np.testing.assert_allclose(streams.gnss.channels[c.H_ACC_M], g[c.H_ACC_M], atol=0.0051)
+    assert streams.gnss.sources[c.H_ACC_M] == "PVTGeodetic HAccuracy"
+    drive = resample(streams, nominal_radius_m=radius).drive.columns
+    assert np.isfinite(drive[c.H_ACC_M]).sum() > 1000
+    plain = write_sbf(
+        tmp_path / "sbf" / "log.sbf", sbf_blocks(g.drop(columns=c.H_ACC_M), DAY_S + g[c.T_S])
+    )
+    streams = read_stream_csvs([wheels, plain], signal_map(), radius)
+    assert c.H_ACC_M not in streams.gnss.channels
+    assert c.H_ACC_M not in resample(streams, nominal_radius_m=radius).drive.columns

@@ -434,3 +434,49 @@ def test_a_dead_reckoning_receiver_s_yaw_rate_comes_from_its_esf_ins(tmp_path):
         read_stream_csvs(only_pvt, smap, radius)
     said = str(err.value)
     assert "UBX-ESF-INS z angular rate in its UBX log; found in neither" in said
+
+
+def test_the_stated_accuracy_is_nav_pvt_s_hacc_in_metres(tmp_path):
+    """NAV-PVT's hAcc (mm) is h_acc in metres, as pyubx2 reads it: 1234 mm a 1.234 m fix;
+    an epoch without a fix keeps its own (250 m), which no screen takes (it has no fix)."""
+    msgs = [
+        nav_pvt(T0, 52.4, -1.5, h_acc_mm=1234),
+        nav_pvt(T0 + 0.1, 52.4, -1.5, h_acc_mm=800),
+        nav_pvt(T0 + 0.2, float("nan"), float("nan"), h_acc_mm=250_000),
+    ]
+    data = b"".join(msgs)
+    log = read_ubx(write_ubx(tmp_path / "a.ubx", msgs), "a.ubx")
+    np.testing.assert_array_equal(log.channels["h_acc"], [1.234, 0.8, 250.0])
+    assert log.channels["h_acc"].dtype == np.float64
+    np.testing.assert_allclose(
+        log.channels["h_acc"], [m.hAcc / 1000.0 for m in _pyubx2(data)], rtol=0, atol=1e-12
+    )
+    assert log.sources["h_acc"] == "NAV-PVT hAcc"
+    assert np.isnan(log.channels["lat"][2])
+
+
+def test_a_u_blox_6_s_stated_accuracy_is_nav_posllh_s_hacc(tmp_path):
+    """A u-blox 6's NAV-POSLLH hAcc (mm) is h_acc in metres, as NAV-PVT's."""
+    t = T0 + 0.1 * np.arange(5)
+    log = read_ubx(write_ubx(tmp_path / "u6.ubx", u6_messages(_fixes(5), t, h_acc_mm=1234)), "u6")
+    np.testing.assert_array_equal(log.channels["h_acc"], np.full(5, 1.234))
+    assert log.sources["h_acc"] == "NAV-POSLLH hAcc"
+
+
+def test_the_ubx_log_s_stated_accuracy_reaches_the_drive(tmp_path):
+    """A gps.ubx beside wheels.csv whose NAV-PVT hAcc each fix states: the GNSS stream's
+    h_acc_m is it (NAV-PVT hAcc), and the resampled drive has an h_acc_m column, each
+    row's within the accuracies stated either side of it."""
+    from rwhonet.sim.streams import signal_map
+
+    tables, radius = receiver_drive()
+    g = tables.gnss
+    g = g.assign(**{c.H_ACC_M: 1.0 + 0.001 * np.arange(len(g))})
+    wheels = [f for f in _folder(tmp_path / "w", False).values() if f.name == "wheels.csv"]
+    log = write_ubx(tmp_path / "ubx" / "gps.ubx", ubx_messages(g, DAY_S + g[c.T_S]))
+    streams = read_stream_csvs([*wheels, log], signal_map(), radius)
+    np.testing.assert_allclose(streams.gnss.channels[c.H_ACC_M], g[c.H_ACC_M], atol=1e-12)
+    assert streams.gnss.sources[c.H_ACC_M] == "NAV-PVT hAcc"
+    h = resample(streams, nominal_radius_m=radius).drive.columns[c.H_ACC_M]
+    assert h.size > 1000 and np.isfinite(h).all()
+    assert 1.0 <= h.min() and h.max() <= g[c.H_ACC_M].max() + 1e-9

@@ -46,15 +46,26 @@ HEADER_V1 = [
 ]
 
 
-def fix_v3(provider: str, lat: float, lon: float, speed: float, bearing: float, ms: int, mock=0):
+def fix_v3(
+    provider: str,
+    lat: float,
+    lon: float,
+    speed: float,
+    bearing: float,
+    ms: int,
+    mock=0,
+    accuracy: str = "3.9",
+):
+    """A GnssLogger 3.x Fix record, its AccuracyMeters cell ``accuracy`` as written."""
     return (
-        f"Fix,{provider},{float(lat)!r},{float(lon)!r},112.4,{speed:.3f},3.9,{bearing:.2f},{ms},0.2,1.5,"
-        f"{ms * 1000},6.1,{mock},23,0.4,"
+        f"Fix,{provider},{float(lat)!r},{float(lon)!r},112.4,{speed:.3f},{accuracy},{bearing:.2f},"
+        f"{ms},0.2,1.5,{ms * 1000},6.1,{mock},23,0.4,"
     )
 
 
-def fix_v1(provider: str, lat: float, lon: float, speed: float, ms: int):
-    return f"Fix,{provider},{float(lat)!r},{float(lon)!r},112.4,{speed:.3f},3.9,{ms}"
+def fix_v1(provider: str, lat: float, lon: float, speed: float, ms: int, accuracy: str = "3.9"):
+    """A GnssLogger 1.x Fix record, its Accuracy cell ``accuracy`` as written."""
+    return f"Fix,{provider},{float(lat)!r},{float(lon)!r},112.4,{speed:.3f},{accuracy},{ms}"
 
 
 def gnsslogger_lines(

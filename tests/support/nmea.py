@@ -97,6 +97,14 @@ def zda(t_s: float, talker="GP") -> str:
     return sentence(f"{talker}ZDA,{hhmmss(t_s)},{day:%d},{day:%m},{day:%Y},,")
 
 
+def gst(t_s: float, lat_err: float, lon_err: float, alt_err: float = 2.2, talker="GP") -> str:
+    """GST as u-blox writes it: the UTC time, the range residuals' RMS, the error ellipse
+    left empty, the standard deviations of the latitude, longitude and altitude errors (m;
+    NaN: empty)."""
+    errs = ",".join(f"{x:.3f}" if math.isfinite(x) else "" for x in (lat_err, lon_err, alt_err))
+    return sentence(f"{talker}GST,{hhmmss(t_s)},1.8,,,,{errs}")
+
+
 def nmea_lines(
     gnss: pd.DataFrame,
     utc_s: np.ndarray,
@@ -105,12 +113,15 @@ def nmea_lines(
     other: bool = True,
     stamp_format: str = "{:.6f},",
 ) -> list[str]:
-    """The receiver's lines for each fix: the ``sentences`` (GGA, GNS, RMC, GLL, ZDA) at the
-    fix's UTC time (s since 1970),
+    """The receiver's lines for each fix: the ``sentences`` (GGA, GNS, RMC, GLL, ZDA, GST)
+    at the fix's UTC time (s since 1970),
     a GSV between (passed over by the reader), each line after the logger's stamp where
-    ``stamps`` (written by ``stamp_format``)."""
+    ``stamps`` (written by ``stamp_format``). A GST's latitude and longitude errors are
+    0.6 and 0.8 times the table's ``h_acc_m`` (their root sum of squares: it), empty where
+    it has none."""
     lat, lon = gnss[c.LAT_DEG].to_numpy(), gnss[c.LON_DEG].to_numpy()
     sats = gnss[c.N_SATS].to_numpy() if c.N_SATS in gnss else np.full(len(gnss), 9.0)
+    h_acc = gnss[c.H_ACC_M].to_numpy() if c.H_ACC_M in gnss else np.full(len(gnss), np.nan)
     step = np.gradient(lat * 111_000.0, utc_s) if len(gnss) > 1 else np.zeros(len(gnss))
     lines = []
     for i, t in enumerate(utc_s):
@@ -128,6 +139,8 @@ def nmea_lines(
             out.append(gll(t, lat[i], lon[i]))
         if "ZDA" in sentences:
             out.append(zda(t))
+        if "GST" in sentences:
+            out.append(gst(t, 0.6 * h_acc[i], 0.8 * h_acc[i]))
         lines += [prefix + s for s in out]
     return lines
 

@@ -46,11 +46,12 @@ def novatel_lines(
     velocity: str | None = "BESTVELA",
     time_logs: bool = True,
     time_every: int = 1,
+    sigma_m: tuple[float, float] = (1.3648, 1.1806),
 ) -> list[str]:
     """The fixes as the receiver's logs, an epoch's lines together: TIMEA (where
     ``time_logs``, every ``time_every`` epochs: 10 is a receiver's ``LOG TIMEA ONTIME 1``
-    at 10 Hz), the position log and the velocity log (where given and the table has a
-    speed and course)."""
+    at 10 Hz), the position log (its ``lat σ`` and ``lon σ`` ``sigma_m``) and the velocity
+    log (where given and the table has a speed and course)."""
     lines = []
     gps = np.asarray(t_utc_s, dtype=float) - GPS_EPOCH_UNIX_S + LEAP_S
     speed = g[c.SPEED_GNSS_M_S].to_numpy() if c.SPEED_GNSS_M_S in g else None
@@ -93,8 +94,8 @@ def novatel_lines(
                     _f(height[i], 4),
                     "-17.0000",
                     "WGS84",
-                    "1.3648",
-                    "1.1806",
+                    f"{sigma_m[0]:.4f}",
+                    f"{sigma_m[1]:.4f}",
                     "3.1112",
                     '""',
                     "0.000",
@@ -164,9 +165,15 @@ def binary_log(msg_id: int, gps_s: float, body: bytes, time_status: int = 180) -
     return header + body + struct.pack("<I", crc32(header + body))
 
 
-def novatel_binary(g: pd.DataFrame, t_utc_s: np.ndarray, position: int = 42) -> list[bytes]:
+def novatel_binary(
+    g: pd.DataFrame,
+    t_utc_s: np.ndarray,
+    position: int = 42,
+    sigma_m: tuple[float, float] = (1.0, 1.0),
+) -> list[bytes]:
     """The fixes as binary logs, an epoch's together: TIMEB, the position log (BESTPOSB,
-    or message ID ``position``) and BESTVELB where the table has a speed and course."""
+    or message ID ``position``; its ``lat σ`` and ``lon σ`` ``sigma_m``) and BESTVELB where
+    the table has a speed and course."""
     out = []
     gps = np.asarray(t_utc_s, dtype=float) - GPS_EPOCH_UNIX_S + LEAP_S
     lat, lon = g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy()
@@ -187,8 +194,7 @@ def novatel_binary(g: pd.DataFrame, t_utc_s: np.ndarray, position: int = 42) -> 
             112.4,
             -17.0,
             61,
-            1.0,
-            1.0,
+            *sigma_m,
             2.0,
             b"\0" * 4,
             0.0,

@@ -63,6 +63,8 @@ def write_bag(
     ros2: str | None = None,
     compression: str | None = None,
     chunk_bytes: int = 1 << 20,
+    covariance: np.ndarray | None = None,
+    covariance_type: np.ndarray | int = 0,
 ) -> Path:
     """A bag of a drive's streams, each message recorded ``lag_ns`` after its stamp.
 
@@ -71,6 +73,8 @@ def write_bag(
         fixes: times, latitudes, longitudes (degrees).
         yaw: times and the yaw rate (rad/s, z up).
         status: each fix's NavSatStatus status (default 0, a fix).
+        covariance: each fix's position_covariance (n x 9, ENU, m²; default zeros).
+        covariance_type: each fix's position_covariance_type (default 0, UNKNOWN).
         stamped: False: every header stamp zero (a driver that does not stamp).
         wheel_type: :data:`WHEEL_SPEED_REPORT` or :data:`NO_HEADER`.
         extra: more topics: name, type, (record time ns, message) pairs.
@@ -142,6 +146,8 @@ def write_bag(
             )
             t = _ns(fixes[0])
             codes = np.zeros(t.size, dtype=int) if status is None else status
+            cov = np.zeros((t.size, 9)) if covariance is None else np.asarray(covariance, float)
+            kinds = np.broadcast_to(np.asarray(covariance_type, dtype=int), (t.size,))
             for i in range(t.size):
                 msg = nav(
                     _header(ts, i, int(t[i]), stamped),
@@ -149,8 +155,8 @@ def write_bag(
                     float(fixes[1][i]),
                     float(fixes[2][i]),
                     100.0,
-                    np.zeros(9),
-                    0,
+                    cov[i].copy(),
+                    int(kinds[i]),
                 )
                 records.append((int(t[i]) + lag_ns, k, serialize(msg, nav.__msgtype__)))
         if yaw is not None:

@@ -5,6 +5,7 @@ the receiver's other blocks between them (DOP)."""
 
 from __future__ import annotations
 
+import binascii
 import math
 from pathlib import Path
 
@@ -16,15 +17,31 @@ from rwhonet.data import canonical as c
 GPS_EPOCH_UNIX_S = 315_964_800
 LEAP_S = 18  # GPS less UTC since 2017-01-01
 DNU = -2e10
+NO_H_ACCURACY = 655.35  # HAccuracy's do-not-use 65535, in pysbf2's metres (0.01 m)
 
 
-def pvt(gps_s: float, **fields) -> bytes:  # type: ignore[no-untyped-def]
-    """One PVTGeodetic block at GPS time ``gps_s`` (s since 1980-01-06)."""
+def revised(block: bytes, revision: int, length: int | None = None) -> bytes:
+    """A block with its ID's revision (bits 13-15) set, as a receiver writes it (pysbf2
+    writes every block's as 0), cut to ``length`` bytes where given (a revision 0 or 1
+    PVTGeodetic's 88: without revision 2's fields), its CRC computed again."""
+    body = bytearray(block if length is None else block[:length])
+    ident = int.from_bytes(body[4:6], "little") & 0x1FFF | revision << 13
+    body[4:6] = ident.to_bytes(2, "little")
+    body[6:8] = len(body).to_bytes(2, "little")
+    body[2:4] = binascii.crc_hqx(bytes(body[4:]), 0).to_bytes(2, "little")
+    return bytes(body)
+
+
+def pvt(gps_s: float, revision: int = 2, **fields) -> bytes:  # type: ignore[no-untyped-def]
+    """One PVTGeodetic block of ``revision`` at GPS time ``gps_s`` (s since 1980-01-06); its
+    HAccuracy (m, 2DRMS) do-not-use where ``fields`` gives none."""
     from pysbf2 import SBFMessage
 
     week, seconds = divmod(gps_s, 604_800.0)
     tow = int(round(seconds * 1000.0))
-    return SBFMessage("PVTGeodetic", revno=2, TOW=tow, WNc=int(week), **fields).serialize()
+    fields.setdefault("HAccuracy", NO_H_ACCURACY)
+    block = SBFMessage("PVTGeodetic", revno=revision, TOW=tow, WNc=int(week), **fields)
+    return revised(block.serialize(), revision, None if revision >= 2 else 88)
 
 
 def receiver_time(gps_s: float, delta_ls: int = LEAP_S) -> bytes:
@@ -51,7 +68,7 @@ def pvt_untimed() -> bytes:
     """A PVTGeodetic of a do-not-use time: a receiver that has not set its clock."""
     from pysbf2 import SBFMessage
 
-    return SBFMessage(
+    block = SBFMessage(
         "PVTGeodetic",
         revno=2,
         TOW=4_294_967_295,
@@ -60,7 +77,9 @@ def pvt_untimed() -> bytes:
         Latitude=0.91,
         Longitude=-0.03,
         NrSV=9,
-    ).serialize()
+        HAccuracy=NO_H_ACCURACY,
+    )
+    return revised(block.serialize(), 2)
 
 
 def sbf_blocks(
@@ -68,12 +87,14 @@ def sbf_blocks(
 ) -> list[bytes]:
     """The fixes as the receiver's blocks, an epoch's together: a ReceiverTime (where
     ``leap``, every ``time_every`` epochs), the PVTGeodetic (mode 1, stand-alone, where
-    the table has a fix; 0, no PVT, its fields do-not-use, where not) and a DOP."""
+    the table has a fix; 0, no PVT, its fields do-not-use, where not; its HAccuracy
+    twice the table's ``h_acc_m``, the 2DRMS, where it has one) and a DOP."""
     gps = np.asarray(t_utc_s, dtype=float) - GPS_EPOCH_UNIX_S + LEAP_S
     lat, lon = g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy()
     speed = g[c.SPEED_GNSS_M_S].to_numpy() if c.SPEED_GNSS_M_S in g else None
     course = g[c.HEADING_DEG].to_numpy() if c.HEADING_DEG in g else None
     sats = g[c.N_SATS].to_numpy() if c.N_SATS in g else np.full(len(g), 9.0)
+    h_acc = g[c.H_ACC_M].to_numpy() if c.H_ACC_M in g else np.full(len(g), np.nan)
     out = []
     for i, t in enumerate(gps):
         if leap and i % time_every == 0:
@@ -95,6 +116,7 @@ def sbf_blocks(
                 Vu=0.0,
                 COG=course[i] if course is not None and ok else DNU,
                 NrSV=int(sats[i]) if math.isfinite(sats[i]) else 255,
+                HAccuracy=2.0 * h_acc[i] if ok and math.isfinite(h_acc[i]) else NO_H_ACCURACY,
             )
         )
         out.append(dop(t))

@@ -54,9 +54,11 @@ def nav_pvt(
     valid: tuple[int, int, int] = (1, 1, 1),
     invalid_llh: int = 0,
     leap_s: int = LEAP_S,
+    h_acc_mm: int = 0,
 ) -> bytes:
     """One NAV-PVT message of a UTC time (its date and time fields, nano the rest, as the
-    receiver rounds them: to the nearest second) at a position (NaN: no fix, zeros)."""
+    receiver rounds them: to the nearest second) at a position (NaN: no fix, zeros), its
+    horizontal accuracy estimate ``hAcc`` ``h_acc_mm`` (mm)."""
     fixed = math.isfinite(lat) and math.isfinite(lon)
     date = utc_fields(t_utc_s)
     msg = UBXMessage(
@@ -79,6 +81,7 @@ def nav_pvt(
         gSpeed=int(round(speed_m_s * 1000.0)) if math.isfinite(speed_m_s) else 0,
         headMot=course_deg if math.isfinite(course_deg) else 0.0,
         invalidLlh=invalid_llh,
+        hAcc=h_acc_mm,
     )
     return msg.serialize()
 
@@ -94,12 +97,14 @@ def other_messages(itow: int) -> bytes:
 def ubx_messages(
     gnss: pd.DataFrame, t_utc_s: Sequence[float] | np.ndarray, *, others: bool = True
 ) -> list[bytes]:
-    """A NAV-PVT for each row of a GNSS table (lat, lon, satellites, speed, course), at
-    its UTC time, each after the receiver's other messages of the epoch."""
+    """A NAV-PVT for each row of a GNSS table (lat, lon, satellites, speed, course, the
+    stated accuracy in hAcc where the table has one: 0 where not), at its UTC time, each
+    after the receiver's other messages of the epoch."""
     out = []
     cols = {k: gnss[k].to_numpy(float) for k in (c.LAT_DEG, c.LON_DEG, c.N_SATS)}
     speed = gnss[c.SPEED_GNSS_M_S].to_numpy(float) if c.SPEED_GNSS_M_S in gnss else None
     course = gnss[c.HEADING_DEG].to_numpy(float) if c.HEADING_DEG in gnss else None
+    h_acc = _h_acc_mm(gnss)
     for i, t in enumerate(np.asarray(t_utc_s, float)):
         pvt = nav_pvt(
             float(t),
@@ -108,9 +113,19 @@ def ubx_messages(
             sats=cols[c.N_SATS][i],
             speed_m_s=0.0 if speed is None else speed[i],
             course_deg=0.0 if course is None else course[i] % 360.0,
+            h_acc_mm=int(h_acc[i]),
         )
         out.append((other_messages(itow_ms(float(t))) if others else b"") + pvt)
     return out
+
+
+def _h_acc_mm(gnss: pd.DataFrame) -> np.ndarray:
+    """A GNSS table's stated accuracy (``h_acc_m``) as hAcc's whole mm (0 where it has
+    none)."""
+    if c.H_ACC_M not in gnss:
+        return np.zeros(len(gnss), np.int64)
+    m = gnss[c.H_ACC_M].to_numpy(float)
+    return np.round(np.where(np.isfinite(m), m, 0.0) * 1000.0).astype(np.int64)
 
 
 def write_ubx(path: Path, messages: Sequence[bytes]) -> Path:
@@ -154,6 +169,7 @@ def pvt_log(gnss: pd.DataFrame, t_utc_s: Sequence[float] | np.ndarray) -> bytes:
     rec["lat"] = np.where(fixed, np.trunc(np.nan_to_num(lat) / 1e-7), 0).astype(np.int64)
     rec["hMSL"] = 112_400
     rec["height"] = 112_400 + 47_000
+    rec["hAcc"] = _h_acc_mm(gnss)
     rec["gSpeed"] = np.round(np.where(np.isfinite(speed), speed, 0.0) * 1000.0).astype(np.int64)
     rec["headMot"] = np.trunc(np.where(np.isfinite(course), course, 0.0) / 1e-5).astype(np.int64)
     body = np.zeros((n, 4 + PVT.itemsize), np.uint8)
@@ -177,11 +193,12 @@ def u6_messages(
     velned: bool = True,
     fix_type: int = 3,
     leap_valid: int = 1,
+    h_acc_mm: int = 0,
 ) -> list[bytes]:
     """A u-blox 6's solution for each row of a GNSS table, as pyubx2 writes it: NAV-POSLLH,
     the fix in ``status`` (NAV-SOL with the satellites, or NAV-STATUS), NAV-VELNED (where
     ``velned``), and the time in ``clock`` (NAV-TIMEUTC, or NAV-TIMEGPS's week and leap
-    seconds), all of one iTOW."""
+    seconds), all of one iTOW; NAV-POSLLH's ``hAcc`` ``h_acc_mm`` (mm)."""
     out = []
     lat, lon = gnss[c.LAT_DEG].to_numpy(float), gnss[c.LON_DEG].to_numpy(float)
     sats = gnss[c.N_SATS].to_numpy(float)
@@ -203,6 +220,7 @@ def u6_messages(
                 lat=lat[i] if fixed else 0.0,
                 height=159_400,
                 hMSL=112_400,
+                hAcc=h_acc_mm,
             )
         ]
         fix = {"gpsFix": fix_type if fixed else 0}

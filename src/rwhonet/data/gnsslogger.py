@@ -17,7 +17,11 @@ the drive's GNSS stream (:func:`read_gnsslogger`), placed by its UTC times:
 - **its Fix records of the GPS provider**: the chip's own fix (Android's
   ``LocationManager.GPS_PROVIDER``), by the header's columns: latitude and longitude in
   degrees, speed over ground (m/s, ``speed_gnss``) and bearing (degrees, ``heading``), at
-  ``UnixTimeMillis``, the fix's UTC time (Android's ``Location.getTime()``). A record of
+  ``UnixTimeMillis``, the fix's UTC time (Android's ``Location.getTime()``); ``h_acc``:
+  ``AccuracyMeters`` (1.x: ``Accuracy``), Android's ``Location.getAccuracy()``, "the
+  estimated horizontal accuracy radius in meters of this location at the 68th percentile
+  confidence level", as given; none where empty or 0 (what ``getAccuracy()`` gives a
+  location without one), and a cell that is no number states none, not refused. A record of
   another provider (``fused``/``FLP``: Android's blend of GNSS, Wi-Fi, cell towers and
   the phone's sensors; ``network``/``NLP``) is no receiver's fix, nor is one marked
   ``MockLocation`` (an app's location, not the chip's): they are passed over and
@@ -61,6 +65,7 @@ COLUMNS = {
     "lon": ("longitudedegrees", "longitude"),
     "speed_gnss": ("speedmps", "speed"),
     "heading": ("bearingdegrees", "bearing"),
+    "h_acc": ("accuracymeters", "accuracy"),
     "time": ("unixtimemillis", "(utc)timeinms", "utctimemillis"),
     "mock": ("mocklocation",),
 }
@@ -175,9 +180,10 @@ def _fix_records(
     line_no = np.asarray(at, np.int64) + 1
     problems: list[Problem] = []
 
-    def numbers(key: str, required: bool) -> np.ndarray:
+    def numbers(key: str, required: bool, lenient: bool = False) -> np.ndarray:
         """A column's cells of the GPS records as numbers, converted at once (NaN: empty,
-        or another provider's); a problem for each that is none."""
+        or another provider's); a problem for each that is none (``lenient``: NaN, as
+        where empty)."""
         j = where[key]
         if j is None:
             return np.full(len(rows), np.nan)
@@ -185,6 +191,8 @@ def _fix_records(
         empty = cells == b""
         values = floats_or_nan(np.where(empty, b"nan", cells))
         bad = gps & ~empty & ~np.isfinite(values)
+        if lenient:  # no problem: a cell that is no number is none, as an empty one
+            return np.where(gps & ~bad, values, np.nan)
         for i in np.flatnonzero(bad | (gps & empty & required))[: max(0, LISTED - len(problems))]:
             found = "empty" if empty[i] else repr(cells[i].decode("latin-1"))
             problems.append(Problem(file, int(line_no[i]), names[j], "a number", found))
@@ -193,6 +201,11 @@ def _fix_records(
     lat, lon = numbers("lat", True), numbers("lon", True)
     time_ms = numbers("time", True)
     speed, heading = numbers("speed_gnss", False), numbers("heading", False)
+    # the stated accuracy: optional, so a cell that is no number is none (a log read before
+    # it was read is read still); 0 is Location.getAccuracy()'s "none" (and no receiver's)
+    h_acc = numbers("h_acc", False, lenient=True)
+    with np.errstate(invalid="ignore"):
+        h_acc[~(h_acc > 0.0)] = np.nan  # NaN stays NaN
     with np.errstate(invalid="ignore"):
         out_of_range = gps & ((np.abs(lat) > 90) | (np.abs(lon) > 180))
     problems += [
@@ -216,11 +229,9 @@ def _fix_records(
     utc = time_ms[keep] / 1000.0
     channels = {"lat": lat[keep], "lon": lon[keep]}
     sources = {"lat": f"Fix {names[where['lat']]}", "lon": f"Fix {names[where['lon']]}"}
-    for key in ("speed_gnss", "heading"):
-        if (
-            where[key] is not None
-            and np.isfinite(v := (speed if key == "speed_gnss" else heading)[keep]).any()
-        ):
+    read = {"speed_gnss": speed, "heading": heading, "h_acc": h_acc}
+    for key in ("speed_gnss", "heading", "h_acc"):
+        if where[key] is not None and np.isfinite(v := read[key][keep]).any():
             channels[key] = v
             sources[key] = f"Fix {names[where[key]]}"
     others = Counter(p.decode("latin-1") for p, g in zip(provider, gps, strict=True) if not g)

@@ -23,11 +23,16 @@ puts it on the stream files' clock.
 - ``VTG``: course over ground (degrees true), speed over ground in knots and in km/h,
   from v2.3 a mode letter; no time: it is the epoch's it is written with
   (:func:`_vtg_epochs`).
+- ``GST``: UTC time, the range residuals' RMS, the error ellipse, then the standard
+  deviations of the latitude and longitude errors (m) and of the altitude's; no fix: it
+  gives the epoch of its time ``h_acc``, the root of the sum of the squares of the
+  latitude's and longitude's (the DRMS, m), as ZDA dates it (empty: none stated; one
+  of a time no fix has gives none).
 
 Every other sentence (GSV, GSA, a receiver's proprietary ``$P...``) is passed over.
 Sentences of one epoch (the same UTC time) are one fix: the position from GGA where the
 epoch has one, else GNS, RMC, GLL; satellites and altitude from GGA, else GNS; speed and
-course from RMC, else VTG. A sentence written
+course from RMC, else VTG; the stated accuracy from GST. A sentence written
 again, or written late, joins its epoch wherever it is in the log (the first of two of
 one kind is kept, the second counted); the epochs are in the order they first appear,
 and out of time order where the log was, which the resampler's rule puts right
@@ -107,14 +112,18 @@ GGA_FIXES = (b"1", b"2", b"3", b"4", b"5", b"9")
 # simulator are none
 RMC_FIXES = (b"A", b"D", b"P", b"R", b"F")
 # the sentences read, by their code in the scan
-KINDS = (b"GGA", b"RMC", b"GNS", b"GLL", b"ZDA", b"VTG")
-GGA, RMC, GNS, GLL, ZDA, VTG = range(len(KINDS))
-FIX_KINDS = (GGA, RMC, GNS, GLL)  # the sentences that make an epoch (ZDA only dates one)
+KINDS = (b"GGA", b"RMC", b"GNS", b"GLL", b"ZDA", b"VTG", b"GST")
+GGA, RMC, GNS, GLL, ZDA, VTG, GST = range(len(KINDS))
+# the sentences that make an epoch (ZDA only dates one, GST only states its accuracy)
+FIX_KINDS = (GGA, RMC, GNS, GLL)
 # fields a sentence needs (its talker and type the first): up to GGA's and GNS's
-# altitude, RMC's date, GLL's status, ZDA's year, VTG's km/h letter
-FIELDS_NEEDED = np.array([10, 10, 10, 7, 5, 9])
+# altitude, RMC's date, GLL's status, ZDA's year, VTG's km/h letter, GST's longitude error
+FIELDS_NEEDED = np.array([10, 10, 10, 7, 5, 9, 8])
 # where each gives the UTC time (GLL after its position; VTG none)
-TIME_FIELD = np.array([1, 1, 1, 5, 1, -1])
+TIME_FIELD = np.array([1, 1, 1, 5, 1, -1, 1])
+# GST's standard deviations of the latitude and longitude errors (m), the fields after
+# its time, RMS and error ellipse (semi-major, semi-minor, orientation)
+GST_ERRORS = (6, 7)
 ZDA_DATE = "%d,%m,%Y"  # ZDA's day, month and year fields, as the sentence writes them
 # which sentence's position an epoch takes where it has several
 POSITION_ORDER = (GGA, GNS, RMC, GLL)
@@ -166,7 +175,7 @@ class FixLog:
             valid RMC and no ZDA gave a date).
         stamps: each epoch's logger stamp as written (the first sentence's), or None
             where not every epoch has one.
-        channels: signal-map key (``lat``, ``lon``, ``n_sats``, ``height``,
+        channels: signal-map key (``lat``, ``lon``, ``n_sats``, ``h_acc``, ``height``,
             ``speed_gnss``, ``heading``) -> values in SI units; only the keys the log
             gives, NaN where an epoch lacks it or has no fix.
         sources: key -> the sentence field it came from (``GGA latitude``).
@@ -550,8 +559,9 @@ def _fixes(
 ) -> FixLog:
     """The sentences ``use`` (their UTC time cells ``times``) gathered into epochs by UTC
     time, their fields converted column by column: one fix an epoch; a ZDA dates the
-    epoch of its time; a VTG (``vtg``) gives the speed and course of the epoch it is
-    written with (:func:`_vtg_epochs`) where that epoch has no RMC."""
+    epoch of its time, a GST states its accuracy; a VTG (``vtg``) gives the speed and
+    course of the epoch it is written with (:func:`_vtg_epochs`) where that epoch has no
+    RMC."""
     problems: list[Problem] = []
     tod_s = _times_of_day(times, rows[use], file, problems)
     timed = np.isfinite(tod_s)  # a time that is no time: refused below, with the rest
@@ -564,9 +574,12 @@ def _fixes(
     # back from the sentence before is the next day's
     day = np.concatenate([[0], np.cumsum(np.diff(tod_s) < -_NEW_DAY_S)])
     key = day * 86_400_000 + np.round(tod_s * 1000.0).astype(np.int64)
-    zda = kinds[use] == ZDA  # no fix: each dates the epoch of its time, if there is one
+    # no fix: a ZDA dates the epoch of its time, a GST states its accuracy, if there is one
+    zda, gst = kinds[use] == ZDA, kinds[use] == GST
     zda_sent, zda_key = use[zda], key[zda]
-    use, tod_s, key = use[~zda], tod_s[~zda], key[~zda]
+    gst_sent, gst_key = use[gst], key[gst]
+    aside = zda | gst
+    use, tod_s, key = use[~aside], tod_s[~aside], key[~aside]
     _, first_at, inverse = np.unique(key, return_index=True, return_inverse=True)
     order = np.argsort(first_at, kind="stable")  # epochs as they first appear
     rank = np.empty_like(order)
@@ -643,6 +656,8 @@ def _fixes(
     if zda_sent.size:
         dated.append(_zda_dates(fields, zda_sent, zda_key, key[first_at[order]], rows))
     vtg_speed, vtg_course = _vtg_velocity(fields, vtg, rows[vtg], file, problems)
+    gst_epoch = _epochs_of_keys(gst_key, key[first_at[order]])
+    h_acc = _gst_accuracy(fields, gst_sent, gst_epoch, n, rows, file, problems, passed)
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
     lat[~valid] = np.nan
@@ -653,8 +668,10 @@ def _fixes(
     if vtg.size:
         # each timed sentence's epoch, in the log's order: a ZDA's is that of its time
         zda_epoch = _epochs_of_keys(zda_key, key[first_at[order]])
-        timed = np.concatenate([use, zda_sent[zda_epoch >= 0]])
-        timed_epoch = np.concatenate([epoch_of, zda_epoch[zda_epoch >= 0]])
+        timed = np.concatenate([use, zda_sent[zda_epoch >= 0], gst_sent[gst_epoch >= 0]])
+        timed_epoch = np.concatenate(
+            [epoch_of, zda_epoch[zda_epoch >= 0], gst_epoch[gst_epoch >= 0]]
+        )
         sort = np.argsort(timed, kind="stable")
         v_epoch, v_said = _vtg_epochs(
             vtg,
@@ -679,6 +696,7 @@ def _fixes(
         "lat": lat,
         "lon": lon,
         "n_sats": sats,
+        "h_acc": h_acc,
         "height": height,
         "speed_gnss": speed,
         "heading": course,
@@ -695,6 +713,7 @@ def _fixes(
         "lat": f"{given_by[0]} latitude",
         "lon": f"{given_by[0]} longitude",
         "n_sats": f"{sats_by} satellites",
+        "h_acc": "GST lat/lon error",
         "height": f"{sats_by} altitude",
         "speed_gnss": velocity_by.format("speed"),
         "heading": velocity_by.format("course"),
@@ -707,6 +726,7 @@ def _fixes(
         + (f", {vtg.size} VTG" if vtg.size else "")
         + f" sentences), {int(np.isfinite(lat).sum())} with a fix"
         + _zda_said(dated, zda_sent.size)
+        + _gst_said(h_acc, gst_sent.size)
         + _passed_over(counts, first).replace(" (", ", passed over: (", 1)
     )
     return FixLog(
@@ -883,6 +903,45 @@ def _zda_said(dated: Sequence[_Dates], n: int) -> str:
         return ""
     used = sum(d.at.size for d in dated if d.kind == "ZDA")
     return f"; {n} ZDA sentences, {used} dating an epoch of their time"
+
+
+def _gst_accuracy(
+    fields: _Fields,
+    sent: np.ndarray,
+    epoch: np.ndarray,
+    n: int,
+    rows: np.ndarray,
+    file: str,
+    problems: list[Problem],
+    passed: Callable[[str, Sequence[int]], None],
+) -> np.ndarray:
+    """Each of the ``n`` epochs' stated horizontal accuracy (m; NaN: none) from the GST
+    sentences ``sent`` of their times (``epoch``: each one's, -1 where no epoch has its
+    time): the root of the sum of the squares of the standard deviations of its latitude
+    and longitude errors, the DRMS. An empty one, or one below 0, states none; the first
+    GST of an epoch is kept, another counted as given again."""
+    out = np.full(n, np.nan)
+    hit = np.flatnonzero(epoch >= 0)
+    epochs, once = np.unique(epoch[hit], return_index=True)
+    passed("again", rows[sent[np.setdiff1d(hit, hit[once])]])
+    one = sent[hit[once]]
+    if not one.size:
+        return out
+    lat_err, lon_err = (
+        _numbers(fields.column(j, one), rows[one], f"GST {what} error", file, problems)
+        for j, what in zip(GST_ERRORS, ("latitude", "longitude"), strict=True)
+    )
+    with np.errstate(invalid="ignore"):
+        stated = (lat_err >= 0.0) & (lon_err >= 0.0)  # NaN: empty
+    out[epochs] = np.where(stated, np.hypot(lat_err, lon_err), np.nan)
+    return out
+
+
+def _gst_said(h_acc: np.ndarray, n: int) -> str:
+    """The log note's words on its GST sentences (none: nothing)."""
+    if not n:
+        return ""
+    return f"; {n} GST sentences, {int(np.isfinite(h_acc).sum())} stating an epoch's accuracy"
 
 
 def _valid(kind: int, fields: _Fields, sent: np.ndarray) -> np.ndarray:

@@ -31,7 +31,11 @@ the file's binary logs; its fields are written as the ASCII log's, so the rest i
 
 - ``BESTGNSSPOS`` (the GNSS-only solution; a SPAN system's ``BESTPOS`` blends its INS), or
   where the log has none, ``BESTPOS``: ``lat``, ``lon`` (degrees), ``height`` (``hgt``,
-  above mean sea level), ``n_sats`` (satellites used in the solution). An epoch is a fix
+  above mean sea level), ``n_sats`` (satellites used in the solution), ``h_acc``: the root
+  of the sum of the squares of ``lat σ`` and ``lon σ`` (the latitude's and longitude's
+  standard deviations, m), the DRMS, where its solution status is ``SOL_COMPUTED`` (the
+  σ of a solution not computed, ``INSUFFICIENT_OBS`` and the like, state nothing; a log
+  with no computed solution has no ``h_acc``). An epoch is a fix
   where the solution status is ``SOL_COMPUTED`` and the position type is not ``NONE``,
   ``FIXEDPOS`` (a position set by command: a base station's), ``PROPAGATED`` (the filter
   run on without new observations) or ``DOPPLER_VELOCITY``; otherwise it is kept without
@@ -73,6 +77,7 @@ without BESTPOS or BESTGNSSPOS, naming the logs it holds.
 
 from __future__ import annotations
 
+import math
 import re
 import struct
 import zlib
@@ -338,6 +343,18 @@ def _number(cell: bytes, file: str, line: int, what: str, problems: list[Problem
         return float("nan")
 
 
+def _drms(lat_sigma: bytes, lon_sigma: bytes) -> float:
+    """A position log's ``lat σ`` and ``lon σ`` (m, one sigma) as the DRMS, the root of the
+    sum of their squares; NaN where either is no finite number, or negative. Not refused
+    as the position's fields are: a log read before the accuracy was is read still."""
+    try:
+        a, b = float(lat_sigma), float(lon_sigma)
+    except ValueError:
+        return float("nan")
+    ok = math.isfinite(a) and math.isfinite(b) and a >= 0.0 and b >= 0.0
+    return math.hypot(a, b) if ok else float("nan")
+
+
 def read_novatel(path: Path, file: str) -> FixLog:
     """Read a NovAtel receiver's BESTGNSSPOS (or BESTPOS) logs as one fix an epoch, with
     the speed and course of its BESTGNSSVEL (BESTVEL) logs, on UTC.
@@ -372,7 +389,7 @@ def read_novatel(path: Path, file: str) -> FixLog:
             ]
         )
     problems: list[Problem] = []
-    rows, gps_s, fix, lat, lon, hgt, sats = [], [], [], [], [], [], []
+    rows, gps_s, fix, lat, lon, hgt, sats, h_acc = [], [], [], [], [], [], [], []
     unknown, again, seen = [], [], set()
     for line, head, body in found.logs[kind]:
         if len(head) < 7 or len(body) < 15:
@@ -397,6 +414,7 @@ def read_novatel(path: Path, file: str) -> FixLog:
         lon.append(_number(body[3], file, line, "lon", problems))
         hgt.append(_number(body[4], file, line, "hgt", problems))
         sats.append(_number(body[14], file, line, "#solnSVs", problems))
+        h_acc.append(_drms(body[7], body[8]) if body[0] == b"SOL_COMPUTED" else np.nan)
     lat_a, lon_a = np.array(lat), np.array(lon)
     for what, values, limit in (("lat", lat_a, 90), ("lon", lon_a, 180)):
         problems += [
@@ -448,6 +466,9 @@ def read_novatel(path: Path, file: str) -> FixLog:
         "height": f"{shown[kind]} hgt",
         "n_sats": f"{shown[kind]} #solnSVs",
     }
+    if np.isfinite(h_acc).any():  # a log none of whose solutions is computed states none
+        channels["h_acc"] = np.array(h_acc, np.float64)
+        sources["h_acc"] = f"{shown[kind]} lat σ, lon σ"
     vel = next((k for k in VELOCITIES if k in found.logs), None)
     if vel is not None:
         speed, course = _velocities(found.logs[vel], gps, file)

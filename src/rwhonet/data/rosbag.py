@@ -33,7 +33,13 @@ computer's clock: seconds since 1970 (a driver may stamp with the receiver's UTC
 **Fixes.** Where the latitude's message has a ``status.status`` (NavSatFix's, gps_common's
 GPSFix's), a message whose status is below 0 (``STATUS_NO_FIX``) has no position; the
 notes count them. A NavSatFix holds no satellite count (GPSFix's ``status.satellites_used``
-can be mapped as ``n_sats``).
+can be mapped as ``n_sats``). Where the map names no ``h_acc`` and the latitude's message
+has a ``position_covariance`` (row-major 3x3, east, north, up, m²) with its
+``position_covariance_type`` (NavSatFix's, GPSFix's), ``h_acc`` is the root of the sum of
+its east and north variances (``[0] + [4]``: the DRMS, m), where the type is not 0
+(``COVARIANCE_TYPE_UNKNOWN``: 1 approximated, 2 diagonal known, 3 known) and both are
+finite numbers, not negative; NaN otherwise, and a topic none of whose messages states one
+has none.
 
 **A recording cut short** (``rosbag record`` killed: ``drive.bag.active``, no index; ``ros2
 bag record`` killed: an ``.mcap`` file without its summary and footer) is read record by
@@ -59,6 +65,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 import operator
 import re
 from collections.abc import Iterator, Mapping
@@ -237,6 +244,7 @@ class _Topic:
     recorded: list[int]
     status: list[float]
     past_end: dict[str, int]
+    h_acc: list[float] = dataclasses.field(default_factory=list)  # position_covariance's
 
 
 def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError:
@@ -637,7 +645,7 @@ def _read_topics(
         t = _Topic(topic, msgtype, keys, {k: [] for k in keys}, [], [], [], dict.fromkeys(keys, 0))
         fix = "lat" in keys or "lon" in keys
         getters: dict[str, tuple[Any, bool]] = {}
-        stamp = status = None
+        stamp = status = accuracy = None
         for con, recorded_ns, raw in bag.messages(connections=cons):
             msg = bag.deserialize(raw, con.msgtype)
             if not t.recorded:  # the first message: every field checked, then read as it
@@ -651,6 +659,8 @@ def _read_topics(
                     getters[k] = _getter(fields[k].path)
                 stamp = _stamp_getter(msg)
                 status = _status_getter(msg) if fix else None
+                # the fixes' stated accuracy, where the map names none of its own
+                accuracy = _accuracy_getter(msg) if fix and "h_acc" not in fields else None
             for k, (get, indexed) in getters.items():
                 if indexed:
                     try:
@@ -665,6 +675,8 @@ def _read_topics(
             t.recorded.append(recorded_ns)
             if status is not None:
                 t.status.append(status(msg))
+            if accuracy is not None:
+                t.h_acc.append(accuracy(msg))
         out.append(t)
     return out
 
@@ -717,6 +729,35 @@ def _stamp_getter(msg: Any) -> Any:
 def _status_getter(msg: Any) -> Any:
     """A reader of a fix message's ``status.status`` (None: its type has none)."""
     return _fix_status if np.isfinite(_fix_status(msg)) else None
+
+
+# NavSatFix's position_covariance_type (GPSFix's the same): 0 COVARIANCE_TYPE_UNKNOWN, the
+# covariance not filled in; 1 APPROXIMATED, 2 DIAGONAL_KNOWN, 3 KNOWN
+COVARIANCE_TYPE_UNKNOWN = 0
+
+
+def _h_acc_m(msg: Any) -> float:
+    """A fix message's stated horizontal accuracy, m: the root of the sum of its
+    ``position_covariance``'s east and north variances (row-major ENU, m²: ``[0]`` and
+    ``[4]``), the DRMS; NaN where its ``position_covariance_type`` is unknown (0) or either
+    variance is not a finite number, or negative."""
+    kind, cov = msg.position_covariance_type, msg.position_covariance
+    if not _is_number(kind) or int(kind) == COVARIANCE_TYPE_UNKNOWN or len(cov) < 5:
+        return np.nan
+    east, north = cov[0], cov[4]
+    if not (_is_number(east) and _is_number(north)):
+        return np.nan
+    east, north = float(east), float(north)
+    ok = math.isfinite(east) and math.isfinite(north) and east >= 0.0 and north >= 0.0
+    return math.sqrt(east + north) if ok else np.nan
+
+
+def _accuracy_getter(msg: Any) -> Any:
+    """A reader of a fix message's stated accuracy (:func:`_h_acc_m`; None: its type has no
+    ``position_covariance`` and ``position_covariance_type``)."""
+    names = _names(msg)
+    has = "position_covariance" in names and "position_covariance_type" in names
+    return _h_acc_m if has else None
 
 
 def _no_field(file: str, f: Field, msg: Any, miss: _Missing) -> Problem:
@@ -800,5 +841,13 @@ def _group(
         if c
     ]
     sources = {k: fields[k].text for k in t.keys}
+    h_acc = np.array(t.h_acc, dtype=np.float64)
+    if h_acc.size and np.isfinite(h_acc).any():  # a topic that states none has none
+        channels["h_acc"] = h_acc
+        sources["h_acc"] = f"{t.topic}.position_covariance"
+        said.append(
+            f"{file}: {t.topic}: h_acc from position_covariance, the root of its east and "
+            f"north variances, on {int(np.isfinite(h_acc).sum())} of {n} message(s)"
+        )
     sources["t"] = f"{t.topic} header.stamp" if how.startswith("on their header") else t.topic
     return Group(t.topic, file, t_s, channels, sources), said

@@ -23,15 +23,21 @@ passed over and counted; a sync pair inside a good block is not a block.
 - ``height``: ``Height`` (ellipsoidal) less ``Undulation``: above mean sea level, as NMEA
   GGA's altitude and UBX's ``hMSL``;
 - ``n_sats``: ``NrSV``, the satellites used;
+- ``h_acc``: ``HAccuracy`` (u2, 0.01 m; the reference guide's PVTGeodetic from revision
+  2 on, the revision the block's ID bits 13-15; bytes 90-91 of the block), "2DRMS
+  horizontal accuracy: twice the root-mean-square of the horizontal distance error",
+  halved: the DRMS in metres. A block of revision 0 or 1 (88 bytes), or one too short to
+  hold it, states none (a log of such blocks has no ``h_acc``);
 - ``speed_gnss``: the horizontal speed of ``Vn`` and ``Ve`` (f4, m/s);
 - ``heading``: ``COG``, the course over ground (f4, degrees from true north).
 
 A field the receiver does not know holds its "do-not-use" value (-2e10 for f4 and f8, 255
-for ``NrSV``): read as missing. An epoch is a fix where ``Error`` is 0 and the PVT mode
-(``Mode`` bits 0-3) is a solution from observations: 1 (stand-alone), 2 (differential),
-4 and 5 (RTK fixed and float), 6 (SBAS), 7 and 8 (moving-base RTK), 10 (PPP). Mode 0 (no
-PVT) is not, and neither is 3 (a fixed location, set by command: a base station's, as
-NovAtel's ``FIXEDPOS``); such an epoch is kept without a position.
+for ``NrSV``, 65535 for ``HAccuracy``): read as missing. An epoch is a fix where ``Error``
+is 0 and the PVT mode (``Mode`` bits 0-3) is a solution from observations: 1
+(stand-alone), 2 (differential), 4 and 5 (RTK fixed and float), 6 (SBAS), 7 and 8
+(moving-base RTK), 10 (PPP). Mode 0 (no PVT) is not, and neither is 3 (a fixed location,
+set by command: a base station's, as NovAtel's ``FIXEDPOS``); such an epoch is kept
+without a position.
 
 **The clock.** ``TOW`` and ``WNc`` are GPS time; they are put on UTC by the leap seconds
 the log's ReceiverTime blocks (5914) give (``DeltaLS``, where not its do-not-use -128;
@@ -83,6 +89,11 @@ NO_WEEK = 65_535
 NO_SATS = 255
 NO_LEAP = -128
 FIX_MODES = (1, 2, 4, 5, 6, 7, 8, 10)
+# PVTGeodetic's HAccuracy (u2, 0.01 m, 2DRMS), from revision 2 on: after revision 1's
+# PPPInfo and revision 2's Latency (u2), at this byte of the block
+H_ACCURACY_AT = 90
+H_ACCURACY_REVISION = 2
+NO_H_ACCURACY = 65_535
 # PVTGeodetic's fields read, from the block's start (revision 0's, which later ones extend)
 PVT = np.dtype(
     [
@@ -160,6 +171,7 @@ class _Blocks:
             at = data.find(SYNC, at + length)
         self.offsets = np.array(offsets, np.int64)
         self.number = np.array(ids, np.int64) & 0x1FFF
+        self.revision = np.array(ids, np.int64) >> 13
         self.lengths = np.array(lengths, np.int64)
 
     def records(self, number: int, dtype: np.dtype) -> tuple[np.ndarray, np.ndarray]:
@@ -168,6 +180,19 @@ class _Blocks:
         at = np.flatnonzero((self.number == number) & (self.lengths >= dtype.itemsize))
         raw = b"".join(self.data[o : o + dtype.itemsize] for o in self.offsets[at].tolist())
         return np.frombuffer(raw, dtype), at
+
+    def h_accuracy_m(self, at: np.ndarray) -> np.ndarray:
+        """The PVTGeodetic blocks ``at``'s (indices among the good blocks) ``HAccuracy`` as
+        the DRMS, m: half its 2DRMS. NaN where a block states none: of a revision before
+        2 (which has no such field), too short to hold it, or of its do-not-use value."""
+        out = np.full(at.size, np.nan)
+        has = (self.revision[at] >= H_ACCURACY_REVISION) & (self.lengths[at] >= H_ACCURACY_AT + 2)
+        if has.any():
+            buf = np.frombuffer(self.data, np.uint8)
+            o = self.offsets[at[has]] + H_ACCURACY_AT
+            raw = buf[o].astype(np.int64) | (buf[o + 1].astype(np.int64) << 8)
+            out[has] = np.where(raw != NO_H_ACCURACY, raw / 200.0, np.nan)  # 0.01 m, halved
+        return out
 
     def besides(self) -> str:
         """The other blocks, counted by name, the most first."""
@@ -213,6 +238,7 @@ def read_sbf(path: Path, file: str) -> FixLog:
             ]
         )
     rows = at + 1
+    h_acc = blocks.h_accuracy_m(at)
     timed = (pvt["tow"] != NO_TOW) & (pvt["wnc"] != NO_WEEK)
     gps = pvt["wnc"].astype(np.float64) * SECONDS_PER_WEEK + pvt["tow"] / 1000.0
     _, first = np.unique(np.where(timed, gps, np.nan), return_index=True)
@@ -221,6 +247,7 @@ def read_sbf(path: Path, file: str) -> FixLog:
     once &= timed  # np.unique keeps every NaN: an epoch without a time is none
     untimed, again = rows[~timed], rows[timed & ~once]
     pvt, rows, offsets, gps = pvt[once], rows[once], blocks.offsets[at][once], gps[once]
+    h_acc = h_acc[once]
     if not pvt.size:
         raise InputError(
             [
@@ -265,16 +292,19 @@ def read_sbf(path: Path, file: str) -> FixLog:
         "lon": np.where(fix, lon, np.nan),
         "height": height,
         "n_sats": np.where(pvt["nr_sv"] != NO_SATS, pvt["nr_sv"].astype(np.float64), np.nan),
+        "h_acc": h_acc,
         "speed_gnss": np.where(fix, speed, np.nan),
         "heading": np.where(fix, known(pvt["cog"]), np.nan),
     }
-    # a field every epoch lacks (a receiver that gives no velocity) is no channel
+    # a field every epoch lacks (a receiver that gives no velocity; blocks before
+    # revision 2, which state no accuracy) is no channel
     channels = {k: v for k, v in channels.items() if k in ("lat", "lon") or np.isfinite(v).any()}
     sources = {
         "lat": "PVTGeodetic Latitude",
         "lon": "PVTGeodetic Longitude",
         "height": "PVTGeodetic Height less Undulation",
         "n_sats": "PVTGeodetic NrSV",
+        "h_acc": "PVTGeodetic HAccuracy",
         "speed_gnss": "PVTGeodetic Vn, Ve",
         "heading": "PVTGeodetic COG",
     }

@@ -20,6 +20,9 @@ and counted.
 - ``lat``, ``lon``: ``lat``, ``lon`` (1e-7 deg);
 - ``height``: ``hMSL``, height above mean sea level (mm), as NMEA GGA's altitude;
 - ``n_sats``: ``numSV``, the satellites used;
+- ``h_acc``: ``hAcc``, "horizontal accuracy estimate" (u4, mm), in metres as given; an
+  epoch without a fix keeps its own (the receiver's, large), which no screen takes: the
+  screen of ``validate.gnss.max_h_acc_m`` looks at fixes only;
 - ``speed_gnss``: ``gSpeed``, ground speed (mm/s);
 - ``heading``: ``headMot``, heading of motion (1e-5 deg), as NMEA RMC's course.
 
@@ -43,14 +46,14 @@ says that they may be off by whole (leap) seconds; where none is valid, the log 
 refused. A NAV-PVT of an epoch already given (the same iTOW) is passed over, counted.
 
 **A u-blox 6** (NEO-6M and its kin: protocol 7-13, GPS.G6-SW-10018) has no NAV-PVT. Its
-log's epochs are its NAV-POSLLH messages (``lat``, ``lon``, ``hMSL``), joined by iTOW with
-the fix of NAV-SOL (``gpsFix``, ``GPSfixOK``, and ``numSV``) or, without one, NAV-STATUS
-(``gpsFix``, ``gpsFixOk``), with NAV-VELNED's ``gSpeed`` (cm/s) and ``heading``, and with
-the time of NAV-TIMEUTC (valid: ``validTOW`` and ``validWKN``; fully resolved:
-``validUTC``) or, without one, NAV-TIMEGPS (the GPS week and time less ``leapS``; fully
-resolved: ``leapSValid``). A fix is as NAV-PVT's (``gpsFix`` 2, 3 or 4 with the OK flag);
-an epoch without a NAV-SOL or NAV-STATUS of its iTOW has none. A log with NAV-PVT is read
-by its NAV-PVT alone.
+log's epochs are its NAV-POSLLH messages (``lat``, ``lon``, ``hMSL``; ``hAcc``, mm, as
+NAV-PVT's), joined by iTOW with the fix of NAV-SOL (``gpsFix``, ``GPSfixOK``, and
+``numSV``) or, without one, NAV-STATUS (``gpsFix``, ``gpsFixOk``), with NAV-VELNED's
+``gSpeed`` (cm/s) and ``heading``, and with the time of NAV-TIMEUTC (valid: ``validTOW``
+and ``validWKN``; fully resolved: ``validUTC``) or, without one, NAV-TIMEGPS (the GPS
+week and time less ``leapS``; fully resolved: ``leapSValid``). A fix is as NAV-PVT's
+(``gpsFix`` 2, 3 or 4 with the OK flag); an epoch without a NAV-SOL or NAV-STATUS of its
+iTOW has none. A log with NAV-PVT is read by its NAV-PVT alone.
 
 **The yaw rate of a dead-reckoning receiver.** A u-blox ADR receiver (NEO-M8L, ZED-F9K;
 the ZED-F9R's HPS) writes UBX-ESF-INS: the angular rates its fusion compensated, in the
@@ -525,6 +528,8 @@ def _pvt_epochs(frames: _Frames, which: np.ndarray) -> _Epochs:
             "lat": np.where(fix, pvt["lat"] * 1e-7, np.nan),
             "lon": np.where(fix, pvt["lon"] * 1e-7, np.nan),
             "n_sats": pvt["numSV"].astype(np.float64),
+            # an epoch without a fix keeps its hAcc: only a fix's is screened
+            "h_acc": pvt["hAcc"] / 1000.0,
             "height": pvt["hMSL"] * 1e-3,
             "speed_gnss": np.where(fix, pvt["gSpeed"] * 1e-3, np.nan),
             "heading": np.where(fix, pvt["headMot"] * 1e-5, np.nan),
@@ -533,6 +538,7 @@ def _pvt_epochs(frames: _Frames, which: np.ndarray) -> _Epochs:
             "lat": "NAV-PVT lat",
             "lon": "NAV-PVT lon",
             "n_sats": "NAV-PVT numSV",
+            "h_acc": "NAV-PVT hAcc",
             "height": "NAV-PVT hMSL",
             "speed_gnss": "NAV-PVT gSpeed",
             "heading": "NAV-PVT headMot",
@@ -586,12 +592,13 @@ def _legacy_epochs(frames: _Frames, file: str) -> _Epochs:
         "lat": np.where(fix, pos["lat"] * 1e-7, np.nan),
         "lon": np.where(fix, pos["lon"] * 1e-7, np.nan),
         "n_sats": np.where(sol.found, sol.values["numSV"], np.nan),
+        "h_acc": pos["hAcc"] / 1000.0,  # as NAV-PVT's: an epoch without a fix keeps its own
         "height": pos["hMSL"] * 1e-3,
         "speed_gnss": np.where(moving, vel.values["gSpeed"] * 1e-2, np.nan),
         "heading": np.where(moving, vel.values["heading"] * 1e-5, np.nan),
     }
     gave = [n for n, m in (("NAV-SOL", sol), ("NAV-VELNED", vel)) if m.found.any()]
-    keep = {"lat", "lon", "height"} | ({"n_sats"} if sol.found.any() else set())
+    keep = {"lat", "lon", "height", "h_acc"} | ({"n_sats"} if sol.found.any() else set())
     keep |= {"speed_gnss", "heading"} if vel.found.any() else set()
     utc, valid, resolved, timed = _legacy_utc(frames, pos["iTOW"])
     what = ", ".join(["NAV-POSLLH", *gave, *([] if sol.found.any() else ["NAV-STATUS"]), timed])
@@ -608,6 +615,7 @@ def _legacy_epochs(frames: _Frames, file: str) -> _Epochs:
             "lat": "NAV-POSLLH lat",
             "lon": "NAV-POSLLH lon",
             "n_sats": "NAV-SOL numSV",
+            "h_acc": "NAV-POSLLH hAcc",
             "height": "NAV-POSLLH hMSL",
             "speed_gnss": "NAV-VELNED gSpeed",
             "heading": "NAV-VELNED heading",
