@@ -1232,6 +1232,49 @@ def test_predict_and_recalibrate_refuse_wheels_logged_too_slowly_for_the_grid(
     assert "wheels.csv" in err and "steps of 0.25 s" in err
 
 
+def test_predict_takes_a_fix_stated_worse_than_the_bound_as_no_fix(
+    bundle, tmp_path, capsys, monkeypatch
+):
+    """Stream CSVs whose receiver states 1 m, and 9 m over 5 s: without
+    validate.gnss.max_h_acc_m, predict writes what it writes with 1 m throughout; with a
+    bound of 5 m, those rows are rows without a fix (the output differs) and stderr says
+    how many and why."""
+    import pandas as pd
+    import yaml
+
+    from rwhonet import paths
+    from rwhonet.sim.streams import SIGNAL_MAP
+    from support.drives import write_params_yaml
+    from support.stream_corpus import RADIUS_M
+
+    out = {}
+    for name, poor_m in (("good", 1.0), ("poor", 9.0)):
+        (tmp_path / name).mkdir()
+        drive, fmt = _stream_drive(tmp_path / name, None)
+        gnss = drive / "gnss.csv"
+        df = pd.read_csv(gnss)
+        t = df.iloc[:, 0].to_numpy(np.float64)
+        df["HAcc"] = np.where((t > t[0] + 20.0) & (t < t[0] + 25.0), poor_m, 1.0)
+        df.to_csv(gnss, index=False)
+        smap = {k: {"column": col, "unit": u} for k, (col, u) in SIGNAL_MAP.items()}
+        smap["h_acc"] = {"column": "HAcc", "unit": "m"}
+        (tmp_path / name / "map.yaml").write_text(yaml.safe_dump(smap))
+        fmt += ["--nominal-radius", str(RADIUS_M)]
+        for bound in (None, 5.0):
+            params = write_params_yaml(
+                tmp_path / f"params-{name}-{bound}.yaml", **{"validate.gnss.max_h_acc_m": bound}
+            )
+            monkeypatch.setattr(paths, "PARAMS", params)
+            out[name, bound] = tmp_path / f"{name}-{bound}.csv"
+            assert main(predict_args(bundle, drive, out[name, bound], *fmt)) == 0
+            err = capsys.readouterr().err
+            said = "whose receiver states a horizontal accuracy worse than validate.gnss"
+            assert (said in err) == (name == "poor" and bound == 5.0), err
+    text = {k: v.read_text() for k, v in out.items()}
+    assert text["poor", None] == text["good", None] == text["good", 5.0]
+    assert text["poor", 5.0] != text["good", 5.0]
+
+
 def test_predict_takes_a_fix_validate_would_not_use_as_no_fix(bundle, tmp_path, capsys):
     """Fixes at latitude = longitude = 0 (a receiver without a fix) and fixes with fewer than
     validate.gnss.min_sats satellites give predict exactly what empty fix cells give, in a
