@@ -936,14 +936,18 @@ def test_gst_states_the_accuracy_of_the_epoch_of_its_time(tmp_path):
         gst(t0 + 2.0, math.nan, math.nan),
         gga(t0 + 3.0, 52.4, -1.5, 9),
         gst(t0, 9.0, 9.0),  # the first epoch's again
+        gga(t0 + 4.0, 52.4, -1.5, 9),
+        gst(t0 + 4.0, 0.6, -0.8),  # a standard deviation below 0: none stated
     ]
     log = _log(tmp_path, lines)
-    np.testing.assert_array_equal(log.tod_s, 45000.0 + np.arange(4))
-    np.testing.assert_allclose(log.channels["h_acc"], [1.0, 5.0, np.nan, np.nan], atol=1e-12)
+    np.testing.assert_array_equal(log.tod_s, 45000.0 + np.arange(5))
+    np.testing.assert_allclose(
+        log.channels["h_acc"], [1.0, 5.0, np.nan, np.nan, np.nan], atol=1e-12
+    )
     assert log.channels["h_acc"].dtype == np.float64
     assert log.sources["h_acc"] == "GST lat/lon error"
     said = " ".join(log.notes)
-    assert "; 5 GST sentences, 2 stating an epoch's accuracy" in said
+    assert "; 6 GST sentences, 2 stating an epoch's accuracy" in said
     assert "1 sentence(s) of an epoch already given (first at line 10)" in log.dropped
     plain = _log(tmp_path, [x for x in lines if "GST" not in x], "plain.nmea")
     assert "h_acc" not in plain.channels and "h_acc" not in plain.sources

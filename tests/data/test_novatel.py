@@ -466,8 +466,11 @@ def test_the_stated_accuracy_is_the_root_of_lat_and_lon_sigma_squared(tmp_path):
     fields = lines[3][lines[3].index(";") + 1 : lines[3].index("*")].split(",")
     fields[7] = "x"  # lat σ
     lines[3] = log("BESTPOSA", t[3] - GPS_EPOCH_UNIX_S + 18, fields)
+    fields = lines[1][lines[1].index(";") + 1 : lines[1].index("*")].split(",")
+    fields[8] = "-0.8"  # lon σ below 0: no standard deviation, none stated
+    lines[1] = log("BESTPOSA", t[1] - GPS_EPOCH_UNIX_S + 18, fields)
     got = read_novatel(write_novatel(tmp_path / "a.gps", lines), "a.gps")
-    np.testing.assert_allclose(got.channels["h_acc"], [1.0, 1.0, np.nan, np.nan], atol=1e-12)
+    np.testing.assert_allclose(got.channels["h_acc"], [1.0, np.nan, np.nan, np.nan], atol=1e-12)
     assert got.channels["h_acc"].dtype == np.float64
     assert got.sources["h_acc"] == "BESTPOSA lat σ, lon σ"
     published = read_novatel(write_novatel(tmp_path / "p.gps", PUBLISHED), "p.gps")

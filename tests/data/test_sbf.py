@@ -293,3 +293,17 @@ def test_the_sbf_log_s_stated_accuracy_reaches_the_drive(tmp_path):
     streams = read_stream_csvs([wheels, plain], signal_map(), radius)
     assert c.H_ACC_M not in streams.gnss.channels
     assert c.H_ACC_M not in resample(streams, nominal_radius_m=radius).drive.columns
+
+
+def test_a_block_given_again_leaves_the_accuracies_with_their_epochs(tmp_path):
+    """An epoch's PVTGeodetic written twice (the second passed over, counted): each epoch
+    keeps its own block's HAccuracy, the copy's not shifting the rest."""
+    fixed = {"Type": 1, "Latitude": 0.91, "Longitude": -0.03, "NrSV": 9}
+    blocks = [
+        pvt(GPS_S, **fixed, HAccuracy=1.0),
+        pvt(GPS_S, **fixed, HAccuracy=9.0),  # the same epoch again
+        pvt(GPS_S + 0.1, **fixed, HAccuracy=3.0),
+    ]
+    got = read_sbf(write_sbf(tmp_path / "again.sbf", blocks), "again.sbf")
+    np.testing.assert_array_equal(got.channels["h_acc"], [0.5, 1.5])
+    assert got.channels["n_sats"].size == 2
