@@ -155,3 +155,35 @@ def test_a_canedge_log_the_logger_packed_is_refused_saying_how_to_unpack_it(tmp_
     said = capsys.readouterr().err
     assert "found a CANedge log file the logger encrypted (.MFE)" in said
     assert "the device's passwords.json" in said
+
+
+@pytest.mark.parametrize("bound", [None, 5.0])
+def test_a_drive_whose_receiver_states_its_accuracy_shows_it(tmp_path, capsys, monkeypatch, bound):
+    """A column map's h_acc (cm): check gives the stated accuracy's median, 95th
+    percentile and largest value, and what validate.gnss.max_h_acc_m does with it; with a
+    bound of 5 m the seconds stated at 12 m are cut as low_sats."""
+    from rwhonet import paths
+    from support.drives import CUPAC_MAP, column_map_params, write_columnmap, write_params_yaml
+
+    df = _turns()
+    df[c.H_ACC_M] = 1.2
+    t = df[c.T_S].to_numpy() - df[c.T_S].iloc[0]
+    df.loc[(t > 50.0) & (t < 53.0), c.H_ACC_M] = 12.0
+    cmap = CUPAC_MAP | {"h_acc": ("HAcc", "cm")}
+    drive = write_columnmap(df, tmp_path / "V-Acc.csv", cmap)
+    overrides = {"data.column_maps.acc": column_map_params(cmap)}
+    if bound is not None:
+        overrides["validate.gnss.max_h_acc_m"] = bound
+    monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
+    assert main(["check", "--drive", str(drive), "--format", "acc", *CAR]) == 0
+    out = capsys.readouterr().out.splitlines()
+    (line,) = [x for x in out if x.startswith("  stated horizontal accuracy: ")]
+    assert line.startswith(
+        "  stated horizontal accuracy: median 1.2 m, 95th percentile 1.2 m, largest 12 m, "
+        f"stated on {len(df)} of {len(df)} fixes (validate.gnss.max_h_acc_m "
+    )
+    if bound is None:
+        assert line.endswith("not set: not screened)") and "low_sats" not in out[0]
+    else:
+        assert line.endswith("5 m: a fix stated worse, or stating none, is cut as low_sats)")
+        assert "(cut: partial_second 1 s, low_sats 3 s)" in out[0]  # rows 50.1-52.9 s

@@ -30,13 +30,20 @@ def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
         ``seconds_kept``, ``segments``, ``cut_seconds_by_rule`` (the rules that cut),
         validate's records (``radius``, ``yaw_rate``, ``wheel_sides``, ``wheel_axles``),
         ``columns`` (canonical -> the drive's own) and the ``notes`` of the reader and
-        the resampler (for a stream drive: where its fixes were placed, their lag).
+        the resampler (for a stream drive: where its fixes were placed, their lag); where
+        the drive has its receiver's stated accuracy, ``gnss_accuracy`` (validate's
+        report's, with ``validate.gnss.max_h_acc_m``).
 
     Raises:
         InputError: the drive's problems (validate would refuse it).
     """
     checked = check_drive_file(drive, params, vehicle, fmt)
     a = checked.assessment
+    stated = (
+        {}
+        if a.accuracy is None
+        else {"gnss_accuracy": a.accuracy | {"max_h_acc_m": params.validate.gnss.max_h_acc_m}}
+    )
     return {
         "file": checked.file,
         "vehicle": vehicle,
@@ -48,7 +55,25 @@ def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
         **checked.checks,
         "columns": checked.columns,
         "notes": list(dict.fromkeys([*checked.reader_notes, *checked.notes])),
+        **stated,
     }
+
+
+def _accuracy(acc: dict[str, Any]) -> str:
+    """The receiver's stated accuracy, and what validate does with it."""
+    bound = acc["max_h_acc_m"]
+    does = (
+        "validate.gnss.max_h_acc_m not set: not screened"
+        if bound is None
+        else f"validate.gnss.max_h_acc_m {bound:g} m: a fix stated worse, or stating none, "
+        "is cut as low_sats"
+    )
+    if not acc["stated_rows"]:
+        return f"none stated on its {acc['fix_rows']} fixes ({does})"
+    return (
+        f"median {acc['median_m']:g} m, 95th percentile {acc['p95_m']:g} m, largest "
+        f"{acc['max_m']:g} m, stated on {acc['stated_rows']} of {acc['fix_rows']} fixes ({does})"
+    )
 
 
 def _gain(record: dict[str, Any]) -> str:
@@ -84,6 +109,8 @@ def render(out: dict[str, Any]) -> str:
         f"valid in {out['segments']} segment(s)" + (f" (cut: {cut})" if cut else ""),
         *(f"  note: {n}" for n in out["notes"]),
     ]
+    if "gnss_accuracy" in out:
+        lines.append(f"  stated horizontal accuracy: {_accuracy(out['gnss_accuracy'])}")
     for key, name in TOLD_CHECKS:
         record = out[key]
         said = (
