@@ -10,6 +10,7 @@ all, in a drive that has the column) as no fix: ``low_sats``, as too few satelli
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import math
@@ -18,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rwhonet.config import ConfigError, GnssPolicy
+from rwhonet.config import ConfigError, GnssPolicy, load_params
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import check_column_map, read_columnmap
 from rwhonet.data.fixes import no_fix_rows
@@ -41,14 +42,11 @@ from support.drives import (
 )
 
 T0 = 45000.0
-POLICY = dict(
-    min_sats=4,
-    max_speed_m_s=70.0,
-    frozen_min_s=2.0,
-    moving_wheel_speed_rad_s=1.0,
-    max_gap_s=0.5,
-    min_segment_s=5.0,
-)
+POLICY = dataclasses.replace(load_params().validate.gnss, min_segment_s=5.0)  # as shipped
+
+
+def _policy(bound: float | None = None) -> GnssPolicy:
+    return dataclasses.replace(POLICY, max_h_acc_m=bound)
 
 
 def _row(t_s: float) -> int:
@@ -77,7 +75,7 @@ def test_no_fix_rows_takes_an_accuracy_worse_than_the_bound_or_none_stated():
 
 
 def test_validate_cuts_seconds_stated_worse_than_the_bound_and_says_so():
-    result = assess(_drive(), GnssPolicy(**POLICY, max_h_acc_m=5.0), 0.1)
+    result = assess(_drive(), _policy(5.0), 0.1)
     low = [(x.start_s, x.end_s, x.detail) for x in result.cuts if x.rule == "low_sats"]
     assert low == [
         (T0 + 9, T0 + 13, "stated horizontal accuracy up to 12 m (min_sats 4, max_h_acc_m 5)"),
@@ -89,7 +87,7 @@ def test_validate_cuts_seconds_stated_worse_than_the_bound_and_says_so():
         (T0 + 31, T0 + 40),
     ]
     # 12 m within a bound of 15 m: only the row that states none
-    loose = assess(_drive(), GnssPolicy(**POLICY, max_h_acc_m=15.0), 0.1)
+    loose = assess(_drive(), _policy(15.0), 0.1)
     assert [(x.start_s, x.rule) for x in loose.cuts if x.rule == "low_sats"] == [
         (T0 + 30, "low_sats")
     ]
@@ -97,7 +95,7 @@ def test_validate_cuts_seconds_stated_worse_than_the_bound_and_says_so():
 
 def test_without_a_bound_the_accuracy_is_reported_not_screened():
     drive = _drive()
-    result = assess(drive, GnssPolicy(**POLICY), 0.1)
+    result = assess(drive, _policy(), 0.1)
     assert [(s.start_s, s.end_s) for s in result.segments] == [(T0, T0 + 40)]
     assert result.accuracy == {
         "fix_rows": 401,
@@ -106,7 +104,7 @@ def test_without_a_bound_the_accuracy_is_reported_not_screened():
         "p95_m": 12.0,
         "max_m": 12.0,
     }
-    assert assess(drive.drop(columns=[c.H_ACC_M]), GnssPolicy(**POLICY), 0.1).accuracy is None
+    assert assess(drive.drop(columns=[c.H_ACC_M]), _policy(), 0.1).accuracy is None
 
 
 def test_the_accuracy_summary_counts_only_rows_with_a_fix():
@@ -127,7 +125,7 @@ def test_the_accuracy_summary_counts_only_rows_with_a_fix():
 @pytest.mark.parametrize("bound", [0.0, -1.0, math.nan])
 def test_a_bound_that_is_not_a_positive_distance_is_refused(bound):
     with pytest.raises(ConfigError, match=r"validate.gnss.max_h_acc_m must be > 0 m"):
-        GnssPolicy(**POLICY, max_h_acc_m=bound)
+        _policy(bound)
 
 
 def test_params_take_the_bound_as_a_number_or_null():
@@ -196,7 +194,7 @@ def test_predict_takes_a_fix_stated_worse_than_the_bound_as_none():
         c.LON_DEG: np.array([-1.0, -1.0, -1.0, 0.0, np.nan]),
         c.H_ACC_M: np.array([1.0, 8.0, np.nan, 1.0, 9.0]),
     }
-    screen = FixScreen(4, GnssPolicy(**POLICY, max_h_acc_m=5.0))
+    screen = FixScreen(4, _policy(5.0))
     screen._jumps_and_frozen = lambda cols: (np.zeros(5, bool), np.zeros(5, bool))
     out = screen.screen(cols)
     assert np.isnan(out[c.LAT_DEG]).tolist() == [False, True, True, True, True]
@@ -206,7 +204,7 @@ def test_predict_takes_a_fix_stated_worse_than_the_bound_as_none():
         "longitude = 0 (what a receiver without a fix writes); 2 whose receiver states a "
         "horizontal accuracy worse than validate.gnss.max_h_acc_m 5 m or none"
     )
-    unbounded = FixScreen(4, GnssPolicy(**POLICY))
+    unbounded = FixScreen(4, _policy())
     unbounded._jumps_and_frozen = screen._jumps_and_frozen
     assert np.isnan(unbounded.screen(cols)[c.LAT_DEG]).tolist() == [0, 0, 0, 1, 1]
 

@@ -33,6 +33,9 @@ ACC_LAT_M_S2 = "acc_lat_m_s2"
 SCENARIO = "scenario"  # ';'-joined scenario tags of the row ('' when none/unknown)
 
 WHEELS = (OMEGA_FL, OMEGA_FR, OMEGA_RL, OMEGA_RR)
+# The channels a GNSS fix carries (a stream's fixes interpolated onto the grid, a held fix
+# placed with its position): rwhonet.data.streams, rwhonet.data.heldfixes.
+FIX_CHANNELS = (LAT_DEG, LON_DEG, N_SATS, H_ACC_M, SPEED_GNSS_M_S, HEADING_DEG, HEIGHT_M)
 # Feature order of the authors' code: RR, RL, FR, FL (reference notes, "Per-second samples").
 FEATURE_WHEEL_ORDER = (OMEGA_RR, OMEGA_RL, OMEGA_FR, OMEGA_FL)
 REQUIRED = (T_S, LAT_DEG, LON_DEG, *WHEELS)

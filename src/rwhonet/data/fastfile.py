@@ -37,7 +37,7 @@ import numpy as np
 from rwhonet.data import canonical as c
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import FileRows, manifest_rows
-from rwhonet.data.heldfixes import GNSS_CHANNELS, held_fixes
+from rwhonet.data.heldfixes import held_fixes
 from rwhonet.data.sampleorder import clock_steps, time_order
 from rwhonet.data.streams import GRID_PERIOD_S, RATE_CHANNELS, DriveStreams, Stream
 
@@ -204,7 +204,7 @@ def as_streams(raw: RawDrive, file: str, period_s: float = GRID_PERIOD_S) -> Dri
     held = held_fixes(cols)
     has_fix = finite_t & np.isfinite(cols[c.LAT_DEG]) & np.isfinite(cols[c.LON_DEG])
     fixes = has_fix if held is None else np.isin(np.arange(t.size), held.fresh) & has_fix
-    gnss = tuple(k for k in GNSS_CHANNELS if k in cols)
+    gnss = tuple(k for k in c.FIX_CHANNELS if k in cols)
     extra = []
     for name in RATE_CHANNELS:
         if name in c.WHEELS or name not in cols:

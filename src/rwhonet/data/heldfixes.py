@@ -74,16 +74,6 @@ MEAN_OFF = 0.2
 # The rows ``rwhonet predict`` holds back at most to tell (5 min at 10 Hz); a drive still
 # undecided then (parked, or no fix yet) is handed on as it came.
 HOLD_ROWS = 3000
-# The GNSS channels a held fix carries (held with it, placed with it).
-GNSS_CHANNELS = (
-    c.LAT_DEG,
-    c.LON_DEG,
-    c.N_SATS,
-    c.H_ACC_M,
-    c.SPEED_GNSS_M_S,
-    c.HEADING_DEG,
-    c.HEIGHT_M,
-)
 
 
 @dataclass(frozen=True)
@@ -237,7 +227,7 @@ def place_held_fixes(raw: RawDrive, period_s: float = 0.1) -> RawDrive:
     cols = raw.columns
     t = cols[c.T_S]
     fresh = held.fresh
-    gnss = {k: cols[k][fresh] for k in GNSS_CHANNELS if k in cols}
+    gnss = {k: cols[k][fresh] for k in c.FIX_CHANNELS if k in cols}  # held with it, placed with it
     yaw = cols.get(c.YAW_RATE_RAD_S)
     gyro = yaw is not None and np.isfinite(yaw).any()
     path = travelled_path(

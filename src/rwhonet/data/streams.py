@@ -118,17 +118,8 @@ SLOW_STREAM_SHARE = 0.1
 # spans only the stretch they all cover (streams end a fraction of a second apart).
 SPAN_NOTE_S = 1.0
 
-# Canonical channels averaged over each row's window (rates), and those of the GNSS stream.
+# Canonical channels averaged over each row's window (rates); the GNSS stream's: c.FIX_CHANNELS.
 RATE_CHANNELS = (*c.WHEELS, c.YAW_RATE_RAD_S, c.SPEED_VEHICLE_M_S, c.ACC_LON_M_S2, c.ACC_LAT_M_S2)
-FIX_CHANNELS = (
-    c.LAT_DEG,
-    c.LON_DEG,
-    c.N_SATS,
-    c.H_ACC_M,
-    c.SPEED_GNSS_M_S,
-    c.HEADING_DEG,
-    c.HEIGHT_M,
-)
 
 
 @dataclass(frozen=True, eq=False)  # arrays inside: compared by identity, never element-wise
@@ -810,7 +801,7 @@ def resample(
 
     fixes, fix_ok = interpolate_fixes(
         gnss_t,
-        {k: v for k, v in gnss.items() if k in FIX_CHANNELS},
+        {k: v for k, v in gnss.items() if k in c.FIX_CHANNELS},
         grid,
         fix_gap,
         path,
