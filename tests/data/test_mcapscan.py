@@ -577,3 +577,75 @@ def test_a_chunk_whose_compression_is_no_text_is_passed_over(tmp_path):
         assert 0 < got.message_count < want.message_count
         assert f"(byte {at}: 'utf-8' codec can't decode byte 0xff" in got.said
         assert got._files[0].chunks[-1][0] > at  # a chunk after it read
+
+
+def _closed_damaged(tmp_path: Path, compression: str | None, chunk: int) -> tuple[Path, int]:
+    """The closed file, its chunks given their CRCs (as rosbag2 writes them), one changed
+    in the middle of its data: the CRC fails."""
+    data = bytearray(_mcap(tmp_path, compression).read_bytes())
+    chunks = _chunks(data)
+    at, n = chunks[chunk]
+    data[at + n // 2] ^= 0xFF
+    path = tmp_path / f"closed_{chunk}.mcap"
+    path.write_bytes(bytes(data))
+    assert is_finished(path)
+    return path, at
+
+
+@pytest.mark.parametrize("compression", [None, "zstd"])
+def test_a_closed_file_rosbags_refuses_is_read_record_by_record(tmp_path, compression):
+    """A closed file (summary and footer whole) whose second chunk fails its CRC: rosbags
+    refuses it as it reads that chunk, so it is read again from its start record by
+    record, the chunk passed over and the notes saying why: the seconds of the file cut
+    short with the same damage, the whole file's but the damaged chunk's."""
+    from rosbags.highlevel import AnyReader
+
+    _, radius = _drive()
+    path, at = _closed_damaged(tmp_path, compression, 1)
+    with pytest.raises(Exception, match="(?i)checksum|crc"), AnyReader([path]) as bag:
+        for _ in bag.messages():
+            pass
+    got, streams = _seconds(path, radius, "closed.mcap")
+    said = "\n".join(streams.notes)
+    assert "closed.mcap: rosbags refused the file (" in said
+    assert ", closed as they are: read record by record, " in said
+    assert f"1 damaged chunk(s) passed over (byte {at}: " in said
+    cut = tmp_path / "cut.mcap"
+    data = path.read_bytes()
+    cut.write_bytes(data[: _chunks(bytearray(data))[-1][0] + _chunks(bytearray(data))[-1][1]])
+    want, _ = _seconds(cut, radius, "cut.mcap")
+    assert len(got) == len(want) == 75
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(got[q], want[q], err_msg=q)
+
+
+def test_a_closed_file_whose_footer_is_damaged_is_read_whole(tmp_path):
+    """The footer's summary start changed (rosbags cannot find the summary): every chunk
+    is whole, so read record by record the file gives the undamaged file's seconds bit
+    for bit."""
+    _, radius = _drive()
+    whole = _mcap(tmp_path, None)
+    want, _ = _seconds(whole, radius, "whole.mcap")
+    data = bytearray(whole.read_bytes())
+    footer = len(data) - len(MAGIC) - 29  # opcode, length, summary start, offsets, CRC
+    assert data[footer] == 0x02
+    struct.pack_into("<Q", data, footer + 9, 7)  # the summary "starts" inside the header
+    path = tmp_path / "footer.mcap"
+    path.write_bytes(bytes(data))
+    got, streams = _seconds(path, radius, "footer.mcap")
+    assert "footer.mcap: rosbags refused the file (" in "\n".join(streams.notes)
+    assert len(got) == len(want)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(got[q], want[q], err_msg=q)
+
+
+def test_a_closed_file_whose_first_chunk_is_damaged_is_refused_with_rosbags_error(tmp_path):
+    """The first chunk holds the channel records: passed over, no later message has a
+    channel, so the file is refused, with the error rosbags gave (its CRC)."""
+    _, radius = _drive()
+    path, _ = _closed_damaged(tmp_path, None, 0)
+    with pytest.raises(InputError) as err:
+        read_mdf4(path, bag_map(), radius, "m", "first.mcap")
+    text = str(err.value)
+    assert "first.mcap: expected a ROS 2 bag" in text and "closed as they are" not in text
+    assert "checksum" in text.lower() or "crc" in text.lower()

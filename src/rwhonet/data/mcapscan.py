@@ -10,6 +10,8 @@ reindex``. :class:`ScannedMcap` reads such files from their start, as ``mcap rec
 goes: it offers what the reader takes of ``rosbags``' ``AnyReader`` (``connections``,
 ``messages``, ``deserialize``, ``typestore``, ``message_count``, ``topics``), and
 ``rosbags`` deserialises the messages by the definitions the files' schema records carry.
+Closed files ``rosbags`` refuses (a chunk that fails its CRC, a damaged summary or
+footer) are read so too (:func:`rwhonet.data.rosbag.read_bag`).
 
 **The format** (MCAP, mcap.dev/spec): the magic ``\\x89MCAP0\\r\\n``, then records, each an
 opcode (u8), a length (u64 little-endian) and that many bytes: 0x01 the header (its
@@ -116,7 +118,9 @@ class ScannedMcap:
 
     how = "its MCAP records one by one, rosbags deserialising"  # as the reader's notes say
 
-    def __init__(self, paths: Sequence[Path]) -> None:
+    def __init__(self, paths: Sequence[Path], refused: str | None = None) -> None:
+        """Scan ``paths``; ``refused``: why ``rosbags`` refused the closed files (read here
+        for that reason: a damaged chunk or summary), or None for files cut short."""
         self._handles: list[tuple[Any, mmap.mmap]] = []
         self._files: list[_File] = []
         meta = _Meta()
@@ -161,10 +165,15 @@ class ScannedMcap:
             if f.skipped
         ]
         # what was read: the messages, and where each file stopped
-        self.said = (
+        files = "the file" if len(self._files) == 1 else "its files"
+        why = (
             f"{'the file has' if len(self._files) == 1 else 'its files have'} no summary (a "
-            f"recording cut short: ros2 bag record writes it as it closes a file): read "
-            f"record by record, {self.message_count} whole messages"
+            "recording cut short: ros2 bag record writes it as it closes a file)"
+            if refused is None
+            else f"rosbags refused {files} ({refused}), closed as they are"
+        )
+        self.said = (
+            f"{why}: read record by record, {self.message_count} whole messages"
             + (f"; {'; '.join(stops)}" if stops else "")
             + (
                 f"; {self.orphans} message(s) of no channel record passed over"

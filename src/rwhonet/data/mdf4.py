@@ -153,10 +153,11 @@ def _bag_and_bus(
     field (:func:`rwhonet.data.rosbag.rosbag_groups`), any other a signal the databases
     decode from the bag's topics of raw CAN frames
     (:func:`rwhonet.data.rosbag.bag_frames`, each topic a bus), as from a bus tool's log."""
-    from rwhonet.data.rosbag import CLOCK, bag_frames, field_of, opened_bag, rosbag_groups
+    from rwhonet.data.rosbag import CLOCK, bag_frames, field_of, read_bag, rosbag_groups
 
-    groups, notes, changed = [], [], []
-    with opened_bag(path, file) as bag:  # once: read record by record, a cut bag is scanned
+    def read(bag: Any) -> tuple[list[Any], list[str], list[Any]]:
+        """The bag's mapped topics' fields and the signals its CAN frames carry, read once."""
+        groups, notes, changed = [], [], []
         topics = {c.topic for c in bag.connections}
         on_topics = {
             k: spec
@@ -180,6 +181,9 @@ def _bag_and_bus(
             groups += log.groups
             notes += log.notes
             changed += log.changed
+        return groups, notes, changed
+
+    groups, notes, changed = read_bag(path, file, read)
     streams = build_streams(groups, CLOCK, pulse_units(signal_map))
     return dataclasses.replace(
         streams, notes=(*streams.notes, *notes), changed=(*streams.changed, *changed)

@@ -68,10 +68,10 @@ import dataclasses
 import math
 import operator
 import re
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -91,6 +91,7 @@ ROSBAG_SUFFIXES = (".bag",)
 ROS2_FILES = (".mcap", ".db3")
 UNFINISHED = ".bag.active"  # rosbag record's file while it records, left so when it is killed
 CLOCK = "ROS time (s since 1970: the recording computer's clock)"
+T = TypeVar("T")  # what a read of an open bag gives (read_bag)
 _TOPIC = r"[^.\s\[\]]+"  # ROS's names: letters, digits, _, / and ~
 _FIELD = r"[A-Za-z_]\w*(?:\[\d+\])*"
 _SIGNAL = re.compile(rf"^({_TOPIC})\.({_FIELD}(?:\.{_FIELD})*)$")
@@ -262,12 +263,44 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
     return InputError([Problem.unreadable(file, f"a ROS 1 bag ({READ_HOW})", err, fix)])
 
 
+class _RefusedMcap(Exception):
+    """``rosbags`` refused a closed ROS 2 bag of MCAP files as it opened or read it (a
+    damaged chunk, summary or footer): :func:`read_bag` reads it again record by record."""
+
+    def __init__(self, err: BaseException, refusal: InputError) -> None:
+        super().__init__(str(err))
+        self.why = f"{type(err).__name__}: {str(err)[:120]}"
+        self.refusal = refusal
+
+
+def read_bag(path: Path, file: str, read: Callable[[Any], T]) -> T:
+    """``read`` of the bag open (:func:`opened_bag`). A closed ROS 2 bag of MCAP files that
+    ``rosbags`` refuses (a chunk that fails its CRC, a summary or footer that does not
+    parse: a disk's error) is read again from its start record by record
+    (:class:`~rwhonet.data.mcapscan.ScannedMcap`, as a recording cut short is: a damaged
+    chunk passed over, the notes saying why); where that reads no message either, the bag
+    is refused with ``rosbags``' own error."""
+    try:
+        with opened_bag(path, file) as bag:
+            return read(bag)
+    except _RefusedMcap as first:
+        try:
+            with opened_bag(path, file, refused=first.why) as bag:
+                return read(bag)
+        except InputError as err:
+            if any("no whole message" in p.found for p in err.problems):
+                raise first.refusal from None
+            raise
+
+
 @contextlib.contextmanager
-def opened_bag(path: Path, file: str) -> Iterator[Any]:
+def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[Any]:
     """The bag open for reading, once for all that is read of it: ``rosbags``'
     ``AnyReader``, or a :class:`~rwhonet.data.bagscan.ScannedBag` for a ROS 1 recording cut
     short. What fails as it opens, and what ``rosbags`` raises while it is read, is refused
-    as the bag's (:func:`_unreadable`); anything else raised inside passes as it is.
+    as the bag's (:func:`_unreadable`); anything else raised inside passes as it is. A
+    closed ROS 2 bag of MCAP files ``rosbags`` refuses raises :class:`_RefusedMcap` (for
+    :func:`read_bag`); ``refused`` (why it did) opens such a bag record by record.
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
@@ -281,8 +314,9 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
         try:
             if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
                 bag = stack.enter_context(ScannedBag(path))  # cut short: as far as it goes
-            elif ros2 and (unfinished := _unfinished_mcap(path, stack, file)):
-                bag = stack.enter_context(ScannedMcap(unfinished))  # as far as each goes
+            elif ros2 and (unfinished := _unfinished_mcap(path, stack, file, refused)):
+                # as far as each goes
+                bag = stack.enter_context(ScannedMcap(unfinished, refused))
                 if cut:
                     bag.said += f"; the folder has no {METADATA}"
             else:
@@ -301,17 +335,30 @@ def opened_bag(path: Path, file: str) -> Iterator[Any]:
         except InputError:
             raise
         except (AnyReaderError, OSError, ValueError, KeyError, EOFError) as err:
-            raise _unreadable(file, err, ros2) from None
+            raise _refusal(path, file, err, ros2, refused) from None
         except Exception as err:  # rosbags' ReaderError, or what its reading met
             if _in_rosbags(err):
-                raise _unreadable(file, err, ros2) from None
+                raise _refusal(path, file, err, ros2, refused) from None
             raise
         try:
             yield bag
         except Exception as err:  # rosbags' reading and deserialisation errors
             if _in_rosbags(err):
-                raise _unreadable(file, err, ros2) from None
+                raise _refusal(path, file, err, ros2, refused) from None
             raise
+
+
+def _refusal(
+    path: Path, file: str, err: BaseException, ros2: bool, refused: str | None
+) -> Exception:
+    """The bag refused (:func:`_unreadable`), or, where ``rosbags`` refused a closed ROS 2
+    bag of MCAP files not yet read record by record, :class:`_RefusedMcap`."""
+    refusal = _unreadable(file, err, ros2)
+    if not ros2 or refused is not None or isinstance(err, InputError):
+        return refusal
+    files = _storage_files(path) if path.is_dir() else [path]
+    mcap = [p for p in files if Path(without_suffix(p.name)).suffix.lower() == ".mcap"]
+    return _RefusedMcap(err, refusal) if mcap and len(mcap) == len(files) else refusal
 
 
 def _in_rosbags(err: BaseException) -> bool:
@@ -330,15 +377,20 @@ def _in_rosbags(err: BaseException) -> bool:
     return any(f.f_code.co_filename.startswith(homes) for f, _ in frames)
 
 
-def _unfinished_mcap(path: Path, stack: contextlib.ExitStack, file: str) -> list[Path]:
+def _unfinished_mcap(
+    path: Path, stack: contextlib.ExitStack, file: str, refused: str | None = None
+) -> list[Path]:
     """A ROS 2 bag's MCAP files, in order, where one of them ends without its summary and
-    footer (a recording cut short: :mod:`rwhonet.data.mcapscan`), those rosbag2 compressed
-    as it closed them decompressed (:func:`_plain_storage`); none where every one is
-    closed (``rosbags`` reads them) or the bag's storage is sqlite3."""
+    footer (a recording cut short: :mod:`rwhonet.data.mcapscan`), or ``rosbags`` refused
+    them (``refused``), those rosbag2 compressed as it closed them decompressed
+    (:func:`_plain_storage`); none where every one is closed and ``rosbags`` reads them,
+    or the bag's storage is sqlite3."""
     from rwhonet.data.mcapscan import is_finished
 
     files = _storage_files(path) if path.is_dir() else [path]
-    if not any(p.suffix.lower() == ".mcap" and not is_finished(p) for p in files):
+    if refused is None and not any(
+        p.suffix.lower() == ".mcap" and not is_finished(p) for p in files
+    ):
         return []
     return [p for p in _plain_storage(path, stack, file) if p.suffix.lower() == ".mcap"]
 
@@ -383,8 +435,9 @@ def read_rosbag(
         ConfigError: a channel that names no topic and field.
         InputError: as :func:`rosbag_groups`.
     """
-    with opened_bag(path, file) as bag:
-        groups, notes = rosbag_groups(bag, path, signal_map, radius_m, name, file)
+    groups, notes = read_bag(
+        path, file, lambda bag: rosbag_groups(bag, path, signal_map, radius_m, name, file)
+    )
     streams = build_streams(groups, CLOCK, pulse_units(signal_map))
     return dataclasses.replace(streams, notes=(*streams.notes, *notes))
 
