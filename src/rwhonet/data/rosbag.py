@@ -354,7 +354,7 @@ def _refusal(
     """The bag refused (:func:`_unreadable`), or, where ``rosbags`` refused a closed ROS 2
     bag of MCAP files not yet read record by record, :class:`_RefusedMcap`."""
     refusal = _unreadable(file, err, ros2)
-    if not ros2 or refused is not None or isinstance(err, InputError):
+    if not ros2 or refused is not None:
         return refusal
     files = _storage_files(path) if path.is_dir() else [path]
     mcap = [p for p in files if Path(without_suffix(p.name)).suffix.lower() == ".mcap"]
