@@ -76,6 +76,11 @@ def is_finished(path: Path) -> bool:
         return f.read(len(MAGIC)) == MAGIC
 
 
+class NoWholeMessage(ValueError):
+    """The files hold no whole message of a channel record (cut short before any, or the
+    chunk of the channel records damaged)."""
+
+
 class _Damaged(Exception):
     """A record that cannot be what its opcode says (a write the recorder left damaged)."""
 
@@ -113,7 +118,8 @@ class ScannedMcap:
     ``rosbags``' ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`).
 
     Raises:
-        ValueError: a file that is no MCAP file of the ``ros2`` profile; no whole message.
+        ValueError: a file that is no MCAP file of the ``ros2`` profile.
+        NoWholeMessage: no whole message.
     """
 
     how = "its MCAP records one by one, rosbags deserialising"  # as the reader's notes say
@@ -142,12 +148,12 @@ class ScannedMcap:
             skipped = [x for f in self._files for x in f.skipped]
             self.close()
             if skipped:  # the cause first: a refusal's text is kept short
-                raise ValueError(
+                raise NoWholeMessage(
                     f"no whole message: {len(skipped)} damaged chunk(s) passed over "
                     f"({'; '.join(skipped)}), {self.orphans} message(s) of no channel record "
                     "after" + (f"; cut short {stops}" if stops else "")
                 )
-            raise ValueError(f"no whole message: cut short {stops or 'before any'}")
+            raise NoWholeMessage(f"no whole message: cut short {stops or 'before any'}")
         self._ids: dict[tuple[int, int], int] = {}
         connections = []
         for key, (topic, schema_id) in sorted(meta.channels.items()):

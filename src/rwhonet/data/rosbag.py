@@ -273,6 +273,10 @@ class _RefusedMcap(Exception):
         self.refusal = refusal
 
 
+class _ScannedNothing(Exception):
+    """A bag :func:`read_bag` read again record by record holds no whole message either."""
+
+
 def read_bag(path: Path, file: str, read: Callable[[Any], T]) -> T:
     """``read`` of the bag open (:func:`opened_bag`). A closed ROS 2 bag of MCAP files that
     ``rosbags`` refuses (a chunk that fails its CRC, a summary or footer that does not
@@ -287,10 +291,8 @@ def read_bag(path: Path, file: str, read: Callable[[Any], T]) -> T:
         try:
             with opened_bag(path, file, refused=first.why) as bag:
                 return read(bag)
-        except InputError as err:
-            if any("no whole message" in p.found for p in err.problems):
-                raise first.refusal from None
-            raise
+        except _ScannedNothing:
+            raise first.refusal from None
 
 
 @contextlib.contextmanager
@@ -352,7 +354,12 @@ def _refusal(
     path: Path, file: str, err: BaseException, ros2: bool, refused: str | None
 ) -> Exception:
     """The bag refused (:func:`_unreadable`), or, where ``rosbags`` refused a closed ROS 2
-    bag of MCAP files not yet read record by record, :class:`_RefusedMcap`."""
+    bag of MCAP files not yet read record by record, :class:`_RefusedMcap`; where such a
+    bag read record by record holds no message, :class:`_ScannedNothing`."""
+    from rwhonet.data.mcapscan import NoWholeMessage
+
+    if refused is not None and isinstance(err, NoWholeMessage):
+        return _ScannedNothing()
     refusal = _unreadable(file, err, ros2)
     if not ros2 or refused is not None:
         return refusal

@@ -499,8 +499,8 @@ def interpolate_fixes(
     x = np.asarray(at_s, dtype=np.float64)
     m = t.size
     j = np.searchsorted(t, x, side="right") - 1  # the fix at or before x
-    on_fix = (j >= 0) & (x == t[np.maximum(j, 0)])
     at_fix = np.maximum(j, 0)
+    on_fix = (j >= 0) & (x == t[at_fix])
     j = np.clip(j, 0, m - 2)
     span = t[j + 1] - t[j]
     valid = ((x >= t[0]) & (x <= t[-1]) & (span <= max_gap_s)) | on_fix
