@@ -13,6 +13,8 @@
 - :mod:`~rwhonet.data.schema`: the pandera schema of a canonical drive.
 - :mod:`~rwhonet.data.quality`: the GNSS-quality policy and the valid segments.
 - :mod:`~rwhonet.data.fixes`: what counts as a GNSS fix (not (0, 0), enough satellites).
+- :mod:`~rwhonet.data.fixstatus`: a receiver's fix status in a column of its own (GGA
+  quality, u-blox ``fixType``, NavSatStatus, a flag): the positions that are no fix.
 - :mod:`~rwhonet.data.fixtimes`: when each fix was taken: the receiver's epochs (its own
   time, or the regular grid a logger's arrival stamps scatter about, where the wheel
   speeds say so) or the stamps.

@@ -6,13 +6,16 @@ way). With ``iovnbd.py`` this is the only module that knows file column names.
 Columns are matched by name, without regard to case, spaces, punctuation and a unit
 suffix (:func:`find_column`); the time continues across midnight. Besides the channels
 (:data:`KEYS`), a map may name a date column (``date``: the ``t`` column then holds the
-time of day) and hemisphere letter columns (``lat_hemisphere``, ``lon_hemisphere``:
-NMEA's N/S and E/W), which give the channels their day and their signs.
+time of day), hemisphere letter columns (``lat_hemisphere``, ``lon_hemisphere``:
+NMEA's N/S and E/W), which give the channels their day and their signs, and the
+receiver's fix status (``fix``: :mod:`rwhonet.data.fixstatus`), by which a position it
+says is no fix is taken as none.
 """
 
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -30,6 +33,9 @@ from rwhonet.data.csvio import (
     read_text_column,
     without_rows,
 )
+from rwhonet.data.fixstatus import FIX_STATUS, refuse_bad_codes, screen
+from rwhonet.data.fixstatus import UNITS as FIX_STATUS_UNITS
+from rwhonet.data.fixstatus import note as fix_status_note
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
 from rwhonet.data.packed import (
     HHMMSS,
@@ -60,6 +66,7 @@ from rwhonet.errors import InputError, Problem
 # A wheel speed: angular, or the wheel's circumferential speed (NaN: its factor needs the
 # car's tyre radius, :func:`key_factor`; a reader that multiplied by it would give no values)
 _WHEEL_UNITS = {**ANGULAR_WHEEL_UNITS, **dict.fromkeys(LINEAR_WHEEL_UNITS, math.nan)}
+FIX = "fix"  # the receiver's fix status (rwhonet.data.fixstatus)
 WHEEL_KEYS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")  # c.WHEELS' keys, in order
 
 # Column-map key -> (canonical name, {unit: factor to SI}).
@@ -85,6 +92,9 @@ KEYS: dict[str, tuple[str, dict[str, float]]] = {
     "h_acc": (c.H_ACC_M, c.ACCURACY_UNITS),
     # the navigation filter's gyro (validate checks its unit and sign against GNSS)
     "yaw_rate": (c.YAW_RATE_RAD_S, c.YAW_RATE_UNITS),
+    # the receiver's fix status, its codes read by their unit (rwhonet.data.fixstatus): a
+    # position it says is no fix is taken as none; no channel of the drive's
+    FIX: (FIX_STATUS, dict.fromkeys(FIX_STATUS_UNITS, 1.0)),
 }
 REQUIRED_KEYS = tuple(k for k, (name, _) in KEYS.items() if name in c.REQUIRED)
 # A date in a column of its own (rwhonet.data.texttime.parse_dates): no channel of its own,
@@ -172,6 +182,8 @@ def _not_scalable(key: str, unit: str) -> str | None:
     """Why a key's values in ``unit`` are no plain number a scale applies to, or None."""
     if key in AUX_KEYS:
         return "a column of letters or dates"
+    if key == FIX:
+        return "a fix status, whose codes are its meaning"
     if key == "t" and (unit in (ISO8601, CLOCK) or is_pattern(unit)):
         return "a time written as text"
     if is_packed(unit):
@@ -356,6 +368,11 @@ def read_columnmap(
         },
         file,
     )
+    if FIX in positions:
+        columns, said = screened_by_status(
+            columns, column_map[FIX].unit, file, header[positions[FIX]], f"data.column_maps.{name}"
+        )
+        notes += (said,) if said else ()
     if DATE in positions:
         pos, unit = positions[DATE], column_map[DATE].unit
         dates = parse_dates(read_text_column(path, len(header), pos, file, again), unit)
@@ -371,12 +388,37 @@ def read_columnmap(
     return RawDrive(
         columns=columns,
         source_columns={
-            KEYS[k][0]: header[pos] for k, pos in positions.items() if k not in AUX_KEYS
+            KEYS[k][0]: header[pos]
+            for k, pos in positions.items()
+            if k not in AUX_KEYS and k != FIX
         },
         header_match="column_map",
         notes=notes,
         header_rows=again,
     )
+
+
+def screened_by_status(
+    columns: dict[str, np.ndarray], unit: str, file: str, column: str, where: str
+) -> tuple[dict[str, np.ndarray], str | None]:
+    """A column-mapped file's channels with the positions its fix status column says are no
+    fix taken out (:func:`rwhonet.data.fixstatus.screen`), and the note saying how many.
+
+    Args:
+        columns: the channels, the status's codes under ``fix_status`` (row ``i + 1`` at
+            index ``i``).
+        unit: the status's unit.
+        file: the file, as the user knows it.
+        column: the status column's name.
+        where: the map (``data.column_maps.<name>``).
+
+    Raises:
+        InputError: a status that is no code of its unit, with its row.
+    """
+    refuse_bad_codes(columns[FIX_STATUS], unit, file, column.strip(), setting=f"{where}.fix")
+    counts: Counter = Counter()
+    out = screen(columns, unit, counts)
+    return out, fix_status_note(counts, unit, file, column)
 
 
 def columnmap_positions(
@@ -408,7 +450,7 @@ def columnmap_positions(
     # A header that names its unit ("Wheel Speed RL (rpm)") against a map that declares
     # another: one of the two is wrong, and a factor of 9.5 or 57 goes unseen otherwise
     for key, pos in found.items():
-        if key in AUX_KEYS:  # a date's form, a letter: no unit ("Date (dd/mm/yyyy)")
+        if key in AUX_KEYS or key == FIX:  # a date's form, a letter, a code: no unit
             continue
         said = unit_name(header_key(header[pos])[1])
         declared = column_map[key].unit

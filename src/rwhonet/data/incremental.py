@@ -26,6 +26,7 @@ import math
 import os
 import select
 import stat
+from collections import Counter
 from collections.abc import Callable, Collection, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from typing import BinaryIO
@@ -84,6 +85,11 @@ class Layout:
         hemispheres: canonical name -> a column map's hemisphere letter column for it
             (``lat_hemisphere``, ``lon_hemisphere``): its position, unit (``N/S``,
             ``E/W``), name and setting; the letters give the coordinates their signs.
+        fix_status: a column map's fix status column (``fix`` key, read among the
+            channels as :data:`rwhonet.data.fixstatus.FIX_STATUS`): its unit and setting; a
+            position it says is no fix is taken as none (None: no such column).
+        fix_counts: the positions the status took out so far, by code
+            (:func:`rwhonet.data.fixstatus.screen`).
         header: every header cell as written (without a units row's units), to tell a
             header line of other columns among the rows (a logger that restarted with
             another configuration).
@@ -101,10 +107,20 @@ class Layout:
     packed: dict[str, tuple[str, str]] = field(default_factory=dict)
     date: tuple[int, str, str, str] | None = None
     hemispheres: dict[str, tuple[int, str, str, str]] = field(default_factory=dict)
+    fix_status: tuple[str, str] | None = None
     header: tuple[str, ...] = ()
     # how the rows were read where a reader would note it (a time written as text, a file
     # separated by ';'), filled as the first rows arrive
     notes: list[str] = field(default_factory=list)
+    fix_counts: Counter = field(default_factory=Counter)
+
+    def fix_status_note(self, file: str) -> str | None:
+        """What the fix status column took out of the rows read so far (None: nothing)."""
+        if self.fix_status is None:
+            return None
+        from rwhonet.data.fixstatus import FIX_STATUS, note
+
+        return note(self.fix_counts, self.fix_status[0], file, self.names[FIX_STATUS])
 
 
 def layout(
@@ -130,6 +146,7 @@ def layout(
     """
     date: tuple[int, str, str, str] | None = None
     hemispheres: dict[str, tuple[int, str, str, str]] = {}
+    fix_status: tuple[str, str] | None = None
     wheel_note = None
     if fmt == "iovnbd":
         from rwhonet.data.iovnbd import (
@@ -149,6 +166,7 @@ def layout(
     else:
         from rwhonet.data.columnmap import (
             DATE,
+            FIX,
             HEMISPHERES,
             KEYS,
             check_column_map,
@@ -167,6 +185,8 @@ def layout(
                 at = by_key.pop(key)
                 setting = f"data.column_maps.{fmt}.{key}"
                 hemispheres[KEYS[coordinate][0]] = (at, unit, header[at], setting)
+        if FIX in by_key:
+            fix_status = ((column_map or {})[FIX].unit, f"data.column_maps.{fmt}.{FIX}")
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
         # a strptime pattern for the time is text, read as seconds: factor 1; a packed unit
         # is unpacked (factor 1 before); a circumferential wheel speed by the radius
@@ -184,6 +204,10 @@ def layout(
             if is_packed(unit)
         }
     wanted = carried_channels(positions)
+    if fix_status is not None:  # read with the channels, taken off as each block is screened
+        from rwhonet.data.fixstatus import FIX_STATUS
+
+        wanted = (*wanted, FIX_STATUS)
     positions = {name: positions[name] for name in wanted}
     declared = None if fmt == "iovnbd" else (column_map or {})["t"].unit
     return Layout(
@@ -197,6 +221,7 @@ def layout(
         packed={name: how for name, how in packed.items() if name in wanted},
         date=date,
         hemispheres=hemispheres,
+        fix_status=fix_status,
         header=tuple(header),
         notes=[
             *([] if date is None else [date_note(date[2], header[positions[c.T_S]], date[1])]),
@@ -979,6 +1004,8 @@ def _blocks(
         row = cut.next_row or row
     if (said := header_again_note(np.asarray(cut.rows, dtype=np.int64))) is not None:
         lay.notes.append(said)
+    if (said := lay.fix_status_note(file)) is not None:
+        lay.notes.append(said)
     if row - 1 <= len(cut.rows):  # no row, or the header's line again only
         raise InputError([no_data_rows(file)])
 
@@ -1092,6 +1119,14 @@ def parse_lines(
         file,
         first_row,
     )
+    if lay.fix_status is not None:
+        from rwhonet.data.fixstatus import FIX_STATUS, refuse_bad_codes, screen
+
+        unit, setting = lay.fix_status
+        rows = first_row + np.arange(len(out[FIX_STATUS]))
+        column = lay.names[FIX_STATUS].strip()
+        refuse_bad_codes(out[FIX_STATUS], unit, file, column, rows, setting)
+        out = screen(out, unit, lay.fix_counts)
     if text_time:
         assert form is not None and form.text is not None
         out[c.T_S] = _text_times(text, lay, first_row, file, form)

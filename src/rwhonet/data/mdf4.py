@@ -47,6 +47,7 @@ from rwhonet.data.signalmap import (
     Group,
     build_streams,
     check_signal_map,
+    fix_status_unit,
     mapped_unit_name,
     pulse_units,
     to_si,
@@ -117,7 +118,9 @@ def read_mdf4(
         log = can_log_groups(
             Path(path), signal_map, radius_m, name, file, dbc, False, local_zone, max_mb
         )
-        streams = build_streams(log.groups, log.clock, pulse_units(signal_map))
+        streams = build_streams(
+            log.groups, log.clock, pulse_units(signal_map), fix_status_unit(signal_map)
+        )
         return dataclasses.replace(
             streams,
             notes=(*streams.notes, *log.notes),
@@ -127,7 +130,9 @@ def read_mdf4(
         log = can_log_groups(
             Path(path), signal_map, radius_m, name, file, dbc, False, None, max_mb, False
         )
-        streams = build_streams(log.groups, log.clock, pulse_units(signal_map))
+        streams = build_streams(
+            log.groups, log.clock, pulse_units(signal_map), fix_status_unit(signal_map)
+        )
         return dataclasses.replace(
             streams,
             notes=(*streams.notes, *log.notes),
@@ -184,7 +189,7 @@ def _bag_and_bus(
         return groups, notes, changed
 
     groups, notes, changed = read_bag(path, file, read)
-    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
+    streams = build_streams(groups, CLOCK, pulse_units(signal_map), fix_status_unit(signal_map))
     return dataclasses.replace(
         streams, notes=(*streams.notes, *notes), changed=(*streams.changed, *changed)
     )
@@ -935,7 +940,10 @@ def _read(
 ) -> DriveStreams:
     """The mapped signals of ``mdf``, one stream per channel group."""
     return build_streams(
-        _groups(mdf, signal_map, radius_m, name, file), CLOCK, pulse_units(signal_map)
+        _groups(mdf, signal_map, radius_m, name, file),
+        CLOCK,
+        pulse_units(signal_map),
+        fix_status_unit(signal_map),
     )
 
 

@@ -78,7 +78,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data.columnmap import scaled
 from rwhonet.data.compressed import without_suffix
-from rwhonet.data.signalmap import Group, build_streams, pulse_units, to_si
+from rwhonet.data.signalmap import Group, build_streams, fix_status_unit, pulse_units, to_si
 from rwhonet.data.streams import DriveStreams
 from rwhonet.errors import InputError, Problem
 
@@ -445,7 +445,7 @@ def read_rosbag(
     groups, notes = read_bag(
         path, file, lambda bag: rosbag_groups(bag, path, signal_map, radius_m, name, file)
     )
-    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
+    streams = build_streams(groups, CLOCK, pulse_units(signal_map), fix_status_unit(signal_map))
     return dataclasses.replace(streams, notes=(*streams.notes, *notes))
 
 

@@ -29,6 +29,10 @@ column) and its unit. Keys and units:
                                               8855 z up); ``rad/s cw``, ``deg/s cw`` for a
                                               gyro positive clockwise (z down)
 ``acc_lon``, ``acc_lat``                      ``m/s2``, ``g``
+``fix``                                       ``gga``, ``ubx``, ``navsat``, ``flag``: the
+                                              receiver's fix status; a position it says is
+                                              no fix is taken as none
+                                              (:mod:`rwhonet.data.fixstatus`)
 ``date`` (CSV streams: then in every file)    ``ddmmyy`` or a strptime date pattern; ``t``
                                               is then the time of day
 ``lat_hemisphere``, ``lon_hemisphere`` (CSV   ``N/S``, ``E/W``: NMEA's letters, in the file
@@ -43,6 +47,7 @@ the wheel, GNSS and other streams :func:`rwhonet.data.streams.resample` takes.
 from __future__ import annotations
 
 import dataclasses
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from math import nan
@@ -51,7 +56,10 @@ import numpy as np
 
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
-from rwhonet.data.columnmap import AUX_KEYS, WHEEL_KEYS, aux_key_issues, scale_issues
+from rwhonet.data.columnmap import AUX_KEYS, FIX, WHEEL_KEYS, aux_key_issues, scale_issues
+from rwhonet.data.fixstatus import FIX_STATUS, refuse_bad_codes, screen
+from rwhonet.data.fixstatus import UNITS as FIX_STATUS_UNITS
+from rwhonet.data.fixstatus import note as fix_status_note
 from rwhonet.data.headers import map_unit_name
 from rwhonet.data.packed import HHMMSS, VBOX_SATS, is_packed, unpack_or_refuse
 from rwhonet.data.sampleorder import time_order
@@ -90,9 +98,11 @@ KEYS: dict[str, tuple[str, dict[str, float] | None]] = {
     "speed_vehicle": (c.SPEED_VEHICLE_M_S, _SPEED),
     "acc_lon": (c.ACC_LON_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
     "acc_lat": (c.ACC_LAT_M_S2, {"m/s2": 1.0, "g": c.G_M_S2}),
+    # codes as logged, read by build_streams (rwhonet.data.fixstatus); no channel of a drive
+    FIX: (FIX_STATUS, dict.fromkeys(FIX_STATUS_UNITS, 1.0)),
 }
 REQUIRED_KEYS = (*WHEEL_KEYS, "lat", "lon")
-FIX_KEYS = ("lat", "lon", "n_sats", "h_acc", "speed_gnss", "heading", "height")
+FIX_KEYS = ("lat", "lon", "n_sats", "h_acc", "speed_gnss", "heading", "height", FIX)
 
 
 def units_of(key: str) -> tuple[str, ...]:
@@ -268,16 +278,26 @@ def _counted(g: Group, pulses: Mapping[str, PulseUnit]) -> tuple[Group, list[str
     return dataclasses.replace(g, channels=channels), notes
 
 
+def fix_status_unit(signal_map: Mapping[str, ColumnSpec]) -> str | None:
+    """The unit of the map's fix status (``fix`` key), or None where it names none."""
+    return signal_map[FIX].unit if FIX in signal_map else None
+
+
 def build_streams(
-    groups: Sequence[Group], clock: str, pulses: Mapping[str, PulseUnit] | None = None
+    groups: Sequence[Group],
+    clock: str,
+    pulses: Mapping[str, PulseUnit] | None = None,
+    fix_unit: str | None = None,
 ) -> DriveStreams:
     """Sort groups of channels into the wheel, GNSS and other streams of a drive.
 
     A group holding wheel speeds is a wheel stream (with any other rates it holds); the
     group holding latitude and longitude is the GNSS stream; GNSS channels logged apart
     from the fixes (a satellite count in another message) are taken at the fixes' times
-    (the satellite count of the last message at or before a fix, the others
-    interpolated); the remaining rates are streams of their own.
+    (the satellite count and fix status of the last message at or before a fix, the
+    others interpolated); the remaining rates are streams of their own. A position whose
+    fix status (``fix`` key) says no fix is taken as none
+    (:func:`rwhonet.data.fixstatus.screen`).
 
     Args:
         groups: the channel groups (each key in one group; ``t`` not among the channels).
@@ -285,13 +305,14 @@ def build_streams(
         pulses: the wheels given as pulse counters (:func:`pulse_units`): their counts
             are made speeds once the samples are in time order
             (:func:`rwhonet.data.wheelpulses.pulses_to_rad_s`).
+        fix_unit: the unit of the fix status a group holds (:func:`fix_status_unit`).
 
     Returns:
         The drive's streams.
 
     Raises:
         InputError: latitude and longitude in different groups with different times; a
-            pulse count that is no count.
+            pulse count that is no count; a fix status that is no code of its unit.
     """
 
     def stream(g: Group, keys: Sequence[str]) -> Stream:
@@ -319,6 +340,12 @@ def build_streams(
     wheels, extra = [], []
     fix_group = None
     for g in groups:
+        if FIX in g.channels:  # every code checked where it was logged, with its row
+            assert fix_unit is not None, "a fix status without its unit"
+            rows = g.rows if g.rows is not None else np.arange(1, g.t_s.size + 1)
+            setting = f"the map's {FIX}.unit"
+            refuse_bad_codes(g.channels[FIX], fix_unit, g.where, g.sources[FIX], rows, setting)
+    for g in groups:
         keys = list(g.channels)
         if "lat" in keys or "lon" in keys:
             if fix_group is not None:
@@ -344,12 +371,19 @@ def build_streams(
             if k in g.channels:
                 fixes[k] = _at_times(k, g.t_s, g.channels[k], fix_group.t_s)
                 sources[k] = f"{g.sources[k]} (at the fixes' times)"
+    channels = {KEYS[k][0]: v for k, v in fixes.items()}
+    if FIX in fixes:
+        assert fix_unit is not None
+        counts: Counter = Counter()
+        channels = screen(channels, fix_unit, counts)
+        if said := fix_status_note(counts, fix_unit, fix_group.where, sources[FIX]):
+            converted.append(said)
     gnss = Stream(
         fix_group.name,
         fix_group.file,
         fix_group.t_s,
-        {KEYS[k][0]: v for k, v in fixes.items()},
-        {KEYS[k][0]: s for k, s in sources.items()},
+        channels,
+        {KEYS[k][0]: s for k, s in sources.items() if k != FIX},
         fix_group.rows,
         fix_group.parts,
         fix_group.part,
@@ -362,7 +396,7 @@ def build_streams(
 def _at_times(key: str, t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
     if t.size == 0:
         return np.full(at.size, np.nan)
-    if key == "n_sats":
+    if key in ("n_sats", FIX):  # a count, a code: the last logged, not between two
         i = np.searchsorted(t, at, side="right") - 1
         return np.where(i >= 0, values[np.maximum(i, 0)], np.nan)
     period = 360.0 if key == "heading" else None

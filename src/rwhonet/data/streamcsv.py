@@ -79,6 +79,7 @@ from rwhonet.data.signalmap import (
     Group,
     build_streams,
     check_signal_map,
+    fix_status_unit,
     mapped_unit_name,
     pulse_units,
     to_si,
@@ -416,7 +417,7 @@ def read_stream_csvs(
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in the stream files")
     groups = _next_day_starts(join_parts(groups, notes, changed), notes)
-    streams = build_streams(groups, CLOCK, pulse_units(signal_map))
+    streams = build_streams(groups, CLOCK, pulse_units(signal_map), fix_status_unit(signal_map))
     return dataclasses.replace(
         streams, notes=(*streams.notes, *notes), changed=(*changed, *streams.changed)
     )

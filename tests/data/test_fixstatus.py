@@ -1,0 +1,382 @@
+"""A receiver's fix status in a column of its own (a map's ``fix`` key).
+
+A logger writes the receiver's position beside its status (GGA quality, u-blox
+``fixType``, a NavSatStatus, a flag); a position the status says is no fix (the
+receiver's own dead reckoning, GGA 6 or ``fixType`` 1) is taken as none, by ingest's and
+predict's column-map readers and by every signal-map reader (stream CSVs, MDF4, ROS
+bags). A code the unit does not have is refused with its row.
+"""
+
+from __future__ import annotations
+
+import io
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rwhonet.config import ColumnSpec, ConfigError
+from rwhonet.data import canonical as c
+from rwhonet.data.columnmap import check_column_map, read_columnmap
+from rwhonet.data.fixstatus import (
+    FIX_STATUS,
+    NO_STATUS,
+    POSITIONS,
+    is_fix,
+    note,
+    refuse_bad_codes,
+    screen,
+)
+from rwhonet.data.incremental import read_rows
+from rwhonet.data.signalmap import check_signal_map
+from rwhonet.errors import InputError
+from support.drives import CUPAC_MAP, TARGET_RADIUS_M, straight_drive, write_columnmap
+
+T0 = 45000.0
+
+
+def _specs(cmap: dict) -> dict[str, ColumnSpec]:
+    return {k: ColumnSpec(col, unit) for k, (col, unit) in cmap.items()}
+
+
+@pytest.mark.parametrize(
+    ("unit", "codes", "fixes"),
+    [
+        ("gga", [0, 1, 2, 3, 4, 5, 6, 7, 8, 9], [0, 1, 1, 1, 1, 1, 0, 0, 0, 1]),
+        ("ubx", [0, 1, 2, 3, 4, 5], [0, 0, 1, 1, 1, 0]),
+        ("navsat", [-2, -1, 0, 1, 2, 18, 33], [0, 0, 1, 1, 1, 1, 1]),
+        ("flag", [0, 1], [0, 1]),
+    ],
+)
+def test_each_unit_s_codes_that_are_a_fix(unit, codes, fixes):
+    x = np.array([*codes, np.nan], dtype=np.float64)
+    refuse_bad_codes(x, unit, "f.csv", "Q")  # every code of the unit, and an empty cell
+    assert is_fix(x, unit).tolist() == [*map(bool, fixes), False]
+
+
+@pytest.mark.parametrize(
+    ("unit", "bad"),
+    [("gga", 10.0), ("gga", -1.0), ("gga", 1.5), ("ubx", 6.0), ("navsat", 0.5), ("flag", 2.0)],
+)
+def test_a_code_the_unit_does_not_have_is_refused_with_its_row(unit, bad):
+    x = np.array([1.0, 1.0, bad, 1.0, np.inf])
+    with pytest.raises(InputError) as err:
+        refuse_bad_codes(x, unit, "f.csv", "Quality", rows=np.array([7, 8, 9, 10, 11]))
+    problems = err.value.problems
+    assert [(p.file, p.row, p.column) for p in problems] == [
+        ("f.csv", 9, "Quality"),
+        ("f.csv", 11, "Quality"),
+    ]
+    assert problems[0].found == repr(bad)
+    assert unit in problems[0].fix
+
+
+def test_screen_takes_out_every_gnss_channel_of_a_position_that_is_no_fix():
+    columns = {
+        c.T_S: np.arange(6.0),
+        c.LAT_DEG: np.array([52.0, 52.0, 52.0, np.nan, 52.0, 52.0]),
+        c.LON_DEG: np.full(6, -1.5),
+        c.N_SATS: np.full(6, 9.0),
+        c.SPEED_GNSS_M_S: np.full(6, 10.0),
+        c.OMEGA_RL: np.full(6, 30.0),
+        FIX_STATUS: np.array([1.0, 6.0, np.nan, 0.0, 6.0, 4.0]),
+    }
+    counts: Counter = Counter()
+    out = screen(columns, "gga", counts)
+    assert FIX_STATUS not in out
+    none = [False, True, True, False, True, False]  # row 3: no position to take out
+    for name in (c.LAT_DEG, c.LON_DEG, c.N_SATS, c.SPEED_GNSS_M_S):
+        assert np.isnan(out[name][none]).all(), name
+        assert np.isfinite(out[name][[0, 5]]).all(), name
+    np.testing.assert_array_equal(out[c.OMEGA_RL], columns[c.OMEGA_RL])  # not a fix's
+    np.testing.assert_array_equal(out[c.T_S], columns[c.T_S])
+    assert counts == {POSITIONS: 5, 6: 2, NO_STATUS: 1}
+    said = note(counts, "gga", "f.csv", " Quality ")
+    assert said == (
+        "f.csv: 3 of 5 position(s) whose fix status (Quality, gga) says no fix, taken as rows "
+        "without a fix: 2 at 6 (estimated (dead reckoning)); 1 with no status"
+    )
+    assert note(Counter({POSITIONS: 5}), "gga", "f.csv", "Quality") is None
+
+
+def test_maps_take_the_fix_key_in_its_units_and_refuse_another_or_a_scale():
+    required = _specs(CUPAC_MAP)
+    for unit in ("gga", "ubx", "navsat", "flag"):
+        check_column_map("m", {**required, "fix": ColumnSpec("Quality", unit)})
+        check_signal_map("s", {**required, "fix": ColumnSpec("/gps.status", unit)})
+    with pytest.raises(ConfigError, match=r"data.column_maps.m.fix.unit: expected one of"):
+        check_column_map("m", {**required, "fix": ColumnSpec("Quality", "nmea")})
+    with pytest.raises(ConfigError, match=r"m.fix: expected no scale or offset on a fix status"):
+        check_column_map("m", {**required, "fix": ColumnSpec("Quality", "gga", scale=2.0)})
+
+
+def _drive_with_status(tmp_path: Path, status: np.ndarray, name: str = "d.csv") -> Path:
+    """A straight drive of ``len(status)`` 10 Hz rows, the status beside its fixes."""
+    df = straight_drive((len(status) - 1) / 10.0, radius_m=TARGET_RADIUS_M, lat0_deg=52.41)
+    assert len(df) == len(status)
+    path = write_columnmap(df, tmp_path / name, CUPAC_MAP)
+    table = pd.read_csv(path)
+    table["GPS Quality"] = status
+    table.to_csv(path, index=False)
+    return path
+
+
+def _dead_reckoning_rows(n: int) -> np.ndarray:
+    status = np.full(n, 1.0)
+    status[50:60] = 6.0  # the receiver's own dead reckoning, 1 s
+    status[120] = 0.0
+    return status
+
+
+def test_ingest_s_and_predict_s_readers_take_a_position_that_is_no_fix_as_none(tmp_path):
+    n = 201
+    status = _dead_reckoning_rows(n)
+    path = _drive_with_status(tmp_path, status)
+    cmap = CUPAC_MAP | {"fix": ("GPS Quality", "gga")}
+    raw = read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M)
+    got = raw.columns
+    none = status != 1.0
+    assert FIX_STATUS not in got and FIX_STATUS not in raw.source_columns
+    for name in (c.LAT_DEG, c.LON_DEG, c.N_SATS):
+        assert np.isnan(got[name][none]).all() and np.isfinite(got[name][~none]).all()
+    assert np.isfinite(got[c.OMEGA_RL]).all() and got[c.T_S].size == n
+    said = [x for x in raw.notes if "fix status" in x]
+    assert said == [
+        f"{path}: 11 of 201 position(s) whose fix status (GPS Quality, gga) says no fix, "
+        "taken as rows without a fix: 1 at 0 (invalid); 10 at 6 (estimated (dead reckoning))"
+    ]
+    # predict's reader, in blocks of a few dozen rows: the same rows, one note for them all
+    lay, blocks = read_rows(
+        io.BytesIO(path.read_bytes()),
+        path.name,
+        "m",
+        _specs(cmap),
+        block_bytes=2048,
+        radius_m=TARGET_RADIUS_M,
+    )
+    parts = list(blocks)  # parsed 2 KiB at a time, each part screened and counted
+    lat = np.concatenate([b[c.LAT_DEG] for _, b in parts])
+    np.testing.assert_array_equal(lat, got[c.LAT_DEG])
+    assert all(FIX_STATUS not in b for _, b in parts)
+    assert [x for x in lay.notes if "fix status" in x] == [said[0].replace(str(path), path.name)]
+
+
+def test_a_column_map_s_status_that_is_no_code_is_refused_naming_file_row_and_column(tmp_path):
+    status = np.full(201, 1.0)
+    status[33] = 12.0
+    path = _drive_with_status(tmp_path, status)
+    cmap = CUPAC_MAP | {"fix": ("GPS Quality", "gga")}
+    for read in (
+        lambda: read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M),
+        lambda: list(
+            read_rows(
+                io.BytesIO(path.read_bytes()),
+                str(path),
+                "m",
+                _specs(cmap),
+                block_bytes=2048,
+                radius_m=TARGET_RADIUS_M,
+            )[1]
+        ),
+    ):
+        with pytest.raises(InputError) as err:
+            read()
+        (p,) = err.value.problems
+        assert (p.file, p.row, p.column, p.found) == (str(path), 34, "GPS Quality", "12.0")
+        assert "data.column_maps.m.fix declares 'gga'" in p.fix
+
+
+def _stream_csvs(tmp_path: Path, status: np.ndarray, status_file: str | None = None) -> dict:
+    """A wheel CSV at 80 Hz and a 1 Hz receiver CSV whose u-blox fixType says 1 (dead
+    reckoning only) at fixes 10 and 11; the status in the receiver's file, or in one of its
+    own (``status_file``) logged 0.05 s before each fix (the last at or before a fix is
+    its)."""
+    v, r = 12.0, TARGET_RADIUS_M
+    t_w = np.arange(0.0, 30.0, 0.0125) + 5000.0
+    t_g = np.arange(0.0, 30.0, 1.0) + 5000.3
+    wheels = {f"w{k}": v / r for k in ("fl", "fr", "rl", "rr")}
+    pd.DataFrame({"t": t_w, **wheels}).to_csv(tmp_path / "can.csv", index=False)
+    lat = -33.9 + v * (t_g - 5000.0) / 110_900.0
+    gps = pd.DataFrame({"t": t_g, "lat": lat, "lon": 151.2})
+    if status_file is None:
+        gps["fixType"] = status
+    else:
+        pd.DataFrame({"t": t_g - 0.05, "fixType": status}).to_csv(
+            tmp_path / status_file, index=False
+        )
+    gps.to_csv(tmp_path / "gps.csv", index=False)
+    return {
+        "t": ColumnSpec("t", "s"),
+        **{f"omega_{k}": ColumnSpec(f"w{k}", "rad/s") for k in ("fl", "fr", "rl", "rr")},
+        "lat": ColumnSpec("lat", "deg"),
+        "lon": ColumnSpec("lon", "deg"),
+        "fix": ColumnSpec("fixType", "ubx"),
+    }
+
+
+@pytest.mark.parametrize("status_file", [None, "status.csv"])
+def test_stream_csvs_take_a_fix_their_status_says_is_none_as_none(tmp_path, status_file):
+    from rwhonet.data.streamcsv import read_stream_csvs
+    from rwhonet.data.streams import resample
+
+    status = np.full(30, 3.0)
+    status[[10, 11]] = 1.0
+    smap = _stream_csvs(tmp_path, status, status_file)
+    streams = read_stream_csvs(sorted(tmp_path.glob("*.csv")), smap, TARGET_RADIUS_M)
+    lat = streams.gnss.channels[c.LAT_DEG]
+    assert np.isnan(lat[[10, 11]]).all() and np.isfinite(np.delete(lat, [10, 11])).all()
+    assert FIX_STATUS not in streams.gnss.channels and FIX_STATUS not in streams.gnss.sources
+    assert any(
+        "2 of 30 position(s) whose fix status" in x and "2 at 1 (dead reckoning only)" in x
+        for x in streams.notes
+    )
+    # onto the grid: no position between the fixes before and after the two
+    d = resample(streams, max_fix_gap_s=1.5).drive.columns
+    t, gap = d[c.T_S], (d[c.T_S] > 5009.3 + 1e-6) & (d[c.T_S] < 5012.3 - 1e-6)
+    assert (
+        np.isnan(d[c.LAT_DEG][gap]).all() and np.isfinite(d[c.LAT_DEG][~gap & (t > 5000.3)]).all()
+    )
+
+
+def test_a_stream_s_status_that_is_no_code_is_refused_with_its_file_and_row(tmp_path):
+    from rwhonet.data.streamcsv import read_stream_csvs
+
+    status = np.full(30, 3.0)
+    status[7] = 9.0
+    smap = _stream_csvs(tmp_path, status)
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(sorted(tmp_path.glob("*.csv")), smap, TARGET_RADIUS_M)
+    (p,) = err.value.problems
+    assert (p.row, p.column, p.found) == (8, "fixType", "9.0")
+    assert "gps.csv" in p.file and "the map's fix.unit declares 'ubx'" in p.fix
+
+
+def test_an_mdf4_signal_of_the_receiver_s_fix_type_takes_its_dead_reckoning_out(tmp_path):
+    from asammdf import MDF, Signal
+
+    from rwhonet.data.mdf4 import read_mdf4
+
+    r, v = TARGET_RADIUS_M, 14.0
+    mdf = MDF(version="4.10")
+    t_w = np.arange(0.0, 20.0, 0.02)
+    mdf.append([Signal(np.full(t_w.size, v / r), t_w, name=f"W{k}") for k in range(4)])
+    t_g = np.arange(0.05, 20.0, 0.2)  # a 5 Hz receiver, its fixType in the same message
+    fix_type = np.where((t_g > 8.0) & (t_g < 9.0), 1, 3).astype(np.uint8)
+    lat = 48.1 + v * t_g / 111_200.0
+    mdf.append(
+        [
+            Signal(lat, t_g, name="Lat", unit="deg"),
+            Signal(np.full(t_g.size, 11.5), t_g, name="Lon", unit="deg"),
+            Signal(fix_type, t_g, name="FixType"),
+        ]
+    )
+    path = tmp_path / "log.mf4"
+    mdf.save(path, overwrite=True)
+    mdf.close()
+    smap = {
+        **{
+            f"omega_{w}": ColumnSpec(f"W{k}", "rad/s")
+            for k, w in enumerate(("fl", "fr", "rl", "rr"))
+        },
+        "lat": ColumnSpec("Lat", "deg"),
+        "lon": ColumnSpec("Lon", "deg"),
+        "fix": ColumnSpec("FixType", "ubx"),
+    }
+    streams = read_mdf4(path, smap, r)
+    got = streams.gnss.channels[c.LAT_DEG]
+    none = fix_type == 1
+    assert none.sum() == 5
+    assert np.isnan(got[none]).all() and np.isfinite(got[~none]).all()
+    assert any("5 of 100 position(s) whose fix status (FixType, ubx)" in x for x in streams.notes)
+
+
+def test_a_bag_s_fix_type_on_a_topic_of_its_own_is_taken_at_the_fixes_times(tmp_path):
+    from rwhonet.data.mdf4 import read_mdf4
+    from support.rosbag import bag_map, typestore, write_bag
+
+    r, v = TARGET_RADIUS_M, 14.0
+    t_w = np.arange(0.0, 20.0, 0.02) + 100.0
+    wheels = (t_w, np.full((t_w.size, 4), v / r))
+    t_g = np.arange(0.0, 20.0, 1.0) + 100.05
+    fixes = (t_g, 48.1 + v * (t_g - 100.0) / 111_200.0, np.full(t_g.size, 11.5))
+    codes = np.where(np.isin(np.arange(t_g.size), [6, 7, 8]), 6, 1)  # GGA 6: estimated
+    u8 = typestore().types["std_msgs/msg/UInt8"]
+    quality = [
+        (int(round((t - 0.01) * 1e9)), u8(data=int(q))) for t, q in zip(t_g, codes, strict=True)
+    ]
+    bag = write_bag(
+        tmp_path / "q.bag", wheels, fixes, extra=[("/gps/quality", "std_msgs/msg/UInt8", quality)]
+    )
+    smap = bag_map() | {"fix": ColumnSpec("/gps/quality.data", "gga")}
+    streams = read_mdf4(bag, smap, r, "m", "q.bag")
+    got = streams.gnss.channels[c.LAT_DEG]
+    assert np.isnan(got[6:9]).all() and np.isfinite(np.delete(got, [6, 7, 8])).all()
+    assert any("3 of 20 position(s)" in x and "3 at 6 (estimated" in x for x in streams.notes)
+
+
+def test_ingest_notes_the_receiver_s_dead_reckoning_and_validate_cuts_its_seconds(tmp_path):
+    import json
+
+    from rwhonet.stages.ingest import ingest
+    from rwhonet.stages.validate import validate
+    from support.drives import SHORT, column_map_params, make_params, write_fleet
+
+    raw = tmp_path / "raw"
+    write_fleet(raw, duration_s=40.0)
+    status = np.full(401, 1.0)
+    status[100:130] = 6.0  # 3 s of the receiver's own dead reckoning, from T0 + 10
+    path = _drive_with_status(tmp_path, status)
+    (raw / "target_test").mkdir(parents=True, exist_ok=True)
+    path.rename(raw / "target_test" / "C-B1.q.csv")
+    cmap = CUPAC_MAP | {"fix": ("GPS Quality", "gga")}
+    params = make_params(
+        raw,
+        **SHORT,
+        **{
+            "data.column_maps.q": column_map_params(cmap),
+            "data.roles.target_test": {
+                "glob": "target_test/*.q.csv",
+                "format": "q",
+                "vehicle": "target",
+                "required": True,
+            },
+        },
+    )
+    ingest(params, tmp_path / "drives")
+    manifest = (tmp_path / "drives" / "manifest.json").read_text()
+    assert "30 of 401 position(s) whose fix status (GPS Quality, gga) says no fix" in manifest
+    report = validate(params, tmp_path / "drives", tmp_path / "seg", tmp_path / "report.json")
+    assert json.loads((tmp_path / "report.json").read_text()) == report
+    drive = next(d for d in report["drives"] if d["drive"] == "C-B1.q")
+    # the second before the first such row ends without a fix: a label needs both ends
+    assert [(x["start_s"], x["end_s"]) for x in drive["cuts"] if x["rule"] == "low_sats"] == [
+        (T0 + 9, T0 + 13)
+    ]
+    assert [(s["t_start_s"], s["t_end_s"]) for s in drive["segments"]] == [
+        (T0, T0 + 9),
+        (T0 + 13, T0 + 40),
+    ]
+
+
+def test_with_the_fixes_from_a_receiver_s_log_a_status_column_no_stream_has_is_refused(
+    tmp_path,
+):
+    from rwhonet.sim.streams import signal_map, write_stream_csvs
+    from support.multirate import receiver_drive, receiver_labels
+    from support.nmea import nmea_lines, write_nmea
+
+    tables, _ = receiver_drive()
+    t = tables.gnss[c.T_S].to_numpy()
+    folder = tmp_path / "d"
+    folder.mkdir()
+    files = [write_stream_csvs(tables, folder)["wheels"]]
+    files.append(
+        write_nmea(folder / "gps.nmea", nmea_lines(tables.gnss, 1_552_262_400.0 + t, stamps=t))
+    )
+    smap = signal_map() | {"fix": ColumnSpec("Quality", "gga")}
+    with pytest.raises(InputError) as err:
+        receiver_labels(files, smap)
+    said = str(err.value)
+    assert "fix in a stream file or in the receiver log's messages" in said
