@@ -22,6 +22,14 @@ nanoseconds; its data the serialised message), 0x04 and 0x06 the index (passed o
 (a chunk the recorder was writing, cut where the file ends: its whole records are read;
 one compressed, whose compression cannot end, is not); the note says how many messages
 were read and where the file stopped.
+
+**A damaged chunk passed over.** A whole chunk that does not unpack (a bz2 or lz4 chunk
+with a byte changed: a disk's or a card's error) is passed over, as ``mcap recover``
+passes over an MCAP file's, and the chunks after it are read; a chunk whose records stop
+before its end (a record header damaged) keeps its whole records before the damage. A
+closed bag that ``rosbags`` refuses for such damage is read so from its start
+(:func:`rwhonet.data.rosbag.read_bag`), its index passed over. A ROS 1 chunk has no
+checksum: a changed byte in an uncompressed chunk's message data cannot be told.
 """
 
 from __future__ import annotations
@@ -51,6 +59,11 @@ class ScannedConnection:
     md5sum: str
 
 
+class NoWholeMessage(ValueError):
+    """A bag or MCAP file read record by record holds no whole message of a connection
+    (cut short before any, or the chunk of the connection records damaged)."""
+
+
 @dataclass
 class _Scan:
     connections: dict[int, ScannedConnection] = field(default_factory=dict)
@@ -58,6 +71,8 @@ class _Scan:
     messages: list[tuple[int, int, int, int, int]] = field(default_factory=list)
     chunks: list[tuple[int, int, str]] = field(default_factory=list)  # start, bytes, how
     stopped: str = ""
+    # damaged whole chunks passed over (or their records from the damage on): where, why
+    skipped: list[str] = field(default_factory=list)
 
 
 def _fields(header: bytes | memoryview) -> dict[str, bytes]:
@@ -75,11 +90,18 @@ def _fields(header: bytes | memoryview) -> dict[str, bytes]:
     return out
 
 
-def _records(buf: bytes | memoryview, pos: int) -> Iterator[tuple[dict[str, bytes], int, int]]:
+def _records(
+    buf: bytes | memoryview, pos: int, ends: list[int] | None = None
+) -> Iterator[tuple[dict[str, bytes], int, int]]:
     """The records from ``pos``: their fields and their data's start and length (the last
-    one's data may run past the buffer: a chunk cut short)."""
+    one's data may run past the buffer: a chunk cut short); ``ends`` is given where the
+    records stopped."""
     end = len(buf)
-    while pos + 8 <= end:
+    while True:
+        if ends is not None:
+            ends[:] = [pos]
+        if pos + 8 > end:
+            return
         (hlen,) = _U32.unpack_from(buf, pos)
         if hlen > end - pos - 8:
             return
@@ -113,28 +135,23 @@ def _scan(buf: bytes | memoryview) -> _Scan:
     """Every whole connection and message record of the bag, chunk by chunk, in order
     (a compressed chunk unpacked to find its records, then let go)."""
     scan = _Scan()
-    for fields, start, dlen in _records(buf, len(MAGIC)):
-        op = fields["op"][0]
+    ends = [len(MAGIC)]
+    for fields, start, dlen in _records(buf, len(MAGIC), ends):
+        op = fields["op"][0] if fields["op"] else -1
         end = start + dlen
         if op == OP_CHUNK:
-            how = fields.get("compression", b"none").decode()
+            how = fields.get("compression", b"none").decode("latin-1")
             k = len(scan.chunks)
             scan.chunks.append((start, min(end, len(buf)) - start, how))
             try:
                 chunk = _chunk(buf, scan.chunks[k])
-            except Exception:  # a compressed chunk cut short cannot be unpacked
-                scan.stopped = f"inside a {how} chunk at byte {start}, which cannot be unpacked"
-                break
-            for inner, at, n in _records(chunk, 0):
-                if at + n > len(chunk):
+            except Exception as err:  # a compressed chunk cut short, or damaged
+                if end > len(buf):
+                    scan.stopped = f"inside a {how} chunk at byte {start}, which cannot be unpacked"
                     break
-                if inner["op"][0] == OP_CONNECTION:
-                    c = _connection(inner, chunk[at : at + n])
-                    scan.connections.setdefault(c.id, c)
-                elif inner["op"][0] == OP_MESSAGE:
-                    sec, nsec = struct.unpack("<II", inner["time"])
-                    conn = _U32.unpack(inner["conn"])[0]
-                    scan.messages.append((conn, sec * 1_000_000_000 + nsec, k, at, n))
+                scan.skipped.append(f"a {how} chunk at byte {start}: {_why(err)}")
+                continue
+            _chunk_records(scan, chunk, k, start, end <= len(buf))
             del chunk
         elif op == OP_CONNECTION and end <= len(buf):
             c = _connection(fields, buf[start:end])
@@ -143,7 +160,38 @@ def _scan(buf: bytes | memoryview) -> _Scan:
             what = "chunk" if op == OP_CHUNK else "record"
             scan.stopped = f"inside a {what} at byte {start} (its whole records read)"
             break
+    else:
+        if ends[0] + 8 <= len(buf):  # bytes left that are no record: a header damaged
+            scan.stopped = f"at byte {ends[0]} of {len(buf)}, where no whole record starts"
     return scan
+
+
+def _why(err: BaseException) -> str:
+    return f"{type(err).__name__}: {str(err)[:80]}"
+
+
+def _chunk_records(scan: _Scan, chunk: bytes | memoryview, k: int, start: int, whole: bool) -> None:
+    """The connection and message records of chunk ``k`` (at byte ``start``) into ``scan``:
+    its whole records up to the first that is damaged (a chunk cut short: up to its end)."""
+    ends = [0]
+    damage = ""
+    for inner, at, n in _records(chunk, 0, ends):
+        if at + n > len(chunk):  # a record running past the chunk: not whole
+            break
+        try:
+            if inner["op"][:1] == bytes([OP_CONNECTION]):
+                c = _connection(inner, chunk[at : at + n])
+                scan.connections.setdefault(c.id, c)
+            elif inner["op"][:1] == bytes([OP_MESSAGE]):
+                sec, nsec = struct.unpack("<II", inner["time"])
+                (conn,) = _U32.unpack(inner["conn"])
+                scan.messages.append((conn, sec * 1_000_000_000 + nsec, k, at, n))
+        except Exception as err:  # a field damaged: no record of its kind
+            damage = _why(err)
+            break
+    if whole and (damage or ends[0] < len(chunk)):
+        where = f"a chunk at byte {start}: its records stop at byte {ends[0]} of {len(chunk)}"
+        scan.skipped.append(where + (f" ({damage})" if damage else " (a record damaged)"))
 
 
 def _chunk(buf: bytes | memoryview, where: tuple[int, int, str]) -> bytes | memoryview:
@@ -185,9 +233,20 @@ class ScannedBag:
     ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`)."""
 
     how = "record by record, rosbags deserialising"  # how the reader's notes say it was read
+    # a message that does not deserialise is damaged: passed over (rwhonet.data.rosbag)
+    scanned = True
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, refused: str | None = None) -> None:
+        """Scan the bag at ``path``; ``refused``: why ``rosbags`` refused it closed (read
+        here for that reason: a damaged chunk), or None for a bag without its index.
+
+        Raises:
+            ValueError: a file that is empty or no ROS 1 bag.
+            NoWholeMessage: no whole message.
+        """
         from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+        self._refused = refused
 
         self._file = open(path, "rb")  # noqa: SIM115 - closed by close()
         try:
@@ -201,8 +260,14 @@ class ScannedBag:
         self._scan = scan = _scan(self._map)
         if not scan.messages:
             stopped = scan.stopped or "the file ends"
+            skipped = "; ".join(scan.skipped)
             self.close()
-            raise ValueError(
+            if skipped:  # the cause first: a refusal's text is kept short
+                raise NoWholeMessage(
+                    f"no whole message: {len(scan.skipped)} damaged chunk(s) passed over "
+                    f"({skipped}); it stops {stopped}"
+                )
+            raise NoWholeMessage(
                 f"no whole message: the recording was cut short inside its first chunk ({stopped})"
             )
         self.connections: list[ScannedConnection] = [c for _, c in sorted(scan.connections.items())]
@@ -225,11 +290,14 @@ class ScannedBag:
     def said(self) -> str:
         """What was read: the messages, and where the file stopped."""
         end = f"; it stops {self._scan.stopped}" if self._scan.stopped else ""
-        return (
-            f"the bag has no index (a recording cut short: rosbag record leaves "
-            f"drive.bag.active so): read record by record, {self.message_count} whole "
-            f"messages{end}"
+        if skipped := self._scan.skipped:
+            end += f"; {len(skipped)} damaged chunk(s) passed over ({'; '.join(skipped)})"
+        why = (
+            "the bag has no index (a recording cut short: rosbag record leaves drive.bag.active so)"
+            if self._refused is None
+            else f"rosbags refused the bag ({self._refused}), closed as it is"
         )
+        return f"{why}: read record by record, {self.message_count} whole messages{end}"
 
     def messages(
         self, connections: Sequence[ScannedConnection] = ()

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rwhonet.data.bagscan import ScannedConnection
+from rwhonet.data.bagscan import NoWholeMessage, ScannedConnection
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_HEADER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_DATA_END = 1, 3, 4, 5, 6, 0x0F
@@ -74,11 +74,6 @@ def is_finished(path: Path) -> bool:
             return False
         f.seek(size - len(MAGIC))
         return f.read(len(MAGIC)) == MAGIC
-
-
-class NoWholeMessage(ValueError):
-    """The files hold no whole message of a channel record (cut short before any, or the
-    chunk of the channel records damaged)."""
 
 
 class _Damaged(Exception):
@@ -123,6 +118,8 @@ class ScannedMcap:
     """
 
     how = "its MCAP records one by one, rosbags deserialising"  # as the reader's notes say
+    # a message that does not deserialise is damaged: passed over (rwhonet.data.rosbag)
+    scanned = True
 
     def __init__(self, paths: Sequence[Path], refused: str | None = None) -> None:
         """Scan ``paths``; ``refused``: why ``rosbags`` refused the closed files (read here

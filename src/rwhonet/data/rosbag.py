@@ -44,7 +44,9 @@ has none.
 **A recording cut short** (``rosbag record`` killed: ``drive.bag.active``, no index; ``ros2
 bag record`` killed: an ``.mcap`` file without its summary and footer) is read record by
 record as far as it goes (:mod:`rwhonet.data.bagscan`, :mod:`rwhonet.data.mcapscan`), the
-notes saying so.
+notes saying so; so is a closed bag ``rosbags`` refuses (a damaged chunk, index or
+message: :func:`read_bag`), a damaged chunk passed over. A message such a read cannot
+deserialise is damaged: passed over and counted.
 
 **Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file or folder
 ``rosbags`` cannot read; a topic the bag does not have (its topics and types listed);
@@ -246,6 +248,7 @@ class _Topic:
     status: list[float]
     past_end: dict[str, int]
     h_acc: list[float] = dataclasses.field(default_factory=list)  # position_covariance's
+    damaged: int = 0  # messages that do not deserialise, passed over (a bag read by a scan)
 
 
 def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError:
@@ -263,9 +266,10 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
     return InputError([Problem.unreadable(file, f"a ROS 1 bag ({READ_HOW})", err, fix)])
 
 
-class _RefusedMcap(Exception):
-    """``rosbags`` refused a closed ROS 2 bag of MCAP files as it opened or read it (a
-    damaged chunk, summary or footer): :func:`read_bag` reads it again record by record."""
+class _Refused(Exception):
+    """``rosbags`` refused a closed ROS 1 bag or ROS 2 bag of MCAP files as it opened or
+    read it (a damaged chunk, summary, footer or index): :func:`read_bag` reads it again
+    record by record."""
 
     def __init__(self, err: BaseException, refusal: InputError) -> None:
         super().__init__(str(err))
@@ -278,16 +282,17 @@ class _ScannedNothing(Exception):
 
 
 def read_bag(path: Path, file: str, read: Callable[[Any], T]) -> T:
-    """``read`` of the bag open (:func:`opened_bag`). A closed ROS 2 bag of MCAP files that
-    ``rosbags`` refuses (a chunk that fails its CRC, a summary or footer that does not
-    parse: a disk's error) is read again from its start record by record
-    (:class:`~rwhonet.data.mcapscan.ScannedMcap`, as a recording cut short is: a damaged
+    """``read`` of the bag open (:func:`opened_bag`). A closed ROS 1 bag or ROS 2 bag of
+    MCAP files that ``rosbags`` refuses (a chunk that fails its CRC or does not unpack, a
+    summary, footer or index that does not parse: a disk's error) is read again from its
+    start record by record (:class:`~rwhonet.data.bagscan.ScannedBag`,
+    :class:`~rwhonet.data.mcapscan.ScannedMcap`, as a recording cut short is: a damaged
     chunk passed over, the notes saying why); where that reads no message either, the bag
     is refused with ``rosbags``' own error."""
     try:
         with opened_bag(path, file) as bag:
             return read(bag)
-    except _RefusedMcap as first:
+    except _Refused as first:
         try:
             with opened_bag(path, file, refused=first.why) as bag:
                 return read(bag)
@@ -301,8 +306,9 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
     ``AnyReader``, or a :class:`~rwhonet.data.bagscan.ScannedBag` for a ROS 1 recording cut
     short. What fails as it opens, and what ``rosbags`` raises while it is read, is refused
     as the bag's (:func:`_unreadable`); anything else raised inside passes as it is. A
-    closed ROS 2 bag of MCAP files ``rosbags`` refuses raises :class:`_RefusedMcap` (for
-    :func:`read_bag`); ``refused`` (why it did) opens such a bag record by record.
+    closed ROS 1 bag or ROS 2 bag of MCAP files ``rosbags`` refuses raises
+    :class:`_Refused` (for :func:`read_bag`); ``refused`` (why it did) opens such a bag
+    record by record.
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
@@ -314,8 +320,11 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
     cut = path.is_dir() and not (path / METADATA).is_file()  # a ROS 2 folder cut short
     with contextlib.ExitStack() as stack:
         try:
-            if not ros2 and (path.name.lower().endswith(UNFINISHED) or not has_index(path)):
-                bag = stack.enter_context(ScannedBag(path))  # cut short: as far as it goes
+            if not ros2 and (
+                refused is not None or path.name.lower().endswith(UNFINISHED) or not has_index(path)
+            ):
+                # cut short, or refused closed: as far as it goes
+                bag = stack.enter_context(ScannedBag(path, refused))
             elif ros2 and (unfinished := _unfinished_mcap(path, stack, file, refused)):
                 # as far as each goes
                 bag = stack.enter_context(ScannedMcap(unfinished, refused))
@@ -353,19 +362,26 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
 def _refusal(
     path: Path, file: str, err: BaseException, ros2: bool, refused: str | None
 ) -> Exception:
-    """The bag refused (:func:`_unreadable`), or, where ``rosbags`` refused a closed ROS 2
-    bag of MCAP files not yet read record by record, :class:`_RefusedMcap`; where such a
-    bag read record by record holds no message, :class:`_ScannedNothing`."""
-    from rwhonet.data.mcapscan import NoWholeMessage
+    """The bag refused (:func:`_unreadable`), or, where ``rosbags`` refused a closed ROS 1
+    bag (one that starts as a bag) or ROS 2 bag of MCAP files not yet read record by
+    record, :class:`_Refused`; where such a bag read record by record holds no message,
+    :class:`_ScannedNothing`."""
+    from rwhonet.data.bagscan import MAGIC, NoWholeMessage
 
     if refused is not None and isinstance(err, NoWholeMessage):
         return _ScannedNothing()
     refusal = _unreadable(file, err, ros2)
-    if not ros2 or refused is not None:
+    if refused is not None:
         return refusal
+    if not ros2:
+        if path.name.lower().endswith(UNFINISHED) or not path.is_file():
+            return refusal  # read record by record already, or no file
+        with open(path, "rb") as f:
+            head = f.read(len(MAGIC))
+        return _Refused(err, refusal) if head == MAGIC else refusal
     files = _storage_files(path) if path.is_dir() else [path]
     mcap = [p for p in files if Path(without_suffix(p.name)).suffix.lower() == ".mcap"]
-    return _RefusedMcap(err, refusal) if mcap and len(mcap) == len(files) else refusal
+    return _Refused(err, refusal) if mcap and len(mcap) == len(files) else refusal
 
 
 def _in_rosbags(err: BaseException) -> bool:
@@ -707,7 +723,15 @@ def _read_topics(
         getters: dict[str, tuple[Any, bool]] = {}
         stamp = status = accuracy = None
         for con, recorded_ns, raw in bag.messages(connections=cons):
-            msg = bag.deserialize(raw, con.msgtype)
+            try:
+                msg = bag.deserialize(raw, con.msgtype)
+            except Exception as err:
+                # read record by record (cut short, or refused closed: a damaged bag), a
+                # message rosbags cannot deserialise is damaged: passed over and counted
+                if not getattr(bag, "scanned", False) or not _in_rosbags(err):
+                    raise
+                t.damaged += 1
+                continue
             if not t.recorded:  # the first message: every field checked, then read as it
                 for k in keys:
                     try:
@@ -900,6 +924,11 @@ def _group(
         for k, c in t.past_end.items()
         if c
     ]
+    if t.damaged:
+        said.append(
+            f"{file}: {t.topic}: {t.damaged} damaged message(s) that rosbags cannot "
+            f"deserialise as {t.msgtype}, passed over"
+        )
     sources = {k: fields[k].text for k in t.keys}
     h_acc = np.array(t.h_acc, dtype=np.float64)
     if h_acc.size and np.isfinite(h_acc).any():  # a topic that states none has none

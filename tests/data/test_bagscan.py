@@ -1,0 +1,145 @@
+"""A ROS 1 bag with a damaged chunk (a disk's or a card's error), read record by record.
+
+``rosbags`` refuses a closed bag whose chunk does not unpack or whose record header is
+damaged, and with it the whole drive. :func:`rwhonet.data.rosbag.read_bag` reads such a
+bag again from its start (:class:`rwhonet.data.bagscan.ScannedBag`): the damaged chunk
+is passed over (an uncompressed one keeps its whole records before the damage), the
+chunks after it are read, and the notes say so. Where nothing whole is left, the bag is
+refused with ``rosbags``' own error.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.bagscan import MAGIC, OP_CHUNK, NoWholeMessage, ScannedBag, _records
+from rwhonet.data.mdf4 import read_mdf4
+from rwhonet.errors import InputError
+from support.rosbag import bag_map, write_bag
+
+R, V = 0.3, 14.0
+
+
+def _bag(tmp_path: Path, compression: str | None, name: str = "b.bag") -> Path:
+    """60 s of wheels at 50 Hz and fixes at 10 Hz, in chunks of 64 KiB."""
+    t_w = np.arange(0.0, 60.0, 0.02) + 100.0
+    t_g = np.arange(0.0, 60.0, 0.1) + 100.05
+    fixes = (t_g, 48.1 + V * (t_g - 100.0) / 111_200.0, np.full(t_g.size, 11.5))
+    wheels = (t_w, np.full((t_w.size, 4), V / R))
+    return write_bag(tmp_path / name, wheels, fixes, compression=compression, chunk_bytes=1 << 16)
+
+
+def _chunks(data: bytes) -> list[tuple[int, int]]:
+    """Each chunk record's data: its start and length."""
+    return [(s, n) for f, s, n in _records(data, len(MAGIC)) if f["op"][0] == OP_CHUNK]
+
+
+def _damaged(bag: Path, k: int, at: float = 0.5, name: str = "d.bag") -> Path:
+    """The bag with one byte of chunk ``k``'s data changed, ``at`` of the way in."""
+    data = bytearray(bag.read_bytes())
+    start, n = _chunks(bytes(data))[k]
+    data[start + int(n * at)] ^= 0xFF
+    out = bag.with_name(name)
+    out.write_bytes(bytes(data))
+    return out
+
+
+@pytest.mark.parametrize("compression", [None, "bz2", "lz4"])
+def test_a_closed_bag_with_a_damaged_chunk_is_read_past_it(tmp_path, compression):
+    bag = _bag(tmp_path, compression)
+    whole = read_mdf4(bag, bag_map(), R, "m", "b.bag")
+    n_chunks = len(_chunks(bag.read_bytes()))
+    assert n_chunks >= 5
+    k = n_chunks // 2
+    damaged = _damaged(bag, k)
+    from rosbags.highlevel import AnyReader
+
+    with pytest.raises(Exception), AnyReader([damaged]) as reader:  # noqa: B017, PT011
+        for _ in reader.messages():  # rosbags refuses it, as it opens or reads it
+            pass
+    streams = read_mdf4(damaged, bag_map(), R, "m", "d.bag")
+    said = "\n".join(streams.notes)
+    assert "d.bag: rosbags refused the bag (" in said and "closed as it is" in said
+    assert "1 damaged chunk(s) passed over (a " in said
+    t_all, t_got = whole.gnss.t_s, streams.gnss.t_s
+    # every fix read is the whole bag's, with its position; those of the chunk are lost,
+    # those after it read
+    assert set(t_got) < set(t_all) and t_got[-1] == t_all[-1]
+    i = np.searchsorted(t_all, t_got)
+    np.testing.assert_array_equal(
+        streams.gnss.channels[c.LAT_DEG], whole.gnss.channels[c.LAT_DEG][i]
+    )
+    lost = t_all.size - t_got.size
+    assert 0 < lost < t_all.size / 3
+    if compression is None:  # the chunk's whole records before the damage are kept
+        assert "its records stop at byte" in said
+
+
+def test_a_bag_whose_every_chunk_is_damaged_is_refused_with_rosbags_error(tmp_path):
+    bag = _bag(tmp_path, "bz2")
+    data = bytearray(bag.read_bytes())
+    for start, n in _chunks(bytes(data)):
+        data[start + n // 2] ^= 0xFF
+    damaged = tmp_path / "all.bag"
+    damaged.write_bytes(bytes(data))
+    with pytest.raises(InputError) as err:
+        read_mdf4(damaged, bag_map(), R, "m", "all.bag")
+    (p,) = err.value.problems
+    assert p.file == "all.bag" and "OSError: Invalid data stream" in p.found
+    with pytest.raises(NoWholeMessage, match=r"no whole message: \d+ damaged chunk\(s\) passed"):
+        ScannedBag(damaged, refused="OSError")
+
+
+def test_a_file_that_is_no_bag_is_refused_as_before_not_scanned(tmp_path):
+    junk = tmp_path / "j.bag"
+    junk.write_bytes(b"not a bag at all\n" * 100)
+    with pytest.raises(InputError) as err:
+        read_mdf4(junk, bag_map(), R, "m", "j.bag")
+    (p,) = err.value.problems
+    assert "ROS 1 bag" in p.expected and "record by record" not in str(err.value)
+
+
+def test_a_chunk_s_header_damaged_ends_the_read_there_and_says_where(tmp_path):
+    """A record header whose fields are damaged (no ``op``) is no record: the read stops
+    there, as a file cut short stops, and says at which byte."""
+    bag = _bag(tmp_path, "lz4")
+    data = bytearray(bag.read_bytes())
+    starts = _chunks(bytes(data))
+    k = len(starts) // 2
+    at = data.rindex(b"op=", 0, starts[k][0])  # the chunk record's own op field
+    data[at : at + 2] = b"xx"
+    damaged = tmp_path / "h.bag"
+    damaged.write_bytes(bytes(data))
+    with ScannedBag(damaged, refused="ReaderError") as scanned:
+        assert "it stops at byte" in scanned.said and "where no whole record starts" in scanned.said
+        assert {k2 for _, _, k2, _, _ in scanned._scan.messages} == set(range(k))
+
+
+def test_a_damaged_message_is_passed_over_and_counted(tmp_path):
+    """An uncompressed chunk's message whose data no longer deserialises (its header's
+    frame_id length changed): rosbags refuses the bag; read record by record, that one
+    message is passed over and counted, every other read."""
+    from rwhonet.data.bagscan import OP_MESSAGE
+
+    bag = _bag(tmp_path, None)
+    whole = read_mdf4(bag, bag_map(), R, "m", "b.bag")
+    data = bytearray(bag.read_bytes())
+    start, n = _chunks(bytes(data))[2]
+    inner = [
+        at for f, at, _ in _records(bytes(data[start : start + n]), 0) if f["op"][0] == OP_MESSAGE
+    ]
+    at = start + inner[len(inner) // 2]
+    data[at + 12 : at + 16] = (10**6).to_bytes(4, "little")  # seq, stamp, then the length
+    damaged = tmp_path / "m.bag"
+    damaged.write_bytes(bytes(data))
+    streams = read_mdf4(damaged, bag_map(), R, "m", "m.bag")
+    said = "\n".join(streams.notes)
+    assert "m.bag: rosbags refused the bag (" in said and "passed over (" not in said
+    assert "1 damaged message(s) that rosbags cannot deserialise as " in said
+    got = sum(g.t_s.size for g in (*streams.wheels, streams.gnss))
+    want = sum(g.t_s.size for g in (*whole.wheels, whole.gnss))
+    assert got == want - 1
