@@ -380,3 +380,33 @@ def test_with_the_fixes_from_a_receiver_s_log_a_status_column_no_stream_has_is_r
         receiver_labels(files, smap)
     said = str(err.value)
     assert "fix in a stream file or in the receiver log's messages" in said
+
+
+def test_a_status_header_s_unit_suffix_is_not_taken_against_its_codes(tmp_path):
+    """A header that names a unit beside the status (``Fix (count)``) is no contradiction of
+    the map's code unit: the codes have none."""
+    status = np.full(201, 1.0)
+    status[10] = 0.0
+    path = _drive_with_status(tmp_path, status)
+    table = pd.read_csv(path).rename(columns={"GPS Quality": "Fix (count)"})
+    table.to_csv(path, index=False)
+    cmap = CUPAC_MAP | {"fix": ("Fix", "flag")}
+    got = read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M).columns
+    assert np.isnan(got[c.LAT_DEG][10]) and np.isfinite(np.delete(got[c.LAT_DEG], 10)).all()
+
+
+def test_a_stream_s_bad_status_is_named_by_its_row_in_the_file(tmp_path):
+    """Rows a logger wrote out of time order are put in order; a bad status among them is
+    still named by its own row of the file."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+
+    status = np.full(30, 3.0)
+    status[5] = 7.0  # the 6th fix, written as the file's 7th row
+    smap = _stream_csvs(tmp_path, status)
+    gps = pd.read_csv(tmp_path / "gps.csv")
+    order = np.r_[0:5, 6, 5, 7:30]  # the 6th and 7th fixes written the other way round
+    gps.iloc[order].to_csv(tmp_path / "gps.csv", index=False)
+    with pytest.raises(InputError) as err:
+        read_stream_csvs(sorted(tmp_path.glob("*.csv")), smap, TARGET_RADIUS_M)
+    (p,) = err.value.problems
+    assert (p.row, p.column, p.found) == (7, "fixType", "7.0")
