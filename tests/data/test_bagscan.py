@@ -100,7 +100,7 @@ def test_a_file_that_is_no_bag_is_refused_as_before_not_scanned(tmp_path):
     with pytest.raises(InputError) as err:
         read_mdf4(junk, bag_map(), R, "m", "j.bag")
     (p,) = err.value.problems
-    assert "ROS 1 bag" in p.expected and "record by record" not in str(err.value)
+    assert "ROS 1 bag" in p.expected and p.found == "AnyReaderError: File magic is invalid."
 
 
 def test_a_chunk_s_header_damaged_ends_the_read_there_and_says_where(tmp_path):
@@ -143,3 +143,40 @@ def test_a_damaged_message_is_passed_over_and_counted(tmp_path):
     got = sum(g.t_s.size for g in (*streams.wheels, streams.gnss))
     want = sum(g.t_s.size for g in (*whole.wheels, whole.gnss))
     assert got == want - 1
+
+
+def test_a_chunk_cut_short_is_not_said_to_be_damaged(tmp_path):
+    """A recording cut short inside an uncompressed chunk: its whole records read, and the
+    notes say where it stops, not that a chunk was damaged."""
+    bag = _bag(tmp_path, None)
+    data = bag.read_bytes()
+    start, n = _chunks(data)[3]
+    cut = tmp_path / "c.bag.active"
+    cut.write_bytes(data[: start + n // 2])
+    said = "\n".join(read_mdf4(cut, bag_map(), R, "m", cut.name).notes)
+    assert "the bag has no index" in said and "it stops inside a chunk at byte" in said
+    assert "damaged" not in said
+
+
+def test_a_record_whose_fields_are_damaged_ends_its_chunk_there(tmp_path):
+    """A message record of an uncompressed chunk whose ``time`` field's name is damaged:
+    the chunk's records before it are read, those after it are not (no guess at where the
+    next one starts), and the chunks after the chunk are read."""
+    from rwhonet.data.bagscan import OP_MESSAGE
+
+    bag = _bag(tmp_path, None)
+    data = bytearray(bag.read_bytes())
+    start, n = _chunks(bytes(data))[2]
+    inner = [
+        at for f, at, _ in _records(bytes(data[start : start + n]), 0) if f["op"][0] == OP_MESSAGE
+    ]
+    k = len(inner) // 2
+    field = data.index(b"time=", start + inner[k - 1], start + inner[k])
+    data[field : field + 5] = b"tume="
+    damaged = tmp_path / "t.bag"
+    damaged.write_bytes(bytes(data))
+    with ScannedBag(damaged, refused="ReaderError") as scanned:
+        assert "(KeyError: 'time')" in scanned.said
+        in_chunk = [m for m in scanned._scan.messages if m[2] == 2]
+        assert len(in_chunk) == k  # the damaged one (the k-th) and those after it: not read
+        assert max(m[2] for m in scanned._scan.messages) == len(_chunks(bytes(data))) - 1
