@@ -168,6 +168,13 @@ def test_a_file_that_is_no_ros2_mcap_file_is_refused(tmp_path):
     assert not is_finished(other)
     with pytest.raises(InputError, match="the MCAP profile is 'json', not ros2"):
         read_mdf4(other, bag_map(), 0.3, "m", "other.mcap")
+    # a closed file of another profile: rosbags refuses it, and so does its scan, once
+    tables, radius = simulated_streams(20.0, 100.0, 10.0)
+    closed = next(tables_bag(tmp_path / "d", tables, ros2="mcap").glob("*.mcap")).read_bytes()
+    i = closed.index(b"ros2")
+    (tmp_path / "json.mcap").write_bytes(closed[:i] + b"json" + closed[i + 4 :])
+    with pytest.raises(InputError, match="the MCAP profile is 'json', not ros2"):
+        read_mdf4(tmp_path / "json.mcap", bag_map(), radius, "m", "json.mcap")
     only = tmp_path / "only.mcap"
     only.write_bytes(MAGIC)  # killed as it began: the magic alone is no closed file's end
     assert not is_finished(only)
