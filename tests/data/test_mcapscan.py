@@ -659,3 +659,29 @@ def test_a_closed_file_whose_first_chunk_is_damaged_is_refused_with_rosbags_erro
     text = str(err.value)
     assert "first.mcap: expected a ROS 2 bag" in text and "no whole message" not in text
     assert "checksum" in text.lower() or "crc" in text.lower()
+
+
+def test_a_message_that_does_not_deserialise_is_passed_over_and_counted(tmp_path):
+    """A closed, uncompressed file (rosbags' writer leaves the chunk CRCs 0: unchecked)
+    one of whose wheel messages has its header's frame_id length damaged: rosbags cannot
+    deserialise it and refuses the file; read record by record, that message is passed
+    over and counted, every other one read."""
+    tables, radius = simulated_streams(20.0, 100.0, 10.0)
+    folder = tables_bag(tmp_path / "d", tables, ros2="mcap")
+    path = next(folder.glob("*.mcap"))
+    whole = read_mdf4(path, bag_map(), radius, "m", "w.mcap")
+    with ScannedMcap([path]) as scanned:
+        f = scanned._files[0]
+        _, _, k, start, _ = f.messages[len(f.messages) // 2]
+        at = f.chunks[k][0] + start  # the chunk's records are its bytes in the file
+    data = bytearray(path.read_bytes())
+    # CDR: the encapsulation (4 bytes), the stamp (8), then frame_id's length
+    data[at + 12 : at + 16] = (10**6).to_bytes(4, "little")
+    damaged = tmp_path / "m.mcap"
+    damaged.write_bytes(bytes(data))
+    streams = read_mdf4(damaged, bag_map(), radius, "m", "m.mcap")
+    said = "\n".join(streams.notes)
+    assert "m.mcap: rosbags refused the file (" in said
+    assert ": 1 damaged message(s) that rosbags cannot deserialise as " in said
+    got = sum(g.t_s.size for g in (*streams.wheels, streams.gnss))
+    assert got == sum(g.t_s.size for g in (*whole.wheels, whole.gnss)) - 1
