@@ -1318,6 +1318,39 @@ def test_predict_takes_a_fix_validate_would_not_use_as_no_fix(bundle, tmp_path, 
     assert "gnss.csv]: 20 fix(es) at latitude = longitude = 0 left out" in err
 
 
+def test_predict_takes_a_position_its_fix_status_says_is_none_as_no_fix(
+    bundle, tmp_path, capsys, monkeypatch
+):
+    """A column-mapped 10 Hz file whose GGA quality column says 6 (the receiver's own dead
+    reckoning) for 15 s: predict writes what the same file with those fix cells empty
+    gives, and stderr says how many positions its status took out and by which code."""
+    from rwhonet.data import canonical as c
+    from support.drives import CUPAC_MAP, column_map_params, write_columnmap, write_params_yaml
+    from support.serving import wavy_drive
+
+    cmap = CUPAC_MAP | {"fix": ("GPS Quality", "gga")}
+    overrides = {"data.column_maps.logger": column_map_params(cmap)}
+    monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
+    df = wavy_drive(200.0)
+    dead = ((df[c.T_S] > df[c.T_S].iloc[0] + 60) & (df[c.T_S] < df[c.T_S].iloc[0] + 75)).to_numpy()
+    out = {}
+    for name in ("status", "empty"):
+        frame = df.copy()
+        if name == "empty":
+            frame.loc[dead, [c.LAT_DEG, c.LON_DEG, c.N_SATS]] = np.nan
+        path = write_columnmap(frame, tmp_path / f"{name}.csv", CUPAC_MAP)
+        table = pd.read_csv(path)
+        table["GPS Quality"] = np.where(dead, 6, 1) if name == "status" else 1
+        table.to_csv(path, index=False)
+        out[name] = tmp_path / f"{name}-out.csv"
+        args = ["--format", "logger", "--outage", "100:160"]
+        assert main(predict_args(bundle, path, out[name], *args)) == 0
+    err = capsys.readouterr().err
+    assert out["status"].read_text() == out["empty"].read_text()
+    said = f"{int(dead.sum())} of {len(df)} position(s) whose fix status (GPS Quality, gga) says"
+    assert said in err and f"{int(dead.sum())} at 6 (estimated (dead reckoning))" in err
+
+
 def test_predict_drives_a_stream_drive_through_a_gnss_outage(bundle, tmp_path, capsys):
     """No fix for 10 s in gnss.csv (a tunnel): predict keeps the wheel rows, as it keeps a
     10 Hz file's rows with empty fix cells, and dead-reckons through the outage; the
