@@ -48,6 +48,13 @@ def _specs(cmap: dict) -> dict[str, ColumnSpec]:
         ("ubx", [0, 1, 2, 3, 4, 5], [0, 0, 1, 1, 1, 0]),
         ("navsat", [-2, -1, 0, 1, 2, 18, 33], [0, 0, 1, 1, 1, 1, 1]),
         ("flag", [0, 1], [0, 1]),
+        # Septentrio's Mode: bits 0-3 (bit 7: 2D; bit 6: a fixed position's) say it
+        (
+            "sbf",
+            [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 15, 129, 131, 196],
+            [0, 1, 1, 0, 1, 1, 1, 1, 1, 0, 1, 0, 1, 0, 1],
+        ),
+        ("gpsd", [0, 1, 2, 3], [0, 0, 1, 1]),
     ],
 )
 def test_each_unit_s_codes_that_are_a_fix(unit, codes, fixes):
@@ -58,7 +65,17 @@ def test_each_unit_s_codes_that_are_a_fix(unit, codes, fixes):
 
 @pytest.mark.parametrize(
     ("unit", "bad"),
-    [("gga", 10.0), ("gga", -1.0), ("gga", 1.5), ("ubx", 6.0), ("navsat", 0.5), ("flag", 2.0)],
+    [
+        ("gga", 10.0),
+        ("gga", -1.0),
+        ("gga", 1.5),
+        ("ubx", 6.0),
+        ("navsat", 0.5),
+        ("flag", 2.0),
+        ("sbf", 256.0),
+        ("sbf", -1.0),
+        ("gpsd", 4.0),
+    ],
 )
 def test_a_code_the_unit_does_not_have_is_refused_with_its_row(unit, bad):
     x = np.array([1.0, 1.0, bad, 1.0, np.inf])
@@ -410,3 +427,19 @@ def test_a_stream_s_bad_status_is_named_by_its_row_in_the_file(tmp_path):
         read_stream_csvs(sorted(tmp_path.glob("*.csv")), smap, TARGET_RADIUS_M)
     (p,) = err.value.problems
     assert (p.row, p.column, p.found) == (7, "fixType", "7.0")
+
+
+def test_a_septentrio_mode_is_counted_by_its_pvt_mode_bits():
+    """Mode 131 is a fixed location (3) in 2D (bit 7): counted as 3, named as it."""
+    columns = {
+        c.LAT_DEG: np.full(4, 48.0),
+        c.LON_DEG: np.full(4, 11.0),
+        FIX_STATUS: np.array([4.0, 131.0, 3.0, 0.0]),
+    }
+    counts: Counter = Counter()
+    out = screen(columns, "sbf", counts)
+    assert np.isnan(out[c.LAT_DEG]).tolist() == [False, True, True, True]
+    assert note(counts, "sbf", "f.csv", "Mode") == (
+        "f.csv: 3 of 4 position(s) whose fix status (Mode, sbf) says no fix, taken as rows "
+        "without a fix: 1 at 0 (no PVT); 2 at 3 (a fixed location)"
+    )

@@ -17,6 +17,10 @@ unit        fixes                                                no fix
             dead reckoning                                       only, 5 time only
 ``navsat``  ``sensor_msgs/NavSatStatus`` ``status`` 0 and above   below 0 (-1 ``NO_FIX``,
             (FIX, SBAS, GBAS; gps_common's DGPS 18, WAAS 33)     -2 ``UNKNOWN``)
+``sbf``     Septentrio PVT ``Mode`` (bits 0-3; bit 7, 2D, and   0 no PVT, 3 a fixed
+            bit 6 aside) 1 stand-alone, 2 DGPS, 4 RTK fixed, 5   location (set by command),
+            RTK float, 6 SBAS, 7 and 8 moving-base RTK, 10 PPP   9 and 11-15 (none defined)
+``gpsd``    gpsd's TPV ``mode`` 2 (2D), 3 (3D)                   0 unknown, 1 no fix
 ``flag``    1                                                    0
 ==========  ==================================================  =========================
 
@@ -42,13 +46,16 @@ from rwhonet.errors import InputError
 # The status column's name among a reader's channels while it is read (a map's ``fix`` key):
 # taken off (:func:`screen`) before the channels are a drive's.
 FIX_STATUS = "fix_status"
-GGA, UBX, NAVSAT, FLAG = "gga", "ubx", "navsat", "flag"
+GGA, UBX, NAVSAT, SBF, GPSD, FLAG = "gga", "ubx", "navsat", "sbf", "gpsd", "flag"
 # :func:`screen`'s counts: every row with a position; the positions with an empty status
 POSITIONS, NO_STATUS = "positions", "no status"
-UNITS = (GGA, UBX, NAVSAT, FLAG)
+UNITS = (GGA, UBX, NAVSAT, SBF, GPSD, FLAG)
+# the bits of a unit's code that say whether it is a fix (Septentrio's Mode: its bits 0-3)
+_MASKS = {SBF: 0x0F}
 
 # unit -> (the codes that are fixes, the codes it has (None: any integer), the names of
-# the codes that are no fix); GGA as rwhonet.data.nmea.GGA_FIXES, u-blox's as ubx.PVT_FIXES
+# the codes that are no fix); GGA as rwhonet.data.nmea.GGA_FIXES, u-blox's as ubx.PVT_FIXES,
+# Septentrio's as sbf.FIX_MODES (its codes: Mode's bits 0-3)
 _FIXES: dict[str, tuple[frozenset[int] | None, frozenset[int] | None, dict[int, str]]] = {
     GGA: (
         frozenset({1, 2, 3, 4, 5, 9}),
@@ -61,12 +68,20 @@ _FIXES: dict[str, tuple[frozenset[int] | None, frozenset[int] | None, dict[int, 
         {0: "no fix", 1: "dead reckoning only", 5: "time only"},
     ),
     NAVSAT: (None, None, {-1: "NO_FIX", -2: "UNKNOWN"}),  # fixes: 0 and above
+    SBF: (
+        frozenset({1, 2, 4, 5, 6, 7, 8, 10}),
+        frozenset(range(256)),  # a u1, its 2D and fixed-position bits with it
+        {0: "no PVT", 3: "a fixed location"},
+    ),
+    GPSD: (frozenset({2, 3}), frozenset(range(4)), {0: "unknown", 1: "no fix"}),
     FLAG: (frozenset({1}), frozenset({0, 1}), {0: "no fix"}),
 }
 _EXPECTED = {
     GGA: "a GGA fix quality, an integer 0-9",
     UBX: "a u-blox fixType, an integer 0-5",
     NAVSAT: "a NavSatStatus status, an integer",
+    SBF: "a Septentrio PVT Mode, an integer 0-255",
+    GPSD: "a gpsd TPV mode, an integer 0-3",
     FLAG: "a fix flag, 1 (fix) or 0 (no fix)",
 }
 
@@ -118,12 +133,22 @@ def refuse_bad_codes(
 
 def is_fix(codes: np.ndarray, unit: str) -> np.ndarray:
     """Which statuses are a fix (False for an empty cell)."""
-    x = np.asarray(codes, dtype=np.float64)
+    x = _codes(codes, unit)
     fixes = _FIXES[unit][0]
     if fixes is None:
         with np.errstate(invalid="ignore"):
             return x >= 0.0
     return np.isin(x, sorted(fixes))
+
+
+def _codes(codes: np.ndarray, unit: str) -> np.ndarray:
+    """The codes as float64, only the bits that say a fix where the unit has others
+    (:data:`_MASKS`; NaN kept)."""
+    x = np.asarray(codes, dtype=np.float64)
+    if unit not in _MASKS:
+        return x
+    whole = np.where(np.isfinite(x), x, 0.0).astype(np.int64)
+    return np.where(np.isfinite(x), (whole & _MASKS[unit]).astype(np.float64), x)
 
 
 def screen(
@@ -151,7 +176,8 @@ def screen(
     if counts is not None:
         counts[POSITIONS] += int(has.sum())
         counts[NO_STATUS] += int(np.isnan(codes[none]).sum())
-        values, n = np.unique(codes[none & ~np.isnan(codes)], return_counts=True)
+        kept = _codes(codes, unit)  # as the unit reads them: Mode's bits 0-3
+        values, n = np.unique(kept[none & ~np.isnan(codes)], return_counts=True)
         for v, k in zip(values, n, strict=True):
             counts[int(v)] += int(k)
     if not none.any():

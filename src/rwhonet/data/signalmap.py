@@ -29,7 +29,8 @@ column) and its unit. Keys and units:
                                               8855 z up); ``rad/s cw``, ``deg/s cw`` for a
                                               gyro positive clockwise (z down)
 ``acc_lon``, ``acc_lat``                      ``m/s2``, ``g``
-``fix``                                       ``gga``, ``ubx``, ``navsat``, ``flag``: the
+``fix``                                       ``gga``, ``ubx``, ``navsat``, ``sbf``,
+                                              ``gpsd``, ``flag``: the
                                               receiver's fix status; a position it says is
                                               no fix is taken as none
                                               (:mod:`rwhonet.data.fixstatus`)
