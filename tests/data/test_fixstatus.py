@@ -443,3 +443,113 @@ def test_a_septentrio_mode_is_counted_by_its_pvt_mode_bits():
         "f.csv: 3 of 4 position(s) whose fix status (Mode, sbf) says no fix, taken as rows "
         "without a fix: 1 at 0 (no PVT); 2 at 3 (a fixed location)"
     )
+
+
+def test_a_status_written_as_text_reads_as_its_words_and_refuses_another():
+    from rwhonet.data.fixstatus import text_codes
+
+    cells = ["A", " d ", '"V"', "e", None, "", "NaN", "R", "F", "P", "N", "M", "S"]
+    codes = text_codes(cells, "rmc", "f.csv", "Status")
+    assert is_fix(codes, "rmc").tolist() == [1, 1, 0, 0, 0, 0, 0, 1, 1, 1, 0, 0, 0]
+    assert np.isnan(codes[[4, 5, 6]]).all()
+    words = text_codes(["3D", "2d", "none", "dgps", "pps", None], "gpx", "f.csv", "Fix")
+    assert is_fix(words, "gpx").tolist() == [1, 1, 0, 1, 1, 0]
+    with pytest.raises(InputError) as err:
+        text_codes(["A", "A", "X", "3d"], "rmc", "f.csv", "Status", np.array([4, 5, 6, 7]))
+    problems = err.value.problems
+    assert [(p.row, p.column, p.found) for p in problems] == [
+        (6, "Status", "'X'"),
+        (7, "Status", "'3d'"),
+    ]
+    assert "an NMEA status or mode letter" in problems[0].expected
+
+
+def test_a_column_map_s_status_letters_take_out_what_they_say_is_no_fix(tmp_path):
+    """An NMEA-to-CSV logger's RMC status column (A valid, V void) and its mode (E:
+    estimated): ingest's and predict's readers take the V and E rows' positions out, and
+    the note names the letters."""
+    status = np.full(201, "A", dtype=object)
+    status[20:30] = "V"
+    status[40:45] = "E"
+    path = _drive_with_status(tmp_path, status)
+    cmap = CUPAC_MAP | {"fix": ("GPS Quality", "rmc")}
+    raw = read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M)
+    none = status != "A"
+    lat = raw.columns[c.LAT_DEG]
+    assert np.isnan(lat[none]).all() and np.isfinite(lat[~none]).all()
+    said = [x for x in raw.notes if "fix status" in x]
+    assert said == [
+        f"{path}: 15 of 201 position(s) whose fix status (GPS Quality, rmc) says no fix, "
+        "taken as rows without a fix: 10 at V (void); 5 at E (estimated (dead reckoning))"
+    ]
+    lay, blocks = read_rows(
+        io.BytesIO(path.read_bytes()),
+        path.name,
+        "m",
+        _specs(cmap),
+        block_bytes=2048,
+        radius_m=TARGET_RADIUS_M,
+    )
+    got = np.concatenate([b[c.LAT_DEG] for _, b in blocks])
+    np.testing.assert_array_equal(got, lat)
+    assert [x for x in lay.notes if "fix status" in x] == [said[0].replace(str(path), path.name)]
+    status[77] = "Q"
+    path = _drive_with_status(tmp_path, status, "bad.csv")
+    with pytest.raises(InputError) as err:
+        read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M)
+    (p,) = err.value.problems
+    assert (p.row, p.column, p.found) == (78, "GPS Quality", "'Q'")
+    with pytest.raises(InputError) as err:
+        list(
+            read_rows(
+                io.BytesIO(path.read_bytes()),
+                "bad.csv",
+                "m",
+                _specs(cmap),
+                block_bytes=2048,
+                radius_m=TARGET_RADIUS_M,
+            )[1]
+        )
+    (p,) = err.value.problems
+    assert (p.row, p.column, p.found) == (78, "GPS Quality", "'Q'")
+
+
+def test_stream_csvs_read_gpsbabel_s_fix_words(tmp_path):
+    """GPSBabel's unicsv ``Fix`` column (GPX's words): ``none`` fixes taken out."""
+    from rwhonet.data.streamcsv import read_stream_csvs
+
+    words = np.full(30, "3d", dtype=object)
+    words[[10, 11]] = "none"
+    smap = _stream_csvs(tmp_path, words) | {"fix": ColumnSpec("fixType", "gpx")}
+    streams = read_stream_csvs(sorted(tmp_path.glob("*.csv")), smap, TARGET_RADIUS_M)
+    lat = streams.gnss.channels[c.LAT_DEG]
+    assert np.isnan(lat[[10, 11]]).all() and np.isfinite(np.delete(lat, [10, 11])).all()
+    assert any("2 at none (no fix)" in x for x in streams.notes), streams.notes
+
+
+def test_a_status_as_text_is_refused_for_a_logger_s_signals():
+    required = _specs(CUPAC_MAP)
+    check_signal_map(
+        "s", {**required, "t": ColumnSpec("t", "s"), "fix": ColumnSpec("S", "rmc")}, with_time=True
+    )
+    with pytest.raises(
+        ConfigError, match=r"fix.unit: expected a code unit \(gga, ubx, navsat, sbf, gpsd, flag\)"
+    ):
+        check_signal_map("s", {**required, "fix": ColumnSpec("/gps.status", "rmc")})
+
+
+def test_a_column_map_s_gpx_words_read_none_as_a_word_not_a_missing_value(tmp_path):
+    words = np.full(201, "3d", dtype=object)
+    words[50:55] = "none"
+    words[60] = ""  # no status beside a position: not vouched for
+    path = _drive_with_status(tmp_path, words)
+    cmap = CUPAC_MAP | {"fix": ("GPS Quality", "gpx")}
+    raw = read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M)
+    assert np.isnan(raw.columns[c.LAT_DEG]).sum() == 6
+    assert any("5 at none (no fix); 1 with no status" in x for x in raw.notes), raw.notes
+    lay, blocks = read_rows(
+        io.BytesIO(path.read_bytes()), "d.csv", "m", _specs(cmap), radius_m=TARGET_RADIUS_M
+    )
+    got = np.concatenate([b[c.LAT_DEG] for _, b in blocks])
+    np.testing.assert_array_equal(got, raw.columns[c.LAT_DEG])
+    assert any("5 at none (no fix); 1 with no status" in x for x in lay.notes), lay.notes

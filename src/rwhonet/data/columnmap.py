@@ -33,7 +33,7 @@ from rwhonet.data.csvio import (
     read_text_column,
     without_rows,
 )
-from rwhonet.data.fixstatus import FIX_STATUS, refuse_bad_codes, screen
+from rwhonet.data.fixstatus import FIX_STATUS, is_text, refuse_bad_codes, screen, text_codes
 from rwhonet.data.fixstatus import UNITS as FIX_STATUS_UNITS
 from rwhonet.data.fixstatus import note as fix_status_note
 from rwhonet.data.headers import header_key, map_unit_name, unit_name
@@ -322,7 +322,9 @@ def read_columnmap(
     numeric = {
         pos
         for key, pos in positions.items()
-        if not (key == "t" and text_time) and key not in AUX_KEYS
+        if not (key == "t" and text_time)
+        and key not in AUX_KEYS
+        and not (key == FIX and is_text(column_map[FIX].unit))  # letters or words
     }
     values, again = read_numeric_rows(
         path, len(header), {pos: header[pos] for pos in numeric}, file
@@ -334,6 +336,14 @@ def read_columnmap(
     shared = {pos for pos in positions.values() if list(positions.values()).count(pos) > 1}
     for key, spec in column_map.items():
         if key in AUX_KEYS:
+            continue
+        if key == FIX and is_text(spec.unit):
+            pos = positions[key]
+            cells = read_text_column(path, len(header), pos, file, again, nulls=False)
+            where = f"data.column_maps.{name}.fix"
+            columns[FIX_STATUS] = text_codes(
+                cells, spec.unit, file, header[pos].strip(), None, where
+            )
             continue
         canonical, pos, factor = KEYS[key][0], positions[key], factors[key]
         if is_packed(spec.unit):

@@ -992,7 +992,12 @@ def header_again_note(rows: np.ndarray) -> str | None:
 
 
 def read_text_column(
-    path: Path, n_columns: int, pos: int, display: str, blank_rows: np.ndarray = _NO_ROWS
+    path: Path,
+    n_columns: int,
+    pos: int,
+    display: str,
+    blank_rows: np.ndarray = _NO_ROWS,
+    nulls: bool = True,
 ) -> list[str | None]:
     """One column of a CSV file (header row first) as text, one cell per data row.
 
@@ -1007,9 +1012,11 @@ def read_text_column(
         display: how the file is named in error reports.
         blank_rows: data rows (1-based) read as empty: the header's line again
             (:func:`read_numeric_rows`).
+        nulls: whether a cell that says "no value" (``NaN``, ``null``, ``none``) is None;
+            False: every cell as written (a word that is a value: GPX's fix ``none``).
 
     Returns:
-        The cells, None for an empty one.
+        The cells, None for an empty one (with ``nulls``) and the header's line again.
 
     Raises:
         InputError: the file cannot be read as CSV text.
@@ -1025,7 +1032,7 @@ def read_text_column(
         return "skip"
 
     try:
-        reader = _open_columns(path, names, {pos: names[pos]}, pa.string(), on_invalid_row, True)
+        reader = _open_columns(path, names, {pos: names[pos]}, pa.string(), on_invalid_row, nulls)
         for batch in reader:
             cells += batch.column(names[pos]).to_pylist()
         for row in sorted(narrow):

@@ -22,7 +22,17 @@ unit        fixes                                                no fix
             RTK float, 6 SBAS, 7 and 8 moving-base RTK, 10 PPP   9 and 11-15 (none defined)
 ``gpsd``    gpsd's TPV ``mode`` 2 (2D), 3 (3D)                   0 unknown, 1 no fix
 ``flag``    1                                                    0
+``rmc``     as text: NMEA's RMC status and RMC/GNS/GLL mode      ``V`` void, ``N`` not
+            letters ``A`` (valid; autonomous), ``D``             valid, ``E`` estimated
+            differential, ``F`` float RTK, ``P`` precise, ``R``  (dead reckoning), ``M``
+            RTK                                                  manual, ``S`` simulator
+``gpx``     as text: GPX's ``fix`` words ``2d``, ``3d``,         ``none``
+            ``dgps``, ``pps`` (GPSBabel's unicsv ``Fix``)
 ==========  ==================================================  =========================
+
+A status written as text (``rmc``, ``gpx``; case and spaces aside) is read in a CSV (a
+column map's file, a stream CSV), as hemisphere letters are; a logger's MDF4 signal or
+bag field is a number, so a signal map for those takes a code unit.
 
 A position whose status says no fix keeps its time and loses its fix: every GNSS channel
 of that row (:data:`rwhonet.data.canonical.FIX_CHANNELS`) becomes a missing value, as if
@@ -35,7 +45,7 @@ refused, naming its row: it says the column or its unit is not what the map says
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -47,9 +57,17 @@ from rwhonet.errors import InputError
 # taken off (:func:`screen`) before the channels are a drive's.
 FIX_STATUS = "fix_status"
 GGA, UBX, NAVSAT, SBF, GPSD, FLAG = "gga", "ubx", "navsat", "sbf", "gpsd", "flag"
+RMC, GPX = "rmc", "gpx"  # written as text
 # :func:`screen`'s counts: every row with a position; the positions with an empty status
 POSITIONS, NO_STATUS = "positions", "no status"
-UNITS = (GGA, UBX, NAVSAT, SBF, GPSD, FLAG)
+UNITS = (GGA, UBX, NAVSAT, SBF, GPSD, FLAG, RMC, GPX)
+# a status written as text: its words, each read as its place in the tuple (its code here);
+# RMC's status A/V and the modes of RMC, GNS and GLL (NMEA 0183 v2.3 on), as the NMEA
+# reader takes them (rwhonet.data.nmea.RMC_FIXES); GPX 1.1's fixType, as the GPX reader
+TEXT_UNITS = {
+    RMC: ("V", "N", "E", "M", "S", "A", "D", "F", "P", "R"),
+    GPX: ("none", "2d", "3d", "dgps", "pps"),
+}
 # the bits of a unit's code that say whether it is a fix (Septentrio's Mode: its bits 0-3)
 _MASKS = {SBF: 0x0F}
 
@@ -74,6 +92,12 @@ _FIXES: dict[str, tuple[frozenset[int] | None, frozenset[int] | None, dict[int, 
         {0: "no PVT", 3: "a fixed location"},
     ),
     GPSD: (frozenset({2, 3}), frozenset(range(4)), {0: "unknown", 1: "no fix"}),
+    RMC: (
+        frozenset(range(5, 10)),
+        frozenset(range(10)),
+        {0: "void", 1: "not valid", 2: "estimated (dead reckoning)", 3: "manual", 4: "simulator"},
+    ),
+    GPX: (frozenset({1, 2, 3, 4}), frozenset(range(5)), {0: "no fix"}),
     FLAG: (frozenset({1}), frozenset({0, 1}), {0: "no fix"}),
 }
 _EXPECTED = {
@@ -83,7 +107,61 @@ _EXPECTED = {
     SBF: "a Septentrio PVT Mode, an integer 0-255",
     GPSD: "a gpsd TPV mode, an integer 0-3",
     FLAG: "a fix flag, 1 (fix) or 0 (no fix)",
+    RMC: "an NMEA status or mode letter, one of " + ", ".join(TEXT_UNITS[RMC]),
+    GPX: "a GPX fix, one of " + ", ".join(TEXT_UNITS[GPX]),
 }
+
+
+def is_text(unit: str | None) -> bool:
+    """Whether a fix status unit is written as text (:data:`TEXT_UNITS`)."""
+    return unit in TEXT_UNITS
+
+
+def text_codes(
+    cells: Sequence[str | None],
+    unit: str,
+    file: str,
+    column: str,
+    rows: np.ndarray | None = None,
+    setting: str | None = None,
+) -> np.ndarray:
+    """A status column written as text (:data:`TEXT_UNITS`) as its codes.
+
+    Args:
+        cells: the cells (None or a missing value's text: no status).
+        unit: ``rmc`` or ``gpx``.
+        file: the file, as the user knows it.
+        column: the file's column name.
+        rows: each cell's 1-based row (default: ``1, 2, ...``).
+        setting: where the unit was declared, for the fix.
+
+    Returns:
+        Each word's place in the unit's words, float64; NaN for an empty cell.
+
+    Raises:
+        InputError: each cell that is none of the unit's words, with its row.
+    """
+    lookup = {w.lower(): float(i) for i, w in enumerate(TEXT_UNITS[unit])}
+    out = np.full(len(cells), np.nan)
+    bad = []
+    for i, cell in enumerate(cells):
+        word = (cell or "").strip().strip('"').strip().lower()
+        code = lookup.get(word)  # first: GPX's "none" is a word, not a missing value
+        if code is not None:
+            out[i] = code
+        elif word not in c.MISSING_CELLS:
+            bad.append(i)
+    if bad:
+        where = np.asarray(bad)
+        at = np.asarray(rows)[where] if rows is not None else where + 1
+        found = [repr(cells[i]) for i in bad[:ROWS_LISTED]]
+        declared = f"{setting} declares {unit!r}" if setting else f"the unit is {unit!r}"
+        fix = f"check the column and its unit ({declared}); otherwise correct the rows named"
+        problems = row_problems(file, column, at, found, _EXPECTED[unit], fix=fix)
+        raise InputError(
+            problems, summary=f"{len(bad)} cell(s) in {file} that are no {unit!r} fix status"
+        )
+    return out
 
 
 def refuse_bad_codes(
@@ -202,7 +280,10 @@ def note(counts: Counter, unit: str, where: str, column: str) -> str | None:
     if not codes and not empty:
         return None
     names = _FIXES[unit][2]
-    listed = [f"{counts[k]} at {k} ({names.get(k, 'no fix')})" for k in codes]
+    words = TEXT_UNITS.get(unit)
+    listed = [
+        f"{counts[k]} at {words[k] if words else k} ({names.get(k, 'no fix')})" for k in codes
+    ]
     listed += [f"{empty} with no status"] if empty else []
     total = sum(counts[k] for k in codes) + empty
     return (

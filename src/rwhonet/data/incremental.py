@@ -85,9 +85,10 @@ class Layout:
         hemispheres: canonical name -> a column map's hemisphere letter column for it
             (``lat_hemisphere``, ``lon_hemisphere``): its position, unit (``N/S``,
             ``E/W``), name and setting; the letters give the coordinates their signs.
-        fix_status: a column map's fix status column (``fix`` key, read among the
-            channels as :data:`rwhonet.data.fixstatus.FIX_STATUS`): its unit and setting; a
-            position it says is no fix is taken as none (None: no such column).
+        fix_status: a column map's fix status column (``fix`` key): its unit, setting,
+            name, and position where it is written as text (None: a code, read among the
+            channels as :data:`rwhonet.data.fixstatus.FIX_STATUS`); a position it says is no
+            fix is taken as none (None: no such column).
         fix_counts: the positions the status took out so far, by code
             (:func:`rwhonet.data.fixstatus.screen`).
         header: every header cell as written (without a units row's units), to tell a
@@ -107,7 +108,7 @@ class Layout:
     packed: dict[str, tuple[str, str]] = field(default_factory=dict)
     date: tuple[int, str, str, str] | None = None
     hemispheres: dict[str, tuple[int, str, str, str]] = field(default_factory=dict)
-    fix_status: tuple[str, str] | None = None
+    fix_status: tuple[str, str, str, int | None] | None = None
     header: tuple[str, ...] = ()
     # how the rows were read where a reader would note it (a time written as text, a file
     # separated by ';'), filled as the first rows arrive
@@ -118,9 +119,9 @@ class Layout:
         """What the fix status column took out of the rows read so far (None: nothing)."""
         if self.fix_status is None:
             return None
-        from rwhonet.data.fixstatus import FIX_STATUS, note
+        from rwhonet.data.fixstatus import note
 
-        return note(self.fix_counts, self.fix_status[0], file, self.names[FIX_STATUS])
+        return note(self.fix_counts, self.fix_status[0], file, self.fix_status[2])
 
 
 def layout(
@@ -146,7 +147,7 @@ def layout(
     """
     date: tuple[int, str, str, str] | None = None
     hemispheres: dict[str, tuple[int, str, str, str]] = {}
-    fix_status: tuple[str, str] | None = None
+    fix_status: tuple[str, str, str, int | None] | None = None
     wheel_note = None
     if fmt == "iovnbd":
         from rwhonet.data.iovnbd import (
@@ -186,7 +187,11 @@ def layout(
                 setting = f"data.column_maps.{fmt}.{key}"
                 hemispheres[KEYS[coordinate][0]] = (at, unit, header[at], setting)
         if FIX in by_key:
-            fix_status = ((column_map or {})[FIX].unit, f"data.column_maps.{fmt}.{FIX}")
+            from rwhonet.data.fixstatus import is_text
+
+            unit, at = (column_map or {})[FIX].unit, by_key[FIX]
+            text_at = by_key.pop(FIX) if is_text(unit) else None  # read as text, not a number
+            fix_status = (unit, f"data.column_maps.{fmt}.{FIX}", header[at], text_at)
         positions = {KEYS[key][0]: pos for key, pos in by_key.items()}
         # a strptime pattern for the time is text, read as seconds: factor 1; a packed unit
         # is unpacked (factor 1 before); a circumferential wheel speed by the radius
@@ -204,7 +209,7 @@ def layout(
             if is_packed(unit)
         }
     wanted = carried_channels(positions)
-    if fix_status is not None:  # read with the channels, taken off as each block is screened
+    if fix_status is not None and fix_status[3] is None:  # a code: read with the channels
         from rwhonet.data.fixstatus import FIX_STATUS
 
         wanted = (*wanted, FIX_STATUS)
@@ -1120,12 +1125,14 @@ def parse_lines(
         first_row,
     )
     if lay.fix_status is not None:
-        from rwhonet.data.fixstatus import FIX_STATUS, refuse_bad_codes, screen
+        from rwhonet.data.fixstatus import FIX_STATUS, refuse_bad_codes, screen, text_codes
 
-        unit, setting = lay.fix_status
-        rows = first_row + np.arange(len(out[FIX_STATUS]))
-        column = lay.names[FIX_STATUS].strip()
-        refuse_bad_codes(out[FIX_STATUS], unit, file, column, rows, setting)
+        unit, setting, column, text_at = lay.fix_status
+        rows = first_row + np.arange(len(out[c.LAT_DEG]))
+        if text_at is not None:  # letters or words: read from the lines' cells
+            cells = _column_cells(text, text_at)
+            out[FIX_STATUS] = text_codes(cells, unit, file, column.strip(), rows, setting)
+        refuse_bad_codes(out[FIX_STATUS], unit, file, column.strip(), rows, setting)
         out = screen(out, unit, lay.fix_counts)
     if text_time:
         assert form is not None and form.text is not None

@@ -30,7 +30,8 @@ column) and its unit. Keys and units:
                                               gyro positive clockwise (z down)
 ``acc_lon``, ``acc_lat``                      ``m/s2``, ``g``
 ``fix``                                       ``gga``, ``ubx``, ``navsat``, ``sbf``,
-                                              ``gpsd``, ``flag``: the
+                                              ``gpsd``, ``flag``; CSV streams also
+                                              ``rmc``, ``gpx`` (text): the
                                               receiver's fix status; a position it says is
                                               no fix is taken as none
                                               (:mod:`rwhonet.data.fixstatus`)
@@ -58,7 +59,7 @@ import numpy as np
 from rwhonet.config import ColumnSpec, ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import AUX_KEYS, FIX, WHEEL_KEYS, aux_key_issues, scale_issues
-from rwhonet.data.fixstatus import FIX_STATUS, refuse_bad_codes, screen
+from rwhonet.data.fixstatus import FIX_STATUS, is_text, refuse_bad_codes, screen
 from rwhonet.data.fixstatus import UNITS as FIX_STATUS_UNITS
 from rwhonet.data.fixstatus import note as fix_status_note
 from rwhonet.data.headers import map_unit_name
@@ -160,6 +161,13 @@ def check_signal_map(
     ]
     if with_time:
         issues += aux_key_issues(where, signal_map)
+    elif FIX in signal_map and is_text(signal_map[FIX].unit):
+        codes = ", ".join(u for u in units_of(FIX) if not is_text(u))
+        issues.append(
+            f"{where}.fix.unit: expected a code unit ({codes}) for a logger's signal, got "
+            f"{signal_map[FIX].unit!r} (a status written as text: stream CSVs and column "
+            "maps only)"
+        )
     issues += scale_issues(where, signal_map)
     if issues:
         raise ConfigError("\n".join(issues))

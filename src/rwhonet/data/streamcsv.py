@@ -49,6 +49,7 @@ from rwhonet.data.canlog import is_can_log_name
 from rwhonet.data.columnmap import (
     AUX_KEYS,
     DATE,
+    FIX,
     HEMISPHERES,
     column_matches,
     column_not_found,
@@ -66,6 +67,7 @@ from rwhonet.data.csvio import (
     without_rows,
 )
 from rwhonet.data.fileparts import join_parts
+from rwhonet.data.fixstatus import is_text, text_codes
 from rwhonet.data.gnsslogger import is_gnsslogger_log, read_gnsslogger
 from rwhonet.data.gpx import is_gpx_name, read_gpx
 from rwhonet.data.headers import header_key, unit_name
@@ -325,7 +327,9 @@ def read_stream_csvs(
             continue
         at_t = time_at[file]
         text = is_text_unit(time_spec.unit)
-        wanted = {at: header[at] for at in keys.values()}
+        # a fix status written as letters or words: read as text, as the hemispheres are
+        text_fix = keys.get(FIX) if FIX in keys and is_text(signal_map[FIX].unit) else None
+        wanted = {at: header[at] for k, at in keys.items() if at != text_fix or k != FIX}
         if not text:
             wanted[at_t] = header[at_t]
         try:
@@ -363,7 +367,14 @@ def read_stream_csvs(
                     (file, header[at]),
                 )
                 for k, at in keys.items()
+                if not (k == FIX and text_fix is not None)
             }
+            if text_fix is not None:
+                cells = read_text_column(
+                    paths_of[file], len(header), text_fix, file, again, nulls=False
+                )
+                unit, column = signal_map[FIX].unit, header[text_fix].strip()
+                channels[FIX] = text_codes(cells, unit, file, column, None, f"{name}.fix")
             lettered = {}  # both coordinates' letters checked, their problems in one report
             for key, at in aux.items():
                 cells = read_text_column(paths_of[file], len(header), at, file, again)
