@@ -75,7 +75,8 @@ def test_a_recording_cut_short_is_read_as_far_as_it_goes(tmp_path, compression, 
     """The file cut at 70 % of its length (the recorder killed inside a chunk), alone or in
     its folder without metadata.yaml: refused by rosbags, read record by record here; the
     seconds it holds are the whole file's bit for bit (the last, where it ends, aside); an
-    uncompressed chunk cut short gives its whole records, a zstd one none."""
+    uncompressed chunk cut short gives its whole records, a zstd one those of its whole
+    blocks (cut here 4 KB into it: none)."""
     _, radius = _drive()
     whole = _mcap(tmp_path, compression)
     want, _ = _seconds(whole, radius, "whole.mcap")
@@ -101,15 +102,54 @@ def test_a_recording_cut_short_is_read_as_far_as_it_goes(tmp_path, compression, 
         np.testing.assert_array_equal(both[q][:-1], both[f"{q}_cut"][:-1], err_msg=q)
 
 
-def test_a_zstd_file_cut_inside_its_first_chunk_is_refused(tmp_path):
-    path = _mcap(tmp_path, "zstd")
+def test_a_cut_zstd_or_lz4_frame_gives_its_whole_blocks_bit_for_bit():
+    """What the readers take of a compressed chunk cut short: the start of its data."""
+    import os
+
+    import lz4.frame
+    from backports import zstd
+
+    from rwhonet.data.mcapscan import _partly
+
+    data = bytes(range(256)) * 4000 + os.urandom(400_000)
+    for name, packed in (("zstd", zstd.compress(data)), ("lz4", lz4.frame.compress(data))):
+        got = _partly(name, packed[: len(packed) * 2 // 3])
+        assert 0.3 * len(data) < len(got) < len(data) and got == data[: len(got)], name
+
+
+@pytest.mark.parametrize("compression", ["zstd"])
+def test_a_compressed_chunk_cut_short_gives_what_decompresses(tmp_path, compression):
+    """A zstd or lz4 file cut inside a chunk (rosbag2's zstd presets): the chunk's whole
+    records, as far as its frame's whole blocks decompress, are read (until stop 89, none
+    were), each message the whole file's bit for bit; and the half-way cut's seconds are
+    the whole file's. Cut before a whole block, the file is refused."""
+    _, radius = _drive()
+    path = _mcap(tmp_path, compression)
+    data = path.read_bytes()
     cut = tmp_path / "early.mcap"
-    cut.write_bytes(path.read_bytes()[:20_000])
+    cut.write_bytes(data[:20_000])
+    with ScannedMcap([path]) as whole, ScannedMcap([cut]) as early:
+        got = _all(early)
+        assert 0 < len(got) < whole.message_count
+        assert got == _all(whole)[: len(got)]
+        said = early.said
+    assert f"stops inside a {compression}-compressed chunk at byte 43 of 20000, its whole " in said
+    assert "records read as far as it decompresses" in said and "none of its" not in said
+    want, _ = _seconds(path, radius, "whole.mcap")
+    half = tmp_path / "half.mcap"
+    half.write_bytes(data[: len(data) // 2])
+    got, _ = _seconds(half, radius, "half.mcap")
+    both = want.merge(got, on="t_s", suffixes=("", "_cut"))
+    assert len(both) == len(got) > 0.5 * len(want)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_array_equal(both[q][:-1], both[f"{q}_cut"][:-1], err_msg=q)
+    tiny = tmp_path / "tiny.mcap"
+    tiny.write_bytes(data[:400])  # inside the first block of the first chunk
     with pytest.raises(InputError) as err:
-        read_mdf4(cut, bag_map(), 0.3, "m", "early.mcap")
+        read_mdf4(tiny, bag_map(), 0.3, "m", "tiny.mcap")
     text = str(err.value)
-    assert "early.mcap: expected a ROS 2 bag" in text
-    assert "no whole message: cut short inside a zstd-compressed chunk at byte 43 of 20000" in text
+    assert "tiny.mcap: expected a ROS 2 bag" in text
+    assert f"no whole message: cut short inside a {compression}-compressed chunk at byte 43" in text
     assert "an .mcap file cut short is read as far as its whole records go" in text
 
 

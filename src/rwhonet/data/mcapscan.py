@@ -26,17 +26,20 @@ time, as ``rosbags`` takes it (rosbag2's receipt time).
 
 **As far as it goes.** The records are read in order until one does not fit in the file
 (the record being written when the recorder stopped): an uncompressed chunk cut so gives
-its whole records (rosbag2's default preset writes chunks uncompressed), a compressed one
-nothing. A whole chunk is decompressed and its CRC checked by ``rosbags``. A damaged
-record ends the read there, as the file's end would, with one exception: a whole chunk
-whose data is damaged (its CRC fails, it does not decompress, a record inside it is
-shorter than its fields) is passed over from the damage on (a chunk that fails its CRC
-or does not decompress: all of it; one without a CRC: its whole records before the
-damaged one are read, as those of a chunk cut short are), and the records after it are
-read on, as ``mcap recover`` passes over an invalid chunk. Its length, outside its
-data, says where the next record begins; that record must start with an opcode of the
-format, or the read ends at the chunk after all (a length damaged too). The notes say
-how many messages were read, which chunks were passed over, and where each file stopped.
+its whole records (rosbag2's default preset writes chunks uncompressed), and so does a zstd
+or lz4 one (its ``zstd_fast`` and ``zstd_small`` presets), decompressed as far as its
+frame's whole blocks go (zstd's and lz4's streaming decompressors give them; no CRC can be
+checked on part of a chunk); another compression gives nothing. A whole chunk is
+decompressed and its CRC checked by ``rosbags``. A damaged record ends the read there, as
+the file's end would, with one exception: a whole chunk whose data is damaged (its CRC
+fails, it does not decompress, a record inside it is shorter than its fields) is passed
+over from the damage on (a chunk that fails its CRC or does not decompress: all of it; one
+without a CRC: its whole records before the damaged one are read, as those of a chunk cut
+short are), and the records after it are read on, as ``mcap recover`` passes over an
+invalid chunk. Its length, outside its data, says where the next record begins; that record
+must start with an opcode of the format, or the read ends at the chunk after all (a length
+damaged too). The notes say how many messages were read, which chunks were passed over, and
+where each file stopped.
 """
 
 from __future__ import annotations
@@ -98,6 +101,8 @@ class _File:
     # each message: its channel, log time (ns), chunk (-1: the file itself), start, length
     messages: list[tuple[int, int, int, int, int]] = field(default_factory=list)
     stopped: str = ""
+    # the chunk it stops in is compressed and none of it was read
+    unread_cut: bool = False
     # damaged whole chunks passed over: where each is, and why
     skipped: list[str] = field(default_factory=list)
 
@@ -185,7 +190,7 @@ class ScannedMcap:
             )
             + (
                 ""
-                if not any(f.stopped and "compressed" in f.stopped for f in self._files)
+                if not any(f.unread_cut for f in self._files)
                 else " (a compressed chunk cut short: none of its messages read)"
             )
         )
@@ -245,13 +250,36 @@ class ScannedMcap:
         self.close()
 
 
+# The compressions of a chunk cut short that decompress as far as they go (their streaming
+# decompressors give the frame's whole blocks), and how a chunk so cut is marked.
+PARTIAL = ("zstd", "lz4")
+CUT = " (cut short)"
+
+
+def _partly(compression: str, data: bytes) -> bytes:
+    """What a compressed chunk cut short decompresses to, as far as its whole blocks go."""
+    try:
+        if compression == "zstd":
+            from backports.zstd import ZstdDecompressor
+
+            return ZstdDecompressor().decompress(data)  # type: ignore[no-any-return]
+        from lz4.frame import LZ4FrameDecompressor
+
+        return LZ4FrameDecompressor().decompress(data)  # type: ignore[no-any-return]
+    except Exception as err:  # the decompressor's own: data damaged before the cut
+        raise _Damaged(f"{compression} data: {err}") from None
+
+
 def _records_of(buf: mmap.mmap, chunk: tuple[int, int, str, int, int]) -> bytes:
     """A chunk's records, decompressed where the chunk is compressed, their CRC checked
-    where it has one (a copy: no view of the map is left open to stop its closing)."""
+    where it has one (a copy: no view of the map is left open to stop its closing); a
+    compressed chunk cut short, as far as it decompresses."""
     start, n, compression, size, crc = chunk
     data = buf[start : start + n]
     if not compression and not crc:  # a chunk cut short (its whole records), or no CRC
         return data
+    if compression.endswith(CUT):
+        return _partly(compression.removesuffix(CUT), data)
     from rosbags.rosbag2.storage_mcap import decompress
 
     try:
@@ -282,7 +310,11 @@ def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
             if op == OP_CHUNK:
                 try:
                     if how := _partial_chunk(buf, body, size, k, out, meta):
-                        out.stopped = f"inside a {how}-compressed chunk at byte {pos} of {size}"
+                        shown = how.removesuffix(CUT)
+                        out.stopped = f"inside a {shown}-compressed chunk at byte {pos} of {size}"
+                        if how.endswith(CUT):
+                            out.stopped += ", its whole records read as far as it decompresses"
+                        out.unread_cut = not how.endswith(CUT)
                 except _Damaged as err:  # its records up to the damage kept
                     out.stopped += f", damaged in it ({err})"
             break
@@ -333,17 +365,24 @@ def _chunk(buf: mmap.mmap, body: int, end: int, k: int, out: _File, meta: _Meta)
 def _partial_chunk(
     buf: mmap.mmap, body: int, size: int, k: int, out: _File, meta: _Meta
 ) -> str | None:
-    """A chunk cut where the file ends: its whole records, where it is not compressed;
-    its compression where it is (none of it read)."""
+    """A chunk cut where the file ends: its whole records, where it is not compressed or
+    is zstd or lz4 (as far as it decompresses); its compression where it is compressed
+    (with :data:`CUT` where some of it was read; none where it is another compression, or
+    nothing whole of it decompresses)."""
     if body + _CHUNK.size + 4 > size:
         return None
     compression, at = _string(buf, body + _CHUNK.size)
-    if compression or at + 8 > size:
+    if (compression and compression not in PARTIAL) or at + 8 > size:
         return compression or None
     start = at + 8
-    out.chunks.append((start, size - start, "", 0, 0))
-    _records(buf[start:size], len(out.chunks) - 1, k, out, meta)
-    return None
+    if not compression:
+        out.chunks.append((start, size - start, "", 0, 0))
+        _records(buf[start:size], len(out.chunks) - 1, k, out, meta)
+        return None
+    out.chunks.append((start, size - start, compression + CUT, 0, 0))
+    before = len(out.messages)
+    _records(_records_of(buf, out.chunks[-1]), len(out.chunks) - 1, k, out, meta)
+    return compression if len(out.messages) == before else compression + CUT
 
 
 def _records(data: bytes, j: int, k: int, out: _File, meta: _Meta) -> None:
