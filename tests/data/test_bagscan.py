@@ -180,3 +180,44 @@ def test_a_record_whose_fields_are_damaged_ends_its_chunk_there(tmp_path):
         in_chunk = [m for m in scanned._scan.messages if m[2] == 2]
         assert len(in_chunk) == k  # the damaged one (the k-th) and those after it: not read
         assert max(m[2] for m in scanned._scan.messages) == len(_chunks(bytes(data))) - 1
+
+
+def test_a_damaged_can_frame_message_is_passed_over_and_counted(tmp_path):
+    """A bag of raw CAN frames (can_msgs/Frame) one of which no longer deserialises: read
+    record by record, that frame is passed over and counted among those passed over."""
+    from rwhonet.config import ColumnSpec
+    from rwhonet.data.bagscan import OP_MESSAGE
+    from support.canlog import DBC, SIGNALS, stream_frames
+    from support.multirate import simulated_streams
+    from support.rosbag import CAN_FRAME, CAN_FRAME_DEF, CAN_TOPIC, can_messages
+
+    tables, radius = simulated_streams(40.0, 100.0, 10.0)
+    stamps, ids, data = stream_frames(tables, radius, 1.5e9)
+    dbc = tmp_path / "car.dbc"
+    dbc.write_text(DBC)
+    smap = {k: ColumnSpec(**v) for k, v in SIGNALS.items()}
+    extra = [(CAN_TOPIC, CAN_FRAME, can_messages(np.round(stamps, 6), ids, data))]
+    bag = write_bag(
+        tmp_path / "bus.bag",
+        None,
+        None,
+        extra=extra,
+        msgdefs={CAN_FRAME: CAN_FRAME_DEF},
+        chunk_bytes=1 << 16,
+    )
+    whole = read_mdf4(bag, smap, radius, "m", "bus.bag", dbc=[str(dbc)])
+    raw = bytearray(bag.read_bytes())
+    start, n = _chunks(bytes(raw))[1]
+    inner = [
+        at for f, at, _ in _records(bytes(raw[start : start + n]), 0) if f["op"][0] == OP_MESSAGE
+    ]
+    at = start + inner[len(inner) // 2]
+    raw[at + 12 : at + 16] = (10**6).to_bytes(4, "little")  # its frame_id's length
+    damaged = tmp_path / "d.bag"
+    damaged.write_bytes(bytes(raw))
+    streams = read_mdf4(damaged, smap, radius, "m", "d.bag", dbc=[str(dbc)])
+    said = "\n".join(streams.notes)
+    assert "rosbags refused the bag (" in said and "closed as it is" in said
+    assert "d.bag: passed over: 1 damaged messages" in said
+    got = sum(g.t_s.size for g in (*streams.wheels, streams.gnss))
+    assert got == sum(g.t_s.size for g in (*whole.wheels, whole.gnss)) - 1

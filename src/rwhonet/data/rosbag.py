@@ -578,7 +578,8 @@ def bag_frames(bag: Any, file: str, keep: FrameFilter | None = None) -> Frames:
     kept = None if keep is None else Kept(keep)
     bus = {t: k for k, (t, _) in enumerate(topics)}
     parts: list[dict[str, np.ndarray]] = []
-    skipped = {"error frames": 0, "remote frames": 0}
+    # a damaged message of a bag read record by record: passed over, as _read_topics does
+    skipped = {"error frames": 0, "remote frames": 0, "damaged messages": 0}
     rows = 0
     defs = bag.typestore.fielddefs
     where = {m: _frame_of(defs, m) for _, m in topics}
@@ -615,8 +616,14 @@ def bag_frames(bag: Any, file: str, keep: FrameFilter | None = None) -> Frames:
             v.clear()
 
     for con, recorded_ns, raw in bag.messages(connections=cons):
-        msg = bag.deserialize(raw, con.msgtype)
         rows += 1
+        try:
+            msg = bag.deserialize(raw, con.msgtype)
+        except Exception as err:
+            if not getattr(bag, "scanned", False) or not _in_rosbags(err):
+                raise
+            skipped["damaged messages"] += 1
+            continue
         frame = msg.msg if where[con.msgtype] == "msg" else msg
         if getattr(frame, "is_error", False):
             skipped["error frames"] += 1
