@@ -140,6 +140,22 @@ def _drive_with_status(tmp_path: Path, status: np.ndarray, name: str = "d.csv") 
     return path
 
 
+def _predict_rows(path: Path, cmap: dict, name: str | None = None, block_bytes: int = 2048):
+    """predict's reader of a column-mapped file, a few KiB at a time: its layout (the
+    notes) and the blocks' latitudes, joined."""
+    lay, blocks = read_rows(
+        io.BytesIO(path.read_bytes()),
+        name or path.name,
+        "m",
+        _specs(cmap),
+        block_bytes=block_bytes,
+        radius_m=TARGET_RADIUS_M,
+    )
+    parts = list(blocks)  # each part screened and counted as it is parsed
+    assert all(FIX_STATUS not in b for _, b in parts)
+    return lay, np.concatenate([b[c.LAT_DEG] for _, b in parts])
+
+
 def _dead_reckoning_rows(n: int) -> np.ndarray:
     status = np.full(n, 1.0)
     status[50:60] = 6.0  # the receiver's own dead reckoning, 1 s
@@ -165,18 +181,8 @@ def test_ingest_s_and_predict_s_readers_take_a_position_that_is_no_fix_as_none(t
         "taken as rows without a fix: 1 at 0 (invalid); 10 at 6 (estimated (dead reckoning))"
     ]
     # predict's reader, in blocks of a few dozen rows: the same rows, one note for them all
-    lay, blocks = read_rows(
-        io.BytesIO(path.read_bytes()),
-        path.name,
-        "m",
-        _specs(cmap),
-        block_bytes=2048,
-        radius_m=TARGET_RADIUS_M,
-    )
-    parts = list(blocks)  # parsed 2 KiB at a time, each part screened and counted
-    lat = np.concatenate([b[c.LAT_DEG] for _, b in parts])
+    lay, lat = _predict_rows(path, cmap)
     np.testing.assert_array_equal(lat, got[c.LAT_DEG])
-    assert all(FIX_STATUS not in b for _, b in parts)
     assert [x for x in lay.notes if "fix status" in x] == [said[0].replace(str(path), path.name)]
 
 
@@ -187,16 +193,7 @@ def test_a_column_map_s_status_that_is_no_code_is_refused_naming_file_row_and_co
     cmap = CUPAC_MAP | {"fix": ("GPS Quality", "gga")}
     for read in (
         lambda: read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M),
-        lambda: list(
-            read_rows(
-                io.BytesIO(path.read_bytes()),
-                str(path),
-                "m",
-                _specs(cmap),
-                block_bytes=2048,
-                radius_m=TARGET_RADIUS_M,
-            )[1]
-        ),
+        lambda: _predict_rows(path, cmap, str(path)),
     ):
         with pytest.raises(InputError) as err:
             read()
@@ -482,15 +479,7 @@ def test_a_column_map_s_status_letters_take_out_what_they_say_is_no_fix(tmp_path
         f"{path}: 15 of 201 position(s) whose fix status (GPS Quality, rmc) says no fix, "
         "taken as rows without a fix: 10 at V (void); 5 at E (estimated (dead reckoning))"
     ]
-    lay, blocks = read_rows(
-        io.BytesIO(path.read_bytes()),
-        path.name,
-        "m",
-        _specs(cmap),
-        block_bytes=2048,
-        radius_m=TARGET_RADIUS_M,
-    )
-    got = np.concatenate([b[c.LAT_DEG] for _, b in blocks])
+    lay, got = _predict_rows(path, cmap)
     np.testing.assert_array_equal(got, lat)
     assert [x for x in lay.notes if "fix status" in x] == [said[0].replace(str(path), path.name)]
     status[77] = "Q"
@@ -500,16 +489,7 @@ def test_a_column_map_s_status_letters_take_out_what_they_say_is_no_fix(tmp_path
     (p,) = err.value.problems
     assert (p.row, p.column, p.found) == (78, "GPS Quality", "'Q'")
     with pytest.raises(InputError) as err:
-        list(
-            read_rows(
-                io.BytesIO(path.read_bytes()),
-                "bad.csv",
-                "m",
-                _specs(cmap),
-                block_bytes=2048,
-                radius_m=TARGET_RADIUS_M,
-            )[1]
-        )
+        _predict_rows(path, cmap)
     (p,) = err.value.problems
     assert (p.row, p.column, p.found) == (78, "GPS Quality", "'Q'")
 
@@ -547,9 +527,6 @@ def test_a_column_map_s_gpx_words_read_none_as_a_word_not_a_missing_value(tmp_pa
     raw = read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M)
     assert np.isnan(raw.columns[c.LAT_DEG]).sum() == 6
     assert any("5 at none (no fix); 1 with no status" in x for x in raw.notes), raw.notes
-    lay, blocks = read_rows(
-        io.BytesIO(path.read_bytes()), "d.csv", "m", _specs(cmap), radius_m=TARGET_RADIUS_M
-    )
-    got = np.concatenate([b[c.LAT_DEG] for _, b in blocks])
+    lay, got = _predict_rows(path, cmap, "d.csv", block_bytes=1 << 16)
     np.testing.assert_array_equal(got, raw.columns[c.LAT_DEG])
     assert any("5 at none (no fix); 1 with no status" in x for x in lay.notes), lay.notes

@@ -152,15 +152,8 @@ def text_codes(
         elif word not in c.MISSING_CELLS:
             bad.append(i)
     if bad:
-        where = np.asarray(bad)
-        at = np.asarray(rows)[where] if rows is not None else where + 1
         found = [repr(cells[i]) for i in bad[:ROWS_LISTED]]
-        declared = f"{setting} declares {unit!r}" if setting else f"the unit is {unit!r}"
-        fix = f"check the column and its unit ({declared}); otherwise correct the rows named"
-        problems = row_problems(file, column, at, found, _EXPECTED[unit], fix=fix)
-        raise InputError(
-            problems, summary=f"{len(bad)} cell(s) in {file} that are no {unit!r} fix status"
-        )
+        raise _refusal(np.asarray(bad), found, unit, file, column, rows, setting)
     return out
 
 
@@ -194,17 +187,30 @@ def refuse_bad_codes(
     else:
         ok |= whole & np.isin(x, sorted(known))
     bad = np.flatnonzero(~ok)
-    if bad.size == 0:
-        return
+    if bad.size:
+        found = [repr(float(v)) for v in x[bad[:ROWS_LISTED]]]
+        raise _refusal(bad, found, unit, file, column, rows, setting)
+
+
+def _refusal(
+    bad: np.ndarray,
+    found: list[str],
+    unit: str,
+    file: str,
+    column: str,
+    rows: np.ndarray | None,
+    setting: str | None,
+) -> InputError:
+    """The cells at indices ``bad`` (``found``: the first few as written) that are no
+    status of ``unit``, each named by its row (``rows``; default: index + 1)."""
     at = np.asarray(rows)[bad] if rows is not None else bad + 1
-    found = [repr(float(v)) for v in x[bad[:ROWS_LISTED]]]
     declared = f"{setting} declares {unit!r}" if setting else f"the unit is {unit!r}"
     fix = (
         f"check that the column is the receiver's fix status and its unit ({declared}: one "
         f"of {list(UNITS)}); otherwise correct or delete the rows named"
     )
     problems = row_problems(file, column, at, found, _EXPECTED[unit], fix=fix)
-    raise InputError(
+    return InputError(
         problems, summary=f"{bad.size} cell(s) in {file} that are no {unit!r} fix status"
     )
 
