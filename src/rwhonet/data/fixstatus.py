@@ -217,7 +217,11 @@ def _refusal(
 
 def is_fix(codes: np.ndarray, unit: str) -> np.ndarray:
     """Which statuses are a fix (False for an empty cell)."""
-    x = _codes(codes, unit)
+    return _fixes(_codes(codes, unit), unit)
+
+
+def _fixes(x: np.ndarray, unit: str) -> np.ndarray:
+    """:func:`is_fix` of codes already read by :func:`_codes`."""
     fixes = _FIXES[unit][0]
     if fixes is None:
         with np.errstate(invalid="ignore"):
@@ -255,12 +259,12 @@ def screen(
     """
     out = {k: v for k, v in columns.items() if k != FIX_STATUS}
     codes = np.asarray(columns[FIX_STATUS], dtype=np.float64)
+    kept = _codes(codes, unit)  # as the unit reads them: Septentrio's Mode's bits 0-3
     has = np.isfinite(out[c.LAT_DEG]) & np.isfinite(out[c.LON_DEG])
-    none = has & ~is_fix(codes, unit)
+    none = has & ~_fixes(kept, unit)
     if counts is not None:
         counts[POSITIONS] += int(has.sum())
         counts[NO_STATUS] += int(np.isnan(codes[none]).sum())
-        kept = _codes(codes, unit)  # as the unit reads them: Mode's bits 0-3
         values, n = np.unique(kept[none & ~np.isnan(codes)], return_counts=True)
         for v, k in zip(values, n, strict=True):
             counts[int(v)] += int(k)

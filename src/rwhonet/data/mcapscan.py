@@ -309,12 +309,14 @@ def _scan(buf: mmap.mmap, k: int, path: Path, meta: _Meta) -> _File:
             out.stopped = f"inside a {what} record at byte {pos} of {size}"
             if op == OP_CHUNK:
                 try:
-                    if how := _partial_chunk(buf, body, size, k, out, meta):
-                        shown = how.removesuffix(CUT)
-                        out.stopped = f"inside a {shown}-compressed chunk at byte {pos} of {size}"
-                        if how.endswith(CUT):
+                    compression, read = _partial_chunk(buf, body, size, k, out, meta)
+                    if compression:
+                        out.stopped = (
+                            f"inside a {compression}-compressed chunk at byte {pos} of {size}"
+                        )
+                        if read:
                             out.stopped += ", its whole records read as far as it decompresses"
-                        out.unread_cut = not how.endswith(CUT)
+                        out.unread_cut = not read
                 except _Damaged as err:  # its records up to the damage kept
                     out.stopped += f", damaged in it ({err})"
             break
@@ -364,25 +366,23 @@ def _chunk(buf: mmap.mmap, body: int, end: int, k: int, out: _File, meta: _Meta)
 
 def _partial_chunk(
     buf: mmap.mmap, body: int, size: int, k: int, out: _File, meta: _Meta
-) -> str | None:
+) -> tuple[str, bool]:
     """A chunk cut where the file ends: its whole records, where it is not compressed or
-    is zstd or lz4 (as far as it decompresses); its compression where it is compressed
-    (with :data:`CUT` where some of it was read; none where it is another compression, or
-    nothing whole of it decompresses)."""
+    is zstd or lz4 (as far as it decompresses); none where it is another compression.
+
+    Returns:
+        Its compression ("": none, or its header cut) and whether any message was read.
+    """
     if body + _CHUNK.size + 4 > size:
-        return None
+        return "", False
     compression, at = _string(buf, body + _CHUNK.size)
     if (compression and compression not in PARTIAL) or at + 8 > size:
-        return compression or None
+        return compression, False
     start = at + 8
-    if not compression:
-        out.chunks.append((start, size - start, "", 0, 0))
-        _records(buf[start:size], len(out.chunks) - 1, k, out, meta)
-        return None
-    out.chunks.append((start, size - start, compression + CUT, 0, 0))
+    out.chunks.append((start, size - start, compression + CUT if compression else "", 0, 0))
     before = len(out.messages)
     _records(_records_of(buf, out.chunks[-1]), len(out.chunks) - 1, k, out, meta)
-    return compression if len(out.messages) == before else compression + CUT
+    return compression, len(out.messages) > before
 
 
 def _records(data: bytes, j: int, k: int, out: _File, meta: _Meta) -> None:

@@ -617,11 +617,7 @@ def bag_frames(bag: Any, file: str, keep: FrameFilter | None = None) -> Frames:
 
     for con, recorded_ns, raw in bag.messages(connections=cons):
         rows += 1
-        try:
-            msg = bag.deserialize(raw, con.msgtype)
-        except Exception as err:
-            if not getattr(bag, "scanned", False) or not _in_rosbags(err):
-                raise
+        if (msg := _deserialised(bag, raw, con.msgtype)) is None:
             skipped["damaged messages"] += 1
             continue
         frame = msg.msg if where[con.msgtype] == "msg" else msg
@@ -677,6 +673,18 @@ def bag_frames(bag: Any, file: str, keep: FrameFilter | None = None) -> Frames:
     )
 
 
+def _deserialised(bag: Any, raw: bytes, msgtype: str) -> Any:
+    """A message deserialised; None where it is damaged: a bag read record by record (cut
+    short, or refused closed) whose message ``rosbags`` cannot deserialise, passed over and
+    counted by the caller. Read by its index, such a message is the bag's refusal."""
+    try:
+        return bag.deserialize(raw, msgtype)
+    except Exception as err:
+        if not getattr(bag, "scanned", False) or not _in_rosbags(err):
+            raise
+        return None
+
+
 def _read_topics(
     bag: Any, by_topic: Mapping[str, list[str]], fields: Mapping[str, Field], file: str
 ) -> list[_Topic]:
@@ -730,13 +738,7 @@ def _read_topics(
         getters: dict[str, tuple[Any, bool]] = {}
         stamp = status = accuracy = None
         for con, recorded_ns, raw in bag.messages(connections=cons):
-            try:
-                msg = bag.deserialize(raw, con.msgtype)
-            except Exception as err:
-                # read record by record (cut short, or refused closed: a damaged bag), a
-                # message rosbags cannot deserialise is damaged: passed over and counted
-                if not getattr(bag, "scanned", False) or not _in_rosbags(err):
-                    raise
+            if (msg := _deserialised(bag, raw, con.msgtype)) is None:
                 t.damaged += 1
                 continue
             if not t.recorded:  # the first message: every field checked, then read as it

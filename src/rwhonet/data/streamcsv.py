@@ -329,7 +329,7 @@ def read_stream_csvs(
         text = is_text_unit(time_spec.unit)
         # a fix status written as letters or words: read as text, as the hemispheres are
         text_fix = keys.get(FIX) if FIX in keys and is_text(signal_map[FIX].unit) else None
-        wanted = {at: header[at] for k, at in keys.items() if at != text_fix or k != FIX}
+        wanted = {at: header[at] for k, at in keys.items() if k != FIX or text_fix is None}
         if not text:
             wanted[at_t] = header[at_t]
         try:
