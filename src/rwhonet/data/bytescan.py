@@ -1,7 +1,8 @@
 """Finding things in a text log's bytes all at once (numpy), for the line-oriented
 readers that parse a whole file without a Python loop a line: NMEA (:mod:`~rwhonet.data.nmea`),
-candump (:mod:`~rwhonet.data.canlog`), ASC (:mod:`~rwhonet.data.asc`) and TRC
-(:mod:`~rwhonet.data.trc`)."""
+candump (:mod:`~rwhonet.data.canlog`), ASC (:mod:`~rwhonet.data.asc`), TRC
+(:mod:`~rwhonet.data.trc`) and GnssLogger's Status records
+(:mod:`~rwhonet.data.gnsslogger`)."""
 
 from __future__ import annotations
 
@@ -137,3 +138,34 @@ def small_hex(f: Fields, has: np.ndarray, s: np.ndarray, e: np.ndarray) -> tuple
     one = n == 1
     ok = has & (hi >= 0) & (one | ((n == 2) & (lo >= 0)))
     return ok, np.where(one, hi, hi * 16 + lo)
+
+
+class CommaFields:
+    """The comma-separated fields of many lines (NMEA sentences, GnssLogger records), held
+    as one byte buffer: field ``j`` of every line is taken at once (:meth:`column`),
+    without a Python object a field."""
+
+    def __init__(self, bodies: list[bytes]) -> None:
+        n = len(bodies)
+        self.buf = np.frombuffer(b"\n".join(bodies) + b"\n", np.uint8)
+        self.sep = np.flatnonzero((self.buf == ord(",")) | (self.buf == ord("\n")))
+        ends = self.buf[self.sep] == ord("\n")
+        line = np.concatenate([[0], np.cumsum(ends)[:-1]])  # each separator's sentence
+        self.first = np.searchsorted(line, np.arange(n))  # each sentence's first separator
+        self.count = np.bincount(line, minlength=n)[:n]  # its fields (none: no sentence)
+        self.start = np.concatenate([[0], self.sep[ends][:-1] + 1])
+
+    def column(self, j: int, of: np.ndarray | None = None) -> np.ndarray:
+        """Field ``j`` of each sentence (of the sentences ``of``), stripped (``b""`` where
+        one has fewer fields)."""
+        of = np.arange(self.count.size) if of is None else of
+        has = self.count[of] > j
+        k = np.where(has, self.first[of] + j, 0)
+        end = np.where(has, self.sep[k], 0)
+        start = self.start[of] if j == 0 else np.where(has, self.sep[np.maximum(k - 1, 0)] + 1, 0)
+        length = end - start
+        width = max(int(length.max(initial=0)), 1)
+        at = start[:, None] + np.arange(width)
+        chars = self.buf[np.minimum(at, self.buf.size - 1)]
+        chars[np.arange(width) >= length[:, None]] = 0
+        return np.char.strip(np.ascontiguousarray(chars).view(f"S{width}").ravel())

@@ -82,7 +82,7 @@ from pathlib import Path
 import numpy as np
 
 from rwhonet.config import ColumnSpec
-from rwhonet.data.bytescan import HEX, after, before, floats_or_nan
+from rwhonet.data.bytescan import HEX, CommaFields, after, before, floats_or_nan
 from rwhonet.data.columnmap import scaled
 from rwhonet.data.compressed import without_suffix
 from rwhonet.data.packed import HHMMSS
@@ -251,7 +251,7 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
 
     The fix sentences are found and checked over the log's bytes at once
     (:func:`_scan`), gathered into epochs by their UTC time, and their fields converted
-    column by column (:class:`_Fields`).
+    column by column (:class:`CommaFields`).
 
     Args:
         path: the NMEA log (text), or its bytes (a UBX log's without its binary messages:
@@ -295,7 +295,7 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
         return data[head_start[i] : head_end[i]].strip(STAMP_STRIP) or None
 
     row_of = rows[kept]
-    fields = _Fields(bodies)
+    fields = CommaFields(bodies)
     gll = kinds == GLL
     vtg = kinds == VTG  # no time: it joins an epoch by its place in the log (_vtg_epochs)
     time = fields.column(1)
@@ -435,36 +435,6 @@ def _scan(data: bytes) -> _Found:
     )
 
 
-class _Fields:
-    """The comma-separated fields of many sentences, held as one byte buffer: field ``j``
-    of every sentence is taken at once (:meth:`column`), without a Python object a field."""
-
-    def __init__(self, bodies: list[bytes]) -> None:
-        n = len(bodies)
-        self.buf = np.frombuffer(b"\n".join(bodies) + b"\n", np.uint8)
-        self.sep = np.flatnonzero((self.buf == ord(",")) | (self.buf == ord("\n")))
-        ends = self.buf[self.sep] == ord("\n")
-        line = np.concatenate([[0], np.cumsum(ends)[:-1]])  # each separator's sentence
-        self.first = np.searchsorted(line, np.arange(n))  # each sentence's first separator
-        self.count = np.bincount(line, minlength=n)[:n]  # its fields (none: no sentence)
-        self.start = np.concatenate([[0], self.sep[ends][:-1] + 1])
-
-    def column(self, j: int, of: np.ndarray | None = None) -> np.ndarray:
-        """Field ``j`` of each sentence (of the sentences ``of``), stripped (``b""`` where
-        one has fewer fields)."""
-        of = np.arange(self.count.size) if of is None else of
-        has = self.count[of] > j
-        k = np.where(has, self.first[of] + j, 0)
-        end = np.where(has, self.sep[k], 0)
-        start = self.start[of] if j == 0 else np.where(has, self.sep[np.maximum(k - 1, 0)] + 1, 0)
-        length = end - start
-        width = max(int(length.max(initial=0)), 1)
-        at = start[:, None] + np.arange(width)
-        chars = self.buf[np.minimum(at, self.buf.size - 1)]
-        chars[np.arange(width) >= length[:, None]] = 0
-        return np.char.strip(np.ascontiguousarray(chars).view(f"S{width}").ravel())
-
-
 def _passed_over(counts: dict[str, int], first: dict[str, int]) -> str:
     said = {
         "checksum": "with a checksum that does not match",
@@ -545,7 +515,7 @@ def _coordinates(
 
 
 def _fixes(
-    fields: _Fields,
+    fields: CommaFields,
     use: np.ndarray,
     times: np.ndarray,
     rows: np.ndarray,
@@ -754,7 +724,7 @@ class _Track:
 
 
 def _vtg_velocity(
-    fields: _Fields, sent: np.ndarray, rows: np.ndarray, file: str, problems: list[Problem]
+    fields: CommaFields, sent: np.ndarray, rows: np.ndarray, file: str, problems: list[Problem]
 ) -> tuple[np.ndarray, np.ndarray]:
     """The VTG sentences ``sent`` as speed over ground (m/s) and course (degrees true).
 
@@ -885,7 +855,11 @@ class _Dates:
 
 
 def _zda_dates(
-    fields: _Fields, sent: np.ndarray, keys: np.ndarray, epoch_keys: np.ndarray, rows: np.ndarray
+    fields: CommaFields,
+    sent: np.ndarray,
+    keys: np.ndarray,
+    epoch_keys: np.ndarray,
+    rows: np.ndarray,
 ) -> _Dates:
     """The ZDA sentences ``sent`` (their epochs' ``keys``) as the dates of the epochs of
     the same UTC time (``epoch_keys``); a ZDA at a time no fix has, or without its date,
@@ -906,7 +880,7 @@ def _zda_said(dated: Sequence[_Dates], n: int) -> str:
 
 
 def _gst_accuracy(
-    fields: _Fields,
+    fields: CommaFields,
     sent: np.ndarray,
     epoch: np.ndarray,
     n: int,
@@ -944,7 +918,7 @@ def _gst_said(h_acc: np.ndarray, n: int) -> str:
     return f"; {n} GST sentences, {int(np.isfinite(h_acc).sum())} stating an epoch's accuracy"
 
 
-def _valid(kind: int, fields: _Fields, sent: np.ndarray) -> np.ndarray:
+def _valid(kind: int, fields: CommaFields, sent: np.ndarray) -> np.ndarray:
     """Whether each of the sentences ``sent`` of a kind says its position is a fix."""
     if kind == GGA:
         return np.isin(fields.column(6, sent), GGA_FIXES)
@@ -971,7 +945,7 @@ def _leap_step(
     tod_s: np.ndarray,
     use: np.ndarray,
     kinds: np.ndarray,
-    fields: _Fields,
+    fields: CommaFields,
     rows: np.ndarray,
     file: str,
 ) -> tuple[np.ndarray, str | None]:
@@ -1046,7 +1020,7 @@ def _leap_step(
     return moved, said
 
 
-def _same_fields(fields: _Fields, a: int, b: int) -> bool:
+def _same_fields(fields: CommaFields, a: int, b: int) -> bool:
     """Whether sentences ``a`` and ``b`` have the same fields."""
     n = int(fields.count[a])
     pair = np.array([a, b])
