@@ -153,11 +153,11 @@ def main() -> None:
         # an epoch, ReceiverTime a second), placed so too
         sbf = write_sbf(root / "csv" / "log.sbf", sbf_blocks(tables.gnss, 1_552_262_400.0 + t_fix))
         # ... and as a phone's GnssLogger log (a GPS and a fused Fix record an epoch, two
-        # Raw, a Status and an UncalGyro record), placed so too
+        # Raw and an UncalGyro record, and a Status epoch of 13 signals, which give the
+        # satellite count), placed so too
         phone = write_gnsslogger(
             root / "csv" / "gnss_log.txt", gnsslogger_lines(tables.gnss, 1_552_262_400.0 + t_fix)
         )
-        no_sats = {k: v for k, v in signal_map().items() if k != "n_sats"}  # a phone gives none
         # ... and as a phone logger's GPX track (gpxpy writes it), placed so too
         gpx = write_gpx(root / "csv" / "track.gpx", track(tables.gnss, 1_552_262_400.0 + t_fix))
         # ... and the wheels and the fixes as a ROS 1 bag's topics (a WheelSpeedReport and a
@@ -195,7 +195,9 @@ def main() -> None:
                 [csvs["wheels"], novatel], signal_map(), radius
             ),
             "CSV + SBF log": lambda: read_stream_csvs([csvs["wheels"], sbf], signal_map(), radius),
-            "CSV + GnssLogger": lambda: read_stream_csvs([csvs["wheels"], phone], no_sats, radius),
+            "CSV + GnssLogger": lambda: read_stream_csvs(
+                [csvs["wheels"], phone], signal_map(), radius
+            ),
             "CSV + GPX track": lambda: read_stream_csvs(
                 [csvs["wheels"], gpx], signal_map(), radius
             ),

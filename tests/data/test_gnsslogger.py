@@ -1,5 +1,6 @@
 """A phone's GnssLogger log (``rwhonet.data.gnsslogger``): its Fix records of the GPS
-provider, else its NMEA records, give the labels of the same fixes in gnss.csv."""
+provider, else its NMEA records, give the labels of the same fixes in gnss.csv; its
+Status records the satellites used in each fix."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from support.gnsslogger import (
     fix_v1,
     fix_v3,
     gnsslogger_lines,
+    status_epoch,
     write_gnsslogger,
 )
 from support.multirate import fixes_to_the_ms, receiver_drive, receiver_folder, receiver_labels
@@ -129,7 +131,7 @@ def test_what_is_no_gnsslogger_log_or_holds_no_fix_is_refused_or_passed_by(tmp_p
         read_gnsslogger(write_gnsslogger(tmp_path / "b.txt", fused), "b.txt")
     said = str(err.value)
     assert "GnssLogger's Fix records of the GPS provider, or its NMEA records" in said
-    assert "records: 10 Raw, 5 UncalGyro, 5 Fix, 5 Status" in said
+    assert "records: 65 Status, 10 Raw, 5 UncalGyro, 5 Fix" in said
     assert "turn on Location (Fix) or NMEA logging" in said
 
 
@@ -272,3 +274,145 @@ def test_the_phone_s_stated_accuracy_reaches_the_drive(tmp_path):
     fixed = np.isfinite(drive[c.LAT_DEG])
     assert fixed.sum() > 1000
     np.testing.assert_array_equal(drive[c.H_ACC_M][fixed], 3.9)
+
+
+def _fixes_with_status(tmp_path, epochs, name="s.txt"):
+    """A v3 log of GPS Fix records one a second and, between them, what ``epochs`` says:
+    for each fix a list of Status epochs (each a list of lines) written before it, or
+    after it (``("after", lines)``); read."""
+    t0 = int((DAY_S + 45_000.0) * 1000)
+    lines = [*HEADER_V3]
+    for k, around in enumerate(epochs):
+        before = [x for e in around if e[0] != "after" for x in e]
+        after = [x for e in around if e[0] == "after" for x in e[1]]
+        lines += before
+        lines.append(fix_v3("GPS", 52.4 + 1e-5 * k, -1.5, 10.0, 0.0, t0 + 1000 * k))
+        lines += after
+    return read_gnsslogger(write_gnsslogger(tmp_path / name, lines), name)
+
+
+def test_each_fix_s_satellites_are_those_its_status_epoch_used_once_each(tmp_path):
+    """A Status epoch (GPS satellites used, two of them on L5 too; Galileo satellites seen,
+    not used) written after each Fix record gives that fix the satellites used, a
+    satellite once however many of its signals: 9, 5, 2, 0; the note says it."""
+    log = _fixes_with_status(
+        tmp_path, [[("after", status_epoch(n, unused=3))] for n in (9, 5, 2, 0)]
+    )
+    np.testing.assert_array_equal(log.channels["n_sats"], [9.0, 5.0, 2.0, 0.0])
+    assert log.sources["n_sats"] == "Status UsedInFix satellites"
+    said = " ".join(log.notes)
+    assert "4 whole epoch(s) of 4" not in said  # records, not epochs, after "of"
+    records = sum(len(status_epoch(n, unused=3)) for n in (9, 5, 2, 0))
+    assert f"4 whole epoch(s) of {records} Status records; 4 of 4 fixes by the epoch after" in said
+    assert "Status" not in log.notes[0]  # read, not passed over
+
+
+def test_a_fix_takes_the_epoch_after_it_else_the_last_before_it(tmp_path):
+    """Epochs written before the fixes (the log's order the other way round): each fix takes
+    the next fix's epoch, the one after it, and the last fix, with none after it, the last
+    before it. Status at half the fixes' rate: a fix with no epoch after it before the next
+    fix takes the last before it. A fix with no epoch either side has no count."""
+    log = _fixes_with_status(tmp_path, [[status_epoch(n)] for n in (9, 5, 2, 7)])
+    np.testing.assert_array_equal(log.channels["n_sats"], [5.0, 2.0, 7.0, 7.0])
+    half = [[("after", status_epoch(8))], [], [("after", status_epoch(6))], []]
+    log = _fixes_with_status(tmp_path, half, "half.txt")
+    np.testing.assert_array_equal(log.channels["n_sats"], [8.0, 8.0, 6.0, 6.0])
+    assert "2 of 4 fixes by the epoch after them" in " ".join(log.notes)
+    t0 = int((DAY_S + 45_000.0) * 1000)
+    lines = [*HEADER_V3, fix_v3("GPS", 52.4, -1.5, 10.0, 0.0, t0)]
+    lines += [fix_v3("GPS", 52.4, -1.5, 10.0, 0.0, t0 + 1000), *status_epoch(6)]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "first.txt", lines), "first.txt")
+    np.testing.assert_array_equal(log.channels["n_sats"], [np.nan, 6.0])
+    assert "1 fix(es) without a count (1 with no epoch, 0 by an epoch not whole)" in log.notes[1]
+
+
+def test_an_epoch_between_other_records_counts_and_one_not_whole_gives_no_count(tmp_path):
+    """An epoch's records with Raw and gyro records between them count as one epoch. An
+    epoch with a record missing, a damaged cell (UsedInFix ``x``, Svid empty), or a
+    SignalCount that is not its records' gives its fix no count (validate cuts it as
+    low_sats), said; the fixes around keep theirs."""
+    whole = status_epoch(6)
+    mixed = [
+        whole[0],
+        "Raw,1,2,18,0.0,-1,3,30",
+        *whole[1:4],
+        "UncalGyro,1,2,0,0,0,0,0,0",
+        *whole[4:],
+    ]
+    missing = whole[:3] + whole[4:]
+    used_x = [*whole[:2], whole[2].replace(",1,1,1,29.0", ",x,1,1,29.0"), *whole[3:]]
+    no_svid = [whole[0], whole[1].replace(",1,2,1575420030,", ",1,,1575420030,"), *whole[2:]]
+    recount = [x.replace(f"Status,,{len(whole)},", f"Status,,{len(whole) + 1},") for x in whole]
+    epochs = [whole, mixed, missing, used_x, no_svid, recount, status_epoch(4)]
+    log = _fixes_with_status(tmp_path, [[("after", e)] for e in epochs])
+    np.testing.assert_array_equal(
+        log.channels["n_sats"], [6.0, 6.0, np.nan, np.nan, np.nan, np.nan, 4.0]
+    )
+    said = log.notes[1]
+    assert (
+        "3 whole epoch(s)" in said and "4 epoch(s) not whole (a record missing or damaged)" in said
+    )
+    assert "4 fix(es) without a count (0 with no epoch, 4 by an epoch not whole)" in said
+    # a log that starts inside an epoch: its records before the first SignalIndex 0 are no
+    # epoch, and the first fix, whose epoch they are, has none either side
+    log = _fixes_with_status(tmp_path, [[("after", whole[3:])], [("after", whole)]], "cut.txt")
+    np.testing.assert_array_equal(log.channels["n_sats"], [np.nan, 6.0])
+
+
+def test_status_records_without_their_header_or_none_give_no_count(tmp_path):
+    """Status records without the ``# Status`` header line, or with one that lacks
+    UsedInFix, give no count, said; so does a log whose epochs are none of them whole. A
+    log without Status records (Status logging off) has no n_sats, and says nothing of it."""
+    t0 = int((DAY_S + 45_000.0) * 1000)
+    fixes = [fix_v3("GPS", 52.4, -1.5, 10.0, 0.0, t0 + 1000 * k) for k in range(3)]
+    no_status_header = [x for x in HEADER_V3 if not x.startswith("# Status")]
+    lines = [*no_status_header, *(y for f in fixes for y in (f, *status_epoch(5)))]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "a.txt", lines), "a.txt")
+    assert "n_sats" not in log.channels
+    n = 3 * len(status_epoch(5))
+    assert f"{n} Status records give no satellite count: no header line naming" in log.notes[1]
+    assert "signalcount, signalindex, constellationtype, svid, usedinfix column" in log.notes[1]
+    assert f"passed over: {n} Status" in log.notes[0]  # passed over, counted
+    cut = [x.replace(",UsedInFix", ",Used") for x in HEADER_V3]
+    lines = [*cut, *(y for f in fixes for y in (f, *status_epoch(5)))]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "b.txt", lines), "b.txt")
+    assert "n_sats" not in log.channels and "their usedinfix column(s)" in log.notes[1]
+    broken = [*HEADER_V3, *(y for f in fixes for y in (f, *status_epoch(5)[1:]))]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "c.txt", broken), "c.txt")
+    assert "n_sats" not in log.channels and "no whole epoch among them" in log.notes[1]
+    log = read_gnsslogger(write_gnsslogger(tmp_path / "d.txt", [*HEADER_V3, *fixes]), "d.txt")
+    assert "n_sats" not in log.channels and len(log.notes) == 1
+
+
+def test_the_drives_own_map_with_its_satellite_count_reads_a_phone_s_log(tmp_path):
+    """With the drives' signal map as it is (n_sats named, which a stream CSV's NumSV
+    gives), gnss_log.txt's Status records give it: the labels of the same fixes in
+    gnss.csv, every fix's count the CSV's. A fix whose epoch used 3 satellites is cut by
+    validate's GNSS checks (min_sats 4) as the CSV's count of 3 is."""
+    from rwhonet.data.quality import assess
+    from support.drives import make_params
+
+    g = fixes_to_the_ms().copy()
+    low = (g[c.T_S] > 45_060.0) & (g[c.T_S] < 45_070.0)
+    g.loc[low, c.N_SATS] = 3.0
+    ref, ref_streams = receiver_labels(list(receiver_folder(tmp_path / "csv", g).values()))
+    wheels = receiver_folder(tmp_path / "log", g.iloc[:0])["wheels"]
+    log_ = write_gnsslogger(
+        tmp_path / "log" / "gnss_log.txt", gnsslogger_lines(g, DAY_S + g[c.T_S].to_numpy())
+    )
+    got, streams = receiver_labels([wheels, log_])
+    assert len(got) == len(ref) > 100
+    for q in ("t_s", "disp_gnss_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
+    np.testing.assert_array_equal(streams.gnss.channels[c.N_SATS], g[c.N_SATS].to_numpy())
+    assert streams.gnss.sources[c.N_SATS] == "Status UsedInFix satellites"
+    _, radius = receiver_drive()
+    from rwhonet.data.streams import resample
+
+    vp = make_params(tmp_path).validate
+    said = {}
+    for name, s in (("log", streams), ("csv", ref_streams)):
+        drive = resample(s, nominal_radius_m=radius).drive.columns
+        said[name] = assess(drive, vp.gnss, vp.sample_period_s).cut_seconds_by_rule
+    assert 10 <= said["log"]["low_sats"] <= 12  # the 10 s of 3 satellites
+    assert said["log"] == said["csv"]

@@ -77,12 +77,15 @@ def gnsslogger_lines(
     bearing: np.ndarray | None = None,
 ) -> list[str]:
     """The log's lines for the fixes ``gnss`` at their UTC times (s since 1970): the header,
-    then for each fix some Raw, Status and UncalGyro records, the GPS provider's Fix, and
-    (``others``) the fused provider's Fix of the same time a little elsewhere."""
+    then for each fix some Raw and UncalGyro records, the GPS provider's Fix,
+    (``others``) the fused provider's Fix of the same time a little elsewhere, and (3.x)
+    a Status epoch of the fix's satellites (``n_sats``, else 9), so that each Fix record
+    but the first follows the previous fix's epoch."""
     lat, lon = gnss[c.LAT_DEG].to_numpy(), gnss[c.LON_DEG].to_numpy()
     n = len(gnss)
     speed = np.full(n, 10.0) if speed is None else speed
     bearing = np.zeros(n) if bearing is None else bearing
+    sats = gnss[c.N_SATS].to_numpy() if c.N_SATS in gnss else np.full(n, 9.0)
     lines = list(HEADER_V3 if version == 3 else HEADER_V1)
     for i in range(n):
         ms = int(round(utc_s[i] * 1000.0))
@@ -96,8 +99,23 @@ def gnsslogger_lines(
             lines.append(fix_v1("gps", lat[i], lon[i], speed[i], ms))
             if others:
                 lines.append(fix_v1("network", lat[i] + 1e-4, lon[i], 0.0, ms))
-        lines.append(f"Status,{ms},2,0,1,3,1575420030,31.0,120.0,45.0,1,1,1,29.0")
+        if version == 3:  # GnssLogger 1.x wrote no Status records
+            lines += status_epoch(int(sats[i]) if np.isfinite(sats[i]) else 0)
     return lines
+
+
+def status_epoch(used: int, unused: int = 2, ms: str = "") -> list[str]:
+    """A GnssStatus callback's Status records, as GnssLogger writes them (``UnixTimeMillis``
+    ``ms``, empty as in the Smartphone Decimeter Challenge's logs): ``used`` GPS
+    satellites used in the fix, the first two of them on L5 too (a record a signal, one
+    satellite still), and ``unused`` Galileo satellites seen but not used."""
+    signals = [(1, sv, 1575420030, 1) for sv in range(1, used + 1)]
+    signals += [(1, sv, 1176450050, 1) for sv in range(1, min(used, 2) + 1)]
+    signals += [(6, sv, 1575420030, 0) for sv in range(1, unused + 1)]
+    return [
+        f"Status,{ms},{len(signals)},{k},{system},{svid},{hz},31.0,120.0,45.0,{u},1,1,29.0"
+        for k, (system, svid, hz, u) in enumerate(signals)
+    ]
 
 
 def write_gnsslogger(path: Path, lines: list[str]) -> Path:

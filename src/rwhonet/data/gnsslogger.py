@@ -27,7 +27,26 @@ the drive's GNSS stream (:func:`read_gnsslogger`), placed by its UTC times:
   ``MockLocation`` (an app's location, not the chip's): they are passed over and
   counted. Two records of one time: the first is kept, the other counted. The altitude
   (above the WGS84 ellipsoid, where NMEA's GGA gives it above mean sea level) and the
-  signal count (signals, two a satellite on L1 and L5, not satellites) are not read.
+  Fix's ``NumberOfUsedSignals`` (signals, two a satellite on L1 and L5, not satellites)
+  are not read.
+- **the satellites used in each fix (``n_sats``), from its Status records**
+  (:func:`_status_counts`): GnssLogger writes a record for each signal of each
+  ``GnssStatus`` callback (``SignalCount`` records, ``SignalIndex`` 0 to ``SignalCount``
+  - 1, one after another), saying whether the engine used it "in the calculation of the
+  most recent position fix" (``UsedInFix``; Android's ``GnssStatus.usedInFix``). A
+  satellite counts once however many of its signals it was used on (a
+  ``ConstellationType``, ``Svid`` pair), as GGA counts satellites in use. The records'
+  ``UnixTimeMillis`` cannot place them (empty in the Smartphone Decimeter Challenge's
+  logs; GPSTest writes the last fix's time or 0): the log's order does, as the app wrote
+  them. An epoch tells of the most recent fix when it came, so each Fix record takes the
+  first Status epoch written after it and before the next GPS Fix record; where there is
+  none there (Status at a lower rate than fixes, the log's last fix), the last epoch
+  written before it, as a satellite count logged in a message of its own is taken (the
+  last at or before a fix). An epoch that is not whole (a record missing, a cell that
+  is no number: a damaged line, or a file that starts inside one) gives its fix no
+  count, which validate cuts as ``low_sats``, as it does a fix with no epoch on either
+  side. A log without Status records (Status logging off; GnssLogger 1.x) gives no
+  count, as before.
 - **where it has none** (Location logging turned off), **its NMEA records**: ``NMEA,``
   before each sentence and ``,UnixTimeMillis`` after its checksum (the phone's clock when
   the sentence came; on some phones the sentence's own line end splits the record, that
@@ -44,10 +63,11 @@ from __future__ import annotations
 import re
 from collections import Counter
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
-from rwhonet.data.bytescan import floats_or_nan
+from rwhonet.data.bytescan import CommaFields, floats_or_nan
 from rwhonet.data.compressed import head_bytes, without_suffix
 from rwhonet.data.nmea import FixLog, read_nmea
 from rwhonet.errors import InputError, Problem
@@ -55,6 +75,7 @@ from rwhonet.errors import InputError, Problem
 SNIFF_BYTES = 1 << 16  # the header (about 40 lines) and the first records
 _SNIFF = re.compile(rb"(?m)^(#\s*Fix,Provider,|Fix,|NMEA,\$)")
 _HEADER = re.compile(rb"(?m)^#\s*Fix,(.*?)\s*$")
+_STATUS_HEADER = re.compile(rb"(?m)^#\s*Status,(.*?)\s*$")
 _SUFFIX = re.compile(rb"(\*[0-9A-Fa-f]{2}),\s*\d+\s*$")  # a sentence's checksum, the time
 GPS_PROVIDERS = ("gps",)  # LocationManager.GPS_PROVIDER, as GnssLogger writes it
 LISTED = 20  # problems listed a column
@@ -69,6 +90,9 @@ COLUMNS = {
     "time": ("unixtimemillis", "(utc)timeinms", "utctimemillis"),
     "mock": ("mocklocation",),
 }
+# the Status header's columns a satellite count is read from
+STATUS_COLUMNS = ("signalcount", "signalindex", "constellationtype", "svid", "usedinfix")
+YES, NO = [b"1", b"true"], [b"0", b"false"]  # UsedInFix as apps write it
 
 
 def is_gnsslogger_log(path: Path, name: str | None = None) -> bool:
@@ -234,6 +258,12 @@ def _fix_records(
         if where[key] is not None and np.isfinite(v := read[key][keep]).any():
             channels[key] = v
             sources[key] = f"Fix {names[where[key]]}"
+    counted = _status_counts(lines, np.asarray(at)[keep], file)
+    read_kinds = (b"Fix",)
+    if counted.sats is not None:
+        channels["n_sats"] = counted.sats
+        sources["n_sats"] = "Status UsedInFix satellites"
+        read_kinds = (b"Fix", b"Status")
     others = Counter(p.decode("latin-1") for p, g in zip(provider, gps, strict=True) if not g)
     passed = [
         f"{n} Fix record(s) of the {p or '(empty)'} provider (no receiver's fix)"
@@ -246,9 +276,11 @@ def _fix_records(
     dropped = "; ".join(passed)
     notes = [
         f"{file}: a GnssLogger log: {keep.size} Fix records of the GPS provider read"
-        + _records_said(kinds, b"Fix")
+        + _records_said(kinds, read_kinds)
         + (f"; passed over: {dropped}" if dropped else "")
     ]
+    if counted.said:
+        notes.append(f"{file}: {counted.said}")
     return FixLog.on_utc(
         file,
         utc,
@@ -262,8 +294,105 @@ def _fix_records(
     )
 
 
-def _records_said(kinds: Counter[bytes], read: bytes) -> str:
-    others = [(k, n) for k, n in kinds.most_common() if k != read]
+class _Counted(NamedTuple):
+    """The satellites used in each fix (None: the log gives no count) and what is said."""
+
+    sats: np.ndarray | None
+    said: str
+
+
+def _status_counts(lines: list[bytes], fixes: np.ndarray, file: str) -> _Counted:
+    """The satellites used in the fixes at lines ``fixes`` (0-based, increasing), from the
+    log's Status records (see the module's docstring): each fix the count of the first
+    Status epoch written after it and before the next fix, else of the last written
+    before it; NaN where that epoch is not whole or there is none. The records' fields are
+    taken column by column (:class:`~rwhonet.data.bytescan.CommaFields`)."""
+    at = np.array([i for i, line in enumerate(lines) if line.startswith(b"Status,")], np.int64)
+    if at.size == 0:
+        return _Counted(None, "")
+    header = _STATUS_HEADER.search(b"\n".join(lines[: at[0]]))
+    names = (
+        [x.strip().lower() for x in header.group(1).decode("latin-1").split(",")] if header else []
+    )
+    lacking = [k for k in STATUS_COLUMNS if k not in names]
+    if lacking:
+        return _Counted(
+            None,
+            f"its {at.size} Status records give no satellite count: no header line naming "
+            f"their {', '.join(lacking)} column(s) before them (# Status,UnixTimeMillis,...)",
+        )
+    fields = CommaFields([lines[i] for i in at])
+    # field 0 is the record's kind, so the header's column k is field k + 1
+    count, index, system, svid = (
+        floats_or_nan(fields.column(names.index(k) + 1)) for k in STATUS_COLUMNS[:4]
+    )
+    used_cells = np.char.lower(fields.column(names.index("usedinfix") + 1))
+    used = np.select([np.isin(used_cells, YES), np.isin(used_cells, NO)], [1.0, 0.0], np.nan)
+    # an epoch starts at each record of SignalIndex 0; records before the first: epoch -1
+    epoch = np.cumsum(index == 0) - 1
+    n_epochs = int(epoch[-1]) + 1
+    if n_epochs == 0:  # no record of SignalIndex 0: no epoch starts
+        return _no_whole_epoch(at.size)
+    starts = np.searchsorted(epoch, np.arange(n_epochs))  # epoch is non-decreasing
+    stops = np.append(starts[1:], epoch.size)
+    first, ends = at[starts], at[stops - 1]  # each epoch's first and last line
+    inside = epoch >= 0
+    e = np.maximum(epoch, 0)
+    # a whole epoch's records: SignalCount each, its records' number; SignalIndex in turn
+    good = np.isfinite(used) & _small_whole(system, 1 << 8) & _small_whole(svid, 1 << 16)
+    good &= (count == (stops - starts)[e]) & (index == np.arange(epoch.size) - starts[e])
+    whole = np.bincount(e[inside & ~good], minlength=n_epochs) == 0
+    # the satellites used, each (epoch, constellation, svid) once
+    take = inside & good & (used == 1.0)
+    key = (epoch[take] << 24) | (system[take].astype(np.int64) << 16) | svid[take].astype(np.int64)
+    sats = np.bincount(np.unique(key) >> 24, minlength=n_epochs).astype(np.float64)
+    sats[~whole] = np.nan
+    if not whole.any():
+        return _no_whole_epoch(at.size)
+    following = np.searchsorted(first, fixes, side="right")  # the first epoch after a fix
+    next_fix = np.append(fixes[1:], len(lines))
+    after = following < n_epochs
+    after[after] = ends[following[after]] < next_fix[after]
+    last = np.searchsorted(ends, fixes, side="right") - 1  # the last epoch ended before it
+    which = np.where(after, following, last)
+    has = which >= 0
+    got = np.full(fixes.size, np.nan)
+    got[has] = sats[which[has]]
+    broken = int((~whole).sum())
+    none = int((~has).sum())
+    not_whole = int((has & ~whole[np.maximum(which, 0)]).sum())
+    said = (
+        f"n_sats: the satellites used in each fix (UsedInFix; a satellite once however many "
+        f"of its signals), of the Status epoch after its Fix record (else the last before "
+        f"it): {int(whole.sum())} whole epoch(s) of {at.size} Status records; "
+        f"{int(after.sum())} of {fixes.size} fixes by the epoch after them"
+    )
+    if broken:
+        said += f"; {broken} epoch(s) not whole (a record missing or damaged)"
+    if none or not_whole:
+        said += (
+            f"; {none + not_whole} fix(es) without a count ({none} with no epoch, "
+            f"{not_whole} by an epoch not whole)"
+        )
+    return _Counted(got, said)
+
+
+def _small_whole(x: np.ndarray, below: int) -> np.ndarray:
+    """Whether each of ``x`` is a whole number in [0, ``below``)."""
+    with np.errstate(invalid="ignore"):
+        return (x >= 0) & (x < below) & (x == np.floor(x))
+
+
+def _no_whole_epoch(records: int) -> _Counted:
+    return _Counted(
+        None,
+        f"its {records} Status records give no satellite count: no whole epoch among them "
+        "(SignalIndex 0 to SignalCount - 1, each a number)",
+    )
+
+
+def _records_said(kinds: Counter[bytes], read: tuple[bytes, ...]) -> str:
+    others = [(k, n) for k, n in kinds.most_common() if k not in read]
     if not others:
         return ""
     return "; its other records passed over: " + ", ".join(
@@ -293,7 +422,7 @@ def _nmea_records(lines: list[bytes], file: str, kinds: Counter[bytes]) -> FixLo
         log.channels,
         log.sources,
         log.rows,
-        [said + _records_said(kinds, b"NMEA"), *log.notes],
+        [said + _records_said(kinds, (b"NMEA",)), *log.notes],
         log.dropped,
         dated_by=log.dated_by,
         kind="GnssLogger",
