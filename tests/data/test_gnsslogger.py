@@ -327,10 +327,11 @@ def test_a_fix_takes_the_epoch_after_it_else_the_last_before_it(tmp_path):
 
 
 def test_an_epoch_between_other_records_counts_and_one_not_whole_gives_no_count(tmp_path):
-    """An epoch's records with Raw and gyro records between them count as one epoch. An
-    epoch with a record missing, a damaged cell (UsedInFix ``x``, Svid empty), or a
-    SignalCount that is not its records' gives its fix no count (validate cuts it as
-    low_sats), said; the fixes around keep theirs."""
+    """An epoch's records with Raw and gyro records between them count as one epoch, and
+    so does one whose UsedInFix is written ``true`` / ``False``. An epoch with a record
+    missing, a damaged cell (UsedInFix ``x``, Svid empty, ConstellationType 1.5), a
+    SignalCount that is not its records' or a SignalIndex out of turn gives its fix no
+    count (validate cuts it as low_sats), said; the fixes around keep theirs."""
     whole = status_epoch(6)
     mixed = [
         whole[0],
@@ -343,20 +344,32 @@ def test_an_epoch_between_other_records_counts_and_one_not_whole_gives_no_count(
     used_x = [*whole[:2], whole[2].replace(",1,1,1,29.0", ",x,1,1,29.0"), *whole[3:]]
     no_svid = [whole[0], whole[1].replace(",1,2,1575420030,", ",1,,1575420030,"), *whole[2:]]
     recount = [x.replace(f"Status,,{len(whole)},", f"Status,,{len(whole) + 1},") for x in whole]
-    epochs = [whole, mixed, missing, used_x, no_svid, recount, status_epoch(4)]
-    log = _fixes_with_status(tmp_path, [[("after", e)] for e in epochs])
-    np.testing.assert_array_equal(
-        log.channels["n_sats"], [6.0, 6.0, np.nan, np.nan, np.nan, np.nan, 4.0]
-    )
+    out_of_turn = [
+        *whole[:3],
+        whole[3].replace(f",{len(whole)},3,", f",{len(whole)},2,"),
+        *whole[4:],
+    ]
+    half_system = [whole[0], whole[1].replace(",1,2,1575420030,", ",1.5,2,1575420030,"), *whole[2:]]
+    words = [_used_as_word(x) for x in whole]  # UsedInFix written true / false
+    epochs = [whole, mixed, missing, used_x, no_svid, recount, out_of_turn, half_system, words]
+    log = _fixes_with_status(tmp_path, [[("after", e)] for e in [*epochs, status_epoch(4)]])
+    np.testing.assert_array_equal(log.channels["n_sats"], [6.0, 6.0, *[np.nan] * 6, 6.0, 4.0])
     said = log.notes[1]
     assert (
-        "3 whole epoch(s)" in said and "4 epoch(s) not whole (a record missing or damaged)" in said
+        "4 whole epoch(s)" in said and "6 epoch(s) not whole (a record missing or damaged)" in said
     )
-    assert "4 fix(es) without a count (0 with no epoch, 4 by an epoch not whole)" in said
+    assert "6 fix(es) without a count (0 with no epoch, 6 by an epoch not whole)" in said
     # a log that starts inside an epoch: its records before the first SignalIndex 0 are no
     # epoch, and the first fix, whose epoch they are, has none either side
     log = _fixes_with_status(tmp_path, [[("after", whole[3:])], [("after", whole)]], "cut.txt")
     np.testing.assert_array_equal(log.channels["n_sats"], [np.nan, 6.0])
+
+
+def _used_as_word(record: str) -> str:
+    """A Status record with its UsedInFix (the tenth field after the kind) as a word."""
+    cells = record.split(",")
+    cells[10] = {"1": "true", "0": "False"}[cells[10]]
+    return ",".join(cells)
 
 
 def test_status_records_without_their_header_or_none_give_no_count(tmp_path):
