@@ -222,6 +222,39 @@ def test_unstamped_sentences_on_a_logger_s_own_clock_are_refused(tmp_path):
     assert "have the logger stamp each sentence" in said
 
 
+@pytest.mark.parametrize("kind", ["nmea", "ubx"])
+def test_a_receiver_that_stopped_early_beside_seconds_of_the_day_is_refused_saying_why(
+    tmp_path, kind
+):
+    """wheels.csv in seconds of the day (IO-VNBD's clock), the receiver's log holding only
+    the first 40 % of the drive's fixes (it stopped early): the seconds are not taken as
+    UTC seconds of the day, and the refusal says why (the share the fixes cover, not
+    "counting from the logger's start" alone) and what reads it. With 60 %: placed."""
+    from support.ubx import ubx_messages, write_ubx
+
+    tables, _ = receiver_drive()
+    g = tables.gnss
+    for share, placed in ((0.4, False), (0.6, True)):
+        part = g.iloc[: int(share * len(g))]
+        folder = tmp_path / f"{kind}{share}"
+        utc = DAY_S + part[c.T_S].to_numpy()
+        if kind == "nmea":
+            log_ = write_nmea(folder / "gps.nmea", nmea_lines(part, utc))
+        else:
+            log_ = write_ubx(folder / "gps.ubx", ubx_messages(part, utc))
+        files = [_wheels(folder), log_]
+        if placed:
+            assert len(receiver_labels(files)[0]) > 60
+            continue
+        with pytest.raises(InputError) as err:
+            receiver_labels(files)
+        said = " ".join(str(err.value).split())
+        assert "taken as counting from the logger's start: below two days" in said
+        assert "had the receiver's UTC times of day (45000.0-45047." in said
+        assert "covered at least half of its span (45000.0-45119.9 s); they cover 40 %" in said
+        assert "UTC seconds of the day written as hh:mm:ss are read so" in said
+
+
 def test_one_stamp_gone_to_0_on_a_unix_clock_is_refused_where_it_is(tmp_path):
     """The wheels on Unix seconds, one sample's stamp written as 0 (a logger's glitch): the
     clock is still UTC, so the receiver's log is placed, and the stamp is refused at its row

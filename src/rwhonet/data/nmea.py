@@ -1218,6 +1218,13 @@ def on_clock(
         "the stream files' times in UTC (a time of day as hhmmss, hh:mm:ss; iso8601; a date "
         "column; Unix seconds)"
     )
+    too_little = _too_little_of_a_day(np.concatenate(whole), t_s) if kind is None else ""
+    own_clock = (
+        f"the stream files' time in {unit!r}, taken as counting from the logger's start: "
+        + too_little
+        if too_little
+        else f"the stream files' time in {unit!r} counting from the logger's start"
+    )
     if kind is None and log.kind != "NMEA" and not log.unstamped.size:
         # UBX, GPX, a NovAtel log without stamps: no logger stamp before an epoch
         raise InputError(
@@ -1227,8 +1234,7 @@ def on_clock(
                     None,
                     None,
                     f"a clock the receiver's UTC times can be placed on: {utc_clock}",
-                    f"a {log.kind} log (no logger stamps in it), and the stream files' time in "
-                    f"{unit!r} counting from the logger's start",
+                    f"a {log.kind} log (no logger stamps in it), and {own_clock}",
                     f"log {name}.t in UTC, or give the receiver's NMEA log with the logger's "
                     "stamp before each sentence",
                 )
@@ -1249,8 +1255,7 @@ def on_clock(
                         if log.unstamped.size
                         else "sentences without stamps"
                     )
-                    + f", and the stream files' time in {unit!r} counting from the logger's "
-                    "start",
+                    + f", and {own_clock}",
                     f"have the logger stamp each sentence, or log {name}.t in UTC",
                 )
             ]
@@ -1283,6 +1288,28 @@ def _seconds_of_a_day(tod: np.ndarray, t_s: Sequence[np.ndarray]) -> bool:
         return False
     shared = min(d, float(np.nanmax(tod))) - max(c, float(np.nanmin(tod)))
     return shared >= 0.5 * (d - c)
+
+
+def _too_little_of_a_day(tod: np.ndarray, t_s: Sequence[np.ndarray]) -> str:
+    """Where the stream files' times in s could be seconds of the day but the receiver's
+    times of day cover less than half of their span (:func:`_seconds_of_a_day`), how much
+    they cover, said; else nothing. A receiver that stopped early (or a log cut short)
+    beside seconds of the day is refused so, and a user should see why."""
+    spans = [(float(np.nanmin(x)), float(np.nanmax(x))) for x in t_s if np.isfinite(x).any()]
+    if not spans or not np.isfinite(tod).any():
+        return ""
+    c, d = min(a for a, _ in spans), max(b for _, b in spans)
+    if c < 0 or d >= 2 * 86400.0 or d <= c:
+        return ""
+    a, b = float(np.nanmin(tod)), float(np.nanmax(tod))
+    shared = max(0.0, min(d, b) - max(c, a))
+    return (
+        f"below two days, it would be taken as UTC seconds of the day had the receiver's UTC "
+        f"times of day ({a:.1f}-{b:.1f} s) covered at least half of its span ({c:.1f}-"
+        f"{d:.1f} s); they cover {100.0 * shared / (d - c):.0f} % (a receiver that stopped "
+        f"early, or a log cut short? UTC seconds of the day written as hh:mm:ss are read so "
+        f"however much the fixes cover)"
+    )
 
 
 def _stamps(log: FixLog, unit: str, name: str, time: ColumnSpec | None = None) -> np.ndarray:
