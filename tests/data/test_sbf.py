@@ -307,3 +307,80 @@ def test_a_block_given_again_leaves_the_accuracies_with_their_epochs(tmp_path):
     got = read_sbf(write_sbf(tmp_path / "again.sbf", blocks), "again.sbf")
     np.testing.assert_array_equal(got.channels["h_acc"], [0.5, 1.5])
     assert got.channels["n_sats"].size == 2
+
+
+def test_a_pvtcartesian_log_gives_what_the_pvtgeodetic_log_of_the_same_fixes_gives(tmp_path):
+    """The drive's fixes as PVTCartesian blocks (X, Y, Z and Vx, Vy, Vz in ECEF, written by
+    the closed form, not PROJ): the labels of the same fixes as PVTGeodetic blocks within
+    0.01 mm; each epoch's latitude and longitude within 1e-9 degrees (0.1 mm), its height
+    within 1 mm, its speed within f4's rounding, its satellites, course and accuracy the
+    same; the notes name the block."""
+    g = fixes_to_the_ms()
+    turn = np.linspace(0.0, 350.0, len(g))
+    g = g.assign(**{c.SPEED_GNSS_M_S: 8.0 + np.sin(turn / 50.0), c.HEADING_DEG: turn})
+    g = g.assign(**{c.H_ACC_M: np.full(len(g), 1.25)})
+    wheels = receiver_folder(tmp_path / "w", g.iloc[:0])["wheels"]
+    logs = {}
+    for kind in ("geodetic", "cartesian"):
+        blocks = sbf_blocks(g, DAY_S + g[c.T_S], cartesian=kind == "cartesian")
+        logs[kind] = write_sbf(tmp_path / kind / "log.sbf", blocks)
+    geo, cart = (read_sbf(logs[k], "log.sbf") for k in ("geodetic", "cartesian"))
+    for key in ("lat", "lon"):
+        np.testing.assert_allclose(cart.channels[key], geo.channels[key], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(cart.channels["height"], geo.channels["height"], atol=1e-3)
+    np.testing.assert_allclose(cart.channels["speed_gnss"], geo.channels["speed_gnss"], atol=1e-5)
+    for key in ("n_sats", "heading", "h_acc"):
+        np.testing.assert_array_equal(cart.channels[key], geo.channels[key], err_msg=key)
+    np.testing.assert_array_equal(cart.tod_s, geo.tod_s)
+    assert cart.sources["lat"] == "PVTCartesian X, Y, Z"
+    assert cart.sources["speed_gnss"] == "PVTCartesian Vx, Vy, Vz"
+    assert cart.sources["n_sats"] == "PVTCartesian NrSV"
+    said = " ".join(cart.notes)
+    assert f"an SBF log: {len(g)} epochs (PVTCartesian), {len(g)} with a fix" in said
+    assert "besides them: DOP" in said and "PVTCartesian" not in said.split("besides them:")[1]
+    ref = receiver_labels([wheels, logs["geodetic"]])[0]
+    got = receiver_labels([wheels, logs["cartesian"]])[0]
+    assert len(got) == len(ref) > 100
+    for q in ("t_s", "disp_gnss_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-5, err_msg=q)
+
+
+def test_pvtcartesian_beside_pvtgeodetic_no_fix_and_a_position_off_the_earth(tmp_path):
+    """A log with both blocks is read by PVTGeodetic, PVTCartesian counted. PVTCartesian's
+    epoch without a fix (mode 0, do-not-use X, Y, Z) is kept without a position. A fix at
+    X = Y = Z = 1000 m (thousands of km below the ellipsoid) is refused with its block and
+    byte."""
+    g = fixes_to_the_ms().iloc[:5].reset_index(drop=True)
+    t = DAY_S + g[c.T_S]
+    both = sbf_blocks(g, t) + sbf_blocks(g, t, leap=False, cartesian=True)[::2]
+    log = read_sbf(write_sbf(tmp_path / "both.sbf", both), "both.sbf")
+    assert log.sources["lat"] == "PVTGeodetic Latitude"
+    assert "PVTCartesian 5" in " ".join(log.notes)
+    gap = g.assign(**{c.LAT_DEG: [52.4, np.nan, 52.4, 52.4, 52.4]})
+    log = read_sbf(write_sbf(tmp_path / "gap.sbf", sbf_blocks(gap, t, cartesian=True)), "g.sbf")
+    assert np.isnan(log.channels["lat"][1]) and np.isfinite(log.channels["lat"]).sum() == 4
+    assert "5 epochs (PVTCartesian), 4 with a fix" in log.notes[0]
+    from pysbf2 import SBFMessage
+
+    week, seconds = divmod(GPS_S, 604_800.0)
+    off = SBFMessage(
+        "PVTCartesian",
+        revno=2,
+        TOW=int(seconds * 1000),
+        WNc=int(week),
+        Type=1,
+        X=1000.0,
+        Y=1000.0,
+        Z=1000.0,
+        Undulation=48.0,
+        NrSV=9,
+        HAccuracy=NO_H_ACCURACY,
+    )
+    blocks = [dop(GPS_S - 1), revised(off.serialize(), 2)]
+    with pytest.raises(InputError) as err:
+        read_sbf(write_sbf(tmp_path / "off.sbf", blocks), "off.sbf")
+    (problem,) = err.value.problems
+    assert problem.row == 2 and problem.column == "PVTCartesian X, Y, Z"
+    assert problem.expected == "a position within 100 km of the WGS84 ellipsoid"
+    assert problem.found.startswith("6355.8 km below it (X, Y, Z = 1000.000, 1000.000, 1000")
+    assert problem.found.endswith("m; the block at byte 32)")

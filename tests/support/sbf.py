@@ -82,13 +82,45 @@ def pvt_untimed() -> bytes:
     return revised(block.serialize(), 2)
 
 
+A_M, F = 6_378_137.0, 1.0 / 298.257223563  # WGS84
+E2 = F * (2.0 - F)
+
+
+def ecef(lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
+    """A geodetic position as WGS84 ECEF X, Y, Z (m), by the closed form (the prime
+    vertical radius N; not PROJ, which the reader's inverse uses)."""
+    phi, lam = math.radians(lat_deg), math.radians(lon_deg)
+    n = A_M / math.sqrt(1.0 - E2 * math.sin(phi) ** 2)
+    return (
+        (n + h_m) * math.cos(phi) * math.cos(lam),
+        (n + h_m) * math.cos(phi) * math.sin(lam),
+        (n * (1.0 - E2) + h_m) * math.sin(phi),
+    )
+
+
+def ecef_velocity(lat_deg: float, lon_deg: float, north: float, east: float, up: float):
+    """A local north / east / up velocity (m/s) as ECEF Vx, Vy, Vz: the local axes' unit
+    vectors in ECEF, each written out."""
+    phi, lam = math.radians(lat_deg), math.radians(lon_deg)
+    e = (-math.sin(lam), math.cos(lam), 0.0)
+    n = (-math.sin(phi) * math.cos(lam), -math.sin(phi) * math.sin(lam), math.cos(phi))
+    u = (math.cos(phi) * math.cos(lam), math.cos(phi) * math.sin(lam), math.sin(phi))
+    return tuple(east * e[k] + north * n[k] + up * u[k] for k in range(3))
+
+
 def sbf_blocks(
-    g: pd.DataFrame, t_utc_s: np.ndarray, time_every: int = 10, leap: bool = True
+    g: pd.DataFrame,
+    t_utc_s: np.ndarray,
+    time_every: int = 10,
+    leap: bool = True,
+    cartesian: bool = False,
 ) -> list[bytes]:
     """The fixes as the receiver's blocks, an epoch's together: a ReceiverTime (where
     ``leap``, every ``time_every`` epochs), the PVTGeodetic (mode 1, stand-alone, where
     the table has a fix; 0, no PVT, its fields do-not-use, where not; its HAccuracy
-    twice the table's ``h_acc_m``, the 2DRMS, where it has one) and a DOP."""
+    twice the table's ``h_acc_m``, the 2DRMS, where it has one) and a DOP.
+    ``cartesian``: a PVTCartesian in place of the PVTGeodetic, the same solution in
+    ECEF (:func:`ecef`, :func:`ecef_velocity`, the height 160.4 m above the ellipsoid)."""
     gps = np.asarray(t_utc_s, dtype=float) - GPS_EPOCH_UNIX_S + LEAP_S
     lat, lon = g[c.LAT_DEG].to_numpy(), g[c.LON_DEG].to_numpy()
     speed = g[c.SPEED_GNSS_M_S].to_numpy() if c.SPEED_GNSS_M_S in g else None
@@ -102,6 +134,12 @@ def sbf_blocks(
         ok = math.isfinite(lat[i])
         v = speed[i] if speed is not None and ok else DNU
         h = math.radians(course[i]) if course is not None and ok else None
+        if cartesian:
+            n_sv = int(sats[i]) if math.isfinite(sats[i]) else 255
+            cog = course[i] if course is not None and ok else None
+            out.append(_cartesian(t, lat[i], lon[i], v, cog, n_sv, h_acc[i], ok))
+            out.append(dop(t))
+            continue
         out.append(
             pvt(
                 t,
@@ -121,6 +159,31 @@ def sbf_blocks(
         )
         out.append(dop(t))
     return out
+
+
+def _cartesian(t, lat, lon, v, cog, sats, h_acc, ok) -> bytes:  # type: ignore[no-untyped-def]
+    """One PVTCartesian block (revision 2) of the fix (``v`` m/s along ``cog`` degrees), or
+    of no PVT where not ``ok``."""
+    from pysbf2 import SBFMessage
+
+    week, seconds = divmod(t, 604_800.0)
+    fields = {"Type": 0, "Error": 1, "X": DNU, "Y": DNU, "Z": DNU, "Vx": DNU, "Vy": DNU}
+    fields |= {"Vz": DNU, "COG": DNU, "Undulation": DNU, "NrSV": 255}
+    if ok:
+        x, y, z = ecef(lat, lon, 160.4)
+        fields = {"Type": 1, "Error": 0, "X": x, "Y": y, "Z": z, "Undulation": 48.0}
+        fields["NrSV"] = sats
+        if cog is not None and v != DNU:
+            course = math.radians(cog)
+            vx, vy, vz = ecef_velocity(lat, lon, v * math.cos(course), v * math.sin(course), 0.0)
+            fields |= {"Vx": vx, "Vy": vy, "Vz": vz, "COG": cog}
+        else:
+            fields |= {"Vx": DNU, "Vy": DNU, "Vz": DNU, "COG": DNU}
+    fields["HAccuracy"] = 2.0 * h_acc if ok and math.isfinite(h_acc) else NO_H_ACCURACY
+    block = SBFMessage(
+        "PVTCartesian", revno=2, TOW=int(round(seconds * 1000.0)), WNc=int(week), **fields
+    )
+    return revised(block.serialize(), 2)
 
 
 def write_sbf(path: Path, blocks: list[bytes]) -> Path:

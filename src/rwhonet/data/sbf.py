@@ -17,7 +17,15 @@ initial value 0: :func:`binascii.crc_hqx`) over the ID, length and body. A block
 does not match (a byte lost) or that the file ends inside (a logger that lost power) is
 passed over and counted; a sync pair inside a good block is not a block.
 
-**The block read: PVTGeodetic** (4007, every revision):
+**The block read: PVTGeodetic** (4007, every revision), **else PVTCartesian** (4006, the
+same solution in ECEF: its fields laid out as PVTGeodetic's, ``X``, ``Y``, ``Z`` where
+PVTGeodetic has ``Latitude``, ``Longitude``, ``Height``, and ``Vx``, ``Vy``, ``Vz`` where it
+has ``Vn``, ``Ve``, ``Vu``). A log with both is read by its PVTGeodetic blocks, the other
+counted. From PVTCartesian, the position is X, Y, Z as latitude, longitude and height
+above the WGS84 ellipsoid (:func:`rwhonet.geo.ecef.ecef_to_geodetic`, PROJ), and the
+velocity's east and north components at it (:func:`rwhonet.geo.ecef.ecef_to_enu_velocity`)
+give the horizontal speed; a fix more than :data:`MAX_HEIGHT_M` from the ellipsoid is no
+position on a road, and is refused with its block. The fields, from PVTGeodetic:
 
 - ``lat``, ``lon``: ``Latitude``, ``Longitude`` (f8, radians);
 - ``height``: ``Height`` (ellipsoidal) less ``Undulation``: above mean sea level, as NMEA
@@ -63,17 +71,19 @@ from rwhonet.data.compressed import without_suffix
 from rwhonet.data.nmea import FixLog
 from rwhonet.data.novatel import GPS_EPOCH_UNIX_S, SECONDS_PER_WEEK, gps_utc_s
 from rwhonet.errors import InputError, Problem
+from rwhonet.geo.ecef import ecef_to_enu_velocity, ecef_to_geodetic
 
 SBF_SUFFIXES = (".sbf",)
 # a Septentrio receiver's internal logging names its files as RINEX does: ssssdddf.yy_
 _INTERNAL_NAME = re.compile(r".*\.\d\d_")
 SYNC = b"$@"
 HEADER_BYTES = 8  # sync, CRC, ID, length
-PVT_GEODETIC, RECEIVER_TIME = 4007, 5914
+PVT_GEODETIC, PVT_CARTESIAN, RECEIVER_TIME = 4007, 4006, 5914
+MAX_HEIGHT_M = 100_000.0  # a PVTCartesian fix further from the ellipsoid is refused
 BLOCK_NAMES = {
     PVT_GEODETIC: "PVTGeodetic",
     RECEIVER_TIME: "ReceiverTime",
-    4006: "PVTCartesian",
+    PVT_CARTESIAN: "PVTCartesian",
     4027: "MeasEpoch",
     4013: "ChannelStatus",
     4001: "DOP",
@@ -182,7 +192,7 @@ class _Blocks:
         return np.frombuffer(raw, dtype), at
 
     def h_accuracy_m(self, at: np.ndarray) -> np.ndarray:
-        """The PVTGeodetic blocks ``at``'s (indices among the good blocks) ``HAccuracy`` as
+        """The PVT blocks ``at``'s (indices among the good blocks) ``HAccuracy`` as
         the DRMS, m: half its 2DRMS. NaN where a block states none: of a revision before
         2 (which has no such field), too short to hold it, or of its do-not-use value."""
         out = np.full(at.size, np.nan)
@@ -194,38 +204,46 @@ class _Blocks:
             out[has] = np.where(raw != NO_H_ACCURACY, raw / 200.0, np.nan)  # 0.01 m, halved
         return out
 
-    def besides(self) -> str:
-        """The other blocks, counted by name, the most first."""
+    def besides(self, read: int) -> str:
+        """The blocks other than those ``read`` and ReceiverTime, counted by name, the most
+        first."""
         counts = Counter(
             BLOCK_NAMES.get(n, f"block {n}")
             for n in self.number.tolist()
-            if n not in (PVT_GEODETIC, RECEIVER_TIME)
+            if n not in (read, RECEIVER_TIME)
         )
         return ", ".join(f"{k} {v}" for k, v in counts.most_common(6))
 
 
 def read_sbf(path: Path, file: str) -> FixLog:
-    """Read a Septentrio receiver's PVTGeodetic blocks as one fix an epoch, on UTC.
+    """Read a Septentrio receiver's PVTGeodetic (else PVTCartesian) blocks as one fix an
+    epoch, on UTC.
 
     Args:
         path: the SBF log (binary; a compressed one already unpacked).
         file: how messages name it.
 
     Raises:
-        InputError: no PVTGeodetic block (naming what the log holds); none with a time;
-            a fix outside the latitude's or longitude's range.
+        InputError: no PVTGeodetic or PVTCartesian block (naming what the log holds); none
+            with a time; a fix outside the latitude's or longitude's range, or (PVTCartesian)
+            far from the ellipsoid.
     """
     blocks = _Blocks(path.read_bytes())
+    number = PVT_GEODETIC
     pvt, at = blocks.records(PVT_GEODETIC, PVT)
     if not pvt.size:
-        held = blocks.besides() or "no good block"
+        number = PVT_CARTESIAN
+        pvt, at = blocks.records(PVT_CARTESIAN, PVT)
+    name = BLOCK_NAMES[number]
+    if not pvt.size:
+        held = blocks.besides(number) or "no good block"
         raise InputError(
             [
                 Problem(
                     file,
                     None,
                     None,
-                    "a Septentrio receiver's PVTGeodetic blocks (SBF)",
+                    "a Septentrio receiver's PVTGeodetic (or PVTCartesian) blocks (SBF)",
                     held
                     + (
                         f"; {len(blocks.bad_crc)} whose CRC does not match"
@@ -254,8 +272,8 @@ def read_sbf(path: Path, file: str) -> FixLog:
                 Problem(
                     file,
                     None,
-                    "PVTGeodetic",
-                    "PVTGeodetic blocks with a GPS time",
+                    name,
+                    f"{name} blocks with a GPS time",
                     f"{untimed.size} of a do-not-use time, none with a time",
                     "log the drive once the receiver has set its clock",
                 )
@@ -263,30 +281,32 @@ def read_sbf(path: Path, file: str) -> FixLog:
         )
     fix = (pvt["error"] == 0) & np.isin(pvt["mode"] & 0x0F, FIX_MODES)
     fix &= (pvt["lat"] != DNU) & (pvt["lon"] != DNU)
-    lat, lon = np.degrees(pvt["lat"]), np.degrees(pvt["lon"])
-    problems = [
-        Problem(
-            file,
-            int(rows[i]),
-            f"PVTGeodetic {what}",
-            f"a {what} in [-{limit}, {limit}] degrees",
-            f"{values[i]:.7f} (the block at byte {int(offsets[i])})",
-        )
-        for what, values, limit in (("Latitude", lat, 90), ("Longitude", lon, 180))
-        for i in np.flatnonzero(fix & (np.abs(values) > limit))[:20]
-    ]
-    if problems:
-        raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
 
     def known(values: np.ndarray) -> np.ndarray:
         return np.where(values != np.float32(DNU), values.astype(np.float64), np.nan)
 
-    height = np.where(
-        (pvt["height"] != DNU) & (pvt["undulation"] != np.float32(DNU)),
-        pvt["height"] - pvt["undulation"].astype(np.float64),
-        np.nan,
-    )
-    speed = np.hypot(known(pvt["vn"]), known(pvt["ve"]))
+    if number == PVT_CARTESIAN:
+        lat, lon, ellipsoidal, vn, ve, problems = _from_ecef(pvt, fix, rows, offsets, file)
+        fix &= np.isfinite(lat)
+    else:
+        lat, lon = np.degrees(pvt["lat"]), np.degrees(pvt["lon"])
+        ellipsoidal = np.where(pvt["height"] != DNU, pvt["height"], np.nan)
+        vn, ve = known(pvt["vn"]), known(pvt["ve"])
+        problems = [
+            Problem(
+                file,
+                int(rows[i]),
+                f"PVTGeodetic {what}",
+                f"a {what} in [-{limit}, {limit}] degrees",
+                f"{values[i]:.7f} (the block at byte {int(offsets[i])})",
+            )
+            for what, values, limit in (("Latitude", lat, 90), ("Longitude", lon, 180))
+            for i in np.flatnonzero(fix & (np.abs(values) > limit))[:20]
+        ]
+    if problems:
+        raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
+    height = ellipsoidal - known(pvt["undulation"])
+    speed = np.hypot(vn, ve)
     channels = {
         "lat": np.where(fix, lat, np.nan),
         "lon": np.where(fix, lon, np.nan),
@@ -299,15 +319,22 @@ def read_sbf(path: Path, file: str) -> FixLog:
     # a field every epoch lacks (a receiver that gives no velocity; blocks before
     # revision 2, which state no accuracy) is no channel
     channels = {k: v for k, v in channels.items() if k in ("lat", "lon") or np.isfinite(v).any()}
-    sources = {
-        "lat": "PVTGeodetic Latitude",
-        "lon": "PVTGeodetic Longitude",
-        "height": "PVTGeodetic Height less Undulation",
-        "n_sats": "PVTGeodetic NrSV",
-        "h_acc": "PVTGeodetic HAccuracy",
-        "speed_gnss": "PVTGeodetic Vn, Ve",
-        "heading": "PVTGeodetic COG",
-    }
+    sources = (
+        {
+            "lat": "PVTCartesian X, Y, Z",
+            "lon": "PVTCartesian X, Y, Z",
+            "height": "PVTCartesian X, Y, Z less Undulation",
+            "speed_gnss": "PVTCartesian Vx, Vy, Vz",
+        }
+        if number == PVT_CARTESIAN
+        else {
+            "lat": "PVTGeodetic Latitude",
+            "lon": "PVTGeodetic Longitude",
+            "height": "PVTGeodetic Height less Undulation",
+            "speed_gnss": "PVTGeodetic Vn, Ve",
+        }
+    )
+    sources |= {"n_sats": f"{name} NrSV", "h_acc": f"{name} HAccuracy", "heading": f"{name} COG"}
     offset_s, how = _utc_offset(blocks, gps)
     utc = GPS_EPOCH_UNIX_S + gps + offset_s
     dropped = "; ".join(
@@ -320,18 +347,18 @@ def read_sbf(path: Path, file: str) -> FixLog:
             f"{len(blocks.cut)} block(s) cut short (first at byte {blocks.cut[0]})"
             if blocks.cut
             else "",
-            f"{untimed.size} PVTGeodetic block(s) of a do-not-use time (first: block {untimed[0]})"
+            f"{untimed.size} {name} block(s) of a do-not-use time (first: block {untimed[0]})"
             if untimed.size
             else "",
-            f"{again.size} PVTGeodetic block(s) of an epoch already given (first: block {again[0]})"
+            f"{again.size} {name} block(s) of an epoch already given (first: block {again[0]})"
             if again.size
             else "",
         )
         if part
     )
-    besides = blocks.besides()
+    besides = blocks.besides(number)
     notes = [
-        f"{file}: an SBF log: {gps.size} epochs (PVTGeodetic), {int(fix.sum())} with a fix; "
+        f"{file}: an SBF log: {gps.size} epochs ({name}), {int(fix.sum())} with a fix; "
         f"{how}"
         + (f"; besides them: {besides}" if besides else "")
         + (f"; passed over: {dropped}" if dropped else "")
@@ -347,6 +374,40 @@ def read_sbf(path: Path, file: str) -> FixLog:
         dated_by="GPS weeks",
         kind="SBF",
     )
+
+
+def _from_ecef(
+    pvt: np.ndarray, fix: np.ndarray, rows: np.ndarray, offsets: np.ndarray, file: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[Problem]]:
+    """PVTCartesian blocks' fixes as latitude, longitude (degrees) and ellipsoidal height
+    (m), their velocity's north and east components (m/s), and a problem for each fix more
+    than :data:`MAX_HEIGHT_M` from the ellipsoid (at most 20). The fields sit where
+    PVTGeodetic's do: X, Y, Z in ``lat``, ``lon``, ``height``; Vx, Vy, Vz in ``vn``, ``ve``,
+    ``vu``. NaN where not a fix (or Z is do-not-use) and where a velocity field is."""
+    x, y, z = (pvt[k].astype(np.float64) for k in ("lat", "lon", "height"))
+    use = fix & (z != DNU)
+    lat, lon, h = (np.full(pvt.size, np.nan) for _ in range(3))
+    lat[use], lon[use], h[use] = ecef_to_geodetic(x[use], y[use], z[use])
+    with np.errstate(invalid="ignore"):
+        far = np.flatnonzero(use & ~(np.abs(h) <= MAX_HEIGHT_M))
+    problems = [
+        Problem(
+            file,
+            int(rows[i]),
+            "PVTCartesian X, Y, Z",
+            f"a position within {MAX_HEIGHT_M / 1000:.0f} km of the WGS84 ellipsoid",
+            f"{abs(h[i]) / 1000:.1f} km {'below' if h[i] < 0 else 'above'} it (X, Y, Z = "
+            f"{x[i]:.3f}, {y[i]:.3f}, {z[i]:.3f} m; "
+            f"the block at byte {int(offsets[i])})",
+        )
+        for i in far[:20]
+    ]
+    v = [
+        np.where(pvt[k] != np.float32(DNU), pvt[k].astype(np.float64), np.nan)
+        for k in ("vn", "ve", "vu")
+    ]
+    east, north, _ = ecef_to_enu_velocity(v[0], v[1], v[2], lat, lon)
+    return lat, lon, h, north, east, problems
 
 
 def _utc_offset(blocks: _Blocks, gps: np.ndarray) -> tuple[float, str]:

@@ -4,6 +4,9 @@
   fast tangent-plane distance (and its east and north) for screening every step of a
   track.
 - :mod:`rwhonet.geo.local`: local east/north offsets around a reference fix.
+- :mod:`rwhonet.geo.ecef`: Earth-centred, Earth-fixed positions and velocities as
+  latitude, longitude, height and east / north / up (a receiver's PVTCartesian);
+  imported from its module, so that what imports this package does not load it.
 """
 
 from rwhonet.geo.geodesic import (
