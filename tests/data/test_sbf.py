@@ -360,6 +360,15 @@ def test_pvtcartesian_beside_pvtgeodetic_no_fix_and_a_position_off_the_earth(tmp
     log = read_sbf(write_sbf(tmp_path / "gap.sbf", sbf_blocks(gap, t, cartesian=True)), "g.sbf")
     assert np.isnan(log.channels["lat"][1]) and np.isfinite(log.channels["lat"]).sum() == 4
     assert "5 epochs (PVTCartesian), 4 with a fix" in log.notes[0]
+    # a fix whose Z alone is do-not-use: no position, not one thousands of km off
+    blocks = sbf_blocks(g, t, cartesian=True)
+    at = next(i for i, b in enumerate(blocks) if int.from_bytes(b[4:6], "little") & 0x1FFF == 4006)
+    no_z = bytearray(blocks[at + 2 * 2])  # the third epoch's PVTCartesian (after a DOP each)
+    no_z[32:40] = np.float64(DNU).tobytes()  # Z: after the header, TOW, WNc, Mode, Error, X, Y
+    blocks[at + 2 * 2] = revised(bytes(no_z), 2)
+    log = read_sbf(write_sbf(tmp_path / "no_z.sbf", blocks), "no_z.sbf")
+    assert np.isnan(log.channels["lat"][2]) and np.isfinite(log.channels["lat"]).sum() == 4
+    assert "5 epochs (PVTCartesian), 4 with a fix" in log.notes[0]
     from pysbf2 import SBFMessage
 
     week, seconds = divmod(GPS_S, 604_800.0)
