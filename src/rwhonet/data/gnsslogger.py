@@ -258,7 +258,7 @@ def _fix_records(
         if where[key] is not None and np.isfinite(v := read[key][keep]).any():
             channels[key] = v
             sources[key] = f"Fix {names[where[key]]}"
-    counted = _status_counts(lines, np.asarray(at)[keep], file)
+    counted = _status_counts(lines, np.asarray(at)[keep])
     read_kinds = (b"Fix",)
     if counted.sats is not None:
         channels["n_sats"] = counted.sats
@@ -301,7 +301,7 @@ class _Counted(NamedTuple):
     said: str
 
 
-def _status_counts(lines: list[bytes], fixes: np.ndarray, file: str) -> _Counted:
+def _status_counts(lines: list[bytes], fixes: np.ndarray) -> _Counted:
     """The satellites used in the fixes at lines ``fixes`` (0-based, increasing), from the
     log's Status records (see the module's docstring): each fix the count of the first
     Status epoch written after it and before the next fix, else of the last written

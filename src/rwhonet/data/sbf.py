@@ -282,16 +282,13 @@ def read_sbf(path: Path, file: str) -> FixLog:
     fix = (pvt["error"] == 0) & np.isin(pvt["mode"] & 0x0F, FIX_MODES)
     fix &= (pvt["lat"] != DNU) & (pvt["lon"] != DNU)
 
-    def known(values: np.ndarray) -> np.ndarray:
-        return np.where(values != np.float32(DNU), values.astype(np.float64), np.nan)
-
     if number == PVT_CARTESIAN:
         lat, lon, ellipsoidal, vn, ve, problems = _from_ecef(pvt, fix, rows, offsets, file)
         fix &= np.isfinite(lat)
     else:
         lat, lon = np.degrees(pvt["lat"]), np.degrees(pvt["lon"])
         ellipsoidal = np.where(pvt["height"] != DNU, pvt["height"], np.nan)
-        vn, ve = known(pvt["vn"]), known(pvt["ve"])
+        vn, ve = _known(pvt["vn"]), _known(pvt["ve"])
         problems = [
             Problem(
                 file,
@@ -305,7 +302,7 @@ def read_sbf(path: Path, file: str) -> FixLog:
         ]
     if problems:
         raise InputError(problems, summary=f"{len(problems)} problem(s) in {file}")
-    height = ellipsoidal - known(pvt["undulation"])
+    height = ellipsoidal - _known(pvt["undulation"])
     speed = np.hypot(vn, ve)
     channels = {
         "lat": np.where(fix, lat, np.nan),
@@ -314,7 +311,7 @@ def read_sbf(path: Path, file: str) -> FixLog:
         "n_sats": np.where(pvt["nr_sv"] != NO_SATS, pvt["nr_sv"].astype(np.float64), np.nan),
         "h_acc": h_acc,
         "speed_gnss": np.where(fix, speed, np.nan),
-        "heading": np.where(fix, known(pvt["cog"]), np.nan),
+        "heading": np.where(fix, _known(pvt["cog"]), np.nan),
     }
     # a field every epoch lacks (a receiver that gives no velocity; blocks before
     # revision 2, which state no accuracy) is no channel
@@ -376,6 +373,11 @@ def read_sbf(path: Path, file: str) -> FixLog:
     )
 
 
+def _known(values: np.ndarray) -> np.ndarray:
+    """A float field's values, NaN where do-not-use."""
+    return np.where(values != np.float32(DNU), values.astype(np.float64), np.nan)
+
+
 def _from_ecef(
     pvt: np.ndarray, fix: np.ndarray, rows: np.ndarray, offsets: np.ndarray, file: str
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[Problem]]:
@@ -402,10 +404,7 @@ def _from_ecef(
         )
         for i in far[:20]
     ]
-    v = [
-        np.where(pvt[k] != np.float32(DNU), pvt[k].astype(np.float64), np.nan)
-        for k in ("vn", "ve", "vu")
-    ]
+    v = [_known(pvt[k]) for k in ("vn", "ve", "vu")]
     east, north, _ = ecef_to_enu_velocity(v[0], v[1], v[2], lat, lon)
     return lat, lon, h, north, east, problems
 
