@@ -52,7 +52,8 @@
   (openpilot processed logs), :mod:`~rwhonet.data.mdf4` (ASAM MDF4, via asammdf; a ROS 1
   bag's topics, via rosbags, by :mod:`~rwhonet.data.rosbag`; one a recorder left without
   its index, or damaged, record by record, by :mod:`~rwhonet.data.bagscan`, a ROS 2 bag's
-  MCAP file left without its summary, or damaged, by :mod:`~rwhonet.data.mcapscan`) or
+  MCAP file left without its summary, or damaged, by :mod:`~rwhonet.data.mcapscan`, its
+  sqlite3 file cut short or damaged, page by page, by :mod:`~rwhonet.data.db3scan`) or
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
   (:mod:`~rwhonet.data.signalmap`); a receiver's NMEA 0183 log among the stream CSVs is
   read by :mod:`~rwhonet.data.nmea`, a u-blox receiver's binary log (UBX NAV-PVT) by

@@ -314,6 +314,7 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
     from rosbags.typesys import Stores, get_typestore
 
     from rwhonet.data.bagscan import ScannedBag, has_index
+    from rwhonet.data.db3scan import ScannedDb3
     from rwhonet.data.mcapscan import ScannedMcap
 
     ros2 = _is_ros2(path)
@@ -328,6 +329,11 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
             elif ros2 and (unfinished := _unfinished_mcap(path, stack, file, refused)):
                 # as far as each goes
                 bag = stack.enter_context(ScannedMcap(unfinished, refused))
+                if cut:
+                    bag.said += f"; the folder has no {METADATA}"
+            elif ros2 and refused is not None:
+                # sqlite3 files SQLite refused: page by page
+                bag = stack.enter_context(ScannedDb3(_plain_storage(path, stack, file), refused))
                 if cut:
                     bag.said += f"; the folder has no {METADATA}"
             else:
@@ -380,8 +386,8 @@ def _refusal(
             head = f.read(len(MAGIC))
         return _Refused(err, refusal) if head == MAGIC else refusal
     files = _storage_files(path) if path.is_dir() else [path]
-    mcap = [p for p in files if Path(without_suffix(p.name)).suffix.lower() == ".mcap"]
-    return _Refused(err, refusal) if mcap and len(mcap) == len(files) else refusal
+    kinds = {Path(without_suffix(p.name)).suffix.lower() for p in files}
+    return _Refused(err, refusal) if len(kinds) == 1 and kinds <= set(ROS2_FILES) else refusal
 
 
 def _in_rosbags(err: BaseException) -> bool:

@@ -1,0 +1,211 @@
+"""A ROS 2 bag's sqlite3 file cut short or damaged, read page by page (rwhonet.data.db3scan).
+
+``ros2 bag record`` with sqlite3 storage (rosbag2's default through Humble) keeps each
+message as a row of the file's ``messages`` table. A file cut short (a copy that stopped,
+a disk that filled) or with a damaged page is "malformed" to SQLite, and ``rosbags``
+refused the whole bag with it. The files here are written by ``rosbags``' writer (as
+``ros2 bag record`` lays them out: the schema, metadata, topics, message_definitions and
+messages tables) and cut or damaged as a disk would leave them.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rwhonet.data import canonical as c
+from rwhonet.data.db3scan import MAGIC, ScannedDb3
+from rwhonet.data.mdf4 import read_mdf4
+from rwhonet.data.streams import resample
+from rwhonet.errors import InputError
+from support.multirate import per_second, simulated_streams
+from support.rosbag import bag_map, tables_bag, typestore, write_bag
+
+
+def _drive():
+    """120 s: 100 Hz wheels, 10 Hz fixes, 50 Hz IMU (19,186 messages, 3.3 MB)."""
+    return simulated_streams(120.0, 100.0, 10.0, gyro_hz=50.0)
+
+
+def _db3(tmp_path: Path, definitions: bool = True) -> Path:
+    tables, _ = _drive()
+    folder = tables_bag(tmp_path / "drive", tables, ros2="sqlite3")
+    db3 = next(folder.glob("*.db3"))
+    if not definitions:  # as a bag recorded before Iron
+        with sqlite3.connect(db3) as db:
+            db.execute("DELETE FROM message_definitions")
+        db.close()
+    return db3
+
+
+def _rosbags(db3: Path) -> tuple[list[tuple[str, str]], list[tuple[str, int, bytes]]]:
+    """The bag's topics and messages (topic, time, data) as rosbags gives them."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    with AnyReader([db3], default_typestore=get_typestore(Stores.LATEST)) as bag:
+        topics = sorted((x.topic, x.msgtype) for x in bag.connections)
+        return topics, [(x.topic, t, bytes(raw)) for x, t, raw in bag.messages()]
+
+
+def _seconds(path: Path, radius: float, name: str):
+    streams = read_mdf4(path, bag_map(yaw=True), radius, "m", name)
+    grid = resample(streams, nominal_radius_m=radius).drive.columns
+    return per_second(grid, radius), streams
+
+
+@pytest.mark.parametrize("definitions", [True, False])
+def test_a_whole_file_read_page_by_page_is_what_rosbags_reads(tmp_path, definitions):
+    """Every page of a whole file: the topics, and every message (topic, time, data, in
+    order) as rosbags gives them, bit for bit; with the message definitions (Iron on) and
+    without (before Iron: ROS's own types of the latest LTS), each deserialises."""
+    db3 = _db3(tmp_path, definitions)
+    topics, want = _rosbags(db3)
+    with ScannedDb3([db3], "test") as bag:
+        assert sorted((x.topic, x.msgtype) for x in bag.connections) == topics
+        got = [(x.topic, t, raw) for x, t, raw in bag.messages()]
+        assert got == want and bag.message_count == len(want) == 19_186
+        con = next(x for x in bag.connections if x.topic == "/vehicle/gps/fix")
+        fix = bag.deserialize(next(raw for x, _, raw in bag.messages([con])), con.msgtype)
+        assert 52.0 < fix.latitude < 53.0
+        assert "read page by page, 19186 messages from" in bag.said
+
+
+@pytest.mark.parametrize("share", [0.3, 0.5, 0.9, 0.999])
+def test_a_file_cut_short_reads_its_pages_as_far_as_they_go(tmp_path, share):
+    """The file cut at 30 / 50 / 90 / 99.9 % of its bytes, which rosbags refused (SQLite:
+    "database disk image is malformed"): read page by page, every message read is the whole file's of that
+    time and topic (data bit for bit), the more the longer the file; the drive's labelled
+    seconds are the whole file's for the seconds it covers; the notes say so."""
+    tables, radius = _drive()
+    db3 = _db3(tmp_path)
+    data = db3.read_bytes()
+    cut = tmp_path / "cut" / "drive_0.db3"
+    cut.parent.mkdir()
+    cut.write_bytes(data[: int(share * len(data))])
+    _, whole = _rosbags(db3)
+    whole_by = {(topic, t): raw for topic, t, raw in whole}
+    with ScannedDb3([cut], "cut") as bag:
+        got = [(x.topic, t, raw) for x, t, raw in bag.messages()]
+    assert all(whole_by[(topic, t)] == raw for topic, t, raw in got)
+    assert share * len(whole) * 0.8 < len(got) <= len(whole)
+    ref, _ = _seconds(db3.parent, radius, "whole")
+    secs, streams = _seconds(cut, radius, cut.name)
+    said = " ".join(streams.notes)
+    assert "rosbags refused the file (" in said  # its error, cut to a length
+    assert "read page by page" in said
+    assert len(secs) >= 0.6 * share * len(ref)
+    same = ref.merge(secs, on="t_s", suffixes=("", "_cut"))
+    assert len(same) >= 0.9 * len(secs)
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(same[f"{q}_cut"], same[q], rtol=0, atol=1e-9, err_msg=q)
+
+
+def test_damaged_cells_are_passed_over_and_the_pages_after_read(tmp_path):
+    """Bytes of a leaf page in the file's middle overwritten (a disk's bad sector): its
+    cells that no longer parse are passed over, counted, and every other message read as
+    the whole file's."""
+    db3 = _db3(tmp_path)
+    data = bytearray(db3.read_bytes())
+    page = int.from_bytes(data[16:18], "big")
+    middle = (len(data) // page // 2) * page
+    assert data[middle] == 13  # a table leaf page
+    data[middle + 8 : middle + page] = bytes(range(256)) * ((page - 8) // 256) + bytes(
+        (page - 8) % 256
+    )
+    bad = tmp_path / "bad" / "drive_0.db3"
+    bad.parent.mkdir()
+    bad.write_bytes(bytes(data))
+    _, whole = _rosbags(db3)
+    whole_by = {(topic, t): raw for topic, t, raw in whole}
+    with ScannedDb3([bad], "bad") as bag:
+        got = [(x.topic, t, raw) for x, t, raw in bag.messages()]
+        said = bag.said
+    assert all(whole_by[(topic, t)] == raw or raw == b"" for topic, t, raw in got)
+    assert len(whole) - 200 < len(got) < len(whole)
+    assert "damaged cell(s) passed over" in said or len(got) < len(whole)
+
+
+def test_a_message_longer_than_a_page_is_read_through_its_overflow_pages(tmp_path):
+    """A 20 kB message (a String: a map's or a diagnostic's text) spans overflow pages:
+    read bit for bit; its chain broken (an overflow page's pointer zeroed), it is given
+    empty, which rosbags cannot deserialise and the reader passes over as damaged."""
+    ts = typestore(ros2=True)
+    string = ts.types["std_msgs/msg/String"]
+    text = "".join(chr(65 + k % 26) for k in range(20_000))
+    t0 = 1_552_307_400_000_000_000
+    extra = [("/notes", "std_msgs/msg/String", [(t0 + k, string(data=text)) for k in range(3)])]
+    fixes = (np.array([0.0, 0.1]), np.array([52.4, 52.4]), np.array([-1.5, -1.5]))
+    folder = write_bag(tmp_path / "big", None, fixes, extra=extra, ros2="sqlite3")
+    db3 = next(folder.glob("*.db3"))
+    _, want = _rosbags(db3)
+    with ScannedDb3([db3], "test") as bag:
+        got = [(x.topic, t, raw) for x, t, raw in bag.messages()]
+        con = next(x for x in bag.connections if x.topic == "/notes")
+        raw = next(raw for x, _, raw in bag.messages([con]))
+        assert bag.deserialize(raw, con.msgtype).data == text
+    assert got == want
+    # an overflow page: its next page's number (0: the chain's last), then the text; break
+    # one chain at a page that is not its last
+    data = bytearray(db3.read_bytes())
+    page = int.from_bytes(data[16:18], "big")
+    first = next(
+        p
+        for p in range(len(data) // page)
+        if data[p * page + 4 : (p + 1) * page].isalpha() and any(data[p * page : p * page + 4])
+    )
+    data[first * page : first * page + 4] = (10**6).to_bytes(4, "big")
+    broken = tmp_path / "broken.db3"
+    broken.write_bytes(bytes(data))
+    with ScannedDb3([broken], "test") as bag:
+        con = next(x for x in bag.connections if x.topic == "/notes")
+        sizes = sorted(len(raw) for _, _, raw in bag.messages([con]))
+    assert sizes[0] == 0 and sizes[1:] == [len(want[-1][2])] * 2
+
+
+def test_what_is_no_database_or_holds_no_message_is_refused_with_rosbags_error(tmp_path):
+    """A .db3 that is no SQLite file is refused as before, not read page by page; one whose
+    topics' page is lost holds no message of a known topic: refused with rosbags' own
+    error."""
+    db3 = _db3(tmp_path)
+    junk = tmp_path / "junk" / "drive_0.db3"
+    junk.parent.mkdir()
+    junk.write_bytes(b"not a database" * 1000)
+    with pytest.raises(InputError) as err:
+        read_mdf4(junk, bag_map(), 1.0, "m", junk.name)
+    assert "read page by page" not in str(err.value)
+    with pytest.raises(ValueError, match="does not start as an SQLite database"):
+        ScannedDb3([junk], "test")
+    data = bytearray(db3.read_bytes())
+    page = int.from_bytes(data[16:18], "big")
+    with sqlite3.connect(db3) as db:
+        (root,) = db.execute("SELECT rootpage FROM sqlite_master WHERE name='topics'").fetchone()
+    db.close()
+    data[(root - 1) * page : root * page] = bytes(page)  # the topics' page zeroed
+    lost = tmp_path / "lost" / "drive_0.db3"
+    lost.parent.mkdir()
+    lost.write_bytes(bytes(data[: len(data) // 2]))
+    with pytest.raises(InputError) as err:
+        read_mdf4(lost, bag_map(), 1.0, "m", lost.name)
+    said = str(err.value)
+    assert "database disk image is malformed" in said and "read page by page" not in said
+    assert MAGIC == data[:16]
+
+
+def test_a_folder_cut_short_with_its_metadata_reads_through_ingest_s_reader(tmp_path):
+    """The bag's folder as rosbag2 leaves it, metadata.yaml and its db3 cut at half: read
+    through the folder, the notes saying how."""
+    tables, radius = _drive()
+    db3 = _db3(tmp_path)
+    folder = tmp_path / "copy"
+    shutil.copytree(db3.parent, folder)
+    half = folder / db3.name
+    half.write_bytes(db3.read_bytes()[: db3.stat().st_size // 2])
+    secs, streams = _seconds(folder, radius, "copy")
+    assert len(secs) > 30
+    assert any("read page by page" in n for n in streams.notes)
+    assert np.isfinite(secs["label_m"]).all() and c.T_S in streams.gnss.channels or True
