@@ -17,7 +17,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rwhonet.data import canonical as c
 from rwhonet.data.db3scan import MAGIC, ScannedDb3
 from rwhonet.data.mdf4 import read_mdf4
 from rwhonet.data.streams import resample
@@ -78,9 +77,10 @@ def test_a_whole_file_read_page_by_page_is_what_rosbags_reads(tmp_path, definiti
 @pytest.mark.parametrize("share", [0.3, 0.5, 0.9, 0.999])
 def test_a_file_cut_short_reads_its_pages_as_far_as_they_go(tmp_path, share):
     """The file cut at 30 / 50 / 90 / 99.9 % of its bytes, which rosbags refused (SQLite:
-    "database disk image is malformed"): read page by page, every message read is the whole file's of that
-    time and topic (data bit for bit), the more the longer the file; the drive's labelled
-    seconds are the whole file's for the seconds it covers; the notes say so."""
+    "database disk image is malformed"): read page by page, every message read is the
+    whole file's of that time and topic (data bit for bit), the more the longer the file;
+    the drive's labelled seconds are the whole file's for the seconds it covers; the notes
+    say so."""
     tables, radius = _drive()
     db3 = _db3(tmp_path)
     data = db3.read_bytes()
@@ -208,4 +208,4 @@ def test_a_folder_cut_short_with_its_metadata_reads_through_ingest_s_reader(tmp_
     secs, streams = _seconds(folder, radius, "copy")
     assert len(secs) > 30
     assert any("read page by page" in n for n in streams.notes)
-    assert np.isfinite(secs["label_m"]).all() and c.T_S in streams.gnss.channels or True
+    assert np.isfinite(secs["label_m"]).all()
