@@ -22,7 +22,7 @@ from rwhonet.data.mdf4 import read_mdf4
 from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from support.multirate import per_second, simulated_streams
-from support.rosbag import bag_map, tables_bag, typestore, write_bag
+from support.rosbag import bag_map, tables_bag, typestore
 
 
 def _drive():
@@ -130,25 +130,45 @@ def test_damaged_cells_are_passed_over_and_the_pages_after_read(tmp_path):
     assert f"{len(got)} messages from" in said and "26 damaged cell(s) passed over" in said
 
 
-def test_a_message_longer_than_a_page_is_read_through_its_overflow_pages(tmp_path):
-    """A 20 kB message (a String: a map's or a diagnostic's text) spans overflow pages:
-    read bit for bit; its chain broken (an overflow page's pointer zeroed), it is given
-    empty, which rosbags cannot deserialise and the reader passes over as damaged."""
+def _strings(path: Path, texts: list[tuple[int, str]], page_size: int | None = None) -> Path:
+    """A ROS 2 sqlite3 bag of ``std_msgs/String`` messages on ``/notes``, written in the
+    order given (time ns, text), its file's pages ``page_size`` bytes where given."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
     ts = typestore(ros2=True)
     string = ts.types["std_msgs/msg/String"]
-    text = "".join(chr(65 + k % 26) for k in range(20_000))
+    with Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
+        con = w.add_connection("/notes", "std_msgs/msg/String", typestore=ts)
+        for t, text in texts:
+            w.write(con, t, ts.serialize_cdr(string(data=text), "std_msgs/msg/String"))
+    db3 = next(path.glob("*.db3"))
+    if page_size:
+        with sqlite3.connect(db3) as db:
+            db.execute(f"PRAGMA page_size={page_size}")
+            db.execute("VACUUM")
+        db.close()
+    return db3
+
+
+def _text(n: int) -> str:
+    return "".join(chr(65 + k % 26) for k in range(n))
+
+
+def test_a_message_longer_than_a_page_is_read_through_its_overflow_pages(tmp_path):
+    """Messages of 20 to 24 kB (a String: a map's or a diagnostic's text) span overflow
+    pages, their parts on the page every size SQLite's rule gives (the least, or more):
+    read bit for bit; a chain broken (an overflow page's pointer off the file), its
+    message is given empty, which rosbags cannot deserialise and the reader passes over
+    as damaged."""
     t0 = 1_552_307_400_000_000_000
-    extra = [("/notes", "std_msgs/msg/String", [(t0 + k, string(data=text)) for k in range(3)])]
-    fixes = (np.array([0.0, 0.1]), np.array([52.4, 52.4]), np.array([-1.5, -1.5]))
-    folder = write_bag(tmp_path / "big", None, fixes, extra=extra, ros2="sqlite3")
-    db3 = next(folder.glob("*.db3"))
+    sizes = [20_000 + 600 * k for k in range(8)]  # the page's part: every residue of 4092
+    db3 = _strings(tmp_path / "big", [(t0 + k, _text(n)) for k, n in enumerate(sizes)])
     _, want = _rosbags(db3)
     with ScannedDb3([db3], "test") as bag:
         got = [(x.topic, t, raw) for x, t, raw in bag.messages()]
-        con = next(x for x in bag.connections if x.topic == "/notes")
-        raw = next(raw for x, _, raw in bag.messages([con]))
-        assert bag.deserialize(raw, con.msgtype).data == text
-    assert got == want
+        con = bag.connections[0]
+        texts = [bag.deserialize(raw, con.msgtype).data for _, _, raw in bag.messages()]
+    assert got == want and texts == [_text(n) for n in sizes]
     # an overflow page: its next page's number (0: the chain's last), then the text; break
     # one chain at a page that is not its last
     data = bytearray(db3.read_bytes())
@@ -162,9 +182,26 @@ def test_a_message_longer_than_a_page_is_read_through_its_overflow_pages(tmp_pat
     broken = tmp_path / "broken.db3"
     broken.write_bytes(bytes(data))
     with ScannedDb3([broken], "test") as bag:
-        con = next(x for x in bag.connections if x.topic == "/notes")
-        sizes = sorted(len(raw) for _, _, raw in bag.messages([con]))
-    assert sizes[0] == 0 and sizes[1:] == [len(want[-1][2])] * 2
+        read = [raw for _, _, raw in bag.messages()]
+    kept = [raw for raw in read if raw]
+    assert len(read) == len(want) and len(kept) == len(want) - 1
+    assert all(raw in {w[2] for w in want} for raw in kept)
+
+
+@pytest.mark.parametrize("page_size", [512, 65536])
+def test_any_page_size_and_rows_written_out_of_time_order(tmp_path, page_size):
+    """A file of 512-byte pages and one of 65,536 (its header's 1), its messages written
+    out of time order (a recorder's clock stepped back): every message in time order, as
+    rosbags gives them, bit for bit."""
+    times = [5, 1, 4, 2, 3]
+    db3 = _strings(tmp_path / "b", [(t, _text(300 * t)) for t in times], page_size)
+    assert int.from_bytes(db3.read_bytes()[16:18], "big") == min(
+        page_size, 1 if page_size > 32768 else page_size
+    )
+    _, want = _rosbags(db3)
+    with ScannedDb3([db3], "test") as bag:
+        got = [(x.topic, t, raw) for x, t, raw in bag.messages()]
+    assert got == want and [t for _, t, _ in got] == sorted(times)
 
 
 def test_what_is_no_database_or_holds_no_message_is_refused_with_rosbags_error(tmp_path):
