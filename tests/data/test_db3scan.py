@@ -246,3 +246,67 @@ def test_a_folder_cut_short_with_its_metadata_reads_through_ingest_s_reader(tmp_
     assert len(secs) > 30
     assert any("read page by page" in n for n in streams.notes)
     assert np.isfinite(secs["label_m"]).all()
+
+
+def _record(*columns: object) -> bytes:
+    """A record as SQLite writes it (every varint here one byte): NULL, a one-byte
+    integer, a BLOB (bytes) or a text (str)."""
+    types, body = [], b""
+    for v in columns:
+        if v is None:
+            types.append(0)
+        elif isinstance(v, int):
+            types.append(1)
+            body += v.to_bytes(1, "big", signed=True)
+        elif isinstance(v, bytes):
+            types.append(12 + 2 * len(v))
+            body += v
+        else:
+            types.append(13 + 2 * len(v.encode()))
+            body += v.encode()
+    return bytes([len(types) + 1, *types]) + body
+
+
+def _leaf(cells: list[tuple[int, bytes]], page: int, at: int = 0) -> bytes:
+    """A table leaf page of ``page`` bytes (its header at byte ``at``: 100 on page 1),
+    the cells (rowid, payload) at its end."""
+    out = bytearray(page)
+    end, pointers = page, []
+    for rowid, payload in cells:
+        cell = bytes([len(payload), rowid]) + payload
+        end -= len(cell)
+        out[end : end + len(cell)] = cell
+        pointers.append(end)
+    out[at] = 13
+    out[at + 3 : at + 5] = len(cells).to_bytes(2, "big")
+    out[at + 5 : at + 7] = end.to_bytes(2, "big")
+    for k, p in enumerate(pointers):
+        out[at + 8 + 2 * k : at + 10 + 2 * k] = p.to_bytes(2, "big")
+    return bytes(out)
+
+
+def test_cells_whose_records_do_not_add_up_are_damaged_and_page_1_is_read_past_its_header(
+    tmp_path,
+):
+    """Pages laid out by hand (512 bytes): page 1's cells, after the file's 100-byte header,
+    and page 2's are read; a message whose BLOB's serial type claims more bytes than its
+    cell holds, and a topic's row with a byte after its last column, are damaged: passed
+    over, counted."""
+    topic = _record(None, "/notes", "std_msgs/msg/String", "cdr", "")
+    message = _record(None, 1, 7, b"\x00\x01\x00\x00ab")
+    claims_more = bytearray(_record(None, 1, 8, b"\x00\x01\x00\x00cd"))
+    claims_more[4] += 2 * 4  # the BLOB's serial type: 4 bytes more than there are
+    one_more = _record(None, "/more", "std_msgs/msg/String", "cdr", "") + b"\x00"
+    page1 = bytearray(_leaf([(1, topic), (2, one_more)], 512, at=100))
+    page1[:100] = bytes(100)
+    page1[:16] = MAGIC
+    page1[16:18] = (512).to_bytes(2, "big")
+    page2 = _leaf([(1, message), (2, bytes(claims_more))], 512)
+    db3 = tmp_path / "hand.db3"
+    db3.write_bytes(bytes(page1) + page2)
+    with ScannedDb3([db3], "test") as bag:
+        assert [(c.id, c.topic) for c in bag.connections] == [(1, "/notes")]
+        assert [(t, raw) for _, t, raw in bag.messages()] == [(7, b"\x00\x01\x00\x00ab")]
+        assert "read page by page, 1 messages from 2 pages; 2 damaged cell(s) passed over" in (
+            bag.said
+        )
