@@ -51,7 +51,7 @@ from pathlib import Path
 from typing import Any
 
 from rwhonet.data.bagscan import NoWholeMessage, ScannedConnection
-from rwhonet.data.mcapscan import _msgdef, _typestore
+from rwhonet.data.mcapscan import definitions_typestore, ros2_definition
 
 MAGIC = b"SQLite format 3\x00"
 TABLE_LEAF = 13  # a table b-tree's leaf page
@@ -280,7 +280,9 @@ class ScannedDb3:
             for name, d in f.definitions.items():
                 definitions.setdefault(name, d)
         self.connections = [
-            ScannedConnection(k, name, msgtype, _msgdef(*definitions.get(msgtype, ("", ""))), "")
+            ScannedConnection(
+                k, name, msgtype, ros2_definition(*definitions.get(msgtype, ("", ""))), ""
+            )
             for k, (name, msgtype) in sorted(topics.items())
         ]
         by_id = {c.id: c for c in self.connections}
@@ -301,7 +303,7 @@ class ScannedDb3:
                 f"no whole message: {len(rows)} message row(s), {len(topics)} topic row(s) "
                 f"and {damaged} damaged cell(s) among {pages} pages"
             )
-        self.typestore = _typestore(self.connections)
+        self.typestore = definitions_typestore(self.connections)
         lost = [f"{f.path.name} ends {f.tail} byte(s) into a page" for f in files if f.tail]
         self.said = (
             f"rosbags refused {'the file' if len(files) == 1 else 'its files'} ({refused}): "

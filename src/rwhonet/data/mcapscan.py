@@ -162,10 +162,12 @@ class ScannedMcap:
             name, encoding, data = meta.schemas.get((key[0], schema_id), ("", "", ""))
             self._ids[key] = len(connections) + 1
             connections.append(
-                ScannedConnection(len(connections) + 1, topic, name, _msgdef(encoding, data), "")
+                ScannedConnection(
+                    len(connections) + 1, topic, name, ros2_definition(encoding, data), ""
+                )
             )
         self.connections: list[ScannedConnection] = connections
-        self.typestore = _typestore(connections)
+        self.typestore = definitions_typestore(connections)
         stops = [f"{f.path.name} stops {f.stopped}" for f in self._files if f.stopped]
         stops += [
             f"{f.path.name}: {len(f.skipped)} damaged chunk(s) passed over ({'; '.join(f.skipped)})"
@@ -432,7 +434,7 @@ def _fields(
         meta.channels[(k, cid)] = (topic, sid)
 
 
-def _msgdef(encoding: str, data: str) -> Any:
+def ros2_definition(encoding: str, data: str) -> Any:
     """A schema's definition as ``rosbags`` holds it."""
     from rosbags.interfaces import MessageDefinition, MessageDefinitionFormat
 
@@ -443,7 +445,7 @@ def _msgdef(encoding: str, data: str) -> Any:
     return MessageDefinition(MessageDefinitionFormat.NONE, "")
 
 
-def _typestore(connections: Sequence[ScannedConnection]) -> Any:
+def definitions_typestore(connections: Sequence[ScannedConnection]) -> Any:
     """The types of the files' definitions, as ``AnyReader`` registers them; where they carry
     none, ROS's own types of the latest LTS (as :func:`rwhonet.data.rosbag.opened_bag`)."""
     from rosbags.interfaces import MessageDefinitionFormat
