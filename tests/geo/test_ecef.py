@@ -7,21 +7,9 @@ import numpy as np
 import pytest
 
 from rwhonet.geo.ecef import ecef_to_enu_velocity, ecef_to_geodetic
+from support.sbf import A_M, E2, F, ecef
 
-A_M, F = 6_378_137.0, 1.0 / 298.257223563  # WGS84
 B_M = A_M * (1.0 - F)
-E2 = F * (2.0 - F)
-
-
-def _forward(lat, lon, h):  # type: ignore[no-untyped-def]
-    """The closed form: X, Y, Z of a geodetic position, by the prime vertical radius."""
-    phi, lam = np.radians(lat), np.radians(lon)
-    n = A_M / np.sqrt(1.0 - E2 * np.sin(phi) ** 2)
-    return (
-        (n + h) * np.cos(phi) * np.cos(lam),
-        (n + h) * np.cos(phi) * np.sin(lam),
-        (n * (1.0 - E2) + h) * np.sin(phi),
-    )
 
 
 @pytest.mark.parametrize(
@@ -48,7 +36,7 @@ def test_the_closed_form_is_undone_everywhere_on_and_near_the_ellipsoid():
     lat = np.degrees(np.arcsin(rng.uniform(-1.0, 1.0, 10_000)))
     lon = rng.uniform(-180.0, 180.0, 10_000)
     h = rng.uniform(-400.0, 9_000.0, 10_000)
-    got_lat, got_lon, got_h = ecef_to_geodetic(*_forward(lat, lon, h))
+    got_lat, got_lon, got_h = ecef_to_geodetic(*ecef(lat, lon, h))
     np.testing.assert_allclose(got_lat, lat, rtol=0, atol=1e-11)
     np.testing.assert_allclose((got_lon - lon + 180.0) % 360.0 - 180.0, 0.0, atol=1e-11)
     np.testing.assert_allclose(got_h, h, rtol=0, atol=1e-6)
@@ -74,8 +62,8 @@ def test_the_velocity_s_local_axes():
     m_per_deg_n = np.radians(1.0) * A_M * (1 - E2) / (1 - E2 * np.sin(np.radians(lat0)) ** 2) ** 1.5
     n_radius = A_M / np.sqrt(1 - E2 * np.sin(np.radians(lat0)) ** 2)
     m_per_deg_e = np.radians(1.0) * n_radius * np.cos(np.radians(lat0))
-    a = np.array(_forward(lat0, lon0, 0.0))
-    b = np.array(_forward(lat0 + 10.0 * step / m_per_deg_n, lon0 + 5.0 * step / m_per_deg_e, 0.0))
+    a = np.array(ecef(lat0, lon0, 0.0))
+    b = np.array(ecef(lat0 + 10.0 * step / m_per_deg_n, lon0 + 5.0 * step / m_per_deg_e, 0.0))
     vx, vy, vz = (b - a) / step
     e, n, u = ecef_to_enu_velocity(vx, vy, vz, lat0, lon0)
     assert (e, n, u) == pytest.approx((5.0, 10.0, 0.0), abs=1e-4)

@@ -86,15 +86,15 @@ A_M, F = 6_378_137.0, 1.0 / 298.257223563  # WGS84
 E2 = F * (2.0 - F)
 
 
-def ecef(lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
-    """A geodetic position as WGS84 ECEF X, Y, Z (m), by the closed form (the prime
-    vertical radius N; not PROJ, which the reader's inverse uses)."""
-    phi, lam = math.radians(lat_deg), math.radians(lon_deg)
-    n = A_M / math.sqrt(1.0 - E2 * math.sin(phi) ** 2)
+def ecef(lat_deg, lon_deg, h_m):  # type: ignore[no-untyped-def]
+    """A geodetic position (numbers or arrays) as WGS84 ECEF X, Y, Z (m), by the closed
+    form (the prime vertical radius N; not PROJ, which the reader's inverse uses)."""
+    phi, lam = np.radians(lat_deg), np.radians(lon_deg)
+    n = A_M / np.sqrt(1.0 - E2 * np.sin(phi) ** 2)
     return (
-        (n + h_m) * math.cos(phi) * math.cos(lam),
-        (n + h_m) * math.cos(phi) * math.sin(lam),
-        (n * (1.0 - E2) + h_m) * math.sin(phi),
+        (n + h_m) * np.cos(phi) * np.cos(lam),
+        (n + h_m) * np.cos(phi) * np.sin(lam),
+        (n * (1.0 - E2) + h_m) * np.sin(phi),
     )
 
 
@@ -170,7 +170,7 @@ def _cartesian(t, lat, lon, v, cog, sats, h_acc, ok) -> bytes:  # type: ignore[n
     fields = {"Type": 0, "Error": 1, "X": DNU, "Y": DNU, "Z": DNU, "Vx": DNU, "Vy": DNU}
     fields |= {"Vz": DNU, "COG": DNU, "Undulation": DNU, "NrSV": 255}
     if ok:
-        x, y, z = ecef(lat, lon, 160.4)
+        x, y, z = (float(v) for v in ecef(lat, lon, 160.4))
         fields = {"Type": 1, "Error": 0, "X": x, "Y": y, "Z": z, "Undulation": 48.0}
         fields["NrSV"] = sats
         if cog is not None and v != DNU:

@@ -40,7 +40,7 @@ import struct
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 MAGIC = b"#ROSBAG V2.0\n"
 OP_MESSAGE, OP_HEADER, OP_CHUNK, OP_CONNECTION = 2, 3, 5, 7
@@ -57,6 +57,49 @@ class ScannedConnection:
     msgtype: str
     msgdef: Any  # rosbags' MessageDefinition (its format MSG: ROS 1's text)
     md5sum: str
+
+
+class MappedFiles:
+    """What a ROS 2 bag's files read record by record or page by page share
+    (:class:`~rwhonet.data.mcapscan.ScannedMcap`, :class:`~rwhonet.data.db3scan.ScannedDb3`):
+    the files mapped for reading and closed with it, their connections' topics, and
+    ``rosbags`` deserialising a message by the files' types."""
+
+    connections: Sequence[ScannedConnection]
+    typestore: Any
+
+    def __init__(self) -> None:
+        self._handles: list[tuple[Any, mmap.mmap]] = []
+
+    def _map(self, path: Path) -> mmap.mmap:
+        """``path`` mapped for reading, until :meth:`close`; ValueError where it is empty."""
+        f = open(path, "rb")  # noqa: SIM115 - closed by close()
+        try:
+            buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+        except ValueError:  # an empty file
+            f.close()
+            raise ValueError(f"{path.name} is empty") from None
+        self._handles.append((f, buf))
+        return buf
+
+    @property
+    def topics(self) -> dict[str, int]:
+        return {c.topic: c.id for c in self.connections}
+
+    def deserialize(self, raw: bytes, msgtype: str) -> Any:
+        return self.typestore.deserialize_cdr(raw, msgtype)
+
+    def close(self) -> None:
+        for f, buf in self._handles:
+            buf.close()
+            f.close()
+        self._handles = []
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 class NoWholeMessage(ValueError):

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from rwhonet.data.bagscan import NoWholeMessage, ScannedConnection
+from rwhonet.data.bagscan import MappedFiles, NoWholeMessage, ScannedConnection
 from rwhonet.data.mcapscan import definitions_typestore, ros2_definition
 
 MAGIC = b"SQLite format 3\x00"
@@ -248,7 +248,7 @@ def _keep(out: _Db3, rowid: int, row: list[Any]) -> None:
             out.definitions.setdefault(row[1], (row[2], row[3]))
 
 
-class ScannedDb3:
+class ScannedDb3(MappedFiles):
     """A ROS 2 bag's sqlite3 files (in order) read page by page (what ``rosbags``'
     ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`).
 
@@ -263,11 +263,11 @@ class ScannedDb3:
 
     def __init__(self, paths: Sequence[Path], refused: str) -> None:
         """Scan ``paths``; ``refused``: why ``rosbags`` (SQLite) refused them."""
-        self._handles: list[tuple[Any, mmap.mmap]] = []
+        super().__init__()
         files: list[_Db3] = []
         try:
             for path in paths:
-                files.append(_scan(self._open(path), path))
+                files.append(_scan(self._map(path), path))
         except Exception:
             self.close()
             raise
@@ -317,23 +317,9 @@ class ScannedDb3:
             + (f"; {'; '.join(lost)}" if lost else "")
         )
 
-    def _open(self, path: Path) -> mmap.mmap:
-        f = open(path, "rb")  # noqa: SIM115 - closed by close()
-        try:
-            buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-        except ValueError:  # an empty file
-            f.close()
-            raise ValueError(f"{path.name} is empty") from None
-        self._handles.append((f, buf))
-        return buf
-
     @property
     def message_count(self) -> int:
         return len(self._messages)
-
-    @property
-    def topics(self) -> dict[str, int]:
-        return {c.topic: c.id for c in self.connections}
 
     def messages(
         self, connections: Sequence[ScannedConnection] = ()
@@ -353,18 +339,6 @@ class ScannedDb3:
                 data = b""
             yield c, t, data
 
-    def deserialize(self, raw: bytes, msgtype: str) -> Any:
-        return self.typestore.deserialize_cdr(raw, msgtype)
-
     def close(self) -> None:
         self._messages = []
-        for f, buf in self._handles:
-            buf.close()
-            f.close()
-        self._handles = []
-
-    def __enter__(self) -> ScannedDb3:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        super().close()

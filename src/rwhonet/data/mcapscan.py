@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rwhonet.data.bagscan import NoWholeMessage, ScannedConnection
+from rwhonet.data.bagscan import MappedFiles, NoWholeMessage, ScannedConnection
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_HEADER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_DATA_END = 1, 3, 4, 5, 6, 0x0F
@@ -113,7 +113,7 @@ class _Meta:
     channels: dict[tuple[int, int], tuple[str, int]] = field(default_factory=dict)
 
 
-class ScannedMcap:
+class ScannedMcap(MappedFiles):
     """A ROS 2 bag's MCAP files (in order) read record by record, as far as each goes (what
     ``rosbags``' ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`).
 
@@ -129,7 +129,7 @@ class ScannedMcap:
     def __init__(self, paths: Sequence[Path], refused: str | None = None) -> None:
         """Scan ``paths``; ``refused``: why ``rosbags`` refused the closed files (read here
         for that reason: a damaged chunk or summary), or None for files cut short."""
-        self._handles: list[tuple[Any, mmap.mmap]] = []
+        super().__init__()
         self._files: list[_File] = []
         meta = _Meta()
         try:
@@ -198,13 +198,7 @@ class ScannedMcap:
         )
 
     def _open(self, path: Path) -> mmap.mmap:
-        f = open(path, "rb")  # noqa: SIM115 - closed by close()
-        try:
-            buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-        except ValueError:  # an empty file
-            f.close()
-            raise ValueError(f"{path.name} is empty") from None
-        self._handles.append((f, buf))
+        buf = self._map(path)
         if buf[: len(MAGIC)] != MAGIC:
             raise ValueError(f"{path.name} does not start as an MCAP file")
         return buf
@@ -212,10 +206,6 @@ class ScannedMcap:
     @property
     def message_count(self) -> int:
         return sum(len(f.messages) for f in self._files)
-
-    @property
-    def topics(self) -> dict[str, int]:
-        return {c.topic: c.id for c in self.connections}
 
     def messages(
         self, connections: Sequence[ScannedConnection] = ()
@@ -235,21 +225,9 @@ class ScannedMcap:
                     at_chunk, chunk = j, _records_of(buf, f.chunks[j])
                 yield c, t, chunk[at : at + n]
 
-    def deserialize(self, raw: bytes, msgtype: str) -> Any:
-        return self.typestore.deserialize_cdr(raw, msgtype)
-
     def close(self) -> None:
         self._files = []
-        for f, buf in self._handles:
-            buf.close()
-            f.close()
-        self._handles = []
-
-    def __enter__(self) -> ScannedMcap:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        super().close()
 
 
 # The compressions of a chunk cut short that decompress as far as they go (their streaming
