@@ -45,8 +45,10 @@ has none.
 bag record`` killed: an ``.mcap`` file without its summary and footer) is read record by
 record as far as it goes (:mod:`rwhonet.data.bagscan`, :mod:`rwhonet.data.mcapscan`), the
 notes saying so; so is a closed bag ``rosbags`` refuses (a damaged chunk, index or
-message: :func:`read_bag`), a damaged chunk passed over. A message such a read cannot
-deserialise is damaged: passed over and counted.
+message: :func:`read_bag`), a damaged chunk passed over. A ROS 2 bag's sqlite3 file that
+SQLite cannot read (cut short, or a page damaged) is read page by page
+(:mod:`rwhonet.data.db3scan`). A message such a read cannot deserialise is damaged: passed
+over and counted.
 
 **Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file or folder
 ``rosbags`` cannot read; a topic the bag does not have (its topics and types listed);
@@ -267,9 +269,9 @@ def _unreadable(file: str, err: BaseException, ros2: bool = False) -> InputError
 
 
 class _Refused(Exception):
-    """``rosbags`` refused a closed ROS 1 bag or ROS 2 bag of MCAP files as it opened or
-    read it (a damaged chunk, summary, footer or index): :func:`read_bag` reads it again
-    record by record."""
+    """``rosbags`` refused a closed ROS 1 bag or ROS 2 bag of MCAP or sqlite3 files as it
+    opened or read it (a damaged chunk, summary, footer, index or page; a file cut short):
+    :func:`read_bag` reads it again record by record, or page by page."""
 
     def __init__(self, err: BaseException, refusal: InputError) -> None:
         super().__init__(str(err))
@@ -287,8 +289,9 @@ def read_bag(path: Path, file: str, read: Callable[[Any], T]) -> T:
     summary, footer or index that does not parse: a disk's error) is read again from its
     start record by record (:class:`~rwhonet.data.bagscan.ScannedBag`,
     :class:`~rwhonet.data.mcapscan.ScannedMcap`, as a recording cut short is: a damaged
-    chunk passed over, the notes saying why); where that reads no message either, the bag
-    is refused with ``rosbags``' own error."""
+    chunk passed over, the notes saying why), and one of sqlite3 files page by page
+    (:class:`~rwhonet.data.db3scan.ScannedDb3`); where that reads no message either, the
+    bag is refused with ``rosbags``' own error."""
     try:
         with opened_bag(path, file) as bag:
             return read(bag)
@@ -306,9 +309,9 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
     ``AnyReader``, or a :class:`~rwhonet.data.bagscan.ScannedBag` for a ROS 1 recording cut
     short. What fails as it opens, and what ``rosbags`` raises while it is read, is refused
     as the bag's (:func:`_unreadable`); anything else raised inside passes as it is. A
-    closed ROS 1 bag or ROS 2 bag of MCAP files ``rosbags`` refuses raises
+    closed ROS 1 bag or ROS 2 bag of MCAP or sqlite3 files ``rosbags`` refuses raises
     :class:`_Refused` (for :func:`read_bag`); ``refused`` (why it did) opens such a bag
-    record by record.
+    record by record (sqlite3: page by page).
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
@@ -369,9 +372,9 @@ def _refusal(
     path: Path, file: str, err: BaseException, ros2: bool, refused: str | None
 ) -> Exception:
     """The bag refused (:func:`_unreadable`), or, where ``rosbags`` refused a closed ROS 1
-    bag (one that starts as a bag) or ROS 2 bag of MCAP files not yet read record by
-    record, :class:`_Refused`; where such a bag read record by record holds no message,
-    :class:`_ScannedNothing`."""
+    bag (one that starts as a bag) or ROS 2 bag of MCAP or sqlite3 files (all of one kind)
+    not yet read record by record, :class:`_Refused`; where such a bag read record by
+    record holds no message, :class:`_ScannedNothing`."""
     from rwhonet.data.bagscan import MAGIC, NoWholeMessage
 
     if refused is not None and isinstance(err, NoWholeMessage):
