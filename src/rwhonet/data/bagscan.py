@@ -60,10 +60,11 @@ class ScannedConnection:
 
 
 class MappedFiles:
-    """What a ROS 2 bag's files read record by record or page by page share
-    (:class:`~rwhonet.data.mcapscan.ScannedMcap`, :class:`~rwhonet.data.db3scan.ScannedDb3`):
-    the files mapped for reading and closed with it, their connections' topics, and
-    ``rosbags`` deserialising a message by the files' types."""
+    """What a bag's files read record by record or page by page share
+    (:class:`ScannedBag`, :class:`~rwhonet.data.mcapscan.ScannedMcap`,
+    :class:`~rwhonet.data.db3scan.ScannedDb3`): the files mapped for reading and closed
+    with it, their connections' topics, and ``rosbags`` deserialising a message by the
+    files' types (CDR; ROS 1's own serialisation in :class:`ScannedBag`)."""
 
     connections: Sequence[ScannedConnection]
     typestore: Any
@@ -71,14 +72,15 @@ class MappedFiles:
     def __init__(self) -> None:
         self._handles: list[tuple[Any, mmap.mmap]] = []
 
-    def _map(self, path: Path) -> mmap.mmap:
-        """``path`` mapped for reading, until :meth:`close`; ValueError where it is empty."""
+    def _map(self, path: Path, named: str | None = None) -> mmap.mmap:
+        """``path`` mapped for reading, until :meth:`close`; ValueError where it is empty
+        (naming it ``named``, else by its name)."""
         f = open(path, "rb")  # noqa: SIM115 - closed by close()
         try:
             buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
         except ValueError:  # an empty file
             f.close()
-            raise ValueError(f"{path.name} is empty") from None
+            raise ValueError(f"{named or path.name} is empty") from None
         self._handles.append((f, buf))
         return buf
 
@@ -271,7 +273,7 @@ def has_index(path: Path) -> bool:
     return True
 
 
-class ScannedBag:
+class ScannedBag(MappedFiles):
     """A ROS 1 bag without its index, read record by record (what ``rosbags``'
     ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`)."""
 
@@ -289,18 +291,13 @@ class ScannedBag:
         """
         from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+        super().__init__()
         self._refused = refused
-
-        self._file = open(path, "rb")  # noqa: SIM115 - closed by close()
-        try:
-            self._map = mmap.mmap(self._file.fileno(), 0, access=mmap.ACCESS_READ)
-        except ValueError:  # an empty file
-            self._file.close()
-            raise ValueError("the file is empty") from None
-        if self._map[: len(MAGIC)] != MAGIC:
+        self._buf = self._map(path, "the file")
+        if self._buf[: len(MAGIC)] != MAGIC:
             self.close()
             raise ValueError("the file does not start as a ROS 1 bag (#ROSBAG V2.0)")
-        self._scan = scan = _scan(self._map)
+        self._scan = scan = _scan(self._buf)
         if not scan.messages:
             stopped = scan.stopped or "the file ends"
             skipped = "; ".join(scan.skipped)
@@ -326,10 +323,6 @@ class ScannedBag:
         return len(self._scan.messages)
 
     @property
-    def topics(self) -> dict[str, int]:
-        return {c.topic: c.id for c in self.connections}
-
-    @property
     def said(self) -> str:
         """What was read: the messages, and where the file stopped."""
         end = f"; it stops {self._scan.stopped}" if self._scan.stopped else ""
@@ -353,7 +346,7 @@ class ScannedBag:
             if c is None:
                 continue
             if k != at_chunk:
-                at_chunk, chunk = k, _chunk(self._map, self._scan.chunks[k])
+                at_chunk, chunk = k, _chunk(self._buf, self._scan.chunks[k])
             yield c, t, bytes(chunk[at : at + n])
 
     def deserialize(self, raw: bytes, msgtype: str) -> Any:
@@ -361,12 +354,4 @@ class ScannedBag:
 
     def close(self) -> None:
         self._scan = _Scan()
-        if getattr(self, "_map", None) is not None:
-            self._map.close()
-        self._file.close()
-
-    def __enter__(self) -> ScannedBag:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        super().close()
