@@ -79,9 +79,8 @@ def _varint(buf: bytes | mmap.mmap, at: int, end: int) -> tuple[int, int]:
     raise AssertionError("unreachable")  # pragma: no cover
 
 
-def _record(payload: bytes, first: Sequence[int] | None = None) -> list[Any]:
-    """A record's columns (None, int, float, bytes for a BLOB, str for a text); ``first``:
-    only the first columns, whose serial types these are, the payload ending with them."""
+def _header(payload: bytes) -> tuple[int, list[int]]:
+    """A record's header: its length and each column's serial type."""
     size, at = _varint(payload, 0, len(payload))
     if size > len(payload) or size < at:
         raise Damaged("a record's header longer than its payload")
@@ -89,10 +88,13 @@ def _record(payload: bytes, first: Sequence[int] | None = None) -> list[Any]:
     while at < size:
         t, at = _varint(payload, at, size)
         types.append(t)
-    if first is not None:
-        types = list(first)
+    return size, types
+
+
+def _columns(payload: bytes, body: int, types: Sequence[int]) -> tuple[list[Any], int]:
+    """The columns of ``types`` from byte ``body`` on (None, int, float, bytes for a BLOB,
+    str for a text), and the byte after them."""
     out: list[Any] = []
-    body = size
     for t in types:
         if t == 0:
             out.append(None)
@@ -118,6 +120,13 @@ def _record(payload: bytes, first: Sequence[int] | None = None) -> list[Any]:
             out.append(bytes(raw) if t % 2 == 0 else bytes(raw).decode("utf-8", "replace"))
         else:  # 10 and 11 are reserved
             raise Damaged(f"a reserved serial type {t}")
+    return out, body
+
+
+def _record(payload: bytes) -> list[Any]:
+    """A record's columns, which must fill it."""
+    size, types = _header(payload)
+    out, body = _columns(payload, size, types)
     if body != len(payload):
         raise Damaged("a record's columns do not fill its payload")
     return out
@@ -178,11 +187,10 @@ def _shelve(out: _Db3, buf: mmap.mmap, cell: int, end: int, layout: _Layout) -> 
     """A table leaf cell kept by its shape (see the module's docstring): a message by its
     record's header and first columns, on the page; another row whole."""
     rowid, length, local, _ = _cell_head(buf, cell, end, layout.usable)
-    size, at = _varint(local, 0, len(local))
-    types = []
-    while at < min(size, len(local)):
-        t, at = _varint(local, at, min(size, len(local)))
-        types.append(t)
+    try:
+        size, types = _header(local)
+    except Damaged:  # not all on the page (or damaged): the cell read whole
+        size, types = 0, []
     if (
         len(types) == 4
         and types[0] == 0
@@ -193,9 +201,7 @@ def _shelve(out: _Db3, buf: mmap.mmap, cell: int, end: int, layout: _Layout) -> 
         widths = [_INT_BYTES.get(t, 0) for t in types[1:3]]
         if size + sum(widths) + (types[3] - 12) // 2 != length:
             raise Damaged("a message's columns do not fill its payload")
-        if size + sum(widths) > len(local):
-            raise Damaged("a message's first columns past its page")
-        _, topic, t_ns = _record(local[: size + sum(widths)], types[:3])
+        (topic, t_ns), _ = _columns(local, size, types[1:3])
         out.messages.setdefault(rowid, (topic, t_ns, cell))
         return
     _, row = _cell(buf, cell, end, layout)
