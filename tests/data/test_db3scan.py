@@ -23,6 +23,7 @@ from rwhonet.data.streams import resample
 from rwhonet.errors import InputError
 from support.multirate import per_second, simulated_streams
 from support.rosbag import bag_map, tables_bag, typestore
+from support.sqlitewal import resilient_recording, sqlite_rows
 
 
 def _drive():
@@ -310,3 +311,111 @@ def test_cells_whose_records_do_not_add_up_are_damaged_and_page_1_is_read_past_i
         assert "read page by page, 1 messages from 2 pages; 2 damaged cell(s) passed over" in (
             bag.said
         )
+
+
+def _sqlite_messages(db3: Path, scratch: Path) -> list[tuple[str, int, bytes]]:
+    """The bag's messages (topic, time, data) in time order as SQLite reads the file with
+    its write-ahead log."""
+    rows = sqlite_rows(
+        db3,
+        scratch,
+        "SELECT t.name, m.timestamp, m.data FROM messages m JOIN topics t "
+        "ON m.topic_id = t.id ORDER BY m.timestamp, m.id",
+    )
+    return [(name, t, bytes(data)) for name, t, data in rows]
+
+
+@pytest.mark.parametrize(("share", "checkpoint"), [(0.25, 1000), (0.8, 100)])
+def test_a_bag_recorded_resilient_and_killed_is_read_through_its_log(tmp_path, share, checkpoint):
+    """rosbag2's ``resilient`` preset (SQLite's write-ahead log) killed after a quarter of the
+    drive's messages with no checkpoint yet (every page in ``drive_0.db3-wal``: the file
+    holds its header alone: rosbags, which opens it ``immutable``, finds no table), and
+    after 80 % with a checkpoint every 100 pages (the file holds the drive up to the last
+    one, rosbags reads that much and no more): every message SQLite reads through the log
+    is read, bit for bit, in time order; the drive's labelled seconds are the whole
+    bag's for the seconds it covers; the notes name the log."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    tables, radius = _drive()
+    db3 = _db3(tmp_path)
+    folder = tmp_path / "killed"
+    killed = resilient_recording(db3, folder, share, checkpoint)
+    want = _sqlite_messages(killed, tmp_path / "sqlite")
+    _, whole = _rosbags(db3)
+    assert len(want) == int(share * len(whole))  # every batch committed
+    with ScannedDb3([killed], None) as bag:
+        got = [(x.topic, t, raw) for x, t, raw in bag.messages()]
+        assert "drive.db3-wal (a recorder stopped" in bag.said
+    assert got == want
+    # what rosbags reads of the file alone: nothing, or up to the last checkpoint
+    try:
+        with AnyReader([killed], default_typestore=get_typestore(Stores.LATEST)) as alone:
+            before = alone.message_count
+    except Exception as err:  # rosbags' error: the file holds no table yet
+        assert checkpoint == 1000 and "missing tables" in str(err)
+    else:
+        assert checkpoint == 100 and 0 < before < len(want)
+    ref, _ = _seconds(db3.parent, radius, "whole")
+    secs, streams = _seconds(folder, radius, "killed")
+    said = " ".join(streams.notes)
+    assert "read page by page" in said and "rosbags refused" not in said
+    assert "-wal" in said and "no metadata.yaml" in said
+    for topic in {x[0] for x in whole}:
+        n = sum(x[0] == topic for x in want)
+        assert f"{topic}: {n} message(s)" in said
+    if share < 0.5:  # 30 s: no valid stretch of min_segment_s (30 s) to label
+        return
+    assert 0.9 * share * len(ref) <= len(secs) <= share * len(ref) + 1
+    same = ref.merge(secs, on="t_s", suffixes=("", "_wal"))
+    assert len(same) >= len(secs) - 2
+    for q in ("disp_gnss_m", "disp_wpm_m", "label_m"):
+        np.testing.assert_allclose(same[f"{q}_wal"], same[q], rtol=0, atol=1e-9, err_msg=q)
+
+
+def test_a_log_that_commits_nothing_leaves_the_bag_to_rosbags(tmp_path):
+    """A ``-wal`` beside a closed file that holds only its header (a log SQLite emptied
+    at its last checkpoint), or frames that fail their checksums: the file is read by
+    rosbags as before, not page by page."""
+    tables, radius = _drive()
+    db3 = _db3(tmp_path)
+    folder = tmp_path / "copy"
+    shutil.copytree(db3.parent, folder)
+    log = folder / (db3.name + "-wal")
+    log.write_bytes(b"\x37\x7f\x06\x82" + bytes(60))  # no header checksum: void
+    secs, streams = _seconds(folder, radius, "copy")
+    assert not any("page by page" in n for n in streams.notes)
+    ref, _ = _seconds(db3.parent, radius, "whole")
+    assert len(secs) == len(ref)
+
+
+def test_a_db3_given_alone_with_its_log_is_one_drive(tmp_path):
+    """``target_test/*`` matching a killed recording's ``drive_0.db3`` and its
+    ``drive_0.db3-wal`` (and SQLite's ``-shm``): one drive, read through its log as
+    ingest reads it; a ``-wal`` with no ``.db3`` beside it is a file of its own."""
+    import dataclasses
+
+    from rwhonet.data.drivefile import read_any
+    from rwhonet.stages.ingest import discover
+    from support.drives import make_params
+
+    tables, radius = _drive()
+    db3 = _db3(tmp_path)
+    killed = resilient_recording(db3, tmp_path / "raw" / "target_test", 0.5)
+    killed.with_name(killed.name + "-shm").write_bytes(bytes(32768))
+    (killed.parent / "other.db3-wal").write_bytes(b"x")
+    signals = {k: {"column": v.column, "unit": v.unit} for k, v in bag_map().items()}
+    data = make_params(
+        tmp_path,
+        **{
+            "data.source": "files",
+            "data.root": str(tmp_path / "raw"),
+            "data.signal_maps": {"ros": {"reader": "mdf4", "signals": signals}},
+        },
+    ).data
+    spec = dataclasses.replace(data.roles["target_test"], format="ros", glob="target_test/*")
+    data = dataclasses.replace(data, roles={"target_test": spec})
+    found = discover(data)
+    assert [f.path.name for f in found] == ["drive.db3", "other.db3-wal"]
+    raw, _ = read_any(found[0], data, lambda p: p.name, radius, 0.1, 10.0)
+    assert any("drive.db3-wal" in n for n in raw.notes)

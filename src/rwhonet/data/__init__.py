@@ -53,7 +53,9 @@
   bag's topics, via rosbags, by :mod:`~rwhonet.data.rosbag`; one a recorder left without
   its index, or damaged, record by record, by :mod:`~rwhonet.data.bagscan`, a ROS 2 bag's
   MCAP file left without its summary, or damaged, by :mod:`~rwhonet.data.mcapscan`, its
-  sqlite3 file cut short or damaged, page by page, by :mod:`~rwhonet.data.db3scan`) or
+  sqlite3 file cut short or damaged, page by page, by :mod:`~rwhonet.data.db3scan`, through
+  the write-ahead log a recorder stopped before its checkpoint left beside it, read by
+  :mod:`~rwhonet.data.sqlitewal`) or
   :mod:`~rwhonet.data.streamcsv` (one CSV per stream), named by a signal map
   (:mod:`~rwhonet.data.signalmap`); a receiver's NMEA 0183 log among the stream CSVs is
   read by :mod:`~rwhonet.data.nmea`, a u-blox receiver's binary log (UBX NAV-PVT) by

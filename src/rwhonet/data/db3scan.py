@@ -32,9 +32,14 @@ A message is kept where its topic's row was read; one whose topic's row is lost 
 over and counted. A row SQLite left on a page it freed is the same row as the one it
 moved (rosbag2 never changes a row): a rowid given twice is read once. A cell whose
 record does not parse, or whose overflow chain runs off the file, is damaged: passed over,
-counted. Index pages (``timestamp_idx``) and interior pages are not read. A write-ahead
-log beside the file (``-wal``, rosbag2's ``resilient`` preset) is not read: its pages are
-lost with it, as they are to SQLite without it.
+counted. Index pages (``timestamp_idx``) and interior pages are not read.
+
+**A write-ahead log beside the file** (``drive_0.db3-wal``: rosbag2's ``resilient``
+preset, a recorder stopped before SQLite moved its last pages into the file) is read as
+SQLite reads it (:mod:`rwhonet.data.sqlitewal`): a page it commits is read from it, over
+the file's own. ``rosbags`` opens the file ``immutable`` and never reads the log, so
+:mod:`rwhonet.data.rosbag` reads such a bag page by page whether or not ``rosbags`` would
+open it.
 
 The messages are given in time order (their ``timestamp``, then their rowid), as
 ``rosbags`` gives a bag's; ``rosbags`` deserialises them, by the definitions the files
@@ -52,6 +57,7 @@ from typing import Any
 
 from rwhonet.data.bagscan import MappedFiles, NoWholeMessage, ScannedConnection
 from rwhonet.data.mcapscan import definitions_typestore, ros2_definition
+from rwhonet.data.sqlitewal import SUFFIX, Committed, Overlaid, committed
 
 MAGIC = b"SQLite format 3\x00"
 TABLE_LEAF = 13  # a table b-tree's leaf page
@@ -150,9 +156,10 @@ class _Db3:
     layout: _Layout
     damaged: int  # cells that did not parse
     tail: int  # bytes after the last whole page
+    wal: Committed | None = None  # the write-ahead log read over the file's pages
 
 
-def _scan(buf: mmap.mmap, path: Path) -> _Db3:
+def _scan(buf: mmap.mmap | Overlaid, path: Path) -> _Db3:
     """Every table leaf page of a sqlite3 file, its cells told by their shape: a message's
     topic, time and cell kept (its data read when it is wanted), the others' rows."""
     if buf[: len(MAGIC)] != MAGIC:
@@ -170,12 +177,10 @@ def _scan(buf: mmap.mmap, path: Path) -> _Db3:
             continue
         cells = int.from_bytes(buf[head + 3 : head + 5], "big")
         end = start + layout.usable
-        for k in range(cells):
-            pointer = head + 8 + 2 * k
-            if pointer + 2 > end:
-                out.damaged += cells - k
-                break
-            cell = start + int.from_bytes(buf[pointer : pointer + 2], "big")
+        pointers = buf[head + 8 : min(head + 8 + 2 * cells, end)]  # read at once
+        out.damaged += cells - len(pointers) // 2  # an array running off its page
+        for k in range(len(pointers) // 2):
+            cell = start + int.from_bytes(pointers[2 * k : 2 * k + 2], "big")
             try:
                 _shelve(out, buf, cell, end, layout)
             except Damaged:
@@ -183,7 +188,7 @@ def _scan(buf: mmap.mmap, path: Path) -> _Db3:
     return out
 
 
-def _shelve(out: _Db3, buf: mmap.mmap, cell: int, end: int, layout: _Layout) -> None:
+def _shelve(out: _Db3, buf: mmap.mmap | Overlaid, cell: int, end: int, layout: _Layout) -> None:
     """A table leaf cell kept by its shape (see the module's docstring): a message by its
     record's header and first columns, on the page; another row whole."""
     rowid, length, local, _ = _cell_head(buf, cell, end, layout.usable)
@@ -208,13 +213,17 @@ def _shelve(out: _Db3, buf: mmap.mmap, cell: int, end: int, layout: _Layout) -> 
     _keep(out, rowid, row)
 
 
-def _cell_head(buf: mmap.mmap, at: int, end: int, usable: int) -> tuple[int, int, bytes, int]:
+def _cell_head(
+    buf: mmap.mmap | Overlaid, at: int, end: int, usable: int
+) -> tuple[int, int, bytes, int]:
     """A table leaf cell's rowid, its payload's length, the payload's part on the page and
     its first overflow page (0: none)."""
     if not at < end:
         raise Damaged("a cell outside its page")
-    length, at = _varint(buf, at, end)
-    rowid, at = _varint(buf, at, end)
+    head = buf[at : min(at + 18, end)]  # its two varints, read at once
+    length, k = _varint(head, 0, len(head))
+    rowid, k = _varint(head, k, len(head))
+    at += k
     # the payload's part on the page (sqlite.org/fileformat2.html, "Cell Payload Overflow")
     most = usable - 35
     if length <= most:
@@ -229,7 +238,7 @@ def _cell_head(buf: mmap.mmap, at: int, end: int, usable: int) -> tuple[int, int
     return rowid, length, bytes(buf[at : at + local]), first
 
 
-def _cell(buf: mmap.mmap, at: int, end: int, layout: _Layout) -> tuple[int, list[Any]]:
+def _cell(buf: mmap.mmap | Overlaid, at: int, end: int, layout: _Layout) -> tuple[int, list[Any]]:
     """A table leaf cell's rowid and record, its overflow chain followed."""
     rowid, length, local, next_page = _cell_head(buf, at, end, layout.usable)
     payload = bytearray(local)
@@ -254,6 +263,16 @@ def _keep(out: _Db3, rowid: int, row: list[Any]) -> None:
             out.definitions.setdefault(row[1], (row[2], row[3]))
 
 
+def wal_beside(path: Path) -> Path | None:
+    """The write-ahead log beside a sqlite3 file (``drive_0.db3-wal``) where it commits a
+    page (:func:`rwhonet.data.sqlitewal.committed`)."""
+    log = path.with_name(path.name + SUFFIX)
+    if not log.is_file() or log.stat().st_size == 0:
+        return None
+    with open(log, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as buf:
+        return log if committed(buf) is not None else None
+
+
 class ScannedDb3(MappedFiles):
     """A ROS 2 bag's sqlite3 files (in order) read page by page (what ``rosbags``'
     ``AnyReader`` offers the reader: :mod:`rwhonet.data.rosbag`).
@@ -267,13 +286,20 @@ class ScannedDb3(MappedFiles):
     # a message that does not deserialise is damaged: passed over (rwhonet.data.rosbag)
     scanned = True
 
-    def __init__(self, paths: Sequence[Path], refused: str) -> None:
-        """Scan ``paths``; ``refused``: why ``rosbags`` (SQLite) refused them."""
+    def __init__(self, paths: Sequence[Path], refused: str | None) -> None:
+        """Scan ``paths``, each with its write-ahead log where one beside it commits a page
+        (:func:`wal_beside`); ``refused``: why ``rosbags`` (SQLite) refused them (None:
+        read so for their logs)."""
         super().__init__()
         files: list[_Db3] = []
+        self._bufs: list[mmap.mmap | Overlaid] = []
         try:
             for path in paths:
-                files.append(_scan(self._map(path), path))
+                buf = self._mapped(path)
+                self._bufs.append(buf)
+                files.append(_scan(buf, path))
+                if isinstance(buf, Overlaid):
+                    files[-1].wal = buf.wal
         except Exception:
             self.close()
             raise
@@ -311,9 +337,15 @@ class ScannedDb3(MappedFiles):
             )
         self.typestore = definitions_typestore(self.connections)
         lost = [f"{f.path.name} ends {f.tail} byte(s) into a page" for f in files if f.tail]
+        logs = [_wal_said(f.path, f.wal) for f in files if f.wal is not None]
         self.said = (
-            f"rosbags refused {'the file' if len(files) == 1 else 'its files'} ({refused}): "
-            f"read page by page, {len(self._messages)} messages from {pages} pages"
+            (
+                f"rosbags refused {'the file' if len(files) == 1 else 'its files'} ({refused}): "
+                if refused is not None
+                else ""
+            )
+            + f"read page by page, {len(self._messages)} messages from {pages} pages"
+            + (f"; {'; '.join(logs)}" if logs else "")
             + (f"; {damaged} damaged cell(s) passed over" if damaged else "")
             + (
                 f"; {self.orphans} message(s) of a topic whose row is lost passed over"
@@ -337,7 +369,7 @@ class ScannedDb3(MappedFiles):
         for c, t, k, cell in self._messages:
             if c.id not in wanted:
                 continue
-            buf, layout = self._handles[k][1], self._layouts[k]
+            buf, layout = self._bufs[k], self._layouts[k]
             page_end = (cell // layout.page) * layout.page + layout.usable
             try:
                 data = _cell(buf, cell, page_end, layout)[1][3]
@@ -345,6 +377,34 @@ class ScannedDb3(MappedFiles):
                 data = b""
             yield c, t, data
 
+    def _mapped(self, path: Path) -> mmap.mmap | Overlaid:
+        """A file's bytes, read through its write-ahead log where one commits a page."""
+        log = wal_beside(path)
+        if log is None:
+            return self._map(path)
+        wal_buf = self._map(log)
+        wal = committed(wal_buf)
+        assert wal is not None  # wal_beside read it so
+        # a file SQLite had not yet written to: its pages all in the log
+        file = self._map(path) if path.stat().st_size else b""
+        return Overlaid(file, wal_buf, wal)
+
     def close(self) -> None:
         self._messages = []
+        self._bufs = []
         super().close()
+
+
+def _wal_said(path: Path, wal: Committed) -> str:
+    """What the notes say of a file's write-ahead log."""
+    return (
+        f"{path.name}{SUFFIX} (a recorder stopped before SQLite moved its pages into the "
+        f"file; rosbags reads the file without it) read over the file: {len(wal.at)} "
+        f"page(s) of {wal.frames} committed frame(s)"
+        + (
+            f", {wal.passed_over} frame(s) after the last commit passed over (never "
+            "committed, or left from before a checkpoint)"
+            if wal.passed_over
+            else ""
+        )
+    )

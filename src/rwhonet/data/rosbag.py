@@ -46,9 +46,11 @@ bag record`` killed: an ``.mcap`` file without its summary and footer) is read r
 record as far as it goes (:mod:`rwhonet.data.bagscan`, :mod:`rwhonet.data.mcapscan`), the
 notes saying so; so is a closed bag ``rosbags`` refuses (a damaged chunk, index or
 message: :func:`read_bag`), a damaged chunk passed over. A ROS 2 bag's sqlite3 file that
-SQLite cannot read (cut short, or a page damaged) is read page by page
-(:mod:`rwhonet.data.db3scan`). A message such a read cannot deserialise is damaged: passed
-over and counted.
+SQLite cannot read (cut short, or a page damaged), or one with a write-ahead log beside it
+that commits pages (``drive_0.db3-wal``: rosbag2's ``resilient`` preset, stopped before a
+checkpoint; ``rosbags`` never reads the log), is read page by page
+(:mod:`rwhonet.data.db3scan`), the log's pages over the file's. A message such a read
+cannot deserialise is damaged: passed over and counted.
 
 **Refused** (:class:`~rwhonet.errors.InputError`, nothing read): a file or folder
 ``rosbags`` cannot read; a topic the bag does not have (its topics and types listed);
@@ -311,7 +313,8 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
     as the bag's (:func:`_unreadable`); anything else raised inside passes as it is. A
     closed ROS 1 bag or ROS 2 bag of MCAP or sqlite3 files ``rosbags`` refuses raises
     :class:`_Refused` (for :func:`read_bag`); ``refused`` (why it did) opens such a bag
-    record by record (sqlite3: page by page).
+    record by record (sqlite3: page by page). A sqlite3 file with a write-ahead log beside
+    it (:func:`_logged_db3`) is read page by page from the start.
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
@@ -334,8 +337,9 @@ def opened_bag(path: Path, file: str, refused: str | None = None) -> Iterator[An
                 bag = stack.enter_context(ScannedMcap(unfinished, refused))
                 if cut:
                     bag.said += f"; the folder has no {METADATA}"
-            elif ros2 and refused is not None:
-                # sqlite3 files SQLite refused: page by page
+            elif ros2 and (refused is not None or _logged_db3(path)):
+                # sqlite3 files SQLite refused, or one with a write-ahead log beside it
+                # (rosbags never reads one): page by page
                 bag = stack.enter_context(ScannedDb3(_plain_storage(path, stack, file), refused))
                 if cut:
                     bag.said += f"; the folder has no {METADATA}"
@@ -407,6 +411,16 @@ def _in_rosbags(err: BaseException) -> bool:
     homes = tuple(str(Path(p)) for p in rosbags.__path__)  # a namespace package's folders
     frames = traceback.walk_tb(err.__traceback__)
     return any(f.f_code.co_filename.startswith(homes) for f, _ in frames)
+
+
+def _logged_db3(path: Path) -> bool:
+    """Whether a ROS 2 bag's sqlite3 file has a write-ahead log beside it that commits a
+    page (:func:`rwhonet.data.db3scan.wal_beside`: a recorder stopped before SQLite moved
+    its last pages into the file)."""
+    from rwhonet.data.db3scan import wal_beside
+
+    files = _storage_files(path) if path.is_dir() else [path]
+    return any(p.suffix.lower() == ".db3" and wal_beside(p) is not None for p in files)
 
 
 def _unfinished_mcap(

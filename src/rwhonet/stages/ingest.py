@@ -92,6 +92,16 @@ def _hidden(path: Path, root: Path) -> bool:
     return any(part.startswith(".") and part not in (".", "..") for part in parts)
 
 
+def _sqlite_companion(path: Path) -> bool:
+    """SQLite's own file beside a ROS 2 bag's ``.db3`` given alone (``drive_0.db3-wal``,
+    its write-ahead log, read with it; ``-shm``, ``-journal``): part of that drive, no
+    drive of its own."""
+    for suffix in ("-wal", "-shm", "-journal"):
+        if path.name.lower().endswith(".db3" + suffix):
+            return path.with_name(path.name[: -len(suffix)]).is_file()
+    return False
+
+
 def discover(data: DataParams) -> list[DriveFile]:
     """List the drives of every role, sorted by role (in ``ROLES`` order) and name.
 
@@ -99,7 +109,8 @@ def discover(data: DataParams) -> list[DriveFile]:
     column maps, MDF4; and a ROS 2 bag's folder for MDF4's reader) and folders for those
     that read one folder per drive (comma2k19, stream CSVs); the drive id is the file's
     stem or the folder's name. Hidden files and folders (a name starting with a dot, as
-    macOS's ``._`` files) are no drives.
+    macOS's ``._`` files) are no drives, nor SQLite's files beside a ``.db3``
+    (``-wal``: read with it).
 
     Args:
         data: the ``data`` section (globs are relative to ``data.root``).
@@ -122,6 +133,7 @@ def discover(data: DataParams) -> list[DriveFile]:
             p
             for p in root.glob(spec.glob)
             if not _hidden(p, root)
+            and not _sqlite_companion(p)
             and (p.is_dir() if folders else p.is_file() or (bags and is_rosbag2_folder(p)))
         )
         if not found and spec.required:
