@@ -154,23 +154,81 @@ def test_damaged_bytes_anywhere_read_as_sqlite_reads_them(tmp_path):
     assert 0 < void < 40  # a damaged header voids the log; others keep a part
 
 
+def _rewritten(data: bytearray) -> bytes:
+    """A log's header and frames' checksums written again for what it now holds (in the
+    byte order its magic says)."""
+    order = MAGICS[struct.unpack(">I", data[:4])[0]]
+    page = struct.unpack(">I", data[8:12])[0]
+    s = checksum(bytes(data[:24]), order, 0, 0)
+    data[24:32] = struct.pack(">2I", *s)
+    for start in range(HEADER, len(data) - FRAME_HEADER - page + 1, FRAME_HEADER + page):
+        s = checksum(bytes(data[start : start + 8]), order, *s)
+        s = checksum(bytes(data[start + FRAME_HEADER : start + FRAME_HEADER + page]), order, *s)
+        data[start + 16 : start + 24] = struct.pack(">2I", *s)
+    return bytes(data)
+
+
 def test_a_log_whose_checksums_are_big_endian_is_read(tmp_path):
     """The other magic (``0x377f0683``: a big-endian writer's log) with every checksum
     written big-endian: SQLite reads it, and the same pages are read."""
     path = _killed(tmp_path, 60)
     log = path.with_name("a.db3-wal")
     data = bytearray(log.read_bytes())
-    page = struct.unpack(">I", data[8:12])[0]
     data[:4] = struct.pack(">I", 0x377F0683)
-    s = checksum(bytes(data[:24]), ">", 0, 0)
-    data[24:32] = struct.pack(">2I", *s)
-    for start in range(HEADER, len(data) - FRAME_HEADER - page + 1, FRAME_HEADER + page):
-        s = checksum(bytes(data[start : start + 8]), ">", *s)
-        s = checksum(bytes(data[start + FRAME_HEADER : start + FRAME_HEADER + page]), ">", *s)
-        data[start + 16 : start + 24] = struct.pack(">2I", *s)
-    log.write_bytes(bytes(data))
+    log.write_bytes(_rewritten(data))
     want = _same_as_sqlite(path, tmp_path / "sqlite")
+    page = struct.unpack(">I", data[8:12])[0]
     assert _overlaid(path) == want and len(want) > page
+
+
+def test_a_frame_whose_salts_are_not_the_header_s_ends_the_log(tmp_path):
+    """A frame's salts are not in its checksums: a frame (the 8th) whose salt differs from
+    the header's, its checksums holding, ends the log there, as SQLite ends it."""
+    path = _killed(tmp_path, 120)
+    log = path.with_name("a.db3-wal")
+    data = bytearray(log.read_bytes())
+    whole = committed(bytes(data))
+    page = struct.unpack(">I", data[8:12])[0]
+    salt = HEADER + 7 * (FRAME_HEADER + page) + 8
+    data[salt] ^= 0x01
+    log.write_bytes(bytes(data))
+    _same_as_sqlite(path, tmp_path / "sqlite")
+    cut = committed(bytes(data))
+    assert whole is not None and cut is not None and cut.frames < 8 <= whole.frames
+
+
+def test_a_header_whose_checksum_fails_voids_the_log(tmp_path):
+    """The header's checkpoint sequence (bytes 12-15, read by nothing else) changed: its
+    checksum fails, and SQLite reads the file without the log; so does the module."""
+    path = _killed(tmp_path, 60)
+    log = path.with_name("a.db3-wal")
+    data = bytearray(log.read_bytes())
+    data[15] ^= 0x01
+    log.write_bytes(bytes(data))
+    assert sqlite_reads(path, tmp_path / "sqlite") == path.read_bytes()
+    assert committed(bytes(data)) is None
+
+
+def test_the_database_has_the_last_commit_s_pages(tmp_path):
+    """With ``auto_vacuum = FULL`` a commit that deletes rows shrinks the database: its
+    size is the last commit's, not the largest, as SQLite reads it."""
+    live = tmp_path / "live" / "a.db3"
+    live.parent.mkdir()
+    db = sqlite3.connect(live)
+    try:
+        db.execute("PRAGMA auto_vacuum = FULL")
+        db.execute("PRAGMA journal_mode = WAL")
+        db.execute("CREATE TABLE t(id INTEGER PRIMARY KEY, x BLOB)")
+        db.executemany("INSERT INTO t(x) VALUES (?)", [(bytes(900),)] * 100)
+        db.commit()
+        db.execute("DELETE FROM t WHERE id > 10")
+        db.commit()
+        path = killed_copy(live, tmp_path / "killed" / "a.db3")
+    finally:
+        db.close()
+    want = _same_as_sqlite(path, tmp_path / "sqlite")
+    wal = committed(path.with_name("a.db3-wal").read_bytes())
+    assert wal is not None and wal.pages * wal.page == len(want) < max(wal.at) * wal.page
 
 
 def test_frames_of_a_transaction_never_committed_are_passed_over(tmp_path):
@@ -200,8 +258,9 @@ def test_a_log_that_commits_nothing_is_none(tmp_path):
     assert committed(data[:HEADER]) is None
     assert committed(data[: HEADER + FRAME_HEADER + wal.page]) is None  # page 1, no commit
     version = bytearray(data)
-    version[4:8] = struct.pack(">I", 3007001)
-    assert committed(bytes(version)) is None
+    version[4:8] = struct.pack(">I", 3007001)  # its checksums written again for it
+    assert committed(_rewritten(version)) is None
+    assert committed(_rewritten(bytearray(data))) == wal  # what the rewriting leaves
 
 
 def test_overlaid_reads_by_byte_and_within_a_page_only():
