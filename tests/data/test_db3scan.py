@@ -292,7 +292,8 @@ def test_cells_whose_records_do_not_add_up_are_damaged_and_page_1_is_read_past_i
     """Pages laid out by hand (512 bytes): page 1's cells, after the file's 100-byte header,
     and page 2's are read; a message whose BLOB's serial type claims more bytes than its
     cell holds, and a topic's row with a byte after its last column, are damaged: passed
-    over, counted."""
+    over, counted; so is each of page 3's 300 cells (its pointers zero, 48 of them past
+    the page's end)."""
     topic = _record(None, "/notes", "std_msgs/msg/String", "cdr", "")
     message = _record(None, 1, 7, b"\x00\x01\x00\x00ab")
     claims_more = bytearray(_record(None, 1, 8, b"\x00\x01\x00\x00cd"))
@@ -303,12 +304,15 @@ def test_cells_whose_records_do_not_add_up_are_damaged_and_page_1_is_read_past_i
     page1[:16] = MAGIC
     page1[16:18] = (512).to_bytes(2, "big")
     page2 = _leaf([(1, message), (2, bytes(claims_more))], 512)
+    page3 = bytearray(512)
+    page3[0] = 13
+    page3[3:5] = (300).to_bytes(2, "big")  # 252 pointers fit in its 504 bytes
     db3 = tmp_path / "hand.db3"
-    db3.write_bytes(bytes(page1) + page2)
+    db3.write_bytes(bytes(page1) + page2 + page3)
     with ScannedDb3([db3], "test") as bag:
         assert [(c.id, c.topic) for c in bag.connections] == [(1, "/notes")]
         assert [(t, raw) for _, t, raw in bag.messages()] == [(7, b"\x00\x01\x00\x00ab")]
-        assert "read page by page, 1 messages from 2 pages; 2 damaged cell(s) passed over" in (
+        assert "read page by page, 1 messages from 3 pages; 302 damaged cell(s) passed over" in (
             bag.said
         )
 
@@ -323,6 +327,20 @@ def _sqlite_messages(db3: Path, scratch: Path) -> list[tuple[str, int, bytes]]:
         "ON m.topic_id = t.id ORDER BY m.timestamp, m.id",
     )
     return [(name, t, bytes(data)) for name, t, data in rows]
+
+
+def test_a_file_emptied_by_the_crash_is_read_from_its_log(tmp_path):
+    """A file a crash left empty (a file system that had not yet written it) beside a log
+    that holds every page, its header's too: read from the log alone, every message
+    SQLite reads of the file as it was (SQLite itself takes an empty file for a new
+    database, and does not read the log)."""
+    db3 = _db3(tmp_path)
+    killed = resilient_recording(db3, tmp_path / "killed", 0.25)
+    want = _sqlite_messages(killed, tmp_path / "sqlite")
+    killed.write_bytes(b"")
+    with ScannedDb3([killed], None) as bag:
+        assert [(x.topic, t, raw) for x, t, raw in bag.messages()] == want
+    assert len(want) == int(0.25 * 19_186)
 
 
 @pytest.mark.parametrize(("share", "checkpoint"), [(0.25, 1000), (0.8, 100)])

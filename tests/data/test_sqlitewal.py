@@ -195,6 +195,12 @@ def test_a_frame_whose_salts_are_not_the_header_s_ends_the_log(tmp_path):
     _same_as_sqlite(path, tmp_path / "sqlite")
     cut = committed(bytes(data))
     assert whole is not None and cut is not None and cut.frames < 8 <= whole.frames
+    # so does a frame of page 0 (none), its checksums written again for it
+    data[salt] ^= 0x01
+    data[salt - 8 : salt - 4] = bytes(4)
+    log.write_bytes(_rewritten(data))
+    _same_as_sqlite(path, tmp_path / "sqlite2")
+    assert committed(bytes(data)) == cut
 
 
 def test_a_header_whose_checksum_fails_voids_the_log(tmp_path):
