@@ -2,14 +2,15 @@
 
 ``rosbags`` refuses a closed bag whose chunk does not unpack or whose record header is
 damaged, and with it the whole drive. :func:`rwhonet.data.rosbag.read_bag` reads such a
-bag again from its start (:class:`rwhonet.data.bagscan.ScannedBag`): the damaged chunk
-is passed over (an uncompressed one keeps its whole records before the damage), the
-chunks after it are read, and the notes say so. Where nothing whole is left, the bag is
-refused with ``rosbags``' own error.
+bag again from its start (:class:`rwhonet.data.bagscan.ScannedBag`): a compressed chunk
+that does not unpack is passed over, a damaged record header passed over to the next
+place a record starts (in an uncompressed chunk, or in the file), and the notes say so.
+Where nothing whole is left, the bag is refused with ``rosbags``' own error.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -64,19 +65,23 @@ def test_a_closed_bag_with_a_damaged_chunk_is_read_past_it(tmp_path, compression
     streams = read_mdf4(damaged, bag_map(), R, "m", "d.bag")
     said = "\n".join(streams.notes)
     assert "d.bag: rosbags refused the bag (" in said and "closed as it is" in said
-    assert "1 damaged chunk(s) passed over (a " in said
+    assert "1 damaged stretch(es) passed over (a " in said
     t_all, t_got = whole.gnss.t_s, streams.gnss.t_s
     # every fix read is the whole bag's, with its position; those of the chunk are lost,
     # those after it read
-    assert set(t_got) < set(t_all) and t_got[-1] == t_all[-1]
+    assert set(t_got) <= set(t_all) and t_got[-1] == t_all[-1]
     i = np.searchsorted(t_all, t_got)
     np.testing.assert_array_equal(
         streams.gnss.channels[c.LAT_DEG], whole.gnss.channels[c.LAT_DEG][i]
     )
     lost = t_all.size - t_got.size
-    assert 0 < lost < t_all.size / 3
-    if compression is None:  # the chunk's whole records before the damage are kept
-        assert "its records stop at byte" in said
+    got = sum(w.t_s.size for w in streams.wheels) + t_got.size
+    want = sum(w.t_s.size for w in whole.wheels) + t_all.size
+    if compression is None:  # the damaged record passed over, the chunk read on past it
+        assert re.search(r"a chunk at byte \d+: its bytes \d+ to \d+ of \d+ passed over", said)
+        assert want - 4 <= got < want  # one message lost (each wheel's sample of it)
+    else:
+        assert 0 < lost < t_all.size / 3
 
 
 def test_a_bag_whose_every_chunk_is_damaged_is_refused_with_rosbags_error(tmp_path):
@@ -90,7 +95,7 @@ def test_a_bag_whose_every_chunk_is_damaged_is_refused_with_rosbags_error(tmp_pa
         read_mdf4(damaged, bag_map(), R, "m", "all.bag")
     (p,) = err.value.problems
     assert p.file == "all.bag" and "OSError: Invalid data stream" in p.found
-    with pytest.raises(NoWholeMessage, match=r"no whole message: \d+ damaged chunk\(s\) passed"):
+    with pytest.raises(NoWholeMessage, match=r"no whole message: \d+ damaged stretch\(es\) passed"):
         ScannedBag(damaged, refused="OSError")
 
 
@@ -103,10 +108,17 @@ def test_a_file_that_is_no_bag_is_refused_as_before_not_scanned(tmp_path):
     assert "ROS 1 bag" in p.expected and p.found == "AnyReaderError: File magic is invalid."
 
 
-def test_a_chunk_s_header_damaged_ends_the_read_there_and_says_where(tmp_path):
-    """A record header whose fields are damaged (no ``op``) is no record: the read stops
-    there, as a file cut short stops, and says at which byte."""
-    bag = _bag(tmp_path, "lz4")
+@pytest.mark.parametrize("compression", [None, "lz4"])
+def test_a_chunk_record_s_header_damaged_is_passed_over_to_the_next_chunk(tmp_path, compression):
+    """A chunk record whose header is damaged (no ``op``) is no record: the read goes on at
+    the next record of the file (the chunk's index record), says which bytes it passed
+    over, and reads every chunk after it; the chunk's own records are read where it is
+    uncompressed (its header still says ``compression=none``), not where it is lz4 (whose
+    literals may hold a record's header without its data)."""
+    bag = _bag(tmp_path, compression)
+    whole = ScannedBag(bag, refused="test")
+    n_whole = whole.message_count
+    whole.close()
     data = bytearray(bag.read_bytes())
     starts = _chunks(bytes(data))
     k = len(starts) // 2
@@ -115,8 +127,16 @@ def test_a_chunk_s_header_damaged_ends_the_read_there_and_says_where(tmp_path):
     damaged = tmp_path / "h.bag"
     damaged.write_bytes(bytes(data))
     with ScannedBag(damaged, refused="ReaderError") as scanned:
-        assert "it stops at byte" in scanned.said and "where no whole record starts" in scanned.said
-        assert {k2 for _, _, k2, _, _ in scanned._scan.messages} == set(range(k))
+        said = scanned.said
+        assert "where no whole record starts" in said and "it stops" not in said
+        got = scanned.message_count
+        chunks = {k2 for _, _, k2, _, _ in scanned._scan.messages}
+    # the chunks after it read; the damaged one too, where uncompressed
+    assert chunks == set(range(len(starts) - (compression is not None)))
+    if compression is None:
+        assert got == n_whole and "messages read from the records in them" in said
+    else:
+        assert n_whole * 0.7 < got < n_whole and "read from the records" not in said
 
 
 def test_a_damaged_message_is_passed_over_and_counted(tmp_path):
@@ -158,10 +178,12 @@ def test_a_chunk_cut_short_is_not_said_to_be_damaged(tmp_path):
     assert "damaged" not in said
 
 
-def test_a_record_whose_fields_are_damaged_ends_its_chunk_there(tmp_path):
-    """A message record of an uncompressed chunk whose ``time`` field's name is damaged:
-    the chunk's records before it are read, those after it are not (no guess at where the
-    next one starts), and the chunks after the chunk are read."""
+@pytest.mark.parametrize("damage", ["time", "length"])
+def test_a_record_whose_fields_are_damaged_is_passed_over_and_its_chunk_read_on(tmp_path, damage):
+    """A message record of an uncompressed chunk whose ``time`` field's name is damaged,
+    or whose data length runs past the chunk: passed over, the chunk's records before and
+    after it read (from the next place whose header's fields fill it exactly), and the
+    chunks after the chunk."""
     from rwhonet.data.bagscan import OP_MESSAGE
 
     bag = _bag(tmp_path, None)
@@ -171,14 +193,19 @@ def test_a_record_whose_fields_are_damaged_ends_its_chunk_there(tmp_path):
         at for f, at, _ in _records(bytes(data[start : start + n]), 0) if f["op"][0] == OP_MESSAGE
     ]
     k = len(inner) // 2
-    field = data.index(b"time=", start + inner[k - 1], start + inner[k])
-    data[field : field + 5] = b"tume="
+    if damage == "time":
+        field = data.index(b"time=", start + inner[k - 1], start + inner[k])
+        data[field : field + 5] = b"tume="
+    else:  # the u4 before the data: its length
+        data[start + inner[k] - 4 : start + inner[k]] = (1 << 30).to_bytes(4, "little")
     damaged = tmp_path / "t.bag"
     damaged.write_bytes(bytes(data))
     with ScannedBag(damaged, refused="ReaderError") as scanned:
-        assert "(KeyError: 'time')" in scanned.said
+        why = "(KeyError: 'time')" if damage == "time" else "(a record damaged)"
+        assert f"passed over {why}" in scanned.said
         in_chunk = [m for m in scanned._scan.messages if m[2] == 2]
-        assert len(in_chunk) == k  # the damaged one (the k-th) and those after it: not read
+        assert len(in_chunk) == len(inner) - 1  # the damaged one (the k-th) passed over
+        assert start + inner[k] not in {start + m[3] for m in in_chunk}
         assert max(m[2] for m in scanned._scan.messages) == len(_chunks(bytes(data))) - 1
 
 

@@ -25,17 +25,31 @@ were read and where the file stopped.
 
 **A damaged chunk passed over.** A whole chunk that does not unpack (a bz2 or lz4 chunk
 with a byte changed: a disk's or a card's error) is passed over, as ``mcap recover``
-passes over an MCAP file's, and the chunks after it are read; a chunk whose records stop
-before its end (a record header damaged) keeps its whole records before the damage. A
-closed bag that ``rosbags`` refuses for such damage is read so from its start
+passes over an MCAP file's, and the chunks after it are read. A closed bag that
+``rosbags`` refuses for such damage is read so from its start
 (:func:`rwhonet.data.rosbag.read_bag`), its index passed over. A ROS 1 chunk has no
 checksum: a changed byte in an uncompressed chunk's message data cannot be told.
+
+**A damaged record header passed over.** Where a chunk's records stop before its end (a
+record header damaged: a field's length or name, the record's data length), or the
+file's records stop before the file's end (a chunk record's header damaged), the read
+goes on at the next place a record starts (:func:`_next_record`): a header whose fields,
+each ``name=value`` with its length, fill it exactly, with an ``op`` of a record that
+belongs there (in a chunk a message, with a 4-byte ``conn`` and an 8-byte ``time`` whose
+nanoseconds are under 10^9, or a connection; in the file a chunk, with its
+``compression`` and ``size``, a connection, or the index's records) and data that fit.
+Random bytes pass such a test about never (a 38-byte message header's lengths and names
+must all fall right), and the records between are passed over, the notes saying which
+bytes. Until stop 90 the rest of the chunk was lost (up to rosbag's 768 KiB: tens of
+seconds of a car's topics), and the rest of the file where the damage was a chunk
+record's own header.
 """
 
 from __future__ import annotations
 
 import bz2
 import mmap
+import re
 import struct
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -43,8 +57,14 @@ from pathlib import Path
 from typing import Any, Self
 
 MAGIC = b"#ROSBAG V2.0\n"
-OP_MESSAGE, OP_HEADER, OP_CHUNK, OP_CONNECTION = 2, 3, 5, 7
+OP_MESSAGE, OP_HEADER, OP_INDEX, OP_CHUNK, OP_CHUNK_INFO, OP_CONNECTION = 2, 3, 4, 5, 6, 7
+IN_CHUNK = (OP_MESSAGE, OP_CONNECTION)  # the records a chunk holds
+# the records a read looks for after bytes that are no record in the file: a chunk and the
+# index's (a connection record is passed over: one inside a chunk would match)
+IN_FILE = (OP_INDEX, OP_CHUNK, OP_CHUNK_INFO)
+MAX_HEADER = 4096  # a record header's bytes at most, where a read looks for the next one
 _U32 = struct.Struct("<I")
+_NAME = re.compile(rb"[a-z_]+")
 
 
 @dataclass(frozen=True)
@@ -159,6 +179,67 @@ def _records(
         pos = start + dlen
 
 
+def _exact_fields(header: bytes | memoryview) -> dict[str, bytes] | None:
+    """A record header's fields where they fill it exactly, each ``name=value`` (a name of
+    lower-case letters and ``_``), else None."""
+    out, pos, end = {}, 0, len(header)
+    while pos < end:
+        if pos + 4 > end:
+            return None
+        (n,) = _U32.unpack_from(header, pos)
+        pos += 4
+        if n > end - pos:
+            return None
+        name, sep, value = bytes(header[pos : pos + n]).partition(b"=")
+        if not sep or not _NAME.fullmatch(name):
+            return None
+        out[name.decode("ascii")] = value
+        pos += n
+    return out
+
+
+def _fits(fields: dict[str, bytes], ops: Sequence[int]) -> bool:
+    """Whether a header's fields are those of a record of ``ops``: its ``op`` one of them,
+    a message's ``conn`` and ``time`` (nanoseconds under 10^9), a chunk's ``compression``
+    and ``size``, a connection's ``conn`` and ``topic``."""
+    op = fields.get("op", b"")
+    if len(op) != 1 or op[0] not in ops:
+        return False
+    if op[0] == OP_MESSAGE:
+        time = fields.get("time", b"")
+        return (
+            len(fields.get("conn", b"")) == 4
+            and len(time) == 8
+            and _U32.unpack_from(time, 4)[0] < 1_000_000_000
+        )
+    if op[0] == OP_CHUNK:
+        return "compression" in fields and len(fields.get("size", b"")) == 4
+    if op[0] == OP_CONNECTION:
+        return len(fields.get("conn", b"")) == 4 and "topic" in fields
+    return True
+
+
+def _next_record(buf: bytes | memoryview, pos: int, ops: Sequence[int], end: int) -> int | None:
+    """The first byte from ``pos`` where a record of ``ops`` starts whose header's fields
+    fill it exactly (:func:`_exact_fields`, :func:`_fits`) and whose data end by ``end``;
+    None where there is none. Found from its ``op`` field (``\\x04\\0\\0\\0op=`` and the
+    op's byte), the header's start looked for in the bytes before it."""
+    pattern = re.compile(rb"\x04\x00\x00\x00op=[" + re.escape(bytes(ops)) + rb"]")
+    for hit in pattern.finditer(buf, pos, end):
+        h = hit.start()
+        for o in range(max(pos, h - 4 - MAX_HEADER), h - 3):
+            (hlen,) = _U32.unpack_from(buf, o)
+            if not h + 8 <= o + 4 + hlen <= end - 4:
+                continue
+            fields = _exact_fields(buf[o + 4 : o + 4 + hlen])
+            if fields is None or not _fits(fields, ops):
+                continue
+            (dlen,) = _U32.unpack_from(buf, o + 4 + hlen)
+            if o + 8 + hlen + dlen <= end:
+                return o
+    return None
+
+
 def _connection(fields: dict[str, bytes], data: bytes | memoryview) -> ScannedConnection:
     from rosbags.interfaces import MessageDefinition, MessageDefinitionFormat
     from rosbags.typesys.msg import normalize_msgtype
@@ -181,7 +262,32 @@ def _scan(buf: bytes | memoryview) -> _Scan:
     (a compressed chunk unpacked to find its records, then let go)."""
     scan = _Scan()
     ends = [len(MAGIC)]
-    for fields, start, dlen in _records(buf, len(MAGIC), ends):
+    while _file_records(scan, buf, ends):
+        # bytes left that are no record (a chunk record's header damaged): on from the next
+        at = ends[0]
+        on = _next_record(buf, at + 1, IN_FILE, len(buf))
+        stop = len(buf) if on is None else on
+        before = len(scan.messages)
+        # an uncompressed chunk's records after its damaged header: read (an lz4 chunk's
+        # may stand in it as literals, their data not: the header must say "none")
+        first = _next_record(buf, at + 1, IN_CHUNK, stop)
+        if first is not None and b"compression=none" in buf[at : min(first, at + MAX_HEADER)]:
+            scan.chunks.append((first, stop - first, "none"))
+            _chunk_records(scan, buf[first:stop], len(scan.chunks) - 1, first, True)
+        read = len(scan.messages) - before
+        said = f", {read} messages read from the records in them" if read else ""
+        if on is None:
+            scan.stopped = f"at byte {at} of {len(buf)}, where no whole record starts{said}"
+            break
+        scan.skipped.append(f"bytes {at} to {on}, where no whole record starts{said}")
+        ends[:] = [on]
+    return scan
+
+
+def _file_records(scan: _Scan, buf: bytes | memoryview, ends: list[int]) -> bool:
+    """The file's records from byte ``ends[0]`` into ``scan``, until the file ends (False)
+    or bytes that are no record are left (True; ``ends[0]``: where)."""
+    for fields, start, dlen in _records(buf, ends[0], ends):
         op = fields["op"][0] if fields["op"] else -1
         end = start + dlen
         if op == OP_CHUNK:
@@ -193,7 +299,7 @@ def _scan(buf: bytes | memoryview) -> _Scan:
             except Exception as err:  # a compressed chunk cut short, or damaged
                 if end > len(buf):
                     scan.stopped = f"inside a {how} chunk at byte {start}, which cannot be unpacked"
-                    break
+                    return False
                 scan.skipped.append(f"a {how} chunk at byte {start}: {_why(err)}")
                 continue
             _chunk_records(scan, chunk, k, start, end <= len(buf))
@@ -204,11 +310,8 @@ def _scan(buf: bytes | memoryview) -> _Scan:
         if end > len(buf):
             what = "chunk" if op == OP_CHUNK else "record"
             scan.stopped = f"inside a {what} at byte {start} (its whole records read)"
-            break
-    else:
-        if ends[0] + 8 <= len(buf):  # bytes left that are no record: a header damaged
-            scan.stopped = f"at byte {ends[0]} of {len(buf)}, where no whole record starts"
-    return scan
+            return False
+    return ends[0] + 8 <= len(buf)
 
 
 def _why(err: BaseException) -> str:
@@ -217,26 +320,38 @@ def _why(err: BaseException) -> str:
 
 def _chunk_records(scan: _Scan, chunk: bytes | memoryview, k: int, start: int, whole: bool) -> None:
     """The connection and message records of chunk ``k`` (at byte ``start``) into ``scan``:
-    its whole records up to the first that is damaged (a chunk cut short: up to its end)."""
+    its whole records, those from a damaged one to the next place a record starts
+    (:func:`_next_record`) passed over (a chunk cut short: up to its end)."""
     ends = [0]
-    damage = ""
-    for inner, at, n in _records(chunk, 0, ends):
-        if at + n > len(chunk):  # a record running past the chunk: not whole
-            break
-        try:
-            if inner["op"][:1] == bytes([OP_CONNECTION]):
-                c = _connection(inner, chunk[at : at + n])
-                scan.connections.setdefault(c.id, c)
-            elif inner["op"][:1] == bytes([OP_MESSAGE]):
-                sec, nsec = struct.unpack("<II", inner["time"])
-                (conn,) = _U32.unpack(inner["conn"])
-                scan.messages.append((conn, sec * 1_000_000_000 + nsec, k, at, n))
-        except Exception as err:  # a field damaged: no record of its kind
-            damage = _why(err)
-            break
-    if whole and (damage or ends[0] < len(chunk)):
-        where = f"a chunk at byte {start}: its records stop at byte {ends[0]} of {len(chunk)}"
-        scan.skipped.append(where + (f" ({damage})" if damage else " (a record damaged)"))
+    while True:
+        damage = ""
+        for inner, at, n in _records(chunk, ends[0], ends):
+            if at + n > len(chunk):  # a record running past the chunk: not whole
+                break
+            try:
+                if inner["op"][:1] == bytes([OP_CONNECTION]):
+                    c = _connection(inner, chunk[at : at + n])
+                    scan.connections.setdefault(c.id, c)
+                elif inner["op"][:1] == bytes([OP_MESSAGE]):
+                    sec, nsec = struct.unpack("<II", inner["time"])
+                    (conn,) = _U32.unpack(inner["conn"])
+                    scan.messages.append((conn, sec * 1_000_000_000 + nsec, k, at, n))
+            except Exception as err:  # a field damaged: no record of its kind
+                damage = _why(err)
+                break
+        stop = ends[0]
+        if not whole or not (damage or stop < len(chunk)):
+            return
+        why = f" ({damage})" if damage else " (a record damaged)"
+        on = _next_record(chunk, stop + 1, IN_CHUNK, len(chunk))
+        if on is None:
+            where = f"a chunk at byte {start}: its records stop at byte {stop} of {len(chunk)}"
+            scan.skipped.append(where + why)
+            return
+        scan.skipped.append(
+            f"a chunk at byte {start}: its bytes {stop} to {on} of {len(chunk)} passed over{why}"
+        )
+        ends[:] = [on]
 
 
 def _chunk(buf: bytes | memoryview, where: tuple[int, int, str]) -> bytes | memoryview:
@@ -299,12 +414,12 @@ class ScannedBag(MappedFiles):
             raise ValueError("the file does not start as a ROS 1 bag (#ROSBAG V2.0)")
         self._scan = scan = _scan(self._buf)
         if not scan.messages:
-            stopped = scan.stopped or "the file ends"
+            stopped = scan.stopped or "where the file ends"
             skipped = "; ".join(scan.skipped)
             self.close()
             if skipped:  # the cause first: a refusal's text is kept short
                 raise NoWholeMessage(
-                    f"no whole message: {len(scan.skipped)} damaged chunk(s) passed over "
+                    f"no whole message: {len(scan.skipped)} damaged stretch(es) passed over "
                     f"({skipped}); it stops {stopped}"
                 )
             raise NoWholeMessage(
@@ -327,7 +442,7 @@ class ScannedBag(MappedFiles):
         """What was read: the messages, and where the file stopped."""
         end = f"; it stops {self._scan.stopped}" if self._scan.stopped else ""
         if skipped := self._scan.skipped:
-            end += f"; {len(skipped)} damaged chunk(s) passed over ({'; '.join(skipped)})"
+            end += f"; {len(skipped)} damaged stretch(es) passed over ({'; '.join(skipped)})"
         why = (
             "the bag has no index (a recording cut short: rosbag record leaves drive.bag.active so)"
             if self._refused is None
