@@ -11,6 +11,7 @@ Where nothing whole is left, the bag is refused with ``rosbags``' own error.
 from __future__ import annotations
 
 import re
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -108,20 +109,25 @@ def test_a_file_that_is_no_bag_is_refused_as_before_not_scanned(tmp_path):
     assert "ROS 1 bag" in p.expected and p.found == "AnyReaderError: File magic is invalid."
 
 
-@pytest.mark.parametrize("compression", [None, "lz4"])
-def test_a_chunk_record_s_header_damaged_is_passed_over_to_the_next_chunk(tmp_path, compression):
+@pytest.mark.parametrize(
+    ("compression", "which"), [(None, "middle"), (None, "first"), ("lz4", "middle")]
+)
+def test_a_chunk_record_s_header_damaged_is_passed_over_to_the_next_chunk(
+    tmp_path, compression, which
+):
     """A chunk record whose header is damaged (no ``op``) is no record: the read goes on at
-    the next record of the file (the chunk's index record), says which bytes it passed
-    over, and reads every chunk after it; the chunk's own records are read where it is
-    uncompressed (its header still says ``compression=none``), not where it is lz4 (whose
-    literals may hold a record's header without its data)."""
+    the next record of the file (the chunk's index record, not a connection record inside
+    the chunk: the first chunk holds them), says which bytes it passed over, and reads
+    every chunk after it; the chunk's own records are read where it is uncompressed (its
+    header still says ``compression=none``), not where it is lz4 (whose literals may hold
+    a record's header without its data)."""
     bag = _bag(tmp_path, compression)
     whole = ScannedBag(bag, refused="test")
     n_whole = whole.message_count
     whole.close()
     data = bytearray(bag.read_bytes())
     starts = _chunks(bytes(data))
-    k = len(starts) // 2
+    k = len(starts) // 2 if which == "middle" else 0
     at = data.rindex(b"op=", 0, starts[k][0])  # the chunk record's own op field
     data[at : at + 2] = b"xx"
     damaged = tmp_path / "h.bag"
@@ -248,3 +254,73 @@ def test_a_damaged_can_frame_message_is_passed_over_and_counted(tmp_path):
     assert "d.bag: passed over: 1 damaged messages" in said
     got = sum(g.t_s.size for g in (*streams.wheels, streams.gnss))
     assert got == sum(g.t_s.size for g in (*whole.wheels, whole.gnss)) - 1
+
+
+def _header(**fields: bytes) -> bytes:
+    """A record header of ``fields`` (each ``name=value`` with its u4 length), its u4
+    length first."""
+    body = b"".join(
+        len(b := f"{k}=".encode() + v).to_bytes(4, "little") + b for k, v in fields.items()
+    )
+    return len(body).to_bytes(4, "little") + body
+
+
+def _message(conn: int = 0, sec: int = 100, nsec: int = 5, data: bytes = b"abcd") -> bytes:
+    head = _header(conn=conn.to_bytes(4, "little"), op=b"\x02", time=struct.pack("<II", sec, nsec))
+    return head + len(data).to_bytes(4, "little") + data
+
+
+def test_exact_fields_fill_a_header_or_are_none():
+    """Fields that fill a header exactly, each ``name=value`` of a lower-case name: read;
+    a field without ``=``, a name of other bytes, a length running past the header, or
+    1-3 bytes after the last field: none."""
+    from rwhonet.data.bagscan import _exact_fields
+
+    body = _header(op=b"\x02", conn=b"\x00" * 4)[4:]
+    assert _exact_fields(body) == {"op": b"\x02", "conn": b"\x00" * 4}
+    assert _exact_fields(body + b"\x01\x02") is None
+    assert _exact_fields(body[:-1]) is None
+    assert _exact_fields(_header(op=b"\x02")[4:].replace(b"op=", b"op:")) is None
+    assert _exact_fields(_header(Op=b"\x02")[4:]) is None
+
+
+def test_a_record_s_fields_must_be_its_op_s_own():
+    """A message's ``conn`` of 4 bytes and ``time`` of 8 whose nanoseconds are under 10^9;
+    a chunk's ``compression`` and 4-byte ``size``; a connection's ``conn`` and ``topic``;
+    an ``op`` among those looked for."""
+    from rwhonet.data.bagscan import IN_CHUNK, IN_FILE, _fits
+
+    t = struct.pack("<II", 100, 999_999_999)
+    assert _fits({"op": b"\x02", "conn": b"\x00" * 4, "time": t}, IN_CHUNK)
+    assert not _fits({"op": b"\x02", "conn": b"\x00" * 4, "time": t}, IN_FILE)
+    late = struct.pack("<II", 100, 1_000_000_000)
+    assert not _fits({"op": b"\x02", "conn": b"\x00" * 4, "time": late}, IN_CHUNK)
+    assert not _fits({"op": b"\x02", "conn": b"\x00" * 3, "time": t}, IN_CHUNK)
+    assert _fits({"op": b"\x05", "compression": b"none", "size": b"\x00" * 4}, IN_FILE)
+    assert not _fits({"op": b"\x05", "compression": b"none"}, IN_FILE)
+    assert not _fits({"op": b"\x05", "size": b"\x00" * 4}, IN_FILE)
+    assert _fits({"op": b"\x07", "conn": b"\x00" * 4, "topic": b"/a"}, IN_CHUNK)
+    assert not _fits({"op": b"\x07", "conn": b"\x00" * 4}, IN_CHUNK)
+
+
+def test_the_next_record_is_the_first_whole_one_of_its_kind():
+    """After bytes that are no record: the first message whose header's fields fill it
+    and whose data fit; not one whose data run past the end, nor an op field inside
+    another field's value, nor a message's header where a chunk's is looked for."""
+    from rwhonet.data.bagscan import IN_CHUNK, IN_FILE, _next_record
+
+    junk = bytes(range(7, 60))
+    good = _message(conn=1)
+    buf = junk + good + _message(conn=2)
+    assert _next_record(buf, 0, IN_CHUNK, len(buf)) == len(junk)
+    assert _next_record(buf, len(junk) + 1, IN_CHUNK, len(buf)) == len(junk) + len(good)
+    assert _next_record(buf, 0, IN_FILE, len(buf)) is None
+    cut = junk + good[:-1]  # its data one byte short of the end
+    assert _next_record(cut, 0, IN_CHUNK, len(cut)) is None
+    # a message record inside a connection record's topic: where messages alone are
+    # looked for, the message (the connection's header spans its op field, but is no
+    # message's); where connections are too, the connection, which starts first
+    head = _header(conn=b"\x00" * 4, op=b"\x07", topic=b"/x" + good)
+    buf = junk + head + (0).to_bytes(4, "little")
+    assert _next_record(buf, 0, (2,), len(buf)) == buf.index(good)
+    assert _next_record(buf, 0, IN_CHUNK, len(buf)) == len(junk)
