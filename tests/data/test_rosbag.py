@@ -823,3 +823,103 @@ def test_a_navsatfix_whose_covariance_is_unknown_states_no_accuracy(tmp_path):
     streams = read_mdf4(known, smap, radius, "m", "b.bag")
     np.testing.assert_array_equal(streams.gnss.channels[c.H_ACC_M], 0.04)
     assert streams.gnss.sources[c.H_ACC_M] == f"{FIX_TOPIC}.position_covariance[0]"
+
+
+def _patched(bag, out, topic_conn: int, k: int, offset: int | None, new: bytes):
+    """The bag with ``new`` written at byte ``offset`` of the ``k``-th message of
+    connection ``topic_conn`` (its serialised data: a header's seq, stamp sec and nsec
+    first; None: over its record's ``time`` field's seconds), as a flipped bit on a disk
+    would leave it; rosbags reads it as it is."""
+    from rwhonet.data.bagscan import MAGIC, OP_CHUNK, OP_MESSAGE, _records
+
+    data = bytearray(bag.read_bytes())
+    seen = 0
+    for f, start, n in _records(bytes(data), len(MAGIC)):
+        if f["op"][0] != OP_CHUNK:
+            continue
+        for g, at, _ in _records(bytes(data[start : start + n]), 0):
+            if g["op"][0] == OP_MESSAGE and int.from_bytes(g["conn"], "little") == topic_conn:
+                if seen == k:
+                    if offset is None:  # the record header's time, just before the data
+                        offset = data.rindex(b"time=", start + at - 64, start + at) + 5
+                        offset -= start + at
+                    data[start + at + offset : start + at + offset + len(new)] = new
+                    out.write_bytes(bytes(data))
+                    return out
+                seen += 1
+    raise AssertionError("no such message")
+
+
+def _conn(bag, topic: str) -> int:
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([bag]) as r:
+        return next(x.id for x in r.connections if x.topic == topic)
+
+
+@pytest.mark.parametrize("what", ["latitude", "stamp", "record time"])
+def test_a_value_no_message_holds_alone_among_its_neighbours_is_passed_over(tmp_path, what):
+    """A bag rosbags reads as it is (a ROS 1 chunk has no checksum) with one fix's latitude
+    a flipped exponent bit made 1e173, one wheel message's stamp 16,384 s late (a bit of
+    its seconds): that message passed over, the notes saying so, every other message read
+    and put on the grid, where until stop 90 the drive was refused ("expected a latitude in
+    [-90, 90]", "a clock that went back"). A fix whose record time is 64 s early, its stamp
+    in its place: kept (which of the two times a bit moved, the stamps' order tells)."""
+    import struct
+
+    tables, radius = _drive()
+    bag = tables_bag(tmp_path / "w.bag", tables)
+    whole = read_mdf4(bag, bag_map(yaw=True), radius, "m", "w.bag")
+    out = tmp_path / "d.bag"
+    if what == "latitude":  # header (seq, stamp, an empty frame_id), status (1 + 2 bytes)
+        lat = struct.pack("<d", 1e173)
+        topic = FIX_TOPIC
+        _patched(bag, out, _conn(bag, topic), 40, 4 + 8 + 4 + 3, lat)
+    elif what == "stamp":
+        sec = int(tables.wheels[c.T_S].iloc[500]) + 16_384
+        topic = WHEEL_TOPIC
+        _patched(bag, out, _conn(bag, topic), 500, 4, sec.to_bytes(4, "little"))
+    else:  # the record's own time, in its header: the message's stamp is right
+        sec = int(tables.gnss[c.T_S].iloc[40]) - 64
+        topic = FIX_TOPIC
+        _patched(bag, out, _conn(bag, topic), 40, None, sec.to_bytes(4, "little"))
+    streams = read_mdf4(out, bag_map(yaw=True), radius, "m", "d.bag")
+    said = "\n".join(streams.notes)
+    got = {g.name: g.t_s.size for g in (*streams.wheels, streams.gnss)}
+    want = {g.name: g.t_s.size for g in (*whole.wheels, whole.gnss)}
+    lost = {k: want[k] - got[k] for k in want}
+    _grid(streams, radius)  # and on the grid: until stop 90 refused there
+    if what == "record time":  # its stamp in its place: kept (the index it fails: refused)
+        assert "damaged message" not in said and set(lost.values()) == {0}
+        assert "rosbags refused" in said
+        return
+    assert f"d.bag: {topic}: 1 damaged message(s) whose value no message holds" in said
+    assert "rosbags refused" not in said
+    assert sorted(set(lost.values())) == [0, 1]
+
+
+@pytest.mark.parametrize(
+    ("bad", "passed"), [([40], True), ([40, 41], False), (list(range(5, 1200, 10)), False)]
+)
+def test_values_no_message_holds_together_or_many_are_refused_as_before(tmp_path, bad, passed):
+    """Latitudes beyond ±90°: one alone is a flipped bit, passed over; two side by side,
+    or one fix in ten (more than 1 % of a topic's messages), are no flipped bits but a
+    sensor's or a map's doing: the drive is refused as before, saying where."""
+    tables, radius = _drive()
+    gnss = tables.gnss.copy()
+    lat = gnss[c.LAT_DEG].to_numpy().copy()
+    lat[bad] = 1e173
+    gnss[c.LAT_DEG] = lat
+    from rwhonet.sim.streams import StreamTables
+
+    bag = tables_bag(tmp_path / "b.bag", StreamTables(tables.wheels, gnss, tables.gyro))
+    streams = read_mdf4(bag, bag_map(yaw=True), radius, "m", "b.bag")
+    said = "\n".join(streams.notes)
+    if passed:
+        assert "1 damaged message(s) whose value no message holds, each alone" in said
+        assert "1 with a latitude beyond ±90°" in said
+        _grid(streams, radius)
+        return
+    assert "damaged message" not in said
+    with pytest.raises(InputError, match=r"expected a latitude in \[-90, 90\] deg"):
+        _grid(streams, radius)

@@ -797,6 +797,75 @@ def _read_topics(
     return out
 
 
+# a message whose header stamp stands this far from where its neighbours' stand against
+# the bag's record times is damaged, where it stands so alone (_damaged_values)
+STAMP_JUMP_S = 1.0
+STAMP_NEIGHBOURS = 31  # the messages (centred) whose median says where they stand
+# such messages passed over at most (and at least 3): more are a clock's or a map's doing
+DAMAGED_MAX = 0.01
+
+
+def _damaged_values(
+    t_ns: np.ndarray, recorded: np.ndarray, channels: Mapping[str, np.ndarray], stamped: bool
+) -> tuple[np.ndarray, str]:
+    """Which messages of a topic to keep, and what the notes say of the others: a message
+    whose value no message can hold, alone among its neighbours, is damaged (a flipped bit:
+    a ROS 1 chunk, an unchunked MCAP message and an sqlite3 page have no checksum, and
+    ``rosbags`` reads such a bag as it is), and passed over where until stop 90 it refused
+    the drive. Such a value is a latitude beyond ±90° or a longitude beyond ±180° (or
+    infinite), or a header stamp (``stamped``) that stands more than
+    :data:`STAMP_JUMP_S` from the bag's record time where the median of its
+    :data:`STAMP_NEIGHBOURS` neighbours' stands (a transport's delay moves them together;
+    a bit of the stamp or of the record time moves one) and out of order with the stamps
+    beside it (the stamp's bit: a record time's alone leaves the stamp in its place, and
+    the message is kept). Alone: neither message beside it is so; and at most
+    :data:`DAMAGED_MAX` of the topic's messages (at least 3) are. Otherwise they are the
+    map's or the clock's doing (every fix's latitude in 1e-7 deg, a clock stepped), left
+    to the checks that refuse them, saying why."""
+    import pandas as pd
+
+    n = t_ns.size
+    most = max(3, int(DAMAGED_MAX * n))
+    bad = np.zeros(n, bool)
+    parts = []
+    kinds: list[tuple[str, np.ndarray]] = []
+    for k, limit, what in (
+        ("lat", 90.0, "a latitude beyond ±90°"),
+        ("lon", 180.0, "a longitude beyond ±180°"),
+    ):
+        if k in channels:
+            v = channels[k]
+            kinds.append((what, np.isinf(v) | (np.abs(np.nan_to_num(v)) > limit)))
+    if stamped and n:
+        offset = (t_ns - recorded) / 1e9
+        where = pd.Series(offset).rolling(STAMP_NEIGHBOURS, center=True, min_periods=1).median()
+        jump = np.abs(offset - where.to_numpy()) > STAMP_JUMP_S
+        # the stamp's bit, not the record time's: a stamp out of order with those beside it
+        after_last = np.r_[True, t_ns[1:] > t_ns[:-1]]
+        before_next = np.r_[t_ns[:-1] < t_ns[1:], True]
+        jump &= ~(after_last & before_next)
+        kinds.append(
+            (
+                f"a header stamp more than {STAMP_JUMP_S:g} s from the bag's record time "
+                "where its neighbours' stand",
+                jump,
+            )
+        )
+    for what, odd in kinds:
+        beside = np.zeros(n, bool)
+        beside[1:] |= odd[:-1]
+        beside[:-1] |= odd[1:]
+        if odd.any() and not (odd & beside).any() and odd.sum() <= most:
+            bad |= odd
+            parts.append(f"{int(odd.sum())} with {what}")
+    if not bad.any():
+        return ~bad, ""
+    return ~bad, (
+        f"{int(bad.sum())} damaged message(s) whose value no message holds, each alone among "
+        f"its neighbours ({'; '.join(parts)}: a flipped bit), passed over"
+    )
+
+
 def _carries_definitions(bag: Any) -> bool:
     from rosbags.interfaces import MessageDefinitionFormat
 
@@ -940,8 +1009,14 @@ def _group(
         values = scaled(values, signal_map[k])  # a raw integer field: ublox_msgs' 1e-7 deg
         channels[k] = to_si(k, values, signal_map[k].unit, radius_m, where, (file, fields[k].text))
     said = [f"{file}: {t.topic}: {n} message(s) ({t.msgtype}), {how}"]
+    recorded = np.array(t.recorded, dtype=np.int64)
+    keep, told = _damaged_values(t_ns, recorded, channels, how.startswith("on their header"))
+    if told:
+        said.append(f"{file}: {t.topic}: {told}")
+        t_s = t_s[keep]
+        channels = {k: v[keep] for k, v in channels.items()}
     if t.status:
-        status = np.array(t.status)
+        status = np.array(t.status)[keep]
         no_fix = status < 0
         if no_fix.any():
             for k in ("lat", "lon"):
@@ -962,7 +1037,7 @@ def _group(
             f"deserialise as {t.msgtype}, passed over"
         )
     sources = {k: fields[k].text for k in t.keys}
-    h_acc = np.array(t.h_acc, dtype=np.float64)
+    h_acc = np.array(t.h_acc, dtype=np.float64)[keep] if t.h_acc else np.array([])
     if h_acc.size and np.isfinite(h_acc).any():  # a topic that states none has none
         channels["h_acc"] = h_acc
         sources["h_acc"] = f"{t.topic}.position_covariance"
