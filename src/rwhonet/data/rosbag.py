@@ -835,7 +835,7 @@ def _damaged_values(
     ):
         if k in channels:
             v = channels[k]
-            kinds.append((what, np.isinf(v) | (np.abs(np.nan_to_num(v)) > limit)))
+            kinds.append((what, np.abs(np.nan_to_num(v)) > limit))  # inf: the largest
     if stamped and n:
         offset = (t_ns - recorded) / 1e9
         where = pd.Series(offset).rolling(STAMP_NEIGHBOURS, center=True, min_periods=1).median()
@@ -852,10 +852,8 @@ def _damaged_values(
             )
         )
     for what, odd in kinds:
-        beside = np.zeros(n, bool)
-        beside[1:] |= odd[:-1]
-        beside[:-1] |= odd[1:]
-        if odd.any() and not (odd & beside).any() and odd.sum() <= most:
+        side_by_side = odd[1:] & odd[:-1]
+        if odd.any() and not side_by_side.any() and odd.sum() <= most:
             bad |= odd
             parts.append(f"{int(odd.sum())} with {what}")
     if not bad.any():
