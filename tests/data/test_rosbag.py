@@ -896,6 +896,10 @@ def test_a_value_no_message_holds_alone_among_its_neighbours_is_passed_over(tmp_
     assert f"d.bag: {topic}: 1 damaged message(s) whose value no message holds" in said
     assert "rosbags refused" not in said
     assert sorted(set(lost.values())) == [0, 1]
+    # the messages after it keep their numbers in the topic, for messages
+    group = next(g for g in (*streams.wheels, streams.gnss) if g.name == topic)
+    k = 40 if what == "latitude" else 500
+    assert group.rows is not None and group.rows[k - 1] == k and group.rows[k] == k + 2
 
 
 @pytest.mark.parametrize(

@@ -1044,4 +1044,6 @@ def _group(
             f"north variances, on {int(np.isfinite(h_acc).sum())} of {n} message(s)"
         )
     sources["t"] = f"{t.topic} header.stamp" if how.startswith("on their header") else t.topic
-    return Group(t.topic, file, t_s, channels, sources), said
+    # messages' numbers in the topic, 1-based, where damaged ones were passed over
+    rows = None if keep.all() else np.flatnonzero(keep) + 1
+    return Group(t.topic, file, t_s, channels, sources, rows), said
