@@ -270,8 +270,9 @@ def _scan(buf: bytes | memoryview) -> _Scan:
         before = len(scan.messages)
         # an uncompressed chunk's records after its damaged header: read (an lz4 chunk's
         # may stand in it as literals, their data not: the header must say "none")
-        first = _next_record(buf, at + 1, IN_CHUNK, stop)
-        if first is not None and b"compression=none" in buf[at : min(first, at + MAX_HEADER)]:
+        plain = b"compression=none" in buf[at : min(stop, at + MAX_HEADER)]
+        first = _next_record(buf, at + 1, IN_CHUNK, stop) if plain else None
+        if first is not None and b"compression=none" in buf[at:first]:
             scan.chunks.append((first, stop - first, "none"))
             _chunk_records(scan, buf[first:stop], len(scan.chunks) - 1, first, True)
         read = len(scan.messages) - before
