@@ -272,7 +272,7 @@ def _scan(buf: bytes | memoryview) -> _Scan:
         # may stand in it as literals, their data not: the header must say "none")
         plain = b"compression=none" in buf[at : min(stop, at + MAX_HEADER)]
         first = _next_record(buf, at + 1, IN_CHUNK, stop) if plain else None
-        if first is not None and b"compression=none" in buf[at:first]:
+        if first is not None:
             scan.chunks.append((first, stop - first, "none"))
             _chunk_records(scan, buf[first:stop], len(scan.chunks) - 1, first, True)
         read = len(scan.messages) - before
