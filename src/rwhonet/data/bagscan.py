@@ -36,8 +36,11 @@ file's records stop before the file's end (a chunk record's header damaged), the
 goes on at the next place a record starts (:func:`_next_record`): a header whose fields,
 each ``name=value`` with its length, fill it exactly, with an ``op`` of a record that
 belongs there (in a chunk a message, with a 4-byte ``conn`` and an 8-byte ``time`` whose
-nanoseconds are under 10^9, or a connection; in the file a chunk, with its
-``compression`` and ``size``, a connection, or the index's records) and data that fit.
+nanoseconds are under 10^9, or a connection, with its ``conn`` and ``topic``; in the file
+a chunk, with its ``compression`` and ``size``, or the index's records, not a connection:
+the first chunk holds them) and data that fit. An uncompressed chunk whose own header is
+damaged has its records read too, where what is left of its header says
+``compression=none``.
 Random bytes pass such a test about never (a 38-byte message header's lengths and names
 must all fall right), and the records between are passed over, the notes saying which
 bytes. Until stop 90 the rest of the chunk was lost (up to rosbag's 768 KiB: tens of
