@@ -169,7 +169,8 @@ def _scan(buf: mmap.mmap | Overlaid, path: Path) -> _Db3:
     if page < 512 or page & (page - 1):
         raise ValueError(f"{path.name}: its header's page size {size} is none SQLite writes")
     layout = _Layout(page, page - buf[20], len(buf) // page)
-    out = _Db3(path, {}, {}, {}, layout, 0, len(buf) - layout.pages * page)
+    wal = buf.wal if isinstance(buf, Overlaid) else None
+    out = _Db3(path, {}, {}, {}, layout, 0, len(buf) - layout.pages * page, wal)
     for p in range(1, layout.pages + 1):
         start = (p - 1) * page
         head = start + (100 if p == 1 else 0)
@@ -263,11 +264,17 @@ def _keep(out: _Db3, rowid: int, row: list[Any]) -> None:
             out.definitions.setdefault(row[1], (row[2], row[3]))
 
 
-def wal_beside(path: Path) -> Path | None:
-    """The write-ahead log beside a sqlite3 file (``drive_0.db3-wal``) where it commits a
-    page (:func:`rwhonet.data.sqlitewal.committed`)."""
+def _log_of(path: Path) -> Path | None:
+    """The write-ahead log beside a sqlite3 file (``drive_0.db3-wal``), where one holds
+    bytes."""
     log = path.with_name(path.name + SUFFIX)
-    if not log.is_file() or log.stat().st_size == 0:
+    return log if log.is_file() and log.stat().st_size else None
+
+
+def wal_beside(path: Path) -> Path | None:
+    """The write-ahead log beside a sqlite3 file where it commits a page
+    (:func:`rwhonet.data.sqlitewal.committed`)."""
+    if (log := _log_of(path)) is None:
         return None
     with open(log, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as buf:
         return log if committed(buf) is not None else None
@@ -298,8 +305,6 @@ class ScannedDb3(MappedFiles):
                 buf = self._mapped(path)
                 self._bufs.append(buf)
                 files.append(_scan(buf, path))
-                if isinstance(buf, Overlaid):
-                    files[-1].wal = buf.wal
         except Exception:
             self.close()
             raise
@@ -378,13 +383,14 @@ class ScannedDb3(MappedFiles):
             yield c, t, data
 
     def _mapped(self, path: Path) -> mmap.mmap | Overlaid:
-        """A file's bytes, read through its write-ahead log where one commits a page."""
-        log = wal_beside(path)
-        if log is None:
+        """A file's bytes, read through its write-ahead log where one commits a page (the
+        log read once: :func:`wal_beside` reads it so too)."""
+        if (log := _log_of(path)) is None:
             return self._map(path)
         wal_buf = self._map(log)
         wal = committed(wal_buf)
-        assert wal is not None  # wal_beside read it so
+        if wal is None:  # it commits nothing: the file alone
+            return self._map(path)
         # a file SQLite had not yet written to: its pages all in the log
         file = self._map(path) if path.stat().st_size else b""
         return Overlaid(file, wal_buf, wal)
