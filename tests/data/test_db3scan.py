@@ -405,6 +405,11 @@ def test_a_log_that_commits_nothing_leaves_the_bag_to_rosbags(tmp_path):
     assert not any("page by page" in n for n in streams.notes)
     ref, _ = _seconds(db3.parent, radius, "whole")
     assert len(secs) == len(ref)
+    # read page by page (rosbags refused it for another reason): the file alone
+    _, want = _rosbags(db3)
+    with ScannedDb3([folder / db3.name], "test") as bag:
+        assert [(x.topic, t, raw) for x, t, raw in bag.messages()] == want
+        assert "-wal" not in bag.said
 
 
 def test_a_db3_given_alone_with_its_log_is_one_drive(tmp_path):
