@@ -352,6 +352,27 @@ def test_export_then_predict_a_file_to_parquet(bundle, drive, tmp_path, capsys):
     assert capsys.readouterr().err == ""
 
 
+def test_predict_reads_a_drive_kept_as_parquet_as_the_csv_it_holds(bundle, drive, tmp_path, capsys):
+    """A data lake's Parquet of the drive (typed columns, row groups): the same seconds and
+    values as its CSV, the table said on stderr; a Parquet in a pipe refused, named."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = tmp_path / "V-Wavy.parquet"
+    frame = pd.read_csv(drive)
+    pq.write_table(pa.Table.from_pandas(frame, preserve_index=False), table, row_group_size=500)
+    assert main(predict_args(bundle, drive, tmp_path / "csv.csv", "--quiet")) == 0
+    capsys.readouterr()
+    assert main(predict_args(bundle, table, tmp_path / "pq.csv")) == 0
+    err = capsys.readouterr().err
+    assert f"a table file (Parquet), read as CSV: {len(frame):,} rows" in err
+    got, want = pd.read_csv(tmp_path / "pq.csv"), pd.read_csv(tmp_path / "csv.csv")
+    assert len(got) == 300
+    pd.testing.assert_frame_equal(got, want)
+    done = cli(*predict_args(bundle, "-", "-"), stdin=table.read_bytes())
+    assert done.returncode == 2 and b"a table file (Parquet): give its path" in done.stderr
+
+
 def _glitched_drive(path: Path, row: int) -> list[str]:
     """A 60 s drive whose rear-left wheel reads ten times its speed in data row ``row``;
     its lines (line 0: the header)."""

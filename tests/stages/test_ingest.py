@@ -113,6 +113,30 @@ def test_source_calibration_role_and_column_map_format(tmp_path):
     np.testing.assert_allclose(np.diff(df[c.T_S]), 0.1, atol=1e-9)
 
 
+def test_a_role_of_parquet_drives_is_ingested_as_their_csvs_would_be(tmp_path):
+    """A fleet's drives kept in a data lake as Parquet: the role's glob names them, the
+    drive is its file's name without the suffix, the canonical table the CSV's, the
+    manifest names the user's file and says how it was read."""
+    import pyarrow.parquet as pq
+
+    raw = tmp_path / "raw"
+    files = write_fleet(raw, duration_s=5.0)
+    kept = raw / "lake" / "C-B1.parquet"
+    kept.parent.mkdir()
+    pq.write_table(pa.Table.from_pandas(pd.read_csv(files["target_test"])), kept)
+    role = {"glob": "lake/*.parquet", "format": "iovnbd", "vehicle": "target", "required": True}
+    out = tmp_path / "drives"
+    manifest = ingest(make_params(raw, **{"data.roles.target_test": role}), out)
+    b1 = next(d for d in manifest["drives"] if d["drive"] == "C-B1")
+    assert b1["source_file"] == paths.rel(kept)
+    assert b1["notes"][0] == "a table file (Parquet), read as CSV: 51 rows"
+    want = ingest(make_params(raw), tmp_path / "csv")
+    assert [d["n_rows"] for d in manifest["drives"]] == [d["n_rows"] for d in want["drives"]]
+    pd.testing.assert_frame_equal(
+        pd.read_feather(out / "C-B1.arrow"), pd.read_feather(tmp_path / "csv" / "C-B1.arrow")
+    )
+
+
 def test_required_role_without_files_names_folder_and_glob(tmp_path):
     raw = tmp_path / "raw"
     files = write_fleet(raw, duration_s=2.0)

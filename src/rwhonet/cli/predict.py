@@ -232,6 +232,7 @@ def run(
     written on, unchecked, with a note on stderr, and still refused (exit 2) if the check
     fails later.
     """
+    from rwhonet.data.columnar import open_as_csv, table_kind
     from rwhonet.data.compressed import compressed_note, compression_of, open_decompressed
     from rwhonet.data.drivechecks import DEFAULT_TRACK_M, StreamRadiusCheck
     from rwhonet.data.droprows import RowFilter
@@ -239,7 +240,7 @@ def run(
     from rwhonet.data.incremental import FixScreen, read_rows
     from rwhonet.libraries import raise_if_interrupted
 
-    packed = None  # a compressed drive file's kind
+    packed = table = None  # a compressed drive file's kind, a table file's
     with ExitStack() as stack:
         if drive_blocks is not None:
             source, name = None, drive
@@ -261,8 +262,14 @@ def run(
                 )
             # a Racelogic VBOX file (here or on stdin): read_rows reads it as the CSV it
             # stands for; a compressed file as the text it holds, decompressed as it is read
-            packed = compression_of(path)
-            opened = open(path, "rb") if packed is None else open_decompressed(path, packed, drive)
+            # a Parquet or Feather table as the CSV it holds, a record batch at a time
+            packed, table = compression_of(path), table_kind(path)
+            if table is not None:
+                opened, held = open_as_csv(path, table, drive)
+            elif packed is None:
+                opened = open(path, "rb")
+            else:
+                opened = open_decompressed(path, packed, drive)
             source, name = stack.enter_context(opened), drive
         final = None if output == STDIO else output_file(output, "a CSV or .parquet file")
         partial = None if final is None else final.with_name(f".{final.name}.partial")
@@ -294,7 +301,9 @@ def run(
                     gnss_lag=gnss_lag,
                 )
                 names, read_notes = lay.names, lay.notes
-                if packed is not None:
+                if table is not None:
+                    read_notes.insert(0, held.note)
+                elif packed is not None:
                     read_notes.insert(0, compressed_note(packed))
             # a row written twice, or without a wheel speed, is dropped, as ingest drops
             # it (before the fix screen, which would take a copy's fix as one that did not

@@ -56,6 +56,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
 from rwhonet.data import canonical as c
+from rwhonet.data.columnar import MAGIC as TABLE_MAGIC
 from rwhonet.data.compressed import MAGIC
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.problems import ROWS_LISTED, RowTally, no_data_rows, unreadable_file
@@ -95,6 +96,11 @@ _SIGNATURES: tuple[tuple[bytes, str], ...] = (
         (magic, f"{kind}-compressed data (give it as a file, or decompress it first)")
         for magic, kind, _ in MAGIC
         if kind != "zip"  # named above (a workbook is the likelier mistake)
+    ),
+    # a Parquet or Feather table is read by its path (rwhonet.data.columnar), not from a pipe
+    *(
+        (magic, f"a table file ({kind}): give its path, it is read as the CSV it holds")
+        for magic, kind in TABLE_MAGIC
     ),
 )
 

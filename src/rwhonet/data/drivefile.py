@@ -35,6 +35,7 @@ import pyarrow as pa
 from rwhonet.config import DataParams
 from rwhonet.data import canonical as c
 from rwhonet.data.canlog import is_can_log_name
+from rwhonet.data.columnar import csv_copy, is_table_name, table_kind
 from rwhonet.data.columnmap import read_columnmap
 from rwhonet.data.compressed import (
     compressed_note,
@@ -239,6 +240,8 @@ def read_any(
             return _read_decompressed(
                 f, packed, data, rel, radius_m, period_s, split_gap_s, require_fix
             )
+        if kind in (IOVNBD, COLUMN_MAP) and (table := table_kind(f.path)) is not None:
+            return _read_table(f, table, data, rel, radius_m, period_s, split_gap_s, require_fix)
         # a row written twice or without a wheel speed is dropped (rwhonet.data.droprows),
         # rows out of time order put in order where that is safe (.sampleorder), fixes held
         # from a slower receiver are placed along the path (.heldfixes); the drive says which
@@ -310,6 +313,39 @@ def _read_decompressed(
     }.get(inner, "the CAN log")
     said = compressed_note(packed, what)
     return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
+
+
+def _read_table(
+    f: DriveFile,
+    table: str,
+    data: DataParams,
+    rel: Callable[[Path], str],
+    radius_m: float | None,
+    period_s: float,
+    split_gap_s: float,
+    require_fix: bool,
+) -> tuple[RawDrive, StreamFacts | None]:
+    """A 10 Hz drive kept as a table file (:mod:`rwhonet.data.columnar`: Parquet, Feather):
+    its rows written to a scratch CSV (at most ``data.max_file_mb``) and read as the file,
+    messages naming it."""
+    file = rel(f.path)
+    with scratch_dir("table") as scratch:
+        plain = Path(scratch) / f"{drive_stem(f.path)}.csv"
+        held = csv_copy(f.path, table, plain, data.max_file_mb, file)
+
+        def shown(path: Path) -> str:
+            return file if path == plain else rel(path)
+
+        raw, facts = read_any(
+            dataclasses.replace(f, path=plain),
+            data,
+            shown,
+            radius_m,
+            period_s,
+            split_gap_s,
+            require_fix,
+        )
+    return dataclasses.replace(raw, notes=(held.note, *raw.notes)), facts
 
 
 def _read_vbo(
@@ -440,6 +476,7 @@ def _read_streams(
             if p.is_file()
             and (
                 is_csv_name(name := without_rotation(p.name))
+                or is_table_name(name)
                 or log_kind(name, p)
                 or (
                     spec.dbc_files
@@ -452,7 +489,7 @@ def _read_streams(
             raise InputError([canedge_packed_problem(rel(p), how) for p, how in packed_logs])
         signals = spec.signals
         with scratch_dir("unpacked") as scratch:
-            plain, shown, packed = [], {}, []
+            plain, shown, packed, tables = [], {}, [], []
             for i, p in enumerate(files):  # a file kept compressed: read as its text
                 q, packing = p, compression_of(p)
                 name = without_suffix(without_rotation(p.name))
@@ -467,6 +504,12 @@ def _read_streams(
                     q = Path(scratch) / str(i) / name
                     q.parent.mkdir()
                     q.symlink_to(p.resolve())
+                if (table := table_kind(q)) is not None:  # wheels.parquet: read as its CSV
+                    csv = Path(scratch) / f"{i}-table" / f"{Path(name).stem}.csv"
+                    csv.parent.mkdir()
+                    held = csv_copy(q, table, csv, data.max_file_mb, rel(p))
+                    tables.append(f"{p.name} ({held.brief})")
+                    q = csv
                 shown[q] = rel(p)
                 plain.append(q)
             streams = read_stream_csvs(
@@ -484,6 +527,9 @@ def _read_streams(
             streams = dataclasses.replace(streams, notes=(*streams.notes, said))
         if packed:
             said = f"stream files kept compressed, read as the text they hold: {', '.join(packed)}"
+            streams = dataclasses.replace(streams, notes=(*streams.notes, said))
+        if tables:
+            said = f"stream files kept as tables, read as the CSV they hold: {'; '.join(tables)}"
             streams = dataclasses.replace(streams, notes=(*streams.notes, said))
     return _resampled(streams, data, radius_m, period_s, split_gap_s, require_fix)
 

@@ -1,0 +1,304 @@
+"""Drive files kept as columnar tables: Apache Parquet and Arrow IPC (Feather), told by their
+first bytes, read as the CSV table they hold.
+
+A fleet's drives are often kept in a data lake as Parquet (one file per drive or per
+stream, written by Spark, pandas, Polars or DuckDB), or handed on as Feather (Arrow's IPC
+file). Such a file has named, typed columns: everything a column map or a signal map names
+is there as it is in a CSV. The 10 Hz readers (IO-VNBD, column maps), ``rwhonet predict``
+and the stream-CSV reader read one through a scratch CSV of its table (:func:`csv_copy`),
+as they read a compressed file through the text it holds (:mod:`rwhonet.data.compressed`),
+so every reader's rules, notes and refusals apply unchanged. Row ``i`` of the table
+(counted from 1) is data row ``i`` of that CSV, so a message names the table's own row.
+
+**The cells** (the table's types, Apache Arrow's):
+
+- numbers (integers, floating point, decimals) as numbers, every double as the shortest
+  text that reads back to it (Arrow's CSV writer), so a value is read unchanged; a null is
+  an empty cell (no value), a NaN ``nan`` (no value too);
+- a **timestamp** as ISO 8601 text, ``2019-03-11 14:22:05.123000Z`` where the column has a
+  zone (its instants on UTC: Arrow keeps them so; the zone only says how to show them),
+  without ``Z`` where it has none (the time as written): a map's ``t`` in unit ``iso8601``
+  reads either (:mod:`rwhonet.data.texttime`); a **date** as ``2019-03-11`` (a map's
+  ``date`` in unit ``%Y-%m-%d``), a **time of day** as ``14:22:05.123000`` (``hh:mm:ss``),
+  a **duration** as seconds (``s``);
+- a **boolean** as 1 or 0 (a fix flag: the fix status unit ``flag``); a
+  **dictionary-encoded** column (pandas' categories) as its values; text as text;
+- a **struct**'s fields as columns of their own, named ``parent.field`` (a map names them
+  so, or without the dot: columns are found without regard to punctuation);
+- a column no CSV cell holds (a list, a map, binary data: a camera frame, a point cloud)
+  is left out, and the notes name it.
+
+**Bounded** as a compressed file's text is: the CSV written may be at most
+``data.max_file_mb`` MB (the file itself is too); the table is read and written a
+record batch at a time, so memory holds one batch beside the scratch file.
+
+**Refused**, naming the file: a file that is not whole (cut off, corrupted: its footer or a
+page cannot be read; the notes say Arrow's own words), one of no columns, and a CSV past
+the bound.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pcsv
+
+from rwhonet.data.compressed import without_suffix
+from rwhonet.errors import InputError, Problem
+
+PARQUET, FEATHER = "Parquet", "Arrow IPC (Feather)"
+# (first bytes, kind): Parquet's "PAR1" (it ends with it too), Arrow's IPC file "ARROW1"
+# (Feather version 2 is that file; version 1, deprecated since 2020, is not read)
+MAGIC: tuple[tuple[bytes, str], ...] = ((b"PAR1", PARQUET), (b"ARROW1", FEATHER))
+# the names a stream folder's table files have (a file is told by its bytes; a folder's
+# files are chosen by name, as its CSVs are)
+TABLE_SUFFIXES = (".parquet", ".pq", ".feather", ".arrow", ".ipc")
+BATCH_ROWS = 1 << 16  # rows read and written per step
+COPY_BYTES = 1 << 20  # CSV text copied per step
+_DURATION_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+
+
+def table_kind(path: Path) -> str | None:
+    """The kind of table a file's first bytes show (:data:`PARQUET`, :data:`FEATHER`; None:
+    neither, or the file cannot be read: its reader says why)."""
+    try:
+        head = _head(path, 6)
+    except OSError:
+        return None
+    return next((kind for magic, kind in MAGIC if head.startswith(magic)), None)
+
+
+def is_table_name(name: str) -> bool:
+    """Whether a file's name is a table file's (``wheels.parquet``, ``gps.feather``, kept
+    compressed too: ``wheels.parquet.gz``): a stream of a folder drive, as a CSV is."""
+    return without_suffix(name).lower().endswith(TABLE_SUFFIXES)
+
+
+@dataclass(frozen=True)
+class TableRead:
+    """What a table file held, for the notes: its kind, rows and the columns left out."""
+
+    kind: str
+    rows: int
+    left_out: tuple[str, ...]
+
+    @property
+    def brief(self) -> str:
+        """``Parquet, 6,000 rows; frame left out`` (a stream folder's note, per file)."""
+        said = f"{self.kind}, {self.rows:,} rows"
+        return said + (f"; {', '.join(self.left_out)} left out" if self.left_out else "")
+
+    @property
+    def note(self) -> str:
+        """The note of a drive read from a table file."""
+        said = f"a table file ({self.kind}), read as CSV: {self.rows:,} rows"
+        if self.left_out:
+            said += f"; column(s) no CSV cell holds left out: {', '.join(self.left_out)}"
+        return said
+
+
+def open_as_csv(path: Path, kind: str, file: str) -> tuple[BinaryIO, TableRead]:
+    """A table file's rows as the text of a CSV with a header, made a record batch at a
+    time as it is read, and what it held (the kind, the rows, any columns left out).
+
+    Raises:
+        InputError: naming ``file``: the table's footer or schema cannot be read, or it has
+            no column a CSV cell holds; met while reading, a record batch that cannot be.
+    """
+    try:
+        rows, schema = _shape(path, kind)
+    except (pa.ArrowException, OSError, ValueError) as err:
+        raise InputError([broken(file, kind, err)]) from None
+    left_out: list[str] = []
+    header = _as_cells(schema.empty_table(), left_out)
+    if header.num_columns == 0:
+        raise InputError([_no_columns(file, kind, left_out)])
+    text = _Text(_batches(path, kind), header, kind, file)
+    return io.BufferedReader(text, COPY_BYTES), TableRead(kind, rows, tuple(left_out))
+
+
+def csv_copy(path: Path, kind: str, dest: Path, max_mb: float | None, file: str) -> TableRead:
+    """Write a table file's rows to ``dest`` as a CSV with a header (:func:`open_as_csv`),
+    at most ``max_mb`` MB of it (``data.max_file_mb``, which bounds a drive's text as it
+    bounds a plain file's); returns what it held.
+
+    Raises:
+        InputError: naming ``file``: as :func:`open_as_csv`, or the CSV runs past
+            ``max_mb``.
+    """
+    source, held = open_as_csv(path, kind, file)
+    limit = math.inf if max_mb is None else max_mb * 2**20
+    written = 0
+    with source, open(dest, "wb") as out:
+        while chunk := source.read(COPY_BYTES):
+            written += len(chunk)
+            if written > limit:
+                raise InputError([_too_large(file, kind, max_mb)])
+            out.write(chunk)
+    return held
+
+
+class _Text(io.RawIOBase):
+    """The CSV text of a table's record batches: the header, then each batch's rows as it
+    is read; a batch that cannot be read is the user's input problem, not a crash."""
+
+    def __init__(
+        self, batches: Iterator[pa.RecordBatch], header: pa.Table, kind: str, file: str
+    ) -> None:
+        super().__init__()
+        self._batches, self._kind, self._file = batches, kind, file
+        self._pending = _csv(header, True)
+        self._at = 0
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        while self._at == len(self._pending):
+            try:
+                batch = next(self._batches, None)
+                if batch is None:
+                    return 0
+                cells = _as_cells(batch, [])
+            except (pa.ArrowException, OSError, ValueError) as err:
+                raise InputError([broken(self._file, self._kind, err)]) from None
+            self._pending, self._at = _csv(cells, False), 0
+        n = min(len(buffer), len(self._pending) - self._at)
+        buffer[:n] = self._pending[self._at : self._at + n]
+        self._at += n
+        return n
+
+    def close(self) -> None:
+        close = getattr(self._batches, "close", None)
+        if close is not None:
+            close()  # the generator's file
+        super().close()
+
+
+def _csv(cells: pa.Table, header: bool) -> bytes:
+    """A table's rows (and its header) as CSV text."""
+    out = io.BytesIO()
+    pcsv.write_csv(cells, out, pcsv.WriteOptions(include_header=header))
+    return out.getvalue()
+
+
+def _shape(path: Path, kind: str) -> tuple[int, pa.Schema]:
+    """A table file's rows and schema, from its footer."""
+    if kind == PARQUET:
+        import pyarrow.parquet as pq
+
+        with pq.ParquetFile(path) as table:
+            return table.metadata.num_rows, table.schema_arrow
+    with pa.memory_map(str(path)) as source:
+        reader = pa.ipc.open_file(source)
+        rows = sum(reader.get_batch(i).num_rows for i in range(reader.num_record_batches))
+        return rows, reader.schema
+
+
+def _batches(path: Path, kind: str) -> Iterator[pa.RecordBatch]:
+    """The table's record batches, at most :data:`BATCH_ROWS` rows each."""
+    if kind == PARQUET:
+        import pyarrow.parquet as pq
+
+        with pq.ParquetFile(path) as table:
+            yield from table.iter_batches(batch_size=BATCH_ROWS)
+        return
+    with pa.memory_map(str(path)) as source:
+        reader = pa.ipc.open_file(source)
+        for i in range(reader.num_record_batches):
+            yield from pa.Table.from_batches([reader.get_batch(i)]).to_batches(BATCH_ROWS)
+
+
+def _head(path: Path, size: int) -> bytes:
+    with open(path, "rb") as f:
+        return f.read(size)
+
+
+def _as_cells(batch: pa.RecordBatch | pa.Table, left_out: list[str]) -> pa.Table:
+    """A batch whose every column a CSV cell holds as the readers read it (the module's
+    list), the columns none can hold named in ``left_out`` (once)."""
+    table = pa.Table.from_batches([batch]) if isinstance(batch, pa.RecordBatch) else batch
+    while any(pa.types.is_struct(t) for t in table.schema.types):
+        table = table.flatten()  # parent.field
+    names, arrays = [], []
+    for name, column in zip(table.column_names, table.columns, strict=True):
+        cells = _cells(column.combine_chunks())
+        if cells is None:
+            if name not in left_out:
+                left_out.append(name)
+            continue
+        names.append(name)
+        arrays.append(cells)
+    return pa.table(arrays, names=names)
+
+
+def _cells(array: pa.Array) -> pa.Array | None:
+    """One column as CSV cells the readers read (None: none holds it)."""
+    kind = array.type
+    if pa.types.is_dictionary(kind):
+        return _cells(array.dictionary_decode())
+    if pa.types.is_boolean(kind):
+        return pc.cast(array, pa.uint8())
+    if pa.types.is_float16(kind):
+        return pc.cast(array, pa.float32())
+    if pa.types.is_duration(kind):
+        seconds = pc.cast(pc.cast(array, pa.int64()), pa.float64())
+        return pc.multiply(seconds, _DURATION_S[kind.unit])
+    if pa.types.is_timestamp(kind) and kind.tz is not None:
+        return pc.cast(array, pa.timestamp(kind.unit, "UTC"))  # written with Z
+    if (
+        pa.types.is_integer(kind)
+        or pa.types.is_floating(kind)
+        or pa.types.is_decimal(kind)
+        or pa.types.is_timestamp(kind)
+        or pa.types.is_date(kind)
+        or pa.types.is_time(kind)
+        or pa.types.is_string(kind)
+        or pa.types.is_large_string(kind)
+        or pa.types.is_null(kind)
+    ):
+        return array
+    return None  # lists, maps, binary, unions
+
+
+def broken(file: str, kind: str, err: BaseException) -> Problem:
+    """The problem of a table file that cannot be read to its end."""
+    return Problem(
+        file,
+        None,
+        None,
+        f"a whole {kind} file",
+        f"{type(err).__name__}: {str(err)[:160] or 'cut off'}",
+        "copy the file again (it is cut off or corrupted), or write the table again",
+    )
+
+
+def _no_columns(file: str, kind: str, left_out: list[str]) -> Problem:
+    found = f"only columns no CSV cell holds: {', '.join(left_out)}" if left_out else "no column"
+    return Problem(
+        file,
+        None,
+        None,
+        f"a table file ({kind}) with the drive's columns (numbers, text, times)",
+        found,
+        "write the drive's channels as columns of their own",
+    )
+
+
+def _too_large(file: str, kind: str, max_mb: float | None) -> Problem:
+    return Problem(
+        file,
+        None,
+        None,
+        f"a drive of at most {max_mb:g} MB as CSV text (data.max_file_mb)",
+        f"more than that in this {kind} table",
+        "split the drive into several files (one per trip), or raise data.max_file_mb on a "
+        "machine with the memory",
+    )
