@@ -15,12 +15,18 @@ wheel speeds at 100 Hz in one channel group, the fixes at 10 Hz in another, read
 through a signal map (``data.signal_maps``), resampled onto the 10 Hz grid (case
 2 only: an MDF4 file is decoded whole, so the limit is what protects memory).
 
+Parquet (``--format parquet``, since stop 92): the same long CSV drive written as a Parquet
+file (row groups of 65,536 rows, as a data lake's writer keeps them), ingested with the limit
+raised above its CSV text: the table is read a record batch at a time into a scratch CSV
+(:mod:`rwhonet.data.columnar`), which the CSV reader then streams, so its peak should be
+the CSV case's.
+
 With ``--validate`` the validate stage then runs on what case 2 wrote. Prints, per
 case, the outcome, the wall time and the peak resident memory
 (``resource.getrusage(...).ru_maxrss``), and the same after the imports alone.
 
 Usage: python benchmarks/bench_large_file.py [--gb 1.0] [--validate] [--keep DIR]
-       [--format csv|mdf4|both]
+       [--format csv|mdf4|parquet|both|all]
 """
 
 from __future__ import annotations
@@ -150,17 +156,21 @@ def main() -> None:
     parser.add_argument("--gb", type=float, default=1.0, help="size of the drive file (GB)")
     parser.add_argument("--validate", action="store_true", help="also run validate on it")
     parser.add_argument("--keep", type=Path, help="project folder to keep (default: temporary)")
-    parser.add_argument("--format", choices=["csv", "mdf4", "both"], default="both")
+    parser.add_argument(
+        "--format", choices=["csv", "mdf4", "parquet", "both", "all"], default="both"
+    )
     parser.add_argument("--write-mdf4", nargs=2, metavar=("PATH", "N"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.write_mdf4:  # the MDF4 writer's own interpreter (see mdf4_cases)
         write_long_mdf4(Path(args.write_mdf4[0]), int(args.write_mdf4[1]))
         return
     print(f"{'case':<44} {'time s':>7} {'peak MB':>8} {'imports MB':>10}  outcome")
-    if args.format in ("csv", "both"):
+    if args.format in ("csv", "both", "all"):
         csv_cases(args)
-    if args.format in ("mdf4", "both"):
+    if args.format in ("mdf4", "both", "all"):
         mdf4_cases(args)
+    if args.format in ("parquet", "all"):
+        parquet_cases(args)
 
 
 def _fleet(root: Path) -> Path:
@@ -199,6 +209,36 @@ def csv_cases(args) -> None:
             cases.append(("CSV: validate (after the ingest above)", "validate", 2 * size_mb))
         for name, stage, limit in cases:
             _show(name, run(root, stage, limit))
+
+
+def parquet_cases(args) -> None:
+    import pyarrow.csv as pa_csv
+    import pyarrow.parquet as pq
+
+    with tempfile.TemporaryDirectory() as tmp:
+        root = (args.keep / "parquet") if args.keep else Path(tmp)
+        raw = _fleet(root)
+        rows = round(args.gb * 2**30 / BYTES_PER_ROW)
+        start = time.perf_counter()
+        csv = write_long_iovnbd(raw / "target_test" / "C-P1.csv", rows)
+        csv_mb = csv.stat().st_size / 2**20
+        big = csv.with_suffix(".parquet")
+        reader = pa_csv.open_csv(csv)  # streamed: the table never whole in this process
+        with pq.ParquetWriter(big, reader.schema) as writer:
+            for batch in reader:
+                writer.write_batch(batch, row_group_size=65_536)
+        csv.unlink()
+        size_mb = big.stat().st_size / 2**20
+        print(
+            f"wrote {big.name}: {size_mb:,.0f} MB ({csv_mb:,.0f} MB as CSV), {rows:,} rows "
+            f"({rows / 36_000:,.0f} h) in {time.perf_counter() - start:.1f} s"
+        )
+        role = {"glob": "target_test/*.parquet", "format": "iovnbd", "vehicle": "target"}
+        cases = [(f"Parquet: ingest, data.max_file_mb {2 * csv_mb:.0f}", "ingest", 2 * csv_mb)]
+        if args.validate:
+            cases.append(("Parquet: validate (after the ingest above)", "validate", 2 * csv_mb))
+        for name, stage, limit in cases:
+            _show(name, run(root, stage, limit, **{"data.roles.target_test": role}))
 
 
 def mdf4_cases(args) -> None:
