@@ -168,16 +168,19 @@ def test_each_kind_of_cell_as_the_readers_read_it(tmp_path):
             "f16": pa.array([1.5, 2.0], pa.float16()),
             "ok": [True, None],
             "s": ["a,b", "c"],
+            "none": pa.array([None, None]),  # a channel the logger never filled
+            "flag": pa.array([False, True]).dictionary_encode(),  # its values' own rules
+            "imu": pa.array([{"gyro": {"z": 0.5}}, {"gyro": {"z": -0.25}}]),
         }
     )
     pq.write_table(table, path := tmp_path / "cells.parquet")
     csv_copy(path, PARQUET, out := tmp_path / "cells.csv", None, path.name)
     assert out.read_text().splitlines() == [
-        '"utc","naive","day","clock","lag","x","third","f16","ok","s"',
+        '"utc","naive","day","clock","lag","x","third","f16","ok","s","none","flag","imu.gyro.z"',
         "1970-01-01 00:00:00.000Z,1970-01-01 00:00:00.000000,2019-03-11,14:22:05.123000,1.5,"
-        '0.1,0.3333333333333333,1.5,1,"a,b"',
+        '0.1,0.3333333333333333,1.5,1,"a,b",,0,0.5',
         "1970-01-01 00:00:01.500Z,1970-01-01 00:00:01.500000,2019-03-11,14:22:05.123000,"
-        '-0.002,nan,,2,,"c"',
+        '-0.002,nan,,2,,"c",,1,-0.25',
     ]
 
 

@@ -223,7 +223,7 @@ def _head(path: Path, size: int) -> bytes:
 
 def _as_cells(batch: pa.RecordBatch | pa.Table, left_out: list[str]) -> pa.Table:
     """A batch whose every column a CSV cell holds as the readers read it (the module's
-    list), the columns none can hold named in ``left_out`` (once)."""
+    list), the columns none can hold named in ``left_out``."""
     table = pa.Table.from_batches([batch]) if isinstance(batch, pa.RecordBatch) else batch
     while any(pa.types.is_struct(t) for t in table.schema.types):
         table = table.flatten()  # parent.field
@@ -231,8 +231,7 @@ def _as_cells(batch: pa.RecordBatch | pa.Table, left_out: list[str]) -> pa.Table
     for name, column in zip(table.column_names, table.columns, strict=True):
         cells = _cells(column.combine_chunks())
         if cells is None:
-            if name not in left_out:
-                left_out.append(name)
+            left_out.append(name)
             continue
         names.append(name)
         arrays.append(cells)
@@ -246,8 +245,6 @@ def _cells(array: pa.Array) -> pa.Array | None:
         return _cells(array.dictionary_decode())
     if pa.types.is_boolean(kind):
         return pc.cast(array, pa.uint8())
-    if pa.types.is_float16(kind):
-        return pc.cast(array, pa.float32())
     if pa.types.is_duration(kind):
         seconds = pc.cast(pc.cast(array, pa.int64()), pa.float64())
         return pc.multiply(seconds, _DURATION_S[kind.unit])
@@ -255,7 +252,7 @@ def _cells(array: pa.Array) -> pa.Array | None:
         return pc.cast(array, pa.timestamp(kind.unit, "UTC"))  # written with Z
     if (
         pa.types.is_integer(kind)
-        or pa.types.is_floating(kind)
+        or pa.types.is_floating(kind)  # half floats too
         or pa.types.is_decimal(kind)
         or pa.types.is_timestamp(kind)
         or pa.types.is_date(kind)
