@@ -153,7 +153,8 @@ def test_typed_columns_read_as_the_csv_a_user_would_have_written(tmp_path, kind)
     )
 
 
-def test_each_kind_of_cell_as_the_readers_read_it(tmp_path):
+@pytest.mark.parametrize("kind", WRITE)  # Feather keeps a dictionary of booleans; Parquet not
+def test_each_kind_of_cell_as_the_readers_read_it(tmp_path, kind):
     import datetime as dt
 
     table = pa.table(
@@ -173,8 +174,8 @@ def test_each_kind_of_cell_as_the_readers_read_it(tmp_path):
             "imu": pa.array([{"gyro": {"z": 0.5}}, {"gyro": {"z": -0.25}}]),
         }
     )
-    pq.write_table(table, path := tmp_path / "cells.parquet")
-    csv_copy(path, PARQUET, out := tmp_path / "cells.csv", None, path.name)
+    WRITE[kind](table, path := tmp_path / f"cells{SUFFIX[kind]}")
+    csv_copy(path, kind, out := tmp_path / "cells.csv", None, path.name)
     assert out.read_text().splitlines() == [
         '"utc","naive","day","clock","lag","x","third","f16","ok","s","none","flag","imu.gyro.z"',
         "1970-01-01 00:00:00.000Z,1970-01-01 00:00:00.000000,2019-03-11,14:22:05.123000,1.5,"
