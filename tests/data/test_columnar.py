@@ -108,7 +108,7 @@ def _typed_drive(n_s: float):
             "lat": df[c.LAT_DEG],
             "lon": df[c.LON_DEG],
             **{f"wheel.{k}": v for k, v in wheels.items()},
-            "fix": fix.astype(int),
+            "fix": fix,  # pandas writes True and False
             "sats": df[c.N_SATS].astype(int),
         }
     )
@@ -132,7 +132,7 @@ def _typed_drive(n_s: float):
         "lat": ("lat", "deg"),
         "lon": ("lon", "deg"),
         **{f"omega_{k}": (f"wheel.{k}", "rad/s") for k in wheels},
-        "fix": ("fix", "flag"),
+        "fix": ("fix", "bool"),
         "n_sats": ("sats", "count"),
     }
     return csv, table, {"data.column_maps": {"lake": column_map_params(cmap)}}
@@ -179,9 +179,9 @@ def test_each_kind_of_cell_as_the_readers_read_it(tmp_path, kind):
     assert out.read_text().splitlines() == [
         '"utc","naive","day","clock","lag","x","third","f16","ok","s","none","flag","imu.gyro.z"',
         "1970-01-01 00:00:00.000Z,1970-01-01 00:00:00.000000,2019-03-11,14:22:05.123000,1.5,"
-        '0.1,0.3333333333333333,1.5,1,"a,b",,0,0.5',
+        '0.1,0.3333333333333333,1.5,true,"a,b",,false,0.5',
         "1970-01-01 00:00:01.500Z,1970-01-01 00:00:01.500000,2019-03-11,14:22:05.123000,"
-        '-0.002,nan,,2,,"c",,1,-0.25',
+        '-0.002,nan,,2,,"c",,true,-0.25',
     ]
 
 
@@ -275,3 +275,32 @@ def test_stream_files_kept_as_tables_read_as_the_folder_of_their_csvs(tmp_path):
     )
     # each stream named by the file the user has, not by its scratch copy
     assert {s["file"] for s in got.streams.streams} <= {str(p) for p in kept.iterdir()}
+
+
+TABLES = Path(__file__).parents[1] / "fixtures" / "tables"  # write_tables.py wrote them
+_OTHERS = {"t": ("time", "iso8601"), "lat": ("lat", "deg"), "lon": ("lon", "deg")}
+_OTHERS |= {"fix": ("fix", "bool"), "n_sats": ("sats", "count")}
+
+
+@pytest.mark.parametrize(
+    ("name", "wheel"),
+    [("polars.parquet", "wheel_"), ("polars.arrow", "wheel_"), ("duckdb.parquet", "wheel.")],
+)
+def test_tables_other_tools_wrote_read_as_the_csv_polars_wrote(tmp_path, name, wheel):
+    """Polars' Parquet and Arrow IPC (its text as string_view, its categories a dictionary
+    of them) and DuckDB's Parquet (the wheels a struct, its time a TIMESTAMPTZ): every value
+    of Polars' own CSV of the same drive, its booleans as true/false."""
+    wheels = {f"omega_{k}": (f"{wheel}{k}", "rad/s") for k in ("fl", "fr", "rl", "rr")}
+    maps = {"data.column_maps": {"lake": column_map_params(_OTHERS | wheels)}}
+    csv_maps = {
+        "data.column_maps": {
+            "lake": column_map_params(
+                _OTHERS | {f"omega_{k}": (f"wheel_{k}", "rad/s") for k in ("fl", "fr", "rl", "rr")}
+            )
+        }
+    }
+    want = _read(TABLES / "polars.csv", tmp_path, "lake", **csv_maps)
+    got = _read(TABLES / name, tmp_path, "lake", **maps)
+    _assert_same(got, want)
+    assert np.isnan(got.columns[c.LAT_DEG][7]) and got.n_rows == 301  # fix false: no fix
+    assert got.notes[0].endswith("read as CSV: 301 rows")

@@ -530,3 +530,33 @@ def test_a_column_map_s_gpx_words_read_none_as_a_word_not_a_missing_value(tmp_pa
     lay, got = _predict_rows(path, cmap, "d.csv", block_bytes=1 << 16)
     np.testing.assert_array_equal(got, raw.columns[c.LAT_DEG])
     assert any("5 at none (no fix); 1 with no status" in x for x in lay.notes), lay.notes
+
+
+def test_a_boolean_fix_column_as_pandas_excel_and_polars_write_it(tmp_path):
+    """A ``fix`` column of booleans written as text (pandas' True/False, Excel's TRUE/FALSE,
+    Polars' and Arrow's true/false): unit ``bool``, false taken out by both readers, any
+    other word refused naming its row."""
+    from rwhonet.data.fixstatus import text_codes
+
+    codes = text_codes(["True", "FALSE", " true ", "false", None, ""], "bool", "f.csv", "Fix")
+    assert is_fix(codes, "bool").tolist() == [1, 0, 1, 0, 0, 0]
+    words = np.array(["True", "TRUE", "true"] * 67, dtype=object)
+    words[[30, 31, 32]] = ["False", "FALSE", "false"]
+    path = _drive_with_status(tmp_path, words)
+    cmap = CUPAC_MAP | {"fix": ("GPS Quality", "bool")}
+    raw = read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M)
+    lat = raw.columns[c.LAT_DEG]
+    assert np.isnan(lat[30:33]).all() and np.isfinite(np.delete(lat, [30, 31, 32])).all()
+    assert any("3 at false (no fix)" in x for x in raw.notes), raw.notes
+    lay, got = _predict_rows(path, cmap)
+    np.testing.assert_array_equal(got, lat)
+    words[99] = "yes"
+    path = _drive_with_status(tmp_path, words, "bad.csv")
+    with pytest.raises(InputError) as err:
+        read_columnmap(path, _specs(cmap), "m", radius_m=TARGET_RADIUS_M)
+    (p,) = err.value.problems
+    assert (p.row, p.found, p.expected) == (
+        100,
+        "'yes'",
+        "a fix flag written as text, true or false",
+    )

@@ -21,12 +21,13 @@ so every reader's rules, notes and refusals apply unchanged. Row ``i`` of the ta
   reads either (:mod:`rwhonet.data.texttime`); a **date** as ``2019-03-11`` (a map's
   ``date`` in unit ``%Y-%m-%d``), a **time of day** as ``14:22:05.123000`` (``hh:mm:ss``),
   a **duration** as seconds (``s``);
-- a **boolean** as 1 or 0 (a fix flag: the fix status unit ``flag``); a
-  **dictionary-encoded** column (pandas' categories) as its values; text as text;
+- a **boolean** as ``true`` or ``false`` (a fix flag: the fix status unit ``bool``); a
+  **dictionary-encoded** column (pandas' and Polars' categories) as its values; text as
+  text (Polars' ``string_view`` too);
 - a **struct**'s fields as columns of their own, named ``parent.field`` (a map names them
   so, or without the dot: columns are found without regard to punctuation);
-- a column no CSV cell holds (a list, a map, binary data: a camera frame, a point cloud)
-  is left out, and the notes name it.
+- a column no CSV cell holds (a list, a map, binary data: a camera frame, a point cloud;
+  a type Arrow's kernels cannot convert) is left out, and the notes name it.
 
 **Bounded** as a compressed file's text is: the CSV written may be at most
 ``data.max_file_mb`` MB (the file itself is too); the table is read and written a
@@ -229,7 +230,10 @@ def _as_cells(batch: pa.RecordBatch | pa.Table, left_out: list[str]) -> pa.Table
         table = table.flatten()  # parent.field
     names, arrays = [], []
     for name, column in zip(table.column_names, table.columns, strict=True):
-        cells = _cells(column.combine_chunks())
+        try:
+            cells = _cells(column.combine_chunks())
+        except pa.ArrowNotImplementedError:  # a type Arrow's kernels cannot convert
+            cells = None
         if cells is None:
             left_out.append(name)
             continue
@@ -241,10 +245,11 @@ def _as_cells(batch: pa.RecordBatch | pa.Table, left_out: list[str]) -> pa.Table
 def _cells(array: pa.Array) -> pa.Array | None:
     """One column as CSV cells the readers read (None: none holds it)."""
     kind = array.type
-    if pa.types.is_dictionary(kind):
-        return _cells(array.dictionary_decode())
-    if pa.types.is_boolean(kind):
-        return pc.cast(array, pa.uint8())
+    if pa.types.is_dictionary(kind):  # its values' own rules, then each row's value
+        values = _cells(array.dictionary)
+        return None if values is None else _cells(pc.take(values, array.indices))
+    if pa.types.is_string_view(kind):  # Polars' text in an IPC file
+        return pc.cast(array, pa.string())
     if pa.types.is_duration(kind):
         seconds = pc.cast(pc.cast(array, pa.int64()), pa.float64())
         return pc.multiply(seconds, _DURATION_S[kind.unit])
@@ -259,6 +264,7 @@ def _cells(array: pa.Array) -> pa.Array | None:
         or pa.types.is_time(kind)
         or pa.types.is_string(kind)
         or pa.types.is_large_string(kind)
+        or pa.types.is_boolean(kind)  # true, false: the fix status unit bool
         or pa.types.is_null(kind)
     ):
         return array

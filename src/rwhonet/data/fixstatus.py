@@ -28,6 +28,8 @@ unit        fixes                                                no fix
             RTK                                                  manual, ``S`` simulator
 ``gpx``     as text: GPX's ``fix`` words ``2d``, ``3d``,         ``none``
             ``dgps``, ``pps`` (GPSBabel's unicsv ``Fix``)
+``bool``    as text: ``true`` (any case: pandas' ``True``,       ``false``
+            Excel's ``TRUE``; Polars' and Arrow's ``true``)
 ==========  ==================================================  =========================
 
 A status written as text (``rmc``, ``gpx``; case and spaces aside) is read in a CSV (a
@@ -57,16 +59,17 @@ from rwhonet.errors import InputError
 # taken off (:func:`screen`) before the channels are a drive's.
 FIX_STATUS = "fix_status"
 GGA, UBX, NAVSAT, SBF, GPSD, FLAG = "gga", "ubx", "navsat", "sbf", "gpsd", "flag"
-RMC, GPX = "rmc", "gpx"  # written as text
+RMC, GPX, BOOL = "rmc", "gpx", "bool"  # written as text
 # :func:`screen`'s counts: every row with a position; the positions with an empty status
 POSITIONS, NO_STATUS = "positions", "no status"
-UNITS = (GGA, UBX, NAVSAT, SBF, GPSD, FLAG, RMC, GPX)
+UNITS = (GGA, UBX, NAVSAT, SBF, GPSD, FLAG, RMC, GPX, BOOL)
 # a status written as text: its words, each read as its place in the tuple (its code here);
 # RMC's status A/V and the modes of RMC, GNS and GLL (NMEA 0183 v2.3 on), as the NMEA
 # reader takes them (rwhonet.data.nmea.RMC_FIXES); GPX 1.1's fixType, as the GPX reader
 TEXT_UNITS = {
     RMC: ("V", "N", "E", "M", "S", "A", "D", "F", "P", "R"),
     GPX: ("none", "2d", "3d", "dgps", "pps"),
+    BOOL: ("false", "true"),  # a boolean column as pandas, Excel, Polars, Arrow write it
 }
 # the bits of a unit's code that say whether it is a fix (Septentrio's Mode: its bits 0-3)
 _MASKS = {SBF: 0x0F}
@@ -99,6 +102,7 @@ _FIXES: dict[str, tuple[frozenset[int] | None, frozenset[int] | None, dict[int, 
     ),
     GPX: (frozenset({1, 2, 3, 4}), frozenset(range(5)), {0: "no fix"}),
     FLAG: (frozenset({1}), frozenset({0, 1}), {0: "no fix"}),
+    BOOL: (frozenset({1}), frozenset({0, 1}), {0: "no fix"}),
 }
 _EXPECTED = {
     GGA: "a GGA fix quality, an integer 0-9",
@@ -109,6 +113,7 @@ _EXPECTED = {
     FLAG: "a fix flag, 1 (fix) or 0 (no fix)",
     RMC: "an NMEA status or mode letter, one of " + ", ".join(TEXT_UNITS[RMC]),
     GPX: "a GPX fix, one of " + ", ".join(TEXT_UNITS[GPX]),
+    BOOL: "a fix flag written as text, true or false",
 }
 
 
