@@ -26,8 +26,8 @@ so every reader's rules, notes and refusals apply unchanged. Row ``i`` of the ta
   text (Polars' ``string_view`` too);
 - a **struct**'s fields as columns of their own, named ``parent.field`` (a map names them
   so, or without the dot: columns are found without regard to punctuation);
-- a column no CSV cell holds (a list, a map, binary data: a camera frame, a point cloud;
-  a type Arrow's kernels cannot convert) is left out, and the notes name it.
+- a column no CSV cell holds (a list, a map, binary data: a camera frame, a point cloud)
+  is left out, and the notes name it.
 
 **Bounded** as a compressed file's text is: the CSV written may be at most
 ``data.max_file_mb`` MB (the file itself is too); the table is read and written a
@@ -230,10 +230,7 @@ def _as_cells(batch: pa.RecordBatch | pa.Table, left_out: list[str]) -> pa.Table
         table = table.flatten()  # parent.field
     names, arrays = [], []
     for name, column in zip(table.column_names, table.columns, strict=True):
-        try:
-            cells = _cells(column.combine_chunks())
-        except pa.ArrowNotImplementedError:  # a type Arrow's kernels cannot convert
-            cells = None
+        cells = _cells(column.combine_chunks())
         if cells is None:
             left_out.append(name)
             continue
