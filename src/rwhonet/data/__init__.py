@@ -64,7 +64,8 @@
   :mod:`~rwhonet.data.ubx`, a NovAtel receiver's logs (BESTPOS, ASCII or binary) by
   :mod:`~rwhonet.data.novatel`, a Septentrio receiver's binary log (SBF PVTGeodetic) by
   :mod:`~rwhonet.data.sbf`, a phone's GnssLogger log (its Fix or NMEA records) by
-  :mod:`~rwhonet.data.gnsslogger`, a GPS track in GPX (a phone's or handheld's logger) by
+  :mod:`~rwhonet.data.gnsslogger`, a gpsd client's log (``gpspipe -w``'s JSON reports) by
+  :mod:`~rwhonet.data.gpsdjson`, a GPS track in GPX (a phone's or handheld's logger) by
   :mod:`~rwhonet.data.gpx`; a bus tool's log of raw CAN frames (candump, ASC,
   BLF, TRC) by :mod:`~rwhonet.data.canlog` (a Vector BLF's objects parsed at once by
   :mod:`~rwhonet.data.blf`, an ASC's lines by :mod:`~rwhonet.data.asc`, a PEAK TRC's

@@ -17,8 +17,9 @@ logger) gives the fixes where no CSV holds the map's latitude and longitude:
 :mod:`rwhonet.data.nmea`, :mod:`rwhonet.data.ubx` and :mod:`rwhonet.data.gpx` read them,
 and the first places them on the files' clock (``_receiver_groups``). Where a folder holds
 several kinds, the first of UBX (its positions to 1e-7 degrees), NovAtel, Septentrio's
-SBF (:mod:`rwhonet.data.sbf`), NMEA (the receiver's own sentences), GPX (a track written
-from them) is read and the others left out, said. With the
+SBF (:mod:`rwhonet.data.sbf`), NMEA (the receiver's own sentences), a phone's GnssLogger
+log, gpsd's JSON reports (:mod:`rwhonet.data.gpsdjson`), GPX (a track written from them) is
+read and the others left out, said. With the
 map's CAN databases (``dbc``), a bus tool's raw CAN log among them (``can0.log`` from
 ``candump -l``, ASC, BLF, TRC: :mod:`rwhonet.data.canlog`; or an MDF4 bus log, a CANedge's
 split files, on each file's start time) is decoded as the MDF4 reader decodes a bus log,
@@ -69,6 +70,7 @@ from rwhonet.data.csvio import (
 from rwhonet.data.fileparts import join_parts
 from rwhonet.data.fixstatus import is_text, text_codes
 from rwhonet.data.gnsslogger import is_gnsslogger_log, read_gnsslogger
+from rwhonet.data.gpsdjson import is_gpsd_log, read_gpsd
 from rwhonet.data.gpx import is_gpx_name, read_gpx
 from rwhonet.data.headers import header_key, unit_name
 from rwhonet.data.mdf4 import CanLogGroups, Databases, can_log_groups, is_mdf_name
@@ -594,6 +596,7 @@ LOG_KINDS = {
     "SBF": "its positions in radians as 8-byte floats",
     "NMEA": "the receiver's own sentences",
     "GnssLogger": "a phone's fixes as Android gives them",
+    "gpsd": "gpsd's reports of the receiver's fixes",
     "GPX": "a track written from them",
 }
 LOG_NAMES = {
@@ -609,6 +612,7 @@ LOG_READERS = {
     "SBF": read_sbf,
     "NMEA": read_nmea,
     "GnssLogger": read_gnsslogger,
+    "gpsd": read_gpsd,
     "GPX": read_gpx,
 }
 
@@ -616,14 +620,17 @@ LOG_READERS = {
 def log_kind(name: str, path: Path | None = None) -> str | None:
     """A receiver's log's kind by its name (``gps.ubx``, ``gps.nmea.gz``, ``track.gpx``,
     ``drive.gps``), or, given its ``path``, a ``*.asc`` or ``*.log`` that holds a NovAtel
-    receiver's logs (:func:`rwhonet.data.novatel.is_novatel_log`) or a ``*.txt`` that is
-    a phone's GnssLogger log (:func:`rwhonet.data.gnsslogger.is_gnsslogger_log`); None:
-    no receiver log."""
+    receiver's logs (:func:`rwhonet.data.novatel.is_novatel_log`), a ``*.txt`` that is
+    a phone's GnssLogger log (:func:`rwhonet.data.gnsslogger.is_gnsslogger_log`) or a
+    ``*.json`` (``*.log``, ``*.txt``) of gpsd's reports
+    (:func:`rwhonet.data.gpsdjson.is_gpsd_log`); None: no receiver log."""
     kind = next((k for k, named in LOG_NAMES.items() if named(name)), None)
     if kind is None and path is not None and is_novatel_log(path, name):
         return "NovAtel"
     if kind is None and path is not None and is_gnsslogger_log(path, name):
         return "GnssLogger"
+    if kind is None and path is not None and is_gpsd_log(path, name):
+        return "gpsd"
     return kind
 
 
@@ -636,7 +643,7 @@ def _receiver_groups(
     notes: list[str],
     changed: list[str],
 ) -> list[Group]:
-    """The receiver's UBX, NovAtel, SBF, NMEA, GnssLogger or GPX logs as the drive's GNSS
+    """The receiver's UBX, NovAtel, SBF, NMEA, GnssLogger, gpsd or GPX logs as the drive's GNSS
     stream, each on the stream files' clock (those of the first kind of :data:`LOG_KINDS`
     alone where there are several, the others left out, said).
 
