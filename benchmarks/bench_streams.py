@@ -7,10 +7,10 @@ readers take (one CSV per stream, the wheels' CSV with the fixes as the receiver
 NMEA log, a u-blox receiver's UBX log, a NovAtel receiver's ASCII logs (BESTPOSA an
 epoch, TIMEA a second), a Septentrio receiver's SBF log (pysbf2's: PVTGeodetic and DOP an
 epoch, ReceiverTime a second), a phone's GnssLogger log (its GPS and fused providers'
-Fix records an epoch among Raw, Status and gyro records) or a GPX track (gpxpy's, GPX
-1.0), one MDF4 file, a ROS 1 bag (rosbags' writer: a drive-by-wire kit's wheel-speed
-report and a NavSatFix, each stamped), a comma2k19 folder and a comma2k19 route of
-one-minute segment folders, raw CAN
+Fix records an epoch among Raw, Status and gyro records), gpsd's JSON reports (two TPV an
+epoch, a SKY a second) or a GPX track (gpxpy's, GPX 1.0), one MDF4 file, a ROS 1 bag
+(rosbags' writer: a drive-by-wire kit's wheel-speed report and a NavSatFix, each stamped),
+a comma2k19 folder and a comma2k19 route of one-minute segment folders, raw CAN
 frames as a candump log, a Vector BLF, a Vector ASC, absolute and relative stamps, and a PEAK
 TRC, with their DBC) and times,
 in this process (imports excluded, best of ``--repeat``), reading the files and
@@ -70,6 +70,7 @@ from support.canlog import (  # noqa: E402
     write_candump,
 )
 from support.gnsslogger import gnsslogger_lines, write_gnsslogger  # noqa: E402
+from support.gpsd import gpsd_lines, write_gpsd  # noqa: E402
 from support.gpx import track, write_gpx  # noqa: E402
 from support.nmea import nmea_lines, write_nmea  # noqa: E402
 from support.novatel import novatel_lines, write_novatel  # noqa: E402
@@ -158,6 +159,10 @@ def main() -> None:
         phone = write_gnsslogger(
             root / "csv" / "gnss_log.txt", gnsslogger_lines(tables.gnss, 1_552_262_400.0 + t_fix)
         )
+        # ... and as gpsd's reports (gpspipe -w: two TPV an epoch, a SKY a second), so too
+        gpsd = write_gpsd(
+            root / "csv" / "gps.json", gpsd_lines(tables.gnss, 1_552_262_400.0 + t_fix)
+        )
         # ... and as a phone logger's GPX track (gpxpy writes it), placed so too
         gpx = write_gpx(root / "csv" / "track.gpx", track(tables.gnss, 1_552_262_400.0 + t_fix))
         # ... and the wheels and the fixes as a ROS 1 bag's topics (a WheelSpeedReport and a
@@ -197,6 +202,9 @@ def main() -> None:
             "CSV + SBF log": lambda: read_stream_csvs([csvs["wheels"], sbf], signal_map(), radius),
             "CSV + GnssLogger": lambda: read_stream_csvs(
                 [csvs["wheels"], phone], signal_map(), radius
+            ),
+            "CSV + gpsd log": lambda: read_stream_csvs(
+                [csvs["wheels"], gpsd], signal_map(), radius
             ),
             "CSV + GPX track": lambda: read_stream_csvs(
                 [csvs["wheels"], gpx], signal_map(), radius

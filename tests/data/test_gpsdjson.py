@@ -215,3 +215,23 @@ def test_beside_the_receiver_s_nmea_log_the_nmea_log_is_read(tmp_path):
     np.testing.assert_array_equal(got["disp_gnss_m"], alone["disp_gnss_m"])
     said = " ".join(streams.notes)
     assert "gpsd.json: gpsd log(s), left out: the fixes are the receiver's NMEA log's" in said
+
+
+def test_the_reports_as_the_benchmark_writes_them_give_the_csv_fixes_labels(tmp_path):
+    """tests/support/gpsd.py's layout (two TPV an epoch, the first without speed and
+    course; a SKY a second): the labels of the same fixes in gnss.csv within 0.1 mm (gpsd
+    prints 9 decimals, its times to the millisecond)."""
+    from support.gpsd import gpsd_lines, write_gpsd
+    from support.multirate import fixes_to_the_ms
+
+    g = fixes_to_the_ms()
+    csv = receiver_folder(tmp_path / "csv", g)
+    ref, _ = receiver_labels(list(csv.values()))
+    folder = receiver_folder(tmp_path / "gpsd", g.iloc[:0])
+    log = write_gpsd(tmp_path / "gpsd" / "gps.json", gpsd_lines(g, 1_552_262_400.0 + g["t_s"]))
+    got, streams = receiver_labels([folder["wheels"], log])
+    assert len(got) == len(ref) > 100
+    for q in ("t_s", "disp_gnss_m", "label_m"):
+        np.testing.assert_allclose(got[q], ref[q], rtol=0, atol=1e-4, err_msg=q)
+    said = " ".join(streams.notes)
+    assert "1199 TPV epochs, 1199 with a fix; 1199 report(s) of an epoch a later" in said
