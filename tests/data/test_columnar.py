@@ -304,3 +304,22 @@ def test_tables_other_tools_wrote_read_as_the_csv_polars_wrote(tmp_path, name, w
     _assert_same(got, want)
     assert np.isnan(got.columns[c.LAT_DEG][7]) and got.n_rows == 301  # fix false: no fix
     assert got.notes[0].endswith("read as CSV: 301 rows")
+
+
+@pytest.mark.parametrize("kind", WRITE)
+def test_a_column_name_damaged_out_of_utf8_is_refused_not_a_traceback(tmp_path, kind):
+    """A changed byte in the schema's names (found by fuzzing: Arrow raised
+    UnicodeDecodeError as the header was made, outside the reader's refusal)."""
+    plain = write_iovnbd(wavy_drive(10.0), tmp_path / "V-A.csv")
+    table = pa.Table.from_pandas(pd.read_csv(plain), preserve_index=False)
+    WRITE[kind](
+        table.append_column("ZZmarker", pa.array(np.zeros(table.num_rows))),
+        path := tmp_path / f"V-T{SUFFIX[kind]}",
+    )
+    data = path.read_bytes()
+    assert data.count(b"ZZmarker") >= 1
+    path.write_bytes(data.replace(b"ZZmarker", b"\xbeZmarker"))
+    with pytest.raises(InputError) as err:
+        _read(path, tmp_path)
+    assert err.value.problems[0].expected == f"a whole {kind} file"
+    assert "UnicodeDecodeError" in err.value.problems[0].found

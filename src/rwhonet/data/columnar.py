@@ -113,12 +113,12 @@ def open_as_csv(path: Path, kind: str, file: str) -> tuple[BinaryIO, TableRead]:
         InputError: naming ``file``: the table's footer or schema cannot be read, or it has
             no column a CSV cell holds; met while reading, a record batch that cannot be.
     """
+    left_out: list[str] = []
     try:
         rows, schema = _shape(path, kind)
+        header = _as_cells(schema.empty_table(), left_out)  # a name damaged: not UTF-8
     except (pa.ArrowException, OSError, ValueError) as err:
         raise InputError([broken(file, kind, err)]) from None
-    left_out: list[str] = []
-    header = _as_cells(schema.empty_table(), left_out)
     if header.num_columns == 0:
         raise InputError([_no_columns(file, kind, left_out)])
     text = _Text(_batches(path, kind), header, kind, file)
