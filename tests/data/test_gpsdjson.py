@@ -147,12 +147,13 @@ def test_damage_is_passed_over_and_counted_and_the_old_protocol_read(tmp_path):
         "2019-03-11 13:00:00: " + json.dumps(_tpv(1552305600.1, lat=52.1)),
         json.dumps(_tpv(1552305600.2, lat=52.15)),
         json.dumps(_tpv(1552305600.2, lat=52.2, speed=1.0)),
+        '{"class": ["TPV"], "mode": 3}',  # a class no text: a damaged report
         '{"class":"TPV","device":"/dev/ttyACM0","mode":3,"time":155230',
     ]
     log = read_gpsd(_log(tmp_path, reports), "gps.json")
     np.testing.assert_allclose(log.channels["lat"], [52.0, 52.1, 52.2])
     assert log.rows.tolist() == [3, 6, 8]
-    assert log.dropped == "2 line(s) that are no gpsd report (first at line 5)"
+    assert log.dropped == "3 line(s) that are no gpsd report (first at line 5)"
     said = log.notes[0]
     assert "1 report(s) of an epoch a later report of it completes" in said
     assert "1 NMEA sentence(s) among them passed over" in said
@@ -161,6 +162,7 @@ def test_damage_is_passed_over_and_counted_and_the_old_protocol_read(tmp_path):
 def test_several_receivers_the_one_with_the_most_fixes_is_read(tmp_path):
     other = {"device": "/dev/ttyUSB1"}
     reports = [
+        _tpv("2019-03-11T11:59:59Z", mode=1, device={"path": 1}),  # a device no text: none
         _tpv("2019-03-11T12:00:00Z", lat=10.0, **other),  # the first report: not the reader's
         _tpv("2019-03-11T12:00:00Z"),
         _tpv("2019-03-11T12:00:01Z", lat=52.41),
@@ -174,7 +176,7 @@ def test_several_receivers_the_one_with_the_most_fixes_is_read(tmp_path):
     np.testing.assert_array_equal(log.channels["n_sats"], [np.nan, np.nan, 12.0])
     assert log.notes[1] == (
         "gps.json: several receivers on one gpsd: the fixes are /dev/ttyACM0's, left out: "
-        "/dev/ttyUSB1 (1 TPV)"
+        "no device (1 TPV), /dev/ttyUSB1 (1 TPV)"
     )
 
 

@@ -100,7 +100,7 @@ def _report(line: bytes) -> dict | None:
         obj = json.loads(line[start:])
     except (ValueError, UnicodeDecodeError):
         return None
-    if isinstance(obj, dict) and obj.get("class") in CLASSES:
+    if isinstance(obj, dict) and isinstance(obj.get("class"), str) and obj["class"] in CLASSES:
         return obj
     return None
 
@@ -140,7 +140,7 @@ def read_gpsd(path: Path, file: str) -> FixLog:
             others[obj["class"]] += 1
     tpv, device, device_note = _one_device(tpv)
     if device_note is not None:  # the satellites of the receiver read
-        sky = [(i, r) for i, r in sky if r.get("device") == device]
+        sky = [(i, r) for i, r in sky if _device(r) == device]
     timed = [(i, r) for i, r in tpv if r.get("time") not in (None, "")]
     if not timed:
         raise InputError([_no_fix_reports(file, len(tpv), others)])
@@ -236,14 +236,20 @@ def _one_device(
 ) -> tuple[list[tuple[int, dict]], str | None, str | None]:
     """The TPV reports of the device with the most fixes (all where one device wrote
     them), that device, and what was left out (None: nothing)."""
-    fixes = Counter(r.get("device") for _, r in tpv if r.get("mode") in (2, 3))
-    devices = Counter(r.get("device") for _, r in tpv)
+    fixes = Counter(_device(r) for _, r in tpv if r.get("mode") in (2, 3))
+    devices = Counter(_device(r) for _, r in tpv)
     if len(devices) < 2:
         return tpv, None, None
     best = max(devices, key=lambda d: (fixes[d], devices[d]))
-    left = ", ".join(f"{d} ({devices[d]} TPV)" for d in devices if d != best)
-    note = f"several receivers on one gpsd: the fixes are {best}'s, left out: {left}"
-    return [(i, r) for i, r in tpv if r.get("device") == best], best, note
+    left = ", ".join(f"{d or 'no device'} ({devices[d]} TPV)" for d in devices if d != best)
+    note = f"several receivers on one gpsd: the fixes are {best or 'no device'}'s, left out: {left}"
+    return [(i, r) for i, r in tpv if _device(r) == best], best, note
+
+
+def _device(report: dict) -> str | None:
+    """The device a report names (None: none, or no text: a damaged report's)."""
+    device = report.get("device")
+    return device if isinstance(device, str) else None
 
 
 def _times(cells: list, rows: np.ndarray, file: str) -> tuple[np.ndarray, list[Problem]]:
