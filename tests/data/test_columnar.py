@@ -20,9 +20,12 @@ from rwhonet.data.columnar import (
     FEATHER,
     PARQUET,
     csv_copy,
+    folder_id,
+    is_table_folder,
     is_table_name,
     open_as_csv,
     table_kind,
+    table_parts,
 )
 from rwhonet.data.compressed import drive_stem
 from rwhonet.data.drivefile import DriveFile, read_any
@@ -323,3 +326,60 @@ def test_a_column_name_damaged_out_of_utf8_is_refused_not_a_traceback(tmp_path, 
         _read(path, tmp_path)
     assert err.value.problems[0].expected == f"a whole {kind} file"
     assert "UnicodeDecodeError" in err.value.problems[0].found
+
+
+def _parts(folder: Path, table: pa.Table, names: list[str]) -> Path:
+    """``table`` split in ``len(names)`` part files, in that order, as a writer's folder."""
+    folder.mkdir(parents=True)
+    edges = np.linspace(0, table.num_rows, len(names) + 1).astype(int)
+    for name, a, b in zip(names, edges[:-1], edges[1:], strict=True):
+        pq.write_table(table.slice(a, b - a), folder / name)
+    return folder
+
+
+SPARK = [f"part-{k:05d}-0f1e2d3c-4b5a-6978-8796-a5b4c3d2e1f0-c000.snappy.parquet" for k in range(3)]
+DASK = [f"part.{k}.parquet" for k in range(12)]  # natural order: part.2 before part.10
+
+
+@pytest.mark.parametrize("names", [SPARK, DASK], ids=["spark", "dask"])
+def test_a_folder_of_part_files_reads_as_one_table_in_their_names_order(tmp_path, names):
+    """A drive Spark (``df.write.parquet``: part files, ``_SUCCESS``, hidden ``.crc``
+    files) or Dask wrote as a folder: every value of its CSV, the parts in natural order
+    of their names."""
+    plain = write_iovnbd(wavy_drive(30.0), tmp_path / "V-A.csv")
+    table = pa.Table.from_pandas(pd.read_csv(plain), preserve_index=False)
+    folder = _parts(tmp_path / "V-T.parquet", table, names)
+    (folder / "_SUCCESS").write_bytes(b"")
+    (folder / f".{names[0]}.crc").write_bytes(b"crc\x00")
+    assert is_table_folder(folder) and table_kind(folder) == PARQUET
+    assert table_parts(folder) == [folder / n for n in names]
+    got = _read(folder, tmp_path)
+    _assert_same(got, _read(plain, tmp_path))
+    assert got.notes[0] == (
+        f"a folder of {len(names)} Parquet part file(s), read in their names' order, read as "
+        "CSV: 301 rows"
+    )
+    assert folder_id(folder) == "V-T" and folder_id(tmp_path / "C-B1") == "C-B1"
+
+
+def test_a_part_of_other_columns_or_damaged_is_refused_naming_it(tmp_path):
+    plain = write_iovnbd(wavy_drive(30.0), tmp_path / "V-A.csv")
+    table = pa.Table.from_pandas(pd.read_csv(plain), preserve_index=False)
+    folder = _parts(tmp_path / "V-T", table, SPARK)
+    pq.write_table(table.slice(200).drop_columns([table.column_names[3]]), folder / SPARK[2])
+    with pytest.raises(InputError) as err:
+        _read(folder, tmp_path)
+    (p,) = err.value.problems
+    assert p.file == f"V-T/{SPARK[2]}" and p.expected.endswith(SPARK[0])
+    assert p.found.startswith("columns Sats,  Time,  Lat,  Velocity kmh")
+    pq.write_table(table.slice(200), folder / SPARK[2])
+    data = (folder / SPARK[1]).read_bytes()
+    (folder / SPARK[1]).write_bytes(data[: len(data) // 2])  # a part a copy cut short
+    with pytest.raises(InputError) as err:
+        _read(folder, tmp_path)
+    assert (err.value.problems[0].file, err.value.problems[0].expected) == (
+        f"V-T/{SPARK[1]}",
+        "a whole Parquet file",
+    )
+    (tmp_path / "empty").mkdir()
+    assert not is_table_folder(tmp_path / "empty") and table_kind(tmp_path / "empty") is None

@@ -422,10 +422,12 @@ def drive_sha256(path: Path) -> str:
 
 def drive_id(path: Path) -> str:
     """A drive's id: a file's stem (a compressed file's without its compression's suffix:
-    :func:`rwhonet.data.compressed.drive_stem`), a folder's name."""
+    :func:`rwhonet.data.compressed.drive_stem`), a folder's name (a table's without its
+    suffix: :func:`rwhonet.data.columnar.folder_id`)."""
+    from rwhonet.data.columnar import folder_id
     from rwhonet.data.compressed import drive_stem
 
-    return path.name if path.is_dir() else drive_stem(path)
+    return folder_id(path) if path.is_dir() else drive_stem(path)
 
 
 def read_drive_file(

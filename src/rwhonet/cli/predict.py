@@ -232,7 +232,7 @@ def run(
     written on, unchecked, with a note on stderr, and still refused (exit 2) if the check
     fails later.
     """
-    from rwhonet.data.columnar import open_as_csv, table_kind
+    from rwhonet.data.columnar import is_table_folder, open_as_csv, table_kind
     from rwhonet.data.compressed import compressed_note, compression_of, open_decompressed
     from rwhonet.data.drivechecks import DEFAULT_TRACK_M, StreamRadiusCheck
     from rwhonet.data.droprows import RowFilter
@@ -248,7 +248,7 @@ def run(
             source, name = stdin or sys.stdin.buffer, "<stdin>"
         else:
             path = Path(drive)
-            if not path.is_file():
+            if not path.is_file() and not is_table_folder(path):  # Spark's part files: a table
                 raise InputError(
                     [
                         Problem(

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,13 +68,59 @@ _DURATION_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 
 
 def table_kind(path: Path) -> str | None:
-    """The kind of table a file's first bytes show (:data:`PARQUET`, :data:`FEATHER`; None:
-    neither, or the file cannot be read: its reader says why)."""
+    """The kind of table a file's first bytes show (:data:`PARQUET`, :data:`FEATHER`), or
+    :data:`PARQUET` for a folder of Parquet part files (:func:`table_parts`); None: neither,
+    or the file cannot be read: its reader says why."""
+    if path.is_dir():
+        return PARQUET if table_parts(path) else None
     try:
         head = _head(path, 6)
     except OSError:
         return None
     return next((kind for magic, kind in MAGIC if head.startswith(magic)), None)
+
+
+def table_parts(folder: Path) -> list[Path]:
+    """A folder's Parquet part files, in their write's order: the files whose first bytes
+    are Parquet's, those named as Hadoop's and Spark's bookkeeping (``_SUCCESS``,
+    ``_metadata``, ``.part-00000.crc``: a leading ``_`` or ``.``) left out, in natural order
+    of their names (Spark's ``part-00000-<uuid>.snappy.parquet``, Dask's and Arrow's
+    ``part.0.parquet`` ... ``part.10.parquet``, ``part-0.parquet``). Empty where the folder
+    has none (or cannot be listed)."""
+    try:
+        files = [p for p in folder.iterdir() if p.is_file() and p.name[:1] not in ("_", ".")]
+    except OSError:
+        return []
+    parts = []
+    for p in files:
+        try:
+            if _head(p, 4) == b"PAR1":
+                parts.append(p)
+        except OSError:
+            continue
+    return sorted(parts, key=lambda p: _natural(p.name))
+
+
+def is_table_folder(path: Path) -> bool:
+    """Whether ``path`` is a folder of Parquet part files: one table (a drive Spark, Dask or
+    Arrow's dataset writer wrote as a folder)."""
+    return path.is_dir() and bool(table_parts(path))
+
+
+def folder_id(folder: Path) -> str:
+    """A folder drive's id: its name, without a table's suffix where it is a table's
+    (Spark's ``C-B1.parquet/`` is drive ``C-B1``, as the file ``C-B1.parquet`` is)."""
+    name = folder.name
+    for suffix in TABLE_SUFFIXES:
+        if name.lower().endswith(suffix) and len(name) > len(suffix):
+            return name[: -len(suffix)]
+    return name
+
+
+def _natural(name: str) -> list:
+    """A name's natural sort key: its runs of digits as numbers (``part.2`` before
+    ``part.10``)."""
+    return [(0, int(x), "") if x.isdigit() else (1, 0, x) for x in re.split(r"(\d+)", name) if x]
 
 
 def is_table_name(name: str) -> bool:
@@ -89,6 +136,7 @@ class TableRead:
     kind: str
     rows: int
     left_out: tuple[str, ...]
+    parts: int = 0  # a folder's part files (0: one file)
 
     @property
     def brief(self) -> str:
@@ -99,7 +147,12 @@ class TableRead:
     @property
     def note(self) -> str:
         """The note of a drive read from a table file."""
-        said = f"a table file ({self.kind}), read as CSV: {self.rows:,} rows"
+        what = (
+            f"a folder of {self.parts} {self.kind} part file(s), read in their names' order"
+            if self.parts
+            else f"a table file ({self.kind})"
+        )
+        said = f"{what}, read as CSV: {self.rows:,} rows"
         if self.left_out:
             said += f"; column(s) no CSV cell holds left out: {', '.join(self.left_out)}"
         return said
@@ -114,15 +167,26 @@ def open_as_csv(path: Path, kind: str, file: str) -> tuple[BinaryIO, TableRead]:
             no column a CSV cell holds; met while reading, a record batch that cannot be.
     """
     left_out: list[str] = []
-    try:
-        rows, schema = _shape(path, kind)
-        header = _as_cells(schema.empty_table(), left_out)  # a name damaged: not UTF-8
-    except (pa.ArrowException, OSError, ValueError) as err:
-        raise InputError([broken(file, kind, err)]) from None
+    parts = table_parts(path) if path.is_dir() else [path]
+    rows = 0
+    for i, part in enumerate(parts):
+        shown = file if part == path else f"{file}/{part.name}"
+        try:
+            n, schema = _shape(part, kind)
+            if i == 0:
+                first = schema
+                header = _as_cells(schema.empty_table(), left_out)  # a name damaged: not UTF-8
+        except (pa.ArrowException, OSError, ValueError) as err:
+            raise InputError([broken(shown, kind, err)]) from None
+        if not schema.equals(first):
+            raise InputError([_other_schema(shown, parts[0].name, schema, first)])
+        rows += n
     if header.num_columns == 0:
         raise InputError([_no_columns(file, kind, left_out)])
-    text = _Text(_batches(path, kind), header, kind, file)
-    return io.BufferedReader(text, COPY_BYTES), TableRead(kind, rows, tuple(left_out))
+    shown = {part: file if part == path else f"{file}/{part.name}" for part in parts}
+    text = _Text(_parts_batches(parts, kind, shown), header, kind)
+    held = TableRead(kind, rows, tuple(left_out), len(parts) if path.is_dir() else 0)
+    return io.BufferedReader(text, COPY_BYTES), held
 
 
 def csv_copy(path: Path, kind: str, dest: Path, max_mb: float | None, file: str) -> TableRead:
@@ -151,10 +215,10 @@ class _Text(io.RawIOBase):
     is read; a batch that cannot be read is the user's input problem, not a crash."""
 
     def __init__(
-        self, batches: Iterator[pa.RecordBatch], header: pa.Table, kind: str, file: str
+        self, batches: Iterator[tuple[pa.RecordBatch, str]], header: pa.Table, kind: str
     ) -> None:
         super().__init__()
-        self._batches, self._kind, self._file = batches, kind, file
+        self._batches, self._kind, self._file = batches, kind, ""
         self._pending = _csv(header, True)
         self._at = 0
 
@@ -164,9 +228,10 @@ class _Text(io.RawIOBase):
     def readinto(self, buffer: Any) -> int:
         while self._at == len(self._pending):
             try:
-                batch = next(self._batches, None)
-                if batch is None:
+                got = next(self._batches, None)
+                if got is None:
                     return 0
+                batch, self._file = got
                 cells = _as_cells(batch, [])
             except (pa.ArrowException, OSError, ValueError) as err:
                 raise InputError([broken(self._file, self._kind, err)]) from None
@@ -215,6 +280,23 @@ def _batches(path: Path, kind: str) -> Iterator[pa.RecordBatch]:
         reader = pa.ipc.open_file(source)
         for i in range(reader.num_record_batches):
             yield from pa.Table.from_batches([reader.get_batch(i)]).to_batches(BATCH_ROWS)
+
+
+def _parts_batches(
+    parts: list[Path], kind: str, shown: dict[Path, str]
+) -> Iterator[tuple[pa.RecordBatch, str]]:
+    """Each part's record batches in turn, each with how messages name its part; a part
+    that cannot be read to its end refused, named."""
+    for part in parts:
+        batches = _batches(part, kind)
+        while True:
+            try:
+                batch = next(batches, None)
+            except (pa.ArrowException, OSError, ValueError) as err:
+                raise InputError([broken(shown[part], kind, err)]) from None
+            if batch is None:
+                break
+            yield batch, shown[part]
 
 
 def _head(path: Path, size: int) -> bytes:
@@ -277,6 +359,28 @@ def broken(file: str, kind: str, err: BaseException) -> Problem:
         f"a whole {kind} file",
         f"{type(err).__name__}: {str(err)[:160] or 'cut off'}",
         "copy the file again (it is cut off or corrupted), or write the table again",
+    )
+
+
+def _other_schema(file: str, first: str, schema: pa.Schema, want: pa.Schema) -> Problem:
+    """A part file whose columns are not the first part's."""
+    names, wanted = schema.names, want.names
+    if names != wanted:
+        found = f"columns {', '.join(names[:8])}" + (" ..." if len(names) > 8 else "")
+    else:
+        kinds = [
+            f"{n}: {a} (not {b})"
+            for n, a, b in zip(names, schema.types, want.types, strict=True)
+            if a != b
+        ]
+        found = "column types " + "; ".join(kinds[:4])
+    return Problem(
+        file,
+        None,
+        None,
+        f"the columns of the folder's first part file, {first}",
+        found,
+        "give the folder the part files of one write of one drive",
     )
 
 

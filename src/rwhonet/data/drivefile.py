@@ -35,7 +35,7 @@ import pyarrow as pa
 from rwhonet.config import DataParams
 from rwhonet.data import canonical as c
 from rwhonet.data.canlog import is_can_log_name
-from rwhonet.data.columnar import csv_copy, is_table_name, table_kind
+from rwhonet.data.columnar import csv_copy, is_table_folder, is_table_name, table_kind
 from rwhonet.data.columnmap import read_columnmap
 from rwhonet.data.compressed import (
     compressed_note,
@@ -407,13 +407,15 @@ def _wrong_kind(f: DriveFile, kind: str, file: str) -> Problem | None:
         return None
     if kind == MDF4 and is_rosbag2_folder(f.path):  # a ROS 2 bag: one folder a drive
         return None
+    if kind in (IOVNBD, COLUMN_MAP) and is_table_folder(f.path):  # Spark's part files
+        return None
     what = {
         COMMA2K19: "a comma2k19 segment folder (holding processed_log, or CAN and GNSS), or a "
         "route folder of numbered segment folders",
         STREAM_CSV: "a folder holding the drive's stream CSV files",
         MDF4: "an MDF4 file (.mf4), a CAN log (.log, .asc, .blf, .trc), a ROS 1 bag (.bag) "
         "or a ROS 2 bag's folder (holding metadata.yaml)",
-    }.get(kind, "a drive file (CSV)")
+    }.get(kind, "a drive file (CSV, or a Parquet or Feather table; a folder of Parquet part files)")
     return Problem(
         file,
         None,

@@ -21,12 +21,14 @@ from pathlib import Path
 from typing import Any
 
 from rwhonet import contracts, paths
-from rwhonet.config import ConfigError, DataParams, Params
+from rwhonet.config import ConfigError, DataParams, Params, RoleSpec
 from rwhonet.data import leftout
+from rwhonet.data.columnar import folder_id, is_table_folder
 from rwhonet.data.columnmap import check_column_map
 from rwhonet.data.compressed import drive_stem
 from rwhonet.data.drivefile import (
     COLUMN_MAP,
+    IOVNBD,
     MDF4,
     STREAM_CSV,
     DriveFile,
@@ -102,6 +104,12 @@ def _sqlite_companion(path: Path) -> bool:
     return False
 
 
+def _table_folder(path: Path, spec: RoleSpec, data: DataParams) -> bool:
+    """Whether a 10 Hz role's match is a folder of Parquet part files (a drive Spark or
+    Dask wrote as a folder: ``C-B1.parquet/part-00000-...parquet``), read as one table."""
+    return reader_kind(spec.format, data) in (IOVNBD, COLUMN_MAP) and is_table_folder(path)
+
+
 def discover(data: DataParams) -> list[DriveFile]:
     """List the drives of every role, sorted by role (in ``ROLES`` order) and name.
 
@@ -134,7 +142,11 @@ def discover(data: DataParams) -> list[DriveFile]:
             for p in root.glob(spec.glob)
             if not _hidden(p, root)
             and not _sqlite_companion(p)
-            and (p.is_dir() if folders else p.is_file() or (bags and is_rosbag2_folder(p)))
+            and (
+                p.is_dir()
+                if folders
+                else p.is_file() or (bags and is_rosbag2_folder(p)) or _table_folder(p, spec, data)
+            )
         )
         if not found and spec.required:
             folder = (root / spec.glob).parent
@@ -155,7 +167,9 @@ def discover(data: DataParams) -> list[DriveFile]:
                 )
             )
         files += [
-            DriveFile(p.name if p.is_dir() else drive_stem(p), role, spec.vehicle, spec.format, p)
+            DriveFile(
+                folder_id(p) if p.is_dir() else drive_stem(p), role, spec.vehicle, spec.format, p
+            )
             for p in found
         ]
     first_seen: dict[str, DriveFile] = {}
