@@ -329,11 +329,17 @@ def test_a_column_name_damaged_out_of_utf8_is_refused_not_a_traceback(tmp_path, 
 
 
 def _parts(folder: Path, table: pa.Table, names: list[str]) -> Path:
-    """``table`` split in ``len(names)`` part files, in that order, as a writer's folder."""
+    """``table`` split in ``len(names)`` part files, in that order, as a writer's folder,
+    with the summary files older Spark and Dask write beside them (``_metadata``: every
+    part's row groups; ``_common_metadata``: the schema), which are Parquet too."""
     folder.mkdir(parents=True)
     edges = np.linspace(0, table.num_rows, len(names) + 1).astype(int)
+    collected: list = []
     for name, a, b in zip(names, edges[:-1], edges[1:], strict=True):
-        pq.write_table(table.slice(a, b - a), folder / name)
+        pq.write_table(table.slice(a, b - a), folder / name, metadata_collector=collected)
+        collected[-1].set_file_path(name)
+    pq.write_metadata(table.schema, folder / "_metadata", metadata_collector=collected)
+    pq.write_metadata(table.schema, folder / "_common_metadata")
     return folder
 
 
