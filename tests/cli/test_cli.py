@@ -371,6 +371,13 @@ def test_predict_reads_a_drive_kept_as_parquet_as_the_csv_it_holds(bundle, drive
     pd.testing.assert_frame_equal(got, want)
     done = cli(*predict_args(bundle, "-", "-"), stdin=table.read_bytes())
     assert done.returncode == 2 and b"a table file (Parquet): give its path" in done.stderr
+    spark = tmp_path / "V-Wavy.spark"  # as Spark writes it: a folder of part files
+    spark.mkdir()
+    whole = pq.read_table(table)
+    pq.write_table(whole.slice(0, 1000), spark / "part-00000.snappy.parquet")
+    pq.write_table(whole.slice(1000), spark / "part-00001.snappy.parquet")
+    assert main(predict_args(bundle, spark, tmp_path / "spark.csv", "--quiet")) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "spark.csv"), want)
 
 
 def _glitched_drive(path: Path, row: int) -> list[str]:

@@ -135,6 +135,22 @@ def test_a_role_of_parquet_drives_is_ingested_as_their_csvs_would_be(tmp_path):
     pd.testing.assert_frame_equal(
         pd.read_feather(out / "C-B1.arrow"), pd.read_feather(tmp_path / "csv" / "C-B1.arrow")
     )
+    # ... and as Spark writes a drive: a folder of part files, its name the drive's
+    kept.unlink()
+    spark = raw / "lake" / "C-B1.parquet"
+    spark.mkdir()
+    frame = pa.Table.from_pandas(pd.read_csv(files["target_test"]))
+    pq.write_table(frame.slice(0, 20), spark / "part-00000-a1b2.snappy.parquet")
+    pq.write_table(frame.slice(20), spark / "part-00001-a1b2.snappy.parquet")
+    (spark / "_SUCCESS").write_bytes(b"")
+    manifest = ingest(make_params(raw, **{"data.roles.target_test": role}), tmp_path / "spark")
+    b1 = next(d for d in manifest["drives"] if d["drive"] == "C-B1")
+    assert b1["source_file"] == paths.rel(spark)
+    assert b1["notes"][0].startswith("a folder of 2 Parquet part file(s)")
+    pd.testing.assert_frame_equal(
+        pd.read_feather(tmp_path / "spark" / "C-B1.arrow"),
+        pd.read_feather(tmp_path / "csv" / "C-B1.arrow"),
+    )
 
 
 def test_required_role_without_files_names_folder_and_glob(tmp_path):
