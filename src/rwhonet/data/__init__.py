@@ -9,7 +9,8 @@
 - :mod:`~rwhonet.data.compressed`: drive files kept compressed (gzip, bzip2, xz, zstd, a
   ZIP archive of one), told by their bytes, and a drive's id without the suffix.
 - :mod:`~rwhonet.data.columnar`: drive files kept as columnar tables (Parquet, Arrow IPC /
-  Feather), told by their bytes, read as the CSV they hold a record batch at a time.
+  Feather, a folder of Parquet part files), told by their bytes, read as the CSV they hold
+  a record batch at a time.
 - :mod:`~rwhonet.data.fastfile`: a 10 Hz layout logged faster (20-100 Hz), or at a rate of
   the logger's own (9.98 Hz), read as streams and resampled onto the grid.
 - :mod:`~rwhonet.data.schema`: the pandera schema of a canonical drive.

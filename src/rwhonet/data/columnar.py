@@ -29,6 +29,11 @@ so every reader's rules, notes and refusals apply unchanged. Row ``i`` of the ta
 - a column no CSV cell holds (a list, a map, binary data: a camera frame, a point cloud)
   is left out, and the notes name it.
 
+**A folder of part files** (Spark's ``C-B1.parquet/part-00000-...snappy.parquet``, Dask's
+``part.0.parquet``) is one table: its Parquet files in natural order of their names, the
+writers' bookkeeping (``_SUCCESS``, ``_metadata``, ``.crc``: a leading ``_`` or ``.``) left
+out, each part holding the first's columns (:func:`table_parts`).
+
 **Bounded** as a compressed file's text is: the CSV written may be at most
 ``data.max_file_mb`` MB (the file itself is too); the table is read and written a
 record batch at a time, so memory holds one batch beside the scratch file.
