@@ -291,19 +291,7 @@ def _read_decompressed(
         parts = _read_in_parts(f.path.name, f.path, _bus_logs(f, data))
         bound = None if parts else data.max_file_mb
         decompressed_copy(f.path, packed, plain, bound, file)
-
-        def shown(path: Path) -> str:
-            return file if path == plain else rel(path)
-
-        raw, facts = read_any(
-            dataclasses.replace(f, path=plain),
-            data,
-            shown,
-            radius_m,
-            period_s,
-            split_gap_s,
-            require_fix,
-        )
+        raw, facts = _read_as(f, plain, data, rel, radius_m, period_s, split_gap_s, require_fix)
     what = {
         ".csv": "the text",
         ".mf4": "the MDF4 log",
@@ -332,20 +320,36 @@ def _read_table(
     with scratch_dir("table") as scratch:
         plain = Path(scratch) / f"{drive_stem(f.path)}.csv"
         held = csv_copy(f.path, table, plain, data.max_file_mb, file)
-
-        def shown(path: Path) -> str:
-            return file if path == plain else rel(path)
-
-        raw, facts = read_any(
-            dataclasses.replace(f, path=plain),
-            data,
-            shown,
-            radius_m,
-            period_s,
-            split_gap_s,
-            require_fix,
-        )
+        raw, facts = _read_as(f, plain, data, rel, radius_m, period_s, split_gap_s, require_fix)
     return dataclasses.replace(raw, notes=(held.note, *raw.notes)), facts
+
+
+def _read_as(
+    f: DriveFile,
+    plain: Path,
+    data: DataParams,
+    rel: Callable[[Path], str],
+    radius_m: float | None,
+    period_s: float,
+    split_gap_s: float,
+    require_fix: bool,
+) -> tuple[RawDrive, StreamFacts | None]:
+    """The drive ``f`` read from ``plain``, its scratch copy in a form the readers read (a
+    compressed file's content, a table's CSV), messages naming ``f``'s file."""
+    file = rel(f.path)
+
+    def shown(path: Path) -> str:
+        return file if path == plain else rel(path)
+
+    return read_any(
+        dataclasses.replace(f, path=plain),
+        data,
+        shown,
+        radius_m,
+        period_s,
+        split_gap_s,
+        require_fix,
+    )
 
 
 def _read_vbo(
