@@ -366,6 +366,9 @@ def test_a_folder_of_part_files_reads_as_one_table_in_their_names_order(tmp_path
         "CSV: 301 rows"
     )
     assert folder_id(folder) == "V-T" and folder_id(tmp_path / "C-B1") == "C-B1"
+    # a write partitioned by the drive's column: each partition's folder a drive
+    partition = _parts(tmp_path / "lake" / "drive_id=C-B1%2F2", table, names[:2])
+    assert folder_id(partition) == "C-B1%2F2" and folder_id(tmp_path / "a=b") == "a=b"
 
 
 def test_a_part_of_other_columns_or_damaged_is_refused_naming_it(tmp_path):

@@ -153,6 +153,26 @@ def test_a_role_of_parquet_drives_is_ingested_as_their_csvs_would_be(tmp_path):
     )
 
 
+def test_a_lake_partitioned_by_drive_gives_a_drive_a_partition(tmp_path):
+    """A fleet table written partitioned by its drive column (``partitionBy("drive_id")``:
+    a ``drive_id=<value>`` folder of part files each): the role's glob matches the
+    partitions, each a drive named by its value."""
+    import pyarrow.parquet as pq
+
+    raw = tmp_path / "raw"
+    files = write_fleet(raw, duration_s=5.0)
+    for drive in ("C-B1", "C-B2"):
+        part = raw / "lake" / f"drive_id={drive}"
+        part.mkdir(parents=True)
+        pq.write_table(pa.Table.from_pandas(pd.read_csv(files["target_test"])), part / "p0.parquet")
+    files["target_test"].unlink()
+    role = {"glob": "lake/drive_id=*", "format": "iovnbd", "vehicle": "target", "required": True}
+    manifest = ingest(make_params(raw, **{"data.roles.target_test": role}), tmp_path / "d")
+    tests = [d["drive"] for d in manifest["drives"] if d["role"] == "target_test"]
+    assert tests == ["C-B1", "C-B2"]
+    assert (tmp_path / "d" / "C-B2.arrow").is_file()
+
+
 def test_required_role_without_files_names_folder_and_glob(tmp_path):
     raw = tmp_path / "raw"
     files = write_fleet(raw, duration_s=2.0)

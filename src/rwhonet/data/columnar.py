@@ -114,8 +114,14 @@ def is_table_folder(path: Path) -> bool:
 
 def folder_id(folder: Path) -> str:
     """A folder drive's id: its name, without a table's suffix where it is a table's
-    (Spark's ``C-B1.parquet/`` is drive ``C-B1``, as the file ``C-B1.parquet`` is)."""
+    (Spark's ``C-B1.parquet/`` is drive ``C-B1``, as the file ``C-B1.parquet`` is); a
+    partition's folder of a table written partitioned by a column, ``key=value`` (Spark's
+    ``partitionBy``, pandas' ``partition_cols``: ``drive_id=C-B1/``), is drive ``value``,
+    as written (Hive's escapes, ``%2F`` for ``/``, kept: an id names output files)."""
     name = folder.name
+    key, eq, value = name.partition("=")
+    if eq and key and value and is_table_folder(folder):
+        return value
     for suffix in TABLE_SUFFIXES:
         if name.lower().endswith(suffix) and len(name) > len(suffix):
             return name[: -len(suffix)]
