@@ -14,7 +14,8 @@ by its UTC times, as it puts a GPX track or a UBX log.
 
 - each TPV's ``time`` (ISO 8601, UTC; a number of seconds since 1970 in gpsd's protocol
   before 3.10) is its epoch; a TPV without one (no fix yet, or the receiver's date not yet
-  known: gpsd writes a GGA's report before the RMC that dates it) is passed over, counted;
+  known: gpsd writes a GGA's report before the RMC that dates it) is passed over, counted
+  in the notes (gpsd's way, not damage);
 - ``lat``, ``lon`` (degrees), ``altMSL`` (else ``alt``, which was the altitude above mean
   sea level before gpsd 3.20) as ``height``, ``speed`` (m/s) as ``speed_gnss``, ``track``
   (degrees from true north) as ``heading``;
@@ -176,17 +177,11 @@ def read_gpsd(path: Path, file: str) -> FixLog:
     if sky:
         channels["n_sats"] = np.where(fixed, _satellites(rows, sky), np.nan)[keep]
         sources["n_sats"] = "the last SKY report's satellites used"
-    dropped = "; ".join(
-        part
-        for part in (
-            f"{len(tpv) - len(timed)} TPV report(s) without a time"
-            if len(tpv) > len(timed)
-            else "",
-            f"{len(damaged)} line(s) that are no gpsd report (first at line {damaged[0]})"
-            if damaged
-            else "",
-        )
-        if part
+    # damage, which predict says too (a report without a time is gpsd's way: in the notes)
+    dropped = (
+        f"{len(damaged)} line(s) that are no gpsd report (first at line {damaged[0]})"
+        if damaged
+        else ""
     )
     no_fix = Counter(int(s) for s, f in zip(status[keep], fixed[keep], strict=True) if not f)
     said = [
@@ -205,6 +200,12 @@ def read_gpsd(path: Path, file: str) -> FixLog:
             f"; {int((~last).sum())} report(s) of an epoch a later report of it completes "
             "(gpsd writes one as each sentence of the epoch comes)"
             if (~last).any()
+            else ""
+        )
+        + (
+            f"; {len(tpv) - len(timed)} TPV report(s) without a time (no fix yet, or its date "
+            "not yet known) passed over"
+            if len(tpv) > len(timed)
             else ""
         )
         + (f"; {nmea} NMEA sentence(s) among them passed over" if nmea else "")
