@@ -100,6 +100,7 @@ def test_the_gpsd_log_gives_the_labels_of_the_nmea_log(tmp_path):
         ("gps.json", json.dumps(HEAD[0]), True),
         ("gpsd.log", json.dumps(_tpv("2019-03-11T12:00:00.000Z")), True),
         ("track.jsonl", "\n\n" + json.dumps(HEAD[1]), True),
+        ("gps.json", '0.5,"lon":-1.5}\n' + json.dumps(HEAD[1]), True),  # cut by a rotation
         ("gps.json", '{"lat": 52.4, "lon": -1.5}', False),  # no class of gpsd's
         ("can0.log", "(1552305600.000000) can0 0AA#0102030405060708", False),
         ("gps.csv", json.dumps(HEAD[0]), False),  # not a name a gpsd log has

@@ -179,23 +179,24 @@ def open_as_csv(path: Path, kind: str, file: str) -> tuple[BinaryIO, TableRead]:
     """
     left_out: list[str] = []
     parts = table_parts(path) if path.is_dir() else [path]
+    if not parts:  # a folder emptied since it was told a table's
+        raise InputError([_no_columns(file, kind, left_out)])
+    named = {part: file if part == path else f"{file}/{part.name}" for part in parts}
     rows = 0
     for i, part in enumerate(parts):
-        shown = file if part == path else f"{file}/{part.name}"
         try:
             n, schema = _shape(part, kind)
             if i == 0:
                 first = schema
                 header = _as_cells(schema.empty_table(), left_out)  # a name damaged: not UTF-8
         except (pa.ArrowException, OSError, ValueError) as err:
-            raise InputError([broken(shown, kind, err)]) from None
-        if not schema.equals(first):
-            raise InputError([_other_schema(shown, parts[0].name, schema, first)])
+            raise InputError([broken(named[part], kind, err)]) from None
+        if not schema.equals(first):  # pandas' metadata per part aside
+            raise InputError([_other_schema(named[part], parts[0].name, schema, first)])
         rows += n
     if header.num_columns == 0:
         raise InputError([_no_columns(file, kind, left_out)])
-    shown = {part: file if part == path else f"{file}/{part.name}" for part in parts}
-    text = _Text(_parts_batches(parts, kind, shown), header, kind)
+    text = _Text(_parts_batches(parts, kind, named), header, kind)
     held = TableRead(kind, rows, tuple(left_out), len(parts) if path.is_dir() else 0)
     return io.BufferedReader(text, COPY_BYTES), held
 

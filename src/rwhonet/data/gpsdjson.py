@@ -72,6 +72,7 @@ CLASSES = frozenset(
 )
 NO_FIX_STATUS = {5: "dead reckoning only", 7: "time only", 8: "simulated"}
 HEAD_BYTES = 1 << 14
+HEAD_LINES = 3  # the first non-empty lines of which one must be a report
 LISTED = 20  # problems listed of one kind
 # TPV field -> (signal-map key, what it is)
 VALUES = {"speed": "speed_gnss", "track": "heading"}
@@ -79,17 +80,16 @@ VALUES = {"speed": "speed_gnss", "track": "heading"}
 
 def is_gpsd_log(path: Path, name: str) -> bool:
     """Whether a file is a gpsd client's log: named as one may be (:data:`GPSD_SUFFIXES`,
-    kept compressed too) and its first non-empty line a gpsd report (a JSON object whose
-    ``class`` is one of gpsd's)."""
+    kept compressed too) and one of its first :data:`HEAD_LINES` non-empty lines a gpsd
+    report (a JSON object whose ``class`` is one of gpsd's; a rotated log's first line may
+    be the end of a report cut by the rotation)."""
     if not without_suffix(name).lower().endswith(GPSD_SUFFIXES):
         return False
     head = head_bytes(path, name, HEAD_BYTES)
     if not head:
         return False
-    for line in head.splitlines():
-        if line.strip():
-            return _report(line) is not None
-    return False
+    lines = [line for line in head.splitlines() if line.strip()][:HEAD_LINES]
+    return any(_report(line) is not None for line in lines)
 
 
 def _report(line: bytes) -> dict | None:
