@@ -187,15 +187,29 @@ def _show(name: str, r: dict) -> None:
     )
 
 
+def _long_csv(raw: Path, name: str, gb: float) -> tuple[Path, int, float]:
+    """The long IO-VNBD drive as the test drive ``name``: its path, rows and writing time."""
+    rows = round(gb * 2**30 / BYTES_PER_ROW)
+    start = time.perf_counter()
+    big = write_long_iovnbd(raw / "target_test" / name, rows)
+    return big, rows, time.perf_counter() - start
+
+
+def _run_cases(
+    root: Path, label: str, cases: list, limit_mb: float, validate: bool, **overrides
+) -> None:
+    """Each case (name, stage, data.max_file_mb) in a fresh interpreter, then validate's."""
+    if validate:
+        cases.append((f"{label}: validate (after the ingest above)", "validate", limit_mb))
+    for name, stage, limit in cases:
+        _show(name, run(root, stage, limit, **overrides))
+
+
 def csv_cases(args) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         root = (args.keep / "csv") if args.keep else Path(tmp)
-        raw = _fleet(root)
-        rows = round(args.gb * 2**30 / BYTES_PER_ROW)
-        start = time.perf_counter()
-        big = write_long_iovnbd(raw / "target_test" / "C-L1.csv", rows)
+        big, rows, took = _long_csv(_fleet(root), "C-L1.csv", args.gb)
         size_mb = big.stat().st_size / 2**20
-        took = time.perf_counter() - start
         hours = rows / 36_000
         print(
             f"wrote {big.name}: {size_mb:,.0f} MB, {rows:,} rows ({hours:,.0f} h) in {took:.1f} s; "
@@ -205,10 +219,7 @@ def csv_cases(args) -> None:
             ("CSV: ingest, data.max_file_mb 512", "ingest", 512.0),
             (f"CSV: ingest, data.max_file_mb {2 * size_mb:.0f}", "ingest", 2 * size_mb),
         ]
-        if args.validate:
-            cases.append(("CSV: validate (after the ingest above)", "validate", 2 * size_mb))
-        for name, stage, limit in cases:
-            _show(name, run(root, stage, limit))
+        _run_cases(root, "CSV", cases, 2 * size_mb, args.validate)
 
 
 def parquet_cases(args) -> None:
@@ -217,10 +228,8 @@ def parquet_cases(args) -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         root = (args.keep / "parquet") if args.keep else Path(tmp)
-        raw = _fleet(root)
-        rows = round(args.gb * 2**30 / BYTES_PER_ROW)
         start = time.perf_counter()
-        csv = write_long_iovnbd(raw / "target_test" / "C-P1.csv", rows)
+        csv, rows, _ = _long_csv(_fleet(root), "C-P1.csv", args.gb)
         csv_mb = csv.stat().st_size / 2**20
         big = csv.with_suffix(".parquet")
         reader = pa_csv.open_csv(csv)  # streamed: the table never whole in this process
@@ -235,10 +244,9 @@ def parquet_cases(args) -> None:
         )
         role = {"glob": "target_test/*.parquet", "format": "iovnbd", "vehicle": "target"}
         cases = [(f"Parquet: ingest, data.max_file_mb {2 * csv_mb:.0f}", "ingest", 2 * csv_mb)]
-        if args.validate:
-            cases.append(("Parquet: validate (after the ingest above)", "validate", 2 * csv_mb))
-        for name, stage, limit in cases:
-            _show(name, run(root, stage, limit, **{"data.roles.target_test": role}))
+        _run_cases(
+            root, "Parquet", cases, 2 * csv_mb, args.validate, **{"data.roles.target_test": role}
+        )
 
 
 def mdf4_cases(args) -> None:
@@ -274,10 +282,7 @@ def mdf4_cases(args) -> None:
             },
         }
         cases = [(f"MDF4: ingest, data.max_file_mb {2 * size_mb:.0f}", "ingest", 2 * size_mb)]
-        if args.validate:
-            cases.append(("MDF4: validate (after the ingest above)", "validate", 2 * size_mb))
-        for name, stage, limit in cases:
-            _show(name, run(root, stage, limit, **overrides))
+        _run_cases(root, "MDF4", cases, 2 * size_mb, args.validate, **overrides)
 
 
 if __name__ == "__main__":

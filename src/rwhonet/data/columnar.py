@@ -57,7 +57,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pcsv
 
-from rwhonet.data.compressed import without_suffix
+from rwhonet.data.compressed import copy_bounded, without_suffix
 from rwhonet.errors import InputError, Problem
 
 PARQUET, FEATHER = "Parquet", "Arrow IPC (Feather)"
@@ -212,13 +212,8 @@ def csv_copy(path: Path, kind: str, dest: Path, max_mb: float | None, file: str)
     """
     source, held = open_as_csv(path, kind, file)
     limit = math.inf if max_mb is None else max_mb * 2**20
-    written = 0
-    with source, open(dest, "wb") as out:
-        while chunk := source.read(COPY_BYTES):
-            written += len(chunk)
-            if written > limit:
-                raise InputError([_too_large(file, kind, max_mb)])
-            out.write(chunk)
+    with source:
+        copy_bounded(source, dest, limit, lambda: _too_large(file, kind, max_mb))
     return held
 
 

@@ -25,6 +25,7 @@ import lzma
 import shutil
 import zipfile
 import zlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -185,13 +186,22 @@ def decompressed_copy(
             "on a machine with the memory"
         )
         limit = int(max_mb * 2**20)
+    found = f"more than that in this {kind} file"
+    with open_decompressed(path, kind, file) as src:
+        copy_bounded(src, dest, limit, lambda: Problem(file, None, None, expected, found, fix))
+
+
+def copy_bounded(
+    source: BinaryIO, dest: Path, limit: float, too_large: Callable[[], Problem]
+) -> None:
+    """Copy ``source`` to ``dest`` a step at a time, refusing with ``too_large()`` once
+    more than ``limit`` bytes have come (a compressed file's content, a table's CSV text)."""
     written = 0
-    with open_decompressed(path, kind, file) as src, open(dest, "wb") as out:
-        while chunk := src.read(COPY_BYTES):
+    with open(dest, "wb") as out:
+        while chunk := source.read(COPY_BYTES):
             written += len(chunk)
             if written > limit:
-                found = f"more than that in this {kind} file"
-                raise InputError([Problem(file, None, None, expected, found, fix)])
+                raise InputError([too_large()])
             out.write(chunk)
 
 

@@ -74,7 +74,7 @@ NO_FIX_STATUS = {5: "dead reckoning only", 7: "time only", 8: "simulated"}
 HEAD_BYTES = 1 << 14
 HEAD_LINES = 3  # the first non-empty lines of which one must be a report
 LISTED = 20  # problems listed of one kind
-# TPV field -> (signal-map key, what it is)
+# TPV field -> signal-map key
 VALUES = {"speed": "speed_gnss", "track": "heading"}
 
 
