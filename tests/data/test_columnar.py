@@ -371,6 +371,43 @@ def test_a_folder_of_part_files_reads_as_one_table_in_their_names_order(tmp_path
     assert folder_id(partition) == "C-B1%2F2" and folder_id(tmp_path / "a=b") == "a=b"
 
 
+def test_a_stream_written_as_a_folder_of_part_files_is_read_as_its_table(tmp_path):
+    """A stream folder's stream Spark wrote as a folder (``wheels.parquet/``: part files,
+    ``_SUCCESS``, ``.crc`` files) or Dask did (``gnss.parquet/part.0.parquet``, ...): every
+    value of the drive whose streams are CSV files; a folder of no Parquet file is no stream
+    (left alone, as before)."""
+    tables = tables_from_drive(role_drive("target_test", 60.0))
+    plain = write_drive("stream_csv", tables, tmp_path / "plain", "C-B1", 0.3)
+    kept = write_drive("stream_csv", tables, tmp_path / "kept", "C-B1", 0.3)
+    for path, names in zip(sorted(kept.glob("*.csv")), [DASK, SPARK], strict=True):
+        table = pa.Table.from_pandas(pd.read_csv(path), preserve_index=False)
+        folder = _parts(path.with_suffix(".parquet"), table, names)
+        (folder / "_SUCCESS").write_bytes(b"")
+        (folder / f".{names[0]}.crc").write_bytes(b"crc\x00")
+        path.unlink()
+    (kept / "notes").mkdir()
+    (kept / "notes" / "trip.txt").write_text("a folder of no table is none of the streams")
+    params = stream_params(tmp_path, "stream_csv")
+    want, got = read_target_drive(params, plain), read_target_drive(params, kept)
+    _assert_same(got.raw, want.raw)
+    (said,) = [n for n in got.raw.notes if n.startswith("stream files kept as tables")]
+    assert said.endswith(
+        "read as the CSV they hold: gnss.parquet (Parquet, 12 part file(s), 600 rows); "
+        "wheels.parquet (Parquet, 3 part file(s), 6,000 rows)"
+    )
+    assert {s["file"] for s in got.streams.streams} == {
+        str(kept / "gnss.parquet"),
+        str(kept / "wheels.parquet"),
+    }
+    # a part of other columns is refused naming the folder's part, as a drive's is
+    part = kept / "wheels.parquet" / SPARK[1]
+    held = pq.read_table(part)
+    pq.write_table(held.drop_columns([held.column_names[0]]), part)
+    with pytest.raises(InputError) as err:
+        read_target_drive(params, kept)
+    assert [p.file for p in err.value.problems] == [f"{kept / 'wheels.parquet'}/{SPARK[1]}"]
+
+
 def test_a_part_of_other_columns_or_damaged_is_refused_naming_it(tmp_path):
     plain = write_iovnbd(wavy_drive(30.0), tmp_path / "V-A.csv")
     table = pa.Table.from_pandas(pd.read_csv(plain), preserve_index=False)

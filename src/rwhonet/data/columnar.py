@@ -32,7 +32,8 @@ so every reader's rules, notes and refusals apply unchanged. Row ``i`` of the ta
 **A folder of part files** (Spark's ``C-B1.parquet/part-00000-...snappy.parquet``, Dask's
 ``part.0.parquet``) is one table: its Parquet files in natural order of their names, the
 writers' bookkeeping (``_SUCCESS``, ``_metadata``, ``.crc``: a leading ``_`` or ``.``) left
-out, each part holding the first's columns (:func:`table_parts`).
+out, each part holding the first's columns (:func:`table_parts`): a 10 Hz drive, or a stream
+folder's stream (``C-B1/wheels.parquet/``).
 
 **Bounded** as a compressed file's text is: the CSV written may be at most
 ``data.max_file_mb`` MB (the file itself is too); the table is read and written a
@@ -151,8 +152,10 @@ class TableRead:
 
     @property
     def brief(self) -> str:
-        """``Parquet, 6,000 rows; frame left out`` (a stream folder's note, per file)."""
-        said = f"{self.kind}, {self.rows:,} rows"
+        """``Parquet, 6,000 rows; frame left out`` (a stream folder's note, per file; ``Parquet,
+        3 part file(s), 6,000 rows`` for a folder of part files)."""
+        parts = f"{self.parts} part file(s), " if self.parts else ""
+        said = f"{self.kind}, {parts}{self.rows:,} rows"
         return said + (f"; {', '.join(self.left_out)} left out" if self.left_out else "")
 
     @property

@@ -476,10 +476,12 @@ def _read_streams(
         # (can0.log) as its messages' streams where the map has a dbc;
         # a log rotator's files (gps.nmea.1, wheels.csv.2.gz) by their names without its number
         spec = data.signal_maps[f.format]
+        # a stream Spark or Dask wrote as a folder of part files (wheels.parquet/) is a
+        # table, as the file wheels.parquet is
         every = sorted(
             p
             for p in f.path.glob("*")
-            if p.is_file()
+            if (p.is_file() or is_table_folder(p))
             and (
                 is_csv_name(name := without_rotation(p.name))
                 or is_table_name(name)
