@@ -27,6 +27,7 @@ from support.nmea import (
     gga,
     gll,
     gns,
+    gsa,
     gst,
     hhmmss,
     nmea_lines,
@@ -837,7 +838,7 @@ def test_vtg_gives_the_speed_and_course_of_the_epoch_it_is_written_with(tmp_path
     assert log.sources["speed_gnss"] == "VTG speed"
     assert log.sources["heading"] == "VTG course"
     assert f"{len(fixes)} GGA sentences" not in log.notes[-1]  # with the VTG count
-    assert f", {len(fixes)} VTG sentences)" in log.notes[-1]
+    assert f", {len(fixes)} VTG sentences)" in log.notes[-1]  # GGA's satellites: no GSA read
     assert not log.dropped
     said = " ".join(log.notes)
     if burst[-1] == "ZDA":
@@ -888,7 +889,7 @@ def test_vtg_beside_rmc_fills_only_the_epochs_without_one(tmp_path):
         atol=1e-9,
     )
     assert log.sources["heading"] == "RMC course (VTG's where an epoch has no RMC)"
-    assert "1 sentence(s) (VTG) whose epoch the log does not hold" in log.dropped
+    assert "1 sentence(s) (VTG, GSA) whose epoch the log does not hold" in log.dropped
     assert "(first at line 1)" in log.dropped
     assert "without a UTC time" not in log.dropped  # a VTG has none, and needs none
 
@@ -949,6 +950,97 @@ def test_a_gga_and_vtg_log_gives_the_drive_its_course_as_an_rmc_log_does(tmp_pat
     for key in (c.SPEED_GNSS_M_S, c.HEADING_DEG):
         np.testing.assert_allclose(b.channels[key], a.channels[key], rtol=0, atol=2e-3)
         assert np.isfinite(b.channels[key]).sum() > 100
+
+
+def _rmc_and_gsa(t0: float, sats: list[int], order: str, again: int = -1) -> list[str]:
+    """An RMC and GSA receiver's log, 1 Hz: each epoch's RMC (void where it has no
+    satellites) and its two GSAs (GPS and GLONASS, ``sats`` satellites between them; fix
+    type 1 and none listed without a fix), written after its RMC (u-blox's, MediaTek's,
+    Garmin's order) or before it (SiRF's); epoch ``again``'s GPS GSA written twice."""
+    lines = []
+    for i, n in enumerate(sats):
+        kind = 3 if n else 1
+        gps, glo = list(range(1, min(n, 7) + 1)), list(range(65, 65 + max(n - 7, 0)))
+        said = [gsa(gps, kind, system=1), gsa(glo, kind, system=2)]
+        said += said[:1] if i == again else []
+        fix = rmc(t0 + i, 52.4 + 1e-4 * i, -1.5, 10.0, 0.0, status="A" if n else "V")
+        lines += [fix, *said] if order == "after" else [*said, fix]
+    return lines
+
+
+SATS = [9, 9, 8, 3, 0, 0, 5, 11, 12, 12, 10, 0, 7, 7, 6]
+
+
+@pytest.mark.parametrize(("order", "way"), [("after", "before"), ("before", "after")])
+def test_gsa_gives_the_satellites_of_an_rmc_log_by_the_epoch_its_fix_agrees_with(
+    tmp_path, order, way
+):
+    """A receiver set to RMC and GSA writes no GGA: an epoch's satellites are the ids its
+    GSAs list (one a constellation), summed. A GSA has no time: between one epoch's RMC
+    and the next it is the epoch whose fix its fix type agrees with, u-blox's after its
+    RMC, SiRF's before; each epoch gets its own count exactly (taken the other way, every
+    count would be a second late or early). A GSA written twice in its epoch counts
+    once."""
+    t0 = DAY_S + 45000.0
+    log = _log(tmp_path, _rmc_and_gsa(t0, SATS, order, again=8))
+    np.testing.assert_array_equal(log.channels["n_sats"], SATS)
+    assert log.sources["n_sats"] == "GSA satellites"
+    np.testing.assert_array_equal(np.isfinite(log.channels["lat"]), np.array(SATS) > 0)
+    said = " ".join(log.notes)
+    assert (
+        f"GSA sentences (no time of their own) stand between one epoch's sentences and the "
+        f"next's; each is taken as the epoch {way} it, whose fix its fix type agrees with "
+        f"(0 contradicting, 8 the other way, over 29)" in said
+    )
+    assert "15 epochs (15 RMC, 31 GSA sentences), 12 with a fix" in log.notes[-1]
+    assert "1 sentence(s) of an epoch already given" in log.notes[-1]
+
+
+def test_gsa_satellites_only_where_an_epoch_has_no_gga_and_a_tie_takes_the_epoch_before(
+    tmp_path,
+):
+    """GGA's satellites are kept where an epoch has a GGA, the GSAs' only fill those
+    without. A log whose fixes never come and go cannot tell a GSA before its RMC from
+    one after: each is taken as the epoch before, said so (the counts a second late)."""
+    t0 = DAY_S + 45000.0
+    lines = _rmc_and_gsa(t0, [8, 9, 10, 11], "after")
+    lines.insert(0, gga(t0, 52.4, -1.5, 6))
+    log = _log(tmp_path / "a", lines)
+    np.testing.assert_array_equal(log.channels["n_sats"], [6, 9, 10, 11])
+    assert log.sources["n_sats"] == "GGA satellites (GSA's where an epoch has none)"
+    assert log.sources["height"] == "GGA altitude"
+    log = _log(tmp_path / "b", _rmc_and_gsa(t0, [8, 9, 10, 11], "before"))
+    np.testing.assert_array_equal(log.channels["n_sats"], [9, 10, 11, np.nan])
+    assert (
+        "taken as the epoch before it (its fix type agrees as well either way, 0 of 6 "
+        "contradicting: the log's order cannot tell, and the counts may be an epoch late)"
+    ) in " ".join(log.notes)
+    # the first epoch's GSAs, before any sentence with a time, have no epoch before them
+    assert "2 sentence(s) (VTG, GSA) whose epoch the log does not hold" in log.notes[-1]
+
+
+def test_an_rmc_and_gsa_log_gives_the_drive_the_satellites_a_gga_log_does(tmp_path):
+    """Through a stream folder: the drive's fixes as RMC and GSA sentences give the labels
+    and the satellites of the same fixes as GGA and RMC sentences."""
+    from rwhonet.sim.streams import signal_map, write_stream_csvs
+
+    tables, _ = receiver_drive()
+    g = tables.gnss
+    t = DAY_S + g[c.T_S].to_numpy()
+    sats = g[c.N_SATS].to_numpy().astype(int)
+    wheels = write_stream_csvs(tables, tmp_path / "w")["wheels"]
+    stamps = g[c.T_S].to_numpy()
+    plain = nmea_lines(g, t, stamps=stamps)
+    only_rmc = nmea_lines(g, t, ("RMC",), stamps=stamps, other=False)
+    with_gsa = [x for i, r in enumerate(only_rmc) for x in (r, gsa(range(1, sats[i] + 1)))]
+    smap = {k: v for k, v in signal_map().items() if k not in ("lat", "lon", "n_sats")}
+    one = receiver_labels([wheels, write_nmea(tmp_path / "g" / "gps.nmea", plain)], smap)
+    two = receiver_labels([wheels, write_nmea(tmp_path / "s" / "gps.nmea", with_gsa)], smap)
+    pd.testing.assert_frame_equal(one[0], two[0])
+    (a,) = [s for s in one[1].streams if s.name == "gps.nmea"]
+    (b,) = [s for s in two[1].streams if s.name == "gps.nmea"]
+    np.testing.assert_array_equal(b.channels[c.N_SATS], a.channels[c.N_SATS])
+    assert np.isfinite(b.channels[c.N_SATS]).all()
 
 
 def test_gst_states_the_accuracy_of_the_epoch_of_its_time(tmp_path):

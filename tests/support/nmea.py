@@ -105,6 +105,15 @@ def gst(t_s: float, lat_err: float, lon_err: float, alt_err: float = 2.2, talker
     return sentence(f"{talker}GST,{hhmmss(t_s)},1.8,,,,{errs}")
 
 
+def gsa(prns: Sequence[int], fix_type: int = 3, talker="GN", system: int | None = None) -> str:
+    """GSA: automatic mode, the fix type (1 none, 2 2D, 3 3D), the ids of the satellites
+    used (12 fields, the rest empty), PDOP, HDOP, VDOP, and NMEA 4.10's system id where
+    given (u-blox writes one GNGSA a constellation so)."""
+    ids = [f"{p:02d}" for p in prns] + [""] * (12 - len(prns))
+    tail = "" if system is None else f",{system}"
+    return sentence(f"{talker}GSA,A,{fix_type},{','.join(ids)},1.9,0.9,1.7{tail}")
+
+
 def nmea_lines(
     gnss: pd.DataFrame,
     utc_s: np.ndarray,

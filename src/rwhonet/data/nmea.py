@@ -29,14 +29,19 @@ puts it on the stream files' clock.
   latitude's and longitude's (the DRMS, m), as ZDA dates it (empty: none stated; one
   of a time no fix has gives none).
 
-Every other sentence (GSV, GSA, a receiver's proprietary ``$P...``) is passed over.
+- ``GSA``: the fix type (1 none, 2 2D, 3 3D) and the ids of the satellites used in the
+  fix, up to 12 (a multi-GNSS receiver writes one for each constellation); no time: it is
+  the epoch's it is written with (:func:`_gsa_epochs`), and gives the satellites of an
+  epoch without a GGA or GNS (a receiver set to RMC and GSA) as the sum of its GSAs'.
+
+Every other sentence (GSV, a receiver's proprietary ``$P...``) is passed over.
 Sentences of one epoch (the same UTC time) are one fix: the position from GGA where the
-epoch has one, else GNS, RMC, GLL; satellites and altitude from GGA, else GNS; speed and
-course from RMC, else VTG; the stated accuracy from GST. A sentence written
-again, or written late, joins its epoch wherever it is in the log (the first of two of
-one kind is kept, the second counted); the epochs are in the order they first appear,
-and out of time order where the log was, which the resampler's rule puts right
-(:mod:`rwhonet.data.sampleorder`).
+epoch has one, else GNS, RMC, GLL; satellites and altitude from GGA, else GNS
+(satellites else GSA); speed and course from RMC, else VTG; the stated accuracy from
+GST. A sentence written again, or written late, joins its epoch wherever it is in the
+log (the first of two of one kind is kept, the second counted); the epochs are in the
+order they first appear, and out of time order where the log was, which the resampler's
+rule puts right (:mod:`rwhonet.data.sampleorder`).
 
 **A fix that is no fix**: GGA quality 0 (invalid), 6 (estimated: the receiver's own dead
 reckoning), 7 (manual input) or 8 (simulation); RMC or GLL status ``V``; RMC or GLL mode
@@ -112,15 +117,19 @@ GGA_FIXES = (b"1", b"2", b"3", b"4", b"5", b"9")
 # simulator are none
 RMC_FIXES = (b"A", b"D", b"P", b"R", b"F")
 # the sentences read, by their code in the scan
-KINDS = (b"GGA", b"RMC", b"GNS", b"GLL", b"ZDA", b"VTG", b"GST")
-GGA, RMC, GNS, GLL, ZDA, VTG, GST = range(len(KINDS))
+KINDS = (b"GGA", b"RMC", b"GNS", b"GLL", b"ZDA", b"VTG", b"GST", b"GSA")
+GGA, RMC, GNS, GLL, ZDA, VTG, GST, GSA = range(len(KINDS))
 # the sentences that make an epoch (ZDA only dates one, GST only states its accuracy)
 FIX_KINDS = (GGA, RMC, GNS, GLL)
 # fields a sentence needs (its talker and type the first): up to GGA's and GNS's
-# altitude, RMC's date, GLL's status, ZDA's year, VTG's km/h letter, GST's longitude error
-FIELDS_NEEDED = np.array([10, 10, 10, 7, 5, 9, 8])
-# where each gives the UTC time (GLL after its position; VTG none)
-TIME_FIELD = np.array([1, 1, 1, 5, 1, -1, 1])
+# altitude, RMC's date, GLL's status, ZDA's year, VTG's km/h letter, GST's longitude error,
+# GSA's VDOP (its fields: mode, fix type, 12 satellites' ids, PDOP, HDOP, VDOP)
+FIELDS_NEEDED = np.array([10, 10, 10, 7, 5, 9, 8, 18])
+# where each gives the UTC time (GLL after its position; VTG and GSA none)
+TIME_FIELD = np.array([1, 1, 1, 5, 1, -1, 1, -1])
+# GSA's fix type (1 no fix, 2 2D, 3 3D) and its fields of the satellites used in the fix
+GSA_FIX_TYPE = 2
+GSA_SATELLITES = range(3, 15)
 # GST's standard deviations of the latitude and longitude errors (m), the fields after
 # its time, RMS and error ellipse (semi-major, semi-minor, orientation)
 GST_ERRORS = (6, 7)
@@ -298,13 +307,14 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
     fields = CommaFields(bodies)
     gll = kinds == GLL
     vtg = kinds == VTG  # no time: it joins an epoch by its place in the log (_vtg_epochs)
+    gsa = kinds == GSA  # no time either (_gsa_epochs)
     time = fields.column(1)
     if gll.any():
         time = np.where(gll, fields.column(TIME_FIELD[GLL]), time)
     enough = fields.count >= FIELDS_NEEDED[kinds]
     passed("cut", row_of[~enough])  # a line cut short
-    passed("no time", row_of[enough & ~vtg & (time == b"")])
-    use = np.flatnonzero(enough & ~vtg & (time != b""))
+    passed("no time", row_of[enough & ~vtg & ~gsa & (time == b"")])
+    use = np.flatnonzero(enough & ~vtg & ~gsa & (time != b""))
     if not np.isin(kinds[use], FIX_KINDS).any():  # no fix sentence (ZDA alone dates none)
         raise InputError(
             [
@@ -332,6 +342,7 @@ def read_nmea(path: Path | bytes, file: str) -> FixLog:
         first_bad,
         passed,
         np.flatnonzero(enough & vtg),
+        np.flatnonzero(enough & gsa),
     )
 
 
@@ -442,7 +453,7 @@ def _passed_over(counts: dict[str, int], first: dict[str, int]) -> str:
         "cut": "cut short",
         "no time": "without a UTC time",
         "again": "of an epoch already given",
-        "no epoch": "(VTG) whose epoch the log does not hold (at its start or end)",
+        "no epoch": "(VTG, GSA) whose epoch the log does not hold (at its start or end)",
         "not text": "lines that are no sentence",
     }
     parts = [
@@ -526,12 +537,14 @@ def _fixes(
     first: dict[str, int],
     passed,
     vtg: np.ndarray,
+    gsa: np.ndarray,
 ) -> FixLog:
     """The sentences ``use`` (their UTC time cells ``times``) gathered into epochs by UTC
     time, their fields converted column by column: one fix an epoch; a ZDA dates the
     epoch of its time, a GST states its accuracy; a VTG (``vtg``) gives the speed and
     course of the epoch it is written with (:func:`_vtg_epochs`) where that epoch has no
-    RMC."""
+    RMC; the GSAs (``gsa``) the satellites used in the fix of the epoch they are written
+    with (:func:`_gsa_epochs`) where that epoch has no GGA or GNS."""
     problems: list[Problem] = []
     tod_s = _times_of_day(times, rows[use], file, problems)
     timed = np.isfinite(tod_s)  # a time that is no time: refused below, with the rest
@@ -635,7 +648,7 @@ def _fixes(
     tod, said = unwrap_clock(tod, "epoch")
     notes = [f"{file}: {s}" for s in said] + ([f"{file}: {leap_said}"] if leap_said else [])
     by_vtg = np.zeros(n, bool)  # speed and course from a VTG: an epoch without an RMC
-    if vtg.size:
+    if vtg.size or gsa.size:
         # each timed sentence's epoch, in the log's order: a ZDA's is that of its time
         zda_epoch = _epochs_of_keys(zda_key, key[first_at[order]])
         timed = np.concatenate([use, zda_sent[zda_epoch >= 0], gst_sent[gst_epoch >= 0]])
@@ -643,10 +656,12 @@ def _fixes(
             [epoch_of, zda_epoch[zda_epoch >= 0], gst_epoch[gst_epoch >= 0]]
         )
         sort = np.argsort(timed, kind="stable")
+        timed, timed_epoch = timed[sort], timed_epoch[sort]
+    if vtg.size:
         v_epoch, v_said = _vtg_epochs(
             vtg,
-            timed[sort],
-            timed_epoch[sort],
+            timed,
+            timed_epoch,
             _Track(lat, lon, tod),
             vtg_speed,
             vtg_course,
@@ -661,6 +676,18 @@ def _fixes(
         by_vtg[epochs] = True
         speed[epochs] = np.where(valid[epochs], vtg_speed[one], np.nan)
         course[epochs] = np.where(valid[epochs], vtg_course[one], np.nan)
+    by_gsa = np.zeros(n, bool)  # satellites from the GSAs: an epoch without a GGA or GNS
+    if not (~counted).any():  # every epoch's satellites are its GGA's or GNS's
+        gsa = gsa[:0]
+    if gsa.size:
+        fixed = valid & np.isfinite(lat)
+        g_epoch, g_said = _gsa_epochs(gsa, timed, timed_epoch, fields, fixed)
+        notes += [f"{file}: {g_said}"] if g_said else []
+        passed("no epoch", rows[gsa[g_epoch < 0]])
+        g_sats, again = _gsa_satellites(fields, gsa, g_epoch, n)
+        passed("again", rows[gsa[again]])
+        by_gsa = ~counted & np.isfinite(g_sats)
+        sats[by_gsa] = g_sats[by_gsa]
     first_day, dated_by = _first_day(dated, tod, file)
     channels = {
         "lat": lat,
@@ -672,8 +699,13 @@ def _fixes(
         "heading": course,
     }
     given_by = [KINDS[k].decode() for k in POSITION_ORDER if of[k][0].size]
-    counted = [k for k in (GGA, GNS) if of[k][0].size] or [GGA]
-    sats_by = KINDS[counted[0]].decode()
+    sats_kinds = [k for k in (GGA, GNS) if of[k][0].size] or [GGA]
+    height_by = KINDS[sats_kinds[0]].decode()
+    sats_by = f"{height_by} satellites" + (
+        " (GSA's where an epoch has none)" if by_gsa.any() else ""
+    )
+    if by_gsa.all():
+        sats_by = "GSA satellites"
     velocity_by = (
         ("RMC {} (VTG's where an epoch has no RMC)" if r_at.size else "VTG {}")
         if by_vtg.any()
@@ -682,9 +714,9 @@ def _fixes(
     sources = {
         "lat": f"{given_by[0]} latitude",
         "lon": f"{given_by[0]} longitude",
-        "n_sats": f"{sats_by} satellites",
+        "n_sats": sats_by,
         "h_acc": "GST lat/lon error",
-        "height": f"{sats_by} altitude",
+        "height": f"{height_by} altitude",
         "speed_gnss": velocity_by.format("speed"),
         "heading": velocity_by.format("course"),
     }
@@ -694,6 +726,7 @@ def _fixes(
         f"{file}: an NMEA log: {n} epochs ("
         + ", ".join(f"{of[k][0].size} {KINDS[k].decode()}" for k in of if of[k][0].size)
         + (f", {vtg.size} VTG" if vtg.size else "")
+        + (f", {gsa.size} GSA" if gsa.size else "")
         + f" sentences), {int(np.isfinite(lat).sum())} with a fix"
         + _zda_said(dated, zda_sent.size)
         + _gst_said(h_acc, gst_sent.size)
@@ -841,6 +874,84 @@ def _misfit(track: _Track, epoch: np.ndarray, east: np.ndarray, north: np.ndarra
     with np.errstate(invalid="ignore", divide="ignore"):
         out = (de / dt - east) ** 2 + (dn / dt - north) ** 2
     return np.where(ok, out, np.nan)
+
+
+def _gsa_epochs(
+    gsa: np.ndarray,
+    timed: np.ndarray,
+    timed_epoch: np.ndarray,
+    fields: CommaFields,
+    fixed: np.ndarray,
+) -> tuple[np.ndarray, str]:
+    """The epoch each GSA sentence is written with (-1: one the log does not hold), and a
+    note where the log's order had to tell.
+
+    A GSA carries no time, as a VTG: between two sentences of one epoch it is that
+    epoch's; between one epoch's last sentence and the next one's first the order alone
+    cannot say (u-blox, MediaTek, Garmin and Quectel write it after their epoch's RMC,
+    SiRF before), so every such GSA of the log is taken the same way: the one whose fix
+    type (1 no fix, 2 or 3 a fix) agrees with the epochs' fixes (``fixed``) in more of
+    them, the epoch before where they tie (a log whose fixes never come and go: there the
+    two ways give the counts of epochs next to each other).
+    """
+    i = np.searchsorted(timed, gsa)
+    last = max(timed.size - 1, 0)
+    before = np.where(i > 0, timed_epoch[np.maximum(i - 1, 0)], -1)
+    after = np.where(i < timed.size, timed_epoch[np.minimum(i, last)], -1)
+    edge = before != after
+    if not edge.any():
+        return before, ""
+    kind = fields.column(GSA_FIX_TYPE, gsa)
+    known = edge & (before >= 0) & (after >= 0) & np.isin(kind, [b"1", b"2", b"3"])
+    says_fix = kind != b"1"
+    disagree = [int((says_fix[known] != fixed[e[known]]).sum()) for e in (before, after)]
+    later = disagree[1] < disagree[0]
+    chosen = np.where(edge, after if later else before, before)
+    first, other = (disagree[1], disagree[0]) if later else disagree
+    said = (
+        f"{int(edge.sum())} of its {gsa.size} GSA sentences (no time of their own) stand "
+        f"between one epoch's sentences and the next's; each is taken as the epoch "
+        f"{'after' if later else 'before'} it"
+    )
+    if first == other:  # a tie: the fixes never came and went beside them
+        return chosen, said + (
+            f" (its fix type agrees as well either way, {first} of {int(known.sum())} "
+            "contradicting: the log's order cannot tell, and the counts may be an epoch "
+            "late)"
+        )
+    return chosen, said + (
+        f", whose fix its fix type agrees with ({first} contradicting, {other} the other "
+        f"way, over {int(known.sum())})"
+    )
+
+
+def _gsa_satellites(
+    fields: CommaFields, gsa: np.ndarray, epoch: np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The satellites used in each epoch's fix by its GSAs (NaN: an epoch without one), and
+    the GSAs written again (indices into ``gsa``).
+
+    A GSA lists the ids of the satellites used in the fix (up to 12); a multi-GNSS receiver
+    writes one an epoch for each constellation (``GNGSA``, NMEA 4.10's system id last), so
+    an epoch's count is the sum of its GSAs'. A GSA the same as one before it in its epoch
+    (a buffer sent twice) counts once.
+    """
+    cells = [fields.column(j, gsa) for j in GSA_SATELLITES]
+    used = np.sum([c != b"" for c in cells], axis=0)
+    whole = [fields.column(j, gsa) for j in range(1, FIELDS_NEEDED[GSA] + 1)]
+    keys = [b",".join(row) for row in zip(*whole, strict=True)] if gsa.size else []
+    seen: set[tuple[int, bytes]] = set()
+    again = []
+    total = np.full(n, np.nan)
+    for k, (e, row) in enumerate(zip(epoch.tolist(), keys, strict=True)):
+        if e < 0:
+            continue
+        if (e, row) in seen:
+            again.append(k)
+            continue
+        seen.add((e, row))
+        total[e] = (0.0 if np.isnan(total[e]) else total[e]) + used[k]
+    return total, np.asarray(again, np.int64)
 
 
 @dataclass(frozen=True)
