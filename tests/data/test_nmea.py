@@ -956,11 +956,13 @@ def _rmc_and_gsa(t0: float, sats: list[int], order: str, again: int = -1) -> lis
     """An RMC and GSA receiver's log, 1 Hz: each epoch's RMC (void where it has no
     satellites) and its two GSAs (GPS and GLONASS, ``sats`` satellites between them; fix
     type 1 and none listed without a fix), written after its RMC (u-blox's, MediaTek's,
-    Garmin's order) or before it (SiRF's); epoch ``again``'s GPS GSA written twice."""
+    Garmin's order) or before it (SiRF's); a fix of 3 satellites 2D (fix type 2); up to
+    12 satellites in the GPS GSA, the rest in the GLONASS one; epoch ``again``'s GPS GSA
+    written twice."""
     lines = []
     for i, n in enumerate(sats):
-        kind = 3 if n else 1
-        gps, glo = list(range(1, min(n, 7) + 1)), list(range(65, 65 + max(n - 7, 0)))
+        kind = 1 if not n else 2 if n == 3 else 3
+        gps, glo = list(range(1, min(n, 12) + 1)), list(range(65, 65 + max(n - 12, 0)))
         said = [gsa(gps, kind, system=1), gsa(glo, kind, system=2)]
         said += said[:1] if i == again else []
         fix = rmc(t0 + i, 52.4 + 1e-4 * i, -1.5, 10.0, 0.0, status="A" if n else "V")
@@ -968,7 +970,7 @@ def _rmc_and_gsa(t0: float, sats: list[int], order: str, again: int = -1) -> lis
     return lines
 
 
-SATS = [9, 9, 8, 3, 0, 0, 5, 11, 12, 12, 10, 0, 7, 7, 6]
+SATS = [9, 9, 8, 3, 0, 0, 5, 11, 14, 12, 10, 0, 7, 7, 6]
 
 
 @pytest.mark.parametrize(("order", "way"), [("after", "before"), ("before", "after")])
