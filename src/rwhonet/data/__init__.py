@@ -11,6 +11,8 @@
 - :mod:`~rwhonet.data.columnar`: drive files kept as columnar tables (Parquet, Arrow IPC /
   Feather, a folder of Parquet part files), told by their bytes, read as the CSV they hold
   a record batch at a time.
+- :mod:`~rwhonet.data.fleetfile`: one 10 Hz file (or table) holding many drives, a column
+  naming each row's drive (a column map's ``drive`` key), split into its drives.
 - :mod:`~rwhonet.data.fastfile`: a 10 Hz layout logged faster (20-100 Hz), or at a rate of
   the logger's own (9.98 Hz), read as streams and resampled onto the grid.
 - :mod:`~rwhonet.data.schema`: the pandera schema of a canonical drive.

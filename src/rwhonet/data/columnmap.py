@@ -9,7 +9,8 @@ suffix (:func:`find_column`); the time continues across midnight. Besides the ch
 time of day), hemisphere letter columns (``lat_hemisphere``, ``lon_hemisphere``:
 NMEA's N/S and E/W), which give the channels their day and their signs, and the
 receiver's fix status (``fix``: :mod:`rwhonet.data.fixstatus`), by which a position it
-says is no fix is taken as none.
+says is no fix is taken as none, and in a file of many drives the column naming each
+row's drive (``drive``: :mod:`rwhonet.data.fleetfile`).
 """
 
 from __future__ import annotations
@@ -104,6 +105,10 @@ DATE = "date"
 # key -> (the coordinate's key, the letters' unit); rwhonet.data.packed.signed_or_refuse.
 HEMISPHERES = {"lat_hemisphere": ("lat", "N/S"), "lon_hemisphere": ("lon", "E/W")}
 AUX_KEYS = (DATE, *HEMISPHERES)  # keys that name no channel of their own
+# The column naming each row's drive, in a file of many drives (rwhonet.data.fleetfile):
+# a column map's only; its unit "text" (an id, no quantity). The file is split into its
+# drives before any is read; a drive's own file is read without it.
+DRIVE, DRIVE_UNIT = "drive", "text"
 
 
 def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
@@ -118,10 +123,15 @@ def check_column_map(name: str, column_map: Mapping[str, ColumnSpec]) -> None:
     """
     where = f"data.column_maps.{name}"
     issues = [
-        f"{where}.{k}: unknown key; expected one of {[*KEYS, *AUX_KEYS]}"
+        f"{where}.{k}: unknown key; expected one of {[*KEYS, *AUX_KEYS, DRIVE]}"
         for k in column_map
-        if k not in KEYS and k not in AUX_KEYS
+        if k not in KEYS and k not in AUX_KEYS and k != DRIVE
     ]
+    if DRIVE in column_map and column_map[DRIVE].unit != DRIVE_UNIT:
+        issues.append(
+            f"{where}.{DRIVE}.unit: expected {DRIVE_UNIT!r} (the column holds each row's "
+            f"drive id), got {column_map[DRIVE].unit!r}"
+        )
     issues += [f"{where}.{k}: missing" for k in REQUIRED_KEYS if k not in column_map]
     issues += [
         f"{where}.{k}.unit: expected one of {list(KEYS[k][1])}"
@@ -305,6 +315,9 @@ def read_columnmap(
         ConfigError: the column map itself is invalid.
     """
     check_column_map(name, column_map)
+    # a fleet file's drive column: the file was split into its drives (fleetfile), each
+    # read alone
+    column_map = {k: spec for k, spec in column_map.items() if k != DRIVE}
     file = display or str(path)
     header = read_header(path, file)
     positions = columnmap_positions(header, column_map, name, file)

@@ -303,7 +303,7 @@ def head_lines(path: Path) -> HeadLines:
         OSError: the file cannot be read.
     """
     with open(path, "rb") as f:
-        return read_head(_lines(f))[0]
+        return read_head(text_lines(f))[0]
 
 
 def read_head(lines: Iterator[bytes]) -> tuple[HeadLines, list[bytes]]:
@@ -406,7 +406,7 @@ def _data_after(lines: list[bytes], at: int, rows: int) -> bool | None:
     return True if len(data) == rows else None
 
 
-def _lines(f: Any) -> Iterator[bytes]:
+def text_lines(f: Any) -> Iterator[bytes]:
     """A file's lines of at most ``HEADER_MAX_BYTES`` each, each with its line end: LF, CR
     LF, or a lone CR (classic Mac), which ``readline`` does not split at."""
     while True:
@@ -949,7 +949,7 @@ def header_again_rows(path: Path) -> np.ndarray:
     rows: list[int] = []
     try:
         with open(path, "rb") as f:
-            lines = _lines(f)
+            lines = text_lines(f)
             for _ in itertools.islice(lines, head.skipped):
                 pass
             row, after_header = 0, False

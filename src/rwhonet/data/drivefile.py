@@ -36,7 +36,7 @@ from rwhonet.config import DataParams
 from rwhonet.data import canonical as c
 from rwhonet.data.canlog import is_can_log_name
 from rwhonet.data.columnar import csv_copy, is_table_folder, is_table_name, table_kind
-from rwhonet.data.columnmap import read_columnmap
+from rwhonet.data.columnmap import DRIVE, DRIVE_UNIT, read_columnmap
 from rwhonet.data.compressed import (
     compressed_note,
     compression_of,
@@ -49,6 +49,7 @@ from rwhonet.data.compressed import (
 from rwhonet.data.csvio import RawDrive
 from rwhonet.data.droprows import drop_rows
 from rwhonet.data.fastfile import as_streams, needs_resampling
+from rwhonet.data.fleetfile import FleetPart, FleetSplit, shown, split_fleet
 from rwhonet.data.heldfixes import place_held_fixes
 from rwhonet.data.iovnbd import read_iovnbd
 from rwhonet.data.problems import unreadable_file
@@ -161,6 +162,73 @@ class DriveFile:
     format: str  # "iovnbd", "comma2k19", a column map's or a signal map's name
     path: Path
     map_name: str | None = None  # how messages name its signal map (None: its params key)
+    # a drive of a file of many drives (rwhonet.data.fleetfile): its id in the map's drive
+    # column; and where ingest split the file already, its rows' own CSV and where they lay
+    part: str | None = None
+    split: tuple[Path, str] | None = None
+
+
+def fleet_column(fmt: str, data: DataParams) -> str | None:
+    """The column naming each row's drive where a format's column map has one (a file of
+    many drives: :mod:`rwhonet.data.fleetfile`); None: a file is one drive."""
+    spec = data.column_maps.get(fmt)
+    return None if spec is None or DRIVE not in spec else spec[DRIVE].column
+
+
+def source_name(f: DriveFile, rel: Callable[[Path], str]) -> str:
+    """How messages name a drive's file: ``fleet.csv (drive C-B1)`` for a drive of a file
+    of many, whose rows they count from its first."""
+    return rel(f.path) if f.part is None else shown(rel(f.path), f.part)
+
+
+def fleet_drives(
+    f: DriveFile, data: DataParams, rel: Callable[[Path], str], dest: Path | None = None
+) -> list[DriveFile]:
+    """The drives of a file of many (:func:`rwhonet.data.fleetfile.split_fleet`), in the
+    order they first appear, each named by its id; with ``dest``, each one's rows written to
+    a CSV of its own there, which :func:`read_any` then reads.
+
+    Raises:
+        InputError: the file cannot be split (no such column, a row without an id).
+    """
+    column = fleet_column(f.format, data)
+    assert column is not None, f.format
+    file = rel(f.path)
+    if reader_kind(f.format, data) == COLUMN_MAP and file_is_vbo(f.path):
+        raise InputError([_vbo_not_fleet(file, f.format)])
+    split = split_fleet(f.path, column, file, f"data.column_maps.{f.format}.{DRIVE}", dest)
+    return [
+        dataclasses.replace(
+            f,
+            drive=p.drive,
+            part=p.drive,
+            split=None if p.csv is None else (p.csv, _part_note(p, split, file)),
+        )
+        for p in split.parts
+    ]
+
+
+def _part_note(part: FleetPart, split: FleetSplit, file: str) -> str:
+    said = part.note(file, split.column, split.rows)
+    if split.header_again:
+        said += f"; the header's line again in {split.header_again} of the file's rows, left out"
+    if split.cut_last is not None:
+        said += (
+            f"; the file's last row ({split.cut_last:,}) cut short before its drive's cell "
+            "(a logger that lost power), left out: its sample lost"
+        )
+    return said
+
+
+def _vbo_not_fleet(file: str, fmt: str) -> Problem:
+    return Problem(
+        file,
+        None,
+        None,
+        f"a CSV or table of many drives (data.column_maps.{fmt}.{DRIVE})",
+        "a Racelogic VBOX file, which holds one drive",
+        f"leave the {DRIVE} key out of the map for VBOX files",
+    )
 
 
 def read_any(
@@ -209,6 +277,8 @@ def read_any(
     wrong = _wrong_kind(f, kind, file)
     if wrong is not None:
         raise InputError([wrong])
+    if f.part is not None:  # a drive of a file of many: its rows alone, as a file of its own
+        return _read_part(f, data, rel, radius_m, period_s, split_gap_s, require_fix)
     try:
         size_mb = (
             _size_bytes(
@@ -265,6 +335,73 @@ def read_any(
         return place_held_fixes(raw, period_s), None
     except MemoryError:
         raise out_of_memory(f, rel) from None
+
+
+def _read_part(
+    f: DriveFile,
+    data: DataParams,
+    rel: Callable[[Path], str],
+    radius_m: float | None,
+    period_s: float,
+    split_gap_s: float,
+    require_fix: bool,
+) -> tuple[RawDrive, StreamFacts | None]:
+    """A drive of a file of many (:mod:`rwhonet.data.fleetfile`): its rows' own CSV (split
+    by ingest, else here) read as the file, messages naming ``fleet.csv (drive C-B1)`` and
+    counting its rows from its first."""
+    file = rel(f.path)
+    assert f.part is not None
+    with scratch_dir("fleet") as scratch:
+        if f.split is not None:
+            plain, said = f.split
+        else:
+            column = fleet_column(f.format, data)
+            if column is None:
+                raise InputError([_not_a_fleet_map(file, f.format, f.part)])
+            if file_is_vbo(f.path):
+                raise InputError([_vbo_not_fleet(file, f.format)])
+            setting = f"data.column_maps.{f.format}.{DRIVE}"
+            split = split_fleet(f.path, column, file, setting, Path(scratch), only=f.part)
+            part = split.part(f.part)
+            if part is None or part.csv is None:
+                raise InputError([_no_such_drive(file, f.part, split)])
+            plain, said = part.csv, _part_note(part, split, file)
+        display = shown(file, f.part)
+        raw, facts = read_any(
+            dataclasses.replace(f, path=plain, part=None, split=None),
+            data,
+            lambda p: display if p == plain else rel(p),
+            radius_m,
+            period_s,
+            split_gap_s,
+            require_fix,
+        )
+    return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
+
+
+def _not_a_fleet_map(file: str, fmt: str, drive: str) -> Problem:
+    return Problem(
+        file,
+        None,
+        None,
+        f"a format whose column map names each row's drive ({DRIVE}: {{column: ..., unit: "
+        f"{DRIVE_UNIT}}}), to read drive {drive!r} of the file",
+        f"format {fmt!r}, which reads the file as one drive",
+        "give a column map with a drive key (--format), or leave out --drive-id",
+    )
+
+
+def _no_such_drive(file: str, drive: str, split: FleetSplit) -> Problem:
+    ids = [p.drive for p in split.parts]
+    shown_ids = ", ".join(ids[:10]) + (f" and {len(ids) - 10} more" if len(ids) > 10 else "")
+    return Problem(
+        file,
+        None,
+        split.column,
+        f"drive {drive!r} among the ids of its column {split.column!r}",
+        f"the drives {shown_ids}" if ids else "no row",
+        "give one of the file's drives (--drive-id)",
+    )
 
 
 def _read_decompressed(
@@ -652,7 +789,8 @@ def read_canonical(
         InputError: the problems of the drive or of its sidecar.
     """
     raw, streams = read_any(f, data, rel, radius_m, period_s, split_gap_s, require_fix)
-    sidecar = sidecar_path(f.path)
+    # a drive of a file of many: <drive>.scenarios.json beside the file
+    sidecar = sidecar_path(f.path if f.part is None else f.path.with_name(f"{f.part}.csv"))
     if not sidecar.is_file():
         return CanonicalDrive(raw, [], None, streams)
     return CanonicalDrive(raw, read_scenarios(sidecar, rel(sidecar)), sidecar, streams)

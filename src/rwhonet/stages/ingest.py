@@ -32,15 +32,18 @@ from rwhonet.data.drivefile import (
     MDF4,
     STREAM_CSV,
     DriveFile,
+    fleet_column,
+    fleet_drives,
     is_folder_format,
     out_of_memory,
     read_canonical,
     reader_kind,
+    source_name,
 )
 from rwhonet.data.droprows import manifest_rows
 from rwhonet.data.rosbag import is_rosbag2_folder
 from rwhonet.errors import InputError, Problem
-from rwhonet.io import atomic_dir, map_in_order, write_arrow, write_json
+from rwhonet.io import atomic_dir, map_in_order, scratch_dir, write_arrow, write_json
 from rwhonet.progress import track
 
 
@@ -110,7 +113,7 @@ def _table_folder(path: Path, spec: RoleSpec, data: DataParams) -> bool:
     return reader_kind(spec.format, data) in (IOVNBD, COLUMN_MAP) and is_table_folder(path)
 
 
-def discover(data: DataParams) -> list[DriveFile]:
+def discover(data: DataParams, scratch: Path | None = None) -> list[DriveFile]:
     """List the drives of every role, sorted by role (in ``ROLES`` order) and name.
 
     A role's glob matches files for the formats that read one file per drive (IO-VNBD,
@@ -118,10 +121,13 @@ def discover(data: DataParams) -> list[DriveFile]:
     that read one folder per drive (comma2k19, stream CSVs); the drive id is the file's
     stem or the folder's name. Hidden files and folders (a name starting with a dot, as
     macOS's ``._`` files) are no drives, nor SQLite's files beside a ``.db3``
-    (``-wal``: read with it).
+    (``-wal``: read with it). A file of many drives (a column map with a ``drive`` column:
+    :mod:`rwhonet.data.fleetfile`) is its drives, each named by its id.
 
     Args:
         data: the ``data`` section (globs are relative to ``data.root``).
+        scratch: a folder where each file of many drives is split into its drives' own
+            CSVs as it is listed (None: listed only; read later, each drive's rows alone).
 
     Returns:
         The drives.
@@ -166,12 +172,15 @@ def discover(data: DataParams) -> list[DriveFile]:
                     f"data.roles.{role}.glob (and data.root)",
                 )
             )
-        files += [
+        found_files = [
             DriveFile(
                 folder_id(p) if p.is_dir() else drive_stem(p), role, spec.vehicle, spec.format, p
             )
             for p in found
         ]
+        if fleet_column(spec.format, data) is not None:  # files of many drives: their drives
+            found_files = _fleet_drives(found_files, data, role, scratch, problems)
+        files += found_files
     first_seen: dict[str, DriveFile] = {}
     for f in files:
         other = first_seen.setdefault(f.drive, f)
@@ -190,6 +199,28 @@ def discover(data: DataParams) -> list[DriveFile]:
         hint = " (data.source=sim: run the simulate stage first)" if data.source == "sim" else ""
         raise InputError(problems, summary=f"the drives listed in params.yaml data.roles{hint}")
     return files
+
+
+def _fleet_drives(
+    found: list[DriveFile],
+    data: DataParams,
+    role: str,
+    scratch: Path | None,
+    problems: list[Problem],
+) -> list[DriveFile]:
+    """The drives of a role's files of many drives, each file split into them; a file
+    that cannot be split adds its problems."""
+    drives: list[DriveFile] = []
+    for k, f in enumerate(found):
+        dest = None
+        if scratch is not None:
+            dest = scratch / f"{role}-{k}"
+            dest.mkdir()
+        try:
+            drives += fleet_drives(f, data, paths.rel, dest)
+        except InputError as err:
+            problems += err.problems
+    return drives
 
 
 def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None) -> dict[str, Any]:
@@ -246,7 +277,14 @@ def _ingest(params: Params, out_dir: Path) -> dict[str, Any]:
     """The body of :func:`ingest`."""
     data = params.data
     check_data_params(data)
-    files = discover(data)
+    # files of many drives split into their drives' CSVs, read from there
+    with scratch_dir("fleet") as scratch:
+        return _ingest_files(params, out_dir, discover(data, Path(scratch)))
+
+
+def _ingest_files(params: Params, out_dir: Path, files: list[DriveFile]) -> dict[str, Any]:
+    """:func:`_ingest` once the drives are listed."""
+    data = params.data
     leave_out = data.refused_drives == leftout.LEAVE_OUT
     problems: list[Problem] = []
     entries: list[tuple[DriveFile, dict[str, Any]]] = []
@@ -302,7 +340,7 @@ def _described(f: DriveFile) -> dict[str, Any]:
         "role": f.role,
         "vehicle": f.vehicle,
         "format": f.format,
-        "source_file": paths.rel(f.path),
+        "source_file": source_name(f, paths.rel),
     }
 
 
