@@ -187,3 +187,48 @@ def test_a_drive_whose_receiver_states_its_accuracy_shows_it(tmp_path, capsys, m
     else:
         assert line.endswith("5 m: a fix stated worse, or stating none, is cut as low_sats)")
         assert "(cut: partial_second 1 s, low_sats 3 s)" in out[0]  # rows 50.1-52.9 s
+
+
+def test_a_file_of_many_drives_gives_each_drive_s_verdict(tmp_path, capsys, monkeypatch):
+    """A file whose map names each row's drive (``drive: {column: trip_id, unit: text}``):
+    ``check`` gives a verdict per drive, named ``fleet.csv (drive T-2)``; ``--drive-id``
+    one of them; a refused drive exits 2 naming it and its own row, the others' verdicts
+    printed."""
+    import pandas as pd
+
+    from rwhonet import paths
+    from support.drives import CUPAC_MAP, column_map_params, write_columnmap, write_params_yaml
+
+    frames = []
+    for k in (1, 2):
+        single = write_columnmap(_turns(), tmp_path / f"T-{k}.csv")
+        frames.append(pd.read_csv(single).assign(trip_id=f"T-{k}"))
+    fleet = tmp_path / "fleet.csv"
+    pd.concat(frames).to_csv(fleet, index=False)
+    cmap = column_map_params(CUPAC_MAP) | {"drive": {"column": "trip_id", "unit": "text"}}
+    overrides = {"data.column_maps.trips": cmap}
+    monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
+    args = ["check", "--drive", str(fleet), "--format", "trips", *CAR]
+    assert main(args) == 0
+    out = capsys.readouterr().out.splitlines()
+    said = [x for x in out if "validate would accept it" in x]
+    assert said == [
+        f"{fleet} (drive T-{k}): validate would accept it as target's drive" for k in (1, 2)
+    ]
+    assert main([*args, "--drive-id", "T-2", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["file"] == f"{fleet} (drive T-2)" and record["seconds_kept"] == 150
+    assert main([*args, "--drive-id", "T-9"]) == 2
+    assert (
+        "expected drive 'T-9' among the ids of its column 'trip_id'; found the drives T-1, T-2"
+        in capsys.readouterr().err
+    )
+    table = pd.read_csv(fleet)
+    table["WheelSpeedRL"] = table["WheelSpeedRL"].astype(object)
+    table.loc[len(frames[0]) + 6, "WheelSpeedRL"] = "fast"
+    table.to_csv(fleet, index=False)
+    assert main(args) == 2
+    captured = capsys.readouterr()
+    assert f"{fleet} (drive T-1): validate would accept it" in captured.out
+    assert f"{fleet} (drive T-2), row 7, column 'WheelSpeedRL': expected a number" in captured.err
+    assert f"in 1 of 2 drives ({fleet} (drive T-2))" in captured.err

@@ -380,6 +380,48 @@ def test_predict_reads_a_drive_kept_as_parquet_as_the_csv_it_holds(bundle, drive
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "spark.csv"), want)
 
 
+def test_predict_reads_a_drive_of_a_file_of_many_by_its_id(bundle, tmp_path, capsys, monkeypatch):
+    """A file of two drives told apart by a column (the map's ``drive`` key): ``--drive-id``
+    gives the drive's own file's output, read whole; a file of one drive needs none; a
+    file of several without it is refused naming them, as is an id with a map of none."""
+    from support.drives import CUPAC_MAP, column_map_params, write_columnmap, write_params_yaml
+    from support.serving import wavy_drive
+
+    cmap = column_map_params(CUPAC_MAP)
+    overrides = {
+        "data.column_maps.logger": cmap,
+        "data.column_maps.trips": cmap | {"drive": {"column": "trip_id", "unit": "text"}},
+    }
+    monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
+    frames = []
+    for k in (1, 2):
+        single = write_columnmap(wavy_drive(200.0, seed=k), tmp_path / f"T-{k}.csv")
+        args = ["--format", "logger", "--outage", "100:160", "--quiet"]
+        assert main(predict_args(bundle, single, tmp_path / f"T-{k}-out.csv", *args)) == 0
+        frames.append(pd.read_csv(single).assign(trip_id=f"T-{k}"))
+    fleet = tmp_path / "fleet.csv"
+    pd.concat(frames).to_csv(fleet, index=False)
+    capsys.readouterr()
+    args = ["--format", "trips", "--outage", "100:160"]
+    assert main(predict_args(bundle, fleet, tmp_path / "two.csv", *args, "--drive-id", "T-2")) == 0
+    err = capsys.readouterr().err
+    assert "drive 'T-2' of" in err
+    pd.testing.assert_frame_equal(
+        pd.read_csv(tmp_path / "two.csv"), pd.read_csv(tmp_path / "T-2-out.csv")
+    )
+    assert main(predict_args(bundle, fleet, tmp_path / "no.csv", *args)) == 2
+    assert "expected one drive, or --drive-id naming the one to read" in capsys.readouterr().err
+    frames[0].to_csv(tmp_path / "one.csv", index=False)  # a file of one drive
+    assert main(predict_args(bundle, tmp_path / "one.csv", tmp_path / "one-out.csv", *args)) == 0
+    pd.testing.assert_frame_equal(
+        pd.read_csv(tmp_path / "one-out.csv"), pd.read_csv(tmp_path / "T-1-out.csv")
+    )
+    capsys.readouterr()
+    logger = ["--format", "logger", "--drive-id", "T-1"]
+    assert main(predict_args(bundle, tmp_path / "one.csv", tmp_path / "x.csv", *logger)) == 2
+    assert "whose column map names each row's drive" in capsys.readouterr().err
+
+
 def _glitched_drive(path: Path, row: int) -> list[str]:
     """A 60 s drive whose rear-left wheel reads ten times its speed in data row ``row``;
     its lines (line 0: the header)."""
@@ -1842,3 +1884,43 @@ def test_predict_reads_a_ros_bag_as_the_same_drive_in_an_mdf4_file(bundle, tmp_p
     for k in a.columns[1:]:
         if pd.api.types.is_numeric_dtype(a[k]):
             np.testing.assert_allclose(b[k], a[k], rtol=0, atol=1e-4, err_msg=k)
+
+
+def test_recalibrate_s_reader_takes_a_drive_of_a_file_of_many_by_its_id(tmp_path):
+    """``recalibrate --drive-id``: load_drive reads the drive of a file of many (its map's
+    ``drive`` key) as the drive's own file gives it, its segments named by its id; without
+    an id a file of several drives is refused naming them."""
+    from rwhonet.cli.drive import load_drive
+    from rwhonet.config import load_params
+    from rwhonet.errors import InputError
+    from support.drives import (
+        CUPAC_MAP,
+        TARGET_RADIUS_M,
+        column_map_params,
+        straight_drive,
+        target_drive_args,
+        write_columnmap,
+    )
+
+    cmap = column_map_params(CUPAC_MAP)
+    params = load_params(
+        overrides={
+            "data.column_maps.logger": cmap,
+            "data.column_maps.trips": cmap | {"drive": {"column": "trip_id", "unit": "text"}},
+        }
+    )
+    args = target_drive_args() | {"params": params}
+    frames, own = [], {}
+    for k in (1, 2):
+        drive = straight_drive(60.0, radius_m=TARGET_RADIUS_M, azimuth_deg=40.0 * k)
+        single = write_columnmap(drive, tmp_path / f"T-{k}.csv")
+        own[k] = load_drive(single, **(args | {"fmt": "logger"}))
+        frames.append(pd.read_csv(single).assign(trip_id=f"T-{k}"))
+    fleet = tmp_path / "fleet.csv"
+    pd.concat(frames).to_csv(fleet, index=False)
+    got = load_drive(fleet, **(args | {"fmt": "trips"}), part="T-2")
+    pd.testing.assert_frame_equal(got.samples.frame, own[2].samples.frame)
+    assert set(got.samples.frame["drive"]) == {"T-2"}
+    assert got.file == f"{fleet} (drive T-2)"
+    with pytest.raises(InputError, match="2 drives: T-1, T-2"):
+        load_drive(fleet, **(args | {"fmt": "trips"}))

@@ -22,8 +22,11 @@ from rwhonet.config import Params
 from rwhonet.data.drivechecks import TOLD_CHECKS
 
 
-def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
-    """Read and check ``drive`` as the car ``vehicle`` of ``params``.
+def run(
+    params: Params, drive: Path, fmt: str, vehicle: str, part: str | None = None
+) -> dict[str, Any]:
+    """Read and check ``drive`` as the car ``vehicle`` of ``params`` (``part``: in a file of
+    many drives, the drive).
 
     Returns:
         ``file``, ``vehicle``, ``rows`` (of the drive, or its 10 Hz grid), ``seconds``,
@@ -37,7 +40,7 @@ def run(params: Params, drive: Path, fmt: str, vehicle: str) -> dict[str, Any]:
     Raises:
         InputError: the drive's problems (validate would refuse it).
     """
-    checked = check_drive_file(drive, params, vehicle, fmt)
+    checked = check_drive_file(drive, params, vehicle, fmt, part)
     a = checked.assessment
     stated = (
         {}

@@ -297,6 +297,7 @@ def load_drive(
     scaler: MinMaxScaler,
     wpm_mode: str,
     seq_len: int,
+    part: str | None = None,
 ) -> DriveSamples:
     """Read, validate and label one drive file.
 
@@ -311,6 +312,8 @@ def load_drive(
         scaler: the input scaler.
         wpm_mode: ``label.wpm_mode`` of the model.
         seq_len: the model's time steps.
+        part: in a file of many drives, the drive (``--drive-id``; None: the file's one
+            drive, :func:`resolved_part`).
 
     Returns:
         The samples of every GNSS-valid second.
@@ -327,15 +330,17 @@ def load_drive(
     path = Path(path)
     nominal = 0.5 * (calibration.r_rl_m + calibration.r_rr_m)
     params = with_vehicle(params, vehicle, nominal)
-    checked = check_drive_file(path, params, vehicle, fmt)
+    part = resolved_part(path, params, fmt, part)
+    checked = check_drive_file(path, params, vehicle, fmt, part)
     file, result = checked.file, checked.assessment
     segments = []
     table = with_label_times(checked.table, params.validate.sample_period_s)  # as validate
+    drive = part or drive_id(path)
     for j, seg in enumerate(result.segments):
-        name = segment_name(drive_id(path), j)
+        name = segment_name(drive, j)
         sec = segment_seconds(segment_arrays(table.slice(seg.row_start, seg.n_rows)), name)
         samples = sample_table(sec, calibration, scaler, wpm_mode).to_pandas()
-        segments.append(({"drive": drive_id(path), "segment": name, "role": ROLE}, samples))
+        segments.append(({"drive": drive, "segment": name, "role": ROLE}, samples))
     return DriveSamples(stack_segments(segments, seq_len), file, result, checked.notes)
 
 
@@ -364,9 +369,12 @@ class CheckedDrive:
     reader_notes: tuple[str, ...] = ()
 
 
-def check_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> CheckedDrive:
+def check_drive_file(
+    path: Path, params: Params, vehicle: str, fmt: str, part: str | None = None
+) -> CheckedDrive:
     """Read one drive and run validate's checks on it (its schema, the GNSS policy, the
-    wheel sensors, the tyre radius, the yaw rate, the wheels' columns).
+    wheel sensors, the tyre radius, the yaw rate, the wheels' columns); ``part``: in a file
+    of many drives, the drive (None: the file's one drive).
 
     Raises:
         InputError: every problem of the drive, as the ingest and validate stages report
@@ -374,15 +382,17 @@ def check_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Chec
     """
     from rwhonet.data.drivechecks import check_drive
     from rwhonet.data.droprows import FileRows, manifest_rows
+    from rwhonet.data.fleetfile import shown
     from rwhonet.data.schema import schema_problems
 
     path = Path(path)
-    file = paths.rel(path)
-    drive = read_drive_file(path, params, vehicle, fmt)
+    part = resolved_part(path, params, fmt, part)
+    file = paths.rel(path) if part is None else shown(paths.rel(path), part)
+    drive = read_drive_file(path, params, vehicle, fmt, part=part)
     raw, table = drive.raw, drive.table()
     df = table.to_pandas(split_blocks=True)
     entry: dict[str, Any] = {
-        "drive": drive_id(path),
+        "drive": part or drive_id(path),
         "role": ROLE,
         "vehicle": vehicle,
         "source_file": file,
@@ -392,7 +402,7 @@ def check_drive_file(path: Path, params: Params, vehicle: str, fmt: str) -> Chec
         entry["streams"] = drive.streams.to_dict()
     # rows written twice or without a wheel speed, dropped: messages name the file's rows
     entry.update(manifest_rows(raw))
-    cuts = [cut for cut in params.validate.cuts if cut.drive == drive_id(path)]
+    cuts = [cut for cut in params.validate.cuts if cut.drive == (part or drive_id(path))]
     rows = FileRows.of(entry)
     found = schema_problems(df, params.validate, file, raw.source_columns, rows)
     problems, result, checks, _ = check_drive(params, entry, df, found, cuts)
@@ -430,14 +440,64 @@ def drive_id(path: Path) -> str:
     return folder_id(path) if path.is_dir() else drive_stem(path)
 
 
+def fleet_ids(path: Path, params: Params, fmt: str) -> list[str] | None:
+    """The drives of a file of many (its format's column map names each row's drive:
+    :mod:`rwhonet.data.fleetfile`), in the order they first appear; None: the format reads
+    a file as one drive.
+
+    Raises:
+        InputError: the file cannot be split into its drives.
+    """
+    from rwhonet.data.drivefile import DriveFile, fleet_column, fleet_drives
+
+    if fleet_column(fmt, params.data) is None:
+        return None
+    f = DriveFile(drive_id(path), ROLE, "", fmt, Path(path))
+    return [d.drive for d in fleet_drives(f, params.data, paths.rel)]
+
+
+def resolved_part(path: Path, params: Params, fmt: str, part: str | None) -> str | None:
+    """The drive to read of a file of many: ``part`` (``--drive-id``), else the file's only
+    one; None for a file of one drive.
+
+    Raises:
+        InputError: a file of several drives and no ``part``, naming them.
+    """
+    if part is not None or not Path(path).exists():  # no such drive: its reader says so
+        return part
+    ids = fleet_ids(path, params, fmt)
+    if ids is None or len(ids) == 1:
+        return None if ids is None else ids[0]
+    shown_ids = ", ".join(ids[:10]) + (f" and {len(ids) - 10} more" if len(ids) > 10 else "")
+    raise InputError(
+        [
+            Problem(
+                paths.rel(Path(path)),
+                None,
+                None,
+                f"one drive, or --drive-id naming the one to read (the format {fmt!r} reads "
+                "each row's drive from its column)",
+                f"{len(ids)} drives: {shown_ids}",
+                "give --drive-id",
+            )
+        ]
+    )
+
+
 def read_drive_file(
-    path: Path, params: Params, vehicle: str, fmt: str, require_fix: bool = True
+    path: Path,
+    params: Params,
+    vehicle: str,
+    fmt: str,
+    require_fix: bool = True,
+    part: str | None = None,
 ) -> Any:
     """Read a drive the command line names, as ingest reads it (:func:`read_canonical`).
 
     Stream formats are resampled onto ``validate.sample_period_s`` with the vehicle's
     nominal radius (linear wheel speeds, the glitch screen); ``require_fix`` False keeps
-    the grid rows without a fix (``predict``), their position NaN.
+    the grid rows without a fix (``predict``), their position NaN. ``part``: in a file of
+    many drives, the drive (:func:`resolved_part`).
 
     Raises:
         InputError: no such drive, or its reader's problems.
@@ -468,7 +528,10 @@ def read_drive_file(
     except ConfigError:
         radius = None
     spec = params.data.signal_maps.get(fmt)
-    f = DriveFile(drive_id(path), ROLE, vehicle, fmt, path, spec.source if spec else None)
+    part = resolved_part(path, params, fmt, part)
+    f = DriveFile(
+        part or drive_id(path), ROLE, vehicle, fmt, path, spec.source if spec else None, part
+    )
     vp = params.validate
     return read_canonical(
         f, params.data, paths.rel, radius, vp.sample_period_s, vp.gnss.max_gap_s, require_fix
@@ -503,7 +566,7 @@ class DriveBlocks:
 
 
 def canonical_blocks(
-    path: Path, params: Params, vehicle: str, fmt: str, rows: int = 600
+    path: Path, params: Params, vehicle: str, fmt: str, rows: int = 600, part: str | None = None
 ) -> DriveBlocks:
     """A drive read whole (a stream format: resampled), handed on in blocks of grid rows.
 
@@ -524,7 +587,7 @@ def canonical_blocks(
     from rwhonet.data.incremental import carried_channels, placed
     from rwhonet.data.timebase import StreamClock
 
-    drive = read_drive_file(path, params, vehicle, fmt, require_fix=False)
+    drive = read_drive_file(path, params, vehicle, fmt, require_fix=False, part=part)
     raw, facts = drive.raw, drive.streams
     carried = carried_channels(raw.columns)  # as a 10 Hz file's: the yaw rate where it has one
     columns = {name: raw.columns[name] for name in carried}
@@ -540,7 +603,8 @@ def canonical_blocks(
 
     clock = StreamClock(params.validate.sample_period_s)
     names = {name: raw.source_columns.get(name, name) for name in carried}
-    lost = facts.lost if facts is not None else ()
+    # a drive of a file of many: what its reader said (where its rows lay in the file)
+    lost = facts.lost if facts is not None else tuple(raw.notes) if part is not None else ()
     return DriveBlocks(names, placed(blocks(), clock), samples, lost)
 
 

@@ -97,6 +97,7 @@ def _recalibrate(args: argparse.Namespace) -> int:
         tracking_uri=uri,
         evidence=args.evidence,
         source_nominal_m=source_nominal,
+        drive_id=args.drive_id,
     )
     print(recalibrate.render(out))
     return 0
@@ -108,7 +109,7 @@ def _predict(args: argparse.Namespace) -> int:
 
     outages = [parse_outage(o) for o in args.outage]
     params = uri = None
-    plain = args.format == "iovnbd" and args.signal_map is None
+    plain = args.format == "iovnbd" and args.signal_map is None and args.drive_id is None
     if args.model.startswith(("models:/", "runs:/")) or not plain:
         params, uri = _project(required=True)
     else:  # a model file and a 10 Hz CSV: the project's validate and cars, where there is one
@@ -128,7 +129,7 @@ def _predict(args: argparse.Namespace) -> int:
         nominal, track = car.nominal_radius_m, car.track_rear_m
     if params is not None:
         from rwhonet.cli.drive import PREDICT_CAR, canonical_blocks
-        from rwhonet.data.drivefile import COLUMN_MAP, reader_kind
+        from rwhonet.data.drivefile import COLUMN_MAP, fleet_column, reader_kind
 
         params = _drive_params(params, args, PREDICT_CAR)
         period_s = params.validate.sample_period_s
@@ -137,9 +138,11 @@ def _predict(args: argparse.Namespace) -> int:
             nominal = params.nominal_radius_m(PREDICT_CAR)
             track = params.track_rear_m(PREDICT_CAR)  # given, or data.vehicles.target's
         kind = reader_kind(args.format, params.data)
-        if kind == COLUMN_MAP:
+        fleet = fleet_column(args.format, params.data) is not None
+        if kind == COLUMN_MAP and not fleet and args.drive_id is None:
             column_map = params.data.column_maps[args.format]
-        elif kind != "iovnbd":  # a folder or an MDF4 file: read whole, then streamed on
+        elif kind != "iovnbd" or args.drive_id is not None:
+            # a folder or an MDF4 file, a drive of a file of many: read whole, then streamed on
             if args.drive == "-":
                 from rwhonet.errors import Problem
 
@@ -155,13 +158,15 @@ def _predict(args: argparse.Namespace) -> int:
                         )
                     ]
                 )
-            whole = canonical_blocks(Path(args.drive), params, PREDICT_CAR, args.format)
+            whole = canonical_blocks(
+                Path(args.drive), params, PREDICT_CAR, args.format, part=args.drive_id
+            )
             drive_blocks = (whole.names, whole.blocks)
             stream_glitches, drive_notes = whole.glitch_samples, whole.notes
     model = predict.open_model(args.model, uri)
     out = predict.run(
         model,
-        args.drive,
+        args.drive if args.drive_id is None else f"{args.drive} (drive {args.drive_id})",
         args.output,
         outages,
         fmt=args.format,
@@ -187,6 +192,24 @@ def _predict(args: argparse.Namespace) -> int:
     return 0
 
 
+def _checked_drives(args: argparse.Namespace, params: Any) -> list[tuple[str, str | None]]:
+    """The drives ``check`` reads: each --drive, and of a file of many drives (its format's
+    column map names each row's drive) every one of them, or --drive-id's."""
+    from rwhonet.cli.drive import fleet_ids
+
+    out: list[tuple[str, str | None]] = []
+    for drive in args.drive:
+        if args.drive_id is not None:
+            out.append((drive, args.drive_id))
+            continue
+        try:
+            ids = fleet_ids(Path(drive), params, args.format) if Path(drive).is_file() else None
+        except InputError:
+            ids = None  # check.run reads it and says why it cannot
+        out += [(drive, None)] if not ids else [(drive, part) for part in ids]
+    return out
+
+
 def _check(args: argparse.Namespace) -> int:
     from rwhonet.cli import check
 
@@ -200,20 +223,21 @@ def _check(args: argparse.Namespace) -> int:
             "--nominal-radius (and --track-rear) or --vehicle-file"
         ) from err
     outs, problems, refused = [], [], []
-    for drive in args.drive:  # each drive's verdict; the refused ones' reports together
+    drives = _checked_drives(args, params)
+    for drive, part in drives:  # each drive's verdict; the refused ones' reports together
         try:
-            outs.append(check.run(params, Path(drive), args.format, args.vehicle))
+            outs.append(check.run(params, Path(drive), args.format, args.vehicle, part))
         except InputError as err:
             problems += err.problems
-            refused.append(drive)
-    if args.json and (outs or len(args.drive) > 1):
-        print(json.dumps(outs[0] if len(args.drive) == 1 else outs, indent=1, default=str))
+            refused.append(drive if part is None else f"{drive} (drive {part})")
+    if args.json and (outs or len(drives) > 1):
+        print(json.dumps(outs[0] if len(drives) == 1 else outs, indent=1, default=str))
     elif outs:
         print("\n\n".join(check.render(out) for out in outs))
     if refused:
         summary = f"{len(problems)} problem(s)" + (
-            f" in {len(refused)} of {len(args.drive)} drives ({', '.join(refused)})"
-            if len(args.drive) > 1
+            f" in {len(refused)} of {len(drives)} drives ({', '.join(refused)})"
+            if len(drives) > 1
             else f" in {refused[0]}"
         )
         raise InputError(problems, summary)
@@ -248,6 +272,14 @@ FORMAT_HELP = (
 def _drive_options(p: argparse.ArgumentParser) -> None:
     """The options that say how to read a drive and which car drove it."""
     p.add_argument("--format", default="iovnbd", help=FORMAT_HELP)
+    p.add_argument(
+        "--drive-id",
+        default=None,
+        metavar="ID",
+        help="a file of many drives (its --format's column map names each row's drive: "
+        "drive: {column: ..., unit: text}): the drive to read, by its id (default: the "
+        "file's one drive; check: every drive of the file)",
+    )
     p.add_argument(
         "--signal-map",
         default=None,

@@ -99,10 +99,12 @@ def run(
     tracking_uri: str,
     evidence: str | None = None,
     source_nominal_m: float | None = None,
+    drive_id: str | None = None,
 ) -> dict[str, Any]:
     """Recalibrate, score and register; return what was done (for the printout).
 
     Args:
+        drive_id: in a file of many drives, the drive (``--drive-id``; None: its one).
         evidence: ``shrink`` only: ``target`` or ``source`` (:func:`shrink_evidence_of`;
             by default the pipeline's target car's for that car, the source car's for
             any other).
@@ -118,6 +120,7 @@ def run(
             model that carries no evidence.
     """
     from rwhonet.cli.drive import calibration_of, drive_sha256, load_drive
+    from rwhonet.data.fleetfile import shown
     from rwhonet.features.scaling import scaler_from_dict
     from rwhonet.models.adapt import adapt_data, label_prediction, recalibrate
     from rwhonet.models.checkpoint import load_whonet, save_whonet
@@ -144,6 +147,7 @@ def run(
             scaler=scaler_from_dict(base_meta.scaler, base),
             wpm_mode=base_meta.wpm_mode,
             seq_len=int(hparams["seq_len"]),
+            part=drive_id,
         )
         shortest = min(params.evaluate.outages_s)
         n = len(data.samples)
@@ -216,7 +220,7 @@ def run(
             "seed": seed,
             "base_model": base,
             "base_version": base_label,
-            "drive": Path(drive).name,
+            "drive": Path(drive).name if drive_id is None else shown(Path(drive).name, drive_id),
             "drive_sha256": digest,
             "source": "rwhonet recalibrate",
             "n_adapt_seconds": int(first.sum()),
