@@ -17,6 +17,7 @@ from rwhonet import paths
 from rwhonet.config import ConfigError
 from rwhonet.data import canonical as c
 from rwhonet.data.columnmap import check_column_map
+from rwhonet.data.csvio import units_row_note
 from rwhonet.data.drivefile import DriveFile, fleet_drives, read_any, read_canonical
 from rwhonet.data.fleetfile import ID_MAX_CHARS, id_problem, split_fleet
 from rwhonet.errors import InputError
@@ -24,11 +25,13 @@ from rwhonet.stages.ingest import ingest
 from support.drives import (
     CUPAC_MAP,
     TARGET_RADIUS_M,
+    VBO_MAP,
     column_map_params,
     make_params,
     straight_drive,
     write_columnmap,
     write_fleet,
+    write_vbo,
 )
 
 IDS = ("T-A1", "T-B1", "T-B2")
@@ -102,18 +105,19 @@ def test_each_drive_reads_as_its_own_file_in_a_block_or_among_the_others(tmp_pat
 
 def test_the_split_keeps_the_files_own_ways(tmp_path):
     """A file of ';' with a row of units under its header and comment lines above it, the
-    header's line again among its rows (a logger's restart), quoted ids, blank lines and a
-    last row cut short by a power loss: each drive reads as its own file so written."""
+    header's line and its units again among its rows (a logger's restart), quoted ids, blank
+    lines and a last row cut short by a power loss: each drive reads as its own file so
+    written."""
     singles = _singles(tmp_path, 10.0)
     _fleet(singles, tmp_path / "plain.csv")
     lines = (tmp_path / "plain.csv").read_text().splitlines()
     header, rows = lines[0], lines[1:]
-    quoted = [r.replace(",T-B2", ',"T-B2"') for r in rows]
+    quoted = [r.replace(",T-B2", ',"  T-B2 "') for r in rows]  # spaces in its quotes
     unit_of = {col: unit for col, unit in CUPAC_MAP.values()}
     units = ";".join(unit_of.get(name, "") for name in header.split(","))
     text = ["# logger v2", "# car: test", header.replace(",", ";"), units]
-    text += [r.replace(",", ";").replace('"T-B2"', '"T-B2"') for r in quoted[:150]]
-    text += ["", header.replace(",", ";")]
+    text += [r.replace(",", ";") for r in quoted[:150]]
+    text += ["", header.replace(",", ";"), units]  # its units row again too
     text += [r.replace(",", ";") for r in quoted[150:]]
     cut = text[-1][: len(text[-1]) // 3]  # its drive's cell lost with the rest of the row
     text[-1] = cut
@@ -122,9 +126,9 @@ def test_the_split_keeps_the_files_own_ways(tmp_path):
     data = _data(tmp_path)
     split = split_fleet(path, "trip_id", "fleet.csv", "data.column_maps.cupac.drive")
     assert [p.drive for p in split.parts] == list(IDS)
-    assert (split.rows, split.header_again, split.column) == (304, 1, "trip_id")
+    assert (split.rows, split.header_again, split.column) == (305, 2, "trip_id")
     assert [p.rows for p in split.parts] == [101, 101, 100]  # T-B2's last row cut short
-    assert split.cut_last == 304
+    assert split.cut_last == 305
     f = DriveFile("fleet", "target_test", "target", "cupac", path)
     got = {d.drive: _read(d, data) for d in fleet_drives(f, data, lambda p: p.name)}
     for k in IDS:
@@ -134,12 +138,14 @@ def test_the_split_keeps_the_files_own_ways(tmp_path):
                 np.testing.assert_array_equal(got[k].columns[n], v[:-1], err_msg=n)
         else:
             _same(got[k], want)
+    assert units_row_note() in got["T-A1"].notes  # the units row read, in each drive
     said = got["T-A1"].notes[0]
     assert (
-        "; the header's line again in 1 of the file's rows, left out; the file's last row " in said
+        "; the header's line (or its units row) again in 2 of the file's rows, left out; the "
+        "file's last row " in said
     )
     assert said.endswith(
-        "(304) cut short before its drive's cell (a logger that lost power), left out: its "
+        "(305) cut short before its drive's cell (a logger that lost power), left out: its "
         "sample lost"
     )
     # a row too short to hold its drive's id inside the file: refused
@@ -201,6 +207,20 @@ def test_the_map_s_drive_key_is_checked(tmp_path):
     bad = column_map_params(CUPAC_MAP) | {"drive": {"column": "trip_id", "unit": "id"}}
     with pytest.raises(ConfigError, match=r"cupac\.drive\.unit: expected 'text'"):
         check_column_map("cupac", _data(tmp_path, bad).column_maps["cupac"])
+
+
+def test_a_vbox_file_read_by_a_map_of_many_drives_is_refused(tmp_path):
+    """A VBOX file holds one drive: a map with a drive key for it is refused, naming it."""
+    vbo = write_vbo(straight_drive(10.0), tmp_path / "run.vbo")
+    cmap = column_map_params(VBO_MAP) | {"drive": {"column": "trip_id", "unit": "text"}}
+    data = make_params(tmp_path, **{"data.column_maps.vbox": cmap}).data
+    with pytest.raises(InputError) as err:
+        fleet_drives(DriveFile("run", "t", "target", "vbox", vbo), data, lambda p: p.name)
+    [problem] = err.value.problems
+    assert (problem.file, problem.found) == (
+        "run.vbo",
+        "a Racelogic VBOX file, which holds one drive",
+    )
 
 
 def test_ingest_reads_a_file_of_many_drives_as_its_drives(tmp_path):

@@ -211,7 +211,10 @@ def fleet_drives(
 def _part_note(part: FleetPart, split: FleetSplit, file: str) -> str:
     said = part.note(file, split.column, split.rows)
     if split.header_again:
-        said += f"; the header's line again in {split.header_again} of the file's rows, left out"
+        said += (
+            f"; the header's line (or its units row) again in {split.header_again} of the "
+            "file's rows, left out"
+        )
     if split.cut_last is not None:
         said += (
             f"; the file's last row ({split.cut_last:,}) cut short before its drive's cell "
