@@ -21,12 +21,19 @@ raised above its CSV text: the table is read a record batch at a time into a scr
 (:mod:`rwhonet.data.columnar`), which the CSV reader then streams, so its peak should be
 the CSV case's.
 
+A fleet file (``--format fleet``, since stop 93): the same long CSV drive with a ``trip_id``
+column appended that cuts it into drives of an hour each (one block per drive, as an export
+sorted by drive writes them), read through a column map whose ``drive`` key names that
+column (:mod:`rwhonet.data.fleetfile`): ingest reads the file once, a line at a time, into a
+CSV per drive in scratch, and reads each as a drive of its own, so its peak should be the
+CSV case's and its time the CSV's plus one copy of the text.
+
 With ``--validate`` the validate stage then runs on what case 2 wrote. Prints, per
 case, the outcome, the wall time and the peak resident memory
 (``resource.getrusage(...).ru_maxrss``), and the same after the imports alone.
 
 Usage: python benchmarks/bench_large_file.py [--gb 1.0] [--validate] [--keep DIR]
-       [--format csv|mdf4|parquet|both|all]
+       [--format csv|mdf4|parquet|fleet|both|all]
 """
 
 from __future__ import annotations
@@ -157,7 +164,7 @@ def main() -> None:
     parser.add_argument("--validate", action="store_true", help="also run validate on it")
     parser.add_argument("--keep", type=Path, help="project folder to keep (default: temporary)")
     parser.add_argument(
-        "--format", choices=["csv", "mdf4", "parquet", "both", "all"], default="both"
+        "--format", choices=["csv", "mdf4", "parquet", "fleet", "both", "all"], default="both"
     )
     parser.add_argument("--write-mdf4", nargs=2, metavar=("PATH", "N"), help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -171,6 +178,8 @@ def main() -> None:
         mdf4_cases(args)
     if args.format in ("parquet", "all"):
         parquet_cases(args)
+    if args.format in ("fleet", "all"):
+        fleet_cases(args)
 
 
 def _fleet(root: Path) -> Path:
@@ -247,6 +256,51 @@ def parquet_cases(args) -> None:
         _run_cases(
             root, "Parquet", cases, 2 * csv_mb, args.validate, **{"data.roles.target_test": role}
         )
+
+
+FLEET_MAP = {  # the IO-VNBD columns by name, and the drive column
+    "t": {"column": "Time", "unit": "s"},
+    "lat": {"column": "Lat", "unit": "deg"},
+    "lon": {"column": "Long", "unit": "deg"},
+    "omega_fl": {"column": "Wheel Speed Front Left", "unit": "rad/s"},
+    "omega_fr": {"column": "Wheel Speed Front Right", "unit": "rad/s"},
+    "omega_rl": {"column": "Wheel Speed Rear Left", "unit": "rad/s"},
+    "omega_rr": {"column": "Wheel Speed Rear Right", "unit": "rad/s"},
+    "n_sats": {"column": "Sats", "unit": "count"},
+    "drive": {"column": "trip_id", "unit": "text"},
+}
+FLEET_DRIVE_ROWS = 36_000  # an hour at 10 Hz
+
+
+def fleet_cases(args) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        root = (args.keep / "fleet") if args.keep else Path(tmp)
+        start = time.perf_counter()
+        csv, rows, _ = _long_csv(_fleet(root), "C-F1.csv", args.gb)
+        big = csv.with_name("fleet.csv")
+        with open(csv, "rb") as src, open(big, "wb") as out:
+            out.write(src.readline().rstrip(b"\r\n") + b",trip_id\n")
+            for k, line in enumerate(src):
+                out.write(line.rstrip(b"\r\n") + b",T-%04d\n" % (k // FLEET_DRIVE_ROWS))
+        csv.unlink()
+        size_mb = big.stat().st_size / 2**20
+        drives = -(-rows // FLEET_DRIVE_ROWS)
+        print(
+            f"wrote {big.name}: {size_mb:,.0f} MB, {rows:,} rows, {drives:,} drives of an hour "
+            f"in {time.perf_counter() - start:.1f} s"
+        )
+        overrides = {
+            "data.column_maps": {"fleet": FLEET_MAP},
+            "data.roles.target_test": {
+                "glob": "target_test/fleet.csv",
+                "format": "fleet",
+                "vehicle": "target",
+                "required": True,
+            },
+        }
+        # the limit is each drive's: the file is split before a drive is read
+        cases = [(f"fleet: ingest, {drives} drives, data.max_file_mb 512", "ingest", 512.0)]
+        _run_cases(root, "fleet", cases, 512.0, args.validate, **overrides)
 
 
 def mdf4_cases(args) -> None:
