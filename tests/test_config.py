@@ -119,6 +119,7 @@ TEXT_PARAMS = {
     "data.roles.*.glob": "read, under data.root",
     "data.roles.*.format": "a reader's name",
     "data.roles.*.vehicle": "a vehicle's name",
+    "data.roles.*.drives[*]": "a drive id's pattern, matched",
     "data.column_maps.*.*.column": "a CSV column name",
     "data.column_maps.*.*.unit": "a unit's name",
     "data.signal_maps.*.signals.*.column": "a logged channel's name (MDF4 signal, CSV column)",

@@ -478,12 +478,19 @@ BUILTIN_FORMATS = ("iovnbd", "comma2k19")
 
 @dataclass(frozen=True)
 class RoleSpec:
-    """Where the drives of one role live and how to read them."""
+    """Where the drives of one role live and how to read them.
+
+    ``drives``: the role takes only the drives its glob finds whose id matches one of these
+    patterns (shell-style, case-sensitive: ``T-04*``, ``RAV4-0[0-4]``, an id itself); None:
+    every one. A file of many drives (a column map's ``drive`` key) is how several roles
+    share one file, each taking its own drives of it; each pattern must match a drive.
+    """
 
     glob: str
     format: str
     vehicle: str
     required: bool = True
+    drives: list[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -607,6 +614,12 @@ class DataParams:
     def __post_init__(self) -> None:
         if not self.max_file_mb > 0:
             raise ConfigError(f"data.max_file_mb must be > 0, got {self.max_file_mb}")
+        for role, spec in self.roles.items():
+            if spec.drives is not None and not (spec.drives and all(d for d in spec.drives)):
+                raise ConfigError(
+                    f"data.roles.{role}.drives: expected a list of drive ids or patterns "
+                    f"(T-04*), none empty; got {spec.drives!r}"
+                )
         # ±61 s: what the search for two clocks can find (its ±60 s and the latency's
         # ±1 s about it: rwhonet.data.fixlag), so that the setting a refusal names loads
         if isinstance(self.gnss_lag, float) and not abs(self.gnss_lag) <= 61.0:

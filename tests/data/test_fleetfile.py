@@ -285,3 +285,64 @@ def test_ingest_reads_a_file_of_many_drives_as_its_drives(tmp_path):
     (raw / "target_train" / "C-A1.csv").rename(raw / "target_train" / "T-B2.csv")
     with pytest.raises(InputError, match="'T-B2' \\(target_test\\) is also"):
         ingest(params, tmp_path / "twice")
+
+
+def test_roles_share_one_file_each_taking_its_drives(tmp_path, monkeypatch):
+    """``data.roles.<role>.drives``: two roles read one file of many drives, each the drives
+    its patterns name (an id, a pattern), only theirs split out; a pattern that names no
+    drive is refused, naming it and the drives there are; the patterns pick among a
+    glob's own files too; an empty list is refused as a setting."""
+    import rwhonet.data.fleetfile as fleetfile
+
+    raw = tmp_path / "raw"
+    written_by = write_fleet(raw, duration_s=30.0)
+    written_by["target_train"].unlink()  # the target car's drives: the file's
+    written_by["target_test"].unlink()
+    _fleet(_singles(tmp_path, 30.0), raw / "lake" / "trips.csv")
+    role = {"glob": "lake/trips.csv", "format": "cupac", "vehicle": "target", "required": True}
+    roles = {
+        "data.roles.target_train": role | {"drives": ["T-A1"]},
+        "data.roles.target_test": role | {"drives": ["T-B*"]},
+    }
+    written: list[str] = []
+    split = fleetfile.split_fleet
+
+    def spy(*args, **kwargs):
+        got = split(*args, **kwargs)
+        written.extend(p.drive for p in got.parts if p.csv is not None)
+        return got
+
+    monkeypatch.setattr("rwhonet.data.drivefile.split_fleet", spy)
+    params = make_params(raw, **{"data.column_maps.cupac": FLEET_MAP, **roles})
+    manifest = ingest(params, tmp_path / "drives")
+    by_role = {
+        r: [d["drive"] for d in manifest["drives"] if d["role"] == r]
+        for r in ("target_train", "target_test")
+    }
+    assert by_role == {"target_train": ["T-A1"], "target_test": ["T-B1", "T-B2"]}
+    assert sorted(written) == ["T-A1", "T-B1", "T-B2"]  # each once: its own role's
+    # a pattern that names no drive: refused, not a drive left out unsaid
+    typo = roles | {"data.roles.target_test": role | {"drives": ["T-B*", "T-C1"]}}
+    with pytest.raises(InputError) as err:
+        ingest(make_params(raw, **{"data.column_maps.cupac": FLEET_MAP, **typo}), tmp_path / "x")
+    [problem] = err.value.problems
+    assert "a drive whose id matches 'T-C1' among the drives" in problem.expected
+    assert problem.found == "none of its 3: T-A1, T-B1, T-B2"
+    # among a glob's own files
+    own = {"glob": "source_train/*.csv", "format": "iovnbd", "vehicle": "source"}
+    more = raw / "source_train" / "V-S2.csv"
+    more.write_bytes((raw / "source_train" / "V-S1.csv").read_bytes())
+    picked = make_params(
+        raw,
+        **{
+            "data.column_maps.cupac": FLEET_MAP,
+            **roles,
+            "data.roles.source_train": own | {"drives": ["V-S2"]},
+        },
+    )
+    ids = [
+        d["drive"] for d in ingest(picked, tmp_path / "p")["drives"] if d["role"] == "source_train"
+    ]
+    assert ids == ["V-S2"]
+    with pytest.raises(ConfigError, match=r"data\.roles\.target_test\.drives: expected a list"):
+        make_params(raw, **{"data.roles.target_test": role | {"drives": []}})

@@ -182,11 +182,16 @@ def source_name(f: DriveFile, rel: Callable[[Path], str]) -> str:
 
 
 def fleet_drives(
-    f: DriveFile, data: DataParams, rel: Callable[[Path], str], dest: Path | None = None
+    f: DriveFile,
+    data: DataParams,
+    rel: Callable[[Path], str],
+    dest: Path | None = None,
+    keep: Callable[[str], bool] | None = None,
 ) -> list[DriveFile]:
     """The drives of a file of many (:func:`rwhonet.data.fleetfile.split_fleet`), in the
     order they first appear, each named by its id; with ``dest``, each one's rows written to
-    a CSV of its own there, which :func:`read_any` then reads.
+    a CSV of its own there, which :func:`read_any` then reads (with ``keep``, only the
+    drives it keeps: a role's ``drives``).
 
     Raises:
         InputError: the file cannot be split (no such column, a row without an id).
@@ -196,7 +201,7 @@ def fleet_drives(
     file = rel(f.path)
     if reader_kind(f.format, data) == COLUMN_MAP and file_is_vbo(f.path):
         raise InputError([_vbo_not_fleet(file, f.format)])
-    split = split_fleet(f.path, column, file, f"data.column_maps.{f.format}.{DRIVE}", dest)
+    split = split_fleet(f.path, column, file, f"data.column_maps.{f.format}.{DRIVE}", dest, keep)
     return [
         dataclasses.replace(
             f,
@@ -364,7 +369,10 @@ def _read_part(
             if file_is_vbo(f.path):
                 raise InputError([_vbo_not_fleet(file, f.format)])
             setting = f"data.column_maps.{f.format}.{DRIVE}"
-            split = split_fleet(f.path, column, file, setting, Path(scratch), only=f.part)
+            wanted = f.part
+            split = split_fleet(
+                f.path, column, file, setting, Path(scratch), keep=lambda d: d == wanted
+            )
             part = split.part(f.part)
             if part is None or part.csv is None:
                 raise InputError([_no_such_drive(file, f.part, split)])

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import csv
 import itertools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
@@ -133,7 +133,7 @@ def split_fleet(
     file: str,
     setting: str,
     dest: Path | None = None,
-    only: str | None = None,
+    keep: Callable[[str], bool] | None = None,
 ) -> FleetSplit:
     """Read a fleet file once: its drives, and with ``dest`` each one's own CSV written.
 
@@ -145,7 +145,7 @@ def split_fleet(
         setting: the map's key, for messages (``data.column_maps.fleet.drive``).
         dest: a folder for the drives' CSVs (``<k>.csv``, the k-th drive's); None: listed
             only.
-        only: write only this drive's CSV (the others listed).
+        keep: which drives' CSVs to write (the others listed; None: every one).
 
     Raises:
         InputError: the file cannot be read, has no such column, or a row has no drive id
@@ -205,7 +205,7 @@ def split_fleet(
             held = drives.get(drive)
             if held is None:
                 out = None
-                if dest is not None and (only is None or drive == only):
+                if dest is not None and (keep is None or keep(drive)):
                     out = dest / f"{len(drives)}.csv"
                 held = drives[drive] = _Open(out, head_bytes, row)
             held.add(line, row)

@@ -16,6 +16,7 @@ out and named in the manifest's ``left_out`` (:mod:`rwhonet.data.leftout`).
 
 from __future__ import annotations
 
+import fnmatch
 import time
 from pathlib import Path
 from typing import Any
@@ -180,6 +181,8 @@ def discover(data: DataParams, scratch: Path | None = None) -> list[DriveFile]:
         ]
         if fleet_column(spec.format, data) is not None:  # files of many drives: their drives
             found_files = _fleet_drives(found_files, data, role, scratch, problems)
+        if spec.drives is not None and found_files:
+            found_files = _chosen(found_files, spec, role, paths.rel(root / spec.glob), problems)
         files += found_files
     first_seen: dict[str, DriveFile] = {}
     for f in files:
@@ -211,16 +214,47 @@ def _fleet_drives(
     """The drives of a role's files of many drives, each file split into them; a file
     that cannot be split adds its problems."""
     drives: list[DriveFile] = []
+    patterns = data.roles[role].drives
+    keep = None if patterns is None else (lambda d: _matches(d, patterns))
     for k, f in enumerate(found):
         dest = None
         if scratch is not None:
             dest = scratch / f"{role}-{k}"
             dest.mkdir()
         try:
-            drives += fleet_drives(f, data, paths.rel, dest)
+            drives += fleet_drives(f, data, paths.rel, dest, keep)
         except InputError as err:
             problems += err.problems
     return drives
+
+
+def _matches(drive: str, patterns: list[str]) -> bool:
+    """Whether a drive id matches one of a role's ``drives`` patterns (case-sensitive)."""
+    return any(fnmatch.fnmatchcase(drive, p) for p in patterns)
+
+
+def _chosen(
+    found: list[DriveFile], spec: RoleSpec, role: str, where: str, problems: list[Problem]
+) -> list[DriveFile]:
+    """A role's drives that its ``drives`` patterns name; a pattern that names none of the
+    drives its glob finds adds a problem (a mistyped id is no drive left out unsaid)."""
+    assert spec.drives is not None
+    ids = [f.drive for f in found]
+    for pattern in spec.drives:
+        if not any(fnmatch.fnmatchcase(d, pattern) for d in ids):
+            listed = ", ".join(ids[:10]) + (f" and {len(ids) - 10} more" if len(ids) > 10 else "")
+            problems.append(
+                Problem(
+                    where,
+                    None,
+                    None,
+                    f"a drive whose id matches {pattern!r} among the drives "
+                    f"data.roles.{role}.glob ({spec.glob!r}) finds",
+                    f"none of its {len(ids)}: {listed}",
+                    f"correct data.roles.{role}.drives (an id, or a pattern such as T-04*)",
+                )
+            )
+    return [f for f in found if _matches(f.drive, spec.drives)]
 
 
 def ingest(params: Params, out_dir: Path, failed_report_path: Path | None = None) -> dict[str, Any]:
