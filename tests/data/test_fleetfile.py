@@ -346,3 +346,42 @@ def test_roles_share_one_file_each_taking_its_drives(tmp_path, monkeypatch):
     assert ids == ["V-S2"]
     with pytest.raises(ConfigError, match=r"data\.roles\.target_test\.drives: expected a list"):
         make_params(raw, **{"data.roles.target_test": role | {"drives": []}})
+
+
+def test_validate_cuts_a_file_s_drives_as_it_cuts_their_own_files(tmp_path):
+    """Ingest then validate on a role of one file of three drives: each drive's segments
+    those its own file gives, value for value; only the file named differs."""
+    from rwhonet.stages.validate import validate
+
+    singles = _singles(tmp_path, 140.0)  # a test drive: adapt on 100 s, score 30 s
+    outs = {}
+    for kind in ("single", "fleet"):
+        raw = tmp_path / kind / "raw"
+        write_fleet(raw, duration_s=40.0)["target_test"].unlink()
+        if kind == "single":
+            for k, p in singles.items():
+                (raw / "target_test" / f"{k}.csv").write_bytes(p.read_bytes())
+            cmap, glob = column_map_params(CUPAC_MAP), "target_test/*.csv"
+        else:
+            _fleet(singles, raw / "target_test" / "trips.csv")
+            cmap, glob = FLEET_MAP, "target_test/trips.csv"
+        role = {"glob": glob, "format": "cupac", "vehicle": "target", "required": True}
+        params = make_params(
+            raw, **{"data.column_maps.cupac": cmap, "data.roles.target_test": role}
+        )
+        drives, segments = tmp_path / kind / "drives", tmp_path / kind / "segments"
+        ingest(params, drives)
+        outs[kind] = validate(params, drives, segments, tmp_path / kind / "report.json")
+        outs[kind + "_dir"] = segments
+    mine = {k: [d for d in outs[k]["drives"] if d["drive"] in IDS] for k in ("single", "fleet")}
+    assert [d["drive"] for d in mine["fleet"]] == list(IDS)
+    for one, many in zip(mine["single"], mine["fleet"], strict=True):
+        assert many["source_file"].endswith(f"trips.csv (drive {one['drive']})")
+        for key in ("rows", "rows_kept", "seconds_kept", "segments", "cuts", "radius"):
+            assert one[key] == many[key], key
+    segs = sorted(p.name for p in outs["single_dir"].glob("T-*"))
+    assert segs and segs == sorted(p.name for p in outs["fleet_dir"].glob("T-*"))
+    for name in segs:
+        pd.testing.assert_frame_equal(
+            pd.read_feather(outs["fleet_dir"] / name), pd.read_feather(outs["single_dir"] / name)
+        )
