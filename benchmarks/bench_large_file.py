@@ -52,7 +52,12 @@ sys.path.insert(0, str(ROOT / "tests"))  # the drive writers of the test suite
 
 import numpy as np  # noqa: E402
 
-from support.drives import write_fleet, write_long_iovnbd, write_params_yaml  # noqa: E402
+from support.drives import (  # noqa: E402
+    IOVNBD_BY_NAME,
+    write_fleet,
+    write_long_iovnbd,
+    write_params_yaml,
+)
 
 BYTES_PER_ROW = 124  # what write_long_iovnbd writes, on average
 
@@ -258,17 +263,7 @@ def parquet_cases(args) -> None:
         )
 
 
-FLEET_MAP = {  # the IO-VNBD columns by name, and the drive column
-    "t": {"column": "Time", "unit": "s"},
-    "lat": {"column": "Lat", "unit": "deg"},
-    "lon": {"column": "Long", "unit": "deg"},
-    "omega_fl": {"column": "Wheel Speed Front Left", "unit": "rad/s"},
-    "omega_fr": {"column": "Wheel Speed Front Right", "unit": "rad/s"},
-    "omega_rl": {"column": "Wheel Speed Rear Left", "unit": "rad/s"},
-    "omega_rr": {"column": "Wheel Speed Rear Right", "unit": "rad/s"},
-    "n_sats": {"column": "Sats", "unit": "count"},
-    "drive": {"column": "trip_id", "unit": "text"},
-}
+FLEET_MAP = IOVNBD_BY_NAME | {"drive": {"column": "trip_id", "unit": "text"}}
 FLEET_DRIVE_ROWS = 36_000  # an hour at 10 Hz
 
 

@@ -14,6 +14,7 @@ Usage: python benchmarks/fleet_file_check.py [--sim data/sim] [--keep DIR]
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,20 +22,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rwhonet.config import load_params
-from rwhonet.data.drivefile import DriveFile, fleet_drives, read_any
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))  # the drive maps of the test suite
 
-IOVNBD_MAP = {  # the IO-VNBD columns by name (a column map finds them as a header's)
-    "t": {"column": "Time", "unit": "s"},
-    "lat": {"column": "Lat", "unit": "deg"},
-    "lon": {"column": "Long", "unit": "deg"},
-    "omega_fl": {"column": "Wheel Speed Front Left", "unit": "rad/s"},
-    "omega_fr": {"column": "Wheel Speed Front Right", "unit": "rad/s"},
-    "omega_rl": {"column": "Wheel Speed Rear Left", "unit": "rad/s"},
-    "omega_rr": {"column": "Wheel Speed Rear Right", "unit": "rad/s"},
-    "n_sats": {"column": "Sats", "unit": "count"},
-    "yaw_rate": {"column": "Yaw Rate", "unit": "deg/s"},
-}
+from rwhonet.config import load_params  # noqa: E402
+from rwhonet.data.drivefile import DriveFile, fleet_drives, read_any  # noqa: E402
+from support.drives import IOVNBD_BY_NAME  # noqa: E402
+
+IOVNBD_MAP = IOVNBD_BY_NAME | {"yaw_rate": {"column": "Yaw Rate", "unit": "deg/s"}}
 DRIVE = {"drive": {"column": "trip_id", "unit": "text"}}
 
 

@@ -346,6 +346,21 @@ def as_hhmmss(t_s, decimals: int = 3) -> np.ndarray:
     return 10_000.0 * hours + 100.0 * minutes + seconds
 
 
+# The IO-VNBD columns by name, as a column map's params (a map finds them as a header's:
+# ``Wheel Speed Rear Left`` is `` Wheel Speed Rear Left (rad/sec)``): the benchmarks' files
+# of many drives add their drive column to it.
+IOVNBD_BY_NAME = {
+    "t": {"column": "Time", "unit": "s"},
+    "lat": {"column": "Lat", "unit": "deg"},
+    "lon": {"column": "Long", "unit": "deg"},
+    "omega_fl": {"column": "Wheel Speed Front Left", "unit": "rad/s"},
+    "omega_fr": {"column": "Wheel Speed Front Right", "unit": "rad/s"},
+    "omega_rl": {"column": "Wheel Speed Rear Left", "unit": "rad/s"},
+    "omega_rr": {"column": "Wheel Speed Rear Right", "unit": "rad/s"},
+    "n_sats": {"column": "Sats", "unit": "count"},
+}
+
+
 VBO_MAP = {
     "t": ("time", "hhmmss"),
     "lat": ("lat", "min"),

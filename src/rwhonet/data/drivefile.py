@@ -377,15 +377,17 @@ def _read_part(
             if part is None or part.csv is None:
                 raise InputError([_no_such_drive(file, f.part, split)])
             plain, said = part.csv, _part_note(part, split, file)
-        display = shown(file, f.part)
-        raw, facts = read_any(
-            dataclasses.replace(f, path=plain, part=None, split=None),
+        whole = dataclasses.replace(f, part=None, split=None)
+        raw, facts = _read_as(
+            whole,
+            plain,
             data,
-            lambda p: display if p == plain else rel(p),
+            rel,
             radius_m,
             period_s,
             split_gap_s,
             require_fix,
+            shown(file, f.part),
         )
     return dataclasses.replace(raw, notes=(said, *raw.notes)), facts
 
@@ -481,10 +483,12 @@ def _read_as(
     period_s: float,
     split_gap_s: float,
     require_fix: bool,
+    name: str | None = None,
 ) -> tuple[RawDrive, StreamFacts | None]:
     """The drive ``f`` read from ``plain``, its scratch copy in a form the readers read (a
-    compressed file's content, a table's CSV), messages naming ``f``'s file."""
-    file = rel(f.path)
+    compressed file's content, a table's CSV, a drive's rows of a file of many), messages
+    naming ``f``'s file (or ``name``)."""
+    file = rel(f.path) if name is None else name
 
     def shown(path: Path) -> str:
         return file if path == plain else rel(path)

@@ -828,11 +828,7 @@ def _vtg_epochs(
         speed: each VTG's speed, m/s (NaN: none).
         course: each VTG's course, degrees (NaN: none).
     """
-    i = np.searchsorted(timed, vtg)
-    last = max(timed.size - 1, 0)
-    before = np.where(i > 0, timed_epoch[np.maximum(i - 1, 0)], -1)
-    after = np.where(i < timed.size, timed_epoch[np.minimum(i, last)], -1)
-    edge = before != after
+    before, after, edge = _epochs_either_side(vtg, timed, timed_epoch)
     if not edge.any():
         return before, ""
     heading = np.radians(course)
@@ -859,6 +855,19 @@ def _vtg_epochs(
     else:
         said += " (no epoch's velocity from its fixes to compare its speed and course with)"
     return chosen, said
+
+
+def _epochs_either_side(
+    untimed: np.ndarray, timed: np.ndarray, timed_epoch: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For sentences without a time (indices into the log's sentences, in its order): the
+    epoch of the timed sentence before each and after it (-1: none), and where they differ
+    (a sentence between one epoch's last sentence and the next one's first)."""
+    i = np.searchsorted(timed, untimed)
+    last = max(timed.size - 1, 0)
+    before = np.where(i > 0, timed_epoch[np.maximum(i - 1, 0)], -1)
+    after = np.where(i < timed.size, timed_epoch[np.minimum(i, last)], -1)
+    return before, after, before != after
 
 
 def _misfit(track: _Track, epoch: np.ndarray, east: np.ndarray, north: np.ndarray) -> np.ndarray:
@@ -894,11 +903,7 @@ def _gsa_epochs(
     them, the epoch before where they tie (a log whose fixes never come and go: there the
     two ways give the counts of epochs next to each other).
     """
-    i = np.searchsorted(timed, gsa)
-    last = max(timed.size - 1, 0)
-    before = np.where(i > 0, timed_epoch[np.maximum(i - 1, 0)], -1)
-    after = np.where(i < timed.size, timed_epoch[np.minimum(i, last)], -1)
-    edge = before != after
+    before, after, edge = _epochs_either_side(gsa, timed, timed_epoch)
     if not edge.any():
         return before, ""
     kind = fields.column(GSA_FIX_TYPE, gsa)
