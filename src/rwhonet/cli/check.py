@@ -23,10 +23,16 @@ from rwhonet.data.drivechecks import TOLD_CHECKS
 
 
 def run(
-    params: Params, drive: Path, fmt: str, vehicle: str, part: str | None = None
+    params: Params,
+    drive: Path,
+    fmt: str,
+    vehicle: str,
+    part: str | None = None,
+    split: tuple[Path, str] | None = None,
 ) -> dict[str, Any]:
     """Read and check ``drive`` as the car ``vehicle`` of ``params`` (``part``: in a file of
-    many drives, the drive).
+    many drives, the drive; ``split``: its rows' own CSV where the file was split already,
+    :attr:`rwhonet.data.drivefile.DriveFile.split`).
 
     Returns:
         ``file``, ``vehicle``, ``rows`` (of the drive, or its 10 Hz grid), ``seconds``,
@@ -40,7 +46,7 @@ def run(
     Raises:
         InputError: the drive's problems (validate would refuse it).
     """
-    checked = check_drive_file(drive, params, vehicle, fmt, part)
+    checked = check_drive_file(drive, params, vehicle, fmt, part, split)
     a = checked.assessment
     stated = (
         {}

@@ -370,11 +370,17 @@ class CheckedDrive:
 
 
 def check_drive_file(
-    path: Path, params: Params, vehicle: str, fmt: str, part: str | None = None
+    path: Path,
+    params: Params,
+    vehicle: str,
+    fmt: str,
+    part: str | None = None,
+    split: tuple[Path, str] | None = None,
 ) -> CheckedDrive:
     """Read one drive and run validate's checks on it (its schema, the GNSS policy, the
     wheel sensors, the tyre radius, the yaw rate, the wheels' columns); ``part``: in a file
-    of many drives, the drive (None: the file's one drive).
+    of many drives, the drive (None: the file's one drive), ``split`` its rows' own CSV
+    where the file was split already (:func:`fleet_parts`).
 
     Raises:
         InputError: every problem of the drive, as the ingest and validate stages report
@@ -388,7 +394,7 @@ def check_drive_file(
     path = Path(path)
     part = resolved_part(path, params, fmt, part)
     file = paths.rel(path) if part is None else shown(paths.rel(path), part)
-    drive = read_drive_file(path, params, vehicle, fmt, part=part)
+    drive = read_drive_file(path, params, vehicle, fmt, part=part, split=split)
     raw, table = drive.raw, drive.table()
     df = table.to_pandas(split_blocks=True)
     entry: dict[str, Any] = {
@@ -440,10 +446,11 @@ def drive_id(path: Path) -> str:
     return folder_id(path) if path.is_dir() else drive_stem(path)
 
 
-def fleet_ids(path: Path, params: Params, fmt: str) -> list[str] | None:
+def fleet_parts(path: Path, params: Params, fmt: str, dest: Path | None = None) -> list | None:
     """The drives of a file of many (its format's column map names each row's drive:
-    :mod:`rwhonet.data.fleetfile`), in the order they first appear; None: the format reads
-    a file as one drive.
+    :mod:`rwhonet.data.fleetfile`), each a :class:`~rwhonet.data.drivefile.DriveFile`, in
+    the order they first appear; with ``dest`` each one's rows split into a CSV there (its
+    ``split``: the file read once for them all). None: the format reads a file as one drive.
 
     Raises:
         InputError: the file cannot be split into its drives.
@@ -453,7 +460,13 @@ def fleet_ids(path: Path, params: Params, fmt: str) -> list[str] | None:
     if fleet_column(fmt, params.data) is None:
         return None
     f = DriveFile(drive_id(path), ROLE, "", fmt, Path(path))
-    return [d.drive for d in fleet_drives(f, params.data, paths.rel)]
+    return fleet_drives(f, params.data, paths.rel, dest)
+
+
+def fleet_ids(path: Path, params: Params, fmt: str) -> list[str] | None:
+    """The ids of :func:`fleet_parts` (the file listed, nothing written)."""
+    parts = fleet_parts(path, params, fmt)
+    return None if parts is None else [d.drive for d in parts]
 
 
 def resolved_part(path: Path, params: Params, fmt: str, part: str | None) -> str | None:
@@ -491,13 +504,15 @@ def read_drive_file(
     fmt: str,
     require_fix: bool = True,
     part: str | None = None,
+    split: tuple[Path, str] | None = None,
 ) -> Any:
     """Read a drive the command line names, as ingest reads it (:func:`read_canonical`).
 
     Stream formats are resampled onto ``validate.sample_period_s`` with the vehicle's
     nominal radius (linear wheel speeds, the glitch screen); ``require_fix`` False keeps
     the grid rows without a fix (``predict``), their position NaN. ``part``: in a file of
-    many drives, the drive (:func:`resolved_part`).
+    many drives, the drive (:func:`resolved_part`), ``split`` its rows' own CSV where the
+    file was split already.
 
     Raises:
         InputError: no such drive, or its reader's problems.
@@ -530,7 +545,7 @@ def read_drive_file(
     spec = params.data.signal_maps.get(fmt)
     part = resolved_part(path, params, fmt, part)
     f = DriveFile(
-        part or drive_id(path), ROLE, vehicle, fmt, path, spec.source if spec else None, part
+        part or drive_id(path), ROLE, vehicle, fmt, path, spec.source if spec else None, part, split
     )
     vp = params.validate
     return read_canonical(

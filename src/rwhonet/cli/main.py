@@ -192,26 +192,34 @@ def _predict(args: argparse.Namespace) -> int:
     return 0
 
 
-def _checked_drives(args: argparse.Namespace, params: Any) -> list[tuple[str, str | None]]:
+def _checked_drives(
+    args: argparse.Namespace, params: Any, scratch: Path
+) -> list[tuple[str, str | None, tuple[Path, str] | None]]:
     """The drives ``check`` reads: each --drive, and of a file of many drives (its format's
-    column map names each row's drive) every one of them, or --drive-id's."""
-    from rwhonet.cli.drive import fleet_ids
+    column map names each row's drive) every one of them, split once into ``scratch``, or
+    --drive-id's."""
+    from rwhonet.cli.drive import fleet_parts
 
-    out: list[tuple[str, str | None]] = []
-    for drive in args.drive:
+    out: list[tuple[str, str | None, tuple[Path, str] | None]] = []
+    for k, drive in enumerate(args.drive):
         if args.drive_id is not None:
-            out.append((drive, args.drive_id))
+            out.append((drive, args.drive_id, None))
             continue
-        try:
-            ids = fleet_ids(Path(drive), params, args.format) if Path(drive).is_file() else None
-        except InputError:
-            ids = None  # check.run reads it and says why it cannot
-        out += [(drive, None)] if not ids else [(drive, part) for part in ids]
+        parts = None
+        if Path(drive).is_file():
+            dest = scratch / str(k)
+            dest.mkdir()
+            try:
+                parts = fleet_parts(Path(drive), params, args.format, dest)
+            except InputError:
+                parts = None  # check.run reads it and says why it cannot
+        out += [(drive, None, None)] if not parts else [(drive, p.part, p.split) for p in parts]
     return out
 
 
 def _check(args: argparse.Namespace) -> int:
     from rwhonet.cli import check
+    from rwhonet.io import scratch_dir
 
     params, _ = _project(required=True)
     params = _drive_params(params, args, args.vehicle)
@@ -223,13 +231,14 @@ def _check(args: argparse.Namespace) -> int:
             "--nominal-radius (and --track-rear) or --vehicle-file"
         ) from err
     outs, problems, refused = [], [], []
-    drives = _checked_drives(args, params)
-    for drive, part in drives:  # each drive's verdict; the refused ones' reports together
-        try:
-            outs.append(check.run(params, Path(drive), args.format, args.vehicle, part))
-        except InputError as err:
-            problems += err.problems
-            refused.append(drive if part is None else f"{drive} (drive {part})")
+    with scratch_dir("fleet") as scratch:  # files of many drives, split once
+        drives = _checked_drives(args, params, Path(scratch))
+        for drive, part, split in drives:  # each one's verdict; the refused ones' together
+            try:
+                outs.append(check.run(params, Path(drive), args.format, args.vehicle, part, split))
+            except InputError as err:
+                problems += err.problems
+                refused.append(drive if part is None else f"{drive} (drive {part})")
     if args.json and (outs or len(drives) > 1):
         print(json.dumps(outs[0] if len(drives) == 1 else outs, indent=1, default=str))
     elif outs:
