@@ -648,6 +648,8 @@ def _fixes(
     tod, said = unwrap_clock(tod, "epoch")
     notes = [f"{file}: {s}" for s in said] + ([f"{file}: {leap_said}"] if leap_said else [])
     by_vtg = np.zeros(n, bool)  # speed and course from a VTG: an epoch without an RMC
+    if counted.all():  # every epoch's satellites are its GGA's or GNS's: its GSAs unused
+        gsa = gsa[:0]
     if vtg.size or gsa.size:
         # each timed sentence's epoch, in the log's order: a ZDA's is that of its time
         zda_epoch = _epochs_of_keys(zda_key, key[first_at[order]])
@@ -677,8 +679,6 @@ def _fixes(
         speed[epochs] = np.where(valid[epochs], vtg_speed[one], np.nan)
         course[epochs] = np.where(valid[epochs], vtg_course[one], np.nan)
     by_gsa = np.zeros(n, bool)  # satellites from the GSAs: an epoch without a GGA or GNS
-    if not (~counted).any():  # every epoch's satellites are its GGA's or GNS's
-        gsa = gsa[:0]
     if gsa.size:
         fixed = valid & np.isfinite(lat)
         g_epoch, g_said = _gsa_epochs(gsa, timed, timed_epoch, fields, fixed)
