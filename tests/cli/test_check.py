@@ -209,7 +209,13 @@ def test_a_file_of_many_drives_gives_each_drive_s_verdict(tmp_path, capsys, monk
     overrides = {"data.column_maps.trips": cmap}
     monkeypatch.setattr(paths, "PARAMS", write_params_yaml(tmp_path / "params.yaml", **overrides))
     args = ["check", "--drive", str(fleet), "--format", "trips", *CAR]
+    import rwhonet.data.drivefile as drivefile
+
+    reads = []  # the file is read once for its drives, not again for each
+    split = drivefile.split_fleet
+    monkeypatch.setattr(drivefile, "split_fleet", lambda *a, **k: reads.append(1) or split(*a, **k))
     assert main(args) == 0
+    assert len(reads) == 1
     out = capsys.readouterr().out.splitlines()
     said = [x for x in out if "validate would accept it" in x]
     assert said == [
